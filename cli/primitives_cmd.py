@@ -1,0 +1,110 @@
+"""``shiptrial primitives``: the primitive library as a table, JSON and plots."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from cli.io import atomic_savefig, dumps
+
+
+def library_rows(library) -> list[dict]:
+    rows = []
+    for p in library:
+        r = p.ranges()
+        minx, miny, maxx, maxy = p.footprint.bounds
+        rows.append(
+            {
+                "name": p.name,
+                "kind": p.kind,
+                "description": p.description,
+                "duration_s": p.duration_s,
+                "u_range": list(r["u"]),
+                "v_range": list(r["v"]),
+                "r_range": list(r["r"]),
+                "end_pose": p.end_pose.tolist(),
+                "footprint_m": [maxx - minx, maxy - miny],
+                "footprint_area_m2": p.footprint.area,
+                "split_points": len(p.split_points),
+            }
+        )
+    return rows
+
+
+def plot_library(library, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    n = len(library)
+    cols = 4
+    rows = int(np.ceil(n / cols))
+    fig, axes = plt.subplots(rows, cols * 2, figsize=(4 * cols * 1.6, 2.4 * rows), squeeze=False)
+    for i, p in enumerate(library):
+        ax_tr, ax_st = axes[i // cols, 2 * (i % cols)], axes[i // cols, 2 * (i % cols) + 1]
+        fp = p.footprint
+        geoms = getattr(fp, "geoms", [fp])
+        for g in geoms:
+            ys, xs = g.exterior.xy  # (x north, y east): plot east right, north up
+            ax_tr.fill(xs, ys, color="0.85")
+        ax_tr.plot(p.track[:, 1], p.track[:, 0], lw=1)
+        ax_tr.set_aspect("equal", adjustable="datalim")
+        ax_tr.set_title(p.name, fontsize=8)
+        ax_tr.tick_params(labelsize=6)
+        t = np.arange(p.nu.shape[0]) * p.profile.sample_time
+        for j, lab in enumerate("uvr"):
+            ax_st.plot(t, p.nu[:, j], lw=1, label=lab)
+        ax_st.tick_params(labelsize=6)
+        if i == 0:
+            ax_st.legend(fontsize=6)
+    for j in range(n, rows * cols):
+        axes[j // cols, 2 * (j % cols)].axis("off")
+        axes[j // cols, 2 * (j % cols) + 1].axis("off")
+    fig.suptitle("Primitive tracks (east right, north up; swept hull shaded) and states u, v, r over time", fontsize=9)
+    fig.tight_layout()
+    atomic_savefig(fig, path, dpi=110)
+    plt.close(fig)
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("primitives")
+    def primitives(
+        ship: str = typer.Option("model-ship", "--ship", help="built-in profile name or a .toml/.json profile file"),
+        json_out: bool = typer.Option(False, "--json", help="print the library as JSON"),
+        plot: Path | None = typer.Option(None, "--plot", help="draw each primitive's track and states to this PNG"),
+    ) -> None:
+        """List the manoeuvre primitive library of a ship."""
+        from primitives.library import build_library
+        from primitives.ship import load_profile
+
+        profile = load_profile(ship)
+        library = build_library(profile)
+        rows = library_rows(library)
+        if plot:
+            plot_library(library, plot)
+        if json_out:
+            typer.echo(dumps(rows))
+            return
+        from rich.console import Console
+        from rich.table import Table
+
+        table = Table(title=f"primitives of {profile.name} (Ts = {profile.sample_time} s)")
+        for col in ("name", "kind", "duration s", "u m/s", "v m/s", "r rad/s", "end pose dx, dy m, dpsi deg", "footprint m"):
+            table.add_column(col)
+        for r in rows:
+            table.add_row(
+                r["name"],
+                r["kind"],
+                f"{r['duration_s']:.1f}",
+                "{:.2f} .. {:.2f}".format(*r["u_range"]),
+                "{:.3f} .. {:.3f}".format(*r["v_range"]),
+                "{:.3f} .. {:.3f}".format(*r["r_range"]),
+                "{:.1f}, {:.1f}, {:.0f}".format(r["end_pose"][0], r["end_pose"][1], r["end_pose"][2] * 57.29578),
+                "{:.1f} x {:.1f}".format(*r["footprint_m"]),
+            )
+        Console().print(table)
+        if plot:
+            typer.echo(f"wrote {plot}")

@@ -1,0 +1,165 @@
+"""The Plan: what the planner returns and every exporter reads.
+
+Positions are in the map's local metric frame in the ship convention (BRIEF section 2):
+x north, y east, in metres from the projection origin; heading psi in radians from north,
+clockwise. ``lonlat`` columns carry the same points in WGS-84 for the exporters.
+A plan saved as JSON (``Plan.to_json`` / ``Plan.from_json``) is self-contained: exporters
+need nothing else (no map, no profile file).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+PLAN_FORMAT = "shiptrial-plan/1"
+
+
+@dataclass
+class PlanStep:
+    """One manoeuvre of the plan, in sailing order."""
+
+    index: int
+    primitive: str
+    kind: str  # "informative" | "basic"
+    description: str
+    start_time_s: float
+    duration_s: float
+    entry_x: float
+    entry_y: float
+    entry_psi: float
+    entry_lon: float
+    entry_lat: float
+    entry_speed_mps: float
+    commands: list[str] = field(default_factory=list)
+    space_m: tuple[float, float] = (0.0, 0.0)  # along-track, cross-track extent of its footprint
+
+    @property
+    def entry_heading_deg(self) -> float:
+        return float(np.degrees(self.entry_psi) % 360.0)
+
+
+@dataclass
+class Plan:
+    """A planned trial: steps, the continuous re-simulated track and the planner's figures.
+
+    track: (K, 3) x north, y east, psi; lonlat: (K, 2) lon, lat; t: (K,) seconds;
+    speed: (K,) m/s over ground; step_of_sample: (K,) index of the step each sample belongs to;
+    inputs: (K, m) commanded inputs (profile's input names in ``input_names``).
+    """
+
+    ship: str
+    steps: list[PlanStep]
+    t: np.ndarray
+    track: np.ndarray
+    lonlat: np.ndarray
+    speed: np.ndarray
+    step_of_sample: np.ndarray
+    inputs: np.ndarray
+    input_names: list[str]
+    projection: dict[str, Any]  # {"proj4": ..., "lon0": ..., "lat0": ...}
+    feasible: bool
+    optimal: bool
+    min_clearance_m: float
+    margin_m: float
+    counts: dict[str, int]
+    targets: dict[str, int]
+    stats: dict[str, Any] = field(default_factory=dict)  # expansions, states, plan_time_s, heuristic...
+    map_name: str = ""
+    hull: tuple[float, float] = (0.0, 0.0)  # length, beam
+    max_wind_mps: float = 10.0
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t[-1] - self.t[0]) if len(self.t) else 0.0
+
+    @property
+    def length_m(self) -> float:
+        return float(np.sum(np.hypot(*np.diff(self.track[:, :2], axis=0).T))) if len(self.track) > 1 else 0.0
+
+    @property
+    def basic_moves(self) -> int:
+        return sum(1 for s in self.steps if s.kind == "basic")
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {
+            "format": PLAN_FORMAT,
+            "ship": self.ship,
+            "map_name": self.map_name,
+            "feasible": self.feasible,
+            "optimal": self.optimal,
+            "min_clearance_m": self.min_clearance_m,
+            "margin_m": self.margin_m,
+            "counts": self.counts,
+            "targets": self.targets,
+            "stats": self.stats,
+            "projection": self.projection,
+            "hull": list(self.hull),
+            "max_wind_mps": self.max_wind_mps,
+            "input_names": self.input_names,
+            "steps": [asdict(s) for s in self.steps],
+            "samples": {
+                "t": self.t.tolist(),
+                "x": self.track[:, 0].tolist(),
+                "y": self.track[:, 1].tolist(),
+                "psi": self.track[:, 2].tolist(),
+                "lon": self.lonlat[:, 0].tolist(),
+                "lat": self.lonlat[:, 1].tolist(),
+                "speed": self.speed.tolist(),
+                "step": self.step_of_sample.tolist(),
+                "inputs": self.inputs.tolist(),
+            },
+        }
+        return d
+
+    def to_json(self) -> str:
+        from cli.io import to_jsonable
+
+        return json.dumps(to_jsonable(self.to_dict()))
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any], src: str = "<plan>") -> Plan:
+        if d.get("format") != PLAN_FORMAT:
+            raise ValueError(f"{src}: field 'format' must be {PLAN_FORMAT!r}: not a plan written by shiptrial")
+        s = d["samples"]
+        steps = [PlanStep(**{**st, "space_m": tuple(st.get("space_m", (0.0, 0.0)))}) for st in d["steps"]]
+        return cls(
+            ship=d["ship"],
+            steps=steps,
+            t=np.asarray(s["t"], float),
+            track=np.column_stack([s["x"], s["y"], s["psi"]]).astype(float),
+            lonlat=np.column_stack([s["lon"], s["lat"]]).astype(float),
+            speed=np.asarray(s["speed"], float),
+            step_of_sample=np.asarray(s["step"], int),
+            inputs=np.asarray(s["inputs"], float).reshape(len(s["t"]), -1),
+            input_names=list(d["input_names"]),
+            projection=d["projection"],
+            feasible=bool(d["feasible"]),
+            optimal=bool(d["optimal"]),
+            min_clearance_m=float(d["min_clearance_m"]) if d["min_clearance_m"] is not None else float("nan"),
+            margin_m=float(d["margin_m"]),
+            counts=dict(d["counts"]),
+            targets=dict(d["targets"]),
+            stats=dict(d.get("stats", {})),
+            map_name=d.get("map_name", ""),
+            hull=tuple(d.get("hull", (0.0, 0.0))),
+            max_wind_mps=float(d.get("max_wind_mps", 10.0)),
+        )
+
+    @classmethod
+    def load(cls, path: str | Path) -> Plan:
+        path = Path(path)
+        try:
+            d = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise FileNotFoundError(f"{path}: no such plan file (write one with plan-trial --out DIR)") from None
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{path}: not valid JSON ({exc})") from None
+        try:
+            return cls.from_dict(d, str(path))
+        except KeyError as exc:
+            raise ValueError(f"{path}: plan field {exc} is missing: re-create the plan with plan-trial") from None

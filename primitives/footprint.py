@@ -1,0 +1,55 @@
+"""Hull outlines and the area a hull sweeps along a track.
+
+Coordinates are (x north, y east) of the frame the track is given in (NED, BRIEF section 2);
+for primitives that is the start-pose frame, so x is the initial forward direction.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+
+
+def hull_outline(length: float, beam: float) -> np.ndarray:
+    """Body-frame hull outline (x forward, y starboard), centred amidships: a box with a bow."""
+    half_l, half_b = length / 2.0, beam / 2.0
+    bow = half_l - 0.25 * length
+    return np.array([[half_l, 0.0], [bow, half_b], [-half_l, half_b], [-half_l, -half_b], [bow, -half_b]])
+
+
+def hull_at(outline: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """Outline placed at poses (K, 3) = (x, y, psi): array (K, n_vertices, 2)."""
+    c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
+    x = poses[:, 0:1] + c * outline[:, 0] - s * outline[:, 1]
+    y = poses[:, 1:2] + s * outline[:, 0] + c * outline[:, 1]
+    return np.stack([x, y], axis=-1)
+
+
+def swept_footprint(track: np.ndarray, length: float, beam: float, margin: float = 0.0) -> Polygon:
+    """Area swept by the hull along a track (K, 3): union of the convex hulls of consecutive
+    hull placements (exact for straight pieces, covering for turns at the sampling used),
+    buffered by ``margin``. Poses are thinned so consecutive hulls overlap."""
+    track = np.asarray(track, float)
+    step = np.hypot(*np.diff(track[:, :2], axis=0).T)
+    dpsi = np.abs(np.diff(track[:, 2]))
+    # keep a pose whenever the hull moved a quarter beam or turned 5 degrees since the last kept
+    keep = [0]
+    acc_d = acc_a = 0.0
+    for i in range(len(step)):
+        acc_d += step[i]
+        acc_a += dpsi[i]
+        if acc_d >= beam / 4 or acc_a >= np.radians(5):
+            keep.append(i + 1)
+            acc_d = acc_a = 0.0
+    if keep[-1] != len(track) - 1:
+        keep.append(len(track) - 1)
+    hulls = hull_at(hull_outline(length, beam), track[keep])
+    if len(hulls) == 1:
+        geom = Polygon(hulls[0])
+    else:
+        pairs = np.concatenate([hulls[:-1], hulls[1:]], axis=1)
+        geom = shapely.union_all(shapely.convex_hull(shapely.multipoints(pairs)))
+    if margin > 0:
+        geom = geom.buffer(margin)
+    return geom

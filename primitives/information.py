@@ -1,0 +1,133 @@
+"""Information matrices of primitives for the instrumental-variable predictor (seed 001 ch. 7).
+
+For primitive q with regressors Phi_q(k) and instruments Z_q(k) (block diagonal over the DOFs):
+X_q = mean Phi Z^T (7.50), Y_q = mean Phi (7.51), Z_q = mean Z (7.55), and
+Gamma_q = X_q (no mean subtraction, (7.18)) or X_q - Y_q Z_q^T (batchwise, (7.53)).
+The whole-experiment subtraction (7.57) mixes the primitives' means and so is formed by the
+design (``expdesign``) from X, Y and Z.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from primitives.library import Primitive
+from primitives.regressors import block_mask, instruments, predictor_regressors
+from primitives.ship import ShipProfile
+from primitives.simulate import Disturbances, simulate
+
+MEAN_SUBTRACTION = ("none", "batchwise", "complete")
+
+# What kind of manoeuvre excites each kind of term; used when a parameter is not identifiable.
+_EXCITE_HINTS = [
+    ("|", "a manoeuvre with large and varying speed in that direction (acceleration/deceleration, sway moves)"),
+    ("tau", "a manoeuvre that varies that actuator (steps or zig-zags of the force)"),
+    ("_q", "runs at different headings relative to the wind"),
+]
+
+
+@dataclass
+class PrimitiveInfo:
+    """Per-sample information of one primitive: X (p, p), Y (p,), Z (p,) and mask (p, p)."""
+
+    name: str
+    n_samples: int
+    X: np.ndarray
+    Y: np.ndarray
+    Z: np.ndarray
+    mask: np.ndarray
+
+    def gamma(self, mean_subtraction: str = "batchwise") -> np.ndarray:
+        """Gamma_q: X for 'none'; X - Y Z^T (within DOF blocks) for 'batchwise' (7.53).
+        For 'complete' a single primitive is its own whole experiment, as 'batchwise'."""
+        if mean_subtraction not in MEAN_SUBTRACTION:
+            raise ValueError(f"mean subtraction must be one of {MEAN_SUBTRACTION}, got {mean_subtraction!r}")
+        if mean_subtraction == "none":
+            return self.X.copy()
+        return self.X - np.outer(self.Y, self.Z) * self.mask
+
+
+def primitive_information(
+    profile: ShipProfile,
+    primitive: Primitive,
+    *,
+    instrument_set: str | np.ndarray | None = None,
+    disturbances: Disturbances | None = None,
+    realisations: int = 1,
+    seed: int | None = None,
+) -> PrimitiveInfo:
+    """X, Y, Z of one primitive.
+
+    The regressors come from simulating the primitive's inputs with the profile's simulation
+    set; with ``disturbances`` (current, noise) and several realisations they are averaged over
+    Monte Carlo data like the thesis's estimated matrices; without, the nominal states are used.
+    Instruments come from a noise-free simulation of ``instrument_set`` (default the profile's).
+    """
+    terms = profile.predictor
+    if disturbances is None or (disturbances.is_calm and not any(disturbances.measurement_std)):
+        y = primitive.nu[None]
+        psi = primitive.track[None, :, 2]
+    else:
+        res = simulate(profile, primitive.inputs, nu0=primitive.nu0, disturbances=disturbances, batch=realisations, seed=seed)
+        y, psi = res.y, res.psi_meas
+    phi, _ = predictor_regressors(profile, y, np.broadcast_to(primitive.inputs, (y.shape[0],) + primitive.inputs.shape), psi)
+    z = instruments(profile, primitive.inputs, instrument_set, primitive.nu0)
+    mask = block_mask(terms)
+    n = phi.shape[1]
+    X = np.einsum("bki,kj->ij", phi, z) / (n * phi.shape[0]) * mask
+    return PrimitiveInfo(primitive.name, n, X, phi.mean(axis=(0, 1)), z.mean(axis=0), mask)
+
+
+def library_information(profile: ShipProfile, primitives: list[Primitive], **kw) -> list[PrimitiveInfo]:
+    return [primitive_information(profile, p, **kw) for p in primitives]
+
+
+def combined_gamma(infos: list[PrimitiveInfo], weights: np.ndarray, mean_subtraction: str = "batchwise") -> np.ndarray:
+    """Information of a mix with time fractions ``weights``: (7.18), (7.53) or (7.57)."""
+    w = np.asarray(weights, float)
+    if mean_subtraction == "complete":
+        total = w.sum()
+        T = sum(wi * i.X for wi, i in zip(w, infos))
+        S = sum(wi * i.Y for wi, i in zip(w, infos))
+        zbar = sum(wi * i.Z for wi, i in zip(w, infos)) / total
+        return T - np.outer(S, zbar) * infos[0].mask
+    return sum(wi * i.gamma(mean_subtraction) for wi, i in zip(w, infos))
+
+
+def unidentified_parameters(profile: ShipProfile, gamma: np.ndarray, rel_tol: float = 1e-9) -> list[str]:
+    """Names of predictor parameters in the null space of a (possibly asymmetric) Gamma.
+
+    A parameter is reported when the smallest singular directions of Gamma load on it; with a
+    diagonal scaling first so that units do not decide.
+    """
+    names = profile.predictor_param_names
+    d = np.sqrt(np.abs(np.diag(gamma)))
+    dead = [n for n, di in zip(names, d) if di == 0.0]
+    scale = np.where(d > 0, d, 1.0)
+    g = gamma / np.outer(scale, scale)
+    u, s, vt = np.linalg.svd(g)
+    small = s < rel_tol * max(s.max(), 1e-300) + 1e-12
+    for row in vt[small]:
+        for n, c in zip(names, row):
+            if abs(c) > 0.3 and n not in dead:
+                dead.append(n)
+    return [n for n in names if n in dead]
+
+
+def excitation_hint(profile: ShipProfile, names: list[str]) -> str:
+    """Plain-language advice on what manoeuvre would excite the named parameters."""
+    terms = {n: t for n, t in zip(profile.predictor_param_names, (t for dof in profile.predictor.terms for t in dof))}
+    dofs = dict(zip(profile.predictor_param_names, np.repeat(["surge", "sway", "yaw"], profile.predictor.sizes)))
+    parts = []
+    for n in names:
+        t = terms[n]
+        hint = next((h for key, h in _EXCITE_HINTS if key in t), None)
+        if hint is None:
+            if "*" in t:
+                hint = "a manoeuvre that moves " + " and ".join(sorted(set(t.replace("|", "").split("*")))) + " at the same time (zig-zags, turns, spirals)"
+            else:
+                hint = f"a manoeuvre that varies {t} ({dofs[n]} motion)"
+        parts.append(f"{n} (term {t}): {hint}")
+    return "; ".join(parts)

@@ -1,0 +1,205 @@
+"""The primitive library: thesis primitives tau1-tau20, standard trials and basic moves.
+
+A :class:`Primitive` is a manoeuvre with its input sequence, its nominal (calm, simulation-set)
+states and track from the start pose (0, 0, 0), its natural split points, its end pose and
+the hull's swept footprint. Section 9.1.1 (tau1-tau11) and section 9.3 (tau12-tau20) of
+seed 001 define the thesis primitives by the states they produce (BRIEF section 4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+from shapely.geometry import Polygon
+
+from primitives import maneuvers as mv
+from primitives.footprint import swept_footprint
+from primitives.ship import ShipProfile, load_profile
+from primitives.simulate import simulate
+
+
+@dataclass
+class Primitive:
+    """One manoeuvre of the library.
+
+    inputs: (N, m) in the profile's input units; nu: (N+1, 3) nominal body velocities;
+    track: (N+1, 3) nominal pose (x north, y east, psi) from the start pose (0, 0, 0).
+    kind: "informative" (used for identification) or "basic" (repositioning).
+    """
+
+    name: str
+    description: str
+    profile: ShipProfile = field(repr=False)
+    inputs: np.ndarray = field(repr=False)
+    nu: np.ndarray = field(repr=False)
+    track: np.ndarray = field(repr=False)
+    split_points: list[int]
+    kind: str = "informative"
+    commands: list[str] = field(default_factory=list)
+
+    @property
+    def n_samples(self) -> int:
+        return self.inputs.shape[0]
+
+    @property
+    def duration_s(self) -> float:
+        return self.n_samples * self.profile.sample_time
+
+    @property
+    def nu0(self) -> np.ndarray:
+        return self.nu[0]
+
+    @property
+    def end_pose(self) -> np.ndarray:
+        """(dx north, dy east, dpsi) of the end pose in the start-pose frame."""
+        return self.track[-1].copy()
+
+    def ranges(self) -> dict[str, tuple[float, float]]:
+        return {s: (float(self.nu[:, i].min()), float(self.nu[:, i].max())) for i, s in enumerate("uvr")}
+
+    @cached_property
+    def footprint(self) -> Polygon:
+        """Hull outline swept along the nominal track, in the start-pose frame (x north, y east)."""
+        return swept_footprint(self.track, self.profile.length_m, self.profile.beam_m)
+
+    def pieces(self) -> list[Primitive]:
+        """The primitive cut at its natural split points (e.g. zig-zag half periods)."""
+        cuts = [0] + [k for k in self.split_points if 0 < k < self.n_samples] + [self.n_samples]
+        out = []
+        for i, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
+            # re-express the piece in its own start frame
+            x0, y0, p0 = self.track[a]
+            c, s = np.cos(p0), np.sin(p0)
+            d = self.track[a : b + 1] - self.track[a]
+            tr = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], d[:, 2]])
+            out.append(
+                Primitive(f"{self.name}.{i + 1}", f"{self.description} (part {i + 1})", self.profile,
+                          self.inputs[a:b], self.nu[a : b + 1], tr, [], self.kind, self.commands)
+            )
+        return out
+
+
+def make_primitive(
+    profile: ShipProfile, name: str, description: str, gen: mv.Generated, kind: str = "informative"
+) -> Primitive:
+    """Allocate a generator's forces to the profile's inputs and simulate it nominally."""
+    inputs = profile.allocate(gen.forces[:, 0], gen.forces[:, 1], gen.forces[:, 2])
+    res = simulate(profile, inputs, nu0=gen.nu0)
+    return Primitive(name, description, profile, inputs, res.nu[0], res.eta[0], list(gen.split_points), kind, gen.commands)
+
+
+# -- the thesis primitives -----------------------------------------------------------------------
+
+
+def model_ship_thesis(profile: ShipProfile, n: int = 300, psi_switch: float = 0.5) -> list[Primitive]:
+    """tau1-tau11 of section 9.1.1 (about 40 s each at 8 Hz). ``psi_switch`` (rad) sets the
+    zig-zag period, a choice the thesis does not state."""
+    zz = [
+        ("tau3", "slow/flat zig-zag", 0.35, 0.1, 0.2),
+        ("tau4", "moderate/flat zig-zag", 0.8, 0.1, 0.2),
+        ("tau5", "fast/flat zig-zag", 1.15, 0.1, 0.2),
+        ("tau6", "slow/steep zig-zag", 0.35, 0.15, 0.35),
+        ("tau7", "moderate/steep zig-zag", 0.7, 0.15, 0.35),
+        ("tau8", "fast/steep zig-zag", 1.0, 0.15, 0.35),
+    ]
+    sp = [
+        ("tau9", "slow inward spiral", 0.4, 0.05),
+        ("tau10", "moderate inward spiral", 0.75, 0.125),
+        ("tau11", "fast inward spiral", 1.0, 0.2),
+    ]
+    out = [
+        make_primitive(profile, "tau1", "decelerating (u 1 -> 0)", mv.free_decay(profile, n, 1.0)),
+        make_primitive(profile, "tau2", "accelerating (u 0 -> 1)", mv.hold(profile, n, 1.0, nu0=(0.0, 0.0, 0.0))),
+    ]
+    out += [make_primitive(profile, nm, d, mv.excitation_zigzag(profile, n, u, v, r, psi_switch)) for nm, d, u, v, r in zz]
+    out += [make_primitive(profile, nm, d, mv.excitation_spiral(profile, n, u, v, -0.6)) for nm, d, u, v in sp]
+    return out
+
+
+def full_scale_thesis(profile: ShipProfile, n: int = 200) -> list[Primitive]:
+    """tau12-tau20 of section 9.3 for the two-azimuth vessel (Ts = 1 s)."""
+    half = n // 2
+    q = n // 4
+    acc = mv.Generated(
+        np.vstack([np.tile(mv.steady_forces(profile, 3.5, 0, 0), (half, 1)), np.zeros((n - half, 3))]), (0.0, 0.0, 0.0), [half]
+    )
+    out = [make_primitive(profile, "tau12", "surge accelerations/decelerations (u 0 -> 3.5 -> 0)", acc)]
+    steps = mv.sway_steps(profile, [(1.0, q), (0.0, q), (-1.0, q), (0.0, n - 3 * q)])
+    steps.nu0 = (0.0, 0.0, 0.0)  # accelerations start from rest
+    out.append(make_primitive(profile, "tau13", "sway accelerations/decelerations (v -1 .. 1)", steps))
+    for nm, d, v in (("tau14", "slow pure sway", 0.65), ("tau15", "moderate pure sway", 0.9), ("tau16", "fast pure sway", 1.15)):
+        out.append(make_primitive(profile, nm, f"{d} (|v| ~ {v} m/s)", mv.sway_steps(profile, [(v, half), (-v, n - half)])))
+    for nm, d, u, period in (
+        ("tau17", "slow high-frequency zig-zag (T ~ 30 s)", 3.0, 30.0),
+        ("tau18", "fast high-frequency zig-zag (T ~ 30 s)", 4.0, 30.0),
+        ("tau19", "slow low-frequency zig-zag (T ~ 100 s)", 3.0, 100.0),
+        ("tau20", "fast low-frequency zig-zag (T ~ 100 s)", 4.0, 100.0),
+    ):
+        psi_sw = 0.03 * period / 4.0
+        out.append(make_primitive(profile, nm, d, mv.excitation_zigzag(profile, n, u, 0.5, 0.03, psi_sw)))
+    return out
+
+
+def standard_trials(profile: ShipProfile) -> list[Primitive]:
+    """IMO/ITTC standard manoeuvres as parametrised primitives, with descriptive names."""
+    u = profile.cruise_speed_mps
+    p = []
+    for d, s in ((10, "starboard"), (10, "port"), (20, "starboard"), (20, "port")):
+        p.append(make_primitive(profile, f"zigzag_{d}_{d}_{s[0]}", f"zig-zag {d}/{d}, first rudder to {s}",
+                                mv.zigzag(profile, d, d, first_side=s)))
+    for s in ("starboard", "port"):
+        p.append(make_primitive(profile, f"turning_circle_35_{s[0]}", f"turning circle, rudder 35 deg {s}",
+                                mv.turning_circle(profile, 35, side=s)))
+    p.append(make_primitive(profile, "pull_out_20_s", "pull-out after a 20 deg starboard turn", mv.pull_out(profile, 20)))
+    p.append(make_primitive(profile, "direct_spiral", "direct (Dieudonne) spiral", mv.direct_spiral(profile)))
+    p.append(make_primitive(profile, "reverse_spiral", "reverse (Bech) spiral", mv.reverse_spiral(profile)))
+    p.append(make_primitive(profile, "acceleration", "acceleration from rest to cruise speed", mv.speed_change(profile, 0.0, u)))
+    p.append(make_primitive(profile, "deceleration", "deceleration from cruise speed to rest", mv.speed_change(profile, u, 0.0)))
+    p.append(make_primitive(profile, "stopping", "crash stop from cruise speed", mv.speed_change(profile, u, 0.0, crash=True)))
+    return p
+
+
+def basic_moves(profile: ShipProfile, step_m: float | None = None) -> list[Primitive]:
+    """Repositioning moves for the planner: straight run, turn on the spot both ways, left and
+    right 90 deg turns at cruise speed. ``step_m`` is the straight-run length (default 5 L)."""
+    step = step_m or 5 * profile.length_m
+    return [
+        make_primitive(profile, "straight", f"straight run {step:.0f} m", mv.straight(profile, step), "basic"),
+        make_primitive(profile, "spot_turn_s", "turn on the spot 90 deg to starboard", mv.turn_to_heading(profile, np.pi / 2, 0.0), "basic"),
+        make_primitive(profile, "spot_turn_p", "turn on the spot 90 deg to port", mv.turn_to_heading(profile, -np.pi / 2, 0.0), "basic"),
+        make_primitive(profile, "turn_s", "90 deg turn to starboard", mv.turn_to_heading(profile, np.pi / 2), "basic"),
+        make_primitive(profile, "turn_p", "90 deg turn to port", mv.turn_to_heading(profile, -np.pi / 2), "basic"),
+    ]
+
+
+def thesis_primitives(profile: ShipProfile) -> list[Primitive]:
+    """The thesis's dictionary for the profile (tau1-tau11 or tau12-tau20)."""
+    if profile.name == "model-ship":
+        return model_ship_thesis(profile)
+    if profile.name == "full-scale":
+        return full_scale_thesis(profile)
+    return []
+
+
+def build_library(profile: ShipProfile | str, *, standard: bool = True, basic: bool = True) -> list[Primitive]:
+    """Every primitive the profile supports: thesis dictionary, standard trials, basic moves."""
+    if isinstance(profile, str):
+        profile = load_profile(profile)
+    if profile.actuator == "rudder_propeller":
+        raise ValueError(f"profile {profile.name!r}: manoeuvre generation needs generalized or azimuth inputs")
+    lib = thesis_primitives(profile)
+    if standard:
+        lib += standard_trials(profile)
+    if basic:
+        lib += basic_moves(profile)
+    return lib
+
+
+def by_name(library: list[Primitive], names: list[str]) -> list[Primitive]:
+    index = {p.name: p for p in library}
+    missing = [n for n in names if n not in index]
+    if missing:
+        raise KeyError(f"unknown primitives {missing}; the library has {sorted(index)}")
+    return [index[n] for n in names]

@@ -1,0 +1,276 @@
+"""Input-signal generators of manoeuvre primitives.
+
+Generators work in generalized forces (tau_x, tau_y, tau_n) and the profile allocates them to
+its actuators (for azimuth thrusters via (3.55)). Heading-switched manoeuvres (zig-zag,
+turning circle, pull-out, spirals, turns to a heading) are generated in closed loop on the
+nominal undisturbed model and then stored as open-loop input sequences: the sequence is what
+the information matrix and the planner see; the switching logic is what the crew is told.
+
+For generalized-force profiles the yaw force plays the rudder: ``rudder_force`` maps a rudder
+angle to a yaw force with 35 deg giving a steady turn of diameter 3 L at cruise speed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from primitives.ship import ShipProfile
+from primitives.simulate import model_signals, steady_forces
+
+MAX_RUDDER_DEG = 35.0
+
+
+@dataclass
+class Generated:
+    """Input sequence of a manoeuvre and facts the library and the trial card need."""
+
+    forces: np.ndarray  # (N, 3) generalized forces
+    nu0: tuple[float, float, float]
+    split_points: list[int] = field(default_factory=list)
+    commands: list[str] = field(default_factory=list)
+
+
+Policy = Callable[[int, np.ndarray, float, dict], tuple[float, float, float] | None]
+
+
+def closed_loop(profile: ShipProfile, policy: Policy, n_max: int, nu0, theta=None) -> tuple[np.ndarray, np.ndarray]:
+    """Run ``policy(k, nu, psi, memo) -> forces or None (stop)`` on the calm model.
+
+    Returns (forces (N, 3), psi (N+1,)). Scalar loop: used only to generate signals.
+    """
+    terms, th = profile.model, profile.params(theta)
+    nu, psi, memo = np.array(nu0, float), 0.0, {}
+    forces, psis = [], [0.0]
+    for k in range(n_max):
+        f = policy(k, nu, psi, memo)
+        if f is None:
+            break
+        sig = model_signals(profile, nu, np.array(psi), {"tau_x": f[0], "tau_y": f[1], "tau_n": f[2]})
+        inc = np.array([float(x) for x in terms.increments(sig, th)])
+        psi += profile.sample_time * nu[2]
+        nu = nu + inc
+        forces.append(f)
+        psis.append(psi)
+    return np.array(forces, float).reshape(-1, 3), np.array(psis)
+
+
+def rudder_force(profile: ShipProfile, delta_deg: float, speed: float | None = None) -> float:
+    """Yaw force equivalent to a rudder angle (35 deg -> steady turn of diameter 3 L)."""
+    u = profile.cruise_speed_mps if speed is None else speed
+    r_full = profile.cruise_speed_mps / (1.5 * profile.length_m)
+    tn_full = steady_forces(profile, u, 0.0, r_full)[2]
+    return tn_full * delta_deg / MAX_RUDDER_DEG
+
+
+def _side(first_side: str) -> float:
+    if first_side not in ("starboard", "port"):
+        raise ValueError(f"first_side must be 'starboard' or 'port', got {first_side!r}")
+    return 1.0 if first_side == "starboard" else -1.0
+
+
+# -- thesis-style excitation signals ----------------------------------------------------------
+
+
+def hold(profile: ShipProfile, n: int, u: float, v: float = 0.0, r: float = 0.0, nu0=None) -> Generated:
+    """Constant forces that hold (u, v, r); starting from ``nu0`` gives accelerations."""
+    f = np.tile(steady_forces(profile, u, v, r), (n, 1))
+    return Generated(f, tuple(nu0) if nu0 is not None else (u, v, r))
+
+
+def free_decay(profile: ShipProfile, n: int, u0: float, v0: float = 0.0) -> Generated:
+    """All forces zero from (u0, v0, 0): a deceleration."""
+    return Generated(np.zeros((n, 3)), (u0, v0, 0.0), commands=["engines to zero thrust"])
+
+
+def excitation_zigzag(
+    profile: ShipProfile, n: int, u: float, v_amp: float, r_amp: float, psi_switch: float, first_side: str = "starboard"
+) -> Generated:
+    """Zig-zag holding speed u with yaw rate +-r_amp and sway velocity -+v_amp (thesis tau3-tau8,
+    tau17-tau20); the yaw (and sway) force switches sign when the heading passes +-psi_switch."""
+    side = _side(first_side)
+    pos = steady_forces(profile, u, -v_amp, r_amp)
+    neg = steady_forces(profile, u, v_amp, -r_amp)
+    splits: list[int] = []
+
+    def policy(k, nu, psi, memo):
+        s = memo.setdefault("s", side)
+        if s * psi >= psi_switch:
+            memo["s"] = -s
+            splits.append(k)
+        return pos if memo["s"] > 0 else neg
+
+    forces, _ = closed_loop(profile, policy, n, (u, 0.0, 0.0))
+    return Generated(forces, (u, 0.0, 0.0), splits)
+
+
+def excitation_spiral(profile: ShipProfile, n: int, u: float, v: float, r_end: float) -> Generated:
+    """Inward spiral: the yaw rate ramps from 0 to r_end at speed u and sway v (tau9-tau11)."""
+    rs = np.linspace(0.0, r_end, n)
+    f = np.array([steady_forces(profile, u, v, r) for r in rs])
+    return Generated(f, (u, v, 0.0), [n // 2])
+
+
+def sway_steps(profile: ShipProfile, levels: list[tuple[float, int]], u: float = 0.0) -> Generated:
+    """Sway-force steps that hold sway velocities ``(v, samples)`` in turn (tau13-tau16)."""
+    f, splits, k = [], [], 0
+    for v, m in levels:
+        f += [steady_forces(profile, u, v, 0.0)] * m
+        k += m
+        splits.append(k)
+    return Generated(np.array(f), (u, levels[0][0] if levels[0][0] else 0.0, 0.0), splits[:-1])
+
+
+# -- standard trials (IMO MSC.137(76), ITTC 7.5-04-02-01) ---------------------------------------
+
+
+def zigzag(
+    profile: ShipProfile,
+    delta_deg: float,
+    psi_deg: float,
+    *,
+    speed: float | None = None,
+    first_side: str = "starboard",
+    n_switches: int = 4,
+    n_max: int | None = None,
+) -> Generated:
+    """Zig-zag delta/psi: rudder delta to one side, reverse when the heading change passes psi."""
+    u = profile.cruise_speed_mps if speed is None else speed
+    side, tn = _side(first_side), rudder_force(profile, delta_deg, u)
+    tx = steady_forces(profile, u, 0.0, 0.0)[0]
+    psi_sw = np.radians(psi_deg)
+    n_max = n_max or int(40 * profile.length_m / max(u, 1e-3) / profile.sample_time) + 10
+    splits: list[int] = []
+
+    def policy(k, nu, psi, memo):
+        s = memo.setdefault("s", side)
+        if s * psi >= psi_sw:
+            memo["s"] = -s
+            splits.append(k)
+            if len(splits) > n_switches:
+                return None
+        return (tx, 0.0, memo["s"] * tn)
+
+    forces, _ = closed_loop(profile, policy, n_max, (u, 0.0, 0.0))
+    sw = "starboard" if side > 0 else "port"
+    other = "port" if side > 0 else "starboard"
+    cmds = [
+        f"steady on course at {u:.2f} m/s",
+        f"rudder {delta_deg:g} deg {sw}; when the heading has changed {psi_deg:g} deg to {sw}, rudder {delta_deg:g} deg {other}",
+        f"when the heading has changed {psi_deg:g} deg to {other}, rudder {delta_deg:g} deg {sw}; repeat for {n_switches} rudder reversals",
+    ]
+    return Generated(forces, (u, 0.0, 0.0), splits[:n_switches], cmds)
+
+
+def turning_circle(
+    profile: ShipProfile, delta_deg: float = 35.0, *, speed: float | None = None, side: str = "starboard", turns: float = 1.0
+) -> Generated:
+    """Turning circle: full rudder held until the heading has changed 360 deg x turns."""
+    u = profile.cruise_speed_mps if speed is None else speed
+    s, tn = _side(side), rudder_force(profile, delta_deg, u)
+    tx = steady_forces(profile, u, 0.0, 0.0)[0]
+    n_max = int(200 * profile.length_m / max(u, 1e-3) / profile.sample_time)
+
+    def policy(k, nu, psi, memo):
+        return None if abs(psi) >= 2 * np.pi * turns else (tx, 0.0, s * tn)
+
+    forces, _ = closed_loop(profile, policy, n_max, (u, 0.0, 0.0))
+    n = len(forces)
+    return Generated(forces, (u, 0.0, 0.0), [n // 4, n // 2, 3 * n // 4],
+                     [f"steady at {u:.2f} m/s, rudder {delta_deg:g} deg {side}; hold until heading has changed {360 * turns:g} deg"])
+
+
+def pull_out(profile: ShipProfile, delta_deg: float = 20.0, *, speed: float | None = None, side: str = "starboard") -> Generated:
+    """Pull-out: steady turn with rudder delta, then rudder amidships and let the yaw rate decay."""
+    u = profile.cruise_speed_mps if speed is None else speed
+    s, tn = _side(side), rudder_force(profile, delta_deg, u)
+    tx = steady_forces(profile, u, 0.0, 0.0)[0]
+    n_leg = int(8 * profile.length_m / max(u, 1e-3) / profile.sample_time)
+    f = np.array([(tx, 0.0, s * tn)] * n_leg + [(tx, 0.0, 0.0)] * n_leg)
+    return Generated(f, (u, 0.0, 0.0), [n_leg],
+                     [f"rudder {delta_deg:g} deg {side} until the yaw rate is steady", "rudder amidships; record the yaw-rate decay"])
+
+
+def direct_spiral(profile: ShipProfile, deltas_deg: tuple[float, ...] = (15, 10, 5, 2, 0, -2, -5, -10, -15, -10, -5, -2, 0, 2, 5, 10, 15),
+                  *, speed: float | None = None, hold_lengths: float = 6.0) -> Generated:
+    """Direct (Dieudonne) spiral: rudder steps, each held until the yaw rate is steady."""
+    u = profile.cruise_speed_mps if speed is None else speed
+    tx = steady_forces(profile, u, 0.0, 0.0)[0]
+    m = int(hold_lengths * profile.length_m / max(u, 1e-3) / profile.sample_time)
+    f = np.array([(tx, 0.0, rudder_force(profile, d, u)) for d in deltas_deg for _ in range(m)])
+    return Generated(f, (u, 0.0, 0.0), [m * i for i in range(1, len(deltas_deg))],
+                     ["rudder steps " + ", ".join(f"{d:g}" for d in deltas_deg) + " deg (+ starboard), each held until the yaw rate is steady"])
+
+
+def reverse_spiral(profile: ShipProfile, rates_deg_s: tuple[float, ...] | None = None, *, speed: float | None = None,
+                   hold_lengths: float = 6.0) -> Generated:
+    """Reverse (Bech) spiral: the helm holds a sequence of yaw rates; the rudder is recorded."""
+    u = profile.cruise_speed_mps if speed is None else speed
+    r_full = u / (1.5 * profile.length_m)
+    rates = np.radians(rates_deg_s) if rates_deg_s is not None else r_full * np.array([0.6, 0.3, 0.1, -0.1, -0.3, -0.6])
+    m = int(hold_lengths * profile.length_m / max(u, 1e-3) / profile.sample_time)
+    f = np.array([steady_forces(profile, u, 0.0, r) for r in rates for _ in range(m)])
+    f[:, 1] = 0.0
+    return Generated(f, (u, 0.0, 0.0), [m * i for i in range(1, len(rates))],
+                     ["steer to hold yaw rates " + ", ".join(f"{np.degrees(x):.2f}" for x in rates) + " deg/s in turn; log the rudder used"])
+
+
+def speed_change(profile: ShipProfile, u_from: float, u_to: float, *, duration_lengths: float = 15.0, crash: bool = False) -> Generated:
+    """Acceleration / deceleration between two speeds; ``crash`` reverses full until stopped."""
+    m = int(duration_lengths * profile.length_m / max(u_from, u_to, 1e-3) / profile.sample_time)
+    if crash:
+        lo = -abs(steady_forces(profile, profile.cruise_speed_mps, 0.0, 0.0)[0]) * 1.5
+
+        def policy(k, nu, psi, memo):
+            if nu[0] <= 0.0 or k >= m:
+                return None
+            return (lo, 0.0, 0.0)
+
+        forces, _ = closed_loop(profile, policy, m, (u_from, 0.0, 0.0))
+        return Generated(forces, (u_from, 0.0, 0.0), [], ["full astern until the ship is stopped"])
+    tx = steady_forces(profile, u_to, 0.0, 0.0)[0] if u_to > 0 else 0.0
+    word = "accelerate" if u_to > u_from else "decelerate"
+    return Generated(np.tile((tx, 0.0, 0.0), (m, 1)), (u_from, 0.0, 0.0), [m // 2],
+                     [f"{word} from {u_from:.2f} to {u_to:.2f} m/s with constant thrust"])
+
+
+# -- basic repositioning moves for the planner ---------------------------------------------------
+
+
+def straight(profile: ShipProfile, distance_m: float, speed: float | None = None) -> Generated:
+    """Straight run at constant speed."""
+    u = profile.cruise_speed_mps if speed is None else speed
+    m = max(1, int(round(distance_m / (u * profile.sample_time))))
+    return Generated(np.tile(steady_forces(profile, u, 0.0, 0.0), (m, 1)), (u, 0.0, 0.0), [],
+                     [f"steady course, {u:.2f} m/s for {distance_m:.0f} m"])
+
+
+def turn_to_heading(profile: ShipProfile, dpsi: float, speed: float | None = None, gain: float = 4.0) -> Generated:
+    """Turn by ``dpsi`` rad (positive = starboard) and steady on the new heading.
+
+    With speed 0 it is a turn on the spot; with cruise speed a left/right turn. A
+    proportional-derivative helm on the yaw force lands the heading within 1 deg.
+    """
+    u = profile.cruise_speed_mps if speed is None else speed
+    tx = steady_forces(profile, u, 0.0, 0.0)[0] if u > 0 else 0.0
+    r_max = max(u, 0.3 * profile.cruise_speed_mps) / (1.5 * profile.length_m)
+    tn_max = abs(steady_forces(profile, u, 0.0, r_max)[2])
+    tn_max = max(tn_max, abs(steady_forces(profile, 0.0, 0.0, r_max)[2]))
+    ts = profile.sample_time
+    n_max = int(4 * abs(dpsi) / r_max / ts) + int(40 / ts) + 20
+
+    def policy(k, nu, psi, memo):
+        err = dpsi - psi
+        if abs(err) < np.radians(1.0) and abs(nu[2]) < r_max * 0.05:
+            return None
+        r_ref = np.clip(gain * err / (np.pi / 2) * r_max, -r_max, r_max)
+        tn_ff = steady_forces(profile, max(nu[0], 0.0), 0.0, r_ref)[2]
+        tn = np.clip(tn_ff + tn_max * 2.0 * (r_ref - nu[2]) / r_max, -2 * tn_max, 2 * tn_max)
+        return (tx, 0.0, float(tn))
+
+    forces, _ = closed_loop(profile, policy, n_max, (u, 0.0, 0.0))
+    side = "starboard" if dpsi > 0 else "port"
+    what = "turn on the spot" if u == 0 else "turn"
+    return Generated(forces, (u, 0.0, 0.0), [], [f"{what} {abs(np.degrees(dpsi)):.0f} deg to {side} and steady on the new heading"])

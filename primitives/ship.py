@@ -1,0 +1,335 @@
+"""Ship profiles: the data that describe one ship model (states, inputs, structure, parameters).
+
+Built-in profiles live as TOML files in ``primitives/profiles``; users can load their own from
+TOML or JSON with :func:`load_profile`. A profile is the single source of truth for a model's
+structure (regressor terms per DOF) and its parameter sets.
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from primitives.terms import TermError, TermSet, signals_used
+
+PROFILE_DIR = Path(__file__).with_name("profiles")
+DOFS = ("surge", "sway", "yaw")
+STATES = ("u", "v", "r")
+ACTUATORS = ("generalized", "azimuth", "rudder_propeller")
+# Signals every model may read besides its own inputs.
+BASE_SIGNALS = {"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "psi", "tau_x", "tau_y", "tau_n"}
+
+
+class ProfileError(ValueError):
+    """A ship profile file is malformed; the message names the file and the field."""
+
+
+@dataclass(frozen=True)
+class Thruster:
+    name: str
+    x: float
+    y: float
+
+
+@dataclass(frozen=True)
+class ShipProfile:
+    """One ship model: structure (3.60)-style terms, parameter sets and physical facts."""
+
+    name: str
+    description: str
+    sample_time: float
+    length_m: float
+    beam_m: float
+    draught_m: float
+    cruise_speed_mps: float
+    actuator: str
+    inputs: tuple[str, ...]
+    input_limits: dict[str, tuple[float, float]]
+    model_terms: tuple[tuple[str, ...], ...]
+    parameter_names: tuple[tuple[str, ...], ...]
+    parameter_sets: dict[str, np.ndarray]
+    simulation_set: str = "true"
+    instrument_set: str = "nominal"
+    predictor_terms: tuple[tuple[str, ...], ...] | None = None
+    predictor_names: tuple[tuple[str, ...], ...] | None = None
+    thrusters: tuple[Thruster, ...] = ()
+    disturbances: dict[str, Any] = field(default_factory=dict)
+    source: str = ""
+
+    # -- structure -------------------------------------------------------------------------
+    @property
+    def model(self) -> TermSet:
+        return TermSet(self.model_terms)
+
+    @property
+    def predictor(self) -> TermSet:
+        """Terms of the linear-in-parameters predictor used for estimation and design."""
+        return TermSet(self.predictor_terms or self.model_terms)
+
+    @property
+    def param_names(self) -> list[str]:
+        return [n for dof in self.parameter_names for n in dof]
+
+    @property
+    def predictor_param_names(self) -> list[str]:
+        names = self.predictor_names or self.parameter_names
+        return [n for dof in names for n in dof]
+
+    @property
+    def has_wind_terms(self) -> bool:
+        return bool({"u_q", "v_q"} & signals_used(self.model_terms))
+
+    def params(self, which: str | np.ndarray | None = None) -> np.ndarray:
+        """A parameter vector: a named set, an explicit vector, or the simulation set."""
+        if which is None:
+            which = self.simulation_set
+        if isinstance(which, str):
+            try:
+                return self.parameter_sets[which].copy()
+            except KeyError:
+                raise ProfileError(
+                    f"profile {self.name!r} has no parameter set {which!r}; "
+                    f"choose one of {sorted(self.parameter_sets)}"
+                ) from None
+        theta = np.asarray(which, dtype=float)
+        if theta.shape[-1] != self.model.n_params:
+            raise ProfileError(
+                f"profile {self.name!r} needs {self.model.n_params} parameters, got {theta.shape[-1]}"
+            )
+        return theta
+
+    @property
+    def steering_input(self) -> str:
+        """The input that plays the rudder in standard trials."""
+        return {"generalized": "tau_n", "azimuth": "alpha2", "rudder_propeller": "delta"}[self.actuator]
+
+    # -- actuators ---------------------------------------------------------------------------
+    def generalized_forces(self, inputs: np.ndarray) -> dict[str, np.ndarray]:
+        """Input-dependent signals of the model, from an input array (..., n_inputs).
+
+        For azimuth thrusters this is (3.55): tau_x = sum n cos a, tau_y = sum n sin a,
+        tau_n = sum n (dx sin a - dy cos a).
+        """
+        inputs = np.asarray(inputs, dtype=float)
+        sig = {name: inputs[..., i] for i, name in enumerate(self.inputs)}
+        if self.actuator == "azimuth":
+            tx = ty = tn = 0.0
+            for i, th in enumerate(self.thrusters, start=1):
+                n, a = sig[f"n{i}"], sig[f"alpha{i}"]
+                tx = tx + n * np.cos(a)
+                ty = ty + n * np.sin(a)
+                tn = tn + n * (th.x * np.sin(a) - th.y * np.cos(a))
+            sig.update(tau_x=tx, tau_y=ty, tau_n=tn)
+        return sig
+
+    def allocate(self, tau_x: np.ndarray, tau_y: np.ndarray, tau_n: np.ndarray) -> np.ndarray:
+        """Inputs (N, n_inputs) that produce the given generalized forces.
+
+        Azimuth thrusters: least-norm solution for the thrust components (n cos a, n sin a)
+        of each thruster, then n >= 0 and a in (-pi, pi].
+        """
+        tau_x, tau_y, tau_n = np.broadcast_arrays(*(np.atleast_1d(np.asarray(t, float)) for t in (tau_x, tau_y, tau_n)))
+        if self.actuator == "generalized":
+            return np.stack([tau_x, tau_y, tau_n], axis=-1)
+        if self.actuator != "azimuth":
+            raise ProfileError(f"profile {self.name!r}: forces cannot be allocated to {self.actuator} inputs")
+        # Unknowns per thruster: fx_i = n cos a, fy_i = n sin a.
+        rows = []
+        rows.append(np.ravel([[1.0, 0.0] for _ in self.thrusters]))
+        rows.append(np.ravel([[0.0, 1.0] for _ in self.thrusters]))
+        rows.append(np.ravel([[-t.y, t.x] for t in self.thrusters]))
+        b_mat = np.array(rows)
+        f = np.linalg.pinv(b_mat) @ np.stack([tau_x, tau_y, tau_n])
+        cols = []
+        for i in range(len(self.thrusters)):
+            fx, fy = f[2 * i], f[2 * i + 1]
+            cols += [np.hypot(fx, fy), np.arctan2(fy, fx)]
+        return np.stack(cols, axis=-1)
+
+    def clip_inputs(self, inputs: np.ndarray) -> np.ndarray:
+        out = np.array(inputs, dtype=float)
+        for i, name in enumerate(self.inputs):
+            lo, hi = self.input_limits.get(name, (-np.inf, np.inf))
+            out[..., i] = np.clip(out[..., i], lo, hi)
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "name": self.name,
+            "description": self.description,
+            "source": self.source,
+            "sample_time": self.sample_time,
+            "length_m": self.length_m,
+            "beam_m": self.beam_m,
+            "draught_m": self.draught_m,
+            "cruise_speed_mps": self.cruise_speed_mps,
+            "actuator": self.actuator,
+            "inputs": list(self.inputs),
+            "simulation_set": self.simulation_set,
+            "instrument_set": self.instrument_set,
+            "input_limits": {k: list(v) for k, v in self.input_limits.items()},
+            "model": dict(zip(DOFS, map(list, self.model_terms))),
+            "parameter_names": dict(zip(DOFS, map(list, self.parameter_names))),
+            "parameters": {
+                k: {dof: v[self.model.dof_slice(i)].tolist() for i, dof in enumerate(DOFS)}
+                for k, v in self.parameter_sets.items()
+            },
+            "disturbances": self.disturbances,
+        }
+        if self.predictor_terms:
+            d["predictor"] = dict(zip(DOFS, map(list, self.predictor_terms)))
+        if self.predictor_names:
+            d["predictor_names"] = dict(zip(DOFS, map(list, self.predictor_names)))
+        if self.thrusters:
+            d["thrusters"] = [{"name": t.name, "x": t.x, "y": t.y} for t in self.thrusters]
+        return d
+
+
+# -- loading -------------------------------------------------------------------------------------
+
+
+def builtin_profiles() -> list[str]:
+    return sorted(p.stem for p in PROFILE_DIR.glob("*.toml"))
+
+
+def _need(d: dict, key: str, src: str, kind: type | tuple[type, ...], hint: str) -> Any:
+    if key not in d:
+        raise ProfileError(f"{src}: missing field '{key}' ({hint})")
+    val = d[key]
+    if not isinstance(val, kind) or isinstance(val, bool):
+        raise ProfileError(f"{src}: field '{key}' must be {hint}, got {val!r}")
+    return val
+
+
+def _per_dof(d: dict, key: str, src: str, item: type, hint: str) -> tuple[tuple, ...]:
+    table = _need(d, key, src, dict, f"a table with {', '.join(DOFS)} lists")
+    out = []
+    for dof in DOFS:
+        vals = _need(table, dof, f"{src} [{key}]", list, hint)
+        for v in vals:
+            if not isinstance(v, item) or isinstance(v, bool):
+                raise ProfileError(f"{src}: field '{key}.{dof}' must hold only {hint}, got {v!r}")
+        out.append(tuple(float(v) if item is not str else v for v in vals))
+    return tuple(out)
+
+
+def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
+    """Validate a decoded TOML/JSON document and build a profile."""
+    num = (int, float)
+    name = _need(d, "name", src, str, "the profile name, e.g. 'my-ship'")
+    ts = float(_need(d, "sample_time", src, num, "the sample time in seconds, > 0"))
+    if ts <= 0:
+        raise ProfileError(f"{src}: field 'sample_time' must be > 0 seconds, got {ts}")
+    actuator = d.get("actuator", "generalized")
+    if actuator not in ACTUATORS:
+        raise ProfileError(f"{src}: field 'actuator' must be one of {ACTUATORS}, got {actuator!r}")
+    inputs = tuple(_need(d, "inputs", src, list, "a list of input names"))
+    terms = _per_dof(d, "model", src, str, "regressor term strings like 'u_r*|u_r|'")
+    names = _per_dof(d, "parameter_names", src, str, "parameter names")
+    try:
+        model = TermSet(terms)
+        used = signals_used(terms)
+    except TermError as exc:
+        raise ProfileError(f"{src}: field 'model': {exc}") from None
+    unknown = used - BASE_SIGNALS - set(inputs)
+    if unknown:
+        raise ProfileError(
+            f"{src}: field 'model' uses unknown signals {sorted(unknown)}; known: "
+            f"{sorted(BASE_SIGNALS | set(inputs))}"
+        )
+    for i, dof in enumerate(DOFS):
+        if len(names[i]) != len(terms[i]):
+            raise ProfileError(
+                f"{src}: field 'parameter_names.{dof}' has {len(names[i])} names for {len(terms[i])} terms"
+            )
+    sets_raw = _need(d, "parameters", src, dict, "a table of parameter sets, e.g. [parameters.true]")
+    sets = {}
+    for set_name, table in sets_raw.items():
+        vals = _per_dof({"p": table}, "p", f"{src} [parameters.{set_name}]", num, "numbers")
+        for i, dof in enumerate(DOFS):
+            if len(vals[i]) != len(terms[i]):
+                raise ProfileError(
+                    f"{src}: field 'parameters.{set_name}.{dof}' has {len(vals[i])} values for "
+                    f"{len(terms[i])} terms"
+                )
+        sets[set_name] = np.array([v for dof in vals for v in dof], dtype=float)
+    if not sets:
+        raise ProfileError(f"{src}: field 'parameters' holds no parameter set")
+    sim_set = d.get("simulation_set", next(iter(sets)))
+    ins_set = d.get("instrument_set", sim_set)
+    for key, val in (("simulation_set", sim_set), ("instrument_set", ins_set)):
+        if val not in sets:
+            raise ProfileError(f"{src}: field '{key}' names {val!r}, which is not in [parameters]")
+    limits = {}
+    for k, v in d.get("input_limits", {}).items():
+        if not (isinstance(v, list) and len(v) == 2 and all(isinstance(x, num) for x in v) and v[0] < v[1]):
+            raise ProfileError(f"{src}: field 'input_limits.{k}' must be [min, max] with min < max")
+        limits[k] = (float(v[0]), float(v[1]))
+    thrusters = tuple(
+        Thruster(str(t.get("name", f"thruster{i + 1}")), float(t["x"]), float(t.get("y", 0.0)))
+        for i, t in enumerate(d.get("thrusters", []))
+    )
+    if actuator == "azimuth":
+        expect = tuple(x for i in range(1, len(thrusters) + 1) for x in (f"n{i}", f"alpha{i}"))
+        if not thrusters or inputs != expect:
+            raise ProfileError(f"{src}: field 'inputs' of an azimuth profile must be {list(expect) or ['n1', 'alpha1']} with one [[thrusters]] entry each")
+    pred = pred_names = None
+    if "predictor" in d:
+        pred = _per_dof(d, "predictor", src, str, "regressor term strings")
+        pred_names = _per_dof(d, "predictor_names", src, str, "parameter names")
+        TermSet(pred)
+    for key in ("length_m", "beam_m", "cruise_speed_mps"):
+        _need(d, key, src, num, "a positive number")
+    return ShipProfile(
+        name=name,
+        description=str(d.get("description", "")),
+        sample_time=ts,
+        length_m=float(d["length_m"]),
+        beam_m=float(d["beam_m"]),
+        draught_m=float(d.get("draught_m", 0.0)),
+        cruise_speed_mps=float(d["cruise_speed_mps"]),
+        actuator=actuator,
+        inputs=inputs,
+        input_limits=limits,
+        model_terms=model.terms,
+        parameter_names=names,
+        parameter_sets=sets,
+        simulation_set=sim_set,
+        instrument_set=ins_set,
+        predictor_terms=pred,
+        predictor_names=pred_names,
+        thrusters=thrusters,
+        disturbances=dict(d.get("disturbances", {})),
+        source=str(d.get("source", "")),
+    )
+
+
+def load_profile(name_or_path: str | Path) -> ShipProfile:
+    """A built-in profile by name (``model-ship``, ``full-scale``, ...) or a TOML/JSON file."""
+    path = Path(name_or_path)
+    if not path.suffix:
+        cand = PROFILE_DIR / f"{name_or_path}.toml"
+        if not cand.exists():
+            raise ProfileError(
+                f"unknown ship {str(name_or_path)!r}: use one of {builtin_profiles()} or a .toml/.json profile file"
+            )
+        path = cand
+    if not path.exists():
+        raise ProfileError(f"{path}: no such profile file")
+    try:
+        if path.suffix.lower() == ".json":
+            data = json.loads(path.read_text(encoding="utf-8"))
+        elif path.suffix.lower() == ".toml":
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        else:
+            raise ProfileError(f"{path}: a profile file must end in .toml or .json")
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ProfileError(f"{path}: not valid {path.suffix[1:].upper()}: {exc}") from None
+    if not isinstance(data, dict):
+        raise ProfileError(f"{path}: the document must be a table/object")
+    return profile_from_dict(data, str(path))

@@ -1,0 +1,104 @@
+"""Regressor terms written as products of named signals.
+
+A model in this project is ``nu(k+1) = nu(k) + Phi(k)^T theta`` (seed 001, (3.60) and (9.1)),
+where each degree of freedom has its own list of regressor terms. A term is written as a
+product of factors separated by ``*``; a factor is a signal name (``u_r``), its modulus
+(``|u_r|``) or a small integer power (``u^2``). Examples: ``u_r*|u_r|``, ``v_r*r``, ``tau_x``,
+``u_r*tau_x``, ``delta*u^2``.
+
+Keeping the structure as data lets ship profiles, the estimators and the diagnosis (which
+augments a model with extra terms) share one definition of every model.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+
+Signals = Mapping[str, np.ndarray]
+_FACTOR = re.compile(r"^(\|)?([A-Za-z_][A-Za-z0-9_]*)(\|)?(?:\^([0-9]+))?$")
+
+
+class TermError(ValueError):
+    """A term string cannot be parsed."""
+
+
+def _factor_fn(factor: str) -> tuple[str, Callable[[np.ndarray], np.ndarray]]:
+    m = _FACTOR.match(factor.strip())
+    if not m or bool(m.group(1)) != bool(m.group(3)):
+        raise TermError(
+            f"term factor {factor!r} is not a signal name, |name| or name^k (e.g. 'u_r', '|v_r|', 'u^2')"
+        )
+    name, power = m.group(2), int(m.group(4) or 1)
+    if m.group(1):
+        return name, (lambda x, p=power: np.abs(x) ** p)
+    if power == 1:
+        return name, (lambda x: x)
+    return name, (lambda x, p=power: x**p)
+
+
+def compile_term(term: str) -> tuple[tuple[str, ...], Callable[[Signals], np.ndarray]]:
+    """Return (signal names used, function signals -> values) for one term string."""
+    factors = [_factor_fn(f) for f in term.split("*")]
+    names = tuple(dict.fromkeys(n for n, _ in factors))
+
+    def evaluate(sig: Signals) -> np.ndarray:
+        out = factors[0][1](sig[factors[0][0]])
+        for name, fn in factors[1:]:
+            out = out * fn(sig[name])
+        return out
+
+    return names, evaluate
+
+
+def signals_used(terms: Sequence[Sequence[str]]) -> set[str]:
+    """Every signal name any term of any DOF reads."""
+    used: set[str] = set()
+    for dof_terms in terms:
+        for t in dof_terms:
+            used.update(compile_term(t)[0])
+    return used
+
+
+class TermSet:
+    """Compiled regressor terms for the three DOFs (surge, sway, yaw)."""
+
+    def __init__(self, terms: Sequence[Sequence[str]]):
+        if len(terms) != 3:
+            raise TermError("a model needs exactly three term lists: surge, sway, yaw")
+        self.terms: tuple[tuple[str, ...], ...] = tuple(tuple(t) for t in terms)
+        self._fns = [[compile_term(t)[1] for t in dof] for dof in self.terms]
+        self.sizes = tuple(len(d) for d in self.terms)
+        self.offsets = tuple(int(x) for x in np.cumsum((0,) + self.sizes))
+
+    @property
+    def n_params(self) -> int:
+        return self.offsets[-1]
+
+    def dof_slice(self, i: int) -> slice:
+        return slice(self.offsets[i], self.offsets[i + 1])
+
+    def evaluate_dof(self, i: int, sig: Signals) -> np.ndarray:
+        """Regressor block of DOF i: array of shape (..., n_terms_i)."""
+        return np.stack([fn(sig) for fn in self._fns[i]], axis=-1)
+
+    def increments(self, sig: Signals, theta: np.ndarray) -> list[np.ndarray]:
+        """Phi^T theta per DOF, i.e. the velocity increments of (3.60).
+
+        ``theta`` is (n_params,) for one model or (B, n_params) for one model per realisation
+        of a batch (signals then have a leading batch axis of length B).
+        """
+        theta = np.asarray(theta, dtype=float)
+        out = []
+        for i, fns in enumerate(self._fns):
+            th = theta[..., self.dof_slice(i)]
+            acc = np.zeros(np.shape(sig["u"]))
+            for j, fn in enumerate(fns):
+                c = th[..., j]
+                if c.ndim == 0 and c == 0.0:
+                    continue
+                acc = acc + c * fn(sig)
+            out.append(acc)
+        return out
