@@ -27,9 +27,13 @@ def hull_at(outline: np.ndarray, poses: np.ndarray) -> np.ndarray:
 
 
 def swept_footprint(track: np.ndarray, length: float, beam: float, margin: float = 0.0) -> Polygon:
-    """Area swept by the hull along a track (K, 3): union of the convex hulls of consecutive
-    hull placements (exact for straight pieces, covering for turns at the sampling used),
-    buffered by ``margin``. Poses are thinned so consecutive hulls overlap."""
+    """Area swept by the hull along a track (K, 3), buffered by ``margin``.
+
+    Union of the convex hulls of consecutive hull placements. Between two kept poses a hull
+    vertex moves on a curve, not on the chord the convex hull covers; the union is grown by a
+    bound on that deviation (rotation sagitta plus translation-rotation coupling) so the
+    footprint is conservative, never optimistic. Poses are thinned so consecutive hulls overlap.
+    """
     track = np.asarray(track, float)
     step = np.hypot(*np.diff(track[:, :2], axis=0).T)
     dpsi = np.abs(np.diff(track[:, 2]))
@@ -39,17 +43,23 @@ def swept_footprint(track: np.ndarray, length: float, beam: float, margin: float
     for i in range(len(step)):
         acc_d += step[i]
         acc_a += dpsi[i]
-        if acc_d >= beam / 4 or acc_a >= np.radians(5):
+        if acc_d >= beam / 8 or acc_a >= np.radians(2):
             keep.append(i + 1)
             acc_d = acc_a = 0.0
     if keep[-1] != len(track) - 1:
         keep.append(len(track) - 1)
-    hulls = hull_at(hull_outline(length, beam), track[keep])
+    outline = hull_outline(length, beam)
+    kept = track[keep]
+    seg_d = np.hypot(*np.diff(kept[:, :2], axis=0).T) if len(kept) > 1 else np.zeros(1)
+    seg_a = np.abs(np.diff(kept[:, 2])) if len(kept) > 1 else np.zeros(1)
+    rho = float(np.max(np.hypot(outline[:, 0], outline[:, 1])))
+    slack = float(np.max(rho * (1 - np.cos(seg_a / 2)) + seg_d * np.sin(seg_a / 2) / 2, initial=0.0))
+    hulls = hull_at(outline, kept)
     if len(hulls) == 1:
         geom = Polygon(hulls[0])
     else:
         pairs = np.concatenate([hulls[:-1], hulls[1:]], axis=1)
         geom = shapely.union_all(shapely.convex_hull(shapely.multipoints(pairs)))
-    if margin > 0:
-        geom = geom.buffer(margin)
+    if margin + slack > 0:
+        geom = geom.buffer(margin + slack, quad_segs=4)
     return geom

@@ -126,7 +126,11 @@ def excitation_hint(profile: ShipProfile, names: list[str]) -> str:
         hint = next((h for key, h in _EXCITE_HINTS if key in t), None)
         if hint is None:
             if "*" in t:
-                hint = "a manoeuvre that moves " + " and ".join(sorted(set(t.replace("|", "").split("*")))) + " at the same time (zig-zags, turns, spirals)"
+                hint = (
+                    "a manoeuvre that moves "
+                    + " and ".join(sorted(set(t.replace("|", "").split("*"))))
+                    + " at the same time (zig-zags, turns, spirals)"
+                )
             else:
                 hint = f"a manoeuvre that varies {t} ({dofs[n]} motion)"
         parts.append(f"{n} (term {t}): {hint}")

@@ -75,15 +75,22 @@ class Primitive:
             d = self.track[a : b + 1] - self.track[a]
             tr = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], d[:, 2]])
             out.append(
-                Primitive(f"{self.name}.{i + 1}", f"{self.description} (part {i + 1})", self.profile,
-                          self.inputs[a:b], self.nu[a : b + 1], tr, [], self.kind, self.commands)
+                Primitive(
+                    f"{self.name}.{i + 1}",
+                    f"{self.description} (part {i + 1})",
+                    self.profile,
+                    self.inputs[a:b],
+                    self.nu[a : b + 1],
+                    tr,
+                    [],
+                    self.kind,
+                    self.commands,
+                )
             )
         return out
 
 
-def make_primitive(
-    profile: ShipProfile, name: str, description: str, gen: mv.Generated, kind: str = "informative"
-) -> Primitive:
+def make_primitive(profile: ShipProfile, name: str, description: str, gen: mv.Generated, kind: str = "informative") -> Primitive:
     """Allocate a generator's forces to the profile's inputs and simulate it nominally."""
     inputs = profile.allocate(gen.forces[:, 0], gen.forces[:, 1], gen.forces[:, 2])
     res = simulate(profile, inputs, nu0=gen.nu0)
@@ -147,11 +154,17 @@ def standard_trials(profile: ShipProfile) -> list[Primitive]:
     u = profile.cruise_speed_mps
     p = []
     for d, s in ((10, "starboard"), (10, "port"), (20, "starboard"), (20, "port")):
-        p.append(make_primitive(profile, f"zigzag_{d}_{d}_{s[0]}", f"zig-zag {d}/{d}, first rudder to {s}",
-                                mv.zigzag(profile, d, d, first_side=s)))
+        p.append(
+            make_primitive(
+                profile, f"zigzag_{d}_{d}_{s[0]}", f"zig-zag {d}/{d}, first rudder to {s}", mv.zigzag(profile, d, d, first_side=s)
+            )
+        )
     for s in ("starboard", "port"):
-        p.append(make_primitive(profile, f"turning_circle_35_{s[0]}", f"turning circle, rudder 35 deg {s}",
-                                mv.turning_circle(profile, 35, side=s)))
+        p.append(
+            make_primitive(
+                profile, f"turning_circle_35_{s[0]}", f"turning circle, rudder 35 deg {s}", mv.turning_circle(profile, 35, side=s)
+            )
+        )
     p.append(make_primitive(profile, "pull_out_20_s", "pull-out after a 20 deg starboard turn", mv.pull_out(profile, 20)))
     p.append(make_primitive(profile, "direct_spiral", "direct (Dieudonne) spiral", mv.direct_spiral(profile)))
     p.append(make_primitive(profile, "reverse_spiral", "reverse (Bech) spiral", mv.reverse_spiral(profile)))
@@ -167,8 +180,12 @@ def basic_moves(profile: ShipProfile, step_m: float | None = None) -> list[Primi
     step = step_m or 5 * profile.length_m
     return [
         make_primitive(profile, "straight", f"straight run {step:.0f} m", mv.straight(profile, step), "basic"),
-        make_primitive(profile, "spot_turn_s", "turn on the spot 90 deg to starboard", mv.turn_to_heading(profile, np.pi / 2, 0.0), "basic"),
-        make_primitive(profile, "spot_turn_p", "turn on the spot 90 deg to port", mv.turn_to_heading(profile, -np.pi / 2, 0.0), "basic"),
+        make_primitive(
+            profile, "spot_turn_s", "turn on the spot 90 deg to starboard", mv.turn_to_heading(profile, np.pi / 2, 0.0), "basic"
+        ),
+        make_primitive(
+            profile, "spot_turn_p", "turn on the spot 90 deg to port", mv.turn_to_heading(profile, -np.pi / 2, 0.0), "basic"
+        ),
         make_primitive(profile, "turn_s", "90 deg turn to starboard", mv.turn_to_heading(profile, np.pi / 2), "basic"),
         make_primitive(profile, "turn_p", "90 deg turn to port", mv.turn_to_heading(profile, -np.pi / 2), "basic"),
     ]

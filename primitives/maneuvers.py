@@ -178,8 +178,12 @@ def turning_circle(
 
     forces, _ = closed_loop(profile, policy, n_max, (u, 0.0, 0.0))
     n = len(forces)
-    return Generated(forces, (u, 0.0, 0.0), [n // 4, n // 2, 3 * n // 4],
-                     [f"steady at {u:.2f} m/s, rudder {delta_deg:g} deg {side}; hold until heading has changed {360 * turns:g} deg"])
+    return Generated(
+        forces,
+        (u, 0.0, 0.0),
+        [n // 4, n // 2, 3 * n // 4],
+        [f"steady at {u:.2f} m/s, rudder {delta_deg:g} deg {side}; hold until heading has changed {360 * turns:g} deg"],
+    )
 
 
 def pull_out(profile: ShipProfile, delta_deg: float = 20.0, *, speed: float | None = None, side: str = "starboard") -> Generated:
@@ -189,23 +193,41 @@ def pull_out(profile: ShipProfile, delta_deg: float = 20.0, *, speed: float | No
     tx = steady_forces(profile, u, 0.0, 0.0)[0]
     n_leg = int(8 * profile.length_m / max(u, 1e-3) / profile.sample_time)
     f = np.array([(tx, 0.0, s * tn)] * n_leg + [(tx, 0.0, 0.0)] * n_leg)
-    return Generated(f, (u, 0.0, 0.0), [n_leg],
-                     [f"rudder {delta_deg:g} deg {side} until the yaw rate is steady", "rudder amidships; record the yaw-rate decay"])
+    return Generated(
+        f,
+        (u, 0.0, 0.0),
+        [n_leg],
+        [f"rudder {delta_deg:g} deg {side} until the yaw rate is steady", "rudder amidships; record the yaw-rate decay"],
+    )
 
 
-def direct_spiral(profile: ShipProfile, deltas_deg: tuple[float, ...] = (15, 10, 5, 2, 0, -2, -5, -10, -15, -10, -5, -2, 0, 2, 5, 10, 15),
-                  *, speed: float | None = None, hold_lengths: float = 6.0) -> Generated:
+def direct_spiral(
+    profile: ShipProfile,
+    deltas_deg: tuple[float, ...] = (15, 10, 5, 2, 0, -2, -5, -10, -15, -10, -5, -2, 0, 2, 5, 10, 15),
+    *,
+    speed: float | None = None,
+    hold_lengths: float = 6.0,
+) -> Generated:
     """Direct (Dieudonne) spiral: rudder steps, each held until the yaw rate is steady."""
     u = profile.cruise_speed_mps if speed is None else speed
     tx = steady_forces(profile, u, 0.0, 0.0)[0]
     m = int(hold_lengths * profile.length_m / max(u, 1e-3) / profile.sample_time)
     f = np.array([(tx, 0.0, rudder_force(profile, d, u)) for d in deltas_deg for _ in range(m)])
-    return Generated(f, (u, 0.0, 0.0), [m * i for i in range(1, len(deltas_deg))],
-                     ["rudder steps " + ", ".join(f"{d:g}" for d in deltas_deg) + " deg (+ starboard), each held until the yaw rate is steady"])
+    return Generated(
+        f,
+        (u, 0.0, 0.0),
+        [m * i for i in range(1, len(deltas_deg))],
+        [
+            "rudder steps "
+            + ", ".join(f"{d:g}" for d in deltas_deg)
+            + " deg (+ starboard), each held until the yaw rate is steady"
+        ],
+    )
 
 
-def reverse_spiral(profile: ShipProfile, rates_deg_s: tuple[float, ...] | None = None, *, speed: float | None = None,
-                   hold_lengths: float = 6.0) -> Generated:
+def reverse_spiral(
+    profile: ShipProfile, rates_deg_s: tuple[float, ...] | None = None, *, speed: float | None = None, hold_lengths: float = 6.0
+) -> Generated:
     """Reverse (Bech) spiral: the helm holds a sequence of yaw rates; the rudder is recorded."""
     u = profile.cruise_speed_mps if speed is None else speed
     r_full = u / (1.5 * profile.length_m)
@@ -213,11 +235,17 @@ def reverse_spiral(profile: ShipProfile, rates_deg_s: tuple[float, ...] | None =
     m = int(hold_lengths * profile.length_m / max(u, 1e-3) / profile.sample_time)
     f = np.array([steady_forces(profile, u, 0.0, r) for r in rates for _ in range(m)])
     f[:, 1] = 0.0
-    return Generated(f, (u, 0.0, 0.0), [m * i for i in range(1, len(rates))],
-                     ["steer to hold yaw rates " + ", ".join(f"{np.degrees(x):.2f}" for x in rates) + " deg/s in turn; log the rudder used"])
+    return Generated(
+        f,
+        (u, 0.0, 0.0),
+        [m * i for i in range(1, len(rates))],
+        ["steer to hold yaw rates " + ", ".join(f"{np.degrees(x):.2f}" for x in rates) + " deg/s in turn; log the rudder used"],
+    )
 
 
-def speed_change(profile: ShipProfile, u_from: float, u_to: float, *, duration_lengths: float = 15.0, crash: bool = False) -> Generated:
+def speed_change(
+    profile: ShipProfile, u_from: float, u_to: float, *, duration_lengths: float = 15.0, crash: bool = False
+) -> Generated:
     """Acceleration / deceleration between two speeds; ``crash`` reverses full until stopped."""
     m = int(duration_lengths * profile.length_m / max(u_from, u_to, 1e-3) / profile.sample_time)
     if crash:
@@ -232,8 +260,12 @@ def speed_change(profile: ShipProfile, u_from: float, u_to: float, *, duration_l
         return Generated(forces, (u_from, 0.0, 0.0), [], ["full astern until the ship is stopped"])
     tx = steady_forces(profile, u_to, 0.0, 0.0)[0] if u_to > 0 else 0.0
     word = "accelerate" if u_to > u_from else "decelerate"
-    return Generated(np.tile((tx, 0.0, 0.0), (m, 1)), (u_from, 0.0, 0.0), [m // 2],
-                     [f"{word} from {u_from:.2f} to {u_to:.2f} m/s with constant thrust"])
+    return Generated(
+        np.tile((tx, 0.0, 0.0), (m, 1)),
+        (u_from, 0.0, 0.0),
+        [m // 2],
+        [f"{word} from {u_from:.2f} to {u_to:.2f} m/s with constant thrust"],
+    )
 
 
 # -- basic repositioning moves for the planner ---------------------------------------------------
@@ -243,8 +275,12 @@ def straight(profile: ShipProfile, distance_m: float, speed: float | None = None
     """Straight run at constant speed."""
     u = profile.cruise_speed_mps if speed is None else speed
     m = max(1, int(round(distance_m / (u * profile.sample_time))))
-    return Generated(np.tile(steady_forces(profile, u, 0.0, 0.0), (m, 1)), (u, 0.0, 0.0), [],
-                     [f"steady course, {u:.2f} m/s for {distance_m:.0f} m"])
+    return Generated(
+        np.tile(steady_forces(profile, u, 0.0, 0.0), (m, 1)),
+        (u, 0.0, 0.0),
+        [],
+        [f"steady course, {u:.2f} m/s for {distance_m:.0f} m"],
+    )
 
 
 def turn_to_heading(profile: ShipProfile, dpsi: float, speed: float | None = None, gain: float = 4.0) -> Generated:
@@ -273,4 +309,6 @@ def turn_to_heading(profile: ShipProfile, dpsi: float, speed: float | None = Non
     forces, _ = closed_loop(profile, policy, n_max, (u, 0.0, 0.0))
     side = "starboard" if dpsi > 0 else "port"
     what = "turn on the spot" if u == 0 else "turn"
-    return Generated(forces, (u, 0.0, 0.0), [], [f"{what} {abs(np.degrees(dpsi)):.0f} deg to {side} and steady on the new heading"])
+    return Generated(
+        forces, (u, 0.0, 0.0), [], [f"{what} {abs(np.degrees(dpsi)):.0f} deg to {side} and steady on the new heading"]
+    )

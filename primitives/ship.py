@@ -93,14 +93,11 @@ class ShipProfile:
                 return self.parameter_sets[which].copy()
             except KeyError:
                 raise ProfileError(
-                    f"profile {self.name!r} has no parameter set {which!r}; "
-                    f"choose one of {sorted(self.parameter_sets)}"
+                    f"profile {self.name!r} has no parameter set {which!r}; choose one of {sorted(self.parameter_sets)}"
                 ) from None
         theta = np.asarray(which, dtype=float)
         if theta.shape[-1] != self.model.n_params:
-            raise ProfileError(
-                f"profile {self.name!r} needs {self.model.n_params} parameters, got {theta.shape[-1]}"
-            )
+            raise ProfileError(f"profile {self.name!r} needs {self.model.n_params} parameters, got {theta.shape[-1]}")
         return theta
 
     @property
@@ -239,14 +236,11 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     unknown = used - BASE_SIGNALS - set(inputs)
     if unknown:
         raise ProfileError(
-            f"{src}: field 'model' uses unknown signals {sorted(unknown)}; known: "
-            f"{sorted(BASE_SIGNALS | set(inputs))}"
+            f"{src}: field 'model' uses unknown signals {sorted(unknown)}; known: {sorted(BASE_SIGNALS | set(inputs))}"
         )
     for i, dof in enumerate(DOFS):
         if len(names[i]) != len(terms[i]):
-            raise ProfileError(
-                f"{src}: field 'parameter_names.{dof}' has {len(names[i])} names for {len(terms[i])} terms"
-            )
+            raise ProfileError(f"{src}: field 'parameter_names.{dof}' has {len(names[i])} names for {len(terms[i])} terms")
     sets_raw = _need(d, "parameters", src, dict, "a table of parameter sets, e.g. [parameters.true]")
     sets = {}
     for set_name, table in sets_raw.items():
@@ -254,8 +248,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         for i, dof in enumerate(DOFS):
             if len(vals[i]) != len(terms[i]):
                 raise ProfileError(
-                    f"{src}: field 'parameters.{set_name}.{dof}' has {len(vals[i])} values for "
-                    f"{len(terms[i])} terms"
+                    f"{src}: field 'parameters.{set_name}.{dof}' has {len(vals[i])} values for {len(terms[i])} terms"
                 )
         sets[set_name] = np.array([v for dof in vals for v in dof], dtype=float)
     if not sets:
@@ -277,7 +270,9 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     if actuator == "azimuth":
         expect = tuple(x for i in range(1, len(thrusters) + 1) for x in (f"n{i}", f"alpha{i}"))
         if not thrusters or inputs != expect:
-            raise ProfileError(f"{src}: field 'inputs' of an azimuth profile must be {list(expect) or ['n1', 'alpha1']} with one [[thrusters]] entry each")
+            raise ProfileError(
+                f"{src}: field 'inputs' of an azimuth profile must be {list(expect) or ['n1', 'alpha1']} with one [[thrusters]] entry each"
+            )
     pred = pred_names = None
     if "predictor" in d:
         pred = _per_dof(d, "predictor", src, str, "regressor term strings")

@@ -128,9 +128,7 @@ def _batch_inputs(profile: ShipProfile, inputs: np.ndarray, batch: int) -> np.nd
     if inputs.ndim == 2:
         inputs = inputs[None]
     if inputs.shape[-1] != len(profile.inputs):
-        raise ValueError(
-            f"inputs have {inputs.shape[-1]} columns; profile {profile.name!r} needs {list(profile.inputs)}"
-        )
+        raise ValueError(f"inputs have {inputs.shape[-1]} columns; profile {profile.name!r} needs {list(profile.inputs)}")
     if inputs.shape[0] not in (1, batch):
         raise ValueError(f"inputs batch {inputs.shape[0]} does not match batch {batch}")
     return inputs
@@ -155,7 +153,9 @@ def simulate(
     (e.g. a predictor or an augmented model).
     """
     terms = terms or profile.model
-    theta = profile.params(theta) if terms is profile.model or isinstance(theta, str) or theta is None else np.asarray(theta, float)
+    theta = (
+        profile.params(theta) if terms is profile.model or isinstance(theta, str) or theta is None else np.asarray(theta, float)
+    )
     if theta.shape[-1] != terms.n_params:
         raise ValueError(f"theta has {theta.shape[-1]} entries, the model needs {terms.n_params}")
     if theta.ndim == 2:
@@ -185,9 +185,7 @@ def simulate(
 
     for k in range(n_steps):
         nu_k, psi_k = nu[:, k], eta[:, k, 2]
-        sig = model_signals(
-            profile, nu_k, psi_k, {n: a[:, k] for n, a in in_sig.items()}, cur[:, k], wind[:, k]
-        )
+        sig = model_signals(profile, nu_k, psi_k, {n: a[:, k] for n, a in in_sig.items()}, cur[:, k], wind[:, k])
         du, dv, dr = terms.increments(sig, theta)
         nxt = nu_k + np.stack([du, dv, dr], axis=-1)
         if w is not None:

@@ -28,9 +28,7 @@ class TermError(ValueError):
 def _factor_fn(factor: str) -> tuple[str, Callable[[np.ndarray], np.ndarray]]:
     m = _FACTOR.match(factor.strip())
     if not m or bool(m.group(1)) != bool(m.group(3)):
-        raise TermError(
-            f"term factor {factor!r} is not a signal name, |name| or name^k (e.g. 'u_r', '|v_r|', 'u^2')"
-        )
+        raise TermError(f"term factor {factor!r} is not a signal name, |name| or name^k (e.g. 'u_r', '|v_r|', 'u^2')")
     name, power = m.group(2), int(m.group(4) or 1)
     if m.group(1):
         return name, (lambda x, p=power: np.abs(x) ** p)

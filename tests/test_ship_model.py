@@ -1,0 +1,124 @@
+"""Ship profiles, the batch simulator and the regressors (issue 2)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from primitives.regressors import instruments, predictor_regressors
+from primitives.ship import ProfileError, load_profile, profile_from_dict
+from primitives.simulate import Disturbances, simulate, steady_forces
+
+
+@pytest.fixture(scope="module")
+def ms():
+    return load_profile("model-ship")
+
+
+def test_model_ship_one_step_by_hand(ms):
+    # (9.1) with Table 9.1 "true": u=0.5, v=0.1, r=0.2, tau=(1000, 200, 50), no current.
+    u, v, r = 0.5, 0.1, 0.2
+    res = simulate(ms, np.array([[1000.0, 200.0, 50.0]]), nu0=(u, v, r))
+    u1 = u - 0.06 * u + 0.08 * v * r - 0.01 * u * abs(u) + 1.4e-5 * 1000
+    v1 = v - 0.1 * v - 0.006 * u * r + 1.4e-5 * 200
+    r1 = r - 0.35 * r - 0.03 * u * v + 3e-4 * 50
+    np.testing.assert_allclose(res.nu[0, 1], [u1, v1, r1], rtol=1e-12)
+
+
+def test_kinematics_euler(ms):
+    # eta(k+1) = eta(k) + Ts R(psi) nu: from psi = 30 deg, u = 1, v = 0.5 (no forces).
+    psi = np.radians(30)
+    res = simulate(ms, np.zeros((1, 3)), nu0=(1.0, 0.5, 0.1), eta0=(10.0, -5.0, psi))
+    ts = ms.sample_time
+    np.testing.assert_allclose(
+        res.eta[0, 1],
+        [10 + ts * (np.cos(psi) - 0.5 * np.sin(psi)), -5 + ts * (np.sin(psi) + 0.5 * np.cos(psi)), psi + ts * 0.1],
+    )
+
+
+def test_current_enters_through_relative_velocities(ms):
+    # An unpowered ship in a current drifts with it: its velocity over ground tends to the
+    # current, seen in the body frame through the heading (BRIEF section 2).
+    psi = np.radians(60)
+    cur = np.array([0.3, -0.2])  # flowing north 0.3, east -0.2
+    res = simulate(ms, np.zeros((400, 3)), eta0=(0, 0, psi), disturbances=Disturbances(current_ne=tuple(cur)))
+    # the transient yaws the ship a little (N_uv u_r v_r), so rotate with the final heading
+    pf = res.eta[0, -1, 2]
+    np.testing.assert_allclose(
+        res.nu[0, -1, :2], [np.cos(pf) * cur[0] + np.sin(pf) * cur[1], -np.sin(pf) * cur[0] + np.cos(pf) * cur[1]], atol=1e-6
+    )
+    uc = np.cos(psi) * cur[0] + np.sin(psi) * cur[1]
+    # and the ground track follows the current direction
+    d = res.eta[0, -1, :2] - res.eta[0, -200, :2]
+    assert np.degrees(np.arctan2(d[1], d[0])) == pytest.approx(np.degrees(np.arctan2(cur[1], cur[0])), abs=0.5)
+    # one step by hand with relative velocities
+    r1 = simulate(
+        ms, np.array([[0.0, 0.0, 0.0]]), nu0=(1.0, 0.0, 0.0), eta0=(0, 0, psi), disturbances=Disturbances(current_ne=tuple(cur))
+    )
+    ur = 1.0 - uc
+    assert r1.nu[0, 1, 0] == pytest.approx(1.0 - 0.06 * ur - 0.01 * ur * abs(ur))
+
+
+def test_batch_is_reproducible_and_independent(ms):
+    dist = Disturbances.from_profile(ms)
+    a = simulate(ms, np.ones((50, 3)) * 100, disturbances=dist, batch=8, seed=3)
+    b = simulate(ms, np.ones((50, 3)) * 100, disturbances=dist, batch=8, seed=3)
+    c = simulate(ms, np.ones((50, 3)) * 100, disturbances=dist, batch=8, seed=4)
+    np.testing.assert_array_equal(a.y, b.y)
+    assert not np.allclose(a.y, c.y)
+    assert not np.allclose(a.nu[0], a.nu[1])  # realisations differ
+
+
+def test_full_scale_thrusters_and_steady_state():
+    fs = load_profile("full-scale")
+    assert len(fs.param_names) == 18
+    # (3.55): both thrusters at pi/5, n = 10 -> tau_x = 20 cos(pi/5), tau_n = 0
+    sig = fs.generalized_forces(np.array([10.0, np.pi / 5, 10.0, np.pi / 5]))
+    assert sig["tau_x"] == pytest.approx(20 * np.cos(np.pi / 5))
+    assert sig["tau_n"] == pytest.approx(0.0, abs=1e-12)
+    # allocation is the inverse of (3.55)
+    inp = fs.allocate(10.0, 3.0, 20.0)
+    sig = fs.generalized_forces(inp[0])
+    assert (sig["tau_x"], sig["tau_y"], sig["tau_n"]) == pytest.approx((10.0, 3.0, 20.0))
+    # holding the steady forces keeps the state
+    f = steady_forces(fs, 3.0, 0.2, 0.01)
+    res = simulate(fs, fs.allocate(*f).repeat(5, axis=0), nu0=(3.0, 0.2, 0.01))
+    np.testing.assert_allclose(res.nu[0, -1], [3.0, 0.2, 0.01], atol=1e-9)
+
+
+def test_instruments_are_noise_free_regressors(ms):
+    inputs = np.tile([3000.0, 300.0, 100.0], (200, 1))
+    res = simulate(ms, inputs, "nominal")
+    z = instruments(ms, inputs)  # nominal set by default
+    phi, target = predictor_regressors(ms, res.nu[0], inputs, res.eta[0, :, 2])
+    np.testing.assert_allclose(z, phi)
+    # the regressors explain the increments exactly with the simulating parameters
+    theta = ms.params("nominal")
+    for i in range(3):
+        s = ms.predictor.dof_slice(i)
+        np.testing.assert_allclose(phi[:, s] @ theta[s], target[:, i], atol=1e-12)
+
+
+def test_profile_files_roundtrip_and_errors(tmp_path, ms):
+    p = tmp_path / "ship.json"
+    p.write_text(json.dumps(ms.to_dict()))
+    again = load_profile(p)
+    np.testing.assert_array_equal(again.params("true"), ms.params("true"))
+    bad = ms.to_dict()
+    bad["parameters"]["true"]["sway"] = [1.0, 2.0]
+    with pytest.raises(ProfileError, match=r"parameters\.true\.sway"):
+        profile_from_dict(bad, "ship.json")
+    bad = ms.to_dict()
+    del bad["sample_time"]
+    with pytest.raises(ProfileError, match="sample_time"):
+        profile_from_dict(bad, "ship.json")
+    bad = ms.to_dict()
+    bad["model"]["yaw"] = ["r", "u_r*w_q", "tau_n"]
+    with pytest.raises(ProfileError, match="unknown signals"):
+        profile_from_dict(bad, "ship.json")
+    t = tmp_path / "ship.toml"
+    t.write_text("name = 'x'\nsample_time = [")
+    with pytest.raises(ProfileError, match="not valid TOML"):
+        load_profile(t)
+    with pytest.raises(ProfileError, match="unknown ship"):
+        load_profile("no-such-ship")
