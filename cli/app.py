@@ -22,8 +22,10 @@ def _root() -> None:
 
 # Each command module registers its subcommand(s) on the app.
 from cli import primitives_cmd  # noqa: E402
+from cli import sweep_cmd  # noqa: E402
 
 primitives_cmd.register(app)
+sweep_cmd.register(app)
 
 
 def _run(argv: list[str] | None = None) -> int:

@@ -13,7 +13,7 @@ def user_error_types() -> tuple[type[BaseException], ...]:
     from primitives.terms import TermError
 
     types: list[type[BaseException]] = [UserError, ProfileError, TermError, FileNotFoundError]
-    for mod, name in (("maps.geo", "MapError"), ("diagnose.recording", "RecordingError"), ("expdesign.errors", "DesignError")):
+    for mod, name in (("maps.geo", "MapError"), ("diagnose.recording", "RecordingError"), ("expdesign.errors", "DesignError"), ("expdesign.sweep", "SweepError")):
         try:
             module = __import__(mod, fromlist=[name])
             types.append(getattr(module, name))

@@ -1,0 +1,189 @@
+"""One runner for every speed figure named in the issues.
+
+    python benchmarks/run.py [--repeat 5] [--only NAME ...] [--json benchmarks/results.json]
+
+Each case runs in a fresh subprocess (so its peak memory is its own): one warm-up call, then
+``repeat`` timed calls; the runner prints the median, min and max wall time, the peak resident
+memory, and the ratio of the median to the target (< 1: within target) and to the reference
+figure it is compared with (the thesis's, where it gives one). The same is written as JSON so
+that later changes can be compared with ``--compare OLD.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+
+# -- cases: (function, target seconds, reference seconds or None, what the reference is) --------------
+
+
+def _library_build():
+    from benchmarks.bench_primitives import case_library_build
+
+    return case_library_build
+
+
+def _mc_sim():
+    from benchmarks.bench_primitives import case_monte_carlo_sim
+
+    return case_monte_carlo_sim
+
+
+def _design_setup():
+    from primitives.information import library_information
+    from primitives.library import model_ship_thesis
+    from primitives.ship import load_profile
+
+    prof = load_profile("model-ship")
+    prims = model_ship_thesis(prof)
+    return prof, prims, library_information(prof, prims)
+
+
+def _convex():
+    from expdesign.dopt import solve_convex
+
+    prof, prims, infos = _design_setup()
+    return lambda: solve_convex(infos, criterion="D", mean_subtraction="batchwise")
+
+
+def _nonconvex():
+    from expdesign.dopt import solve_complete
+
+    prof, prims, infos = _design_setup()
+    return lambda: solve_complete(infos, seed=0)
+
+
+def _mc_design():
+    from expdesign.api import monte_carlo_benchmark
+
+    return monte_carlo_benchmark
+
+
+def _plan_thesis():
+    from maps.bench_cases import thesis_case
+
+    return thesis_case()
+
+
+def _plan_5x5():
+    from maps.bench_cases import five_by_five_case
+
+    return five_by_five_case()
+
+
+def _diagnose_2000():
+    from diagnose.bench_cases import diagnose_2000_case
+
+    return diagnose_2000_case()
+
+
+CASES = {
+    "library_build": (_library_build, 2.0, None, ""),
+    "monte_carlo_sim_500x1000": (_mc_sim, 2.0, None, ""),
+    "design_convex_11": (_convex, 0.5, None, ""),
+    "design_nonconvex_11": (_nonconvex, 1.0, None, ""),
+    "monte_carlo_design_500": (_mc_design, 20.0, None, ""),
+    "plan_thesis_scenario": (_plan_thesis, 1.0, 40.0, "thesis: plain A* about 40 s on a laptop (section 9.4)"),
+    "plan_5x5": (_plan_5x5, 30.0, None, "thesis: 19.25 M-state lattice, 'quite time-consuming'"),
+    "diagnose_2000": (_diagnose_2000, 10.0, None, ""),
+}
+
+
+def run_case_here(name: str, repeat: int) -> dict:
+    """Run one case in this process (the child side)."""
+    factory = CASES[name][0]
+    fn = factory()
+    fn()  # warm-up
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    peak_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return {"times_s": times, "peak_mib": peak_kib / 1024.0}
+
+
+def run_case(name: str, repeat: int, timeout: float) -> dict:
+    _, target, ref, ref_what = CASES[name]
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", name, "--repeat", str(repeat)]
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=ROOT)
+    except subprocess.TimeoutExpired:
+        return {"name": name, "error": f"timed out after {timeout:.0f} s", "target_s": target}
+    if out.returncode != 0:
+        err = (out.stderr.strip().splitlines() or ["failed"])[-1]
+        return {"name": name, "error": err, "target_s": target}
+    r = json.loads(out.stdout.strip().splitlines()[-1])
+    med = statistics.median(r["times_s"])
+    return {
+        "name": name,
+        "median_s": med,
+        "min_s": min(r["times_s"]),
+        "max_s": max(r["times_s"]),
+        "runs": len(r["times_s"]),
+        "peak_mib": r["peak_mib"],
+        "target_s": target,
+        "ratio_to_target": med / target,
+        "reference_s": ref,
+        "ratio_to_reference": None if ref is None else med / ref,
+        "reference": ref_what,
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--only", nargs="*", default=None, choices=list(CASES))
+    ap.add_argument("--json", type=Path, default=None, help="write the figures to this JSON file")
+    ap.add_argument("--compare", type=Path, default=None, help="an earlier results JSON to compare with")
+    ap.add_argument("--timeout", type=float, default=300.0, help="seconds per case")
+    ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
+    a = ap.parse_args()
+    if a.child:
+        print(json.dumps(run_case_here(a.child, a.repeat)))
+        return
+    old = {}
+    if a.compare and a.compare.exists():
+        old = {c["name"]: c for c in json.loads(a.compare.read_text())["cases"]}
+    results = []
+    for name in a.only or list(CASES):
+        r = run_case(name, a.repeat, a.timeout)
+        if name in old and "median_s" in old[name] and "median_s" in r:
+            r["ratio_to_previous"] = r["median_s"] / old[name]["median_s"]
+        results.append(r)
+        if "error" in r:
+            print(f"{name:28s} ERROR {r['error']}")
+            continue
+        line = (f"{name:28s} median {r['median_s']:8.3f} s  [{r['min_s']:.3f} .. {r['max_s']:.3f}]  peak {r['peak_mib']:7.0f} MiB  "
+                f"target {r['target_s']:g} s (ratio {r['ratio_to_target']:.2f})")
+        if r["ratio_to_reference"] is not None:
+            line += f"  vs reference {r['reference_s']:g} s: {r['ratio_to_reference']:.3f}"
+        if "ratio_to_previous" in r:
+            line += f"  vs previous {r['ratio_to_previous']:.2f}"
+        print(line, flush=True)
+    doc = {
+        "machine": {"platform": platform.platform(), "python": platform.python_version(), "processor": platform.processor(),
+                    "cpus": __import__("os").cpu_count()},
+        "date": time.strftime("%Y-%m-%d"),
+        "repeat": a.repeat,
+        "cases": results,
+    }
+    if a.json:
+        a.json.write_text(json.dumps(doc, indent=2) + "\n")
+        print(f"wrote {a.json}")
+
+
+if __name__ == "__main__":
+    main()

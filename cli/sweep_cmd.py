@@ -1,0 +1,40 @@
+"""``shiptrial sweep CONFIG.toml``: design sweeps locally or on a Dask cluster."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import typer
+
+from cli.io import dumps
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("sweep")
+    def sweep(
+        config: Path = typer.Argument(..., help="sweep TOML file ([sweep] ships, criteria, mean_subtraction, library, speeds, seed)"),
+        out: Path = typer.Option(Path("sweep.csv"), "--out", help="table to write (.csv, or .parquet with pyarrow)"),
+        plot: Path | None = typer.Option(None, "--plot", help="summary plot PNG (default: beside the table)"),
+        scheduler: str | None = typer.Option(
+            None, "--scheduler", help="Dask scheduler address (default: $SHIPTRIAL_SCHEDULER, else all local cores)"
+        ),
+        json_out: bool = typer.Option(False, "--json", help="print the rows as JSON"),
+    ) -> None:
+        """Run a design sweep (ships x speeds x criteria x mean-subtraction modes) into one tidy table."""
+        from expdesign.sweep import load_sweep, plot_summary, run_sweep, write_table
+
+        cells = load_sweep(config)
+        res = run_sweep(cells, scheduler or os.environ.get("SHIPTRIAL_SCHEDULER"))
+        rows = res.finished()
+        table = write_table(rows, out)
+        fig = plot_summary(rows, plot or out.with_suffix(".png"))
+        failed = [r for r in rows if r.get("error")]
+        if json_out:
+            typer.echo(dumps({"rows": rows, "table": str(table), "plot": str(fig), "interrupted": res.interrupted}))
+        else:
+            typer.echo(f"{len(rows)} of {len(cells)} cells done{' (interrupted: finished cells kept)' if res.interrupted else ''}; "
+                       f"{len(failed)} failed")
+            typer.echo(f"wrote {table}\nwrote {fig}")
+        if res.interrupted:
+            raise typer.Exit(130)

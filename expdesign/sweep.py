@@ -1,0 +1,194 @@
+"""Design sweeps: ships x speeds x criteria x mean-subtraction modes, one tidy table.
+
+A sweep is read from TOML::
+
+    [sweep]
+    ships = ["model-ship", "full-scale"]     # built-in names or profile files
+    criteria = ["D", "A", "E"]
+    mean_subtraction = ["batchwise", "complete"]
+    library = "thesis"                        # or "standard": IMO/ITTC trials built at each speed
+    speeds = [0.6, 1.0]                       # cruise speeds (m/s) for library = "standard"
+    seed = 1
+
+Every cell is an independent task (see ``expdesign.parallel``), so a sweep runs the same on
+this machine and on a Dask cluster.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from expdesign.parallel import Engine, MapResult, get_engine, task_seeds
+
+CRITERIA = ("D", "A", "E")
+MODES = ("none", "batchwise", "complete")
+COLUMNS = [
+    "ship", "library", "speed_mps", "criterion", "mean_subtraction", "logdet", "efficiency_vs_uniform",
+    "efficiency_bound", "top_primitive", "top_share", "n_primitives_used", "weights", "solve_time_s", "error",
+]
+
+
+class SweepError(ValueError):
+    """A sweep configuration is malformed; the message names the file and field."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Cell:
+    ship: str
+    library: str
+    speed_mps: float | None
+    criterion: str
+    mean_subtraction: str
+    seed: int
+
+
+def load_sweep(path: str | Path) -> list[Cell]:
+    """Parse and validate a sweep file into its cells (grid order)."""
+    path = Path(path)
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise SweepError(f"{path}: no such sweep file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepError(f"{path}: not valid TOML: {exc}") from None
+    sw = doc.get("sweep")
+    if not isinstance(sw, dict):
+        raise SweepError(f"{path}: missing table [sweep]")
+
+    def listed(key: str, default: list, allowed: tuple | None = None) -> list:
+        val = sw.get(key, default)
+        if not isinstance(val, list) or not val:
+            raise SweepError(f"{path}: field 'sweep.{key}' must be a non-empty list")
+        if allowed:
+            bad = [v for v in val if v not in allowed]
+            if bad:
+                raise SweepError(f"{path}: field 'sweep.{key}' has {bad}; allowed: {list(allowed)}")
+        return val
+
+    ships = listed("ships", ["model-ship"])
+    criteria = listed("criteria", ["D"], CRITERIA)
+    modes = listed("mean_subtraction", ["complete"], MODES)
+    library = sw.get("library", "thesis")
+    if library not in ("thesis", "standard"):
+        raise SweepError(f"{path}: field 'sweep.library' must be 'thesis' or 'standard', got {library!r}")
+    speeds: list[float | None] = [None]
+    if library == "standard":
+        speeds = listed("speeds", [None])
+        if any(not isinstance(s, (int, float)) or s <= 0 for s in speeds if s is not None):
+            raise SweepError(f"{path}: field 'sweep.speeds' must hold positive speeds in m/s")
+    seed = sw.get("seed", 0)
+    if not isinstance(seed, int):
+        raise SweepError(f"{path}: field 'sweep.seed' must be an integer")
+    from primitives.ship import load_profile
+
+    for s in ships:
+        load_profile(s)  # fail early with the profile's own message
+    cells = [(sh, library, sp, c, m) for sh in ships for sp in speeds for c in criteria for m in modes]
+    seeds = task_seeds(seed, len(cells))
+    return [Cell(sh, lib, None if sp is None else float(sp), c, m, sd) for (sh, lib, sp, c, m), sd in zip(cells, seeds)]
+
+
+def _library(cell: Cell):
+    from primitives.library import standard_trials, thesis_primitives
+    from primitives.ship import load_profile
+
+    profile = load_profile(cell.ship)
+    if cell.library == "thesis":
+        return profile, thesis_primitives(profile)
+    if cell.speed_mps is not None:
+        profile = dataclasses.replace(profile, cruise_speed_mps=cell.speed_mps)
+    return profile, [p for p in standard_trials(profile) if p.name != "stopping"]
+
+
+def run_cell(cell: Cell) -> dict[str, Any]:
+    """One sweep cell: build the library, solve the design, summarise it as one table row."""
+    from expdesign.api import run_design
+
+    row: dict[str, Any] = {k: None for k in COLUMNS}
+    row.update(ship=cell.ship, library=cell.library, speed_mps=cell.speed_mps, criterion=cell.criterion, mean_subtraction=cell.mean_subtraction)
+    t0 = time.perf_counter()
+    try:
+        profile, prims = _library(cell)
+        d = run_design(profile, prims, criterion=cell.criterion, mean_subtraction=cell.mean_subtraction, seed=cell.seed)
+    except Exception as exc:  # a failing cell is a row with its error, not a lost sweep
+        row["error"] = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        return row
+    w = {k: float(v) for k, v in d.weights.items() if v > 1e-4}
+    top = max(w, key=w.get) if w else None
+    row.update(
+        logdet=float(d.logdet),
+        efficiency_vs_uniform=_f(getattr(d, "efficiency_vs_uniform", None)),
+        efficiency_bound=_f(getattr(d, "efficiency_bound", None)),
+        top_primitive=top,
+        top_share=w.get(top) if top else None,
+        n_primitives_used=len(w),
+        weights=json.dumps({k: round(v, 4) for k, v in sorted(w.items(), key=lambda kv: -kv[1])}),
+        solve_time_s=time.perf_counter() - t0,
+    )
+    return row
+
+
+def _f(x: Any) -> float | None:
+    return None if x is None else float(x)
+
+
+def run_sweep(cells: list[Cell], engine: Engine | str | None = None, progress: bool = True) -> MapResult:
+    eng = get_engine(engine)
+    try:
+        return eng.map(run_cell, cells, desc="sweep", progress=progress)
+    finally:
+        if not isinstance(engine, Engine):
+            eng.close()
+
+
+def write_table(rows: list[dict[str, Any]], path: str | Path) -> Path:
+    """Write rows as CSV (or Parquet for a .parquet path when pyarrow is installed), atomically."""
+    import csv
+    import io
+
+    from cli.io import atomic_write_bytes, atomic_write_text
+
+    path = Path(path)
+    if path.suffix == ".parquet":
+        try:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+        except ImportError:
+            raise SweepError(f"{path}: writing Parquet needs pyarrow (pip install pyarrow), or use a .csv path") from None
+        buf = io.BytesIO()
+        pq.write_table(pa.Table.from_pylist(rows), buf)
+        return atomic_write_bytes(path, buf.getvalue())
+    out = io.StringIO()
+    w = csv.DictWriter(out, fieldnames=COLUMNS, extrasaction="ignore")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in COLUMNS})
+    return atomic_write_text(path, out.getvalue())
+
+
+def plot_summary(rows: list[dict[str, Any]], path: str | Path) -> Path:
+    """Bar chart of each cell's efficiency against the uniform mix."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cli.io import atomic_savefig
+
+    ok = [r for r in rows if r.get("efficiency_vs_uniform") is not None]
+    labels = [f"{r['ship']}{'' if r['speed_mps'] is None else ' @' + format(r['speed_mps'], 'g')} {r['criterion']}/{r['mean_subtraction']}" for r in ok]
+    fig, ax = plt.subplots(figsize=(max(6, 0.45 * len(ok) + 2), 4))
+    ax.bar(range(len(ok)), [r["efficiency_vs_uniform"] for r in ok], color="tab:blue")
+    ax.axhline(1.0, color="k", lw=0.8, ls="--")
+    ax.set_xticks(range(len(ok)), labels, rotation=60, ha="right", fontsize=7)
+    ax.set_ylabel("efficiency vs uniform mix")
+    ax.set_title("Design sweep: gain of the optimized mix over equal shares")
+    fig.tight_layout()
+    p = atomic_savefig(fig, path, dpi=110)
+    plt.close(fig)
+    return p
