@@ -21,11 +21,10 @@ def _root() -> None:
 
 
 # Each command module registers its subcommand(s) on the app.
-from cli import primitives_cmd  # noqa: E402
-from cli import sweep_cmd  # noqa: E402
+from cli import design_cmd, diagnose_cmd, export_cmd, plan_cmd, primitives_cmd, sweep_cmd  # noqa: E402
 
-primitives_cmd.register(app)
-sweep_cmd.register(app)
+for _module in (primitives_cmd, design_cmd, plan_cmd, export_cmd, diagnose_cmd, sweep_cmd):
+    _module.register(app)
 
 
 def _run(argv: list[str] | None = None) -> int:

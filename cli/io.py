@@ -42,6 +42,7 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
+        os.chmod(tmp, 0o644)  # mkstemp makes 0600; outputs are handed to crews and colleagues
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

@@ -135,7 +135,7 @@ class Plan:
             lonlat=np.column_stack([s["lon"], s["lat"]]).astype(float),
             speed=np.asarray(s["speed"], float),
             step_of_sample=np.asarray(s["step"], int),
-            inputs=np.asarray(s["inputs"], float).reshape(len(s["t"]), -1),
+            inputs=np.asarray(s["inputs"], float).reshape(len(s["t"]), len(d["input_names"])),
             input_names=list(d["input_names"]),
             projection=d["projection"],
             feasible=bool(d["feasible"]),

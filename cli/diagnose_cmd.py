@@ -1,0 +1,90 @@
+"""``shiptrial diagnose``: locate a simulation-vs-recording mismatch, name the missing physics,
+model it and show the fit improve (issue 6)."""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+
+import typer
+
+from cli.io import dumps
+
+
+def _split(values: list[str] | None) -> list[str]:
+    out: list[str] = []
+    for v in values or []:
+        out += [x.strip() for x in v.split(",") if x.strip()]
+    return out
+
+
+def _load_params(path: str, profile):
+    """A parameter file: a profile TOML/JSON (its simulation set) or JSON {"theta": [...]} / {surge: [..], ...}."""
+    import numpy as np
+
+    from diagnose.recording import RecordingError
+    from primitives.ship import DOFS, ProfileError, load_profile
+
+    p = Path(path)
+    if not p.exists():
+        raise RecordingError(f"{p}: no such parameter file (--params)")
+    try:
+        other = load_profile(p)
+        if other.model_terms != profile.model_terms:
+            raise RecordingError(f"{p}: its model terms differ from ship {profile.name!r}; pass it as --ship instead")
+        return other.params()
+    except ProfileError:
+        pass
+    try:
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise RecordingError(f"{p}: --params must be a profile TOML/JSON or JSON with 'theta' ({exc})") from None
+    if isinstance(data, dict) and "theta" in data:
+        vec = np.asarray(data["theta"], float)
+    elif isinstance(data, dict) and all(d in data for d in DOFS):
+        vec = np.asarray([x for d in DOFS for x in data[d]], float)
+    else:
+        raise RecordingError(f"{p}: --params JSON needs a 'theta' list or 'surge', 'sway', 'yaw' lists")
+    if vec.shape != (profile.model.n_params,):
+        raise RecordingError(f"{p}: field 'theta' has {vec.size} values; ship {profile.name!r} needs {profile.model.n_params}")
+    return vec
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("diagnose")
+    def diagnose(
+        recordings: list[str] = typer.Argument(..., help="recordings to diagnose (.csv of BRIEF section 7, or MARIN .dat)"),
+        ship: str = typer.Option(..., "--ship", help="built-in profile name or a .toml/.json profile file"),
+        params: str | None = typer.Option(None, "--params", help="parameter file (profile TOML/JSON, or JSON with 'theta')"),
+        fit_on: list[str] | None = typer.Option(None, "--fit-on", help="fit the baseline on these recordings first (repeat or comma-separate)"),
+        validate: list[str] | None = typer.Option(None, "--validate", help="held-out recordings for the before/after fit (repeat or comma-separate)"),
+        out: Path | None = typer.Option(None, "--out", help="directory for report.txt, diagnosis.json, model.json and residual plots"),
+        json_out: bool = typer.Option(False, "--json", help="print the diagnosis as JSON"),
+    ) -> None:
+        """Diagnose recordings against a ship model: locate, name and model the missing physics."""
+        from diagnose import report
+        from diagnose.api import run
+        from diagnose.recording import load_recording
+        from primitives.ship import load_profile
+
+        profile = load_profile(ship)
+
+        def load(paths: list[str]):
+            recs = []
+            for p in paths:
+                recs += load_recording(p, sample_time=profile.sample_time)
+            return recs
+
+        recs = load(_split(recordings))
+        theta = _load_params(params, profile) if params else None
+        fit_recs = load(_split(fit_on)) or None
+        val_recs = load(_split(validate)) or None
+        d = run(recs, profile, theta=theta, fit_on=fit_recs, validate=val_recs)
+        out_dir = out or Path(tempfile.mkdtemp(prefix="shiptrial-diagnose-"))
+        paths = report.write_all(d, out_dir)
+        if json_out:
+            typer.echo(dumps(report.to_json(d, str(paths["model"]))))
+            return
+        typer.echo(report.to_text(d))
+        typer.echo(f"wrote {', '.join(str(p) for p in paths.values())}")

@@ -1,0 +1,75 @@
+"""``shiptrial export PLAN.json --format gpx|rtz|geojson|csv|card|all``: re-export a saved plan."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from cli.errors import UserError
+
+
+def load_plan(path: Path):
+    """A saved plan, or a one-line :class:`UserError` naming the file and the fix."""
+    from maps.plan import Plan
+
+    if path.is_dir():
+        raise UserError(f"{path}: is a directory; give the plan file (plan.json written by plan-trial --out DIR)")
+    try:
+        return Plan.load(path)
+    except FileNotFoundError as exc:
+        raise UserError(str(exc)) from None
+    except UnicodeDecodeError:
+        raise UserError(f"{path}: not a text file; give the plan JSON written by plan-trial") from None
+    except ValueError as exc:
+        raise UserError(str(exc).splitlines()[0]) from None
+    except (TypeError, AttributeError, IndexError) as exc:
+        raise UserError(f"{path}: malformed plan ({type(exc).__name__}: {exc}); re-create it with plan-trial") from None
+
+
+def resolve_sea_map(path: Path | None, map_name: str):
+    """The obstacles for the card: ``--map`` (a sea map read by ``maps.geo.load_map``), else the
+    bundled map the plan names, else None (the card then draws the track only)."""
+    try:
+        from maps.geo import bundled_map_path, load_map
+    except ImportError:
+        return str(path) if path else None
+    if path is not None:
+        return load_map(path)
+    if map_name and bundled_map_path(map_name).is_file():
+        return load_map(bundled_map_path(map_name))
+    return None
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("export")
+    def export(
+        plan_file: Path = typer.Argument(..., help="plan JSON written by plan-trial"),
+        fmt: str = typer.Option("all", "--format", "-f", help="gpx | rtz | geojson | csv | card | all"),
+        out: Path | None = typer.Option(None, "--out", "-o", help="output file (one format) or directory (all)"),
+        sea_map: Path | None = typer.Option(None, "--map", help="GeoJSON sea map to draw on the card (default: the bundled map the plan names)"),
+        start: str | None = typer.Option(None, "--start", help="UTC start of the trial, ISO 8601 (e.g. 2026-06-01T08:00Z)"),
+        no_pdf: bool = typer.Option(False, "--no-pdf", help="card: write the HTML only"),
+    ) -> None:
+        """Export a saved plan for the ship: route (RTZ, GPX), GeoJSON, CSV schedule or trial card."""
+        from maps.export import FORMATS, default_path, export_all, export_plan
+
+        fmt_l = fmt.lower()
+        if fmt_l != "all" and fmt_l not in FORMATS:
+            raise UserError(f"--format {fmt!r} is unknown: choose one of {', '.join(FORMATS)} or all")
+        if sea_map is not None and not sea_map.is_file():
+            raise UserError(f"{sea_map}: no such map file (--map takes a GeoJSON sea map)")
+        plan = load_plan(plan_file)
+        sea = resolve_sea_map(sea_map, plan.map_name)
+        if fmt_l == "all":
+            out_dir = out or plan_file.parent
+            if out_dir.exists() and not out_dir.is_dir():
+                raise UserError(f"{out_dir}: --out must be a directory when --format is all")
+            written = list(export_all(plan, out_dir, sea, start=start).values())
+        else:
+            path = out or default_path(plan, fmt_l, plan_file.parent)
+            if path.is_dir():
+                path = default_path(plan, fmt_l, path)
+            written = export_plan(plan, fmt_l, path, sea_map=sea, start=start, pdf=not no_pdf)
+        for p in written:
+            typer.echo(f"wrote {p}")

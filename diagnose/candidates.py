@@ -1,0 +1,154 @@
+"""The library of candidate physics: each an augmentation of the model with physical parameters.
+
+Every candidate adds one or more *slots* to the augmented simulator (:mod:`diagnose.model`):
+
+- ``term``: an extra regressor term with a coefficient in one DOF of ``nu(k+1) = nu(k) +
+  Phi^T theta`` ((3.60), (9.1)) - quadratic damping (v|v|, r|r|, r|v|, v|r|, u|u|), missing
+  coupling (v r, u r, u v, r^2), speed-dependent thrust (u tau_x, u n), relative-wind drag
+  (when wind is measured) and roll coupling (phi, when roll is measured);
+- ``current``: a constant n-frame current (north, east) entering through u_r, v_r (BRIEF 2;
+  in predictor form the cos psi / sin psi regressors of (5.67)-(5.70));
+- ``delay``: a common actuator time delay (seconds; fractional, linear interpolation);
+- ``offset``: a constant input offset, the input acts as ``x - x0`` (neutral rudder angle,
+  thruster misalignment);
+- ``bias``: a constant sensor bias, measured = true + b (seed 004 th15..th17);
+- ``scale``: an inertia change of one DOF, its increment scaled by ``1 + s`` (seed 000 5.2).
+
+Names of effects are fixed by BRIEF section 7.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from diagnose.recording import Recording
+from primitives.ship import DOFS, ShipProfile
+
+EFFECTS = ("current", "wind", "actuator_delay", "input_offset", "thrust_loss", "quadratic_damping",
+           "sensor_bias", "inertia_change", "missing_coupling", "roll_coupling")
+SIGNALS = ("u", "v", "r")
+
+QUADRATIC = {0: ["u_r*|u_r|"], 1: ["v_r*|v_r|", "r*|v_r|", "v_r*|r|", "r*|r|"], 2: ["r*|r|", "r*|v_r|", "v_r*|r|", "v_r*|v_r|"]}
+COUPLING = {0: ["v_r*r", "r^2", "v_r^2"], 1: ["u_r*r", "u_r*v_r"], 2: ["u_r*v_r", "u_r*r"]}
+
+
+@dataclass(frozen=True)
+class Slot:
+    """One augmentation parameter: kind in (term, current, delay, offset, bias, scale)."""
+
+    kind: str
+    name: str
+    dof: int | None = None
+    term: str | None = None
+    index: int | None = None  # input index (offset), signal index (bias), 0/1 north/east (current)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    effect: str
+    key: str  # unique, e.g. "quadratic_damping:yaw:r*|r|"
+    slots: tuple[Slot, ...]
+    dof: int | None = None
+    description: str = ""
+
+
+def _canon(term: str) -> frozenset[str]:
+    """Term identity without current (u_r == u when the model has no current)."""
+    return frozenset(f.strip().replace("u_r", "u").replace("v_r", "v").replace("r^2", "r*r") for f in term.split("*"))
+
+
+def _has(profile: ShipProfile, dof: int, term: str) -> bool:
+    return _canon(term) in {_canon(t) for t in profile.model_terms[dof]}
+
+
+def thrust_signal(profile: ShipProfile) -> str:
+    return {"rudder_propeller": "n"}.get(profile.actuator, "tau_x")
+
+
+def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[list[Candidate], list[dict]]:
+    """All candidates for this ship and these recordings, and the ones that cannot be tested.
+
+    A candidate cannot be tested when the recordings do not excite it (constant heading for a
+    current, constant inputs for a delay, constant speed for thrust loss, no measured wind or
+    roll, no motion in the term's signals); it is then listed with the reason instead of being
+    guessed.
+    """
+    cands: list[Candidate] = []
+    untestable: list[dict] = []
+    used = {f for dof in profile.model_terms for t in dof for f in t.replace("|", "").split("*")}
+    psi = np.concatenate([r.psi for r in recordings])
+    y = np.concatenate([r.y for r in recordings])
+    spread = float(np.ptp(psi))
+    if not ({"u_r", "v_r"} & {f.split("^")[0] for f in used}):
+        untestable.append({"effect": "current", "reason": "the model has no terms in u_r or v_r through which a current acts"})
+    elif spread < np.radians(45.0):
+        untestable.append({"effect": "current", "reason": f"the heading spans only {np.degrees(spread):.0f} deg; a current "
+                           "fixed in the earth frame is told apart from a constant force only when the heading "
+                           "changes (run a turn of at least 45 deg, better 360 deg)"})
+    else:
+        cands.append(Candidate("current", "current", (Slot("current", "current_n", index=0), Slot("current", "current_e", index=1)),
+                               description="constant current in the earth frame (through u_r, v_r)"))
+    if all(r.wind_ne is not None for r in recordings):
+        cands.append(Candidate("wind", "wind", tuple(Slot("term", f"wind_{DOFS[i]}", dof=i, term=t)
+                                                     for i, t in enumerate(("wx", "wy", "wn"))),
+                               description="relative-wind drag u_q|u_q|, v_q|v_q|, u_q v_q"))
+    else:
+        untestable.append({"effect": "wind", "reason": "no measured wind (columns wind_speed, wind_dir)"})
+    x = np.concatenate([r.inputs_for(profile.inputs) for r in recordings])
+    moving = np.std(np.diff(x, axis=0), axis=0) > 1e-9 * (1 + np.abs(x).max(axis=0))
+    if np.any(moving):
+        cands.append(Candidate("actuator_delay", "actuator_delay", (Slot("delay", "delay_s"),),
+                               description="time delay of all actuators"))
+    else:
+        untestable.append({"effect": "actuator_delay", "reason": "the inputs never change, so a delay has no effect"})
+    for j, name in enumerate(profile.inputs):
+        if profile.actuator == "rudder_propeller" and name == "n":
+            continue  # an rpm offset is a thrust scale: covered by thrust_loss / refit
+        cands.append(Candidate("input_offset", f"input_offset:{name}", (Slot("offset", f"offset_{name}", index=j),),
+                               description=f"constant offset of input {name}"))
+    tsig = thrust_signal(profile)
+    if _has(profile, 0, f"u_r*{tsig}"):
+        untestable.append({"effect": "thrust_loss", "reason": f"the model already has u_r*{tsig}"})
+    elif np.ptp(y[:, 0]) < 0.05 * max(np.abs(y[:, 0]).max(), 1e-9):
+        untestable.append({"effect": "thrust_loss", "reason": "the speed hardly changes, so a speed-dependent thrust "
+                           "cannot be told from a constant one (run an acceleration or a speed change)"})
+    else:
+        cands.append(Candidate("thrust_loss", "thrust_loss", (Slot("term", "coefficient", dof=0, term=f"u_r*{tsig}"),), dof=0,
+                               description=f"thrust falling with speed (u_r*{tsig})"))
+    for i in range(3):
+        for t in QUADRATIC[i]:
+            if not _has(profile, i, t):
+                cands.append(Candidate("quadratic_damping", f"quadratic_damping:{DOFS[i]}:{t}",
+                                       (Slot("term", "value", dof=i, term=t),), dof=i, description=f"{t} in {DOFS[i]}"))
+        for t in COUPLING[i]:
+            if not _has(profile, i, t):
+                cands.append(Candidate("missing_coupling", f"missing_coupling:{DOFS[i]}:{t}",
+                                       (Slot("term", "value", dof=i, term=t),), dof=i, description=f"{t} in {DOFS[i]}"))
+    for i, s in enumerate(SIGNALS):
+        cands.append(Candidate("sensor_bias", f"sensor_bias:{s}", (Slot("bias", f"bias_{s}", dof=i, index=i),), dof=i,
+                               description=f"constant bias of measured {s}"))
+    for i in range(3):
+        cands.append(Candidate("inertia_change", f"inertia_change:{DOFS[i]}", (Slot("scale", "scale", dof=i),), dof=i,
+                               description=f"{DOFS[i]} inertia differs (increment scaled)"))
+    if all("phi" in r.channels for r in recordings):
+        cands.append(Candidate("roll_coupling", "roll_coupling", (Slot("term", "phi_sway", dof=1, term="phi"),
+                                                                   Slot("term", "phi_yaw", dof=2, term="phi")),
+                               description="roll angle feeding sway and yaw"))
+    else:
+        untestable.append({"effect": "roll_coupling", "reason": "no measured roll (column phi)"})
+    # terms whose signals never move in these recordings cannot be tested
+    keep = []
+    for c in cands:
+        if c.effect in ("quadratic_damping", "missing_coupling"):
+            sigs = {f.strip("|").split("^")[0].replace("_r", "") for f in c.slots[0].term.split("*")}
+            idx = [SIGNALS.index(s) for s in sigs if s in SIGNALS]
+            d2 = y[2:] - 2 * y[1:-1] + y[:-2]
+            noise = np.median(np.abs(d2), axis=0) * 1.4826 / np.sqrt(6.0)
+            if any(np.std(y[:, k]) < max(3 * noise[k], 1e-9) for k in idx):
+                untestable.append({"effect": c.effect, "dof": DOFS[c.dof], "term": c.slots[0].term,
+                                   "reason": f"{'/'.join(sorted(sigs))} hardly moves beyond the noise in the recordings"})
+                continue
+        keep.append(c)
+    return keep, untestable

@@ -1,0 +1,200 @@
+"""Outputs of a diagnosis: plain-language text, JSON, residual plots and the refitted model file."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from cli.io import atomic_savefig, atomic_write_text, to_jsonable
+from diagnose.api import Diagnosis
+from primitives.ship import DOFS
+
+UNITS = {"u": "m/s", "v": "m/s", "r": "rad/s"}
+
+
+def sentence(f: dict) -> str:
+    """One plain-language sentence per finding."""
+    p, e = f["parameters"], f["effect"]
+    if e == "current":
+        what = f"the ship meets a current of {p['speed_mps']:.3g} m/s toward {p['toward_deg']:03.0f} deg"
+    elif e == "actuator_delay":
+        what = f"the actuators act {p['delay_s']:.2g} s late ({p['samples']:.1f} samples)"
+    elif e == "input_offset":
+        extra = f" ({p['offset_deg']:.2f} deg)" if "offset_deg" in p else ""
+        what = f"input {p['input']} has a neutral offset of {p['offset']:.3g}{extra}: the ship acts on {p['input']} - offset"
+    elif e == "sensor_bias":
+        what = f"the measured {p['signal']} reads {p['bias']:+.3g} {UNITS[p['signal']]} too high"
+    elif e == "quadratic_damping":
+        what = f"the {f['dof']} motion has nonlinear damping {p['term']} (coefficient {p['value']:.3g} per sample)"
+    elif e == "missing_coupling":
+        what = f"the {f['dof']} motion is coupled through {p['term']} (coefficient {p['value']:.3g} per sample)"
+    elif e == "thrust_loss":
+        what = f"the thrust falls with speed ({p['term']} coefficient {p['coefficient']:.3g})"
+    elif e == "inertia_change":
+        what = f"the {f['dof']} inertia is {p['inertia_ratio']:.2f} x the model's (increments scaled by {1 + p['scale']:.3f})"
+    elif e == "wind":
+        what = "the relative wind pushes the ship (drag coefficients " + ", ".join(
+            f"{k.split('_')[1]} {v:.3g}" for k, v in p.items() if not k.endswith("_std")) + ")"
+    else:
+        what = f"{e} in {f['dof']}: " + ", ".join(f"{k} {v:.3g}" for k, v in p.items() if isinstance(v, float))
+    return f"{what}: {f['evidence']}."
+
+
+def to_text(d: Diagnosis) -> str:
+    lines = [f"Diagnosis of {', '.join(p.rec.source for p in d.preps)} against ship {d.profile.name!r} ({d.baseline_source})"]
+    loc = d.location
+    lines.append("Where: residual / noise " + ", ".join(f"{k} {v:.1f}" for k, v in loc["rms_over_noise"].items())
+                 + f"; worst {loc['worst_dof']}.")
+    for w in loc["cusum_windows"][:3]:
+        seg = f" (segments {', '.join(w['segment'][:6])})" if w["segment"] else ""
+        lines.append(f"  CUSUM alarm (5.1) on {w['dof']} from {w['t_start']:.1f} s to {w['t_end']:.1f} s{seg}")
+    if loc.get("segments"):
+        top = loc["segments"][:3]
+        lines.append("  worst manoeuvre segments (residual / noise): " + "; ".join(
+            f"{s['segment']} " + "/".join(f"{s[d]:.1f}" for d in DOFS) for s in top) + " (surge/sway/yaw)")
+    for label, key in (("simulation", "output_error_tests"), ("one-step prediction", "one_step_tests")):
+        tests = loc[key]
+        white = ", ".join(f"{k} p={v['whiteness_p']:.2g}" for k, v in tests.items())
+        cc = [f"{k}~{c['input']}" for k, v in tests.items() for c in v["cross_correlation"] if c["lags_outside_band"] > 2]
+        lines.append(f"  {label} errors: whiteness (Ljung-Box) {white}; input cross-correlation outside the "
+                     f"99 % band: {', '.join(cc) if cc else 'none'}")
+    if d.explained:
+        lines.append("Findings: none. The model explains the data: no candidate physics improves the fit "
+                     "significantly and on held-out data.")
+    elif not d.findings:
+        lines.append("Findings: none, but the model does NOT explain the data (residual well above the noise): "
+                     "no candidate in the library accounts for the misfit; the missing physics lies outside it.")
+    else:
+        lines.append("Findings (strongest first):")
+        for i, f in enumerate(d.findings, 1):
+            lines.append(f"  {i}. [{f['effect']}] {sentence(f)}")
+    for u in d.untestable:
+        extra = f" ({u['dof']} {u['term']})" if "term" in u else ""
+        lines.append(f"Cannot be tested: {u['effect']}{extra}: {u['reason']}.")
+    left = d.unexplained_dofs if d.findings else []
+    if left:
+        lines.append(f"Still above the noise after the findings: {', '.join(left)} (more physics is missing than the library names).")
+    lines.append(f"Fit on the {d.fit_on} run(s), before -> after: " + ", ".join(
+        f"{k} {d.fit_before[k]:.1f} % -> {d.fit_after[k]:.1f} %" for k in DOFS))
+    return "\n".join(lines)
+
+
+def to_json(d: Diagnosis, model_path: str | None) -> dict:
+    return to_jsonable({
+        "ship": d.profile.name,
+        "baseline": d.baseline_source,
+        "explained": d.explained,
+        "still_unexplained_dofs": d.unexplained_dofs,
+        "findings": d.findings,
+        "untestable": d.untestable,
+        "fit_before": d.fit_before,
+        "fit_after": d.fit_after,
+        "fit_on": d.fit_on,
+        "fit_before_diagnosed": d.fit_before_diag,
+        "fit_after_diagnosed": d.fit_after_diag,
+        "location": d.location,
+        "noise_std": dict(zip("uvr", d.sigma.tolist())),
+        "model": model_path,
+        "screened": d.screened,
+        "elapsed_s": d.elapsed_s,
+    })
+
+
+def model_dict(d: Diagnosis) -> dict:
+    """The refitted profile (loadable by ``primitives.ship.load_profile``) plus augmentations.
+
+    Extra terms the profile can express are appended to its model; an inertia change is folded
+    into the DOF's parameters; a current becomes the profile's mean current. Delay, offsets and
+    biases are listed under ``augmentations``.
+    """
+    prof = d.profile
+    m = d.model
+    base = prof.to_dict()
+    terms = [list(t) for t in prof.model_terms]
+    names = [list(n) for n in prof.parameter_names]
+    vals = [list(d.theta[prof.model.dof_slice(i)]) for i in range(3)]
+    aug = []
+    dist = dict(base.get("disturbances", {}))
+    known = {"u", "v", "r", "u_r", "v_r", "psi", *prof.inputs, "tau_x", "tau_y", "tau_n"}
+    for f in d.findings:
+        c = next(c for c in m.candidates if c.key == f["key"])
+        idx = m.slot_of[c.key]
+        if c.effect in ("quadratic_damping", "missing_coupling", "thrust_loss"):
+            term = c.slots[0].term
+            if {x.strip("|").split("^")[0] for x in term.split("*")} <= known:
+                terms[c.dof].append(term)
+                names[c.dof].append(f"{c.effect}:{term}")
+                vals[c.dof].append(float(d.P[idx[0]]))
+                continue
+        if c.effect == "inertia_change":
+            s = 1.0 + float(d.P[idx[0]])
+            vals[c.dof] = [v * s for v in vals[c.dof]]
+            continue
+        if c.effect == "current":
+            dist["current_mean_ne"] = [float(d.P[idx[0]]), float(d.P[idx[1]])]
+        aug.append({"effect": f["effect"], "dof": f["dof"], "parameters": f["parameters"]})
+    base["model"] = dict(zip(DOFS, terms))
+    base["parameter_names"] = dict(zip(DOFS, names))
+    base["parameters"] = {"diagnosed": dict(zip(DOFS, vals)),
+                          "baseline": {dof: d.theta[prof.model.dof_slice(i)].tolist() for i, dof in enumerate(DOFS)}}
+    # the baseline set must have as many values as terms: pad the appended terms with zeros
+    for i, dof in enumerate(DOFS):
+        base["parameters"]["baseline"][dof] += [0.0] * (len(terms[i]) - len(base["parameters"]["baseline"][dof]))
+    base["simulation_set"] = base["instrument_set"] = "diagnosed"
+    base["disturbances"] = dist
+    base.pop("predictor", None)
+    base.pop("predictor_names", None)
+    base["name"] = f"{prof.name}-diagnosed"
+    base["augmentations"] = aug
+    return to_jsonable(base)
+
+
+def write_model(d: Diagnosis, path: str | Path) -> Path:
+    return atomic_write_text(path, json.dumps(model_dict(d), indent=2))
+
+
+def write_plots(d: Diagnosis, out: str | Path) -> list[Path]:
+    """Residual plots before/after per recording (diagnosed and validation), PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    paths = []
+    for kind, preps in (("diagnosed", d.preps), ("validation", d.val_preps)):
+        for n, p in enumerate(preps):
+            before = p.y - d.model.simulate(p, d.model.p0())[0]
+            after = p.y - d.model.simulate(p, d.P)[0]
+            fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
+            for i, ax in enumerate(axes):
+                ax.plot(p.rec.t, before[:, i], lw=0.7, label="before", color="tab:red")
+                ax.plot(p.rec.t, after[:, i], lw=0.7, label="after", color="tab:blue")
+                ax.set_ylabel(f"{'uvr'[i]} residual [{UNITS['uvr'[i]]}]")
+                ax.grid(alpha=0.3)
+            axes[0].legend(loc="upper right")
+            axes[0].set_title(f"{kind}: {Path(p.rec.source).name}")
+            axes[-1].set_xlabel("t [s]")
+            fig.tight_layout()
+            paths.append(atomic_savefig(fig, out / f"residuals_{kind}_{n + 1}.png", dpi=110))
+            plt.close(fig)
+    return paths
+
+
+def write_all(d: Diagnosis, out: str | Path) -> dict[str, Path]:
+    out = Path(out)
+    model_path = write_model(d, out / "model.json")
+    paths = {"model": model_path}
+    atomic_write_text(out / "report.txt", to_text(d) + "\n")
+    atomic_write_text(out / "diagnosis.json", json.dumps(to_json(d, str(model_path)), indent=2))
+    paths["report"] = out / "report.txt"
+    paths["json"] = out / "diagnosis.json"
+    for i, p in enumerate(write_plots(d, out)):
+        paths[f"plot{i + 1}"] = p
+    return paths
+
+
+def array_summary(a: np.ndarray) -> str:
+    return np.array2string(np.asarray(a), precision=3)

@@ -1,0 +1,226 @@
+"""Library entry point of the design step: :func:`run_design` (used by the planner and ``plan-trial``).
+
+Pipeline: primitive library -> information moments X, Y, Z (7.50), (7.51), (7.55) -> identifiability
+check -> convex design (7.18)/(7.53) with its efficiency certificate -> for complete mean
+subtraction the non-convex design (7.57) started from it -> rounding to whole repetitions of the
+primitives' pieces for the trial length.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from expdesign.dopt import CRITERIA, Constraints, InfoSet, solve_convex
+from expdesign.errors import DesignError
+from expdesign.nonconvex import solve_nonconvex
+from expdesign.rounding import _efficiency, round_design
+from primitives.information import (
+    MEAN_SUBTRACTION,
+    PrimitiveInfo,
+    excitation_hint,
+    library_information,
+    unidentified_parameters,
+)
+from primitives.library import Primitive, model_ship_thesis, thesis_primitives
+from primitives.ship import ShipProfile, load_profile
+from primitives.simulate import Disturbances
+
+
+@dataclass
+class Design:
+    """A designed mix of primitives.
+
+    weights: time fraction per primitive; logdet: log|det Gamma| of the design for its mean
+    subtraction ((7.18)/(7.53)/(7.57), per-sample information); efficiency_vs_uniform: criterion
+    efficiency against equal shares (> 1: better; D: (det Gamma / det Gamma_uniform)^(1/p));
+    efficiency_bound: guaranteed efficiency of the convex solution from the equivalence theorem;
+    rounded: whole units (pieces of the primitive, see ``unit_s``) per primitive for the trial.
+    """
+
+    profile: str
+    criterion: str
+    mean_subtraction: str
+    weights: dict[str, float]
+    logdet: float
+    efficiency_vs_uniform: float
+    efficiency_bound: float | None
+    rounded: dict[str, int]
+    unit_s: dict[str, float]
+    trial_length_s: float
+    rounded_fractions: dict[str, float]
+    rounding_efficiency: float
+    convex_weights: dict[str, float]
+    certificate: dict[str, Any]
+    solver_notes: list[str] = field(default_factory=list)
+    starts: list[dict] = field(default_factory=list)
+    winner: str | None = None
+    n_params: int = 0
+    references: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "profile": self.profile,
+            "criterion": self.criterion,
+            "mean_subtraction": self.mean_subtraction,
+            "weights": dict(self.weights),
+            "logdet": self.logdet,
+            "efficiency_vs_uniform": self.efficiency_vs_uniform,
+            "efficiency_bound": self.efficiency_bound,
+            "rounded": dict(self.rounded),
+            "unit_s": dict(self.unit_s),
+            "trial_length_s": self.trial_length_s,
+            "rounded_fractions": dict(self.rounded_fractions),
+            "rounding_efficiency": self.rounding_efficiency,
+            "rounding_efficiency_loss": max(0.0, 1.0 - self.rounding_efficiency),
+            "convex_weights": dict(self.convex_weights),
+            "certificate": dict(self.certificate),
+            "solver_notes": list(self.solver_notes),
+            "starts": list(self.starts),
+            "winner": self.winner,
+            "n_params": self.n_params,
+            "reference_efficiency": dict(self.references),
+        }
+
+
+def default_library(profile: ShipProfile, psi_switch: float | None = None) -> list[Primitive]:
+    """The thesis dictionary of the profile; ``psi_switch`` (rad) sets the model-ship zig-zag period."""
+    if psi_switch is not None and profile.name == "model-ship":
+        return model_ship_thesis(profile, psi_switch=psi_switch)
+    lib = thesis_primitives(profile)
+    if not lib:
+        raise DesignError(f"profile {profile.name!r} has no built-in primitive dictionary; pass primitives=[...]")
+    return lib
+
+
+def check_identifiable(profile: ShipProfile, info: InfoSet, mean_subtraction: str) -> None:
+    """Raise a DesignError naming the parameters no mix of the library can identify."""
+    w = np.full(len(info.names), 1.0 / len(info.names))
+    dead = unidentified_parameters(profile, info.gamma(w, mean_subtraction))
+    if dead:
+        raise DesignError(
+            f"the primitive library {info.names} cannot identify {dead} (mean subtraction {mean_subtraction!r}); "
+            f"add a manoeuvre that excites them: {excitation_hint(profile, dead)}"
+        )
+
+
+def unit_samples(prim: Primitive) -> int:
+    """Samples of one unit of a primitive: a piece between natural split points (mean length)."""
+    return max(1, int(round(prim.n_samples / max(1, len(prim.pieces())))))
+
+
+def run_design(
+    profile: ShipProfile | str,
+    primitives: list[Primitive] | None = None,
+    *,
+    criterion: str = "D",
+    mean_subtraction: str = "complete",
+    trial_length_s: float | None = None,
+    min_frac: float | dict[str, float] | None = None,
+    max_frac: float | dict[str, float] | None = None,
+    seed: int = 0,
+    psi_switch: float | None = None,
+    costs: dict[str, dict[str, float]] | None = None,
+    budgets: dict[str, float] | None = None,
+    disturbed_realisations: int = 0,
+    prior: PrimitiveInfo | None = None,
+    prior_samples: int = 0,
+    n_random_starts: int = 4,
+    infos: list[PrimitiveInfo] | None = None,
+    references: dict[str, dict[str, float]] | None = None,
+) -> Design:
+    """Design the mix of ``primitives`` (default: the profile's thesis dictionary).
+
+    ``trial_length_s`` (default: every primitive once) sets the rounding and cost budgets;
+    ``min_frac``/``max_frac`` (number or {name: fraction}); ``costs``/``budgets`` per resource
+    (per-second rates by primitive, total budget); ``disturbed_realisations`` > 0 estimates the
+    moments from that many noisy, current-disturbed simulations (seeded) instead of the nominal
+    states; ``prior``/``prior_samples``: data already collected (7.58); ``infos`` skips the
+    moment computation (precomputed moments in the order of ``primitives``); ``references``
+    (label -> {primitive: share}) are scored by their criterion efficiency relative to the result.
+    """
+    if isinstance(profile, str):
+        profile = load_profile(profile)
+    if criterion not in CRITERIA:
+        raise DesignError(f"criterion must be one of {list(CRITERIA)}, got {criterion!r}")
+    if mean_subtraction not in MEAN_SUBTRACTION:
+        raise DesignError(f"mean subtraction must be one of {list(MEAN_SUBTRACTION)}, got {mean_subtraction!r}")
+    notes: list[str] = []
+    if primitives is None:
+        primitives = default_library(profile, psi_switch)
+    elif psi_switch is not None:
+        notes.append("psi_switch ignored: an explicit primitive library was given")
+    prims = [p for p in primitives if p.kind == "informative"]
+    if not prims:
+        raise DesignError("the primitive library has no informative primitives; give zig-zags, spirals, speed changes ...")
+    names = [p.name for p in prims]
+    if len(set(names)) != len(names):
+        raise DesignError(f"primitive names must be unique, got {names}")
+    if infos is None:
+        kw: dict[str, Any] = {}
+        if disturbed_realisations > 0:
+            kw = dict(disturbances=Disturbances.from_profile(profile), realisations=disturbed_realisations, seed=seed)
+        infos = library_information(profile, prims, **kw)
+    total_s = float(trial_length_s) if trial_length_s is not None else float(sum(p.duration_s for p in prims))
+    if total_s <= 0:
+        raise DesignError(f"trial length must be > 0 seconds, got {trial_length_s}")
+    prior_w = prior_samples * profile.sample_time / total_s if prior is not None else 0.0
+    info = InfoSet.from_infos(infos, prior, prior_w)
+    check_identifiable(profile, info, mean_subtraction)
+    cons = Constraints.build(names, min_frac, max_frac, costs, budgets, total_s)
+
+    convex = solve_convex(info, criterion, mean_subtraction, cons)
+    notes += [f"convex: {convex.solver}"] + convex.notes
+    final, starts, winner = convex.weights, [], "convex"
+    if mean_subtraction == "complete":
+        nc = solve_nonconvex(info, cons, criterion=criterion, mean_subtraction="complete", convex_start=convex.weights,
+                             n_random=n_random_starts, seed=seed)
+        final, starts, winner = nc.weights, nc.starts, nc.winner
+        notes += nc.notes
+    final = np.where(final < 1e-6, 0.0, final)
+    final = final / final.sum()
+    p = info.n_params
+    val = info.value(final, mean_subtraction, criterion)
+    uni = info.value(np.full(len(names), 1.0 / len(names)), mean_subtraction, criterion)
+    ts = profile.sample_time
+    units = np.array([unit_samples(pr) for pr in prims])
+    total_samples = int(round(total_s / ts))
+    rnd = round_design(final, units, total_samples, lambda s: info.value(s / total_samples, mean_subtraction, criterion), p,
+                       criterion=criterion)
+    refs = {}
+    for label, shares in (references or {}).items():
+        unknown = sorted(set(shares) - set(names))
+        if unknown:
+            raise DesignError(f"reference design {label!r} names unknown primitives {unknown}")
+        rw = np.array([float(shares.get(n, 0.0)) for n in names])
+        refs[label] = _efficiency(info.value(rw / rw.sum(), mean_subtraction, criterion), val, p, criterion)
+    return Design(
+        profile=profile.name,
+        criterion=criterion,
+        mean_subtraction=mean_subtraction,
+        weights={n: float(w) for n, w in zip(names, final)},
+        logdet=info.logdet(final, mean_subtraction),
+        efficiency_vs_uniform=_efficiency(val, uni, p, criterion),
+        efficiency_bound=convex.efficiency_bound,
+        rounded={n: int(c) for n, c in zip(names, rnd.counts)},
+        unit_s={n: float(u * ts) for n, u in zip(names, units)},
+        trial_length_s=total_s,
+        rounded_fractions={n: float(f) for n, f in zip(names, rnd.fractions)},
+        rounding_efficiency=rnd.efficiency,
+        convex_weights={n: float(w) for n, w in zip(names, convex.weights)},
+        certificate={
+            "criterion": criterion,
+            "n_params": p,
+            "gradient": None if convex.gradient is None else {n: float(g) for n, g in zip(names, convex.gradient)},
+            "max_over_feasible": convex.max_gradient,
+            "efficiency_bound": convex.efficiency_bound,
+            "relaxation": "symmetric part of Gamma, batchwise mean subtraction" if mean_subtraction == "complete" else "symmetric part of Gamma",
+        },
+        solver_notes=notes,
+        starts=starts,
+        winner=winner,
+        n_params=p,
+        references=refs,
+    )

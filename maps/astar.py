@@ -1,0 +1,197 @@
+"""A* over the counter-augmented state lattice (seed 001 (8.1)-(8.12)).
+
+State (8.3): (i, j, heading, g_1..g_Q), packed into one int:
+``key = spatial * G + counters`` with ``spatial = (i nj + j) K + h`` and ``counters`` the
+mixed-radix number of (g_1..g_Q) with radices d_q + 1. Costs (8.8): informative moves 0,
+basic moves L-bar.
+
+Heuristics:
+* ``"admissible"``: cost-to-go table of a relaxed problem, computed once by Dijkstra
+  (``scipy.sparse.csgraph``) on the reversed graph over (i, j, heading, r) where r is the
+  number of informative uses still to make, any primitive allowed for any remaining use.
+  Every lattice path maps to a relaxed path of the same cost, so the table is admissible and
+  consistent (Knepper & Kelly 2006; seed 001 section 8.2.2) and the returned plan is optimal
+  in repositioning cost on the lattice.
+* ``"thesis"``: (8.9) h = a1 ||p - p_f|| + a2 |psi - psi_f| + a3 sum_q (d_q - g_q): greedy,
+  neither admissible nor consistent; plans are not certified optimal.
+"""
+
+from __future__ import annotations
+
+import heapq
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+EPS = 1e-9  # weight standing in for a zero-cost edge (csgraph drops explicit zeros)
+
+
+@dataclass
+class Problem:
+    """The lattice search problem.
+
+    ``succ[s]``: list of (move index, spatial successor, counter q or -1, cost) for spatial
+    state s (collision-free moves only). ``goal_spatial``: accepted spatial goal states.
+    """
+
+    ni: int
+    nj: int
+    n_head: int
+    targets: list[int]  # d_q
+    succ: list[list[tuple[int, int, int, float]]]
+    start_spatial: int
+    goal_spatial: list[int]
+    res: float = 1.0
+
+
+@dataclass
+class SearchResult:
+    found: bool
+    moves: list[int]  # move indices in order
+    spatial: list[int]  # spatial states along the path (len moves + 1)
+    cost: float
+    expansions: int
+    states_visited: int
+    time_s: float
+    heuristic: str
+    optimal: bool
+    h_start: float
+    reason: str = ""
+    extra: dict = field(default_factory=dict)
+
+
+def relaxed_table(pb: Problem) -> np.ndarray:
+    """Cost-to-go h[spatial, r] of the relaxed problem (see module doc); inf if unreachable."""
+    ns = pb.ni * pb.nj * pb.n_head
+    D = int(sum(pb.targets))
+    e = np.array([(s, s2, q, cost) for s, lst in enumerate(pb.succ) for _, s2, q, cost in lst], float).reshape(-1, 4)
+    src, dst, qq = e[:, 0].astype(np.int64), e[:, 1].astype(np.int64), e[:, 2]
+    w0 = np.where(e[:, 3] > 0, e[:, 3], EPS)
+    r = np.arange(D + 1)
+    basic, info = qq < 0, qq >= 0
+    rows = np.concatenate([(src[basic, None] * (D + 1) + r).ravel(), (src[info, None] * (D + 1) + r[1:]).ravel()])
+    cols = np.concatenate([(dst[basic, None] * (D + 1) + r).ravel(), (dst[info, None] * (D + 1) + r[1:] - 1).ravel()])
+    w = np.concatenate([np.repeat(w0[basic], D + 1), np.repeat(w0[info], D)])
+    n = ns * (D + 1)
+    # reversed graph: edge v -> u for every forward edge u -> v; duplicates keep the minimum
+    g = csr_matrix((w, (cols, rows)), shape=(n, n))  # duplicate edges would be summed: keep the cheapest
+    if g.nnz != len(w):
+        order = np.lexsort((w, rows, cols))
+        keep = np.ones(len(w), bool)
+        keep[1:] = (np.diff(cols[order]) != 0) | (np.diff(rows[order]) != 0)
+        sel = order[keep]
+        g = csr_matrix((w[sel], (cols[sel], rows[sel])), shape=(n, n))
+    goals = [s * (D + 1) for s in pb.goal_spatial]
+    dist = dijkstra(g, directed=True, indices=goals, min_only=True)
+    return dist.reshape(ns, D + 1)
+
+
+def search(pb: Problem, heuristic: str = "admissible", weights: tuple[float, float, float] = (1.0, 1.0, 1.0),
+           basic_cost: float = 1.0, max_expansions: int = 50_000_000, table: np.ndarray | None = None) -> SearchResult:
+    """A* with a binary heap (heapq), packed integer keys and a closed set."""
+    t0 = time.perf_counter()
+    K, nj = pb.n_head, pb.nj
+    Q = len(pb.targets)
+    radix = [d + 1 for d in pb.targets]
+    stride = [int(np.prod(radix[q + 1:])) for q in range(Q)]
+    G = int(np.prod(radix))
+    full = sum(d * st for d, st in zip(pb.targets, stride))
+    D = int(sum(pb.targets))
+    # per counter index: remaining uses and which counters may still advance
+    ci = np.arange(G)
+    g_of = np.stack([(ci // stride[q]) % radix[q] for q in range(Q)], axis=1) if Q else np.zeros((G, 0), int)
+    remaining = (np.asarray(pb.targets) - g_of).sum(axis=1).tolist() if Q else [0] * G
+    can = [[bool(g_of[c, q] < pb.targets[q]) for q in range(Q)] for c in range(G)]
+    goal_set = set(pb.goal_spatial)
+
+    ns = len(pb.succ)
+    if heuristic == "admissible":
+        tab = relaxed_table(pb) if table is None else table
+        htab = (np.floor(tab / basic_cost + 1e-6) * basic_cost).tolist()  # drop the EPS residue
+    elif heuristic == "thesis":
+        a1, a2, a3 = weights
+        sp = np.arange(ns)
+        cell = sp // K
+        p = np.column_stack([cell // nj, cell % nj]).astype(float) * pb.res
+        gs = np.asarray(pb.goal_spatial)
+        goal_p = np.column_stack([(gs // K) // nj, (gs // K) % nj]).astype(float) * pb.res
+        d = np.min(np.hypot(p[:, None, 0] - goal_p[None, :, 0], p[:, None, 1] - goal_p[None, :, 1]), axis=1)
+        if len(set((gs % K).tolist())) == K:
+            dpsi = np.zeros(ns)
+        else:
+            dh = np.abs(((sp[:, None] % K) - (gs[None, :] % K) + K // 2) % K - K // 2)
+            dpsi = dh.min(axis=1) * 2 * np.pi / K
+        htab = (a1 * d + a2 * dpsi)[:, None] + a3 * np.arange(D + 1)[None, :]
+        htab = htab.tolist()  # (8.9)-(8.12)
+    else:
+        raise ValueError(f"heuristic must be 'admissible' or 'thesis', got {heuristic!r}")
+
+    s0 = pb.start_spatial
+    k0 = s0 * G
+    h0 = htab[s0][remaining[0]]
+    if not np.isfinite(h0):
+        return SearchResult(False, [], [], float("inf"), 0, 1, time.perf_counter() - t0, heuristic, False, h0,
+                            "the goal cannot be reached from the start even ignoring the counters")
+    gcost = {k0: 0.0}
+    parent: dict[int, tuple[int, int]] = {}
+    closed: set[int] = set()
+    tie = 0
+    heap = [(h0, remaining[0], 0, k0)]
+    expansions = 0
+    found_key = -1
+    succ = pb.succ
+    inf = float("inf")
+    while heap:
+        f, _, _, key = heapq.heappop(heap)
+        if key in closed:
+            continue
+        closed.add(key)
+        s, c = divmod(key, G)
+        if c == full and s in goal_set:
+            found_key = key
+            break
+        expansions += 1
+        if expansions > max_expansions:
+            break
+        gk = gcost[key]
+        cr = can[c]
+        for m, s2, q, cost in succ[s]:
+            if q >= 0:
+                if not cr[q]:
+                    continue
+                c2 = c + stride[q]
+            else:
+                c2 = c
+            k2 = s2 * G + c2
+            if k2 in closed:
+                continue
+            g2 = gk + cost
+            old = gcost.get(k2)
+            if old is not None and old <= g2:
+                continue
+            h2 = htab[s2][remaining[c2]]
+            if h2 == inf:
+                continue
+            gcost[k2] = g2
+            parent[k2] = (key, m)
+            tie -= 1  # LIFO among equals: dive along zero-cost plateaus
+            heapq.heappush(heap, (g2 + h2, remaining[c2], tie, k2))
+    dt = time.perf_counter() - t0
+    if found_key < 0:
+        why = "expansion limit reached" if expansions > max_expansions else "every reachable state was explored"
+        return SearchResult(False, [], [], float("inf"), expansions, len(gcost), dt, heuristic, False, h0,
+                            f"no sequence of moves meets all counters and reaches the goal ({why})",
+                            {"D": D})
+    moves, spatial = [], [found_key // G]
+    k = found_key
+    while k in parent:
+        k, m = parent[k]
+        moves.append(m)
+        spatial.append(k // G)
+    moves.reverse()
+    spatial.reverse()
+    return SearchResult(True, moves, spatial, gcost[found_key], expansions, len(gcost), dt, heuristic,
+                        heuristic == "admissible", h0)

@@ -1,0 +1,96 @@
+"""Exports of a :class:`maps.plan.Plan` for ships and crews (notes/anchors section 5).
+
+Formats: ``geojson`` (RFC 7946), ``gpx`` (GPX 1.1 route + track), ``rtz`` (RTZ 1.2, IEC 61174),
+``csv`` (schedule per sample), ``card`` (trial card: HTML with embedded PNGs, plus PDF).
+Every file is written atomically. :func:`export_plan` writes one format, :func:`export_all`
+every format plus the track and states plots.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from maps.export._common import ExportError
+from maps.plan import Plan
+
+FORMATS: dict[str, str] = {"geojson": ".geojson", "gpx": ".gpx", "rtz": ".rtz", "csv": ".csv", "card": ".html"}
+
+__all__ = ["FORMATS", "ExportError", "default_path", "export_all", "export_plan"]
+
+
+def default_path(plan: Plan, fmt: str, out_dir: str | Path = ".") -> Path:
+    """``<out_dir>/<ship>-trial.<ext>`` (the RTZ route name is the file's stem)."""
+    stem = f"{plan.ship}-trial".replace(" ", "_") if plan.ship else "trial"
+    return Path(out_dir) / f"{stem}{FORMATS[fmt]}"
+
+
+def export_plan(
+    plan: Plan,
+    fmt: str,
+    path: str | Path,
+    *,
+    sea_map: Any = None,
+    start: datetime | str | None = None,
+    pdf: bool = True,
+) -> list[Path]:
+    """Write ``plan`` in format ``fmt`` to ``path``; returns the files written (the card writes
+    an HTML file and, with ``pdf``, a PDF beside it; a ``.pdf`` path writes the PDF only).
+
+    ``sea_map``: obstacles for the card's map (GeoJSON path/mapping or shapely geometries in
+    lon/lat). ``start``: UTC start of the trial for ETAs (default: ``plan.stats['start_utc']``,
+    else the next full hour).
+    """
+    fmt = fmt.lower()
+    if fmt not in FORMATS:
+        raise ExportError(f"unknown export format {fmt!r}: choose one of {', '.join(FORMATS)}")
+    path = Path(path)
+    if fmt == "geojson":
+        from maps.export.geojson import write_geojson
+
+        return [write_geojson(plan, path)]
+    if fmt == "gpx":
+        from maps.export.gpx import write_gpx
+
+        return [write_gpx(plan, path, start=start)]
+    if fmt == "rtz":
+        from maps.export.rtz import write_rtz
+
+        return [write_rtz(plan, path, start=start)]
+    if fmt == "csv":
+        from maps.export.csv import write_csv
+
+        return [write_csv(plan, path, start=start)]
+    from maps.export.card import write_card
+
+    return write_card(plan, path, sea_map=sea_map, start=start, pdf=pdf)
+
+
+def export_all(
+    plan: Plan,
+    out_dir: str | Path,
+    sea_map: Any = None,
+    *,
+    start: datetime | str | None = None,
+    plots: bool = True,
+) -> dict[str, Path]:
+    """Every export of ``plan`` into ``out_dir``: keys geojson, gpx, rtz, csv, card (HTML),
+    card_pdf, and with ``plots`` track_png (map) and states_png (speed, heading, inputs)."""
+    from maps.export._common import check_plan, resolve_start
+
+    check_plan(plan)
+    t0 = resolve_start(plan, start)  # one start time for every file
+    out: dict[str, Path] = {}
+    for fmt in FORMATS:
+        written = export_plan(plan, fmt, default_path(plan, fmt, out_dir), sea_map=sea_map, start=t0)
+        out[fmt] = written[0]
+        if fmt == "card" and len(written) > 1:
+            out["card_pdf"] = written[1]
+    if plots:
+        from maps.export.plots import plot_states, plot_track
+
+        stem = default_path(plan, "csv", out_dir).with_suffix("")
+        out["track_png"] = plot_track(plan, f"{stem}-track.png", sea_map)
+        out["states_png"] = plot_states(plan, f"{stem}-states.png")
+    return out

@@ -1,0 +1,71 @@
+"""CSV schedule of a plan: one row per sample of the planned track.
+
+Columns: time from start (s and h:mm:ss), UTC time, lat, lon (deg, 7 decimals), local x north
+and y east (m), heading (deg, 0-360 from north), speed over ground (m/s and kn), the manoeuvre
+(number, primitive, its orders on the manoeuvre's first row) and the commanded inputs (angles in
+degrees, column named ``<input>_deg``).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from datetime import datetime, timedelta
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cli.io import atomic_write_text
+from maps.export._common import KN_PER_MPS, check_plan, clock, iso, resolve_start, step_orders
+from maps.plan import Plan
+
+
+def _input_columns(plan: Plan) -> list[tuple[str, bool]]:
+    return [(f"{n}_deg", True) if (n.startswith("alpha") or n == "delta") else (n, False) for n in plan.input_names]
+
+
+def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1) -> str:
+    """The plan's schedule as CSV text (``every``: keep every n-th sample, always the last and
+    every manoeuvre's first)."""
+    check_plan(plan)
+    t0 = resolve_start(plan, start)
+    by_index = {st.index: st for st in plan.steps}
+    cols = _input_columns(plan)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(
+        ["time_s", "time_from_start", "utc", "lat", "lon", "x_north_m", "y_east_m", "heading_deg", "speed_mps", "speed_kn",
+         "manoeuvre", "primitive", "orders"] + [c for c, _ in cols]
+    )
+    k_total = len(plan.t)
+    first_of = {}
+    for k in range(k_total):
+        first_of.setdefault(int(plan.step_of_sample[k]), k)
+    starts = set(first_of.values())
+    n_in = plan.inputs.shape[1] if plan.inputs.ndim == 2 else 0
+    for k in range(k_total):
+        if k % max(every, 1) and k not in starts and k != k_total - 1:
+            continue
+        ts = float(plan.t[k] - plan.t[0])
+        si = int(plan.step_of_sample[k])
+        st = by_index.get(si)
+        orders = " | ".join(step_orders(plan, st)) if (st is not None and k == first_of[si]) else ""
+        row: list[Any] = [
+            f"{ts:.3f}", clock(ts), iso(t0 + timedelta(seconds=ts)),
+            f"{plan.lonlat[k, 1]:.7f}", f"{plan.lonlat[k, 0]:.7f}",
+            f"{plan.track[k, 0]:.2f}", f"{plan.track[k, 1]:.2f}",
+            f"{np.degrees(plan.track[k, 2]) % 360.0:.1f}",
+            f"{plan.speed[k]:.3f}", f"{plan.speed[k] * KN_PER_MPS:.2f}",
+            si + 1, st.primitive if st else "", orders,
+        ]
+        for j, (_, is_angle) in enumerate(cols):
+            v = float(plan.inputs[min(k, len(plan.inputs) - 1), j]) if n_in else float("nan")
+            row.append(f"{np.degrees(v):.2f}" if is_angle else f"{v:.4g}")
+        w.writerow(row)
+    return buf.getvalue()
+
+
+def write_csv(plan: Plan, path: str | Path, **kw: Any) -> Path:
+    """Write :func:`plan_csv` to ``path`` atomically."""
+    return atomic_write_text(path, plan_csv(plan, **kw))

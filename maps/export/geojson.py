@@ -1,0 +1,242 @@
+"""GeoJSON (RFC 7946) export of a plan and an RFC 7946 checker.
+
+The FeatureCollection holds the continuous track (LineString), one Point per manoeuvre start
+(index, primitive, commands, duration, entry heading and speed) and, when the plan carries its
+projection, the sea room the trial sweeps (track buffered by half the beam plus the planner's
+margin) as a Polygon with a counter-clockwise exterior ring. Coordinates are WGS-84 lon, lat
+with at most 7 decimals (about 1 cm); there is no ``crs`` member (RFC 7946 section 4).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cli.io import atomic_write_text
+from maps.export._common import KN_PER_MPS, check_plan, input_phases
+from maps.plan import Plan
+
+DECIMALS = 7
+
+
+def _pos(lon: float, lat: float) -> list[float]:
+    return [round(float(lon), DECIMALS), round(float(lat), DECIMALS)]
+
+
+def _line(lonlat: np.ndarray) -> list[list[float]]:
+    out: list[list[float]] = []
+    for lon, lat in lonlat:
+        p = _pos(lon, lat)
+        if not out or p != out[-1]:
+            out.append(p)
+    if len(out) == 1:
+        out.append(list(out[0]))
+    return out
+
+
+def sea_room_lonlat(plan: Plan):
+    """The swept sea room (shapely Polygon, lon/lat, exterior CCW) or None without a projection."""
+    proj4 = (plan.projection or {}).get("proj4")
+    if not proj4:
+        return None
+    import shapely
+    from pyproj import Transformer
+    from shapely.geometry import LineString
+    from shapely.geometry.polygon import orient
+
+    half = 0.5 * float(plan.hull[1] or 0.0) + float(plan.margin_m or 0.0)
+    half = max(half, 0.5 * float(plan.hull[0] or 0.0), 1.0)
+    line = LineString(np.column_stack([plan.track[:, 1], plan.track[:, 0]]))  # (east, north)
+    area = line.buffer(half, quad_segs=8).simplify(0.05 * half)
+    tr = Transformer.from_crs(proj4, "EPSG:4326", always_xy=True)
+    ll = shapely.transform(area, lambda c: np.column_stack(tr.transform(c[:, 0], c[:, 1])))
+    if ll.geom_type != "Polygon" or ll.is_empty:
+        return None
+    return orient(ll, sign=1.0)
+
+
+def _polygon_coords(poly) -> list[list[list[float]]]:
+    rings = [poly.exterior, *poly.interiors]
+    return [[_pos(x, y) for x, y in ring.coords] for ring in rings]
+
+
+def plan_geojson(plan: Plan, *, sea_room: bool = True) -> dict[str, Any]:
+    """The plan as an RFC 7946 FeatureCollection (a dict ready for ``json.dumps``)."""
+    check_plan(plan)
+    feats: list[dict[str, Any]] = [
+        {
+            "type": "Feature",
+            "geometry": {"type": "LineString", "coordinates": _line(plan.lonlat)},
+            "properties": {
+                "kind": "track",
+                "ship": plan.ship,
+                "map": plan.map_name,
+                "duration_s": round(plan.duration_s, 1),
+                "length_m": round(plan.length_m, 1),
+                "manoeuvres": len(plan.steps),
+                "feasible": bool(plan.feasible),
+                "min_clearance_m": None if not math.isfinite(plan.min_clearance_m) else round(plan.min_clearance_m, 1),
+                "margin_m": plan.margin_m,
+                "max_wind_mps": plan.max_wind_mps,
+            },
+        }
+    ]
+    for st in plan.steps:
+        feats.append(
+            {
+                "type": "Feature",
+                "geometry": {"type": "Point", "coordinates": _pos(st.entry_lon, st.entry_lat)},
+                "properties": {
+                    "kind": "manoeuvre_start",
+                    "index": st.index + 1,
+                    "primitive": st.primitive,
+                    "manoeuvre_kind": st.kind,
+                    "description": st.description,
+                    "commands": list(st.commands),
+                    "orders": input_phases(plan, st),
+                    "start_time_s": round(st.start_time_s, 2),
+                    "duration_s": round(st.duration_s, 2),
+                    "entry_heading_deg": round(st.entry_heading_deg, 1),
+                    "entry_speed_mps": round(st.entry_speed_mps, 3),
+                    "entry_speed_kn": round(st.entry_speed_mps * KN_PER_MPS, 2),
+                    "space_m": [round(float(v), 1) for v in st.space_m],
+                },
+            }
+        )
+    poly = sea_room_lonlat(plan) if sea_room else None
+    if poly is not None:
+        feats.append(
+            {
+                "type": "Feature",
+                "geometry": {"type": "Polygon", "coordinates": _polygon_coords(poly)},
+                "properties": {"kind": "sea_room", "half_width_m": 0.5 * plan.hull[1] + plan.margin_m},
+            }
+        )
+    return {"type": "FeatureCollection", "features": feats}
+
+
+def write_geojson(plan: Plan, path: str | Path, **kw: Any) -> Path:
+    """Write :func:`plan_geojson` to ``path`` atomically."""
+    return atomic_write_text(path, json.dumps(plan_geojson(plan, **kw), ensure_ascii=False, separators=(",", ":")))
+
+
+# -- RFC 7946 check --------------------------------------------------------------------------
+
+_GEOMS = {"Point", "MultiPoint", "LineString", "MultiLineString", "Polygon", "MultiPolygon", "GeometryCollection"}
+
+
+def _ring_area(ring: list) -> float:
+    """Shoelace signed area in lon/lat (positive: counter-clockwise)."""
+    a = 0.0
+    for (x1, y1, *_), (x2, y2, *_) in zip(ring[:-1], ring[1:]):
+        a += x1 * y2 - x2 * y1
+    return 0.5 * a
+
+
+def _check_position(p: Any, where: str, errs: list[str]) -> None:
+    if not isinstance(p, list) or len(p) not in (2, 3) or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p):
+        errs.append(f"{where}: a position is [lon, lat] or [lon, lat, alt] of numbers, got {p!r}")
+        return
+    lon, lat = p[0], p[1]
+    if not (-180.0 <= lon <= 180.0):
+        errs.append(f"{where}: longitude {lon} outside [-180, 180]")
+    if not (-90.0 <= lat <= 90.0):
+        errs.append(f"{where}: latitude {lat} outside [-90, 90] (lon/lat swapped?)")
+    for v in p[:2]:
+        if not math.isfinite(v) or round(v, DECIMALS) != v:
+            errs.append(f"{where}: coordinate {v!r} has more than {DECIMALS} decimals")
+            break
+
+
+def _check_geometry(g: Any, where: str, errs: list[str]) -> None:
+    if not isinstance(g, dict) or g.get("type") not in _GEOMS:
+        errs.append(f"{where}: not a GeoJSON geometry (type must be one of {sorted(_GEOMS)})")
+        return
+    t = g["type"]
+    if t == "GeometryCollection":
+        for i, sub in enumerate(g.get("geometries", [])):
+            _check_geometry(sub, f"{where}.geometries[{i}]", errs)
+        return
+    c = g.get("coordinates")
+    if not isinstance(c, list):
+        errs.append(f"{where}: {t} needs a 'coordinates' array")
+        return
+    if t == "Point":
+        _check_position(c, where, errs)
+    elif t in ("MultiPoint", "LineString"):
+        for p in c:
+            _check_position(p, where, errs)
+        if t == "LineString" and len(c) < 2:
+            errs.append(f"{where}: a LineString needs 2 or more positions")
+    elif t == "MultiLineString":
+        for i, line in enumerate(c):
+            _check_geometry({"type": "LineString", "coordinates": line}, f"{where}[{i}]", errs)
+    elif t == "Polygon":
+        for i, ring in enumerate(c):
+            w = f"{where} ring {i}"
+            if not isinstance(ring, list) or len(ring) < 4:
+                errs.append(f"{w}: a linear ring needs 4 or more positions")
+                continue
+            for p in ring:
+                _check_position(p, w, errs)
+            if ring[0] != ring[-1]:
+                errs.append(f"{w}: first and last positions differ (ring not closed)")
+            area = _ring_area(ring)
+            if i == 0 and area <= 0:
+                errs.append(f"{w}: exterior ring is not counter-clockwise (right-hand rule, RFC 7946 3.1.6)")
+            if i > 0 and area >= 0:
+                errs.append(f"{w}: hole is not clockwise (right-hand rule, RFC 7946 3.1.6)")
+    elif t == "MultiPolygon":
+        for i, poly in enumerate(c):
+            _check_geometry({"type": "Polygon", "coordinates": poly}, f"{where}[{i}]", errs)
+
+
+def validate_geojson(obj: dict[str, Any] | str | Path) -> list[str]:
+    """Problems of a GeoJSON object (or file) under RFC 7946; an empty list means it passes.
+
+    Checks: object structure (FeatureCollection / Feature / geometry members), no ``crs``
+    member (section 4), positions [lon, lat] inside the WGS-84 ranges (section 3.1.1), at most
+    7 decimals, LineStrings of 2+ positions, closed rings of 4+ positions with counter-clockwise
+    exteriors and clockwise holes (section 3.1.6), and a consistent ``bbox`` (section 5).
+    """
+    if isinstance(obj, (str, Path)):
+        try:
+            obj = json.loads(Path(obj).read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            return [f"{obj}: not readable JSON ({exc})"]
+    errs: list[str] = []
+    if not isinstance(obj, dict):
+        return ["top level: a GeoJSON text is a single JSON object"]
+    if "crs" in obj:
+        errs.append("top level: member 'crs' is not allowed in RFC 7946 (coordinates are always WGS-84)")
+    t = obj.get("type")
+    if t == "FeatureCollection":
+        feats = obj.get("features")
+        if not isinstance(feats, list):
+            return errs + ["FeatureCollection: member 'features' must be an array"]
+        items = list(enumerate(feats))
+    elif t == "Feature":
+        items = [(0, obj)]
+    else:
+        _check_geometry(obj, "geometry", errs)
+        return errs
+    for i, f in items:
+        w = f"features[{i}]"
+        if not isinstance(f, dict) or f.get("type") != "Feature":
+            errs.append(f"{w}: type must be 'Feature'")
+            continue
+        if "geometry" not in f or "properties" not in f:
+            errs.append(f"{w}: a Feature has members 'geometry' and 'properties' (may be null)")
+        if f.get("geometry") is not None:
+            _check_geometry(f["geometry"], f"{w}.geometry", errs)
+        if f.get("properties") is not None and not isinstance(f["properties"], dict):
+            errs.append(f"{w}: 'properties' must be an object or null")
+    if "bbox" in obj:
+        b = obj["bbox"]
+        if not (isinstance(b, list) and len(b) in (4, 6)):
+            errs.append("bbox: must hold 2*n numbers")
+    return errs

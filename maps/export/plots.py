@@ -1,0 +1,222 @@
+"""Figures of a plan: the track on the map coloured by primitive and numbered by manoeuvre
+(like Fig. 9.13 of seed 001) and the simulated states over time (speed, heading, inputs).
+
+Obstacles come from an optional ``sea_map``: a ``maps.geo.SeaMap``, a GeoJSON file or mapping, a shapely geometry or
+a list of them, or any object with ``__geo_interface__`` (lon/lat, WGS-84). The plan alone
+draws the track only. A ``maps.geo.SeaMap`` (metric geometries) is converted with its own
+projection.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from cli.io import atomic_savefig  # noqa: E402
+from maps.export._common import KN_PER_MPS, ExportError, deg_min, step_slice  # noqa: E402
+from maps.plan import Plan  # noqa: E402
+
+OBSTACLE_KINDS = ("land", "obstacle", "restricted")
+
+
+def obstacle_geoms(sea_map: Any) -> list:
+    """Shapely geometries (lon/lat) of the obstacles in ``sea_map`` (see the module docstring)."""
+    from shapely.geometry import shape
+    from shapely.geometry.base import BaseGeometry
+
+    if sea_map is None:
+        return []
+    if isinstance(sea_map, BaseGeometry):
+        return [sea_map]
+    if hasattr(sea_map, "obstacles") and hasattr(sea_map, "to_lonlat"):  # maps.geo.SeaMap: metric (x north, y east)
+        import shapely
+
+        def to_ll(c: np.ndarray) -> np.ndarray:
+            return np.column_stack(sea_map.to_lonlat(c[:, 0], c[:, 1]))
+
+        return [shapely.transform(sea_map.obstacles, to_ll)]
+    if isinstance(sea_map, (str, Path)):
+        try:
+            sea_map = json.loads(Path(sea_map).read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ExportError(f"{sea_map}: cannot read the obstacle map as GeoJSON ({exc})") from None
+    if hasattr(sea_map, "__geo_interface__") and not isinstance(sea_map, dict):
+        sea_map = sea_map.__geo_interface__
+    if isinstance(sea_map, dict):
+        t = sea_map.get("type")
+        if t == "FeatureCollection":  # sea-map kinds: draw what the hull must avoid
+            return [shape(f["geometry"]) for f in sea_map.get("features", [])
+                    if f.get("geometry") and (f.get("properties") or {}).get("kind", "land") in OBSTACLE_KINDS]
+        if t == "Feature":
+            return [shape(sea_map["geometry"])] if sea_map.get("geometry") else []
+        return [shape(sea_map)]
+    if isinstance(sea_map, (list, tuple)):
+        return [g for item in sea_map for g in obstacle_geoms(item)]
+    raise ExportError(f"obstacle map of type {type(sea_map).__name__} is not understood: pass GeoJSON or shapely geometries")
+
+
+def primitive_colours(plan: Plan) -> dict[str, Any]:
+    """A distinct colour per primitive name, in order of first appearance."""
+    names = list(dict.fromkeys(st.primitive for st in plan.steps))
+    cmap = plt.get_cmap("tab10" if len(names) <= 10 else "tab20")
+    return {n: cmap(i % cmap.N) for i, n in enumerate(names)}
+
+
+def _dm_formatter(pos: str, neg: str, width: int):
+    from matplotlib.ticker import FuncFormatter
+
+    return FuncFormatter(lambda v, _: deg_min(v, pos, neg, width).replace("'", "′"))
+
+
+def draw_map(ax, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True) -> None:
+    """Obstacles (grey), sea room (light blue), the track coloured by primitive, numbered
+    manoeuvre starts, start/end marks, a scale bar and a north arrow, on lon/lat axes."""
+    from matplotlib.patches import PathPatch
+    from matplotlib.path import Path as MPath
+    from shapely.geometry import box
+
+    lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
+    lat0 = float(np.mean(lat))
+    m_per_deg_lat = 111_320.0
+    m_per_deg_lon = m_per_deg_lat * math.cos(math.radians(lat0))
+    if pad_m is None:  # room for the sea-room band and the markers
+        pad_m = max(1.5 * (0.5 * plan.hull[1] + plan.margin_m), 3.0 * plan.hull[0], 1.0)
+    pad = max(pad_m, 0.08 * max((lon.max() - lon.min()) * m_per_deg_lon, (lat.max() - lat.min()) * m_per_deg_lat))
+    x0, x1 = lon.min() - pad / m_per_deg_lon, lon.max() + pad / m_per_deg_lon
+    y0, y1 = lat.min() - pad / m_per_deg_lat, lat.max() + pad / m_per_deg_lat
+    view = box(x0, y0, x1, y1)
+
+    def patch(poly, **kw):
+        verts, codes = [], []
+        for ring in [poly.exterior, *poly.interiors]:
+            c = np.asarray(ring.coords)
+            verts += c.tolist()
+            codes += [MPath.MOVETO] + [MPath.LINETO] * (len(c) - 2) + [MPath.CLOSEPOLY]
+        ax.add_patch(PathPatch(MPath(verts, codes), **kw))
+
+    def polys(g):
+        return list(getattr(g, "geoms", [g]))
+
+    for g in obstacle_geoms(sea_map):
+        g = g.intersection(view) if g.intersects(view) else None
+        if g is None or g.is_empty:
+            continue
+        for p in polys(g):
+            if p.geom_type == "Polygon":
+                patch(p, facecolor="#c8b88a", edgecolor="#6b5d3a", lw=0.6, zorder=1)
+            elif p.geom_type in ("LineString", "LinearRing"):
+                ax.plot(*p.xy, color="#6b5d3a", lw=0.8, zorder=1)
+            elif p.geom_type == "Point":
+                ax.plot(p.x, p.y, "x", color="#6b5d3a", zorder=1)
+    if sea_room:
+        from maps.export.geojson import sea_room_lonlat
+
+        room = sea_room_lonlat(plan)
+        for p in polys(room) if room is not None else []:
+            patch(p, facecolor="#cfe6fb", edgecolor="none", zorder=2)
+    colours = primitive_colours(plan)
+    for st in plan.steps:
+        sl = step_slice(plan, st)
+        ax.plot(lon[sl], lat[sl], color=colours[st.primitive], lw=2.0, zorder=3, solid_capstyle="butt")
+    for name, c in colours.items():
+        ax.plot([], [], color=c, lw=3, label=name)
+    if numbers:
+        for st in plan.steps:
+            ax.annotate(
+                str(st.index + 1), (st.entry_lon, st.entry_lat), fontsize=8, fontweight="bold", ha="center", va="center",
+                zorder=5, bbox={"boxstyle": "circle,pad=0.2", "fc": "white", "ec": colours[st.primitive], "lw": 1.5},
+            )
+    ax.plot(lon[0], lat[0], marker="^", ms=11, color="green", mec="k", zorder=4, ls="none", label="start")
+    ax.plot(lon[-1], lat[-1], marker="s", ms=9, color="red", mec="k", zorder=4, ls="none", label="end")
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_aspect(1.0 / math.cos(math.radians(lat0)))
+    ax.set_facecolor("#eef6fd")
+    ax.xaxis.set_major_formatter(_dm_formatter("E", "W", 3))
+    ax.yaxis.set_major_formatter(_dm_formatter("N", "S", 2))
+    ax.tick_params(labelsize=7)
+    ax.xaxis.set_major_locator(plt.MaxNLocator(4))
+    ax.grid(color="white", lw=0.6, zorder=0)
+    # scale bar: a round length about a fifth of the view width
+    width_m = (x1 - x0) * m_per_deg_lon
+    nice = [1, 2, 5]
+    mag = 10 ** math.floor(math.log10(max(width_m / 5, 1e-3)))
+    bar = max(n * mag for n in nice if n * mag <= max(width_m / 5, mag))
+    bx, by = x0 + 0.04 * (x1 - x0), y0 + 0.04 * (y1 - y0)
+    ax.plot([bx, bx + bar / m_per_deg_lon], [by, by], color="k", lw=3, zorder=6)
+    label = f"{bar:g} m" if bar < 1852 else f"{bar / 1852:.2g} NM"
+    ax.text(bx + 0.5 * bar / m_per_deg_lon, by + 0.012 * (y1 - y0), label, ha="center", va="bottom", fontsize=7, zorder=6)
+    ax.annotate("N", xy=(0.95, 0.95), xytext=(0.95, 0.85), xycoords="axes fraction", ha="center", fontsize=9, fontweight="bold",
+                arrowprops={"arrowstyle": "-|>", "color": "k"}, zorder=6)
+
+
+def draw_states(axes, plan: Plan) -> None:
+    """Speed (kn), heading (deg) and each commanded input over time (minutes) on ``axes``
+    (len 2 + number of inputs), with the manoeuvre numbers along the top."""
+    t_min = (plan.t - plan.t[0]) / 60.0
+    colours = primitive_colours(plan)
+    series = [("speed over ground [kn]", plan.speed * KN_PER_MPS), ("heading [deg]", np.degrees(plan.track[:, 2]) % 360.0)]
+    for j, nm in enumerate(plan.input_names):
+        v = plan.inputs[:, j] if plan.inputs.ndim == 2 and plan.inputs.shape[1] > j else np.zeros_like(plan.t)
+        if nm.startswith("alpha") or nm == "delta":
+            series.append((f"{nm} [deg]", np.degrees(v)))
+        else:
+            series.append((f"{nm}" + (" [rpm]" if nm.startswith("n") and nm[1:].isdigit() else ""), v))
+    for ax, (label, y) in zip(axes, series):
+        for st in plan.steps:
+            sl = step_slice(plan, st)
+            ax.axvspan(t_min[sl.start], t_min[sl.stop - 1], color=colours[st.primitive], alpha=0.12, lw=0)
+        if label.startswith("heading"):
+            jumps = np.abs(np.diff(y)) > 180
+            y = y.copy().astype(float)
+            y[1:][jumps] = np.nan
+        ax.plot(t_min[: len(y)], y, color="k", lw=0.9)
+        ax.set_ylabel(label, fontsize=7)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    top = axes[0]
+    for st in plan.steps:
+        sl = step_slice(plan, st)
+        top.text(0.5 * (t_min[sl.start] + t_min[sl.stop - 1]), 1.02, str(st.index + 1), transform=top.get_xaxis_transform(),
+                 ha="center", va="bottom", fontsize=7, fontweight="bold", color=colours[st.primitive])
+    axes[-1].set_xlabel("time from start [min]", fontsize=8)
+
+
+def states_figure(plan: Plan):
+    """A figure of :func:`draw_states`."""
+    n = 2 + len(plan.input_names)
+    fig, axes = plt.subplots(n, 1, figsize=(8.27, 1.5 * n + 1.0), sharex=True)
+    draw_states(list(np.atleast_1d(axes)), plan)
+    fig.suptitle(f"{plan.ship}: planned speed, heading and commanded inputs (manoeuvre numbers on top)", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def plot_states(plan: Plan, path: str | Path, dpi: int = 110) -> Path:
+    """The simulated states over time (speed, heading, inputs) as PNG (or PDF/SVG by suffix)."""
+    fig = states_figure(plan)
+    try:
+        return atomic_savefig(fig, path, dpi=dpi)
+    finally:
+        plt.close(fig)
+
+
+def plot_track(plan: Plan, path: str | Path, sea_map: Any = None, dpi: int = 130) -> Path:
+    """The numbered track coloured by primitive on the map, as PNG (or PDF/SVG by suffix)."""
+    fig, ax = plt.subplots(figsize=(7.5, 7.5))
+    draw_map(ax, plan, sea_map)
+    ax.legend(fontsize=7, loc="upper left", framealpha=0.9)
+    ax.set_title(f"{plan.ship} trial{' on ' + plan.map_name if plan.map_name else ''}: manoeuvres numbered in sailing order", fontsize=9)
+    fig.tight_layout()
+    try:
+        return atomic_savefig(fig, path, dpi=dpi)
+    finally:
+        plt.close(fig)

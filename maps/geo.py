@@ -1,0 +1,275 @@
+"""Sea maps: load a GeoJSON chart, validate and repair it, project it to a local metric frame.
+
+Format (BRIEF section 8): a GeoJSON FeatureCollection in WGS-84 lon/lat (RFC 7946) whose
+``properties.kind`` says what a feature is: ``land`` (Polygon/MultiPolygon, the default when
+``kind`` is missing), ``depth_area`` (Polygon with ``min_depth_m``; shallower than draught +
+under-keel clearance is an obstacle), ``obstacle`` (Point with ``radius_m`` or Polygon),
+``restricted`` (no-go polygon), ``trial_area`` (where trials are allowed), ``start``/``goal``
+(Point with optional ``heading_deg``).
+
+Metric coordinates follow the ship convention: x north, y east (metres from the projection
+origin, a transverse Mercator centred on the map). Shapely geometries of a :class:`SeaMap`
+store (x north, y east) as their (x, y), the same frame as ``Primitive.footprint``.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import shapely
+from pyproj import Transformer
+from shapely.geometry import Point, shape
+from shapely.geometry.base import BaseGeometry
+
+KINDS = ("land", "depth_area", "obstacle", "restricted", "trial_area", "start", "goal")
+POLYGONAL = ("Polygon", "MultiPolygon")
+
+
+class MapError(ValueError):
+    """A sea map that cannot be used; the message names the file, feature and fix."""
+
+
+def bundled_map_path(name: str = "helsinki") -> Path:
+    """Path of a sea map shipped with the package (``maps/data/<name>.geojson``)."""
+    return Path(__file__).resolve().parent / "data" / f"{name}.geojson"
+
+
+@dataclass
+class MapPoint:
+    """A start or goal point of the map (metric, ship convention) with its lon/lat."""
+
+    x: float
+    y: float
+    psi: float | None
+    lon: float
+    lat: float
+
+
+@dataclass
+class SeaMap:
+    """A projected sea map. Geometries are (x north, y east) in metres.
+
+    ``land``: land polygons; ``obstacles``: everything the hull must not touch (land, shallow
+    depth areas, obstacles, restricted areas), unbuffered; ``trial_area``: where trials may be
+    run (None: anywhere on the map); ``extent``: (xmin, ymin, xmax, ymax) of the map's features.
+    """
+
+    name: str
+    source: str
+    lon0: float
+    lat0: float
+    proj4: str
+    land: BaseGeometry
+    obstacles: BaseGeometry
+    trial_area: BaseGeometry | None
+    extent: tuple[float, float, float, float]
+    lonlat_extent: tuple[float, float, float, float]
+    start: MapPoint | None = None
+    goal: MapPoint | None = None
+    draught_m: float = 0.0
+    ukc_m: float = 0.0
+    n_shallow: int = 0
+    warnings: list[str] = field(default_factory=list)
+    _fwd: Any = field(default=None, repr=False)
+    _inv: Any = field(default=None, repr=False)
+
+    # -- projection ---------------------------------------------------------------------------
+    def to_local(self, lon: Any, lat: Any) -> tuple[np.ndarray, np.ndarray]:
+        """lon/lat (degrees) -> (x north, y east) in metres."""
+        e, n = self._fwd.transform(np.asarray(lon, float), np.asarray(lat, float))
+        return np.asarray(n), np.asarray(e)
+
+    def to_lonlat(self, x: Any, y: Any) -> tuple[np.ndarray, np.ndarray]:
+        """(x north, y east) in metres -> lon, lat (degrees)."""
+        lon, lat = self._inv.transform(np.asarray(y, float), np.asarray(x, float))
+        return np.asarray(lon), np.asarray(lat)
+
+    def projection_info(self) -> dict[str, Any]:
+        """What an exporter needs to go metric <-> lon/lat without the map."""
+        return {"proj4": self.proj4, "lon0": self.lon0, "lat0": self.lat0, "axis_order": "x_north,y_east"}
+
+    # -- queries ------------------------------------------------------------------------------
+    def no_go(self, margin: float = 0.0) -> BaseGeometry:
+        """Obstacles buffered by ``margin``, plus everything outside the trial area."""
+        geom = self.obstacles.buffer(margin) if margin > 0 else self.obstacles
+        if self.trial_area is not None:
+            xmin, ymin, xmax, ymax = self.extent
+            big = shapely.box(xmin - 1e5, ymin - 1e5, xmax + 1e5, ymax + 1e5)
+            geom = shapely.union(geom, big.difference(self.trial_area))
+        return geom
+
+    def clearance(self, geom: BaseGeometry) -> float:
+        """Distance from ``geom`` to the nearest obstacle (0 when touching)."""
+        return float(shapely.distance(geom, self.no_go())) if not self.no_go().is_empty else float("inf")
+
+    def inside(self, x: float, y: float) -> bool:
+        xmin, ymin, xmax, ymax = self.extent
+        return xmin <= x <= xmax and ymin <= y <= ymax
+
+    def locate(self, lat: float, lon: float, what: str, margin: float = 0.0) -> tuple[float, float]:
+        """Project a user's (lat, lon) and check it is on the map, in navigable water.
+
+        Raises MapError naming the point; says so when the numbers look swapped (lon, lat).
+        """
+        lo0, la0, lo1, la1 = self.lonlat_extent
+
+        def on_map(la: float, lo: float) -> bool:
+            return la0 <= la <= la1 and lo0 <= lo <= lo1
+
+        if not on_map(lat, lon):
+            hint = ""
+            if on_map(lon, lat) or abs(lat) > 90:
+                hint = f"; the values look swapped: give latitude first ({lon:g},{lat:g})"
+            raise MapError(
+                f"{self.source}: {what} lat {lat:g}, lon {lon:g} is outside the map "
+                f"(lat {la0:.4f}..{la1:.4f}, lon {lo0:.4f}..{lo1:.4f}){hint}"
+            )
+        x, y = (float(v) for v in self.to_local(lon, lat))
+        p = Point(x, y)
+        if shapely.intersects(self.land, p):
+            raise MapError(f"{self.source}: {what} lat {lat:g}, lon {lon:g} is on land: choose a point in open water")
+        if shapely.intersects(self.no_go(margin), p):
+            d = float(shapely.distance(self.obstacles, p))
+            raise MapError(
+                f"{self.source}: {what} lat {lat:g}, lon {lon:g} is not navigable (shallow, restricted, outside the trial "
+                f"area or {d:.0f} m from an obstacle, margin {margin:g} m): choose a point in open water"
+            )
+        return x, y
+
+
+def _fail(src: str, i: int, msg: str) -> MapError:
+    return MapError(f"{src}: feature {i}: {msg}")
+
+
+def _polygonal(geom: BaseGeometry) -> BaseGeometry:
+    """Polygonal part of a (repaired) geometry."""
+    if geom.geom_type in POLYGONAL:
+        return geom
+    parts = [g for g in getattr(geom, "geoms", []) if g.geom_type in POLYGONAL]
+    return shapely.union_all(parts) if parts else shapely.Polygon()
+
+
+def _check_coords(src: str, i: int, geom: BaseGeometry) -> None:
+    xy = shapely.get_coordinates(geom)
+    if len(xy) == 0:
+        raise _fail(src, i, "geometry has no coordinates")
+    if not np.all(np.isfinite(xy)):
+        raise _fail(src, i, "coordinates are not finite numbers")
+    lon, lat = xy[:, 0], xy[:, 1]
+    if np.any(np.abs(lat) > 90) or np.any(np.abs(lon) > 180):
+        swap = " (they look swapped: GeoJSON wants [lon, lat])" if np.all(np.abs(lon) <= 90) else ""
+        raise _fail(src, i, f"coordinates out of range for WGS-84 lon/lat{swap}")
+
+
+def load_map(
+    path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: float = 0.5, repair: bool = True
+) -> SeaMap:
+    """Load and project a GeoJSON sea map (default: the bundled Helsinki map).
+
+    Invalid polygons are repaired with ``shapely.make_valid`` and reported in ``warnings``.
+    Depth areas with ``min_depth_m < draught_m + ukc_m`` become obstacles.
+    """
+    path = Path(path) if path is not None else bundled_map_path()
+    src = str(path)
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise MapError(f"{src}: no such map file (give a GeoJSON FeatureCollection, or omit --map for the Helsinki example)") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise MapError(f"{src}: not valid JSON ({exc}): a sea map must be a GeoJSON FeatureCollection") from None
+    if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
+        raise MapError(f"{src}: field 'type' must be 'FeatureCollection' (GeoJSON, RFC 7946)")
+    feats = doc.get("features")
+    if not isinstance(feats, list) or not feats:
+        raise MapError(f"{src}: the map has no features: add land/depth_area polygons (properties.kind) or a trial_area")
+    warnings: list[str] = []
+    groups: dict[str, list[tuple[int, BaseGeometry, dict]]] = {k: [] for k in KINDS}
+    for i, f in enumerate(feats):
+        if not isinstance(f, dict) or f.get("type") != "Feature" or not isinstance(f.get("geometry"), dict):
+            raise _fail(src, i, "not a GeoJSON Feature with a geometry")
+        props = f.get("properties") or {}
+        kind = props.get("kind", "land")
+        if kind not in KINDS:
+            raise _fail(src, i, f"properties.kind {kind!r} unknown; use one of {', '.join(KINDS)}")
+        try:
+            geom = shape(f["geometry"])
+        except Exception as exc:  # shapely raises several types for malformed coordinates
+            raise _fail(src, i, f"malformed geometry ({exc})") from None
+        _check_coords(src, i, geom)
+        gt = geom.geom_type
+        if kind in ("land", "depth_area", "restricted", "trial_area") and gt not in POLYGONAL:
+            raise _fail(src, i, f"kind {kind!r} must be a Polygon or MultiPolygon, got {gt}")
+        if kind == "obstacle" and gt not in POLYGONAL + ("Point",):
+            raise _fail(src, i, f"kind 'obstacle' must be a Point (with radius_m) or a Polygon, got {gt}")
+        if kind in ("start", "goal") and gt != "Point":
+            raise _fail(src, i, f"kind {kind!r} must be a Point, got {gt}")
+        if gt in POLYGONAL and not geom.is_valid:
+            reason = shapely.is_valid_reason(geom)
+            if not repair:
+                raise _fail(src, i, f"invalid polygon ({reason})")
+            geom = _polygonal(shapely.make_valid(geom))
+            warnings.append(f"feature {i} ({kind}): invalid polygon ({reason}) repaired with make_valid")
+        if kind == "depth_area":
+            d = props.get("min_depth_m")
+            if not isinstance(d, (int, float)) or isinstance(d, bool):
+                raise _fail(src, i, "depth_area needs a numeric properties.min_depth_m (S-57 DRVAL1, metres)")
+        if kind == "obstacle" and gt == "Point":
+            r = props.get("radius_m", 0.0)
+            if not isinstance(r, (int, float)) or r < 0:
+                raise _fail(src, i, "obstacle point needs properties.radius_m >= 0 (metres)")
+        groups[kind].append((i, geom, props))
+    for k in ("start", "goal"):
+        if len(groups[k]) > 1:
+            raise MapError(f"{src}: {len(groups[k])} features of kind {k!r}; give at most one")
+
+    # projection: transverse Mercator centred on the map's extent
+    allxy = np.vstack([shapely.get_coordinates(g) for grp in groups.values() for _, g, _ in grp])
+    lo0, la0 = allxy.min(axis=0)
+    lo1, la1 = allxy.max(axis=0)
+    if lo1 - lo0 <= 0 or la1 - la0 <= 0:
+        raise MapError(f"{src}: the map's features cover no area: add land polygons or a trial_area polygon")
+    lon0, lat0 = 0.5 * (lo0 + lo1), 0.5 * (la0 + la1)
+    proj4 = f"+proj=tmerc +lat_0={lat0:.9f} +lon_0={lon0:.9f} +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m +no_defs"
+    fwd = Transformer.from_crs("EPSG:4326", proj4, always_xy=True)
+    inv = Transformer.from_crs(proj4, "EPSG:4326", always_xy=True)
+
+    def project(arr: np.ndarray) -> np.ndarray:
+        e, n = fwd.transform(arr[:, 0], arr[:, 1])
+        return np.column_stack([n, e])
+
+    def proj_geoms(kind: str) -> list[BaseGeometry]:
+        gs = [g for _, g, _ in groups[kind]]
+        return list(shapely.transform(np.array(gs, dtype=object), project)) if gs else []
+
+    land = shapely.union_all(proj_geoms("land")) if groups["land"] else shapely.Polygon()
+    draft_need = draught_m + ukc_m
+    shallow = [g for (_, _, pr), g in zip(groups["depth_area"], proj_geoms("depth_area")) if float(pr["min_depth_m"]) < draft_need]
+    obst = []
+    for (_, _, pr), g in zip(groups["obstacle"], proj_geoms("obstacle")):
+        obst.append(g.buffer(float(pr.get("radius_m", 0.0)) or 1.0) if g.geom_type == "Point" else g)
+    restricted = proj_geoms("restricted")
+    obstacles = shapely.union_all([land, *shallow, *obst, *restricted])
+    trial = shapely.union_all(proj_geoms("trial_area")) if groups["trial_area"] else None
+    shapely.prepare(land)
+    shapely.prepare(obstacles)
+    ex = project(np.array([[lo0, la0], [lo1, la1], [lo0, la1], [lo1, la0]]))
+    extent = (float(ex[:, 0].min()), float(ex[:, 1].min()), float(ex[:, 0].max()), float(ex[:, 1].max()))
+    sm = SeaMap(
+        name=str(doc.get("name") or path.stem), source=src, lon0=float(lon0), lat0=float(lat0), proj4=proj4,
+        land=land, obstacles=obstacles, trial_area=trial, extent=extent,
+        lonlat_extent=(float(lo0), float(la0), float(lo1), float(la1)),
+        draught_m=draught_m, ukc_m=ukc_m, n_shallow=len(shallow), warnings=warnings, _fwd=fwd, _inv=inv,
+    )
+    for k in ("start", "goal"):
+        if groups[k]:
+            i, g, pr = groups[k][0]
+            hd = pr.get("heading_deg")
+            if hd is not None and not isinstance(hd, (int, float)):
+                raise _fail(src, i, "properties.heading_deg must be a number (degrees from north, clockwise)")
+            x, y = (float(v) for v in sm.to_local(g.x, g.y))
+            setattr(sm, k, MapPoint(x, y, None if hd is None else float(np.radians(hd)), float(g.x), float(g.y)))
+    return sm

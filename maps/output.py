@@ -1,0 +1,96 @@
+"""Plan outputs: plan.json, the continuous track as GeoJSON and a picture of the track on the map."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from maps.geo import SeaMap
+from maps.plan import Plan
+
+
+def trajectory_geojson(plan: Plan) -> str:
+    """The continuous re-simulated track as a GeoJSON LineString (lon, lat; 7 decimals, ~1 cm)."""
+    coords = [[round(float(lo), 7), round(float(la), 7)] for lo, la in plan.lonlat]
+    steps = [{"type": "Feature", "geometry": {"type": "Point", "coordinates": [round(s.entry_lon, 7), round(s.entry_lat, 7)]},
+              "properties": {"kind": "step", "index": s.index, "primitive": s.primitive, "step_kind": s.kind,
+                             "start_time_s": s.start_time_s, "heading_deg": round(s.entry_heading_deg, 2)}}
+             for s in plan.steps]
+    doc = {
+        "type": "FeatureCollection",
+        "features": [{"type": "Feature", "geometry": {"type": "LineString", "coordinates": coords},
+                      "properties": {"kind": "trajectory", "ship": plan.ship, "feasible": plan.feasible,
+                                     "duration_s": plan.duration_s, "min_clearance_m": plan.min_clearance_m}}] + steps,
+    }
+    return json.dumps(doc)
+
+
+def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
+    """Track on the map (east right, north up, metres), informative steps coloured, basic grey."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cli.io import atomic_savefig
+
+    fig, ax = plt.subplots(figsize=(9, 8))
+    lat = plan.stats.get("lattice", {})
+    if plan.track.size:
+        x, y = plan.track[:, 0], plan.track[:, 1]
+        pad = 800.0
+        box = (x.min() - pad, y.min() - pad, x.max() + pad, y.max() + pad)
+    else:
+        box = sea.extent
+    if lat:
+        r = lat["resolution_m"]
+        wx = (lat["x0"] - r / 2, lat["x0"] + (lat["ni"] - 0.5) * r)
+        wy = (lat["y0"] - r / 2, lat["y0"] + (lat["nj"] - 0.5) * r)
+        box = (min(box[0], wx[0]), min(box[1], wy[0]), max(box[2], wx[1]), max(box[3], wy[1]))
+        ax.plot([wy[0], wy[1], wy[1], wy[0], wy[0]], [wx[0], wx[0], wx[1], wx[1], wx[0]], "k:", lw=0.8, label="planning window")
+    import shapely
+
+    clip = shapely.clip_by_rect(sea.obstacles, *box)
+    for g in getattr(clip, "geoms", [clip]):
+        if g.is_empty or g.geom_type != "Polygon":
+            continue
+        xs, ys = g.exterior.xy
+        ax.fill(ys, xs, color="#d8c8a0", ec="#8a7a50", lw=0.5)
+    if plan.track.size:
+        colors = plt.cm.tab10(np.linspace(0, 1, 10))
+        names = sorted({s.primitive for s in plan.steps if s.kind == "informative"})
+        for s in plan.steps:
+            sel = plan.step_of_sample == s.index
+            col = colors[names.index(s.primitive) % 10] if s.kind == "informative" else (0.5, 0.5, 0.5, 1)
+            lbl = s.primitive if s.primitive not in [t.primitive for t in plan.steps[: s.index]] else None
+            ax.plot(plan.track[sel, 1], plan.track[sel, 0], color=col, lw=1.6 if s.kind == "informative" else 1.0,
+                    label=lbl)
+        ax.plot(plan.track[0, 1], plan.track[0, 0], "go", ms=7, label="start")
+        ax.plot(plan.track[-1, 1], plan.track[-1, 0], "rs", ms=7, label="goal")
+    ax.set_xlim(box[1], box[3])
+    ax.set_ylim(box[0], box[2])
+    ax.set_aspect("equal")
+    ax.set_xlabel("east [m]")
+    ax.set_ylabel("north [m]")
+    state = "feasible" if plan.feasible else "NOT feasible"
+    ax.set_title(f"{sea.name}: {plan.ship}, {state}, {plan.duration_s / 60:.0f} min, {plan.basic_moves} basic moves, "
+                 f"clearance {plan.min_clearance_m:.0f} m", fontsize=9)
+    ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    out = atomic_savefig(fig, path, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path) -> dict[str, Path]:
+    """plan.json, trajectory.geojson (when there is a track) and plan.png in ``out_dir`` (atomic writes)."""
+    from cli.io import atomic_write_text
+
+    out = Path(out_dir)
+    files = {"plan_json": atomic_write_text(out / "plan.json", plan.to_json())}
+    if len(plan.track) >= 2:  # a LineString needs two positions; a failed search has no track
+        files["trajectory_geojson"] = atomic_write_text(out / "trajectory.geojson", trajectory_geojson(plan))
+    files["plot"] = plot_plan(plan, sea, out / "plan.png")
+    return files

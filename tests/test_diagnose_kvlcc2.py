@@ -1,0 +1,66 @@
+"""Real data, no labels: the KVLCC2 tanker (MARIN free-running tests, SIMMAN 2008).
+
+The ``kvlcc2`` profile is a linear rudder/propeller model fitted on the 10/10 zig-zags. It fits
+those runs, fails on the 35 deg turning circles (large drift and yaw rate), and the diagnosis
+of the larger manoeuvres names nonlinear physics and improves runs not used for fitting.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from diagnose.api import run
+from diagnose.model import AugmentedModel, fit_percent, prepare
+from diagnose.recording import read_marin_dat
+from primitives.ship import load_profile
+
+DATA = Path(__file__).resolve().parents[1] / "diagnose" / "data"
+
+
+def _rec(name: str):
+    return read_marin_dat(DATA / f"MARIN_FREE_KVLCC2_{name}_m.dat")
+
+
+def _fit(profile, rec):
+    m = AugmentedModel(profile, profile.params(), [])
+    return fit_percent(rec.y, m.simulate(prepare(profile, rec), m.p0())[0])
+
+
+def test_profile_is_a_single_screw_rudder_propeller_model():
+    p = load_profile("kvlcc2")
+    assert p.actuator == "rudder_propeller" and p.inputs == ("delta", "n")
+    assert p.length_m == 320.0 and p.sample_time == 1.0
+    th = p.params()
+    names = p.param_names
+    assert th[names.index("Yuv")] < 0 and th[names.index("Nur")] < 0  # sway and yaw damping
+
+
+def test_linear_baseline_fits_the_10_10_zigzags_but_not_the_turning_circle():
+    p = load_profile("kvlcc2")
+    for name in ("zz_10", "zz_-10"):
+        f = _fit(p, _rec(name))
+        assert f[1] > 75 and f[2] > 75, f
+    f_tc = _fit(p, _rec("tc_35"))
+    assert np.all(f_tc < 0), f_tc  # the mismatch the diagnosis has to explain
+
+
+@pytest.mark.slow
+def test_zigzag_20_diagnosis_names_nonlinear_physics_and_improves_turning_circles():
+    p = load_profile("kvlcc2")
+    d = run([_rec("zz_20"), _rec("zz_-20")], p, fit_on=[_rec("zz_10"), _rec("zz_-10")],
+            validate=[_rec("tc_35"), _rec("tc_-35")])
+    effects = {f["effect"] for f in d.findings}
+    assert effects & {"quadratic_damping", "missing_coupling", "thrust_loss"}, d.findings
+    assert all(d.fit_after[k] > d.fit_before[k] for k in d.fit_before), (d.fit_before, d.fit_after)
+
+
+@pytest.mark.slow
+def test_turning_circle_diagnosis_improves_the_20_20_zigzags():
+    p = load_profile("kvlcc2")
+    d = run([_rec("tc_35"), _rec("tc_-35")], p, fit_on=[_rec("zz_10"), _rec("zz_-10")],
+            validate=[_rec("zz_20"), _rec("zz_-20")])
+    assert d.findings
+    assert d.fit_after["surge"] > d.fit_before["surge"] and d.fit_after["yaw"] > d.fit_before["yaw"]

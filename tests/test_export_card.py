@@ -1,0 +1,205 @@
+"""Trial card, plots, orders in sailor's words, export_all and the ``shiptrial export`` command."""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+
+import numpy as np
+import pytest
+from shapely.geometry import Polygon
+
+from cli.app import _run
+from maps.export import FORMATS, export_all
+from maps.export._common import describe_inputs, input_phases
+from maps.export._testing import synthetic_plan
+from maps.export.card import beaufort, card_figures, card_html, render_card_page1, step_sheets
+from maps.export.plots import obstacle_geoms, plot_states
+from maps.plan import Plan
+
+START = "2026-06-01T08:00:00Z"
+ISLAND = Polygon([(24.953, 60.1215), (24.956, 60.1215), (24.956, 60.1225), (24.953, 60.1225)])
+
+
+@pytest.fixture(scope="module")
+def azi_plan() -> Plan:
+    return synthetic_plan("full-scale")
+
+
+@pytest.fixture(scope="module")
+def model_plan() -> Plan:
+    return synthetic_plan("model-ship", ("straight", "zigzag_20_20_p", "turn_s"))
+
+
+def _png_size(data: bytes) -> tuple[int, int]:
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+
+
+def test_orders_for_azimuth_ship_name_thrusters_rpm_and_directions(azi_plan):
+    row = np.array([25.0, np.radians(90.0), 12.4, np.radians(-30.0)])
+    assert describe_inputs(azi_plan, row) == "bow thruster 25 rpm, thrust 90° to starboard; stern thruster 12 rpm, thrust 30° to port"
+    # tau14 (pure sway): both thrusters push to starboard, then both to port
+    sway = next(st for st in azi_plan.steps if st.primitive == "tau14")
+    phases = input_phases(azi_plan, sway)
+    assert len(phases) == 2
+    assert phases[0].startswith("at +0:00:") and phases[0].count("90° to starboard") == 2
+    assert phases[1].startswith("at +1:40:") and phases[1].count("90° to port") == 2
+
+
+def test_orders_for_generalized_force_ship(model_plan):
+    zz = model_plan.steps[1]
+    phases = input_phases(model_plan, zz)
+    assert "turning moment 444 to port" in phases[0] and "turning moment 444 to starboard" in phases[1]
+
+
+def test_step_sheets_carry_what_the_bridge_needs(azi_plan):
+    sheets = step_sheets(azi_plan, START)
+    assert len(sheets) == len(azi_plan.steps)
+    s = sheets[1]
+    assert s["position"] == "60°07.270'N 024°57.081'E"
+    assert s["heading"] == "030°" and s["speed"].startswith("5.8 kn")
+    assert s["orders"] == azi_plan.steps[1].commands and s["duration"] == "3:01"
+    assert s["start"] == "+0:50 (08:00:50 UTC)"
+    assert any("to port" in a and "to starboard" in a for a in s["abort"])
+
+
+def test_card_html_is_self_contained_and_complete(azi_plan, tmp_path):
+    text = card_html(azi_plan, sea_map=[ISLAND], start=START)
+    assert "http://" not in text and "https://" not in text
+    imgs = re.findall(r'src="data:image/png;base64,([^"]+)"', text)
+    assert len(imgs) == 2
+    for b64 in imgs:
+        w, h = _png_size(base64.b64decode(b64))
+        assert w > 500 and h > 500
+    for st in azi_plan.steps:
+        assert st.primitive in text
+    assert "Beaufort 5" in text and "10 m/s" in text
+    assert "bow thruster" in text and "rudder 10 deg starboard" in text
+
+
+def test_card_pdf_and_page1_render(azi_plan, tmp_path):
+    figs = card_figures(azi_plan, [ISLAND], START)
+    n_pages = len(figs)
+    import matplotlib.pyplot as plt
+
+    for f in figs:
+        plt.close(f)
+    paths = export_all(azi_plan, tmp_path, sea_map={"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"kind": "land"}, "geometry": ISLAND.__geo_interface__}]}, start=START)
+    pdf = paths["card_pdf"].read_bytes()
+    assert pdf.startswith(b"%PDF") and len(re.findall(rb"/Type\s*/Page\b", pdf)) == n_pages
+    png = render_card_page1(azi_plan, tmp_path / "page1.png", [ISLAND], START).read_bytes()
+    w, h = _png_size(png)
+    assert h > w > 800  # A4 portrait
+
+
+def test_export_all_writes_every_format(model_plan, tmp_path):
+    paths = export_all(model_plan, tmp_path / "out", start=START)
+    assert set(FORMATS) | {"card_pdf", "track_png", "states_png"} == set(paths)
+    for p in paths.values():
+        assert p.exists() and p.stat().st_size > 500
+    assert paths["rtz"].stem == "model-ship-trial"
+
+
+def test_plot_states_png(azi_plan, tmp_path):
+    w, h = _png_size(plot_states(azi_plan, tmp_path / "s.png").read_bytes())
+    assert w > 600 and h > 600
+
+
+def test_obstacle_inputs_accepted(tmp_path):
+    fc = {"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {}, "geometry": ISLAND.__geo_interface__}]}
+    f = tmp_path / "m.geojson"
+    f.write_text(json.dumps(fc))
+    for src in (ISLAND, [ISLAND], fc, f, str(f)):
+        (g,) = obstacle_geoms(src)
+        assert g.equals(ISLAND)
+    assert obstacle_geoms(None) == []
+
+
+def test_beaufort():
+    assert [beaufort(v) for v in (0.1, 5.0, 10.0, 10.9, 33.0)] == [0, 3, 5, 6, 12]
+
+
+# -- CLI -------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def plan_file(azi_plan, tmp_path_factory):
+    p = tmp_path_factory.mktemp("cli") / "plan.json"
+    p.write_text(azi_plan.to_json())
+    return p
+
+
+@pytest.mark.parametrize("fmt", ["gpx", "rtz", "geojson", "csv"])
+def test_cli_export_one_format(plan_file, tmp_path, fmt, capsys):
+    out = tmp_path / f"trial.{fmt}"
+    assert _run(["export", str(plan_file), "--format", fmt, "--out", str(out), "--start", START]) == 0
+    assert out.exists() and out.stat().st_size > 500
+    assert f"wrote {out}" in capsys.readouterr().out
+
+
+def test_cli_export_card_html_only(plan_file, tmp_path):
+    out = tmp_path / "card.html"
+    assert _run(["export", str(plan_file), "-f", "card", "-o", str(out), "--no-pdf"]) == 0
+    assert out.exists() and not out.with_suffix(".pdf").exists()
+
+
+@pytest.mark.parametrize(
+    "content, needle",
+    [
+        (None, "no such plan file"),
+        ("{not json", "not valid JSON"),
+        ('{"format": "shiptrial-plan/1"}', "missing"),
+        ('{"format": "something-else"}', "not a plan"),
+        ("[1, 2]", "malformed plan"),
+    ],
+)
+def test_cli_export_bad_plan_is_one_line_error_exit_2(tmp_path, capsys, content, needle):
+    p = tmp_path / "plan.json"
+    if content is not None:
+        p.write_text(content)
+    assert _run(["export", str(p), "--format", "gpx"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and needle in err and "\n" not in err and "Traceback" not in err
+
+
+def test_cli_export_plan_without_steps_exit_2(azi_plan, tmp_path, capsys):
+    p = tmp_path / "plan.json"
+    p.write_text(json.dumps(json.loads(azi_plan.to_json()) | {"steps": []}))
+    assert _run(["export", str(p), "--format", "rtz"]) == 2
+    assert "steps" in capsys.readouterr().err
+
+
+def test_cli_export_unknown_format_exit_2(plan_file, capsys):
+    assert _run(["export", str(plan_file), "--format", "kml"]) == 2
+    assert "kml" in capsys.readouterr().err
+
+
+def test_sea_map_object_obstacles_come_back_in_lonlat(azi_plan, tmp_path):
+    geo = pytest.importorskip("maps.geo")
+    sea = geo.load_map()
+    (g,) = obstacle_geoms(sea)
+    lon0, lat0, lon1, lat1 = g.bounds
+    assert 24.7 < lon0 < lon1 < 25.3 and 60.0 < lat0 < lat1 < 60.3
+    # the card draws the bundled map's land around the synthetic track (placed in Helsinki)
+    assert render_card_page1(azi_plan, tmp_path / "p1.png", sea, START).stat().st_size > 50_000
+
+
+def test_geojson_sea_map_draws_only_what_the_hull_must_avoid():
+    box = {"type": "Polygon", "coordinates": [[[24.9, 60.1], [25.0, 60.1], [25.0, 60.2], [24.9, 60.1]]]}
+    fc = {"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"kind": "trial_area"}, "geometry": box},
+        {"type": "Feature", "properties": {"kind": "land"}, "geometry": ISLAND.__geo_interface__},
+    ]}
+    (g,) = obstacle_geoms(fc)
+    assert g.equals(ISLAND)
+
+
+def test_cli_card_uses_the_bundled_map_the_plan_names():
+    from cli.export_cmd import resolve_sea_map
+
+    pytest.importorskip("maps.geo")
+    assert resolve_sea_map(None, "helsinki") is not None
+    assert resolve_sea_map(None, "synthetic") is None

@@ -1,0 +1,221 @@
+"""Exports of synthetic plans: GeoJSON (RFC 7946), GPX 1.1, RTZ 1.2 (XSD), CSV schedule."""
+
+from __future__ import annotations
+
+import copy
+import csv
+import io
+import json
+import re
+
+import numpy as np
+import pytest
+
+from maps.export import ExportError, export_plan
+from maps.export._common import KN_PER_MPS, M_PER_NM, cross_track, latlon_dm, waypoints
+from maps.export._testing import synthetic_plan
+from maps.export.geojson import plan_geojson, validate_geojson
+from maps.export.gpx import plan_gpx
+from maps.export.rtz import RTZ_NS, plan_rtz, validate_rtz
+from maps.plan import Plan
+
+START = "2026-06-01T08:00:00Z"
+
+
+@pytest.fixture(scope="module")
+def azi_plan() -> Plan:
+    return synthetic_plan("full-scale")
+
+
+@pytest.fixture(scope="module")
+def model_plan() -> Plan:
+    return synthetic_plan("model-ship")
+
+
+# -- GeoJSON ---------------------------------------------------------------------------------
+
+
+def test_geojson_passes_rfc7946_check_and_holds_track_and_starts(azi_plan, tmp_path):
+    path = export_plan(azi_plan, "geojson", tmp_path / "t.geojson")[0]
+    obj = json.loads(path.read_text())
+    assert validate_geojson(obj) == []
+    assert "crs" not in obj
+    kinds = [f["properties"]["kind"] for f in obj["features"]]
+    assert kinds.count("track") == 1 and kinds.count("manoeuvre_start") == len(azi_plan.steps)
+    line = next(f for f in obj["features"] if f["properties"]["kind"] == "track")["geometry"]["coordinates"]
+    # lon, lat order: the first position is the plan's start (lon 24.95, lat 60.12)
+    assert line[0] == [24.95, 60.12]
+    np.testing.assert_allclose(line[-1], azi_plan.lonlat[-1], atol=1e-7)
+    starts = [f for f in obj["features"] if f["properties"]["kind"] == "manoeuvre_start"]
+    for f, st in zip(starts, azi_plan.steps):
+        p = f["properties"]
+        assert p["index"] == st.index + 1 and p["primitive"] == st.primitive and p["commands"] == st.commands
+        assert p["duration_s"] == pytest.approx(st.duration_s, abs=0.01)
+        assert p["entry_heading_deg"] == pytest.approx(st.entry_heading_deg, abs=0.05)
+        assert p["entry_speed_kn"] == pytest.approx(st.entry_speed_mps * KN_PER_MPS, abs=0.01)
+        np.testing.assert_allclose(f["geometry"]["coordinates"], [st.entry_lon, st.entry_lat], atol=1e-7)
+    # every number has at most 7 decimals in the written text
+    assert not re.search(r"\d\.\d{8,}", path.read_text())
+
+
+def test_geojson_sea_room_polygon_is_ccw_and_contains_the_track(azi_plan):
+    from shapely.geometry import Point, shape
+
+    obj = plan_geojson(azi_plan)
+    room = next(f for f in obj["features"] if f["properties"]["kind"] == "sea_room")["geometry"]
+    ring = np.asarray(room["coordinates"][0])
+    area = 0.5 * np.sum(ring[:-1, 0] * ring[1:, 1] - ring[1:, 0] * ring[:-1, 1])
+    assert area > 0
+    poly = shape(room)
+    assert all(poly.buffer(1e-6).contains(Point(lon, lat)) for lon, lat in azi_plan.lonlat[::25])
+
+
+@pytest.mark.parametrize(
+    "geom, message",
+    [
+        ({"type": "Point", "coordinates": [60.12, 124.95]}, "latitude"),
+        ({"type": "Point", "coordinates": [24.123456789, 60.1]}, "decimals"),
+        ({"type": "LineString", "coordinates": [[24.9, 60.1]]}, "2 or more"),
+        ({"type": "Polygon", "coordinates": [[[0, 0], [0, 1], [1, 1], [1, 0], [0, 0]]]}, "counter-clockwise"),
+        ({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 0.5]]]}, "not closed"),
+    ],
+)
+def test_geojson_checker_rejects_rfc7946_violations(geom, message):
+    errs = validate_geojson({"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": geom, "properties": {}}]})
+    assert any(message in e for e in errs), errs
+
+
+def test_geojson_checker_rejects_crs_member():
+    assert any("crs" in e for e in validate_geojson({"type": "FeatureCollection", "features": [], "crs": {}}))
+
+
+# -- GPX -------------------------------------------------------------------------------------
+
+
+def test_gpx_route_parses_with_gpxpy(azi_plan, tmp_path):
+    import gpxpy
+
+    path = export_plan(azi_plan, "gpx", tmp_path / "t.gpx", start=START)[0]
+    gpx = gpxpy.parse(path.read_text(encoding="utf-8"))
+    assert gpx.version == "1.1"
+    (rte,) = gpx.routes
+    assert len(rte.points) == len(azi_plan.steps) + 1
+    for pt, st in zip(rte.points, azi_plan.steps):
+        assert pt.name.endswith(st.primitive)
+        assert pt.latitude == pytest.approx(st.entry_lat, abs=1e-7) and pt.longitude == pytest.approx(st.entry_lon, abs=1e-7)
+        for c in st.commands:
+            assert c in pt.description
+    assert rte.points[-1].name.endswith("end")
+    times = [p.time for p in rte.points]
+    assert times == sorted(times) and (times[-1] - times[0]).total_seconds() == pytest.approx(azi_plan.duration_s, abs=1)
+    assert times[0].isoformat().startswith("2026-06-01T08:00:00")
+    assert len(gpx.tracks[0].segments[0].points) == len(azi_plan.t)
+
+
+def test_gpx_of_subsecond_plan_has_distinct_track_times(model_plan):
+    import gpxpy
+
+    gpx = gpxpy.parse(plan_gpx(model_plan, start=START).decode())
+    times = [p.time for p in gpx.tracks[0].segments[0].points]
+    assert len(set(times)) == len(times)
+
+
+# -- RTZ -------------------------------------------------------------------------------------
+
+
+def test_rtz_validates_against_the_rtz12_xsd(azi_plan, model_plan, tmp_path):
+    for plan in (azi_plan, model_plan):
+        path = export_plan(plan, "rtz", tmp_path / f"{plan.ship}.rtz", start=START)[0]
+        assert validate_rtz(path) == []
+
+
+def test_rtz_waypoints_legs_xtd_speeds_schedule_and_extensions(azi_plan):
+    from lxml import etree
+
+    doc = etree.fromstring(plan_rtz(azi_plan, route_name="trial", start=START))
+    ns = {"r": RTZ_NS}
+    wps = doc.findall("r:waypoints/r:waypoint", ns)
+    assert len(wps) == len(azi_plan.steps) + 1
+    assert wps[0].find("r:leg", ns) is None and all(w.find("r:leg", ns) is not None for w in wps[1:])
+    half_nm = (0.5 * azi_plan.hull[1] + azi_plan.margin_m) / M_PER_NM
+    ours = waypoints(azi_plan)
+    for i, w in enumerate(wps[1:], start=1):
+        leg = w.find("r:leg", ns)
+        stbd, port = cross_track(azi_plan, ours, i)
+        assert float(leg.get("starboardXTD")) == pytest.approx(stbd / M_PER_NM + half_nm, abs=6e-4)
+        assert float(leg.get("portsideXTD")) == pytest.approx(port / M_PER_NM + half_nm, abs=6e-4)
+        assert float(leg.get("speedMax")) <= np.max(azi_plan.speed) * KN_PER_MPS + 0.01
+    # the zig-zag leg (into waypoint 3) swings out to both sides by more than the corridor half width
+    zz = wps[2].find("r:leg", ns)
+    assert float(zz.get("starboardXTD")) > half_nm + 5 / M_PER_NM
+    # the straight first leg is sailed at the cruise speed, 3 m/s = 5.83 kn
+    assert float(wps[1].find("r:leg", ns).get("speedMin")) == pytest.approx(5.83, abs=0.01)
+    elems = doc.findall("r:schedules/r:schedule/r:calculated/r:scheduleElement", ns)
+    assert [int(e.get("waypointId")) for e in elems] == [int(w.get("id")) for w in wps]
+    assert elems[0].get("etd") == "2026-06-01T08:00:00Z" and elems[0].get("eta") is None
+    assert elems[-1].get("etd") is None
+    assert elems[2].get("eta") == "2026-06-01T08:03:51Z"  # zig-zag of 181 s after a 50 s straight
+    ext = wps[1].find("r:extensions/r:extension", ns)
+    assert ext.get("manufacturer") == "shiptrial" and ext.get("name") == "trialManoeuvre"
+    cmds = [c.text for c in ext.iter("{urn:shiptrial:rtz-trial:1}command")]
+    assert cmds == azi_plan.steps[1].commands
+
+
+def test_rtz_validation_catches_schema_and_rule_violations(azi_plan):
+    good = plan_rtz(azi_plan, route_name="trial", start=START)
+    assert validate_rtz(good, file_name="trial.rtz") == []
+    bad_xtd = re.sub(rb'starboardXTD="[0-9.]+"', b'starboardXTD="12.5"', good, count=1)
+    assert any("starboardXTD" in e for e in validate_rtz(bad_xtd))
+    no_pos = re.sub(rb"<position [^>]*/>", b"", good, count=1)
+    assert validate_rtz(no_pos)
+    assert any("routeName" in e for e in validate_rtz(good, file_name="other.rtz"))
+
+
+# -- CSV -------------------------------------------------------------------------------------
+
+
+def test_csv_schedule_rows_columns_and_units(azi_plan, tmp_path):
+    path = export_plan(azi_plan, "csv", tmp_path / "t.csv", start=START)[0]
+    rows = list(csv.DictReader(io.StringIO(path.read_text())))
+    assert len(rows) == len(azi_plan.t)
+    assert {"time_s", "lat", "lon", "heading_deg", "speed_mps", "speed_kn", "manoeuvre", "primitive", "n1", "alpha1_deg"} <= set(rows[0])
+    k = 300
+    r = rows[k]
+    assert float(r["lat"]) == pytest.approx(azi_plan.lonlat[k, 1], abs=1e-7)
+    assert float(r["lon"]) == pytest.approx(azi_plan.lonlat[k, 0], abs=1e-7)
+    assert float(r["speed_kn"]) == pytest.approx(float(r["speed_mps"]) * KN_PER_MPS, abs=0.01)
+    assert float(r["alpha1_deg"]) == pytest.approx(np.degrees(azi_plan.inputs[k, 1]), abs=0.01)
+    headings = [float(x["heading_deg"]) for x in rows]
+    assert min(headings) >= 0 and max(headings) < 360
+    firsts = [x for x in rows if x["orders"]]
+    assert [x["primitive"] for x in firsts] == [st.primitive for st in azi_plan.steps]
+    assert rows[-1]["utc"] == "2026-06-01T08:13:10Z"
+
+
+# -- shared pieces and errors ----------------------------------------------------------------
+
+
+def test_positions_in_degrees_and_minutes():
+    assert latlon_dm(60.12, 24.95) == "60°07.200'N 024°57.000'E"
+    assert latlon_dm(-33.5, -70.25) == "33°30.000'S 070°15.000'W"
+
+
+def test_exports_survive_json_round_trip(azi_plan, tmp_path):
+    p = tmp_path / "plan.json"
+    p.write_text(azi_plan.to_json())
+    loaded = Plan.load(p)
+    assert plan_rtz(loaded, route_name="x", start=START) == plan_rtz(azi_plan, route_name="x", start=START)
+
+
+def test_plan_without_steps_or_with_ragged_samples_is_a_user_error(azi_plan, tmp_path):
+    empty = copy.deepcopy(azi_plan)
+    empty.steps = []
+    with pytest.raises(ExportError, match="steps"):
+        export_plan(empty, "gpx", tmp_path / "x.gpx")
+    ragged = copy.deepcopy(azi_plan)
+    ragged.speed = ragged.speed[:-3]
+    with pytest.raises(ExportError, match="samples.speed"):
+        export_plan(ragged, "rtz", tmp_path / "x.rtz")
+    with pytest.raises(ExportError, match="format"):
+        export_plan(azi_plan, "kml", tmp_path / "x.kml")
+    assert not list(tmp_path.iterdir())

@@ -1,0 +1,123 @@
+"""Sea maps: loading, validation, repair, projection and point checks."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import shapely
+
+from maps.geo import MapError, bundled_map_path, load_map
+
+
+def fc(*features, name="test"):
+    return {"type": "FeatureCollection", "name": name, "features": list(features)}
+
+
+def feat(geom, **props):
+    return {"type": "Feature", "geometry": geom, "properties": props}
+
+
+def square(lon, lat, dlon, dlat):
+    return {"type": "Polygon", "coordinates": [[[lon, lat], [lon + dlon, lat], [lon + dlon, lat + dlat], [lon, lat + dlat], [lon, lat]]]}
+
+
+def write(tmp_path, doc, name="m.geojson"):
+    p = tmp_path / name
+    p.write_text(json.dumps(doc))
+    return p
+
+
+def test_bundled_helsinki_loads_projected_in_ship_frame():
+    sea = load_map()
+    assert sea.land.geom_type in ("Polygon", "MultiPolygon") and sea.land.area > 1e7  # tens of km2 of land
+    assert sea.warnings == []
+    # x north, y east: a point north-east of the centre has x > 0 and y > 0
+    x, y = sea.to_local(sea.lon0 + 0.01, sea.lat0 + 0.01)
+    assert x > 1000 and y > 500
+    lon, lat = sea.to_lonlat(x, y)
+    assert abs(lon - (sea.lon0 + 0.01)) < 1e-9 and abs(lat - (sea.lat0 + 0.01)) < 1e-9
+    # the map spans about 19 km north-south and 17-20 km east-west
+    xmin, ymin, xmax, ymax = sea.extent
+    assert 15e3 < xmax - xmin < 20e3 and 15e3 < ymax - ymin < 22e3
+
+
+def test_projection_is_metric():
+    sea = load_map()
+    x0, y0 = sea.to_local(24.95, 60.10)
+    x1, y1 = sea.to_local(24.95, 60.11)  # 0.01 deg latitude = 1113 m
+    assert abs((x1 - x0) - 1113.0) < 5 and abs(y1 - y0) < 1
+
+
+def test_invalid_polygon_repaired_and_reported(tmp_path):
+    bowtie = {"type": "Polygon", "coordinates": [[[25.0, 60.0], [25.02, 60.01], [25.02, 60.0], [25.0, 60.01], [25.0, 60.0]]]}
+    sea = load_map(write(tmp_path, fc(feat(bowtie, kind="land"), feat(square(24.98, 59.98, 0.06, 0.04), kind="trial_area"))))
+    assert sea.land.is_valid and sea.land.area > 0
+    assert any("repaired" in w and "feature 0" in w for w in sea.warnings)
+
+
+def test_depth_areas_shallower_than_draught_plus_ukc_are_obstacles(tmp_path):
+    doc = fc(feat(square(25.0, 60.0, 0.01, 0.005), kind="depth_area", min_depth_m=2.0),
+             feat(square(25.03, 60.0, 0.01, 0.005), kind="depth_area", min_depth_m=10.0),
+             feat(square(24.99, 59.99, 0.06, 0.03), kind="trial_area"))
+    p = write(tmp_path, doc)
+    deep_ship = load_map(p, draught_m=2.5, ukc_m=0.5)
+    assert deep_ship.n_shallow == 1
+    x, y = deep_ship.to_local(25.005, 60.0025)
+    assert deep_ship.obstacles.contains(shapely.Point(float(x), float(y)))
+    x2, y2 = deep_ship.to_local(25.035, 60.0025)
+    assert not deep_ship.obstacles.contains(shapely.Point(float(x2), float(y2)))
+    small = load_map(p, draught_m=1.0, ukc_m=0.5)
+    assert small.n_shallow == 0
+
+
+def test_obstacle_point_radius_and_start_goal(tmp_path):
+    doc = fc(feat({"type": "Point", "coordinates": [25.01, 60.005]}, kind="obstacle", radius_m=100.0),
+             feat({"type": "Point", "coordinates": [25.0, 60.0]}, kind="start", heading_deg=90),
+             feat({"type": "Point", "coordinates": [25.03, 60.01]}, kind="goal"),
+             feat(square(24.98, 59.99, 0.07, 0.03), kind="trial_area"))
+    sea = load_map(write(tmp_path, doc))
+    assert abs(sea.obstacles.area - np.pi * 100**2) < 0.02 * np.pi * 100**2
+    assert sea.start is not None and abs(sea.start.psi - np.pi / 2) < 1e-12 and sea.goal.psi is None
+
+
+@pytest.mark.parametrize(
+    "doc, words",
+    [
+        (fc(), "no features"),
+        (fc(feat({"type": "LineString", "coordinates": [[25, 60], [25.1, 60.1]]}, kind="land")), "must be a Polygon"),
+        (fc(feat(square(25, 60, 0.1, 0.1), kind="harbour")), "unknown"),
+        (fc(feat(square(25, 60, 0.1, 0.1), kind="depth_area")), "min_depth_m"),
+        (fc(feat({"type": "Polygon", "coordinates": [[[60, 125], [60.1, 125], [60.1, 125.1], [60, 125]]]})), "swapped"),
+        ({"type": "Feature"}, "FeatureCollection"),
+    ],
+)
+def test_bad_maps_rejected_with_reason(tmp_path, doc, words):
+    with pytest.raises(MapError, match=words):
+        load_map(write(tmp_path, doc))
+
+
+def test_missing_and_malformed_files(tmp_path):
+    with pytest.raises(MapError, match="no such map"):
+        load_map(tmp_path / "nope.geojson")
+    bad = tmp_path / "bad.geojson"
+    bad.write_text("{not json")
+    with pytest.raises(MapError, match="not valid JSON"):
+        load_map(bad)
+
+
+def test_locate_checks_land_outside_and_swapped():
+    sea = load_map()
+    x, y = sea.locate(60.1625, 24.9600, "start")
+    assert np.isfinite(x) and np.isfinite(y)
+    with pytest.raises(MapError, match="on land"):
+        sea.locate(60.170, 24.940, "start")  # Helsinki peninsula
+    with pytest.raises(MapError, match="swapped"):
+        sea.locate(24.96, 60.16, "start")
+    with pytest.raises(MapError, match="outside the map"):
+        sea.locate(59.0, 24.96, "goal")
+
+
+def test_bundled_map_is_packaged():
+    assert bundled_map_path().is_file()
