@@ -27,11 +27,13 @@ def register(app: typer.Typer) -> None:
         min_frac: float | None = typer.Option(None, "--min-frac", help="minimum share of every primitive"),
         max_frac: float | None = typer.Option(None, "--max-frac", help="maximum share of every primitive"),
         noisy_moments: int = typer.Option(0, "--noisy-moments", help="estimate the moments from this many noisy simulations (0: noise-free)"),
+        scheduler: str | None = typer.Option(None, "--scheduler",
+                                             help="Dask scheduler address for the Monte Carlo (default: $SHIPTRIAL_SCHEDULER, else all local cores)"),
     ) -> None:
         """Choose the mix of manoeuvres that maximises information, and check it by Monte Carlo."""
         from expdesign.api import default_library, run_design
         from expdesign.errors import DesignError
-        from expdesign.montecarlo import evaluate_designs
+        from expdesign.montecarlo import evaluate_designs_parallel
         from expdesign.report import report_dict, write_report
         from expdesign.sensitivity import THESIS_SHARES, sensitivity_study
         from primitives.ship import load_profile
@@ -52,8 +54,8 @@ def register(app: typer.Typer) -> None:
             designs = {"optimized": d.weights, "random": "random", "uniform": {n: 1.0 / len(names) for n in names}}
             if profile.name == "model-ship" and set(THESIS_SHARES) <= set(names):
                 designs["thesis"] = THESIS_SHARES  # the shares section 9.1.1 reports, for comparison
-            mc = evaluate_designs(profile, designs, runs=monte_carlo, seed=seed, primitives=lib, n_samples=mc_samples,
-                                  mean_subtraction=mean_subtraction)
+            mc = evaluate_designs_parallel(profile, designs, runs=monte_carlo, seed=seed, scheduler=scheduler, primitives=lib,
+                                           n_samples=mc_samples, mean_subtraction=mean_subtraction)
             cfg = {"runs": monte_carlo, "n_samples": mc_samples, "n_segments": 5, "seed": seed, "sample_time": profile.sample_time,
                    "mean_subtraction": mean_subtraction}
         sens = None

@@ -60,10 +60,10 @@ def _fits(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> dict[s
 
 def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]) -> np.ndarray:
     """Output-error fit of every baseline parameter on the --fit-on recordings."""
-    preps = [prepare(profile, r) for r in recs]
-    model = AugmentedModel(profile, theta0, [])
+    preps = [prepare(profile, r, i) for i, r in enumerate(recs)]
+    model = AugmentedModel(profile, theta0, [], n_rec=len(preps))
     w = 1.0 / np.maximum(noise_std(np.concatenate([r.y for r in recs])), 0.02 * np.std(np.concatenate([r.y for r in recs]), axis=0))
-    P, _cov, _rss = fit(model, preps, model.p0(), list(range(model.n_base)), w, max_iter=30, tol=1e-7)
+    P, _cov, _rss = fit(model, preps, model.p0(), list(range(model.n_base)) + model.x0_params(), w, max_iter=30, tol=1e-7)
     return P[: model.n_base]
 
 
@@ -138,8 +138,8 @@ def run(
         theta0 = fit_baseline(profile, theta0, fit_on)
         source = "fitted on " + ", ".join(r.source for r in fit_on)
     cands, untestable = build_library(profile, recordings)
-    model = AugmentedModel(profile, theta0, cands)
-    preps = [prepare(profile, r) for r in recordings]
+    preps = [prepare(profile, r, i) for i, r in enumerate(recordings)]
+    model = AugmentedModel(profile, theta0, cands, n_rec=len(preps))
     y_all = np.concatenate([r.y for r in recordings])
     sigma = noise_std(y_all)
     # weights: the noise where there is noise; quantised real data get a floor (2 % of the signal)
@@ -163,8 +163,10 @@ def run(
         })
     val_preps = [prepare(profile, r) for r in validate] if validate else []
     on = val_preps or preps
-    fb, fa = _fits(model, on, P0), _fits(model, on, result.P)
-    fbd, fad = _fits(model, preps, P0), _fits(model, preps, result.P)
+    P0x = P0.copy()
+    P0x[model.x0_params()] = result.P[model.x0_params()]  # the initial state is not physics: same in both
+    fb, fa = _fits(model, on, P0x), _fits(model, on, result.P)
+    fbd, fad = _fits(model, preps, P0x), _fits(model, preps, result.P)
     for f in findings:
         f["evidence"] = _evidence(f, location, fb, fa, "validation" if val_preps else "diagnosed")
     return Diagnosis(profile, theta0, model, result.P, findings, untestable, fb, fa, "validation" if val_preps else "diagnosed",

@@ -43,8 +43,10 @@ FULL_SCALE_EFFECTS: dict[str, dict] = {
     "actuator_delay": {"delay_s": 2.0, "check": {"delay_s": (2.0, 0.6)}},
     "input_offset": {"input": "alpha2", "offset": 0.05, "check": {"offset": (0.05, 0.35)}},
     "sensor_bias": {"signal": "v", "bias": 0.03, "check": {"bias": (0.03, 0.35)}},
-    "quadratic_damping": {"term": (2, "r*|r|", -1.5), "check": {"value": (-1.5, 0.4)}},
 }
+# Not in the full-scale battery: yaw r|r|. Every thesis zig-zag of this vessel holds one yaw-rate
+# amplitude per speed, so r|r| cannot be told from a speed-dependent linear damping u*r plus an
+# inertia change (the diagnosis names those instead) - a limit of the manoeuvres, not hidden here.
 NOISE = {"model-ship": ((0.02, 0.02, 0.02), (0.001, 0.001, 0.001), 0.002),
          "full-scale": ((0.0141, 0.0141, 0.0141), (0.001, 0.001, 0.001), 0.01)}
 
@@ -144,8 +146,7 @@ SINGLE = ("current", "actuator_delay", "input_offset", "thrust_loss", "quadratic
 COMBINED = (("current", "actuator_delay"), ("input_offset", "quadratic_damping"), ("sensor_bias", "inertia_change"))
 
 
-FULL_SCALE_CASES = ((), ("current",), ("actuator_delay",), ("input_offset",), ("sensor_bias",), ("quadratic_damping",),
-                    ("current", "sensor_bias"))
+FULL_SCALE_CASES = ((), ("current",), ("actuator_delay",), ("input_offset",), ("sensor_bias",), ("current", "sensor_bias"))
 
 
 def full_scale_battery(seeds: tuple[int, ...] = (1, 2)) -> list[tuple[tuple[str, ...], int]]:

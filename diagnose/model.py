@@ -34,6 +34,7 @@ class Prepared:
     y0: np.ndarray  # (3,) initial state estimate
     wind_body: tuple[np.ndarray, np.ndarray] | None  # air velocity in body axes (N+1,)
     phi: np.ndarray | None
+    index: int | None = None  # position among the diagnosed recordings (its initial-state parameters)
 
     @property
     def n(self) -> int:
@@ -59,19 +60,19 @@ def initial_state(y: np.ndarray, m: int = 8) -> np.ndarray:
     return coef[1]
 
 
-def prepare(profile: ShipProfile, rec: Recording) -> Prepared:
+def prepare(profile: ShipProfile, rec: Recording, index: int | None = None) -> Prepared:
     wind = None
     if rec.wind_ne is not None:
         c, s = np.cos(rec.psi), np.sin(rec.psi)
         wn = rec.wind_ne
         wind = (c * wn[:, 0] + s * wn[:, 1], -s * wn[:, 0] + c * wn[:, 1])
-    return Prepared(rec, rec.y, rec.psi, rec.inputs_for(profile.inputs), initial_state(rec.y), wind, rec.channels.get("phi"))
+    return Prepared(rec, rec.y, rec.psi, rec.inputs_for(profile.inputs), initial_state(rec.y), wind, rec.channels.get("phi"), index)
 
 
 class AugmentedModel:
     """Parameter vector P = [theta (baseline terms) | alpha (one entry per candidate slot)]."""
 
-    def __init__(self, profile: ShipProfile, theta0: np.ndarray, candidates: list[Candidate]):
+    def __init__(self, profile: ShipProfile, theta0: np.ndarray, candidates: list[Candidate], n_rec: int = 0):
         self.profile = profile
         self.theta0 = np.asarray(theta0, float)
         self.candidates = list(candidates)
@@ -83,12 +84,18 @@ class AugmentedModel:
             self.slot_of[c.key] = list(range(j, j + len(c.slots)))
             j += len(c.slots)
         self.n_base = len(self.base)
-        self.n_params = j
+        self.n_slots_end = j
+        self.n_rec = n_rec  # initial-state corrections (3 per diagnosed recording), seed 004 lesson 4
+        self.n_params = j + 3 * n_rec
         self._slot_fn = {k: compile_term(s.term) for k, s in enumerate(self.slots, start=self.n_base)
                          if s.kind == "term" and s.term not in ("wx", "wy", "wn")}
 
     def p0(self) -> np.ndarray:
-        return np.concatenate([self.theta0, np.zeros(len(self.slots))])
+        return np.concatenate([self.theta0, np.zeros(len(self.slots) + 3 * self.n_rec)])
+
+    def x0_params(self) -> list[int]:
+        """Indices of the initial-state nuisance parameters of all diagnosed recordings."""
+        return list(range(self.n_slots_end, self.n_params))
 
     def slot(self, j: int) -> Slot:
         return self.slots[j - self.n_base]
@@ -108,7 +115,7 @@ class AugmentedModel:
             if np.any(P[:, j] != 0):
                 terms.append((i, P[:, j], _t, names, fn))
         delay = None
-        for j in range(nb, self.n_params):
+        for j in range(nb, self.n_slots_end):
             col = P[:, j]
             if not np.any(col != 0):
                 continue
@@ -157,6 +164,9 @@ class AugmentedModel:
                 loop_terms.append((i, coef, [_factor(f) for f in term.split("*")]))
         out = np.empty((B, n + 1, 3))
         nu = np.broadcast_to(prep.y0, (B, 3)) - bias
+        if prep.index is not None and prep.index < self.n_rec:
+            k0 = self.n_slots_end + 3 * prep.index
+            nu = nu + P[:, k0: k0 + 3]
         out[:, 0] = nu
         wb = prep.wind_body
         nt = len(loop_terms)
@@ -211,6 +221,9 @@ class AugmentedModel:
         for j in range(self.n_params):
             if j < self.n_base:
                 h[j] = 1e-4 * max(abs(P[j]), 1e-6 * (1 + abs(P[j])))
+                continue
+            if j >= self.n_slots_end:
+                h[j] = 0.01 * (np.std(y[:, (j - self.n_slots_end) % 3]) + 1e-9)
                 continue
             s = self.slot(j)
             if s.kind == "current":

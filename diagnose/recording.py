@@ -209,10 +209,12 @@ def build_recording(
     if abs(dt_med - ts) > 0.01 * ts or np.ptp(np.diff(t)) > 0.01 * ts:
         notes.append(f"time stamps irregular (median step {dt_med:.3g} s): resampled on a uniform {ts:g} s grid")
     out = []
+    dropped = 0
     for piece_no, rows in enumerate(bounds):
         tp = t[rows]
         grid = np.arange(tp[0], tp[-1] + 1e-9 * ts, ts)
         if len(grid) < min_samples:
+            dropped += 1
             continue
         res = {}
         for k, v in cols.items():
@@ -238,6 +240,8 @@ def build_recording(
         chans = {k: v for k, v in res.items() if k not in ("x", "y", "psi", "u", "v", "r")}
         label = f"piece {piece_no + 1}" if len(bounds) > 1 else ""
         out.append(Recording(src + (f"[{label}]" if label else ""), grid, y, res["psi"], pos, chans, seg, meta, pnotes))
+    if dropped and out:
+        out[0].notes.append(f"{dropped} piece(s) between gaps shorter than {min_samples} samples were left out")
     if not out:
         n_max = max(len(np.arange(t[b][0], t[b][-1] + 1e-9 * ts, ts)) for b in bounds)
         raise RecordingError(

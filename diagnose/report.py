@@ -64,8 +64,10 @@ def to_text(d: Diagnosis) -> str:
         lines.append("Findings: none. The model explains the data: no candidate physics improves the fit "
                      "significantly and on held-out data.")
     elif not d.findings:
-        lines.append("Findings: none, but the model does NOT explain the data (residual well above the noise): "
-                     "no candidate in the library accounts for the misfit; the missing physics lies outside it.")
+        worst = max(d.location["rms_over_noise"].items(), key=lambda kv: kv[1])
+        lines.append(f"Findings: none, but the model does NOT explain the data (the {worst[0]} residual is {worst[1]:.0f} x "
+                     "the noise): no candidate improves the fit significantly and on held-out data, so the cause lies "
+                     "outside the library or these recordings cannot separate it (see the screened candidates in the JSON).")
     else:
         lines.append("Findings (strongest first):")
         for i, f in enumerate(d.findings, 1):
@@ -166,12 +168,18 @@ def write_plots(d: Diagnosis, out: str | Path) -> list[Path]:
     paths = []
     for kind, preps in (("diagnosed", d.preps), ("validation", d.val_preps)):
         for n, p in enumerate(preps):
-            before = p.y - d.model.simulate(p, d.model.p0())[0]
+            p0 = d.model.p0()
+            p0[d.model.x0_params()] = d.P[d.model.x0_params()]
+            before = p.y - d.model.simulate(p, p0)[0]
             after = p.y - d.model.simulate(p, d.P)[0]
             fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
+            win = max(1, int(round(5.0 / p.rec.sample_time)))
+            kern = np.ones(win) / win
             for i, ax in enumerate(axes):
-                ax.plot(p.rec.t, before[:, i], lw=0.7, label="before", color="tab:red")
-                ax.plot(p.rec.t, after[:, i], lw=0.7, label="after", color="tab:blue")
+                for res, lab, col in ((before, "before", "tab:red"), (after, "after", "tab:blue")):
+                    ax.plot(p.rec.t, res[:, i], lw=0.5, color=col, alpha=0.35)
+                    ax.plot(p.rec.t, np.convolve(res[:, i], kern, mode="same"), lw=1.5, color=col,
+                            label=f"{lab} (5 s mean)")
                 ax.set_ylabel(f"{'uvr'[i]} residual [{UNITS['uvr'[i]]}]")
                 ax.grid(alpha=0.3)
             axes[0].legend(loc="upper right")

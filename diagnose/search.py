@@ -24,9 +24,19 @@ from scipy import stats
 from diagnose.candidates import Candidate
 from diagnose.model import AugmentedModel, Prepared, fit, jacobian, residuals, stack
 
-ALPHA = 1e-3  # family-wise significance per round (Bonferroni over candidates)
+ALPHA = 1e-6  # family-wise significance per round (Bonferroni over candidates); strict because
+# open-loop residuals carry coloured process noise that the inflation factor only approximates
 N_BLOCKS = 8
 MIN_CV_GAIN = 0.002  # held-out weighted RSS must drop by at least 0.2 %
+STRONG_CV_GAIN = 0.10  # ... or by 10 %, which then needs only p < 0.01 (coloured real-data residuals)
+ALPHA_STRONG = 1e-2
+
+
+def _passes(p_value: float, cv_gain: float, n_cand: int, alpha: float = ALPHA) -> bool:
+    """Significant on the estimation data AND better on held-out blocks (seed 004: AIC plus
+    cross-validation between parts). Either very significant with any held-out gain, or a large
+    held-out gain with ordinary significance."""
+    return (p_value < alpha / n_cand and cv_gain > MIN_CV_GAIN) or (p_value < ALPHA_STRONG / n_cand and cv_gain > STRONG_CV_GAIN)
 
 
 @dataclass
@@ -52,7 +62,14 @@ class SearchResult:
 
 
 def inflation(res: np.ndarray, n_dof: int = 3, max_lag: int = 30) -> float:
-    """Variance inflation 1 + 2 sum (1 - k/K) rho_k of coloured residuals (Bartlett), per DOF mean."""
+    """Variance inflation of coloured residuals (largest over the DOFs).
+
+    ``res`` is noise-weighted, so a DOF whose RMS is near 1 is at the noise level: its colour is
+    process noise (slow drift a short window misses), and the inflation is the larger of the
+    Bartlett sum 1 + 2 sum (1 - k/K) rho_k and the AR(1) value (1 + rho_1) / (1 - rho_1). A DOF
+    far above the noise is coloured by deterministic misfit: Bartlett only (held-out blocks
+    guard that case).
+    """
     r = res.reshape(-1, n_dof)
     taus = []
     for i in range(n_dof):
@@ -63,8 +80,12 @@ def inflation(res: np.ndarray, n_dof: int = 3, max_lag: int = 30) -> float:
             continue
         K = max_lag
         rho = np.array([x[:-k] @ x[k:] / den for k in range(1, K + 1)])
-        taus.append(1.0 + 2.0 * np.sum((1 - np.arange(1, K + 1) / K) * rho))
-    return float(np.clip(np.mean(taus), 1.0, 100.0))
+        tau = 1.0 + 2.0 * np.sum((1 - np.arange(1, K + 1) / K) * rho)
+        if np.sqrt(np.mean(r[:, i] ** 2)) < 3.0:
+            r1 = float(np.clip(rho[0], -0.99, 0.995))
+            tau = max(tau, (1 + r1) / (1 - r1))
+        taus.append(tau)
+    return float(np.clip(np.max(taus), 1.0, 400.0))
 
 
 def block_masks(preps: list[Prepared], n_blocks: int = N_BLOCKS) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -78,7 +99,7 @@ def block_masks(preps: list[Prepared], n_blocks: int = N_BLOCKS) -> tuple[list[n
 
 def _ls(J: np.ndarray, r: np.ndarray) -> np.ndarray:
     try:
-        beta, *_ = np.linalg.lstsq(J, r, rcond=None)
+        beta, *_ = np.linalg.lstsq(J, r, rcond=1e-10)
     except np.linalg.LinAlgError:
         return np.zeros(J.shape[1])
     return beta
@@ -105,7 +126,7 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, P0: n
            base_free: list[int] | None = None, max_rounds: int = 5, alpha: float = ALPHA) -> SearchResult:
     """Forward selection over ``model.candidates``; returns the final parameters and the steps."""
     P = model.p0() if P0 is None else P0.copy()
-    free: list[int] = list(base_free or [])
+    free: list[int] = list(base_free or []) + model.x0_params()
     chosen: list[Candidate] = []
     steps: list[Step] = []
     screened: list[dict] = []
@@ -121,6 +142,8 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, P0: n
         cols = [j for c in todo for j in model.slot_of[c.key]]
         r0, J_all = jacobian(model, preps, P, free + cols, w)
         Jf, J = J_all[:, : len(free)], J_all[:, len(free):]
+        x0 = set(model.x0_params())
+        cv_cols = [k for k, j in enumerate(free) if j not in x0]
         M = len(r0)
         rss0 = float(r0 @ r0)
         # masks over the stacked residual rows
@@ -144,10 +167,12 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, P0: n
             p_val = float(stats.f.sf(f_stat, q, max(n_eff - q, 1)))
             dbic = n_eff * np.log(rss0 / max(rss1, 1e-300)) - q * np.log(n_eff)
             cv0 = cv1 = 0.0
+            Jfc = Jf[:, cv_cols]  # the initial state lives in the first block only: not cross-validated
+            Jxc = np.hstack([Jfc, Jc])
             for fit_m, test_m in ((m_even, m_odd), (m_odd, m_even)):
-                b = _ls(Jx[fit_m], r0[fit_m])
-                rt = r0[test_m] - Jx[test_m] @ b
-                r_ref = r0[test_m] - Jf[test_m] @ _ls(Jf[fit_m], r0[fit_m]) if free else r0[test_m]
+                b = _ls(Jxc[fit_m], r0[fit_m])
+                rt = r0[test_m] - Jxc[test_m] @ b
+                r_ref = r0[test_m] - Jfc[test_m] @ _ls(Jfc[fit_m], r0[fit_m]) if cv_cols else r0[test_m]
                 cv0 += float(r_ref @ r_ref)
                 cv1 += float(rt @ rt)
             cv_gain = (cv0 - cv1) / max(cv0, 1e-300)
@@ -162,7 +187,7 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, P0: n
         for f_stat, c, _rss1, p_val, dbic, cv_gain, _dg, corr, beta, _idx in ranked[:3]:
             if f_stat < 0.05 * ranked[0][0]:
                 continue
-            if not (p_val < alpha / n_cand and dbic > 0 and cv_gain > MIN_CV_GAIN):
+            if not (dbic > 0 and _passes(p_val, cv_gain, n_cand, alpha)):
                 continue
             new = model.slot_of[c.key]
             start = _line_start(model, preps, P, new, beta, w)
@@ -173,7 +198,7 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, P0: n
             if not _physical(c, model, P1, new, preps) or not np.isfinite(rss1):
                 continue
             f_nl, p_nl, res1 = _lr_test(model, preps, P1, w, rss0, rss1, len(new), M)
-            if p_nl >= alpha / n_cand:
+            if not _passes(p_nl, cv_gain, n_cand, alpha):
                 continue
             if best is None or rss1 < best[3]:
                 dof_gain = (r0.reshape(-1, 3) ** 2 - res1.reshape(-1, 3) ** 2).sum(axis=0)
@@ -196,7 +221,7 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, P0: n
             P2, cov2, rss_wo = fit(model, preps, P_wo, rest, w, max_iter=4)
             rss_with = float(np.sum(stack(residuals(model, preps, P[None]), w)[0] ** 2))
             f_b, p_b, _ = _lr_test(model, preps, P, w, rss_wo, rss_with, len(own), len(stack(residuals(model, preps, P[None]), w)[0]))
-            if p_b >= alpha / n_cand:
+            if not _passes(p_b, st.cv_gain, n_cand, alpha):
                 steps.remove(st)
                 free, P, cov = rest, P2, cov2
     return SearchResult(P, cov, free, steps, screened)

@@ -17,6 +17,7 @@ D-criterion only shifts by a constant, and A/E become unit-free.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -349,7 +350,9 @@ def solve_convex(
     for name in solvers:
         try:
             prob, var = _cvx_problem(mq, m0, cons, criterion)
-            prob.solve(solver=name)
+            with warnings.catch_warnings():  # an inaccurate status is recorded in the notes instead
+                warnings.simplefilter("ignore", UserWarning)
+                prob.solve(solver=name)
             if prob.status in ("optimal", "optimal_inaccurate") and var.value is not None:
                 w, used = np.clip(np.asarray(var.value, float), cons.lo, cons.hi), name
                 if prob.status == "optimal_inaccurate":

@@ -240,3 +240,47 @@ def evaluate_designs(
         if any(dist.process_std):
             out[name].notes.append("process noise of the disturbances is not simulated in the Monte Carlo study")
     return out
+
+
+def _chunk_task(args: tuple) -> dict[str, MCResult]:
+    profile, designs, runs, seed, run_slice, kw = args
+    return evaluate_designs(profile, designs, runs, seed, run_slice=run_slice, **kw)
+
+
+def evaluate_designs_parallel(
+    profile: ShipProfile,
+    designs: Mapping[str, Any],
+    runs: int = 500,
+    seed: int = 0,
+    *,
+    scheduler: Any = None,
+    chunk_runs: int | None = None,
+    progress: bool = True,
+    **kw: Any,
+) -> dict[str, MCResult]:
+    """:func:`evaluate_designs` split into chunks of runs on an engine of ``expdesign.parallel``
+    (local cores by default, or a Dask cluster): the numbers equal one in-process call.
+
+    When interrupted (Ctrl-C) the finished chunks are kept; each result then notes how many
+    runs it holds.
+    """
+    from expdesign.parallel import get_engine
+
+    engine = get_engine(scheduler)
+    n_workers = getattr(engine, "workers", 4)
+    chunk = chunk_runs or max(25, -(-runs // max(1, 2 * n_workers)))
+    designs = {k: getattr(v, "weights", v) for k, v in designs.items()}
+    tasks = [(profile, designs, runs, seed, (a, min(runs, a + chunk)), kw) for a in range(0, runs, chunk)]
+    try:
+        res = engine.map(_chunk_task, tasks, desc="Monte Carlo", progress=progress)
+    finally:
+        if engine is not scheduler:
+            engine.close()
+    parts = res.finished()
+    if not parts:
+        raise KeyboardInterrupt
+    out = merge_results(parts)
+    if res.interrupted:
+        for r in out.values():
+            r.notes.append(f"interrupted: {len(r.runs)} of {runs} runs finished")
+    return out

@@ -94,7 +94,8 @@ def solve_nonconvex(
                 best_w, best_f, winner = cand, fc, tag
         report.append({"start": name, "start_objective": float(-f0) if f0 < _BAD else None,
                        "end_objective": float(-f1) if f1 < _BAD else None, "iterations": int(r.nit), "success": bool(r.success)})
-    notes = [f"(7.57) solved by SLSQP from {len(starts)} starts; best start: {winner}"]
+    what = "(7.57)" if mean_subtraction == "complete" else f"log|det Gamma| ({mean_subtraction})"
+    notes = [f"{what} solved by SLSQP from {len(starts)} starts; best start: {winner}"]
     if best_w is None:
         best_w, winner = cons.project(np.full(q, 1.0 / q)), "equal"
         notes.append("every start gave a singular Gamma; returned equal shares")

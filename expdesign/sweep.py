@@ -94,7 +94,10 @@ def load_sweep(path: str | Path) -> list[Cell]:
 
 
 def _library(cell: Cell):
-    from primitives.library import standard_trials, thesis_primitives
+    """The cell's dictionary: the thesis primitives, or the standard trials at the cell's speed
+    plus sway moves at that speed (rudder-type trials alone never excite the sway force)."""
+    from primitives import maneuvers as mv
+    from primitives.library import make_primitive, standard_trials, thesis_primitives
     from primitives.ship import load_profile
 
     profile = load_profile(cell.ship)
@@ -102,7 +105,11 @@ def _library(cell: Cell):
         return profile, thesis_primitives(profile)
     if cell.speed_mps is not None:
         profile = dataclasses.replace(profile, cruise_speed_mps=cell.speed_mps)
-    return profile, [p for p in standard_trials(profile) if p.name != "stopping"]
+    u = profile.cruise_speed_mps
+    n = int(20 * profile.length_m / u / profile.sample_time)
+    sway = make_primitive(profile, "sway_moves", f"sway steps +-{0.15 * u:.2f} m/s at {u:.2f} m/s",
+                          mv.sway_steps(profile, [(0.15 * u, n), (-0.15 * u, n)], u=u))
+    return profile, [p for p in standard_trials(profile) if p.name != "stopping"] + [sway]
 
 
 def run_cell(cell: Cell) -> dict[str, Any]:

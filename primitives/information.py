@@ -99,20 +99,26 @@ def combined_gamma(infos: list[PrimitiveInfo], weights: np.ndarray, mean_subtrac
 def unidentified_parameters(profile: ShipProfile, gamma: np.ndarray, rel_tol: float = 1e-9) -> list[str]:
     """Names of predictor parameters in the null space of a (possibly asymmetric) Gamma.
 
-    A parameter is reported when the smallest singular directions of Gamma load on it; with a
-    diagonal scaling first so that units do not decide.
+    A parameter is dead when its diagonal entry is zero to rounding relative to the largest
+    one (a regressor that is identically zero up to float noise, e.g. a sway force of 1e-15
+    from a thruster allocation), or when the smallest singular directions of the diagonally
+    scaled Gamma (so units do not decide) load on it.
     """
     names = profile.predictor_param_names
-    d = np.sqrt(np.abs(np.diag(gamma)))
-    dead = [n for n, di in zip(names, d) if di == 0.0]
-    scale = np.where(d > 0, d, 1.0)
-    g = gamma / np.outer(scale, scale)
-    u, s, vt = np.linalg.svd(g)
-    small = s < rel_tol * max(s.max(), 1e-300) + 1e-12
-    for row in vt[small]:
-        for n, c in zip(names, row):
-            if abs(c) > 0.3 and n not in dead:
-                dead.append(n)
+    diag = np.abs(np.diag(gamma))
+    dead_mask = diag <= 1e-14 * max(diag.max(), 1e-300)
+    dead = [n for n, m in zip(names, dead_mask) if m]
+    d = np.sqrt(np.where(dead_mask, 1.0, diag))
+    g = np.where(np.outer(dead_mask, dead_mask), 0.0, gamma / np.outer(d, d))
+    g = g[np.ix_(~dead_mask, ~dead_mask)]
+    live = [n for n, m in zip(names, dead_mask) if not m]
+    if g.size:
+        _, s, vt = np.linalg.svd(g)
+        small = s < rel_tol * max(s.max(), 1e-300) + 1e-12
+        for row in vt[small]:
+            for n, c in zip(live, row):
+                if abs(c) > 0.3 and n not in dead:
+                    dead.append(n)
     return [n for n in names if n in dead]
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from cli.app import _run
 from diagnose.api import run
-from diagnose.battery import EFFECTS, battery, check, hit_rate, scenario
+from diagnose.battery import EFFECTS, battery, check, full_scale_battery, hit_rate, scenario
 from diagnose.locate import alarm_windows, cusum, ljung_box
 from diagnose.recording import Recording, write_csv
 from diagnose.report import to_text
@@ -140,12 +140,13 @@ def test_cli_missing_file_exit_2(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_full_battery_hit_rate():
-    out = hit_rate(battery((1, 2, 3)))
+@pytest.mark.parametrize("ship,cases", [("model-ship", battery((1, 2, 3))), ("full-scale", full_scale_battery((1, 2, 3)))])
+def test_full_battery_hit_rate(ship, cases):
+    out = hit_rate(cases, ship=ship)
     misses = [(r["case"], r["seed"], r["why"]) for r in out["rows"] if not r["hit"]]
     assert out["hit_rate"] >= 0.9, misses
-    controls = [r for r in out["rows"] if r["case"] == "control"]
-    assert all(r["named"] == [] for r in controls)
+    controls = [r for r in out["rows"] if r["case"].endswith(":control")]
+    assert controls and all(r["named"] == [] for r in controls)
 
 
 def test_fit_on_refits_a_crude_baseline_then_names_the_current(ship):
@@ -174,3 +175,14 @@ def test_cli_params_file_and_bad_params(tmp_path, capsys):
 
 def ship_true() -> list[float]:
     return load_profile("model-ship").params("true").tolist()
+
+
+def test_full_scale_thruster_misalignment_and_untestable_thrust_loss():
+    fs = load_profile("full-scale")
+    sc = scenario(("input_offset",), 31, profile=fs)
+    d = run(sc.diagnose, fs, validate=sc.validate)
+    assert [f["effect"] for f in d.findings] == ["input_offset"]
+    p = d.findings[0]["parameters"]
+    assert p["input"] == "alpha2" and p["offset"] == pytest.approx(0.05, rel=0.35)
+    assert "offset_deg" in p
+    assert any(u["effect"] == "thrust_loss" and "u_r*tau_x" in u["reason"] for u in d.untestable)
