@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 import typer
@@ -43,7 +44,7 @@ def parse_counts(text: str | None) -> dict[str, int] | None:
     return out
 
 
-def design_counts(profile, seed: int = 0) -> tuple[dict[str, int], list, str]:
+def design_counts(profile, seed: int = 0) -> tuple[dict[str, int], list, str, object | None]:
     """Counts from the D-optimal design over the section 9.4 primitives (rounded units converted
     to whole primitives); the thesis scenario's counts when the design is not available."""
     from maps.scenario import thesis_planning_scenario
@@ -52,7 +53,7 @@ def design_counts(profile, seed: int = 0) -> tuple[dict[str, int], list, str]:
     try:
         from expdesign.api import run_design
     except ImportError:
-        return scen, prims, "experiment design not available: using the thesis scenario counts (3 uses each)"
+        return scen, prims, "experiment design not available: using the thesis scenario counts (3 uses each)", None
     total = 3 * sum(p.duration_s for p in prims)
     d = run_design(profile, prims, trial_length_s=total, seed=seed)
     counts = {}
@@ -62,8 +63,53 @@ def design_counts(profile, seed: int = 0) -> tuple[dict[str, int], list, str]:
         counts[p.name] = int(round(units * unit_s / p.duration_s))
     counts = {k: v for k, v in counts.items() if v > 0}
     if not counts:
-        return scen, prims, "the design selected nothing: using the thesis scenario counts"
-    return counts, prims, f"counts from the D-optimal design over {', '.join(p.name for p in prims)} ({total:.0f} s of trial)"
+        return scen, prims, "the design selected nothing: using the thesis scenario counts", d
+    return counts, prims, f"counts from the D-optimal design over {', '.join(p.name for p in prims)} ({total:.0f} s of trial)", d
+
+
+@contextmanager
+def stage(text: str, quiet: bool):
+    """A spinner on stderr for a long step (only on a terminal, never in --json output)."""
+    if quiet or not sys.stderr.isatty():
+        yield
+        return
+    from rich.console import Console
+
+    with Console(stderr=True).status(text):
+        yield
+
+
+def print_summary(result, summary: dict, files: dict[str, Path]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    con = Console()
+    st = result.stats
+    for n in st.get("notes", []):
+        con.print(f"note: {n}", markup=False)
+    t = Table(title=f"trial plan for {result.ship}" + (" (optimal)" if result.optimal else ""), show_header=False)
+    t.add_column("item")
+    t.add_column("value")
+    used = ", ".join(f"{k} x{v}" for k, v in result.counts.items())
+    t.add_row("feasible", "yes" if result.feasible else "NO")
+    t.add_row("informative manoeuvres", used or "-")
+    t.add_row("basic repositioning moves", str(result.basic_moves))
+    t.add_row("duration", f"{result.duration_s / 60:.1f} min")
+    t.add_row("track length", f"{result.length_m / 1000:.2f} km")
+    t.add_row("smallest clearance", f"{result.min_clearance_m:.1f} m (margin {result.margin_m:g} m)")
+    t.add_row("search", f"{st.get('expansions')} expansions, {st.get('states_visited')} states, {st.get('plan_time_s', 0):.3f} s, "
+                        f"{'certified optimal' if result.optimal else 'not certified optimal'}")
+    con.print(t)
+    if result.feasible:
+        steps = Table(title="manoeuvres in sailing order")
+        for col in ("#", "start", "manoeuvre", "heading", "entry position"):
+            steps.add_column(col)
+        for s_ in result.steps:
+            steps.add_row(str(s_.index + 1), f"{s_.start_time_s / 60:5.1f} min", s_.primitive, f"{s_.entry_heading_deg:05.1f}",
+                          f"{s_.entry_lat:.5f} N {s_.entry_lon:.5f} E")
+        con.print(steps)
+    for key, path in files.items():
+        con.print(f"wrote {key:18s} {path}", markup=False)
 
 
 def register(app: typer.Typer) -> None:
@@ -80,11 +126,14 @@ def register(app: typer.Typer) -> None:
         margin: float = typer.Option(20.0, "--margin", help="safety margin around the swept hull, metres"),
         split: bool = typer.Option(False, "--split", help="split primitives at their natural break points"),
         size: str = typer.Option("35x44", "--size", help="minimum lattice size NORTHxEAST points"),
-        out: Path | None = typer.Option(None, "--out", help="write plan.json, trajectory.geojson and plan.png here"),
-        json_out: bool = typer.Option(False, "--json", help="print a JSON summary"),
+        out: Path = typer.Option(Path("trial-out"), "--out", help="directory for the plan, the crew exports and the figures"),
+        start_time: str | None = typer.Option(None, "--start-time", help="UTC start of the trial for the schedule, e.g. 2026-06-01T08:00Z "
+                                                                         "(default: the next full hour)"),
+        no_export: bool = typer.Option(False, "--no-export", help="write only plan.json, trajectory.geojson and plan.png"),
+        json_out: bool = typer.Option(False, "--json", help="print one JSON summary"),
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
     ) -> None:
-        """Plan a trial: every informative primitive used as often as the design asks, fewest repositioning moves."""
+        """Plan a trial: design -> rounding -> A* planning -> continuous verification -> exports for the crew."""
         from maps.geo import load_map
         from maps.output import write_outputs
         from maps.planner import plan_trial
@@ -98,18 +147,35 @@ def register(app: typer.Typer) -> None:
             raise UserError(f"--size: expected NORTHxEAST whole numbers, e.g. 35x44, got {size!r}") from None
         start_pt, goal_pt = parse_point(start, "start"), parse_point(goal, "goal")
         cnt = parse_counts(counts)
+        from maps.export._common import iso, resolve_start
+
+        if start_time is not None:
+            resolve_start(None, start_time)  # reject a malformed time before the long work
         prof = load_profile(ship)
         sea = load_map(map_path, draught_m=prof.draught_m)
-        prims = None
-        note = ""
+        prims, note, design = None, "", None
         if cnt is None:
-            cnt, prims, note = design_counts(prof, seed)
-        result = plan_trial(sea, profile=prof, counts=cnt, primitives=prims, start=start_pt,
-                            goal=goal_pt, resolution=resolution, headings=headings,
-                            heuristic=heuristic, margin=margin, split=split, size=(ni, nj))
+            with stage("designing the manoeuvre mix (D-optimal, rounded) ...", json_out):
+                cnt, prims, note, design = design_counts(prof, seed)
+        with stage("planning on the lattice (A*) and verifying the continuous track ...", json_out):
+            result = plan_trial(sea, profile=prof, counts=cnt, primitives=prims, start=start_pt,
+                                goal=goal_pt, resolution=resolution, headings=headings,
+                                heuristic=heuristic, margin=margin, split=split, size=(ni, nj))
         if note:
             result.stats.setdefault("notes", []).insert(0, note)
-        files = write_outputs(result, sea, out) if out is not None else {}
+        t0 = resolve_start(result, start_time)
+        result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
+        files = write_outputs(result, sea, out)
+        if design is not None:
+            from expdesign.report import plot_ratios
+
+            plot_ratios(design, out / "design-ratios.png")
+            files["design_ratios_png"] = out / "design-ratios.png"
+        if result.feasible and not no_export:
+            from maps.export import export_all
+
+            with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", json_out):
+                files.update(export_all(result, out, sea_map=sea, start=t0))
         st = result.stats
         summary = {
             "feasible": result.feasible, "optimal": result.optimal, "counts": result.counts, "targets": result.targets,
@@ -119,29 +185,18 @@ def register(app: typer.Typer) -> None:
             "setup_time_s": st.get("setup_time_s"), "heuristic": heuristic, "lattice": st.get("lattice"),
             "drift_m": st.get("drift_m"), "reason": st.get("reason"), "help": st.get("help"),
             "notes": st.get("notes", []), "warnings": st.get("warnings", []),
+            "design": None if design is None else {"weights": design.weights, "rounded": design.rounded, "logdet": design.logdet},
             "trajectory_geojson": str(files["trajectory_geojson"]) if "trajectory_geojson" in files else None,
-            "plan_json": str(files["plan_json"]) if "plan_json" in files else None,
-            "plot": str(files["plot"]) if "plot" in files else None,
+            "plan_json": str(files["plan_json"]),
+            "plot": str(files["plot"]),
+            "files": {k: str(v) for k, v in files.items()},
         }
         for w in st.get("warnings", []):
             print(f"warning: {w}", file=sys.stderr)
         if json_out:
             print(dumps(summary))
         else:
-            for n in st.get("notes", []):
-                print(f"note: {n}")
-            if result.feasible:
-                used = ", ".join(f"{k} x{v}" for k, v in result.counts.items())
-                print(f"plan: {len(result.steps)} steps ({used}; {result.basic_moves} basic moves), "
-                      f"{result.duration_s / 60:.1f} min, {result.length_m / 1000:.2f} km, clearance {result.min_clearance_m:.1f} m, "
-                      f"{'optimal' if result.optimal else 'not certified optimal'}")
-                print(f"search: {st['expansions']} expansions, {st['states_visited']} states, {st['plan_time_s']:.3f} s "
-                      f"(setup {st['setup_time_s']:.2f} s)")
-                for s in result.steps:
-                    print(f"  {s.index + 1:2d}. t={s.start_time_s:6.0f} s  {s.primitive:22s} heading {s.entry_heading_deg:5.1f}  "
-                          f"at {s.entry_lat:.5f} N {s.entry_lon:.5f} E")
-            for p in files.values():
-                print(f"wrote {p}")
+            print_summary(result, summary, files)
         if not result.feasible:
             print(f"no feasible plan: {st.get('reason')}", file=sys.stderr)
             for h in st.get("help") or []:

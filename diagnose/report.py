@@ -44,6 +44,9 @@ def sentence(f: dict) -> str:
 
 def to_text(d: Diagnosis) -> str:
     lines = [f"Diagnosis of {', '.join(p.rec.source for p in d.preps)} against ship {d.profile.name!r} ({d.baseline_source})"]
+    for p in d.preps + d.val_preps:
+        if p.rec.notes:
+            lines.append(f"Recording {p.rec.source}: " + "; ".join(p.rec.notes) + ".")
     loc = d.location
     lines.append("Where: residual / noise " + ", ".join(f"{k} {v:.1f}" for k, v in loc["rms_over_noise"].items())
                  + f"; worst {loc['worst_dof']}.")
@@ -87,6 +90,8 @@ def to_json(d: Diagnosis, model_path: str | None) -> dict:
     return to_jsonable({
         "ship": d.profile.name,
         "baseline": d.baseline_source,
+        "recordings": [{"source": p.rec.source, "role": role, "samples": p.rec.n_samples, "sample_time": p.rec.sample_time,
+                        "notes": p.rec.notes} for role, ps in (("diagnosed", d.preps), ("validation", d.val_preps)) for p in ps],
         "explained": d.explained,
         "still_unexplained_dofs": d.unexplained_dofs,
         "findings": d.findings,

@@ -1,30 +1,13 @@
-"""Plan outputs: plan.json, the continuous track as GeoJSON and a picture of the track on the map."""
+"""Planner outputs: plan.json, the continuous track as GeoJSON and a picture of the track in its planning window."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from maps.geo import SeaMap
 from maps.plan import Plan
-
-
-def trajectory_geojson(plan: Plan) -> str:
-    """The continuous re-simulated track as a GeoJSON LineString (lon, lat; 7 decimals, ~1 cm)."""
-    coords = [[round(float(lo), 7), round(float(la), 7)] for lo, la in plan.lonlat]
-    steps = [{"type": "Feature", "geometry": {"type": "Point", "coordinates": [round(s.entry_lon, 7), round(s.entry_lat, 7)]},
-              "properties": {"kind": "step", "index": s.index, "primitive": s.primitive, "step_kind": s.kind,
-                             "start_time_s": s.start_time_s, "heading_deg": round(s.entry_heading_deg, 2)}}
-             for s in plan.steps]
-    doc = {
-        "type": "FeatureCollection",
-        "features": [{"type": "Feature", "geometry": {"type": "LineString", "coordinates": coords},
-                      "properties": {"kind": "trajectory", "ship": plan.ship, "feasible": plan.feasible,
-                                     "duration_s": plan.duration_s, "min_clearance_m": plan.min_clearance_m}}] + steps,
-    }
-    return json.dumps(doc)
 
 
 def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
@@ -85,12 +68,14 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
 
 
 def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path) -> dict[str, Path]:
-    """plan.json, trajectory.geojson (when there is a track) and plan.png in ``out_dir`` (atomic writes)."""
+    """plan.json, trajectory.geojson (RFC 7946, when there is a track) and plan.png (the track
+    in its planning window) in ``out_dir`` (atomic writes)."""
     from cli.io import atomic_write_text
+    from maps.export.geojson import write_geojson
 
     out = Path(out_dir)
     files = {"plan_json": atomic_write_text(out / "plan.json", plan.to_json())}
     if len(plan.track) >= 2:  # a LineString needs two positions; a failed search has no track
-        files["trajectory_geojson"] = atomic_write_text(out / "trajectory.geojson", trajectory_geojson(plan))
+        files["trajectory_geojson"] = write_geojson(plan, out / "trajectory.geojson")
     files["plot"] = plot_plan(plan, sea, out / "plan.png")
     return files

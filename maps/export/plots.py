@@ -211,9 +211,9 @@ def plot_states(plan: Plan, path: str | Path, dpi: int = 110) -> Path:
 
 def plot_track(plan: Plan, path: str | Path, sea_map: Any = None, dpi: int = 130) -> Path:
     """The numbered track coloured by primitive on the map, as PNG (or PDF/SVG by suffix)."""
-    fig, ax = plt.subplots(figsize=(7.5, 7.5))
+    fig, ax = plt.subplots(figsize=(9.5, 7.5))
     draw_map(ax, plan, sea_map)
-    ax.legend(fontsize=7, loc="upper left", framealpha=0.9)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)  # outside: never hides the track
     ax.set_title(f"{plan.ship} trial{' on ' + plan.map_name if plan.map_name else ''}: manoeuvres numbered in sailing order", fontsize=9)
     fig.tight_layout()
     try:
