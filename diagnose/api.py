@@ -67,10 +67,6 @@ def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]
     return P[: model.n_base]
 
 
-def _pm(v: float, s: float, nd: int = 3) -> dict:
-    return {"value": float(v), "std": float(s) if np.isfinite(s) else None}
-
-
 def describe(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, free: list[int]) -> dict:
     """Physical parameters of a kept candidate (keys fixed by the issue) with standard deviations."""
     idx = model.slot_of[c.key]

@@ -78,6 +78,16 @@ def to_text(d: Diagnosis) -> str:
     for u in d.untestable:
         extra = f" ({u['dof']} {u['term']})" if "term" in u else ""
         lines.append(f"Cannot be tested: {u['effect']}{extra}: {u['reason']}.")
+    kept = {f["key"] for f in d.findings}
+    weak: dict[str, dict] = {}
+    for c in d.screened[-1]["candidates"] if d.screened else []:  # the last round: after every kept effect
+        if c["key"] not in kept and c["p_value"] < 1e-3:
+            weak[c["key"]] = c
+    if weak:
+        top = sorted(weak.values(), key=lambda c: c["p_value"])[:3]
+        lines.append("Not kept (left over after the findings; significant on the estimation data but too weak or not confirmed on held-out blocks): " + "; ".join(
+            f"{c['key']} (p = {c['p_value']:.1g}, held-out {100 * c['cv_gain']:+.0f} %, estimate "
+            + ", ".join(f"{e:.3g}" for e in c["estimate"]) + ")" for c in top) + ".")
     left = d.unexplained_dofs if d.findings else []
     if left:
         lines.append(f"Still above the noise after the findings: {', '.join(left)} (more physics is missing than the library names).")
@@ -208,6 +218,3 @@ def write_all(d: Diagnosis, out: str | Path) -> dict[str, Path]:
         paths[f"plot{i + 1}"] = p
     return paths
 
-
-def array_summary(a: np.ndarray) -> str:
-    return np.array2string(np.asarray(a), precision=3)

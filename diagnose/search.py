@@ -182,7 +182,8 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, P0: n
             ranked.append((f_stat, c, rss1, p_val, dbic, cv_gain, dof_gain, corr, beta, idx))
         ranked.sort(key=lambda x: -x[0])
         screened.append({"round": _round + 1, "candidates": [
-            {"key": x[1].key, "f": x[0], "p_value": x[3], "delta_bic": x[4], "cv_gain": x[5]} for x in ranked[:8]]})
+            {"key": x[1].key, "effect": x[1].effect, "f": x[0], "p_value": x[3], "delta_bic": x[4], "cv_gain": x[5],
+             "estimate": [float(b) for b in x[8]]} for x in ranked[:8]]})
         best = None
         for f_stat, c, _rss1, p_val, dbic, cv_gain, _dg, corr, beta, _idx in ranked[:3]:
             if f_stat < 0.05 * ranked[0][0]:

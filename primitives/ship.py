@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import tomllib
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -62,11 +63,12 @@ class ShipProfile:
     source: str = ""
 
     # -- structure -------------------------------------------------------------------------
-    @property
+    # cached: compiled once per profile (a frozen dataclass still has an instance __dict__)
+    @cached_property
     def model(self) -> TermSet:
         return TermSet(self.model_terms)
 
-    @property
+    @cached_property
     def predictor(self) -> TermSet:
         """Terms of the linear-in-parameters predictor used for estimation and design."""
         return TermSet(self.predictor_terms or self.model_terms)

@@ -223,13 +223,14 @@ def steady_forces(
     """
     terms = profile.model
     theta = profile.params(theta)
-    nu = np.array([u, v, r], float)
-
-    def incr(tau: np.ndarray) -> np.ndarray:
-        sig = model_signals(profile, nu, np.array(0.0), {"tau_x": tau[0], "tau_y": tau[1], "tau_n": tau[2]})
-        return np.array([np.asarray(x, float) for x in terms.increments(sig, theta)])
-
-    f0 = incr(np.zeros(3))
-    jac = np.column_stack([incr(np.eye(3)[i]) - f0 for i in range(3)])
-    tau, *_ = np.linalg.lstsq(jac, -f0, rcond=None)
+    # one batched evaluation at tau = 0 and at the three unit forces
+    taus = np.vstack([np.zeros(3), np.eye(3)])
+    nu = np.tile([u, v, r], (4, 1)).astype(float)
+    sig = model_signals(profile, nu, np.zeros(4), {"tau_x": taus[:, 0], "tau_y": taus[:, 1], "tau_n": taus[:, 2]})
+    f = np.array(terms.increments(sig, theta))  # (3 DOFs, 4 settings)
+    jac = f[:, 1:] - f[:, :1]
+    try:
+        tau = np.linalg.solve(jac, -f[:, 0])
+    except np.linalg.LinAlgError:
+        tau, *_ = np.linalg.lstsq(jac, -f[:, 0], rcond=None)
     return float(tau[0]), float(tau[1]), float(tau[2])

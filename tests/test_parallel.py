@@ -95,8 +95,8 @@ def test_sweep_table_same_inline_and_on_local_cluster(tmp_path):
         remote = run_sweep(cells, cluster.scheduler_address, progress=False)
     key = ["ship", "criterion", "mean_subtraction", "weights", "top_primitive"]
     assert [{k: r[k] for k in key} for r in local.results] == [{k: r[k] for k in key} for r in remote.results]
-    # the optimiser's last digits may differ with the BLAS thread count of the worker
-    assert [r["logdet"] for r in local.results] == pytest.approx([r["logdet"] for r in remote.results], rel=1e-9)
+    # SLSQP on a flat optimum: last digits differ with the BLAS thread count (Dask workers use one)
+    assert [r["logdet"] for r in local.results] == pytest.approx([r["logdet"] for r in remote.results], rel=1e-6)
     assert all(r["error"] is None for r in local.results)
     # D-optimal with complete mean subtraction is at least as good as the uniform mix
     d_complete = next(r for r in local.results if r["criterion"] == "D" and r["mean_subtraction"] == "complete")
