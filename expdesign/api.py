@@ -91,7 +91,7 @@ def default_library(profile: ShipProfile, psi_switch: float | None = None) -> li
         return model_ship_thesis(profile, psi_switch=psi_switch)
     lib = thesis_primitives(profile)
     if not lib:
-        raise DesignError(f"profile {profile.name!r} has no built-in primitive dictionary; pass primitives=[...]")
+        raise DesignError(f"profile {profile.name!r} has no built-in primitive dictionary: design for 'model-ship' or 'full-scale', or pass primitives=[...] from Python")
     return lib
 
 

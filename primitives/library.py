@@ -16,7 +16,7 @@ from shapely.geometry import Polygon
 
 from primitives import maneuvers as mv
 from primitives.footprint import swept_footprint
-from primitives.ship import ShipProfile, load_profile
+from primitives.ship import ProfileError, ShipProfile, load_profile
 from primitives.simulate import simulate
 
 
@@ -205,7 +205,7 @@ def build_library(profile: ShipProfile | str, *, standard: bool = True, basic: b
     if isinstance(profile, str):
         profile = load_profile(profile)
     if profile.actuator == "rudder_propeller":
-        raise ValueError(f"profile {profile.name!r}: manoeuvre generation needs generalized or azimuth inputs")
+        raise ProfileError(f"profile {profile.name!r}: manoeuvre generation needs generalized-force or azimuth inputs, not {profile.actuator}; use it with 'shiptrial diagnose'")
     lib = thesis_primitives(profile)
     if standard:
         lib += standard_trials(profile)

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from primitives.ship import ShipProfile
+from primitives.ship import ProfileError, ShipProfile
 from primitives.terms import TermSet
 
 
@@ -221,6 +221,10 @@ def steady_forces(
     Solves Phi(u, v, r, tau)^T theta = 0 for tau, using that the model is affine in each of
     tau_x, tau_y, tau_n (true for (3.60) and (9.1)).
     """
+    if profile.actuator == "rudder_propeller":
+        raise ProfileError(
+            f"profile {profile.name!r}: steady generalized forces need generalized-force or azimuth inputs, not rudder/propeller"
+        )
     terms = profile.model
     theta = profile.params(theta)
     # one batched evaluation at tau = 0 and at the three unit forces
