@@ -3,14 +3,10 @@
 
     python benchmarks/bench_primitives.py [--repeat 5]
 
-Prints the median of the repeats and the ratio to the target (< 1 is within target).
+(the two cases of ``benchmarks/run.py`` that belong to the foundation).
 """
 
 from __future__ import annotations
-
-import argparse
-import statistics
-import time
 
 import numpy as np
 
@@ -36,34 +32,11 @@ def case_monte_carlo_sim() -> None:
     simulate(prof, inputs, disturbances=Disturbances.from_profile(prof), batch=500, seed=1)
 
 
-CASES = {"library_build": (case_library_build, 2.0), "monte_carlo_500x1000": (case_monte_carlo_sim, 2.0)}
-
-
-def run(repeat: int = 5) -> dict[str, dict]:
-    out = {}
-    for name, (fn, target) in CASES.items():
-        fn()  # warm-up (imports, caches)
-        times = []
-        for _ in range(repeat):
-            t0 = time.perf_counter()
-            fn()
-            times.append(time.perf_counter() - t0)
-        med = statistics.median(times)
-        out[name] = {
-            "median_s": med,
-            "min_s": min(times),
-            "max_s": max(times),
-            "target_s": target,
-            "ratio_to_target": med / target,
-        }
-    return out
-
-
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--repeat", type=int, default=5)
-    res = run(ap.parse_args().repeat)
-    for name, r in res.items():
-        print(
-            f"{name:24s} median {r['median_s']:.3f} s (min {r['min_s']:.3f}, max {r['max_s']:.3f}); target {r['target_s']} s; ratio {r['ratio_to_target']:.2f}"
-        )
+    # the shared runner times each case in a fresh process (median, min, max, peak memory, ratio)
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    runner = Path(__file__).with_name("run.py")
+    sys.exit(subprocess.call([sys.executable, str(runner), "--only", "library_build", "monte_carlo_sim_500x1000", *sys.argv[1:]]))
