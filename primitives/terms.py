@@ -71,6 +71,13 @@ class TermSet:
         self.sizes = tuple(len(d) for d in self.terms)
         self.offsets = tuple(int(x) for x in np.cumsum((0,) + self.sizes))
 
+    def __getstate__(self) -> dict:
+        # compiled closures do not pickle (process pools, clusters): ship the term strings only
+        return {"terms": self.terms}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(state["terms"])
+
     @property
     def n_params(self) -> int:
         return self.offsets[-1]

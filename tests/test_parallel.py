@@ -116,3 +116,34 @@ def test_sweep_config_errors_name_the_field(tmp_path):
     cfg.write_text('[sweep]\nlibrary = "standard"\nspeeds = [-1]\n')
     with pytest.raises(SweepError, match=r"sweep\.speeds"):
         load_sweep(cfg)
+
+
+def test_profiles_and_primitives_cross_process_boundaries():
+    import pickle
+
+    from primitives.library import model_ship_thesis
+    from primitives.ship import load_profile
+
+    prof = load_profile("model-ship")
+    prim = model_ship_thesis(prof)[5]
+    prof.model.increments({"u": 1.0, "v": 0.0, "r": 0.0, "u_r": 1.0, "v_r": 0.0, "tau_x": 0.0, "tau_y": 0.0, "tau_n": 0.0}, prof.params())
+    _ = prim.footprint
+    again = pickle.loads(pickle.dumps(prim))
+    np.testing.assert_array_equal(again.nu, prim.nu)
+    assert again.profile.model.terms == prof.model.terms
+    sig = {"u": 0.5, "v": 0.1, "r": 0.2, "u_r": 0.5, "v_r": 0.1, "tau_x": 1.0, "tau_y": 2.0, "tau_n": 3.0}
+    assert again.profile.model.increments(sig, prof.params()) == prof.model.increments(sig, prof.params())
+
+
+def test_monte_carlo_on_local_process_pool_matches_in_process():
+    from expdesign.montecarlo import evaluate_designs, evaluate_designs_parallel
+    from primitives.library import model_ship_thesis
+    from primitives.ship import load_profile
+
+    prof = load_profile("model-ship")
+    lib = model_ship_thesis(prof)
+    designs = {"optimized": {"tau1": 0.2, "tau6": 0.4, "tau8": 0.15, "tau11": 0.25}}
+    kw = dict(runs=8, seed=2, primitives=lib, n_samples=300)
+    ref = evaluate_designs(prof, designs, **kw)
+    pool = evaluate_designs_parallel(prof, designs, scheduler="local", chunk_runs=4, progress=False, **kw)
+    np.testing.assert_array_equal(ref["optimized"].param_rmse, pool["optimized"].param_rmse)
