@@ -4,7 +4,7 @@ For primitive q with regressors Phi_q(k) and instruments Z_q(k) (block diagonal 
 X_q = mean Phi Z^T (7.50), Y_q = mean Phi (7.51), Z_q = mean Z (7.55), and
 Gamma_q = X_q (no mean subtraction, (7.18)) or X_q - Y_q Z_q^T (batchwise, (7.53)).
 The whole-experiment subtraction (7.57) mixes the primitives' means and so is formed by the
-design (``expdesign``) from X, Y and Z.
+design (``expdesign.dopt.InfoSet.gamma``) from X, Y and Z.
 """
 
 from __future__ import annotations
@@ -82,18 +82,6 @@ def primitive_information(
 
 def library_information(profile: ShipProfile, primitives: list[Primitive], **kw) -> list[PrimitiveInfo]:
     return [primitive_information(profile, p, **kw) for p in primitives]
-
-
-def combined_gamma(infos: list[PrimitiveInfo], weights: np.ndarray, mean_subtraction: str = "batchwise") -> np.ndarray:
-    """Information of a mix with time fractions ``weights``: (7.18), (7.53) or (7.57)."""
-    w = np.asarray(weights, float)
-    if mean_subtraction == "complete":
-        total = w.sum()
-        T = sum(wi * i.X for wi, i in zip(w, infos))
-        S = sum(wi * i.Y for wi, i in zip(w, infos))
-        zbar = sum(wi * i.Z for wi, i in zip(w, infos)) / total
-        return T - np.outer(S, zbar) * infos[0].mask
-    return sum(wi * i.gamma(mean_subtraction) for wi, i in zip(w, infos))
 
 
 def unidentified_parameters(profile: ShipProfile, gamma: np.ndarray, rel_tol: float = 1e-9) -> list[str]:

@@ -29,11 +29,6 @@ def block_mask(terms: TermSet) -> np.ndarray:
     return mask
 
 
-def dof_index(terms: TermSet) -> np.ndarray:
-    """DOF (0, 1, 2) of each parameter."""
-    return np.repeat(np.arange(3), terms.sizes)
-
-
 def predictor_regressors(
     profile: ShipProfile,
     y: np.ndarray,
