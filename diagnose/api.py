@@ -44,12 +44,8 @@ class Diagnosis:
     @property
     def unexplained_dofs(self) -> list[str]:
         """DOFs whose final residual is still well above the noise (more than twice)."""
-        out = []
-        for p_dof, i in zip(DOFS, range(3)):
-            r = np.concatenate([p.y[1:, i] - self.model.simulate(p, self.P)[0][1:, i] for p in self.preps])
-            if np.sqrt(np.mean(r**2)) > 2.0 * max(self.sigma[i], 1e-12):
-                out.append(p_dof)
-        return out
+        r = np.concatenate([p.y[1:] - self.model.simulate(p, self.P)[0][1:] for p in self.preps])
+        return [dof for i, dof in enumerate(DOFS) if np.sqrt(np.mean(r[:, i] ** 2)) > 2.0 * max(self.sigma[i], 1e-12)]
 
 
 def _fits(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> dict[str, float]:
@@ -58,11 +54,17 @@ def _fits(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> dict[s
     return dict(zip(DOFS, fit_percent(y, yh).tolist()))
 
 
+def _noise_scale(y: np.ndarray) -> np.ndarray:
+    """Residual scale per output: the noise where there is noise; quantised real data get a
+    floor (2 % of the signal)."""
+    return np.maximum(noise_std(y), 0.02 * np.std(y, axis=0))
+
+
 def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]) -> np.ndarray:
     """Output-error fit of every baseline parameter on the --fit-on recordings."""
     preps = [prepare(profile, r, i) for i, r in enumerate(recs)]
     model = AugmentedModel(profile, theta0, [], n_rec=len(preps))
-    w = 1.0 / np.maximum(noise_std(np.concatenate([r.y for r in recs])), 0.02 * np.std(np.concatenate([r.y for r in recs]), axis=0))
+    w = 1.0 / _noise_scale(np.concatenate([r.y for r in recs]))
     P, _cov, _rss = fit(model, preps, model.p0(), list(range(model.n_base)) + model.x0_params(), w, max_iter=30, tol=1e-7)
     return P[: model.n_base]
 
@@ -138,11 +140,11 @@ def run(
     model = AugmentedModel(profile, theta0, cands, n_rec=len(preps))
     y_all = np.concatenate([r.y for r in recordings])
     sigma = noise_std(y_all)
-    # weights: the noise where there is noise; quantised real data get a floor (2 % of the signal)
-    w = 1.0 / np.maximum(sigma, 0.02 * np.std(y_all, axis=0))
+    scale = _noise_scale(y_all)
+    w = 1.0 / scale
     P0 = model.p0()
     res0 = [p.y - model.simulate(p, P0)[0] for p in preps]
-    location = locate(profile, preps, res0, theta0, np.maximum(sigma, 0.02 * np.std(y_all, axis=0)))
+    location = locate(profile, preps, res0, theta0, scale)
     result = select(model, preps, w, max_rounds=max_rounds, base_free=list(range(model.n_base)) if fit_on else None)
     findings = []
     for st in result.steps:
@@ -158,14 +160,14 @@ def run(
             "signature_correlation": float(st.correlation), "description": c.description,
         })
     val_preps = [prepare(profile, r) for r in validate] if validate else []
-    on = val_preps or preps
+    fit_on_name = "validation" if val_preps else "diagnosed"
     P0x = P0.copy()
     P0x[model.x0_params()] = result.P[model.x0_params()]  # the initial state is not physics: same in both
-    fb, fa = _fits(model, on, P0x), _fits(model, on, result.P)
     fbd, fad = _fits(model, preps, P0x), _fits(model, preps, result.P)
+    fb, fa = (_fits(model, val_preps, P0x), _fits(model, val_preps, result.P)) if val_preps else (dict(fbd), dict(fad))
     for f in findings:
-        f["evidence"] = _evidence(f, location, fb, fa, "validation" if val_preps else "diagnosed")
-    return Diagnosis(profile, theta0, model, result.P, findings, untestable, fb, fa, "validation" if val_preps else "diagnosed",
+        f["evidence"] = _evidence(f, location, fb, fa, fit_on_name)
+    return Diagnosis(profile, theta0, model, result.P, findings, untestable, fb, fa, fit_on_name,
                      location, source, sigma, preps, val_preps, result.screened, fbd, fad, time.perf_counter() - t0)
 
 

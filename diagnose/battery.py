@@ -86,7 +86,8 @@ def _sequence(profile: ShipProfile, rng: np.random.Generator, n_prims: int) -> t
 def _one(profile: ShipProfile, effects: tuple[str, ...], rng: np.random.Generator, name: str, n_prims: int) -> Recording:
     inputs, nu0, labels = _sequence(profile, rng, n_prims)
     terms = [list(t) for t in profile.model_terms]
-    theta = [list(profile.params()[profile.model.dof_slice(i)]) for i in range(3)]
+    theta_true = profile.params()
+    theta = [list(theta_true[profile.model.dof_slice(i)]) for i in range(3)]
     meas, proc, head = NOISE.get(profile.name, NOISE["model-ship"])
     dist = {"measurement_std": meas, "process_std": proc, "heading_std": head}
     table = effects_for(profile)

@@ -26,8 +26,6 @@ import numpy as np
 from diagnose.recording import Recording
 from primitives.ship import DOFS, ShipProfile
 
-EFFECTS = ("current", "wind", "actuator_delay", "input_offset", "thrust_loss", "quadratic_damping",
-           "sensor_bias", "inertia_change", "missing_coupling", "roll_coupling")
 SIGNALS = ("u", "v", "r")
 
 QUADRATIC = {0: ["u_r*|u_r|"], 1: ["v_r*|v_r|", "r*|v_r|", "v_r*|r|", "r*|r|"], 2: ["r*|r|", "r*|v_r|", "v_r*|r|", "v_r*|v_r|"]}
@@ -140,12 +138,12 @@ def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[li
         untestable.append({"effect": "roll_coupling", "reason": "no measured roll (column phi)"})
     # terms whose signals never move in these recordings cannot be tested
     keep = []
+    d2 = y[2:] - 2 * y[1:-1] + y[:-2]
+    noise = np.median(np.abs(d2), axis=0) * 1.4826 / np.sqrt(6.0)
     for c in cands:
         if c.effect in ("quadratic_damping", "missing_coupling"):
             sigs = {f.strip("|").split("^")[0].replace("_r", "") for f in c.slots[0].term.split("*")}
             idx = [SIGNALS.index(s) for s in sigs if s in SIGNALS]
-            d2 = y[2:] - 2 * y[1:-1] + y[:-2]
-            noise = np.median(np.abs(d2), axis=0) * 1.4826 / np.sqrt(6.0)
             if any(np.std(y[:, k]) < max(3 * noise[k], 1e-9) for k in idx):
                 untestable.append({"effect": c.effect, "dof": DOFS[c.dof], "term": c.slots[0].term,
                                    "reason": f"{'/'.join(sorted(sigs))} hardly moves beyond the noise in the recordings"})

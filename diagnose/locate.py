@@ -116,10 +116,10 @@ def locate(profile: ShipProfile, preps: list[Prepared], res: list[np.ndarray], t
     sig_cat = {k: np.concatenate(v) for k, v in sig.items() if len(v) == len(preps)}
     conditions = {}
     for i in range(3):
-        cs = sorted(((abs(_corr(r_all[:, i], v)), k, _corr(r_all[:, i], v)) for k, v in sig_cat.items()), reverse=True)
+        corr = {k: _corr(r_all[:, i], v) for k, v in sig_cat.items()}
+        cs = sorted(((abs(c), k, c) for k, c in corr.items()), reverse=True)
         conditions[DOFS[i]] = [{"signal": k, "correlation": c} for _a, k, c in cs[:4]]
     # one-step prediction errors: whiteness and cross-correlation with inputs (seed 004)
-    tests = {}
     eps_all, x_all = [], []
     for p in preps:
         phi, target = predictor_regressors(profile, p.y, p.inputs[:-1], p.psi, terms=profile.model)
@@ -128,9 +128,8 @@ def locate(profile: ShipProfile, preps: list[Prepared], res: list[np.ndarray], t
         x_all.append(p.inputs[:-1])
     eps = np.concatenate(eps_all)
     x = np.concatenate(x_all)
-    oe = np.concatenate([r[1:] for r in res])
     tests = _tests(eps, x, profile.inputs)
-    oe_tests = _tests(oe, x, profile.inputs)
+    oe_tests = _tests(r_all, x, profile.inputs)  # the open-loop (output-error) residuals
     band = 2.58 / np.sqrt(len(eps))
     return {"rms_over_noise": dict(zip(DOFS, ratio.tolist())), "worst_dof": DOFS[worst], "cusum_windows": windows[:10], "segments": segments,
             "conditions": conditions, "one_step_tests": tests,

@@ -18,9 +18,8 @@ import numpy as np
 from diagnose.candidates import Candidate, Slot
 from diagnose.recording import Recording
 from primitives.ship import ShipProfile
+from primitives.simulate import body_from_ne
 from primitives.terms import compile_term
-
-EXOGENOUS = {"psi", "phi", "p", "tau_x", "tau_y", "tau_n"}
 
 
 @dataclass
@@ -61,11 +60,8 @@ def initial_state(y: np.ndarray, m: int = 8) -> np.ndarray:
 
 
 def prepare(profile: ShipProfile, rec: Recording, index: int | None = None) -> Prepared:
-    wind = None
-    if rec.wind_ne is not None:
-        c, s = np.cos(rec.psi), np.sin(rec.psi)
-        wn = rec.wind_ne
-        wind = (c * wn[:, 0] + s * wn[:, 1], -s * wn[:, 0] + c * wn[:, 1])
+    wn = rec.wind_ne
+    wind = None if wn is None else body_from_ne(wn, rec.psi)
     return Prepared(rec, rec.y, rec.psi, rec.inputs_for(profile.inputs), initial_state(rec.y), wind, rec.channels.get("phi"), index)
 
 
@@ -110,7 +106,7 @@ class AugmentedModel:
         bias = np.zeros((B, 3))
         cur = np.zeros((B, 2))
         x = np.broadcast_to(prep.inputs[:-1], (B, n, prep.inputs.shape[1])).copy()
-        terms: list[tuple[int, np.ndarray, tuple[str, ...], object]] = []
+        terms: list[tuple[int, np.ndarray, str, tuple[str, ...], object]] = []
         for j, (i, _t, names, fn) in enumerate(self.base):
             if np.any(P[:, j] != 0):
                 terms.append((i, P[:, j], _t, names, fn))
@@ -180,6 +176,7 @@ class AugmentedModel:
         need_in = need & exo_names
         plans = [[(nm + "|" if ab else nm, pw) for nm, ab, pw in fs] for _i, _c, fs in loop_terms]
         use_wind = wb is not None and bool(need & {"wx", "wy", "wn", "u_q", "v_q"})
+        vals = np.empty((B, nt))  # term values of one step, filled in place (no per-step np.stack)
         for k in range(n):
             u, v, r = nu[:, 0], nu[:, 1], nu[:, 2]
             sig = {"u": u, "v": v, "r": r}
@@ -198,13 +195,12 @@ class AugmentedModel:
             for nm in need_abs:
                 sig[nm + "|"] = np.abs(sig[nm])
             if nt:
-                cols = []
-                for plan in plans:
+                for t_i, plan in enumerate(plans):
                     val = sig[plan[0][0]] if plan[0][1] == 1 else sig[plan[0][0]] ** plan[0][1]
                     for nm, pw in plan[1:]:
                         val = val * (sig[nm] if pw == 1 else sig[nm] ** pw)
-                    cols.append(val)
-                nu = nu + pre[:, k] + np.einsum("bt,btd->bd", np.stack(cols, axis=1), C)
+                    vals[:, t_i] = val
+                nu = nu + pre[:, k] + np.einsum("bt,btd->bd", vals, C)
             else:
                 nu = nu + pre[:, k]
             out[:, k + 1] = nu

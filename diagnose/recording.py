@@ -20,13 +20,15 @@ from pathlib import Path
 
 import numpy as np
 
+from primitives.errors import UserError
+
 MIN_SAMPLES = 50
 MAX_BRIDGE_S = 5.0  # longest gap bridged by linear interpolation; longer gaps split the run
 NUMERIC = ("t", "x", "y", "lat", "lon", "psi", "u", "v", "r", "tau_x", "tau_y", "tau_n", "delta", "n",
            "n1", "alpha1", "n2", "alpha2", "wind_speed", "wind_dir", "phi", "p")
 
 
-class RecordingError(ValueError):
+class RecordingError(UserError):
     """A recording cannot be used as given; the message names the file, the field and the fix."""
 
 
@@ -357,7 +359,7 @@ def load_recording(path: str | Path, *, sample_time: float | None = None) -> lis
 
 def write_csv(rec: Recording, path: str | Path, *, meta: dict[str, str] | None = None) -> Path:
     """Write a recording as a BRIEF section 7 CSV (atomically)."""
-    from cli.io import atomic_write_text
+    from primitives.io import atomic_write_text
 
     m = dict(rec.meta)
     m.update(meta or {})

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cli.io import atomic_savefig, atomic_write_text, to_jsonable
 from diagnose.api import Diagnosis
+from primitives.io import atomic_savefig, atomic_write_text, to_jsonable
 from primitives.ship import DOFS
 
 UNITS = {"u": "m/s", "v": "m/s", "r": "rad/s"}
@@ -181,10 +181,10 @@ def write_plots(d: Diagnosis, out: str | Path) -> list[Path]:
 
     out = Path(out)
     paths = []
+    p0 = d.model.p0()
+    p0[d.model.x0_params()] = d.P[d.model.x0_params()]  # baseline with the fitted initial states
     for kind, preps in (("diagnosed", d.preps), ("validation", d.val_preps)):
         for n, p in enumerate(preps):
-            p0 = d.model.p0()
-            p0[d.model.x0_params()] = d.P[d.model.x0_params()]
             before = p.y - d.model.simulate(p, p0)[0]
             after = p.y - d.model.simulate(p, d.P)[0]
             fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)

@@ -122,15 +122,19 @@ def model_ts(model: AugmentedModel) -> float:
     return model.profile.sample_time
 
 
-def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, P0: np.ndarray | None = None,
+def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *,
            base_free: list[int] | None = None, max_rounds: int = 5, alpha: float = ALPHA) -> SearchResult:
     """Forward selection over ``model.candidates``; returns the final parameters and the steps."""
-    P = model.p0() if P0 is None else P0.copy()
+    P = model.p0()
     free: list[int] = list(base_free or []) + model.x0_params()
     chosen: list[Candidate] = []
     steps: list[Step] = []
     screened: list[dict] = []
-    even, odd = block_masks(preps)
+    even, _odd = block_masks(preps)
+    # even/odd time blocks over the stacked residual rows (cross-validation)
+    m_even = stack([np.broadcast_to(e[None, :, None], (1, len(e), 3)).astype(float) for e in even], np.ones(3))[0] > 0
+    m_odd = ~m_even
+    x0 = set(model.x0_params())
     n_cand = max(len(model.candidates), 1)
     cov = np.zeros((len(free), len(free)))
     if free:  # a baseline fitted from data is refitted here, so a finding is structure, not parameter error
@@ -142,13 +146,9 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, P0: n
         cols = [j for c in todo for j in model.slot_of[c.key]]
         r0, J_all = jacobian(model, preps, P, free + cols, w)
         Jf, J = J_all[:, : len(free)], J_all[:, len(free):]
-        x0 = set(model.x0_params())
         cv_cols = [k for k, j in enumerate(free) if j not in x0]
         M = len(r0)
         rss0 = float(r0 @ r0)
-        # masks over the stacked residual rows
-        m_even = stack([np.broadcast_to(e[None, :, None], (1, len(e), 3)).astype(float) for e in even], np.ones(3))[0] > 0
-        m_odd = ~m_even
         ranked = []
         for c in todo:
             idx = [cols.index(j) for j in model.slot_of[c.key]]
@@ -177,7 +177,7 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, P0: n
                 cv1 += float(rt @ rt)
             cv_gain = (cv0 - cv1) / max(cv0, 1e-300)
             dof_gain = (r0.reshape(-1, 3) ** 2 - r1.reshape(-1, 3) ** 2).sum(axis=0)
-            fit_part = Jx[:, len(free):] @ beta
+            fit_part = Jc @ beta
             corr = float(np.corrcoef(fit_part, r0)[0, 1]) if np.std(fit_part) > 0 else 0.0
             ranked.append((f_stat, c, rss1, p_val, dbic, cv_gain, dof_gain, corr, beta, idx))
         ranked.sort(key=lambda x: -x[0])
@@ -220,8 +220,8 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, P0: n
             P_wo = P.copy()
             P_wo[own] = 0.0
             P2, cov2, rss_wo = fit(model, preps, P_wo, rest, w, max_iter=4)
-            rss_with = float(np.sum(stack(residuals(model, preps, P[None]), w)[0] ** 2))
-            f_b, p_b, _ = _lr_test(model, preps, P, w, rss_wo, rss_with, len(own), len(stack(residuals(model, preps, P[None]), w)[0]))
+            r_with = stack(residuals(model, preps, P[None]), w)[0]
+            f_b, p_b, _ = _lr_test(model, preps, P, w, rss_wo, float(np.sum(r_with**2)), len(own), len(r_with))
             if not _passes(p_b, st.cv_gain, n_cand, alpha):
                 steps.remove(st)
                 free, P, cov = rest, P2, cov2
