@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from cli.io import dumps
+from primitives.io import dumps
 
 
 def register(app: typer.Typer) -> None:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import typer
 
-from cli.io import dumps
+from primitives.io import dumps
 
 
 def _split(values: list[str] | None) -> list[str]:

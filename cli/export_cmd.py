@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from cli.errors import UserError
+from primitives.errors import UserError
 
 
 def load_plan(path: Path):

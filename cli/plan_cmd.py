@@ -8,8 +8,8 @@ from pathlib import Path
 
 import typer
 
-from cli.errors import UserError
-from cli.io import dumps
+from primitives.errors import UserError
+from primitives.io import dumps
 
 
 def parse_point(text: str | None, what: str) -> tuple[float, float, float | None] | None:

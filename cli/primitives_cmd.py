@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from cli.io import atomic_savefig, dumps
+from primitives.io import atomic_savefig, dumps
 
 
 def library_rows(library) -> list[dict]:

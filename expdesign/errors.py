@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from primitives.errors import UserError
 
-class DesignError(ValueError):
+
+class DesignError(UserError):
     """Bad design input: unidentifiable library, infeasible constraints, unknown option.
 
-    The message is one line and says what is wrong and how to fix it; ``cli.errors`` maps it to
+    The message is one line and says what is wrong and how to fix it; the CLI maps it to
     ``error: ...`` and exit code 2.
     """

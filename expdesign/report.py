@@ -7,9 +7,9 @@ from typing import Any
 
 import numpy as np
 
-from cli.io import atomic_savefig, atomic_write_text, dumps
 from expdesign.api import Design
 from expdesign.montecarlo import MCResult
+from primitives.io import atomic_savefig, atomic_write_text, dumps
 
 MC_KEYS = ("param_rmse_p50", "frac_param_rmse_below_1_5", "sim_rmse_p50", "frac_sim_rmse_below_0_15")
 

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from expdesign.parallel import Engine, MapResult, get_engine, task_seeds
+from primitives.errors import UserError
 
 CRITERIA = ("D", "A", "E")
 MODES = ("none", "batchwise", "complete")
@@ -33,7 +34,7 @@ COLUMNS = [
 ]
 
 
-class SweepError(ValueError):
+class SweepError(UserError):
     """A sweep configuration is malformed; the message names the file and field."""
 
 
@@ -158,7 +159,7 @@ def write_table(rows: list[dict[str, Any]], path: str | Path) -> Path:
     import csv
     import io
 
-    from cli.io import atomic_write_bytes, atomic_write_text
+    from primitives.io import atomic_write_bytes, atomic_write_text
 
     path = Path(path)
     if path.suffix == ".parquet":
@@ -185,7 +186,7 @@ def plot_summary(rows: list[dict[str, Any]], path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cli.io import atomic_savefig
+    from primitives.io import atomic_savefig
 
     ok = [r for r in rows if r.get("efficiency_vs_uniform") is not None]
     labels = [f"{r['ship']}{'' if r['speed_mps'] is None else ' @' + format(r['speed_mps'], 'g')} {r['criterion']}/{r['mean_subtraction']}" for r in ok]

@@ -25,11 +25,13 @@ from pyproj import Transformer
 from shapely.geometry import Point, shape
 from shapely.geometry.base import BaseGeometry
 
+from primitives.errors import UserError
+
 KINDS = ("land", "depth_area", "obstacle", "restricted", "trial_area", "start", "goal")
 POLYGONAL = ("Polygon", "MultiPolygon")
 
 
-class MapError(ValueError):
+class MapError(UserError):
     """A sea map that cannot be used; the message names the file, feature and fix."""
 
 

@@ -17,7 +17,7 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cli.io import atomic_savefig
+    from primitives.io import atomic_savefig
 
     fig, ax = plt.subplots(figsize=(9, 8))
     lat = plan.stats.get("lattice", {})
@@ -70,8 +70,8 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
 def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path) -> dict[str, Path]:
     """plan.json, trajectory.geojson (RFC 7946, when there is a track) and plan.png (the track
     in its planning window) in ``out_dir`` (atomic writes)."""
-    from cli.io import atomic_write_text
     from maps.export.geojson import write_geojson
+    from primitives.io import atomic_write_text
 
     out = Path(out_dir)
     files = {"plan_json": atomic_write_text(out / "plan.json", plan.to_json())}

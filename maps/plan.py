@@ -117,7 +117,7 @@ class Plan:
         return d
 
     def to_json(self) -> str:
-        from cli.io import to_jsonable
+        from primitives.io import to_jsonable
 
         return json.dumps(to_jsonable(self.to_dict()))
 

@@ -1,4 +1,4 @@
-"""Small output helpers shared by the commands: atomic writes and JSON encoding."""
+"""Output helpers shared by every package: atomic writes and JSON encoding (I/O at the edges)."""
 
 from __future__ import annotations
 

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from primitives.errors import UserError
 from primitives.terms import TermError, TermSet, signals_used
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
@@ -26,7 +27,7 @@ ACTUATORS = ("generalized", "azimuth", "rudder_propeller")
 BASE_SIGNALS = {"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "psi", "tau_x", "tau_y", "tau_n"}
 
 
-class ProfileError(ValueError):
+class ProfileError(UserError):
     """A ship profile file is malformed; the message names the file and the field."""
 
 

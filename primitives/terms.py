@@ -17,11 +17,13 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
+from primitives.errors import UserError
+
 Signals = Mapping[str, np.ndarray]
 _FACTOR = re.compile(r"^(\|)?([A-Za-z_][A-Za-z0-9_]*)(\|)?(?:\^([0-9]+))?$")
 
 
-class TermError(ValueError):
+class TermError(UserError):
     """A term string cannot be parsed."""
 
 

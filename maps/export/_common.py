@@ -13,8 +13,8 @@ from datetime import UTC, datetime, timedelta
 
 import numpy as np
 
-from cli.errors import UserError
 from maps.plan import Plan, PlanStep
+from primitives.errors import UserError
 
 M_PER_NM = 1852.0
 KN_PER_MPS = 3600.0 / M_PER_NM

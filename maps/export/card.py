@@ -21,7 +21,6 @@ from typing import Any
 
 import numpy as np
 
-from cli.io import atomic_write_bytes, atomic_write_text
 from maps.export._common import (
     KN_PER_MPS,
     M_PER_NM,
@@ -35,6 +34,7 @@ from maps.export._common import (
 )
 from maps.export.plots import draw_map, plt, states_figure
 from maps.plan import Plan
+from primitives.io import atomic_write_bytes, atomic_write_text
 
 A4 = (8.27, 11.69)
 _BFT = [0.3, 1.6, 3.4, 5.5, 8.0, 10.8, 13.9, 17.2, 20.8, 24.5, 28.5, 32.7]

@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from cli.io import atomic_write_text
 from maps.export._common import KN_PER_MPS, check_plan, clock, iso, resolve_start, step_orders
 from maps.plan import Plan
+from primitives.io import atomic_write_text
 
 
 def _input_columns(plan: Plan) -> list[tuple[str, bool]]:

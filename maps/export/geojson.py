@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from cli.io import atomic_write_text
 from maps.export._common import KN_PER_MPS, check_plan, input_phases
 from maps.plan import Plan
+from primitives.io import atomic_write_text
 
 DECIMALS = 7
 

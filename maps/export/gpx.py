@@ -12,7 +12,6 @@ from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
-from cli.io import atomic_write_bytes
 from maps.export._common import (
     KN_PER_MPS,
     TOOL,
@@ -25,6 +24,7 @@ from maps.export._common import (
     waypoints,
 )
 from maps.plan import Plan
+from primitives.io import atomic_write_bytes
 
 GPX_NS = "http://www.topografix.com/GPX/1/1"
 XSI_NS = "http://www.w3.org/2001/XMLSchema-instance"

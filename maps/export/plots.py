@@ -20,9 +20,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from cli.io import atomic_savefig  # noqa: E402
 from maps.export._common import KN_PER_MPS, ExportError, deg_min, step_slice  # noqa: E402
 from maps.plan import Plan  # noqa: E402
+from primitives.io import atomic_savefig  # noqa: E402
 
 OBSTACLE_KINDS = ("land", "obstacle", "restricted")
 

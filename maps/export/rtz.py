@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 
-from cli.io import atomic_write_bytes
 from maps.export._common import (
     KN_PER_MPS,
     M_PER_NM,
@@ -34,6 +33,7 @@ from maps.export._common import (
     waypoints,
 )
 from maps.plan import Plan
+from primitives.io import atomic_write_bytes
 
 RTZ_NS = "http://www.cirm.org/RTZ/1/2"
 EXT_NS = "urn:shiptrial:rtz-trial:1"
