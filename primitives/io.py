@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -63,3 +66,52 @@ def atomic_savefig(fig, path: str | Path, **kw) -> Path:
     buf = io.BytesIO()
     fig.savefig(buf, format=path.suffix.lstrip(".") or "png", **kw)
     return atomic_write_bytes(path, buf.getvalue())
+
+
+def check_out_path(path: str | Path, *, kind: str = "directory", option: str = "--out") -> Path:
+    """Refuse, before any work, an output path that cannot be written.
+
+    ``kind`` is "directory" (the path must be a directory or not exist, its parent writable) or
+    "file" (the path must not be a directory).
+    """
+    from primitives.errors import UserError
+
+    path = Path(path)
+    if kind == "directory" and path.exists() and not path.is_dir():
+        raise UserError(f"{option} {path}: is a file, not a directory; give a directory path")
+    if kind == "file" and path.is_dir():
+        raise UserError(f"{option} {path}: is a directory; give a file path")
+    parent = path.parent if str(path.parent) else Path(".")
+    probe = parent
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+        raise UserError(f"{option} {path}: {probe} is not a writable directory; choose another {option}")
+    return path
+
+
+@contextmanager
+def atomic_output_dir(path: str | Path) -> Iterator[Path]:
+    """Build an output directory in a temporary sibling and swap it into place on success.
+
+    Yields the temporary directory to write into. On success the previous contents of ``path``
+    (if any) are replaced as a whole; on any exception the temporary directory is removed and
+    ``path`` is left exactly as it was: never a mix of an old and a new result.
+    """
+    path = Path(path)
+    check_out_path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    try:
+        yield tmp
+        os.chmod(tmp, 0o755)  # mkdtemp makes 0700; outputs are handed to crews and colleagues
+        old = None
+        if path.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{path.name}.old.", dir=path.parent))
+            os.replace(path, old / "d")
+        os.replace(tmp, path)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
