@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 PLAN_FORMAT = "shiptrial-plan/1"
+SEGMENTS = ("run-in", "informative", "transit")
 
 
 @dataclass
@@ -25,7 +26,7 @@ class PlanStep:
 
     index: int
     primitive: str
-    kind: str  # "informative" | "basic"
+    kind: str  # "informative" | "basic" (a repositioning lattice move) | "run-in"
     description: str
     start_time_s: float
     duration_s: float
@@ -37,6 +38,18 @@ class PlanStep:
     entry_speed_mps: float
     commands: list[str] = field(default_factory=list)
     space_m: tuple[float, float] = (0.0, 0.0)  # along-track, cross-track extent of its footprint
+    # "run-in" (steady approach before an execute point), "informative" or "transit"
+    # (repositioning); "" in a plan written before segments existed: derived from ``kind``.
+    segment: str = ""
+    orders: list[dict[str, Any]] = field(default_factory=list)  # {"t_s", "text", **values} from Primitive.orders
+    abort: list[str] = field(default_factory=list)  # abort criteria for the crew
+    execute: bool = False  # True on an informative step that starts at an execute point
+
+    def __post_init__(self) -> None:
+        if not self.segment:
+            self.segment = {"informative": "informative", "run-in": "run-in"}.get(self.kind, "transit")
+        if self.segment not in SEGMENTS:
+            raise ValueError(f"plan step {self.index}: field 'segment' must be one of {SEGMENTS}, got {self.segment!r}")
 
     @property
     def entry_heading_deg(self) -> float:
@@ -72,6 +85,11 @@ class Plan:
     map_name: str = ""
     hull: tuple[float, float] = (0.0, 0.0)  # length, beam
     max_wind_mps: float = 10.0
+    # the experiment design behind the counts: {"criterion", "mean_subtraction", "weights": {name: w},
+    # "counts": {name: n}, "d_efficiency", "dropped": [{"primitive", "needs_m": [along, cross],
+    # "efficiency_loss"}]}; {} when the counts were given by hand
+    design: dict[str, Any] = field(default_factory=dict)
+    vessel_name: str = ""
 
     @property
     def duration_s(self) -> float:
@@ -83,7 +101,11 @@ class Plan:
 
     @property
     def basic_moves(self) -> int:
-        return sum(1 for s in self.steps if s.kind == "basic")
+        return sum(1 for s in self.steps if s.segment == "transit")
+
+    def segment_steps(self, segment: str) -> list[PlanStep]:
+        """The steps of one segment kind ("run-in", "informative" or "transit"), in sailing order."""
+        return [s for s in self.steps if s.segment == segment]
 
     def to_dict(self) -> dict[str, Any]:
         d = {
@@ -100,6 +122,8 @@ class Plan:
             "projection": self.projection,
             "hull": list(self.hull),
             "max_wind_mps": self.max_wind_mps,
+            "design": self.design,
+            "vessel_name": self.vessel_name,
             "input_names": self.input_names,
             "steps": [asdict(s) for s in self.steps],
             "samples": {
@@ -126,7 +150,7 @@ class Plan:
         if d.get("format") != PLAN_FORMAT:
             raise ValueError(f"{src}: field 'format' must be {PLAN_FORMAT!r}: not a plan written by shiptrial")
         s = d["samples"]
-        steps = [PlanStep(**{**st, "space_m": tuple(st.get("space_m", (0.0, 0.0)))}) for st in d["steps"]]
+        steps = [PlanStep(**{**st, "space_m": tuple(st.get("space_m", (0.0, 0.0)))}) for st in d["steps"]]  # new fields default
         return cls(
             ship=d["ship"],
             steps=steps,
@@ -148,6 +172,8 @@ class Plan:
             map_name=d.get("map_name", ""),
             hull=tuple(d.get("hull", (0.0, 0.0))),
             max_wind_mps=float(d.get("max_wind_mps", 10.0)),
+            design=dict(d.get("design") or {}),
+            vessel_name=str(d.get("vessel_name", "")),
         )
 
     @classmethod

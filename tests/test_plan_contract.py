@@ -1,0 +1,55 @@
+"""The Plan data contract the exporters read: segments, orders, abort criteria, design, vessel name."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from maps.plan import Plan, PlanStep
+
+
+def _step(i: int, kind: str, **kw) -> PlanStep:
+    return PlanStep(index=i, primitive="p", kind=kind, description="d", start_time_s=float(i), duration_s=1.0, entry_x=0.0,
+                    entry_y=0.0, entry_psi=0.0, entry_lon=25.0, entry_lat=60.0, entry_speed_mps=3.0, **kw)
+
+
+def _plan(steps: list[PlanStep], **kw) -> Plan:
+    n = len(steps) + 1
+    return Plan(ship="s", steps=steps, t=np.arange(n, dtype=float), track=np.zeros((n, 3)), lonlat=np.zeros((n, 2)),
+                speed=np.ones(n), step_of_sample=np.minimum(np.arange(n), len(steps) - 1), inputs=np.zeros((n, 1)),
+                input_names=["a"], projection={}, feasible=True, optimal=True, min_clearance_m=50.0, margin_m=20.0,
+                counts={"p": 1}, targets={"p": 1}, **kw)
+
+
+def test_new_fields_round_trip():
+    steps = [_step(0, "basic"), _step(1, "run-in"),
+             _step(2, "informative", execute=True, orders=[{"t_s": 0.0, "text": "rudder 10 deg starboard", "rudder_deg": 10.0}],
+                   abort=["clearance below 50 m"])]
+    design = {"criterion": "D", "mean_subtraction": "complete", "weights": {"p": 1.0}, "counts": {"p": 1}, "d_efficiency": 0.97,
+              "dropped": [{"primitive": "q", "needs_m": [900.0, 400.0], "efficiency_loss": 0.1}]}
+    p = _plan(steps, design=design, vessel_name="M/S Test")
+    q = Plan.from_dict(json.loads(p.to_json()))
+    assert [s.segment for s in q.steps] == ["transit", "run-in", "informative"]
+    assert q.steps[2].execute and not q.steps[1].execute
+    assert q.steps[2].orders == steps[2].orders and q.steps[2].abort == ["clearance below 50 m"]
+    assert q.design == design and q.vessel_name == "M/S Test"
+    assert q.basic_moves == 1 and [s.index for s in q.segment_steps("run-in")] == [1]
+
+
+def test_old_plan_json_still_loads():
+    """A plan written before segments existed: the new fields default, segments follow the kind."""
+    d = json.loads(_plan([_step(0, "basic"), _step(1, "informative")]).to_json())
+    for st in d["steps"]:
+        for k in ("segment", "orders", "abort", "execute"):
+            del st[k]
+    del d["design"], d["vessel_name"]
+    q = Plan.from_dict(d)
+    assert [s.segment for s in q.steps] == ["transit", "informative"]
+    assert q.design == {} and q.vessel_name == "" and q.steps[1].orders == [] and not q.steps[1].execute
+
+
+def test_unknown_segment_rejected():
+    with pytest.raises(ValueError, match="segment"):
+        _step(0, "basic", segment="approach")
