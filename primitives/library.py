@@ -16,8 +16,11 @@ from shapely.geometry import Polygon
 
 from primitives import maneuvers as mv
 from primitives.footprint import swept_footprint
+from primitives.orders import Order, orders_from_inputs, orders_to_dicts, render
 from primitives.ship import ProfileError, ShipProfile, load_profile
 from primitives.simulate import simulate
+
+KNOT = 1852.0 / 3600.0
 
 
 @dataclass
@@ -27,6 +30,8 @@ class Primitive:
     inputs: (N, m) in the profile's input units; nu: (N+1, 3) nominal body velocities;
     track: (N+1, 3) nominal pose (x north, y east, psi) from the start pose (0, 0, 0).
     kind: "informative" (used for identification) or "basic" (repositioning).
+    commands: one-line summaries for the crew; orders: the helm/engine/azimuth orders in the
+    ship's own terms (:mod:`primitives.orders`), a faithful description of ``inputs``.
     """
 
     name: str
@@ -38,6 +43,7 @@ class Primitive:
     split_points: list[int]
     kind: str = "informative"
     commands: list[str] = field(default_factory=list)
+    orders: list[Order] = field(default_factory=list)
 
     @property
     def n_samples(self) -> int:
@@ -58,6 +64,53 @@ class Primitive:
 
     def ranges(self) -> dict[str, tuple[float, float]]:
         return {s: (float(self.nu[:, i].min()), float(self.nu[:, i].max())) for i, s in enumerate("uvr")}
+
+    def expectations(self) -> dict[str, float]:
+        """What the nominal manoeuvre does, for abort criteria: speed over ground range (m/s and
+        kn), heading change range and at the end (deg, + starboard of the initial course),
+        largest yaw rate (deg/s) and duration (s). Exports add their own margins."""
+        speed = np.hypot(self.nu[:, 0], self.nu[:, 1])
+        dpsi = np.degrees(self.track[:, 2] - self.track[0, 2])
+        return {
+            "duration_s": self.duration_s,
+            "speed_min_mps": float(speed.min()),
+            "speed_max_mps": float(speed.max()),
+            "speed_min_kn": float(speed.min() / KNOT),
+            "speed_max_kn": float(speed.max() / KNOT),
+            "heading_change_min_deg": float(dpsi.min()),
+            "heading_change_max_deg": float(dpsi.max()),
+            "heading_change_end_deg": float(dpsi[-1]),
+            "yaw_rate_max_deg_s": float(np.degrees(np.abs(self.nu[:, 2]).max())),
+        }
+
+    def abort_criteria(self, speed_margin: float = 0.15, heading_margin_deg: float = 10.0, yaw_margin: float = 0.25) -> str:
+        """'Abort if speed < 12.1 kn or > 17.0 kn, heading outside 25° port .. 25° stbd of the
+        initial course, or yaw rate > 0.9 °/s' with the given relative / absolute margins."""
+        e = self.expectations()
+        lo, hi = e["speed_min_kn"] * (1 - speed_margin), e["speed_max_kn"] * (1 + speed_margin)
+        h_lo, h_hi = e["heading_change_min_deg"] - heading_margin_deg, e["heading_change_max_deg"] + heading_margin_deg
+
+        def side(a: float) -> str:
+            return f"{abs(a):.0f}° {'stbd' if a >= 0 else 'port'}"
+
+        heading = "" if h_hi - h_lo >= 360 else f" heading outside {side(h_lo)} .. {side(h_hi)} of the initial course,"
+        return (f"abort if speed < {lo:.1f} kn or > {hi:.1f} kn,{heading} or yaw rate > "
+                f"{e['yaw_rate_max_deg_s'] * (1 + yaw_margin):.2f} °/s")
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary: no sampled arrays, the orders as dicts, the expectations."""
+        return {
+            "name": self.name,
+            "kind": self.kind,
+            "description": self.description,
+            "duration_s": self.duration_s,
+            "end_pose": self.end_pose.tolist(),
+            "split_points": list(self.split_points),
+            "commands": list(self.commands),
+            "orders": orders_to_dicts(self.orders),
+            "expectations": self.expectations(),
+            "abort_criteria": self.abort_criteria(),
+        }
 
     @cached_property
     def footprint(self) -> Polygon:
@@ -85,16 +138,50 @@ class Primitive:
                     [],
                     self.kind,
                     self.commands,
+                    _piece_orders(self.orders, a * self.profile.sample_time, b * self.profile.sample_time),
                 )
             )
         return out
 
 
+def _piece_orders(orders: list[Order], t0: float, t1: float) -> list[Order]:
+    """Orders in [t0, t1) re-timed from t0, led by the settings in force at t0."""
+    before = [o for o in orders if o.t_s < t0 - 1e-9]
+    lead: dict[str, Order] = {}
+    for o in before:  # the last order that set each value
+        for key in o.values:
+            lead[key] = o
+    unique = list({id(o): o for o in lead.values()}.values())
+    first = [Order(0.0, f"(continuing) {o.text}", dict(o.values)) for o in unique]
+    return first + [Order(o.t_s - t0, o.text, dict(o.values)) for o in orders if t0 - 1e-9 <= o.t_s < t1 - 1e-9]
+
+
+def heading_switch_orders(prim_orders: list[Order], track: np.ndarray, splits: list[int], ts: float) -> list[Order]:
+    """Mark the orders at heading-switched split points with the heading change they wait for."""
+    at = {k: float(np.degrees(track[k, 2] - track[0, 2])) for k in splits}
+    out = []
+    for o in prim_orders:
+        k = int(round(o.t_s / ts))
+        if k in at and k > 0:
+            o = Order(o.t_s, f"{o.text} — when the heading is {abs(at[k]):.0f}° {'stbd' if at[k] > 0 else 'port'} of the initial course",
+                      o.values | {"at_heading_change_deg": at[k]})
+        out.append(o)
+    return out
+
+
 def make_primitive(profile: ShipProfile, name: str, description: str, gen: mv.Generated, kind: str = "informative") -> Primitive:
-    """Allocate a generator's forces to the profile's inputs and simulate it nominally."""
-    inputs = profile.allocate(gen.forces[:, 0], gen.forces[:, 1], gen.forces[:, 2])
+    """Allocate a generator's forces to the profile's inputs (or take its inputs and orders),
+    simulate it nominally and describe it as orders in the ship's own terms."""
+    if gen.inputs is not None:
+        inputs, orders = np.asarray(gen.inputs, float), list(gen.orders)
+    else:
+        # the actuators saturate at the profile's limits (a crash stop asks for more than full astern)
+        inputs = profile.clip_inputs(profile.allocate(gen.forces[:, 0], gen.forces[:, 1], gen.forces[:, 2]))
+        orders = orders_from_inputs(profile, inputs)
     res = simulate(profile, inputs, nu0=gen.nu0)
-    return Primitive(name, description, profile, inputs, res.nu[0], res.eta[0], list(gen.split_points), kind, gen.commands)
+    if gen.heading_switched and gen.inputs is None:
+        orders = heading_switch_orders(orders, res.eta[0], gen.split_points, profile.sample_time)
+    return Primitive(name, description, profile, inputs, res.nu[0], res.eta[0], list(gen.split_points), kind, render(orders), orders)
 
 
 # -- the thesis primitives -----------------------------------------------------------------------

@@ -25,12 +25,21 @@ MAX_RUDDER_DEG = 35.0
 
 @dataclass
 class Generated:
-    """Input sequence of a manoeuvre and facts the library and the trial card need."""
+    """Input sequence of a manoeuvre and facts the library and the trial card need.
 
-    forces: np.ndarray  # (N, 3) generalized forces
+    Either ``forces`` (N, 3) generalized forces that the profile allocates to its actuators,
+    or ``inputs`` (N, m) in the profile's own input units (rudder ships, see primitives.helm)
+    together with the ``orders`` that produced them. ``heading_switched``: the split points are
+    where the helm reverses at a heading, so their orders are given at that heading.
+    """
+
+    forces: np.ndarray | None  # (N, 3) generalized forces
     nu0: tuple[float, float, float]
     split_points: list[int] = field(default_factory=list)
     commands: list[str] = field(default_factory=list)
+    inputs: np.ndarray | None = None
+    orders: list = field(default_factory=list)
+    heading_switched: bool = False
 
 
 Policy = Callable[[int, np.ndarray, float, dict], tuple[float, float, float] | None]
@@ -41,20 +50,35 @@ def closed_loop(profile: ShipProfile, policy: Policy, n_max: int, nu0, theta=Non
 
     Returns (forces (N, 3), psi (N+1,)). Scalar loop: used only to generate signals.
     """
-    terms, th = profile.model, profile.params(theta)
+    th = profile.params(theta)
     nu, psi, memo = np.array(nu0, float), 0.0, {}
     forces, psis = [], [0.0]
     for k in range(n_max):
         f = policy(k, nu, psi, memo)
         if f is None:
             break
-        sig = model_signals(profile, nu, np.array(psi), {"tau_x": f[0], "tau_y": f[1], "tau_n": f[2]})
-        inc = np.array([float(x) for x in terms.increments(sig, th)])
-        psi += profile.sample_time * nu[2]
-        nu = nu + inc
+        f = feasible(profile, f)
+        nu, psi = model_step(profile, th, nu, psi, {"tau_x": f[0], "tau_y": f[1], "tau_n": f[2]})
         forces.append(f)
         psis.append(psi)
     return np.array(forces, float).reshape(-1, 3), np.array(psis)
+
+
+def feasible(profile: ShipProfile, f) -> tuple[float, float, float]:
+    """The generalized forces the actuators actually give for a request ``f``: allocated,
+    clipped to the profile's input limits and mapped back (3.55)."""
+    if not profile.input_limits:
+        return tuple(f)
+    row = profile.clip_inputs(profile.allocate(*(np.array([x], float) for x in f)))
+    g = profile.generalized_forces(row)
+    return float(g["tau_x"][0]), float(g["tau_y"][0]), float(g["tau_n"][0])
+
+
+def model_step(profile: ShipProfile, theta: np.ndarray, nu: np.ndarray, psi: float, input_sig: dict) -> tuple[np.ndarray, float]:
+    """One calm-water step of (3.60) for a scalar state: (nu(k+1), psi(k+1))."""
+    sig = model_signals(profile, nu, np.array(psi), input_sig)
+    inc = np.array([float(x) for x in profile.model.increments(sig, theta)])
+    return nu + inc, psi + profile.sample_time * nu[2]
 
 
 def rudder_force(profile: ShipProfile, delta_deg: float, speed: float | None = None) -> float:
@@ -103,7 +127,7 @@ def excitation_zigzag(
         return pos if memo["s"] > 0 else neg
 
     forces, _ = closed_loop(profile, policy, n, (u, 0.0, 0.0))
-    return Generated(forces, (u, 0.0, 0.0), splits)
+    return Generated(forces, (u, 0.0, 0.0), splits, heading_switched=True)
 
 
 def excitation_spiral(profile: ShipProfile, n: int, u: float, v: float, r_end: float) -> Generated:
@@ -161,7 +185,7 @@ def zigzag(
         f"rudder {delta_deg:g} deg {sw}; when the heading has changed {psi_deg:g} deg to {sw}, rudder {delta_deg:g} deg {other}",
         f"when the heading has changed {psi_deg:g} deg to {other}, rudder {delta_deg:g} deg {sw}; repeat for {n_switches} rudder reversals",
     ]
-    return Generated(forces, (u, 0.0, 0.0), splits[:n_switches], cmds)
+    return Generated(forces, (u, 0.0, 0.0), splits[:n_switches], cmds, heading_switched=True)
 
 
 def turning_circle(

@@ -39,6 +39,48 @@ class Thruster:
 
 
 @dataclass(frozen=True)
+class Helm:
+    """Steering gear of a rudder ship ([helm] of the profile).
+
+    starboard_sign: sign of the model's rudder input ``delta`` that turns the ship to starboard
+    (derived from the model's yaw response when the profile does not state it).
+    rudder_rate_deg_s: default 2.32 deg/s, the SOLAS II-1/29 minimum (35 deg one side to 30 deg
+    the other in 28 s), which is also the KVLCC2 full-scale rate of SIMMAN 2008.
+    """
+
+    max_rudder_deg: float = 35.0
+    rudder_rate_deg_s: float = 2.32
+    starboard_sign: float = 1.0
+
+    def delta_rad(self, rudder_deg: np.ndarray | float) -> np.ndarray:
+        """Model input delta [rad] for a helm angle in degrees (+ starboard)."""
+        return self.starboard_sign * np.radians(rudder_deg)
+
+    def rudder_deg(self, delta_rad: np.ndarray | float) -> np.ndarray:
+        """Helm angle in degrees (+ starboard) of a model input delta [rad]."""
+        return self.starboard_sign * np.degrees(delta_rad)
+
+
+@dataclass(frozen=True)
+class Engine:
+    """Propulsion engine of a rudder ship ([engine] of the profile).
+
+    rps_limits: propeller speed range [rev/s] (default the input limits of ``n``); rps_rate:
+    fastest change of the shaft speed [rev/s per s] (None: steps); mcr_rpm: shaft rpm at MCR,
+    for % MCR under the propeller law (power ~ rpm^3); approach_rpm: the rpm the source ran
+    its trials at (compared with the model's steady rpm for the cruise speed).
+    """
+
+    rps_limits: tuple[float, float] = (0.0, np.inf)
+    rps_rate: float | None = None
+    mcr_rpm: float | None = None
+    approach_rpm: float | None = None
+
+
+LIBRARIES = ("thesis-model-ship", "thesis-full-scale")
+
+
+@dataclass(frozen=True)
 class ShipProfile:
     """One ship model: structure (3.60)-style terms, parameter sets and physical facts."""
 
@@ -62,6 +104,9 @@ class ShipProfile:
     thrusters: tuple[Thruster, ...] = ()
     disturbances: dict[str, Any] = field(default_factory=dict)
     source: str = ""
+    helm: Helm = field(default_factory=Helm)
+    engine: Engine = field(default_factory=Engine)
+    library: str = ""
 
     # -- structure -------------------------------------------------------------------------
     # cached: compiled once per profile (a frozen dataclass still has an instance __dict__)
@@ -187,6 +232,14 @@ class ShipProfile:
             d["predictor_names"] = dict(zip(DOFS, map(list, self.predictor_names)))
         if self.thrusters:
             d["thrusters"] = [{"name": t.name, "x": t.x, "y": t.y} for t in self.thrusters]
+        if self.actuator == "rudder_propeller":
+            h, e = self.helm, self.engine
+            d["helm"] = {"max_rudder_deg": h.max_rudder_deg, "rudder_rate_deg_s": h.rudder_rate_deg_s,
+                         "starboard_sign": h.starboard_sign}
+            d["engine"] = {"rps_limits": list(e.rps_limits)} | {
+                k: getattr(e, k) for k in ("rps_rate", "mcr_rpm", "approach_rpm") if getattr(e, k) is not None}
+        if self.library:
+            d["library"] = self.library
         return d
 
 
@@ -283,6 +336,14 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         TermSet(pred)
     for key in ("length_m", "beam_m", "cruise_speed_mps"):
         _need(d, key, src, num, "a positive number")
+    library = d.get("library", "")
+    if library and library not in LIBRARIES:
+        raise ProfileError(f"{src}: field 'library' must be one of {LIBRARIES} (or absent), got {library!r}")
+    helm, engine = Helm(), Engine()
+    if actuator == "rudder_propeller":
+        if inputs != ("delta", "n"):
+            raise ProfileError(f"{src}: field 'inputs' of a rudder_propeller profile must be ['delta', 'n'] (rudder rad, propeller rev/s)")
+        helm, engine = _helm_engine(d, src, limits, model, sets[sim_set], float(d["cruise_speed_mps"]))
     return ShipProfile(
         name=name,
         description=str(d.get("description", "")),
@@ -304,7 +365,59 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         thrusters=thrusters,
         disturbances=dict(d.get("disturbances", {})),
         source=str(d.get("source", "")),
+        helm=helm,
+        engine=engine,
+        library=library,
     )
+
+
+def _positive(table: dict, key: str, src: str, hint: str) -> float | None:
+    if key not in table:
+        return None
+    val = table[key]
+    if not isinstance(val, (int, float)) or isinstance(val, bool) or not val > 0:
+        raise ProfileError(f"{src}: field '{key}' must be a number > 0 ({hint}), got {val!r}")
+    return float(val)
+
+
+def _helm_engine(d: dict, src: str, limits: dict, model: TermSet, theta: np.ndarray, cruise: float) -> tuple[Helm, Engine]:
+    """[helm] and [engine] of a rudder/propeller profile, defaults from the input limits."""
+    h = d.get("helm", {})
+    e = d.get("engine", {})
+    for key, tab in (("helm", h), ("engine", e)):
+        if not isinstance(tab, dict):
+            raise ProfileError(f"{src}: field '{key}' must be a table [{key}]")
+    lim_deg = float(np.degrees(min(abs(x) for x in limits["delta"]))) if "delta" in limits else 35.0
+    max_deg = _positive(h, "max_rudder_deg", f"{src} [helm]", "the largest rudder angle in degrees, e.g. 35") or lim_deg
+    if max_deg > lim_deg + 1e-6:
+        raise ProfileError(f"{src}: field 'helm.max_rudder_deg' = {max_deg:g} exceeds input_limits.delta ({lim_deg:.2f} deg)")
+    rate = _positive(h, "rudder_rate_deg_s", f"{src} [helm]", "the steering gear's rate in deg/s, e.g. 2.32") or 2.32
+    sign = h.get("starboard_sign")
+    if sign is None:
+        sign = _starboard_sign(model, theta, cruise)
+    elif sign not in (1, -1):
+        raise ProfileError(f"{src}: field 'helm.starboard_sign' must be 1 or -1 (sign of delta that turns to starboard), got {sign!r}")
+    rps = e.get("rps_limits", list(limits.get("n", (0.0, np.inf))))
+    if not (isinstance(rps, list) and len(rps) == 2 and all(isinstance(x, (int, float)) for x in rps) and rps[0] < rps[1]):
+        raise ProfileError(f"{src}: field 'engine.rps_limits' must be [min, max] propeller rev/s with min < max, got {rps!r}")
+    if np.isinf(rps[1]):
+        raise ProfileError(f"{src}: a rudder_propeller profile needs the propeller's rev/s range: add input_limits.n = [min, max] or engine.rps_limits")
+    engine = Engine(
+        (float(rps[0]), float(rps[1])),
+        _positive(e, "rps_rate", f"{src} [engine]", "the fastest shaft-speed change in rev/s per second"),
+        _positive(e, "mcr_rpm", f"{src} [engine]", "shaft rpm at MCR"),
+        _positive(e, "approach_rpm", f"{src} [engine]", "the rpm of the source's approach runs"),
+    )
+    return Helm(max_deg, rate, float(sign)), engine
+
+
+def _starboard_sign(model: TermSet, theta: np.ndarray, cruise: float) -> float:
+    """+1 if a positive delta gives a starboard (positive) yaw acceleration at cruise speed, else -1."""
+    rates = []
+    for delta in (0.0, 0.1):
+        sig = {k: 0.0 for k in BASE_SIGNALS} | {"u": cruise, "u_r": cruise, "u_q": cruise, "delta": delta, "n": 0.0}
+        rates.append(float(model.increments(sig, theta)[2]))
+    return 1.0 if rates[1] >= rates[0] else -1.0
 
 
 def load_profile(name_or_path: str | Path) -> ShipProfile:
