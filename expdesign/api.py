@@ -24,7 +24,7 @@ from primitives.information import (
     library_information,
     unidentified_parameters,
 )
-from primitives.library import Primitive, model_ship_thesis, thesis_primitives
+from primitives.library import Primitive, design_dictionary, model_ship_thesis
 from primitives.ship import ShipProfile, load_profile
 from primitives.simulate import Disturbances
 
@@ -87,12 +87,9 @@ class Design:
 
 def default_library(profile: ShipProfile, psi_switch: float | None = None) -> list[Primitive]:
     """The thesis dictionary of the profile; ``psi_switch`` (rad) sets the model-ship zig-zag period."""
-    if psi_switch is not None and profile.name == "model-ship":
+    if psi_switch is not None and profile.library == "thesis-model-ship":
         return model_ship_thesis(profile, psi_switch=psi_switch)
-    lib = thesis_primitives(profile)
-    if not lib:
-        raise DesignError(f"profile {profile.name!r} has no built-in primitive dictionary: design for 'model-ship' or 'full-scale', or pass primitives=[...] from Python")
-    return lib
+    return design_dictionary(profile)
 
 
 def check_identifiable(profile: ShipProfile, info: InfoSet, mean_subtraction: str) -> None:

@@ -88,6 +88,10 @@ def validation_input(profile: ShipProfile, n: int, seed: int = 0) -> tuple[np.nd
     random binary sway and a multisine yaw rate reference, turned into feed-forward forces.
     Returns (inputs (n, m), nu0 (3,))."""
     rng = np.random.default_rng([seed, 0x5EED])
+    if profile.actuator == "rudder_propeller":  # no force allocation: the same idea in helm terms
+        from primitives.helm import validation_inputs
+
+        return validation_inputs(profile, n, rng)
     t = np.arange(n) / n
     c, L = profile.cruise_speed_mps, profile.length_m
 

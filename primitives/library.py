@@ -14,10 +14,11 @@ from functools import cached_property
 import numpy as np
 from shapely.geometry import Polygon
 
+from primitives import helm as hm
 from primitives import maneuvers as mv
 from primitives.footprint import swept_footprint
 from primitives.orders import Order, orders_from_inputs, orders_to_dicts, render
-from primitives.ship import ProfileError, ShipProfile, load_profile
+from primitives.ship import ShipProfile, load_profile
 from primitives.simulate import simulate
 
 KNOT = 1852.0 / 3600.0
@@ -263,8 +264,16 @@ def standard_trials(profile: ShipProfile) -> list[Primitive]:
 
 def basic_moves(profile: ShipProfile, step_m: float | None = None) -> list[Primitive]:
     """Repositioning moves for the planner: straight run, turn on the spot both ways, left and
-    right 90 deg turns at cruise speed. ``step_m`` is the straight-run length (default 5 L)."""
+    right 90 deg turns at cruise speed. ``step_m`` is the straight-run length (default 5 L).
+    A rudder ship cannot turn on the spot: it gets the straight run and the two turns, in helm
+    orders (rudder, counter-rudder, midships)."""
     step = step_m or 5 * profile.length_m
+    if profile.actuator == "rudder_propeller":
+        return [
+            make_primitive(profile, "straight", f"straight run {step:.0f} m", hm.straight(profile, step), "basic"),
+            make_primitive(profile, "turn_s", "90 deg turn to starboard", hm.turn(profile, 90.0), "basic"),
+            make_primitive(profile, "turn_p", "90 deg turn to port", hm.turn(profile, -90.0), "basic"),
+        ]
     return [
         make_primitive(profile, "straight", f"straight run {step:.0f} m", mv.straight(profile, step), "basic"),
         make_primitive(
@@ -278,23 +287,64 @@ def basic_moves(profile: ShipProfile, step_m: float | None = None) -> list[Primi
     ]
 
 
+def rudder_dictionary(profile: ShipProfile) -> list[Primitive]:
+    """Informative manoeuvres of a rudder/propeller ship, in helm and engine orders: zig-zags
+    10/10 and 20/20 to both sides, thesis-style excitation zig-zags (two rudder angles switched
+    at a small heading change, at the approach rpm and at 60 % of it: slow/fast, flat/steep as
+    tau3-tau8), turning circles with full rudder both sides, a pull-out, a direct (Dieudonne)
+    spiral, accelerations/decelerations by engine steps and a stopping manoeuvre."""
+    n0 = hm.steady_rps(profile)
+    n_slow = max(0.6 * n0, profile.engine.rps_limits[0])
+    full = profile.helm.max_rudder_deg
+    out = []
+    for d, s in ((10, "starboard"), (10, "port"), (20, "starboard"), (20, "port")):
+        out.append(make_primitive(profile, f"zigzag_{d}_{d}_{s[0]}", f"zig-zag {d}/{d}, first rudder to {s}",
+                                  hm.zigzag(profile, d, d, first_side=s)))
+    for n, pct in ((n0, 100), (n_slow, round(100 * n_slow / n0))):
+        for d, psi in ((10, 5), (min(25, full), 5)):
+            out.append(make_primitive(profile, f"zz_exc_{d:g}_{psi}_{pct}", f"excitation zig-zag {d:g}/{psi} at {pct} % of approach rpm",
+                                      hm.zigzag(profile, d, psi, n_rps=n, n_switches=6)))
+    for s in ("starboard", "port"):
+        out.append(make_primitive(profile, f"turning_circle_{full:g}_{s[0]}", f"turning circle, rudder {full:g} deg {s}",
+                                  hm.turning_circle(profile, side=s)))
+    out.append(make_primitive(profile, "pull_out_20_s", "pull-out after a 20 deg starboard turn", hm.pull_out(profile, 20)))
+    out.append(make_primitive(profile, "direct_spiral", "direct (Dieudonne) spiral", hm.direct_spiral(profile)))
+    half = max(0.5 * n0, profile.engine.rps_limits[0])
+    out.append(make_primitive(profile, "acceleration", f"acceleration: engine {60 * half:.0f} -> {60 * n0:.0f} rpm",
+                              hm.speed_change(profile, half, n0)))
+    out.append(make_primitive(profile, "deceleration", f"deceleration: engine {60 * n0:.0f} -> {60 * half:.0f} rpm",
+                              hm.speed_change(profile, n0, half)))
+    gen, what = hm.stopping(profile)
+    out.append(make_primitive(profile, "stopping", what, gen))
+    return out
+
+
+_THESIS = {"thesis-model-ship": model_ship_thesis, "thesis-full-scale": full_scale_thesis}
+
+
 def thesis_primitives(profile: ShipProfile) -> list[Primitive]:
-    """The thesis's dictionary for the profile (tau1-tau11 or tau12-tau20)."""
-    if profile.name == "model-ship":
-        return model_ship_thesis(profile)
-    if profile.name == "full-scale":
-        return full_scale_thesis(profile)
+    """The profile's identification dictionary: the thesis's tau1-tau11 or tau12-tau20 (profile
+    key ``library``), the helm dictionary of a rudder/propeller ship, else none."""
+    if profile.library in _THESIS:
+        return _THESIS[profile.library](profile)
+    if profile.actuator == "rudder_propeller":
+        return rudder_dictionary(profile)
     return []
 
 
+def design_dictionary(profile: ShipProfile) -> list[Primitive]:
+    """What the design chooses from: the dictionary of :func:`thesis_primitives`, else (a user
+    profile without one) the standard trials."""
+    return thesis_primitives(profile) or standard_trials(profile)
+
+
 def build_library(profile: ShipProfile | str, *, standard: bool = True, basic: bool = True) -> list[Primitive]:
-    """Every primitive the profile supports: thesis dictionary, standard trials, basic moves."""
+    """Every primitive the profile supports: its dictionary, standard trials, basic moves (a
+    rudder ship's dictionary already holds its standard trials, in helm orders)."""
     if isinstance(profile, str):
         profile = load_profile(profile)
-    if profile.actuator == "rudder_propeller":
-        raise ProfileError(f"profile {profile.name!r}: manoeuvre generation needs generalized-force or azimuth inputs, not {profile.actuator}; use it with 'shiptrial diagnose'")
     lib = thesis_primitives(profile)
-    if standard:
+    if standard and profile.actuator != "rudder_propeller":
         lib += standard_trials(profile)
     if basic:
         lib += basic_moves(profile)
