@@ -100,9 +100,9 @@ class HelmLoop:
         eng = self.p.engine
         dr = self.p.helm.rudder_rate_deg_s * self.ts
         dn = np.inf if eng.rps_rate is None else eng.rps_rate * self.ts
-        for _ in range(m):
-            self.rudder += float(np.clip(self.cmd_rudder - self.rudder, -dr, dr))
-            self.shaft += float(np.clip(self.cmd_n - self.shaft, -dn, dn))
+        for _ in range(m):  # builtin min/max: this scalar loop is the generator's hot path
+            self.rudder += min(max(self.cmd_rudder - self.rudder, -dr), dr)
+            self.shaft += min(max(self.cmd_n - self.shaft, -dn), dn)
             row = (float(self.p.helm.delta_rad(self.rudder)), self.shaft)
             self.nu, self.psi = model_step(self.p, self.th, self.nu, self.psi, {"delta": row[0], "n": row[1]})
             self.rows.append(row)
@@ -277,7 +277,7 @@ def turn(profile: ShipProfile, dpsi_deg: float, *, rudder_deg: float = 20.0, n_r
     n, u = _approach(profile, n_rps)
     lo, hi = 0.0, abs(dpsi_deg)
     best = None
-    for _ in range(14):
+    for _ in range(10):
         lead = 0.5 * (lo + hi)
         loop = _turn_run(profile, dpsi_deg, rudder_deg, lead, n, u)
         err = abs(loop.heading_deg) - abs(dpsi_deg)
