@@ -27,18 +27,34 @@ def load_plan(path: Path):
         raise UserError(f"{path}: malformed plan ({type(exc).__name__}: {exc}); re-create it with plan-trial") from None
 
 
-def resolve_sea_map(path: Path | None, map_name: str):
-    """The obstacles for the card: ``--map`` (a sea map read by ``maps.geo.load_map``), else the
+def resolve_sea_map(path: Path | None, map_name: str, plan=None):
+    """The chart for the card and the route's corridors: ``--map`` (a sea map read by
+    ``maps.geo.load_map``, shallow for the ship's draught when the plan's ship is a bundled
+    profile), else None when the plan carries its own chart (``plan.stats['chart']``), else the
     bundled map the plan names, else None (the card then draws the track only)."""
     try:
         from maps.geo import bundled_map_path, load_map
     except ImportError:
         return str(path) if path else None
     if path is not None:
-        return load_map(path)
+        return load_map(path, draught_m=_draught(plan))
+    if plan is not None and isinstance(plan.stats, dict) and plan.stats.get("chart"):
+        return None  # the exporters use the chart saved with the plan
     if map_name and bundled_map_path(map_name).is_file():
         return load_map(bundled_map_path(map_name))
     return None
+
+
+def _draught(plan) -> float:
+    """The draught of the plan's ship when it is a bundled profile, else 0 (no depth limit)."""
+    try:
+        from primitives.ship import builtin_profiles, load_profile
+
+        if plan is not None and plan.ship in builtin_profiles():
+            return float(load_profile(plan.ship).draught_m)
+    except Exception:  # the map still loads without the profile
+        pass
+    return 0.0
 
 
 def register(app: typer.Typer) -> None:
@@ -50,6 +66,8 @@ def register(app: typer.Typer) -> None:
         sea_map: Path | None = typer.Option(None, "--map", help="GeoJSON sea map to draw on the card (default: the bundled map the plan names)"),
         start: str | None = typer.Option(None, "--start", help="UTC start of the trial, ISO 8601 (e.g. 2026-06-01T08:00Z)"),
         no_pdf: bool = typer.Option(False, "--no-pdf", help="card: write the HTML only"),
+        vessel: str | None = typer.Option(None, "--vessel-name", help="the ship's name on the route and card "
+                                                                      "(default: the plan's vessel name, else the profile's display name)"),
     ) -> None:
         """Export a saved plan for the ship: route (RTZ, GPX), GeoJSON, CSV schedule or trial card."""
         from maps.export import FORMATS, default_path, export_all, export_plan
@@ -60,16 +78,16 @@ def register(app: typer.Typer) -> None:
         if sea_map is not None and not sea_map.is_file():
             raise UserError(f"{sea_map}: no such map file (--map takes a GeoJSON sea map)")
         plan = load_plan(plan_file)
-        sea = resolve_sea_map(sea_map, plan.map_name)
+        sea = resolve_sea_map(sea_map, plan.map_name, plan)
         if fmt_l == "all":
             out_dir = out or plan_file.parent
             if out_dir.exists() and not out_dir.is_dir():
                 raise UserError(f"{out_dir}: --out must be a directory when --format is all")
-            written = list(export_all(plan, out_dir, sea, start=start).values())
+            written = list(export_all(plan, out_dir, sea, start=start, vessel=vessel).values())
         else:
             path = out or default_path(plan, fmt_l, plan_file.parent)
             if path.is_dir():
                 path = default_path(plan, fmt_l, path)
-            written = export_plan(plan, fmt_l, path, sea_map=sea, start=start, pdf=not no_pdf)
+            written = export_plan(plan, fmt_l, path, sea_map=sea, start=start, pdf=not no_pdf, vessel=vessel)
         for p in written:
             typer.echo(f"wrote {p}")

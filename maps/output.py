@@ -68,14 +68,25 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
 
 
 def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path) -> dict[str, Path]:
-    """plan.json, trajectory.geojson (RFC 7946, when there is a track) and plan.png (the track
-    in its planning window) in ``out_dir`` (atomic writes)."""
+    """plan.json, trajectory.geojson and plan.png (the track in its planning window) in
+    ``out_dir`` (atomic writes).
+
+    plan.json carries the chart around the track (``plan.stats['chart']``: land, shallow and
+    other no-go water, depth areas) so that ``shiptrial export`` draws the same map and keeps
+    the route's corridors off the same land without the map file. trajectory.geojson is the
+    track alone, one LineString per segment tagged ``run-in``, ``informative`` (with the
+    primitive) or ``transit`` (RFC 7946, when there is a track); the crew's chart overlay with
+    execute points, waypoints and corridors is ``<ship>-trial.geojson`` (maps.export).
+    """
+    from maps.export.chart import embed_chart
     from maps.export.geojson import write_geojson
     from primitives.io import atomic_write_text
 
     out = Path(out_dir)
+    if len(plan.track) >= 2:
+        embed_chart(plan, sea)
     files = {"plan_json": atomic_write_text(out / "plan.json", plan.to_json())}
     if len(plan.track) >= 2:  # a LineString needs two positions; a failed search has no track
-        files["trajectory_geojson"] = write_geojson(plan, out / "trajectory.geojson")
+        files["trajectory_geojson"] = write_geojson(plan, out / "trajectory.geojson", overlay=False)
     files["plot"] = plot_plan(plan, sea, out / "plan.png")
     return files

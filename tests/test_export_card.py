@@ -12,7 +12,7 @@ from shapely.geometry import Polygon
 
 from cli.app import _run
 from maps.export import FORMATS, export_all
-from maps.export._common import describe_inputs, input_phases
+from maps.export._common import clock, describe_inputs, input_phases
 from maps.export._testing import synthetic_plan
 from maps.export.card import beaufort, card_figures, card_html, render_card_page1, step_sheets
 from maps.export.plots import obstacle_geoms, plot_states
@@ -60,7 +60,7 @@ def test_step_sheets_carry_what_the_bridge_needs(azi_plan):
     s = sheets[1]
     assert s["position"] == "60°07.270'N 024°57.081'E"
     assert s["heading"] == "030°" and s["speed"].startswith("5.8 kn")
-    assert s["orders"] == azi_plan.steps[1].commands and s["duration"] == "3:01"
+    assert s["orders"] == [f"at +{clock(o['t_s'])}: {o['text']}" for o in azi_plan.steps[1].orders] and s["duration"] == "3:01"
     assert s["start"] == "+0:50 (08:00:50 UTC)"
     assert any("to port" in a and "to starboard" in a for a in s["abort"])
 
@@ -76,7 +76,10 @@ def test_card_html_is_self_contained_and_complete(azi_plan, tmp_path):
     for st in azi_plan.steps:
         assert st.primitive in text
     assert "Beaufort 5" in text and "10 m/s" in text
-    assert "bow thruster" in text and "rudder 10 deg starboard" in text
+    import html as _html
+
+    for st in azi_plan.steps:  # every step's orders, in the ship's own terms
+        assert st.orders and all(_html.escape(o["text"]) in text for o in st.orders)
 
 
 def test_card_pdf_and_page1_render(azi_plan, tmp_path):

@@ -41,12 +41,12 @@ def test_geojson_passes_rfc7946_check_and_holds_track_and_starts(azi_plan, tmp_p
     assert validate_geojson(obj) == []
     assert "crs" not in obj
     kinds = [f["properties"]["kind"] for f in obj["features"]]
-    assert kinds.count("track") == 1 and kinds.count("manoeuvre_start") == len(azi_plan.steps)
-    line = next(f for f in obj["features"] if f["properties"]["kind"] == "track")["geometry"]["coordinates"]
+    assert kinds.count("manoeuvre_start") + kinds.count("execute_point") == len(azi_plan.steps)
+    tracks = [f for f in obj["features"] if f["properties"]["kind"] == "track"]
     # lon, lat order: the first position is the plan's start (lon 24.95, lat 60.12)
-    assert line[0] == [24.95, 60.12]
-    np.testing.assert_allclose(line[-1], azi_plan.lonlat[-1], atol=1e-7)
-    starts = [f for f in obj["features"] if f["properties"]["kind"] == "manoeuvre_start"]
+    assert tracks[0]["geometry"]["coordinates"][0] == [24.95, 60.12]
+    np.testing.assert_allclose(tracks[-1]["geometry"]["coordinates"][-1], azi_plan.lonlat[-1], atol=1e-7)
+    starts = [f for f in obj["features"] if f["properties"]["kind"] in ("manoeuvre_start", "execute_point")]
     for f, st in zip(starts, azi_plan.steps):
         p = f["properties"]
         assert p["index"] == st.index + 1 and p["primitive"] == st.primitive and p["commands"] == st.commands
@@ -56,6 +56,29 @@ def test_geojson_passes_rfc7946_check_and_holds_track_and_starts(azi_plan, tmp_p
         np.testing.assert_allclose(f["geometry"]["coordinates"], [st.entry_lon, st.entry_lat], atol=1e-7)
     # every number has at most 7 decimals in the written text
     assert not re.search(r"\d\.\d{8,}", path.read_text())
+
+
+def test_geojson_tags_every_segment_and_trajectory_differs_from_overlay(tmp_path):
+    plan = synthetic_plan("full-scale", ("straight", "zigzag_10_10_s", "turn_s", "tau17", "straight"), run_in=True)
+    overlay = plan_geojson(plan)
+    traj = plan_geojson(plan, overlay=False)
+    assert validate_geojson(overlay) == [] and validate_geojson(traj) == []
+    segs = [f["properties"] for f in traj["features"]]
+    assert {f["properties"]["kind"] for f in traj["features"]} == {"track"}
+    # transit, run-in, zig-zag, transit + run-in merge? no: turn_s is transit, then run-in, tau17, transit
+    assert [(p["segment"], p["primitive"]) for p in segs] == [
+        ("transit", None), ("run-in", None), ("informative", "zigzag_10_10_s"), ("transit", None), ("run-in", None),
+        ("informative", "tau17"), ("transit", None)]
+    # the segments join end to start and together are the whole track
+    coords = [f["geometry"]["coordinates"] for f in traj["features"]]
+    assert all(a[-1] == b[0] for a, b in zip(coords[:-1], coords[1:]))
+    assert sum(p["duration_s"] for p in segs) == pytest.approx(plan.duration_s, abs=0.01)
+    # the overlay adds execute points (with orders in the ship's terms), corridors and the sea room
+    kinds = [f["properties"]["kind"] for f in overlay["features"]]
+    assert kinds.count("execute_point") == 2 and "corridor" in kinds and "sea_room" in kinds
+    ex = next(f["properties"] for f in overlay["features"] if f["properties"]["kind"] == "execute_point")
+    assert ex["primitive"] == "zigzag_10_10_s" and ex["orders"] and "Azimuth" in " ".join(ex["orders"])
+    assert ex["abort"] and any("speed" in a for a in ex["abort"])
 
 
 def test_geojson_sea_room_polygon_is_ccw_and_contains_the_track(azi_plan):
@@ -103,8 +126,8 @@ def test_gpx_route_parses_with_gpxpy(azi_plan, tmp_path):
     for pt, st in zip(rte.points, azi_plan.steps):
         assert pt.name.endswith(st.primitive)
         assert pt.latitude == pytest.approx(st.entry_lat, abs=1e-7) and pt.longitude == pytest.approx(st.entry_lon, abs=1e-7)
-        for c in st.commands:
-            assert c in pt.description
+        for o in st.orders:
+            assert o["text"] in pt.description
     assert rte.points[-1].name.endswith("end")
     times = [p.time for p in rte.points]
     assert times == sorted(times) and (times[-1] - times[0]).total_seconds() == pytest.approx(azi_plan.duration_s, abs=1)
@@ -135,30 +158,34 @@ def test_rtz_waypoints_legs_xtd_speeds_schedule_and_extensions(azi_plan):
     doc = etree.fromstring(plan_rtz(azi_plan, route_name="trial", start=START))
     ns = {"r": RTZ_NS}
     wps = doc.findall("r:waypoints/r:waypoint", ns)
-    assert len(wps) == len(azi_plan.steps) + 1
+    assert len(wps) == len(azi_plan.steps) + 1  # no chart: no via points
     assert wps[0].find("r:leg", ns) is None and all(w.find("r:leg", ns) is not None for w in wps[1:])
-    half_nm = (0.5 * azi_plan.hull[1] + azi_plan.margin_m) / M_PER_NM
+    half = 0.5 * azi_plan.hull[1] + azi_plan.margin_m
     ours = waypoints(azi_plan)
     for i, w in enumerate(wps[1:], start=1):
         leg = w.find("r:leg", ns)
         stbd, port = cross_track(azi_plan, ours, i)
-        assert float(leg.get("starboardXTD")) == pytest.approx(stbd / M_PER_NM + half_nm, abs=6e-4)
-        assert float(leg.get("portsideXTD")) == pytest.approx(port / M_PER_NM + half_nm, abs=6e-4)
+        # excursion + half beam + margin, rounded down to 0.001 NM
+        assert 0 <= (stbd + half) / M_PER_NM - float(leg.get("starboardXTD")) < 1.001e-3
+        assert 0 <= (port + half) / M_PER_NM - float(leg.get("portsideXTD")) < 1.001e-3
         assert float(leg.get("speedMax")) <= np.max(azi_plan.speed) * KN_PER_MPS + 0.01
     # the zig-zag leg (into waypoint 3) swings out to both sides by more than the corridor half width
     zz = wps[2].find("r:leg", ns)
-    assert float(zz.get("starboardXTD")) > half_nm + 5 / M_PER_NM
+    assert float(zz.get("starboardXTD")) > (half + 5) / M_PER_NM
     # the straight first leg is sailed at the cruise speed, 3 m/s = 5.83 kn
     assert float(wps[1].find("r:leg", ns).get("speedMin")) == pytest.approx(5.83, abs=0.01)
     elems = doc.findall("r:schedules/r:schedule/r:calculated/r:scheduleElement", ns)
     assert [int(e.get("waypointId")) for e in elems] == [int(w.get("id")) for w in wps]
-    assert elems[0].get("etd") == "2026-06-01T08:00:00Z" and elems[0].get("eta") is None
+    assert elems[0].get("etd") == "2026-06-01T08:00:00Z" and elems[0].get("eta") is None and elems[0].get("speed") is None
     assert elems[-1].get("etd") is None
     assert elems[2].get("eta") == "2026-06-01T08:03:51Z"  # zig-zag of 181 s after a 50 s straight
+    # each leg's own speed: the straight run into waypoint 2 at 5.83 kn, not the zig-zag's
+    assert float(elems[1].get("speed")) == pytest.approx(5.83, abs=0.02)
     ext = wps[1].find("r:extensions/r:extension", ns)
     assert ext.get("manufacturer") == "shiptrial" and ext.get("name") == "trialManoeuvre"
-    cmds = [c.text for c in ext.iter("{urn:shiptrial:rtz-trial:1}command")]
-    assert cmds == azi_plan.steps[1].commands
+    orders = [c.text for c in ext.iter("{urn:shiptrial:rtz-trial:1}order")]
+    assert orders == [o["text"] for o in azi_plan.steps[1].orders] and orders
+    assert [c for c in ext.iter("{urn:shiptrial:rtz-trial:1}abort")]
 
 
 def test_rtz_validation_catches_schema_and_rule_violations(azi_plan):

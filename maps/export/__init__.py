@@ -1,6 +1,7 @@
 """Exports of a :class:`maps.plan.Plan` for ships and crews (notes/anchors section 5).
 
-Formats: ``geojson`` (RFC 7946), ``gpx`` (GPX 1.1 route + track), ``rtz`` (RTZ 1.2, IEC 61174),
+Formats: ``geojson`` (RFC 7946 chart overlay: tagged track segments, execute points, waypoints,
+corridors, sea room), ``gpx`` (GPX 1.1 route + track), ``rtz`` (RTZ 1.2, IEC 61174),
 ``csv`` (schedule per sample), ``card`` (trial card: HTML with embedded PNGs, plus PDF).
 Every file is written atomically. :func:`export_plan` writes one format, :func:`export_all`
 every format plus the track and states plots.
@@ -34,13 +35,16 @@ def export_plan(
     sea_map: Any = None,
     start: datetime | str | None = None,
     pdf: bool = True,
+    vessel: str | None = None,
 ) -> list[Path]:
     """Write ``plan`` in format ``fmt`` to ``path``; returns the files written (the card writes
     an HTML file and, with ``pdf``, a PDF beside it; a ``.pdf`` path writes the PDF only).
 
-    ``sea_map``: obstacles for the card's map (GeoJSON path/mapping or shapely geometries in
-    lon/lat). ``start``: UTC start of the trial for ETAs (default: ``plan.stats['start_utc']``,
-    else the next full hour).
+    ``sea_map``: the chart for the card's map and the route's land-free corridors (a
+    ``maps.geo.SeaMap``, GeoJSON path/mapping or shapely geometries in lon/lat; default: the
+    chart stored in the plan). ``start``: UTC start of the trial for ETAs (default:
+    ``plan.stats['start_utc']``, else the next full hour). ``vessel``: the ship's name on the
+    route and card (default: ``plan.vessel_name``, else the profile's display name).
     """
     fmt = fmt.lower()
     if fmt not in FORMATS:
@@ -49,22 +53,22 @@ def export_plan(
     if fmt == "geojson":
         from maps.export.geojson import write_geojson
 
-        return [write_geojson(plan, path)]
+        return [write_geojson(plan, path, sea_map=sea_map)]
     if fmt == "gpx":
         from maps.export.gpx import write_gpx
 
-        return [write_gpx(plan, path, start=start)]
+        return [write_gpx(plan, path, start=start, vessel=vessel)]
     if fmt == "rtz":
         from maps.export.rtz import write_rtz
 
-        return [write_rtz(plan, path, start=start)]
+        return [write_rtz(plan, path, start=start, sea_map=sea_map, vessel=vessel)]
     if fmt == "csv":
         from maps.export.csv import write_csv
 
         return [write_csv(plan, path, start=start)]
     from maps.export.card import write_card
 
-    return write_card(plan, path, sea_map=sea_map, start=start, pdf=pdf)
+    return write_card(plan, path, sea_map=sea_map, start=start, pdf=pdf, vessel=vessel)
 
 
 def export_all(
@@ -74,6 +78,7 @@ def export_all(
     *,
     start: datetime | str | None = None,
     plots: bool = True,
+    vessel: str | None = None,
 ) -> dict[str, Path]:
     """Every export of ``plan`` into ``out_dir``: keys geojson, gpx, rtz, csv, card (HTML),
     card_pdf, and with ``plots`` track_png (map) and states_png (speed, heading, inputs)."""
@@ -83,7 +88,7 @@ def export_all(
     t0 = resolve_start(plan, start)  # one start time for every file
     out: dict[str, Path] = {}
     for fmt in FORMATS:
-        written = export_plan(plan, fmt, default_path(plan, fmt, out_dir), sea_map=sea_map, start=t0)
+        written = export_plan(plan, fmt, default_path(plan, fmt, out_dir), sea_map=sea_map, start=t0, vessel=vessel)
         out[fmt] = written[0]
         if fmt == "card" and len(written) > 1:
             out["card_pdf"] = written[1]

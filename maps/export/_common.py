@@ -8,6 +8,7 @@ end of the track. The leg *into* waypoint i is the part of the track sailed duri
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 
@@ -60,6 +61,29 @@ def check_plan(plan: Plan) -> None:
         raise ExportError("plan fields 'samples.lon/lat' are out of range (lon in [-180, 180], lat in [-90, 90])")
 
 
+def vessel_name(plan: Plan, override: str | None = None) -> str:
+    """The ship's name on the exports: ``override`` (``--vessel-name``), else the plan's
+    ``vessel_name``, else the profile's display name, else the profile name."""
+    if override is not None:
+        name = " ".join(str(override).split())
+        if not name:
+            raise ExportError("--vessel-name is empty: give the ship's name, e.g. --vessel-name 'MT Example'")
+        return name
+    name = str(getattr(plan, "vessel_name", "") or "").strip()
+    if name:
+        return name
+    try:
+        from primitives.ship import builtin_profiles, load_profile
+
+        if plan.ship in builtin_profiles():
+            shown = getattr(load_profile(plan.ship), "display_name", "")
+            if shown:
+                return str(shown)
+    except Exception:  # a plan must export without any profile
+        pass
+    return plan.ship
+
+
 def step_slice(plan: Plan, step: PlanStep) -> slice:
     """Samples of ``step``: from its entry to the next step's entry (inclusive of that sample)."""
     idx = np.flatnonzero(plan.step_of_sample == step.index)
@@ -76,8 +100,9 @@ def waypoints(plan: Plan) -> list[Waypoint]:
     out = []
     for i, st in enumerate(plan.steps):
         k = step_slice(plan, st).start
+        label = f"EXECUTE {st.primitive}" if getattr(st, "execute", False) else st.primitive
         out.append(
-            Waypoint(i, f"WP{i + 1:02d} {st.primitive}", float(st.entry_lon), float(st.entry_lat), float(st.start_time_s),
+            Waypoint(i, f"WP{i + 1:02d} {label}", float(st.entry_lon), float(st.entry_lat), float(st.start_time_s),
                      st.entry_heading_deg, float(st.entry_speed_mps), st, k)
         )
     k = len(plan.t) - 1
@@ -283,6 +308,26 @@ def input_phases(plan: Plan, step: PlanStep, max_phases: int = 6) -> list[str]:
     return [first, f"then {len(merged) - 1} changes of order; inputs range " + ", ".join(rng)]
 
 
+def order_lines(step: PlanStep) -> list[str]:
+    """The step's structured orders (``PlanStep.orders``: {"t_s", "text", ...}) as timed lines
+    in the ship's own terms, e.g. "at +0:40: port 20, counter-rudder at 10° port"."""
+    out = []
+    for o in getattr(step, "orders", None) or []:
+        if not isinstance(o, dict) or not o.get("text"):
+            continue
+        t = o.get("t_s")
+        out.append(f"at +{clock(float(t))}: {o['text']}" if isinstance(t, (int, float)) else str(o["text"]))
+    return out
+
+
 def step_orders(plan: Plan, step: PlanStep) -> list[str]:
-    """What the crew is told for ``step``: its commands, else the timed input orders."""
-    return list(step.commands) if step.commands else input_phases(plan, step)
+    """What the crew is told for ``step``: its structured orders, else its commands, else the
+    timed input orders read from the planned inputs."""
+    return order_lines(step) or list(step.commands) or input_phases(plan, step)
+
+
+def step_abort(plan: Plan, step: PlanStep) -> list[str]:
+    """Abort criteria of ``step``: its own (``PlanStep.abort``) plus the plan-wide clearance."""
+    own = [re.sub(r"^\s*abort if\s+", "", str(a), flags=re.I) for a in (getattr(step, "abort", None) or [])]
+    clearance = f"clearance to land, shallows or any obstacle below {plan.margin_m:.0f} m"
+    return own + ([clearance] if not any("clearance" in a for a in own) else [])

@@ -52,11 +52,22 @@ def synthetic_plan(
     y0: float = 0.0,
     psi0_deg: float = 30.0,
     margin_m: float = 10.0,
+    run_in: bool = False,
 ) -> Plan:
-    """A plan of ``names`` (library primitives, sailed in order) for built-in profile ``ship``."""
+    """A plan of ``names`` (library primitives, sailed in order) for built-in profile ``ship``.
+
+    Steps carry the primitives' orders (``Primitive.orders``) and abort criteria. With
+    ``run_in`` each informative primitive is preceded by a ``straight`` run-in step and starts
+    at an execute point; the other basic primitives are transit.
+    """
     profile = load_profile(ship)
     names = tuple(names or DEFAULT_STEPS.get(ship, ("straight", "turn_s", "straight")))
-    prims = by_name(_library(ship), list(names))
+    lib = _library(ship)
+    if run_in:
+        kinds = {p.name: p.kind for p in lib}
+        names = tuple(n for name in names for n in (("straight", name) if kinds.get(name) == "informative" else (name,)))
+    prims = by_name(lib, list(names))
+    run_ins = {i for i, p in enumerate(prims[:-1]) if run_in and p.name == "straight" and prims[i + 1].kind == "informative"}
     inputs = np.vstack([p.inputs for p in prims])
     psi0 = np.radians(psi0_deg)
     res = simulate(profile, inputs, nu0=prims[0].nu0, eta0=(x0, y0, psi0))
@@ -88,6 +99,10 @@ def synthetic_plan(
                 entry_speed_mps=float(speed[k]),
                 commands=list(p.commands),
                 space_m=(float(maxx - minx), float(maxy - miny)),
+                segment="run-in" if i in run_ins else ("informative" if p.kind == "informative" else "transit"),
+                orders=[o.to_dict() for o in getattr(p, "orders", [])],
+                abort=[p.abort_criteria()] if hasattr(p, "abort_criteria") else [],
+                execute=run_in and p.kind == "informative",
             )
         )
         k += n
@@ -117,4 +132,5 @@ def synthetic_plan(
         map_name="synthetic",
         hull=(profile.length_m, profile.beam_m),
         max_wind_mps=10.0,
+        vessel_name=str(getattr(profile, "display_name", "") or ""),
     )

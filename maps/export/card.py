@@ -1,11 +1,14 @@
 """Trial card for the bridge: a self-contained HTML page (PNG figures embedded as data URIs)
-and a printable PDF (matplotlib PdfPages, A4).
+and a printable PDF (matplotlib PdfPages, A4, TrueType fonts embedded).
 
-Page 1: the plan at a glance (start, totals, abort criteria), the map with obstacles and the
-numbered track coloured by primitive (like Fig. 9.13 of seed 001) and the list of manoeuvres.
-Then one block per manoeuvre: entry time, position (degrees and minutes), heading and speed,
-the orders in sailor's words, the thruster/force settings read from the planned inputs,
-expected duration, sea room and abort criteria. Last page: speed, heading and inputs over time.
+Page 1: the plan at a glance (ship, start, totals, abort criteria, the experiment design's
+D-efficiency), the map with land, shallow/restricted water and depth areas, the track
+(informative manoeuvres coloured by primitive like Fig. 9.13 of seed 001, run-ins dashed,
+transit grey) with execute points and step numbers. Then the table of every step (continued
+over as many pages as it needs) and of the design's weights and counts; then per step: the
+execute (or start) waypoint, heading and speed there, the orders in the ship's own terms
+(rudder and engine, or azimuth angle and rpm), expected duration, sea room and abort criteria.
+Last page: speed, heading and inputs over time.
 """
 
 from __future__ import annotations
@@ -29,7 +32,11 @@ from maps.export._common import (
     cross_track,
     input_phases,
     latlon_dm,
+    order_lines,
     resolve_start,
+    step_abort,
+    step_orders,
+    vessel_name,
     waypoints,
 )
 from maps.export.plots import draw_map, plt, states_figure
@@ -60,8 +67,17 @@ def abort_criteria(plan: Plan) -> list[str]:
     ]
 
 
+def _segment_label(st: Any) -> str:
+    seg = getattr(st, "segment", "") or ("informative" if st.kind == "informative" else "transit")
+    if getattr(st, "execute", False):
+        return "EXECUTE"
+    return {"informative": "manoeuvre", "run-in": "run-in", "transit": "transit"}[seg]
+
+
 def step_sheets(plan: Plan, start: datetime | str | None = None) -> list[dict[str, Any]]:
-    """Per manoeuvre, the card's facts as text."""
+    """Per step, the card's facts as text: where and when it starts (the execute waypoint of
+    a manoeuvre), heading and speed there, the orders in the ship's own terms, expected
+    duration, sea room, where it ends, and its abort criteria."""
     t0 = resolve_start(plan, start)
     wps = waypoints(plan)
     half = 0.5 * plan.hull[1] + plan.margin_m
@@ -70,37 +86,75 @@ def step_sheets(plan: Plan, start: datetime | str | None = None) -> list[dict[st
         st = wp.step
         stbd, port = cross_track(plan, wps, i + 1)
         nxt = wps[i + 1]
+        structured = bool(order_lines(st))
         out.append(
             {
                 "n": st.index + 1,
                 "primitive": st.primitive,
                 "description": st.description,
                 "kind": st.kind,
+                "segment": _segment_label(st),
+                "execute": bool(getattr(st, "execute", False)),
+                "waypoint": wp.name.split()[0],
                 "start": f"+{clock(wp.t_s)} ({(t0 + timedelta(seconds=wp.t_s)).strftime('%H:%M:%S')} UTC)",
                 "position": latlon_dm(wp.lat, wp.lon),
                 "heading": f"{wp.heading_deg:03.0f}°",
                 "speed": f"{wp.speed_kn:.1f} kn ({wp.speed_mps:.2f} m/s)",
-                "orders": list(st.commands),
-                "settings": input_phases(plan, st),
+                "orders": step_orders(plan, st),
+                # force-level settings only where the step has no orders in the ship's own terms
+                "settings": [] if structured else input_phases(plan, st),
                 "duration": clock(st.duration_s),
                 "space": f"{_m(st.space_m[0])} along x {_m(st.space_m[1])} across",
                 "ends": f"at {nxt.name.split()[0]} {latlon_dm(nxt.lat, nxt.lon)}, heading {nxt.heading_deg:03.0f}°, "
                 f"{nxt.speed_kn:.1f} kn",
                 "abort": [
+                    *step_abort(plan, st),
                     f"more than {port + half:.0f} m to port or {stbd + half:.0f} m to starboard of the line "
                     f"{wp.name.split()[0]} -> {nxt.name.split()[0]}",
-                    f"clearance below {plan.margin_m:.0f} m; wind above {plan.max_wind_mps:.0f} m/s",
+                    f"wind above {plan.max_wind_mps:.0f} m/s",
                 ],
             }
         )
     return out
 
 
-def _summary(plan: Plan, t0: datetime) -> list[str]:
+def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
+    """The experiment design behind the counts (``plan.design``): summary lines and one row
+    per primitive (weight, rounded count, planned count). Empty without a design."""
+    d = getattr(plan, "design", None) or {}
+    if not d:
+        return [], []
+    head = []
+    crit = d.get("criterion")
+    if crit:
+        ms = d.get("mean_subtraction")
+        head.append(f"Design: {crit}-optimal" + ("" if ms is None else (", with mean subtraction" if ms is True else
+                                                                         ", without mean subtraction" if ms is False else f", mean subtraction {ms}")))
+    eff = d.get("d_efficiency")
+    if isinstance(eff, (int, float)):
+        head.append(f"D-efficiency of the rounded design against the continuous optimum: {100.0 * eff:.1f} %")
+    for dr in d.get("dropped") or []:
+        if isinstance(dr, dict):
+            need = dr.get("needs_m")
+            loss = dr.get("efficiency_loss")
+            head.append(f"Dropped {dr.get('primitive')}: fits nowhere on the map"
+                        + (f" (needs {need[0]:.0f} m x {need[1]:.0f} m)" if isinstance(need, (list, tuple)) and len(need) == 2 else "")
+                        + (f", efficiency loss {100.0 * loss:.1f} %" if isinstance(loss, (int, float)) else ""))
+    weights = d.get("weights") or {}
+    counts = d.get("counts") or {}
+    names = list(dict.fromkeys([*weights, *counts]))
+    rows = [[n, f"{float(weights[n]):.3f}" if n in weights else "", str(counts.get(n, "")), str(plan.counts.get(n, 0))]
+            for n in names]
+    return head, rows
+
+
+def _summary(plan: Plan, t0: datetime, vessel: str) -> list[str]:
     return [
-        f"Ship {plan.ship}" + (f"   Area {plan.map_name}" if plan.map_name else "") + f"   Start {t0.strftime('%Y-%m-%d %H:%M')} UTC",
-        f"{len(plan.steps)} manoeuvres ({plan.basic_moves} repositioning), duration {clock(plan.duration_s)} (h:)min:s, "
-        f"{plan.length_m:.0f} m ({plan.length_m / M_PER_NM:.2f} NM)",
+        f"Ship {vessel}" + (f" ({plan.ship})" if vessel != plan.ship else "")
+        + (f"   Area {plan.map_name}" if plan.map_name else "") + f"   Start {t0.strftime('%Y-%m-%d %H:%M')} UTC",
+        f"{len(plan.steps)} steps: {len(plan.segment_steps('informative')) if hasattr(plan, 'segment_steps') else ''} manoeuvres, "
+        f"{len(plan.segment_steps('run-in')) if hasattr(plan, 'segment_steps') else 0} run-ins, {plan.basic_moves} transit; "
+        f"duration {clock(plan.duration_s)} (h:)min:s, {plan.length_m:.0f} m ({plan.length_m / M_PER_NM:.2f} NM)",
         "Plan " + ("feasible" if plan.feasible else "NOT FEASIBLE") + (", optimal" if plan.optimal else "")
         + f"; hull {plan.hull[0]:g} m x {plan.hull[1]:g} m; safety margin {plan.margin_m:.0f} m",
     ]
@@ -108,81 +162,139 @@ def _summary(plan: Plan, t0: datetime) -> list[str]:
 
 # -- PDF / PNG pages ---------------------------------------------------------------------------
 
+TABLE_COLS = ["#", "type", "manoeuvre", "WP", "start (UTC)", "position", "hdg", "speed", "time", "sea room"]
+TABLE_WIDTHS = [0.03, 0.075, 0.215, 0.05, 0.15, 0.205, 0.04, 0.065, 0.055, 0.115]
+ROWS_PER_PAGE = 44
 
-def _page1(plan: Plan, sheets: list[dict], t0: datetime, sea_map: Any):
+
+def _table_rows(sheets: list[dict]) -> list[list[str]]:
+    return [[str(s["n"]), s["segment"], textwrap.shorten(f"{s['primitive']}: {s['description']}", 34, placeholder="..."),
+             s["waypoint"], s["start"].replace(" UTC", ""), s["position"], s["heading"], s["speed"].split(" (")[0],
+             s["duration"], s["space"].replace(" along x ", " x ").replace(" across", "")] for s in sheets]
+
+
+def _draw_table(fig, rect: tuple[float, float, float, float], cols: list[str], rows: list[list[str]], widths: list[float]) -> None:
+    ax = fig.add_axes(rect)
+    ax.axis("off")
+    if not rows:
+        return
+    tab = ax.table(cellText=rows, colLabels=cols, loc="upper center", cellLoc="left", colLoc="left", colWidths=widths)
+    tab.auto_set_font_size(False)
+    tab.set_fontsize(6.5)
+    # fixed row height: every row drawn, none squeezed (rect height / rows per page)
+    h = 1.0 / (ROWS_PER_PAGE + 1)
+    for (r, _), cell in tab.get_celld().items():
+        cell.set_height(h)
+        if r == 0:
+            cell.set_facecolor("#e8e8e8")
+            cell.set_text_props(fontweight="bold")
+
+
+def table_pages(plan: Plan, title: str, cols: list[str], rows: list[list[str]], widths: list[float], first_page: int) -> list:
+    """A long table on as many A4 pages as it needs (``ROWS_PER_PAGE`` rows each, header
+    repeated, "continued" on the following pages): every row is printed."""
+    figs = []
+    chunks = [rows[i : i + ROWS_PER_PAGE] for i in range(0, len(rows), ROWS_PER_PAGE)] or [[]]
+    for j, chunk in enumerate(chunks):
+        fig = plt.figure(figsize=A4)
+        a = j * ROWS_PER_PAGE + 1
+        cont = " (continued)" if j else ""
+        fig.text(0.04, 0.975, f"{plan.ship}: {title}{cont}, rows {a}-{a + len(chunk) - 1} of {len(rows)} "
+                 f"(page {first_page + j})", fontsize=10, va="top", fontweight="bold" if not j else "normal")
+        _draw_table(fig, (0.03, 0.03, 0.94, 0.92), cols, chunk, widths)
+        figs.append(fig)
+    return figs
+
+
+def _page1(plan: Plan, sheets: list[dict], t0: datetime, sea_map: Any, vessel: str):
     fig = plt.figure(figsize=A4)
-    fig.text(0.05, 0.965, f"SEA TRIAL CARD  -  {plan.ship}", fontsize=15, fontweight="bold", va="top")
+    fig.text(0.05, 0.965, f"SEA TRIAL CARD  -  {vessel}", fontsize=15, fontweight="bold", va="top")
     y = 0.935
-    for line in _summary(plan, t0):
+    d_head, _ = design_rows(plan)
+    for line in _summary(plan, t0, vessel) + d_head:
         fig.text(0.05, y, line, fontsize=8.5, va="top")
         y -= 0.017
     abort = ["ABORT the manoeuvre (stop, steer clear) if:"] + [f"  - {a}" for a in abort_criteria(plan)]
     fig.text(0.05, y - 0.006, "\n".join(abort), fontsize=8.5, va="top", color="#a00000",
              bbox={"boxstyle": "round,pad=0.4", "fc": "#fff3f3", "ec": "#a00000"})
-    ax = fig.add_axes((0.1, 0.31, 0.85, 0.5))
+    top = y - 0.09
+    ax = fig.add_axes((0.1, 0.2, 0.85, top - 0.22))
     draw_map(ax, plan, sea_map)
-    ax.legend(fontsize=7, loc="best", framealpha=0.9)
-    rows = [[str(s["n"]), textwrap.shorten(f"{s['primitive']}: {s['description']}", 40, placeholder="..."),
-             s["start"].replace(" UTC", ""), s["position"], s["heading"], s["speed"].split(" (")[0], s["duration"],
-             s["space"].replace(" along x ", " x ").replace(" across", "")] for s in sheets]
-    tab_ax = fig.add_axes((0.04, 0.02, 0.92, 0.25))
-    tab_ax.axis("off")
-    cols = ["#", "manoeuvre", "start (UTC)", "entry position", "hdg", "speed", "time", "sea room"]
-    max_rows = 16
-    more = [["...", f"{len(rows) - max_rows} more manoeuvres on the next pages", "", "", "", "", "", ""]]
-    shown = rows[:max_rows] + (more if len(rows) > max_rows else [])
-    tab = tab_ax.table(cellText=shown, colLabels=cols, loc="upper center", cellLoc="left", colLoc="left",
-                       colWidths=[0.03, 0.31, 0.15, 0.22, 0.05, 0.07, 0.05, 0.12])
-    tab.auto_set_font_size(False)
-    tab.set_fontsize(7)
-    tab.scale(1.0, 1.25)
+    # legend below the map, never over the track
+    ax.legend(fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.05), ncol=3, framealpha=0.9)
+    fig.text(0.05, 0.02, "Manoeuvres in sailing order: next page(s). Numbers on the map are step numbers; "
+             "stars are execute points.", fontsize=7.5, color="0.3")
     return fig
 
 
-def _detail_pages(plan: Plan, sheets: list[dict]) -> list:
+def _detail_lines(sheets: list[dict]) -> list[tuple[str, dict]]:
     lines: list[tuple[str, dict]] = []
     bold = {"fontweight": "bold", "fontsize": 9.5}
     norm = {"fontsize": 8.5}
     red = {"fontsize": 8.5, "color": "#a00000"}
     for s in sheets:
-        lines.append((f"{s['n']}. {s['primitive']}  -  {s['description']}", bold))
-        lines.append((f"Start {s['start']} at {s['position']}, heading {s['heading']}, speed {s['speed']}", norm))
+        tag = "EXECUTE " if s["execute"] else ("" if s["segment"] == "manoeuvre" else f"{s['segment']}: ")
+        lines.append((f"{s['n']}. {tag}{s['primitive']}  -  {s['description']}", bold))
+        where = "Execute at" if s["execute"] else "Start at"
+        for k, w in enumerate(textwrap.wrap(f"{where} {s['waypoint']} {s['position']}, {s['start']}, heading {s['heading']}, "
+                                            f"speed {s['speed']}", 100)):
+            lines.append((f"   {w}" if k == 0 else f"      {w}", norm))
         for title, items in (("Orders", s["orders"]), ("Settings", s["settings"])):
             for j, item in enumerate(items):
                 for k, w in enumerate(textwrap.wrap(item, 100)):
                     lead = f"{title}: " if (j == 0 and k == 0) else " " * (len(title) + 2)
                     lines.append((f"   {lead}{'- ' if k == 0 else '  '}{w}", norm))
-        lines.append((f"   Duration {s['duration']}; sea room {s['space']}; ends {s['ends']}", norm))
+        for k, w in enumerate(textwrap.wrap(f"Expected duration {s['duration']}; sea room {s['space']}; ends {s['ends']}", 100)):
+            lines.append((f"   {w}" if k == 0 else f"      {w}", norm))
         for a in s["abort"]:
-            lines.append((f"   Abort if {a}", red))
+            for k, w in enumerate(textwrap.wrap(f"Abort if {a}", 100)):
+                lines.append((f"   {w}" if k == 0 else f"      {w}", red))
         lines.append(("", norm))
+    return lines
+
+
+def _detail_pages(plan: Plan, sheets: list[dict], first_page: int) -> list:
+    lines = _detail_lines(sheets)
     per_page = 62
     pages = []
     for p in range(0, len(lines), per_page):
         fig = plt.figure(figsize=A4)
-        fig.text(0.05, 0.975, f"{plan.ship}: manoeuvres in sailing order (page {len(pages) + 2})", fontsize=10, va="top", color="0.3")
+        fig.text(0.05, 0.975, f"{plan.ship}: orders per step in sailing order (page {first_page + len(pages)})", fontsize=10,
+                 va="top", color="0.3")
         for i, (text, style) in enumerate(lines[p : p + per_page]):
             fig.text(0.05, 0.95 - i * 0.0148, text, va="top", family="DejaVu Sans", **style)
         pages.append(fig)
     return pages
 
 
-def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None) -> list:
-    """The card's pages as matplotlib figures (page 1, manoeuvre pages, states)."""
+def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None) -> list:
+    """The card's pages as matplotlib figures: page 1 (summary, abort criteria, design, map),
+    the table of steps (and of the design) over as many pages as they need, the orders per
+    step, and the states over time."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
     sheets = step_sheets(plan, t0)
-    return [_page1(plan, sheets, t0, sea_map), *_detail_pages(plan, sheets), states_figure(plan)]
+    vname = vessel_name(plan, vessel)
+    figs = [_page1(plan, sheets, t0, sea_map, vname)]
+    figs += table_pages(plan, "steps in sailing order", TABLE_COLS, _table_rows(sheets), TABLE_WIDTHS, len(figs) + 1)
+    _, drows = design_rows(plan)
+    if drows:
+        figs += table_pages(plan, "experiment design", ["primitive", "weight", "rounded count", "planned"], drows,
+                            [0.4, 0.2, 0.2, 0.2], len(figs) + 1)
+    figs += _detail_pages(plan, sheets, len(figs) + 1)
+    return [*figs, states_figure(plan)]
 
 
-def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None) -> Path:
-    """The printable card (A4 PDF)."""
+def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None,
+                   vessel: str | None = None) -> Path:
+    """The printable card (A4 PDF, TrueType fonts embedded: ``pdf.fonttype`` 42)."""
+    import matplotlib
     from matplotlib.backends.backend_pdf import PdfPages
 
-    figs = card_figures(plan, sea_map, start)
+    figs = card_figures(plan, sea_map, start, vessel)
     buf = io.BytesIO()
     try:
-        with PdfPages(buf) as pdf:
+        with matplotlib.rc_context({"pdf.fonttype": 42}), PdfPages(buf) as pdf:
             for f in figs:
                 pdf.savefig(f)
     finally:
@@ -191,10 +303,11 @@ def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: dat
     return atomic_write_bytes(path, buf.getvalue())
 
 
-def render_card_page1(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None, dpi: int = 110) -> Path:
+def render_card_page1(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None, dpi: int = 110,
+                      vessel: str | None = None) -> Path:
     """Page 1 of the card as PNG (what the bridge sees first)."""
     t0 = resolve_start(plan, start)
-    fig = _page1(plan, step_sheets(plan, t0), t0, sea_map)
+    fig = _page1(plan, step_sheets(plan, t0), t0, sea_map, vessel_name(plan, vessel))
     try:
         return atomic_write_bytes(path, _png(fig, dpi))
     finally:
@@ -219,21 +332,48 @@ body{font-family:DejaVu Sans,Arial,sans-serif;max-width:60em;margin:1em auto;col
 h1{font-size:1.5em;margin:.2em 0} h2{font-size:1.15em;margin:1.2em 0 .3em;border-bottom:1px solid #999}
 .abort{border:2px solid #a00000;background:#fff3f3;color:#a00000;padding:.4em .8em;margin:.6em 0}
 table{border-collapse:collapse;width:100%;font-size:.9em} td,th{border:1px solid #bbb;padding:.2em .4em;text-align:left;vertical-align:top}
-th{background:#eee} img{max-width:100%} .step{page-break-inside:avoid;margin-bottom:.8em}
-.step p{margin:.2em 0} .step ul{margin:.1em 0 .1em 1.2em;padding:0} .red{color:#a00000}
+th{background:#eee} thead{display:table-header-group} tr{page-break-inside:avoid} img{max-width:100%}
+h3{font-size:1em;margin:.8em 0 .2em} .step{page-break-inside:avoid;margin-bottom:.8em;padding-left:.5em;border-left:3px solid #ccc}
+.step.exec{border-left-color:#e0a800} .step p{margin:.2em 0} .step ul{margin:.1em 0 .1em 1.2em;padding:0} .red{color:#a00000}
 """
 
 
-def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = None) -> str:
-    """The card as one self-contained HTML page."""
+def _html_table(cols: list[str], rows: list[list[str]], cls: str = "") -> str:
+    e = html.escape
+    h = [f"<table class='{cls}'><thead><tr>" + "".join(f"<th>{e(c)}</th>" for c in cols) + "</tr></thead><tbody>"]
+    for r in rows:
+        h.append("<tr>" + "".join(f"<td>{e(str(v))}</td>" for v in r) + "</tr>")
+    return "\n".join(h + ["</tbody></table>"])
+
+
+def _html_step(s: dict) -> str:
+    e = html.escape
+    tag = "EXECUTE " if s["execute"] else ("" if s["segment"] == "manoeuvre" else f"{s['segment']}: ")
+    cls = "step exec" if s["execute"] else "step"
+    h = [f"<div class='{cls}'><h3>{s['n']}. {e(tag)}{e(s['primitive'])}: {e(s['description'])}</h3>",
+         f"<p><b>{'Execute' if s['execute'] else 'Start'} at {e(s['waypoint'])}</b> {e(s['position'])}, {e(s['start'])}, "
+         f"heading <b>{e(s['heading'])}</b>, speed <b>{e(s['speed'])}</b></p>"]
+    if s["orders"]:
+        h.append("<p><b>Orders</b></p><ul>" + "".join(f"<li>{e(o)}</li>" for o in s["orders"]) + "</ul>")
+    if s["settings"]:
+        h.append("<p><b>Settings</b> (from the planned inputs)</p><ul>" + "".join(f"<li>{e(o)}</li>" for o in s["settings"]) + "</ul>")
+    h.append(f"<p><b>Expected duration</b> {e(s['duration'])}; <b>sea room</b> {e(s['space'])}; ends {e(s['ends'])}</p>")
+    h.append("<p class='red'><b>Abort if</b></p><ul class='red'>" + "".join(f"<li>{e(a)}</li>" for a in s["abort"]) + "</ul></div>")
+    return "\n".join(h)
+
+
+def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None) -> str:
+    """The card as one self-contained HTML page (every table complete; prints with repeated
+    table headers)."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
     sheets = step_sheets(plan, t0)
+    vname = vessel_name(plan, vessel)
     e = html.escape
     fig, ax = plt.subplots(figsize=(8, 8))
     try:
         draw_map(ax, plan, sea_map)
-        ax.legend(fontsize=7, loc="best", framealpha=0.9)
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)
         map_png = _png(fig, 120)
     finally:
         plt.close(fig)
@@ -242,43 +382,38 @@ def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = No
         states_png = _png(fig, 100)
     finally:
         plt.close(fig)
-    h = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>Sea trial card {e(plan.ship)}</title>",
-         f"<style>{_CSS}</style></head><body>", f"<h1>Sea trial card: {e(plan.ship)}</h1>"]
-    h += [f"<p>{e(line)}</p>" for line in _summary(plan, t0)]
+    h = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>Sea trial card {e(vname)}</title>",
+         f"<style>{_CSS}</style></head><body>", f"<h1>Sea trial card: {e(vname)}</h1>"]
+    h += [f"<p>{e(line)}</p>" for line in _summary(plan, t0, vname)]
     h.append("<div class='abort'><b>ABORT the manoeuvre (stop, steer clear) if:</b><ul>")
     h += [f"<li>{e(a)}</li>" for a in abort_criteria(plan)]
     h.append("</ul></div>")
-    h.append("<h2>Map</h2><p>Track coloured by manoeuvre type; circled numbers mark where each manoeuvre starts; "
-             "shaded blue: sea room swept by the hull plus margin.</p>")
+    d_head, d_rows = design_rows(plan)
+    if d_head or d_rows:
+        h.append("<h2>Experiment design</h2>")
+        h += [f"<p>{e(line)}</p>" for line in d_head]
+        h.append(_html_table(["primitive", "weight", "rounded count", "planned"], d_rows, "design"))
+    h.append("<h2>Map</h2><p>Informative manoeuvres coloured by primitive, run-ins dashed green, transit grey; stars mark "
+             "execute points, circled numbers the step numbers; shaded blue: sea room swept by the hull plus margin; "
+             "hatched: shallow or restricted water.</p>")
     h.append(_img(map_png, "map of the planned track"))
-    h.append("<h2>Manoeuvres</h2><table><tr><th>#</th><th>manoeuvre</th><th>start</th><th>entry position</th><th>heading</th>"
-             "<th>speed</th><th>duration</th><th>sea room</th></tr>")
-    for s in sheets:
-        h.append("<tr>" + "".join(f"<td>{e(str(s[k]))}</td>" for k in ("n", "primitive", "start", "position", "heading", "speed",
-                                                                        "duration", "space")) + "</tr>")
-    h.append("</table>")
-    for s in sheets:
-        h.append(f"<div class='step'><h2>{s['n']}. {e(s['primitive'])}: {e(s['description'])}</h2>")
-        h.append(f"<p><b>Start</b> {e(s['start'])} at <b>{e(s['position'])}</b>, heading <b>{e(s['heading'])}</b>, "
-                 f"speed <b>{e(s['speed'])}</b></p>")
-        if s["orders"]:
-            h.append("<p><b>Orders</b></p><ul>" + "".join(f"<li>{e(o)}</li>" for o in s["orders"]) + "</ul>")
-        if s["settings"]:
-            h.append("<p><b>Settings</b> (from the planned inputs)</p><ul>" + "".join(f"<li>{e(o)}</li>" for o in s["settings"]) + "</ul>")
-        h.append(f"<p><b>Expected duration</b> {e(s['duration'])}; <b>sea room</b> {e(s['space'])}; ends {e(s['ends'])}</p>")
-        h.append("<p class='red'><b>Abort if</b> " + "; ".join(e(a) for a in s["abort"]) + "</p></div>")
+    h.append("<h2>Steps in sailing order</h2>")
+    h.append(_html_table(TABLE_COLS, _table_rows(sheets), "steps"))
+    h.append("<h2>Orders per step</h2>")
+    h += [_html_step(s) for s in sheets]
     h.append("<h2>Speed, heading and inputs over time</h2>")
     h.append(_img(states_png, "planned states over time"))
     h.append("</body></html>")
     return "\n".join(h)
 
 
-def write_card(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None, pdf: bool = True) -> list[Path]:
+def write_card(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None, pdf: bool = True,
+               vessel: str | None = None) -> list[Path]:
     """Write the HTML card to ``path`` (suffix .html) and, with ``pdf``, the PDF beside it."""
     path = Path(path)
     if path.suffix.lower() == ".pdf":
-        return [write_card_pdf(plan, path, sea_map, start)]
-    out = [atomic_write_text(path, card_html(plan, sea_map, start))]
+        return [write_card_pdf(plan, path, sea_map, start, vessel)]
+    out = [atomic_write_text(path, card_html(plan, sea_map, start, vessel))]
     if pdf:
-        out.append(write_card_pdf(plan, path.with_suffix(".pdf"), sea_map, start))
+        out.append(write_card_pdf(plan, path.with_suffix(".pdf"), sea_map, start, vessel))
     return out

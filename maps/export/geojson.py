@@ -1,9 +1,12 @@
 """GeoJSON (RFC 7946) export of a plan and an RFC 7946 checker.
 
-The FeatureCollection holds the continuous track (LineString), one Point per manoeuvre start
-(index, primitive, commands, duration, entry heading and speed) and, when the plan carries its
-projection, the sea room the trial sweeps (track buffered by half the beam plus the planner's
-margin) as a Polygon with a counter-clockwise exterior ring. Coordinates are WGS-84 lon, lat
+Two products (:func:`plan_geojson`): the *trajectory* (``overlay=False``, ``trajectory.geojson``
+written with plan.json): the track as one LineString per segment, tagged ``run-in``,
+``informative`` (with the primitive) or ``transit``; and the crew's *chart overlay*
+(``<ship>-trial.geojson``): the same segments plus one Point per manoeuvre start (execute
+points flagged, with orders and abort criteria), the route's land-free cross-track corridors
+and the sea room the trial sweeps (track buffered by half the beam plus the planner's margin),
+polygons with counter-clockwise exterior rings. Coordinates are WGS-84 lon, lat
 with at most 7 decimals (about 1 cm); there is no ``crs`` member (RFC 7946 section 4).
 """
 
@@ -16,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from maps.export._common import KN_PER_MPS, check_plan, input_phases
+from maps.export._common import KN_PER_MPS, check_plan, step_abort, step_orders, step_slice, vessel_name
 from maps.plan import Plan
 from primitives.io import atomic_write_text
 
@@ -64,40 +67,73 @@ def _polygon_coords(poly) -> list[list[list[float]]]:
     return [[_pos(x, y) for x, y in ring.coords] for ring in rings]
 
 
-def plan_geojson(plan: Plan, *, sea_room: bool = True) -> dict[str, Any]:
-    """The plan as an RFC 7946 FeatureCollection (a dict ready for ``json.dumps``)."""
-    check_plan(plan)
-    feats: list[dict[str, Any]] = [
-        {
-            "type": "Feature",
-            "geometry": {"type": "LineString", "coordinates": _line(plan.lonlat)},
-            "properties": {
-                "kind": "track",
-                "ship": plan.ship,
-                "map": plan.map_name,
-                "duration_s": round(plan.duration_s, 1),
-                "length_m": round(plan.length_m, 1),
-                "manoeuvres": len(plan.steps),
-                "feasible": bool(plan.feasible),
-                "min_clearance_m": None if not math.isfinite(plan.min_clearance_m) else round(plan.min_clearance_m, 1),
-                "margin_m": plan.margin_m,
-                "max_wind_mps": plan.max_wind_mps,
-            },
-        }
-    ]
+def track_segments(plan: Plan) -> list[dict[str, Any]]:
+    """The track cut into segments: consecutive steps of one kind (``run-in`` or ``transit``)
+    form one segment, each informative manoeuvre its own. Each: segment, primitive (the
+    informative one, else None), steps (indices from 1), sample slice (a, b) inclusive."""
+    out: list[dict[str, Any]] = []
     for st in plan.steps:
+        seg = getattr(st, "segment", "") or ("informative" if st.kind == "informative" else "transit")
+        sl = step_slice(plan, st)
+        a, b = sl.start, min(sl.stop - 1, len(plan.t) - 1)
+        if out and seg != "informative" and out[-1]["segment"] == seg:
+            out[-1]["steps"].append(st.index + 1)
+            out[-1]["b"] = max(out[-1]["b"], b)
+            continue
+        out.append({"segment": seg, "primitive": st.primitive if seg == "informative" else None,
+                    "steps": [st.index + 1], "a": a, "b": b})
+    return out
+
+
+def _to_lonlat(plan: Plan, geom):
+    import shapely
+    from pyproj import Transformer
+    from shapely.geometry.polygon import orient
+
+    tr = Transformer.from_crs(plan.projection["proj4"], "EPSG:4326", always_xy=True)
+    ll = shapely.transform(geom, lambda c: np.column_stack(tr.transform(c[:, 1], c[:, 0])))  # (north, east) -> lon, lat
+    return orient(ll, sign=1.0) if ll.geom_type == "Polygon" else ll
+
+
+def _segment_features(plan: Plan) -> list[dict[str, Any]]:
+    feats = []
+    for seg in track_segments(plan):
+        a, b = seg["a"], seg["b"]
+        if b <= a:
+            continue
+        xy = plan.track[a : b + 1, :2]
+        props = {
+            "kind": "track",
+            "segment": seg["segment"],
+            "primitive": seg["primitive"],
+            "steps": seg["steps"],
+            "start_time_s": round(float(plan.t[a] - plan.t[0]), 2),
+            "duration_s": round(float(plan.t[b] - plan.t[a]), 2),
+            "length_m": round(float(np.sum(np.hypot(*np.diff(xy, axis=0).T))), 1),
+        }
+        feats.append({"type": "Feature", "geometry": {"type": "LineString", "coordinates": _line(plan.lonlat[a : b + 1])},
+                      "properties": props})
+    return feats
+
+
+def _start_features(plan: Plan) -> list[dict[str, Any]]:
+    feats = []
+    for st in plan.steps:
+        execute = bool(getattr(st, "execute", False))
         feats.append(
             {
                 "type": "Feature",
                 "geometry": {"type": "Point", "coordinates": _pos(st.entry_lon, st.entry_lat)},
                 "properties": {
-                    "kind": "manoeuvre_start",
+                    "kind": "execute_point" if execute else "manoeuvre_start",
                     "index": st.index + 1,
                     "primitive": st.primitive,
+                    "segment": getattr(st, "segment", "") or None,
                     "manoeuvre_kind": st.kind,
                     "description": st.description,
                     "commands": list(st.commands),
-                    "orders": input_phases(plan, st),
+                    "orders": step_orders(plan, st),
+                    "abort": step_abort(plan, st),
                     "start_time_s": round(st.start_time_s, 2),
                     "duration_s": round(st.duration_s, 2),
                     "entry_heading_deg": round(st.entry_heading_deg, 1),
@@ -107,6 +143,59 @@ def plan_geojson(plan: Plan, *, sea_room: bool = True) -> dict[str, Any]:
                 },
             }
         )
+    return feats
+
+
+def _corridor_features(plan: Plan, sea_map: Any) -> list[dict[str, Any]]:
+    from maps.export.chart import plan_chart
+    from maps.export.route import build_route, corridor_polygons
+
+    route = build_route(plan, plan_chart(plan, sea_map))
+    feats = []
+    for i, poly in enumerate(corridor_polygons(route, plan)):
+        if poly is None or poly.is_empty:
+            continue
+        leg = route.legs[i]
+        ll = _to_lonlat(plan, poly)
+        if ll.geom_type != "Polygon":
+            continue
+        feats.append({"type": "Feature", "geometry": {"type": "Polygon", "coordinates": _polygon_coords(ll)},
+                      "properties": {"kind": "corridor", "waypoint": route.points[i].id, "name": route.points[i].name,
+                                     "starboard_xtd_m": round(leg.stbd_m, 1), "port_xtd_m": round(leg.port_m, 1),
+                                     "land_checked": route.land_checked}})
+    return feats
+
+
+def plan_geojson(plan: Plan, *, sea_room: bool = True, overlay: bool = True, sea_map: Any = None) -> dict[str, Any]:
+    """The plan as an RFC 7946 FeatureCollection (a dict ready for ``json.dumps``).
+
+    Always: the track as one LineString per segment (``properties.kind = "track"``,
+    ``segment`` = run-in | informative | transit, ``primitive`` for an informative one).
+    With ``overlay`` (the crew's chart overlay): one Point per manoeuvre start (``kind``
+    ``execute_point`` where an informative manoeuvre is executed, else ``manoeuvre_start``) with
+    its orders and abort criteria, the route's cross-track corridors (``kind = "corridor"``, cut
+    to land-free water with ``sea_map`` or the plan's chart) and the swept sea room.
+    """
+    check_plan(plan)
+    summary = {
+        "kind": "trial",
+        "ship": plan.ship,
+        "vessel_name": vessel_name(plan),
+        "map": plan.map_name,
+        "duration_s": round(plan.duration_s, 1),
+        "length_m": round(plan.length_m, 1),
+        "manoeuvres": len(plan.steps),
+        "feasible": bool(plan.feasible),
+        "min_clearance_m": None if not math.isfinite(plan.min_clearance_m) else round(plan.min_clearance_m, 1),
+        "margin_m": plan.margin_m,
+        "max_wind_mps": plan.max_wind_mps,
+    }
+    feats = _segment_features(plan)
+    if not overlay:
+        return {"type": "FeatureCollection", "properties": summary, "features": feats}
+    feats += _start_features(plan)
+    if (plan.projection or {}).get("proj4"):
+        feats += _corridor_features(plan, sea_map)
     poly = sea_room_lonlat(plan) if sea_room else None
     if poly is not None:
         feats.append(
@@ -116,7 +205,7 @@ def plan_geojson(plan: Plan, *, sea_room: bool = True) -> dict[str, Any]:
                 "properties": {"kind": "sea_room", "half_width_m": 0.5 * plan.hull[1] + plan.margin_m},
             }
         )
-    return {"type": "FeatureCollection", "features": feats}
+    return {"type": "FeatureCollection", "properties": summary, "features": feats}
 
 
 def write_geojson(plan: Plan, path: str | Path, **kw: Any) -> Path:

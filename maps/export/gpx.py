@@ -21,6 +21,7 @@ from maps.export._common import (
     iso,
     resolve_start,
     step_orders,
+    vessel_name,
     waypoints,
 )
 from maps.plan import Plan
@@ -51,7 +52,8 @@ def waypoint_description(plan: Plan, wp: Waypoint, start: datetime) -> str:
     )
 
 
-def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | None = None, track: bool = True) -> bytes:
+def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | None = None, track: bool = True,
+             vessel: str | None = None) -> bytes:
     """The plan as a GPX 1.1 document (UTF-8 bytes)."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
@@ -62,7 +64,7 @@ def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | Non
         f"{{{GPX_NS}}}gpx",
         {"version": "1.1", "creator": TOOL, f"{{{XSI_NS}}}schemaLocation": f"{GPX_NS} http://www.topografix.com/GPX/1/1/gpx.xsd"},
     )
-    title = name or f"{plan.ship} trial {plan.map_name}".strip()
+    title = name or f"{vessel_name(plan, vessel)} trial {plan.map_name}".strip()
     meta = _sub(root, "metadata")
     _sub(meta, "name", title)
     _sub(meta, "desc", f"{len(plan.steps)} manoeuvres, {clock(plan.duration_s)}, {plan.length_m / 1852.0:.2f} NM; "

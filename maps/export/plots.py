@@ -20,11 +20,19 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from maps.export._common import KN_PER_MPS, ExportError, deg_min, step_slice  # noqa: E402
+from maps.export._common import KN_PER_MPS, M_PER_NM, ExportError, deg_min, step_slice  # noqa: E402
 from maps.plan import Plan  # noqa: E402
 from primitives.io import atomic_savefig  # noqa: E402
 
 OBSTACLE_KINDS = ("land", "obstacle", "restricted")
+
+
+def load_geojson(path: str | Path) -> Any:
+    """A GeoJSON file as a mapping, or an :class:`ExportError` naming the file."""
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ExportError(f"{path}: cannot read the obstacle map as GeoJSON ({exc})") from None
 
 
 def obstacle_geoms(sea_map: Any) -> list:
@@ -44,10 +52,7 @@ def obstacle_geoms(sea_map: Any) -> list:
 
         return [shapely.transform(sea_map.obstacles, to_ll)]
     if isinstance(sea_map, (str, Path)):
-        try:
-            sea_map = json.loads(Path(sea_map).read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ExportError(f"{sea_map}: cannot read the obstacle map as GeoJSON ({exc})") from None
+        sea_map = load_geojson(sea_map)
     if hasattr(sea_map, "__geo_interface__") and not isinstance(sea_map, dict):
         sea_map = sea_map.__geo_interface__
     if isinstance(sea_map, dict):
@@ -63,11 +68,36 @@ def obstacle_geoms(sea_map: Any) -> list:
     raise ExportError(f"obstacle map of type {type(sea_map).__name__} is not understood: pass GeoJSON or shapely geometries")
 
 
+RUN_IN_COLOUR = "#1b7f3b"
+TRANSIT_COLOUR = "#7a7a7a"
+LAND_COLOUR = "#c8b88a"
+NO_GO_COLOUR = "#8fb3c9"
+
+
+def _segment(st) -> str:
+    return getattr(st, "segment", "") or ("informative" if st.kind == "informative" else "transit")
+
+
 def primitive_colours(plan: Plan) -> dict[str, Any]:
-    """A distinct colour per primitive name, in order of first appearance."""
-    names = list(dict.fromkeys(st.primitive for st in plan.steps))
-    cmap = plt.get_cmap("tab10" if len(names) <= 10 else "tab20")
-    return {n: cmap(i % cmap.N) for i, n in enumerate(names)}
+    """A colour per step primitive: a distinct one per informative primitive (order of first
+    appearance), green for run-ins, grey for transit."""
+    inf = list(dict.fromkeys(st.primitive for st in plan.steps if _segment(st) == "informative"))
+    cmap = plt.get_cmap("tab10" if len(inf) <= 10 else "tab20")
+    out: dict[str, Any] = {n: cmap(i % cmap.N) for i, n in enumerate(inf)}
+    for st in plan.steps:
+        if st.primitive not in out:
+            out[st.primitive] = RUN_IN_COLOUR if _segment(st) == "run-in" else TRANSIT_COLOUR
+    return out
+
+
+def step_colour(plan: Plan, st, colours: dict[str, Any] | None = None) -> Any:
+    """Colour of one step on the map and the time plots."""
+    seg = _segment(st)
+    if seg == "run-in":
+        return RUN_IN_COLOUR
+    if seg == "transit":
+        return TRANSIT_COLOUR
+    return (colours or primitive_colours(plan))[st.primitive]
 
 
 def _dm_formatter(pos: str, neg: str, width: int):
@@ -76,68 +106,119 @@ def _dm_formatter(pos: str, neg: str, width: int):
     return FuncFormatter(lambda v, _: deg_min(v, pos, neg, width).replace("'", "′"))
 
 
-def draw_map(ax, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True) -> None:
-    """Obstacles (grey), sea room (light blue), the track coloured by primitive, numbered
-    manoeuvre starts, start/end marks, a scale bar and a north arrow, on lon/lat axes."""
-    from matplotlib.patches import PathPatch
-    from matplotlib.path import Path as MPath
-    from shapely.geometry import box
-
+def _view(plan: Plan, pad_m: float | None) -> tuple[float, float, float, float, float, float]:
+    """(lon0, lat0, lon1, lat1, m per degree lon, m per degree lat) of the map window."""
     lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
-    lat0 = float(np.mean(lat))
     m_per_deg_lat = 111_320.0
-    m_per_deg_lon = m_per_deg_lat * math.cos(math.radians(lat0))
+    m_per_deg_lon = m_per_deg_lat * math.cos(math.radians(float(np.mean(lat))))
     if pad_m is None:  # room for the sea-room band and the markers
         pad_m = max(1.5 * (0.5 * plan.hull[1] + plan.margin_m), 3.0 * plan.hull[0], 1.0)
     pad = max(pad_m, 0.08 * max((lon.max() - lon.min()) * m_per_deg_lon, (lat.max() - lat.min()) * m_per_deg_lat))
-    x0, x1 = lon.min() - pad / m_per_deg_lon, lon.max() + pad / m_per_deg_lon
-    y0, y1 = lat.min() - pad / m_per_deg_lat, lat.max() + pad / m_per_deg_lat
+    return (lon.min() - pad / m_per_deg_lon, lat.min() - pad / m_per_deg_lat, lon.max() + pad / m_per_deg_lon,
+            lat.max() + pad / m_per_deg_lat, m_per_deg_lon, m_per_deg_lat)
+
+
+def _draw_geom(ax, geom, view, **kw) -> bool:
+    """Fill the polygons (draw lines, points) of ``geom`` inside ``view``; True if any drawn."""
+    from matplotlib.patches import PathPatch
+    from matplotlib.path import Path as MPath
+
+    if geom is None or geom.is_empty or not geom.intersects(view):
+        return False
+    g = geom.intersection(view)
+    drawn = False
+    for p in getattr(g, "geoms", [g]):
+        if p.geom_type == "Polygon" and not p.is_empty:
+            verts, codes = [], []
+            for ring in [p.exterior, *p.interiors]:
+                c = np.asarray(ring.coords)
+                verts += c.tolist()
+                codes += [MPath.MOVETO] + [MPath.LINETO] * (len(c) - 2) + [MPath.CLOSEPOLY]
+            ax.add_patch(PathPatch(MPath(verts, codes), **kw))
+            drawn = True
+        elif p.geom_type in ("LineString", "LinearRing"):
+            ax.plot(*p.xy, color=kw.get("edgecolor", "k"), lw=0.8, zorder=kw.get("zorder", 1))
+            drawn = True
+        elif p.geom_type == "Point":
+            ax.plot(p.x, p.y, "x", color=kw.get("edgecolor", "k"), zorder=kw.get("zorder", 1))
+            drawn = True
+        elif hasattr(p, "geoms"):
+            drawn = _draw_geom(ax, p, view, **kw) or drawn
+    return drawn
+
+
+def _draw_chart(ax, plan: Plan, sea_map: Any, view) -> None:
+    """Depth areas (blue shades, deeper darker), land (tan) and other no-go water (hatched:
+    shallow for the ship, restricted, charted obstacles)."""
+    from maps.export.chart import plan_chart
+
+    chart = plan_chart(plan, sea_map)
+    if chart is None:
+        return
+    if chart.depth_areas:
+        depths = sorted({d for _, d in chart.depth_areas})
+        # as on a chart: the shallower the water, the stronger the blue; deep water nearly white
+        shades = plt.get_cmap("Blues")(np.linspace(0.32, 0.04, max(len(depths), 2)))
+        any_drawn = False
+        for g, d in chart.depth_areas:
+            any_drawn |= _draw_geom(ax, g, view, facecolor=shades[depths.index(d)], edgecolor="#5b8db8", lw=0.4, zorder=0.5)
+        if any_drawn:
+            ax.fill([], [], facecolor=shades[0], edgecolor="#5b8db8", label=f"depth areas {depths[0]:g}-{depths[-1]:g} m (darker: shallower)")
+    if _draw_geom(ax, chart.no_go, view, facecolor=NO_GO_COLOUR, edgecolor="#35607d", hatch="////", lw=0.6, zorder=1):
+        ax.fill([], [], facecolor=NO_GO_COLOUR, edgecolor="#35607d", hatch="////", label="shallow / restricted (no-go)")
+    if _draw_geom(ax, chart.land, view, facecolor=LAND_COLOUR, edgecolor="#6b5d3a", lw=0.6, zorder=1):
+        ax.fill([], [], facecolor=LAND_COLOUR, edgecolor="#6b5d3a", label="land")
+
+
+def _draw_track(ax, plan: Plan, numbers: bool) -> None:
+    lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
+    colours = primitive_colours(plan)
+    labelled: set[str] = set()
+    for st in plan.steps:
+        sl = step_slice(plan, st)
+        seg = _segment(st)
+        key = st.primitive if seg == "informative" else seg
+        label = None if key in labelled else {"run-in": "run-in (steady course and speed)", "transit": "transit"}.get(key, key)
+        labelled.add(key)
+        style = {"run-in": {"ls": (0, (4, 2)), "lw": 1.8}, "transit": {"ls": "-", "lw": 1.1}}.get(seg, {"ls": "-", "lw": 2.2})
+        ax.plot(lon[sl], lat[sl], color=step_colour(plan, st, colours), zorder=3, solid_capstyle="butt", label=label, **style)
+    execs = [st for st in plan.steps if getattr(st, "execute", False)]
+    if execs:
+        ax.plot([st.entry_lon for st in execs], [st.entry_lat for st in execs], ls="none", marker="*", ms=15, mfc="#ffd400",
+                mec="k", mew=0.8, zorder=4.5, label="execute point")
+    if numbers:
+        for st in plan.steps:
+            if _segment(st) == "transit" and not getattr(st, "execute", False) and len(plan.steps) > 12:
+                continue  # a long plan: number the run-ins and manoeuvres, the table lists the rest
+            ax.annotate(
+                str(st.index + 1), (st.entry_lon, st.entry_lat), xytext=(7, 7), textcoords="offset points", fontsize=7,
+                fontweight="bold", ha="center", va="center", zorder=5,
+                bbox={"boxstyle": "circle,pad=0.15", "fc": "white", "ec": step_colour(plan, st, colours), "lw": 1.2},
+            )
+    ax.plot(lon[0], lat[0], marker="^", ms=11, color="green", mec="k", zorder=4, ls="none", label="start")
+    ax.plot(lon[-1], lat[-1], marker="s", ms=9, color="red", mec="k", zorder=4, ls="none", label="end")
+
+
+def draw_map(ax, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True) -> None:
+    """Chart (depth areas, land, shallow/restricted water), sea room (light blue), the track
+    (informative manoeuvres coloured by primitive, run-ins dashed green, transit grey), execute
+    points (stars), numbered manoeuvre starts, start/end marks, a scale bar and a north arrow,
+    on lon/lat axes. ``sea_map``: see the module docstring (default: the plan's own chart)."""
+    from shapely.geometry import box
+
+    x0, y0, x1, y1, m_per_deg_lon, m_per_deg_lat = _view(plan, pad_m)
     view = box(x0, y0, x1, y1)
-
-    def patch(poly, **kw):
-        verts, codes = [], []
-        for ring in [poly.exterior, *poly.interiors]:
-            c = np.asarray(ring.coords)
-            verts += c.tolist()
-            codes += [MPath.MOVETO] + [MPath.LINETO] * (len(c) - 2) + [MPath.CLOSEPOLY]
-        ax.add_patch(PathPatch(MPath(verts, codes), **kw))
-
-    def polys(g):
-        return list(getattr(g, "geoms", [g]))
-
-    for g in obstacle_geoms(sea_map):
-        g = g.intersection(view) if g.intersects(view) else None
-        if g is None or g.is_empty:
-            continue
-        for p in polys(g):
-            if p.geom_type == "Polygon":
-                patch(p, facecolor="#c8b88a", edgecolor="#6b5d3a", lw=0.6, zorder=1)
-            elif p.geom_type in ("LineString", "LinearRing"):
-                ax.plot(*p.xy, color="#6b5d3a", lw=0.8, zorder=1)
-            elif p.geom_type == "Point":
-                ax.plot(p.x, p.y, "x", color="#6b5d3a", zorder=1)
+    _draw_chart(ax, plan, sea_map, view)
     if sea_room:
         from maps.export.geojson import sea_room_lonlat
 
         room = sea_room_lonlat(plan)
-        for p in polys(room) if room is not None else []:
-            patch(p, facecolor="#cfe6fb", edgecolor="none", zorder=2)
-    colours = primitive_colours(plan)
-    for st in plan.steps:
-        sl = step_slice(plan, st)
-        ax.plot(lon[sl], lat[sl], color=colours[st.primitive], lw=2.0, zorder=3, solid_capstyle="butt")
-    for name, c in colours.items():
-        ax.plot([], [], color=c, lw=3, label=name)
-    if numbers:
-        for st in plan.steps:
-            ax.annotate(
-                str(st.index + 1), (st.entry_lon, st.entry_lat), fontsize=8, fontweight="bold", ha="center", va="center",
-                zorder=5, bbox={"boxstyle": "circle,pad=0.2", "fc": "white", "ec": colours[st.primitive], "lw": 1.5},
-            )
-    ax.plot(lon[0], lat[0], marker="^", ms=11, color="green", mec="k", zorder=4, ls="none", label="start")
-    ax.plot(lon[-1], lat[-1], marker="s", ms=9, color="red", mec="k", zorder=4, ls="none", label="end")
+        if room is not None and _draw_geom(ax, room, view, facecolor="#cfe6fb", edgecolor="none", zorder=2):
+            ax.fill([], [], facecolor="#cfe6fb", label="sea room (hull + margin)")
+    _draw_track(ax, plan, numbers)
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
+    lat0 = float(np.mean(plan.lonlat[:, 1]))
     ax.set_aspect(1.0 / math.cos(math.radians(lat0)))
     ax.set_facecolor("#eef6fd")
     ax.xaxis.set_major_formatter(_dm_formatter("E", "W", 3))
@@ -145,17 +226,22 @@ def draw_map(ax, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None,
     ax.tick_params(labelsize=7)
     ax.xaxis.set_major_locator(plt.MaxNLocator(4))
     ax.grid(color="white", lw=0.6, zorder=0)
-    # scale bar: a round length about a fifth of the view width
-    width_m = (x1 - x0) * m_per_deg_lon
-    nice = [1, 2, 5]
-    mag = 10 ** math.floor(math.log10(max(width_m / 5, 1e-3)))
-    bar = max(n * mag for n in nice if n * mag <= max(width_m / 5, mag))
-    bx, by = x0 + 0.04 * (x1 - x0), y0 + 0.04 * (y1 - y0)
-    ax.plot([bx, bx + bar / m_per_deg_lon], [by, by], color="k", lw=3, zorder=6)
-    label = f"{bar:g} m" if bar < 1852 else f"{bar / 1852:.2g} NM"
-    ax.text(bx + 0.5 * bar / m_per_deg_lon, by + 0.012 * (y1 - y0), label, ha="center", va="bottom", fontsize=7, zorder=6)
+    _scale_bar(ax, x0, y0, x1, y1, m_per_deg_lon)
     ax.annotate("N", xy=(0.95, 0.95), xytext=(0.95, 0.85), xycoords="axes fraction", ha="center", fontsize=9, fontweight="bold",
                 arrowprops={"arrowstyle": "-|>", "color": "k"}, zorder=6)
+
+
+def _scale_bar(ax, x0: float, y0: float, x1: float, y1: float, m_per_deg_lon: float) -> None:
+    """A round length (m, or NM from 1 NM up) about a fifth of the view width, bottom right."""
+    width_m = (x1 - x0) * m_per_deg_lon
+    unit = M_PER_NM if width_m / 5 >= M_PER_NM else 1.0
+    target = width_m / 5 / unit
+    mag = 10 ** math.floor(math.log10(max(target, 1e-3)))
+    bar = max(n * mag for n in (1, 2, 5) if n * mag <= max(target, mag)) * unit
+    bx, by = x1 - 0.04 * (x1 - x0) - bar / m_per_deg_lon, y0 + 0.04 * (y1 - y0)
+    ax.plot([bx, bx + bar / m_per_deg_lon], [by, by], color="k", lw=3, zorder=6)
+    label = f"{bar:g} m" if unit == 1.0 else f"{bar / M_PER_NM:g} NM"
+    ax.text(bx + 0.5 * bar / m_per_deg_lon, by + 0.012 * (y1 - y0), label, ha="center", va="bottom", fontsize=7, zorder=6)
 
 
 def draw_states(axes, plan: Plan) -> None:
@@ -173,7 +259,7 @@ def draw_states(axes, plan: Plan) -> None:
     for ax, (label, y) in zip(axes, series):
         for st in plan.steps:
             sl = step_slice(plan, st)
-            ax.axvspan(t_min[sl.start], t_min[sl.stop - 1], color=colours[st.primitive], alpha=0.12, lw=0)
+            ax.axvspan(t_min[sl.start], t_min[sl.stop - 1], color=step_colour(plan, st, colours), alpha=0.12, lw=0)
         if label.startswith("heading"):
             jumps = np.abs(np.diff(y)) > 180
             y = y.copy().astype(float)
@@ -186,7 +272,7 @@ def draw_states(axes, plan: Plan) -> None:
     for st in plan.steps:
         sl = step_slice(plan, st)
         top.text(0.5 * (t_min[sl.start] + t_min[sl.stop - 1]), 1.02, str(st.index + 1), transform=top.get_xaxis_transform(),
-                 ha="center", va="bottom", fontsize=7, fontweight="bold", color=colours[st.primitive])
+                 ha="center", va="bottom", fontsize=7, fontweight="bold", color=step_colour(plan, st, colours))
     axes[-1].set_xlabel("time from start [min]", fontsize=8)
 
 
