@@ -27,6 +27,9 @@ def library_rows(library) -> list[dict]:
                 "footprint_m": [maxx - minx, maxy - miny],
                 "footprint_area_m2": p.footprint.area,
                 "split_points": len(p.split_points),
+                "orders": [o.to_dict() for o in p.orders],
+                "expectations": p.expectations(),
+                "abort_criteria": p.abort_criteria(),
             }
         )
     return rows
@@ -75,6 +78,7 @@ def register(app: typer.Typer) -> None:
         ship: str = typer.Option("model-ship", "--ship", help="built-in profile name or a .toml/.json profile file"),
         json_out: bool = typer.Option(False, "--json", help="print the library as JSON"),
         plot: Path | None = typer.Option(None, "--plot", help="draw each primitive's track and states to this PNG"),
+        orders: bool = typer.Option(False, "--orders", help="also list each primitive's helm/engine orders and abort criteria"),
     ) -> None:
         """List the manoeuvre primitive library of a ship."""
         from primitives.library import build_library
@@ -106,5 +110,11 @@ def register(app: typer.Typer) -> None:
                 "{:.1f} x {:.1f}".format(*r["footprint_m"]),
             )
         Console().print(table)
+        if orders:
+            for p in library:
+                typer.echo(f"\n{p.name} ({p.description}, {p.duration_s:.0f} s)")
+                for line in p.commands:
+                    typer.echo(f"  {line}")
+                typer.echo(f"  {p.abort_criteria()}")
         if plot:
             typer.echo(f"wrote {plot}")
