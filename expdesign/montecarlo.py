@@ -88,10 +88,6 @@ def validation_input(profile: ShipProfile, n: int, seed: int = 0) -> tuple[np.nd
     random binary sway and a multisine yaw rate reference, turned into feed-forward forces.
     Returns (inputs (n, m), nu0 (3,))."""
     rng = np.random.default_rng([seed, 0x5EED])
-    if profile.actuator == "rudder_propeller":  # no force allocation: the same idea in helm terms
-        from primitives.helm import validation_inputs
-
-        return validation_inputs(profile, n, rng)
     t = np.arange(n) / n
     c, L = profile.cruise_speed_mps, profile.length_m
 
@@ -100,6 +96,11 @@ def validation_input(profile: ShipProfile, n: int, seed: int = 0) -> tuple[np.nd
         ph = rng.uniform(0, 2 * np.pi, k)
         s = np.sum(np.sin(2 * np.pi * f[:, None] * t + ph[:, None]), axis=0)
         return s / np.abs(s).max()
+
+    if profile.actuator == "rudder_propeller":  # no force allocation: the same idea in helm terms
+        from primitives.helm import validation_inputs
+
+        return validation_inputs(profile, multisine)
 
     prbs = np.repeat(rng.choice([-1.0, 1.0], n // 50 + 1), 50)[:n]
     prbs = np.convolve(prbs, np.ones(15) / 15, mode="same")

@@ -287,18 +287,11 @@ def turn(profile: ShipProfile, dpsi_deg: float, *, rudder_deg: float = 20.0, n_r
     return best[1].generated()
 
 
-def validation_inputs(profile: ShipProfile, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """A cross-validation input unlike any manoeuvre, in helm terms: multisine rudder within 60 %
-    of full rudder (moved at the rudder rate) and multisine rpm within 70-100 % of the approach
-    rpm. Returns (inputs (n, 2), nu0 (3,)), starting steady at the first rpm."""
-    t = np.arange(n) / n
-
-    def multisine(k: int) -> np.ndarray:
-        f = rng.choice(np.arange(2, 12), k, replace=False)
-        ph = rng.uniform(0, 2 * np.pi, k)
-        s = np.sum(np.sin(2 * np.pi * f[:, None] * t + ph[:, None]), axis=0)
-        return s / np.abs(s).max()
-
+def validation_inputs(profile: ShipProfile, multisine) -> tuple[np.ndarray, np.ndarray]:
+    """A cross-validation input unlike any manoeuvre, in helm terms: a multisine rudder within
+    60 % of full rudder (moved at the rudder rate) and a multisine rpm within 70-100 % of the
+    approach rpm. ``multisine(k)`` is the caller's seeded sum of k sines scaled to [-1, 1] (one
+    per sample). Returns (inputs (n, 2), nu0 (3,)), starting steady at the first rpm."""
     helm = profile.helm
     rudder = rate_limited(0.6 * helm.max_rudder_deg * multisine(3), 0.0, helm.rudder_rate_deg_s * profile.sample_time)
     n0 = steady_rps(profile)
