@@ -44,29 +44,6 @@ def parse_counts(text: str | None) -> dict[str, int] | None:
     return out
 
 
-def design_counts(profile, seed: int = 0) -> tuple[dict[str, int], list, str, object | None]:
-    """Counts from the D-optimal design over the section 9.4 primitives (rounded units converted
-    to whole primitives); the thesis scenario's counts when the design is not available."""
-    from maps.scenario import thesis_planning_scenario
-
-    prims, scen = thesis_planning_scenario(profile)
-    try:
-        from expdesign.api import run_design
-    except ImportError:
-        return scen, prims, "experiment design not available: using the thesis scenario counts (3 uses each)", None
-    total = 3 * sum(p.duration_s for p in prims)
-    d = run_design(profile, prims, trial_length_s=total, seed=seed)
-    counts = {}
-    for p in prims:
-        units = d.rounded.get(p.name, 0)
-        unit_s = d.unit_s.get(p.name, p.duration_s) if hasattr(d, "unit_s") else p.duration_s
-        counts[p.name] = int(round(units * unit_s / p.duration_s))
-    counts = {k: v for k, v in counts.items() if v > 0}
-    if not counts:
-        return scen, prims, "the design selected nothing: using the thesis scenario counts", d
-    return counts, prims, f"counts from the D-optimal design over {', '.join(p.name for p in prims)} ({total:.0f} s of trial)", d
-
-
 @contextmanager
 def stage(text: str, quiet: bool):
     """A spinner on stderr for a long step (only on a terminal, never in --json output)."""
@@ -93,7 +70,13 @@ def print_summary(result, summary: dict, files: dict[str, Path]) -> None:
     used = ", ".join(f"{k} x{v}" for k, v in result.counts.items())
     t.add_row("feasible", "yes" if result.feasible else "NO")
     t.add_row("informative manoeuvres", used or "-")
-    t.add_row("basic repositioning moves", str(result.basic_moves))
+    t.add_row("repositioning", f"{len(result.segment_steps('transit'))} transit leg(s) "
+                               f"({st.get('basic_moves', 0)} lattice moves, {st.get('moves_straightened', 0)} straightened)")
+    if result.design:
+        d = result.design
+        t.add_row("design", f"{d['criterion']}-optimal, {d['mean_subtraction']} mean subtraction; rounded D-efficiency "
+                            f"{d['d_efficiency']:.3f}" + "".join(f"; {x['primitive']} dropped (needs {x['needs_m'][0]:.0f} x "
+                                                                  f"{x['needs_m'][1]:.0f} m)" for x in d.get("dropped", [])))
     t.add_row("duration", f"{result.duration_s / 60:.1f} min")
     t.add_row("track length", f"{result.length_m / 1000:.2f} km")
     t.add_row("smallest clearance", f"{result.min_clearance_m:.1f} m (margin {result.margin_m:g} m)")
@@ -102,10 +85,10 @@ def print_summary(result, summary: dict, files: dict[str, Path]) -> None:
     con.print(t)
     if result.feasible:
         steps = Table(title="manoeuvres in sailing order")
-        for col in ("#", "start", "manoeuvre", "heading", "entry position"):
+        for col in ("#", "start", "segment", "manoeuvre", "heading", "entry position"):
             steps.add_column(col)
         for s_ in result.steps:
-            steps.add_row(str(s_.index + 1), f"{s_.start_time_s / 60:5.1f} min", s_.primitive, f"{s_.entry_heading_deg:05.1f}",
+            steps.add_row(str(s_.index + 1), f"{s_.start_time_s / 60:5.1f} min", s_.segment, s_.primitive, f"{s_.entry_heading_deg:05.1f}",
                           f"{s_.entry_lat:.5f} N {s_.entry_lon:.5f} E")
         con.print(steps)
     for key, path in files.items():
@@ -120,12 +103,21 @@ def register(app: typer.Typer) -> None:
         start: str | None = typer.Option(None, "--start", help="LAT,LON,HEADING_DEG (default: the map's start feature)"),
         goal: str | None = typer.Option(None, "--goal", help="LAT,LON[,HEADING_DEG] (default: the map's goal feature)"),
         counts: str | None = typer.Option(None, "--counts", help="NAME=N,... uses per informative primitive (default: run the design)"),
+        scenario: str | None = typer.Option(None, "--scenario", help="a named example instead of the design: thesis-9.4"),
+        criterion: str = typer.Option("D", "--criterion", help="design criterion: D, A or E (as shiptrial design)"),
+        mean_subtraction: str = typer.Option("complete", "--mean-subtraction", help="none, batchwise (7.53) or complete (7.57)"),
+        trial_length: float | None = typer.Option(None, "--trial-length", help="trial length in seconds the design is rounded to "
+                                                                              "(default: every library primitive once)"),
         resolution: float | None = typer.Option(None, "--resolution", help="lattice spacing in metres (default ~4 ship lengths)"),
-        headings: int = typer.Option(4, "--headings", help="lattice headings: 4, 8 or 16"),
+        headings: int = typer.Option(16, "--headings", help="lattice headings: 4, 8 or 16"),
         heuristic: str = typer.Option("admissible", "--heuristic", help="admissible (certified optimal) or thesis (8.9)"),
         margin: float = typer.Option(20.0, "--margin", help="safety margin around the swept hull, metres"),
+        run_in: float | None = typer.Option(None, "--run-in", help="seconds on steady course and speed before each execute point "
+                                                                  "(default: max(60 s, two ship lengths))"),
+        max_memory: float = typer.Option(2.0, "--max-memory", help="refuse a lattice estimated to need more GiB than this"),
         split: bool = typer.Option(False, "--split", help="split primitives at their natural break points"),
         size: str = typer.Option("35x44", "--size", help="minimum lattice size NORTHxEAST points"),
+        vessel_name: str | None = typer.Option(None, "--vessel-name", help="vessel name for the exports (default: the profile's name)"),
         out: Path = typer.Option(Path("trial-out"), "--out", help="directory for the plan, the crew exports and the figures"),
         start_time: str | None = typer.Option(None, "--start-time", help="UTC start of the trial for the schedule, e.g. 2026-06-01T08:00Z "
                                                                          "(default: the next full hour)"),
@@ -133,72 +125,90 @@ def register(app: typer.Typer) -> None:
         json_out: bool = typer.Option(False, "--json", help="print one JSON summary"),
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
     ) -> None:
-        """Plan a trial: design -> rounding -> A* planning -> continuous verification -> exports for the crew."""
+        """Plan a trial: design -> whole manoeuvres -> A* planning -> continuous verification -> exports for the crew."""
+        from maps.chain import PlanOptions
+        from maps.export._common import iso, resolve_start
         from maps.geo import load_map
-        from maps.output import write_outputs
-        from maps.planner import plan_trial
+        from maps.planner import plan_with_design
+        from maps.trialdesign import NoFitError
+        from primitives.io import atomic_output_dir, check_out_path
         from primitives.ship import load_profile
 
-        if heuristic not in ("admissible", "thesis"):
-            raise UserError(f"--heuristic must be 'admissible' or 'thesis', got {heuristic!r}")
         try:
             ni, nj = (int(v) for v in size.lower().split("x"))
         except ValueError:
             raise UserError(f"--size: expected NORTHxEAST whole numbers, e.g. 35x44, got {size!r}") from None
+        if counts is not None and scenario is not None:
+            raise UserError("--counts and --scenario both choose the manoeuvres: give one of them")
         start_pt, goal_pt = parse_point(start, "start"), parse_point(goal, "goal")
         cnt = parse_counts(counts)
-        from maps.export._common import iso, resolve_start
-
+        opts = PlanOptions(resolution=resolution, headings=headings, heuristic=heuristic, margin=margin, split=split,
+                           size=(ni, nj), run_in_s=run_in, max_memory_gib=max_memory)
+        opts.check()
         if start_time is not None:
             resolve_start(None, start_time)  # reject a malformed time before the long work
+        check_out_path(out)
         prof = load_profile(ship)
         sea = load_map(map_path, draught_m=prof.draught_m)
-        prims, note, design = None, "", None
-        if cnt is None:
-            with stage("designing the manoeuvre mix (D-optimal, rounded) ...", json_out):
-                cnt, prims, note, design = design_counts(prof, seed)
-        with stage("planning on the lattice (A*) and verifying the continuous track ...", json_out):
-            result = plan_trial(sea, profile=prof, counts=cnt, primitives=prims, start=start_pt,
-                                goal=goal_pt, resolution=resolution, headings=headings,
-                                heuristic=heuristic, margin=margin, split=split, size=(ni, nj))
-        if note:
-            result.stats.setdefault("notes", []).insert(0, note)
+        try:
+            with stage("designing the manoeuvre mix and planning on the lattice (A*) ...", json_out):
+                result, td = plan_with_design(sea, profile=prof, counts=cnt, start=start_pt, goal=goal_pt, scenario=scenario,
+                                              criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length,
+                                              seed=seed, vessel_name=vessel_name or "", options=opts)
+        except NoFitError as exc:
+            print(f"error: {str(exc).splitlines()[0]}", file=sys.stderr)
+            raise typer.Exit(1) from None
         t0 = resolve_start(result, start_time)
         result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
-        files = write_outputs(result, sea, out)
-        if design is not None:
-            from expdesign.report import plot_ratios
+        with atomic_output_dir(out) as tmp:
+            files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out)
+        files = {k: out / Path(v).relative_to(tmp) for k, v in files.items()}
+        report(result, files, heuristic, json_out)
 
-            plot_ratios(design, out / "design-ratios.png")
-            files["design_ratios_png"] = out / "design-ratios.png"
-        if result.feasible and not no_export:
-            from maps.export import export_all
 
-            with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", json_out):
-                files.update(export_all(result, out, sea_map=sea, start=t0))
-        st = result.stats
-        summary = {
-            "feasible": result.feasible, "optimal": result.optimal, "counts": result.counts, "targets": result.targets,
-            "basic_moves": result.basic_moves, "duration_s": result.duration_s, "length_m": result.length_m,
-            "min_clearance_m": result.min_clearance_m, "expansions": st.get("expansions"),
-            "states_visited": st.get("states_visited"), "plan_time_s": st.get("plan_time_s"),
-            "setup_time_s": st.get("setup_time_s"), "heuristic": heuristic, "lattice": st.get("lattice"),
-            "drift_m": st.get("drift_m"), "reason": st.get("reason"), "help": st.get("help"),
-            "notes": st.get("notes", []), "warnings": st.get("warnings", []),
-            "design": None if design is None else {"weights": design.weights, "rounded": design.rounded, "logdet": design.logdet},
-            "trajectory_geojson": str(files["trajectory_geojson"]) if "trajectory_geojson" in files else None,
-            "plan_json": str(files["plan_json"]),
-            "plot": str(files["plot"]),
-            "files": {k: str(v) for k, v in files.items()},
-        }
-        for w in st.get("warnings", []):
-            print(f"warning: {w}", file=sys.stderr)
-        if json_out:
-            print(dumps(summary))
-        else:
-            print_summary(result, summary, files)
-        if not result.feasible:
-            print(f"no feasible plan: {st.get('reason')}", file=sys.stderr)
-            for h in st.get("help") or []:
-                print(f"  would help: {h}", file=sys.stderr)
-            raise typer.Exit(1)
+def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bool) -> dict[str, Path]:
+    """Every output into the (temporary) directory ``tmp``."""
+    from maps.output import write_outputs
+
+    files = write_outputs(result, sea, tmp)
+    if td is not None:
+        from expdesign.report import plot_ratios
+
+        plot_ratios(td.design, tmp / "design-ratios.png")
+        files["design_ratios_png"] = tmp / "design-ratios.png"
+    if result.feasible and not no_export:
+        from maps.export import export_all
+
+        with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
+            files.update(export_all(result, tmp, sea_map=sea, start=t0))
+    return files
+
+
+def report(result, files: dict[str, Path], heuristic: str, json_out: bool) -> None:
+    """Print the summary (table or one JSON object); exit 1 when no feasible plan was found."""
+    st = result.stats
+    summary = {
+        "feasible": result.feasible, "optimal": result.optimal, "counts": result.counts, "targets": result.targets,
+        "basic_moves": result.basic_moves, "duration_s": result.duration_s, "length_m": result.length_m,
+        "min_clearance_m": result.min_clearance_m, "expansions": st.get("expansions"),
+        "states_visited": st.get("states_visited"), "plan_time_s": st.get("plan_time_s"),
+        "setup_time_s": st.get("setup_time_s"), "heuristic": heuristic, "lattice": st.get("lattice"),
+        "drift_m": st.get("drift_m"), "reason": st.get("reason"), "help": st.get("help"),
+        "notes": st.get("notes", []), "warnings": st.get("warnings", []),
+        "design": result.design or None,
+        "trajectory_geojson": str(files["trajectory_geojson"]) if "trajectory_geojson" in files else None,
+        "plan_json": str(files["plan_json"]),
+        "plot": str(files["plot"]),
+        "files": {k: str(v) for k, v in files.items()},
+    }
+    for w in st.get("warnings", []):
+        print(f"warning: {w}", file=sys.stderr)
+    if json_out:
+        print(dumps(summary))
+    else:
+        print_summary(result, summary, files)
+    if not result.feasible:
+        print(f"no feasible plan: {st.get('reason')}", file=sys.stderr)
+        for h in st.get("help") or []:
+            print(f"  would help: {h}", file=sys.stderr)
+        raise typer.Exit(1)

@@ -39,9 +39,13 @@ class Move:
     snap_m: np.ndarray  # (K,)
     heading_err: float
     source: str = ""
+    run_in: tuple[int, ...] = ()  # samples of the run-in that opens the move, per heading class
 
     def prim(self, h: int) -> Primitive:
         return self.prims[h % len(self.prims)]
+
+    def run_in_samples(self, h: int) -> int:
+        return self.run_in[h % len(self.run_in)] if self.run_in else 0
 
 
 def heading_table(n_head: int) -> np.ndarray:
@@ -107,11 +111,13 @@ class _Helm:
     def forces(self, nu: np.ndarray, u_ref: float, v_ref: float, r_ref: float) -> tuple[float, float, float]:
         ff = self.feedforward(u_ref, v_ref, r_ref)
         f = ff + self.k * (np.array([u_ref, v_ref, r_ref]) - nu)
-        f = np.clip(f, -self.fmax, self.fmax)
+        lim = np.maximum(self.fmax, 1.2 * np.abs(ff))  # a steady state the ship can hold is always reachable
+        f = np.clip(f, -lim, lim)
         return float(f[0]), float(f[1]), float(f[2])
 
     def run(self, nu0, pose0, phases: list[tuple[str, float]], n_max: int = 3000) -> np.ndarray:
-        """Phases: ("run", metres), ("stop", 0), ("turn", target psi), ("settle", 0). Returns forces (N, 3)."""
+        """Phases: ("run", metres), ("stop", 0), ("turn", target psi), ("settle", 0), ("hold", (u, v, r,
+        seconds)), ("track", (waypoints [(x, y), ...], lookahead m)). Returns forces (N, 3)."""
         state = {"pos": np.array(pose0[:2], float), "i": 0, "k0": 0}
         psi0 = float(pose0[2])
         res, uc = self.res, self.uc
@@ -130,6 +136,35 @@ class _Helm:
                     return policy(k, nu, psi_rel, memo)
                 memo["run"] += self.ts * nu[0]
                 f = self.forces(nu, uc, 0.0, 0.0)
+            elif kind == "hold":  # reach the velocity (u, v, r), keep the course, then hold it for ``secs``
+                u_t, v_t, r_t, secs = arg
+                err = np.abs(np.array([u_t, v_t, r_t]) - nu) * (1.0, 1.0, self.p.length_m)
+                if "held" not in memo and np.all(err < 0.02):
+                    memo["held"] = k
+                if "held" in memo and (k - memo["held"]) * self.ts >= secs:
+                    state["i"] += 1
+                    return None
+                memo.setdefault("course", psi)
+                r_fb = 0.0 if r_t else float(np.clip(0.1 * _wrap(memo["course"] - psi), -r_lim, r_lim))
+                f = self.forces(nu, u_t, v_t, r_t + r_fb)
+            elif kind == "track":  # line-of-sight guidance along waypoints, stop abreast the last one
+                wps, lookahead = arg
+                leg = memo.setdefault("leg", 0)
+                a, b = np.asarray(wps[leg], float), np.asarray(wps[leg + 1], float)
+                d = (b - a) / max(np.hypot(*(b - a)), 1e-9)
+                along = float((pos - a) @ d)
+                cross = float((pos - a) @ np.array([-d[1], d[0]]))
+                last = leg + 2 == len(wps)
+                remaining = float(np.hypot(*(b - a))) - along
+                if last and remaining <= 0.5 * uc * self.ts:
+                    state["i"] += 1
+                    return None
+                if not last and remaining <= lookahead:
+                    memo["leg"] = leg + 1
+                    return policy(k, nu, psi_rel, memo)
+                want = float(np.arctan2(d[1], d[0]) - np.arctan2(cross, lookahead))
+                r_ref = float(np.clip(1.5 * _wrap(want - psi) * r_lim / np.radians(20), -r_lim, r_lim))
+                f = self.forces(nu, uc, 0.0, r_ref)
             elif kind == "stop":
                 if abs(nu[0]) < 0.02 and abs(nu[1]) < 0.02:
                     state["i"] += 1
@@ -194,6 +229,52 @@ def settle(prim: Primitive, res: float, n_head: int, psi0: float = 0.0) -> Primi
                      list(prim.split_points))
 
 
+def run_in_seconds(profile: ShipProfile, run_in_s: float | None = None) -> float:
+    """Time on steady course and speed before an execute point: ``run_in_s`` or, by default, the
+    longer of one minute and two ship lengths at cruise speed. ITTC 7.5-04-02-01 and IMO
+    MSC.137(76) ask for a steady approach at the test speed without fixing its length; this
+    default is our choice (the nominal model settles well within it)."""
+    if run_in_s is not None:
+        return float(run_in_s)
+    return float(max(60.0, 2.0 * profile.length_m / max(profile.cruise_speed_mps, 1e-6)))
+
+
+def run_in_inputs(prim: Primitive, res: float, n_head: int, run_in_s: float) -> np.ndarray:
+    """Inputs of the run-in: from the transit state to the primitive's entry velocity (closed
+    loop on the nominal model), then held steady for ``run_in_s`` seconds. Body-frame only, so
+    the same for every start heading."""
+    helm = _Helm(prim.profile, res, n_head)
+    u0, v0, r0 = (float(x) for x in prim.nu0)
+    nu_t = np.array([helm.uc, 0.0, 0.0])
+    near = np.all(np.abs(np.array([u0, v0, r0]) - nu_t) * (1.0, 1.0, prim.profile.length_m) < 0.02)
+    f = np.zeros((0, 3)) if near else helm.run(nu_t, (0.0, 0.0, 0.0), [("hold", (u0, v0, r0, 0.0))], n_max=600)
+    n_hold = int(round(run_in_s / helm.ts))
+    steady = np.tile(helm.feedforward(u0, v0, r0), (n_hold, 1))
+    f = np.vstack([f, steady])
+    return prim.profile.allocate(*f.T) if len(f) else np.zeros((0, prim.inputs.shape[1]))
+
+
+def with_run_in(prim: Primitive, res: float, n_head: int, psi0: float, run_in: np.ndarray) -> tuple[Primitive, int]:
+    """Run-in + primitive + settling leg, started from transit at lattice heading ``psi0``.
+
+    ``run_in`` (:func:`run_in_inputs`) brings the ship to the primitive's entry velocity and holds
+    it on a steady course; the primitive's inputs then start at the execute point. Returns the
+    whole move (track in the start frame) and the run-in's samples."""
+    helm = _Helm(prim.profile, res, n_head)
+    nu_t = np.array([helm.uc, 0.0, 0.0])
+    head = np.vstack([run_in, prim.inputs])
+    sim = simulate(prim.profile, head, nu0=nu_t)
+    x, y, p = sim.eta[0, -1]
+    c, s = np.cos(psi0), np.sin(psi0)
+    tail = helm.run(sim.nu[0, -1], (c * x - s * y, s * x + c * y, psi0 + p), [("settle", 0.0)])
+    n_r = len(run_in)
+    cmds = list(prim.commands) + ([f"then steady at {helm.uc:.1f} m/s on the nearest lattice course for "
+                                   f"{len(tail) * helm.ts:.0f} s"] if len(tail) else [])
+    whole = _assemble(prim.profile, prim.name, prim.description, prim.kind, head, nu_t, tail, cmds,
+                      [n_r + k for k in prim.split_points])
+    return whole, n_r
+
+
 def classes(n_head: int) -> np.ndarray:
     """Start headings of the heading classes; the others follow by quarter turns."""
     return heading_table(n_head)[: n_head // 4]
@@ -247,7 +328,8 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
     return out
 
 
-def place(prims: list[Primitive], res: float, n_head: int, counter: int, cost: float, source: str = "") -> Move:
+def place(prims: list[Primitive], res: float, n_head: int, counter: int, cost: float, source: str = "",
+          run_in: tuple[int, ...] = ()) -> Move:
     """Snap the end poses of a move (one primitive per heading class) to the lattice for every
     start heading: cells moved, heading steps and the snapping error."""
     table = heading_table(n_head)
@@ -269,7 +351,7 @@ def place(prims: list[Primitive], res: float, n_head: int, counter: int, cost: f
         dh[h] = (h2 - h) % n_head
         herr = max(herr, abs(_wrap(psi + dpsi - table[h2])))
     first = prims[0]
-    return Move(first.name, first.kind, prims, counter, cost, dcell, dh, snap, herr, source)
+    return Move(first.name, first.kind, prims, counter, cost, dcell, dh, snap, herr, source, run_in)
 
 
 def transit_mismatch(prim: Primitive) -> float:

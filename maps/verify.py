@@ -35,29 +35,36 @@ class Verification:
     reason: str = ""
 
 
-def resimulate(sea: SeaMap, prims: list[Primitive], start: tuple[float, float, float], margin: float,
-               lattice_end: tuple[float, float] | None = None) -> Verification:
-    """Simulate the concatenated inputs of ``prims`` from ``start`` and check the swept hull."""
-    profile = prims[0].profile
-    inputs = np.vstack([p.inputs for p in prims])
-    step = np.concatenate([np.full(p.n_samples, i) for i, p in enumerate(prims)] + [[len(prims) - 1]])
-    res = simulate(profile, inputs, nu0=prims[0].nu0, eta0=start)
-    track, nu = res.eta[0], res.nu[0]
-    hulls = hull_at(hull_outline(profile.length_m, profile.beam_m), track)
+def hull_clearance(sea: SeaMap, length_m: float, beam_m: float, track: np.ndarray, margin: float) -> np.ndarray:
+    """Per sample: distance between the hull (and its sweep to the neighbouring samples) and the
+    no-go area of the map; inf where nothing is near."""
+    hulls = hull_at(hull_outline(length_m, beam_m), track)
     polys = shapely.polygons(hulls)
-    # consecutive placements are at most one sample apart: add their convex hulls (the sweep)
-    sweep = shapely.convex_hull(shapely.multipoints(np.concatenate([hulls[:-1], hulls[1:]], axis=1)))
-    xmin, ymin = track[:, :2].min(axis=0) - profile.length_m - margin - 500.0
-    xmax, ymax = track[:, :2].max(axis=0) + profile.length_m + margin + 500.0
+    xmin, ymin = track[:, :2].min(axis=0) - length_m - margin - 500.0
+    xmax, ymax = track[:, :2].max(axis=0) + length_m + margin + 500.0
     no_go = shapely.clip_by_rect(sea.no_go(), xmin, ymin, xmax, ymax)
     if no_go.is_empty:
-        clear = np.full(len(track), np.inf)
-    else:
-        shapely.prepare(no_go)
-        clear = shapely.distance(polys, no_go)
+        return np.full(len(track), np.inf)
+    shapely.prepare(no_go)
+    clear = shapely.distance(polys, no_go)
+    if len(track) > 1:  # consecutive placements are one sample apart: their convex hulls are the sweep
+        sweep = shapely.convex_hull(shapely.multipoints(np.concatenate([hulls[:-1], hulls[1:]], axis=1)))
         cs = shapely.distance(sweep, no_go)
         clear[:-1] = np.minimum(clear[:-1], cs)
         clear[1:] = np.minimum(clear[1:], cs)
+    return clear
+
+
+def resimulate(sea: SeaMap, prims: list[Primitive], start: tuple[float, float, float], margin: float,
+               lattice_end: tuple[float, float] | None = None, nu0: np.ndarray | None = None) -> Verification:
+    """Simulate the concatenated inputs of ``prims`` (anything with ``inputs``, ``n_samples``,
+    ``name``) from ``start`` and check the swept hull against the map with the margin."""
+    profile = prims[0].profile
+    inputs = np.vstack([p.inputs for p in prims])
+    step = np.concatenate([np.full(p.n_samples, i) for i, p in enumerate(prims)] + [[len(prims) - 1]])
+    res = simulate(profile, inputs, nu0=prims[0].nu0 if nu0 is None else nu0, eta0=start)
+    track, nu = res.eta[0], res.nu[0]
+    clear = hull_clearance(sea, profile.length_m, profile.beam_m, track, margin)
     worst = int(np.argmin(clear))
     mc = float(clear[worst])
     drift = float(np.hypot(*(track[-1, :2] - np.asarray(lattice_end)))) if lattice_end is not None else 0.0

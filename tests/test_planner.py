@@ -28,7 +28,7 @@ def profile():
 
 @pytest.fixture(scope="module")
 def helsinki_plan(profile):
-    return plan_trial(profile=profile)
+    return plan_trial(profile=profile, scenario="thesis-9.4", headings=4, run_in_s=0)
 
 
 def land_polygons(path):
@@ -49,7 +49,8 @@ def test_helsinki_thesis_scenario_solved_and_verified(helsinki_plan):
     assert not track.intersects(land_polygons(bundled_map_path()))
     # starts in the harbour (upper left), ends to the south
     assert p.lonlat[0, 1] > p.lonlat[-1, 1]
-    assert len(p.steps) == sum(p.counts.values()) + p.basic_moves
+    assert len(p.segment_steps("informative")) == sum(p.counts.values())  # the thesis has no run-ins: run_in_s=0
+    assert p.stats["basic_moves"] >= len(p.segment_steps("transit"))
     assert p.stats["expansions"] > 0 and p.stats["plan_time_s"] > 0
 
 
@@ -74,7 +75,7 @@ def test_plan_contents_for_exporters(helsinki_plan, tmp_path):
 
 
 def test_admissible_never_worse_than_thesis_heuristic(profile, helsinki_plan):
-    greedy = plan_trial(profile=profile, heuristic="thesis")
+    greedy = plan_trial(profile=profile, scenario="thesis-9.4", headings=4, run_in_s=0, heuristic="thesis")
     assert greedy.counts == SCENARIO
     assert not greedy.optimal  # (8.9) is not admissible: no certificate
     assert helsinki_plan.stats["cost"] <= greedy.stats["cost"]

@@ -1,0 +1,374 @@
+"""The planning chain as steps a notebook can call one at a time (seed 001 chapters 7-8, section 9.4).
+
+    td  = design_for_map(profile, ...)                    # counts from the design (maps.trialdesign)
+    lat = build_lattice(sea, profile, td.support(), td.counts, options=PlanOptions())
+    out = search_plan(lat)                                 # A* over (i, j, heading, g_1..g_Q) (8.3)
+    ver = verify_plan(lat, out)                            # legs, shortcuts, continuous re-simulation
+    plan = assemble_plan(lat, out, ver)
+
+:func:`maps.planner.plan_trial` composes them (with the re-plans on a verification failure).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from maps import astar
+from maps.collision import CollisionGrid, Window
+from maps.geo import MapError, SeaMap, bundled_map_path
+from maps.lattice import Move, heading_table, nearest_heading, run_in_seconds
+from maps.motionset import basic_move_set, default_resolution, informative_moves, planning_window
+from maps.plan import Plan, PlanStep
+from maps.smooth import Leg, Shortcutter, move_legs
+from maps.verify import Verification, resimulate
+from primitives.library import Primitive
+from primitives.ship import ShipProfile
+
+LatLonHdg = tuple[float, float, float | None]
+BYTES_PER_EDGE = 120  # a successor tuple in a Python list (measured order of magnitude)
+BYTES_PER_STATE = 260  # an A* state: g-cost and parent dict entries, closed-set entry, heap entry
+
+
+@dataclass
+class PlanOptions:
+    """Lattice and search settings (defaults: what a master would sail; see the CLI help)."""
+
+    resolution: float | None = None  # lattice spacing, m (default ~4 ship lengths)
+    headings: int = 16
+    heuristic: str = "admissible"
+    weights: tuple[float, float, float] = (1.0 / 120.0, 1.0, 10.0)  # (8.9) for the thesis heuristic
+    margin: float = 20.0  # hard clearance of the swept hull, m
+    split: bool = False
+    size: tuple[int, int] = (35, 44)
+    sub: int = 8
+    basic_cost: float = 1.0
+    spot_turns: bool = True
+    ukc_m: float = 0.5
+    max_expansions: int = 30_000_000
+    replans: int = 3
+    clearance_lengths: float = 2.0  # soft zone: moves within this many ship lengths of an obstacle cost more
+    clearance_cost: float = 0.5  # extra cost (in basic moves) of a move inside the soft zone
+    run_in_s: float | None = None  # steady run-in before each execute point (default max(60 s, 2 L / U))
+    smooth: bool = True
+    max_memory_gib: float = 2.0
+
+    def check(self) -> None:
+        if self.headings not in (4, 8, 16):
+            raise MapError(f"--headings must be 4, 8 or 16, got {self.headings}")
+        if self.margin < 0:
+            raise MapError(f"--margin must be >= 0 m, got {self.margin:g}")
+        if self.resolution is not None and self.resolution <= 0:
+            raise MapError(f"--resolution must be > 0 m, got {self.resolution:g}")
+        if self.heuristic not in ("admissible", "thesis"):
+            raise MapError(f"--heuristic must be 'admissible' or 'thesis', got {self.heuristic!r}")
+        if self.run_in_s is not None and self.run_in_s < 0:
+            raise MapError(f"--run-in must be >= 0 s, got {self.run_in_s:g}")
+
+
+@dataclass
+class Lattice:
+    """Everything the search needs: window, collision grid, motion set, counters, start, goal."""
+
+    sea: SeaMap
+    profile: ShipProfile
+    options: PlanOptions
+    window: Window
+    grid: CollisionGrid
+    table: np.ndarray
+    moves: list[Move]
+    cnames: list[str]
+    targets: dict[str, int]
+    primitives: dict[str, Primitive]
+    start: tuple[float, float, float]  # x, y, lattice heading
+    h_start: int
+    start_cell: tuple[int, int]
+    goal_cell: tuple[int, int]
+    goal_h: list[int]
+    start_ll: LatLonHdg
+    goal_ll: LatLonHdg
+    notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    setup_s: float = 0.0
+    _placements: dict[float, list] = field(default_factory=dict, repr=False)
+
+    @property
+    def res(self) -> float:
+        return self.window.res
+
+    @property
+    def snap_max(self) -> float:
+        return max(float(m.snap_m.max()) for m in self.moves)
+
+    def n_states(self) -> int:
+        """Size of the counter-augmented lattice (8.5)."""
+        return self.window.ni * self.window.nj * len(self.table) * int(np.prod([d + 1 for d in self.targets.values()]))
+
+    def placements(self, extra: float = 0.0) -> list[list[tuple[np.ndarray, np.ndarray]]]:
+        """Per move and heading: (collision-free, inside the soft clearance zone) per lattice point;
+        footprints grown by margin + snapping + ``extra``."""
+        if extra in self._placements:
+            return self._placements[extra]
+        o, win, grid = self.options, self.window, self.grid
+        soft = o.clearance_lengths * self.profile.length_m
+        out = []
+        for m in self.moves:
+            per_h = []
+            for h in range(len(self.table)):
+                fp, psi, grow = m.prim(h).footprint, float(self.table[h]), o.margin + m.snap_m[h] + extra
+                ok = grid.valid_everywhere(grid.footprint_rows(fp, psi, grow))
+                di, dj = m.dcell[h]
+                ii, jj = np.meshgrid(np.arange(win.ni) + di, np.arange(win.nj) + dj, indexing="ij")
+                ok &= (ii >= 0) & (ii < win.ni) & (jj >= 0) & (jj < win.nj)  # ends on a lattice point too
+                near = np.zeros_like(ok)
+                if soft > 0 and o.clearance_cost > 0 and ok.any():
+                    near = ok & ~grid.valid_everywhere(grid.footprint_rows(fp, psi, grow + soft))
+                per_h.append((ok, near))
+            out.append(per_h)
+        self._placements[extra] = out
+        return out
+
+    def fits_nowhere(self) -> dict[str, tuple[float, float]]:
+        """Informative primitives with no collision-free placement in the window: {name: (along,
+        cross) metres of open water the move needs, margin included on both sides}."""
+        out: dict[str, tuple[float, float]] = {}
+        for m, per_h in zip(self.moves, self.placements()):
+            if m.counter >= 0 and not any(ok.any() for ok, _ in per_h):
+                b = m.prims[0].footprint.bounds
+                two = 2 * self.options.margin
+                out[m.source or m.name] = (float(b[2] - b[0] + two), float(b[3] - b[1] + two))
+        return out
+
+    def problem(self, extra: float = 0.0, blocked: frozenset = frozenset()) -> astar.Problem:
+        """The A* problem: collision-free successors per spatial state, soft clearance in the cost,
+        ``blocked`` (move index, spatial state) pairs left out."""
+        K, nj, win = len(self.table), self.window.nj, self.window
+        pen = self.options.clearance_cost * self.options.basic_cost
+        succ: list[list[tuple[int, int, int, float]]] = [[] for _ in range(win.ni * nj * K)]
+        for mi, (m, per_h) in enumerate(zip(self.moves, self.placements(extra))):
+            for h, (ok, near) in enumerate(per_h):
+                di, dj = (int(v) for v in m.dcell[h])
+                h2 = (h + int(m.dh[h])) % K
+                for i, j in zip(*np.nonzero(ok)):
+                    s = (int(i) * nj + int(j)) * K + h
+                    if (mi, s) in blocked:
+                        continue
+                    cost = m.cost + (pen if near[i, j] else 0.0)
+                    succ[s].append((mi, ((int(i) + di) * nj + int(j) + dj) * K + h2, m.counter, cost))
+        si, sj = self.start_cell
+        gi, gj = self.goal_cell
+        return astar.Problem(win.ni, nj, K, [self.targets[n] for n in self.cnames], succ, (si * nj + sj) * K + self.h_start,
+                             [(gi * nj + gj) * K + h for h in self.goal_h], self.res)
+
+    def pose(self, spatial: int) -> tuple[float, float, float]:
+        K, nj = len(self.table), self.window.nj
+        cell, h = divmod(spatial, K)
+        x, y = self.window.point(cell // nj, cell % nj)
+        return x, y, float(self.table[h])
+
+
+def _endpoint(sea: SeaMap, given: LatLonHdg | None, feat, default: LatLonHdg, what: str, margin: float):
+    if given is None and feat is not None:
+        given = (feat.lat, feat.lon, None if feat.psi is None else float(np.degrees(feat.psi)))
+    if given is None and Path(sea.source).resolve() == bundled_map_path().resolve():
+        given = default
+    if given is None:
+        raise MapError(f"{sea.source}: no {what} point: give --{what} LAT,LON,HEADING_DEG or add a '{what}' Point feature")
+    lat, lon, hdg = given
+    x, y = sea.locate(lat, lon, what, margin)
+    return x, y, (None if hdg is None else float(np.radians(hdg))), given
+
+
+def estimate_memory(lat_ni: int, lat_nj: int, n_head: int, n_moves: int, targets: list[int]) -> tuple[float, int]:
+    """(bytes, states) the search needs at most: successor tables (every move at every lattice
+    point), the relaxed cost-to-go graph (edges x (D + 1)) and, for the counter-augmented states
+    A* may visit, ``BYTES_PER_STATE`` each (8.5)."""
+    spatial = lat_ni * lat_nj * n_head
+    states = spatial * int(np.prod([d + 1 for d in targets]))
+    edges = spatial * n_moves
+    D = int(sum(targets))
+    fixed = edges * BYTES_PER_EDGE + edges * (D + 1) * 40 + spatial * (D + 1) * 8 * 3
+    return float(fixed + states * BYTES_PER_STATE), states
+
+
+def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive], counts: dict[str, int], *,
+                  start: LatLonHdg | None = None, goal: LatLonHdg | None = None, options: PlanOptions | None = None,
+                  cache: dict[str, Any] | None = None) -> Lattice:
+    """Window, collision grid and motion set for planning ``counts`` uses of ``primitives``.
+
+    ``cache`` (a dict kept between calls) reuses moves already built for the same options.
+    Raises MapError before any heavy work when the lattice would not fit in ``max_memory_gib``.
+    """
+    from maps.scenario import HELSINKI_GOAL, HELSINKI_START
+
+    t0 = time.perf_counter()
+    o = options or PlanOptions()
+    o.check()
+    res = float(o.resolution) if o.resolution else default_resolution(profile)
+    K = o.headings
+    sx, sy, spsi, start_ll = _endpoint(sea, start, sea.start, HELSINKI_START, "start", o.margin)
+    gx, gy, gpsi, goal_ll = _endpoint(sea, goal, sea.goal, HELSINKI_GOAL, "goal", o.margin)
+    win = planning_window(sea, res, (sx, sy), (gx, gy), o.size)
+    prims = [p for p in primitives if counts.get(p.name, 0) > 0]
+    n_moves = len(prims) + (5 if o.spot_turns else 3)
+    need, states = estimate_memory(win.ni, win.nj, K, n_moves, [counts[p.name] for p in prims])
+    if need > o.max_memory_gib * 2**30:
+        raise MapError(f"the lattice would not fit: {win.ni} x {win.nj} points x {K} headings x counters = {states:,} states, "
+                       f"an estimated {need / 2**30:.1f} GiB (limit {o.max_memory_gib:g} GiB): use a coarser --resolution, "
+                       f"fewer --headings, a shorter --trial-length or raise --max-memory")
+    table = heading_table(K)
+    h_start = nearest_heading(spsi or 0.0, table)
+    warnings = list(sea.warnings)
+    if spsi is not None and abs(((spsi - table[h_start]) + np.pi) % (2 * np.pi) - np.pi) > 1e-6:
+        warnings.append(f"start heading {np.degrees(spsi):.1f} deg rounded to the lattice heading {np.degrees(table[h_start]):.1f} deg")
+    cache = {} if cache is None else cache
+    key = (res, K, o.split, o.run_in_s, o.basic_cost, o.spot_turns)
+    if cache.get("key") != key:
+        cache.clear()
+        cache["key"] = key
+    if "basic" not in cache:
+        cache["basic"] = basic_move_set(profile, res, K, o.basic_cost, o.spot_turns)
+    moves, names, targets, notes = [], [], {}, []
+    for p in prims:
+        if p.name not in cache:
+            cache[p.name] = informative_moves([p], {p.name: 1}, res, K, o.split, run_in_seconds(profile, o.run_in_s))
+        mv_, nm_, _, nt_ = cache[p.name]
+        for m, n in zip(mv_, nm_):
+            m = Move(**{**m.__dict__, "counter": len(names)})
+            moves.append(m)
+            names.append(n)
+            targets[n] = int(counts[p.name])
+        notes += nt_
+    moves += cache["basic"]
+    gi, gj = win.cell_of(gx, gy)
+    if not win.contains(gi, gj):
+        raise MapError(f"goal lies outside the planning window ({win.ni} x {win.nj} points of {res:g} m)")
+    ext = max(max(abs(v) for pr in m.prims for v in pr.footprint.bounds) for m in moves)
+    snap = max(float(m.snap_m.max()) for m in moves)
+    grid = CollisionGrid(sea, win, o.margin, o.sub, ext + o.margin + snap + res + 100.0 + o.clearance_lengths * profile.length_m)
+    return Lattice(sea, profile, o, win, grid, table, moves, names, targets, {p.name: p for p in prims},
+                   (sx, sy, float(table[h_start])), h_start, win.cell_of(sx, sy), (gi, gj),
+                   [nearest_heading(gpsi, table)] if gpsi is not None else list(range(K)), start_ll, goal_ll, notes, warnings,
+                   time.perf_counter() - t0)
+
+
+@dataclass
+class SearchOutcome:
+    result: astar.SearchResult
+    problem: astar.Problem
+    extra: float = 0.0
+    blocked: frozenset = frozenset()
+
+    @property
+    def found(self) -> bool:
+        return self.result.found
+
+
+def search_plan(lat: Lattice, extra: float = 0.0, blocked: frozenset = frozenset()) -> SearchOutcome:
+    """A* over the counter-augmented lattice with footprints grown by ``extra`` metres and the
+    ``blocked`` placements left out (re-plans after a failed verification)."""
+    t0 = time.perf_counter()
+    pb = lat.problem(extra, blocked)
+    lat.setup_s += time.perf_counter() - t0
+    o = lat.options
+    return SearchOutcome(astar.search(pb, o.heuristic, o.weights, o.basic_cost, o.max_expansions), pb, extra, blocked)
+
+
+@dataclass
+class Realised:
+    legs: list[Leg]
+    verification: Verification
+    shortcuts: int = 0
+    replaced_moves: int = 0
+
+
+def verify_plan(lat: Lattice, out: SearchOutcome) -> Realised:
+    """Legs of the found path (run-ins split off, transit runs straightened where the water
+    allows), re-simulated continuously from the start and checked against the margin."""
+    K = len(lat.table)
+    res = out.result
+    p = lat.profile
+    nu = np.array([p.cruise_speed_mps, 0.0, 0.0])
+    eta = np.array(lat.start, float)
+    cutter = Shortcutter(lat.sea, p, lat.res, K, lat.options.margin) if lat.options.smooth else None
+    legs: list[Leg] = []
+    shortcuts = replaced = 0
+    k = 0
+    moves = res.moves
+    while k < len(moves):
+        m = lat.moves[moves[k]]
+        if m.counter < 0:  # a run of repositioning moves
+            k1 = k
+            while k1 < len(moves) and lat.moves[moves[k1]].counter < 0:
+                k1 += 1
+            run = [(moves[i], res.spatial[i]) for i in range(k, k1)]
+            new = None
+            if cutter is not None and len(run) > 1:
+                poses = np.array([lat.pose(res.spatial[i]) for i in range(k, k1 + 1)])
+                new = cutter.legs(poses, nu, eta)
+            if new is not None:
+                shortcuts += 1
+                replaced += len(run)
+                chunk = [new]
+            else:
+                chunk = [leg for mi, s in run for leg in move_legs(lat.moves[mi], s % K, mi, s, lat.primitives)]
+            k = k1
+        else:
+            chunk = move_legs(m, res.spatial[k] % K, moves[k], res.spatial[k], lat.primitives)
+            k += 1
+        legs += chunk
+        sim = simulate_chunk(p, np.vstack([leg.inputs for leg in chunk]), nu, eta)
+        nu, eta = sim
+    end_cell = res.spatial[-1] // K
+    ver = resimulate(lat.sea, legs, lat.start, lat.options.margin, lat.window.point(end_cell // lat.window.nj, end_cell % lat.window.nj),
+                     nu0=np.array([p.cruise_speed_mps, 0.0, 0.0]))
+    return Realised(legs, ver, shortcuts, replaced)
+
+
+def simulate_chunk(profile: ShipProfile, inputs: np.ndarray, nu: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """State after sailing ``inputs`` from (nu, eta) on the nominal model."""
+    from primitives.simulate import simulate
+
+    sim = simulate(profile, inputs, nu0=nu, eta0=eta)
+    return sim.nu[0, -1].copy(), sim.eta[0, -1].copy()
+
+
+def assemble_plan(lat: Lattice, out: SearchOutcome, real: Realised, stats: dict[str, Any] | None = None, *,
+                  design: dict[str, Any] | None = None, vessel_name: str = "") -> Plan:
+    """The Plan of a found path: steps (legs), the re-simulated track, counts and figures."""
+    sea, p, ver = lat.sea, lat.profile, real.verification
+    lon, lat_ = sea.to_lonlat(ver.track[:, 0], ver.track[:, 1])
+    steps = []
+    t_acc = 0
+    abort = [f"smallest clearance below {lat.options.margin:g} m: stop the manoeuvre, steer for open water",
+             "heading more than 10 deg or speed more than 10 % off the expected values at a check point: abort and repeat"]
+    for k, leg in enumerate(real.legs):
+        x, y, psi = ver.track[t_acc]
+        steps.append(PlanStep(
+            index=k, primitive=leg.source if leg.segment != "transit" else leg.name, kind=leg.kind, description=leg.description,
+            start_time_s=float(ver.t[t_acc]), duration_s=leg.duration_s, entry_x=float(x), entry_y=float(y), entry_psi=float(psi),
+            entry_lon=float(lon[t_acc]), entry_lat=float(lat_[t_acc]), entry_speed_mps=float(np.hypot(*ver.nu[t_acc, :2])),
+            commands=list(leg.commands), space_m=leg.space_m, segment=leg.segment, orders=list(leg.orders),
+            abort=list(abort) if leg.segment == "informative" else [], execute=leg.execute,
+        ))
+        t_acc += leg.n_samples
+    used = dict.fromkeys(lat.cnames, 0)
+    for mi in out.result.moves:
+        q = lat.moves[mi].counter
+        if q >= 0:
+            used[lat.cnames[q]] += 1
+    st = dict(stats or {})
+    st.update(drift_m=ver.drift_m, basic_moves=sum(1 for mi in out.result.moves if lat.moves[mi].counter < 0),
+              shortcuts=real.shortcuts, moves_straightened=real.replaced_moves)
+    if not ver.ok:
+        st.update(reason=ver.reason, help=["increase --margin (more room for drift)", "use a finer --resolution"])
+    return Plan(ship=p.name, steps=steps, t=ver.t, track=ver.track, lonlat=np.column_stack([lon, lat_]),
+                speed=np.hypot(ver.nu[:, 0], ver.nu[:, 1]), step_of_sample=ver.step_of_sample, inputs=ver.inputs,
+                input_names=list(p.inputs), projection=sea.projection_info(), feasible=ver.ok, optimal=out.result.optimal and ver.ok,
+                min_clearance_m=ver.min_clearance_m, margin_m=lat.options.margin, counts=used, targets=dict(lat.targets),
+                stats=st, map_name=sea.name, hull=(p.length_m, p.beam_m), design=dict(design or {}),
+                vessel_name=vessel_name or getattr(p, "display_name", "") or p.name)

@@ -1,0 +1,172 @@
+"""The design step of the planning chain: which manoeuvres, how many times (seed 001 chapter 7 -> 8).
+
+The D/A/E-optimal mix of the ship's library (:func:`expdesign.api.run_design`, the same
+criterion and mean-subtraction options as ``shiptrial design``) is rounded to *whole manoeuvres*
+that fit the trial length (efficient rounding and exchanges, :func:`expdesign.rounding.round_design`
+with one unit = one whole primitive): the lattice planner's counters d_q (8.4) are those counts.
+A primitive that fits nowhere on the map is dropped and the design redone without it; the
+criterion efficiency lost against the full library's optimum is stated.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from expdesign.api import run_design
+from expdesign.dopt import InfoSet
+from expdesign.errors import DesignError
+from expdesign.rounding import _efficiency, round_design
+from primitives.information import PrimitiveInfo, library_information
+from primitives.library import Primitive, build_library, thesis_primitives
+from primitives.ship import ShipProfile
+
+
+@dataclass
+class TrialDesign:
+    """Whole-manoeuvre counts from the design, and what the plan states about them.
+
+    ``record`` is the plan's ``design`` field: criterion, mean subtraction, continuous weights,
+    rounded counts, D-efficiency of the rounded design against the continuous optimum and the
+    primitives dropped because they fit nowhere on the map.
+    """
+
+    counts: dict[str, int]
+    primitives: list[Primitive]  # the library the design ran on (informative)
+    record: dict[str, Any]
+    design: Any  # expdesign.api.Design of the final (possibly re-done) design
+    notes: list[str] = field(default_factory=list)
+
+    def support(self) -> list[Primitive]:
+        return [p for p in self.primitives if self.counts.get(p.name, 0) > 0]
+
+
+class NoFitError(DesignError):
+    """The design's manoeuvres fit nowhere on the map (the CLI exits 1: the map, not the input, is short)."""
+
+
+def ship_library(profile: ShipProfile) -> list[Primitive]:
+    """The informative primitives the design chooses from: the profile's thesis dictionary (what
+    ``shiptrial design`` uses), else every informative manoeuvre of its library."""
+    lib = thesis_primitives(profile)
+    if not lib:
+        lib = [p for p in build_library(profile, basic=False) if p.kind == "informative"]
+    if not lib:
+        raise DesignError(f"profile {profile.name!r}: its library has no informative manoeuvre to design with")
+    return lib
+
+
+def _whole_manoeuvres(weights: np.ndarray, prims: list[Primitive], info: InfoSet, trial_s: float, criterion: str,
+                      mean_subtraction: str) -> tuple[np.ndarray, float, float]:
+    """Counts of whole primitives for the trial length, the D-efficiency of the rounded mix
+    against the continuous optimum (exp((log det M(n) - log det M(w)) / p)) and its efficiency
+    in the design's own criterion."""
+    ts = prims[0].profile.sample_time
+    units = np.array([p.n_samples for p in prims])
+    total = int(round(trial_s / ts))
+    if total < units.min():
+        short = min(prims, key=lambda p: p.n_samples)
+        raise DesignError(f"--trial-length {trial_s:g} s is shorter than one manoeuvre (the shortest, {short.name}, "
+                          f"lasts {short.duration_s:.0f} s): give --trial-length >= {short.duration_s:.0f}")
+    rnd = round_design(weights, units, total, lambda s: info.value(s / total, mean_subtraction, criterion), info.n_params,
+                       criterion=criterion)
+    counts = rnd.counts
+    sel = weights > 1e-9
+    if not np.isfinite(info.value(counts * units / max(1, counts @ units), mean_subtraction, "D")):
+        need = float(units[sel].sum() * ts)
+        raise DesignError(f"--trial-length {trial_s:g} s cannot hold one of each manoeuvre the design needs "
+                          f"({', '.join(p.name for p, s in zip(prims, sel) if s)}): give --trial-length >= {need:.0f}")
+    real = counts * units / (counts @ units)
+    eff = {c: _efficiency(info.value(real, mean_subtraction, c), info.value(weights, mean_subtraction, c), info.n_params, c)
+           for c in {"D", criterion}}
+    return counts, eff["D"], eff[criterion]
+
+
+def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, *, criterion: str = "D",
+                  mean_subtraction: str = "complete", trial_length_s: float | None = None, seed: int = 0,
+                  exclude: dict[str, tuple[float, float]] | None = None, infos: list[PrimitiveInfo] | None = None,
+                  baseline: float | None = None) -> TrialDesign:
+    """Design the mix of ``library`` (default :func:`ship_library`) without the primitives in
+    ``exclude`` ({name: (along, cross) metres of water it needs}) and round it to whole manoeuvres.
+
+    ``trial_length_s`` defaults to every primitive of the library once (as ``shiptrial design``).
+    ``baseline``: criterion value of the full library's optimum, for the efficiency lost by the
+    exclusions (computed here when None).
+    """
+    lib = [p for p in (library if library is not None else ship_library(profile)) if p.kind == "informative"]
+    if infos is None:
+        infos = library_information(profile, lib)
+    exclude = dict(exclude or {})
+    trial_s = float(trial_length_s) if trial_length_s is not None else float(sum(p.duration_s for p in lib))
+    if trial_s <= 0:
+        raise DesignError(f"--trial-length must be > 0 s, got {trial_s:g}")
+    keep = [i for i, p in enumerate(lib) if p.name not in exclude]
+    if not keep:
+        raise NoFitError("no manoeuvre of the library fits on the map: " + _needs(exclude))
+    prims = [lib[i] for i in keep]
+    sub = [infos[i] for i in keep]
+    try:
+        d = run_design(profile, prims, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_s,
+                       seed=seed, infos=sub)
+    except DesignError as exc:
+        if exclude:  # the remaining library cannot identify the model: say what was dropped and why
+            raise NoFitError(f"{str(exc).splitlines()[0]}; dropped because they fit nowhere on the map: {_needs(exclude)}") from None
+        raise
+    info = InfoSet.from_infos(sub)
+    w = np.array([d.weights[p.name] for p in prims])
+    counts, d_eff, c_eff = _whole_manoeuvres(w, prims, info, trial_s, criterion, mean_subtraction)
+    notes = []
+    dropped = []
+    if exclude:
+        full = InfoSet.from_infos(infos)
+        if baseline is None:
+            base = run_design(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_s,
+                              seed=seed, infos=infos)
+            baseline = full.value(np.array([base.weights[p.name] for p in lib]), mean_subtraction, criterion)
+        wf = np.zeros(len(lib))
+        wf[keep] = w
+        loss = 1.0 - _efficiency(full.value(wf, mean_subtraction, criterion), baseline, full.n_params, criterion)
+        for name, need in exclude.items():
+            dropped.append({"primitive": name, "needs_m": [float(need[0]), float(need[1])], "efficiency_loss": float(max(0.0, loss))})
+        notes.append(f"design redone without {', '.join(exclude)} (fits nowhere on the map): {criterion}-efficiency "
+                     f"{100 * (1 - loss):.1f} % of the full library's optimum")
+    record = {
+        "criterion": criterion, "mean_subtraction": mean_subtraction,
+        "weights": {p.name: float(x) for p, x in zip(prims, w)},
+        "counts": {p.name: int(c) for p, c in zip(prims, counts) if c > 0},
+        "d_efficiency": float(d_eff), "efficiency": float(c_eff), "dropped": dropped, "trial_length_s": trial_s,
+        "planned_s": float(sum(c * p.duration_s for p, c in zip(prims, counts))),
+    }
+    notes.insert(0, f"counts from the {criterion}-optimal design ({mean_subtraction} mean subtraction) over "
+                    f"{len(prims)} primitives, rounded to whole manoeuvres for {trial_s:.0f} s: "
+                    f"{', '.join(f'{k} x{v}' for k, v in record['counts'].items())} ({criterion}-efficiency {c_eff:.3f} of the continuous optimum)")
+    return TrialDesign(record["counts"], prims, record, d, notes)
+
+
+def _needs(exclude: dict[str, tuple[float, float]]) -> str:
+    return ", ".join(f"{n} needs {a:.0f} m x {c:.0f} m of open water" for n, (a, c) in exclude.items())
+
+
+def design_for_map(profile: ShipProfile, fits_nowhere, library: list[Primitive] | None = None, *, criterion: str = "D",
+                   mean_subtraction: str = "complete", trial_length_s: float | None = None, seed: int = 0) -> TrialDesign:
+    """Design, check the support against the map, redesign without what fits nowhere.
+
+    ``fits_nowhere(primitives, counts) -> {name: (along, cross)}`` tells which of the designed
+    primitives have no place on the map (e.g. ``build_lattice(...).fits_nowhere``).
+    """
+    lib = [p for p in (library if library is not None else ship_library(profile)) if p.kind == "informative"]
+    infos = library_information(profile, lib)
+    td = design_counts(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length_s,
+                       seed=seed, infos=infos)
+    full = InfoSet.from_infos(infos)
+    baseline = full.value(np.array([td.design.weights[p.name] for p in lib]), mean_subtraction, criterion)
+    exclude: dict[str, tuple[float, float]] = {}
+    while True:
+        bad = fits_nowhere(td.support(), td.counts)
+        if not bad:
+            return td
+        exclude.update(bad)
+        td = design_counts(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length_s,
+                           seed=seed, exclude=exclude, infos=infos, baseline=baseline)

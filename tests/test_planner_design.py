@@ -1,0 +1,134 @@
+"""The design drives the plan; tracks a master would sail (issue 12)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+import pytest
+import shapely
+from shapely.geometry import LineString, shape
+
+from cli.app import _run
+from maps.planner import plan_trial
+from maps.trialdesign import design_counts
+from primitives.ship import load_profile
+
+DATA = Path(__file__).parent / "data"
+
+
+@pytest.fixture(scope="module")
+def profile():
+    return load_profile("full-scale")
+
+
+@pytest.fixture(scope="module")
+def designed(profile):
+    return {c: plan_trial(profile=profile, criterion=c) for c in ("D", "A")}
+
+
+@pytest.mark.slow
+def test_default_plan_uses_the_rounded_design(designed, profile):
+    plan = designed["D"]
+    assert plan.feasible
+    d = plan.design
+    assert d["criterion"] == "D" and d["counts"] and plan.counts == plan.targets == d["counts"]
+    # the counts are the design's own rounding, computed independently of the planner
+    assert design_counts(profile).counts == d["counts"]
+    assert 0.9 < d["d_efficiency"] <= 1.0 + 1e-9 and set(d["weights"]) >= set(d["counts"])
+    informative = plan.segment_steps("informative")
+    assert len(informative) == sum(d["counts"].values())
+    # every informative manoeuvre starts at an execute point after its own run-in
+    for s in informative:
+        before = plan.steps[s.index - 1]
+        assert s.execute and before.segment == "run-in" and before.primitive == s.primitive and before.duration_s >= 60
+
+
+@pytest.mark.slow
+def test_criterion_a_changes_the_counts(designed):
+    assert designed["A"].feasible
+    assert designed["A"].design["criterion"] == "A" and designed["A"].counts == designed["A"].design["counts"]
+    assert designed["A"].counts != designed["D"].counts
+
+
+def _water_shortest_path(land, a, b, clearance: float) -> float:
+    """Independent check: shortest path between a and b around the land grown by ``clearance``
+    (visibility graph over the grown polygons' vertices, networkx Dijkstra)."""
+    grown = land.buffer(clearance, quad_segs=4)
+    inner = grown.buffer(-1e-3)
+    polys = list(getattr(grown, "geoms", [grown]))
+    nodes = [tuple(a), tuple(b)] + [tuple(c) for p in polys for c in list(p.exterior.coords)[:-1]]
+    g = nx.Graph()
+    for i, p in enumerate(nodes):
+        for q in nodes[i + 1:]:
+            if not LineString([p, q]).intersects(inner):
+                g.add_edge(p, q, weight=float(np.hypot(p[0] - q[0], p[1] - q[1])))
+    return nx.dijkstra_path_length(g, tuple(a), tuple(b))
+
+
+@pytest.mark.slow
+def test_transit_close_to_shortest_path_through_water(profile):
+    path = DATA / "archipelago.geojson"
+    plan = plan_trial(path, profile=profile, counts={"steep_zigzag_surge": 1})
+    assert plan.feasible and plan.min_clearance_m >= plan.margin_m
+    from maps.geo import load_map
+
+    sea = load_map(path, draught_m=profile.draught_m)
+    doc = json.loads(path.read_text())
+    land_ll = shapely.union_all([shape(f["geometry"]) for f in doc["features"] if f["properties"]["kind"] == "land"])
+    land = shapely.transform(land_ll, lambda c: np.column_stack(sea.to_local(c[:, 0], c[:, 1])))
+    runs, cur = [], []
+    for s in plan.steps:  # maximal runs of transit steps
+        if s.segment == "transit":
+            cur.append(s.index)
+        elif cur:
+            runs.append(cur)
+            cur = []
+    if cur:
+        runs.append(cur)
+    assert runs
+    checked = 0
+    for run in runs:
+        sel = np.isin(plan.step_of_sample, run)
+        idx = np.flatnonzero(sel)
+        xy = plan.track[idx[0]: idx[-1] + 2, :2]
+        sailed = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
+        shortest = _water_shortest_path(land, xy[0], xy[-1], plan.margin_m + profile.beam_m / 2)
+        if shortest > 20 * profile.length_m:  # long enough that the turns at its ends do not dominate
+            assert sailed <= 1.3 * shortest, (run, sailed, shortest)
+            checked += 1
+        assert len(run) <= 3  # a few straight legs, not a staircase of lattice moves
+    assert checked >= 1
+
+
+def _cli_fails(args, capsys):
+    rc = _run(["plan", *args])
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    return rc, err
+
+
+def test_trial_length_too_short(tmp_path, capsys):
+    out = tmp_path / "o"
+    rc, err = _cli_fails(["--trial-length", "50", "--out", str(out)], capsys)
+    assert rc == 2 and "--trial-length" in err and "shorter than one manoeuvre" in err and not out.exists()
+
+
+def test_design_that_fits_nowhere_exit_1(tmp_path, capsys):
+    p = tmp_path / "pond.geojson"
+    p.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"kind": "trial_area"}, "geometry": {"type": "Polygon", "coordinates": [
+            [[25.0, 60.0], [25.006, 60.0], [25.006, 60.003], [25.0, 60.003], [25.0, 60.0]]]}},
+        {"type": "Feature", "properties": {"kind": "start", "heading_deg": 90}, "geometry": {"type": "Point", "coordinates": [25.001, 60.0015]}},
+        {"type": "Feature", "properties": {"kind": "goal"}, "geometry": {"type": "Point", "coordinates": [25.005, 60.0015]}},
+    ]}))
+    out = tmp_path / "o"
+    rc, err = _cli_fails(["--map", str(p), "--out", str(out)], capsys)
+    assert rc == 1 and "fit nowhere" in err and "m of open water" in err and "tau" in err and not out.exists()
+
+
+def test_lattice_too_big_refused_up_front(tmp_path, capsys):
+    rc, err = _cli_fails(["--scenario", "thesis-9.4", "--max-memory", "0.001", "--out", str(tmp_path / "o")], capsys)
+    assert rc == 2 and "would not fit" in err and "states" in err and "GiB" in err and "--resolution" in err
