@@ -36,7 +36,7 @@ GEOD = Geod(ellps="WGS84")
 XTD_MAX_M = 9.999 * M_PER_NM  # RTZ XtdType < 10 NM
 RADIUS_MAX_M = 5.0 * M_PER_NM  # RTZ RadiusType <= 5 NM
 IMO_TACTICAL_DIAMETER_L = 5.0  # MSC.137(76): tactical diameter <= 5 ship lengths
-MAX_SPLITS = 200
+MAX_SPLITS = 50
 
 
 @dataclass
@@ -100,20 +100,26 @@ def turning_radius(plan: Plan) -> tuple[float, str]:
     """The ship's turning radius (m) and where the figure comes from.
 
     1. ``plan.stats['turning_radius_m']`` when the planner stored one;
-    2. else the tightest turn the plan's own re-simulated track makes at speed (speed over
-       ground U over yaw rate r, U/|r|, over samples at 80 % or more of the median speed and
-       |r| at least 0.05 deg/s): the profile's model, not a constant;
+    2. else the tightest turn the plan's own re-simulated track makes at speed: the path's
+       radius of curvature, speed over ground over the rate of turn of the course over ground,
+       over samples at 80 % or more of the median speed turning at least 0.05 deg/s (the
+       profile's model, not a constant);
     3. else half the IMO MSC.137(76) limit on the tactical diameter, 2.5 ship lengths.
     """
     given = plan.stats.get("turning_radius_m") if isinstance(plan.stats, dict) else None
     if isinstance(given, (int, float)) and given > 0:
         return float(given), "planner"
-    t, psi, u = plan.t, np.unwrap(plan.track[:, 2]), plan.speed
-    if len(t) >= 3:
-        r = np.gradient(psi, t)
-        ok = (u >= 0.8 * np.median(u)) & (np.abs(r) >= np.radians(0.05)) & (u > 0.1)
+    t, xy = plan.t, plan.track[:, :2]
+    if len(t) >= 4:
+        dt = np.diff(t)
+        step = np.diff(xy, axis=0)
+        u = np.hypot(*step.T) / np.where(dt > 0, dt, np.inf)  # speed over ground between samples
+        chi = np.unwrap(np.arctan2(step[:, 1], step[:, 0]))  # course over ground
+        tm = 0.5 * (t[1:] + t[:-1])
+        rate = np.gradient(chi, tm)
+        ok = (u >= 0.8 * np.median(u)) & (np.abs(rate) >= np.radians(0.05)) & (u > 0.1)
         if np.count_nonzero(ok) >= 3:
-            return float(np.min(u[ok] / np.abs(r[ok]))), "tightest turn of the planned track"
+            return float(np.min(u[ok] / np.abs(rate[ok]))), "tightest turn of the planned track"
     return 0.5 * IMO_TACTICAL_DIAMETER_L * float(plan.hull[0] or 0.0), "IMO limit 2.5 L"
 
 
@@ -165,7 +171,7 @@ def _leg(plan: Plan, ka: int, kb: int, lonlat: tuple[float, float, float, float]
     free_p = free_width(seg[0], seg[-1], obstacles, -1.0, reach_p)
     sp = plan.speed[ka : kb + 1]
     dt = float(plan.t[kb] - plan.t[ka])
-    length = leg_length_m(*lonlat)
+    length = leg_length_m(*(round(v, 7) for v in lonlat))  # from the positions as written (7 decimals)
     path = float(np.sum(np.hypot(*np.diff(seg, axis=0).T)))
     stbd, port = xtd_floor_m(min(need_s, free_s)), xtd_floor_m(min(need_p, free_p))
     return Leg(
@@ -183,6 +189,16 @@ def _split_at(plan: Plan, ka: int, kb: int) -> int | None:
     off, _ = _offsets(plan.track[ka : kb + 1, :2])
     k = ka + int(np.argmax(np.abs(off[1:-1]))) + 1
     return k if ka < k < kb else None
+
+
+def _hull_hits(plan: Plan, ka: int, kb: int, half_beam: float, obstacles: BaseGeometry | None) -> bool:
+    """True when the planned hull itself touches an obstacle on samples ka..kb: no corridor can
+    hold it, and splitting the leg would not help."""
+    if obstacles is None:
+        return False
+    seg = plan.track[ka : kb + 1, :2]
+    geom = shapely.LineString(seg) if len(seg) > 1 else shapely.Point(*seg[0])
+    return bool(shapely.intersects(geom.buffer(max(half_beam, 0.01)), obstacles))
 
 
 def build_route(plan: Plan, chart: Chart | None = None) -> Route:
@@ -209,7 +225,8 @@ def build_route(plan: Plan, chart: Chart | None = None) -> Route:
     while i < len(marks):
         ka, kb = marks[i - 1][0], marks[i][0]
         leg = _leg(plan, ka, kb, (*ll(ka), *ll(kb)), half, half_beam, obstacles)
-        k = None if leg.hull_fits or splits >= MAX_SPLITS else _split_at(plan, ka, kb)
+        k = None if leg.hull_fits or splits >= MAX_SPLITS or _hull_hits(plan, ka, kb, half_beam, obstacles) \
+            else _split_at(plan, ka, kb)
         if k is not None:
             marks.insert(i, (k, None, True))
             splits += 1

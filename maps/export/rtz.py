@@ -59,6 +59,13 @@ def _dec(v: float, nd: int) -> str:
     return "0" if float(s) == 0 else s
 
 
+def _speed(kn: float) -> str:
+    """A schedule speed with 4 significant digits (at least 3 decimals): a slow leg, e.g. a turn
+    on the spot, keeps its ETA to the second."""
+    nd = SPEED_DECIMALS if kn <= 0 else max(SPEED_DECIMALS, 3 - int(np.floor(np.log10(kn))))
+    return _dec(kn, min(nd, 9))
+
+
 def _nm(metres: float, cap_nm: float) -> str:
     """Metres as NM with 3 decimals, rounded down (a limit written never exceeds the one found)."""
     return _dec(min(np.floor(metres / M_PER_NM * 1000.0 + 1e-9) / 1000.0, cap_nm), 3)
@@ -177,7 +184,7 @@ def plan_rtz(
             waypointId=wp.id,
             etd=when if i + 1 < len(route.points) else None,
             eta=when if i > 0 else None,
-            speed=_dec(leg.speed_mps * KN_PER_MPS, SPEED_DECIMALS) if leg is not None and leg.dt_s > 0 else None,
+            speed=_speed(leg.speed_mps * KN_PER_MPS) if leg is not None and leg.dt_s > 0 else None,
             Note=wp.step.primitive if wp.step else ("via" if wp.via else "end of trial"),
         )
     ET.indent(root, space=" ")
