@@ -110,6 +110,14 @@ def register(app: typer.Typer) -> None:
                 "{:.1f} x {:.1f}".format(*r["footprint_m"]),
             )
         Console().print(table)
+        if profile.actuator == "rudder_propeller":
+            from primitives.helm import steady_rps
+
+            rpm = 60 * steady_rps(profile)
+            src = profile.engine.approach_rpm
+            typer.echo(f"approach: the model holds {profile.cruise_speed_mps:.2f} m/s at {rpm:.1f} rpm"
+                       + (f" (the source's trials ran {src:g} rpm)" if src else "")
+                       + f"; rudder {profile.helm.max_rudder_deg:g} deg max at {profile.helm.rudder_rate_deg_s:g} deg/s")
         if orders:
             for p in library:
                 typer.echo(f"\n{p.name} ({p.description}, {p.duration_s:.0f} s)")

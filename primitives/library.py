@@ -95,8 +95,10 @@ class Primitive:
             return f"{abs(a):.0f}° {'stbd' if a >= 0 else 'port'}"
 
         heading = "" if h_hi - h_lo >= 360 else f" heading outside {side(h_lo)} .. {side(h_hi)} of the initial course,"
-        return (f"abort if speed < {lo:.1f} kn or > {hi:.1f} kn,{heading} or yaw rate > "
-                f"{e['yaw_rate_max_deg_s'] * (1 + yaw_margin):.2f} °/s")
+        # a straight run expects no yaw: the floor is a tenth of a 3-lengths-diameter turn's rate
+        floor = np.degrees(0.1 * self.profile.cruise_speed_mps / (1.5 * self.profile.length_m))
+        yaw = max(e["yaw_rate_max_deg_s"] * (1 + yaw_margin), floor)
+        return f"abort if speed < {lo:.1f} kn or > {hi:.1f} kn,{heading} or yaw rate > {yaw:.2f} °/s"
 
     def to_dict(self) -> dict:
         """JSON-ready summary: no sampled arrays, the orders as dicts, the expectations."""
