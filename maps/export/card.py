@@ -102,7 +102,7 @@ def step_sheets(plan: Plan, start: datetime | str | None = None) -> list[dict[st
                 "speed": f"{wp.speed_kn:.1f} kn ({wp.speed_mps:.2f} m/s)",
                 "orders": step_orders(plan, st),
                 # force-level settings only where the step has no orders in the ship's own terms
-                "settings": [] if structured else input_phases(plan, st),
+                "settings": [] if structured or st.commands else input_phases(plan, st),
                 "duration": clock(st.duration_s),
                 "space": f"{_m(st.space_m[0])} along x {_m(st.space_m[1])} across",
                 "ends": f"at {nxt.name.split()[0]} {latlon_dm(nxt.lat, nxt.lon)}, heading {nxt.heading_deg:03.0f}°, "
