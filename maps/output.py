@@ -11,7 +11,8 @@ from maps.plan import Plan
 
 
 def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
-    """Track on the map (east right, north up, metres), informative steps coloured, basic grey."""
+    """Track on the map (east right, north up, metres): informative steps coloured by primitive,
+    run-ins dashed green, transit grey, execute points starred."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -43,13 +44,20 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
         ax.fill(ys, xs, color="#d8c8a0", ec="#8a7a50", lw=0.5)
     if plan.track.size:
         colors = plt.cm.tab10(np.linspace(0, 1, 10))
-        names = sorted({s.primitive for s in plan.steps if s.kind == "informative"})
+        names = sorted({s.primitive for s in plan.steps if (getattr(s, "segment", "") or s.kind) == "informative"})
+        seen: set[str] = set()
         for s in plan.steps:
             sel = plan.step_of_sample == s.index
-            col = colors[names.index(s.primitive) % 10] if s.kind == "informative" else (0.5, 0.5, 0.5, 1)
-            lbl = s.primitive if s.primitive not in [t.primitive for t in plan.steps[: s.index]] else None
-            ax.plot(plan.track[sel, 1], plan.track[sel, 0], color=col, lw=1.6 if s.kind == "informative" else 1.0,
-                    label=lbl)
+            seg = getattr(s, "segment", "") or ("informative" if s.kind == "informative" else "transit")
+            key = s.primitive if seg == "informative" else seg
+            col = colors[names.index(s.primitive) % 10] if seg == "informative" else ("#1b7f3b" if seg == "run-in" else (0.5, 0.5, 0.5, 1))
+            ax.plot(plan.track[sel, 1], plan.track[sel, 0], color=col, lw=1.6 if seg == "informative" else 1.0,
+                    ls="--" if seg == "run-in" else "-", label=None if key in seen else key)
+            seen.add(key)
+        ex = [s for s in plan.steps if getattr(s, "execute", False)]
+        if ex:
+            ax.plot([s.entry_y for s in ex], [s.entry_x for s in ex], "*", color="#ffd400", mec="k", ms=11, ls="none",
+                    label="execute point")
         ax.plot(plan.track[0, 1], plan.track[0, 0], "go", ms=7, label="start")
         ax.plot(plan.track[-1, 1], plan.track[-1, 0], "rs", ms=7, label="goal")
     ax.set_xlim(box[1], box[3])

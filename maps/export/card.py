@@ -143,7 +143,7 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
     weights = d.get("weights") or {}
     counts = d.get("counts") or {}
     names = list(dict.fromkeys([*weights, *counts]))
-    rows = [[n, f"{float(weights[n]):.3f}" if n in weights else "", str(counts.get(n, "")), str(plan.counts.get(n, 0))]
+    rows = [[n, f"{float(weights[n]):.3f}" if n in weights else "", str(counts.get(n, 0)), str(plan.counts.get(n, 0))]
             for n in names]
     return head, rows
 
