@@ -334,19 +334,42 @@ def thesis_primitives(profile: ShipProfile) -> list[Primitive]:
     return []
 
 
+def force_dictionary(profile: ShipProfile) -> list[Primitive]:
+    """Moves a generalized-force or azimuth ship can make beyond the standard trials, scaled to
+    the ship as the thesis's tau13-tau16 and tau3-tau8 are: sway steps (+-0.15 u) at cruise speed
+    and at rest, and excitation zig-zags (sway +-0.1 u against yaw rate +-u/(2 L)) at 60 % and
+    100 % of cruise speed, about 20 ship lengths each."""
+    u, L = profile.cruise_speed_mps, profile.length_m
+    n = max(20, int(20 * L / u / profile.sample_time))
+    out = []
+    for name, uu in (("sway_steps", u), ("sway_steps_rest", 0.0)):
+        v = 0.15 * u
+        gen = mv.sway_steps(profile, [(v, n // 2), (-v, n - n // 2)], u=uu)
+        out.append(make_primitive(profile, name, f"sway steps +-{v:.2f} m/s at {uu:.2f} m/s", gen))
+    for pct in (60, 100):
+        uu = pct / 100 * u
+        gen = mv.excitation_zigzag(profile, n, uu, 0.1 * uu, uu / (2 * L), 0.25)
+        out.append(make_primitive(profile, f"zz_exc_{pct}", f"excitation zig-zag at {uu:.2f} m/s", gen))
+    return out
+
+
 def design_dictionary(profile: ShipProfile) -> list[Primitive]:
     """What the design chooses from: the dictionary of :func:`thesis_primitives`, else (a user
-    profile without one) the standard trials."""
-    return thesis_primitives(profile) or standard_trials(profile)
+    profile without one) the standard trials and the sway and excitation moves of
+    :func:`force_dictionary`."""
+    return thesis_primitives(profile) or standard_trials(profile) + force_dictionary(profile)
 
 
 def build_library(profile: ShipProfile | str, *, standard: bool = True, basic: bool = True) -> list[Primitive]:
     """Every primitive the profile supports: its dictionary, standard trials, basic moves (a
-    rudder ship's dictionary already holds its standard trials, in helm orders)."""
+    rudder ship's dictionary already holds its standard trials, in helm orders; a profile
+    without a dictionary gets what the design chooses from, :func:`design_dictionary`)."""
     if isinstance(profile, str):
         profile = load_profile(profile)
     lib = thesis_primitives(profile)
-    if standard and profile.actuator != "rudder_propeller":
+    if not lib:
+        lib = design_dictionary(profile)
+    elif standard and profile.actuator != "rudder_propeller":
         lib += standard_trials(profile)
     if basic:
         lib += basic_moves(profile)

@@ -136,3 +136,22 @@ def test_information_full_rank_library_vs_pure_surge(ms, ms_lib):
 def test_by_name_reports_unknown(ms_lib):
     with pytest.raises(KeyError, match="tau99"):
         by_name(ms_lib, ["tau1", "tau99"])
+
+
+def test_user_profile_without_a_dictionary_still_designs(tmp_path):
+    """A generalized-force profile with no thesis dictionary: the design chooses among the
+    standard trials plus sway steps and excitation zig-zags, and the library holds them all."""
+    from expdesign.api import default_library, run_design
+    from primitives.ship import PROFILE_DIR
+
+    text = (PROFILE_DIR / "model-ship.toml").read_text(encoding="utf-8")
+    path = tmp_path / "my-model.toml"
+    path.write_text(text.replace('library = "thesis-model-ship"\n', "").replace('name = "model-ship"', 'name = "my-model"'))
+    prof = load_profile(path)
+    assert prof.library == ""
+    lib = default_library(prof)
+    names = {p.name for p in lib}
+    assert {"zigzag_10_10_s", "sway_steps", "sway_steps_rest", "zz_exc_60", "zz_exc_100"} <= names
+    assert names <= {p.name for p in build_library(prof)}
+    d = run_design(prof, lib)
+    assert d.efficiency_vs_uniform > 1.0 and sum(d.rounded.values()) > 0
