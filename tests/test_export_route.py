@@ -190,6 +190,12 @@ def test_rtz_corridors_do_not_cover_land_and_hold_the_hull(azi_plan):
         n = np.array([-d[1], d[0]]) / np.hypot(*d)
         off = (azi_plan.track[ka : kb + 1, :2] - a) @ n
         assert off.max() + hb <= s + tol and -off.min() + hb <= p + tol, f"leg {i}"
+    # the card names the same waypoints as the RTZ (via points included) and their limits
+    from maps.export.card import step_sheets
+
+    names = {w.get("name").split()[0]: w for w in wps}
+    for sh in step_sheets(azi_plan, START, fc):
+        assert sh["waypoint"] in names and names[sh["waypoint"]].get("name").endswith(sh["primitive"])
 
 
 @pytest.mark.slow

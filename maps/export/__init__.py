@@ -57,7 +57,7 @@ def export_plan(
     if fmt == "gpx":
         from maps.export.gpx import write_gpx
 
-        return [write_gpx(plan, path, start=start, vessel=vessel)]
+        return [write_gpx(plan, path, start=start, vessel=vessel, sea_map=sea_map)]
     if fmt == "rtz":
         from maps.export.rtz import write_rtz
 

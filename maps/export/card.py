@@ -39,7 +39,9 @@ from maps.export._common import (
     vessel_name,
     waypoints,
 )
+from maps.export.chart import plan_chart
 from maps.export.plots import draw_map, plt, states_figure
+from maps.export.route import build_route
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes, atomic_write_text
 
@@ -74,18 +76,44 @@ def _segment_label(st: Any) -> str:
     return {"informative": "manoeuvre", "run-in": "run-in", "transit": "transit"}[seg]
 
 
-def step_sheets(plan: Plan, start: datetime | str | None = None) -> list[dict[str, Any]]:
+def _step_legs(plan: Plan, sea_map: Any) -> dict[int, tuple[str, str, list[str], float, float]]:
+    """Per step index: its route waypoint, the waypoint where it ends, the waypoints between
+    (via points) and the tightest port / starboard cross-track limits (m) of its legs, from the
+    same route the RTZ file holds (numbers agree with the ECDIS)."""
+    route = build_route(plan, plan_chart(plan, sea_map))
+    out = {}
+    pts = route.points
+    for j, pt in enumerate(pts):
+        if pt.step is None:
+            continue
+        k = j + 1
+        while k < len(pts) - 1 and pts[k].step is None:
+            k += 1
+        legs = [route.legs[m] for m in range(j + 1, k + 1)]
+        out[pt.step.index] = (pts[j].name.split()[0], pts[k].name.split()[0], [pts[m].name.split()[0] for m in range(j + 1, k)],
+                              min(g.port_m for g in legs), min(g.stbd_m for g in legs))
+    return out
+
+
+def step_sheets(plan: Plan, start: datetime | str | None = None, sea_map: Any = None) -> list[dict[str, Any]]:
     """Per step, the card's facts as text: where and when it starts (the execute waypoint of
-    a manoeuvre), heading and speed there, the orders in the ship's own terms, expected
-    duration, sea room, where it ends, and its abort criteria."""
+    a manoeuvre, numbered as in the RTZ route), heading and speed there, the orders in the
+    ship's own terms, expected duration, sea room, where it ends, and its abort criteria
+    (its own, clearance, the route's land-free cross-track limits, wind)."""
     t0 = resolve_start(plan, start)
     wps = waypoints(plan)
+    legs = _step_legs(plan, sea_map)
     half = 0.5 * plan.hull[1] + plan.margin_m
     out = []
     for i, wp in enumerate(wps[:-1]):
         st = wp.step
-        stbd, port = cross_track(plan, wps, i + 1)
         nxt = wps[i + 1]
+        if st.index in legs:
+            here, there, via, port, stbd = legs[st.index]
+        else:  # a step without samples of its own
+            stbd, port = (v + half for v in cross_track(plan, wps, i + 1))
+            here, there, via = wp.name.split()[0], nxt.name.split()[0], []
+        line = " -> ".join([here, *via, there])
         structured = bool(order_lines(st))
         out.append(
             {
@@ -95,7 +123,7 @@ def step_sheets(plan: Plan, start: datetime | str | None = None) -> list[dict[st
                 "kind": st.kind,
                 "segment": _segment_label(st),
                 "execute": bool(getattr(st, "execute", False)),
-                "waypoint": wp.name.split()[0],
+                "waypoint": here,
                 "start": f"+{clock(wp.t_s)} ({(t0 + timedelta(seconds=wp.t_s)).strftime('%H:%M:%S')} UTC)",
                 "position": latlon_dm(wp.lat, wp.lon),
                 "heading": f"{wp.heading_deg:03.0f}°",
@@ -105,12 +133,12 @@ def step_sheets(plan: Plan, start: datetime | str | None = None) -> list[dict[st
                 "settings": [] if structured or st.commands else input_phases(plan, st),
                 "duration": clock(st.duration_s),
                 "space": f"{_m(st.space_m[0])} along x {_m(st.space_m[1])} across",
-                "ends": f"at {nxt.name.split()[0]} {latlon_dm(nxt.lat, nxt.lon)}, heading {nxt.heading_deg:03.0f}°, "
+                "ends": f"at {there} {latlon_dm(nxt.lat, nxt.lon)}, heading {nxt.heading_deg:03.0f}°, "
                 f"{nxt.speed_kn:.1f} kn",
                 "abort": [
                     *step_abort(plan, st),
-                    f"more than {port + half:.0f} m to port or {stbd + half:.0f} m to starboard of the line "
-                    f"{wp.name.split()[0]} -> {nxt.name.split()[0]}",
+                    f"more than {port:.0f} m to port or {stbd:.0f} m to starboard of the line {line} "
+                    "(the route's land-free cross-track limits)",
                     f"wind above {plan.max_wind_mps:.0f} m/s",
                 ],
             }
@@ -273,7 +301,7 @@ def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None =
     step, and the states over time."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
-    sheets = step_sheets(plan, t0)
+    sheets = step_sheets(plan, t0, sea_map)
     vname = vessel_name(plan, vessel)
     figs = [_page1(plan, sheets, t0, sea_map, vname)]
     figs += table_pages(plan, "steps in sailing order", TABLE_COLS, _table_rows(sheets), TABLE_WIDTHS, len(figs) + 1)
@@ -307,7 +335,7 @@ def render_card_page1(plan: Plan, path: str | Path, sea_map: Any = None, start: 
                       vessel: str | None = None) -> Path:
     """Page 1 of the card as PNG (what the bridge sees first)."""
     t0 = resolve_start(plan, start)
-    fig = _page1(plan, step_sheets(plan, t0), t0, sea_map, vessel_name(plan, vessel))
+    fig = _page1(plan, step_sheets(plan, t0, sea_map), t0, sea_map, vessel_name(plan, vessel))
     try:
         return atomic_write_bytes(path, _png(fig, dpi))
     finally:
@@ -367,7 +395,7 @@ def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = No
     table headers)."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
-    sheets = step_sheets(plan, t0)
+    sheets = step_sheets(plan, t0, sea_map)
     vname = vessel_name(plan, vessel)
     e = html.escape
     fig, ax = plt.subplots(figsize=(8, 8))

@@ -53,11 +53,18 @@ def waypoint_description(plan: Plan, wp: Waypoint, start: datetime) -> str:
 
 
 def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | None = None, track: bool = True,
-             vessel: str | None = None) -> bytes:
-    """The plan as a GPX 1.1 document (UTF-8 bytes)."""
+             vessel: str | None = None, sea_map: Any = None) -> bytes:
+    """The plan as a GPX 1.1 document (UTF-8 bytes). Route points are the manoeuvre starts and
+    the end, named as in the RTZ route and on the card (whose numbers also count the RTZ's via
+    points, where a corridor bends round land: ``sea_map`` or the plan's chart)."""
+    from maps.export.chart import plan_chart
+    from maps.export.route import build_route
+
     check_plan(plan)
     t0 = resolve_start(plan, start)
     wps = waypoints(plan)
+    route = build_route(plan, plan_chart(plan, sea_map))
+    names = {pt.step.index: pt.name for pt in route.points if pt.step is not None}
     ET.register_namespace("", GPX_NS)
     ET.register_namespace("xsi", XSI_NS)
     root = ET.Element(
@@ -79,7 +86,7 @@ def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | Non
     for wp in wps:
         pt = _sub(rte, "rtept", lat=f"{wp.lat:.7f}", lon=f"{wp.lon:.7f}")
         _sub(pt, "time", iso(t0 + timedelta(seconds=wp.t_s)))
-        _sub(pt, "name", wp.name)
+        _sub(pt, "name", names.get(wp.step.index, wp.name) if wp.step is not None else route.points[-1].name)
         _sub(pt, "cmt", f"heading {wp.heading_deg:03.0f}°, {wp.speed_mps * KN_PER_MPS:.1f} kn")
         _sub(pt, "desc", waypoint_description(plan, wp, t0))
         _sub(pt, "sym", "Flag, Red" if wp.step is None or wp.id == 0 else "Waypoint")
