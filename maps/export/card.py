@@ -36,6 +36,7 @@ from maps.export._common import (
     resolve_start,
     step_abort,
     step_orders,
+    step_segment,
     vessel_name,
     waypoints,
 )
@@ -70,7 +71,7 @@ def abort_criteria(plan: Plan) -> list[str]:
 
 
 def _segment_label(st: Any) -> str:
-    seg = getattr(st, "segment", "") or ("informative" if st.kind == "informative" else "transit")
+    seg = step_segment(st)
     if getattr(st, "execute", False):
         return "EXECUTE"
     return {"informative": "manoeuvre", "run-in": "run-in", "transit": "transit"}[seg]

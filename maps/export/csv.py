@@ -2,7 +2,8 @@
 
 Columns: time from start (s and h:mm:ss), UTC time, lat, lon (deg, 7 decimals), local x north
 and y east (m), heading (deg, 0-360 from north), speed over ground (m/s and kn), the manoeuvre
-(number, primitive, its orders on the manoeuvre's first row) and the commanded inputs (angles in
+(number, segment: run-in / informative / transit, primitive, its orders on the manoeuvre's
+first row) and the commanded inputs (angles in
 degrees, column named ``<input>_deg``).
 """
 
@@ -16,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from maps.export._common import KN_PER_MPS, check_plan, clock, iso, resolve_start, step_orders
+from maps.export._common import KN_PER_MPS, check_plan, clock, iso, resolve_start, step_orders, step_segment
 from maps.plan import Plan
 from primitives.io import atomic_write_text
 
@@ -36,7 +37,7 @@ def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1)
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(
         ["time_s", "time_from_start", "utc", "lat", "lon", "x_north_m", "y_east_m", "heading_deg", "speed_mps", "speed_kn",
-         "manoeuvre", "primitive", "orders"] + [c for c, _ in cols]
+         "manoeuvre", "segment", "primitive", "orders"] + [c for c, _ in cols]
     )
     k_total = len(plan.t)
     first_of = {}
@@ -57,7 +58,7 @@ def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1)
             f"{plan.track[k, 0]:.2f}", f"{plan.track[k, 1]:.2f}",
             f"{np.degrees(plan.track[k, 2]) % 360.0:.1f}",
             f"{plan.speed[k]:.3f}", f"{plan.speed[k] * KN_PER_MPS:.2f}",
-            si + 1, st.primitive if st else "", orders,
+            si + 1, step_segment(st) if st else "", st.primitive if st else "", orders,
         ]
         for j, (_, is_angle) in enumerate(cols):
             v = float(plan.inputs[min(k, len(plan.inputs) - 1), j]) if n_in else float("nan")
