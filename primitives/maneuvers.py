@@ -36,7 +36,7 @@ class Generated:
     forces: np.ndarray | None  # (N, 3) generalized forces
     nu0: tuple[float, float, float]
     split_points: list[int] = field(default_factory=list)
-    commands: list[str] = field(default_factory=list)
+    commands: list[str] = field(default_factory=list)  # legacy one-liners; primitives render their orders
     inputs: np.ndarray | None = None
     orders: list = field(default_factory=list)
     heading_switched: bool = False
@@ -106,7 +106,7 @@ def hold(profile: ShipProfile, n: int, u: float, v: float = 0.0, r: float = 0.0,
 
 def free_decay(profile: ShipProfile, n: int, u0: float, v0: float = 0.0) -> Generated:
     """All forces zero from (u0, v0, 0): a deceleration."""
-    return Generated(np.zeros((n, 3)), (u0, v0, 0.0), commands=["engines to zero thrust"])
+    return Generated(np.zeros((n, 3)), (u0, v0, 0.0))
 
 
 def excitation_zigzag(
@@ -178,14 +178,7 @@ def zigzag(
         return (tx, 0.0, memo["s"] * tn)
 
     forces, _ = closed_loop(profile, policy, n_max, (u, 0.0, 0.0))
-    sw = "starboard" if side > 0 else "port"
-    other = "port" if side > 0 else "starboard"
-    cmds = [
-        f"steady on course at {u:.2f} m/s",
-        f"rudder {delta_deg:g} deg {sw}; when the heading has changed {psi_deg:g} deg to {sw}, rudder {delta_deg:g} deg {other}",
-        f"when the heading has changed {psi_deg:g} deg to {other}, rudder {delta_deg:g} deg {sw}; repeat for {n_switches} rudder reversals",
-    ]
-    return Generated(forces, (u, 0.0, 0.0), splits[:n_switches], cmds, heading_switched=True)
+    return Generated(forces, (u, 0.0, 0.0), splits[:n_switches], heading_switched=True)
 
 
 def turning_circle(
@@ -202,12 +195,7 @@ def turning_circle(
 
     forces, _ = closed_loop(profile, policy, n_max, (u, 0.0, 0.0))
     n = len(forces)
-    return Generated(
-        forces,
-        (u, 0.0, 0.0),
-        [n // 4, n // 2, 3 * n // 4],
-        [f"steady at {u:.2f} m/s, rudder {delta_deg:g} deg {side}; hold until heading has changed {360 * turns:g} deg"],
-    )
+    return Generated(forces, (u, 0.0, 0.0), [n // 4, n // 2, 3 * n // 4])
 
 
 def pull_out(profile: ShipProfile, delta_deg: float = 20.0, *, speed: float | None = None, side: str = "starboard") -> Generated:
@@ -217,12 +205,7 @@ def pull_out(profile: ShipProfile, delta_deg: float = 20.0, *, speed: float | No
     tx = steady_forces(profile, u, 0.0, 0.0)[0]
     n_leg = int(8 * profile.length_m / max(u, 1e-3) / profile.sample_time)
     f = np.array([(tx, 0.0, s * tn)] * n_leg + [(tx, 0.0, 0.0)] * n_leg)
-    return Generated(
-        f,
-        (u, 0.0, 0.0),
-        [n_leg],
-        [f"rudder {delta_deg:g} deg {side} until the yaw rate is steady", "rudder amidships; record the yaw-rate decay"],
-    )
+    return Generated(f, (u, 0.0, 0.0), [n_leg])
 
 
 def direct_spiral(
@@ -237,16 +220,7 @@ def direct_spiral(
     tx = steady_forces(profile, u, 0.0, 0.0)[0]
     m = int(hold_lengths * profile.length_m / max(u, 1e-3) / profile.sample_time)
     f = np.array([(tx, 0.0, rudder_force(profile, d, u)) for d in deltas_deg for _ in range(m)])
-    return Generated(
-        f,
-        (u, 0.0, 0.0),
-        [m * i for i in range(1, len(deltas_deg))],
-        [
-            "rudder steps "
-            + ", ".join(f"{d:g}" for d in deltas_deg)
-            + " deg (+ starboard), each held until the yaw rate is steady"
-        ],
-    )
+    return Generated(f, (u, 0.0, 0.0), [m * i for i in range(1, len(deltas_deg))])
 
 
 def reverse_spiral(
@@ -259,12 +233,7 @@ def reverse_spiral(
     m = int(hold_lengths * profile.length_m / max(u, 1e-3) / profile.sample_time)
     f = np.array([steady_forces(profile, u, 0.0, r) for r in rates for _ in range(m)])
     f[:, 1] = 0.0
-    return Generated(
-        f,
-        (u, 0.0, 0.0),
-        [m * i for i in range(1, len(rates))],
-        ["steer to hold yaw rates " + ", ".join(f"{np.degrees(x):.2f}" for x in rates) + " deg/s in turn; log the rudder used"],
-    )
+    return Generated(f, (u, 0.0, 0.0), [m * i for i in range(1, len(rates))])
 
 
 def speed_change(
@@ -281,15 +250,9 @@ def speed_change(
             return (lo, 0.0, 0.0)
 
         forces, _ = closed_loop(profile, policy, m, (u_from, 0.0, 0.0))
-        return Generated(forces, (u_from, 0.0, 0.0), [], ["full astern until the ship is stopped"])
+        return Generated(forces, (u_from, 0.0, 0.0), [])
     tx = steady_forces(profile, u_to, 0.0, 0.0)[0] if u_to > 0 else 0.0
-    word = "accelerate" if u_to > u_from else "decelerate"
-    return Generated(
-        np.tile((tx, 0.0, 0.0), (m, 1)),
-        (u_from, 0.0, 0.0),
-        [m // 2],
-        [f"{word} from {u_from:.2f} to {u_to:.2f} m/s with constant thrust"],
-    )
+    return Generated(np.tile((tx, 0.0, 0.0), (m, 1)), (u_from, 0.0, 0.0), [m // 2])
 
 
 # -- basic repositioning moves for the planner ---------------------------------------------------
@@ -331,8 +294,4 @@ def turn_to_heading(profile: ShipProfile, dpsi: float, speed: float | None = Non
         return (tx, 0.0, float(tn))
 
     forces, _ = closed_loop(profile, policy, n_max, (u, 0.0, 0.0))
-    side = "starboard" if dpsi > 0 else "port"
-    what = "turn on the spot" if u == 0 else "turn"
-    return Generated(
-        forces, (u, 0.0, 0.0), [], [f"{what} {abs(np.degrees(dpsi)):.0f} deg to {side} and steady on the new heading"]
-    )
+    return Generated(forces, (u, 0.0, 0.0), [])

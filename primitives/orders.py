@@ -37,7 +37,7 @@ class Order:
 
     t_s: float
     text: str
-    values: dict[str, float] = field(default_factory=dict)
+    values: dict[str, float] = field(default_factory=dict, hash=False)  # hashable by (t_s, text)
 
     def to_dict(self) -> dict[str, Any]:
         """``{"t_s", "text", **values}`` (the form plan steps and exports carry)."""
