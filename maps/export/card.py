@@ -177,15 +177,18 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
     return head, rows
 
 
-def _summary(plan: Plan, t0: datetime, vessel: str) -> list[str]:
+def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list[str]:
+    counts = {seg: sum(1 for st in plan.steps if step_segment(st) == seg) for seg in ("informative", "run-in", "transit")}
+    chart = plan_chart(plan, sea_map)
     return [
         f"Ship {vessel}" + (f" ({plan.ship})" if vessel != plan.ship else "")
         + (f"   Area {plan.map_name}" if plan.map_name else "") + f"   Start {t0.strftime('%Y-%m-%d %H:%M')} UTC",
-        f"{len(plan.steps)} steps: {len(plan.segment_steps('informative')) if hasattr(plan, 'segment_steps') else ''} manoeuvres, "
-        f"{len(plan.segment_steps('run-in')) if hasattr(plan, 'segment_steps') else 0} run-ins, {plan.basic_moves} transit; "
+        f"{len(plan.steps)} steps: {counts['informative']} manoeuvres, {counts['run-in']} run-ins, {counts['transit']} transit; "
         f"duration {clock(plan.duration_s)} (h:)min:s, {plan.length_m:.0f} m ({plan.length_m / M_PER_NM:.2f} NM)",
         "Plan " + ("feasible" if plan.feasible else "NOT FEASIBLE") + (", optimal" if plan.optimal else "")
         + f"; hull {plan.hull[0]:g} m x {plan.hull[1]:g} m; safety margin {plan.margin_m:.0f} m",
+        "Cross-track limits of the route: " + ("cut to the land-free water of the chart" if chart is not None and not chart.is_empty()
+                                               else "NOT checked against a chart (export with --map)"),
     ]
 
 
@@ -240,7 +243,7 @@ def _page1(plan: Plan, sheets: list[dict], t0: datetime, sea_map: Any, vessel: s
     fig.text(0.05, 0.965, f"SEA TRIAL CARD  -  {vessel}", fontsize=15, fontweight="bold", va="top")
     y = 0.935
     d_head, _ = design_rows(plan)
-    for line in _summary(plan, t0, vessel) + d_head:
+    for line in _summary(plan, t0, vessel, sea_map) + d_head:
         fig.text(0.05, y, line, fontsize=8.5, va="top")
         y -= 0.017
     abort = ["ABORT the manoeuvre (stop, steer clear) if:"] + [f"  - {a}" for a in abort_criteria(plan)]
@@ -413,7 +416,7 @@ def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = No
         plt.close(fig)
     h = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>Sea trial card {e(vname)}</title>",
          f"<style>{_CSS}</style></head><body>", f"<h1>Sea trial card: {e(vname)}</h1>"]
-    h += [f"<p>{e(line)}</p>" for line in _summary(plan, t0, vname)]
+    h += [f"<p>{e(line)}</p>" for line in _summary(plan, t0, vname, sea_map)]
     h.append("<div class='abort'><b>ABORT the manoeuvre (stop, steer clear) if:</b><ul>")
     h += [f"<li>{e(a)}</li>" for a in abort_criteria(plan)]
     h.append("</ul></div>")
