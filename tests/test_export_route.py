@@ -297,3 +297,5 @@ def test_vessel_name_from_option_plan_or_profile(azi_plan, tmp_path, capsys):
     assert _run(["export", str(p), "-f", "rtz", "-o", str(tmp_path / "u.rtz"), "--vessel-name", "x" * 40]) == 2
     err = capsys.readouterr().err
     assert "--vessel-name" in err and "32" in err and not (tmp_path / "u.rtz").exists()
+    assert _run(["export", str(p), "-f", "rtz", "-o", str(tmp_path / "v.rtz"), "--vessel-name", "  "]) == 2
+    assert "--vessel-name is empty" in capsys.readouterr().err and not (tmp_path / "v.rtz").exists()
