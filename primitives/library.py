@@ -17,7 +17,7 @@ from shapely.geometry import Polygon
 from primitives import helm as hm
 from primitives import maneuvers as mv
 from primitives.footprint import swept_footprint
-from primitives.orders import Order, orders_from_inputs, orders_to_dicts, render
+from primitives.orders import Order, heading_words, orders_from_inputs, orders_to_dicts, render
 from primitives.ship import ShipProfile, load_profile
 from primitives.simulate import simulate
 
@@ -166,8 +166,7 @@ def heading_switch_orders(prim_orders: list[Order], track: np.ndarray, splits: l
     for o in prim_orders:
         k = int(round(o.t_s / ts))
         if k in at and k > 0:
-            o = Order(o.t_s, f"{o.text} — when the heading is {abs(at[k]):.0f}° {'stbd' if at[k] > 0 else 'port'} of the initial course",
-                      o.values | {"at_heading_change_deg": at[k]})
+            o = Order(o.t_s, f"{o.text} at {heading_words(at[k])}", o.values | {"at_heading_change_deg": at[k]})
         out.append(o)
     return out
 

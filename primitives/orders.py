@@ -48,6 +48,18 @@ class Order:
         return cls(float(d["t_s"]), str(d["text"]), {k: float(v) for k, v in d.items() if k not in ("t_s", "text")})
 
 
+def on_course(order: Order, heading0_deg: float) -> Order:
+    """The order with its heading condition in absolute terms for an execute heading
+    ``heading0_deg``: 'Port 20 at heading 20° to starboard of the initial course' on course 350°
+    becomes 'Port 20 at heading 010°'. Orders without a heading condition come back unchanged."""
+    change = order.values.get("at_heading_change_deg")
+    if change is None:
+        return order
+    phrase = f" at {heading_words(change)}"
+    absolute = f" at heading {(heading0_deg + change) % 360:03.0f}°"
+    return Order(order.t_s, order.text.replace(phrase, absolute), dict(order.values))
+
+
 def orders_to_dicts(orders: list[Order]) -> list[dict[str, Any]]:
     return [o.to_dict() for o in orders]
 

@@ -14,6 +14,7 @@ from primitives.orders import (
     input_tolerance,
     inputs_from_orders,
     limit_violations,
+    on_course,
     render,
     rudder_text,
 )
@@ -92,6 +93,8 @@ def test_order_words_and_dict_round_trip():
     d = o.to_dict()
     assert d == {"t_s": 12.0, "text": o.text, "rudder_deg": -20.0, "at_heading_change_deg": 20.0}
     assert Order.from_dict(d) == o
+    assert on_course(o, 350.0).text == "Port 20 at heading 010°"
+    assert on_course(Order(0.0, "Midships"), 350.0).text == "Midships"
 
 
 def test_azimuth_orders_name_angle_and_rpm_per_thruster():
