@@ -82,7 +82,7 @@ def _mc_design():
     return go
 
 
-def _planner(counts):
+def _planner(counts, **kw):
     from maps.geo import load_map
     from maps.planner import plan_trial
     from primitives.ship import load_profile
@@ -91,7 +91,7 @@ def _planner(counts):
     sea = load_map(draught_m=prof.draught_m)
 
     def run():
-        plan = plan_trial(sea, profile=prof, counts=counts)
+        plan = plan_trial(sea, profile=prof, counts=counts, **kw)
         st = plan.stats
         if not (plan.feasible and plan.counts == plan.targets):
             raise RuntimeError(f"planning case failed: {st.get('reason')}")
@@ -101,12 +101,20 @@ def _planner(counts):
     return run
 
 
+THESIS_LATTICE = {"headings": 4, "run_in_s": 0.0}  # section 9.4: four headings, no run-ins
+
+
 def _plan_thesis():
-    return _planner(None)  # the section 9.4 scenario: three primitives used three times each
+    return _planner(None, scenario="thesis-9.4", **THESIS_LATTICE)  # three primitives used three times each
 
 
 def _plan_5x5():
-    return _planner(dict.fromkeys(["steep_zigzag_surge", "wide_zigzag_surge", "wide_zigzag_sway", "tau17", "tau19"], 5))
+    return _planner(dict.fromkeys(["steep_zigzag_surge", "wide_zigzag_surge", "wide_zigzag_sway", "tau17", "tau19"], 5),
+                    **THESIS_LATTICE)
+
+
+def _plan_design():
+    return _planner(None)  # plan-trial's default: design of the library, 16 headings, run-ins, shortcuts
 
 
 def _diagnose_2000():
@@ -132,6 +140,7 @@ CASES = {
     "monte_carlo_design_500": (_mc_design, 20.0, None, ""),
     "plan_thesis_scenario": (_plan_thesis, 1.0, 40.0, "thesis: plain A* about 40 s on a laptop (section 9.4); whole plan_trial call timed, search alone in search_s"),
     "plan_5x5": (_plan_5x5, 30.0, None, "thesis: 19.25 M-state lattice, 'quite time-consuming'"),
+    "plan_default_design": (_plan_design, 2.0, None, "issue 12: whole plan_trial, design included (more in benchmarks/bench_plan.py)"),
     "diagnose_2000": (_diagnose_2000, 10.0, None, ""),
 }
 

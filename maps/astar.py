@@ -90,8 +90,10 @@ def relaxed_table(pb: Problem) -> np.ndarray:
 
 
 def search(pb: Problem, heuristic: str = "admissible", weights: tuple[float, float, float] = (1.0, 1.0, 1.0),
-           basic_cost: float = 1.0, max_expansions: int = 50_000_000, table: np.ndarray | None = None) -> SearchResult:
-    """A* with a binary heap (heapq), packed integer keys and a closed set."""
+           basic_cost: float = 1.0, max_expansions: int = 50_000_000, table: np.ndarray | None = None,
+           max_states: int | None = None) -> SearchResult:
+    """A* with a binary heap (heapq), packed integer keys and a closed set; stops when it holds
+    more than ``max_states`` states (the memory budget)."""
     t0 = time.perf_counter()
     K, nj = pb.n_head, pb.nj
     Q = len(pb.targets)
@@ -154,7 +156,7 @@ def search(pb: Problem, heuristic: str = "admissible", weights: tuple[float, flo
             found_key = key
             break
         expansions += 1
-        if expansions > max_expansions:
+        if expansions > max_expansions or (max_states is not None and len(gcost) > max_states):
             break
         gk = gcost[key]
         cr = can[c]
@@ -181,7 +183,12 @@ def search(pb: Problem, heuristic: str = "admissible", weights: tuple[float, flo
             heapq.heappush(heap, (g2 + h2, remaining[c2], tie, k2))
     dt = time.perf_counter() - t0
     if found_key < 0:
-        why = "expansion limit reached" if expansions > max_expansions else "every reachable state was explored"
+        if expansions > max_expansions:
+            why = "expansion limit reached"
+        elif max_states is not None and len(gcost) > max_states:
+            why = f"memory limit reached ({len(gcost):,} states held; raise --max-memory or plan fewer manoeuvres)"
+        else:
+            why = "every reachable state was explored"
         return SearchResult(False, [], [], float("inf"), expansions, len(gcost), dt, heuristic, False, h0,
                             f"no sequence of moves meets all counters and reaches the goal ({why})",
                             {"D": D})

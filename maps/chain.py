@@ -24,7 +24,7 @@ from maps.geo import MapError, SeaMap, bundled_map_path
 from maps.lattice import Move, heading_table, nearest_heading, run_in_seconds
 from maps.motionset import basic_move_set, default_resolution, informative_moves, planning_window
 from maps.plan import Plan, PlanStep
-from maps.smooth import Leg, Shortcutter, move_legs
+from maps.smooth import Leg, Realiser, Shortcutter, _advance
 from maps.verify import Verification, resimulate
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
@@ -184,15 +184,15 @@ def _endpoint(sea: SeaMap, given: LatLonHdg | None, feat, default: LatLonHdg, wh
 
 
 def estimate_memory(lat_ni: int, lat_nj: int, n_head: int, n_moves: int, targets: list[int]) -> tuple[float, int]:
-    """(bytes, states) the search needs at most: successor tables (every move at every lattice
-    point), the relaxed cost-to-go graph (edges x (D + 1)) and, for the counter-augmented states
-    A* may visit, ``BYTES_PER_STATE`` each (8.5)."""
+    """(bytes, states): memory of the tables every search builds (successors of every move at
+    every lattice point, the relaxed cost-to-go graph with edges x (D + 1)) and the number of
+    counter-augmented states (8.5). A* visits only part of the states; it is stopped when the
+    states it holds reach the rest of the memory budget (``BYTES_PER_STATE`` each)."""
     spatial = lat_ni * lat_nj * n_head
     states = spatial * int(np.prod([d + 1 for d in targets]))
     edges = spatial * n_moves
     D = int(sum(targets))
-    fixed = edges * BYTES_PER_EDGE + edges * (D + 1) * 40 + spatial * (D + 1) * 8 * 3
-    return float(fixed + states * BYTES_PER_STATE), states
+    return float(edges * BYTES_PER_EDGE + edges * (D + 1) * 40 + spatial * (D + 1) * 8 * 3), states
 
 
 def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive], counts: dict[str, int], *,
@@ -214,7 +214,7 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     gx, gy, gpsi, goal_ll = _endpoint(sea, goal, sea.goal, HELSINKI_GOAL, "goal", o.margin)
     win = planning_window(sea, res, (sx, sy), (gx, gy), o.size)
     prims = [p for p in primitives if counts.get(p.name, 0) > 0]
-    n_moves = len(prims) + (5 if o.spot_turns else 3)
+    n_moves = len(prims) + (5 if o.spot_turns and profile.actuator != "rudder_propeller" else 3)
     need, states = estimate_memory(win.ni, win.nj, K, n_moves, [counts[p.name] for p in prims])
     if need > o.max_memory_gib * 2**30:
         raise MapError(f"the lattice would not fit: {win.ni} x {win.nj} points x {K} headings x counters = {states:,} states, "
@@ -275,7 +275,10 @@ def search_plan(lat: Lattice, extra: float = 0.0, blocked: frozenset = frozenset
     pb = lat.problem(extra, blocked)
     lat.setup_s += time.perf_counter() - t0
     o = lat.options
-    return SearchOutcome(astar.search(pb, o.heuristic, o.weights, o.basic_cost, o.max_expansions), pb, extra, blocked)
+    fixed, _ = estimate_memory(lat.window.ni, lat.window.nj, len(lat.table), len(lat.moves), list(lat.targets.values()))
+    max_states = max(10_000, int((o.max_memory_gib * 2**30 - fixed) / BYTES_PER_STATE))
+    return SearchOutcome(astar.search(pb, o.heuristic, o.weights, o.basic_cost, o.max_expansions, max_states=max_states),
+                         pb, extra, blocked)
 
 
 @dataclass
@@ -295,6 +298,7 @@ def verify_plan(lat: Lattice, out: SearchOutcome) -> Realised:
     nu = np.array([p.cruise_speed_mps, 0.0, 0.0])
     eta = np.array(lat.start, float)
     cutter = Shortcutter(lat.sea, p, lat.res, K, lat.options.margin) if lat.options.smooth else None
+    sailor = Realiser(lat)
     legs: list[Leg] = []
     shortcuts = replaced = 0
     k = 0
@@ -313,28 +317,23 @@ def verify_plan(lat: Lattice, out: SearchOutcome) -> Realised:
             if new is not None:
                 shortcuts += 1
                 replaced += len(run)
-                chunk = [new]
+                legs.append(new)
+                nu, eta = _advance(p, new.inputs, nu, eta)
             else:
-                chunk = [leg for mi, s in run for leg in move_legs(lat.moves[mi], s % K, mi, s, lat.primitives)]
+                for i, (mi, s) in enumerate(run):
+                    for leg in sailor.legs(mi, s, nu, eta, res.spatial[k + i + 1]):
+                        legs.append(leg)
+                        nu, eta = _advance(p, leg.inputs, nu, eta)
             k = k1
         else:
-            chunk = move_legs(m, res.spatial[k] % K, moves[k], res.spatial[k], lat.primitives)
+            for leg in sailor.legs(moves[k], res.spatial[k], nu, eta, res.spatial[k + 1]):
+                legs.append(leg)
+                nu, eta = _advance(p, leg.inputs, nu, eta)
             k += 1
-        legs += chunk
-        sim = simulate_chunk(p, np.vstack([leg.inputs for leg in chunk]), nu, eta)
-        nu, eta = sim
     end_cell = res.spatial[-1] // K
     ver = resimulate(lat.sea, legs, lat.start, lat.options.margin, lat.window.point(end_cell // lat.window.nj, end_cell % lat.window.nj),
                      nu0=np.array([p.cruise_speed_mps, 0.0, 0.0]))
     return Realised(legs, ver, shortcuts, replaced)
-
-
-def simulate_chunk(profile: ShipProfile, inputs: np.ndarray, nu: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """State after sailing ``inputs`` from (nu, eta) on the nominal model."""
-    from primitives.simulate import simulate
-
-    sim = simulate(profile, inputs, nu0=nu, eta0=eta)
-    return sim.nu[0, -1].copy(), sim.eta[0, -1].copy()
 
 
 def assemble_plan(lat: Lattice, out: SearchOutcome, real: Realised, stats: dict[str, Any] | None = None, *,

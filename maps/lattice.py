@@ -15,8 +15,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import solve_discrete_are
 
 from primitives import maneuvers as mv
+from primitives.helm import straight as helm_straight
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
 from primitives.simulate import model_signals, simulate, steady_forces
@@ -40,12 +42,16 @@ class Move:
     heading_err: float
     source: str = ""
     run_in: tuple[int, ...] = ()  # samples of the run-in that opens the move, per heading class
+    core: tuple[int, ...] = ()  # samples of run-in + primitive (the settling leg follows), per heading class
 
     def prim(self, h: int) -> Primitive:
         return self.prims[h % len(self.prims)]
 
     def run_in_samples(self, h: int) -> int:
         return self.run_in[h % len(self.run_in)] if self.run_in else 0
+
+    def core_samples(self, h: int) -> int:
+        return self.core[h % len(self.core)] if self.core else self.prim(h).n_samples
 
 
 def heading_table(n_head: int) -> np.ndarray:
@@ -83,8 +89,88 @@ def _wrap(a: float) -> float:
     return float((a + np.pi) % (2 * np.pi) - np.pi)
 
 
+class _Rudder:
+    """Helm and engine for a rudder/propeller ship: yaw-rate and speed references -> rudder angle
+    and shaft speed, moved at the profile's rudder and shaft rates ([helm], [engine]).
+
+    Yaw rate by PI on the rudder (gains from the model's rudder sensitivity at cruise: a course-
+    unstable hull such as a VLCC has no useful steady-turn feed-forward); the yaw-rate limit is
+    60 % of the steady rate at full rudder and at most U / (3 L), so the helm always has rudder in hand."""
+
+    def __init__(self, profile: ShipProfile):
+        from primitives.helm import steady_rps
+
+        self.p, self.th = profile, profile.params()
+        self.uc = profile.cruise_speed_mps
+        self._rps: dict[float, float] = {}
+        self.steady_rps = steady_rps
+        self.n_c = self.rps(self.uc)
+        self.max_deg = float(profile.helm.max_rudder_deg)
+        one = float(profile.helm.delta_rad(1.0))
+        self.ts = profile.sample_time
+        # linearised per-sample model in (v, r, heading error) with the rudder in degrees
+        J = np.zeros((2, 3))
+        eps = np.array([1e-3, 1e-4, 1e-3])
+        for j in range(3):
+            d = np.zeros(3)
+            d[j] = eps[j]
+            J[:, j] = (self._inc(*d)[1:] - self._inc(*-d)[1:]) / (2 * eps[j])
+        A = np.eye(3)
+        A[:2, :2] += J[:, :2]
+        A[2, 1] = self.ts
+        B = np.array([[J[0, 2] * one], [J[1, 2] * one], [0.0]])
+        L = profile.length_m
+        Q = np.diag([0.0, (L / self.uc) ** 2 / np.radians(1.0) ** 2 * 0.1, 1.0 / np.radians(1.0) ** 2])
+        R = np.array([[1.0 / 2.0**2]])
+        P = solve_discrete_are(A, B, Q, R)
+        self.K = np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A)[0]  # rudder deg = -K x (LQR autopilot)
+        full = np.tile([float(profile.helm.delta_rad(self.max_deg)), self.n_c], (int(900 / self.ts), 1))
+        r_full = abs(float(simulate(profile, full, nu0=(self.uc, 0.0, 0.0)).nu[0, -1, 2]))
+        self.r_lim = min(0.6 * r_full, self.uc / (3.0 * profile.length_m))  # turns of radius >= 3 L
+
+    def _inc(self, v: float, r: float, delta: float) -> np.ndarray:
+        sig = model_signals(self.p, np.array([self.uc, v, r]), np.array(0.0), {"delta": delta, "n": self.n_c})
+        return np.array([float(np.asarray(x)) for x in self.p.model.increments(sig, self.th)])
+
+    def rps(self, u: float) -> float:
+        key = round(u, 2)
+        if key not in self._rps:
+            self._rps[key] = float(self.steady_rps(self.p, max(key, 0.0)))
+        return self._rps[key]
+
+    def command(self, nu: np.ndarray, u_ref: float, r_ref: float, err: float) -> tuple[float, float]:
+        """(rudder degrees, rev/s) ordered for the references; the heading error is limited so
+        that the autopilot turns at about ``r_lim``."""
+        e = float(np.clip(err, -np.radians(8.0), np.radians(8.0)))
+        rudder = -float(self.K @ np.array([nu[1], nu[2] - r_ref, -e]))
+        lo, hi = self.p.engine.rps_limits
+        n = self.rps(u_ref) + 0.5 * self.n_c * (u_ref - nu[0]) / max(self.uc, 1e-6)
+        return float(np.clip(rudder, -self.max_deg, self.max_deg)), float(np.clip(n, lo, hi))
+
+    def loop(self, policy, n_max: int, nu0) -> np.ndarray:
+        """Run ``policy(k, nu, psi, memo) -> (rudder_deg, rps, 0) or None``; inputs (N, 2) out."""
+        nu, psi, memo = np.array(nu0, float), 0.0, {}
+        rud, shaft = 0.0, self.rps(float(nu[0]))
+        dr = self.p.helm.rudder_rate_deg_s * self.ts
+        dn = np.inf if self.p.engine.rps_rate is None else self.p.engine.rps_rate * self.ts
+        rows = []
+        for k in range(n_max):
+            c = policy(k, nu, psi, memo)
+            if c is None:
+                break
+            rud += min(max(c[0] - rud, -dr), dr)
+            shaft += min(max(c[1] - shaft, -dn), dn)
+            row = (float(self.p.helm.delta_rad(rud)), shaft)
+            nu, psi = mv.model_step(self.p, self.th, nu, psi, {"delta": row[0], "n": row[1]})
+            rows.append(row)
+        return np.array(rows, float).reshape(-1, 2)
+
+
 class _Helm:
-    """Closed-loop phases on the nominal model: stop, turn to a heading, settle on the lattice."""
+    """Closed-loop phases on the nominal model: stop, turn to a heading, settle on the lattice.
+    Velocity references become generalized forces (allocated to azimuths) or, for a
+    rudder/propeller ship, helm and engine orders (:class:`_Rudder`); sway is then not
+    commanded: cross-track errors are steered out by line of sight."""
 
     def __init__(self, profile: ShipProfile, res: float, n_head: int):
         self.p, self.res, self.K = profile, res, n_head
@@ -92,6 +178,11 @@ class _Helm:
         self.uc = profile.cruise_speed_mps
         self.ts = profile.sample_time
         self._ff: dict[tuple[float, float, float], np.ndarray] = {}
+        self.rudder = _Rudder(profile) if profile.actuator == "rudder_propeller" else None
+        if self.rudder is not None:
+            self.r_lim = self.rudder.r_lim
+            return
+        self.r_lim = self.uc / (1.5 * profile.length_m)
         b = _gains(profile)
         self.k = 0.3 / np.where(np.abs(b) > 1e-12, b, 1e-12)
         self.fmax = np.array([
@@ -108,7 +199,11 @@ class _Helm:
             ff = self._ff[key] = np.array(steady_forces(self.p, *key))
         return ff
 
-    def forces(self, nu: np.ndarray, u_ref: float, v_ref: float, r_ref: float) -> tuple[float, float, float]:
+    def forces(self, nu: np.ndarray, u_ref: float, v_ref: float, r_ref: float, err: float = 0.0) -> tuple[float, float, float]:
+        """Generalized forces, or (rudder deg, rev/s, 0) for a rudder ship (``v_ref`` ignored;
+        ``err``: heading error, rad, that its autopilot steers out)."""
+        if self.rudder is not None:
+            return (*self.rudder.command(nu, u_ref, r_ref, err), 0.0)
         ff = self.feedforward(u_ref, v_ref, r_ref)
         f = ff + self.k * (np.array([u_ref, v_ref, r_ref]) - nu)
         lim = np.maximum(self.fmax, 1.2 * np.abs(ff))  # a steady state the ship can hold is always reachable
@@ -117,11 +212,12 @@ class _Helm:
 
     def run(self, nu0, pose0, phases: list[tuple[str, float]], n_max: int = 3000) -> np.ndarray:
         """Phases: ("run", metres), ("stop", 0), ("turn", target psi), ("settle", 0), ("hold", (u, v, r,
-        seconds)), ("track", (waypoints [(x, y), ...], lookahead m)). Returns forces (N, 3)."""
+        seconds)), ("track", (waypoints [(x, y), ...], lookahead m)). Returns the inputs (N, m)."""
         state = {"pos": np.array(pose0[:2], float), "i": 0, "k0": 0}
         psi0 = float(pose0[2])
         res, uc = self.res, self.uc
-        r_lim = uc / (1.5 * self.p.length_m)
+        r_lim = self.r_lim
+        rudder = self.rudder is not None
 
         def policy(k, nu, psi_rel, memo):
             psi = psi0 + psi_rel
@@ -132,21 +228,26 @@ class _Helm:
             if kind == "run":  # straight on at cruise speed for ``arg`` metres
                 memo["run"] = memo.get("run", 0.0)
                 if memo["run"] >= arg - 0.5 * uc * self.ts:
+                    memo.pop("course", None)
                     state["i"] += 1
                     return policy(k, nu, psi_rel, memo)
                 memo["run"] += self.ts * nu[0]
-                f = self.forces(nu, uc, 0.0, 0.0)
+                memo.setdefault("course", psi)
+                f = self.forces(nu, uc, 0.0, 0.0, _wrap(memo["course"] - psi))
             elif kind == "hold":  # reach the velocity (u, v, r), keep the course, then hold it for ``secs``
-                u_t, v_t, r_t, secs = arg
+                u_t, v_t, r_t, secs = arg[:4]
+                if len(arg) > 4:  # the course to keep (default: the course at the start of the phase)
+                    memo.setdefault("course", psi + _wrap(arg[4] - psi))
                 err = np.abs(np.array([u_t, v_t, r_t]) - nu) * (1.0, 1.0, self.p.length_m)
-                if "held" not in memo and np.all(err < 0.02):
+                tol = np.array([0.02, 0.01, 0.005]) if rudder else 0.02
+                if "held" not in memo and np.all(err < tol):
                     memo["held"] = k
                 if "held" in memo and (k - memo["held"]) * self.ts >= secs:
                     state["i"] += 1
                     return None
                 memo.setdefault("course", psi)
                 r_fb = 0.0 if r_t else float(np.clip(0.1 * _wrap(memo["course"] - psi), -r_lim, r_lim))
-                f = self.forces(nu, u_t, v_t, r_t + r_fb)
+                f = self.forces(nu, u_t, v_t, r_t + r_fb, _wrap(memo["course"] - psi))
             elif kind == "track":  # line-of-sight guidance along waypoints, stop abreast the last one
                 wps, lookahead = arg
                 leg = memo.setdefault("leg", 0)
@@ -164,7 +265,7 @@ class _Helm:
                     return policy(k, nu, psi_rel, memo)
                 want = float(np.arctan2(d[1], d[0]) - np.arctan2(cross, lookahead))
                 r_ref = float(np.clip(1.5 * _wrap(want - psi) * r_lim / np.radians(20), -r_lim, r_lim))
-                f = self.forces(nu, uc, 0.0, r_ref)
+                f = self.forces(nu, uc, 0.0, r_ref, _wrap(want - psi))
             elif kind == "stop":
                 if abs(nu[0]) < 0.02 and abs(nu[1]) < 0.02:
                     state["i"] += 1
@@ -178,55 +279,62 @@ class _Helm:
                     return policy(k, nu, psi_rel, memo)
                 rl = r_lim if moving else 0.3 * r_lim
                 r_ref = float(np.clip(1.5 * err * rl / np.radians(20), -rl, rl))
-                f = self.forces(nu, uc if moving else 0.0, 0.0, r_ref)
-            else:  # settle on a lattice point at cruise speed and a lattice heading
-                target = psi + _wrap(self.table[nearest_heading(psi, self.table)] - psi)
+                f = self.forces(nu, uc if moving else 0.0, 0.0, r_ref, err)
+            else:  # settle on a lattice point (``arg``: (x, y, psi) of a given one) at cruise speed
+                given = isinstance(arg, tuple)
+                target = psi + _wrap((arg[2] if given else self.table[nearest_heading(psi, self.table)]) - psi)
                 d = np.array([np.cos(target), np.sin(target)])
                 n = np.array([-np.sin(target), np.cos(target)])
-                pts = np.round(pos / res)
-                near = np.array([pts + [a, b] for a in (-1, 0, 1) for b in (-1, 0, 1)]) * res
+                if given:
+                    near = np.array([arg[:2]], float)
+                else:
+                    pts = np.round(pos / res)
+                    near = np.array([pts + [a, b] for a in (-1, 0, 1) for b in (-1, 0, 1)]) * res
                 along_line = near[np.argmin(np.abs((near - pos) @ n))]
                 c_err = float((along_line - pos) @ n)  # to starboard
                 err = _wrap(target - psi)
-                settled = abs(err) < np.radians(0.05) and abs(nu[2]) < 5e-4 and abs(c_err) < 0.3 and abs(nu[1]) < 0.01 \
-                    and abs(nu[0] - uc) < 0.01
+                if rudder:  # no sway control: steer the cross-track error out by line of sight
+                    L = self.p.length_m
+                    # tight on yaw rate and sway: a course-unstable hull amplifies them over a long open-loop manoeuvre
+                    settled = abs(err) < np.radians(0.2) and abs(nu[2]) * L < 0.005 and abs(c_err) < 0.01 * L \
+                        and abs(nu[1]) < 0.01 and abs(nu[0] - uc) < 0.05
+                else:
+                    settled = abs(err) < np.radians(0.05) and abs(nu[2]) < 5e-4 and abs(c_err) < 0.3 and abs(nu[1]) < 0.01 \
+                        and abs(nu[0] - uc) < 0.01
                 dist = float(np.min(np.hypot(*(near - pos).T)))
+                if given and float((near[0] - pos) @ d) <= 0.5 * uc * self.ts:  # abreast the given point: stop
+                    state["i"] += 1
+                    return None
                 if settled and dist <= 0.5 * uc * self.ts + 1e-6:
                     state["i"] += 1
                     return None
-                r_ref = float(np.clip(0.1 * err, -r_lim, r_lim))
-                v_ref = float(np.clip(0.12 * c_err, -0.6, 0.6))
-                f = self.forces(nu, uc, v_ref, r_ref)
+                if rudder:
+                    los = err + float(np.arctan2(c_err, 3.0 * self.p.length_m))
+                    r_ref = float(np.clip(1.5 * los * r_lim / np.radians(20), -r_lim, r_lim))
+                    f = self.forces(nu, uc, 0.0, r_ref, los)
+                else:
+                    r_ref = float(np.clip(0.1 * err, -r_lim, r_lim))
+                    v_ref = float(np.clip(0.12 * c_err, -0.6, 0.6))
+                    f = self.forces(nu, uc, v_ref, r_ref)
                 _ = d
             c, s = np.cos(psi), np.sin(psi)
             state["pos"] = pos + self.ts * np.array([c * nu[0] - s * nu[1], s * nu[0] + c * nu[1]])
             return f
 
+        if rudder:
+            return self.rudder.loop(policy, n_max, nu0)
         forces, _ = mv.closed_loop(self.p, policy, n_max, nu0)
-        return forces
+        return self.p.allocate(*forces.T) if len(forces) else np.zeros((0, len(self.p.inputs)))
 
 
 def _assemble(profile: ShipProfile, name: str, desc: str, kind: str, head_inputs: np.ndarray | None, nu0,
-              forces: np.ndarray, commands: list[str], splits: list[int]) -> Primitive:
+              tail: np.ndarray, commands: list[str], splits: list[int]) -> Primitive:
     parts = [] if head_inputs is None else [head_inputs]
-    if len(forces):
-        parts.append(profile.allocate(forces[:, 0], forces[:, 1], forces[:, 2]))
+    if len(tail):
+        parts.append(tail)
     inputs = np.vstack(parts)
     res = simulate(profile, inputs, nu0=nu0)
     return Primitive(name, desc, profile, inputs, res.nu[0], res.eta[0], splits, kind, commands)
-
-
-def settle(prim: Primitive, res: float, n_head: int, psi0: float = 0.0) -> Primitive:
-    """The primitive, started at lattice heading ``psi0``, followed by a settling leg that ends on
-    a lattice point at a lattice heading (see module doc). Track stays in the start frame."""
-    helm = _Helm(prim.profile, res, n_head)
-    c, s = np.cos(psi0), np.sin(psi0)
-    x, y, p = prim.track[-1]
-    tail = helm.run(prim.nu[-1], (c * x - s * y, s * x + c * y, psi0 + p), [("settle", 0.0)])
-    cmds = list(prim.commands) + ([f"then steady at {helm.uc:.1f} m/s on the nearest lattice course for "
-                                   f"{len(tail) * helm.ts:.0f} s"] if len(tail) else [])
-    return _assemble(prim.profile, prim.name, prim.description, prim.kind, prim.inputs, prim.nu0, tail, cmds,
-                     list(prim.split_points))
 
 
 def run_in_seconds(profile: ShipProfile, run_in_s: float | None = None) -> float:
@@ -247,11 +355,14 @@ def run_in_inputs(prim: Primitive, res: float, n_head: int, run_in_s: float) -> 
     u0, v0, r0 = (float(x) for x in prim.nu0)
     nu_t = np.array([helm.uc, 0.0, 0.0])
     near = np.all(np.abs(np.array([u0, v0, r0]) - nu_t) * (1.0, 1.0, prim.profile.length_m) < 0.02)
-    f = np.zeros((0, 3)) if near else helm.run(nu_t, (0.0, 0.0, 0.0), [("hold", (u0, v0, r0, 0.0))], n_max=600)
+    m = prim.inputs.shape[1]
+    reach = np.zeros((0, m)) if near else helm.run(nu_t, (0.0, 0.0, 0.0), [("hold", (u0, v0, r0, 0.0))], n_max=600)
     n_hold = int(round(run_in_s / helm.ts))
-    steady = np.tile(helm.feedforward(u0, v0, r0), (n_hold, 1))
-    f = np.vstack([f, steady])
-    return prim.profile.allocate(*f.T) if len(f) else np.zeros((0, prim.inputs.shape[1]))
+    if helm.rudder is not None:  # steady: rudder for the entry yaw rate, shaft for the entry speed
+        row = np.array([0.0, helm.rudder.rps(u0)])  # rudder ships start their manoeuvres steady on a straight course
+    else:
+        row = prim.profile.allocate(*(np.array([x]) for x in helm.feedforward(u0, v0, r0)))[0]
+    return np.vstack([reach, np.tile(row, (n_hold, 1))]) if n_hold + len(reach) else np.zeros((0, m))
 
 
 def with_run_in(prim: Primitive, res: float, n_head: int, psi0: float, run_in: np.ndarray) -> tuple[Primitive, int]:
@@ -295,8 +406,9 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
     for psi0 in cls:
         a, b = vec[min(vec, key=lambda k: abs(k - psi0))]
         length = res * float(np.hypot(a, b))
-        g = mv.straight(profile, length)
-        straights.append(_assemble(profile, "straight", f"straight run {length:.0f} m", "basic", None, nu0, g.forces, g.commands, []))
+        g = mv.straight(profile, length) if helm.rudder is None else helm_straight(profile, length)
+        ins = g.inputs if g.inputs is not None else profile.allocate(*g.forces.T)
+        straights.append(_assemble(profile, "straight", f"straight run {length:.0f} m", "basic", None, nu0, ins, g.commands, []))
     out.append(straights)
     step = n_head // 4 if n_head == 4 else 1
     for side, sgn in (("s", 1), ("p", -1)):
@@ -309,13 +421,13 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
             phases = [("turn", target), ("settle", 0.0)]
             if n_head == 4:  # a short straight run first makes the turn end on a lattice line
                 f0 = helm.run(nu0, (0.0, 0.0, 0.0), [("turn", target)])
-                x_end = simulate(profile, profile.allocate(*f0.T), nu0=nu0).eta[0, -1, 0] if len(f0) else 0.0
+                x_end = simulate(profile, f0, nu0=nu0).eta[0, -1, 0] if len(f0) else 0.0
                 phases.insert(0, ("run", float((-x_end) % res)))
             f = helm.run(nu0, (0.0, 0.0, psi0), phases)
             per.append(_assemble(profile, f"turn_{side}", f"{abs(dpsi):.0f} deg turn to {word}", "basic", None, nu0, f,
                                  [f"at {uc:.1f} m/s turn {abs(dpsi):.0f} deg to {word}, steady on the new course"], []))
         out.append(per)
-    if spot_turns:
+    if spot_turns and helm.rudder is None:  # a rudder/propeller ship cannot turn on the spot
         for side, sgn in (("s", 1.0), ("p", -1.0)):
             word = "starboard" if sgn > 0 else "port"
             per = []
@@ -329,7 +441,7 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
 
 
 def place(prims: list[Primitive], res: float, n_head: int, counter: int, cost: float, source: str = "",
-          run_in: tuple[int, ...] = ()) -> Move:
+          run_in: tuple[int, ...] = (), core: tuple[int, ...] = ()) -> Move:
     """Snap the end poses of a move (one primitive per heading class) to the lattice for every
     start heading: cells moved, heading steps and the snapping error."""
     table = heading_table(n_head)
@@ -351,7 +463,7 @@ def place(prims: list[Primitive], res: float, n_head: int, counter: int, cost: f
         dh[h] = (h2 - h) % n_head
         herr = max(herr, abs(_wrap(psi + dpsi - table[h2])))
     first = prims[0]
-    return Move(first.name, first.kind, prims, counter, cost, dcell, dh, snap, herr, source, run_in)
+    return Move(first.name, first.kind, prims, counter, cost, dcell, dh, snap, herr, source, run_in, core)
 
 
 def transit_mismatch(prim: Primitive) -> float:

@@ -96,7 +96,8 @@ def informative_moves(prims: list[Primitive], counts: dict[str, int], res: float
                 notes.append(f"{part.name}: exit velocity differs from transit by {mm:.2f}; the re-simulation will tell")
             names.append(part.name)
             targets[part.name] = n
-            moves.append(place(per, res, n_head, q0 + len(names) - 1, 0.0, prim.name, tuple(b[1] for b in built)))
+            moves.append(place(per, res, n_head, q0 + len(names) - 1, 0.0, prim.name, tuple(b[1] for b in built),
+                               tuple(b[1] + part.n_samples for b in built)))
     return moves, names, targets, notes
 
 

@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 import shapely
 
-from maps.lattice import Move, _Helm
+from maps.lattice import _Helm
 from maps.verify import hull_clearance
-from primitives.ship import ProfileError, ShipProfile
+from primitives.ship import ShipProfile
 from primitives.simulate import simulate
 
 
@@ -61,25 +61,70 @@ def _orders(prim: Any) -> list[dict[str, Any]]:
     return out
 
 
-def move_legs(move: Move, h: int, mi: int, spatial: int, source_prims: dict[str, Any]) -> list[Leg]:
-    """The legs of one lattice move started at heading index h."""
-    pr = move.prim(h)
-    b = pr.footprint.bounds
-    space = (float(b[2] - b[0]), float(b[3] - b[1]))
-    if move.counter < 0:
-        return [Leg(pr.name, pr.name, "basic", "transit", pr.description, pr.profile, pr.inputs, list(pr.commands), space, mi, spatial)]
-    n_r = move.run_in_samples(h)
-    src = source_prims.get(move.source or move.name)
-    legs = []
-    if n_r:
-        u = float(np.hypot(*pr.nu[n_r, :2]))
-        legs.append(Leg(f"run-in {move.name}", move.source or move.name, "run-in", "run-in",
-                        f"run-in to {move.name}: steady course and speed", pr.profile, pr.inputs[:n_r],
-                        [f"steady on course at {u:.1f} m/s ({u / 0.514444:.1f} kn) for {n_r * pr.profile.sample_time:.0f} s, "
-                         f"then execute {move.name} at the execute point"], space, mi, spatial))
-    legs.append(Leg(move.name, move.source or move.name, "informative", "informative", pr.description, pr.profile,
-                    pr.inputs[n_r:], list(pr.commands), space, mi, spatial, execute=bool(n_r), orders=_orders(src)))
-    return legs
+class Realiser:
+    """Sails lattice moves from the ship's actual state: run-ins and settling legs in closed loop
+    (so errors do not grow along the plan, which matters for a course-unstable hull), the
+    informative primitive itself open loop, exactly as designed."""
+
+    def __init__(self, lat):
+        self.lat = lat
+        self.helm = _Helm(lat.profile, lat.res, len(lat.table))
+        from maps.lattice import run_in_seconds
+
+        self.run_in_s = run_in_seconds(lat.profile, lat.options.run_in_s)
+
+    def _rel(self, spatial: int, eta: np.ndarray) -> tuple[float, float, float]:
+        x0, y0, _ = self.lat.pose(spatial)
+        return float(eta[0] - x0), float(eta[1] - y0), float(eta[2])
+
+    def legs(self, mi: int, spatial: int, nu: np.ndarray, eta: np.ndarray, end: int) -> list[Leg]:
+        """Legs of move ``mi`` from spatial state ``spatial`` to ``end``, from the actual (nu, eta)."""
+        lat, helm = self.lat, self.helm
+        x0, y0, _ = lat.pose(spatial)
+        x2, y2, p2 = lat.pose(end)
+        goal = (x2 - x0, y2 - y0, p2)
+        K = len(lat.table)
+        m, h = lat.moves[mi], spatial % K
+        pr = m.prim(h)
+        b = pr.footprint.bounds
+        space = (float(b[2] - b[0]), float(b[3] - b[1]))
+        if m.counter < 0:
+            target = float(lat.table[(h + int(m.dh[h])) % K])
+            target = eta[2] + float(np.angle(np.exp(1j * (target - eta[2]))))
+            if m.name == "straight":
+                phases = [("settle", goal)]
+            elif m.name.startswith("spot_turn"):
+                phases = [("stop", 0.0), ("turn", target), ("settle", goal)]
+            else:
+                phases = [("turn", target), ("settle", goal)]
+            ins = helm.run(nu, self._rel(spatial, eta), phases, n_max=20000)
+            return [Leg(pr.name, pr.name, "basic", "transit", pr.description, pr.profile, ins, list(pr.commands), space, mi, spatial)]
+        n_r, core = m.run_in_samples(h), m.core_samples(h)
+        src = lat.primitives.get(m.source or m.name)
+        legs = []
+        if n_r:
+            u0, v0, r0 = (float(x) for x in pr.nu[n_r])
+            ri = helm.run(nu, self._rel(spatial, eta), [("hold", (u0, v0, r0, self.run_in_s, float(lat.table[h])))], n_max=20000)
+            u = float(np.hypot(u0, v0))
+            legs.append(Leg(f"run-in {m.name}", m.source or m.name, "run-in", "run-in", f"run-in to {m.name}: steady course and speed",
+                            pr.profile, ri, [f"steady on course {np.degrees(lat.table[h]) % 360:05.1f} deg at {u:.1f} m/s "
+                                             f"({u / 0.514444:.1f} kn) for {len(ri) * pr.profile.sample_time:.0f} s, then "
+                                             f"execute {m.name}"], space, mi, spatial))
+            nu, eta = _advance(pr.profile, ri, nu, eta)
+        body = pr.inputs[n_r:core]
+        nu2, eta2 = _advance(pr.profile, body, nu, eta)
+        tail = helm.run(nu2, self._rel(spatial, eta2), [("settle", goal)], n_max=20000)
+        legs.append(Leg(m.name, m.source or m.name, "informative", "informative", pr.description, pr.profile,
+                        np.vstack([body, tail]), list(pr.commands), space, mi, spatial, execute=bool(n_r), orders=_orders(src)))
+        return legs
+
+
+def _advance(profile: ShipProfile, inputs: np.ndarray, nu: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """State after sailing ``inputs`` from (nu, eta) on the nominal model."""
+    if not len(inputs):
+        return nu, eta
+    sim = simulate(profile, inputs, nu0=nu, eta0=eta)
+    return sim.nu[0, -1].copy(), sim.eta[0, -1].copy()
 
 
 def string_pull(poses: np.ndarray, free) -> list[int]:
@@ -103,7 +148,7 @@ class Shortcutter:
         self.sea, self.p, self.margin = sea, profile, margin
         self.helm = _Helm(profile, res, n_head)
         L, B = profile.length_m, profile.beam_m
-        self.radius = 1.5 * L  # the helm's yaw-rate limit: r = U / (1.5 L)
+        self.radius = profile.cruise_speed_mps / self.helm.r_lim  # turning radius at the helm's yaw-rate limit
         self.corridor = 0.5 * B + 0.5 * L + margin
         self.approach = 2.0 * L + 2.0 * self.radius  # straight final leg: the ship settles on the course
         self.no_go = sea.no_go()
@@ -126,11 +171,7 @@ class Shortcutter:
         if len(keep) >= len(poses) + 1:
             return None
         wps = [tuple(eta[:2])] + [tuple(pts[k]) for k in keep[1:]]
-        try:
-            f = self.helm.run(nu, tuple(eta), [("track", (wps, 2.0 * self.p.length_m))], n_max=20000)
-            inputs = self.p.allocate(*f.T)
-        except ProfileError:
-            return None  # no force allocation for this actuator: sail the lattice moves
+        inputs = self.helm.run(nu, tuple(eta), [("track", (wps, 2.0 * self.p.length_m))], n_max=20000)
         sim = simulate(self.p, inputs, nu0=nu, eta0=tuple(eta))
         tr = sim.eta[0]
         if np.hypot(*(tr[-1, :2] - end[:2])) > 0.25 * self.helm.res or abs(np.angle(np.exp(1j * (tr[-1, 2] - end[2])))) > np.radians(5):

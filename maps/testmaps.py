@@ -54,3 +54,13 @@ def fjord(lat0: float = 60.0, lon0: float = 5.0, length_m: float = 20_000.0, wid
              _feature("start", shapely.Point(1500, 0.5 * W), lat0, lon0, heading_deg=0.0),
              _feature("goal", shapely.Point(L - 1500, 0.5 * W), lat0, lon0)]
     return {"type": "FeatureCollection", "name": f"fjord {L / 1000:.0f} x {W / 1000:.0f} km (synthetic)", "features": feats}
+
+
+def open_sea(lat0: float = 57.0, lon0: float = 11.0, size_m: float = 40_000.0) -> dict:
+    """A square trial area of open deep water (``size_m`` on a side), start in the south-west
+    corner heading north-east, goal in the north-east corner: room for a VLCC's trials."""
+    S = size_m
+    feats = [_feature("trial_area", shapely.box(0, 0, S, S), lat0, lon0),
+             _feature("start", shapely.Point(0.1 * S, 0.1 * S), lat0, lon0, heading_deg=45.0),
+             _feature("goal", shapely.Point(0.9 * S, 0.9 * S), lat0, lon0)]
+    return {"type": "FeatureCollection", "name": f"open sea {S / 1000:.0f} x {S / 1000:.0f} km (synthetic)", "features": feats}

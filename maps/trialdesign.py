@@ -112,7 +112,8 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
                        seed=seed, infos=sub)
     except DesignError as exc:
         if exclude:  # the remaining library cannot identify the model: say what was dropped and why
-            raise NoFitError(f"{str(exc).splitlines()[0]}; dropped because they fit nowhere on the map: {_needs(exclude)}") from None
+            raise NoFitError(f"{', '.join(exclude)} fit nowhere on the map ({_needs(exclude)}); without them the library "
+                             f"cannot identify the model: {str(exc).splitlines()[0]}") from None
         raise
     info = InfoSet.from_infos(sub)
     w = np.array([d.weights[p.name] for p in prims])
