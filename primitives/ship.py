@@ -371,12 +371,12 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     )
 
 
-def _positive(table: dict, key: str, src: str, hint: str) -> float | None:
+def _positive(table: dict, section: str, key: str, src: str, hint: str) -> float | None:
     if key not in table:
         return None
     val = table[key]
     if not isinstance(val, (int, float)) or isinstance(val, bool) or not val > 0:
-        raise ProfileError(f"{src}: field '{key}' must be a number > 0 ({hint}), got {val!r}")
+        raise ProfileError(f"{src}: field '{section}.{key}' must be a number > 0 ({hint}), got {val!r}")
     return float(val)
 
 
@@ -388,10 +388,10 @@ def _helm_engine(d: dict, src: str, limits: dict, model: TermSet, theta: np.ndar
         if not isinstance(tab, dict):
             raise ProfileError(f"{src}: field '{key}' must be a table [{key}]")
     lim_deg = float(np.degrees(min(abs(x) for x in limits["delta"]))) if "delta" in limits else 35.0
-    max_deg = _positive(h, "max_rudder_deg", f"{src} [helm]", "the largest rudder angle in degrees, e.g. 35") or lim_deg
+    max_deg = _positive(h, "helm", "max_rudder_deg", src, "the largest rudder angle in degrees, e.g. 35") or lim_deg
     if max_deg > lim_deg + 1e-6:
         raise ProfileError(f"{src}: field 'helm.max_rudder_deg' = {max_deg:g} exceeds input_limits.delta ({lim_deg:.2f} deg)")
-    rate = _positive(h, "rudder_rate_deg_s", f"{src} [helm]", "the steering gear's rate in deg/s, e.g. 2.32") or 2.32
+    rate = _positive(h, "helm", "rudder_rate_deg_s", src, "the steering gear's rate in deg/s, e.g. 2.32") or 2.32
     sign = h.get("starboard_sign")
     if sign is None:
         sign = _starboard_sign(model, theta, cruise)
@@ -400,13 +400,16 @@ def _helm_engine(d: dict, src: str, limits: dict, model: TermSet, theta: np.ndar
     rps = e.get("rps_limits", list(limits.get("n", (0.0, np.inf))))
     if not (isinstance(rps, list) and len(rps) == 2 and all(isinstance(x, (int, float)) for x in rps) and rps[0] < rps[1]):
         raise ProfileError(f"{src}: field 'engine.rps_limits' must be [min, max] propeller rev/s with min < max, got {rps!r}")
+    n_lo, n_hi = limits.get("n", (-np.inf, np.inf))
+    if rps[0] < n_lo or rps[1] > n_hi:
+        raise ProfileError(f"{src}: field 'engine.rps_limits' {rps} exceeds input_limits.n [{n_lo:g}, {n_hi:g}]")
     if np.isinf(rps[1]):
         raise ProfileError(f"{src}: a rudder_propeller profile needs the propeller's rev/s range: add input_limits.n = [min, max] or engine.rps_limits")
     engine = Engine(
         (float(rps[0]), float(rps[1])),
-        _positive(e, "rps_rate", f"{src} [engine]", "the fastest shaft-speed change in rev/s per second"),
-        _positive(e, "mcr_rpm", f"{src} [engine]", "shaft rpm at MCR"),
-        _positive(e, "approach_rpm", f"{src} [engine]", "the rpm of the source's approach runs"),
+        _positive(e, "engine", "rps_rate", src, "the fastest shaft-speed change in rev/s per second"),
+        _positive(e, "engine", "mcr_rpm", src, "shaft rpm at MCR"),
+        _positive(e, "engine", "approach_rpm", src, "the rpm of the source's approach runs"),
     )
     return Helm(max_deg, rate, float(sign)), engine
 

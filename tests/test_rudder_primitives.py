@@ -123,7 +123,9 @@ def test_user_rudder_profile_without_helm_gets_defaults(tmp_path):
     "edit, field",
     [
         (lambda t: t.replace("max_rudder_deg = 35.0", "max_rudder_deg = 40.0"), "helm.max_rudder_deg"),
-        (lambda t: t.replace("rudder_rate_deg_s = 2.32", "rudder_rate_deg_s = -1"), "rudder_rate_deg_s"),
+        (lambda t: t.replace("rudder_rate_deg_s = 2.32", "rudder_rate_deg_s = -1"), "helm.rudder_rate_deg_s"),
+        (lambda t: t.replace("rps_limits = [0.0, 2.0]", "rps_limits = [0.0, 3.0]"), "engine.rps_limits"),
+        (lambda t: t.replace("approach_rpm = 91.4", 'approach_rpm = "fast"'), "engine.approach_rpm"),
         (lambda t: t.replace("starboard_sign = -1", "starboard_sign = 2"), "helm.starboard_sign"),
         (lambda t: t.replace("rps_limits = [0.0, 2.0]", "rps_limits = [2.0, 1.0]"), "engine.rps_limits"),
         (lambda t: t.replace('inputs = ["delta", "n"]', 'inputs = ["n", "delta"]'), "inputs"),
@@ -152,3 +154,18 @@ def test_cli_primitives_for_kvlcc2_and_a_bad_profile(tmp_path, capsys):
     assert _run(["primitives", "--ship", str(bad)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and "12.00 m/s" in err and "Traceback" not in err
+
+
+def test_engine_rate_and_mcr_shape_the_engine_orders(tmp_path):
+    text = KVLCC2_TOML.replace("approach_rpm = 91.4", "approach_rpm = 91.4\nrps_rate = 0.005\nmcr_rpm = 120.0")
+    prof = load_profile(_user_profile(tmp_path, text))
+    n0 = hm.steady_rps(prof)
+    gen = hm.speed_change(prof, 0.5 * n0, n0)
+    shaft = gen.inputs[:, 1]
+    assert np.abs(np.diff(shaft)).max() <= 0.005 * prof.sample_time + 1e-12  # the shaft follows at the engine rate
+    assert shaft[-1] == pytest.approx(n0)
+    from primitives.orders import inputs_from_orders
+
+    np.testing.assert_allclose(inputs_from_orders(prof, gen.orders, len(shaft)), gen.inputs, atol=1e-12)
+    execute = [o for o in gen.orders if "execute" in o.text][0]
+    assert "% MCR" in execute.text and execute.values["mcr_pct"] == pytest.approx(100 * (60 * n0 / 120.0) ** 3)
