@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from primitives.maneuvers import Generated, model_step
+from primitives.maneuvers import Generated, model_step, side_sign
 from primitives.orders import Order, engine_text, engine_values, heading_words, rate_limited, rudder_text
 from primitives.ship import ProfileError, ShipProfile
 from primitives.simulate import model_signals
@@ -125,19 +125,13 @@ def _lengths(profile: ShipProfile, u: float, n_lengths: float) -> int:
     return max(1, int(n_lengths * profile.length_m / max(u, 0.1 * profile.cruise_speed_mps) / profile.sample_time))
 
 
-def _sign(side: str) -> float:
-    if side not in ("starboard", "port"):
-        raise ValueError(f"side must be 'starboard' or 'port', got {side!r}")
-    return 1.0 if side == "starboard" else -1.0
-
-
 def zigzag(profile: ShipProfile, delta_deg: float, psi_deg: float, *, first_side: str = "starboard",
            n_switches: int = 4, n_rps: float | None = None) -> Generated:
     """Zig-zag delta/psi (IMO): rudder to one side, counter-rudder each time the heading change
     passes psi; ends at the heading after ``n_switches`` rudder reversals."""
     n, u = _approach(profile, n_rps)
     loop = HelmLoop(profile, (u, 0.0, 0.0), n)
-    s = _sign(first_side)
+    s = side_sign(first_side)
     loop.engine(n, "approach, hold")
     loop.helm(s * delta_deg, "execute")
     n_max = _lengths(profile, u, 60)
@@ -159,7 +153,7 @@ def turning_circle(profile: ShipProfile, delta_deg: float | None = None, *, side
     delta = profile.helm.max_rudder_deg if delta_deg is None else delta_deg
     loop = HelmLoop(profile, (u, 0.0, 0.0), n)
     loop.engine(n, "approach, hold")
-    loop.helm(_sign(side) * delta, "execute, hold")
+    loop.helm(side_sign(side) * delta, "execute, hold")
     n_max = _lengths(profile, u, 200)
     while loop.k < n_max and abs(loop.heading_deg) < 360.0 * turns:
         loop.step()
@@ -174,7 +168,7 @@ def pull_out(profile: ShipProfile, delta_deg: float = 20.0, *, side: str = "star
     n, u = _approach(profile, n_rps)
     loop = HelmLoop(profile, (u, 0.0, 0.0), n)
     loop.engine(n, "approach, hold")
-    loop.helm(_sign(side) * delta_deg, "execute")
+    loop.helm(side_sign(side) * delta_deg, "execute")
     window, n_max = _lengths(profile, u, 1.0), _lengths(profile, u, 40)
     hist: list[float] = []
     while loop.k < n_max and abs(loop.heading_deg) < 360.0:

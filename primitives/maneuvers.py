@@ -89,7 +89,8 @@ def rudder_force(profile: ShipProfile, delta_deg: float, speed: float | None = N
     return tn_full * delta_deg / MAX_RUDDER_DEG
 
 
-def _side(first_side: str) -> float:
+def side_sign(first_side: str) -> float:
+    """+1 for starboard, -1 for port."""
     if first_side not in ("starboard", "port"):
         raise ValueError(f"first_side must be 'starboard' or 'port', got {first_side!r}")
     return 1.0 if first_side == "starboard" else -1.0
@@ -114,7 +115,7 @@ def excitation_zigzag(
 ) -> Generated:
     """Zig-zag holding speed u with yaw rate +-r_amp and sway velocity -+v_amp (thesis tau3-tau8,
     tau17-tau20); the yaw (and sway) force switches sign when the heading passes +-psi_switch."""
-    side = _side(first_side)
+    side = side_sign(first_side)
     pos = steady_forces(profile, u, -v_amp, r_amp)
     neg = steady_forces(profile, u, v_amp, -r_amp)
     splits: list[int] = []
@@ -162,7 +163,7 @@ def zigzag(
 ) -> Generated:
     """Zig-zag delta/psi: rudder delta to one side, reverse when the heading change passes psi."""
     u = profile.cruise_speed_mps if speed is None else speed
-    side, tn = _side(first_side), rudder_force(profile, delta_deg, u)
+    side, tn = side_sign(first_side), rudder_force(profile, delta_deg, u)
     tx = steady_forces(profile, u, 0.0, 0.0)[0]
     psi_sw = np.radians(psi_deg)
     n_max = n_max or int(40 * profile.length_m / max(u, 1e-3) / profile.sample_time) + 10
@@ -186,7 +187,7 @@ def turning_circle(
 ) -> Generated:
     """Turning circle: full rudder held until the heading has changed 360 deg x turns."""
     u = profile.cruise_speed_mps if speed is None else speed
-    s, tn = _side(side), rudder_force(profile, delta_deg, u)
+    s, tn = side_sign(side), rudder_force(profile, delta_deg, u)
     tx = steady_forces(profile, u, 0.0, 0.0)[0]
     n_max = int(200 * profile.length_m / max(u, 1e-3) / profile.sample_time)
 
@@ -201,7 +202,7 @@ def turning_circle(
 def pull_out(profile: ShipProfile, delta_deg: float = 20.0, *, speed: float | None = None, side: str = "starboard") -> Generated:
     """Pull-out: steady turn with rudder delta, then rudder amidships and let the yaw rate decay."""
     u = profile.cruise_speed_mps if speed is None else speed
-    s, tn = _side(side), rudder_force(profile, delta_deg, u)
+    s, tn = side_sign(side), rudder_force(profile, delta_deg, u)
     tx = steady_forces(profile, u, 0.0, 0.0)[0]
     n_leg = int(8 * profile.length_m / max(u, 1e-3) / profile.sample_time)
     f = np.array([(tx, 0.0, s * tn)] * n_leg + [(tx, 0.0, 0.0)] * n_leg)
