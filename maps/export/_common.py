@@ -118,19 +118,26 @@ def leg_samples(plan: Plan, wps: list[Waypoint], i: int) -> slice:
     return slice(wps[i - 1].sample, wps[i].sample + 1)
 
 
-def cross_track(plan: Plan, wps: list[Waypoint], i: int) -> tuple[float, float]:
-    """Largest excursion (starboard, port) in metres of the track from the straight leg into
-    waypoint ``i``, measured in the local metric frame of the plan. A leg whose ends coincide
-    (e.g. a turn on the spot) is measured around its start point."""
-    seg = plan.track[leg_samples(plan, wps, i), :2]
+def line_offsets(seg: np.ndarray) -> tuple[np.ndarray, float]:
+    """Signed starboard offsets (m) of track points ``seg`` (x north, y east) from the line
+    seg[0] -> seg[-1], and the line's length; a line whose ends coincide (a turn on the spot)
+    gives the distances from its point and length 0."""
     a, b = seg[0], seg[-1]
     d = b - a
     length = float(np.hypot(*d))
     if length < 1e-6:
-        r = np.hypot(*(seg - a).T)
-        return float(r.max()), float(r.max())
-    n_stbd = np.array([-d[1], d[0]]) / length  # right of the direction of travel (x north, y east)
-    off = (seg - a) @ n_stbd
+        return np.hypot(*(seg - a).T), 0.0
+    n_stbd = np.array([-d[1], d[0]]) / length  # right of the direction of travel
+    return (seg - a) @ n_stbd, length
+
+
+def cross_track(plan: Plan, wps: list[Waypoint], i: int) -> tuple[float, float]:
+    """Largest excursion (starboard, port) in metres of the track from the straight leg into
+    waypoint ``i``, measured in the local metric frame of the plan. A leg whose ends coincide
+    (e.g. a turn on the spot) is measured around its start point."""
+    off, length = line_offsets(plan.track[leg_samples(plan, wps, i), :2])
+    if length == 0.0:
+        return float(off.max()), float(off.max())
     return float(max(off.max(), 0.0)), float(max(-off.min(), 0.0))
 
 

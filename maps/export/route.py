@@ -28,7 +28,7 @@ import shapely
 from pyproj import Geod
 from shapely.geometry.base import BaseGeometry
 
-from maps.export._common import M_PER_NM, check_plan, step_slice
+from maps.export._common import M_PER_NM, check_plan, line_offsets, step_slice
 from maps.export.chart import Chart
 from maps.plan import Plan, PlanStep
 
@@ -129,18 +129,6 @@ def xtd_floor_m(metres: float) -> float:
     return math.floor(min(metres, XTD_MAX_M) / M_PER_NM * 1000.0 + 1e-9) / 1000.0 * M_PER_NM
 
 
-def _offsets(seg: np.ndarray) -> tuple[np.ndarray, float]:
-    """Signed starboard offsets (m) of track points from the line seg[0] -> seg[-1] (x north,
-    y east) and the line's length; a leg whose ends coincide is measured as a circle."""
-    a, b = seg[0], seg[-1]
-    d = b - a
-    length = float(np.hypot(*d))
-    if length < 1e-6:
-        return np.hypot(*(seg - a).T), 0.0
-    n_stbd = np.array([-d[1], d[0]]) / length  # right of the direction of travel
-    return (seg - a) @ n_stbd, length
-
-
 def free_width(a: np.ndarray, b: np.ndarray, obstacles: BaseGeometry | None, side: float, reach: float) -> float:
     """Width (m, up to ``reach``) of the water free of ``obstacles`` on one side of the leg a -> b
     (``side`` +1 starboard, -1 port), measured perpendicular to the leg (metric x north, y east)."""
@@ -161,7 +149,7 @@ def free_width(a: np.ndarray, b: np.ndarray, obstacles: BaseGeometry | None, sid
 def _leg(plan: Plan, ka: int, kb: int, lonlat: tuple[float, float, float, float], half: float, half_beam: float,
          obstacles: BaseGeometry | None) -> Leg:
     seg = plan.track[ka : kb + 1, :2]
-    off, chord = _offsets(seg)
+    off, chord = line_offsets(seg)
     exc_s, exc_p = float(max(off.max(), 0.0)), float(max(-off.min(), 0.0))
     if chord == 0.0:  # a turn on the spot: a circle round the point
         exc_p = exc_s
@@ -186,7 +174,7 @@ def _split_at(plan: Plan, ka: int, kb: int) -> int | None:
     """Sample of the largest excursion from the line ka -> kb (None: nothing to split)."""
     if kb - ka < 2:
         return None
-    off, _ = _offsets(plan.track[ka : kb + 1, :2])
+    off, _ = line_offsets(plan.track[ka : kb + 1, :2])
     k = ka + int(np.argmax(np.abs(off[1:-1]))) + 1
     return k if ka < k < kb else None
 
