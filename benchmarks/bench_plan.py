@@ -14,7 +14,7 @@ target.
   (tests/data/fjord.geojson): target 10 s. The outcome is printed: a VLCC's speed-change trials
   need more than 20 km of water, so the chain is expected to stop with the manoeuvres that fit
   nowhere (exit 1 in the CLI).
-* ``kvlcc2_open_sea``: kvlcc2 on 40 km x 40 km of open water (tests/data/open-sea.geojson).
+* ``kvlcc2_open_sea``: kvlcc2 on 60 km x 60 km of open water (tests/data/open-sea.geojson).
 * ``scenario``: the section 9.4 scenario as the thesis ran it (4 headings, no run-ins): search
   target 1 s (thesis: about 40 s for a plain A*).
 * ``refusal``: how long the up-front refusal of a lattice that would not fit takes (target 1 s).

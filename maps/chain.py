@@ -94,6 +94,7 @@ class Lattice:
     notes: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     setup_s: float = 0.0
+    too_big: dict[str, tuple[float, float]] = field(default_factory=dict)  # left out: larger than the water in every heading
     _placements: dict[float, list] = field(default_factory=dict, repr=False)
 
     @property
@@ -135,7 +136,7 @@ class Lattice:
     def fits_nowhere(self) -> dict[str, tuple[float, float]]:
         """Informative primitives with no collision-free placement in the window: {name: (along,
         cross) metres of open water the move needs, margin included on both sides}."""
-        out: dict[str, tuple[float, float]] = {}
+        out: dict[str, tuple[float, float]] = dict(self.too_big)
         for m, per_h in zip(self.moves, self.placements()):
             if m.counter >= 0 and not any(ok.any() for ok, _ in per_h):
                 b = m.prims[0].footprint.bounds
@@ -197,11 +198,13 @@ def estimate_memory(lat_ni: int, lat_nj: int, n_head: int, n_moves: int, targets
 
 def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive], counts: dict[str, int], *,
                   start: LatLonHdg | None = None, goal: LatLonHdg | None = None, options: PlanOptions | None = None,
-                  cache: dict[str, Any] | None = None) -> Lattice:
+                  cache: dict[str, Any] | None = None, prefilter: bool = False) -> Lattice:
     """Window, collision grid and motion set for planning ``counts`` uses of ``primitives``.
 
     ``cache`` (a dict kept between calls) reuses moves already built for the same options.
     Raises MapError before any heavy work when the lattice would not fit in ``max_memory_gib``.
+    ``prefilter``: leave out (in ``too_big``) primitives larger than the navigable water in every
+    lattice heading, without building their moves.
     """
     from maps.scenario import HELSINKI_GOAL, HELSINKI_START
 
@@ -233,7 +236,10 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     if "basic" not in cache:
         cache["basic"] = basic_move_set(profile, res, K, o.basic_cost, o.spot_turns)
     moves, names, targets, notes = [], [], {}, []
+    too_big = _too_big(sea, win, prims, heading_table(K), o.margin) if prefilter else {}
     for p in prims:
+        if p.name in too_big:
+            continue
         if p.name not in cache:
             cache[p.name] = informative_moves([p], {p.name: 1}, res, K, o.split, run_in_seconds(profile, o.run_in_s))
         mv_, nm_, _, nt_ = cache[p.name]
@@ -247,13 +253,42 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     gi, gj = win.cell_of(gx, gy)
     if not win.contains(gi, gj):
         raise MapError(f"goal lies outside the planning window ({win.ni} x {win.nj} points of {res:g} m)")
-    ext = max(max(abs(v) for pr in m.prims for v in pr.footprint.bounds) for m in moves)
+    ext = max((max(abs(v) for pr in m.prims for v in pr.footprint.bounds) for m in moves), default=0.0)
     snap = max(float(m.snap_m.max()) for m in moves)
     grid = CollisionGrid(sea, win, o.margin, o.sub, ext + o.margin + snap + res + 100.0 + o.clearance_lengths * profile.length_m)
     return Lattice(sea, profile, o, win, grid, table, moves, names, targets, {p.name: p for p in prims},
                    (sx, sy, float(table[h_start])), h_start, win.cell_of(sx, sy), (gi, gj),
                    [nearest_heading(gpsi, table)] if gpsi is not None else list(range(K)), start_ll, goal_ll, notes, warnings,
-                   time.perf_counter() - t0)
+                   time.perf_counter() - t0, too_big)
+
+
+def _too_big(sea: SeaMap, win: Window, prims: list[Primitive], table: np.ndarray, margin: float) -> dict[str, tuple[float, float]]:
+    """Primitives whose footprint (grown by the margin) is larger than the bounding box of the
+    navigable water of the window in every lattice heading: they fit nowhere (a certain, cheap
+    test; the collision grid decides for the others)."""
+    import shapely
+    from shapely import affinity
+
+    water = shapely.box(*win.bounds).difference(sea.no_go())
+    if water.is_empty:
+        return {p.name: _needs(p, margin) for p in prims}
+    wx0, wy0, wx1, wy1 = water.bounds
+    out = {}
+    for p in prims:
+        fits = False
+        for psi in table:
+            b = affinity.rotate(p.footprint, float(psi), origin=(0, 0), use_radians=True).bounds
+            if b[2] - b[0] + 2 * margin <= wx1 - wx0 and b[3] - b[1] + 2 * margin <= wy1 - wy0:
+                fits = True
+                break
+        if not fits:
+            out[p.name] = _needs(p, margin)
+    return out
+
+
+def _needs(p: Primitive, margin: float) -> tuple[float, float]:
+    b = p.footprint.bounds
+    return float(b[2] - b[0] + 2 * margin), float(b[3] - b[1] + 2 * margin)
 
 
 @dataclass

@@ -356,7 +356,7 @@ def run_in_inputs(prim: Primitive, res: float, n_head: int, run_in_s: float) -> 
     nu_t = np.array([helm.uc, 0.0, 0.0])
     near = np.all(np.abs(np.array([u0, v0, r0]) - nu_t) * (1.0, 1.0, prim.profile.length_m) < 0.02)
     m = prim.inputs.shape[1]
-    reach = np.zeros((0, m)) if near else helm.run(nu_t, (0.0, 0.0, 0.0), [("hold", (u0, v0, r0, 0.0))], n_max=600)
+    reach = np.zeros((0, m)) if near else helm.run(nu_t, (0.0, 0.0, 0.0), [("hold", (u0, v0, r0, 0.0))], n_max=20000)
     n_hold = int(round(run_in_s / helm.ts))
     if helm.rudder is not None:  # steady: rudder for the entry yaw rate, shaft for the entry speed
         row = np.array([0.0, helm.rudder.rps(u0)])  # rudder ships start their manoeuvres steady on a straight course

@@ -96,7 +96,7 @@ def plan_with_design(
         built: dict[str, Any] = {}
 
         def fits_nowhere(ps: list[Primitive], cs: dict[str, int]) -> dict[str, tuple[float, float]]:
-            built["lat"] = build_lattice(sea, prof, ps, cs, start=start, goal=goal, options=o, cache=cache)
+            built["lat"] = build_lattice(sea, prof, ps, cs, start=start, goal=goal, options=o, cache=cache, prefilter=True)
             return built["lat"].fits_nowhere()
 
         td = design_for_map(prof, fits_nowhere, primitives, criterion=criterion, mean_subtraction=mean_subtraction,

@@ -56,7 +56,7 @@ def fjord(lat0: float = 60.0, lon0: float = 5.0, length_m: float = 20_000.0, wid
     return {"type": "FeatureCollection", "name": f"fjord {L / 1000:.0f} x {W / 1000:.0f} km (synthetic)", "features": feats}
 
 
-def open_sea(lat0: float = 57.0, lon0: float = 11.0, size_m: float = 40_000.0) -> dict:
+def open_sea(lat0: float = 57.0, lon0: float = 11.0, size_m: float = 60_000.0) -> dict:
     """A square trial area of open deep water (``size_m`` on a side), start in the south-west
     corner heading north-east, goal in the north-east corner: room for a VLCC's trials."""
     S = size_m

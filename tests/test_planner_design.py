@@ -132,3 +132,18 @@ def test_design_that_fits_nowhere_exit_1(tmp_path, capsys):
 def test_lattice_too_big_refused_up_front(tmp_path, capsys):
     rc, err = _cli_fails(["--scenario", "thesis-9.4", "--max-memory", "0.001", "--out", str(tmp_path / "o")], capsys)
     assert rc == 2 and "would not fit" in err and "states" in err and "GiB" in err and "--resolution" in err
+
+
+@pytest.mark.slow
+def test_kvlcc2_on_a_map_too_small_exit_1(tmp_path, capsys):
+    """A VLCC in a 3 km x 2 km basin: every manoeuvre of its library is named with the water it needs."""
+    p = tmp_path / "basin.geojson"
+    p.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"kind": "trial_area"}, "geometry": {"type": "Polygon", "coordinates": [
+            [[25.0, 60.0], [25.036, 60.0], [25.036, 60.027], [25.0, 60.027], [25.0, 60.0]]]}},
+        {"type": "Feature", "properties": {"kind": "start", "heading_deg": 0}, "geometry": {"type": "Point", "coordinates": [25.018, 60.005]}},
+        {"type": "Feature", "properties": {"kind": "goal"}, "geometry": {"type": "Point", "coordinates": [25.018, 60.022]}},
+    ]}))
+    out = tmp_path / "o"
+    rc, err = _cli_fails(["--ship", "kvlcc2", "--map", str(p), "--out", str(out)], capsys)
+    assert rc == 1 and "fit nowhere" in err and "acceleration needs" in err and "m of open water" in err and not out.exists()
