@@ -1,7 +1,11 @@
-"""Sea maps and the A* lattice planner (seed 001 chapter 8, section 9.4).
+"""Sea maps and the planning chain (seed 001 chapters 7-8, section 9.4).
 
-geo (load/validate/project GeoJSON -> SeaMap, MapError), collision (conservative raster checks),
-lattice (motion set settled onto the lattice), astar (search and heuristics), verify
-(continuous re-simulation), planner (``plan_trial -> Plan``), scenario (section 9.4 primitives),
-output (plan.json, trajectory.geojson, picture), plan (the Plan read by the exporters).
+geo (load/validate/project GeoJSON -> SeaMap, MapError), trialdesign (design of the ship's
+library rounded to whole manoeuvres, redesign without what fits nowhere), motionset and lattice
+(moves settled onto the lattice, run-ins, the helm for azimuth and rudder ships), collision
+(conservative raster checks), astar (search and heuristics), smooth (legs, closed-loop
+realisation, straightened transit), verify (continuous re-simulation), chain (the steps one at a
+time), planner (``plan_trial -> Plan``), scenario (section 9.4 primitives), testmaps (synthetic
+fjord, archipelago, open sea), output (plan.json, trajectory.geojson, picture), plan (the Plan
+read by the exporters).
 """

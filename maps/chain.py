@@ -1,12 +1,14 @@
 """The planning chain as steps a notebook can call one at a time (seed 001 chapters 7-8, section 9.4).
 
-    td  = design_for_map(profile, ...)                    # counts from the design (maps.trialdesign)
-    lat = build_lattice(sea, profile, td.support(), td.counts, options=PlanOptions())
-    out = search_plan(lat)                                 # A* over (i, j, heading, g_1..g_Q) (8.3)
-    ver = verify_plan(lat, out)                            # legs, shortcuts, continuous re-simulation
-    plan = assemble_plan(lat, out, ver)
+    td   = design_counts(profile)                          # maps.trialdesign: design -> whole manoeuvres
+    lat  = build_lattice(sea, profile, td.support(), td.counts, options=PlanOptions())
+    lat.fits_nowhere()                                     # {name: (along, cross) m of water it needs}
+    out  = search_plan(lat)                                # A* over (i, j, heading, g_1..g_Q) (8.3)
+    real = verify_plan(lat, out)                           # legs sailed from the actual state, re-simulated
+    plan = assemble_plan(lat, out, real, design=td.record)
 
-:func:`maps.planner.plan_trial` composes them (with the re-plans on a verification failure).
+:func:`maps.trialdesign.design_for_map` redoes the design without what fits nowhere;
+:func:`maps.planner.plan_trial` composes it all (with the re-plans on a verification failure).
 """
 
 from __future__ import annotations
@@ -327,6 +329,8 @@ class Realised:
 def verify_plan(lat: Lattice, out: SearchOutcome) -> Realised:
     """Legs of the found path (run-ins split off, transit runs straightened where the water
     allows), re-simulated continuously from the start and checked against the margin."""
+    if not out.found:
+        raise ValueError(f"verify_plan needs a path: the search found none ({out.result.reason})")
     K = len(lat.table)
     res = out.result
     p = lat.profile

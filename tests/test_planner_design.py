@@ -12,6 +12,7 @@ import shapely
 from shapely.geometry import LineString, shape
 
 from cli.app import _run
+from maps.geo import load_map
 from maps.planner import plan_trial
 from maps.trialdesign import design_counts
 from primitives.ship import load_profile
@@ -73,8 +74,6 @@ def test_transit_close_to_shortest_path_through_water(profile):
     path = DATA / "archipelago.geojson"
     plan = plan_trial(path, profile=profile, counts={"steep_zigzag_surge": 1})
     assert plan.feasible and plan.min_clearance_m >= plan.margin_m
-    from maps.geo import load_map
-
     sea = load_map(path, draught_m=profile.draught_m)
     doc = json.loads(path.read_text())
     land_ll = shapely.union_all([shape(f["geometry"]) for f in doc["features"] if f["properties"]["kind"] == "land"])
@@ -110,6 +109,34 @@ def _cli_fails(args, capsys):
     return rc, err
 
 
+def test_chain_steps_one_at_a_time(profile):
+    """The steps a notebook calls: lattice, fit check, search, verification, assembly."""
+    from maps.chain import PlanOptions, assemble_plan, build_lattice, search_plan, verify_plan
+    from maps.scenario import thesis_planning_scenario
+
+    prims, _ = thesis_planning_scenario(profile)
+    lat = build_lattice(load_map(draught_m=profile.draught_m), profile, prims[:1], {prims[0].name: 1}, options=PlanOptions())
+    assert lat.fits_nowhere() == {} and lat.n_states() > 0
+    out = search_plan(lat)
+    real = verify_plan(lat, out)
+    plan = assemble_plan(lat, out, real)
+    assert out.found and real.verification.ok and plan.feasible and plan.counts == {prims[0].name: 1}
+    assert [s.segment for s in plan.steps].count("run-in") == 1 and plan.vessel_name == profile.name
+
+
+def _box_map(tmp_path, box, start, goal):
+    """A rectangular trial area (lon0, lat0, lon1, lat1) with a start (lon, lat, heading) and a goal (lon, lat)."""
+    lo0, la0, lo1, la1 = box
+    feats = [{"type": "Feature", "properties": {"kind": "trial_area"}, "geometry": {"type": "Polygon", "coordinates": [
+                 [[lo0, la0], [lo1, la0], [lo1, la1], [lo0, la1], [lo0, la0]]]}},
+             {"type": "Feature", "properties": {"kind": "start", "heading_deg": start[2]},
+              "geometry": {"type": "Point", "coordinates": list(start[:2])}},
+             {"type": "Feature", "properties": {"kind": "goal"}, "geometry": {"type": "Point", "coordinates": list(goal)}}]
+    p = tmp_path / "box.geojson"
+    p.write_text(json.dumps({"type": "FeatureCollection", "features": feats}))
+    return p
+
+
 def test_trial_length_too_short(tmp_path, capsys):
     out = tmp_path / "o"
     rc, err = _cli_fails(["--trial-length", "50", "--out", str(out)], capsys)
@@ -117,13 +144,7 @@ def test_trial_length_too_short(tmp_path, capsys):
 
 
 def test_design_that_fits_nowhere_exit_1(tmp_path, capsys):
-    p = tmp_path / "pond.geojson"
-    p.write_text(json.dumps({"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"kind": "trial_area"}, "geometry": {"type": "Polygon", "coordinates": [
-            [[25.0, 60.0], [25.006, 60.0], [25.006, 60.003], [25.0, 60.003], [25.0, 60.0]]]}},
-        {"type": "Feature", "properties": {"kind": "start", "heading_deg": 90}, "geometry": {"type": "Point", "coordinates": [25.001, 60.0015]}},
-        {"type": "Feature", "properties": {"kind": "goal"}, "geometry": {"type": "Point", "coordinates": [25.005, 60.0015]}},
-    ]}))
+    p = _box_map(tmp_path, (25.0, 60.0, 25.006, 60.003), (25.001, 60.0015, 90), (25.005, 60.0015))
     out = tmp_path / "o"
     rc, err = _cli_fails(["--map", str(p), "--out", str(out)], capsys)
     assert rc == 1 and "fit nowhere" in err and "m of open water" in err and "tau" in err and not out.exists()
@@ -137,13 +158,7 @@ def test_lattice_too_big_refused_up_front(tmp_path, capsys):
 @pytest.mark.slow
 def test_kvlcc2_on_a_map_too_small_exit_1(tmp_path, capsys):
     """A VLCC in a 3 km x 2 km basin: every manoeuvre of its library is named with the water it needs."""
-    p = tmp_path / "basin.geojson"
-    p.write_text(json.dumps({"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"kind": "trial_area"}, "geometry": {"type": "Polygon", "coordinates": [
-            [[25.0, 60.0], [25.036, 60.0], [25.036, 60.027], [25.0, 60.027], [25.0, 60.0]]]}},
-        {"type": "Feature", "properties": {"kind": "start", "heading_deg": 0}, "geometry": {"type": "Point", "coordinates": [25.018, 60.005]}},
-        {"type": "Feature", "properties": {"kind": "goal"}, "geometry": {"type": "Point", "coordinates": [25.018, 60.022]}},
-    ]}))
+    p = _box_map(tmp_path, (25.0, 60.0, 25.036, 60.027), (25.018, 60.005, 0), (25.018, 60.022))
     out = tmp_path / "o"
     rc, err = _cli_fails(["--ship", "kvlcc2", "--map", str(p), "--out", str(out)], capsys)
     assert rc == 1 and "fit nowhere" in err and "acceleration needs" in err and "m of open water" in err and not out.exists()
