@@ -222,10 +222,9 @@ def _draw_table(fig, rect: tuple[float, float, float, float], cols: list[str], r
             cell.set_text_props(fontweight="bold")
 
 
-def table_pages(plan: Plan, title: str, cols: list[str], rows: list[list[str]], widths: list[float], first_page: int) -> list:
+def table_pages(plan: Plan, title: str, cols: list[str], rows: list[list[str]], widths: list[float], first_page: int):
     """A long table on as many A4 pages as it needs (``ROWS_PER_PAGE`` rows each, header
-    repeated, "continued" on the following pages): every row is printed."""
-    figs = []
+    repeated, "continued" on the following pages): every row is printed. Yields the figures."""
     chunks = [rows[i : i + ROWS_PER_PAGE] for i in range(0, len(rows), ROWS_PER_PAGE)] or [[]]
     for j, chunk in enumerate(chunks):
         fig = plt.figure(figsize=A4)
@@ -234,8 +233,11 @@ def table_pages(plan: Plan, title: str, cols: list[str], rows: list[list[str]], 
         fig.text(0.04, 0.975, f"{plan.ship}: {title}{cont}, rows {a}-{a + len(chunk) - 1} of {len(rows)} "
                  f"(page {first_page + j})", fontsize=10, va="top", fontweight="bold" if not j else "normal")
         _draw_table(fig, (0.03, 0.03, 0.94, 0.92), cols, chunk, widths)
-        figs.append(fig)
-    return figs
+        yield fig
+
+
+def _n_table_pages(rows: list) -> int:
+    return max(1, -(-len(rows) // ROWS_PER_PAGE))
 
 
 def _page1(plan: Plan, sheets: list[dict], t0: datetime, sea_map: Any, vessel: str):
@@ -285,36 +287,45 @@ def _detail_lines(sheets: list[dict]) -> list[tuple[str, dict]]:
     return lines
 
 
-def _detail_pages(plan: Plan, sheets: list[dict], first_page: int) -> list:
-    lines = _detail_lines(sheets)
-    per_page = 62
-    pages = []
-    for p in range(0, len(lines), per_page):
+DETAIL_LINES_PER_PAGE = 62
+
+
+def _detail_pages(plan: Plan, lines: list[tuple[str, dict]], first_page: int):
+    """The orders per step, ``DETAIL_LINES_PER_PAGE`` lines a page. Yields the figures."""
+    for n, p in enumerate(range(0, len(lines), DETAIL_LINES_PER_PAGE)):
         fig = plt.figure(figsize=A4)
-        fig.text(0.05, 0.975, f"{plan.ship}: orders per step in sailing order (page {first_page + len(pages)})", fontsize=10,
+        fig.text(0.05, 0.975, f"{plan.ship}: orders per step in sailing order (page {first_page + n})", fontsize=10,
                  va="top", color="0.3")
-        for i, (text, style) in enumerate(lines[p : p + per_page]):
+        for i, (text, style) in enumerate(lines[p : p + DETAIL_LINES_PER_PAGE]):
             fig.text(0.05, 0.95 - i * 0.0148, text, va="top", family="DejaVu Sans", **style)
-        pages.append(fig)
-    return pages
+        yield fig
 
 
-def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None) -> list:
-    """The card's pages as matplotlib figures: page 1 (summary, abort criteria, design, map),
-    the table of steps (and of the design) over as many pages as they need, the orders per
-    step, and the states over time."""
+def iter_card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None):
+    """The card's pages as matplotlib figures, one at a time (a long plan never holds every
+    page open): page 1 (summary, abort criteria, design, map), the table of steps (and of the
+    design) over as many pages as they need, the orders per step, the states over time."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
     sheets = step_sheets(plan, t0, sea_map)
-    vname = vessel_name(plan, vessel)
-    figs = [_page1(plan, sheets, t0, sea_map, vname)]
-    figs += table_pages(plan, "steps in sailing order", TABLE_COLS, _table_rows(sheets), TABLE_WIDTHS, len(figs) + 1)
+    rows = _table_rows(sheets)
     _, drows = design_rows(plan)
+    lines = _detail_lines(sheets)
+    yield _page1(plan, sheets, t0, sea_map, vessel_name(plan, vessel))
+    page = 2
+    yield from table_pages(plan, "steps in sailing order", TABLE_COLS, rows, TABLE_WIDTHS, page)
+    page += _n_table_pages(rows)
     if drows:
-        figs += table_pages(plan, "experiment design", ["primitive", "weight", "rounded count", "planned"], drows,
-                            [0.4, 0.2, 0.2, 0.2], len(figs) + 1)
-    figs += _detail_pages(plan, sheets, len(figs) + 1)
-    return [*figs, states_figure(plan)]
+        yield from table_pages(plan, "experiment design", ["primitive", "weight", "rounded count", "planned"], drows,
+                               [0.4, 0.2, 0.2, 0.2], page)
+        page += _n_table_pages(drows)
+    yield from _detail_pages(plan, lines, page)
+    yield states_figure(plan)
+
+
+def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None) -> list:
+    """Every page of :func:`iter_card_figures` (the caller closes them)."""
+    return list(iter_card_figures(plan, sea_map, start, vessel))
 
 
 def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None,
@@ -323,15 +334,13 @@ def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: dat
     import matplotlib
     from matplotlib.backends.backend_pdf import PdfPages
 
-    figs = card_figures(plan, sea_map, start, vessel)
     buf = io.BytesIO()
-    try:
-        with matplotlib.rc_context({"pdf.fonttype": 42}), PdfPages(buf) as pdf:
-            for f in figs:
+    with matplotlib.rc_context({"pdf.fonttype": 42}), PdfPages(buf) as pdf:
+        for f in iter_card_figures(plan, sea_map, start, vessel):
+            try:
                 pdf.savefig(f)
-    finally:
-        for f in figs:
-            plt.close(f)
+            finally:
+                plt.close(f)
     return atomic_write_bytes(path, buf.getvalue())
 
 
