@@ -187,8 +187,9 @@ def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list
         f"duration {clock(plan.duration_s)} (h:)min:s, {plan.length_m:.0f} m ({plan.length_m / M_PER_NM:.2f} NM)",
         "Plan " + ("feasible" if plan.feasible else "NOT FEASIBLE") + (", optimal" if plan.optimal else "")
         + f"; hull {plan.hull[0]:g} m x {plan.hull[1]:g} m; safety margin {plan.margin_m:.0f} m",
-        "Cross-track limits of the route: " + ("cut to the land-free water of the chart" if chart is not None and not chart.is_empty()
-                                               else "NOT checked against a chart (export with --map)"),
+        "Cross-track limits of the route: " + ("NOT checked against a chart (export with --map)" if chart is None
+                                               else "the chart shows no land or no-go water near the track"
+                                               if chart.is_empty() else "cut to the land-free water of the chart"),
     ]
 
 
