@@ -106,10 +106,12 @@ class Realiser:
             u0, v0, r0 = (float(x) for x in pr.nu[n_r])
             ri = helm.run(nu, self._rel(spatial, eta), [("hold", (u0, v0, r0, self.run_in_s, float(lat.table[h])))], n_max=20000)
             u = float(np.hypot(u0, v0))
+            course = float(np.degrees(lat.table[h]) % 360)
+            text = (f"steady on course {course:05.1f} deg at {u / 0.514444:.1f} kn for {len(ri) * pr.profile.sample_time:.0f} s, "
+                    f"then execute {m.name}")
             legs.append(Leg(f"run-in {m.name}", m.source or m.name, "run-in", "run-in", f"run-in to {m.name}: steady course and speed",
-                            pr.profile, ri, [f"steady on course {np.degrees(lat.table[h]) % 360:05.1f} deg at {u:.1f} m/s "
-                                             f"({u / 0.514444:.1f} kn) for {len(ri) * pr.profile.sample_time:.0f} s, then "
-                                             f"execute {m.name}"], space, mi, spatial))
+                            pr.profile, ri, [text], space, mi, spatial,
+                            orders=[{"t_s": 0.0, "text": text, "course_deg": course, "speed_kn": u / 0.514444}]))
             nu, eta = _advance(pr.profile, ri, nu, eta)
         body = pr.inputs[n_r:core]
         nu2, eta2 = _advance(pr.profile, body, nu, eta)
