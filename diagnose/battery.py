@@ -129,7 +129,7 @@ def _one(profile: ShipProfile, effects: tuple[str, ...], rng: np.random.Generato
         chans["wind_speed"] = np.full(len(y), spd)
         chans["wind_dir"] = np.full(len(y), float(np.arctan2(-wind[1], -wind[0])))  # comes from
     return Recording(name, res.t, y, res.psi_meas[0], res.pos_meas[0], chans, labels + labels[-1:],
-                     {"ship": profile.name, "generated": "diagnose.battery"}, [])
+                     {"ship": profile.name, "generated": "diagnose.battery", "input_hold": "zoh"}, [])
 
 
 def scenario(effects: tuple[str, ...], seed: int, *, profile: ShipProfile | None = None, n_prims: int = 6) -> Scenario:

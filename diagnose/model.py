@@ -83,6 +83,10 @@ class AugmentedModel:
         self.n_slots_end = j
         self.n_rec = n_rec  # initial-state corrections (3 per diagnosed recording), seed 004 lesson 4
         self.n_params = j + 3 * n_rec
+        # Recorded inputs sampled from a continuous actuator act, over a step, like their value
+        # half a sample later than the sample (zero-order-hold convention of nu(k+1) = nu(k) + ...):
+        # the delay slot is the model's shift, the physical delay is that plus half a sample.
+        self.half_sample = 0.0
         self._slot_fn = {k: compile_term(s.term) for k, s in enumerate(self.slots, start=self.n_base)
                          if s.kind == "term" and s.term not in ("wx", "wy", "wn")}
 
@@ -270,6 +274,40 @@ def noise_std(y: np.ndarray) -> np.ndarray:
     return np.maximum(mad, floor)
 
 
+def noise_std_coloured(y: np.ndarray, max_lag: int = 6) -> np.ndarray:
+    """Measurement-noise std per output, robust to coloured (AR(1)) noise.
+
+    The robust variance of the lag-L second difference y(k+L) - 2 y(k) + y(k-L) is modelled as
+    c L^4 (a smooth motion) + s^2 (6 - 8 rho^L + 2 rho^2L) (AR(1) noise of std s and lag-one
+    correlation rho) over L = 1..max_lag; (c, s^2) by non-negative least squares on the relative
+    error for each rho of a grid. White noise is rho = 0 (the plain second-difference estimate);
+    coloured noise hides from the lag-one difference, which underestimates it several times.
+    """
+    from scipy.optimize import nnls
+
+    n = len(y)
+    lags = np.arange(1, max_lag + 1)
+    lags = lags[2 * lags < n - 2]
+    out = noise_std(y)
+    if len(lags) < 3:
+        return out
+    for i in range(y.shape[1]):
+        v = np.empty(len(lags))
+        for q, L in enumerate(lags):
+            d2 = y[2 * L:, i] - 2 * y[L:-L, i] + y[: -2 * L, i]
+            v[q] = (1.4826 * np.median(np.abs(d2 - np.median(d2)))) ** 2
+        if not np.all(v > 0):
+            continue
+        best = (np.inf, out[i] ** 2)
+        for rho in np.linspace(0.0, 0.9, 19):
+            A = np.column_stack([lags.astype(float) ** 4, 6 - 8 * rho**lags + 2 * rho ** (2 * lags)]) / v[:, None]
+            coef, res = nnls(A, np.ones(len(lags)))
+            if res < best[0] - 1e-9:
+                best = (res, coef[1])
+        out[i] = max(np.sqrt(best[1]), out[i])
+    return out
+
+
 def residuals(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
     """Open-loop residuals y - y_hat per recording, each (B, N+1, 3)."""
     with np.errstate(all="ignore"):
@@ -300,25 +338,51 @@ def jacobian(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: 
     return R[0], J
 
 
+def _prior_rows(P: np.ndarray, free: list[int], prior: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+    """Regularisation towards the profile (a Gaussian prior, seed 004 lesson 17): residual rows
+    (P_j - ref_j) / sd_j for the free parameters with a finite sd, and their Jacobian."""
+    if prior is None:
+        return np.zeros(0), np.zeros((0, len(free)))
+    ref, sd = prior
+    rows = [k for k, j in enumerate(free) if np.isfinite(sd[j]) and sd[j] > 0]
+    J = np.zeros((len(rows), len(free)))
+    for n, k in enumerate(rows):
+        J[n, k] = 1.0 / sd[free[k]]
+    r = np.array([(P[free[k]] - ref[free[k]]) / sd[free[k]] for k in rows])
+    return r, J
+
+
 def fit(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: list[int], w: np.ndarray,
         masks: list[np.ndarray] | None = None, max_iter: int = 10, bounds: dict[int, tuple[float, float]] | None = None,
-        tol: float = 1e-5) -> tuple[np.ndarray, np.ndarray, float]:
-    """Output-error Levenberg-Marquardt over the ``free`` parameters. Returns (P, cov, rss).
+        tol: float = 1e-5, prior: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """Output-error Levenberg-Marquardt over the ``free`` parameters within ``bounds``, with an
+    optional Gaussian ``prior`` (ref, sd) per parameter. Returns (P, cov, rss); rss is the data
+    part only, and ``inf`` when the refit diverged (a non-finite or exploding simulation).
 
     Each iteration tries four damping values in one batched simulation.
     """
     P = np.asarray(P, float).copy()
     bounds = bounds or {}
     h = model.steps(preps, P)
+
+    def total(Pb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        R = stack(residuals(model, preps, Pb), w, masks)
+        data = np.einsum("ij,ij->i", R, R)
+        pri = np.array([float(np.sum(_prior_rows(p, free, prior)[0] ** 2)) for p in Pb])
+        return data, data + pri
+
     r, J = jacobian(model, preps, P, free, w, masks, h)
+    rp, Jp = _prior_rows(P, free, prior)
     rss = float(r @ r)
+    obj = rss + float(rp @ rp)
     lam = 1e-3
     lams = np.array([0.1, 1.0, 10.0, 1000.0])
     for _ in range(max_iter):
         if not np.all(np.isfinite(J)):
             break
-        g = J.T @ r
-        A = J.T @ J
+        Ja, ra = np.vstack([J, Jp]), np.concatenate([r, rp])
+        g = Ja.T @ ra
+        A = Ja.T @ Ja
         d = np.sqrt(np.diag(A)) + 1e-300
         An = A / np.outer(d, d)
         cand = np.repeat(P[None], len(lams), axis=0)
@@ -329,26 +393,41 @@ def fit(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: list[
                 cand[k] = P
         for j, (lo, hi) in bounds.items():
             cand[:, j] = np.clip(cand[:, j], lo, hi)
-        R = stack(residuals(model, preps, cand), w, masks)
-        rss_c = np.einsum("ij,ij->i", R, R)
-        k = int(np.argmin(rss_c))
-        if not rss_c[k] < rss:
+        data_c, obj_c = total(cand)
+        k = int(np.argmin(obj_c))
+        if not obj_c[k] < obj:
             lam *= 1e4
             if lam > 1e8:
                 break
             continue
-        rel = (rss - rss_c[k]) / max(rss, 1e-300)
-        P, rss = cand[k], float(rss_c[k])
+        rel = (obj - obj_c[k]) / max(obj, 1e-300)
+        P, rss, obj = cand[k], float(data_c[k]), float(obj_c[k])
         lam = max(lam * lams[k] / 10, 1e-9)
         if rel < tol:
             break
         r, J = jacobian(model, preps, P, free, w, masks, h)
+        rp, Jp = _prior_rows(P, free, prior)
     dof = max(len(r) - len(free), 1)
+    Ja = np.vstack([J, Jp])
     try:
-        cov = np.linalg.pinv(J.T @ J) * (rss / dof)
+        cov = np.linalg.pinv(Ja.T @ Ja) * (rss / dof)
     except (np.linalg.LinAlgError, ValueError):
         cov = np.full((len(free), len(free)), np.nan)
+    if not np.all(np.isfinite(P)) or diverges(model, preps, P):
+        return P, cov, float("inf")
     return P, cov, rss
+
+
+def diverges(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> bool:
+    """True when the simulation at P is non-finite or leaves the recorded range by far
+    (an unstable refit: positive damping, a blown-up inertia)."""
+    with np.errstate(all="ignore"):
+        for p in preps:
+            yh = model.simulate(p, P)[0]
+            span = np.max(np.abs(p.y), axis=0) + 3.0 * np.std(p.y, axis=0) + 1e-9
+            if not np.all(np.isfinite(yh)) or np.any(np.max(np.abs(yh), axis=0) > 20.0 * span):
+                return True
+    return False
 
 
 def fit_percent(y: np.ndarray, yhat: np.ndarray) -> np.ndarray:
