@@ -12,8 +12,7 @@ from diagnose.candidates import build_library
 from diagnose.describe import describe
 from diagnose.heldout import grams, heldout_rss, make_parts
 from diagnose.locate import locate
-from diagnose.model import (AugmentedModel, Prepared, diverges, fit, fit_percent, noise_std, noise_std_coloured,
-                            prepare, residuals)
+from diagnose.model import AugmentedModel, Prepared, diverges, fit, fit_percent, noise_std, noise_std_coloured, prepare
 from diagnose.recording import Recording, RecordingError
 from diagnose.search import base_bounds, prior_sd, select
 from primitives.ship import DOFS, ShipProfile

@@ -61,7 +61,7 @@ def describe(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
         frac = float(vals[0] / base) if base else None
         out = {"term": term, "coefficient": float(vals[0]), "coefficient_std": sd[0]}
         if c.effect == "thrust_loss":
-            out["thrust_loss_pct"] = None if frac is None else -100.0 * frac
+            out["loss_percent"] = None if frac is None else -100.0 * frac
         else:
             out["resistance_change_pct"] = None if frac is None else 100.0 * frac
         return out

@@ -31,8 +31,8 @@ def sentence(f: dict) -> str:
         what = f"the {f['dof']} motion has nonlinear damping {p['term']} (coefficient {p['value']:.3g} per sample)"
     elif e == "missing_coupling":
         what = f"the {f['dof']} motion is coupled through {p['term']} (coefficient {p['value']:.3g} per sample)"
-    elif e == "thrust_loss" and "thrust_loss_pct" in p:
-        pct = p["thrust_loss_pct"]
+    elif e == "thrust_loss" and "loss_percent" in p:
+        pct = p["loss_percent"]
         what = (f"the thrust is {pct:.0f} % lower than the model's" if pct is not None
                 else f"the thrust term {p['term']} changes by {p['coefficient']:.3g}")
     elif e == "thrust_loss":
