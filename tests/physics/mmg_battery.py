@@ -47,6 +47,7 @@ VALIDATE = [Manoeuvre("zigzag", 10, 10, -1, 550), Manoeuvre("zigzag", 20, 20, 1,
 # full-scale measurement noise (std): u, v [m/s], r [rad/s], psi [rad], x, y [m]
 NOISE_FULL = {"u": 0.02, "v": 0.01, "r": 2.0e-4, "psi": 2.0e-3, "xy": 1.0}
 AR_COEF = 0.9
+LEAD_IN_S = 300.0  # straight approach under the autopilot before each manoeuvre (full-scale s)
 # a shallow-water-like change of the hull (not a published shallow-water model): larger sway
 # and yaw damping and resistance, larger sway added mass. It applies to every run, the calm one
 # included, so a baseline fitted on the calm run already holds it: nothing should be claimed.
@@ -114,11 +115,11 @@ def _setup(c: Case) -> tuple[MMGShip, MMGShip, Environment, dict]:
     eff_ship, env, act = ship, Environment(), {"delay_s": 0.0, "offset_rad": 0.0}
     m = c.magnitude
     if c.effect == "current":
-        spd = m["speed"] * np.sqrt(ts)  # speeds scale with sqrt(1/lambda) = sqrt(time scale)
+        spd = m["speed"] * ts  # Froude: speeds scale as times, 1/sqrt(lambda)
         a = np.radians(m["toward_deg"])
         env = Environment(current_ne=(spd * np.cos(a), spd * np.sin(a)))
     elif c.effect == "wind":
-        spd = m["speed"] * np.sqrt(ts)
+        spd = m["speed"] * ts
         a = np.radians(m["from_deg"])
         env = Environment(wind_ne=(-spd * np.cos(a), -spd * np.sin(a)))
     elif c.effect == "actuator_delay":
@@ -148,7 +149,7 @@ def _measure(run: Run, ship: MMGShip, rng: np.random.Generator, kind: str, bias:
              wind_ne: tuple[float, float] | None) -> dict[str, np.ndarray]:
     """Recorded columns: the run plus measurement noise (and a sensor bias, if any)."""
     n = len(run.t)
-    sq = np.sqrt(ship.time_scale)  # Froude: speeds x sqrt(ts); rates / ts; lengths x ts^2
+    sq = ship.time_scale  # Froude: speeds and times x ts, rates / ts, lengths x ts^2
     cols = {"t": run.t.copy(),
             "x": run.x + _noise(rng, (n,), NOISE_FULL["xy"] * ship.time_scale**2, kind),
             "y": run.y + _noise(rng, (n,), NOISE_FULL["xy"] * ship.time_scale**2, kind),
@@ -183,7 +184,7 @@ def _wind_truth(ship: MMGShip, runs: list[Run], wind_ne: tuple[float, float], Ts
             phi[i].append(f)
             inc[i].append(a[:, i])
     coef, weight = [], []
-    sq = np.sqrt(ship.time_scale)
+    sq = ship.time_scale
     sig = (NOISE_FULL["u"] * sq, NOISE_FULL["v"] * sq, NOISE_FULL["r"] / ship.time_scale)
     for i in range(3):
         f, y = np.concatenate(phi[i]), np.concatenate(inc[i])
@@ -204,7 +205,7 @@ def truth_of(c: Case, ship: MMGShip, runs: list[Run], env: Environment, Ts: floa
     if c.effect is None or c.effect == "shallow_water":
         return base | {"effects": [], "checks": {}}
     if c.effect == "current":
-        chk = {"speed_mps": [m["speed"] * np.sqrt(ts), 0.30, "rel"], "toward_deg": [m["toward_deg"], 25.0, "angle"]}
+        chk = {"speed_mps": [m["speed"] * ts, 0.30, "rel"], "toward_deg": [m["toward_deg"], 25.0, "angle"]}
     elif c.effect == "actuator_delay":
         chk = {"delay_s": [m["delay_s"] * ts, 0.3 * ts, "abs"]}
     elif c.effect == "input_offset":
@@ -230,8 +231,8 @@ def generate(c: Case) -> Generated:
     ship, eff_ship, env, act = _setup(c)
     Ts = ship.time_scale  # 1 s at full scale, Froude-scaled for a model
     n = self_propulsion_rps(kvlcc2(c.scale))  # the approach rpm the crew sets, for every run
-    calm = simulate_runs(ship, CALM, n, sample_time=Ts)
-    runs = simulate_runs(eff_ship, DIAGNOSE + VALIDATE, n, env=env, sample_time=Ts, **act)
+    calm = simulate_runs(ship, CALM, n, sample_time=Ts, lead_in_s=LEAD_IN_S)
+    runs = simulate_runs(eff_ship, DIAGNOSE + VALIDATE, n, env=env, sample_time=Ts, lead_in_s=LEAD_IN_S, **act)
     diag, val = runs[: len(DIAGNOSE)], runs[len(DIAGNOSE):]
     rng = np.random.default_rng(c.seed)
     bias = {"signal": c.magnitude["signal"], "value": c.magnitude["bias"] / Ts} if c.effect == "sensor_bias" else None

@@ -118,8 +118,7 @@ def simulate_runs(ship: MMGShip, mans: list[Manoeuvre], n_rps: float, *, env: En
     cn, ce = env.current_ne
     s = np.zeros((B, 6))
     s[:, 2] = psi0
-    s[:, 3] = u0 - (np.cos(psi0) * cn + np.sin(psi0) * ce)  # start at the calm-water speed over ground
-    s[:, 4] = -(-np.sin(psi0) * cn + np.cos(psi0) * ce)
+    s[:, 3] = u0  # steady through the water (a current only adds to the speed over ground)
     gear = np.zeros(B)
     cmd = np.zeros(B)
     n_delay = delay_s / h
