@@ -114,8 +114,8 @@ def to_text(d: Diagnosis) -> str:
             f"{c['key']} (p = {c['p_value']:.1g}, held-out {100 * c['heldout_gain']:+.0f} %, "
             f"{c['runs_improved']} held-out runs better, estimate "
             + ", ".join(f"{e:.3g}" for e in c["estimate"]) + ")" for c in top) + ".")
-    for r in d.rejected:
-        lines.append(f"Rejected: {r['key']}: {r['reason']}.")
+    for text in dict.fromkeys(f"Rejected: {r['key']}: {r['reason']}." for r in d.rejected):
+        lines.append(text)
     for n in d.notes:
         lines.append(f"Note: {n}.")
     if d.refit_parameters:
