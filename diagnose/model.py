@@ -19,7 +19,7 @@ from diagnose.candidates import Candidate, Slot
 from diagnose.recording import Recording
 from primitives.ship import ShipProfile
 from primitives.simulate import body_from_ne
-from primitives.terms import compile_term
+from primitives.terms import TermSet, compile_term, signals_used
 
 
 @dataclass
@@ -155,32 +155,31 @@ class AugmentedModel:
         if prep.phi is not None:
             exo["phi"] = np.broadcast_to(prep.phi[:-1], (B, n))
         pre = np.zeros((B, n, 3))
-        loop_terms = []
+        loop: list[list[tuple[str, np.ndarray]]] = [[], [], []]
         exo_names = set(exo)
         for i, coef, term, names, fn in terms:
             if fn is not None and set(names) <= exo_names:
                 pre[:, :, i] += coef[:, None] * fn(exo)
             else:
-                loop_terms.append((i, coef, [_factor(f) for f in term.split("*")]))
+                loop[i].append((term, coef))
+        pre = pre * scale[:, None, :]
         out = np.empty((B, n + 1, 3))
         nu = np.broadcast_to(prep.y0, (B, 3)) - bias
         if prep.index is not None and prep.index < self.n_rec:
             k0 = self.n_slots_end + 3 * prep.index
             nu = nu + P[:, k0: k0 + 3]
         out[:, 0] = nu
+        if not any(loop):
+            out[:, 1:] = nu[:, None, :] + np.cumsum(pre, axis=1)
+            return out + bias[:, None, :]
+        # the state-dependent terms go through the primitives' term kernel (one generated
+        # expression per DOF, primitives.terms.TermSet), with one coefficient column per batch member
+        tset = self._termset(tuple(tuple(t for t, _c in dof) for dof in loop))
+        coef = np.column_stack([c * scale[:, i] for i, dof in enumerate(loop) for _t, c in dof])
+        need = signals_used(tset.terms)
+        need_in = sorted(need & exo_names)
         wb = prep.wind_body
-        nt = len(loop_terms)
-        C = np.zeros((B, max(nt, 1), 3))
-        for t_i, (i, coef, _f) in enumerate(loop_terms):
-            C[:, t_i, i] = coef
-        C = C * scale[:, None, :]
-        pre = pre * scale[:, None, :]
-        need = {f[0] for _i, _c, fs in loop_terms for f in fs}
-        need_abs = {f[0] for _i, _c, fs in loop_terms for f in fs if f[1]}
-        need_in = need & exo_names
-        plans = [[(nm + "|" if ab else nm, pw) for nm, ab, pw in fs] for _i, _c, fs in loop_terms]
         use_wind = wb is not None and bool(need & {"wx", "wy", "wn", "u_q", "v_q"})
-        vals = np.empty((B, nt))  # term values of one step, filled in place (no per-step np.stack)
         for k in range(n):
             u, v, r = nu[:, 0], nu[:, 1], nu[:, 2]
             sig = {"u": u, "v": v, "r": r}
@@ -196,19 +195,20 @@ class AugmentedModel:
                 sig["wx"], sig["wy"], sig["wn"] = uq * np.abs(uq) - u * np.abs(u), vq * np.abs(vq) - v * np.abs(v), uq * vq - u * v
             else:
                 sig["u_q"], sig["v_q"] = u, v
-            for nm in need_abs:
-                sig[nm + "|"] = np.abs(sig[nm])
-            if nt:
-                for t_i, plan in enumerate(plans):
-                    val = sig[plan[0][0]] if plan[0][1] == 1 else sig[plan[0][0]] ** plan[0][1]
-                    for nm, pw in plan[1:]:
-                        val = val * (sig[nm] if pw == 1 else sig[nm] ** pw)
-                    vals[:, t_i] = val
-                nu = nu + pre[:, k] + np.einsum("bt,btd->bd", vals, C)
-            else:
-                nu = nu + pre[:, k]
+                sig["wx"] = sig["wy"] = sig["wn"] = np.zeros(B)
+            du, dv, dr = tset.increments(sig, coef)
+            nu = nu + pre[:, k]
+            nu[:, 0] += du
+            nu[:, 1] += dv
+            nu[:, 2] += dr
             out[:, k + 1] = nu
         return out + bias[:, None, :]
+
+    def _termset(self, terms: tuple[tuple[str, ...], ...]) -> TermSet:
+        cache = self.__dict__.setdefault("_tsets", {})
+        if terms not in cache:
+            cache[terms] = TermSet(terms)
+        return cache[terms]
 
     # -- steps for finite differences ------------------------------------------------------------------
     def steps(self, preps: list[Prepared], P: np.ndarray) -> np.ndarray:

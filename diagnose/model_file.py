@@ -38,7 +38,8 @@ def model_dict(d: Diagnosis) -> dict:
     vals = [list(theta[prof.model.dof_slice(i)]) for i in range(3)]
     dist = dict(base.get("disturbances", {}))
     known = {"u", "v", "r", "u_r", "v_r", "psi", *prof.inputs, "tau_x", "tau_y", "tau_n"}
-    chosen = [next(c for c in m.candidates if c.key == f["key"]) for f in d.findings]
+    kept = d.findings + d.structure
+    chosen = [next(c for c in m.candidates if c.key == f["key"]) for f in kept]
     for c in chosen:
         idx = m.slot_of[c.key]
         if c.effect in ("quadratic_damping", "missing_coupling", "thrust_loss", "resistance_change"):
@@ -60,7 +61,7 @@ def model_dict(d: Diagnosis) -> dict:
     base.pop("predictor", None)
     base.pop("predictor_names", None)
     base["name"] = f"{prof.name}-diagnosed"
-    base["augmentations"] = [{"effect": f["effect"], "dof": f["dof"], "parameters": f["parameters"]} for f in d.findings]
+    base["augmentations"] = [{"effect": f["effect"], "dof": f["dof"], "parameters": f["parameters"]} for f in kept]
     base["diagnosed_model"] = {
         "format": FORMAT,
         "note": "exact scored model: baseline profile + candidate slots; read with diagnose.model_file.load_model",

@@ -91,6 +91,8 @@ def to_text(d: Diagnosis) -> str:
     if d.explained:
         lines.append("Findings: none. The model explains the data: no candidate physics improves the fit "
                      "significantly and on held-out data.")
+    elif not d.findings and d.structure:
+        lines.append("Findings: none that is a condition of these runs (only baseline structure, below).")
     elif not d.findings:
         worst = max(d.location["rms_over_noise"].items(), key=lambda kv: kv[1])
         lines.append(f"Findings: none, but the model does NOT explain the data (the {worst[0]} residual is {worst[1]:.0f} x "
@@ -100,10 +102,15 @@ def to_text(d: Diagnosis) -> str:
         lines.append("Findings (strongest first):")
         for i, f in enumerate(d.findings, 1):
             lines.append(f"  {i}. [{f['effect']}] {sentence(f)}")
+    if d.structure:
+        lines.append("Baseline structure (the --fit-on reference runs show it too, so it is the model's shape, not a "
+                     "condition of these runs; kept in the refitted model):")
+        for i, f in enumerate(d.structure, 1):
+            lines.append(f"  {i}. [{f['effect']}] {sentence(f)}")
     for u in d.untestable:
         extra = f" ({u['dof']} {u['term']})" if "term" in u else ""
         lines.append(f"Cannot be tested: {u['effect']}{extra}: {u['reason']}.")
-    kept = {f["key"] for f in d.findings}
+    kept = {f["key"] for f in d.findings + d.structure}
     weak: dict[str, dict] = {}
     for c in d.screened[-1]["candidates"] if d.screened else []:  # the last round: after every kept effect
         if c["key"] not in kept and c["p_value"] < 1e-3 and c["key"] not in {r["key"] for r in d.rejected}:
@@ -121,7 +128,7 @@ def to_text(d: Diagnosis) -> str:
     if d.refit_parameters:
         lines.append("Baseline parameters refitted with the findings (bounded, regularised towards the profile): "
                      + ", ".join(d.refit_parameters) + ".")
-    left = d.unexplained_dofs if d.findings else []
+    left = d.unexplained_dofs if d.findings or d.structure else []
     if left:
         lines.append(f"Still above the noise after the findings: {', '.join(left)} (more physics is missing than the library names).")
     lines += per_run_lines(d)
@@ -139,6 +146,7 @@ def to_json(d: Diagnosis, model_path: str | None) -> dict:
         "explained": d.explained,
         "still_unexplained_dofs": d.unexplained_dofs,
         "findings": d.findings,
+        "structure": d.structure,
         "untestable": d.untestable,
         "fit_before": d.fit_before,
         "fit_after": d.fit_after,

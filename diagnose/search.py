@@ -256,7 +256,10 @@ def _round(S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rn
          "estimate": [float(b) for b in beta]} for _a, c, v, p, f, beta in ranked]})
     tries = 0
     for _aic, c, v, p_val, _f, beta in ranked:
-        if not (v.accepted(MUCH_WORSE) and _passes(p_val, v.gain, S.n_cand, S.alpha, S.independent)):
+        # with validation runs the linearised verdict only orders the candidates: the refitted
+        # model is judged on them by simulation (a current or a delay is far from linear)
+        screen_ok = (v.delta_aic < 0 and v.gain > 0) if S.val else v.accepted(MUCH_WORSE)
+        if not (screen_ok and _passes(p_val, v.gain, S.n_cand, S.alpha, S.independent)):
             continue
         if tries >= MAX_TRIES:
             break
