@@ -2,7 +2,8 @@
 the tool did not generate, one concealed effect per case, full and model scale, white and
 coloured noise (issue 13).
 
-Each case is diagnosed as a user would: the recordings are written as CSV, read back with
+The "visible" column is how far the effect moves the diagnosed runs (RMS of the difference to
+the same manoeuvres without it, in noise units, per channel). Each case is diagnosed as a user would: the recordings are written as CSV, read back with
 ``diagnose.recording.load_recording`` and passed to ``diagnose.api.run`` with ``--fit-on`` the
 calm run and ``--validate`` the two held-out runs (or, with ``--cli``, through
 ``shiptrial diagnose REC... --ship kvlcc2 --fit-on CALM --validate ... --json``). A case is a
@@ -158,7 +159,7 @@ def _cli(paths: dict[str, list[Path]]) -> dict:
            "--fit-on", ",".join(map(str, paths["calm"])), "--validate", ",".join(map(str, paths["validate"])), "--json"]
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode != 0:
-        return {"error": (p.stderr.strip().splitlines() or ["exit status %d" % p.returncode])[-1]}
+        return {"error": (p.stderr.strip().splitlines() or [f"exit status {p.returncode}"])[-1]}
     j = json.loads(p.stdout)
     return {"findings": j.get("findings"), "per_run": j.get("per_run") or j.get("heldout_per_run"),
             "fit_before": j.get("fit_before"), "fit_after": j.get("fit_after")}
@@ -195,7 +196,7 @@ def truth_text(t: dict) -> str:
 
 def run_case(name: str, out_dir: Path, use_cli: bool) -> dict:
     t0 = time.perf_counter()
-    g = generate(case(name))
+    g = generate(case(name), visibility=True)
     paths = write_case(g, out_dir / name)
     t_gen = time.perf_counter() - t0
     t1 = time.perf_counter()
@@ -234,10 +235,12 @@ def main(argv: list[str] | None = None) -> dict:
             rows.append(run_case(n, out_dir, a.cli))
             r = rows[-1]
             print(f"  {n}: {'hit' if r['hit'] else 'MISS'} ({r['diagnose_s']:.1f} s)", file=sys.stderr, flush=True)
-    print(f"{'case':22s} {'truth':44s} {'claimed':48s} {'result':6s} {'time s':>7s}")
+    print(f"{'case':22s} {'truth':44s} {'visible u/v/r':>15s}  {'claimed':48s} {'result':6s} {'time s':>7s}")
     for r in rows:
-        print(f"{r['case']:22s} {r['truth_text'][:44]:44s} {r['claimed'][:48]:48s} {'hit' if r['hit'] else 'MISS':6s} "
-              f"{r['diagnose_s']:7.1f}")
+        vis = r["truth"].get("visibility_rms_over_noise", {})
+        vt = "/".join(f"{vis[k]:.1f}" for k in "uvr") if vis else "-"
+        print(f"{r['case']:22s} {r['truth_text'][:44]:44s} {vt:>15s}  {r['claimed'][:48]:48s} "
+              f"{'hit' if r['hit'] else 'MISS':6s} {r['diagnose_s']:7.1f}")
         for w in r["why"]:
             print(f"{'':24s}- {w}")
     hits = sum(r["hit"] for r in rows)

@@ -76,9 +76,10 @@ def test_actuator_delay_shifts_the_response_and_offset_and_thrust_loss_show_on_t
     base = simulate_runs(FULL, man, N0, lead_in_s=10.0, pre_s=10.0)[0]
     late = simulate_runs(FULL, man, N0, lead_in_s=10.0, pre_s=10.0, delay_s=3.0)[0]
     assert np.allclose(late.r[3:], base.r[:-3], atol=1e-12) and np.allclose(late.delta, base.delta)
-    off = simulate_runs(FULL, [Manoeuvre("straight", duration_s=10)], N0, offset_rad=np.radians(1.5), lead_in_s=600.0,
+    off = simulate_runs(FULL, [Manoeuvre("zigzag", 10, 10, 1, 120)], N0, offset_rad=np.radians(1.5), lead_in_s=600.0,
                         pre_s=20.0)[0]
     assert np.degrees(np.mean(off.delta[:20])) == pytest.approx(1.5, abs=0.05)  # helm holds the course against it
+    assert np.degrees(off.delta.min()) == pytest.approx(-10.0) and np.degrees(off.delta.max()) == pytest.approx(10.0)
     slow = with_effects(FULL, thrust_factor=0.8)
     assert straight_speed(slow, N0) < 7.97 - 0.3
 

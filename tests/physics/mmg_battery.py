@@ -217,7 +217,7 @@ def truth_of(c: Case, ship: MMGShip, runs: list[Run], env: Environment, Ts: floa
     elif c.effect == "quadratic_damping":
         Minv = np.linalg.inv(ship.mass_matrix())
         val = Ts * Minv[2, 2] * m["N_rr"] * 0.5 * RHO * ship.L**4 * ship.d  # per-sample coefficient of r|r|
-        chk = {"dof": ["yaw", None, "equal"], "value": [val, 0.40, "rel"]}
+        chk = {"dof": ["yaw", None, "equal"], "term": ["r*|r|", None, "equal"], "value": [val, 0.40, "rel"]}
     elif c.effect == "wind":
         w = _wind_truth(ship, runs, env.wind_ne, Ts)
         chk = {"wind": [w["coefficients"], 0.40, "wind"], "weights": [w["weights"], None, "info"]}
@@ -226,8 +226,23 @@ def truth_of(c: Case, ship: MMGShip, runs: list[Run], env: Environment, Ts: floa
     return base | {"effects": [c.effect], "checks": {c.effect: chk}}
 
 
-def generate(c: Case) -> Generated:
-    """Simulate every run of the case (seeded) and its ground truth."""
+def _visibility(c: Case, ship: MMGShip, n: float, runs: list[Run], Ts: float) -> dict[str, float]:
+    """How visible the effect is: RMS over the diagnosed runs of (run with the effect - the same
+    manoeuvre without it) per channel, in units of the measurement noise (noise-free runs)."""
+    calm = simulate_runs(ship, DIAGNOSE, n, sample_time=Ts, lead_in_s=LEAD_IN_S)
+    bias = c.magnitude["bias"] / Ts if c.effect == "sensor_bias" else 0.0
+    sig = {"u": NOISE_FULL["u"] * Ts, "v": NOISE_FULL["v"] * Ts, "r": NOISE_FULL["r"] / Ts}
+    out = {}
+    for k in ("u", "v", "r"):
+        d = np.concatenate([getattr(a, k)[:m] - getattr(b, k)[:m] + (bias if k == c.magnitude.get("signal") else 0.0)
+                            for a, b in zip(runs, calm) for m in [min(len(a.t), len(b.t))]])
+        out[k] = float(np.sqrt(np.mean(d**2)) / sig[k])
+    return out
+
+
+def generate(c: Case, *, visibility: bool = False) -> Generated:
+    """Simulate every run of the case (seeded) and its ground truth (with ``visibility``: also
+    how far the effect moves the diagnosed runs, in noise units)."""
     ship, eff_ship, env, act = _setup(c)
     Ts = ship.time_scale  # 1 s at full scale, Froude-scaled for a model
     n = self_propulsion_rps(kvlcc2(c.scale))  # the approach rpm the crew sets, for every run
@@ -239,7 +254,10 @@ def generate(c: Case) -> Generated:
     noisy = {"calm": [_measure(r, ship, rng, c.noise, None, None) for r in calm],
              "diagnose": [_measure(r, ship, rng, c.noise, bias, env.wind_ne) for r in diag],
              "validate": [_measure(r, ship, rng, c.noise, bias, env.wind_ne) for r in val]}
-    return Generated(c, calm, diag, val, noisy, truth_of(c, eff_ship, diag, env, Ts), Ts)
+    truth = truth_of(c, eff_ship, diag, env, Ts)
+    if visibility:
+        truth["visibility_rms_over_noise"] = _visibility(c, ship, n, diag, Ts)
+    return Generated(c, calm, diag, val, noisy, truth, Ts)
 
 
 def csv_text(cols: dict[str, np.ndarray], meta: dict[str, str]) -> str:

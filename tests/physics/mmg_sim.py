@@ -87,7 +87,7 @@ def _commands(mans: list[Manoeuvre], psi_dev: np.ndarray, r: np.ndarray, cmd: np
         if m.kind == "turn":
             out[i] = a
         elif m.kind == "zigzag":
-            if cmd[i] == 0.0:
+            if abs(abs(cmd[i]) - abs(a)) > 1e-12:  # first step of the manoeuvre: the autopilot hands over
                 out[i] = a
             elif np.sign(cmd[i]) * psi_dev[i] >= np.radians(m.psi_deg):
                 out[i] = -cmd[i]  # heading reached the switching angle on this side: reverse the rudder
