@@ -10,14 +10,12 @@ import numpy as np
 from diagnose import plausible
 from diagnose.candidates import build_library
 from diagnose.describe import describe
-from diagnose.heldout import grams, heldout_rss, insample_rss, make_parts
+from diagnose.heldout import RUN_RISE, grams, heldout_rss, insample_rss, make_parts
 from diagnose.locate import locate
 from diagnose.model import AugmentedModel, Prepared, diverges, fit, fit_percent, noise_std, noise_std_coloured, prepare
 from diagnose.recording import Recording, RecordingError
-from diagnose.search import base_bounds, prior_sd, select
+from diagnose.search import MUCH_WORSE, base_bounds, prior_sd, select
 from primitives.ship import DOFS, ShipProfile
-
-GUARD_TOL = 0.01  # percentage points: a validation run may not fit worse after the diagnosis
 
 
 @dataclass
@@ -204,9 +202,19 @@ def _structural(model: AugmentedModel, calm: list[Prepared], w: np.ndarray, P: n
     return out
 
 
-def _table(labels: list[str], roles: list[str], f0: np.ndarray, f1: np.ndarray) -> list[dict]:
-    return [{"run": lab, "role": role, "before": dict(zip(DOFS, a.tolist())), "after": dict(zip(DOFS, b.tolist()))}
-            for lab, role, a, b in zip(labels, roles, f0, f1)]
+def _table(labels: list[str], roles: list[str], f0: np.ndarray, f1: np.ndarray, den: np.ndarray) -> list[dict]:
+    """Rows of the per-run table; ``den`` (runs, 3) the noise-weighted spread of each output,
+    from which the fit gives the run's weighted misfit (summed over the channels)."""
+    rows = []
+    for lab, role, a, b, dn in zip(labels, roles, f0, f1, den):
+        w0, w1 = (float(np.sum((1 - f / 100.0) ** 2 * dn)) for f in (a, b))
+        rows.append({"run": lab, "role": role, "before": dict(zip(DOFS, a.tolist())), "after": dict(zip(DOFS, b.tolist())),
+                     "weighted_misfit_before": w0, "weighted_misfit_after": w1})
+    return rows
+
+
+def _den(preps: list[Prepared], w: np.ndarray) -> np.ndarray:
+    return np.array([np.sum(((p.y - p.y.mean(axis=0)) * w) ** 2, axis=0) for p in preps])
 
 
 def per_run_fits(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray,
@@ -217,17 +225,18 @@ def per_run_fits(model: AugmentedModel, preps: list[Prepared], val_preps: list[P
     if val_preps:
         f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in val_preps])
         f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in val_preps])
-        return _table([p.rec.source for p in val_preps], ["validation"] * len(val_preps), f0, f1), "validation runs, simulated"
+        return (_table([p.rec.source for p in val_preps], ["validation"] * len(val_preps), f0, f1, _den(val_preps, w)),
+                "validation runs, simulated")
     f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in preps])
     cols = [j for j in free if j < model.n_slots_end]
     if len(preps) < 2 or not cols:
         f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in preps])
-        return _table([p.rec.source for p in preps], ["diagnosed"] * len(preps), f0, f1), "diagnosed runs, in-sample"
+        return _table([p.rec.source for p in preps], ["diagnosed"] * len(preps), f0, f1, _den(preps, w)), "diagnosed runs, in-sample"
     parts = make_parts(preps, [])
     g = grams(model, preps, parts, P, cols, w, model.steps(preps, P))
     rss = heldout_rss(g, parts, list(range(len(cols))), np.zeros(len(cols)), np.zeros(len(cols)))
     f1 = 100.0 * (1.0 - np.sqrt(rss / np.maximum(g.den, 1e-300)))
-    return _table([p.rec.source for p in preps], ["left out"] * len(preps), f0, f1), "leave one run out (linearised refit)"
+    return _table([p.rec.source for p in preps], ["left out"] * len(preps), f0, f1, _den(preps, w)), "leave one run out (linearised refit)"
 
 
 def _guard(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray, P0: np.ndarray,
@@ -235,7 +244,7 @@ def _guard(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepare
     """Per-run acceptance: no held-out run may fit worse on any channel (validation runs) or much
     worse (left-out runs); findings are dropped, weakest first, until that holds. No finding
     left: the model is the baseline as given (no refit)."""
-    tol = GUARD_TOL if val_preps else 2.0
+    rise = 0.0 if val_preps else RUN_RISE
     dropped = []
     while True:
         if not steps:
@@ -243,7 +252,8 @@ def _guard(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepare
             return P0, [], [], table, method, dropped
         table, method = per_run_fits(model, preps, val_preps, w, P0, P, free)
         worst = min(row["after"][k] - row["before"][k] for row in table for k in DOFS)
-        if worst >= -tol:
+        worse_run = max(row["weighted_misfit_after"] / max(row["weighted_misfit_before"], 1e-300) - 1.0 for row in table)
+        if worst >= -MUCH_WORSE and worse_run <= rise:
             return P, free, steps, table, method, dropped
         st = steps.pop()  # the last kept is the weakest
         own = model.slot_of[st.candidate.key]
@@ -253,7 +263,8 @@ def _guard(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepare
         # the baseline keeps the values fitted with the finding (a refit without its prior could diverge)
         P, _cov, rss = fit(model, preps, P, [j for j in free if j not in base_free], w, max_iter=6)
         dropped.append({"key": st.candidate.key, "effect": st.candidate.effect,
-                        "reason": f"a held-out run fits {-worst:.1f} points worse on some channel with it ({method})"})
+                        "reason": f"a held-out run fits worse with it ({method}: weighted misfit {100 * worse_run:+.1f} %, "
+                                  f"worst channel {worst:+.1f} points)"})
         if not np.isfinite(rss):
             steps = []
 

@@ -19,6 +19,7 @@ import numpy as np
 from diagnose.model import AugmentedModel, Prepared, residuals
 
 N_BLOCKS = 4
+RUN_RISE = 0.02  # a held-out run's noise-weighted misfit may rise by 2 % at most
 
 
 @dataclass
@@ -71,7 +72,8 @@ def grams(model: AugmentedModel, all_preps: list[Prepared], parts: Parts, P: np.
         Pb[k + 1, j] += h_step[j]
     per_run = {}
     for i in sorted(set(parts.prep)):
-        R = residuals(model, [all_preps[i]], Pb)[0][:, 1:] * w  # (c+1, N, 3)
+        wi = w[i] if isinstance(w, list) else w
+        R = residuals(model, [all_preps[i]], Pb)[0][:, 1:] * wi  # (c+1, N, 3)
         per_run[i] = (R[0], (R[1:] - R[0]) / h_step[cols][:, None, None])
     n_p = len(parts.prep)
     G = np.zeros((n_p, 3, c, c))
@@ -80,7 +82,7 @@ def grams(model: AugmentedModel, all_preps: list[Prepared], parts: Parts, P: np.
     den = np.zeros((n_p, 3))
     for q, (i, m) in enumerate(zip(parts.prep, parts.mask)):
         r0, J = per_run[i]
-        y = all_preps[i].y[1:][m] * w
+        y = all_preps[i].y[1:][m] * (w[i] if isinstance(w, list) else w)
         for ch in range(3):
             Jc = J[:, m, ch]  # (c, n)
             G[q, ch] = Jc @ Jc.T
@@ -152,9 +154,18 @@ class Verdict:
     def n_folds(self) -> int:
         return len(self.rss0)
 
+    @property
+    def worst_run_rise(self) -> float:
+        """Largest relative rise of a fold's noise-weighted RSS over its three channels."""
+        r0, r1 = self.rss0.sum(axis=1), self.rss1.sum(axis=1)
+        return float(np.max((r1 - r0) / np.maximum(r0, 1e-300))) if r0.size else 0.0
+
     def accepted(self, much_worse: float) -> bool:
-        """Better by AIC on held-out data, better on most folds and much worse on none."""
-        return self.delta_aic < 0 and self.gain > 0 and 2 * self.improved > self.n_folds and self.worst_drop <= much_worse
+        """Better by AIC on held-out data, better on most folds, much worse on none: no fold's
+        weighted misfit rises by more than RUN_RISE and no channel of a fold loses more than
+        ``much_worse`` points of fit."""
+        return (self.delta_aic < 0 and self.gain > 0 and 2 * self.improved > self.n_folds
+                and self.worst_drop <= much_worse and self.worst_run_rise <= RUN_RISE)
 
     def table(self, labels: list[str]) -> list[dict]:
         f0, f1 = fit_pct(self.rss0, self.den), fit_pct(self.rss1, self.den)

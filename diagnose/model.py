@@ -315,11 +315,12 @@ def residuals(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> li
     return [np.where(np.isfinite(r), np.clip(r, -1e6, 1e6), 1e6) for r in out]
 
 
-def stack(res: list[np.ndarray], w: np.ndarray, masks: list[np.ndarray] | None = None) -> np.ndarray:
-    """Weighted residuals flattened to (B, M) (samples of each mask only)."""
+def stack(res: list[np.ndarray], w: np.ndarray | list[np.ndarray], masks: list[np.ndarray] | None = None) -> np.ndarray:
+    """Weighted residuals flattened to (B, M) (samples of each mask only); ``w`` one weight per
+    output, or a list of them, one per recording."""
     parts = []
     for i, r in enumerate(res):
-        rr = r[:, 1:] * w  # sample 0 is the initial state
+        rr = r[:, 1:] * (w[i] if isinstance(w, list) else w)  # sample 0 is the initial state
         if masks is not None:
             rr = rr[:, masks[i][1:]]
         parts.append(rr.reshape(r.shape[0], -1))
