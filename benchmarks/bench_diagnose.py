@@ -27,7 +27,8 @@ def single_recording():
 
 
 def model_test(n_runs: int = 13, n_samples: int = 3500):
-    return [scenario(("current",), 100 + i, n_prims=15).diagnose[0].window(0, n_samples + 1) for i in range(n_runs)]
+    recs = [scenario(("current",), 100 + i, n_prims=15).diagnose[0] for i in range(n_runs)]
+    return [r.window(0, min(n_samples + 1, r.n_samples)) for r in recs]
 
 
 def main(repeats: int = 3) -> None:

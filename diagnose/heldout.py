@@ -71,9 +71,9 @@ def grams(model: AugmentedModel, all_preps: list[Prepared], parts: Parts, P: np.
     for k, j in enumerate(cols):
         Pb[k + 1, j] += h_step[j]
     per_run = {}
-    for i in sorted(set(parts.prep)):
-        wi = w[i] if isinstance(w, list) else w
-        R = residuals(model, [all_preps[i]], Pb)[0][:, 1:] * wi  # (c+1, N, 3)
+    runs = sorted(set(parts.prep))
+    for i, res in zip(runs, residuals(model, [all_preps[i] for i in runs], Pb)):  # one batched simulation
+        R = res[:, 1:] * (w[i] if isinstance(w, list) else w)  # (c+1, N, 3)
         per_run[i] = (R[0], (R[1:] - R[0]) / h_step[cols][:, None, None])
     n_p = len(parts.prep)
     G = np.zeros((n_p, 3, c, c))

@@ -103,84 +103,116 @@ class AugmentedModel:
     # -- simulation --------------------------------------------------------------------------------
     def simulate(self, prep: Prepared, P: np.ndarray) -> np.ndarray:
         """Open-loop outputs (B, N+1, 3) for parameter vectors P (B, n_params)."""
-        P = np.atleast_2d(np.asarray(P, float))
-        B, n, ts = P.shape[0], prep.n, prep.rec.sample_time
-        nb = self.n_base
-        scale = np.ones((B, 3))
-        bias = np.zeros((B, 3))
-        cur = np.zeros((B, 2))
-        x = np.broadcast_to(prep.inputs[:-1], (B, n, prep.inputs.shape[1])).copy()
-        terms: list[tuple[int, np.ndarray, str, tuple[str, ...], object]] = []
-        for j, (i, _t, names, fn) in enumerate(self.base):
+        return self.simulate_many([prep], P)[0]
+
+    def _plan(self, P: np.ndarray) -> dict:
+        """What P switches on (the same for every recording): terms, current, delay, offsets,
+        biases, inertia scales."""
+        B = P.shape[0]
+        plan = {"terms": [], "cur": np.zeros((B, 2)), "delay": None, "offsets": [], "bias": np.zeros((B, 3)),
+                "scale": np.ones((B, 3))}
+        for j, (i, t, names, fn) in enumerate(self.base):
             if np.any(P[:, j] != 0):
-                terms.append((i, P[:, j], _t, names, fn))
-        delay = None
-        for j in range(nb, self.n_slots_end):
+                plan["terms"].append((i, P[:, j], t, names, fn))
+        for j in range(self.n_base, self.n_slots_end):
             col = P[:, j]
             if not np.any(col != 0):
                 continue
             s = self.slot(j)
             if s.kind == "term":
-                if s.term in ("wx", "wy", "wn"):
-                    terms.append((s.dof, col, s.term, (s.term,), None))
-                else:
-                    names, fn = self._slot_fn[j]
-                    terms.append((s.dof, col, s.term, names, fn))
+                names, fn = ((s.term,), None) if s.term in ("wx", "wy", "wn") else self._slot_fn[j]
+                plan["terms"].append((s.dof, col, s.term, names, fn))
             elif s.kind == "current":
-                cur[:, s.index] += col
+                plan["cur"][:, s.index] += col
             elif s.kind == "delay":
-                delay = col
+                plan["delay"] = col
             elif s.kind == "offset":
-                x[:, :, s.index] -= col[:, None]
+                plan["offsets"].append((s.index, col))
             elif s.kind == "bias":
-                bias[:, s.index] += col
+                plan["bias"][:, s.index] += col
             elif s.kind == "scale":
-                scale[:, s.dof] += col
+                plan["scale"][:, s.dof] += col
+        return plan
+
+    def _exogenous(self, prep: Prepared, plan: dict, B: int) -> dict[str, np.ndarray]:
+        """Input-driven signals (B, N) of one recording: delayed, offset inputs and heading."""
+        n, ts = prep.n, prep.rec.sample_time
+        x = np.broadcast_to(prep.inputs[:-1], (B, n, prep.inputs.shape[1])).copy()
+        delay = plan["delay"]
         if delay is not None:
             kk = np.arange(n, dtype=float)
             base_x = prep.inputs[:-1]
             for b in range(B):
                 if delay[b] != 0:
                     src = np.clip(kk - delay[b] / ts, 0, n - 1)
-                    shifted = np.stack([np.interp(src, kk, base_x[:, m]) for m in range(base_x.shape[1])], axis=-1)
-                    x[b] = shifted - (base_x - x[b])  # keep offsets applied above
-        gen = self.profile.generalized_forces(x)
-        psi = prep.psi[:-1]
-        c, s_ = np.cos(psi), np.sin(psi)
-        uc = c[None] * cur[:, :1] + s_[None] * cur[:, 1:]
-        vc = -s_[None] * cur[:, :1] + c[None] * cur[:, 1:]
-        has_cur = bool(np.any(cur != 0))
-        exo = {k: np.broadcast_to(v, (B, n)) for k, v in gen.items()}
-        exo["psi"] = np.broadcast_to(psi, (B, n))
+                    x[b] = np.stack([np.interp(src, kk, base_x[:, m]) for m in range(base_x.shape[1])], axis=-1)
+        for idx, col in plan["offsets"]:
+            x[:, :, idx] -= col[:, None]
+        exo = {k: np.broadcast_to(v, (B, n)) for k, v in self.profile.generalized_forces(x).items()}
+        exo["psi"] = np.broadcast_to(prep.psi[:-1], (B, n))
         if prep.phi is not None:
             exo["phi"] = np.broadcast_to(prep.phi[:-1], (B, n))
-        pre = np.zeros((B, n, 3))
+        return exo
+
+    def simulate_many(self, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
+        """Open-loop outputs, one (B, N_i+1, 3) per recording, for parameter vectors P (B, n_params).
+
+        Input-driven terms are summed before the time loop; the state-dependent ones run in one
+        loop over every recording and batch member at once (recordings padded to the longest),
+        through the primitives' term kernel (``primitives.terms.TermSet``).
+        """
+        P = np.atleast_2d(np.asarray(P, float))
+        B = P.shape[0]
+        plan = self._plan(P)
+        scale, bias, cur = plan["scale"], plan["bias"], plan["cur"]
         loop: list[list[tuple[str, np.ndarray]]] = [[], [], []]
-        exo_names = set(exo)
-        for i, coef, term, names, fn in terms:
-            if fn is not None and set(names) <= exo_names:
-                pre[:, :, i] += coef[:, None] * fn(exo)
-            else:
+        for i, coef, term, names, fn in plan["terms"]:
+            if fn is None or not set(names) <= {"psi", "phi", *self.profile.inputs, "tau_x", "tau_y", "tau_n"}:
                 loop[i].append((term, coef))
-        pre = pre * scale[:, None, :]
-        out = np.empty((B, n + 1, 3))
-        nu = np.broadcast_to(prep.y0, (B, 3)) - bias
-        if prep.index is not None and prep.index < self.n_rec:
-            k0 = self.n_slots_end + 3 * prep.index
-            nu = nu + P[:, k0: k0 + 3]
-        out[:, 0] = nu
+        runs = []
+        for prep in preps:
+            exo = self._exogenous(prep, plan, B)
+            pre = np.zeros((B, prep.n, 3))
+            for i, coef, _term, names, fn in plan["terms"]:
+                if fn is not None and set(names) <= set(exo):
+                    pre[:, :, i] += coef[:, None] * fn(exo)
+            nu0 = np.broadcast_to(prep.y0, (B, 3)) - bias
+            if prep.index is not None and prep.index < self.n_rec:
+                k0 = self.n_slots_end + 3 * prep.index
+                nu0 = nu0 + P[:, k0: k0 + 3]
+            runs.append((prep, exo, pre * scale[:, None, :], nu0))
         if not any(loop):
-            out[:, 1:] = nu[:, None, :] + np.cumsum(pre, axis=1)
-            return out + bias[:, None, :]
-        # the state-dependent terms go through the primitives' term kernel (one generated
-        # expression per DOF, primitives.terms.TermSet), with one coefficient column per batch member
+            return [np.concatenate([nu0[:, None], nu0[:, None] + np.cumsum(pre, axis=1)], axis=1) + bias[:, None, :]
+                    for _p, _e, pre, nu0 in runs]
         tset = self._termset(tuple(tuple(t for t, _c in dof) for dof in loop))
         coef = np.column_stack([c * scale[:, i] for i, dof in enumerate(loop) for _t, c in dof])
         need = signals_used(tset.terms)
-        need_in = sorted(need & exo_names)
-        wb = prep.wind_body
-        use_wind = wb is not None and bool(need & {"wx", "wy", "wn", "u_q", "v_q"})
-        for k in range(n):
+        R, n_max = len(runs), max(p.n for p in preps)
+
+        def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (R*B, n_max, ...) from per-run (B, n_i, ...)
+            out = np.zeros((R * B, n_max) + arrs[0].shape[2:])
+            for r, a in enumerate(arrs):
+                out[r * B:(r + 1) * B, : a.shape[1]] = a
+            return out
+
+        pre = padded([pre for _p, _e, pre, _n in runs])
+        need_in = sorted(need & set(runs[0][1]))
+        exo = {nm: padded([np.asarray(e[nm])[..., None] for _p, e, _x, _n in runs])[..., 0] for nm in need_in}
+        has_cur = bool(np.any(cur != 0))
+        if has_cur:
+            psi = padded([np.broadcast_to(p.psi[:-1], (B, p.n))[..., None] for p in preps])[..., 0]
+            cn, ce = np.tile(cur[:, :1], (R, 1)), np.tile(cur[:, 1:], (R, 1))
+            uc, vc = np.cos(psi) * cn + np.sin(psi) * ce, -np.sin(psi) * cn + np.cos(psi) * ce
+        use_wind = bool(need & {"wx", "wy", "wn", "u_q", "v_q"}) and any(p.wind_body is not None for p in preps)
+        if use_wind:
+            wu, wv = (padded([np.broadcast_to(p.wind_body[q][:-1] if p.wind_body is not None else np.zeros(p.n),
+                                              (B, p.n))[..., None] for p in preps])[..., 0] for q in (0, 1))
+        coef = np.tile(coef, (R, 1))
+        nu = np.concatenate([nu0 for _p, _e, _x, nu0 in runs])
+        out = np.empty((R * B, n_max + 1, 3))
+        out[:, 0] = nu
+        zero = np.zeros(R * B)
+        for k in range(n_max):
             u, v, r = nu[:, 0], nu[:, 1], nu[:, 2]
             sig = {"u": u, "v": v, "r": r}
             if has_cur:
@@ -190,19 +222,19 @@ class AugmentedModel:
             for nm in need_in:
                 sig[nm] = exo[nm][:, k]
             if use_wind:
-                uq, vq = u - wb[0][k], v - wb[1][k]
+                uq, vq = u - wu[:, k], v - wv[:, k]
                 sig["u_q"], sig["v_q"] = uq, vq
                 sig["wx"], sig["wy"], sig["wn"] = uq * np.abs(uq) - u * np.abs(u), vq * np.abs(vq) - v * np.abs(v), uq * vq - u * v
             else:
                 sig["u_q"], sig["v_q"] = u, v
-                sig["wx"] = sig["wy"] = sig["wn"] = np.zeros(B)
+                sig["wx"] = sig["wy"] = sig["wn"] = zero
             du, dv, dr = tset.increments(sig, coef)
             nu = nu + pre[:, k]
             nu[:, 0] += du
             nu[:, 1] += dv
             nu[:, 2] += dr
             out[:, k + 1] = nu
-        return out + bias[:, None, :]
+        return [out[r * B:(r + 1) * B, : p.n + 1] + bias[:, None, :] for r, p in enumerate(preps)]
 
     def _termset(self, terms: tuple[tuple[str, ...], ...]) -> TermSet:
         cache = self.__dict__.setdefault("_tsets", {})
@@ -311,7 +343,7 @@ def noise_std_coloured(y: np.ndarray, max_lag: int = 6) -> np.ndarray:
 def residuals(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
     """Open-loop residuals y - y_hat per recording, each (B, N+1, 3)."""
     with np.errstate(all="ignore"):
-        out = [p.y[None] - model.simulate(p, P) for p in preps]
+        out = [p.y[None] - yh for p, yh in zip(preps, model.simulate_many(preps, P))]
     return [np.where(np.isfinite(r), np.clip(r, -1e6, 1e6), 1e6) for r in out]
 
 
