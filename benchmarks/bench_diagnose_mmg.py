@@ -151,7 +151,8 @@ def _api(paths: dict[str, list[Path]]) -> dict:
         extra["Xnn"] = float(d.theta[names.index("Xnn")])
         extra["n0"] = float(np.mean(load(paths["calm"])[0].channels["n"]))
     return {"findings": d.findings, "per_run": getattr(d, "per_run", None), "fit_before": d.fit_before,
-            "fit_after": d.fit_after, "extra": extra, "notes": getattr(d, "notes", [])}
+            "fit_after": d.fit_after, "extra": extra, "notes": getattr(d, "notes", []),
+            "rejected": getattr(d, "rejected", [])}
 
 
 def _cli(paths: dict[str, list[Path]]) -> dict:
@@ -162,7 +163,8 @@ def _cli(paths: dict[str, list[Path]]) -> dict:
         return {"error": (p.stderr.strip().splitlines() or [f"exit status {p.returncode}"])[-1]}
     j = json.loads(p.stdout)
     return {"findings": j.get("findings"), "per_run": j.get("per_run") or j.get("heldout_per_run"),
-            "fit_before": j.get("fit_before"), "fit_after": j.get("fit_after")}
+            "fit_before": j.get("fit_before"), "fit_after": j.get("fit_after"), "notes": j.get("notes"),
+            "rejected": j.get("rejected")}
 
 
 def claimed(out: dict) -> str:
@@ -208,7 +210,8 @@ def run_case(name: str, out_dir: Path, use_cli: bool) -> dict:
     hit, why = score(g.truth, out)
     return {"case": name, "truth": g.truth, "truth_text": truth_text(g.truth), "claimed": claimed(out), "hit": hit,
             "why": why, "diagnose_s": secs, "generate_s": t_gen, "per_run": out.get("per_run"),
-            "findings": out.get("findings"), "error": out.get("error")}
+            "findings": out.get("findings"), "error": out.get("error"), "notes": out.get("notes"),
+            "rejected": out.get("rejected")}
 
 
 def main(argv: list[str] | None = None) -> dict:

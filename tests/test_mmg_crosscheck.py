@@ -8,10 +8,15 @@ import pytest
 from benchmarks import mmg_crosscheck as cc
 
 
+@pytest.fixture(scope="module")
+def ours():
+    return cc.ours(1.0)
+
+
 @pytest.mark.slow
-def test_standard_manoeuvres_agree_with_shipmmg():
+def test_standard_manoeuvres_agree_with_shipmmg(ours):
     pytest.importorskip("shipmmg")
-    ours, other = cc.ours(1.0), cc.shipmmg_rows()
+    other = cc.shipmmg_rows()
     # same coefficients; shipmmg has another wake model and x'_P, hence the slack
     assert ours["tc35-stbd"]["TD/L"] == pytest.approx(other["tc35-stbd"]["TD/L"], rel=0.06)
     assert ours["tc35-stbd"]["AD/L"] == pytest.approx(other["tc35-stbd"]["AD/L"], rel=0.03)
@@ -21,8 +26,8 @@ def test_standard_manoeuvres_agree_with_shipmmg():
 
 
 @pytest.mark.slow
-def test_turning_circles_match_the_marin_free_running_tests():
-    ours, marin = cc.ours(1.0), cc.marin()
+def test_turning_circles_match_the_marin_free_running_tests(ours):
+    marin = cc.marin()
     for label in ("tc35-stbd", "tc35-port"):
         assert ours[label]["TD/L"] == pytest.approx(marin[label]["TD/L"], rel=0.08), label
         assert ours[label]["AD/L"] == pytest.approx(marin[label]["AD/L"], rel=0.05), label
