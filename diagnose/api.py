@@ -10,7 +10,7 @@ import numpy as np
 from diagnose import plausible
 from diagnose.candidates import build_library
 from diagnose.describe import describe
-from diagnose.heldout import RUN_RISE, grams, heldout_rss, insample_rss, make_parts
+from diagnose.heldout import RUN_RISE, Parts, grams, heldout_rss, insample_rss, make_parts
 from diagnose.locate import locate
 from diagnose.model import AugmentedModel, Prepared, diverges, fit, fit_percent, noise_std, noise_std_coloured, prepare
 from diagnose.recording import Recording, RecordingError
@@ -185,12 +185,12 @@ def _structural(model: AugmentedModel, calm: list[Prepared], w: np.ndarray, P: n
         return []
     base = list(range(model.n_base))
     P0 = model.p0()
-    parts = make_parts(calm, [calm[0]])  # every reference run is a fit part
     fit_parts = list(range(len(calm)))
+    parts = Parts(fit_parts, [np.ones(p.n, bool) for p in calm], [p.rec.source for p in calm], [], [])
     out = []
     for f in findings:
         own = model.slot_of[f["key"]]
-        g = grams(model, calm + [calm[0]], parts, P0, base + own, w, model.steps(calm, P))
+        g = grams(model, calm, parts, P0, base + own, w, model.steps(calm, P))
         zero = np.zeros(len(base) + len(own))
         rss0, _ = insample_rss(g, parts, list(range(len(base))), zero, zero, fit_parts)
         rss1, step = insample_rss(g, parts, list(range(len(base) + len(own))), zero, zero, fit_parts)

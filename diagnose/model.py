@@ -40,17 +40,6 @@ class Prepared:
         return len(self.y) - 1
 
 
-def _factor(f: str) -> tuple[str, bool, int]:
-    """(signal, modulus?, power) of one factor of a term string ('|v_r|', 'r^2', 'u')."""
-    f = f.strip()
-    power = 1
-    if "^" in f:
-        f, pw = f.rsplit("^", 1)
-        power = int(pw)
-    ab = f.startswith("|") and f.endswith("|")
-    return f.strip("|"), ab, power
-
-
 def initial_state(y: np.ndarray, m: int = 8) -> np.ndarray:
     """State at sample 0 from a straight-line fit over the first m samples (less noise, no lag)."""
     m = min(m, len(y))
@@ -208,6 +197,10 @@ class AugmentedModel:
             wu, wv = (padded([np.broadcast_to(p.wind_body[q][:-1] if p.wind_body is not None else np.zeros(p.n),
                                               (B, p.n))[..., None] for p in preps])[..., 0] for q in (0, 1))
         coef = np.tile(coef, (R, 1))
+        # TermSet.increments re-splits the coefficient matrix at every call; split it once here and
+        # call the same generated increment function directly (the simulators' inner loop)
+        inc = tset._compiled()  # noqa: SLF001
+        coefs = [coef[:, j] for j in range(coef.shape[1])]
         nu = np.concatenate([nu0 for _p, _e, _x, nu0 in runs])
         out = np.empty((R * B, n_max + 1, 3))
         out[:, 0] = nu
@@ -228,7 +221,7 @@ class AugmentedModel:
             else:
                 sig["u_q"], sig["v_q"] = u, v
                 sig["wx"] = sig["wy"] = sig["wn"] = zero
-            du, dv, dr = tset.increments(sig, coef)
+            du, dv, dr = inc(sig, coefs)
             nu = nu + pre[:, k]
             nu[:, 0] += du
             nu[:, 1] += dv

@@ -20,7 +20,6 @@ MIN_DELAY_SAMPLES = 6  # ... but never below a few samples (the recording cannot
 MAX_ANGLE_OFFSET_DEG = 5.0  # a neutral rudder / azimuth angle further off would be seen on deck
 MAX_INERTIA_FACTOR = 2.0  # loading changes inertia, but not by more than a factor 2
 MAX_THRUST_CHANGE = 0.5  # fraction of the thrust at cruise speed
-MAX_WIND_FRACTION = 2.0  # of the measured relative-wind drag implied by the baseline's hull drag
 
 
 def froude(profile: ShipProfile) -> float:
@@ -68,6 +67,10 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
         ratio = params.get("inertia_ratio")
         ok = ratio is not None and 1.0 / MAX_INERTIA_FACTOR <= ratio <= MAX_INERTIA_FACTOR
         return ok, f"inertia {ratio if ratio is not None else float('inf'):.2f} x the model's vs within a factor {MAX_INERTIA_FACTOR:g}"
+    if effect == "thrust_loss" and params.get("loss_percent") is not None:
+        loss = params["loss_percent"]
+        ok = abs(loss) <= 100 * MAX_THRUST_CHANGE
+        return ok, f"thrust loss {loss:+.0f} % vs at most {100 * MAX_THRUST_CHANGE:.0f} % either way"
     if effect == "thrust_loss" and "thrust_change_at_cruise" in params:
         ch = params["thrust_change_at_cruise"]
         ok = abs(ch) <= MAX_THRUST_CHANGE

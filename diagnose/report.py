@@ -43,8 +43,6 @@ def sentence(f: dict) -> str:
                 else f"the resistance term {p['term']} changes by {p['coefficient']:.3g}")
     elif e == "inertia_change":
         what = f"the {f['dof']} inertia is {p['inertia_ratio']:.2f} x the model's (increments scaled by {1 + p['scale']:.3f})"
-    elif e == "actuator_delay":
-        what = f"the actuators act {p['delay_s']:.2g} s late"
     elif e == "wind":
         what = "the relative wind pushes the ship (drag coefficients " + ", ".join(
             f"{k.split('_')[1]} {v:.3g}" for k, v in p.items() if not k.endswith("_std")) + ")"

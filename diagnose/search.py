@@ -34,7 +34,7 @@ STRONG_GAIN = 0.10  # ... or by 10 %, which then needs only p < 0.01 on the esti
 ALPHA_STRONG = 1e-2
 ALPHA_INDEPENDENT = 0.05
 MUCH_WORSE = 15.0  # percentage points of fit a finding may cost one channel of a held-out run
-MAX_TRIES = 6  # nonlinear refits per round (in order of held-out AIC)
+MAX_TRIES = 8  # nonlinear refits per round (in order of held-out AIC)
 PRIOR_REL = 0.3  # prior std of a baseline parameter, relative to its profile value
 OWN_DAMPING = {(0, "u_r*|u_r|"), (1, "v_r*|v_r|"), (2, "r*|r|")}
 
@@ -96,20 +96,6 @@ def inflation(res: np.ndarray, n_dof: int = 3, max_lag: int = 30) -> float:
     return float(np.clip(np.max(taus), 1.0, 400.0))
 
 
-def run_weights(model: AugmentedModel, preps: list[Prepared], w: np.ndarray) -> list[np.ndarray]:
-    """Per-run output weights: ``w``, lowered for a run whose baseline misfit on a channel is
-    above the median run's, to the median level (maximum likelihood with a misfit variance per
-    run: a manoeuvre the baseline cannot follow at all, e.g. a turning circle for a model fitted
-    on zig-zags, does not dictate every estimate)."""
-    if len(preps) < 2:
-        return [w] * len(preps)
-    with np.errstate(all="ignore"):
-        rms = np.array([np.sqrt(np.mean(((p.y - model.simulate(p, model.p0())[0])[1:] * w) ** 2, axis=0)) for p in preps])
-    rms = np.where(np.isfinite(rms), rms, np.inf)
-    med = np.median(rms, axis=0)
-    return [w * np.minimum(1.0, med / np.maximum(r, 1e-300)) for r in rms]
-
-
 def model_ts(model: AugmentedModel) -> float:
     return model.profile.sample_time
 
@@ -167,7 +153,7 @@ class _Search:
         self.diag_parts = [q for q, i in enumerate(self.parts.prep) if i < len(preps)]
         self.base_free = list(base_free)
         self.ref = model.p0()
-        self.wr = run_weights(model, preps, w)
+        self.wr = [w] * len(preps)  # one weight per output and recording (the same for every recording)
         r0 = stack(residuals(model, preps, self.ref[None]), self.wr)[0]
         self.tau = inflation(r0)
         level = np.sqrt(float(r0 @ r0) / max(len(r0), 1) * self.tau)
@@ -270,7 +256,8 @@ def _round(S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rn
          "runs_improved": f"{v.improved}/{v.n_folds}", "worst_fit_drop": v.worst_drop, "p_value": p, "f": f,
          "estimate": [float(b) for b in beta]} for _a, c, v, p, f, beta in ranked]})
     tries = 0
-    for _aic, c, v, p_val, _f, beta in ranked:
+    # try first those the linearised held-out test already accepts on every count, then the rest
+    for _aic, c, v, p_val, _f, beta in sorted(ranked, key=lambda x: (not x[2].accepted(MUCH_WORSE), x[0])):
         # with validation runs the linearised verdict only orders the candidates: the refitted
         # model is judged on them by simulation (a current or a delay is far from linear)
         screen_ok = (v.delta_aic < 0 and v.gain > 0) if S.val else v.accepted(MUCH_WORSE)

@@ -119,3 +119,35 @@ def test_baseline_that_cannot_be_simulated_exits_non_zero(tmp_path, capsys):
     rc = _run(["diagnose", str(rec), "--ship", "model-ship", "--params", str(bad)])
     err = capsys.readouterr().err
     assert rc == 2 and "cannot be simulated" in err and len(err.strip().splitlines()) == 1
+
+
+def _sampled_run(ship, delay_s: float, seed: int, n: int = 1600):
+    """A run whose inputs are samples of smooth signals and whose ship feels them ``delay_s``
+    late: over step k it feels the mean of x over [t_k - D, t_k + Ts - D], i.e. x(t_k + Ts/2 - D)."""
+    from diagnose.recording import Recording
+    from primitives.simulate import Disturbances, simulate
+
+    rng = np.random.default_rng(seed)
+    ts = ship.sample_time
+    f = rng.uniform(0.15, 0.4, 3)
+    ph = rng.uniform(0, 2 * np.pi, 3)
+
+    def x(t):
+        t = np.asarray(t, float)[:, None]
+        return np.array([4300.0, 0.0, 0.0]) + np.array([1300.0, 800.0, 340.0]) * np.sin(f * t + ph)
+
+    t = np.arange(n + 1) * ts
+    felt = x(t[:-1] + 0.5 * ts - delay_s)
+    sim = simulate(ship, felt, nu0=(0.8, 0.0, 0.0), seed=seed,
+                   disturbances=Disturbances(measurement_std=(0.02, 0.02, 0.02), heading_std=0.002))
+    rec = x(t)
+    return Recording(f"sampled-{seed}", t, sim.y[0], sim.psi_meas[0], sim.pos_meas[0],
+                     {nm: rec[:, j] for j, nm in enumerate(ship.inputs)})
+
+
+def test_fractional_delay_of_sampled_inputs_has_no_half_sample_bias(ship):
+    delay = 0.3  # 2.4 samples of 0.125 s
+    d = run([_sampled_run(ship, delay, 1)], ship, validate=[_sampled_run(ship, delay, 2)])
+    f = next(f for f in d.findings if f["effect"] == "actuator_delay")
+    assert f["parameters"]["half_sample_s"] == pytest.approx(0.0625)
+    assert f["parameters"]["delay_s"] == pytest.approx(delay, abs=0.03)  # well inside half a sample (0.0625 s)
