@@ -57,7 +57,6 @@ MODEL_SCALE = 45.7  # SIMMAN / Yasukawa & Yoshimura 2015: L = 7.00 m model of th
 class Coefficients:
     """Non-dimensional KVLCC2 coefficients, Yasukawa & Yoshimura (2015) Tables 2-4."""
 
-    m: float = 0.0  # m' is derived from the displacement (set by kvlcc2())
     m_x: float = 0.022
     m_y: float = 0.223
     J_z: float = 0.011
