@@ -132,6 +132,21 @@ def _diagnose_2000():
     return go
 
 
+def _diagnose_13x3500():
+    from benchmarks.bench_diagnose import model_test
+    from diagnose.api import run
+    from primitives.ship import load_profile
+
+    ship = load_profile("model-ship")
+    recs = model_test()
+
+    def go():
+        d = run(recs, ship)
+        return {"findings": [f["effect"] for f in d.findings]}
+
+    return go
+
+
 CASES = {
     "library_build": (_library_build, 2.0, None, ""),
     "monte_carlo_sim_500x1000": (_mc_sim, 2.0, None, ""),
@@ -141,7 +156,8 @@ CASES = {
     "plan_thesis_scenario": (_plan_thesis, 1.0, 40.0, "thesis: plain A* about 40 s on a laptop (section 9.4); whole plan_trial call timed, search alone in search_s"),
     "plan_5x5": (_plan_5x5, 30.0, None, "thesis: 19.25 M-state lattice, 'quite time-consuming'"),
     "plan_default_design": (_plan_design, 2.0, None, "issue 12: whole plan_trial, design included (more in benchmarks/bench_plan.py)"),
-    "diagnose_2000": (_diagnose_2000, 10.0, None, ""),
+    "diagnose_2000": (_diagnose_2000, 2.0, None, "issue 13: under 2 s"),
+    "diagnose_13x3500": (_diagnose_13x3500, 10.0, None, "issue 13: 13-run model test, 3,500 samples per run, under 10 s"),
 }
 
 

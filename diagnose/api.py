@@ -1,4 +1,4 @@
-"""The diagnosis pipeline: simulate, locate, name, model and refit, show (issue 6)."""
+"""The diagnosis pipeline: simulate, locate, name, model and refit, show (issues 6, 13)."""
 
 from __future__ import annotations
 
@@ -7,11 +7,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from diagnose.candidates import Candidate, build_library, thrust_signal
+from diagnose import plausible
+from diagnose.candidates import build_library
+from diagnose.describe import describe
+from diagnose.heldout import RUN_RISE, Parts, grams, heldout_rss, insample_rss, make_parts
 from diagnose.locate import locate
-from diagnose.model import AugmentedModel, Prepared, fit, fit_percent, noise_std, prepare
+from diagnose.model import AugmentedModel, Prepared, diverges, fit, fit_percent, noise_std, noise_std_coloured, prepare
 from diagnose.recording import Recording, RecordingError
-from diagnose.search import select
+from diagnose.search import MUCH_WORSE, base_bounds, prior_sd, select
 from primitives.ship import DOFS, ShipProfile
 
 
@@ -20,7 +23,7 @@ class Diagnosis:
     profile: ShipProfile
     theta: np.ndarray  # baseline parameters (profile set, file, or fitted with --fit-on)
     model: AugmentedModel
-    P: np.ndarray  # final parameters [theta | augmentations]
+    P: np.ndarray  # final parameters [baseline (refitted where declared) | augmentations | initial states]
     findings: list[dict]
     untestable: list[dict]
     fit_before: dict[str, float]
@@ -35,11 +38,17 @@ class Diagnosis:
     fit_before_diag: dict[str, float] = field(default_factory=dict)
     fit_after_diag: dict[str, float] = field(default_factory=dict)
     elapsed_s: float = 0.0
+    per_run: list[dict] = field(default_factory=list)  # held-out fit before/after per run and channel
+    per_run_method: str = ""
+    rejected: list[dict] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    refit_parameters: list[str] = field(default_factory=list)
+    structure: list[dict] = field(default_factory=list)  # findings the --fit-on reference runs show too
 
     @property
     def explained(self) -> bool:
-        """No finding and residuals at the noise level: the model explains the data."""
-        return not self.findings and max(self.location["rms_over_noise"].values()) < 2.0
+        """No finding and residuals at the (coloured-noise robust) noise level."""
+        return not self.findings and not self.structure and max(self.location["rms_over_noise"].values()) < 2.0
 
     @property
     def unexplained_dofs(self) -> list[str]:
@@ -60,55 +69,31 @@ def _noise_scale(y: np.ndarray) -> np.ndarray:
     return np.maximum(noise_std(y), 0.02 * np.std(y, axis=0))
 
 
-def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]) -> np.ndarray:
-    """Output-error fit of every baseline parameter on the --fit-on recordings."""
+def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]) -> tuple[np.ndarray, str]:
+    """Output-error fit of the baseline parameters on the --fit-on recordings, each kept within
+    a factor 2 of the profile and its sign (damping stays dissipative), regularised towards it.
+    Returns (theta, note); a refit that diverges is rejected and the profile kept."""
     preps = [prepare(profile, r, i) for i, r in enumerate(recs)]
     model = AugmentedModel(profile, theta0, [], n_rec=len(preps))
     w = 1.0 / _noise_scale(np.concatenate([r.y for r in recs]))
-    P, _cov, _rss = fit(model, preps, model.p0(), list(range(model.n_base)) + model.x0_params(), w, max_iter=30, tol=1e-7)
-    return P[: model.n_base]
+    idx = list(range(model.n_base))
+    P0 = model.p0()
+    r0 = np.concatenate([(p.y[1:] - model.simulate(p, P0)[0][1:]) * w for p in preps]).ravel()
+    level = np.sqrt(np.mean(r0**2)) if np.all(np.isfinite(r0)) else 1.0
+    prior = (P0, prior_sd(P0, idx, level, model.n_params))
+    P, _cov, rss = fit(model, preps, P0, idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=base_bounds(P0, idx),
+                       prior=prior)
+    if not np.isfinite(rss):
+        return theta0, "the baseline refit on the --fit-on runs diverged: rejected, the profile's parameters are used"
+    return P[: model.n_base], ""
 
 
-def describe(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, free: list[int]) -> dict:
-    """Physical parameters of a kept candidate (keys fixed by the issue) with standard deviations."""
-    idx = model.slot_of[c.key]
-    pos = [free.index(j) for j in idx]
-    sd = np.sqrt(np.clip(np.diag(cov)[pos], 0, None)) if len(cov) else np.full(len(idx), np.nan)
-    vals = P[idx]
-    prof = model.profile
-    if c.effect == "current":
-        cn, ce = vals
-        spd = float(np.hypot(cn, ce))
-        sub = cov[np.ix_(pos, pos)]
-        g_s = np.array([cn, ce]) / max(spd, 1e-12)
-        g_d = np.array([-ce, cn]) / max(spd**2, 1e-12)
-        return {"speed_mps": spd, "toward_deg": float(np.degrees(np.arctan2(ce, cn)) % 360.0),
-                "speed_std": float(np.sqrt(max(g_s @ sub @ g_s, 0))), "toward_std_deg": float(np.degrees(np.sqrt(max(g_d @ sub @ g_d, 0)))),
-                "north_mps": float(cn), "east_mps": float(ce)}
-    if c.effect == "actuator_delay":
-        return {"delay_s": float(vals[0]), "delay_std": float(sd[0]), "samples": float(vals[0] / prof.sample_time)}
-    if c.effect == "input_offset":
-        name = prof.inputs[c.slots[0].index]
-        out = {"input": name, "offset": float(vals[0]), "offset_std": float(sd[0])}
-        if name in ("delta",) or name.startswith("alpha"):
-            out["offset_deg"] = float(np.degrees(vals[0]))
-        return out
-    if c.effect == "sensor_bias":
-        return {"signal": "uvr"[c.slots[0].index], "bias": float(vals[0]), "bias_std": float(sd[0])}
-    if c.effect in ("quadratic_damping", "missing_coupling"):
-        return {"term": c.slots[0].term, "value": float(vals[0]), "value_std": float(sd[0]), "dof": DOFS[c.dof]}
-    if c.effect == "thrust_loss":
-        th = model.theta0
-        tsig = thrust_signal(prof)
-        base = [k for k, (i, t, *_r) in enumerate(model.base) if i == 0 and t in (tsig, f"{tsig}^2", f"{tsig}*|{tsig}|")]
-        out = {"coefficient": float(vals[0]), "coefficient_std": float(sd[0]), "term": c.slots[0].term}
-        if base and th[base[0]] != 0 and tsig == "tau_x":
-            out["thrust_loss_per_mps"] = float(-vals[0] / th[base[0]])
-        return out
-    if c.effect == "inertia_change":
-        s = float(vals[0])
-        return {"scale": s, "scale_std": float(sd[0]), "inertia_ratio": float(1.0 / (1.0 + s)) if s > -1 else None, "dof": DOFS[c.dof]}
-    return {s.name: float(v) for s, v in zip(c.slots, vals)} | {f"{s.name}_std": float(e) for s, e in zip(c.slots, sd)}
+def _check_simulable(model: AugmentedModel, preps: list[Prepared], what: str) -> None:
+    for p in preps:
+        if diverges(model, [p], model.p0()):
+            raise RecordingError(f"{p.rec.source}: the {what} baseline model cannot be simulated on this recording "
+                                 "(the simulation diverges or is not finite); check the ship profile and --params, or "
+                                 "refit it with --fit-on on a calm-water run")
 
 
 def run(
@@ -132,43 +117,156 @@ def run(
                                  f"resample the recording or add '# sample_time: {ts:g}'")
     theta0 = profile.params(theta if theta is not None else None)
     source = "profile"
+    notes: list[str] = []
     if fit_on:
-        theta0 = fit_baseline(profile, theta0, fit_on)
-        source = "fitted on " + ", ".join(r.source for r in fit_on)
+        _check_simulable(AugmentedModel(profile, theta0, []), [prepare(profile, r) for r in fit_on], "given")
+        theta0, note = fit_baseline(profile, theta0, fit_on)
+        source = "fitted on " + ", ".join(r.source for r in fit_on) + (" (rejected)" if note else "")
+        notes += [note] if note else []
     cands, untestable = build_library(profile, recordings)
     preps = [prepare(profile, r, i) for i, r in enumerate(recordings)]
+    val_preps = [prepare(profile, r) for r in validate] if validate else []
     model = AugmentedModel(profile, theta0, cands, n_rec=len(preps))
+    if any(str(r.meta.get("input_hold", "sampled")).lower() != "zoh" for r in recordings):
+        model.half_sample = 0.5 * ts
+    _check_simulable(model, preps + val_preps, "fitted" if fit_on else "given")
     y_all = np.concatenate([r.y for r in recordings])
-    sigma = noise_std(y_all)
-    scale = _noise_scale(y_all)
-    w = 1.0 / scale
+    sigma = noise_std_coloured(y_all)
+    w = 1.0 / _noise_scale(y_all)
     P0 = model.p0()
     res0 = [p.y - model.simulate(p, P0)[0] for p in preps]
-    location = locate(profile, preps, res0, theta0, scale)
-    result = select(model, preps, w, max_rounds=max_rounds, base_free=list(range(model.n_base)) if fit_on else None)
+    location = locate(profile, preps, res0, theta0, np.maximum(sigma, 0.02 * np.std(y_all, axis=0)))
+    base_free = list(range(model.n_base)) if fit_on else []
+    inputs = np.concatenate([p.inputs for p in preps])
+    result = select(model, preps, w, val_preps=val_preps, base_free=base_free, max_rounds=max_rounds, inputs=inputs)
+    notes += result.notes
+    P, free, steps = result.P, result.free, list(result.steps)
+    P0x = P0.copy()
+    P0x[model.x0_params()] = P[model.x0_params()]  # the initial state is not physics: same in both
+    P, free, steps, per_run, method, dropped = _guard(model, preps, val_preps, w, P0x, P, free, steps, result.base_free)
+    result.rejected += dropped
     findings = []
-    for st in result.steps:
+    for st in steps:
         c = st.candidate
-        gain = st.dof_gain
-        dof = DOFS[c.dof] if c.dof is not None else DOFS[int(np.argmax(gain))]
-        params = describe(c, model, result.P, result.cov, result.free)
+        dof = DOFS[c.dof] if c.dof is not None else DOFS[int(np.argmax(st.dof_gain))]
+        params = describe(c, model, P, result.cov if free == result.free else np.zeros((0, 0)), free)
+        _ok, why = plausible.check(c.effect, params, profile, inputs)
         findings.append({
             "effect": c.effect, "dof": dof, "key": c.key, "parameters": params,
-            "f_statistic": float(st.f_stat), "p_value": float(st.p_value), "delta_bic": float(st.delta_bic),
-            "cv_gain": float(st.cv_gain), "rss_drop": float((st.rss_before - st.rss_after) / st.rss_before),
-            "rss_drop_per_dof": dict(zip(DOFS, (gain / max(st.rss_before, 1e-300)).tolist())),
+            "f_statistic": float(st.f_stat), "p_value": float(st.p_value), "heldout_delta_aic": float(st.delta_aic),
+            "cv_gain": float(st.cv_gain), "rss_drop": float((st.rss_before - st.rss_after) / max(st.rss_before, 1e-300)),
+            "rss_drop_per_dof": dict(zip(DOFS, (st.dof_gain / max(st.rss_before, 1e-300)).tolist())),
             "signature_correlation": float(st.correlation), "description": c.description,
+            "plausibility": why or "no ship-scaled limit applies", "heldout_per_run": st.heldout,
         })
-    val_preps = [prepare(profile, r) for r in validate] if validate else []
+    structure = _structural(model, [prepare(profile, r) for r in fit_on or []], w, P, findings)
+    findings = [f for f in findings if f not in structure]
     fit_on_name = "validation" if val_preps else "diagnosed"
-    P0x = P0.copy()
-    P0x[model.x0_params()] = result.P[model.x0_params()]  # the initial state is not physics: same in both
-    fbd, fad = _fits(model, preps, P0x), _fits(model, preps, result.P)
-    fb, fa = (_fits(model, val_preps, P0x), _fits(model, val_preps, result.P)) if val_preps else (dict(fbd), dict(fad))
-    for f in findings:
+    fbd, fad = _fits(model, preps, P0x), _fits(model, preps, P)
+    fb, fa = (_fits(model, val_preps, P0x), _fits(model, val_preps, P)) if val_preps else (dict(fbd), dict(fad))
+    for f in findings + structure:
         f["evidence"] = _evidence(f, location, fb, fa, fit_on_name)
-    return Diagnosis(profile, theta0, model, result.P, findings, untestable, fb, fa, fit_on_name,
-                     location, source, sigma, preps, val_preps, result.screened, fbd, fad, time.perf_counter() - t0)
+    names = [n for dof in profile.parameter_names for n in dof]
+    d = Diagnosis(profile, theta0, model, P, findings, untestable, fb, fa, fit_on_name, location, source, sigma, preps,
+                  val_preps, result.screened, fbd, fad, 0.0, per_run, method, result.rejected, notes,
+                  [names[j] for j in result.base_free] if findings else [])
+    d.structure = structure
+    d.elapsed_s = time.perf_counter() - t0
+    return d
+
+
+def _structural(model: AugmentedModel, calm: list[Prepared], w: np.ndarray, P: np.ndarray, findings: list[dict]) -> list[dict]:
+    """Findings the --fit-on (reference) runs show too: refitting the baseline with the
+    candidate on the reference runs (linearised, from the baseline as fitted there) lowers their
+    residual by more than 1 % with a coefficient of the same sign and at least half the size.
+    They are a deficiency of the baseline's structure, not a condition of the diagnosed runs
+    (a current, a fault), and are reported apart; they stay in the model."""
+    if not calm or not findings:
+        return []
+    base = list(range(model.n_base))
+    P0 = model.p0()
+    fit_parts = list(range(len(calm)))
+    parts = Parts(fit_parts, [np.ones(p.n, bool) for p in calm], [p.rec.source for p in calm], [], [])
+    out = []
+    for f in findings:
+        own = model.slot_of[f["key"]]
+        g = grams(model, calm, parts, P0, base + own, w, model.steps(calm, P))
+        zero = np.zeros(len(base) + len(own))
+        rss0, _ = insample_rss(g, parts, list(range(len(base))), zero, zero, fit_parts)
+        rss1, step = insample_rss(g, parts, list(range(len(base) + len(own))), zero, zero, fit_parts)
+        est, val = step[len(base):], P[own]
+        same = float(est @ val) > 0 and np.linalg.norm(est) >= 0.5 * np.linalg.norm(val)
+        if rss1 < 0.99 * rss0 and same:
+            f["reference_fit_gain"] = float(1.0 - rss1 / max(rss0, 1e-300))
+            out.append(f)
+    return out
+
+
+def _table(labels: list[str], roles: list[str], f0: np.ndarray, f1: np.ndarray, den: np.ndarray) -> list[dict]:
+    """Rows of the per-run table; ``den`` (runs, 3) the noise-weighted spread of each output,
+    from which the fit gives the run's weighted misfit (summed over the channels)."""
+    rows = []
+    for lab, role, a, b, dn in zip(labels, roles, f0, f1, den):
+        w0, w1 = (float(np.sum((1 - f / 100.0) ** 2 * dn)) for f in (a, b))
+        rows.append({"run": lab, "role": role, "before": dict(zip(DOFS, a.tolist())), "after": dict(zip(DOFS, b.tolist())),
+                     "weighted_misfit_before": w0, "weighted_misfit_after": w1})
+    return rows
+
+
+def _den(preps: list[Prepared], w: np.ndarray) -> np.ndarray:
+    return np.array([np.sum(((p.y - p.y.mean(axis=0)) * w) ** 2, axis=0) for p in preps])
+
+
+def per_run_fits(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray,
+                 P0: np.ndarray, P: np.ndarray, free: list[int]) -> tuple[list[dict], str]:
+    """Fit before/after per run and channel. With validation runs: by simulation. Otherwise each
+    diagnosed run is held out in turn: the model refitted without it (a Gauss-Newton step of the
+    free parameters from the final fit) is simulated on it (leave one run out, linearised)."""
+    if val_preps:
+        f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in val_preps])
+        f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in val_preps])
+        return (_table([p.rec.source for p in val_preps], ["validation"] * len(val_preps), f0, f1, _den(val_preps, w)),
+                "validation runs, simulated")
+    f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in preps])
+    cols = [j for j in free if j < model.n_slots_end]
+    if len(preps) < 2 or not cols:
+        f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in preps])
+        return _table([p.rec.source for p in preps], ["diagnosed"] * len(preps), f0, f1, _den(preps, w)), "diagnosed runs, in-sample"
+    parts = make_parts(preps, [])
+    g = grams(model, preps, parts, P, cols, w, model.steps(preps, P))
+    rss = heldout_rss(g, parts, list(range(len(cols))), np.zeros(len(cols)), np.zeros(len(cols)))
+    f1 = 100.0 * (1.0 - np.sqrt(rss / np.maximum(g.den, 1e-300)))
+    return _table([p.rec.source for p in preps], ["left out"] * len(preps), f0, f1, _den(preps, w)), "leave one run out (linearised refit)"
+
+
+def _guard(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray, P0: np.ndarray,
+           P: np.ndarray, free: list[int], steps: list, base_free: list[int]):
+    """Per-run acceptance: no held-out run may fit worse on any channel (validation runs) or much
+    worse (left-out runs); findings are dropped, weakest first, until that holds. No finding
+    left: the model is the baseline as given (no refit)."""
+    rise = 0.0 if val_preps else RUN_RISE
+    dropped = []
+    while True:
+        if not steps:
+            table, method = per_run_fits(model, preps, val_preps, w, P0, P0, [])
+            return P0, [], [], table, method, dropped
+        table, method = per_run_fits(model, preps, val_preps, w, P0, P, free)
+        worst = min(row["after"][k] - row["before"][k] for row in table for k in DOFS)
+        worse_run = max(row["weighted_misfit_after"] / max(row["weighted_misfit_before"], 1e-300) - 1.0 for row in table)
+        if worst >= -MUCH_WORSE and worse_run <= rise:
+            return P, free, steps, table, method, dropped
+        st = steps.pop()  # the last kept is the weakest
+        own = model.slot_of[st.candidate.key]
+        free = [j for j in free if j not in own]
+        P = P.copy()
+        P[own] = 0.0
+        # the baseline keeps the values fitted with the finding (a refit without its prior could diverge)
+        P, _cov, rss = fit(model, preps, P, [j for j in free if j not in base_free], w, max_iter=6)
+        dropped.append({"key": st.candidate.key, "effect": st.candidate.effect,
+                        "reason": f"a held-out run fits worse with it ({method}: weighted misfit {100 * worse_run:+.1f} %, "
+                                  f"worst channel {worst:+.1f} points)"})
+        if not np.isfinite(rss):
+            steps = []
 
 
 SIGNATURE = {"current": ["cos psi", "sin psi"], "wind": ["wind along", "wind across"], "actuator_delay": ["change of"],

@@ -75,7 +75,8 @@ def _library(name: str) -> list:
 def _sequence(profile: ShipProfile, rng: np.random.Generator, n_prims: int) -> tuple[np.ndarray, np.ndarray, list[str]]:
     lib = _library(profile.name)
     moving = [p for p in lib if p.name not in ("tau1",)]
-    idx = rng.choice(len(moving), size=min(n_prims, len(moving)), replace=False)
+    # long runs (more primitives than the library holds) repeat primitives; shorter draws are unchanged
+    idx = rng.choice(len(moving), size=n_prims, replace=n_prims > len(moving))
     prims = [moving[i] for i in idx]
     prims.sort(key=lambda p: p.name != "tau2")  # start from rest with the acceleration when drawn
     inputs = np.concatenate([p.inputs for p in prims])
@@ -129,7 +130,7 @@ def _one(profile: ShipProfile, effects: tuple[str, ...], rng: np.random.Generato
         chans["wind_speed"] = np.full(len(y), spd)
         chans["wind_dir"] = np.full(len(y), float(np.arctan2(-wind[1], -wind[0])))  # comes from
     return Recording(name, res.t, y, res.psi_meas[0], res.pos_meas[0], chans, labels + labels[-1:],
-                     {"ship": profile.name, "generated": "diagnose.battery"}, [])
+                     {"ship": profile.name, "generated": "diagnose.battery", "input_hold": "zoh"}, [])
 
 
 def scenario(effects: tuple[str, ...], seed: int, *, profile: ShipProfile | None = None, n_prims: int = 6) -> Scenario:

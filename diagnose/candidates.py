@@ -2,7 +2,8 @@
 
 Every candidate adds one or more *slots* to the augmented simulator (:mod:`diagnose.model`):
 
-- ``term``: an extra regressor term with a coefficient in one DOF of ``nu(k+1) = nu(k) +
+- ``term``: an extra regressor term (or a change of a surge term the model has: resistance,
+  thrust deduction) with a coefficient in one DOF of ``nu(k+1) = nu(k) +
   Phi^T theta`` ((3.60), (9.1)) - quadratic damping (v|v|, r|r|, r|v|, v|r|, u|u|), missing
   coupling (v r, u r, u v, r^2), speed-dependent thrust (u tau_x, u n), relative-wind drag
   (when wind is measured) and roll coupling (phi, when roll is measured);
@@ -115,6 +116,14 @@ def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[li
     else:
         cands.append(Candidate("thrust_loss", "thrust_loss", (Slot("term", "coefficient", dof=0, term=f"u_r*{tsig}"),), dof=0,
                                description=f"thrust falling with speed (u_r*{tsig})"))
+    for t in profile.model_terms[0]:  # surge-model changes: name a surge deficiency instead of masking it
+        factors = {f.strip("|").split("^")[0] for f in t.split("*")}
+        if factors & set(profile.inputs) or tsig in factors:
+            cands.append(Candidate("thrust_loss", f"thrust_loss:constant:{t}", (Slot("term", "coefficient", dof=0, term=t),), dof=0,
+                                   description=f"thrust changed by a constant fraction (thrust deduction / loss, {t})"))
+        elif factors <= {"u", "u_r"}:
+            cands.append(Candidate("resistance_change", f"resistance_change:{t}", (Slot("term", "coefficient", dof=0, term=t),),
+                                   dof=0, description=f"hull resistance changed ({t})"))
     for i in range(3):
         for t in QUADRATIC[i]:
             if not _has(profile, i, t):

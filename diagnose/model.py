@@ -19,7 +19,7 @@ from diagnose.candidates import Candidate, Slot
 from diagnose.recording import Recording
 from primitives.ship import ShipProfile
 from primitives.simulate import body_from_ne
-from primitives.terms import compile_term
+from primitives.terms import TermSet, compile_term, signals_used
 
 
 @dataclass
@@ -38,17 +38,6 @@ class Prepared:
     @property
     def n(self) -> int:
         return len(self.y) - 1
-
-
-def _factor(f: str) -> tuple[str, bool, int]:
-    """(signal, modulus?, power) of one factor of a term string ('|v_r|', 'r^2', 'u')."""
-    f = f.strip()
-    power = 1
-    if "^" in f:
-        f, pw = f.rsplit("^", 1)
-        power = int(pw)
-    ab = f.startswith("|") and f.endswith("|")
-    return f.strip("|"), ab, power
 
 
 def initial_state(y: np.ndarray, m: int = 8) -> np.ndarray:
@@ -83,6 +72,10 @@ class AugmentedModel:
         self.n_slots_end = j
         self.n_rec = n_rec  # initial-state corrections (3 per diagnosed recording), seed 004 lesson 4
         self.n_params = j + 3 * n_rec
+        # Recorded inputs sampled from a continuous actuator act, over a step, like their value
+        # half a sample later than the sample (zero-order-hold convention of nu(k+1) = nu(k) + ...):
+        # the delay slot is the model's shift, the physical delay is that plus half a sample.
+        self.half_sample = 0.0
         self._slot_fn = {k: compile_term(s.term) for k, s in enumerate(self.slots, start=self.n_base)
                          if s.kind == "term" and s.term not in ("wx", "wy", "wn")}
 
@@ -99,85 +92,120 @@ class AugmentedModel:
     # -- simulation --------------------------------------------------------------------------------
     def simulate(self, prep: Prepared, P: np.ndarray) -> np.ndarray:
         """Open-loop outputs (B, N+1, 3) for parameter vectors P (B, n_params)."""
-        P = np.atleast_2d(np.asarray(P, float))
-        B, n, ts = P.shape[0], prep.n, prep.rec.sample_time
-        nb = self.n_base
-        scale = np.ones((B, 3))
-        bias = np.zeros((B, 3))
-        cur = np.zeros((B, 2))
-        x = np.broadcast_to(prep.inputs[:-1], (B, n, prep.inputs.shape[1])).copy()
-        terms: list[tuple[int, np.ndarray, str, tuple[str, ...], object]] = []
-        for j, (i, _t, names, fn) in enumerate(self.base):
+        return self.simulate_many([prep], P)[0]
+
+    def _plan(self, P: np.ndarray) -> dict:
+        """What P switches on (the same for every recording): terms, current, delay, offsets,
+        biases, inertia scales."""
+        B = P.shape[0]
+        plan = {"terms": [], "cur": np.zeros((B, 2)), "delay": None, "offsets": [], "bias": np.zeros((B, 3)),
+                "scale": np.ones((B, 3))}
+        for j, (i, t, names, fn) in enumerate(self.base):
             if np.any(P[:, j] != 0):
-                terms.append((i, P[:, j], _t, names, fn))
-        delay = None
-        for j in range(nb, self.n_slots_end):
+                plan["terms"].append((i, P[:, j], t, names, fn))
+        for j in range(self.n_base, self.n_slots_end):
             col = P[:, j]
             if not np.any(col != 0):
                 continue
             s = self.slot(j)
             if s.kind == "term":
-                if s.term in ("wx", "wy", "wn"):
-                    terms.append((s.dof, col, s.term, (s.term,), None))
-                else:
-                    names, fn = self._slot_fn[j]
-                    terms.append((s.dof, col, s.term, names, fn))
+                names, fn = ((s.term,), None) if s.term in ("wx", "wy", "wn") else self._slot_fn[j]
+                plan["terms"].append((s.dof, col, s.term, names, fn))
             elif s.kind == "current":
-                cur[:, s.index] += col
+                plan["cur"][:, s.index] += col
             elif s.kind == "delay":
-                delay = col
+                plan["delay"] = col
             elif s.kind == "offset":
-                x[:, :, s.index] -= col[:, None]
+                plan["offsets"].append((s.index, col))
             elif s.kind == "bias":
-                bias[:, s.index] += col
+                plan["bias"][:, s.index] += col
             elif s.kind == "scale":
-                scale[:, s.dof] += col
+                plan["scale"][:, s.dof] += col
+        return plan
+
+    def _exogenous(self, prep: Prepared, plan: dict, B: int) -> dict[str, np.ndarray]:
+        """Input-driven signals (B, N) of one recording: delayed, offset inputs and heading."""
+        n, ts = prep.n, prep.rec.sample_time
+        x = np.broadcast_to(prep.inputs[:-1], (B, n, prep.inputs.shape[1])).copy()
+        delay = plan["delay"]
         if delay is not None:
             kk = np.arange(n, dtype=float)
             base_x = prep.inputs[:-1]
             for b in range(B):
                 if delay[b] != 0:
                     src = np.clip(kk - delay[b] / ts, 0, n - 1)
-                    shifted = np.stack([np.interp(src, kk, base_x[:, m]) for m in range(base_x.shape[1])], axis=-1)
-                    x[b] = shifted - (base_x - x[b])  # keep offsets applied above
-        gen = self.profile.generalized_forces(x)
-        psi = prep.psi[:-1]
-        c, s_ = np.cos(psi), np.sin(psi)
-        uc = c[None] * cur[:, :1] + s_[None] * cur[:, 1:]
-        vc = -s_[None] * cur[:, :1] + c[None] * cur[:, 1:]
-        has_cur = bool(np.any(cur != 0))
-        exo = {k: np.broadcast_to(v, (B, n)) for k, v in gen.items()}
-        exo["psi"] = np.broadcast_to(psi, (B, n))
+                    x[b] = np.stack([np.interp(src, kk, base_x[:, m]) for m in range(base_x.shape[1])], axis=-1)
+        for idx, col in plan["offsets"]:
+            x[:, :, idx] -= col[:, None]
+        exo = {k: np.broadcast_to(v, (B, n)) for k, v in self.profile.generalized_forces(x).items()}
+        exo["psi"] = np.broadcast_to(prep.psi[:-1], (B, n))
         if prep.phi is not None:
             exo["phi"] = np.broadcast_to(prep.phi[:-1], (B, n))
-        pre = np.zeros((B, n, 3))
-        loop_terms = []
-        exo_names = set(exo)
-        for i, coef, term, names, fn in terms:
-            if fn is not None and set(names) <= exo_names:
-                pre[:, :, i] += coef[:, None] * fn(exo)
-            else:
-                loop_terms.append((i, coef, [_factor(f) for f in term.split("*")]))
-        out = np.empty((B, n + 1, 3))
-        nu = np.broadcast_to(prep.y0, (B, 3)) - bias
-        if prep.index is not None and prep.index < self.n_rec:
-            k0 = self.n_slots_end + 3 * prep.index
-            nu = nu + P[:, k0: k0 + 3]
+        return exo
+
+    def simulate_many(self, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
+        """Open-loop outputs, one (B, N_i+1, 3) per recording, for parameter vectors P (B, n_params).
+
+        Input-driven terms are summed before the time loop; the state-dependent ones run in one
+        loop over every recording and batch member at once (recordings padded to the longest),
+        through the primitives' term kernel (``primitives.terms.TermSet``).
+        """
+        P = np.atleast_2d(np.asarray(P, float))
+        B = P.shape[0]
+        plan = self._plan(P)
+        scale, bias, cur = plan["scale"], plan["bias"], plan["cur"]
+        loop: list[list[tuple[str, np.ndarray]]] = [[], [], []]
+        for i, coef, term, names, fn in plan["terms"]:
+            if fn is None or not set(names) <= {"psi", "phi", *self.profile.inputs, "tau_x", "tau_y", "tau_n"}:
+                loop[i].append((term, coef))
+        runs = []
+        for prep in preps:
+            exo = self._exogenous(prep, plan, B)
+            pre = np.zeros((B, prep.n, 3))
+            for i, coef, _term, names, fn in plan["terms"]:
+                if fn is not None and set(names) <= set(exo):
+                    pre[:, :, i] += coef[:, None] * fn(exo)
+            nu0 = np.broadcast_to(prep.y0, (B, 3)) - bias
+            if prep.index is not None and prep.index < self.n_rec:
+                k0 = self.n_slots_end + 3 * prep.index
+                nu0 = nu0 + P[:, k0: k0 + 3]
+            runs.append((prep, exo, pre * scale[:, None, :], nu0))
+        if not any(loop):
+            return [np.concatenate([nu0[:, None], nu0[:, None] + np.cumsum(pre, axis=1)], axis=1) + bias[:, None, :]
+                    for _p, _e, pre, nu0 in runs]
+        tset = self._termset(tuple(tuple(t for t, _c in dof) for dof in loop))
+        coef = np.column_stack([c * scale[:, i] for i, dof in enumerate(loop) for _t, c in dof])
+        need = signals_used(tset.terms)
+        R, n_max = len(runs), max(p.n for p in preps)
+
+        def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (R*B, n_max, ...) from per-run (B, n_i, ...)
+            out = np.zeros((R * B, n_max) + arrs[0].shape[2:])
+            for r, a in enumerate(arrs):
+                out[r * B:(r + 1) * B, : a.shape[1]] = a
+            return out
+
+        pre = padded([pre for _p, _e, pre, _n in runs])
+        need_in = sorted(need & set(runs[0][1]))
+        exo = {nm: padded([np.asarray(e[nm])[..., None] for _p, e, _x, _n in runs])[..., 0] for nm in need_in}
+        has_cur = bool(np.any(cur != 0))
+        if has_cur:
+            psi = padded([np.broadcast_to(p.psi[:-1], (B, p.n))[..., None] for p in preps])[..., 0]
+            cn, ce = np.tile(cur[:, :1], (R, 1)), np.tile(cur[:, 1:], (R, 1))
+            uc, vc = np.cos(psi) * cn + np.sin(psi) * ce, -np.sin(psi) * cn + np.cos(psi) * ce
+        use_wind = bool(need & {"wx", "wy", "wn", "u_q", "v_q"}) and any(p.wind_body is not None for p in preps)
+        if use_wind:
+            wu, wv = (padded([np.broadcast_to(p.wind_body[q][:-1] if p.wind_body is not None else np.zeros(p.n),
+                                              (B, p.n))[..., None] for p in preps])[..., 0] for q in (0, 1))
+        coef = np.tile(coef, (R, 1))
+        # TermSet.increments re-splits the coefficient matrix at every call; split it once here and
+        # call the same generated increment function directly (the simulators' inner loop)
+        inc = tset._compiled()  # noqa: SLF001
+        coefs = [coef[:, j] for j in range(coef.shape[1])]
+        nu = np.concatenate([nu0 for _p, _e, _x, nu0 in runs])
+        out = np.empty((R * B, n_max + 1, 3))
         out[:, 0] = nu
-        wb = prep.wind_body
-        nt = len(loop_terms)
-        C = np.zeros((B, max(nt, 1), 3))
-        for t_i, (i, coef, _f) in enumerate(loop_terms):
-            C[:, t_i, i] = coef
-        C = C * scale[:, None, :]
-        pre = pre * scale[:, None, :]
-        need = {f[0] for _i, _c, fs in loop_terms for f in fs}
-        need_abs = {f[0] for _i, _c, fs in loop_terms for f in fs if f[1]}
-        need_in = need & exo_names
-        plans = [[(nm + "|" if ab else nm, pw) for nm, ab, pw in fs] for _i, _c, fs in loop_terms]
-        use_wind = wb is not None and bool(need & {"wx", "wy", "wn", "u_q", "v_q"})
-        vals = np.empty((B, nt))  # term values of one step, filled in place (no per-step np.stack)
-        for k in range(n):
+        zero = np.zeros(R * B)
+        for k in range(n_max):
             u, v, r = nu[:, 0], nu[:, 1], nu[:, 2]
             sig = {"u": u, "v": v, "r": r}
             if has_cur:
@@ -187,24 +215,25 @@ class AugmentedModel:
             for nm in need_in:
                 sig[nm] = exo[nm][:, k]
             if use_wind:
-                uq, vq = u - wb[0][k], v - wb[1][k]
+                uq, vq = u - wu[:, k], v - wv[:, k]
                 sig["u_q"], sig["v_q"] = uq, vq
                 sig["wx"], sig["wy"], sig["wn"] = uq * np.abs(uq) - u * np.abs(u), vq * np.abs(vq) - v * np.abs(v), uq * vq - u * v
             else:
                 sig["u_q"], sig["v_q"] = u, v
-            for nm in need_abs:
-                sig[nm + "|"] = np.abs(sig[nm])
-            if nt:
-                for t_i, plan in enumerate(plans):
-                    val = sig[plan[0][0]] if plan[0][1] == 1 else sig[plan[0][0]] ** plan[0][1]
-                    for nm, pw in plan[1:]:
-                        val = val * (sig[nm] if pw == 1 else sig[nm] ** pw)
-                    vals[:, t_i] = val
-                nu = nu + pre[:, k] + np.einsum("bt,btd->bd", vals, C)
-            else:
-                nu = nu + pre[:, k]
+                sig["wx"] = sig["wy"] = sig["wn"] = zero
+            du, dv, dr = inc(sig, coefs)
+            nu = nu + pre[:, k]
+            nu[:, 0] += du
+            nu[:, 1] += dv
+            nu[:, 2] += dr
             out[:, k + 1] = nu
-        return out + bias[:, None, :]
+        return [out[r * B:(r + 1) * B, : p.n + 1] + bias[:, None, :] for r, p in enumerate(preps)]
+
+    def _termset(self, terms: tuple[tuple[str, ...], ...]) -> TermSet:
+        cache = self.__dict__.setdefault("_tsets", {})
+        if terms not in cache:
+            cache[terms] = TermSet(terms)
+        return cache[terms]
 
     # -- steps for finite differences ------------------------------------------------------------------
     def steps(self, preps: list[Prepared], P: np.ndarray) -> np.ndarray:
@@ -270,18 +299,53 @@ def noise_std(y: np.ndarray) -> np.ndarray:
     return np.maximum(mad, floor)
 
 
+def noise_std_coloured(y: np.ndarray, max_lag: int = 6) -> np.ndarray:
+    """Measurement-noise std per output, robust to coloured (AR(1)) noise.
+
+    The robust variance of the lag-L second difference y(k+L) - 2 y(k) + y(k-L) is modelled as
+    c L^4 (a smooth motion) + s^2 (6 - 8 rho^L + 2 rho^2L) (AR(1) noise of std s and lag-one
+    correlation rho) over L = 1..max_lag; (c, s^2) by non-negative least squares on the relative
+    error for each rho of a grid. White noise is rho = 0 (the plain second-difference estimate);
+    coloured noise hides from the lag-one difference, which underestimates it several times.
+    """
+    from scipy.optimize import nnls
+
+    n = len(y)
+    lags = np.arange(1, max_lag + 1)
+    lags = lags[2 * lags < n - 2]
+    out = noise_std(y)
+    if len(lags) < 3:
+        return out
+    for i in range(y.shape[1]):
+        v = np.empty(len(lags))
+        for q, L in enumerate(lags):
+            d2 = y[2 * L:, i] - 2 * y[L:-L, i] + y[: -2 * L, i]
+            v[q] = (1.4826 * np.median(np.abs(d2 - np.median(d2)))) ** 2
+        if not np.all(v > 0):
+            continue
+        best = (np.inf, out[i] ** 2)
+        for rho in np.linspace(0.0, 0.9, 19):
+            A = np.column_stack([lags.astype(float) ** 4, 6 - 8 * rho**lags + 2 * rho ** (2 * lags)]) / v[:, None]
+            coef, res = nnls(A, np.ones(len(lags)))
+            if res < best[0] - 1e-9:
+                best = (res, coef[1])
+        out[i] = max(np.sqrt(best[1]), out[i])
+    return out
+
+
 def residuals(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
     """Open-loop residuals y - y_hat per recording, each (B, N+1, 3)."""
     with np.errstate(all="ignore"):
-        out = [p.y[None] - model.simulate(p, P) for p in preps]
+        out = [p.y[None] - yh for p, yh in zip(preps, model.simulate_many(preps, P))]
     return [np.where(np.isfinite(r), np.clip(r, -1e6, 1e6), 1e6) for r in out]
 
 
-def stack(res: list[np.ndarray], w: np.ndarray, masks: list[np.ndarray] | None = None) -> np.ndarray:
-    """Weighted residuals flattened to (B, M) (samples of each mask only)."""
+def stack(res: list[np.ndarray], w: np.ndarray | list[np.ndarray], masks: list[np.ndarray] | None = None) -> np.ndarray:
+    """Weighted residuals flattened to (B, M) (samples of each mask only); ``w`` one weight per
+    output, or a list of them, one per recording."""
     parts = []
     for i, r in enumerate(res):
-        rr = r[:, 1:] * w  # sample 0 is the initial state
+        rr = r[:, 1:] * (w[i] if isinstance(w, list) else w)  # sample 0 is the initial state
         if masks is not None:
             rr = rr[:, masks[i][1:]]
         parts.append(rr.reshape(r.shape[0], -1))
@@ -300,25 +364,51 @@ def jacobian(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: 
     return R[0], J
 
 
+def _prior_rows(P: np.ndarray, free: list[int], prior: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+    """Regularisation towards the profile (a Gaussian prior, seed 004 lesson 17): residual rows
+    (P_j - ref_j) / sd_j for the free parameters with a finite sd, and their Jacobian."""
+    if prior is None:
+        return np.zeros(0), np.zeros((0, len(free)))
+    ref, sd = prior
+    rows = [k for k, j in enumerate(free) if np.isfinite(sd[j]) and sd[j] > 0]
+    J = np.zeros((len(rows), len(free)))
+    for n, k in enumerate(rows):
+        J[n, k] = 1.0 / sd[free[k]]
+    r = np.array([(P[free[k]] - ref[free[k]]) / sd[free[k]] for k in rows])
+    return r, J
+
+
 def fit(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: list[int], w: np.ndarray,
         masks: list[np.ndarray] | None = None, max_iter: int = 10, bounds: dict[int, tuple[float, float]] | None = None,
-        tol: float = 1e-5) -> tuple[np.ndarray, np.ndarray, float]:
-    """Output-error Levenberg-Marquardt over the ``free`` parameters. Returns (P, cov, rss).
+        tol: float = 1e-5, prior: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """Output-error Levenberg-Marquardt over the ``free`` parameters within ``bounds``, with an
+    optional Gaussian ``prior`` (ref, sd) per parameter. Returns (P, cov, rss); rss is the data
+    part only, and ``inf`` when the refit diverged (a non-finite or exploding simulation).
 
     Each iteration tries four damping values in one batched simulation.
     """
     P = np.asarray(P, float).copy()
     bounds = bounds or {}
     h = model.steps(preps, P)
+
+    def total(Pb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        R = stack(residuals(model, preps, Pb), w, masks)
+        data = np.einsum("ij,ij->i", R, R)
+        pri = np.array([float(np.sum(_prior_rows(p, free, prior)[0] ** 2)) for p in Pb])
+        return data, data + pri
+
     r, J = jacobian(model, preps, P, free, w, masks, h)
+    rp, Jp = _prior_rows(P, free, prior)
     rss = float(r @ r)
+    obj = rss + float(rp @ rp)
     lam = 1e-3
     lams = np.array([0.1, 1.0, 10.0, 1000.0])
     for _ in range(max_iter):
         if not np.all(np.isfinite(J)):
             break
-        g = J.T @ r
-        A = J.T @ J
+        Ja, ra = np.vstack([J, Jp]), np.concatenate([r, rp])
+        g = Ja.T @ ra
+        A = Ja.T @ Ja
         d = np.sqrt(np.diag(A)) + 1e-300
         An = A / np.outer(d, d)
         cand = np.repeat(P[None], len(lams), axis=0)
@@ -329,26 +419,41 @@ def fit(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: list[
                 cand[k] = P
         for j, (lo, hi) in bounds.items():
             cand[:, j] = np.clip(cand[:, j], lo, hi)
-        R = stack(residuals(model, preps, cand), w, masks)
-        rss_c = np.einsum("ij,ij->i", R, R)
-        k = int(np.argmin(rss_c))
-        if not rss_c[k] < rss:
+        data_c, obj_c = total(cand)
+        k = int(np.argmin(obj_c))
+        if not obj_c[k] < obj:
             lam *= 1e4
             if lam > 1e8:
                 break
             continue
-        rel = (rss - rss_c[k]) / max(rss, 1e-300)
-        P, rss = cand[k], float(rss_c[k])
+        rel = (obj - obj_c[k]) / max(obj, 1e-300)
+        P, rss, obj = cand[k], float(data_c[k]), float(obj_c[k])
         lam = max(lam * lams[k] / 10, 1e-9)
         if rel < tol:
             break
         r, J = jacobian(model, preps, P, free, w, masks, h)
+        rp, Jp = _prior_rows(P, free, prior)
     dof = max(len(r) - len(free), 1)
+    Ja = np.vstack([J, Jp])
     try:
-        cov = np.linalg.pinv(J.T @ J) * (rss / dof)
+        cov = np.linalg.pinv(Ja.T @ Ja) * (rss / dof)
     except (np.linalg.LinAlgError, ValueError):
         cov = np.full((len(free), len(free)), np.nan)
+    if not np.all(np.isfinite(P)) or diverges(model, preps, P):
+        return P, cov, float("inf")
     return P, cov, rss
+
+
+def diverges(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> bool:
+    """True when the simulation at P is non-finite or leaves the recorded range by far
+    (an unstable refit: positive damping, a blown-up inertia)."""
+    with np.errstate(all="ignore"):
+        for p in preps:
+            yh = model.simulate(p, P)[0]
+            span = np.max(np.abs(p.y), axis=0) + 3.0 * np.std(p.y, axis=0) + 1e-9
+            if not np.all(np.isfinite(yh)) or np.any(np.max(np.abs(yh), axis=0) > 20.0 * span):
+                return True
+    return False
 
 
 def fit_percent(y: np.ndarray, yhat: np.ndarray) -> np.ndarray:

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from diagnose.api import Diagnosis
+from diagnose.model_file import model_dict
 from primitives.io import atomic_savefig, atomic_write_text, to_jsonable
 from primitives.ship import DOFS
 
@@ -30,8 +31,16 @@ def sentence(f: dict) -> str:
         what = f"the {f['dof']} motion has nonlinear damping {p['term']} (coefficient {p['value']:.3g} per sample)"
     elif e == "missing_coupling":
         what = f"the {f['dof']} motion is coupled through {p['term']} (coefficient {p['value']:.3g} per sample)"
+    elif e == "thrust_loss" and "loss_percent" in p:
+        pct = p["loss_percent"]
+        what = (f"the thrust is {pct:.0f} % lower than the model's" if pct is not None
+                else f"the thrust term {p['term']} changes by {p['coefficient']:.3g}")
     elif e == "thrust_loss":
         what = f"the thrust falls with speed ({p['term']} coefficient {p['coefficient']:.3g})"
+    elif e == "resistance_change":
+        pct = p["resistance_change_pct"]
+        what = (f"the hull resistance ({p['term']}) is {pct:+.0f} % off the model's" if pct is not None
+                else f"the resistance term {p['term']} changes by {p['coefficient']:.3g}")
     elif e == "inertia_change":
         what = f"the {f['dof']} inertia is {p['inertia_ratio']:.2f} x the model's (increments scaled by {1 + p['scale']:.3f})"
     elif e == "wind":
@@ -39,7 +48,21 @@ def sentence(f: dict) -> str:
             f"{k.split('_')[1]} {v:.3g}" for k, v in p.items() if not k.endswith("_std")) + ")"
     else:
         what = f"{e} in {f['dof']}: " + ", ".join(f"{k} {v:.3g}" for k, v in p.items() if isinstance(v, float))
-    return f"{what}: {f['evidence']}."
+    plaus = f" Plausible for this ship: {f['plausibility']}." if f.get("plausibility") else ""
+    return f"{what}: {f['evidence']}.{plaus}"
+
+
+def per_run_lines(d: Diagnosis) -> list[str]:
+    """The per-run table: fit before -> after per channel on each held-out run."""
+    if not d.per_run:
+        return []
+    lines = [f"Per run ({d.per_run_method}), fit before -> after [%]:"]
+    w = max(len(r["run"]) for r in d.per_run)
+    lines.append(f"  {'run':{w}s}  " + "  ".join(f"{k:>17s}" for k in DOFS))
+    for r in d.per_run:
+        cells = [f"{r['before'][k]:7.1f} -> {r['after'][k]:6.1f}" for k in DOFS]
+        lines.append(f"  {r['run']:{w}s}  " + "  ".join(f"{c:>17s}" for c in cells))
+    return lines
 
 
 def to_text(d: Diagnosis) -> str:
@@ -66,6 +89,8 @@ def to_text(d: Diagnosis) -> str:
     if d.explained:
         lines.append("Findings: none. The model explains the data: no candidate physics improves the fit "
                      "significantly and on held-out data.")
+    elif not d.findings and d.structure:
+        lines.append("Findings: none that is a condition of these runs (only baseline structure, below).")
     elif not d.findings:
         worst = max(d.location["rms_over_noise"].items(), key=lambda kv: kv[1])
         lines.append(f"Findings: none, but the model does NOT explain the data (the {worst[0]} residual is {worst[1]:.0f} x "
@@ -75,23 +100,37 @@ def to_text(d: Diagnosis) -> str:
         lines.append("Findings (strongest first):")
         for i, f in enumerate(d.findings, 1):
             lines.append(f"  {i}. [{f['effect']}] {sentence(f)}")
+    if d.structure:
+        lines.append("Baseline structure (the --fit-on reference runs show it too, so it is the model's shape, not a "
+                     "condition of these runs; kept in the refitted model):")
+        for i, f in enumerate(d.structure, 1):
+            lines.append(f"  {i}. [{f['effect']}] {sentence(f)}")
     for u in d.untestable:
         extra = f" ({u['dof']} {u['term']})" if "term" in u else ""
         lines.append(f"Cannot be tested: {u['effect']}{extra}: {u['reason']}.")
-    kept = {f["key"] for f in d.findings}
+    kept = {f["key"] for f in d.findings + d.structure}
     weak: dict[str, dict] = {}
     for c in d.screened[-1]["candidates"] if d.screened else []:  # the last round: after every kept effect
-        if c["key"] not in kept and c["p_value"] < 1e-3:
+        if c["key"] not in kept and c["p_value"] < 1e-3 and c["key"] not in {r["key"] for r in d.rejected}:
             weak[c["key"]] = c
     if weak:
         top = sorted(weak.values(), key=lambda c: c["p_value"])[:3]
         lines.append("Not kept (left over after the findings; significant on the estimation data but too weak or not confirmed on held-out blocks): " + "; ".join(
-            f"{c['key']} (p = {c['p_value']:.1g}, held-out {100 * c['cv_gain']:+.0f} %, estimate "
+            f"{c['key']} (p = {c['p_value']:.1g}, held-out {100 * c['heldout_gain']:+.0f} %, "
+            f"{c['runs_improved']} held-out runs better, estimate "
             + ", ".join(f"{e:.3g}" for e in c["estimate"]) + ")" for c in top) + ".")
-    left = d.unexplained_dofs if d.findings else []
+    for text in dict.fromkeys(f"Rejected: {r['key']}: {r['reason']}." for r in d.rejected):
+        lines.append(text)
+    for n in d.notes:
+        lines.append(f"Note: {n}.")
+    if d.refit_parameters:
+        lines.append("Baseline parameters refitted with the findings (bounded, regularised towards the profile): "
+                     + ", ".join(d.refit_parameters) + ".")
+    left = d.unexplained_dofs if d.findings or d.structure else []
     if left:
         lines.append(f"Still above the noise after the findings: {', '.join(left)} (more physics is missing than the library names).")
-    lines.append(f"Fit on the {d.fit_on} run(s), before -> after: " + ", ".join(
+    lines += per_run_lines(d)
+    lines.append(f"Pooled over the {d.fit_on} run(s) (summary only), before -> after: " + ", ".join(
         f"{k} {d.fit_before[k]:.1f} % -> {d.fit_after[k]:.1f} %" for k in DOFS))
     return "\n".join(lines)
 
@@ -105,6 +144,7 @@ def to_json(d: Diagnosis, model_path: str | None) -> dict:
         "explained": d.explained,
         "still_unexplained_dofs": d.unexplained_dofs,
         "findings": d.findings,
+        "structure": d.structure,
         "untestable": d.untestable,
         "fit_before": d.fit_before,
         "fit_after": d.fit_after,
@@ -114,58 +154,14 @@ def to_json(d: Diagnosis, model_path: str | None) -> dict:
         "location": d.location,
         "noise_std": dict(zip("uvr", d.sigma.tolist())),
         "model": model_path,
+        "per_run": d.per_run,
+        "per_run_method": d.per_run_method,
+        "rejected": d.rejected,
+        "notes": d.notes,
+        "refit_parameters": d.refit_parameters,
         "screened": d.screened,
         "elapsed_s": d.elapsed_s,
     })
-
-
-def model_dict(d: Diagnosis) -> dict:
-    """The refitted profile (loadable by ``primitives.ship.load_profile``) plus augmentations.
-
-    Extra terms the profile can express are appended to its model; an inertia change is folded
-    into the DOF's parameters; a current becomes the profile's mean current. Delay, offsets and
-    biases are listed under ``augmentations``.
-    """
-    prof = d.profile
-    m = d.model
-    base = prof.to_dict()
-    terms = [list(t) for t in prof.model_terms]
-    names = [list(n) for n in prof.parameter_names]
-    vals = [list(d.theta[prof.model.dof_slice(i)]) for i in range(3)]
-    aug = []
-    dist = dict(base.get("disturbances", {}))
-    known = {"u", "v", "r", "u_r", "v_r", "psi", *prof.inputs, "tau_x", "tau_y", "tau_n"}
-    for f in d.findings:
-        c = next(c for c in m.candidates if c.key == f["key"])
-        idx = m.slot_of[c.key]
-        if c.effect in ("quadratic_damping", "missing_coupling", "thrust_loss"):
-            term = c.slots[0].term
-            if {x.strip("|").split("^")[0] for x in term.split("*")} <= known:
-                terms[c.dof].append(term)
-                names[c.dof].append(f"{c.effect}:{term}")
-                vals[c.dof].append(float(d.P[idx[0]]))
-                continue
-        if c.effect == "inertia_change":
-            s = 1.0 + float(d.P[idx[0]])
-            vals[c.dof] = [v * s for v in vals[c.dof]]
-            continue
-        if c.effect == "current":
-            dist["current_mean_ne"] = [float(d.P[idx[0]]), float(d.P[idx[1]])]
-        aug.append({"effect": f["effect"], "dof": f["dof"], "parameters": f["parameters"]})
-    base["model"] = dict(zip(DOFS, terms))
-    base["parameter_names"] = dict(zip(DOFS, names))
-    base["parameters"] = {"diagnosed": dict(zip(DOFS, vals)),
-                          "baseline": {dof: d.theta[prof.model.dof_slice(i)].tolist() for i, dof in enumerate(DOFS)}}
-    # the baseline set must have as many values as terms: pad the appended terms with zeros
-    for i, dof in enumerate(DOFS):
-        base["parameters"]["baseline"][dof] += [0.0] * (len(terms[i]) - len(base["parameters"]["baseline"][dof]))
-    base["simulation_set"] = base["instrument_set"] = "diagnosed"
-    base["disturbances"] = dist
-    base.pop("predictor", None)
-    base.pop("predictor_names", None)
-    base["name"] = f"{prof.name}-diagnosed"
-    base["augmentations"] = aug
-    return to_jsonable(base)
 
 
 def write_model(d: Diagnosis, path: str | Path) -> Path:

@@ -1,0 +1,263 @@
+"""Judge ``shiptrial diagnose`` on the MMG KVLCC2 battery (tests/physics/mmg_battery.py): physics
+the tool did not generate, one concealed effect per case, full and model scale, white and
+coloured noise (issue 13).
+
+The "visible" column is how far the effect moves the diagnosed runs (RMS of the difference to
+the same manoeuvres without it, in noise units, per channel). Each case is diagnosed as a user would: the recordings are written as CSV, read back with
+``diagnose.recording.load_recording`` and passed to ``diagnose.api.run`` with ``--fit-on`` the
+calm run and ``--validate`` the two held-out runs (or, with ``--cli``, through
+``shiptrial diagnose REC... --ship kvlcc2 --fit-on CALM --validate ... --json``). A case is a
+hit when the named effects are exactly the concealed ones (a control and the effect outside
+the candidate list claim nothing), every magnitude is within the issue's tolerance, no
+held-out run fits worse after the diagnosis on any channel (per run, 1 point slack), and no
+number is NaN.
+
+    python -m benchmarks.bench_diagnose_mmg [--cases a,b] [--cli] [--jobs 2] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from tests.physics.mmg_battery import CASES, case, generate, write_case
+
+WORSE_SLACK = 1.0  # fit points a held-out run may lose on a channel
+
+
+def _num(x) -> float | None:
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return None
+
+
+def _has_nan(obj) -> bool:
+    if isinstance(obj, float):
+        return math.isnan(obj) or math.isinf(obj)
+    if isinstance(obj, dict):
+        return any(_has_nan(v) for v in obj.values())
+    if isinstance(obj, list | tuple):
+        return any(_has_nan(v) for v in obj)
+    return False
+
+
+def thrust_loss_percent(params: dict, extra: dict) -> float | None:
+    """A thrust loss in percent from whatever the finding reports (read defensively)."""
+    for k in ("thrust_loss_pct", "loss_percent", "thrust_loss_percent", "loss_pct"):
+        if _num(params.get(k)) is not None:
+            return float(params[k])
+    for k in ("loss_fraction", "fraction"):
+        if _num(params.get(k)) is not None:
+            return 100.0 * float(params[k])
+    # a u_r*n coefficient against the baseline n^2 thrust, at the approach speed and rps
+    coef, xnn = _num(params.get("coefficient")), extra.get("Xnn")
+    if coef is not None and xnn and params.get("term") in ("u_r*n", "u*n"):
+        return -100.0 * coef * extra["u0"] / (xnn * extra["n0"])
+    return None
+
+
+def _value_error(kind: str, est, true, tol) -> str | None:
+    if kind == "equal":
+        return None if est == true else f"{est!r} instead of {true!r}"
+    e = _num(est)
+    if e is None:
+        return "not reported"
+    if kind == "angle":
+        err = abs((e - true + 180.0) % 360.0 - 180.0)
+        return None if err <= tol else f"{e:.1f} deg, true {true:.1f} (tolerance {tol:g} deg)"
+    if kind == "rel":
+        err = abs(e - true) / abs(true)
+        return None if err <= tol else f"{e:.4g}, true {true:.4g} ({100 * err:.0f} % off, tolerance {100 * tol:.0f} %)"
+    err = abs(e - true)
+    return None if err <= tol else f"{e:.4g}, true {true:.4g} (tolerance {tol:.3g})"
+
+
+def _wind_error(params: dict, chk: dict) -> str | None:
+    """Weighted relative error of the wind coefficients (weights: each DOF's share of the true
+    wind effect in noise units)."""
+    true, tol = chk["wind"][0], chk["wind"][1]
+    wts = chk["weights"][0]
+    num = den = 0.0
+    for k, t in true.items():
+        e = _num(params.get(k))
+        if e is None:
+            return f"no parameter {k}"
+        num += wts[k] * ((e - t) / t) ** 2
+        den += wts[k]
+    err = math.sqrt(num / den)
+    return None if err <= tol else f"wind coefficients {100 * err:.0f} % off (weighted), tolerance {100 * tol:.0f} %"
+
+
+def score(truth: dict, out: dict) -> tuple[bool, list[str]]:
+    """(hit, reasons for a miss) of one diagnosis output (``out``: findings, per_run, fits)."""
+    why = []
+    if out.get("error"):
+        return False, [f"error: {out['error']}"]
+    findings = out.get("findings") or []
+    named = sorted(f.get("effect") for f in findings)
+    want = sorted(truth["effects"])
+    if named != want:
+        why.append(f"claimed {named or 'nothing'}, concealed {want or 'nothing'}")
+    for eff, checks in truth["checks"].items():
+        f = next((f for f in findings if f.get("effect") == eff), None)
+        if f is None:
+            continue
+        p = f.get("parameters") or {}
+        if eff == "wind":
+            e = _wind_error(p, checks)
+            if e:
+                why.append(e)
+            continue
+        for key, (true, tol, kind) in checks.items():
+            est = thrust_loss_percent(p, out.get("extra", {})) if key == "loss_percent" else p.get(key, f.get(key))
+            e = _value_error(kind, est, true, tol)
+            if e:
+                why.append(f"{eff} {key}: {e}")
+    for row in out.get("per_run") or []:
+        b, a = row.get("before", {}), row.get("after", {})
+        for ch in b:
+            if _num(a.get(ch)) is None or _num(b.get(ch)) is None:
+                continue
+            if a[ch] < b[ch] - WORSE_SLACK:
+                why.append(f"held-out {Path(str(row.get('run'))).name} {ch} fit {b[ch]:.1f} -> {a[ch]:.1f} %")
+    if _has_nan(findings) or _has_nan(out.get("per_run")) or _has_nan(out.get("fit_after")):
+        why.append("NaN in the output")
+    return not why, why
+
+
+def _api(paths: dict[str, list[Path]]) -> dict:
+    from diagnose.api import run
+    from diagnose.recording import load_recording
+    from primitives.ship import load_profile
+
+    prof = load_profile("kvlcc2")
+
+    def load(ps):
+        return [r for p in ps for r in load_recording(p)]
+
+    d = run(load(paths["diagnose"]), prof, fit_on=load(paths["calm"]), validate=load(paths["validate"]))
+    names = [n for dof in prof.parameter_names for n in dof]
+    extra = {"u0": prof.cruise_speed_mps}
+    if "Xnn" in names:
+        extra["Xnn"] = float(d.theta[names.index("Xnn")])
+        extra["n0"] = float(np.mean(load(paths["calm"])[0].channels["n"]))
+    return {"findings": d.findings, "per_run": getattr(d, "per_run", None), "fit_before": d.fit_before,
+            "fit_after": d.fit_after, "extra": extra, "notes": getattr(d, "notes", []),
+            "rejected": getattr(d, "rejected", [])}
+
+
+def _cli(paths: dict[str, list[Path]]) -> dict:
+    cmd = [str(Path(sys.executable).with_name("shiptrial")), "diagnose", *map(str, paths["diagnose"]), "--ship", "kvlcc2",
+           "--fit-on", ",".join(map(str, paths["calm"])), "--validate", ",".join(map(str, paths["validate"])), "--json"]
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    if p.returncode != 0:
+        return {"error": (p.stderr.strip().splitlines() or [f"exit status {p.returncode}"])[-1]}
+    j = json.loads(p.stdout)
+    return {"findings": j.get("findings"), "per_run": j.get("per_run") or j.get("heldout_per_run"),
+            "fit_before": j.get("fit_before"), "fit_after": j.get("fit_after"), "notes": j.get("notes"),
+            "rejected": j.get("rejected")}
+
+
+def claimed(out: dict) -> str:
+    if out.get("error"):
+        return "ERROR"
+    parts = []
+    for f in out.get("findings") or []:
+        p = f.get("parameters") or {}
+        e = f.get("effect")
+        if e == "current":
+            parts.append(f"current {p.get('speed_mps', float('nan')):.2f} m/s to {p.get('toward_deg', float('nan')):.0f}")
+        elif e == "actuator_delay":
+            parts.append(f"delay {p.get('delay_s', float('nan')):.2f} s")
+        elif e == "input_offset":
+            parts.append(f"offset {p.get('offset_deg', float('nan')):.2f} deg")
+        elif e == "thrust_loss":
+            pct = thrust_loss_percent(p, out.get("extra", {}))
+            parts.append(f"thrust loss {pct:.0f} %" if pct is not None else "thrust loss")
+        elif e == "sensor_bias":
+            parts.append(f"bias {p.get('signal')} {p.get('bias', float('nan')):.2g}")
+        else:
+            parts.append(f"{e}:{f.get('dof')}" + (f" {p['term']}" if "term" in p else ""))
+    return "; ".join(parts) or "nothing"
+
+
+def truth_text(t: dict) -> str:
+    if not t["effects"]:
+        return "control" + (" (shallow water, outside the list)" if t["concealed"] == "shallow_water" else "")
+    return f"{t['concealed']} {json.dumps(t['magnitude'])}"
+
+
+def run_case(name: str, out_dir: Path, use_cli: bool) -> dict:
+    t0 = time.perf_counter()
+    g = generate(case(name), visibility=True)
+    paths = write_case(g, out_dir / name)
+    t_gen = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    try:
+        out = _cli(paths) if use_cli else _api(paths)
+    except Exception as exc:  # a user error or a crash: both are misses, said as such
+        out = {"error": f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"}
+    secs = time.perf_counter() - t1
+    hit, why = score(g.truth, out)
+    return {"case": name, "truth": g.truth, "truth_text": truth_text(g.truth), "claimed": claimed(out), "hit": hit,
+            "why": why, "diagnose_s": secs, "generate_s": t_gen, "per_run": out.get("per_run"),
+            "findings": out.get("findings"), "error": out.get("error"), "notes": out.get("notes"),
+            "rejected": out.get("rejected")}
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", default="", help="comma-separated case names (default: all)")
+    ap.add_argument("--cli", action="store_true", help="run the shiptrial CLI instead of the library API")
+    ap.add_argument("--jobs", type=int, default=1, help="cases in parallel (processes)")
+    ap.add_argument("--out", default="", help="directory for the generated recordings (default: a temporary one)")
+    ap.add_argument("--json", default="", help="write the per-case results here")
+    a = ap.parse_args(argv)
+    names = [n.strip() for n in a.cases.split(",") if n.strip()] or [c.name for c in CASES]
+    for n in names:
+        case(n)  # unknown names fail before any work
+    out_dir = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="mmg-battery-"))
+    t0 = time.perf_counter()
+    if a.jobs > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(a.jobs) as ex:
+            rows = list(ex.map(run_case, names, [out_dir] * len(names), [a.cli] * len(names)))
+    else:
+        rows = []
+        for n in names:
+            rows.append(run_case(n, out_dir, a.cli))
+            r = rows[-1]
+            print(f"  {n}: {'hit' if r['hit'] else 'MISS'} ({r['diagnose_s']:.1f} s)", file=sys.stderr, flush=True)
+    print(f"{'case':22s} {'truth':44s} {'visible u/v/r':>15s}  {'claimed':48s} {'result':6s} {'time s':>7s}")
+    for r in rows:
+        vis = r["truth"].get("visibility_rms_over_noise", {})
+        vt = "/".join(f"{vis[k]:.1f}" for k in "uvr") if vis else "-"
+        print(f"{r['case']:22s} {r['truth_text'][:44]:44s} {vt:>15s}  {r['claimed'][:48]:48s} "
+              f"{'hit' if r['hit'] else 'MISS':6s} {r['diagnose_s']:7.1f}")
+        for w in r["why"]:
+            print(f"{'':24s}- {w}")
+    hits = sum(r["hit"] for r in rows)
+    times = sorted(r["diagnose_s"] for r in rows)
+    print(f"hit rate {hits}/{len(rows)} = {100 * hits / max(len(rows), 1):.0f} %; diagnosis time median "
+          f"{times[len(times) // 2]:.1f} s, max {times[-1]:.1f} s; wall {time.perf_counter() - t0:.0f} s "
+          f"({'CLI' if a.cli else 'API'}); recordings in {out_dir}")
+    res = {"hits": hits, "cases": len(rows), "rows": rows}
+    if a.json:
+        from primitives.io import atomic_write_text, to_jsonable
+
+        atomic_write_text(a.json, json.dumps(to_jsonable(res), indent=1))
+    return res
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,78 @@
+"""Plausibility of a physical finding, scaled to the ship (issue 13).
+
+An estimate can fit the data and still be impossible: a 5.6 m/s current on a tanker, a 6 s
+steering delay, a third of the yaw inertia. Each check compares the estimate with a limit
+derived from the ship (length, cruise speed, sample time, recorded actuator motion) so that a
+model-scale ship gets Froude-scaled limits (speeds scale with sqrt(L), times with sqrt(L)).
+An implausible estimate is reported as such and not claimed as the cause.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from primitives.ship import ShipProfile
+
+REF_LENGTH_M = 320.0  # the limits below are stated for a 320 m tanker and Froude-scaled
+MAX_CURRENT_FRACTION = 0.35  # of the cruise speed (2.8 m/s = 5.4 kn for KVLCC2: a strong tidal stream)
+MAX_DELAY_REF_S = 5.0  # steering-machine latency of a large ship, Froude-scaled with sqrt(L / 320 m)
+MIN_DELAY_SAMPLES = 6  # ... but never below a few samples (the recording cannot resolve less)
+MAX_ANGLE_OFFSET_DEG = 5.0  # a neutral rudder / azimuth angle further off would be seen on deck
+MAX_INERTIA_FACTOR = 2.0  # loading changes inertia, but not by more than a factor 2
+MAX_THRUST_CHANGE = 0.5  # fraction of the thrust at cruise speed
+
+
+def froude(profile: ShipProfile) -> float:
+    return float(np.sqrt(profile.length_m / REF_LENGTH_M))
+
+
+def max_delay_s(profile: ShipProfile, inputs: np.ndarray | None = None) -> tuple[float, str]:
+    """Longest plausible actuator delay and why: Froude-scaled latency, at least a few samples,
+    and never longer than the recorded actuator needs to sweep its recorded range."""
+    lim = max(MAX_DELAY_REF_S * froude(profile), MIN_DELAY_SAMPLES * profile.sample_time)
+    why = f"{MAX_DELAY_REF_S:g} s Froude-scaled to {profile.length_m:g} m (at least {MIN_DELAY_SAMPLES} samples)"
+    if inputs is not None and profile.steering_input in profile.inputs:
+        x = inputs[:, profile.inputs.index(profile.steering_input)]
+        rate = np.abs(np.diff(x)) / profile.sample_time
+        if rate.size and np.max(rate) > 0:
+            rmax = float(np.percentile(rate[rate > 0], 95))
+            sweep = float(np.ptp(x)) / max(rmax, 1e-12)
+            if sweep > 2 * profile.sample_time and sweep < lim:  # a rate-limited actuator
+                lim = sweep
+                why = f"the {sweep:.1f} s the recorded {profile.steering_input} needs to sweep its range at its recorded rate"
+    return lim, why
+
+
+def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | None = None) -> tuple[bool, str]:
+    """(plausible?, the limit it was compared with, in words)."""
+    if effect == "current":
+        lim = MAX_CURRENT_FRACTION * profile.cruise_speed_mps
+        ok = params["speed_mps"] <= lim
+        return ok, f"current {params['speed_mps']:.2f} m/s vs at most {lim:.2f} m/s ({MAX_CURRENT_FRACTION:.0%} of the cruise speed)"
+    if effect == "actuator_delay":
+        lim, why = max_delay_s(profile, inputs)
+        d = params["delay_s"]
+        ok = 0.0 < d <= lim
+        return ok, f"delay {d:.2f} s vs at most {lim:.2f} s ({why})"
+    if effect == "input_offset":
+        if "offset_deg" in params:
+            ok = abs(params["offset_deg"]) <= MAX_ANGLE_OFFSET_DEG
+            return ok, f"offset {params['offset_deg']:.2f} deg vs at most {MAX_ANGLE_OFFSET_DEG:g} deg"
+        if inputs is not None:
+            j = profile.inputs.index(params["input"])
+            span = float(np.ptp(inputs[:, j])) or 1.0
+            ok = abs(params["offset"]) <= 0.2 * span
+            return ok, f"offset {params['offset']:.3g} vs at most 20 % of the recorded range {span:.3g}"
+    if effect == "inertia_change":
+        ratio = params.get("inertia_ratio")
+        ok = ratio is not None and 1.0 / MAX_INERTIA_FACTOR <= ratio <= MAX_INERTIA_FACTOR
+        return ok, f"inertia {ratio if ratio is not None else float('inf'):.2f} x the model's vs within a factor {MAX_INERTIA_FACTOR:g}"
+    if effect == "thrust_loss" and params.get("loss_percent") is not None:
+        loss = params["loss_percent"]
+        ok = abs(loss) <= 100 * MAX_THRUST_CHANGE
+        return ok, f"thrust loss {loss:+.0f} % vs at most {100 * MAX_THRUST_CHANGE:.0f} % either way"
+    if effect == "thrust_loss" and "thrust_change_at_cruise" in params:
+        ch = params["thrust_change_at_cruise"]
+        ok = abs(ch) <= MAX_THRUST_CHANGE
+        return ok, f"thrust change {100 * ch:+.0f} % at cruise speed vs at most {100 * MAX_THRUST_CHANGE:.0f} %"
+    return True, ""
