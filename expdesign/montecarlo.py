@@ -412,6 +412,7 @@ class MCEvaluation:
     errors: list[str]
     elapsed_s: float
     engine: dict[str, Any]
+    sample_time: float = 1.0
 
     @property
     def runs_finished(self) -> dict[str, int]:
@@ -474,4 +475,4 @@ def evaluate_designs_parallel(
     errors = [f"task {tasks[i][0]} runs {tasks[i][1]}..{tasks[i][2] - 1}: {msg}" for i, msg in sorted(res.errors.items())]
     info = {"name": engine.name, "workers": workers, "threads_per_worker": threads, "tasks": len(tasks),
             "tasks_per_worker": len(tasks) / max(1, workers * threads), "runs_per_task": chunk}
-    return MCEvaluation(results, cfg, res.complete, res.interrupted, errors, elapsed, info)
+    return MCEvaluation(results, cfg, res.complete, res.interrupted, errors, elapsed, info, profile.sample_time)
