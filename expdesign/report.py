@@ -13,7 +13,6 @@ from expdesign.montecarlo import MCConfig, MCEvaluation
 from primitives.io import atomic_savefig, atomic_write_text, dumps
 
 
-
 def report_dict(design: Design, mc: MCEvaluation | None, sensitivity: list[dict] | None = None,
                 thesis: dict[str, float] | None = None) -> dict[str, Any]:
     """The design.json document. Monte Carlo numbers count finished runs only; a partial
@@ -225,6 +224,11 @@ def markdown(doc: dict[str, Any], figures: dict[str, str]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _md_cell(text: str) -> str:
+    """A table cell: a '|' in a name (X|u|u) would end the cell."""
+    return text.replace("|", r"\|")
+
+
 def _pc(x: float | None) -> str:
     return "n/a" if x is None else f"{100 * x:.1f} %"
 
@@ -268,7 +272,7 @@ def mc_markdown(doc: dict[str, Any], figures: dict[str, str]) -> list[str]:
             lines += ["", f"### Parameters, {n} design (normalized error (estimate - true)/|true|)", "",
                       f"| parameter | true | bias | spread (std) | median abs error | within {tol} |", "|---|---|---|---|---|---|"]
             for p in s["parameters"]:
-                lines.append(f"| {p['parameter']} | {p['true']:.3g} | {_f(p['bias'])} | {_f(p['spread'])} | "
+                lines.append(f"| {_md_cell(p['parameter'])} | {p['true']:.3g} | {_f(p['bias'])} | {_f(p['spread'])} | "
                              f"{_f(p['median_abs_error'])} | {_pc(p['frac_within_tolerance'])} |")
     lines += ["", "### Choices seed 001 leaves open, and the values used", ""]
     lines += [f"- {c['choice']}: {c['value']}" for c in cfg["open_choices"]]
