@@ -41,7 +41,6 @@ class MapResult:
     done: list[bool]
     interrupted: bool = False
     errors: dict[int, str] = field(default_factory=dict)
-    elapsed_s: float = 0.0
 
     @property
     def complete(self) -> bool:
@@ -113,10 +112,10 @@ class Engine:
                 done[i] = True
                 bar.advance(i)
         except KeyboardInterrupt:
-            return MapResult(res, done, interrupted=True, elapsed_s=time.perf_counter() - bar.t0)
+            return MapResult(res, done, interrupted=True)
         finally:
             bar.close()
-        return MapResult(res, done, elapsed_s=time.perf_counter() - bar.t0)
+        return MapResult(res, done)
 
     def close(self) -> None:
         pass
@@ -180,10 +179,10 @@ class LocalEngine(Engine):
                 f.cancel()
             _terminate(pool)
             bar.close()
-            return MapResult(res, done, interrupted=True, errors=errors, elapsed_s=time.perf_counter() - bar.t0)
+            return MapResult(res, done, interrupted=True, errors=errors)
         bar.close()
         pool.shutdown()
-        return MapResult(res, done, errors=errors, elapsed_s=time.perf_counter() - bar.t0)
+        return MapResult(res, done, errors=errors)
 
 
 def _terminate(pool: ProcessPoolExecutor) -> None:
@@ -239,9 +238,9 @@ class DaskEngine(Engine):
         except KeyboardInterrupt:
             self.client.cancel([f for f in futures if not f.done()])
             bar.close()
-            return MapResult(res, done, interrupted=True, errors=errors, elapsed_s=time.perf_counter() - bar.t0)
+            return MapResult(res, done, interrupted=True, errors=errors)
         bar.close()
-        return MapResult(res, done, errors=errors, elapsed_s=time.perf_counter() - bar.t0)
+        return MapResult(res, done, errors=errors)
 
     def close(self) -> None:
         if self._own:
