@@ -413,6 +413,8 @@ class MCEvaluation:
     elapsed_s: float
     engine: dict[str, Any]
     sample_time: float = 1.0
+    profile: str = ""
+    disturbances: dict[str, Any] = field(default_factory=dict)
 
     @property
     def runs_finished(self) -> dict[str, int]:
@@ -475,4 +477,5 @@ def evaluate_designs_parallel(
     errors = [f"task {tasks[i][0]} runs {tasks[i][1]}..{tasks[i][2] - 1}: {msg}" for i, msg in sorted(res.errors.items())]
     info = {"name": engine.name, "workers": workers, "threads_per_worker": threads, "tasks": len(tasks),
             "tasks_per_worker": len(tasks) / max(1, workers * threads), "runs_per_task": chunk}
-    return MCEvaluation(results, cfg, res.complete, res.interrupted, errors, elapsed, info, profile.sample_time)
+    return MCEvaluation(results, cfg, res.complete, res.interrupted, errors, elapsed, info, profile.sample_time, profile.name,
+                        asdict(sh.dist))

@@ -9,7 +9,7 @@ import numpy as np
 
 from expdesign.api import Design
 from expdesign.mc_result import PARAM_THRESHOLD, SIM_THRESHOLD, THESIS_FRACTIONS, MCResult
-from expdesign.montecarlo import MCConfig, MCEvaluation
+from expdesign.montecarlo import MCEvaluation
 from primitives.io import atomic_savefig, atomic_write_text, dumps
 
 
@@ -25,7 +25,7 @@ def report_dict(design: Design, mc: MCEvaluation | None, sensitivity: list[dict]
         d["monte_carlo_config"] = {**cfg, "runs_requested": mc.config.runs, "sample_time": mc.sample_time,
                                    "engine": mc.engine, "elapsed_s": round(mc.elapsed_s, 3),
                                    "runs_per_s": round(sum(mc.runs_finished.values()) / max(mc.elapsed_s, 1e-9), 2),
-                                   "open_choices": open_choices(mc.config)}
+                                   "open_choices": open_choices(mc)}
         d["monte_carlo_status"] = {"complete": mc.complete, "partial": not mc.complete, "interrupted": mc.interrupted,
                                    "errors": list(mc.errors), "runs_finished": mc.runs_finished}
         d["monte_carlo_thesis"] = THESIS_FRACTIONS
@@ -43,14 +43,21 @@ def mc_section(mc: MCEvaluation) -> dict[str, Any]:
     return {k: {**r.summary(), "parameters": r.parameter_table()} for k, r in mc.results.items()}
 
 
-def open_choices(cfg: MCConfig) -> list[dict[str, str]]:
+def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
     """What seed 001 section 9.1 leaves open, with the value this evaluation used."""
+    cfg, dist = mc.config, mc.disturbances
     order = ("blocks played back to back in an order drawn per run from SeedSequence(seed, (run, 0))"
              if cfg.protocol == "continuous" else "each block a separate sub-experiment from its primitive's nominal state")
+    noise = (f"current per-sample std {dist.get('current_sample_std', 0):.3g} m/s, measurement std "
+             f"{', '.join(f'{x:.3g}' for x in dist.get('measurement_std', ()))} (u, v, r)")
+    if mc.profile == "model-ship":
+        noise = "N(0, 0.025) read as a variance: " + noise
+    amplitudes = ("tau1-tau11 built to reach the states of section 9.1.1 (feed-forward forces of the true model; zig-zags "
+                  "switch at the --psi-switch heading, default 0.5 rad, sway held against the yaw rate)"
+                  if mc.profile == "model-ship" else "the primitives of the design's library, as built")
     return [
         {"choice": "experiment protocol", "value": f"{cfg.protocol}: {order}"},
-        {"choice": "signal amplitudes", "value": "tau1-tau11 built to reach the states of section 9.1.1 (feed-forward "
-         "forces of the true model; zig-zags switch at +-0.5 rad heading, sway held against the yaw rate)"},
+        {"choice": "signal amplitudes", "value": amplitudes},
         {"choice": "primitive order", "value": "random per run" if cfg.protocol == "continuous" else "fixed (irrelevant: each block restarts)"},
         {"choice": "settling between primitives", "value": f"{cfg.settle} samples of the forces holding the next start state"
          + (" (none: the next input starts at once)" if not cfg.settle else " (added to the experiment length)")},
@@ -58,8 +65,8 @@ def open_choices(cfg: MCConfig) -> list[dict[str, str]]:
         {"choice": "block longer than its primitive", "value": "the primitive's input repeats from its start"},
         {"choice": "experiment length", "value": f"{cfg.n_samples} samples; random design {cfg.n_segments} segments of "
          f"{cfg.n_samples // cfg.n_segments}"},
-        {"choice": "noise N(0, 0.025)", "value": "read as a variance: current u_c, v_c and measurement noise std 0.158 per sample"},
-        {"choice": "IV instruments", "value": f"nominal model (Table 9.1), then re-simulated with the estimate up to "
+        {"choice": "noise", "value": noise},
+        {"choice": "IV instruments", "value": f"simulated with the profile's instrument set (model ship: Table 9.1 nominal), then re-simulated with the estimate up to "
          f"{cfg.iv_iterations} times (per run, until the estimate changes < 0.1 %); mean subtraction {cfg.mean_subtraction}"},
         {"choice": "validation input", "value": f"multisine surge and yaw, smoothed binary sway (seed {cfg.validation_seed}), "
          f"{cfg.n_samples} samples, noise-free true output"},
