@@ -38,7 +38,7 @@ from expdesign.mc_result import MCResult, merge_results
 from expdesign.rounding import efficient_rounding
 from primitives.information import MEAN_SUBTRACTION
 from primitives.library import Primitive, thesis_primitives
-from primitives.regressors import instruments, predictor_regressors
+from primitives.regressors import predictor_regressors
 from primitives.ship import ShipProfile
 from primitives.simulate import Disturbances, simulate, steady_forces
 from primitives.terms import TermSet
@@ -253,15 +253,20 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) ->
     """Noisy data of every segment position for a batch of runs (noise drawn per run)."""
     prof, d, b = sh.profile, sh.dist, len(exps)
     offsets = [g.normal(0.0, d.current_offset_std, 2) for g in gens]
+    # the true system (disturbed) and the instrument model (calm) in one batch of 2B: the time
+    # loop's cost is per step, not per realisation, and every operation in it is elementwise
+    theta = np.repeat(np.stack([prof.params(prof.simulation_set), prof.params(prof.instrument_set)]), b, axis=0)
     out = []
     for j in range(len(exps[0])):
         inp = np.stack([e[j][0] for e in exps])
         nu0 = np.stack([e[j][1] for e in exps])
         cur, wind, meas, head = (np.stack(a) for a in zip(*(_noise(d, g, inp.shape[1], o) for g, o in zip(gens, offsets))))
+        calm = np.zeros_like(cur)
+        env = Disturbances(current_ne=np.concatenate([cur, calm]), wind_ne=np.concatenate([wind, calm]))
         with np.errstate(all="ignore"):
-            res = simulate(prof, inp, nu0=nu0, disturbances=Disturbances(current_ne=cur, wind_ne=wind), batch=b)
-        phi, tgt = predictor_regressors(prof, res.nu + meas, inp, res.eta[..., 2] + head, terms=sh.predictor)
-        z = instruments(prof, inp, prof.instrument_set, nu0, terms=sh.predictor)
+            res = simulate(prof, np.concatenate([inp, inp]), theta, nu0=np.concatenate([nu0, nu0]), disturbances=env, batch=2 * b)
+        phi, tgt = predictor_regressors(prof, res.nu[:b] + meas, inp, res.eta[:b, :, 2] + head, terms=sh.predictor)
+        z, _ = predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)
         out.append(_Seg(inp, nu0, phi, tgt, z))
     return out
 
