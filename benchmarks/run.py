@@ -82,6 +82,24 @@ def _mc_design():
     return go
 
 
+def _mc_scaling(workers):
+    """2,000 runs x 2 designs (issue 14) on ``workers`` local processes (1: inline)."""
+    from expdesign.api import run_design
+    from expdesign.montecarlo import evaluate_designs_parallel
+    from expdesign.parallel import Engine, LocalEngine
+
+    prof, prims, _ = _design_setup()
+    designs = {"optimized": run_design(prof, prims).weights, "random": "random"}
+
+    def go():
+        with (Engine() if workers == 1 else LocalEngine(workers)) as eng:
+            ev = evaluate_designs_parallel(prof, designs, runs=2000, seed=0, scheduler=eng, primitives=prims, progress=False)
+        return {"runs_per_s": 4000 / ev.elapsed_s, "tasks_per_worker": ev.engine["tasks_per_worker"],
+                "digest": "".join(r.digest()[:8] for r in ev.results.values())}
+
+    return go
+
+
 def _planner(counts, **kw):
     from maps.geo import load_map
     from maps.planner import plan_trial
@@ -153,6 +171,9 @@ CASES = {
     "design_convex_11": (_convex, 0.5, None, ""),
     "design_nonconvex_11": (_nonconvex, 1.0, None, ""),
     "monte_carlo_design_500": (_mc_design, 20.0, None, ""),
+    "monte_carlo_2000x2_inline": (lambda: _mc_scaling(1), 20.0, None, "issue 14: reference for the speed-up"),
+    "monte_carlo_2000x2_local2": (lambda: _mc_scaling(2), 6.0, None,
+                                  "issue 14: >= 1.8x faster than inline on 2 workers, same digest (compare the two cases)"),
     "plan_thesis_scenario": (_plan_thesis, 1.0, 40.0, "thesis: plain A* about 40 s on a laptop (section 9.4); whole plan_trial call timed, search alone in search_s"),
     "plan_5x5": (_plan_5x5, 30.0, None, "thesis: 19.25 M-state lattice, 'quite time-consuming'"),
     "plan_default_design": (_plan_design, 2.0, None, "issue 12: whole plan_trial, design included (more in benchmarks/bench_plan.py)"),

@@ -28,7 +28,14 @@ def register(app: typer.Typer) -> None:
         max_frac: float | None = typer.Option(None, "--max-frac", help="maximum share of every primitive"),
         noisy_moments: int = typer.Option(0, "--noisy-moments", help="estimate the moments from this many noisy simulations (0: noise-free)"),
         scheduler: str | None = typer.Option(None, "--scheduler",
-                                             help="Dask scheduler address for the Monte Carlo (default: $SHIPTRIAL_SCHEDULER, else all local cores)"),
+                                             help="'inline', 'local' or a Dask scheduler address for the Monte Carlo (default: $SHIPTRIAL_SCHEDULER, else all local cores)"),
+        mc_protocol: str = typer.Option("continuous", "--mc-protocol",
+                                        help="continuous (one experiment per run, primitives back to back in a random order; "
+                                             "seed 001) or piecewise (every primitive restarts from its nominal state)"),
+        mc_settle: int = typer.Option(0, "--mc-settle", help="settling samples between primitives in a continuous experiment"),
+        mc_min_block: int = typer.Option(40, "--mc-min-block", help="shortest sub-experiment in samples (shorter shares are dropped or raised)"),
+        keep_partial: bool = typer.Option(False, "--keep-partial",
+                                          help="on Ctrl-C or a lost worker, write the report of the finished runs, marked partial"),
     ) -> None:
         """Choose the mix of manoeuvres that maximises information, and check it by Monte Carlo."""
         from expdesign.api import default_library, run_design
@@ -48,23 +55,27 @@ def register(app: typer.Typer) -> None:
         d = run_design(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length,
                        min_frac=min_frac, max_frac=max_frac, seed=seed, disturbed_realisations=noisy_moments,
                        references={"thesis": thesis} if thesis else None)
-        mc = cfg = None
+        ev = None
         if monte_carlo:
             names = [p.name for p in lib if p.kind == "informative"]
             designs = {"optimized": d.weights, "random": "random", "uniform": {n: 1.0 / len(names) for n in names}}
             if profile.library == "thesis-model-ship" and set(THESIS_SHARES) <= set(names):
                 designs["thesis"] = THESIS_SHARES  # the shares section 9.1.1 reports, for comparison
-            mc = evaluate_designs_parallel(profile, designs, runs=monte_carlo, seed=seed, scheduler=scheduler, primitives=lib,
-                                           n_samples=mc_samples, mean_subtraction=mean_subtraction)
-            cfg = {"runs": monte_carlo, "n_samples": mc_samples, "n_segments": 5, "seed": seed, "sample_time": profile.sample_time,
-                   "mean_subtraction": mean_subtraction}
+            ev = evaluate_designs_parallel(profile, designs, runs=monte_carlo, seed=seed, scheduler=scheduler, primitives=lib,
+                                           n_samples=mc_samples, mean_subtraction=mean_subtraction, protocol=mc_protocol,
+                                           settle=mc_settle, min_block=mc_min_block)
+            _echo_speed(ev)
+            if not ev.complete and not (keep_partial and ev.results):
+                _fail(ev, "nothing written (--keep-partial writes the finished runs, marked partial)")
         sens = None
         if sensitivity:
             if profile.library != "thesis-model-ship":
                 raise DesignError("--sensitivity studies the model-ship dictionary tau1-tau11; use --ship model-ship")
             sens = sensitivity_study(profile, seed=seed)
-        doc = report_dict(d, mc, cfg, sens, thesis)
-        paths = write_report(out, doc, d, mc, thesis)
+        doc = report_dict(d, ev, sens, thesis)
+        paths = write_report(out, doc, d, ev.results if ev else None, thesis)
+        if ev is not None and not ev.complete:
+            _fail(ev, f"partial report of the finished runs written to {paths['json']}")
         if json_out:
             typer.echo(dumps(doc))
             return
@@ -75,10 +86,29 @@ def register(app: typer.Typer) -> None:
         typer.echo(f"efficiency vs equal shares {d.efficiency_vs_uniform:.3f}; convex certificate >= {d.efficiency_bound or 0:.4f}")
         for label, eff in d.references.items():
             typer.echo(f"the {label}'s shares reach {eff:.3f} of this design's {d.criterion}-efficiency")
-        if mc:
-            for n, r in mc.items():
-                s = r.summary()
-                p = "n/a" if s["param_rmse_p50"] is None else f"{s['param_rmse_p50']:.3g} ({100 * s['frac_param_rmse_below_1_5']:.0f} % < 1.5)"
-                typer.echo(f"  MC {n:9s} param RMSE p50 {p}; sim RMSE p50 {s['sim_rmse_p50']:.3g} "
-                           f"({100 * s['frac_sim_rmse_below_0_15']:.0f} % < 0.15)")
+        if ev:
+            for n, s in doc["monte_carlo"].items():
+                p = "n/a" if s["param_rmse_p50"] is None else f"{s['param_rmse_p50']:.3g} ({100 * s['frac_param_rmse_below_1_5']:.1f} % < 1.5)"
+                typer.echo(f"  MC {n:9s} param RMSE p50 {p}; sim RMSE p50 {_g(s['sim_rmse_p50'])} "
+                           f"({100 * s['frac_sim_rmse_below_0_15']:.1f} % < 0.15); diverged {s['diverged']} of {s['runs']}")
         typer.echo(f"wrote {paths['markdown']} and {paths['json']}")
+
+
+def _g(x: float | None) -> str:
+    return "n/a" if x is None else f"{x:.3g}"
+
+
+def _echo_speed(ev) -> None:
+    """Runs done, runs per second and how the work was cut, on stderr."""
+    e, n = ev.engine, sum(ev.runs_finished.values())
+    typer.echo(f"Monte Carlo: {n} runs in {ev.elapsed_s:.1f} s ({n / max(ev.elapsed_s, 1e-9):.0f} runs/s) on {e['name']}, "
+               f"{e['workers']} workers x {e['threads_per_worker']} threads, {e['tasks']} tasks "
+               f"({e['tasks_per_worker']:.1f} per worker slot)", err=True)
+
+
+def _fail(ev, what: str) -> None:
+    """Exit non-zero after an interrupted or failed Monte Carlo: 130 for Ctrl-C, 1 for lost work."""
+    done = ", ".join(f"{k} {v}" for k, v in ev.runs_finished.items()) or "none"
+    why = "interrupted" if ev.interrupted else f"{len(ev.errors)} task(s) failed ({ev.errors[0]})"
+    typer.echo(f"error: Monte Carlo {why}: runs finished of {ev.config.runs} per design: {done}; {what}", err=True)
+    raise typer.Exit(130 if ev.interrupted else 1)

@@ -1,86 +1,109 @@
 """Monte Carlo evaluation of designs as in seed 001 section 9.1.2.
 
-Each design becomes a trial of ``n_samples`` samples (thesis: 1000 samples, 125 s, at the model
-ship): a fixed design runs each primitive for round(w_q * n_samples) samples (efficient rounding;
-a primitive used for longer than it lasts is repeated from its start), each as a sub-experiment
-started from the primitive's nominal initial state; the random design picks 1 of the primitives
-for each of ``n_segments`` equal segments, anew in every run. Data come from the true system with
-the profile's disturbances (model ship: current u_c, v_c ~ N(0, 0.025) per sample, measurement
-noise e ~ N(0, 0.025), variances), the parameters from the IV estimator with the design's mean
-subtraction. Metrics per run: the normalized parameter RMSE sqrt(mean(((theta - theta0)/|theta0|)^2))
-and the cross-validation simulation RMSE (per DOF and its norm) on a seeded multisine input
-unlike any primitive, simulated noise-free.
+Protocol (default ``continuous``, as the thesis): every run is ONE experiment of ``n_samples``
+samples (thesis: 1000 samples, 125 s at 8 Hz) started from the nominal state of its first
+primitive. A fixed design gives each primitive round(w_q * n_samples) samples (efficient rounding,
+then no block shorter than ``min_block`` samples: shorter ones are dropped below min_block/2 and
+raised to min_block above); the blocks are played back to back in an order drawn from the run's
+seed, a block longer than its primitive repeats the primitive's input. The random design picks 1 of
+the primitives for each of ``n_segments`` equal segments, anew in every run. ``settle`` > 0 inserts
+that many samples of the forces that hold the next primitive's start state between blocks (the
+shares stay those of the primitives; the experiment gets longer). The ``piecewise`` protocol (each
+block a separate sub-experiment started from its primitive's nominal state) is kept as an option.
 
-Reproducibility and distribution: run i draws everything (its random design, current, noise)
-from ``SeedSequence(seed).spawn(runs)[i]``, so any split of the runs into chunks (``run_slice``,
-e.g. Dask tasks) gives the same numbers; :func:`merge_results` joins chunk results.
+Data come from the true system with the profile's disturbances (model ship: current u_c, v_c ~
+N(0, 0.025) per sample and measurement noise e ~ N(0, 0.025), variances, i.e. std 0.158); the
+parameters from the IV estimator of (9.2) with instruments simulated with the nominal parameters
+(Table 9.1), re-simulated with the latest estimate up to ``iv_iterations`` times, and the design's
+mean subtraction. Metrics: see :mod:`expdesign.mc_result`.
+
+Reproducibility: run i draws its order/segments from ``SeedSequence(seed, spawn_key=(i, 0))`` and
+its noise from ``(i, 1)``; the simulation is batched only through elementwise operations and every
+reduction and solve is done per run on arrays whose shape does not depend on the batch, and the IV
+iterations stop per run. So a run's result depends on (seed, run index) alone, whatever the chunk,
+engine or worker count (tests compare SHA-256 digests of all per-run results).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass, field
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
 from expdesign.errors import DesignError
-from expdesign.estimators import Segment, estimate
+from expdesign.mc_result import MCResult, merge_results
 from expdesign.rounding import efficient_rounding
+from primitives.information import MEAN_SUBTRACTION
 from primitives.library import Primitive, thesis_primitives
+from primitives.regressors import predictor_regressors
 from primitives.ship import ShipProfile
 from primitives.simulate import Disturbances, simulate, steady_forces
+from primitives.terms import TermSet
 
-PARAM_THRESHOLD = 1.5
-SIM_THRESHOLD = 0.15
+PROTOCOLS = ("continuous", "piecewise")
+MAX_CHUNK = 500  # runs per batch: bounds memory (about 40 MB per (runs, samples, params) array)
+_Z_LIMIT = 1e6  # instruments above this come from an exploding simulation: keep the previous ones
+_EXPLODE = 100.0  # a validation output this many times the true one's maximum has diverged
+
+
+@dataclass(frozen=True)
+class MCConfig:
+    """Everything a run's numbers depend on besides (seed, run index); see the module docstring."""
+
+    runs: int = 500
+    seed: int = 0
+    n_samples: int = 1000
+    n_segments: int = 5
+    protocol: str = "continuous"
+    min_block: int = 40
+    settle: int = 0
+    mean_subtraction: str = "complete"
+    iv_iterations: int = 3
+    validation_seed: int = 0
+
+    def check(self) -> None:
+        """Raise a DesignError naming the setting that is out of range."""
+        if self.runs < 1:
+            raise DesignError(f"Monte Carlo needs at least 1 run, got {self.runs}")
+        if self.protocol not in PROTOCOLS:
+            raise DesignError(f"Monte Carlo protocol must be one of {list(PROTOCOLS)}, got {self.protocol!r}")
+        if self.mean_subtraction not in MEAN_SUBTRACTION:
+            raise DesignError(f"mean subtraction must be one of {list(MEAN_SUBTRACTION)}, got {self.mean_subtraction!r}")
+        if self.n_segments < 1 or self.min_block < 2 or self.settle < 0 or self.iv_iterations < 0:
+            raise DesignError("Monte Carlo needs n_segments >= 1, min_block >= 2 samples, settle >= 0, iv_iterations >= 0")
+        if self.n_samples // self.n_segments < self.min_block:
+            raise DesignError(f"{self.n_samples} samples in {self.n_segments} random segments is shorter than the minimum "
+                              f"sub-experiment of {self.min_block} samples: raise n_samples or lower min_block")
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
 
 
 @dataclass
-class MCResult:
-    """Per-run metrics of one design: run ids, normalized parameter RMSE (runs,) (NaN when the
-    predictor structure differs from the true model), simulation RMSE (runs, 3) and its norm."""
+class MCShared:
+    """Inputs every run of every design reads, computed once and shipped to each worker: the
+    primitives' inputs and start states, the input that holds each start state (settling), the
+    designs' blocks, the true parameters and the validation input with its noise-free true output."""
 
-    name: str
-    runs: np.ndarray
-    param_rmse: np.ndarray
-    sim_rmse: np.ndarray
-    sim_norm: np.ndarray
-    notes: list[str] = field(default_factory=list)
-
-    def summary(self, param_threshold: float = PARAM_THRESHOLD, sim_threshold: float = SIM_THRESHOLD) -> dict[str, Any]:
-        """Medians, 90th percentiles and fractions below the thresholds; a diverged run counts as
-        infinite error (its percentile becomes inf, written as null in JSON)."""
-        pr = self.param_rmse
-        has_p = bool(np.isfinite(pr).any() or np.isinf(pr).any())
-        return {
-            "runs": int(len(self.runs)),
-            "param_rmse_p50": _pct(pr, 50) if has_p else None,
-            "param_rmse_p90": _pct(pr, 90) if has_p else None,
-            f"frac_param_rmse_below_{str(param_threshold).replace('.', '_')}": float(np.mean(pr < param_threshold)) if has_p else None,
-            "sim_rmse_p50": _pct(self.sim_norm, 50),
-            "sim_rmse_p90": _pct(self.sim_norm, 90),
-            f"frac_sim_rmse_below_{str(sim_threshold).replace('.', '_')}": float(np.mean(self.sim_norm < sim_threshold)),
-            "sim_rmse_dof_p50": {k: _pct(self.sim_rmse[:, i], 50) for i, k in enumerate("uvr")},
-        }
-
-
-def _pct(x: np.ndarray, q: float) -> float:
-    """Percentile that keeps diverged runs (inf) as inf instead of NaN."""
-    v = float(np.nanpercentile(np.where(np.isinf(x), 1e300, x), q))
-    return np.inf if v > 1e299 else v
-
-
-def merge_results(parts: list[dict[str, MCResult]]) -> dict[str, MCResult]:
-    """Join chunk results (any order) into one result per design, sorted by run id."""
-    out: dict[str, MCResult] = {}
-    for name in parts[0]:
-        rs = [p[name] for p in parts]
-        runs = np.concatenate([r.runs for r in rs])
-        o = np.argsort(runs)
-        out[name] = MCResult(name, runs[o], np.concatenate([r.param_rmse for r in rs])[o],
-                             np.concatenate([r.sim_rmse for r in rs])[o], np.concatenate([r.sim_norm for r in rs])[o],
-                             sorted({n for r in rs for n in r.notes}))
-    return out
+    profile: ShipProfile
+    config: MCConfig
+    names: list[str]
+    inputs: dict[str, np.ndarray]
+    nu0: dict[str, np.ndarray]
+    hold: dict[str, np.ndarray]
+    designs: dict[str, Any]
+    blocks: dict[str, list[tuple[str, int]]]
+    dist: Disturbances
+    predictor: TermSet
+    theta0: np.ndarray | None
+    param_names: list[str]
+    val_inputs: np.ndarray
+    val_nu0: np.ndarray
+    val_true: np.ndarray
+    notes: dict[str, list[str]] = field(default_factory=dict)
 
 
 def validation_input(profile: ShipProfile, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -111,84 +134,250 @@ def validation_input(profile: ShipProfile, n: int, seed: int = 0) -> tuple[np.nd
     return profile.allocate(forces[:, 0], forces[:, 1], forces[:, 2]), np.array([u[0], v[0], r[0]])
 
 
-def _layout(weights: Mapping[str, float], prims: dict[str, Primitive], n_samples: int) -> list[tuple[str, int]]:
-    """(primitive, length) segments of a fixed design; long uses repeat the primitive."""
-    names = list(weights)
-    unknown = [k for k in names if k not in prims]
-    if unknown:
-        raise DesignError(f"design uses unknown primitives {unknown}; the library has {sorted(prims)}")
-    lengths = efficient_rounding(np.array([weights[k] for k in names], float), n_samples)
-    segs = []
-    for k, total in zip(names, lengths):
-        full = prims[k].n_samples
-        while total >= 2:
-            segs.append((k, int(min(total, full))))
-            total -= min(total, full)
-    return segs
+def block_lengths(weights: Mapping[str, float], n_samples: int, min_block: int) -> tuple[list[tuple[str, int]], list[str]]:
+    """(primitive, samples) blocks of a fixed design and notes on what the minimum changed.
+
+    Efficient rounding of the shares to ``n_samples``; a block shorter than ``min_block`` is
+    dropped when below min_block/2 (its samples re-rounded over the others) and otherwise raised
+    to ``min_block``, the samples taken from the longest block."""
+    names = [k for k, w in weights.items() if w > 0]
+    w = np.array([float(weights[k]) for k in names])
+    notes = []
+    lengths = efficient_rounding(w, n_samples)
+    while ((lengths > 0) & (lengths < min_block / 2)).any():
+        j = int(np.where((lengths > 0) & (lengths < min_block / 2), lengths, np.inf).argmin())
+        notes.append(f"{names[j]} dropped: {lengths[j]} samples is below half the minimum block of {min_block}")
+        w[j] = 0.0
+        lengths = efficient_rounding(w, n_samples)
+    for j in np.flatnonzero((lengths > 0) & (lengths < min_block)):
+        notes.append(f"{names[j]} raised from {lengths[j]} to the minimum block of {min_block} samples")
+        lengths[int(lengths.argmax())] -= min_block - lengths[j]
+        lengths[j] = min_block
+    return [(n, int(c)) for n, c in zip(names, lengths) if c > 0], notes
 
 
-class _Noise:
-    """Per-run random draws from the run's own seed (chunk-independent)."""
+def prepare(profile: ShipProfile, designs: Mapping[str, Any], config: MCConfig, primitives: list[Primitive] | None = None,
+            disturbances: Disturbances | None = None) -> MCShared:
+    """Check the designs and compute the shared inputs once (see :class:`MCShared`)."""
+    config.check()
+    lib = primitives if primitives is not None else thesis_primitives(profile)
+    prims = {p.name: p for p in lib if p.kind == "informative"}
+    if not prims:
+        raise DesignError(f"profile {profile.name!r} has no informative primitives to evaluate")
+    specs, blocks, notes = {}, {}, {}
+    for name, spec in designs.items():
+        spec = getattr(spec, "weights", spec)
+        if isinstance(spec, str):
+            if spec != "random":
+                raise DesignError(f"design {name!r}: use fractions {{primitive: share}} or 'random', got {spec!r}")
+        else:
+            unknown = sorted(set(spec) - set(prims))
+            if unknown:
+                raise DesignError(f"design {name!r} uses unknown primitives {unknown}; the library has {sorted(prims)}")
+            if not any(float(v) > 0 for v in spec.values()):
+                raise DesignError(f"design {name!r} has no positive share")
+            blocks[name], notes[name] = block_lengths(spec, config.n_samples, config.min_block)
+            spec = {k: float(v) for k, v in spec.items()}
+        specs[name] = spec
+    predictor = profile.predictor
+    theta0 = profile.params(profile.simulation_set) if predictor.terms == profile.model.terms else None
+    vin, vnu0 = validation_input(profile, config.n_samples, config.validation_seed)
+    hold = {k: profile.allocate(*np.array(steady_forces(profile, *p.nu0))[:, None])[0] for k, p in prims.items()} \
+        if config.settle else {}
+    return MCShared(
+        profile=profile, config=config, names=list(prims), inputs={k: p.inputs for k, p in prims.items()},
+        nu0={k: np.asarray(p.nu0, float) for k, p in prims.items()}, hold=hold, designs=specs, blocks=blocks,
+        dist=disturbances if disturbances is not None else Disturbances.from_profile(profile), predictor=predictor,
+        theta0=theta0, param_names=profile.predictor_param_names, val_inputs=vin, val_nu0=vnu0,
+        val_true=simulate(profile, vin, nu0=vnu0).nu[0], notes=notes,
+    )
 
-    def __init__(self, dist: Disturbances, seeds: list[np.random.SeedSequence]):
-        self.d = dist
-        self.rngs = [np.random.default_rng(s) for s in seeds]
 
-    def draw(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        d = self.d
-        cur, wind, meas, head = [], [], [], []
-        for g in self.rngs:
-            c = np.broadcast_to(np.asarray(d.current_ne, float), (n, 2)) + g.normal(0, d.current_offset_std or 0.0, (1, 2))
-            cur.append(c + g.normal(0, 1, (n, 2)) * d.current_sample_std)
-            wind.append(np.broadcast_to(np.asarray(d.wind_ne, float), (n, 2)) + g.normal(0, 1, (n, 2)) * d.wind_sample_std)
-            meas.append(g.normal(0, 1, (n + 1, 3)) * np.asarray(d.measurement_std, float))
-            head.append(g.normal(0, 1, n + 1) * d.heading_std)
-        return np.array(cur), np.array(wind), np.array(meas), np.array(head)
+# -- one run's experiment -------------------------------------------------------------------------
 
 
-def _simulate_segment(profile: ShipProfile, inputs: np.ndarray, nu0: np.ndarray, noise: _Noise, b: int) -> Segment:
-    n = inputs.shape[-2]
-    cur, wind, meas, head = noise.draw(n)
-    # per-run current/wind enter as explicit (B, N, 2) arrays so no draw depends on the batch size
-    dist = Disturbances(current_ne=cur, wind_ne=wind)
-    with np.errstate(all="ignore"):
-        res = simulate(profile, inputs, nu0=np.broadcast_to(nu0, (b, 3)), disturbances=dist, batch=b)
-    return Segment(inputs, res.y + meas, nu0, res.eta[..., 2] + head)
+def _run_rng(seed: int, run: int, stream: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(run, stream)))
 
 
-def _run_chunk(profile, name, spec, prims, run_ids, seeds, n_samples, n_segments, mean_subtraction, dist, theta0, val):
-    b = len(run_ids)
-    children = [s.spawn(2) for s in seeds]  # [noise, design choice] per run
-    noise = _Noise(dist, [c[0] for c in children])
-    segs: list[Segment] = []
+def _sequence(sh: MCShared, design: str, rng: np.random.Generator) -> list[tuple[str, int]]:
+    """The run's (primitive, samples) blocks in the order they are played."""
+    cfg, spec = sh.config, sh.designs[design]
     if isinstance(spec, str):
-        names = sorted(prims, key=lambda k: list(prims).index(k))
-        seg_len = n_samples // n_segments
-        short = [k for k in names if prims[k].n_samples < seg_len]
-        if short:
-            raise DesignError(f"random design needs primitives of >= {seg_len} samples; {short} are shorter")
-        choice = np.array([np.random.default_rng(c[1]).integers(0, len(names), n_segments) for c in children])
-        stack_in = np.stack([prims[k].inputs[:seg_len] for k in names])
-        stack_nu0 = np.stack([prims[k].nu0 for k in names])
-        for s in range(n_segments):
-            segs.append(_simulate_segment(profile, stack_in[choice[:, s]], stack_nu0[choice[:, s]], noise, b))
-    else:
-        for k, length in _layout(spec, prims, n_samples):
-            segs.append(_simulate_segment(profile, prims[k].inputs[:length], prims[k].nu0, noise, b))
-    est = estimate(profile, segs, method="iv", mean_subtraction=mean_subtraction)
-    th = est.theta
-    if theta0 is not None:
+        seg = cfg.n_samples // cfg.n_segments
+        return [(sh.names[i], seg) for i in rng.integers(0, len(sh.names), cfg.n_segments)]
+    blocks = sh.blocks[design]
+    if cfg.protocol == "piecewise":
+        # each block restarts from the nominal state: the order does not matter, long blocks are
+        # cut into equal pieces no longer than the primitive
+        out = []
+        for k, n in blocks:
+            m = -(-n // len(sh.inputs[k]))
+            out += [(k, n // m + (i < n % m)) for i in range(m)]
+        return out
+    return [blocks[i] for i in rng.permutation(len(blocks))]
+
+
+def _experiment(sh: MCShared, seq: list[tuple[str, int]]) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int]]:
+    """Segments [(inputs (L, m), nu0 (3,))] of one run and the block start indices in the
+    concatenated data (for batchwise mean subtraction)."""
+    if sh.config.protocol == "piecewise":
+        segs = [(np.resize(sh.inputs[k], (n, sh.inputs[k].shape[1])), sh.nu0[k]) for k, n in seq]
+        return segs, list(np.cumsum([0] + [n for _, n in seq[:-1]]))
+    parts, starts, pos = [], [], 0
+    for j, (k, n) in enumerate(seq):
+        starts.append(pos)
+        if j and sh.config.settle:
+            parts.append(np.tile(sh.hold[k], (sh.config.settle, 1)))
+        parts.append(np.resize(sh.inputs[k], (n, sh.inputs[k].shape[1])))
+        pos += n + (sh.config.settle if j else 0)
+    return [(np.concatenate(parts), sh.nu0[seq[0][0]])], starts
+
+
+@dataclass
+class _Seg:
+    """One segment position of a batch of runs: inputs (B, L, m), nu0 (B, 3), regressors and
+    target from the noisy data (B, L, p) / (B, L, 3), instruments (B, L, p)."""
+
+    inputs: np.ndarray
+    nu0: np.ndarray
+    phi: np.ndarray
+    tgt: np.ndarray
+    z: np.ndarray
+
+
+def _noise(d: Disturbances, g: np.random.Generator, n: int, offset: np.ndarray) -> tuple[np.ndarray, ...]:
+    cur = np.asarray(d.current_ne, float) + offset + g.normal(0.0, 1.0, (n, 2)) * d.current_sample_std
+    wind = np.asarray(d.wind_ne, float) + g.normal(0.0, 1.0, (n, 2)) * d.wind_sample_std
+    meas = g.normal(0.0, 1.0, (n + 1, 3)) * np.asarray(d.measurement_std, float)
+    head = g.normal(0.0, 1.0, n + 1) * d.heading_std
+    return cur, wind, meas, head
+
+
+def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) -> list[_Seg]:
+    """Noisy data of every segment position for a batch of runs (noise drawn per run)."""
+    prof, d, b = sh.profile, sh.dist, len(exps)
+    offsets = [g.normal(0.0, d.current_offset_std, 2) for g in gens]
+    # the true system (disturbed) and the instrument model (calm) in one batch of 2B: the time
+    # loop's cost is per step, not per realisation, and every operation in it is elementwise
+    theta = np.repeat(np.stack([prof.params(prof.simulation_set), prof.params(prof.instrument_set)]), b, axis=0)
+    out = []
+    for j in range(len(exps[0])):
+        inp = np.stack([e[j][0] for e in exps])
+        nu0 = np.stack([e[j][1] for e in exps])
+        cur, wind, meas, head = (np.stack(a) for a in zip(*(_noise(d, g, inp.shape[1], o) for g, o in zip(gens, offsets))))
+        calm = np.zeros_like(cur)
+        env = Disturbances(current_ne=np.concatenate([cur, calm]), wind_ne=np.concatenate([wind, calm]))
         with np.errstate(all="ignore"):
-            prm = np.sqrt(np.mean(((th - theta0) / np.abs(theta0)) ** 2, axis=1))
-    else:
-        prm = np.full(b, np.nan)
-    vin, vnu0, vtrue = val
+            res = simulate(prof, np.concatenate([inp, inp]), theta, nu0=np.concatenate([nu0, nu0]), disturbances=env, batch=2 * b)
+        phi, tgt = predictor_regressors(prof, res.nu[:b] + meas, inp, res.eta[:b, :, 2] + head, terms=sh.predictor)
+        z, _ = predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)
+        out.append(_Seg(inp, nu0, phi, tgt, z))
+    return out
+
+
+# -- per-run estimation -----------------------------------------------------------------------------
+
+
+def _solve_run(sh: MCShared, segs: list[_Seg], b: int, starts: list[int]) -> np.ndarray:
+    """IV estimate of run b, theta = (sum Z~ Phi^T)^-1 sum Z~ dy per DOF (block-diagonal (9.2)),
+    with the instrument mean removed per block (7.19) or over the experiment (7.20)."""
+    phi = np.concatenate([s.phi[b] for s in segs])
+    tgt = np.concatenate([s.tgt[b] for s in segs])
+    z = np.concatenate([s.z[b] for s in segs])
+    ms = sh.config.mean_subtraction
+    if ms == "complete":
+        z = z - z.mean(axis=0)
+    elif ms == "batchwise":
+        z = np.concatenate([c - c.mean(axis=0) for c in np.split(z, starts[1:])])
+    theta = np.empty(phi.shape[1])
+    for i in range(3):
+        s = sh.predictor.dof_slice(i)
+        a = np.einsum("ki,kj->ij", z[:, s], phi[:, s])  # c_einsum, no BLAS: no thread-count rounding
+        rhs = np.einsum("ki,k->i", z[:, s], tgt[:, i])
+        try:
+            theta[s] = np.linalg.solve(a, rhs)
+        except np.linalg.LinAlgError:
+            theta[s] = np.nan
+    return theta
+
+
+def _resimulated_instruments(sh: MCShared, seg: _Seg, theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """Instruments of the runs ``idx`` from the predictor simulated with their estimates."""
     with np.errstate(all="ignore"):
-        sim = simulate(profile, vin, th, terms=profile.predictor, nu0=vnu0, batch=b)
-        err = np.sqrt(np.mean((sim.nu - vtrue) ** 2, axis=1))
-    err = np.where(np.isfinite(err), err, np.inf)
-    norm = np.sqrt(np.sum(err**2, axis=1))
-    return MCResult(name, np.asarray(run_ids), np.where(np.isnan(prm) & (theta0 is not None), np.inf, prm), err, norm, est.notes)
+        res = simulate(sh.profile, seg.inputs[idx], theta[idx], terms=sh.predictor, nu0=seg.nu0[idx], batch=len(idx))
+        z, _ = predictor_regressors(sh.profile, res.nu, seg.inputs[idx], res.eta[..., 2], terms=sh.predictor)
+    return z
+
+
+def _estimate(sh: MCShared, segs: list[_Seg], starts: list[list[int]]) -> np.ndarray:
+    """Per-run IV estimates; each run re-simulates its instruments until its own estimate
+    changes by less than 1e-3 (relative) or ``iv_iterations`` re-simulations were made."""
+    b = segs[0].phi.shape[0]
+    theta = np.stack([_solve_run(sh, segs, i, starts[i]) for i in range(b)])
+    active = np.isfinite(theta).all(axis=1)
+    for _ in range(sh.config.iv_iterations):
+        idx = np.flatnonzero(active)
+        if not idx.size:
+            break
+        znew = [_resimulated_instruments(sh, s, theta, idx) for s in segs]
+        for a, i in enumerate(idx):
+            if not all(np.isfinite(z[a]).all() and np.abs(z[a]).max() < _Z_LIMIT for z in znew):
+                active[i] = False  # its simulation diverged: keep the previous instruments
+                continue
+            for s, z in zip(segs, znew):
+                s.z[i] = z[a]
+            th = _solve_run(sh, segs, i, starts[i])
+            with np.errstate(all="ignore"):
+                change = np.max(np.abs(th - theta[i]) / np.maximum(np.abs(th), 1e-12))
+            theta[i] = th
+            active[i] = bool(np.isfinite(th).all() and change >= 1e-3)
+    return theta
+
+
+def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Validation RMSE per DOF (B, 3) of the estimated models against the noise-free true
+    output, and the diverged flags (B,)."""
+    b = theta.shape[0]
+    finite = np.isfinite(theta).all(axis=1)
+    th = np.where(finite[:, None], theta, 0.0)
+    with np.errstate(all="ignore"):
+        sim = simulate(sh.profile, sh.val_inputs, th, terms=sh.predictor, nu0=sh.val_nu0, batch=b).nu
+    bound = _EXPLODE * np.abs(sh.val_true).max()
+    rmse = np.full((b, 3), np.inf)
+    diverged = ~finite
+    for i in range(b):
+        if diverged[i] or not np.isfinite(sim[i]).all() or np.abs(sim[i]).max() > bound:
+            diverged[i] = True
+            continue
+        rmse[i] = np.sqrt(np.mean((sim[i] - sh.val_true) ** 2, axis=0))
+    return rmse, diverged
+
+
+def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
+    """Runs ``run_ids`` of one design; each run's numbers depend only on (seed, run index)."""
+    cfg = sh.config
+    ids = [int(i) for i in run_ids]
+    layouts = [_experiment(sh, _sequence(sh, design, _run_rng(cfg.seed, i, 0))) for i in ids]
+    segs = _simulate_data(sh, [lay[0] for lay in layouts], [_run_rng(cfg.seed, i, 1) for i in ids])
+    theta = _estimate(sh, segs, [lay[1] for lay in layouts])
+    sim_rmse, diverged = _validate(sh, theta)
+    prm = np.full(len(ids), np.nan)
+    if sh.theta0 is not None:
+        for i in range(len(ids)):
+            with np.errstate(all="ignore"):
+                e = (theta[i] - sh.theta0) / np.abs(sh.theta0)
+                prm[i] = np.sqrt(np.mean(e * e)) if np.isfinite(e).all() else np.inf
+    notes = list(sh.notes.get(design, []))
+    if sh.theta0 is None:
+        notes.append("predictor structure differs from the true model: parameter error not defined")
+    if any(sh.dist.process_std):
+        notes.append("process noise of the disturbances is not simulated in the Monte Carlo study")
+    return MCResult(design, np.array(ids, dtype=np.int64), theta, prm, sim_rmse, diverged, cfg.runs,
+                    sh.param_names, sh.theta0, notes)
+
+
+# -- entry points ---------------------------------------------------------------------------------
 
 
 def evaluate_designs(
@@ -198,58 +387,64 @@ def evaluate_designs(
     seed: int = 0,
     *,
     primitives: list[Primitive] | None = None,
-    n_samples: int = 1000,
-    n_segments: int = 5,
-    mean_subtraction: str = "complete",
     disturbances: Disturbances | None = None,
     run_slice: tuple[int, int] | None = None,
-    chunk_size: int = 500,
+    chunk_size: int = MAX_CHUNK,
+    **protocol: Any,
 ) -> dict[str, MCResult]:
-    """Monte Carlo metrics of several designs (section 9.1.2).
+    """Monte Carlo results of several designs in this process (section 9.1.2).
 
     ``designs`` maps a label to fractions {primitive: w}, to an object with ``.weights``, or to
-    the string "random" (1 of the primitives per segment, drawn per run). ``run_slice=(a, b)``
-    evaluates runs a..b-1 of the ``runs`` seeded runs only (for distributing chunks); results
-    of all chunks joined with :func:`merge_results` equal one call over all runs.
+    "random". ``protocol`` takes the other :class:`MCConfig` fields (n_samples, n_segments,
+    protocol, min_block, settle, mean_subtraction, iv_iterations, validation_seed).
+    ``run_slice=(a, b)`` evaluates runs a..b-1 only; chunks joined with :func:`merge_results`
+    are bit-identical to one call over all runs.
     """
-    if runs < 1:
-        raise DesignError("Monte Carlo needs at least 1 run")
-    prims = {p.name: p for p in (primitives if primitives is not None else thesis_primitives(profile)) if p.kind == "informative"}
-    if not prims:
-        raise DesignError(f"profile {profile.name!r} has no informative primitives to evaluate")
-    dist = disturbances if disturbances is not None else Disturbances.from_profile(profile)
-    model_is_predictor = profile.predictor.terms == profile.model.terms
-    theta0 = profile.params(profile.simulation_set) if model_is_predictor else None
-    vin, vnu0 = validation_input(profile, n_samples, seed)
-    vtrue = simulate(profile, vin, nu0=vnu0).nu[0]
-    val = (vin, vnu0, vtrue)
-    seeds = np.random.SeedSequence(seed).spawn(runs)
+    cfg = MCConfig(runs=runs, seed=seed, **protocol)
+    sh = prepare(profile, designs, cfg, primitives, disturbances)
     a, z = run_slice or (0, runs)
     if not 0 <= a < z <= runs:
         raise DesignError(f"run_slice {run_slice} must lie within 0..{runs}")
-    out: dict[str, MCResult] = {}
-    for name, spec in designs.items():
-        spec = getattr(spec, "weights", spec)
-        if isinstance(spec, str) and spec != "random":
-            raise DesignError(f"design {name!r}: use fractions {{primitive: share}} or 'random', got {spec!r}")
-        parts = []
-        for c0 in range(a, z, chunk_size):
-            ids = list(range(c0, min(z, c0 + chunk_size)))
-            # fresh SeedSequence objects per design: spawn() is stateful, the draws must not be
-            seq = [np.random.SeedSequence(seeds[i].entropy, spawn_key=seeds[i].spawn_key) for i in ids]
-            parts.append({name: _run_chunk(profile, name, spec, prims, ids, seq, n_samples, n_segments,
-                                           mean_subtraction, dist, theta0, val)})
-        out[name] = merge_results(parts)[name]
-        if theta0 is None:
-            out[name].notes.append("predictor structure differs from the true model: parameter RMSE not defined")
-        if any(dist.process_std):
-            out[name].notes.append("process noise of the disturbances is not simulated in the Monte Carlo study")
-    return out
+    step = max(1, min(chunk_size, MAX_CHUNK))
+    return merge_results([{d: run_chunk(sh, d, range(c, min(z, c + step)))} for d in sh.designs for c in range(a, z, step)])
 
 
-def _chunk_task(args: tuple) -> dict[str, MCResult]:
-    profile, designs, runs, seed, run_slice, kw = args
-    return evaluate_designs(profile, designs, runs, seed, run_slice=run_slice, **kw)
+@dataclass
+class MCEvaluation:
+    """Results of :func:`evaluate_designs_parallel`. ``complete`` is False when it was interrupted
+    (Ctrl-C) or a task failed (a lost worker): the results then hold the finished runs only and
+    are marked partial. ``engine``: name, workers, threads, tasks, tasks per worker, runs per task."""
+
+    results: dict[str, MCResult]
+    config: MCConfig
+    complete: bool
+    interrupted: bool
+    errors: list[str]
+    elapsed_s: float
+    engine: dict[str, Any]
+    sample_time: float = 1.0
+    profile: str = ""
+    disturbances: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def runs_finished(self) -> dict[str, int]:
+        return {k: len(r.runs) for k, r in self.results.items()}
+
+
+def _task(item: tuple[str, int, int], shared: MCShared) -> MCResult:
+    design, a, b = item
+    return run_chunk(shared, design, range(a, b))
+
+
+def plan_tasks(runs: int, n_designs: int, slots: int, tasks_per_worker: int = 4, chunk_runs: int | None = None) -> int:
+    """Runs per task: at least ``tasks_per_worker`` tasks per worker slot (load balance and
+    progress), at most MAX_CHUNK runs per task."""
+    if chunk_runs:
+        return max(1, min(chunk_runs, MAX_CHUNK))
+    if slots <= 1:
+        return min(runs, MAX_CHUNK)
+    per_design = -(-tasks_per_worker * slots // n_designs)
+    return max(1, min(MAX_CHUNK, -(-runs // per_design)))
 
 
 def evaluate_designs_parallel(
@@ -260,32 +455,37 @@ def evaluate_designs_parallel(
     *,
     scheduler: Any = None,
     chunk_runs: int | None = None,
+    tasks_per_worker: int = 4,
     progress: bool = True,
-    **kw: Any,
-) -> dict[str, MCResult]:
-    """:func:`evaluate_designs` split into chunks of runs on an engine of ``expdesign.parallel``
-    (local cores by default, or a Dask cluster): the numbers equal one in-process call.
-
-    When interrupted (Ctrl-C) the finished chunks are kept; each result then notes how many
-    runs it holds.
-    """
+    primitives: list[Primitive] | None = None,
+    disturbances: Disturbances | None = None,
+    **protocol: Any,
+) -> MCEvaluation:
+    """:func:`evaluate_designs` cut into (design, runs) tasks on an engine of ``expdesign.parallel``
+    (all local cores by default, "inline", or a Dask scheduler / cluster). The engine is asked
+    for its workers and threads and gets at least ``tasks_per_worker`` tasks per worker; the
+    shared inputs are computed once here and shipped once per worker. The per-run numbers are
+    bit-identical to one in-process call."""
     from expdesign.parallel import get_engine
 
+    cfg = MCConfig(runs=runs, seed=seed, **protocol)
+    sh = prepare(profile, designs, cfg, primitives, disturbances)
     engine = get_engine(scheduler)
-    n_workers = getattr(engine, "workers", 4)
-    chunk = chunk_runs or max(25, -(-runs // max(1, 2 * n_workers)))
-    designs = {k: getattr(v, "weights", v) for k, v in designs.items()}
-    tasks = [(profile, designs, runs, seed, (a, min(runs, a + chunk)), kw) for a in range(0, runs, chunk)]
+    t0 = time.perf_counter()
     try:
-        res = engine.map(_chunk_task, tasks, desc="Monte Carlo", progress=progress)
+        workers, threads = engine.capacity()
+        chunk = plan_tasks(runs, len(sh.designs), workers * threads, tasks_per_worker, chunk_runs)
+        tasks = [(d, a, min(runs, a + chunk)) for d in sh.designs for a in range(0, runs, chunk)]
+        res = engine.map(_task, tasks, desc="Monte Carlo", progress=progress, shared=sh,
+                         weights=[b - a for _, a, b in tasks], unit="runs")
     finally:
         if engine is not scheduler:
             engine.close()
-    parts = res.finished()
-    if not parts:
-        raise KeyboardInterrupt
-    out = merge_results(parts)
-    if res.interrupted:
-        for r in out.values():
-            r.notes.append(f"interrupted: {len(r.runs)} of {runs} runs finished")
-    return out
+    elapsed = time.perf_counter() - t0
+    parts = [{r.name: r} for r in res.finished()]
+    results = merge_results(parts) if parts else {}
+    errors = [f"task {tasks[i][0]} runs {tasks[i][1]}..{tasks[i][2] - 1}: {msg}" for i, msg in sorted(res.errors.items())]
+    info = {"name": engine.name, "workers": workers, "threads_per_worker": threads, "tasks": len(tasks),
+            "tasks_per_worker": len(tasks) / max(1, workers * threads), "runs_per_task": chunk}
+    return MCEvaluation(results, cfg, res.complete, res.interrupted, errors, elapsed, info, profile.sample_time, profile.name,
+                        asdict(sh.dist))

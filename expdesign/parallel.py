@@ -8,14 +8,23 @@ results are reassembled in task order: local and cluster runs agree exactly.
 Select the engine with ``scheduler``: None or "local" (default; a process pool over all cores,
 no server), "inline" (this process, one task at a time), or a Dask scheduler address such as
 "tcp://10.0.0.5:8786" (also read from the environment variable SHIPTRIAL_SCHEDULER).
-Ctrl-C stops cleanly: tasks not finished are cancelled and the finished results are kept.
+
+``Engine.capacity()`` says how many workers and threads per worker the engine has (so callers
+can cut enough tasks); ``map(fn, items, shared=obj)`` ships ``obj`` once per worker (process-pool
+initializer, ``Client.scatter(broadcast=True)`` on Dask) and calls ``fn(item, obj)``.
+Ctrl-C stops cleanly: unfinished tasks are cancelled, local workers terminated, and the finished
+results kept (``MapResult.interrupted``); a task that fails or a lost worker is recorded in
+``MapResult.errors`` and the other tasks still finish.
 """
 
 from __future__ import annotations
 
 import os
+import signal
+import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -47,47 +56,61 @@ def task_seeds(seed: int, n: int) -> list[int]:
 
 
 class _Progress:
-    """A rich progress bar on stderr when it is a terminal; silent otherwise."""
+    """A rich progress bar on stderr when it is a terminal (silent otherwise): units done of
+    the total (e.g. Monte Carlo runs, each task weighted by its runs) and units per second."""
 
-    def __init__(self, total: int, desc: str, enabled: bool):
+    def __init__(self, weights: Sequence[float], desc: str, enabled: bool, unit: str = "tasks"):
         self.bar = None
-        if enabled and total > 1:
+        self.weights, self.unit, self.done, self.t0 = list(weights), unit, 0.0, time.perf_counter()
+        if enabled and len(self.weights) > 1:
             import sys
 
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+            from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
             if sys.stderr.isatty():
                 from rich.console import Console
 
                 self.bar = Progress(
-                    TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
-                    console=Console(stderr=True), transient=True,
+                    TextColumn("{task.description}"), BarColumn(),
+                    TextColumn("{task.completed:.0f}/{task.total:.0f} " + unit), TextColumn("{task.fields[rate]}"),
+                    TimeRemainingColumn(), console=Console(stderr=True), transient=True,
                 )
                 self.bar.start()
-                self.task = self.bar.add_task(desc, total=total)
+                self.task = self.bar.add_task(desc, total=sum(self.weights), rate="")
 
-    def advance(self) -> None:
+    def advance(self, i: int) -> None:
+        self.done += self.weights[i]
         if self.bar is not None:
-            self.bar.advance(self.task)
+            rate = self.done / max(1e-9, time.perf_counter() - self.t0)
+            self.bar.update(self.task, advance=self.weights[i], rate=f"{rate:.1f} {self.unit}/s")
 
     def close(self) -> None:
         if self.bar is not None:
             self.bar.stop()
 
 
+def _call(fn: Callable, item: Any, shared: Any) -> Any:
+    return fn(item) if shared is None else fn(item, shared)
+
+
 class Engine:
-    """Runs ``fn(item)`` for every item and returns a :class:`MapResult` in item order."""
+    """Runs ``fn(item)`` (or ``fn(item, shared)``) for every item, in this process."""
 
     name = "inline"
 
-    def map(self, fn: Callable[[Any], Any], items: Sequence[Any], desc: str = "working", progress: bool = True) -> MapResult:
+    def capacity(self) -> tuple[int, int]:
+        """(workers, threads per worker) available to tasks."""
+        return 1, 1
+
+    def map(self, fn: Callable[..., Any], items: Sequence[Any], desc: str = "working", progress: bool = True,
+            shared: Any = None, weights: Sequence[float] | None = None, unit: str = "tasks") -> MapResult:
         res, done = [None] * len(items), [False] * len(items)
-        bar = _Progress(len(items), desc, progress)
+        bar = _Progress(weights or [1] * len(items), desc, progress, unit)
         try:
             for i, it in enumerate(items):
-                res[i] = fn(it)
+                res[i] = _call(fn, it, shared)
                 done[i] = True
-                bar.advance()
+                bar.advance(i)
         except KeyboardInterrupt:
             return MapResult(res, done, interrupted=True)
         finally:
@@ -104,6 +127,21 @@ class Engine:
         self.close()
 
 
+_SHARED: Any = None
+
+
+def _init_worker(shared: Any) -> None:
+    """Process-pool initializer: keep the shared inputs; leave Ctrl-C to the parent, which
+    cancels and terminates the pool (workers would otherwise each print a traceback)."""
+    global _SHARED
+    _SHARED = shared
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _pool_call(fn: Callable, item: Any, use_shared: bool) -> Any:
+    return _call(fn, item, _SHARED if use_shared else None)
+
+
 class LocalEngine(Engine):
     """A process pool over the machine's cores (no server to start)."""
 
@@ -112,31 +150,49 @@ class LocalEngine(Engine):
     def __init__(self, workers: int | None = None):
         self.workers = workers or os.cpu_count() or 1
 
-    def map(self, fn, items, desc="working", progress=True) -> MapResult:
+    def capacity(self) -> tuple[int, int]:
+        return self.workers, 1
+
+    def map(self, fn, items, desc="working", progress=True, shared=None, weights=None, unit="tasks") -> MapResult:
         if self.workers <= 1 or len(items) <= 1:
-            return super().map(fn, items, desc, progress)
-        res, done = [None] * len(items), [False] * len(items)
-        bar = _Progress(len(items), desc, progress)
-        pool = ProcessPoolExecutor(max_workers=min(self.workers, len(items)))
-        futures = {pool.submit(fn, it): i for i, it in enumerate(items)}
+            return super().map(fn, items, desc, progress, shared, weights, unit)
+        res, done, errors = [None] * len(items), [False] * len(items), {}
+        bar = _Progress(weights or [1] * len(items), desc, progress, unit)
+        pool = ProcessPoolExecutor(max_workers=min(self.workers, len(items)), initializer=_init_worker, initargs=(shared,))
+        futures = {pool.submit(_pool_call, fn, it, shared is not None): i for i, it in enumerate(items)}
         pending = set(futures)
         try:
             while pending:
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for f in finished:
                     i = futures[f]
-                    res[i] = f.result()
-                    done[i] = True
-                    bar.advance()
+                    try:
+                        res[i] = f.result()
+                        done[i] = True
+                        bar.advance(i)
+                    except BrokenProcessPool as e:  # a worker died (killed, out of memory)
+                        errors[i] = f"worker lost: {e}"
+                    except Exception as e:  # noqa: BLE001 - recorded per task, the others still run
+                        errors[i] = f"{type(e).__name__}: {e}"
         except KeyboardInterrupt:
             for f in pending:
                 f.cancel()
-            pool.shutdown(wait=False, cancel_futures=True)
+            _terminate(pool)
             bar.close()
-            return MapResult(res, done, interrupted=True)
+            return MapResult(res, done, interrupted=True, errors=errors)
         bar.close()
         pool.shutdown()
-        return MapResult(res, done)
+        return MapResult(res, done, errors=errors)
+
+
+def _terminate(pool: ProcessPoolExecutor) -> None:
+    """Stop the pool's worker processes now (a running chunk would otherwise finish first)."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        p.terminate()
+    for p in procs:
+        p.join(timeout=5)
 
 
 class DaskEngine(Engine):
@@ -154,29 +210,51 @@ class DaskEngine(Engine):
         else:
             self.client, self._own = Client(address_or_cluster, set_as_default=False), True
 
-    def map(self, fn, items, desc="working", progress=True) -> MapResult:
+    def capacity(self) -> tuple[int, int]:
+        workers = self.client.scheduler_info(n_workers=-1)["workers"] if _takes_n_workers(self.client) \
+            else self.client.scheduler_info()["workers"]
+        if not workers:
+            return 1, 1
+        threads = [int(w.get("nthreads", 1)) for w in workers.values()]
+        return len(threads), max(1, round(sum(threads) / len(threads)))
+
+    def map(self, fn, items, desc="working", progress=True, shared=None, weights=None, unit="tasks") -> MapResult:
         from distributed import as_completed
 
-        res, done = [None] * len(items), [False] * len(items)
-        futures = self.client.map(fn, list(items), pure=False)
+        res, done, errors = [None] * len(items), [False] * len(items), {}
+        kw = {} if shared is None else {"shared": self.client.scatter(shared, broadcast=True, hash=False)}
+        futures = self.client.map(_dask_call, list(items), fn=fn, pure=False, **kw)
         index = {f.key: i for i, f in enumerate(futures)}
-        bar = _Progress(len(items), f"{desc} (dask)", progress)
+        bar = _Progress(weights or [1] * len(items), f"{desc} (dask)", progress, unit)
         try:
             for f in as_completed(futures, loop=self.client.loop):
                 i = index[f.key]
-                res[i] = f.result()
-                done[i] = True
-                bar.advance()
+                try:
+                    res[i] = f.result()
+                    done[i] = True
+                    bar.advance(i)
+                except Exception as e:  # noqa: BLE001 - KilledWorker (lost worker) or a task error
+                    errors[i] = f"{type(e).__name__}: {e}"
         except KeyboardInterrupt:
             self.client.cancel([f for f in futures if not f.done()])
             bar.close()
-            return MapResult(res, done, interrupted=True)
+            return MapResult(res, done, interrupted=True, errors=errors)
         bar.close()
-        return MapResult(res, done)
+        return MapResult(res, done, errors=errors)
 
     def close(self) -> None:
         if self._own:
             self.client.close()
+
+
+def _dask_call(item: Any, fn: Callable, shared: Any = None) -> Any:
+    return _call(fn, item, shared)
+
+
+def _takes_n_workers(client: Any) -> bool:
+    import inspect
+
+    return "n_workers" in inspect.signature(client.scheduler_info).parameters
 
 
 def get_engine(scheduler: Any = None, workers: int | None = None) -> Engine:

@@ -63,25 +63,6 @@ def test_scheduler_from_environment(monkeypatch):
     assert isinstance(get_engine(), LocalEngine)
 
 
-def test_monte_carlo_same_numbers_in_process_and_on_local_cluster():
-    distributed = pytest.importorskip("distributed")
-    from expdesign.montecarlo import evaluate_designs, evaluate_designs_parallel
-    from primitives.library import model_ship_thesis
-    from primitives.ship import load_profile
-
-    prof = load_profile("model-ship")
-    lib = model_ship_thesis(prof)
-    designs = {"optimized": {"tau1": 0.2, "tau6": 0.4, "tau8": 0.15, "tau11": 0.25}, "random": "random"}
-    kw = dict(runs=12, seed=5, primitives=lib, n_samples=400)
-    ref = evaluate_designs(prof, designs, **kw)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        remote = evaluate_designs_parallel(prof, designs, scheduler=cluster.scheduler_address, chunk_runs=5, progress=False, **kw)
-    for name in designs:
-        np.testing.assert_array_equal(ref[name].runs, remote[name].runs)
-        np.testing.assert_array_equal(ref[name].param_rmse, remote[name].param_rmse)
-        np.testing.assert_array_equal(ref[name].sim_norm, remote[name].sim_norm)
-
-
 def test_sweep_table_same_inline_and_on_local_cluster(tmp_path):
     distributed = pytest.importorskip("distributed")
     from expdesign.sweep import load_sweep, run_sweep, write_table
@@ -135,15 +116,25 @@ def test_profiles_and_primitives_cross_process_boundaries():
     assert again.profile.model.increments(sig, prof.params()) == prof.model.increments(sig, prof.params())
 
 
-def test_monte_carlo_on_local_process_pool_matches_in_process():
-    from expdesign.montecarlo import evaluate_designs, evaluate_designs_parallel
-    from primitives.library import model_ship_thesis
-    from primitives.ship import load_profile
+def _die_on_two(i: int) -> int:
+    if i == 2:
+        import os
 
-    prof = load_profile("model-ship")
-    lib = model_ship_thesis(prof)
-    designs = {"optimized": {"tau1": 0.2, "tau6": 0.4, "tau8": 0.15, "tau11": 0.25}}
-    kw = dict(runs=8, seed=2, primitives=lib, n_samples=300)
-    ref = evaluate_designs(prof, designs, **kw)
-    pool = evaluate_designs_parallel(prof, designs, scheduler="local", chunk_runs=4, progress=False, **kw)
-    np.testing.assert_array_equal(ref["optimized"].param_rmse, pool["optimized"].param_rmse)
+        os._exit(3)  # a worker lost (killed, out of memory)
+    return i
+
+
+def test_lost_local_worker_is_an_error_not_a_result():
+    res = LocalEngine(2).map(_die_on_two, [0, 1, 2, 3, 4, 5], progress=False)
+    assert not res.complete and res.errors and 2 in res.errors and not res.done[2]
+    assert all(res.results[i] == i for i, d in enumerate(res.done) if d)
+
+
+def _add_shared(item: int, shared: dict) -> int:
+    return item + shared["offset"]
+
+
+def test_shared_inputs_reach_every_task():
+    for eng in (Engine(), LocalEngine(2)):
+        assert eng.map(_add_shared, [1, 2, 3], progress=False, shared={"offset": 10}).results == [11, 12, 13]
+    assert LocalEngine(3).capacity() == (3, 1) and Engine().capacity() == (1, 1)

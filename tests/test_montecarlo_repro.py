@@ -1,0 +1,104 @@
+"""A Monte Carlo run's result depends on (seed, run index) only: SHA-256 digests of every
+per-run array are identical in process (three chunk sizes), on local pools of 1, 2 and 3
+workers and on a distributed.LocalCluster; interrupted or failed evaluations are partial."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from expdesign.montecarlo import evaluate_designs, evaluate_designs_parallel, plan_tasks
+from expdesign.parallel import Engine, LocalEngine
+from primitives.library import model_ship_thesis
+from primitives.ship import load_profile
+
+DESIGNS = {"optimized": {"tau1": 0.2, "tau6": 0.3, "tau8": 0.23, "tau11": 0.27}, "random": "random"}
+KW = dict(runs=12, seed=3, n_samples=300)
+
+
+@pytest.fixture(scope="module")
+def ship():
+    p = load_profile("model-ship")
+    return p, model_ship_thesis(p)
+
+
+@pytest.fixture(scope="module")
+def reference(ship):
+    p, lib = ship
+    return evaluate_designs(p, DESIGNS, primitives=lib, **KW)
+
+
+def _digests(res):
+    return {k: r.digest() for k, r in res.items()}
+
+
+def test_reference_has_diverged_and_finite_runs(reference):
+    # the random design diverges in some runs: those must be reproducible too
+    assert reference["random"].diverged.any() and not reference["optimized"].diverged.all()
+    assert all(len(r.runs) == 12 and not r.partial for r in reference.values())
+
+
+@pytest.mark.parametrize("chunk", [4, 5, 7])
+def test_same_digest_for_every_chunk_size(ship, reference, chunk):
+    p, lib = ship
+    assert _digests(evaluate_designs(p, DESIGNS, primitives=lib, chunk_size=chunk, **KW)) == _digests(reference)
+
+
+def test_same_digest_for_run_slices(ship, reference):
+    from expdesign.mc_result import merge_results
+
+    p, lib = ship
+    parts = [evaluate_designs(p, DESIGNS, primitives=lib, run_slice=s, **KW) for s in ((7, 12), (0, 7))]
+    assert _digests(merge_results(parts)) == _digests(reference)
+
+
+@pytest.mark.parametrize("workers", [1, 2, 3])
+def test_same_digest_on_local_pools(ship, reference, workers):
+    p, lib = ship
+    ev = evaluate_designs_parallel(p, DESIGNS, scheduler=LocalEngine(workers), progress=False, primitives=lib, **KW)
+    assert ev.complete and _digests(ev.results) == _digests(reference)
+    if workers > 1:
+        assert ev.engine["tasks"] >= 4 * workers and ev.engine["workers"] == workers
+
+
+def test_same_digest_on_a_dask_local_cluster(ship, reference):
+    distributed = pytest.importorskip("distributed")
+    p, lib = ship
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        ev = evaluate_designs_parallel(p, DESIGNS, scheduler=cluster.scheduler_address, progress=False, primitives=lib, **KW)
+    assert ev.engine["name"] == "dask" and ev.engine["workers"] == 2 and ev.engine["tasks"] >= 8
+    assert ev.complete and _digests(ev.results) == _digests(reference)
+
+
+def test_at_least_four_tasks_per_worker_slot():
+    assert plan_tasks(2000, 2, 2) == 500  # 2 designs x 4 tasks of 500 runs: 4 per worker
+    assert plan_tasks(2000, 2, 16) == 63
+    assert plan_tasks(10, 1, 8) == 1
+    assert plan_tasks(5000, 1, 1) == 500  # inline: big batches, bounded memory
+
+
+class _InterruptAfter(Engine):
+    """An engine whose user presses Ctrl-C after ``n`` tasks."""
+
+    def __init__(self, n: int):
+        self.n = n
+
+    def map(self, fn, items, desc="working", progress=True, shared=None, weights=None, unit="tasks"):
+        calls = iter(range(len(items)))
+
+        def wrapped(item, sh):
+            if next(calls) >= self.n:
+                raise KeyboardInterrupt
+            return fn(item, sh)
+
+        return super().map(wrapped, items, desc, progress, shared, weights, unit)
+
+
+def test_interrupted_evaluation_is_partial_and_keeps_finished_runs(ship, reference):
+    p, lib = ship
+    ev = evaluate_designs_parallel(p, DESIGNS, scheduler=_InterruptAfter(1), chunk_runs=6, progress=False, primitives=lib, **KW)
+    assert ev.interrupted and not ev.complete
+    assert ev.runs_finished == {"optimized": 6}
+    r = ev.results["optimized"]
+    assert r.partial and r.summary()["runs"] == 6 and r.summary()["runs_requested"] == 12
+    np.testing.assert_array_equal(r.theta, reference["optimized"].theta[:6])
