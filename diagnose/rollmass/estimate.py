@@ -12,9 +12,13 @@ Methods:
               do), identity weighting, all 9 parameters free from the start values (33).
 ``improved``  ours: (i) the exact flat direction (scale of (11) vs ``z_f``) removed by fixing
               ``z_f`` at a prior whose uncertainty is propagated into the confidence intervals;
-              (ii) instruments simulated from the rudder by black-box models of all three IMU
-              channels, so the accelerometer instrument carries ``v'``; (iii) optimal (two-stage)
-              weighting of the instrument moments; (iv) a per-dataset intercept for the gyro bias.
+              (ii) the load enters through its two moments ``m z_m`` and ``m z_m (zbar_m - zbar_s)``,
+              in which (10) and ``c`` are linear (no spurious optimum at ``z_m = 0``);
+              (iii) instruments = the regressors simulated from the rudder, the accelerometer one
+              from a black-box fit of the measured ``a_s``, so it carries ``v'``, the roll rate from
+              the model; (iv) refined-IV prefilter ``1/A(q)`` (equation error -> output error)
+              times an AR whitening filter, iterated; (v) two-step (HAC-optimal) weighting of the
+              moments; (vi) a per-dataset intercept for the roll-gyro bias.
 """
 
 from __future__ import annotations
@@ -93,22 +97,12 @@ class _Block:
     one: np.ndarray | float = 1.0  # the (prefiltered) intercept regressor
 
 
-def _block(rec: RollRecording, Z: np.ndarray, weighting: str, intercept: bool) -> _Block:
+def _block(rec: RollRecording, Z: np.ndarray) -> _Block:
+    """The paper's block: unfiltered regression (16)-(18), identity weighting, no intercept."""
     Y, Phi = regression(rec)
     s = slice(N_LAGS, None)
     Y, Phi, Z = Y[s], Phi[s], Z[s]
-    if intercept:
-        Z = np.column_stack([Z, np.ones(len(Y))])
-    n = len(Y)
-    if weighting == "optimal":
-        # two-stage weighting (Z^T Z / n)^-1, cf. Soderstrom and Stoica (1989) on optimal IV
-        # (pseudo-inverse: lags of the smooth 50 Hz instruments are nearly collinear)
-        lam, V = np.linalg.eigh(Z.T @ Z / n)
-        keep = lam > 1e-9 * lam[-1]
-        L = V[:, keep] / np.sqrt(lam[keep])
-    else:
-        L = np.eye(Z.shape[1])
-    return _Block(Z.T @ Y, Z.T @ Phi, Z.sum(axis=0), L, n, rec.T, Y, Phi, Z)
+    return _Block(Z.T @ Y, Z.T @ Phi, Z.sum(axis=0), np.eye(Z.shape[1]), len(Y), rec.T, Y, Phi, Z)
 
 
 class _Problem:
@@ -186,7 +180,7 @@ def estimate(datasets: list[RollRecording], kn: Known, cal: Load, method: str = 
             fixed.update(fix)
         return _improved(datasets, kn, cal, with_ci, fixed)
     if method == "ls":
-        blocks = [_block(d, regression(d)[1], "identity", False) for d in datasets]
+        blocks = [_block(d, regression(d)[1]) for d in datasets]
         return _finish("ls", _Problem(blocks, kn, cal, PARAMS, {}, False), _paper_start(cal), with_ci)
     return _paper_iv(datasets, kn, cal, with_ci, max_iter)
 
@@ -203,7 +197,7 @@ def _paper_iv(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool
     x = _paper_start(cal)
     est = None
     for _ in range(max_iter):
-        prob = _Problem([_block(d, Z, "identity", False) for d, Z in zip(datasets, Zs)], kn, cal, PARAMS, {}, False)
+        prob = _Problem([_block(d, Z) for d, Z in zip(datasets, Zs)], kn, cal, PARAMS, {}, False)
         est = _finish("paper-iv", prob, x, with_ci)
         x_new = np.array([est.params[k] for k in PARAMS])
         done = np.allclose(x_new, x, rtol=1e-6, atol=1e-9)
@@ -221,8 +215,8 @@ def _paper_iv(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool
     return est
 
 
-def _prefilter(x: np.ndarray, a: np.ndarray) -> np.ndarray:
-    return lfilter(a, [1.0], x, axis=0)
+def _prefilter(x: np.ndarray, filt: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    return lfilter(filt[0], filt[1], x, axis=0)
 
 
 def _noise_ar(e: np.ndarray, order: int = NOISE_AR) -> np.ndarray:
@@ -259,7 +253,7 @@ def _improved(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool
     free = tuple(k for k in SHIP_PARAMS + MOMENTS if k not in fixed)
     bb = [black_box_instruments(d) for d in datasets]
     sims = bb
-    polys = [np.array([1.0])] * 3
+    polys = [(np.array([1.0]), np.array([1.0]))] * 3
     start = dict(zip(PARAMS, _paper_start(cal)))
     start.update(zip(MOMENTS, load_moments(RollParams(*(start[k] if k != "z_f" else fixed["z_f"] for k in SHIP_PARAMS)), kn, cal)))
     x = np.r_[[start[k] for k in free], np.zeros(3)]
@@ -276,14 +270,21 @@ def _improved(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool
         for d, ld, (y_bb, a_hat, r_hat), bi in zip(datasets, loads, bb, x[len(free):]):
             Y, Phi = regression(d)
             g = discrete_coefficients(continuous_coefficients(p, kn, ld), d.T)
-            polys.append(_noise_ar((Y - Phi @ g - bi)[N_LAGS:]))
+            # refined IV (Young; Gilson et al. 2006): prefilter by 1/A(q) turns the equation error
+            # into an output error (at 50 Hz the AR part is ~(1 - q^-1)^2 and amplifies gyro noise),
+            # then whiten what is left with an AR model
+            A = np.array([1.0, g[0], g[1]])
+            if np.any(np.abs(np.roots(A)) >= 1):
+                A = np.array([1.0])
+            e_out = lfilter([1.0], A, Y - Phi @ g - bi)[N_LAGS:]
+            polys.append((_noise_ar(e_out), A))
             u = diff2(a_hat) + (g[3] * diff2(r_hat) + g[4] * diff2(d.delta)) / g[2]
             y_hat = lfilter([g[2]], [1.0, g[0], g[1]], u) if np.all(np.abs(np.roots([1.0, g[0], g[1]])) < 1) else y_bb
             sims.append((y_hat, a_hat, r_hat))
         if it >= 1:
             # two-step GMM: weight by the inverse HAC covariance of each dataset's moments
             Ls = []
-            for blk, covb in zip(prob.blocks, _block_covs(prob, x)):
+            for covb in _block_covs(prob, x):
                 lam, V = np.linalg.eigh(covb)
                 keep = lam > 1e-10 * lam[-1]
                 Ls.append(V[:, keep] / np.sqrt(lam[keep]))
@@ -373,3 +374,4 @@ def _warn(est: MassEstimate) -> None:
         est.warnings.append(
             f"the data cannot separate the mass from its height (sd {est.m_sd:.3g} kg, {est.zbar_m_sd * 1000:.0f} mm, "
             f"correlation {est.corr:+.3f}); only the moment m*z_m is determined: record longer or more rudder excitation")
+

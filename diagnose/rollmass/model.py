@@ -17,7 +17,7 @@ unchanged (see :func:`flat_direction`): the scale and ``z_f`` are not separable.
 from __future__ import annotations
 
 import tomllib
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -177,6 +177,3 @@ def load_profile(path: str | Path | None = None) -> RollProfile:
         raise ProfileError(f"{path}: missing or malformed field {exc}; see {DEFAULT_PROFILE.name}") from exc
     return RollProfile(name=str(ship.get("name", path.stem)), known=kn, truth=truth, K_ur=float(roll["K_ur"]), raw=raw)
 
-
-def with_z_f(p: RollParams, z_f: float) -> RollParams:
-    return replace(p, z_f=z_f)

@@ -16,7 +16,7 @@ import numpy as np
 from scipy.linalg import expm
 from scipy.signal import lfilter, remez
 
-from diagnose.rollmass.model import Load, RollProfile, continuous_coefficients
+from diagnose.rollmass.model import Load, RollProfile
 
 
 @dataclass
@@ -168,7 +168,3 @@ def simulate_case(prof: RollProfile, case: str, noise: Noise, seed: int, length_
                                     noise, ds_seed, name=nm, known_load=(i < 2)))
     return out
 
-
-def true_ratios(prof: RollProfile, load: Load) -> np.ndarray:
-    """Continuous coefficients of (11) for the truth (for tests and reports)."""
-    return continuous_coefficients(prof.truth, prof.known, load)
