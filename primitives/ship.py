@@ -31,6 +31,46 @@ class ProfileError(UserError):
     """A ship profile file is malformed; the message names the file and the field."""
 
 
+# Every top-level key a profile may hold: one list, so an engineer adding a table adds one line.
+PROFILE_KEYS = frozenset({
+    "name", "description", "source", "sample_time", "length_m", "beam_m", "draught_m", "cruise_speed_mps",
+    "actuator", "inputs", "input_limits", "model", "parameter_names", "parameters", "simulation_set",
+    "instrument_set", "predictor", "predictor_names", "thrusters", "disturbances",
+    "helm",  # optional helm table (rudder-ship manoeuvres)
+    "primitive_dictionary",  # which built-in manoeuvre dictionary the ship uses (see expdesign.api)
+})
+# Physical sizes a profile must give, all finite and > 0 (unit in the message).
+POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("draught_m", "m"), ("cruise_speed_mps", "m/s"))
+
+
+def _check_keys(d: dict, src: str) -> None:
+    """Refuse unknown top-level keys, suggesting the nearest known one (a misspelt key must not
+    silently fall back to a default)."""
+    import difflib
+
+    for key in d:
+        if key not in PROFILE_KEYS:
+            near = difflib.get_close_matches(str(key), sorted(PROFILE_KEYS), n=1, cutoff=0.5)
+            hint = f"; did you mean {near[0]}?" if near else f"; known fields: {', '.join(sorted(PROFILE_KEYS))}"
+            raise ProfileError(f"{src}: unknown field {key!r}{hint}")
+
+
+def _check_sizes(d: dict, src: str) -> dict[str, float]:
+    from primitives.validate import MAX_PRIMITIVE_SAMPLES, manoeuvre_samples, positive
+
+    sizes = {k: positive(_need(d, k, src, (int, float), f"a number in {unit}, > 0"), f"{src}: field '{k}'", unit, ProfileError)
+             for k, unit in POSITIVE_FIELDS}
+    # a manoeuvre spans ~20 ship lengths: too slow a ship or too short a sample time makes it endless
+    n = manoeuvre_samples(20 * sizes["length_m"], sizes["cruise_speed_mps"], sizes["sample_time"])
+    if n > MAX_PRIMITIVE_SAMPLES:
+        raise ProfileError(
+            f"{src}: 20 ship lengths ({20 * sizes['length_m']:g} m) at cruise_speed_mps {sizes['cruise_speed_mps']:g} m/s "
+            f"take {n:.3g} samples of {sizes['sample_time']:g} s (limit {MAX_PRIMITIVE_SAMPLES:,}): check the units of "
+            "length_m, cruise_speed_mps and sample_time"
+        )
+    return sizes
+
+
 @dataclass(frozen=True)
 class Thruster:
     name: str
@@ -218,17 +258,69 @@ def _per_dof(d: dict, key: str, src: str, item: type, hint: str) -> tuple[tuple,
     return tuple(out)
 
 
+def _input_limits(d: dict, src: str) -> dict[str, tuple[float, float]]:
+    table = d.get("input_limits", {})
+    if not isinstance(table, dict):
+        raise ProfileError(f"{src}: field 'input_limits' must be a table of name = [min, max]")
+    limits = {}
+    for k, v in table.items():
+        ok = isinstance(v, list) and len(v) == 2 and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
+        if not ok or not all(np.isfinite(v)) or not v[0] < v[1]:
+            raise ProfileError(f"{src}: field 'input_limits.{k}' must be [min, max] of finite numbers with min < max, got {v!r}")
+        limits[k] = (float(v[0]), float(v[1]))
+    return limits
+
+
+def _thrusters(d: dict, src: str) -> tuple[Thruster, ...]:
+    from primitives.validate import finite
+
+    table = d.get("thrusters", [])
+    if not isinstance(table, list) or not all(isinstance(t, dict) and "x" in t for t in table):
+        raise ProfileError(f"{src}: field 'thrusters' must be a list of [[thrusters]] tables with x (and y) in metres")
+    return tuple(
+        Thruster(str(t.get("name", f"thruster{i + 1}")), finite(t["x"], f"{src}: field 'thrusters.{i}.x'", "m", ProfileError),
+                 finite(t.get("y", 0.0), f"{src}: field 'thrusters.{i}.y'", "m", ProfileError))
+        for i, t in enumerate(table)
+    )
+
+
+# Disturbance levels a profile may state (Disturbances.from_profile reads them): key -> length (0 = scalar).
+DISTURBANCE_KEYS = {"current_mean_ne": 2, "current_sample_std": 0, "measurement_std": 3, "heading_std": 0}
+
+
+def _disturbances(d: dict, src: str) -> dict[str, Any]:
+    from primitives.validate import finite
+
+    table = d.get("disturbances", {})
+    if not isinstance(table, dict):
+        raise ProfileError(f"{src}: field 'disturbances' must be a table")
+    for k, v in table.items():
+        if k not in DISTURBANCE_KEYS:
+            raise ProfileError(f"{src}: unknown field 'disturbances.{k}'; known: {', '.join(DISTURBANCE_KEYS)}")
+        n = DISTURBANCE_KEYS[k]
+        vals = v if n else [v]
+        if not isinstance(vals, list) or len(vals) != max(n, 1):
+            raise ProfileError(f"{src}: field 'disturbances.{k}' must be {f'a list of {n} numbers' if n else 'a number'}")
+        for x in vals:
+            y = finite(x, f"{src}: field 'disturbances.{k}'", "SI units", ProfileError)
+            if k != "current_mean_ne" and y < 0:
+                raise ProfileError(f"{src}: field 'disturbances.{k}' is a standard deviation: must be >= 0, got {x!r}")
+    return dict(table)
+
+
 def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     """Validate a decoded TOML/JSON document and build a profile."""
     num = (int, float)
+    _check_keys(d, src)
     name = _need(d, "name", src, str, "the profile name, e.g. 'my-ship'")
-    ts = float(_need(d, "sample_time", src, num, "the sample time in seconds, > 0"))
-    if ts <= 0:
-        raise ProfileError(f"{src}: field 'sample_time' must be > 0 seconds, got {ts}")
+    sizes = _check_sizes(d, src)
+    ts = sizes["sample_time"]
     actuator = d.get("actuator", "generalized")
     if actuator not in ACTUATORS:
         raise ProfileError(f"{src}: field 'actuator' must be one of {ACTUATORS}, got {actuator!r}")
     inputs = tuple(_need(d, "inputs", src, list, "a list of input names"))
+    if not inputs or not all(isinstance(x, str) and x for x in inputs) or len(set(inputs)) != len(inputs):
+        raise ProfileError(f"{src}: field 'inputs' must be a non-empty list of distinct input names, got {list(inputs)!r}")
     terms = _per_dof(d, "model", src, str, "regressor term strings like 'u_r*|u_r|'")
     names = _per_dof(d, "parameter_names", src, str, "parameter names")
     try:
@@ -253,23 +345,19 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
                 raise ProfileError(
                     f"{src}: field 'parameters.{set_name}.{dof}' has {len(vals[i])} values for {len(terms[i])} terms"
                 )
-        sets[set_name] = np.array([v for dof in vals for v in dof], dtype=float)
+        arr = np.array([v for dof in vals for v in dof], dtype=float)
+        if not np.all(np.isfinite(arr)):
+            raise ProfileError(f"{src}: field 'parameters.{set_name}' holds a value that is not a finite number")
+        sets[set_name] = arr
     if not sets:
         raise ProfileError(f"{src}: field 'parameters' holds no parameter set")
     sim_set = d.get("simulation_set", next(iter(sets)))
     ins_set = d.get("instrument_set", sim_set)
     for key, val in (("simulation_set", sim_set), ("instrument_set", ins_set)):
-        if val not in sets:
+        if not isinstance(val, str) or val not in sets:
             raise ProfileError(f"{src}: field '{key}' names {val!r}, which is not in [parameters]")
-    limits = {}
-    for k, v in d.get("input_limits", {}).items():
-        if not (isinstance(v, list) and len(v) == 2 and all(isinstance(x, num) for x in v) and v[0] < v[1]):
-            raise ProfileError(f"{src}: field 'input_limits.{k}' must be [min, max] with min < max")
-        limits[k] = (float(v[0]), float(v[1]))
-    thrusters = tuple(
-        Thruster(str(t.get("name", f"thruster{i + 1}")), float(t["x"]), float(t.get("y", 0.0)))
-        for i, t in enumerate(d.get("thrusters", []))
-    )
+    limits = _input_limits(d, src)
+    thrusters = _thrusters(d, src)
     if actuator == "azimuth":
         expect = tuple(x for i in range(1, len(thrusters) + 1) for x in (f"n{i}", f"alpha{i}"))
         if not thrusters or inputs != expect:
@@ -280,17 +368,18 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     if "predictor" in d:
         pred = _per_dof(d, "predictor", src, str, "regressor term strings")
         pred_names = _per_dof(d, "predictor_names", src, str, "parameter names")
-        TermSet(pred)
-    for key in ("length_m", "beam_m", "cruise_speed_mps"):
-        _need(d, key, src, num, "a positive number")
+        try:
+            TermSet(pred)
+        except TermError as exc:
+            raise ProfileError(f"{src}: field 'predictor': {exc}") from None
     return ShipProfile(
         name=name,
         description=str(d.get("description", "")),
         sample_time=ts,
-        length_m=float(d["length_m"]),
-        beam_m=float(d["beam_m"]),
-        draught_m=float(d.get("draught_m", 0.0)),
-        cruise_speed_mps=float(d["cruise_speed_mps"]),
+        length_m=sizes["length_m"],
+        beam_m=sizes["beam_m"],
+        draught_m=sizes["draught_m"],
+        cruise_speed_mps=sizes["cruise_speed_mps"],
         actuator=actuator,
         inputs=inputs,
         input_limits=limits,
@@ -302,7 +391,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         predictor_terms=pred,
         predictor_names=pred_names,
         thrusters=thrusters,
-        disturbances=dict(d.get("disturbances", {})),
+        disturbances=_disturbances(d, src),
         source=str(d.get("source", "")),
     )
 
