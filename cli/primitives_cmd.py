@@ -77,9 +77,11 @@ def register(app: typer.Typer) -> None:
         plot: Path | None = typer.Option(None, "--plot", help="draw each primitive's track and states to this PNG"),
     ) -> None:
         """List the manoeuvre primitive library of a ship."""
+        from cli.options import validate_primitives_options
         from primitives.library import build_library
         from primitives.ship import load_profile
 
+        validate_primitives_options(plot)
         profile = load_profile(ship)
         library = build_library(profile)
         rows = library_rows(library)

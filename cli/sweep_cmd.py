@@ -22,9 +22,10 @@ def register(app: typer.Typer) -> None:
         json_out: bool = typer.Option(False, "--json", help="print the rows as JSON"),
     ) -> None:
         """Run a design sweep (ships x speeds x criteria x mean-subtraction modes) into one tidy table."""
-        from expdesign.sweep import check_outputs, failed_cells, load_sweep, plot_summary, run_sweep, write_table
+        from cli.options import validate_sweep_options
+        from expdesign.sweep import failed_cells, load_sweep, plot_summary, run_sweep, write_table
 
-        check_outputs(out, plot)
+        validate_sweep_options(config=config, out=out, plot=plot)
         cells = load_sweep(config)
         res = run_sweep(cells, scheduler or os.environ.get("SHIPTRIAL_SCHEDULER"))
         rows = res.finished()

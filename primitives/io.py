@@ -90,6 +90,25 @@ def check_out_path(path: str | Path, *, kind: str = "directory", option: str = "
     return path
 
 
+OUTPUT_MARKER = ".shiptrial-output"  # written into every directory atomic_output_dir builds
+
+
+def check_replaceable_dir(path: str | Path, option: str = "--out") -> Path:
+    """Refuse to replace an existing directory that holds files shiptrial did not write there.
+
+    :func:`atomic_output_dir` swaps the whole directory, so ``--out .`` or ``--out ~/docs`` would
+    otherwise delete the user's files. An empty directory, or one a previous run wrote (it holds
+    the marker file), may be replaced.
+    """
+    from primitives.errors import UserError
+
+    path = check_out_path(path, option=option)
+    ours = (OUTPUT_MARKER, "plan.json", "design.json", "diagnosis.json")  # marker, or a result of a run before it
+    if path.is_dir() and any(path.iterdir()) and not any((path / n).exists() for n in ours):
+        raise UserError(f"{option} {path}: the directory holds files shiptrial did not write; give a new or empty directory")
+    return path
+
+
 @contextmanager
 def atomic_output_dir(path: str | Path) -> Iterator[Path]:
     """Build an output directory in a temporary sibling and swap it into place on success.
@@ -99,10 +118,11 @@ def atomic_output_dir(path: str | Path) -> Iterator[Path]:
     ``path`` is left exactly as it was: never a mix of an old and a new result.
     """
     path = Path(path)
-    check_out_path(path)
+    check_replaceable_dir(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     try:
+        (tmp / OUTPUT_MARKER).write_text("written by shiptrial; the next run into this directory replaces it whole\n")
         yield tmp
         os.chmod(tmp, 0o755)  # mkdtemp makes 0700; outputs are handed to crews and colleagues
         old = None

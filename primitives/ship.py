@@ -38,6 +38,7 @@ PROFILE_KEYS = frozenset({
     "instrument_set", "predictor", "predictor_names", "thrusters", "disturbances",
     "helm",  # optional helm table (rudder-ship manoeuvres)
     "primitive_dictionary",  # which built-in manoeuvre dictionary the ship uses (see expdesign.api)
+    "augmentations",  # effects a diagnosed model.json lists beside its terms (diagnose.report.model_dict)
 })
 # Physical sizes a profile must give, all finite and > 0 (unit in the message).
 POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("draught_m", "m"), ("cruise_speed_mps", "m/s"))
