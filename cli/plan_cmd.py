@@ -134,6 +134,10 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
     ) -> None:
         """Plan a trial: design -> rounding -> A* planning -> continuous verification -> exports for the crew."""
+        from cli.options import validate_plan_options
+
+        validate_plan_options(resolution=resolution, margin=margin, headings=headings, start=start, goal=goal,
+                              counts=counts, size=size, out=out, seed=seed)
         from maps.geo import load_map
         from maps.output import write_outputs
         from maps.planner import plan_trial

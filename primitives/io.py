@@ -85,9 +85,18 @@ def check_out_path(path: str | Path, *, kind: str = "directory", option: str = "
     probe = parent
     while not probe.exists():
         probe = probe.parent
-    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK) or not _can_create(probe):
         raise UserError(f"{option} {path}: {probe} is not a writable directory; choose another {option}")
     return path
+
+
+def _can_create(directory: Path) -> bool:
+    """Whether a file can be created there (os.access says yes to root on read-only or virtual file systems)."""
+    try:
+        with tempfile.TemporaryFile(dir=directory):
+            return True
+    except OSError:
+        return False
 
 
 OUTPUT_MARKER = ".shiptrial-output"  # written into every directory atomic_output_dir builds
