@@ -418,6 +418,12 @@ def load_profile(name_or_path: str | Path) -> ShipProfile:
             raise ProfileError(f"{path}: a profile file must end in .toml or .json")
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ProfileError(f"{path}: not valid {path.suffix[1:].upper()}: {exc}") from None
+    except UnicodeDecodeError:
+        raise ProfileError(f"{path}: not a UTF-8 text file; a profile is TOML or JSON text") from None
+    except IsADirectoryError:
+        raise ProfileError(f"{path}: is a directory; give a .toml/.json profile file") from None
+    except RecursionError:
+        raise ProfileError(f"{path}: nested too deeply to be a profile") from None
     if not isinstance(data, dict):
         raise ProfileError(f"{path}: the document must be a table/object")
     return profile_from_dict(data, str(path))
