@@ -71,7 +71,8 @@ def register(app: typer.Typer) -> None:
         from diagnose.recording_checks import conform
         from primitives.ship import load_profile
 
-        validate_diagnose_options(recordings=_split(recordings) + _split(fit_on) + _split(validate), params=params, out=out)
+        validate_diagnose_options(recordings={"RECORDING": _split(recordings), "--fit-on": _split(fit_on), "--validate": _split(validate)},
+                                  params=params, out=out)
         profile = load_profile(ship)
 
         def load(paths: list[str]):

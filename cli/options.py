@@ -58,7 +58,7 @@ def validate_design_options(*, criterion: str, mean_subtraction: str, trial_leng
         in_range(psi_switch, "--psi-switch", 0.01, math.pi, "rad", DesignError)
     for name, v in (("--min-frac", min_frac), ("--max-frac", max_frac)):
         if v is not None:
-            in_range(v, name, 0.0, 1.0, "(share of the trial)", DesignError)
+            in_range(v, name, 0.0, 1.0, "", DesignError)  # a share of the trial
     if min_frac is not None and max_frac is not None and min_frac > max_frac:
         raise DesignError(f"--min-frac {min_frac:g} is above --max-frac {max_frac:g}; give min <= max")
     whole(noisy_moments, "--noisy-moments", 0, 10_000, "simulations", DesignError)
@@ -95,9 +95,11 @@ def validate_sweep_options(*, config: Path, out: Path, plot: Path | None) -> Non
     check_outputs(out, plot)
 
 
-def validate_diagnose_options(*, recordings: list[str], params: str | None, out: Path | None) -> None:
-    for r in recordings:
-        check_input_file(r, "RECORDING", "a recording file (.csv or MARIN .dat)", "recording")
+def validate_diagnose_options(*, recordings: dict[str, list[str]], params: str | None, out: Path | None) -> None:
+    """``recordings``: option name (RECORDING, --fit-on, --validate) -> its files."""
+    for option, paths in recordings.items():
+        for r in paths:
+            check_input_file(r, option, "a recording file (.csv or MARIN .dat)", "recording")
     check_input_file(params, "--params", "a profile TOML/JSON or a JSON with 'theta'", "parameter")
     if out is not None:
         check_out_path(out)

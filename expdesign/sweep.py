@@ -88,7 +88,7 @@ def _check_keys(keys, allowed, where: str, path: Path) -> None:
         if k not in allowed:
             near = difflib.get_close_matches(str(k), list(allowed), n=1, cutoff=0.5)
             hint = f"; did you mean {near[0]}?" if near else f"; known: {', '.join(allowed)}"
-            raise SweepError(f"{path}: unknown field {where}{k!r}{hint}")
+            raise SweepError(f"{path}: unknown field '{where}{k}'{hint}")
 
 
 def _check_speeds(speeds: list, ships: list, path: Path) -> None:

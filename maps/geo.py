@@ -181,8 +181,10 @@ def load_map(
         doc = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise MapError(f"{src}: no such map file (give a GeoJSON FeatureCollection, or omit --map for the Helsinki example)") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise MapError(f"{src}: not valid JSON ({exc}): a sea map must be a GeoJSON FeatureCollection") from None
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
+        raise MapError(f"{src}: not valid JSON ({type(exc).__name__}): a sea map must be a GeoJSON FeatureCollection") from None
+    except IsADirectoryError:
+        raise MapError(f"{src}: is a directory; give a GeoJSON sea map file") from None
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
         raise MapError(f"{src}: field 'type' must be 'FeatureCollection' (GeoJSON, RFC 7946)")
     feats = doc.get("features")
