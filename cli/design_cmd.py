@@ -44,7 +44,7 @@ def register(app: typer.Typer) -> None:
                                 min_frac=min_frac, max_frac=max_frac, noisy_moments=noisy_moments)
         profile = load_profile(ship)
         lib = default_library(profile, psi_switch)
-        thesis = THESIS_SHARES if profile.name == "model-ship" else None
+        thesis = THESIS_SHARES if profile.primitive_dictionary == "model-ship" else None
         d = run_design(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length,
                        min_frac=min_frac, max_frac=max_frac, seed=seed, disturbed_realisations=noisy_moments,
                        references={"thesis": thesis} if thesis else None)
@@ -52,7 +52,7 @@ def register(app: typer.Typer) -> None:
         if monte_carlo:
             names = [p.name for p in lib if p.kind == "informative"]
             designs = {"optimized": d.weights, "random": "random", "uniform": {n: 1.0 / len(names) for n in names}}
-            if profile.name == "model-ship" and set(THESIS_SHARES) <= set(names):
+            if profile.primitive_dictionary == "model-ship" and set(THESIS_SHARES) <= set(names):
                 designs["thesis"] = THESIS_SHARES  # the shares section 9.1.1 reports, for comparison
             mc = evaluate_designs_parallel(profile, designs, runs=monte_carlo, seed=seed, scheduler=scheduler, primitives=lib,
                                            n_samples=mc_samples, mean_subtraction=mean_subtraction)
@@ -60,7 +60,7 @@ def register(app: typer.Typer) -> None:
                    "mean_subtraction": mean_subtraction}
         sens = None
         if sensitivity:
-            if profile.name != "model-ship":
+            if profile.primitive_dictionary != "model-ship":
                 raise DesignError("--sensitivity studies the model-ship dictionary tau1-tau11; use --ship model-ship")
             sens = sensitivity_study(profile, seed=seed)
         doc = report_dict(d, mc, cfg, sens, thesis)

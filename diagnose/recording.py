@@ -372,14 +372,19 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
     for k in ("phi", "psi", "p", "r", "delta"):
         cols[k] = np.radians(cols[k])
     cols["n"] = cols["n"] / 60.0
-    t, g, _ = _group_repeated(cols["t"], {k: v for k, v in cols.items() if k != "t"})
+    meta = {"source": "MARIN KVLCC2 (SIMMAN 2008)", "scale": "full", "scale_factor": "1"}
+    t_raw = cols["t"]
+    if not np.all(np.isfinite(t_raw)) or np.any(np.diff(t_raw) < 0) or len(np.unique(t_raw)) < 3:
+        build_recording(str(path), cols, meta=meta, sample_time=sample_time)  # raises the time axis's own error
+    t, g, _ = _group_repeated(t_raw, {k: v for k, v in cols.items() if k != "t"})
     # which frame are u, v in? compare with the differentiated track (early, finely sampled part)
     early = t < 100.0 if np.sum(t < 100.0) > 20 else slice(None)
-    xd, yd = np.gradient(g["x"], t)[early], np.gradient(g["y"], t)[early]
-    c, s = np.cos(g["psi"][early]), np.sin(g["psi"][early])
-    err_earth = np.mean((xd - g["u"][early]) ** 2 + (yd - g["v"][early]) ** 2)
-    ub, vb = g["u"][early], g["v"][early]
-    err_body = np.mean((xd - (c * ub - s * vb)) ** 2 + (yd - (s * ub + c * vb)) ** 2)
+    with np.errstate(all="ignore"):
+        xd, yd = np.gradient(g["x"], t)[early], np.gradient(g["y"], t)[early]
+        c, s = np.cos(g["psi"][early]), np.sin(g["psi"][early])
+        err_earth = np.mean((xd - g["u"][early]) ** 2 + (yd - g["v"][early]) ** 2)
+        ub, vb = g["u"][early], g["v"][early]
+        err_body = np.mean((xd - (c * ub - s * vb)) ** 2 + (yd - (s * ub + c * vb)) ** 2)
     note = "u, v as published are body-frame velocities"
     if err_earth < err_body:
         c, s = np.cos(cols["psi"]), np.sin(cols["psi"])
@@ -388,7 +393,6 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
         # with earth-frame u, v is refused (recording_checks.check_frame)
         note = ("u, v as published in MARIN .dat files are earth-frame (dx0/dt, dy0/dt): rotated into the body frame "
                 "(CSV recordings must give body-frame u, v)")
-    meta = {"source": "MARIN KVLCC2 (SIMMAN 2008)", "scale": "full", "scale_factor": "1"}
     rec = build_recording(str(path), cols, meta=meta, sample_time=sample_time)[0]
     rec.notes.insert(0, note)
     return rec

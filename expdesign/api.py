@@ -87,7 +87,7 @@ class Design:
 
 def default_library(profile: ShipProfile, psi_switch: float | None = None) -> list[Primitive]:
     """The thesis dictionary of the profile; ``psi_switch`` (rad) sets the model-ship zig-zag period."""
-    if psi_switch is not None and profile.name == "model-ship":
+    if psi_switch is not None and profile.primitive_dictionary == "model-ship":
         return model_ship_thesis(profile, psi_switch=psi_switch)
     lib = thesis_primitives(profile)
     if not lib:

@@ -196,6 +196,8 @@ def load_map(
         if not isinstance(f, dict) or f.get("type") != "Feature" or not isinstance(f.get("geometry"), dict):
             raise _fail(src, i, "not a GeoJSON Feature with a geometry")
         props = f.get("properties") or {}
+        if not isinstance(props, dict):
+            raise _fail(src, i, "properties must be an object (e.g. {\"kind\": \"land\"})")
         kind = props.get("kind", "land")
         if kind not in KINDS:
             raise _fail(src, i, f"properties.kind {kind!r} unknown; use one of {', '.join(KINDS)}")

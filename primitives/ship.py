@@ -103,6 +103,8 @@ class ShipProfile:
     thrusters: tuple[Thruster, ...] = ()
     disturbances: dict[str, Any] = field(default_factory=dict)
     source: str = ""
+    # which built-in manoeuvre dictionary (and thesis comparisons) applies: data, not the ship's name
+    primitive_dictionary: str = ""
 
     # -- structure -------------------------------------------------------------------------
     # cached: compiled once per profile (a frozen dataclass still has an instance __dict__)
@@ -226,6 +228,8 @@ class ShipProfile:
             d["predictor"] = dict(zip(DOFS, map(list, self.predictor_terms)))
         if self.predictor_names:
             d["predictor_names"] = dict(zip(DOFS, map(list, self.predictor_names)))
+        if self.primitive_dictionary:
+            d["primitive_dictionary"] = self.primitive_dictionary
         if self.thrusters:
             d["thrusters"] = [{"name": t.name, "x": t.x, "y": t.y} for t in self.thrusters]
         return d
@@ -263,12 +267,17 @@ def _input_limits(d: dict, src: str) -> dict[str, tuple[float, float]]:
     table = d.get("input_limits", {})
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'input_limits' must be a table of name = [min, max]")
+    from primitives.validate import finite
+
     limits = {}
     for k, v in table.items():
-        ok = isinstance(v, list) and len(v) == 2 and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
-        if not ok or not all(np.isfinite(v)) or not v[0] < v[1]:
-            raise ProfileError(f"{src}: field 'input_limits.{k}' must be [min, max] of finite numbers with min < max, got {v!r}")
-        limits[k] = (float(v[0]), float(v[1]))
+        what = f"{src}: field 'input_limits.{k}'"
+        if not (isinstance(v, list) and len(v) == 2):
+            raise ProfileError(f"{what} must be [min, max] of finite numbers with min < max, got {v!r}")
+        lo, hi = (finite(x, what, "the input's units", ProfileError) for x in v)
+        if not lo < hi:
+            raise ProfileError(f"{what} must be [min, max] with min < max, got {v!r}")
+        limits[k] = (lo, hi)
     return limits
 
 
@@ -307,6 +316,17 @@ def _disturbances(d: dict, src: str) -> dict[str, Any]:
             if k != "current_mean_ne" and y < 0:
                 raise ProfileError(f"{src}: field 'disturbances.{k}' is a standard deviation: must be >= 0, got {x!r}")
     return dict(table)
+
+
+# The built-in manoeuvre dictionaries a profile may name (primitives.library.thesis_primitives).
+DICTIONARIES = ("model-ship", "full-scale")
+
+
+def _dictionary(d: dict, src: str) -> str:
+    val = d.get("primitive_dictionary", "")
+    if val != "" and val not in DICTIONARIES:
+        raise ProfileError(f"{src}: field 'primitive_dictionary' must be one of {', '.join(DICTIONARIES)}, got {val!r}")
+    return val
 
 
 def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
@@ -394,6 +414,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         thrusters=thrusters,
         disturbances=_disturbances(d, src),
         source=str(d.get("source", "")),
+        primitive_dictionary=_dictionary(d, src),
     )
 
 
