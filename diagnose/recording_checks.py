@@ -181,10 +181,11 @@ def check_sample_time(rec, profile, resample: bool = False):
                    channels={k: interp(v) for k, v in rec.channels.items()}, segments=seg, notes=[*rec.notes, note])
 
 
-def conform(recs: list, profile, *, resample: bool = False, full_scale: bool = False) -> list:
-    """Every recording checked and brought to the profile: Froude-scaled when the header says model
-    scale and ``full_scale`` (the profile is at full scale), on the profile's sample time, inputs
-    in range. The notes on each recording say what was done."""
+def conform(recs: list, profile, *, resample: bool = False, full_scale: bool = True) -> list:
+    """Every recording checked and brought to the profile: Froude-scaled to full scale when its
+    header says ``# scale: model`` (a header giving a scale factor means the profile is the
+    full-scale ship; pass ``full_scale=False`` to keep model scale), on the profile's sample time,
+    inputs in range. The notes on each recording say what was done (the report prints them)."""
     out = []
     for rec in recs:
         rec.inputs_for(profile.inputs)  # a missing input column says the --ship is wrong: say that first

@@ -140,3 +140,18 @@ def test_cli_refuses_other_sample_time_unless_resample(run, tmp_path, capsys):
     p = write_csv(coarse, tmp_path / "coarse.csv")
     assert _run(["diagnose", str(p), "--ship", "model-ship"]) == 2
     assert "--resample" in capsys.readouterr().err
+
+
+def test_conform_froude_scales_a_model_scale_header_and_says_so(run, ship, tmp_path):
+    """A recording whose header says model scale reaches the (full-scale) profile scaled, with a note."""
+    lam = 4.0  # the model run of the ship at 1/4 scale: times / 2, lengths / 4, forces / 64, moments / 256
+    model = dataclasses.replace(run, t=run.t / 2, pos=run.pos / lam, y=run.y * [0.5, 0.5, 2.0], meta={},
+                                channels={"tau_x": run.channels["tau_x"] / lam**3, "tau_y": run.channels["tau_y"] / lam**3,
+                                          "tau_n": run.channels["tau_n"] / lam**4})
+    rec = read_csv(_with(model, tmp_path, meta={"scale": "model", "scale_factor": str(lam)}))[0]
+    out = conform([rec], ship)[0]
+    assert out.sample_time == pytest.approx(ship.sample_time)
+    assert any("Froude-scaled" in n for n in out.notes)
+    np.testing.assert_allclose(out.pos, run.pos, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(out.y, run.y, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(out.channels["tau_n"], run.channels["tau_n"], rtol=1e-6)
