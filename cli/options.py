@@ -10,18 +10,13 @@ import math
 from pathlib import Path
 
 from primitives.errors import UserError
-from primitives.io import check_out_path, check_replaceable_dir
+from primitives.io import FIGURE_SUFFIXES, check_out_file, check_out_path, check_replaceable_dir
 from primitives.validate import check_counts, check_monte_carlo, in_range, one_of, positive, whole
-
-PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 
 
 def check_plot_path(path: Path | None, option: str = "--plot") -> None:
-    if path is None:
-        return
-    if path.suffix.lower() not in PLOT_SUFFIXES:
-        raise UserError(f"{option} {path}: the extension must name the figure format: {', '.join(PLOT_SUFFIXES)}")
-    check_out_path(path, kind="file", option=option)
+    if path is not None:
+        check_out_file(path, FIGURE_SUFFIXES, option, "figure")
 
 
 def check_input_file(path: Path | str | None, option: str, what: str, kind: str) -> None:

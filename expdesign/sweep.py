@@ -50,22 +50,18 @@ class Cell:
 
 SWEEP_KEYS = ("ships", "criteria", "mean_subtraction", "library", "speeds", "seed")
 TABLE_SUFFIXES = (".csv", ".parquet")
-PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 
 
 def check_outputs(out: str | Path, plot: str | Path | None = None) -> None:
     """Refuse, before any work, a table or plot path whose extension does not name its format."""
-    from primitives.io import check_out_path
+    from primitives.io import FIGURE_SUFFIXES, check_out_file
 
-    out = Path(out)
-    if out.suffix.lower() not in TABLE_SUFFIXES:
-        raise SweepError(f"--out {out}: the extension must name the table format: {' or '.join(TABLE_SUFFIXES)}")
-    check_out_path(out, kind="file")
-    if plot is not None:
-        plot = Path(plot)
-        if plot.suffix.lower() not in PLOT_SUFFIXES:
-            raise SweepError(f"--plot {plot}: the extension must name the figure format: {', '.join(PLOT_SUFFIXES)}")
-        check_out_path(plot, kind="file", option="--plot")
+    try:
+        check_out_file(out, TABLE_SUFFIXES, "--out", "table")
+        if plot is not None:
+            check_out_file(plot, FIGURE_SUFFIXES, "--plot", "figure")
+    except UserError as exc:
+        raise SweepError(str(exc)) from None
 
 
 def _read(path: Path) -> dict:

@@ -90,6 +90,19 @@ def check_out_path(path: str | Path, *, kind: str = "directory", option: str = "
     return path
 
 
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def check_out_file(path: str | Path, suffixes: tuple[str, ...], option: str, what: str) -> Path:
+    """An output file whose extension names its format (``what``: "table", "figure") and that can be written."""
+    from primitives.errors import UserError
+
+    path = Path(path)
+    if path.suffix.lower() not in suffixes:
+        raise UserError(f"{option} {path}: the extension must name the {what} format: {' or '.join(suffixes)}")
+    return check_out_path(path, kind="file", option=option)
+
+
 def _can_create(directory: Path) -> bool:
     """Whether a file can be created there (os.access says yes to root on read-only or virtual file systems)."""
     try:
