@@ -314,17 +314,9 @@ def read_csv(path: str | Path, *, sample_time: float | None = None) -> list[Reco
 
 
 def _read_text(path: Path, encoding: str) -> str:
-    """The file's text, or one line saying why it cannot be read (missing, a directory, not text)."""
-    try:
-        return path.read_text(encoding=encoding)
-    except FileNotFoundError:
-        raise RecordingError(f"{path}: no such recording file") from None
-    except IsADirectoryError:
-        raise RecordingError(f"{path}: is a directory; give a recording file (.csv or MARIN .dat)") from None
-    except UnicodeDecodeError as exc:
-        raise RecordingError(f"{path}: not a UTF-8 text file (byte {exc.start}); save the CSV as UTF-8") from None
-    except OSError as exc:
-        raise RecordingError(f"{path}: cannot be read ({exc.strerror})") from None
+    from primitives.io import read_input_text
+
+    return read_input_text(path, RecordingError, "a recording file (.csv saved as UTF-8, or MARIN .dat)", encoding)
 
 
 def _check_meta(path: Path, meta: dict[str, str]) -> None:

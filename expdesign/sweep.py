@@ -65,14 +65,11 @@ def check_outputs(out: str | Path, plot: str | Path | None = None) -> None:
 
 
 def _read(path: Path) -> dict:
+    from primitives.io import read_input_text
+
+    text = read_input_text(path, SweepError, "a sweep TOML file")
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SweepError(f"{path}: no such sweep file") from None
-    except IsADirectoryError:
-        raise SweepError(f"{path}: is a directory; give a sweep TOML file") from None
-    except UnicodeDecodeError:
-        raise SweepError(f"{path}: not a text file (UTF-8); give a sweep TOML file") from None
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SweepError(f"{path}: not valid TOML: {exc}") from None
 

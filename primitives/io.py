@@ -90,6 +90,22 @@ def check_out_path(path: str | Path, *, kind: str = "directory", option: str = "
     return path
 
 
+def read_input_text(path: str | Path, error: type, what: str, encoding: str = "utf-8") -> str:
+    """The text of an input file, or ``error`` with one line saying why not (missing, a directory,
+    not text, unreadable); ``what`` names what the file should be ("a sweep TOML file")."""
+    path = Path(path)
+    try:
+        return path.read_text(encoding=encoding)
+    except FileNotFoundError:
+        raise error(f"{path}: no such file; give {what}") from None
+    except IsADirectoryError:
+        raise error(f"{path}: is a directory; give {what}") from None
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: not a UTF-8 text file (byte {exc.start}); give {what}") from None
+    except OSError as exc:
+        raise error(f"{path}: cannot be read ({exc.strerror}); give {what}") from None
+
+
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 

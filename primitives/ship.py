@@ -430,19 +430,15 @@ def load_profile(name_or_path: str | Path) -> ShipProfile:
         path = cand
     if not path.exists():
         raise ProfileError(f"{path}: no such profile file")
+    from primitives.io import read_input_text
+
+    if path.suffix.lower() not in (".json", ".toml"):
+        raise ProfileError(f"{path}: a profile file must end in .toml or .json")
+    text = read_input_text(path, ProfileError, "a .toml/.json ship profile")
     try:
-        if path.suffix.lower() == ".json":
-            data = json.loads(path.read_text(encoding="utf-8"))
-        elif path.suffix.lower() == ".toml":
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        else:
-            raise ProfileError(f"{path}: a profile file must end in .toml or .json")
+        data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ProfileError(f"{path}: not valid {path.suffix[1:].upper()}: {exc}") from None
-    except UnicodeDecodeError:
-        raise ProfileError(f"{path}: not a UTF-8 text file; a profile is TOML or JSON text") from None
-    except IsADirectoryError:
-        raise ProfileError(f"{path}: is a directory; give a .toml/.json profile file") from None
     except RecursionError:
         raise ProfileError(f"{path}: nested too deeply to be a profile") from None
     if not isinstance(data, dict):
