@@ -130,7 +130,9 @@ class Plan:
     @classmethod
     def from_dict(cls, d: dict[str, Any], src: str = "<plan>") -> Plan:
         """A plan from its JSON document; any malformed field is a :class:`PlanError` naming it."""
-        if not isinstance(d, dict) or d.get("format") != PLAN_FORMAT:
+        if not isinstance(d, dict):
+            raise PlanError(f"{src}: malformed plan (a JSON {type(d).__name__}, not an object); re-create it with plan-trial")
+        if d.get("format") != PLAN_FORMAT:
             raise PlanError(f"{src}: field 'format' must be {PLAN_FORMAT!r}: not a plan written by shiptrial")
         try:
             plan = cls._from_dict(d)
