@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import io
+import os
 import sys
+from contextlib import contextmanager
 
 import typer
 
@@ -27,7 +30,55 @@ for _module in (primitives_cmd, design_cmd, plan_cmd, export_cmd, diagnose_cmd, 
     _module.register(app)
 
 
+@contextmanager
+def _pure_json_stdout(argv: list[str]):
+    """With --json, stdout carries the JSON document and nothing else.
+
+    C-level writes to file descriptor 1 (a LAPACK routine's warning) go to stderr for the whole
+    command; Python-level output is held back and, once the command ends, the trailing JSON
+    document goes to stdout and anything printed before it to stderr.
+    """
+    if "--json" not in argv:
+        yield
+        return
+    sys.stdout.flush()
+    saved = os.dup(1)
+    os.dup2(2, 1)
+    old, buf = sys.stdout, io.StringIO()
+    sys.stdout = buf
+    try:
+        yield
+    finally:
+        sys.stdout = old
+        os.dup2(saved, 1)
+        os.close(saved)
+        noise, doc = _split_json(buf.getvalue())
+        if noise:
+            sys.stderr.write(noise)
+        old.write(doc)
+        old.flush()
+
+
+def _split_json(text: str) -> tuple[str, str]:
+    """(what comes before the trailing JSON document, the document); ("", text) when none is found."""
+    import json
+
+    starts = [0] + [i + 1 for i, c in enumerate(text) if c == "\n" and text[i + 1: i + 2] in ("{", "[")]
+    for i in starts:
+        try:
+            json.loads(text[i:])
+        except ValueError:
+            continue
+        return text[:i], text[i:]
+    return "", text
+
+
 def _run(argv: list[str] | None = None) -> int:
+    with _pure_json_stdout(sys.argv[1:] if argv is None else list(argv)):
+        return _run_app(argv)
+
+
+def _run_app(argv: list[str] | None) -> int:
     try:
         rc = app(args=argv, prog_name="shiptrial", standalone_mode=False)
     except user_error_types() as exc:

@@ -20,7 +20,7 @@ def register(app: typer.Typer) -> None:
         monte_carlo: int = typer.Option(500, "--monte-carlo", help="Monte Carlo runs per design (0 skips the evaluation)"),
         mc_samples: int = typer.Option(1000, "--mc-samples", help="samples per Monte Carlo experiment (thesis: 1000 = 125 s)"),
         seed: int = typer.Option(0, "--seed", help="seed of every random draw (starts, Monte Carlo)"),
-        out: Path = typer.Option(Path("design-report"), "--out", help="directory for report.md, design.json and figures"),
+        out: Path | None = typer.Option(None, "--out", help="directory for report.md, design.json and figures (default: write no files)"),
         json_out: bool = typer.Option(False, "--json", help="print the report JSON"),
         sensitivity: bool = typer.Option(False, "--sensitivity", help="add the model-ship sensitivity study (zig-zag period, sway, noisy moments)"),
         psi_switch: float | None = typer.Option(None, "--psi-switch", help="model-ship zig-zag switching heading in rad (default 0.5)"),
@@ -38,6 +38,7 @@ def register(app: typer.Typer) -> None:
                                           help="on Ctrl-C or a lost worker, write the report of the finished runs, marked partial"),
     ) -> None:
         """Choose the mix of manoeuvres that maximises information, and check it by Monte Carlo."""
+        from cli.options import validate_design_options
         from expdesign.api import default_library, run_design
         from expdesign.errors import DesignError
         from expdesign.montecarlo import evaluate_designs_parallel
@@ -45,10 +46,9 @@ def register(app: typer.Typer) -> None:
         from expdesign.sensitivity import THESIS_SHARES, sensitivity_study
         from primitives.ship import load_profile
 
-        if monte_carlo < 0:
-            raise DesignError(f"--monte-carlo must be >= 0 runs, got {monte_carlo}")
-        if mc_samples < 10:
-            raise DesignError(f"--mc-samples must be >= 10, got {mc_samples}")
+        validate_design_options(criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length,
+                                monte_carlo=monte_carlo, mc_samples=mc_samples, seed=seed, out=out, psi_switch=psi_switch,
+                                min_frac=min_frac, max_frac=max_frac, noisy_moments=noisy_moments)
         profile = load_profile(ship)
         lib = default_library(profile, psi_switch)
         thesis = THESIS_SHARES if profile.library == "thesis-model-ship" else None
@@ -73,9 +73,15 @@ def register(app: typer.Typer) -> None:
                 raise DesignError("--sensitivity studies the model-ship dictionary tau1-tau11; use --ship model-ship")
             sens = sensitivity_study(profile, seed=seed)
         doc = report_dict(d, ev, sens, thesis)
-        paths = write_report(out, doc, d, ev.results if ev else None, thesis)
+        paths = {}
+        if out is not None:
+            from primitives.io import atomic_output_dir
+
+            with atomic_output_dir(out) as tmp:  # a failed report never leaves a mix of old and new files
+                written = write_report(tmp, doc, d, ev.results if ev else None, thesis)
+            paths = {k: out / p.relative_to(tmp) for k, p in written.items()}
         if ev is not None and not ev.complete:
-            _fail(ev, f"partial report of the finished runs written to {paths['json']}")
+            _fail(ev, f"partial report of the finished runs written to {paths['json']}" if paths else "partial results not written (no --out)")
         if json_out:
             typer.echo(dumps(doc))
             return
@@ -91,7 +97,8 @@ def register(app: typer.Typer) -> None:
                 p = "n/a" if s["param_rmse_p50"] is None else f"{s['param_rmse_p50']:.3g} ({100 * s['frac_param_rmse_below_1_5']:.1f} % < 1.5)"
                 typer.echo(f"  MC {n:9s} param RMSE p50 {p}; sim RMSE p50 {_g(s['sim_rmse_p50'])} "
                            f"({100 * s['frac_sim_rmse_below_0_15']:.1f} % < 0.15); diverged {s['diverged']} of {s['runs']}")
-        typer.echo(f"wrote {paths['markdown']} and {paths['json']}")
+        if paths:
+            typer.echo(f"wrote {paths['markdown']} and {paths['json']}")
 
 
 def _g(x: float | None) -> str:

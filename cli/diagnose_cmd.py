@@ -61,20 +61,25 @@ def register(app: typer.Typer) -> None:
         validate: list[str] | None = typer.Option(None, "--validate", help="held-out recordings for the before/after fit (repeat or comma-separate)"),
         out: Path | None = typer.Option(None, "--out", help="directory for report.txt, diagnosis.json, model.json and residual plots"),
         json_out: bool = typer.Option(False, "--json", help="print the diagnosis as JSON"),
+        resample: bool = typer.Option(False, "--resample", help="interpolate recordings onto the ship's sample time (default: refuse)"),
     ) -> None:
         """Diagnose recordings against a ship model: locate, name and model the missing physics."""
+        from cli.options import validate_diagnose_options
         from diagnose import report
         from diagnose.api import run
         from diagnose.recording import load_recording
+        from diagnose.recording_checks import conform
         from primitives.ship import load_profile
 
+        validate_diagnose_options(recordings={"RECORDING": _split(recordings), "--fit-on": _split(fit_on), "--validate": _split(validate)},
+                                  params=params, out=out)
         profile = load_profile(ship)
 
         def load(paths: list[str]):
             recs = []
             for p in paths:
-                recs += load_recording(p, sample_time=profile.sample_time)
-            return recs
+                recs += load_recording(p)
+            return conform(recs, profile, resample=resample)  # Froude scale, sample time, input units: said in notes
 
         recs = load(_split(recordings))
         theta = _load_params(params, profile) if params else None

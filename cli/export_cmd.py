@@ -70,13 +70,11 @@ def register(app: typer.Typer) -> None:
                                                                       "(default: the plan's vessel name, else the profile's display name)"),
     ) -> None:
         """Export a saved plan for the ship: route (RTZ, GPX), GeoJSON, CSV schedule or trial card."""
-        from maps.export import FORMATS, default_path, export_all, export_plan
+        from cli.options import validate_export_options
+        from maps.export import default_path, export_all, export_plan
 
+        validate_export_options(plan_file=plan_file, fmt=fmt, out=out, sea_map=sea_map)
         fmt_l = fmt.lower()
-        if fmt_l != "all" and fmt_l not in FORMATS:
-            raise UserError(f"--format {fmt!r} is unknown: choose one of {', '.join(FORMATS)} or all")
-        if sea_map is not None and not sea_map.is_file():
-            raise UserError(f"{sea_map}: no such map file (--map takes a GeoJSON sea map)")
         plan = load_plan(plan_file)
         sea = resolve_sea_map(sea_map, plan.map_name, plan)
         if fmt_l == "all":

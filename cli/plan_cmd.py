@@ -126,6 +126,7 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
     ) -> None:
         """Plan a trial: design -> whole manoeuvres -> A* planning -> continuous verification -> exports for the crew."""
+        from cli.options import validate_plan_options
         from maps.chain import PlanOptions
         from maps.export._common import iso, resolve_start
         from maps.geo import load_map
@@ -134,6 +135,8 @@ def register(app: typer.Typer) -> None:
         from primitives.io import atomic_output_dir, check_out_path
         from primitives.ship import load_profile
 
+        validate_plan_options(resolution=resolution, margin=margin, headings=headings, start=start, goal=goal,
+                              counts=counts, size=size, out=out, seed=seed)
         try:
             ni, nj = (int(v) for v in size.lower().split("x"))
         except ValueError:

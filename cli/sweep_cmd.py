@@ -22,8 +22,10 @@ def register(app: typer.Typer) -> None:
         json_out: bool = typer.Option(False, "--json", help="print the rows as JSON"),
     ) -> None:
         """Run a design sweep (ships x speeds x criteria x mean-subtraction modes) into one tidy table."""
-        from expdesign.sweep import load_sweep, plot_summary, run_sweep, write_table
+        from cli.options import validate_sweep_options
+        from expdesign.sweep import failed_cells, load_sweep, plot_summary, run_sweep, write_table
 
+        validate_sweep_options(config=config, out=out, plot=plot)
         cells = load_sweep(config)
         res = run_sweep(cells, scheduler or os.environ.get("SHIPTRIAL_SCHEDULER"))
         rows = res.finished()
@@ -38,3 +40,8 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"wrote {table}\nwrote {fig}")
         if res.interrupted:
             raise typer.Exit(130)
+        if failed:
+            typer.echo(f"error: {len(failed)} of {len(cells)} cells failed:", err=True)
+            for line in failed_cells(rows):
+                typer.echo(f"  {line}", err=True)
+            raise typer.Exit(1)

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from diagnose.recording_checks import check_frame, check_grid, check_values
 from primitives.errors import UserError
 
 MIN_SAMPLES = 50
@@ -45,6 +46,17 @@ class Recording:
     segments: list[str] | None = None
     meta: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+
+    @property
+    def scale(self) -> str | None:
+        """``model`` or ``full`` from the header line ``# scale:``; None when the file does not say."""
+        return self.meta.get("scale")
+
+    @property
+    def scale_factor(self) -> float | None:
+        """Froude scale factor lambda from ``# scale_factor:`` (full-scale length / model length)."""
+        v = self.meta.get("scale_factor")
+        return None if v is None else float(v)
 
     @property
     def n_samples(self) -> int:
@@ -185,11 +197,13 @@ def build_recording(
         notes.append(f"{n_rep} repeated time stamps: rows sharing a stamp were averaged")
     if len(t) < 3:
         raise RecordingError(f"{src}: only {len(t)} distinct time stamps; a recording needs at least {min_samples}")
+    check_values(src, cols)
     _check_units(src, cols, t)
     dt_med = float(np.median(np.diff(t)))
-    ts = float(sample_time or meta.get("sample_time") or dt_med)
-    if ts <= 0:
-        raise RecordingError(f"{src}: sample time {ts} is not positive; fix '# sample_time:'")
+    ts = float(sample_time or dt_med)
+    if not (math.isfinite(ts) and ts > 0):
+        raise RecordingError(f"{src}: sample time {ts} is not a positive number of seconds; fix '# sample_time:'")
+    check_grid(src, t, ts)
     # psi is unwrapped before interpolation
     psi = cols["psi"].copy()
     fin = np.isfinite(psi)
@@ -231,6 +245,8 @@ def build_recording(
             seg = list(seg_arr[nearest]) if len(seg_arr) == len(t) else None
         pos = np.stack([res["x"], res["y"]], axis=-1)
         pnotes = list(notes)
+        if "u" in res and "v" in res:
+            check_frame(src, grid, pos, res["psi"], res["u"], res["v"])
         if all(k in res for k in ("u", "v", "r")):
             y = np.stack([res["u"], res["v"], res["r"]], axis=-1)
         else:
@@ -258,10 +274,8 @@ def build_recording(
 def read_csv(path: str | Path, *, sample_time: float | None = None) -> list[Recording]:
     """A recording CSV of BRIEF section 7 (one or more gap-free pieces)."""
     path = Path(path)
-    if not path.exists():
-        raise RecordingError(f"{path}: no such recording file")
     meta: dict[str, str] = {}
-    lines = path.read_text(encoding="utf-8-sig").splitlines()
+    lines = _read_text(path, "utf-8-sig").splitlines()
     body = []
     for line in lines:
         if line.startswith("#"):
@@ -294,8 +308,31 @@ def read_csv(path: str | Path, *, sample_time: float | None = None) -> list[Reco
                 except ValueError:
                     raise RecordingError(f"{path}: row {i + 2}, column '{name}': {s!r} is not a number") from None
         cols[name] = vals
+    _check_meta(path, meta)
     ts = sample_time or (float(meta["sample_time"]) if "sample_time" in meta else None)
     return build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts)
+
+
+def _read_text(path: Path, encoding: str) -> str:
+    from primitives.io import read_input_text
+
+    return read_input_text(path, RecordingError, "a recording file (.csv saved as UTF-8, or MARIN .dat)", encoding)
+
+
+def _check_meta(path: Path, meta: dict[str, str]) -> None:
+    """Header values the loader uses: sample time (s), scale (model|full) and scale factor."""
+    for key in ("sample_time", "scale_factor"):
+        if key in meta:
+            try:
+                v = float(meta[key])
+            except ValueError:
+                v = float("nan")
+            if not (math.isfinite(v) and v > 0):
+                raise RecordingError(f"{path}: header '# {key}: {meta[key]}' must be a positive number")
+    if "scale" in meta and meta["scale"] not in ("model", "full"):
+        raise RecordingError(f"{path}: header '# scale: {meta['scale']}' must be 'model' or 'full'")
+    if meta.get("scale") == "model" and "scale_factor" not in meta:
+        raise RecordingError(f"{path}: header '# scale: model' needs '# scale_factor: LAMBDA' (full-scale length / model length)")
 
 
 KVLCC2_COLUMNS = ("t", "x", "y", "phi", "psi", "u", "v", "p", "r", "delta", "n")
@@ -311,10 +348,8 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
     ``sample_time`` (1 s by default, the resolution of the late stamps).
     """
     path = Path(path)
-    if not path.exists():
-        raise RecordingError(f"{path}: no such recording file")
     rows = []
-    for line in path.read_text(encoding="latin-1").splitlines()[2:]:
+    for line in _read_text(path, "latin-1").splitlines()[2:]:
         parts = [p for p in line.replace(",", " ").split() if p]
         if len(parts) < len(KVLCC2_COLUMNS):
             continue
@@ -329,20 +364,28 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
     for k in ("phi", "psi", "p", "r", "delta"):
         cols[k] = np.radians(cols[k])
     cols["n"] = cols["n"] / 60.0
-    t, g, _ = _group_repeated(cols["t"], {k: v for k, v in cols.items() if k != "t"})
+    meta = {"source": "MARIN KVLCC2 (SIMMAN 2008)", "scale": "full", "scale_factor": "1"}
+    t_raw = cols["t"]
+    if not np.all(np.isfinite(t_raw)) or np.any(np.diff(t_raw) < 0) or len(np.unique(t_raw)) < 3:
+        build_recording(str(path), cols, meta=meta, sample_time=sample_time)  # raises the time axis's own error
+    t, g, _ = _group_repeated(t_raw, {k: v for k, v in cols.items() if k != "t"})
     # which frame are u, v in? compare with the differentiated track (early, finely sampled part)
     early = t < 100.0 if np.sum(t < 100.0) > 20 else slice(None)
-    xd, yd = np.gradient(g["x"], t)[early], np.gradient(g["y"], t)[early]
-    c, s = np.cos(g["psi"][early]), np.sin(g["psi"][early])
-    err_earth = np.mean((xd - g["u"][early]) ** 2 + (yd - g["v"][early]) ** 2)
-    ub, vb = g["u"][early], g["v"][early]
-    err_body = np.mean((xd - (c * ub - s * vb)) ** 2 + (yd - (s * ub + c * vb)) ** 2)
+    with np.errstate(all="ignore"):
+        xd, yd = np.gradient(g["x"], t)[early], np.gradient(g["y"], t)[early]
+        c, s = np.cos(g["psi"][early]), np.sin(g["psi"][early])
+        err_earth = np.mean((xd - g["u"][early]) ** 2 + (yd - g["v"][early]) ** 2)
+        ub, vb = g["u"][early], g["v"][early]
+        err_body = np.mean((xd - (c * ub - s * vb)) ** 2 + (yd - (s * ub + c * vb)) ** 2)
     note = "u, v as published are body-frame velocities"
     if err_earth < err_body:
         c, s = np.cos(cols["psi"]), np.sin(cols["psi"])
         cols["u"], cols["v"] = c * cols["u"] + s * cols["v"], -s * cols["u"] + c * cols["v"]
-        note = "u, v as published are earth-frame (dx0/dt, dy0/dt): rotated into the body frame"
-    rec = build_recording(str(path), cols, meta={"source": "MARIN KVLCC2 (SIMMAN 2008)"}, sample_time=sample_time)[0]
+        # only this reader rotates: the MARIN format is the one place the frame is known; a CSV
+        # with earth-frame u, v is refused (recording_checks.check_frame)
+        note = ("u, v as published in MARIN .dat files are earth-frame (dx0/dt, dy0/dt): rotated into the body frame "
+                "(CSV recordings must give body-frame u, v)")
+    rec = build_recording(str(path), cols, meta=meta, sample_time=sample_time)[0]
     rec.notes.insert(0, note)
     return rec
 

@@ -48,50 +48,114 @@ class Cell:
     seed: int
 
 
+SWEEP_KEYS = ("ships", "criteria", "mean_subtraction", "library", "speeds", "seed")
+TABLE_SUFFIXES = (".csv", ".parquet")
+
+
+def check_outputs(out: str | Path, plot: str | Path | None = None) -> None:
+    """Refuse, before any work, a table or plot path whose extension does not name its format."""
+    from primitives.io import FIGURE_SUFFIXES, check_out_file
+
+    try:
+        check_out_file(out, TABLE_SUFFIXES, "--out", "table")
+        if plot is not None:
+            check_out_file(plot, FIGURE_SUFFIXES, "--plot", "figure")
+    except UserError as exc:
+        raise SweepError(str(exc)) from None
+
+
+def _read(path: Path) -> dict:
+    from primitives.io import read_input_text
+
+    text = read_input_text(path, SweepError, "a sweep TOML file")
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepError(f"{path}: not valid TOML: {exc}") from None
+
+
+def _check_keys(keys, allowed, where: str, path: Path) -> None:
+    import difflib
+
+    for k in keys:
+        if k not in allowed:
+            near = difflib.get_close_matches(str(k), list(allowed), n=1, cutoff=0.5)
+            hint = f"; did you mean {near[0]}?" if near else f"; known: {', '.join(allowed)}"
+            raise SweepError(f"{path}: unknown field '{where}{k}'{hint}")
+
+
+def _check_speeds(speeds: list, ships: list, path: Path) -> None:
+    """Speeds finite and > 0 m/s, and not so slow that a manoeuvre of 20 ship lengths never ends."""
+    from primitives.ship import load_profile
+    from primitives.validate import MAX_PRIMITIVE_SAMPLES, manoeuvre_samples, positive
+
+    for s in speeds:
+        if s is None:
+            continue
+        v = positive(s, f"{path}: field 'sweep.speeds'", "m/s", SweepError)
+        for sh in ships:
+            prof = load_profile(sh)
+            n = manoeuvre_samples(20 * prof.length_m, v, prof.sample_time)
+            if n > MAX_PRIMITIVE_SAMPLES:
+                v_min = 20 * prof.length_m / prof.sample_time / MAX_PRIMITIVE_SAMPLES
+                raise SweepError(
+                    f"{path}: field 'sweep.speeds': {s!r} m/s is too slow for {sh!r} (a manoeuvre of 20 ship lengths would take "
+                    f"{n:.3g} samples); give speeds >= {v_min:.3g} m/s"
+                )
+
+
 def load_sweep(path: str | Path) -> list[Cell]:
     """Parse and validate a sweep file into its cells (grid order)."""
     path = Path(path)
-    try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SweepError(f"{path}: no such sweep file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepError(f"{path}: not valid TOML: {exc}") from None
+    doc = _read(path)
+    _check_keys(doc, ("sweep",), "", path)
     sw = doc.get("sweep")
     if not isinstance(sw, dict):
         raise SweepError(f"{path}: missing table [sweep]")
+    _check_keys(sw, SWEEP_KEYS, "sweep.", path)
 
-    def listed(key: str, default: list, allowed: tuple | None = None) -> list:
+    def listed(key: str, default: list, allowed: tuple | None = None, kind: type | None = None) -> list:
         val = sw.get(key, default)
         if not isinstance(val, list) or not val:
             raise SweepError(f"{path}: field 'sweep.{key}' must be a non-empty list")
+        if kind is not None and not all(isinstance(v, kind) for v in val):
+            raise SweepError(f"{path}: field 'sweep.{key}' must hold only {kind.__name__} values, got {val!r}")
         if allowed:
             bad = [v for v in val if v not in allowed]
             if bad:
                 raise SweepError(f"{path}: field 'sweep.{key}' has {bad}; allowed: {list(allowed)}")
         return val
 
-    ships = listed("ships", ["model-ship"])
-    criteria = listed("criteria", ["D"], CRITERIA)
-    modes = listed("mean_subtraction", ["complete"], MODES)
+    ships = listed("ships", ["model-ship"], kind=str)
+    criteria = listed("criteria", ["D"], CRITERIA, kind=str)
+    modes = listed("mean_subtraction", ["complete"], MODES, kind=str)
     library = sw.get("library", "thesis")
     if library not in ("thesis", "standard"):
         raise SweepError(f"{path}: field 'sweep.library' must be 'thesis' or 'standard', got {library!r}")
-    speeds: list[float | None] = [None]
-    if library == "standard":
-        speeds = listed("speeds", [None])
-        if any(not isinstance(s, (int, float)) or s <= 0 for s in speeds if s is not None):
-            raise SweepError(f"{path}: field 'sweep.speeds' must hold positive speeds in m/s")
     seed = sw.get("seed", 0)
-    if not isinstance(seed, int):
-        raise SweepError(f"{path}: field 'sweep.seed' must be an integer")
+    if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed < 2**63:
+        raise SweepError(f"{path}: field 'sweep.seed' must be a whole number >= 0, got {seed!r}")
     from primitives.ship import load_profile
+    from primitives.validate import check_sweep_size
 
     for s in ships:
         load_profile(s)  # fail early with the profile's own message
+    speeds: list[float | None] = [None]
+    if library == "standard":
+        speeds = listed("speeds", [None])
+        _check_speeds(speeds, ships, path)
+    elif "speeds" in sw:
+        raise SweepError(f"{path}: field 'sweep.speeds' applies to library = \"standard\" only; remove it or set the library")
     cells = [(sh, library, sp, c, m) for sh in ships for sp in speeds for c in criteria for m in modes]
+    check_sweep_size(len(cells), str(path), SweepError)
     seeds = task_seeds(seed, len(cells))
     return [Cell(sh, lib, None if sp is None else float(sp), c, m, sd) for (sh, lib, sp, c, m), sd in zip(cells, seeds)]
+
+
+def failed_cells(rows: list[dict[str, Any]]) -> list[str]:
+    """One line per failed cell: which cell and its error."""
+    return [f"{r['ship']}{'' if r.get('speed_mps') is None else ' @ ' + format(r['speed_mps'], 'g') + ' m/s'} "
+            f"{r['criterion']}/{r['mean_subtraction']}: {r['error']}" for r in rows if r.get("error")]
 
 
 def _library(cell: Cell):
@@ -162,7 +226,9 @@ def write_table(rows: list[dict[str, Any]], path: str | Path) -> Path:
     from primitives.io import atomic_write_bytes, atomic_write_text
 
     path = Path(path)
-    if path.suffix == ".parquet":
+    if path.suffix.lower() not in TABLE_SUFFIXES:
+        raise SweepError(f"{path}: the extension must name the table format: {' or '.join(TABLE_SUFFIXES)}")
+    if path.suffix.lower() == ".parquet":
         try:
             import pyarrow as pa
             import pyarrow.parquet as pq

@@ -15,6 +15,7 @@ store (x north, y east) as their (x, y), the same frame as ``Primitive.footprint
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -143,6 +144,16 @@ class SeaMap:
         return x, y
 
 
+def _finite_number(v: Any) -> bool:
+    """A JSON number that is finite (NaN, inf and integers beyond float range are not)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:
+        return False
+
+
 def _fail(src: str, i: int, msg: str) -> MapError:
     return MapError(f"{src}: feature {i}: {msg}")
 
@@ -181,8 +192,10 @@ def load_map(
         doc = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise MapError(f"{src}: no such map file (give a GeoJSON FeatureCollection, or omit --map for the Helsinki example)") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise MapError(f"{src}: not valid JSON ({exc}): a sea map must be a GeoJSON FeatureCollection") from None
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
+        raise MapError(f"{src}: not valid JSON ({type(exc).__name__}): a sea map must be a GeoJSON FeatureCollection") from None
+    except IsADirectoryError:
+        raise MapError(f"{src}: is a directory; give a GeoJSON sea map file") from None
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
         raise MapError(f"{src}: field 'type' must be 'FeatureCollection' (GeoJSON, RFC 7946)")
     feats = doc.get("features")
@@ -194,6 +207,8 @@ def load_map(
         if not isinstance(f, dict) or f.get("type") != "Feature" or not isinstance(f.get("geometry"), dict):
             raise _fail(src, i, "not a GeoJSON Feature with a geometry")
         props = f.get("properties") or {}
+        if not isinstance(props, dict):
+            raise _fail(src, i, "properties must be an object (e.g. {\"kind\": \"land\"})")
         kind = props.get("kind", "land")
         if kind not in KINDS:
             raise _fail(src, i, f"properties.kind {kind!r} unknown; use one of {', '.join(KINDS)}")
@@ -217,12 +232,12 @@ def load_map(
             warnings.append(f"feature {i} ({kind}): invalid polygon ({reason}) repaired with make_valid")
         if kind == "depth_area":
             d = props.get("min_depth_m")
-            if not isinstance(d, (int, float)) or isinstance(d, bool):
+            if not _finite_number(d):
                 raise _fail(src, i, "depth_area needs a numeric properties.min_depth_m (S-57 DRVAL1, metres)")
         if kind == "obstacle" and gt == "Point":
             r = props.get("radius_m", 0.0)
-            if not isinstance(r, (int, float)) or r < 0:
-                raise _fail(src, i, "obstacle point needs properties.radius_m >= 0 (metres)")
+            if not _finite_number(r) or not 0 <= r <= 1e5:
+                raise _fail(src, i, "obstacle point needs properties.radius_m, 0..100000 metres")
         groups[kind].append((i, geom, props))
     for k in ("start", "goal"):
         if len(groups[k]) > 1:
@@ -270,7 +285,7 @@ def load_map(
         if groups[k]:
             i, g, pr = groups[k][0]
             hd = pr.get("heading_deg")
-            if hd is not None and not isinstance(hd, (int, float)):
+            if hd is not None and not _finite_number(hd):
                 raise _fail(src, i, "properties.heading_deg must be a number (degrees from north, clockwise)")
             x, y = (float(v) for v in sm.to_local(g.x, g.y))
             setattr(sm, k, MapPoint(x, y, None if hd is None else float(np.radians(hd)), float(g.x), float(g.y)))

@@ -16,8 +16,14 @@ from typing import Any
 
 import numpy as np
 
+from primitives.errors import UserError
+
 PLAN_FORMAT = "shiptrial-plan/1"
 SEGMENTS = ("run-in", "informative", "transit")
+
+
+class PlanError(UserError):
+    """A saved plan that cannot be read; the message names the file and the field."""
 
 
 @dataclass
@@ -147,8 +153,25 @@ class Plan:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], src: str = "<plan>") -> Plan:
+        """A plan from its JSON document; any malformed field is a :class:`PlanError` naming it."""
+        if not isinstance(d, dict):
+            raise PlanError(f"{src}: malformed plan (a JSON {type(d).__name__}, not an object); re-create it with plan-trial")
         if d.get("format") != PLAN_FORMAT:
-            raise ValueError(f"{src}: field 'format' must be {PLAN_FORMAT!r}: not a plan written by shiptrial")
+            raise PlanError(f"{src}: field 'format' must be {PLAN_FORMAT!r}: not a plan written by shiptrial")
+        try:
+            plan = cls._from_dict(d)
+        except KeyError as exc:
+            raise PlanError(f"{src}: plan field {exc} is missing: re-create the plan with plan-trial") from None
+        except (TypeError, ValueError, AttributeError, IndexError, OverflowError) as exc:
+            raise PlanError(f"{src}: malformed plan ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}); "
+                            "re-create it with plan-trial") from None
+        for name, arr in (("t", plan.t), ("x, y, psi", plan.track), ("lon, lat", plan.lonlat)):
+            if not np.all(np.isfinite(arr)):
+                raise PlanError(f"{src}: samples '{name}' hold values that are not finite numbers; re-create the plan with plan-trial")
+        return plan
+
+    @classmethod
+    def _from_dict(cls, d: dict[str, Any]) -> Plan:
         s = d["samples"]
         steps = [PlanStep(**{**st, "space_m": tuple(st.get("space_m", (0.0, 0.0)))}) for st in d["steps"]]  # new fields default
         return cls(
@@ -183,9 +206,8 @@ class Plan:
             d = json.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise FileNotFoundError(f"{path}: no such plan file (write one with plan-trial --out DIR)") from None
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"{path}: not valid JSON ({exc})") from None
-        try:
-            return cls.from_dict(d, str(path))
-        except KeyError as exc:
-            raise ValueError(f"{path}: plan field {exc} is missing: re-create the plan with plan-trial") from None
+        except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
+            raise PlanError(f"{path}: not valid JSON text ({type(exc).__name__}); give the plan.json written by plan-trial") from None
+        except IsADirectoryError:
+            raise PlanError(f"{path}: is a directory; give the plan.json written by plan-trial") from None
+        return cls.from_dict(d, str(path))

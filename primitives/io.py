@@ -85,8 +85,65 @@ def check_out_path(path: str | Path, *, kind: str = "directory", option: str = "
     probe = parent
     while not probe.exists():
         probe = probe.parent
-    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK) or not _can_create(probe):
         raise UserError(f"{option} {path}: {probe} is not a writable directory; choose another {option}")
+    return path
+
+
+def read_input_text(path: str | Path, error: type, what: str, encoding: str = "utf-8") -> str:
+    """The text of an input file, or ``error`` with one line saying why not (missing, a directory,
+    not text, unreadable); ``what`` names what the file should be ("a sweep TOML file")."""
+    path = Path(path)
+    try:
+        return path.read_text(encoding=encoding)
+    except FileNotFoundError:
+        raise error(f"{path}: no such file; give {what}") from None
+    except IsADirectoryError:
+        raise error(f"{path}: is a directory; give {what}") from None
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: not a UTF-8 text file (byte {exc.start}); give {what}") from None
+    except OSError as exc:
+        raise error(f"{path}: cannot be read ({exc.strerror}); give {what}") from None
+
+
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def check_out_file(path: str | Path, suffixes: tuple[str, ...], option: str, what: str) -> Path:
+    """An output file whose extension names its format (``what``: "table", "figure") and that can be written."""
+    from primitives.errors import UserError
+
+    path = Path(path)
+    if path.suffix.lower() not in suffixes:
+        raise UserError(f"{option} {path}: the extension must name the {what} format: {' or '.join(suffixes)}")
+    return check_out_path(path, kind="file", option=option)
+
+
+def _can_create(directory: Path) -> bool:
+    """Whether a file can be created there (os.access says yes to root on read-only or virtual file systems)."""
+    try:
+        with tempfile.TemporaryFile(dir=directory):
+            return True
+    except OSError:
+        return False
+
+
+OUTPUT_MARKER = ".shiptrial-output"  # written into every directory atomic_output_dir builds
+
+
+def check_replaceable_dir(path: str | Path, option: str = "--out") -> Path:
+    """Refuse to replace an existing directory that holds files shiptrial did not write there.
+
+    :func:`atomic_output_dir` swaps the whole directory, so ``--out .`` or ``--out ~/docs`` would
+    otherwise delete the user's files. An empty directory, or one a previous run wrote (it holds
+    the marker file), may be replaced.
+    """
+    from primitives.errors import UserError
+
+    path = check_out_path(path, option=option)
+    ours = (OUTPUT_MARKER, "plan.json", "design.json", "diagnosis.json")  # marker, or a result of a run before it
+    if path.is_dir() and any(path.iterdir()) and not any((path / n).exists() for n in ours):
+        raise UserError(f"{option} {path}: the directory holds files shiptrial did not write; give a new or empty directory")
     return path
 
 
@@ -99,10 +156,11 @@ def atomic_output_dir(path: str | Path) -> Iterator[Path]:
     ``path`` is left exactly as it was: never a mix of an old and a new result.
     """
     path = Path(path)
-    check_out_path(path)
+    check_replaceable_dir(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     try:
+        (tmp / OUTPUT_MARKER).write_text("written by shiptrial; the next run into this directory replaces it whole\n")
         yield tmp
         os.chmod(tmp, 0o755)  # mkdtemp makes 0700; outputs are handed to crews and colleagues
         old = None

@@ -31,6 +31,48 @@ class ProfileError(UserError):
     """A ship profile file is malformed; the message names the file and the field."""
 
 
+# Every top-level key a profile may hold: one list, so an engineer adding a table adds one line.
+PROFILE_KEYS = frozenset({
+    "name", "description", "source", "sample_time", "length_m", "beam_m", "draught_m", "cruise_speed_mps",
+    "actuator", "inputs", "input_limits", "model", "parameter_names", "parameters", "simulation_set",
+    "instrument_set", "predictor", "predictor_names", "thrusters", "disturbances",
+    "helm",  # optional helm table (rudder-ship manoeuvres)
+    "engine",  # optional engine table (rudder-ship manoeuvres)
+    "library",  # which built-in manoeuvre dictionary the ship uses (primitives.library)
+    "augmentations",  # effects a diagnosed model.json lists beside its terms (diagnose.report.model_dict)
+})
+# Physical sizes a profile must give, all finite and > 0 (unit in the message).
+POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("draught_m", "m"), ("cruise_speed_mps", "m/s"))
+
+
+def _check_keys(d: dict, src: str) -> None:
+    """Refuse unknown top-level keys, suggesting the nearest known one (a misspelt key must not
+    silently fall back to a default)."""
+    import difflib
+
+    for key in d:
+        if key not in PROFILE_KEYS:
+            near = difflib.get_close_matches(str(key), sorted(PROFILE_KEYS), n=1, cutoff=0.5)
+            hint = f"; did you mean {near[0]}?" if near else f"; known fields: {', '.join(sorted(PROFILE_KEYS))}"
+            raise ProfileError(f"{src}: unknown field {key!r}{hint}")
+
+
+def _check_sizes(d: dict, src: str) -> dict[str, float]:
+    from primitives.validate import MAX_PRIMITIVE_SAMPLES, manoeuvre_samples, positive
+
+    sizes = {k: positive(_need(d, k, src, (int, float), f"a number in {unit}, > 0"), f"{src}: field '{k}'", unit, ProfileError)
+             for k, unit in POSITIVE_FIELDS}
+    # a manoeuvre spans ~20 ship lengths: too slow a ship or too short a sample time makes it endless
+    n = manoeuvre_samples(20 * sizes["length_m"], sizes["cruise_speed_mps"], sizes["sample_time"])
+    if n > MAX_PRIMITIVE_SAMPLES:
+        raise ProfileError(
+            f"{src}: 20 ship lengths ({20 * sizes['length_m']:g} m) at cruise_speed_mps {sizes['cruise_speed_mps']:g} m/s "
+            f"take {n:.3g} samples of {sizes['sample_time']:g} s (limit {MAX_PRIMITIVE_SAMPLES:,}): check the units of "
+            "length_m, cruise_speed_mps and sample_time"
+        )
+    return sizes
+
+
 @dataclass(frozen=True)
 class Thruster:
     name: str
@@ -271,17 +313,75 @@ def _per_dof(d: dict, key: str, src: str, item: type, hint: str) -> tuple[tuple,
     return tuple(out)
 
 
+def _input_limits(d: dict, src: str) -> dict[str, tuple[float, float]]:
+    table = d.get("input_limits", {})
+    if not isinstance(table, dict):
+        raise ProfileError(f"{src}: field 'input_limits' must be a table of name = [min, max]")
+    from primitives.validate import finite
+
+    limits = {}
+    for k, v in table.items():
+        what = f"{src}: field 'input_limits.{k}'"
+        if not (isinstance(v, list) and len(v) == 2):
+            raise ProfileError(f"{what} must be [min, max] of finite numbers with min < max, got {v!r}")
+        lo, hi = (finite(x, what, "the input's units", ProfileError) for x in v)
+        if not lo < hi:
+            raise ProfileError(f"{what} must be [min, max] with min < max, got {v!r}")
+        limits[k] = (lo, hi)
+    return limits
+
+
+def _thrusters(d: dict, src: str) -> tuple[Thruster, ...]:
+    from primitives.validate import finite
+
+    table = d.get("thrusters", [])
+    if not isinstance(table, list) or not all(isinstance(t, dict) and "x" in t for t in table):
+        raise ProfileError(f"{src}: field 'thrusters' must be a list of [[thrusters]] tables with x (and y) in metres")
+    return tuple(
+        Thruster(str(t.get("name", f"thruster{i + 1}")), finite(t["x"], f"{src}: field 'thrusters.{i}.x'", "m", ProfileError),
+                 finite(t.get("y", 0.0), f"{src}: field 'thrusters.{i}.y'", "m", ProfileError))
+        for i, t in enumerate(table)
+    )
+
+
+# Disturbance levels a profile may state (Disturbances.from_profile reads them): key -> length (0 = scalar).
+DISTURBANCE_KEYS = {"current_mean_ne": 2, "current_sample_std": 0, "measurement_std": 3, "heading_std": 0}
+
+
+def _disturbances(d: dict, src: str) -> dict[str, Any]:
+    from primitives.validate import finite
+
+    table = d.get("disturbances", {})
+    if not isinstance(table, dict):
+        raise ProfileError(f"{src}: field 'disturbances' must be a table")
+    for k, v in table.items():
+        if k not in DISTURBANCE_KEYS:
+            raise ProfileError(f"{src}: unknown field 'disturbances.{k}'; known: {', '.join(DISTURBANCE_KEYS)}")
+        n = DISTURBANCE_KEYS[k]
+        vals = v if n else [v]
+        if not isinstance(vals, list) or len(vals) != max(n, 1):
+            raise ProfileError(f"{src}: field 'disturbances.{k}' must be {f'a list of {n} numbers' if n else 'a number'}")
+        for x in vals:
+            y = finite(x, f"{src}: field 'disturbances.{k}'", "SI units", ProfileError)
+            if k != "current_mean_ne" and y < 0:
+                raise ProfileError(f"{src}: field 'disturbances.{k}' is a standard deviation: must be >= 0, got {x!r}")
+    return dict(table)
+
+
+
 def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     """Validate a decoded TOML/JSON document and build a profile."""
     num = (int, float)
+    _check_keys(d, src)
     name = _need(d, "name", src, str, "the profile name, e.g. 'my-ship'")
-    ts = float(_need(d, "sample_time", src, num, "the sample time in seconds, > 0"))
-    if ts <= 0:
-        raise ProfileError(f"{src}: field 'sample_time' must be > 0 seconds, got {ts}")
+    sizes = _check_sizes(d, src)
+    ts = sizes["sample_time"]
     actuator = d.get("actuator", "generalized")
     if actuator not in ACTUATORS:
         raise ProfileError(f"{src}: field 'actuator' must be one of {ACTUATORS}, got {actuator!r}")
     inputs = tuple(_need(d, "inputs", src, list, "a list of input names"))
+    if not inputs or not all(isinstance(x, str) and x for x in inputs) or len(set(inputs)) != len(inputs):
+        raise ProfileError(f"{src}: field 'inputs' must be a non-empty list of distinct input names, got {list(inputs)!r}")
     terms = _per_dof(d, "model", src, str, "regressor term strings like 'u_r*|u_r|'")
     names = _per_dof(d, "parameter_names", src, str, "parameter names")
     try:
@@ -306,23 +406,19 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
                 raise ProfileError(
                     f"{src}: field 'parameters.{set_name}.{dof}' has {len(vals[i])} values for {len(terms[i])} terms"
                 )
-        sets[set_name] = np.array([v for dof in vals for v in dof], dtype=float)
+        arr = np.array([v for dof in vals for v in dof], dtype=float)
+        if not np.all(np.isfinite(arr)):
+            raise ProfileError(f"{src}: field 'parameters.{set_name}' holds a value that is not a finite number")
+        sets[set_name] = arr
     if not sets:
         raise ProfileError(f"{src}: field 'parameters' holds no parameter set")
     sim_set = d.get("simulation_set", next(iter(sets)))
     ins_set = d.get("instrument_set", sim_set)
     for key, val in (("simulation_set", sim_set), ("instrument_set", ins_set)):
-        if val not in sets:
+        if not isinstance(val, str) or val not in sets:
             raise ProfileError(f"{src}: field '{key}' names {val!r}, which is not in [parameters]")
-    limits = {}
-    for k, v in d.get("input_limits", {}).items():
-        if not (isinstance(v, list) and len(v) == 2 and all(isinstance(x, num) for x in v) and v[0] < v[1]):
-            raise ProfileError(f"{src}: field 'input_limits.{k}' must be [min, max] with min < max")
-        limits[k] = (float(v[0]), float(v[1]))
-    thrusters = tuple(
-        Thruster(str(t.get("name", f"thruster{i + 1}")), float(t["x"]), float(t.get("y", 0.0)))
-        for i, t in enumerate(d.get("thrusters", []))
-    )
+    limits = _input_limits(d, src)
+    thrusters = _thrusters(d, src)
     if actuator == "azimuth":
         expect = tuple(x for i in range(1, len(thrusters) + 1) for x in (f"n{i}", f"alpha{i}"))
         if not thrusters or inputs != expect:
@@ -333,9 +429,10 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     if "predictor" in d:
         pred = _per_dof(d, "predictor", src, str, "regressor term strings")
         pred_names = _per_dof(d, "predictor_names", src, str, "parameter names")
-        TermSet(pred)
-    for key in ("length_m", "beam_m", "cruise_speed_mps"):
-        _need(d, key, src, num, "a positive number")
+        try:
+            TermSet(pred)
+        except TermError as exc:
+            raise ProfileError(f"{src}: field 'predictor': {exc}") from None
     library = d.get("library", "")
     if library and library not in LIBRARIES:
         raise ProfileError(f"{src}: field 'library' must be one of {LIBRARIES} (or absent), got {library!r}")
@@ -343,15 +440,15 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     if actuator == "rudder_propeller":
         if inputs != ("delta", "n"):
             raise ProfileError(f"{src}: field 'inputs' of a rudder_propeller profile must be ['delta', 'n'] (rudder rad, propeller rev/s)")
-        helm, engine = _helm_engine(d, src, limits, model, sets[sim_set], float(d["cruise_speed_mps"]))
+        helm, engine = _helm_engine(d, src, limits, model, sets[sim_set], sizes["cruise_speed_mps"])
     return ShipProfile(
         name=name,
         description=str(d.get("description", "")),
         sample_time=ts,
-        length_m=float(d["length_m"]),
-        beam_m=float(d["beam_m"]),
-        draught_m=float(d.get("draught_m", 0.0)),
-        cruise_speed_mps=float(d["cruise_speed_mps"]),
+        length_m=sizes["length_m"],
+        beam_m=sizes["beam_m"],
+        draught_m=sizes["draught_m"],
+        cruise_speed_mps=sizes["cruise_speed_mps"],
         actuator=actuator,
         inputs=inputs,
         input_limits=limits,
@@ -363,7 +460,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         predictor_terms=pred,
         predictor_names=pred_names,
         thrusters=thrusters,
-        disturbances=dict(d.get("disturbances", {})),
+        disturbances=_disturbances(d, src),
         source=str(d.get("source", "")),
         helm=helm,
         engine=engine,
@@ -435,15 +532,17 @@ def load_profile(name_or_path: str | Path) -> ShipProfile:
         path = cand
     if not path.exists():
         raise ProfileError(f"{path}: no such profile file")
+    from primitives.io import read_input_text
+
+    if path.suffix.lower() not in (".json", ".toml"):
+        raise ProfileError(f"{path}: a profile file must end in .toml or .json")
+    text = read_input_text(path, ProfileError, "a .toml/.json ship profile")
     try:
-        if path.suffix.lower() == ".json":
-            data = json.loads(path.read_text(encoding="utf-8"))
-        elif path.suffix.lower() == ".toml":
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        else:
-            raise ProfileError(f"{path}: a profile file must end in .toml or .json")
+        data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ProfileError(f"{path}: not valid {path.suffix[1:].upper()}: {exc}") from None
+    except RecursionError:
+        raise ProfileError(f"{path}: nested too deeply to be a profile") from None
     if not isinstance(data, dict):
         raise ProfileError(f"{path}: the document must be a table/object")
     return profile_from_dict(data, str(path))

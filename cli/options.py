@@ -1,0 +1,142 @@
+"""Up-front checks of every command's options: one call at the top of each command, before any work.
+
+Each function raises :class:`primitives.errors.UserError` with one line naming the option, the
+value, its unit and what to give instead (see :mod:`primitives.validate`).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from primitives.errors import UserError
+from primitives.io import FIGURE_SUFFIXES, check_out_file, check_out_path, check_replaceable_dir
+from primitives.validate import check_counts, check_monte_carlo, in_range, one_of, positive, whole
+
+
+def check_plot_path(path: Path | None, option: str = "--plot") -> None:
+    if path is not None:
+        check_out_file(path, FIGURE_SUFFIXES, option, "figure")
+
+
+def check_input_file(path: Path | str | None, option: str, what: str, kind: str) -> None:
+    """An input file that exists and is a file (not a directory); ``kind`` names it (plan, map, ...)."""
+    if path is None:
+        return
+    p = Path(path)
+    if p.is_dir():
+        raise UserError(f"{option} {p}: is a directory; give {what}")
+    if not p.exists():
+        raise UserError(f"{option} {p}: no such {kind} file; give {what}")
+
+
+def validate_primitives_options(plot: Path | None) -> None:
+    check_plot_path(plot)
+
+
+def validate_design_options(*, criterion: str, mean_subtraction: str, trial_length: float | None, monte_carlo: int,
+                            mc_samples: int, seed: int, out: Path | None, psi_switch: float | None,
+                            min_frac: float | None, max_frac: float | None, noisy_moments: int) -> None:
+    from expdesign.errors import DesignError
+
+    one_of(criterion, "--criterion", ("D", "A", "E"), DesignError)
+    one_of(mean_subtraction, "--mean-subtraction", ("none", "batchwise", "complete"), DesignError)
+    if trial_length is not None:
+        in_range(trial_length, "--trial-length", 1.0, 30 * 86400.0, "s", DesignError)
+    if monte_carlo:
+        check_monte_carlo(monte_carlo, mc_samples, error=DesignError)
+    else:
+        whole(monte_carlo, "--monte-carlo", 0, 0, "runs", DesignError)
+        whole(mc_samples, "--mc-samples", 10, 10**6, "samples per experiment", DesignError)
+    whole(seed, "--seed", 0, 2**63 - 1, "", DesignError)
+    if psi_switch is not None:
+        in_range(psi_switch, "--psi-switch", 0.01, math.pi, "rad", DesignError)
+    for name, v in (("--min-frac", min_frac), ("--max-frac", max_frac)):
+        if v is not None:
+            in_range(v, name, 0.0, 1.0, "", DesignError)  # a share of the trial
+    if min_frac is not None and max_frac is not None and min_frac > max_frac:
+        raise DesignError(f"--min-frac {min_frac:g} is above --max-frac {max_frac:g}; give min <= max")
+    whole(noisy_moments, "--noisy-moments", 0, 10_000, "simulations", DesignError)
+    if out is not None:
+        check_replaceable_dir(out)
+
+
+def validate_export_options(*, plan_file: Path, fmt: str, out: Path | None, sea_map: Path | None) -> None:
+    """Export: the format known, the extension of a one-format --out matching it, the plan never overwritten."""
+    from maps.export import FORMATS, ExportError
+
+    fmt_l = fmt.lower()
+    if fmt_l != "all" and fmt_l not in FORMATS:
+        raise ExportError(f"--format {fmt!r} is unknown: choose one of {', '.join(FORMATS)} or all")
+    check_input_file(plan_file, "PLAN", "the plan.json written by plan-trial --out DIR", "plan")
+    check_input_file(sea_map, "--map", "a GeoJSON sea map", "map")
+    if out is None:
+        return
+    if fmt_l == "all" or out.is_dir() or not out.suffix:
+        check_out_path(out, option="--out")
+        return
+    allowed = {FORMATS[fmt_l], ".pdf"} if fmt_l == "card" else {FORMATS[fmt_l]}
+    if out.suffix.lower() not in allowed:
+        raise ExportError(f"--out {out}: extension {out.suffix!r} does not match --format {fmt_l} ({' or '.join(sorted(allowed))})")
+    if out.resolve() == plan_file.resolve():
+        raise ExportError(f"--out {out}: is the plan being exported; choose another file")
+    check_out_path(out, kind="file")
+
+
+def validate_sweep_options(*, config: Path, out: Path, plot: Path | None) -> None:
+    from expdesign.sweep import check_outputs
+
+    check_input_file(config, "CONFIG", "a sweep TOML file", "sweep")
+    check_outputs(out, plot)
+
+
+def validate_diagnose_options(*, recordings: dict[str, list[str]], params: str | None, out: Path | None) -> None:
+    """``recordings``: option name (RECORDING, --fit-on, --validate) -> its files."""
+    for option, paths in recordings.items():
+        for r in paths:
+            check_input_file(r, option, "a recording file (.csv or MARIN .dat)", "recording")
+    check_input_file(params, "--params", "a profile TOML/JSON or a JSON with 'theta'", "parameter")
+    if out is not None:
+        check_out_path(out)
+
+
+def _point(text: str | None, option: str) -> None:
+    if text is None:
+        return
+    parts = text.replace(" ", "").split(",")
+    names = ("latitude", "longitude", "heading")
+    ranges = ((-90.0, 90.0, "deg"), (-180.0, 180.0, "deg"), (-360.0, 360.0, "deg"))
+    if len(parts) not in (2, 3):
+        raise UserError(f"{option}: expected LAT,LON[,HEADING_DEG] in degrees (e.g. 60.16,24.96,180), got {text!r}")
+    for part, name, (lo, hi, unit) in zip(parts, names, ranges):
+        in_range(part, f"{option} {name}", lo, hi, unit)
+
+
+def validate_plan_options(*, resolution: float | None, margin: float, headings: int, start: str | None, goal: str | None,
+                          counts: str | None, size: str, out: Path, seed: int = 0) -> None:
+    """Every ``plan`` option checked before the map is loaded (the lattice's memory estimate is the
+    planner's, once it knows the map)."""
+    if resolution is not None:
+        if positive(resolution, "--resolution", "m (lattice spacing)") > 1e5:
+            raise UserError(f"--resolution: {resolution:g} m is wider than any sea map; give the lattice spacing in metres")
+    in_range(margin, "--margin", 0.0, 1e4, "m (safety margin around the hull)")
+    if headings not in (4, 8, 16):
+        raise UserError(f"--headings: must be 4, 8 or 16 lattice headings, got {headings}")
+    _point(start, "--start")
+    _point(goal, "--goal")
+    try:
+        ni, nj = (int(v) for v in size.lower().split("x"))
+    except ValueError:
+        raise UserError(f"--size: expected NORTHxEAST whole numbers, e.g. 35x44, got {size!r}") from None
+    for n, what in ((ni, "NORTH"), (nj, "EAST")):
+        whole(n, f"--size {what}", 3, 2000, "lattice points")
+    if counts is not None:
+        parsed = {}
+        for part in filter(None, (p.strip() for p in counts.split(","))):
+            name, _, val = part.partition("=")
+            if val.strip().lstrip("+").isdigit():
+                parsed[name.strip()] = int(val)
+        check_counts(parsed)
+    whole(seed, "--seed", 0, 2**63 - 1)
+    check_out_path(out)
+

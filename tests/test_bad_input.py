@@ -1,0 +1,217 @@
+"""Bad input to every option of every command: one clear line, a non-zero exit, no traceback, no
+hang and nothing written (issue 15).
+
+Each case runs in-process (``cli.app._run``) in an empty working directory, under a 30 s alarm.
+A case passes when the exit code is non-zero, stderr holds no traceback and starts with
+``error:`` (or click's usage error for a value of the wrong type), and no file appeared
+anywhere in the working directory or the scratch area.
+"""
+
+from __future__ import annotations
+
+import json
+import signal
+from pathlib import Path
+
+import pytest
+
+from cli.app import _run
+
+NAN, INF, HUGE = "nan", "inf", "1e400"
+FLOATS_BAD = [NAN, INF, "-inf", HUGE, "-1", "abc"]  # every float option gets these (plus its own zero/limits)
+
+
+def _profile(tmp: Path, **changes) -> str:
+    import tomllib
+
+    from primitives.ship import PROFILE_DIR
+
+    doc = tomllib.loads((PROFILE_DIR / "model-ship.toml").read_text())
+    for k, v in changes.items():
+        if v is None:
+            doc.pop(k, None)
+        else:
+            doc[k] = v
+    p = tmp / f"ship-{len(list(tmp.iterdir()))}.json"
+    p.write_text(json.dumps(doc, allow_nan=True))
+    return str(p)
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """Inputs of every kind: good ones (to isolate the bad option) and bad ones."""
+    from diagnose.battery import scenario
+    from diagnose.recording import write_csv
+    from maps.export._testing import synthetic_plan
+
+    tmp = tmp_path_factory.mktemp("inputs")
+    f = {"tmp": tmp}
+    f["dir"] = tmp / "a-directory"
+    f["dir"].mkdir()
+    (f["dir"] / "keep.txt").write_text("the user's file")
+    f["missing"] = tmp / "no-such-file.json"
+    f["binary"] = tmp / "binary.json"
+    f["binary"].write_bytes(bytes(range(256)))
+    f["latin1"] = tmp / "latin1.csv"
+    f["latin1"].write_bytes("t,x,y,psi\n0,1,2,caf\xe9\n".encode("latin-1"))
+    f["notjson"] = tmp / "notjson.json"
+    f["notjson"].write_text("{this is not json")
+    f["file"] = tmp / "a-file.txt"
+    f["file"].write_text("x")
+    f["plan"] = tmp / "plan.json"
+    f["plan"].write_text(synthetic_plan("model-ship").to_json())
+    f["rec"] = write_csv(scenario((), 17, n_prims=2).diagnose[0], tmp / "run.csv")
+    f["zeros"] = tmp / "zeros.csv"
+    f["zeros"].write_text("t,x,y,psi,u,v,r,tau_x,tau_y,tau_n\n" + "\n".join(f"{i * 0.125},0,0,0,0,0,0,0,0,0" for i in range(80)))
+    f["cfg"] = tmp / "sweep.toml"
+    f["cfg"].write_text('[sweep]\nships = ["model-ship"]\ncriteria = ["D"]\n')
+    for name, body in {
+        "cfg_unknown": '[sweep]\nships = ["model-ship"]\nshipz = ["x"]\n',
+        "cfg_slow": '[sweep]\nlibrary = "standard"\nspeeds = [0.001]\n',
+        "cfg_nan": '[sweep]\nlibrary = "standard"\nspeeds = [nan]\n',
+        "cfg_neg": '[sweep]\nlibrary = "standard"\nspeeds = [-1.0]\n',
+        "cfg_badtoml": "[sweep\nships = 1\n",
+        "cfg_seed": '[sweep]\nseed = -3\n',
+        "cfg_huge": '[sweep]\nlibrary = "standard"\nspeeds = [' + ", ".join(str(0.5 + i / 100) for i in range(700)) + "]\n"
+                    'criteria = ["D", "A", "E"]\n',
+    }.items():
+        f[name] = tmp / f"{name}.toml"
+        f[name].write_text(body)
+    for name, change in {
+        "ship_neg_length": {"length_m": -1.0}, "ship_neg_beam": {"beam_m": -0.3}, "ship_nan_draught": {"draught_m": float("nan")},
+        "ship_zero_speed": {"cruise_speed_mps": 0.0}, "ship_zero_ts": {"sample_time": 0.0}, "ship_no_draught": {"draught_m": None},
+        "ship_typo": {"draught": 0.1}, "ship_str_length": {"length_m": "long"}, "ship_tiny_ts": {"sample_time": 1e-9},
+    }.items():
+        f[name] = _profile(tmp, **change)
+    return f
+
+
+def _cases() -> list[tuple[str, list[str]]]:
+    """(case id, argv) with {placeholders} filled from ``files``."""
+    ship_bad = ["no-such-ship", "{missing}", "{dir}", "{binary}", "{notjson}", "{ship_neg_length}", "{ship_neg_beam}",
+                "{ship_nan_draught}", "{ship_zero_speed}", "{ship_zero_ts}", "{ship_no_draught}", "{ship_typo}",
+                "{ship_str_length}", "{ship_tiny_ts}", "{file}"]
+    out_dir_bad = ["{file}", "/proc/shiptrial-out", "{dir}"]
+    cases: list[tuple[str, list[str]]] = []
+
+    def add(cmd: list[str], option: str, values: list[str], base: list[str] | None = None):
+        for v in values:
+            cases.append((f"{cmd[0]} {option} {v}", [*cmd, *(base or []), option, v]))
+
+    # primitives
+    add(["primitives"], "--ship", ship_bad)
+    add(["primitives"], "--plot", ["{tmp}/x.txt", "/proc/x.png", "{dir}"])
+    # design (monte carlo off where the option is not about it: refusals must come before any work)
+    d = ["design", "--monte-carlo", "0"]
+    add(d, "--ship", ship_bad)
+    add(d, "--criterion", ["X", "", "d-optimal"])
+    add(d, "--mean-subtraction", ["sometimes", ""])
+    add(d, "--trial-length", [*FLOATS_BAD, "0", "1e12"])
+    add(["design"], "--monte-carlo", ["-1", "1000000000", "1.5", "abc"])
+    add(["design"], "--mc-samples", ["0", "5", "-10", "100000000", "abc"])
+    add(["design", "--monte-carlo", "1000000"], "--mc-samples", ["1000"])
+    add(d, "--seed", ["-1", "abc"])
+    add(d, "--out", out_dir_bad)
+    add(d, "--psi-switch", [*FLOATS_BAD, "0", "100"])
+    add(d, "--min-frac", [*FLOATS_BAD, "2"])
+    add(d, "--max-frac", [*FLOATS_BAD, "2"])
+    add(d, "--noisy-moments", ["-1", "1000000000", "abc"])
+    cases.append(("design --min-frac > --max-frac", [*d, "--min-frac", "0.5", "--max-frac", "0.1"]))
+    # plan
+    p = ["plan", "--counts", "tau1=1"]
+    add(p, "--map", ["{missing}", "{dir}", "{binary}", "{notjson}", "{plan}"])
+    add(p, "--ship", ship_bad)
+    add(p, "--start", ["60.1,24.9,nan", "nan,24.9", "60.1,inf", "1e400,24.9", "abc", "60.1", "95,24.9,0", "60.1,24.9,1e9", "1,2,3,4"])
+    add(p, "--goal", ["nan,24.9", "60.1,-inf", "x,y", "60.1,200"])
+    add(["plan"], "--counts", ["tau1=1000000", "tau1=-1", "tau1=abc", "=3", "tau1", ",", "tau1=50,tau2=50,tau3=50,tau4=50"])
+    add(p, "--resolution", [*FLOATS_BAD, "0", "1e9"])
+    add(p, "--headings", ["5", "0", "-4", "1000000", "abc"])
+    add(p, "--heuristic", ["greedy", ""])
+    add(p, "--margin", [*FLOATS_BAD, "1e9"])
+    add(p, "--size", ["0x0", "axb", "1000000000x1", "35", "-5x44", "1x1"])
+    add(p, "--out", ["{file}", "/proc/shiptrial-out"])
+    add(p, "--start-time", ["yesterday", "2026-13-45T99:00Z"])
+    add(p, "--seed", ["-1", "abc"])
+    # export
+    for plan in ["{missing}", "{dir}", "{binary}", "{notjson}", "{rec}", "{cfg}"]:
+        cases.append((f"export PLAN {plan}", ["export", plan, "--format", "gpx", "--out", "{tmp}/o.gpx"]))
+    add(["export", "{plan}"], "--format", ["pdf", "", "kml"])
+    add(["export", "{plan}", "--format", "gpx"], "--out", ["{tmp}/x.rtz", "{plan}", "/proc/x.gpx", "{tmp}/x.gpx.txt"])
+    add(["export", "{plan}", "--format", "rtz"], "--out", ["{tmp}/x.gpx", "{tmp}/x.rtz.json"])
+    add(["export", "{plan}", "--format", "all"], "--out", ["{file}", "/proc/shiptrial-out"])
+    add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--map", ["{missing}", "{dir}", "{binary}", "{notjson}"])
+    add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--start", ["yesterday", "2026-99-01T00:00Z"])
+    # diagnose
+    for rec in ["{missing}", "{dir}", "{latin1}", "{binary}", "{zeros}", "{cfg}", "{plan}"]:
+        cases.append((f"diagnose RECORDING {rec}", ["diagnose", rec, "--ship", "model-ship"]))
+    add(["diagnose", "{rec}"], "--ship", ship_bad)
+    add(["diagnose", "{rec}", "--ship", "model-ship"], "--params", ["{missing}", "{dir}", "{binary}", "{notjson}", "{ship_neg_length}"])
+    add(["diagnose", "{rec}", "--ship", "model-ship"], "--fit-on", ["{missing}", "{dir}", "{latin1}", "{zeros}"])
+    add(["diagnose", "{rec}", "--ship", "model-ship"], "--validate", ["{missing}", "{dir}", "{latin1}", "{zeros}"])
+    add(["diagnose", "{rec}", "--ship", "model-ship"], "--out", ["{file}", "/proc/shiptrial-out"])
+    # sweep
+    for cfg in ["{missing}", "{dir}", "{binary}", "{cfg_badtoml}", "{cfg_unknown}", "{cfg_slow}", "{cfg_nan}", "{cfg_neg}",
+                "{cfg_seed}", "{cfg_huge}", "{plan}"]:
+        cases.append((f"sweep CONFIG {cfg}", ["sweep", cfg, "--out", "{tmp}/s.csv"]))
+    add(["sweep", "{cfg}"], "--out", ["{tmp}/t.xlsx", "{tmp}/t", "/proc/s.csv", "{dir}"])
+    add(["sweep", "{cfg}", "--out", "{tmp}/s.csv"], "--plot", ["{tmp}/p.txt", "/proc/p.png", "{dir}"])
+    return cases
+
+
+CASES = _cases()
+
+
+def _snapshot(*dirs: Path) -> set[str]:
+    return {str(p) for d in dirs for p in d.rglob("*")}
+
+
+@pytest.fixture
+def alarm():
+    def boom(*_):
+        raise TimeoutError("a bad input hung for 30 s")
+
+    old = signal.signal(signal.SIGALRM, boom)
+    signal.alarm(30)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, old)
+
+
+@pytest.mark.parametrize("case,argv", CASES, ids=[c for c, _ in CASES])
+def test_bad_input_is_one_line_nonzero_and_writes_nothing(case, argv, files, tmp_path, monkeypatch, capsys, alarm):
+    monkeypatch.chdir(tmp_path)
+    args = [a.format(**files) for a in argv]
+    before = _snapshot(files["tmp"], tmp_path)
+    rc = _run(args)
+    err = capsys.readouterr().err
+    assert rc not in (0, None), f"{case}: exit 0 on invalid input"
+    assert "Traceback" not in err
+    first = err.strip().splitlines()[0] if err.strip() else ""
+    assert first.startswith("error:") or "Usage:" in err or "Invalid value" in err, f"{case}: unclear message {err!r}"
+    if first.startswith("error:"):
+        assert len(err.strip().splitlines()) == 1 or case.startswith("sweep"), f"{case}: more than one line {err!r}"
+    assert _snapshot(files["tmp"], tmp_path) == before, f"{case}: wrote files on invalid input"
+
+
+def test_the_suite_covers_every_option_of_every_command():
+    """Each command's options (from its typer signature) appear in at least one bad-input case."""
+    import click
+    import typer.main
+
+    from cli.app import app
+
+    group = typer.main.get_command(app)
+    covered = {(argv[0], a) for _, argv in CASES for a in argv if a.startswith("--")}
+    covered |= {(argv[0], "ARG") for _, argv in CASES}
+    missing = []
+    for name, cmd in group.commands.items():
+        for prm in cmd.params:
+            if isinstance(prm, click.Option):
+                flag = max(prm.opts, key=len)
+                if prm.is_flag or flag in ("--scheduler", "--help"):
+                    continue  # flags take no value; an unreachable --scheduler is the Monte Carlo work's
+                if (name, flag) not in covered:
+                    missing.append(f"{name} {flag}")
+            elif (name, "ARG") not in covered:
+                missing.append(f"{name} {prm.name}")
+    assert not missing, f"options without a bad-input case: {missing}"
