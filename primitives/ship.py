@@ -40,6 +40,7 @@ PROFILE_KEYS = frozenset({
     "engine",  # optional engine table (rudder-ship manoeuvres)
     "library",  # which built-in manoeuvre dictionary the ship uses (primitives.library)
     "augmentations",  # effects a diagnosed model.json lists beside its terms (diagnose.report.model_dict)
+    "diagnosed_model",  # what a diagnosed model.json was scored on (diagnose.model_file)
 })
 # Physical sizes a profile must give, all finite and > 0 (unit in the message).
 POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("draught_m", "m"), ("cruise_speed_mps", "m/s"))
