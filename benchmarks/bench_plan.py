@@ -94,9 +94,10 @@ CASES = {
 def child(case: str, repeat: int) -> dict:
     CASES[case]()  # warm-up: imports, caches of the numerical libraries
     rows = [CASES[case]() for _ in range(repeat)]
-    med = statistics.median(r["total_s"] for r in rows)
+    key = "search_s" if case == "scenario" else "total_s"  # the thesis compares the search alone
+    med = statistics.median(r[key] for r in rows)
     out = {k: v for k, v in rows[-1].items() if k != "total_s"}
-    out.update(median_s=med, runs_s=[round(r["total_s"], 3) for r in rows], target_s=TARGETS[case], ratio_to_target=med / TARGETS[case],
+    out.update(median_s=med, timed=key, median_total_s=statistics.median(r["total_s"] for r in rows), runs_s=[round(r["total_s"], 3) for r in rows], target_s=TARGETS[case], ratio_to_target=med / TARGETS[case],
                peak_rss_gib=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2, memory_target_gib=2.0)
     return out
 
