@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from maps.lattice import _Helm
+from maps.lattice import helm_for
 from maps.verify import hull_clearance
 from primitives.ship import ShipProfile
 from primitives.simulate import simulate
@@ -68,7 +68,7 @@ class Realiser:
 
     def __init__(self, lat):
         self.lat = lat
-        self.helm = _Helm(lat.profile, lat.res, len(lat.table))
+        self.helm = helm_for(lat.profile, lat.res, len(lat.table))
         from maps.lattice import run_in_seconds
 
         self.run_in_s = run_in_seconds(lat.profile, lat.options.run_in_s)
@@ -148,7 +148,7 @@ class Shortcutter:
 
     def __init__(self, sea, profile: ShipProfile, res: float, n_head: int, margin: float):
         self.sea, self.p, self.margin = sea, profile, margin
-        self.helm = _Helm(profile, res, n_head)
+        self.helm = helm_for(profile, res, n_head)
         L, B = profile.length_m, profile.beam_m
         self.radius = profile.cruise_speed_mps / self.helm.r_lim  # turning radius at the helm's yaw-rate limit
         self.corridor = 0.5 * B + 0.5 * L + margin
