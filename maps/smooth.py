@@ -43,6 +43,7 @@ class Leg:
     spatial: int = -1
     execute: bool = False
     orders: list[dict[str, Any]] = field(default_factory=list)
+    abort: list[str] = field(default_factory=list)  # the manoeuvre's own abort criteria (speed, heading, yaw rate)
 
     @property
     def n_samples(self) -> int:
@@ -117,7 +118,8 @@ class Realiser:
         nu2, eta2 = _advance(pr.profile, body, nu, eta)
         tail = helm.run(nu2, self._rel(spatial, eta2), [("settle", goal)], n_max=20000)
         legs.append(Leg(m.name, m.source or m.name, "informative", "informative", pr.description, pr.profile,
-                        np.vstack([body, tail]), list(pr.commands), space, mi, spatial, execute=bool(n_r), orders=_orders(src)))
+                        np.vstack([body, tail]), list(pr.commands), space, mi, spatial, execute=bool(n_r), orders=_orders(src),
+                        abort=[src.abort_criteria()] if hasattr(src, "abort_criteria") else []))
         return legs
 
 
