@@ -382,8 +382,8 @@ def assemble_plan(lat: Lattice, out: SearchOutcome, real: Realised, stats: dict[
     lon, lat_ = sea.to_lonlat(ver.track[:, 0], ver.track[:, 1])
     steps = []
     t_acc = 0
-    abort = [f"smallest clearance below {lat.options.margin:g} m: stop the manoeuvre, steer for open water",
-             "heading more than 10 deg or speed more than 10 % off the expected values at a check point: abort and repeat"]
+    clear = f"smallest clearance below {lat.options.margin:g} m: stop the manoeuvre, steer for open water"
+    generic = "heading more than 10 deg or speed more than 10 % off the expected values at a check point: abort and repeat"
     for k, leg in enumerate(real.legs):
         x, y, psi = ver.track[t_acc]
         steps.append(PlanStep(
@@ -391,7 +391,7 @@ def assemble_plan(lat: Lattice, out: SearchOutcome, real: Realised, stats: dict[
             start_time_s=float(ver.t[t_acc]), duration_s=leg.duration_s, entry_x=float(x), entry_y=float(y), entry_psi=float(psi),
             entry_lon=float(lon[t_acc]), entry_lat=float(lat_[t_acc]), entry_speed_mps=float(np.hypot(*ver.nu[t_acc, :2])),
             commands=list(leg.commands), space_m=leg.space_m, segment=leg.segment, orders=list(leg.orders),
-            abort=list(abort) if leg.segment == "informative" else [], execute=leg.execute,
+            abort=[clear, *(leg.abort or [generic])] if leg.segment == "informative" else [], execute=leg.execute,
         ))
         t_acc += leg.n_samples
     used = dict.fromkeys(lat.cnames, 0)

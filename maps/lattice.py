@@ -327,6 +327,21 @@ class _Helm:
         return self.p.allocate(*forces.T) if len(forces) else np.zeros((0, len(self.p.inputs)))
 
 
+_HELMS: dict[tuple[int, float, int], tuple[ShipProfile, _Helm]] = {}
+
+
+def helm_for(profile: ShipProfile, res: float, n_head: int) -> _Helm:
+    """The helm of a profile, built once (a rudder ship's autopilot design simulates and solves a
+    Riccati equation); the cache holds the profile itself so an id is never reused wrongly."""
+    key = (id(profile), float(res), int(n_head))
+    hit = _HELMS.get(key)
+    if hit is None or hit[0] is not profile:
+        if len(_HELMS) > 32:
+            _HELMS.clear()
+        hit = _HELMS[key] = (profile, _Helm(profile, res, n_head))
+    return hit[1]
+
+
 def _assemble(profile: ShipProfile, name: str, desc: str, kind: str, head_inputs: np.ndarray | None, nu0,
               tail: np.ndarray, commands: list[str], splits: list[int]) -> Primitive:
     parts = [] if head_inputs is None else [head_inputs]
@@ -351,7 +366,7 @@ def run_in_inputs(prim: Primitive, res: float, n_head: int, run_in_s: float) -> 
     """Inputs of the run-in: from the transit state to the primitive's entry velocity (closed
     loop on the nominal model), then held steady for ``run_in_s`` seconds. Body-frame only, so
     the same for every start heading."""
-    helm = _Helm(prim.profile, res, n_head)
+    helm = helm_for(prim.profile, res, n_head)
     u0, v0, r0 = (float(x) for x in prim.nu0)
     nu_t = np.array([helm.uc, 0.0, 0.0])
     near = np.all(np.abs(np.array([u0, v0, r0]) - nu_t) * (1.0, 1.0, prim.profile.length_m) < 0.02)
@@ -365,24 +380,30 @@ def run_in_inputs(prim: Primitive, res: float, n_head: int, run_in_s: float) -> 
     return np.vstack([reach, np.tile(row, (n_hold, 1))]) if n_hold + len(reach) else np.zeros((0, m))
 
 
-def with_run_in(prim: Primitive, res: float, n_head: int, psi0: float, run_in: np.ndarray) -> tuple[Primitive, int]:
+def with_run_in(prim: Primitive, res: float, n_head: int, psi0: float, run_in: np.ndarray, head_sim=None) -> tuple[Primitive, int]:
     """Run-in + primitive + settling leg, started from transit at lattice heading ``psi0``.
 
     ``run_in`` (:func:`run_in_inputs`) brings the ship to the primitive's entry velocity and holds
     it on a steady course; the primitive's inputs then start at the execute point. Returns the
-    whole move (track in the start frame) and the run-in's samples."""
-    helm = _Helm(prim.profile, res, n_head)
+    whole move (track in the start frame) and the run-in's samples. ``head_sim``: the simulation
+    of run-in + primitive from transit (the same for every start heading), if already done."""
+    helm = helm_for(prim.profile, res, n_head)
     nu_t = np.array([helm.uc, 0.0, 0.0])
     head = np.vstack([run_in, prim.inputs])
-    sim = simulate(prim.profile, head, nu0=nu_t)
+    sim = head_sim if head_sim is not None else simulate(prim.profile, head, nu0=nu_t)
     x, y, p = sim.eta[0, -1]
     c, s = np.cos(psi0), np.sin(psi0)
     tail = helm.run(sim.nu[0, -1], (c * x - s * y, s * x + c * y, psi0 + p), [("settle", 0.0)])
     n_r = len(run_in)
     cmds = list(prim.commands) + ([f"then steady at {helm.uc:.1f} m/s on the nearest lattice course for "
                                    f"{len(tail) * helm.ts:.0f} s"] if len(tail) else [])
-    whole = _assemble(prim.profile, prim.name, prim.description, prim.kind, head, nu_t, tail, cmds,
-                      [n_r + k for k in prim.split_points])
+    if len(tail):  # the tail continues the head's simulation: no need to simulate the head again
+        rest = simulate(prim.profile, tail, nu0=sim.nu[0, -1], eta0=sim.eta[0, -1])
+        nu, eta = np.vstack([sim.nu[0], rest.nu[0, 1:]]), np.vstack([sim.eta[0], rest.eta[0, 1:]])
+    else:
+        nu, eta = sim.nu[0], sim.eta[0]
+    whole = Primitive(prim.name, prim.description, prim.profile, np.vstack([head, tail]) if len(tail) else head, nu, eta,
+                      [n_r + k for k in prim.split_points], prim.kind, cmds)
     return whole, n_r
 
 
@@ -395,7 +416,7 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
     """Basic moves (8.7) at cruise speed, one primitive per heading class: a straight run to the
     next lattice point ahead, turns at speed to the next lattice heading (90 deg with 4
     headings) and, optionally, turns on the spot by 90 deg (stop, turn, speed up again)."""
-    helm = _Helm(profile, res, n_head)
+    helm = helm_for(profile, res, n_head)
     uc = helm.uc
     nu0 = (uc, 0.0, 0.0)
     table = heading_table(n_head)

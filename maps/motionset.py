@@ -89,7 +89,8 @@ def informative_moves(prims: list[Primitive], counts: dict[str, int], res: float
             if len(parts) > 1:  # a piece is sailed from the transit state, not from mid-manoeuvre
                 part = from_transit(part)
             ri = run_in_inputs(part, res, n_head, run_in_s)
-            built = [with_run_in(part, res, n_head, psi0, ri) for psi0 in classes(n_head)]
+            head = simulate(part.profile, np.vstack([ri, part.inputs]), nu0=(part.profile.cruise_speed_mps, 0.0, 0.0))
+            built = [with_run_in(part, res, n_head, psi0, ri, head) for psi0 in classes(n_head)]
             per = [b[0] for b in built]
             mm = max(transit_mismatch(s) for s in per)
             if mm > 0.05:

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from maps.lattice import _Helm
+from maps.lattice import helm_for
 from maps.verify import hull_clearance
 from primitives.ship import ShipProfile
 from primitives.simulate import simulate
@@ -43,6 +43,7 @@ class Leg:
     spatial: int = -1
     execute: bool = False
     orders: list[dict[str, Any]] = field(default_factory=list)
+    abort: list[str] = field(default_factory=list)  # the manoeuvre's own abort criteria (speed, heading, yaw rate)
 
     @property
     def n_samples(self) -> int:
@@ -68,7 +69,7 @@ class Realiser:
 
     def __init__(self, lat):
         self.lat = lat
-        self.helm = _Helm(lat.profile, lat.res, len(lat.table))
+        self.helm = helm_for(lat.profile, lat.res, len(lat.table))
         from maps.lattice import run_in_seconds
 
         self.run_in_s = run_in_seconds(lat.profile, lat.options.run_in_s)
@@ -117,7 +118,8 @@ class Realiser:
         nu2, eta2 = _advance(pr.profile, body, nu, eta)
         tail = helm.run(nu2, self._rel(spatial, eta2), [("settle", goal)], n_max=20000)
         legs.append(Leg(m.name, m.source or m.name, "informative", "informative", pr.description, pr.profile,
-                        np.vstack([body, tail]), list(pr.commands), space, mi, spatial, execute=bool(n_r), orders=_orders(src)))
+                        np.vstack([body, tail]), list(pr.commands), space, mi, spatial, execute=bool(n_r), orders=_orders(src),
+                        abort=[src.abort_criteria()] if hasattr(src, "abort_criteria") else []))
         return legs
 
 
@@ -148,7 +150,7 @@ class Shortcutter:
 
     def __init__(self, sea, profile: ShipProfile, res: float, n_head: int, margin: float):
         self.sea, self.p, self.margin = sea, profile, margin
-        self.helm = _Helm(profile, res, n_head)
+        self.helm = helm_for(profile, res, n_head)
         L, B = profile.length_m, profile.beam_m
         self.radius = profile.cruise_speed_mps / self.helm.r_lim  # turning radius at the helm's yaw-rate limit
         self.corridor = 0.5 * B + 0.5 * L + margin
