@@ -20,6 +20,8 @@ def register(app: typer.Typer) -> None:
             None, "--scheduler", help="Dask scheduler address (default: $SHIPTRIAL_SCHEDULER, else all local cores)"
         ),
         json_out: bool = typer.Option(False, "--json", help="print the rows as JSON"),
+        keep_partial: bool = typer.Option(False, "--keep-partial",
+                                          help="on Ctrl-C, write the finished cells to NAME.partial.csv (default: write nothing)"),
     ) -> None:
         """Run a design sweep (ships x speeds x criteria x mean-subtraction modes) into one tidy table."""
         from cli.options import validate_sweep_options
@@ -29,13 +31,19 @@ def register(app: typer.Typer) -> None:
         cells = load_sweep(config)
         res = run_sweep(cells, scheduler or os.environ.get("SHIPTRIAL_SCHEDULER"))
         rows = res.finished()
+        if res.interrupted:
+            typer.echo(f"interrupted: {len(rows)} of {len(cells)} cells finished", err=True)
+            if not keep_partial:
+                typer.echo("nothing written (pass --keep-partial to keep the finished cells)", err=True)
+                raise typer.Exit(130)
+            out = out.with_name(f"{out.stem}.partial{out.suffix}")  # marked partial in its name: never taken for a full sweep
         table = write_table(rows, out)
         fig = plot_summary(rows, plot or out.with_suffix(".png"))
         failed = [r for r in rows if r.get("error")]
         if json_out:
             typer.echo(dumps({"rows": rows, "table": str(table), "plot": str(fig), "interrupted": res.interrupted}))
         else:
-            typer.echo(f"{len(rows)} of {len(cells)} cells done{' (interrupted: finished cells kept)' if res.interrupted else ''}; "
+            typer.echo(f"{len(rows)} of {len(cells)} cells done{' (interrupted: PARTIAL table)' if res.interrupted else ''}; "
                        f"{len(failed)} failed")
             typer.echo(f"wrote {table}\nwrote {fig}")
         if res.interrupted:

@@ -122,7 +122,7 @@ def check_inputs(rec, profile) -> None:
         peak = float(np.nanmax(np.abs(x), initial=0.0))
         if span > 0 and peak > INPUT_LIMIT_FACTOR * span:
             raise _error()(
-                f"{rec.source}: column {name!r} reaches {peak:.3g}, {peak / span:.3g} x the ship {profile.name!r}'s limit {span:g}: "
+                f"{rec.source}: column {name!r} reaches {peak:.3g}, {peak / span:.3g} x the limit {span:g} of ship {profile.name!r}: "
                 "check its units (SI: N, N m, rad, rev/s) or choose the matching --ship"
             )
 

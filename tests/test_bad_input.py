@@ -9,6 +9,7 @@ anywhere in the working directory or the scratch area.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import signal
 from pathlib import Path
@@ -60,7 +61,13 @@ def files(tmp_path_factory):
     f["file"].write_text("x")
     f["plan"] = tmp / "plan.json"
     f["plan"].write_text(synthetic_plan("model-ship").to_json())
-    f["rec"] = write_csv(scenario((), 17, n_prims=2).diagnose[0], tmp / "run.csv")
+    run = scenario((), 17, n_prims=2).diagnose[0]
+    f["rec"] = write_csv(run, tmp / "run.csv")
+    f["rec_scaled"] = write_csv(dataclasses.replace(run, channels={k: v * 1e6 for k, v in run.channels.items()}), tmp / "scaled.csv")
+    huge = run.y.copy()
+    huge[5, 0] = 1e308
+    f["rec_huge"] = write_csv(dataclasses.replace(run, y=huge), tmp / "huge.csv")
+    f["rec_coarse"] = write_csv(dataclasses.replace(run, t=run.t * 2, pos=run.pos * 2, meta={}), tmp / "coarse.csv")
     f["zeros"] = tmp / "zeros.csv"
     f["zeros"].write_text("t,x,y,psi,u,v,r,tau_x,tau_y,tau_n\n" + "\n".join(f"{i * 0.125},0,0,0,0,0,0,0,0,0" for i in range(80)))
     f["cfg"] = tmp / "sweep.toml"
@@ -142,7 +149,8 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--map", ["{missing}", "{dir}", "{binary}", "{notjson}"])
     add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--start", ["yesterday", "2026-99-01T00:00Z"])
     # diagnose
-    for rec in ["{missing}", "{dir}", "{latin1}", "{binary}", "{zeros}", "{cfg}", "{plan}"]:
+    for rec in ["{missing}", "{dir}", "{latin1}", "{binary}", "{zeros}", "{cfg}", "{plan}", "{rec_scaled}", "{rec_huge}",
+                "{rec_coarse}"]:
         cases.append((f"diagnose RECORDING {rec}", ["diagnose", rec, "--ship", "model-ship"]))
     add(["diagnose", "{rec}"], "--ship", ship_bad)
     add(["diagnose", "{rec}", "--ship", "model-ship"], "--params", ["{missing}", "{dir}", "{binary}", "{notjson}", "{ship_neg_length}"])

@@ -125,3 +125,19 @@ def test_sweep_interrupted_exits_130_and_writes_nothing(tmp_path, monkeypatch, c
     cfg.write_text('[sweep]\nships = ["model-ship"]\n')
     assert _run(["sweep", str(cfg), "--out", str(tmp_path / "t.csv")]) == 130
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+@pytest.mark.parametrize("keep", [False, True])
+def test_sweep_interrupted_mid_run_keeps_partial_only_when_asked(tmp_path, monkeypatch, capsys, keep):
+    import expdesign.sweep as sw
+    from expdesign.parallel import MapResult
+
+    row = {k: None for k in sw.COLUMNS} | {"ship": "model-ship", "criterion": "D", "mean_subtraction": "complete"}
+    monkeypatch.setattr(sw, "run_sweep", lambda cells, *_a, **_k: MapResult([row, None], [True, False], interrupted=True))
+    cfg = tmp_path / "s.toml"
+    cfg.write_text('[sweep]\nships = ["model-ship"]\ncriteria = ["D", "A"]\n')
+    argv = ["sweep", str(cfg), "--out", str(tmp_path / "t.csv")] + (["--keep-partial"] if keep else [])
+    assert _run(argv) == 130
+    assert "1 of 2 cells finished" in capsys.readouterr().err
+    written = sorted(p.name for p in tmp_path.iterdir())
+    assert written == (["s.toml", "t.partial.csv", "t.partial.png"] if keep else ["s.toml"])
