@@ -43,9 +43,8 @@ OWN_DAMPING = {(0, "u_r*|u_r|"), (1, "v_r*|v_r|"), (2, "r*|r|")}
 def _passes(p_value: float, gain: float, n_cand: int, alpha: float = ALPHA, independent: bool = False) -> bool:
     """Significant on the estimation data AND better on held-out data. When the held-out data
     are whole runs the fit never saw (validation runs, or leave one run out), they are the
-    guard against chance: the estimation data need only ordinary significance (5 % over the
-    candidates, Bonferroni)."""
-    if independent and gain > MIN_GAIN and p_value < ALPHA_INDEPENDENT / n_cand:
+    guard against chance: the estimation data need only ordinary significance (5 %)."""
+    if independent and gain > MIN_GAIN and p_value < ALPHA_INDEPENDENT:
         return True
     return (p_value < alpha / n_cand and gain > MIN_GAIN) or (p_value < ALPHA_STRONG / n_cand and gain > STRONG_GAIN)
 
