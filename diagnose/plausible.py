@@ -26,21 +26,11 @@ def froude(profile: ShipProfile) -> float:
     return float(np.sqrt(profile.length_m / REF_LENGTH_M))
 
 
-def max_delay_s(profile: ShipProfile, inputs: np.ndarray | None = None) -> tuple[float, str]:
-    """Longest plausible actuator delay and why: Froude-scaled latency, at least a few samples,
-    and never longer than the recorded actuator needs to sweep its recorded range."""
+def max_delay_s(profile: ShipProfile) -> tuple[float, str]:
+    """Longest plausible actuator delay and why: a Froude-scaled steering-machine latency, at
+    least a few samples (the recording cannot resolve less)."""
     lim = max(MAX_DELAY_REF_S * froude(profile), MIN_DELAY_SAMPLES * profile.sample_time)
-    why = f"{MAX_DELAY_REF_S:g} s Froude-scaled to {profile.length_m:g} m (at least {MIN_DELAY_SAMPLES} samples)"
-    if inputs is not None and profile.steering_input in profile.inputs:
-        x = inputs[:, profile.inputs.index(profile.steering_input)]
-        rate = np.abs(np.diff(x)) / profile.sample_time
-        if rate.size and np.max(rate) > 0:
-            rmax = float(np.percentile(rate[rate > 0], 95))
-            sweep = float(np.ptp(x)) / max(rmax, 1e-12)
-            if sweep > 2 * profile.sample_time and sweep < lim:  # a rate-limited actuator
-                lim = sweep
-                why = f"the {sweep:.1f} s the recorded {profile.steering_input} needs to sweep its range at its recorded rate"
-    return lim, why
+    return lim, f"{MAX_DELAY_REF_S:g} s Froude-scaled to {profile.length_m:g} m, at least {MIN_DELAY_SAMPLES} samples"
 
 
 def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | None = None) -> tuple[bool, str]:
@@ -50,7 +40,7 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
         ok = params["speed_mps"] <= lim
         return ok, f"current {params['speed_mps']:.2f} m/s vs at most {lim:.2f} m/s ({MAX_CURRENT_FRACTION:.0%} of the cruise speed)"
     if effect == "actuator_delay":
-        lim, why = max_delay_s(profile, inputs)
+        lim, why = max_delay_s(profile)
         d = params["delay_s"]
         ok = 0.0 < d <= lim
         return ok, f"delay {d:.2f} s vs at most {lim:.2f} s ({why})"
@@ -65,7 +55,8 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
             return ok, f"offset {params['offset']:.3g} vs at most 20 % of the recorded range {span:.3g}"
     if effect == "inertia_change":
         ratio = params.get("inertia_ratio")
-        ok = ratio is not None and 1.0 / MAX_INERTIA_FACTOR <= ratio <= MAX_INERTIA_FACTOR
+        # at the bound means the fit wanted more: the inertia is absorbing another misfit (seed 004 lesson 5)
+        ok = ratio is not None and 1.0 / MAX_INERTIA_FACTOR * 1.01 < ratio < MAX_INERTIA_FACTOR * 0.99
         return ok, f"inertia {ratio if ratio is not None else float('inf'):.2f} x the model's vs within a factor {MAX_INERTIA_FACTOR:g}"
     if effect == "thrust_loss" and params.get("loss_percent") is not None:
         loss = params["loss_percent"]

@@ -62,5 +62,7 @@ def test_turning_circle_diagnosis_improves_the_20_20_zigzags():
     p = load_profile("kvlcc2")
     d = run([_rec("tc_35"), _rec("tc_-35")], p, fit_on=[_rec("zz_10"), _rec("zz_-10")],
             validate=[_rec("zz_20"), _rec("zz_-20")])
-    assert d.findings
+    # what the turning circles add is also in the 10/10 reference runs: baseline structure (issue 13)
+    assert d.findings or d.structure
     assert d.fit_after["surge"] > d.fit_before["surge"] and d.fit_after["yaw"] > d.fit_before["yaw"]
+    assert all(r["weighted_misfit_after"] <= r["weighted_misfit_before"] for r in d.per_run)

@@ -8,7 +8,7 @@ import pytest
 
 from benchmarks.bench_diagnose_mmg import run_case, score
 
-# right on the code of 2026-11-23 (benchmarks/bench_diagnose_mmg.py, full table in the report)
+# right on the diagnosis of commit 04f2682 (python -m benchmarks.bench_diagnose_mmg: 3/18, these two and the plain control)
 STAYS_RIGHT = ("control-ar1", "shallow-water")
 
 
