@@ -62,9 +62,9 @@ class SignatureCusum:
 
 def calibrate_signature_cusum(names: tuple[str, ...], prior_residual: np.ndarray, signatures: np.ndarray,
                               theta1: float, false_alarm: float = 0.02, runs: int = 200, seed: int = 0) -> SignatureCusum:
-    """Threshold from simulated no-change records with the prior's residual sigma (never evaluation runs)."""
+    """Threshold from block-bootstrap no-change records of the prior's own residual (never evaluation runs)."""
     sigma = 1.4826 * float(np.median(np.abs(prior_residual - np.median(prior_residual))))
     det = SignatureCusum(names, sigma, theta1)
-    null = null_max_statistic(lambda e: det.statistics(e, signatures), sigma, len(signatures), runs, seed)
+    null = null_max_statistic(lambda e: det.statistics(e, signatures), prior_residual, len(signatures), runs, seed)
     det.h = float(np.quantile(null, 1 - false_alarm))
     return det
