@@ -5,7 +5,7 @@ which remains to be built in the shared kernel). Priors: model 0 = true paramete
 output-error fits of (2.18) to 500 s of noisy data (10 Hz, Table 4.1 noise on r and u) from a
 different manoeuvre than the evaluation one. Each prior is evaluated on ``--runs`` noise
 realisations of the nominal ship and of a ship with 10 % more yaw inertia (500 s). Detectors are
-calibrated from the prior's own fit residual only (block bootstrap), for 2 % false alarms per 500 s.
+calibrated from the prior's own fit residual only, for 2 % false alarms per 500 s.
 
     python benchmarks/bench_detect.py --models 5 --runs 100
 """
