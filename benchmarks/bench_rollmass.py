@@ -57,6 +57,7 @@ def main() -> None:
     ap.add_argument("--waves", type=float, default=1.0, help="scale of the profile's wave disturbance")
     ap.add_argument("--noise", type=float, default=1.0, help="scale of the Xsens MTi-G noise and biases")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--progress", action="store_true", help="print a line per finished case-seed")
     a = ap.parse_args()
     prof = load_profile()
     imu = prof.raw["imu"]
@@ -67,8 +68,12 @@ def main() -> None:
           f"yaw {ex['wave_yaw_sd'] * a.waves:g} N m at {ex['wave_freq_hz']:g} Hz; {a.seeds} seeds")
     jobs = [(c, s, a.waves, a.noise) for c in ("case1", "case2", "case3") for s in range(a.seeds)]
     t0 = time.perf_counter()
+    rows = []
     with Pool(a.workers) as pool:
-        rows = [r for part in pool.map(_one, jobs) for r in part]
+        for i, part in enumerate(pool.imap_unordered(_one, jobs), 1):
+            rows += part
+            if a.progress:
+                print(f"  {i}/{len(jobs)} case-seeds, {time.perf_counter() - t0:.0f} s", flush=True)
     print(f"{len(jobs)} case-seeds in {time.perf_counter() - t0:.0f} s\n")
     print(f"{'case':6} {'method':9} | {'paper m %':>9} {'paper z %':>9} | {'m med %':>8} {'m p90 %':>8} {'z med mm':>8} {'z p90 mm':>8} "
           f"{'mz med %':>8} {'mz p90 %':>8} {'failed':>6}")

@@ -57,7 +57,8 @@ def test_scale_and_z_f_are_not_separable():
 
 
 def test_estimator_recovers_load_on_a_clean_short_case():
-    """Low noise (IMU and waves x0.05): the MC of this setting puts errors well inside these bounds."""
+    """Low noise (IMU and waves x0.05). Over seeds 0-11 of this setting the largest errors were
+    10.7 % (0.021 kg) and 22 mm (median 3.2 %, 8 mm), so 0.03 kg and 30 mm hold with margin."""
     prof = load_profile()
     for k in ("wave_roll_sd", "wave_sway_sd", "wave_yaw_sd"):
         prof.raw["experiment"][k] *= 0.05

@@ -48,20 +48,27 @@ def harbour_inputs(n_samples: int, dt: float, seed: int) -> dict[str, np.ndarray
 
 
 def simulate_yaw(p: YawParams, inputs: dict[str, np.ndarray], dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Yaw rate ``r`` and sway ``v`` (quasi-static drift v = -0.5 L r-like coupling, [choice]), RK2."""
-    delta, u, n = inputs["delta"], inputs["u"], inputs["n"]
-    tau = p.gain * pod_moment(delta, u, n[0])
-    r = np.zeros(len(u))
-    v = np.zeros(len(u))
+    """Yaw rate ``r`` and sway ``v`` by Heun's method; ``u`` may be (n,) or (n, runs) (vectorised).
+
+    Sway is a quasi-static drift ``v = -20 r`` (pivot point ~20 m forward) [choice], so the
+    ``r|v|`` and ``|u|v`` terms act in turns.
+    """
+    delta, u = inputs["delta"], inputs["u"]
+    n = float(inputs["n"][0])
+    delta = delta.reshape(len(delta), *([1] * (u.ndim - 1)))
+    tau = p.gain * pod_moment(delta, u, n)
+
+    def f(rr: np.ndarray, k: int) -> np.ndarray:
+        vv = -20.0 * rr
+        uk = u[k]
+        return (p.A * uk * rr + p.N_rr * rr * np.abs(rr) + p.N_rv * rr * np.abs(vv) + p.N_uv * np.abs(uk) * vv + tau[k]) / p.I_r
+
+    r = np.zeros(u.shape)
     for k in range(len(u) - 1):
-        def f(rr, kk):
-            vv = -20.0 * rr  # sway drift in a turn, proportional to r (pivot point ~20 m forward) [choice]
-            return (p.A * u[kk] * rr + p.N_rr * rr * abs(rr) + p.N_rv * rr * abs(vv) + p.N_uv * abs(u[kk]) * vv + tau[kk]) / p.I_r, vv
-        k1, v[k] = f(r[k], k)
-        k2, _ = f(r[k] + dt * k1, k + 1)
+        k1 = f(r[k], k)
+        k2 = f(r[k] + dt * k1, k + 1)
         r[k + 1] = r[k] + 0.5 * dt * (k1 + k2)
-    v[-1] = -20.0 * r[-1]
-    return r, v
+    return r, -20.0 * r
 
 
 def signatures(p: YawParams, inputs: dict[str, np.ndarray], dt: float, rel: float = 0.1) -> tuple[tuple[str, ...], np.ndarray]:
