@@ -22,8 +22,10 @@ def register(app: typer.Typer) -> None:
         json_out: bool = typer.Option(False, "--json", help="print the estimate as JSON"),
     ) -> None:
         """Estimate the loaded run's extra mass and its CoG height, with 95 % confidence intervals."""
+        from cli.options import validate_mass_options
         from diagnose.rollmass.api import estimate_from_files
 
+        validate_mass_options(z_f=z_f)
         e = estimate_from_files(nominal, calibration, loaded, known_load, profile, method, z_f)
         (mlo, mhi), (zlo, zhi) = e.ci()
         if json_out:
@@ -46,19 +48,24 @@ def register(app: typer.Typer) -> None:
         profile: Path | None = typer.Option(None, "--profile", help="roll profile TOML (default: Our Lass II 1:24)"),
     ) -> None:
         """Simulate the basin experiment of one Table 2 case into three recordings (example input of `mass`)."""
+        from cli.options import validate_mass_sim_options
         from diagnose.rollmass.model import load_profile
         from diagnose.rollmass.recording import write_roll_csv
         from diagnose.rollmass.simulate import Noise, simulate_case
         from primitives.errors import UserError
+        from primitives.io import atomic_output_dir
 
+        validate_mass_sim_options(out=out, seed=seed)
         prof = load_profile(profile)
         if case not in prof.raw["cases"]:
             raise UserError(f"--case {case!r}: choose one of {', '.join(prof.raw['cases'])}")
         recs = simulate_case(prof, case, Noise.from_profile(prof), seed)
         truth = {d["name"]: d for d in prof.raw["dataset"]}
-        for role, rec in zip(("nominal", "calibration", "loaded"), recs):
-            d = truth[rec.name]
-            path = write_roll_csv(rec, out / f"{role}.csv", {"dataset": rec.name, "load_kg": f"{d['load_kg']:g}", "load_height_m": f"{d['load_height']:g}"})
-            typer.echo(f"wrote {path}")
+        with atomic_output_dir(out) as tmp:  # the three datasets appear together or not at all
+            for role, rec in zip(("nominal", "calibration", "loaded"), recs):
+                d = truth[rec.name]
+                write_roll_csv(rec, tmp / f"{role}.csv", {"dataset": rec.name, "load_kg": f"{d['load_kg']:g}", "load_height_m": f"{d['load_height']:g}"})
+        for role in ("nominal", "calibration", "loaded"):
+            typer.echo(f"wrote {out / f'{role}.csv'}")
         c = truth[recs[1].name]
         typer.echo(f"calibration load: --known-load {c['load_kg']:g}@{c['load_height']:g}")

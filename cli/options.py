@@ -140,3 +140,15 @@ def validate_plan_options(*, resolution: float | None, margin: float, headings: 
     whole(seed, "--seed", 0, 2**63 - 1)
     check_out_path(out)
 
+
+
+def validate_mass_options(*, z_f: float | None) -> None:
+    """``mass`` options that are numbers (the files and --known-load are checked where they are read)."""
+    if z_f is not None:
+        in_range(z_f, "--z-f", -10.0, 10.0, "m (centre-of-rotation offset below the waterline, z down)")
+
+
+def validate_mass_sim_options(*, out: Path, seed: int) -> None:
+    whole(seed, "--seed", 0, 2**63 - 1)
+    check_out_path(out)
+    check_replaceable_dir(out)

@@ -90,6 +90,15 @@ def files(tmp_path_factory):
         "ship_typo": {"draught": 0.1}, "ship_str_length": {"length_m": "long"}, "ship_tiny_ts": {"sample_time": 1e-9},
     }.items():
         f[name] = _profile(tmp, **change)
+    from diagnose.rollmass.model import load_profile as roll_profile
+    from diagnose.rollmass.recording import write_roll_csv
+    from diagnose.rollmass.simulate import Noise, simulate_case
+
+    roll = roll_profile(None)
+    for role, rec in zip(("nominal", "calibration", "loaded"), simulate_case(roll, "case1", Noise.from_profile(roll), 0, length_factor=0.2)):
+        f[f"roll_{role}"] = write_roll_csv(rec, tmp / f"roll-{role}.csv")
+    f["roll_bad_profile"] = tmp / "roll-bad.toml"
+    f["roll_bad_profile"].write_text("this is = not [a roll profile\n")
     return f
 
 
@@ -163,6 +172,21 @@ def _cases() -> list[tuple[str, list[str]]]:
         cases.append((f"sweep CONFIG {cfg}", ["sweep", cfg, "--out", "{tmp}/s.csv"]))
     add(["sweep", "{cfg}"], "--out", ["{tmp}/t.xlsx", "{tmp}/t", "/proc/s.csv", "{dir}"])
     add(["sweep", "{cfg}", "--out", "{tmp}/s.csv"], "--plot", ["{tmp}/p.txt", "/proc/p.png", "{dir}"])
+    # mass (seed 003) and its example generator
+    m = ["mass", "{roll_nominal}", "{roll_calibration}", "{roll_loaded}"]
+    for i, rec in enumerate(["{missing}", "{dir}", "{latin1}", "{binary}", "{rec}", "{plan}"]):
+        argv = [*m[1:]]
+        argv[i % 3] = rec
+        cases.append((f"mass RECORDING {rec}", ["mass", *argv, "--known-load", "0.2@-0.256"]))
+    add(m, "--known-load", ["", "0.2", "abc@def", "nan@-0.2", "0.2@inf", "-0.2@-0.256", "0@-0.256", "1e400@0", "0.2@1e9"])
+    add([*m, "--known-load", "0.2@-0.256"], "--profile", ["{missing}", "{dir}", "{binary}", "{roll_bad_profile}", "{plan}"])
+    add([*m, "--known-load", "0.2@-0.256"], "--method", ["best", ""])
+    add([*m, "--known-load", "0.2@-0.256"], "--z-f", [*FLOATS_BAD[:4], "1e9", "abc"])
+    add(["mass-sim", "{tmp}/roll-out"], "--case", ["case9", ""])
+    add(["mass-sim", "{tmp}/roll-out"], "--seed", ["-1", "abc"])
+    add(["mass-sim", "{tmp}/roll-out"], "--profile", ["{missing}", "{dir}", "{roll_bad_profile}"])
+    for out in ["{file}", "/proc/roll-out", "{dir}"]:
+        cases.append((f"mass-sim OUT {out}", ["mass-sim", out]))
     return cases
 
 

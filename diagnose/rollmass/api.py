@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from diagnose.rollmass.estimate import METHODS, MassEstimate, estimate
 from diagnose.rollmass.model import Load, load_profile
 from diagnose.rollmass.recording import read_roll_csv
@@ -19,8 +21,8 @@ def parse_known_load(text: str) -> Load:
         load = Load(float(kg), float(m))
     except ValueError:
         raise UserError(f"--known-load {text!r}: not numbers; write KG@M, e.g. 0.2@-0.256") from None
-    if not load.m > 0:
-        raise UserError(f"--known-load {text!r}: the calibration mass must be positive")
+    if not (0 < load.m < 1e6 and abs(load.zbar) < 1e3):
+        raise UserError(f"--known-load {text!r}: give a finite mass > 0 kg and a height within the hull, in metres (z down), e.g. 0.2@-0.256")
     return load
 
 
@@ -32,4 +34,8 @@ def estimate_from_files(nominal: str | Path, calibration: str | Path, loaded: st
     cal = known_load if isinstance(known_load, Load) else parse_known_load(known_load)
     prof = load_profile(profile)
     recs = [read_roll_csv(p)[0] for p in (nominal, calibration, loaded)]
-    return estimate(recs, prof.known, cal, method, with_ci=True, z_f=z_f)
+    try:
+        return estimate(recs, prof.known, cal, method, with_ci=True, z_f=z_f)
+    except (ValueError, np.linalg.LinAlgError) as exc:  # a fit that cannot start or diverges is said, never printed
+        raise UserError(f"the {method} estimate failed on these recordings ({str(exc).splitlines()[0]}); "
+                        "check --z-f, --known-load and that the three runs come from one ship") from None

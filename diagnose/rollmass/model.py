@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from primitives.io import read_input_text
 from primitives.ship import ProfileError
 
 DEFAULT_PROFILE = Path(__file__).with_name("our_lass_ii.toml")
@@ -158,9 +159,7 @@ def load_profile(path: str | Path | None = None) -> RollProfile:
     """Read a roll profile TOML (default: Our Lass II). k follows from Table 1's GM_T."""
     path = Path(path) if path is not None else DEFAULT_PROFILE
     try:
-        raw = tomllib.loads(path.read_text())
-    except FileNotFoundError as exc:
-        raise ProfileError(f"{path}: roll profile not found; give a TOML like {DEFAULT_PROFILE.name}") from exc
+        raw = tomllib.loads(read_input_text(path, ProfileError, f"a roll profile TOML like {DEFAULT_PROFILE.name}"))
     except tomllib.TOMLDecodeError as exc:
         raise ProfileError(f"{path}: not valid TOML ({exc})") from exc
     try:
@@ -173,7 +172,7 @@ def load_profile(path: str | Path | None = None) -> RollProfile:
             k=k, A_x=I_x - roll["K_pdot"], d=roll["d"], K_r=(roll["K_ur"] - roll["K_vdot"]) * kn.U,
             K_vdot=roll["K_vdot"], K_delta=roll["K_delta"], z_f=roll["z_f"],
         )
-    except (KeyError, TypeError) as exc:
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise ProfileError(f"{path}: missing or malformed field {exc}; see {DEFAULT_PROFILE.name}") from exc
     return RollProfile(name=str(ship.get("name", path.stem)), known=kn, truth=truth, K_ur=float(roll["K_ur"]), raw=raw)
 

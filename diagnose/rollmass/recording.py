@@ -17,7 +17,7 @@ import numpy as np
 
 from diagnose.recording import RecordingError
 from diagnose.rollmass.simulate import RollRecording
-from primitives.io import atomic_write_text
+from primitives.io import atomic_write_text, read_input_text
 
 REQUIRED = ("t", "delta", "p", "a_s", "r")
 WHAT = {"p": "roll-rate gyro", "a_s": "lateral accelerometer", "r": "yaw-rate gyro", "delta": "rudder angle", "t": "time"}
@@ -39,12 +39,7 @@ def write_roll_csv(rec: RollRecording, path: str | Path, meta: dict[str, str] | 
 def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
     """Read and check one dataset; any problem is a one-line :class:`RecordingError`."""
     path = Path(path)
-    try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except FileNotFoundError as exc:
-        raise RecordingError(f"{path}: file not found") from exc
-    except UnicodeDecodeError as exc:
-        raise RecordingError(f"{path}: not a UTF-8 CSV file") from exc
+    lines = read_input_text(path, RecordingError, "a roll recording CSV (t, delta, p, a_s, r)").splitlines()
     meta = {}
     body = []
     for ln in lines:
