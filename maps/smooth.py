@@ -108,8 +108,11 @@ class Realiser:
             ri = helm.run(nu, self._rel(spatial, eta), [("hold", (u0, v0, r0, self.run_in_s, float(lat.table[h])))], n_max=20000)
             u = float(np.hypot(u0, v0))
             course = float(np.degrees(lat.table[h]) % 360)
-            text = (f"steady on course {course:05.1f} deg at {u / 0.514444:.1f} kn for {len(ri) * pr.profile.sample_time:.0f} s, "
-                    f"then execute {m.name}")
+            hold_s = len(ri) * pr.profile.sample_time
+            # a manoeuvre that starts from rest (an acceleration) is approached by stopping, not by a steady run
+            steady = (f"steady on course {course:05.1f} deg at {u / 0.514444:.1f} kn" if u > 0.05 * pr.profile.cruise_speed_mps
+                      else f"stop engine(s) and come to rest heading {course:05.1f} deg")
+            text = f"{steady} for {hold_s:.0f} s, then execute {m.name}"
             legs.append(Leg(f"run-in {m.name}", m.source or m.name, "run-in", "run-in", f"run-in to {m.name}: steady course and speed",
                             pr.profile, ri, [text], space, mi, spatial,
                             orders=[{"t_s": 0.0, "text": text, "course_deg": course, "speed_kn": u / 0.514444}]))
