@@ -69,7 +69,7 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     state = "feasible" if plan.feasible else "NOT feasible"
     ax.set_title(f"{sea.name}: {plan.ship}, {state}, {plan.duration_s / 60:.0f} min, {plan.basic_moves} basic moves, "
                  f"clearance {plan.min_clearance_m:.0f} m", fontsize=9)
-    ax.legend(fontsize=7, loc="best")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)  # never over the track
     fig.tight_layout()
     out = atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
