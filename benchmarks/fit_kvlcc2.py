@@ -33,8 +33,10 @@ sys.path.insert(0, str(ROOT))
 
 from diagnose.model import AugmentedModel, fit_percent, prepare  # noqa: E402
 from diagnose.recording import Recording, read_marin_dat  # noqa: E402
-from primitives.ship import load_profile, profile_from_dict  # noqa: E402
+from primitives.io import atomic_write_text  # noqa: E402
 from primitives.regressors import predictor_regressors  # noqa: E402
+from primitives.ship import load_profile, profile_from_dict  # noqa: E402
+from primitives.simulate import model_signals  # noqa: E402
 
 DATA = ROOT / "diagnose" / "data"
 PROFILE = ROOT / "primitives" / "profiles" / "kvlcc2.toml"
@@ -71,14 +73,12 @@ def one_step_ls(profile, recs: list[Recording]) -> np.ndarray:
 
 def balance_thrust(profile, theta: np.ndarray) -> np.ndarray:
     """Set the n^2 coefficient so the surge increment is zero at cruise speed and approach rpm."""
-    from primitives.helm import _surge_increment
-
     th = theta.copy()
-    names = profile.param_names
-    j = names.index("Xnn")
+    j = profile.param_names.index("Xnn")
     n0 = profile.engine.approach_rpm / 60.0
     th[j] = 0.0
-    th[j] = -_surge_increment(profile, th, profile.cruise_speed_mps, n0) / n0**2
+    sig = model_signals(profile, np.array([profile.cruise_speed_mps, 0.0, 0.0]), np.array(0.0), {"delta": 0.0, "n": n0})
+    th[j] = -float(profile.model.increments(sig, th)[0]) / n0**2
     return th
 
 
@@ -152,7 +152,7 @@ def write_params(profile, theta: np.ndarray) -> None:
         parts.append(f"{dof} = [{vals}]")
     block = "[parameters.fitted]\n" + "\n".join(parts) + "\n"
     text = re.sub(r"\[parameters\.fitted\]\n(?:[a-z]+ = \[.*\]\n)+", block, text)
-    PROFILE.write_text(text, encoding="utf-8")
+    atomic_write_text(PROFILE, text)
 
 
 def main() -> None:
