@@ -142,7 +142,8 @@ def test_library_information_is_full_rank_and_motions_plausible():
     assert unidentified_parameters(p, gamma) == []
 
 
-def test_cli_primitives_and_design_run_for_kvlcc2(capsys):
+def test_cli_primitives_and_design_run_for_kvlcc2(tmp_path, capsys):
     assert _run(["primitives", "--ship", "kvlcc2"]) == 0
-    assert _run(["design", "--ship", "kvlcc2", "--monte-carlo", "0"]) == 0
+    assert _run(["design", "--ship", "kvlcc2", "--monte-carlo", "0", "--out", str(tmp_path / "rep")]) == 0
     assert "Traceback" not in capsys.readouterr().err
+    assert (tmp_path / "rep" / "design.json").exists()
