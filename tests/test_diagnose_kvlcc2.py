@@ -1,6 +1,6 @@
 """Real data, no labels: the KVLCC2 tanker (MARIN free-running tests, SIMMAN 2008).
 
-The ``kvlcc2`` profile is a linear rudder/propeller model fitted on the 10/10 zig-zags. It fits
+The ``kvlcc2-linear`` profile is a deliberately linear rudder/propeller model fitted on the 10/10 zig-zags. It fits
 those runs, fails on the 35 deg turning circles (large drift and yaw rate), and the diagnosis
 of the larger manoeuvres names nonlinear physics and improves runs not used for fitting.
 """
@@ -30,7 +30,7 @@ def _fit(profile, rec):
 
 
 def test_profile_is_a_single_screw_rudder_propeller_model():
-    p = load_profile("kvlcc2")
+    p = load_profile("kvlcc2-linear")
     assert p.actuator == "rudder_propeller" and p.inputs == ("delta", "n")
     assert p.length_m == 320.0 and p.sample_time == 1.0
     th = p.params()
@@ -39,7 +39,7 @@ def test_profile_is_a_single_screw_rudder_propeller_model():
 
 
 def test_linear_baseline_fits_the_10_10_zigzags_but_not_the_turning_circle():
-    p = load_profile("kvlcc2")
+    p = load_profile("kvlcc2-linear")
     for name in ("zz_10", "zz_-10"):
         f = _fit(p, _rec(name))
         assert f[1] > 75 and f[2] > 75, f
@@ -49,7 +49,7 @@ def test_linear_baseline_fits_the_10_10_zigzags_but_not_the_turning_circle():
 
 @pytest.mark.slow
 def test_zigzag_20_diagnosis_names_nonlinear_physics_and_improves_turning_circles():
-    p = load_profile("kvlcc2")
+    p = load_profile("kvlcc2-linear")
     d = run([_rec("zz_20"), _rec("zz_-20")], p, fit_on=[_rec("zz_10"), _rec("zz_-10")],
             validate=[_rec("tc_35"), _rec("tc_-35")])
     effects = {f["effect"] for f in d.findings}
@@ -59,7 +59,7 @@ def test_zigzag_20_diagnosis_names_nonlinear_physics_and_improves_turning_circle
 
 @pytest.mark.slow
 def test_turning_circle_diagnosis_improves_the_20_20_zigzags():
-    p = load_profile("kvlcc2")
+    p = load_profile("kvlcc2-linear")
     d = run([_rec("tc_35"), _rec("tc_-35")], p, fit_on=[_rec("zz_10"), _rec("zz_-10")],
             validate=[_rec("zz_20"), _rec("zz_-20")])
     # what the turning circles add is also in the 10/10 reference runs: baseline structure (issue 13)

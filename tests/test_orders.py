@@ -111,7 +111,8 @@ def test_expectations_and_abort_criteria():
     zz = _prim("kvlcc2", "zigzag_10_10_s")
     e = zz.expectations()
     assert e["heading_change_max_deg"] > 10 and e["heading_change_min_deg"] < -10  # overshoots past 10 deg
-    assert 7.9 < e["speed_min_mps"] <= e["speed_max_mps"] < 9.0
+    # a zig-zag costs speed (MARIN zz_10: down to 7.09 m/s from 7.97), never gains any
+    assert 0.75 * 7.97 < e["speed_min_mps"] < 0.95 * 7.97 and e["speed_max_mps"] < 8.1
     assert e["speed_min_kn"] == pytest.approx(e["speed_min_mps"] * 3600 / 1852)
     text = zz.abort_criteria()
     assert text.startswith("abort if speed <") and "kn" in text and "initial course" in text
