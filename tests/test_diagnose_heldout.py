@@ -99,7 +99,7 @@ def test_noise_level_robust_to_coloured_noise():
 
 @pytest.mark.slow
 def test_marin_every_validation_run_fits_at_least_as_well():
-    p = load_profile("kvlcc2")
+    p = load_profile("kvlcc2-linear")  # the deliberately linear baseline: something left to find
     rec = lambda n: read_marin_dat(DATA / f"MARIN_FREE_KVLCC2_{n}_m.dat")  # noqa: E731
     d = run([rec("tc_35"), rec("tc_-35")], p, fit_on=[rec("zz_10"), rec("zz_-10")], validate=[rec("zz_20"), rec("zz_-20")])
     assert len(d.per_run) == 2
