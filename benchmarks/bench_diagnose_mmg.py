@@ -33,6 +33,10 @@ from tests.physics.mmg_battery import CASES, case, generate, write_case
 WORSE_SLACK = 1.0  # fit points a held-out run may lose on a channel
 
 
+# The project's deliberately linear KVLCC2 model: the gap to the MMG ship is part of the test
+# (the figures in the issue-13 note were measured against it; `kvlcc2` is the nonlinear MARIN fit).
+BASELINE = "kvlcc2-linear"
+
 def _num(x) -> float | None:
     try:
         return float(x)
@@ -139,7 +143,7 @@ def _api(paths: dict[str, list[Path]]) -> dict:
     from diagnose.recording import load_recording
     from primitives.ship import load_profile
 
-    prof = load_profile("kvlcc2")
+    prof = load_profile(BASELINE)
 
     def load(ps):
         return [r for p in ps for r in load_recording(p)]
@@ -156,7 +160,7 @@ def _api(paths: dict[str, list[Path]]) -> dict:
 
 
 def _cli(paths: dict[str, list[Path]]) -> dict:
-    cmd = [str(Path(sys.executable).with_name("shiptrial")), "diagnose", *map(str, paths["diagnose"]), "--ship", "kvlcc2",
+    cmd = [str(Path(sys.executable).with_name("shiptrial")), "diagnose", *map(str, paths["diagnose"]), "--ship", BASELINE,
            "--fit-on", ",".join(map(str, paths["calm"])), "--validate", ",".join(map(str, paths["validate"])), "--json"]
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode != 0:
