@@ -161,4 +161,4 @@ def test_kvlcc2_on_a_map_too_small_exit_1(tmp_path, capsys):
     p = _box_map(tmp_path, (25.0, 60.0, 25.036, 60.027), (25.018, 60.005, 0), (25.018, 60.022))
     out = tmp_path / "o"
     rc, err = _cli_fails(["--ship", "kvlcc2", "--map", str(p), "--out", str(out)], capsys)
-    assert rc == 1 and "fit nowhere" in err and "acceleration needs" in err and "m of open water" in err and not out.exists()
+    assert rc == 1 and "fit nowhere" in err and "turning_circle_35_s needs" in err and "m of open water" in err and not out.exists()
