@@ -92,25 +92,33 @@ def grams(model: AugmentedModel, all_preps: list[Prepared], parts: Parts, P: np.
     return Grams(G, hv, rr, den, list(cols), np.array([int(m.sum()) for m in parts.mask]))
 
 
+def _step(g: Grams, fit_parts: list[int], sel: list[int], prior_D: np.ndarray, prior_g: np.ndarray) -> np.ndarray:
+    """Gauss-Newton step of the columns ``sel`` fitted on ``fit_parts`` (with the prior)."""
+    ix = np.ix_(sel, sel)
+    A = g.G[fit_parts][:, :, ix[0], ix[1]].sum(axis=(0, 1)) + np.diag(prior_D[sel])
+    b = g.h[fit_parts][:, :, sel].sum(axis=(0, 1)) + prior_g[sel]
+    A += np.eye(len(sel)) * 1e-10 * (np.trace(A) / len(sel) + 1e-300)
+    try:
+        return -np.linalg.solve(A, b)
+    except np.linalg.LinAlgError:
+        return -np.linalg.lstsq(A, b, rcond=None)[0]
+
+
+def _rss_after(g: Grams, parts: list[int], sel: list[int], d: np.ndarray) -> np.ndarray:
+    """Residual sum of squares per channel over ``parts`` after the step ``d`` of ``sel``."""
+    ix = np.ix_(sel, sel)
+    G = g.G[parts][:, :, ix[0], ix[1]].sum(axis=0)
+    h = g.h[parts][:, :, sel].sum(axis=0)
+    return g.rr[parts].sum(axis=0) + 2.0 * h @ d + np.einsum("i,cij,j->c", d, G, d)
+
+
 def heldout_rss(g: Grams, parts: Parts, sel: list[int], prior_D: np.ndarray, prior_g: np.ndarray) -> np.ndarray:
     """Held-out residual sum of squares (n_folds, 3) after a linearised refit of the columns
     ``sel`` (positions in g.cols) on each fold's fit parts. ``prior_D``/``prior_g``: the prior's
     Hessian diagonal and gradient over all columns (zero where none)."""
     out = np.empty((len(parts.test), 3))
     for f, (t, fit_parts) in enumerate(zip(parts.test, parts.fit_of)):
-        if not sel:
-            out[f] = g.rr[t]
-            continue
-        ix = np.ix_(sel, sel)
-        A = g.G[fit_parts][:, :, ix[0], ix[1]].sum(axis=(0, 1)) + np.diag(prior_D[sel])
-        b = g.h[fit_parts][:, :, sel].sum(axis=(0, 1)) + prior_g[sel]
-        A += np.eye(len(sel)) * 1e-10 * (np.trace(A) / len(sel) + 1e-300)
-        try:
-            d = -np.linalg.solve(A, b)
-        except np.linalg.LinAlgError:
-            d = -np.linalg.lstsq(A, b, rcond=None)[0]
-        Gt = g.G[t][:, ix[0], ix[1]]
-        out[f] = g.rr[t] + 2.0 * g.h[t][:, sel] @ d + np.einsum("i,cij,j->c", d, Gt, d)
+        out[f] = _rss_after(g, [t], sel, _step(g, fit_parts, sel, prior_D, prior_g)) if sel else g.rr[t]
     return np.maximum(out, 0.0)
 
 
@@ -118,19 +126,10 @@ def insample_rss(g: Grams, parts: Parts, sel: list[int], prior_D: np.ndarray, pr
                  fit_parts: list[int]) -> tuple[float, np.ndarray]:
     """Residual sum of squares over ``fit_parts`` after a linearised refit of ``sel`` on them,
     and the step."""
-    rr = float(g.rr[fit_parts].sum())
     if not sel:
-        return rr, np.zeros(0)
-    ix = np.ix_(sel, sel)
-    A = g.G[fit_parts][:, :, ix[0], ix[1]].sum(axis=(0, 1)) + np.diag(prior_D[sel])
-    b = g.h[fit_parts][:, :, sel].sum(axis=(0, 1)) + prior_g[sel]
-    A += np.eye(len(sel)) * 1e-10 * (np.trace(A) / len(sel) + 1e-300)
-    try:
-        d = -np.linalg.solve(A, b)
-    except np.linalg.LinAlgError:
-        d = -np.linalg.lstsq(A, b, rcond=None)[0]
-    Gs = g.G[fit_parts][:, :, ix[0], ix[1]].sum(axis=(0, 1))
-    return max(rr + 2.0 * float(b @ d) - 2.0 * float(prior_g[sel] @ d) + float(d @ Gs @ d), 0.0), d
+        return float(g.rr[fit_parts].sum()), np.zeros(0)
+    d = _step(g, fit_parts, sel, prior_D, prior_g)
+    return max(float(_rss_after(g, fit_parts, sel, d).sum()), 0.0), d
 
 
 def fit_pct(rss: np.ndarray, den: np.ndarray) -> np.ndarray:
