@@ -141,12 +141,13 @@ def score(truth: dict, out: dict) -> tuple[bool, list[str]]:
 def _api(paths: dict[str, list[Path]]) -> dict:
     from diagnose.api import run
     from diagnose.recording import load_recording
+    from diagnose.recording_checks import conform
     from primitives.ship import load_profile
 
     prof = load_profile(BASELINE)
 
-    def load(ps):
-        return [r for p in ps for r in load_recording(p)]
+    def load(ps):  # as the CLI does: Froude-scaled to the ship when the header says model scale
+        return conform([r for p in ps for r in load_recording(p)], prof)
 
     d = run(load(paths["diagnose"]), prof, fit_on=load(paths["calm"]), validate=load(paths["validate"]))
     names = [n for dof in prof.parameter_names for n in dof]

@@ -86,8 +86,14 @@ def register(app: typer.Typer) -> None:
         fit_recs = load(_split(fit_on)) or None
         val_recs = load(_split(validate)) or None
         d = run(recs, profile, theta=theta, fit_on=fit_recs, validate=val_recs)
-        out_dir = out or Path(tempfile.mkdtemp(prefix="shiptrial-diagnose-"))
-        paths = report.write_all(d, out_dir)
+        if out is not None:
+            from primitives.io import atomic_output_dir
+
+            with atomic_output_dir(out) as tmp:  # a failed report never leaves a mix of old and new files
+                written = report.write_all(d, tmp, final_dir=out)
+            paths = {k: out / v.relative_to(tmp) for k, v in written.items()}
+        else:
+            paths = report.write_all(d, Path(tempfile.mkdtemp(prefix="shiptrial-diagnose-")))
         if json_out:
             typer.echo(dumps(report.to_json(d, str(paths["model"]))))
             return

@@ -202,12 +202,14 @@ def write_plots(d: Diagnosis, out: str | Path) -> list[Path]:
     return paths
 
 
-def write_all(d: Diagnosis, out: str | Path) -> dict[str, Path]:
+def write_all(d: Diagnosis, out: str | Path, final_dir: str | Path | None = None) -> dict[str, Path]:
+    """Every output into ``out``; ``final_dir`` is where ``out`` will be moved (diagnosis.json
+    names the model file at its final place when ``out`` is a temporary directory)."""
     out = Path(out)
     model_path = write_model(d, out / "model.json")
     paths = {"model": model_path}
     atomic_write_text(out / "report.txt", to_text(d) + "\n")
-    atomic_write_text(out / "diagnosis.json", json.dumps(to_json(d, str(model_path)), indent=2))
+    atomic_write_text(out / "diagnosis.json", json.dumps(to_json(d, str(Path(final_dir or out) / "model.json")), indent=2))
     paths["report"] = out / "report.txt"
     paths["json"] = out / "diagnosis.json"
     for i, p in enumerate(write_plots(d, out)):

@@ -30,6 +30,8 @@ from typing import Any
 
 import numpy as np
 
+from primitives.errors import UserError
+
 ENV_SCHEDULER = "SHIPTRIAL_SCHEDULER"
 
 
@@ -195,6 +197,9 @@ def _terminate(pool: ProcessPoolExecutor) -> None:
         p.join(timeout=5)
 
 
+CONNECT_TIMEOUT_S = 10  # an unreachable scheduler is a user error, said within seconds
+
+
 class DaskEngine(Engine):
     """Tasks on a Dask distributed cluster (an address, or a Client / LocalCluster object)."""
 
@@ -207,8 +212,13 @@ class DaskEngine(Engine):
             raise RuntimeError("a Dask scheduler was given but the 'distributed' package is not installed: pip install 'shiptrial[dask]'") from None
         if isinstance(address_or_cluster, Client):
             self.client, self._own = address_or_cluster, False
-        else:
-            self.client, self._own = Client(address_or_cluster, set_as_default=False), True
+            return
+        try:
+            self.client = Client(address_or_cluster, set_as_default=False, timeout=f"{CONNECT_TIMEOUT_S}s")
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:  # unreachable, refused or malformed address
+            raise UserError(f"--scheduler {address_or_cluster!r}: no Dask scheduler answered within {CONNECT_TIMEOUT_S} s "
+                            f"({type(exc).__name__}); check the address (tcp://HOST:8786) or use --scheduler local") from None
+        self._own = True
 
     def capacity(self) -> tuple[int, int]:
         workers = self.client.scheduler_info(n_workers=-1)["workers"] if _takes_n_workers(self.client) \

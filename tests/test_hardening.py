@@ -141,3 +141,12 @@ def test_sweep_interrupted_mid_run_keeps_partial_only_when_asked(tmp_path, monke
     assert "1 of 2 cells finished" in capsys.readouterr().err
     written = sorted(p.name for p in tmp_path.iterdir())
     assert written == (["s.toml", "t.partial.csv", "t.partial.png"] if keep else ["s.toml"])
+
+
+def test_unreachable_scheduler_is_one_line_and_exit_2(monkeypatch, capsys):
+    import expdesign.parallel as par
+
+    monkeypatch.setattr(par, "CONNECT_TIMEOUT_S", 1)
+    rc = _run(["design", "--monte-carlo", "4", "--mc-samples", "200", "--scheduler", "tcp://127.0.0.1:9"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.startswith("error: --scheduler") and "Traceback" not in err and len(err.strip().splitlines()) == 1
