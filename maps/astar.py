@@ -136,7 +136,9 @@ def search(pb: Problem, heuristic: str = "admissible", weights: tuple[float, flo
     h0 = htab[s0][remaining[0]]
     if not np.isfinite(h0):
         return SearchResult(False, [], [], float("inf"), 0, 1, time.perf_counter() - t0, heuristic, False, h0,
-                            "the goal cannot be reached from the start even ignoring the counters")
+                            f"no sequence of moves that uses all {D} informative manoeuvres reaches the goal, even with the "
+                            "counters pooled and in any order (the relaxed problem): some manoeuvre ends where the goal "
+                            "cannot be reached, or the water between them is too tight")
     gcost = {k0: 0.0}
     parent: dict[int, tuple[int, int]] = {}
     closed: set[int] = set()

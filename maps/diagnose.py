@@ -47,6 +47,8 @@ def explain_failure(pb: Problem, moves: list[Move], counters: list[str], result:
             return (f"counter of {counters[m.counter]} (target {pb.targets[m.counter]}) cannot be met: "
                     f"{m.name} fits nowhere reachable from the start",
                     [f"lower the count of {counters[m.counter]}", "a larger area", f"a smaller version of {m.name}"])
+    if result.expansions == 0 and result.reason:  # refused before the search: the relaxed problem has no solution
+        return (result.reason, ["lower counts (a shorter --trial-length)", "a larger area", "shorter primitives (split them: --split)"])
     if result.expansions >= 0 and "limit" in result.reason:
         return (result.reason, ["lower counts", "the admissible heuristic", "a coarser --resolution"])
     tg = ", ".join(f"{n}={d}" for n, d in zip(counters, pb.targets))

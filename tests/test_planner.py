@@ -228,3 +228,22 @@ def test_split_primitives_count_pieces(profile, tmp_path):
     assert plan.feasible
     assert len(plan.counts) > 1 and all(k.startswith("steep_zigzag_surge.") for k in plan.counts)
     assert all(v == 1 for v in plan.counts.values())
+
+
+def test_relaxed_infeasibility_is_explained_not_reported_as_zero_expansions():
+    """A manoeuvre that ends where the goal cannot be reached: the search is refused up front and
+    the reason says why, instead of 'every reachable combination was explored (0 expansions)'."""
+    from maps.astar import Problem, search
+    from maps.diagnose import explain_failure
+
+    # states 0 (start) -> 1 (goal) by a basic move; the informative move 1 -> 2 ends in a dead end
+    succ = [[(0, 1, -1, 1.0)], [(1, 2, 0, 0.0)], []]
+    pb = Problem(3, 1, 1, [1], succ, 0, [1], 100.0)
+    res = search(pb)
+    assert not res.found and res.expansions == 0
+    from types import SimpleNamespace
+
+    moves = [SimpleNamespace(counter=-1, name="straight"), SimpleNamespace(counter=0, name="zigzag")]
+    reason, helps = explain_failure(pb, moves, ["zigzag"], res)
+    assert "uses all 1 informative manoeuvres" in reason and "0 expansions" not in reason
+    assert any("lower counts" in h for h in helps)
