@@ -132,15 +132,12 @@ def register(app: typer.Typer) -> None:
         from maps.geo import load_map
         from maps.planner import plan_with_design
         from maps.trialdesign import NoFitError
-        from primitives.io import atomic_output_dir, check_out_path
+        from primitives.io import atomic_output_dir
         from primitives.ship import load_profile
 
         validate_plan_options(resolution=resolution, margin=margin, headings=headings, start=start, goal=goal,
                               counts=counts, size=size, out=out, seed=seed)
-        try:
-            ni, nj = (int(v) for v in size.lower().split("x"))
-        except ValueError:
-            raise UserError(f"--size: expected NORTHxEAST whole numbers, e.g. 35x44, got {size!r}") from None
+        ni, nj = (int(v) for v in size.lower().split("x"))  # checked by validate_plan_options
         if counts is not None and scenario is not None:
             raise UserError("--counts and --scenario both choose the manoeuvres: give one of them")
         start_pt, goal_pt = parse_point(start, "start"), parse_point(goal, "goal")
@@ -150,7 +147,6 @@ def register(app: typer.Typer) -> None:
         opts.check()
         if start_time is not None:
             resolve_start(None, start_time)  # reject a malformed time before the long work
-        check_out_path(out)
         prof = load_profile(ship)
         sea = load_map(map_path, draught_m=prof.draught_m)
         try:

@@ -199,7 +199,7 @@ class AugmentedModel:
         coef = np.tile(coef, (R, 1))
         # TermSet.increments re-splits the coefficient matrix at every call; split it once here and
         # call the same generated increment function directly (the simulators' inner loop)
-        inc = tset._compiled()  # noqa: SLF001
+        inc = tset.increment_function()
         coefs = [coef[:, j] for j in range(coef.shape[1])]
         nu = np.concatenate([nu0 for _p, _e, _x, nu0 in runs])
         out = np.empty((R * B, n_max + 1, 3))

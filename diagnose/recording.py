@@ -271,11 +271,9 @@ def build_recording(
 # -- readers ---------------------------------------------------------------------------------------
 
 
-def read_csv(path: str | Path, *, sample_time: float | None = None) -> list[Recording]:
-    """A recording CSV of BRIEF section 7 (one or more gap-free pieces)."""
-    path = Path(path)
+def split_metadata(lines: list[str]) -> tuple[dict[str, str], list[str]]:
+    """``# key: value`` metadata lines and the non-empty CSV lines of a recording (BRIEF section 7)."""
     meta: dict[str, str] = {}
-    lines = _read_text(path, "utf-8-sig").splitlines()
     body = []
     for line in lines:
         if line.startswith("#"):
@@ -284,6 +282,13 @@ def read_csv(path: str | Path, *, sample_time: float | None = None) -> list[Reco
                 meta[k.strip()] = v.strip()
         elif line.strip():
             body.append(line)
+    return meta, body
+
+
+def read_csv(path: str | Path, *, sample_time: float | None = None) -> list[Recording]:
+    """A recording CSV of BRIEF section 7 (one or more gap-free pieces)."""
+    path = Path(path)
+    meta, body = split_metadata(_read_text(path, "utf-8-sig").splitlines())
     if not body:
         raise RecordingError(f"{path}: no header row; the first non-comment line must name the columns (t,x,y,psi,...)")
     reader = csv.reader(body)

@@ -25,6 +25,7 @@ from typing import Any
 
 from expdesign.parallel import Engine, MapResult, get_engine, task_seeds
 from primitives.errors import UserError
+from primitives.validate import MAX_PRIMITIVE_SAMPLES, check_sweep_size, manoeuvre_samples, positive, unknown_key
 
 CRITERIA = ("D", "A", "E")
 MODES = ("none", "batchwise", "complete")
@@ -75,19 +76,14 @@ def _read(path: Path) -> dict:
 
 
 def _check_keys(keys, allowed, where: str, path: Path) -> None:
-    import difflib
-
-    for k in keys:
-        if k not in allowed:
-            near = difflib.get_close_matches(str(k), list(allowed), n=1, cutoff=0.5)
-            hint = f"; did you mean {near[0]}?" if near else f"; known: {', '.join(allowed)}"
-            raise SweepError(f"{path}: unknown field '{where}{k}'{hint}")
+    bad = unknown_key(keys, allowed)
+    if bad:
+        raise SweepError(f"{path}: unknown field '{where}{bad[0]}'{bad[1]}")
 
 
 def _check_speeds(speeds: list, ships: list, path: Path) -> None:
     """Speeds finite and > 0 m/s, and not so slow that a manoeuvre of 20 ship lengths never ends."""
     from primitives.ship import load_profile
-    from primitives.validate import MAX_PRIMITIVE_SAMPLES, manoeuvre_samples, positive
 
     for s in speeds:
         if s is None:
@@ -136,7 +132,6 @@ def load_sweep(path: str | Path) -> list[Cell]:
     if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed < 2**63:
         raise SweepError(f"{path}: field 'sweep.seed' must be a whole number >= 0, got {seed!r}")
     from primitives.ship import load_profile
-    from primitives.validate import check_sweep_size
 
     for s in ships:
         load_profile(s)  # fail early with the profile's own message

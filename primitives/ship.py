@@ -18,6 +18,7 @@ import numpy as np
 
 from primitives.errors import UserError
 from primitives.terms import TermError, TermSet, signals_used
+from primitives.validate import MAX_PRIMITIVE_SAMPLES, finite, manoeuvre_samples, positive, unknown_key
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
 DOFS = ("surge", "sway", "yaw")
@@ -49,17 +50,12 @@ POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("d
 def _check_keys(d: dict, src: str) -> None:
     """Refuse unknown top-level keys, suggesting the nearest known one (a misspelt key must not
     silently fall back to a default)."""
-    import difflib
-
-    for key in d:
-        if key not in PROFILE_KEYS:
-            near = difflib.get_close_matches(str(key), sorted(PROFILE_KEYS), n=1, cutoff=0.5)
-            hint = f"; did you mean {near[0]}?" if near else f"; known fields: {', '.join(sorted(PROFILE_KEYS))}"
-            raise ProfileError(f"{src}: unknown field {key!r}{hint}")
+    bad = unknown_key(d, sorted(PROFILE_KEYS))
+    if bad:
+        raise ProfileError(f"{src}: unknown field {bad[0]!r}{bad[1]}")
 
 
 def _check_sizes(d: dict, src: str) -> dict[str, float]:
-    from primitives.validate import MAX_PRIMITIVE_SAMPLES, manoeuvre_samples, positive
 
     sizes = {k: positive(_need(d, k, src, (int, float), f"a number in {unit}, > 0"), f"{src}: field '{k}'", unit, ProfileError)
              for k, unit in POSITIVE_FIELDS}
@@ -318,7 +314,6 @@ def _input_limits(d: dict, src: str) -> dict[str, tuple[float, float]]:
     table = d.get("input_limits", {})
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'input_limits' must be a table of name = [min, max]")
-    from primitives.validate import finite
 
     limits = {}
     for k, v in table.items():
@@ -333,7 +328,6 @@ def _input_limits(d: dict, src: str) -> dict[str, tuple[float, float]]:
 
 
 def _thrusters(d: dict, src: str) -> tuple[Thruster, ...]:
-    from primitives.validate import finite
 
     table = d.get("thrusters", [])
     if not isinstance(table, list) or not all(isinstance(t, dict) and "x" in t for t in table):
@@ -350,7 +344,6 @@ DISTURBANCE_KEYS = {"current_mean_ne": 2, "current_sample_std": 0, "measurement_
 
 
 def _disturbances(d: dict, src: str) -> dict[str, Any]:
-    from primitives.validate import finite
 
     table = d.get("disturbances", {})
     if not isinstance(table, dict):

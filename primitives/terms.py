@@ -91,7 +91,7 @@ class TermSet:
         """Regressor block of DOF i: array of shape (..., n_terms_i)."""
         return np.stack([fn(sig) for fn in self._fns[i]], axis=-1)
 
-    def _compiled(self):
+    def increment_function(self):
         """Increment function generated once from the term strings: one Python expression per
         DOF instead of a loop over factor closures (this is the simulators' inner loop)."""
         fn = getattr(self, "_inc_fn", None)
@@ -130,6 +130,6 @@ class TermSet:
         """
         theta = np.asarray(theta, dtype=float)
         coef = theta.tolist() if theta.ndim == 1 else [theta[:, j] for j in range(theta.shape[-1])]
-        out = self._compiled()(sig, coef)
+        out = self.increment_function()(sig, coef)
         shape = np.shape(sig["u"])
         return [np.broadcast_to(d, shape) if np.shape(d) != shape else d for d in out]

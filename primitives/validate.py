@@ -77,6 +77,19 @@ def one_of(value: str, option: str, choices: tuple[str, ...] | list[str], error:
     return value
 
 
+def unknown_key(keys, allowed) -> tuple[str, str] | None:
+    """The first key not in ``allowed`` and a hint ("; did you mean X?" or the known keys), or None.
+    A misspelt key must be refused, never silently fall back to a default."""
+    import difflib
+
+    known = list(allowed)
+    for k in keys:
+        if k not in known:
+            near = difflib.get_close_matches(str(k), known, n=1, cutoff=0.5)
+            return str(k), (f"; did you mean {near[0]}?" if near else f"; known: {', '.join(known)}")
+    return None
+
+
 def available_memory_bytes() -> int:
     """Memory the kernel says is available now (MemAvailable), or 4 GiB when it cannot tell."""
     try:

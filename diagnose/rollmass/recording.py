@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from diagnose.recording import RecordingError
+from diagnose.recording import RecordingError, split_metadata
 from diagnose.rollmass.simulate import RollRecording
 from primitives.io import atomic_write_text, read_input_text
 
@@ -39,16 +39,7 @@ def write_roll_csv(rec: RollRecording, path: str | Path, meta: dict[str, str] | 
 def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
     """Read and check one dataset; any problem is a one-line :class:`RecordingError`."""
     path = Path(path)
-    lines = read_input_text(path, RecordingError, "a roll recording CSV (t, delta, p, a_s, r)").splitlines()
-    meta = {}
-    body = []
-    for ln in lines:
-        if ln.startswith("#"):
-            if ":" in ln:
-                k, v = ln[1:].split(":", 1)
-                meta[k.strip()] = v.strip()
-        elif ln.strip():
-            body.append(ln)
+    meta, body = split_metadata(read_input_text(path, RecordingError, "a roll recording CSV (t, delta, p, a_s, r)").splitlines())
     if not body:
         raise RecordingError(f"{path}: no header row; expected columns {','.join(REQUIRED)}")
     rows = list(csv.reader(body))
