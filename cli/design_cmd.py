@@ -30,8 +30,11 @@ def register(app: typer.Typer) -> None:
         scheduler: str | None = typer.Option(None, "--scheduler",
                                              help="'inline', 'local' or a Dask scheduler address for the Monte Carlo (default: $SHIPTRIAL_SCHEDULER, else all local cores)"),
         mc_protocol: str = typer.Option("continuous", "--mc-protocol",
-                                        help="continuous (one experiment per run, primitives back to back in a random order; "
+                                        help="continuous (one experiment per run, primitives back to back; "
                                              "seed 001) or piecewise (every primitive restarts from its nominal state)"),
+        mc_order: str = typer.Option("library", "--mc-order",
+                                     help="order of a fixed design's primitives in a continuous experiment: library "
+                                          "(one sequence, as seed 001's optimized input) or random (drawn per run)"),
         mc_settle: int = typer.Option(0, "--mc-settle", help="settling samples between primitives in a continuous experiment"),
         mc_min_block: int = typer.Option(40, "--mc-min-block", help="shortest sub-experiment in samples (shorter shares are dropped or raised)"),
         keep_partial: bool = typer.Option(False, "--keep-partial",
@@ -63,7 +66,7 @@ def register(app: typer.Typer) -> None:
                 designs["thesis"] = THESIS_SHARES  # the shares section 9.1.1 reports, for comparison
             ev = evaluate_designs_parallel(profile, designs, runs=monte_carlo, seed=seed, scheduler=scheduler, primitives=lib,
                                            n_samples=mc_samples, mean_subtraction=mean_subtraction, protocol=mc_protocol,
-                                           settle=mc_settle, min_block=mc_min_block)
+                                           order=mc_order, settle=mc_settle, min_block=mc_min_block)
             _echo_speed(ev)
             if not ev.complete and not (keep_partial and ev.results):
                 _fail(ev, "nothing written (--keep-partial writes the finished runs, marked partial)")

@@ -46,8 +46,15 @@ def mc_section(mc: MCEvaluation) -> dict[str, Any]:
 def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
     """What seed 001 section 9.1 leaves open, with the value this evaluation used."""
     cfg, dist = mc.config, mc.disturbances
-    order = ("blocks played back to back in an order drawn per run from SeedSequence(seed, (run, 0))"
+    order = ("blocks played back to back in one experiment"
              if cfg.protocol == "continuous" else "each block a separate sub-experiment from its primitive's nominal state")
+    if cfg.protocol != "continuous":
+        sequence = "fixed (irrelevant: each block restarts)"
+    elif cfg.order == "library":
+        sequence = ("fixed designs: library order (tau1, tau2, ...) in every run, one sequence as the thesis's optimized "
+                    "input; random design: signals and order drawn per run from SeedSequence(seed, (run, 0))")
+    else:
+        sequence = "drawn per run from SeedSequence(seed, (run, 0)) for every design"
     noise = (f"current per-sample std {dist.get('current_sample_std', 0):.3g} m/s, measurement std "
              f"{', '.join(f'{x:.3g}' for x in dist.get('measurement_std', ()))} (u, v, r)")
     if mc.profile == "model-ship":
@@ -58,7 +65,7 @@ def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
     return [
         {"choice": "experiment protocol", "value": f"{cfg.protocol}: {order}"},
         {"choice": "signal amplitudes", "value": amplitudes},
-        {"choice": "primitive order", "value": "random per run" if cfg.protocol == "continuous" else "fixed (irrelevant: each block restarts)"},
+        {"choice": "primitive order", "value": sequence},
         {"choice": "settling between primitives", "value": f"{cfg.settle} samples of the forces holding the next start state"
          + (" (none: the next input starts at once)" if not cfg.settle else " (added to the experiment length)")},
         {"choice": "minimum sub-experiment", "value": f"{cfg.min_block} samples (shorter blocks dropped below half, raised above)"},

@@ -1,6 +1,7 @@
 """Monte Carlo protocol of seed 001 section 9.1.2: one continuous experiment per run, the
-primitives back to back in a per-run random order, a minimum sub-experiment length, diverged runs
-counted apart from the percentiles."""
+primitives back to back (in the library's order, one sequence as the thesis's optimized input, or
+in a per-run random order), a minimum sub-experiment length, diverged runs counted apart from the
+percentiles."""
 
 from __future__ import annotations
 
@@ -29,9 +30,11 @@ def _layout(sh, design, run):
     return seq, _experiment(sh, seq)
 
 
-def test_continuous_run_is_one_experiment_with_the_blocks_in_a_per_run_order(ship):
+@pytest.mark.parametrize("order", ["library", "random"])
+def test_continuous_run_is_one_experiment_with_the_blocks_in_order(ship, order):
     p, lib = ship
-    sh = prepare(p, {"opt": DESIGN, "random": "random"}, MCConfig(runs=8, seed=4), lib)
+    shuffled = {k: DESIGN[k] for k in ("tau8", "tau1", "tau11", "tau6")}  # the caller's order does not matter
+    sh = prepare(p, {"opt": shuffled, "random": "random"}, MCConfig(runs=8, seed=4, order=order), lib)
     prims = {q.name: q for q in lib}
     orders = set()
     for run in range(8):
@@ -44,9 +47,10 @@ def test_continuous_run_is_one_experiment_with_the_blocks_in_a_per_run_order(shi
         assert starts == list(np.cumsum([0] + [n for _, n in seq[:-1]]))
         orders.add(tuple(k for k, _ in seq))
         assert _layout(sh, "opt", run)[0] == seq  # the order depends on (seed, run) only
-    assert len(orders) > 3
+    assert orders == {("tau1", "tau6", "tau8", "tau11")} if order == "library" else len(orders) > 3
     rseq, (rsegs, _) = _layout(sh, "random", 0)
     assert len(rseq) == 5 and all(n == 200 for _, n in rseq) and rsegs[0][0].shape == (1000, 3)
+    assert len({tuple(k for k, _ in _layout(sh, "random", run)[0]) for run in range(8)}) > 3  # drawn per run
 
 
 def test_settling_gaps_hold_the_next_start_state(ship):
