@@ -34,7 +34,7 @@ def register(app: typer.Typer) -> None:
                                              "seed 001) or piecewise (every primitive restarts from its nominal state)"),
         mc_order: str = typer.Option("library", "--mc-order",
                                      help="order of a fixed design's primitives in a continuous experiment: library "
-                                          "(one sequence, as seed 001's optimized input) or random (drawn per run)"),
+                                          "(one sequence, as seed 001's optimized input), given (the shares' order) or random (drawn per run)"),
         mc_settle: int = typer.Option(0, "--mc-settle", help="settling samples between primitives in a continuous experiment"),
         mc_min_block: int = typer.Option(40, "--mc-min-block", help="shortest sub-experiment in samples (shorter shares are dropped or raised)"),
         keep_partial: bool = typer.Option(False, "--keep-partial",

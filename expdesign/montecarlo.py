@@ -8,10 +8,10 @@ raised to min_block above); the blocks are played back to back, a block longer t
 repeats the primitive's input. ``order='library'`` (default) plays them in the library's order
 (tau1, tau2, ... for the model ship) in every run: the thesis forms ONE optimized input sequence
 ("an optimized input sequence of 125 s (1000 samples) was formed", section 9.1.2) and varies the
-signals and their order over the runs only for the random design. ``order='random'`` draws the
-order from the run's seed instead (the order moves the optimized figure by several points, see
-benchmarks/mc_identifiability.py). The random design picks 1 of
-the primitives for each of ``n_segments`` equal segments, anew in every run. ``settle`` > 0 inserts
+signals and their order over the runs only for the random design. ``order='given'`` keeps the
+order of the design's mapping; ``order='random'`` draws the order from the run's seed instead (the
+order moves the optimized figure by several points, see benchmarks/mc_identifiability.py). The
+random design picks 1 of the primitives for each of ``n_segments`` equal segments, anew in every run. ``settle`` > 0 inserts
 that many samples of the forces that hold the next primitive's start state between blocks (the
 shares stay those of the primitives; the experiment gets longer). The ``piecewise`` protocol (each
 block a separate sub-experiment started from its primitive's nominal state) is kept as an option.
@@ -49,7 +49,7 @@ from primitives.simulate import Disturbances, simulate, steady_forces
 from primitives.terms import TermSet
 
 PROTOCOLS = ("continuous", "piecewise")
-ORDERS = ("random", "library")
+ORDERS = ("library", "given", "random")
 MAX_CHUNK = 500  # runs per batch: bounds memory (about 40 MB per (runs, samples, params) array)
 _Z_LIMIT = 1e6  # instruments above this come from an exploding simulation: keep the previous ones
 _EXPLODE = 100.0  # a validation output this many times the true one's maximum has diverged
@@ -185,7 +185,8 @@ def prepare(profile: ShipProfile, designs: Mapping[str, Any], config: MCConfig, 
                 raise DesignError(f"design {name!r} uses unknown primitives {unknown}; the library has {sorted(prims)}")
             if not any(float(v) > 0 for v in spec.values()):
                 raise DesignError(f"design {name!r} has no positive share")
-            spec = {k: float(spec[k]) for k in prims if k in spec}  # library order, whatever the caller's
+            keys = [k for k in prims if k in spec] if config.order == "library" else list(spec)
+            spec = {k: float(spec[k]) for k in keys}
             blocks[name], notes[name] = block_lengths(spec, config.n_samples, config.min_block)
         specs[name] = spec
     predictor = profile.predictor
@@ -224,7 +225,7 @@ def _sequence(sh: MCShared, design: str, rng: np.random.Generator) -> list[tuple
             m = -(-n // len(sh.inputs[k]))
             out += [(k, n // m + (i < n % m)) for i in range(m)]
         return out
-    if cfg.order == "library":
+    if cfg.order != "random":
         return list(blocks)
     return [blocks[i] for i in rng.permutation(len(blocks))]
 

@@ -40,7 +40,12 @@ def report_dict(design: Design, mc: MCEvaluation | None, sensitivity: list[dict]
 def mc_section(mc: MCEvaluation) -> dict[str, Any]:
     """Per design: the summary (runs finished, diverged, percentiles, fractions, digest) and the
     per-parameter table (bias, spread, fraction within tolerance)."""
-    return {k: {**r.summary(), "parameters": r.parameter_table()} for k, r in mc.results.items()}
+    out = {}
+    for k, r in mc.results.items():
+        table = r.parameter_table()
+        worst = min(table, key=lambda row: row["frac_within_tolerance"]) if table else None
+        out[k] = {**r.summary(), "parameters": table, "limiting_parameter": worst["parameter"] if worst else None}
+    return out
 
 
 def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
@@ -50,9 +55,10 @@ def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
              if cfg.protocol == "continuous" else "each block a separate sub-experiment from its primitive's nominal state")
     if cfg.protocol != "continuous":
         sequence = "fixed (irrelevant: each block restarts)"
-    elif cfg.order == "library":
-        sequence = ("fixed designs: library order (tau1, tau2, ...) in every run, one sequence as the thesis's optimized "
-                    "input; random design: signals and order drawn per run from SeedSequence(seed, (run, 0))")
+    elif cfg.order in ("library", "given"):
+        which = "library order (tau1, tau2, ...)" if cfg.order == "library" else "the order the shares were given in"
+        sequence = (f"fixed designs: {which} in every run, one sequence as the thesis's optimized input; "
+                    "random design: signals and order drawn per run from SeedSequence(seed, (run, 0))")
     else:
         sequence = "drawn per run from SeedSequence(seed, (run, 0)) for every design"
     noise = (f"current per-sample std {dist.get('current_sample_std', 0):.3g} m/s, measurement std "
@@ -60,7 +66,10 @@ def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
     if mc.profile == "model-ship":
         noise = "N(0, 0.025) read as a variance: " + noise
     amplitudes = ("tau1-tau11 built to reach the states of section 9.1.1 (feed-forward forces of the true model; zig-zags "
-                  "switch at the --psi-switch heading, default 0.5 rad, sway held against the yaw rate)"
+                  "switch at the --psi-switch heading, default 0.5 rad). Sway held against the yaw rate (v < 0 while r > 0), as in "
+                  "the thesis's spirals (v > 0 while r -> -0.6, l. 12441-12449) and as the model ship's two stern azimuth "
+                  "thrusters make it (Delta x = -0.39 m, tunnel thruster unused, l. 12610, 12632-12634: tau_n = -0.39 tau_y; "
+                  "our zig-zag forces have tau_y/tau_n = -2.5)"
                   if mc.profile == "model-ship" else "the primitives of the design's library, as built")
     return [
         {"choice": "experiment protocol", "value": f"{cfg.protocol}: {order}"},
@@ -73,8 +82,12 @@ def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
         {"choice": "experiment length", "value": f"{cfg.n_samples} samples; random design {cfg.n_segments} segments of "
          f"{cfg.n_samples // cfg.n_segments}"},
         {"choice": "noise", "value": noise},
-        {"choice": "IV instruments", "value": f"simulated with the profile's instrument set (model ship: Table 9.1 nominal), then re-simulated with the estimate up to "
-         f"{cfg.iv_iterations} times (per run, until the estimate changes < 0.1 %); mean subtraction {cfg.mean_subtraction}"},
+        {"choice": "IV instruments", "value": f"simulated with the profile's instrument set (model ship: Table 9.1 nominal, "
+         f"seed 001 l. 12502-12531), then re-simulated with the estimate up to {cfg.iv_iterations} times (per run, until the "
+         f"estimate changes < 0.1 %: the refinement of the thesis's simulation studies, l. 3726-3728 and 8825-8827; its "
+         f"real-data study used one step, l. 9776-9778); mean subtraction {cfg.mean_subtraction}"},
+        {"choice": "parameter error", "value": "per run, sqrt(mean over the parameters of ((estimate - true)/|true|)^2): errors "
+         "normalized by the true value as in Table 6.2 (l. 9027), then their RMSE (l. 12542-12543, Fig. 9.1)"},
         {"choice": "validation input", "value": f"multisine surge and yaw, smoothed binary sway (seed {cfg.validation_seed}), "
          f"{cfg.n_samples} samples, noise-free true output"},
     ]
@@ -288,6 +301,9 @@ def mc_markdown(doc: dict[str, Any], figures: dict[str, str]) -> list[str]:
             for p in s["parameters"]:
                 lines.append(f"| {_md_cell(p['parameter'])} | {p['true']:.3g} | {_f(p['bias'])} | {_f(p['spread'])} | "
                              f"{_f(p['median_abs_error'])} | {_pc(p['frac_within_tolerance'])} |")
+            worst = next(p for p in s["parameters"] if p["parameter"] == s["limiting_parameter"])
+            lines += ["", f"Limiting parameter: {_md_cell(worst['parameter'])} ({_pc(worst['frac_within_tolerance'])} of the runs "
+                      f"within {tol}, spread {_f(worst['spread'])})."]
     lines += ["", "### Choices seed 001 leaves open, and the values used", ""]
     lines += [f"- {c['choice']}: {c['value']}" for c in cfg["open_choices"]]
     caps = {"param": ("Normalized parameter RMSE (Fig. 9.1)", _ours_vs_thesis(mc, "param") + " (share below 1.5)"),

@@ -52,7 +52,11 @@ def test_complete_report_states_protocol_thesis_numbers_and_open_choices(tmp_pat
     assert doc["monte_carlo_config"]["settle"] == 4 and doc["monte_carlo_thesis"]["optimized"]["param"] == 0.99
     opt = doc["monte_carlo"]["optimized"]
     assert [p["parameter"] for p in opt["parameters"]][:3] == ["Xu", "Xvr", "X|u|u"] and len(opt["digest"]) == 64
+    worst = min(opt["parameters"], key=lambda p: p["frac_within_tolerance"])
+    assert opt["limiting_parameter"] == worst["parameter"]
+    choices = {c["choice"]: c["value"] for c in doc["monte_carlo_config"]["open_choices"]}
+    assert "library order" in choices["primitive order"] and "Table 6.2" in choices["parameter error"]
     md = (out / "report.md").read_text()
     for text in ("Protocol **continuous**", "| thesis |", "Choices seed 001 leaves open", "settling between primitives: 4 samples",
-                 "optimized thesis 99.0 %, ours", r"X\|u\|u"):
+                 "optimized thesis 99.0 %, ours", r"X\|u\|u", "Limiting parameter:"):
         assert text in md
