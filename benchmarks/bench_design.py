@@ -9,7 +9,9 @@ solve: < 1 s; Monte Carlo of one design with 500 runs of 1000 samples: < 20 s (2
 ``--scaling`` (issue 14): the optimized and the random design, ``--mc-runs`` runs each, inline and on
 local pools of each ``--workers`` count (and a Dask scheduler if given): median wall time, the
 SHA-256 digests of all per-run results (must equal inline's), tasks per worker, runs/s, speed-up
-against inline and parallel efficiency (speed-up / workers). Target: >= 1.8x on 2 workers.
+against inline and parallel efficiency (speed-up / workers). Target: >= 1.8x on 2 workers. Then the
+fixed and per-run CPU cost of a task and the speed-up they predict per worker count up to 16 (goal
+there: 70 % efficiency).
 The wall-clock speed-up needs an otherwise idle machine (the load average is printed); the CPU
 seconds of this process and its reaped workers give the load-independent bound
 workers x CPU(inline) / CPU(pool), which shows the pool's own overhead.
@@ -81,6 +83,38 @@ def scaling(runs: int, workers: list[int], scheduler: str | None, repeat: int) -
               f"{slots * base_cpu / cpu:5.2f} on an idle machine")
 
 
+def task_cost(runs: int, workers: list[int]) -> None:
+    """CPU cost of one Monte Carlo task: a fixed part (the simulation kernel's time loops: data, IV
+    re-simulations, validation; paid once per task whatever its size) and a part per run, fitted
+    from tasks of 1 and 250 runs; then the efficiency those predict for ``runs`` x 2 designs cut
+    as the engines cut them (at least 4 tasks per worker), on an otherwise idle machine."""
+    from expdesign.api import run_design
+    from expdesign.montecarlo import MCConfig, plan_tasks, prepare, run_chunk
+
+    p = load_profile("model-ship")
+    lib = model_ship_thesis(p)
+    sh = prepare(p, {"optimized": run_design(p, lib).weights, "random": "random"}, MCConfig(runs=max(runs, 250)), lib)
+    cost = {}
+    for n in (1, 250):
+        ts = []
+        for _ in range(3):
+            t = time.process_time()
+            for d in sh.designs:
+                run_chunk(sh, d, range(n))
+            ts.append((time.process_time() - t) / len(sh.designs))
+        cost[n] = statistics.median(ts)
+    per_run = (cost[250] - cost[1]) / 249
+    fixed = cost[1] - per_run
+    print(f"task cost (CPU, median of 3): fixed {1e3 * fixed:.0f} ms per task + {1e3 * per_run:.2f} ms per run")
+    inline = 2 * -(-runs // plan_tasks(runs, 2, 1)) * fixed + 2 * runs * per_run
+    for w in sorted({*workers, 16}):
+        chunk = plan_tasks(runs, 2, w)
+        tasks = 2 * -(-runs // chunk)
+        wall = -(-tasks // w) * (fixed + chunk * per_run)
+        print(f"  {w:2d} workers: {tasks} tasks of {chunk} runs ({tasks / w:.1f} per worker), predicted speed-up "
+              f"{inline / wall:5.2f}, efficiency {inline / wall / w:4.2f}")
+
+
 def _cpu_s() -> float:
     """CPU seconds of this process and of its children that have exited (pool workers)."""
     me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -97,6 +131,7 @@ def main() -> None:
     a = ap.parse_args()
     if a.scaling:
         scaling(a.mc_runs, a.workers, a.scheduler, a.runs)
+        task_cost(a.mc_runs, a.workers)
         return
     p = load_profile("model-ship")
     lib = model_ship_thesis(p)
