@@ -6,8 +6,8 @@ Prints, per seed, the share of runs below the section 9.1.2 thresholds (paramete
 simulation error < 0.15) for the optimized and the random design with the defaults (one sequence
 in library order for the optimized design) and with each choice seed 001 leaves open changed on
 its own: the optimized blocks in a per-run random order, piecewise restarts, one IV step with the
-nominal instruments (no refinement), settling gaps, the noise N(0, 0.025) read as a standard deviation, and the zig-zags' sway in phase with the yaw rate
-or absent. Then, for the first seed: the per-parameter table (which parameter limits the design),
+nominal instruments (no refinement), settling gaps, the noise N(0, 0.025) read as a standard
+deviation, and the zig-zags' sway in phase with the yaw rate or absent. Then, for the first seed: the per-parameter table (which parameter limits the design),
 which noise source the limiting parameter's spread comes from, and the figure for every order of
 the optimized blocks (so the library order's place among them is visible, not only its value).
 Also the correlation of v with u*r in the nominal zig-zags and the sign of v*r in the spirals.
