@@ -26,7 +26,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from expdesign.api import run_design  # noqa: E402
-from expdesign.montecarlo import evaluate_designs  # noqa: E402
+from expdesign.montecarlo import block_lengths, evaluate_designs  # noqa: E402
 from expdesign.sensitivity import variant_library  # noqa: E402
 from primitives.library import model_ship_thesis  # noqa: E402
 from primitives.ship import load_profile  # noqa: E402
@@ -64,7 +64,7 @@ def _noise_sources(p, lib, w, seed: int, runs: int) -> None:
 
 
 def _orders(p, lib, w, seed: int, runs: int) -> None:
-    names = [k for k, v in w.items() if v > 0]
+    names = [k for k, _ in block_lengths(w, 1000, 40)[0]]  # the blocks a run plays (tiny shares are dropped)
     rows = []
     for perm in itertools.permutations(names):
         r = evaluate_designs(p, {"o": {k: w[k] for k in perm}}, runs=runs, seed=seed, primitives=lib, order="given")["o"]
