@@ -11,10 +11,11 @@ repeats the primitive's input. ``order='library'`` (default) plays them in the l
 signals and their order over the runs only for the random design. ``order='given'`` keeps the
 order of the design's mapping; ``order='random'`` draws the order from the run's seed instead (the
 order moves the optimized figure by several points, see benchmarks/mc_identifiability.py). The
-random design picks 1 of the primitives for each of ``n_segments`` equal segments, anew in every run. ``settle`` > 0 inserts
-that many samples of the forces that hold the next primitive's start state between blocks (the
-shares stay those of the primitives; the experiment gets longer). The ``piecewise`` protocol (each
-block a separate sub-experiment started from its primitive's nominal state) is kept as an option.
+random design picks 1 of the primitives for each of ``n_segments`` equal segments, anew in every
+run. ``settle`` > 0 inserts that many samples of the forces that hold the next primitive's start
+state between blocks (the shares stay those of the primitives; the experiment gets longer). The
+``piecewise`` protocol (each block a separate sub-experiment started from its primitive's nominal
+state) is kept as an option.
 
 Data come from the true system with the profile's disturbances (model ship: current u_c, v_c ~
 N(0, 0.025) per sample and measurement noise e ~ N(0, 0.025), variances, i.e. std 0.158); the
