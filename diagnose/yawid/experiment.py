@@ -122,13 +122,14 @@ def true_signals(profile: ShipProfile, inputs: np.ndarray, theta: str | None = N
     return YawData(res.t[:-1], signals)
 
 
-def measure(clean: YawData, noise: Noise, runs: int, seed: int) -> YawData:
-    """``runs`` noisy realisations (B, N) of the clean signals; run i's noise depends on (seed, i) only."""
+def measure(clean: YawData, noise: Noise, runs: int, seed: int, first: int = 0) -> YawData:
+    """Noisy realisations first .. first + runs - 1, (B, N), of the clean signals; run i's noise
+    depends on (seed, i) only."""
     out = {k: np.empty((runs, clean.t.size)) for k in SIGNALS}
-    for i in range(runs):
+    for row, i in enumerate(range(first, first + runs)):
         rng = np.random.default_rng([seed, i])
         for k in SIGNALS:
-            out[k][i] = clean.signals[k] + rng.normal(0.0, getattr(noise, k), clean.t.size)
+            out[k][row] = clean.signals[k] + rng.normal(0.0, getattr(noise, k), clean.t.size)
     return YawData(clean.t, out, clean.source)
 
 
