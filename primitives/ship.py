@@ -179,12 +179,17 @@ class ShipProfile:
     def dofs(self) -> tuple[str, ...]:
         return ROLL_DOFS[: self.n_dof]
 
+    @property
+    def planar(self) -> bool:
+        """A 3-DOF ship without pods: what the manoeuvre library, design, planner and diagnosis support."""
+        return self.n_dof == 3 and self.actuator != "pods"
+
     def require_planar(self, what: str) -> None:
         """Refuse a 4-DOF (roll) or podded profile where only 3-DOF ships are supported."""
-        if self.n_dof != 3 or self.actuator == "pods":
+        if not self.planar:
             raise ProfileError(
                 f"ship {self.name!r} is a {self.n_dof}-DOF {self.actuator} profile; {what} supports 3-DOF ships only "
-                "(simulate it with primitives.simulate.simulate, identify its yaw dynamics with diagnose.yawid)"
+                "(for this ship: `shiptrial yawid` / `yawid-sim`, or primitives.simulate.simulate)"
             )
 
     @property
@@ -322,6 +327,11 @@ class ShipProfile:
 
 def builtin_profiles() -> list[str]:
     return sorted(p.stem for p in PROFILE_DIR.glob("*.toml"))
+
+
+def planar_profiles() -> list[str]:
+    """The built-in 3-DOF profiles: those the manoeuvre library, design and planner support."""
+    return [name for name in builtin_profiles() if load_profile(name).planar]
 
 
 def _need(d: dict, key: str, src: str, kind: type | tuple[type, ...], hint: str) -> Any:

@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import butter, filtfilt
 
 from diagnose.yawid.experiment import YawData
 from diagnose.yawid.model import INPUT_TERMS, NEGATIVE, STATE_TERMS, YawModel
@@ -92,11 +93,23 @@ def _project(x: np.ndarray, model: YawModel) -> np.ndarray:
     return x
 
 
-def fit_yaw(data: YawData, model: YawModel, theta0: dict[str, float], max_iter: int = 200, rtol: float = 1e-9) -> YawFit:
+def prefilter(w: dict[str, np.ndarray], ts: float, cutoff_hz: float) -> dict[str, np.ndarray]:
+    """Zero-phase 4th-order Butterworth low-pass of the measured inputs (not of r): ours, not the
+    thesis's. The inputs enter the predictor as if exact (errors in variables, L1882-1884), so
+    their white noise above the manoeuvre's bandwidth only biases the estimates."""
+    b, a = butter(4, cutoff_hz, fs=1.0 / ts)
+    return {k: filtfilt(b, a, v, axis=-1) for k, v in w.items()}
+
+
+def fit_yaw(data: YawData, model: YawModel, theta0: dict[str, float], max_iter: int = 200, rtol: float = 1e-9,
+            prefilter_hz: float | None = None) -> YawFit:
     """Output-error fit of ``model`` to each recording of ``data`` (signals (N,) or (B, N)),
-    starting from ``theta0`` (physical values by name)."""
+    starting from ``theta0`` (physical values by name); ``prefilter_hz`` low-passes the inputs
+    (:func:`prefilter`), None uses them as measured (the thesis's method)."""
     w = _as_batch(data, ("r", "tau_r") + model.signals)
     y = w.pop("r")
+    if prefilter_hz:
+        w = prefilter(w, data.sample_time, prefilter_hz)
     b = y.shape[0]
     ts = data.sample_time
     scale = np.array([abs(theta0[p]) or 1.0 for p in model.params])

@@ -64,9 +64,10 @@ def clean_recording(profile: ShipProfile, manoeuvre_seed: int = 0, duration_s: f
 
 def run_monte_carlo(profile: ShipProfile, runs: int = 50, seed: int = 0, noise: Noise | None = None,
                     models: tuple[str, ...] = ("full", "simplified"), manoeuvre_seed: int = 0,
-                    chunk: int = 25) -> dict[str, MonteCarlo]:
+                    chunk: int = 25, prefilter_hz: float | None = None) -> dict[str, MonteCarlo]:
     """Estimates of each model over ``runs`` noise realisations, in chunks of ``chunk`` runs (a
-    run's result does not depend on the chunk it is fitted in)."""
+    run's result does not depend on the chunk it is fitted in). ``prefilter_hz``: see
+    :func:`diagnose.yawid.estimate.prefilter`."""
     clean = clean_recording(profile, manoeuvre_seed)
     truth = true_parameters(profile)
     noise = noise or Noise()
@@ -76,7 +77,7 @@ def run_monte_carlo(profile: ShipProfile, runs: int = 50, seed: int = 0, noise: 
         parts = []
         for start in range(0, runs, chunk):
             data = measure(clean, noise, min(chunk, runs - start), seed, first=start)
-            parts.append(fit_yaw(data, model, truth))
+            parts.append(fit_yaw(data, model, truth, prefilter_hz=prefilter_hz))
         fits = YawFit(model, *(np.concatenate([getattr(p, f) for p in parts]) for f in ("theta", "converged", "finite")),
                       max(p.iterations for p in parts),
                       *(np.concatenate([getattr(p, f) for p in parts]) for f in ("rms", "fit_percent")))
