@@ -19,8 +19,15 @@ def register(app: typer.Typer) -> None:
         json_out: bool = typer.Option(False, "--json", help="print the estimate as JSON"),
     ) -> None:
         """Estimate the lumped yaw parameters I_r, M_v, A, N_... of (2.17)/(2.18) by output error."""
+        from cli.options import check_input_file
         from diagnose.yawid.api import identify_file
         from diagnose.yawid.model import LABELS
+        from primitives.validate import in_range, one_of
+
+        check_input_file(recording, "RECORDING", "a yaw recording CSV (t, r, u, v, v_dot, phi, tau_r)", "recording")
+        one_of(model, "--model", ("full", "simplified"))
+        if prefilter is not None:
+            in_range(prefilter, "--prefilter", 1e-3, 50.0, "Hz (a low-pass cut-off below the recording's Nyquist frequency)")
 
         fit, start = identify_file(recording, model, ship, prefilter)
         est = fit.estimate()
@@ -44,5 +51,11 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Simulate the 10-minute forward-only identification run of the naval vessel (example input of `yawid`)."""
         from diagnose.yawid.api import simulate_file
+        from primitives.io import check_out_file
+        from primitives.validate import in_range, whole
+
+        whole(seed, "--seed", 0, 2**63 - 1)
+        in_range(noise, "--noise", 0.0, 100.0, "x Table 4.1's noise levels")
+        check_out_file(out, (".csv",), "OUT", "recording")
 
         typer.echo(f"wrote {simulate_file(out, seed, noise)}")

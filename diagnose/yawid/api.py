@@ -29,7 +29,7 @@ def identify_file(path: str | Path, model: str = "full", ship: str | ShipProfile
     start = true_parameters(profile)
     data = read_yaw_csv(path, m, profile)
     check_forward(data, str(path))
-    if prefilter_hz is not None and not 0 < prefilter_hz < 0.5 / data.sample_time:
+    if prefilter_hz is not None and not 0 < prefilter_hz < 0.5 / data.sample_time:  # also NaN
         raise UserError(f"--prefilter {prefilter_hz:g}: must be between 0 and the Nyquist frequency {0.5 / data.sample_time:g} Hz")
     return fit_yaw(data, m, start, prefilter_hz=prefilter_hz), start
 

@@ -27,10 +27,11 @@ POD_COLUMNS = ("n1", "delta1", "n2", "delta2")
 
 
 def write_yaw_csv(data: YawData, path: str | Path, meta: dict[str, str] | None = None, run: int = 0) -> Path:
-    """One run of ``data`` (run ``run`` of a batch) as a recording CSV."""
-    sig = {k: np.atleast_2d(data.signals[k])[run] for k in COLUMNS[1:]}
-    lines = [f"# {k}: {v}" for k, v in (meta or {}).items()] + [",".join(COLUMNS)]
-    lines += [",".join(f"{x:.9g}" for x in row) for row in zip(data.t, *(sig[k] for k in COLUMNS[1:]))]
+    """One run of ``data`` (run ``run`` of a batch) as a recording CSV, with the columns it has."""
+    names = [k for k in COLUMNS[1:] if k in data.signals]
+    sig = [np.atleast_2d(data.signals[k])[run] for k in names]
+    lines = [f"# {k}: {v}" for k, v in (meta or {}).items()] + [",".join(["t", *names])]
+    lines += [",".join(f"{x:.9g}" for x in row) for row in zip(data.t, *sig)]
     return atomic_write_text(path, "\n".join(lines) + "\n")
 
 
