@@ -17,8 +17,9 @@ from typing import Any
 import numpy as np
 
 from primitives.errors import UserError
+from primitives.physical_tables import POD_MODEL_KEYS, parse_pods, parse_rigid_body
 from primitives.pods import Pod, PodModel
-from primitives.rigidbody import ADDED_MASS_KEYS, RigidBody
+from primitives.rigidbody import RigidBody
 from primitives.terms import TermError, TermSet, signals_used
 from primitives.validate import MAX_PRIMITIVE_SAMPLES, finite, manoeuvre_samples, positive, unknown_key
 
@@ -408,61 +409,6 @@ def _disturbances(d: dict, src: str) -> dict[str, Any]:
 
 
 
-POD_MODEL_KEYS = ("rho", "diameter", "strut_area", "c_mx1", "c_mx2", "c_my1", "c_my2", "c_rx1", "c_rx2", "c_ry")
-RIGID_BODY_KEYS = ("mass", "I_x", "I_z", "x_g", "z_g") + ADDED_MASS_KEYS
-
-
-def _numbers(table: Any, section: str, keys: tuple[str, ...], src: str, hint: str) -> dict[str, float]:
-    """Every key of ``keys`` from a table of finite numbers, none other."""
-    if not isinstance(table, dict):
-        raise ProfileError(f"{src}: field '{section}' must be a table [{section}] ({hint})")
-    extra = sorted(set(table) - set(keys) - {"yaw_moment"})
-    if extra:
-        raise ProfileError(f"{src}: unknown field '{section}.{extra[0]}'; known: {', '.join(keys)}")
-    out = {}
-    for k in keys:
-        if k not in table:
-            raise ProfileError(f"{src}: missing field '{section}.{k}' ({hint})")
-        out[k] = finite(table[k], f"{src}: field '{section}.{k}'", "SI units", ProfileError)
-    return out
-
-
-def _rigid_body(d: dict, src: str, n_dof: int) -> RigidBody | None:
-    """[rigid_body] of a 4-DOF physical model: its terms are forces, the kernel divides by M (2.14)."""
-    if "rigid_body" not in d:
-        if n_dof == 4:
-            raise ProfileError(f"{src}: a profile with a roll DOF needs a [rigid_body] table ({', '.join(RIGID_BODY_KEYS)})")
-        return None
-    if n_dof != 4:
-        raise ProfileError(f"{src}: field 'rigid_body' needs the roll DOF: add model.roll and parameter_names.roll")
-    t = _numbers(d["rigid_body"], "rigid_body", RIGID_BODY_KEYS, src, "mass kg, inertias kg m^2, CoG m, added mass SI")
-    for k in ("mass", "I_x", "I_z"):
-        positive(t[k], f"{src}: field 'rigid_body.{k}'", "SI units", ProfileError)
-    rb = RigidBody(t["mass"], t["I_x"], t["I_z"], t["x_g"], t["z_g"], {k: t[k] for k in ADDED_MASS_KEYS})
-    if np.linalg.cond(rb.mass_matrix) > 1e12:
-        raise ProfileError(f"{src}: field 'rigid_body': the mass matrix M = M_RB - M_A (2.14) is singular; check the added masses")
-    return rb
-
-
-def _pods(d: dict, src: str, inputs: tuple[str, ...]) -> tuple[tuple[Pod, ...], PodModel]:
-    table = d.get("pods")
-    if not isinstance(table, list) or not table or not all(isinstance(t, dict) for t in table):
-        raise ProfileError(f"{src}: an actuator = \"pods\" profile needs [[pods]] tables with x, y, z in metres")
-    pods = tuple(
-        Pod(str(t.get("name", f"pod{i + 1}")), *(finite(t.get(k), f"{src}: field 'pods.{i}.{k}'", "m", ProfileError) for k in "xyz"))
-        for i, t in enumerate(table)
-    )
-    expect = tuple(x for i in range(1, len(pods) + 1) for x in (f"n{i}", f"delta{i}"))
-    if inputs != expect:
-        raise ProfileError(f"{src}: field 'inputs' of a pods profile must be {list(expect)} (rev/s, rad) with one [[pods]] entry each")
-    pm = d.get("pod_model")
-    c = _numbers(pm, "pod_model", POD_MODEL_KEYS, src, "Table 2.1 of seed 000")
-    yaw_moment = pm.get("yaw_moment", "thesis")
-    if yaw_moment not in ("thesis", "full"):
-        raise ProfileError(f"{src}: field 'pod_model.yaw_moment' must be 'thesis' (x F_y, eq. 2.12) or 'full' (x F_y - y F_x)")
-    return pods, PodModel(*(c[k] for k in POD_MODEL_KEYS), yaw_moment=yaw_moment)
-
-
 def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     """Validate a decoded TOML/JSON document and build a profile."""
     num = (int, float)
@@ -522,8 +468,8 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
             raise ProfileError(
                 f"{src}: field 'inputs' of an azimuth profile must be {list(expect) or ['n1', 'alpha1']} with one [[thrusters]] entry each"
             )
-    rigid_body = _rigid_body(d, src, len(dofs))
-    pods, pod_model = _pods(d, src, inputs) if actuator == "pods" else ((), None)
+    rigid_body = parse_rigid_body(d, src, len(dofs), ProfileError)
+    pods, pod_model = parse_pods(d, src, inputs, ProfileError) if actuator == "pods" else ((), None)
     pred = pred_names = None
     if "predictor" in d:
         pred = _per_dof(d, "predictor", src, str, "regressor term strings")

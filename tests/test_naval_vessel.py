@@ -88,6 +88,13 @@ def test_roll_needs_a_rigid_body_and_roll_signals_need_roll():
         profile_from_dict(doc | {"pod_model": pm}, "w.toml")
 
 
+def test_profile_round_trips_through_its_dict(nv):
+    again = profile_from_dict(nv.to_dict(), "roundtrip")
+    assert again.pods == nv.pods and again.pod_model == nv.pod_model and again.dofs == nv.dofs
+    np.testing.assert_array_equal(again.rigid_body.mass_matrix, nv.rigid_body.mass_matrix)
+    np.testing.assert_array_equal(again.params(), nv.params())
+
+
 def test_planar_commands_refuse_the_podded_ship(nv):
     assert not nv.planar and load_profile("model-ship").planar
     with pytest.raises(ProfileError, match="supports 3-DOF ships only"):
