@@ -57,14 +57,14 @@ def test_noise_free_fit_recovers_the_truth_from_a_wrong_start(clean, truth):
 
 
 def test_noisy_estimates_within_the_monte_carlo_spread(nv, truth):
-    """Table 4.1 noise on the 10-minute run, 6 runs. The 50-run Monte Carlo (benchmarks/bench_yawid.py)
-    gives I_r bias +3.3 %, std 2.9 %, and A bias -9.5 %, std 4.7 %: each run within bias + 3 std.
+    """Table 4.1 noise on the 10-minute run, 6 runs. The 500-run Monte Carlo (benchmarks/bench_yawid.py --runs 500)
+    gives I_r bias +3.6 %, std 3.1 %, and A bias -10.0 %, std 5.1 %: each run within bias +- 3 std.
     Per-run results do not depend on the batch they are fitted in."""
     data = measure(clean_recording(nv), Noise(), 6, seed=7)
     fit = fit_yaw(data, FULL, truth)
     assert fit.ok.all()
     rel = fit.theta / _vec(truth, FULL) - 1
-    assert np.all(np.abs(rel[:, 0] - 0.033) < 3 * 0.029) and np.all(np.abs(rel[:, 2] + 0.095) < 3 * 0.047)
+    assert np.all(np.abs(rel[:, 0] - 0.036) < 3 * 0.031) and np.all(np.abs(rel[:, 2] + 0.100) < 3 * 0.051)
     again = fit_yaw(YawData(data.t, {k: v[4:] for k, v in data.signals.items()}), FULL, truth)
     np.testing.assert_allclose(again.theta, fit.theta[4:], rtol=1e-9)
 
