@@ -248,6 +248,7 @@ def steady_forces(
     Solves Phi(u, v, r, tau)^T theta = 0 for tau, using that the model is affine in each of
     tau_x, tau_y, tau_n (true for (3.60) and (9.1)).
     """
+    profile.require_planar("steady_forces")
     if profile.actuator == "rudder_propeller":
         raise ProfileError(
             f"profile {profile.name!r}: steady generalized forces need generalized-force or azimuth inputs, not rudder/propeller"
