@@ -79,6 +79,7 @@ def files(tmp_path_factory):
         "cfg_neg": '[sweep]\nlibrary = "standard"\nspeeds = [-1.0]\n',
         "cfg_badtoml": "[sweep\nships = 1\n",
         "cfg_seed": '[sweep]\nseed = -3\n',
+        "cfg_podded": '[sweep]\nships = ["naval-vessel"]\n',
         "cfg_huge": '[sweep]\nlibrary = "standard"\nspeeds = [' + ", ".join(str(0.5 + i / 100) for i in range(700)) + "]\n"
                     'criteria = ["D", "A", "E"]\n',
     }.items():
@@ -184,7 +185,7 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["diagnose", "{rec}", "--ship", "model-ship"], "--out", ["{file}", "/proc/shiptrial-out"])
     # sweep
     for cfg in ["{missing}", "{dir}", "{binary}", "{cfg_badtoml}", "{cfg_unknown}", "{cfg_slow}", "{cfg_nan}", "{cfg_neg}",
-                "{cfg_seed}", "{cfg_huge}", "{plan}"]:
+                "{cfg_seed}", "{cfg_huge}", "{plan}", "{cfg_podded}"]:
         cases.append((f"sweep CONFIG {cfg}", ["sweep", cfg, "--out", "{tmp}/s.csv"]))
     add(["sweep", "{cfg}"], "--out", ["{tmp}/t.xlsx", "{tmp}/t", "/proc/s.csv", "{dir}"])
     add(["sweep", "{cfg}", "--out", "{tmp}/s.csv"], "--plot", ["{tmp}/p.txt", "/proc/p.png", "{dir}"])
