@@ -7,7 +7,16 @@ from cli.app import _run
 from diagnose.recording import RecordingError
 from diagnose.yawid.api import identify_file, simulate_file
 from diagnose.yawid.estimate import fit_yaw, simulate_yaw
-from diagnose.yawid.experiment import Noise, YawData, check_forward, harbour_exit, identification_run, measure, true_signals
+from diagnose.yawid.experiment import (
+    Noise,
+    YawData,
+    check_forward,
+    harbour_exit,
+    identification_run,
+    measure,
+    true_signals,
+    turn_pulse,
+)
 from diagnose.yawid.identifiability import yaw_identifiability
 from diagnose.yawid.model import FULL, SIMPLIFIED, true_parameters
 from diagnose.yawid.montecarlo import clean_recording
@@ -109,3 +118,21 @@ def test_recording_roundtrip_and_missing_signals(tmp_path, nv, capsys):
         assert _run(argv) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith("error: "), err
+
+
+def test_pod_inputs_stand_in_for_a_measured_moment(tmp_path, nv):
+    """Without tau_r, the pod model of the ship profile computes it from n1, delta1, n2, delta2 (and p)."""
+    from diagnose.yawid.recording import read_yaw_csv
+    from primitives.simulate import simulate
+
+    inputs = turn_pulse(nv.sample_time, duration_s=120.0)
+    res = simulate(nv, inputs)
+    nu, eta = res.nu[0, :-1], res.eta[0, :-1]
+    clean = true_signals(nv, inputs)
+    cols = {"t": res.t[:-1], "r": nu[:, 2], "u": nu[:, 0], "v": nu[:, 1], "p": nu[:, 3], "phi": eta[:, 3],
+            "v_dot": clean.signals["v_dot"], **{name: inputs[:, i] for i, name in enumerate(nv.inputs)}}
+    path = tmp_path / "pods.csv"
+    np.savetxt(path, np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols), comments="")
+    data = read_yaw_csv(path, FULL, nv)
+    np.testing.assert_allclose(data.signals["tau_r"], clean.signals["tau_r"], rtol=1e-6, atol=1.0)
+    assert np.abs(clean.signals["tau_r"]).max() > 1e5
