@@ -53,6 +53,7 @@ def register(app: typer.Typer) -> None:
                                 monte_carlo=monte_carlo, mc_samples=mc_samples, seed=seed, out=out, psi_switch=psi_switch,
                                 min_frac=min_frac, max_frac=max_frac, noisy_moments=noisy_moments)
         profile = load_profile(ship)
+        profile.require_planar("shiptrial design")
         lib = default_library(profile, psi_switch)
         thesis = THESIS_SHARES if profile.library == "thesis-model-ship" else None
         d = run_design(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length,

@@ -74,6 +74,7 @@ def register(app: typer.Typer) -> None:
         validate_diagnose_options(recordings={"RECORDING": _split(recordings), "--fit-on": _split(fit_on), "--validate": _split(validate)},
                                   params=params, out=out)
         profile = load_profile(ship)
+        profile.require_planar("shiptrial diagnose")
 
         def load(paths: list[str]):
             recs = []

@@ -148,6 +148,7 @@ def register(app: typer.Typer) -> None:
         if start_time is not None:
             resolve_start(None, start_time)  # reject a malformed time before the long work
         prof = load_profile(ship)
+        prof.require_planar("shiptrial plan")
         sea = load_map(map_path, draught_m=prof.draught_m)
         try:
             with stage("designing the manoeuvre mix and planning on the lattice (A*) ...", json_out):

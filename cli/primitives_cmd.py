@@ -87,6 +87,7 @@ def register(app: typer.Typer) -> None:
 
         validate_primitives_options(plot)
         profile = load_profile(ship)
+        profile.require_planar("shiptrial primitives")
         library = build_library(profile)
         rows = library_rows(library)
         if plot:

@@ -134,7 +134,7 @@ def load_sweep(path: str | Path) -> list[Cell]:
     from primitives.ship import load_profile
 
     for s in ships:
-        load_profile(s)  # fail early with the profile's own message
+        load_profile(s).require_planar(f"a sweep ({path}: field 'sweep.ships')")  # fail early with the profile's own message
     speeds: list[float | None] = [None]
     if library == "standard":
         speeds = listed("speeds", [None])

@@ -23,7 +23,7 @@ def block_mask(terms: TermSet) -> np.ndarray:
     """Boolean (p, p) mask of the DOF blocks of a block-diagonal predictor."""
     p = terms.n_params
     mask = np.zeros((p, p), dtype=bool)
-    for i in range(3):
+    for i in range(terms.n_dof):
         s = terms.dof_slice(i)
         mask[s, s] = True
     return mask
@@ -56,7 +56,7 @@ def predictor_regressors(
     sig = model_signals(profile, yk, psi_k, in_sig, None, None if wind_ne is None else wind_ne[..., :n, :])
     if extra:
         sig.update({k: v[..., :n] for k, v in extra.items()})
-    phi = np.concatenate([terms.evaluate_dof(i, sig) for i in range(3)], axis=-1)
+    phi = np.concatenate([terms.evaluate_dof(i, sig) for i in range(terms.n_dof)], axis=-1)
     return phi, np.diff(y, axis=-2)
 
 

@@ -17,15 +17,23 @@ from typing import Any
 import numpy as np
 
 from primitives.errors import UserError
+from primitives.physical_tables import POD_MODEL_KEYS, parse_pods, parse_rigid_body
+from primitives.pods import Pod, PodModel
+from primitives.rigidbody import RigidBody
 from primitives.terms import TermError, TermSet, signals_used
 from primitives.validate import MAX_PRIMITIVE_SAMPLES, finite, manoeuvre_samples, positive, unknown_key
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
 DOFS = ("surge", "sway", "yaw")
+# A profile with a roll term list is surge-sway-yaw-roll (seed 000); roll is appended so yaw
+# stays the third state of every ship.
+ROLL_DOFS = DOFS + ("roll",)
 STATES = ("u", "v", "r")
-ACTUATORS = ("generalized", "azimuth", "rudder_propeller")
+ACTUATORS = ("generalized", "azimuth", "rudder_propeller", "pods")
 # Signals every model may read besides its own inputs.
 BASE_SIGNALS = {"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "psi", "tau_x", "tau_y", "tau_n"}
+# Signals only a model with the roll DOF has: roll rate, roll angle, actuator roll moment.
+ROLL_SIGNALS = {"p", "phi", "tau_k"}
 
 
 class ProfileError(UserError):
@@ -42,6 +50,8 @@ PROFILE_KEYS = frozenset({
     "library",  # which built-in manoeuvre dictionary the ship uses (primitives.library)
     "augmentations",  # effects a diagnosed model.json lists beside its terms (diagnose.report.model_dict)
     "diagnosed_model",  # what a diagnosed model.json was scored on (diagnose.model_file)
+    "rigid_body",  # mass, inertias, CoG and added mass of a 4-DOF physical model (primitives.rigidbody)
+    "pods", "pod_model",  # podded propulsion (primitives.pods), actuator = "pods"
 })
 # Physical sizes a profile must give, all finite and > 0 (unit in the message).
 POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("draught_m", "m"), ("cruise_speed_mps", "m/s"))
@@ -146,6 +156,9 @@ class ShipProfile:
     helm: Helm = field(default_factory=Helm)
     engine: Engine = field(default_factory=Engine)
     library: str = ""
+    rigid_body: RigidBody | None = None
+    pods: tuple[Pod, ...] = ()
+    pod_model: PodModel | None = None
 
     # -- structure -------------------------------------------------------------------------
     # cached: compiled once per profile (a frozen dataclass still has an instance __dict__)
@@ -157,6 +170,28 @@ class ShipProfile:
     def predictor(self) -> TermSet:
         """Terms of the linear-in-parameters predictor used for estimation and design."""
         return TermSet(self.predictor_terms or self.model_terms)
+
+    @property
+    def n_dof(self) -> int:
+        """3 (surge, sway, yaw) or 4 (surge, sway, yaw, roll)."""
+        return len(self.model_terms)
+
+    @property
+    def dofs(self) -> tuple[str, ...]:
+        return ROLL_DOFS[: self.n_dof]
+
+    @property
+    def planar(self) -> bool:
+        """A 3-DOF ship without pods: what the manoeuvre library, design, planner and diagnosis support."""
+        return self.n_dof == 3 and self.actuator != "pods"
+
+    def require_planar(self, what: str) -> None:
+        """Refuse a 4-DOF (roll) or podded profile where only 3-DOF ships are supported."""
+        if not self.planar:
+            raise ProfileError(
+                f"ship {self.name!r} is a {self.n_dof}-DOF {self.actuator} profile; {what} supports 3-DOF ships only "
+                "(for this ship: `shiptrial yawid` / `yawid-sim`, or primitives.simulate.simulate)"
+            )
 
     @property
     def param_names(self) -> list[str]:
@@ -190,7 +225,7 @@ class ShipProfile:
     @property
     def steering_input(self) -> str:
         """The input that plays the rudder in standard trials."""
-        return {"generalized": "tau_n", "azimuth": "alpha2", "rudder_propeller": "delta"}[self.actuator]
+        return {"generalized": "tau_n", "azimuth": "alpha2", "rudder_propeller": "delta", "pods": "delta1"}[self.actuator]
 
     # -- actuators ---------------------------------------------------------------------------
     def generalized_forces(self, inputs: np.ndarray) -> dict[str, np.ndarray]:
@@ -257,10 +292,10 @@ class ShipProfile:
             "simulation_set": self.simulation_set,
             "instrument_set": self.instrument_set,
             "input_limits": {k: list(v) for k, v in self.input_limits.items()},
-            "model": dict(zip(DOFS, map(list, self.model_terms))),
-            "parameter_names": dict(zip(DOFS, map(list, self.parameter_names))),
+            "model": dict(zip(self.dofs, map(list, self.model_terms))),
+            "parameter_names": dict(zip(self.dofs, map(list, self.parameter_names))),
             "parameters": {
-                k: {dof: v[self.model.dof_slice(i)].tolist() for i, dof in enumerate(DOFS)}
+                k: {dof: v[self.model.dof_slice(i)].tolist() for i, dof in enumerate(self.dofs)}
                 for k, v in self.parameter_sets.items()
             },
             "disturbances": self.disturbances,
@@ -279,6 +314,12 @@ class ShipProfile:
                 k: getattr(e, k) for k in ("rps_rate", "mcr_rpm", "approach_rpm") if getattr(e, k) is not None}
         if self.library:
             d["library"] = self.library
+        if self.rigid_body is not None:
+            rb = self.rigid_body
+            d["rigid_body"] = {"mass": rb.mass, "I_x": rb.i_x, "I_z": rb.i_z, "x_g": rb.x_g, "z_g": rb.z_g} | dict(rb.added)
+        if self.pods:
+            d["pods"] = [{"name": q.name, "x": q.x, "y": q.y, "z": q.z} for q in self.pods]
+            d["pod_model"] = {k: getattr(self.pod_model, k) for k in POD_MODEL_KEYS} | {"yaw_moment": self.pod_model.yaw_moment}
         return d
 
 
@@ -287,6 +328,11 @@ class ShipProfile:
 
 def builtin_profiles() -> list[str]:
     return sorted(p.stem for p in PROFILE_DIR.glob("*.toml"))
+
+
+def planar_profiles() -> list[str]:
+    """The built-in 3-DOF profiles: those the manoeuvre library, design and planner support."""
+    return [name for name in builtin_profiles() if load_profile(name).planar]
 
 
 def _need(d: dict, key: str, src: str, kind: type | tuple[type, ...], hint: str) -> Any:
@@ -298,10 +344,10 @@ def _need(d: dict, key: str, src: str, kind: type | tuple[type, ...], hint: str)
     return val
 
 
-def _per_dof(d: dict, key: str, src: str, item: type, hint: str) -> tuple[tuple, ...]:
-    table = _need(d, key, src, dict, f"a table with {', '.join(DOFS)} lists")
+def _per_dof(d: dict, key: str, src: str, item: type, hint: str, dofs: tuple[str, ...] = DOFS) -> tuple[tuple, ...]:
+    table = _need(d, key, src, dict, f"a table with {', '.join(dofs)} lists")
     out = []
-    for dof in DOFS:
+    for dof in dofs:
         vals = _need(table, dof, f"{src} [{key}]", list, hint)
         for v in vals:
             if not isinstance(v, item) or isinstance(v, bool):
@@ -376,26 +422,29 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     inputs = tuple(_need(d, "inputs", src, list, "a list of input names"))
     if not inputs or not all(isinstance(x, str) and x for x in inputs) or len(set(inputs)) != len(inputs):
         raise ProfileError(f"{src}: field 'inputs' must be a non-empty list of distinct input names, got {list(inputs)!r}")
-    terms = _per_dof(d, "model", src, str, "regressor term strings like 'u_r*|u_r|'")
-    names = _per_dof(d, "parameter_names", src, str, "parameter names")
+    dofs = ROLL_DOFS if isinstance(d.get("model"), dict) and "roll" in d["model"] else DOFS
+    terms = _per_dof(d, "model", src, str, "regressor term strings like 'u_r*|u_r|'", dofs)
+    names = _per_dof(d, "parameter_names", src, str, "parameter names", dofs)
     try:
         model = TermSet(terms)
         used = signals_used(terms)
     except TermError as exc:
         raise ProfileError(f"{src}: field 'model': {exc}") from None
-    unknown = used - BASE_SIGNALS - set(inputs)
+    known = BASE_SIGNALS | set(inputs) | (ROLL_SIGNALS if dofs == ROLL_DOFS else set())
+    unknown = used - known
     if unknown:
         raise ProfileError(
-            f"{src}: field 'model' uses unknown signals {sorted(unknown)}; known: {sorted(BASE_SIGNALS | set(inputs))}"
+            f"{src}: field 'model' uses unknown signals {sorted(unknown)}; known: {sorted(known)}"
+            + (" (p, phi, tau_k need the roll DOF: add model.roll)" if unknown & ROLL_SIGNALS else "")
         )
-    for i, dof in enumerate(DOFS):
+    for i, dof in enumerate(dofs):
         if len(names[i]) != len(terms[i]):
             raise ProfileError(f"{src}: field 'parameter_names.{dof}' has {len(names[i])} names for {len(terms[i])} terms")
     sets_raw = _need(d, "parameters", src, dict, "a table of parameter sets, e.g. [parameters.true]")
     sets = {}
     for set_name, table in sets_raw.items():
-        vals = _per_dof({"p": table}, "p", f"{src} [parameters.{set_name}]", num, "numbers")
-        for i, dof in enumerate(DOFS):
+        vals = _per_dof({"p": table}, "p", f"{src} [parameters.{set_name}]", num, "numbers", dofs)
+        for i, dof in enumerate(dofs):
             if len(vals[i]) != len(terms[i]):
                 raise ProfileError(
                     f"{src}: field 'parameters.{set_name}.{dof}' has {len(vals[i])} values for {len(terms[i])} terms"
@@ -419,6 +468,8 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
             raise ProfileError(
                 f"{src}: field 'inputs' of an azimuth profile must be {list(expect) or ['n1', 'alpha1']} with one [[thrusters]] entry each"
             )
+    rigid_body = parse_rigid_body(d, src, len(dofs), ProfileError)
+    pods, pod_model = parse_pods(d, src, inputs, ProfileError) if actuator == "pods" else ((), None)
     pred = pred_names = None
     if "predictor" in d:
         pred = _per_dof(d, "predictor", src, str, "regressor term strings")
@@ -459,6 +510,9 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         helm=helm,
         engine=engine,
         library=library,
+        rigid_body=rigid_body,
+        pods=pods,
+        pod_model=pod_model,
     )
 
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from primitives.pods import pod_generalized_forces
 from primitives.ship import ProfileError, ShipProfile
 from primitives.terms import TermSet
 
@@ -70,7 +71,8 @@ class SimResult:
     """Outputs of :func:`simulate`; arrays carry a leading batch axis B.
 
     nu: (B, N+1, 3) true body velocities over ground; eta: (B, N+1, 3) true pose (x north,
-    y east, psi); y: (B, N+1, 3) measured u, v, r; psi_meas, pos_meas: measured heading and
+    y east, psi); y: (B, N+1, 3) measured u, v, r (a profile with the roll DOF adds a fourth
+    column: roll rate p in nu and y, roll angle phi in eta); psi_meas, pos_meas: measured heading and
     position; current_ne, wind_ne: (B, N, 2) the environment each step saw; inputs: (B, N, m).
     """
 
@@ -103,11 +105,18 @@ def model_signals(
     input_sig: dict[str, np.ndarray],
     current_ne: np.ndarray | None = None,
     wind_ne: np.ndarray | None = None,
+    phi: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
-    """Signal dictionary the regressor terms read, for velocities nu (..., 3)."""
+    """Signal dictionary the regressor terms read, for velocities nu (..., 3), or (..., 4) with
+    the roll rate p (then ``phi`` is the roll angle). Pod forces (seed 000 (2.12)) depend on the
+    velocities, so a podded profile's tau_x, tau_y, tau_k, tau_n are computed here."""
     u, v, r = nu[..., 0], nu[..., 1], nu[..., 2]
     sig = dict(input_sig)
     sig.update(u=u, v=v, r=r, psi=psi)
+    if nu.shape[-1] == 4:
+        sig.update(p=nu[..., 3], phi=np.zeros_like(u) if phi is None else phi)
+    if profile.pods:
+        sig.update(pod_generalized_forces(profile.pod_model, profile.pods, sig))
     if current_ne is None:
         sig.update(u_r=u, v_r=v)
     else:
@@ -119,6 +128,12 @@ def model_signals(
         uw, vw = body_from_ne(wind_ne, psi)
         sig.update(u_q=u - uw, v_q=v - vw)
     return sig
+
+
+def _padded(values: np.ndarray | tuple, nd: int) -> np.ndarray:
+    """A per-DOF vector given for the 3 planar DOFs (or all), padded with zeros for roll."""
+    a = np.asarray(values, float)
+    return np.concatenate([a, np.zeros(a.shape[:-1] + (nd - a.shape[-1],))], axis=-1) if a.shape[-1] < nd else a
 
 
 def _batch_inputs(profile: ShipProfile, inputs: np.ndarray, batch: int) -> np.ndarray:
@@ -166,11 +181,12 @@ def simulate(
     n_steps = u_in.shape[1]
     ts = profile.sample_time
     in_sig = profile.generalized_forces(u_in)  # each (1 or B, N)
+    nd = profile.n_dof  # 3, or 4 with roll: nu (u, v, r, p), eta (x, y, psi, phi)
 
-    nu = np.zeros((batch, n_steps + 1, 3))
-    eta = np.zeros((batch, n_steps + 1, 3))
-    nu[:, 0] = np.broadcast_to(np.asarray(nu0, float), (batch, 3))
-    eta[:, 0] = np.broadcast_to(np.asarray(eta0, float), (batch, 3))
+    nu = np.zeros((batch, n_steps + 1, nd))
+    eta = np.zeros((batch, n_steps + 1, nd))
+    nu[:, 0] = np.broadcast_to(_padded(nu0, nd), (batch, nd))
+    eta[:, 0] = np.broadcast_to(_padded(eta0, nd), (batch, nd))
 
     cur = np.broadcast_to(np.asarray(dist.current_ne, float), (batch, n_steps, 2)).copy()
     if dist.current_offset_std:
@@ -180,23 +196,34 @@ def simulate(
     wind = np.broadcast_to(np.asarray(dist.wind_ne, float), (batch, n_steps, 2)).copy()
     if dist.wind_sample_std:
         wind += rng.normal(0.0, dist.wind_sample_std, (batch, n_steps, 2))
-    proc = np.asarray(dist.process_std, float)
-    w = rng.normal(0.0, 1.0, (batch, n_steps, 3)) * proc if np.any(proc) else None
+    proc = _padded(dist.process_std, nd)
+    w = rng.normal(0.0, 1.0, (batch, n_steps, nd)) * proc if np.any(proc) else None
+    rigid = profile.rigid_body
 
     for k in range(n_steps):
         nu_k, psi_k = nu[:, k], eta[:, k, 2]
-        sig = model_signals(profile, nu_k, psi_k, {n: a[:, k] for n, a in in_sig.items()}, cur[:, k], wind[:, k])
-        du, dv, dr = terms.increments(sig, theta)
-        nxt = nu_k + np.stack([du, dv, dr], axis=-1)
+        phi_k = eta[:, k, 3] if nd == 4 else None
+        sig = model_signals(profile, nu_k, psi_k, {n: a[:, k] for n, a in in_sig.items()}, cur[:, k], wind[:, k], phi_k)
+        inc = terms.increments(sig, theta)
+        if rigid is not None:  # physical model: the terms are forces, (2.13) M nu_dot = F - C_RB nu
+            inc = rigid.increments(inc, nu_k, ts)
+        nxt = nu_k + np.stack(inc, axis=-1)
         if w is not None:
             nxt += w[:, k]
         nu[:, k + 1] = nxt
         c, s = np.cos(psi_k), np.sin(psi_k)
+        if nd == 4:  # (2.1a-b) and the Fossen position rows with roll: v acts through cos(phi)
+            cphi = np.cos(phi_k)
+            eta[:, k + 1, 0] = eta[:, k, 0] + ts * (c * nu_k[:, 0] - s * cphi * nu_k[:, 1])
+            eta[:, k + 1, 1] = eta[:, k, 1] + ts * (s * nu_k[:, 0] + c * cphi * nu_k[:, 1])
+            eta[:, k + 1, 2] = psi_k + ts * cphi * nu_k[:, 2]
+            eta[:, k + 1, 3] = phi_k + ts * nu_k[:, 3]
+            continue
         eta[:, k + 1, 0] = eta[:, k, 0] + ts * (c * nu_k[:, 0] - s * nu_k[:, 1])
         eta[:, k + 1, 1] = eta[:, k, 1] + ts * (s * nu_k[:, 0] + c * nu_k[:, 1])
         eta[:, k + 1, 2] = psi_k + ts * nu_k[:, 2]
 
-    meas = np.asarray(dist.measurement_std, float)
+    meas = _padded(dist.measurement_std, nd)
     y = nu + rng.normal(0.0, 1.0, nu.shape) * meas if np.any(meas) else nu.copy()
     psi_meas = eta[..., 2] + (rng.normal(0.0, dist.heading_std, eta[..., 2].shape) if dist.heading_std else 0.0)
     pos_meas = eta[..., :2] + (rng.normal(0.0, dist.position_std, eta[..., :2].shape) if dist.position_std else 0.0)
@@ -221,6 +248,7 @@ def steady_forces(
     Solves Phi(u, v, r, tau)^T theta = 0 for tau, using that the model is affine in each of
     tau_x, tau_y, tau_n (true for (3.60) and (9.1)).
     """
+    profile.require_planar("steady_forces")
     if profile.actuator == "rudder_propeller":
         raise ProfileError(
             f"profile {profile.name!r}: steady generalized forces need generalized-force or azimuth inputs, not rudder/propeller"

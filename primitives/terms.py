@@ -63,11 +63,11 @@ def signals_used(terms: Sequence[Sequence[str]]) -> set[str]:
 
 
 class TermSet:
-    """Compiled regressor terms for the three DOFs (surge, sway, yaw)."""
+    """Compiled regressor terms per DOF: surge, sway, yaw, and optionally roll (a fourth list)."""
 
     def __init__(self, terms: Sequence[Sequence[str]]):
-        if len(terms) != 3:
-            raise TermError("a model needs exactly three term lists: surge, sway, yaw")
+        if len(terms) not in (3, 4):
+            raise TermError("a model needs three term lists (surge, sway, yaw) or four (surge, sway, yaw, roll)")
         self.terms: tuple[tuple[str, ...], ...] = tuple(tuple(t) for t in terms)
         self._fns = [[compile_term(t)[1] for t in dof] for dof in self.terms]
         self.sizes = tuple(len(d) for d in self.terms)
@@ -79,6 +79,10 @@ class TermSet:
 
     def __setstate__(self, state: dict) -> None:
         self.__init__(state["terms"])
+
+    @property
+    def n_dof(self) -> int:
+        return len(self.terms)
 
     @property
     def n_params(self) -> int:
@@ -116,7 +120,7 @@ class TermSet:
                 parts.append(f"c[{j}]*" + "*".join(factors))
                 j += 1
             lines.append(f"    d{i} = " + (" + ".join(parts) if parts else "0.0"))
-        lines.append("    return [d0, d1, d2]")
+        lines.append("    return [" + ", ".join(f"d{i}" for i in range(len(self.terms))) + "]")
         scope: dict = {}
         exec("\n".join(lines), {}, scope)  # noqa: S102 - source built from validated term strings
         self._inc_fn = scope["_inc"]

@@ -79,6 +79,7 @@ def files(tmp_path_factory):
         "cfg_neg": '[sweep]\nlibrary = "standard"\nspeeds = [-1.0]\n',
         "cfg_badtoml": "[sweep\nships = 1\n",
         "cfg_seed": '[sweep]\nseed = -3\n',
+        "cfg_podded": '[sweep]\nships = ["naval-vessel"]\n',
         "cfg_huge": '[sweep]\nlibrary = "standard"\nspeeds = [' + ", ".join(str(0.5 + i / 100) for i in range(700)) + "]\n"
                     'criteria = ["D", "A", "E"]\n',
     }.items():
@@ -97,9 +98,25 @@ def files(tmp_path_factory):
     roll = roll_profile(None)
     for role, rec in zip(("nominal", "calibration", "loaded"), simulate_case(roll, "case1", Noise.from_profile(roll), 0, length_factor=0.2)):
         f[f"roll_{role}"] = write_roll_csv(rec, tmp / f"roll-{role}.csv")
+    f.update(_yaw_files(tmp))
     f["roll_bad_profile"] = tmp / "roll-bad.toml"
     f["roll_bad_profile"].write_text("this is = not [a roll profile\n")
     return f
+
+
+def _yaw_files(tmp: Path) -> dict[str, Path]:
+    """A short good yaw recording, and the same without roll, without pod moment, going astern."""
+    from diagnose.yawid.experiment import YawData, harbour_exit, true_signals, turn_pulse
+    from diagnose.yawid.recording import write_yaw_csv
+    from primitives.ship import load_profile
+
+    nv = load_profile("naval-vessel")
+    good = true_signals(nv, turn_pulse(nv.sample_time, duration_s=120.0))
+    astern = true_signals(nv, harbour_exit(nv.sample_time, duration_s=60.0))
+    out = {"yaw": write_yaw_csv(good, tmp / "yaw.csv"), "yaw_astern": write_yaw_csv(astern, tmp / "yaw-astern.csv")}
+    for name, drop in (("yaw_noroll", "phi"), ("yaw_nopod", "tau_r")):
+        out[name] = write_yaw_csv(YawData(good.t, {k: v for k, v in good.signals.items() if k != drop}), tmp / f"{name}.csv")
+    return out
 
 
 def _cases() -> list[tuple[str, list[str]]]:
@@ -168,7 +185,7 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["diagnose", "{rec}", "--ship", "model-ship"], "--out", ["{file}", "/proc/shiptrial-out"])
     # sweep
     for cfg in ["{missing}", "{dir}", "{binary}", "{cfg_badtoml}", "{cfg_unknown}", "{cfg_slow}", "{cfg_nan}", "{cfg_neg}",
-                "{cfg_seed}", "{cfg_huge}", "{plan}"]:
+                "{cfg_seed}", "{cfg_huge}", "{plan}", "{cfg_podded}"]:
         cases.append((f"sweep CONFIG {cfg}", ["sweep", cfg, "--out", "{tmp}/s.csv"]))
     add(["sweep", "{cfg}"], "--out", ["{tmp}/t.xlsx", "{tmp}/t", "/proc/s.csv", "{dir}"])
     add(["sweep", "{cfg}", "--out", "{tmp}/s.csv"], "--plot", ["{tmp}/p.txt", "/proc/p.png", "{dir}"])
@@ -187,6 +204,16 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["mass-sim", "{tmp}/roll-out"], "--profile", ["{missing}", "{dir}", "{roll_bad_profile}"])
     for out in ["{file}", "/proc/roll-out", "{dir}"]:
         cases.append((f"mass-sim OUT {out}", ["mass-sim", out]))
+    # yawid (seed 000 chapter 4) and its example generator
+    for rec in ["{missing}", "{dir}", "{latin1}", "{binary}", "{rec}", "{plan}", "{yaw_noroll}", "{yaw_nopod}", "{yaw_astern}"]:
+        cases.append((f"yawid RECORDING {rec}", ["yawid", rec]))
+    add(["yawid", "{yaw}"], "--model", ["best", ""])
+    add(["yawid", "{yaw}"], "--ship", [*ship_bad, "model-ship"])
+    add(["yawid", "{yaw}"], "--prefilter", [*FLOATS_BAD, "0", "6"])
+    add(["yawid-sim", "{tmp}/y.csv"], "--seed", ["-1", "abc"])
+    add(["yawid-sim", "{tmp}/y.csv"], "--noise", [*FLOATS_BAD, "1e9"])
+    for out in ["{file}", "/proc/y.csv", "{dir}"]:
+        cases.append((f"yawid-sim OUT {out}", ["yawid-sim", out]))
     return cases
 
 

@@ -18,12 +18,12 @@ from primitives.orders import (
     render,
     rudder_text,
 )
-from primitives.ship import Engine, builtin_profiles, load_profile
+from primitives.ship import Engine, builtin_profiles, load_profile, planar_profiles
 
 _lib = cache(build_library)  # one build per profile for the whole module
 
 
-@pytest.fixture(scope="module", params=builtin_profiles())
+@pytest.fixture(scope="module", params=planar_profiles())  # 4-DOF podded ships have no manoeuvre library
 def library(request):
     return _lib(request.param)
 
