@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from primitives.ship import ProfileError, ShipProfile
-from primitives.terms import TermSet
+from primitives.terms import TermSet, signals_used
 
 
 @dataclass(frozen=True)
@@ -96,6 +96,39 @@ def body_from_ne(vec_ne: np.ndarray, psi: np.ndarray) -> tuple[np.ndarray, np.nd
     return c * vec_ne[..., 0] + s * vec_ne[..., 1], -s * vec_ne[..., 0] + c * vec_ne[..., 1]
 
 
+# Signals of the wind candidate terms: how much the quadratic air-relative velocity terms
+# u_q|u_q|, v_q|v_q|, u_q v_q differ from calm air (Kallstrom's wind model, seed 004); zero in calm air.
+WIND_EXCESS = ("wx", "wy", "wn")
+
+
+def relative_signals(
+    nu: np.ndarray,
+    current_body: tuple[np.ndarray, np.ndarray] | None = None,
+    wind_body: tuple[np.ndarray, np.ndarray] | None = None,
+    wind_excess: bool = False,
+) -> dict[str, np.ndarray]:
+    """State signals of the regressor terms for velocities nu (..., 3): u, v, r, the velocities
+    relative to the water (u_r, v_r) and to the air (u_q, v_q), given the current and the air
+    velocity in body axes (None: still water, calm air), and with ``wind_excess`` the
+    :data:`WIND_EXCESS` signals."""
+    u, v, r = nu[..., 0], nu[..., 1], nu[..., 2]
+    sig = {"u": u, "v": v, "r": r}
+    if current_body is None:
+        sig["u_r"], sig["v_r"] = u, v
+    else:
+        sig["u_r"], sig["v_r"] = u - current_body[0], v - current_body[1]
+    if wind_body is None:
+        sig["u_q"], sig["v_q"] = u, v
+        if wind_excess:
+            sig["wx"] = sig["wy"] = sig["wn"] = np.zeros(np.shape(u))
+    else:
+        uq, vq = u - wind_body[0], v - wind_body[1]
+        sig["u_q"], sig["v_q"] = uq, vq
+        if wind_excess:
+            sig["wx"], sig["wy"], sig["wn"] = uq * np.abs(uq) - u * np.abs(u), vq * np.abs(vq) - v * np.abs(v), uq * vq - u * v
+    return sig
+
+
 def model_signals(
     profile: ShipProfile,
     nu: np.ndarray,
@@ -105,20 +138,49 @@ def model_signals(
     wind_ne: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Signal dictionary the regressor terms read, for velocities nu (..., 3)."""
-    u, v, r = nu[..., 0], nu[..., 1], nu[..., 2]
     sig = dict(input_sig)
-    sig.update(u=u, v=v, r=r, psi=psi)
-    if current_ne is None:
-        sig.update(u_r=u, v_r=v)
-    else:
-        uc, vc = body_from_ne(current_ne, psi)
-        sig.update(u_r=u - uc, v_r=v - vc)
-    if wind_ne is None:
-        sig.update(u_q=u, v_q=v)
-    else:
-        uw, vw = body_from_ne(wind_ne, psi)
-        sig.update(u_q=u - uw, v_q=v - vw)
+    sig["psi"] = psi
+    sig.update(relative_signals(nu, None if current_ne is None else body_from_ne(current_ne, psi),
+                                None if wind_ne is None else body_from_ne(wind_ne, psi)))
     return sig
+
+
+class VelocityStep:
+    """One step ``nu(k+1) = nu(k) + Phi(k)^T theta [+ forced(k)]`` of (3.60)/(9.1): the time step
+    of every simulator in the project (:func:`simulate`, and the diagnosis's augmented model,
+    ``diagnose.model.AugmentedModel``, which adds its candidate terms as ``terms`` and its
+    input-only increments as ``forced``).
+
+    ``theta`` (p,) for one model or (B, p) for one per batch member. Built once per simulation:
+    the increment function is generated from the term strings and the coefficients split once,
+    because this call is the inner loop of every simulation.
+    """
+
+    def __init__(self, terms: TermSet, theta: np.ndarray):
+        theta = np.asarray(theta, dtype=float)
+        self.inc = terms.increment_function()
+        self.coef = theta.tolist() if theta.ndim == 1 else [theta[:, j] for j in range(theta.shape[-1])]
+        self.wind_excess = bool(signals_used(terms.terms) & set(WIND_EXCESS))
+
+    def __call__(
+        self,
+        nu: np.ndarray,
+        exo: dict[str, np.ndarray],
+        current_body: tuple[np.ndarray, np.ndarray] | None = None,
+        wind_body: tuple[np.ndarray, np.ndarray] | None = None,
+        forced: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """nu(k+1) (B, 3) from nu(k) (B, 3), the exogenous signals of step k (inputs or
+        generalized forces, heading, ...), the current and air velocity in body axes (see
+        :func:`relative_signals`) and increments ``forced`` (B, 3) summed outside the loop."""
+        sig = relative_signals(nu, current_body, wind_body, self.wind_excess)
+        sig.update(exo)
+        du, dv, dr = self.inc(sig, self.coef)
+        nxt = nu + forced if forced is not None else nu.copy()
+        nxt[:, 0] += du
+        nxt[:, 1] += dv
+        nxt[:, 2] += dr
+        return nxt
 
 
 def _batch_inputs(profile: ShipProfile, inputs: np.ndarray, batch: int) -> np.ndarray:
@@ -183,11 +245,12 @@ def simulate(
     proc = np.asarray(dist.process_std, float)
     w = rng.normal(0.0, 1.0, (batch, n_steps, 3)) * proc if np.any(proc) else None
 
+    step = VelocityStep(terms, theta)
     for k in range(n_steps):
         nu_k, psi_k = nu[:, k], eta[:, k, 2]
-        sig = model_signals(profile, nu_k, psi_k, {n: a[:, k] for n, a in in_sig.items()}, cur[:, k], wind[:, k])
-        du, dv, dr = terms.increments(sig, theta)
-        nxt = nu_k + np.stack([du, dv, dr], axis=-1)
+        exo = {n: a[:, k] for n, a in in_sig.items()}
+        exo["psi"] = psi_k
+        nxt = step(nu_k, exo, body_from_ne(cur[:, k], psi_k), body_from_ne(wind[:, k], psi_k))
         if w is not None:
             nxt += w[:, k]
         nu[:, k + 1] = nxt
