@@ -253,7 +253,7 @@ class AugmentedModel:
             sig = dict(self.profile.generalized_forces(p.inputs), psi=p.psi)
             if p.phi is not None:
                 sig["phi"] = p.phi
-            sig.update(relative_signals(p.y, None, p.wind_body, wind_excess=True))
+            relative_signals(p.y, None, p.wind_body, wind_excess=True, into=sig)
             val = compile_term(s.term)[1](sig)
             vals.append(np.asarray(val, float))
         return float(np.sqrt(np.mean(np.concatenate(vals) ** 2))) if vals else 0.0

@@ -106,13 +106,15 @@ def relative_signals(
     current_body: tuple[np.ndarray, np.ndarray] | None = None,
     wind_body: tuple[np.ndarray, np.ndarray] | None = None,
     wind_excess: bool = False,
+    into: dict[str, np.ndarray] | None = None,
 ) -> dict[str, np.ndarray]:
     """State signals of the regressor terms for velocities nu (..., 3): u, v, r, the velocities
     relative to the water (u_r, v_r) and to the air (u_q, v_q), given the current and the air
     velocity in body axes (None: still water, calm air), and with ``wind_excess`` the
-    :data:`WIND_EXCESS` signals."""
+    :data:`WIND_EXCESS` signals. Added to ``into`` (e.g. the inputs of the step) when given."""
     u, v, r = nu[..., 0], nu[..., 1], nu[..., 2]
-    sig = {"u": u, "v": v, "r": r}
+    sig = {} if into is None else into
+    sig["u"], sig["v"], sig["r"] = u, v, r
     if current_body is None:
         sig["u_r"], sig["v_r"] = u, v
     else:
@@ -138,11 +140,8 @@ def model_signals(
     wind_ne: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Signal dictionary the regressor terms read, for velocities nu (..., 3)."""
-    sig = dict(input_sig)
-    sig["psi"] = psi
-    sig.update(relative_signals(nu, None if current_ne is None else body_from_ne(current_ne, psi),
-                                None if wind_ne is None else body_from_ne(wind_ne, psi)))
-    return sig
+    return relative_signals(nu, None if current_ne is None else body_from_ne(current_ne, psi),
+                            None if wind_ne is None else body_from_ne(wind_ne, psi), into=dict(input_sig, psi=psi))
 
 
 class VelocityStep:
@@ -172,9 +171,9 @@ class VelocityStep:
     ) -> np.ndarray:
         """nu(k+1) (B, 3) from nu(k) (B, 3), the exogenous signals of step k (inputs or
         generalized forces, heading, ...), the current and air velocity in body axes (see
-        :func:`relative_signals`) and increments ``forced`` (B, 3) summed outside the loop."""
-        sig = relative_signals(nu, current_body, wind_body, self.wind_excess)
-        sig.update(exo)
+        :func:`relative_signals`) and increments ``forced`` (B, 3) summed outside the loop.
+        ``exo`` is extended in place with the state signals (it is built per step by the caller)."""
+        sig = relative_signals(nu, current_body, wind_body, self.wind_excess, into=exo)
         du, dv, dr = self.inc(sig, self.coef)
         nxt = nu + forced if forced is not None else nu.copy()
         nxt[:, 0] += du
