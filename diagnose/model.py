@@ -1,7 +1,8 @@
 """The augmented model: baseline ``nu(k+1) = nu(k) + Phi^T theta`` plus candidate slots.
 
-Open-loop simulation driven by the recorded inputs and the measured heading (which sets the
-body-frame components of an earth-fixed current or wind), vectorised over a batch of
+Open-loop simulation with the primitives' time step (``primitives.simulate.VelocityStep``, the
+one every simulator uses), driven by the recorded inputs and the measured heading (which sets
+the body-frame components of an earth-fixed current or wind), vectorised over a batch of
 parameter vectors so that finite-difference sensitivities of all parameters cost one pass
 over the time axis. Output-error fitting (Levenberg-Marquardt on the simulation residuals,
 the OE method of seed 004) puts the noise where it is, in the measured outputs, so the
