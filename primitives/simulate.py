@@ -174,11 +174,9 @@ class VelocityStep:
         :func:`relative_signals`) and increments ``forced`` (B, 3) summed outside the loop.
         ``exo`` is extended in place with the state signals (it is built per step by the caller)."""
         sig = relative_signals(nu, current_body, wind_body, self.wind_excess, into=exo)
-        du, dv, dr = self.inc(sig, self.coef)
         nxt = nu + forced if forced is not None else nu.copy()
-        nxt[:, 0] += du
-        nxt[:, 1] += dv
-        nxt[:, 2] += dr
+        for i, d in enumerate(self.inc(sig, self.coef)):  # one increment per DOF of the term set
+            nxt[:, i] += d
         return nxt
 
 
