@@ -178,10 +178,10 @@ class AugmentedModel:
         need = signals_used(tset.terms)
         R, n_max = len(runs), max(p.n for p in preps)
 
-        def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (R*B, n_max, ...) from per-run (B, n_i, ...)
-            out = np.zeros((R * B, n_max) + arrs[0].shape[2:])
+        def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (n_max, R*B, ...) from per-run (B, n_i, ...)
+            out = np.zeros((n_max, R * B) + arrs[0].shape[2:])  # time-major: one contiguous row per step
             for r, a in enumerate(arrs):
-                out[r * B:(r + 1) * B, : a.shape[1]] = a
+                out[: a.shape[1], r * B:(r + 1) * B] = a.swapaxes(0, 1)
             return out
 
         pre = padded([pre for _p, _e, pre, _n in runs])
@@ -190,7 +190,7 @@ class AugmentedModel:
         has_cur = bool(np.any(cur != 0))
         if has_cur:
             psi = padded([np.broadcast_to(p.psi[:-1], (B, p.n))[..., None] for p in preps])[..., 0]
-            uc, vc = body_from_ne(np.tile(cur, (R, 1))[:, None, :], psi)
+            uc, vc = body_from_ne(np.tile(cur, (R, 1))[None], psi)
         use_wind = bool(need & {*WIND_EXCESS, "u_q", "v_q"}) and any(p.wind_body is not None for p in preps)
         if use_wind:
             wu, wv = (padded([np.broadcast_to(p.wind_body[q][:-1] if p.wind_body is not None else np.zeros(p.n),
@@ -201,8 +201,8 @@ class AugmentedModel:
         out = np.empty((R * B, n_max + 1, 3))
         out[:, 0] = nu
         for k in range(n_max):
-            nu = step(nu, {nm: exo[nm][:, k] for nm in need_in}, (uc[:, k], vc[:, k]) if has_cur else None,
-                      (wu[:, k], wv[:, k]) if use_wind else None, pre[:, k])
+            nu = step(nu, {nm: exo[nm][k] for nm in need_in}, (uc[k], vc[k]) if has_cur else None,
+                      (wu[k], wv[k]) if use_wind else None, pre[k])
             out[:, k + 1] = nu
         return [out[r * B:(r + 1) * B, : p.n + 1] + bias[:, None, :] for r, p in enumerate(preps)]
 
