@@ -20,15 +20,23 @@ def _split(values: list[str] | None) -> list[str]:
 
 
 def _load_params(path: str, profile):
-    """A parameter file: a profile TOML/JSON (its simulation set) or JSON {"theta": [...]} / {surge: [..], ...}."""
+    """Baseline parameters: a parameter set of the ship (``nominal``), a built-in profile with the
+    same model terms, a profile TOML/JSON (its simulation set) or JSON {"theta": [...]} / {surge: [..], ...}."""
     import numpy as np
 
     from diagnose.recording import RecordingError
-    from primitives.ship import DOFS, ProfileError, load_profile
+    from primitives.ship import DOFS, ProfileError, builtin_profiles, load_profile
 
     p = Path(path)
     if not p.exists():
-        raise RecordingError(f"{p}: no such parameter file (--params)")
+        if path in profile.parameter_sets:
+            return profile.params(path)
+        same = [n for n in builtin_profiles() if load_profile(n).model_terms == profile.model_terms]
+        if path in same:
+            return load_profile(path).params()
+        raise RecordingError(f"--params {path!r}: no such file, and not a parameter set of ship {profile.name!r} "
+                             f"({', '.join(sorted(profile.parameter_sets))}) nor a built-in profile with its model "
+                             f"terms ({', '.join(same)}); give one of those names, a profile TOML/JSON or a JSON with 'theta'")
     try:
         other = load_profile(p)
         if other.model_terms != profile.model_terms:
@@ -56,7 +64,7 @@ def register(app: typer.Typer) -> None:
     def diagnose(
         recordings: list[str] = typer.Argument(..., help="recordings to diagnose (.csv of BRIEF section 7, or MARIN .dat)"),
         ship: str = typer.Option(..., "--ship", help="built-in profile name or a .toml/.json profile file"),
-        params: str | None = typer.Option(None, "--params", help="parameter file (profile TOML/JSON, or JSON with 'theta')"),
+        params: str | None = typer.Option(None, "--params", help="baseline parameters: a parameter set of the ship (e.g. nominal), a built-in profile name, a profile TOML/JSON or a JSON with 'theta'"),
         fit_on: list[str] | None = typer.Option(None, "--fit-on", help="fit the baseline on these recordings first (repeat or comma-separate)"),
         validate: list[str] | None = typer.Option(None, "--validate", help="held-out recordings for the before/after fit (repeat or comma-separate)"),
         out: Path | None = typer.Option(None, "--out", help="directory for report.txt, diagnosis.json, model.json and residual plots"),
@@ -75,6 +83,7 @@ def register(app: typer.Typer) -> None:
                                   params=params, out=out)
         profile = load_profile(ship)
         profile.require_planar("shiptrial diagnose")
+        theta = _load_params(params, profile) if params else None
 
         def load(paths: list[str]):
             recs = []
@@ -83,7 +92,6 @@ def register(app: typer.Typer) -> None:
             return conform(recs, profile, resample=resample)  # Froude scale, sample time, input units: said in notes
 
         recs = load(_split(recordings))
-        theta = _load_params(params, profile) if params else None
         fit_recs = load(_split(fit_on)) or None
         val_recs = load(_split(validate)) or None
         d = run(recs, profile, theta=theta, fit_on=fit_recs, validate=val_recs)

@@ -95,7 +95,8 @@ def validate_diagnose_options(*, recordings: dict[str, list[str]], params: str |
     for option, paths in recordings.items():
         for r in paths:
             check_input_file(r, option, "a recording file (.csv or MARIN .dat)", "recording")
-    check_input_file(params, "--params", "a profile TOML/JSON or a JSON with 'theta'", "parameter")
+    if params is not None and Path(params).is_dir():  # a missing file may be a parameter set's name: checked with the ship
+        raise UserError(f"--params {params}: is a directory; give a parameter set name, a profile TOML/JSON or a JSON with 'theta'")
     if out is not None:
         check_out_path(out)
 

@@ -47,12 +47,13 @@ FULL_SCALE_EFFECTS: dict[str, dict] = {
 # Not in the full-scale battery: yaw r|r|. Every thesis zig-zag of this vessel holds one yaw-rate
 # amplitude per speed, so r|r| cannot be told from a speed-dependent linear damping u*r plus an
 # inertia change (the diagnosis names those instead) - a limit of the manoeuvres, not hidden here.
-NOISE = {"model-ship": ((0.02, 0.02, 0.02), (0.001, 0.001, 0.001), 0.002),
-         "full-scale": ((0.0141, 0.0141, 0.0141), (0.001, 0.001, 0.001), 0.01)}
+# Battery noise by the profile's manoeuvre library (profile data, not its name): measurement, process, heading.
+NOISE = {"thesis-model-ship": ((0.02, 0.02, 0.02), (0.001, 0.001, 0.001), 0.002),
+         "thesis-full-scale": ((0.0141, 0.0141, 0.0141), (0.001, 0.001, 0.001), 0.01)}
 
 
 def effects_for(profile: ShipProfile) -> dict[str, dict]:
-    return FULL_SCALE_EFFECTS if profile.name == "full-scale" else EFFECTS
+    return FULL_SCALE_EFFECTS if profile.library == "thesis-full-scale" else EFFECTS
 
 
 @dataclass
@@ -67,7 +68,7 @@ class Scenario:
 @lru_cache(maxsize=4)
 def _library(name: str) -> list:
     prof = load_profile(name)
-    if prof.name == "full-scale":
+    if prof.library == "thesis-full-scale":
         return [p for p in full_scale_thesis(prof) if p.name not in ("tau13", "tau14", "tau15", "tau16")]
     return model_ship_thesis(prof, n=240)
 
@@ -89,7 +90,7 @@ def _one(profile: ShipProfile, effects: tuple[str, ...], rng: np.random.Generato
     terms = [list(t) for t in profile.model_terms]
     theta_true = profile.params()
     theta = [list(theta_true[profile.model.dof_slice(i)]) for i in range(3)]
-    meas, proc, head = NOISE.get(profile.name, NOISE["model-ship"])
+    meas, proc, head = NOISE.get(profile.library, NOISE["thesis-model-ship"])
     dist = {"measurement_std": meas, "process_std": proc, "heading_std": head}
     table = effects_for(profile)
     applied = inputs.copy()

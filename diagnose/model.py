@@ -1,7 +1,8 @@
 """The augmented model: baseline ``nu(k+1) = nu(k) + Phi^T theta`` plus candidate slots.
 
-Open-loop simulation driven by the recorded inputs and the measured heading (which sets the
-body-frame components of an earth-fixed current or wind), vectorised over a batch of
+Open-loop simulation with the primitives' time step (``primitives.simulate.VelocityStep``, the
+one every simulator uses), driven by the recorded inputs and the measured heading (which sets
+the body-frame components of an earth-fixed current or wind), vectorised over a batch of
 parameter vectors so that finite-difference sensitivities of all parameters cost one pass
 over the time axis. Output-error fitting (Levenberg-Marquardt on the simulation residuals,
 the OE method of seed 004) puts the noise where it is, in the measured outputs, so the
@@ -18,7 +19,7 @@ import numpy as np
 from diagnose.candidates import Candidate, Slot
 from diagnose.recording import Recording
 from primitives.ship import ShipProfile
-from primitives.simulate import body_from_ne
+from primitives.simulate import WIND_EXCESS, VelocityStep, body_from_ne, relative_signals
 from primitives.terms import TermSet, compile_term, signals_used
 
 
@@ -76,8 +77,7 @@ class AugmentedModel:
         # half a sample later than the sample (zero-order-hold convention of nu(k+1) = nu(k) + ...):
         # the delay slot is the model's shift, the physical delay is that plus half a sample.
         self.half_sample = 0.0
-        self._slot_fn = {k: compile_term(s.term) for k, s in enumerate(self.slots, start=self.n_base)
-                         if s.kind == "term" and s.term not in ("wx", "wy", "wn")}
+        self._slot_fn = {k: compile_term(s.term) for k, s in enumerate(self.slots, start=self.n_base) if s.kind == "term"}
 
     def p0(self) -> np.ndarray:
         return np.concatenate([self.theta0, np.zeros(len(self.slots) + 3 * self.n_rec)])
@@ -109,7 +109,7 @@ class AugmentedModel:
                 continue
             s = self.slot(j)
             if s.kind == "term":
-                names, fn = ((s.term,), None) if s.term in ("wx", "wy", "wn") else self._slot_fn[j]
+                names, fn = self._slot_fn[j]
                 plan["terms"].append((s.dof, col, s.term, names, fn))
             elif s.kind == "current":
                 plan["cur"][:, s.index] += col
@@ -146,42 +146,42 @@ class AugmentedModel:
     def simulate_many(self, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
         """Open-loop outputs, one (B, N_i+1, 3) per recording, for parameter vectors P (B, n_params).
 
-        Input-driven terms are summed before the time loop; the state-dependent ones run in one
-        loop over every recording and batch member at once (recordings padded to the longest),
-        through the primitives' term kernel (``primitives.terms.TermSet``).
+        One simulation with the primitives' time step (``primitives.simulate.VelocityStep``) over
+        every recording and batch member at once (recordings padded to the longest). The candidate
+        slots enter around it: extra terms and inertia scales in the step's terms, a current
+        rotated by the measured heading, delays and offsets in the inputs, sensor biases on the
+        outputs, initial-state corrections in nu(0). Input-only terms are summed before the loop
+        and enter the step as its ``forced`` increments.
         """
         P = np.atleast_2d(np.asarray(P, float))
         B = P.shape[0]
         plan = self._plan(P)
         scale, bias, cur = plan["scale"], plan["bias"], plan["cur"]
         loop: list[list[tuple[str, np.ndarray]]] = [[], [], []]
-        for i, coef, term, names, fn in plan["terms"]:
-            if fn is None or not set(names) <= {"psi", "phi", *self.profile.inputs, "tau_x", "tau_y", "tau_n"}:
+        for i, coef, term, names, _fn in plan["terms"]:
+            if not set(names) <= {"psi", "phi", *self.profile.inputs, "tau_x", "tau_y", "tau_n"}:
                 loop[i].append((term, coef))
         runs = []
         for prep in preps:
             exo = self._exogenous(prep, plan, B)
             pre = np.zeros((B, prep.n, 3))
             for i, coef, _term, names, fn in plan["terms"]:
-                if fn is not None and set(names) <= set(exo):
+                if set(names) <= set(exo):
                     pre[:, :, i] += coef[:, None] * fn(exo)
             nu0 = np.broadcast_to(prep.y0, (B, 3)) - bias
             if prep.index is not None and prep.index < self.n_rec:
                 k0 = self.n_slots_end + 3 * prep.index
                 nu0 = nu0 + P[:, k0: k0 + 3]
             runs.append((prep, exo, pre * scale[:, None, :], nu0))
-        if not any(loop):
-            return [np.concatenate([nu0[:, None], nu0[:, None] + np.cumsum(pre, axis=1)], axis=1) + bias[:, None, :]
-                    for _p, _e, pre, nu0 in runs]
         tset = self._termset(tuple(tuple(t for t, _c in dof) for dof in loop))
-        coef = np.column_stack([c * scale[:, i] for i, dof in enumerate(loop) for _t, c in dof])
+        coef = np.column_stack([c * scale[:, i] for i, dof in enumerate(loop) for _t, c in dof] or [np.zeros((B, 0))])
         need = signals_used(tset.terms)
         R, n_max = len(runs), max(p.n for p in preps)
 
-        def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (R*B, n_max, ...) from per-run (B, n_i, ...)
-            out = np.zeros((R * B, n_max) + arrs[0].shape[2:])
+        def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (n_max, R*B, ...) from per-run (B, n_i, ...)
+            out = np.zeros((n_max, R * B) + arrs[0].shape[2:])  # time-major: one contiguous row per step
             for r, a in enumerate(arrs):
-                out[r * B:(r + 1) * B, : a.shape[1]] = a
+                out[: a.shape[1], r * B:(r + 1) * B] = a.swapaxes(0, 1)
             return out
 
         pre = padded([pre for _p, _e, pre, _n in runs])
@@ -190,42 +190,19 @@ class AugmentedModel:
         has_cur = bool(np.any(cur != 0))
         if has_cur:
             psi = padded([np.broadcast_to(p.psi[:-1], (B, p.n))[..., None] for p in preps])[..., 0]
-            cn, ce = np.tile(cur[:, :1], (R, 1)), np.tile(cur[:, 1:], (R, 1))
-            uc, vc = np.cos(psi) * cn + np.sin(psi) * ce, -np.sin(psi) * cn + np.cos(psi) * ce
-        use_wind = bool(need & {"wx", "wy", "wn", "u_q", "v_q"}) and any(p.wind_body is not None for p in preps)
+            uc, vc = body_from_ne(np.tile(cur, (R, 1))[None], psi)
+        use_wind = bool(need & {*WIND_EXCESS, "u_q", "v_q"}) and any(p.wind_body is not None for p in preps)
         if use_wind:
             wu, wv = (padded([np.broadcast_to(p.wind_body[q][:-1] if p.wind_body is not None else np.zeros(p.n),
                                               (B, p.n))[..., None] for p in preps])[..., 0] for q in (0, 1))
-        coef = np.tile(coef, (R, 1))
-        # TermSet.increments re-splits the coefficient matrix at every call; split it once here and
-        # call the same generated increment function directly (the simulators' inner loop)
-        inc = tset.increment_function()
-        coefs = [coef[:, j] for j in range(coef.shape[1])]
+        # the primitives' time step; the environment is rotated by the measured heading, not a simulated one
+        step = VelocityStep(tset, np.tile(coef, (R, 1)))
         nu = np.concatenate([nu0 for _p, _e, _x, nu0 in runs])
         out = np.empty((R * B, n_max + 1, 3))
         out[:, 0] = nu
-        zero = np.zeros(R * B)
         for k in range(n_max):
-            u, v, r = nu[:, 0], nu[:, 1], nu[:, 2]
-            sig = {"u": u, "v": v, "r": r}
-            if has_cur:
-                sig["u_r"], sig["v_r"] = u - uc[:, k], v - vc[:, k]
-            else:
-                sig["u_r"], sig["v_r"] = u, v
-            for nm in need_in:
-                sig[nm] = exo[nm][:, k]
-            if use_wind:
-                uq, vq = u - wu[:, k], v - wv[:, k]
-                sig["u_q"], sig["v_q"] = uq, vq
-                sig["wx"], sig["wy"], sig["wn"] = uq * np.abs(uq) - u * np.abs(u), vq * np.abs(vq) - v * np.abs(v), uq * vq - u * v
-            else:
-                sig["u_q"], sig["v_q"] = u, v
-                sig["wx"] = sig["wy"] = sig["wn"] = zero
-            du, dv, dr = inc(sig, coefs)
-            nu = nu + pre[:, k]
-            nu[:, 0] += du
-            nu[:, 1] += dv
-            nu[:, 2] += dr
+            nu = step(nu, {nm: exo[nm][k] for nm in need_in}, (uc[k], vc[k]) if has_cur else None,
+                      (wu[k], wv[k]) if use_wind else None, pre[k])
             out[:, k + 1] = nu
         return [out[r * B:(r + 1) * B, : p.n + 1] + bias[:, None, :] for r, p in enumerate(preps)]
 
@@ -272,18 +249,13 @@ class AugmentedModel:
     def _term_rms(self, preps: list[Prepared], s: Slot) -> float:
         vals = []
         for p in preps:
-            sig = dict(self.profile.generalized_forces(p.inputs))
-            u, v, r = p.y[:, 0], p.y[:, 1], p.y[:, 2]
-            sig.update(u=u, v=v, r=r, u_r=u, v_r=v, psi=p.psi)
+            if s.term in WIND_EXCESS and p.wind_body is None:
+                continue
+            sig = dict(self.profile.generalized_forces(p.inputs), psi=p.psi)
             if p.phi is not None:
                 sig["phi"] = p.phi
-            if s.term in ("wx", "wy", "wn"):
-                if p.wind_body is None:
-                    continue
-                uq, vq = u - p.wind_body[0], v - p.wind_body[1]
-                val = {"wx": uq * np.abs(uq) - u * np.abs(u), "wy": vq * np.abs(vq) - v * np.abs(v), "wn": uq * vq - u * v}[s.term]
-            else:
-                val = compile_term(s.term)[1](sig)
+            relative_signals(p.y, None, p.wind_body, wind_excess=True, into=sig)
+            val = compile_term(s.term)[1](sig)
             vals.append(np.asarray(val, float))
         return float(np.sqrt(np.mean(np.concatenate(vals) ** 2))) if vals else 0.0
 

@@ -77,7 +77,8 @@ def model_dict(d: Diagnosis) -> dict:
 
 def load_model(path: str | Path) -> tuple[AugmentedModel, np.ndarray]:
     """The scored model of a ``model.json``: (model, parameter vector) for
-    :meth:`AugmentedModel.simulate` (runs prepared with ``diagnose.model.prepare``)."""
+    :meth:`AugmentedModel.simulate` (the primitives' time step with the findings around it; runs
+    prepared with ``diagnose.model.prepare``)."""
     p = Path(path)
     try:
         doc = json.loads(p.read_text(encoding="utf-8"))["diagnosed_model"]

@@ -14,7 +14,7 @@ import numpy as np
 
 from primitives.pods import pod_generalized_forces
 from primitives.ship import ProfileError, ShipProfile
-from primitives.terms import TermSet
+from primitives.terms import TermSet, signals_used
 
 
 @dataclass(frozen=True)
@@ -98,6 +98,41 @@ def body_from_ne(vec_ne: np.ndarray, psi: np.ndarray) -> tuple[np.ndarray, np.nd
     return c * vec_ne[..., 0] + s * vec_ne[..., 1], -s * vec_ne[..., 0] + c * vec_ne[..., 1]
 
 
+# Signals of the wind candidate terms: how much the quadratic air-relative velocity terms
+# u_q|u_q|, v_q|v_q|, u_q v_q differ from calm air (Kallstrom's wind model, seed 004); zero in calm air.
+WIND_EXCESS = ("wx", "wy", "wn")
+
+
+def relative_signals(
+    nu: np.ndarray,
+    current_body: tuple[np.ndarray, np.ndarray] | None = None,
+    wind_body: tuple[np.ndarray, np.ndarray] | None = None,
+    wind_excess: bool = False,
+    into: dict[str, np.ndarray] | None = None,
+) -> dict[str, np.ndarray]:
+    """State signals of the regressor terms for velocities nu (..., 3): u, v, r, the velocities
+    relative to the water (u_r, v_r) and to the air (u_q, v_q), given the current and the air
+    velocity in body axes (None: still water, calm air), and with ``wind_excess`` the
+    :data:`WIND_EXCESS` signals. Added to ``into`` (e.g. the inputs of the step) when given."""
+    u, v, r = nu[..., 0], nu[..., 1], nu[..., 2]
+    sig = {} if into is None else into
+    sig["u"], sig["v"], sig["r"] = u, v, r
+    if current_body is None:
+        sig["u_r"], sig["v_r"] = u, v
+    else:
+        sig["u_r"], sig["v_r"] = u - current_body[0], v - current_body[1]
+    if wind_body is None:
+        sig["u_q"], sig["v_q"] = u, v
+        if wind_excess:
+            sig["wx"] = sig["wy"] = sig["wn"] = np.zeros(np.shape(u))
+    else:
+        uq, vq = u - wind_body[0], v - wind_body[1]
+        sig["u_q"], sig["v_q"] = uq, vq
+        if wind_excess:
+            sig["wx"], sig["wy"], sig["wn"] = uq * np.abs(uq) - u * np.abs(u), vq * np.abs(vq) - v * np.abs(v), uq * vq - u * v
+    return sig
+
+
 def model_signals(
     profile: ShipProfile,
     nu: np.ndarray,
@@ -110,24 +145,54 @@ def model_signals(
     """Signal dictionary the regressor terms read, for velocities nu (..., 3), or (..., 4) with
     the roll rate p (then ``phi`` is the roll angle). Pod forces (seed 000 (2.12)) depend on the
     velocities, so a podded profile's tau_x, tau_y, tau_k, tau_n are computed here."""
-    u, v, r = nu[..., 0], nu[..., 1], nu[..., 2]
-    sig = dict(input_sig)
-    sig.update(u=u, v=v, r=r, psi=psi)
+    sig = relative_signals(nu, None if current_ne is None else body_from_ne(current_ne, psi),
+                           None if wind_ne is None else body_from_ne(wind_ne, psi), into=dict(input_sig, psi=psi))
     if nu.shape[-1] == 4:
-        sig.update(p=nu[..., 3], phi=np.zeros_like(u) if phi is None else phi)
+        sig.update(p=nu[..., 3], phi=np.zeros_like(sig["u"]) if phi is None else phi)
     if profile.pods:
         sig.update(pod_generalized_forces(profile.pod_model, profile.pods, sig))
-    if current_ne is None:
-        sig.update(u_r=u, v_r=v)
-    else:
-        uc, vc = body_from_ne(current_ne, psi)
-        sig.update(u_r=u - uc, v_r=v - vc)
-    if wind_ne is None:
-        sig.update(u_q=u, v_q=v)
-    else:
-        uw, vw = body_from_ne(wind_ne, psi)
-        sig.update(u_q=u - uw, v_q=v - vw)
     return sig
+
+
+class VelocityStep:
+    """One step ``nu(k+1) = nu(k) + Phi(k)^T theta [+ forced(k)]`` of (3.60)/(9.1): the time step
+    of every simulator in the project (:func:`simulate`, and the diagnosis's augmented model,
+    ``diagnose.model.AugmentedModel``, which adds its candidate terms as ``terms`` and its
+    input-only increments as ``forced``). For a physical (rigid-body) profile the terms are
+    forces and the increments are ``Ts M^-1 (F - C_RB nu)`` (seed 000 (2.13)).
+
+    ``theta`` (p,) for one model or (B, p) for one per batch member. Built once per simulation:
+    the increment function is generated from the term strings and the coefficients split once,
+    because this call is the inner loop of every simulation.
+    """
+
+    def __init__(self, terms: TermSet, theta: np.ndarray, rigid=None, ts: float | None = None):
+        theta = np.asarray(theta, dtype=float)
+        self.inc = terms.increment_function()
+        self.coef = theta.tolist() if theta.ndim == 1 else [theta[:, j] for j in range(theta.shape[-1])]
+        self.wind_excess = bool(signals_used(terms.terms) & set(WIND_EXCESS))
+        self.rigid, self.ts = rigid, ts
+
+    def __call__(
+        self,
+        nu: np.ndarray,
+        exo: dict[str, np.ndarray],
+        current_body: tuple[np.ndarray, np.ndarray] | None = None,
+        wind_body: tuple[np.ndarray, np.ndarray] | None = None,
+        forced: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """nu(k+1) (B, n_dof) from nu(k) (B, n_dof), the exogenous signals of step k (inputs or
+        generalized forces, heading, ...), the current and air velocity in body axes (see
+        :func:`relative_signals`) and increments ``forced`` (B, n_dof) summed outside the loop.
+        ``exo`` is extended in place with the state signals (it is built per step by the caller)."""
+        sig = relative_signals(nu, current_body, wind_body, self.wind_excess, into=exo)
+        inc = self.inc(sig, self.coef)
+        if self.rigid is not None:
+            inc = self.rigid.increments(inc, nu, self.ts)
+        nxt = nu + forced if forced is not None else nu.copy()
+        for i, d in enumerate(inc):  # one increment per DOF of the term set
+            nxt[:, i] += d
+        return nxt
 
 
 def _padded(values: np.ndarray | tuple, nd: int) -> np.ndarray:
@@ -200,14 +265,16 @@ def simulate(
     w = rng.normal(0.0, 1.0, (batch, n_steps, nd)) * proc if np.any(proc) else None
     rigid = profile.rigid_body
 
+    step = VelocityStep(terms, theta, rigid, ts)
     for k in range(n_steps):
         nu_k, psi_k = nu[:, k], eta[:, k, 2]
         phi_k = eta[:, k, 3] if nd == 4 else None
-        sig = model_signals(profile, nu_k, psi_k, {n: a[:, k] for n, a in in_sig.items()}, cur[:, k], wind[:, k], phi_k)
-        inc = terms.increments(sig, theta)
-        if rigid is not None:  # physical model: the terms are forces, (2.13) M nu_dot = F - C_RB nu
-            inc = rigid.increments(inc, nu_k, ts)
-        nxt = nu_k + np.stack(inc, axis=-1)
+        exo = {n: a[:, k] for n, a in in_sig.items()}
+        exo["psi"] = psi_k
+        cur_b, wind_b = body_from_ne(cur[:, k], psi_k), body_from_ne(wind[:, k], psi_k)
+        if nd == 4 or profile.pods:  # roll and pod-force signals depend on the state
+            exo = model_signals(profile, nu_k, psi_k, exo, cur[:, k], wind[:, k], phi_k)
+        nxt = step(nu_k, exo, cur_b, wind_b)
         if w is not None:
             nxt += w[:, k]
         nu[:, k + 1] = nxt

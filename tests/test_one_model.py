@@ -1,0 +1,79 @@
+"""One model (issue 13): the diagnosis simulates with the primitives' kernel, and the exported
+model.json is exactly the scored model."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from diagnose.api import run
+from diagnose.battery import scenario
+from diagnose.candidates import build_library
+from diagnose.model import AugmentedModel, fit_percent, prepare
+from diagnose.model_file import load_model
+from diagnose.recording import Recording
+from diagnose.report import write_all
+from primitives.ship import DOFS, load_profile
+from primitives.simulate import Disturbances, simulate
+from primitives.terms import TermSet
+
+CURRENT = (0.035, -0.035)
+WIND = (-6.0, 4.0)
+WIND_COEF = (-4e-4, -8e-4, -2e-4)
+
+
+@pytest.fixture(scope="module")
+def ship():
+    return load_profile("model-ship")
+
+
+def test_augmented_model_is_the_kernel_with_a_current_and_wind(ship):
+    """A noise-free run of primitives.simulate in a current and a wind (the wind as u_q terms of
+    the kernel) is reproduced by the diagnosis's model with its current and wind slots set to the
+    truth: the same step, so the same numbers to rounding."""
+    x = scenario((), 3, n_prims=4).diagnose[0].inputs_for(ship.inputs)
+    terms = [list(t) for t in ship.model_terms]
+    theta = [list(ship.params()[ship.model.dof_slice(i)]) for i in range(3)]
+    for i, (tq, tn, c) in enumerate(zip(("u_q*|u_q|", "v_q*|v_q|", "u_q*v_q"), ("u*|u|", "v*|v|", "u*v"), WIND_COEF)):
+        terms[i] += [tq, tn]
+        theta[i] += [c, -c]
+    nu0 = np.array([0.6, 0.0, 0.0])
+    sim = simulate(ship, x[:-1], np.concatenate(theta), terms=TermSet(terms), nu0=nu0,
+                   disturbances=Disturbances(current_ne=CURRENT, wind_ne=WIND))
+    chans = {n: x[:, j] for j, n in enumerate(ship.inputs)}
+    n = len(sim.t)
+    chans["wind_speed"] = np.full(n, float(np.hypot(*WIND)))
+    chans["wind_dir"] = np.full(n, float(np.arctan2(-WIND[1], -WIND[0])))  # where it comes from
+    rec = Recording("kernel", sim.t, sim.nu[0], sim.eta[0, :, 2], sim.eta[0, :, :2], chans)
+    cands, _ = build_library(ship, [rec])
+    model = AugmentedModel(ship, ship.params(), cands)
+    P = model.p0()
+    P[model.slot_of["current"]] = CURRENT
+    P[model.slot_of["wind"]] = WIND_COEF
+    prep = dataclasses.replace(prepare(ship, rec), y0=nu0)
+    yhat = model.simulate(prep, P)[0]
+    assert np.max(np.abs(sim.nu[0])) > 0.5  # the run moves
+    np.testing.assert_allclose(yhat, sim.nu[0], rtol=1e-9, atol=1e-12)
+    # and the current and the wind matter: without them the model is far off
+    assert np.max(np.abs(model.simulate(prep, model.p0())[0] - sim.nu[0])) > 0.05
+
+
+def test_exported_model_with_refit_baseline_and_delay_current_reproduces_per_run_fit(ship, tmp_path):
+    """A diagnosis whose baseline is refitted (--fit-on) and which finds a delay and a current:
+    model.json holds the refitted baseline and the findings; reloaded and simulated on the
+    validation runs, it gives the reported per-run fit."""
+    sc = scenario(("current", "actuator_delay"), 7, n_prims=6)
+    calm = scenario((), 8, n_prims=6).diagnose
+    d = run(sc.diagnose, ship, fit_on=calm, validate=sc.validate)
+    effects = {f["effect"] for f in d.findings + d.structure}
+    assert {"current", "actuator_delay"} <= effects, effects
+    assert not np.allclose(d.theta, ship.params())  # the baseline was refitted
+    paths = write_all(d, tmp_path)
+    model, P = load_model(paths["model"])
+    np.testing.assert_array_equal(P[: model.n_base], d.P[: d.model.n_base])  # the scored baseline, refit included
+    assert d.per_run and all(row["role"] == "validation" for row in d.per_run)
+    for row, p in zip(d.per_run, d.val_preps):
+        fit = fit_percent(p.y, model.simulate(prepare(model.profile, p.rec), P)[0])
+        np.testing.assert_allclose(fit, [row["after"][k] for k in DOFS], atol=1e-6)
