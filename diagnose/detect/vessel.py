@@ -100,15 +100,18 @@ def _forces(ves: Vessel, u, v, p, phi, r, fy):
     return np.stack([yy, kk, nn])
 
 
-def simulate(ves: Vessel, ch: dict[str, np.ndarray], dt: float) -> dict[str, np.ndarray]:
+def simulate(ves: Vessel, ch: dict[str, np.ndarray], dt: float, x0: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """States v, p, phi, r, the accelerations v_dot and the pod yaw moment tau_r (Heun's method).
 
-    ``ch`` holds ``u`` and the pod channels ``n1, alpha1, n2, alpha2``, each of shape (n,).
+    ``ch`` holds ``u`` and the pod channels ``n1, alpha1, n2, alpha2``, each of shape (n,);
+    ``x0`` the initial (v, p, phi, r), at rest by default.
     """
     minv = np.linalg.inv(ves.mass_matrix())
     u = ch["u"]
     ns = len(u)
     x = np.zeros((ns, 4))  # v, p, phi, r
+    if x0 is not None:
+        x[0] = x0
     acc = np.zeros((ns, 3))
     tau = np.zeros(ns)
 
