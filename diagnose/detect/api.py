@@ -68,8 +68,7 @@ def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarra
 
 
 def fit_prior(paths: list[Path] | list[str], kind: str = "full") -> YawPrior:
-    """Yaw prior (2.17)/(2.18) fitted on a nominal recording (several pieces are joined end to end
-    only when they are one file's gap-free pieces; otherwise the first file is used)."""
+    """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s)."""
     if kind not in SIGNALS:
         raise UserError(f"--model {kind!r}: choose full (2.17) or simplified (2.18)")
     recs = load_runs(paths)
@@ -128,7 +127,7 @@ def detect(rec: Recording, prior: YawPrior, false_alarm: float = 0.02, min_chang
         raise RecordingError(f"{rec.source}: {rec.duration_s:.0f} s is too short to detect a change; give at least "
                              f"{20 * prior.block * prior.dt:.0f} s")
     sig, r = signals(rec, prior.kind)
-    eps = r - simulate_r(prior.kind, prior.values, sig, prior.dt)
+    eps = r - simulate_r(prior.kind, prior.values, sig, prior.dt, r0=float(np.mean(r[:5])))
     S, Sp = signatures(prior, sig)
     null_raw, null_blocks = null_residuals(prior, Sp, null_runs, seed)
     sc: SignatureCusum = calibrate(prior, S, null_blocks, theta1=min_change, false_alarm=false_alarm)

@@ -46,7 +46,6 @@ class SignatureCusum:
     prior: YawPrior
     theta1: float = 0.05
     h: float = np.inf
-    names: tuple[str, ...] = CANDIDATES
 
     def statistics(self, eps_blocks: np.ndarray, S: np.ndarray) -> np.ndarray:
         """Statistic per 1 s block, (nb, k) or (nb, runs, k), for block-mean residuals (nb,) or

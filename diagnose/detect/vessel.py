@@ -75,10 +75,11 @@ class Vessel:
     inertia: float = 1.0
     damping: float = 1.0
     pod_gain: float = 1.0
+    lumped_inertia: float = 1.0  # scale of I_r = I_z - N_rdot as a whole (the other reading of "10 %")
 
     def mass_matrix(self) -> np.ndarray:
         """Rows/columns v, p, r of (2.14)."""
-        i_r = I_Z * self.inertia - N["rd"]  # a change of the ship's own I_z (cargo), not of added inertia
+        i_r = (I_Z * self.inertia - N["rd"]) * self.lumped_inertia  # inertia: the ship's own I_z (cargo)
         return np.array([[M - Y["vd"], -(M * Z_G + Y["pd"]), M * X_G - Y["rd"]],
                          [-(M * Z_G + K["vd"]), I_X - K["pd"], 0.0],
                          [M * X_G - N["vd"], 0.0, i_r]])

@@ -85,8 +85,9 @@ def _theta(kind: str, x: np.ndarray | dict) -> dict[str, np.ndarray]:
     return th
 
 
-def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], dt: float, gain=1.0) -> np.ndarray:
-    """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig`` (Heun's method).
+def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], dt: float, gain=1.0,
+               r0: float = 0.0) -> np.ndarray:
+    """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig`` (Heun's method), from ``r0``.
 
     Signals are (n,) or (n, cols); parameter values (and the actuator ``gain``) scalars or (cols,).
     Terms that do not involve ``r`` are summed once, outside the time loop.
@@ -112,6 +113,7 @@ def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], 
         return (c0[k] + (a_u[k] + c_rv[k]) * r + n_rr * r * ar + n_fur * fur[k] * ar) * inv_i
 
     r = np.zeros(shape)
+    r[0] = r0
     for k in range(shape[0] - 1):
         k1 = f(k, r[k])
         k2 = f(k + 1, r[k] + dt * k1)
@@ -119,43 +121,77 @@ def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], 
     return r
 
 
-def _jacobian(kind: str, x: np.ndarray, sig: dict[str, np.ndarray], dt: float, step: float = 1e-3) -> np.ndarray:
+def _jacobian(kind: str, x: np.ndarray, sig: dict[str, np.ndarray], dt: float, step: float = 1e-3, r0: float = 0.0) -> np.ndarray:
     """d r_hat / d x by forward differences, all columns in one vectorised simulation."""
     p = len(x)
     cols = np.repeat(x[:, None], p + 1, axis=1)
     cols[np.arange(p), np.arange(1, p + 1)] += step
-    r = simulate_r(kind, cols, {k: s[:, None] for k, s in sig.items()}, dt)
+    r = simulate_r(kind, cols, {k: s[:, None] for k, s in sig.items()}, dt, r0=r0)
     return (r[:, 1:] - r[:, :1]) / step
 
 
 def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, source: str = "",
-        max_iter: int = 30, estimate: bool = True) -> YawPrior:
+        max_iter: int = 30, estimate: bool = True, segments: int = 4) -> YawPrior:
     """Output-error fit of (2.17)/(2.18) from the nominal values (ch. 4, L1231-1243: I_r > 0 and the
     damping coefficients negative), with the residual's robust sigma, whitening filter, and the
-    parameter covariance ``s^2 (J^T J)^-1`` in relative (ln theta) units. ``estimate=False`` keeps
-    the nominal values (seed 000's "model 0") and only measures the residual on this data."""
-    names = PARAMS[kind]
-    lo = np.array([-np.inf if k == "M_v" else 1e-3 for k in names])
+    parameter covariance in relative (ln theta) units. ``estimate=False`` keeps the nominal values
+    (seed 000's "model 0") and only measures the residual on this data.
 
-    def res(x: np.ndarray) -> np.ndarray:
-        return simulate_r(kind, x, sig, dt) - r_meas
-
-    x = np.ones(len(names))
-    if estimate:
-        x = least_squares(res, x, jac=lambda x: _jacobian(kind, x, sig, dt), bounds=(lo, np.inf),
-                          x_scale=0.1, max_nfev=max_iter).x
-    e = res(x)
+    The inputs are measured with noise (errors in variables), so the fit's error on a new
+    manoeuvre is larger than ``s^2 (J^T J)^-1`` says. The covariance is therefore scaled by how
+    much fits to ``segments`` consecutive parts of the same record disagree beyond their own
+    covariances (:func:`segment_inflation`; 1 when they agree)."""
+    r0 = float(np.mean(r_meas[:5]))
+    x = _least_squares(kind, sig, r_meas, dt, np.ones(len(PARAMS[kind])), max_iter, r0) if estimate \
+        else np.ones(len(PARAMS[kind]))
+    e = simulate_r(kind, x, sig, dt, r0=r0) - r_meas
     if not np.all(np.isfinite(x)) or not np.all(np.isfinite(e)):
         raise UserError(f"{source}: the yaw-row fit diverged; the recording does not excite yaw enough for a prior")
     block = max(1, int(round(1.0 / dt)))
-    eb = block_mean(e, block)
-    ar = ar_fit(eb)
-    ew = whiten(eb, ar)
-    sigma_w = robust_sigma(ew)
-    Jw = whiten(block_mean(_jacobian(kind, x, sig, dt) * x[None, :], block), ar)  # d r / d ln(theta)
-    cov = sigma_w**2 * np.linalg.pinv(Jw.T @ Jw)
-    values = {k: float(NOMINAL[k] * xi) for k, xi in zip(names, x)}
+    ar = ar_fit(block_mean(e, block))
+    sigma_w = robust_sigma(whiten(block_mean(e, block), ar))
+    cov = _covariance(kind, sig, dt, x, r0, block, ar, sigma_w)
+    if estimate and segments > 1:
+        cov = cov * segment_inflation(kind, sig, r_meas, dt, x, segments, block, ar, sigma_w)
+    values = {k: float(NOMINAL[k] * xi) for k, xi in zip(PARAMS[kind], x)}
     return YawPrior(kind, values, robust_sigma(e), cov, ar, sigma_w, block, dt, source)
+
+
+def _least_squares(kind: str, sig: dict, r_meas: np.ndarray, dt: float, x0: np.ndarray, max_iter: int,
+                   r0: float) -> np.ndarray:
+    lo = np.array([-np.inf if k == "M_v" else 1e-3 for k in PARAMS[kind]])
+    return least_squares(lambda x: simulate_r(kind, x, sig, dt, r0=r0) - r_meas, x0,
+                         jac=lambda x: _jacobian(kind, x, sig, dt, r0=r0), bounds=(lo, np.inf), x_scale=0.1,
+                         max_nfev=max_iter).x
+
+
+def _covariance(kind: str, sig: dict, dt: float, x: np.ndarray, r0: float, block: int, ar: np.ndarray,
+                sigma_w: float) -> np.ndarray:
+    """``sigma_w^2 (Jw^T Jw)^-1`` of the whitened 1 s block means, ``J = d r_hat / d ln(theta)``."""
+    Jw = whiten(block_mean(_jacobian(kind, x, sig, dt, r0=r0) * x[None, :], block), ar)
+    return sigma_w**2 * np.linalg.pinv(Jw.T @ Jw)
+
+
+def segment_inflation(kind: str, sig: dict, r_meas: np.ndarray, dt: float, x: np.ndarray, segments: int,
+                      block: int, ar: np.ndarray, sigma_w: float) -> float:
+    """Factor (>= 1) by which fits to ``segments`` consecutive parts of one record scatter more than
+    their covariances predict: ``sum_i d_i^T C^+ d_i / ((g - 1) P)`` with ``d_i = ln theta_i -
+    mean``, ``C`` the mean segment covariance (its expected value is 1 for a correct model)."""
+    n = len(r_meas) // segments
+    if n < 100 * block:  # segments shorter than 100 s say too little
+        return 1.0
+    th, covs = [], []
+    for i in range(segments):
+        sl = slice(i * n, (i + 1) * n)
+        s_i = {k: v[sl] for k, v in sig.items()}
+        r0 = float(np.mean(r_meas[sl][:5]))
+        xi = _least_squares(kind, s_i, r_meas[sl], dt, x, 20, r0)
+        th.append((xi - x) / np.abs(x))  # relative, as ln(theta) to first order
+        covs.append(_covariance(kind, s_i, dt, xi, r0, block, ar, sigma_w))
+    d = np.array(th) - np.mean(th, axis=0)
+    c_inv = np.linalg.pinv(np.mean(covs, axis=0))
+    k = float(np.einsum("ij,jk,ik->", d, c_inv, d)) / ((segments - 1) * len(x))
+    return max(1.0, k)
 
 
 def robust_sigma(e: np.ndarray) -> float:
