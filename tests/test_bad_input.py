@@ -14,6 +14,7 @@ import json
 import signal
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from cli.app import _run
@@ -101,6 +102,7 @@ def files(tmp_path_factory):
     f.update(_yaw_files(tmp))
     f["roll_bad_profile"] = tmp / "roll-bad.toml"
     f["roll_bad_profile"].write_text("this is = not [a roll profile\n")
+    _detect_inputs(tmp, f)
     return f
 
 
@@ -117,6 +119,29 @@ def _yaw_files(tmp: Path) -> dict[str, Path]:
     for name, drop in (("yaw_noroll", "phi"), ("yaw_nopod", "tau_r")):
         out[name] = write_yaw_csv(YawData(good.t, {k: v for k, v in good.signals.items() if k != drop}), tmp / f"{name}.csv")
     return out
+
+
+def _detect_inputs(tmp: Path, f: dict) -> None:
+    """Podded-ship recordings (good, without pods, without r, another sample time) and priors."""
+    from diagnose.detect.api import save_prior, simulated_recording
+    from diagnose.detect.vessel import Vessel
+    from diagnose.detect.yawmodel import NOMINAL, PARAMS, YawPrior
+    from diagnose.recording import write_csv
+
+    rec = simulated_recording(Vessel(), 60, seed=1)
+    f["det_rec"] = write_csv(rec, tmp / "podded.csv")
+    f["det_dt2"] = write_csv(simulated_recording(Vessel(), 60, dt=0.2, seed=2), tmp / "podded-dt02.csv")
+    lines = f["det_rec"].read_text().splitlines()
+    header = lines[1].split(",")
+    for name, drop in (("det_nopods", {"alpha1", "alpha2"}), ("det_nor", {"r"})):
+        keep = [i for i, h in enumerate(header) if h not in drop]
+        f[name] = tmp / f"{name}.csv"
+        f[name].write_text("\n".join([lines[0]] + [",".join(row.split(",")[i] for i in keep) for row in lines[1:]]) + "\n")
+    names = PARAMS["full"]
+    prior = YawPrior("full", {k: NOMINAL[k] for k in names}, 0.0025, 1e-6 * np.eye(len(names)), np.zeros(2), 0.001, 10, 0.1)
+    f["det_prior"] = save_prior(prior, tmp / "prior.json")
+    f["det_prior_bad"] = tmp / "prior-bad.json"
+    f["det_prior_bad"].write_text(json.dumps({"format": "shiptrial-yaw-prior/1", "kind": "full", "values": {}}))
 
 
 def _cases() -> list[tuple[str, list[str]]]:
@@ -214,6 +239,21 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["yawid-sim", "{tmp}/y.csv"], "--noise", [*FLOATS_BAD, "1e9"])
     for out in ["{file}", "/proc/y.csv", "{dir}"]:
         cases.append((f"yawid-sim OUT {out}", ["yawid-sim", out]))
+    # detect (seed 000 ch. 5): recordings without pod inputs or yaw rate, mixed sample times, bad priors
+    det = ["detect", "{det_rec}"]
+    for rec in ["{missing}", "{dir}", "{latin1}", "{binary}", "{det_nopods}", "{det_nor}", "{plan}"]:
+        cases.append((f"detect RECORDING {rec}", ["detect", rec, "--prior", "{det_prior}"]))
+    cases.append(("detect RECORDINGS of different sample times", ["detect", "{det_rec}", "{det_dt2}", "--prior", "{det_prior}"]))
+    add(det, "--prior", ["{missing}", "{dir}", "{binary}", "{notjson}", "{det_prior_bad}", "{det_rec}", "{plan}"])
+    add([*det, "--prior", "{det_prior}"], "--plot", ["{tmp}/x.txt", "/proc/x.png", "{dir}"])
+    add([*det, "--prior", "{det_prior}"], "--false-alarm", [*FLOATS_BAD, "0", "0.9"])
+    add([*det, "--prior", "{det_prior}"], "--min-change", [*FLOATS_BAD, "0", "5"])
+    add([*det, "--prior", "{det_prior}"], "--seed", ["-1", "abc"])
+    for rec in ["{missing}", "{dir}", "{binary}", "{det_nopods}", "{det_nor}"]:
+        cases.append((f"detect-prior RECORDING {rec}", ["detect-prior", rec, "--out", "{tmp}/p.json"]))
+    cases.append(("detect-prior RECORDINGS of different sample times", ["detect-prior", "{det_rec}", "{det_dt2}", "--out", "{tmp}/p.json"]))
+    add(["detect-prior", "{det_rec}"], "--out", ["{tmp}/p.txt", "{dir}", "/proc/p.json"])
+    add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--model", ["fancy", ""])
     return cases
 
 

@@ -41,43 +41,28 @@ def cusum_path(inc: np.ndarray) -> np.ndarray:
     return g
 
 
-def null_max_statistic(stat, residual: np.ndarray, n: int, runs: int, seed: int, block: int = 200) -> np.ndarray:
-    """Max over time of a CUSUM statistic on ``runs`` no-change records of length ``n``.
+def first_alarms(stat: np.ndarray, h: float) -> np.ndarray:
+    """First index along axis 0 where ``stat > h`` per run (axis 1), -1 where none."""
+    over = stat > h
+    return np.where(over.any(axis=0), over.argmax(axis=0), -1)
 
-    The records are circular block-bootstrap resamples (blocks of ``block`` samples) of the prior
-    model's own residual, so its colour (from noisy inputs and parameter error) is kept.
-    ``stat`` maps an (n, runs) residual array to a statistic array with time on axis 0.
+
+def calibrate_dead_zone(sigma: float, null: np.ndarray, false_alarm: float = 0.02, d_sigma: float = 2.0) -> DeadZoneCusum:
+    """Choose d, l, h from the prior's own residual noise (never from evaluation runs).
+
+    ``d = d_sigma * sigma`` (``sigma`` the robust sigma of the prior's fit residual); ``l`` makes
+    the expected increment under white Gaussian noise equal to minus the mean excess above d (so
+    the statistic drifts down); ``h`` is the (1 - false_alarm) quantile of the statistic's maximum
+    over ``null``, no-change residual records (n, runs) drawn from the prior (glr.null_residuals).
     """
-    rng = np.random.default_rng(seed)
-    res = np.asarray(residual, float) - np.median(residual)
-    nb = -(-n // block)
-    starts = rng.integers(0, len(res), size=(nb, runs))
-    idx = (starts[:, None, :] + np.arange(block)[None, :, None]) % len(res)
-    e = res[idx.reshape(nb * block, runs)[:n]]
-    st = stat(e)
-    return st.reshape(n, runs, -1).max(axis=(0, 2))
-
-
-def calibrate_dead_zone(prior_residual: np.ndarray, n_eval: int, false_alarm: float = 0.02, d_sigma: float = 2.0,
-                        runs: int = 400, seed: int = 0) -> DeadZoneCusum:
-    """Choose d, l, h from the prior's own residuals (never from evaluation runs).
-
-    ``d = d_sigma * sigma`` (robust sigma of the prior's fit residual); ``l`` makes the expected
-    increment under no change equal to minus the mean excess above d (so the statistic drifts
-    down); ``h`` is the (1 - false_alarm) quantile of the statistic's maximum
-    over simulated no-change records of the evaluation length.
-    """
-    res = np.asarray(prior_residual, float) - np.median(prior_residual)
-    sigma = 1.4826 * float(np.median(np.abs(res)))
     d = d_sigma * sigma
-    # The alarm rate hangs on the residual's tail mass beyond d, which a few thousand residual
-    # samples cannot pin down (a 3000-sample white record's 4.3 % instead of 4.55 % beyond 2 sigma
-    # halves h); so the null here is Gaussian with the prior's robust sigma.
-    gauss = sigma * np.random.default_rng(seed).standard_normal(200_000)
-    a = np.abs(gauss)
-    excess = float(np.mean(np.where(a >= d, a - d, 0.0)))
-    p_in = float(np.mean(a < d))
+    # closed forms for |N(0, sigma^2)|: E[(|e| - d)+] and P(|e| < d)
+    from scipy.stats import norm
+
+    z = d_sigma
+    excess = 2 * sigma * (norm.pdf(z) - z * norm.sf(z))
+    p_in = 1 - 2 * norm.sf(z)
     l = 2.0 * excess / p_in  # expected increment = excess - l p_in = -excess
     det = DeadZoneCusum(d, l, np.inf)
-    h = float(np.quantile(null_max_statistic(det.statistic, gauss, n_eval, runs, seed + 1), 1 - false_alarm))
+    h = float(np.quantile(det.statistic(null).max(axis=0), 1 - false_alarm))
     return DeadZoneCusum(d, l, h)

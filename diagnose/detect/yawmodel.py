@@ -1,81 +1,247 @@
-"""Yaw row of the seed-000 multipurpose naval vessel, simplified model (2.18), for the detection study.
+"""Yaw-row prior models of seed 000, full (2.17) and simplified (2.18), fitted by output error (ch. 4).
 
-    I_r r' = A u r + N_r|r| r|r| + N_r|v| r|v| + N_|u|v |u| v + tau_r,act        (2.18)
+    I_r r' = -M_v v' + A u r + N_r|r| r|r| + N_r|v| r|v| + N_phiu|r| phi u|r|
+             + N_|u|v |u| v + N_phi|uv| phi|uv| + N_phiu|u| phi u|u| + tau_r,act          (2.17)
+    I_r r' = A u r + N_r|r| r|r| + N_r|v| r|v| + N_|u|v |u| v + tau_r,act                  (2.18)
 
-with the nominal values of the digest's section 3.3 (Appendix A of seed 000). Surge ``u``, sway
-``v`` and the actuator moment are inputs, as in the thesis (L859-860). The actuator moment here is
-the two pods' side force at a fixed propeller speed, (2.9b)/(2.9d) with sigma = 0 and (2.12)
-``x_pod F_y``. NOTE: this is the yaw row only, driven by prescribed u and v; the 4-DOF podded
-model in the shared simulation kernel (roll as an optional DOF) remains to be done.
+The predictor simulates ``r`` from the measured u, v, v', phi and tau_r (L1215-1216): everything
+but ``r`` is an input. Parameters are scales ``x`` of the nominal values of the digest's section
+3.3, so every column of a vectorised simulation can carry its own parameter set (the Jacobian
+and the signatures are one call each).
+
+NOTE: the yaw row lives here, beside its own truth model (vessel.py), until the 4-DOF podded
+profile of the shared kernel lands; it should then take its nominal values from that profile.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import lfilter
+from scipy.optimize import least_squares
+
+from primitives.errors import UserError
+
+NOMINAL = {"I_r": 62.4e6, "M_v": -1.75142e6, "A": -3.49658e6, "N_rr": -202e6, "N_rv": -15.6e6, "N_fur": -4.98e6,
+           "N_uv": -92000.0, "N_fuu": -8000.0, "N_fuv": -0.214e6}
+PARAMS = {"full": tuple(NOMINAL), "simplified": ("I_r", "A", "N_rr", "N_rv", "N_uv")}
+DAMPING = ("A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")
+SIGNALS = {"full": ("u", "v", "v_dot", "phi", "tau_r"), "simplified": ("u", "v", "tau_r")}
+#: the candidate changes a detector names (BRIEF effect ``inertia_change`` is "yaw_inertia")
+CANDIDATES = ("yaw_inertia", "yaw_damping", "pod_gain")
 
 
-@dataclass(frozen=True)
-class YawParams:
-    I_r: float = 62.4e6
-    A: float = -3.49658e6
-    N_rr: float = -202e6
-    N_rv: float = -15.6e6
-    N_uv: float = -92000.0
-    gain: float = 1.0  # actuator (pod) moment scale
+@dataclass
+class YawPrior:
+    """A fitted yaw row: its structure, parameter values, and what the fit says about its error."""
+
+    kind: str  # "full" (2.17) or "simplified" (2.18)
+    values: dict[str, float]
+    sigma: float  # robust standard deviation of the fit residual, rad/s
+    cov: np.ndarray  # covariance of the relative parameter errors (ln theta), from the fit's Jacobian
+    ar: np.ndarray = field(default_factory=lambda: np.zeros(0))  # AR whitening filter of the block-mean fit residual
+    sigma_w: float = 0.0  # robust standard deviation of the whitened block-mean fit residual
+    block: int = 10  # samples per block mean (1 s at 10 Hz)
+    dt: float = 0.1
+    source: str = ""
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return PARAMS[self.kind]
+
+    def to_dict(self) -> dict:
+        return {"format": "shiptrial-yaw-prior/1", "kind": self.kind, "values": self.values, "sigma": self.sigma,
+                "cov": self.cov.tolist(), "ar": self.ar.tolist(), "sigma_w": self.sigma_w, "block": self.block,
+                "dt": self.dt, "source": self.source}
+
+    @classmethod
+    def from_dict(cls, d: dict, where: str = "prior") -> YawPrior:
+        try:
+            if d.get("format") != "shiptrial-yaw-prior/1":
+                raise KeyError("format")
+            kind = d["kind"]
+            names = PARAMS[kind]
+            values = {k: float(d["values"][k]) for k in names}
+            cov = np.asarray(d["cov"], float).reshape(len(names), len(names))
+            p = cls(kind, values, float(d["sigma"]), cov, np.asarray(d["ar"], float).ravel(), float(d["sigma_w"]),
+                    int(d["block"]), float(d["dt"]), str(d.get("source", "")))
+        except (KeyError, TypeError, ValueError, AttributeError) as e:
+            raise UserError(f"{where}: not a yaw prior written by 'shiptrial detect-prior' (field {e}); "
+                            "make one with: shiptrial detect-prior NOMINAL.csv --out PRIOR.json") from None
+        ok = [np.isfinite(list(values.values())).all(), np.isfinite(cov).all(), np.isfinite(p.ar).all(),
+              p.sigma > 0, p.sigma_w > 0, p.block >= 1, p.dt > 0, values["I_r"] > 0]
+        if not all(ok):
+            raise UserError(f"{where}: the prior holds non-finite or non-physical values (I_r, sigma and dt must be > 0); refit it")
+        return p
 
 
-RHO, D, A_POD, X_POD = 1025.0, 0.42, 2.5, -23.5
+def _theta(kind: str, x: np.ndarray | dict) -> dict[str, np.ndarray]:
+    """Parameter values from scales ``x`` (shape (P,) or (P, cols)) or a dict of values."""
+    if isinstance(x, dict):
+        return {k: np.asarray(x.get(k, 0.0), float) for k in NOMINAL}
+    th = {k: np.asarray(0.0) for k in NOMINAL}
+    for i, k in enumerate(PARAMS[kind]):
+        th[k] = NOMINAL[k] * np.asarray(x[i], float)
+    return th
 
 
-def pod_moment(delta: np.ndarray, u: np.ndarray, n: float) -> np.ndarray:
-    """Yaw moment of two identical pods at angle ``delta`` [rad], (2.9b), (2.9d), (2.12) with sigma = 0."""
-    fy_m = RHO * D**4 * np.sin(delta) * (0.484 * n**2 + 0.7 * n * D * u)
-    fy_r = 0.5 * RHO * A_POD * u**2 * 1.2 * np.sin(2 * delta)
-    return 2 * X_POD * (fy_m + fy_r)
+def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], dt: float, gain=1.0,
+               r0: float = 0.0) -> np.ndarray:
+    """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig`` (Heun's method), from ``r0``.
 
-
-def harbour_inputs(n_samples: int, dt: float, seed: int) -> dict[str, np.ndarray]:
-    """Harbour-like manoeuvring: low-pass filtered random pod-angle steps, u ~ 6-8 m/s, small drift v."""
-    rng = np.random.default_rng(seed)
-    steps = np.repeat(rng.uniform(-0.35, 0.35, n_samples // 300 + 1), 300)[:n_samples]
-    a = np.exp(-dt / 8.0)
-    delta = lfilter([1 - a], [1, -a], steps)
-    u = 7.0 + 1.0 * np.sin(2 * np.pi * np.arange(n_samples) * dt / 400.0)
-    return {"delta": delta, "u": u, "n": np.full(n_samples, 3.0)}
-
-
-def simulate_yaw(p: YawParams, inputs: dict[str, np.ndarray], dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Yaw rate ``r`` and sway ``v`` by Heun's method; ``u`` may be (n,) or (n, runs) (vectorised).
-
-    Sway is a quasi-static drift ``v = -20 r`` (pivot point ~20 m forward) [choice], so the
-    ``r|v|`` and ``|u|v`` terms act in turns.
+    Signals are (n,) or (n, cols); parameter values (and the actuator ``gain``) scalars or (cols,).
+    Terms that do not involve ``r`` are summed once, outside the time loop.
     """
-    delta, u = inputs["delta"], inputs["u"]
-    n = float(inputs["n"][0])
-    delta = delta.reshape(len(delta), *([1] * (u.ndim - 1)))
-    tau = p.gain * pod_moment(delta, u, n)
+    th = _theta(kind, theta)
+    u, v = sig["u"], sig["v"]
+    au = np.abs(u)
+    c0 = th["N_uv"] * au * v + np.asarray(gain) * sig["tau_r"]
+    fur = np.zeros_like(u)
+    if kind == "full":
+        phi = sig["phi"]
+        c0 = c0 - th["M_v"] * sig["v_dot"] + th["N_fuv"] * phi * np.abs(u * v) + th["N_fuu"] * phi * u * au
+        fur = phi * u
+    a_u = th["A"] * u
+    c_rv = th["N_rv"] * np.abs(v)
+    shape = np.broadcast_shapes(c0.shape, a_u.shape, np.shape(th["I_r"]))
+    c0, a_u, c_rv, fur = (np.broadcast_to(z, shape) for z in (c0, a_u, c_rv, fur))
+    inv_i = 1.0 / th["I_r"]
+    n_rr, n_fur = th["N_rr"], th["N_fur"]
 
-    def f(rr: np.ndarray, k: int) -> np.ndarray:
-        vv = -20.0 * rr
-        uk = u[k]
-        return (p.A * uk * rr + p.N_rr * rr * np.abs(rr) + p.N_rv * rr * np.abs(vv) + p.N_uv * np.abs(uk) * vv + tau[k]) / p.I_r
+    def f(k: int, r: np.ndarray) -> np.ndarray:
+        ar = np.abs(r)
+        return (c0[k] + (a_u[k] + c_rv[k]) * r + n_rr * r * ar + n_fur * fur[k] * ar) * inv_i
 
-    r = np.zeros(u.shape)
-    for k in range(len(u) - 1):
-        k1 = f(r[k], k)
-        k2 = f(r[k] + dt * k1, k + 1)
+    r = np.zeros(shape)
+    r[0] = r0
+    for k in range(shape[0] - 1):
+        k1 = f(k, r[k])
+        k2 = f(k + 1, r[k] + dt * k1)
         r[k + 1] = r[k] + 0.5 * dt * (k1 + k2)
-    return r, -20.0 * r
+    return r
 
 
-def signatures(p: YawParams, inputs: dict[str, np.ndarray], dt: float, rel: float = 0.1) -> tuple[tuple[str, ...], np.ndarray]:
-    """``d r_hat / d ln(param)`` for yaw inertia, yaw damping (all damping terms) and pod gain."""
-    base, _ = simulate_yaw(p, inputs, dt)
-    damp = {k: getattr(p, k) * (1 + rel) for k in ("A", "N_rr", "N_rv", "N_uv")}
-    cols = [simulate_yaw(replace(p, I_r=p.I_r * (1 + rel)), inputs, dt)[0],
-            simulate_yaw(replace(p, **damp), inputs, dt)[0],
-            simulate_yaw(replace(p, gain=1 + rel), inputs, dt)[0]]
-    return ("yaw_inertia", "yaw_damping", "pod_gain"), np.column_stack([(c - base) / rel for c in cols])
+def _jacobian(kind: str, x: np.ndarray, sig: dict[str, np.ndarray], dt: float, step: float = 1e-3, r0: float = 0.0) -> np.ndarray:
+    """d r_hat / d x by forward differences, all columns in one vectorised simulation."""
+    p = len(x)
+    cols = np.repeat(x[:, None], p + 1, axis=1)
+    cols[np.arange(p), np.arange(1, p + 1)] += step
+    r = simulate_r(kind, cols, {k: s[:, None] for k, s in sig.items()}, dt, r0=r0)
+    return (r[:, 1:] - r[:, :1]) / step
+
+
+def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, source: str = "",
+        max_iter: int = 30, estimate: bool = True, segments: int = 4) -> YawPrior:
+    """Output-error fit of (2.17)/(2.18) from the nominal values (ch. 4, L1231-1243: I_r > 0 and the
+    damping coefficients negative), with the residual's robust sigma, whitening filter, and the
+    parameter covariance in relative (ln theta) units. ``estimate=False`` keeps the nominal values
+    (seed 000's "model 0") and only measures the residual on this data.
+
+    The inputs are measured with noise (errors in variables), so the fit's error on a new
+    manoeuvre is larger than ``s^2 (J^T J)^-1`` says. The covariance is therefore scaled by how
+    much fits to ``segments`` consecutive parts of the same record disagree beyond their own
+    covariances (:func:`segment_inflation`; 1 when they agree)."""
+    r0 = float(np.mean(r_meas[:5]))
+    x = _least_squares(kind, sig, r_meas, dt, np.ones(len(PARAMS[kind])), max_iter, r0) if estimate \
+        else np.ones(len(PARAMS[kind]))
+    e = simulate_r(kind, x, sig, dt, r0=r0) - r_meas
+    if not np.all(np.isfinite(x)) or not np.all(np.isfinite(e)):
+        raise UserError(f"{source}: the yaw-row fit diverged; the recording does not excite yaw enough for a prior")
+    block = max(1, int(round(1.0 / dt)))
+    ar = ar_fit(block_mean(e, block))
+    sigma_w = robust_sigma(whiten(block_mean(e, block), ar))
+    cov = _covariance(kind, sig, dt, x, r0, block, ar, sigma_w)
+    if estimate and segments > 1:
+        cov = cov * segment_inflation(kind, sig, r_meas, dt, x, segments, block, ar, sigma_w)
+    values = {k: float(NOMINAL[k] * xi) for k, xi in zip(PARAMS[kind], x)}
+    return YawPrior(kind, values, robust_sigma(e), cov, ar, sigma_w, block, dt, source)
+
+
+def _least_squares(kind: str, sig: dict, r_meas: np.ndarray, dt: float, x0: np.ndarray, max_iter: int,
+                   r0: float) -> np.ndarray:
+    lo = np.array([-np.inf if k == "M_v" else 1e-3 for k in PARAMS[kind]])
+    return least_squares(lambda x: simulate_r(kind, x, sig, dt, r0=r0) - r_meas, x0,
+                         jac=lambda x: _jacobian(kind, x, sig, dt, r0=r0), bounds=(lo, np.inf), x_scale=0.1,
+                         max_nfev=max_iter).x
+
+
+def _covariance(kind: str, sig: dict, dt: float, x: np.ndarray, r0: float, block: int, ar: np.ndarray,
+                sigma_w: float) -> np.ndarray:
+    """``sigma_w^2 (Jw^T Jw)^-1`` of the whitened 1 s block means, ``J = d r_hat / d ln(theta)``."""
+    Jw = whiten(block_mean(_jacobian(kind, x, sig, dt, r0=r0) * x[None, :], block), ar)
+    return sigma_w**2 * np.linalg.pinv(Jw.T @ Jw)
+
+
+def segment_inflation(kind: str, sig: dict, r_meas: np.ndarray, dt: float, x: np.ndarray, segments: int,
+                      block: int, ar: np.ndarray, sigma_w: float) -> float:
+    """Factor (>= 1) by which fits to ``segments`` consecutive parts of one record scatter more than
+    their covariances predict: ``sum_i d_i^T C^+ d_i / ((g - 1) P)`` with ``d_i = ln theta_i -
+    mean``, ``C`` the mean segment covariance (its expected value is 1 for a correct model)."""
+    n = len(r_meas) // segments
+    if n < 100 * block:  # segments shorter than 100 s say too little
+        return 1.0
+    th, covs = [], []
+    for i in range(segments):
+        sl = slice(i * n, (i + 1) * n)
+        s_i = {k: v[sl] for k, v in sig.items()}
+        r0 = float(np.mean(r_meas[sl][:5]))
+        xi = _least_squares(kind, s_i, r_meas[sl], dt, x, 20, r0)
+        th.append((xi - x) / np.abs(x))  # relative, as ln(theta) to first order
+        covs.append(_covariance(kind, s_i, dt, xi, r0, block, ar, sigma_w))
+    d = np.array(th) - np.mean(th, axis=0)
+    c_inv = np.linalg.pinv(np.mean(covs, axis=0))
+    k = float(np.einsum("ij,jk,ik->", d, c_inv, d)) / ((segments - 1) * len(x))
+    return max(1.0, k)
+
+
+def robust_sigma(e: np.ndarray) -> float:
+    """1.4826 median absolute deviation."""
+    return 1.4826 * float(np.median(np.abs(e - np.median(e))))
+
+
+def block_mean(x: np.ndarray, block: int) -> np.ndarray:
+    """Means of consecutive ``block`` samples along axis 0 (a trailing partial block is dropped).
+
+    The change signatures are slower than 0.5 Hz, so 1 s means keep their information, while the
+    noise that the yaw dynamics low-pass (input noise through the model) becomes short-memory
+    enough for a low-order AR whitening filter."""
+    x = np.asarray(x, float)
+    nb = len(x) // block
+    return x[: nb * block].reshape(nb, block, *x.shape[1:]).mean(axis=1)
+
+
+def ar_fit(e: np.ndarray, order: int = 4) -> np.ndarray:
+    """AR(order) coefficients ``a`` of ``e_t = sum a_i e_{t-i} + w_t`` by least squares."""
+    e = np.asarray(e, float) - np.mean(e)
+    X = np.column_stack([e[order - i - 1: len(e) - i - 1] for i in range(order)])
+    a, *_ = np.linalg.lstsq(X, e[order:], rcond=None)
+    return a
+
+
+def whiten(x: np.ndarray, ar: np.ndarray) -> np.ndarray:
+    """``x_t - sum a_i x_{t-i}`` along axis 0 (the innovation filter of ``ar_fit``); first samples as is."""
+    x = np.asarray(x, float)
+    out = x.copy()
+    for i, a in enumerate(ar, start=1):
+        out[i:] -= a * x[:-i]
+    return out
+
+
+def signatures(prior: YawPrior, sig: dict[str, np.ndarray], rel: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
+    """``(S, Sp)``: ``S`` (n, 3) the change of r_hat per unit relative change of each candidate in
+    CANDIDATES (yaw inertia, all damping terms together, actuator gain); ``Sp`` (n, P) the same per
+    fitted parameter (what the prior's own parameter error does on this manoeuvre)."""
+    names = prior.names
+    base = np.array([prior.values[k] / NOMINAL[k] for k in names])
+    p = len(names)
+    cols = np.repeat(base[:, None], p + 3, axis=1)
+    cols[:, 1: p + 1] *= 1 + rel * np.eye(p)
+    cols[names.index("I_r"), p + 1] *= 1 + rel
+    damp = [names.index(k) for k in DAMPING if k in names]
+    cols[damp, p + 2] *= 1 + rel
+    gain = np.ones(p + 4)
+    gain[-1] = 1 + rel
+    cols = np.column_stack([cols, base])
+    r = simulate_r(prior.kind, cols, {k: s[:, None] for k, s in sig.items()}, prior.dt, gain=gain)
+    d = (r - r[:, :1]) / rel
+    return d[:, p + 1:], d[:, 1: p + 1]

@@ -1,0 +1,86 @@
+"""``shiptrial detect-prior`` and ``shiptrial detect``: has the ship changed, when, and what (seed 000 ch. 5)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import typer
+
+from primitives.io import dumps
+
+
+def _check(*, plot: Path | None, out: Path | None, false_alarm: float, min_change: float, seed: int) -> None:
+    from cli.options import check_plot_path
+    from primitives.errors import UserError
+    from primitives.io import check_out_file
+
+    check_plot_path(plot)
+    if out is not None:
+        check_out_file(out, (".json",), "--out", "prior")
+        if out.is_dir():
+            raise UserError(f"--out {out}: is a directory; give a .json file name")
+    if not (math.isfinite(false_alarm) and 1e-4 <= false_alarm <= 0.5):
+        raise UserError(f"--false-alarm {false_alarm}: give a probability per recording between 0.0001 and 0.5")
+    if not (math.isfinite(min_change) and 0.005 <= min_change <= 1.0):
+        raise UserError(f"--min-change {min_change}: give the smallest relative change worth an alarm, 0.005 to 1")
+    if seed < 0:
+        raise UserError(f"--seed {seed}: give a non-negative integer")
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("detect-prior")
+    def detect_prior(
+        nominal: list[Path] = typer.Argument(..., help="nominal recording CSV(s) of the podded ship (r, n1, alpha1, n2, alpha2)"),
+        out: Path = typer.Option(..., "--out", help="prior model file to write (.json)"),
+        model: str = typer.Option("full", "--model", help="full (2.17, needs phi) or simplified (2.18)"),
+    ) -> None:
+        """Fit the yaw-row prior of seed 000 (2.17)/(2.18) on a nominal recording, for `detect`."""
+        from diagnose.detect.api import fit_prior, save_prior
+
+        _check(plot=None, out=out, false_alarm=0.02, min_change=0.05, seed=0)
+        prior = fit_prior(nominal, model)
+        save_prior(prior, out)
+        typer.echo(f"wrote {out}: {prior.kind} yaw row, I_r {prior.values['I_r']:.4g} kg m^2, "
+                   f"residual sigma {prior.sigma:.2g} rad/s")
+
+    @app.command("detect")
+    def detect(
+        recordings: list[Path] = typer.Argument(..., help="recording CSV(s) to test against the prior"),
+        prior_file: Path = typer.Option(..., "--prior", help="prior model from `shiptrial detect-prior`"),
+        plot: Path | None = typer.Option(None, "--plot", help="figure of the test statistic (.png, .pdf, .svg)"),
+        false_alarm: float = typer.Option(0.02, "--false-alarm", help="false-alarm probability per recording"),
+        min_change: float = typer.Option(0.05, "--min-change", help="smallest relative change worth an alarm (0.05 = 5 %)"),
+        seed: int = typer.Option(0, "--seed", help="seed of the threshold's no-change simulation"),
+        json_out: bool = typer.Option(False, "--json", help="print the verdicts as JSON"),
+    ) -> None:
+        """Say whether and when the ship changed and which property (yaw inertia, yaw damping, pod gain)."""
+        from diagnose.detect.api import detect as run_detect
+        from diagnose.detect.api import load_prior, load_runs
+        from diagnose.detect.api import plot as plot_stats
+
+        _check(plot=plot, out=None, false_alarm=false_alarm, min_change=min_change, seed=seed)
+        prior = load_prior(prior_file)
+        recs = load_runs(recordings)
+        dets = [run_detect(r, prior, false_alarm, min_change, seed) for r in recs]
+        if plot is not None:
+            plot_stats(dets, plot)
+        if json_out:
+            typer.echo(dumps({"prior": str(prior_file), "model": prior.kind, "false_alarm": false_alarm,
+                              "min_change": min_change, "recordings": [d.summary() for d in dets]}))
+            return
+        for d in dets:
+            if d.changed:
+                c = d.evidence["candidates"][d.property]
+                typer.echo(f"{d.source}: CHANGED at {d.alarm_s:.0f} s: {d.property.replace('_', ' ')} "
+                           f"{100 * c['relative_change']:+.1f} % (+- {100 * c['std']:.1f} %)")
+            else:
+                typer.echo(f"{d.source}: no change detected (statistic max {max(d.evidence['statistic_max'].values()):.1f} "
+                           f"< threshold {d.threshold:.1f})")
+            for name, c in d.evidence["candidates"].items():
+                typer.echo(f"  {name:12s} estimate {100 * c['relative_change']:+6.1f} % +- {100 * c['std']:4.1f} %, "
+                           f"log-likelihood ratio {c['llr']:7.1f}")
+            dz = f"{d.dead_zone_alarm_s:.0f} s" if d.dead_zone_alarm_s is not None else "none"
+            typer.echo(f"  dead-zone CUSUM (5.1) alarm: {dz}")
+        if plot is not None:
+            typer.echo(f"wrote {plot}")

@@ -1,0 +1,210 @@
+"""Change detection on recordings: fit a yaw prior on a nominal run, then say whether, when and how
+the ship changed (seed 000 chapter 5, with the change named). A notebook calls these; the CLI
+``shiptrial detect-prior`` / ``shiptrial detect`` is a thin layer over them."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+from diagnose.detect.cusum import calibrate_dead_zone, first_alarms
+from diagnose.detect.glr import SignatureCusum, attribute, calibrate, null_residuals
+from diagnose.detect.vessel import pod_yaw_moment
+from diagnose.detect.yawmodel import CANDIDATES, SIGNALS, YawPrior, block_mean, fit, signatures, simulate_r
+from diagnose.recording import Recording, RecordingError, load_recording, split_metadata
+from primitives.errors import UserError
+from primitives.io import atomic_write_text, dumps, read_input_text
+
+POD_COLUMNS = ("n1", "alpha1", "n2", "alpha2")
+
+
+def load_runs(paths: list[Path] | list[str]) -> list[Recording]:
+    """Recordings that carry what the yaw row needs (measured r, the pod inputs), one sample time."""
+    recs = []
+    for p in paths:
+        header = _header(Path(p))
+        if "r" not in header:
+            raise RecordingError(f"{p}: no column 'r' (measured yaw rate, rad/s); change detection needs the "
+                                 "measured yaw rate, not one derived from heading")
+        missing = [c for c in POD_COLUMNS if c not in header]
+        if missing:
+            raise RecordingError(f"{p}: missing pod input column(s) {missing}; the podded ship's recording needs "
+                                 "n1, alpha1, n2, alpha2 (rev/s, rad)")
+        recs.extend(load_recording(p))
+    dts = {round(r.sample_time, 9) for r in recs}
+    if len(dts) > 1:
+        raise RecordingError(f"{', '.join(str(p) for p in paths)}: different sample times {sorted(dts)} s; "
+                             "resample the recordings to one sample time")
+    return recs
+
+
+def _header(path: Path) -> list[str]:
+    _, body = split_metadata(read_input_text(path, RecordingError, "a recording CSV (BRIEF section 7)",
+                                             "utf-8-sig").splitlines()[:200])
+    return [h.strip() for h in body[0].split(",")] if body else []
+
+
+def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The yaw row's measured inputs and the measured yaw rate of one recording.
+
+    v' is a Savitzky-Golay derivative of v (2 s window) and tau_r the pods' yaw moment from the
+    pod inputs and the measured motion (the recording format has no measured pod force)."""
+    u, v, r = rec.y[:, 0], rec.y[:, 1], rec.y[:, 2]
+    sig = {"u": u, "v": v}
+    if kind == "full":
+        if "phi" not in rec.channels:
+            raise RecordingError(f"{rec.source}: no column 'phi' (roll, rad) that the full model (2.17) needs; "
+                                 "add it or use the simplified model (--model simplified)")
+        sig["phi"] = rec.channels["phi"]
+        win = max(5, 2 * int(1.0 / rec.sample_time) + 1)
+        sig["v_dot"] = savgol_filter(v, win, 2, deriv=1, delta=rec.sample_time) if len(v) > win else np.gradient(v, rec.sample_time)
+    p = rec.channels.get("p", np.zeros_like(r))
+    sig["tau_r"] = pod_yaw_moment({c: rec.channels[c] for c in POD_COLUMNS}, u, v, r, p)[1]
+    return {k: sig[k] for k in SIGNALS[kind]}, r
+
+
+def fit_prior(paths: list[Path] | list[str], kind: str = "full") -> YawPrior:
+    """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s)."""
+    if kind not in SIGNALS:
+        raise UserError(f"--model {kind!r}: choose full (2.17) or simplified (2.18)")
+    recs = load_runs(paths)
+    rec = max(recs, key=lambda r: r.n_samples)
+    sig, r = signals(rec, kind)
+    if np.ptp(r) < 1e-3:
+        raise RecordingError(f"{rec.source}: the yaw rate hardly moves (range {np.ptp(r):.1e} rad/s); a prior needs turning")
+    return fit(kind, sig, r, rec.sample_time, source=str(rec.source))
+
+
+def save_prior(prior: YawPrior, path: Path) -> Path:
+    return atomic_write_text(path, dumps(prior.to_dict()) + "\n")
+
+
+def load_prior(path: Path) -> YawPrior:
+    text = read_input_text(path, UserError, "a prior JSON written by 'shiptrial detect-prior'")
+    try:
+        d = json.loads(text)
+    except ValueError as e:
+        raise UserError(f"{path}: not JSON ({e.msg} at line {e.lineno}); give a prior written by 'shiptrial detect-prior'") from None
+    if not isinstance(d, dict):
+        raise UserError(f"{path}: not a yaw prior; give a prior written by 'shiptrial detect-prior'")
+    return YawPrior.from_dict(d, where=str(path))
+
+
+@dataclass
+class Detection:
+    """One recording's verdict, the evidence, and the statistics for the plot."""
+
+    source: str
+    changed: bool
+    alarm_s: float | None
+    property: str | None
+    evidence: dict
+    dead_zone_alarm_s: float | None
+    threshold: float
+    t_blocks: np.ndarray = field(repr=False)
+    statistic: np.ndarray = field(repr=False)  # (blocks, candidates)
+    dead_zone: np.ndarray = field(repr=False)
+    dead_zone_h: float = 0.0
+    t: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+
+    def summary(self) -> dict:
+        return {"recording": self.source, "changed": self.changed, "alarm_s": self.alarm_s, "property": self.property,
+                "threshold": self.threshold, "evidence": self.evidence, "dead_zone_cusum_alarm_s": self.dead_zone_alarm_s}
+
+
+def detect(rec: Recording, prior: YawPrior, false_alarm: float = 0.02, min_change: float = 0.05, seed: int = 0,
+           null_runs: int = 400) -> Detection:
+    """Signature LR-CUSUM (and, for comparison, the dead-zone CUSUM of (5.1)) on one recording,
+    calibrated for ``false_alarm`` per recording length from the prior alone."""
+    if abs(rec.sample_time - prior.dt) > 1e-6 * prior.dt:
+        raise RecordingError(f"{rec.source}: sample time {rec.sample_time:g} s differs from the prior's {prior.dt:g} s; "
+                             "resample the recording or fit the prior on data of this sample time")
+    if rec.n_samples < 20 * prior.block:
+        raise RecordingError(f"{rec.source}: {rec.duration_s:.0f} s is too short to detect a change; give at least "
+                             f"{20 * prior.block * prior.dt:.0f} s")
+    sig, r = signals(rec, prior.kind)
+    eps = r - simulate_r(prior.kind, prior.values, sig, prior.dt, r0=float(np.mean(r[:5])))
+    S, Sp = signatures(prior, sig)
+    null_raw, null_blocks = null_residuals(prior, Sp, null_runs, seed)
+    sc: SignatureCusum = calibrate(prior, S, null_blocks, theta1=min_change, false_alarm=false_alarm)
+    dz = calibrate_dead_zone(prior.sigma, null_raw, false_alarm=false_alarm)
+    st = sc.statistics(block_mean(eps, prior.block), S)
+    i = int(sc.alarms(eps[:, None], S)[0])
+    g = dz.statistic(eps)
+    j = int(first_alarms(g[:, None], dz.h)[0])
+    t = rec.t - rec.t[0]
+    ev = attribute(eps, S, prior, len(eps) if i < 0 else i + 600)
+    ev["statistic_max"] = {c: float(st[:, k].max()) for k, c in enumerate(CANDIDATES)}
+    ev["residual_rms"] = float(np.sqrt(np.mean(eps**2)))
+    ev["prior_sigma"] = prior.sigma
+    tb = t[prior.block - 1:: prior.block][: len(st)]
+    return Detection(str(rec.source), i >= 0, float(t[i]) if i >= 0 else None, ev["property"] if i >= 0 else None, ev,
+                     float(t[j]) if j >= 0 else None, sc.h, tb, st, g, dz.h, t)
+
+
+def plot(dets: list[Detection], path: Path) -> Path:
+    """Test statistic per candidate against time, threshold and alarm, one panel per recording."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from primitives.io import atomic_savefig
+
+    fig, axes = plt.subplots(len(dets), 1, figsize=(9, 3.2 * len(dets)), squeeze=False)
+    for ax, d in zip(axes[:, 0], dets):
+        for k, c in enumerate(CANDIDATES):
+            ax.plot(d.t_blocks, d.statistic[:, k], label=f"LR-CUSUM {c.replace('_', ' ')}")
+        ax.axhline(d.threshold, color="k", ls="--", lw=1, label=f"threshold h = {d.threshold:.1f}")
+        if d.changed:
+            ax.axvline(d.alarm_s, color="r", lw=1.2, label=f"alarm {d.alarm_s:.0f} s: {d.property.replace('_', ' ')}")
+        verdict = f"changed at {d.alarm_s:.0f} s ({d.property.replace('_', ' ')})" if d.changed else "no change detected"
+        ax.set_title(f"{Path(d.source).name}: {verdict}", fontsize=10)
+        ax.set_ylabel("log-likelihood ratio")
+        ax.legend(fontsize=8, loc="upper left")
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("time [s]")
+    fig.tight_layout()
+    out = atomic_savefig(fig, path, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def simulated_recording(vessel, duration_s: float = 500.0, dt: float = 0.1, seed: int = 0, noise_scale: float = 1.0,
+                        change_at_s: float | None = None, changed=None, source: str = "simulated") -> Recording:
+    """A podded-ship recording from the study's truth model with Table 4.1 noise (examples, tests).
+
+    With ``change_at_s`` the ship is ``vessel`` before and ``changed`` after (a step change)."""
+    from dataclasses import replace as _replace
+
+    from diagnose.detect.vessel import TABLE_4_1, harbour_inputs, simulate
+
+    n = int(round(duration_s / dt))
+    ch = harbour_inputs(n, dt, seed=seed)
+    k = 0 if change_at_s is None else int(round(change_at_s / dt))
+    tr = simulate(vessel, ch, dt) if change_at_s is None else _splice(vessel, changed, ch, dt, k)
+    rng = np.random.default_rng(seed + 1)
+    sd = {k: noise_scale * s for k, s in TABLE_4_1.items()}
+    t = np.arange(n) * dt
+    r = tr["r"] + sd["r"] * rng.standard_normal(n)
+    u = ch["u"] + sd["u"] * rng.standard_normal(n)
+    v = tr["v"] + sd["v"] * rng.standard_normal(n)
+    phi = tr["phi"] + sd["phi"] * rng.standard_normal(n)
+    psi = np.cumsum(tr["r"]) * dt
+    c, s = np.cos(psi), np.sin(psi)
+    pos = np.cumsum(np.column_stack([c * ch["u"] - s * tr["v"], s * ch["u"] + c * tr["v"]]), axis=0) * dt
+    chans = {"phi": phi, **{k: ch[k] for k in POD_COLUMNS}}
+    return _replace(Recording(source, t, np.column_stack([u, v, r]), psi, pos, chans), meta={"sample_time": f"{dt:g}"})
+
+
+def _splice(before, after, ch: dict, dt: float, k: int) -> dict[str, np.ndarray]:
+    """Truth with a step change at sample ``k``: ``before`` up to k, then ``after`` from that state."""
+    from diagnose.detect.vessel import simulate
+
+    a = simulate(before, ch, dt)
+    b = simulate(after, {c: x[k:] for c, x in ch.items()}, dt, x0=np.array([a["v"][k], a["p"][k], a["phi"][k], a["r"][k]]))
+    return {c: np.concatenate([a[c][:k], b[c]]) for c in a}
