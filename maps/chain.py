@@ -26,7 +26,7 @@ from maps.geo import MapError, SeaMap, bundled_map_path
 from maps.lattice import Move, heading_table, nearest_heading, run_in_seconds
 from maps.motionset import basic_move_set, default_resolution, informative_moves, planning_window
 from maps.plan import Plan, PlanStep
-from maps.smooth import Leg, Realiser, Shortcutter, _advance
+from maps.smooth import Leg, Realiser, Shortcutter
 from maps.verify import Verification, resimulate
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
@@ -215,13 +215,13 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     t0 = time.perf_counter()
     o = options or PlanOptions()
     o.check()
-    res = float(o.resolution) if o.resolution else default_resolution(profile)
+    res = float(o.resolution) if o.resolution else default_resolution(profile, sea)
     K = o.headings
     sx, sy, spsi, start_ll = _endpoint(sea, start, sea.start, HELSINKI_START, "start", o.margin)
     gx, gy, gpsi, goal_ll = _endpoint(sea, goal, sea.goal, HELSINKI_GOAL, "goal", o.margin)
     win = planning_window(sea, res, (sx, sy), (gx, gy), o.size)
     prims = [p for p in primitives if counts.get(p.name, 0) > 0]
-    n_moves = len(prims) + (5 if o.spot_turns and profile.actuator != "rudder_propeller" else 3)
+    n_moves = len(prims) + (5 if o.spot_turns or profile.actuator == "rudder_propeller" else 3)
     need, states = estimate_memory(win.ni, win.nj, K, n_moves, [counts[p.name] for p in prims])
     if need > o.max_memory_gib * 2**30:
         raise MapError(f"the lattice would not fit: {win.ni} x {win.nj} points x {K} headings x counters = {states:,} states, "
@@ -359,21 +359,21 @@ def verify_plan(lat: Lattice, out: SearchOutcome) -> Realised:
                 shortcuts += 1
                 replaced += len(run)
                 legs.append(new)
-                nu, eta = _advance(p, new.inputs, nu, eta)
+                nu, eta = new.sail(nu, eta)
             else:
                 for i, (mi, s) in enumerate(run):
                     for leg in sailor.legs(mi, s, nu, eta, res.spatial[k + i + 1]):
                         legs.append(leg)
-                        nu, eta = _advance(p, leg.inputs, nu, eta)
+                        nu, eta = leg.sail(nu, eta)
             k = k1
         else:
             for leg in sailor.legs(moves[k], res.spatial[k], nu, eta, res.spatial[k + 1]):
                 legs.append(leg)
-                nu, eta = _advance(p, leg.inputs, nu, eta)
+                nu, eta = leg.sail(nu, eta)
             k += 1
     end_cell = res.spatial[-1] // K
     ver = resimulate(lat.sea, legs, lat.start, lat.options.margin, lat.window.point(end_cell // lat.window.nj, end_cell % lat.window.nj),
-                     nu0=np.array([p.cruise_speed_mps, 0.0, 0.0]))
+                     nu0=np.array([p.cruise_speed_mps, 0.0, 0.0]), sims=[leg.sim for leg in legs])
     return Realised(legs, ver, shortcuts, replaced)
 
 

@@ -56,22 +56,31 @@ def hull_clearance(sea: SeaMap, length_m: float, beam_m: float, track: np.ndarra
 
 
 def resimulate(sea: SeaMap, prims: list[Primitive], start: tuple[float, float, float], margin: float,
-               lattice_end: tuple[float, float] | None = None, nu0: np.ndarray | None = None) -> Verification:
+               lattice_end: tuple[float, float] | None = None, nu0: np.ndarray | None = None,
+               sims: list | None = None) -> Verification:
     """Simulate the concatenated inputs of ``prims`` (anything with ``inputs``, ``n_samples``,
-    ``name``) from ``start`` and check the swept hull against the map with the margin."""
+    ``name``) from ``start`` and check the swept hull against the map with the margin.
+
+    ``sims``: the (nu, eta) (n+1, 3) of each piece already sailed one after the other from
+    (``nu0``, ``start``): their concatenation is the continuous simulation, sample for sample."""
     profile = prims[0].profile
     inputs = np.vstack([p.inputs for p in prims])
     step = np.concatenate([np.full(p.n_samples, i) for i, p in enumerate(prims)] + [[len(prims) - 1]])
-    res = simulate(profile, inputs, nu0=prims[0].nu0 if nu0 is None else nu0, eta0=start)
-    track, nu = res.eta[0], res.nu[0]
+    if sims is not None and all(s is not None for s in sims):
+        nu = np.vstack([s[0][:-1] for s in sims] + [sims[-1][0][-1:]])
+        track = np.vstack([s[1][:-1] for s in sims] + [sims[-1][1][-1:]])
+        t = np.arange(len(track)) * profile.sample_time
+    else:
+        res = simulate(profile, inputs, nu0=prims[0].nu0 if nu0 is None else nu0, eta0=start)
+        track, nu, t = res.eta[0], res.nu[0], res.t
     clear = hull_clearance(sea, profile.length_m, profile.beam_m, track, margin)
     worst = int(np.argmin(clear))
     mc = float(clear[worst])
     drift = float(np.hypot(*(track[-1, :2] - np.asarray(lattice_end)))) if lattice_end is not None else 0.0
     ok = mc >= margin - 1e-6
     reason = "" if ok else (
-        f"the re-simulated track comes {mc:.1f} m from an obstacle (margin {margin:g} m) at t = {res.t[worst]:.0f} s "
+        f"the re-simulated track comes {mc:.1f} m from an obstacle (margin {margin:g} m) at t = {t[worst]:.0f} s "
         f"in step {int(step[worst]) + 1} ({prims[int(step[worst])].name}): increase --margin or use a finer --resolution"
     )
     ins = np.vstack([inputs, inputs[-1:]])
-    return Verification(res.t, track, nu, ins, step, clear, mc, worst, drift, ok, reason)
+    return Verification(t, track, nu, ins, step, clear, mc, worst, drift, ok, reason)
