@@ -98,6 +98,7 @@ class Lattice:
     setup_s: float = 0.0
     too_big: dict[str, tuple[float, float]] = field(default_factory=dict)  # left out: larger than the water in every heading
     _placements: dict[float, list] = field(default_factory=dict, repr=False)
+    _problem: tuple | None = field(default=None, repr=False)
 
     @property
     def res(self) -> float:
@@ -136,19 +137,49 @@ class Lattice:
         return out
 
     def fits_nowhere(self) -> dict[str, tuple[float, float]]:
-        """Informative primitives with no collision-free placement in the window: {name: (along,
-        cross) metres of open water the move needs, margin included on both sides}."""
+        """Informative primitives with no collision-free placement in the water the ship can use
+        (reachable from the start, the goal reachable after it): {name: (along, cross) metres of
+        open water the move needs, margin included on both sides}."""
         out: dict[str, tuple[float, float]] = dict(self.too_big)
-        for m, per_h in zip(self.moves, self.placements()):
-            if m.counter >= 0 and not any(ok.any() for ok, _ in per_h):
+        used = self._usable_moves()
+        for mi, m in enumerate(self.moves):
+            if m.counter >= 0 and mi not in used:
                 b = m.prims[0].footprint.bounds
                 two = 2 * self.options.margin
                 out[m.source or m.name] = (float(b[2] - b[0] + two), float(b[3] - b[1] + two))
         return out
 
+    def _usable_moves(self) -> set[int]:
+        """Moves with a placement reachable from the start from which the goal stays reachable
+        (any moves, counters ignored: breadth-first search on the move graph both ways)."""
+        from scipy.sparse import csr_matrix
+        from scipy.sparse.csgraph import breadth_first_order
+
+        pb = self.problem()
+        e = np.array([(s, s2, mi) for s, lst in enumerate(pb.succ) for mi, s2, _, _ in lst], np.int64).reshape(-1, 3)
+        n = len(pb.succ)
+        g = csr_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
+        fwd = np.zeros(n, bool)
+        fwd[breadth_first_order(g, pb.start_spatial, directed=True, return_predecessors=False)] = True
+        back = np.zeros(n, bool)
+        gt = g.T.tocsr()
+        for goal in pb.goal_spatial:
+            if not back[goal]:
+                back[breadth_first_order(gt, goal, directed=True, return_predecessors=False)] = True
+        ok = fwd[e[:, 0]] & back[e[:, 1]]
+        return set(np.unique(e[ok, 2]).tolist())
+
     def problem(self, extra: float = 0.0, blocked: frozenset = frozenset()) -> astar.Problem:
         """The A* problem: collision-free successors per spatial state, soft clearance in the cost,
-        ``blocked`` (move index, spatial state) pairs left out."""
+        ``blocked`` (move index, spatial state) pairs left out (built once per (extra, blocked))."""
+        key = (extra, blocked)
+        if self._problem is not None and self._problem[0] == key:
+            return self._problem[1]
+        pb = self._build_problem(extra, blocked)
+        self._problem = (key, pb)
+        return pb
+
+    def _build_problem(self, extra: float, blocked: frozenset) -> astar.Problem:
         K, nj, win = len(self.table), self.window.nj, self.window
         pen = self.options.clearance_cost * self.options.basic_cost
         succ: list[list[tuple[int, int, int, float]]] = [[] for _ in range(win.ni * nj * K)]
