@@ -156,8 +156,9 @@ class Lattice:
         from scipy.sparse.csgraph import breadth_first_order
 
         pb = self.problem()
-        e = np.array([(s, s2, mi) for s, lst in enumerate(pb.succ) for mi, s2, _, _ in lst], np.int64).reshape(-1, 3)
-        n = len(pb.succ)
+        sc = pb.succ
+        e = np.column_stack([sc.sources(), sc.dst, sc.move]).astype(np.int64)
+        n = len(sc)
         g = csr_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
         fwd = np.zeros(n, bool)
         fwd[breadth_first_order(g, pb.start_spatial, directed=True, return_predecessors=False)] = True
@@ -182,19 +183,24 @@ class Lattice:
     def _build_problem(self, extra: float, blocked: frozenset) -> astar.Problem:
         K, nj, win = len(self.table), self.window.nj, self.window
         pen = self.options.clearance_cost * self.options.basic_cost
-        succ: list[list[tuple[int, int, int, float]]] = [[] for _ in range(win.ni * nj * K)]
+        parts = []
         for mi, (m, per_h) in enumerate(zip(self.moves, self.placements(extra))):
             for h, (ok, near) in enumerate(per_h):
                 di, dj = (int(v) for v in m.dcell[h])
                 h2 = (h + int(m.dh[h])) % K
-                for i, j in zip(*np.nonzero(ok)):
-                    s = (int(i) * nj + int(j)) * K + h
-                    if (mi, s) in blocked:
-                        continue
-                    # the soft clearance cost steers repositioning away from shores; informative moves keep
-                    # only the hard margin (penalising them too made A* expand 20x more states for no safer plan)
-                    cost = m.cost + (pen if near[i, j] and m.counter < 0 else 0.0)
-                    succ[s].append((mi, ((int(i) + di) * nj + int(j) + dj) * K + h2, m.counter, cost))
+                ii, jj = np.nonzero(ok)
+                s = (ii * nj + jj) * K + h
+                # the soft clearance cost steers repositioning away from shores; informative moves keep
+                # only the hard margin (penalising them too made A* expand 20x more states for no safer plan)
+                cost = np.where(near[ii, jj], m.cost + pen, m.cost) if m.counter < 0 else np.full(len(s), m.cost)
+                parts.append((s, np.full(len(s), mi), ((ii + di) * nj + jj + dj) * K + h2, np.full(len(s), m.counter), cost))
+        src, mv, dst, q, cost = (np.concatenate([p[k] for p in parts]) if parts else np.zeros(0) for k in range(5))
+        if blocked:
+            n_sp = win.ni * nj * K
+            keep = ~np.isin(mv.astype(np.int64) * n_sp + src.astype(np.int64), [a * n_sp + b for a, b in blocked])
+            src, mv, dst, q, cost = src[keep], mv[keep], dst[keep], q[keep], cost[keep]
+        succ = astar.Successors.from_edges(win.ni * nj * K, src.astype(np.int64), mv.astype(np.int64), dst.astype(np.int64),
+                                           q.astype(np.int64), cost.astype(float))
         si, sj = self.start_cell
         gi, gj = self.goal_cell
         return astar.Problem(win.ni, nj, K, [self.targets[n] for n in self.cnames], succ, (si * nj + sj) * K + self.h_start,
