@@ -12,6 +12,7 @@ angle to a yaw force with 35 deg giving a steady turn of diameter 3 L at cruise 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -97,12 +98,12 @@ class Actuators:
     def feasible(self, f) -> tuple[float, float, float]:
         if not self.azimuth:
             return feasible(self.p, f)
-        comp = self.pinv @ np.array([[f[0]], [f[1]], [f[2]]], float)  # the (4, 1) product allocate() forms
+        comp = (self.pinv @ np.array([[f[0]], [f[1]], [f[2]]], float))[:, 0].tolist()  # the (4, 1) product allocate() forms
         tx = ty = tn = 0.0
         for i, ((n_lim, a_lim), (x, y)) in enumerate(zip(self.lim, self.arm)):
             fx, fy = comp[2 * i], comp[2 * i + 1]
-            n = float(np.clip(np.hypot(fx, fy), *n_lim)[0])
-            a = float(np.clip(np.arctan2(fy, fx), *a_lim)[0])
+            n = min(max(math.hypot(fx, fy), n_lim[0]), n_lim[1])  # np.clip(np.hypot(...)) on one value
+            a = min(max(math.atan2(fy, fx), a_lim[0]), a_lim[1])
             c, s = np.cos(a), np.sin(a)
             tx, ty, tn = tx + n * c, ty + n * s, tn + n * (x * s - y * c)
         return float(tx), float(ty), float(tn)
