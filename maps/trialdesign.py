@@ -43,6 +43,9 @@ class TrialDesign:
         return [p for p in self.primitives if self.counts.get(p.name, 0) > 0]
 
 
+UNUSED_WEIGHT = 1e-4  # a continuous weight below this is the optimiser's zero
+
+
 class NoFitError(DesignError):
     """The design's manoeuvres fit nowhere on the map (the CLI exits 1: the map, not the input, is short)."""
 
@@ -137,8 +140,10 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
                      f"{100 * (1 - loss):.1f} % of the full library's optimum")
     record = {
         "criterion": criterion, "mean_subtraction": mean_subtraction,
-        "weights": {p.name: float(x) for p, x in zip(prims, w)},
+        # the support only: a primitive the optimum gives (next to) no weight is listed once, as not used
+        "weights": {p.name: float(x) for p, x, c in zip(prims, w, counts) if x > UNUSED_WEIGHT or c > 0},
         "counts": {p.name: int(c) for p, c in zip(prims, counts) if c > 0},
+        "not_used": [p.name for p, x, c in zip(prims, w, counts) if not (x > UNUSED_WEIGHT or c > 0)],
         "d_efficiency": float(d_eff), "efficiency": float(c_eff), "dropped": dropped, "trial_length_s": trial_s,
         "planned_s": float(sum(c * p.duration_s for p, c in zip(prims, counts))),
     }
