@@ -281,3 +281,12 @@ def test_default_resolution_gives_eight_points_across_a_narrow_trial_area():
     assert res < 4 * prof.length_m and min(x1 - x0, y1 - y0) / res >= 8 - 0.05
     open_sea = load_map(data / "open-sea.geojson", draught_m=prof.draught_m)
     assert default_resolution(prof, open_sea) == default_resolution(prof)  # wide water: about four ship lengths
+
+
+def test_thesis_scenario_with_run_ins_at_four_headings_says_why_it_fails():
+    """Four headings with run-ins: the start in the South Harbour is boxed in; the reason says so
+    (how few lattice states the moves reach) and the help offers 16 headings."""
+    plan = plan_trial(scenario="thesis-9.4", headings=4)
+    assert not plan.feasible
+    assert "reach only" in plan.stats["reason"] and "lattice states" in plan.stats["reason"]
+    assert any("--headings 16" in h for h in plan.stats["help"])
