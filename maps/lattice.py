@@ -471,7 +471,7 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
                 per.append(_assemble(profile, f"round_turn_{side}", f"turn 180 deg to {word} at speed onto the reciprocal course",
                                      "basic", None, nu0, f, [f"at {uc:.1f} m/s turn 180 deg to {word}, steady on the reciprocal course"], []))
             out.append(per)
-    elif spot_turns:  # a rudder/propeller ship cannot turn on the spot
+    elif spot_turns:  # stop, turn on the spot, speed up (azimuth and generalized-force ships)
         for side, sgn in (("s", 1.0), ("p", -1.0)):
             word = "starboard" if sgn > 0 else "port"
             per = []
