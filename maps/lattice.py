@@ -91,6 +91,7 @@ def _clamp(x: float, lo: float, hi: float) -> float:
 
 
 _DEG8, _DEG20, _DEG05, _DEG02, _DEG005 = (float(np.radians(a)) for a in (8.0, 20.0, 0.5, 0.2, 0.05))
+_NEIGHBOURS = np.array([[a, b] for a in (-1, 0, 1) for b in (-1, 0, 1)], float)  # a lattice point and its 8 neighbours
 
 
 def _wrap(a: float) -> float:
@@ -297,10 +298,10 @@ class _Helm:
                 n = np.array([-np.sin(target), np.cos(target)])
                 if given:
                     near = np.array([arg[:2]], float)
+                    along_line = near[0]
                 else:
-                    pts = np.round(pos / res)
-                    near = np.array([pts + [a, b] for a in (-1, 0, 1) for b in (-1, 0, 1)]) * res
-                along_line = near[np.argmin(np.abs((near - pos) @ n))]
+                    near = (np.round(pos / res) + _NEIGHBOURS) * res
+                    along_line = near[np.argmin(np.abs((near - pos) @ n))]
                 c_err = float((along_line - pos) @ n)  # to starboard
                 err = _wrap(target - psi)
                 if rudder:  # no sway control: steer the cross-track error out by line of sight
