@@ -12,9 +12,10 @@ Ratio < 1 is within target.
   (design of the library, whole manoeuvres, 16 headings, run-ins, shortcuts, verification):
   target 2 s, memory < 2 GiB (issue 12).
 * ``kvlcc2_fjord``: ``plan_trial`` for kvlcc2 on the synthetic 20 km x 6 km fjord
-  (tests/data/fjord.geojson): target 10 s. The outcome is printed: a VLCC's speed-change trials
-  need more than 20 km of water, so the chain is expected to stop with the manoeuvres that fit
-  nowhere (exit 1 in the CLI).
+  (tests/data/fjord.geojson), design included: target 10 s, memory < 2 GiB. Expected outcome: a
+  verified plan of the whole rounded design (zz_exc_25_5_100 x11, turning circles 5 + 5,
+  stopping x2), the ship shuttling up and down the fjord with round turns; the lattice spacing
+  is 6 km / 8 points (~750 m) instead of four ship lengths.
 * ``kvlcc2_open_sea``: kvlcc2 on 60 km x 60 km of open water (tests/data/open-sea.geojson).
 * ``scenario``: the section 9.4 scenario as the thesis ran it (4 headings, no run-ins): search
   target 1 s (thesis: about 40 s for a plain A*).

@@ -29,6 +29,38 @@ from scipy.sparse.csgraph import dijkstra
 EPS = 1e-9  # weight standing in for a zero-cost edge (csgraph drops explicit zeros)
 
 
+class Successors:
+    """Successors of every spatial state in compressed rows: the edges (move, successor, counter q
+    or -1, cost) of state s are ``ptr[s]:ptr[s + 1]``. Built from arrays in one go; ``succ[s]``
+    gives the list of tuples the search iterates."""
+
+    def __init__(self, ptr: np.ndarray, move: np.ndarray, dst: np.ndarray, counter: np.ndarray, cost: np.ndarray):
+        self.ptr, self.move, self.dst, self.counter, self.cost = ptr, move, dst, counter, cost
+        self._p = ptr.tolist()
+        self._rows = list(zip(move.tolist(), dst.tolist(), counter.tolist(), cost.tolist()))
+
+    @classmethod
+    def from_edges(cls, n: int, src: np.ndarray, move: np.ndarray, dst: np.ndarray, counter: np.ndarray,
+                   cost: np.ndarray) -> Successors:
+        """From edges in any order; a state's edges keep their given order (stable sort)."""
+        order = np.argsort(src, kind="stable")
+        ptr = np.zeros(n + 1, np.int64)
+        np.cumsum(np.bincount(src, minlength=n), out=ptr[1:])
+        return cls(ptr, move[order], dst[order], counter[order], cost[order])
+
+    def __len__(self) -> int:
+        return len(self._p) - 1
+
+    def __getitem__(self, s: int) -> list[tuple[int, int, int, float]]:
+        return self._rows[self._p[s]:self._p[s + 1]]
+
+    def __iter__(self):
+        return (self[s] for s in range(len(self)))
+
+    def sources(self) -> np.ndarray:
+        return np.repeat(np.arange(len(self)), np.diff(self.ptr))
+
+
 @dataclass
 class Problem:
     """The lattice search problem.
@@ -41,7 +73,7 @@ class Problem:
     nj: int
     n_head: int
     targets: list[int]  # d_q
-    succ: list[list[tuple[int, int, int, float]]]
+    succ: Successors | list[list[tuple[int, int, int, float]]]
     start_spatial: int
     goal_spatial: list[int]
     res: float = 1.0
@@ -63,13 +95,21 @@ class SearchResult:
     extra: dict = field(default_factory=dict)
 
 
+def edges(pb: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(source, successor, counter, cost) of every edge, state by state."""
+    if isinstance(pb.succ, Successors):
+        sc = pb.succ
+        return sc.sources(), sc.dst.astype(np.int64), sc.counter.astype(float), sc.cost.astype(float)
+    e = np.array([(s, s2, q, cost) for s, lst in enumerate(pb.succ) for _, s2, q, cost in lst], float).reshape(-1, 4)
+    return e[:, 0].astype(np.int64), e[:, 1].astype(np.int64), e[:, 2], e[:, 3]
+
+
 def relaxed_table(pb: Problem) -> np.ndarray:
     """Cost-to-go h[spatial, r] of the relaxed problem (see module doc); inf if unreachable."""
     ns = pb.ni * pb.nj * pb.n_head
     D = int(sum(pb.targets))
-    e = np.array([(s, s2, q, cost) for s, lst in enumerate(pb.succ) for _, s2, q, cost in lst], float).reshape(-1, 4)
-    src, dst, qq = e[:, 0].astype(np.int64), e[:, 1].astype(np.int64), e[:, 2]
-    w0 = np.where(e[:, 3] > 0, e[:, 3], EPS)
+    src, dst, qq, cost = edges(pb)
+    w0 = np.where(cost > 0, cost, EPS)
     r = np.arange(D + 1)
     basic, info = qq < 0, qq >= 0
     rows = np.concatenate([(src[basic, None] * (D + 1) + r).ravel(), (src[info, None] * (D + 1) + r[1:]).ravel()])
@@ -87,6 +127,20 @@ def relaxed_table(pb: Problem) -> np.ndarray:
     goals = [s * (D + 1) for s in pb.goal_spatial]
     dist = dijkstra(g, directed=True, indices=goals, min_only=True)
     return dist.reshape(ns, D + 1)
+
+
+class _Rows(dict):
+    """Rows of a heuristic table as Python lists, converted when the search first reaches a state
+    (a whole-table ``tolist`` cost more than a short search)."""
+
+    def __init__(self, table: np.ndarray, f=None):
+        super().__init__()
+        self.table, self.f = table, f
+
+    def __missing__(self, s: int) -> list[float]:
+        row = self.table[s] if self.f is None else self.f(self.table[s])
+        out = self[s] = row.tolist()
+        return out
 
 
 def search(pb: Problem, heuristic: str = "admissible", weights: tuple[float, float, float] = (1.0, 1.0, 1.0),
@@ -112,7 +166,7 @@ def search(pb: Problem, heuristic: str = "admissible", weights: tuple[float, flo
     ns = len(pb.succ)
     if heuristic == "admissible":
         tab = relaxed_table(pb) if table is None else table
-        htab = (np.floor(tab / basic_cost + 1e-6) * basic_cost).tolist()  # drop the EPS residue
+        htab = _Rows(tab, lambda row: np.floor(row / basic_cost + 1e-6) * basic_cost)  # drop the EPS residue
     elif heuristic == "thesis":
         a1, a2, a3 = weights
         sp = np.arange(ns)
@@ -126,8 +180,7 @@ def search(pb: Problem, heuristic: str = "admissible", weights: tuple[float, flo
         else:
             dh = np.abs(((sp[:, None] % K) - (gs[None, :] % K) + K // 2) % K - K // 2)
             dpsi = dh.min(axis=1) * 2 * np.pi / K
-        htab = (a1 * d + a2 * dpsi)[:, None] + a3 * np.arange(D + 1)[None, :]
-        htab = htab.tolist()  # (8.9)-(8.12)
+        htab = _Rows((a1 * d + a2 * dpsi)[:, None] + a3 * np.arange(D + 1)[None, :])  # (8.9)-(8.12)
     else:
         raise ValueError(f"heuristic must be 'admissible' or 'thesis', got {heuristic!r}")
 

@@ -26,7 +26,7 @@ from maps.geo import MapError, SeaMap, bundled_map_path
 from maps.lattice import Move, heading_table, nearest_heading, run_in_seconds
 from maps.motionset import basic_move_set, default_resolution, informative_moves, planning_window
 from maps.plan import Plan, PlanStep
-from maps.smooth import Leg, Realiser, Shortcutter, _advance
+from maps.smooth import Leg, Realiser, Shortcutter
 from maps.verify import Verification, resimulate
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
@@ -98,6 +98,7 @@ class Lattice:
     setup_s: float = 0.0
     too_big: dict[str, tuple[float, float]] = field(default_factory=dict)  # left out: larger than the water in every heading
     _placements: dict[float, list] = field(default_factory=dict, repr=False)
+    _problem: tuple | None = field(default=None, repr=False)
 
     @property
     def res(self) -> float:
@@ -136,34 +137,70 @@ class Lattice:
         return out
 
     def fits_nowhere(self) -> dict[str, tuple[float, float]]:
-        """Informative primitives with no collision-free placement in the window: {name: (along,
-        cross) metres of open water the move needs, margin included on both sides}."""
+        """Informative primitives with no collision-free placement in the water the ship can use
+        (reachable from the start, the goal reachable after it): {name: (along, cross) metres of
+        open water the move needs, margin included on both sides}."""
         out: dict[str, tuple[float, float]] = dict(self.too_big)
-        for m, per_h in zip(self.moves, self.placements()):
-            if m.counter >= 0 and not any(ok.any() for ok, _ in per_h):
+        used = self._usable_moves()
+        for mi, m in enumerate(self.moves):
+            if m.counter >= 0 and mi not in used:
                 b = m.prims[0].footprint.bounds
                 two = 2 * self.options.margin
                 out[m.source or m.name] = (float(b[2] - b[0] + two), float(b[3] - b[1] + two))
         return out
 
+    def _usable_moves(self) -> set[int]:
+        """Moves with a placement reachable from the start from which the goal stays reachable
+        (any moves, counters ignored: breadth-first search on the move graph both ways)."""
+        from scipy.sparse import csr_matrix
+        from scipy.sparse.csgraph import breadth_first_order
+
+        pb = self.problem()
+        sc = pb.succ
+        e = np.column_stack([sc.sources(), sc.dst, sc.move]).astype(np.int64)
+        n = len(sc)
+        g = csr_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
+        fwd = np.zeros(n, bool)
+        fwd[breadth_first_order(g, pb.start_spatial, directed=True, return_predecessors=False)] = True
+        back = np.zeros(n, bool)
+        gt = g.T.tocsr()
+        for goal in pb.goal_spatial:
+            if not back[goal]:
+                back[breadth_first_order(gt, goal, directed=True, return_predecessors=False)] = True
+        ok = fwd[e[:, 0]] & back[e[:, 1]]
+        return set(np.unique(e[ok, 2]).tolist())
+
     def problem(self, extra: float = 0.0, blocked: frozenset = frozenset()) -> astar.Problem:
         """The A* problem: collision-free successors per spatial state, soft clearance in the cost,
-        ``blocked`` (move index, spatial state) pairs left out."""
+        ``blocked`` (move index, spatial state) pairs left out (built once per (extra, blocked))."""
+        key = (extra, blocked)
+        if self._problem is not None and self._problem[0] == key:
+            return self._problem[1]
+        pb = self._build_problem(extra, blocked)
+        self._problem = (key, pb)
+        return pb
+
+    def _build_problem(self, extra: float, blocked: frozenset) -> astar.Problem:
         K, nj, win = len(self.table), self.window.nj, self.window
         pen = self.options.clearance_cost * self.options.basic_cost
-        succ: list[list[tuple[int, int, int, float]]] = [[] for _ in range(win.ni * nj * K)]
+        parts = []
         for mi, (m, per_h) in enumerate(zip(self.moves, self.placements(extra))):
             for h, (ok, near) in enumerate(per_h):
                 di, dj = (int(v) for v in m.dcell[h])
                 h2 = (h + int(m.dh[h])) % K
-                for i, j in zip(*np.nonzero(ok)):
-                    s = (int(i) * nj + int(j)) * K + h
-                    if (mi, s) in blocked:
-                        continue
-                    # the soft clearance cost steers repositioning away from shores; informative moves keep
-                    # only the hard margin (penalising them too made A* expand 20x more states for no safer plan)
-                    cost = m.cost + (pen if near[i, j] and m.counter < 0 else 0.0)
-                    succ[s].append((mi, ((int(i) + di) * nj + int(j) + dj) * K + h2, m.counter, cost))
+                ii, jj = np.nonzero(ok)
+                s = (ii * nj + jj) * K + h
+                # the soft clearance cost steers repositioning away from shores; informative moves keep
+                # only the hard margin (penalising them too made A* expand 20x more states for no safer plan)
+                cost = np.where(near[ii, jj], m.cost + pen, m.cost) if m.counter < 0 else np.full(len(s), m.cost)
+                parts.append((s, np.full(len(s), mi), ((ii + di) * nj + jj + dj) * K + h2, np.full(len(s), m.counter), cost))
+        src, mv, dst, q, cost = (np.concatenate([p[k] for p in parts]) if parts else np.zeros(0) for k in range(5))
+        if blocked:
+            n_sp = win.ni * nj * K
+            keep = ~np.isin(mv.astype(np.int64) * n_sp + src.astype(np.int64), [a * n_sp + b for a, b in blocked])
+            src, mv, dst, q, cost = src[keep], mv[keep], dst[keep], q[keep], cost[keep]
+        succ = astar.Successors.from_edges(win.ni * nj * K, src.astype(np.int64), mv.astype(np.int64), dst.astype(np.int64),
+                                           q.astype(np.int64), cost.astype(float))
         si, sj = self.start_cell
         gi, gj = self.goal_cell
         return astar.Problem(win.ni, nj, K, [self.targets[n] for n in self.cnames], succ, (si * nj + sj) * K + self.h_start,
@@ -215,13 +252,13 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     t0 = time.perf_counter()
     o = options or PlanOptions()
     o.check()
-    res = float(o.resolution) if o.resolution else default_resolution(profile)
+    res = float(o.resolution) if o.resolution else default_resolution(profile, sea)
     K = o.headings
     sx, sy, spsi, start_ll = _endpoint(sea, start, sea.start, HELSINKI_START, "start", o.margin)
     gx, gy, gpsi, goal_ll = _endpoint(sea, goal, sea.goal, HELSINKI_GOAL, "goal", o.margin)
     win = planning_window(sea, res, (sx, sy), (gx, gy), o.size)
     prims = [p for p in primitives if counts.get(p.name, 0) > 0]
-    n_moves = len(prims) + (5 if o.spot_turns and profile.actuator != "rudder_propeller" else 3)
+    n_moves = len(prims) + (5 if o.spot_turns or profile.actuator == "rudder_propeller" else 3)
     need, states = estimate_memory(win.ni, win.nj, K, n_moves, [counts[p.name] for p in prims])
     if need > o.max_memory_gib * 2**30:
         raise MapError(f"the lattice would not fit: {win.ni} x {win.nj} points x {K} headings x counters = {states:,} states, "
@@ -359,21 +396,21 @@ def verify_plan(lat: Lattice, out: SearchOutcome) -> Realised:
                 shortcuts += 1
                 replaced += len(run)
                 legs.append(new)
-                nu, eta = _advance(p, new.inputs, nu, eta)
+                nu, eta = new.sail(nu, eta)
             else:
                 for i, (mi, s) in enumerate(run):
                     for leg in sailor.legs(mi, s, nu, eta, res.spatial[k + i + 1]):
                         legs.append(leg)
-                        nu, eta = _advance(p, leg.inputs, nu, eta)
+                        nu, eta = leg.sail(nu, eta)
             k = k1
         else:
             for leg in sailor.legs(moves[k], res.spatial[k], nu, eta, res.spatial[k + 1]):
                 legs.append(leg)
-                nu, eta = _advance(p, leg.inputs, nu, eta)
+                nu, eta = leg.sail(nu, eta)
             k += 1
     end_cell = res.spatial[-1] // K
     ver = resimulate(lat.sea, legs, lat.start, lat.options.margin, lat.window.point(end_cell // lat.window.nj, end_cell % lat.window.nj),
-                     nu0=np.array([p.cruise_speed_mps, 0.0, 0.0]))
+                     nu0=np.array([p.cruise_speed_mps, 0.0, 0.0]), sims=[leg.sim for leg in legs])
     return Realised(legs, ver, shortcuts, replaced)
 
 

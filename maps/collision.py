@@ -121,8 +121,9 @@ class CollisionGrid:
         ok = np.ones((w.ni, w.nj), bool)
         if len(rows) and (rows[:, 0].min() < -p or rows[:, 0].max() >= p or rows[:, 1].min() < -p or rows[:, 2].max() >= p):
             raise ValueError("footprint larger than the collision grid padding")
-        for a, b0, b1 in rows:
-            r = ri + a
-            cnt = self.csum[r][:, cj + b1 + 1] - self.csum[r][:, cj + b0]
-            ok &= cnt == 0
+        for k in range(0, len(rows), 128):  # all rows of a chunk at once: (rows, ni, nj) gathers from the prefix sums
+            a, b0, b1 = (rows[k:k + 128, i:i + 1] for i in range(3))
+            r = (ri[None, :] + a)[:, :, None]
+            cnt = self.csum[r, (cj[None, :] + b1 + 1)[:, None, :]] - self.csum[r, (cj[None, :] + b0)[:, None, :]]
+            ok &= ~(cnt != 0).any(axis=0)
         return ok

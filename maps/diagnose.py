@@ -37,9 +37,12 @@ def explain_failure(pb: Problem, moves: list[Move], counters: list[str], result:
                      "a smaller --margin"])
     reach = _reachable(pb)
     if not any(g in reach for g in pb.goal_spatial):
-        return ("the goal cannot be reached from the start with these moves, even ignoring the counters",
-                ["choose a goal in water connected to the start", "more headings (--headings 8) for diagonal channels",
-                 "a smaller --margin", "a finer --resolution"])
+        few = (f": from the start the moves reach only {len(reach)} lattice states (the water round the start is too "
+               f"tight for them)" if len(reach) < 0.01 * len(pb.succ) else "")
+        more = "more headings (--headings 16: shorter turns)" if pb.n_head < 16 else "more headings"
+        return ("the goal cannot be reached from the start with these moves, even ignoring the counters" + few,
+                ["choose a goal in water connected to the start", more, "a smaller --margin", "a finer --resolution",
+                 "shorter run-ins (--run-in)"])
     for mi, m in enumerate(moves):
         if m.counter < 0 or pb.targets[m.counter] == 0:
             continue

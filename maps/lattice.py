@@ -85,6 +85,15 @@ def _gains(profile: ShipProfile) -> np.ndarray:
     return out
 
 
+def _clamp(x: float, lo: float, hi: float) -> float:
+    """np.clip for one float, without numpy's per-call overhead (the helm's inner loop)."""
+    return float(min(max(x, lo), hi))
+
+
+_DEG8, _DEG20, _DEG05, _DEG02, _DEG005 = (float(np.radians(a)) for a in (8.0, 20.0, 0.5, 0.2, 0.05))
+_NEIGHBOURS = np.array([[a, b] for a in (-1, 0, 1) for b in (-1, 0, 1)], float)  # a lattice point and its 8 neighbours
+
+
 def _wrap(a: float) -> float:
     return float((a + np.pi) % (2 * np.pi) - np.pi)
 
@@ -141,11 +150,11 @@ class _Rudder:
     def command(self, nu: np.ndarray, u_ref: float, r_ref: float, err: float) -> tuple[float, float]:
         """(rudder degrees, rev/s) ordered for the references; the heading error is limited so
         that the autopilot turns at about ``r_lim``."""
-        e = float(np.clip(err, -np.radians(8.0), np.radians(8.0)))
+        e = _clamp(err, -_DEG8, _DEG8)
         rudder = -float(self.K @ np.array([nu[1], nu[2] - r_ref, -e]))
         lo, hi = self.p.engine.rps_limits
         n = self.rps(u_ref) + 0.5 * self.n_c * (u_ref - nu[0]) / max(self.uc, 1e-6)
-        return float(np.clip(rudder, -self.max_deg, self.max_deg)), float(np.clip(n, lo, hi))
+        return _clamp(rudder, -self.max_deg, self.max_deg), _clamp(n, lo, hi)
 
     def loop(self, policy, n_max: int, nu0) -> np.ndarray:
         """Run ``policy(k, nu, psi, memo) -> (rudder_deg, rps, 0) or None``; inputs (N, 2) out."""
@@ -211,7 +220,7 @@ class _Helm:
         return float(f[0]), float(f[1]), float(f[2])
 
     def run(self, nu0, pose0, phases: list[tuple[str, float]], n_max: int = 3000) -> np.ndarray:
-        """Phases: ("run", metres), ("stop", 0), ("turn", target psi), ("settle", 0), ("hold", (u, v, r,
+        """Phases: ("run", metres), ("stop", 0), ("turn", target psi), ("settle", 0.0 | heading index), ("hold", (u, v, r,
         seconds)), ("track", (waypoints [(x, y), ...], lookahead m)). Returns the inputs (N, m)."""
         state = {"pos": np.array(pose0[:2], float), "i": 0, "k0": 0}
         psi0 = float(pose0[2])
@@ -246,7 +255,7 @@ class _Helm:
                     state["i"] += 1
                     return None
                 memo.setdefault("course", psi)
-                r_fb = 0.0 if r_t else float(np.clip(0.1 * _wrap(memo["course"] - psi), -r_lim, r_lim))
+                r_fb = 0.0 if r_t else _clamp(0.1 * _wrap(memo["course"] - psi), -r_lim, r_lim)
                 f = self.forces(nu, u_t, v_t, r_t + r_fb, _wrap(memo["course"] - psi))
             elif kind == "track":  # line-of-sight guidance along waypoints, stop abreast the last one
                 wps, lookahead = arg
@@ -264,7 +273,7 @@ class _Helm:
                     memo["leg"] = leg + 1
                     return policy(k, nu, psi_rel, memo)
                 want = float(np.arctan2(d[1], d[0]) - np.arctan2(cross, lookahead))
-                r_ref = float(np.clip(1.5 * _wrap(want - psi) * r_lim / np.radians(20), -r_lim, r_lim))
+                r_ref = _clamp(1.5 * _wrap(want - psi) * r_lim / _DEG20, -r_lim, r_lim)
                 f = self.forces(nu, uc, 0.0, r_ref, _wrap(want - psi))
             elif kind == "stop":
                 if abs(nu[0]) < 0.02 and abs(nu[1]) < 0.02:
@@ -274,32 +283,34 @@ class _Helm:
             elif kind == "turn":
                 err = _wrap(arg - psi)
                 moving = abs(nu[0]) > 0.5 * uc
-                if abs(err) < np.radians(0.5) and abs(nu[2]) < 0.002:
+                if abs(err) < _DEG05 and abs(nu[2]) < 0.002:
                     state["i"] += 1
                     return policy(k, nu, psi_rel, memo)
                 rl = r_lim if moving else 0.3 * r_lim
-                r_ref = float(np.clip(1.5 * err * rl / np.radians(20), -rl, rl))
+                r_ref = _clamp(1.5 * err * rl / _DEG20, -rl, rl)
                 f = self.forces(nu, uc if moving else 0.0, 0.0, r_ref, err)
             else:  # settle on a lattice point (``arg``: (x, y, psi) of a given one) at cruise speed
                 given = isinstance(arg, tuple)
-                target = psi + _wrap((arg[2] if given else self.table[nearest_heading(psi, self.table)]) - psi)
+                # an int: the lattice heading index to settle on (a turn must not settle on the heading its overshoot nears)
+                h_to = arg if isinstance(arg, int) else nearest_heading(psi, self.table)
+                target = psi + _wrap((arg[2] if given else self.table[h_to]) - psi)
                 d = np.array([np.cos(target), np.sin(target)])
                 n = np.array([-np.sin(target), np.cos(target)])
                 if given:
                     near = np.array([arg[:2]], float)
+                    along_line = near[0]
                 else:
-                    pts = np.round(pos / res)
-                    near = np.array([pts + [a, b] for a in (-1, 0, 1) for b in (-1, 0, 1)]) * res
-                along_line = near[np.argmin(np.abs((near - pos) @ n))]
+                    near = (np.round(pos / res) + _NEIGHBOURS) * res
+                    along_line = near[np.argmin(np.abs((near - pos) @ n))]
                 c_err = float((along_line - pos) @ n)  # to starboard
                 err = _wrap(target - psi)
                 if rudder:  # no sway control: steer the cross-track error out by line of sight
                     L = self.p.length_m
                     # tight on yaw rate and sway: a course-unstable hull amplifies them over a long open-loop manoeuvre
-                    settled = abs(err) < np.radians(0.2) and abs(nu[2]) * L < 0.005 and abs(c_err) < 0.01 * L \
+                    settled = abs(err) < _DEG02 and abs(nu[2]) * L < 0.005 and abs(c_err) < 0.01 * L \
                         and abs(nu[1]) < 0.01 and abs(nu[0] - uc) < 0.05
                 else:
-                    settled = abs(err) < np.radians(0.05) and abs(nu[2]) < 5e-4 and abs(c_err) < 0.3 and abs(nu[1]) < 0.01 \
+                    settled = abs(err) < _DEG005 and abs(nu[2]) < 5e-4 and abs(c_err) < 0.3 and abs(nu[1]) < 0.01 \
                         and abs(nu[0] - uc) < 0.01
                 dist = float(np.min(np.hypot(*(near - pos).T)))
                 if given and float((near[0] - pos) @ d) <= 0.5 * uc * self.ts:  # abreast the given point: stop
@@ -310,11 +321,11 @@ class _Helm:
                     return None
                 if rudder:
                     los = err + float(np.arctan2(c_err, 3.0 * self.p.length_m))
-                    r_ref = float(np.clip(1.5 * los * r_lim / np.radians(20), -r_lim, r_lim))
+                    r_ref = _clamp(1.5 * los * r_lim / _DEG20, -r_lim, r_lim)
                     f = self.forces(nu, uc, 0.0, r_ref, los)
                 else:
-                    r_ref = float(np.clip(0.1 * err, -r_lim, r_lim))
-                    v_ref = float(np.clip(0.12 * c_err, -0.6, 0.6))
+                    r_ref = _clamp(0.1 * err, -r_lim, r_lim)
+                    v_ref = _clamp(0.12 * c_err, -0.6, 0.6)
                     f = self.forces(nu, uc, v_ref, r_ref)
                 _ = d
             c, s = np.cos(psi), np.sin(psi)
@@ -393,7 +404,10 @@ def with_run_in(prim: Primitive, res: float, n_head: int, psi0: float, run_in: n
     sim = head_sim if head_sim is not None else simulate(prim.profile, head, nu0=nu_t)
     x, y, p = sim.eta[0, -1]
     c, s = np.cos(psi0), np.sin(psi0)
-    tail = helm.run(sim.nu[0, -1], (c * x - s * y, s * x + c * y, psi0 + p), [("settle", 0.0)])
+    # settle on the lattice heading nearest the primitive's end heading, fixed when it ends: a hull still
+    # turning (a VLCC after a zig-zag) would otherwise drift onto the next heading while it settles
+    h_end = nearest_heading(psi0 + p, helm.table)
+    tail = helm.run(sim.nu[0, -1], (c * x - s * y, s * x + c * y, psi0 + p), [("settle", int(h_end))])
     n_r = len(run_in)
     cmds = list(prim.commands) + ([f"then steady at {helm.uc:.1f} m/s on the nearest lattice course for "
                                    f"{len(tail) * helm.ts:.0f} s"] if len(tail) else [])
@@ -436,10 +450,10 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
         word = "starboard" if sgn > 0 else "port"
         per = []
         for ci, psi0 in enumerate(cls):
-            target = float(table[(ci + sgn * step) % n_head])
-            target = psi0 + _wrap(target - psi0)
+            h_to = (ci + sgn * step) % n_head
+            target = psi0 + _wrap(float(table[h_to]) - psi0)
             dpsi = np.degrees(target - psi0)
-            phases = [("turn", target), ("settle", 0.0)]
+            phases = [("turn", target), ("settle", int(h_to))]
             if n_head == 4:  # a short straight run first makes the turn end on a lattice line
                 f0 = helm.run(nu0, (0.0, 0.0, 0.0), [("turn", target)])
                 x_end = simulate(profile, f0, nu0=nu0).eta[0, -1, 0] if len(f0) else 0.0
@@ -448,7 +462,17 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
             per.append(_assemble(profile, f"turn_{side}", f"{abs(dpsi):.0f} deg turn to {word}", "basic", None, nu0, f,
                                  [f"at {uc:.1f} m/s turn {abs(dpsi):.0f} deg to {word}, steady on the new course"], []))
         out.append(per)
-    if spot_turns and helm.rudder is None:  # a rudder/propeller ship cannot turn on the spot
+    if helm.rudder is not None:  # a rudder ship cannot turn on the spot: it reverses course by a round turn at speed
+        for side, sgn in (("s", 1.0), ("p", -1.0)):
+            word = "starboard" if sgn > 0 else "port"
+            per = []
+            for ci, psi0 in enumerate(cls):
+                # just short of 180 deg so that the helm turns to the side asked for
+                f = helm.run(nu0, (0.0, 0.0, psi0), [("turn", psi0 + sgn * (np.pi - 1e-6)), ("settle", int(ci + n_head // 2))])
+                per.append(_assemble(profile, f"round_turn_{side}", f"turn 180 deg to {word} at speed onto the reciprocal course",
+                                     "basic", None, nu0, f, [f"at {uc:.1f} m/s turn 180 deg to {word}, steady on the reciprocal course"], []))
+            out.append(per)
+    elif spot_turns:  # stop, turn on the spot, speed up (azimuth and generalized-force ships)
         for side, sgn in (("s", 1.0), ("p", -1.0)):
             word = "starboard" if sgn > 0 else "port"
             per = []

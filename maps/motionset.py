@@ -15,11 +15,21 @@ from primitives.library import Primitive
 from primitives.ship import ShipProfile
 from primitives.simulate import simulate
 
+MIN_POINTS_ACROSS = 8  # lattice points across the narrower side of a trial area
 
-def default_resolution(profile: ShipProfile) -> float:
-    """About four ship lengths, a whole number of samples of travel at cruise speed."""
+
+def default_resolution(profile: ShipProfile, sea: SeaMap | None = None) -> float:
+    """About four ship lengths, a whole number of samples of travel at cruise speed; finer where
+    the map's trial area is narrower than ``MIN_POINTS_ACROSS`` such spacings. A ship that
+    cannot turn on the spot needs lattice points to reverse course on: a VLCC in a 6 km fjord at
+    four lengths (1.3 km) has five points across, every turn ends on the far shore and the
+    lattice has no cycle, so no plan can hold more than two manoeuvres."""
     step = profile.cruise_speed_mps * profile.sample_time
-    return float(max(1, round(4 * profile.length_m / step)) * step)
+    want = 4 * profile.length_m
+    if sea is not None and sea.trial_area is not None:
+        x0, y0, x1, y1 = sea.trial_area.bounds
+        want = min(want, min(x1 - x0, y1 - y0) / MIN_POINTS_ACROSS)
+    return float(max(1, round(want / step)) * step)
 
 
 def resolve_primitives(profile: ShipProfile, counts: dict[str, int], given: list[Primitive] | None = None) -> list[Primitive]:

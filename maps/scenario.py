@@ -6,6 +6,12 @@ sway, plus basic moves (straight ahead, turn on the spot both ways). The thesis 
 the primitives' parameters ("what manoeuvres the primitives are based on is not important in
 this step"); the ones here are sized to the map: each lasts 1.5-3.5 minutes and needs
 0.3-0.6 km of water.
+
+The thesis plans on four headings and sails each primitive straight from the lattice (no
+run-in): ``--scenario thesis-9.4 --headings 4 --run-in 0``. With run-ins at four headings there
+is no plan: the 90 deg turns at speed and on the spot reach only 29 lattice states from the start
+in the South Harbour, and the zig-zags that carry the ship out of it without a run-in no longer fit
+there with one. With 8 or the default 16 headings it plans with run-ins.
 """
 
 from __future__ import annotations

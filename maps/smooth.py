@@ -44,6 +44,14 @@ class Leg:
     execute: bool = False
     orders: list[dict[str, Any]] = field(default_factory=list)
     abort: list[str] = field(default_factory=list)  # the manoeuvre's own abort criteria (speed, heading, yaw rate)
+    sim: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)  # (nu, eta) (N+1, 3) as sailed, if known
+
+    def sail(self, nu: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(nu, eta) at the end of the leg sailed from (nu, eta); the track is kept in ``sim``
+        (sailing it again from the same state gives the same numbers: the model is deterministic)."""
+        if self.sim is None:
+            self.sim = _sail(self.profile, self.inputs, nu, eta)
+        return self.sim[0][-1].copy(), self.sim[1][-1].copy()
 
     @property
     def n_samples(self) -> int:
@@ -91,7 +99,11 @@ class Realiser:
         space = (float(b[2] - b[0]), float(b[3] - b[1]))
         if m.counter < 0:
             target = float(lat.table[(h + int(m.dh[h])) % K])
-            target = eta[2] + float(np.angle(np.exp(1j * (target - eta[2]))))
+            delta = float(np.angle(np.exp(1j * (target - eta[2]))))
+            if m.name.startswith("round_turn"):  # reverse course to the move's own side, as the lattice move does
+                sgn = 1.0 if m.name.endswith("_s") else -1.0
+                delta = sgn * min(abs(delta if delta * sgn > 0 else delta + sgn * 2 * np.pi), np.pi - 1e-6)
+            target = eta[2] + delta
             if m.name == "straight":
                 phases = [("settle", goal)]
             elif m.name.startswith("spot_turn"):
@@ -116,22 +128,24 @@ class Realiser:
             legs.append(Leg(f"run-in {m.name}", m.source or m.name, "run-in", "run-in", f"run-in to {m.name}: steady course and speed",
                             pr.profile, ri, [text], space, mi, spatial,
                             orders=[{"t_s": 0.0, "text": text, "course_deg": course, "speed_kn": u / 0.514444}]))
-            nu, eta = _advance(pr.profile, ri, nu, eta)
+            nu, eta = legs[-1].sail(nu, eta)
         body = pr.inputs[n_r:core]
-        nu2, eta2 = _advance(pr.profile, body, nu, eta)
-        tail = helm.run(nu2, self._rel(spatial, eta2), [("settle", goal)], n_max=20000)
+        b_nu, b_eta = _sail(pr.profile, body, nu, eta)
+        tail = helm.run(b_nu[-1], self._rel(spatial, b_eta[-1]), [("settle", goal)], n_max=20000)
+        t_nu, t_eta = _sail(pr.profile, tail, b_nu[-1], b_eta[-1])
         legs.append(Leg(m.name, m.source or m.name, "informative", "informative", pr.description, pr.profile,
                         np.vstack([body, tail]), list(pr.commands), space, mi, spatial, execute=bool(n_r), orders=_orders(src),
-                        abort=[src.abort_criteria()] if hasattr(src, "abort_criteria") else []))
+                        abort=[src.abort_criteria()] if hasattr(src, "abort_criteria") else [],
+                        sim=(np.vstack([b_nu[:-1], t_nu]), np.vstack([b_eta[:-1], t_eta]))))
         return legs
 
 
-def _advance(profile: ShipProfile, inputs: np.ndarray, nu: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """State after sailing ``inputs`` from (nu, eta) on the nominal model."""
+def _sail(profile: ShipProfile, inputs: np.ndarray, nu: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(nu, eta) (N+1, 3) of ``inputs`` sailed from (nu, eta) on the nominal model."""
     if not len(inputs):
-        return nu, eta
+        return np.asarray(nu, float)[None].copy(), np.asarray(eta, float)[None].copy()
     sim = simulate(profile, inputs, nu0=nu, eta0=eta)
-    return sim.nu[0, -1].copy(), sim.eta[0, -1].copy()
+    return sim.nu[0], sim.eta[0]
 
 
 def string_pull(poses: np.ndarray, free) -> list[int]:
@@ -179,8 +193,7 @@ class Shortcutter:
             return None
         wps = [tuple(eta[:2])] + [tuple(pts[k]) for k in keep[1:]]
         inputs = self.helm.run(nu, tuple(eta), [("track", (wps, 2.0 * self.p.length_m))], n_max=20000)
-        sim = simulate(self.p, inputs, nu0=nu, eta0=tuple(eta))
-        tr = sim.eta[0]
+        s_nu, tr = _sail(self.p, inputs, nu, eta)
         if np.hypot(*(tr[-1, :2] - end[:2])) > 0.25 * self.helm.res or abs(np.angle(np.exp(1j * (tr[-1, 2] - end[2])))) > np.radians(5):
             return None
         if hull_clearance(self.sea, self.p.length_m, self.p.beam_m, tr, self.margin).min() < self.margin + 1.0:
@@ -190,4 +203,4 @@ class Shortcutter:
         uc = self.helm.uc
         return Leg("transit", "transit", "basic", "transit", f"transit: {n_legs} straight leg(s), {dist:.0f} m",
                    self.p, inputs, [f"at {uc:.1f} m/s ({uc / 0.514444:.1f} kn) steer for the next waypoint; "
-                                    f"{n_legs} leg(s), {dist:.0f} m"], (dist, self.corridor * 2))
+                                    f"{n_legs} leg(s), {dist:.0f} m"], (dist, self.corridor * 2), sim=(s_nu, tr))

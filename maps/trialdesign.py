@@ -43,6 +43,9 @@ class TrialDesign:
         return [p for p in self.primitives if self.counts.get(p.name, 0) > 0]
 
 
+UNUSED_WEIGHT = 1e-4  # a continuous weight below this is the optimiser's zero
+
+
 class NoFitError(DesignError):
     """The design's manoeuvres fit nowhere on the map (the CLI exits 1: the map, not the input, is short)."""
 
@@ -104,7 +107,8 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
         raise DesignError(f"--trial-length must be > 0 s, got {trial_s:g}")
     keep = [i for i, p in enumerate(lib) if p.name not in exclude]
     if not keep:
-        raise NoFitError("no manoeuvre of the library fits on the map: " + _needs(exclude))
+        raise NoFitError(f"all {len(exclude)} manoeuvres of {profile.name}'s library fit nowhere in the water reachable "
+                         f"from the start: {_needs(exclude)}")
     prims = [lib[i] for i in keep]
     sub = [infos[i] for i in keep]
     try:
@@ -112,8 +116,9 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
                        seed=seed, infos=sub)
     except DesignError as exc:
         if exclude:  # the remaining library cannot identify the model: say what was dropped and why
-            raise NoFitError(f"{', '.join(exclude)} fit nowhere on the map ({_needs(exclude)}); without them the library "
-                             f"cannot identify the model: {str(exc).splitlines()[0]}") from None
+            dead = _dead_count(str(exc))
+            raise NoFitError(f"{len(exclude)} manoeuvre(s) fit nowhere in the water reachable from the start: {_needs(exclude)}; "
+                             f"without them the rest of {profile.name}'s library cannot identify the model{dead}") from None
         raise
     info = InfoSet.from_infos(sub)
     w = np.array([d.weights[p.name] for p in prims])
@@ -135,8 +140,10 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
                      f"{100 * (1 - loss):.1f} % of the full library's optimum")
     record = {
         "criterion": criterion, "mean_subtraction": mean_subtraction,
-        "weights": {p.name: float(x) for p, x in zip(prims, w)},
+        # the support only: a primitive the optimum gives (next to) no weight is listed once, as not used
+        "weights": {p.name: float(x) for p, x, c in zip(prims, w, counts) if x > UNUSED_WEIGHT or c > 0},
         "counts": {p.name: int(c) for p, c in zip(prims, counts) if c > 0},
+        "not_used": [p.name for p, x, c in zip(prims, w, counts) if not (x > UNUSED_WEIGHT or c > 0)],
         "d_efficiency": float(d_eff), "efficiency": float(c_eff), "dropped": dropped, "trial_length_s": trial_s,
         "planned_s": float(sum(c * p.duration_s for p, c in zip(prims, counts))),
     }
@@ -146,8 +153,25 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
     return TrialDesign(record["counts"], prims, record, d, notes)
 
 
-def _needs(exclude: dict[str, tuple[float, float]]) -> str:
-    return ", ".join(f"{n} needs {a:.0f} m x {c:.0f} m of open water" for n, (a, c) in exclude.items())
+def _needs(exclude: dict[str, tuple[float, float]], show: int = 2) -> str:
+    """One short clause: the manoeuvres that fit nowhere, smallest first, with the open water
+    (along x across, margin included) each needs; past ``show`` of them only a count."""
+    items = sorted(exclude.items(), key=lambda kv: kv[1][0] * kv[1][1])
+    head = ", ".join(f"{n} needs {_km(a)} x {_km(c)} of open water" for n, (a, c) in items[:show])
+    more = len(items) - show
+    return head + (f" (and {more} more, each larger)" if more > 0 else "")
+
+
+def _km(m: float) -> str:
+    return f"{m / 1000:.1f} km" if m >= 1000 else f"{m:.0f} m"
+
+
+def _dead_count(msg: str) -> str:
+    """' (N parameters unidentifiable)' from a check_identifiable message, else ''."""
+    import re
+
+    hit = re.search(r"cannot identify \[([^\]]*)\]", msg)
+    return f" ({len(hit.group(1).split(','))} parameters unidentifiable)" if hit else ""
 
 
 def design_for_map(profile: ShipProfile, fits_nowhere, library: list[Primitive] | None = None, *, criterion: str = "D",

@@ -12,13 +12,14 @@ angle to a yaw force with 35 deg giving a steady turn of diameter 3 L at cruise 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from primitives.ship import ShipProfile
-from primitives.simulate import model_signals, steady_forces
+from primitives.simulate import steady_forces
 
 MAX_RUDDER_DEG = 35.0
 
@@ -51,17 +52,61 @@ def closed_loop(profile: ShipProfile, policy: Policy, n_max: int, nu0, theta=Non
     Returns (forces (N, 3), psi (N+1,)). Scalar loop: used only to generate signals.
     """
     th = profile.params(theta)
+    act = Actuators.of(profile)
     nu, psi, memo = np.array(nu0, float), 0.0, {}
     forces, psis = [], [0.0]
     for k in range(n_max):
         f = policy(k, nu, psi, memo)
         if f is None:
             break
-        f = feasible(profile, f)
+        f = act.feasible(f)
         nu, psi = model_step(profile, th, nu, psi, {"tau_x": f[0], "tau_y": f[1], "tau_n": f[2]})
         forces.append(f)
         psis.append(psi)
     return np.array(forces, float).reshape(-1, 3), np.array(psis)
+
+
+class Actuators:
+    """What the actuators give for a requested generalized force, one sample at a time: the
+    scalar hot path of every closed-loop generator. The allocation matrix's pseudo-inverse is
+    formed once per profile (not once per step), with the same arithmetic as
+    ``ShipProfile.allocate`` / ``clip_inputs`` / ``generalized_forces`` (3.55)."""
+
+    _cache: dict[int, tuple[ShipProfile, Actuators]] = {}
+
+    def __init__(self, profile: ShipProfile):
+        self.p = profile
+        self.azimuth = profile.actuator == "azimuth" and bool(profile.input_limits)
+        if self.azimuth:
+            th = profile.thrusters
+            b_mat = np.array([np.ravel([[1.0, 0.0] for _ in th]), np.ravel([[0.0, 1.0] for _ in th]),
+                              np.ravel([[-t.y, t.x] for t in th])])
+            self.pinv = np.linalg.pinv(b_mat)
+            big = (-np.inf, np.inf)
+            self.lim = [(profile.input_limits.get(f"n{i}", big), profile.input_limits.get(f"alpha{i}", big))
+                        for i in range(1, len(th) + 1)]
+            self.arm = [(t.x, t.y) for t in th]
+            self.order = [profile.inputs.index(f"{k}{i}") for i in range(1, len(th) + 1) for k in ("n", "alpha")]
+
+    @classmethod
+    def of(cls, profile: ShipProfile) -> Actuators:
+        hit = cls._cache.get(id(profile))
+        if hit is None or hit[0] is not profile:
+            hit = cls._cache[id(profile)] = (profile, cls(profile))
+        return hit[1]
+
+    def feasible(self, f) -> tuple[float, float, float]:
+        if not self.azimuth:
+            return feasible(self.p, f)
+        comp = (self.pinv @ np.array([[f[0]], [f[1]], [f[2]]], float))[:, 0].tolist()  # the (4, 1) product allocate() forms
+        tx = ty = tn = 0.0
+        for i, ((n_lim, a_lim), (x, y)) in enumerate(zip(self.lim, self.arm)):
+            fx, fy = comp[2 * i], comp[2 * i + 1]
+            n = min(max(math.hypot(fx, fy), n_lim[0]), n_lim[1])  # np.clip(np.hypot(...)) on one value
+            a = min(max(math.atan2(fy, fx), a_lim[0]), a_lim[1])
+            c, s = np.cos(a), np.sin(a)
+            tx, ty, tn = tx + n * c, ty + n * s, tn + n * (x * s - y * c)
+        return float(tx), float(ty), float(tn)
 
 
 def feasible(profile: ShipProfile, f) -> tuple[float, float, float]:
@@ -75,9 +120,16 @@ def feasible(profile: ShipProfile, f) -> tuple[float, float, float]:
 
 
 def model_step(profile: ShipProfile, theta: np.ndarray, nu: np.ndarray, psi: float, input_sig: dict) -> tuple[np.ndarray, float]:
-    """One calm-water step of (3.60) for a scalar state: (nu(k+1), psi(k+1))."""
-    sig = model_signals(profile, nu, np.array(psi), input_sig)
-    inc = np.array([float(x) for x in profile.model.increments(sig, theta)])
+    """One calm-water step of (3.60) for a scalar state: (nu(k+1), psi(k+1)).
+
+    The model's generated increment function is evaluated on Python floats (the signals
+    :func:`primitives.simulate.model_signals` gives in calm water: relative velocities equal
+    the velocities), which is the same IEEE arithmetic as on numpy scalars at a tenth of the cost."""
+    u, v, r = float(nu[0]), float(nu[1]), float(nu[2])
+    sig = dict(input_sig)
+    sig.update(u=u, v=v, r=r, psi=float(psi), u_r=u, v_r=v, u_q=u, v_q=v)
+    coef = theta.tolist() if isinstance(theta, np.ndarray) else list(theta)
+    inc = np.array(profile.model.increment_function()(sig, coef), float)
     return nu + inc, psi + profile.sample_time * nu[2]
 
 

@@ -206,3 +206,22 @@ def test_cli_card_uses_the_bundled_map_the_plan_names():
     pytest.importorskip("maps.geo")
     assert resolve_sea_map(None, "helsinki") is not None
     assert resolve_sea_map(None, "synthetic") is None
+
+
+def test_design_table_lists_only_what_the_design_uses():
+    """Primitives with no weight in the optimal design are named once as not used, never as rows with count 0."""
+    from dataclasses import replace
+
+    from maps.export.card import design_rows
+    from maps.trialdesign import design_counts
+    from primitives.ship import load_profile
+
+    rec = design_counts(load_profile("full-scale")).record
+    assert rec["not_used"] and not set(rec["not_used"]) & set(rec["weights"])
+    plan = replace(synthetic_plan("full-scale"), design=rec)
+    head, rows = design_rows(plan)
+    assert {r[0] for r in rows} == set(rec["counts"]) and all(int(r[2]) > 0 for r in rows)
+    assert any(line.startswith("Not used") and all(n in line for n in rec["not_used"]) for line in head)
+    # a plan.json written before the split (zero weights among the weights) reads the same way
+    old = dict(rec, weights={**rec["weights"], **dict.fromkeys(rec["not_used"], 0.0)}, not_used=[])
+    assert design_rows(replace(plan, design=old))[1] == rows

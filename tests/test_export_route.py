@@ -201,6 +201,17 @@ def test_rtz_corridors_do_not_cover_land_and_hold_the_hull(azi_plan):
     names = {w.get("name").split()[0]: w for w in wps}
     for sh in step_sheets(azi_plan, START, fc):
         assert sh["waypoint"] in names and names[sh["waypoint"]].get("name").endswith(sh["primitive"])
+    # the GPX route has the very same points as the RTZ (one source of waypoints): names, positions, times
+    import gpxpy
+
+    from maps.export.gpx import plan_gpx
+
+    (rte,) = gpxpy.parse(plan_gpx(azi_plan, start=START, sea_map=fc).decode()).routes
+    assert [p.name for p in rte.points] == [w.get("name") for w in wps]
+    for p, w in zip(rte.points, wps):
+        pos = w.find("r:position", NS)
+        assert p.latitude == pytest.approx(float(pos.get("lat")), abs=1e-6)
+        assert p.longitude == pytest.approx(float(pos.get("lon")), abs=1e-6)
 
 
 @pytest.mark.slow

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -247,3 +248,45 @@ def test_relaxed_infeasibility_is_explained_not_reported_as_zero_expansions():
     reason, helps = explain_failure(pb, moves, ["zigzag"], res)
     assert "uses all 1 informative manoeuvres" in reason and "0 expansions" not in reason
     assert any("lower counts" in h for h in helps)
+
+
+def test_rudder_ship_can_reverse_course_on_the_lattice():
+    """A ship that cannot turn on the spot still gets a cycle on the lattice: turns settle on the
+    neighbouring heading (a VLCC's overshoot must not carry it onto the next one: with 16
+    headings the odd headings were a trap) and round turns reverse course to either side."""
+    from maps.lattice import heading_table
+    from maps.motionset import basic_move_set
+
+    prof = load_profile("kvlcc2")
+    K = 16
+    moves = {m.name: m for m in basic_move_set(prof, 749.0, K, 1.0, True)}
+    assert not any(n.startswith("spot_turn") for n in moves)
+    assert (moves["turn_s"].dh == 1).all() and (moves["turn_p"].dh == K - 1).all()
+    for side in ("s", "p"):
+        m = moves[f"round_turn_{side}"]
+        assert (m.dh == K // 2).all()
+        # the ship moves to the side it turned to (starboard: east of a northbound start)
+        assert np.sign(m.dcell[0][1]) == (1 if side == "s" else -1)
+    assert len(heading_table(K)) == K
+
+
+def test_default_resolution_gives_eight_points_across_a_narrow_trial_area():
+    from maps.motionset import default_resolution
+
+    prof = load_profile("kvlcc2")
+    data = Path(__file__).parent / "data"
+    fjord = load_map(data / "fjord.geojson", draught_m=prof.draught_m)
+    x0, y0, x1, y1 = fjord.trial_area.bounds
+    res = default_resolution(prof, fjord)
+    assert res < 4 * prof.length_m and min(x1 - x0, y1 - y0) / res >= 8 - 0.05
+    open_sea = load_map(data / "open-sea.geojson", draught_m=prof.draught_m)
+    assert default_resolution(prof, open_sea) == default_resolution(prof)  # wide water: about four ship lengths
+
+
+def test_thesis_scenario_with_run_ins_at_four_headings_says_why_it_fails():
+    """Four headings with run-ins: the start in the South Harbour is boxed in; the reason says so
+    (how few lattice states the moves reach) and the help offers 16 headings."""
+    plan = plan_trial(scenario="thesis-9.4", headings=4)
+    assert not plan.feasible
+    assert "reach only" in plan.stats["reason"] and "lattice states" in plan.stats["reason"]
+    assert any("--headings 16" in h for h in plan.stats["help"])

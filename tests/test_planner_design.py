@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import networkx as nx
@@ -157,8 +158,35 @@ def test_lattice_too_big_refused_up_front(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_kvlcc2_on_a_map_too_small_exit_1(tmp_path, capsys):
-    """A VLCC in a 3 km x 2 km basin: every manoeuvre of its library is named with the water it needs."""
+    """A VLCC in a 3 km x 2 km basin: one short line naming the manoeuvres that fit nowhere with the water they need."""
     p = _box_map(tmp_path, (25.0, 60.0, 25.036, 60.027), (25.018, 60.005, 0), (25.018, 60.022))
     out = tmp_path / "o"
     rc, err = _cli_fails(["--ship", "kvlcc2", "--map", str(p), "--out", str(out)], capsys)
-    assert rc == 1 and "fit nowhere" in err and "turning_circle_35_s needs" in err and "m of open water" in err and not out.exists()
+    assert rc == 1 and "fit nowhere" in err and "m of open water" in err and not out.exists()
+    assert re.search(r"(stopping|turning_circle_35_[sp]|pull_out_20_s) needs [0-9.]+ k?m x [0-9.]+ k?m of open water", err), err
+    assert len(err) < 300, f"{len(err)} characters: {err}"
+
+
+@pytest.mark.slow
+def test_kvlcc2_on_the_bundled_helsinki_map_exit_1(tmp_path, capsys):
+    """The Helsinki archipelago is genuinely too small for a VLCC's trials: exit 1, one line."""
+    out = tmp_path / "o"
+    rc, err = _cli_fails(["--ship", "kvlcc2", "--out", str(out)], capsys)
+    assert rc == 1 and "fit nowhere" in err and "of open water" in err and not out.exists()
+    assert len(err) < 300, f"{len(err)} characters: {err}"
+
+
+@pytest.mark.slow
+def test_kvlcc2_in_a_20_by_6_km_fjord_sails_the_rounded_design():
+    """Issue 12: a VLCC in a 20 km x 6 km fjord gets a verified plan of exactly its rounded design
+    (it shuttles up and down the fjord, reversing course by round turns)."""
+    prof = load_profile("kvlcc2")
+    sea = load_map(DATA / "fjord.geojson", draught_m=prof.draught_m)
+    plan = plan_trial(sea, profile=prof)
+    assert plan.feasible, plan.stats.get("reason")
+    assert plan.counts == plan.targets == plan.design["counts"] == design_counts(prof).counts
+    assert plan.min_clearance_m >= plan.margin_m
+    assert plan.stats["lattice"]["resolution_m"] < 4 * prof.length_m  # finer than the open-sea default: 8 points across
+    # the fjord runs north-south: the plan sails both ways along it
+    headings = {round(np.degrees(s.entry_psi) % 360 / 90) % 4 for s in plan.segment_steps("informative")}
+    assert {0, 2} <= headings

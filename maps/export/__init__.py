@@ -83,9 +83,11 @@ def export_all(
     """Every export of ``plan`` into ``out_dir``: keys geojson, gpx, rtz, csv, card (HTML),
     card_pdf, and with ``plots`` track_png (map) and states_png (speed, heading, inputs)."""
     from maps.export._common import check_plan, resolve_start
+    from maps.export.chart import plan_chart
 
     check_plan(plan)
     t0 = resolve_start(plan, start)  # one start time for every file
+    sea_map = plan_chart(plan, sea_map)  # one chart for every file (projecting the map was done once per export)
     out: dict[str, Path] = {}
     for fmt in FORMATS:
         written = export_plan(plan, fmt, default_path(plan, fmt, out_dir), sea_map=sea_map, start=t0, vessel=vessel)

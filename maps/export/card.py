@@ -171,9 +171,14 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
                         + (f", efficiency loss {100.0 * loss:.1f} %" if isinstance(loss, (int, float)) else ""))
     weights = d.get("weights") or {}
     counts = d.get("counts") or {}
-    names = list(dict.fromkeys([*weights, *counts]))
+    # rows for the primitives the design uses; those it gives no weight (maps.trialdesign.UNUSED_WEIGHT) are named
+    # once, not listed with count 0
+    unused = [*(d.get("not_used") or []), *(n for n, x in weights.items() if float(x) <= 1e-4 and not counts.get(n))]
+    names = [n for n in dict.fromkeys([*weights, *counts]) if n not in unused]
     rows = [[n, f"{float(weights[n]):.3f}" if n in weights else "", str(counts.get(n, 0)), str(plan.counts.get(n, 0))]
             for n in names]
+    if unused:
+        head.append(f"Not used (no weight in the optimal design): {', '.join(dict.fromkeys(unused))}")
     return head, rows
 
 

@@ -12,6 +12,8 @@ from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from maps.export._common import (
     KN_PER_MPS,
     TOOL,
@@ -22,7 +24,6 @@ from maps.export._common import (
     resolve_start,
     step_orders,
     vessel_name,
-    waypoints,
 )
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes
@@ -38,10 +39,13 @@ def _sub(parent: ET.Element, tag: str, text: str | None = None, **attrib: str) -
     return el
 
 
-def waypoint_description(plan: Plan, wp: Waypoint, start: datetime) -> str:
-    """What the bridge needs at a route point, as one paragraph."""
+def waypoint_description(plan: Plan, wp: Waypoint, start: datetime, via: bool = False) -> str:
+    """What the bridge needs at a route point, as one paragraph (``via``: a point where the
+    route bends round land within a step)."""
     eta = (start + timedelta(seconds=wp.t_s)).strftime("%H:%M:%S UTC")
     head = f"At +{clock(wp.t_s)} ({eta}): heading {wp.heading_deg:03.0f}°, speed {wp.speed_kn:.1f} kn ({wp.speed_mps:.2f} m/s)."
+    if via:
+        return f"Via point (the route bends round land): carry on with the current manoeuvre. {head}"
     if wp.step is None:
         return f"End of trial. {head}"
     st = wp.step
@@ -62,9 +66,10 @@ def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | Non
 
     check_plan(plan)
     t0 = resolve_start(plan, start)
-    wps = waypoints(plan)
+    # one source of waypoints for every export: the RTZ route's points (via points included)
     route = build_route(plan, plan_chart(plan, sea_map))
-    names = {pt.step.index: pt.name for pt in route.points if pt.step is not None}
+    wps = [Waypoint(pt.id - 1, pt.name, pt.lon, pt.lat, pt.t_s, float(np.degrees(plan.track[pt.sample, 2]) % 360.0),
+                    float(plan.speed[pt.sample]), pt.step, pt.sample) for pt in route.points]
     ET.register_namespace("", GPX_NS)
     ET.register_namespace("xsi", XSI_NS)
     root = ET.Element(
@@ -86,10 +91,11 @@ def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | Non
     for wp in wps:
         pt = _sub(rte, "rtept", lat=f"{wp.lat:.7f}", lon=f"{wp.lon:.7f}")
         _sub(pt, "time", iso(t0 + timedelta(seconds=wp.t_s)))
-        _sub(pt, "name", names.get(wp.step.index, wp.name) if wp.step is not None else route.points[-1].name)
+        _sub(pt, "name", wp.name)
         _sub(pt, "cmt", f"heading {wp.heading_deg:03.0f}°, {wp.speed_mps * KN_PER_MPS:.1f} kn")
-        _sub(pt, "desc", waypoint_description(plan, wp, t0))
-        _sub(pt, "sym", "Flag, Red" if wp.step is None or wp.id == 0 else "Waypoint")
+        via = wp.step is None and wp.id < len(wps) - 1
+        _sub(pt, "desc", waypoint_description(plan, wp, t0, via=via))
+        _sub(pt, "sym", "Flag, Red" if wp.id == 0 or wp.id == len(wps) - 1 else "Waypoint")
         _sub(pt, "type", "WPT")
     if track:
         trk = _sub(root, "trk")
