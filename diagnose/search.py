@@ -27,6 +27,7 @@ from diagnose import plausible
 from diagnose.candidates import Candidate
 from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, verdict
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
+from diagnose.reference import ReferencedModel
 
 ALPHA = 1e-6  # family-wise significance per round (Bonferroni over candidates)
 MIN_GAIN = 0.002  # held-out weighted RSS must drop by at least 0.2 % ...
@@ -203,7 +204,8 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, val_p
         S.base_free, S.prior, S.bounds = [], None, {}
         free = list(x0)
         P, cov, rss = S.refit(model.p0(), free, {}, max_iter=20)
-    if S.base_free and np.isfinite(rss) and not getattr(model, "reference_ids", None):
+    # with reference runs the baseline refit is the joint structure fit the candidates are judged against: kept
+    if S.base_free and np.isfinite(rss) and not isinstance(model, ReferencedModel):
         v = _baseline_verdict(S, model.p0(), P, free)
         if not v.accepted(MUCH_WORSE):
             out.notes.append(f"refitting the baseline parameters on the diagnosed runs does not improve the held-out runs "
