@@ -138,18 +138,18 @@ def score(truth: dict, out: dict) -> tuple[bool, list[str]]:
     return not why, why
 
 
-def _api(paths: dict[str, list[Path]]) -> dict:
+def _api(paths: dict[str, list[Path]], joint: bool = False, ship: str = BASELINE) -> dict:
     from diagnose.api import run
     from diagnose.recording import load_recording
     from diagnose.recording_checks import conform
     from primitives.ship import load_profile
 
-    prof = load_profile(BASELINE)
+    prof = load_profile(ship)
 
     def load(ps):  # as the CLI does: Froude-scaled to the ship when the header says model scale
         return conform([r for p in ps for r in load_recording(p)], prof)
 
-    d = run(load(paths["diagnose"]), prof, fit_on=load(paths["calm"]), validate=load(paths["validate"]))
+    d = run(load(paths["diagnose"]), prof, fit_on=load(paths["calm"]), validate=load(paths["validate"]), joint_reference=joint)
     names = [n for dof in prof.parameter_names for n in dof]
     extra = {"u0": prof.cruise_speed_mps}
     if "Xnn" in names:
@@ -201,14 +201,14 @@ def truth_text(t: dict) -> str:
     return f"{t['concealed']} {json.dumps(t['magnitude'])}"
 
 
-def run_case(name: str, out_dir: Path, use_cli: bool) -> dict:
+def run_case(name: str, out_dir: Path, use_cli: bool, joint: bool = False, ship: str = BASELINE) -> dict:
     t0 = time.perf_counter()
     g = generate(case(name), visibility=True)
     paths = write_case(g, out_dir / name)
     t_gen = time.perf_counter() - t0
     t1 = time.perf_counter()
     try:
-        out = _cli(paths) if use_cli else _api(paths)
+        out = _cli(paths) if use_cli else _api(paths, joint, ship)
     except Exception as exc:  # a user error or a crash: both are misses, said as such
         out = {"error": f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"}
     secs = time.perf_counter() - t1
@@ -226,6 +226,9 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--jobs", type=int, default=1, help="cases in parallel (processes)")
     ap.add_argument("--out", default="", help="directory for the generated recordings (default: a temporary one)")
     ap.add_argument("--json", default="", help="write the per-case results here")
+    ap.add_argument("--ship", default=BASELINE, help=f"baseline profile of the API runs (default {BASELINE})")
+    ap.add_argument("--joint", action="store_true", help="experimental: extended baseline structure refitted jointly on "
+                    "the calm run and the diagnosed runs, candidates on the diagnosed runs only (diagnose.reference)")
     a = ap.parse_args(argv)
     names = [n.strip() for n in a.cases.split(",") if n.strip()] or [c.name for c in CASES]
     for n in names:
@@ -236,11 +239,12 @@ def main(argv: list[str] | None = None) -> dict:
         from concurrent.futures import ProcessPoolExecutor
 
         with ProcessPoolExecutor(a.jobs) as ex:
-            rows = list(ex.map(run_case, names, [out_dir] * len(names), [a.cli] * len(names)))
+            rows = list(ex.map(run_case, names, [out_dir] * len(names), [a.cli] * len(names), [a.joint] * len(names),
+                                [a.ship] * len(names)))
     else:
         rows = []
         for n in names:
-            rows.append(run_case(n, out_dir, a.cli))
+            rows.append(run_case(n, out_dir, a.cli, a.joint, a.ship))
             r = rows[-1]
             print(f"  {n}: {'hit' if r['hit'] else 'MISS'} ({r['diagnose_s']:.1f} s)", file=sys.stderr, flush=True)
     print(f"{'case':22s} {'truth':44s} {'visible u/v/r':>15s}  {'claimed':48s} {'result':6s} {'time s':>7s}")

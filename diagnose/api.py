@@ -14,6 +14,7 @@ from diagnose.heldout import RUN_RISE, Parts, grams, heldout_rss, insample_rss, 
 from diagnose.locate import locate
 from diagnose.model import AugmentedModel, Prepared, diverges, fit, fit_percent, noise_std, noise_std_coloured, prepare
 from diagnose.recording import Recording, RecordingError
+from diagnose.reference import ReferencedModel, extend
 from diagnose.search import MUCH_WORSE, base_bounds, prior_sd, select
 from primitives.ship import DOFS, ShipProfile
 
@@ -81,11 +82,22 @@ def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]
     r0 = np.concatenate([(p.y[1:] - model.simulate(p, P0)[0][1:]) * w for p in preps]).ravel()
     level = np.sqrt(np.mean(r0**2)) if np.all(np.isfinite(r0)) else 1.0
     prior = (P0, prior_sd(P0, idx, level, model.n_params))
-    P, _cov, rss = fit(model, preps, P0, idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=base_bounds(P0, idx),
+    P, _cov, rss = fit(model, preps, P0, idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=base_bounds(P0, idx, model),
                        prior=prior)
     if not np.isfinite(rss):
         return theta0, "the baseline refit on the --fit-on runs diverged: rejected, the profile's parameters are used"
     return P[: model.n_base], ""
+
+
+def _extended(profile: ShipProfile, theta: np.ndarray) -> tuple[ShipProfile, np.ndarray, list[str]]:
+    """The profile with the structure terms it lacks (:func:`diagnose.reference.extend`) and
+    ``theta`` with zeros for them."""
+    ext, added = extend(profile)
+    if not added:
+        return profile, theta, []
+    th = np.concatenate([np.concatenate([theta[profile.model.dof_slice(i)],
+                                         np.zeros(len(ext.model_terms[i]) - len(profile.model_terms[i]))]) for i in range(3)])
+    return ext, th, added
 
 
 def _check_simulable(model: AugmentedModel, preps: list[Prepared], what: str) -> None:
@@ -104,8 +116,14 @@ def run(
     fit_on: list[Recording] | None = None,
     validate: list[Recording] | None = None,
     max_rounds: int = 5,
+    joint_reference: bool = False,
 ) -> Diagnosis:
-    """Diagnose ``recordings`` against ``profile`` (parameters ``theta`` or the simulation set)."""
+    """Diagnose ``recordings`` against ``profile`` (parameters ``theta`` or the simulation set).
+
+    With ``fit_on`` the baseline is fitted on those runs first. With ``joint_reference`` as well
+    (experimental, issue 13) its structure is extended (:mod:`diagnose.reference`) and refitted
+    jointly on the ``fit_on`` runs and the diagnosed runs, every candidate acting on the
+    diagnosed runs only."""
     t0 = time.perf_counter()
     if not recordings:
         raise RecordingError("no recording given: pass at least one CSV or .dat file")
@@ -118,15 +136,28 @@ def run(
     theta0 = profile.params(theta if theta is not None else None)
     source = "profile"
     notes: list[str] = []
+    calm_preps: list[Prepared] = []
     if fit_on:
         _check_simulable(AugmentedModel(profile, theta0, []), [prepare(profile, r) for r in fit_on], "given")
-        theta0, note = fit_baseline(profile, theta0, fit_on)
-        source = "fitted on " + ", ".join(r.source for r in fit_on) + (" (rejected)" if note else "")
+        if joint_reference:
+            profile, theta0, added = _extended(profile, theta0)
+            theta0, note = fit_baseline(profile, theta0, list(fit_on) + list(recordings))
+            source = ("fitted jointly on the reference run(s) " + ", ".join(r.source for r in fit_on) + " and the diagnosed "
+                      "runs" + (f", structure extended by {', '.join(added)}" if added else ""))
+        else:
+            theta0, note = fit_baseline(profile, theta0, fit_on)
+            source = "fitted on " + ", ".join(r.source for r in fit_on)
+        source += " (rejected)" if note else ""
         notes += [note] if note else []
     cands, untestable = build_library(profile, recordings)
     preps = [prepare(profile, r, i) for i, r in enumerate(recordings)]
     val_preps = [prepare(profile, r) for r in validate] if validate else []
-    model = AugmentedModel(profile, theta0, cands, n_rec=len(preps))
+    if fit_on and joint_reference:
+        calm_preps = [prepare(profile, r, len(preps) + i) for i, r in enumerate(fit_on)]
+        model: AugmentedModel = ReferencedModel(profile, theta0, cands, n_rec=len(preps) + len(calm_preps),
+                                                reference=calm_preps)
+    else:
+        model = AugmentedModel(profile, theta0, cands, n_rec=len(preps))
     if any(str(r.meta.get("input_hold", "sampled")).lower() != "zoh" for r in recordings):
         model.half_sample = 0.5 * ts
     _check_simulable(model, preps + val_preps, "fitted" if fit_on else "given")
@@ -138,12 +169,12 @@ def run(
     location = locate(profile, preps, res0, theta0, np.maximum(sigma, 0.02 * np.std(y_all, axis=0)))
     base_free = list(range(model.n_base)) if fit_on else []
     inputs = np.concatenate([p.inputs for p in preps])
-    result = select(model, preps, w, val_preps=val_preps, base_free=base_free, max_rounds=max_rounds, inputs=inputs)
+    result = select(model, preps + calm_preps, w, val_preps=val_preps, base_free=base_free, max_rounds=max_rounds, inputs=inputs)
     notes += result.notes
     P, free, steps = result.P, result.free, list(result.steps)
     P0x = P0.copy()
     P0x[model.x0_params()] = P[model.x0_params()]  # the initial state is not physics: same in both
-    P, free, steps, per_run, method, dropped = _guard(model, preps, val_preps, w, P0x, P, free, steps, result.base_free)
+    P, free, steps, per_run, method, dropped = _guard(model, preps + calm_preps, val_preps, w, P0x, P, free, steps, result.base_free)
     result.rejected += dropped
     findings = []
     for st in steps:

@@ -53,13 +53,13 @@ class Candidate:
     description: str = ""
 
 
-def _canon(term: str) -> frozenset[str]:
+def canonical_term(term: str) -> frozenset[str]:
     """Term identity without current (u_r == u when the model has no current)."""
     return frozenset(f.strip().replace("u_r", "u").replace("v_r", "v").replace("r^2", "r*r") for f in term.split("*"))
 
 
 def _has(profile: ShipProfile, dof: int, term: str) -> bool:
-    return _canon(term) in {_canon(t) for t in profile.model_terms[dof]}
+    return canonical_term(term) in {canonical_term(t) for t in profile.model_terms[dof]}
 
 
 def thrust_signal(profile: ShipProfile) -> str:

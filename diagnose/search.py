@@ -27,6 +27,7 @@ from diagnose import plausible
 from diagnose.candidates import Candidate
 from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, verdict
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
+from diagnose.reference import ReferencedModel
 
 ALPHA = 1e-6  # family-wise significance per round (Bonferroni over candidates)
 MIN_GAIN = 0.002  # held-out weighted RSS must drop by at least 0.2 % ...
@@ -101,14 +102,17 @@ def model_ts(model: AugmentedModel) -> float:
     return model.profile.sample_time
 
 
-def base_bounds(ref: np.ndarray, idx: list[int]) -> dict[int, tuple[float, float]]:
+def base_bounds(ref: np.ndarray, idx: list[int], model: AugmentedModel | None = None) -> dict[int, tuple[float, float]]:
     """Baseline parameters keep their sign and stay within a factor 2 of the profile (damping
-    stays dissipative, inertia within a factor 2)."""
+    stays dissipative, inertia within a factor 2); a structure term the profile lacks (value 0)
+    is free, except a DOF's own quadratic damping, which stays dissipative (<= 0)."""
     out = {}
     for j in idx:
         a, b = 0.5 * ref[j], 2.0 * ref[j]
         if ref[j] != 0:
             out[j] = (min(a, b), max(a, b))
+        elif model is not None and j < model.n_base and tuple(model.base[j][:2]) in OWN_DAMPING:
+            out[j] = (-np.inf, 0.0)
     return out
 
 
@@ -160,7 +164,7 @@ class _Search:
         level = np.sqrt(float(r0 @ r0) / max(len(r0), 1) * self.tau)
         self.sd = prior_sd(self.ref, self.base_free, level, model.n_params)
         self.prior = (self.ref, self.sd) if self.base_free else None
-        self.bounds = base_bounds(self.ref, self.base_free)
+        self.bounds = base_bounds(self.ref, self.base_free, model)
         self.n_cand = max(len(model.candidates), 1)
         # two or more whole held-out runs (validation runs, or leave one run out) are evidence
         # enough to relax the in-sample test; a single held-out run is not
@@ -200,7 +204,8 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, val_p
         S.base_free, S.prior, S.bounds = [], None, {}
         free = list(x0)
         P, cov, rss = S.refit(model.p0(), free, {}, max_iter=20)
-    if S.base_free and np.isfinite(rss):
+    # with reference runs the baseline refit is the joint structure fit the candidates are judged against: kept
+    if S.base_free and np.isfinite(rss) and not isinstance(model, ReferencedModel):
         v = _baseline_verdict(S, model.p0(), P, free)
         if not v.accepted(MUCH_WORSE):
             out.notes.append(f"refitting the baseline parameters on the diagnosed runs does not improve the held-out runs "
