@@ -1,7 +1,8 @@
 """Change detection study of seed 000 section 5.2, ours beside the thesis's Tables 5.2/5.3.
 
-Truth: sway-roll-yaw rows of (2.13) with the two pods, surge prescribed (diagnose/detect/vessel.py;
-the shared kernel's 4-DOF profile should replace it). Priors, as in section 5.2: model 0 = true
+Truth: the shared kernel (primitives.simulate) on the 4-DOF podded profile ``naval-vessel``
+(surge-sway-yaw-roll, (2.13) with the two pods); changed ships are that profile with changed data
+(diagnose/detect/vessel.py: ``Vessel.profile``). Priors, as in section 5.2: model 0 = true
 parameters, models 1..M = output-error fits of the full (2.17) or simplified (2.18) yaw row to
 500 s of noisy harbour manoeuvring (10 Hz). Each prior is evaluated on ``--runs`` noise
 realisations of the nominal ship and of a ship with "a moment of inertia 10 % larger" (L1591),
@@ -25,8 +26,8 @@ import numpy as np
 
 from diagnose.detect.cusum import calibrate_dead_zone, first_alarms
 from diagnose.detect.glr import attribute, calibrate, null_residuals
-from diagnose.detect.vessel import TABLE_4_1, Vessel, harbour_inputs, measure, simulate
-from diagnose.detect.yawmodel import SIGNALS, fit, signatures, simulate_r
+from diagnose.detect.vessel import TABLE_4_1, Vessel, harbour_inputs, measure, truth
+from diagnose.detect.yawmodel import NOMINAL, SIGNALS, fit, signatures, simulate_r
 
 DT, N = 0.1, 5000
 #: seed 000 Tables 5.2/5.3 aggregated over models 1-10 (false alarm %, miss %, mean time s), and model 0
@@ -38,7 +39,7 @@ DESIGNS = {"dz": ("dead-zone CUSUM (5.1)", 0.02), "sc": ("LR-CUSUM, 2 % design",
 def make_prior(kind: str, noise: dict, m: int):
     """Prior ``m`` (0 = true parameters) from 500 s of its own noisy manoeuvre."""
     ch = harbour_inputs(N, DT, seed=10_000 + m)
-    meas = measure(simulate(Vessel(), ch, DT), ch, noise, np.random.default_rng(20_000 + m))
+    meas = measure(truth(ch), noise, np.random.default_rng(20_000 + m))
     return fit(kind, {k: meas[k] for k in SIGNALS[kind]}, meas["r"], DT, source=f"model {m}", estimate=m > 0)
 
 
@@ -48,14 +49,14 @@ def evaluate(prior, noise: dict, runs: int, seed: int) -> dict:
     rng = np.random.default_rng(seed + 1)
     kind = prior.kind
     # what the detector sees before any alarm: this manoeuvre's measured inputs (one realisation)
-    seen = measure(simulate(Vessel(), ch, DT), ch, noise, rng)
+    seen = measure(truth(ch), noise, rng)
     S, Sp = signatures(prior, {k: seen[k] for k in SIGNALS[kind]})
     null_raw, null_blocks = null_residuals(prior, Sp, runs=400, seed=seed + 2)
     dz = calibrate_dead_zone(prior.sigma, null_raw, false_alarm=DESIGNS["dz"][1])
     scs = {k: calibrate(prior, S, null_blocks, false_alarm=DESIGNS[k][1]) for k in ("sc", "sc05")}
     out = {}
     for ship, ves in SHIPS.items():
-        meas = measure(simulate(ves, ch, DT), ch, noise, rng, runs=runs)
+        meas = measure(truth(ch, ves), noise, rng, runs=runs)
         eps = meas["r"] - simulate_r(kind, prior.values, {k: meas[k] for k in SIGNALS[kind]}, DT)
         out[ship] = {"dz": first_alarms(dz.statistic(eps), dz.h), **{k: sc.alarms(eps, S) for k, sc in scs.items()}}
         out[ship]["named"] = [attribute(eps[:, k], S, prior, i + 600)["property"]
@@ -72,7 +73,7 @@ def study(kind: str, noise: dict, models: int, runs: int) -> list[dict]:
     per = []
     for m in range(models + 1):
         prior = make_prior(kind, noise, m)
-        per.append({"prior_I_r": prior.values["I_r"] / 62.4e6 - 1, "prior_I_r_sd": float(np.sqrt(prior.cov[0, 0])),
+        per.append({"prior_I_r": prior.values["I_r"] / NOMINAL["I_r"] - 1, "prior_I_r_sd": float(np.sqrt(prior.cov[0, 0])),
                     **evaluate(prior, noise, runs, seed=500 + m)})
     return per
 

@@ -9,8 +9,8 @@ but ``r`` is an input. Parameters are scales ``x`` of the nominal values of the 
 3.3, so every column of a vectorised simulation can carry its own parameter set (the Jacobian
 and the signatures are one call each).
 
-NOTE: the yaw row lives here, beside its own truth model (vessel.py), until the 4-DOF podded
-profile of the shared kernel lands; it should then take its nominal values from that profile.
+The nominal values (the scale of every parameter) are the lumped yaw parameters (2.19) of the
+shared kernel's ``naval-vessel`` profile (:func:`diagnose.yawid.model.true_parameters`).
 """
 
 from __future__ import annotations
@@ -20,10 +20,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
+from diagnose.detect.vessel import base_profile
+from diagnose.yawid.model import true_parameters
 from primitives.errors import UserError
 
-NOMINAL = {"I_r": 62.4e6, "M_v": -1.75142e6, "A": -3.49658e6, "N_rr": -202e6, "N_rv": -15.6e6, "N_fur": -4.98e6,
-           "N_uv": -92000.0, "N_fuu": -8000.0, "N_fuv": -0.214e6}
+_TRUE = true_parameters(base_profile())
+#: (2.19) of the profile; the prior names N_phiu|r|, N_phiu|u|, N_phi|uv| N_fur, N_fuu, N_fuv
+NOMINAL = {k: _TRUE[k.replace("N_f", "N_phi")] for k in ("I_r", "M_v", "A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")}
 PARAMS = {"full": tuple(NOMINAL), "simplified": ("I_r", "A", "N_rr", "N_rv", "N_uv")}
 DAMPING = ("A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")
 SIGNALS = {"full": ("u", "v", "v_dot", "phi", "tau_r"), "simplified": ("u", "v", "tau_r")}
@@ -87,7 +90,11 @@ def _theta(kind: str, x: np.ndarray | dict) -> dict[str, np.ndarray]:
 
 def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], dt: float, gain=1.0,
                r0: float = 0.0) -> np.ndarray:
-    """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig`` (Heun's method), from ``r0``.
+    """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig``, from ``r0``.
+
+    The explicit Euler step of the shared kernel (``primitives.simulate``, seed 001 (3.60)): the
+    prior is the yaw row of the same discrete-time model, so with the profile's parameters and
+    the kernel's own v' and tau_r it reproduces the kernel's yaw rate exactly.
 
     Signals are (n,) or (n, cols); parameter values (and the actuator ``gain``) scalars or (cols,).
     Terms that do not involve ``r`` are summed once, outside the time loop.
@@ -115,9 +122,7 @@ def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], 
     r = np.zeros(shape)
     r[0] = r0
     for k in range(shape[0] - 1):
-        k1 = f(k, r[k])
-        k2 = f(k + 1, r[k] + dt * k1)
-        r[k + 1] = r[k] + 0.5 * dt * (k1 + k2)
+        r[k + 1] = r[k] + dt * f(k, r[k])
     return r
 
 
