@@ -9,8 +9,11 @@ import pytest
 
 from diagnose.detect.api import detect, fit_prior, load_prior, save_prior, simulated_recording
 from diagnose.detect.cusum import DeadZoneCusum, calibrate_dead_zone
-from diagnose.detect.vessel import Vessel
+from diagnose.detect.vessel import Vessel, base_profile, harbour_inputs, truth
+from diagnose.detect.yawmodel import NOMINAL, SIGNALS, simulate_r
 from diagnose.recording import write_csv
+from diagnose.yawid.model import true_parameters
+from primitives.simulate import simulate
 
 CHANGE_S = 60.0
 
@@ -21,6 +24,26 @@ def prior(tmp_path_factory):
     path = d / "nominal.csv"
     write_csv(simulated_recording(Vessel(), 400, seed=21), path)
     return fit_prior([path], "full")
+
+
+def test_changed_ships_are_profile_data_of_the_one_kernel():
+    base = base_profile()
+    assert Vessel().profile() is base
+    i_z = Vessel(inertia=1.1).profile()
+    assert i_z.rigid_body.i_z == pytest.approx(1.1 * base.rigid_body.i_z)
+    assert true_parameters(Vessel(lumped_inertia=1.1).profile())["I_r"] == pytest.approx(1.1 * NOMINAL["I_r"])
+    damped = true_parameters(Vessel(damping=1.2).profile())
+    assert damped["N_rr"] == pytest.approx(1.2 * NOMINAL["N_rr"]) and damped["M_v"] == pytest.approx(NOMINAL["M_v"])
+    names, th = base.param_names, Vessel(pod_gain=0.9).profile().params()
+    assert [th[names.index(k)] for k in ("X_act", "Y_act", "N_act", "K_act")] == pytest.approx([0.9] * 4)
+    # the truth is the kernel's own simulation, and the prior's yaw row (2.17) with the profile's
+    # parameters reproduces its yaw rate exactly (same Euler step, the kernel's v' and tau_r)
+    ch = harbour_inputs(600, 0.1, seed=3)
+    tr = truth(ch, Vessel(inertia=1.1), lead_in_s=0.0)
+    np.testing.assert_array_equal(tr["r"], simulate(i_z, ch, nu0=(0, 0, 0, 0)).nu[0, :-1, 2])
+    nominal = truth(ch, lead_in_s=0.0)
+    r_hat = simulate_r("full", NOMINAL, {k: nominal[k] for k in SIGNALS["full"]}, 0.1, r0=0.0)
+    np.testing.assert_allclose(r_hat, nominal["r"], rtol=0, atol=1e-12)
 
 
 def test_dead_zone_statistic_follows_eq_5_1():
@@ -43,8 +66,9 @@ def test_dead_zone_cusum_alarms_on_a_step_not_on_white_noise():
 
 
 def test_prior_recovers_the_nominal_yaw_inertia_and_round_trips(prior, tmp_path):
-    # a 400 s prior: I_r within 25 % (v' is differentiated from noisy v, which biases the full model)
-    assert abs(prior.values["I_r"] / 62.4e6 - 1) < 0.25
+    # a 400 s prior: I_r within 25 % (v' is differentiated from noisy v, an errors-in-variables
+    # bias: seeds 21, 22, 23 give +13.5, +11.5, +15.1 % with M_v near 0)
+    assert abs(prior.values["I_r"] / NOMINAL["I_r"] - 1) < 0.25
     back = load_prior(save_prior(prior, tmp_path / "p.json"))
     assert back.values == prior.values and np.allclose(back.cov, prior.cov)
 
