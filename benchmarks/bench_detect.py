@@ -36,11 +36,13 @@ SHIPS = {"nominal": Vessel(), "I_z": Vessel(inertia=1.1), "I_r": Vessel(lumped_i
 DESIGNS = {"dz": ("dead-zone CUSUM (5.1)", 0.02), "sc": ("LR-CUSUM, 2 % design", 0.02), "sc05": ("LR-CUSUM, 0.5 % design", 0.005)}
 
 
-def make_prior(kind: str, noise: dict, m: int):
-    """Prior ``m`` (0 = true parameters) from 500 s of its own noisy manoeuvre."""
+def make_prior(kind: str, noise: dict, m: int, bootstrap: int = 0):
+    """Prior ``m`` (0 = true parameters) from 500 s of its own noisy manoeuvre; with ``bootstrap``
+    its parameter covariance from that many parametric-bootstrap refits (errors in variables)."""
     ch = harbour_inputs(N, DT, seed=10_000 + m)
     meas = measure(truth(ch), noise, np.random.default_rng(20_000 + m))
-    return fit(kind, {k: meas[k] for k in SIGNALS[kind]}, meas["r"], DT, source=f"model {m}", estimate=m > 0)
+    return fit(kind, {k: meas[k] for k in SIGNALS[kind]}, meas["r"], DT, source=f"model {m}", estimate=m > 0,
+               bootstrap=bootstrap, seed=30_000 + m)
 
 
 def evaluate(prior, noise: dict, runs: int, seed: int) -> dict:
@@ -69,10 +71,10 @@ def rates(nom: np.ndarray, chg: np.ndarray) -> tuple[float, float, float]:
     return 100 * np.mean(nom >= 0), 100 * np.mean(chg < 0), (float(np.mean(hit)) * DT if hit.size else float("nan"))
 
 
-def study(kind: str, noise: dict, models: int, runs: int) -> list[dict]:
+def study(kind: str, noise: dict, models: int, runs: int, bootstrap: int = 0) -> list[dict]:
     per = []
     for m in range(models + 1):
-        prior = make_prior(kind, noise, m)
+        prior = make_prior(kind, noise, m, bootstrap)
         per.append({"prior_I_r": prior.values["I_r"] / NOMINAL["I_r"] - 1, "prior_I_r_sd": float(np.sqrt(prior.cov[0, 0])),
                     **evaluate(prior, noise, runs, seed=500 + m)})
     return per
@@ -89,17 +91,23 @@ def main() -> None:
     ap.add_argument("--per-model", action="store_true", help="print every prior's row")
     ap.add_argument("--models-kind", choices=("full", "simplified", "both"), default="both", help="prior structures to run")
     ap.add_argument("--strict", type=float, default=0.005, help="the stricter LR-CUSUM design false-alarm rate shown")
+    ap.add_argument("--bootstrap", type=int, default=0,
+                    help="prior covariance from N parametric-bootstrap refits (errors in variables); 0: the fit's own")
+    ap.add_argument("--noise", choices=("both", "table", "half"), default="both", help="noise levels to run")
     a = ap.parse_args()
     DESIGNS["sc05"] = (f"LR-CUSUM, {100 * a.strict:g} % design", a.strict)
     print(f"500 s at 10 Hz; white noise on every measured signal; {a.models} estimated priors (+ model 0, the true "
-          f"parameters), {a.runs} runs per ship; FA on the nominal ship, misses/mean alarm time on each changed ship")
+          f"parameters), {a.runs} runs per ship; FA on the nominal ship, misses/mean alarm time on each changed ship; "
+          f"prior covariance: {f'{a.bootstrap} bootstrap refits' if a.bootstrap else 'fit Jacobian x segment inflation'}")
     print(f"{'noise':>9} {'model':10} {'detector':23}| {'FA %':>5} | {'10 % I_z: miss% t s':>19} | "
           f"{'10 % I_r: miss% t s':>19} | seed 000 FA/miss/t | model 0: FA, miss/t I_z, I_r | named yaw_inertia")
     t0, c0 = time.perf_counter(), time.process_time()
     for label, scale in (("Table 4.1", 1.0), ("half", 0.5)):
+        if a.noise != "both" and (a.noise == "half") != (scale == 0.5):
+            continue
         noise = {k: scale * s for k, s in TABLE_4_1.items()}
         for kind in ("full", "simplified") if a.models_kind == "both" else (a.models_kind,):
-            per = study(kind, noise, a.models, a.runs)
+            per = study(kind, noise, a.models, a.runs, a.bootstrap)
             ref = SEED000[kind][0]
             for det, (name, _) in DESIGNS.items():
                 est = per[1:]

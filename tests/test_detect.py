@@ -109,3 +109,34 @@ def test_cli_detect_json(prior, tmp_path, capsys):
     v = doc["recordings"][0]
     assert doc["model"] == "full" and v["changed"] is True and v["property"] == "yaw_damping"
     assert CHANGE_S <= v["alarm_s"] <= CHANGE_S + 120 and set(v["evidence"]["candidates"]) == {"yaw_inertia", "yaw_damping", "pod_gain"}
+
+
+def test_white_noise_level_is_read_from_the_data():
+    from diagnose.detect.yawmodel import white_noise_sd
+
+    t = np.arange(5000) * 0.1
+    smooth = 1.3 * np.sin(2 * np.pi * t / 60) + 0.5 * np.sin(2 * np.pi * t / 17)
+    rng = np.random.default_rng(3)
+    for sd in (0.15, 0.0025):
+        assert white_noise_sd(smooth + sd * rng.standard_normal(t.size)) == pytest.approx(sd, rel=0.05)
+
+
+@pytest.mark.slow
+def test_bootstrap_prior_spread_matches_the_monte_carlo_spread():
+    # The bootstrap sees only the nominal record; its I_r spread must match the spread of priors
+    # fitted to independent noise realisations (Table 4.1 noise on every input, 400 s) within a
+    # factor 2 (12 fits / 12 refits estimate a standard deviation to about +-25 %)
+    from diagnose.detect.vessel import TABLE_4_1, measure
+    from diagnose.detect.yawmodel import bootstrap_cov, fit
+
+    tr = truth(harbour_inputs(4000, 0.1, seed=5))
+    errs = []
+    for i in range(12):
+        meas = measure(tr, TABLE_4_1, np.random.default_rng(100 + i))
+        p = fit("full", {k: meas[k] for k in SIGNALS["full"]}, meas["r"], 0.1, segments=1)
+        errs.append(p.values["I_r"] / NOMINAL["I_r"] - 1)
+        if i == 0:
+            x = np.array([p.values[k] / NOMINAL[k] for k in p.names])
+            boot = bootstrap_cov("full", {k: meas[k] for k in SIGNALS["full"]}, meas["r"], 0.1, x, runs=12, seed=1)
+    mc = float(np.sqrt(np.mean(np.square(errs))))
+    assert 0.5 < np.sqrt(boot[0, 0]) / mc < 2.0, (np.sqrt(boot[0, 0]), mc)

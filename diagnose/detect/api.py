@@ -60,15 +60,32 @@ def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarra
             raise RecordingError(f"{rec.source}: no column 'phi' (roll, rad) that the full model (2.17) needs; "
                                  "add it or use the simplified model (--model simplified)")
         sig["phi"] = rec.channels["phi"]
-        win = max(5, 2 * int(1.0 / rec.sample_time) + 1)
-        sig["v_dot"] = savgol_filter(v, win, 2, deriv=1, delta=rec.sample_time) if len(v) > win else np.gradient(v, rec.sample_time)
-    p = rec.channels.get("p", np.zeros_like(r))
-    sig["tau_r"] = pod_yaw_moment(base_profile(), {c: rec.channels[c] for c in POD_COLUMNS}, u, v, r, p)
-    return {k: sig[k] for k in SIGNALS[kind]}, r
+    derive = _deriver(rec, kind)
+    return {k: s for k, s in derive(sig, r).items() if k in SIGNALS[kind]}, r
 
 
-def fit_prior(paths: list[Path] | list[str], kind: str = "full") -> YawPrior:
-    """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s)."""
+def _deriver(rec: Recording, kind: str):
+    """``derive(sig, r) -> sig`` adding the derived inputs (v', tau_r) to measured u, v (, phi)."""
+    dt = rec.sample_time
+    pods = {c: rec.channels[c] for c in POD_COLUMNS}
+    p = rec.channels.get("p", np.zeros(rec.n_samples))
+    win = max(5, 2 * int(1.0 / dt) + 1)
+
+    def derive(sig: dict[str, np.ndarray], r: np.ndarray) -> dict[str, np.ndarray]:
+        out = dict(sig)
+        v = sig["v"]
+        if kind == "full":
+            out["v_dot"] = savgol_filter(v, win, 2, deriv=1, delta=dt) if len(v) > win else np.gradient(v, dt)
+        out["tau_r"] = pod_yaw_moment(base_profile(), pods, sig["u"], v, r, p)
+        return out
+
+    return derive
+
+
+def fit_prior(paths: list[Path] | list[str], kind: str = "full", bootstrap: int = 0, seed: int = 0) -> YawPrior:
+    """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s);
+    with ``bootstrap`` its parameter covariance from that many parametric-bootstrap refits of the
+    nominal data (errors in variables: noisy u, v, phi and the v', tau_r derived from them)."""
     if kind not in SIGNALS:
         raise UserError(f"--model {kind!r}: choose full (2.17) or simplified (2.18)")
     recs = load_runs(paths)
@@ -76,7 +93,10 @@ def fit_prior(paths: list[Path] | list[str], kind: str = "full") -> YawPrior:
     sig, r = signals(rec, kind)
     if np.ptp(r) < 1e-3:
         raise RecordingError(f"{rec.source}: the yaw rate hardly moves (range {np.ptp(r):.1e} rad/s); a prior needs turning")
-    return fit(kind, sig, r, rec.sample_time, source=str(rec.source))
+    base = {k: sig[k] for k in ("u", "v", "phi") if k in sig}
+    derive = _deriver(rec, kind)
+    return fit(kind, sig, r, rec.sample_time, source=str(rec.source), bootstrap=bootstrap, seed=seed,
+               derive=lambda s, rb: {k: x for k, x in derive({k: s[k] for k in base}, rb).items() if k in SIGNALS[kind]})
 
 
 def save_prior(prior: YawPrior, path: Path) -> Path:
