@@ -14,7 +14,13 @@ residual and parameter covariance, and the evaluation manoeuvre's measured input
 the evaluation runs; the LR-CUSUM is also shown at a 0.5 % design (the threshold/delay trade). Rates are pooled over models 1..M (as the thesis's aggregates); model 0 and
 per-model rows follow.
 
+With ``--bootstrap N`` each prior's parameter covariance (which sets the threshold through the
+no-change simulation) comes from N parametric-bootstrap refits of its own 500 s with noise on every
+input, at the levels read from that nominal data (errors in variables), instead of the fit's
+Jacobian scaled by the segment inflation.
+
     python benchmarks/bench_detect.py --models 10 --runs 100
+    python benchmarks/bench_detect.py --models 10 --runs 100 --models-kind full --bootstrap 20
 """
 
 from __future__ import annotations

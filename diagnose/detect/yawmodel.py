@@ -146,7 +146,9 @@ def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, so
     The inputs are measured with noise (errors in variables), so the fit's error on a new
     manoeuvre is larger than ``s^2 (J^T J)^-1`` says. The covariance is therefore scaled by how
     much fits to ``segments`` consecutive parts of the same record disagree beyond their own
-    covariances (:func:`segment_inflation`; 1 when they agree)."""
+    covariances (:func:`segment_inflation`; 1 when they agree), or, with ``bootstrap`` > 0,
+    replaced by the second moment of that many parametric-bootstrap refits with noise on every
+    input (:func:`bootstrap_cov`; ``derive`` recomputes derived inputs, ``seed`` its noise)."""
     r0 = float(np.mean(r_meas[:5]))
     x = _least_squares(kind, sig, r_meas, dt, np.ones(len(PARAMS[kind])), max_iter, r0) if estimate \
         else np.ones(len(PARAMS[kind]))
