@@ -1,7 +1,8 @@
 """Change detection study of seed 000 section 5.2, ours beside the thesis's Tables 5.2/5.3.
 
-Truth: sway-roll-yaw rows of (2.13) with the two pods, surge prescribed (diagnose/detect/vessel.py;
-the shared kernel's 4-DOF profile should replace it). Priors, as in section 5.2: model 0 = true
+Truth: the shared kernel (primitives.simulate) on the 4-DOF podded profile ``naval-vessel``
+(surge-sway-yaw-roll, (2.13) with the two pods); changed ships are that profile with changed data
+(diagnose/detect/vessel.py: ``Vessel.profile``). Priors, as in section 5.2: model 0 = true
 parameters, models 1..M = output-error fits of the full (2.17) or simplified (2.18) yaw row to
 500 s of noisy harbour manoeuvring (10 Hz). Each prior is evaluated on ``--runs`` noise
 realisations of the nominal ship and of a ship with "a moment of inertia 10 % larger" (L1591),
@@ -13,7 +14,13 @@ residual and parameter covariance, and the evaluation manoeuvre's measured input
 the evaluation runs; the LR-CUSUM is also shown at a 0.5 % design (the threshold/delay trade). Rates are pooled over models 1..M (as the thesis's aggregates); model 0 and
 per-model rows follow.
 
+With ``--bootstrap N`` each prior's parameter covariance (which sets the threshold through the
+no-change simulation) comes from N parametric-bootstrap refits of its own 500 s with noise on every
+input, at the levels read from that nominal data (errors in variables), instead of the fit's
+Jacobian scaled by the segment inflation.
+
     python benchmarks/bench_detect.py --models 10 --runs 100
+    python benchmarks/bench_detect.py --models 10 --runs 100 --models-kind full --bootstrap 20
 """
 
 from __future__ import annotations
@@ -25,8 +32,8 @@ import numpy as np
 
 from diagnose.detect.cusum import calibrate_dead_zone, first_alarms
 from diagnose.detect.glr import attribute, calibrate, null_residuals
-from diagnose.detect.vessel import TABLE_4_1, Vessel, harbour_inputs, measure, simulate
-from diagnose.detect.yawmodel import SIGNALS, fit, signatures, simulate_r
+from diagnose.detect.vessel import TABLE_4_1, Vessel, harbour_inputs, measure, truth
+from diagnose.detect.yawmodel import NOMINAL, SIGNALS, fit, signatures, simulate_r
 
 DT, N = 0.1, 5000
 #: seed 000 Tables 5.2/5.3 aggregated over models 1-10 (false alarm %, miss %, mean time s), and model 0
@@ -35,11 +42,13 @@ SHIPS = {"nominal": Vessel(), "I_z": Vessel(inertia=1.1), "I_r": Vessel(lumped_i
 DESIGNS = {"dz": ("dead-zone CUSUM (5.1)", 0.02), "sc": ("LR-CUSUM, 2 % design", 0.02), "sc05": ("LR-CUSUM, 0.5 % design", 0.005)}
 
 
-def make_prior(kind: str, noise: dict, m: int):
-    """Prior ``m`` (0 = true parameters) from 500 s of its own noisy manoeuvre."""
+def make_prior(kind: str, noise: dict, m: int, bootstrap: int = 0):
+    """Prior ``m`` (0 = true parameters) from 500 s of its own noisy manoeuvre; with ``bootstrap``
+    its parameter covariance from that many parametric-bootstrap refits (errors in variables)."""
     ch = harbour_inputs(N, DT, seed=10_000 + m)
-    meas = measure(simulate(Vessel(), ch, DT), ch, noise, np.random.default_rng(20_000 + m))
-    return fit(kind, {k: meas[k] for k in SIGNALS[kind]}, meas["r"], DT, source=f"model {m}", estimate=m > 0)
+    meas = measure(truth(ch), noise, np.random.default_rng(20_000 + m))
+    return fit(kind, {k: meas[k] for k in SIGNALS[kind]}, meas["r"], DT, source=f"model {m}", estimate=m > 0,
+               bootstrap=bootstrap, seed=30_000 + m)
 
 
 def evaluate(prior, noise: dict, runs: int, seed: int) -> dict:
@@ -48,14 +57,14 @@ def evaluate(prior, noise: dict, runs: int, seed: int) -> dict:
     rng = np.random.default_rng(seed + 1)
     kind = prior.kind
     # what the detector sees before any alarm: this manoeuvre's measured inputs (one realisation)
-    seen = measure(simulate(Vessel(), ch, DT), ch, noise, rng)
+    seen = measure(truth(ch), noise, rng)
     S, Sp = signatures(prior, {k: seen[k] for k in SIGNALS[kind]})
     null_raw, null_blocks = null_residuals(prior, Sp, runs=400, seed=seed + 2)
     dz = calibrate_dead_zone(prior.sigma, null_raw, false_alarm=DESIGNS["dz"][1])
     scs = {k: calibrate(prior, S, null_blocks, false_alarm=DESIGNS[k][1]) for k in ("sc", "sc05")}
     out = {}
     for ship, ves in SHIPS.items():
-        meas = measure(simulate(ves, ch, DT), ch, noise, rng, runs=runs)
+        meas = measure(truth(ch, ves), noise, rng, runs=runs)
         eps = meas["r"] - simulate_r(kind, prior.values, {k: meas[k] for k in SIGNALS[kind]}, DT)
         out[ship] = {"dz": first_alarms(dz.statistic(eps), dz.h), **{k: sc.alarms(eps, S) for k, sc in scs.items()}}
         out[ship]["named"] = [attribute(eps[:, k], S, prior, i + 600)["property"]
@@ -68,11 +77,11 @@ def rates(nom: np.ndarray, chg: np.ndarray) -> tuple[float, float, float]:
     return 100 * np.mean(nom >= 0), 100 * np.mean(chg < 0), (float(np.mean(hit)) * DT if hit.size else float("nan"))
 
 
-def study(kind: str, noise: dict, models: int, runs: int) -> list[dict]:
+def study(kind: str, noise: dict, models: int, runs: int, bootstrap: int = 0) -> list[dict]:
     per = []
     for m in range(models + 1):
-        prior = make_prior(kind, noise, m)
-        per.append({"prior_I_r": prior.values["I_r"] / 62.4e6 - 1, "prior_I_r_sd": float(np.sqrt(prior.cov[0, 0])),
+        prior = make_prior(kind, noise, m, bootstrap)
+        per.append({"prior_I_r": prior.values["I_r"] / NOMINAL["I_r"] - 1, "prior_I_r_sd": float(np.sqrt(prior.cov[0, 0])),
                     **evaluate(prior, noise, runs, seed=500 + m)})
     return per
 
@@ -88,17 +97,23 @@ def main() -> None:
     ap.add_argument("--per-model", action="store_true", help="print every prior's row")
     ap.add_argument("--models-kind", choices=("full", "simplified", "both"), default="both", help="prior structures to run")
     ap.add_argument("--strict", type=float, default=0.005, help="the stricter LR-CUSUM design false-alarm rate shown")
+    ap.add_argument("--bootstrap", type=int, default=0,
+                    help="prior covariance from N parametric-bootstrap refits (errors in variables); 0: the fit's own")
+    ap.add_argument("--noise", choices=("both", "table", "half"), default="both", help="noise levels to run")
     a = ap.parse_args()
     DESIGNS["sc05"] = (f"LR-CUSUM, {100 * a.strict:g} % design", a.strict)
     print(f"500 s at 10 Hz; white noise on every measured signal; {a.models} estimated priors (+ model 0, the true "
-          f"parameters), {a.runs} runs per ship; FA on the nominal ship, misses/mean alarm time on each changed ship")
+          f"parameters), {a.runs} runs per ship; FA on the nominal ship, misses/mean alarm time on each changed ship; "
+          f"prior covariance: {f'{a.bootstrap} bootstrap refits' if a.bootstrap else 'fit Jacobian x segment inflation'}")
     print(f"{'noise':>9} {'model':10} {'detector':23}| {'FA %':>5} | {'10 % I_z: miss% t s':>19} | "
           f"{'10 % I_r: miss% t s':>19} | seed 000 FA/miss/t | model 0: FA, miss/t I_z, I_r | named yaw_inertia")
     t0, c0 = time.perf_counter(), time.process_time()
     for label, scale in (("Table 4.1", 1.0), ("half", 0.5)):
+        if a.noise != "both" and (a.noise == "half") != (scale == 0.5):
+            continue
         noise = {k: scale * s for k, s in TABLE_4_1.items()}
         for kind in ("full", "simplified") if a.models_kind == "both" else (a.models_kind,):
-            per = study(kind, noise, a.models, a.runs)
+            per = study(kind, noise, a.models, a.runs, a.bootstrap)
             ref = SEED000[kind][0]
             for det, (name, _) in DESIGNS.items():
                 est = per[1:]

@@ -5,7 +5,7 @@ the ship changed (seed 000 chapter 5, with the change named). A notebook calls t
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +13,7 @@ from scipy.signal import savgol_filter
 
 from diagnose.detect.cusum import calibrate_dead_zone, first_alarms
 from diagnose.detect.glr import SignatureCusum, attribute, calibrate, null_residuals
-from diagnose.detect.vessel import pod_yaw_moment
+from diagnose.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, pod_yaw_moment, truth
 from diagnose.detect.yawmodel import CANDIDATES, SIGNALS, YawPrior, block_mean, fit, signatures, simulate_r
 from diagnose.recording import Recording, RecordingError, load_recording, split_metadata
 from primitives.errors import UserError
@@ -60,15 +60,32 @@ def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarra
             raise RecordingError(f"{rec.source}: no column 'phi' (roll, rad) that the full model (2.17) needs; "
                                  "add it or use the simplified model (--model simplified)")
         sig["phi"] = rec.channels["phi"]
-        win = max(5, 2 * int(1.0 / rec.sample_time) + 1)
-        sig["v_dot"] = savgol_filter(v, win, 2, deriv=1, delta=rec.sample_time) if len(v) > win else np.gradient(v, rec.sample_time)
-    p = rec.channels.get("p", np.zeros_like(r))
-    sig["tau_r"] = pod_yaw_moment({c: rec.channels[c] for c in POD_COLUMNS}, u, v, r, p)[1]
-    return {k: sig[k] for k in SIGNALS[kind]}, r
+    derive = _deriver(rec, kind)
+    return {k: s for k, s in derive(sig, r).items() if k in SIGNALS[kind]}, r
 
 
-def fit_prior(paths: list[Path] | list[str], kind: str = "full") -> YawPrior:
-    """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s)."""
+def _deriver(rec: Recording, kind: str):
+    """``derive(sig, r) -> sig`` adding the derived inputs (v', tau_r) to measured u, v (, phi)."""
+    dt = rec.sample_time
+    pods = {c: rec.channels[c] for c in POD_COLUMNS}
+    p = rec.channels.get("p", np.zeros(rec.n_samples))
+    win = max(5, 2 * int(1.0 / dt) + 1)
+
+    def derive(sig: dict[str, np.ndarray], r: np.ndarray) -> dict[str, np.ndarray]:
+        out = dict(sig)
+        v = sig["v"]
+        if kind == "full":
+            out["v_dot"] = savgol_filter(v, win, 2, deriv=1, delta=dt) if len(v) > win else np.gradient(v, dt)
+        out["tau_r"] = pod_yaw_moment(base_profile(), pods, sig["u"], v, r, p)
+        return out
+
+    return derive
+
+
+def fit_prior(paths: list[Path] | list[str], kind: str = "full", bootstrap: int = 0, seed: int = 0) -> YawPrior:
+    """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s);
+    with ``bootstrap`` its parameter covariance from that many parametric-bootstrap refits of the
+    nominal data (errors in variables: noisy u, v, phi and the v', tau_r derived from them)."""
     if kind not in SIGNALS:
         raise UserError(f"--model {kind!r}: choose full (2.17) or simplified (2.18)")
     recs = load_runs(paths)
@@ -76,7 +93,10 @@ def fit_prior(paths: list[Path] | list[str], kind: str = "full") -> YawPrior:
     sig, r = signals(rec, kind)
     if np.ptp(r) < 1e-3:
         raise RecordingError(f"{rec.source}: the yaw rate hardly moves (range {np.ptp(r):.1e} rad/s); a prior needs turning")
-    return fit(kind, sig, r, rec.sample_time, source=str(rec.source))
+    base = {k: sig[k] for k in ("u", "v", "phi") if k in sig}
+    derive = _deriver(rec, kind)
+    return fit(kind, sig, r, rec.sample_time, source=str(rec.source), bootstrap=bootstrap, seed=seed,
+               derive=lambda s, rb: {k: x for k, x in derive({k: s[k] for k in base}, rb).items() if k in SIGNALS[kind]})
 
 
 def save_prior(prior: YawPrior, path: Path) -> Path:
@@ -174,37 +194,27 @@ def plot(dets: list[Detection], path: Path) -> Path:
     return out
 
 
-def simulated_recording(vessel, duration_s: float = 500.0, dt: float = 0.1, seed: int = 0, noise_scale: float = 1.0,
-                        change_at_s: float | None = None, changed=None, source: str = "simulated") -> Recording:
-    """A podded-ship recording from the study's truth model with Table 4.1 noise (examples, tests).
+def simulated_recording(vessel: Vessel, duration_s: float = 500.0, dt: float = 0.1, seed: int = 0,
+                        noise_scale: float = 1.0, change_at_s: float | None = None, changed: Vessel | None = None,
+                        source: str = "simulated") -> Recording:
+    """A podded-ship recording simulated by the shared kernel (``naval-vessel`` profile, changed as
+    ``vessel`` says) with Table 4.1 noise on u, v, r and phi (examples, tests).
 
-    With ``change_at_s`` the ship is ``vessel`` before and ``changed`` after (a step change)."""
-    from dataclasses import replace as _replace
-
-    from diagnose.detect.vessel import TABLE_4_1, harbour_inputs, simulate
-
-    n = int(round(duration_s / dt))
-    ch = harbour_inputs(n, dt, seed=seed)
-    k = 0 if change_at_s is None else int(round(change_at_s / dt))
-    tr = simulate(vessel, ch, dt) if change_at_s is None else _splice(vessel, changed, ch, dt, k)
+    With ``change_at_s`` the ship is ``vessel`` before and ``changed`` after (a step change). A
+    ``dt`` other than the profile's sample time is made by keeping every k-th kernel sample."""
+    ts = base_profile().sample_time
+    every = int(round(dt / ts))
+    if every < 1 or abs(every * ts - dt) > 1e-9:
+        raise UserError(f"dt {dt:g} s: give a multiple of the profile's sample time {ts:g} s")
+    n = int(round(duration_s / ts))
+    ch = harbour_inputs(n, ts, seed=seed)
+    tr = truth(ch, vessel, changed, None if change_at_s is None else int(round(change_at_s / ts)))
+    tr = {k: x[::every] for k, x in tr.items()}
+    ch = ch[::every]
+    m = len(tr["r"])
     rng = np.random.default_rng(seed + 1)
-    sd = {k: noise_scale * s for k, s in TABLE_4_1.items()}
-    t = np.arange(n) * dt
-    r = tr["r"] + sd["r"] * rng.standard_normal(n)
-    u = ch["u"] + sd["u"] * rng.standard_normal(n)
-    v = tr["v"] + sd["v"] * rng.standard_normal(n)
-    phi = tr["phi"] + sd["phi"] * rng.standard_normal(n)
-    psi = np.cumsum(tr["r"]) * dt
-    c, s = np.cos(psi), np.sin(psi)
-    pos = np.cumsum(np.column_stack([c * ch["u"] - s * tr["v"], s * ch["u"] + c * tr["v"]]), axis=0) * dt
-    chans = {"phi": phi, **{k: ch[k] for k in POD_COLUMNS}}
-    return _replace(Recording(source, t, np.column_stack([u, v, r]), psi, pos, chans), meta={"sample_time": f"{dt:g}"})
-
-
-def _splice(before, after, ch: dict, dt: float, k: int) -> dict[str, np.ndarray]:
-    """Truth with a step change at sample ``k``: ``before`` up to k, then ``after`` from that state."""
-    from diagnose.detect.vessel import simulate
-
-    a = simulate(before, ch, dt)
-    b = simulate(after, {c: x[k:] for c, x in ch.items()}, dt, x0=np.array([a["v"][k], a["p"][k], a["phi"][k], a["r"][k]]))
-    return {c: np.concatenate([a[c][:k], b[c]]) for c in a}
+    noisy = {k: tr[k] + noise_scale * TABLE_4_1[k] * rng.standard_normal(m) for k in ("u", "v", "r", "phi")}
+    chans = {"phi": noisy["phi"], "n1": ch[:, 0], "alpha1": ch[:, 1], "n2": ch[:, 2], "alpha2": ch[:, 3]}
+    rec = Recording(source, np.arange(m) * dt, np.column_stack([noisy["u"], noisy["v"], noisy["r"]]), tr["psi"],
+                    np.column_stack([tr["x"], tr["y"]]), chans)
+    return replace(rec, meta={"sample_time": f"{dt:g}"})

@@ -12,8 +12,11 @@ two-sided CUSUM per signature (Basseville and Nikiforov 1993, section 2.2).
 No-change records for the threshold come from the prior alone: AR-coloured Gaussian noise with the
 fit residual's innovation sigma, plus the prior's own parameter error ``Sp delta``,
 ``delta ~ N(0, cov)`` from the fit, which on a new manoeuvre moves r_hat along the very signatures
-tested. Priors fitted to noisy inputs still err more than their covariance says (bench_detect:
-11 % false alarms for a 2 % design at Table 4.1 noise, 2 % with the true parameters).
+tested. Priors fitted to noisy inputs still err more than their covariance says (bench_detect,
+10 priors x 100 runs on the shared kernel's naval-vessel: 12.0 % false alarms for a 2 % design at
+Table 4.1 noise, 2 % with the true parameters; 5.9 % with the bootstrap covariance of
+``yawmodel.bootstrap_cov``, whose refits see the spread of the errors-in-variables error but not
+its bias).
 """
 
 from __future__ import annotations

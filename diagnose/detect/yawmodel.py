@@ -9,8 +9,8 @@ but ``r`` is an input. Parameters are scales ``x`` of the nominal values of the 
 3.3, so every column of a vectorised simulation can carry its own parameter set (the Jacobian
 and the signatures are one call each).
 
-NOTE: the yaw row lives here, beside its own truth model (vessel.py), until the 4-DOF podded
-profile of the shared kernel lands; it should then take its nominal values from that profile.
+The nominal values (the scale of every parameter) are the lumped yaw parameters (2.19) of the
+shared kernel's ``naval-vessel`` profile (:func:`diagnose.yawid.model.true_parameters`).
 """
 
 from __future__ import annotations
@@ -20,10 +20,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
+from diagnose.detect.vessel import base_profile
+from diagnose.yawid.model import true_parameters
 from primitives.errors import UserError
 
-NOMINAL = {"I_r": 62.4e6, "M_v": -1.75142e6, "A": -3.49658e6, "N_rr": -202e6, "N_rv": -15.6e6, "N_fur": -4.98e6,
-           "N_uv": -92000.0, "N_fuu": -8000.0, "N_fuv": -0.214e6}
+_TRUE = true_parameters(base_profile())
+#: (2.19) of the profile; the prior names N_phiu|r|, N_phiu|u|, N_phi|uv| N_fur, N_fuu, N_fuv
+NOMINAL = {k: _TRUE[k.replace("N_f", "N_phi")] for k in ("I_r", "M_v", "A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")}
 PARAMS = {"full": tuple(NOMINAL), "simplified": ("I_r", "A", "N_rr", "N_rv", "N_uv")}
 DAMPING = ("A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")
 SIGNALS = {"full": ("u", "v", "v_dot", "phi", "tau_r"), "simplified": ("u", "v", "tau_r")}
@@ -87,7 +90,11 @@ def _theta(kind: str, x: np.ndarray | dict) -> dict[str, np.ndarray]:
 
 def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], dt: float, gain=1.0,
                r0: float = 0.0) -> np.ndarray:
-    """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig`` (Heun's method), from ``r0``.
+    """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig``, from ``r0``.
+
+    The explicit Euler step of the shared kernel (``primitives.simulate``, seed 001 (3.60)): the
+    prior is the yaw row of the same discrete-time model, so with the profile's parameters and
+    the kernel's own v' and tau_r it reproduces the kernel's yaw rate exactly.
 
     Signals are (n,) or (n, cols); parameter values (and the actuator ``gain``) scalars or (cols,).
     Terms that do not involve ``r`` are summed once, outside the time loop.
@@ -115,9 +122,7 @@ def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], 
     r = np.zeros(shape)
     r[0] = r0
     for k in range(shape[0] - 1):
-        k1 = f(k, r[k])
-        k2 = f(k + 1, r[k] + dt * k1)
-        r[k + 1] = r[k] + 0.5 * dt * (k1 + k2)
+        r[k + 1] = r[k] + dt * f(k, r[k])
     return r
 
 
@@ -131,7 +136,8 @@ def _jacobian(kind: str, x: np.ndarray, sig: dict[str, np.ndarray], dt: float, s
 
 
 def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, source: str = "",
-        max_iter: int = 30, estimate: bool = True, segments: int = 4) -> YawPrior:
+        max_iter: int = 30, estimate: bool = True, segments: int = 4, bootstrap: int = 0, seed: int = 0,
+        derive=None) -> YawPrior:
     """Output-error fit of (2.17)/(2.18) from the nominal values (ch. 4, L1231-1243: I_r > 0 and the
     damping coefficients negative), with the residual's robust sigma, whitening filter, and the
     parameter covariance in relative (ln theta) units. ``estimate=False`` keeps the nominal values
@@ -140,7 +146,9 @@ def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, so
     The inputs are measured with noise (errors in variables), so the fit's error on a new
     manoeuvre is larger than ``s^2 (J^T J)^-1`` says. The covariance is therefore scaled by how
     much fits to ``segments`` consecutive parts of the same record disagree beyond their own
-    covariances (:func:`segment_inflation`; 1 when they agree)."""
+    covariances (:func:`segment_inflation`; 1 when they agree), or, with ``bootstrap`` > 0,
+    replaced by the second moment of that many parametric-bootstrap refits with noise on every
+    input (:func:`bootstrap_cov`; ``derive`` recomputes derived inputs, ``seed`` its noise)."""
     r0 = float(np.mean(r_meas[:5]))
     x = _least_squares(kind, sig, r_meas, dt, np.ones(len(PARAMS[kind])), max_iter, r0) if estimate \
         else np.ones(len(PARAMS[kind]))
@@ -151,7 +159,9 @@ def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, so
     ar = ar_fit(block_mean(e, block))
     sigma_w = robust_sigma(whiten(block_mean(e, block), ar))
     cov = _covariance(kind, sig, dt, x, r0, block, ar, sigma_w)
-    if estimate and segments > 1:
+    if estimate and bootstrap > 0:
+        cov = bootstrap_cov(kind, sig, r_meas, dt, x, bootstrap, seed, derive)
+    elif estimate and segments > 1:
         cov = cov * segment_inflation(kind, sig, r_meas, dt, x, segments, block, ar, sigma_w)
     values = {k: float(NOMINAL[k] * xi) for k, xi in zip(PARAMS[kind], x)}
     return YawPrior(kind, values, robust_sigma(e), cov, ar, sigma_w, block, dt, source)
@@ -192,6 +202,48 @@ def segment_inflation(kind: str, sig: dict, r_meas: np.ndarray, dt: float, x: np
     c_inv = np.linalg.pinv(np.mean(covs, axis=0))
     k = float(np.einsum("ij,jk,ik->", d, c_inv, d)) / ((segments - 1) * len(x))
     return max(1.0, k)
+
+
+def white_noise_sd(x: np.ndarray) -> float:
+    """Standard deviation of the white measurement noise on a signal that is smooth at its sample
+    rate: robust sigma of the second difference / sqrt(6) (the signal's own curvature is far below
+    the noise at 10 Hz)."""
+    return robust_sigma(np.diff(np.asarray(x, float), 2)) / np.sqrt(6.0)
+
+
+def bootstrap_cov(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, x: np.ndarray, runs: int,
+                  seed: int = 0, derive=None, max_iter: int = 15) -> np.ndarray:
+    """Second moment of the relative parameter error ``(x_b - x) / |x|`` over ``runs`` parametric-
+    bootstrap refits, errors in variables included (the Jacobian covariance of :func:`fit` knows
+    only the noise on r).
+
+    Synthetic truth: the measured inputs smoothed (Savitzky-Golay, 2 s, quadratic), ``r`` simulated
+    from them with the fitted ``x``. Synthetic data: truth plus white noise of each signal's own
+    level estimated from the nominal data (:func:`white_noise_sd`), refitted from ``x``. With
+    ``derive(sig_b, r_b) -> sig_b`` derived inputs (v' from v, tau_r from the motion) are recomputed
+    from the noisy synthetic signals, as they were from the measured ones. Only nominal data enter."""
+    from scipy.signal import savgol_filter
+
+    win = 2 * int(1.0 / dt) + 1
+    smooth = {k: savgol_filter(s, win, 2) if len(s) > win else s for k, s in sig.items()}
+    sd = {k: white_noise_sd(s) for k, s in sig.items()}
+    sd_r = white_noise_sd(r_meas)
+    r0 = float(np.mean(r_meas[:5]))
+    r_true = simulate_r(kind, x, smooth, dt, r0=r0)
+    rng = np.random.default_rng(seed)
+    d = []
+    for _ in range(runs):
+        r_b = r_true + sd_r * rng.standard_normal(len(r_true))
+        s_b = {k: smooth[k] + sd[k] * rng.standard_normal(len(r_true)) for k in sig}
+        if derive is not None:
+            s_b = derive(s_b, r_b)
+        xb = _least_squares(kind, s_b, r_b, dt, x, max_iter, float(np.mean(r_b[:5])))
+        if np.all(np.isfinite(xb)):
+            d.append((xb - x) / np.maximum(np.abs(x), 1e-6))
+    if len(d) < max(2, runs // 2):
+        raise UserError("the prior's bootstrap refits diverged; the recording does not excite yaw enough for a prior")
+    d = np.array(d)
+    return d.T @ d / len(d)
 
 
 def robust_sigma(e: np.ndarray) -> float:
