@@ -163,3 +163,30 @@ def test_oe_needs_start_values():
     ds = simulate_case(PROF, "case1", Noise.from_profile(PROF, 0.05), seed=0, length_factor=0.3)
     with pytest.raises(ValueError, match="start values"):
         estimate(ds, PROF.known, CAL, "oe")
+
+
+def test_wide_intervals_warn_that_mass_and_height_do_not_separate():
+    from diagnose.rollmass.estimate import MassEstimate, _warn
+
+    sharp = MassEstimate("oe", {}, 0.2, -0.256, m_sd=0.01, zbar_m_sd=0.005, corr=0.999)
+    _warn(sharp)
+    assert not sharp.warnings  # strongly correlated but narrow: separated
+    wide = MassEstimate("oe", {}, 0.2, -0.256, m_sd=0.08, zbar_m_sd=0.09, corr=0.99)
+    _warn(wide)
+    assert len(wide.warnings) == 1 and "cannot separate the mass from its height" in wide.warnings[0]
+
+
+def test_cli_prints_the_warning_and_intervals(csvs, capsys, monkeypatch):
+    from diagnose.rollmass import api
+    from diagnose.rollmass.estimate import MassEstimate, _warn
+
+    def fake(*args, **kwargs):
+        e = MassEstimate("oe", {}, 0.2, -0.256, m_sd=0.08, zbar_m_sd=0.09, corr=0.99)
+        _warn(e)
+        return e
+
+    monkeypatch.setattr(api, "estimate_from_files", fake)
+    _, p, _ = csvs
+    assert _run(["mass", str(p[0]), str(p[1]), str(p[2]), "--known-load", "0.2@-0.256"]) == 0
+    out = capsys.readouterr().out
+    assert "95 % CI 0.0432 .. 0.3568" in out and "warning: the data cannot separate" in out
