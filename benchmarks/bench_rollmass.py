@@ -2,10 +2,12 @@
 
 Simulated basin experiment of the 1:24 Our Lass II model (diagnose/rollmass/our_lass_ii.toml) with
 the Xsens MTi-G noise and biases as the realistic IMU case, for each Table 2 case and each
-estimator (the paper's LS and IV, and ours). Prints median and 90th-percentile absolute errors of
-the mass [%] and the CoG height [mm] over the noise seeds, and how many fits failed.
+estimator (the paper's LS and IV, our refined IV 'improved' and our output-error 'oe'). Prints
+median and 90th-percentile absolute errors of the mass [%] and the CoG height [mm] over the noise
+seeds, and how many fits failed.
 
-    python benchmarks/bench_rollmass.py --seeds 50              # realistic: Xsens MTi-G, basin reflections
+    python benchmarks/bench_rollmass.py --seeds 50 --methods ls,paper-iv,oe   # realistic: Xsens MTi-G, basin reflections
+    python benchmarks/bench_rollmass.py --seeds 10 --methods oe --length 3 --cases case1   # 3x longer runs
     python benchmarks/bench_rollmass.py --seeds 50 --waves 10   # rough-water stress case
     python benchmarks/bench_rollmass.py --seeds 50 --noise 0.3  # a 3x better IMU
 """
@@ -69,6 +71,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--length", type=float, default=1.0, help="run length as a multiple of the paper's (Table 2 sample counts)")
     ap.add_argument("--methods", default=",".join(METHODS), help=f"comma-separated subset of {','.join(METHODS)}")
+    ap.add_argument("--cases", default="case1,case2,case3", help="comma-separated Table 2 cases")
     ap.add_argument("--start-pert", type=float, default=0.2, help="relative random error of the oe start values")
     ap.add_argument("--progress", action="store_true", help="print a line per finished case-seed")
     a = ap.parse_args()
@@ -79,14 +82,16 @@ def main() -> None:
     ex = prof.raw["experiment"]
     print(f"waves x{a.waves:g}: roll moment sd {ex['wave_roll_sd'] * a.waves:g} N m, sway {ex['wave_sway_sd'] * a.waves:g} N, "
           f"yaw {ex['wave_yaw_sd'] * a.waves:g} N m at {ex['wave_freq_hz']:g} Hz; {a.seeds} seeds")
-    methods = tuple(a.methods.split(","))
+    methods, cases = tuple(a.methods.split(",")), tuple(a.cases.split(","))
+    if not set(cases) <= set(prof.raw["cases"]):
+        ap.error(f"--cases: choose from {','.join(prof.raw['cases'])}")
     if not set(methods) <= set(METHODS):
         ap.error(f"--methods: choose from {','.join(METHODS)}")
     n = {d["name"]: int(d["samples"] * a.length) for d in prof.raw["dataset"]}
     print(f"run length x{a.length:g} of the paper's: " + ", ".join(f"{k} {v} samples ({v * 0.02:.0f} s)" for k, v in n.items())
           + f"; oe start values: profile x (1 + {a.start_pert:g} N(0,1))")
     # seed-major order, so an interrupted run still covers the three cases evenly (--progress rows)
-    jobs = [(c, s, a.waves, a.noise, a.length, methods, a.start_pert) for s in range(a.seeds) for c in ("case1", "case2", "case3")]
+    jobs = [(c, s, a.waves, a.noise, a.length, methods, a.start_pert) for s in range(a.seeds) for c in cases]
     t0 = time.perf_counter()
     rows, cpu = [], 0.0
     with Pool(a.workers) as pool:
@@ -99,7 +104,7 @@ def main() -> None:
     print(f"{len(jobs)} case-seeds in {time.perf_counter() - t0:.0f} s wall, {cpu:.0f} s cpu in the workers\n")
     print(f"{'case':6} {'method':9} | {'paper m %':>9} {'paper z %':>9} | {'m med %':>8} {'m p90 %':>8} {'z med mm':>8} {'z p90 mm':>8} "
           f"{'mz med %':>8} {'mz p90 %':>8} {'failed':>6}")
-    for case in ("case1", "case2", "case3"):
+    for case in cases:
         for method in methods:
             e = np.array([r[3:] for r in rows if r[0] == case and r[1] == method])
             good = e[np.all(np.isfinite(e), axis=1)]
