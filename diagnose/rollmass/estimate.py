@@ -316,7 +316,9 @@ def _improved(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool
 def _oe(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, z_f: float, start: dict[str, float]) -> MassEstimate:
     """Output-error fit; with ``with_ci`` the ``z_f`` prior sd is propagated by a refit at ``z_f + h``."""
     f = fit_output_error(datasets, kn, cal, z_f, start)
-    params = {**{k: f.values.get(k, float("nan")) for k in SHIP_PARAMS}, "z_f": z_f, "m": f.m, "zbar_m": f.zbar_m}
+    # K_r of (11) from the fitted K_ur, so the shared parameters read as in the paper's Table 3
+    K_r = (f.values["K_ur"] - f.values["K_vdot"]) * kn.U
+    params = {**f.values, "K_r": K_r, "z_f": z_f}
     est = MassEstimate(method="oe", params=params, m=f.m, zbar_m=f.zbar_m, converged=f.converged,
                        free=SHARED + ("m", "zbar_m"), rel_singular=f.rel_singular)
     if not f.converged:
