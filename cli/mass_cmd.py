@@ -17,7 +17,7 @@ def register(app: typer.Typer) -> None:
         loaded: Path = typer.Argument(..., help="run CSV with the unknown load"),
         known_load: str = typer.Option(..., "--known-load", help="calibration load KG@M: kg at body-frame height m (z down), e.g. 0.2@-0.256"),
         profile: Path | None = typer.Option(None, "--profile", help="roll profile TOML (default: Our Lass II 1:24)"),
-        method: str = typer.Option("improved", "--method", help="improved (ours), paper-iv, or ls"),
+        method: str = typer.Option("oe", "--method", help="oe (ours: output error on p, a_s, r), improved (refined IV), paper-iv, or ls"),
         z_f: float | None = typer.Option(None, "--z-f", help="centre-of-rotation offset prior [m] (default: the profile's)"),
         json_out: bool = typer.Option(False, "--json", help="print the estimate as JSON"),
     ) -> None:

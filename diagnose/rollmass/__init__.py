@@ -1,5 +1,6 @@
 """Mass and centre of gravity from roll (Linder et al. 2015, seed 003): model, basin simulation,
-multi-dataset IV / LS estimators and our improved estimator. See :func:`estimate_from_files`."""
+the paper's multi-dataset IV / LS estimators and ours (refined IV; joint output error, the
+default). See :func:`estimate_from_files`."""
 
 from diagnose.rollmass.api import estimate_from_files, parse_known_load
 

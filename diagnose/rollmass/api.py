@@ -8,6 +8,7 @@ import numpy as np
 
 from diagnose.rollmass.estimate import METHODS, MassEstimate, estimate
 from diagnose.rollmass.model import Load, load_profile
+from diagnose.rollmass.output_error import start_values
 from diagnose.rollmass.recording import read_roll_csv
 from primitives.errors import UserError
 
@@ -27,7 +28,7 @@ def parse_known_load(text: str) -> Load:
 
 
 def estimate_from_files(nominal: str | Path, calibration: str | Path, loaded: str | Path, known_load: str | Load,
-                        profile: str | Path | None = None, method: str = "improved", z_f: float | None = None) -> MassEstimate:
+                        profile: str | Path | None = None, method: str = "oe", z_f: float | None = None) -> MassEstimate:
     """Read three recordings and estimate the loaded dataset's mass change and CoG height with CIs."""
     if method not in METHODS:
         raise UserError(f"--method {method!r}: choose one of {', '.join(METHODS)}")
@@ -35,7 +36,7 @@ def estimate_from_files(nominal: str | Path, calibration: str | Path, loaded: st
     prof = load_profile(profile)
     recs = [read_roll_csv(p)[0] for p in (nominal, calibration, loaded)]
     try:
-        return estimate(recs, prof.known, cal, method, with_ci=True, z_f=z_f)
-    except (ValueError, np.linalg.LinAlgError) as exc:  # a fit that cannot start or diverges is said, never printed
+        return estimate(recs, prof.known, cal, method, with_ci=True, z_f=z_f, start=start_values(prof))
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:  # a fit that cannot start or diverges is said, never printed
         raise UserError(f"the {method} estimate failed on these recordings ({str(exc).splitlines()[0]}); "
                         "check --z-f, --known-load and that the three runs come from one ship") from None

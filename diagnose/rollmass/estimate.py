@@ -10,7 +10,10 @@ Methods:
 ``paper-iv``  the paper's iterative IV (29)-(32): iteration-0 black-box instruments, then the
               model-refined roll-rate and accelerometer instruments (v' left out, as (31)-(32)
               do), identity weighting, all 9 parameters free from the start values (33).
-``improved``  ours: (i) the exact flat direction (scale of (11) vs ``z_f``) removed by fixing
+``oe``        ours, the default: joint output-error / maximum-likelihood fit of the sway-roll-yaw
+              model to all three IMU channels of all three datasets (``a_s`` an output, not a
+              noisy regressor), ``z_f`` fixed at its prior; see :mod:`diagnose.rollmass.output_error`.
+``improved``  our first attempt, kept for comparison: (i) the exact flat direction (scale of (11) vs ``z_f``) removed by fixing
               ``z_f`` at a prior whose uncertainty is propagated into the confidence intervals;
               (ii) the load enters through its two moments ``m z_m`` and ``m z_m (zbar_m - zbar_s)``,
               in which (10) and ``c`` are linear (no spurious optimum at ``z_m = 0``);
@@ -47,12 +50,13 @@ from diagnose.rollmass.model import (
     load_from_moments,
     load_moments,
 )
+from diagnose.rollmass.output_error import SHARED, fit_output_error
 from diagnose.rollmass.simulate import RollRecording
 
 PARAMS = SHIP_PARAMS + ("m", "zbar_m")
 # the improved estimator fits the loaded dataset's moments (linear in (10) and c), not (m, zbar_m)
 MOMENTS = ("mz", "mzs")
-METHODS = ("ls", "paper-iv", "improved")
+METHODS = ("ls", "paper-iv", "improved", "oe")
 # Start values (33): [k, A_x, d, K_r, K_vdot, K_delta, z_f, m, zbar_m]
 PAPER_START = np.array([9.0, 0.5, 0.1, -0.4, 1.0, -0.4, -0.018, 0.0, 0.0])
 NOISE_AR = 8  # order of the refined-IV noise prefilter
@@ -166,14 +170,20 @@ def _check(datasets: list[RollRecording]) -> None:
 
 def estimate(datasets: list[RollRecording], kn: Known, cal: Load, method: str = "improved",
              with_ci: bool = False, z_f: float | None = None, max_iter: int = 8,
-             fix: dict[str, float] | None = None) -> MassEstimate:
+             fix: dict[str, float] | None = None, start: dict[str, float] | None = None) -> MassEstimate:
     """Estimate the loaded dataset's ``m``, ``zbar_m`` from ``[nominal, calibration, loaded]``.
 
-    ``cal`` is the known calibration load. ``z_f`` (improved only) overrides the profile prior.
+    ``cal`` is the known calibration load. ``z_f`` (improved, oe) overrides the profile prior.
+    ``start`` (oe only, required) holds start values of the ship parameters, e.g.
+    :func:`diagnose.rollmass.output_error.start_values` of the profile.
     """
     _check(datasets)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}")
+    if method == "oe":
+        if start is None:
+            raise ValueError("the oe method needs start values (output_error.start_values(profile))")
+        return _oe(datasets, kn, cal, with_ci, kn.z_f_prior if z_f is None else z_f, start)
     if method == "improved":
         fixed = {"z_f": kn.z_f_prior if z_f is None else z_f}
         if fix is not None:
@@ -303,6 +313,28 @@ def _improved(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool
     return est
 
 
+def _oe(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, z_f: float, start: dict[str, float]) -> MassEstimate:
+    """Output-error fit; with ``with_ci`` the ``z_f`` prior sd is propagated by a refit at ``z_f + h``."""
+    f = fit_output_error(datasets, kn, cal, z_f, start)
+    # K_r of (11) from the fitted K_ur, so the shared parameters read as in the paper's Table 3
+    K_r = (f.values["K_ur"] - f.values["K_vdot"]) * kn.U
+    params = {**f.values, "K_r": K_r, "z_f": z_f}
+    est = MassEstimate(method="oe", params=params, m=f.m, zbar_m=f.zbar_m, converged=f.converged,
+                       free=SHARED + ("m", "zbar_m"), rel_singular=f.rel_singular)
+    if not f.converged:
+        est.warnings.append(f"oe: the fit did not converge ({f.message})")
+    if with_ci and f.converged and np.all(np.isfinite(f.cov_load)):
+        cov = f.cov_load.copy()
+        h = max(kn.z_f_prior_sd, 1e-3) * 0.5
+        g = fit_output_error(datasets, kn, cal, z_f + h, f.values, noise=f.noise)
+        dv = np.array([g.m - f.m, g.zbar_m - f.zbar_m]) / h
+        cov += np.outer(dv, dv) * kn.z_f_prior_sd**2
+        est.m_sd, est.zbar_m_sd = float(np.sqrt(cov[0, 0])), float(np.sqrt(cov[1, 1]))
+        est.corr = float(cov[0, 1] / (est.m_sd * est.zbar_m_sd))
+    _warn(est)
+    return est
+
+
 def _block_covs(prob: _Problem, x: np.ndarray) -> list[np.ndarray]:
     """Newey-West covariance of each dataset's unweighted moments ``Z^T e / n``."""
     out = []
@@ -370,7 +402,9 @@ def _warn(est: MassEstimate) -> None:
     if not (np.isfinite(est.m) and np.isfinite(est.zbar_m)):
         est.warnings.append("the fit diverged: no estimate")
         return
-    if np.isfinite(est.m_sd) and (est.m_sd > 0.5 * abs(est.m) or est.zbar_m_sd > 0.1 or abs(est.corr) > 0.995):
+    # m and zbar_m are always strongly correlated (m z_m is what the data fix best); the warning is
+    # for when the CIs are too wide to tell a light high load from a heavy low one
+    if np.isfinite(est.m_sd) and (est.m_sd > 0.25 * abs(est.m) or est.zbar_m_sd > 0.05):
         est.warnings.append(
             f"the data cannot separate the mass from its height (sd {est.m_sd:.3g} kg, {est.zbar_m_sd * 1000:.0f} mm, "
             f"correlation {est.corr:+.3f}); only the moment m*z_m is determined: record longer or more rudder excitation")
