@@ -19,12 +19,13 @@ nothing ship-specific.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
 
 import numpy as np
 from scipy.signal import lfilter
 
+from diagnose.yawid.experiment import Noise
 from primitives.pods import pod_generalized_forces
 from primitives.ship import ShipProfile, load_profile
 from primitives.simulate import model_signals, simulate
@@ -32,7 +33,7 @@ from primitives.simulate import model_signals, simulate
 PROFILE = "naval-vessel"
 POD_FORCES = ("tau_x", "tau_y", "tau_k", "tau_n")
 #: Table 4.1 white measurement noise (standard deviations) of the signals the prior model uses.
-TABLE_4_1 = {"r": 0.0025, "v_dot": 0.015, "u": 0.15, "v": 0.15, "phi": 0.025, "tau_r": 5e4}
+TABLE_4_1 = asdict(Noise())  # seed 000 Table 4.1, one source: diagnose.yawid.experiment.Noise
 LEAD_IN_S = 120.0  # straight run from rest before a manoeuvre, so it starts at cruise speed
 
 
