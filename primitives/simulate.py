@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from primitives.pods import pod_generalized_forces
+from primitives.rigidbody import RigidBody
 from primitives.ship import ProfileError, ShipProfile
 from primitives.terms import TermSet, signals_used
 
@@ -166,7 +167,7 @@ class VelocityStep:
     because this call is the inner loop of every simulation.
     """
 
-    def __init__(self, terms: TermSet, theta: np.ndarray, rigid=None, ts: float | None = None):
+    def __init__(self, terms: TermSet, theta: np.ndarray, rigid: RigidBody | None = None, ts: float | None = None):
         theta = np.asarray(theta, dtype=float)
         self.inc = terms.increment_function()
         self.coef = theta.tolist() if theta.ndim == 1 else [theta[:, j] for j in range(theta.shape[-1])]
