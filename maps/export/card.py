@@ -246,7 +246,7 @@ def _n_table_pages(rows: list) -> int:
     return max(1, -(-len(rows) // ROWS_PER_PAGE))
 
 
-def _page1(plan: Plan, sheets: list[dict], t0: datetime, sea_map: Any, vessel: str):
+def _page1(plan: Plan, t0: datetime, sea_map: Any, vessel: str):
     fig = plt.figure(figsize=A4)
     fig.text(0.05, 0.965, f"SEA TRIAL CARD  -  {vessel}", fontsize=15, fontweight="bold", va="top")
     y = 0.935
@@ -317,7 +317,7 @@ def iter_card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | N
     rows = _table_rows(sheets)
     _, drows = design_rows(plan)
     lines = _detail_lines(sheets)
-    yield _page1(plan, sheets, t0, sea_map, vessel_name(plan, vessel))
+    yield _page1(plan, t0, sea_map, vessel_name(plan, vessel))
     page = 2
     yield from table_pages(plan, "steps in sailing order", TABLE_COLS, rows, TABLE_WIDTHS, page)
     page += _n_table_pages(rows)
@@ -354,7 +354,7 @@ def render_card_page1(plan: Plan, path: str | Path, sea_map: Any = None, start: 
                       vessel: str | None = None) -> Path:
     """Page 1 of the card as PNG (what the bridge sees first)."""
     t0 = resolve_start(plan, start)
-    fig = _page1(plan, step_sheets(plan, t0, sea_map), t0, sea_map, vessel_name(plan, vessel))
+    fig = _page1(plan, t0, sea_map, vessel_name(plan, vessel))
     try:
         return atomic_write_bytes(path, _png(fig, dpi))
     finally:
