@@ -267,13 +267,18 @@ def _page1(plan: Plan, t0: datetime, sea_map: Any, vessel: str):
     return fig
 
 
+def _step_tag(s: dict) -> str:
+    """What a step's heading line says before its primitive: "EXECUTE ", "run-in: ", "transit: " or nothing."""
+    return "EXECUTE " if s["execute"] else ("" if s["segment"] == "manoeuvre" else f"{s['segment']}: ")
+
+
 def _detail_lines(sheets: list[dict]) -> list[tuple[str, dict]]:
     lines: list[tuple[str, dict]] = []
     bold = {"fontweight": "bold", "fontsize": 9.5}
     norm = {"fontsize": 8.5}
     red = {"fontsize": 8.5, "color": "#a00000"}
     for s in sheets:
-        tag = "EXECUTE " if s["execute"] else ("" if s["segment"] == "manoeuvre" else f"{s['segment']}: ")
+        tag = _step_tag(s)
         lines.append((f"{s['n']}. {tag}{s['primitive']}  -  {s['description']}", bold))
         where = "Execute at" if s["execute"] else "Start at"
         for k, w in enumerate(textwrap.wrap(f"{where} {s['waypoint']} {s['position']}, {s['start']}, heading {s['heading']}, "
@@ -313,6 +318,7 @@ def iter_card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | N
     design) over as many pages as they need, the orders per step, the states over time."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
+    sea_map = plan_chart(plan, sea_map)  # one chart for the route, summary and map (a map file is read once)
     sheets = step_sheets(plan, t0, sea_map)
     rows = _table_rows(sheets)
     _, drows = design_rows(plan)
@@ -395,7 +401,7 @@ def _html_table(cols: list[str], rows: list[list[str]], cls: str = "") -> str:
 
 def _html_step(s: dict) -> str:
     e = html.escape
-    tag = "EXECUTE " if s["execute"] else ("" if s["segment"] == "manoeuvre" else f"{s['segment']}: ")
+    tag = _step_tag(s)
     cls = "step exec" if s["execute"] else "step"
     h = [f"<div class='{cls}'><h3>{s['n']}. {e(tag)}{e(s['primitive'])}: {e(s['description'])}</h3>",
          f"<p><b>{'Execute' if s['execute'] else 'Start'} at {e(s['waypoint'])}</b> {e(s['position'])}, {e(s['start'])}, "
@@ -414,6 +420,7 @@ def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = No
     table headers)."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
+    sea_map = plan_chart(plan, sea_map)  # one chart for the route, summary and map (a map file is read once)
     sheets = step_sheets(plan, t0, sea_map)
     vname = vessel_name(plan, vessel)
     e = html.escape
