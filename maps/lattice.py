@@ -327,7 +327,6 @@ class _Helm:
                     r_ref = _clamp(0.1 * err, -r_lim, r_lim)
                     v_ref = _clamp(0.12 * c_err, -0.6, 0.6)
                     f = self.forces(nu, uc, v_ref, r_ref)
-                _ = d
             c, s = np.cos(psi), np.sin(psi)
             state["pos"] = pos + self.ts * np.array([c * nu[0] - s * nu[1], s * nu[0] + c * nu[1]])
             return f
