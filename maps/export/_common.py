@@ -316,8 +316,9 @@ def input_phases(plan: Plan, step: PlanStep, max_phases: int = 6) -> list[str]:
 
 
 def step_segment(step: PlanStep) -> str:
-    """"run-in", "informative" or "transit" (a plan written before segments existed: from ``kind``)."""
-    return getattr(step, "segment", "") or ("informative" if step.kind == "informative" else "transit")
+    """"run-in", "informative" or "transit" (``PlanStep`` derives it from ``kind`` for a plan
+    written before segments existed)."""
+    return step.segment
 
 
 def order_lines(step: PlanStep) -> list[str]:
