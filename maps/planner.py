@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from maps.chain import PlanOptions, assemble_plan, build_lattice, search_plan, verify_plan
+from maps.chain import LatLonHdg, PlanOptions, assemble_plan, build_lattice, search_plan, verify_plan
 from maps.geo import MapError, SeaMap, load_map
 from maps.motionset import default_resolution, resolve_primitives
 from maps.plan import Plan
@@ -27,7 +27,6 @@ from maps.trialdesign import TrialDesign, design_for_map
 from primitives.library import Primitive
 from primitives.ship import ShipProfile, load_profile
 
-LatLonHdg = tuple[float, float, float | None]
 SCENARIOS = ("thesis-9.4",)
 MAX_EXTRA_M = 100.0
 
