@@ -144,9 +144,7 @@ class Lattice:
         used = self._usable_moves()
         for mi, m in enumerate(self.moves):
             if m.counter >= 0 and mi not in used:
-                b = m.prims[0].footprint.bounds
-                two = 2 * self.options.margin
-                out[m.source or m.name] = (float(b[2] - b[0] + two), float(b[3] - b[1] + two))
+                out[m.source or m.name] = _needs(m.prims[0], self.options.margin)
         return out
 
     def _usable_moves(self) -> set[int]:
