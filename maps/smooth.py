@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from maps.lattice import helm_for
+from maps.lattice import helm_for, run_in_seconds
 from maps.verify import hull_clearance
 from primitives.ship import ShipProfile
 from primitives.simulate import simulate
@@ -78,8 +78,6 @@ class Realiser:
     def __init__(self, lat):
         self.lat = lat
         self.helm = helm_for(lat.profile, lat.res, len(lat.table))
-        from maps.lattice import run_in_seconds
-
         self.run_in_s = run_in_seconds(lat.profile, lat.options.run_in_s)
 
     def _rel(self, spatial: int, eta: np.ndarray) -> tuple[float, float, float]:
