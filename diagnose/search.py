@@ -275,7 +275,7 @@ def _round(S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rn
         if tries >= MAX_TRIES:
             break
         tries += 1
-        res = _try(S, P, free, c, beta, rss0_in, v, M, inputs)
+        res = _try(S, P, r_cur, free, c, beta, rss0_in, v, M, inputs)
         if isinstance(res, str):
             out.rejected.append({"round": rnd + 1, "key": c.key, "effect": c.effect, "reason": res})
             continue
@@ -287,9 +287,10 @@ def _round(S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rn
     return min(passed, key=lambda r: r[4].delta_aic) if passed else None
 
 
-def _try(S: _Search, P: np.ndarray, free: list[int], c: Candidate, beta: np.ndarray, rss0: float, v: Verdict, M: int,
-         inputs: np.ndarray | None):
-    """Nonlinear refit of one candidate; a reason string when it is rejected."""
+def _try(S: _Search, P: np.ndarray, r0: np.ndarray, free: list[int], c: Candidate, beta: np.ndarray, rss0: float,
+         v: Verdict, M: int, inputs: np.ndarray | None):
+    """Nonlinear refit of one candidate from P (weighted residual ``r0``); a reason string when
+    it is rejected."""
     from diagnose.describe import describe
 
     model = S.model
@@ -317,7 +318,6 @@ def _try(S: _Search, P: np.ndarray, free: list[int], c: Candidate, beta: np.ndar
         if not heldout.accepted(MUCH_WORSE):
             return (f"the refitted model does not improve the validation runs (held-out AIC {heldout.delta_aic:+.1f}, "
                     f"{heldout.improved}/{heldout.n_folds} runs better, worst fit drop {heldout.worst_drop:.1f} points)")
-    r0 = stack(residuals(model, S.preps, P[None]), S.wr)[0]
     dof_gain = (r0.reshape(-1, 3) ** 2 - res1.reshape(-1, 3) ** 2).sum(axis=0)
     corr = float(np.corrcoef(r0 - res1, r0)[0, 1]) if np.std(r0 - res1) > 0 else 0.0
     step = Step(c, rss0, rss1, f_nl, p_nl, heldout.delta_aic, heldout.gain, dof_gain, corr,
