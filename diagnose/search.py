@@ -25,6 +25,7 @@ from scipy import stats
 
 from diagnose import plausible
 from diagnose.candidates import Candidate
+from diagnose.describe import describe, surge_base_index
 from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, verdict
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
 from diagnose.reference import ReferencedModel
@@ -138,7 +139,7 @@ def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int,
         return {new[0]: (1.0 / f - 1.0, f - 1.0)}
     if c.key.startswith(("resistance_change:", "thrust_loss:constant:")):
         term = c.slots[0].term
-        j = next((k for k, (i, t, *_r) in enumerate(model.base) if i == 0 and t == term), None)
+        j = surge_base_index(model, term)
         if j is not None and P[j] != 0:
             lo, hi = sorted((-0.5 * P[j], 1.0 * P[j]))
             return {new[0]: (lo, hi)}
@@ -291,8 +292,6 @@ def _try(S: _Search, P: np.ndarray, r0: np.ndarray, free: list[int], c: Candidat
          v: Verdict, M: int, inputs: np.ndarray | None):
     """Nonlinear refit of one candidate from P (weighted residual ``r0``); a reason string when
     it is rejected."""
-    from diagnose.describe import describe
-
     model = S.model
     new = model.slot_of[c.key]
     start = _line_start(S, P, new, beta)
