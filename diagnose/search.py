@@ -349,6 +349,7 @@ def _backtrack(S: _Search, P: np.ndarray, free: list[int], cov: np.ndarray, out:
     model = S.model
     if len(out.steps) < 2:
         return P, free, cov
+    r_with = stack(residuals(model, S.preps, P[None]), S.wr)[0]
     for st in list(out.steps[:-1]):
         own = model.slot_of[st.candidate.key]
         rest = [j for j in free if j not in own]
@@ -357,8 +358,7 @@ def _backtrack(S: _Search, P: np.ndarray, free: list[int], cov: np.ndarray, out:
         P2, cov2, rss_wo = S.refit(P_wo, rest, {}, max_iter=4)
         if not np.isfinite(rss_wo):
             continue
-        r_with = stack(residuals(model, S.preps, P[None]), S.wr)[0]
-        f_b, p_b, _ = _lr_test(S, P, rss_wo, float(r_with @ r_with), len(own), len(r_with))
+        _f, p_b = _lr_stats(r_with, rss_wo, float(r_with @ r_with), len(own), len(r_with))
         drop = not _passes(p_b, st.cv_gain, S.n_cand, S.alpha, S.independent)
         if not drop and S.val:
             v = verdict(S.val_rss(P2), S.val_rss(P), np.ones((len(S.val), 3)), _val_rows(S), len(own), S.tau)
@@ -369,17 +369,24 @@ def _backtrack(S: _Search, P: np.ndarray, free: list[int], cov: np.ndarray, out:
             out.rejected.append({"key": st.candidate.key, "effect": st.candidate.effect,
                                  "reason": "made redundant by a later finding (backtracking)"})
             free, P, cov = rest, P2, cov2
+            r_with = stack(residuals(model, S.preps, P[None]), S.wr)[0]
     return P, free, cov
 
 
 def _lr_test(S: _Search, P1: np.ndarray, rss0: float, rss1: float, q: int, M: int) -> tuple[float, float, np.ndarray]:
-    """Likelihood-ratio F test of q added parameters, effective sample count from residual colour."""
+    """Likelihood-ratio F test of q added parameters at P1, and P1's weighted residual."""
     res1 = stack(residuals(S.model, S.preps, P1[None]), S.wr)[0]
+    f, p = _lr_stats(res1, rss0, rss1, q, M)
+    return f, p, res1
+
+
+def _lr_stats(res1: np.ndarray, rss0: float, rss1: float, q: int, M: int) -> tuple[float, float]:
+    """(F, p) of q added parameters, effective sample count from the colour of ``res1``."""
     tau = inflation(res1)
     n_eff = M / tau
     f = ((rss0 - rss1) / q) / (rss1 / max(M - q, 1)) / tau
     p = float(stats.f.sf(f, q, max(n_eff - q, 1))) if f > 0 else 1.0
-    return float(f), p, res1
+    return float(f), p
 
 
 def _line_start(S: _Search, P: np.ndarray, new: list[int], beta: np.ndarray) -> np.ndarray:
