@@ -99,10 +99,6 @@ def inflation(res: np.ndarray, n_dof: int = 3, max_lag: int = 30) -> float:
     return float(np.clip(np.max(taus), 1.0, 400.0))
 
 
-def model_ts(model: AugmentedModel) -> float:
-    return model.profile.sample_time
-
-
 def base_bounds(ref: np.ndarray, idx: list[int], model: AugmentedModel | None = None) -> dict[int, tuple[float, float]]:
     """Baseline parameters keep their sign and stay within a factor 2 of the profile (damping
     stays dissipative, inertia within a factor 2); a structure term the profile lacks (value 0)
@@ -131,9 +127,8 @@ def prior_sd(ref: np.ndarray, idx: list[int], level: float, n_params: int) -> np
 def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int, tuple[float, float]]:
     """Physical bounds of a candidate's parameters."""
     new = model.slot_of[c.key]
-    ts = model_ts(model)
     if c.effect == "actuator_delay":
-        return {new[0]: (-model.half_sample, 50 * ts)}
+        return {new[0]: (-model.half_sample, 50 * model.profile.sample_time)}
     if c.effect == "inertia_change":
         f = plausible.MAX_INERTIA_FACTOR
         return {new[0]: (1.0 / f - 1.0, f - 1.0)}
@@ -400,7 +395,7 @@ def _line_start(S: _Search, P: np.ndarray, new: list[int], beta: np.ndarray) -> 
 
 def _grid_delay(S: _Search, P: np.ndarray, j: int, max_samples: int = 12) -> float:
     """Grid search over half-sample delays in one batched simulation."""
-    ts = model_ts(S.model)
+    ts = S.model.profile.sample_time
     grid = np.arange(-1, 2 * max_samples + 1) * 0.5 * ts
     grid = grid[grid >= -S.model.half_sample]
     Pb = np.repeat(P[None], len(grid), axis=0)
