@@ -10,7 +10,7 @@ import numpy as np
 from diagnose import plausible
 from diagnose.candidates import build_library
 from diagnose.describe import describe
-from diagnose.heldout import RUN_RISE, Parts, grams, heldout_rss, insample_rss, make_parts
+from diagnose.heldout import RUN_RISE, Parts, fit_pct, grams, heldout_rss, insample_rss, make_parts
 from diagnose.locate import locate
 from diagnose.model import AugmentedModel, Prepared, diverges, fit, fit_percent, noise_std, noise_std_coloured, prepare
 from diagnose.recording import Recording, RecordingError
@@ -266,7 +266,7 @@ def per_run_fits(model: AugmentedModel, preps: list[Prepared], val_preps: list[P
     parts = make_parts(preps, [])
     g = grams(model, preps, parts, P, cols, w, model.steps(preps, P))
     rss = heldout_rss(g, parts, list(range(len(cols))), np.zeros(len(cols)), np.zeros(len(cols)))
-    f1 = 100.0 * (1.0 - np.sqrt(rss / np.maximum(g.den, 1e-300)))
+    f1 = fit_pct(rss, g.den)
     return _table([p.rec.source for p in preps], ["left out"] * len(preps), f0, f1, _den(preps, w)), "leave one run out (linearised refit)"
 
 

@@ -16,7 +16,8 @@ def _sd(cov: np.ndarray, pos: list[int]) -> list[float | None]:
     return [float(np.sqrt(x)) if np.isfinite(x) and x >= 0 else None for x in d]
 
 
-def _base_index(model: AugmentedModel, term: str) -> int | None:
+def surge_base_index(model: AugmentedModel, term: str) -> int | None:
+    """Position of the baseline surge term ``term`` in P (None when the model has none)."""
     return next((k for k, (i, t, *_r) in enumerate(model.base) if i == 0 and t == term), None)
 
 
@@ -56,7 +57,7 @@ def describe(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
         return {"term": c.slots[0].term, "value": float(vals[0]), "value_std": sd[0], "dof": DOFS[c.dof]}
     if c.effect in ("resistance_change", "thrust_loss") and c.key != "thrust_loss":
         term = c.slots[0].term
-        j = _base_index(model, term)
+        j = surge_base_index(model, term)
         base = float(P[j]) if j is not None else 0.0
         frac = float(vals[0] / base) if base else None
         out = {"term": term, "coefficient": float(vals[0]), "coefficient_std": sd[0]}
@@ -67,7 +68,7 @@ def describe(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
         return out
     if c.effect == "thrust_loss":
         tsig = thrust_signal(prof)
-        j = _base_index(model, tsig)
+        j = surge_base_index(model, tsig)
         out = {"coefficient": float(vals[0]), "coefficient_std": sd[0], "term": c.slots[0].term}
         if j is not None and P[j] != 0 and tsig == "tau_x":
             out["thrust_loss_per_mps"] = float(-vals[0] / P[j])

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from diagnose.model import AugmentedModel, Prepared, residuals
+from primitives.ship import DOFS
 
 N_BLOCKS = 4
 RUN_RISE = 0.02  # a held-out run's noise-weighted misfit may rise by 2 % at most
@@ -168,8 +169,8 @@ class Verdict:
 
     def table(self, labels: list[str]) -> list[dict]:
         f0, f1 = fit_pct(self.rss0, self.den), fit_pct(self.rss1, self.den)
-        return [{"run": lab, "before": dict(zip(("surge", "sway", "yaw"), a.tolist())),
-                 "after": dict(zip(("surge", "sway", "yaw"), b.tolist()))} for lab, a, b in zip(labels, f0, f1)]
+        return [{"run": lab, "before": dict(zip(DOFS, a.tolist())), "after": dict(zip(DOFS, b.tolist()))}
+                for lab, a, b in zip(labels, f0, f1)]
 
 
 def verdict(rss0: np.ndarray, rss1: np.ndarray, den: np.ndarray, n_rows: np.ndarray, q: int, tau: float) -> Verdict:

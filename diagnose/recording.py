@@ -22,6 +22,7 @@ import numpy as np
 
 from diagnose.recording_checks import check_frame, check_grid, check_values
 from primitives.errors import UserError
+from primitives.io import read_input_text
 
 MIN_SAMPLES = 50
 MAX_BRIDGE_S = 5.0  # longest gap bridged by linear interpolation; longer gaps split the run
@@ -319,8 +320,6 @@ def read_csv(path: str | Path, *, sample_time: float | None = None) -> list[Reco
 
 
 def _read_text(path: Path, encoding: str) -> str:
-    from primitives.io import read_input_text
-
     return read_input_text(path, RecordingError, "a recording file (.csv saved as UTF-8, or MARIN .dat)", encoding)
 
 

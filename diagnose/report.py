@@ -108,10 +108,10 @@ def to_text(d: Diagnosis) -> str:
     for u in d.untestable:
         extra = f" ({u['dof']} {u['term']})" if "term" in u else ""
         lines.append(f"Cannot be tested: {u['effect']}{extra}: {u['reason']}.")
-    kept = {f["key"] for f in d.findings + d.structure}
+    said = {f["key"] for f in d.findings + d.structure} | {r["key"] for r in d.rejected}  # already reported above or below
     weak: dict[str, dict] = {}
     for c in d.screened[-1]["candidates"] if d.screened else []:  # the last round: after every kept effect
-        if c["key"] not in kept and c["p_value"] < 1e-3 and c["key"] not in {r["key"] for r in d.rejected}:
+        if c["key"] not in said and c["p_value"] < 1e-3:
             weak[c["key"]] = c
     if weak:
         top = sorted(weak.values(), key=lambda c: c["p_value"])[:3]

@@ -25,6 +25,7 @@ from scipy import stats
 
 from diagnose import plausible
 from diagnose.candidates import Candidate
+from diagnose.describe import describe, surge_base_index
 from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, verdict
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
 from diagnose.reference import ReferencedModel
@@ -98,10 +99,6 @@ def inflation(res: np.ndarray, n_dof: int = 3, max_lag: int = 30) -> float:
     return float(np.clip(np.max(taus), 1.0, 400.0))
 
 
-def model_ts(model: AugmentedModel) -> float:
-    return model.profile.sample_time
-
-
 def base_bounds(ref: np.ndarray, idx: list[int], model: AugmentedModel | None = None) -> dict[int, tuple[float, float]]:
     """Baseline parameters keep their sign and stay within a factor 2 of the profile (damping
     stays dissipative, inertia within a factor 2); a structure term the profile lacks (value 0)
@@ -130,15 +127,14 @@ def prior_sd(ref: np.ndarray, idx: list[int], level: float, n_params: int) -> np
 def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int, tuple[float, float]]:
     """Physical bounds of a candidate's parameters."""
     new = model.slot_of[c.key]
-    ts = model_ts(model)
     if c.effect == "actuator_delay":
-        return {new[0]: (-model.half_sample, 50 * ts)}
+        return {new[0]: (-model.half_sample, 50 * model.profile.sample_time)}
     if c.effect == "inertia_change":
         f = plausible.MAX_INERTIA_FACTOR
         return {new[0]: (1.0 / f - 1.0, f - 1.0)}
     if c.key.startswith(("resistance_change:", "thrust_loss:constant:")):
         term = c.slots[0].term
-        j = next((k for k, (i, t, *_r) in enumerate(model.base) if i == 0 and t == term), None)
+        j = surge_base_index(model, term)
         if j is not None and P[j] != 0:
             lo, hi = sorted((-0.5 * P[j], 1.0 * P[j]))
             return {new[0]: (lo, hi)}
@@ -275,7 +271,7 @@ def _round(S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rn
         if tries >= MAX_TRIES:
             break
         tries += 1
-        res = _try(S, P, free, c, beta, rss0_in, v, M, inputs)
+        res = _try(S, P, r_cur, free, c, beta, rss0_in, v, M, inputs)
         if isinstance(res, str):
             out.rejected.append({"round": rnd + 1, "key": c.key, "effect": c.effect, "reason": res})
             continue
@@ -287,11 +283,10 @@ def _round(S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rn
     return min(passed, key=lambda r: r[4].delta_aic) if passed else None
 
 
-def _try(S: _Search, P: np.ndarray, free: list[int], c: Candidate, beta: np.ndarray, rss0: float, v: Verdict, M: int,
-         inputs: np.ndarray | None):
-    """Nonlinear refit of one candidate; a reason string when it is rejected."""
-    from diagnose.describe import describe
-
+def _try(S: _Search, P: np.ndarray, r0: np.ndarray, free: list[int], c: Candidate, beta: np.ndarray, rss0: float,
+         v: Verdict, M: int, inputs: np.ndarray | None):
+    """Nonlinear refit of one candidate from P (weighted residual ``r0``); a reason string when
+    it is rejected."""
     model = S.model
     new = model.slot_of[c.key]
     start = _line_start(S, P, new, beta)
@@ -317,7 +312,6 @@ def _try(S: _Search, P: np.ndarray, free: list[int], c: Candidate, beta: np.ndar
         if not heldout.accepted(MUCH_WORSE):
             return (f"the refitted model does not improve the validation runs (held-out AIC {heldout.delta_aic:+.1f}, "
                     f"{heldout.improved}/{heldout.n_folds} runs better, worst fit drop {heldout.worst_drop:.1f} points)")
-    r0 = stack(residuals(model, S.preps, P[None]), S.wr)[0]
     dof_gain = (r0.reshape(-1, 3) ** 2 - res1.reshape(-1, 3) ** 2).sum(axis=0)
     corr = float(np.corrcoef(r0 - res1, r0)[0, 1]) if np.std(r0 - res1) > 0 else 0.0
     step = Step(c, rss0, rss1, f_nl, p_nl, heldout.delta_aic, heldout.gain, dof_gain, corr,
@@ -350,6 +344,7 @@ def _backtrack(S: _Search, P: np.ndarray, free: list[int], cov: np.ndarray, out:
     model = S.model
     if len(out.steps) < 2:
         return P, free, cov
+    r_with = stack(residuals(model, S.preps, P[None]), S.wr)[0]
     for st in list(out.steps[:-1]):
         own = model.slot_of[st.candidate.key]
         rest = [j for j in free if j not in own]
@@ -358,8 +353,7 @@ def _backtrack(S: _Search, P: np.ndarray, free: list[int], cov: np.ndarray, out:
         P2, cov2, rss_wo = S.refit(P_wo, rest, {}, max_iter=4)
         if not np.isfinite(rss_wo):
             continue
-        r_with = stack(residuals(model, S.preps, P[None]), S.wr)[0]
-        f_b, p_b, _ = _lr_test(S, P, rss_wo, float(r_with @ r_with), len(own), len(r_with))
+        _f, p_b = _lr_stats(r_with, rss_wo, float(r_with @ r_with), len(own), len(r_with))
         drop = not _passes(p_b, st.cv_gain, S.n_cand, S.alpha, S.independent)
         if not drop and S.val:
             v = verdict(S.val_rss(P2), S.val_rss(P), np.ones((len(S.val), 3)), _val_rows(S), len(own), S.tau)
@@ -370,17 +364,24 @@ def _backtrack(S: _Search, P: np.ndarray, free: list[int], cov: np.ndarray, out:
             out.rejected.append({"key": st.candidate.key, "effect": st.candidate.effect,
                                  "reason": "made redundant by a later finding (backtracking)"})
             free, P, cov = rest, P2, cov2
+            r_with = stack(residuals(model, S.preps, P[None]), S.wr)[0]
     return P, free, cov
 
 
 def _lr_test(S: _Search, P1: np.ndarray, rss0: float, rss1: float, q: int, M: int) -> tuple[float, float, np.ndarray]:
-    """Likelihood-ratio F test of q added parameters, effective sample count from residual colour."""
+    """Likelihood-ratio F test of q added parameters at P1, and P1's weighted residual."""
     res1 = stack(residuals(S.model, S.preps, P1[None]), S.wr)[0]
+    f, p = _lr_stats(res1, rss0, rss1, q, M)
+    return f, p, res1
+
+
+def _lr_stats(res1: np.ndarray, rss0: float, rss1: float, q: int, M: int) -> tuple[float, float]:
+    """(F, p) of q added parameters, effective sample count from the colour of ``res1``."""
     tau = inflation(res1)
     n_eff = M / tau
     f = ((rss0 - rss1) / q) / (rss1 / max(M - q, 1)) / tau
     p = float(stats.f.sf(f, q, max(n_eff - q, 1))) if f > 0 else 1.0
-    return float(f), p, res1
+    return float(f), p
 
 
 def _line_start(S: _Search, P: np.ndarray, new: list[int], beta: np.ndarray) -> np.ndarray:
@@ -394,7 +395,7 @@ def _line_start(S: _Search, P: np.ndarray, new: list[int], beta: np.ndarray) -> 
 
 def _grid_delay(S: _Search, P: np.ndarray, j: int, max_samples: int = 12) -> float:
     """Grid search over half-sample delays in one batched simulation."""
-    ts = model_ts(S.model)
+    ts = S.model.profile.sample_time
     grid = np.arange(-1, 2 * max_samples + 1) * 0.5 * ts
     grid = grid[grid >= -S.model.half_sample]
     Pb = np.repeat(P[None], len(grid), axis=0)
