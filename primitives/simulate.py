@@ -282,8 +282,8 @@ def simulate(
         exo["psi"] = psi_k
         cur_b = None if still_water else body_from_ne(cur[:, k], psi_k)
         wind_b = None if calm_air else body_from_ne(wind[:, k], psi_k)
-        # roll and pod-force signals depend on the state; the step adds the relative velocities
-        _add_state_forces(profile, nu_k, phi_k, exo)
+        if nd == 4 or profile.pods:  # roll and pod-force signals depend on the state (the step adds the rest)
+            _add_state_forces(profile, nu_k, phi_k, exo)
         nxt = step(nu_k, exo, cur_b, wind_b)
         if w is not None:
             nxt += w[:, k]
