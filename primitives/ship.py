@@ -66,7 +66,6 @@ def _check_keys(d: dict, src: str) -> None:
 
 
 def _check_sizes(d: dict, src: str) -> dict[str, float]:
-
     sizes = {k: positive(_need(d, k, src, (int, float), f"a number in {unit}, > 0"), f"{src}: field '{k}'", unit, ProfileError)
              for k, unit in POSITIVE_FIELDS}
     # a manoeuvre spans ~20 ship lengths: too slow a ship or too short a sample time makes it endless
@@ -335,7 +334,6 @@ def _input_limits(d: dict, src: str) -> dict[str, tuple[float, float]]:
 
 
 def _thrusters(d: dict, src: str) -> tuple[Thruster, ...]:
-
     table = d.get("thrusters", [])
     if not isinstance(table, list) or not all(isinstance(t, dict) and "x" in t for t in table):
         raise ProfileError(f"{src}: field 'thrusters' must be a list of [[thrusters]] tables with x (and y) in metres")
@@ -351,7 +349,6 @@ DISTURBANCE_KEYS = {"current_mean_ne": 2, "current_sample_std": 0, "measurement_
 
 
 def _disturbances(d: dict, src: str) -> dict[str, Any]:
-
     table = d.get("disturbances", {})
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'disturbances' must be a table")
@@ -367,7 +364,6 @@ def _disturbances(d: dict, src: str) -> dict[str, Any]:
             if k != "current_mean_ne" and y < 0:
                 raise ProfileError(f"{src}: field 'disturbances.{k}' is a standard deviation: must be >= 0, got {x!r}")
     return dict(table)
-
 
 
 def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
