@@ -17,9 +17,7 @@ def _check(*, plot: Path | None, out: Path | None, false_alarm: float, min_chang
 
     check_plot_path(plot)
     if out is not None:
-        check_out_file(out, (".json",), "--out", "prior")
-        if out.is_dir():
-            raise UserError(f"--out {out}: is a directory; give a .json file name")
+        check_out_file(out, (".json",), "--out", "prior")  # also refuses a directory
     if not (math.isfinite(false_alarm) and 1e-4 <= false_alarm <= 0.5):
         raise UserError(f"--false-alarm {false_alarm}: give a probability per recording between 0.0001 and 0.5")
     if not (math.isfinite(min_change) and 0.005 <= min_change <= 1.0):

@@ -78,9 +78,7 @@ def register(app: typer.Typer) -> None:
         plan = load_plan(plan_file)
         sea = resolve_sea_map(sea_map, plan.map_name, plan)
         if fmt_l == "all":
-            out_dir = out or plan_file.parent
-            if out_dir.exists() and not out_dir.is_dir():
-                raise UserError(f"{out_dir}: --out must be a directory when --format is all")
+            out_dir = out or plan_file.parent  # an --out that is a file: refused by validate_export_options
             written = list(export_all(plan, out_dir, sea, start=start, vessel=vessel).values())
         else:
             path = out or default_path(plan, fmt_l, plan_file.parent)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from primitives.errors import UserError
 from primitives.io import FIGURE_SUFFIXES, check_out_file, check_out_path, check_replaceable_dir
-from primitives.validate import check_counts, check_monte_carlo, in_range, one_of, positive, whole
+from primitives.validate import MAX_MC_SAMPLES, check_counts, check_monte_carlo, in_range, one_of, positive, whole
 
 
 def check_plot_path(path: Path | None, option: str = "--plot") -> None:
@@ -47,7 +47,7 @@ def validate_design_options(*, criterion: str, mean_subtraction: str, trial_leng
         check_monte_carlo(monte_carlo, mc_samples, error=DesignError)
     else:
         whole(monte_carlo, "--monte-carlo", 0, 0, "runs", DesignError)
-        whole(mc_samples, "--mc-samples", 10, 10**6, "samples per experiment", DesignError)
+        whole(mc_samples, "--mc-samples", 10, MAX_MC_SAMPLES, "samples per experiment", DesignError)
     whole(seed, "--seed", 0, 2**63 - 1, "", DesignError)
     if psi_switch is not None:
         in_range(psi_switch, "--psi-switch", 0.01, math.pi, "rad", DesignError)

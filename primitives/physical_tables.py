@@ -1,4 +1,5 @@
-"""Parsers of the physical tables of a 4-DOF profile: [rigid_body], [[pods]] and [pod_model].
+"""Parsers of the physical tables of a profile: [rigid_body], [[pods]] and [pod_model] of a 4-DOF
+profile, [helm] and [engine] of a rudder/propeller ship (with their dataclasses).
 
 Kept out of :mod:`primitives.ship` (which calls them with its ProfileError) so that the planar
 profile loader stays short; every message names the file, the field and what to give.
@@ -6,6 +7,8 @@ profile loader stays short; every message names the file, the field and what to 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -17,6 +20,45 @@ from primitives.validate import finite, positive
 
 POD_MODEL_KEYS = ("rho", "diameter", "strut_area", "c_mx1", "c_mx2", "c_my1", "c_my2", "c_rx1", "c_rx2", "c_ry")
 RIGID_BODY_KEYS = ("mass", "I_x", "I_z", "x_g", "z_g") + ADDED_MASS_KEYS
+
+
+@dataclass(frozen=True)
+class Helm:
+    """Steering gear of a rudder ship ([helm] of the profile).
+
+    starboard_sign: sign of the model's rudder input ``delta`` that turns the ship to starboard
+    (derived from the model's yaw response when the profile does not state it).
+    rudder_rate_deg_s: default 2.32 deg/s, the SOLAS II-1/29 minimum (35 deg one side to 30 deg
+    the other in 28 s), which is also the KVLCC2 full-scale rate of SIMMAN 2008.
+    """
+
+    max_rudder_deg: float = 35.0
+    rudder_rate_deg_s: float = 2.32
+    starboard_sign: float = 1.0
+
+    def delta_rad(self, rudder_deg: np.ndarray | float) -> np.ndarray:
+        """Model input delta [rad] for a helm angle in degrees (+ starboard)."""
+        return self.starboard_sign * np.radians(rudder_deg)
+
+    def rudder_deg(self, delta_rad: np.ndarray | float) -> np.ndarray:
+        """Helm angle in degrees (+ starboard) of a model input delta [rad]."""
+        return self.starboard_sign * np.degrees(delta_rad)
+
+
+@dataclass(frozen=True)
+class Engine:
+    """Propulsion engine of a rudder ship ([engine] of the profile).
+
+    rps_limits: propeller speed range [rev/s] (default the input limits of ``n``); rps_rate:
+    fastest change of the shaft speed [rev/s per s] (None: steps); mcr_rpm: shaft rpm at MCR,
+    for % MCR under the propeller law (power ~ rpm^3); approach_rpm: the rpm the source ran
+    its trials at (compared with the model's steady rpm for the cruise speed).
+    """
+
+    rps_limits: tuple[float, float] = (0.0, np.inf)
+    rps_rate: float | None = None
+    mcr_rpm: float | None = None
+    approach_rpm: float | None = None
 
 
 def _numbers(table: Any, section: str, keys: tuple[str, ...], src: str, hint: str, err: type[UserError]) -> dict[str, float]:
@@ -68,3 +110,49 @@ def parse_pods(d: dict, src: str, inputs: tuple[str, ...], err: type[UserError])
     if yaw_moment not in ("thesis", "full"):
         raise err(f"{src}: field 'pod_model.yaw_moment' must be 'thesis' (x F_y, eq. 2.12) or 'full' (x F_y - y F_x)")
     return pods, PodModel(*(c[k] for k in POD_MODEL_KEYS), yaw_moment=yaw_moment)
+
+
+def _positive(table: dict, section: str, key: str, src: str, hint: str, err: type[UserError]) -> float | None:
+    if key not in table:
+        return None
+    val = table[key]
+    if not isinstance(val, (int, float)) or isinstance(val, bool) or not val > 0:
+        raise err(f"{src}: field '{section}.{key}' must be a number > 0 ({hint}), got {val!r}")
+    return float(val)
+
+
+def parse_helm_engine(
+    d: dict, src: str, limits: dict, starboard_sign: Callable[[], float], err: type[UserError]
+) -> tuple[Helm, Engine]:
+    """[helm] and [engine] of a rudder/propeller profile, defaults from the input limits;
+    ``starboard_sign()`` derives the helm's sign from the model when [helm] does not state it."""
+    h = d.get("helm", {})
+    e = d.get("engine", {})
+    for key, tab in (("helm", h), ("engine", e)):
+        if not isinstance(tab, dict):
+            raise err(f"{src}: field '{key}' must be a table [{key}]")
+    lim_deg = float(np.degrees(min(abs(x) for x in limits["delta"]))) if "delta" in limits else 35.0
+    max_deg = _positive(h, "helm", "max_rudder_deg", src, "the largest rudder angle in degrees, e.g. 35", err) or lim_deg
+    if max_deg > lim_deg + 1e-6:
+        raise err(f"{src}: field 'helm.max_rudder_deg' = {max_deg:g} exceeds input_limits.delta ({lim_deg:.2f} deg)")
+    rate = _positive(h, "helm", "rudder_rate_deg_s", src, "the steering gear's rate in deg/s, e.g. 2.32", err) or 2.32
+    sign = h.get("starboard_sign")
+    if sign is None:
+        sign = starboard_sign()
+    elif sign not in (1, -1):
+        raise err(f"{src}: field 'helm.starboard_sign' must be 1 or -1 (sign of delta that turns to starboard), got {sign!r}")
+    rps = e.get("rps_limits", list(limits.get("n", (0.0, np.inf))))
+    if not (isinstance(rps, list) and len(rps) == 2 and all(isinstance(x, (int, float)) for x in rps) and rps[0] < rps[1]):
+        raise err(f"{src}: field 'engine.rps_limits' must be [min, max] propeller rev/s with min < max, got {rps!r}")
+    n_lo, n_hi = limits.get("n", (-np.inf, np.inf))
+    if rps[0] < n_lo or rps[1] > n_hi:
+        raise err(f"{src}: field 'engine.rps_limits' {rps} exceeds input_limits.n [{n_lo:g}, {n_hi:g}]")
+    if np.isinf(rps[1]):
+        raise err(f"{src}: a rudder_propeller profile needs the propeller's rev/s range: add input_limits.n = [min, max] or engine.rps_limits")
+    engine = Engine(
+        (float(rps[0]), float(rps[1])),
+        _positive(e, "engine", "rps_rate", src, "the fastest shaft-speed change in rev/s per second", err),
+        _positive(e, "engine", "mcr_rpm", src, "shaft rpm at MCR", err),
+        _positive(e, "engine", "approach_rpm", src, "the rpm of the source's approach runs", err),
+    )
+    return Helm(max_deg, rate, float(sign)), engine

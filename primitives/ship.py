@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from primitives.errors import UserError
-from primitives.physical_tables import POD_MODEL_KEYS, parse_pods, parse_rigid_body
+from primitives.physical_tables import POD_MODEL_KEYS, Engine, Helm, parse_helm_engine, parse_pods, parse_rigid_body
 from primitives.pods import Pod, PodModel
 from primitives.rigidbody import RigidBody
 from primitives.terms import TermError, TermSet, signals_used
@@ -66,7 +66,6 @@ def _check_keys(d: dict, src: str) -> None:
 
 
 def _check_sizes(d: dict, src: str) -> dict[str, float]:
-
     sizes = {k: positive(_need(d, k, src, (int, float), f"a number in {unit}, > 0"), f"{src}: field '{k}'", unit, ProfileError)
              for k, unit in POSITIVE_FIELDS}
     # a manoeuvre spans ~20 ship lengths: too slow a ship or too short a sample time makes it endless
@@ -85,45 +84,6 @@ class Thruster:
     name: str
     x: float
     y: float
-
-
-@dataclass(frozen=True)
-class Helm:
-    """Steering gear of a rudder ship ([helm] of the profile).
-
-    starboard_sign: sign of the model's rudder input ``delta`` that turns the ship to starboard
-    (derived from the model's yaw response when the profile does not state it).
-    rudder_rate_deg_s: default 2.32 deg/s, the SOLAS II-1/29 minimum (35 deg one side to 30 deg
-    the other in 28 s), which is also the KVLCC2 full-scale rate of SIMMAN 2008.
-    """
-
-    max_rudder_deg: float = 35.0
-    rudder_rate_deg_s: float = 2.32
-    starboard_sign: float = 1.0
-
-    def delta_rad(self, rudder_deg: np.ndarray | float) -> np.ndarray:
-        """Model input delta [rad] for a helm angle in degrees (+ starboard)."""
-        return self.starboard_sign * np.radians(rudder_deg)
-
-    def rudder_deg(self, delta_rad: np.ndarray | float) -> np.ndarray:
-        """Helm angle in degrees (+ starboard) of a model input delta [rad]."""
-        return self.starboard_sign * np.degrees(delta_rad)
-
-
-@dataclass(frozen=True)
-class Engine:
-    """Propulsion engine of a rudder ship ([engine] of the profile).
-
-    rps_limits: propeller speed range [rev/s] (default the input limits of ``n``); rps_rate:
-    fastest change of the shaft speed [rev/s per s] (None: steps); mcr_rpm: shaft rpm at MCR,
-    for % MCR under the propeller law (power ~ rpm^3); approach_rpm: the rpm the source ran
-    its trials at (compared with the model's steady rpm for the cruise speed).
-    """
-
-    rps_limits: tuple[float, float] = (0.0, np.inf)
-    rps_rate: float | None = None
-    mcr_rpm: float | None = None
-    approach_rpm: float | None = None
 
 
 LIBRARIES = ("thesis-model-ship", "thesis-full-scale")
@@ -374,7 +334,6 @@ def _input_limits(d: dict, src: str) -> dict[str, tuple[float, float]]:
 
 
 def _thrusters(d: dict, src: str) -> tuple[Thruster, ...]:
-
     table = d.get("thrusters", [])
     if not isinstance(table, list) or not all(isinstance(t, dict) and "x" in t for t in table):
         raise ProfileError(f"{src}: field 'thrusters' must be a list of [[thrusters]] tables with x (and y) in metres")
@@ -390,7 +349,6 @@ DISTURBANCE_KEYS = {"current_mean_ne": 2, "current_sample_std": 0, "measurement_
 
 
 def _disturbances(d: dict, src: str) -> dict[str, Any]:
-
     table = d.get("disturbances", {})
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'disturbances' must be a table")
@@ -406,7 +364,6 @@ def _disturbances(d: dict, src: str) -> dict[str, Any]:
             if k != "current_mean_ne" and y < 0:
                 raise ProfileError(f"{src}: field 'disturbances.{k}' is a standard deviation: must be >= 0, got {x!r}")
     return dict(table)
-
 
 
 def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
@@ -485,7 +442,9 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     if actuator == "rudder_propeller":
         if inputs != ("delta", "n"):
             raise ProfileError(f"{src}: field 'inputs' of a rudder_propeller profile must be ['delta', 'n'] (rudder rad, propeller rev/s)")
-        helm, engine = _helm_engine(d, src, limits, model, sets[sim_set], sizes["cruise_speed_mps"])
+        helm, engine = parse_helm_engine(
+            d, src, limits, lambda: _starboard_sign(model, sets[sim_set], sizes["cruise_speed_mps"]), ProfileError
+        )
     return ShipProfile(
         name=name,
         description=str(d.get("description", "")),
@@ -514,49 +473,6 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         pods=pods,
         pod_model=pod_model,
     )
-
-
-def _positive(table: dict, section: str, key: str, src: str, hint: str) -> float | None:
-    if key not in table:
-        return None
-    val = table[key]
-    if not isinstance(val, (int, float)) or isinstance(val, bool) or not val > 0:
-        raise ProfileError(f"{src}: field '{section}.{key}' must be a number > 0 ({hint}), got {val!r}")
-    return float(val)
-
-
-def _helm_engine(d: dict, src: str, limits: dict, model: TermSet, theta: np.ndarray, cruise: float) -> tuple[Helm, Engine]:
-    """[helm] and [engine] of a rudder/propeller profile, defaults from the input limits."""
-    h = d.get("helm", {})
-    e = d.get("engine", {})
-    for key, tab in (("helm", h), ("engine", e)):
-        if not isinstance(tab, dict):
-            raise ProfileError(f"{src}: field '{key}' must be a table [{key}]")
-    lim_deg = float(np.degrees(min(abs(x) for x in limits["delta"]))) if "delta" in limits else 35.0
-    max_deg = _positive(h, "helm", "max_rudder_deg", src, "the largest rudder angle in degrees, e.g. 35") or lim_deg
-    if max_deg > lim_deg + 1e-6:
-        raise ProfileError(f"{src}: field 'helm.max_rudder_deg' = {max_deg:g} exceeds input_limits.delta ({lim_deg:.2f} deg)")
-    rate = _positive(h, "helm", "rudder_rate_deg_s", src, "the steering gear's rate in deg/s, e.g. 2.32") or 2.32
-    sign = h.get("starboard_sign")
-    if sign is None:
-        sign = _starboard_sign(model, theta, cruise)
-    elif sign not in (1, -1):
-        raise ProfileError(f"{src}: field 'helm.starboard_sign' must be 1 or -1 (sign of delta that turns to starboard), got {sign!r}")
-    rps = e.get("rps_limits", list(limits.get("n", (0.0, np.inf))))
-    if not (isinstance(rps, list) and len(rps) == 2 and all(isinstance(x, (int, float)) for x in rps) and rps[0] < rps[1]):
-        raise ProfileError(f"{src}: field 'engine.rps_limits' must be [min, max] propeller rev/s with min < max, got {rps!r}")
-    n_lo, n_hi = limits.get("n", (-np.inf, np.inf))
-    if rps[0] < n_lo or rps[1] > n_hi:
-        raise ProfileError(f"{src}: field 'engine.rps_limits' {rps} exceeds input_limits.n [{n_lo:g}, {n_hi:g}]")
-    if np.isinf(rps[1]):
-        raise ProfileError(f"{src}: a rudder_propeller profile needs the propeller's rev/s range: add input_limits.n = [min, max] or engine.rps_limits")
-    engine = Engine(
-        (float(rps[0]), float(rps[1])),
-        _positive(e, "engine", "rps_rate", src, "the fastest shaft-speed change in rev/s per second"),
-        _positive(e, "engine", "mcr_rpm", src, "shaft rpm at MCR"),
-        _positive(e, "engine", "approach_rpm", src, "the rpm of the source's approach runs"),
-    )
-    return Helm(max_deg, rate, float(sign)), engine
 
 
 def _starboard_sign(model: TermSet, theta: np.ndarray, cruise: float) -> float:

@@ -148,10 +148,16 @@ def model_signals(
     velocities, so a podded profile's tau_x, tau_y, tau_k, tau_n are computed here."""
     sig = relative_signals(nu, None if current_ne is None else body_from_ne(current_ne, psi),
                            None if wind_ne is None else body_from_ne(wind_ne, psi), into=dict(input_sig, psi=psi))
+    return _add_state_forces(profile, nu, phi, sig)
+
+
+def _add_state_forces(profile: ShipProfile, nu: np.ndarray, phi: np.ndarray | None, sig: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Add to ``sig`` the signals that depend on the state besides the relative velocities: roll
+    rate and angle (nu (..., 4)) and a podded profile's tau_x, tau_y, tau_k, tau_n (seed 000 (2.12))."""
     if nu.shape[-1] == 4:
-        sig.update(p=nu[..., 3], phi=np.zeros_like(sig["u"]) if phi is None else phi)
+        sig.update(p=nu[..., 3], phi=np.zeros_like(nu[..., 0]) if phi is None else phi)
     if profile.pods:
-        sig.update(pod_generalized_forces(profile.pod_model, profile.pods, sig))
+        sig.update(pod_generalized_forces(profile.pod_model, profile.pods, sig | {"u": nu[..., 0], "v": nu[..., 1], "r": nu[..., 2]}))
     return sig
 
 
@@ -276,8 +282,8 @@ def simulate(
         exo["psi"] = psi_k
         cur_b = None if still_water else body_from_ne(cur[:, k], psi_k)
         wind_b = None if calm_air else body_from_ne(wind[:, k], psi_k)
-        if nd == 4 or profile.pods:  # roll and pod-force signals depend on the state
-            exo = model_signals(profile, nu_k, psi_k, exo, None if still_water else cur[:, k], None if calm_air else wind[:, k], phi_k)
+        if nd == 4 or profile.pods:  # roll and pod-force signals depend on the state (the step adds the rest)
+            _add_state_forces(profile, nu_k, phi_k, exo)
         nxt = step(nu_k, exo, cur_b, wind_b)
         if w is not None:
             nxt += w[:, k]
