@@ -23,9 +23,8 @@ from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
 
 import numpy as np
-from scipy.signal import lfilter
 
-from diagnose.yawid.experiment import Noise
+from diagnose.yawid.experiment import Noise, pods_inputs
 from primitives.pods import pod_generalized_forces
 from primitives.ship import ShipProfile, load_profile
 from primitives.simulate import model_signals, simulate
@@ -92,10 +91,8 @@ def harbour_inputs(n_samples: int, dt: float, seed: int, n_rps: float = 60.0) ->
     rng = np.random.default_rng(seed)
     hold = int(round(15.0 / dt))
     steps = np.repeat(rng.uniform(-0.45, 0.45, n_samples // hold + 1), hold)[:n_samples]
-    a = np.exp(-dt / 2.0)
-    delta = lfilter([1 - a], [1, -a], steps)
     n = n_rps + 8.0 * np.sin(2 * np.pi * np.arange(n_samples) * dt / 400.0)
-    return np.column_stack([n, delta, n, delta])
+    return pods_inputs(n, steps, dt, tau_s=2.0)
 
 
 def _run(profile: ShipProfile, inputs: np.ndarray, nu0, eta0) -> tuple[np.ndarray, np.ndarray]:

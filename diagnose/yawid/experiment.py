@@ -33,7 +33,7 @@ from primitives.simulate import model_signals, simulate
 POD_FILTER_S = 5.0
 
 
-def _pods_inputs(n: np.ndarray, delta: np.ndarray, ts: float, tau_s: float = POD_FILTER_S) -> np.ndarray:
+def pods_inputs(n: np.ndarray, delta: np.ndarray, ts: float, tau_s: float = POD_FILTER_S) -> np.ndarray:
     """Inputs (N, 4) with both pods alike; the commanded pod angle through a first-order lag."""
     a = np.exp(-ts / tau_s)
     d = lfilter([1 - a], [1, -a], delta)
@@ -45,7 +45,7 @@ def turn_pulse(ts: float, duration_s: float = 200.0, n: float = 80.0, angle_deg:
     """Experiment 1 of chapter 3: straight run from rest at n rev/s, then a pod-angle pulse."""
     t = np.arange(int(round(duration_s / ts))) * ts
     delta = np.where((t >= start_s) & (t < start_s + length_s), np.radians(angle_deg), 0.0)
-    return _pods_inputs(np.full(t.size, n), delta, ts)
+    return pods_inputs(np.full(t.size, n), delta, ts)
 
 
 def harbour_exit(ts: float, duration_s: float = 120.0, n: float = 80.0) -> np.ndarray:
@@ -70,7 +70,7 @@ def identification_run(ts: float, seed: int, duration_s: float = 600.0) -> np.nd
     n = np.full(n_samples, 80.0)
     for start in np.arange(100.0, duration_s, 100.0):
         n[t >= start] = rng.uniform(55.0, 80.0)
-    return _pods_inputs(n, delta, ts)
+    return pods_inputs(n, delta, ts)
 
 
 @dataclass(frozen=True)
