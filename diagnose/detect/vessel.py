@@ -24,10 +24,10 @@ from functools import lru_cache
 
 import numpy as np
 
-from diagnose.yawid.experiment import Noise, pods_inputs
+from diagnose.yawid.experiment import Noise, pods_inputs, yaw_row_signals
 from primitives.pods import pod_generalized_forces
 from primitives.ship import ShipProfile, load_profile
-from primitives.simulate import model_signals, simulate
+from primitives.simulate import simulate
 
 PROFILE = "naval-vessel"
 POD_FORCES = ("tau_x", "tau_y", "tau_k", "tau_n")
@@ -122,10 +122,9 @@ def truth(inputs: np.ndarray, vessel: Vessel = Vessel(), changed: Vessel | None 
         k = change_at
         nu_b, eta_b = _run((changed or vessel).profile(base), inputs[k:], nu[k], eta[k])
         nu, eta = np.concatenate([nu[:k], nu_b]), np.concatenate([eta[:k], eta_b])
-    in_sig = {name: inputs[:, i] for i, name in enumerate(base.inputs)}
-    tau = model_signals(base, nu[:-1], eta[:-1, 2], in_sig, phi=eta[:-1, 3])["tau_n"]
-    return {"u": nu[:-1, 0], "v": nu[:-1, 1], "r": nu[:-1, 2], "p": nu[:-1, 3], "x": eta[:-1, 0], "y": eta[:-1, 1],
-            "psi": eta[:-1, 2], "phi": eta[:-1, 3], "v_dot": np.diff(nu[:, 1]) / ts, "tau_r": np.asarray(tau, float)}
+    yaw = yaw_row_signals(base, nu, eta, inputs)
+    return {"u": yaw["u"], "v": yaw["v"], "r": yaw["r"], "p": nu[:-1, 3], "x": eta[:-1, 0], "y": eta[:-1, 1],
+            "psi": eta[:-1, 2], "phi": yaw["phi"], "v_dot": yaw["v_dot"], "tau_r": yaw["tau_r"]}
 
 
 def measure(tr: dict[str, np.ndarray], noise: dict[str, float], rng: np.random.Generator,

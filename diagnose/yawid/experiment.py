@@ -113,13 +113,16 @@ def true_signals(profile: ShipProfile, inputs: np.ndarray, theta: str | None = N
     if not profile.pods or profile.n_dof != 4:
         raise UserError(f"ship {profile.name!r}: the yaw identification needs a 4-DOF profile with pods (e.g. 'naval-vessel')")
     res = simulate(profile, inputs, theta)
-    nu, eta = res.nu[0], res.eta[0]
-    ts = profile.sample_time
+    return YawData(res.t[:-1], yaw_row_signals(profile, res.nu[0], res.eta[0], inputs))
+
+
+def yaw_row_signals(profile: ShipProfile, nu: np.ndarray, eta: np.ndarray, inputs: np.ndarray) -> dict[str, np.ndarray]:
+    """r, v_dot, u, v, phi, tau_r at samples 0 .. N-1 of a kernel trajectory ``nu``, ``eta`` (N+1, 4)
+    driven by ``inputs`` (N, m): v_dot the Euler increment, tau_r the profile's pod yaw moment (2.12)."""
     in_sig = {name: inputs[:, i] for i, name in enumerate(profile.inputs)}
     sig = model_signals(profile, nu[:-1], eta[:-1, 2], in_sig, phi=eta[:-1, 3])
-    signals = {"r": nu[:-1, 2], "v_dot": np.diff(nu[:, 1]) / ts, "u": nu[:-1, 0], "v": nu[:-1, 1],
-               "phi": eta[:-1, 3], "tau_r": np.asarray(sig["tau_n"], float)}
-    return YawData(res.t[:-1], signals)
+    return {"r": nu[:-1, 2], "v_dot": np.diff(nu[:, 1]) / profile.sample_time, "u": nu[:-1, 0], "v": nu[:-1, 1],
+            "phi": eta[:-1, 3], "tau_r": np.asarray(sig["tau_n"], float)}
 
 
 def measure(clean: YawData, noise: Noise, runs: int, seed: int, first: int = 0) -> YawData:
