@@ -438,6 +438,7 @@ class MCEvaluation:
     sample_time: float = 1.0
     profile: str = ""
     disturbances: dict[str, Any] = field(default_factory=dict)
+    library: str = ""  # the profile's built-in manoeuvre dictionary (primitives.library), "" if none
 
     @property
     def runs_finished(self) -> dict[str, int]:
@@ -501,4 +502,4 @@ def evaluate_designs_parallel(
     info = {"name": engine.name, "workers": workers, "threads_per_worker": threads, "tasks": len(tasks),
             "tasks_per_worker": len(tasks) / max(1, workers * threads), "runs_per_task": chunk}
     return MCEvaluation(results, cfg, res.complete, res.interrupted, errors, elapsed, info, profile.sample_time, profile.name,
-                        asdict(sh.dist))
+                        asdict(sh.dist), profile.library)

@@ -63,14 +63,16 @@ def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
         sequence = "drawn per run from SeedSequence(seed, (run, 0)) for every design"
     noise = (f"current per-sample std {dist.get('current_sample_std', 0):.3g} m/s, measurement std "
              f"{', '.join(f'{x:.3g}' for x in dist.get('measurement_std', ()))} (u, v, r)")
-    if mc.profile == "model-ship":
+    # what section 9.1 says holds for the thesis's model ship, whatever the profile is called
+    thesis_ship = mc.library == "thesis-model-ship"
+    if thesis_ship:
         noise = "N(0, 0.025) read as a variance: " + noise
     amplitudes = ("tau1-tau11 built to reach the states of section 9.1.1 (feed-forward forces of the true model; zig-zags "
                   "switch at the --psi-switch heading, default 0.5 rad). Sway held against the yaw rate (v < 0 while r > 0), as in "
                   "the thesis's spirals (v > 0 while r -> -0.6, l. 12441-12449) and as the model ship's two stern azimuth "
                   "thrusters make it (Delta x = -0.39 m, tunnel thruster unused, l. 12610, 12632-12634: tau_n = -0.39 tau_y; "
                   "our zig-zag forces have tau_y/tau_n = -2.5)"
-                  if mc.profile == "model-ship" else "the primitives of the design's library, as built")
+                  if thesis_ship else "the primitives of the design's library, as built")
     return [
         {"choice": "experiment protocol", "value": f"{cfg.protocol}: {order}"},
         {"choice": "signal amplitudes", "value": amplitudes},

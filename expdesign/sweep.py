@@ -81,16 +81,14 @@ def _check_keys(keys, allowed, where: str, path: Path) -> None:
         raise SweepError(f"{path}: unknown field '{where}{bad[0]}'{bad[1]}")
 
 
-def _check_speeds(speeds: list, ships: list, path: Path) -> None:
-    """Speeds finite and > 0 m/s, and not so slow that a manoeuvre of 20 ship lengths never ends."""
-    from primitives.ship import load_profile
-
+def _check_speeds(speeds: list, profiles: dict[str, Any], path: Path) -> None:
+    """Speeds finite and > 0 m/s, and not so slow that a manoeuvre of 20 ship lengths never ends
+    (``profiles``: the sweep's ships by name, loaded once)."""
     for s in speeds:
         if s is None:
             continue
         v = positive(s, f"{path}: field 'sweep.speeds'", "m/s", SweepError)
-        for sh in ships:
-            prof = load_profile(sh)
+        for sh, prof in profiles.items():
             n = manoeuvre_samples(20 * prof.length_m, v, prof.sample_time)
             if n > MAX_PRIMITIVE_SAMPLES:
                 v_min = 20 * prof.length_m / prof.sample_time / MAX_PRIMITIVE_SAMPLES
@@ -133,12 +131,14 @@ def load_sweep(path: str | Path) -> list[Cell]:
         raise SweepError(f"{path}: field 'sweep.seed' must be a whole number >= 0, got {seed!r}")
     from primitives.ship import load_profile
 
+    profiles = {}
     for s in ships:
-        load_profile(s).require_planar(f"a sweep ({path}: field 'sweep.ships')")  # fail early with the profile's own message
+        profiles[s] = load_profile(s)
+        profiles[s].require_planar(f"a sweep ({path}: field 'sweep.ships')")  # fail early with the profile's own message
     speeds: list[float | None] = [None]
     if library == "standard":
         speeds = listed("speeds", [None])
-        _check_speeds(speeds, ships, path)
+        _check_speeds(speeds, profiles, path)
     elif "speeds" in sw:
         raise SweepError(f"{path}: field 'sweep.speeds' applies to library = \"standard\" only; remove it or set the library")
     cells = [(sh, library, sp, c, m) for sh in ships for sp in speeds for c in criteria for m in modes]

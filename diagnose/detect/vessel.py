@@ -23,12 +23,11 @@ from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
 
 import numpy as np
-from scipy.signal import lfilter
 
-from diagnose.yawid.experiment import Noise
+from diagnose.yawid.experiment import Noise, pods_inputs, yaw_row_signals
 from primitives.pods import pod_generalized_forces
 from primitives.ship import ShipProfile, load_profile
-from primitives.simulate import model_signals, simulate
+from primitives.simulate import simulate
 
 PROFILE = "naval-vessel"
 POD_FORCES = ("tau_x", "tau_y", "tau_k", "tau_n")
@@ -92,10 +91,8 @@ def harbour_inputs(n_samples: int, dt: float, seed: int, n_rps: float = 60.0) ->
     rng = np.random.default_rng(seed)
     hold = int(round(15.0 / dt))
     steps = np.repeat(rng.uniform(-0.45, 0.45, n_samples // hold + 1), hold)[:n_samples]
-    a = np.exp(-dt / 2.0)
-    delta = lfilter([1 - a], [1, -a], steps)
     n = n_rps + 8.0 * np.sin(2 * np.pi * np.arange(n_samples) * dt / 400.0)
-    return np.column_stack([n, delta, n, delta])
+    return pods_inputs(n, steps, dt, tau_s=2.0)
 
 
 def _run(profile: ShipProfile, inputs: np.ndarray, nu0, eta0) -> tuple[np.ndarray, np.ndarray]:
@@ -125,10 +122,9 @@ def truth(inputs: np.ndarray, vessel: Vessel = Vessel(), changed: Vessel | None 
         k = change_at
         nu_b, eta_b = _run((changed or vessel).profile(base), inputs[k:], nu[k], eta[k])
         nu, eta = np.concatenate([nu[:k], nu_b]), np.concatenate([eta[:k], eta_b])
-    in_sig = {name: inputs[:, i] for i, name in enumerate(base.inputs)}
-    tau = model_signals(base, nu[:-1], eta[:-1, 2], in_sig, phi=eta[:-1, 3])["tau_n"]
-    return {"u": nu[:-1, 0], "v": nu[:-1, 1], "r": nu[:-1, 2], "p": nu[:-1, 3], "x": eta[:-1, 0], "y": eta[:-1, 1],
-            "psi": eta[:-1, 2], "phi": eta[:-1, 3], "v_dot": np.diff(nu[:, 1]) / ts, "tau_r": np.asarray(tau, float)}
+    yaw = yaw_row_signals(base, nu, eta, inputs)
+    return {"u": yaw["u"], "v": yaw["v"], "r": yaw["r"], "p": nu[:-1, 3], "x": eta[:-1, 0], "y": eta[:-1, 1],
+            "psi": eta[:-1, 2], "phi": yaw["phi"], "v_dot": yaw["v_dot"], "tau_r": yaw["tau_r"]}
 
 
 def measure(tr: dict[str, np.ndarray], noise: dict[str, float], rng: np.random.Generator,

@@ -21,13 +21,19 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from diagnose.detect.vessel import base_profile
-from diagnose.yawid.model import true_parameters
+from diagnose.yawid.model import FULL, MODELS, true_parameters
 from primitives.errors import UserError
 
+
+def _prior_name(name: str) -> str:
+    """The prior's name of a yawid parameter: N_phiu|r|, N_phiu|u|, N_phi|uv| are N_fur, N_fuu, N_fuv."""
+    return name.replace("N_phi", "N_f")
+
+
 _TRUE = true_parameters(base_profile())
-#: (2.19) of the profile; the prior names N_phiu|r|, N_phiu|u|, N_phi|uv| N_fur, N_fuu, N_fuv
-NOMINAL = {k: _TRUE[k.replace("N_f", "N_phi")] for k in ("I_r", "M_v", "A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")}
-PARAMS = {"full": tuple(NOMINAL), "simplified": ("I_r", "A", "N_rr", "N_rv", "N_uv")}
+#: (2.19) of the profile, in the order of the full model (2.17)
+NOMINAL = {_prior_name(k): _TRUE[k] for k in FULL.params}
+PARAMS = {kind: tuple(map(_prior_name, m.params)) for kind, m in MODELS.items()}
 DAMPING = ("A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")
 SIGNALS = {"full": ("u", "v", "v_dot", "phi", "tau_r"), "simplified": ("u", "v", "tau_r")}
 #: the candidate changes a detector names (BRIEF effect ``inertia_change`` is "yaw_inertia")

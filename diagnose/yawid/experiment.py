@@ -33,7 +33,7 @@ from primitives.simulate import model_signals, simulate
 POD_FILTER_S = 5.0
 
 
-def _pods_inputs(n: np.ndarray, delta: np.ndarray, ts: float, tau_s: float = POD_FILTER_S) -> np.ndarray:
+def pods_inputs(n: np.ndarray, delta: np.ndarray, ts: float, tau_s: float = POD_FILTER_S) -> np.ndarray:
     """Inputs (N, 4) with both pods alike; the commanded pod angle through a first-order lag."""
     a = np.exp(-ts / tau_s)
     d = lfilter([1 - a], [1, -a], delta)
@@ -45,7 +45,7 @@ def turn_pulse(ts: float, duration_s: float = 200.0, n: float = 80.0, angle_deg:
     """Experiment 1 of chapter 3: straight run from rest at n rev/s, then a pod-angle pulse."""
     t = np.arange(int(round(duration_s / ts))) * ts
     delta = np.where((t >= start_s) & (t < start_s + length_s), np.radians(angle_deg), 0.0)
-    return _pods_inputs(np.full(t.size, n), delta, ts)
+    return pods_inputs(np.full(t.size, n), delta, ts)
 
 
 def harbour_exit(ts: float, duration_s: float = 120.0, n: float = 80.0) -> np.ndarray:
@@ -70,7 +70,7 @@ def identification_run(ts: float, seed: int, duration_s: float = 600.0) -> np.nd
     n = np.full(n_samples, 80.0)
     for start in np.arange(100.0, duration_s, 100.0):
         n[t >= start] = rng.uniform(55.0, 80.0)
-    return _pods_inputs(n, delta, ts)
+    return pods_inputs(n, delta, ts)
 
 
 @dataclass(frozen=True)
@@ -113,13 +113,16 @@ def true_signals(profile: ShipProfile, inputs: np.ndarray, theta: str | None = N
     if not profile.pods or profile.n_dof != 4:
         raise UserError(f"ship {profile.name!r}: the yaw identification needs a 4-DOF profile with pods (e.g. 'naval-vessel')")
     res = simulate(profile, inputs, theta)
-    nu, eta = res.nu[0], res.eta[0]
-    ts = profile.sample_time
+    return YawData(res.t[:-1], yaw_row_signals(profile, res.nu[0], res.eta[0], inputs))
+
+
+def yaw_row_signals(profile: ShipProfile, nu: np.ndarray, eta: np.ndarray, inputs: np.ndarray) -> dict[str, np.ndarray]:
+    """r, v_dot, u, v, phi, tau_r at samples 0 .. N-1 of a kernel trajectory ``nu``, ``eta`` (N+1, 4)
+    driven by ``inputs`` (N, m): v_dot the Euler increment, tau_r the profile's pod yaw moment (2.12)."""
     in_sig = {name: inputs[:, i] for i, name in enumerate(profile.inputs)}
     sig = model_signals(profile, nu[:-1], eta[:-1, 2], in_sig, phi=eta[:-1, 3])
-    signals = {"r": nu[:-1, 2], "v_dot": np.diff(nu[:, 1]) / ts, "u": nu[:-1, 0], "v": nu[:-1, 1],
-               "phi": eta[:-1, 3], "tau_r": np.asarray(sig["tau_n"], float)}
-    return YawData(res.t[:-1], signals)
+    return {"r": nu[:-1, 2], "v_dot": np.diff(nu[:, 1]) / profile.sample_time, "u": nu[:-1, 0], "v": nu[:-1, 1],
+            "phi": eta[:-1, 3], "tau_r": np.asarray(sig["tau_n"], float)}
 
 
 def measure(clean: YawData, noise: Noise, runs: int, seed: int, first: int = 0) -> YawData:
