@@ -44,7 +44,8 @@ def _task_killing_the_random_worker(item, shared):
 def cluster_no_retry():
     """Two single-thread worker processes; a task whose worker dies fails at once (Dask's
     default retries it on up to 3 more workers, which only makes the test slower)."""
-    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+    # a long connect timeout: on a loaded machine the restarted worker and the client reconnect slowly
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0, "distributed.comm.timeouts.connect": "60s"}):
         with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c:
             yield c
 
