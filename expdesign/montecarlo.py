@@ -451,14 +451,24 @@ def _task(item: tuple[str, int, int], shared: MCShared) -> MCResult:
 
 
 def plan_tasks(runs: int, n_designs: int, slots: int, tasks_per_worker: int = 4, chunk_runs: int | None = None) -> int:
-    """Runs per task: at least ``tasks_per_worker`` tasks per worker slot (load balance and
-    progress), at most MAX_CHUNK runs per task."""
-    if chunk_runs:
-        return max(1, min(chunk_runs, MAX_CHUNK))
-    if slots <= 1:
-        return min(runs, MAX_CHUNK)
-    per_design = -(-tasks_per_worker * slots // n_designs)
-    return max(1, min(MAX_CHUNK, -(-runs // per_design)))
+    """Tasks per design: together at least ``tasks_per_worker`` per worker slot (load balance and
+    progress), each of at most MAX_CHUNK runs (or ``chunk_runs``, which then alone decides).
+
+    Not more: a task's cost is a fixed part (the simulation kernel's time loops, paid once per
+    batch whatever its size: about 90 ms on the model ship) plus a part per run, so every extra
+    task adds the fixed part to the total; ``python benchmarks/bench_design.py --scaling`` measures
+    both and predicts the efficiency per worker count."""
+    cap = max(1, min(chunk_runs or MAX_CHUNK, MAX_CHUNK))
+    n = -(-runs // cap)
+    if slots > 1 and not chunk_runs:
+        n = max(n, -(-tasks_per_worker * slots // n_designs))
+    return max(1, min(runs, n))
+
+
+def cut_tasks(designs: Sequence[str], runs: int, n: int) -> list[tuple[str, int, int]]:
+    """(design, first run, end run): ``n`` ranges per design whose sizes differ by at most one
+    (no short tail task paying the fixed cost for a few runs), design by design as submitted."""
+    return [(d, i * runs // n, (i + 1) * runs // n) for d in designs for i in range(n)]
 
 
 def evaluate_designs_parallel(
@@ -488,8 +498,7 @@ def evaluate_designs_parallel(
     t0 = time.perf_counter()
     try:
         workers, threads = engine.capacity()
-        chunk = plan_tasks(runs, len(sh.designs), workers * threads, tasks_per_worker, chunk_runs)
-        tasks = [(d, a, min(runs, a + chunk)) for d in sh.designs for a in range(0, runs, chunk)]
+        tasks = cut_tasks(sh.designs, runs, plan_tasks(runs, len(sh.designs), workers * threads, tasks_per_worker, chunk_runs))
         res = engine.map(_task, tasks, desc="Monte Carlo", progress=progress, shared=sh,
                          weights=[b - a for _, a, b in tasks], unit="runs")
     finally:
@@ -500,6 +509,6 @@ def evaluate_designs_parallel(
     results = merge_results(parts) if parts else {}
     errors = [f"task {tasks[i][0]} runs {tasks[i][1]}..{tasks[i][2] - 1}: {msg}" for i, msg in sorted(res.errors.items())]
     info = {"name": engine.name, "workers": workers, "threads_per_worker": threads, "tasks": len(tasks),
-            "tasks_per_worker": len(tasks) / max(1, workers * threads), "runs_per_task": chunk}
+            "tasks_per_worker": len(tasks) / max(1, workers * threads), "runs_per_task": max(b - a for _, a, b in tasks)}
     return MCEvaluation(results, cfg, res.complete, res.interrupted, errors, elapsed, info, profile.sample_time, profile.name,
                         asdict(sh.dist), profile.library)

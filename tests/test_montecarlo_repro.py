@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from expdesign.montecarlo import evaluate_designs, evaluate_designs_parallel, plan_tasks
+from expdesign.montecarlo import MAX_CHUNK, cut_tasks, evaluate_designs, evaluate_designs_parallel, plan_tasks
 from expdesign.parallel import Engine, LocalEngine
 from primitives.library import model_ship_thesis
 from primitives.ship import load_profile
@@ -71,10 +71,24 @@ def test_same_digest_on_a_dask_local_cluster(ship, reference):
 
 
 def test_at_least_four_tasks_per_worker_slot():
-    assert plan_tasks(2000, 2, 2) == 500  # 2 designs x 4 tasks of 500 runs: 4 per worker
-    assert plan_tasks(2000, 2, 16) == 63
-    assert plan_tasks(10, 1, 8) == 1
-    assert plan_tasks(5000, 1, 1) == 500  # inline: big batches, bounded memory
+    assert plan_tasks(2000, 2, 2) == 4  # 2 designs x 4 tasks of 500 runs: 4 per worker
+    assert plan_tasks(2000, 2, 16) == 32
+    assert plan_tasks(10, 1, 8) == 10  # fewer runs than 4 per worker: one run per task
+    assert plan_tasks(5000, 1, 1) == 10  # inline: big batches, bounded memory
+    assert plan_tasks(12, 2, 4, chunk_runs=5) == 3  # an explicit chunk size alone decides
+
+
+@pytest.mark.parametrize("runs,designs,slots", [(200, 2, 16), (2000, 2, 16), (500, 4, 16), (2000, 2, 3), (7, 3, 2), (1001, 1, 1)])
+def test_tasks_cover_every_run_once_in_near_equal_ranges(runs, designs, slots):
+    names = [f"d{i}" for i in range(designs)]
+    tasks = cut_tasks(names, runs, plan_tasks(runs, designs, slots))
+    if slots > 1:  # at least 4 per worker slot, unless there are fewer runs than that
+        assert len(tasks) >= min(4 * slots, designs * runs)
+    for d in names:
+        ranges = [(a, b) for n, a, b in tasks if n == d]
+        assert [a for a, _ in ranges] == [0] + [b for _, b in ranges[:-1]] and ranges[-1][1] == runs
+        sizes = {b - a for a, b in ranges}
+        assert max(sizes) - min(sizes) <= 1 and 1 <= min(sizes) and max(sizes) <= MAX_CHUNK
 
 
 class _InterruptAfter(Engine):
