@@ -52,6 +52,7 @@ def register(app: typer.Typer) -> None:
         validate_design_options(criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length,
                                 monte_carlo=monte_carlo, mc_samples=mc_samples, seed=seed, out=out, psi_switch=psi_switch,
                                 min_frac=min_frac, max_frac=max_frac, noisy_moments=noisy_moments)
+        _check_mc_options(mc_protocol, mc_order, mc_settle, mc_min_block, mc_samples)
         profile = load_profile(ship)
         profile.require_planar("shiptrial design")
         lib = default_library(profile, psi_switch)
@@ -103,6 +104,22 @@ def register(app: typer.Typer) -> None:
                            f"({100 * s['frac_sim_rmse_below_0_15']:.1f} % < 0.15); diverged {s['diverged']} of {s['runs']}")
         if paths:
             typer.echo(f"wrote {paths['markdown']} and {paths['json']}")
+
+
+def _check_mc_options(protocol: str, order: str, settle: int, min_block: int, samples: int) -> None:
+    """Refuse a bad Monte Carlo option before the design step (seconds of work) runs."""
+    from expdesign.errors import DesignError
+    from expdesign.montecarlo import ORDERS, PROTOCOLS, MCConfig
+
+    for flag, value, allowed in (("--mc-protocol", protocol, PROTOCOLS), ("--mc-order", order, ORDERS)):
+        if value not in allowed:
+            raise DesignError(f"{flag} {value!r} is not one of {', '.join(allowed)}")
+    if settle < 0:
+        raise DesignError(f"--mc-settle {settle}: the settling gap is a number of samples, 0 or more")
+    segment = samples // MCConfig.n_segments
+    if not 2 <= min_block <= segment:
+        raise DesignError(f"--mc-min-block {min_block}: use 2 to {segment} samples (a random-design segment is "
+                          f"--mc-samples {samples} / {MCConfig.n_segments}), or raise --mc-samples")
 
 
 def _g(x: float | None) -> str:

@@ -175,6 +175,11 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(d, "--max-frac", [*FLOATS_BAD, "2"])
     add(d, "--noisy-moments", ["-1", "1000000000", "abc"])
     cases.append(("design --min-frac > --max-frac", [*d, "--min-frac", "0.5", "--max-frac", "0.1"]))
+    # Monte Carlo options: refused before the design step (here with the Monte Carlo off, so a late check would pass them)
+    add(d, "--mc-protocol", ["restart", "", "Continuous"])
+    add(d, "--mc-order", ["shuffled", "", "1"])
+    add(d, "--mc-settle", ["-1", "abc"])
+    add(d, "--mc-min-block", ["1", "-5", "201", "abc"])
     # plan
     p = ["plan", "--counts", "tau1=1"]
     add(p, "--map", ["{missing}", "{dir}", "{binary}", "{notjson}", "{plan}"])
