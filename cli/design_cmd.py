@@ -132,6 +132,12 @@ def _echo_speed(ev) -> None:
     typer.echo(f"Monte Carlo: {n} runs in {ev.elapsed_s:.1f} s ({n / max(ev.elapsed_s, 1e-9):.0f} runs/s) on {e['name']}, "
                f"{e['workers']} workers x {e['threads_per_worker']} threads, {e['tasks']} tasks "
                f"({e['tasks_per_worker']:.1f} per worker slot)", err=True)
+    if e["name"] == "dask" and e["threads_per_worker"] > 1:
+        # the kernel's time loops step arrays of one task's runs, too small for numpy to release the lock: about 60 %
+        # of a 63-run task (profiled); `python benchmarks/bench_design.py --threads` measures what threads give
+        typer.echo(f"note: the Dask workers run {e['threads_per_worker']} threads each, which share Python's interpreter "
+                   "lock; the Monte Carlo's time loops hold it most of the time: for full speed start the workers with "
+                   "--nthreads 1, one per core", err=True)
 
 
 def _fail(ev, what: str) -> None:

@@ -138,3 +138,22 @@ def test_shared_inputs_reach_every_task():
     for eng in (Engine(), LocalEngine(2)):
         assert eng.map(_add_shared, [1, 2, 3], progress=False, shared={"offset": 10}).results == [11, 12, 13]
     assert LocalEngine(3).capacity() == (3, 1) and Engine().capacity() == (1, 1)
+
+
+def test_design_says_when_dask_workers_run_several_threads(capsys):
+    """Threads of one Dask worker share the interpreter lock the Monte Carlo's time loops hold:
+    the design command says so (and how to start the workers) instead of silently scaling badly."""
+    from types import SimpleNamespace
+
+    from cli.design_cmd import _echo_speed
+
+    def ev(name, threads):
+        eng = {"name": name, "workers": 4, "threads_per_worker": threads, "tasks": 64, "tasks_per_worker": 64 / (4 * threads)}
+        return SimpleNamespace(engine=eng, runs_finished={"optimized": 500}, elapsed_s=2.0)
+
+    _echo_speed(ev("dask", 4))
+    err = capsys.readouterr().err
+    assert "4 workers x 4 threads" in err and "--nthreads 1" in err
+    for quiet in (ev("dask", 1), ev("local", 1)):
+        _echo_speed(quiet)
+        assert "--nthreads" not in capsys.readouterr().err
