@@ -455,9 +455,9 @@ def plan_tasks(runs: int, n_designs: int, slots: int, tasks_per_worker: int = 4,
     progress), each of at most MAX_CHUNK runs (or ``chunk_runs``, which then alone decides).
 
     Not more: a task's cost is a fixed part (the simulation kernel's time loops, paid once per
-    batch whatever its size: about 90 ms on the model ship) plus a part per run, so every extra
-    task adds the fixed part to the total; ``python benchmarks/bench_design.py --scaling`` measures
-    both and predicts the efficiency per worker count."""
+    batch whatever its size) plus a part per run, so every extra task adds the fixed part to the
+    total; ``python benchmarks/bench_design.py --scaling`` measures both and predicts the
+    efficiency per worker count."""
     cap = max(1, min(chunk_runs or MAX_CHUNK, MAX_CHUNK))
     n = -(-runs // cap)
     if slots > 1 and not chunk_runs:
