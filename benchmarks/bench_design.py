@@ -20,8 +20,9 @@ Then the model that reads off larger machines (goal: 70 % efficiency on 16 cores
   63, 250 and 500 runs (F is the simulation kernel's time loops, paid per batch whatever its size);
 - the pool's serial part s(W) (forking W workers holding the shared inputs, collecting, joining),
   measured with no-op tasks as the parent's CPU plus one worker's;
-- a worker's first task costs more than the same task in a warm process (a new process grows its
-  heap to the task's working set: page faults), measured at 250 runs and scaled per run;
+- a process's first task costs more than the same task in a warm process (a new process grows its
+  heap to the task's working set: page faults), measured at 250 runs and scaled per run; as in a
+  command, inline pays it once and every worker once (in parallel);
 - predicted wall(W) = s(W) + the finish time of the engines' own task list (same cut as
   ``evaluate_designs_parallel``) taken in order by the first free of W workers; inline = the sum
   of the inline tasks; speed-up = inline / wall(W), efficiency = speed-up / W, also without s(W).
@@ -213,13 +214,14 @@ def makespan(costs: list[float], w: int, first_extra: float = 0.0) -> float:
 def predict(cost: TaskCost, designs: list[str], runs: int, w: int, serial: float, tasks_per_worker: int = 4,
             first_extra: Callable[[int], float] = lambda n: 0.0) -> dict:
     """Predicted wall time on ``w`` otherwise idle cores: the parent's serial time (pool start and
-    stop, Amdahl) plus the makespan of the tasks cut as the engines cut them."""
+    stop, Amdahl) plus the makespan of the tasks cut as the engines cut them, in fresh processes
+    (as a command runs: inline pays ``first_extra`` once, each worker once)."""
     from expdesign.montecarlo import cut_tasks, plan_tasks
 
     tasks = cut_tasks(designs, runs, plan_tasks(runs, len(designs), w, tasks_per_worker))
     costs = cost.of(tasks)
     chunk = max(b - a for _, a, b in tasks)
-    extra = first_extra(chunk) if w > 1 else 0.0
+    extra = first_extra(chunk)
     compute = makespan(costs, w, extra)
     return {"tasks": len(tasks), "chunk": chunk, "cpu": sum(costs) + w * extra, "compute": compute, "wall": serial + compute}
 
@@ -244,7 +246,8 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
           "engine); pool start + stop with W workers, serial part on an idle machine (wall here): "
           + ", ".join(f"{w}: {1e3 * v['serial']:.0f} ms ({1e3 * v['wall']:.0f})" for w, v in pool.items()))
     for row in (r for r in measured if not r["label"].startswith("dask")):  # CPU on any machine, wall up to the core count
-        pr = predict(cost, names, runs, row["slots"], serial.get(row["slots"], 0.0), first_extra=lambda n: n * warm)
+        fresh = row["slots"] > 1  # the pools' workers are new processes, the inline runs reuse this warm one
+        pr = predict(cost, names, runs, row["slots"], serial.get(row["slots"], 0.0), first_extra=lambda n, f=fresh: n * warm * f)
         cpu = pr["cpu"] + prep + (pool[row["slots"]]["cpu"] if row["slots"] > 1 else 0.0)
         print(f"  model vs measured {row['label']:12s}: CPU {cpu:6.2f} s vs {row['cpu']:6.2f} s; wall {pr['wall']:6.2f} s vs "
               f"{row['wall']:6.2f} s{'' if row['slots'] <= (os.cpu_count() or 1) else ' (more workers than CPUs: wall not comparable)'}")
@@ -258,8 +261,8 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
 def _predicted(cost: TaskCost, names: list[str], runs: int, serial: dict[int, float], what: str, warm: float) -> None:
     """Predicted wall, speed-up and efficiency per worker count in ``serial``, and at the most workers by tasks per
     worker; ``warm``: extra CPU seconds per run of a worker's first task."""
-    inline = predict(cost, names, runs, 1, 0.0)["wall"]
     extra = {"first_extra": lambda n: n * warm}
+    inline = predict(cost, names, runs, 1, 0.0, **extra)["wall"]
     print(f"predicted on an idle machine with >= W cores, {what} (inline {inline:.2f} s):")
     for w in serial:
         pr = predict(cost, names, runs, w, serial[w], **extra)
