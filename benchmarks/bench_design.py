@@ -3,6 +3,7 @@
     python benchmarks/bench_design.py [--runs 5] [--mc-runs 500]
     python benchmarks/bench_design.py --scaling [--mc-runs 2000] [--workers 2 3] [--scheduler tcp://...] [--runs 3] [--model-only]
     python benchmarks/bench_design.py --threads
+    python benchmarks/bench_design.py --profile-task
 
 convex (7.18)/(7.53) solve for the 11 model-ship primitives: < 0.5 s; non-convex (7.57) multi-start
 solve: < 1 s; Monte Carlo of one design with 500 runs of 1000 samples: < 20 s (2 cores).
@@ -30,6 +31,9 @@ The model is checked against the measured engines: its CPU (tasks + prepare + po
 measured CPU for any worker count (local x3 and x4 on a 2-core machine check the fixed-cost term),
 its wall beside the measured wall where the machine has the cores. It leaves out what a 16-core
 machine adds (shared caches and memory bandwidth, a lower all-core clock), so it is an upper bound.
+
+``--profile-task``: a task of 1 and of 63 runs per design: CPU, and how much of it is the
+simulation kernel's time loops (how many, and their CPU).
 
 ``--threads``: one task in one thread against two in two threads of one process, CPU per wall
 second: whether the threads of a Dask worker (``--nthreads`` > 1) compute at once.
@@ -69,7 +73,7 @@ def bench(name: str, fn, target: float, runs: int) -> float:
 
 def scaling(runs: int, workers: list[int], scheduler: str | None, repeat: int) -> list[dict]:
     """Inline against local pools (and a cluster): same digests, speed-up per worker count.
-    Returns per engine: label, worker slots, runs per task, median wall and CPU seconds."""
+    Returns per engine: label, worker slots, median wall and CPU seconds."""
     from expdesign.montecarlo import evaluate_designs_parallel
     from expdesign.parallel import Engine, LocalEngine, get_engine
 
@@ -274,6 +278,43 @@ def _predicted(cost: TaskCost, names: list[str], runs: int, serial: dict[int, fl
     print(f"  {w} workers, efficiency by tasks per worker (the issue asks for >= 4): {alt}")
 
 
+def profile_task(sizes: tuple[int, ...] = (1, 63), repeat: int = 3) -> None:
+    """What a task's CPU time is made of: the simulation kernel's time loops (every call of
+    ``simulate`` made by the Monte Carlo and its estimators: count and CPU) against the rest."""
+    import expdesign.estimators as est
+    import expdesign.montecarlo as mc
+
+    p, lib, designs = _setup()
+    sh = mc.prepare(p, designs, mc.MCConfig(runs=repeat * max(sizes)), lib)
+    calls = []
+    kernel = mc.simulate
+
+    def timed(*args, **kw):
+        t = time.process_time()
+        out = kernel(*args, **kw)
+        calls.append(time.process_time() - t)
+        return out
+
+    mods = [m for m in (mc, est) if getattr(m, "simulate", None) is kernel]
+    for m in mods:
+        m.simulate = timed
+    try:
+        for d in sh.designs:
+            for n in sizes:
+                rows = []
+                for k in range(repeat):
+                    calls.clear()
+                    t = time.process_time()
+                    mc.run_chunk(sh, d, range(k * n, (k + 1) * n))
+                    rows.append((time.process_time() - t, len(calls), sum(calls)))
+                tot, loops, sim = (statistics.median(r[i] for r in rows) for i in range(3))
+                print(f"task of {n:3d} runs, {d:9s}: CPU {1e3 * tot:6.0f} ms, of which {loops:.0f} kernel time loops "
+                      f"({sh.config.n_samples} steps each) {1e3 * sim:6.0f} ms, the rest {1e3 * (tot - sim):6.0f} ms (median of {repeat})")
+    finally:
+        for m in mods:
+            m.simulate = kernel
+
+
 def threads_check(runs: int = 63, repeat: int = 3) -> None:
     """One Monte Carlo task in one thread against two in two threads of one process (a Dask worker
     with several threads): the CPU seconds per wall second exceed 1 only where threads compute at
@@ -320,7 +361,11 @@ def main() -> None:
     ap.add_argument("--scheduler", default=None, help="also time this Dask scheduler address")
     ap.add_argument("--model-only", action="store_true", help="with --scaling: only the task-cost model (about a minute)")
     ap.add_argument("--threads", action="store_true", help="Monte Carlo tasks in threads of one process (Dask workers with --nthreads > 1)")
+    ap.add_argument("--profile-task", action="store_true", help="what a Monte Carlo task's CPU time is made of")
     a = ap.parse_args()
+    if a.profile_task:
+        profile_task()
+        return
     if a.threads:
         threads_check()
         return
