@@ -133,8 +133,8 @@ def _echo_speed(ev) -> None:
                f"{e['workers']} workers x {e['threads_per_worker']} threads, {e['tasks']} tasks "
                f"({e['tasks_per_worker']:.1f} per worker slot)", err=True)
     if e["name"] == "dask" and e["threads_per_worker"] > 1:
-        # the kernel's time loops step arrays of one task's runs, too small for numpy to release the lock: about 60 %
-        # of a 63-run task (profiled); `python benchmarks/bench_design.py --threads` measures what threads give
+        # the kernel's time loops step arrays of one task's runs, too small for numpy to release the lock: over half
+        # of a 63-run task's CPU (bench_design.py --profile-task); bench_design.py --threads measures what threads give
         typer.echo(f"note: the Dask workers run {e['threads_per_worker']} threads each, which share Python's interpreter "
                    "lock; the Monte Carlo's time loops hold it most of the time: for full speed start the workers with "
                    "--nthreads 1, one per core", err=True)
