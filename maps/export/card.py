@@ -41,7 +41,7 @@ from maps.export._common import (
     waypoints,
 )
 from maps.export.chart import plan_chart
-from maps.export.plots import draw_map, plt, states_figure
+from maps.export.plots import PlanFigures, draw_map, plt
 from maps.export.route import build_route
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes, atomic_write_text
@@ -312,10 +312,12 @@ def _detail_pages(plan: Plan, lines: list[tuple[str, dict]], first_page: int):
         yield fig
 
 
-def iter_card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None):
+def iter_card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None,
+                      figures: PlanFigures | None = None):
     """The card's pages as matplotlib figures, one at a time (a long plan never holds every
     page open): page 1 (summary, abort criteria, design, map), the table of steps (and of the
-    design) over as many pages as they need, the orders per step, the states over time."""
+    design) over as many pages as they need, the orders per step, the states over time (from
+    ``figures`` when given: the caller closes that one)."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
     sea_map = plan_chart(plan, sea_map)  # one chart for the route, summary and map (a map file is read once)
@@ -332,7 +334,7 @@ def iter_card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | N
                                [0.4, 0.2, 0.2, 0.2], page)
         page += _n_table_pages(drows)
     yield from _detail_pages(plan, lines, page)
-    yield states_figure(plan)
+    yield (figures or PlanFigures(plan)).figure("states")
 
 
 def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None) -> list:
@@ -341,18 +343,20 @@ def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None =
 
 
 def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None,
-                   vessel: str | None = None) -> Path:
-    """The printable card (A4 PDF, TrueType fonts embedded: ``pdf.fonttype`` 42)."""
+                   vessel: str | None = None, figures: PlanFigures | None = None) -> Path:
+    """The printable card (A4 PDF, TrueType fonts embedded: ``pdf.fonttype`` 42); ``figures``:
+    the plan's shared figures (see :class:`maps.export.plots.PlanFigures`)."""
     import matplotlib
     from matplotlib.backends.backend_pdf import PdfPages
 
     buf = io.BytesIO()
     with matplotlib.rc_context({"pdf.fonttype": 42}), PdfPages(buf) as pdf:
-        for f in iter_card_figures(plan, sea_map, start, vessel):
+        for f in iter_card_figures(plan, sea_map, start, vessel, figures):
             try:
                 pdf.savefig(f)
             finally:
-                plt.close(f)
+                if figures is None or not figures.owns(f):
+                    plt.close(f)
     return atomic_write_bytes(path, buf.getvalue())
 
 
@@ -415,27 +419,20 @@ def _html_step(s: dict) -> str:
     return "\n".join(h)
 
 
-def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None) -> str:
+def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None,
+              figures: PlanFigures | None = None) -> str:
     """The card as one self-contained HTML page (every table complete; prints with repeated
-    table headers)."""
+    table headers). Its map and states images are the figures of the track and states PNG
+    exports (``figures``: the plan's shared figures, drawn here when not given)."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
     sea_map = plan_chart(plan, sea_map)  # one chart for the route, summary and map (a map file is read once)
     sheets = step_sheets(plan, t0, sea_map)
     vname = vessel_name(plan, vessel)
     e = html.escape
-    fig, ax = plt.subplots(figsize=(8, 8))
-    try:
-        draw_map(ax, plan, sea_map)
-        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)
-        map_png = _png(fig, 120)
-    finally:
-        plt.close(fig)
-    fig = states_figure(plan)
-    try:
-        states_png = _png(fig, 100)
-    finally:
-        plt.close(fig)
+    with PlanFigures(plan, sea_map) as own:
+        figs = figures or own
+        map_png, states_png = figs.png("track", 120, tight=True), figs.png("states")
     h = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>Sea trial card {e(vname)}</title>",
          f"<style>{_CSS}</style></head><body>", f"<h1>Sea trial card: {e(vname)}</h1>"]
     h += [f"<p>{e(line)}</p>" for line in _summary(plan, t0, vname, sea_map)]
@@ -462,12 +459,15 @@ def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = No
 
 
 def write_card(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None, pdf: bool = True,
-               vessel: str | None = None) -> list[Path]:
-    """Write the HTML card to ``path`` (suffix .html) and, with ``pdf``, the PDF beside it."""
+               vessel: str | None = None, figures: PlanFigures | None = None) -> list[Path]:
+    """Write the HTML card to ``path`` (suffix .html) and, with ``pdf``, the PDF beside it
+    (``figures``: the plan's shared figures, see :class:`maps.export.plots.PlanFigures`)."""
     path = Path(path)
-    if path.suffix.lower() == ".pdf":
-        return [write_card_pdf(plan, path, sea_map, start, vessel)]
-    out = [atomic_write_text(path, card_html(plan, sea_map, start, vessel))]
-    if pdf:
-        out.append(write_card_pdf(plan, path.with_suffix(".pdf"), sea_map, start, vessel))
+    with PlanFigures(plan, plan_chart(plan, sea_map)) as own:
+        figs = figures or own
+        if path.suffix.lower() == ".pdf":
+            return [write_card_pdf(plan, path, sea_map, start, vessel, figs)]
+        out = [atomic_write_text(path, card_html(plan, sea_map, start, vessel, figs))]
+        if pdf:
+            out.append(write_card_pdf(plan, path.with_suffix(".pdf"), sea_map, start, vessel, figs))
     return out
