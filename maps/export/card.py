@@ -211,21 +211,36 @@ def _table_rows(sheets: list[dict]) -> list[list[str]]:
              s["duration"], s["space"].replace(" along x ", " x ").replace(" across", "")] for s in sheets]
 
 
+TABLE_PAD = 0.02  # gap above a table (matplotlib.table's AXESPAD for loc "upper center")
+CELL_PAD = 0.1  # text inset as a fraction of the cell width (matplotlib.table.Cell.PAD)
+
+
 def _draw_table(fig, rect: tuple[float, float, float, float], cols: list[str], rows: list[list[str]], widths: list[float]) -> None:
+    """A table as matplotlib.table draws it (header row grey and bold, 1 pt black cell edges,
+    left-aligned 6.5 pt text, fixed row height: every row drawn, none squeezed), built from one
+    grid of lines and plain texts: a Table lays out every cell again on every draw, which cost
+    more than drawing the text."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.patches import Rectangle
+
     ax = fig.add_axes(rect)
     ax.axis("off")
     if not rows:
         return
-    tab = ax.table(cellText=rows, colLabels=cols, loc="upper center", cellLoc="left", colLoc="left", colWidths=widths)
-    tab.auto_set_font_size(False)
-    tab.set_fontsize(6.5)
-    # fixed row height: every row drawn, none squeezed (rect height / rows per page)
     h = 1.0 / (ROWS_PER_PAGE + 1)
-    for (r, _), cell in tab.get_celld().items():
-        cell.set_height(h)
-        if r == 0:
-            cell.set_facecolor("#e8e8e8")
-            cell.set_text_props(fontweight="bold")
+    edges = np.concatenate([[0.0], np.cumsum(widths)]) + 0.5 - sum(widths) / 2  # centred like loc="upper center"
+    top = 1.0 - TABLE_PAD
+    ys = top - h * np.arange(len(rows) + 2)
+    tr = ax.transAxes
+    ax.add_patch(Rectangle((edges[0], ys[1]), edges[-1] - edges[0], h, facecolor="#e8e8e8", edgecolor="none", transform=tr,
+                           clip_on=False))
+    lines = [[(edges[0], y), (edges[-1], y)] for y in ys] + [[(x, ys[-1]), (x, ys[0])] for x in edges]
+    ax.add_collection(LineCollection(lines, colors="k", linewidths=1.0, capstyle="projecting", transform=tr, clip_on=False))
+    for r, row in enumerate([cols, *rows]):
+        yc = ys[r] - h / 2
+        for c, text in enumerate(row):
+            ax.text(edges[c] + CELL_PAD * widths[c], yc, text, fontsize=6.5, ha="left", va="center", transform=tr, clip_on=False,
+                    fontweight="bold" if r == 0 else "normal")
 
 
 def table_pages(plan: Plan, title: str, cols: list[str], rows: list[list[str]], widths: list[float], first_page: int):
