@@ -88,3 +88,28 @@ def test_shared_figures_give_the_same_pngs(sea, fast, tmp_path):
     assert files["track_png"].read_bytes() == plot_track(plan, tmp_path / "t.png", sea).read_bytes()
     html = files["card"].read_text()
     assert html.count("data:image/png;base64,") == 2
+
+
+def test_pdf_card_written_beside_the_other_outputs(tmp_path, capsys, monkeypatch):
+    """plan-trial writes the PDF card in a forked child: it is there and complete on success, and
+    a failure there is the command's one-line error with nothing written."""
+    from cli.app import _run
+
+    counts = "steep_zigzag_surge=1"
+    out = tmp_path / "ok"
+    assert _run(["plan", "--counts", counts, "--out", str(out), "--start-time", START]) == 0
+    pdf = (out / "full-scale-trial.pdf").read_bytes()
+    assert pdf.startswith(b"%PDF") and pdf.rstrip().endswith(b"%%EOF")
+    capsys.readouterr()
+
+    import maps.export.card as card
+
+    def broken(*a, **k):
+        raise RuntimeError("no room on the page")
+
+    monkeypatch.setattr(card, "write_card_pdf", broken)
+    bad = tmp_path / "bad"
+    assert _run(["plan", "--counts", counts, "--out", str(bad), "--start-time", START]) == 2
+    err = capsys.readouterr().err
+    assert "error: full-scale-trial.pdf: writing the PDF trial card failed: RuntimeError: no room on the page" in err
+    assert not bad.exists()

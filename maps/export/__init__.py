@@ -82,10 +82,13 @@ def export_all(
     start: datetime | str | None = None,
     plots: bool = True,
     vessel: str | None = None,
+    pdf: bool = True,
+    figures: Any = None,
 ) -> dict[str, Path]:
     """Every export of ``plan`` into ``out_dir``: keys geojson, gpx, rtz, csv, card (HTML),
-    card_pdf, and with ``plots`` track_png (map) and states_png (speed, heading, inputs): the
-    card's images are those PNGs, each figure drawn once."""
+    card_pdf (without ``pdf``: none), and with ``plots`` track_png (map) and states_png (speed,
+    heading, inputs): the card's images are those PNGs, each figure drawn once (``figures``: a
+    :class:`maps.export.plots.PlanFigures` of the plan to draw them in, else a new one)."""
     from maps.export._common import check_plan, resolve_start
     from maps.export.chart import plan_chart
     from maps.export.plots import PlanFigures, plot_states, plot_track
@@ -94,9 +97,11 @@ def export_all(
     t0 = resolve_start(plan, start)  # one start time for every file
     sea_map = plan_chart(plan, sea_map)  # one chart for every file (projecting the map was done once per export)
     out: dict[str, Path] = {}
-    with PlanFigures(plan, sea_map) as figs:
+    with PlanFigures(plan, sea_map) as own:
+        figs = figures or own
         for fmt in FORMATS:
-            written = export_plan(plan, fmt, default_path(plan, fmt, out_dir), sea_map=sea_map, start=t0, vessel=vessel, figures=figs)
+            written = export_plan(plan, fmt, default_path(plan, fmt, out_dir), sea_map=sea_map, start=t0, vessel=vessel, pdf=pdf,
+                                  figures=figs)
             out[fmt] = written[0]
             if fmt == "card" and len(written) > 1:
                 out["card_pdf"] = written[1]
