@@ -113,3 +113,20 @@ def test_pdf_card_written_beside_the_other_outputs(tmp_path, capsys, monkeypatch
     err = capsys.readouterr().err
     assert "error: full-scale-trial.pdf: writing the PDF trial card failed: RuntimeError: no room on the page" in err
     assert not bad.exists()
+
+
+def test_planning_leaves_the_callers_options_alone(sea):
+    """solve() may switch smoothing off after a failed shortcut: on the lattice's own copy of the
+    options, never on the caller's object (which may plan again)."""
+    from maps.chain import PlanOptions, build_lattice
+    from maps.motionset import resolve_primitives
+    from maps.planner import solve
+
+    prof = load_profile("full-scale")
+    opts = PlanOptions()
+    counts = {"steep_zigzag_surge": 1}
+    lat = build_lattice(sea, prof, resolve_primitives(prof, counts, None), counts, options=opts)
+    assert lat.options == opts and lat.options is not opts
+    lat.options.smooth = False  # what solve() does after a shortcut broke the margin
+    plan = solve(lat)
+    assert plan.feasible and opts.smooth and opts == PlanOptions()
