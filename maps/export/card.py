@@ -437,8 +437,8 @@ def _html_step(s: dict) -> str:
 def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None,
               figures: PlanFigures | None = None) -> str:
     """The card as one self-contained HTML page (every table complete; prints with repeated
-    table headers). Its map and states images are the figures of the track and states PNG
-    exports (``figures``: the plan's shared figures, drawn here when not given)."""
+    table headers). Its map and states images are the track and states PNG exports
+    (``figures``: the plan's shared figures, drawn here when not given)."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
     sea_map = plan_chart(plan, sea_map)  # one chart for the route, summary and map (a map file is read once)
@@ -447,7 +447,7 @@ def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = No
     e = html.escape
     with PlanFigures(plan, sea_map) as own:
         figs = figures or own
-        map_png, states_png = figs.png("track", 120, tight=True), figs.png("states")
+        map_png, states_png = figs.png("track"), figs.png("states")
     h = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>Sea trial card {e(vname)}</title>",
          f"<style>{_CSS}</style></head><body>", f"<h1>Sea trial card: {e(vname)}</h1>"]
     h += [f"<p>{e(line)}</p>" for line in _summary(plan, t0, vname, sea_map)]

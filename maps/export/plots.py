@@ -304,7 +304,7 @@ class PlanFigures:
     def __init__(self, plan: Plan, sea_map: Any = None) -> None:
         self.plan, self.sea_map = plan, sea_map
         self._figs: dict[str, Any] = {}
-        self._png: dict[tuple[str, int, bool], bytes] = {}
+        self._png: dict[tuple[str, int], bytes] = {}
 
     def figure(self, name: str):
         """'states' (:func:`states_figure`) or 'track' (:func:`track_figure`), built on first use."""
@@ -315,14 +315,14 @@ class PlanFigures:
     def owns(self, fig) -> bool:
         return any(fig is f for f in self._figs.values())
 
-    def png(self, name: str, dpi: int | None = None, tight: bool = False) -> bytes:
-        """The figure as PNG bytes (rendered once per dpi; ``tight``: cropped to what is drawn)."""
-        key = (name, dpi or (STATES_DPI if name == "states" else TRACK_DPI), tight)
+    def png(self, name: str, dpi: int | None = None) -> bytes:
+        """The figure as PNG bytes, rendered once per dpi (the map cropped to what is drawn)."""
+        key = (name, dpi or (STATES_DPI if name == "states" else TRACK_DPI))
         if key not in self._png:
             import io
 
             buf = io.BytesIO()
-            self.figure(name).savefig(buf, format="png", dpi=key[1], bbox_inches="tight" if tight else None)
+            self.figure(name).savefig(buf, format="png", dpi=key[1], bbox_inches="tight" if name == "track" else None)
             self._png[key] = buf.getvalue()
         return self._png[key]
 
@@ -332,7 +332,8 @@ class PlanFigures:
 
         if Path(path).suffix.lower() in ("", ".png"):
             return atomic_write_bytes(path, self.png(name, dpi))
-        return atomic_savefig(self.figure(name), path, dpi=dpi or (STATES_DPI if name == "states" else TRACK_DPI))
+        return atomic_savefig(self.figure(name), path, dpi=dpi or (STATES_DPI if name == "states" else TRACK_DPI),
+                              bbox_inches="tight" if name == "track" else None)
 
     def close(self) -> None:
         for f in self._figs.values():
