@@ -5,7 +5,8 @@
   program uses the *symmetric part* M_q = (Gamma_q + Gamma_q^T)/2 (instruments are close to the
   regressors, so the difference is small) and cvxpy's ``log_det`` (D), ``tr_inv`` (A) or
   ``lambda_min`` (E). Clarabel solves it; SCS is the fallback and then scipy SLSQP, and the
-  result says which one was used.
+  result says which one was used. The planner tries first the dedicated Frank-Wolfe solver of
+  :mod:`expdesign.simplexsolver` (D and A on the plain simplex, without importing cvxpy).
 * (7.57): instrument mean removed over the whole experiment, ``max log|det(T - S Zbar^T)|``,
   non-convex; solved with SLSQP over the simplex (plus bounds and linear budgets) from the
   convex solution, equal shares and seeded random points; the best point seen is returned.
