@@ -167,21 +167,79 @@ def register(app: typer.Typer) -> None:
 
 
 def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bool) -> dict[str, Path]:
-    """Every output into the (temporary) directory ``tmp``."""
+    """Every output into the (temporary) directory ``tmp``. The PDF trial card, the longest
+    single output, is written by a forked child process meanwhile (see :func:`card_pdf_beside`)."""
+    from maps.export import default_path, export_all
+    from maps.export.chart import plan_chart
     from maps.output import write_outputs
 
-    files = write_outputs(result, sea, tmp)
-    if td is not None:
-        from expdesign.report import plot_ratios
+    exports = result.feasible and not no_export
+    chart = plan_chart(result, sea) if exports else None  # one chart for every export
+    wait = card_pdf_beside(result, chart, t0, default_path(result, "card", tmp).with_suffix(".pdf")) if exports else None
+    try:
+        files = write_outputs(result, sea, tmp)
+        if td is not None:
+            from expdesign.report import plot_ratios
 
-        plot_ratios(td.design, tmp / "design-ratios.png")
-        files["design_ratios_png"] = tmp / "design-ratios.png"
-    if result.feasible and not no_export:
-        from maps.export import export_all
-
-        with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
-            files.update(export_all(result, tmp, sea_map=sea, start=t0))
+            plot_ratios(td.design, tmp / "design-ratios.png")
+            files["design_ratios_png"] = tmp / "design-ratios.png"
+        if exports:
+            with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
+                crew = export_all(result, tmp, sea_map=chart, start=t0, pdf=False)
+    except BaseException:
+        if wait:
+            wait(quiet=True)  # no child outlives the command; the first error is the one to report
+        raise
+    pdf = wait() if wait else None
+    if exports:
+        keys = list(crew)
+        keys.insert(keys.index("card") + 1, "card_pdf")
+        files.update((k, pdf if k == "card_pdf" else crew[k]) for k in keys)
     return files
+
+
+def card_pdf_beside(result, chart, t0, path: Path):
+    """Start writing the PDF trial card to ``path``; returns a function that waits for it and
+    returns the path (raising the writer's error).
+
+    On Linux a forked child writes it while the caller writes everything else: the PDF's text
+    pages cost as much CPU as all other outputs together, and a second core does them at the
+    same time (the same figures and bytes as in one process). Elsewhere it is written here.
+    """
+    import os
+
+    from maps.export import ExportError
+    from maps.export.card import write_card_pdf
+
+    if not sys.platform.startswith("linux"):
+        write_card_pdf(result, path, chart, t0)
+        return lambda quiet=False: path
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: write the PDF, report an error through the pipe, never return
+        code = 1
+        try:
+            os.close(read)
+            # never write to a stream another thread of the parent may hold a lock on; the old streams
+            # are never flushed here (os._exit): what they buffered is the parent's to write
+            sys.stdout = sys.stderr = open(os.devnull, "w")
+            write_card_pdf(result, path, chart, t0)
+            code = 0
+        except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent
+            os.write(write, f"{type(exc).__name__}: {exc}".encode(errors="replace")[:4000])
+        finally:
+            os._exit(code)
+    os.close(write)
+
+    def wait(quiet: bool = False) -> Path:
+        with os.fdopen(read, "rb") as fh:
+            msg = fh.read().decode(errors="replace")
+        _, status = os.waitpid(pid, 0)
+        if os.waitstatus_to_exitcode(status) != 0 and not quiet:
+            raise ExportError(f"{path.name}: writing the PDF trial card failed: {msg or f'exit status {status}'}")
+        return path
+
+    return wait
 
 
 def report(result, files: dict[str, Path], heuristic: str, json_out: bool) -> None:

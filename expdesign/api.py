@@ -127,6 +127,7 @@ def run_design(
     n_random_starts: int = 4,
     infos: list[PrimitiveInfo] | None = None,
     references: dict[str, dict[str, float]] | None = None,
+    convex_solvers: tuple[str, ...] = ("CLARABEL", "SCS"),
 ) -> Design:
     """Design the mix of ``primitives`` (default: the profile's thesis dictionary).
 
@@ -136,7 +137,8 @@ def run_design(
     moments from that many noisy, current-disturbed simulations (seeded) instead of the nominal
     states; ``prior``/``prior_samples``: data already collected (7.58); ``infos`` skips the
     moment computation (precomputed moments in the order of ``primitives``); ``references``
-    (label -> {primitive: share}) are scored by their criterion efficiency relative to the result.
+    (label -> {primitive: share}) are scored by their criterion efficiency relative to the result;
+    ``convex_solvers``: the solvers of the convex step in order (see :func:`expdesign.dopt.solve_convex`).
     """
     if isinstance(profile, str):
         profile = load_profile(profile)
@@ -168,7 +170,7 @@ def run_design(
     check_identifiable(profile, info, mean_subtraction)
     cons = Constraints.build(names, min_frac, max_frac, costs, budgets, total_s)
 
-    convex = solve_convex(info, criterion, mean_subtraction, cons)
+    convex = solve_convex(info, criterion, mean_subtraction, cons, convex_solvers)
     notes += [f"convex: {convex.solver}"] + convex.notes
     final, starts, winner = convex.weights, [], "convex"
     bound = convex.efficiency_bound

@@ -5,7 +5,8 @@
   program uses the *symmetric part* M_q = (Gamma_q + Gamma_q^T)/2 (instruments are close to the
   regressors, so the difference is small) and cvxpy's ``log_det`` (D), ``tr_inv`` (A) or
   ``lambda_min`` (E). Clarabel solves it; SCS is the fallback and then scipy SLSQP, and the
-  result says which one was used.
+  result says which one was used. The planner tries first the dedicated Frank-Wolfe solver of
+  :mod:`expdesign.simplexsolver` (D and A on the plain simplex, without importing cvxpy).
 * (7.57): instrument mean removed over the whole experiment, ``max log|det(T - S Zbar^T)|``,
   non-convex; solved with SLSQP over the simplex (plus bounds and linear budgets) from the
   convex solution, equal shares and seeded random points; the best point seen is returned.
@@ -320,6 +321,28 @@ def _scipy_sym(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str
     return np.clip(r.x, cons.lo, cons.hi)
 
 
+DEDICATED = "frank-wolfe"
+
+
+def _dedicated(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str, notes: list[str]) -> np.ndarray | None:
+    """Weights from :func:`expdesign.simplexsolver.solve_simplex` where it applies (D or A on the
+    plain simplex) and certifies its optimum, else None with a note."""
+    from expdesign.simplexsolver import SUPPORTED, solve_simplex
+
+    if criterion not in SUPPORTED or not cons.is_simplex:
+        notes.append(f"{DEDICATED} does not apply ({criterion}-criterion{'' if cons.is_simplex else ', constrained fractions'}); "
+                     "trying the next solver")
+        return None
+    r = solve_simplex(mq, m0, criterion)
+    if r is None:
+        notes.append(f"{DEDICATED} did not certify an optimum; trying the next solver")
+        return None
+    if not r.unique:  # any optimal mix would do; the interior-point solver picks the central one, as `shiptrial design`
+        notes.append(f"{DEDICATED}: the optimal weights are not unique; trying the next solver")
+        return None
+    return r.weights
+
+
 def solve_convex(
     info: InfoSet,
     criterion: str = "D",
@@ -329,8 +352,10 @@ def solve_convex(
 ) -> SolveResult:
     """Convex design (7.18)/(7.53) on the symmetrized information matrices (see module doc).
 
-    Tries ``solvers`` in order, then scipy SLSQP; every fallback is recorded in ``notes``. The
-    result carries the equivalence-theorem certificate (:func:`certificate`).
+    Tries ``solvers`` in order (cvxpy solver names, or ``"frank-wolfe"`` for
+    :mod:`expdesign.simplexsolver`, which avoids importing cvxpy), then scipy SLSQP; every
+    fallback is recorded in ``notes``. The result carries the equivalence-theorem certificate
+    (:func:`certificate`).
     """
     if criterion not in CRITERIA:
         raise DesignError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
@@ -345,9 +370,15 @@ def solve_convex(
     else:
         notes.append("convex program on the symmetric part of Gamma (the IV Gamma is close to, not exactly, symmetric)")
     w, used = None, None
-    import cvxpy as cp
-
     for name in solvers:
+        if name == DEDICATED:
+            w = _dedicated(mq, m0, cons, criterion, notes)
+            if w is not None:
+                used = name
+                break
+            continue
+        import cvxpy as cp
+
         try:
             prob, var = _cvx_problem(mq, m0, cons, criterion)
             with warnings.catch_warnings():  # an inaccurate status is recorded in the notes instead

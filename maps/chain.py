@@ -14,7 +14,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -248,7 +248,7 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     from maps.scenario import HELSINKI_GOAL, HELSINKI_START
 
     t0 = time.perf_counter()
-    o = options or PlanOptions()
+    o = replace(options) if options is not None else PlanOptions()  # the lattice's own: solve may switch off smoothing
     o.check()
     res = float(o.resolution) if o.resolution else default_resolution(profile, sea)
     K = o.headings

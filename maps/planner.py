@@ -130,7 +130,7 @@ def solve(lat, *, design: dict | None = None, vessel_name: str = "", t_all: floa
             break
         leg = real.legs[int(ver.step_of_sample[ver.worst_sample])]
         if leg.move < 0:
-            o.smooth = False  # a shortcut broke the margin (it should not): sail the lattice moves
+            o.smooth = False  # a shortcut broke the margin (it should not): sail the lattice moves (the lattice's own options)
         elif attempt < o.replans:
             blocked = blocked | {(leg.move, leg.spatial)}
         else:

@@ -19,6 +19,7 @@ import shapely
 
 from maps.lattice import helm_for, run_in_seconds
 from maps.verify import hull_clearance
+from primitives.library import KNOT
 from primitives.ship import ShipProfile
 from primitives.simulate import simulate
 
@@ -120,12 +121,12 @@ class Realiser:
             course = float(np.degrees(lat.table[h]) % 360)
             hold_s = len(ri) * pr.profile.sample_time
             # a manoeuvre that starts from rest (an acceleration) is approached by stopping, not by a steady run
-            steady = (f"steady on course {course:05.1f} deg at {u / 0.514444:.1f} kn" if u > 0.05 * pr.profile.cruise_speed_mps
+            steady = (f"steady on course {course:05.1f} deg at {u / KNOT:.1f} kn" if u > 0.05 * pr.profile.cruise_speed_mps
                       else f"stop engine(s) and come to rest heading {course:05.1f} deg")
             text = f"{steady} for {hold_s:.0f} s, then execute {m.name}"
             legs.append(Leg(f"run-in {m.name}", m.source or m.name, "run-in", "run-in", f"run-in to {m.name}: steady course and speed",
                             pr.profile, ri, [text], space, mi, spatial,
-                            orders=[{"t_s": 0.0, "text": text, "course_deg": course, "speed_kn": u / 0.514444}]))
+                            orders=[{"t_s": 0.0, "text": text, "course_deg": course, "speed_kn": u / KNOT}]))
             nu, eta = legs[-1].sail(nu, eta)
         body = pr.inputs[n_r:core]
         b_nu, b_eta = _sail(pr.profile, body, nu, eta)
@@ -200,5 +201,5 @@ class Shortcutter:
         dist = float(np.sum(np.hypot(*np.diff(tr[:, :2], axis=0).T)))
         uc = self.helm.uc
         return Leg("transit", "transit", "basic", "transit", f"transit: {n_legs} straight leg(s), {dist:.0f} m",
-                   self.p, inputs, [f"at {uc:.1f} m/s ({uc / 0.514444:.1f} kn) steer for the next waypoint; "
+                   self.p, inputs, [f"at {uc:.1f} m/s ({uc / KNOT:.1f} kn) steer for the next waypoint; "
                                     f"{n_legs} leg(s), {dist:.0f} m"], (dist, self.corridor * 2), sim=(s_nu, tr))

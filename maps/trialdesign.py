@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from expdesign.api import run_design
-from expdesign.dopt import InfoSet
+from expdesign.dopt import DEDICATED, InfoSet
 from expdesign.errors import DesignError
 from expdesign.rounding import _efficiency, round_design
 from primitives.information import PrimitiveInfo, library_information
@@ -44,6 +44,9 @@ class TrialDesign:
 
 
 UNUSED_WEIGHT = 1e-4  # a continuous weight below this is the optimiser's zero
+# The dedicated simplex solver first: the planner designs on every call and importing cvxpy costs
+# over a second of it; it gives cvxpy's weights wherever it applies (tests/test_simplexsolver.py).
+SOLVERS = (DEDICATED, "CLARABEL", "SCS")
 
 
 class NoFitError(DesignError):
@@ -113,7 +116,7 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
     sub = [infos[i] for i in keep]
     try:
         d = run_design(profile, prims, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_s,
-                       seed=seed, infos=sub)
+                       seed=seed, infos=sub, convex_solvers=SOLVERS)
     except DesignError as exc:
         if exclude:  # the remaining library cannot identify the model: say what was dropped and why
             dead = _dead_count(str(exc))
@@ -129,7 +132,7 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
         full = InfoSet.from_infos(infos)
         if baseline is None:
             base = run_design(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_s,
-                              seed=seed, infos=infos)
+                              seed=seed, infos=infos, convex_solvers=SOLVERS)
             baseline = full.value(np.array([base.weights[p.name] for p in lib]), mean_subtraction, criterion)
         wf = np.zeros(len(lib))
         wf[keep] = w

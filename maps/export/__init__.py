@@ -36,6 +36,7 @@ def export_plan(
     start: datetime | str | None = None,
     pdf: bool = True,
     vessel: str | None = None,
+    figures: Any = None,
 ) -> list[Path]:
     """Write ``plan`` in format ``fmt`` to ``path``; returns the files written (the card writes
     an HTML file and, with ``pdf``, a PDF beside it; a ``.pdf`` path writes the PDF only).
@@ -45,6 +46,8 @@ def export_plan(
     chart stored in the plan). ``start``: UTC start of the trial for ETAs (default:
     ``plan.stats['start_utc']``, else the next full hour). ``vessel``: the ship's name on the
     route and card (default: ``plan.vessel_name``, else the profile's display name).
+    ``figures``: a :class:`maps.export.plots.PlanFigures` of the plan to share the card's
+    figures with other exports (:func:`export_all` does).
     """
     fmt = fmt.lower()
     if fmt not in FORMATS:
@@ -68,7 +71,7 @@ def export_plan(
         return [write_csv(plan, path, start=start)]
     from maps.export.card import write_card
 
-    return write_card(plan, path, sea_map=sea_map, start=start, pdf=pdf, vessel=vessel)
+    return write_card(plan, path, sea_map=sea_map, start=start, pdf=pdf, vessel=vessel, figures=figures)
 
 
 def export_all(
@@ -79,25 +82,31 @@ def export_all(
     start: datetime | str | None = None,
     plots: bool = True,
     vessel: str | None = None,
+    pdf: bool = True,
+    figures: Any = None,
 ) -> dict[str, Path]:
     """Every export of ``plan`` into ``out_dir``: keys geojson, gpx, rtz, csv, card (HTML),
-    card_pdf, and with ``plots`` track_png (map) and states_png (speed, heading, inputs)."""
+    card_pdf (without ``pdf``: none), and with ``plots`` track_png (map) and states_png (speed,
+    heading, inputs): the card's images are those PNGs, each figure drawn once (``figures``: a
+    :class:`maps.export.plots.PlanFigures` of the plan to draw them in, else a new one)."""
     from maps.export._common import check_plan, resolve_start
     from maps.export.chart import plan_chart
+    from maps.export.plots import PlanFigures, plot_states, plot_track
 
     check_plan(plan)
     t0 = resolve_start(plan, start)  # one start time for every file
     sea_map = plan_chart(plan, sea_map)  # one chart for every file (projecting the map was done once per export)
     out: dict[str, Path] = {}
-    for fmt in FORMATS:
-        written = export_plan(plan, fmt, default_path(plan, fmt, out_dir), sea_map=sea_map, start=t0, vessel=vessel)
-        out[fmt] = written[0]
-        if fmt == "card" and len(written) > 1:
-            out["card_pdf"] = written[1]
-    if plots:
-        from maps.export.plots import plot_states, plot_track
-
-        stem = default_path(plan, "csv", out_dir).with_suffix("")
-        out["track_png"] = plot_track(plan, f"{stem}-track.png", sea_map)
-        out["states_png"] = plot_states(plan, f"{stem}-states.png")
+    with PlanFigures(plan, sea_map) as own:
+        figs = figures or own
+        for fmt in FORMATS:
+            written = export_plan(plan, fmt, default_path(plan, fmt, out_dir), sea_map=sea_map, start=t0, vessel=vessel, pdf=pdf,
+                                  figures=figs)
+            out[fmt] = written[0]
+            if fmt == "card" and len(written) > 1:
+                out["card_pdf"] = written[1]
+        if plots:
+            stem = default_path(plan, "csv", out_dir).with_suffix("")
+            out["track_png"] = plot_track(plan, f"{stem}-track.png", sea_map, figures=figs)
+            out["states_png"] = plot_states(plan, f"{stem}-states.png", figures=figs)
     return out

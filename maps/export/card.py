@@ -41,7 +41,7 @@ from maps.export._common import (
     waypoints,
 )
 from maps.export.chart import plan_chart
-from maps.export.plots import draw_map, plt, states_figure
+from maps.export.plots import PlanFigures, draw_map, plt
 from maps.export.route import build_route
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes, atomic_write_text
@@ -211,21 +211,36 @@ def _table_rows(sheets: list[dict]) -> list[list[str]]:
              s["duration"], s["space"].replace(" along x ", " x ").replace(" across", "")] for s in sheets]
 
 
+TABLE_PAD = 0.02  # gap above a table (matplotlib.table's AXESPAD for loc "upper center")
+CELL_PAD = 0.1  # text inset as a fraction of the cell width (matplotlib.table.Cell.PAD)
+
+
 def _draw_table(fig, rect: tuple[float, float, float, float], cols: list[str], rows: list[list[str]], widths: list[float]) -> None:
+    """A table as matplotlib.table draws it (header row grey and bold, 1 pt black cell edges,
+    left-aligned 6.5 pt text, fixed row height: every row drawn, none squeezed), built from one
+    grid of lines and plain texts: a Table lays out every cell again on every draw, which cost
+    more than drawing the text."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.patches import Rectangle
+
     ax = fig.add_axes(rect)
     ax.axis("off")
     if not rows:
         return
-    tab = ax.table(cellText=rows, colLabels=cols, loc="upper center", cellLoc="left", colLoc="left", colWidths=widths)
-    tab.auto_set_font_size(False)
-    tab.set_fontsize(6.5)
-    # fixed row height: every row drawn, none squeezed (rect height / rows per page)
     h = 1.0 / (ROWS_PER_PAGE + 1)
-    for (r, _), cell in tab.get_celld().items():
-        cell.set_height(h)
-        if r == 0:
-            cell.set_facecolor("#e8e8e8")
-            cell.set_text_props(fontweight="bold")
+    edges = np.concatenate([[0.0], np.cumsum(widths)]) + 0.5 - sum(widths) / 2  # centred like loc="upper center"
+    top = 1.0 - TABLE_PAD
+    ys = top - h * np.arange(len(rows) + 2)
+    tr = ax.transAxes
+    ax.add_patch(Rectangle((edges[0], ys[1]), edges[-1] - edges[0], h, facecolor="#e8e8e8", edgecolor="none", transform=tr,
+                           clip_on=False))
+    lines = [[(edges[0], y), (edges[-1], y)] for y in ys] + [[(x, ys[-1]), (x, ys[0])] for x in edges]
+    ax.add_collection(LineCollection(lines, colors="k", linewidths=1.0, capstyle="projecting", transform=tr, clip_on=False))
+    for r, row in enumerate([cols, *rows]):
+        yc = ys[r] - h / 2
+        for c, text in enumerate(row):
+            ax.text(edges[c] + CELL_PAD * widths[c], yc, text, fontsize=6.5, ha="left", va="center", transform=tr, clip_on=False,
+                    fontweight="bold" if r == 0 else "normal")
 
 
 def table_pages(plan: Plan, title: str, cols: list[str], rows: list[list[str]], widths: list[float], first_page: int):
@@ -312,10 +327,12 @@ def _detail_pages(plan: Plan, lines: list[tuple[str, dict]], first_page: int):
         yield fig
 
 
-def iter_card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None):
+def iter_card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None,
+                      figures: PlanFigures | None = None):
     """The card's pages as matplotlib figures, one at a time (a long plan never holds every
     page open): page 1 (summary, abort criteria, design, map), the table of steps (and of the
-    design) over as many pages as they need, the orders per step, the states over time."""
+    design) over as many pages as they need, the orders per step, the states over time (from
+    ``figures`` when given: the caller closes that one)."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
     sea_map = plan_chart(plan, sea_map)  # one chart for the route, summary and map (a map file is read once)
@@ -332,7 +349,7 @@ def iter_card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | N
                                [0.4, 0.2, 0.2, 0.2], page)
         page += _n_table_pages(drows)
     yield from _detail_pages(plan, lines, page)
-    yield states_figure(plan)
+    yield (figures or PlanFigures(plan)).figure("states")
 
 
 def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None) -> list:
@@ -341,18 +358,20 @@ def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None =
 
 
 def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None,
-                   vessel: str | None = None) -> Path:
-    """The printable card (A4 PDF, TrueType fonts embedded: ``pdf.fonttype`` 42)."""
+                   vessel: str | None = None, figures: PlanFigures | None = None) -> Path:
+    """The printable card (A4 PDF, TrueType fonts embedded: ``pdf.fonttype`` 42); ``figures``:
+    the plan's shared figures (see :class:`maps.export.plots.PlanFigures`)."""
     import matplotlib
     from matplotlib.backends.backend_pdf import PdfPages
 
     buf = io.BytesIO()
     with matplotlib.rc_context({"pdf.fonttype": 42}), PdfPages(buf) as pdf:
-        for f in iter_card_figures(plan, sea_map, start, vessel):
+        for f in iter_card_figures(plan, sea_map, start, vessel, figures):
             try:
                 pdf.savefig(f)
             finally:
-                plt.close(f)
+                if figures is None or not figures.owns(f):
+                    plt.close(f)
     return atomic_write_bytes(path, buf.getvalue())
 
 
@@ -415,27 +434,20 @@ def _html_step(s: dict) -> str:
     return "\n".join(h)
 
 
-def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None) -> str:
+def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None,
+              figures: PlanFigures | None = None) -> str:
     """The card as one self-contained HTML page (every table complete; prints with repeated
-    table headers)."""
+    table headers). Its map and states images are the track and states PNG exports
+    (``figures``: the plan's shared figures, drawn here when not given)."""
     check_plan(plan)
     t0 = resolve_start(plan, start)
     sea_map = plan_chart(plan, sea_map)  # one chart for the route, summary and map (a map file is read once)
     sheets = step_sheets(plan, t0, sea_map)
     vname = vessel_name(plan, vessel)
     e = html.escape
-    fig, ax = plt.subplots(figsize=(8, 8))
-    try:
-        draw_map(ax, plan, sea_map)
-        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)
-        map_png = _png(fig, 120)
-    finally:
-        plt.close(fig)
-    fig = states_figure(plan)
-    try:
-        states_png = _png(fig, 100)
-    finally:
-        plt.close(fig)
+    with PlanFigures(plan, sea_map) as own:
+        figs = figures or own
+        map_png, states_png = figs.png("track"), figs.png("states")
     h = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>Sea trial card {e(vname)}</title>",
          f"<style>{_CSS}</style></head><body>", f"<h1>Sea trial card: {e(vname)}</h1>"]
     h += [f"<p>{e(line)}</p>" for line in _summary(plan, t0, vname, sea_map)]
@@ -462,12 +474,15 @@ def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = No
 
 
 def write_card(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None, pdf: bool = True,
-               vessel: str | None = None) -> list[Path]:
-    """Write the HTML card to ``path`` (suffix .html) and, with ``pdf``, the PDF beside it."""
+               vessel: str | None = None, figures: PlanFigures | None = None) -> list[Path]:
+    """Write the HTML card to ``path`` (suffix .html) and, with ``pdf``, the PDF beside it
+    (``figures``: the plan's shared figures, see :class:`maps.export.plots.PlanFigures`)."""
     path = Path(path)
-    if path.suffix.lower() == ".pdf":
-        return [write_card_pdf(plan, path, sea_map, start, vessel)]
-    out = [atomic_write_text(path, card_html(plan, sea_map, start, vessel))]
-    if pdf:
-        out.append(write_card_pdf(plan, path.with_suffix(".pdf"), sea_map, start, vessel))
+    with PlanFigures(plan, plan_chart(plan, sea_map)) as own:
+        figs = figures or own
+        if path.suffix.lower() == ".pdf":
+            return [write_card_pdf(plan, path, sea_map, start, vessel, figs)]
+        out = [atomic_write_text(path, card_html(plan, sea_map, start, vessel, figs))]
+        if pdf:
+            out.append(write_card_pdf(plan, path.with_suffix(".pdf"), sea_map, start, vessel, figs))
     return out

@@ -16,6 +16,7 @@ import numpy as np
 
 from maps.export._common import (
     KN_PER_MPS,
+    M_PER_NM,
     TOOL,
     Waypoint,
     check_plan,
@@ -79,7 +80,7 @@ def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | Non
     title = name or f"{vessel_name(plan, vessel)} trial {plan.map_name}".strip()
     meta = _sub(root, "metadata")
     _sub(meta, "name", title)
-    _sub(meta, "desc", f"{len(plan.steps)} manoeuvres, {clock(plan.duration_s)}, {plan.length_m / 1852.0:.2f} NM; "
+    _sub(meta, "desc", f"{len(plan.steps)} manoeuvres, {clock(plan.duration_s)}, {plan.length_m / M_PER_NM:.2f} NM; "
          f"abort if wind exceeds {plan.max_wind_mps:.0f} m/s or clearance drops below {plan.margin_m:.0f} m")
     _sub(meta, "time", iso(t0))
     lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]

@@ -282,23 +282,82 @@ def states_figure(plan: Plan):
     return fig
 
 
-def plot_states(plan: Plan, path: str | Path, dpi: int = 110) -> Path:
-    """The simulated states over time (speed, heading, inputs) as PNG (or PDF/SVG by suffix)."""
-    fig = states_figure(plan)
-    try:
-        return atomic_savefig(fig, path, dpi=dpi)
-    finally:
-        plt.close(fig)
-
-
-def plot_track(plan: Plan, path: str | Path, sea_map: Any = None, dpi: int = 130) -> Path:
-    """The numbered track coloured by primitive on the map, as PNG (or PDF/SVG by suffix)."""
+def track_figure(plan: Plan, sea_map: Any = None):
+    """The numbered track coloured by primitive on the map, legend outside, titled."""
     fig, ax = plt.subplots(figsize=(9.5, 7.5))
     draw_map(ax, plan, sea_map)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)  # outside: never hides the track
     ax.set_title(f"{plan.ship} trial{' on ' + plan.map_name if plan.map_name else ''}: manoeuvres numbered in sailing order", fontsize=9)
     fig.tight_layout()
-    try:
-        return atomic_savefig(fig, path, dpi=dpi)
-    finally:
-        plt.close(fig)
+    return fig
+
+
+STATES_DPI = 110
+TRACK_DPI = 130
+
+
+class PlanFigures:
+    """The figures of one plan, each drawn once and shared by the trial card (HTML images, PDF
+    page) and the PNG exports: drawing a figure with its layout passes costs as much as saving
+    it. ``close()`` when done (figures hold memory until closed)."""
+
+    def __init__(self, plan: Plan, sea_map: Any = None) -> None:
+        self.plan, self.sea_map = plan, sea_map
+        self._figs: dict[str, Any] = {}
+        self._png: dict[tuple[str, int], bytes] = {}
+
+    def figure(self, name: str):
+        """'states' (:func:`states_figure`) or 'track' (:func:`track_figure`), built on first use."""
+        if name not in self._figs:
+            self._figs[name] = states_figure(self.plan) if name == "states" else track_figure(self.plan, self.sea_map)
+        return self._figs[name]
+
+    def owns(self, fig) -> bool:
+        return any(fig is f for f in self._figs.values())
+
+    def png(self, name: str, dpi: int | None = None) -> bytes:
+        """The figure as PNG bytes, rendered once per dpi (the map cropped to what is drawn)."""
+        key = (name, dpi or (STATES_DPI if name == "states" else TRACK_DPI))
+        if key not in self._png:
+            import io
+
+            buf = io.BytesIO()
+            self.figure(name).savefig(buf, format="png", dpi=key[1], bbox_inches="tight" if name == "track" else None)
+            self._png[key] = buf.getvalue()
+        return self._png[key]
+
+    def save(self, name: str, path: str | Path, dpi: int | None = None) -> Path:
+        """Write the figure to ``path`` (PNG from the shared render, other formats by suffix)."""
+        from primitives.io import atomic_write_bytes
+
+        if Path(path).suffix.lower() in ("", ".png"):
+            return atomic_write_bytes(path, self.png(name, dpi))
+        return atomic_savefig(self.figure(name), path, dpi=dpi or (STATES_DPI if name == "states" else TRACK_DPI),
+                              bbox_inches="tight" if name == "track" else None)
+
+    def close(self) -> None:
+        for f in self._figs.values():
+            plt.close(f)
+        self._figs.clear()
+
+    def __enter__(self) -> PlanFigures:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def plot_states(plan: Plan, path: str | Path, dpi: int = STATES_DPI, figures: PlanFigures | None = None) -> Path:
+    """The simulated states over time (speed, heading, inputs) as PNG (or PDF/SVG by suffix)."""
+    if figures is not None:
+        return figures.save("states", path, dpi)
+    with PlanFigures(plan) as figs:
+        return figs.save("states", path, dpi)
+
+
+def plot_track(plan: Plan, path: str | Path, sea_map: Any = None, dpi: int = TRACK_DPI, figures: PlanFigures | None = None) -> Path:
+    """The numbered track coloured by primitive on the map, as PNG (or PDF/SVG by suffix)."""
+    if figures is not None:
+        return figures.save("track", path, dpi)
+    with PlanFigures(plan, sea_map) as figs:
+        return figs.save("track", path, dpi)
