@@ -52,6 +52,22 @@ def check_vessel_name(name: str | None, error: type[UserError] = UserError) -> N
         raise error(f"--vessel-name {name!r}: holds the control character {bad!r}; give the name as one line of plain text")
 
 
+def check_start_time(text: str | None, option: str) -> None:
+    """A UTC start time in ISO 8601 within 1970..2199: a year outside is a typo (0226 for 2026),
+    and near year 9999 the schedule's clock times would overflow the calendar."""
+    if text is None:
+        return
+    from maps.export import ExportError
+    from maps.export._common import resolve_start
+
+    try:
+        t0 = resolve_start(None, text)
+    except ExportError:
+        raise ExportError(f"{option} {text!r}: not an ISO 8601 time; give the UTC start, e.g. {option} 2026-06-01T08:00Z") from None
+    if not 1970 <= t0.year <= 2199:
+        raise ExportError(f"{option} {text!r}: year {t0.year} is not a trial date; give the UTC start, e.g. {option} 2026-06-01T08:00Z")
+
+
 def validate_primitives_options(plot: Path | None) -> None:
     check_plot_path(plot)
 
@@ -81,7 +97,7 @@ def validate_design_options(*, criterion: str, mean_subtraction: str, trial_leng
 
 
 def validate_export_options(*, plan_file: Path, fmt: str, out: Path | None, sea_map: Path | None,
-                            vessel_name: str | None = None) -> None:
+                            vessel_name: str | None = None, start: str | None = None) -> None:
     """Export: the format known, the extension of a one-format --out matching it, the plan never overwritten."""
     from maps.export import FORMATS, ExportError
 
@@ -89,6 +105,7 @@ def validate_export_options(*, plan_file: Path, fmt: str, out: Path | None, sea_
     if fmt_l != "all" and fmt_l not in FORMATS:
         raise ExportError(f"--format {fmt!r} is unknown: choose one of {', '.join(FORMATS)} or all")
     check_vessel_name(vessel_name, ExportError)
+    check_start_time(start, "--start")
     check_input_file(plan_file, "PLAN", "the plan.json written by plan-trial --out DIR", "plan")
     check_input_file(sea_map, "--map", "a GeoJSON sea map", "map")
     if out is None:
@@ -137,7 +154,8 @@ def _point(text: str | None, option: str) -> None:
 def validate_plan_options(*, resolution: float | None, margin: float, headings: int, start: str | None, goal: str | None,
                           counts: str | None, size: str, out: Path, seed: int = 0, scenario: str | None = None,
                           criterion: str = "D", mean_subtraction: str = "complete", trial_length: float | None = None,
-                          run_in: float | None = None, max_memory: float = 2.0, vessel_name: str | None = None) -> None:
+                          run_in: float | None = None, max_memory: float = 2.0, vessel_name: str | None = None,
+                          start_time: str | None = None) -> None:
     """Every ``plan`` option checked before the map is loaded (the lattice's memory estimate is the
     planner's, once it knows the map)."""
     from maps.planner import SCENARIOS
@@ -150,6 +168,7 @@ def validate_plan_options(*, resolution: float | None, margin: float, headings: 
     if positive(max_memory, "--max-memory", "GiB") > 1024:
         raise UserError(f"--max-memory: {max_memory:g} GiB is more than any machine has; give the memory the planner may use, in GiB")
     check_vessel_name(vessel_name)
+    check_start_time(start_time, "--start-time")
     if resolution is not None:
         if positive(resolution, "--resolution", "m (lattice spacing)") > 1e5:
             raise UserError(f"--resolution: {resolution:g} m is wider than any sea map; give the lattice spacing in metres")

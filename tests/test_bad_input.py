@@ -196,7 +196,7 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(p, "--margin", [*FLOATS_BAD, "1e9"])
     add(p, "--size", ["0x0", "axb", "1000000000x1", "35", "-5x44", "1x1"])
     add(p, "--out", ["{file}", "/proc/shiptrial-out"])
-    add(p, "--start-time", ["yesterday", "2026-13-45T99:00Z"])
+    add(["plan"], "--start-time", ["yesterday", "2026-13-45T99:00Z", "9999-12-31T23:59Z", "0226-06-01T08:00Z"], named=True)
     add(p, "--seed", ["-1", "abc"])
     # plan's design options, run-in, memory limit and vessel name: with a base that would plan
     # (the design runs when neither --counts nor --scenario is given), so only the refusal fails fast
@@ -215,7 +215,8 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["export", "{plan}", "--format", "rtz"], "--out", ["{tmp}/x.gpx", "{tmp}/x.rtz.json"])
     add(["export", "{plan}", "--format", "all"], "--out", ["{file}", "/proc/shiptrial-out"])
     add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--map", ["{missing}", "{dir}", "{binary}", "{notjson}"])
-    add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--start", ["yesterday", "2026-99-01T00:00Z"])
+    add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--start", ["yesterday", "2026-99-01T00:00Z", "9999-12-31T23:59Z", "0226-06-01T08:00Z"],
+        named=True)
     add(["export", "{plan}", "--format", "rtz", "--out", "{tmp}/o.rtz"], "--vessel-name", VESSEL_NAMES_BAD, named=True)
     add(["export", "{plan}", "--format", "all", "--out", "{tmp}/all-out"], "--vessel-name", ["MT Example\x01"], named=True)
     # diagnose
@@ -346,3 +347,25 @@ def test_the_suite_covers_every_option_of_every_command():
             elif (name, "ARG") not in covered:
                 missing.append(f"{name} {prm.name}")
     assert not missing, f"options without a bad-input case: {missing}"
+
+
+def test_plan_trial_is_the_plan_command(monkeypatch, capsys, tmp_path):
+    """``plan-trial`` (the second entry point) is ``shiptrial plan``: the same options, so the plan
+    cases above cover it, and the same one-line refusal with nothing written."""
+    import sys
+
+    from cli.app import plan_main
+
+    monkeypatch.chdir(tmp_path)
+    assert _run(["plan", "--help"]) == 0
+    plan_help = capsys.readouterr().out
+    monkeypatch.setattr(sys, "argv", ["plan-trial", "--help"])
+    with pytest.raises(SystemExit) as exc:
+        plan_main()
+    assert exc.value.code == 0 and capsys.readouterr().out == plan_help
+    monkeypatch.setattr(sys, "argv", ["plan-trial", "--run-in", "nan"])
+    with pytest.raises(SystemExit) as exc:
+        plan_main()
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and err.startswith("error: --run-in") and len(err.strip().splitlines()) == 1, err
+    assert not list(tmp_path.iterdir())
