@@ -184,12 +184,12 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(d, "--mc-settle", ["-1", "abc"])
     add(d, "--mc-min-block", ["1", "-5", "201", "abc"])
     # plan
-    p = ["plan", "--counts", "tau1=1"]
+    p = ["plan", "--counts", "tau12=1"]  # a plan of the default ship (full-scale): only the bad option can fail it
     add(p, "--map", ["{missing}", "{dir}", "{binary}", "{notjson}", "{plan}"])
     add(p, "--ship", ship_bad)
     add(p, "--start", ["60.1,24.9,nan", "nan,24.9", "60.1,inf", "1e400,24.9", "abc", "60.1", "95,24.9,0", "60.1,24.9,1e9", "1,2,3,4"])
     add(p, "--goal", ["nan,24.9", "60.1,-inf", "x,y", "60.1,200"])
-    add(["plan"], "--counts", ["tau1=1000000", "tau1=-1", "tau1=abc", "=3", "tau1", ",", "tau1=50,tau2=50,tau3=50,tau4=50"])
+    add(["plan"], "--counts", ["tau1=1", "tau1=1000000", "tau1=-1", "tau1=abc", "=3", "tau1", ",", "tau1=50,tau2=50,tau3=50,tau4=50"])
     add(p, "--resolution", [*FLOATS_BAD, "0", "1e9"])
     add(p, "--headings", ["5", "0", "-4", "1000000", "abc"])
     add(p, "--heuristic", ["greedy", ""])
