@@ -158,9 +158,9 @@ def validate_plan_options(*, resolution: float | None, margin: float, headings: 
                           start_time: str | None = None) -> None:
     """Every ``plan`` option checked before the map is loaded (the lattice's memory estimate is the
     planner's, once it knows the map)."""
-    from maps.planner import SCENARIOS
-
     if scenario is not None:
+        from maps.planner import SCENARIOS  # only here: the planner's import is the slow part of a refusal
+
         one_of(scenario, "--scenario", SCENARIOS)
     check_design_choices(criterion, mean_subtraction, trial_length)
     if run_in is not None:  # held for the whole run-in: an hour is already far past any settling time
