@@ -40,9 +40,10 @@ def check_design_choices(criterion: str, mean_subtraction: str, trial_length: fl
         in_range(trial_length, "--trial-length", 1.0, 30 * 86400.0, "s", error)
 
 
-def check_vessel_name(name: str | None, error: type[UserError] = UserError) -> None:
+def check_vessel_name(name: str | None, rtz: bool, error: type[UserError] = UserError) -> None:
     """A ship's name is one line of printable text: a control character (a pasted escape or
-    newline) would make the RTZ route invalid XML that the ECDIS refuses."""
+    newline) would make the RTZ route invalid XML that the ECDIS refuses. ``rtz``: an RTZ route
+    will be written, so the name must fit its limit (refused here, before any other file is written)."""
     if name is None:
         return
     if not name.strip():
@@ -50,6 +51,13 @@ def check_vessel_name(name: str | None, error: type[UserError] = UserError) -> N
     bad = next((c for c in name if unicodedata.category(c) == "Cc"), None)
     if bad is not None:
         raise error(f"--vessel-name {name!r}: holds the control character {bad!r}; give the name as one line of plain text")
+    if rtz:
+        from maps.export.rtz import VESSEL_NAME_MAX
+
+        shown = " ".join(name.split())  # as the exports write it
+        if len(shown) > VESSEL_NAME_MAX:
+            raise error(f"--vessel-name {shown!r} has {len(shown)} characters; the RTZ route holds at most "
+                        f"{VESSEL_NAME_MAX}: give a shorter name")
 
 
 def check_start_time(text: str | None, option: str) -> None:
@@ -104,7 +112,7 @@ def validate_export_options(*, plan_file: Path, fmt: str, out: Path | None, sea_
     fmt_l = fmt.lower()
     if fmt_l != "all" and fmt_l not in FORMATS:
         raise ExportError(f"--format {fmt!r} is unknown: choose one of {', '.join(FORMATS)} or all")
-    check_vessel_name(vessel_name, ExportError)
+    check_vessel_name(vessel_name, fmt_l in ("rtz", "all"), ExportError)
     check_start_time(start, "--start")
     check_input_file(plan_file, "PLAN", "the plan.json written by plan-trial --out DIR", "plan")
     check_input_file(sea_map, "--map", "a GeoJSON sea map", "map")
@@ -155,7 +163,7 @@ def validate_plan_options(*, resolution: float | None, margin: float, headings: 
                           counts: str | None, size: str, out: Path, seed: int = 0, scenario: str | None = None,
                           criterion: str = "D", mean_subtraction: str = "complete", trial_length: float | None = None,
                           run_in: float | None = None, max_memory: float = 2.0, vessel_name: str | None = None,
-                          start_time: str | None = None) -> None:
+                          start_time: str | None = None, no_export: bool = False) -> None:
     """Every ``plan`` option checked before the map is loaded (the lattice's memory estimate is the
     planner's, once it knows the map)."""
     if scenario is not None:
@@ -167,7 +175,7 @@ def validate_plan_options(*, resolution: float | None, margin: float, headings: 
         in_range(run_in, "--run-in", 0.0, 3600.0, "s (steady run before each execute point)")
     if positive(max_memory, "--max-memory", "GiB") > 1024:
         raise UserError(f"--max-memory: {max_memory:g} GiB is more than any machine has; give the memory the planner may use, in GiB")
-    check_vessel_name(vessel_name)
+    check_vessel_name(vessel_name, rtz=not no_export)
     check_start_time(start_time, "--start-time")
     if resolution is not None:
         if positive(resolution, "--resolution", "m (lattice spacing)") > 1e5:

@@ -138,7 +138,8 @@ def register(app: typer.Typer) -> None:
         validate_plan_options(resolution=resolution, margin=margin, headings=headings, start=start, goal=goal,
                               counts=counts, size=size, out=out, seed=seed, scenario=scenario, criterion=criterion,
                               mean_subtraction=mean_subtraction, trial_length=trial_length, run_in=run_in,
-                              max_memory=max_memory, vessel_name=vessel_name, start_time=start_time)
+                              max_memory=max_memory, vessel_name=vessel_name, start_time=start_time,
+                              no_export=no_export)
         ni, nj = (int(v) for v in size.lower().split("x"))  # checked by validate_plan_options
         if counts is not None and scenario is not None:
             raise UserError("--counts and --scenario both choose the manoeuvres: give one of them")

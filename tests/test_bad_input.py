@@ -21,7 +21,8 @@ from cli.app import _run
 
 NAN, INF, HUGE = "nan", "inf", "1e400"
 FLOATS_BAD = [NAN, INF, "-inf", HUGE, "-1", "abc"]  # every float option gets these (plus its own zero/limits)
-VESSEL_NAMES_BAD = ["", "   ", "MT Example\x1b[0m", "MT\nExample"]  # empty, blank, a pasted escape, two lines
+# empty, blank, a pasted escape, two lines, longer than an RTZ route holds (32)
+VESSEL_NAMES_BAD = ["", "   ", "MT Example\x1b[0m", "MT\nExample", "MT Example of a Very Long Name Indeed"]
 
 
 def _profile(tmp: Path, **changes) -> str:
@@ -218,7 +219,7 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--start", ["yesterday", "2026-99-01T00:00Z", "9999-12-31T23:59Z", "0226-06-01T08:00Z"],
         named=True)
     add(["export", "{plan}", "--format", "rtz", "--out", "{tmp}/o.rtz"], "--vessel-name", VESSEL_NAMES_BAD, named=True)
-    add(["export", "{plan}", "--format", "all", "--out", "{tmp}/all-out"], "--vessel-name", ["MT Example\x01"], named=True)
+    add(["export", "{plan}", "--format", "all", "--out", "{tmp}/all-out"], "--vessel-name", ["MT Example\x01", "x" * 40], named=True)
     # diagnose
     for rec in ["{missing}", "{dir}", "{latin1}", "{binary}", "{zeros}", "{cfg}", "{plan}", "{rec_scaled}", "{rec_huge}",
                 "{rec_coarse}"]:
