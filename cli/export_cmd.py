@@ -73,7 +73,7 @@ def register(app: typer.Typer) -> None:
         from cli.options import validate_export_options
         from maps.export import default_path, export_all, export_plan
 
-        validate_export_options(plan_file=plan_file, fmt=fmt, out=out, sea_map=sea_map)
+        validate_export_options(plan_file=plan_file, fmt=fmt, out=out, sea_map=sea_map, vessel_name=vessel, start=start)
         fmt_l = fmt.lower()
         plan = load_plan(plan_file)
         sea = resolve_sea_map(sea_map, plan.map_name, plan)

@@ -7,6 +7,7 @@ value, its unit and what to give instead (see :mod:`primitives.validate`).
 from __future__ import annotations
 
 import math
+import unicodedata
 from pathlib import Path
 
 from primitives.errors import UserError
@@ -30,6 +31,51 @@ def check_input_file(path: Path | str | None, option: str, what: str, kind: str)
         raise UserError(f"{option} {p}: no such {kind} file; give {what}")
 
 
+def check_design_choices(criterion: str, mean_subtraction: str, trial_length: float | None,
+                         error: type[UserError] = UserError) -> None:
+    """The design's criterion, mean subtraction and trial length (``design`` and ``plan``)."""
+    one_of(criterion, "--criterion", ("D", "A", "E"), error)
+    one_of(mean_subtraction, "--mean-subtraction", ("none", "batchwise", "complete"), error)
+    if trial_length is not None:
+        in_range(trial_length, "--trial-length", 1.0, 30 * 86400.0, "s", error)
+
+
+def check_vessel_name(name: str | None, rtz: bool, error: type[UserError] = UserError) -> None:
+    """A ship's name is one line of printable text: a control character (a pasted escape or
+    newline) would make the RTZ route invalid XML that the ECDIS refuses. ``rtz``: an RTZ route
+    will be written, so the name must fit its limit (refused here, before any other file is written)."""
+    if name is None:
+        return
+    if not name.strip():
+        raise error("--vessel-name is empty: give the ship's name, e.g. --vessel-name 'MT Example', or leave the option out")
+    bad = next((c for c in name if unicodedata.category(c) == "Cc"), None)
+    if bad is not None:
+        raise error(f"--vessel-name {name!r}: holds the control character {bad!r}; give the name as one line of plain text")
+    if rtz:
+        from maps.export.rtz import VESSEL_NAME_MAX
+
+        shown = " ".join(name.split())  # as the exports write it
+        if len(shown) > VESSEL_NAME_MAX:
+            raise error(f"--vessel-name {shown!r} has {len(shown)} characters; the RTZ route holds at most "
+                        f"{VESSEL_NAME_MAX}: give a shorter name")
+
+
+def check_start_time(text: str | None, option: str) -> None:
+    """A UTC start time in ISO 8601 within 1970..2199: a year outside is a typo (0226 for 2026),
+    and near year 9999 the schedule's clock times would overflow the calendar."""
+    if text is None:
+        return
+    from maps.export import ExportError
+    from maps.export._common import resolve_start
+
+    try:
+        t0 = resolve_start(None, text)
+    except ExportError:
+        raise ExportError(f"{option} {text!r}: not an ISO 8601 time; give the UTC start, e.g. {option} 2026-06-01T08:00Z") from None
+    if not 1970 <= t0.year <= 2199:
+        raise ExportError(f"{option} {text!r}: year {t0.year} is not a trial date; give the UTC start, e.g. {option} 2026-06-01T08:00Z")
+
+
 def validate_primitives_options(plot: Path | None) -> None:
     check_plot_path(plot)
 
@@ -39,10 +85,7 @@ def validate_design_options(*, criterion: str, mean_subtraction: str, trial_leng
                             min_frac: float | None, max_frac: float | None, noisy_moments: int) -> None:
     from expdesign.errors import DesignError
 
-    one_of(criterion, "--criterion", ("D", "A", "E"), DesignError)
-    one_of(mean_subtraction, "--mean-subtraction", ("none", "batchwise", "complete"), DesignError)
-    if trial_length is not None:
-        in_range(trial_length, "--trial-length", 1.0, 30 * 86400.0, "s", DesignError)
+    check_design_choices(criterion, mean_subtraction, trial_length, DesignError)
     if monte_carlo:
         check_monte_carlo(monte_carlo, mc_samples, error=DesignError)
     else:
@@ -61,13 +104,16 @@ def validate_design_options(*, criterion: str, mean_subtraction: str, trial_leng
         check_replaceable_dir(out)
 
 
-def validate_export_options(*, plan_file: Path, fmt: str, out: Path | None, sea_map: Path | None) -> None:
+def validate_export_options(*, plan_file: Path, fmt: str, out: Path | None, sea_map: Path | None,
+                            vessel_name: str | None = None, start: str | None = None) -> None:
     """Export: the format known, the extension of a one-format --out matching it, the plan never overwritten."""
     from maps.export import FORMATS, ExportError
 
     fmt_l = fmt.lower()
     if fmt_l != "all" and fmt_l not in FORMATS:
         raise ExportError(f"--format {fmt!r} is unknown: choose one of {', '.join(FORMATS)} or all")
+    check_vessel_name(vessel_name, fmt_l in ("rtz", "all"), ExportError)
+    check_start_time(start, "--start")
     check_input_file(plan_file, "PLAN", "the plan.json written by plan-trial --out DIR", "plan")
     check_input_file(sea_map, "--map", "a GeoJSON sea map", "map")
     if out is None:
@@ -114,9 +160,23 @@ def _point(text: str | None, option: str) -> None:
 
 
 def validate_plan_options(*, resolution: float | None, margin: float, headings: int, start: str | None, goal: str | None,
-                          counts: str | None, size: str, out: Path, seed: int = 0) -> None:
+                          counts: str | None, size: str, out: Path, seed: int = 0, scenario: str | None = None,
+                          criterion: str = "D", mean_subtraction: str = "complete", trial_length: float | None = None,
+                          run_in: float | None = None, max_memory: float = 2.0, vessel_name: str | None = None,
+                          start_time: str | None = None, no_export: bool = False) -> None:
     """Every ``plan`` option checked before the map is loaded (the lattice's memory estimate is the
     planner's, once it knows the map)."""
+    if scenario is not None:
+        from maps.planner import SCENARIOS  # only here: the planner's import is the slow part of a refusal
+
+        one_of(scenario, "--scenario", SCENARIOS)
+    check_design_choices(criterion, mean_subtraction, trial_length)
+    if run_in is not None:  # held for the whole run-in: an hour is already far past any settling time
+        in_range(run_in, "--run-in", 0.0, 3600.0, "s (steady run before each execute point)")
+    if positive(max_memory, "--max-memory", "GiB") > 1024:
+        raise UserError(f"--max-memory: {max_memory:g} GiB is more than any machine has; give the memory the planner may use, in GiB")
+    check_vessel_name(vessel_name, rtz=not no_export)
+    check_start_time(start_time, "--start-time")
     if resolution is not None:
         if positive(resolution, "--resolution", "m (lattice spacing)") > 1e5:
             raise UserError(f"--resolution: {resolution:g} m is wider than any sea map; give the lattice spacing in metres")
@@ -140,7 +200,6 @@ def validate_plan_options(*, resolution: float | None, margin: float, headings: 
         check_counts(parsed)
     whole(seed, "--seed", 0, 2**63 - 1)
     check_out_path(out)
-
 
 
 def validate_mass_options(*, z_f: float | None) -> None:

@@ -136,7 +136,10 @@ def register(app: typer.Typer) -> None:
         from primitives.ship import load_profile
 
         validate_plan_options(resolution=resolution, margin=margin, headings=headings, start=start, goal=goal,
-                              counts=counts, size=size, out=out, seed=seed)
+                              counts=counts, size=size, out=out, seed=seed, scenario=scenario, criterion=criterion,
+                              mean_subtraction=mean_subtraction, trial_length=trial_length, run_in=run_in,
+                              max_memory=max_memory, vessel_name=vessel_name, start_time=start_time,
+                              no_export=no_export)
         ni, nj = (int(v) for v in size.lower().split("x"))  # checked by validate_plan_options
         if counts is not None and scenario is not None:
             raise UserError("--counts and --scenario both choose the manoeuvres: give one of them")
@@ -145,8 +148,6 @@ def register(app: typer.Typer) -> None:
         opts = PlanOptions(resolution=resolution, headings=headings, heuristic=heuristic, margin=margin, split=split,
                            size=(ni, nj), run_in_s=run_in, max_memory_gib=max_memory)
         opts.check()
-        if start_time is not None:
-            resolve_start(None, start_time)  # reject a malformed time before the long work
         prof = load_profile(ship)
         prof.require_planar("shiptrial plan")
         sea = load_map(map_path, draught_m=prof.draught_m)

@@ -21,6 +21,8 @@ from cli.app import _run
 
 NAN, INF, HUGE = "nan", "inf", "1e400"
 FLOATS_BAD = [NAN, INF, "-inf", HUGE, "-1", "abc"]  # every float option gets these (plus its own zero/limits)
+# empty, blank, a pasted escape, two lines, longer than an RTZ route holds (32)
+VESSEL_NAMES_BAD = ["", "   ", "MT Example\x1b[0m", "MT\nExample", "MT Example of a Very Long Name Indeed"]
 
 
 def _profile(tmp: Path, **changes) -> str:
@@ -152,9 +154,11 @@ def _cases() -> list[tuple[str, list[str]]]:
     out_dir_bad = ["{file}", "/proc/shiptrial-out", "{dir}"]
     cases: list[tuple[str, list[str]]] = []
 
-    def add(cmd: list[str], option: str, values: list[str], base: list[str] | None = None):
+    def add(cmd: list[str], option: str, values: list[str], base: list[str] | None = None, named: bool = False):
         for v in values:
             cases.append((f"{cmd[0]} {option} {v}", [*cmd, *(base or []), option, v]))
+            if named:
+                NAMED[cases[-1][0]] = option
 
     # primitives
     add(["primitives"], "--ship", ship_bad)
@@ -181,20 +185,29 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(d, "--mc-settle", ["-1", "abc"])
     add(d, "--mc-min-block", ["1", "-5", "201", "abc"])
     # plan
-    p = ["plan", "--counts", "tau1=1"]
+    p = ["plan", "--counts", "tau12=1"]  # a plan of the default ship (full-scale): only the bad option can fail it
     add(p, "--map", ["{missing}", "{dir}", "{binary}", "{notjson}", "{plan}"])
     add(p, "--ship", ship_bad)
     add(p, "--start", ["60.1,24.9,nan", "nan,24.9", "60.1,inf", "1e400,24.9", "abc", "60.1", "95,24.9,0", "60.1,24.9,1e9", "1,2,3,4"])
     add(p, "--goal", ["nan,24.9", "60.1,-inf", "x,y", "60.1,200"])
-    add(["plan"], "--counts", ["tau1=1000000", "tau1=-1", "tau1=abc", "=3", "tau1", ",", "tau1=50,tau2=50,tau3=50,tau4=50"])
+    add(["plan"], "--counts", ["tau1=1", "tau1=1000000", "tau1=-1", "tau1=abc", "=3", "tau1", ",", "tau1=50,tau2=50,tau3=50,tau4=50"])
     add(p, "--resolution", [*FLOATS_BAD, "0", "1e9"])
     add(p, "--headings", ["5", "0", "-4", "1000000", "abc"])
     add(p, "--heuristic", ["greedy", ""])
     add(p, "--margin", [*FLOATS_BAD, "1e9"])
     add(p, "--size", ["0x0", "axb", "1000000000x1", "35", "-5x44", "1x1"])
     add(p, "--out", ["{file}", "/proc/shiptrial-out"])
-    add(p, "--start-time", ["yesterday", "2026-13-45T99:00Z"])
+    add(["plan"], "--start-time", ["yesterday", "2026-13-45T99:00Z", "9999-12-31T23:59Z", "0226-06-01T08:00Z"], named=True)
     add(p, "--seed", ["-1", "abc"])
+    # plan's design options, run-in, memory limit and vessel name: with a base that would plan
+    # (the design runs when neither --counts nor --scenario is given), so only the refusal fails fast
+    add(["plan"], "--scenario", ["thesis-9.5", "", "9.4"], named=True)
+    add(["plan"], "--criterion", ["X", "", "d-optimal"], named=True)
+    add(["plan"], "--mean-subtraction", ["sometimes", ""], named=True)
+    add(["plan"], "--trial-length", [*FLOATS_BAD, "0", "1e12"], named=True)
+    add(["plan"], "--run-in", [*FLOATS_BAD, "1e9"], named=True)
+    add(["plan"], "--max-memory", [*FLOATS_BAD, "0", "1e9"], named=True)
+    add(["plan"], "--vessel-name", VESSEL_NAMES_BAD, named=True)
     # export
     for plan in ["{missing}", "{dir}", "{binary}", "{notjson}", "{rec}", "{cfg}"]:
         cases.append((f"export PLAN {plan}", ["export", plan, "--format", "gpx", "--out", "{tmp}/o.gpx"]))
@@ -203,7 +216,10 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["export", "{plan}", "--format", "rtz"], "--out", ["{tmp}/x.gpx", "{tmp}/x.rtz.json"])
     add(["export", "{plan}", "--format", "all"], "--out", ["{file}", "/proc/shiptrial-out"])
     add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--map", ["{missing}", "{dir}", "{binary}", "{notjson}"])
-    add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--start", ["yesterday", "2026-99-01T00:00Z"])
+    add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--start", ["yesterday", "2026-99-01T00:00Z", "9999-12-31T23:59Z", "0226-06-01T08:00Z"],
+        named=True)
+    add(["export", "{plan}", "--format", "rtz", "--out", "{tmp}/o.rtz"], "--vessel-name", VESSEL_NAMES_BAD, named=True)
+    add(["export", "{plan}", "--format", "all", "--out", "{tmp}/all-out"], "--vessel-name", ["MT Example\x01", "x" * 40], named=True)
     # diagnose
     for rec in ["{missing}", "{dir}", "{latin1}", "{binary}", "{zeros}", "{cfg}", "{plan}", "{rec_scaled}", "{rec_huge}",
                 "{rec_coarse}"]:
@@ -259,9 +275,12 @@ def _cases() -> list[tuple[str, list[str]]]:
     cases.append(("detect-prior RECORDINGS of different sample times", ["detect-prior", "{det_rec}", "{det_dt2}", "--out", "{tmp}/p.json"]))
     add(["detect-prior", "{det_rec}"], "--out", ["{tmp}/p.txt", "{dir}", "/proc/p.json"])
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--model", ["fancy", ""])
+    add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--bootstrap", ["-1", "1001", "1.5", "abc"], named=True)
+    add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--seed", ["-1", "abc", "1.5"], named=True)
     return cases
 
 
+NAMED: dict[str, str] = {}  # case id -> the option its message must name
 CASES = _cases()
 
 
@@ -294,28 +313,60 @@ def test_bad_input_is_one_line_nonzero_and_writes_nothing(case, argv, files, tmp
     assert first.startswith("error:") or "Usage:" in err or "Invalid value" in err, f"{case}: unclear message {err!r}"
     if first.startswith("error:"):
         assert len(err.strip().splitlines()) == 1 or case.startswith("sweep"), f"{case}: more than one line {err!r}"
+    if case in NAMED:
+        assert f"'{NAMED[case]}'" in err if "Usage:" in err else first.startswith(f"error: {NAMED[case]}"), \
+            f"{case}: the message does not name {NAMED[case]}: {err!r}"
     assert _snapshot(files["tmp"], tmp_path) == before, f"{case}: wrote files on invalid input"
 
 
 def test_the_suite_covers_every_option_of_every_command():
-    """Each command's options (from its typer signature) appear in at least one bad-input case."""
-    import click
+    """Each command's options (from its typer signature) appear in at least one bad-input case, and
+    each command with arguments has a case aimed at an argument (its id names it in capitals).
+
+    ``plan-trial`` (``cli.app.plan_main``) is ``shiptrial plan`` on the same typer app, so the
+    ``plan`` command's parameters are its parameters. Options are told by ``param_type_name``:
+    typer builds its own ``TyperOption`` on its vendored click, which is not a ``click.Option``.
+    """
     import typer.main
 
     from cli.app import app
 
     group = typer.main.get_command(app)
     covered = {(argv[0], a) for _, argv in CASES for a in argv if a.startswith("--")}
-    covered |= {(argv[0], "ARG") for _, argv in CASES}
+    covered |= {(case.split()[0], "ARG") for case, _ in CASES if case.split()[1].isupper()}
     missing = []
     for name, cmd in group.commands.items():
         for prm in cmd.params:
-            if isinstance(prm, click.Option):
+            if prm.param_type_name == "option":
                 flag = max(prm.opts, key=len)
                 if prm.is_flag or flag in ("--scheduler", "--help"):
                     continue  # flags take no value; an unreachable --scheduler is the Monte Carlo work's
                 if (name, flag) not in covered:
                     missing.append(f"{name} {flag}")
+            elif prm.param_type_name != "argument":
+                missing.append(f"{name} {prm.name}: a parameter of unknown kind {prm.param_type_name!r}")
             elif (name, "ARG") not in covered:
                 missing.append(f"{name} {prm.name}")
     assert not missing, f"options without a bad-input case: {missing}"
+
+
+def test_plan_trial_is_the_plan_command(monkeypatch, capsys, tmp_path):
+    """``plan-trial`` (the second entry point) is ``shiptrial plan``: the same options, so the plan
+    cases above cover it, and the same one-line refusal with nothing written."""
+    import sys
+
+    from cli.app import plan_main
+
+    monkeypatch.chdir(tmp_path)
+    assert _run(["plan", "--help"]) == 0
+    plan_help = capsys.readouterr().out
+    monkeypatch.setattr(sys, "argv", ["plan-trial", "--help"])
+    with pytest.raises(SystemExit) as exc:
+        plan_main()
+    assert exc.value.code == 0 and capsys.readouterr().out == plan_help
+    monkeypatch.setattr(sys, "argv", ["plan-trial", "--run-in", "nan"])
+    with pytest.raises(SystemExit) as exc:
+        plan_main()
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and err.startswith("error: --run-in") and len(err.strip().splitlines()) == 1, err
+    assert not list(tmp_path.iterdir())
