@@ -1,4 +1,5 @@
-"""Least-squares and instrumental-variable estimators of the block-diagonal predictor (9.2)/(3.60).
+"""Least-squares and instrumental-variable estimators of the block-diagonal predictor (9.2)/(3.60),
+and the output-error refinement of an estimate (:func:`output_error`).
 
 The predictor is ``y(k+1) - y(k) = Phi(k)^T theta`` with one block of regressors per DOF, so each
 DOF is solved on its own (block-diagonal normal equations). The IV estimate of DOF i is
@@ -24,6 +25,7 @@ from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo
 from primitives.regressors import block_mask, instruments, predictor_regressors
 from primitives.ship import ShipProfile
 from primitives.simulate import model_signals, simulate
+from primitives.terms import signals_used
 
 
 @dataclass
@@ -224,9 +226,10 @@ class OEData:
 @dataclass
 class OEResult:
     """theta (B, p); cost_start / cost (B,) the weighted sum of squared output errors (a
-    chi-square: weights 1/sigma_i^2) at the start estimate and at the result (inf where the start estimate's simulation diverged: theta is then
-    the start, unchanged); iterations (B,) candidate steps tried; converged (B,) stopped on the
-    tolerance (False: iteration limit, or the damping ran out without a better step)."""
+    chi-square: weights 1/sigma_i^2) at the start estimate and at the result (inf where the start
+    estimate's simulation diverged: theta is then the start, unchanged); iterations (B,)
+    candidate steps tried; converged (B,) stopped on the tolerance (False: iteration limit, or
+    the damping ran out without a better step)."""
 
     theta: np.ndarray
     cost_start: np.ndarray
@@ -240,8 +243,6 @@ def output_error_unsupported(profile: ShipProfile, terms=None) -> str | None:
     recursion is written for planar (u, v, r) models whose increments are linear in theta (no
     rigid-body transform) and do not read the heading."""
     terms = terms or profile.predictor
-    from primitives.terms import signals_used
-
     if profile.n_dof != 3 or terms.n_dof != 3:
         return "the output-error refinement handles planar (u, v, r) models only"
     if profile.rigid_body is not None:
@@ -252,8 +253,7 @@ def output_error_unsupported(profile: ShipProfile, terms=None) -> str | None:
 
 
 def _simulated(profile: ShipProfile, terms, data: Sequence[OEData], theta: np.ndarray, idx: np.ndarray):
-    """Noise-free outputs of the runs ``idx`` per experiment: [(nu (b, N+1, 3), psi (b, N+1))],
-    or None for an experiment's runs when nothing is left to simulate."""
+    """Noise-free outputs of the runs ``idx`` per experiment: [(nu (b, N+1, 3), psi (b, N+1))]."""
     out = []
     with np.errstate(all="ignore"):
         for d in data:

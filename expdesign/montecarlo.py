@@ -18,10 +18,14 @@ state between blocks (the shares stay those of the primitives; the experiment ge
 state) is kept as an option.
 
 Data come from the true system with the profile's disturbances (model ship: current u_c, v_c ~
-N(0, 0.025) per sample and measurement noise e ~ N(0, 0.025), variances, i.e. std 0.158); the
-parameters from the IV estimator of (9.2) with instruments simulated with the nominal parameters
-(Table 9.1), re-simulated with the latest estimate up to ``iv_iterations`` times, and the design's
-mean subtraction. Metrics: see :mod:`expdesign.mc_result`.
+N(0, 0.025) per sample and measurement noise e ~ N(0, 0.025), variances, i.e. std 0.158). The
+thesis's estimator is the IV estimator of (9.2) with instruments simulated with the nominal
+parameters (Table 9.1), re-simulated with the latest estimate up to ``iv_iterations`` times, and the
+design's mean subtraction (``estimator='iv'``). The default ``estimator='oe'`` refines each run's IV
+estimate by output error (:func:`expdesign.estimators.output_error`, the maximum-likelihood
+estimate for white measurement noise: the IV regressors hold the noisy velocities and lose
+precision to them, most of all Yur) and keeps the IV result of the same runs as the result's
+``reference``. Metrics: see :mod:`expdesign.mc_result`.
 
 Reproducibility: run i draws its order/segments from ``SeedSequence(seed, spawn_key=(i, 0))`` and
 its noise from ``(i, 1)``; the simulation is batched only through elementwise operations and every
@@ -436,7 +440,7 @@ def evaluate_designs(
 
     ``designs`` maps a label to fractions {primitive: w}, to an object with ``.weights``, or to
     "random". ``protocol`` takes the other :class:`MCConfig` fields (n_samples, n_segments,
-    protocol, min_block, settle, mean_subtraction, iv_iterations, validation_seed).
+    protocol, order, min_block, settle, mean_subtraction, iv_iterations, estimator, oe_iterations, validation_seed).
     ``run_slice=(a, b)`` evaluates runs a..b-1 only; chunks joined with :func:`merge_results`
     are bit-identical to one call over all runs.
     """
