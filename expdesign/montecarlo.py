@@ -383,9 +383,11 @@ def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rmse, diverged
 
 
-def _scored(sh: MCShared, design: str, ids: list[int], theta: np.ndarray, estimator: str, notes: list[str]) -> MCResult:
-    """Validation and parameter errors of the estimates ``theta`` of runs ``ids``."""
-    sim_rmse, diverged = _validate(sh, theta)
+def _scored(sh: MCShared, design: str, ids: list[int], theta: np.ndarray, estimator: str, notes: list[str],
+            validation: tuple[np.ndarray, np.ndarray] | None = None) -> MCResult:
+    """Validation and parameter errors of the estimates ``theta`` of runs ``ids`` (``validation``:
+    their :func:`_validate` result when already computed)."""
+    sim_rmse, diverged = _validate(sh, theta) if validation is None else validation
     prm = np.full(len(ids), np.nan)
     if sh.theta0 is not None:
         for i in range(len(ids)):
@@ -416,8 +418,10 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
         return _scored(sh, design, ids, theta, "iv", notes + [f"{sh.oe_unsupported}: the IV estimate is reported unrefined"])
     oe = output_error(sh.profile, [OEData(s.inputs, s.nu0, s.y) for s in segs], theta, terms=sh.predictor,
                       max_iter=cfg.oe_iterations)
-    result = _scored(sh, design, ids, oe.theta, "oe", notes)
-    result.reference = _scored(sh, design, ids, theta, "iv", list(notes))
+    b = len(ids)
+    val = _validate(sh, np.concatenate([oe.theta, theta]))  # one simulation loop for both; elementwise, so no change
+    result = _scored(sh, design, ids, oe.theta, "oe", notes, (val[0][:b], val[1][:b]))
+    result.reference = _scored(sh, design, ids, theta, "iv", list(notes), (val[0][b:], val[1][b:]))
     return result
 
 
