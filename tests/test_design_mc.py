@@ -84,3 +84,26 @@ def test_thesis_scale_monte_carlo(setup):
     iv_opt, iv_rnd = opt["reference"], rnd["reference"]
     assert iv_opt["frac_param_rmse_below_1_5"] >= 0.92 and iv_opt["frac_sim_rmse_below_0_15"] >= 0.97
     assert iv_rnd["frac_param_rmse_below_1_5"] <= 0.65 and iv_rnd["frac_sim_rmse_below_0_15"] <= 0.75
+
+
+def test_report_gives_both_estimators_beside_the_thesis(setup):
+    """The design report names the estimator, gives the IV figures of the same runs (the thesis's
+    estimator) beside the output-error ones and the thesis's, and the per-parameter spreads of both."""
+    from expdesign.montecarlo import evaluate_designs_parallel
+    from expdesign.report import markdown, report_dict
+
+    p, lib, d = setup
+    ev = evaluate_designs_parallel(p, {"optimized": d, "random": "random"}, runs=6, seed=1, scheduler="inline", progress=False,
+                                   primitives=lib, n_samples=400)
+    doc = report_dict(d, ev)
+    opt = doc["monte_carlo"]["optimized"]
+    assert opt["estimator"] == "oe" and opt["reference"]["estimator"] == "iv"
+    assert opt["reference"]["limiting_parameter"] in p.predictor_param_names and len(opt["reference"]["parameters"]) == 10
+    assert doc["monte_carlo_config"]["estimator"] == "oe"
+    text = markdown(doc, {})
+    assert "| optimized (oe) | 6 |" in text and "| optimized (iv, thesis's estimator) | 6 |" in text
+    assert "| random (iv, thesis's estimator) | 6 |" in text and "iv: spread" in text
+    assert any(c["choice"] == "estimator" and "output error" in c["value"] for c in doc["monte_carlo_config"]["open_choices"])
+    iv = report_dict(d, evaluate_designs_parallel(p, {"optimized": d}, runs=6, seed=1, scheduler="inline", progress=False,
+                                                  primitives=lib, n_samples=400, estimator="iv"))
+    assert "reference" not in iv["monte_carlo"]["optimized"] and "| optimized (iv) | 6 |" in markdown(iv, {})
