@@ -418,8 +418,10 @@ def output_error(
             hess[fresh], grad[fresh] = _gauss_newton_moments(profile, terms, data, cur, theta, fresh, w)
         idx = np.flatnonzero(active & (iters < max_iter))
         step = np.array([_lm_step(hess[b], grad[b], lam[b]) for b in idx]).reshape(-1, p)
+        decrement = np.zeros(len(idx))
         with np.errstate(all="ignore"):
-            decrement = np.sum(step * grad[idx], axis=1)
+            for j in range(p):  # summed in a fixed order, elementwise over the runs: no batch-dependent rounding
+                decrement += step[:, j] * grad[idx, j]
         done = np.isfinite(decrement) & (decrement < tol) & (lam[idx] <= _LM_START)
         converged[idx[done]] = True
         active[idx[done]] = False
