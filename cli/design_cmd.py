@@ -37,6 +37,9 @@ def register(app: typer.Typer) -> None:
                                           "(one sequence, as seed 001's optimized input), given (the shares' order) or random (drawn per run)"),
         mc_settle: int = typer.Option(0, "--mc-settle", help="settling samples between primitives in a continuous experiment"),
         mc_min_block: int = typer.Option(40, "--mc-min-block", help="shortest sub-experiment in samples (shorter shares are dropped or raised)"),
+        mc_estimator: str = typer.Option("oe", "--mc-estimator",
+                                         help="oe (output-error refinement of the IV estimate; the IV figures are reported "
+                                              "beside it) or iv (the thesis's estimator only)"),
         keep_partial: bool = typer.Option(False, "--keep-partial",
                                           help="on Ctrl-C or a lost worker, write the report of the finished runs, marked partial"),
     ) -> None:
@@ -68,7 +71,7 @@ def register(app: typer.Typer) -> None:
                 designs["thesis"] = THESIS_SHARES  # the shares section 9.1.1 reports, for comparison
             ev = evaluate_designs_parallel(profile, designs, runs=monte_carlo, seed=seed, scheduler=scheduler, primitives=lib,
                                            n_samples=mc_samples, mean_subtraction=mean_subtraction, protocol=mc_protocol,
-                                           order=mc_order, settle=mc_settle, min_block=mc_min_block)
+                                           order=mc_order, settle=mc_settle, min_block=mc_min_block, estimator=mc_estimator)
             _echo_speed(ev)
             if not ev.complete and not (keep_partial and ev.results):
                 _fail(ev, "nothing written (--keep-partial writes the finished runs, marked partial)")
@@ -101,7 +104,13 @@ def register(app: typer.Typer) -> None:
             for n, s in doc["monte_carlo"].items():
                 p = "n/a" if s["param_rmse_p50"] is None else f"{s['param_rmse_p50']:.3g} ({100 * s['frac_param_rmse_below_1_5']:.1f} % < 1.5)"
                 typer.echo(f"  MC {n:9s} param RMSE p50 {p}; sim RMSE p50 {_g(s['sim_rmse_p50'])} "
-                           f"({100 * s['frac_sim_rmse_below_0_15']:.1f} % < 0.15); diverged {s['diverged']} of {s['runs']}")
+                           f"({100 * s['frac_sim_rmse_below_0_15']:.1f} % < 0.15); diverged {s['diverged']} of {s['runs']} "
+                           f"[{s['estimator']}]")
+                if s.get("reference"):
+                    r = s["reference"]
+                    rp = "n/a" if r["param_rmse_p50"] is None else f"{100 * r['frac_param_rmse_below_1_5']:.1f} %"
+                    typer.echo(f"     {'':9s} same runs, {r['estimator']} (the thesis's estimator): {rp} < 1.5, "
+                               f"{100 * r['frac_sim_rmse_below_0_15']:.1f} % < 0.15; diverged {r['diverged']}")
         if paths:
             typer.echo(f"wrote {paths['markdown']} and {paths['json']}")
 

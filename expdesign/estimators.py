@@ -1,4 +1,5 @@
-"""Least-squares and instrumental-variable estimators of the block-diagonal predictor (9.2)/(3.60).
+"""Least-squares and instrumental-variable estimators of the block-diagonal predictor (9.2)/(3.60),
+and the output-error refinement of an estimate (:func:`output_error`).
 
 The predictor is ``y(k+1) - y(k) = Phi(k)^T theta`` with one block of regressors per DOF, so each
 DOF is solved on its own (block-diagonal normal equations). The IV estimate of DOF i is
@@ -23,7 +24,8 @@ from expdesign.errors import DesignError
 from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo
 from primitives.regressors import block_mask, instruments, predictor_regressors
 from primitives.ship import ShipProfile
-from primitives.simulate import simulate
+from primitives.simulate import model_signals, simulate
+from primitives.terms import signals_used
 
 
 @dataclass
@@ -203,3 +205,242 @@ def data_information(profile: ShipProfile, segments: Sequence[Segment], instrume
     mask = block_mask(profile.predictor)
     n = phi.shape[0] // max(1, segments[0].batch)
     return PrimitiveInfo(name, n, phi.T @ z / phi.shape[0] * mask, phi.mean(axis=0), z.mean(axis=0), mask)
+
+
+# -- output-error refinement (prediction-error method on the simulated output) ---------------------
+
+_OE_EXPLODE = 1e6  # a simulated output beyond this has exploded: the step is rejected
+_LM_START, _LM_MAX = 1e-3, 1e8  # Levenberg-Marquardt damping: first value, give up above
+
+
+@dataclass
+class OEData:
+    """One experiment (or sub-experiment) of a batch of B runs: inputs (B, N, m), the known
+    start state nu0 (B, 3) and the measured velocities y (B, N+1, 3)."""
+
+    inputs: np.ndarray
+    nu0: np.ndarray
+    y: np.ndarray
+
+
+@dataclass
+class OEResult:
+    """theta (B, p); cost_start / cost (B,) the weighted sum of squared output errors (a
+    chi-square: weights 1/sigma_i^2) at the start estimate and at the result (inf where the start
+    estimate's simulation diverged: theta is then the start, unchanged); iterations (B,)
+    candidate steps tried; converged (B,) stopped on the tolerance (False: iteration limit, or
+    the damping ran out without a better step)."""
+
+    theta: np.ndarray
+    cost_start: np.ndarray
+    cost: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+
+
+def output_error_unsupported(profile: ShipProfile, terms=None) -> str | None:
+    """Why :func:`output_error` cannot refine this model, or None when it can: the sensitivity
+    recursion is written for planar (u, v, r) models whose increments are linear in theta (no
+    rigid-body transform) and do not read the heading."""
+    terms = terms or profile.predictor
+    if profile.n_dof != 3 or terms.n_dof != 3:
+        return "the output-error refinement handles planar (u, v, r) models only"
+    if profile.rigid_body is not None:
+        return "the output-error refinement does not handle rigid-body (physical-force) profiles"
+    if "psi" in signals_used(terms.terms):
+        return "the output-error refinement does not handle terms that read the heading"
+    return None
+
+
+def _simulated(profile: ShipProfile, terms, data: Sequence[OEData], theta: np.ndarray, idx: np.ndarray):
+    """Noise-free outputs of the runs ``idx`` per experiment: [(nu (b, N+1, 3), psi (b, N+1))]."""
+    out = []
+    with np.errstate(all="ignore"):
+        for d in data:
+            res = simulate(profile, d.inputs[idx], theta[idx], terms=terms, nu0=d.nu0[idx], batch=len(idx))
+            out.append((res.nu, res.eta[..., 2]))
+    return out
+
+
+def _mean_squares(data: Sequence[OEData], sims, idx: np.ndarray) -> np.ndarray:
+    """Mean squared output error per DOF (b, 3) of the runs ``idx`` over all experiments
+    (samples 1..N: the start state is known); inf for a run whose simulation exploded. The sums
+    are per run on arrays whose shape does not depend on the batch."""
+    n = sum(d.y.shape[1] - 1 for d in data)
+    ms = np.zeros((len(idx), 3))
+    for a, b in enumerate(idx):
+        if not all(np.isfinite(nu[a]).all() and np.abs(nu[a]).max() < _OE_EXPLODE for nu, _ in sims):
+            ms[a] = np.inf
+            continue
+        for d, (nu, _) in zip(data, sims):
+            e = d.y[b, 1:] - nu[a, 1:]
+            ms[a] += np.sum(e * e, axis=0)
+        ms[a] /= n
+    return ms
+
+
+def _weighted(ms: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Weighted cost per run, sum_i w_i ms_i, written out (no BLAS dot)."""
+    with np.errstate(invalid="ignore"):
+        return ms[:, 0] * w[:, 0] + ms[:, 1] * w[:, 1] + ms[:, 2] * w[:, 2]
+
+
+def _state_jacobian(profile: ShipProfile, terms, nu: np.ndarray, psi: np.ndarray, in_sig: dict, theta: np.ndarray) -> np.ndarray:
+    """d(increment)/d(nu) along the simulated trajectory nu (b, N+1, 3), time-major single
+    precision (N, b, 3, 3): forward differences of the increment function from the trajectory's
+    own increments nu(k+1) - nu(k), for all samples at once (no time loop). The step
+    1e-7 (1 + |nu|) leaves a relative error of about 1e-7 in the Gauss-Newton direction, never in
+    the cost that decides a step."""
+    inc = terms.increment_function()
+    coef = [theta[:, j, None] for j in range(theta.shape[1])]
+    x0 = nu[:, :-1]
+    base = np.diff(nu, axis=1)
+    jac = np.empty(x0.shape[:2] + (3, 3))
+    for col in range(3):
+        h = 1e-7 * (1.0 + np.abs(x0[..., col]))
+        x = x0.copy()
+        x[..., col] += h
+        f = inc(model_signals(profile, x, psi[:, :-1], dict(in_sig)), coef)
+        for i in range(3):
+            jac[..., i, col] = (f[i] - base[..., i]) / h
+    return np.moveaxis(jac, 1, 0).astype(np.float32)
+
+
+def _gauss_newton_moments(profile: ShipProfile, terms, data: Sequence[OEData], sims, theta: np.ndarray, idx: np.ndarray,
+                          w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """H = sum_k S(k)^T W S(k) and g = sum_k S(k)^T W (y(k) - y_hat(k)) per run of ``idx``, with
+    the output sensitivity S(k) = d y_hat(k) / d theta from the recursion
+    S(k+1) = (I + d inc/d nu) S(k) + Phi(k) (block-diagonal (9.2)), S(0) = 0. The recursion is
+    elementwise over the runs (time-major arrays, no allocation per step) and the sums are per
+    run on contiguous copies, so a run's numbers do not depend on which runs share its batch."""
+    p, b = theta.shape[1], len(idx)
+    hess = np.zeros((b, p, p))
+    grad = np.zeros((b, p))
+    mask = block_mask(terms)[[terms.offsets[i] for i in range(3)]].astype(np.float32)  # (3, p): DOF i's columns
+    tmp = np.empty((b, 3, p), np.float32)
+    for d, (nu, psi) in zip(data, sims):
+        inputs = d.inputs[idx]
+        n = inputs.shape[1]
+        in_sig = {k: np.broadcast_to(v, (b, n)) for k, v in profile.generalized_forces(inputs).items()}
+        with np.errstate(all="ignore"):
+            jac = _state_jacobian(profile, terms, nu, psi, in_sig, theta[idx])
+            phi = np.moveaxis(predictor_regressors(profile, nu, inputs, psi, terms=terms)[0], 1, 0).astype(np.float32)
+        # time-major: each step reads and writes contiguous blocks; single precision: the recursion
+        # is the estimator's inner loop (3x faster) and S only steers the step, the cost that
+        # accepts it is computed in double precision
+        sens = np.empty((n + 1, b, 3, p), np.float32)
+        sens[0] = 0.0
+        with np.errstate(all="ignore"):  # an unstable estimate's sensitivities overflow: its step is then rejected
+            for k in range(n):
+                s, out, jk = sens[k], sens[k + 1], jac[k]
+                np.multiply(phi[k][:, None, :], mask, out=out)  # Phi(k) in the rows of its DOF (times 0 or 1: exact)
+                out += s
+                for col in range(3):
+                    np.multiply(jk[:, :, col, None], s[:, None, col, :], out=tmp)
+                    out += tmp
+        for a, r in enumerate(idx):
+            sw = np.sqrt(w[r])
+            # (p, N*3) contiguous copies: the same layout whatever the batch; c_einsum, no BLAS: no
+            # thread-count rounding
+            sk = np.ascontiguousarray((sens[1:, a].astype(np.float64) * sw[None, :, None]).reshape(-1, p).T)
+            e = ((d.y[r, 1:] - nu[a, 1:]) * sw).reshape(-1)
+            with np.errstate(all="ignore"):
+                hess[a] += np.einsum("pk,qk->pq", sk, sk)
+                grad[a] += np.einsum("pk,k->p", sk, e)
+    return hess, grad
+
+
+def _lm_step(hess: np.ndarray, grad: np.ndarray, lam: float) -> np.ndarray:
+    """Levenberg-Marquardt step of one run with Marquardt's diagonal scaling (the parameters
+    differ by four orders of magnitude); NaN when the system is singular."""
+    d = np.sqrt(np.diag(hess))
+    if not (np.isfinite(d).all() and (d > 0).all()):
+        return np.full(len(grad), np.nan)
+    a = hess / np.outer(d, d) + lam * np.eye(len(d))
+    try:
+        return np.linalg.solve(a, grad / d) / d
+    except np.linalg.LinAlgError:
+        return np.full(len(grad), np.nan)
+
+
+def output_error(
+    profile: ShipProfile,
+    data: Sequence[OEData],
+    theta_start: np.ndarray,
+    *,
+    terms=None,
+    max_iter: int = 10,
+    tol: float = 0.01,
+) -> OEResult:
+    """Output-error (prediction-error) estimate started from ``theta_start`` (B, p), e.g. the IV estimate.
+
+    Minimises per run V(theta) = sum_k sum_i w_i (y_i(k) - y_hat_i(k; theta))^2 over the
+    noise-free simulation y_hat of the predictor (9.2) from the known start state, by
+    Levenberg-Marquardt (Gauss-Newton with the output sensitivities, a step taken only when it
+    lowers V). With white measurement noise and a small process disturbance this is the
+    maximum-likelihood estimator (Ljung 1999, section 7.4, the output-error model): the noisy
+    velocities enter only the residual, never the regressors, so it has no errors-in-variables
+    loss, where the IV estimate (2.18) pays for the noise in its regressors with variance.
+
+    The weights w_i = 1/sigma_i^2 come from the start estimate's residuals and stay fixed, so V
+    is a chi-square and the Gauss-Newton matrix H = sum S^T W S approximates the inverse
+    covariance of the estimate. A run stops when the Gauss-Newton step's predicted decrease
+    g^T H^-1 g (the Newton decrement: the step's length in standard errors, squared) is below
+    ``tol`` (0.01: a tenth of a standard error), after ``max_iter`` candidate steps, or when the
+    damping exceeds 1e8 without a better step. A run whose start simulation diverges keeps its
+    start estimate (cost inf). Runs are independent: a run's result does not depend on the batch.
+    """
+    terms = terms or profile.predictor
+    why = output_error_unsupported(profile, terms)
+    if why:
+        raise DesignError(why)
+    theta = np.array(theta_start, float)
+    bsz, p = theta.shape
+    finite = np.flatnonzero(np.isfinite(theta).all(axis=1))
+    ms = np.full((bsz, 3), np.inf)
+    sims = _simulated(profile, terms, data, theta, finite)
+    ms[finite] = _mean_squares(data, sims, finite)
+    ok = np.isfinite(ms).all(axis=1)
+    n = sum(d.y.shape[1] - 1 for d in data)
+    w = np.ones((bsz, 3))
+    w[ok] = 1.0 / np.maximum(ms[ok], 1e-12 * ms[ok].max(axis=1, keepdims=True) + 1e-300)
+    cost = np.where(ok, n * _weighted(np.where(ok[:, None], ms, 0.0), w), np.inf)
+    cost_start = cost.copy()
+    active = ok.copy()
+    iters = np.zeros(bsz, dtype=np.int64)
+    converged = np.zeros(bsz, dtype=bool)
+    lam = np.full(bsz, _LM_START)
+    hess, grad = np.zeros((bsz, p, p)), np.zeros((bsz, p))
+    fresh = np.flatnonzero(active)  # runs whose moments need computing at their current theta
+    cur = [(nu[ok[finite]], psi[ok[finite]]) for nu, psi in sims]
+    while True:
+        if fresh.size:
+            hess[fresh], grad[fresh] = _gauss_newton_moments(profile, terms, data, cur, theta, fresh, w)
+        idx = np.flatnonzero(active & (iters < max_iter))
+        step = np.array([_lm_step(hess[b], grad[b], lam[b]) for b in idx]).reshape(-1, p)
+        decrement = np.zeros(len(idx))
+        with np.errstate(all="ignore"):
+            for j in range(p):  # summed in a fixed order, elementwise over the runs: no batch-dependent rounding
+                decrement += step[:, j] * grad[idx, j]
+        done = np.isfinite(decrement) & (decrement < tol) & (lam[idx] <= _LM_START)
+        converged[idx[done]] = True
+        active[idx[done]] = False
+        idx, step = idx[~done], step[~done]
+        if not idx.size:
+            break
+        cand = theta.copy()
+        cand[idx] += step
+        csims = _simulated(profile, terms, data, cand, idx)
+        cms = _mean_squares(data, csims, idx)
+        good = np.isfinite(step).all(axis=1) & np.isfinite(cms).all(axis=1)
+        ccost = np.where(good, n * _weighted(np.where(good[:, None], cms, 0.0), w[idx]), np.inf)
+        iters[idx] += 1
+        better = ccost < cost[idx]
+        theta[idx[better]], cost[idx[better]] = cand[idx[better]], ccost[better]
+        fresh = idx[better & (iters[idx] < max_iter)]  # no moments for a run that may not step again
+        lam[idx[better]] = np.maximum(lam[idx[better]] / 10.0, 1e-12)
+        rej = idx[~better]
+        lam[rej] *= 10.0
+        active[rej[lam[rej] > _LM_MAX]] = False
+        cur = [(nu[np.isin(idx, fresh)], psi[np.isin(idx, fresh)]) for nu, psi in csims]
+    return OEResult(theta, cost_start, cost, iters, converged)

@@ -32,7 +32,9 @@ class MCResult:
     runs (R,) run indices; theta (R, p) estimates; param_rmse (R,) normalized parameter error (NaN
     when the predictor structure differs from the true model); sim_rmse (R, 3) validation RMSE of
     u, v, r (inf for a diverged run); diverged (R,) bool; requested: runs asked for (R < requested
-    for a partial result); theta0 / param_names: the true parameters the errors refer to.
+    for a partial result); theta0 / param_names: the true parameters the errors refer to;
+    estimator: the estimator of theta ('oe', 'iv'); reference: the same runs' result with the
+    thesis's estimator (IV) when ``estimator`` is another one, else None.
     """
 
     name: str
@@ -45,6 +47,8 @@ class MCResult:
     param_names: list[str] = field(default_factory=list)
     theta0: np.ndarray | None = None
     notes: list[str] = field(default_factory=list)
+    estimator: str = ""
+    reference: MCResult | None = None
 
     @property
     def sim_norm(self) -> np.ndarray:
@@ -59,6 +63,8 @@ class MCResult:
         h = hashlib.sha256()
         for a in (self.runs.astype(np.int64), self.theta, self.param_rmse, self.sim_rmse, self.diverged.astype(np.uint8)):
             h.update(np.ascontiguousarray(a).tobytes())
+        if self.reference is not None:
+            h.update(self.reference.digest().encode())
         return h.hexdigest()
 
     def summary(self, param_threshold: float = PARAM_THRESHOLD, sim_threshold: float = SIM_THRESHOLD) -> dict[str, Any]:
@@ -67,7 +73,8 @@ class MCResult:
         ok = ~self.diverged
         has_p = self.theta0 is not None
         pr, sn = self.param_rmse, self.sim_norm
-        return {
+        out = {
+            "estimator": self.estimator,
             "runs": int(len(self.runs)),
             "runs_requested": int(self.requested),
             "partial": self.partial,
@@ -81,6 +88,9 @@ class MCResult:
             "sim_rmse_dof_p50": {k: _pct(self.sim_rmse[ok, i], 50) for i, k in enumerate("uvr")},
             "digest": self.digest(),
         }
+        if self.reference is not None:
+            out["reference"] = self.reference.summary(param_threshold, sim_threshold)
+        return out
 
     def parameter_table(self, tolerance: float = PARAM_THRESHOLD) -> list[dict[str, Any]]:
         """Per parameter, over the runs that did not diverge: true value, bias and spread (mean
@@ -131,9 +141,13 @@ def merge_results(parts: list[dict[str, MCResult]]) -> dict[str, MCResult]:
             raise ValueError(f"design {name!r}: a run appears in two chunks")
         o = np.argsort(runs, kind="stable")
         r0 = rs[0]
+        refs = [r.reference for r in rs]
+        if any(r is not None for r in refs) and not all(r is not None for r in refs):
+            raise ValueError(f"design {name!r}: some chunks carry a reference estimate and some do not")
         out[name] = MCResult(
             name, runs[o], np.concatenate([r.theta for r in rs])[o], np.concatenate([r.param_rmse for r in rs])[o],
             np.concatenate([r.sim_rmse for r in rs])[o], np.concatenate([r.diverged for r in rs])[o], r0.requested,
-            r0.param_names, r0.theta0, list(dict.fromkeys(n for r in rs for n in r.notes)),
+            r0.param_names, r0.theta0, list(dict.fromkeys(n for r in rs for n in r.notes)), r0.estimator,
+            merge_results([{name: r} for r in refs])[name] if refs[0] is not None else None,
         )
     return out

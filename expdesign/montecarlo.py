@@ -18,10 +18,14 @@ state between blocks (the shares stay those of the primitives; the experiment ge
 state) is kept as an option.
 
 Data come from the true system with the profile's disturbances (model ship: current u_c, v_c ~
-N(0, 0.025) per sample and measurement noise e ~ N(0, 0.025), variances, i.e. std 0.158); the
-parameters from the IV estimator of (9.2) with instruments simulated with the nominal parameters
-(Table 9.1), re-simulated with the latest estimate up to ``iv_iterations`` times, and the design's
-mean subtraction. Metrics: see :mod:`expdesign.mc_result`.
+N(0, 0.025) per sample and measurement noise e ~ N(0, 0.025), variances, i.e. std 0.158). The
+thesis's estimator is the IV estimator of (9.2) with instruments simulated with the nominal
+parameters (Table 9.1), re-simulated with the latest estimate up to ``iv_iterations`` times, and the
+design's mean subtraction (``estimator='iv'``). The default ``estimator='oe'`` refines each run's IV
+estimate by output error (:func:`expdesign.estimators.output_error`, the maximum-likelihood
+estimate for white measurement noise: the IV regressors hold the noisy velocities and lose
+precision to them, most of all Yur) and keeps the IV result of the same runs as the result's
+``reference``. Metrics: see :mod:`expdesign.mc_result`.
 
 Reproducibility: run i draws its order/segments from ``SeedSequence(seed, spawn_key=(i, 0))`` and
 its noise from ``(i, 1)``; the simulation is batched only through elementwise operations and every
@@ -40,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from expdesign.errors import DesignError
+from expdesign.estimators import OEData, output_error, output_error_unsupported
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.rounding import efficient_rounding
 from primitives.information import MEAN_SUBTRACTION
@@ -51,6 +56,7 @@ from primitives.terms import TermSet
 
 PROTOCOLS = ("continuous", "piecewise")
 ORDERS = ("library", "given", "random")
+ESTIMATORS = ("oe", "iv")
 MAX_CHUNK = 500  # runs per batch: bounds memory (about 40 MB per (runs, samples, params) array)
 _Z_LIMIT = 1e6  # instruments above this come from an exploding simulation: keep the previous ones
 _EXPLODE = 100.0  # a validation output this many times the true one's maximum has diverged
@@ -70,6 +76,8 @@ class MCConfig:
     settle: int = 0
     mean_subtraction: str = "complete"
     iv_iterations: int = 3
+    estimator: str = "oe"
+    oe_iterations: int = 10
     validation_seed: int = 0
 
     def check(self) -> None:
@@ -80,10 +88,13 @@ class MCConfig:
             raise DesignError(f"Monte Carlo protocol must be one of {list(PROTOCOLS)}, got {self.protocol!r}")
         if self.order not in ORDERS:
             raise DesignError(f"Monte Carlo primitive order must be one of {list(ORDERS)}, got {self.order!r}")
+        if self.estimator not in ESTIMATORS:
+            raise DesignError(f"Monte Carlo estimator must be one of {list(ESTIMATORS)}, got {self.estimator!r}")
         if self.mean_subtraction not in MEAN_SUBTRACTION:
             raise DesignError(f"mean subtraction must be one of {list(MEAN_SUBTRACTION)}, got {self.mean_subtraction!r}")
-        if self.n_segments < 1 or self.min_block < 2 or self.settle < 0 or self.iv_iterations < 0:
-            raise DesignError("Monte Carlo needs n_segments >= 1, min_block >= 2 samples, settle >= 0, iv_iterations >= 0")
+        if self.n_segments < 1 or self.min_block < 2 or self.settle < 0 or self.iv_iterations < 0 or self.oe_iterations < 1:
+            raise DesignError("Monte Carlo needs n_segments >= 1, min_block >= 2 samples, settle >= 0, iv_iterations >= 0, "
+                              "oe_iterations >= 1")
         if self.n_samples // self.n_segments < self.min_block:
             raise DesignError(f"{self.n_samples} samples in {self.n_segments} random segments is shorter than the minimum "
                               f"sub-experiment of {self.min_block} samples: raise n_samples or lower min_block")
@@ -114,6 +125,7 @@ class MCShared:
     val_nu0: np.ndarray
     val_true: np.ndarray
     notes: dict[str, list[str]] = field(default_factory=dict)
+    oe_unsupported: str | None = None
 
 
 def validation_input(profile: ShipProfile, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -201,6 +213,7 @@ def prepare(profile: ShipProfile, designs: Mapping[str, Any], config: MCConfig, 
         dist=disturbances if disturbances is not None else Disturbances.from_profile(profile), predictor=predictor,
         theta0=theta0, param_names=profile.predictor_param_names, val_inputs=vin, val_nu0=vnu0,
         val_true=simulate(profile, vin, nu0=vnu0).nu[0], notes=notes,
+        oe_unsupported=output_error_unsupported(profile, predictor) if config.estimator == "oe" else None,
     )
 
 
@@ -250,13 +263,15 @@ def _experiment(sh: MCShared, seq: list[tuple[str, int]]) -> tuple[list[tuple[np
 @dataclass
 class _Seg:
     """One segment position of a batch of runs: inputs (B, L, m), nu0 (B, 3), regressors and
-    target from the noisy data (B, L, p) / (B, L, 3), instruments (B, L, p)."""
+    target from the noisy data (B, L, p) / (B, L, 3), instruments (B, L, p), measured
+    velocities (B, L+1, 3)."""
 
     inputs: np.ndarray
     nu0: np.ndarray
     phi: np.ndarray
     tgt: np.ndarray
     z: np.ndarray
+    y: np.ndarray
 
 
 def _noise(d: Disturbances, g: np.random.Generator, n: int, offset: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -283,9 +298,10 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) ->
         env = Disturbances(current_ne=np.concatenate([cur, calm]), wind_ne=np.concatenate([wind, calm]))
         with np.errstate(all="ignore"):
             res = simulate(prof, np.concatenate([inp, inp]), theta, nu0=np.concatenate([nu0, nu0]), disturbances=env, batch=2 * b)
-        phi, tgt = predictor_regressors(prof, res.nu[:b] + meas, inp, res.eta[:b, :, 2] + head, terms=sh.predictor)
+        y = res.nu[:b] + meas
+        phi, tgt = predictor_regressors(prof, y, inp, res.eta[:b, :, 2] + head, terms=sh.predictor)
         z, _ = predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)
-        out.append(_Seg(inp, nu0, phi, tgt, z))
+        out.append(_Seg(inp, nu0, phi, tgt, z, y))
     return out
 
 
@@ -367,27 +383,46 @@ def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rmse, diverged
 
 
-def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
-    """Runs ``run_ids`` of one design; each run's numbers depend only on (seed, run index)."""
-    cfg = sh.config
-    ids = [int(i) for i in run_ids]
-    layouts = [_experiment(sh, _sequence(sh, design, _run_rng(cfg.seed, i, 0))) for i in ids]
-    segs = _simulate_data(sh, [lay[0] for lay in layouts], [_run_rng(cfg.seed, i, 1) for i in ids])
-    theta = _estimate(sh, segs, [lay[1] for lay in layouts])
-    sim_rmse, diverged = _validate(sh, theta)
+def _scored(sh: MCShared, design: str, ids: list[int], theta: np.ndarray, estimator: str, notes: list[str],
+            validation: tuple[np.ndarray, np.ndarray] | None = None) -> MCResult:
+    """Validation and parameter errors of the estimates ``theta`` of runs ``ids`` (``validation``:
+    their :func:`_validate` result when already computed)."""
+    sim_rmse, diverged = _validate(sh, theta) if validation is None else validation
     prm = np.full(len(ids), np.nan)
     if sh.theta0 is not None:
         for i in range(len(ids)):
             with np.errstate(all="ignore"):
                 e = (theta[i] - sh.theta0) / np.abs(sh.theta0)
                 prm[i] = np.sqrt(np.mean(e * e)) if np.isfinite(e).all() else np.inf
+    return MCResult(design, np.array(ids, dtype=np.int64), theta, prm, sim_rmse, diverged, sh.config.runs,
+                    sh.param_names, sh.theta0, notes, estimator)
+
+
+def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
+    """Runs ``run_ids`` of one design; each run's numbers depend only on (seed, run index). With
+    the output-error estimator the IV estimate it starts from (the thesis's estimator) is scored
+    too, as the result's ``reference``."""
+    cfg = sh.config
+    ids = [int(i) for i in run_ids]
+    layouts = [_experiment(sh, _sequence(sh, design, _run_rng(cfg.seed, i, 0))) for i in ids]
+    segs = _simulate_data(sh, [lay[0] for lay in layouts], [_run_rng(cfg.seed, i, 1) for i in ids])
+    theta = _estimate(sh, segs, [lay[1] for lay in layouts])
     notes = list(sh.notes.get(design, []))
     if sh.theta0 is None:
         notes.append("predictor structure differs from the true model: parameter error not defined")
     if any(sh.dist.process_std):
         notes.append("process noise of the disturbances is not simulated in the Monte Carlo study")
-    return MCResult(design, np.array(ids, dtype=np.int64), theta, prm, sim_rmse, diverged, cfg.runs,
-                    sh.param_names, sh.theta0, notes)
+    if cfg.estimator == "iv":
+        return _scored(sh, design, ids, theta, "iv", notes)
+    if sh.oe_unsupported:
+        return _scored(sh, design, ids, theta, "iv", notes + [f"{sh.oe_unsupported}: the IV estimate is reported unrefined"])
+    oe = output_error(sh.profile, [OEData(s.inputs, s.nu0, s.y) for s in segs], theta, terms=sh.predictor,
+                      max_iter=cfg.oe_iterations)
+    b = len(ids)
+    val = _validate(sh, np.concatenate([oe.theta, theta]))  # one simulation loop for both; elementwise, so no change
+    result = _scored(sh, design, ids, oe.theta, "oe", notes, (val[0][:b], val[1][:b]))
+    result.reference = _scored(sh, design, ids, theta, "iv", list(notes), (val[0][b:], val[1][b:]))
+    return result
 
 
 # -- entry points ---------------------------------------------------------------------------------
@@ -409,7 +444,7 @@ def evaluate_designs(
 
     ``designs`` maps a label to fractions {primitive: w}, to an object with ``.weights``, or to
     "random". ``protocol`` takes the other :class:`MCConfig` fields (n_samples, n_segments,
-    protocol, min_block, settle, mean_subtraction, iv_iterations, validation_seed).
+    protocol, order, min_block, settle, mean_subtraction, iv_iterations, estimator, oe_iterations, validation_seed).
     ``run_slice=(a, b)`` evaluates runs a..b-1 only; chunks joined with :func:`merge_results`
     are bit-identical to one call over all runs.
     """

@@ -42,10 +42,23 @@ def mc_section(mc: MCEvaluation) -> dict[str, Any]:
     per-parameter table (bias, spread, fraction within tolerance)."""
     out = {}
     for k, r in mc.results.items():
-        table = r.parameter_table()
-        worst = min(table, key=lambda row: row["frac_within_tolerance"]) if table else None
-        out[k] = {**r.summary(), "parameters": table, "limiting_parameter": worst["parameter"] if worst else None}
+        out[k] = {**r.summary(), **_parameters(r)}
+        if r.reference is not None:
+            out[k]["reference"].update(_parameters(r.reference))
     return out
+
+
+def _parameters(r: MCResult) -> dict[str, Any]:
+    table = r.parameter_table()
+    worst = min(table, key=lambda row: row["frac_within_tolerance"]) if table else None
+    return {"parameters": table, "limiting_parameter": worst["parameter"] if worst else None}
+
+
+ESTIMATOR_TEXT = {
+    "iv": "IV (the thesis's estimator, section 9.1.2)",
+    "oe": "output error: each run's IV estimate refined by Levenberg-Marquardt on the simulated output (maximum "
+          "likelihood for white measurement noise); the IV figures of the same runs are given beside",
+}
 
 
 def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
@@ -84,6 +97,11 @@ def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
         {"choice": "experiment length", "value": f"{cfg.n_samples} samples; random design {cfg.n_segments} segments of "
          f"{cfg.n_samples // cfg.n_segments}"},
         {"choice": "noise", "value": noise},
+        {"choice": "estimator", "value": ESTIMATOR_TEXT[cfg.estimator] + (
+            f" (at most {cfg.oe_iterations} steps per run, stopped when the next step is shorter than 0.1 standard error). "
+            "The thesis's estimator is the IV one (l. 12502-12531); its regressors hold the noisy velocities (errors in "
+            "variables, section 2.4), which costs the IV estimate variance, most for Yur (sway noise std 0.158 against sway "
+            "of at most 0.2 m/s)" if cfg.estimator == "oe" else "")},
         {"choice": "IV instruments", "value": f"simulated with the profile's instrument set (model ship: Table 9.1 nominal, "
          f"seed 001 l. 12502-12531), then re-simulated with the estimate up to {cfg.iv_iterations} times (per run, until the "
          f"estimate changes < 0.1 %: the refinement of the thesis's simulation studies, l. 3726-3728 and 8825-8827; its "
@@ -258,13 +276,24 @@ def _md_cell(text: str) -> str:
     return text.replace("|", r"\|")
 
 
+def _limiting(s: dict[str, Any], tol: float) -> str:
+    worst = next(p for p in s["parameters"] if p["parameter"] == s["limiting_parameter"])
+    return (f"{s['estimator']} {_md_cell(worst['parameter'])} ({_pc(worst['frac_within_tolerance'])} of the runs within {tol}, "
+            f"spread {_f(worst['spread'])})")
+
+
 def _pc(x: float | None) -> str:
     return "n/a" if x is None else f"{100 * x:.1f} %"
 
 
 def _ours_vs_thesis(mc: dict[str, Any], kind: str) -> str:
     key = "frac_param_rmse_below_1_5" if kind == "param" else "frac_sim_rmse_below_0_15"
-    parts = [f"{n} thesis {_pc(THESIS_FRACTIONS[n][kind])}, ours {_pc(mc[n][key])}" for n in THESIS_FRACTIONS if n in mc]
+    parts = []
+    for n in THESIS_FRACTIONS:
+        if n in mc:
+            ref = mc[n].get("reference")
+            parts.append(f"{n} thesis {_pc(THESIS_FRACTIONS[n][kind])}, ours {_pc(mc[n][key])} ({mc[n]['estimator']})"
+                         + (f", {_pc(ref[key])} ({ref['estimator']})" if ref else ""))
     return "; ".join(parts)
 
 
@@ -281,15 +310,20 @@ def mc_markdown(doc: dict[str, Any], figures: dict[str, str]) -> list[str]:
                   + ". Every number below counts the finished runs only.", ""]
     lines += [f"Protocol **{cfg['protocol']}**; {cfg['runs_requested']} runs requested per design, {cfg['n_samples']} samples "
               f"({cfg['n_samples'] * cfg['sample_time']:.0f} s) per experiment, seed {cfg['seed']}, disturbances from the profile, "
-              f"mean subtraction {cfg['mean_subtraction']}. Random design: 1 of the primitives for each of {cfg['n_segments']} "
+              f"mean subtraction {cfg['mean_subtraction']}, estimator {cfg.get('estimator', 'iv')}. Random design: 1 of the primitives for each of {cfg['n_segments']} "
               f"segments. Computed on {eng['name']} ({eng['workers']} workers x {eng['threads_per_worker']} threads, "
               f"{eng['tasks']} tasks) in {cfg['elapsed_s']:.1f} s ({cfg['runs_per_s']:.0f} runs/s).", "",
               "| design | runs | diverged | param RMSE p50 | param RMSE < 1.5 | thesis | sim RMSE p50 | sim RMSE < 0.15 | thesis |",
               "|---|---|---|---|---|---|---|---|---|"]
     for n, s in mc.items():
         th = THESIS_FRACTIONS.get(n, {})
-        lines.append(f"| {n} | {s['runs']} | {s['diverged']} | {_f(s['param_rmse_p50'])} | {_pc(s['frac_param_rmse_below_1_5'])} | "
-                     f"{_pc(th.get('param'))} | {_f(s['sim_rmse_p50'])} | {_pc(s['frac_sim_rmse_below_0_15'])} | {_pc(th.get('sim'))} |")
+        rows = [(f"{n} ({s['estimator']})", s)]
+        if s.get("reference"):
+            rows.append((f"{n} ({s['reference']['estimator']}, thesis's estimator)", s["reference"]))
+        for label, x in rows:
+            lines.append(f"| {label} | {x['runs']} | {x['diverged']} | {_f(x['param_rmse_p50'])} | "
+                             f"{_pc(x['frac_param_rmse_below_1_5'])} | {_pc(th.get('param'))} | {_f(x['sim_rmse_p50'])} | "
+                             f"{_pc(x['frac_sim_rmse_below_0_15'])} | {_pc(th.get('sim'))} |")
     lines += ["", "Percentiles are over the runs that did not diverge; a diverged run (estimate not finite or its validation "
               "simulation exploding) counts as above both thresholds. Thesis column: section 9.1.2 (500 runs); the thresholds "
               "1.5 and 0.15 are the thesis's model-ship ones, for other ships compare the medians."]
@@ -298,14 +332,17 @@ def mc_markdown(doc: dict[str, Any], figures: dict[str, str]) -> list[str]:
     for n, s in mc.items():
         if s.get("parameters"):
             tol = s["parameters"][0]["tolerance"]
-            lines += ["", f"### Parameters, {n} design (normalized error (estimate - true)/|true|)", "",
-                      f"| parameter | true | bias | spread (std) | median abs error | within {tol} |", "|---|---|---|---|---|---|"]
+            lines += ["", f"### Parameters, {n} design, {s['estimator']} (normalized error (estimate - true)/|true|)", "",
+                      f"| parameter | true | bias | spread (std) | median abs error | within {tol} |"
+                      + (f" {s['reference']['estimator']}: spread | within {tol} |" if s.get("reference") else ""),
+                      "|---|---|---|---|---|---|" + ("---|---|" if s.get("reference") else "")]
+            ref = {p["parameter"]: p for p in (s.get("reference") or {}).get("parameters", [])}
             for p in s["parameters"]:
+                r = ref.get(p["parameter"])
                 lines.append(f"| {_md_cell(p['parameter'])} | {p['true']:.3g} | {_f(p['bias'])} | {_f(p['spread'])} | "
-                             f"{_f(p['median_abs_error'])} | {_pc(p['frac_within_tolerance'])} |")
-            worst = next(p for p in s["parameters"] if p["parameter"] == s["limiting_parameter"])
-            lines += ["", f"Limiting parameter: {_md_cell(worst['parameter'])} ({_pc(worst['frac_within_tolerance'])} of the runs "
-                      f"within {tol}, spread {_f(worst['spread'])})."]
+                             f"{_f(p['median_abs_error'])} | {_pc(p['frac_within_tolerance'])} |"
+                             + (f" {_f(r['spread'])} | {_pc(r['frac_within_tolerance'])} |" if r else ""))
+            lines += ["", "Limiting parameter: " + "; ".join(_limiting(x, tol) for x in (s, s.get("reference")) if x) + "."]
     lines += ["", "### Choices seed 001 leaves open, and the values used", ""]
     lines += [f"- {c['choice']}: {c['value']}" for c in cfg["open_choices"]]
     caps = {"param": ("Normalized parameter RMSE (Fig. 9.1)", _ours_vs_thesis(mc, "param") + " (share below 1.5)"),

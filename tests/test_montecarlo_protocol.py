@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from expdesign.errors import DesignError
-from expdesign.mc_result import MCResult
+from expdesign.mc_result import MCResult, merge_results
 from expdesign.montecarlo import MCConfig, _experiment, _run_rng, _sequence, block_lengths, prepare
 from primitives.library import model_ship_thesis
 from primitives.ship import load_profile
@@ -97,6 +97,14 @@ def test_diverged_runs_are_counted_not_put_in_the_percentiles():
     table = r.parameter_table()
     assert [t["parameter"] for t in table] == ["a", "b"]
     assert table[1]["bias"] == pytest.approx(0.25) and table[1]["frac_within_tolerance"] == 0.5
+    # a reference estimate of the same runs is summarised beside, merged with its chunks, in the digest
+    halves = [MCResult("x", np.arange(4)[s], theta[s], prm[s], sim[s], r.diverged[s], 5, ["a", "b"], theta0, [], "oe",
+                       MCResult("x", np.arange(4)[s], theta[s], prm[s], sim[s], r.diverged[s], 5, ["a", "b"], theta0, [], "iv"))
+              for s in (slice(2, 4), slice(0, 2))]
+    merged = merge_results([{"x": h} for h in halves])["x"]
+    assert merged.reference.estimator == "iv" and np.array_equal(merged.reference.runs, np.arange(4))
+    s2 = merged.summary()
+    assert s2["estimator"] == "oe" and s2["reference"]["frac_sim_rmse_below_0_15"] == 0.25 and s2["digest"] != s["digest"]
 
 
 def test_bad_protocol_settings_name_the_setting(ship):
@@ -109,3 +117,7 @@ def test_bad_protocol_settings_name_the_setting(ship):
         prepare(p, {"x": {"tau42": 1.0}}, MCConfig(), lib)
     with pytest.raises(DesignError, match="'random'"):
         prepare(p, {"x": "best"}, MCConfig(), lib)
+    with pytest.raises(DesignError, match="estimator must be one of"):
+        prepare(p, {"x": DESIGN}, MCConfig(estimator="ml"), lib)
+    with pytest.raises(DesignError, match="oe_iterations"):
+        prepare(p, {"x": DESIGN}, MCConfig(oe_iterations=0), lib)
