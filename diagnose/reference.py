@@ -36,16 +36,23 @@ def structure_terms(profile: ShipProfile) -> tuple[tuple[str, ...], ...]:
     return surge, lateral, lateral
 
 
-def extend(profile: ShipProfile) -> tuple[ShipProfile, list[str]]:
+def declared_structure(profile: ShipProfile) -> tuple[tuple[str, ...], ...] | None:
+    """The structure the profile's [diagnosis] table declares for a --fit-on refit, if any."""
+    return profile.structure_terms
+
+
+def extend(profile: ShipProfile, declared: bool = False) -> tuple[ShipProfile, list[str]]:
     """The profile with the structure terms it lacks appended (coefficients 0), and their
-    names ("<dof>:<term>")."""
+    names ("<dof>:<term>"): the profile's declared [diagnosis] structure with ``declared``,
+    else the generic hull and actuator terms of :func:`structure_terms`."""
     terms, names, added = [], [], []
     theta = profile.params()
     vals = []
-    for i, (have, want) in enumerate(zip(profile.model_terms, structure_terms(profile))):
+    want_all = declared_structure(profile) if declared else None
+    for i, (have, want) in enumerate(zip(profile.model_terms, want_all or structure_terms(profile))):
         canon = {canonical_term(t) for t in have}
-        extra = [t for t in want if canonical_term(t) not in canon and set(t.replace("|", "").replace("^", "*").split("*"))
-                 - {str(k) for k in range(10)} <= {"u_r", "v_r", "r", *profile.inputs}]
+        extra = [t for t in want if canonical_term(t) not in canon and (want_all is not None or set(
+            t.replace("|", "").replace("^", "*").split("*")) - {str(k) for k in range(10)} <= {"u_r", "v_r", "r", *profile.inputs})]
         terms.append(tuple(have) + tuple(extra))
         names.append(tuple(profile.parameter_names[i]) + tuple(f"S{'xyn'[i]}[{t}]" for t in extra))
         vals.append(np.concatenate([theta[profile.model.dof_slice(i)], np.zeros(len(extra))]))
@@ -54,7 +61,8 @@ def extend(profile: ShipProfile) -> tuple[ShipProfile, list[str]]:
         return profile, []
     sets = {profile.simulation_set: np.concatenate(vals)}
     return dataclasses.replace(profile, model_terms=tuple(terms), parameter_names=tuple(names), parameter_sets=sets,
-                               predictor_terms=None, predictor_names=None), added
+                               simulation_set=profile.simulation_set, instrument_set=profile.simulation_set,
+                               predictor_terms=None, predictor_names=None, structure_terms=None), added
 
 
 class ReferencedModel(AugmentedModel):
