@@ -6,9 +6,12 @@ misfit up. With ``--fit-on`` runs of the ship as it was made (no current, no win
 the diagnosis can separate the two, following the multi-experiment form of output-error
 identification (seed 004: one model, experiment-specific disturbance parameters):
 
-- the baseline is *extended* by hull and rudder terms its structure may lack (speed loss in
-  turns v r, cross-flow drag v|v| and r|r|, rudder force growing with inflow speed delta u^2
-  and slipstream delta n^2 - the nonlinear terms of the MMG and Abkowitz models);
+- the baseline is *extended* by hull and rudder terms its structure may lack: the structure its
+  profile declares in a [diagnosis] table (``declared_structure``; e.g. kvlcc2's MMG-shaped hull,
+  propeller and rudder terms, fitted on the --fit-on runs alone by ``diagnose.api.fit_structure``)
+  or, for the experimental joint fit, generic ones (speed loss in turns v r, cross-flow drag
+  v|v| and r|r|, rudder force growing with inflow speed delta u^2 and slipstream delta n^2 - the
+  nonlinear terms of the MMG and Abkowitz models);
 - the baseline is refitted jointly on the reference runs and the diagnosed runs, with every
   candidate's slots switched OFF on the reference runs: a candidate can only explain what
   differs between the runs with the condition and the runs without it, so the structural

@@ -51,9 +51,10 @@ def test_factors_that_make_no_sense_are_refused(term, msg):
 def test_kernel_and_diagnosis_model_simulate_speed_terms_alike():
     """One kernel: a model with U and station terms simulated by primitives.simulate and by the
     diagnosis's AugmentedModel gives the same numbers."""
-    prof = load_profile("kvlcc2-linear")
+    prof = load_profile("kvlcc2")
     ext, th, added = api._extended(prof, prof.params(), declared=True)
-    assert len(added) == sum(len(t) for t in prof.structure_terms)
+    assert added == [f"{dof}:{t}" for dof, want, have in zip(("surge", "sway", "yaw"), prof.structure_terms, prof.model_terms)
+                     for t in want if t not in have]  # the profile's own terms (surge v_r*r) are not doubled
     th = th.copy()
     th[th == 0] = 1e-7  # every structure term acts (small: the run stays physical)
     k = np.arange(400)
@@ -67,7 +68,7 @@ def test_kernel_and_diagnosis_model_simulate_speed_terms_alike():
 
 
 def test_diagnosis_table_round_trips_and_bad_fields_are_named():
-    prof = load_profile("kvlcc2-linear")
+    prof = load_profile("kvlcc2")
     assert prof.structure_terms and prof.structure_prior == 0.01
     again = profile_from_dict(prof.to_dict())
     assert again.structure_terms == prof.structure_terms and again.structure_prior == prof.structure_prior
@@ -105,24 +106,24 @@ def mmg_runs():
 
 
 def test_declared_structure_fitted_on_a_calm_run_simulates_another_zigzag_near_the_noise(mmg_runs):
-    """MMG KVLCC2 (test-side physics): fitted on a noisy 15/15 zig-zag, the profile's own linear
-    structure misses a 10/10 zig-zag to the other side by 26/16/5 noise units (surge/sway/yaw,
-    RMS); the declared structure by 3.7/1.8/0.6 (seed 11)."""
+    """MMG KVLCC2 (test-side physics): fitted on a noisy 15/15 zig-zag, the kvlcc2 profile's own
+    structure misses a 10/10 zig-zag to the other side by 9.0/10.4/3.3 noise units (surge/sway/
+    yaw, RMS); with its declared structure by 3.0/4.3/1.1 (seed 11)."""
     calm, diag, truth = mmg_runs
-    prof = load_profile("kvlcc2-linear")
+    prof = load_profile("kvlcc2")
     th_own, note = api.fit_baseline(prof, prof.params(), calm)
     assert not note
     ext, th_ext, source, notes, rejected = api.fit_structure(prof, prof.params(), calm, diag)
     assert ext is not prof and not rejected and not notes and "[diagnosis]" in source
     before, after = _sim_error(prof, th_own, diag[0], truth[0]), _sim_error(ext, th_ext, diag[0], truth[0])
     assert np.all(np.isfinite(after))
-    assert before[1] > 10 and before[2] > 3.5, before  # the gap the structure closes
-    assert after[1] < 5 and after[2] < 2.5 and after[0] < 0.5 * before[0], (before, after)
+    assert before[1] > 8 and before[2] > 2.5, before  # the gap the structure closes
+    assert np.all(after < 0.6 * before) and after[2] < 2.0, (before, after)
 
 
 def test_structure_that_fits_the_diagnosed_runs_worse_is_not_used(mmg_runs, monkeypatch):
     calm, diag, _ = mmg_runs
-    prof = load_profile("kvlcc2-linear")
+    prof = load_profile("kvlcc2")
     real = api._misfit
     monkeypatch.setattr(api, "_misfit", lambda p, th, recs: real(p, th, recs) if p is prof else float("inf"))
     got, theta, _source, notes, rejected = api.fit_structure(prof, prof.params(), calm, diag)
