@@ -208,14 +208,13 @@ def run(
             theta0, note = fit_baseline(profile, theta0, list(fit_on) + list(recordings))
             source = ("fitted jointly on the reference run(s) " + ", ".join(r.source for r in fit_on) + " and the diagnosed "
                       "runs" + (f", structure extended by {', '.join(added)}" if added else ""))
+            fit_notes, rejected = [note] if note else [], bool(note)
         else:
             n_own = [len(t) for t in profile.model_terms]
             profile, theta0, source, fit_notes, rejected = fit_structure(profile, theta0, fit_on, list(recordings))
             own = [j for i in range(3) for j in range(profile.model.offsets[i], profile.model.offsets[i] + n_own[i])]
-            note = fit_notes[0] if rejected else ""
-            notes += fit_notes if not rejected else []
-        source += " (rejected)" if note else ""
-        notes += [note] if note else []
+        source += " (rejected)" if rejected else ""
+        notes += fit_notes
     cands, untestable = build_library(profile, recordings)
     preps = [prepare(profile, r, i) for i, r in enumerate(recordings)]
     val_preps = [prepare(profile, r) for r in validate] if validate else []
