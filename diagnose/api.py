@@ -75,10 +75,10 @@ def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]
                  new: list[int] | None = None, new_prior: float = 0.01) -> tuple[np.ndarray, str]:
     """Output-error fit of the baseline parameters on the --fit-on recordings, each kept within
     a factor 2 of the profile and its sign (damping stays dissipative), regularised towards it.
-    With structure terms ``new`` (value 0, :func:`diagnose.reference.extend`) the profile's
-    parameters keep their sign only, and the new ones are held towards zero by a Gaussian prior
-    of std ``new_prior`` x :func:`term_scales` (a ridge: one calm run does not determine a rich
-    structure, and an unregularised fit of it extrapolates badly).
+    Structure terms ``new`` (value 0, :func:`diagnose.reference.extend`) are held towards zero
+    by a Gaussian prior of std ``new_prior`` x :func:`term_scales` (a ridge: one calm run does
+    not determine a rich structure, and an unregularised fit of it extrapolates badly; the
+    profile's own parameters, held as above, carry what other runs taught them).
     Returns (theta, note); a refit that diverges is rejected and the profile kept."""
     preps = [prepare(profile, r, i) for i, r in enumerate(recs)]
     model = AugmentedModel(profile, theta0, [], n_rec=len(preps))
@@ -88,14 +88,9 @@ def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]
     r0 = np.concatenate([(p.y[1:] - model.simulate(p, P0)[0][1:]) * w for p in preps]).ravel()
     level = np.sqrt(np.mean(r0**2)) if np.all(np.isfinite(r0)) else 1.0
     sd = prior_sd(P0, idx, level, model.n_params)
-    bounds = base_bounds(P0, idx, model)
     if new:
-        # a richer structure changes what the profile's own coefficients stand for (part of
-        # u_r*v_r becomes v_r^3/U, ...): they keep their sign only (damping stays dissipative)
-        sd[idx] = np.inf
         sd[new] = new_prior * term_scales(profile, recs)[new]
-        bounds = {j: b if j in new else (0.0, np.inf) if P0[j] > 0 else (-np.inf, 0.0) for j, b in bounds.items()}
-    P, _cov, rss = fit(model, preps, P0, idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=bounds,
+    P, _cov, rss = fit(model, preps, P0, idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=base_bounds(P0, idx, model),
                        prior=(P0, sd))
     if not np.isfinite(rss):
         return theta0, "the baseline refit on the --fit-on runs diverged: rejected, the profile's parameters are used"

@@ -69,7 +69,7 @@ def test_kernel_and_diagnosis_model_simulate_speed_terms_alike():
 
 def test_diagnosis_table_round_trips_and_bad_fields_are_named():
     prof = load_profile("kvlcc2")
-    assert prof.structure_terms and prof.structure_prior == 0.01
+    assert prof.structure_terms and prof.structure_prior == 0.001
     again = profile_from_dict(prof.to_dict())
     assert again.structure_terms == prof.structure_terms and again.structure_prior == prof.structure_prior
     d = prof.to_dict()
@@ -108,7 +108,7 @@ def mmg_runs():
 def test_declared_structure_fitted_on_a_calm_run_simulates_another_zigzag_near_the_noise(mmg_runs):
     """MMG KVLCC2 (test-side physics): fitted on a noisy 15/15 zig-zag, the kvlcc2 profile's own
     structure misses a 10/10 zig-zag to the other side by 9.0/10.4/3.3 noise units (surge/sway/
-    yaw, RMS); with its declared structure by 3.0/4.3/1.1 (seed 11)."""
+    yaw, RMS); with its declared structure by 4.7/2.5/0.8 (seed 11)."""
     calm, diag, truth = mmg_runs
     prof = load_profile("kvlcc2")
     th_own, note = api.fit_baseline(prof, prof.params(), calm)
@@ -118,7 +118,7 @@ def test_declared_structure_fitted_on_a_calm_run_simulates_another_zigzag_near_t
     before, after = _sim_error(prof, th_own, diag[0], truth[0]), _sim_error(ext, th_ext, diag[0], truth[0])
     assert np.all(np.isfinite(after))
     assert before[1] > 8 and before[2] > 2.5, before  # the gap the structure closes
-    assert np.all(after < 0.6 * before) and after[2] < 2.0, (before, after)
+    assert after[0] < 0.7 * before[0] and np.all(after[1:] < 0.4 * before[1:]) and after[1] < 4 and after[2] < 1.5, (before, after)
 
 
 def test_structure_that_fits_the_diagnosed_runs_worse_is_not_used(mmg_runs, monkeypatch):
