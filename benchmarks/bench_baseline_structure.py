@@ -9,7 +9,7 @@ recorded, or noise-free with ``--clean``) and scored by open-loop simulation aga
 noise-free truth of every run (calm, the three diagnosed and the two held-out ones), from the
 true initial state: a figure near 1 means the model error is at the noise level.
 
-    python -m benchmarks.bench_baseline_structure [--cases control,model-control] [--clean] [--ship kvlcc2-linear]
+    python -m benchmarks.bench_baseline_structure [--cases control,model-control] [--clean] [--ship kvlcc2]
 """
 
 from __future__ import annotations
@@ -49,8 +49,10 @@ def sim_error(profile, theta, rec: Recording, truth: Recording) -> np.ndarray:
 
 def run_case(name: str, ship: str, clean: bool) -> list[dict]:
     c = case(name)
-    g = generate(c)
     prof = load_profile(ship)
+    if not prof.structure_terms:
+        raise SystemExit(f"ship {ship!r} declares no [diagnosis] structure: nothing to compare")
+    g = generate(c)
     lab = [r.manoeuvre.label for r in g.calm + g.diagnose + g.validate]
     roles = ["calm"] * len(g.calm) + ["diagnose"] * len(g.diagnose) + ["validate"] * len(g.validate)
     runs = g.calm + g.diagnose + g.validate
@@ -65,7 +67,7 @@ def run_case(name: str, ship: str, clean: bool) -> list[dict]:
     t2 = time.process_time()
     if ext is prof:  # the structure was not kept: show what it would have given anyway
         ext, th0, _ = _extended(prof, prof.params(), declared=True)
-        new = [j for j in range(ext.model.n_params) if j not in ext.model.offsets and th0[j] == 0]
+        new = [j for i in range(3) for j in range(ext.model.offsets[i] + len(prof.model_terms[i]), ext.model.offsets[i + 1])]
         th_ext, _ = fit_baseline(ext, th0, calm, new, prof.structure_prior)
     rows = []
     for role, lb, rec, tr in zip(roles, lab, noisy, truth):
@@ -80,7 +82,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", default="control,control-ar1,model-control")
     ap.add_argument("--clean", action="store_true", help="fit on the noise-free calm run")
-    ap.add_argument("--ship", default="kvlcc2-linear")
+    ap.add_argument("--ship", default="kvlcc2", help="a profile with a [diagnosis] structure")
     a = ap.parse_args(argv)
     out = []
     print(f"simulation error / noise (u, v, r), baseline fitted on the {'noise-free' if a.clean else 'noisy'} calm run; "
