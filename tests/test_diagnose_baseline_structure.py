@@ -129,3 +129,26 @@ def test_structure_that_fits_the_diagnosed_runs_worse_is_not_used(mmg_runs, monk
     got, theta, _source, notes, rejected = api.fit_structure(prof, prof.params(), calm, diag)
     assert got is prof and len(theta) == prof.model.n_params and not rejected
     assert len(notes) == 1 and "[diagnosis] structure" in notes[0] and "not used" in notes[0] and "diverges" in notes[0]
+
+
+@pytest.mark.slow
+def test_diagnosis_with_the_structure_exports_the_scored_model(tmp_path):
+    """The MMG control case diagnosed against kvlcc2 with --fit-on: the declared structure is
+    used, and model.json (with its U and station terms) reproduces the per-run held-out fits."""
+    from diagnose.model import fit_percent
+    from diagnose.model_file import load_model
+    from diagnose.recording import load_recording
+    from diagnose.recording_checks import conform
+    from diagnose.report import write_all
+    from tests.physics.mmg_battery import case, generate, write_case
+
+    prof = load_profile("kvlcc2")
+    paths = write_case(generate(case("control")), tmp_path / "case")
+    load = lambda role: conform([r for p in paths[role] for r in load_recording(p)], prof)  # noqa: E731
+    d = api.run(load("diagnose"), prof, fit_on=load("calm"), validate=load("validate"))
+    assert "[diagnosis] terms" in d.baseline_source and d.model.n_base > prof.model.n_params
+    write_all(d, tmp_path / "out")
+    model, P = load_model(tmp_path / "out" / "model.json")
+    for rec, row in zip(load("validate"), d.per_run):
+        got = fit_percent(rec.y, model.simulate(prepare(model.profile, rec), P)[0])
+        np.testing.assert_allclose(got, [row["after"][k] for k in ("surge", "sway", "yaw")], atol=1e-6)
