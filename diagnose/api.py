@@ -14,9 +14,10 @@ from diagnose.heldout import RUN_RISE, Parts, fit_pct, grams, heldout_rss, insam
 from diagnose.locate import locate
 from diagnose.model import AugmentedModel, Prepared, diverges, fit, fit_percent, noise_std, noise_std_coloured, prepare
 from diagnose.recording import Recording, RecordingError
-from diagnose.reference import ReferencedModel, extend
+from diagnose.reference import ReferencedModel, declared_structure, extend
 from diagnose.search import MUCH_WORSE, base_bounds, prior_sd, select
 from primitives.ship import DOFS, ShipProfile
+from primitives.simulate import relative_signals
 
 
 @dataclass
@@ -70,9 +71,14 @@ def _noise_scale(y: np.ndarray) -> np.ndarray:
     return np.maximum(noise_std(y), 0.02 * np.std(y, axis=0))
 
 
-def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]) -> tuple[np.ndarray, str]:
+def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording],
+                 new: list[int] | None = None, new_prior: float = 0.01) -> tuple[np.ndarray, str]:
     """Output-error fit of the baseline parameters on the --fit-on recordings, each kept within
     a factor 2 of the profile and its sign (damping stays dissipative), regularised towards it.
+    Structure terms ``new`` (value 0, :func:`diagnose.reference.extend`) are held towards zero
+    by a Gaussian prior of std ``new_prior`` x :func:`term_scales` (a ridge: one calm run does
+    not determine a rich structure, and an unregularised fit of it extrapolates badly; the
+    profile's own parameters, held as above, carry what other runs taught them).
     Returns (theta, note); a refit that diverges is rejected and the profile kept."""
     preps = [prepare(profile, r, i) for i, r in enumerate(recs)]
     model = AugmentedModel(profile, theta0, [], n_rec=len(preps))
@@ -81,23 +87,75 @@ def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]
     P0 = model.p0()
     r0 = np.concatenate([(p.y[1:] - model.simulate(p, P0)[0][1:]) * w for p in preps]).ravel()
     level = np.sqrt(np.mean(r0**2)) if np.all(np.isfinite(r0)) else 1.0
-    prior = (P0, prior_sd(P0, idx, level, model.n_params))
+    sd = prior_sd(P0, idx, level, model.n_params)
+    if new:
+        sd[new] = new_prior * term_scales(profile, recs)[new]
     P, _cov, rss = fit(model, preps, P0, idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=base_bounds(P0, idx, model),
-                       prior=prior)
+                       prior=(P0, sd))
     if not np.isfinite(rss):
         return theta0, "the baseline refit on the --fit-on runs diverged: rejected, the profile's parameters are used"
     return P[: model.n_base], ""
 
 
-def _extended(profile: ShipProfile, theta: np.ndarray) -> tuple[ShipProfile, np.ndarray, list[str]]:
+def term_scales(profile: ShipProfile, recs: list[Recording]) -> np.ndarray:
+    """Per model term, the coefficient that alone would explain the spread of its DOF's
+    one-step increments on ``recs``: std(dy_i) / rms(term) (the unit of a structure prior)."""
+    sig: dict[str, np.ndarray] = {}
+    parts = [dict(profile.generalized_forces(r.inputs_for(profile.inputs)[:-1]), psi=r.psi[:-1]) for r in recs]
+    for k in parts[0]:
+        sig[k] = np.concatenate([q[k] for q in parts])
+    relative_signals(np.concatenate([r.y[:-1] for r in recs]), into=sig, speed=True)
+    dy = np.concatenate([np.diff(r.y, axis=0) for r in recs])
+    out = []
+    for i in range(3):
+        phi = profile.model.evaluate_dof(i, sig)
+        out.append(np.std(dy[:, i]) / np.maximum(np.sqrt(np.mean(phi**2, axis=0)), 1e-300))
+    return np.concatenate(out)
+
+
+def _extended(profile: ShipProfile, theta: np.ndarray, declared: bool = False) -> tuple[ShipProfile, np.ndarray, list[str]]:
     """The profile with the structure terms it lacks (:func:`diagnose.reference.extend`) and
     ``theta`` with zeros for them."""
-    ext, added = extend(profile)
+    ext, added = extend(profile, declared)
     if not added:
         return profile, theta, []
     th = np.concatenate([np.concatenate([theta[profile.model.dof_slice(i)],
                                          np.zeros(len(ext.model_terms[i]) - len(profile.model_terms[i]))]) for i in range(3)])
     return ext, th, added
+
+
+def _misfit(profile: ShipProfile, theta: np.ndarray, recs: list[Recording]) -> float:
+    """Noise-weighted mean square open-loop misfit over ``recs`` (inf when a run diverges)."""
+    model = AugmentedModel(profile, theta, [])
+    preps = [prepare(profile, r) for r in recs]
+    if diverges(model, preps, model.p0()):
+        return float("inf")
+    w = 1.0 / _noise_scale(np.concatenate([r.y for r in recs]))
+    r = np.concatenate([(p.y[1:] - model.simulate(p, model.p0())[0][1:]) * w for p in preps])
+    return float(np.mean(r**2))
+
+
+def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording], recordings: list[Recording]
+                  ) -> tuple[ShipProfile, np.ndarray, str, list[str], bool]:
+    """Fit the baseline on the --fit-on runs, with the structure the profile declares for it
+    ([diagnosis] structure) when it has one. The extended model is kept only when it simulates
+    the diagnosed runs at least as well as the baseline refitted in its own structure (its
+    extrapolation from the calm run to other manoeuvres is the risk). Returns (profile, theta,
+    source, notes, rejected): ``rejected`` when the refit diverged and the profile's parameters
+    are kept."""
+    theta, note = fit_baseline(profile, theta0, fit_on)
+    source = "fitted on " + ", ".join(r.source for r in fit_on)
+    ext, th_ext, added = _extended(profile, theta0, declared=True) if declared_structure(profile) else (profile, theta0, [])
+    if note or not added:
+        return profile, theta, source, [note] if note else [], bool(note)
+    new = [j for i in range(3) for j in range(ext.model.offsets[i] + len(profile.model_terms[i]), ext.model.offsets[i + 1])]
+    th_fit, note_ext = fit_baseline(ext, th_ext, fit_on, new, profile.structure_prior)
+    m0, m1 = _misfit(profile, theta, recordings), (_misfit(ext, th_fit, recordings) if not note_ext else float("inf"))
+    if m1 <= m0:
+        return ext, th_fit, f"{source}, structure extended by the profile's [diagnosis] terms ({len(added)})", [], False
+    why = "diverges" if not np.isfinite(m1) else f"weighted mean square misfit {m1:.3g} vs {m0:.3g}"
+    return profile, theta, source, [f"the profile's [diagnosis] structure fitted on the --fit-on runs simulates the "
+                                    f"diagnosed runs worse than the baseline's own ({why}): not used"], False
 
 
 def _check_simulable(model: AugmentedModel, preps: list[Prepared], what: str) -> None:
@@ -137,6 +195,7 @@ def run(
     source = "profile"
     notes: list[str] = []
     calm_preps: list[Prepared] = []
+    own: list[int] | None = None
     if fit_on:
         _check_simulable(AugmentedModel(profile, theta0, []), [prepare(profile, r) for r in fit_on], "given")
         if joint_reference:
@@ -144,11 +203,13 @@ def run(
             theta0, note = fit_baseline(profile, theta0, list(fit_on) + list(recordings))
             source = ("fitted jointly on the reference run(s) " + ", ".join(r.source for r in fit_on) + " and the diagnosed "
                       "runs" + (f", structure extended by {', '.join(added)}" if added else ""))
+            fit_notes, rejected = [note] if note else [], bool(note)
         else:
-            theta0, note = fit_baseline(profile, theta0, fit_on)
-            source = "fitted on " + ", ".join(r.source for r in fit_on)
-        source += " (rejected)" if note else ""
-        notes += [note] if note else []
+            n_own = [len(t) for t in profile.model_terms]
+            profile, theta0, source, fit_notes, rejected = fit_structure(profile, theta0, fit_on, list(recordings))
+            own = [j for i in range(3) for j in range(profile.model.offsets[i], profile.model.offsets[i] + n_own[i])]
+        source += " (rejected)" if rejected else ""
+        notes += fit_notes
     cands, untestable = build_library(profile, recordings)
     preps = [prepare(profile, r, i) for i, r in enumerate(recordings)]
     val_preps = [prepare(profile, r) for r in validate] if validate else []
@@ -167,7 +228,8 @@ def run(
     P0 = model.p0()
     res0 = [p.y - model.simulate(p, P0)[0] for p in preps]
     location = locate(profile, preps, res0, theta0, np.maximum(sigma, 0.02 * np.std(y_all, axis=0)))
-    base_free = list(range(model.n_base)) if fit_on else []
+    # the declared structure terms stay as fitted on the calm runs: the search refits only the profile's own
+    base_free = (own if own is not None else list(range(model.n_base))) if fit_on else []
     inputs = np.concatenate([p.inputs for p in preps])
     result = select(model, preps + calm_preps, w, val_preps=val_preps, base_free=base_free, max_rounds=max_rounds, inputs=inputs)
     notes += result.notes

@@ -254,7 +254,7 @@ class AugmentedModel:
             sig = dict(self.profile.generalized_forces(p.inputs), psi=p.psi)
             if p.phi is not None:
                 sig["phi"] = p.phi
-            relative_signals(p.y, None, p.wind_body, wind_excess=True, into=sig)
+            relative_signals(p.y, None, p.wind_body, wind_excess=True, into=sig, speed=True)
             val = compile_term(s.term)[1](sig)
             vals.append(np.asarray(val, float))
         return float(np.sqrt(np.mean(np.concatenate(vals) ** 2))) if vals else 0.0

@@ -6,9 +6,12 @@ misfit up. With ``--fit-on`` runs of the ship as it was made (no current, no win
 the diagnosis can separate the two, following the multi-experiment form of output-error
 identification (seed 004: one model, experiment-specific disturbance parameters):
 
-- the baseline is *extended* by hull and rudder terms its structure may lack (speed loss in
-  turns v r, cross-flow drag v|v| and r|r|, rudder force growing with inflow speed delta u^2
-  and slipstream delta n^2 - the nonlinear terms of the MMG and Abkowitz models);
+- the baseline is *extended* by hull and rudder terms its structure may lack: the structure its
+  profile declares in a [diagnosis] table (``declared_structure``; e.g. kvlcc2's MMG-shaped hull,
+  propeller and rudder terms, fitted on the --fit-on runs alone by ``diagnose.api.fit_structure``)
+  or, for the experimental joint fit, generic ones (speed loss in turns v r, cross-flow drag
+  v|v| and r|r|, rudder force growing with inflow speed delta u^2 and slipstream delta n^2 - the
+  nonlinear terms of the MMG and Abkowitz models);
 - the baseline is refitted jointly on the reference runs and the diagnosed runs, with every
   candidate's slots switched OFF on the reference runs: a candidate can only explain what
   differs between the runs with the condition and the runs without it, so the structural
@@ -36,16 +39,23 @@ def structure_terms(profile: ShipProfile) -> tuple[tuple[str, ...], ...]:
     return surge, lateral, lateral
 
 
-def extend(profile: ShipProfile) -> tuple[ShipProfile, list[str]]:
+def declared_structure(profile: ShipProfile) -> tuple[tuple[str, ...], ...] | None:
+    """The structure the profile's [diagnosis] table declares for a --fit-on refit, if any."""
+    return profile.structure_terms
+
+
+def extend(profile: ShipProfile, declared: bool = False) -> tuple[ShipProfile, list[str]]:
     """The profile with the structure terms it lacks appended (coefficients 0), and their
-    names ("<dof>:<term>")."""
+    names ("<dof>:<term>"): the profile's declared [diagnosis] structure with ``declared``,
+    else the generic hull and actuator terms of :func:`structure_terms`."""
     terms, names, added = [], [], []
     theta = profile.params()
     vals = []
-    for i, (have, want) in enumerate(zip(profile.model_terms, structure_terms(profile))):
+    want_all = declared_structure(profile) if declared else None
+    for i, (have, want) in enumerate(zip(profile.model_terms, want_all or structure_terms(profile))):
         canon = {canonical_term(t) for t in have}
-        extra = [t for t in want if canonical_term(t) not in canon and set(t.replace("|", "").replace("^", "*").split("*"))
-                 - {str(k) for k in range(10)} <= {"u_r", "v_r", "r", *profile.inputs}]
+        extra = [t for t in want if canonical_term(t) not in canon and (want_all is not None or set(
+            t.replace("|", "").replace("^", "*").split("*")) - {str(k) for k in range(10)} <= {"u_r", "v_r", "r", *profile.inputs})]
         terms.append(tuple(have) + tuple(extra))
         names.append(tuple(profile.parameter_names[i]) + tuple(f"S{'xyn'[i]}[{t}]" for t in extra))
         vals.append(np.concatenate([theta[profile.model.dof_slice(i)], np.zeros(len(extra))]))
@@ -54,7 +64,8 @@ def extend(profile: ShipProfile) -> tuple[ShipProfile, list[str]]:
         return profile, []
     sets = {profile.simulation_set: np.concatenate(vals)}
     return dataclasses.replace(profile, model_terms=tuple(terms), parameter_names=tuple(names), parameter_sets=sets,
-                               predictor_terms=None, predictor_names=None), added
+                               simulation_set=profile.simulation_set, instrument_set=profile.simulation_set,
+                               predictor_terms=None, predictor_names=None, structure_terms=None), added
 
 
 class ReferencedModel(AugmentedModel):

@@ -31,7 +31,7 @@ ROLL_DOFS = DOFS + ("roll",)
 STATES = ("u", "v", "r")
 ACTUATORS = ("generalized", "azimuth", "rudder_propeller", "pods")
 # Signals every model may read besides its own inputs.
-BASE_SIGNALS = {"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "psi", "tau_x", "tau_y", "tau_n"}
+BASE_SIGNALS = {"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "psi", "tau_x", "tau_y", "tau_n", "U"}
 # Signals only a model with the roll DOF has: roll rate, roll angle, actuator roll moment.
 ROLL_SIGNALS = {"p", "phi", "tau_k"}
 
@@ -52,6 +52,7 @@ PROFILE_KEYS = frozenset({
     "diagnosed_model",  # what a diagnosed model.json was scored on (diagnose.model_file)
     "rigid_body",  # mass, inertias, CoG and added mass of a 4-DOF physical model (primitives.rigidbody)
     "pods", "pod_model",  # podded propulsion (primitives.pods), actuator = "pods"
+    "diagnosis",  # baseline structure a --fit-on refit may add (diagnose.reference.declared_structure)
 })
 # Physical sizes a profile must give, all finite and > 0 (unit in the message).
 POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("draught_m", "m"), ("cruise_speed_mps", "m/s"))
@@ -119,6 +120,10 @@ class ShipProfile:
     rigid_body: RigidBody | None = None
     pods: tuple[Pod, ...] = ()
     pod_model: PodModel | None = None
+    # [diagnosis] structure: terms per DOF a diagnosis adds to the model when it refits the
+    # baseline on calm-water runs (--fit-on), and the prior that holds them towards zero
+    structure_terms: tuple[tuple[str, ...], ...] | None = None
+    structure_prior: float = 0.01
 
     # -- structure -------------------------------------------------------------------------
     # cached: compiled once per profile (a frozen dataclass still has an instance __dict__)
@@ -274,6 +279,9 @@ class ShipProfile:
                 k: getattr(e, k) for k in ("rps_rate", "mcr_rpm", "approach_rpm") if getattr(e, k) is not None}
         if self.library:
             d["library"] = self.library
+        if self.structure_terms:
+            d["diagnosis"] = {"structure": dict(zip(self.dofs, map(list, self.structure_terms))),
+                              "structure_prior": self.structure_prior}
         if self.rigid_body is not None:
             rb = self.rigid_body
             d["rigid_body"] = {"mass": rb.mass, "I_x": rb.i_x, "I_z": rb.i_z, "x_g": rb.x_g, "z_g": rb.z_g} | dict(rb.added)
@@ -366,6 +374,33 @@ def _disturbances(d: dict, src: str) -> dict[str, Any]:
     return dict(table)
 
 
+DIAGNOSIS_KEYS = ("structure", "structure_prior")
+
+
+def _diagnosis(d: dict, src: str, dofs: tuple[str, ...], known: set[str]) -> tuple[tuple[tuple[str, ...], ...] | None, float]:
+    """The optional [diagnosis] table: ``structure`` (term lists per DOF that a --fit-on refit
+    adds to the model) and ``structure_prior`` (> 0: the prior std of their coefficients, as a
+    fraction of the coefficient that alone would explain the increments' spread)."""
+    table = d.get("diagnosis")
+    if table is None:
+        return None, 0.01
+    if not isinstance(table, dict):
+        raise ProfileError(f"{src}: field 'diagnosis' must be a table with 'structure' (and 'structure_prior')")
+    bad = unknown_key(table, list(DIAGNOSIS_KEYS))
+    if bad:
+        raise ProfileError(f"{src}: unknown field 'diagnosis.{bad[0]}'{bad[1]}")
+    prior = positive(table.get("structure_prior", 0.01), f"{src}: field 'diagnosis.structure_prior'", "", ProfileError)
+    terms = _per_dof(table, "structure", f"{src} [diagnosis]", str, "regressor term strings like 'v_r^3*U^-1'", dofs)
+    try:
+        unknown = signals_used(terms) - known
+        TermSet(terms)
+    except TermError as exc:
+        raise ProfileError(f"{src}: field 'diagnosis.structure': {exc}") from None
+    if unknown:
+        raise ProfileError(f"{src}: field 'diagnosis.structure' uses unknown signals {sorted(unknown)}; known: {sorted(known)}")
+    return terms, prior
+
+
 def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     """Validate a decoded TOML/JSON document and build a profile."""
     num = (int, float)
@@ -425,6 +460,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
             raise ProfileError(
                 f"{src}: field 'inputs' of an azimuth profile must be {list(expect) or ['n1', 'alpha1']} with one [[thrusters]] entry each"
             )
+    structure, structure_prior = _diagnosis(d, src, dofs, known)
     rigid_body = parse_rigid_body(d, src, len(dofs), ProfileError)
     pods, pod_model = parse_pods(d, src, inputs, ProfileError) if actuator == "pods" else ((), None)
     pred = pred_names = None
@@ -472,6 +508,8 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         rigid_body=rigid_body,
         pods=pods,
         pod_model=pod_model,
+        structure_terms=structure,
+        structure_prior=structure_prior,
     )
 
 
@@ -479,7 +517,7 @@ def _starboard_sign(model: TermSet, theta: np.ndarray, cruise: float) -> float:
     """+1 if a positive delta gives a starboard (positive) yaw acceleration at cruise speed, else -1."""
     rates = []
     for delta in (0.0, 0.1):
-        sig = {k: 0.0 for k in BASE_SIGNALS} | {"u": cruise, "u_r": cruise, "u_q": cruise, "delta": delta, "n": 0.0}
+        sig = {k: 0.0 for k in BASE_SIGNALS} | {"u": cruise, "u_r": cruise, "u_q": cruise, "U": cruise, "delta": delta, "n": 0.0}
         rates.append(float(model.increments(sig, theta)[2]))
     return 1.0 if rates[1] >= rates[0] else -1.0
 

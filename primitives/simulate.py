@@ -104,17 +104,26 @@ def body_from_ne(vec_ne: np.ndarray, psi: np.ndarray) -> tuple[np.ndarray, np.nd
 WIND_EXCESS = ("wx", "wy", "wn")
 
 
+# The speed through the water U = sqrt(u_r^2 + v_r^2): hull forces of the MMG and prime systems
+# scale as 1/2 rho L d U^2 f(v_r/U, r L/U) (Yasukawa & Yoshimura 2015, (10)-(12)), so terms such
+# as U*v_r, v_r^3*U^-1, r^3*U^-1 hold them exactly. Floored so that 1/U stays finite at rest.
+SPEED = "U"
+MIN_SPEED = 1e-9
+
+
 def relative_signals(
     nu: np.ndarray,
     current_body: tuple[np.ndarray, np.ndarray] | None = None,
     wind_body: tuple[np.ndarray, np.ndarray] | None = None,
     wind_excess: bool = False,
     into: dict[str, np.ndarray] | None = None,
+    speed: bool = False,
 ) -> dict[str, np.ndarray]:
     """State signals of the regressor terms for velocities nu (..., 3): u, v, r, the velocities
     relative to the water (u_r, v_r) and to the air (u_q, v_q), given the current and the air
-    velocity in body axes (None: still water, calm air), and with ``wind_excess`` the
-    :data:`WIND_EXCESS` signals. Added to ``into`` (e.g. the inputs of the step) when given."""
+    velocity in body axes (None: still water, calm air), with ``wind_excess`` the
+    :data:`WIND_EXCESS` signals and with ``speed`` the speed through the water :data:`SPEED`.
+    Added to ``into`` (e.g. the inputs of the step) when given."""
     u, v, r = nu[..., 0], nu[..., 1], nu[..., 2]
     sig = {} if into is None else into
     sig["u"], sig["v"], sig["r"] = u, v, r
@@ -122,6 +131,8 @@ def relative_signals(
         sig["u_r"], sig["v_r"] = u, v
     else:
         sig["u_r"], sig["v_r"] = u - current_body[0], v - current_body[1]
+    if speed:
+        sig[SPEED] = np.maximum(np.hypot(sig["u_r"], sig["v_r"]), MIN_SPEED)
     if wind_body is None:
         sig["u_q"], sig["v_q"] = u, v
         if wind_excess:
@@ -147,7 +158,7 @@ def model_signals(
     the roll rate p (then ``phi`` is the roll angle). Pod forces (seed 000 (2.12)) depend on the
     velocities, so a podded profile's tau_x, tau_y, tau_k, tau_n are computed here."""
     sig = relative_signals(nu, None if current_ne is None else body_from_ne(current_ne, psi),
-                           None if wind_ne is None else body_from_ne(wind_ne, psi), into=dict(input_sig, psi=psi))
+                           None if wind_ne is None else body_from_ne(wind_ne, psi), into=dict(input_sig, psi=psi), speed=True)
     return _add_state_forces(profile, nu, phi, sig)
 
 
@@ -177,7 +188,9 @@ class VelocityStep:
         theta = np.asarray(theta, dtype=float)
         self.inc = terms.increment_function()
         self.coef = theta.tolist() if theta.ndim == 1 else [theta[:, j] for j in range(theta.shape[-1])]
-        self.wind_excess = bool(signals_used(terms.terms) & set(WIND_EXCESS))
+        used = signals_used(terms.terms)
+        self.wind_excess = bool(used & set(WIND_EXCESS))
+        self.speed = SPEED in used
         self.rigid, self.ts = rigid, ts
 
     def __call__(
@@ -192,7 +205,7 @@ class VelocityStep:
         generalized forces, heading, ...), the current and air velocity in body axes (see
         :func:`relative_signals`) and increments ``forced`` (B, n_dof) summed outside the loop.
         ``exo`` is extended in place with the state signals (it is built per step by the caller)."""
-        sig = relative_signals(nu, current_body, wind_body, self.wind_excess, into=exo)
+        sig = relative_signals(nu, current_body, wind_body, self.wind_excess, into=exo, speed=self.speed)
         inc = self.inc(sig, self.coef)
         if self.rigid is not None:
             inc = self.rigid.increments(inc, nu, self.ts)

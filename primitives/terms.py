@@ -3,8 +3,9 @@
 A model in this project is ``nu(k+1) = nu(k) + Phi(k)^T theta`` (seed 001, (3.60) and (9.1)),
 where each degree of freedom has its own list of regressor terms. A term is written as a
 product of factors separated by ``*``; a factor is a signal name (``u_r``), its modulus
-(``|u_r|``) or a small integer power (``u^2``). Examples: ``u_r*|u_r|``, ``v_r*r``, ``tau_x``,
-``u_r*tau_x``, ``delta*u^2``.
+(``|u_r|``) or an integer power (``u^2``; negative for the speed ``U``, ``U^-1``); a lateral
+velocity may be taken at a station ``v_r@x`` = v_r + x r. Examples: ``u_r*|u_r|``, ``v_r*r``,
+``tau_x``, ``u_r*tau_x``, ``delta*u^2``, ``v_r^3*U^-1``, ``u_r*|v_r@-227|``.
 
 Keeping the structure as data lets ship profiles, the estimators and the diagnosis (which
 augments a model with extra terms) share one definition of every model.
@@ -14,40 +15,81 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 from primitives.errors import UserError
 
 Signals = Mapping[str, np.ndarray]
-_FACTOR = re.compile(r"^(\|)?([A-Za-z_][A-Za-z0-9_]*)(\|)?(?:\^([0-9]+))?$")
 
 
 class TermError(UserError):
     """A term string cannot be parsed."""
 
 
-def _factor_fn(factor: str) -> tuple[str, Callable[[np.ndarray], np.ndarray]]:
+_FACTOR = re.compile(r"^(\|)?([A-Za-z_][A-Za-z0-9_]*)(?:@([-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?))?(\|)?"
+                     r"(?:\^(-?[0-9]+))?$")
+# Signals a negative power may divide by: positive by construction (the speed through the water,
+# floored, primitives.simulate.relative_signals). 1/v_r would blow up at every zero crossing.
+POSITIVE_SIGNALS = frozenset({"U"})
+# Lateral velocities that may be taken at a station x metres forward of the origin: v@x = v + x r
+# (the flow at the propeller or rudder of a turning ship, MMG beta_P, beta_R; Yasukawa & Yoshimura
+# 2015 (16), (24)), e.g. '|v_r@-227|'.
+STATION_SIGNALS = frozenset({"v", "v_r"})
+
+
+@dataclass(frozen=True)
+class Factor:
+    """One factor of a term: ``|name@x|^power`` (modulus, station and power optional)."""
+
+    name: str
+    modulus: bool = False
+    station: float | None = None
+    power: int = 1
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return (self.name,) if self.station is None else (self.name, "r")
+
+    def value(self, sig: Signals) -> np.ndarray:
+        x = sig[self.name] if self.station is None else sig[self.name] + self.station * sig["r"]
+        if self.modulus:
+            x = np.abs(x)
+        return x if self.power == 1 else x**self.power
+
+    def code(self) -> str:
+        """The factor as a Python expression of the s_<name> locals of the increment function."""
+        expr = f"s_{self.name}" if self.station is None else f"(s_{self.name} + {self.station!r}*s_r)"
+        if self.modulus:
+            expr = f"abs({expr})"
+        return expr if self.power == 1 else f"{expr}**{self.power}"
+
+
+def parse_factor(factor: str) -> Factor:
     m = _FACTOR.match(factor.strip())
-    if not m or bool(m.group(1)) != bool(m.group(3)):
-        raise TermError(f"term factor {factor!r} is not a signal name, |name| or name^k (e.g. 'u_r', '|v_r|', 'u^2')")
-    name, power = m.group(2), int(m.group(4) or 1)
-    if m.group(1):
-        return name, (lambda x, p=power: np.abs(x) ** p)
-    if power == 1:
-        return name, (lambda x: x)
-    return name, (lambda x, p=power: x**p)
+    if not m or bool(m.group(1)) != bool(m.group(4)):
+        raise TermError(f"term factor {factor!r} is not a signal name, |name| or name^k (e.g. 'u_r', '|v_r|', 'u^2', "
+                        "'U^-1', '|v_r@-227|')")
+    name, power = m.group(2), int(m.group(5) or 1)
+    if power < 0 and name not in POSITIVE_SIGNALS:
+        raise TermError(f"term factor {factor!r}: a negative power is allowed only of {sorted(POSITIVE_SIGNALS)} "
+                        "(signals that cannot be zero)")
+    station = None if m.group(3) is None else float(m.group(3))
+    if station is not None and name not in STATION_SIGNALS:
+        raise TermError(f"term factor {factor!r}: a station '@x' (metres forward) applies only to {sorted(STATION_SIGNALS)}")
+    return Factor(name, bool(m.group(1)), station, power)
 
 
 def compile_term(term: str) -> tuple[tuple[str, ...], Callable[[Signals], np.ndarray]]:
     """Return (signal names used, function signals -> values) for one term string."""
-    factors = [_factor_fn(f) for f in term.split("*")]
-    names = tuple(dict.fromkeys(n for n, _ in factors))
+    factors = [parse_factor(f) for f in term.split("*")]
+    names = tuple(dict.fromkeys(n for f in factors for n in f.names))
 
     def evaluate(sig: Signals) -> np.ndarray:
-        out = factors[0][1](sig[factors[0][0]])
-        for name, fn in factors[1:]:
-            out = out * fn(sig[name])
+        out = factors[0].value(sig)
+        for f in factors[1:]:
+            out = out * f.value(sig)
         return out
 
     return names, evaluate
@@ -108,15 +150,7 @@ class TermSet:
         for i, dof in enumerate(self.terms):
             parts = []
             for t in dof:
-                factors = []
-                for f in t.split("*"):
-                    m = _FACTOR.match(f.strip())
-                    expr = f"s_{m.group(2)}"
-                    if m.group(1):
-                        expr = f"abs({expr})"
-                    if m.group(4) and int(m.group(4)) != 1:
-                        expr = f"{expr}**{int(m.group(4))}"
-                    factors.append(expr)
+                factors = [parse_factor(f).code() for f in t.split("*")]
                 parts.append(f"c[{j}]*" + "*".join(factors))
                 j += 1
             lines.append(f"    d{i} = " + (" + ".join(parts) if parts else "0.0"))

@@ -1,0 +1,106 @@
+"""How well the kvlcc2 baseline, refitted on the calm run of the MMG battery (``--fit-on``),
+simulates the battery's other manoeuvres: before (the profile's own structure) and after (with
+the structure its ``[diagnosis]`` table declares), per run and channel, in units of the
+measurement noise (issue 13).
+
+The physics is the MMG standard model (tests/physics/mmg_kvlcc2.py, not the product's model).
+The baseline is fitted as ``diagnose.api`` does on the case's calm 15/15 zig-zag (noisy as
+recorded, or noise-free with ``--clean``) and scored by open-loop simulation against the
+noise-free truth of every run (calm, the three diagnosed and the two held-out ones), from the
+true initial state: a figure near 1 means the model error is at the noise level.
+
+    python -m benchmarks.bench_baseline_structure [--cases control,model-control] [--clean] [--ship kvlcc2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from diagnose.api import _extended, fit_baseline, fit_structure
+from diagnose.model import AugmentedModel, prepare
+from diagnose.recording import Recording
+from primitives.ship import load_profile
+from tests.physics.mmg_battery import NOISE_FULL, case, generate
+
+
+def _recording(run, cols: dict | None, name: str, scale: float) -> Recording:
+    """A full-scale Recording of a battery run (Froude-scaled from model scale like the CLI)."""
+    c = cols or {"t": run.t, "x": run.x, "y": run.y, "psi": run.psi, "u": run.u, "v": run.v, "r": run.r,
+                 "delta": run.delta, "n": run.n}
+    q = np.sqrt(scale)  # Froude: times and speeds x sqrt(lambda), rates / sqrt(lambda), rps / sqrt(lambda)
+    y = np.column_stack([c["u"] * q, c["v"] * q, c["r"] / q])
+    return Recording(name, c["t"] * q, y, c["psi"], np.column_stack([c["x"], c["y"]]) * scale,
+                     {"delta": c["delta"], "n": c["n"] / q})
+
+
+def sim_error(profile, theta, rec: Recording, truth: Recording) -> np.ndarray:
+    """RMS of (simulation - truth) per channel over the run, in full-scale noise units."""
+    m = AugmentedModel(profile, theta, [])
+    p = prepare(profile, rec)
+    p.y0 = truth.y[0]
+    with np.errstate(all="ignore"):
+        yh = m.simulate(p, m.p0())[0]
+    e = np.sqrt(np.mean((yh - truth.y) ** 2, axis=0)) / np.array([NOISE_FULL["u"], NOISE_FULL["v"], NOISE_FULL["r"]])
+    return np.where(np.isfinite(e), e, np.inf)
+
+
+def run_case(name: str, ship: str, clean: bool) -> list[dict]:
+    c = case(name)
+    prof = load_profile(ship)
+    if not prof.structure_terms:
+        raise SystemExit(f"ship {ship!r} declares no [diagnosis] structure: nothing to compare")
+    g = generate(c)
+    lab = [r.manoeuvre.label for r in g.calm + g.diagnose + g.validate]
+    roles = ["calm"] * len(g.calm) + ["diagnose"] * len(g.diagnose) + ["validate"] * len(g.validate)
+    runs = g.calm + g.diagnose + g.validate
+    truth = [_recording(r, None, f"{lb}", c.scale) for r, lb in zip(runs, lab)]
+    noisy = [_recording(r, None if clean else cols, lb, c.scale)
+             for r, cols, lb in zip(runs, g.noisy["calm"] + g.noisy["diagnose"] + g.noisy["validate"], lab)]
+    calm, diag = noisy[: len(g.calm)], noisy[len(g.calm): len(g.calm) + len(g.diagnose)]
+    t0 = time.process_time()
+    th_own, _ = fit_baseline(prof, prof.params(), calm)
+    t1 = time.process_time()
+    ext, th_ext, _src, notes, _rej = fit_structure(prof, prof.params(), calm, diag)
+    t2 = time.process_time()
+    if ext is prof:  # the structure was not kept: show what it would have given anyway
+        ext, th0, _ = _extended(prof, prof.params(), declared=True)
+        new = [j for i in range(3) for j in range(ext.model.offsets[i] + len(prof.model_terms[i]), ext.model.offsets[i + 1])]
+        th_ext, _ = fit_baseline(ext, th0, calm, new, prof.structure_prior)
+    rows = []
+    for role, lb, rec, tr in zip(roles, lab, noisy, truth):
+        rows.append({"case": name, "role": role, "run": lb, "before": sim_error(prof, th_own, rec, tr),
+                     "after": sim_error(ext, th_ext, rec, tr)})
+    rows[0]["cpu"] = (t1 - t0, t2 - t1)
+    rows[0]["notes"] = notes
+    return rows
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", default="control,control-ar1,model-control")
+    ap.add_argument("--clean", action="store_true", help="fit on the noise-free calm run")
+    ap.add_argument("--ship", default="kvlcc2", help="a profile with a [diagnosis] structure")
+    a = ap.parse_args(argv)
+    out = []
+    print(f"simulation error / noise (u, v, r), baseline fitted on the {'noise-free' if a.clean else 'noisy'} calm run; "
+          f"ship {a.ship}")
+    print(f"{'case':16s} {'role':9s} {'run':14s} {'own structure':>20s} {'declared structure':>22s}")
+    for name in [n.strip() for n in a.cases.split(",") if n.strip()]:
+        rows = run_case(name, a.ship, a.clean)
+        for r in rows:
+            f = lambda e: "/".join(f"{x:6.1f}" for x in e)  # noqa: E731
+            print(f"{r['case']:16s} {r['role']:9s} {r['run']:14s} {f(r['before']):>20s} {f(r['after']):>22s}")
+        b = np.array([r["before"] for r in rows])
+        d = np.array([r["after"] for r in rows])
+        print(f"{'':16s} median over runs {'/'.join(f'{x:6.1f}' for x in np.median(b, 0)):>31s} "
+              f"{'/'.join(f'{x:6.1f}' for x in np.median(d, 0)):>22s}   fit cpu {rows[0]['cpu'][0]:.1f} s, "
+              f"{rows[0]['cpu'][1]:.1f} s" + (f"; {rows[0]['notes'][0]}" if rows[0]["notes"] else ""))
+        out += rows
+    return out
+
+
+if __name__ == "__main__":
+    main()
