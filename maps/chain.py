@@ -13,8 +13,10 @@
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field, replace
+from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
@@ -227,12 +229,21 @@ def estimate_memory(lat_ni: int, lat_nj: int, n_head: int, n_moves: int, targets
     """(bytes, states): memory of the tables every search builds (successors of every move at
     every lattice point, the relaxed cost-to-go graph with edges x (D + 1)) and the number of
     counter-augmented states (8.5). A* visits only part of the states; it is stopped when the
-    states it holds reach the rest of the memory budget (``BYTES_PER_STATE`` each)."""
-    spatial = lat_ni * lat_nj * n_head
-    states = spatial * int(np.prod([d + 1 for d in targets]))
-    edges = spatial * n_moves
-    D = int(sum(targets))
-    return float(edges * BYTES_PER_EDGE + edges * (D + 1) * 40 + spatial * (D + 1) * 8 * 3), states
+    states it holds reach the rest of the memory budget (``BYTES_PER_STATE`` each).
+
+    Exact Python integers throughout: numpy's int64 wraps around (to a negative state count) for
+    the counts of a very long trial; bytes past the float range are ``inf``."""
+    spatial = int(lat_ni) * int(lat_nj) * int(n_head)
+    states = spatial * math.prod(int(d) + 1 for d in targets)
+    edges = spatial * int(n_moves)
+    D = sum(int(d) for d in targets)
+    need = edges * BYTES_PER_EDGE + edges * (D + 1) * 40 + spatial * (D + 1) * 8 * 3
+    return (float(need) if need.bit_length() < 1000 else math.inf), states
+
+
+def _count(n: float, fmt: str) -> str:
+    """``n`` as ``fmt`` (e.g. ",.1f"), or in scientific notation from 1e15 on (an int of any size)."""
+    return format(n, fmt) if n < 1e15 else f"{Decimal(n):.2e}"
 
 
 def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive], counts: dict[str, int], *,
@@ -259,8 +270,8 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     n_moves = len(prims) + (5 if o.spot_turns or profile.actuator == "rudder_propeller" else 3)
     need, states = estimate_memory(win.ni, win.nj, K, n_moves, [counts[p.name] for p in prims])
     if need > o.max_memory_gib * 2**30:
-        raise MapError(f"the lattice would not fit: {win.ni} x {win.nj} points x {K} headings x counters = {states:,} states, "
-                       f"an estimated {need / 2**30:.1f} GiB (limit {o.max_memory_gib:g} GiB): use a coarser --resolution, "
+        raise MapError(f"the lattice would not fit: {win.ni} x {win.nj} points x {K} headings x counters = {_count(states, ',')} states, "
+                       f"an estimated {_count(need / 2**30, ',.1f')} GiB (limit {o.max_memory_gib:g} GiB): use a coarser --resolution, "
                        f"fewer --headings, a shorter --trial-length or raise --max-memory")
     table = heading_table(K)
     h_start = nearest_heading(spsi or 0.0, table)

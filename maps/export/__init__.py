@@ -3,8 +3,8 @@
 Formats: ``geojson`` (RFC 7946 chart overlay: tagged track segments, execute points, waypoints,
 corridors, sea room), ``gpx`` (GPX 1.1 route + track), ``rtz`` (RTZ 1.2, IEC 61174),
 ``csv`` (schedule per sample), ``card`` (trial card: HTML with embedded PNGs, plus PDF).
-Every file is written atomically. :func:`export_plan` writes one format, :func:`export_all`
-every format plus the track and states plots.
+Every file is written atomically and a set of files all-or-nothing (:mod:`maps.export.staging`).
+:func:`export_plan` writes one format, :func:`export_all` every format plus the track and states plots.
 """
 
 from __future__ import annotations
@@ -47,12 +47,23 @@ def export_plan(
     ``plan.stats['start_utc']``, else the next full hour). ``vessel``: the ship's name on the
     route and card (default: ``plan.vessel_name``, else the profile's display name).
     ``figures``: a :class:`maps.export.plots.PlanFigures` of the plan to share the card's
-    figures with other exports (:func:`export_all` does).
+    figures with other exports (:func:`export_all` does). The card's files appear together or
+    not at all (:func:`maps.export.staging.staged_outputs`).
     """
+    from maps.export.staging import staged_outputs
+
     fmt = fmt.lower()
     if fmt not in FORMATS:
         raise ExportError(f"unknown export format {fmt!r}: choose one of {', '.join(FORMATS)}")
     path = Path(path)
+    with staged_outputs(path.parent) as tmp:
+        written = _write(plan, fmt, tmp / path.name, sea_map=sea_map, start=start, pdf=pdf, vessel=vessel, figures=figures)
+    return [path.parent / p.name for p in written]
+
+
+def _write(plan: Plan, fmt: str, path: Path, *, sea_map: Any, start: datetime | str | None, pdf: bool, vessel: str | None,
+           figures: Any) -> list[Path]:
+    """:func:`export_plan` of a known format, written straight to ``path`` (and beside it)."""
     if fmt == "geojson":
         from maps.export.geojson import write_geojson
 
@@ -88,25 +99,28 @@ def export_all(
     """Every export of ``plan`` into ``out_dir``: keys geojson, gpx, rtz, csv, card (HTML),
     card_pdf (without ``pdf``: none), and with ``plots`` track_png (map) and states_png (speed,
     heading, inputs): the card's images are those PNGs, each figure drawn once (``figures``: a
-    :class:`maps.export.plots.PlanFigures` of the plan to draw them in, else a new one)."""
+    :class:`maps.export.plots.PlanFigures` of the plan to draw them in, else a new one).
+
+    All or nothing: when a writer fails, none of the files is left in ``out_dir`` and files there
+    of the same names are as they were (:func:`maps.export.staging.staged_outputs`)."""
     from maps.export._common import check_plan, resolve_start
     from maps.export.chart import plan_chart
     from maps.export.plots import PlanFigures, plot_states, plot_track
+    from maps.export.staging import staged_outputs
 
     check_plan(plan)
     t0 = resolve_start(plan, start)  # one start time for every file
     sea_map = plan_chart(plan, sea_map)  # one chart for every file (projecting the map was done once per export)
     out: dict[str, Path] = {}
-    with PlanFigures(plan, sea_map) as own:
+    with PlanFigures(plan, sea_map) as own, staged_outputs(out_dir) as tmp:
         figs = figures or own
         for fmt in FORMATS:
-            written = export_plan(plan, fmt, default_path(plan, fmt, out_dir), sea_map=sea_map, start=t0, vessel=vessel, pdf=pdf,
-                                  figures=figs)
+            written = _write(plan, fmt, default_path(plan, fmt, tmp), sea_map=sea_map, start=t0, vessel=vessel, pdf=pdf, figures=figs)
             out[fmt] = written[0]
             if fmt == "card" and len(written) > 1:
                 out["card_pdf"] = written[1]
         if plots:
-            stem = default_path(plan, "csv", out_dir).with_suffix("")
+            stem = default_path(plan, "csv", tmp).with_suffix("")
             out["track_png"] = plot_track(plan, f"{stem}-track.png", sea_map, figures=figs)
             out["states_png"] = plot_states(plan, f"{stem}-states.png", figures=figs)
-    return out
+    return {k: Path(out_dir) / p.name for k, p in out.items()}

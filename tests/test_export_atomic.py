@@ -1,0 +1,116 @@
+"""A set of exports is all-or-nothing: a writer failing late leaves no new file, and files already
+in the destination are as they were (``shiptrial export --format all``, ``export_plan`` of the
+card, ``plan``), while a success replaces them and leaves no temporary behind."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+import maps.export.card as card
+import maps.export.plots as plots
+import maps.export.rtz as rtz
+import maps.export.staging as staging
+from cli.app import _run
+from maps.export import export_plan
+from maps.export._testing import synthetic_plan
+from maps.export.staging import staged_outputs
+from primitives.errors import UserError
+from primitives.io import OUTPUT_MARKER
+
+START = "2026-06-01T08:00:00Z"
+OLD_GPX = b"<gpx>the route of last week</gpx>"
+
+
+@pytest.fixture(scope="module")
+def plan():
+    return synthetic_plan("model-ship", ("straight", "zigzag_20_20_p", "turn_s"))
+
+
+@pytest.fixture(scope="module")
+def plan_file(plan, tmp_path_factory):
+    p = tmp_path_factory.mktemp("plan") / "plan.json"
+    p.write_text(plan.to_json())
+    return p
+
+
+def _snapshot(d):
+    """Every entry of ``d``, hidden ones included, with its bytes."""
+    return {p.name: p.read_bytes() for p in d.iterdir()}
+
+
+def _refuse(*a, **k):
+    raise UserError("the writer refused the plan")
+
+
+@pytest.fixture
+def out(tmp_path):
+    d = tmp_path / "out"
+    d.mkdir()
+    (d / "model-ship-trial.gpx").write_bytes(OLD_GPX)  # a file of the same name as an export
+    (d / "notes.txt").write_text("crew notes")
+    return d
+
+
+@pytest.mark.parametrize("module, writer", [(rtz, "write_rtz"), (card, "write_card_pdf"), (plots, "plot_states")],
+                         ids=["rtz", "card-pdf", "states-png-last"])
+def test_cli_export_all_failing_late_writes_nothing(plan_file, out, module, writer, monkeypatch, capsys):
+    before = _snapshot(out)
+    monkeypatch.setattr(module, writer, _refuse)
+    assert _run(["export", str(plan_file), "--format", "all", "--out", str(out), "--start", START]) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip()
+    assert err == "error: the writer refused the plan", err
+    assert "wrote" not in captured.out
+    assert _snapshot(out) == before  # no new file, no temporary, the old GPX unchanged
+
+
+def test_cli_export_all_replaces_files_and_leaves_no_temporary(plan_file, out, capsys):
+    assert _run(["export", str(plan_file), "--format", "all", "--out", str(out), "--start", START]) == 0
+    names = {p.name for p in out.iterdir()}
+    assert names == {"notes.txt"} | {f"model-ship-trial{s}" for s in
+                                     (".geojson", ".gpx", ".rtz", ".csv", ".html", ".pdf", "-track.png", "-states.png")}
+    assert (out / "model-ship-trial.gpx").read_bytes() != OLD_GPX and (out / "notes.txt").read_text() == "crew notes"
+    wrote = [line.split(" ", 1)[1] for line in capsys.readouterr().out.splitlines()]
+    assert sorted(wrote) == sorted(str(out / n) for n in names - {"notes.txt"})
+
+
+def test_card_html_not_left_when_its_pdf_fails(plan, tmp_path, monkeypatch):
+    monkeypatch.setattr(card, "write_card_pdf", _refuse)
+    dest = tmp_path / "new" / "dir"
+    with pytest.raises(UserError):
+        export_plan(plan, "card", dest / "card.html", start=START)
+    assert list(tmp_path.iterdir()) == []  # not even the directories it made
+
+
+def test_failed_rename_puts_back_what_the_earlier_ones_replaced(tmp_path, monkeypatch):
+    (tmp_path / "a.txt").write_text("old a")
+    (tmp_path / "b.txt").write_text("old b")
+    real, calls = os.replace, []
+
+    def flaky(src, dst):
+        calls.append(dst)
+        if len(calls) == 5:  # a -> old, a in, b -> old, b in, c in: the last rename fails
+            raise OSError("disk went away")
+        real(src, dst)
+
+    monkeypatch.setattr(staging.os, "replace", flaky)
+    with pytest.raises(OSError, match="disk went away"), staged_outputs(tmp_path) as tmp:
+        for name in ("a.txt", "b.txt", "c.txt"):
+            (tmp / name).write_text(f"new {name}")
+    assert _snapshot(tmp_path) == {"a.txt": b"old a", "b.txt": b"old b"}
+
+
+def test_plan_failing_late_leaves_the_last_run_as_it_was(tmp_path, monkeypatch, capsys):
+    """plan-trial writes the PDF card in a forked child beside the other exports: when the RTZ
+    writer fails, neither the PDF nor any other file replaces the previous run's."""
+    out = tmp_path / "trial"
+    out.mkdir()
+    for name, data in ((OUTPUT_MARKER, b"written by shiptrial"), ("plan.json", b"{}"), ("full-scale-trial.pdf", b"%PDF old")):
+        (out / name).write_bytes(data)  # what a previous run left
+    before = _snapshot(out)
+    monkeypatch.setattr(rtz, "write_rtz", _refuse)
+    assert _run(["plan", "--counts", "steep_zigzag_surge=1", "--out", str(out), "--start-time", START]) == 2
+    assert capsys.readouterr().err.strip() == "error: the writer refused the plan"
+    assert _snapshot(out) == before and [p.name for p in tmp_path.iterdir()] == ["trial"]
