@@ -98,6 +98,15 @@ def test_card_pdf_and_page1_render(azi_plan, tmp_path):
     assert h > w > 800  # A4 portrait
 
 
+def test_card_pdf_is_reproducible(model_plan, tmp_path):
+    """The same plan gives the same PDF bytes (no creation date in the file)."""
+    from maps.export.card import write_card_pdf
+
+    a = write_card_pdf(model_plan, tmp_path / "a.pdf", start=START).read_bytes()
+    b = write_card_pdf(model_plan, tmp_path / "b.pdf", start=START).read_bytes()
+    assert a == b and b"/CreationDate" not in a
+
+
 def test_export_all_writes_every_format(model_plan, tmp_path):
     paths = export_all(model_plan, tmp_path / "out", start=START)
     assert set(FORMATS) | {"card_pdf", "track_png", "states_png"} == set(paths)

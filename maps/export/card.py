@@ -365,7 +365,8 @@ def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: dat
     from matplotlib.backends.backend_pdf import PdfPages
 
     buf = io.BytesIO()
-    with matplotlib.rc_context({"pdf.fonttype": 42}), PdfPages(buf) as pdf:
+    # No creation date: the same plan must give the same bytes (reproducible outputs).
+    with matplotlib.rc_context({"pdf.fonttype": 42}), PdfPages(buf, metadata={"CreationDate": None}) as pdf:
         for f in iter_card_figures(plan, sea_map, start, vessel, figures):
             try:
                 pdf.savefig(f)
