@@ -31,9 +31,9 @@ import time
 import numpy as np
 
 from diagnose.detect.cusum import calibrate_dead_zone, first_alarms
-from diagnose.detect.glr import attribute, calibrate, null_residuals
+from diagnose.detect.glr import attribute, calibrate
 from diagnose.detect.vessel import TABLE_4_1, Vessel, harbour_inputs, measure, truth
-from diagnose.detect.yawmodel import NOMINAL, SIGNALS, fit, signatures, simulate_r
+from diagnose.detect.yawmodel import NOMINAL, PREFILTER_HZ, SIGNALS, block_mean, fit, null_records, signatures
 
 DT, N = 0.1, 5000
 #: seed 000 Tables 5.2/5.3 aggregated over models 1-10 (false alarm %, miss %, mean time s), and model 0
@@ -42,13 +42,13 @@ SHIPS = {"nominal": Vessel(), "I_z": Vessel(inertia=1.1), "I_r": Vessel(lumped_i
 DESIGNS = {"dz": ("dead-zone CUSUM (5.1)", 0.02), "sc": ("LR-CUSUM, 2 % design", 0.02), "sc05": ("LR-CUSUM, 0.5 % design", 0.005)}
 
 
-def make_prior(kind: str, noise: dict, m: int, bootstrap: int = 0):
+def make_prior(kind: str, noise: dict, m: int, bootstrap: int = 64, prefilter_hz: float = PREFILTER_HZ):
     """Prior ``m`` (0 = true parameters) from 500 s of its own noisy manoeuvre; with ``bootstrap``
     its parameter covariance from that many parametric-bootstrap refits (errors in variables)."""
     ch = harbour_inputs(N, DT, seed=10_000 + m)
     meas = measure(truth(ch), noise, np.random.default_rng(20_000 + m))
     return fit(kind, {k: meas[k] for k in SIGNALS[kind]}, meas["r"], DT, source=f"model {m}", estimate=m > 0,
-               bootstrap=bootstrap, seed=30_000 + m)
+               bootstrap=bootstrap, seed=30_000 + m, prefilter_hz=prefilter_hz)
 
 
 def evaluate(prior, noise: dict, runs: int, seed: int) -> dict:
@@ -59,15 +59,18 @@ def evaluate(prior, noise: dict, runs: int, seed: int) -> dict:
     # what the detector sees before any alarm: this manoeuvre's measured inputs (one realisation)
     nominal = truth(ch)  # noise-free, so simulated once for the calibration and the nominal runs
     seen = measure(nominal, noise, rng)
-    S, Sp = signatures(prior, {k: seen[k] for k in SIGNALS[kind]})
-    null_raw, null_blocks = null_residuals(prior, Sp, runs=400, seed=seed + 2)
+    seen = {k: seen[k] for k in SIGNALS[kind]}
+    S = signatures(prior, seen)
+    null_raw = null_records(prior, seen, 400, seed + 2)
+    null_blocks = block_mean(null_raw, prior.block)
     dz = calibrate_dead_zone(prior.sigma, null_raw, false_alarm=DESIGNS["dz"][1])
     scs = {k: calibrate(prior, S, null_blocks, false_alarm=DESIGNS[k][1]) for k in ("sc", "sc05")}
     out = {}
     for ship, ves in SHIPS.items():
         meas = measure(nominal if ves == Vessel() else truth(ch, ves), noise, rng, runs=runs)
-        eps = meas["r"] - simulate_r(kind, prior.values, {k: meas[k] for k in SIGNALS[kind]}, DT)
-        out[ship] = {"dz": first_alarms(dz.statistic(eps), dz.h), **{k: sc.alarms(eps, S) for k, sc in scs.items()}}
+        eps = meas["r"] - prior.predict({k: meas[k] for k in SIGNALS[kind]})
+        st = scs["sc"].statistics(block_mean(eps, prior.block), S)  # the same statistic; the designs differ in h
+        out[ship] = {"dz": first_alarms(dz.statistic(eps), dz.h), **{k: sc.alarms(st) for k, sc in scs.items()}}
         out[ship]["named"] = [attribute(eps[:, k], S, prior, i + 600)["property"]
                               for k, i in enumerate(out[ship]["sc"]) if i >= 0] if ship != "nominal" else []
     return out
@@ -78,10 +81,10 @@ def rates(nom: np.ndarray, chg: np.ndarray) -> tuple[float, float, float]:
     return 100 * np.mean(nom >= 0), 100 * np.mean(chg < 0), (float(np.mean(hit)) * DT if hit.size else float("nan"))
 
 
-def study(kind: str, noise: dict, models: int, runs: int, bootstrap: int = 0) -> list[dict]:
+def study(kind: str, noise: dict, models: int, runs: int, bootstrap: int = 64, prefilter_hz: float = PREFILTER_HZ) -> list[dict]:
     per = []
     for m in range(models + 1):
-        prior = make_prior(kind, noise, m, bootstrap)
+        prior = make_prior(kind, noise, m, bootstrap, prefilter_hz)
         per.append({"prior_I_r": prior.values["I_r"] / NOMINAL["I_r"] - 1, "prior_I_r_sd": float(np.sqrt(prior.cov[0, 0])),
                     **evaluate(prior, noise, runs, seed=500 + m)})
     return per
@@ -98,8 +101,9 @@ def main() -> None:
     ap.add_argument("--per-model", action="store_true", help="print every prior's row")
     ap.add_argument("--models-kind", choices=("full", "simplified", "both"), default="both", help="prior structures to run")
     ap.add_argument("--strict", type=float, default=0.005, help="the stricter LR-CUSUM design false-alarm rate shown")
-    ap.add_argument("--bootstrap", type=int, default=0,
+    ap.add_argument("--bootstrap", type=int, default=64,
                     help="prior covariance from N parametric-bootstrap refits (errors in variables); 0: the fit's own")
+    ap.add_argument("--prefilter", type=float, default=PREFILTER_HZ, help="low-pass the model inputs at this many Hz (0: as measured)")
     ap.add_argument("--noise", choices=("both", "table", "half"), default="both", help="noise levels to run")
     a = ap.parse_args()
     DESIGNS["sc05"] = (f"LR-CUSUM, {100 * a.strict:g} % design", a.strict)
@@ -114,7 +118,7 @@ def main() -> None:
             continue
         noise = {k: scale * s for k, s in TABLE_4_1.items()}
         for kind in ("full", "simplified") if a.models_kind == "both" else (a.models_kind,):
-            per = study(kind, noise, a.models, a.runs, a.bootstrap)
+            per = study(kind, noise, a.models, a.runs, a.bootstrap, a.prefilter)
             ref = SEED000[kind][0]
             for det, (name, _) in DESIGNS.items():
                 est = per[1:]

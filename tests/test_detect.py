@@ -22,7 +22,7 @@ CHANGE_S = 60.0
 def prior(tmp_path_factory):
     d = tmp_path_factory.mktemp("detect")
     path = d / "nominal.csv"
-    write_csv(simulated_recording(Vessel(), 400, seed=21), path)
+    write_csv(simulated_recording(Vessel(), 400, seed=21, measured_moment=True), path)
     return fit_prior([path], "full")
 
 
@@ -74,14 +74,14 @@ def test_prior_recovers_the_nominal_yaw_inertia_and_round_trips(prior, tmp_path)
 
 
 def test_no_alarm_on_the_nominal_ship(prior):
-    quiet = [detect(simulated_recording(Vessel(), 300, seed=s), prior) for s in (31, 32, 33)]
+    quiet = [detect(simulated_recording(Vessel(), 300, seed=s, measured_moment=True), prior) for s in (31, 32, 33)]
     assert not any(d.changed for d in quiet), [d.evidence["statistic_max"] for d in quiet]
 
 
 @pytest.mark.parametrize("changed,name", [(Vessel(inertia=1.3), "yaw_inertia"), (Vessel(damping=1.2), "yaw_damping"),
                                           (Vessel(pod_gain=0.85), "pod_gain")])
 def test_step_change_alarms_soon_after_it_and_names_the_property(prior, changed, name):
-    rec = simulated_recording(Vessel(), 300, seed=41, change_at_s=CHANGE_S, changed=changed)
+    rec = simulated_recording(Vessel(), 300, seed=41, change_at_s=CHANGE_S, changed=changed, measured_moment=True)
     d = detect(rec, prior)
     assert d.changed and CHANGE_S <= d.alarm_s <= CHANGE_S + 120, d.alarm_s
     assert d.property == name, d.evidence
@@ -93,7 +93,7 @@ def test_cli_detect_plot(prior, tmp_path):
     from cli.app import _run
 
     save_prior(prior, tmp_path / "prior.json")
-    write_csv(simulated_recording(Vessel(), 300, seed=51, change_at_s=CHANGE_S, changed=Vessel(inertia=1.3)), tmp_path / "r.csv")
+    write_csv(simulated_recording(Vessel(), 300, seed=51, change_at_s=CHANGE_S, changed=Vessel(inertia=1.3), measured_moment=True), tmp_path / "r.csv")
     assert _run(["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "prior.json"), "--plot",
                  str(tmp_path / "s.png")]) in (0, None)
     assert (tmp_path / "s.png").read_bytes()[:4] == b"\x89PNG"
@@ -103,7 +103,7 @@ def test_cli_detect_json(prior, tmp_path, capsys):
     from cli.app import _run
 
     save_prior(prior, tmp_path / "prior.json")
-    write_csv(simulated_recording(Vessel(), 300, seed=52, change_at_s=CHANGE_S, changed=Vessel(damping=1.2)), tmp_path / "r.csv")
+    write_csv(simulated_recording(Vessel(), 300, seed=52, change_at_s=CHANGE_S, changed=Vessel(damping=1.2), measured_moment=True), tmp_path / "r.csv")
     assert _run(["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "prior.json"), "--json"]) in (0, None)
     doc = json.loads(capsys.readouterr().out)
     v = doc["recordings"][0]
