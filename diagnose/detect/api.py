@@ -30,10 +30,13 @@ from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
 
 POD_COLUMNS = ("n1", "alpha1", "n2", "alpha2")
+MOMENT = "tau_n"  # measured pod yaw moment, N m (the recording format's actuator yaw moment)
+SWAY_ACC = "v_dot"  # measured sway acceleration, m/s^2 (Table 4.1 of seed 000 measures it)
 
 
 def load_runs(paths: list[Path] | list[str]) -> list[Recording]:
-    """Recordings that carry what the yaw row needs (measured r, the pod inputs), one sample time."""
+    """Recordings that carry what the yaw row needs (measured r; the pod inputs or the measured pod
+    yaw moment ``tau_n``; optionally the measured sway acceleration ``v_dot``), one sample time."""
     recs = []
     for p in paths:
         header = _header(Path(p))
@@ -41,10 +44,13 @@ def load_runs(paths: list[Path] | list[str]) -> list[Recording]:
             raise RecordingError(f"{p}: no column 'r' (measured yaw rate, rad/s); change detection needs the "
                                  "measured yaw rate, not one derived from heading")
         missing = [c for c in POD_COLUMNS if c not in header]
-        if missing and "tau_r" not in header:
+        if missing and MOMENT not in header:
             raise RecordingError(f"{p}: missing pod input column(s) {missing}; the podded ship's recording needs "
-                                 "n1, alpha1, n2, alpha2 (rev/s, rad) or the measured pod yaw moment tau_r (N m)")
-        recs.extend(load_recording(p))
+                                 f"n1, alpha1, n2, alpha2 (rev/s, rad) or the measured pod yaw moment {MOMENT} (N m)")
+        runs = load_recording(p)
+        if SWAY_ACC in header:
+            _add_column(Path(p), header, SWAY_ACC, runs)
+        recs.extend(runs)
     dts = {round(r.sample_time, 9) for r in recs}
     if len(dts) > 1:
         raise RecordingError(f"{', '.join(str(p) for p in paths)}: different sample times {sorted(dts)} s; "
@@ -58,24 +64,43 @@ def _header(path: Path) -> list[str]:
     return [h.strip() for h in body[0].split(",")] if body else []
 
 
+def _add_column(path: Path, header: list[str], name: str, runs: list[Recording]) -> None:
+    """Column ``name``, which the BRIEF recording reader does not keep, as a channel of each run
+    (interpolated on the run's time base: the reader bridges short gaps linearly)."""
+    _, body = split_metadata(read_input_text(path, RecordingError, "a recording CSV (BRIEF section 7)", "utf-8-sig").splitlines())
+    i, it = header.index(name), header.index("t")
+    t, x = [], []
+    for row, line in enumerate(body[1:], start=2):
+        cells = line.split(",")
+        try:
+            t.append(float(cells[it]))
+            x.append(float(cells[i]))
+        except (IndexError, ValueError):
+            raise RecordingError(f"{path}: row {row}, column '{name}': not a number; give {name} in SI units") from None
+    t, x = np.array(t), np.array(x)
+    ok = np.isfinite(t) & np.isfinite(x)
+    for rec in runs:
+        rec.channels[name] = np.interp(rec.t, t[ok], x[ok])
+
+
 def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """The yaw row's measured inputs and the measured yaw rate of one recording.
 
     v' is the recording's ``v_dot`` column (measured sway acceleration, m/s^2) when it has one,
     else a Savitzky-Golay derivative of v (2 s window; a smoothed v' that biases the prior's
-    I_r); tau_r is the recording's ``tau_r`` column (measured pod yaw moment, N m) when it has
+    I_r); tau_r is the recording's ``tau_n`` column (measured pod yaw moment, N m) when it has
     one, else the pods' yaw moment from the pod inputs and the low-passed measured motion (u,
     v fused with v', r, and the roll rate: column ``p``, else the rate of phi) -- noise on the
     motion then enters tau_r and biases the prior (about +8 % on I_r in 400 s at Table 4.1 noise)."""
     u, v, r = rec.y[:, 0], rec.y[:, 1], rec.y[:, 2]
-    sig = {"u": u, "v": v} | ({"tau_r": rec.channels["tau_r"]} if "tau_r" in rec.channels else {})
+    sig = {"u": u, "v": v} | ({"tau_r": rec.channels[MOMENT]} if MOMENT in rec.channels else {})
     if kind == "full":
         if "phi" not in rec.channels:
             raise RecordingError(f"{rec.source}: no column 'phi' (roll, rad) that the full model (2.17) needs; "
                                  "add it or use the simplified model (--model simplified)")
         sig["phi"] = rec.channels["phi"]
-        if "v_dot" in rec.channels:
-            sig["v_dot"] = rec.channels["v_dot"]
+        if SWAY_ACC in rec.channels:
+            sig["v_dot"] = rec.channels[SWAY_ACC]
     return _deriver(rec, kind)(sig, r), r
 
 
@@ -83,11 +108,11 @@ def _deriver(rec: Recording, kind: str):
     """``derive(sig, r) -> sig``: the model inputs SIGNALS[kind] from measured u, v (, phi, v_dot)
     and r, each (n,) or (n, runs) (the no-change simulation derives them as for the recording)."""
     dt = rec.sample_time
-    measured_tau = "tau_r" in rec.channels
+    measured_tau = MOMENT in rec.channels
     pods = {} if measured_tau else {c: rec.channels[c] for c in POD_COLUMNS}
     p_rec = rec.channels.get("p")
     win = max(5, 2 * int(1.0 / dt) + 1)
-    measured_vdot = "v_dot" in rec.channels
+    measured_vdot = SWAY_ACC in rec.channels
 
     def rate(x: np.ndarray) -> np.ndarray:
         return savgol_filter(x, win, 2, deriv=1, delta=dt, axis=0) if len(x) > win else np.gradient(x, dt, axis=0)
@@ -230,7 +255,8 @@ def simulated_recording(vessel: Vessel, duration_s: float = 500.0, dt: float = 0
     """A podded-ship recording simulated by the shared kernel (``naval-vessel`` profile, changed as
     ``vessel`` says) with Table 4.1 noise on u, v, r, phi and the measured sway acceleration
     ``v_dot`` (and, with ``measured_moment``, on a measured pod yaw moment ``tau_r``, as the
-    thesis assumes; else the detector derives it from the pod inputs) (examples, tests).
+    thesis assumes, as column ``tau_n``; else the detector derives it from the pod inputs)
+    (examples, tests).
 
     With ``change_at_s`` the ship is ``vessel`` before and ``changed`` after (a step change). A
     ``dt`` other than the profile's sample time is made by keeping every k-th kernel sample."""
@@ -246,9 +272,9 @@ def simulated_recording(vessel: Vessel, duration_s: float = 500.0, dt: float = 0
     m = len(tr["r"])
     rng = np.random.default_rng(seed + 1)
     noisy = {k: tr[k] + noise_scale * TABLE_4_1[k] * rng.standard_normal(m) for k in ("u", "v", "r", "phi", "v_dot", "tau_r")}
-    chans = {"phi": noisy["phi"], "v_dot": noisy["v_dot"], "n1": ch[:, 0], "alpha1": ch[:, 1], "n2": ch[:, 2], "alpha2": ch[:, 3]}
+    chans = {"phi": noisy["phi"], SWAY_ACC: noisy["v_dot"], "n1": ch[:, 0], "alpha1": ch[:, 1], "n2": ch[:, 2], "alpha2": ch[:, 3]}
     if measured_moment:
-        chans["tau_r"] = noisy["tau_r"]
+        chans[MOMENT] = noisy["tau_r"]
     rec = Recording(source, np.arange(m) * dt, np.column_stack([noisy["u"], noisy["v"], noisy["r"]]), tr["psi"],
                     np.column_stack([tr["x"], tr["y"]]), chans)
     return replace(rec, meta={"sample_time": f"{dt:g}"})

@@ -227,12 +227,14 @@ def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, so
 
 def _fit_scales(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, x0: np.ndarray,
                 prefilter_hz: float) -> np.ndarray:
-    """Scales (B, P) fitted to a batch of B records (signals (B, n)) by
-    :func:`diagnose.yawid.estimate.fit_yaw` from the scales ``x0``; NaN rows did not converge."""
+    """Scales (B, P) fitted to a batch of B records (signals (B, n), as measured: the fit sees them
+    through :func:`model_inputs`, as the prediction does) by :func:`diagnose.yawid.estimate.fit_yaw`
+    from the scales ``x0``; NaN rows did not converge."""
     model = MODELS[kind]
     scale = np.array([NOMINAL[_prior_name(n)] for n in model.params])
-    data = YawData(np.arange(r_meas.shape[-1]) * dt, {"r": r_meas, **{k: sig[k] for k in ("tau_r", *model.signals)}})
-    f = fit_yaw(data, model, dict(zip(model.params, x0 * scale)), prefilter_hz=prefilter_hz or None)
+    w = model_inputs({k: sig[k].T for k in ("tau_r", *model.signals)}, dt, prefilter_hz)  # time on axis 0 there
+    data = YawData(np.arange(r_meas.shape[-1]) * dt, {"r": r_meas, **{k: x.T for k, x in w.items()}})
+    f = fit_yaw(data, model, dict(zip(model.params, x0 * scale)))
     return np.where(f.ok[:, None], f.theta / scale, np.nan)
 
 
