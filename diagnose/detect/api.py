@@ -13,7 +13,7 @@ from scipy.signal import savgol_filter
 
 from diagnose.detect.cusum import calibrate_dead_zone, first_alarms
 from diagnose.detect.glr import SignatureCusum, attribute, calibrate
-from diagnose.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, pod_yaw_moment, truth
+from diagnose.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, truth
 from diagnose.detect.yawmodel import (
     CANDIDATES,
     PREFILTER_HZ,
@@ -26,6 +26,7 @@ from diagnose.detect.yawmodel import (
     signatures,
 )
 from diagnose.recording import Recording, RecordingError, load_recording, split_metadata
+from diagnose.yawid.experiment import pod_yaw_moment
 from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
 
@@ -109,7 +110,8 @@ def _deriver(rec: Recording, kind: str):
     and r, each (n,) or (n, runs) (the no-change simulation derives them as for the recording)."""
     dt = rec.sample_time
     measured_tau = MOMENT in rec.channels
-    pods = {} if measured_tau else {c: rec.channels[c] for c in POD_COLUMNS}
+    # the recording's pod angles alpha_i are the profile's inputs delta_i
+    pods = {} if measured_tau else {c.replace("alpha", "delta"): rec.channels[c] for c in POD_COLUMNS}
     p_rec = rec.channels.get("p")
     win = max(5, 2 * int(1.0 / dt) + 1)
     measured_vdot = SWAY_ACC in rec.channels
