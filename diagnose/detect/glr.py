@@ -63,20 +63,26 @@ def calibrate(prior: YawPrior, S: np.ndarray, null: np.ndarray, theta1: float = 
     return det
 
 
-def attribute(eps: np.ndarray, S: np.ndarray, prior: YawPrior, upto: int) -> dict:
+def attribute(eps: np.ndarray, S: np.ndarray, prior: YawPrior, upto: int, null: np.ndarray | None = None) -> dict:
     """Which candidate explains the residual up to sample ``upto``: per candidate, the GLR estimate
     ``theta_j = sum S_j eps / sum S_j^2`` (whitened) and its log-likelihood ratio
     ``(sum S_j eps)^2 / (2 s^2 sum S_j^2)``; the largest names the change. At an onset more
-    inertia and less actuator gain look alike, so the whole record up to ``upto`` is used."""
+    inertia and less actuator gain look alike, so the whole record up to ``upto`` is used.
+    ``std`` is the estimate's standard deviation under no change: from the no-change records
+    ``null`` (n, runs) when given (noise and the prior's own parameter error), else from the noise alone."""
     w = slice(0, max(upto // prior.block, 2))
-    ew = whiten(block_mean(eps, prior.block), prior.ar)[w]
     Sw = whiten(block_mean(S, prior.block), prior.ar)[w]
     s2 = prior.sigma_w**2
-    num = Sw.T @ ew
     den = np.maximum(np.sum(Sw**2, axis=0), 1e-300)
+
+    def project(e: np.ndarray) -> np.ndarray:
+        return Sw.T @ whiten(block_mean(e, prior.block), prior.ar)[w]
+
+    num = project(eps)
+    std = np.std(project(null), axis=1) / den if null is not None else np.sqrt(s2 / den)
     llr = num**2 / (2 * s2 * den)
     order = np.argsort(-llr)
     return {"property": CANDIDATES[int(order[0])],
-            "candidates": {c: {"relative_change": float(num[i] / den[i]), "llr": float(llr[i]),
-                               "std": float(np.sqrt(s2 / den[i]))} for i, c in enumerate(CANDIDATES)},
+            "candidates": {c: {"relative_change": float(num[i] / den[i]), "llr": float(llr[i]), "std": float(std[i])}
+                           for i, c in enumerate(CANDIDATES)},
             "llr_margin": float(llr[order[0]] - llr[order[1]])}
