@@ -15,9 +15,10 @@ shared kernel's ``naval-vessel`` profile (:func:`diagnose.yawid.model.true_param
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.signal import lfilter
 
 from diagnose.detect.vessel import base_profile
 from diagnose.yawid.estimate import fit_yaw, prefilter
@@ -57,6 +58,7 @@ class YawPrior:
     prefilter_hz: float = 0.0  # zero-phase low-pass of the model inputs (0: as measured)
     boot: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # (B, P) bootstrap relative errors
     noise: dict[str, float] = field(default_factory=dict)  # white measurement noise sd per signal, read from the nominal data
+    model_error: float = 0.0  # innovation sd of the block-mean fit residual beyond what that noise explains (structure)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -74,7 +76,7 @@ class YawPrior:
         return {"format": "shiptrial-yaw-prior/1", "kind": self.kind, "values": self.values, "sigma": self.sigma,
                 "cov": self.cov.tolist(), "ar": self.ar.tolist(), "sigma_w": self.sigma_w, "block": self.block,
                 "dt": self.dt, "source": self.source, "prefilter_hz": self.prefilter_hz,
-                "boot": self.boot.tolist(), "noise": self.noise}
+                "boot": self.boot.tolist(), "noise": self.noise, "model_error": self.model_error}
 
     @classmethod
     def from_dict(cls, d: dict, where: str = "prior") -> YawPrior:
@@ -88,11 +90,11 @@ class YawPrior:
             p = cls(kind, values, float(d["sigma"]), cov, np.asarray(d["ar"], float).ravel(), float(d["sigma_w"]),
                     int(d["block"]), float(d["dt"]), str(d.get("source", "")), float(d.get("prefilter_hz", 0.0)),
                     np.asarray(d.get("boot", []), float).reshape(-1, len(names)),
-                    {str(k): float(v) for k, v in d.get("noise", {}).items()})
+                    {str(k): float(v) for k, v in d.get("noise", {}).items()}, float(d.get("model_error", 0.0)))
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             raise UserError(f"{where}: not a yaw prior written by 'shiptrial detect-prior' (field {e}); "
                             "make one with: shiptrial detect-prior NOMINAL.csv --out PRIOR.json") from None
-        ok = [np.isfinite(list(values.values())).all(), np.isfinite(cov).all(), np.isfinite(p.ar).all(), np.isfinite(p.boot).all(), np.isfinite(list(p.noise.values())).all(),
+        ok = [np.isfinite(list(values.values())).all(), np.isfinite(cov).all(), np.isfinite(p.ar).all(), np.isfinite(p.boot).all(), np.isfinite(list(p.noise.values())).all(), p.model_error >= 0,
               p.sigma > 0, p.sigma_w > 0, p.block >= 1, p.dt > 0, values["I_r"] > 0,
               0 <= p.prefilter_hz < 0.5 / p.dt]
         if not all(ok):
@@ -222,7 +224,23 @@ def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, so
         cov = _covariance(kind, sig, dt, x, r0, block, ar, sigma_w)
     values = {k: float(NOMINAL[k] * xi) for k, xi in zip(PARAMS[kind], x)}
     noise = {k: white_noise_sd(v) for k, v in raw.items()} | {"r": white_noise_sd(r_meas)}
-    return YawPrior(kind, values, robust_sigma(e), cov, ar, sigma_w, block, dt, source, prefilter_hz, boot, noise)
+    prior = YawPrior(kind, values, robust_sigma(e), cov, ar, sigma_w, block, dt, source, prefilter_hz, boot, noise)
+    prior.model_error = model_error(prior, raw, r0, derive, seed)
+    return prior
+
+
+def model_error(prior: YawPrior, sig: dict[str, np.ndarray], r0: float, derive=None, seed: int = 0) -> float:
+    """Innovation sd of the part of the prior's own fit residual (whitened 1 s block means) that
+    the measurement noise does not explain: ``sqrt(sigma_w^2 - s_noise^2)``, ``s_noise`` the same
+    statistic of 32 no-change records simulated on the nominal data without parameter error. A
+    structure that leaves dynamics out (the simplified model (2.18)) has it; 0 when ``sigma_w``
+    is within two standard errors of the robust sigma (efficiency 0.37) of ``s_noise``."""
+    exact = replace(prior, boot=np.zeros((0, len(prior.names))), cov=np.zeros_like(prior.cov), model_error=0.0)
+    sim = whiten(block_mean(null_records(exact, sig, 32, seed, derive, r0), prior.block), prior.ar)
+    s_noise = float(np.mean([robust_sigma(sim[:, j]) for j in range(sim.shape[1])]))
+    if prior.sigma_w <= s_noise * (1 + 2 / np.sqrt(0.74 * len(sim))):
+        return 0.0
+    return float(np.sqrt(prior.sigma_w**2 - s_noise**2))
 
 
 def _fit_scales(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, x0: np.ndarray,
@@ -308,7 +326,8 @@ def null_records(prior: YawPrior, sig: dict[str, np.ndarray], runs: int, seed: i
     smoothed measured inputs; its yaw rate and inputs are then measured with white noise at the
     levels read from the nominal data (``prior.noise``), ``derive`` recomputes derived inputs as
     for the recording, and the prior predicts r from them as it does on the recording. So noise
-    on every input, its path through the yaw dynamics and the prior's parameter error are all in."""
+    on every input, its path through the yaw dynamics and the prior's parameter error are all in;
+    the structure's own misfit (``prior.model_error``) is added as AR-coloured 1 s block offsets."""
     x = np.array([prior.values[k] / NOMINAL[k] for k in prior.names])
     truth_x = x[:, None] - (parameter_draws(prior, runs, seed) * np.maximum(np.abs(x), 1e-6)).T
     clean = smooth(sig, prior.dt)
@@ -319,7 +338,12 @@ def null_records(prior: YawPrior, sig: dict[str, np.ndarray], runs: int, seed: i
     noisy = {k: s[:, None] + prior.noise.get(k, 0.0) * rng.standard_normal((n, runs)) for k, s in clean.items()}
     if derive is not None:
         noisy = derive(noisy, r_meas)
-    return r_meas - prior.predict(noisy, r0=r0)
+    eps = r_meas - prior.predict(noisy, r0=r0)
+    if prior.model_error > 0:  # the structure's own misfit, as AR-coloured block offsets
+        nb = n // prior.block
+        w = lfilter([1.0], np.r_[1.0, -prior.ar], prior.model_error * rng.standard_normal((nb, runs)), axis=0)
+        eps[: nb * prior.block] += np.repeat(w, prior.block, axis=0)
+    return eps
 
 
 def robust_sigma(e: np.ndarray) -> float:
