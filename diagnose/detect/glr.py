@@ -14,6 +14,8 @@ The thresholds come from no-change records simulated from the prior alone
 every signal, this recording's smoothed inputs): a 500 s prior's I_r is only known to about 2 %
 (the Cramer-Rao bound of the nine-parameter fit), and that error moves r_hat along the very
 signatures tested; input noise passing through the yaw dynamics is slow, coloured noise on r_hat.
+bench_detect (10 priors x 100 runs, Table 4.1 noise, full model): 2.1 % false alarms for a 2 %
+design (12.0 % with the former Gaussian null from the fit's covariance and AR residual noise).
 """
 
 from __future__ import annotations

@@ -38,6 +38,7 @@ NOMINAL = {_prior_name(k): _TRUE[k] for k in FULL.params}
 PARAMS = {kind: tuple(map(_prior_name, m.params)) for kind, m in MODELS.items()}
 DAMPING = ("A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")
 SIGNALS = {"full": ("u", "v", "v_dot", "phi", "tau_r"), "simplified": ("u", "v", "tau_r")}
+PREFILTER_HZ = 0.5  # the model inputs' low-pass (manoeuvres are slower than 0.2 Hz, roll ~0.13 Hz)
 #: the candidate changes a detector names (BRIEF effect ``inertia_change`` is "yaw_inertia")
 CANDIDATES = ("yaw_inertia", "yaw_damping", "pod_gain")
 
@@ -49,7 +50,7 @@ class YawPrior:
     kind: str  # "full" (2.17) or "simplified" (2.18)
     values: dict[str, float]
     sigma: float  # robust standard deviation of the fit residual, rad/s
-    cov: np.ndarray  # covariance of the relative parameter errors (ln theta), from the fit's Jacobian
+    cov: np.ndarray  # second moment of the relative parameter errors (bootstrap; or the fit Jacobian's covariance)
     ar: np.ndarray = field(default_factory=lambda: np.zeros(0))  # AR whitening filter of the block-mean fit residual
     sigma_w: float = 0.0  # robust standard deviation of the whitened block-mean fit residual
     block: int = 10  # samples per block mean (1 s at 10 Hz)
@@ -94,7 +95,8 @@ class YawPrior:
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             raise UserError(f"{where}: not a yaw prior written by 'shiptrial detect-prior' (field {e}); "
                             "make one with: shiptrial detect-prior NOMINAL.csv --out PRIOR.json") from None
-        ok = [np.isfinite(list(values.values())).all(), np.isfinite(cov).all(), np.isfinite(p.ar).all(), np.isfinite(p.boot).all(), np.isfinite(list(p.noise.values())).all(), p.model_error >= 0,
+        ok = [np.isfinite(list(values.values())).all(), np.isfinite(cov).all(), np.isfinite(p.ar).all(),
+              np.isfinite(p.boot).all(), np.isfinite(list(p.noise.values())).all(), p.model_error >= 0,
               p.sigma > 0, p.sigma_w > 0, p.block >= 1, p.dt > 0, values["I_r"] > 0,
               0 <= p.prefilter_hz < 0.5 / p.dt]
         if not all(ok):
@@ -184,9 +186,6 @@ def _jacobian(kind: str, x: np.ndarray, sig: dict[str, np.ndarray], dt: float, s
     cols[np.arange(p), np.arange(1, p + 1)] += step
     r = simulate_r(kind, cols, {k: s[:, None] for k, s in sig.items()}, dt, r0=r0)
     return (r[:, 1:] - r[:, :1]) / step
-
-
-PREFILTER_HZ = 0.5  # the model inputs' low-pass (manoeuvres are slower than 0.2 Hz, roll ~0.13 Hz)
 
 
 def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, source: str = "",
