@@ -19,7 +19,7 @@ over models 1..M (as the thesis's aggregates); model 0 and per-model rows (``--p
 follow, with each prior's I_r error and its bootstrap rms error.
 
     python benchmarks/bench_detect.py --models 10 --runs 100
-    python benchmarks/bench_detect.py --models 10 --runs 100 --models-kind full --noise table --strict 0.01
+    python benchmarks/bench_detect.py --models 10 --runs 100 --models-kind full --noise table --strict 0.015
 """
 
 from __future__ import annotations
