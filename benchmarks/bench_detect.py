@@ -9,18 +9,17 @@ realisations of the nominal ship and of a ship with "a moment of inertia 10 % la
 read two ways: 10 % more I_z (I_r = I_z - N_rdot +5.4 %; seed 000's section 4.5 changes I_z) and
 10 % more I_r (the lumped yaw inertia the model identifies), 500 s of a different manoeuvre. Noise: white, on every measured signal, Table 4.1 as printed (r 0.0025 rad/s,
 v' 0.015 m/s^2, u and v 0.15 m/s, phi 0.025 rad, tau_r 5e4 N m) and half of it; no anti-alias
-filter. Both detectors are calibrated for 2 % false alarms per 500 s from the prior alone (its fit
-residual and parameter covariance, and the evaluation manoeuvre's measured inputs), never from
-the evaluation runs; the LR-CUSUM is also shown at a 0.5 % design (the threshold/delay trade). Rates are pooled over models 1..M (as the thesis's aggregates); model 0 and
-per-model rows follow.
-
-With ``--bootstrap N`` each prior's parameter covariance (which sets the threshold through the
-no-change simulation) comes from N parametric-bootstrap refits of its own 500 s with noise on every
-input, at the levels read from that nominal data (errors in variables), instead of the fit's
-Jacobian scaled by the segment inflation.
+filter. The priors see their inputs low-passed at 0.5 Hz, v fused with the measured v' (full model;
+``--prefilter 0`` uses them as measured, the thesis's way). Both detectors are calibrated for 2 %
+false alarms per 500 s from the prior alone, never from the evaluation runs: no-change records
+simulated from the prior (its ``--bootstrap`` parametric-bootstrap parameter errors, the noise
+levels read from its own 500 s, the evaluation manoeuvre's measured inputs smoothed); the LR-CUSUM
+is also shown at a stricter design (``--strict``, the threshold/delay trade). Rates are pooled
+over models 1..M (as the thesis's aggregates); model 0 and per-model rows (``--per-model``)
+follow, with each prior's I_r error and its bootstrap rms error.
 
     python benchmarks/bench_detect.py --models 10 --runs 100
-    python benchmarks/bench_detect.py --models 10 --runs 100 --models-kind full --bootstrap 20
+    python benchmarks/bench_detect.py --models 10 --runs 100 --models-kind full --noise table --strict 0.015
 """
 
 from __future__ import annotations
@@ -31,9 +30,9 @@ import time
 import numpy as np
 
 from diagnose.detect.cusum import calibrate_dead_zone, first_alarms
-from diagnose.detect.glr import attribute, calibrate, null_residuals
+from diagnose.detect.glr import attribute, calibrate
 from diagnose.detect.vessel import TABLE_4_1, Vessel, harbour_inputs, measure, truth
-from diagnose.detect.yawmodel import NOMINAL, SIGNALS, fit, signatures, simulate_r
+from diagnose.detect.yawmodel import NOMINAL, PREFILTER_HZ, SIGNALS, block_mean, fit, null_records, signatures
 
 DT, N = 0.1, 5000
 #: seed 000 Tables 5.2/5.3 aggregated over models 1-10 (false alarm %, miss %, mean time s), and model 0
@@ -42,13 +41,13 @@ SHIPS = {"nominal": Vessel(), "I_z": Vessel(inertia=1.1), "I_r": Vessel(lumped_i
 DESIGNS = {"dz": ("dead-zone CUSUM (5.1)", 0.02), "sc": ("LR-CUSUM, 2 % design", 0.02), "sc05": ("LR-CUSUM, 0.5 % design", 0.005)}
 
 
-def make_prior(kind: str, noise: dict, m: int, bootstrap: int = 0):
+def make_prior(kind: str, noise: dict, m: int, bootstrap: int = 64, prefilter_hz: float = PREFILTER_HZ):
     """Prior ``m`` (0 = true parameters) from 500 s of its own noisy manoeuvre; with ``bootstrap``
     its parameter covariance from that many parametric-bootstrap refits (errors in variables)."""
     ch = harbour_inputs(N, DT, seed=10_000 + m)
     meas = measure(truth(ch), noise, np.random.default_rng(20_000 + m))
     return fit(kind, {k: meas[k] for k in SIGNALS[kind]}, meas["r"], DT, source=f"model {m}", estimate=m > 0,
-               bootstrap=bootstrap, seed=30_000 + m)
+               bootstrap=bootstrap, seed=30_000 + m, prefilter_hz=prefilter_hz)
 
 
 def evaluate(prior, noise: dict, runs: int, seed: int) -> dict:
@@ -59,15 +58,18 @@ def evaluate(prior, noise: dict, runs: int, seed: int) -> dict:
     # what the detector sees before any alarm: this manoeuvre's measured inputs (one realisation)
     nominal = truth(ch)  # noise-free, so simulated once for the calibration and the nominal runs
     seen = measure(nominal, noise, rng)
-    S, Sp = signatures(prior, {k: seen[k] for k in SIGNALS[kind]})
-    null_raw, null_blocks = null_residuals(prior, Sp, runs=400, seed=seed + 2)
+    seen = {k: seen[k] for k in SIGNALS[kind]}
+    S = signatures(prior, seen)
+    null_raw = null_records(prior, seen, 400, seed + 2)
+    null_blocks = block_mean(null_raw, prior.block)
     dz = calibrate_dead_zone(prior.sigma, null_raw, false_alarm=DESIGNS["dz"][1])
     scs = {k: calibrate(prior, S, null_blocks, false_alarm=DESIGNS[k][1]) for k in ("sc", "sc05")}
     out = {}
     for ship, ves in SHIPS.items():
         meas = measure(nominal if ves == Vessel() else truth(ch, ves), noise, rng, runs=runs)
-        eps = meas["r"] - simulate_r(kind, prior.values, {k: meas[k] for k in SIGNALS[kind]}, DT)
-        out[ship] = {"dz": first_alarms(dz.statistic(eps), dz.h), **{k: sc.alarms(eps, S) for k, sc in scs.items()}}
+        eps = meas["r"] - prior.predict({k: meas[k] for k in SIGNALS[kind]})
+        st = scs["sc"].statistics(block_mean(eps, prior.block), S)  # the same statistic; the designs differ in h
+        out[ship] = {"dz": first_alarms(dz.statistic(eps), dz.h), **{k: sc.alarms(st) for k, sc in scs.items()}}
         out[ship]["named"] = [attribute(eps[:, k], S, prior, i + 600)["property"]
                               for k, i in enumerate(out[ship]["sc"]) if i >= 0] if ship != "nominal" else []
     return out
@@ -78,10 +80,10 @@ def rates(nom: np.ndarray, chg: np.ndarray) -> tuple[float, float, float]:
     return 100 * np.mean(nom >= 0), 100 * np.mean(chg < 0), (float(np.mean(hit)) * DT if hit.size else float("nan"))
 
 
-def study(kind: str, noise: dict, models: int, runs: int, bootstrap: int = 0) -> list[dict]:
+def study(kind: str, noise: dict, models: int, runs: int, bootstrap: int = 64, prefilter_hz: float = PREFILTER_HZ) -> list[dict]:
     per = []
     for m in range(models + 1):
-        prior = make_prior(kind, noise, m, bootstrap)
+        prior = make_prior(kind, noise, m, bootstrap, prefilter_hz)
         per.append({"prior_I_r": prior.values["I_r"] / NOMINAL["I_r"] - 1, "prior_I_r_sd": float(np.sqrt(prior.cov[0, 0])),
                     **evaluate(prior, noise, runs, seed=500 + m)})
     return per
@@ -98,14 +100,16 @@ def main() -> None:
     ap.add_argument("--per-model", action="store_true", help="print every prior's row")
     ap.add_argument("--models-kind", choices=("full", "simplified", "both"), default="both", help="prior structures to run")
     ap.add_argument("--strict", type=float, default=0.005, help="the stricter LR-CUSUM design false-alarm rate shown")
-    ap.add_argument("--bootstrap", type=int, default=0,
-                    help="prior covariance from N parametric-bootstrap refits (errors in variables); 0: the fit's own")
+    ap.add_argument("--bootstrap", type=int, default=64,
+                    help="prior parameter errors from N parametric-bootstrap refits (errors in variables); 0: Gaussian, fit Jacobian")
+    ap.add_argument("--prefilter", type=float, default=PREFILTER_HZ, help="low-pass the model inputs at this many Hz (0: as measured)")
     ap.add_argument("--noise", choices=("both", "table", "half"), default="both", help="noise levels to run")
     a = ap.parse_args()
     DESIGNS["sc05"] = (f"LR-CUSUM, {100 * a.strict:g} % design", a.strict)
     print(f"500 s at 10 Hz; white noise on every measured signal; {a.models} estimated priors (+ model 0, the true "
           f"parameters), {a.runs} runs per ship; FA on the nominal ship, misses/mean alarm time on each changed ship; "
-          f"prior covariance: {f'{a.bootstrap} bootstrap refits' if a.bootstrap else 'fit Jacobian x segment inflation'}")
+          f"prior parameter error: {f'{a.bootstrap} bootstrap refits' if a.bootstrap else 'Gaussian, fit Jacobian'}; "
+          f"inputs {f'low-passed at {a.prefilter:g} Hz' if a.prefilter else 'as measured'}")
     print(f"{'noise':>9} {'model':10} {'detector':23}| {'FA %':>5} | {'10 % I_z: miss% t s':>19} | "
           f"{'10 % I_r: miss% t s':>19} | seed 000 FA/miss/t | model 0: FA, miss/t I_z, I_r | named yaw_inertia")
     t0, c0 = time.perf_counter(), time.process_time()
@@ -114,7 +118,7 @@ def main() -> None:
             continue
         noise = {k: scale * s for k, s in TABLE_4_1.items()}
         for kind in ("full", "simplified") if a.models_kind == "both" else (a.models_kind,):
-            per = study(kind, noise, a.models, a.runs, a.bootstrap)
+            per = study(kind, noise, a.models, a.runs, a.bootstrap, a.prefilter)
             ref = SEED000[kind][0]
             for det, (name, _) in DESIGNS.items():
                 est = per[1:]

@@ -29,21 +29,23 @@ def _check(*, plot: Path | None, out: Path | None, false_alarm: float, min_chang
 def register(app: typer.Typer) -> None:
     @app.command("detect-prior")
     def detect_prior(
-        nominal: list[Path] = typer.Argument(..., help="nominal recording CSV(s) of the podded ship (r, n1, alpha1, n2, alpha2)"),
+        nominal: list[Path] = typer.Argument(..., help="nominal recording CSV(s) of the podded ship (r, phi, the pod inputs n1, alpha1, n2, "
+                                           "alpha2 or the measured pod yaw moment tau_n; optional measured sway acceleration v_dot)"),
         out: Path = typer.Option(..., "--out", help="prior model file to write (.json)"),
         model: str = typer.Option("full", "--model", help="full (2.17, needs phi) or simplified (2.18)"),
-        bootstrap: int = typer.Option(0, "--bootstrap", help="parameter covariance from N bootstrap refits of the "
-                                      "nominal data (errors in variables; about 0.5 s each per 500 s); 0: the fit's own"),
+        bootstrap: int = typer.Option(64, "--bootstrap", help="the prior's parameter error from N parametric-bootstrap "
+                                      "refits of the nominal data (errors in variables; one batch, seconds); 0: Gaussian "
+                                      "from the fit's Jacobian (knows the noise on r only)"),
         seed: int = typer.Option(0, "--seed", help="seed of the bootstrap"),
     ) -> None:
         """Fit the yaw-row prior of seed 000 (2.17)/(2.18) on a nominal recording, for `detect`."""
         from diagnose.detect.api import fit_prior, save_prior
 
         _check(plot=None, out=out, false_alarm=0.02, min_change=0.05, seed=seed)
-        if not 0 <= bootstrap <= 1000:
+        if not (bootstrap == 0 or 2 <= bootstrap <= 256):
             from primitives.errors import UserError
 
-            raise UserError(f"--bootstrap {bootstrap}: give 0 (no bootstrap) to 1000 refits")
+            raise UserError(f"--bootstrap {bootstrap}: give 0 (no bootstrap) or 2 to 256 refits")
         prior = fit_prior(nominal, model, bootstrap, seed)
         save_prior(prior, out)
         typer.echo(f"wrote {out}: {prior.kind} yaw row, I_r {prior.values['I_r']:.4g} kg m^2, "
@@ -83,7 +85,8 @@ def register(app: typer.Typer) -> None:
                 typer.echo(f"{d.source}: no change detected (statistic max {max(d.evidence['statistic_max'].values()):.1f} "
                            f"< threshold {d.threshold:.1f})")
             for name, c in d.evidence["candidates"].items():
-                typer.echo(f"  {name:12s} estimate {100 * c['relative_change']:+6.1f} % +- {100 * c['std']:4.1f} %, "
+                typer.echo(f"  {name:12s} estimate {100 * c['relative_change']:+6.1f} % +- {100 * c['std']:4.1f} % (noise and "
+                           f"the prior's own error), "
                            f"log-likelihood ratio {c['llr']:7.1f}")
             dz = f"{d.dead_zone_alarm_s:.0f} s" if d.dead_zone_alarm_s is not None else "none"
             typer.echo(f"  dead-zone CUSUM (5.1) alarm: {dz}")

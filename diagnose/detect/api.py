@@ -12,18 +12,32 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from diagnose.detect.cusum import calibrate_dead_zone, first_alarms
-from diagnose.detect.glr import SignatureCusum, attribute, calibrate, null_residuals
-from diagnose.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, pod_yaw_moment, truth
-from diagnose.detect.yawmodel import CANDIDATES, SIGNALS, YawPrior, block_mean, fit, signatures, simulate_r
+from diagnose.detect.glr import SignatureCusum, attribute, calibrate
+from diagnose.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, truth
+from diagnose.detect.yawmodel import (
+    CANDIDATES,
+    PREFILTER_HZ,
+    SIGNALS,
+    YawPrior,
+    block_mean,
+    fit,
+    model_inputs,
+    null_records,
+    signatures,
+)
 from diagnose.recording import Recording, RecordingError, load_recording, split_metadata
+from diagnose.yawid.experiment import pod_yaw_moment
 from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
 
 POD_COLUMNS = ("n1", "alpha1", "n2", "alpha2")
+MOMENT = "tau_n"  # measured pod yaw moment, N m (the recording format's actuator yaw moment)
+SWAY_ACC = "v_dot"  # measured sway acceleration, m/s^2 (Table 4.1 of seed 000 measures it)
 
 
 def load_runs(paths: list[Path] | list[str]) -> list[Recording]:
-    """Recordings that carry what the yaw row needs (measured r, the pod inputs), one sample time."""
+    """Recordings that carry what the yaw row needs (measured r; the pod inputs or the measured pod
+    yaw moment ``tau_n``; optionally the measured sway acceleration ``v_dot``), one sample time."""
     recs = []
     for p in paths:
         header = _header(Path(p))
@@ -31,10 +45,13 @@ def load_runs(paths: list[Path] | list[str]) -> list[Recording]:
             raise RecordingError(f"{p}: no column 'r' (measured yaw rate, rad/s); change detection needs the "
                                  "measured yaw rate, not one derived from heading")
         missing = [c for c in POD_COLUMNS if c not in header]
-        if missing:
+        if missing and MOMENT not in header:
             raise RecordingError(f"{p}: missing pod input column(s) {missing}; the podded ship's recording needs "
-                                 "n1, alpha1, n2, alpha2 (rev/s, rad)")
-        recs.extend(load_recording(p))
+                                 f"n1, alpha1, n2, alpha2 (rev/s, rad) or the measured pod yaw moment {MOMENT} (N m)")
+        runs = load_recording(p)
+        if SWAY_ACC in header:
+            _add_column(Path(p), header, SWAY_ACC, runs)
+        recs.extend(runs)
     dts = {round(r.sample_time, 9) for r in recs}
     if len(dts) > 1:
         raise RecordingError(f"{', '.join(str(p) for p in paths)}: different sample times {sorted(dts)} s; "
@@ -48,44 +65,87 @@ def _header(path: Path) -> list[str]:
     return [h.strip() for h in body[0].split(",")] if body else []
 
 
+def _add_column(path: Path, header: list[str], name: str, runs: list[Recording]) -> None:
+    """Column ``name``, which the BRIEF recording reader does not keep, as a channel of each run
+    (interpolated on the run's time base: the reader bridges short gaps linearly)."""
+    _, body = split_metadata(read_input_text(path, RecordingError, "a recording CSV (BRIEF section 7)", "utf-8-sig").splitlines())
+    i, it = header.index(name), header.index("t")
+    t, x = [], []
+    for row, line in enumerate(body[1:], start=2):
+        cells = line.split(",")
+        try:
+            t.append(float(cells[it]))
+            x.append(float(cells[i]))
+        except (IndexError, ValueError):
+            raise RecordingError(f"{path}: row {row}, column '{name}': not a number; give {name} in SI units") from None
+    t, x = np.array(t), np.array(x)
+    ok = np.isfinite(t) & np.isfinite(x)
+    if ok.sum() < 2:
+        raise RecordingError(f"{path}: column '{name}' holds no finite values; fill it or leave the column out")
+    for rec in runs:
+        rec.channels[name] = np.interp(rec.t, t[ok], x[ok])
+
+
 def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """The yaw row's measured inputs and the measured yaw rate of one recording.
 
-    v' is a Savitzky-Golay derivative of v (2 s window) and tau_r the pods' yaw moment from the
-    pod inputs and the measured motion (the recording format has no measured pod force)."""
+    v' is the recording's ``v_dot`` column (measured sway acceleration, m/s^2) when it has one,
+    else a Savitzky-Golay derivative of v (2 s window; a smoothed v' that biases the prior's
+    I_r); tau_r is the recording's ``tau_n`` column (measured pod yaw moment, N m) when it has
+    one, else the pods' yaw moment from the pod inputs and the low-passed measured motion (u,
+    v fused with v', r, and the roll rate: column ``p``, else the rate of phi) -- noise on the
+    motion then enters tau_r and biases the prior (+12 to +14 % on I_r in 400 s at Table 4.1 noise)."""
     u, v, r = rec.y[:, 0], rec.y[:, 1], rec.y[:, 2]
-    sig = {"u": u, "v": v}
+    sig = {"u": u, "v": v} | ({"tau_r": rec.channels[MOMENT]} if MOMENT in rec.channels else {})
     if kind == "full":
         if "phi" not in rec.channels:
             raise RecordingError(f"{rec.source}: no column 'phi' (roll, rad) that the full model (2.17) needs; "
                                  "add it or use the simplified model (--model simplified)")
         sig["phi"] = rec.channels["phi"]
-    derive = _deriver(rec, kind)
-    return {k: s for k, s in derive(sig, r).items() if k in SIGNALS[kind]}, r
+        if SWAY_ACC in rec.channels:
+            sig["v_dot"] = rec.channels[SWAY_ACC]
+    return _deriver(rec, kind)(sig, r), r
 
 
 def _deriver(rec: Recording, kind: str):
-    """``derive(sig, r) -> sig`` adding the derived inputs (v', tau_r) to measured u, v (, phi)."""
+    """``derive(sig, r) -> sig``: the model inputs SIGNALS[kind] from measured u, v (, phi, v_dot)
+    and r, each (n,) or (n, runs) (the no-change simulation derives them as for the recording)."""
     dt = rec.sample_time
-    pods = {c: rec.channels[c] for c in POD_COLUMNS}
-    p = rec.channels.get("p", np.zeros(rec.n_samples))
+    measured_tau = MOMENT in rec.channels
+    # the recording's pod angles alpha_i are the profile's inputs delta_i
+    pods = {} if measured_tau else {c.replace("alpha", "delta"): rec.channels[c] for c in POD_COLUMNS}
+    p_rec = rec.channels.get("p")
     win = max(5, 2 * int(1.0 / dt) + 1)
+    measured_vdot = SWAY_ACC in rec.channels
+
+    def rate(x: np.ndarray) -> np.ndarray:
+        return savgol_filter(x, win, 2, deriv=1, delta=dt, axis=0) if len(x) > win else np.gradient(x, dt, axis=0)
 
     def derive(sig: dict[str, np.ndarray], r: np.ndarray) -> dict[str, np.ndarray]:
         out = dict(sig)
         v = sig["v"]
-        if kind == "full":
-            out["v_dot"] = savgol_filter(v, win, 2, deriv=1, delta=dt) if len(v) > win else np.gradient(v, dt)
-        out["tau_r"] = pod_yaw_moment(base_profile(), pods, sig["u"], v, r, p)
-        return out
+        col = (slice(None),) + (None,) * (v.ndim - 1)  # recorded channels broadcast over runs
+        if kind == "full" and not measured_vdot:
+            out["v_dot"] = rate(v)
+        if measured_tau:
+            return {k: out[k] for k in SIGNALS[kind]}
+        # roll rate moves the pods sideways (z_pod p): measured p, else the rate of the measured roll
+        p = np.broadcast_to(p_rec[col], v.shape) if p_rec is not None else rate(sig["phi"]) if "phi" in sig else np.zeros_like(v)
+        # the pod model is nonlinear in the motion (drift angle, speed squared): feed it the
+        # low-passed motion (v fused with v'), as the prior's inputs are, so noise does not bias tau_r
+        motion = model_inputs({"u": sig["u"], "v": v, "r": r, "p": p} | ({"v_dot": out["v_dot"]} if "v_dot" in out else {}),
+                              dt, PREFILTER_HZ)
+        out["tau_r"] = pod_yaw_moment(base_profile(), {k: x[col] for k, x in pods.items()},
+                                      **{k: motion[k] for k in ("u", "v", "r", "p")})
+        return {k: out[k] for k in SIGNALS[kind]}
 
     return derive
 
 
-def fit_prior(paths: list[Path] | list[str], kind: str = "full", bootstrap: int = 0, seed: int = 0) -> YawPrior:
-    """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s);
-    with ``bootstrap`` its parameter covariance from that many parametric-bootstrap refits of the
-    nominal data (errors in variables: noisy u, v, phi and the v', tau_r derived from them)."""
+def fit_prior(paths: list[Path] | list[str], kind: str = "full", bootstrap: int = 64, seed: int = 0) -> YawPrior:
+    """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s),
+    its parameter error described by ``bootstrap`` parametric-bootstrap refits of the nominal
+    data (errors in variables: noisy u, v, phi and the v', tau_r derived from them)."""
     if kind not in SIGNALS:
         raise UserError(f"--model {kind!r}: choose full (2.17) or simplified (2.18)")
     recs = load_runs(paths)
@@ -93,10 +153,8 @@ def fit_prior(paths: list[Path] | list[str], kind: str = "full", bootstrap: int 
     sig, r = signals(rec, kind)
     if np.ptp(r) < 1e-3:
         raise RecordingError(f"{rec.source}: the yaw rate hardly moves (range {np.ptp(r):.1e} rad/s); a prior needs turning")
-    base = {k: sig[k] for k in ("u", "v", "phi") if k in sig}
-    derive = _deriver(rec, kind)
     return fit(kind, sig, r, rec.sample_time, source=str(rec.source), bootstrap=bootstrap, seed=seed,
-               derive=lambda s, rb: {k: x for k, x in derive({k: s[k] for k in base}, rb).items() if k in SIGNALS[kind]})
+               derive=_deriver(rec, kind))
 
 
 def save_prior(prior: YawPrior, path: Path) -> Path:
@@ -147,17 +205,18 @@ def detect(rec: Recording, prior: YawPrior, false_alarm: float = 0.02, min_chang
         raise RecordingError(f"{rec.source}: {rec.duration_s:.0f} s is too short to detect a change; give at least "
                              f"{20 * prior.block * prior.dt:.0f} s")
     sig, r = signals(rec, prior.kind)
-    eps = r - simulate_r(prior.kind, prior.values, sig, prior.dt, r0=float(np.mean(r[:5])))
-    S, Sp = signatures(prior, sig)
-    null_raw, null_blocks = null_residuals(prior, Sp, null_runs, seed)
+    eps = r - prior.predict(sig, r0=float(np.mean(r[:5])))
+    S = signatures(prior, sig)
+    null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=float(np.mean(r[:5])))
+    null_blocks = block_mean(null_raw, prior.block)
     sc: SignatureCusum = calibrate(prior, S, null_blocks, theta1=min_change, false_alarm=false_alarm)
     dz = calibrate_dead_zone(prior.sigma, null_raw, false_alarm=false_alarm)
     st = sc.statistics(block_mean(eps, prior.block), S)
-    i = int(sc.alarms(eps[:, None], S)[0])
+    i = int(sc.alarms(st[:, None, :])[0])
     g = dz.statistic(eps)
     j = int(first_alarms(g[:, None], dz.h)[0])
     t = rec.t - rec.t[0]
-    ev = attribute(eps, S, prior, len(eps) if i < 0 else i + 600)
+    ev = attribute(eps, S, prior, len(eps) if i < 0 else i + 600, null_raw)
     ev["statistic_max"] = {c: float(st[:, k].max()) for k, c in enumerate(CANDIDATES)}
     ev["residual_rms"] = float(np.sqrt(np.mean(eps**2)))
     ev["prior_sigma"] = prior.sigma
@@ -196,9 +255,12 @@ def plot(dets: list[Detection], path: Path) -> Path:
 
 def simulated_recording(vessel: Vessel, duration_s: float = 500.0, dt: float = 0.1, seed: int = 0,
                         noise_scale: float = 1.0, change_at_s: float | None = None, changed: Vessel | None = None,
-                        source: str = "simulated") -> Recording:
+                        source: str = "simulated", measured_moment: bool = False) -> Recording:
     """A podded-ship recording simulated by the shared kernel (``naval-vessel`` profile, changed as
-    ``vessel`` says) with Table 4.1 noise on u, v, r and phi (examples, tests).
+    ``vessel`` says) with Table 4.1 noise on u, v, r, phi and the measured sway acceleration
+    ``v_dot`` (and, with ``measured_moment``, on a measured pod yaw moment ``tau_r``, as the
+    thesis assumes, as column ``tau_n``; else the detector derives it from the pod inputs)
+    (examples, tests).
 
     With ``change_at_s`` the ship is ``vessel`` before and ``changed`` after (a step change). A
     ``dt`` other than the profile's sample time is made by keeping every k-th kernel sample."""
@@ -213,8 +275,10 @@ def simulated_recording(vessel: Vessel, duration_s: float = 500.0, dt: float = 0
     ch = ch[::every]
     m = len(tr["r"])
     rng = np.random.default_rng(seed + 1)
-    noisy = {k: tr[k] + noise_scale * TABLE_4_1[k] * rng.standard_normal(m) for k in ("u", "v", "r", "phi")}
-    chans = {"phi": noisy["phi"], "n1": ch[:, 0], "alpha1": ch[:, 1], "n2": ch[:, 2], "alpha2": ch[:, 3]}
+    noisy = {k: tr[k] + noise_scale * TABLE_4_1[k] * rng.standard_normal(m) for k in ("u", "v", "r", "phi", "v_dot", "tau_r")}
+    chans = {"phi": noisy["phi"], SWAY_ACC: noisy["v_dot"], "n1": ch[:, 0], "alpha1": ch[:, 1], "n2": ch[:, 2], "alpha2": ch[:, 3]}
+    if measured_moment:
+        chans[MOMENT] = noisy["tau_r"]
     rec = Recording(source, np.arange(m) * dt, np.column_stack([noisy["u"], noisy["v"], noisy["r"]]), tr["psi"],
                     np.column_stack([tr["x"], tr["y"]]), chans)
     return replace(rec, meta={"sample_time": f"{dt:g}"})

@@ -25,7 +25,6 @@ from functools import lru_cache
 import numpy as np
 
 from diagnose.yawid.experiment import Noise, pods_inputs, yaw_row_signals
-from primitives.pods import pod_generalized_forces
 from primitives.ship import ShipProfile, load_profile
 from primitives.simulate import simulate
 
@@ -70,15 +69,6 @@ class Vessel:
                 i += 1
         sets = {**base.parameter_sets, "changed": theta}
         return replace(base, rigid_body=replace(rb, i_z=i_r + n_rdot), parameter_sets=sets, simulation_set="changed")
-
-
-def pod_yaw_moment(profile: ShipProfile, pods: dict[str, np.ndarray], u, v, r, p) -> np.ndarray:
-    """The pods' yaw moment tau_n (2.12) from the pod inputs ``n1, alpha1, n2, alpha2`` (rev/s, rad)
-    and the motion, by the profile's pod model (:func:`primitives.pods.pod_generalized_forces`)."""
-    sig = {"u": u, "v": v, "r": r, "p": p}
-    for i in range(1, len(profile.pods) + 1):
-        sig[f"n{i}"], sig[f"delta{i}"] = pods[f"n{i}"], pods[f"alpha{i}"]
-    return pod_generalized_forces(profile.pod_model, profile.pods, sig)["tau_n"]
 
 
 def harbour_inputs(n_samples: int, dt: float, seed: int, n_rps: float = 60.0) -> np.ndarray:

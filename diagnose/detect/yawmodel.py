@@ -15,12 +15,14 @@ shared kernel's ``naval-vessel`` profile (:func:`diagnose.yawid.model.true_param
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.signal import lfilter
 
 from diagnose.detect.vessel import base_profile
+from diagnose.yawid.estimate import fit_yaw, prefilter
+from diagnose.yawid.experiment import YawData
 from diagnose.yawid.model import FULL, MODELS, true_parameters
 from primitives.errors import UserError
 
@@ -36,6 +38,7 @@ NOMINAL = {_prior_name(k): _TRUE[k] for k in FULL.params}
 PARAMS = {kind: tuple(map(_prior_name, m.params)) for kind, m in MODELS.items()}
 DAMPING = ("A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")
 SIGNALS = {"full": ("u", "v", "v_dot", "phi", "tau_r"), "simplified": ("u", "v", "tau_r")}
+PREFILTER_HZ = 0.5  # the model inputs' low-pass (manoeuvres are slower than 0.2 Hz, roll ~0.13 Hz)
 #: the candidate changes a detector names (BRIEF effect ``inertia_change`` is "yaw_inertia")
 CANDIDATES = ("yaw_inertia", "yaw_damping", "pod_gain")
 
@@ -47,21 +50,34 @@ class YawPrior:
     kind: str  # "full" (2.17) or "simplified" (2.18)
     values: dict[str, float]
     sigma: float  # robust standard deviation of the fit residual, rad/s
-    cov: np.ndarray  # covariance of the relative parameter errors (ln theta), from the fit's Jacobian
+    cov: np.ndarray  # second moment of the relative parameter errors (bootstrap; or the fit Jacobian's covariance)
     ar: np.ndarray = field(default_factory=lambda: np.zeros(0))  # AR whitening filter of the block-mean fit residual
     sigma_w: float = 0.0  # robust standard deviation of the whitened block-mean fit residual
     block: int = 10  # samples per block mean (1 s at 10 Hz)
     dt: float = 0.1
     source: str = ""
+    prefilter_hz: float = 0.0  # zero-phase low-pass of the model inputs (0: as measured)
+    boot: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # (B, P) bootstrap relative errors
+    noise: dict[str, float] = field(default_factory=dict)  # white measurement noise sd per signal, read from the nominal data
+    model_error: float = 0.0  # innovation sd of the block-mean fit residual beyond what that noise explains (structure)
 
     @property
     def names(self) -> tuple[str, ...]:
         return PARAMS[self.kind]
 
+    def inputs(self, sig: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The measured model inputs as the prior was fitted on them (low-passed along time, axis 0)."""
+        return model_inputs(sig, self.dt, self.prefilter_hz)
+
+    def predict(self, sig: dict[str, np.ndarray], r0: float = 0.0) -> np.ndarray:
+        """``r_hat`` of this prior driven by the measured inputs ``sig`` ((n,) or (n, runs) each)."""
+        return simulate_r(self.kind, self.values, self.inputs(sig), self.dt, r0=r0)
+
     def to_dict(self) -> dict:
         return {"format": "shiptrial-yaw-prior/1", "kind": self.kind, "values": self.values, "sigma": self.sigma,
                 "cov": self.cov.tolist(), "ar": self.ar.tolist(), "sigma_w": self.sigma_w, "block": self.block,
-                "dt": self.dt, "source": self.source}
+                "dt": self.dt, "source": self.source, "prefilter_hz": self.prefilter_hz,
+                "boot": self.boot.tolist(), "noise": self.noise, "model_error": self.model_error}
 
     @classmethod
     def from_dict(cls, d: dict, where: str = "prior") -> YawPrior:
@@ -73,15 +89,46 @@ class YawPrior:
             values = {k: float(d["values"][k]) for k in names}
             cov = np.asarray(d["cov"], float).reshape(len(names), len(names))
             p = cls(kind, values, float(d["sigma"]), cov, np.asarray(d["ar"], float).ravel(), float(d["sigma_w"]),
-                    int(d["block"]), float(d["dt"]), str(d.get("source", "")))
+                    int(d["block"]), float(d["dt"]), str(d.get("source", "")), float(d.get("prefilter_hz", 0.0)),
+                    np.asarray(d.get("boot", []), float).reshape(-1, len(names)),
+                    {str(k): float(v) for k, v in d.get("noise", {}).items()}, float(d.get("model_error", 0.0)))
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             raise UserError(f"{where}: not a yaw prior written by 'shiptrial detect-prior' (field {e}); "
                             "make one with: shiptrial detect-prior NOMINAL.csv --out PRIOR.json") from None
         ok = [np.isfinite(list(values.values())).all(), np.isfinite(cov).all(), np.isfinite(p.ar).all(),
-              p.sigma > 0, p.sigma_w > 0, p.block >= 1, p.dt > 0, values["I_r"] > 0]
+              np.isfinite(p.boot).all(), np.isfinite(list(p.noise.values())).all(), p.model_error >= 0,
+              p.sigma > 0, p.sigma_w > 0, p.block >= 1, p.dt > 0, values["I_r"] > 0,
+              0 <= p.prefilter_hz < 0.5 / p.dt]
         if not all(ok):
-            raise UserError(f"{where}: the prior holds non-finite or non-physical values (I_r, sigma and dt must be > 0); refit it")
+            raise UserError(f"{where}: the prior holds non-finite or non-physical values (I_r, sigma and dt must be > 0, "
+                            "prefilter_hz below Nyquist); refit it")
         return p
+
+
+def model_inputs(sig: dict[str, np.ndarray], dt: float, prefilter_hz: float) -> dict[str, np.ndarray]:
+    """The measured inputs ``sig`` as the prior uses them (time on axis 0): with ``prefilter_hz`` > 0,
+    v fused with the measured v' when there is one (:func:`fuse_sway`), then every input low-passed
+    at ``prefilter_hz`` (:func:`diagnose.yawid.estimate.prefilter`); as measured with 0 (the thesis)."""
+    if prefilter_hz <= 0:
+        return sig
+    out = dict(sig)
+    if "v_dot" in sig and "v" in sig:
+        out["v"] = fuse_sway(sig["v"], sig["v_dot"], dt)
+    return prefilter(out, dt, prefilter_hz, axis=0)
+
+
+def fuse_sway(v: np.ndarray, v_dot: np.ndarray, dt: float, crossover_hz: float = 0.05) -> np.ndarray:
+    """Sway velocity from the measured v (below ``crossover_hz``) and the integral of the measured
+    sway acceleration (above it): zero-phase complementary filter (2nd-order Butterworth).
+
+    v enters the yaw row through |v| and the pods' drift angle, nonlinearly, so its noise biases
+    (errors in variables); at Table 4.1 noise (v 0.15 m/s, v' 0.015 m/s^2, 10 Hz) the fused v
+    errs by about 0.016 m/s rms against 0.045 m/s for v low-passed at 0.5 Hz."""
+    from scipy.signal import butter, filtfilt
+
+    iv = np.concatenate([np.zeros_like(v_dot[:1]), np.cumsum(v_dot[:-1], axis=0) * dt])
+    b, a = butter(2, crossover_hz, fs=1.0 / dt)
+    return filtfilt(b, a, v, axis=0) + iv - filtfilt(b, a, iv, axis=0)
 
 
 def _theta(kind: str, x: np.ndarray | dict) -> dict[str, np.ndarray]:
@@ -142,43 +189,70 @@ def _jacobian(kind: str, x: np.ndarray, sig: dict[str, np.ndarray], dt: float, s
 
 
 def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, source: str = "",
-        max_iter: int = 30, estimate: bool = True, segments: int = 4, bootstrap: int = 0, seed: int = 0,
-        derive=None) -> YawPrior:
-    """Output-error fit of (2.17)/(2.18) from the nominal values (ch. 4, L1231-1243: I_r > 0 and the
-    damping coefficients negative), with the residual's robust sigma, whitening filter, and the
-    parameter covariance in relative (ln theta) units. ``estimate=False`` keeps the nominal values
-    (seed 000's "model 0") and only measures the residual on this data.
+        estimate: bool = True, bootstrap: int = 64, seed: int = 0, derive=None,
+        prefilter_hz: float = PREFILTER_HZ) -> YawPrior:
+    """Output-error fit of (2.17)/(2.18) (ch. 4, eq. 4.1-4.4; yawid's batched Levenberg-Marquardt
+    from the nominal values, with section 4.3's sign constraints) on the inputs low-passed at
+    ``prefilter_hz`` (:func:`model_inputs`), with the residual's robust sigma and whitening filter.
+    ``estimate=False`` keeps the nominal values (seed 000's "model 0") and only measures the
+    residual on this data.
 
-    The inputs are measured with noise (errors in variables), so the fit's error on a new
-    manoeuvre is larger than ``s^2 (J^T J)^-1`` says. The covariance is therefore scaled by how
-    much fits to ``segments`` consecutive parts of the same record disagree beyond their own
-    covariances (:func:`segment_inflation`; 1 when they agree), or, with ``bootstrap`` > 0,
-    replaced by the second moment of that many parametric-bootstrap refits with noise on every
-    input (:func:`bootstrap_cov`; ``derive`` recomputes derived inputs, ``seed`` its noise)."""
-    r0 = float(np.mean(r_meas[:5]))
-    x = _least_squares(kind, sig, r_meas, dt, np.ones(len(PARAMS[kind])), max_iter, r0) if estimate \
-        else np.ones(len(PARAMS[kind]))
-    e = simulate_r(kind, x, sig, dt, r0=r0) - r_meas
-    if not np.all(np.isfinite(x)) or not np.all(np.isfinite(e)):
-        raise UserError(f"{source}: the yaw-row fit diverged; the recording does not excite yaw enough for a prior")
+    The prior's parameter error is described by ``bootstrap`` parametric-bootstrap refits
+    (:func:`bootstrap_deviations`: noise on every input, so the errors-in-variables part is in)
+    kept as they are (``YawPrior.boot``, for the detector's no-change simulation) and as their
+    second moment (``cov``); ``bootstrap=0`` gives only the fit's Jacobian covariance, which
+    knows the noise on r alone."""
+    raw, sig = sig, model_inputs(sig, dt, prefilter_hz)
+    p = len(PARAMS[kind])
+    x = _fit_scales(kind, {k: v[None] for k, v in raw.items()}, r_meas[None], dt, np.ones(p), prefilter_hz)[0] \
+        if estimate else np.ones(p)
     block = max(1, int(round(1.0 / dt)))
+    r0 = float(np.mean(r_meas[:block]))
+    e = simulate_r(kind, x, sig, dt, r0=r0) - r_meas if np.all(np.isfinite(x)) else np.full(len(r_meas), np.nan)
+    if not np.all(np.isfinite(e)):
+        raise UserError(f"{source}: the yaw-row fit diverged; the recording does not excite yaw enough for a prior")
     ar = ar_fit(block_mean(e, block))
     sigma_w = robust_sigma(whiten(block_mean(e, block), ar))
-    cov = _covariance(kind, sig, dt, x, r0, block, ar, sigma_w)
-    if estimate and bootstrap > 0:
-        cov = bootstrap_cov(kind, sig, r_meas, dt, x, bootstrap, seed, derive)
-    elif estimate and segments > 1:
-        cov = cov * segment_inflation(kind, sig, r_meas, dt, x, segments, block, ar, sigma_w)
+    boot = np.zeros((0, p))
+    if not estimate:
+        cov = np.zeros((p, p))
+    elif bootstrap > 0:
+        boot = bootstrap_deviations(kind, raw, r_meas, dt, x, bootstrap, seed, derive, prefilter_hz)
+        cov = boot.T @ boot / len(boot)
+    else:
+        cov = _covariance(kind, sig, dt, x, r0, block, ar, sigma_w)
     values = {k: float(NOMINAL[k] * xi) for k, xi in zip(PARAMS[kind], x)}
-    return YawPrior(kind, values, robust_sigma(e), cov, ar, sigma_w, block, dt, source)
+    noise = {k: white_noise_sd(v) for k, v in raw.items()} | {"r": white_noise_sd(r_meas)}
+    prior = YawPrior(kind, values, robust_sigma(e), cov, ar, sigma_w, block, dt, source, prefilter_hz, boot, noise)
+    prior.model_error = model_error(prior, raw, r0, derive, seed)
+    return prior
 
 
-def _least_squares(kind: str, sig: dict, r_meas: np.ndarray, dt: float, x0: np.ndarray, max_iter: int,
-                   r0: float) -> np.ndarray:
-    lo = np.array([-np.inf if k == "M_v" else 1e-3 for k in PARAMS[kind]])
-    return least_squares(lambda x: simulate_r(kind, x, sig, dt, r0=r0) - r_meas, x0,
-                         jac=lambda x: _jacobian(kind, x, sig, dt, r0=r0), bounds=(lo, np.inf), x_scale=0.1,
-                         max_nfev=max_iter).x
+def model_error(prior: YawPrior, sig: dict[str, np.ndarray], r0: float, derive=None, seed: int = 0) -> float:
+    """Innovation sd of the part of the prior's own fit residual (whitened 1 s block means) that
+    the measurement noise does not explain: ``sqrt(sigma_w^2 - s_noise^2)``, ``s_noise`` the same
+    statistic of 32 no-change records simulated on the nominal data without parameter error. A
+    structure that leaves dynamics out (the simplified model (2.18)) has it; 0 when ``sigma_w``
+    is within two standard errors of the robust sigma (efficiency 0.37) of ``s_noise``."""
+    exact = replace(prior, boot=np.zeros((0, len(prior.names))), cov=np.zeros_like(prior.cov), model_error=0.0)
+    sim = whiten(block_mean(null_records(exact, sig, 32, seed, derive, r0), prior.block), prior.ar)
+    s_noise = float(np.mean([robust_sigma(sim[:, j]) for j in range(sim.shape[1])]))
+    if prior.sigma_w <= s_noise * (1 + 2 / np.sqrt(0.74 * len(sim))):
+        return 0.0
+    return float(np.sqrt(prior.sigma_w**2 - s_noise**2))
+
+
+def _fit_scales(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, x0: np.ndarray,
+                prefilter_hz: float) -> np.ndarray:
+    """Scales (B, P) fitted to a batch of B records (signals (B, n), as measured: the fit sees them
+    through :func:`model_inputs`, as the prediction does) by :func:`diagnose.yawid.estimate.fit_yaw`
+    from the scales ``x0``; NaN rows did not converge."""
+    model = MODELS[kind]
+    scale = np.array([NOMINAL[_prior_name(n)] for n in model.params])
+    w = model_inputs({k: sig[k].T for k in ("tau_r", *model.signals)}, dt, prefilter_hz)  # time on axis 0 there
+    data = YawData(np.arange(r_meas.shape[-1]) * dt, {"r": r_meas, **{k: x.T for k, x in w.items()}})
+    f = fit_yaw(data, model, dict(zip(model.params, x0 * scale)))
+    return np.where(f.ok[:, None], f.theta / scale, np.nan)
 
 
 def _covariance(kind: str, sig: dict, dt: float, x: np.ndarray, r0: float, block: int, ar: np.ndarray,
@@ -188,28 +262,6 @@ def _covariance(kind: str, sig: dict, dt: float, x: np.ndarray, r0: float, block
     return sigma_w**2 * np.linalg.pinv(Jw.T @ Jw)
 
 
-def segment_inflation(kind: str, sig: dict, r_meas: np.ndarray, dt: float, x: np.ndarray, segments: int,
-                      block: int, ar: np.ndarray, sigma_w: float) -> float:
-    """Factor (>= 1) by which fits to ``segments`` consecutive parts of one record scatter more than
-    their covariances predict: ``sum_i d_i^T C^+ d_i / ((g - 1) P)`` with ``d_i = ln theta_i -
-    mean``, ``C`` the mean segment covariance (its expected value is 1 for a correct model)."""
-    n = len(r_meas) // segments
-    if n < 100 * block:  # segments shorter than 100 s say too little
-        return 1.0
-    th, covs = [], []
-    for i in range(segments):
-        sl = slice(i * n, (i + 1) * n)
-        s_i = {k: v[sl] for k, v in sig.items()}
-        r0 = float(np.mean(r_meas[sl][:5]))
-        xi = _least_squares(kind, s_i, r_meas[sl], dt, x, 20, r0)
-        th.append((xi - x) / np.abs(x))  # relative, as ln(theta) to first order
-        covs.append(_covariance(kind, s_i, dt, xi, r0, block, ar, sigma_w))
-    d = np.array(th) - np.mean(th, axis=0)
-    c_inv = np.linalg.pinv(np.mean(covs, axis=0))
-    k = float(np.einsum("ij,jk,ik->", d, c_inv, d)) / ((segments - 1) * len(x))
-    return max(1.0, k)
-
-
 def white_noise_sd(x: np.ndarray) -> float:
     """Standard deviation of the white measurement noise on a signal that is smooth at its sample
     rate: robust sigma of the second difference / sqrt(6) (the signal's own curvature is far below
@@ -217,39 +269,80 @@ def white_noise_sd(x: np.ndarray) -> float:
     return robust_sigma(np.diff(np.asarray(x, float), 2)) / np.sqrt(6.0)
 
 
-def bootstrap_cov(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, x: np.ndarray, runs: int,
-                  seed: int = 0, derive=None, max_iter: int = 15) -> np.ndarray:
-    """Second moment of the relative parameter error ``(x_b - x) / |x|`` over ``runs`` parametric-
-    bootstrap refits, errors in variables included (the Jacobian covariance of :func:`fit` knows
-    only the noise on r).
+def bootstrap_deviations(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, x: np.ndarray,
+                         runs: int, seed: int = 0, derive=None, prefilter_hz: float = PREFILTER_HZ) -> np.ndarray:
+    """Relative parameter errors ``(x_b - x) / |x|`` (runs, P) of ``runs`` parametric-bootstrap
+    refits, errors in variables included (the Jacobian covariance knows only the noise on r).
 
-    Synthetic truth: the measured inputs smoothed (Savitzky-Golay, 2 s, quadratic), ``r`` simulated
-    from them with the fitted ``x``. Synthetic data: truth plus white noise of each signal's own
-    level estimated from the nominal data (:func:`white_noise_sd`), refitted from ``x``. With
-    ``derive(sig_b, r_b) -> sig_b`` derived inputs (v' from v, tau_r from the motion) are recomputed
-    from the noisy synthetic signals, as they were from the measured ones. Only nominal data enter."""
+    Synthetic truth: the measured inputs ``sig`` (as measured, before the low-pass) smoothed
+    (Savitzky-Golay, 2 s, quadratic), ``r`` simulated from them with the fitted ``x``. Synthetic
+    data: truth plus white noise of each signal's own level estimated from the nominal data
+    (:func:`white_noise_sd`), refitted from ``x`` exactly as the prior was (uncentred: the
+    estimator's bias is part of the error). With ``derive(sig_b, r_b) -> sig_b`` derived inputs
+    (v' from v, tau_r from the motion) are recomputed from the noisy synthetic signals, as they
+    were from the measured ones. Only nominal data enter."""
+    clean = smooth(sig, dt)
+    sd = {k: white_noise_sd(s) for k, s in sig.items()}
+    n = len(r_meas)
+    r_true = simulate_r(kind, x, model_inputs(clean, dt, prefilter_hz), dt, r0=float(np.mean(r_meas[:10])))
+    rng = np.random.default_rng(seed)
+    r_b = r_true + white_noise_sd(r_meas) * rng.standard_normal((runs, n))
+    s_b = {k: clean[k] + sd[k] * rng.standard_normal((runs, n)) for k in sig}
+    if derive is not None:
+        rows = [derive({k: s_b[k][i] for k in sig}, r_b[i]) for i in range(runs)]
+        s_b = {k: np.stack([row[k] for row in rows]) for k in rows[0]}
+    xb = _fit_scales(kind, s_b, r_b, dt, x, prefilter_hz)
+    d = (xb - x) / np.maximum(np.abs(x), 1e-6)
+    d = d[np.all(np.isfinite(d), axis=1)]
+    if len(d) < max(2, runs // 2):
+        raise UserError("the prior's bootstrap refits diverged; the recording does not excite yaw enough for a prior")
+    return d
+
+
+def parameter_draws(prior: YawPrior, runs: int, seed: int = 0) -> np.ndarray:
+    """(runs, P) relative parameter errors of the prior: its bootstrap refits cycled, or Gaussian
+    draws from ``cov`` when it has none."""
+    if len(prior.boot):
+        return prior.boot[np.arange(runs) % len(prior.boot)]
+    return np.random.default_rng(seed).multivariate_normal(np.zeros(len(prior.cov)), prior.cov, size=runs, method="eigh")
+
+
+def smooth(sig: dict[str, np.ndarray], dt: float) -> dict[str, np.ndarray]:
+    """Savitzky-Golay smoothing (2 s, quadratic) along time: the bootstraps' stand-in for the true inputs."""
     from scipy.signal import savgol_filter
 
     win = 2 * int(1.0 / dt) + 1
-    smooth = {k: savgol_filter(s, win, 2) if len(s) > win else s for k, s in sig.items()}
-    sd = {k: white_noise_sd(s) for k, s in sig.items()}
-    sd_r = white_noise_sd(r_meas)
-    r0 = float(np.mean(r_meas[:5]))
-    r_true = simulate_r(kind, x, smooth, dt, r0=r0)
-    rng = np.random.default_rng(seed)
-    d = []
-    for _ in range(runs):
-        r_b = r_true + sd_r * rng.standard_normal(len(r_true))
-        s_b = {k: smooth[k] + sd[k] * rng.standard_normal(len(r_true)) for k in sig}
-        if derive is not None:
-            s_b = derive(s_b, r_b)
-        xb = _least_squares(kind, s_b, r_b, dt, x, max_iter, float(np.mean(r_b[:5])))
-        if np.all(np.isfinite(xb)):
-            d.append((xb - x) / np.maximum(np.abs(x), 1e-6))
-    if len(d) < max(2, runs // 2):
-        raise UserError("the prior's bootstrap refits diverged; the recording does not excite yaw enough for a prior")
-    d = np.array(d)
-    return d.T @ d / len(d)
+    return {k: savgol_filter(s, win, 2, axis=0) if len(s) > win else s for k, s in sig.items()}
+
+
+def null_records(prior: YawPrior, sig: dict[str, np.ndarray], runs: int, seed: int = 0, derive=None,
+                 r0: float = 0.0) -> np.ndarray:
+    """No-change residuals ``r - r_hat`` (n, runs) on the manoeuvre ``sig`` (a parametric bootstrap
+    of the detection, from the prior's own data only).
+
+    In each run the ship is the prior's model with one of its bootstrap parameter errors undone
+    (``x - delta_b``: what the true ship may be, given the prior's estimate), driven by the
+    smoothed measured inputs; its yaw rate and inputs are then measured with white noise at the
+    levels read from the nominal data (``prior.noise``), ``derive`` recomputes derived inputs as
+    for the recording, and the prior predicts r from them as it does on the recording. So noise
+    on every input, its path through the yaw dynamics and the prior's parameter error are all in;
+    the structure's own misfit (``prior.model_error``) is added as AR-coloured 1 s block offsets."""
+    x = np.array([prior.values[k] / NOMINAL[k] for k in prior.names])
+    truth_x = x[:, None] - (parameter_draws(prior, runs, seed) * np.maximum(np.abs(x), 1e-6)).T
+    clean = smooth(sig, prior.dt)
+    n = len(sig["u"])
+    r_true = simulate_r(prior.kind, truth_x, {k: s[:, None] for k, s in prior.inputs(clean).items()}, prior.dt, r0=r0)
+    rng = np.random.default_rng([seed, 1])
+    r_meas = r_true + prior.noise.get("r", 0.0) * rng.standard_normal((n, runs))
+    noisy = {k: s[:, None] + prior.noise.get(k, 0.0) * rng.standard_normal((n, runs)) for k, s in clean.items()}
+    if derive is not None:
+        noisy = derive(noisy, r_meas)
+    eps = r_meas - prior.predict(noisy, r0=r0)
+    if prior.model_error > 0:  # the structure's own misfit, as AR-coloured block offsets
+        nb = n // prior.block
+        w = lfilter([1.0], np.r_[1.0, -prior.ar], prior.model_error * rng.standard_normal((nb, runs)), axis=0)
+        eps[: nb * prior.block] += np.repeat(w, prior.block, axis=0)
+    return eps
 
 
 def robust_sigma(e: np.ndarray) -> float:
@@ -285,21 +378,14 @@ def whiten(x: np.ndarray, ar: np.ndarray) -> np.ndarray:
     return out
 
 
-def signatures(prior: YawPrior, sig: dict[str, np.ndarray], rel: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
-    """``(S, Sp)``: ``S`` (n, 3) the change of r_hat per unit relative change of each candidate in
-    CANDIDATES (yaw inertia, all damping terms together, actuator gain); ``Sp`` (n, P) the same per
-    fitted parameter (what the prior's own parameter error does on this manoeuvre)."""
+def signatures(prior: YawPrior, sig: dict[str, np.ndarray], rel: float = 0.05) -> np.ndarray:
+    """``S`` (n, 3): the change of r_hat per unit relative change of each candidate in CANDIDATES
+    (yaw inertia, all damping terms together, actuator gain) on the manoeuvre ``sig``."""
     names = prior.names
     base = np.array([prior.values[k] / NOMINAL[k] for k in names])
-    p = len(names)
-    cols = np.repeat(base[:, None], p + 3, axis=1)
-    cols[:, 1: p + 1] *= 1 + rel * np.eye(p)
-    cols[names.index("I_r"), p + 1] *= 1 + rel
-    damp = [names.index(k) for k in DAMPING if k in names]
-    cols[damp, p + 2] *= 1 + rel
-    gain = np.ones(p + 4)
-    gain[-1] = 1 + rel
-    cols = np.column_stack([cols, base])
-    r = simulate_r(prior.kind, cols, {k: s[:, None] for k, s in sig.items()}, prior.dt, gain=gain)
-    d = (r - r[:, :1]) / rel
-    return d[:, p + 1:], d[:, 1: p + 1]
+    cols = np.repeat(base[:, None], 4, axis=1)
+    cols[names.index("I_r"), 1] *= 1 + rel
+    cols[[names.index(k) for k in DAMPING if k in names], 2] *= 1 + rel
+    gain = np.array([1.0, 1.0, 1.0, 1 + rel])
+    r = simulate_r(prior.kind, cols, {k: s[:, None] for k, s in prior.inputs(sig).items()}, prior.dt, gain=gain)
+    return (r[:, 1:] - r[:, :1]) / rel

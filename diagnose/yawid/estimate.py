@@ -93,12 +93,13 @@ def _project(x: np.ndarray, model: YawModel) -> np.ndarray:
     return x
 
 
-def prefilter(w: dict[str, np.ndarray], ts: float, cutoff_hz: float) -> dict[str, np.ndarray]:
-    """Zero-phase 4th-order Butterworth low-pass of the measured inputs (not of r): ours, not the
-    thesis's. The inputs enter the predictor as if exact (errors in variables, L1882-1884), so
-    their white noise above the manoeuvre's bandwidth only biases the estimates."""
+def prefilter(w: dict[str, np.ndarray], ts: float, cutoff_hz: float, axis: int = -1) -> dict[str, np.ndarray]:
+    """Zero-phase 4th-order Butterworth low-pass of the measured inputs (not of r) along ``axis``
+    (time): ours, not the thesis's. The inputs enter the predictor as if exact (errors in
+    variables, L1882-1884), so their white noise above the manoeuvre's bandwidth only biases the
+    estimates (through |v|, |uv|: E|v + e| > |v|) and adds noise to the prediction."""
     b, a = butter(4, cutoff_hz, fs=1.0 / ts)
-    return {k: filtfilt(b, a, v, axis=-1) for k, v in w.items()}
+    return {k: filtfilt(b, a, v, axis=axis) for k, v in w.items()}
 
 
 def fit_yaw(data: YawData, model: YawModel, theta0: dict[str, float], max_iter: int = 200, rtol: float = 1e-9,

@@ -120,9 +120,17 @@ def yaw_row_signals(profile: ShipProfile, nu: np.ndarray, eta: np.ndarray, input
     """r, v_dot, u, v, phi, tau_r at samples 0 .. N-1 of a kernel trajectory ``nu``, ``eta`` (N+1, 4)
     driven by ``inputs`` (N, m): v_dot the Euler increment, tau_r the profile's pod yaw moment (2.12)."""
     in_sig = {name: inputs[:, i] for i, name in enumerate(profile.inputs)}
-    sig = model_signals(profile, nu[:-1], eta[:-1, 2], in_sig, phi=eta[:-1, 3])
-    return {"r": nu[:-1, 2], "v_dot": np.diff(nu[:, 1]) / profile.sample_time, "u": nu[:-1, 0], "v": nu[:-1, 1],
-            "phi": eta[:-1, 3], "tau_r": np.asarray(sig["tau_n"], float)}
+    u, v, r, p = nu[:-1].T
+    return {"r": r, "v_dot": np.diff(nu[:, 1]) / profile.sample_time, "u": u, "v": v,
+            "phi": eta[:-1, 3], "tau_r": pod_yaw_moment(profile, in_sig, u, v, r, p)}
+
+
+def pod_yaw_moment(profile: ShipProfile, inputs: dict[str, np.ndarray], u, v, r, p=None) -> np.ndarray:
+    """The pods' yaw moment tau_n of (2.12) from the pod inputs (named as ``profile.inputs``: n1,
+    delta1, ...) and the motion, by the kernel's own signal function (``model_signals``); all
+    arrays broadcast together (e.g. (n, 1) inputs with (n, runs) motion)."""
+    nu = np.stack(np.broadcast_arrays(u, v, r, np.zeros_like(u) if p is None else p), axis=-1)
+    return np.asarray(model_signals(profile, nu, np.zeros(nu.shape[:-1]), inputs)["tau_n"], float)
 
 
 def measure(clean: YawData, noise: Noise, runs: int, seed: int, first: int = 0) -> YawData:

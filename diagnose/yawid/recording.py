@@ -16,11 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from diagnose.recording import RecordingError, split_metadata
-from diagnose.yawid.experiment import YawData
+from diagnose.yawid.experiment import YawData, pod_yaw_moment
 from diagnose.yawid.model import YawModel
 from primitives.io import atomic_write_text, read_input_text
 from primitives.ship import ShipProfile
-from primitives.simulate import model_signals
 
 COLUMNS = ("t", "r", "v_dot", "u", "v", "phi", "tau_r")
 POD_COLUMNS = ("n1", "delta1", "n2", "delta2")
@@ -87,9 +86,7 @@ def _pod_moment(path: Path, cols: dict[str, np.ndarray], profile: ShipProfile | 
                              f"{', '.join(POD_COLUMNS)} (missing: {', '.join(missing)})")
     if profile is None or not profile.pods:
         raise RecordingError(f"{path}: pod inputs without 'tau_r' need a ship profile with [[pods]] (e.g. --ship naval-vessel)")
-    n = cols["t"].size
-    nu = np.stack([cols["u"], cols["v"], cols["r"], cols.get("p", np.zeros(n))], axis=-1)
     inputs = {name: cols[name] for name in profile.inputs if name in cols}
     if len(inputs) != len(profile.inputs):
         raise RecordingError(f"{path}: ship {profile.name!r} has inputs {list(profile.inputs)}; the recording lacks some")
-    return np.asarray(model_signals(profile, nu, np.zeros(n), inputs, phi=cols.get("phi"))["tau_n"], float)
+    return pod_yaw_moment(profile, inputs, cols["u"], cols["v"], cols["r"], cols.get("p"))
