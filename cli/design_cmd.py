@@ -55,7 +55,7 @@ def register(app: typer.Typer) -> None:
         validate_design_options(criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length,
                                 monte_carlo=monte_carlo, mc_samples=mc_samples, seed=seed, out=out, psi_switch=psi_switch,
                                 min_frac=min_frac, max_frac=max_frac, noisy_moments=noisy_moments)
-        _check_mc_options(mc_protocol, mc_order, mc_settle, mc_min_block, mc_samples)
+        _check_mc_options(mc_protocol, mc_order, mc_estimator, mc_settle, mc_min_block, mc_samples)
         profile = load_profile(ship)
         profile.require_planar("shiptrial design")
         lib = default_library(profile, psi_switch)
@@ -115,12 +115,13 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"wrote {paths['markdown']} and {paths['json']}")
 
 
-def _check_mc_options(protocol: str, order: str, settle: int, min_block: int, samples: int) -> None:
+def _check_mc_options(protocol: str, order: str, estimator: str, settle: int, min_block: int, samples: int) -> None:
     """Refuse a bad Monte Carlo option before the design step (seconds of work) runs."""
     from expdesign.errors import DesignError
-    from expdesign.montecarlo import ORDERS, PROTOCOLS, MCConfig
+    from expdesign.montecarlo import ESTIMATORS, ORDERS, PROTOCOLS, MCConfig
 
-    for flag, value, allowed in (("--mc-protocol", protocol, PROTOCOLS), ("--mc-order", order, ORDERS)):
+    for flag, value, allowed in (("--mc-protocol", protocol, PROTOCOLS), ("--mc-order", order, ORDERS),
+                                 ("--mc-estimator", estimator, ESTIMATORS)):
         if value not in allowed:
             raise DesignError(f"{flag} {value!r} is not one of {', '.join(allowed)}")
     if settle < 0:
