@@ -16,7 +16,7 @@ from diagnose.model import AugmentedModel, Prepared, diverges, fit, fit_percent,
 from diagnose.recording import Recording, RecordingError
 from diagnose.reference import ReferencedModel, declared_structure, extend
 from diagnose.search import MUCH_WORSE, base_bounds, prior_sd, select
-from primitives.ship import DOFS, ShipProfile
+from primitives.ship import DEFAULT_STRUCTURE_PRIOR, DOFS, ShipProfile
 from primitives.simulate import relative_signals
 
 
@@ -72,7 +72,7 @@ def _noise_scale(y: np.ndarray) -> np.ndarray:
 
 
 def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording],
-                 new: list[int] | None = None, new_prior: float = 0.01) -> tuple[np.ndarray, str]:
+                 new: list[int] | None = None, new_prior: float = DEFAULT_STRUCTURE_PRIOR) -> tuple[np.ndarray, str]:
     """Output-error fit of the baseline parameters on the --fit-on recordings, each kept within
     a factor 2 of the profile and its sign (damping stays dissipative), regularised towards it.
     Structure terms ``new`` (value 0, :func:`diagnose.reference.extend`) are held towards zero
