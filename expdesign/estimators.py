@@ -210,6 +210,8 @@ def data_information(profile: ShipProfile, segments: Sequence[Segment], instrume
 # -- output-error refinement (prediction-error method on the simulated output) ---------------------
 
 _OE_EXPLODE = 1e6  # a simulated output beyond this has exploded: the step is rejected
+# Stop when the Newton decrement (the step's length in standard errors, squared) is below this: 0.1 standard error
+OE_TOL = 0.01
 _LM_START, _LM_MAX = 1e-3, 1e8  # Levenberg-Marquardt damping: first value, give up above
 _LM_MIN, _LM_FACTOR = 1e-12, 10.0  # damping floor; divided by the factor after a better step, multiplied after a worse
 _FD_STEP = 1e-7  # relative forward-difference step of the state Jacobian (see _state_jacobian)
@@ -406,7 +408,7 @@ def output_error(
     *,
     terms: TermSet | None = None,
     max_iter: int = 10,
-    tol: float = 0.01,
+    tol: float = OE_TOL,
 ) -> OEResult:
     """Output-error (prediction-error) estimate started from ``theta_start`` (B, p), e.g. the IV estimate.
 
