@@ -22,7 +22,7 @@ import numpy as np
 from diagnose.api import _extended, fit_baseline, fit_structure
 from diagnose.model import AugmentedModel, prepare
 from diagnose.recording import Recording
-from primitives.ship import load_profile
+from primitives.ship import ShipProfile, load_profile
 from tests.physics.mmg_battery import NOISE_FULL, case, generate
 
 
@@ -36,7 +36,7 @@ def _recording(run, cols: dict | None, name: str, scale: float) -> Recording:
                      {"delta": c["delta"], "n": c["n"] / q})
 
 
-def sim_error(profile, theta, rec: Recording, truth: Recording) -> np.ndarray:
+def sim_error(profile: ShipProfile, theta: np.ndarray, rec: Recording, truth: Recording) -> np.ndarray:
     """RMS of (simulation - truth) per channel over the run, in full-scale noise units."""
     m = AugmentedModel(profile, theta, [])
     p = prepare(profile, rec)

@@ -53,11 +53,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from expdesign.dopt import InfoSet, solve_convex
-from expdesign.montecarlo import evaluate_designs
+from expdesign.montecarlo import MCShared, evaluate_designs
 from expdesign.nonconvex import solve_nonconvex
 from primitives.information import library_information
-from primitives.library import model_ship_thesis
-from primitives.ship import load_profile
+from primitives.library import Primitive, model_ship_thesis
+from primitives.ship import ShipProfile, load_profile
 
 
 def bench(name: str, fn, target: float, runs: int) -> float:
@@ -109,7 +109,7 @@ def scaling(runs: int, workers: list[int], scheduler: str | None, repeat: int) -
     return rows
 
 
-def _setup():
+def _setup() -> tuple[ShipProfile, list[Primitive], dict[str, object]]:
     from expdesign.api import run_design
 
     p = load_profile("model-ship")
@@ -131,7 +131,7 @@ class TaskCost:
         return [self.fixed[d] + (b - a) * self.per_run[d] for d, a, b in tasks]
 
 
-def fit_task_cost(sh, sizes: tuple[int, ...] = SIZES, repeat: int = 3) -> TaskCost:
+def fit_task_cost(sh: MCShared, sizes: tuple[int, ...] = SIZES, repeat: int = 3) -> TaskCost:
     """Least-squares line through the median CPU time of tasks of ``sizes`` runs, per design
     (each repeat on other runs), over the task sizes the engines cut (16 to 500 runs). The fixed
     part is the simulation kernel's time loops (data, IV re-simulations, validation: 1000 steps
@@ -156,11 +156,11 @@ def fit_task_cost(sh, sizes: tuple[int, ...] = SIZES, repeat: int = 3) -> TaskCo
     return TaskCost(fixed, per_run)
 
 
-def _noop(item: int, shared) -> int:
+def _noop(item: int, shared: MCShared) -> int:
     return item
 
 
-def pool_overhead(sh, w: int, repeat: int = 5) -> dict[str, float]:
+def pool_overhead(sh: MCShared, w: int, repeat: int = 5) -> dict[str, float]:
     """The pool machinery alone: fork ``w`` workers that hold the shared inputs, one no-op task
     each, collect, shut down (medians of ``repeat``). Seconds: ``wall`` on this machine, ``cpu``
     of the parent and the workers, and ``serial``, the wall on an idle machine with >= w cores:
@@ -180,7 +180,7 @@ def pool_overhead(sh, w: int, repeat: int = 5) -> dict[str, float]:
     return {k: statistics.median(r[k] for r in runs) for k in runs[0]}
 
 
-def _timed_task(item: tuple[str, int, int], shared) -> float:
+def _timed_task(item: tuple[str, int, int], shared: MCShared) -> float:
     from expdesign.montecarlo import run_chunk
 
     t = time.process_time()
@@ -188,7 +188,7 @@ def _timed_task(item: tuple[str, int, int], shared) -> float:
     return time.process_time() - t
 
 
-def first_task_extra(sh, n: int, repeat: int = 2) -> float:
+def first_task_extra(sh: MCShared, n: int, repeat: int = 2) -> float:
     """Extra CPU seconds of a fresh worker's first task of ``n`` runs over the same task in this
     warm process: a new process grows its heap to the task's working set (page faults), once."""
     from expdesign.parallel import LocalEngine

@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
 from primitives.io import dumps
+
+if TYPE_CHECKING:
+    from expdesign.api import Design
 
 
 def register(app: typer.Typer) -> None:
@@ -55,7 +59,7 @@ def register(app: typer.Typer) -> None:
         validate_design_options(criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length,
                                 monte_carlo=monte_carlo, mc_samples=mc_samples, seed=seed, out=out, psi_switch=psi_switch,
                                 min_frac=min_frac, max_frac=max_frac, noisy_moments=noisy_moments)
-        _check_mc_options(mc_protocol, mc_order, mc_settle, mc_min_block, mc_samples, mc_estimator)
+        _check_mc_options(mc_protocol, mc_order, mc_estimator, mc_settle, mc_min_block, mc_samples)
         profile = load_profile(ship)
         profile.require_planar("shiptrial design")
         lib = default_library(profile, psi_switch)
@@ -93,29 +97,39 @@ def register(app: typer.Typer) -> None:
         if json_out:
             typer.echo(dumps(doc))
             return
-        typer.echo(f"{profile.name}: {d.criterion}-optimal mix ({d.mean_subtraction} mean subtraction)")
-        for n, w in d.weights.items():
-            if w > 0.005:
-                typer.echo(f"  {n:8s} {100 * w:5.1f} %   {d.rounded[n]:3d} x {d.unit_s[n]:.1f} s")
-        typer.echo(f"efficiency vs equal shares {d.efficiency_vs_uniform:.3f}; convex certificate >= {d.efficiency_bound or 0:.4f}")
-        for label, eff in d.references.items():
-            typer.echo(f"the {label}'s shares reach {eff:.3f} of this design's {d.criterion}-efficiency")
+        _echo_design(profile.name, d)
         if ev:
-            for n, s in doc["monte_carlo"].items():
-                p = "n/a" if s["param_rmse_p50"] is None else f"{s['param_rmse_p50']:.3g} ({100 * s['frac_param_rmse_below_1_5']:.1f} % < 1.5)"
-                typer.echo(f"  MC {n:9s} param RMSE p50 {p}; sim RMSE p50 {_g(s['sim_rmse_p50'])} "
-                           f"({100 * s['frac_sim_rmse_below_0_15']:.1f} % < 0.15); diverged {s['diverged']} of {s['runs']} "
-                           f"[{s['estimator']}]")
-                if s.get("reference"):
-                    r = s["reference"]
-                    rp = "n/a" if r["param_rmse_p50"] is None else f"{100 * r['frac_param_rmse_below_1_5']:.1f} %"
-                    typer.echo(f"     {'':9s} same runs, {r['estimator']} (the thesis's estimator): {rp} < 1.5, "
-                               f"{100 * r['frac_sim_rmse_below_0_15']:.1f} % < 0.15; diverged {r['diverged']}")
+            _echo_mc(doc["monte_carlo"])
         if paths:
             typer.echo(f"wrote {paths['markdown']} and {paths['json']}")
 
 
-def _check_mc_options(protocol: str, order: str, settle: int, min_block: int, samples: int, estimator: str) -> None:
+def _echo_design(ship: str, d: Design) -> None:
+    """The design's mix, its efficiency and the reference shares' efficiency, as text."""
+    typer.echo(f"{ship}: {d.criterion}-optimal mix ({d.mean_subtraction} mean subtraction)")
+    for n, w in d.weights.items():
+        if w > 0.005:
+            typer.echo(f"  {n:8s} {100 * w:5.1f} %   {d.rounded[n]:3d} x {d.unit_s[n]:.1f} s")
+    typer.echo(f"efficiency vs equal shares {d.efficiency_vs_uniform:.3f}; convex certificate >= {d.efficiency_bound or 0:.4f}")
+    for label, eff in d.references.items():
+        typer.echo(f"the {label}'s shares reach {eff:.3f} of this design's {d.criterion}-efficiency")
+
+
+def _echo_mc(mc: dict) -> None:
+    """One line per Monte Carlo design (and one for the same runs' IV reference), as text."""
+    for n, s in mc.items():
+        p = "n/a" if s["param_rmse_p50"] is None else f"{s['param_rmse_p50']:.3g} ({100 * s['frac_param_rmse_below_1_5']:.1f} % < 1.5)"
+        typer.echo(f"  MC {n:9s} param RMSE p50 {p}; sim RMSE p50 {_g(s['sim_rmse_p50'])} "
+                   f"({100 * s['frac_sim_rmse_below_0_15']:.1f} % < 0.15); diverged {s['diverged']} of {s['runs']} "
+                   f"[{s['estimator']}]")
+        if s.get("reference"):
+            r = s["reference"]
+            rp = "n/a" if r["param_rmse_p50"] is None else f"{100 * r['frac_param_rmse_below_1_5']:.1f} %"
+            typer.echo(f"     {'':9s} same runs, {r['estimator']} (the thesis's estimator): {rp} < 1.5, "
+                       f"{100 * r['frac_sim_rmse_below_0_15']:.1f} % < 0.15; diverged {r['diverged']}")
+
+
+def _check_mc_options(protocol: str, order: str, estimator: str, settle: int, min_block: int, samples: int) -> None:
     """Refuse a bad Monte Carlo option before the design step (seconds of work) runs."""
     from expdesign.errors import DesignError
     from expdesign.montecarlo import ESTIMATORS, ORDERS, PROTOCOLS, MCConfig

@@ -16,7 +16,7 @@ from diagnose.model import AugmentedModel, Prepared, diverges, fit, fit_percent,
 from diagnose.recording import Recording, RecordingError
 from diagnose.reference import ReferencedModel, declared_structure, extend
 from diagnose.search import MUCH_WORSE, base_bounds, prior_sd, select
-from primitives.ship import DOFS, ShipProfile
+from primitives.ship import DEFAULT_STRUCTURE_PRIOR, DOFS, ShipProfile
 from primitives.simulate import relative_signals
 
 
@@ -72,7 +72,7 @@ def _noise_scale(y: np.ndarray) -> np.ndarray:
 
 
 def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording],
-                 new: list[int] | None = None, new_prior: float = 0.01) -> tuple[np.ndarray, str]:
+                 new: list[int] | None = None, new_prior: float = DEFAULT_STRUCTURE_PRIOR) -> tuple[np.ndarray, str]:
     """Output-error fit of the baseline parameters on the --fit-on recordings, each kept within
     a factor 2 of the profile and its sign (damping stays dissipative), regularised towards it.
     Structure terms ``new`` (value 0, :func:`diagnose.reference.extend`) are held towards zero
@@ -158,6 +158,37 @@ def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recordi
                                     f"diagnosed runs worse than the baseline's own ({why}): not used"], False
 
 
+def _check_sample_times(profile: ShipProfile, recs: list[Recording]) -> None:
+    """Every recording holds the profile's inputs and is sampled at its sample time."""
+    ts = profile.sample_time
+    for r in recs:
+        r.inputs_for(profile.inputs)
+        if abs(r.sample_time - ts) > 1e-6 * ts:
+            raise RecordingError(f"{r.source}: sample time {r.sample_time:g} s differs from the ship's {ts:g} s; "
+                                 f"resample the recording or add '# sample_time: {ts:g}'")
+
+
+def _fit_on(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording], recordings: list[Recording],
+            joint_reference: bool) -> tuple[ShipProfile, np.ndarray, str, list[str], list[int] | None]:
+    """The baseline fitted on the --fit-on runs (jointly with the diagnosed runs with
+    ``joint_reference``): (profile, theta, source, notes, own), ``own`` the indices of the
+    profile's own parameters in a structure-extended model (None after a joint fit)."""
+    _check_simulable(AugmentedModel(profile, theta0, []), [prepare(profile, r) for r in fit_on], "given")
+    own: list[int] | None = None
+    if joint_reference:
+        profile, theta0, added = _extended(profile, theta0)
+        theta0, note = fit_baseline(profile, theta0, list(fit_on) + recordings)
+        source = ("fitted jointly on the reference run(s) " + ", ".join(r.source for r in fit_on) + " and the diagnosed "
+                  "runs" + (f", structure extended by {', '.join(added)}" if added else ""))
+        fit_notes, rejected = [note] if note else [], bool(note)
+    else:
+        n_own = [len(t) for t in profile.model_terms]
+        profile, theta0, source, fit_notes, rejected = fit_structure(profile, theta0, fit_on, recordings)
+        own = [j for i in range(3) for j in range(profile.model.offsets[i], profile.model.offsets[i] + n_own[i])]
+    source += " (rejected)" if rejected else ""
+    return profile, theta0, source, fit_notes, own
+
+
 def _check_simulable(model: AugmentedModel, preps: list[Prepared], what: str) -> None:
     for p in preps:
         if diverges(model, [p], model.p0()):
@@ -186,30 +217,14 @@ def run(
     if not recordings:
         raise RecordingError("no recording given: pass at least one CSV or .dat file")
     ts = profile.sample_time
-    for r in list(recordings) + list(fit_on or []) + list(validate or []):
-        r.inputs_for(profile.inputs)
-        if abs(r.sample_time - ts) > 1e-6 * ts:
-            raise RecordingError(f"{r.source}: sample time {r.sample_time:g} s differs from the ship's {ts:g} s; "
-                                 f"resample the recording or add '# sample_time: {ts:g}'")
+    _check_sample_times(profile, list(recordings) + list(fit_on or []) + list(validate or []))
     theta0 = profile.params(theta if theta is not None else None)
     source = "profile"
     notes: list[str] = []
     calm_preps: list[Prepared] = []
     own: list[int] | None = None
     if fit_on:
-        _check_simulable(AugmentedModel(profile, theta0, []), [prepare(profile, r) for r in fit_on], "given")
-        if joint_reference:
-            profile, theta0, added = _extended(profile, theta0)
-            theta0, note = fit_baseline(profile, theta0, list(fit_on) + list(recordings))
-            source = ("fitted jointly on the reference run(s) " + ", ".join(r.source for r in fit_on) + " and the diagnosed "
-                      "runs" + (f", structure extended by {', '.join(added)}" if added else ""))
-            fit_notes, rejected = [note] if note else [], bool(note)
-        else:
-            n_own = [len(t) for t in profile.model_terms]
-            profile, theta0, source, fit_notes, rejected = fit_structure(profile, theta0, fit_on, list(recordings))
-            own = [j for i in range(3) for j in range(profile.model.offsets[i], profile.model.offsets[i] + n_own[i])]
-        source += " (rejected)" if rejected else ""
-        notes += fit_notes
+        profile, theta0, source, notes, own = _fit_on(profile, theta0, fit_on, list(recordings), joint_reference)
     cands, untestable = build_library(profile, recordings)
     preps = [prepare(profile, r, i) for i, r in enumerate(recordings)]
     val_preps = [prepare(profile, r) for r in validate] if validate else []

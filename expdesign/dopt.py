@@ -25,6 +25,7 @@ import numpy as np
 from scipy.optimize import linprog, minimize
 
 from expdesign.errors import DesignError
+from expdesign.simplexsolver import SUPPORTED, solve_simplex
 from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo
 
 CRITERIA = ("D", "A", "E")
@@ -327,8 +328,6 @@ DEDICATED = "frank-wolfe"
 def _dedicated(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str, notes: list[str]) -> np.ndarray | None:
     """Weights from :func:`expdesign.simplexsolver.solve_simplex` where it applies (D or A on the
     plain simplex) and certifies its optimum, else None with a note."""
-    from expdesign.simplexsolver import SUPPORTED, solve_simplex
-
     if criterion not in SUPPORTED or not cons.is_simplex:
         notes.append(f"{DEDICATED} does not apply ({criterion}-criterion{'' if cons.is_simplex else ', constrained fractions'}); "
                      "trying the next solver")

@@ -25,7 +25,7 @@ from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo
 from primitives.regressors import block_mask, instruments, predictor_regressors
 from primitives.ship import ShipProfile
 from primitives.simulate import model_signals, simulate
-from primitives.terms import signals_used
+from primitives.terms import TermSet, signals_used
 
 
 @dataclass
@@ -210,7 +210,12 @@ def data_information(profile: ShipProfile, segments: Sequence[Segment], instrume
 # -- output-error refinement (prediction-error method on the simulated output) ---------------------
 
 _OE_EXPLODE = 1e6  # a simulated output beyond this has exploded: the step is rejected
+# Stop when the Newton decrement (the step's length in standard errors, squared) is below this: 0.1 standard error
+OE_TOL = 0.01
 _LM_START, _LM_MAX = 1e-3, 1e8  # Levenberg-Marquardt damping: first value, give up above
+_LM_MIN, _LM_FACTOR = 1e-12, 10.0  # damping floor; divided by the factor after a better step, multiplied after a worse
+_FD_STEP = 1e-7  # relative forward-difference step of the state Jacobian (see _state_jacobian)
+_WEIGHT_FLOOR = 1e-12  # a DOF's mean square is floored at this fraction of the largest: its weight stays finite
 
 
 @dataclass
@@ -238,7 +243,7 @@ class OEResult:
     converged: np.ndarray
 
 
-def output_error_unsupported(profile: ShipProfile, terms=None) -> str | None:
+def output_error_unsupported(profile: ShipProfile, terms: TermSet | None = None) -> str | None:
     """Why :func:`output_error` cannot refine this model, or None when it can: the sensitivity
     recursion is written for planar (u, v, r) models whose increments are linear in theta (no
     rigid-body transform) and do not read the heading."""
@@ -297,7 +302,7 @@ def _state_jacobian(profile: ShipProfile, terms, nu: np.ndarray, psi: np.ndarray
     base = np.diff(nu, axis=1)
     jac = np.empty(x0.shape[:2] + (3, 3))
     for col in range(3):
-        h = 1e-7 * (1.0 + np.abs(x0[..., col]))
+        h = _FD_STEP * (1.0 + np.abs(x0[..., col]))
         x = x0.copy()
         x[..., col] += h
         f = inc(model_signals(profile, x, psi[:, :-1], dict(in_sig)), coef)
@@ -326,8 +331,8 @@ def _gauss_newton_moments(profile: ShipProfile, terms, data: Sequence[OEData], s
             jac = _state_jacobian(profile, terms, nu, psi, in_sig, theta[idx])
             phi = np.moveaxis(predictor_regressors(profile, nu, inputs, psi, terms=terms)[0], 1, 0).astype(np.float32)
         # time-major: each step reads and writes contiguous blocks; single precision: the recursion
-        # is the estimator's inner loop (3x faster) and S only steers the step, the cost that
-        # accepts it is computed in double precision
+        # is the estimator's inner loop (half the bytes per step: faster, the more so the larger
+        # the batch) and S only steers the step, the cost that accepts it is computed in double precision
         sens = np.empty((n + 1, b, 3, p), np.float32)
         sens[0] = 0.0
         with np.errstate(all="ignore"):  # an unstable estimate's sensitivities overflow: its step is then rejected
@@ -363,14 +368,47 @@ def _lm_step(hess: np.ndarray, grad: np.ndarray, lam: float) -> np.ndarray:
         return np.full(len(grad), np.nan)
 
 
+def _cost(ms: np.ndarray, w: np.ndarray, valid: np.ndarray, n: int) -> np.ndarray:
+    """Weighted sum of squared output errors per run, n sum_i w_i ms_i (a chi-square); inf
+    where ``valid`` is False or the simulation exploded."""
+    good = valid & np.isfinite(ms).all(axis=1)
+    return np.where(good, n * _weighted(np.where(good[:, None], ms, 0.0), w), np.inf)
+
+
+def _start(profile: ShipProfile, terms: TermSet, data: Sequence[OEData], theta: np.ndarray, n: int
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
+    """At the start estimate: which runs simulate (ok (B,)), the fixed weights w = 1/sigma_i^2
+    from their residuals (B, 3), the cost (B,) and the simulated outputs of the ok runs."""
+    bsz = theta.shape[0]
+    finite = np.flatnonzero(np.isfinite(theta).all(axis=1))
+    ms = np.full((bsz, 3), np.inf)
+    sims = _simulated(profile, terms, data, theta, finite)
+    ms[finite] = _mean_squares(data, sims, finite)
+    ok = np.isfinite(ms).all(axis=1)
+    w = np.ones((bsz, 3))
+    w[ok] = 1.0 / np.maximum(ms[ok], _WEIGHT_FLOOR * ms[ok].max(axis=1, keepdims=True) + 1e-300)
+    cost = _cost(ms, w, ok, n)
+    return ok, w, cost, [(nu[ok[finite]], psi[ok[finite]]) for nu, psi in sims]
+
+
+def _decrement(step: np.ndarray, grad: np.ndarray) -> np.ndarray:
+    """Newton decrement g^T step per run, summed in a fixed order elementwise over the runs (no
+    batch-dependent rounding)."""
+    decrement = np.zeros(len(step))
+    with np.errstate(all="ignore"):
+        for j in range(step.shape[1]):
+            decrement += step[:, j] * grad[:, j]
+    return decrement
+
+
 def output_error(
     profile: ShipProfile,
     data: Sequence[OEData],
     theta_start: np.ndarray,
     *,
-    terms=None,
+    terms: TermSet | None = None,
     max_iter: int = 10,
-    tol: float = 0.01,
+    tol: float = OE_TOL,
 ) -> OEResult:
     """Output-error (prediction-error) estimate started from ``theta_start`` (B, p), e.g. the IV estimate.
 
@@ -396,15 +434,8 @@ def output_error(
         raise DesignError(why)
     theta = np.array(theta_start, float)
     bsz, p = theta.shape
-    finite = np.flatnonzero(np.isfinite(theta).all(axis=1))
-    ms = np.full((bsz, 3), np.inf)
-    sims = _simulated(profile, terms, data, theta, finite)
-    ms[finite] = _mean_squares(data, sims, finite)
-    ok = np.isfinite(ms).all(axis=1)
     n = sum(d.y.shape[1] - 1 for d in data)
-    w = np.ones((bsz, 3))
-    w[ok] = 1.0 / np.maximum(ms[ok], 1e-12 * ms[ok].max(axis=1, keepdims=True) + 1e-300)
-    cost = np.where(ok, n * _weighted(np.where(ok[:, None], ms, 0.0), w), np.inf)
+    ok, w, cost, cur = _start(profile, terms, data, theta, n)
     cost_start = cost.copy()
     active = ok.copy()
     iters = np.zeros(bsz, dtype=np.int64)
@@ -412,16 +443,12 @@ def output_error(
     lam = np.full(bsz, _LM_START)
     hess, grad = np.zeros((bsz, p, p)), np.zeros((bsz, p))
     fresh = np.flatnonzero(active)  # runs whose moments need computing at their current theta
-    cur = [(nu[ok[finite]], psi[ok[finite]]) for nu, psi in sims]
     while True:
         if fresh.size:
             hess[fresh], grad[fresh] = _gauss_newton_moments(profile, terms, data, cur, theta, fresh, w)
         idx = np.flatnonzero(active & (iters < max_iter))
         step = np.array([_lm_step(hess[b], grad[b], lam[b]) for b in idx]).reshape(-1, p)
-        decrement = np.zeros(len(idx))
-        with np.errstate(all="ignore"):
-            for j in range(p):  # summed in a fixed order, elementwise over the runs: no batch-dependent rounding
-                decrement += step[:, j] * grad[idx, j]
+        decrement = _decrement(step, grad[idx])
         done = np.isfinite(decrement) & (decrement < tol) & (lam[idx] <= _LM_START)
         converged[idx[done]] = True
         active[idx[done]] = False
@@ -431,16 +458,14 @@ def output_error(
         cand = theta.copy()
         cand[idx] += step
         csims = _simulated(profile, terms, data, cand, idx)
-        cms = _mean_squares(data, csims, idx)
-        good = np.isfinite(step).all(axis=1) & np.isfinite(cms).all(axis=1)
-        ccost = np.where(good, n * _weighted(np.where(good[:, None], cms, 0.0), w[idx]), np.inf)
+        ccost = _cost(_mean_squares(data, csims, idx), w[idx], np.isfinite(step).all(axis=1), n)
         iters[idx] += 1
         better = ccost < cost[idx]
         theta[idx[better]], cost[idx[better]] = cand[idx[better]], ccost[better]
         fresh = idx[better & (iters[idx] < max_iter)]  # no moments for a run that may not step again
-        lam[idx[better]] = np.maximum(lam[idx[better]] / 10.0, 1e-12)
+        lam[idx[better]] = np.maximum(lam[idx[better]] / _LM_FACTOR, _LM_MIN)
         rej = idx[~better]
-        lam[rej] *= 10.0
+        lam[rej] *= _LM_FACTOR
         active[rej[lam[rej] > _LM_MAX]] = False
         cur = [(nu[np.isin(idx, fresh)], psi[np.isin(idx, fresh)]) for nu, psi in csims]
     return OEResult(theta, cost_start, cost, iters, converged)

@@ -60,6 +60,8 @@ ESTIMATORS = ("oe", "iv")
 MAX_CHUNK = 500  # runs per batch: bounds memory (about 40 MB per (runs, samples, params) array)
 _Z_LIMIT = 1e6  # instruments above this come from an exploding simulation: keep the previous ones
 _EXPLODE = 100.0  # a validation output this many times the true one's maximum has diverged
+# Smallest value of each integer setting of MCConfig (min_block: a sub-experiment needs two samples for one increment)
+_MINIMA = (("n_segments", 1), ("min_block", 2), ("settle", 0), ("iv_iterations", 0), ("oe_iterations", 1))
 
 
 @dataclass(frozen=True)
@@ -92,9 +94,9 @@ class MCConfig:
             raise DesignError(f"Monte Carlo estimator must be one of {list(ESTIMATORS)}, got {self.estimator!r}")
         if self.mean_subtraction not in MEAN_SUBTRACTION:
             raise DesignError(f"mean subtraction must be one of {list(MEAN_SUBTRACTION)}, got {self.mean_subtraction!r}")
-        if self.n_segments < 1 or self.min_block < 2 or self.settle < 0 or self.iv_iterations < 0 or self.oe_iterations < 1:
-            raise DesignError("Monte Carlo needs n_segments >= 1, min_block >= 2 samples, settle >= 0, iv_iterations >= 0, "
-                              "oe_iterations >= 1")
+        for name, lowest in _MINIMA:
+            if getattr(self, name) < lowest:
+                raise DesignError(f"Monte Carlo {name} {getattr(self, name)} is below {lowest}: give {name} >= {lowest}")
         if self.n_samples // self.n_segments < self.min_block:
             raise DesignError(f"{self.n_samples} samples in {self.n_segments} random segments is shorter than the minimum "
                               f"sub-experiment of {self.min_block} samples: raise n_samples or lower min_block")

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from expdesign.api import Design
+from expdesign.estimators import OE_TOL
 from expdesign.mc_result import PARAM_THRESHOLD, SIM_THRESHOLD, THESIS_FRACTIONS, MCResult
 from expdesign.montecarlo import MCEvaluation
 from primitives.io import atomic_savefig, atomic_write_text, dumps
@@ -98,7 +99,7 @@ def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
          f"{cfg.n_samples // cfg.n_segments}"},
         {"choice": "noise", "value": noise},
         {"choice": "estimator", "value": ESTIMATOR_TEXT[cfg.estimator] + (
-            f" (at most {cfg.oe_iterations} steps per run, stopped when the next step is shorter than 0.1 standard error). "
+            f" (at most {cfg.oe_iterations} steps per run, stopped when the next step is shorter than {OE_TOL ** 0.5:g} standard error). "
             "The thesis's estimator is the IV one (l. 12502-12531); its regressors hold the noisy velocities (errors in "
             "variables, section 2.4), which costs the IV estimate variance, most for Yur (sway noise std 0.158 against sway "
             "of at most 0.2 m/s)" if cfg.estimator == "oe" else "")},

@@ -27,11 +27,17 @@ from dataclasses import dataclass
 import numpy as np
 
 SUPPORTED = ("D", "A")
+_CONE_MARGIN = 0.999999  # a line search stops this fraction of the way to the edge of the positive definite cone
+_BISECTIONS, _BISECTION_TOL = 100, 1e-15  # exact line search: at most this many halvings, to this relative width
+_NEWTON_HALVINGS = 30  # damping halvings of a Newton step before it is given up
+_ZERO_WEIGHT = 1e-14  # a weight below this after a step is set to 0 (leaves the support)
+_START_TOL, _START_ITER = 1e-4, 500  # the loose solves of the shifted problems in _positive_definite_start
 
 
 @dataclass
 class SimplexSolution:
-    """Weights, the criterion value, the final Frank-Wolfe gap and the iterations used."""
+    """Weights, the criterion value, the final Frank-Wolfe gap, the iterations used and whether
+    the optimal weights are unique (:func:`_unique`)."""
 
     weights: np.ndarray
     value: float
@@ -95,7 +101,7 @@ class _Model:
         c = np.ones_like(lam) if self.criterion == "D" else np.sum((li.T @ u) ** 2, axis=0)
         neg = lam < 0
         if neg.any():  # stay inside the positive definite cone
-            t_max = min(t_max, 0.999999 * float(np.min(-1.0 / lam[neg])))
+            t_max = min(t_max, _CONE_MARGIN * float(np.min(-1.0 / lam[neg])))
 
         def slope(t: float) -> float:
             den = 1.0 + t * lam
@@ -106,13 +112,13 @@ class _Model:
         if slope(0.0) <= 0:
             return 0.0
         a_, b_ = 0.0, t_max  # the slope is decreasing (phi concave in t): bisection to machine precision
-        for _ in range(100):
+        for _ in range(_BISECTIONS):
             mid = 0.5 * (a_ + b_)
             if slope(mid) > 0:
                 a_ = mid
             else:
                 b_ = mid
-            if b_ - a_ <= 1e-15 * max(1.0, b_):
+            if b_ - a_ <= _BISECTION_TOL * max(1.0, b_):
                 break
         return 0.5 * (a_ + b_)
 
@@ -147,7 +153,7 @@ def _newton_on_support(model: _Model, w: np.ndarray, lo: np.ndarray, support: np
     f0 = model.value(lo)
     neg = d < 0
     t = min(1.0, float(np.min(-w[support][neg] / d[neg]))) if neg.any() else 1.0
-    for _ in range(30):
+    for _ in range(_NEWTON_HALVINGS):
         trial = w.copy()
         trial[support] = np.maximum(w[support] + t * d, 0.0)
         trial /= trial.sum()
@@ -185,7 +191,7 @@ def _positive_definite_start(model: _Model, w: np.ndarray, stages: int = 40) -> 
     eye = np.eye(len(ev))
     for _ in range(stages):
         shifted = _Model(model.mq, model.m0 + s * eye, model.criterion)
-        r = _frank_wolfe(shifted, w, 1e-4, 500)
+        r = _frank_wolfe(shifted, w, _START_TOL, _START_ITER)
         if r is None:
             return None
         w = r.weights
@@ -231,7 +237,7 @@ def _frank_wolfe(model: _Model, w: np.ndarray, tol: float, max_iter: int) -> Sim
         if t <= 0.0:
             return None
         w = np.maximum(w + t * d, 0.0)
-        w[w < 1e-14] = 0.0
+        w[w < _ZERO_WEIGHT] = 0.0
         w /= w.sum()
         lo = model.factor(w)
         if lo is None:

@@ -55,6 +55,9 @@ PROFILE_KEYS = frozenset({
     "diagnosis",  # baseline structure a --fit-on refit may add (diagnose.reference.declared_structure)
 })
 # Physical sizes a profile must give, all finite and > 0 (unit in the message).
+# Prior std of a [diagnosis] structure coefficient, as a fraction of the coefficient that alone
+# would explain its DOF's increments (diagnose.api.term_scales), when the profile gives none.
+DEFAULT_STRUCTURE_PRIOR = 0.01
 POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("draught_m", "m"), ("cruise_speed_mps", "m/s"))
 
 
@@ -123,7 +126,7 @@ class ShipProfile:
     # [diagnosis] structure: terms per DOF a diagnosis adds to the model when it refits the
     # baseline on calm-water runs (--fit-on), and the prior that holds them towards zero
     structure_terms: tuple[tuple[str, ...], ...] | None = None
-    structure_prior: float = 0.01
+    structure_prior: float = DEFAULT_STRUCTURE_PRIOR
 
     # -- structure -------------------------------------------------------------------------
     # cached: compiled once per profile (a frozen dataclass still has an instance __dict__)
@@ -383,13 +386,13 @@ def _diagnosis(d: dict, src: str, dofs: tuple[str, ...], known: set[str]) -> tup
     fraction of the coefficient that alone would explain the increments' spread)."""
     table = d.get("diagnosis")
     if table is None:
-        return None, 0.01
+        return None, DEFAULT_STRUCTURE_PRIOR
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'diagnosis' must be a table with 'structure' (and 'structure_prior')")
     bad = unknown_key(table, list(DIAGNOSIS_KEYS))
     if bad:
         raise ProfileError(f"{src}: unknown field 'diagnosis.{bad[0]}'{bad[1]}")
-    prior = positive(table.get("structure_prior", 0.01), f"{src}: field 'diagnosis.structure_prior'", "", ProfileError)
+    prior = positive(table.get("structure_prior", DEFAULT_STRUCTURE_PRIOR), f"{src}: field 'diagnosis.structure_prior'", "", ProfileError)
     terms = _per_dof(table, "structure", f"{src} [diagnosis]", str, "regressor term strings like 'v_r^3*U^-1'", dofs)
     try:
         unknown = signals_used(terms) - known

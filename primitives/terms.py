@@ -50,6 +50,7 @@ class Factor:
 
     @property
     def names(self) -> tuple[str, ...]:
+        """The signals the factor reads (a station also reads the yaw rate r)."""
         return (self.name,) if self.station is None else (self.name, "r")
 
     def value(self, sig: Signals) -> np.ndarray:
@@ -67,6 +68,8 @@ class Factor:
 
 
 def parse_factor(factor: str) -> Factor:
+    """One ``*``-separated factor of a term string, checked: a negative power only of a
+    :data:`POSITIVE_SIGNALS` signal, a station only on a :data:`STATION_SIGNALS` one."""
     m = _FACTOR.match(factor.strip())
     if not m or bool(m.group(1)) != bool(m.group(4)):
         raise TermError(f"term factor {factor!r} is not a signal name, |name| or name^k (e.g. 'u_r', '|v_r|', 'u^2', "
@@ -137,7 +140,7 @@ class TermSet:
         """Regressor block of DOF i: array of shape (..., n_terms_i)."""
         return np.stack([fn(sig) for fn in self._fns[i]], axis=-1)
 
-    def increment_function(self):
+    def increment_function(self) -> Callable[[Signals, Sequence], list[np.ndarray]]:
         """Increment function generated once from the term strings: one Python expression per
         DOF instead of a loop over factor closures (this is the simulators' inner loop)."""
         fn = getattr(self, "_inc_fn", None)

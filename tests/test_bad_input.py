@@ -182,7 +182,7 @@ def _cases() -> list[tuple[str, list[str]]]:
     # Monte Carlo options: refused before the design step (here with the Monte Carlo off, so a late check would pass them)
     add(d, "--mc-protocol", ["restart", "", "Continuous"])
     add(d, "--mc-order", ["shuffled", "", "1"])
-    add(d, "--mc-estimator", ["ls", "", "OE"])
+    add(d, "--mc-estimator", ["ml", "", "OE"])
     add(d, "--mc-settle", ["-1", "abc"])
     add(d, "--mc-min-block", ["1", "-5", "201", "abc"])
     # plan

@@ -121,3 +121,6 @@ def test_bad_protocol_settings_name_the_setting(ship):
         prepare(p, {"x": DESIGN}, MCConfig(estimator="ml"), lib)
     with pytest.raises(DesignError, match="oe_iterations"):
         prepare(p, {"x": DESIGN}, MCConfig(oe_iterations=0), lib)
+    for name, bad in (("n_segments", 0), ("min_block", 1), ("settle", -1), ("iv_iterations", -1), ("oe_iterations", 0)):
+        with pytest.raises(DesignError, match=rf"^Monte Carlo {name} {bad} is below \d: give {name} >= \d$"):
+            prepare(p, {"x": DESIGN}, MCConfig(**{name: bad}), lib)
