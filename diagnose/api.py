@@ -89,7 +89,12 @@ def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]
     level = np.sqrt(np.mean(r0**2)) if np.all(np.isfinite(r0)) else 1.0
     sd = prior_sd(P0, idx, level, model.n_params)
     if new:
-        sd[new] = new_prior * term_scales(profile, recs)[new]
+        scale = term_scales(profile, recs)
+        # A structure term that never varies on the --fit-on runs is not determined by them: it
+        # stays at zero rather than get an unbounded prior (it would extrapolate freely elsewhere).
+        idx = [j for j in idx if not (j in new and not np.isfinite(scale[j]))]
+        new = [j for j in new if np.isfinite(scale[j])]
+        sd[new] = new_prior * scale[new]
     P, _cov, rss = fit(model, preps, P0, idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=base_bounds(P0, idx, model),
                        prior=(P0, sd))
     if not np.isfinite(rss):
@@ -99,7 +104,8 @@ def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]
 
 def term_scales(profile: ShipProfile, recs: list[Recording]) -> np.ndarray:
     """Per model term, the coefficient that alone would explain the spread of its DOF's
-    one-step increments on ``recs``: std(dy_i) / rms(term) (the unit of a structure prior)."""
+    one-step increments on ``recs``: std(dy_i) / rms(term) (the unit of a structure prior);
+    inf for a term that is zero throughout ``recs``."""
     sig: dict[str, np.ndarray] = {}
     parts = [dict(profile.generalized_forces(r.inputs_for(profile.inputs)[:-1]), psi=r.psi[:-1]) for r in recs]
     for k in parts[0]:
@@ -109,7 +115,9 @@ def term_scales(profile: ShipProfile, recs: list[Recording]) -> np.ndarray:
     out = []
     for i in range(3):
         phi = profile.model.evaluate_dof(i, sig)
-        out.append(np.std(dy[:, i]) / np.maximum(np.sqrt(np.mean(phi**2, axis=0)), 1e-300))
+        rms = np.sqrt(np.mean(phi**2, axis=0))
+        with np.errstate(divide="ignore"):
+            out.append(np.where(rms > 0.0, np.std(dy[:, i]) / rms, np.inf))
     return np.concatenate(out)
 
 

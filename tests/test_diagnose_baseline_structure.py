@@ -131,6 +131,22 @@ def test_structure_that_fits_the_diagnosed_runs_worse_is_not_used(mmg_runs, monk
     assert len(notes) == 1 and "[diagnosis] structure" in notes[0] and "not used" in notes[0] and "diverges" in notes[0]
 
 
+def test_a_structure_term_the_calm_run_never_excites_stays_at_zero(mmg_runs):
+    """A declared term that is zero throughout the --fit-on runs (here: rudder held amidships)
+    is not determined by them; it is held at zero, not fitted with an unbounded prior."""
+    calm, _, _ = mmg_runs
+    straight = dataclasses.replace(calm[0], channels={**calm[0].channels, "delta": np.zeros_like(calm[0].channels["delta"])})
+    prof = load_profile("kvlcc2")
+    ext, th_ext, added = api._extended(prof, prof.params(), declared=True)
+    new = [j for i in range(3) for j in range(ext.model.offsets[i] + len(prof.model_terms[i]), ext.model.offsets[i + 1])]
+    scale = api.term_scales(ext, [straight])
+    terms = [t for i in range(3) for t in ext.model_terms[i]]
+    rudder = [j for j in new if "delta" in terms[j]]
+    assert rudder and np.array_equal(np.isinf(scale), np.array(["delta" in t for t in terms]))
+    theta, note = api.fit_baseline(ext, th_ext, [straight], new, prof.structure_prior)
+    assert not note and np.all(theta[rudder] == 0.0)
+
+
 @pytest.mark.slow
 def test_diagnosis_with_the_structure_exports_the_scored_model(tmp_path):
     """The MMG control case diagnosed against kvlcc2 with --fit-on: the declared structure is
