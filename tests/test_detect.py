@@ -113,6 +113,22 @@ def test_cli_detect_json(prior, tmp_path, capsys):
     assert CHANGE_S <= v["alarm_s"] <= CHANGE_S + 120 and set(v["evidence"]["candidates"]) == {"yaw_inertia", "yaw_damping", "pod_gain"}
 
 
+def test_cli_detect_warns_when_the_prior_misfits_its_own_data(prior, tmp_path, capsys):
+    """A prior with a structural misfit (the simplified model's case) is not calibrated: say so."""
+    from dataclasses import replace
+
+    from cli.app import _run
+
+    save_prior(prior, tmp_path / "ok.json")
+    save_prior(replace(prior, model_error=0.002), tmp_path / "misfit.json")
+    write_csv(simulated_recording(Vessel(), 300, seed=53, measured_moment=True), tmp_path / "r.csv")
+    assert _run(["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "ok.json"), "--json"]) in (0, None)
+    assert "warning" not in capsys.readouterr().err
+    assert _run(["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "misfit.json"), "--json"]) in (0, None)
+    err = capsys.readouterr().err
+    assert "warning" in err and "misfit.json" in err and "not calibrated" in err
+
+
 def test_white_noise_level_is_read_from_the_data():
     from diagnose.detect.yawmodel import white_noise_sd
 
