@@ -20,7 +20,7 @@ time constant; RPM changes are steps (no spin-up dynamics in the thesis).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 from scipy.signal import lfilter
@@ -85,10 +85,10 @@ class Noise:
     tau_r: float = 5e4
 
     def scaled(self, k: float) -> Noise:
-        return Noise(*(k * getattr(self, f) for f in ("r", "v_dot", "u", "v", "phi", "tau_r")))
+        return replace(self, **{f.name: k * getattr(self, f.name) for f in fields(self)})
 
 
-SIGNALS = ("r", "v_dot", "u", "v", "phi", "tau_r")
+SIGNALS = tuple(f.name for f in fields(Noise))  # the yaw model's signals, one noise level each
 
 
 @dataclass
