@@ -27,7 +27,8 @@ from primitives.io import read_input_text
 MIN_SAMPLES = 50
 MAX_BRIDGE_S = 5.0  # longest gap bridged by linear interpolation; longer gaps split the run
 NUMERIC = ("t", "x", "y", "lat", "lon", "psi", "u", "v", "r", "tau_x", "tau_y", "tau_n", "delta", "n",
-           "n1", "alpha1", "n2", "alpha2", "wind_speed", "wind_dir", "phi", "p")
+           "n1", "alpha1", "n2", "alpha2", "wind_speed", "wind_dir", "phi", "p",
+           "v_dot")  # v_dot: measured sway acceleration, m/s^2 (optional; change detection uses it)
 
 
 class RecordingError(UserError):
@@ -43,7 +44,7 @@ class Recording:
     y: np.ndarray  # (N+1, 3) measured u, v, r over ground
     psi: np.ndarray  # (N+1,) unwrapped heading, rad
     pos: np.ndarray  # (N+1, 2) x north, y east, m
-    channels: dict[str, np.ndarray]  # inputs and optional signals (wind_speed, wind_dir, phi, p)
+    channels: dict[str, np.ndarray]  # inputs and optional signals (wind_speed, wind_dir, phi, p, v_dot)
     segments: list[str] | None = None
     meta: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)

@@ -49,8 +49,8 @@ def load_runs(paths: list[Path] | list[str]) -> list[Recording]:
             raise RecordingError(f"{p}: missing pod input column(s) {missing}; the podded ship's recording needs "
                                  f"n1, alpha1, n2, alpha2 (rev/s, rad) or the measured pod yaw moment {MOMENT} (N m)")
         runs = load_recording(p)
-        if SWAY_ACC in header:
-            _add_column(Path(p), header, SWAY_ACC, runs)
+        if SWAY_ACC in header and any(SWAY_ACC not in r.channels for r in runs):
+            raise RecordingError(f"{p}: column '{SWAY_ACC}' holds no finite values; fill it or leave the column out")
         recs.extend(runs)
     dts = {round(r.sample_time, 9) for r in recs}
     if len(dts) > 1:
@@ -63,27 +63,6 @@ def _header(path: Path) -> list[str]:
     _, body = split_metadata(read_input_text(path, RecordingError, "a recording CSV (BRIEF section 7)",
                                              "utf-8-sig").splitlines()[:200])
     return [h.strip() for h in body[0].split(",")] if body else []
-
-
-def _add_column(path: Path, header: list[str], name: str, runs: list[Recording]) -> None:
-    """Column ``name``, which the BRIEF recording reader does not keep, as a channel of each run
-    (interpolated on the run's time base: the reader bridges short gaps linearly)."""
-    _, body = split_metadata(read_input_text(path, RecordingError, "a recording CSV (BRIEF section 7)", "utf-8-sig").splitlines())
-    i, it = header.index(name), header.index("t")
-    t, x = [], []
-    for row, line in enumerate(body[1:], start=2):
-        cells = line.split(",")
-        try:
-            t.append(float(cells[it]))
-            x.append(float(cells[i]))
-        except (IndexError, ValueError):
-            raise RecordingError(f"{path}: row {row}, column '{name}': not a number; give {name} in SI units") from None
-    t, x = np.array(t), np.array(x)
-    ok = np.isfinite(t) & np.isfinite(x)
-    if ok.sum() < 2:
-        raise RecordingError(f"{path}: column '{name}' holds no finite values; fill it or leave the column out")
-    for rec in runs:
-        rec.channels[name] = np.interp(rec.t, t[ok], x[ok])
 
 
 def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarray]:
