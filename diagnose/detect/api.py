@@ -184,9 +184,10 @@ def detect(rec: Recording, prior: YawPrior, false_alarm: float = 0.02, min_chang
         raise RecordingError(f"{rec.source}: {rec.duration_s:.0f} s is too short to detect a change; give at least "
                              f"{20 * prior.block * prior.dt:.0f} s")
     sig, r = signals(rec, prior.kind)
-    eps = r - prior.predict(sig, r0=float(np.mean(r[:5])))
+    r0 = float(np.mean(r[:5]))
+    eps = r - prior.predict(sig, r0=r0)
     S = signatures(prior, sig)
-    null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=float(np.mean(r[:5])))
+    null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
     null_blocks = block_mean(null_raw, prior.block)
     sc: SignatureCusum = calibrate(prior, S, null_blocks, theta1=min_change, false_alarm=false_alarm)
     dz = calibrate_dead_zone(prior.sigma, null_raw, false_alarm=false_alarm)
