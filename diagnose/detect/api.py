@@ -13,7 +13,7 @@ from scipy.signal import savgol_filter
 
 from diagnose.detect.cusum import calibrate_dead_zone, first_alarms
 from diagnose.detect.glr import SignatureCusum, attribute, calibrate
-from diagnose.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, truth
+from diagnose.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
 from diagnose.detect.yawmodel import (
     CANDIDATES,
     PREFILTER_HZ,
@@ -255,7 +255,7 @@ def simulated_recording(vessel: Vessel, duration_s: float = 500.0, dt: float = 0
     ch = ch[::every]
     m = len(tr["r"])
     rng = np.random.default_rng(seed + 1)
-    noisy = {k: tr[k] + noise_scale * TABLE_4_1[k] * rng.standard_normal(m) for k in ("u", "v", "r", "phi", "v_dot", "tau_r")}
+    noisy = measure(tr, {k: noise_scale * sd for k, sd in TABLE_4_1.items()}, rng)
     chans = {"phi": noisy["phi"], SWAY_ACC: noisy["v_dot"], "n1": ch[:, 0], "alpha1": ch[:, 1], "n2": ch[:, 2], "alpha2": ch[:, 3]}
     if measured_moment:
         chans[MOMENT] = noisy["tau_r"]
