@@ -10,7 +10,7 @@ left out of the statistics, never averaged in.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -78,8 +78,13 @@ def run_monte_carlo(profile: ShipProfile, runs: int = 50, seed: int = 0, noise: 
         for start in range(0, runs, chunk):
             data = measure(clean, noise, min(chunk, runs - start), seed, first=start)
             parts.append(fit_yaw(data, model, truth, prefilter_hz=prefilter_hz))
-        fits = YawFit(model, *(np.concatenate([getattr(p, f) for p in parts]) for f in ("theta", "converged", "finite")),
-                      max(p.iterations for p in parts),
-                      *(np.concatenate([getattr(p, f) for p in parts]) for f in ("rms", "fit_percent")))
+        fits = _concat(parts)
         out[name] = MonteCarlo(name, truth, fits, fit_yaw(clean, model, truth))
     return out
+
+
+def _concat(parts: list[YawFit]) -> YawFit:
+    """One fit of the runs of ``parts`` (chunks of one model): per-run arrays joined, the most iterations."""
+    per_run = {f.name: np.concatenate([getattr(p, f.name) for p in parts])
+               for f in fields(YawFit) if f.name not in ("model", "iterations")}
+    return replace(parts[0], iterations=max(p.iterations for p in parts), **per_run)
