@@ -211,8 +211,9 @@ def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, so
     e = simulate_r(kind, x, sig, dt, r0=r0) - r_meas if np.all(np.isfinite(x)) else np.full(len(r_meas), np.nan)
     if not np.all(np.isfinite(e)):
         raise UserError(f"{source}: the yaw-row fit diverged; the recording does not excite yaw enough for a prior")
-    ar = ar_fit(block_mean(e, block))
-    sigma_w = robust_sigma(whiten(block_mean(e, block), ar))
+    e_blocks = block_mean(e, block)
+    ar = ar_fit(e_blocks)
+    sigma_w = robust_sigma(whiten(e_blocks, ar))
     boot = np.zeros((0, p))
     if not estimate:
         cov = np.zeros((p, p))
