@@ -14,7 +14,7 @@ from diagnose.heldout import RUN_RISE, Parts, fit_pct, grams, heldout_rss, insam
 from diagnose.locate import locate
 from diagnose.model import AugmentedModel, Prepared, diverges, fit, fit_percent, noise_std, noise_std_coloured, prepare
 from diagnose.recording import Recording, RecordingError
-from diagnose.reference import ReferencedModel, declared_structure, extend
+from diagnose.reference import ReferencedModel, extend
 from diagnose.search import MUCH_WORSE, base_bounds, prior_sd, select
 from primitives.ship import DEFAULT_STRUCTURE_PRIOR, DOFS, ShipProfile
 from primitives.simulate import relative_signals
@@ -153,7 +153,7 @@ def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recordi
     are kept."""
     theta, note = fit_baseline(profile, theta0, fit_on)
     source = "fitted on " + ", ".join(r.source for r in fit_on)
-    ext, th_ext, added = _extended(profile, theta0, declared=True) if declared_structure(profile) else (profile, theta0, [])
+    ext, th_ext, added = _extended(profile, theta0, declared=True) if profile.structure_terms else (profile, theta0, [])
     if note or not added:
         return profile, theta, source, [note] if note else [], bool(note)
     new = [j for i in range(3) for j in range(ext.model.offsets[i] + len(profile.model_terms[i]), ext.model.offsets[i + 1])]

@@ -7,7 +7,7 @@ the diagnosis can separate the two, following the multi-experiment form of outpu
 identification (seed 004: one model, experiment-specific disturbance parameters):
 
 - the baseline is *extended* by hull and rudder terms its structure may lack: the structure its
-  profile declares in a [diagnosis] table (``declared_structure``; e.g. kvlcc2's MMG-shaped hull,
+  profile declares in a [diagnosis] table (``ShipProfile.structure_terms``; e.g. kvlcc2's MMG-shaped hull,
   propeller and rudder terms, fitted on the --fit-on runs alone by ``diagnose.api.fit_structure``)
   or, for the experimental joint fit, generic ones (speed loss in turns v r, cross-flow drag
   v|v| and r|r|, rudder force growing with inflow speed delta u^2 and slipstream delta n^2 - the
@@ -39,11 +39,6 @@ def structure_terms(profile: ShipProfile) -> tuple[tuple[str, ...], ...]:
     return surge, lateral, lateral
 
 
-def declared_structure(profile: ShipProfile) -> tuple[tuple[str, ...], ...] | None:
-    """The structure the profile's [diagnosis] table declares for a --fit-on refit, if any."""
-    return profile.structure_terms
-
-
 def extend(profile: ShipProfile, declared: bool = False) -> tuple[ShipProfile, list[str]]:
     """The profile with the structure terms it lacks appended (coefficients 0), and their
     names ("<dof>:<term>"): the profile's declared [diagnosis] structure with ``declared``,
@@ -51,7 +46,7 @@ def extend(profile: ShipProfile, declared: bool = False) -> tuple[ShipProfile, l
     terms, names, added = [], [], []
     theta = profile.params()
     vals = []
-    want_all = declared_structure(profile) if declared else None
+    want_all = profile.structure_terms if declared else None
     for i, (have, want) in enumerate(zip(profile.model_terms, want_all or structure_terms(profile))):
         canon = {canonical_term(t) for t in have}
         extra = [t for t in want if canonical_term(t) not in canon and (want_all is not None or set(
