@@ -143,6 +143,19 @@ def _misfit(profile: ShipProfile, theta: np.ndarray, recs: list[Recording]) -> f
     return float(np.mean(r**2))
 
 
+def fit_declared(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording]
+                 ) -> tuple[ShipProfile, np.ndarray, str, list[str]]:
+    """The profile extended by its declared [diagnosis] structure and fitted on the --fit-on
+    runs, the added terms held by the profile's structure prior: (profile, theta, note, added)
+    as :func:`fit_baseline` and :func:`_extended`; the profile unchanged when it adds nothing."""
+    ext, th_ext, added = _extended(profile, theta0, declared=True)
+    if not added:
+        return profile, theta0, "", []
+    new = [j for i in range(3) for j in range(ext.model.offsets[i] + len(profile.model_terms[i]), ext.model.offsets[i + 1])]
+    th_fit, note = fit_baseline(ext, th_ext, fit_on, new, profile.structure_prior)
+    return ext, th_fit, note, added
+
+
 def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording], recordings: list[Recording]
                   ) -> tuple[ShipProfile, np.ndarray, str, list[str], bool]:
     """Fit the baseline on the --fit-on runs, with the structure the profile declares for it
@@ -153,11 +166,11 @@ def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recordi
     are kept."""
     theta, note = fit_baseline(profile, theta0, fit_on)
     source = "fitted on " + ", ".join(r.source for r in fit_on)
-    ext, th_ext, added = _extended(profile, theta0, declared=True) if profile.structure_terms else (profile, theta0, [])
-    if note or not added:
+    if note or not profile.structure_terms:
         return profile, theta, source, [note] if note else [], bool(note)
-    new = [j for i in range(3) for j in range(ext.model.offsets[i] + len(profile.model_terms[i]), ext.model.offsets[i + 1])]
-    th_fit, note_ext = fit_baseline(ext, th_ext, fit_on, new, profile.structure_prior)
+    ext, th_fit, note_ext, added = fit_declared(profile, theta0, fit_on)
+    if not added:
+        return profile, theta, source, [], False
     m0, m1 = _misfit(profile, theta, recordings), (_misfit(ext, th_fit, recordings) if not note_ext else float("inf"))
     if m1 <= m0:
         return ext, th_fit, f"{source}, structure extended by the profile's [diagnosis] terms ({len(added)})", [], False
