@@ -12,7 +12,7 @@ from diagnose.candidates import build_library
 from diagnose.describe import describe
 from diagnose.heldout import RUN_RISE, Parts, fit_pct, grams, heldout_rss, insample_rss, make_parts
 from diagnose.locate import locate
-from diagnose.model import AugmentedModel, Prepared, diverges, fit, fit_percent, noise_std, noise_std_coloured, prepare
+from diagnose.model import AugmentedModel, Prepared, diverges, escaped, fit, fit_percent, noise_std, noise_std_coloured, prepare
 from diagnose.recording import Recording, RecordingError
 from diagnose.reference import ReferencedModel, extend
 from diagnose.search import MUCH_WORSE, base_bounds, prior_sd, select
@@ -136,10 +136,12 @@ def _misfit(profile: ShipProfile, theta: np.ndarray, recs: list[Recording]) -> f
     """Noise-weighted mean square open-loop misfit over ``recs`` (inf when a run diverges)."""
     model = AugmentedModel(profile, theta, [])
     preps = [prepare(profile, r) for r in recs]
-    if diverges(model, preps, model.p0()):
+    with np.errstate(all="ignore"):
+        sims = [model.simulate(p, model.p0())[0] for p in preps]  # one simulation per run: the test and the misfit
+    if any(escaped(p, yh) for p, yh in zip(preps, sims)):
         return float("inf")
     w = 1.0 / _noise_scale(np.concatenate([r.y for r in recs]))
-    r = np.concatenate([(p.y[1:] - model.simulate(p, model.p0())[0][1:]) * w for p in preps])
+    r = np.concatenate([(p.y[1:] - yh[1:]) * w for p, yh in zip(preps, sims)])
     return float(np.mean(r**2))
 
 
