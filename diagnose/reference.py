@@ -27,6 +27,7 @@ import numpy as np
 from diagnose.candidates import canonical_term, thrust_signal
 from diagnose.model import AugmentedModel, Prepared
 from primitives.ship import ShipProfile
+from primitives.terms import signals_used
 
 
 def structure_terms(profile: ShipProfile) -> tuple[tuple[str, ...], ...]:
@@ -47,10 +48,11 @@ def extend(profile: ShipProfile, declared: bool = False) -> tuple[ShipProfile, l
     theta = profile.params()
     vals = []
     want_all = profile.structure_terms if declared else None
+    # a generic term only where the ship has its signals (no rudder term for a generalized-force ship)
+    has = {"u_r", "v_r", "r", *profile.inputs}
     for i, (have, want) in enumerate(zip(profile.model_terms, want_all or structure_terms(profile))):
         canon = {canonical_term(t) for t in have}
-        extra = [t for t in want if canonical_term(t) not in canon and (want_all is not None or set(
-            t.replace("|", "").replace("^", "*").split("*")) - {str(k) for k in range(10)} <= {"u_r", "v_r", "r", *profile.inputs})]
+        extra = [t for t in want if canonical_term(t) not in canon and (want_all is not None or signals_used([[t]]) <= has)]
         terms.append(tuple(have) + tuple(extra))
         names.append(tuple(profile.parameter_names[i]) + tuple(f"S{'xyn'[i]}[{t}]" for t in extra))
         vals.append(np.concatenate([theta[profile.model.dof_slice(i)], np.zeros(len(extra))]))
