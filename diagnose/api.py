@@ -14,7 +14,7 @@ from diagnose.heldout import RUN_RISE, Parts, fit_pct, grams, heldout_rss, insam
 from diagnose.locate import locate
 from diagnose.model import AugmentedModel, Prepared, diverges, escaped, fit, fit_percent, noise_std, noise_std_coloured, prepare
 from diagnose.recording import Recording, RecordingError
-from diagnose.reference import ReferencedModel, extend
+from diagnose.reference import ReferencedModel, extend, padded_params
 from diagnose.search import MUCH_WORSE, base_bounds, prior_sd, select
 from primitives.ship import DEFAULT_STRUCTURE_PRIOR, DOFS, ShipProfile
 from primitives.simulate import relative_signals
@@ -127,9 +127,7 @@ def _extended(profile: ShipProfile, theta: np.ndarray, declared: bool = False) -
     ext, added = extend(profile, declared)
     if not added:
         return profile, theta, []
-    th = np.concatenate([np.concatenate([theta[profile.model.dof_slice(i)],
-                                         np.zeros(len(ext.model_terms[i]) - len(profile.model_terms[i]))]) for i in range(3)])
-    return ext, th, added
+    return ext, padded_params(profile, theta, ext.model_terms), added
 
 
 def _misfit(profile: ShipProfile, theta: np.ndarray, recs: list[Recording]) -> float:

@@ -45,8 +45,6 @@ def extend(profile: ShipProfile, declared: bool = False) -> tuple[ShipProfile, l
     names ("<dof>:<term>"): the profile's declared [diagnosis] structure with ``declared``,
     else the generic hull and actuator terms of :func:`structure_terms`."""
     terms, names, added = [], [], []
-    theta = profile.params()
-    vals = []
     want_all = profile.structure_terms if declared else None
     # a generic term only where the ship has its signals (no rudder term for a generalized-force ship)
     has = {"u_r", "v_r", "r", *profile.inputs}
@@ -55,14 +53,20 @@ def extend(profile: ShipProfile, declared: bool = False) -> tuple[ShipProfile, l
         extra = [t for t in want if canonical_term(t) not in canon and (want_all is not None or signals_used([[t]]) <= has)]
         terms.append(tuple(have) + tuple(extra))
         names.append(tuple(profile.parameter_names[i]) + tuple(f"S{'xyn'[i]}[{t}]" for t in extra))
-        vals.append(np.concatenate([theta[profile.model.dof_slice(i)], np.zeros(len(extra))]))
         added += [f"{('surge', 'sway', 'yaw')[i]}:{t}" for t in extra]
     if not added:
         return profile, []
-    sets = {profile.simulation_set: np.concatenate(vals)}
+    sets = {profile.simulation_set: padded_params(profile, profile.params(), terms)}
     return dataclasses.replace(profile, model_terms=tuple(terms), parameter_names=tuple(names), parameter_sets=sets,
                                simulation_set=profile.simulation_set, instrument_set=profile.simulation_set,
                                predictor_terms=None, predictor_names=None, structure_terms=None), added
+
+
+def padded_params(profile: ShipProfile, theta: np.ndarray, terms: tuple[tuple[str, ...], ...]) -> np.ndarray:
+    """``theta`` of ``profile`` with zeros for the terms ``terms`` (the extended model's, see
+    :func:`extend`) appends to each DOF."""
+    return np.concatenate([np.concatenate([theta[profile.model.dof_slice(i)], np.zeros(len(terms[i]) - len(have))])
+                           for i, have in enumerate(profile.model_terms)])
 
 
 class ReferencedModel(AugmentedModel):
