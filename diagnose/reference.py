@@ -26,7 +26,7 @@ import numpy as np
 
 from diagnose.candidates import canonical_term, thrust_signal
 from diagnose.model import AugmentedModel, Prepared
-from primitives.ship import ShipProfile
+from primitives.ship import DOFS, ShipProfile
 from primitives.terms import signals_used
 
 
@@ -53,7 +53,7 @@ def extend(profile: ShipProfile, declared: bool = False) -> tuple[ShipProfile, l
         extra = [t for t in want if canonical_term(t) not in canon and (want_all is not None or signals_used([[t]]) <= has)]
         terms.append(tuple(have) + tuple(extra))
         names.append(tuple(profile.parameter_names[i]) + tuple(f"S{'xyn'[i]}[{t}]" for t in extra))
-        added += [f"{('surge', 'sway', 'yaw')[i]}:{t}" for t in extra]
+        added += [f"{DOFS[i]}:{t}" for t in extra]
     if not added:
         return profile, []
     sets = {profile.simulation_set: padded_params(profile, profile.params(), terms)}
