@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from diagnose.api import _extended, fit_baseline, fit_structure
+from diagnose.api import fit_baseline, fit_declared, fit_structure
 from diagnose.model import AugmentedModel, prepare
 from diagnose.recording import Recording
 from primitives.ship import ShipProfile, load_profile
@@ -66,9 +66,7 @@ def run_case(name: str, ship: str, clean: bool) -> list[dict]:
     ext, th_ext, _src, notes, _rej = fit_structure(prof, prof.params(), calm, diag)
     t2 = time.process_time()
     if ext is prof:  # the structure was not kept: show what it would have given anyway
-        ext, th0, _ = _extended(prof, prof.params(), declared=True)
-        new = [j for i in range(3) for j in range(ext.model.offsets[i] + len(prof.model_terms[i]), ext.model.offsets[i + 1])]
-        th_ext, _ = fit_baseline(ext, th0, calm, new, prof.structure_prior)
+        ext, th_ext, _note, _added = fit_declared(prof, prof.params(), calm)
     rows = []
     for role, lb, rec, tr in zip(roles, lab, noisy, truth):
         rows.append({"case": name, "role": role, "run": lb, "before": sim_error(prof, th_own, rec, tr),

@@ -12,9 +12,9 @@ from diagnose.candidates import build_library
 from diagnose.describe import describe
 from diagnose.heldout import RUN_RISE, Parts, fit_pct, grams, heldout_rss, insample_rss, make_parts
 from diagnose.locate import locate
-from diagnose.model import AugmentedModel, Prepared, diverges, fit, fit_percent, noise_std, noise_std_coloured, prepare
+from diagnose.model import AugmentedModel, Prepared, diverges, escaped, fit, fit_percent, noise_std, noise_std_coloured, prepare
 from diagnose.recording import Recording, RecordingError
-from diagnose.reference import ReferencedModel, declared_structure, extend
+from diagnose.reference import ReferencedModel, extend, padded_params
 from diagnose.search import MUCH_WORSE, base_bounds, prior_sd, select
 from primitives.ship import DEFAULT_STRUCTURE_PRIOR, DOFS, ShipProfile
 from primitives.simulate import relative_signals
@@ -127,20 +127,33 @@ def _extended(profile: ShipProfile, theta: np.ndarray, declared: bool = False) -
     ext, added = extend(profile, declared)
     if not added:
         return profile, theta, []
-    th = np.concatenate([np.concatenate([theta[profile.model.dof_slice(i)],
-                                         np.zeros(len(ext.model_terms[i]) - len(profile.model_terms[i]))]) for i in range(3)])
-    return ext, th, added
+    return ext, padded_params(profile, theta, ext.model_terms), added
 
 
 def _misfit(profile: ShipProfile, theta: np.ndarray, recs: list[Recording]) -> float:
     """Noise-weighted mean square open-loop misfit over ``recs`` (inf when a run diverges)."""
     model = AugmentedModel(profile, theta, [])
     preps = [prepare(profile, r) for r in recs]
-    if diverges(model, preps, model.p0()):
+    with np.errstate(all="ignore"):
+        sims = [model.simulate(p, model.p0())[0] for p in preps]  # one simulation per run: the test and the misfit
+    if any(escaped(p, yh) for p, yh in zip(preps, sims)):
         return float("inf")
     w = 1.0 / _noise_scale(np.concatenate([r.y for r in recs]))
-    r = np.concatenate([(p.y[1:] - model.simulate(p, model.p0())[0][1:]) * w for p in preps])
+    r = np.concatenate([(p.y[1:] - yh[1:]) * w for p, yh in zip(preps, sims)])
     return float(np.mean(r**2))
+
+
+def fit_declared(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording]
+                 ) -> tuple[ShipProfile, np.ndarray, str, list[str]]:
+    """The profile extended by its declared [diagnosis] structure and fitted on the --fit-on
+    runs, the added terms held by the profile's structure prior: (profile, theta, note, added)
+    as :func:`fit_baseline` and :func:`_extended`; the profile unchanged when it adds nothing."""
+    ext, th_ext, added = _extended(profile, theta0, declared=True)
+    if not added:
+        return profile, theta0, "", []
+    new = [j for i in range(3) for j in range(ext.model.offsets[i] + len(profile.model_terms[i]), ext.model.offsets[i + 1])]
+    th_fit, note = fit_baseline(ext, th_ext, fit_on, new, profile.structure_prior)
+    return ext, th_fit, note, added
 
 
 def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording], recordings: list[Recording]
@@ -153,11 +166,11 @@ def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recordi
     are kept."""
     theta, note = fit_baseline(profile, theta0, fit_on)
     source = "fitted on " + ", ".join(r.source for r in fit_on)
-    ext, th_ext, added = _extended(profile, theta0, declared=True) if declared_structure(profile) else (profile, theta0, [])
-    if note or not added:
+    if note or not profile.structure_terms:
         return profile, theta, source, [note] if note else [], bool(note)
-    new = [j for i in range(3) for j in range(ext.model.offsets[i] + len(profile.model_terms[i]), ext.model.offsets[i + 1])]
-    th_fit, note_ext = fit_baseline(ext, th_ext, fit_on, new, profile.structure_prior)
+    ext, th_fit, note_ext, added = fit_declared(profile, theta0, fit_on)
+    if not added:
+        return profile, theta, source, [], False
     m0, m1 = _misfit(profile, theta, recordings), (_misfit(ext, th_fit, recordings) if not note_ext else float("inf"))
     if m1 <= m0:
         return ext, th_fit, f"{source}, structure extended by the profile's [diagnosis] terms ({len(added)})", [], False

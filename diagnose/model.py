@@ -420,12 +420,14 @@ def diverges(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> boo
     """True when the simulation at P is non-finite or leaves the recorded range by far
     (an unstable refit: positive damping, a blown-up inertia)."""
     with np.errstate(all="ignore"):
-        for p in preps:
-            yh = model.simulate(p, P)[0]
-            span = np.max(np.abs(p.y), axis=0) + 3.0 * np.std(p.y, axis=0) + 1e-9
-            if not np.all(np.isfinite(yh)) or np.any(np.max(np.abs(yh), axis=0) > 20.0 * span):
-                return True
-    return False
+        return any(escaped(p, model.simulate(p, P)[0]) for p in preps)
+
+
+def escaped(p: Prepared, yh: np.ndarray) -> bool:
+    """True when the simulated outputs ``yh`` of recording ``p`` are non-finite or leave its
+    recorded range by far (the test of :func:`diverges`, for a simulation already made)."""
+    span = np.max(np.abs(p.y), axis=0) + 3.0 * np.std(p.y, axis=0) + 1e-9
+    return bool(not np.all(np.isfinite(yh)) or np.any(np.max(np.abs(yh), axis=0) > 20.0 * span))
 
 
 def fit_percent(y: np.ndarray, yhat: np.ndarray) -> np.ndarray:

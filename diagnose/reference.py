@@ -7,7 +7,7 @@ the diagnosis can separate the two, following the multi-experiment form of outpu
 identification (seed 004: one model, experiment-specific disturbance parameters):
 
 - the baseline is *extended* by hull and rudder terms its structure may lack: the structure its
-  profile declares in a [diagnosis] table (``declared_structure``; e.g. kvlcc2's MMG-shaped hull,
+  profile declares in a [diagnosis] table (``ShipProfile.structure_terms``; e.g. kvlcc2's MMG-shaped hull,
   propeller and rudder terms, fitted on the --fit-on runs alone by ``diagnose.api.fit_structure``)
   or, for the experimental joint fit, generic ones (speed loss in turns v r, cross-flow drag
   v|v| and r|r|, rudder force growing with inflow speed delta u^2 and slipstream delta n^2 - the
@@ -26,7 +26,8 @@ import numpy as np
 
 from diagnose.candidates import canonical_term, thrust_signal
 from diagnose.model import AugmentedModel, Prepared
-from primitives.ship import ShipProfile
+from primitives.ship import DOFS, ShipProfile
+from primitives.terms import signals_used
 
 
 def structure_terms(profile: ShipProfile) -> tuple[tuple[str, ...], ...]:
@@ -39,33 +40,33 @@ def structure_terms(profile: ShipProfile) -> tuple[tuple[str, ...], ...]:
     return surge, lateral, lateral
 
 
-def declared_structure(profile: ShipProfile) -> tuple[tuple[str, ...], ...] | None:
-    """The structure the profile's [diagnosis] table declares for a --fit-on refit, if any."""
-    return profile.structure_terms
-
-
 def extend(profile: ShipProfile, declared: bool = False) -> tuple[ShipProfile, list[str]]:
     """The profile with the structure terms it lacks appended (coefficients 0), and their
     names ("<dof>:<term>"): the profile's declared [diagnosis] structure with ``declared``,
     else the generic hull and actuator terms of :func:`structure_terms`."""
     terms, names, added = [], [], []
-    theta = profile.params()
-    vals = []
-    want_all = declared_structure(profile) if declared else None
+    want_all = profile.structure_terms if declared else None
+    # a generic term only where the ship has its signals (no rudder term for a generalized-force ship)
+    has = {"u_r", "v_r", "r", *profile.inputs}
     for i, (have, want) in enumerate(zip(profile.model_terms, want_all or structure_terms(profile))):
         canon = {canonical_term(t) for t in have}
-        extra = [t for t in want if canonical_term(t) not in canon and (want_all is not None or set(
-            t.replace("|", "").replace("^", "*").split("*")) - {str(k) for k in range(10)} <= {"u_r", "v_r", "r", *profile.inputs})]
+        extra = [t for t in want if canonical_term(t) not in canon and (want_all is not None or signals_used([[t]]) <= has)]
         terms.append(tuple(have) + tuple(extra))
         names.append(tuple(profile.parameter_names[i]) + tuple(f"S{'xyn'[i]}[{t}]" for t in extra))
-        vals.append(np.concatenate([theta[profile.model.dof_slice(i)], np.zeros(len(extra))]))
-        added += [f"{('surge', 'sway', 'yaw')[i]}:{t}" for t in extra]
+        added += [f"{DOFS[i]}:{t}" for t in extra]
     if not added:
         return profile, []
-    sets = {profile.simulation_set: np.concatenate(vals)}
+    sets = {profile.simulation_set: padded_params(profile, profile.params(), terms)}
     return dataclasses.replace(profile, model_terms=tuple(terms), parameter_names=tuple(names), parameter_sets=sets,
                                simulation_set=profile.simulation_set, instrument_set=profile.simulation_set,
                                predictor_terms=None, predictor_names=None, structure_terms=None), added
+
+
+def padded_params(profile: ShipProfile, theta: np.ndarray, terms: tuple[tuple[str, ...], ...]) -> np.ndarray:
+    """``theta`` of ``profile`` with zeros for the terms ``terms`` (the extended model's, see
+    :func:`extend`) appends to each DOF."""
+    return np.concatenate([np.concatenate([theta[profile.model.dof_slice(i)], np.zeros(len(terms[i]) - len(have))])
+                           for i, have in enumerate(profile.model_terms)])
 
 
 class ReferencedModel(AugmentedModel):

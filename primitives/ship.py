@@ -52,7 +52,7 @@ PROFILE_KEYS = frozenset({
     "diagnosed_model",  # what a diagnosed model.json was scored on (diagnose.model_file)
     "rigid_body",  # mass, inertias, CoG and added mass of a 4-DOF physical model (primitives.rigidbody)
     "pods", "pod_model",  # podded propulsion (primitives.pods), actuator = "pods"
-    "diagnosis",  # baseline structure a --fit-on refit may add (diagnose.reference.declared_structure)
+    "diagnosis",  # baseline structure a --fit-on refit may add (ShipProfile.structure_terms)
 })
 # Physical sizes a profile must give, all finite and > 0 (unit in the message).
 # Prior std of a [diagnosis] structure coefficient, as a fraction of the coefficient that alone
