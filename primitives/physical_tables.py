@@ -61,13 +61,11 @@ class Engine:
     approach_rpm: float | None = None
 
 
-def _numbers(table: Any, section: str, keys: tuple[str, ...], src: str, hint: str, err: type[UserError],
-             other: tuple[str, ...] = ()) -> dict[str, float]:
-    """Every key of ``keys`` from a table of finite numbers, none other but the ``other`` keys
-    (not numbers: the caller reads them)."""
+def _numbers(table: Any, section: str, keys: tuple[str, ...], src: str, hint: str, err: type[UserError]) -> dict[str, float]:
+    """Every key of ``keys`` from a table of finite numbers, none other."""
     if not isinstance(table, dict):
         raise err(f"{src}: field '{section}' must be a table [{section}] ({hint})")
-    extra = sorted(set(table) - set(keys) - set(other))
+    extra = sorted(set(table) - set(keys) - {"yaw_moment"})
     if extra:
         raise err(f"{src}: unknown field '{section}.{extra[0]}'; known: {', '.join(keys)}")
     out = {}
@@ -107,7 +105,7 @@ def parse_pods(d: dict, src: str, inputs: tuple[str, ...], err: type[UserError])
     if inputs != expect:
         raise err(f"{src}: field 'inputs' of a pods profile must be {list(expect)} (rev/s, rad) with one [[pods]] entry each")
     pm = d.get("pod_model")
-    c = _numbers(pm, "pod_model", POD_MODEL_KEYS, src, "Table 2.1 of seed 000", err, ("yaw_moment",))
+    c = _numbers(pm, "pod_model", POD_MODEL_KEYS, src, "Table 2.1 of seed 000", err)
     yaw_moment = pm.get("yaw_moment", "thesis")
     if yaw_moment not in ("thesis", "full"):
         raise err(f"{src}: field 'pod_model.yaw_moment' must be 'thesis' (x F_y, eq. 2.12) or 'full' (x F_y - y F_x)")
