@@ -36,7 +36,6 @@ from maps.export._common import (
     resolve_start,
     step_abort,
     step_orders,
-    step_segment,
     vessel_name,
     waypoints,
 )
@@ -71,7 +70,7 @@ def abort_criteria(plan: Plan) -> list[str]:
 
 
 def _segment_label(st: Any) -> str:
-    seg = step_segment(st)
+    seg = st.segment
     if getattr(st, "execute", False):
         return "EXECUTE"
     return {"informative": "manoeuvre", "run-in": "run-in", "transit": "transit"}[seg]
@@ -183,7 +182,7 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
 
 
 def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list[str]:
-    counts = {seg: sum(1 for st in plan.steps if step_segment(st) == seg) for seg in ("informative", "run-in", "transit")}
+    counts = {seg: sum(1 for st in plan.steps if st.segment == seg) for seg in ("informative", "run-in", "transit")}
     chart = plan_chart(plan, sea_map)
     return [
         f"Ship {vessel}" + (f" ({plan.ship})" if vessel != plan.ship else "")
