@@ -478,7 +478,8 @@ def write_card(plan: Plan, path: str | Path, sea_map: Any = None, start: datetim
     """Write the HTML card to ``path`` (suffix .html) and, with ``pdf``, the PDF beside it
     (``figures``: the plan's shared figures, see :class:`maps.export.plots.PlanFigures`)."""
     path = Path(path)
-    with PlanFigures(plan, plan_chart(plan, sea_map)) as own:
+    sea_map = plan_chart(plan, sea_map)  # read a map file once for the HTML, the PDF and the figures
+    with PlanFigures(plan, sea_map) as own:
         figs = figures or own
         if path.suffix.lower() == ".pdf":
             return [write_card_pdf(plan, path, sea_map, start, vessel, figs)]
