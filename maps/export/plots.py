@@ -294,6 +294,7 @@ def track_figure(plan: Plan, sea_map: Any = None):
 
 STATES_DPI = 110
 TRACK_DPI = 130
+_SAVE = {"states": (STATES_DPI, None), "track": (TRACK_DPI, "tight")}  # default dpi, bbox_inches (the map cropped)
 
 
 class PlanFigures:
@@ -317,12 +318,12 @@ class PlanFigures:
 
     def png(self, name: str, dpi: int | None = None) -> bytes:
         """The figure as PNG bytes, rendered once per dpi (the map cropped to what is drawn)."""
-        key = (name, dpi or (STATES_DPI if name == "states" else TRACK_DPI))
+        key = (name, dpi or _SAVE[name][0])
         if key not in self._png:
             import io
 
             buf = io.BytesIO()
-            self.figure(name).savefig(buf, format="png", dpi=key[1], bbox_inches="tight" if name == "track" else None)
+            self.figure(name).savefig(buf, format="png", dpi=key[1], bbox_inches=_SAVE[name][1])
             self._png[key] = buf.getvalue()
         return self._png[key]
 
@@ -332,8 +333,7 @@ class PlanFigures:
 
         if Path(path).suffix.lower() in ("", ".png"):
             return atomic_write_bytes(path, self.png(name, dpi))
-        return atomic_savefig(self.figure(name), path, dpi=dpi or (STATES_DPI if name == "states" else TRACK_DPI),
-                              bbox_inches="tight" if name == "track" else None)
+        return atomic_savefig(self.figure(name), path, dpi=dpi or _SAVE[name][0], bbox_inches=_SAVE[name][1])
 
     def close(self) -> None:
         for f in self._figs.values():
