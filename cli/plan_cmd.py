@@ -186,7 +186,7 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
             files["design_ratios_png"] = tmp / "design-ratios.png"
         if exports:
             with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
-                crew = export_all(result, tmp, sea_map=chart, start=t0, pdf=False)
+                crew = export_all(result, tmp, sea_map=chart, start=t0, pdf=False, staged=False)  # tmp: atomic_output_dir's
     except BaseException:
         if wait:
             wait(quiet=True)  # no child outlives the command; the first error is the one to report

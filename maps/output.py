@@ -18,7 +18,6 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from maps.export._common import step_segment
     from primitives.io import atomic_savefig
 
     fig, ax = plt.subplots(figsize=(9, 8))
@@ -45,11 +44,11 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
         ax.fill(ys, xs, color="#d8c8a0", ec="#8a7a50", lw=0.5)
     if plan.track.size:
         colors = plt.cm.tab10(np.linspace(0, 1, 10))
-        names = sorted({s.primitive for s in plan.steps if step_segment(s) == "informative"})
+        names = sorted({s.primitive for s in plan.steps if s.segment == "informative"})
         seen: set[str] = set()
         for s in plan.steps:
             sel = plan.step_of_sample == s.index
-            seg = step_segment(s)
+            seg = s.segment
             key = s.primitive if seg == "informative" else seg
             col = colors[names.index(s.primitive) % 10] if seg == "informative" else ("#1b7f3b" if seg == "run-in" else (0.5, 0.5, 0.5, 1))
             ax.plot(plan.track[sel, 1], plan.track[sel, 0], color=col, lw=1.6 if seg == "informative" else 1.0,

@@ -141,12 +141,13 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
             dropped.append({"primitive": name, "needs_m": [float(need[0]), float(need[1])], "efficiency_loss": float(max(0.0, loss))})
         notes.append(f"design redone without {', '.join(exclude)} (fits nowhere on the map): {criterion}-efficiency "
                      f"{100 * (1 - loss):.1f} % of the full library's optimum")
+    # the support only: a primitive the optimum gives (next to) no weight is listed once, as not used
+    used = [x > UNUSED_WEIGHT or c > 0 for x, c in zip(w, counts)]
     record = {
         "criterion": criterion, "mean_subtraction": mean_subtraction,
-        # the support only: a primitive the optimum gives (next to) no weight is listed once, as not used
-        "weights": {p.name: float(x) for p, x, c in zip(prims, w, counts) if x > UNUSED_WEIGHT or c > 0},
+        "weights": {p.name: float(x) for p, x, u in zip(prims, w, used) if u},
         "counts": {p.name: int(c) for p, c in zip(prims, counts) if c > 0},
-        "not_used": [p.name for p, x, c in zip(prims, w, counts) if not (x > UNUSED_WEIGHT or c > 0)],
+        "not_used": [p.name for p, u in zip(prims, used) if not u],
         "d_efficiency": float(d_eff), "efficiency": float(c_eff), "dropped": dropped, "trial_length_s": trial_s,
         "planned_s": float(sum(c * p.duration_s for p, c in zip(prims, counts))),
     }

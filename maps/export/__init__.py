@@ -9,6 +9,7 @@ Every file is written atomically and a set of files all-or-nothing (:mod:`maps.e
 
 from __future__ import annotations
 
+from contextlib import nullcontext
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -95,6 +96,7 @@ def export_all(
     vessel: str | None = None,
     pdf: bool = True,
     figures: Any = None,
+    staged: bool = True,
 ) -> dict[str, Path]:
     """Every export of ``plan`` into ``out_dir``: keys geojson, gpx, rtz, csv, card (HTML),
     card_pdf (without ``pdf``: none), and with ``plots`` track_png (map) and states_png (speed,
@@ -102,7 +104,9 @@ def export_all(
     :class:`maps.export.plots.PlanFigures` of the plan to draw them in, else a new one).
 
     All or nothing: when a writer fails, none of the files is left in ``out_dir`` and files there
-    of the same names are as they were (:func:`maps.export.staging.staged_outputs`)."""
+    of the same names are as they were (:func:`maps.export.staging.staged_outputs`). ``staged=False``:
+    write straight into ``out_dir``, for a caller that already builds ``out_dir`` all-or-nothing
+    (``shiptrial plan``: :func:`primitives.io.atomic_output_dir`)."""
     from maps.export._common import check_plan, resolve_start
     from maps.export.chart import plan_chart
     from maps.export.plots import PlanFigures, plot_states, plot_track
@@ -112,7 +116,7 @@ def export_all(
     t0 = resolve_start(plan, start)  # one start time for every file
     sea_map = plan_chart(plan, sea_map)  # one chart for every file (projecting the map was done once per export)
     out: dict[str, Path] = {}
-    with PlanFigures(plan, sea_map) as own, staged_outputs(out_dir) as tmp:
+    with PlanFigures(plan, sea_map) as own, (staged_outputs(out_dir) if staged else nullcontext(Path(out_dir))) as tmp:
         figs = figures or own
         for fmt in FORMATS:
             written = _write(plan, fmt, default_path(plan, fmt, tmp), sea_map=sea_map, start=t0, vessel=vessel, pdf=pdf, figures=figs)

@@ -315,12 +315,6 @@ def input_phases(plan: Plan, step: PlanStep, max_phases: int = 6) -> list[str]:
     return [first, f"then {len(merged) - 1} changes of order; inputs range " + ", ".join(rng)]
 
 
-def step_segment(step: PlanStep) -> str:
-    """"run-in", "informative" or "transit" (``PlanStep`` derives it from ``kind`` for a plan
-    written before segments existed)."""
-    return step.segment
-
-
 def order_lines(step: PlanStep) -> list[str]:
     """The step's structured orders (``PlanStep.orders``: {"t_s", "text", ...}) as timed lines
     in the ship's own terms, e.g. "at +0:40: port 20, counter-rudder at 10° port"."""

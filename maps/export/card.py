@@ -36,7 +36,6 @@ from maps.export._common import (
     resolve_start,
     step_abort,
     step_orders,
-    step_segment,
     vessel_name,
     waypoints,
 )
@@ -71,7 +70,7 @@ def abort_criteria(plan: Plan) -> list[str]:
 
 
 def _segment_label(st: Any) -> str:
-    seg = step_segment(st)
+    seg = st.segment
     if getattr(st, "execute", False):
         return "EXECUTE"
     return {"informative": "manoeuvre", "run-in": "run-in", "transit": "transit"}[seg]
@@ -183,7 +182,7 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
 
 
 def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list[str]:
-    counts = {seg: sum(1 for st in plan.steps if step_segment(st) == seg) for seg in ("informative", "run-in", "transit")}
+    counts = {seg: sum(1 for st in plan.steps if st.segment == seg) for seg in ("informative", "run-in", "transit")}
     chart = plan_chart(plan, sea_map)
     return [
         f"Ship {vessel}" + (f" ({plan.ship})" if vessel != plan.ship else "")
@@ -479,7 +478,8 @@ def write_card(plan: Plan, path: str | Path, sea_map: Any = None, start: datetim
     """Write the HTML card to ``path`` (suffix .html) and, with ``pdf``, the PDF beside it
     (``figures``: the plan's shared figures, see :class:`maps.export.plots.PlanFigures`)."""
     path = Path(path)
-    with PlanFigures(plan, plan_chart(plan, sea_map)) as own:
+    sea_map = plan_chart(plan, sea_map)  # read a map file once for the HTML, the PDF and the figures
+    with PlanFigures(plan, sea_map) as own:
         figs = figures or own
         if path.suffix.lower() == ".pdf":
             return [write_card_pdf(plan, path, sea_map, start, vessel, figs)]

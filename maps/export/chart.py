@@ -42,6 +42,8 @@ class Chart:
     no_go: BaseGeometry = field(default_factory=shapely.Polygon)
     depth_areas: list[tuple[BaseGeometry, float]] = field(default_factory=list)
     extent: tuple[float, float, float, float] | None = None
+    # local_obstacles per projection: every export of a plan builds its route on the same chart
+    _local: dict[str, BaseGeometry] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def obstacles(self) -> BaseGeometry:
@@ -57,6 +59,11 @@ class Chart:
         proj4 = (plan.projection or {}).get("proj4")
         if not proj4:
             return None
+        if proj4 not in self._local:
+            self._local[proj4] = self._project(proj4)
+        return self._local[proj4]
+
+    def _project(self, proj4: str) -> BaseGeometry:
         from pyproj import Transformer
 
         tr = Transformer.from_crs("EPSG:4326", proj4, always_xy=True)

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from maps.export._common import KN_PER_MPS, check_plan, clock, iso, resolve_start, step_orders, step_segment
+from maps.export._common import KN_PER_MPS, check_plan, clock, iso, resolve_start, step_orders
 from maps.plan import Plan
 from primitives.io import atomic_write_text
 
@@ -58,7 +58,7 @@ def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1)
             f"{plan.track[k, 0]:.2f}", f"{plan.track[k, 1]:.2f}",
             f"{np.degrees(plan.track[k, 2]) % 360.0:.1f}",
             f"{plan.speed[k]:.3f}", f"{plan.speed[k] * KN_PER_MPS:.2f}",
-            si + 1, step_segment(st) if st else "", st.primitive if st else "", orders,
+            si + 1, st.segment if st else "", st.primitive if st else "", orders,
         ]
         for j, (_, is_angle) in enumerate(cols):
             v = float(plan.inputs[min(k, len(plan.inputs) - 1), j]) if n_in else float("nan")

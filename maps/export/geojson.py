@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from maps.export._common import KN_PER_MPS, check_plan, step_abort, step_orders, step_segment, step_slice, vessel_name
+from maps.export._common import KN_PER_MPS, check_plan, step_abort, step_orders, step_slice, vessel_name
 from maps.plan import Plan
 from primitives.io import atomic_write_text
 
@@ -73,7 +73,7 @@ def track_segments(plan: Plan) -> list[dict[str, Any]]:
     informative one, else None), steps (indices from 1), sample slice (a, b) inclusive."""
     out: list[dict[str, Any]] = []
     for st in plan.steps:
-        seg = step_segment(st)
+        seg = st.segment
         sl = step_slice(plan, st)
         a, b = sl.start, min(sl.stop - 1, len(plan.t) - 1)
         if out and seg != "informative" and out[-1]["segment"] == seg:
@@ -127,7 +127,7 @@ def _start_features(plan: Plan) -> list[dict[str, Any]]:
                     "kind": "execute_point" if execute else "manoeuvre_start",
                     "index": st.index + 1,
                     "primitive": st.primitive,
-                    "segment": step_segment(st),
+                    "segment": st.segment,
                     "manoeuvre_kind": st.kind,
                     "description": st.description,
                     "commands": list(st.commands),

@@ -20,7 +20,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from maps.export._common import KN_PER_MPS, M_PER_NM, ExportError, deg_min, step_segment, step_slice  # noqa: E402
+from maps.export._common import KN_PER_MPS, M_PER_NM, ExportError, deg_min, step_slice  # noqa: E402
 from maps.plan import Plan  # noqa: E402
 from primitives.io import atomic_savefig  # noqa: E402
 
@@ -77,18 +77,18 @@ NO_GO_COLOUR = "#8fb3c9"
 def primitive_colours(plan: Plan) -> dict[str, Any]:
     """A colour per step primitive: a distinct one per informative primitive (order of first
     appearance), green for run-ins, grey for transit."""
-    inf = list(dict.fromkeys(st.primitive for st in plan.steps if step_segment(st) == "informative"))
+    inf = list(dict.fromkeys(st.primitive for st in plan.steps if st.segment == "informative"))
     cmap = plt.get_cmap("tab10" if len(inf) <= 10 else "tab20")
     out: dict[str, Any] = {n: cmap(i % cmap.N) for i, n in enumerate(inf)}
     for st in plan.steps:
         if st.primitive not in out:
-            out[st.primitive] = RUN_IN_COLOUR if step_segment(st) == "run-in" else TRANSIT_COLOUR
+            out[st.primitive] = RUN_IN_COLOUR if st.segment == "run-in" else TRANSIT_COLOUR
     return out
 
 
 def step_colour(plan: Plan, st, colours: dict[str, Any] | None = None) -> Any:
     """Colour of one step on the map and the time plots."""
-    seg = step_segment(st)
+    seg = st.segment
     if seg == "run-in":
         return RUN_IN_COLOUR
     if seg == "transit":
@@ -172,7 +172,7 @@ def _draw_track(ax, plan: Plan, numbers: bool) -> None:
     labelled: set[str] = set()
     for st in plan.steps:
         sl = step_slice(plan, st)
-        seg = step_segment(st)
+        seg = st.segment
         key = st.primitive if seg == "informative" else seg
         label = None if key in labelled else {"run-in": "run-in (steady course and speed)", "transit": "transit"}.get(key, key)
         labelled.add(key)
@@ -184,7 +184,7 @@ def _draw_track(ax, plan: Plan, numbers: bool) -> None:
                 mec="k", mew=0.8, zorder=4.5, label="execute point")
     if numbers:
         for st in plan.steps:
-            if step_segment(st) == "transit" and not getattr(st, "execute", False) and len(plan.steps) > 12:
+            if st.segment == "transit" and not getattr(st, "execute", False) and len(plan.steps) > 12:
                 continue  # a long plan: number the run-ins and manoeuvres, the table lists the rest
             ax.annotate(
                 str(st.index + 1), (st.entry_lon, st.entry_lat), xytext=(7, 7), textcoords="offset points", fontsize=7,
@@ -294,6 +294,7 @@ def track_figure(plan: Plan, sea_map: Any = None):
 
 STATES_DPI = 110
 TRACK_DPI = 130
+_SAVE = {"states": (STATES_DPI, None), "track": (TRACK_DPI, "tight")}  # default dpi, bbox_inches (the map cropped)
 
 
 class PlanFigures:
@@ -317,12 +318,12 @@ class PlanFigures:
 
     def png(self, name: str, dpi: int | None = None) -> bytes:
         """The figure as PNG bytes, rendered once per dpi (the map cropped to what is drawn)."""
-        key = (name, dpi or (STATES_DPI if name == "states" else TRACK_DPI))
+        key = (name, dpi or _SAVE[name][0])
         if key not in self._png:
             import io
 
             buf = io.BytesIO()
-            self.figure(name).savefig(buf, format="png", dpi=key[1], bbox_inches="tight" if name == "track" else None)
+            self.figure(name).savefig(buf, format="png", dpi=key[1], bbox_inches=_SAVE[name][1])
             self._png[key] = buf.getvalue()
         return self._png[key]
 
@@ -332,8 +333,7 @@ class PlanFigures:
 
         if Path(path).suffix.lower() in ("", ".png"):
             return atomic_write_bytes(path, self.png(name, dpi))
-        return atomic_savefig(self.figure(name), path, dpi=dpi or (STATES_DPI if name == "states" else TRACK_DPI),
-                              bbox_inches="tight" if name == "track" else None)
+        return atomic_savefig(self.figure(name), path, dpi=dpi or _SAVE[name][0], bbox_inches=_SAVE[name][1])
 
     def close(self) -> None:
         for f in self._figs.values():

@@ -34,7 +34,6 @@ from maps.export._common import (
     resolve_start,
     step_abort,
     step_orders,
-    step_segment,
     vessel_name,
 )
 from maps.export.chart import plan_chart
@@ -107,7 +106,7 @@ def _manoeuvre(w: ET.Element, plan: Plan, st: Any) -> None:
     e = _el(_el(w, "extensions"), "extension", manufacturer=TOOL, name="trialManoeuvre", version="1")
     m = _el(
         e, "manoeuvre", EXT_NS,
-        index=st.index + 1, primitive=st.primitive, kind=st.kind, segment=step_segment(st),
+        index=st.index + 1, primitive=st.primitive, kind=st.kind, segment=st.segment,
         execute="true" if getattr(st, "execute", False) else None,
         startTime_s=_dec(st.start_time_s, 2), duration_s=_dec(st.duration_s, 2),
         entryHeading_deg=_dec(st.entry_heading_deg, 1), entrySpeed_kn=_dec(st.entry_speed_mps * KN_PER_MPS, 2),
