@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from primitives.ship import ShipProfile
-from primitives.simulate import steady_forces
+from primitives.simulate import VelocityStep, steady_forces
 
 MAX_RUDDER_DEG = 35.0
 
@@ -120,17 +120,31 @@ def feasible(profile: ShipProfile, f) -> tuple[float, float, float]:
 
 
 def model_step(profile: ShipProfile, theta: np.ndarray, nu: np.ndarray, psi: float, input_sig: dict) -> tuple[np.ndarray, float]:
-    """One calm-water step of (3.60) for a scalar state: (nu(k+1), psi(k+1)).
+    """One calm-water step of (3.60) for one ship: (nu(k+1), psi(k+1)).
 
-    The model's generated increment function is evaluated on Python floats (the signals
-    :func:`primitives.simulate.model_signals` gives in calm water: relative velocities equal
-    the velocities), which is the same IEEE arithmetic as on numpy scalars at a tenth of the cost."""
-    u, v, r = float(nu[0]), float(nu[1]), float(nu[2])
-    sig = dict(input_sig)
-    sig.update(u=u, v=v, r=r, psi=float(psi), u_r=u, v_r=v, u_q=u, v_q=v)
-    coef = theta.tolist() if isinstance(theta, np.ndarray) else list(theta)
-    inc = np.array(profile.model.increment_function()(sig, coef), float)
-    return nu + inc, psi + profile.sample_time * nu[2]
+    The velocity step is the shared kernel's (:class:`primitives.simulate.VelocityStep`, the
+    step of :func:`primitives.simulate.simulate`) on a batch of one, so a closed-loop generator
+    sees the same signals (speed through the water ``U`` included) and the same arithmetic as
+    every simulation of its inputs; the heading is integrated as the kernel's Euler kinematics."""
+    step = _kernel_step(profile, theta)
+    exo = dict(input_sig)
+    exo["psi"] = psi
+    nxt = step(np.asarray(nu, float).reshape(1, -1), exo)[0]
+    return nxt, psi + profile.sample_time * nu[2]
+
+
+# The kernel step of the last (profile, theta) a closed-loop generator ran, per profile: building
+# one generates and parses the model's increment function, which a per-sample call cannot afford.
+_STEPS: dict[int, tuple[ShipProfile, bytes, VelocityStep]] = {}
+
+
+def _kernel_step(profile: ShipProfile, theta: np.ndarray) -> VelocityStep:
+    th = np.asarray(theta, float)
+    key = th.tobytes()
+    hit = _STEPS.get(id(profile))
+    if hit is None or hit[0] is not profile or hit[1] != key:
+        hit = _STEPS[id(profile)] = (profile, key, VelocityStep(profile.model, th, profile.rigid_body, profile.sample_time))
+    return hit[2]
 
 
 def rudder_force(profile: ShipProfile, delta_deg: float, speed: float | None = None) -> float:

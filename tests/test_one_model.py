@@ -15,7 +15,7 @@ from diagnose.model import AugmentedModel, fit_percent, prepare
 from diagnose.model_file import load_model
 from diagnose.recording import Recording
 from diagnose.report import write_all
-from primitives.ship import DOFS, load_profile
+from primitives.ship import DOFS, load_profile, profile_from_dict
 from primitives.simulate import Disturbances, simulate
 from primitives.terms import TermSet
 
@@ -77,3 +77,33 @@ def test_exported_model_with_refit_baseline_and_delay_current_reproduces_per_run
     for row, p in zip(d.per_run, d.val_preps):
         fit = fit_percent(p.y, model.simulate(prepare(model.profile, p.rec), P)[0])
         np.testing.assert_allclose(fit, [row["after"][k] for k in DOFS], atol=1e-6)
+
+
+def test_closed_loop_generators_step_with_the_kernel(ship):
+    """A heading-switched zig-zag generated in closed loop (maneuvers.model_step) is the same
+    trajectory, bit for bit, as primitives.simulate driven by the forces it produced."""
+    from primitives.maneuvers import closed_loop, excitation_zigzag
+
+    gen = excitation_zigzag(ship, 300, 0.8, 0.1, 0.2, np.radians(10))
+    forces, psi = closed_loop(ship, lambda k, nu, psi, memo: tuple(gen.forces[k]) if k < len(gen.forces) else None,
+                              1000, gen.nu0)
+    sim = simulate(ship, ship.allocate(*forces.T), nu0=gen.nu0)
+    assert len(gen.split_points) >= 2
+    np.testing.assert_array_equal(psi, sim.eta[0, :, 2])
+
+
+def test_closed_loop_reads_the_speed_through_the_water(ship):
+    """A model term in the speed through the water U (the kernel's signal) works in the closed-loop
+    generators too: before they stepped with their own signals and failed with KeyError 'U'."""
+    from primitives.maneuvers import zigzag
+
+    d = ship.to_dict()
+    d["model"]["yaw"][0] = "r*U"  # N_r r U: the same damping at 1 m/s, hull-force scaling elsewhere
+    prof = profile_from_dict(d, "<test>")
+    gen = zigzag(prof, 20, 20, n_switches=2)
+    sim = simulate(prof, prof.allocate(*gen.forces.T), nu0=gen.nu0)
+    assert len(gen.split_points) == 2
+    # the helm reversed at the first sample where the kernel's heading had passed 20 deg
+    psi = np.degrees(sim.eta[0, :, 2])
+    k = gen.split_points[0]
+    assert psi[k - 1] < 20 <= psi[k]
