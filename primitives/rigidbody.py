@@ -12,7 +12,9 @@ roll is appended -- where the thesis writes (u, v, p, r); the matrices below are
 
 Choice: (2.13) prints ``+ C(nu) nu``; physics and the yaw row (2.15) (``- m x_g u r``) need
 ``- C_RB(nu) nu`` on the right-hand side, which is what is used here. M is not symmetric with the
-Appendix A values (Y_pdot = -K_vdot), so it is solved with LU (numpy), never Cholesky.
+Appendix A values (Y_pdot = -K_vdot), so Cholesky does not apply: M^-1 is formed once per profile
+with ``np.linalg.inv`` (LAPACK's LU solve of M X = I) and the kernel multiplies each step's forces
+by it (:attr:`RigidBody.inverse_mass`).
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ class RigidBody:
 
     @cached_property
     def inverse_mass(self) -> np.ndarray:
+        """M^-1 of (2.13), formed once: ``np.linalg.inv`` (an LU factorisation; M is not symmetric)."""
         return np.linalg.inv(self.mass_matrix)
 
     def coriolis(self, u: np.ndarray, v: np.ndarray, r: np.ndarray, p: np.ndarray) -> list[np.ndarray]:
