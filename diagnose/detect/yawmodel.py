@@ -21,7 +21,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from diagnose.detect.vessel import base_profile
-from diagnose.yawid.estimate import fit_yaw, prefilter
+from diagnose.yawid.estimate import fit_yaw, prefilter, simulate_yaw
 from diagnose.yawid.experiment import YawData
 from diagnose.yawid.model import FULL, MODELS, true_parameters
 from primitives.errors import UserError
@@ -145,38 +145,29 @@ def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], 
                r0: float = 0.0) -> np.ndarray:
     """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig``, from ``r0``.
 
-    The explicit Euler step of the shared kernel (``primitives.simulate``, seed 001 (3.60)): the
-    prior is the yaw row of the same discrete-time model, so with the profile's parameters and
-    the kernel's own v' and tau_r it reproduces the kernel's yaw rate exactly.
+    yawid's simulator (:func:`diagnose.yawid.estimate.simulate_yaw`, the explicit Euler step of
+    the shared kernel ``primitives.simulate``, seed 001 (3.60)) on this module's layout: the prior
+    is the yaw row of the same discrete-time model, so with the profile's parameters and the
+    kernel's own v' and tau_r it reproduces the kernel's yaw rate to rounding.
 
-    Signals are (n,) or (n, cols); parameter values (and the actuator ``gain``) scalars or (cols,).
-    Terms that do not involve ``r`` are summed once, outside the time loop.
+    Signals are (n,) or (n, cols) (time on axis 0); parameter values (and the actuator ``gain``,
+    which scales tau_r) scalars or (cols,): one simulated column per parameter set.
     """
     th = _theta(kind, theta)
-    u, v = sig["u"], sig["v"]
-    au = np.abs(u)
-    c0 = th["N_uv"] * au * v + np.asarray(gain) * sig["tau_r"]
-    fur = np.zeros_like(u)
-    if kind == "full":
-        phi = sig["phi"]
-        c0 = c0 - th["M_v"] * sig["v_dot"] + th["N_fuv"] * phi * np.abs(u * v) + th["N_fuu"] * phi * u * au
-        fur = phi * u
-    a_u = th["A"] * u
-    c_rv = th["N_rv"] * np.abs(v)
-    shape = np.broadcast_shapes(c0.shape, a_u.shape, np.shape(th["I_r"]))
-    c0, a_u, c_rv, fur = (np.broadcast_to(z, shape) for z in (c0, a_u, c_rv, fur))
-    inv_i = 1.0 / th["I_r"]
-    n_rr, n_fur = th["N_rr"], th["N_fur"]
+    model = MODELS[kind]
+    names = tuple(map(_prior_name, model.params))
+    tau = np.asarray(gain) * sig["tau_r"]
+    shape = np.broadcast_shapes(tau.shape, *(np.shape(sig[k]) for k in model.signals), *(np.shape(th[k]) for k in names))
+    cols = shape[1] if len(shape) == 2 else 1
 
-    def f(k: int, r: np.ndarray) -> np.ndarray:
-        ar = np.abs(r)
-        return (c0[k] + (a_u[k] + c_rv[k]) * r + n_rr * r * ar + n_fur * fur[k] * ar) * inv_i
+    def batch(a: np.ndarray) -> np.ndarray:  # (cols, n): yawid's batch-first layout
+        a = np.broadcast_to(a, shape)
+        return a.T if a.ndim == 2 else a[None]
 
-    r = np.zeros(shape)
-    r[0] = r0
-    for k in range(shape[0] - 1):
-        r[k + 1] = r[k] + dt * f(k, r[k])
-    return r
+    w = {k: batch(sig[k]) for k in model.signals} | {"tau_r": batch(tau)}
+    theta_b = np.stack([np.broadcast_to(np.asarray(th[k], float), (cols,)) for k in names], axis=1)
+    r_hat, _ = simulate_yaw(model, theta_b, w, np.full(cols, float(r0)), dt, sensitivities=False)
+    return np.ascontiguousarray(r_hat.T) if len(shape) == 2 else r_hat[0]
 
 
 def _jacobian(kind: str, x: np.ndarray, sig: dict[str, np.ndarray], dt: float, step: float = 1e-3, r0: float = 0.0) -> np.ndarray:

@@ -47,30 +47,39 @@ def _as_batch(data: YawData, names: tuple[str, ...]) -> dict[str, np.ndarray]:
 
 def simulate_yaw(model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], r0: np.ndarray, ts: float,
                  sensitivities: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-    """Predicted yaw rate (B, N) and its sensitivities (B, N, p) to theta (B, p)."""
+    """Predicted yaw rate (B, N) of (2.17)/(2.18) and its sensitivities (B, N, p) to theta (B, p)
+    (None with ``sensitivities=False``), from the measured inputs ``w`` (B, N) and ``r0`` (B,).
+
+    The one yaw-row simulator of the project: the change detector's prior
+    (``diagnose.detect.yawmodel.simulate_r``) is this function on its column layout. Without
+    sensitivities it needs memory of the order of the inputs only (a detector's 400 no-change
+    records of a long recording)."""
     b, n = w["u"].shape
     p = len(model.params)
     col = {name: j for j, name in enumerate(model.params)}
     i_r = theta[:, col["I_r"]]
-    reg = np.zeros((b, n, p))  # regressor of every non-I_r parameter at each sample
-    for name in model.input_terms:
-        reg[:, :, col[name]] = INPUT_TERMS[name](w)
-    forcing = np.einsum("bnp,bp->bn", reg, theta) + w["tau_r"]
+    forcing = _input_forcing(model, theta, w, col)
+    reg = None
+    if sensitivities:  # regressor of every non-I_r parameter at each sample
+        reg = np.zeros((b, n, p))
+        for name in model.input_terms:
+            reg[:, :, col[name]] = INPUT_TERMS[name](w)
     r_hat = np.empty((b, n))
     sens = np.zeros((b, n, p)) if sensitivities else None
     r = np.asarray(r0, float).copy()
     s = np.zeros((b, p))
     state = [(col[name], theta[:, col[name]], *STATE_TERMS[name]) for name in model.state_terms]
+    state_signals = [key for key in ("u", "v", "phi") if key in w]
     for k in range(n):
         r_hat[:, k] = r
-        wk = {key: val[:, k] for key, val in w.items()}
+        wk = {key: w[key][:, k] for key in state_signals}
         force = forcing[:, k].copy()
-        dfdr = np.zeros(b)
+        dfdr = np.zeros(b) if sensitivities else None
         for j, th, val, der in state:
             v = val(r, wk)
-            reg[:, k, j] = v
             force += th * v
             if sensitivities:
+                reg[:, k, j] = v
                 dfdr += th * der(r, wk)
         f = force / i_r
         if sensitivities:
@@ -80,6 +89,25 @@ def simulate_yaw(model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], r
             s = s + ts * (dfdr[:, None] / i_r[:, None] * s + dfdth)
         r = r + ts * f
     return r_hat, sens
+
+
+# Samples per block of the input forcing: bounds the (B, block, p) regressor array.
+_FORCING_BLOCK = 512
+
+
+def _input_forcing(model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], col: dict[str, int]) -> np.ndarray:
+    """The terms of (2.17)/(2.18) that do not involve r, plus tau_r: (B, N), summed once outside the
+    time loop, block by block along time (each sample's sum over the regressors is the same)."""
+    b, n = w["u"].shape
+    out = np.empty((n, b)).T  # time-major in memory: the time loop reads one sample of every run at a time
+    for k0 in range(0, n, _FORCING_BLOCK):
+        part = slice(k0, min(n, k0 + _FORCING_BLOCK))
+        wp = {key: val[:, part] for key, val in w.items()}
+        reg = np.zeros((b, part.stop - k0, len(model.params)))
+        for name in model.input_terms:
+            reg[:, :, col[name]] = INPUT_TERMS[name](wp)
+        out[:, part] = np.einsum("bnp,bp->bn", reg, theta) + wp["tau_r"]
+    return out
 
 
 def _project(x: np.ndarray, model: YawModel) -> np.ndarray:
