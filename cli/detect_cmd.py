@@ -2,28 +2,11 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import typer
 
 from primitives.io import dumps
-
-
-def _check(*, plot: Path | None, out: Path | None, false_alarm: float, min_change: float, seed: int) -> None:
-    from cli.options import check_plot_path
-    from primitives.errors import UserError
-    from primitives.io import check_out_file
-
-    check_plot_path(plot)
-    if out is not None:
-        check_out_file(out, (".json",), "--out", "prior")  # also refuses a directory
-    if not (math.isfinite(false_alarm) and 1e-4 <= false_alarm <= 0.5):
-        raise UserError(f"--false-alarm {false_alarm}: give a probability per recording between 0.0001 and 0.5")
-    if not (math.isfinite(min_change) and 0.005 <= min_change <= 1.0):
-        raise UserError(f"--min-change {min_change}: give the smallest relative change worth an alarm, 0.005 to 1")
-    if seed < 0:
-        raise UserError(f"--seed {seed}: give a non-negative integer")
 
 
 def register(app: typer.Typer) -> None:
@@ -39,13 +22,10 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", help="seed of the bootstrap"),
     ) -> None:
         """Fit the yaw-row prior of seed 000 (2.17)/(2.18) on a nominal recording, for `detect`."""
+        from cli.options import validate_detect_prior_options
         from diagnose.detect.api import fit_prior, save_prior
 
-        _check(plot=None, out=out, false_alarm=0.02, min_change=0.05, seed=seed)
-        if not (bootstrap == 0 or 2 <= bootstrap <= 256):
-            from primitives.errors import UserError
-
-            raise UserError(f"--bootstrap {bootstrap}: give 0 (no bootstrap) or 2 to 256 refits")
+        validate_detect_prior_options(out=out, bootstrap=bootstrap, seed=seed)
         prior = fit_prior(nominal, model, bootstrap, seed)
         save_prior(prior, out)
         typer.echo(f"wrote {out}: {prior.kind} yaw row, I_r {prior.values['I_r']:.4g} kg m^2, "
@@ -62,11 +42,12 @@ def register(app: typer.Typer) -> None:
         json_out: bool = typer.Option(False, "--json", help="print the verdicts as JSON"),
     ) -> None:
         """Say whether and when the ship changed and which property (yaw inertia, yaw damping, pod gain)."""
+        from cli.options import validate_detect_options
         from diagnose.detect.api import detect as run_detect
         from diagnose.detect.api import load_prior, load_runs
         from diagnose.detect.api import plot as plot_stats
 
-        _check(plot=plot, out=None, false_alarm=false_alarm, min_change=min_change, seed=seed)
+        validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed)
         prior = load_prior(prior_file)
         recs = load_runs(recordings)
         if prior.model_error > 0:

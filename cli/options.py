@@ -202,6 +202,20 @@ def validate_plan_options(*, resolution: float | None, margin: float, headings: 
     check_out_path(out)
 
 
+def validate_detect_prior_options(*, out: Path, bootstrap: int, seed: int) -> None:
+    check_out_file(out, (".json",), "--out", "prior")  # also refuses a directory
+    if bootstrap != 0:  # 0: no bootstrap; one refit is no spread
+        whole(bootstrap, "--bootstrap", 2, 256, "refits (or 0: no bootstrap)")
+    whole(seed, "--seed", 0, 2**63 - 1)
+
+
+def validate_detect_options(*, plot: Path | None, false_alarm: float, min_change: float, seed: int) -> None:
+    check_plot_path(plot)
+    in_range(false_alarm, "--false-alarm", 1e-4, 0.5)  # a probability per recording
+    in_range(min_change, "--min-change", 0.005, 1.0)  # relative: 0.05 = 5 %
+    whole(seed, "--seed", 0, 2**63 - 1)
+
+
 def validate_mass_options(*, z_f: float | None) -> None:
     """``mass`` options that are numbers (the files and --known-load are checked where they are read)."""
     if z_f is not None:

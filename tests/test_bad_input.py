@@ -268,9 +268,9 @@ def _cases() -> list[tuple[str, list[str]]]:
     cases.append(("detect RECORDINGS of different sample times", ["detect", "{det_rec}", "{det_dt2}", "--prior", "{det_prior}"]))
     add(det, "--prior", ["{missing}", "{dir}", "{binary}", "{notjson}", "{det_prior_bad}", "{det_rec}", "{plan}"])
     add([*det, "--prior", "{det_prior}"], "--plot", ["{tmp}/x.txt", "/proc/x.png", "{dir}"])
-    add([*det, "--prior", "{det_prior}"], "--false-alarm", [*FLOATS_BAD, "0", "0.9"])
-    add([*det, "--prior", "{det_prior}"], "--min-change", [*FLOATS_BAD, "0", "5"])
-    add([*det, "--prior", "{det_prior}"], "--seed", ["-1", "abc"])
+    add([*det, "--prior", "{det_prior}"], "--false-alarm", [*FLOATS_BAD, "0", "0.9"], named=True)
+    add([*det, "--prior", "{det_prior}"], "--min-change", [*FLOATS_BAD, "0", "5"], named=True)
+    add([*det, "--prior", "{det_prior}"], "--seed", ["-1", "abc"], named=True)
     for rec in ["{missing}", "{dir}", "{binary}", "{det_nopods}", "{det_nor}"]:
         cases.append((f"detect-prior RECORDING {rec}", ["detect-prior", rec, "--out", "{tmp}/p.json"]))
     cases.append(("detect-prior RECORDINGS of different sample times", ["detect-prior", "{det_rec}", "{det_dt2}", "--out", "{tmp}/p.json"]))
