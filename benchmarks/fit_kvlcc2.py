@@ -34,8 +34,9 @@ sys.path.insert(0, str(ROOT))
 from diagnose.model import AugmentedModel, fit_percent, prepare  # noqa: E402
 from diagnose.recording import Recording, read_marin_dat  # noqa: E402
 from primitives.io import atomic_write_text  # noqa: E402
+from primitives.profile_document import profile_from_dict  # noqa: E402
 from primitives.regressors import predictor_regressors  # noqa: E402
-from primitives.ship import load_profile, profile_from_dict  # noqa: E402
+from primitives.ship import load_profile  # noqa: E402
 from primitives.simulate import model_signals  # noqa: E402
 
 DATA = ROOT / "diagnose" / "data"

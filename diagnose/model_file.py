@@ -20,7 +20,8 @@ from diagnose.candidates import Candidate, Slot
 from diagnose.model import AugmentedModel
 from diagnose.recording import RecordingError
 from primitives.io import to_jsonable
-from primitives.ship import DOFS, profile_from_dict
+from primitives.profile_document import profile_from_dict
+from primitives.ship import DOFS
 
 if TYPE_CHECKING:
     from diagnose.api import Diagnosis

@@ -2,13 +2,12 @@
 
 Built-in profiles live as TOML files in ``primitives/profiles``; users can load their own from
 TOML or JSON with :func:`load_profile`. A profile is the single source of truth for a model's
-structure (regressor terms per DOF) and its parameter sets.
+structure (regressor terms per DOF) and its parameter sets. This module holds the dataclasses and
+finds a profile file; :mod:`primitives.profile_document` checks a document and builds the profile.
 """
 
 from __future__ import annotations
 
-import json
-import tomllib
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -17,11 +16,10 @@ from typing import Any
 import numpy as np
 
 from primitives.errors import UserError
-from primitives.physical_tables import POD_MODEL_KEYS, Engine, Helm, parse_helm_engine, parse_pods, parse_rigid_body
+from primitives.physical_tables import POD_MODEL_KEYS, Engine, Helm
 from primitives.pods import Pod, PodModel
 from primitives.rigidbody import RigidBody
-from primitives.terms import TermError, TermSet, signals_used
-from primitives.validate import MAX_PRIMITIVE_SAMPLES, finite, manoeuvre_samples, positive, unknown_key
+from primitives.terms import TermSet, signals_used
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
 DOFS = ("surge", "sway", "yaw")
@@ -40,47 +38,9 @@ class ProfileError(UserError):
     """A ship profile file is malformed; the message names the file and the field."""
 
 
-# Every top-level key a profile may hold: one list, so an engineer adding a table adds one line.
-PROFILE_KEYS = frozenset({
-    "name", "description", "source", "sample_time", "length_m", "beam_m", "draught_m", "cruise_speed_mps",
-    "actuator", "inputs", "input_limits", "model", "parameter_names", "parameters", "simulation_set",
-    "instrument_set", "predictor", "predictor_names", "thrusters", "disturbances",
-    "helm",  # optional helm table (rudder-ship manoeuvres)
-    "engine",  # optional engine table (rudder-ship manoeuvres)
-    "library",  # which built-in manoeuvre dictionary the ship uses (primitives.library)
-    "augmentations",  # effects a diagnosed model.json lists beside its terms (diagnose.report.model_dict)
-    "diagnosed_model",  # what a diagnosed model.json was scored on (diagnose.model_file)
-    "rigid_body",  # mass, inertias, CoG and added mass of a 4-DOF physical model (primitives.rigidbody)
-    "pods", "pod_model",  # podded propulsion (primitives.pods), actuator = "pods"
-    "diagnosis",  # baseline structure a --fit-on refit may add (ShipProfile.structure_terms)
-})
-# Physical sizes a profile must give, all finite and > 0 (unit in the message).
 # Prior std of a [diagnosis] structure coefficient, as a fraction of the coefficient that alone
 # would explain its DOF's increments (diagnose.api.term_scales), when the profile gives none.
 DEFAULT_STRUCTURE_PRIOR = 0.01
-POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("draught_m", "m"), ("cruise_speed_mps", "m/s"))
-
-
-def _check_keys(d: dict, src: str) -> None:
-    """Refuse unknown top-level keys, suggesting the nearest known one (a misspelt key must not
-    silently fall back to a default)."""
-    bad = unknown_key(d, sorted(PROFILE_KEYS))
-    if bad:
-        raise ProfileError(f"{src}: unknown field {bad[0]!r}{bad[1]}")
-
-
-def _check_sizes(d: dict, src: str) -> dict[str, float]:
-    sizes = {k: positive(_need(d, k, src, (int, float), f"a number in {unit}, > 0"), f"{src}: field '{k}'", unit, ProfileError)
-             for k, unit in POSITIVE_FIELDS}
-    # a manoeuvre spans ~20 ship lengths: too slow a ship or too short a sample time makes it endless
-    n = manoeuvre_samples(20 * sizes["length_m"], sizes["cruise_speed_mps"], sizes["sample_time"])
-    if n > MAX_PRIMITIVE_SAMPLES:
-        raise ProfileError(
-            f"{src}: 20 ship lengths ({20 * sizes['length_m']:g} m) at cruise_speed_mps {sizes['cruise_speed_mps']:g} m/s "
-            f"take {n:.3g} samples of {sizes['sample_time']:g} s (limit {MAX_PRIMITIVE_SAMPLES:,}): check the units of "
-            "length_m, cruise_speed_mps and sample_time"
-        )
-    return sizes
 
 
 @dataclass(frozen=True)
@@ -306,225 +266,6 @@ def planar_profiles() -> list[str]:
     return [name for name in builtin_profiles() if load_profile(name).planar]
 
 
-def _need(d: dict, key: str, src: str, kind: type | tuple[type, ...], hint: str) -> Any:
-    if key not in d:
-        raise ProfileError(f"{src}: missing field '{key}' ({hint})")
-    val = d[key]
-    if not isinstance(val, kind) or isinstance(val, bool):
-        raise ProfileError(f"{src}: field '{key}' must be {hint}, got {val!r}")
-    return val
-
-
-def _per_dof(d: dict, key: str, src: str, item: type, hint: str, dofs: tuple[str, ...] = DOFS) -> tuple[tuple, ...]:
-    table = _need(d, key, src, dict, f"a table with {', '.join(dofs)} lists")
-    out = []
-    for dof in dofs:
-        vals = _need(table, dof, f"{src} [{key}]", list, hint)
-        for v in vals:
-            if not isinstance(v, item) or isinstance(v, bool):
-                raise ProfileError(f"{src}: field '{key}.{dof}' must hold only {hint}, got {v!r}")
-        out.append(tuple(float(v) if item is not str else v for v in vals))
-    return tuple(out)
-
-
-def _input_limits(d: dict, src: str) -> dict[str, tuple[float, float]]:
-    table = d.get("input_limits", {})
-    if not isinstance(table, dict):
-        raise ProfileError(f"{src}: field 'input_limits' must be a table of name = [min, max]")
-
-    limits = {}
-    for k, v in table.items():
-        what = f"{src}: field 'input_limits.{k}'"
-        if not (isinstance(v, list) and len(v) == 2):
-            raise ProfileError(f"{what} must be [min, max] of finite numbers with min < max, got {v!r}")
-        lo, hi = (finite(x, what, "the input's units", ProfileError) for x in v)
-        if not lo < hi:
-            raise ProfileError(f"{what} must be [min, max] with min < max, got {v!r}")
-        limits[k] = (lo, hi)
-    return limits
-
-
-def _thrusters(d: dict, src: str) -> tuple[Thruster, ...]:
-    table = d.get("thrusters", [])
-    if not isinstance(table, list) or not all(isinstance(t, dict) and "x" in t for t in table):
-        raise ProfileError(f"{src}: field 'thrusters' must be a list of [[thrusters]] tables with x (and y) in metres")
-    return tuple(
-        Thruster(str(t.get("name", f"thruster{i + 1}")), finite(t["x"], f"{src}: field 'thrusters.{i}.x'", "m", ProfileError),
-                 finite(t.get("y", 0.0), f"{src}: field 'thrusters.{i}.y'", "m", ProfileError))
-        for i, t in enumerate(table)
-    )
-
-
-# Disturbance levels a profile may state (Disturbances.from_profile reads them): key -> length (0 = scalar).
-DISTURBANCE_KEYS = {"current_mean_ne": 2, "current_sample_std": 0, "measurement_std": 3, "heading_std": 0}
-
-
-def _disturbances(d: dict, src: str) -> dict[str, Any]:
-    table = d.get("disturbances", {})
-    if not isinstance(table, dict):
-        raise ProfileError(f"{src}: field 'disturbances' must be a table")
-    for k, v in table.items():
-        if k not in DISTURBANCE_KEYS:
-            raise ProfileError(f"{src}: unknown field 'disturbances.{k}'; known: {', '.join(DISTURBANCE_KEYS)}")
-        n = DISTURBANCE_KEYS[k]
-        vals = v if n else [v]
-        if not isinstance(vals, list) or len(vals) != max(n, 1):
-            raise ProfileError(f"{src}: field 'disturbances.{k}' must be {f'a list of {n} numbers' if n else 'a number'}")
-        for x in vals:
-            y = finite(x, f"{src}: field 'disturbances.{k}'", "SI units", ProfileError)
-            if k != "current_mean_ne" and y < 0:
-                raise ProfileError(f"{src}: field 'disturbances.{k}' is a standard deviation: must be >= 0, got {x!r}")
-    return dict(table)
-
-
-DIAGNOSIS_KEYS = ("structure", "structure_prior")
-
-
-def _diagnosis(d: dict, src: str, dofs: tuple[str, ...], known: set[str]) -> tuple[tuple[tuple[str, ...], ...] | None, float]:
-    """The optional [diagnosis] table: ``structure`` (term lists per DOF that a --fit-on refit
-    adds to the model) and ``structure_prior`` (> 0: the prior std of their coefficients, as a
-    fraction of the coefficient that alone would explain the increments' spread)."""
-    table = d.get("diagnosis")
-    if table is None:
-        return None, DEFAULT_STRUCTURE_PRIOR
-    if not isinstance(table, dict):
-        raise ProfileError(f"{src}: field 'diagnosis' must be a table with 'structure' (and 'structure_prior')")
-    bad = unknown_key(table, list(DIAGNOSIS_KEYS))
-    if bad:
-        raise ProfileError(f"{src}: unknown field 'diagnosis.{bad[0]}'{bad[1]}")
-    prior = positive(table.get("structure_prior", DEFAULT_STRUCTURE_PRIOR), f"{src}: field 'diagnosis.structure_prior'", "", ProfileError)
-    terms = _per_dof(table, "structure", f"{src} [diagnosis]", str, "regressor term strings like 'v_r^3*U^-1'", dofs)
-    try:
-        unknown = signals_used(terms) - known
-        TermSet(terms)
-    except TermError as exc:
-        raise ProfileError(f"{src}: field 'diagnosis.structure': {exc}") from None
-    if unknown:
-        raise ProfileError(f"{src}: field 'diagnosis.structure' uses unknown signals {sorted(unknown)}; known: {sorted(known)}")
-    return terms, prior
-
-
-def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
-    """Validate a decoded TOML/JSON document and build a profile."""
-    num = (int, float)
-    _check_keys(d, src)
-    name = _need(d, "name", src, str, "the profile name, e.g. 'my-ship'")
-    sizes = _check_sizes(d, src)
-    ts = sizes["sample_time"]
-    actuator = d.get("actuator", "generalized")
-    if actuator not in ACTUATORS:
-        raise ProfileError(f"{src}: field 'actuator' must be one of {ACTUATORS}, got {actuator!r}")
-    inputs = tuple(_need(d, "inputs", src, list, "a list of input names"))
-    if not inputs or not all(isinstance(x, str) and x for x in inputs) or len(set(inputs)) != len(inputs):
-        raise ProfileError(f"{src}: field 'inputs' must be a non-empty list of distinct input names, got {list(inputs)!r}")
-    dofs = ROLL_DOFS if isinstance(d.get("model"), dict) and "roll" in d["model"] else DOFS
-    terms = _per_dof(d, "model", src, str, "regressor term strings like 'u_r*|u_r|'", dofs)
-    names = _per_dof(d, "parameter_names", src, str, "parameter names", dofs)
-    try:
-        model = TermSet(terms)
-        used = signals_used(terms)
-    except TermError as exc:
-        raise ProfileError(f"{src}: field 'model': {exc}") from None
-    known = BASE_SIGNALS | set(inputs) | (ROLL_SIGNALS if dofs == ROLL_DOFS else set())
-    unknown = used - known
-    if unknown:
-        raise ProfileError(
-            f"{src}: field 'model' uses unknown signals {sorted(unknown)}; known: {sorted(known)}"
-            + (" (p, phi, tau_k need the roll DOF: add model.roll)" if unknown & ROLL_SIGNALS else "")
-        )
-    for i, dof in enumerate(dofs):
-        if len(names[i]) != len(terms[i]):
-            raise ProfileError(f"{src}: field 'parameter_names.{dof}' has {len(names[i])} names for {len(terms[i])} terms")
-    sets_raw = _need(d, "parameters", src, dict, "a table of parameter sets, e.g. [parameters.true]")
-    sets = {}
-    for set_name, table in sets_raw.items():
-        vals = _per_dof({"p": table}, "p", f"{src} [parameters.{set_name}]", num, "numbers", dofs)
-        for i, dof in enumerate(dofs):
-            if len(vals[i]) != len(terms[i]):
-                raise ProfileError(
-                    f"{src}: field 'parameters.{set_name}.{dof}' has {len(vals[i])} values for {len(terms[i])} terms"
-                )
-        arr = np.array([v for dof in vals for v in dof], dtype=float)
-        if not np.all(np.isfinite(arr)):
-            raise ProfileError(f"{src}: field 'parameters.{set_name}' holds a value that is not a finite number")
-        sets[set_name] = arr
-    if not sets:
-        raise ProfileError(f"{src}: field 'parameters' holds no parameter set")
-    sim_set = d.get("simulation_set", next(iter(sets)))
-    ins_set = d.get("instrument_set", sim_set)
-    for key, val in (("simulation_set", sim_set), ("instrument_set", ins_set)):
-        if not isinstance(val, str) or val not in sets:
-            raise ProfileError(f"{src}: field '{key}' names {val!r}, which is not in [parameters]")
-    limits = _input_limits(d, src)
-    thrusters = _thrusters(d, src)
-    if actuator == "azimuth":
-        expect = tuple(x for i in range(1, len(thrusters) + 1) for x in (f"n{i}", f"alpha{i}"))
-        if not thrusters or inputs != expect:
-            raise ProfileError(
-                f"{src}: field 'inputs' of an azimuth profile must be {list(expect) or ['n1', 'alpha1']} with one [[thrusters]] entry each"
-            )
-    structure, structure_prior = _diagnosis(d, src, dofs, known)
-    rigid_body = parse_rigid_body(d, src, len(dofs), ProfileError)
-    pods, pod_model = parse_pods(d, src, inputs, ProfileError) if actuator == "pods" else ((), None)
-    pred = pred_names = None
-    if "predictor" in d:
-        pred = _per_dof(d, "predictor", src, str, "regressor term strings")
-        pred_names = _per_dof(d, "predictor_names", src, str, "parameter names")
-        try:
-            TermSet(pred)
-        except TermError as exc:
-            raise ProfileError(f"{src}: field 'predictor': {exc}") from None
-    library = d.get("library", "")
-    if library and library not in LIBRARIES:
-        raise ProfileError(f"{src}: field 'library' must be one of {LIBRARIES} (or absent), got {library!r}")
-    helm, engine = Helm(), Engine()
-    if actuator == "rudder_propeller":
-        if inputs != ("delta", "n"):
-            raise ProfileError(f"{src}: field 'inputs' of a rudder_propeller profile must be ['delta', 'n'] (rudder rad, propeller rev/s)")
-        helm, engine = parse_helm_engine(
-            d, src, limits, lambda: _starboard_sign(model, sets[sim_set], sizes["cruise_speed_mps"]), ProfileError
-        )
-    return ShipProfile(
-        name=name,
-        description=str(d.get("description", "")),
-        sample_time=ts,
-        length_m=sizes["length_m"],
-        beam_m=sizes["beam_m"],
-        draught_m=sizes["draught_m"],
-        cruise_speed_mps=sizes["cruise_speed_mps"],
-        actuator=actuator,
-        inputs=inputs,
-        input_limits=limits,
-        model_terms=model.terms,
-        parameter_names=names,
-        parameter_sets=sets,
-        simulation_set=sim_set,
-        instrument_set=ins_set,
-        predictor_terms=pred,
-        predictor_names=pred_names,
-        thrusters=thrusters,
-        disturbances=_disturbances(d, src),
-        source=str(d.get("source", "")),
-        helm=helm,
-        engine=engine,
-        library=library,
-        rigid_body=rigid_body,
-        pods=pods,
-        pod_model=pod_model,
-        structure_terms=structure,
-        structure_prior=structure_prior,
-    )
-
-
-def _starboard_sign(model: TermSet, theta: np.ndarray, cruise: float) -> float:
-    """+1 if a positive delta gives a starboard (positive) yaw acceleration at cruise speed, else -1."""
-    rates = []
-    for delta in (0.0, 0.1):
-        sig = {k: 0.0 for k in BASE_SIGNALS} | {"u": cruise, "u_r": cruise, "u_q": cruise, "U": cruise, "delta": delta, "n": 0.0}
-        rates.append(float(model.increments(sig, theta)[2]))
-    return 1.0 if rates[1] >= rates[0] else -1.0
-
-
 def load_profile(name_or_path: str | Path) -> ShipProfile:
     """A built-in profile by name (``model-ship``, ``full-scale``, ...) or a TOML/JSON file."""
     path = Path(name_or_path)
@@ -537,17 +278,6 @@ def load_profile(name_or_path: str | Path) -> ShipProfile:
         path = cand
     if not path.exists():
         raise ProfileError(f"{path}: no such profile file")
-    from primitives.io import read_input_text
+    from primitives.profile_document import read_profile_file  # it builds ShipProfile: imported when used
 
-    if path.suffix.lower() not in (".json", ".toml"):
-        raise ProfileError(f"{path}: a profile file must end in .toml or .json")
-    text = read_input_text(path, ProfileError, "a .toml/.json ship profile")
-    try:
-        data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
-    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise ProfileError(f"{path}: not valid {path.suffix[1:].upper()}: {exc}") from None
-    except RecursionError:
-        raise ProfileError(f"{path}: nested too deeply to be a profile") from None
-    if not isinstance(data, dict):
-        raise ProfileError(f"{path}: the document must be a table/object")
-    return profile_from_dict(data, str(path))
+    return read_profile_file(path)

@@ -14,7 +14,8 @@ import pytest
 import diagnose.api as api
 from diagnose.model import AugmentedModel, prepare
 from diagnose.recording import Recording
-from primitives.ship import ProfileError, load_profile, profile_from_dict
+from primitives.profile_document import profile_from_dict
+from primitives.ship import ProfileError, load_profile
 from primitives.simulate import simulate
 from primitives.terms import TermError, TermSet, compile_term
 from tests.physics.mmg_battery import CALM, NOISE_FULL

@@ -8,7 +8,8 @@ import pytest
 
 from diagnose.yawid.experiment import turn_pulse
 from primitives.pods import pod_body_forces
-from primitives.ship import PROFILE_DIR, ProfileError, load_profile, profile_from_dict
+from primitives.profile_document import profile_from_dict
+from primitives.ship import PROFILE_DIR, ProfileError, load_profile
 from primitives.simulate import simulate
 
 

@@ -15,7 +15,8 @@ from diagnose.model import AugmentedModel, fit_percent, prepare
 from diagnose.model_file import load_model
 from diagnose.recording import Recording
 from diagnose.report import write_all
-from primitives.ship import DOFS, load_profile, profile_from_dict
+from primitives.profile_document import profile_from_dict
+from primitives.ship import DOFS, load_profile
 from primitives.simulate import Disturbances, simulate
 from primitives.terms import TermSet
 

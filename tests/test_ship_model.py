@@ -5,8 +5,9 @@ import json
 import numpy as np
 import pytest
 
+from primitives.profile_document import profile_from_dict
 from primitives.regressors import instruments, predictor_regressors
-from primitives.ship import ProfileError, load_profile, profile_from_dict
+from primitives.ship import ProfileError, load_profile
 from primitives.simulate import Disturbances, simulate, steady_forces
 
 
