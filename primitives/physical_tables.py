@@ -16,10 +16,13 @@ import numpy as np
 from primitives.errors import UserError
 from primitives.pods import Pod, PodModel
 from primitives.rigidbody import ADDED_MASS_KEYS, RigidBody
-from primitives.validate import finite, positive
+from primitives.validate import check_table_keys, finite, positive
 
 POD_MODEL_KEYS = ("rho", "diameter", "strut_area", "c_mx1", "c_mx2", "c_my1", "c_my2", "c_rx1", "c_rx2", "c_ry")
 RIGID_BODY_KEYS = ("mass", "I_x", "I_z", "x_g", "z_g") + ADDED_MASS_KEYS
+POD_KEYS = ("name", "x", "y", "z")
+HELM_KEYS = ("max_rudder_deg", "rudder_rate_deg_s", "starboard_sign")
+ENGINE_KEYS = ("rps_limits", "rps_rate", "mcr_rpm", "approach_rpm")
 
 
 @dataclass(frozen=True)
@@ -61,13 +64,12 @@ class Engine:
     approach_rpm: float | None = None
 
 
-def _numbers(table: Any, section: str, keys: tuple[str, ...], src: str, hint: str, err: type[UserError]) -> dict[str, float]:
-    """Every key of ``keys`` from a table of finite numbers, none other."""
+def _numbers(table: Any, section: str, keys: tuple[str, ...], src: str, hint: str, err: type[UserError],
+             other: tuple[str, ...] = ()) -> dict[str, float]:
+    """Every key of ``keys`` from a table of finite numbers; ``other`` keys the caller reads, none else."""
     if not isinstance(table, dict):
         raise err(f"{src}: field '{section}' must be a table [{section}] ({hint})")
-    extra = sorted(set(table) - set(keys) - {"yaw_moment"})
-    if extra:
-        raise err(f"{src}: unknown field '{section}.{extra[0]}'; known: {', '.join(keys)}")
+    check_table_keys(table, keys + other, src, f"[{section}]", err)
     out = {}
     for k in keys:
         if k not in table:
@@ -97,6 +99,8 @@ def parse_pods(d: dict, src: str, inputs: tuple[str, ...], err: type[UserError])
     table = d.get("pods")
     if not isinstance(table, list) or not table or not all(isinstance(t, dict) for t in table):
         raise err(f"{src}: an actuator = \"pods\" profile needs [[pods]] tables with x, y, z in metres")
+    for i, t in enumerate(table):
+        check_table_keys(t, POD_KEYS, src, f"[[pods]] number {i + 1}", err)
     pods = tuple(
         Pod(str(t.get("name", f"pod{i + 1}")), *(finite(t.get(k), f"{src}: field 'pods.{i}.{k}'", "m", err) for k in "xyz"))
         for i, t in enumerate(table)
@@ -105,7 +109,7 @@ def parse_pods(d: dict, src: str, inputs: tuple[str, ...], err: type[UserError])
     if inputs != expect:
         raise err(f"{src}: field 'inputs' of a pods profile must be {list(expect)} (rev/s, rad) with one [[pods]] entry each")
     pm = d.get("pod_model")
-    c = _numbers(pm, "pod_model", POD_MODEL_KEYS, src, "Table 2.1 of seed 000", err)
+    c = _numbers(pm, "pod_model", POD_MODEL_KEYS, src, "Table 2.1 of seed 000", err, other=("yaw_moment",))
     yaw_moment = pm.get("yaw_moment", "thesis")
     if yaw_moment not in ("thesis", "full"):
         raise err(f"{src}: field 'pod_model.yaw_moment' must be 'thesis' (x F_y, eq. 2.12) or 'full' (x F_y - y F_x)")
@@ -128,9 +132,10 @@ def parse_helm_engine(
     ``starboard_sign()`` derives the helm's sign from the model when [helm] does not state it."""
     h = d.get("helm", {})
     e = d.get("engine", {})
-    for key, tab in (("helm", h), ("engine", e)):
+    for key, tab, accepted in (("helm", h, HELM_KEYS), ("engine", e, ENGINE_KEYS)):
         if not isinstance(tab, dict):
             raise err(f"{src}: field '{key}' must be a table [{key}]")
+        check_table_keys(tab, accepted, src, f"[{key}]", err)
     lim_deg = float(np.degrees(min(abs(x) for x in limits["delta"]))) if "delta" in limits else 35.0
     max_deg = _positive(h, "helm", "max_rudder_deg", src, "the largest rudder angle in degrees, e.g. 35", err) or lim_deg
     if max_deg > lim_deg + 1e-6:

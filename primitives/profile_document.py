@@ -29,7 +29,7 @@ from primitives.ship import (
     Thruster,
 )
 from primitives.terms import TermError, TermSet, signals_used
-from primitives.validate import MAX_PRIMITIVE_SAMPLES, finite, manoeuvre_samples, positive, unknown_key
+from primitives.validate import MAX_PRIMITIVE_SAMPLES, check_table_keys, finite, manoeuvre_samples, positive, unknown_key
 
 # Every top-level key a profile may hold: one list, so an engineer adding a table adds one line.
 PROFILE_KEYS = frozenset({
@@ -52,9 +52,7 @@ POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("d
 def _check_keys(d: dict, src: str) -> None:
     """Refuse unknown top-level keys, suggesting the nearest known one (a misspelt key must not
     silently fall back to a default)."""
-    bad = unknown_key(d, sorted(PROFILE_KEYS))
-    if bad:
-        raise ProfileError(f"{src}: unknown field {bad[0]!r}{bad[1]}")
+    check_table_keys(d, sorted(PROFILE_KEYS), src, "the top level", ProfileError)
 
 
 def _check_sizes(d: dict, src: str) -> dict[str, float]:
@@ -91,6 +89,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     pred, pred_names = _predictor(d, src)
     library = _library(d, src)
     helm, engine = _helm_engine(d, src, actuator, inputs, limits, model, sets[sim_set], sizes["cruise_speed_mps"])
+    check_table_keys(limits, inputs, src, "[input_limits]", ProfileError)
     return ShipProfile(
         name=name,
         description=str(d.get("description", "")),
@@ -138,8 +137,8 @@ def _model(d: dict, src: str, inputs: tuple[str, ...]) -> tuple[tuple[str, ...],
     """[model] term lists and [parameter_names] per DOF (a roll list makes the ship 4-DOF): the
     DOFs, the compiled terms, the names and the signals a term may read."""
     dofs = ROLL_DOFS if isinstance(d.get("model"), dict) and "roll" in d["model"] else DOFS
-    terms = _per_dof(d, "model", src, str, "regressor term strings like 'u_r*|u_r|'", dofs)
-    names = _per_dof(d, "parameter_names", src, str, "parameter names", dofs)
+    terms = _per_dof(d, "model", src, str, "regressor term strings like 'u_r*|u_r|'", dofs, (src, "model"), ROLL_DOFS)
+    names = _per_dof(d, "parameter_names", src, str, "parameter names", dofs, (src, "parameter_names"))
     try:
         model = TermSet(terms)
         used = signals_used(terms)
@@ -164,7 +163,8 @@ def _parameter_sets(d: dict, src: str, model: TermSet, dofs: tuple[str, ...]) ->
     sets_raw = _need(d, "parameters", src, dict, "a table of parameter sets, e.g. [parameters.true]")
     sets = {}
     for set_name, table in sets_raw.items():
-        vals = _per_dof({"p": table}, "p", f"{src} [parameters.{set_name}]", (int, float), "numbers", dofs)
+        vals = _per_dof({"p": table}, "p", f"{src} [parameters.{set_name}]", (int, float), "numbers", dofs,
+                        (src, f"parameters.{set_name}"))
         for i, dof in enumerate(dofs):
             if len(vals[i]) != len(terms[i]):
                 raise ProfileError(
@@ -200,8 +200,8 @@ def _predictor(d: dict, src: str) -> tuple[tuple[tuple, ...] | None, tuple[tuple
     """The optional linear-in-parameters predictor's terms and names (3 DOFs)."""
     if "predictor" not in d:
         return None, None
-    pred = _per_dof(d, "predictor", src, str, "regressor term strings")
-    pred_names = _per_dof(d, "predictor_names", src, str, "parameter names")
+    pred = _per_dof(d, "predictor", src, str, "regressor term strings", table_of=(src, "predictor"))
+    pred_names = _per_dof(d, "predictor_names", src, str, "parameter names", table_of=(src, "predictor_names"))
     try:
         TermSet(pred)
     except TermError as exc:
@@ -235,8 +235,13 @@ def _need(d: dict, key: str, src: str, kind: type | tuple[type, ...], hint: str)
     return val
 
 
-def _per_dof(d: dict, key: str, src: str, item: type, hint: str, dofs: tuple[str, ...] = DOFS) -> tuple[tuple, ...]:
+def _per_dof(d: dict, key: str, src: str, item: type, hint: str, dofs: tuple[str, ...] = DOFS,
+             table_of: tuple[str, str] | None = None, accept: tuple[str, ...] | None = None) -> tuple[tuple, ...]:
+    """The lists of a per-DOF table; ``table_of`` (file, table name) refuses keys other than
+    ``accept`` (default the DOFs)."""
     table = _need(d, key, src, dict, f"a table with {', '.join(dofs)} lists")
+    if table_of is not None:
+        check_table_keys(table, accept or dofs, table_of[0], f"[{table_of[1]}]", ProfileError)
     out = []
     for dof in dofs:
         vals = _need(table, dof, f"{src} [{key}]", list, hint)
@@ -248,6 +253,8 @@ def _per_dof(d: dict, key: str, src: str, item: type, hint: str, dofs: tuple[str
 
 
 def _input_limits(d: dict, src: str) -> dict[str, tuple[float, float]]:
+    """[input_limits]: ``input = [min, max]`` (that each names an input is checked once the
+    actuator's inputs are, so a wrong input list is reported as such)."""
     table = d.get("input_limits", {})
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'input_limits' must be a table of name = [min, max]")
@@ -264,10 +271,15 @@ def _input_limits(d: dict, src: str) -> dict[str, tuple[float, float]]:
     return limits
 
 
+THRUSTER_KEYS = ("name", "x", "y")
+
+
 def _thrusters(d: dict, src: str) -> tuple[Thruster, ...]:
     table = d.get("thrusters", [])
     if not isinstance(table, list) or not all(isinstance(t, dict) and "x" in t for t in table):
         raise ProfileError(f"{src}: field 'thrusters' must be a list of [[thrusters]] tables with x (and y) in metres")
+    for i, t in enumerate(table):
+        check_table_keys(t, THRUSTER_KEYS, src, f"[[thrusters]] number {i + 1}", ProfileError)
     return tuple(
         Thruster(str(t.get("name", f"thruster{i + 1}")), finite(t["x"], f"{src}: field 'thrusters.{i}.x'", "m", ProfileError),
                  finite(t.get("y", 0.0), f"{src}: field 'thrusters.{i}.y'", "m", ProfileError))
@@ -284,8 +296,7 @@ def _disturbances(d: dict, src: str) -> dict[str, Any]:
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'disturbances' must be a table")
     for k, v in table.items():
-        if k not in DISTURBANCE_KEYS:
-            raise ProfileError(f"{src}: unknown field 'disturbances.{k}'; known: {', '.join(DISTURBANCE_KEYS)}")
+        check_table_keys({k: v}, list(DISTURBANCE_KEYS), src, "[disturbances]", ProfileError)
         n = DISTURBANCE_KEYS[k]
         vals = v if n else [v]
         if not isinstance(vals, list) or len(vals) != max(n, 1):
@@ -309,11 +320,12 @@ def _diagnosis(d: dict, src: str, dofs: tuple[str, ...], known: set[str]) -> tup
         return None, DEFAULT_STRUCTURE_PRIOR
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'diagnosis' must be a table with 'structure' (and 'structure_prior')")
-    bad = unknown_key(table, list(DIAGNOSIS_KEYS))
+    bad = unknown_key(table, list(DIAGNOSIS_KEYS))  # its message is the diagnosis's own (tests pin it)
     if bad:
         raise ProfileError(f"{src}: unknown field 'diagnosis.{bad[0]}'{bad[1]}")
     prior = positive(table.get("structure_prior", DEFAULT_STRUCTURE_PRIOR), f"{src}: field 'diagnosis.structure_prior'", "", ProfileError)
-    terms = _per_dof(table, "structure", f"{src} [diagnosis]", str, "regressor term strings like 'v_r^3*U^-1'", dofs)
+    terms = _per_dof(table, "structure", f"{src} [diagnosis]", str, "regressor term strings like 'v_r^3*U^-1'", dofs,
+                     (src, "diagnosis.structure"))
     try:
         unknown = signals_used(terms) - known
         TermSet(terms)

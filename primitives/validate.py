@@ -90,6 +90,20 @@ def unknown_key(keys, allowed) -> tuple[str, str] | None:
     return None
 
 
+def check_table_keys(table, accepted, file: str, where: str, error: type[UserError] = UserError) -> None:
+    """Refuse the first key of ``table`` that is not ``accepted``, in one line naming the ``file``,
+    the table (``where``: "[rigid_body]", "[[pods]] entry 1", "the top level"), the key, the nearest
+    accepted key and every accepted key: a stray or misspelt key is never silently ignored."""
+    import difflib
+
+    accepted = [str(a) for a in accepted]
+    for k in table:
+        if k not in accepted:
+            near = difflib.get_close_matches(str(k), accepted, n=1, cutoff=0.5)
+            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            raise error(f"{file}: unknown key {str(k)!r} in {where}{hint}; accepted keys: {', '.join(accepted) or 'none'}")
+
+
 def available_memory_bytes() -> int:
     """Memory the kernel says is available now (MemAvailable), or 4 GiB when it cannot tell."""
     try:

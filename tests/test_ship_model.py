@@ -7,7 +7,7 @@ import pytest
 
 from primitives.profile_document import profile_from_dict
 from primitives.regressors import instruments, predictor_regressors
-from primitives.ship import ProfileError, load_profile
+from primitives.ship import PROFILE_DIR, ProfileError, builtin_profiles, load_profile
 from primitives.simulate import Disturbances, simulate, steady_forces
 
 
@@ -123,3 +123,72 @@ def test_profile_files_roundtrip_and_errors(tmp_path, ms):
         load_profile(t)
     with pytest.raises(ProfileError, match="unknown ship"):
         load_profile("no-such-ship")
+
+
+def _with_line(text: str, header: str, line: str, nth: int = 1) -> str:
+    """The TOML ``text`` with ``line`` added as the first key of the ``nth`` table ``header``
+    ("" for the top level)."""
+    if not header:
+        return line + "\n" + text
+    at = -1
+    for _ in range(nth):
+        at = text.index(header + "\n", at + 1)
+    at += len(header) + 1
+    return text[:at] + line + "\n" + text[at:]
+
+
+# (bundled profile, table header, its n-th occurrence, a key no model reads, the table the message names)
+STRAY_KEYS = [
+    ("naval-vessel", "[rigid_body]", 1, "yaw_moment = 1.0", "[rigid_body]"),
+    ("naval-vessel", "[[pods]]", 2, "w = 0.0", "[[pods]] number 2"),
+    ("naval-vessel", "[pod_model]", 1, "c_rx3 = 0.0", "[pod_model]"),
+    ("kvlcc2", "[helm]", 1, "rudder_rate = 3.0", "[helm]"),
+    ("kvlcc2", "[engine]", 1, "max_rpm = 90.0", "[engine]"),
+    ("model-ship", "[model]", 1, 'yaww = ["r"]', "[model]"),
+    ("model-ship", "[parameters.true]", 1, "roll = [0.1]", "[parameters.true]"),
+    ("model-ship", "[input_limits]", 1, "delta = [-0.6, 0.6]", "[input_limits]"),
+    ("model-ship", "[disturbances]", 1, "wind_std = 0.1", "[disturbances]"),
+    ("full-scale", "[[thrusters]]", 1, "z = 1.0", "[[thrusters]] number 1"),
+    ("full-scale", "[predictor_names]", 1, 'heave = ["Z"]', "[predictor_names]"),
+    ("model-ship", "", 1, "yaw_moment = 1.0", "the top level"),
+]
+
+
+@pytest.mark.parametrize("ship,header,nth,line,table", STRAY_KEYS, ids=[f"{c[0]}-{c[4]}" for c in STRAY_KEYS])
+def test_cli_refuses_a_stray_key_in_any_profile_table(ship, header, nth, line, table, tmp_path, capsys):
+    """`shiptrial primitives --ship FILE.toml` with a key no model reads: exit 2 and one line
+    naming the file, the table, the key and the keys the table accepts (before: silently ignored
+    in every table but the top level, [disturbances] and the 4-DOF numeric tables, and there
+    [rigid_body] let yaw_moment through)."""
+    from cli.app import _run
+
+    key = line.split(" = ")[0]
+    path = tmp_path / "ship.toml"
+    path.write_text(_with_line((PROFILE_DIR / f"{ship}.toml").read_text(), header, line, nth))
+    assert _run(["primitives", "--ship", str(path)]) == 2
+    out = capsys.readouterr()
+    assert out.out == ""
+    lines = out.err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in out.err
+    assert lines[0].startswith(f"error: {path}: unknown key '{key}' in {table}")
+    assert "accepted keys: " in lines[0]
+
+
+def test_cli_stray_key_exit_code_from_the_installed_command(tmp_path):
+    """The same refusal from a fresh process: exit status 2, one line on stderr, no traceback."""
+    import subprocess
+    import sys
+
+    text = _with_line((PROFILE_DIR / "naval-vessel.toml").read_text(), "[rigid_body]", "yaw_moment = 1.0")
+    path = tmp_path / "stray.toml"
+    path.write_text(text)
+    proc = subprocess.run([sys.executable, "-c", "from cli.app import main; main()", "primitives", "--ship", str(path)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == (f"error: {path}: unknown key 'yaw_moment' in [rigid_body]; accepted keys: mass, I_x, "
+                                   "I_z, x_g, z_g, X_udot, Y_vdot, Y_pdot, Y_rdot, K_vdot, K_pdot, N_vdot, N_rdot")
+
+
+def test_every_bundled_profile_loads():
+    for name in builtin_profiles():
+        assert load_profile(name).name
