@@ -114,3 +114,77 @@ def test_plan_failing_late_leaves_the_last_run_as_it_was(tmp_path, monkeypatch, 
     assert _run(["plan", "--counts", "steep_zigzag_surge=1", "--out", str(out), "--start-time", START]) == 2
     assert capsys.readouterr().err.strip() == "error: the writer refused the plan"
     assert _snapshot(out) == before and [p.name for p in tmp_path.iterdir()] == ["trial"]
+
+
+_KILLED = """
+import os, signal, sys
+import maps.export.staging as staging
+out, mode = sys.argv[1], sys.argv[2]
+if mode == "publishing":  # killed between moving the old file aside and moving the new one in
+    real = os.replace
+    def replace(src, dst):
+        real(src, dst)
+        os.kill(os.getpid(), signal.SIGKILL)
+    staging.os.replace = replace
+with staging.staged_outputs(out) as tmp:
+    (tmp / "route.gpx").write_text("new route")
+    if mode == "writing":
+        os.kill(os.getpid(), signal.SIGKILL)
+    if mode == "running":  # an export still running in this destination
+        print("ready", flush=True)
+        sys.stdin.read()
+"""
+
+
+def _child(out, mode, **kw):
+    import subprocess
+    import sys
+
+    return subprocess.Popen([sys.executable, "-c", _KILLED, str(out), mode], text=True, **kw)
+
+
+def _staging_dirs(d):
+    return sorted(p.name for p in d.iterdir() if p.name.startswith(staging.PREFIX))
+
+
+def test_next_export_removes_what_a_killed_export_left_and_nothing_else(tmp_path):
+    """SIGKILL mid-export leaves a hidden staging directory; the next export (a later process)
+    removes it and puts back a file a killed publish had moved aside, but keeps a running
+    export's directory, the leftovers of processes younger than itself and every
+    .shiptrial-export.* entry shiptrial did not make."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "route.gpx").write_text("last week's route")
+    running = _child(out, "running", stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+    assert running.stdout.readline().strip() == "ready"
+    (run_dir,) = _staging_dirs(out)
+
+    assert _child(out, "writing").wait(60) == -9
+    (killed,) = set(_staging_dirs(out)) - {run_dir}
+    assert _child(out, "publishing").wait(60) == -9  # an export after the kill: it removed the first leftover
+    (killed_publishing,) = set(_staging_dirs(out)) - {run_dir}
+    assert killed_publishing != killed and not (out / "route.gpx").exists()  # moved aside, the new one not in
+
+    with staged_outputs(out) as tmp:  # this process is older than the leftover: it stays
+        (tmp / "other.txt").write_text("x")
+    assert set(_staging_dirs(out)) == {run_dir, killed_publishing}
+    # look-alikes shiptrial did not make, and one whose owner file is not shiptrial's
+    (out / ".shiptrial-export.mine").mkdir()
+    (out / ".shiptrial-export.mine" / "keep.txt").write_text("mine")
+    (out / ".shiptrial-export.link").symlink_to(tmp_path)
+    (out / ".shiptrial-export.fake").mkdir()
+    (out / ".shiptrial-export.fake" / staging.OWNER).write_text("not shiptrial's")
+
+    next_export = "import sys; from maps.export.staging import staged_outputs\n" \
+                  "with staged_outputs(sys.argv[1]) as tmp: (tmp / 'next.txt').write_text('next')"
+    subprocess.run([sys.executable, "-c", next_export, str(out)], check=True, timeout=60)
+    assert (out / "route.gpx").read_text() == "last week's route"  # put back, then its directory removed
+    assert set(_staging_dirs(out)) == {run_dir, ".shiptrial-export.mine", ".shiptrial-export.link", ".shiptrial-export.fake"}
+    assert (out / ".shiptrial-export.mine" / "keep.txt").read_text() == "mine" and tmp_path.is_dir()
+    running.stdin.close()
+    assert running.wait(60) == 0
+    assert (out / "route.gpx").read_text() == "new route" and run_dir not in _staging_dirs(out)
+    assert (out / "next.txt").read_text() == "next"

@@ -5,13 +5,20 @@ HTML and PDF) needs more: they are written under their final names into a hidden
 directory inside the destination (the same file system, so a rename moves them) and renamed into
 place only once every writer has succeeded. On an error the temporary directory goes and the
 destination is left as it was, files of the same names included.
+
+A process killed mid-export (SIGKILL, power loss) cannot clean up: its staging directory stays.
+Each one carries an owner file that its export holds locked (``flock``, released by the kernel
+when the process dies); the next export into the destination removes those that are older than
+its own process and no longer locked (:func:`remove_stale`), and nothing else.
 """
 
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import tempfile
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -27,13 +34,20 @@ def staged_outputs(out_dir: str | Path) -> Iterator[Path]:
     out_dir = Path(out_dir)
     created = [d for d in (out_dir, *out_dir.parents) if not d.exists()]
     out_dir.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=".shiptrial-export.", dir=out_dir))
+    remove_stale(out_dir)
+    tmp = Path(tempfile.mkdtemp(prefix=PREFIX, dir=out_dir))
+    try:
+        owner = _own(tmp)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
     try:
         (tmp / "new").mkdir()
         yield tmp / "new"
         _publish(tmp, out_dir)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
+        os.close(owner)
         for d in created:  # innermost first; only while empty
             try:
                 d.rmdir()
@@ -41,6 +55,82 @@ def staged_outputs(out_dir: str | Path) -> Iterator[Path]:
                 break
         raise
     shutil.rmtree(tmp, ignore_errors=True)
+    os.close(owner)
+
+
+PREFIX = ".shiptrial-export."
+OWNER = ".owner"  # inside a staging directory: names its creator, locked while the export runs
+OWNER_TEXT = b"shiptrial export staging directory\n"
+
+
+def _own(tmp: Path) -> int:
+    """Create and lock the owner file of a staging directory; the open descriptor holds the lock.
+    The text is written only once the lock is held, so a file with the text is never unlocked
+    while its export runs."""
+    fd = os.open(tmp / OWNER, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o600)
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    os.write(fd, OWNER_TEXT)
+    return fd
+
+
+def _process_start() -> float:
+    """Wall-clock time this process started, to 10 ms (Linux: its start in clock ticks since boot
+    from /proc, against the boot clock now), else when this module was imported."""
+    try:
+        ticks = int(Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()[19])
+        return time.time() - (time.clock_gettime(time.CLOCK_BOOTTIME) - ticks / os.sysconf("SC_CLK_TCK"))
+    except (OSError, ValueError, IndexError, AttributeError):
+        return _IMPORTED
+
+
+_IMPORTED = time.time()
+
+
+def remove_stale(out_dir: Path) -> list[Path]:
+    """Remove the staging directories a killed export left in ``out_dir``: a hidden
+    ``.shiptrial-export.*`` directory (not a link) whose owner file holds shiptrial's text, was
+    written before this process started, and is not locked by a running export. A destination
+    file its publishing had moved aside (``old/``) is put back when its name is free again; while
+    such a file cannot go back, the directory stays. Returns the directories removed."""
+    removed = []
+    started = _process_start()
+    for d in sorted(out_dir.glob(PREFIX + "*")):
+        try:
+            if d.is_symlink() or not d.is_dir():
+                continue
+            fd = os.open(d / OWNER, os.O_RDONLY | os.O_NOFOLLOW)
+        except OSError:
+            continue  # no owner file: not ours (or an export that has just begun)
+        try:
+            if os.fstat(fd).st_mtime >= started or os.read(fd, 256) != OWNER_TEXT:
+                continue
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                continue  # an export is running in it
+            if not {e.name for e in d.iterdir()} <= {OWNER, "new", "old"}:
+                continue  # something else was put in it: not all of it is ours to delete
+            if _put_back(d / "old", out_dir):
+                shutil.rmtree(d, ignore_errors=True)
+                removed.append(d)
+        except OSError:
+            continue  # never let another run's leftovers fail this export
+        finally:
+            os.close(fd)
+    return removed
+
+
+def _put_back(old: Path, out_dir: Path) -> bool:
+    """Move the files a killed publish had moved aside back to free names; True when none is left."""
+    if not old.is_dir() or old.is_symlink():
+        return not old.exists()
+    left = False
+    for f in old.iterdir():
+        if os.path.lexists(out_dir / f.name):
+            left = True  # the export's new file took its place: keep the old one, it is the user's
+        else:
+            os.replace(f, out_dir / f.name)
+    return not left
 
 
 def _publish(tmp: Path, out_dir: Path) -> None:
