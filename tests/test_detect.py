@@ -169,3 +169,24 @@ def test_bootstrap_prior_spread_matches_the_monte_carlo_spread():
             boot = np.sqrt(p.cov[0, 0])
     mc = float(np.sqrt(np.mean(np.square(errs))))
     assert 0.5 < boot / mc < 2.0, (boot, mc)
+
+
+def test_the_prior_simulates_with_yawids_simulator():
+    """One yaw-row simulator: the detector's prediction, several parameter columns with their own
+    actuator gains at once, is yawid's simulate_yaw on the same inputs, bit for bit."""
+    from diagnose.yawid.estimate import simulate_yaw
+    from diagnose.yawid.model import MODELS
+
+    nominal = truth(harbour_inputs(300, 0.1, seed=4), lead_in_s=0.0)
+    rng = np.random.default_rng(2)
+    for kind in ("full", "simplified"):
+        model = MODELS[kind]
+        names = [p.replace("N_phi", "N_f") for p in model.params]
+        x = 1 + 0.1 * rng.standard_normal((len(names), 3))
+        gain = np.array([1.0, 0.9, 1.1])
+        sig = {k: nominal[k] for k in SIGNALS[kind]}
+        r = simulate_r(kind, x, {k: s[:, None] for k, s in sig.items()}, 0.1, gain=gain, r0=0.01)
+        theta = (np.array([NOMINAL[k] for k in names])[:, None] * x).T  # a transposed view: layout must not matter
+        w = {k: np.tile(sig[k], (3, 1)) for k in model.signals} | {"tau_r": gain[:, None] * sig["tau_r"][None]}
+        r_yaw, _ = simulate_yaw(model, theta, w, np.full(3, 0.01), 0.1, sensitivities=False)
+        np.testing.assert_array_equal(r, r_yaw.T)

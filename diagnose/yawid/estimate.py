@@ -57,6 +57,7 @@ def simulate_yaw(model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], r
     b, n = w["u"].shape
     p = len(model.params)
     col = {name: j for j, name in enumerate(model.params)}
+    theta = np.ascontiguousarray(theta, dtype=float)  # einsum's summation order follows the memory layout
     i_r = theta[:, col["I_r"]]
     forcing = _input_forcing(model, theta, w, col)
     reg = None
