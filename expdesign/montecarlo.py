@@ -51,7 +51,7 @@ from primitives.information import MEAN_SUBTRACTION
 from primitives.library import Primitive, thesis_primitives
 from primitives.regressors import predictor_regressors
 from primitives.ship import ShipProfile
-from primitives.simulate import Disturbances, simulate, steady_forces
+from primitives.simulate import Disturbances, signals_read, simulate, steady_forces
 from primitives.terms import TermSet
 
 PROTOCOLS = ("continuous", "piecewise")
@@ -299,7 +299,8 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) ->
         calm = np.zeros_like(cur)
         env = Disturbances(current_ne=np.concatenate([cur, calm]), wind_ne=np.concatenate([wind, calm]))
         with np.errstate(all="ignore"):
-            res = simulate(prof, np.concatenate([inp, inp]), theta, nu0=np.concatenate([nu0, nu0]), disturbances=env, batch=2 * b)
+            res = simulate(prof, np.concatenate([inp, inp]), theta, nu0=np.concatenate([nu0, nu0]), disturbances=env, batch=2 * b,
+                           positions="psi" in signals_read(sh.predictor))  # the data's heading: integrated when the dynamics need it
         y = res.nu[:b] + meas
         phi, tgt = predictor_regressors(prof, y, inp, res.eta[:b, :, 2] + head, terms=sh.predictor)
         z, _ = predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)
@@ -336,7 +337,8 @@ def _solve_run(sh: MCShared, segs: list[_Seg], b: int, starts: list[int]) -> np.
 def _resimulated_instruments(sh: MCShared, seg: _Seg, theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """Instruments of the runs ``idx`` from the predictor simulated with their estimates."""
     with np.errstate(all="ignore"):
-        res = simulate(sh.profile, seg.inputs[idx], theta[idx], terms=sh.predictor, nu0=seg.nu0[idx], batch=len(idx))
+        res = simulate(sh.profile, seg.inputs[idx], theta[idx], terms=sh.predictor, nu0=seg.nu0[idx], batch=len(idx),
+                       positions=False)
         z, _ = predictor_regressors(sh.profile, res.nu, seg.inputs[idx], res.eta[..., 2], terms=sh.predictor)
     return z
 
@@ -373,7 +375,7 @@ def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     finite = np.isfinite(theta).all(axis=1)
     th = np.where(finite[:, None], theta, 0.0)
     with np.errstate(all="ignore"):
-        sim = simulate(sh.profile, sh.val_inputs, th, terms=sh.predictor, nu0=sh.val_nu0, batch=b).nu
+        sim = simulate(sh.profile, sh.val_inputs, th, terms=sh.predictor, nu0=sh.val_nu0, batch=b, positions=False).nu
     bound = _EXPLODE * np.abs(sh.val_true).max()
     rmse = np.full((b, 3), np.inf)
     diverged = ~finite
