@@ -437,7 +437,8 @@ def output_error(
     terms = terms or profile.predictor
     why = output_error_unsupported(profile, terms)
     if why:
-        raise DesignError(why)
+        raise DesignError(f"{why} ({profile.name!r}): use the IV estimate, `shiptrial design --mc-estimator iv` "
+                          "(estimator='iv' in the Monte Carlo)")
     theta = np.array(theta_start, float)
     bsz, p = theta.shape
     n = sum(d.y.shape[1] - 1 for d in data)
