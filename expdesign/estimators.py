@@ -24,7 +24,7 @@ from expdesign.errors import DesignError
 from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo
 from primitives.regressors import block_mask, instruments, predictor_regressors
 from primitives.ship import ShipProfile
-from primitives.simulate import model_signals, simulate
+from primitives.simulate import SPEED, model_signals, signals_read, simulate
 from primitives.terms import TermSet, signals_used
 
 
@@ -293,24 +293,28 @@ def _weighted(ms: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 def _state_jacobian(profile: ShipProfile, terms, nu: np.ndarray, psi: np.ndarray, in_sig: dict, theta: np.ndarray) -> np.ndarray:
     """d(increment)/d(nu) along the simulated trajectory nu (b, N+1, 3), in single precision:
-    forward differences of the increment function from the trajectory's
-    own increments nu(k+1) - nu(k), for all samples at once (no time loop); laid out (N, col, b, i)
-    so that the recursion reads each step's Jacobian columns as one contiguous block. The step
+    forward differences of the increment function from the trajectory's own increments
+    nu(k+1) - nu(k), for all samples at once (no time loop). Computed and laid out time-major,
+    (N, col, b, i), so that the recursion reads each step's Jacobian columns as one contiguous
+    block (every operation is elementwise: the layout does not change a number). The step
     1e-7 (1 + |nu|) leaves a relative error of about 1e-7 in the Gauss-Newton direction, never in
     the cost that decides a step."""
     inc = terms.increment_function()
-    coef = [theta[:, j, None] for j in range(theta.shape[1])]
-    x0 = nu[:, :-1]
-    base = np.diff(nu, axis=1)
-    jac = np.empty(x0.shape[:2] + (3, 3))
+    coef = [theta[:, j] for j in range(theta.shape[1])]  # (b,): broadcast over the time axis
+    nu_t = np.ascontiguousarray(nu.transpose(1, 2, 0))  # (N+1, 3, b)
+    x0, base = nu_t[:-1], nu_t[1:] - nu_t[:-1]
+    exo = {k: v.T for k, v in in_sig.items()} | {"psi": psi[:, :-1].T}  # (N, b)
+    speed = SPEED in signals_read(terms)
+    jac = np.empty((x0.shape[0], 3, x0.shape[2], 3), np.float32)
     for col in range(3):
-        h = _FD_STEP * (1.0 + np.abs(x0[..., col]))
+        h = _FD_STEP * (1.0 + np.abs(x0[:, col]))
         x = x0.copy()
-        x[..., col] += h
-        f = inc(model_signals(profile, x, psi[:, :-1], dict(in_sig)), coef)
+        x[:, col] += h
+        sig = model_signals(profile, x.transpose(0, 2, 1), exo["psi"], exo, speed=speed)
+        f = inc(sig, coef)
         for i in range(3):
-            jac[..., i, col] = (f[i] - base[..., i]) / h
-    return np.ascontiguousarray(jac.transpose(1, 3, 0, 2), dtype=np.float32)
+            jac[:, col, :, i] = (f[i] - base[:, i]) / h  # rounded to single precision on assignment
+    return jac
 
 
 def _gauss_newton_moments(profile: ShipProfile, terms, data: Sequence[OEData], sims, theta: np.ndarray, idx: np.ndarray,

@@ -154,12 +154,14 @@ def model_signals(
     current_ne: np.ndarray | None = None,
     wind_ne: np.ndarray | None = None,
     phi: np.ndarray | None = None,
+    speed: bool = True,
 ) -> dict[str, np.ndarray]:
     """Signal dictionary the regressor terms read, for velocities nu (..., 3), or (..., 4) with
     the roll rate p (then ``phi`` is the roll angle). Pod forces (seed 000 (2.12)) depend on the
-    velocities, so a podded profile's tau_x, tau_y, tau_k, tau_n are computed here."""
+    velocities, so a podded profile's tau_x, tau_y, tau_k, tau_n are computed here. ``speed=False``
+    leaves out the speed through the water :data:`SPEED` (for terms that do not read it)."""
     sig = relative_signals(nu, None if current_ne is None else body_from_ne(current_ne, psi),
-                           None if wind_ne is None else body_from_ne(wind_ne, psi), into=dict(input_sig, psi=psi), speed=True)
+                           None if wind_ne is None else body_from_ne(wind_ne, psi), into=dict(input_sig, psi=psi), speed=speed)
     return _add_state_forces(profile, nu, phi, sig)
 
 
@@ -336,7 +338,9 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     rows of B values (batch-major rows are strided by the whole record); every operation is
     elementwise over the batch, so the numbers are those of any other layout."""
     n_steps, nd, ts = u_in.shape[1], nu0.shape[-1], profile.sample_time
-    in_sig = {k: np.ascontiguousarray(v.T) for k, v in profile.generalized_forces(u_in).items()}  # each (N, 1 or B)
+    forces = profile.generalized_forces(u_in)  # each (1 or B, N)
+    in_names = list(forces)
+    in_t = np.ascontiguousarray(np.stack(np.broadcast_arrays(*forces.values())).transpose(2, 0, 1))  # (N, signals, 1 or B)
     nu_t = np.empty((n_steps + 1, nd, batch))
     eta_t = np.full((n_steps + 1, nd, batch), np.nan)
     nu_t[0] = np.broadcast_to(nu0, (batch, nd)).T
@@ -348,23 +352,23 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     w_t = None if w is None else np.ascontiguousarray(w.transpose(1, 2, 0))  # (N, nd, B)
     heading = positions or nd == 4 or bool(profile.pods) or not (still_water and calm_air) or step.reads_heading
     for k in range(n_steps):
-        nu_k, psi_k = nu_t[k].T, eta_t[k, 2]  # (B, nd) view with contiguous columns, (B,)
+        row, nxt, psi_k = nu_t[k], nu_t[k + 1], eta_t[k, 2]
+        nu_k = row.T  # (B, nd) view with contiguous columns
         phi_k = eta_t[k, 3] if nd == 4 else None
-        exo = {n: a[k] for n, a in in_sig.items()}
+        exo = dict(zip(in_names, in_t[k]))
         exo["psi"] = psi_k
         cur_b = None if cur_t is None else body_from_ne(cur_t[k].T, psi_k)
         wind_b = None if wind_t is None else body_from_ne(wind_t[k].T, psi_k)
         if nd == 4 or profile.pods:  # roll and pod-force signals depend on the state (the step adds the rest)
             _add_state_forces(profile, nu_k, phi_k, exo)
         inc = step.increments(nu_k, exo, cur_b, wind_b)
-        nxt = nu_t[k + 1]
         for i, d in enumerate(inc):  # one increment per DOF of the term set: nu(k+1) = nu(k) + inc
-            np.add(nu_t[k, i], d, out=nxt[i])
+            np.add(row[i], d, out=nxt[i])
         if len(inc) < nd:  # DOFs without terms keep their velocity
-            nxt[len(inc):] = nu_t[k, len(inc):]
+            nxt[len(inc):] = row[len(inc):]
         if w_t is not None:
             nxt += w_t[k]
-        u, v, r = nu_t[k, 0], nu_t[k, 1], nu_t[k, 2]
+        u, v, r = row[0], row[1], row[2]
         if nd == 4:  # (2.1a-b) and the Fossen position rows with roll: v acts through cos(phi)
             cphi = np.cos(phi_k)
             if positions:
@@ -372,7 +376,7 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
                 eta_t[k + 1, 0] = eta_t[k, 0] + ts * (c * u - s * cphi * v)
                 eta_t[k + 1, 1] = eta_t[k, 1] + ts * (s * u + c * cphi * v)
             eta_t[k + 1, 2] = psi_k + ts * cphi * r
-            eta_t[k + 1, 3] = phi_k + ts * nu_t[k, 3]
+            eta_t[k + 1, 3] = phi_k + ts * row[3]
             continue
         if positions:
             c, s = np.cos(psi_k), np.sin(psi_k)
