@@ -201,7 +201,8 @@ class VelocityStep:
     def __init__(self, terms: TermSet, theta: np.ndarray, rigid: RigidBody | None = None, ts: float | None = None):
         theta = np.asarray(theta, dtype=float)
         self.inc = terms.increment_function()
-        self.coef = theta.tolist() if theta.ndim == 1 else [theta[:, j] for j in range(theta.shape[-1])]
+        # contiguous columns: every step multiplies them (a strided column is a slower loop)
+        self.coef = theta.tolist() if theta.ndim == 1 else list(np.ascontiguousarray(theta.T))
         used = signals_read(terms)
         self.wind_excess = bool(used & set(WIND_EXCESS))
         self.speed = SPEED in used
@@ -340,19 +341,25 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     n_steps, nd, ts = u_in.shape[1], nu0.shape[-1], profile.sample_time
     forces = profile.generalized_forces(u_in)  # each (1 or B, N)
     in_names = list(forces)
-    in_t = np.ascontiguousarray(np.stack(np.broadcast_arrays(*forces.values())).transpose(2, 0, 1))  # (N, signals, 1 or B)
+    in_t = np.empty((n_steps, len(forces), max(np.shape(v)[0] if np.ndim(v) else 1 for v in forces.values())))
+    for i, v in enumerate(forces.values()):  # (N, signals, 1 or B); signal by signal: a cache-friendly transpose
+        in_t[:, i] = np.transpose(v)
     nu_t = np.empty((n_steps + 1, nd, batch))
-    eta_t = np.full((n_steps + 1, nd, batch), np.nan)
     nu_t[0] = np.broadcast_to(nu0, (batch, nd)).T
-    eta_t[0] = np.broadcast_to(eta0, (batch, nd)).T
     # no rotation of a zero current or wind at every step (a sixth of the loop's time in the Monte Carlo)
     still_water, calm_air = not np.any(cur), not np.any(wind)
     cur_t = None if still_water else np.ascontiguousarray(cur.transpose(1, 2, 0))  # (N, 2, B)
     wind_t = None if calm_air else np.ascontiguousarray(wind.transpose(1, 2, 0))
     w_t = None if w is None else np.ascontiguousarray(w.transpose(1, 2, 0))  # (N, nd, B)
     heading = positions or nd == 4 or bool(profile.pods) or not (still_water and calm_air) or step.reads_heading
+    if heading:
+        eta_t = np.full((n_steps + 1, nd, batch), np.nan)
+        eta_t[0] = np.broadcast_to(eta0, (batch, nd)).T
+    else:  # nothing reads the pose: no array for it in the loop (the heading signal is NaN, read by no term)
+        eta_t, unread = None, np.full(batch, np.nan)
     for k in range(n_steps):
-        row, nxt, psi_k = nu_t[k], nu_t[k + 1], eta_t[k, 2]
+        row, nxt = nu_t[k], nu_t[k + 1]
+        psi_k = unread if eta_t is None else eta_t[k, 2]
         nu_k = row.T  # (B, nd) view with contiguous columns
         phi_k = eta_t[k, 3] if nd == 4 else None
         exo = dict(zip(in_names, in_t[k]))
@@ -384,7 +391,12 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
             eta_t[k + 1, 1] = eta_t[k, 1] + ts * (s * u + c * v)
         if heading:
             eta_t[k + 1, 2] = psi_k + ts * r
-    return np.ascontiguousarray(nu_t.transpose(2, 0, 1)), np.ascontiguousarray(eta_t.transpose(2, 0, 1))
+    nu = np.ascontiguousarray(nu_t.transpose(2, 0, 1))
+    if eta_t is not None:
+        return nu, np.ascontiguousarray(eta_t.transpose(2, 0, 1))
+    eta = np.full((batch, n_steps + 1, nd), np.nan)
+    eta[:, 0] = eta0
+    return nu, eta
 
 
 def steady_forces(
