@@ -313,9 +313,12 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) ->
 def _solve_run(sh: MCShared, segs: list[_Seg], b: int, starts: list[int]) -> np.ndarray:
     """IV estimate of run b, theta = (sum Z~ Phi^T)^-1 sum Z~ dy per DOF (block-diagonal (9.2)),
     with the instrument mean removed per block (7.19) or over the experiment (7.20)."""
-    phi = np.concatenate([s.phi[b] for s in segs])
-    tgt = np.concatenate([s.tgt[b] for s in segs])
-    z = np.concatenate([s.z[b] for s in segs])
+    if len(segs) == 1:  # the continuous protocol: the run's rows as they are (C-contiguous, as a concatenation)
+        phi, tgt, z = segs[0].phi[b], segs[0].tgt[b], segs[0].z[b]
+    else:
+        phi = np.concatenate([s.phi[b] for s in segs])
+        tgt = np.concatenate([s.tgt[b] for s in segs])
+        z = np.concatenate([s.z[b] for s in segs])
     ms = sh.config.mean_subtraction
     if ms == "complete":
         z = z - z.mean(axis=0)
