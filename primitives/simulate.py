@@ -331,6 +331,15 @@ def simulate(
     )
 
 
+def _time_major_forces(profile: ShipProfile, u_in: np.ndarray) -> tuple[list[str], np.ndarray]:
+    """The input signals' names and values (N, signals, 1 or B), a step's signals one block."""
+    forces = profile.generalized_forces(u_in)  # each (1 or B, N)
+    in_t = np.empty((u_in.shape[1], len(forces), max(np.shape(v)[0] if np.ndim(v) else 1 for v in forces.values())))
+    for i, v in enumerate(forces.values()):  # signal by signal: a cache-friendly transpose
+        in_t[:, i] = np.transpose(v)
+    return list(forces), in_t
+
+
 def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: np.ndarray, eta0: np.ndarray, cur: np.ndarray,
                wind: np.ndarray, w: np.ndarray | None, batch: int, positions: bool) -> tuple[np.ndarray, np.ndarray]:
     """The sequential loop of :func:`simulate`: nu, eta (B, N+1, nd).
@@ -339,19 +348,13 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     rows of B values (batch-major rows are strided by the whole record); every operation is
     elementwise over the batch, so the numbers are those of any other layout."""
     n_steps, nd, ts = u_in.shape[1], nu0.shape[-1], profile.sample_time
-    forces = profile.generalized_forces(u_in)  # each (1 or B, N)
-    in_names = list(forces)
-    in_t = np.empty((n_steps, len(forces), max(np.shape(v)[0] if np.ndim(v) else 1 for v in forces.values())))
-    for i, v in enumerate(forces.values()):  # (N, signals, 1 or B); signal by signal: a cache-friendly transpose
-        in_t[:, i] = np.transpose(v)
+    in_names, in_t = _time_major_forces(profile, u_in)
     nu_t = np.empty((n_steps + 1, nd, batch))
     nu_t[0] = np.broadcast_to(nu0, (batch, nd)).T
     # no rotation of a zero current or wind at every step (a sixth of the loop's time in the Monte Carlo)
-    still_water, calm_air = not np.any(cur), not np.any(wind)
-    cur_t = None if still_water else np.ascontiguousarray(cur.transpose(1, 2, 0))  # (N, 2, B)
-    wind_t = None if calm_air else np.ascontiguousarray(wind.transpose(1, 2, 0))
+    cur_t, wind_t = (np.ascontiguousarray(a.transpose(1, 2, 0)) if np.any(a) else None for a in (cur, wind))  # (N, 2, B)
     w_t = None if w is None else np.ascontiguousarray(w.transpose(1, 2, 0))  # (N, nd, B)
-    heading = positions or nd == 4 or bool(profile.pods) or not (still_water and calm_air) or step.reads_heading
+    heading = positions or nd == 4 or bool(profile.pods) or cur_t is not None or wind_t is not None or step.reads_heading
     if heading:
         eta_t = np.full((n_steps + 1, nd, batch), np.nan)
         eta_t[0] = np.broadcast_to(eta0, (batch, nd)).T
