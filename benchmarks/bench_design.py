@@ -74,7 +74,7 @@ def bench(name: str, fn, target: float, runs: int) -> float:
 def scaling(runs: int, workers: list[int], scheduler: str | None, repeat: int) -> list[dict]:
     """Inline against local pools (and a cluster): same digests, speed-up per worker count.
     Returns per engine: label, worker slots, median wall and CPU seconds."""
-    from expdesign.montecarlo import evaluate_designs_parallel
+    from expdesign.mc_parallel import evaluate_designs_parallel
     from expdesign.parallel import Engine, LocalEngine, get_engine
 
     p, lib, designs = _setup()
@@ -220,7 +220,7 @@ def predict(cost: TaskCost, designs: list[str], runs: int, w: int, serial: float
     """Predicted wall time on ``w`` otherwise idle cores: the parent's serial time (pool start and
     stop, Amdahl) plus the makespan of the tasks cut as the engines cut them, in fresh processes
     (as a command runs: inline pays ``first_extra`` once, each worker once)."""
-    from expdesign.montecarlo import cut_tasks, plan_tasks
+    from expdesign.mc_parallel import cut_tasks, plan_tasks
 
     tasks = cut_tasks(designs, runs, plan_tasks(runs, len(designs), w, tasks_per_worker))
     costs = cost.of(tasks)

@@ -85,7 +85,7 @@ def _mc_design():
 def _mc_scaling(workers):
     """2,000 runs x 2 designs (issue 14) on ``workers`` local processes (1: inline)."""
     from expdesign.api import run_design
-    from expdesign.montecarlo import evaluate_designs_parallel
+    from expdesign.mc_parallel import evaluate_designs_parallel
     from expdesign.parallel import Engine, LocalEngine
 
     prof, prims, _ = _design_setup()

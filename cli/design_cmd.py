@@ -51,7 +51,7 @@ def register(app: typer.Typer) -> None:
         from cli.options import validate_design_options
         from expdesign.api import default_library, run_design
         from expdesign.errors import DesignError
-        from expdesign.montecarlo import evaluate_designs_parallel
+        from expdesign.mc_parallel import evaluate_designs_parallel
         from expdesign.report import report_dict, write_report
         from expdesign.sensitivity import THESIS_SHARES, sensitivity_study
         from primitives.ship import load_profile

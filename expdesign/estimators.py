@@ -24,7 +24,7 @@ from expdesign.errors import DesignError
 from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo
 from primitives.regressors import block_mask, instruments, predictor_regressors
 from primitives.ship import ShipProfile
-from primitives.simulate import model_signals, simulate
+from primitives.simulate import SPEED, model_signals, signals_read, simulate
 from primitives.terms import TermSet, signals_used
 
 
@@ -126,7 +126,8 @@ def _sim_instruments(profile: ShipProfile, seg: Segment, theta: np.ndarray | str
     terms = profile.predictor
     inputs = np.broadcast_to(seg.inputs, (seg.batch,) + seg.inputs.shape[-2:])
     with np.errstate(all="ignore"):
-        sim = simulate(profile, inputs, theta, terms=terms, nu0=np.broadcast_to(nu0, (seg.batch, 3)), batch=seg.batch)
+        sim = simulate(profile, inputs, theta, terms=terms, nu0=np.broadcast_to(nu0, (seg.batch, 3)), batch=seg.batch,
+                       positions=False)
         z, _ = predictor_regressors(profile, sim.nu, inputs, sim.eta[..., 2])
     return z
 
@@ -262,7 +263,7 @@ def _simulated(profile: ShipProfile, terms, data: Sequence[OEData], theta: np.nd
     out = []
     with np.errstate(all="ignore"):
         for d in data:
-            res = simulate(profile, d.inputs[idx], theta[idx], terms=terms, nu0=d.nu0[idx], batch=len(idx))
+            res = simulate(profile, d.inputs[idx], theta[idx], terms=terms, nu0=d.nu0[idx], batch=len(idx), positions=False)
             out.append((res.nu, res.eta[..., 2]))
     return out
 
@@ -291,24 +292,29 @@ def _weighted(ms: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def _state_jacobian(profile: ShipProfile, terms, nu: np.ndarray, psi: np.ndarray, in_sig: dict, theta: np.ndarray) -> np.ndarray:
-    """d(increment)/d(nu) along the simulated trajectory nu (b, N+1, 3), time-major single
-    precision (N, b, 3, 3): forward differences of the increment function from the trajectory's
-    own increments nu(k+1) - nu(k), for all samples at once (no time loop). The step
+    """d(increment)/d(nu) along the simulated trajectory nu (b, N+1, 3), in single precision:
+    forward differences of the increment function from the trajectory's own increments
+    nu(k+1) - nu(k), for all samples at once (no time loop). Computed and laid out time-major,
+    (N, col, b, i), so that the recursion reads each step's Jacobian columns as one contiguous
+    block (every operation is elementwise: the layout does not change a number). The step
     1e-7 (1 + |nu|) leaves a relative error of about 1e-7 in the Gauss-Newton direction, never in
     the cost that decides a step."""
     inc = terms.increment_function()
-    coef = [theta[:, j, None] for j in range(theta.shape[1])]
-    x0 = nu[:, :-1]
-    base = np.diff(nu, axis=1)
-    jac = np.empty(x0.shape[:2] + (3, 3))
+    coef = [theta[:, j] for j in range(theta.shape[1])]  # (b,): broadcast over the time axis
+    nu_t = np.ascontiguousarray(nu.transpose(1, 2, 0))  # (N+1, 3, b)
+    x0, base = nu_t[:-1], nu_t[1:] - nu_t[:-1]
+    exo = {k: v.T for k, v in in_sig.items()} | {"psi": psi[:, :-1].T}  # (N, b)
+    speed = SPEED in signals_read(terms)
+    jac = np.empty((x0.shape[0], 3, x0.shape[2], 3), np.float32)
     for col in range(3):
-        h = _FD_STEP * (1.0 + np.abs(x0[..., col]))
+        h = _FD_STEP * (1.0 + np.abs(x0[:, col]))
         x = x0.copy()
-        x[..., col] += h
-        f = inc(model_signals(profile, x, psi[:, :-1], dict(in_sig)), coef)
+        x[:, col] += h
+        sig = model_signals(profile, x.transpose(0, 2, 1), exo["psi"], exo, speed=speed)
+        f = inc(sig, coef)
         for i in range(3):
-            jac[..., i, col] = (f[i] - base[..., i]) / h
-    return np.moveaxis(jac, 1, 0).astype(np.float32)
+            jac[:, col, :, i] = (f[i] - base[:, i]) / h  # rounded to single precision on assignment
+    return jac
 
 
 def _gauss_newton_moments(profile: ShipProfile, terms, data: Sequence[OEData], sims, theta: np.ndarray, idx: np.ndarray,
@@ -322,7 +328,7 @@ def _gauss_newton_moments(profile: ShipProfile, terms, data: Sequence[OEData], s
     hess = np.zeros((b, p, p))
     grad = np.zeros((b, p))
     mask = block_mask(terms)[[terms.offsets[i] for i in range(3)]].astype(np.float32)  # (3, p): DOF i's columns
-    tmp = np.empty((b, 3, p), np.float32)
+    tmp = np.empty((3, b, 3, p), np.float32)
     for d, (nu, psi) in zip(data, sims):
         inputs = d.inputs[idx]
         n = inputs.shape[1]
@@ -336,22 +342,26 @@ def _gauss_newton_moments(profile: ShipProfile, terms, data: Sequence[OEData], s
         sens = np.empty((n + 1, b, 3, p), np.float32)
         sens[0] = 0.0
         with np.errstate(all="ignore"):  # an unstable estimate's sensitivities overflow: its step is then rejected
+            np.multiply(phi[:, :, None, :], mask, out=sens[1:])  # Phi(k) in the rows of its DOF (times 0 or 1: exact)
             for k in range(n):
-                s, out, jk = sens[k], sens[k + 1], jac[k]
-                np.multiply(phi[k][:, None, :], mask, out=out)  # Phi(k) in the rows of its DOF (times 0 or 1: exact)
+                s, out = sens[k], sens[k + 1]
                 out += s
-                for col in range(3):
-                    np.multiply(jk[:, :, col, None], s[:, None, col, :], out=tmp)
-                    out += tmp
+                # the three columns' products in one call, added one by one in column order as ever
+                np.multiply(jac[k][:, :, :, None], s.transpose(1, 0, 2)[:, :, None, :], out=tmp)
+                out += tmp[0]
+                out += tmp[1]
+                out += tmp[2]
+        sk = np.empty((p, n, 3))
         for a, r in enumerate(idx):
             sw = np.sqrt(w[r])
-            # (p, N*3) contiguous copies: the same layout whatever the batch; c_einsum, no BLAS: no
+            # (p, N*3) contiguous: the same layout whatever the batch; c_einsum, no BLAS: no
             # thread-count rounding
-            sk = np.ascontiguousarray((sens[1:, a].astype(np.float64) * sw[None, :, None]).reshape(-1, p).T)
+            np.multiply(sens[1:, a].transpose(2, 0, 1), sw, out=sk)  # float32 * float64: exact widening, then the product
+            skf = sk.reshape(p, -1)
             e = ((d.y[r, 1:] - nu[a, 1:]) * sw).reshape(-1)
             with np.errstate(all="ignore"):
-                hess[a] += np.einsum("pk,qk->pq", sk, sk)
-                grad[a] += np.einsum("pk,k->p", sk, e)
+                hess[a] += np.einsum("pk,qk->pq", skf, skf)
+                grad[a] += np.einsum("pk,k->p", skf, e)
     return hess, grad
 
 
@@ -431,7 +441,8 @@ def output_error(
     terms = terms or profile.predictor
     why = output_error_unsupported(profile, terms)
     if why:
-        raise DesignError(why)
+        raise DesignError(f"{why} ({profile.name!r}): use the IV estimate, `shiptrial design --mc-estimator iv` "
+                          "(estimator='iv' in the Monte Carlo)")
     theta = np.array(theta_start, float)
     bsz, p = theta.shape
     n = sum(d.y.shape[1] - 1 for d in data)

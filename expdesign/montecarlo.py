@@ -36,7 +36,6 @@ engine or worker count (tests compare SHA-256 digests of all per-run results).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -51,7 +50,7 @@ from primitives.information import MEAN_SUBTRACTION
 from primitives.library import Primitive, thesis_primitives
 from primitives.regressors import predictor_regressors
 from primitives.ship import ShipProfile
-from primitives.simulate import Disturbances, simulate, steady_forces
+from primitives.simulate import Disturbances, signals_read, simulate, steady_forces
 from primitives.terms import TermSet
 
 PROTOCOLS = ("continuous", "piecewise")
@@ -299,7 +298,8 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) ->
         calm = np.zeros_like(cur)
         env = Disturbances(current_ne=np.concatenate([cur, calm]), wind_ne=np.concatenate([wind, calm]))
         with np.errstate(all="ignore"):
-            res = simulate(prof, np.concatenate([inp, inp]), theta, nu0=np.concatenate([nu0, nu0]), disturbances=env, batch=2 * b)
+            res = simulate(prof, np.concatenate([inp, inp]), theta, nu0=np.concatenate([nu0, nu0]), disturbances=env, batch=2 * b,
+                           positions="psi" in signals_read(sh.predictor))  # the data's heading: integrated when the dynamics need it
         y = res.nu[:b] + meas
         phi, tgt = predictor_regressors(prof, y, inp, res.eta[:b, :, 2] + head, terms=sh.predictor)
         z, _ = predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)
@@ -313,9 +313,12 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) ->
 def _solve_run(sh: MCShared, segs: list[_Seg], b: int, starts: list[int]) -> np.ndarray:
     """IV estimate of run b, theta = (sum Z~ Phi^T)^-1 sum Z~ dy per DOF (block-diagonal (9.2)),
     with the instrument mean removed per block (7.19) or over the experiment (7.20)."""
-    phi = np.concatenate([s.phi[b] for s in segs])
-    tgt = np.concatenate([s.tgt[b] for s in segs])
-    z = np.concatenate([s.z[b] for s in segs])
+    if len(segs) == 1:  # the continuous protocol: the run's rows as they are (C-contiguous, as a concatenation)
+        phi, tgt, z = segs[0].phi[b], segs[0].tgt[b], segs[0].z[b]
+    else:
+        phi = np.concatenate([s.phi[b] for s in segs])
+        tgt = np.concatenate([s.tgt[b] for s in segs])
+        z = np.concatenate([s.z[b] for s in segs])
     ms = sh.config.mean_subtraction
     if ms == "complete":
         z = z - z.mean(axis=0)
@@ -336,7 +339,8 @@ def _solve_run(sh: MCShared, segs: list[_Seg], b: int, starts: list[int]) -> np.
 def _resimulated_instruments(sh: MCShared, seg: _Seg, theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """Instruments of the runs ``idx`` from the predictor simulated with their estimates."""
     with np.errstate(all="ignore"):
-        res = simulate(sh.profile, seg.inputs[idx], theta[idx], terms=sh.predictor, nu0=seg.nu0[idx], batch=len(idx))
+        res = simulate(sh.profile, seg.inputs[idx], theta[idx], terms=sh.predictor, nu0=seg.nu0[idx], batch=len(idx),
+                       positions=False)
         z, _ = predictor_regressors(sh.profile, res.nu, seg.inputs[idx], res.eta[..., 2], terms=sh.predictor)
     return z
 
@@ -373,7 +377,7 @@ def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     finite = np.isfinite(theta).all(axis=1)
     th = np.where(finite[:, None], theta, 0.0)
     with np.errstate(all="ignore"):
-        sim = simulate(sh.profile, sh.val_inputs, th, terms=sh.predictor, nu0=sh.val_nu0, batch=b).nu
+        sim = simulate(sh.profile, sh.val_inputs, th, terms=sh.predictor, nu0=sh.val_nu0, batch=b, positions=False).nu
     bound = _EXPLODE * np.abs(sh.val_true).max()
     rmse = np.full((b, 3), np.inf)
     diverged = ~finite
@@ -457,95 +461,3 @@ def evaluate_designs(
         raise DesignError(f"run_slice {run_slice} must lie within 0..{runs}")
     step = max(1, min(chunk_size, MAX_CHUNK))
     return merge_results([{d: run_chunk(sh, d, range(c, min(z, c + step)))} for d in sh.designs for c in range(a, z, step)])
-
-
-@dataclass
-class MCEvaluation:
-    """Results of :func:`evaluate_designs_parallel`. ``complete`` is False when it was interrupted
-    (Ctrl-C) or a task failed (a lost worker): the results then hold the finished runs only and
-    are marked partial. ``engine``: name, workers, threads, tasks, tasks per worker, runs per task."""
-
-    results: dict[str, MCResult]
-    config: MCConfig
-    complete: bool
-    interrupted: bool
-    errors: list[str]
-    elapsed_s: float
-    engine: dict[str, Any]
-    sample_time: float = 1.0
-    profile: str = ""
-    disturbances: dict[str, Any] = field(default_factory=dict)
-    library: str = ""  # the profile's built-in manoeuvre dictionary (primitives.library), "" if none
-
-    @property
-    def runs_finished(self) -> dict[str, int]:
-        return {k: len(r.runs) for k, r in self.results.items()}
-
-
-def _task(item: tuple[str, int, int], shared: MCShared) -> MCResult:
-    design, a, b = item
-    return run_chunk(shared, design, range(a, b))
-
-
-def plan_tasks(runs: int, n_designs: int, slots: int, tasks_per_worker: int = 4, chunk_runs: int | None = None) -> int:
-    """Tasks per design: together at least ``tasks_per_worker`` per worker slot (load balance and
-    progress), each of at most MAX_CHUNK runs (or ``chunk_runs``, which then alone decides).
-
-    Not more: a task's cost is a fixed part (the simulation kernel's time loops, paid once per
-    batch whatever its size) plus a part per run, so every extra task adds the fixed part to the
-    total; ``python benchmarks/bench_design.py --scaling`` measures both and predicts the
-    efficiency per worker count."""
-    cap = max(1, min(chunk_runs or MAX_CHUNK, MAX_CHUNK))
-    n = -(-runs // cap)
-    if slots > 1 and not chunk_runs:
-        n = max(n, -(-tasks_per_worker * slots // n_designs))
-    return max(1, min(runs, n))
-
-
-def cut_tasks(designs: Sequence[str], runs: int, n: int) -> list[tuple[str, int, int]]:
-    """(design, first run, end run): ``n`` ranges per design whose sizes differ by at most one
-    (no short tail task paying the fixed cost for a few runs), design by design as submitted."""
-    return [(d, i * runs // n, (i + 1) * runs // n) for d in designs for i in range(n)]
-
-
-def evaluate_designs_parallel(
-    profile: ShipProfile,
-    designs: Mapping[str, Any],
-    runs: int = 500,
-    seed: int = 0,
-    *,
-    scheduler: Any = None,
-    chunk_runs: int | None = None,
-    tasks_per_worker: int = 4,
-    progress: bool = True,
-    primitives: list[Primitive] | None = None,
-    disturbances: Disturbances | None = None,
-    **protocol: Any,
-) -> MCEvaluation:
-    """:func:`evaluate_designs` cut into (design, runs) tasks on an engine of ``expdesign.parallel``
-    (all local cores by default, "inline", or a Dask scheduler / cluster). The engine is asked
-    for its workers and threads and gets at least ``tasks_per_worker`` tasks per worker; the
-    shared inputs are computed once here and shipped once per worker. The per-run numbers are
-    bit-identical to one in-process call."""
-    from expdesign.parallel import get_engine
-
-    cfg = MCConfig(runs=runs, seed=seed, **protocol)
-    sh = prepare(profile, designs, cfg, primitives, disturbances)
-    engine = get_engine(scheduler)
-    t0 = time.perf_counter()
-    try:
-        workers, threads = engine.capacity()
-        tasks = cut_tasks(sh.designs, runs, plan_tasks(runs, len(sh.designs), workers * threads, tasks_per_worker, chunk_runs))
-        res = engine.map(_task, tasks, desc="Monte Carlo", progress=progress, shared=sh,
-                         weights=[b - a for _, a, b in tasks], unit="runs")
-    finally:
-        if engine is not scheduler:
-            engine.close()
-    elapsed = time.perf_counter() - t0
-    parts = [{r.name: r} for r in res.finished()]
-    results = merge_results(parts) if parts else {}
-    errors = [f"task {tasks[i][0]} runs {tasks[i][1]}..{tasks[i][2] - 1}: {msg}" for i, msg in sorted(res.errors.items())]
-    info = {"name": engine.name, "workers": workers, "threads_per_worker": threads, "tasks": len(tasks),
-            "tasks_per_worker": len(tasks) / max(1, workers * threads), "runs_per_task": max(b - a for _, a, b in tasks)}
-    return MCEvaluation(results, cfg, res.complete, res.interrupted, errors, elapsed, info, profile.sample_time, profile.name,
-                        asdict(sh.dist), profile.library)

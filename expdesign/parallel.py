@@ -10,7 +10,8 @@ no server), "inline" (this process, one task at a time), or a Dask scheduler add
 "tcp://10.0.0.5:8786" (also read from the environment variable SHIPTRIAL_SCHEDULER).
 
 ``Engine.capacity()`` says how many workers and threads per worker the engine has (so callers
-can cut enough tasks); ``map(fn, items, shared=obj)`` ships ``obj`` once per worker (process-pool
+can cut enough tasks; a Dask engine first waits briefly for workers still (re)starting, see
+:meth:`DaskEngine.capacity`); ``map(fn, items, shared=obj)`` ships ``obj`` once per worker (process-pool
 initializer, ``Client.scatter(broadcast=True)`` on Dask) and calls ``fn(item, obj)``.
 Ctrl-C stops cleanly: unfinished tasks are cancelled, local workers terminated, and the finished
 results kept (``MapResult.interrupted``); a task that fails or a lost worker is recorded in
@@ -198,6 +199,7 @@ def _terminate(pool: ProcessPoolExecutor) -> None:
 
 
 CONNECT_TIMEOUT_S = 10  # an unreachable scheduler is a user error, said within seconds
+WORKER_WAIT_S = 10.0  # how long capacity() waits for the cluster's workers to (re)connect
 
 
 class DaskEngine(Engine):
@@ -221,12 +223,34 @@ class DaskEngine(Engine):
         self._own = True
 
     def capacity(self) -> tuple[int, int]:
-        workers = self.client.scheduler_info(n_workers=-1)["workers"] if _takes_n_workers(self.client) \
-            else self.client.scheduler_info()["workers"]
+        """Workers and threads per worker to cut the tasks for. Workers still starting or being
+        restarted by their nanny are not connected yet: the engine waits up to WORKER_WAIT_S for
+        the workers the cluster is configured for (a cluster object: its worker spec), or for a
+        first worker when only an address is known; then it counts what is connected (with none,
+        one: the tasks wait at the scheduler for the first worker)."""
+        want = max(1, self.expected_workers())
+        workers = self._workers()
+        if len(workers) < want:
+            try:
+                self.client.wait_for_workers(want, timeout=WORKER_WAIT_S)
+            except (TimeoutError, OSError):  # not all came: cut for those that did
+                pass
+            workers = self._workers()
         if not workers:
             return 1, 1
         threads = [int(w.get("nthreads", 1)) for w in workers.values()]
         return len(threads), max(1, round(sum(threads) / len(threads)))
+
+    def expected_workers(self) -> int:
+        """How many workers the cluster is configured for (a LocalCluster or other SpecCluster
+        given as an object, including workers not yet or not again connected); 0 when unknown
+        (a scheduler address: it does not know the workers that will connect)."""
+        spec = getattr(getattr(self.client, "cluster", None), "worker_spec", None)
+        return len(spec) if spec else 0
+
+    def _workers(self) -> dict:
+        return self.client.scheduler_info(n_workers=-1)["workers"] if _takes_n_workers(self.client) \
+            else self.client.scheduler_info()["workers"]
 
     def map(self, fn, items, desc="working", progress=True, shared=None, weights=None, unit="tasks") -> MapResult:
         from distributed import as_completed

@@ -9,8 +9,8 @@ import numpy as np
 
 from expdesign.api import Design
 from expdesign.estimators import OE_TOL
+from expdesign.mc_parallel import MCEvaluation
 from expdesign.mc_result import PARAM_THRESHOLD, SIM_THRESHOLD, THESIS_FRACTIONS, MCResult
-from expdesign.montecarlo import MCEvaluation
 from primitives.io import atomic_savefig, atomic_write_text, dumps
 
 

@@ -9,6 +9,7 @@ Carlo realisations: the time loop is sequential, every realisation moves at once
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -153,12 +154,14 @@ def model_signals(
     current_ne: np.ndarray | None = None,
     wind_ne: np.ndarray | None = None,
     phi: np.ndarray | None = None,
+    speed: bool = True,
 ) -> dict[str, np.ndarray]:
     """Signal dictionary the regressor terms read, for velocities nu (..., 3), or (..., 4) with
     the roll rate p (then ``phi`` is the roll angle). Pod forces (seed 000 (2.12)) depend on the
-    velocities, so a podded profile's tau_x, tau_y, tau_k, tau_n are computed here."""
+    velocities, so a podded profile's tau_x, tau_y, tau_k, tau_n are computed here. ``speed=False``
+    leaves out the speed through the water :data:`SPEED` (for terms that do not read it)."""
     sig = relative_signals(nu, None if current_ne is None else body_from_ne(current_ne, psi),
-                           None if wind_ne is None else body_from_ne(wind_ne, psi), into=dict(input_sig, psi=psi), speed=True)
+                           None if wind_ne is None else body_from_ne(wind_ne, psi), into=dict(input_sig, psi=psi), speed=speed)
     return _add_state_forces(profile, nu, phi, sig)
 
 
@@ -170,6 +173,17 @@ def _add_state_forces(profile: ShipProfile, nu: np.ndarray, phi: np.ndarray | No
     if profile.pods:
         sig.update(pod_generalized_forces(profile.pod_model, profile.pods, sig | {"u": nu[..., 0], "v": nu[..., 1], "r": nu[..., 2]}))
     return sig
+
+
+@lru_cache(maxsize=64)
+def _signals_read(terms: tuple[tuple[str, ...], ...]) -> frozenset[str]:
+    return frozenset(signals_used(terms))
+
+
+def signals_read(terms: TermSet) -> frozenset[str]:
+    """The signals the terms read (:func:`primitives.terms.signals_used`), kept per term list:
+    compiling the terms costs about a millisecond, and every simulation asks."""
+    return _signals_read(terms.terms)
 
 
 class VelocityStep:
@@ -187,11 +201,28 @@ class VelocityStep:
     def __init__(self, terms: TermSet, theta: np.ndarray, rigid: RigidBody | None = None, ts: float | None = None):
         theta = np.asarray(theta, dtype=float)
         self.inc = terms.increment_function()
-        self.coef = theta.tolist() if theta.ndim == 1 else [theta[:, j] for j in range(theta.shape[-1])]
-        used = signals_used(terms.terms)
+        # contiguous columns: every step multiplies them (a strided column is a slower loop)
+        self.coef = theta.tolist() if theta.ndim == 1 else list(np.ascontiguousarray(theta.T))
+        used = signals_read(terms)
         self.wind_excess = bool(used & set(WIND_EXCESS))
         self.speed = SPEED in used
+        self.reads_heading = "psi" in used
         self.rigid, self.ts = rigid, ts
+
+    def increments(
+        self,
+        nu: np.ndarray,
+        exo: dict[str, np.ndarray],
+        current_body: tuple[np.ndarray, np.ndarray] | None = None,
+        wind_body: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> list[np.ndarray]:
+        """The increments nu(k+1) - nu(k) per DOF of the term set (arrays or scalars that broadcast
+        to (B,)); the arguments as for :meth:`__call__`."""
+        sig = relative_signals(nu, current_body, wind_body, self.wind_excess, into=exo, speed=self.speed)
+        inc = self.inc(sig, self.coef)
+        if self.rigid is not None:
+            inc = self.rigid.increments(inc, nu, self.ts)
+        return inc
 
     def __call__(
         self,
@@ -205,10 +236,7 @@ class VelocityStep:
         generalized forces, heading, ...), the current and air velocity in body axes (see
         :func:`relative_signals`) and increments ``forced`` (B, n_dof) summed outside the loop.
         ``exo`` is extended in place with the state signals (it is built per step by the caller)."""
-        sig = relative_signals(nu, current_body, wind_body, self.wind_excess, into=exo, speed=self.speed)
-        inc = self.inc(sig, self.coef)
-        if self.rigid is not None:
-            inc = self.rigid.increments(inc, nu, self.ts)
+        inc = self.increments(nu, exo, current_body, wind_body)
         nxt = nu + forced if forced is not None else nu.copy()
         for i, d in enumerate(inc):  # one increment per DOF of the term set
             nxt[:, i] += d
@@ -245,12 +273,17 @@ def simulate(
     disturbances: Disturbances | None = None,
     batch: int = 1,
     seed: int | np.random.Generator | None = None,
+    positions: bool = True,
 ) -> SimResult:
     """Simulate ``batch`` realisations driven by ``inputs`` (N, m) or (B, N, m).
 
     ``theta``: parameter vector (or (B, p) one per realisation) or the name of a set of the
     profile; default the profile's simulation set. ``terms`` overrides the model structure
-    (e.g. a predictor or an augmented model).
+    (e.g. a predictor or an augmented model). ``positions=False`` is for callers that read the
+    velocities only (estimators, validation): the position x, y is not integrated, nor the
+    heading unless the velocities depend on it (a current or wind to rotate into body axes, a
+    term that reads psi, roll, pods); what is not integrated is NaN in ``eta`` and ``pos_meas``.
+    The velocities are bit-identical either way; the position rows are about a fifth of a step.
     """
     terms = terms or profile.model
     theta = (
@@ -265,13 +298,7 @@ def simulate(
     u_in = _batch_inputs(profile, inputs, batch)
     n_steps = u_in.shape[1]
     ts = profile.sample_time
-    in_sig = profile.generalized_forces(u_in)  # each (1 or B, N)
     nd = profile.n_dof  # 3, or 4 with roll: nu (u, v, r, p), eta (x, y, psi, phi)
-
-    nu = np.zeros((batch, n_steps + 1, nd))
-    eta = np.zeros((batch, n_steps + 1, nd))
-    nu[:, 0] = np.broadcast_to(_padded(nu0, nd), (batch, nd))
-    eta[:, 0] = np.broadcast_to(_padded(eta0, nd), (batch, nd))
 
     cur = np.broadcast_to(np.asarray(dist.current_ne, float), (batch, n_steps, 2)).copy()
     if dist.current_offset_std:
@@ -283,35 +310,9 @@ def simulate(
         wind += rng.normal(0.0, dist.wind_sample_std, (batch, n_steps, 2))
     proc = _padded(dist.process_std, nd)
     w = rng.normal(0.0, 1.0, (batch, n_steps, nd)) * proc if np.any(proc) else None
-    rigid = profile.rigid_body
 
-    step = VelocityStep(terms, theta, rigid, ts)
-    # no rotation of a zero current or wind at every step (a sixth of the loop's time in the Monte Carlo)
-    still_water, calm_air = not np.any(cur), not np.any(wind)
-    for k in range(n_steps):
-        nu_k, psi_k = nu[:, k], eta[:, k, 2]
-        phi_k = eta[:, k, 3] if nd == 4 else None
-        exo = {n: a[:, k] for n, a in in_sig.items()}
-        exo["psi"] = psi_k
-        cur_b = None if still_water else body_from_ne(cur[:, k], psi_k)
-        wind_b = None if calm_air else body_from_ne(wind[:, k], psi_k)
-        if nd == 4 or profile.pods:  # roll and pod-force signals depend on the state (the step adds the rest)
-            _add_state_forces(profile, nu_k, phi_k, exo)
-        nxt = step(nu_k, exo, cur_b, wind_b)
-        if w is not None:
-            nxt += w[:, k]
-        nu[:, k + 1] = nxt
-        c, s = np.cos(psi_k), np.sin(psi_k)
-        if nd == 4:  # (2.1a-b) and the Fossen position rows with roll: v acts through cos(phi)
-            cphi = np.cos(phi_k)
-            eta[:, k + 1, 0] = eta[:, k, 0] + ts * (c * nu_k[:, 0] - s * cphi * nu_k[:, 1])
-            eta[:, k + 1, 1] = eta[:, k, 1] + ts * (s * nu_k[:, 0] + c * cphi * nu_k[:, 1])
-            eta[:, k + 1, 2] = psi_k + ts * cphi * nu_k[:, 2]
-            eta[:, k + 1, 3] = phi_k + ts * nu_k[:, 3]
-            continue
-        eta[:, k + 1, 0] = eta[:, k, 0] + ts * (c * nu_k[:, 0] - s * nu_k[:, 1])
-        eta[:, k + 1, 1] = eta[:, k, 1] + ts * (s * nu_k[:, 0] + c * nu_k[:, 1])
-        eta[:, k + 1, 2] = psi_k + ts * nu_k[:, 2]
+    step = VelocityStep(terms, theta, profile.rigid_body, ts)
+    nu, eta = _time_loop(profile, step, u_in, _padded(nu0, nd), _padded(eta0, nd), cur, wind, w, batch, positions)
 
     meas = _padded(dist.measurement_std, nd)
     y = nu + rng.normal(0.0, 1.0, nu.shape) * meas if np.any(meas) else nu.copy()
@@ -328,6 +329,77 @@ def simulate(
         current_ne=cur,
         wind_ne=wind,
     )
+
+
+def _time_major_forces(profile: ShipProfile, u_in: np.ndarray) -> tuple[list[str], np.ndarray]:
+    """The input signals' names and values (N, signals, 1 or B), a step's signals one block."""
+    forces = profile.generalized_forces(u_in)  # each (1 or B, N)
+    in_t = np.empty((u_in.shape[1], len(forces), max(np.shape(v)[0] if np.ndim(v) else 1 for v in forces.values())))
+    for i, v in enumerate(forces.values()):  # signal by signal: a cache-friendly transpose
+        in_t[:, i] = np.transpose(v)
+    return list(forces), in_t
+
+
+def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: np.ndarray, eta0: np.ndarray, cur: np.ndarray,
+               wind: np.ndarray, w: np.ndarray | None, batch: int, positions: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The sequential loop of :func:`simulate`: nu, eta (B, N+1, nd).
+
+    The state is kept time-major, (N+1, nd, B), so that every step reads and writes contiguous
+    rows of B values (batch-major rows are strided by the whole record); every operation is
+    elementwise over the batch, so the numbers are those of any other layout."""
+    n_steps, nd, ts = u_in.shape[1], nu0.shape[-1], profile.sample_time
+    in_names, in_t = _time_major_forces(profile, u_in)
+    nu_t = np.empty((n_steps + 1, nd, batch))
+    nu_t[0] = np.broadcast_to(nu0, (batch, nd)).T
+    # no rotation of a zero current or wind at every step (a sixth of the loop's time in the Monte Carlo)
+    cur_t, wind_t = (np.ascontiguousarray(a.transpose(1, 2, 0)) if np.any(a) else None for a in (cur, wind))  # (N, 2, B)
+    w_t = None if w is None else np.ascontiguousarray(w.transpose(1, 2, 0))  # (N, nd, B)
+    heading = positions or nd == 4 or bool(profile.pods) or cur_t is not None or wind_t is not None or step.reads_heading
+    if heading:
+        eta_t = np.full((n_steps + 1, nd, batch), np.nan)
+        eta_t[0] = np.broadcast_to(eta0, (batch, nd)).T
+    else:  # nothing reads the pose: no array for it in the loop (the heading signal is NaN, read by no term)
+        eta_t, unread = None, np.full(batch, np.nan)
+    for k in range(n_steps):
+        row, nxt = nu_t[k], nu_t[k + 1]
+        psi_k = unread if eta_t is None else eta_t[k, 2]
+        nu_k = row.T  # (B, nd) view with contiguous columns
+        phi_k = eta_t[k, 3] if nd == 4 else None
+        exo = dict(zip(in_names, in_t[k]))
+        exo["psi"] = psi_k
+        cur_b = None if cur_t is None else body_from_ne(cur_t[k].T, psi_k)
+        wind_b = None if wind_t is None else body_from_ne(wind_t[k].T, psi_k)
+        if nd == 4 or profile.pods:  # roll and pod-force signals depend on the state (the step adds the rest)
+            _add_state_forces(profile, nu_k, phi_k, exo)
+        inc = step.increments(nu_k, exo, cur_b, wind_b)
+        for i, d in enumerate(inc):  # one increment per DOF of the term set: nu(k+1) = nu(k) + inc
+            np.add(row[i], d, out=nxt[i])
+        if len(inc) < nd:  # DOFs without terms keep their velocity
+            nxt[len(inc):] = row[len(inc):]
+        if w_t is not None:
+            nxt += w_t[k]
+        u, v, r = row[0], row[1], row[2]
+        if nd == 4:  # (2.1a-b) and the Fossen position rows with roll: v acts through cos(phi)
+            cphi = np.cos(phi_k)
+            if positions:
+                c, s = np.cos(psi_k), np.sin(psi_k)
+                eta_t[k + 1, 0] = eta_t[k, 0] + ts * (c * u - s * cphi * v)
+                eta_t[k + 1, 1] = eta_t[k, 1] + ts * (s * u + c * cphi * v)
+            eta_t[k + 1, 2] = psi_k + ts * cphi * r
+            eta_t[k + 1, 3] = phi_k + ts * row[3]
+            continue
+        if positions:
+            c, s = np.cos(psi_k), np.sin(psi_k)
+            eta_t[k + 1, 0] = eta_t[k, 0] + ts * (c * u - s * v)
+            eta_t[k + 1, 1] = eta_t[k, 1] + ts * (s * u + c * v)
+        if heading:
+            eta_t[k + 1, 2] = psi_k + ts * r
+    nu = np.ascontiguousarray(nu_t.transpose(2, 0, 1))
+    if eta_t is not None:
+        return nu, np.ascontiguousarray(eta_t.transpose(2, 0, 1))
+    eta = np.full((batch, n_steps + 1, nd), np.nan)
+    eta[:, 0] = eta0
+    return nu, eta
 
 
 def steady_forces(

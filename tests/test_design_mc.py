@@ -89,7 +89,7 @@ def test_thesis_scale_monte_carlo(setup):
 def test_report_gives_both_estimators_beside_the_thesis(setup):
     """The design report names the estimator, gives the IV figures of the same runs (the thesis's
     estimator) beside the output-error ones and the thesis's, and the per-parameter spreads of both."""
-    from expdesign.montecarlo import evaluate_designs_parallel
+    from expdesign.mc_parallel import evaluate_designs_parallel
     from expdesign.report import markdown, report_dict
 
     p, lib, d = setup

@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-import expdesign.montecarlo as mc
+import expdesign.mc_parallel as mc
 from cli.app import _run
 
 ARGS = ["design", "--monte-carlo", "6", "--mc-samples", "400", "--scheduler", "inline", "--seed", "1"]

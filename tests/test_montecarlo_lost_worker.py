@@ -10,7 +10,7 @@ import os
 
 import pytest
 
-import expdesign.montecarlo as mc
+import expdesign.mc_parallel as mc
 from cli.app import _run
 from expdesign.parallel import get_engine
 

@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from expdesign.montecarlo import MAX_CHUNK, cut_tasks, evaluate_designs, evaluate_designs_parallel, plan_tasks
+from expdesign.mc_parallel import cut_tasks, evaluate_designs_parallel, plan_tasks
+from expdesign.montecarlo import MAX_CHUNK, evaluate_designs
 from expdesign.parallel import Engine, LocalEngine
 from primitives.library import model_ship_thesis
 from primitives.ship import load_profile
