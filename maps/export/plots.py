@@ -19,6 +19,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.legend_handler import HandlerPatch  # noqa: E402
+from matplotlib.patches import Rectangle  # noqa: E402
 
 from maps.export._common import KN_PER_MPS, M_PER_NM, ExportError, deg_min, step_slice  # noqa: E402
 from maps.plan import Plan  # noqa: E402
@@ -143,9 +145,57 @@ def _draw_geom(ax, geom, view, **kw) -> bool:
     return drawn
 
 
-def _draw_chart(ax, plan: Plan, sea_map: Any, view) -> None:
+HATCH_PT = 3.0  # spacing of hatch lines (matplotlib's "////": 24 lines an inch)
+
+
+class HatchProxy(Rectangle):
+    """Legend entry of hatched water drawn with :class:`HatchHandler` (lines, not a fill pattern)."""
+
+
+class HatchHandler(HandlerPatch):
+    """Draws a :class:`HatchProxy` legend key as a filled box crossed by diagonal lines."""
+
+    def create_artists(self, legend, orig, xd, yd, width, height, fontsize, trans):
+        from matplotlib.collections import LineCollection
+
+        box = Rectangle((-xd, -yd), width, height, facecolor=orig.get_facecolor(), edgecolor=orig.get_edgecolor(), lw=0.6,
+                        transform=trans)
+        segs = []
+        for t in np.arange(-height, width, HATCH_PT):
+            a, b = max(t, 0.0), min(t + height, width)
+            segs.append([(-xd + a, -yd + a - t), (-xd + b, -yd + b - t)])
+        return [box, LineCollection(segs, colors=[orig.get_edgecolor()], linewidths=0.6, transform=trans)]
+
+
+HATCH_LEGEND = {HatchProxy: HatchHandler()}  # legend handler_map for maps drawn with hatch_lines
+
+
+def _hatch(ax, geom, view, m_per_deg: tuple[float, float], colour: str, zorder: float) -> None:
+    """Diagonal lines (rising to the right, ``HATCH_PT`` apart on the page) over ``geom`` inside
+    ``view``: hatching as line geometry, which every vector format reads (SVG patterns are not)."""
+    from matplotlib.collections import LineCollection
+    from shapely.geometry import MultiLineString
+
+    if geom is None or geom.is_empty or not geom.intersects(view):
+        return
+    g = geom.intersection(view)
+    x0, y0, x1, y1 = view.bounds
+    wx, wy = (x1 - x0) * m_per_deg[0], (y1 - y0) * m_per_deg[1]
+    fig_w, fig_h = ax.figure.get_size_inches()
+    pos = ax.get_position()
+    m_per_pt = max(wx / (pos.width * fig_w * 72.0), wy / (pos.height * fig_h * 72.0))  # the aspect shrinks one side
+    step = HATCH_PT * m_per_pt * math.sqrt(2.0)
+    cs = np.arange(-wy, wx + step, step)  # lines x - y = c in metres from the view's corner
+    lines = MultiLineString([[(x0 + c / m_per_deg[0], y0), (x0 + (c + wy) / m_per_deg[0], y1)] for c in cs])
+    cut = lines.intersection(g)
+    segs = [np.asarray(p.coords) for p in getattr(cut, "geoms", [cut]) if p.geom_type == "LineString" and not p.is_empty]
+    if segs:
+        ax.add_collection(LineCollection(segs, colors=colour, linewidths=0.6, zorder=zorder))
+
+
+def _draw_chart(ax, plan: Plan, sea_map: Any, view, hatch_lines: bool = False) -> None:
     """Depth areas (blue shades, deeper darker), land (tan) and other no-go water (hatched:
-    shallow for the ship, restricted, charted obstacles)."""
+    shallow for the ship, restricted, charted obstacles; ``hatch_lines``: see :func:`draw_map`)."""
     from maps.export.chart import plan_chart
 
     chart = plan_chart(plan, sea_map)
@@ -160,7 +210,12 @@ def _draw_chart(ax, plan: Plan, sea_map: Any, view) -> None:
             any_drawn |= _draw_geom(ax, g, view, facecolor=shades[depths.index(d)], edgecolor="#5b8db8", lw=0.4, zorder=0.5)
         if any_drawn:
             ax.fill([], [], facecolor=shades[0], edgecolor="#5b8db8", label=f"depth areas {depths[0]:g}-{depths[-1]:g} m (darker: shallower)")
-    if _draw_geom(ax, chart.no_go, view, facecolor=NO_GO_COLOUR, edgecolor="#35607d", hatch="////", lw=0.6, zorder=1):
+    if hatch_lines:
+        if _draw_geom(ax, chart.no_go, view, facecolor=NO_GO_COLOUR, edgecolor="#35607d", lw=0.6, zorder=1):
+            _hatch(ax, chart.no_go, view, _m_per_deg(view), "#35607d", 1)
+            ax.add_patch(HatchProxy((view.bounds[0], view.bounds[1]), 0, 0, facecolor=NO_GO_COLOUR, edgecolor="#35607d",
+                                    label="shallow / restricted (no-go)"))
+    elif _draw_geom(ax, chart.no_go, view, facecolor=NO_GO_COLOUR, edgecolor="#35607d", hatch="////", lw=0.6, zorder=1):
         ax.fill([], [], facecolor=NO_GO_COLOUR, edgecolor="#35607d", hatch="////", label="shallow / restricted (no-go)")
     if _draw_geom(ax, chart.land, view, facecolor=LAND_COLOUR, edgecolor="#6b5d3a", lw=0.6, zorder=1):
         ax.fill([], [], facecolor=LAND_COLOUR, edgecolor="#6b5d3a", label="land")
@@ -195,16 +250,24 @@ def _draw_track(ax, plan: Plan, numbers: bool) -> None:
     ax.plot(lon[-1], lat[-1], marker="s", ms=9, color="red", mec="k", zorder=4, ls="none", label="end")
 
 
-def draw_map(ax, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True) -> None:
+def _m_per_deg(view) -> tuple[float, float]:
+    lat = 0.5 * (view.bounds[1] + view.bounds[3])
+    return 111_320.0 * math.cos(math.radians(lat)), 111_320.0
+
+
+def draw_map(ax, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True,
+             hatch_lines: bool = False) -> None:
     """Chart (depth areas, land, shallow/restricted water), sea room (light blue), the track
     (informative manoeuvres coloured by primitive, run-ins dashed green, transit grey), execute
     points (stars), numbered manoeuvre starts, start/end marks, a scale bar and a north arrow,
-    on lon/lat axes. ``sea_map``: see the module docstring (default: the plan's own chart)."""
+    on lon/lat axes. ``sea_map``: see the module docstring (default: the plan's own chart).
+    ``hatch_lines``: hatch shallow/restricted water with drawn lines instead of a fill pattern
+    (for SVG read by other programs; the legend then needs ``handler_map=HATCH_LEGEND``)."""
     from shapely.geometry import box
 
     x0, y0, x1, y1, m_per_deg_lon, m_per_deg_lat = _view(plan, pad_m)
     view = box(x0, y0, x1, y1)
-    _draw_chart(ax, plan, sea_map, view)
+    _draw_chart(ax, plan, sea_map, view, hatch_lines)
     if sea_room:
         from maps.export.geojson import sea_room_lonlat
 
