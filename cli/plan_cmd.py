@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -168,17 +169,23 @@ def register(app: typer.Typer) -> None:
 
 
 def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bool) -> dict[str, Path]:
-    """Every output into the (temporary) directory ``tmp``. The PDF trial card, the longest
-    single output, is written by a forked child process meanwhile (see :func:`card_pdf_beside`)."""
+    """Every output into the (temporary) directory ``tmp``. The PDF trial card and the plan
+    picture are written by a forked child process meanwhile (see :func:`beside`)."""
     from maps.export import default_path, export_all
     from maps.export.chart import plan_chart
-    from maps.output import write_outputs
+    from maps.output import plot_plan, write_outputs
 
     exports = result.feasible and not no_export
     chart = plan_chart(result, sea) if exports else None  # one chart for every export
-    wait = card_pdf_beside(result, chart, t0, default_path(result, "card", tmp).with_suffix(".pdf")) if exports else None
+    wait = None
+    if exports:
+        from maps.export.card import write_card_pdf
+
+        pdf_path = default_path(result, "card", tmp).with_suffix(".pdf")
+        wait = beside([(pdf_path, "the PDF trial card", lambda: write_card_pdf(result, pdf_path, chart, t0)),
+                       (tmp / "plan.png", "the plan picture", lambda: plot_plan(result, sea, tmp / "plan.png"))])
     try:
-        files = write_outputs(result, sea, tmp)
+        files = write_outputs(result, sea, tmp, plot=not exports)
         if td is not None:
             from expdesign.report import plot_ratios
 
@@ -191,54 +198,62 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
         if wait:
             wait(quiet=True)  # no child outlives the command; the first error is the one to report
         raise
-    pdf = wait() if wait else None
-    if exports:
+    if wait:
+        pdf_path, png_path = wait()
+        files = {**{k: v for k, v in files.items() if k in ("plan_json", "trajectory_geojson")}, "plot": png_path,
+                 **{k: v for k, v in files.items() if k not in ("plan_json", "trajectory_geojson")}}
         keys = list(crew)
         keys.insert(keys.index("card") + 1, "card_pdf")
-        files.update((k, pdf if k == "card_pdf" else crew[k]) for k in keys)
+        files.update((k, pdf_path if k == "card_pdf" else crew[k]) for k in keys)
     return files
 
 
-def card_pdf_beside(result, chart, t0, path: Path):
-    """Start writing the PDF trial card to ``path``; returns a function that waits for it and
-    returns the path (raising the writer's error).
+def beside(jobs: list[tuple[Path, str, Callable[[], object]]]):
+    """Start writing ``jobs`` ((path, what, writer) each); returns a function that waits for them
+    and returns their paths (raising the first writer's error, naming its file).
 
-    On Linux a forked child writes it while the caller writes everything else: the PDF's text
-    pages cost as much CPU as all other outputs together, and a second core does them at the
-    same time (the same figures and bytes as in one process). Elsewhere it is written here.
+    On Linux a forked child writes them while the caller writes everything else: the outputs
+    are drawn on both cores at once (the same figures and bytes as in one process). Elsewhere
+    they are written here.
     """
     import os
 
     from maps.export import ExportError
-    from maps.export.card import write_card_pdf
 
+    paths = [p for p, _, _ in jobs]
     if not sys.platform.startswith("linux"):
-        write_card_pdf(result, path, chart, t0)
-        return lambda quiet=False: path
+        for _, _, job in jobs:
+            job()
+        return lambda quiet=False: paths
     read, write = os.pipe()
     pid = os.fork()
-    if pid == 0:  # the child: write the PDF, report an error through the pipe, never return
+    if pid == 0:  # the child: write the files, report an error through the pipe, never return
         code = 1
         try:
             os.close(read)
             # never write to a stream another thread of the parent may hold a lock on; the old streams
             # are never flushed here (os._exit): what they buffered is the parent's to write
             sys.stdout = sys.stderr = open(os.devnull, "w")
-            write_card_pdf(result, path, chart, t0)
+            for path, what, job in jobs:
+                try:
+                    job()
+                except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent
+                    os.write(write, f"{path.name}: writing {what} failed: {type(exc).__name__}: {exc}".encode(errors="replace")[:4000])
+                    raise
             code = 0
-        except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent
-            os.write(write, f"{type(exc).__name__}: {exc}".encode(errors="replace")[:4000])
+        except BaseException:  # noqa: BLE001
+            pass
         finally:
             os._exit(code)
     os.close(write)
 
-    def wait(quiet: bool = False) -> Path:
+    def wait(quiet: bool = False) -> list[Path]:
         with os.fdopen(read, "rb") as fh:
             msg = fh.read().decode(errors="replace")
         _, status = os.waitpid(pid, 0)
         if os.waitstatus_to_exitcode(status) != 0 and not quiet:
-            raise ExportError(f"{path.name}: writing the PDF trial card failed: {msg or f'exit status {status}'}")
-        return path
+            raise ExportError(msg or f"{paths[0].name}: writing it failed (exit status {status})")
+        return paths
 
     return wait
 

@@ -117,23 +117,34 @@ def _view(plan: Plan, pad_m: float | None) -> tuple[float, float, float, float, 
 
 
 def _draw_geom(ax, geom, view, **kw) -> bool:
-    """Fill the polygons (draw lines, points) of ``geom`` inside ``view``; True if any drawn."""
+    """Fill the polygons (draw lines, points) of ``geom`` inside ``view``; True if any drawn.
+    The polygons are one compound path (a chart has hundreds of islands: one patch to draw)."""
     from matplotlib.patches import PathPatch
     from matplotlib.path import Path as MPath
 
     if geom is None or geom.is_empty or not geom.intersects(view):
         return False
-    g = geom.intersection(view)
+    verts: list[np.ndarray] = []
+    codes: list[np.ndarray] = []
+    drawn = _collect_geom(ax, geom.intersection(view), verts, codes, kw)
+    if verts:
+        ax.add_patch(PathPatch(MPath(np.concatenate(verts), np.concatenate(codes)), **kw))
+    return drawn or bool(verts)
+
+
+def _collect_geom(ax, g, verts: list, codes: list, kw: dict) -> bool:
+    """Rings of the polygons of ``g`` into ``verts``/``codes``; lines and points drawn here."""
+    from matplotlib.path import Path as MPath
+
     drawn = False
     for p in getattr(g, "geoms", [g]):
         if p.geom_type == "Polygon" and not p.is_empty:
-            verts, codes = [], []
             for ring in [p.exterior, *p.interiors]:
-                c = np.asarray(ring.coords)
-                verts += c.tolist()
-                codes += [MPath.MOVETO] + [MPath.LINETO] * (len(c) - 2) + [MPath.CLOSEPOLY]
-            ax.add_patch(PathPatch(MPath(verts, codes), **kw))
-            drawn = True
+                c = np.asarray(ring.coords)[:, :2]
+                code = np.full(len(c), MPath.LINETO, dtype=MPath.code_type)
+                code[0], code[-1] = MPath.MOVETO, MPath.CLOSEPOLY
+                verts.append(c)
+                codes.append(code)
         elif p.geom_type in ("LineString", "LinearRing"):
             ax.plot(*p.xy, color=kw.get("edgecolor", "k"), lw=0.8, zorder=kw.get("zorder", 1))
             drawn = True
@@ -141,7 +152,7 @@ def _draw_geom(ax, geom, view, **kw) -> bool:
             ax.plot(p.x, p.y, "x", color=kw.get("edgecolor", "k"), zorder=kw.get("zorder", 1))
             drawn = True
         elif hasattr(p, "geoms"):
-            drawn = _draw_geom(ax, p, view, **kw) or drawn
+            drawn = _collect_geom(ax, p, verts, codes, kw) or drawn
     return drawn
 
 
