@@ -57,6 +57,17 @@ def stage(text: str, quiet: bool):
         yield
 
 
+def design_conflict(counts: str | None, scenario: str | None, **design: object) -> None:
+    """Refuse design options (``--criterion``, ``--mean-subtraction``, ``--trial-length``) beside
+    ``--counts`` or ``--scenario``: those choose the manoeuvres without a design, so the options
+    would be ignored without a word."""
+    given = [f"--{k.replace('_', '-')}" for k, v in design.items() if v is not None]
+    chooser = "--counts" if counts is not None else "--scenario" if scenario is not None else None
+    if given and chooser:
+        raise UserError(f"{given[0]}: sets the experiment design, but {chooser} chooses the manoeuvres without one: "
+                        f"drop {' and '.join(given)} or {chooser}")
+
+
 def print_summary(result, summary: dict, files: dict[str, Path]) -> None:
     from rich.console import Console
     from rich.table import Table
@@ -105,8 +116,10 @@ def register(app: typer.Typer) -> None:
         goal: str | None = typer.Option(None, "--goal", help="LAT,LON[,HEADING_DEG] (default: the map's goal feature)"),
         counts: str | None = typer.Option(None, "--counts", help="NAME=N,... uses per informative primitive (default: run the design)"),
         scenario: str | None = typer.Option(None, "--scenario", help="a named example instead of the design: thesis-9.4"),
-        criterion: str = typer.Option("D", "--criterion", help="design criterion: D, A or E (as shiptrial design)"),
-        mean_subtraction: str = typer.Option("complete", "--mean-subtraction", help="none, batchwise (7.53) or complete (7.57)"),
+        criterion: str | None = typer.Option(None, "--criterion", help="design criterion: D, A or E (as shiptrial design; "
+                                                                      "default D)"),
+        mean_subtraction: str | None = typer.Option(None, "--mean-subtraction", help="none, batchwise (7.53) or complete (7.57) "
+                                                                                    "(default complete)"),
         trial_length: float | None = typer.Option(None, "--trial-length", help="trial length in seconds the design is rounded to "
                                                                               "(default: every library primitive once)"),
         resolution: float | None = typer.Option(None, "--resolution", help="lattice spacing in metres (default ~4 ship lengths)"),
@@ -136,6 +149,9 @@ def register(app: typer.Typer) -> None:
         from primitives.io import atomic_output_dir
         from primitives.ship import load_profile
 
+        design_conflict(counts, scenario, criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length)
+        criterion = "D" if criterion is None else criterion
+        mean_subtraction = "complete" if mean_subtraction is None else mean_subtraction
         validate_plan_options(resolution=resolution, margin=margin, headings=headings, start=start, goal=goal,
                               counts=counts, size=size, out=out, seed=seed, scenario=scenario, criterion=criterion,
                               mean_subtraction=mean_subtraction, trial_length=trial_length, run_in=run_in,
