@@ -6,7 +6,7 @@ Why not matplotlib's PDF backend for the whole card: it lays out and draws text 
 through FreeType (about 3 ms a line), and the card's tables and orders are some 600 lines, so the
 text pages cost more CPU than every other output of ``plan-trial`` together. fpdf2 writes a line
 from the font's advance widths. The two figures (the map of page 1 and the states over time) are
-still drawn by matplotlib and placed as vector graphics (SVG, text as outlines); hatching is drawn
+still drawn by matplotlib and placed as vector graphics (SVG, text in the same fonts); hatching is drawn
 as lines (:func:`maps.export.plots.draw_map` ``hatch_lines``) because fpdf2 does not read SVG
 patterns. Text is DejaVu Sans (regular and bold, matplotlib's bundled TrueType fonts), embedded as
 TrueType subsets; no creation date, so the same plan gives the same bytes.
@@ -41,7 +41,7 @@ PT = 72.0  # points per inch
 W, H = A4[0] * PT, A4[1] * PT
 RED, GREY = (160, 0, 0), (77, 77, 77)
 ASCENT = 0.76  # DejaVu Sans cap height plus a little, as a fraction of the font size: matplotlib's va="top" box
-FONT = "DejaVu"
+FONT = "DejaVu Sans"  # the family name matplotlib writes in its SVG text: one embedded font for both
 
 
 def _fonts() -> tuple[str, str]:
@@ -104,9 +104,14 @@ class _Card:
         import matplotlib
 
         buf = io.BytesIO()
-        with matplotlib.rc_context({"svg.fonttype": "path", "svg.hashsalt": "shiptrial-card"}):
-            fig.savefig(buf, format="svg", metadata={"Date": None})  # white page: drawn first, the text goes over it
+        # text as SVG text in DejaVu Sans, the card's embedded font (searchable, and far cheaper for fpdf2 to
+        # read than glyph outlines); the white page is drawn first, the card's own text goes over it
+        with matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": "shiptrial-card", "font.family": "DejaVu Sans"}):
+            fig.savefig(buf, format="svg", metadata={"Date": None})
         data = re.sub(rb"<metadata>.*?</metadata>", b"", buf.getvalue(), flags=re.S)  # fpdf2 does not read it (and says so)
+        # matplotlib's SVG user unit is the point, and it writes font sizes in px meaning those units;
+        # fpdf2 reads px as CSS pixels (3/4 point): say pt
+        data = re.sub(rb"font-size: ?([0-9.]+)px", rb"font-size: \1pt", data)
         fw, fh = fig.get_size_inches()
         # SVG's default fill is black, but fpdf2 leaves the page's current colours in force for
         # elements without a fill of their own (matplotlib's text outlines): set them to black
