@@ -185,8 +185,8 @@ def register(app: typer.Typer) -> None:
 
 
 def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bool) -> dict[str, Path]:
-    """Every output into the (temporary) directory ``tmp``. The PDF trial card and the plan
-    picture are written by a forked child process meanwhile (see :func:`beside`)."""
+    """Every output into the (temporary) directory ``tmp``. The PDF trial card, the plan picture
+    and the design ratios figure are written by a forked child process meanwhile (see :func:`beside`)."""
     from maps.export import default_path, export_all
     from maps.export.chart import plan_chart
     from maps.output import plot_plan, write_outputs
@@ -198,15 +198,15 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
         from maps.export.card import write_card_pdf
 
         pdf_path = default_path(result, "card", tmp).with_suffix(".pdf")
-        wait = beside([(pdf_path, "the PDF trial card", lambda: write_card_pdf(result, pdf_path, chart, t0)),
-                       (tmp / "plan.png", "the plan picture", lambda: plot_plan(result, sea, tmp / "plan.png"))])
+        jobs = [(pdf_path, "the PDF trial card", lambda: write_card_pdf(result, pdf_path, chart, t0)),
+                (tmp / "plan.png", "the plan picture", lambda: plot_plan(result, sea, tmp / "plan.png"))]
+        if td is not None:
+            jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(td, tmp)))
+        wait = beside(jobs)
     try:
         files = write_outputs(result, sea, tmp, plot=not exports)
-        if td is not None:
-            from expdesign.report import plot_ratios
-
-            plot_ratios(td.design, tmp / "design-ratios.png")
-            files["design_ratios_png"] = tmp / "design-ratios.png"
+        if td is not None and not exports:
+            _design_ratios(td, tmp)
         if exports:
             with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
                 crew = export_all(result, tmp, sea_map=chart, start=t0, pdf=False, staged=False)  # tmp: atomic_output_dir's
@@ -214,14 +214,23 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
         if wait:
             wait(quiet=True)  # no child outlives the command; the first error is the one to report
         raise
+    if td is not None:
+        files["design_ratios_png"] = tmp / "design-ratios.png"
     if wait:
-        pdf_path, png_path = wait()
+        pdf_path, png_path = wait()[:2]
         files = {**{k: v for k, v in files.items() if k in ("plan_json", "trajectory_geojson")}, "plot": png_path,
                  **{k: v for k, v in files.items() if k not in ("plan_json", "trajectory_geojson")}}
         keys = list(crew)
         keys.insert(keys.index("card") + 1, "card_pdf")
         files.update((k, pdf_path if k == "card_pdf" else crew[k]) for k in keys)
     return files
+
+
+def _design_ratios(td, out: Path) -> Path:
+    from expdesign.report import plot_ratios
+
+    plot_ratios(td.design, out / "design-ratios.png")
+    return out / "design-ratios.png"
 
 
 def beside(jobs: list[tuple[Path, str, Callable[[], object]]]):
