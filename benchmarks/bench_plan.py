@@ -28,6 +28,8 @@ Ratio < 1 is within target.
 * ``scenario``: the section 9.4 scenario as the thesis ran it (4 headings, no run-ins): search
   target 1 s (thesis: about 40 s for a plain A*).
 * ``refusal``: how long the up-front refusal of a lattice that would not fit takes (target 1 s).
+* ``stages``: the CPU time of each stage of ``cli_default`` after the imports, run one after the
+  other (the least over the runs per stage; total against the 2 s target as if on one core).
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 DATA = ROOT / "tests" / "data"
-TARGETS = {"cli_default": 2.0, "map_load": 0.5, "default": 2.0, "kvlcc2_fjord": 10.0, "kvlcc2_open_sea": 10.0, "scenario": 1.0, "refusal": 1.0}
+TARGETS = {"cli_default": 2.0, "stages": 2.0, "map_load": 0.5, "default": 2.0, "kvlcc2_fjord": 10.0, "kvlcc2_open_sea": 10.0, "scenario": 1.0, "refusal": 1.0}
 
 
 def _plan(ship: str, sea_path: Path | None, **kw) -> dict:
@@ -91,6 +93,69 @@ def _map_load() -> dict:
     return {"total_s": time.perf_counter() - t0}
 
 
+def _stages() -> dict:
+    """CPU seconds (``time.process_time``) of each stage of ``plan-trial --out DIR`` run one
+    after the other in this process (the command runs the ``child:`` stages in a forked child
+    beside the parent's): where the whole-process time goes. The imports are timed by the
+    ``cli_default`` case (this process has them already)."""
+    import tempfile
+
+    from maps.chain import PlanOptions
+    from maps.export import _write, default_path
+    from maps.export._common import iso, resolve_start
+    from maps.export.card import write_card_pdf
+    from maps.export.chart import embed_chart, plan_chart
+    from maps.export.geojson import write_geojson
+    from maps.export.plots import PlanFigures
+    from maps.geo import load_map
+    from maps.output import plot_plan
+    from maps.planner import plan_with_design
+    from primitives.ship import load_profile
+
+    cpu: dict[str, float] = {}
+    last = [time.process_time()]
+
+    def mark(name: str) -> None:
+        now = time.process_time()
+        cpu[name] = now - last[0]
+        last[0] = now
+
+    prof = load_profile("full-scale")
+    sea = load_map(None, draught_m=prof.draught_m)
+    mark("profile + map")
+    plan, td = plan_with_design(sea, profile=prof, options=PlanOptions(size=(35, 44)))
+    mark("design + planning")
+    t0 = resolve_start(plan, "2026-06-01T08:00Z")
+    plan.stats["start_utc"] = iso(t0)
+    chart = plan_chart(plan, sea)
+    mark("chart")
+    with tempfile.TemporaryDirectory(prefix="bench-stages-") as tmp:
+        out = Path(tmp)
+        write_card_pdf(plan, out / "card.pdf", chart, t0)
+        mark("child: PDF card")
+        plot_plan(plan, sea, out / "plan.png")
+        mark("child: plan.png")
+        embed_chart(plan, sea)
+        (out / "plan.json").write_text(plan.to_json())
+        write_geojson(plan, out / "trajectory.geojson", overlay=False)
+        mark("plan.json + trajectory")
+        from expdesign.report import plot_ratios
+
+        plot_ratios(td.design, out / "design-ratios.png")
+        mark("design-ratios.png")
+        with PlanFigures(plan, chart) as figs:
+            for fmt in ("geojson", "gpx", "rtz", "csv"):
+                _write(plan, fmt, default_path(plan, fmt, out), sea_map=chart, start=t0, vessel=None, pdf=False, figures=figs)
+                mark(fmt)
+            figs.png("track")
+            mark("track figure + PNG")
+            figs.png("states")
+            mark("states figure + PNG")
+            _write(plan, "card", default_path(plan, "card", out), sea_map=chart, start=t0, vessel=None, pdf=False, figures=figs)
+            mark("HTML card")
+    return {"total_s": sum(cpu.values()), "stages_cpu_s": cpu}
+
+
 CASES = {
     "map_load": _map_load,
     "default": lambda: _plan("full-scale", None),
@@ -98,6 +163,7 @@ CASES = {
     "kvlcc2_open_sea": lambda: _plan("kvlcc2", DATA / "open-sea.geojson"),
     "scenario": lambda: _plan("full-scale", None, scenario="thesis-9.4", headings=4, run_in_s=0.0),
     "refusal": _refusal,
+    "stages": _stages,
 }
 
 
@@ -107,6 +173,8 @@ def child(case: str, repeat: int) -> dict:
     key = "search_s" if case == "scenario" else "total_s"  # the thesis compares the search alone
     med = statistics.median(r[key] for r in rows)
     out = {k: v for k, v in rows[-1].items() if k != "total_s"}
+    if "stages_cpu_s" in rows[-1]:  # the least CPU of each stage over the runs: the steadiest figure on a shared machine
+        out["stages_cpu_s"] = {k: round(min(r["stages_cpu_s"][k] for r in rows), 3) for k in rows[-1]["stages_cpu_s"]}
     if "cpu_s" in rows[-1]:  # CPU time of the process: what the wall clock would be on an idle machine (no threads here)
         out["median_cpu_s"] = statistics.median(r["cpu_s"] for r in rows)
     out.update(median_s=med, timed=key, median_total_s=statistics.median(r["total_s"] for r in rows), runs_s=[round(r["total_s"], 3) for r in rows], target_s=TARGETS[case], ratio_to_target=med / TARGETS[case],

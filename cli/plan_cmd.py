@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -56,6 +57,17 @@ def stage(text: str, quiet: bool):
         yield
 
 
+def design_conflict(counts: str | None, scenario: str | None, **design: object) -> None:
+    """Refuse design options (``--criterion``, ``--mean-subtraction``, ``--trial-length``) beside
+    ``--counts`` or ``--scenario``: those choose the manoeuvres without a design, so the options
+    would be ignored without a word."""
+    given = [f"--{k.replace('_', '-')}" for k, v in design.items() if v is not None]
+    chooser = "--counts" if counts is not None else "--scenario" if scenario is not None else None
+    if given and chooser:
+        raise UserError(f"{given[0]}: sets the experiment design, but {chooser} chooses the manoeuvres without one: "
+                        f"drop {' and '.join(given)} or {chooser}")
+
+
 def print_summary(result, summary: dict, files: dict[str, Path]) -> None:
     from rich.console import Console
     from rich.table import Table
@@ -104,8 +116,10 @@ def register(app: typer.Typer) -> None:
         goal: str | None = typer.Option(None, "--goal", help="LAT,LON[,HEADING_DEG] (default: the map's goal feature)"),
         counts: str | None = typer.Option(None, "--counts", help="NAME=N,... uses per informative primitive (default: run the design)"),
         scenario: str | None = typer.Option(None, "--scenario", help="a named example instead of the design: thesis-9.4"),
-        criterion: str = typer.Option("D", "--criterion", help="design criterion: D, A or E (as shiptrial design)"),
-        mean_subtraction: str = typer.Option("complete", "--mean-subtraction", help="none, batchwise (7.53) or complete (7.57)"),
+        criterion: str | None = typer.Option(None, "--criterion", help="design criterion: D, A or E (as shiptrial design; "
+                                                                      "default D)"),
+        mean_subtraction: str | None = typer.Option(None, "--mean-subtraction", help="none, batchwise (7.53) or complete (7.57) "
+                                                                                    "(default complete)"),
         trial_length: float | None = typer.Option(None, "--trial-length", help="trial length in seconds the design is rounded to "
                                                                               "(default: every library primitive once)"),
         resolution: float | None = typer.Option(None, "--resolution", help="lattice spacing in metres (default ~4 ship lengths)"),
@@ -135,6 +149,9 @@ def register(app: typer.Typer) -> None:
         from primitives.io import atomic_output_dir
         from primitives.ship import load_profile
 
+        design_conflict(counts, scenario, criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length)
+        criterion = "D" if criterion is None else criterion
+        mean_subtraction = "complete" if mean_subtraction is None else mean_subtraction
         validate_plan_options(resolution=resolution, margin=margin, headings=headings, start=start, goal=goal,
                               counts=counts, size=size, out=out, seed=seed, scenario=scenario, criterion=criterion,
                               mean_subtraction=mean_subtraction, trial_length=trial_length, run_in=run_in,
@@ -168,22 +185,28 @@ def register(app: typer.Typer) -> None:
 
 
 def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bool) -> dict[str, Path]:
-    """Every output into the (temporary) directory ``tmp``. The PDF trial card, the longest
-    single output, is written by a forked child process meanwhile (see :func:`card_pdf_beside`)."""
+    """Every output into the (temporary) directory ``tmp``. The PDF trial card, the plan picture
+    and the design ratios figure are written by a forked child process meanwhile (see :func:`beside`)."""
     from maps.export import default_path, export_all
     from maps.export.chart import plan_chart
-    from maps.output import write_outputs
+    from maps.output import plot_plan, write_outputs
 
     exports = result.feasible and not no_export
     chart = plan_chart(result, sea) if exports else None  # one chart for every export
-    wait = card_pdf_beside(result, chart, t0, default_path(result, "card", tmp).with_suffix(".pdf")) if exports else None
-    try:
-        files = write_outputs(result, sea, tmp)
-        if td is not None:
-            from expdesign.report import plot_ratios
+    wait = None
+    if exports:
+        from maps.export.card import write_card_pdf
 
-            plot_ratios(td.design, tmp / "design-ratios.png")
-            files["design_ratios_png"] = tmp / "design-ratios.png"
+        pdf_path = default_path(result, "card", tmp).with_suffix(".pdf")
+        jobs = [(pdf_path, "the PDF trial card", lambda: write_card_pdf(result, pdf_path, chart, t0)),
+                (tmp / "plan.png", "the plan picture", lambda: plot_plan(result, sea, tmp / "plan.png"))]
+        if td is not None:
+            jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(td, tmp)))
+        wait = beside(jobs)
+    try:
+        files = write_outputs(result, sea, tmp, plot=not exports)
+        if td is not None and not exports:
+            _design_ratios(td, tmp)
         if exports:
             with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
                 crew = export_all(result, tmp, sea_map=chart, start=t0, pdf=False, staged=False)  # tmp: atomic_output_dir's
@@ -191,54 +214,71 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
         if wait:
             wait(quiet=True)  # no child outlives the command; the first error is the one to report
         raise
-    pdf = wait() if wait else None
-    if exports:
+    if td is not None:
+        files["design_ratios_png"] = tmp / "design-ratios.png"
+    if wait:
+        pdf_path, png_path = wait()[:2]
+        files = {**{k: v for k, v in files.items() if k in ("plan_json", "trajectory_geojson")}, "plot": png_path,
+                 **{k: v for k, v in files.items() if k not in ("plan_json", "trajectory_geojson")}}
         keys = list(crew)
         keys.insert(keys.index("card") + 1, "card_pdf")
-        files.update((k, pdf if k == "card_pdf" else crew[k]) for k in keys)
+        files.update((k, pdf_path if k == "card_pdf" else crew[k]) for k in keys)
     return files
 
 
-def card_pdf_beside(result, chart, t0, path: Path):
-    """Start writing the PDF trial card to ``path``; returns a function that waits for it and
-    returns the path (raising the writer's error).
+def _design_ratios(td, out: Path) -> Path:
+    from expdesign.report import plot_ratios
 
-    On Linux a forked child writes it while the caller writes everything else: the PDF's text
-    pages cost as much CPU as all other outputs together, and a second core does them at the
-    same time (the same figures and bytes as in one process). Elsewhere it is written here.
+    plot_ratios(td.design, out / "design-ratios.png")
+    return out / "design-ratios.png"
+
+
+def beside(jobs: list[tuple[Path, str, Callable[[], object]]]):
+    """Start writing ``jobs`` ((path, what, writer) each); returns a function that waits for them
+    and returns their paths (raising the first writer's error, naming its file).
+
+    On Linux a forked child writes them while the caller writes everything else: the outputs
+    are drawn on both cores at once (the same figures and bytes as in one process). Elsewhere
+    they are written here.
     """
     import os
 
     from maps.export import ExportError
-    from maps.export.card import write_card_pdf
 
+    paths = [p for p, _, _ in jobs]
     if not sys.platform.startswith("linux"):
-        write_card_pdf(result, path, chart, t0)
-        return lambda quiet=False: path
+        for _, _, job in jobs:
+            job()
+        return lambda quiet=False: paths
     read, write = os.pipe()
     pid = os.fork()
-    if pid == 0:  # the child: write the PDF, report an error through the pipe, never return
+    if pid == 0:  # the child: write the files, report an error through the pipe, never return
         code = 1
         try:
             os.close(read)
             # never write to a stream another thread of the parent may hold a lock on; the old streams
             # are never flushed here (os._exit): what they buffered is the parent's to write
             sys.stdout = sys.stderr = open(os.devnull, "w")
-            write_card_pdf(result, path, chart, t0)
+            for path, what, job in jobs:
+                try:
+                    job()
+                except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent
+                    os.write(write, f"{path.name}: writing {what} failed: {type(exc).__name__}: {exc}".encode(errors="replace")[:4000])
+                    raise
             code = 0
-        except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent
-            os.write(write, f"{type(exc).__name__}: {exc}".encode(errors="replace")[:4000])
+        except BaseException:  # noqa: BLE001
+            pass
         finally:
             os._exit(code)
     os.close(write)
 
-    def wait(quiet: bool = False) -> Path:
+    def wait(quiet: bool = False) -> list[Path]:
         with os.fdopen(read, "rb") as fh:
             msg = fh.read().decode(errors="replace")
         _, status = os.waitpid(pid, 0)
         if os.waitstatus_to_exitcode(status) != 0 and not quiet:
-            raise ExportError(f"{path.name}: writing the PDF trial card failed: {msg or f'exit status {status}'}")
-        return path
+            raise ExportError(msg or f"{paths[0].name}: writing it failed (exit status {status})")
+        return paths
 
     return wait
 

@@ -35,13 +35,12 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
         box = (min(box[0], wx[0]), min(box[1], wy[0]), max(box[2], wx[1]), max(box[3], wy[1]))
         ax.plot([wy[0], wy[1], wy[1], wy[0], wy[0]], [wx[0], wx[0], wx[1], wx[1], wx[0]], "k:", lw=0.8, label="planning window")
     import shapely
+    from matplotlib.collections import PolyCollection
 
     clip = shapely.clip_by_rect(sea.obstacles, *box)
-    for g in getattr(clip, "geoms", [clip]):
-        if g.is_empty or g.geom_type != "Polygon":
-            continue
-        xs, ys = g.exterior.xy
-        ax.fill(ys, xs, color="#d8c8a0", ec="#8a7a50", lw=0.5)
+    # one collection for every obstacle (a map has hundreds of islands): one draw call, not a patch each
+    rings = [np.asarray(g.exterior.coords)[:, ::-1] for g in getattr(clip, "geoms", [clip]) if not g.is_empty and g.geom_type == "Polygon"]
+    ax.add_collection(PolyCollection(rings, facecolors="#d8c8a0", edgecolors="#8a7a50", linewidths=0.5, zorder=1))
     if plan.track.size:
         colors = plt.cm.tab10(np.linspace(0, 1, 10))
         names = sorted({s.primitive for s in plan.steps if s.segment == "informative"})
@@ -75,9 +74,9 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     return out
 
 
-def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path) -> dict[str, Path]:
-    """plan.json, trajectory.geojson and plan.png (the track in its planning window) in
-    ``out_dir`` (atomic writes).
+def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = True) -> dict[str, Path]:
+    """plan.json, trajectory.geojson and (``plot``) plan.png (the track in its planning window,
+    :func:`plot_plan`) in ``out_dir`` (atomic writes).
 
     plan.json carries the chart around the track (``plan.stats['chart']``: land, shallow and
     other no-go water, depth areas) so that ``shiptrial export`` draws the same map and keeps
@@ -96,5 +95,6 @@ def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path) -> dict[str, Pat
     files = {"plan_json": atomic_write_text(out / "plan.json", plan.to_json())}
     if len(plan.track) >= 2:  # a LineString needs two positions; a failed search has no track
         files["trajectory_geojson"] = write_geojson(plan, out / "trajectory.geojson", overlay=False)
-    files["plot"] = plot_plan(plan, sea, out / "plan.png")
+    if plot:
+        files["plot"] = plot_plan(plan, sea, out / "plan.png")
     return files

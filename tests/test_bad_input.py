@@ -209,6 +209,11 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["plan"], "--run-in", [*FLOATS_BAD, "1e9"], named=True)
     add(["plan"], "--max-memory", [*FLOATS_BAD, "0", "1e9"], named=True)
     add(["plan"], "--vessel-name", VESSEL_NAMES_BAD, named=True)
+    # design options beside --counts or --scenario (which plan without a design): refused, not ignored
+    add(["plan", "--counts", "tau12=1"], "--criterion", ["A"], named=True)
+    add(["plan", "--counts", "tau12=1"], "--mean-subtraction", ["none"], named=True)
+    add(["plan", "--scenario", "thesis-9.4"], "--trial-length", ["3600"], named=True)
+    add(["plan", "--scenario", "thesis-9.4"], "--criterion", ["D"], named=True)
     # export
     for plan in ["{missing}", "{dir}", "{binary}", "{notjson}", "{rec}", "{cfg}"]:
         cases.append((f"export PLAN {plan}", ["export", plan, "--format", "gpx", "--out", "{tmp}/o.gpx"]))

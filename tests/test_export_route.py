@@ -252,10 +252,14 @@ def test_plan_json_carries_the_chart_and_exports_the_same_without_the_map(azi_pl
     assert all(f["properties"]["segment"] in ("run-in", "informative", "transit") for f in traj["features"])
 
 
-def test_card_map_draws_land_shallow_and_depth_areas(azi_plan, tmp_path):
+@pytest.mark.parametrize("hatch_lines", [False, True], ids=["png", "pdf-card"])
+def test_card_map_draws_land_shallow_and_depth_areas(azi_plan, tmp_path, hatch_lines):
+    """Both ways the map is drawn: with matplotlib's hatch pattern (PNG figures) and with the
+    hatching as line geometry (the PDF card's SVG, which fpdf2 reads without patterns)."""
     import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
 
-    from maps.export.plots import draw_map
+    from maps.export.plots import HATCH_LEGEND, draw_map
 
     _, fc = _land_beside_zigzag(azi_plan)
     fc["features"] += [
@@ -269,11 +273,17 @@ def test_card_map_draws_land_shallow_and_depth_areas(azi_plan, tmp_path):
     embed_chart(plan, fc)
     fig, ax = plt.subplots()
     try:
-        draw_map(ax, plan)  # from the plan's own chart
+        draw_map(ax, plan, hatch_lines=hatch_lines)  # from the plan's own chart
         labels = ax.get_legend_handles_labels()[1]
+        hatched = [a for a in ax.patches if a.get_hatch()]
+        hatch_segments = sum(len(c.get_segments()) for c in ax.collections if isinstance(c, LineCollection))
+        leg = ax.legend(handler_map=HATCH_LEGEND)
+        key = leg.legend_handles[labels.index("shallow / restricted (no-go)")]
     finally:
         plt.close(fig)
     assert "land" in labels and "shallow / restricted (no-go)" in labels
+    assert (hatch_segments > 0 and not hatched) if hatch_lines else (hatched and hatch_segments == 0)
+    assert key is not None
     assert any(lab.startswith("depth areas 30-30 m") for lab in labels)
     assert "transit" in labels
 
@@ -296,6 +306,8 @@ def test_card_pdf_prints_every_row_and_embeds_truetype_fonts(tmp_path):
     assert "rows 1-44 of 50" in text and "rows 45-50 of 50 (page 3)" in text.replace("(continued), ", "")
     rows = [int(m) for m in re.findall(r"^\s*(\d+)\s+transit\s", text, flags=re.M)]
     assert sorted(set(rows)) == list(range(1, 51))
+    # the figures' words are text in the embedded fonts too (map ticks, states axes), not outlines
+    assert "time from start [min]" in text and "speed over ground [kn]" in text and re.search(r"60°0\d\.\d{3}′N", text)
 
 
 # -- vessel name -------------------------------------------------------------------------------

@@ -40,7 +40,7 @@ from maps.export._common import (
     waypoints,
 )
 from maps.export.chart import plan_chart
-from maps.export.plots import PlanFigures, draw_map, plt
+from maps.export.plots import HATCH_LEGEND, PlanFigures, draw_map, plt
 from maps.export.route import build_route
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes, atomic_write_text
@@ -260,22 +260,34 @@ def _n_table_pages(rows: list) -> int:
     return max(1, -(-len(rows) // ROWS_PER_PAGE))
 
 
+def page1_layout(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> tuple[list[str], list[str], float, float]:
+    """Page 1's summary lines, abort box lines, the abort box's top and the map's top (figure fractions)."""
+    d_head, _ = design_rows(plan)
+    lines = _summary(plan, t0, vessel, sea_map) + d_head
+    y = 0.935 - 0.017 * len(lines)
+    abort = ["ABORT the manoeuvre (stop, steer clear) if:"] + [f"  - {a}" for a in abort_criteria(plan)]
+    return lines, abort, y - 0.006, y - 0.09
+
+
+def page1_map_figure(plan: Plan, sea_map: Any, top: float, *, hatch_lines: bool = False, fig=None):
+    """The map of page 1 (axes below ``top``, legend below the map, never over the track) on an
+    A4 figure (``fig``, else a new one); ``hatch_lines``: see :func:`maps.export.plots.draw_map`."""
+    fig = fig or plt.figure(figsize=A4)
+    ax = fig.add_axes((0.1, 0.2, 0.85, top - 0.22))
+    draw_map(ax, plan, sea_map, hatch_lines=hatch_lines)
+    ax.legend(fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.05), ncol=3, framealpha=0.9, handler_map=HATCH_LEGEND)
+    return fig
+
+
 def _page1(plan: Plan, t0: datetime, sea_map: Any, vessel: str):
     fig = plt.figure(figsize=A4)
     fig.text(0.05, 0.965, f"SEA TRIAL CARD  -  {vessel}", fontsize=15, fontweight="bold", va="top")
-    y = 0.935
-    d_head, _ = design_rows(plan)
-    for line in _summary(plan, t0, vessel, sea_map) + d_head:
-        fig.text(0.05, y, line, fontsize=8.5, va="top")
-        y -= 0.017
-    abort = ["ABORT the manoeuvre (stop, steer clear) if:"] + [f"  - {a}" for a in abort_criteria(plan)]
-    fig.text(0.05, y - 0.006, "\n".join(abort), fontsize=8.5, va="top", color="#a00000",
+    lines, abort, y_abort, top = page1_layout(plan, t0, sea_map, vessel)
+    for k, line in enumerate(lines):
+        fig.text(0.05, 0.935 - 0.017 * k, line, fontsize=8.5, va="top")
+    fig.text(0.05, y_abort, "\n".join(abort), fontsize=8.5, va="top", color="#a00000",
              bbox={"boxstyle": "round,pad=0.4", "fc": "#fff3f3", "ec": "#a00000"})
-    top = y - 0.09
-    ax = fig.add_axes((0.1, 0.2, 0.85, top - 0.22))
-    draw_map(ax, plan, sea_map)
-    # legend below the map, never over the track
-    ax.legend(fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.05), ncol=3, framealpha=0.9)
+    page1_map_figure(plan, sea_map, top, fig=fig)
     fig.text(0.05, 0.02, "Manoeuvres in sailing order: next page(s). Numbers on the map are step numbers; "
              "stars are execute points.", fontsize=7.5, color="0.3")
     return fig
@@ -358,21 +370,17 @@ def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None =
 
 def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None,
                    vessel: str | None = None, figures: PlanFigures | None = None) -> Path:
-    """The printable card (A4 PDF, TrueType fonts embedded: ``pdf.fonttype`` 42); ``figures``:
-    the plan's shared figures (see :class:`maps.export.plots.PlanFigures`)."""
-    import matplotlib
-    from matplotlib.backends.backend_pdf import PdfPages
+    """The printable card (A4 PDF, TrueType fonts embedded; written with fpdf2, see
+    :mod:`maps.export.cardpdf`): the pages of :func:`iter_card_figures`. ``figures``: the plan's
+    shared figures (see :class:`maps.export.plots.PlanFigures`)."""
+    from maps.export.cardpdf import card_pdf_bytes
 
-    buf = io.BytesIO()
-    # No creation date: the same plan must give the same bytes (reproducible outputs).
-    with matplotlib.rc_context({"pdf.fonttype": 42}), PdfPages(buf, metadata={"CreationDate": None}) as pdf:
-        for f in iter_card_figures(plan, sea_map, start, vessel, figures):
-            try:
-                pdf.savefig(f)
-            finally:
-                if figures is None or not figures.owns(f):
-                    plt.close(f)
-    return atomic_write_bytes(path, buf.getvalue())
+    check_plan(plan)
+    t0 = resolve_start(plan, start)
+    sea_map = plan_chart(plan, sea_map)  # one chart for the route, summary and map (a map file is read once)
+    with PlanFigures(plan, sea_map) as own:
+        data = card_pdf_bytes(plan, t0, sea_map, vessel_name(plan, vessel), figures or own)
+    return atomic_write_bytes(path, data)
 
 
 def render_card_page1(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None, dpi: int = 110,

@@ -19,6 +19,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.legend_handler import HandlerPatch  # noqa: E402
+from matplotlib.patches import Rectangle  # noqa: E402
 
 from maps.export._common import KN_PER_MPS, M_PER_NM, ExportError, deg_min, step_slice  # noqa: E402
 from maps.plan import Plan  # noqa: E402
@@ -115,23 +117,34 @@ def _view(plan: Plan, pad_m: float | None) -> tuple[float, float, float, float, 
 
 
 def _draw_geom(ax, geom, view, **kw) -> bool:
-    """Fill the polygons (draw lines, points) of ``geom`` inside ``view``; True if any drawn."""
+    """Fill the polygons (draw lines, points) of ``geom`` inside ``view``; True if any drawn.
+    The polygons are one compound path (a chart has hundreds of islands: one patch to draw)."""
     from matplotlib.patches import PathPatch
     from matplotlib.path import Path as MPath
 
     if geom is None or geom.is_empty or not geom.intersects(view):
         return False
-    g = geom.intersection(view)
+    verts: list[np.ndarray] = []
+    codes: list[np.ndarray] = []
+    drawn = _collect_geom(ax, geom.intersection(view), verts, codes, kw)
+    if verts:
+        ax.add_patch(PathPatch(MPath(np.concatenate(verts), np.concatenate(codes)), **kw))
+    return drawn or bool(verts)
+
+
+def _collect_geom(ax, g, verts: list, codes: list, kw: dict) -> bool:
+    """Rings of the polygons of ``g`` into ``verts``/``codes``; lines and points drawn here."""
+    from matplotlib.path import Path as MPath
+
     drawn = False
     for p in getattr(g, "geoms", [g]):
         if p.geom_type == "Polygon" and not p.is_empty:
-            verts, codes = [], []
             for ring in [p.exterior, *p.interiors]:
-                c = np.asarray(ring.coords)
-                verts += c.tolist()
-                codes += [MPath.MOVETO] + [MPath.LINETO] * (len(c) - 2) + [MPath.CLOSEPOLY]
-            ax.add_patch(PathPatch(MPath(verts, codes), **kw))
-            drawn = True
+                c = np.asarray(ring.coords)[:, :2]
+                code = np.full(len(c), MPath.LINETO, dtype=MPath.code_type)
+                code[0], code[-1] = MPath.MOVETO, MPath.CLOSEPOLY
+                verts.append(c)
+                codes.append(code)
         elif p.geom_type in ("LineString", "LinearRing"):
             ax.plot(*p.xy, color=kw.get("edgecolor", "k"), lw=0.8, zorder=kw.get("zorder", 1))
             drawn = True
@@ -139,13 +152,61 @@ def _draw_geom(ax, geom, view, **kw) -> bool:
             ax.plot(p.x, p.y, "x", color=kw.get("edgecolor", "k"), zorder=kw.get("zorder", 1))
             drawn = True
         elif hasattr(p, "geoms"):
-            drawn = _draw_geom(ax, p, view, **kw) or drawn
+            drawn = _collect_geom(ax, p, verts, codes, kw) or drawn
     return drawn
 
 
-def _draw_chart(ax, plan: Plan, sea_map: Any, view) -> None:
+HATCH_PT = 3.0  # spacing of hatch lines (matplotlib's "////": 24 lines an inch)
+
+
+class HatchProxy(Rectangle):
+    """Legend entry of hatched water drawn with :class:`HatchHandler` (lines, not a fill pattern)."""
+
+
+class HatchHandler(HandlerPatch):
+    """Draws a :class:`HatchProxy` legend key as a filled box crossed by diagonal lines."""
+
+    def create_artists(self, legend, orig, xd, yd, width, height, fontsize, trans):
+        from matplotlib.collections import LineCollection
+
+        box = Rectangle((-xd, -yd), width, height, facecolor=orig.get_facecolor(), edgecolor=orig.get_edgecolor(), lw=0.6,
+                        transform=trans)
+        segs = []
+        for t in np.arange(-height, width, HATCH_PT):
+            a, b = max(t, 0.0), min(t + height, width)
+            segs.append([(-xd + a, -yd + a - t), (-xd + b, -yd + b - t)])
+        return [box, LineCollection(segs, colors=[orig.get_edgecolor()], linewidths=0.6, transform=trans)]
+
+
+HATCH_LEGEND = {HatchProxy: HatchHandler()}  # legend handler_map for maps drawn with hatch_lines
+
+
+def _hatch(ax, geom, view, m_per_deg: tuple[float, float], colour: str, zorder: float) -> None:
+    """Diagonal lines (rising to the right, ``HATCH_PT`` apart on the page) over ``geom`` inside
+    ``view``: hatching as line geometry, which every vector format reads (SVG patterns are not)."""
+    from matplotlib.collections import LineCollection
+    from shapely.geometry import MultiLineString
+
+    if geom is None or geom.is_empty or not geom.intersects(view):
+        return
+    g = geom.intersection(view)
+    x0, y0, x1, y1 = view.bounds
+    wx, wy = (x1 - x0) * m_per_deg[0], (y1 - y0) * m_per_deg[1]
+    fig_w, fig_h = ax.figure.get_size_inches()
+    pos = ax.get_position()
+    m_per_pt = max(wx / (pos.width * fig_w * 72.0), wy / (pos.height * fig_h * 72.0))  # the aspect shrinks one side
+    step = HATCH_PT * m_per_pt * math.sqrt(2.0)
+    cs = np.arange(-wy, wx + step, step)  # lines x - y = c in metres from the view's corner
+    lines = MultiLineString([[(x0 + c / m_per_deg[0], y0), (x0 + (c + wy) / m_per_deg[0], y1)] for c in cs])
+    cut = lines.intersection(g)
+    segs = [np.asarray(p.coords) for p in getattr(cut, "geoms", [cut]) if p.geom_type == "LineString" and not p.is_empty]
+    if segs:
+        ax.add_collection(LineCollection(segs, colors=colour, linewidths=0.6, zorder=zorder))
+
+
+def _draw_chart(ax, plan: Plan, sea_map: Any, view, hatch_lines: bool = False) -> None:
     """Depth areas (blue shades, deeper darker), land (tan) and other no-go water (hatched:
-    shallow for the ship, restricted, charted obstacles)."""
+    shallow for the ship, restricted, charted obstacles; ``hatch_lines``: see :func:`draw_map`)."""
     from maps.export.chart import plan_chart
 
     chart = plan_chart(plan, sea_map)
@@ -160,7 +221,12 @@ def _draw_chart(ax, plan: Plan, sea_map: Any, view) -> None:
             any_drawn |= _draw_geom(ax, g, view, facecolor=shades[depths.index(d)], edgecolor="#5b8db8", lw=0.4, zorder=0.5)
         if any_drawn:
             ax.fill([], [], facecolor=shades[0], edgecolor="#5b8db8", label=f"depth areas {depths[0]:g}-{depths[-1]:g} m (darker: shallower)")
-    if _draw_geom(ax, chart.no_go, view, facecolor=NO_GO_COLOUR, edgecolor="#35607d", hatch="////", lw=0.6, zorder=1):
+    if hatch_lines:
+        if _draw_geom(ax, chart.no_go, view, facecolor=NO_GO_COLOUR, edgecolor="#35607d", lw=0.6, zorder=1):
+            _hatch(ax, chart.no_go, view, _m_per_deg(view), "#35607d", 1)
+            ax.add_patch(HatchProxy((view.bounds[0], view.bounds[1]), 0, 0, facecolor=NO_GO_COLOUR, edgecolor="#35607d",
+                                    label="shallow / restricted (no-go)"))
+    elif _draw_geom(ax, chart.no_go, view, facecolor=NO_GO_COLOUR, edgecolor="#35607d", hatch="////", lw=0.6, zorder=1):
         ax.fill([], [], facecolor=NO_GO_COLOUR, edgecolor="#35607d", hatch="////", label="shallow / restricted (no-go)")
     if _draw_geom(ax, chart.land, view, facecolor=LAND_COLOUR, edgecolor="#6b5d3a", lw=0.6, zorder=1):
         ax.fill([], [], facecolor=LAND_COLOUR, edgecolor="#6b5d3a", label="land")
@@ -195,16 +261,24 @@ def _draw_track(ax, plan: Plan, numbers: bool) -> None:
     ax.plot(lon[-1], lat[-1], marker="s", ms=9, color="red", mec="k", zorder=4, ls="none", label="end")
 
 
-def draw_map(ax, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True) -> None:
+def _m_per_deg(view) -> tuple[float, float]:
+    lat = 0.5 * (view.bounds[1] + view.bounds[3])
+    return 111_320.0 * math.cos(math.radians(lat)), 111_320.0
+
+
+def draw_map(ax, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True,
+             hatch_lines: bool = False) -> None:
     """Chart (depth areas, land, shallow/restricted water), sea room (light blue), the track
     (informative manoeuvres coloured by primitive, run-ins dashed green, transit grey), execute
     points (stars), numbered manoeuvre starts, start/end marks, a scale bar and a north arrow,
-    on lon/lat axes. ``sea_map``: see the module docstring (default: the plan's own chart)."""
+    on lon/lat axes. ``sea_map``: see the module docstring (default: the plan's own chart).
+    ``hatch_lines``: hatch shallow/restricted water with drawn lines instead of a fill pattern
+    (for SVG read by other programs; the legend then needs ``handler_map=HATCH_LEGEND``)."""
     from shapely.geometry import box
 
     x0, y0, x1, y1, m_per_deg_lon, m_per_deg_lat = _view(plan, pad_m)
     view = box(x0, y0, x1, y1)
-    _draw_chart(ax, plan, sea_map, view)
+    _draw_chart(ax, plan, sea_map, view, hatch_lines)
     if sea_room:
         from maps.export.geojson import sea_room_lonlat
 
@@ -252,10 +326,18 @@ def draw_states(axes, plan: Plan) -> None:
             series.append((f"{nm} [deg]", np.degrees(v)))
         else:
             series.append((f"{nm}" + (" [rpm]" if nm.startswith("n") and nm[1:].isdigit() else ""), v))
+    from matplotlib.collections import PolyCollection
+
+    spans, span_colours = [], []
+    for st in plan.steps:
+        sl = step_slice(plan, st)
+        a, b = t_min[sl.start], t_min[sl.stop - 1]
+        spans.append([(a, 0.0), (a, 1.0), (b, 1.0), (b, 0.0)])
+        span_colours.append(step_colour(plan, st, colours))
     for ax, (label, y) in zip(axes, series):
-        for st in plan.steps:
-            sl = step_slice(plan, st)
-            ax.axvspan(t_min[sl.start], t_min[sl.stop - 1], color=step_colour(plan, st, colours), alpha=0.12, lw=0)
+        # each step's span as axvspan shades it (full height, 12 % colour), all in one collection: one artist, not a patch a step
+        ax.add_collection(PolyCollection(spans, facecolors=span_colours, alpha=0.12, linewidths=0, transform=ax.get_xaxis_transform()),
+                          autolim=False)
         if label.startswith("heading"):
             jumps = np.abs(np.diff(y)) > 180
             y = y.copy().astype(float)

@@ -1,0 +1,222 @@
+"""The printable trial card as PDF, written with fpdf2: the same pages, layout and words as the
+matplotlib pages of :mod:`maps.export.card` (:func:`maps.export.card.iter_card_figures`), in a
+fraction of the time.
+
+Why not matplotlib's PDF backend for the whole card: it lays out and draws text glyph by glyph
+through FreeType (about 3 ms a line), and the card's tables and orders are some 600 lines, so the
+text pages cost more CPU than every other output of ``plan-trial`` together. fpdf2 writes a line
+from the font's advance widths. The two figures (the map of page 1 and the states over time) are
+still drawn by matplotlib and placed as vector graphics (SVG, text in the same fonts); hatching is drawn
+as lines (:func:`maps.export.plots.draw_map` ``hatch_lines``) because fpdf2 does not read SVG
+patterns. Text is DejaVu Sans (regular and bold, matplotlib's bundled TrueType fonts), embedded as
+TrueType subsets; no creation date, so the same plan gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+from datetime import UTC, datetime
+from typing import Any
+
+from maps.export.card import (
+    A4,
+    CELL_PAD,
+    DETAIL_LINES_PER_PAGE,
+    ROWS_PER_PAGE,
+    TABLE_COLS,
+    TABLE_PAD,
+    TABLE_WIDTHS,
+    _detail_lines,
+    _table_rows,
+    design_rows,
+    page1_layout,
+    page1_map_figure,
+    step_sheets,
+)
+from maps.export.plots import PlanFigures, plt
+from maps.plan import Plan
+
+PT = 72.0  # points per inch
+W, H = A4[0] * PT, A4[1] * PT
+RED, GREY = (160, 0, 0), (77, 77, 77)
+ASCENT = 0.76  # DejaVu Sans cap height plus a little, as a fraction of the font size: matplotlib's va="top" box
+FONT = "DejaVu Sans"  # the family name matplotlib writes in its SVG text: one embedded font for both
+
+
+def _fonts() -> tuple[str, str]:
+    """Paths of matplotlib's DejaVu Sans and DejaVu Sans Bold (always shipped with matplotlib)."""
+    from matplotlib import font_manager as fm
+
+    reg = fm.findfont(fm.FontProperties(family="DejaVu Sans"), fallback_to_default=False)
+    bold = fm.findfont(fm.FontProperties(family="DejaVu Sans", weight="bold"), fallback_to_default=False)
+    return reg, bold
+
+
+EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
+
+
+def _without_date(pdf: bytes) -> bytes:
+    """The PDF with fpdf2's creation date (always written; here the fixed ``EPOCH``) blanked out
+    byte for byte, so the cross-reference offsets stay right: the same plan gives the same bytes
+    and the file claims no date."""
+    key = b"/CreationDate (D:19700101000000Z)"
+    if pdf.count(key) != 1:
+        raise RuntimeError("fpdf2 wrote the creation date in an unexpected form: cannot make the card reproducible")
+    return pdf.replace(key, b" " * len(key))
+
+
+class _Card:
+    """An fpdf2 document in points with the card's text styles; positions are given as matplotlib
+    figure fractions (x from the left, y from the bottom) so that the pages match the figures."""
+
+    def __init__(self) -> None:
+        from fpdf import FPDF
+
+        self.pdf = pdf = FPDF(unit="pt", format=(W, H))
+        pdf.set_auto_page_break(False)
+        pdf.set_margins(0, 0, 0)
+        pdf.set_creation_date(EPOCH)
+        pdf.set_producer("shiptrial")
+        reg, bold = _fonts()
+        pdf.add_font(FONT, "", reg)
+        pdf.add_font(FONT, "B", bold)
+        self.h = H
+
+    def page(self, size: tuple[float, float] = A4) -> None:
+        self.pdf.add_page(format=(size[0] * PT, size[1] * PT))
+        self.h = size[1] * PT
+
+    def text(self, fx: float, fy: float, s: str, size: float, *, bold: bool = False, colour=(0, 0, 0), va: str = "top") -> None:
+        """``s`` at figure fraction (fx, fy) with matplotlib's vertical alignment ``va``."""
+        p = self.pdf
+        p.set_font(FONT, "B" if bold else "", size)
+        p.set_text_color(*colour)
+        y = (1.0 - fy) * self.h
+        if va == "top":
+            y += ASCENT * size
+        elif va == "center":
+            y += 0.5 * ASCENT * size - 0.08 * size
+        p.text(fx * W, y, s)
+
+    def svg(self, fig, x: float = 0.0, y: float = 0.0, w: float | None = None, h: float | None = None) -> None:
+        """A matplotlib figure as vector graphics (text as outlines) at (x, y) points from the top left."""
+        import matplotlib
+
+        buf = io.BytesIO()
+        # text as SVG text in DejaVu Sans, the card's embedded font (searchable, and far cheaper for fpdf2 to
+        # read than glyph outlines); the white page is drawn first, the card's own text goes over it
+        with matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": "shiptrial-card", "font.family": "DejaVu Sans"}):
+            fig.savefig(buf, format="svg", metadata={"Date": None})
+        data = re.sub(rb"<metadata>.*?</metadata>", b"", buf.getvalue(), flags=re.S)  # fpdf2 does not read it (and says so)
+        # matplotlib's SVG user unit is the point, and it writes font sizes in px meaning those units;
+        # fpdf2 reads px as CSS pixels (3/4 point): say pt
+        data = re.sub(rb"font-size: ?([0-9.]+)px", rb"font-size: \1pt", data)
+        fw, fh = fig.get_size_inches()
+        # SVG's default fill is black, but fpdf2 leaves the page's current colours in force for
+        # elements without a fill of their own (matplotlib's text outlines): set them to black
+        self.pdf.set_fill_color(0, 0, 0)
+        self.pdf.set_draw_color(0, 0, 0)
+        self.pdf.set_text_color(0, 0, 0)
+        self.pdf.image(io.BytesIO(data), x=x, y=y, w=w or fw * PT, h=h or fh * PT)
+
+
+def _page1(doc: _Card, plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> None:
+    doc.page()
+    lines, abort, y_abort, top = page1_layout(plan, t0, sea_map, vessel)
+    fig = page1_map_figure(plan, sea_map, top, hatch_lines=True)
+    try:
+        doc.svg(fig, 0, 0, W, H)
+    finally:
+        plt.close(fig)
+    doc.text(0.05, 0.965, f"SEA TRIAL CARD  -  {vessel}", 15, bold=True)
+    for k, line in enumerate(lines):
+        doc.text(0.05, 0.935 - 0.017 * k, line, 8.5)
+    # the abort box: matplotlib's round box with pad 0.4 font sizes around 1.2-spaced lines
+    size, lead = 8.5, 1.2 * 8.5 * 1.17
+    pdf = doc.pdf
+    pdf.set_font(FONT, "", size)
+    width = max(pdf.get_string_width(a) for a in abort)
+    pad = 0.4 * size
+    x0, y0 = 0.05 * W, (1.0 - y_abort) * H
+    pdf.set_draw_color(*RED)
+    pdf.set_fill_color(255, 243, 243)
+    pdf.set_line_width(1.0)
+    pdf.rect(x0 - pad, y0 - pad, width + 2 * pad, lead * (len(abort) - 1) + ASCENT * size + 0.24 * size + 2 * pad, style="DF",
+             round_corners=True, corner_radius=pad)
+    for k, a in enumerate(abort):
+        pdf.set_text_color(*RED)
+        pdf.text(x0, y0 + ASCENT * size + k * lead, a)
+    doc.text(0.05, 0.02, "Manoeuvres in sailing order: next page(s). Numbers on the map are step numbers; "
+             "stars are execute points.", 7.5, colour=GREY, va="baseline")
+
+
+def _table(doc: _Card, cols: list[str], rows: list[list[str]], widths: list[float]) -> None:
+    """:func:`maps.export.card._draw_table` in the axes (0.03, 0.03, 0.94, 0.92) of an A4 page."""
+    if not rows:
+        return
+    ax_x, ax_y, ax_w, ax_h = 0.03 * W, 0.03 * H, 0.94 * W, 0.92 * H
+    h = ax_h / (ROWS_PER_PAGE + 1)
+    left = ax_x + ax_w * (0.5 - sum(widths) / 2)
+    edges = [left]
+    for w in widths:
+        edges.append(edges[-1] + w * ax_w)
+    top = H - (ax_y + ax_h * (1.0 - TABLE_PAD))  # from the top of the page
+    ys = [top + h * k for k in range(len(rows) + 2)]
+    pdf = doc.pdf
+    pdf.set_fill_color(232, 232, 232)
+    pdf.rect(edges[0], ys[0], edges[-1] - edges[0], h, style="F")
+    pdf.set_draw_color(0, 0, 0)
+    pdf.set_line_width(1.0)
+    for y in ys:
+        pdf.line(edges[0] - 0.5, y, edges[-1] + 0.5, y)  # projecting caps, as matplotlib's grid
+    for x in edges:
+        pdf.line(x, ys[0] - 0.5, x, ys[-1] + 0.5)
+    pdf.set_text_color(0, 0, 0)
+    for r, row in enumerate([cols, *rows]):
+        pdf.set_font(FONT, "B" if r == 0 else "", 6.5)
+        base = ys[r] + h / 2 + 0.5 * ASCENT * 6.5 - 0.08 * 6.5
+        for c, text in enumerate(row):
+            pdf.text(edges[c] + CELL_PAD * widths[c] * ax_w, base, text)
+
+
+def _table_pages(doc: _Card, plan: Plan, title: str, cols: list[str], rows: list[list[str]], widths: list[float], first: int) -> int:
+    chunks = [rows[i : i + ROWS_PER_PAGE] for i in range(0, len(rows), ROWS_PER_PAGE)] or [[]]
+    for j, chunk in enumerate(chunks):
+        doc.page()
+        a = j * ROWS_PER_PAGE + 1
+        cont = " (continued)" if j else ""
+        doc.text(0.04, 0.975, f"{plan.ship}: {title}{cont}, rows {a}-{a + len(chunk) - 1} of {len(rows)} (page {first + j})", 10,
+                 bold=not j)
+        _table(doc, cols, chunk, widths)
+    return first + len(chunks)
+
+
+def _detail_pages(doc: _Card, plan: Plan, lines: list[tuple[str, dict]], first: int) -> None:
+    for n, p in enumerate(range(0, len(lines), DETAIL_LINES_PER_PAGE)):
+        doc.page()
+        doc.text(0.05, 0.975, f"{plan.ship}: orders per step in sailing order (page {first + n})", 10, colour=GREY)
+        for i, (text, style) in enumerate(lines[p : p + DETAIL_LINES_PER_PAGE]):
+            if text:
+                doc.text(0.05, 0.95 - i * 0.0148, text, style.get("fontsize", 8.5), bold=style.get("fontweight") == "bold",
+                         colour=RED if style.get("color") == "#a00000" else (0, 0, 0))
+
+
+def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str, figures: PlanFigures) -> bytes:
+    """The card's pages (as :func:`maps.export.card.iter_card_figures` draws them) as PDF bytes;
+    ``sea_map``: the plan's chart (:func:`maps.export.chart.plan_chart`), ``figures``: the plan's
+    shared figures (the states page)."""
+    doc = _Card()
+    sheets = step_sheets(plan, t0, sea_map)
+    _page1(doc, plan, t0, sea_map, vessel)
+    page = _table_pages(doc, plan, "steps in sailing order", TABLE_COLS, _table_rows(sheets), TABLE_WIDTHS, 2)
+    _, drows = design_rows(plan)
+    if drows:
+        page = _table_pages(doc, plan, "experiment design", ["primitive", "weight", "rounded count", "planned"], drows,
+                            [0.4, 0.2, 0.2, 0.2], page)
+    _detail_pages(doc, plan, _detail_lines(sheets), page)
+    states = figures.figure("states")
+    doc.page(tuple(states.get_size_inches()))
+    doc.svg(states)
+    return _without_date(bytes(doc.pdf.output()))
+
