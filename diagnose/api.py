@@ -73,30 +73,39 @@ def _noise_scale(y: np.ndarray) -> np.ndarray:
 
 def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording],
                  new: list[int] | None = None, new_prior: float = DEFAULT_STRUCTURE_PRIOR) -> tuple[np.ndarray, str]:
-    """Output-error fit of the baseline parameters on the --fit-on recordings, each kept within
-    a factor 2 of the profile and its sign (damping stays dissipative), regularised towards it.
-    Structure terms ``new`` (value 0, :func:`diagnose.reference.extend`) are held towards zero
-    by a Gaussian prior of std ``new_prior`` x :func:`term_scales` (a ridge: one calm run does
-    not determine a rich structure, and an unregularised fit of it extrapolates badly; the
-    profile's own parameters, held as above, carry what other runs taught them).
-    Returns (theta, note); a refit that diverges is rejected and the profile kept."""
+    """Output-error fit of the baseline parameters on the --fit-on recordings. Returns
+    (theta, note); a refit that diverges is rejected and the profile kept.
+
+    In the profile's own structure (``new`` None) each parameter stays within a factor 2 of the
+    profile and keeps its sign (damping stays dissipative), regularised towards it.
+
+    With a declared structure (``new``: the indices of the terms :func:`diagnose.reference.extend`
+    added, value 0) the model is re-expressed rather than corrected: the declared terms share
+    the physics of the profile's own (delta*u_r*n and delta*u_r^2 split the rudder force the
+    profile gave to delta*u_r^2 and delta*n^2; v_r^3*U^-1 takes over from v_r*|v_r|), so the
+    profile's own parameters move with them. Every parameter is held by a Gaussian prior of std
+    ``new_prior`` x :func:`term_scales` (a ridge, the own towards the profile's value, the
+    declared towards zero) and keeps its sign (the declared ones: a DOF's own quadratic damping
+    stays dissipative), with no factor-2 bound. A term that is zero throughout the --fit-on runs
+    is not determined by them and is kept as it is (zero for a declared term)."""
     preps = [prepare(profile, r, i) for i, r in enumerate(recs)]
     model = AugmentedModel(profile, theta0, [], n_rec=len(preps))
     w = 1.0 / _noise_scale(np.concatenate([r.y for r in recs]))
     idx = list(range(model.n_base))
     P0 = model.p0()
-    r0 = np.concatenate([(p.y[1:] - model.simulate(p, P0)[0][1:]) * w for p in preps]).ravel()
-    level = np.sqrt(np.mean(r0**2)) if np.all(np.isfinite(r0)) else 1.0
-    sd = prior_sd(P0, idx, level, model.n_params)
-    if new:
+    if new is None:
+        r0 = np.concatenate([(p.y[1:] - model.simulate(p, P0)[0][1:]) * w for p in preps]).ravel()
+        level = np.sqrt(np.mean(r0**2)) if np.all(np.isfinite(r0)) else 1.0
+        sd = prior_sd(P0, idx, level, model.n_params)
+        bounds = base_bounds(P0, idx, model)
+    else:
         scale = term_scales(profile, recs)
-        # A structure term that never varies on the --fit-on runs is not determined by them: it
-        # stays at zero rather than get an unbounded prior (it would extrapolate freely elsewhere).
-        idx = [j for j in idx if not (j in new and not np.isfinite(scale[j]))]
-        new = [j for j in new if np.isfinite(scale[j])]
-        sd[new] = new_prior * scale[new]
-    P, _cov, rss = fit(model, preps, P0, idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=base_bounds(P0, idx, model),
-                       prior=(P0, sd))
+        idx = [j for j in idx if np.isfinite(scale[j])]
+        sd = np.full(model.n_params, np.inf)
+        sd[idx] = new_prior * scale[idx]
+        bounds = base_bounds(P0, [j for j in idx if P0[j] == 0.0], model)
+        bounds |= {j: ((0.0, np.inf) if P0[j] > 0 else (-np.inf, 0.0)) for j in idx if P0[j] != 0.0}
+    P, _cov, rss = fit(model, preps, P0, idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=bounds, prior=(P0, sd))
     if not np.isfinite(rss):
         return theta0, "the baseline refit on the --fit-on runs diverged: rejected, the profile's parameters are used"
     return P[: model.n_base], ""
@@ -146,8 +155,9 @@ def _misfit(profile: ShipProfile, theta: np.ndarray, recs: list[Recording]) -> f
 def fit_declared(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording]
                  ) -> tuple[ShipProfile, np.ndarray, str, list[str]]:
     """The profile extended by its declared [diagnosis] structure and fitted on the --fit-on
-    runs, the added terms held by the profile's structure prior: (profile, theta, note, added)
-    as :func:`fit_baseline` and :func:`_extended`; the profile unchanged when it adds nothing."""
+    runs, every term held by the profile's structure prior (:func:`fit_baseline`): (profile,
+    theta, note, added) as :func:`fit_baseline` and :func:`_extended`; the profile unchanged
+    when it adds nothing."""
     ext, th_ext, added = _extended(profile, theta0, declared=True)
     if not added:
         return profile, theta0, "", []

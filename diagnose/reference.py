@@ -42,8 +42,11 @@ def structure_terms(profile: ShipProfile) -> tuple[tuple[str, ...], ...]:
 
 def extend(profile: ShipProfile, declared: bool = False) -> tuple[ShipProfile, list[str]]:
     """The profile with the structure terms it lacks appended (coefficients 0), and their
-    names ("<dof>:<term>"): the profile's declared [diagnosis] structure with ``declared``,
-    else the generic hull and actuator terms of :func:`structure_terms`."""
+    names ("<dof>:<term>"): the profile's declared [diagnosis] structure with ``declared``
+    (nothing when it declares none), else the generic hull and actuator terms of
+    :func:`structure_terms`."""
+    if declared and not profile.structure_terms:
+        return profile, []
     terms, names, added = [], [], []
     want_all = profile.structure_terms if declared else None
     # a generic term only where the ship has its signals (no rudder term for a generalized-force ship)

@@ -1,8 +1,8 @@
 """A baseline structure that can hold MMG-class physics (issue 13): the term grammar's speed
 through the water U (and its negative powers) and lateral velocities at a station, evaluated by
-the one kernel; the profile's [diagnosis] structure; and its fit on a calm run (``--fit-on``),
-which must bring the simulation of another manoeuvre of the MMG KVLCC2 near the noise level
-where the profile's own structure cannot."""
+the one kernel; the profile's [diagnosis] structure; and its fit on calm runs (``--fit-on``,
+the delivery-trial manoeuvres of the MMG battery), which must bring the simulation of other
+manoeuvres of the MMG KVLCC2 to the noise level where the profile's own structure cannot."""
 
 from __future__ import annotations
 
@@ -70,7 +70,7 @@ def test_kernel_and_diagnosis_model_simulate_speed_terms_alike():
 
 def test_diagnosis_table_round_trips_and_bad_fields_are_named():
     prof = load_profile("kvlcc2")
-    assert prof.structure_terms and prof.structure_prior == 0.001
+    assert prof.structure_terms and prof.structure_prior == 1.0
     again = profile_from_dict(prof.to_dict())
     assert again.structure_terms == prof.structure_terms and again.structure_prior == prof.structure_prior
     d = prof.to_dict()
@@ -98,32 +98,37 @@ def _sim_error(prof, theta, rec: Recording, truth: Recording) -> np.ndarray:
     return np.sqrt(np.mean((yhat - truth.y) ** 2, axis=0)) / [NOISE_FULL["u"], NOISE_FULL["v"], NOISE_FULL["r"]]
 
 
+HELD_OUT = [Manoeuvre("zigzag", 10, 10, -1, 550), Manoeuvre("zigzag", 15, 15, 1, 650)]  # calm, not in CALM
+
+
 @pytest.fixture(scope="module")
 def mmg_runs():
     ship = kvlcc2(1.0)
-    runs = simulate_runs(ship, CALM + [Manoeuvre("zigzag", 10, 10, -1, 550)], self_propulsion_rps(ship), sample_time=1.0)
+    runs = simulate_runs(ship, CALM + HELD_OUT, self_propulsion_rps(ship), sample_time=1.0)
     noisy = _recordings(runs, np.random.default_rng(11), True)
-    return noisy[:1], noisy[1:], _recordings(runs[1:], None, False)
+    return noisy[: len(CALM)], noisy[len(CALM):], _recordings(runs[len(CALM):], None, False)
 
 
-def test_declared_structure_fitted_on_a_calm_run_simulates_another_zigzag_near_the_noise(mmg_runs):
-    """MMG KVLCC2 (test-side physics): fitted on a noisy 15/15 zig-zag, the kvlcc2 profile's own
-    structure misses a 10/10 zig-zag to the other side by 9.0/10.4/3.3 noise units (surge/sway/
-    yaw, RMS); with its declared structure by 4.7/2.5/0.8 (seed 11)."""
-    calm, diag, truth = mmg_runs
+def test_declared_structure_fitted_on_calm_runs_simulates_other_manoeuvres_at_the_noise(mmg_runs):
+    """MMG KVLCC2 (test-side physics), fitted on the battery's noisy calm runs (35 deg turning
+    circles both sides, 10/10 and 20/20 zig-zags): the kvlcc2 profile's own structure misses a
+    10/10 zig-zag to port and a 15/15 zig-zag by 6.4/13.2/4.2 and 4.3/12.8/4.3 noise units (surge/
+    sway/yaw, RMS); with its declared structure by 0.66/0.48/0.15 and 0.63/0.51/0.20 (seed 11)."""
+    calm, held, truth = mmg_runs
     prof = load_profile("kvlcc2")
     th_own, note = api.fit_baseline(prof, prof.params(), calm)
     assert not note
-    ext, th_ext, source, notes, rejected = api.fit_structure(prof, prof.params(), calm, diag)
+    ext, th_ext, source, notes, rejected = api.fit_structure(prof, prof.params(), calm, held)
     assert ext is not prof and not rejected and not notes and "[diagnosis]" in source
-    before, after = _sim_error(prof, th_own, diag[0], truth[0]), _sim_error(ext, th_ext, diag[0], truth[0])
-    assert np.all(np.isfinite(after))
-    assert before[1] > 8 and before[2] > 2.5, before  # the gap the structure closes
-    assert after[0] < 0.7 * before[0] and np.all(after[1:] < 0.4 * before[1:]) and after[1] < 4 and after[2] < 1.5, (before, after)
+    for rec, tr in zip(held, truth):
+        before, after = _sim_error(prof, th_own, rec, tr), _sim_error(ext, th_ext, rec, tr)
+        assert before[0] > 3 and before[1] > 5 and before[2] > 2, before  # the gap the structure closes
+        assert np.all(after < [1.0, 1.0, 0.5]), (rec.source, before, after)
 
 
 def test_structure_that_fits_the_diagnosed_runs_worse_is_not_used(mmg_runs, monkeypatch):
     calm, diag, _ = mmg_runs
+    calm = calm[3:]  # one zig-zag: the test is of the decision, not of the fit
     prof = load_profile("kvlcc2")
     real = api._misfit
     monkeypatch.setattr(api, "_misfit", lambda p, th, recs: real(p, th, recs) if p is prof else float("inf"))

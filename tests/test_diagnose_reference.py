@@ -21,6 +21,7 @@ def test_extension_adds_only_missing_terms_and_keeps_the_model():
     for have, now in zip(prof.model_terms, ext.model_terms):
         assert now[: len(have)] == have
     assert extend(ext)[1] == []  # nothing left to add
+    assert extend(prof, declared=True) == (prof, [])  # no [diagnosis] table: no declared structure, not the generic one
     full = load_profile("kvlcc2")
     assert "surge:v_r*r" not in extend(full)[1]  # the nonlinear profile already has the speed loss in turns
     sc = scenario((), 1, profile=load_profile("model-ship"))
