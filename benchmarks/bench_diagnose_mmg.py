@@ -280,11 +280,15 @@ def main(argv: list[str] | None = None) -> dict:
     out_dir = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="mmg-battery-"))
     t0 = time.perf_counter()
     if a.jobs > 1:
-        from concurrent.futures import ProcessPoolExecutor
+        from concurrent.futures import ProcessPoolExecutor, as_completed
 
         with ProcessPoolExecutor(a.jobs) as ex:
-            rows = list(ex.map(run_case, names, [out_dir] * len(names), [a.cli] * len(names), [a.joint] * len(names),
-                                [a.ship] * len(names), [a.oracle_calm] * len(names)))
+            futs = [ex.submit(run_case, n, out_dir, a.cli, a.joint, a.ship, a.oracle_calm) for n in names]
+            for f in as_completed(futs):  # progress as cases finish (a long run can be followed)
+                r = f.result()
+                print(f"  {r['case']}: {'hit' if r['hit'] else 'MISS'} {r['claimed']} ({r['cpu_s']:.0f} s CPU)",
+                      file=sys.stderr, flush=True)
+            rows = [f.result() for f in futs]
     else:
         rows = []
         for n in names:
