@@ -196,7 +196,10 @@ def _api(paths: dict[str, list[Path]], joint: bool = False, ship: str = BASELINE
         extra["n0"] = float(np.mean(load(paths["calm"])[0].channels["n"]))
     return {"findings": d.findings, "per_run": getattr(d, "per_run", None), "fit_before": d.fit_before,
             "fit_after": d.fit_after, "extra": extra, "notes": getattr(d, "notes", []),
-            "rejected": getattr(d, "rejected", [])}
+            "rejected": getattr(d, "rejected", []), "structure": getattr(d, "structure", []),
+            "baseline_rms_over_noise": d.location.get("rms_over_noise"),
+            "screened": [{"round": sc["round"], "top": [{k: c[k] for k in ("key", "heldout_delta_aic", "runs_improved", "p_value")}
+                                                         for c in sc["candidates"][:5]]} for sc in d.screened]}
 
 
 def _cli(paths: dict[str, list[Path]]) -> dict:
@@ -258,7 +261,8 @@ def run_case(name: str, out_dir: Path, use_cli: bool, joint: bool = False, ship:
     return {"case": name, "truth": g.truth, "truth_text": truth_text(g.truth), "claimed": claimed(out), "hit": hit,
             "why": why, "diagnose_s": secs, "generate_s": t_gen, "cpu_s": cpu, "per_run": out.get("per_run"),
             "findings": out.get("findings"), "error": out.get("error"), "notes": out.get("notes"),
-            "rejected": out.get("rejected")}
+            "rejected": out.get("rejected"), "structure": out.get("structure"), "screened": out.get("screened"),
+            "baseline_rms_over_noise": out.get("baseline_rms_over_noise")}
 
 
 def main(argv: list[str] | None = None) -> dict:
