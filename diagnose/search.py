@@ -39,6 +39,7 @@ MUCH_WORSE = 15.0  # percentage points of fit a finding may cost one channel of 
 MAX_TRIES = 8  # nonlinear refits per round (in order of held-out AIC)
 MAX_PASSED = 3  # refitted candidates that pass, compared by held-out AIC before one is kept
 PRIOR_REL = 0.3  # prior std of a baseline parameter, relative to its profile value
+HOLD_RATIO = 0.5  # a baseline parameter the --fit-on runs pin to under this fraction of its prior std is held
 OWN_DAMPING = {(0, "u_r*|u_r|"), (1, "v_r*|v_r|"), (2, "r*|r|")}
 
 
@@ -124,6 +125,36 @@ def prior_sd(ref: np.ndarray, idx: list[int], level: float, n_params: int) -> np
     return sd
 
 
+def calm_prior_sd(model: AugmentedModel, calm: list[Prepared], w: np.ndarray, ref: np.ndarray, idx: list[int],
+                  sd: np.ndarray) -> np.ndarray:
+    """Prior std of the baseline parameters ``idx`` once they were fitted on the --fit-on (calm)
+    runs: the marginal posterior of that fit, Gauss-Newton about ``ref`` - the calm runs'
+    noise-weighted Gram matrix, scaled by their residual level and colour as an output-error
+    covariance (seed 004), plus the profile prior ``sd``. A refit on the diagnosed runs then
+    moves a parameter only as far as the calm runs leave it free: what they determine cannot
+    absorb an effect of the diagnosed runs (a thrust loss into the thrust coefficient, a delay
+    into the rudder derivatives), while what they leave open is refitted as before."""
+    out = sd.copy()
+    if not calm or not idx:
+        return out
+    parts = Parts(list(range(len(calm))), [np.ones(p.n, bool) for p in calm], [p.rec.source for p in calm], [], [])
+    g = grams(model, calm, parts, ref, idx, w, model.steps(calm, ref))
+    r = np.concatenate([res[0, 1:] * w for res in residuals(model, calm, ref[None])])
+    if not (np.all(np.isfinite(g.G)) and np.all(np.isfinite(r))):
+        return out
+    scale = float(np.mean(r**2)) * inflation(r.ravel())  # residual variance per sample, colour-corrected
+    H = g.G.sum(axis=(0, 1)) / max(scale, 1e-12)
+    H += np.diag([1.0 / sd[j] ** 2 if np.isfinite(sd[j]) and sd[j] > 0 else 0.0 for j in idx])
+    try:
+        var = np.diag(np.linalg.pinv(H))
+    except np.linalg.LinAlgError:
+        return out
+    for k, j in enumerate(idx):
+        if var[k] > 0 and np.isfinite(var[k]):
+            out[j] = min(out[j], float(np.sqrt(var[k])))
+    return out
+
+
 def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int, tuple[float, float]]:
     """Physical bounds of a candidate's parameters."""
     new = model.slot_of[c.key]
@@ -132,7 +163,9 @@ def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int,
     if c.effect == "inertia_change":
         f = plausible.MAX_INERTIA_FACTOR
         return {new[0]: (1.0 / f - 1.0, f - 1.0)}
-    if c.key.startswith(("resistance_change:", "thrust_loss:constant:")):
+    if c.slots[0].kind == "thrust":  # a thrust change beyond the plausible limit stays visible at the bound
+        return {new[0]: (-1.0, 0.95)}
+    if c.key.startswith("resistance_change:"):
         term = c.slots[0].term
         j = surge_base_index(model, term)
         if j is not None and P[j] != 0:
@@ -147,18 +180,27 @@ class _Search:
     """State of one selection: the model, the data, the folds and the prior."""
 
     def __init__(self, model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray,
-                 base_free: list[int], alpha: float):
+                 base_free: list[int], alpha: float, calm: list[Prepared] | None = None):
         self.model, self.preps, self.val, self.w, self.alpha = model, preps, list(val_preps), w, alpha
         self.all = preps + self.val
         self.parts: Parts = make_parts(preps, self.val)
         self.diag_parts = [q for q, i in enumerate(self.parts.prep) if i < len(preps)]
         self.base_free = list(base_free)
+        self.held: list[int] = []
         self.ref = model.p0()
         self.wr = [w] * len(preps)  # one weight per output and recording (the same for every recording)
         r0 = stack(residuals(model, preps, self.ref[None]), self.wr)[0]
         self.tau = inflation(r0)
         level = np.sqrt(float(r0 @ r0) / max(len(r0), 1) * self.tau)
         self.sd = prior_sd(self.ref, self.base_free, level, model.n_params)
+        if calm:
+            # what the --fit-on runs determine is held as fitted there: refitted on the diagnosed runs
+            # it would absorb their effect (a thrust loss into the thrust coefficient, a delay into the
+            # rudder derivatives) and leave the candidate nothing to explain
+            sd_calm = calm_prior_sd(model, calm, w, self.ref, self.base_free, self.sd)
+            self.held = [j for j in self.base_free if not sd_calm[j] > HOLD_RATIO * self.sd[j]]
+            self.base_free = [j for j in self.base_free if j not in self.held]
+            self.sd = sd_calm
         self.prior = (self.ref, self.sd) if self.base_free else None
         self.bounds = base_bounds(self.ref, self.base_free, model)
         self.n_cand = max(len(model.candidates), 1)
@@ -187,11 +229,16 @@ class _Search:
 
 def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, val_preps: list[Prepared] | None = None,
            base_free: list[int] | None = None, max_rounds: int = 5, alpha: float = ALPHA,
-           inputs: np.ndarray | None = None) -> SearchResult:
-    """Greedy forward selection with backtracking over ``model.candidates``."""
-    S = _Search(model, preps, val_preps or [], w, base_free or [], alpha)
+           inputs: np.ndarray | None = None, calm_preps: list[Prepared] | None = None) -> SearchResult:
+    """Greedy forward selection with backtracking over ``model.candidates``. ``calm_preps``: the
+    --fit-on runs the baseline was fitted on; they hold the refit of ``base_free`` on the
+    diagnosed runs (:func:`calm_prior_sd`)."""
+    S = _Search(model, preps, val_preps or [], w, base_free or [], alpha, calm_preps)
     x0 = model.x0_params()
     out = SearchResult(model.p0(), np.zeros((0, 0)), [], base_free=list(S.base_free))
+    if S.held:
+        out.notes.append(f"{len(S.held)} of {len(S.held) + len(S.base_free)} baseline parameters are determined by the "
+                         "--fit-on runs and held as fitted there (a finding is what differs from those runs)")
     free = list(S.base_free) + x0
     P, cov, rss = S.refit(out.P, free, {}, max_iter=20)
     if not np.isfinite(rss) and S.base_free:
