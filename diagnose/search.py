@@ -14,6 +14,10 @@ Each round:
    validation runs the refitted model must also pass the held-out test by simulation;
 4. after a candidate is kept, each earlier one is tested again without it (backtracking).
 Rounds repeat until no candidate passes. The control (no missing physics) ends with nothing.
+
+With --fit-on runs the baseline parameters those runs determine are held as fitted there (a
+finding is what differs from them); only the ones they leave open are refitted, held by the
+marginal posterior of the --fit-on fit (:func:`calm_prior_sd`).
 """
 
 from __future__ import annotations
