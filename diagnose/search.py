@@ -15,9 +15,9 @@ Each round:
 4. after a candidate is kept, each earlier one is tested again without it (backtracking).
 Rounds repeat until no candidate passes. The control (no missing physics) ends with nothing.
 
-With --fit-on runs the baseline parameters those runs determine are held as fitted there (a
-finding is what differs from them); only the ones they leave open are refitted, held by the
-marginal posterior of the --fit-on fit (:func:`calm_prior_sd`).
+With --fit-on runs the baseline parameters those runs determine at least as well as the
+diagnosed runs are held as fitted there (a finding is what differs from them); only the others
+are refitted on the diagnosed runs (:func:`held_by_fit_on`).
 """
 
 from __future__ import annotations
@@ -43,7 +43,6 @@ MUCH_WORSE = 15.0  # percentage points of fit a finding may cost one channel of 
 MAX_TRIES = 8  # nonlinear refits per round (in order of held-out AIC)
 MAX_PASSED = 3  # refitted candidates that pass, compared by held-out AIC before one is kept
 PRIOR_REL = 0.3  # prior std of a baseline parameter, relative to its profile value
-HOLD_RATIO = 0.5  # a baseline parameter the --fit-on runs pin to under this fraction of its prior std is held
 OWN_DAMPING = {(0, "u_r*|u_r|"), (1, "v_r*|v_r|"), (2, "r*|r|")}
 
 
@@ -129,34 +128,35 @@ def prior_sd(ref: np.ndarray, idx: list[int], level: float, n_params: int) -> np
     return sd
 
 
-def calm_prior_sd(model: AugmentedModel, calm: list[Prepared], w: np.ndarray, ref: np.ndarray, idx: list[int],
-                  sd: np.ndarray) -> np.ndarray:
-    """Prior std of the baseline parameters ``idx`` once they were fitted on the --fit-on (calm)
-    runs: the marginal posterior of that fit, Gauss-Newton about ``ref`` - the calm runs'
-    noise-weighted Gram matrix, scaled by their residual level and colour as an output-error
-    covariance (seed 004), plus the profile prior ``sd``. A refit on the diagnosed runs then
-    moves a parameter only as far as the calm runs leave it free: what they determine cannot
-    absorb an effect of the diagnosed runs (a thrust loss into the thrust coefficient, a delay
-    into the rudder derivatives), while what they leave open is refitted as before."""
-    out = sd.copy()
-    if not calm or not idx:
-        return out
-    parts = Parts(list(range(len(calm))), [np.ones(p.n, bool) for p in calm], [p.rec.source for p in calm], [], [])
-    g = grams(model, calm, parts, ref, idx, w, model.steps(calm, ref))
-    r = np.concatenate([res[0, 1:] * w for res in residuals(model, calm, ref[None])])
+def _marginal_var(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, ref: np.ndarray, idx: list[int]
+                  ) -> np.ndarray | None:
+    """Marginal variance of the parameters ``idx`` fitted on ``preps`` alone (Gauss-Newton about
+    ``ref``, the noise-weighted Gram matrix scaled by the residual level and colour as an
+    output-error covariance, seed 004); None when the runs cannot be simulated there."""
+    parts = Parts(list(range(len(preps))), [np.ones(p.n, bool) for p in preps], [p.rec.source for p in preps], [], [])
+    g = grams(model, preps, parts, ref, idx, w, model.steps(preps, ref))
+    r = np.concatenate([res[0, 1:] * w for res in residuals(model, preps, ref[None])])
     if not (np.all(np.isfinite(g.G)) and np.all(np.isfinite(r))):
-        return out
+        return None
     scale = float(np.mean(r**2)) * inflation(r.ravel())  # residual variance per sample, colour-corrected
-    H = g.G.sum(axis=(0, 1)) / max(scale, 1e-12)
-    H += np.diag([1.0 / sd[j] ** 2 if np.isfinite(sd[j]) and sd[j] > 0 else 0.0 for j in idx])
-    try:
-        var = np.diag(np.linalg.pinv(H))
-    except np.linalg.LinAlgError:
-        return out
-    for k, j in enumerate(idx):
-        if var[k] > 0 and np.isfinite(var[k]):
-            out[j] = min(out[j], float(np.sqrt(var[k])))
-    return out
+    var = np.diag(np.linalg.pinv(g.G.sum(axis=(0, 1)))) * scale
+    return np.where(np.isfinite(var) & (var > 0), var, np.inf)
+
+
+def held_by_fit_on(model: AugmentedModel, calm: list[Prepared], diag: list[Prepared], w: np.ndarray, ref: np.ndarray,
+                   idx: list[int]) -> list[int]:
+    """The baseline parameters the --fit-on runs determine at least as well as the diagnosed
+    runs do (marginal variances of a fit on each alone, :func:`_marginal_var`). They are held as
+    fitted on the --fit-on runs: refitted on the diagnosed runs they would absorb the effect
+    there (a thrust loss into the thrust coefficient, a delay into the rudder derivatives) and
+    leave the candidate nothing to explain. The others, which only the diagnosed runs excite
+    (say the turning circle's), are refitted as before."""
+    if not calm or not idx:
+        return []
+    v_calm, v_diag = _marginal_var(model, calm, w, ref, idx), _marginal_var(model, diag, w, ref, idx)
+    if v_calm is None or v_diag is None:
+        return []
+    return [j for j, a, b in zip(idx, v_calm, v_diag) if a <= b]
 
 
 def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int, tuple[float, float]]:
@@ -197,14 +197,8 @@ class _Search:
         self.tau = inflation(r0)
         level = np.sqrt(float(r0 @ r0) / max(len(r0), 1) * self.tau)
         self.sd = prior_sd(self.ref, self.base_free, level, model.n_params)
-        if calm:
-            # what the --fit-on runs determine is held as fitted there: refitted on the diagnosed runs
-            # it would absorb their effect (a thrust loss into the thrust coefficient, a delay into the
-            # rudder derivatives) and leave the candidate nothing to explain
-            sd_calm = calm_prior_sd(model, calm, w, self.ref, self.base_free, self.sd)
-            self.held = [j for j in self.base_free if not sd_calm[j] > HOLD_RATIO * self.sd[j]]
-            self.base_free = [j for j in self.base_free if j not in self.held]
-            self.sd = sd_calm
+        self.held = held_by_fit_on(model, calm or [], preps, w, self.ref, self.base_free)
+        self.base_free = [j for j in self.base_free if j not in self.held]
         self.prior = (self.ref, self.sd) if self.base_free else None
         self.bounds = base_bounds(self.ref, self.base_free, model)
         self.n_cand = max(len(model.candidates), 1)
@@ -235,8 +229,8 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, val_p
            base_free: list[int] | None = None, max_rounds: int = 5, alpha: float = ALPHA,
            inputs: np.ndarray | None = None, calm_preps: list[Prepared] | None = None) -> SearchResult:
     """Greedy forward selection with backtracking over ``model.candidates``. ``calm_preps``: the
-    --fit-on runs the baseline was fitted on; they hold the refit of ``base_free`` on the
-    diagnosed runs (:func:`calm_prior_sd`)."""
+    --fit-on runs the baseline was fitted on; what they determine of ``base_free`` is held
+    (:func:`held_by_fit_on`)."""
     S = _Search(model, preps, val_preps or [], w, base_free or [], alpha, calm_preps)
     x0 = model.x0_params()
     out = SearchResult(model.p0(), np.zeros((0, 0)), [], base_free=list(S.base_free))
