@@ -101,8 +101,47 @@ def _wind_error(params: dict, chk: dict) -> str | None:
     return None if err <= tol else f"wind coefficients {100 * err:.0f} % off (weighted), tolerance {100 * tol:.0f} %"
 
 
+# Froude power (of sqrt(lambda)) of each checked quantity, model -> full scale. Per-sample
+# coefficients: the sample count is the same at both scales (the sample time scales as a time),
+# so a coefficient c of dy = c * f(y) scales as [dy] / [f]: r|r| in yaw (rate / rate^2) as
+# sqrt(lambda), the relative-wind drags as speed / speed^2 (surge, sway) and rate / speed^2 (yaw).
+FROUDE_POWER = {"speed_mps": 1, "delay_s": 1, "value": 1, "wind_surge": -1, "wind_sway": -1, "wind_yaw": -3}
+BIAS_POWER = {"u": 1, "v": 1, "r": -1}
+
+
+def full_scale_truth(truth: dict) -> dict:
+    """The truth at the scale of the findings. A model-scale case is generated (and its truth
+    stated) at model scale, but the recordings are Froude-scaled to the full-scale ship before
+    the diagnosis (``conform``), so every finding is a full-scale value: this converts the truth
+    (value and tolerance) to full scale; angles, percentages and names stay as they are. A
+    full-scale truth is returned unchanged."""
+    lam = float(truth.get("scale_factor") or 1.0)
+    if truth.get("scale") != "model" or lam == 1.0:
+        return truth
+    s = math.sqrt(lam)
+    checks = {}
+    for eff, chk in truth["checks"].items():
+        new = {}
+        for key, spec in chk.items():
+            spec = list(spec)
+            if key == "wind":
+                spec[0] = {k: v * s ** FROUDE_POWER[k] for k, v in spec[0].items()}
+            elif key == "bias":
+                spec[0] *= s ** BIAS_POWER[chk["signal"][0]]
+            elif key in FROUDE_POWER:
+                f = s ** FROUDE_POWER[key]
+                spec[0] *= f
+                if spec[2] == "abs":  # an absolute tolerance carries the unit too
+                    spec[1] *= f
+            new[key] = spec
+        checks[eff] = new
+    return {**truth, "checks": checks, "scale_of_checks": f"full (Froude-scaled from model, lambda = {lam:g})"}
+
+
 def score(truth: dict, out: dict) -> tuple[bool, list[str]]:
-    """(hit, reasons for a miss) of one diagnosis output (``out``: findings, per_run, fits)."""
+    """(hit, reasons for a miss) of one diagnosis output (``out``: findings, per_run, fits),
+    judged at full scale (:func:`full_scale_truth`), the scale of the findings."""
+    truth = full_scale_truth(truth)
     why = []
     if out.get("error"):
         return False, [f"error: {out['error']}"]
@@ -157,7 +196,10 @@ def _api(paths: dict[str, list[Path]], joint: bool = False, ship: str = BASELINE
         extra["n0"] = float(np.mean(load(paths["calm"])[0].channels["n"]))
     return {"findings": d.findings, "per_run": getattr(d, "per_run", None), "fit_before": d.fit_before,
             "fit_after": d.fit_after, "extra": extra, "notes": getattr(d, "notes", []),
-            "rejected": getattr(d, "rejected", [])}
+            "rejected": getattr(d, "rejected", []), "structure": getattr(d, "structure", []),
+            "baseline_rms_over_noise": d.location.get("rms_over_noise"),
+            "screened": [{"round": sc["round"], "top": [{k: c[k] for k in ("key", "heldout_delta_aic", "runs_improved", "p_value")}
+                                                         for c in sc["candidates"][:5]]} for sc in d.screened]}
 
 
 def _cli(paths: dict[str, list[Path]]) -> dict:
@@ -201,9 +243,11 @@ def truth_text(t: dict) -> str:
     return f"{t['concealed']} {json.dumps(t['magnitude'])}"
 
 
-def run_case(name: str, out_dir: Path, use_cli: bool, joint: bool = False, ship: str = BASELINE) -> dict:
+def run_case(name: str, out_dir: Path, use_cli: bool, joint: bool = False, ship: str = BASELINE,
+             oracle: bool = False) -> dict:
     t0 = time.perf_counter()
-    g = generate(case(name), visibility=True)
+    c0 = time.process_time()
+    g = generate(case(name), visibility=True, oracle_calm=oracle)
     paths = write_case(g, out_dir / name)
     t_gen = time.perf_counter() - t0
     t1 = time.perf_counter()
@@ -212,11 +256,13 @@ def run_case(name: str, out_dir: Path, use_cli: bool, joint: bool = False, ship:
     except Exception as exc:  # a user error or a crash: both are misses, said as such
         out = {"error": f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"}
     secs = time.perf_counter() - t1
+    cpu = time.process_time() - c0  # this process's CPU (the CLI's child process is not counted)
     hit, why = score(g.truth, out)
     return {"case": name, "truth": g.truth, "truth_text": truth_text(g.truth), "claimed": claimed(out), "hit": hit,
-            "why": why, "diagnose_s": secs, "generate_s": t_gen, "per_run": out.get("per_run"),
+            "why": why, "diagnose_s": secs, "generate_s": t_gen, "cpu_s": cpu, "per_run": out.get("per_run"),
             "findings": out.get("findings"), "error": out.get("error"), "notes": out.get("notes"),
-            "rejected": out.get("rejected")}
+            "rejected": out.get("rejected"), "structure": out.get("structure"), "screened": out.get("screened"),
+            "baseline_rms_over_noise": out.get("baseline_rms_over_noise")}
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -229,6 +275,8 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--ship", default=BASELINE, help=f"baseline profile of the API runs (default {BASELINE})")
     ap.add_argument("--joint", action="store_true", help="experimental: extended baseline structure refitted jointly on "
                     "the calm run and the diagnosed runs, candidates on the diagnosed runs only (diagnose.reference)")
+    ap.add_argument("--oracle-calm", action="store_true", help="study: the --fit-on runs are the diagnosed and "
+                    "validation manoeuvres without the effect (isolates the search from the baseline's misfit)")
     a = ap.parse_args(argv)
     names = [n.strip() for n in a.cases.split(",") if n.strip()] or [c.name for c in CASES]
     for n in names:
@@ -236,30 +284,36 @@ def main(argv: list[str] | None = None) -> dict:
     out_dir = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="mmg-battery-"))
     t0 = time.perf_counter()
     if a.jobs > 1:
-        from concurrent.futures import ProcessPoolExecutor
+        from concurrent.futures import ProcessPoolExecutor, as_completed
 
         with ProcessPoolExecutor(a.jobs) as ex:
-            rows = list(ex.map(run_case, names, [out_dir] * len(names), [a.cli] * len(names), [a.joint] * len(names),
-                                [a.ship] * len(names)))
+            futs = [ex.submit(run_case, n, out_dir, a.cli, a.joint, a.ship, a.oracle_calm) for n in names]
+            for f in as_completed(futs):  # progress as cases finish (a long run can be followed)
+                r = f.result()
+                print(f"  {r['case']}: {'hit' if r['hit'] else 'MISS'} {r['claimed']} ({r['cpu_s']:.0f} s CPU)",
+                      file=sys.stderr, flush=True)
+            rows = [f.result() for f in futs]
     else:
         rows = []
         for n in names:
-            rows.append(run_case(n, out_dir, a.cli, a.joint, a.ship))
+            rows.append(run_case(n, out_dir, a.cli, a.joint, a.ship, a.oracle_calm))
             r = rows[-1]
             print(f"  {n}: {'hit' if r['hit'] else 'MISS'} ({r['diagnose_s']:.1f} s)", file=sys.stderr, flush=True)
-    print(f"{'case':22s} {'truth':44s} {'visible u/v/r':>15s}  {'claimed':48s} {'result':6s} {'time s':>7s}")
+    print(f"{'case':22s} {'truth':44s} {'visible u/v/r':>15s}  {'claimed':48s} {'result':6s} {'time s':>7s} {'cpu s':>7s}")
     for r in rows:
         vis = r["truth"].get("visibility_rms_over_noise", {})
         vt = "/".join(f"{vis[k]:.1f}" for k in "uvr") if vis else "-"
         print(f"{r['case']:22s} {r['truth_text'][:44]:44s} {vt:>15s}  {r['claimed'][:48]:48s} "
-              f"{'hit' if r['hit'] else 'MISS':6s} {r['diagnose_s']:7.1f}")
+              f"{'hit' if r['hit'] else 'MISS':6s} {r['diagnose_s']:7.1f} {r['cpu_s']:7.1f}")
         for w in r["why"]:
             print(f"{'':24s}- {w}")
     hits = sum(r["hit"] for r in rows)
     times = sorted(r["diagnose_s"] for r in rows)
+    cpus = sorted(r["cpu_s"] for r in rows)
     print(f"hit rate {hits}/{len(rows)} = {100 * hits / max(len(rows), 1):.0f} %; diagnosis time median "
-          f"{times[len(times) // 2]:.1f} s, max {times[-1]:.1f} s; wall {time.perf_counter() - t0:.0f} s "
-          f"({'CLI' if a.cli else 'API'}); recordings in {out_dir}")
+          f"{times[len(times) // 2]:.1f} s, max {times[-1]:.1f} s; case CPU (generation + diagnosis) median "
+          f"{cpus[len(cpus) // 2]:.1f} s, total {sum(cpus):.0f} s; wall {time.perf_counter() - t0:.0f} s "
+          f"({'CLI' if a.cli else 'API'}{', oracle calm runs' if a.oracle_calm else ''}); recordings in {out_dir}")
     res = {"hits": hits, "cases": len(rows), "rows": rows}
     if a.json:
         from primitives.io import atomic_write_text, to_jsonable

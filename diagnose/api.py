@@ -265,7 +265,10 @@ def run(
                                                 reference=calm_preps)
     else:
         model = AugmentedModel(profile, theta0, cands, n_rec=len(preps))
-    if any(str(r.meta.get("input_hold", "sampled")).lower() != "zoh" for r in recordings):
+    # Sampled inputs act half a sample late on a baseline that has its own timing (the profile's
+    # parameters); a baseline fitted on --fit-on runs learnt their timing, half sample included, so a
+    # delay is then measured against those runs as it is.
+    if not fit_on and any(str(r.meta.get("input_hold", "sampled")).lower() != "zoh" for r in recordings):
         model.half_sample = 0.5 * ts
     _check_simulable(model, preps + val_preps, "fitted" if fit_on else "given")
     y_all = np.concatenate([r.y for r in recordings])
@@ -277,7 +280,10 @@ def run(
     # the declared structure terms stay as fitted on the calm runs: the search refits only the profile's own
     base_free = (own if own is not None else list(range(model.n_base))) if fit_on else []
     inputs = np.concatenate([p.inputs for p in preps])
-    result = select(model, preps + calm_preps, w, val_preps=val_preps, base_free=base_free, max_rounds=max_rounds, inputs=inputs)
+    # the --fit-on runs hold the baseline refit on the diagnosed runs (a joint fit has them among the runs already)
+    held_by = [prepare(profile, r) for r in fit_on] if fit_on and not joint_reference else None
+    result = select(model, preps + calm_preps, w, val_preps=val_preps, base_free=base_free, max_rounds=max_rounds, inputs=inputs,
+                    calm_preps=held_by)
     notes += result.notes
     P, free, steps = result.P, result.free, list(result.steps)
     P0x = P0.copy()

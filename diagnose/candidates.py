@@ -13,7 +13,8 @@ Every candidate adds one or more *slots* to the augmented simulator (:mod:`diagn
 - ``offset``: a constant input offset, the input acts as ``x - x0`` (neutral rudder angle,
   thruster misalignment);
 - ``bias``: a constant sensor bias, measured = true + b (seed 004 th15..th17);
-- ``scale``: an inertia change of one DOF, its increment scaled by ``1 + s`` (seed 000 5.2).
+- ``scale``: an inertia change of one DOF, its increment scaled by ``1 + s`` (seed 000 5.2);
+- ``thrust``: a thrust loss, every surge term in the thrust signal scaled by ``1 - f``.
 
 Names of effects are fixed by BRIEF section 7.
 """
@@ -35,7 +36,7 @@ COUPLING = {0: ["v_r*r", "r^2", "v_r^2"], 1: ["u_r*r", "u_r*v_r"], 2: ["u_r*v_r"
 
 @dataclass(frozen=True)
 class Slot:
-    """One augmentation parameter: kind in (term, current, delay, offset, bias, scale)."""
+    """One augmentation parameter: kind in (term, current, delay, offset, bias, scale, thrust)."""
 
     kind: str
     name: str
@@ -60,6 +61,11 @@ def canonical_term(term: str) -> frozenset[str]:
 
 def _has(profile: ShipProfile, dof: int, term: str) -> bool:
     return canonical_term(term) in {canonical_term(t) for t in profile.model_terms[dof]}
+
+
+def _factors(term: str) -> set[str]:
+    """The signals a term multiplies (powers, absolute values and lever arms dropped)."""
+    return {f.strip("|").split("^")[0].split("@")[0] for f in term.split("*")}
 
 
 def thrust_signal(profile: ShipProfile) -> str:
@@ -116,12 +122,12 @@ def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[li
     else:
         cands.append(Candidate("thrust_loss", "thrust_loss", (Slot("term", "coefficient", dof=0, term=f"u_r*{tsig}"),), dof=0,
                                description=f"thrust falling with speed (u_r*{tsig})"))
+    thrust_terms = [t for t in profile.model_terms[0] if tsig in _factors(t)]
+    if thrust_terms:  # one fraction of the whole thrust (every term in n): a fouled propeller, a changed thrust deduction
+        cands.append(Candidate("thrust_loss", "thrust_loss:fraction", (Slot("thrust", "loss_fraction", dof=0),), dof=0,
+                               description=f"thrust lower by a constant fraction ({', '.join(thrust_terms)} scaled together)"))
     for t in profile.model_terms[0]:  # surge-model changes: name a surge deficiency instead of masking it
-        factors = {f.strip("|").split("^")[0] for f in t.split("*")}
-        if factors & set(profile.inputs) or tsig in factors:
-            cands.append(Candidate("thrust_loss", f"thrust_loss:constant:{t}", (Slot("term", "coefficient", dof=0, term=t),), dof=0,
-                                   description=f"thrust changed by a constant fraction (thrust deduction / loss, {t})"))
-        elif factors <= {"u", "u_r"}:
+        if _factors(t) <= {"u", "u_r"}:
             cands.append(Candidate("resistance_change", f"resistance_change:{t}", (Slot("term", "coefficient", dof=0, term=t),),
                                    dof=0, description=f"hull resistance changed ({t})"))
     for i in range(3):

@@ -55,6 +55,10 @@ def describe(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
         return {"signal": "uvr"[c.slots[0].index], "bias": float(vals[0]), "bias_std": sd[0]}
     if c.effect in ("quadratic_damping", "missing_coupling"):
         return {"term": c.slots[0].term, "value": float(vals[0]), "value_std": sd[0], "dof": DOFS[c.dof]}
+    if c.slots[0].kind == "thrust":
+        f = float(vals[0])
+        return {"loss_percent": 100.0 * f, "loss_percent_std": None if sd[0] is None else 100.0 * sd[0],
+                "loss_fraction": f, "terms": [model.base[k][1] for k in model.thrust_terms]}
     if c.effect in ("resistance_change", "thrust_loss") and c.key != "thrust_loss":
         term = c.slots[0].term
         j = surge_base_index(model, term)

@@ -77,6 +77,10 @@ class AugmentedModel:
         # half a sample later than the sample (zero-order-hold convention of nu(k+1) = nu(k) + ...):
         # the delay slot is the model's shift, the physical delay is that plus half a sample.
         self.half_sample = 0.0
+        # surge terms that hold the propeller thrust (n or tau_x among the factors): a "thrust" slot scales them all
+        tsig = {"rudder_propeller": "n"}.get(profile.actuator, "tau_x")
+        self.thrust_terms = [j for j, (i, t, *_r) in enumerate(self.base)
+                             if i == 0 and tsig in {f.strip("|").split("^")[0] for f in t.split("*")}]
         self._slot_fn = {k: compile_term(s.term) for k, s in enumerate(self.slots, start=self.n_base) if s.kind == "term"}
 
     def p0(self) -> np.ndarray:
@@ -121,6 +125,10 @@ class AugmentedModel:
                 plan["bias"][:, s.index] += col
             elif s.kind == "scale":
                 plan["scale"][:, s.dof] += col
+            elif s.kind == "thrust":  # a loss of a fraction col of the thrust: every thrust term scaled by 1 - col
+                for k in self.thrust_terms:
+                    i, _t, names, fn = self.base[k]
+                    plan["terms"].append((i, -col * P[:, k], _t, names, fn))
         return plan
 
     def _exogenous(self, prep: Prepared, plan: dict, B: int) -> dict[str, np.ndarray]:
@@ -236,7 +244,7 @@ class AugmentedModel:
                 typ = 0.01 * (np.std(x[:, s.index]) + 1e-9)
             elif s.kind == "bias":
                 typ = 0.01 * (np.std(y[:, s.index]) + 1e-9)
-            elif s.kind == "scale":
+            elif s.kind in ("scale", "thrust"):
                 typ = 0.01
             else:
                 typ = 1e-3

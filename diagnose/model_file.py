@@ -43,7 +43,11 @@ def model_dict(d: Diagnosis) -> dict:
     chosen = [next(c for c in m.candidates if c.key == f["key"]) for f in kept]
     for c in chosen:
         idx = m.slot_of[c.key]
-        if c.effect in ("quadratic_damping", "missing_coupling", "thrust_loss", "resistance_change"):
+        if c.slots[0].kind == "thrust":  # every thrust term scaled by 1 - loss fraction
+            for k in m.thrust_terms:
+                i, t = m.base[k][:2]
+                vals[i][terms[i].index(t)] *= 1.0 - float(d.P[idx[0]])
+        elif c.effect in ("quadratic_damping", "missing_coupling", "thrust_loss", "resistance_change"):
             term = c.slots[0].term
             if term in terms[c.dof]:
                 k = terms[c.dof].index(term)

@@ -14,6 +14,10 @@ Each round:
    validation runs the refitted model must also pass the held-out test by simulation;
 4. after a candidate is kept, each earlier one is tested again without it (backtracking).
 Rounds repeat until no candidate passes. The control (no missing physics) ends with nothing.
+
+With --fit-on runs the baseline parameters those runs determine at least as well as the
+diagnosed runs are held as fitted there (a finding is what differs from them); only the others
+are refitted on the diagnosed runs (:func:`held_by_fit_on`).
 """
 
 from __future__ import annotations
@@ -124,6 +128,37 @@ def prior_sd(ref: np.ndarray, idx: list[int], level: float, n_params: int) -> np
     return sd
 
 
+def _marginal_var(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, ref: np.ndarray, idx: list[int]
+                  ) -> np.ndarray | None:
+    """Marginal variance of the parameters ``idx`` fitted on ``preps`` alone (Gauss-Newton about
+    ``ref``, the noise-weighted Gram matrix scaled by the residual level and colour as an
+    output-error covariance, seed 004); None when the runs cannot be simulated there."""
+    parts = Parts(list(range(len(preps))), [np.ones(p.n, bool) for p in preps], [p.rec.source for p in preps], [], [])
+    g = grams(model, preps, parts, ref, idx, w, model.steps(preps, ref))
+    r = np.concatenate([res[0, 1:] * w for res in residuals(model, preps, ref[None])])
+    if not (np.all(np.isfinite(g.G)) and np.all(np.isfinite(r))):
+        return None
+    scale = float(np.mean(r**2)) * inflation(r.ravel())  # residual variance per sample, colour-corrected
+    var = np.diag(np.linalg.pinv(g.G.sum(axis=(0, 1)))) * scale
+    return np.where(np.isfinite(var) & (var > 0), var, np.inf)
+
+
+def held_by_fit_on(model: AugmentedModel, calm: list[Prepared], diag: list[Prepared], w: np.ndarray, ref: np.ndarray,
+                   idx: list[int]) -> list[int]:
+    """The baseline parameters the --fit-on runs determine at least as well as the diagnosed
+    runs do (marginal variances of a fit on each alone, :func:`_marginal_var`). They are held as
+    fitted on the --fit-on runs: refitted on the diagnosed runs they would absorb the effect
+    there (a thrust loss into the thrust coefficient, a delay into the rudder derivatives) and
+    leave the candidate nothing to explain. The others, which only the diagnosed runs excite
+    (say the turning circle's), are refitted as before."""
+    if not calm or not idx:
+        return []
+    v_calm, v_diag = _marginal_var(model, calm, w, ref, idx), _marginal_var(model, diag, w, ref, idx)
+    if v_calm is None or v_diag is None:
+        return []
+    return [j for j, a, b in zip(idx, v_calm, v_diag) if a <= b]
+
+
 def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int, tuple[float, float]]:
     """Physical bounds of a candidate's parameters."""
     new = model.slot_of[c.key]
@@ -132,7 +167,9 @@ def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int,
     if c.effect == "inertia_change":
         f = plausible.MAX_INERTIA_FACTOR
         return {new[0]: (1.0 / f - 1.0, f - 1.0)}
-    if c.key.startswith(("resistance_change:", "thrust_loss:constant:")):
+    if c.slots[0].kind == "thrust":  # a thrust change beyond the plausible limit stays visible at the bound
+        return {new[0]: (-1.0, 0.95)}
+    if c.key.startswith("resistance_change:"):
         term = c.slots[0].term
         j = surge_base_index(model, term)
         if j is not None and P[j] != 0:
@@ -147,18 +184,21 @@ class _Search:
     """State of one selection: the model, the data, the folds and the prior."""
 
     def __init__(self, model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray,
-                 base_free: list[int], alpha: float):
+                 base_free: list[int], alpha: float, calm: list[Prepared] | None = None):
         self.model, self.preps, self.val, self.w, self.alpha = model, preps, list(val_preps), w, alpha
         self.all = preps + self.val
         self.parts: Parts = make_parts(preps, self.val)
         self.diag_parts = [q for q, i in enumerate(self.parts.prep) if i < len(preps)]
         self.base_free = list(base_free)
+        self.held: list[int] = []
         self.ref = model.p0()
         self.wr = [w] * len(preps)  # one weight per output and recording (the same for every recording)
         r0 = stack(residuals(model, preps, self.ref[None]), self.wr)[0]
         self.tau = inflation(r0)
         level = np.sqrt(float(r0 @ r0) / max(len(r0), 1) * self.tau)
         self.sd = prior_sd(self.ref, self.base_free, level, model.n_params)
+        self.held = held_by_fit_on(model, calm or [], preps, w, self.ref, self.base_free)
+        self.base_free = [j for j in self.base_free if j not in self.held]
         self.prior = (self.ref, self.sd) if self.base_free else None
         self.bounds = base_bounds(self.ref, self.base_free, model)
         self.n_cand = max(len(model.candidates), 1)
@@ -187,11 +227,16 @@ class _Search:
 
 def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, val_preps: list[Prepared] | None = None,
            base_free: list[int] | None = None, max_rounds: int = 5, alpha: float = ALPHA,
-           inputs: np.ndarray | None = None) -> SearchResult:
-    """Greedy forward selection with backtracking over ``model.candidates``."""
-    S = _Search(model, preps, val_preps or [], w, base_free or [], alpha)
+           inputs: np.ndarray | None = None, calm_preps: list[Prepared] | None = None) -> SearchResult:
+    """Greedy forward selection with backtracking over ``model.candidates``. ``calm_preps``: the
+    --fit-on runs the baseline was fitted on; what they determine of ``base_free`` is held
+    (:func:`held_by_fit_on`)."""
+    S = _Search(model, preps, val_preps or [], w, base_free or [], alpha, calm_preps)
     x0 = model.x0_params()
     out = SearchResult(model.p0(), np.zeros((0, 0)), [], base_free=list(S.base_free))
+    if S.held:
+        out.notes.append(f"{len(S.held)} of {len(S.held) + len(S.base_free)} baseline parameters are determined by the "
+                         "--fit-on runs and held as fitted there (a finding is what differs from those runs)")
     free = list(S.base_free) + x0
     P, cov, rss = S.refit(out.P, free, {}, max_iter=20)
     if not np.isfinite(rss) and S.base_free:

@@ -30,3 +30,49 @@ def test_scoring_names_every_miss():
     hit, why = score(truth, wrong)
     assert not hit and len(why) == 5, why  # extra effect, speed, direction, a worse held-out run, NaN
     assert score({"effects": [], "checks": {}}, {"error": "RecordingError: x"})[0] is False
+
+
+def test_model_scale_truth_is_judged_at_full_scale():
+    """The findings of a model-scale case are full scale (the recordings are Froude-scaled to the
+    ship): the truth is converted before scoring, so a right full-scale answer is a hit."""
+    from benchmarks.bench_diagnose_mmg import full_scale_truth
+    from tests.physics.mmg_battery import case, truth_of
+    from tests.physics.mmg_kvlcc2 import Environment, kvlcc2
+
+    c = case("model-current-0.6")
+    ship = kvlcc2(c.scale)
+    t = truth_of(c, ship, [], Environment(), ship.time_scale)
+    assert t["checks"]["current"]["speed_mps"][0] < 0.1  # stated at model scale
+    full = full_scale_truth(t)["checks"]["current"]
+    assert abs(full["speed_mps"][0] - 0.6) < 1e-9 and full["toward_deg"][0] == 300.0
+    good = {"findings": [{"effect": "current", "parameters": {"speed_mps": 0.62, "toward_deg": 310.0}}]}
+    assert score(t, good) == (True, [])
+    assert not score(t, {"findings": [{"effect": "current", "parameters": {"speed_mps": 0.089, "toward_deg": 300.0}}]})[0]
+    c = case("model-delay-3")
+    d = full_scale_truth(truth_of(c, ship, [], Environment(), ship.time_scale))["checks"]["actuator_delay"]["delay_s"]
+    assert abs(d[0] - 3.0) < 1e-9 and abs(d[1] - 0.3) < 1e-9  # value and absolute tolerance
+    assert full_scale_truth(truth_of(case("current-0.7"), kvlcc2(1.0), [], Environment(), 1.0))["checks"]["current"][
+        "speed_mps"][0] == 0.7
+
+
+def test_wind_truth_froude_powers():
+    """The per-sample wind coefficients of a model-scale run, converted, equal those of the
+    Froude-similar full-scale run (checks the powers of the conversion, not just its form)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from benchmarks.bench_diagnose_mmg import full_scale_truth
+    from tests.physics.mmg_battery import MODEL_SCALE, _wind_truth
+    from tests.physics.mmg_kvlcc2 import kvlcc2
+
+    k = np.arange(200.0)
+    u, v, psi = 7.5 - 0.01 * k, 0.3 * np.sin(k / 20), 0.02 * k
+    wind = np.array([-10.0, 6.0])
+    s = np.sqrt(MODEL_SCALE)
+    full = _wind_truth(kvlcc2(1.0), [SimpleNamespace(u=u, v=v, psi=psi)], wind, 1.0)["coefficients"]
+    model = _wind_truth(kvlcc2(MODEL_SCALE), [SimpleNamespace(u=u / s, v=v / s, psi=psi)], wind / s, 1.0 / s)["coefficients"]
+    truth = {"scale": "model", "scale_factor": MODEL_SCALE, "checks": {"wind": {"wind": [model, 0.4, "wind"]}}}
+    conv = full_scale_truth(truth)["checks"]["wind"]["wind"][0]
+    for key in full:
+        assert abs(conv[key] / full[key] - 1.0) < 1e-6, (key, conv[key], full[key])

@@ -109,6 +109,7 @@ class Generated:
     noisy: dict[str, list[dict[str, np.ndarray]]]  # role -> per-run recorded columns
     truth: dict
     sample_time: float
+    calm_manoeuvres: list[Manoeuvre] | None = None  # None: CALM
 
 
 def _setup(c: Case) -> tuple[MMGShip, MMGShip, Environment, dict]:
@@ -245,9 +246,19 @@ def _visibility(c: Case, ship: MMGShip, n: float, runs: list[Run], Ts: float) ->
     return out
 
 
-def generate(c: Case, *, visibility: bool = False) -> Generated:
+def oracle_manoeuvres() -> list[Manoeuvre]:
+    """The calm runs of the oracle study: the diagnosed and the validation manoeuvres themselves."""
+    return DIAGNOSE + VALIDATE
+
+
+def generate(c: Case, *, visibility: bool = False, oracle_calm: bool = False) -> Generated:
     """Simulate every run of the case (seeded) and its ground truth (with ``visibility``: also
-    how far the effect moves the diagnosed runs, in noise units)."""
+    how far the effect moves the diagnosed runs, in noise units).
+
+    With ``oracle_calm`` the calm (--fit-on) runs are instead the diagnosed and validation
+    manoeuvres without the effect (:func:`oracle_manoeuvres`, noise from their own seeded
+    stream): a baseline fitted on them carries almost no structural misfit, which isolates the
+    search's own defects (a study, not a user's situation). The other runs are unchanged."""
     ship, eff_ship, env, act = _setup(c)
     Ts = ship.time_scale  # 1 s at full scale, Froude-scaled for a model
     n = self_propulsion_rps(kvlcc2(c.scale))  # the approach rpm the crew sets, for every run
@@ -262,7 +273,14 @@ def generate(c: Case, *, visibility: bool = False) -> Generated:
     truth = truth_of(c, eff_ship, diag, env, Ts)
     if visibility:
         truth["visibility_rms_over_noise"] = _visibility(c, ship, n, diag, Ts)
-    return Generated(c, calm, diag, val, noisy, truth, Ts)
+    if not oracle_calm:
+        return Generated(c, calm, diag, val, noisy, truth, Ts)
+    mans = oracle_manoeuvres()
+    calm = simulate_runs(ship, mans, n, sample_time=Ts, lead_in_s=LEAD_IN_S)
+    rng_o = np.random.default_rng([c.seed, 1])  # its own stream: the other runs' noise is unchanged
+    noisy["calm"] = [_measure(r, ship, rng_o, c.noise, None, None) for r in calm]
+    truth["oracle_calm"] = True
+    return Generated(c, calm, diag, val, noisy, truth, Ts, calm_manoeuvres=mans)
 
 
 def csv_text(cols: dict[str, np.ndarray], meta: dict[str, str]) -> str:
@@ -282,7 +300,7 @@ def write_case(g: Generated, out: str | Path) -> dict[str, list[Path]]:
             "scale": "model" if c.scale != 1.0 else "full", "scale_factor": f"{c.scale:g}",
             "generated": "tests/physics/mmg_battery.py (MMG standard model, Yasukawa & Yoshimura 2015)"}
     paths: dict[str, list[Path]] = {}
-    mans = {"calm": CALM, "diagnose": DIAGNOSE, "validate": VALIDATE}
+    mans = {"calm": g.calm_manoeuvres or CALM, "diagnose": DIAGNOSE, "validate": VALIDATE}
     for role, runs in g.noisy.items():
         paths[role] = []
         for m, cols in zip(mans[role], runs):
