@@ -76,6 +76,8 @@ class SimResult:
     y east, psi); y: (B, N+1, 3) measured u, v, r (a profile with the roll DOF adds a fourth
     column: roll rate p in nu and y, roll angle phi in eta); psi_meas, pos_meas: measured heading and
     position; current_ne, wind_ne: (B, N, 2) the environment each step saw; inputs: (B, N, m).
+    Without measurement noise ``y`` is a read-only view of ``nu``, and a current or wind without
+    a random part a read-only broadcast of its mean: copy an array before writing into it.
     """
 
     t: np.ndarray
@@ -300,22 +302,18 @@ def simulate(
     ts = profile.sample_time
     nd = profile.n_dof  # 3, or 4 with roll: nu (u, v, r, p), eta (x, y, psi, phi)
 
-    cur = np.broadcast_to(np.asarray(dist.current_ne, float), (batch, n_steps, 2)).copy()
-    if dist.current_offset_std:
-        cur += rng.normal(0.0, dist.current_offset_std, (batch, 1, 2))
-    if dist.current_sample_std:
-        cur += rng.normal(0.0, dist.current_sample_std, (batch, n_steps, 2))
-    wind = np.broadcast_to(np.asarray(dist.wind_ne, float), (batch, n_steps, 2)).copy()
-    if dist.wind_sample_std:
-        wind += rng.normal(0.0, dist.wind_sample_std, (batch, n_steps, 2))
+    # the random draws in this order: current offset, current per sample, wind per sample, process, measurement
+    cur = _environment(dist.current_ne, (batch, n_steps), rng, dist.current_offset_std, dist.current_sample_std)
+    wind = _environment(dist.wind_ne, (batch, n_steps), rng, 0.0, dist.wind_sample_std)
     proc = _padded(dist.process_std, nd)
     w = rng.normal(0.0, 1.0, (batch, n_steps, nd)) * proc if np.any(proc) else None
 
     step = VelocityStep(terms, theta, profile.rigid_body, ts)
-    nu, eta = _time_loop(profile, step, u_in, _padded(nu0, nd), _padded(eta0, nd), cur, wind, w, batch, positions)
+    nu, eta = _time_loop(profile, step, u_in, _padded(nu0, nd), _padded(eta0, nd), _moving(cur), _moving(wind), w, batch,
+                         positions)
 
     meas = _padded(dist.measurement_std, nd)
-    y = nu + rng.normal(0.0, 1.0, nu.shape) * meas if np.any(meas) else nu.copy()
+    y = nu + rng.normal(0.0, 1.0, nu.shape) * meas if np.any(meas) else _read_only(nu)
     psi_meas = eta[..., 2] + (rng.normal(0.0, dist.heading_std, eta[..., 2].shape) if dist.heading_std else 0.0)
     pos_meas = eta[..., :2] + (rng.normal(0.0, dist.position_std, eta[..., :2].shape) if dist.position_std else 0.0)
     return SimResult(
@@ -331,6 +329,39 @@ def simulate(
     )
 
 
+def _environment(mean: tuple[float, float] | np.ndarray, shape: tuple[int, int], rng: np.random.Generator, offset_std: float,
+                 sample_std: float) -> np.ndarray:
+    """A current or air velocity (B, N, 2) over ground: ``mean``, plus an offset drawn once per
+    realisation and an i.i.d. part per sample. Without a random part it is a read-only broadcast
+    of ``mean`` (no (B, N, 2) array is filled with one constant); with one, a new array."""
+    env = np.broadcast_to(np.asarray(mean, float), shape + (2,))
+    if not (offset_std or sample_std):
+        return env
+    env = env.copy()
+    if offset_std:
+        env += rng.normal(0.0, offset_std, (shape[0], 1, 2))
+    if sample_std:
+        env += rng.normal(0.0, sample_std, shape + (2,))
+    return env
+
+
+def _moving(env: np.ndarray) -> np.ndarray | None:
+    """``env`` for the time loop, None when it is zero throughout: a zero current or wind is not
+    rotated into body axes at every step (a sixth of the loop's time in the Monte Carlo). A
+    broadcast of one constant is tested by its one value, not by all of its (B, N) copies."""
+    if env.size and not any(env.strides[:-1]):  # every realisation and sample is the same vector
+        return env if np.any(env[(0,) * (env.ndim - 1)]) else None
+    return env if np.any(env) else None
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """A read-only view of ``a``: a second name for the same numbers (the measured velocities
+    without measurement noise are the true ones) that cannot be written through by mistake."""
+    view = a.view()
+    view.flags.writeable = False
+    return view
+
+
 def _time_major_forces(profile: ShipProfile, u_in: np.ndarray) -> tuple[list[str], np.ndarray]:
     """The input signals' names and values (N, signals, 1 or B), a step's signals one block."""
     forces = profile.generalized_forces(u_in)  # each (1 or B, N)
@@ -340,9 +371,11 @@ def _time_major_forces(profile: ShipProfile, u_in: np.ndarray) -> tuple[list[str
     return list(forces), in_t
 
 
-def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: np.ndarray, eta0: np.ndarray, cur: np.ndarray,
-               wind: np.ndarray, w: np.ndarray | None, batch: int, positions: bool) -> tuple[np.ndarray, np.ndarray]:
-    """The sequential loop of :func:`simulate`: nu, eta (B, N+1, nd).
+def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: np.ndarray, eta0: np.ndarray,
+               cur: np.ndarray | None, wind: np.ndarray | None, w: np.ndarray | None, batch: int, positions: bool
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """The sequential loop of :func:`simulate`: nu, eta (B, N+1, nd); ``cur``, ``wind`` (B, N, 2)
+    or None for still water, calm air.
 
     The state is kept time-major, (N+1, nd, B), so that every step reads and writes contiguous
     rows of B values (batch-major rows are strided by the whole record); every operation is
@@ -351,8 +384,7 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     in_names, in_t = _time_major_forces(profile, u_in)
     nu_t = np.empty((n_steps + 1, nd, batch))
     nu_t[0] = np.broadcast_to(nu0, (batch, nd)).T
-    # no rotation of a zero current or wind at every step (a sixth of the loop's time in the Monte Carlo)
-    cur_t, wind_t = (np.ascontiguousarray(a.transpose(1, 2, 0)) if np.any(a) else None for a in (cur, wind))  # (N, 2, B)
+    cur_t, wind_t = (None if a is None else np.ascontiguousarray(a.transpose(1, 2, 0)) for a in (cur, wind))  # (N, 2, B)
     w_t = None if w is None else np.ascontiguousarray(w.transpose(1, 2, 0))  # (N, nd, B)
     heading = positions or nd == 4 or bool(profile.pods) or cur_t is not None or wind_t is not None or step.reads_heading
     if heading:
