@@ -29,7 +29,7 @@ from primitives.ship import (
     Thruster,
 )
 from primitives.terms import TermError, TermSet, signals_used
-from primitives.validate import MAX_PRIMITIVE_SAMPLES, check_table_keys, finite, manoeuvre_samples, positive, unknown_key
+from primitives.validate import MAX_PRIMITIVE_SAMPLES, check_table_keys, finite, manoeuvre_samples, positive
 
 # Every top-level key a profile may hold: one list, so an engineer adding a table adds one line.
 PROFILE_KEYS = frozenset({
@@ -69,6 +69,18 @@ def _check_sizes(d: dict, src: str) -> dict[str, float]:
     return sizes
 
 
+# Tables only one kind of actuator reads: in another ship's profile they would be silently ignored.
+ACTUATOR_TABLES = {"helm": "rudder_propeller", "engine": "rudder_propeller", "pods": "pods", "pod_model": "pods",
+                   "thrusters": "azimuth"}
+
+
+def _check_actuator_tables(d: dict, src: str, actuator: str) -> None:
+    """Refuse a table that only another actuator's ships read ([helm] in an azimuth profile, ...)."""
+    for key, reader in ACTUATOR_TABLES.items():
+        if d.get(key) not in (None, {}, []) and actuator != reader:  # an empty one says nothing
+            table = f"[[{key}]]" if key in ("pods", "thrusters") else f"[{key}]"
+            raise ProfileError(f"{src}: table {table} is read only in an actuator = {reader!r} profile, and this one's actuator "
+                               f"is {actuator!r}: remove {table} (or make the ship {reader!r})")
 
 
 def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
@@ -79,6 +91,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     name = _need(d, "name", src, str, "the profile name, e.g. 'my-ship'")
     sizes = _check_sizes(d, src)
     actuator, inputs = _actuator_inputs(d, src)
+    _check_actuator_tables(d, src, actuator)
     dofs, model, names, known = _model(d, src, inputs)
     sets, sim_set, ins_set = _parameter_sets(d, src, model, dofs)
     limits = _input_limits(d, src)
@@ -320,9 +333,7 @@ def _diagnosis(d: dict, src: str, dofs: tuple[str, ...], known: set[str]) -> tup
         return None, DEFAULT_STRUCTURE_PRIOR
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'diagnosis' must be a table with 'structure' (and 'structure_prior')")
-    bad = unknown_key(table, list(DIAGNOSIS_KEYS))  # its message is the diagnosis's own (tests pin it)
-    if bad:
-        raise ProfileError(f"{src}: unknown field 'diagnosis.{bad[0]}'{bad[1]}")
+    check_table_keys(table, DIAGNOSIS_KEYS, src, "[diagnosis]", ProfileError)
     prior = positive(table.get("structure_prior", DEFAULT_STRUCTURE_PRIOR), f"{src}: field 'diagnosis.structure_prior'", "", ProfileError)
     terms = _per_dof(table, "structure", f"{src} [diagnosis]", str, "regressor term strings like 'v_r^3*U^-1'", dofs,
                      (src, "diagnosis.structure"))

@@ -74,7 +74,7 @@ def test_diagnosis_table_round_trips_and_bad_fields_are_named():
     again = profile_from_dict(prof.to_dict())
     assert again.structure_terms == prof.structure_terms and again.structure_prior == prof.structure_prior
     d = prof.to_dict()
-    for bad, msg in [({"structur": {}}, r"diagnosis\.structur'; did you mean structure"),
+    for bad, msg in [({"structur": {}}, r"ship\.toml: unknown key 'structur' in \[diagnosis\] \(did you mean 'structure'\?\); accepted keys: structure, structure_prior"),
                      ({"structure": {"surge": ["w_r*u"], "sway": [], "yaw": []}}, r"diagnosis\.structure' uses unknown signals \['w_r'\]"),
                      ({"structure": {"surge": ["v_r^-2"], "sway": [], "yaw": []}}, "negative power"),
                      ({"structure": d["diagnosis"]["structure"], "structure_prior": -1}, r"structure_prior': must be > 0")]:

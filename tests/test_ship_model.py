@@ -151,6 +151,7 @@ STRAY_KEYS = [
     ("full-scale", "[[thrusters]]", 1, "z = 1.0", "[[thrusters]] number 1"),
     ("full-scale", "[predictor_names]", 1, 'heave = ["Z"]', "[predictor_names]"),
     ("model-ship", "", 1, "yaw_moment = 1.0", "the top level"),
+    ("kvlcc2", "[diagnosis]", 1, "structure_priors = 0.5", "[diagnosis]"),
 ]
 
 
@@ -192,3 +193,37 @@ def test_cli_stray_key_exit_code_from_the_installed_command(tmp_path):
 def test_every_bundled_profile_loads():
     for name in builtin_profiles():
         assert load_profile(name).name
+
+
+# (bundled profile, its actuator, a whole table only another actuator's ships read, the table as named)
+FOREIGN_TABLES = [
+    ("full-scale", "azimuth", "[helm]\nmax_rudder_deg = 35.0", "[helm]", "rudder_propeller"),
+    ("model-ship", "generalized", "[engine]\nrps_limits = [0.0, 2.0]", "[engine]", "rudder_propeller"),
+    ("full-scale", "azimuth", "[engine]\nrps_limits = [0.0, 2.0]", "[engine]", "rudder_propeller"),
+    ("kvlcc2", "rudder_propeller", "[[pods]]\nx = -100.0\ny = 0.0\nz = 5.0", "[[pods]]", "pods"),
+    ("model-ship", "generalized", "[pod_model]\nrho = 1025.0", "[pod_model]", "pods"),
+    ("kvlcc2", "rudder_propeller", "[[thrusters]]\nx = -100.0", "[[thrusters]]", "azimuth"),
+]
+
+
+@pytest.mark.parametrize("ship,actuator,table_text,table,reader", FOREIGN_TABLES, ids=[f"{c[0]}-{c[3]}" for c in FOREIGN_TABLES])
+def test_cli_refuses_a_table_the_ships_actuator_does_not_read(ship, actuator, table_text, table, reader, tmp_path, capsys):
+    """A whole [helm] or [engine] table in an azimuth or generalized-force profile (or [[pods]],
+    [pod_model], [[thrusters]] in another ship's) is read by no model: exit 2 and one line naming
+    the file, the table and the fix (before: silently ignored)."""
+    from cli.app import _run
+
+    path = tmp_path / "ship.toml"
+    path.write_text((PROFILE_DIR / f"{ship}.toml").read_text() + "\n" + table_text + "\n")
+    assert _run(["primitives", "--ship", str(path)]) == 2
+    out = capsys.readouterr()
+    lines = out.err.strip().splitlines()
+    assert out.out == "" and len(lines) == 1 and "Traceback" not in out.err
+    assert lines[0].startswith(f"error: {path}: table {table} is read only in an actuator = '{reader}' profile")
+    assert f"actuator is '{actuator}': remove {table}" in lines[0]
+
+
+def test_an_empty_foreign_table_is_no_error(ms):
+    """An empty table says nothing a model could ignore: a JSON profile with "thrusters": [] loads."""
+    again = profile_from_dict(ms.to_dict() | {"thrusters": [], "helm": {}}, "ship.json")
+    assert again.actuator == "generalized" and again.thrusters == ()
