@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from primitives.errors import UserError
 from primitives.physical_tables import Engine, Helm, parse_helm_engine, parse_pods, parse_rigid_body
 from primitives.ship import (
     ACTUATORS,
@@ -103,6 +104,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     library = _library(d, src)
     helm, engine = _helm_engine(d, src, actuator, inputs, limits, model, sets[sim_set], sizes["cruise_speed_mps"])
     check_table_keys(limits, inputs, src, "[input_limits]", ProfileError)
+    check_diagnosed_sections(d, src)
     return ShipProfile(
         name=name,
         description=str(d.get("description", "")),
@@ -345,6 +347,39 @@ def _diagnosis(d: dict, src: str, dofs: tuple[str, ...], known: set[str]) -> tup
     if unknown:
         raise ProfileError(f"{src}: field 'diagnosis.structure' uses unknown signals {sorted(unknown)}; known: {sorted(known)}")
     return terms, prior
+
+
+# The sections a diagnosed model.json (diagnose.model_file) adds beside the profile. A profile
+# read from such a file reads neither, but refuses a malformed one; diagnose.model_file.load_model
+# checks the rest of what it reads (the baseline profile, the candidates and their values).
+AUGMENTATION_KEYS = ("effect", "dof", "parameters")
+DIAGNOSED_MODEL_KEYS = ("format", "note", "baseline_profile", "half_sample_s", "candidates")
+MODEL_JSON_FIX = "write the model.json again with `shiptrial diagnose --out DIR`, or remove the field"
+
+
+def check_diagnosed_sections(d: dict[str, Any], src: str, error: type[UserError] = ProfileError) -> None:
+    """Refuse a malformed ``augmentations`` list or ``diagnosed_model`` table of a diagnosed
+    model.json in one line naming the file, the field and the fix."""
+    aug = d.get("augmentations")
+    if aug is not None:
+        if not isinstance(aug, list) or not all(isinstance(a, dict) for a in aug):
+            raise error(f"{src}: field 'augmentations' must be a list of tables with {', '.join(AUGMENTATION_KEYS)}: {MODEL_JSON_FIX}")
+        for i, a in enumerate(aug):
+            check_table_keys(a, AUGMENTATION_KEYS, src, f"[[augmentations]] number {i + 1}", error)
+            if not isinstance(a.get("effect"), str) or not a["effect"]:
+                raise error(f"{src}: field 'augmentations.{i}.effect' must name the effect (e.g. 'current'), got {a.get('effect')!r}: "
+                            f"{MODEL_JSON_FIX}")
+            if a.get("dof") not in (None, *ROLL_DOFS):
+                raise error(f"{src}: field 'augmentations.{i}.dof' must be one of {list(ROLL_DOFS)} or null, got {a.get('dof')!r}: "
+                            f"{MODEL_JSON_FIX}")
+            if not isinstance(a.get("parameters", {}), dict):
+                raise error(f"{src}: field 'augmentations.{i}.parameters' must be a table of the effect's values, got "
+                            f"{a['parameters']!r}: {MODEL_JSON_FIX}")
+    dm = d.get("diagnosed_model")
+    if dm is not None:
+        if not isinstance(dm, dict):
+            raise error(f"{src}: field 'diagnosed_model' must be a table with {', '.join(DIAGNOSED_MODEL_KEYS)}: {MODEL_JSON_FIX}")
+        check_table_keys(dm, DIAGNOSED_MODEL_KEYS, src, "[diagnosed_model]", error)
 
 
 def _starboard_sign(model: TermSet, theta: np.ndarray, cruise: float) -> float:
