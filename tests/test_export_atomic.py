@@ -188,3 +188,54 @@ def test_next_export_removes_what_a_killed_export_left_and_nothing_else(tmp_path
     assert running.wait(60) == 0
     assert (out / "route.gpx").read_text() == "new route" and run_dir not in _staging_dirs(out)
     assert (out / "next.txt").read_text() == "next"
+
+
+def _old_version_dir(out, name, files, *, age_s=2 * 86400.0, top=()):
+    """A staging directory as the versions before the owner file left it: ``files`` maps
+    "new/x.gpx" or "old/route.gpx" to its text; every time stamp ``age_s`` in the past."""
+    import time
+
+    d = out / name
+    d.mkdir()
+    for rel, text in files.items():
+        (d / rel).parent.mkdir(parents=True, exist_ok=True)
+        (d / rel).write_text(text)
+    for rel in top:
+        (d / rel).write_text("someone's")
+    then = time.time() - age_s
+    for p in sorted(d.rglob("*"), reverse=True) + [d]:
+        os.utime(p, (then, then), follow_symlinks=False)
+    return d
+
+
+def test_next_export_removes_an_earlier_versions_stale_staging_and_nothing_else(tmp_path):
+    """Staging directories of the versions before the owner file (killed while writing, or while
+    publishing with a destination file moved aside to old/) go once nothing in them changed for a
+    day, the moved-aside file put back; anything not provably such a leftover stays: a recent
+    one (an export may be running), a look-alike name, another file in it, a sub-directory, a
+    file of no export's kind, a link, or a moved-aside file whose name is taken again."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "taken.gpx").write_text("this week's route")
+    gone = [_old_version_dir(out, ".shiptrial-export.k1ll3d_w", {"new/ship-trial.gpx": "g", "new/.ship-trial.csv.x1y2": "c"}),
+            _old_version_dir(out, ".shiptrial-export.publ1sh3", {"new/ship-trial.rtz": "r", "old/route.gpx": "last week's route"}),
+            _old_version_dir(out, ".shiptrial-export.0nlyold0", {"old/card.html": "last week's card"}),
+            _old_version_dir(out, ".shiptrial-export.empty000", {})]
+    kept = [_old_version_dir(out, ".shiptrial-export.recent00", {"new/ship-trial.gpx": "g"}, age_s=60.0),
+            _old_version_dir(out, ".shiptrial-export.short", {"new/ship-trial.gpx": "g"}),
+            _old_version_dir(out, ".shiptrial-export.extra000", {"new/ship-trial.gpx": "g"}, top=("notes.txt",)),
+            _old_version_dir(out, ".shiptrial-export.subdir00", {"new/deep/ship-trial.gpx": "g"}),
+            _old_version_dir(out, ".shiptrial-export.notours0", {"new/thesis.tex": "mine"}),
+            _old_version_dir(out, ".shiptrial-export.taken000", {"old/taken.gpx": "last week's route"})]
+    link = out / ".shiptrial-export.link0000"
+    link.symlink_to(kept[0])
+
+    removed = staging.remove_stale(out)
+    assert sorted(removed) == sorted(gone) and not any(d.exists() for d in gone)
+    assert (out / "route.gpx").read_text() == "last week's route" and (out / "card.html").read_text() == "last week's card"
+    assert all(d.is_dir() for d in kept) and link.is_symlink()
+    assert (out / "taken.gpx").read_text() == "this week's route" and (kept[-1] / "old" / "taken.gpx").exists()
+    assert (kept[4] / "new" / "thesis.tex").read_text() == "mine"
+    with staged_outputs(out) as tmp:  # an export runs through them all
+        (tmp / "next.gpx").write_text("next")
+    assert (out / "next.gpx").read_text() == "next" and all(d.is_dir() for d in kept)

@@ -9,14 +9,18 @@ destination is left as it was, files of the same names included.
 A process killed mid-export (SIGKILL, power loss) cannot clean up: its staging directory stays.
 Each one carries an owner file that its export holds locked (``flock``, released by the kernel
 when the process dies); the next export into the destination removes those that are older than
-its own process and no longer locked (:func:`remove_stale`), and nothing else.
+its own process and no longer locked (:func:`remove_stale`), and nothing else. The versions
+before the owner file left directories without one; those are removed only when everything in
+them is what such an export wrote and nothing in them has changed for :data:`OLD_STALE_S`.
 """
 
 from __future__ import annotations
 
 import fcntl
 import os
+import re
 import shutil
+import stat
 import tempfile
 import time
 from collections.abc import Iterator
@@ -61,6 +65,12 @@ def staged_outputs(out_dir: str | Path) -> Iterator[Path]:
 PREFIX = ".shiptrial-export."
 OWNER = ".owner"  # inside a staging directory: names its creator, locked while the export runs
 OWNER_TEXT = b"shiptrial export staging directory\n"
+# A staging directory of a version before the owner file (no lock to ask) is stale once nothing in
+# it has changed for a day: its export wrote a file every few seconds while it ran.
+OLD_STALE_S = 86400.0
+_MKDTEMP_NAME = re.compile(re.escape(PREFIX) + r"[a-z0-9_]{8}")  # tempfile.mkdtemp's 8 random characters
+# What an export writes into new/: its formats, the card's PDF, the plots, and (hidden) the atomic writers' temporaries
+_EXPORT_SUFFIXES = (".geojson", ".gpx", ".rtz", ".csv", ".html", ".pdf", ".png")
 
 
 def _own(tmp: Path) -> int:
@@ -91,16 +101,23 @@ def remove_stale(out_dir: Path) -> list[Path]:
     ``.shiptrial-export.*`` directory (not a link) whose owner file holds shiptrial's text, was
     written before this process started, and is not locked by a running export. A destination
     file its publishing had moved aside (``old/``) is put back when its name is free again; while
-    such a file cannot go back, the directory stays. Returns the directories removed."""
+    such a file cannot go back, the directory stays. A directory without an owner file (an earlier
+    version's) goes only when :func:`_old_version_stale` proves it one and stale. Returns the
+    directories removed."""
     removed = []
     started = _process_start()
     for d in sorted(out_dir.glob(PREFIX + "*")):
         try:
             if d.is_symlink() or not d.is_dir():
                 continue
+            if not os.path.lexists(d / OWNER):
+                if _old_version_stale(d) and _put_back(d / "old", out_dir):
+                    shutil.rmtree(d, ignore_errors=True)
+                    removed.append(d)
+                continue
             fd = os.open(d / OWNER, os.O_RDONLY | os.O_NOFOLLOW)
         except OSError:
-            continue  # no owner file: not ours (or an export that has just begun)
+            continue  # an owner file this process cannot open (a link, another user's): not ours to judge
         try:
             if os.fstat(fd).st_mtime >= started or os.read(fd, 256) != OWNER_TEXT:
                 continue
@@ -118,6 +135,33 @@ def remove_stale(out_dir: Path) -> list[Path]:
         finally:
             os.close(fd)
     return removed
+
+
+def _old_version_stale(d: Path) -> bool:
+    """Whether ``d``, a staging directory without an owner file, is provably one an earlier
+    version's export left and stale: named by ``tempfile.mkdtemp``, this user's, holding only
+    ``new/`` (regular files with an export's suffix, or hidden temporaries) and ``old/`` (the
+    destination's files it moved aside: regular files, put back before it goes), and nothing in
+    it changed for :data:`OLD_STALE_S`. Anything else (a look-alike, a link, a sub-directory,
+    another file, a recent change: an export just begun) keeps it."""
+    if not _MKDTEMP_NAME.fullmatch(d.name):
+        return False
+    st = d.lstat()
+    if st.st_uid != os.geteuid():
+        return False
+    newest = st.st_mtime
+    for sub in d.iterdir():
+        if sub.name not in ("new", "old") or sub.is_symlink() or not sub.is_dir():
+            return False
+        newest = max(newest, sub.lstat().st_mtime)
+        for f in sub.iterdir():
+            fs = f.lstat()
+            if not stat.S_ISREG(fs.st_mode):
+                return False
+            if sub.name == "new" and not (f.name.startswith(".") or f.suffix.lower() in _EXPORT_SUFFIXES):
+                return False
+            newest = max(newest, fs.st_mtime)
+    return time.time() - newest > OLD_STALE_S
 
 
 def _put_back(old: Path, out_dir: Path) -> bool:
