@@ -310,8 +310,8 @@ def _disturbances(d: dict, src: str) -> dict[str, Any]:
     table = d.get("disturbances", {})
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'disturbances' must be a table")
+    check_table_keys(table, DISTURBANCE_KEYS, src, "[disturbances]", ProfileError)
     for k, v in table.items():
-        check_table_keys({k: v}, list(DISTURBANCE_KEYS), src, "[disturbances]", ProfileError)
         n = DISTURBANCE_KEYS[k]
         vals = v if n else [v]
         if not isinstance(vals, list) or len(vals) != max(n, 1):

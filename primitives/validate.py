@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 from primitives.errors import UserError
 
@@ -77,30 +77,35 @@ def one_of(value: str, option: str, choices: tuple[str, ...] | list[str], error:
     return value
 
 
-def unknown_key(keys, allowed) -> tuple[str, str] | None:
-    """The first key not in ``allowed`` and a hint ("; did you mean X?" or the known keys), or None.
-    A misspelt key must be refused, never silently fall back to a default."""
+def _nearest(key: object, known: list[str]) -> str | None:
+    """The known key ``key`` is most likely a misspelling of, if any is close."""
     import difflib
 
+    near = difflib.get_close_matches(str(key), known, n=1, cutoff=0.5)
+    return near[0] if near else None
+
+
+def unknown_key(keys: Iterable[object], allowed: Iterable[object]) -> tuple[str, str] | None:
+    """The first key not in ``allowed`` and a hint ("; did you mean X?" or the known keys), or None.
+    A misspelt key must be refused, never silently fall back to a default."""
     known = list(allowed)
     for k in keys:
         if k not in known:
-            near = difflib.get_close_matches(str(k), known, n=1, cutoff=0.5)
-            return str(k), (f"; did you mean {near[0]}?" if near else f"; known: {', '.join(known)}")
+            near = _nearest(k, known)
+            return str(k), (f"; did you mean {near}?" if near else f"; known: {', '.join(known)}")
     return None
 
 
-def check_table_keys(table, accepted, file: str, where: str, error: type[UserError] = UserError) -> None:
+def check_table_keys(table: Iterable[object], accepted: Iterable[object], file: str, where: str,
+                     error: type[UserError] = UserError) -> None:
     """Refuse the first key of ``table`` that is not ``accepted``, in one line naming the ``file``,
-    the table (``where``: "[rigid_body]", "[[pods]] entry 1", "the top level"), the key, the nearest
+    the table (``where``: "[rigid_body]", "[[pods]] number 1", "the top level"), the key, the nearest
     accepted key and every accepted key: a stray or misspelt key is never silently ignored."""
-    import difflib
-
     accepted = [str(a) for a in accepted]
     for k in table:
         if k not in accepted:
-            near = difflib.get_close_matches(str(k), accepted, n=1, cutoff=0.5)
-            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            near = _nearest(k, accepted)
+            hint = f" (did you mean {near!r}?)" if near else ""
             raise error(f"{file}: unknown key {str(k)!r} in {where}{hint}; accepted keys: {', '.join(accepted) or 'none'}")
 
 

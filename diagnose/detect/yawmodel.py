@@ -15,6 +15,7 @@ shared kernel's ``naval-vessel`` profile (:func:`diagnose.yawid.model.true_param
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -41,6 +42,8 @@ SIGNALS = {"full": ("u", "v", "v_dot", "phi", "tau_r"), "simplified": ("u", "v",
 PREFILTER_HZ = 0.5  # the model inputs' low-pass (manoeuvres are slower than 0.2 Hz, roll ~0.13 Hz)
 #: the candidate changes a detector names (BRIEF effect ``inertia_change`` is "yaw_inertia")
 CANDIDATES = ("yaw_inertia", "yaw_damping", "pod_gain")
+# Recomputes derived inputs from a simulated record: derive(signals, yaw rate) -> signals
+Derive = Callable[[dict[str, np.ndarray], np.ndarray], dict[str, np.ndarray]]
 
 
 @dataclass
@@ -141,7 +144,7 @@ def _theta(kind: str, x: np.ndarray | dict) -> dict[str, np.ndarray]:
     return th
 
 
-def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], dt: float, gain=1.0,
+def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], dt: float, gain: float | np.ndarray = 1.0,
                r0: float = 0.0) -> np.ndarray:
     """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig``, from ``r0``.
 
@@ -180,7 +183,7 @@ def _jacobian(kind: str, x: np.ndarray, sig: dict[str, np.ndarray], dt: float, s
 
 
 def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, source: str = "",
-        estimate: bool = True, bootstrap: int = 64, seed: int = 0, derive=None,
+        estimate: bool = True, bootstrap: int = 64, seed: int = 0, derive: Derive | None = None,
         prefilter_hz: float = PREFILTER_HZ) -> YawPrior:
     """Output-error fit of (2.17)/(2.18) (ch. 4, eq. 4.1-4.4; yawid's batched Levenberg-Marquardt
     from the nominal values, with section 4.3's sign constraints) on the inputs low-passed at
@@ -220,7 +223,7 @@ def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, so
     return prior
 
 
-def model_error(prior: YawPrior, sig: dict[str, np.ndarray], r0: float, derive=None, seed: int = 0) -> float:
+def model_error(prior: YawPrior, sig: dict[str, np.ndarray], r0: float, derive: Derive | None = None, seed: int = 0) -> float:
     """Innovation sd of the part of the prior's own fit residual (whitened 1 s block means) that
     the measurement noise does not explain: ``sqrt(sigma_w^2 - s_noise^2)``, ``s_noise`` the same
     statistic of 32 no-change records simulated on the nominal data without parameter error. A
@@ -262,7 +265,7 @@ def white_noise_sd(x: np.ndarray) -> float:
 
 
 def bootstrap_deviations(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, x: np.ndarray,
-                         runs: int, seed: int = 0, derive=None, prefilter_hz: float = PREFILTER_HZ) -> np.ndarray:
+                         runs: int, seed: int = 0, derive: Derive | None = None, prefilter_hz: float = PREFILTER_HZ) -> np.ndarray:
     """Relative parameter errors ``(x_b - x) / |x|`` (runs, P) of ``runs`` parametric-bootstrap
     refits, errors in variables included (the Jacobian covariance knows only the noise on r).
 
@@ -307,7 +310,7 @@ def smooth(sig: dict[str, np.ndarray], dt: float) -> dict[str, np.ndarray]:
     return {k: savgol_filter(s, win, 2, axis=0) if len(s) > win else s for k, s in sig.items()}
 
 
-def null_records(prior: YawPrior, sig: dict[str, np.ndarray], runs: int, seed: int = 0, derive=None,
+def null_records(prior: YawPrior, sig: dict[str, np.ndarray], runs: int, seed: int = 0, derive: Derive | None = None,
                  r0: float = 0.0) -> np.ndarray:
     """No-change residuals ``r - r_hat`` (n, runs) on the manoeuvre ``sig`` (a parametric bootstrap
     of the detection, from the prior's own data only).

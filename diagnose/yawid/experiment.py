@@ -125,7 +125,8 @@ def yaw_row_signals(profile: ShipProfile, nu: np.ndarray, eta: np.ndarray, input
             "phi": eta[:-1, 3], "tau_r": pod_yaw_moment(profile, in_sig, u, v, r, p)}
 
 
-def pod_yaw_moment(profile: ShipProfile, inputs: dict[str, np.ndarray], u, v, r, p=None) -> np.ndarray:
+def pod_yaw_moment(profile: ShipProfile, inputs: dict[str, np.ndarray], u: np.ndarray, v: np.ndarray, r: np.ndarray,
+                   p: np.ndarray | None = None) -> np.ndarray:
     """The pods' yaw moment tau_n of (2.12) from the pod inputs (named as ``profile.inputs``: n1,
     delta1, ...) and the motion, by the kernel's own signal function (``model_signals``); all
     arrays broadcast together (e.g. (n, 1) inputs with (n, runs) motion)."""
