@@ -410,28 +410,36 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
             nxt[len(inc):] = row[len(inc):]
         if w_t is not None:
             nxt += w_t[k]
-        u, v, r = row[0], row[1], row[2]
-        if nd == 4:  # (2.1a-b) and the Fossen position rows with roll: v acts through cos(phi)
-            cphi = np.cos(phi_k)
-            if positions:
-                c, s = np.cos(psi_k), np.sin(psi_k)
-                eta_t[k + 1, 0] = eta_t[k, 0] + ts * (c * u - s * cphi * v)
-                eta_t[k + 1, 1] = eta_t[k, 1] + ts * (s * u + c * cphi * v)
-            eta_t[k + 1, 2] = psi_k + ts * cphi * r
-            eta_t[k + 1, 3] = phi_k + ts * row[3]
-            continue
-        if positions:
-            c, s = np.cos(psi_k), np.sin(psi_k)
-            eta_t[k + 1, 0] = eta_t[k, 0] + ts * (c * u - s * v)
-            eta_t[k + 1, 1] = eta_t[k, 1] + ts * (s * u + c * v)
-        if heading:
-            eta_t[k + 1, 2] = psi_k + ts * r
+        if eta_t is not None:
+            _advance_pose(eta_t, k, row, ts, positions)
     nu = np.ascontiguousarray(nu_t.transpose(2, 0, 1))
     if eta_t is not None:
         return nu, np.ascontiguousarray(eta_t.transpose(2, 0, 1))
     eta = np.full((batch, n_steps + 1, nd), np.nan)
     eta[:, 0] = eta0
     return nu, eta
+
+
+def _advance_pose(eta_t: np.ndarray, k: int, row: np.ndarray, ts: float, positions: bool) -> None:
+    """eta(k+1) = eta(k) + Ts R(psi(k)) nu(k) in the time-major pose ``eta_t`` (N+1, nd, B), from
+    the velocities ``row`` = nu(k) (nd, B): the heading (and roll angle), and with ``positions``
+    the position x, y (2.1a-b); with roll the Fossen rows, v and r acting through cos(phi)."""
+    u, v, r = row[0], row[1], row[2]
+    psi_k, now, nxt = eta_t[k, 2], eta_t[k], eta_t[k + 1]
+    c, s = (np.cos(psi_k), np.sin(psi_k)) if positions else (None, None)
+    if len(row) == 4:  # the products in this order: the numbers of every earlier version
+        phi_k = now[3]
+        cphi = np.cos(phi_k)
+        if positions:
+            nxt[0] = now[0] + ts * (c * u - s * cphi * v)
+            nxt[1] = now[1] + ts * (s * u + c * cphi * v)
+        nxt[2] = psi_k + ts * cphi * r
+        nxt[3] = phi_k + ts * row[3]
+        return
+    if positions:
+        nxt[0] = now[0] + ts * (c * u - s * v)
+        nxt[1] = now[1] + ts * (s * u + c * v)
+    nxt[2] = psi_k + ts * r
 
 
 def steady_forces(
