@@ -123,13 +123,9 @@ def _sim_instruments(profile: ShipProfile, seg: Segment, theta: np.ndarray | str
         z = instruments(profile, seg.inputs if shared else np.broadcast_to(seg.inputs, (seg.batch,) + seg.inputs.shape[-2:]),
                         theta, nu0 if shared else np.broadcast_to(nu0, (seg.batch, 3)))
         return np.broadcast_to(z, (seg.batch,) + z.shape[-2:])
-    terms = profile.predictor
     inputs = np.broadcast_to(seg.inputs, (seg.batch,) + seg.inputs.shape[-2:])
-    with np.errstate(all="ignore"):
-        sim = simulate(profile, inputs, theta, terms=terms, nu0=np.broadcast_to(nu0, (seg.batch, 3)), batch=seg.batch,
-                       positions=False)
-        z, _ = predictor_regressors(profile, sim.nu, inputs, sim.eta[..., 2])
-    return z
+    with np.errstate(all="ignore"):  # the predictor simulated with an estimate
+        return instruments(profile, inputs, theta, np.broadcast_to(nu0, (seg.batch, 3)), sim_terms=profile.predictor)
 
 
 def estimate(

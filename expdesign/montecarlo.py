@@ -48,7 +48,7 @@ from expdesign.mc_result import MCResult, merge_results
 from expdesign.rounding import efficient_rounding
 from primitives.information import MEAN_SUBTRACTION
 from primitives.library import Primitive, thesis_primitives
-from primitives.regressors import predictor_regressors
+from primitives.regressors import instruments, predictor_regressors
 from primitives.ship import ShipProfile
 from primitives.simulate import Disturbances, signals_read, simulate, steady_forces
 from primitives.terms import TermSet
@@ -339,10 +339,7 @@ def _solve_run(sh: MCShared, segs: list[_Seg], b: int, starts: list[int]) -> np.
 def _resimulated_instruments(sh: MCShared, seg: _Seg, theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """Instruments of the runs ``idx`` from the predictor simulated with their estimates."""
     with np.errstate(all="ignore"):
-        res = simulate(sh.profile, seg.inputs[idx], theta[idx], terms=sh.predictor, nu0=seg.nu0[idx], batch=len(idx),
-                       positions=False)
-        z, _ = predictor_regressors(sh.profile, res.nu, seg.inputs[idx], res.eta[..., 2], terms=sh.predictor)
-    return z
+        return instruments(sh.profile, seg.inputs[idx], theta[idx], seg.nu0[idx], sim_terms=sh.predictor, terms=sh.predictor)
 
 
 def _estimate(sh: MCShared, segs: list[_Seg], starts: list[list[int]]) -> np.ndarray:

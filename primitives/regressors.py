@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from primitives.ship import ShipProfile
-from primitives.simulate import model_signals, simulate
+from primitives.simulate import model_signals, signals_read, simulate
 from primitives.terms import TermSet
 
 
@@ -73,13 +73,16 @@ def instruments(
 
     ``theta`` defaults to the profile's instrument set and is simulated with the model
     structure (``sim_terms`` overrides it, e.g. to simulate the predictor with an estimate).
+    The position is not integrated (no regressor reads it), the heading only when a term reads
+    it (:func:`primitives.simulate.simulate`'s ``positions``).
     """
     if theta is None:
         theta = profile.instrument_set
     inputs = np.asarray(inputs, float)
     nu0 = np.asarray(nu0, float)
     batch = nu0.shape[0] if nu0.ndim == 2 else 1
-    res = simulate(profile, inputs, theta, terms=sim_terms, nu0=nu0, batch=batch)
+    heading = "psi" in signals_read(terms or profile.predictor)  # the simulation keeps it if its own terms read it
+    res = simulate(profile, inputs, theta, terms=sim_terms, nu0=nu0, batch=batch, positions=heading)
     y_hat = res.nu if (nu0.ndim == 2 or inputs.ndim == 3) else res.nu[0]
     psi = res.eta[..., 2] if y_hat.ndim == 3 else res.eta[0, :, 2]
     z, _ = predictor_regressors(profile, y_hat, inputs, psi, terms=terms)
