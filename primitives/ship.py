@@ -26,7 +26,6 @@ DOFS = ("surge", "sway", "yaw")
 # A profile with a roll term list is surge-sway-yaw-roll (seed 000); roll is appended so yaw
 # stays the third state of every ship.
 ROLL_DOFS = DOFS + ("roll",)
-STATES = ("u", "v", "r")
 ACTUATORS = ("generalized", "azimuth", "rudder_propeller", "pods")
 # Signals every model may read besides its own inputs.
 BASE_SIGNALS = {"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "psi", "tau_x", "tau_y", "tau_n", "U"}
