@@ -239,3 +239,16 @@ def test_next_export_removes_an_earlier_versions_stale_staging_and_nothing_else(
     with staged_outputs(out) as tmp:  # an export runs through them all
         (tmp / "next.gpx").write_text("next")
     assert (out / "next.gpx").read_text() == "next" and all(d.is_dir() for d in kept)
+
+
+def test_staging_killed_before_its_owner_file_had_its_text_goes_once_stale(tmp_path):
+    """Killed between creating its owner file and writing shiptrial's text into it: an empty,
+    unlocked owner file. Such a directory is judged as an earlier version's (stale after a day,
+    only export files in it), never sooner."""
+    out = tmp_path / "out"
+    out.mkdir()
+    stale = _old_version_dir(out, ".shiptrial-export.n0t3xt00", {"new/ship-trial.gpx": "g", staging.OWNER: ""})
+    recent = _old_version_dir(out, ".shiptrial-export.n0t3xt01", {"new/ship-trial.gpx": "g", staging.OWNER: ""}, age_s=60.0)
+    other = _old_version_dir(out, ".shiptrial-export.n0t3xt02", {"new/thesis.tex": "mine", staging.OWNER: ""})
+    assert staging.remove_stale(out) == [stale]
+    assert recent.is_dir() and other.is_dir() and not stale.exists()

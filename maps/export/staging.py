@@ -119,7 +119,8 @@ def remove_stale(out_dir: Path) -> list[Path]:
         except OSError:
             continue  # an owner file this process cannot open (a link, another user's): not ours to judge
         try:
-            if os.fstat(fd).st_mtime >= started or os.read(fd, 256) != OWNER_TEXT:
+            text = os.read(fd, 256)
+            if os.fstat(fd).st_mtime >= started or text not in (OWNER_TEXT, b""):
                 continue
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -127,6 +128,8 @@ def remove_stale(out_dir: Path) -> list[Path]:
                 continue  # an export is running in it
             if not {e.name for e in d.iterdir()} <= {OWNER, "new", "old"}:
                 continue  # something else was put in it: not all of it is ours to delete
+            if not text and not _old_version_stale(d, owner=True):
+                continue  # an owner file without its text (killed between creating and writing it): judged as an old one
             if _put_back(d / "old", out_dir):
                 shutil.rmtree(d, ignore_errors=True)
                 removed.append(d)
@@ -137,13 +140,13 @@ def remove_stale(out_dir: Path) -> list[Path]:
     return removed
 
 
-def _old_version_stale(d: Path) -> bool:
-    """Whether ``d``, a staging directory without an owner file, is provably one an earlier
-    version's export left and stale: named by ``tempfile.mkdtemp``, this user's, holding only
-    ``new/`` (regular files with an export's suffix, or hidden temporaries) and ``old/`` (the
-    destination's files it moved aside: regular files, put back before it goes), and nothing in
-    it changed for :data:`OLD_STALE_S`. Anything else (a look-alike, a link, a sub-directory,
-    another file, a recent change: an export just begun) keeps it."""
+def _old_version_stale(d: Path, owner: bool = False) -> bool:
+    """Whether ``d``, a staging directory without an owner file (``owner``: with an empty one), is
+    provably one an earlier version's export left and stale: named by ``tempfile.mkdtemp``, this
+    user's, holding only ``new/`` (regular files with an export's suffix, or hidden temporaries)
+    and ``old/`` (the destination's files it moved aside: regular files, put back before it goes),
+    and nothing in it changed for :data:`OLD_STALE_S`. Anything else (a look-alike, a link, a
+    sub-directory, another file, a recent change: an export just begun) keeps it."""
     if not _MKDTEMP_NAME.fullmatch(d.name):
         return False
     st = d.lstat()
@@ -151,6 +154,9 @@ def _old_version_stale(d: Path) -> bool:
         return False
     newest = st.st_mtime
     for sub in d.iterdir():
+        if owner and sub.name == OWNER:
+            newest = max(newest, sub.lstat().st_mtime)
+            continue
         if sub.name not in ("new", "old") or sub.is_symlink() or not sub.is_dir():
             return False
         newest = max(newest, sub.lstat().st_mtime)
