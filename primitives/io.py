@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -147,6 +146,9 @@ def check_replaceable_dir(path: str | Path, option: str = "--out") -> Path:
     return path
 
 
+OUTPUT_OWNER_TEXT = b"shiptrial output staging directory\n"
+
+
 @contextmanager
 def atomic_output_dir(path: str | Path) -> Iterator[Path]:
     """Build an output directory in a temporary sibling and swap it into place on success.
@@ -154,22 +156,41 @@ def atomic_output_dir(path: str | Path) -> Iterator[Path]:
     Yields the temporary directory to write into. On success the previous contents of ``path``
     (if any) are replaced as a whole; on any exception the temporary directory is removed and
     ``path`` is left exactly as it was: never a mix of an old and a new result.
+
+    The temporary lives in a hidden owned directory beside ``path`` (``new/``, and ``old/`` for
+    the previous result while the two swap); a run killed mid-write leaves it, and the next run
+    into ``path`` removes it (:func:`primitives.owned_dirs.remove_stale`), after putting back a
+    previous result the killed swap had moved aside.
     """
+    from primitives.owned_dirs import owned_tempdir, remove_stale
+
     path = Path(path)
     check_replaceable_dir(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
-    try:
-        (tmp / OUTPUT_MARKER).write_text("written by shiptrial; the next run into this directory replaces it whole\n")
-        yield tmp
-        os.chmod(tmp, 0o755)  # mkdtemp makes 0700; outputs are handed to crews and colleagues
-        old = None
-        if path.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{path.name}.old.", dir=path.parent))
-            os.replace(path, old / "d")
-        os.replace(tmp, path)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    prefix = f".{path.name}."
+    remove_stale(path.parent, prefix, OUTPUT_OWNER_TEXT, contents=("new", "old"), put_back=lambda d: _put_back_dir(d / "old", path))
+    with owned_tempdir(path.parent, prefix, OUTPUT_OWNER_TEXT) as box:
+        new, old = box / "new", box / "old"
+        new.mkdir()
+        (new / OUTPUT_MARKER).write_text("written by shiptrial; the next run into this directory replaces it whole\n")
+        yield new
+        os.chmod(new, 0o755)  # outputs are handed to crews and colleagues
+        try:
+            if os.path.lexists(path):
+                os.replace(path, old)
+            os.replace(new, path)
+        except BaseException:
+            _put_back_dir(old, path)
+            raise
+
+
+def _put_back_dir(old: Path, path: Path) -> bool:
+    """Move a previous result a swap had moved aside back to ``path`` when that name is free
+    (the swap did not finish); True when nothing is left in ``old`` to keep."""
+    if not os.path.lexists(old):
+        return True
+    if old.is_symlink() or not old.is_dir():
+        return False
+    if not os.path.lexists(path):
+        os.replace(old, path)
+    return True  # the new result took its place: the previous one is what the run replaced

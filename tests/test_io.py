@@ -1,5 +1,8 @@
 """Atomic outputs: a failed run never leaves a mix of old and new files."""
 
+import os
+import sys
+
 import pytest
 
 from primitives.errors import UserError
@@ -43,3 +46,122 @@ def test_check_out_path_refuses_a_file(tmp_path):
     f.write_text("")
     with pytest.raises(UserError, match="is a file"):
         check_out_path(f)
+
+
+_KILLED = """
+import os, signal, sys
+import primitives.io as pio
+out, mode = sys.argv[1], sys.argv[2]
+if mode == "swapping":  # killed between moving the previous result aside and moving the new one in
+    real = os.replace
+    def replace(src, dst):
+        real(src, dst)
+        os.kill(os.getpid(), signal.SIGKILL)
+    pio.os.replace = replace
+with pio.atomic_output_dir(out) as tmp:
+    (tmp / "plan.json").write_text(mode)
+    if mode == "writing":
+        os.kill(os.getpid(), signal.SIGKILL)
+    if mode == "running":  # a run still writing into this destination
+        print("ready", flush=True)
+        sys.stdin.read()
+"""
+
+
+def _child(out, mode, **kw):
+    import subprocess
+    import sys
+
+    return subprocess.Popen([sys.executable, "-c", _KILLED, str(out), mode], text=True, **kw)
+
+
+def _hidden(d):
+    return {p.name for p in d.iterdir() if p.name.startswith(".")}
+
+
+def test_next_run_removes_the_temporaries_a_killed_run_left_and_nothing_else(tmp_path):
+    """SIGKILL mid-write leaves a hidden temporary beside --out; the next run into the same
+    directory (a later process) removes it and puts back a previous result a killed swap had moved
+    aside, but keeps a running run's temporary, leftovers younger than itself, another
+    destination's, and every look-alike shiptrial did not make."""
+    import subprocess
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "plan.json").write_text("last week's plan")
+    running = _child(out, "running", stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+    assert running.stdout.readline().strip() == "ready"
+    (run_dir,) = _hidden(tmp_path)
+    assert _child(tmp_path / "out.x", "writing").wait(60) == -9  # another destination's: never touched
+    (other_dest,) = _hidden(tmp_path) - {run_dir}
+
+    assert _child(out, "writing").wait(60) == -9
+    (killed,) = _hidden(tmp_path) - {run_dir, other_dest}
+    with atomic_output_dir(out) as d:  # this process is older than the leftover: it stays
+        (d / "plan.json").write_text("older process")
+    with atomic_output_dir(tmp_path / "elsewhere") as d:  # another destination: leaves them all
+        (d / "plan.json").write_text("elsewhere")
+    assert _hidden(tmp_path) == {run_dir, other_dest, killed}
+    assert _child(out, "swapping").wait(60) == -9
+    assert killed not in _hidden(tmp_path)  # a run after the kill removed that leftover
+    (killed_swapping,) = _hidden(tmp_path) - {run_dir, other_dest}
+    assert killed_swapping != killed and not out.exists()  # moved aside, the new one not in
+    # look-alikes shiptrial did not make, and one whose owner file is not shiptrial's
+    (tmp_path / ".out.mine0000").mkdir()
+    (tmp_path / ".out.mine0000" / "keep.txt").write_text("mine")
+    (tmp_path / ".out.link0000").symlink_to(tmp_path / "elsewhere")
+    (tmp_path / ".out.fake0000").mkdir()
+    (tmp_path / ".out.fake0000" / ".owner").write_text("not shiptrial's")
+    looks = {".out.mine0000", ".out.link0000", ".out.fake0000"}
+
+    next_run = "import sys; from pathlib import Path; from primitives.io import atomic_output_dir\n" \
+               "with atomic_output_dir(sys.argv[1]) as d: (d / 'next.txt').write_text('next'); print(Path(sys.argv[1], 'plan.json').read_text())"
+    done = subprocess.run([sys.executable, "-c", next_run, str(out)], check=True, timeout=60, capture_output=True, text=True)
+    assert done.stdout.strip() == "older process"  # the previous result was put back before this run swapped
+    assert _hidden(tmp_path) == {run_dir, other_dest} | looks
+    assert (tmp_path / ".out.mine0000" / "keep.txt").read_text() == "mine" and (tmp_path / "elsewhere").is_dir()
+    assert (out / "next.txt").read_text() == "next"
+    running.stdin.close()
+    assert running.wait(60) == 0
+    assert (out / "plan.json").read_text() == "running" and _hidden(tmp_path) == {other_dest} | looks
+
+
+def test_a_failed_swap_puts_the_previous_result_back(tmp_path, monkeypatch):
+    import primitives.io as pio
+
+    out = tmp_path / "out"
+    with atomic_output_dir(out) as d:
+        (d / "plan.json").write_text("previous")
+    real, calls = pio.os.replace, []
+
+    def flaky(src, dst):
+        calls.append(src)
+        if len(calls) == 2:  # the new result moving in, after the previous one went aside
+            raise OSError("disk full")
+        real(src, dst)
+
+    monkeypatch.setattr(pio.os, "replace", flaky)
+    with pytest.raises(OSError, match="disk full"), atomic_output_dir(out) as d:
+        (d / "plan.json").write_text("new")
+    assert (out / "plan.json").read_text() == "previous" and [p.name for p in tmp_path.iterdir()] == ["out"]
+
+
+def test_a_temporary_killed_before_its_owner_file_had_its_text_goes_once_stale(tmp_path):
+    """An empty, unlocked owner file and nothing else: removed after a day unchanged, never sooner."""
+    import time
+
+    from primitives.owned_dirs import OWNER
+
+    def box(name, age_s):
+        d = tmp_path / name
+        d.mkdir()
+        (d / OWNER).write_text("")
+        then = time.time() - age_s
+        for p in (d / OWNER, d):
+            os.utime(p, (then, then))
+        return d
+
+    stale, recent = box(".out.n0t3xt00", 2 * 86400.0), box(".out.n0t3xt01", 60.0)
+    with atomic_output_dir(tmp_path / "out") as d:
+        (d / "plan.json").write_text("{}")
+    assert not stale.exists() and recent.is_dir()
