@@ -59,12 +59,9 @@ def simulate_yaw(model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], r
     col = {name: j for j, name in enumerate(model.params)}
     theta = np.ascontiguousarray(theta, dtype=float)  # einsum's summation order follows the memory layout
     i_r = theta[:, col["I_r"]]
-    forcing = _input_forcing(model, theta, w, col)
-    reg = None
-    if sensitivities:  # regressor of every non-I_r parameter at each sample
-        reg = np.zeros((b, n, p))
-        for name in model.input_terms:
-            reg[:, :, col[name]] = INPUT_TERMS[name](w)
+    # regressor of every non-I_r parameter at each sample: the input terms' now, the state terms' in the loop
+    reg = _input_regressors(model, w, col) if sensitivities else None
+    forcing = _input_forcing(model, theta, w, col, reg)
     r_hat = np.empty((b, n))
     sens = np.zeros((b, n, p)) if sensitivities else None
     r = np.asarray(r0, float).copy()
@@ -96,18 +93,27 @@ def simulate_yaw(model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], r
 _FORCING_BLOCK = 512
 
 
-def _input_forcing(model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], col: dict[str, int]) -> np.ndarray:
+def _input_regressors(model: YawModel, w: dict[str, np.ndarray], col: dict[str, int]) -> np.ndarray:
+    """(B, N, p) regressors of the terms of (2.17)/(2.18) that do not involve r; zero elsewhere."""
+    b, n = w["u"].shape
+    reg = np.zeros((b, n, len(model.params)))
+    for name in model.input_terms:
+        reg[:, :, col[name]] = INPUT_TERMS[name](w)
+    return reg
+
+
+def _input_forcing(model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], col: dict[str, int],
+                   reg: np.ndarray | None = None) -> np.ndarray:
     """The terms of (2.17)/(2.18) that do not involve r, plus tau_r: (B, N), summed once outside the
-    time loop, block by block along time (each sample's sum over the regressors is the same)."""
+    time loop, block by block along time (each sample's sum over the regressors is the same), from
+    the input regressors ``reg`` of :func:`_input_regressors` when the caller has them."""
     b, n = w["u"].shape
     out = np.empty((n, b)).T  # time-major in memory: the time loop reads one sample of every run at a time
     for k0 in range(0, n, _FORCING_BLOCK):
         part = slice(k0, min(n, k0 + _FORCING_BLOCK))
         wp = {key: val[:, part] for key, val in w.items()}
-        reg = np.zeros((b, part.stop - k0, len(model.params)))
-        for name in model.input_terms:
-            reg[:, :, col[name]] = INPUT_TERMS[name](wp)
-        out[:, part] = np.einsum("bnp,bp->bn", reg, theta) + wp["tau_r"]
+        block = _input_regressors(model, wp, col) if reg is None else reg[:, part]
+        out[:, part] = np.einsum("bnp,bp->bn", block, theta) + wp["tau_r"]
     return out
 
 
