@@ -16,18 +16,17 @@ them is what such an export wrote and nothing in them has changed for :data:`OLD
 
 from __future__ import annotations
 
-import fcntl
 import os
 import re
-import shutil
 import stat
-import tempfile
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 from maps.export._common import ExportError
+from primitives import owned_dirs
+from primitives.owned_dirs import OWNER, owned_tempdir
 
 
 @contextmanager
@@ -39,105 +38,40 @@ def staged_outputs(out_dir: str | Path) -> Iterator[Path]:
     created = [d for d in (out_dir, *out_dir.parents) if not d.exists()]
     out_dir.mkdir(parents=True, exist_ok=True)
     remove_stale(out_dir)
-    tmp = Path(tempfile.mkdtemp(prefix=PREFIX, dir=out_dir))
     try:
-        owner = _own(tmp)
+        with owned_tempdir(out_dir, PREFIX, OWNER_TEXT) as tmp:
+            (tmp / "new").mkdir()
+            yield tmp / "new"
+            _publish(tmp, out_dir)
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    try:
-        (tmp / "new").mkdir()
-        yield tmp / "new"
-        _publish(tmp, out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        os.close(owner)
         for d in created:  # innermost first; only while empty
             try:
                 d.rmdir()
             except OSError:
                 break
         raise
-    shutil.rmtree(tmp, ignore_errors=True)
-    os.close(owner)
 
 
 PREFIX = ".shiptrial-export."
-OWNER = ".owner"  # inside a staging directory: names its creator, locked while the export runs
 OWNER_TEXT = b"shiptrial export staging directory\n"
 # A staging directory of a version before the owner file (no lock to ask) is stale once nothing in
 # it has changed for a day: its export wrote a file every few seconds while it ran.
 OLD_STALE_S = 86400.0
-_MKDTEMP_NAME = re.compile(re.escape(PREFIX) + r"[a-z0-9_]{8}")  # tempfile.mkdtemp's 8 random characters
+_MKDTEMP_NAME = re.compile(re.escape(PREFIX) + owned_dirs.MKDTEMP_CHARS)
 # What an export writes into new/: its formats, the card's PDF, the plots, and (hidden) the atomic writers' temporaries
 _EXPORT_SUFFIXES = (".geojson", ".gpx", ".rtz", ".csv", ".html", ".pdf", ".png")
 
 
-def _own(tmp: Path) -> int:
-    """Create and lock the owner file of a staging directory; the open descriptor holds the lock.
-    The text is written only once the lock is held, so a file with the text is never unlocked
-    while its export runs."""
-    fd = os.open(tmp / OWNER, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o600)
-    fcntl.flock(fd, fcntl.LOCK_EX)
-    os.write(fd, OWNER_TEXT)
-    return fd
-
-
-def _process_start() -> float:
-    """Wall-clock time this process started, to 10 ms (Linux: its start in clock ticks since boot
-    from /proc, against the boot clock now), else when this module was imported."""
-    try:
-        ticks = int(Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()[19])
-        return time.time() - (time.clock_gettime(time.CLOCK_BOOTTIME) - ticks / os.sysconf("SC_CLK_TCK"))
-    except (OSError, ValueError, IndexError, AttributeError):
-        return _IMPORTED
-
-
-_IMPORTED = time.time()
-
-
 def remove_stale(out_dir: Path) -> list[Path]:
-    """Remove the staging directories a killed export left in ``out_dir``: a hidden
-    ``.shiptrial-export.*`` directory (not a link) whose owner file holds shiptrial's text, was
-    written before this process started, and is not locked by a running export. A destination
-    file its publishing had moved aside (``old/``) is put back when its name is free again; while
-    such a file cannot go back, the directory stays. A directory without an owner file (an earlier
-    version's) goes only when :func:`_old_version_stale` proves it one and stale. Returns the
-    directories removed."""
-    removed = []
-    started = _process_start()
-    for d in sorted(out_dir.glob(PREFIX + "*")):
-        try:
-            if d.is_symlink() or not d.is_dir():
-                continue
-            if not os.path.lexists(d / OWNER):
-                if _old_version_stale(d) and _put_back(d / "old", out_dir):
-                    shutil.rmtree(d, ignore_errors=True)
-                    removed.append(d)
-                continue
-            fd = os.open(d / OWNER, os.O_RDONLY | os.O_NOFOLLOW)
-        except OSError:
-            continue  # an owner file this process cannot open (a link, another user's): not ours to judge
-        try:
-            text = os.read(fd, 256)
-            if os.fstat(fd).st_mtime >= started or text not in (OWNER_TEXT, b""):
-                continue
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError:
-                continue  # an export is running in it
-            if not {e.name for e in d.iterdir()} <= {OWNER, "new", "old"}:
-                continue  # something else was put in it: not all of it is ours to delete
-            if not text and not _old_version_stale(d, owner=True):
-                continue  # an owner file without its text (killed between creating and writing it): judged as an old one
-            if _put_back(d / "old", out_dir):
-                shutil.rmtree(d, ignore_errors=True)
-                removed.append(d)
-        except OSError:
-            continue  # never let another run's leftovers fail this export
-        finally:
-            os.close(fd)
-    return removed
+    """Remove the staging directories a killed export left in ``out_dir``
+    (:func:`primitives.owned_dirs.remove_stale`: owner file with shiptrial's text, written before
+    this process started, not locked by a running export; nothing but ``new/`` and ``old/`` in
+    it). A destination file its publishing had moved aside (``old/``) is put back when its name
+    is free again; while such a file cannot go back, the directory stays. A directory without an
+    owner file (an earlier version's), or with an empty one, goes only when
+    :func:`_old_version_stale` proves it one and stale. Returns the directories removed."""
+    return owned_dirs.remove_stale(out_dir, PREFIX, OWNER_TEXT, contents=("new", "old"),
+                                   put_back=lambda d: _put_back(d / "old", out_dir), legacy=_old_version_stale)
 
 
 def _old_version_stale(d: Path, owner: bool = False) -> bool:
