@@ -208,6 +208,10 @@ class VelocityStep:
         self.speed = SPEED in used
         self.reads_heading = "psi" in used
         self.rigid, self.ts = rigid, ts
+        # one ship in calm water and air stepped on Python floats (:meth:`next_one`): the same
+        # increment function and coefficients, about a sixth of the time of a batch of one
+        self.scalar = rigid is None and not self.wind_excess and not self.speed and theta.ndim == 1 and terms.scalar_exact
+        self.inc_floats = terms.increment_function(floats=True) if self.scalar else None
 
     def increments(
         self,
@@ -223,6 +227,22 @@ class VelocityStep:
         if self.rigid is not None:
             inc = self.rigid.increments(inc, nu, self.ts)
         return inc
+
+    def next_one(self, nu: np.ndarray, exo: dict) -> np.ndarray:
+        """nu(k+1) (n_dof,) of one ship in calm water and calm air from nu(k) (n_dof,) and the
+        exogenous signals of step k as Python floats: the bits of ``self(nu[None], exo)[0]``
+        (the increment function's float variant: every operation is one IEEE operation on a
+        float as on an array, see :attr:`TermSet.scalar_exact`), without numpy's per-call cost
+        on one-element arrays. Falls back to the batch step when the step cannot run on floats (:attr:`scalar`)."""
+        if not self.scalar or len(nu) != 3:
+            return self(np.asarray(nu, float).reshape(1, -1), exo)[0]
+        u, v, r = float(nu[0]), float(nu[1]), float(nu[2])
+        # relative_signals in still water and calm air: relative velocities are those over ground
+        exo["u"] = exo["u_r"] = exo["u_q"] = u
+        exo["v"] = exo["v_r"] = exo["v_q"] = v
+        exo["r"] = r
+        du, dv, dr = self.inc_floats(exo, self.coef)
+        return np.array((u + du, v + dv, r + dr))
 
     def __call__(
         self,

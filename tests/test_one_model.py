@@ -108,3 +108,23 @@ def test_closed_loop_reads_the_speed_through_the_water(ship):
     psi = np.degrees(sim.eta[0, :, 2])
     k = gen.split_points[0]
     assert psi[k - 1] < 20 <= psi[k]
+
+
+@pytest.mark.parametrize("name", ["full-scale", "model-ship", "kvlcc2", "kvlcc2-linear"])
+def test_one_ship_float_step_is_the_batch_step(name):
+    """The closed-loop generators step one ship on Python floats (VelocityStep.next_one): the
+    bits of the kernel's batch step with the inputs as arrays, as primitives.simulate gives them
+    (squares of states and of inputs alike, e.g. kvlcc2's delta*n^2)."""
+    from primitives.simulate import VelocityStep
+
+    prof = load_profile(name)
+    step = VelocityStep(prof.model, prof.params(), prof.rigid_body, prof.sample_time)
+    assert step.scalar
+    rng = np.random.default_rng(3)
+    names = ("tau_x", "tau_y", "tau_n") if prof.actuator != "rudder_propeller" else prof.inputs
+    n = 20000  # enough that pow() on a float would differ from a product somewhere (about 1 in 1000 squares)
+    nu = rng.normal(size=(n, 3)) * (5.0, 1.0, 0.01)
+    ins = rng.normal(size=(n, len(names))) * 3.0
+    batch = step(nu, dict(zip(names, ins.T.copy())) | {"psi": np.full(n, 0.2)})
+    one = [step.next_one(nu[i], dict(zip(names, ins[i].tolist())) | {"psi": 0.2}) for i in range(n)]
+    np.testing.assert_array_equal(np.array(one), batch)
