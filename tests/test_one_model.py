@@ -128,3 +128,19 @@ def test_one_ship_float_step_is_the_batch_step(name):
     batch = step(nu, dict(zip(names, ins.T.copy())) | {"psi": np.full(n, 0.2)})
     one = [step.next_one(nu[i], dict(zip(names, ins[i].tolist())) | {"psi": 0.2}) for i in range(n)]
     np.testing.assert_array_equal(np.array(one), batch)
+
+
+@pytest.mark.parametrize("name", ["full-scale", "kvlcc2"])
+@pytest.mark.parametrize("positions", [True, False])
+def test_one_ship_simulation_is_the_batch_simulation(name, positions):
+    """simulate() of one ship in calm water runs on floats (simulate._one_ship_loop): the same
+    velocities and pose, bit for bit, as the same ship in a batch of two (the array loop)."""
+    prof = load_profile(name)
+    rng = np.random.default_rng(4)
+    lim = [prof.input_limits.get(k, (-1.0, 1.0)) for k in prof.inputs]
+    x = rng.uniform([lo for lo, _ in lim], [hi for _, hi in lim], (400, len(prof.inputs))) * 0.3
+    kw = {"nu0": (prof.cruise_speed_mps, 0.1, 0.001), "eta0": (10.0, -5.0, 0.3), "positions": positions}
+    one, two = simulate(prof, x, **kw), simulate(prof, x, batch=2, **kw)
+    assert np.max(np.abs(one.nu[0, :, 2])) > 1e-3  # it turns
+    np.testing.assert_array_equal(one.nu[0], two.nu[0])
+    np.testing.assert_array_equal(one.eta[0], two.eta[0])
