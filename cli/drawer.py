@@ -98,7 +98,13 @@ def _reap(pid: int, report: int) -> str | None:
 
 
 def _warm() -> None:
-    """Import what drawing needs (the child's work while the parent plans)."""
+    """Import what drawing needs (the child's work while the parent plans), the modules the
+    writers import when first called included (fpdf and its SVG reader, matplotlib's backends)."""
+    import fpdf  # noqa: F401
+    import fpdf.svg  # noqa: F401
+    import matplotlib.backends.backend_agg  # noqa: F401
+    import matplotlib.backends.backend_svg  # noqa: F401
+
     import expdesign.report  # noqa: F401
     import maps.export.card  # noqa: F401
     import maps.export.cardpdf  # noqa: F401
