@@ -35,8 +35,10 @@ def beside(jobs: list[tuple[Path, str, Callable[[], object]]]):
 
     paths = [p for p, _, _ in jobs]
     if not CAN_FORK:
-        for _, _, job in jobs:
-            job()
+        try:
+            _run_jobs(jobs)
+        except _Failed as exc:
+            raise ExportError(str(exc)) from None
         return lambda quiet=False: paths
     read, write = os.pipe()
     pid = os.fork()
@@ -44,9 +46,14 @@ def beside(jobs: list[tuple[Path, str, Callable[[], object]]]):
         os.close(read)
         _child(write, lambda: _run_jobs(jobs))
     os.close(write)
+    state: dict[str, str | None] = {}
 
     def wait(quiet: bool = False) -> list[Path]:
-        msg = _reap(pid, read)
+        if "msg" not in state:  # reaped once; a second call (after the first raised) reports nothing new
+            state["msg"] = _reap(pid, read)
+        elif quiet:
+            return paths
+        msg = state["msg"]
         if msg is not None and not quiet:
             raise ExportError(msg or f"{paths[0].name}: writing it failed")
         return paths
@@ -58,6 +65,8 @@ def _run_jobs(jobs: list[tuple[Path, str, Callable[[], object]]]) -> None:
     for path, what, job in jobs:
         try:
             job()
+        except _Failed:  # a nested writer's, worded already
+            raise
         except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent, naming the file
             raise _Failed(f"{path.name}: writing {what} failed: {type(exc).__name__}: {exc}") from exc
 
@@ -112,35 +121,41 @@ def _warm() -> None:
 
 
 def draw_here(job: dict[str, Any]) -> None:
-    """Write every figure of ``job`` (see :meth:`Drawer.send`): the PDF trial card and the design
-    ratios in a forked child (:func:`beside`), plan.png, the HTML trial card and its PNG figures
-    here."""
+    """Write every figure of ``job`` (see :meth:`Drawer.send`) in two processes, each figure drawn
+    once: a forked child (:func:`beside`) writes the PDF trial card and, from the card's states
+    figure, the states PNG; this process writes plan.png, the design ratios and the track PNG,
+    then the HTML trial card with both PNGs."""
     from maps.export import _write, default_path
     from maps.export.card import write_card_pdf
     from maps.export.plots import PlanFigures, plot_states, plot_track
     from maps.output import plot_plan
 
     plan, sea, chart, design, t0, tmp = (job[k] for k in ("plan", "sea", "chart", "design", "t0", "dir"))
-    pdf_path = default_path(plan, "card", tmp).with_suffix(".pdf")
-    jobs = [(pdf_path, "the PDF trial card", lambda: write_card_pdf(plan, pdf_path, chart, t0))]
-    if design is not None:
-        jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(design, tmp)))
-    wait = beside(jobs)
+    html = default_path(plan, "card", tmp)
+    stem = default_path(plan, "csv", tmp).with_suffix("")
+    track, states = Path(f"{stem}-track.png"), Path(f"{stem}-states.png")
+
+    def card_pdf() -> None:
+        with PlanFigures(plan, chart) as figs:
+            _run_jobs([(html.with_suffix(".pdf"), "the PDF trial card", lambda: write_card_pdf(plan, html.with_suffix(".pdf"),
+                                                                                               chart, t0, figures=figs)),
+                       (states, "the states figure", lambda: plot_states(plan, states, figures=figs))])
+
+    wait = beside([(html.with_suffix(".pdf"), "the PDF trial card", card_pdf)])
     try:
-        _run_jobs([(tmp / "plan.png", "the plan picture", lambda: plot_plan(plan, sea, tmp / "plan.png"))])
-        html = default_path(plan, "card", tmp)
-        stem = default_path(plan, "csv", tmp).with_suffix("")
-        with PlanFigures(plan, chart) as figs:  # the card's images are the PNG exports, each figure drawn once
+        jobs = [(tmp / "plan.png", "the plan picture", lambda: plot_plan(plan, sea, tmp / "plan.png"))]
+        if design is not None:
+            jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(design, tmp)))
+        _run_jobs(jobs)
+        with PlanFigures(plan, chart) as figs:  # the card's images are the PNG exports
+            _run_jobs([(track, "the track figure", lambda: plot_track(plan, track, chart, figures=figs))])
+            wait()
+            figs.adopt_png("states", states.read_bytes())
             _run_jobs([(html, "the trial card", lambda: _write(plan, "card", html, sea_map=chart, start=t0, vessel=None,
-                                                               pdf=False, figures=figs)),
-                       (Path(f"{stem}-track.png"), "the track figure", lambda: plot_track(plan, f"{stem}-track.png", chart,
-                                                                                           figures=figs)),
-                       (Path(f"{stem}-states.png"), "the states figure", lambda: plot_states(plan, f"{stem}-states.png",
-                                                                                             figures=figs))])
+                                                               pdf=False, figures=figs))])
     except BaseException:
         wait(quiet=True)  # no child outlives the drawing; the first error is the one to report
         raise
-    wait()
 
 
 def _design_ratios(design: Any, out: Path) -> Path:
@@ -186,7 +201,12 @@ class Drawer:
         dir (the output directory). Returns at once; the pipe is written by a thread while the
         caller goes on (the drawer may still be importing)."""
         if not self.pid:
-            draw_here(job)
+            try:
+                draw_here(job)
+            except _Failed as exc:
+                from maps.export import ExportError
+
+                raise ExportError(str(exc)) from None
             return
         data = pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL)
         fd, self._job_w = self._job_w, -1
