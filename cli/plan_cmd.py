@@ -197,7 +197,7 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
     the text exports."""
     from maps.export import _write, default_path
     from maps.export._common import check_plan
-    from maps.export.chart import embed_chart, plan_chart
+    from maps.export.chart import plan_chart
     from maps.output import write_outputs
 
     exports = result.feasible and not no_export
@@ -212,16 +212,14 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
         return files
     check_plan(result)
     chart = plan_chart(result, sea)  # one chart for every export
-    if len(result.track) >= 2:
-        embed_chart(result, sea)  # what write_outputs stores in plan.json, before the plan goes to the drawer
     if drawer is None:
         from cli.drawer import Drawer
 
         drawer = Drawer()
     drawer.send({"plan": result, "sea": sea, "chart": chart, "design": td.design if td is not None else None, "t0": t0,
-                 "dir": tmp})
+                 "dir": tmp})  # pickled now: the figures are drawn with the chart given, not the one plan.json stores
     try:
-        files = write_outputs(result, sea, tmp, plot=False, embed=False)
+        files = write_outputs(result, sea, tmp, plot=False)
         with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
             crew = {fmt: _write(result, fmt, default_path(result, fmt, tmp), sea_map=chart, start=t0, vessel=None, pdf=False,
                                 figures=None)[0] for fmt in ("geojson", "gpx", "rtz", "csv")}

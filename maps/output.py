@@ -74,7 +74,7 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     return out
 
 
-def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = True, embed: bool = True) -> dict[str, Path]:
+def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = True) -> dict[str, Path]:
     """plan.json, trajectory.geojson and (``plot``) plan.png (the track in its planning window,
     :func:`plot_plan`) in ``out_dir`` (atomic writes).
 
@@ -84,14 +84,13 @@ def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = Tru
     track alone, one LineString per segment tagged ``run-in``, ``informative`` (with the
     primitive) or ``transit`` (RFC 7946, when there is a track); the crew's chart overlay with
     execute points, waypoints and corridors is ``<ship>-trial.geojson`` (maps.export).
-    ``embed=False``: the caller has stored the chart of ``sea`` already (``embed_chart``).
     """
     from maps.export.chart import embed_chart
     from maps.export.geojson import write_geojson
     from primitives.io import atomic_write_text
 
     out = Path(out_dir)
-    if embed and len(plan.track) >= 2:
+    if len(plan.track) >= 2:
         embed_chart(plan, sea)
     files = {"plan_json": atomic_write_text(out / "plan.json", plan.to_json())}
     if len(plan.track) >= 2:  # a LineString needs two positions; a failed search has no track
