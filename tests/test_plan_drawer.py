@@ -19,12 +19,13 @@ def _files(d):
     return {p.name: p.read_bytes() for p in sorted(d.iterdir())}
 
 
-def _no_children() -> bool:
-    try:
-        os.waitpid(-1, os.WNOHANG)
-    except ChildProcessError:
-        return True
-    return False
+def _children() -> set[int]:
+    """Live (or unreaped) child processes of this process (Linux /proc)."""
+    kids: set[int] = set()
+    for task in os.listdir("/proc/self/task"):
+        with open(f"/proc/self/task/{task}/children") as fh:
+            kids.update(int(p) for p in fh.read().split())
+    return kids
 
 
 @pytest.fixture(scope="module")
@@ -56,17 +57,19 @@ def test_drawing_error_is_one_line_and_nothing_is_written(tmp_path, monkeypatch,
         raise RuntimeError("no ink")
 
     monkeypatch.setattr(plots, "plot_track", broken)
+    before = _children()
     out = tmp_path / "bad"
     assert _run(["plan", "--counts", COUNTS, "--out", str(out), "--start-time", START]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["error: full-scale-trial-track.png: writing the track figure failed: RuntimeError: no ink"]
-    assert not out.exists() and _no_children()
+    assert not out.exists() and _children() <= before
 
 
 def test_failed_planning_ends_the_drawer(tmp_path, capsys):
     """--counts naming no primitive of the library fails inside the planning, after the drawer
     started: the one-line error, nothing written, the drawer ended and reaped."""
     out = tmp_path / "none"
+    before = _children()
     assert _run(["plan", "--counts", "nosuch=1", "--out", str(out), "--start-time", START]) == 2
     assert capsys.readouterr().err.startswith("error: --counts: unknown primitive(s) nosuch for full-scale")
-    assert not out.exists() and _no_children()
+    assert not out.exists() and _children() <= before
