@@ -95,9 +95,11 @@ def _map_load() -> dict:
 
 def _stages() -> dict:
     """CPU seconds (``time.process_time``) of each stage of ``plan-trial --out DIR`` run one
-    after the other in this process (the command runs the ``child:`` stages in a forked child
-    beside the parent's): where the whole-process time goes. The imports are timed by the
-    ``cli_default`` case (this process has them already)."""
+    after the other in this process: where the whole-process time goes. The command itself
+    draws every figure (PDF and HTML card, their PNGs, plan.png, design ratios) in a drawer
+    forked at its start (``cli.drawer``: it imports matplotlib and fpdf while the parent plans,
+    then draws in two processes) beside the parent's plan.json, trajectory and text exports.
+    The imports are timed by the ``cli_default`` case (this process has them already)."""
     import tempfile
 
     from maps.chain import PlanOptions

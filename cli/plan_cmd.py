@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -140,6 +139,7 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
     ) -> None:
         """Plan a trial: design -> whole manoeuvres -> A* planning -> continuous verification -> exports for the crew."""
+        from cli.drawer import Drawer
         from cli.options import validate_plan_options
         from maps.chain import PlanOptions
         from maps.export._common import iso, resolve_start
@@ -165,122 +165,73 @@ def register(app: typer.Typer) -> None:
         opts = PlanOptions(resolution=resolution, headings=headings, heuristic=heuristic, margin=margin, split=split,
                            size=(ni, nj), run_in_s=run_in, max_memory_gib=max_memory)
         opts.check()
-        prof = load_profile(ship)
-        prof.require_planar("shiptrial plan")
-        sea = load_map(map_path, draught_m=prof.draught_m)
+        drawer = None if no_export else Drawer()  # imports the drawing modules on the other core while this one plans
         try:
-            with stage("designing the manoeuvre mix and planning on the lattice (A*) ...", json_out):
-                result, td = plan_with_design(sea, profile=prof, counts=cnt, start=start_pt, goal=goal_pt, scenario=scenario,
-                                              criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length,
-                                              seed=seed, vessel_name=vessel_name or "", options=opts)
-        except NoFitError as exc:
-            print(f"error: {str(exc).splitlines()[0]}", file=sys.stderr)
-            raise typer.Exit(1) from None
-        t0 = resolve_start(result, start_time)
-        result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
-        with atomic_output_dir(out) as tmp:
-            files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out)
+            prof = load_profile(ship)
+            prof.require_planar("shiptrial plan")
+            sea = load_map(map_path, draught_m=prof.draught_m)
+            try:
+                with stage("designing the manoeuvre mix and planning on the lattice (A*) ...", json_out):
+                    result, td = plan_with_design(sea, profile=prof, counts=cnt, start=start_pt, goal=goal_pt, scenario=scenario,
+                                                  criterion=criterion, mean_subtraction=mean_subtraction,
+                                                  trial_length_s=trial_length, seed=seed, vessel_name=vessel_name or "",
+                                                  options=opts)
+            except NoFitError as exc:
+                print(f"error: {str(exc).splitlines()[0]}", file=sys.stderr)
+                raise typer.Exit(1) from None
+            t0 = resolve_start(result, start_time)
+            result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
+            with atomic_output_dir(out) as tmp:
+                files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer)
+        finally:
+            if drawer is not None:
+                drawer.cancel()  # a no-op once it has drawn; ends it when the command failed before
         files = {k: out / Path(v).relative_to(tmp) for k, v in files.items()}
         report(result, files, heuristic, json_out)
 
 
-def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bool) -> dict[str, Path]:
-    """Every output into the (temporary) directory ``tmp``. The PDF trial card, the plan picture
-    and the design ratios figure are written by a forked child process meanwhile (see :func:`beside`)."""
-    from maps.export import default_path, export_all
+def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bool, drawer=None) -> dict[str, Path]:
+    """Every output into the (temporary) directory ``tmp``. The figures (PDF and HTML trial card,
+    their PNGs, the plan picture, the design ratios) are drawn by ``drawer`` (a
+    :class:`cli.drawer.Drawer` started with the command) while this process writes the plan and
+    the text exports."""
+    from maps.export import _write, default_path
+    from maps.export._common import check_plan
     from maps.export.chart import plan_chart
-    from maps.output import plot_plan, write_outputs
+    from maps.output import write_outputs
 
     exports = result.feasible and not no_export
-    chart = plan_chart(result, sea) if exports else None  # one chart for every export
-    wait = None
-    if exports:
-        from maps.export.card import write_card_pdf
-
-        pdf_path = default_path(result, "card", tmp).with_suffix(".pdf")
-        jobs = [(pdf_path, "the PDF trial card", lambda: write_card_pdf(result, pdf_path, chart, t0)),
-                (tmp / "plan.png", "the plan picture", lambda: plot_plan(result, sea, tmp / "plan.png"))]
+    if not exports:
+        if drawer is not None:
+            drawer.cancel()
+        files = write_outputs(result, sea, tmp, plot=True)
         if td is not None:
-            jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(td, tmp)))
-        wait = beside(jobs)
+            from cli.drawer import _design_ratios
+
+            files["design_ratios_png"] = _design_ratios(td.design, tmp)
+        return files
+    check_plan(result)
+    chart = plan_chart(result, sea)  # one chart for every export
+    if drawer is None:
+        from cli.drawer import Drawer
+
+        drawer = Drawer()
+    drawer.send({"plan": result, "sea": sea, "chart": chart, "design": td.design if td is not None else None, "t0": t0,
+                 "dir": tmp})  # pickled now: the figures are drawn with the chart given, not the one plan.json stores
     try:
-        files = write_outputs(result, sea, tmp, plot=not exports)
-        if td is not None and not exports:
-            _design_ratios(td, tmp)
-        if exports:
-            with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
-                crew = export_all(result, tmp, sea_map=chart, start=t0, pdf=False, staged=False)  # tmp: atomic_output_dir's
+        files = write_outputs(result, sea, tmp, plot=False)
+        with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
+            crew = {fmt: _write(result, fmt, default_path(result, fmt, tmp), sea_map=chart, start=t0, vessel=None, pdf=False,
+                                figures=None)[0] for fmt in ("geojson", "gpx", "rtz", "csv")}
     except BaseException:
-        if wait:
-            wait(quiet=True)  # no child outlives the command; the first error is the one to report
+        drawer.wait(quiet=True)  # no child outlives the command; the first error is the one to report
         raise
-    if td is not None:
-        files["design_ratios_png"] = tmp / "design-ratios.png"
-    if wait:
-        pdf_path, png_path = wait()[:2]
-        files = {**{k: v for k, v in files.items() if k in ("plan_json", "trajectory_geojson")}, "plot": png_path,
-                 **{k: v for k, v in files.items() if k not in ("plan_json", "trajectory_geojson")}}
-        keys = list(crew)
-        keys.insert(keys.index("card") + 1, "card_pdf")
-        files.update((k, pdf_path if k == "card_pdf" else crew[k]) for k in keys)
-    return files
-
-
-def _design_ratios(td, out: Path) -> Path:
-    from expdesign.report import plot_ratios
-
-    plot_ratios(td.design, out / "design-ratios.png")
-    return out / "design-ratios.png"
-
-
-def beside(jobs: list[tuple[Path, str, Callable[[], object]]]):
-    """Start writing ``jobs`` ((path, what, writer) each); returns a function that waits for them
-    and returns their paths (raising the first writer's error, naming its file).
-
-    On Linux a forked child writes them while the caller writes everything else: the outputs
-    are drawn on both cores at once (the same figures and bytes as in one process). Elsewhere
-    they are written here.
-    """
-    import os
-
-    from maps.export import ExportError
-
-    paths = [p for p, _, _ in jobs]
-    if not sys.platform.startswith("linux"):
-        for _, _, job in jobs:
-            job()
-        return lambda quiet=False: paths
-    read, write = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # the child: write the files, report an error through the pipe, never return
-        code = 1
-        try:
-            os.close(read)
-            # never write to a stream another thread of the parent may hold a lock on; the old streams
-            # are never flushed here (os._exit): what they buffered is the parent's to write
-            sys.stdout = sys.stderr = open(os.devnull, "w")
-            for path, what, job in jobs:
-                try:
-                    job()
-                except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent
-                    os.write(write, f"{path.name}: writing {what} failed: {type(exc).__name__}: {exc}".encode(errors="replace")[:4000])
-                    raise
-            code = 0
-        except BaseException:  # noqa: BLE001
-            pass
-        finally:
-            os._exit(code)
-    os.close(write)
-
-    def wait(quiet: bool = False) -> list[Path]:
-        with os.fdopen(read, "rb") as fh:
-            msg = fh.read().decode(errors="replace")
-        _, status = os.waitpid(pid, 0)
-        if os.waitstatus_to_exitcode(status) != 0 and not quiet:
-            raise ExportError(msg or f"{paths[0].name}: writing it failed (exit status {status})")
-        return paths
-
-    return wait
+    drawer.wait()
+    card = default_path(result, "card", tmp)
+    stem = default_path(result, "csv", tmp).with_suffix("")
+    return {**files, "plot": tmp / "plan.png", **({"design_ratios_png": tmp / "design-ratios.png"} if td is not None else {}),
+            **crew, "card": card, "card_pdf": card.with_suffix(".pdf"), "track_png": Path(f"{stem}-track.png"),
+            "states_png": Path(f"{stem}-states.png")}
 
 
 def report(result, files: dict[str, Path], heuristic: str, json_out: bool) -> None:

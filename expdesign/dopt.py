@@ -22,7 +22,6 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import linprog, minimize
 
 from expdesign.errors import DesignError
 from expdesign.simplexsolver import SUPPORTED, solve_simplex
@@ -187,6 +186,8 @@ class Constraints:
         if self.hi.sum() < 1 - 1e-9:
             raise DesignError(f"infeasible constraints: the maximum fractions add up to {self.hi.sum():.3g} < 1; raise max_frac")
         if self.A.size:
+            from scipy.optimize import linprog  # only constrained designs: not imported by every plan
+
             r = linprog(np.zeros(len(names)), A_ub=self.A, b_ub=self.b, A_eq=np.ones((1, len(names))), b_eq=[1.0],
                         bounds=list(zip(self.lo, self.hi)), method="highs")
             if r.status != 0:
@@ -204,6 +205,8 @@ class Constraints:
         """max g.w over the feasible set (a linear program; the vertex max_q g_q on the simplex)."""
         if self.is_simplex:
             return float(np.max(g))
+        from scipy.optimize import linprog
+
         r = linprog(-g, A_ub=self.A if self.A.size else None, b_ub=self.b if self.A.size else None,
                     A_eq=np.ones((1, len(g))), b_eq=[1.0], bounds=list(zip(self.lo, self.hi)), method="highs")
         return float(-r.fun)
@@ -214,6 +217,8 @@ class Constraints:
         w = w / w.sum() if w.sum() > 0 else np.full(len(w), 1.0 / len(w))
         if self.feasible(w):
             return w
+        from scipy.optimize import minimize
+
         cons = [{"type": "eq", "fun": lambda x: x.sum() - 1.0, "jac": lambda x: np.ones_like(x)}]
         if self.A.size:
             cons.append({"type": "ineq", "fun": lambda x: self.b - self.A @ x, "jac": lambda x: -self.A})
@@ -308,6 +313,8 @@ def _cvx_problem(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: s
 
 def _scipy_sym(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str) -> np.ndarray:
     """Last-resort solver of the symmetric relaxation: SLSQP from equal shares."""
+    from scipy.optimize import minimize
+
     q = mq.shape[0]
 
     def f(w):

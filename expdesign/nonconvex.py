@@ -15,7 +15,6 @@ For criteria A and E the objective is evaluated on the symmetric part of the sca
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import minimize
 
 from expdesign.dopt import Constraints, InfoSet, SolveResult
 
@@ -68,6 +67,8 @@ def solve_nonconvex(
     maxiter: int = 300,
 ) -> SolveResult:
     """(7.57) by multi-start SLSQP; ``starts`` lists each start's objective before and after."""
+    from scipy.optimize import minimize  # imported when used: plans with --counts or a scenario never need it
+
     q = len(info.names)
     cons = constraints or Constraints.simplex(q)
     fg = _objective(info, criterion, mean_subtraction)

@@ -199,6 +199,7 @@ class _Helm:
             2.0 * abs(steady_forces(profile, 0.0, 0.5, 0)[1]),
             2.0 * abs(steady_forces(profile, self.uc, 0, self.uc / (1.5 * profile.length_m))[2]),
         ])
+        self.k_f, self.fmax_f = self.k.tolist(), self.fmax.tolist()
 
     def feedforward(self, u: float, v: float, r: float) -> np.ndarray:
         """Steady forces, memoised on a fine grid (the P terms absorb the rounding)."""
@@ -213,11 +214,14 @@ class _Helm:
         ``err``: heading error, rad, that its autopilot steers out)."""
         if self.rudder is not None:
             return (*self.rudder.command(nu, u_ref, r_ref, err), 0.0)
-        ff = self.feedforward(u_ref, v_ref, r_ref)
-        f = ff + self.k * (np.array([u_ref, v_ref, r_ref]) - nu)
-        lim = np.maximum(self.fmax, 1.2 * np.abs(ff))  # a steady state the ship can hold is always reachable
-        f = np.clip(f, -lim, lim)
-        return float(f[0]), float(f[1]), float(f[2])
+        ff = self.feedforward(u_ref, v_ref, r_ref).tolist()
+        out = []
+        # per DOF on floats (a closed-loop step's hot path): the elementwise arithmetic of
+        # clip(ff + k (ref - nu), -lim, lim) with lim = max(fmax, 1.2 |ff|), the same bits
+        for f0, k, ref, x, fmax in zip(ff, self.k_f, (u_ref, v_ref, r_ref), nu.tolist(), self.fmax_f):
+            lim = max(fmax, 1.2 * abs(f0))  # a steady state the ship can hold is always reachable
+            out.append(min(max(f0 + k * (ref - x), -lim), lim))
+        return float(out[0]), float(out[1]), float(out[2])
 
     def run(self, nu0, pose0, phases: list[tuple[str, float]], n_max: int = 3000) -> np.ndarray:
         """Phases: ("run", metres), ("stop", 0), ("turn", target psi), ("settle", 0.0 | heading index), ("hold", (u, v, r,

@@ -125,12 +125,12 @@ def model_step(profile: ShipProfile, theta: np.ndarray, nu: np.ndarray, psi: flo
     The velocity step is the shared kernel's (:class:`primitives.simulate.VelocityStep`, the
     step of :func:`primitives.simulate.simulate`) on a batch of one, so a closed-loop generator
     sees the same signals (speed through the water ``U`` included) and the same arithmetic as
-    every simulation of its inputs; the heading is integrated as the kernel's Euler kinematics."""
+    every simulation of its inputs (stepped on floats, :meth:`VelocityStep.next_one`: the same bits);
+    the heading is integrated as the kernel's Euler kinematics."""
     step = _kernel_step(profile, theta)
     exo = dict(input_sig)
     exo["psi"] = psi
-    nxt = step(np.asarray(nu, float).reshape(1, -1), exo)[0]
-    return nxt, psi + profile.sample_time * nu[2]
+    return step.next_one(nu, exo), psi + profile.sample_time * nu[2]
 
 
 # The kernel step of the last (profile, theta) a closed-loop generator ran, per profile: building

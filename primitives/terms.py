@@ -59,12 +59,22 @@ class Factor:
             x = np.abs(x)
         return x if self.power == 1 else x**self.power
 
-    def code(self) -> str:
-        """The factor as a Python expression of the s_<name> locals of the increment function."""
+    def code(self, floats: bool = False) -> str:
+        """The factor as a Python expression of the s_<name> locals of the increment function.
+        ``floats``: for Python floats, a square as a product, the bits numpy gives for an array
+        (it squares an array; ``x**2`` on a float or a numpy scalar calls pow())."""
         expr = f"s_{self.name}" if self.station is None else f"(s_{self.name} + {self.station!r}*s_r)"
         if self.modulus:
             expr = f"abs({expr})"
+        if floats and self.power == 2:
+            return f"({expr}*{expr})"
         return expr if self.power == 1 else f"{expr}**{self.power}"
+
+    @property
+    def scalar_exact(self) -> bool:
+        """Whether :meth:`code` on Python floats gives the bits it gives on arrays: +, *, abs and
+        squares are one IEEE operation either way; other powers call pow() on a float."""
+        return self.power in (1, 2)
 
 
 def parse_factor(factor: str) -> Factor:
@@ -140,10 +150,15 @@ class TermSet:
         """Regressor block of DOF i: array of shape (..., n_terms_i)."""
         return np.stack([fn(sig) for fn in self._fns[i]], axis=-1)
 
-    def increment_function(self) -> Callable[[Signals, Sequence], list[np.ndarray]]:
+    def increment_function(self, floats: bool = False) -> Callable[[Signals, Sequence], list[np.ndarray]]:
         """Increment function generated once from the term strings: one Python expression per
-        DOF instead of a loop over factor closures (this is the simulators' inner loop)."""
-        fn = getattr(self, "_inc_fn", None)
+        DOF instead of a loop over factor closures (this is the simulators' inner loop).
+
+        ``floats``: the variant for signals that are Python floats (one ship stepped alone),
+        which gives the bits the array function gives for one-element arrays when
+        :attr:`scalar_exact` (squares written as products, see :meth:`Factor.code`)."""
+        attr = "_inc_float_fn" if floats else "_inc_fn"
+        fn = getattr(self, attr, None)
         if fn is not None:
             return fn
         names = sorted(signals_used(self.terms))
@@ -153,15 +168,21 @@ class TermSet:
         for i, dof in enumerate(self.terms):
             parts = []
             for t in dof:
-                factors = [parse_factor(f).code() for f in t.split("*")]
+                factors = [parse_factor(f).code(floats) for f in t.split("*")]
                 parts.append(f"c[{j}]*" + "*".join(factors))
                 j += 1
             lines.append(f"    d{i} = " + (" + ".join(parts) if parts else "0.0"))
         lines.append("    return [" + ", ".join(f"d{i}" for i in range(len(self.terms))) + "]")
         scope: dict = {}
         exec("\n".join(lines), {}, scope)  # noqa: S102 - source built from validated term strings
-        self._inc_fn = scope["_inc"]
-        return self._inc_fn
+        setattr(self, attr, scope["_inc"])
+        return scope["_inc"]
+
+    @property
+    def scalar_exact(self) -> bool:
+        """Whether the increment function gives on Python floats the bits it gives on arrays
+        (one ship stepped alone, e.g. a closed-loop generator; see :meth:`Factor.scalar_exact`)."""
+        return all(parse_factor(f).scalar_exact for dof in self.terms for t in dof for f in t.split("*"))
 
     def increments(self, sig: Signals, theta: np.ndarray) -> list[np.ndarray]:
         """Phi^T theta per DOF, i.e. the velocity increments of (3.60).

@@ -108,3 +108,39 @@ def test_closed_loop_reads_the_speed_through_the_water(ship):
     psi = np.degrees(sim.eta[0, :, 2])
     k = gen.split_points[0]
     assert psi[k - 1] < 20 <= psi[k]
+
+
+@pytest.mark.parametrize("name", ["full-scale", "model-ship", "kvlcc2", "kvlcc2-linear"])
+def test_one_ship_float_step_is_the_batch_step(name):
+    """The closed-loop generators step one ship on Python floats (VelocityStep.next_one): the
+    bits of the kernel's batch step with the inputs as arrays, as primitives.simulate gives them
+    (squares of states and of inputs alike, e.g. kvlcc2's delta*n^2)."""
+    from primitives.simulate import VelocityStep
+
+    prof = load_profile(name)
+    step = VelocityStep(prof.model, prof.params(), prof.rigid_body, prof.sample_time)
+    assert step.scalar
+    rng = np.random.default_rng(3)
+    names = ("tau_x", "tau_y", "tau_n") if prof.actuator != "rudder_propeller" else prof.inputs
+    n = 20000  # enough that pow() on a float would differ from a product somewhere (about 1 in 1000 squares)
+    nu = rng.normal(size=(n, 3)) * (5.0, 1.0, 0.01)
+    ins = rng.normal(size=(n, len(names))) * 3.0
+    batch = step(nu, dict(zip(names, ins.T.copy())) | {"psi": np.full(n, 0.2)})
+    one = [step.next_one(nu[i], dict(zip(names, ins[i].tolist())) | {"psi": 0.2}) for i in range(n)]
+    np.testing.assert_array_equal(np.array(one), batch)
+
+
+@pytest.mark.parametrize("name", ["full-scale", "kvlcc2"])
+@pytest.mark.parametrize("positions", [True, False])
+def test_one_ship_simulation_is_the_batch_simulation(name, positions):
+    """simulate() of one ship in calm water runs on floats (simulate._one_ship_loop): the same
+    velocities and pose, bit for bit, as the same ship in a batch of two (the array loop)."""
+    prof = load_profile(name)
+    rng = np.random.default_rng(4)
+    lim = [prof.input_limits.get(k, (-1.0, 1.0)) for k in prof.inputs]
+    x = rng.uniform([lo for lo, _ in lim], [hi for _, hi in lim], (400, len(prof.inputs))) * 0.3
+    kw = {"nu0": (prof.cruise_speed_mps, 0.1, 0.001), "eta0": (10.0, -5.0, 0.3), "positions": positions}
+    one, two = simulate(prof, x, **kw), simulate(prof, x, batch=2, **kw)
+    assert np.max(np.abs(one.nu[0, :, 2])) > 1e-3  # it turns
+    np.testing.assert_array_equal(one.nu[0], two.nu[0])
+    np.testing.assert_array_equal(one.eta[0], two.eta[0])

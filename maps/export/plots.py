@@ -409,6 +409,11 @@ class PlanFigures:
             self._png[key] = buf.getvalue()
         return self._png[key]
 
+    def adopt_png(self, name: str, data: bytes, dpi: int | None = None) -> None:
+        """Use ``data`` as the PNG of figure ``name`` at ``dpi``: the bytes :meth:`png` gave for
+        the same plan in another process (``shiptrial plan`` draws its figures in two)."""
+        self._png[(name, dpi or _SAVE[name][0])] = data
+
     def save(self, name: str, path: str | Path, dpi: int | None = None) -> Path:
         """Write the figure to ``path`` (PNG from the shared render, other formats by suffix)."""
         from primitives.io import atomic_write_bytes

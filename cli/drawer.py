@@ -1,0 +1,242 @@
+"""The figures of ``shiptrial plan`` drawn beside the computation.
+
+Drawing (the PDF trial card, the card's map and time-series figures, plan.png, the design
+ratios) needs matplotlib and fpdf, about half a second of imports, and about a second of
+rendering. A :class:`Drawer` is forked when the command starts: it imports the drawing modules
+on the other core while the parent designs and plans, then receives the finished plan (pickled
+through a pipe) and draws it in two processes (itself and one forked child) while the parent
+writes the text exports. The figures and bytes are those of one process.
+
+On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`).
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import sys
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+CAN_FORK = sys.platform.startswith("linux")
+
+
+def beside(jobs: list[tuple[Path, str, Callable[[], object]]]):
+    """Start writing ``jobs`` ((path, what, writer) each); returns a function that waits for them
+    and returns their paths (raising the first writer's error, naming its file).
+
+    On Linux a forked child writes them while the caller writes everything else: the outputs
+    are drawn on both cores at once (the same figures and bytes as in one process). Elsewhere
+    they are written here.
+    """
+    from maps.export import ExportError
+
+    paths = [p for p, _, _ in jobs]
+    if not CAN_FORK:
+        try:
+            _run_jobs(jobs)
+        except _Failed as exc:
+            raise ExportError(str(exc)) from None
+        return lambda quiet=False: paths
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: write the files, report an error through the pipe, never return
+        os.close(read)
+        _child(write, lambda: _run_jobs(jobs))
+    os.close(write)
+    state: dict[str, str | None] = {}
+
+    def wait(quiet: bool = False) -> list[Path]:
+        if "msg" not in state:  # reaped once; a second call (after the first raised) reports nothing new
+            state["msg"] = _reap(pid, read)
+        elif quiet:
+            return paths
+        msg = state["msg"]
+        if msg is not None and not quiet:
+            raise ExportError(msg or f"{paths[0].name}: writing it failed")
+        return paths
+
+    return wait
+
+
+def _run_jobs(jobs: list[tuple[Path, str, Callable[[], object]]]) -> None:
+    for path, what, job in jobs:
+        try:
+            job()
+        except _Failed:  # a nested writer's, worded already
+            raise
+        except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent, naming the file
+            raise _Failed(f"{path.name}: writing {what} failed: {type(exc).__name__}: {exc}") from exc
+
+
+class _Failed(Exception):
+    """A writer's error, already worded for the parent."""
+
+
+def _child(report: int, work: Callable[[], None]) -> None:
+    """Run ``work`` in a forked child and exit (never return): status 0, or 1 with the error
+    written to the ``report`` pipe."""
+    code = 1
+    try:
+        # never write to a stream another thread of the parent may hold a lock on; the old streams
+        # are never flushed here (os._exit): what they buffered is the parent's to write
+        sys.stdout = sys.stderr = open(os.devnull, "w")
+        work()
+        code = 0
+    except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent
+        from maps.export import ExportError
+
+        worded = isinstance(exc, (_Failed, ExportError))  # ExportError: a grandchild's (beside), already worded
+        msg = str(exc) if worded else f"drawing the figures failed: {type(exc).__name__}: {exc}"
+        try:
+            os.write(report, msg.encode(errors="replace")[:4000])
+        except OSError:
+            pass
+    finally:
+        os._exit(code)
+
+
+def _reap(pid: int, report: int) -> str | None:
+    """Wait for child ``pid``: None when it succeeded, else its error message ('' if none)."""
+    with os.fdopen(report, "rb") as fh:
+        msg = fh.read().decode(errors="replace")
+    _, status = os.waitpid(pid, 0)
+    return None if os.waitstatus_to_exitcode(status) == 0 else msg
+
+
+def _warm() -> None:
+    """Import what drawing needs (the child's work while the parent plans), the modules the
+    writers import when first called included (fpdf and its SVG reader, matplotlib's backends)."""
+    import fpdf  # noqa: F401
+    import fpdf.svg  # noqa: F401
+    import matplotlib.backends.backend_agg  # noqa: F401
+    import matplotlib.backends.backend_svg  # noqa: F401
+
+    import expdesign.report  # noqa: F401
+    import maps.export.card  # noqa: F401
+    import maps.export.cardpdf  # noqa: F401
+    import maps.output  # noqa: F401
+
+
+def draw_here(job: dict[str, Any]) -> None:
+    """Write every figure of ``job`` (see :meth:`Drawer.send`) in two processes, each figure drawn
+    once: a forked child (:func:`beside`) writes the PDF trial card and, from the card's states
+    figure, the states PNG; this process writes plan.png, the design ratios and the track PNG,
+    then the HTML trial card with both PNGs."""
+    from maps.export import _write, default_path
+    from maps.export.card import write_card_pdf
+    from maps.export.plots import PlanFigures, plot_states, plot_track
+    from maps.output import plot_plan
+
+    plan, sea, chart, design, t0, tmp = (job[k] for k in ("plan", "sea", "chart", "design", "t0", "dir"))
+    html = default_path(plan, "card", tmp)
+    stem = default_path(plan, "csv", tmp).with_suffix("")
+    track, states = Path(f"{stem}-track.png"), Path(f"{stem}-states.png")
+
+    def card_pdf() -> None:
+        with PlanFigures(plan, chart) as figs:
+            _run_jobs([(html.with_suffix(".pdf"), "the PDF trial card", lambda: write_card_pdf(plan, html.with_suffix(".pdf"),
+                                                                                               chart, t0, figures=figs)),
+                       (states, "the states figure", lambda: plot_states(plan, states, figures=figs))])
+
+    wait = beside([(html.with_suffix(".pdf"), "the PDF trial card", card_pdf)])
+    try:
+        jobs = [(tmp / "plan.png", "the plan picture", lambda: plot_plan(plan, sea, tmp / "plan.png"))]
+        if design is not None:
+            jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(design, tmp)))
+        _run_jobs(jobs)
+        with PlanFigures(plan, chart) as figs:  # the card's images are the PNG exports
+            _run_jobs([(track, "the track figure", lambda: plot_track(plan, track, chart, figures=figs))])
+            wait()
+            figs.adopt_png("states", states.read_bytes())
+            _run_jobs([(html, "the trial card", lambda: _write(plan, "card", html, sea_map=chart, start=t0, vessel=None,
+                                                               pdf=False, figures=figs))])
+    except BaseException:
+        wait(quiet=True)  # no child outlives the drawing; the first error is the one to report
+        raise
+
+
+def _design_ratios(design: Any, out: Path) -> Path:
+    from expdesign.report import plot_ratios
+
+    plot_ratios(design, out / "design-ratios.png")
+    return out / "design-ratios.png"
+
+
+class Drawer:
+    """A forked process that imports the drawing modules now and draws a plan later.
+
+    ``send(job)`` hands it the plan once planned; ``wait()`` waits for the figures (raising the
+    first writer's error as an ExportError); ``cancel()`` ends it without drawing (nothing
+    planned, or the command failed). Without ``fork`` nothing is started and ``send`` draws in
+    the calling process."""
+
+    def __init__(self) -> None:
+        self.pid = 0
+        if not CAN_FORK:
+            return
+        job_r, self._job_w = os.pipe()
+        self._report, report_w = os.pipe()
+        pid = os.fork()
+        if pid == 0:
+            os.close(self._job_w)
+            os.close(self._report)
+            _child(report_w, lambda: self._serve(job_r))
+        os.close(job_r)
+        os.close(report_w)
+        self.pid, self._sender = pid, None
+
+    @staticmethod
+    def _serve(job_r: int) -> None:
+        _warm()
+        with os.fdopen(job_r, "rb") as fh:
+            data = fh.read()
+        if data:  # nothing sent: cancelled
+            draw_here(pickle.loads(data))
+
+    def send(self, job: dict[str, Any]) -> None:
+        """Draw ``job``: keys plan, sea (the SeaMap), chart, design (or None), t0 (start time),
+        dir (the output directory). Returns at once; the pipe is written by a thread while the
+        caller goes on (the drawer may still be importing)."""
+        if not self.pid:
+            try:
+                draw_here(job)
+            except _Failed as exc:
+                from maps.export import ExportError
+
+                raise ExportError(str(exc)) from None
+            return
+        data = pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL)
+        fd, self._job_w = self._job_w, -1
+
+        def push() -> None:
+            try:
+                with os.fdopen(fd, "wb") as fh:
+                    fh.write(data)
+            except OSError:  # the drawer died: wait() reports it
+                pass
+
+        self._sender = threading.Thread(target=push, daemon=True)
+        self._sender.start()
+
+    def wait(self, quiet: bool = False) -> None:
+        """Wait for the drawer; raise its error (an ExportError) unless ``quiet``."""
+        if not self.pid:
+            return
+        pid, self.pid = self.pid, 0
+        if self._job_w >= 0:  # never sent: cancelled
+            os.close(self._job_w)
+            self._job_w = -1
+        if self._sender is not None:
+            self._sender.join()
+        msg = _reap(pid, self._report)
+        if msg is not None and not quiet:
+            from maps.export import ExportError
+
+            raise ExportError(msg or "drawing the figures failed")
+
+    def cancel(self) -> None:
+        """End the drawer without drawing (or wait quietly for one already drawing)."""
+        self.wait(quiet=True)
