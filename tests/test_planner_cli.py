@@ -45,6 +45,7 @@ def test_plan_writes_outputs_and_json(tmp_path, capsys):
         (["--goal", "59.0,24.96"], "outside the map"),
         (["--headings", "6"], "4, 8 or 16"),
         (["--counts", "no_such_primitive=2"], "unknown primitive"),
+        (["--ship", "kvlcc2", "--counts", "no_such_primitive=2"], "unknown primitive(s) no_such_primitive for kvlcc2"),
         (["--heuristic", "greedy"], "admissible"),
     ],
 )
