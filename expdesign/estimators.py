@@ -9,8 +9,10 @@ DOF is solved on its own (block-diagonal normal equations). The IV estimate of D
 with instruments Z built from a noise-free simulation (the profile's instrument set first, then
 the predictor simulated with the latest estimate until it settles), and Z~ the instruments with
 their mean removed: not at all, per sub-experiment (7.19) or over the whole experiment (7.20).
-Every array carries a leading batch axis B of Monte Carlo realisations; the solves are batched
-(``einsum`` + ``numpy.linalg.solve``), so 500 realisations cost about as much as one Python loop.
+Every array carries a leading batch axis B of Monte Carlo realisations; the moments are batched
+(``einsum``), the small per-DOF systems solved one by one (:func:`iv_solve`, which the Monte Carlo
+uses too). A realisation whose system is singular or ill-conditioned gets a NaN estimate and a
+note: a failure to report, never a pseudo-inverse's number.
 """
 
 from __future__ import annotations
@@ -57,55 +59,99 @@ class Estimate:
     notes: list[str] = field(default_factory=list)
 
 
-def _batched_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve a x = b for a batch; singular systems fall back to the pseudo-inverse."""
-    try:
-        return np.linalg.solve(a, b[..., None])[..., 0]
-    except np.linalg.LinAlgError:
-        return np.einsum("bij,bj->bi", np.linalg.pinv(a), b)
+# A DOF's system is judged on its matrix scaled by the raw instrument norms (rows) and regressor
+# norms (columns): units do not decide, a cancellation by the mean removal does. Regular Monte
+# Carlo solves stay below about 1e8 (model-ship and full-scale, every protocol and mean
+# subtraction); beyond 1e12 the relative error bound eps * cond of the solution exceeds 2e-4.
+MAX_CONDITION = 1e12
 
 
-def _subtract_mean(zs: list[np.ndarray], mean_subtraction: str) -> list[np.ndarray]:
-    """Instrument mean removal: 'none', 'batchwise' (7.19) or 'complete' (7.20)."""
-    if mean_subtraction == "none":
-        return zs
+def remove_instrument_mean(z: np.ndarray, mean_subtraction: str, starts: Sequence[int] = (0,)) -> np.ndarray:
+    """Instruments Z (..., N, p) with their mean removed: 'none'; per sub-experiment (7.19),
+    'batchwise', the sub-experiments starting at the sample indices ``starts``; over the whole
+    experiment (7.20), 'complete'."""
+    if mean_subtraction == "complete":
+        return z - z.mean(axis=-2, keepdims=True)
     if mean_subtraction == "batchwise":
-        return [z - z.mean(axis=1, keepdims=True) for z in zs]
-    n = sum(z.shape[1] for z in zs)
-    zbar = sum(z.sum(axis=1, keepdims=True) for z in zs) / n
-    return [z - zbar for z in zs]
+        blocks = np.split(z, list(starts[1:]), axis=-2)
+        return np.concatenate([c - c.mean(axis=-2, keepdims=True) for c in blocks], axis=-2)
+    return z
 
 
-def solve_blocks(
-    profile: ShipProfile, phis: list[np.ndarray], zs: list[np.ndarray], targets: list[np.ndarray]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Block-diagonal IV solve over stacked segments (Z = Phi gives least squares).
+def _column_norms(x: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.einsum("...ki,...ki->...i", x, x))
 
-    Returns theta (B, p), residuals (B, N, 3), cov (B, p, p), sigma2 (B, 3).
+
+def _solve_checked(a: np.ndarray, rhs: np.ndarray, z_norm: np.ndarray, phi_norm: np.ndarray) -> np.ndarray:
+    """x of a x = rhs for each system (a (..., n, n), rhs (..., n)); NaN for a system that is not
+    finite, singular, or whose scaled condition number exceeds MAX_CONDITION. Each system is
+    solved on its own: its numbers do not depend on the batch."""
+    n = a.shape[-1]
+    a2, r2 = a.reshape(-1, n, n), rhs.reshape(-1, n)
+    x = np.full(r2.shape, np.nan)
+    with np.errstate(all="ignore"):
+        scaled = a2 / (z_norm.reshape(-1, n, 1) * phi_norm.reshape(-1, 1, n))
+        ok = np.isfinite(scaled).all(axis=(1, 2)) & np.isfinite(r2).all(axis=1)
+        cond = np.full(len(a2), np.inf)
+        if ok.any():
+            cond[ok] = np.linalg.cond(scaled[ok])
+    for k in np.flatnonzero(cond <= MAX_CONDITION):
+        try:
+            x[k] = np.linalg.solve(a2[k], r2[k])
+        except np.linalg.LinAlgError:  # an exact zero pivot: singular after all
+            pass
+    return x.reshape(rhs.shape)
+
+
+def iv_solve(terms: TermSet, phi: np.ndarray, z: np.ndarray, tgt: np.ndarray, mean_subtraction: str = "none",
+             starts: Sequence[int] = (0,)) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """The block-diagonal IV estimate (2.18) of (9.2): per DOF i,
+    theta_i = (sum Z~_i Phi_i^T)^-1 sum Z~_i (y_i(k+1) - y_i(k)), with Z~ the instruments with
+    their mean removed (:func:`remove_instrument_mean`; Z = Phi gives least squares).
+
+    phi, z (..., N, p), tgt (..., N, 3), any leading batch axes. A DOF whose system is singular
+    or ill-conditioned gets NaN: a failed estimate to report, never a pseudo-inverse's number.
+    Returns theta (..., p), Z~ and the DOFs' matrices sum Z~_i Phi_i^T [(..., p_i, p_i)].
+    """
+    zt = remove_instrument_mean(z, mean_subtraction, starts)
+    theta = np.empty(phi.shape[:-2] + phi.shape[-1:])
+    mats = []
+    for i in range(3):
+        s = terms.dof_slice(i)
+        a = np.einsum("...ki,...kj->...ij", zt[..., s], phi[..., s])  # c_einsum, no BLAS: no thread-count rounding
+        rhs = np.einsum("...ki,...k->...i", zt[..., s], tgt[..., i])
+        theta[..., s] = _solve_checked(a, rhs, _column_norms(z[..., s]), _column_norms(phi[..., s]))
+        mats.append(a)
+    return theta, zt, mats
+
+
+def solve_blocks(profile: ShipProfile, phis: list[np.ndarray], zs: list[np.ndarray], targets: list[np.ndarray],
+                 mean_subtraction: str = "none") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`iv_solve` over stacked segments (each its own sub-experiment for 'batchwise').
+
+    Returns theta (B, p), residuals (B, N, 3), cov (B, p, p), sigma2 (B, 3); NaN for a
+    realisation's DOF whose system is singular or ill-conditioned.
     """
     terms = profile.predictor
     phi = np.concatenate(phis, axis=1)
-    z = np.concatenate(zs, axis=1)
     tgt = np.concatenate(targets, axis=1)
-    bsz, n, p = phi.shape
-    theta = np.zeros((bsz, p))
-    cov = np.zeros((bsz, p, p))
+    starts = np.cumsum([0] + [p.shape[1] for p in phis[:-1]])
+    theta, z, mats = iv_solve(terms, phi, np.concatenate(zs, axis=1), tgt, mean_subtraction, starts)
+    bsz, p = theta.shape
+    cov = np.full((bsz, p, p), np.nan)
     res = np.empty_like(tgt)
     sigma2 = np.zeros((bsz, 3))
-    for i in range(3):
+    for i, a in enumerate(mats):
         s = terms.dof_slice(i)
-        a = np.einsum("bki,bkj->bij", z[..., s], phi[..., s])
-        rhs = np.einsum("bki,bk->bi", z[..., s], tgt[..., i])
-        th = _batched_solve(a, rhs)
-        theta[:, s] = th
-        res[..., i] = tgt[..., i] - np.einsum("bki,bi->bk", phi[..., s], th)
+        res[..., i] = tgt[..., i] - np.einsum("bki,bi->bk", phi[..., s], theta[:, s])
         sigma2[:, i] = np.mean(res[..., i] ** 2, axis=1)
-        try:
-            ainv = np.linalg.inv(a)
-        except np.linalg.LinAlgError:
-            ainv = np.linalg.pinv(a)
-        zz = np.einsum("bki,bkj->bij", z[..., s], z[..., s])
-        cov[:, s, s] = sigma2[:, i, None, None] * ainv @ zz @ np.swapaxes(ainv, 1, 2)
+        ok = np.isfinite(theta[:, s]).all(axis=1)
+        if ok.any():
+            ainv = np.linalg.inv(a[ok])
+            zz = np.einsum("bki,bkj->bij", z[ok][..., s], z[ok][..., s])
+            cov[np.ix_(ok, range(s.start, s.stop), range(s.start, s.stop))] = \
+                sigma2[ok, i, None, None] * ainv @ zz @ np.swapaxes(ainv, 1, 2)
+    cov[:, ~block_mask(terms)] = 0.0
     return theta, res, cov, sigma2
 
 
@@ -126,6 +172,11 @@ def _sim_instruments(profile: ShipProfile, seg: Segment, theta: np.ndarray | str
     inputs = np.broadcast_to(seg.inputs, (seg.batch,) + seg.inputs.shape[-2:])
     with np.errstate(all="ignore"):  # the predictor simulated with an estimate
         return instruments(profile, inputs, theta, np.broadcast_to(nu0, (seg.batch, 3)), sim_terms=profile.predictor)
+
+
+def _failed_note(theta: np.ndarray) -> list[str]:
+    failed = int((~np.isfinite(theta).all(axis=1)).sum())
+    return [f"{failed} realisation(s) failed: a singular or ill-conditioned IV system (their theta is NaN)"] if failed else []
 
 
 def estimate(
@@ -158,26 +209,30 @@ def estimate(
     targets = [r[1] for r in regs]
     notes: list[str] = []
     if method == "ls":
-        zs = _subtract_mean(phis, mean_subtraction)
-        theta, res, cov, s2 = solve_blocks(profile, phis, zs, targets)
-        return Estimate(theta, res, cov, s2, 0, True, notes)
+        theta, res, cov, s2 = solve_blocks(profile, phis, phis, targets, mean_subtraction)
+        return Estimate(theta, res, cov, s2, 0, True, _failed_note(theta))
     zraw = [_sim_instruments(profile, s, instrument_set) for s in segments]
-    theta, res, cov, s2 = solve_blocks(profile, phis, _subtract_mean(zraw, mean_subtraction), targets)
+    theta, res, cov, s2 = solve_blocks(profile, phis, zraw, targets, mean_subtraction)
     converged, iters, kept = False, 0, 0
     for it in range(1, max_iter + 1):
         iters = it
         znew = [_sim_instruments(profile, s, theta) for s in segments]
         ok = np.all([np.isfinite(z).all(axis=(1, 2)) & (np.abs(z).max(axis=(1, 2)) < 1e6) for z in znew], axis=0)
-        kept = int((~ok).sum())
+        kept = int((~ok & np.isfinite(theta).all(axis=1)).sum())  # a failed realisation's NaN is no divergence
         zraw = [np.where(ok[:, None, None], zn, zo) for zn, zo in zip(znew, zraw)]
-        th_new, res, cov, s2 = solve_blocks(profile, phis, _subtract_mean(zraw, mean_subtraction), targets)
-        change = np.abs(th_new - theta) / np.maximum(np.abs(th_new), 1e-12)
+        th_new, res, cov, s2 = solve_blocks(profile, phis, zraw, targets, mean_subtraction)
+        with np.errstate(invalid="ignore"):
+            change = np.abs(th_new - theta) / np.maximum(np.abs(th_new), 1e-12)
         theta = th_new
-        if np.nanmax(change) < rtol:
+        finite = np.isfinite(change)  # a failed realisation (NaN) has nothing left to converge
+        if not finite.any():
+            break
+        if change[finite].max() < rtol:
             converged = True
             break
     if kept:
         notes.append(f"{kept} realisation(s) kept earlier instruments (simulation with the estimate diverged)")
+    notes += _failed_note(theta)
     return Estimate(theta, res, cov, s2, iters, converged, notes)
 
 
