@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from expdesign.errors import DesignError
-from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo
+from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo, information_moments
 from primitives.regressors import block_mask, instruments, predictor_regressors
 from primitives.ship import ShipProfile
 from primitives.simulate import SPEED, model_signals, signals_read, simulate
@@ -236,27 +236,16 @@ def estimate(
     return Estimate(theta, res, cov, s2, iters, converged, notes)
 
 
-def segments_from_primitives(profile: ShipProfile, prims, y_list=None) -> list[Segment]:
-    """Noise-free sub-experiments from library primitives (their nominal states as data)."""
-    out = []
-    for i, p in enumerate(prims):
-        y = p.nu[None] if y_list is None else y_list[i]
-        out.append(Segment(p.inputs, y, p.nu0, p.track[None, :, 2] if y_list is None else None))
-    return out
-
-
 def data_information(profile: ShipProfile, segments: Sequence[Segment], instrument_set: str | np.ndarray | None = None,
                      name: str = "prior") -> PrimitiveInfo:
     """Moments X, Y, Z (7.50), (7.51), (7.55) of data already collected (all realisations and
-    segments pooled), for the prior term (7.58) of a re-planned design: pass the result as
-    ``run_design(..., prior=info, prior_samples=info.n_samples)``."""
+    segments pooled; every segment of the same B realisations), for the prior term (7.58) of a
+    re-planned design: pass the result as ``run_design(..., prior=info, prior_samples=info.n_samples)``."""
     if not segments:
         raise DesignError("no data: the experiment has no segments")
-    phi = np.concatenate([_regressors(profile, s)[0].reshape(-1, profile.predictor.n_params) for s in segments])
-    z = np.concatenate([_sim_instruments(profile, s, instrument_set).reshape(-1, profile.predictor.n_params) for s in segments])
-    mask = block_mask(profile.predictor)
-    n = phi.shape[0] // max(1, segments[0].batch)
-    return PrimitiveInfo(name, n, phi.T @ z / phi.shape[0] * mask, phi.mean(axis=0), z.mean(axis=0), mask)
+    phi = np.concatenate([_regressors(profile, s)[0] for s in segments], axis=1)
+    z = np.concatenate([_sim_instruments(profile, s, instrument_set) for s in segments], axis=1)
+    return information_moments(name, phi, z, block_mask(profile.predictor))
 
 
 # -- output-error refinement (prediction-error method on the simulated output) ---------------------

@@ -7,15 +7,7 @@ import numpy as np
 import pytest
 
 from expdesign.errors import DesignError
-from expdesign.estimators import (
-    OEData,
-    Segment,
-    estimate,
-    iv_solve,
-    output_error,
-    output_error_unsupported,
-    segments_from_primitives,
-)
+from expdesign.estimators import OEData, Segment, estimate, iv_solve, output_error, output_error_unsupported
 from primitives.library import model_ship_thesis
 from primitives.regressors import predictor_regressors
 from primitives.ship import load_profile
@@ -41,7 +33,8 @@ def _noisy_segments(profile, lib, batch, seed):
 @pytest.mark.parametrize("ms", ["none", "complete"])
 def test_noise_free_data_recover_table_9_1(ship, method, ms):
     profile, lib = ship
-    est = estimate(profile, segments_from_primitives(profile, lib), method=method, mean_subtraction=ms)
+    segs = [Segment(q.inputs, q.nu[None], q.nu0, q.track[None, :, 2]) for q in lib]  # the nominal states as data
+    est = estimate(profile, segs, method=method, mean_subtraction=ms)
     true = profile.params("true")
     np.testing.assert_allclose(est.theta[0], true, rtol=1e-6)
     assert np.abs(est.residuals).max() < 1e-10
