@@ -59,10 +59,13 @@ class Estimate:
     notes: list[str] = field(default_factory=list)
 
 
-# A DOF's system is judged on its matrix scaled by the raw instrument norms (rows) and regressor
-# norms (columns): units do not decide, a cancellation by the mean removal does. Regular Monte
-# Carlo solves stay below about 1e8 (model-ship and full-scale, every protocol and mean
-# subtraction); beyond 1e12 the relative error bound eps * cond of the solution exceeds 2e-4.
+# A DOF's system fails (NaN) when the mean removal leaves one of its instruments constant to this
+# relative precision (only rounding left: such columns in the Monte Carlo are below 4e-15 of their
+# norm, its smallest real variation 1e-3), or when its condition number, rows scaled by the
+# mean-removed instrument norms and columns by the regressor norms (units do not decide), exceeds
+# MAX_CONDITION: eps * cond, the solution's relative error bound, above 2e-4 (the Monte Carlo's
+# other systems, model-ship and full-scale, every protocol and mean subtraction, stay below 3e7).
+CONSTANT_INSTRUMENT = 1e-10
 MAX_CONDITION = 1e12
 
 
@@ -78,29 +81,28 @@ def remove_instrument_mean(z: np.ndarray, mean_subtraction: str, starts: Sequenc
     return z
 
 
-def _column_norms(x: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.einsum("...ki,...ki->...i", x, x))
-
-
-def _solve_checked(a: np.ndarray, rhs: np.ndarray, z_norm: np.ndarray, phi_norm: np.ndarray) -> np.ndarray:
-    """x of a x = rhs for each system (a (..., n, n), rhs (..., n)); NaN for a system that is not
-    finite, singular, or whose scaled condition number exceeds MAX_CONDITION. Each system is
-    solved on its own: its numbers do not depend on the batch."""
+def _solve_checked(a: np.ndarray, rhs: np.ndarray, row_norm: np.ndarray, col_norm: np.ndarray, fail: np.ndarray) -> np.ndarray:
+    """x of a x = rhs for each system (a (..., n, n), rhs (..., n)); NaN where ``fail`` (...,) or
+    where the system is not finite, singular, or its condition number scaled by ``row_norm`` and
+    ``col_norm`` (..., n) exceeds MAX_CONDITION. Each system is solved on its own: its numbers do
+    not depend on the batch."""
     n = a.shape[-1]
     a2, r2 = a.reshape(-1, n, n), rhs.reshape(-1, n)
     x = np.full(r2.shape, np.nan)
     with np.errstate(all="ignore"):
-        scaled = a2 / (z_norm.reshape(-1, n, 1) * phi_norm.reshape(-1, 1, n))
-        ok = np.isfinite(scaled).all(axis=(1, 2)) & np.isfinite(r2).all(axis=1)
-        cond = np.full(len(a2), np.inf)
-        if ok.any():
-            cond[ok] = np.linalg.cond(scaled[ok])
-    for k in np.flatnonzero(cond <= MAX_CONDITION):
-        try:
-            x[k] = np.linalg.solve(a2[k], r2[k])
-        except np.linalg.LinAlgError:  # an exact zero pivot: singular after all
-            pass
+        scaled = a2 / (row_norm.reshape(-1, n, 1) * col_norm.reshape(-1, 1, n))
+        for k in np.flatnonzero(~np.reshape(fail, -1)):
+            try:  # NaN singular values (a matrix not finite) fail the comparison
+                s = np.linalg.svd(scaled[k], compute_uv=False)
+                if s[-1] * MAX_CONDITION >= s[0]:
+                    x[k] = np.linalg.solve(a2[k], r2[k])
+            except np.linalg.LinAlgError:  # the SVD of a matrix not finite, or an exact zero pivot
+                pass
     return x.reshape(rhs.shape)
+
+
+def _column_norms(x: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.einsum("...ki,...ki->...i", x, x))
 
 
 def iv_solve(terms: TermSet, phi: np.ndarray, z: np.ndarray, tgt: np.ndarray, mean_subtraction: str = "none",
@@ -110,17 +112,21 @@ def iv_solve(terms: TermSet, phi: np.ndarray, z: np.ndarray, tgt: np.ndarray, me
     their mean removed (:func:`remove_instrument_mean`; Z = Phi gives least squares).
 
     phi, z (..., N, p), tgt (..., N, 3), any leading batch axes. A DOF whose system is singular
-    or ill-conditioned gets NaN: a failed estimate to report, never a pseudo-inverse's number.
+    or ill-conditioned (see CONSTANT_INSTRUMENT, MAX_CONDITION) gets NaN: a failed estimate to
+    report, never a pseudo-inverse's number.
     Returns theta (..., p), Z~ and the DOFs' matrices sum Z~_i Phi_i^T [(..., p_i, p_i)].
     """
     zt = remove_instrument_mean(z, mean_subtraction, starts)
+    zt_norm, phi_norm = _column_norms(zt), _column_norms(phi)
+    with np.errstate(invalid="ignore"):
+        constant = ~(zt_norm > CONSTANT_INSTRUMENT * _column_norms(z)) if mean_subtraction != "none" else zt_norm == 0
     theta = np.empty(phi.shape[:-2] + phi.shape[-1:])
     mats = []
     for i in range(3):
         s = terms.dof_slice(i)
         a = np.einsum("...ki,...kj->...ij", zt[..., s], phi[..., s])  # c_einsum, no BLAS: no thread-count rounding
         rhs = np.einsum("...ki,...k->...i", zt[..., s], tgt[..., i])
-        theta[..., s] = _solve_checked(a, rhs, _column_norms(z[..., s]), _column_norms(phi[..., s]))
+        theta[..., s] = _solve_checked(a, rhs, zt_norm[..., s], phi_norm[..., s], constant[..., s].any(axis=-1))
         mats.append(a)
     return theta, zt, mats
 

@@ -111,6 +111,21 @@ def test_iv_solve_gives_each_system_its_own_numbers(ship):
     assert np.isnan(batch[1, :4]).all() and np.isfinite(batch[1, 4:]).all() and np.isfinite(batch[[0, 2]]).all()
 
 
+def test_iv_solve_fails_an_ill_conditioned_or_constant_instrument_system(ship):
+    profile, _ = ship
+    rng = np.random.default_rng(0)
+    phi, tgt = rng.normal(size=(200, 10)), rng.normal(size=(200, 3))
+    phi[:, 1] = phi[:, 0] * (1.0 + 1e-14 * rng.normal(size=200))  # surge: two regressors equal to rounding
+    z = phi.copy()
+    z[:, 4] = 3.0  # sway: an instrument constant, mean removed over the experiment (7.20)
+    assert np.isfinite(np.linalg.solve(z[:, :4].T @ phi[:, :4], z[:, :4].T @ tgt[:, 0])).all()  # LAPACK gives a number
+    theta = iv_solve(profile.predictor, phi, z, tgt, "complete")[0]
+    assert np.isnan(theta[:7]).all() and np.isfinite(theta[7:]).all()
+    z[:, 4] = 0.0  # without mean removal only an all-zero instrument is constant
+    theta = iv_solve(profile.predictor, phi, z, tgt, "none")[0]
+    assert np.isnan(theta[4:7]).all() and np.isfinite(theta[7:]).all()
+
+
 # -- output-error refinement ------------------------------------------------------------------------
 
 
