@@ -43,7 +43,8 @@ from typing import Any
 import numpy as np
 
 from expdesign.errors import DesignError
-from expdesign.estimators import OEData, iv_solve, output_error, output_error_unsupported
+from expdesign.estimators import OEData, output_error, output_error_unsupported
+from expdesign.ivsolve import iv_solve
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.rounding import efficient_rounding
 from primitives.information import MEAN_SUBTRACTION
@@ -311,7 +312,7 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) ->
 
 
 def _solve_run(sh: MCShared, segs: list[_Seg], b: int, starts: list[int]) -> np.ndarray:
-    """IV estimate of run b (:func:`expdesign.estimators.iv_solve`), the instrument mean removed
+    """IV estimate of run b (:func:`expdesign.ivsolve.iv_solve`), the instrument mean removed
     per block (7.19) or over the experiment (7.20); NaN (a failed run) where a DOF's system is
     singular or ill-conditioned."""
     if len(segs) == 1:  # the continuous protocol: the run's rows as they are (C-contiguous, as a concatenation)

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from expdesign.errors import DesignError
-from expdesign.estimators import OEData, Segment, estimate, iv_solve, output_error, output_error_unsupported
+from expdesign.estimators import OEData, Segment, estimate, output_error, output_error_unsupported
+from expdesign.ivsolve import iv_solve
 from primitives.library import model_ship_thesis
 from primitives.regressors import predictor_regressors
 from primitives.ship import load_profile
