@@ -9,8 +9,10 @@ DOF is solved on its own (block-diagonal normal equations). The IV estimate of D
 with instruments Z built from a noise-free simulation (the profile's instrument set first, then
 the predictor simulated with the latest estimate until it settles), and Z~ the instruments with
 their mean removed: not at all, per sub-experiment (7.19) or over the whole experiment (7.20).
-Every array carries a leading batch axis B of Monte Carlo realisations; the solves are batched
-(``einsum`` + ``numpy.linalg.solve``), so 500 realisations cost about as much as one Python loop.
+Every array carries a leading batch axis B of Monte Carlo realisations; the moments are batched
+(``einsum``), the small per-DOF systems solved one by one by :func:`expdesign.ivsolve.iv_solve`,
+which the Monte Carlo uses too. A realisation whose system is singular or ill-conditioned gets a
+NaN estimate and a note: a failure to report, never a pseudo-inverse's number.
 """
 
 from __future__ import annotations
@@ -21,7 +23,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from expdesign.errors import DesignError
-from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo
+from expdesign.ivsolve import iv_solve
+from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo, information_moments
 from primitives.regressors import block_mask, instruments, predictor_regressors
 from primitives.ship import ShipProfile
 from primitives.simulate import SPEED, model_signals, signals_read, simulate
@@ -57,55 +60,33 @@ class Estimate:
     notes: list[str] = field(default_factory=list)
 
 
-def _batched_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve a x = b for a batch; singular systems fall back to the pseudo-inverse."""
-    try:
-        return np.linalg.solve(a, b[..., None])[..., 0]
-    except np.linalg.LinAlgError:
-        return np.einsum("bij,bj->bi", np.linalg.pinv(a), b)
+def solve_blocks(profile: ShipProfile, phis: list[np.ndarray], zs: list[np.ndarray], targets: list[np.ndarray],
+                 mean_subtraction: str = "none") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`iv_solve` over stacked segments (each its own sub-experiment for 'batchwise').
 
-
-def _subtract_mean(zs: list[np.ndarray], mean_subtraction: str) -> list[np.ndarray]:
-    """Instrument mean removal: 'none', 'batchwise' (7.19) or 'complete' (7.20)."""
-    if mean_subtraction == "none":
-        return zs
-    if mean_subtraction == "batchwise":
-        return [z - z.mean(axis=1, keepdims=True) for z in zs]
-    n = sum(z.shape[1] for z in zs)
-    zbar = sum(z.sum(axis=1, keepdims=True) for z in zs) / n
-    return [z - zbar for z in zs]
-
-
-def solve_blocks(
-    profile: ShipProfile, phis: list[np.ndarray], zs: list[np.ndarray], targets: list[np.ndarray]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Block-diagonal IV solve over stacked segments (Z = Phi gives least squares).
-
-    Returns theta (B, p), residuals (B, N, 3), cov (B, p, p), sigma2 (B, 3).
+    Returns theta (B, p), residuals (B, N, 3), cov (B, p, p), sigma2 (B, 3); NaN for a
+    realisation's DOF whose system is singular or ill-conditioned.
     """
     terms = profile.predictor
     phi = np.concatenate(phis, axis=1)
-    z = np.concatenate(zs, axis=1)
     tgt = np.concatenate(targets, axis=1)
-    bsz, n, p = phi.shape
-    theta = np.zeros((bsz, p))
-    cov = np.zeros((bsz, p, p))
+    starts = np.cumsum([0] + [p.shape[1] for p in phis[:-1]])
+    theta, z, mats = iv_solve(terms, phi, np.concatenate(zs, axis=1), tgt, mean_subtraction, starts)
+    bsz, p = theta.shape
+    cov = np.full((bsz, p, p), np.nan)
     res = np.empty_like(tgt)
     sigma2 = np.zeros((bsz, 3))
-    for i in range(3):
+    for i, a in enumerate(mats):
         s = terms.dof_slice(i)
-        a = np.einsum("bki,bkj->bij", z[..., s], phi[..., s])
-        rhs = np.einsum("bki,bk->bi", z[..., s], tgt[..., i])
-        th = _batched_solve(a, rhs)
-        theta[:, s] = th
-        res[..., i] = tgt[..., i] - np.einsum("bki,bi->bk", phi[..., s], th)
+        res[..., i] = tgt[..., i] - np.einsum("bki,bi->bk", phi[..., s], theta[:, s])
         sigma2[:, i] = np.mean(res[..., i] ** 2, axis=1)
-        try:
-            ainv = np.linalg.inv(a)
-        except np.linalg.LinAlgError:
-            ainv = np.linalg.pinv(a)
-        zz = np.einsum("bki,bkj->bij", z[..., s], z[..., s])
-        cov[:, s, s] = sigma2[:, i, None, None] * ainv @ zz @ np.swapaxes(ainv, 1, 2)
+        ok = np.isfinite(theta[:, s]).all(axis=1)
+        if ok.any():
+            ainv = np.linalg.inv(a[ok])
+            zz = np.einsum("bki,bkj->bij", z[ok][..., s], z[ok][..., s])
+            cov[np.ix_(ok, range(s.start, s.stop), range(s.start, s.stop))] = \
+                sigma2[ok, i, None, None] * ainv @ zz @ np.swapaxes(ainv, 1, 2)
+    cov[:, ~block_mask(terms)] = 0.0
     return theta, res, cov, sigma2
 
 
@@ -126,6 +107,11 @@ def _sim_instruments(profile: ShipProfile, seg: Segment, theta: np.ndarray | str
     inputs = np.broadcast_to(seg.inputs, (seg.batch,) + seg.inputs.shape[-2:])
     with np.errstate(all="ignore"):  # the predictor simulated with an estimate
         return instruments(profile, inputs, theta, np.broadcast_to(nu0, (seg.batch, 3)), sim_terms=profile.predictor)
+
+
+def _failed_note(theta: np.ndarray) -> list[str]:
+    failed = int((~np.isfinite(theta).all(axis=1)).sum())
+    return [f"{failed} realisation(s) failed: a singular or ill-conditioned IV system (their theta is NaN)"] if failed else []
 
 
 def estimate(
@@ -158,50 +144,43 @@ def estimate(
     targets = [r[1] for r in regs]
     notes: list[str] = []
     if method == "ls":
-        zs = _subtract_mean(phis, mean_subtraction)
-        theta, res, cov, s2 = solve_blocks(profile, phis, zs, targets)
-        return Estimate(theta, res, cov, s2, 0, True, notes)
+        theta, res, cov, s2 = solve_blocks(profile, phis, phis, targets, mean_subtraction)
+        return Estimate(theta, res, cov, s2, 0, True, _failed_note(theta))
     zraw = [_sim_instruments(profile, s, instrument_set) for s in segments]
-    theta, res, cov, s2 = solve_blocks(profile, phis, _subtract_mean(zraw, mean_subtraction), targets)
+    theta, res, cov, s2 = solve_blocks(profile, phis, zraw, targets, mean_subtraction)
     converged, iters, kept = False, 0, 0
     for it in range(1, max_iter + 1):
         iters = it
         znew = [_sim_instruments(profile, s, theta) for s in segments]
         ok = np.all([np.isfinite(z).all(axis=(1, 2)) & (np.abs(z).max(axis=(1, 2)) < 1e6) for z in znew], axis=0)
-        kept = int((~ok).sum())
+        kept = int((~ok & np.isfinite(theta).all(axis=1)).sum())  # a failed realisation's NaN is no divergence
         zraw = [np.where(ok[:, None, None], zn, zo) for zn, zo in zip(znew, zraw)]
-        th_new, res, cov, s2 = solve_blocks(profile, phis, _subtract_mean(zraw, mean_subtraction), targets)
-        change = np.abs(th_new - theta) / np.maximum(np.abs(th_new), 1e-12)
+        th_new, res, cov, s2 = solve_blocks(profile, phis, zraw, targets, mean_subtraction)
+        with np.errstate(invalid="ignore"):
+            change = np.abs(th_new - theta) / np.maximum(np.abs(th_new), 1e-12)
         theta = th_new
-        if np.nanmax(change) < rtol:
+        finite = np.isfinite(change)  # a failed realisation (NaN) has nothing left to converge
+        if not finite.any():
+            break
+        if change[finite].max() < rtol:
             converged = True
             break
     if kept:
         notes.append(f"{kept} realisation(s) kept earlier instruments (simulation with the estimate diverged)")
+    notes += _failed_note(theta)
     return Estimate(theta, res, cov, s2, iters, converged, notes)
-
-
-def segments_from_primitives(profile: ShipProfile, prims, y_list=None) -> list[Segment]:
-    """Noise-free sub-experiments from library primitives (their nominal states as data)."""
-    out = []
-    for i, p in enumerate(prims):
-        y = p.nu[None] if y_list is None else y_list[i]
-        out.append(Segment(p.inputs, y, p.nu0, p.track[None, :, 2] if y_list is None else None))
-    return out
 
 
 def data_information(profile: ShipProfile, segments: Sequence[Segment], instrument_set: str | np.ndarray | None = None,
                      name: str = "prior") -> PrimitiveInfo:
     """Moments X, Y, Z (7.50), (7.51), (7.55) of data already collected (all realisations and
-    segments pooled), for the prior term (7.58) of a re-planned design: pass the result as
-    ``run_design(..., prior=info, prior_samples=info.n_samples)``."""
+    segments pooled; every segment of the same B realisations), for the prior term (7.58) of a
+    re-planned design: pass the result as ``run_design(..., prior=info, prior_samples=info.n_samples)``."""
     if not segments:
         raise DesignError("no data: the experiment has no segments")
-    phi = np.concatenate([_regressors(profile, s)[0].reshape(-1, profile.predictor.n_params) for s in segments])
-    z = np.concatenate([_sim_instruments(profile, s, instrument_set).reshape(-1, profile.predictor.n_params) for s in segments])
-    mask = block_mask(profile.predictor)
-    n = phi.shape[0] // max(1, segments[0].batch)
-    return PrimitiveInfo(name, n, phi.T @ z / phi.shape[0] * mask, phi.mean(axis=0), z.mean(axis=0), mask)
+    phi = np.concatenate([_regressors(profile, s)[0] for s in segments], axis=1)
+    z = np.concatenate([_sim_instruments(profile, s, instrument_set) for s in segments], axis=1)
+    return information_moments(name, phi, z, block_mask(profile.predictor))
 
 
 # -- output-error refinement (prediction-error method on the simulated output) ---------------------

@@ -44,6 +44,7 @@ import numpy as np
 
 from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
+from expdesign.ivsolve import iv_solve
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.rounding import efficient_rounding
 from primitives.information import MEAN_SUBTRACTION
@@ -311,29 +312,16 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) ->
 
 
 def _solve_run(sh: MCShared, segs: list[_Seg], b: int, starts: list[int]) -> np.ndarray:
-    """IV estimate of run b, theta = (sum Z~ Phi^T)^-1 sum Z~ dy per DOF (block-diagonal (9.2)),
-    with the instrument mean removed per block (7.19) or over the experiment (7.20)."""
+    """IV estimate of run b (:func:`expdesign.ivsolve.iv_solve`), the instrument mean removed
+    per block (7.19) or over the experiment (7.20); NaN (a failed run) where a DOF's system is
+    singular or ill-conditioned."""
     if len(segs) == 1:  # the continuous protocol: the run's rows as they are (C-contiguous, as a concatenation)
         phi, tgt, z = segs[0].phi[b], segs[0].tgt[b], segs[0].z[b]
     else:
         phi = np.concatenate([s.phi[b] for s in segs])
         tgt = np.concatenate([s.tgt[b] for s in segs])
         z = np.concatenate([s.z[b] for s in segs])
-    ms = sh.config.mean_subtraction
-    if ms == "complete":
-        z = z - z.mean(axis=0)
-    elif ms == "batchwise":
-        z = np.concatenate([c - c.mean(axis=0) for c in np.split(z, starts[1:])])
-    theta = np.empty(phi.shape[1])
-    for i in range(3):
-        s = sh.predictor.dof_slice(i)
-        a = np.einsum("ki,kj->ij", z[:, s], phi[:, s])  # c_einsum, no BLAS: no thread-count rounding
-        rhs = np.einsum("ki,k->i", z[:, s], tgt[:, i])
-        try:
-            theta[s] = np.linalg.solve(a, rhs)
-        except np.linalg.LinAlgError:
-            theta[s] = np.nan
-    return theta
+    return iv_solve(sh.predictor, phi, z, tgt, sh.config.mean_subtraction, starts)[0]
 
 
 def _resimulated_instruments(sh: MCShared, seg: _Seg, theta: np.ndarray, idx: np.ndarray) -> np.ndarray:

@@ -53,12 +53,13 @@ SWEEP_KEYS = ("ships", "criteria", "mean_subtraction", "library", "speeds", "see
 TABLE_SUFFIXES = (".csv", ".parquet")
 
 
-def check_outputs(out: str | Path, plot: str | Path | None = None) -> None:
-    """Refuse, before any work, a table or plot path whose extension does not name its format."""
+def check_outputs(out: str | Path, plot: str | Path | None = None, option: str = "--out") -> None:
+    """Refuse, before any work, a table or plot path whose extension does not name its format
+    (or that cannot be written); ``option`` names the table path in the message."""
     from primitives.io import FIGURE_SUFFIXES, check_out_file
 
     try:
-        check_out_file(out, TABLE_SUFFIXES, "--out", "table")
+        check_out_file(out, TABLE_SUFFIXES, option, "table")
         if plot is not None:
             check_out_file(plot, FIGURE_SUFFIXES, "--plot", "figure")
     except UserError as exc:
@@ -214,15 +215,15 @@ def run_sweep(cells: list[Cell], engine: Engine | str | None = None, progress: b
 
 
 def write_table(rows: list[dict[str, Any]], path: str | Path) -> Path:
-    """Write rows as CSV (or Parquet for a .parquet path when pyarrow is installed), atomically."""
+    """Write rows as CSV (or Parquet for a .parquet path when pyarrow is installed), atomically;
+    a path :func:`check_outputs` refuses is refused here too (library callers skip the CLI's check)."""
     import csv
     import io
 
     from primitives.io import atomic_write_bytes, atomic_write_text
 
     path = Path(path)
-    if path.suffix.lower() not in TABLE_SUFFIXES:
-        raise SweepError(f"{path}: the extension must name the table format: {' or '.join(TABLE_SUFFIXES)}")
+    check_outputs(path, option="table")
     if path.suffix.lower() == ".parquet":
         try:
             import pyarrow as pa

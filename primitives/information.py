@@ -74,10 +74,16 @@ def primitive_information(
         y, psi = res.y, res.psi_meas
     phi, _ = predictor_regressors(profile, y, np.broadcast_to(primitive.inputs, (y.shape[0],) + primitive.inputs.shape), psi)
     z = instruments(profile, primitive.inputs, instrument_set, primitive.nu0)
-    mask = block_mask(terms)
-    n = phi.shape[1]
-    X = np.einsum("bki,kj->ij", phi, z) / (n * phi.shape[0]) * mask
-    return PrimitiveInfo(primitive.name, n, X, phi.mean(axis=(0, 1)), z.mean(axis=0), mask)
+    return information_moments(primitive.name, phi, z, block_mask(terms))
+
+
+def information_moments(name: str, phi: np.ndarray, z: np.ndarray, mask: np.ndarray) -> PrimitiveInfo:
+    """X = mean Phi Z^T (7.50) within the DOF blocks of ``mask``, Y = mean Phi (7.51) and
+    Z = mean Z (7.55) over the B realisations and N samples of the regressors phi (B, N, p), with
+    instruments z (N, p) shared by every realisation or (B, N, p) one set each."""
+    b, n = phi.shape[:2]
+    X = np.einsum("bki,kj->ij" if z.ndim == 2 else "bki,bkj->ij", phi, z) / (n * b) * mask
+    return PrimitiveInfo(name, n, X, phi.mean(axis=(0, 1)), z.reshape(-1, z.shape[-1]).mean(axis=0), mask)
 
 
 def library_information(profile: ShipProfile, primitives: list[Primitive], **kw) -> list[PrimitiveInfo]:

@@ -19,7 +19,7 @@ from primitives.errors import UserError
 from primitives.physical_tables import POD_MODEL_KEYS, Engine, Helm
 from primitives.pods import Pod, PodModel
 from primitives.rigidbody import RigidBody
-from primitives.terms import TermSet, signals_used
+from primitives.terms import TermSet
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
 DOFS = ("surge", "sway", "yaw")
@@ -128,10 +128,6 @@ class ShipProfile:
     def predictor_param_names(self) -> list[str]:
         names = self.predictor_names or self.parameter_names
         return [n for dof in names for n in dof]
-
-    @property
-    def has_wind_terms(self) -> bool:
-        return bool({"u_q", "v_q"} & signals_used(self.model_terms))
 
     def params(self, which: str | np.ndarray | None = None) -> np.ndarray:
         """A parameter vector: a named set, an explicit vector, or the simulation set."""

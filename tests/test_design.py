@@ -194,11 +194,11 @@ def test_solver_failure_falls_back_and_says_so(ship):
 
 
 def test_prior_from_collected_data_matches_library_moments(ship):
-    from expdesign.estimators import data_information, segments_from_primitives
+    from expdesign.estimators import Segment, data_information
 
     p, lib, infos, info = ship
-    tau8 = by_name(lib, ["tau8"])
-    got = data_information(p, segments_from_primitives(p, tau8))
+    (tau8,) = by_name(lib, ["tau8"])
+    got = data_information(p, [Segment(tau8.inputs, tau8.nu[None], tau8.nu0, tau8.track[None, :, 2])])
     ref = infos[[i.name for i in infos].index("tau8")]
     np.testing.assert_allclose(got.X, ref.X, rtol=1e-9, atol=1e-14)
     np.testing.assert_allclose(got.Y, ref.Y, rtol=1e-9, atol=1e-14)

@@ -7,8 +7,10 @@ import numpy as np
 import pytest
 
 from expdesign.errors import DesignError
-from expdesign.estimators import OEData, Segment, estimate, output_error, output_error_unsupported, segments_from_primitives
+from expdesign.estimators import OEData, Segment, estimate, output_error, output_error_unsupported
+from expdesign.ivsolve import iv_solve
 from primitives.library import model_ship_thesis
+from primitives.regressors import predictor_regressors
 from primitives.ship import load_profile
 from primitives.simulate import Disturbances, simulate
 
@@ -32,7 +34,8 @@ def _noisy_segments(profile, lib, batch, seed):
 @pytest.mark.parametrize("ms", ["none", "complete"])
 def test_noise_free_data_recover_table_9_1(ship, method, ms):
     profile, lib = ship
-    est = estimate(profile, segments_from_primitives(profile, lib), method=method, mean_subtraction=ms)
+    segs = [Segment(q.inputs, q.nu[None], q.nu0, q.track[None, :, 2]) for q in lib]  # the nominal states as data
+    est = estimate(profile, segs, method=method, mean_subtraction=ms)
     true = profile.params("true")
     np.testing.assert_allclose(est.theta[0], true, rtol=1e-6)
     assert np.abs(est.residuals).max() < 1e-10
@@ -72,6 +75,56 @@ def test_mean_subtraction_options_differ_and_are_checked(ship):
         estimate(profile, segs, mean_subtraction="sometimes")
     with pytest.raises(DesignError, match="no data"):
         estimate(profile, [])
+
+
+def test_singular_system_fails_instead_of_giving_a_number(ship):
+    """tau3 and tau6 hold their surge force: with the mean removed per sub-experiment (7.19) the
+    tau_x instrument is rounding residue, so the surge DOF is not identifiable. Its estimate is a
+    NaN and a note, never a number made of that residue; the sway and yaw DOFs stay solved."""
+    profile, lib = ship
+    segs = _noisy_segments(profile, [q for q in lib if q.name in ("tau3", "tau6")], batch=4, seed=2)
+    for method in ("ls", "iv"):
+        est = estimate(profile, segs, method=method, mean_subtraction="batchwise")
+        surge = profile.predictor.dof_slice(0)
+        assert np.isnan(est.theta[:, surge]).all() and np.isnan(est.cov[:, surge, surge]).all()
+        assert np.isfinite(est.theta[:, surge.stop:]).all()
+        assert any("4 realisation(s) failed: a singular or ill-conditioned IV system" in n for n in est.notes)
+        assert not any("kept earlier instruments" in n for n in est.notes)
+    # over the whole experiment the two surge-force levels differ: every DOF is solved
+    est = estimate(profile, segs, method="iv", mean_subtraction="complete")
+    assert np.isfinite(est.theta).all() and not any("failed" in n for n in est.notes)
+
+
+def test_iv_solve_gives_each_system_its_own_numbers(ship):
+    """The one IV solve of the estimator and the Monte Carlo: a batch's systems solved together
+    equal each one solved alone, bit for bit, and a failed one does not touch the others."""
+    profile, lib = ship
+    segs = _noisy_segments(profile, [q for q in lib if q.name in ("tau3", "tau6", "tau9")], batch=3, seed=4)
+    phi, tgt = (np.concatenate(x, axis=1) for x in zip(*(predictor_regressors(profile, s.y, np.broadcast_to(
+        s.inputs, (3,) + s.inputs.shape), s.psi) for s in segs)))
+    starts = np.cumsum([0] + [len(s.inputs) for s in segs[:-1]])
+    z = phi.copy()
+    z[1, :, 0] = np.nan  # realisation 1's surge system is not finite
+    batch = iv_solve(profile.predictor, phi, z, tgt, "batchwise", starts)[0]
+    for b in range(3):
+        one = iv_solve(profile.predictor, phi[b], z[b], tgt[b], "batchwise", starts)[0]
+        assert np.array_equal(one, batch[b], equal_nan=True)
+    assert np.isnan(batch[1, :4]).all() and np.isfinite(batch[1, 4:]).all() and np.isfinite(batch[[0, 2]]).all()
+
+
+def test_iv_solve_fails_an_ill_conditioned_or_constant_instrument_system(ship):
+    profile, _ = ship
+    rng = np.random.default_rng(0)
+    phi, tgt = rng.normal(size=(200, 10)), rng.normal(size=(200, 3))
+    phi[:, 1] = phi[:, 0] * (1.0 + 1e-14 * rng.normal(size=200))  # surge: two regressors equal to rounding
+    z = phi.copy()
+    z[:, 4] = 3.0  # sway: an instrument constant, mean removed over the experiment (7.20)
+    assert np.isfinite(np.linalg.solve(z[:, :4].T @ phi[:, :4], z[:, :4].T @ tgt[:, 0])).all()  # LAPACK gives a number
+    theta = iv_solve(profile.predictor, phi, z, tgt, "complete")[0]
+    assert np.isnan(theta[:7]).all() and np.isfinite(theta[7:]).all()
+    z[:, 4] = 0.0  # without mean removal only an all-zero instrument is constant
+    theta = iv_solve(profile.predictor, phi, z, tgt, "none")[0]
+    assert np.isnan(theta[4:7]).all() and np.isfinite(theta[7:]).all()
 
 
 # -- output-error refinement ------------------------------------------------------------------------

@@ -107,6 +107,20 @@ def test_diverged_runs_are_counted_not_put_in_the_percentiles():
     assert s2["estimator"] == "oe" and s2["reference"]["frac_sim_rmse_below_0_15"] == 0.25 and s2["digest"] != s["digest"]
 
 
+def test_singular_solve_is_a_failed_run_not_a_number(ship):
+    """tau3 and tau6 hold their surge force: with the instrument mean removed per block (7.19) the
+    surge system is singular up to rounding. Every run is counted as diverged with a NaN estimate
+    (the IV reference and the output-error result alike), none reports a number made of rounding."""
+    from expdesign.montecarlo import evaluate_designs
+
+    p, lib = ship
+    r = evaluate_designs(p, {"d": {"tau3": 0.5, "tau6": 0.5}}, runs=3, seed=1, n_samples=400, primitives=lib,
+                         mean_subtraction="batchwise", oe_iterations=2)["d"]
+    for res in (r, r.reference):
+        assert res.diverged.all() and np.isnan(res.theta[:, :4]).all() and np.isinf(res.param_rmse).all()
+        assert res.summary()["diverged"] == 3 and res.summary()["param_rmse_p50"] is None
+
+
 def test_bad_protocol_settings_name_the_setting(ship):
     p, lib = ship
     with pytest.raises(DesignError, match="protocol"):

@@ -87,6 +87,19 @@ def test_sweep_table_same_inline_and_on_local_cluster(tmp_path):
     assert lines[0].startswith("ship,library,speed_mps,criterion") and len(lines) == 5
 
 
+def test_write_table_refuses_a_path_that_names_no_table_format(tmp_path):
+    from expdesign.sweep import SweepError, write_table
+
+    rows = [{"ship": "model-ship", "criterion": "D"}]
+    with pytest.raises(SweepError, match=r"table .*out\.txt: the extension must name the table format: \.csv or \.parquet"):
+        write_table(rows, tmp_path / "out.txt")
+    (tmp_path / "dir.csv").mkdir()
+    with pytest.raises(SweepError, match="dir.csv: is a directory"):
+        write_table(rows, tmp_path / "dir.csv")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dir.csv"]
+    assert write_table(rows, tmp_path / "out.CSV").read_text().startswith("ship,")
+
+
 def test_sweep_config_errors_name_the_field(tmp_path):
     from expdesign.sweep import SweepError, load_sweep
 
