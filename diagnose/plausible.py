@@ -77,15 +77,19 @@ MIN_DELAY_REF_S = 0.5  # steering-machine latency below half a second does not c
 MIN_ANGLE_OFFSET_DEG = 0.2  # below the reading of a rudder angle indicator
 MIN_THRUST_CHANGE = 0.03  # 3 % of the thrust: within a propeller's day-to-day variation
 MIN_INERTIA_CHANGE = 0.05  # 5 % of a DOF's inertia
-MIN_VISIBLE = 0.5  # noise units: the finding must move a simulated output by half the noise (RMS) at least
+MIN_VISIBLE = 0.2  # noise units: the finding must move a simulated output by a fifth of the noise (RMS) at least
+MIN_BIAS_VISIBLE = 0.5  # a sensor bias (a constant on one output) below half the channel's noise is calibration noise
 
 
 def practical(effect: str, params: dict, profile: ShipProfile, visible: float) -> tuple[bool, str]:
     """(large enough to name?, the minimum it was compared with, in words). ``visible``: RMS
     change of the simulated outputs the finding makes, in noise units, largest over the
-    channels (every effect: a sensor bias smaller than half the channel's noise is not named)."""
-    if visible < MIN_VISIBLE:
-        return False, f"it moves the simulated outputs by {visible:.2f} noise units (RMS), less than {MIN_VISIBLE:g}"
+    channels (every effect; a sensor bias, which moves its output by about its own size, must
+    be half the channel's noise). A transient effect (a delay) moves the RMS little for its
+    size: the generic minimum is low."""
+    least = MIN_BIAS_VISIBLE if effect == "sensor_bias" else MIN_VISIBLE
+    if visible < least:
+        return False, f"it moves the simulated outputs by {visible:.2f} noise units (RMS), less than {least:g}"
     s = froude(profile)
     if effect == "current" and params.get("speed_mps", np.inf) < MIN_CURRENT_REF_MPS * s:
         return False, (f"current {params['speed_mps']:.3f} m/s vs at least {MIN_CURRENT_REF_MPS * s:.3f} m/s "
