@@ -5,6 +5,11 @@ steering delay, a third of the yaw inertia. Each check compares the estimate wit
 derived from the ship (length, cruise speed, sample time, recorded actuator motion) so that a
 model-scale ship gets Froude-scaled limits (speeds scale with sqrt(L), times with sqrt(L)).
 An implausible estimate is reported as such and not claimed as the cause.
+
+The other way round, an estimate can pass the held-out test and still be too small to matter
+(:func:`practical`): a few mm/s of current, a tenth of a degree of rudder offset. Minimum sizes
+are Froude-scaled the same way, and every finding must move the simulated outputs by a
+fraction of the noise.
 """
 
 from __future__ import annotations
