@@ -91,24 +91,54 @@ def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]
     preps = [prepare(profile, r, i) for i, r in enumerate(recs)]
     model = AugmentedModel(profile, theta0, [], n_rec=len(preps))
     w = 1.0 / _noise_scale(np.concatenate([r.y for r in recs]))
+    idx, sd, bounds = _baseline_prior(model, preps, w, recs, new, new_prior)
+    P, _cov, rss = fit(model, preps, model.p0(), idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=bounds,
+                       prior=(model.p0(), sd))
+    if not np.isfinite(rss):
+        return theta0, "the baseline refit on the --fit-on runs diverged: rejected, the profile's parameters are used"
+    return P[: model.n_base], ""
+
+
+def _baseline_prior(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, recs: list[Recording],
+                    new: list[int] | None, new_prior: float) -> tuple[list[int], np.ndarray, dict]:
+    """(fitted indices, prior std per parameter, bounds) of :func:`fit_baseline`."""
     idx = list(range(model.n_base))
     P0 = model.p0()
     if new is None:
         r0 = np.concatenate([(p.y[1:] - model.simulate(p, P0)[0][1:]) * w for p in preps]).ravel()
         level = np.sqrt(np.mean(r0**2)) if np.all(np.isfinite(r0)) else 1.0
-        sd = prior_sd(P0, idx, level, model.n_params)
-        bounds = base_bounds(P0, idx, model)
-    else:
-        scale = term_scales(profile, recs)
-        idx = [j for j in idx if np.isfinite(scale[j])]
-        sd = np.full(model.n_params, np.inf)
-        sd[idx] = new_prior * scale[idx]
-        bounds = base_bounds(P0, [j for j in idx if P0[j] == 0.0], model)
-        bounds |= {j: ((0.0, np.inf) if P0[j] > 0 else (-np.inf, 0.0)) for j in idx if P0[j] != 0.0}
-    P, _cov, rss = fit(model, preps, P0, idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=bounds, prior=(P0, sd))
-    if not np.isfinite(rss):
-        return theta0, "the baseline refit on the --fit-on runs diverged: rejected, the profile's parameters are used"
-    return P[: model.n_base], ""
+        return idx, prior_sd(P0, idx, level, model.n_params), base_bounds(P0, idx, model)
+    scale = term_scales(model.profile, recs)
+    idx = [j for j in idx if np.isfinite(scale[j])]
+    sd = np.full(model.n_params, np.inf)
+    sd[idx] = new_prior * scale[idx]
+    bounds = base_bounds(P0, [j for j in idx if P0[j] == 0.0], model)
+    bounds |= {j: ((0.0, np.inf) if P0[j] > 0 else (-np.inf, 0.0)) for j in idx if P0[j] != 0.0}
+    return idx, sd, bounds
+
+
+def loo_misfit(profile: ShipProfile, theta0: np.ndarray, theta: np.ndarray, recs: list[Recording],
+               new: list[int] | None = None, new_prior: float = DEFAULT_STRUCTURE_PRIOR) -> float:
+    """Noise-weighted mean square misfit of the baseline ``theta`` (fitted by :func:`fit_baseline`
+    from ``theta0`` on ``recs``, same ``new`` and prior) on each of ``recs`` left out in turn:
+    refitted on the others by a Gauss-Newton step from ``theta`` with the same prior
+    (:mod:`diagnose.heldout`). inf when a run cannot be simulated."""
+    preps = [prepare(profile, r) for r in recs]
+    model = AugmentedModel(profile, theta0, [])
+    w = 1.0 / _noise_scale(np.concatenate([r.y for r in recs]))
+    idx, sd, _b = _baseline_prior(model, preps, w, recs, new, new_prior)
+    P = model.p0()
+    P[: model.n_base] = theta
+    with np.errstate(all="ignore"):
+        if any(escaped(p, model.simulate(p, P)[0]) for p in preps):
+            return float("inf")
+        parts = make_parts(preps, [])
+        g = grams(model, preps, parts, P, idx, w, model.steps(preps, P))
+    fin = np.isfinite(sd[idx])
+    D = np.where(fin, 1.0 / np.where(fin, sd[idx], 1.0) ** 2, 0.0)
+    pg = D * (P[idx] - model.p0()[idx])
+    rss = heldout_rss(g, parts, list(range(len(idx))), D, pg)
+    return float(rss.sum() / max(3 * g.n_rows.sum(), 1)) if np.all(np.isfinite(rss)) else float("inf")
 
 
 def term_scales(profile: ShipProfile, recs: list[Recording]) -> np.ndarray:
@@ -181,12 +211,25 @@ def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recordi
     ext, th_fit, note_ext, added = fit_declared(profile, theta0, fit_on)
     if not added:
         return profile, theta, source, [], False
-    m0, m1 = _misfit(profile, theta, recordings), (_misfit(ext, th_fit, recordings) if not note_ext else float("inf"))
+    if len(fit_on) >= 2:  # judged on --fit-on runs left out in turn: the diagnosed runs hold the effect sought
+        m0 = loo_misfit(profile, theta0, theta, fit_on)
+        m1 = float("inf") if note_ext else loo_misfit(ext, padded_params(profile, theta0, ext.model_terms), th_fit, fit_on,
+                                                    [j for j in range(ext.model.n_params) if j not in _own(profile, ext)],
+                                                    profile.structure_prior)
+        where = "the --fit-on runs, each left out in turn"
+    else:
+        m0, m1 = _misfit(profile, theta, recordings), (_misfit(ext, th_fit, recordings) if not note_ext else float("inf"))
+        where = "the diagnosed runs"
     if m1 <= m0:
         return ext, th_fit, f"{source}, structure extended by the profile's [diagnosis] terms ({len(added)})", [], False
     why = "diverges" if not np.isfinite(m1) else f"weighted mean square misfit {m1:.3g} vs {m0:.3g}"
-    return profile, theta, source, [f"the profile's [diagnosis] structure fitted on the --fit-on runs simulates the "
-                                    f"diagnosed runs worse than the baseline's own ({why}): not used"], False
+    return profile, theta, source, [f"the profile's [diagnosis] structure fitted on the --fit-on runs simulates "
+                                    f"{where} worse than the baseline's own ({why}): not used"], False
+
+
+def _own(profile: ShipProfile, ext: ShipProfile) -> list[int]:
+    """Indices in ``ext`` (the profile extended by :func:`_extended`) of the profile's own terms."""
+    return [j for i in range(3) for j in range(ext.model.offsets[i], ext.model.offsets[i] + len(profile.model_terms[i]))]
 
 
 def _check_sample_times(profile: ShipProfile, recs: list[Recording]) -> None:

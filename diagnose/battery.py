@@ -120,7 +120,9 @@ def _one(profile: ShipProfile, effects: tuple[str, ...], rng: np.random.Generato
     ts = TermSet(terms)
     th = np.array([c for dof in theta for c in dof])
     seed = int(rng.integers(2**31))
-    res = simulate(profile, applied, th, terms=ts, nu0=nu0, disturbances=Disturbances(**dist), seed=seed)
+    # a current as the water moves it: the velocity over ground turns with it as the ship turns (the
+    # diagnosis's current, diagnose.model)
+    res = simulate(profile, applied, th, terms=ts, nu0=nu0, disturbances=Disturbances(**dist), seed=seed, current_turning=True)
     y = res.y[0].copy()
     if "sensor_bias" in effects:
         y[:, "uvr".index(table["sensor_bias"]["signal"])] += table["sensor_bias"]["bias"]

@@ -180,7 +180,10 @@ class AugmentedModel:
             if prep.index is not None and prep.index < self.n_rec:
                 k0 = self.n_slots_end + 3 * prep.index
                 nu0 = nu0 + P[:, k0: k0 + 3]
-            runs.append((prep, exo, pre * scale[:, None, :], nu0))
+            pre = pre * scale[:, None, :]
+            if np.any(cur != 0):  # the kernel's current_turning (primitives.simulate), on the measured heading
+                pre[:, :, :2] += _current_turning(cur, prep.psi)
+            runs.append((prep, exo, pre, nu0))
         tset = self._termset(tuple(tuple(t for t, _c in dof) for dof in loop))
         coef = np.column_stack([c * scale[:, i] for i, dof in enumerate(loop) for _t, c in dof] or [np.zeros((B, 0))])
         need = signals_used(tset.terms)
@@ -266,6 +269,18 @@ class AugmentedModel:
             val = compile_term(s.term)[1](sig)
             vals.append(np.asarray(val, float))
         return float(np.sqrt(np.mean(np.concatenate(vals) ** 2))) if vals else 0.0
+
+
+def _current_turning(cur: np.ndarray, psi: np.ndarray) -> np.ndarray:
+    """Change of an earth-fixed current's body-frame components over each step, (B, N, 2).
+
+    The hull feels the water-relative velocity (u_r, v_r); for a uniform current its dynamics
+    are those of calm water in u_r, v_r (Fossen 2021, section 10.3), while the state here (and
+    the recording) is the velocity over ground u = u_r + u_c(psi). As the ship turns, u_c(psi)
+    turns with it: the over-ground velocity changes by u_c(psi(k+1)) - u_c(psi(k)) on top of
+    the hydrodynamic increment (the measured heading, as for the relative velocities)."""
+    uc, vc = body_from_ne(cur[:, None, :], psi[None, :])  # (B, N+1)
+    return np.stack([np.diff(uc, axis=1), np.diff(vc, axis=1)], axis=-1)
 
 
 # -- residuals and fitting ----------------------------------------------------------------------------

@@ -9,8 +9,10 @@ Each round:
    also be significant on the estimation data (F test with a sample count corrected for
    residual colour);
 3. candidates are tried in order of held-out AIC: an output-error refit within physical
-   bounds, regularised towards the profile; a refit that diverges, an implausible estimate or
-   one the nonlinear likelihood-ratio test does not confirm is rejected and said; with
+   bounds, regularised towards the profile; a refit that diverges, an implausible estimate, one
+   too small to matter (:func:`diagnose.plausible.practical`: below a ship-scaled minimum size,
+   or moving the simulated outputs by less than half the noise) or one the nonlinear
+   likelihood-ratio test does not confirm is rejected and said; with
    validation runs the refitted model must also pass the held-out test by simulation;
 4. after a candidate is kept, each earlier one is tested again without it (backtracking).
 Rounds repeat until no candidate passes. The control (no missing physics) ends with nothing.
@@ -344,6 +346,9 @@ def _try(S: _Search, P: np.ndarray, r0: np.ndarray, free: list[int], c: Candidat
     ok, why = plausible.check(c.effect, params, model.profile, inputs)
     if not ok:
         return f"implausible estimate: {why}"
+    big, small_why = plausible.practical(c.effect, params, model.profile, _visible(S, P1, new))
+    if not big:
+        return f"too small to matter: {small_why}"
     if c.effect == "sensor_bias":
         y = np.concatenate([p.y for p in S.preps])[:, c.slots[0].index]
         if abs(P1[new[0]]) >= 0.5 * np.std(y):
@@ -362,6 +367,17 @@ def _try(S: _Search, P: np.ndarray, r0: np.ndarray, free: list[int], c: Candidat
     step = Step(c, rss0, rss1, f_nl, p_nl, heldout.delta_aic, heldout.gain, dof_gain, corr,
                 heldout.table([S.parts.label[t] for t in S.parts.test]), why)
     return c, new, P1, cov1, step
+
+
+def _visible(S: _Search, P1: np.ndarray, own: list[int]) -> float:
+    """How far the finding ``own`` moves the simulated outputs of the diagnosed runs: RMS of
+    the difference with and without it (the rest as fitted), in noise units (the residual
+    weights), largest over the channels."""
+    P0 = P1.copy()
+    P0[own] = 0.0
+    R = stack(residuals(S.model, S.preps, np.stack([P1, P0])), S.wr)
+    d = (R[1] - R[0]).reshape(-1, 3)
+    return float(np.max(np.sqrt(np.mean(d**2, axis=0))))
 
 
 def _baseline_verdict(S: _Search, P0: np.ndarray, P: np.ndarray, free: list[int]) -> Verdict:

@@ -296,6 +296,7 @@ def simulate(
     batch: int = 1,
     seed: int | np.random.Generator | None = None,
     positions: bool = True,
+    current_turning: bool = False,
 ) -> SimResult:
     """Simulate ``batch`` realisations driven by ``inputs`` (N, m) or (B, N, m).
 
@@ -306,6 +307,8 @@ def simulate(
     heading unless the velocities depend on it (a current or wind to rotate into body axes, a
     term that reads psi, roll, pods); what is not integrated is NaN in ``eta`` and ``pos_meas``.
     The velocities are bit-identical either way; the position rows are about a fifth of a step.
+    ``current_turning``: the velocity over ground also follows the current as the ship turns
+    (see :func:`_time_loop`); off, the current acts through u_r, v_r only (the thesis's form).
     """
     terms = terms or profile.model
     theta = (
@@ -330,7 +333,7 @@ def simulate(
 
     step = VelocityStep(terms, theta, profile.rigid_body, ts)
     nu, eta = _time_loop(profile, step, u_in, _padded(nu0, nd), _padded(eta0, nd), _moving(cur), _moving(wind), w, batch,
-                         positions)
+                         positions, current_turning)
 
     meas = _padded(dist.measurement_std, nd)
     y = nu + rng.normal(0.0, 1.0, nu.shape) * meas if np.any(meas) else _read_only(nu)
@@ -392,10 +395,15 @@ def _time_major_forces(profile: ShipProfile, u_in: np.ndarray) -> tuple[list[str
 
 
 def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: np.ndarray, eta0: np.ndarray,
-               cur: np.ndarray | None, wind: np.ndarray | None, w: np.ndarray | None, batch: int, positions: bool
-               ) -> tuple[np.ndarray, np.ndarray]:
+               cur: np.ndarray | None, wind: np.ndarray | None, w: np.ndarray | None, batch: int, positions: bool,
+               current_turning: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The sequential loop of :func:`simulate`: nu, eta (B, N+1, nd); ``cur``, ``wind`` (B, N, 2)
     or None for still water, calm air.
+
+    With ``current_turning`` an earth-fixed current is also turned into the velocity over ground:
+    the hull's dynamics hold in the water-relative velocities (Fossen 2021, section 10.3) and
+    nu = nu_r + u_c(psi), so as the heading changes over a step nu changes by
+    u_c(psi(k+1)) - u_c(psi(k)) (the current of step k) on top of the hydrodynamic increment.
 
     The state is kept time-major, (N+1, nd, B), so that every step reads and writes contiguous
     rows of B values (batch-major rows are strided by the whole record); every operation is
@@ -432,6 +440,11 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
             nxt[len(inc):] = row[len(inc):]
         if w_t is not None:
             nxt += w_t[k]
+        if current_turning and cur_b is not None:
+            r = row[2]
+            u1, v1 = body_from_ne(cur_t[k].T, psi_k + ts * (np.cos(phi_k) * r if nd == 4 else r))
+            nxt[0] += u1 - cur_b[0]
+            nxt[1] += v1 - cur_b[1]
         if eta_t is not None:
             _advance_pose(eta_t, k, row, ts, positions)
     nu = np.ascontiguousarray(nu_t.transpose(2, 0, 1))

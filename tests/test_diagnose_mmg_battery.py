@@ -8,9 +8,11 @@ import pytest
 
 from benchmarks.bench_diagnose_mmg import run_case, score
 
-# right with the kvlcc2 baseline fitted on the delivery-trial calm runs
-# (python -m benchmarks.bench_diagnose_mmg --ship kvlcc2: 5/18, these two, delay-2.5, delay-4, gyro-bias)
-STAYS_RIGHT = ("control-ar1", "shallow-water")
+# right with the kvlcc2 baseline fitted on the delivery-trial calm runs (python -m
+# benchmarks.bench_diagnose_mmg --ship kvlcc2: 13/18 on branch issue-13s, also delay-2.5, delay-4,
+# gyro-bias, current-0.5-ar1, model-current-0.6, wind-18): the controls claim nothing (no finding too
+# small to matter), a current without a sensor bias beside it, the offsets at their size
+STAYS_RIGHT = ("control-ar1", "shallow-water", "control", "model-control", "current-0.7", "offset-1.5", "model-offset-1")
 
 
 @pytest.mark.slow

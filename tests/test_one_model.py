@@ -32,8 +32,9 @@ def ship():
 
 def test_augmented_model_is_the_kernel_with_a_current_and_wind(ship):
     """A noise-free run of primitives.simulate in a current and a wind (the wind as u_q terms of
-    the kernel) is reproduced by the diagnosis's model with its current and wind slots set to the
-    truth: the same step, so the same numbers to rounding."""
+    the kernel; the current turned into the velocity over ground as the ship turns) is reproduced
+    by the diagnosis's model with its current and wind slots set to the truth: the same step, so
+    the same numbers to rounding."""
     x = scenario((), 3, n_prims=4).diagnose[0].inputs_for(ship.inputs)
     terms = [list(t) for t in ship.model_terms]
     theta = [list(ship.params()[ship.model.dof_slice(i)]) for i in range(3)]
@@ -42,7 +43,7 @@ def test_augmented_model_is_the_kernel_with_a_current_and_wind(ship):
         theta[i] += [c, -c]
     nu0 = np.array([0.6, 0.0, 0.0])
     sim = simulate(ship, x[:-1], np.concatenate(theta), terms=TermSet(terms), nu0=nu0,
-                   disturbances=Disturbances(current_ne=CURRENT, wind_ne=WIND))
+                   disturbances=Disturbances(current_ne=CURRENT, wind_ne=WIND), current_turning=True)
     chans = {n: x[:, j] for j, n in enumerate(ship.inputs)}
     n = len(sim.t)
     chans["wind_speed"] = np.full(n, float(np.hypot(*WIND)))
@@ -59,6 +60,10 @@ def test_augmented_model_is_the_kernel_with_a_current_and_wind(ship):
     np.testing.assert_allclose(yhat, sim.nu[0], rtol=1e-9, atol=1e-12)
     # and the current and the wind matter: without them the model is far off
     assert np.max(np.abs(model.simulate(prep, model.p0())[0] - sim.nu[0])) > 0.05
+    # and the turning of the current matters (the ship turns through it)
+    flat = simulate(ship, x[:-1], np.concatenate(theta), terms=TermSet(terms), nu0=nu0,
+                    disturbances=Disturbances(current_ne=CURRENT, wind_ne=WIND))
+    assert np.max(np.abs(flat.nu[0] - sim.nu[0])) > 0.01
 
 
 def test_exported_model_with_refit_baseline_and_delay_current_reproduces_per_run_fit(ship, tmp_path):
