@@ -171,3 +171,30 @@ def test_battery_thrust_loss_is_not_a_resistance_change(name, tmp_path):
     assert abs(loss_percent(p, {}) - 20.0) <= 5.0, r["claimed"]
     assert 0.3 < p["rudder_thrust_share"] < 1.0
     assert not {"resistance_change", "inertia_change"} & set(found), r["claimed"]
+
+
+def test_exported_profile_and_model_hold_the_weakened_rudder(tmp_path):
+    """model.json after a thrust-loss finding: both its profile part (thrust and rudder terms
+    scaled) and its exact scored model simulate what the diagnosis scored."""
+    import json
+    from types import SimpleNamespace
+
+    from diagnose.model_file import load_model, model_dict
+
+    ship = load_profile("kvlcc2")
+    lib, _ = build_library(ship, [_kvlcc2_run(1), _kvlcc2_run(2)])
+    cand = next(c for c in lib if c.key == "thrust_loss:fraction")
+    model = AugmentedModel(ship, ship.params(), [cand])
+    P = model.p0()
+    P[model.slot_of[cand.key]] = [0.18, 0.11]
+    finding = {"effect": "thrust_loss", "dof": "surge", "key": cand.key, "parameters": {"loss_fraction": 0.18}}
+    doc = model_dict(SimpleNamespace(profile=ship, model=model, P=P, findings=[finding], structure=[]))
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    prep = prepare(ship, _kvlcc2_run())
+    scored = model.simulate(prep, P)[0]
+    exported = profile_from_dict(doc, "model.json")
+    plain = AugmentedModel(exported, exported.params(), [])
+    np.testing.assert_allclose(plain.simulate(prep, plain.p0())[0], scored, rtol=1e-9, atol=1e-12)
+    again, P2 = load_model(path)
+    np.testing.assert_allclose(again.simulate(prep, P2)[0], scored, rtol=1e-9, atol=1e-12)
