@@ -5,8 +5,8 @@ Every candidate adds one or more *slots* to the augmented simulator (:mod:`diagn
 - ``term``: an extra regressor term (or a change of a surge term the model has: resistance,
   thrust deduction) with a coefficient in one DOF of ``nu(k+1) = nu(k) +
   Phi^T theta`` ((3.60), (9.1)) - quadratic damping (v|v|, r|r|, r|v|, v|r|, u|u|), missing
-  coupling (v r, u r, u v, r^2), speed-dependent thrust (u tau_x, u n), relative-wind drag
-  (when wind is measured) and roll coupling (phi, when roll is measured);
+  coupling (v r, u r, u v, r^2), speed-dependent thrust (u tau_x, u n), wind loads (when
+  wind is measured; :data:`primitives.simulate.WIND_EXCESS`) and roll coupling (phi, when roll is measured);
 - ``current``: a constant n-frame current (north, east) entering through u_r, v_r (BRIEF 2;
   in predictor form the cos psi / sin psi regressors of (5.67)-(5.70));
 - ``delay``: a common actuator time delay (seconds; fractional, linear interpolation);
@@ -14,7 +14,9 @@ Every candidate adds one or more *slots* to the augmented simulator (:mod:`diagn
   thruster misalignment);
 - ``bias``: a constant sensor bias, measured = true + b (seed 004 th15..th17);
 - ``scale``: an inertia change of one DOF, its increment scaled by ``1 + s`` (seed 000 5.2);
-- ``thrust``: a thrust loss, every surge term in the thrust signal scaled by ``1 - f``.
+- ``thrust``: a thrust loss, every surge term in the thrust signal scaled by ``1 - f`` and the
+  rudder terms (sway/yaw terms in delta or n) by ``1 - s f``, s the rudder's slipstream share
+  (profile ``rudder_thrust_share``, changed by a following ``thrust_share`` slot).
 
 Names of effects are fixed by BRIEF section 7.
 """
@@ -36,7 +38,7 @@ COUPLING = {0: ["v_r*r", "r^2", "v_r^2"], 1: ["u_r*r", "u_r*v_r"], 2: ["u_r*v_r"
 
 @dataclass(frozen=True)
 class Slot:
-    """One augmentation parameter: kind in (term, current, delay, offset, bias, scale, thrust)."""
+    """One augmentation parameter: kind in (term, current, delay, offset, bias, scale, thrust, thrust_share)."""
 
     kind: str
     name: str
@@ -98,7 +100,7 @@ def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[li
     if all(r.wind_ne is not None for r in recordings):
         cands.append(Candidate("wind", "wind", tuple(Slot("term", f"wind_{DOFS[i]}", dof=i, term=t)
                                                      for i, t in enumerate(("wx", "wy", "wn"))),
-                               description="relative-wind drag u_q|u_q|, v_q|v_q|, u_q v_q"))
+                               description="wind loads V_q u_q, V_q v_q, u_q v_q (coefficients in the relative wind angle)"))
     else:
         untestable.append({"effect": "wind", "reason": "no measured wind (columns wind_speed, wind_dir)"})
     x = np.concatenate([r.inputs_for(profile.inputs) for r in recordings])
@@ -124,8 +126,12 @@ def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[li
                                description=f"thrust falling with speed (u_r*{tsig})"))
     thrust_terms = [t for t in profile.model_terms[0] if tsig in _factors(t)]
     if thrust_terms:  # one fraction of the whole thrust (every term in n): a fouled propeller, a changed thrust deduction
-        cands.append(Candidate("thrust_loss", "thrust_loss:fraction", (Slot("thrust", "loss_fraction", dof=0),), dof=0,
-                               description=f"thrust lower by a constant fraction ({', '.join(thrust_terms)} scaled together)"))
+        slots = (Slot("thrust", "loss_fraction", dof=0),)
+        what = f"thrust lower by a constant fraction ({', '.join(thrust_terms)} scaled together)"
+        if profile.rudder_thrust_share > 0 and tsig == "n":  # the rudder in the slipstream loses its share of it
+            slots += (Slot("thrust_share", "rudder_share_change", dof=0),)
+            what += f", the rudder force by its slipstream share of it (profile {profile.rudder_thrust_share:g})"
+        cands.append(Candidate("thrust_loss", "thrust_loss:fraction", slots, dof=0, description=what))
     for t in profile.model_terms[0]:  # surge-model changes: name a surge deficiency instead of masking it
         if _factors(t) <= {"u", "u_r"}:
             cands.append(Candidate("resistance_change", f"resistance_change:{t}", (Slot("term", "coefficient", dof=0, term=t),),

@@ -58,7 +58,10 @@ def describe(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
     if c.slots[0].kind == "thrust":
         f = float(vals[0])
         return {"loss_percent": 100.0 * f, "loss_percent_std": None if sd[0] is None else 100.0 * sd[0],
-                "loss_fraction": f, "terms": [model.base[k][1] for k in model.thrust_terms]}
+                "loss_fraction": f, "terms": [model.base[k][1] for k in model.thrust_terms],
+                "rudder_terms": [f"{DOFS[model.base[k][0]]}:{model.base[k][1]}" for k in model.rudder_terms],
+                "rudder_thrust_share": float(model.thrust_share(P, model.slot_of[c.key][0])[0]),
+                "rudder_force_change_percent": -100.0 * float(model.thrust_share(P, model.slot_of[c.key][0])[0]) * f}
     if c.effect in ("resistance_change", "thrust_loss") and c.key != "thrust_loss":
         term = c.slots[0].term
         j = surge_base_index(model, term)

@@ -50,6 +50,10 @@ def model_dict(d: Diagnosis) -> dict:
             for k in m.thrust_terms:
                 i, t = m.base[k][:2]
                 vals[i][terms[i].index(t)] *= 1.0 - float(d.P[idx[0]])
+            share = float(m.thrust_share(d.P, idx[0])[0])
+            for k in m.rudder_terms:  # the rudder loses its slipstream share of it
+                i, t = m.base[k][:2]
+                vals[i][terms[i].index(t)] *= 1.0 - share * float(d.P[idx[0]])
         elif c.effect in ("quadratic_damping", "missing_coupling", "thrust_loss", "resistance_change"):
             term = c.slots[0].term
             if term in terms[c.dof]:

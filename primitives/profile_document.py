@@ -30,7 +30,7 @@ from primitives.ship import (
     Thruster,
 )
 from primitives.terms import TermError, TermSet, signals_used
-from primitives.validate import MAX_PRIMITIVE_SAMPLES, check_table_keys, finite, manoeuvre_samples, positive
+from primitives.validate import MAX_PRIMITIVE_SAMPLES, check_table_keys, finite, in_range, manoeuvre_samples, positive
 
 # Every top-level key a profile may hold: one list, so an engineer adding a table adds one line.
 PROFILE_KEYS = frozenset({
@@ -97,7 +97,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     sets, sim_set, ins_set = _parameter_sets(d, src, model, dofs)
     limits = _input_limits(d, src)
     thrusters = _azimuth_thrusters(d, src, actuator, inputs)
-    structure, structure_prior = _diagnosis(d, src, dofs, known)
+    structure, structure_prior, rudder_share = _diagnosis(d, src, dofs, known)
     rigid_body = parse_rigid_body(d, src, len(dofs), ProfileError)
     pods, pod_model = parse_pods(d, src, inputs, ProfileError) if actuator == "pods" else ((), None)
     pred, pred_names = _predictor(d, src)
@@ -134,6 +134,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         pod_model=pod_model,
         structure_terms=structure,
         structure_prior=structure_prior,
+        rudder_thrust_share=rudder_share,
     )
 
 
@@ -323,20 +324,27 @@ def _disturbances(d: dict, src: str) -> dict[str, Any]:
     return dict(table)
 
 
-DIAGNOSIS_KEYS = ("structure", "structure_prior")
+DIAGNOSIS_KEYS = ("structure", "structure_prior", "rudder_thrust_share")
 
 
-def _diagnosis(d: dict, src: str, dofs: tuple[str, ...], known: set[str]) -> tuple[tuple[tuple[str, ...], ...] | None, float]:
+def _diagnosis(d: dict, src: str, dofs: tuple[str, ...], known: set[str]
+               ) -> tuple[tuple[tuple[str, ...], ...] | None, float, float]:
     """The optional [diagnosis] table: ``structure`` (term lists per DOF that a --fit-on refit
-    adds to the model) and ``structure_prior`` (> 0: the prior std of their coefficients, as a
-    fraction of the coefficient that alone would explain the increments' spread)."""
+    adds to the model), ``structure_prior`` (> 0: the prior std of their coefficients, as a
+    fraction of the coefficient that alone would explain the increments' spread) and
+    ``rudder_thrust_share`` (0..1: the fraction of a thrust loss the rudder force loses with
+    the propeller slipstream, ``ShipProfile.rudder_thrust_share``)."""
     table = d.get("diagnosis")
     if table is None:
-        return None, DEFAULT_STRUCTURE_PRIOR
+        return None, DEFAULT_STRUCTURE_PRIOR, 0.0
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'diagnosis' must be a table with 'structure' (and 'structure_prior')")
     check_table_keys(table, DIAGNOSIS_KEYS, src, "[diagnosis]", ProfileError)
     prior = positive(table.get("structure_prior", DEFAULT_STRUCTURE_PRIOR), f"{src}: field 'diagnosis.structure_prior'", "", ProfileError)
+    share = in_range(table.get("rudder_thrust_share", 0.0), f"{src}: field 'diagnosis.rudder_thrust_share'", 0.0, 1.0, "",
+                     ProfileError)
+    if "structure" not in table:
+        return None, prior, share
     terms = _per_dof(table, "structure", f"{src} [diagnosis]", str, "regressor term strings like 'v_r^3*U^-1'", dofs,
                      (src, "diagnosis.structure"))
     try:
@@ -346,7 +354,7 @@ def _diagnosis(d: dict, src: str, dofs: tuple[str, ...], known: set[str]) -> tup
         raise ProfileError(f"{src}: field 'diagnosis.structure': {exc}") from None
     if unknown:
         raise ProfileError(f"{src}: field 'diagnosis.structure' uses unknown signals {sorted(unknown)}; known: {sorted(known)}")
-    return terms, prior
+    return terms, prior, share
 
 
 # The sections a diagnosed model.json (diagnose.model_file) adds beside the profile. A profile

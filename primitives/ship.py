@@ -86,6 +86,11 @@ class ShipProfile:
     # baseline on calm-water runs (--fit-on), and the prior that holds them towards zero
     structure_terms: tuple[tuple[str, ...], ...] | None = None
     structure_prior: float = DEFAULT_STRUCTURE_PRIOR
+    # [diagnosis] rudder_thrust_share: d ln(rudder force) / d ln(thrust) at the approach, the
+    # part of a thrust loss the rudder loses with the propeller slipstream (MMG (24): the rudder
+    # inflow u_R grows with the propeller loading 8 K_T / (pi J^2)); 0 when the rudder is not
+    # in the slipstream or the profile does not say
+    rudder_thrust_share: float = 0.0
 
     # -- structure -------------------------------------------------------------------------
     # cached: compiled once per profile (a frozen dataclass still has an instance __dict__)
@@ -240,6 +245,8 @@ class ShipProfile:
         if self.structure_terms:
             d["diagnosis"] = {"structure": dict(zip(self.dofs, map(list, self.structure_terms))),
                               "structure_prior": self.structure_prior}
+        if self.rudder_thrust_share:
+            d.setdefault("diagnosis", {"structure_prior": self.structure_prior})["rudder_thrust_share"] = self.rudder_thrust_share
         if self.rigid_body is not None:
             rb = self.rigid_body
             d["rigid_body"] = {"mass": rb.mass, "I_x": rb.i_x, "I_z": rb.i_z, "x_g": rb.x_g, "z_g": rb.z_g} | dict(rb.added)

@@ -102,8 +102,12 @@ def body_from_ne(vec_ne: np.ndarray, psi: np.ndarray) -> tuple[np.ndarray, np.nd
     return c * vec_ne[..., 0] + s * vec_ne[..., 1], -s * vec_ne[..., 0] + c * vec_ne[..., 1]
 
 
-# Signals of the wind candidate terms: how much the quadratic air-relative velocity terms
-# u_q|u_q|, v_q|v_q|, u_q v_q differ from calm air (Kallstrom's wind model, seed 004); zero in calm air.
+# Signals of the wind candidate terms: how much the wind loads differ from those of calm air, zero
+# in calm air. The loads have the published shape of the wind coefficients as functions of the
+# relative wind angle g (Fossen 2021, (10.8)-(10.11); the leading terms of Isherwood's and
+# Fujiwara's fits): X ~ V_q^2 cos g = V_q u_q, Y ~ V_q^2 sin g ~ V_q v_q, N ~ V_q^2 sin 2g ~ u_q v_q,
+# with V_q the air speed. (Kallstrom's u_q|u_q|, v_q|v_q| of seed 004 is the same in surge at small
+# angles, but in sway it is quadratic in the cross wind where the load is linear in it.)
 WIND_EXCESS = ("wx", "wy", "wn")
 
 
@@ -144,7 +148,8 @@ def relative_signals(
         uq, vq = u - wind_body[0], v - wind_body[1]
         sig["u_q"], sig["v_q"] = uq, vq
         if wind_excess:
-            sig["wx"], sig["wy"], sig["wn"] = uq * np.abs(uq) - u * np.abs(u), vq * np.abs(vq) - v * np.abs(v), uq * vq - u * v
+            vq_abs, v_abs = np.hypot(uq, vq), np.hypot(u, v)
+            sig["wx"], sig["wy"], sig["wn"] = vq_abs * uq - v_abs * u, vq_abs * vq - v_abs * v, uq * vq - u * v
     return sig
 
 

@@ -54,3 +54,24 @@ def test_delay_is_measured_against_the_fit_on_runs(ship):
     assert f["parameters"]["half_sample_s"] == 0.0
     assert f["parameters"]["delay_s"] == pytest.approx(0.3, abs=0.03)
     assert np.isfinite(f["parameters"]["delay_std"])
+
+
+def _with_noise(rec, rng, std: float, ar: float):
+    """The recording with extra measurement noise of std ``std`` on u, v, r, AR(1) coefficient ``ar``."""
+    w = rng.standard_normal(rec.y.shape)
+    e = np.empty_like(w)
+    e[0] = w[0]
+    for k in range(1, len(w)):
+        e[k] = ar * e[k - 1] + np.sqrt(1 - ar**2) * w[k]
+    return dataclasses.replace(rec, y=rec.y + std * e)
+
+
+def test_delay_uncertainty_is_honest_under_coloured_noise(ship):
+    """Coloured noise carries less information than white noise of the same variance: the
+    reported delay std (the fit's covariance scaled by the residuals' variance inflation) covers
+    the error instead of claiming the white-noise precision (0.014 s for an error of 0.078 s)."""
+    calm = [_sampled_run(ship, 0.0, s) for s in (3, 4)]
+    rec = _with_noise(_sampled_run(ship, 0.3, 1), np.random.default_rng(5), 0.03, 0.9)
+    d = run([rec], ship, fit_on=calm, validate=[_sampled_run(ship, 0.3, 2)])
+    p = next(f for f in d.findings if f["effect"] == "actuator_delay")["parameters"]
+    assert abs(p["delay_s"] - 0.3) < 3 * p["delay_std"], p

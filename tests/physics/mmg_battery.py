@@ -175,7 +175,8 @@ def _measure(run: Run, ship: MMGShip, rng: np.random.Generator, kind: str, bias:
 
 def _wind_truth(ship: MMGShip, runs: list[Run], wind_ne: tuple[float, float], Ts: float) -> dict:
     """The true wind in the diagnosis's parametrisation: per-sample coefficients of the
-    relative-wind regressors u_q|u_q| - u|u|, v_q|v_q| - v|v|, u_q v_q - u v (least squares of
+    wind-load regressors V_q u_q - V u, V_q v_q - V v, u_q v_q - u v (V_q the air speed, V the
+    ship's; ``primitives.simulate.WIND_EXCESS``) (least squares of
     the true wind increments on the noise-free runs) and each DOF's share of the wind effect
     (in noise units), which weights the relative errors into one figure."""
     Minv = np.linalg.inv(ship.mass_matrix())
@@ -186,7 +187,8 @@ def _wind_truth(ship: MMGShip, runs: list[Run], wind_ne: tuple[float, float], Ts
         cp, sp = np.cos(r.psi), np.sin(r.psi)
         uw, vw = cp * wind_ne[0] + sp * wind_ne[1], -sp * wind_ne[0] + cp * wind_ne[1]
         uq, vq = r.u - uw, r.v - vw
-        for i, f in enumerate((uq * np.abs(uq) - r.u * np.abs(r.u), vq * np.abs(vq) - r.v * np.abs(r.v), uq * vq - r.u * r.v)):
+        vq_abs, v_abs = np.hypot(uq, vq), np.hypot(r.u, r.v)
+        for i, f in enumerate((vq_abs * uq - v_abs * r.u, vq_abs * vq - v_abs * r.v, uq * vq - r.u * r.v)):
             phi[i].append(f)
             inc[i].append(a[:, i])
     coef, weight = [], []
