@@ -126,7 +126,7 @@ SLOT_KEYS = tuple(f.name for f in fields(Slot))
 # What a slot of each kind reads besides its name: its DOF, its term, an index below a bound
 # (the current's north/east, the input offset, the biased signal u/v/r).
 SLOT_NEEDS: dict[str, tuple[str, ...]] = {"term": ("dof", "term"), "scale": ("dof",), "current": ("index",), "offset": ("index",),
-                                          "bias": ("index",), "delay": (), "thrust": ()}
+                                          "bias": ("index",), "delay": (), "thrust": (), "thrust_share": ()}
 
 
 def _candidates(raw: object, prof: ShipProfile, p: Path) -> tuple[list[Candidate], list[list[float]]]:
