@@ -106,6 +106,20 @@ def _reap(pid: int, report: int) -> str | None:
     return None if os.waitstatus_to_exitcode(status) == 0 else msg
 
 
+def _compute_early(early: Callable[[], object], fd: int) -> None:
+    """Run ``early`` and write its pickled result to ``fd`` (nothing when it fails: the parent
+    then computes it itself and reports its own error)."""
+    try:
+        data = pickle.dumps(early(), protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception:  # noqa: BLE001 - the parent meets the same error, worded by its own code
+        data = b""
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+    except OSError:  # the parent no longer waits for it
+        pass
+
+
 def _warm() -> None:
     """Import what drawing needs (the child's work while the parent plans), the modules the
     writers import when first called included (fpdf and its SVG reader, matplotlib's backends)."""
@@ -173,28 +187,51 @@ class Drawer:
     planned, or the command failed). Without ``fork`` nothing is started and ``send`` draws in
     the calling process."""
 
-    def __init__(self) -> None:
-        self.pid = 0
+    def __init__(self, early: Callable[[], object] | None = None) -> None:
+        self.pid, self._early = 0, -1
         if not CAN_FORK:
             return
         job_r, self._job_w = os.pipe()
         self._report, report_w = os.pipe()
+        if early is not None:
+            self._early, early_w = os.pipe()
         pid = os.fork()
         if pid == 0:
             os.close(self._job_w)
             os.close(self._report)
+            if early is not None:
+                os.close(self._early)
+                _child(report_w, lambda: self._serve(job_r, early, early_w))
             _child(report_w, lambda: self._serve(job_r))
         os.close(job_r)
         os.close(report_w)
+        if early is not None:
+            os.close(early_w)
         self.pid, self._sender = pid, None
 
     @staticmethod
-    def _serve(job_r: int) -> None:
+    def _serve(job_r: int, early: Callable[[], object] | None = None, early_w: int = -1) -> None:
+        if early is not None:
+            _compute_early(early, early_w)
         _warm()
         with os.fdopen(job_r, "rb") as fh:
             data = fh.read()
         if data:  # nothing sent: cancelled
             draw_here(pickle.loads(data))
+
+    def early(self) -> Any:
+        """The result of the ``early`` function given to the constructor, computed in the drawer
+        while this process worked (waits for it); None when there is none (no fork, no function,
+        or it failed: the caller computes it itself, and meets the error, if any, itself)."""
+        fd, self._early = self._early, -1
+        if fd < 0:
+            return None
+        with os.fdopen(fd, "rb") as fh:
+            data = fh.read()
+        try:
+            return pickle.loads(data) if data else None
+        except Exception:  # noqa: BLE001 - a truncated result (the drawer died): computed here instead
+            return None
 
     def send(self, job: dict[str, Any]) -> None:
         """Draw ``job``: keys plan, sea (the SeaMap), chart, design (or None), t0 (start time),
@@ -226,6 +263,9 @@ class Drawer:
         if not self.pid:
             return
         pid, self.pid = self.pid, 0
+        if self._early >= 0:  # never read: the drawer's write fails instead of blocking
+            os.close(self._early)
+            self._early = -1
         if self._job_w >= 0:  # never sent: cancelled
             os.close(self._job_w)
             self._job_w = -1

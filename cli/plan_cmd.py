@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 from contextlib import contextmanager
+from functools import partial
 from pathlib import Path
 
 import typer
@@ -165,7 +166,12 @@ def register(app: typer.Typer) -> None:
         opts = PlanOptions(resolution=resolution, headings=headings, heuristic=heuristic, margin=margin, split=split,
                            size=(ni, nj), run_in_s=run_in, max_memory_gib=max_memory)
         opts.check()
-        drawer = None if no_export else Drawer()  # imports the drawing modules on the other core while this one plans
+        early = None
+        if counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
+            early = partial(_first_design, ship, criterion=criterion, mean_subtraction=mean_subtraction,
+                            trial_length_s=trial_length, seed=seed)
+        # imports the drawing modules (and designs) on the other core while this one plans
+        drawer = None if no_export else Drawer(early)
         try:
             prof = load_profile(ship)
             prof.require_planar("shiptrial plan")
@@ -175,7 +181,7 @@ def register(app: typer.Typer) -> None:
                     result, td = plan_with_design(sea, profile=prof, counts=cnt, start=start_pt, goal=goal_pt, scenario=scenario,
                                                   criterion=criterion, mean_subtraction=mean_subtraction,
                                                   trial_length_s=trial_length, seed=seed, vessel_name=vessel_name or "",
-                                                  options=opts)
+                                                  options=opts, first_design=drawer.early if drawer is not None else None)
             except NoFitError as exc:
                 print(f"error: {str(exc).splitlines()[0]}", file=sys.stderr)
                 raise typer.Exit(1) from None
@@ -188,6 +194,14 @@ def register(app: typer.Typer) -> None:
                 drawer.cancel()  # a no-op once it has drawn; ends it when the command failed before
         files = {k: out / Path(v).relative_to(tmp) for k, v in files.items()}
         report(result, files, heuristic, json_out)
+
+
+def _first_design(ship: str, **design: object):
+    """The design of ``ship``'s library before the map is consulted (run in the drawer process)."""
+    from maps.trialdesign import first_design
+    from primitives.ship import load_profile
+
+    return first_design(load_profile(ship), **design)
 
 
 def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bool, drawer=None) -> dict[str, Path]:

@@ -279,12 +279,7 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     if spsi is not None and abs(((spsi - table[h_start]) + np.pi) % (2 * np.pi) - np.pi) > 1e-6:
         warnings.append(f"start heading {np.degrees(spsi):.1f} deg rounded to the lattice heading {np.degrees(table[h_start]):.1f} deg")
     cache = {} if cache is None else cache
-    key = (res, K, o.split, o.run_in_s, o.basic_cost, o.spot_turns)
-    if cache.get("key") != key:
-        cache.clear()
-        cache["key"] = key
-    if "basic" not in cache:
-        cache["basic"] = basic_move_set(profile, res, K, o.basic_cost, o.spot_turns)
+    _basic_moves(profile, res, o, cache)
     moves, names, targets, notes = [], [], {}, []
     too_big = _too_big(sea, win, prims, heading_table(K), o.margin) if prefilter else {}
     for p in prims:
@@ -310,6 +305,27 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
                    (sx, sy, float(table[h_start])), h_start, win.cell_of(sx, sy), (gi, gj),
                    [nearest_heading(gpsi, table)] if gpsi is not None else list(range(K)), start_ll, goal_ll, notes, warnings,
                    time.perf_counter() - t0, too_big)
+
+
+def _basic_moves(profile: ShipProfile, res: float, o: PlanOptions, cache: dict[str, Any]) -> list[Move]:
+    """The basic (repositioning) moves for lattice spacing ``res``, from ``cache`` or built into it
+    (the cache is cleared when the options it was built for changed)."""
+    key = (res, o.headings, o.split, o.run_in_s, o.basic_cost, o.spot_turns)
+    if cache.get("key") != key:
+        cache.clear()
+        cache["key"] = key
+    if "basic" not in cache:
+        cache["basic"] = basic_move_set(profile, res, o.headings, o.basic_cost, o.spot_turns)
+    return cache["basic"]
+
+
+def prepare_basic_moves(sea: SeaMap, profile: ShipProfile, options: PlanOptions, cache: dict[str, Any]) -> None:
+    """Build the basic moves, and their swept footprints, into ``cache`` for :func:`build_lattice`:
+    work that needs no design, done while a design is computed elsewhere."""
+    res = float(options.resolution) if options.resolution else default_resolution(profile, sea)
+    for m in _basic_moves(profile, res, options, cache):
+        for pr in m.prims:
+            pr.footprint  # noqa: B018 - a cached property: computed now, read by build_lattice
 
 
 def _too_big(sea: SeaMap, win: Window, prims: list[Primitive], table: np.ndarray, margin: float) -> dict[str, tuple[float, float]]:

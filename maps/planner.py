@@ -13,17 +13,18 @@ A thin composition of the steps in :mod:`maps.chain` (each callable on its own):
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from maps.chain import LatLonHdg, PlanOptions, assemble_plan, build_lattice, search_plan, verify_plan
+from maps.chain import LatLonHdg, PlanOptions, assemble_plan, build_lattice, prepare_basic_moves, search_plan, verify_plan
 from maps.geo import MapError, SeaMap, load_map
 from maps.motionset import default_resolution, resolve_primitives
 from maps.plan import Plan
 from maps.scenario import thesis_planning_scenario
-from maps.trialdesign import TrialDesign, design_for_map
+from maps.trialdesign import FirstDesign, TrialDesign, design_for_map
 from primitives.library import Primitive
 from primitives.ship import ShipProfile, load_profile
 
@@ -63,6 +64,7 @@ def plan_with_design(
     seed: int = 0,
     vessel_name: str = "",
     options: PlanOptions | None = None,
+    first_design: Callable[[], FirstDesign | None] | None = None,
     **opts: Any,
 ) -> tuple[Plan, TrialDesign | None]:
     """Plan a trial that sails every informative primitive ``counts[name]`` times (8.4) with as
@@ -71,6 +73,9 @@ def plan_with_design(
     Without ``counts``: the design of the ship's library (``criterion``, ``mean_subtraction``,
     ``trial_length_s``, ``seed`` as in ``shiptrial design``), or ``scenario="thesis-9.4"``.
     ``options`` (or keyword arguments of :class:`maps.chain.PlanOptions`) set the lattice.
+    ``first_design``: returns :func:`maps.trialdesign.first_design` of ``profile`` and these design
+    options computed elsewhere (another process), or None to compute it here; it is called once
+    the basic moves are built, so the two overlap.
     Returns a Plan; ``feasible`` is False (with ``stats['reason']`` and ``stats['help']``) when
     no plan exists or the re-simulated plan violates the margin.
     """
@@ -98,8 +103,12 @@ def plan_with_design(
             built["lat"] = build_lattice(sea, prof, ps, cs, start=start, goal=goal, options=o, cache=cache, prefilter=True)
             return built["lat"].fits_nowhere()
 
+        first = None
+        if first_design is not None:
+            prepare_basic_moves(sea, prof, o, cache)
+            first = first_design()
         td = design_for_map(prof, fits_nowhere, primitives, criterion=criterion, mean_subtraction=mean_subtraction,
-                            trial_length_s=trial_length_s, seed=seed)
+                            trial_length_s=trial_length_s, seed=seed, first=first)
         lat = built["lat"]
         lat.notes[:0] = td.notes
     design_s = time.perf_counter() - t_design - lat.setup_s

@@ -178,19 +178,43 @@ def _dead_count(msg: str) -> str:
     return f" ({len(hit.group(1).split(','))} parameters unidentifiable)" if hit else ""
 
 
-def design_for_map(profile: ShipProfile, fits_nowhere, library: list[Primitive] | None = None, *, criterion: str = "D",
-                   mean_subtraction: str = "complete", trial_length_s: float | None = None, seed: int = 0) -> TrialDesign:
-    """Design, check the support against the map, redesign without what fits nowhere.
+@dataclass
+class FirstDesign:
+    """The design of the whole library, before the map is consulted (:func:`first_design`):
+    what :func:`design_for_map` starts from. It depends on the ship and the design options only,
+    so it can be computed beside the map work (``plan-trial`` has it made in its drawer process)."""
 
-    ``fits_nowhere(primitives, counts) -> {name: (along, cross)}`` tells which of the designed
-    primitives have no place on the map (e.g. ``build_lattice(...).fits_nowhere``).
-    """
+    library: list[Primitive]  # informative
+    infos: list[PrimitiveInfo]
+    design: TrialDesign
+    baseline: float  # criterion value of the full library's optimum
+
+
+def first_design(profile: ShipProfile, library: list[Primitive] | None = None, *, criterion: str = "D",
+                 mean_subtraction: str = "complete", trial_length_s: float | None = None, seed: int = 0) -> FirstDesign:
+    """Design ``library`` (default :func:`ship_library`) and round it to whole manoeuvres."""
     lib = [p for p in (library if library is not None else ship_library(profile)) if p.kind == "informative"]
     infos = library_information(profile, lib)
     td = design_counts(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length_s,
                        seed=seed, infos=infos)
     full = InfoSet.from_infos(infos)
     baseline = full.value(np.array([td.design.weights[p.name] for p in lib]), mean_subtraction, criterion)
+    return FirstDesign(lib, infos, td, baseline)
+
+
+def design_for_map(profile: ShipProfile, fits_nowhere, library: list[Primitive] | None = None, *, criterion: str = "D",
+                   mean_subtraction: str = "complete", trial_length_s: float | None = None, seed: int = 0,
+                   first: FirstDesign | None = None) -> TrialDesign:
+    """Design, check the support against the map, redesign without what fits nowhere.
+
+    ``fits_nowhere(primitives, counts) -> {name: (along, cross)}`` tells which of the designed
+    primitives have no place on the map (e.g. ``build_lattice(...).fits_nowhere``). ``first``:
+    :func:`first_design` of the same profile, library and options, computed already.
+    """
+    if first is None:
+        first = first_design(profile, library, criterion=criterion, mean_subtraction=mean_subtraction,
+                             trial_length_s=trial_length_s, seed=seed)
+    lib, infos, td, baseline = first.library, first.infos, first.design, first.baseline
     exclude: dict[str, tuple[float, float]] = {}
     while True:
         bad = fits_nowhere(td.support(), td.counts)

@@ -73,3 +73,48 @@ def test_failed_planning_ends_the_drawer(tmp_path, capsys):
     assert _run(["plan", "--counts", "nosuch=1", "--out", str(out), "--start-time", START]) == 2
     assert capsys.readouterr().err.startswith("error: --counts: unknown primitive(s) nosuch for full-scale")
     assert not out.exists() and _children() <= before
+
+
+def test_early_result_comes_from_the_drawer_and_a_failure_is_none():
+    """Drawer(early) runs ``early`` in the drawer process: early() returns its result (here a
+    payload larger than a pipe's buffer, and the drawer's pid, not ours); a failing ``early``
+    gives None (the command then computes it, and meets the error, itself)."""
+    big = drawer.Drawer(lambda: (os.getpid(), b"x" * 300_000))
+    pid, payload = big.early()
+    big.cancel()
+    assert pid != os.getpid() and payload == b"x" * 300_000
+
+    def fails():
+        raise RuntimeError("no design")
+
+    bad = drawer.Drawer(fails)
+    assert bad.early() is None
+    bad.cancel()
+
+
+def test_unread_early_result_does_not_hang_the_drawer():
+    """A command that fails before reading the early result (a payload larger than a pipe's
+    buffer) still ends and reaps its drawer."""
+    before = _children()
+    d = drawer.Drawer(lambda: b"x" * 1_000_000)
+    d.cancel()
+    assert _children() <= before
+
+
+def test_design_in_the_drawer_gives_the_plan_of_the_design_here(tmp_path, capsys):
+    """The default command (the design made in the drawer process) writes the files of
+    the same command without the drawer (design, planning and figures in one process)."""
+    outs = []
+    for name, fork in (("forked", True), ("here", False)):
+        old = drawer.CAN_FORK
+        drawer.CAN_FORK = fork
+        try:
+            out = tmp_path / name
+            assert _run(["plan", "--out", str(out), "--start-time", START]) == 0
+        finally:
+            drawer.CAN_FORK = old
+        outs.append(_files(out))
+    a, b = outs
+    assert "design-ratios.png" in a and a.keys() == b.keys()
+    assert [k for k in a if k != "plan.json" and a[k] != b[k]] == []
+    capsys.readouterr()
