@@ -24,6 +24,7 @@ import numpy as np
 
 from maps import astar
 from maps.collision import CollisionGrid, Window
+from maps.forked import map_halves
 from maps.geo import MapError, SeaMap, bundled_map_path
 from maps.lattice import Move, heading_table, nearest_heading, run_in_seconds
 from maps.motionset import basic_move_set, default_resolution, informative_moves, planning_window
@@ -119,24 +120,29 @@ class Lattice:
         footprints grown by margin + snapping + ``extra``."""
         if extra in self._placements:
             return self._placements[extra]
-        o, win, grid = self.options, self.window, self.grid
-        soft = o.clearance_lengths * self.profile.length_m
-        out = []
-        for m in self.moves:
-            per_h = []
-            for h in range(len(self.table)):
-                fp, psi, grow = m.prim(h).footprint, float(self.table[h]), o.margin + m.snap_m[h] + extra
-                ok = grid.valid_everywhere(grid.footprint_rows(fp, psi, grow))
-                di, dj = m.dcell[h]
-                ii, jj = np.meshgrid(np.arange(win.ni) + di, np.arange(win.nj) + dj, indexing="ij")
-                ok &= (ii >= 0) & (ii < win.ni) & (jj >= 0) & (jj < win.nj)  # ends on a lattice point too
-                near = np.zeros_like(ok)
-                if soft > 0 and o.clearance_cost > 0 and ok.any():
-                    near = ok & ~grid.valid_everywhere(grid.footprint_rows(fp, psi, grow + soft))
-                per_h.append((ok, near))
-            out.append(per_h)
+        K = len(self.table)
+        for m in self.moves:  # footprints first (cached on the primitives): the forked half would lose its copies
+            for h in range(K):
+                m.prim(h).footprint  # noqa: B018
+        # every (move, heading) on its own: half of them in a forked child (maps.forked), same results
+        flat = map_halves(lambda mh: self._placement(*mh, extra), [(m, h) for m in self.moves for h in range(K)])
+        out = [flat[i:i + K] for i in range(0, len(flat), K)]
         self._placements[extra] = out
         return out
+
+    def _placement(self, m: Move, h: int, extra: float) -> tuple[np.ndarray, np.ndarray]:
+        """(collision-free, inside the soft clearance zone) per lattice point of move ``m`` at heading ``h``."""
+        o, win, grid = self.options, self.window, self.grid
+        soft = o.clearance_lengths * self.profile.length_m
+        fp, psi, grow = m.prim(h).footprint, float(self.table[h]), o.margin + m.snap_m[h] + extra
+        ok = grid.valid_everywhere(grid.footprint_rows(fp, psi, grow))
+        di, dj = m.dcell[h]
+        ii, jj = np.meshgrid(np.arange(win.ni) + di, np.arange(win.nj) + dj, indexing="ij")
+        ok &= (ii >= 0) & (ii < win.ni) & (jj >= 0) & (jj < win.nj)  # ends on a lattice point too
+        near = np.zeros_like(ok)
+        if soft > 0 and o.clearance_cost > 0 and ok.any():
+            near = ok & ~grid.valid_everywhere(grid.footprint_rows(fp, psi, grow + soft))
+        return ok, near
 
     def fits_nowhere(self) -> dict[str, tuple[float, float]]:
         """Informative primitives with no collision-free placement in the water the ship can use

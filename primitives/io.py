@@ -19,6 +19,10 @@ def to_jsonable(obj: Any) -> Any:
     if isinstance(obj, (list, tuple)):
         return [to_jsonable(v) for v in obj]
     if isinstance(obj, np.ndarray):
+        # whole arrays of numbers are already Python numbers after tolist(): no walk element by element
+        # (a plan's tracks are tens of thousands of them); non-finite floats still become None
+        if obj.dtype.kind in "iub" or (obj.dtype.kind == "f" and np.isfinite(obj).all()):
+            return obj.tolist()
         return to_jsonable(obj.tolist())
     if isinstance(obj, (np.floating, float)):
         f = float(obj)

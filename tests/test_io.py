@@ -165,3 +165,23 @@ def test_a_temporary_killed_before_its_owner_file_had_its_text_goes_once_stale(t
     with atomic_output_dir(tmp_path / "out") as d:
         (d / "plan.json").write_text("{}")
     assert not stale.exists() and recent.is_dir()
+
+
+def test_to_jsonable_arrays_give_plain_numbers_and_none_for_non_finite():
+    """Arrays (the fast whole-array path and the element walk) become nested lists of Python
+    numbers; NaN and infinity become null, in float arrays of any shape and in 0-d arrays."""
+    import json
+
+    import numpy as np
+
+    from primitives.io import to_jsonable
+
+    obj = {"f": np.array([[1.5, 2.0], [3.25, -0.0]]), "f32": np.array([0.1], np.float32), "i": np.arange(3),
+           "b": np.array([True, False]), "nan": np.array([1.0, np.nan, np.inf]), "nan0": np.array(np.nan),
+           "f0": np.array(2.5), "nested": [np.array([1.0]), (np.int64(2), np.float64(np.nan))]}
+    out = to_jsonable(obj)
+    assert out == {"f": [[1.5, 2.0], [3.25, -0.0]], "f32": [float(np.float32(0.1))], "i": [0, 1, 2], "b": [True, False],
+                   "nan": [1.0, None, None], "nan0": None, "f0": 2.5, "nested": [[1.0], [2, None]]}
+    kinds = {type(v) for v in (out["f"][0][0], out["f32"][0], out["i"][0], out["b"][0], out["f0"])}
+    assert kinds == {float, int, bool}
+    json.dumps(out, allow_nan=False)
