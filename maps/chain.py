@@ -288,11 +288,14 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     _basic_moves(profile, res, o, cache)
     moves, names, targets, notes = [], [], {}, []
     too_big = _too_big(sea, win, prims, heading_table(K), o.margin) if prefilter else {}
+    run_in = run_in_seconds(profile, o.run_in_s)
+    todo = [p for p in prims if p.name not in too_big and p.name not in cache]
+    # each primitive's moves on their own: some of them built in a forked child (maps.forked), same moves
+    for p, built in zip(todo, map_halves(lambda p: _informative(p, res, K, o.split, run_in), todo, min_items=2)):
+        cache[p.name] = built
     for p in prims:
         if p.name in too_big:
             continue
-        if p.name not in cache:
-            cache[p.name] = informative_moves([p], {p.name: 1}, res, K, o.split, run_in_seconds(profile, o.run_in_s))
         mv_, nm_, _, nt_ = cache[p.name]
         for m, n in zip(mv_, nm_):
             m = Move(**{**m.__dict__, "counter": len(names)})
@@ -311,6 +314,16 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
                    (sx, sy, float(table[h_start])), h_start, win.cell_of(sx, sy), (gi, gj),
                    [nearest_heading(gpsi, table)] if gpsi is not None else list(range(K)), start_ll, goal_ll, notes, warnings,
                    time.perf_counter() - t0, too_big)
+
+
+def _informative(p: Primitive, res: float, K: int, split: bool, run_in: float) -> tuple:
+    """:func:`maps.motionset.informative_moves` of ``p`` alone, with the swept footprints of its
+    moves computed (cached on their primitives)."""
+    out = informative_moves([p], {p.name: 1}, res, K, split, run_in)
+    for m in out[0]:
+        for pr in m.prims:
+            pr.footprint  # noqa: B018 - a cached property: computed now
+    return out
 
 
 def _basic_moves(profile: ShipProfile, res: float, o: PlanOptions, cache: dict[str, Any]) -> list[Move]:
