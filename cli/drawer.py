@@ -12,6 +12,7 @@ On platforms without ``fork`` the figures are drawn in the calling process (:fun
 
 from __future__ import annotations
 
+import gc
 import os
 import pickle
 import sys
@@ -197,6 +198,7 @@ class Drawer:
             self._early, early_w = os.pipe()
         pid = os.fork()
         if pid == 0:
+            gc.freeze()  # the parent's objects out of the collector's sight: collections would copy the shared heap
             os.close(self._job_w)
             os.close(self._report)
             if early is not None:

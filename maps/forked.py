@@ -8,6 +8,7 @@ the child fails, or cannot be started, the items are computed here.
 
 from __future__ import annotations
 
+import gc
 import os
 import pickle
 import sys
@@ -37,6 +38,9 @@ def map_halves(fn: Callable[[Any], Any], items: Sequence[Any], min_items: int = 
     if pid == 0:  # the child: never returns
         os.close(read)
         code = 1
+        # the parent's objects out of the collector's sight: a collection would write to every
+        # object's header and so copy the whole shared heap page by page
+        gc.freeze()
         try:
             data = pickle.dumps([fn(items[i]) for i in range(1, n, 2)], protocol=pickle.HIGHEST_PROTOCOL)
             with os.fdopen(write, "wb") as fh:
