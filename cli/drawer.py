@@ -2,10 +2,12 @@
 
 Drawing (the PDF trial card, the card's map and time-series figures, plan.png, the design
 ratios) needs matplotlib and fpdf, about half a second of imports, and about a second of
-rendering. A :class:`Drawer` is forked when the command starts: it imports the drawing modules
-on the other core while the parent designs and plans, then receives the finished plan (pickled
-through a pipe) and draws it in two processes (itself and one forked child) while the parent
-writes the text exports. The figures and bytes are those of one process.
+rendering. A :class:`Drawer` is forked when the command starts: it first runs the command's
+``early`` function (the design of the ship's library, which needs nothing from the map) and pipes
+the result back while the parent loads the map and builds the basic moves, then imports the
+drawing modules on the other core while the parent plans, then receives the finished plan
+(pickled through a pipe) and draws it in two processes (itself and one forked child) while the
+parent writes the text exports. The figures and bytes are those of one process.
 
 On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`).
 """
