@@ -226,5 +226,12 @@ def test_a_change_of_the_profiles_own_damping_is_a_candidate_only_against_a_held
     missing = next(c for c in lib if c.key == "quadratic_damping:sway:r*|v_r|")
     assert base_term_index(model, 1, "r*|v_r|") is None and not missing.description.endswith("changed")
     assert sway.key in refitted_alias(model, list(range(model.n_base)))
+    # the finding states the change relative to the model's term too (practical judges it so)
+    from diagnose.describe import describe
+
+    P[model.slot_of[cand.key][0]] = 0.25 * P[j]
+    free = model.slot_of[cand.key]
+    assert describe(cand, model, P, np.zeros((0, 0)), free)["change_percent"] == pytest.approx(25.0)
+    assert "change_percent" not in describe(missing, model, P, np.zeros((0, 0)), model.slot_of[missing.key])
     # in surge the change of the model's own u|u| is the resistance change, not a second candidate
     assert "quadratic_damping:surge:u_r*|u_r|" not in {c.key for c in lib}
