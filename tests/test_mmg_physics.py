@@ -62,8 +62,13 @@ def test_rk4_step_is_converged():
 def test_current_shifts_the_track_by_the_drift_and_the_velocity_over_ground():
     man = [Manoeuvre("turn", 35, 0, 1, 200)]
     cur = (0.35, -0.6)
-    calm = simulate_runs(FULL, man, N0, lead_in_s=0.0, pre_s=0.0)[0]
-    wet = simulate_runs(FULL, man, N0, env=Environment(current_ne=cur), lead_in_s=0.0, pre_s=0.0)[0]
+    # exact for the hull in water only: the still air drags the superstructure at the velocity
+    # over ground, which the current changes
+    from dataclasses import replace
+
+    wet_only = replace(FULL, A_F=0.0, A_L=0.0)
+    calm = simulate_runs(wet_only, man, N0, lead_in_s=0.0, pre_s=0.0)[0]
+    wet = simulate_runs(wet_only, man, N0, env=Environment(current_ne=cur), lead_in_s=0.0, pre_s=0.0)[0]
     assert np.allclose(wet.x - calm.x, cur[0] * wet.t, atol=1e-6)
     assert np.allclose(wet.y - calm.y, cur[1] * wet.t, atol=1e-6)
     c, s = np.cos(wet.psi), np.sin(wet.psi)
