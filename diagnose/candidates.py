@@ -138,9 +138,15 @@ def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[li
                                    dof=0, description=f"hull resistance changed ({t})"))
     for i in range(3):
         for t in QUADRATIC[i]:
-            if not _has(profile, i, t):
-                cands.append(Candidate("quadratic_damping", f"quadratic_damping:{DOFS[i]}:{t}",
-                                       (Slot("term", "value", dof=i, term=t),), dof=i, description=f"{t} in {DOFS[i]}"))
+            # a term the model has is offered as a change of it (a coefficient added to the
+            # profile's): a finding only while the baseline holds that term (select drops it
+            # when the term's own parameter is refitted, which would take the change itself);
+            # in surge that change is the resistance_change above
+            if i == 0 and _has(profile, i, t):
+                continue
+            what = f"{t} in {DOFS[i]}" + (" changed" if _has(profile, i, t) else "")
+            cands.append(Candidate("quadratic_damping", f"quadratic_damping:{DOFS[i]}:{t}",
+                                   (Slot("term", "value", dof=i, term=t),), dof=i, description=what))
         for t in COUPLING[i]:
             if not _has(profile, i, t):
                 cands.append(Candidate("missing_coupling", f"missing_coupling:{DOFS[i]}:{t}",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from diagnose.candidates import Candidate, thrust_signal
+from diagnose.candidates import Candidate, canonical_term, thrust_signal
 from diagnose.model import AugmentedModel
 from primitives.ship import DOFS
 
@@ -54,7 +54,12 @@ def describe(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
     if c.effect == "sensor_bias":
         return {"signal": "uvr"[c.slots[0].index], "bias": float(vals[0]), "bias_std": sd[0]}
     if c.effect in ("quadratic_damping", "missing_coupling"):
-        return {"term": c.slots[0].term, "value": float(vals[0]), "value_std": sd[0], "dof": DOFS[c.dof]}
+        out = {"term": c.slots[0].term, "value": float(vals[0]), "value_std": sd[0], "dof": DOFS[c.dof]}
+        key = canonical_term(c.slots[0].term)  # a change of a term the model has: also relative to it
+        j = next((k for k, (i, t, *_r) in enumerate(model.base) if i == c.dof and canonical_term(t) == key), None)
+        if j is not None and P[j] != 0:
+            out["change_percent"] = 100.0 * float(vals[0] / P[j])
+        return out
     if c.slots[0].kind == "thrust":
         f = float(vals[0])
         return {"loss_percent": 100.0 * f, "loss_percent_std": None if sd[0] is None else 100.0 * sd[0],

@@ -81,6 +81,9 @@ MIN_CURRENT_REF_MPS = 0.10  # about 0.2 kn: below what a trial's speed correctio
 MIN_DELAY_REF_S = 0.5  # steering-machine latency below half a second does not change a manoeuvre
 MIN_ANGLE_OFFSET_DEG = 0.2  # below the reading of a rudder angle indicator
 MIN_THRUST_CHANGE = 0.03  # 3 % of the thrust: within a propeller's day-to-day variation
+# at a set rpm the resistance balances the thrust: a change of it below the thrust's day-to-day
+# variation is the same unnoticeable speed change
+MIN_RESISTANCE_CHANGE = MIN_THRUST_CHANGE
 MIN_INERTIA_CHANGE = 0.05  # 5 % of a DOF's inertia
 MIN_VISIBLE = 0.2  # noise units: the finding must move a simulated output by a fifth of the noise (RMS) at least
 MIN_BIAS_VISIBLE = 0.5  # a sensor bias (a constant on one output) below half the channel's noise is calibration noise
@@ -107,6 +110,10 @@ def practical(effect: str, params: dict, profile: ShipProfile, visible: float) -
         ch = params["loss_percent"] / 100.0 if params.get("loss_percent") is not None else params.get("thrust_change_at_cruise")
         if ch is not None and abs(ch) < MIN_THRUST_CHANGE:
             return False, f"thrust change {100 * abs(ch):.1f} % vs at least {100 * MIN_THRUST_CHANGE:g} %"
+    if effect == "resistance_change" and params.get("resistance_change_pct") is not None:
+        if abs(params["resistance_change_pct"]) < 100 * MIN_RESISTANCE_CHANGE:
+            return False, (f"resistance change {abs(params['resistance_change_pct']):.1f} % vs at least "
+                           f"{100 * MIN_RESISTANCE_CHANGE:g} % (the thrust's day-to-day variation it balances)")
     if effect == "inertia_change" and params.get("inertia_ratio") is not None:
         if abs(params["inertia_ratio"] - 1.0) < MIN_INERTIA_CHANGE:
             return False, f"inertia {params['inertia_ratio']:.3f} x the model's vs at least {MIN_INERTIA_CHANGE:.0%} off"

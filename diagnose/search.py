@@ -30,7 +30,7 @@ import numpy as np
 from scipy import stats
 
 from diagnose import plausible
-from diagnose.candidates import Candidate
+from diagnose.candidates import Candidate, canonical_term
 from diagnose.describe import describe, surge_base_index
 from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, verdict
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
@@ -161,6 +161,23 @@ def held_by_fit_on(model: AugmentedModel, calm: list[Prepared], diag: list[Prepa
     return [j for j, a, b in zip(idx, v_calm, v_diag) if a <= b]
 
 
+def base_term_index(model: AugmentedModel, dof: int | None, term: str | None) -> int | None:
+    """Position in P of the baseline parameter of ``term`` in ``dof`` (None when the model has none)."""
+    if term is None:
+        return None
+    key = canonical_term(term)
+    return next((j for j, (i, t, *_r) in enumerate(model.base) if i == dof and canonical_term(t) == key), None)
+
+
+def refitted_alias(model: AugmentedModel, base_free: list[int]) -> set[str]:
+    """Keys of the candidates that only add a term the baseline refits: the same regressor as a
+    free baseline parameter, told apart from it by nothing but the prior, so the refit already
+    takes such a change (a candidate changing a term is a finding against a baseline that holds it)."""
+    free = set(base_free)
+    return {c.key for c in model.candidates if len(c.slots) == 1 and c.slots[0].kind == "term"
+            and base_term_index(model, c.slots[0].dof, c.slots[0].term) in free}
+
+
 def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int, tuple[float, float]]:
     """Physical bounds of a candidate's parameters."""
     new = model.slot_of[c.key]
@@ -178,7 +195,8 @@ def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int,
             lo, hi = sorted((-0.5 * P[j], 1.0 * P[j]))
             return {new[0]: (lo, hi)}
     if c.effect == "quadratic_damping" and (c.dof, c.slots[0].term) in OWN_DAMPING:
-        return {new[0]: (-np.inf, 0.0)}
+        j = base_term_index(model, c.dof, c.slots[0].term)  # a change of the model's own: the sum stays dissipative
+        return {new[0]: (-np.inf, -min(P[j], 0.0) if j is not None else 0.0)}
     return {}
 
 
@@ -259,8 +277,9 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, val_p
             P, cov, rss = S.refit(model.p0(), free, {}, max_iter=20)
     out.base_free = list(S.base_free)
     chosen: list[Candidate] = []
+    alias = refitted_alias(model, S.base_free)
     for rnd in range(max_rounds):
-        todo = [c for c in model.candidates if c not in chosen]
+        todo = [c for c in model.candidates if c not in chosen and c.key not in alias]
         if not todo:
             break
         best = _round(S, P, free, todo, rnd, out, inputs)

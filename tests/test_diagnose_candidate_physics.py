@@ -198,3 +198,40 @@ def test_exported_profile_and_model_hold_the_weakened_rudder(tmp_path):
     np.testing.assert_allclose(plain.simulate(prep, plain.p0())[0], scored, rtol=1e-9, atol=1e-12)
     again, P2 = load_model(path)
     np.testing.assert_allclose(again.simulate(prep, P2)[0], scored, rtol=1e-9, atol=1e-12)
+
+
+def test_a_change_of_the_profiles_own_damping_is_a_candidate_only_against_a_held_baseline():
+    """kvlcc2 has r|r| in yaw: a change of it (the battery's yaw-damping case) is offered, and
+    judged only when the baseline holds that term (fitted on --fit-on runs); refitted, the term's
+    own parameter takes the change and the candidate, the same regressor, is not searched."""
+    from diagnose.search import base_term_index, refitted_alias, slot_bounds
+
+    ship = load_profile("kvlcc2")
+    lib, _ = build_library(ship, [_kvlcc2_run(1), _kvlcc2_run(2)])
+    cand = next(c for c in lib if c.key == "quadratic_damping:yaw:r*|r|")
+    assert cand.description.endswith("changed")
+    model = AugmentedModel(ship, ship.params(), lib)
+    j = base_term_index(model, 2, "r*|r|")
+    assert [n for dof in ship.parameter_names for n in dof][j] == "Nrr"
+    assert cand.key in refitted_alias(model, list(range(model.n_base)))
+    assert "resistance_change:u_r*|u_r|" in refitted_alias(model, list(range(model.n_base)))
+    held = [k for k in range(model.n_base) if k != j]  # every other baseline parameter refitted
+    assert cand.key not in refitted_alias(model, held) and refitted_alias(model, []) == set()
+    P = model.p0()
+    (lo, hi), = slot_bounds(model, cand, P).values()
+    assert lo == -np.inf and hi == pytest.approx(-P[j]) and hi > 0  # the sum stays dissipative
+    # a term the profile lacks is a plain added damping, bounded dissipative on its own
+    sway = next(c for c in lib if c.key == "quadratic_damping:sway:v_r*|v_r|")
+    assert base_term_index(model, 1, "v_r*|v_r|") is not None
+    missing = next(c for c in lib if c.key == "quadratic_damping:sway:r*|v_r|")
+    assert base_term_index(model, 1, "r*|v_r|") is None and not missing.description.endswith("changed")
+    assert sway.key in refitted_alias(model, list(range(model.n_base)))
+    # the finding states the change relative to the model's term too (practical judges it so)
+    from diagnose.describe import describe
+
+    P[model.slot_of[cand.key][0]] = 0.25 * P[j]
+    free = model.slot_of[cand.key]
+    assert describe(cand, model, P, np.zeros((0, 0)), free)["change_percent"] == pytest.approx(25.0)
+    assert "change_percent" not in describe(missing, model, P, np.zeros((0, 0)), model.slot_of[missing.key])
+    # in surge the change of the model's own u|u| is the resistance change, not a second candidate
+    assert "quadratic_damping:surge:u_r*|u_r|" not in {c.key for c in lib}

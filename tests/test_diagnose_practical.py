@@ -83,3 +83,13 @@ def test_tiny_current_on_a_control_is_rejected_as_too_small(ship):
     assert d.findings == [], [f["key"] for f in d.findings]
     why = [r["reason"] for r in d.rejected if r["effect"] == "current"]
     assert why and all("too small to matter" in w for w in why), d.rejected
+
+
+def test_resistance_change_below_the_thrusts_day_to_day_variation_is_not_named(tanker):
+    """At a set rpm the resistance balances the thrust: a change of it smaller than the 3 % a
+    thrust loss must reach is the same unnoticeable speed change (the 0.6-0.9 % the MMG battery's
+    yaw-damping and wind cases gave beside their effect)."""
+    ok, why = plausible.practical("resistance_change", {"resistance_change_pct": 0.87}, tanker, visible=3.0)
+    assert not ok and "0.9 %" in why and "3 %" in why
+    assert plausible.practical("resistance_change", {"resistance_change_pct": -12.0}, tanker, visible=3.0)[0]
+    assert plausible.practical("resistance_change", {"resistance_change_pct": None}, tanker, visible=3.0)[0]

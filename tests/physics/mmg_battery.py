@@ -177,13 +177,16 @@ def _wind_truth(ship: MMGShip, runs: list[Run], wind_ne: tuple[float, float], Ts
     """The true wind in the diagnosis's parametrisation: per-sample coefficients of the
     wind-load regressors V_q u_q - V u, V_q v_q - V v, u_q v_q - u v (V_q the air speed, V the
     ship's; ``primitives.simulate.WIND_EXCESS``) (least squares of
-    the true wind increments on the noise-free runs) and each DOF's share of the wind effect
+    the true wind increments beyond still air on the noise-free runs) and each DOF's share of the wind effect
     (in noise units), which weights the relative errors into one figure."""
     Minv = np.linalg.inv(ship.mass_matrix())
     phi, inc = [[], [], []], [[], [], []]
     for r in runs:
-        X, Y, N = wind_forces(ship, r.u, r.v, r.psi, np.asarray(wind_ne, float))
-        a = np.stack([X, Y, N], axis=-1) @ Minv.T * Ts
+        # the wind's loads beyond the still-air drag of the ship's own motion (which the calm
+        # runs have too, so a baseline fitted on them holds it): the excess the regressors model
+        wind = np.stack(wind_forces(ship, r.u, r.v, r.psi, np.asarray(wind_ne, float)), axis=-1)
+        still = np.stack(wind_forces(ship, r.u, r.v, r.psi, np.zeros(2)), axis=-1)
+        a = (wind - still) @ Minv.T * Ts
         cp, sp = np.cos(r.psi), np.sin(r.psi)
         uw, vw = cp * wind_ne[0] + sp * wind_ne[1], -sp * wind_ne[0] + cp * wind_ne[1]
         uq, vq = r.u - uw, r.v - vw

@@ -39,7 +39,9 @@ velocities (Fossen 2021, section 10.3), so the state integrated is (x, y, psi, u
 and the velocity over ground is u_r + u_c(psi). Wind: the simple model of Fossen (2021,
 section 10.1, eqs. (10.8)-(10.11)): X = q A_F (-c_x cos g), Y = q A_L c_y sin g,
 N = q A_L L c_n sin 2g, q = 1/2 rho_a V_rw^2, g = -atan2(v_rw, u_rw), with the over-ground
-velocity relative to the air.
+velocity relative to the air. Every run has it: without wind the air is still and the ship's
+own motion drags the superstructure through it (a calm-water trial has this air resistance;
+the MMG resistance R'_0, from captive tank tests, does not hold it).
 """
 
 from __future__ import annotations
@@ -244,7 +246,12 @@ def wind_forces(ship: MMGShip, u, v, psi, wind_ne):
 @dataclass(frozen=True)
 class Environment:
     current_ne: tuple[float, float] = (0.0, 0.0)  # water velocity toward, north/east m/s
-    wind_ne: tuple[float, float] | None = None  # air velocity toward, north/east m/s
+    wind_ne: tuple[float, float] | None = None  # air velocity toward, north/east m/s (None: still air, not recorded)
+
+    @property
+    def air_ne(self) -> tuple[float, float]:
+        """The air velocity the superstructure moves through (still air when there is no wind)."""
+        return (0.0, 0.0) if self.wind_ne is None else self.wind_ne
 
 
 def derivative(ship: MMGShip, Minv: np.ndarray, s: np.ndarray, delta, n, env: Environment) -> np.ndarray:
@@ -257,7 +264,10 @@ def derivative(ship: MMGShip, Minv: np.ndarray, s: np.ndarray, delta, n, env: En
     cn, ce = env.current_ne
     u = ur + cp * cn + sp * ce  # over ground
     v = vr - sp * cn + cp * ce
-    XW, YW, NW = wind_forces(ship, u, v, psi, None if env.wind_ne is None else np.asarray(env.wind_ne, float))
+    # no wind is still air, not no air: the superstructure is dragged through it at the ship's own
+    # speed (relative wind = -ship velocity in (10.8)-(10.11)); the MMG hull coefficients (captive
+    # tank tests) hold no air resistance, which a full-scale prediction adds (ITTC 1978, C_AA)
+    XW, YW, NW = wind_forces(ship, u, v, psi, np.asarray(env.air_ne, float))
     m, xg = ship.mass, ship.x_G
     q = 0.5 * RHO * ship.L**2 * ship.d
     mx, my = ship.c.m_x * q, ship.c.m_y * q

@@ -64,13 +64,14 @@ class Run:
 
 
 def straight_speed(ship: MMGShip, n: float) -> float:
-    """Steady speed straight ahead at ``n`` rps (X_H + X_P = 0)."""
+    """Steady speed straight ahead at ``n`` rps in still air (X_H + X_P + X_air = 0)."""
     from scipy.optimize import brentq
 
-    from tests.physics.mmg_kvlcc2 import hull_forces
+    from tests.physics.mmg_kvlcc2 import hull_forces, wind_forces
 
     def xsum(u: float) -> float:
-        return float(hull_forces(ship, u, 0.0, 0.0)[0] + propeller(ship, u, 0.0, 0.0, n)[3])
+        air = wind_forces(ship, np.array([u]), np.zeros(1), np.zeros(1), np.zeros(2))[0][0]
+        return float(hull_forces(ship, u, 0.0, 0.0)[0] + propeller(ship, u, 0.0, 0.0, n)[3] + air)
 
     return float(brentq(xsum, 1e-3 * ship.U0, 3.0 * ship.U0, xtol=1e-12))
 
