@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import maps.forked as forked
+from tests.procs import children
 
 
 def test_results_in_order_half_from_a_child():
@@ -36,14 +37,6 @@ def test_a_failing_child_is_recomputed_here():
     assert forked.map_halves(only_here, list(range(9))) == [x * x for x in range(9)]
 
 
-def _children() -> set[int]:
-    kids: set[int] = set()
-    for task in os.listdir("/proc/self/task"):
-        with open(f"/proc/self/task/{task}/children") as fh:
-            kids.update(int(p) for p in fh.read().split())
-    return kids
-
-
 def test_an_error_here_is_raised_and_the_child_reaped():
     parent = os.getpid()
 
@@ -52,10 +45,10 @@ def test_an_error_here_is_raised_and_the_child_reaped():
             raise ValueError("bad item 4")
         return x
 
-    before = _children()
+    before = children()
     with pytest.raises(ValueError, match="bad item 4"):
         forked.map_halves(fails_here, list(range(10)))
-    assert _children() <= before
+    assert children() <= before
 
 
 def test_few_items_are_not_forked():

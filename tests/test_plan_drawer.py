@@ -10,6 +10,7 @@ import pytest
 
 import cli.drawer as drawer
 from cli.app import _run
+from tests.procs import children
 
 START = "2026-06-01T08:00Z"
 COUNTS = "steep_zigzag_surge=1"
@@ -17,15 +18,6 @@ COUNTS = "steep_zigzag_surge=1"
 
 def _files(d):
     return {p.name: p.read_bytes() for p in sorted(d.iterdir())}
-
-
-def _children() -> set[int]:
-    """Live (or unreaped) child processes of this process (Linux /proc)."""
-    kids: set[int] = set()
-    for task in os.listdir("/proc/self/task"):
-        with open(f"/proc/self/task/{task}/children") as fh:
-            kids.update(int(p) for p in fh.read().split())
-    return kids
 
 
 @pytest.fixture(scope="module")
@@ -57,22 +49,22 @@ def test_drawing_error_is_one_line_and_nothing_is_written(tmp_path, monkeypatch,
         raise RuntimeError("no ink")
 
     monkeypatch.setattr(plots, "plot_track", broken)
-    before = _children()
+    before = children()
     out = tmp_path / "bad"
     assert _run(["plan", "--counts", COUNTS, "--out", str(out), "--start-time", START]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["error: full-scale-trial-track.png: writing the track figure failed: RuntimeError: no ink"]
-    assert not out.exists() and _children() <= before
+    assert not out.exists() and children() <= before
 
 
 def test_failed_planning_ends_the_drawer(tmp_path, capsys):
     """--counts naming no primitive of the library fails inside the planning, after the drawer
     started: the one-line error, nothing written, the drawer ended and reaped."""
     out = tmp_path / "none"
-    before = _children()
+    before = children()
     assert _run(["plan", "--counts", "nosuch=1", "--out", str(out), "--start-time", START]) == 2
     assert capsys.readouterr().err.startswith("error: --counts: unknown primitive(s) nosuch for full-scale")
-    assert not out.exists() and _children() <= before
+    assert not out.exists() and children() <= before
 
 
 def test_early_result_comes_from_the_drawer_and_a_failure_is_none():
@@ -95,10 +87,10 @@ def test_early_result_comes_from_the_drawer_and_a_failure_is_none():
 def test_unread_early_result_does_not_hang_the_drawer():
     """A command that fails before reading the early result (a payload larger than a pipe's
     buffer) still ends and reaps its drawer."""
-    before = _children()
+    before = children()
     d = drawer.Drawer(lambda: b"x" * 1_000_000)
     d.cancel()
-    assert _children() <= before
+    assert children() <= before
 
 
 def test_design_in_the_drawer_gives_the_plan_of_the_design_here(tmp_path, capsys):
