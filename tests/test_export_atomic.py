@@ -18,6 +18,7 @@ from maps.export._testing import synthetic_plan
 from maps.export.staging import staged_outputs
 from primitives.errors import UserError
 from primitives.io import OUTPUT_MARKER
+from tests.procs import killable_writer
 
 START = "2026-06-01T08:00:00Z"
 OLD_GPX = b"<gpx>the route of last week</gpx>"
@@ -116,31 +117,8 @@ def test_plan_failing_late_leaves_the_last_run_as_it_was(tmp_path, monkeypatch, 
     assert _snapshot(out) == before and [p.name for p in tmp_path.iterdir()] == ["trial"]
 
 
-_KILLED = """
-import os, signal, sys
-import maps.export.staging as staging
-out, mode = sys.argv[1], sys.argv[2]
-if mode == "publishing":  # killed between moving the old file aside and moving the new one in
-    real = os.replace
-    def replace(src, dst):
-        real(src, dst)
-        os.kill(os.getpid(), signal.SIGKILL)
-    staging.os.replace = replace
-with staging.staged_outputs(out) as tmp:
-    (tmp / "route.gpx").write_text("new route")
-    if mode == "writing":
-        os.kill(os.getpid(), signal.SIGKILL)
-    if mode == "running":  # an export still running in this destination
-        print("ready", flush=True)
-        sys.stdin.read()
-"""
-
-
 def _child(out, mode, **kw):
-    import subprocess
-    import sys
-
-    return subprocess.Popen([sys.executable, "-c", _KILLED, str(out), mode], text=True, **kw)
+    return killable_writer("maps.export.staging", "staged_outputs", "route.gpx", "publishing", out, mode, text="'new route'", **kw)
 
 
 def _staging_dirs(d):

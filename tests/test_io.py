@@ -7,6 +7,7 @@ import pytest
 
 from primitives.errors import UserError
 from primitives.io import OUTPUT_MARKER, atomic_output_dir, check_out_path
+from tests.procs import killable_writer
 
 
 def test_atomic_output_dir_replaces_on_success(tmp_path):
@@ -48,31 +49,8 @@ def test_check_out_path_refuses_a_file(tmp_path):
         check_out_path(f)
 
 
-_KILLED = """
-import os, signal, sys
-import primitives.io as pio
-out, mode = sys.argv[1], sys.argv[2]
-if mode == "swapping":  # killed between moving the previous result aside and moving the new one in
-    real = os.replace
-    def replace(src, dst):
-        real(src, dst)
-        os.kill(os.getpid(), signal.SIGKILL)
-    pio.os.replace = replace
-with pio.atomic_output_dir(out) as tmp:
-    (tmp / "plan.json").write_text(mode)
-    if mode == "writing":
-        os.kill(os.getpid(), signal.SIGKILL)
-    if mode == "running":  # a run still writing into this destination
-        print("ready", flush=True)
-        sys.stdin.read()
-"""
-
-
 def _child(out, mode, **kw):
-    import subprocess
-    import sys
-
-    return subprocess.Popen([sys.executable, "-c", _KILLED, str(out), mode], text=True, **kw)
+    return killable_writer("primitives.io", "atomic_output_dir", "plan.json", "swapping", out, mode, **kw)
 
 
 def _hidden(d):
