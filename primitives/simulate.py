@@ -13,6 +13,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from primitives import onestep
 from primitives.pods import pod_generalized_forces
 from primitives.rigidbody import RigidBody
 from primitives.ship import ProfileError, ShipProfile
@@ -420,8 +421,8 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     cur_t, wind_t = (None if a is None else np.ascontiguousarray(a.transpose(1, 2, 0)) for a in (cur, wind))  # (N, 2, B)
     w_t = None if w is None else np.ascontiguousarray(w.transpose(1, 2, 0))  # (N, nd, B)
     heading = positions or nd == 4 or bool(profile.pods) or cur_t is not None or wind_t is not None or step.reads_heading
-    if batch == 1 and nd == 3 and step.scalar and not profile.pods and cur_t is None and wind_t is None and w_t is None:
-        return _one_ship_loop(step, in_names, in_t, nu0, eta0, ts, positions, heading)
+    if onestep.applies(step, batch, nd, bool(profile.pods), cur_t is not None or wind_t is not None, w_t is not None):
+        return onestep.one_ship_loop(step, in_names, in_t, nu0, eta0, ts, positions, heading)
     if heading:
         eta_t = np.full((n_steps + 1, nd, batch), np.nan)
         eta_t[0] = np.broadcast_to(eta0, (batch, nd)).T
@@ -446,10 +447,7 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
         if w_t is not None:
             nxt += w_t[k]
         if current_turning and cur_b is not None:
-            r = row[2]
-            u1, v1 = body_from_ne(cur_t[k].T, psi_k + ts * (np.cos(phi_k) * r if nd == 4 else r))
-            nxt[0] += u1 - cur_b[0]
-            nxt[1] += v1 - cur_b[1]
+            _turn_current(nxt, cur_t[k].T, cur_b, psi_k, row[2], phi_k, ts)
         if eta_t is not None:
             _advance_pose(eta_t, k, row, ts, positions)
     nu = np.ascontiguousarray(nu_t.transpose(2, 0, 1))
@@ -458,6 +456,17 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     eta = np.full((batch, n_steps + 1, nd), np.nan)
     eta[:, 0] = eta0
     return nu, eta
+
+
+def _turn_current(nxt: np.ndarray, cur_ne: np.ndarray, cur_b: tuple[np.ndarray, np.ndarray], psi_k: np.ndarray, r: np.ndarray,
+                  phi_k: np.ndarray | None, ts: float) -> None:
+    """Add to nu(k+1) ``nxt`` (nd, B) the change of an earth-fixed current ``cur_ne`` (B, 2) in body
+    axes over the step, u_c(psi(k+1)) - u_c(psi(k)) (``cur_b`` is u_c(psi(k))): nu = nu_r + u_c(psi)
+    with the hull's dynamics in nu_r (Fossen 2021, section 10.3). The heading advances as in
+    :func:`_advance_pose` (through cos(phi) with roll)."""
+    u1, v1 = body_from_ne(cur_ne, psi_k + ts * (r if phi_k is None else np.cos(phi_k) * r))
+    nxt[0] += u1 - cur_b[0]
+    nxt[1] += v1 - cur_b[1]
 
 
 def _advance_pose(eta_t: np.ndarray, k: int, row: np.ndarray, ts: float, positions: bool) -> None:
@@ -480,39 +489,6 @@ def _advance_pose(eta_t: np.ndarray, k: int, row: np.ndarray, ts: float, positio
         nxt[0] = now[0] + ts * (c * u - s * v)
         nxt[1] = now[1] + ts * (s * u + c * v)
     nxt[2] = psi_k + ts * r
-
-
-def _one_ship_loop(step: VelocityStep, in_names: list[str], in_t: np.ndarray, nu0: np.ndarray, eta0: np.ndarray, ts: float,
-                   positions: bool, heading: bool) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_time_loop` for one planar ship in calm water and air without process noise, on
-    Python floats (:meth:`VelocityStep.next_one`'s arithmetic): the same operations in the same
-    order as on one-element arrays, so the same bits (the heading's cosine and sine are numpy's),
-    without numpy's per-call cost, which dominates a batch of one (a primitive, a lattice move,
-    the verification's re-simulation)."""
-    inc, coef = step.inc_floats, step.coef
-    u, v, r = (float(a) for a in nu0)
-    x, y, psi = (float(a) for a in eta0[:3])
-    nu_rows, eta_rows = [(u, v, r)], [(x, y, psi)]
-    nan = float("nan")
-    if not heading:
-        psi = nan  # nothing reads the pose: NaN after the first row (see _time_loop)
-    for row in in_t[:, :, 0].tolist():
-        sig = dict(zip(in_names, row))
-        sig["psi"] = psi
-        sig["u"] = sig["u_r"] = sig["u_q"] = u  # relative_signals in still water and calm air
-        sig["v"] = sig["v_r"] = sig["v_q"] = v
-        sig["r"] = r
-        du, dv, dr = inc(sig, coef)
-        if positions:
-            c, s = np.cos(psi), np.sin(psi)
-            x = x + ts * (c * u - s * v)
-            y = y + ts * (s * u + c * v)
-        if heading:
-            psi = psi + ts * r
-        u, v, r = u + du, v + dv, r + dr
-        nu_rows.append((u, v, r))
-        eta_rows.append((x, y, psi) if positions else (nan, nan, psi))
-    return np.array(nu_rows)[None], np.array(eta_rows)[None]
 
 
 def steady_forces(
