@@ -31,6 +31,10 @@ class Disturbances:
     process_std: additive noise on the velocity increments (u, v, r).
     measurement_std: additive noise on the measured u, v, r.
     heading_std, position_std: noise on the measured heading and position.
+    current_turning: the current is fixed in the earth frame and the velocity over ground follows
+    it as the ship turns (:func:`_turn_current`, Fossen 2021 section 10.3); off, the current acts
+    through u_r, v_r only (the thesis's form, seed 001 (3.60), (9.1)). A profile says which
+    (``[disturbances] current_turning``; a diagnosed model.json with a current: on).
     """
 
     current_ne: tuple[float, float] = (0.0, 0.0)
@@ -42,6 +46,7 @@ class Disturbances:
     measurement_std: tuple[float, float, float] = (0.0, 0.0, 0.0)
     heading_std: float = 0.0
     position_std: float = 0.0
+    current_turning: bool = False
 
     @classmethod
     def from_profile(cls, profile: ShipProfile) -> Disturbances:
@@ -52,6 +57,7 @@ class Disturbances:
             current_sample_std=float(d.get("current_sample_std", 0.0)),
             measurement_std=tuple(d.get("measurement_std", (0.0, 0.0, 0.0))),
             heading_std=float(d.get("heading_std", 0.0)),
+            current_turning=bool(d.get("current_turning", False)),
         )
 
     @property
@@ -314,7 +320,8 @@ def simulate(
     term that reads psi, roll, pods); what is not integrated is NaN in ``eta`` and ``pos_meas``.
     The velocities are bit-identical either way; the position rows are about a fifth of a step.
     ``current_turning``: the velocity over ground also follows the current as the ship turns
-    (see :func:`_time_loop`); off, the current acts through u_r, v_r only (the thesis's form).
+    (see :func:`_time_loop`), as does ``disturbances.current_turning``; off, the current acts
+    through u_r, v_r only (the thesis's form).
     """
     terms = terms or profile.model
     theta = (
@@ -339,7 +346,7 @@ def simulate(
 
     step = VelocityStep(terms, theta, profile.rigid_body, ts)
     nu, eta = _time_loop(profile, step, u_in, _padded(nu0, nd), _padded(eta0, nd), _moving(cur), _moving(wind), w, batch,
-                         positions, current_turning)
+                         positions, current_turning or dist.current_turning)
 
     meas = _padded(dist.measurement_std, nd)
     y = nu + rng.normal(0.0, 1.0, nu.shape) * meas if np.any(meas) else _read_only(nu)
