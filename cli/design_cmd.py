@@ -94,6 +94,8 @@ def register(app: typer.Typer) -> None:
             paths = {k: out / p.relative_to(tmp) for k, p in written.items()}
         if ev is not None and not ev.complete:
             _fail(ev, f"partial report of the finished runs written to {paths['json']}" if paths else "partial results not written (no --out)")
+        for w in d.warnings:  # on stderr: with --json stdout carries only the JSON (which holds them too)
+            typer.echo(f"warning: {w}", err=True)
         if json_out:
             typer.echo(dumps(doc))
             return

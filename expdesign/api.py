@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from expdesign.dopt import CRITERIA, Constraints, InfoSet, solve_convex
+from expdesign.dopt import CRITERIA, Constraints, InfoSet, lost_to_mean_subtraction, solve_convex, varying_primitives
 from expdesign.errors import DesignError
 from expdesign.nonconvex import solve_nonconvex
 from expdesign.rounding import _efficiency, round_design
@@ -38,6 +38,8 @@ class Design:
     efficiency against equal shares (> 1: better; D: (det Gamma / det Gamma_uniform)^(1/p));
     efficiency_bound: guaranteed efficiency of the convex solution from the equivalence theorem;
     rounded: whole units (pieces of the primitive, see ``unit_s``) per primitive for the trial.
+    warnings: what the design cannot do, one sentence each (a parameter the instrument-mean
+    subtraction leaves unidentifiable, :func:`mean_subtraction_warnings`).
     """
 
     profile: str
@@ -59,6 +61,7 @@ class Design:
     winner: str | None = None
     n_params: int = 0
     references: dict[str, float] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -82,6 +85,7 @@ class Design:
             "winner": self.winner,
             "n_params": self.n_params,
             "reference_efficiency": dict(self.references),
+            "warnings": list(self.warnings),
         }
 
 
@@ -101,6 +105,28 @@ def check_identifiable(profile: ShipProfile, info: InfoSet, mean_subtraction: st
             f"the primitive library {info.names} cannot identify {dead} (mean subtraction {mean_subtraction!r}); "
             f"add a manoeuvre that excites them: {excitation_hint(profile, dead)}"
         )
+
+
+def mean_subtraction_warnings(profile: ShipProfile, info: InfoSet, w: np.ndarray, mean_subtraction: str) -> list[str]:
+    """One sentence per parameter that the instrument-mean subtraction leaves unidentifiable
+    (:func:`expdesign.dopt.lost_to_mean_subtraction`), in the library as a whole (equal shares) or
+    in the design ``w`` only, naming the parameter, why and what would help."""
+    names = profile.predictor_param_names
+    everywhere = lost_to_mean_subtraction(info, np.full(len(info.names), 1.0 / len(info.names)), mean_subtraction)
+    out = []
+    for i, frac in lost_to_mean_subtraction(info, w, mean_subtraction).items():
+        batch = "each primitive" if mean_subtraction == "batchwise" else "the whole trial"
+        why = (f"{names[i]} is not identifiable with {mean_subtraction} instrument-mean subtraction: its instrument is "
+               f"(nearly) constant over {batch}, so only {frac:.1e} of its information survives the subtraction "
+               f"(rounding noise)")
+        varying = varying_primitives(info, i, mean_subtraction)
+        if i in everywhere:
+            out.append(f"{why} in every mix of this library; use --mean-subtraction none, or add a manoeuvre that excites it: "
+                       f"{excitation_hint(profile, [names[i]])}")
+        else:
+            out.append(f"{why} in this design, which gives no time to the primitives in which it varies "
+                       f"({', '.join(varying) or 'none'}); use --mean-subtraction none, or --min-frac to keep them")
+    return out
 
 
 def unit_samples(prim: Primitive) -> int:
@@ -237,4 +263,5 @@ def run_design(
         winner=winner,
         n_params=p,
         references=refs,
+        warnings=mean_subtraction_warnings(profile, info, final, mean_subtraction),
     )

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from expdesign.api import run_design
+from expdesign.api import mean_subtraction_warnings, run_design
 from expdesign.dopt import DEDICATED, InfoSet
 from expdesign.errors import DesignError
 from expdesign.rounding import _efficiency, round_design
@@ -151,6 +151,8 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
         "d_efficiency": float(d_eff), "efficiency": float(c_eff), "dropped": dropped, "trial_length_s": trial_s,
         "planned_s": float(sum(c * p.duration_s for p, c in zip(prims, counts))),
     }
+    sailed = counts * np.array([p.n_samples for p in prims], float)
+    notes += [f"warning: {w}" for w in mean_subtraction_warnings(profile, info, sailed / sailed.sum(), mean_subtraction)]
     notes.insert(0, f"counts from the {criterion}-optimal design ({mean_subtraction} mean subtraction) over "
                     f"{len(prims)} primitives, rounded to whole manoeuvres for {trial_s:.0f} s: "
                     f"{', '.join(f'{k} x{v}' for k, v in record['counts'].items())} ({criterion}-efficiency {c_eff:.3f} of the continuous optimum)")
