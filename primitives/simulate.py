@@ -498,6 +498,25 @@ def _advance_pose(eta_t: np.ndarray, k: int, row: np.ndarray, ts: float, positio
     nxt[2] = psi_k + ts * r
 
 
+# The actuator kinds whose inputs are (or allocate) generalized forces, so that the forces holding
+# a state steady (:func:`steady_forces`) can be applied: not a rudder/propeller ship's helm and rpm.
+STEADY_FORCE_ACTUATORS = ("generalized", "azimuth")
+
+
+def has_steady_forces(profile: ShipProfile) -> bool:
+    """Whether :func:`steady_forces` applies to the ship (a 3-DOF generalized-force or azimuth ship)."""
+    return profile.planar and profile.actuator in STEADY_FORCE_ACTUATORS
+
+
+def require_steady_forces(profile: ShipProfile) -> None:
+    """Refuse a ship :func:`steady_forces` does not apply to, in one line saying why."""
+    profile.require_planar("steady_forces")
+    if profile.actuator not in STEADY_FORCE_ACTUATORS:
+        raise ProfileError(
+            f"profile {profile.name!r}: steady generalized forces need generalized-force or azimuth inputs, not rudder/propeller"
+        )
+
+
 def steady_forces(
     profile: ShipProfile, u: float, v: float, r: float, theta: np.ndarray | str | None = None
 ) -> tuple[float, float, float]:
@@ -506,11 +525,7 @@ def steady_forces(
     Solves Phi(u, v, r, tau)^T theta = 0 for tau, using that the model is affine in each of
     tau_x, tau_y, tau_n (true for (3.60) and (9.1)).
     """
-    profile.require_planar("steady_forces")
-    if profile.actuator == "rudder_propeller":
-        raise ProfileError(
-            f"profile {profile.name!r}: steady generalized forces need generalized-force or azimuth inputs, not rudder/propeller"
-        )
+    require_steady_forces(profile)
     terms = profile.model
     theta = profile.params(theta)
     # one batched evaluation at tau = 0 and at the three unit forces
