@@ -52,7 +52,8 @@ def resolve_primitives(profile: ShipProfile, counts: dict[str, int], given: list
     return [pool[n] for n in counts]
 
 
-def planning_window(sea: SeaMap, res: float, start_xy, goal_xy, size: tuple[int, int]) -> Window:
+def planning_window(sea: SeaMap, res: float, start_xy: tuple[float, float], goal_xy: tuple[float, float], size: tuple[int, int]
+                    ) -> Window:
     """Lattice through the start point, at least ``size`` points, covering start and goal (the
     trial area when the map has one)."""
     ni, nj = size

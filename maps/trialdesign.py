@@ -10,6 +10,7 @@ criterion efficiency lost against the full library's optimum is stated.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -223,7 +224,8 @@ def first_design(profile: ShipProfile, library: list[Primitive] | None = None, *
     return FirstDesign(lib, infos, td, baseline)
 
 
-def design_for_map(profile: ShipProfile, fits_nowhere, library: list[Primitive] | None = None, *, criterion: str = "D",
+def design_for_map(profile: ShipProfile, fits_nowhere: Callable[[list[Primitive], dict[str, int]], dict[str, tuple[float, float]]],
+                   library: list[Primitive] | None = None, *, criterion: str = "D",
                    mean_subtraction: str = "complete", trial_length_s: float | None = None, seed: int = 0,
                    first: FirstDesign | None = None) -> TrialDesign:
     """Design, check the support against the map, redesign without what fits nowhere.
