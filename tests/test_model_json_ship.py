@@ -104,3 +104,22 @@ def test_a_model_json_that_is_not_the_scored_model_is_refused_as_a_ship(where, v
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"error: {path}: ") and says in err[0], err
     assert "shiptrial diagnose --out" in err[0] or "slower than the ship" in err[0]
+
+
+def test_the_monte_carlo_truth_turns_the_current(tmp_path):
+    """The Monte Carlo's true system sails in the profile's current as the profile says: a
+    model.json's current turns with the ship (the same numbers as the kernel with
+    current_turning), and switching it off gives the thesis's flat current."""
+    from expdesign.montecarlo import MCConfig, _experiment, _simulate_data, prepare
+
+    prof = load_profile(_model_json(tmp_path))
+    cur = tuple(CURRENT)
+    for turning in (True, False):
+        dist = Disturbances(current_ne=cur, current_turning=turning)
+        sh = prepare(prof, {"one": {"tau9": 1.0}}, MCConfig(runs=1, n_samples=300, protocol="piecewise"), disturbances=dist)
+        segs, _ = _experiment(sh, [("tau9", 300)])
+        (seg,) = _simulate_data(sh, [segs], [np.random.default_rng(1)])
+        want = simulate(prof, seg.inputs[0], prof.params(prof.simulation_set), nu0=seg.nu0[0],
+                        disturbances=Disturbances(current_ne=cur), current_turning=True)
+        same = np.allclose(seg.y[0], want.nu[0], rtol=0, atol=1e-12)
+        assert same is turning
