@@ -11,6 +11,9 @@ from primitives.io import dumps
 
 if TYPE_CHECKING:
     from expdesign.api import Design
+    from expdesign.mc_parallel import MCEvaluation
+    from primitives.library import Primitive
+    from primitives.ship import ShipProfile
 
 
 def register(app: typer.Typer) -> None:
@@ -49,59 +52,98 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Choose the mix of manoeuvres that maximises information, and check it by Monte Carlo."""
         from cli.options import validate_design_options
-        from expdesign.api import default_library, run_design
-        from expdesign.errors import DesignError
-        from expdesign.mc_parallel import evaluate_designs_parallel
-        from expdesign.report import report_dict, write_report
-        from expdesign.sensitivity import THESIS_SHARES, sensitivity_study
-        from primitives.ship import load_profile
 
         validate_design_options(criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length,
                                 monte_carlo=monte_carlo, mc_samples=mc_samples, seed=seed, out=out, psi_switch=psi_switch,
                                 min_frac=min_frac, max_frac=max_frac, noisy_moments=noisy_moments)
         _check_mc_options(mc_protocol, mc_order, mc_estimator, mc_settle, mc_min_block, mc_samples)
-        profile = load_profile(ship)
-        profile.require_planar("shiptrial design")
-        lib = default_library(profile, psi_switch)
-        thesis = THESIS_SHARES if profile.library == "thesis-model-ship" else None
-        d = run_design(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length,
-                       min_frac=min_frac, max_frac=max_frac, seed=seed, disturbed_realisations=noisy_moments,
-                       references={"thesis": thesis} if thesis else None)
+        profile, lib, thesis, d = _design_step(ship, criterion, mean_subtraction, trial_length, seed, psi_switch, min_frac,
+                                               max_frac, noisy_moments)
         ev = None
         if monte_carlo:
-            names = [p.name for p in lib if p.kind == "informative"]
-            designs = {"optimized": d.weights, "random": "random", "uniform": {n: 1.0 / len(names) for n in names}}
-            if profile.library == "thesis-model-ship" and set(THESIS_SHARES) <= set(names):
-                designs["thesis"] = THESIS_SHARES  # the shares section 9.1.1 reports, for comparison
-            ev = evaluate_designs_parallel(profile, designs, runs=monte_carlo, seed=seed, scheduler=scheduler, primitives=lib,
-                                           n_samples=mc_samples, mean_subtraction=mean_subtraction, protocol=mc_protocol,
-                                           order=mc_order, settle=mc_settle, min_block=mc_min_block, estimator=mc_estimator)
-            _echo_speed(ev)
+            ev = _monte_carlo_step(profile, lib, d, monte_carlo, seed, scheduler, mc_samples, mean_subtraction, mc_protocol,
+                                   mc_order, mc_settle, mc_min_block, mc_estimator)
             if not ev.complete and not (keep_partial and ev.results):
                 _fail(ev, "nothing written (--keep-partial writes the finished runs, marked partial)")
-        sens = None
-        if sensitivity:
-            if profile.library != "thesis-model-ship":
-                raise DesignError("--sensitivity studies the model-ship dictionary tau1-tau11; use --ship model-ship")
-            sens = sensitivity_study(profile, seed=seed)
-        doc = report_dict(d, ev, sens, thesis)
-        paths = {}
-        if out is not None:
-            from primitives.io import atomic_output_dir
+        sens = _sensitivity_step(profile, seed) if sensitivity else None
+        from expdesign.report import report_dict
 
-            with atomic_output_dir(out) as tmp:  # a failed report never leaves a mix of old and new files
-                written = write_report(tmp, doc, d, ev.results if ev else None, thesis)
-            paths = {k: out / p.relative_to(tmp) for k, p in written.items()}
+        doc = report_dict(d, ev, sens, thesis)
+        paths = _write_step(out, doc, d, ev, thesis) if out is not None else {}
         if ev is not None and not ev.complete:
             _fail(ev, f"partial report of the finished runs written to {paths['json']}" if paths else "partial results not written (no --out)")
-        if json_out:
-            typer.echo(dumps(doc))
-            return
-        _echo_design(profile.name, d)
-        if ev:
-            _echo_mc(doc["monte_carlo"])
-        if paths:
-            typer.echo(f"wrote {paths['markdown']} and {paths['json']}")
+        _print_step(profile.name, d, doc, ev, paths, json_out)
+
+
+def _design_step(ship: str, criterion: str, mean_subtraction: str, trial_length: float | None, seed: int,
+                 psi_switch: float | None, min_frac: float | None, max_frac: float | None, noisy_moments: int
+                 ) -> tuple[ShipProfile, list[Primitive], dict[str, float] | None, Design]:
+    """The ship, its design library, the thesis's shares (model ship) and the design."""
+    from expdesign.api import default_library, run_design
+    from expdesign.sensitivity import THESIS_SHARES
+    from primitives.ship import load_profile
+
+    profile = load_profile(ship)
+    profile.require_planar("shiptrial design")
+    lib = default_library(profile, psi_switch)
+    thesis = THESIS_SHARES if profile.library == "thesis-model-ship" else None
+    d = run_design(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length,
+                   min_frac=min_frac, max_frac=max_frac, seed=seed, disturbed_realisations=noisy_moments,
+                   references={"thesis": thesis} if thesis else None)
+    return profile, lib, thesis, d
+
+
+def _monte_carlo_step(profile: ShipProfile, lib: list[Primitive], d: Design, runs: int, seed: int, scheduler: str | None,
+                      samples: int, mean_subtraction: str, protocol: str, order: str, settle: int, min_block: int,
+                      estimator: str) -> MCEvaluation:
+    """The Monte Carlo of the optimized design against the random and uniform ones (and the
+    thesis's shares for the model ship), with its speed line printed."""
+    from expdesign.mc_parallel import evaluate_designs_parallel
+    from expdesign.sensitivity import THESIS_SHARES
+
+    names = [p.name for p in lib if p.kind == "informative"]
+    designs = {"optimized": d.weights, "random": "random", "uniform": {n: 1.0 / len(names) for n in names}}
+    if profile.library == "thesis-model-ship" and set(THESIS_SHARES) <= set(names):
+        designs["thesis"] = THESIS_SHARES  # the shares section 9.1.1 reports, for comparison
+    ev = evaluate_designs_parallel(profile, designs, runs=runs, seed=seed, scheduler=scheduler, primitives=lib,
+                                   n_samples=samples, mean_subtraction=mean_subtraction, protocol=protocol,
+                                   order=order, settle=settle, min_block=min_block, estimator=estimator)
+    _echo_speed(ev)
+    return ev
+
+
+def _sensitivity_step(profile: ShipProfile, seed: int) -> list[dict]:
+    """The model-ship sensitivity study (--sensitivity), refused for another dictionary."""
+    from expdesign.errors import DesignError
+    from expdesign.sensitivity import sensitivity_study
+
+    if profile.library != "thesis-model-ship":
+        raise DesignError("--sensitivity studies the model-ship dictionary tau1-tau11; use --ship model-ship")
+    return sensitivity_study(profile, seed=seed)
+
+
+def _write_step(out: Path, doc: dict, d: Design, ev: MCEvaluation | None, thesis: dict[str, float] | None) -> dict[str, Path]:
+    """report.md, design.json and the figures into ``out``, replaced whole or not at all."""
+    from expdesign.report import write_report
+    from primitives.io import atomic_output_dir
+
+    with atomic_output_dir(out) as tmp:  # a failed report never leaves a mix of old and new files
+        written = write_report(tmp, doc, d, ev.results if ev else None, thesis)
+    return {k: out / p.relative_to(tmp) for k, p in written.items()}
+
+
+def _print_step(ship: str, d: Design, doc: dict, ev: MCEvaluation | None, paths: dict[str, Path], json_out: bool) -> None:
+    """The design's warnings on stderr, then the JSON document or the text summary on stdout."""
+    for w in d.warnings:  # on stderr: with --json stdout carries only the JSON (which holds them too)
+        typer.echo(f"warning: {w}", err=True)
+    if json_out:
+        typer.echo(dumps(doc))
+        return
+    _echo_design(ship, d)
+    if ev:
+        _echo_mc(doc["monte_carlo"])
+    if paths:
+        typer.echo(f"wrote {paths['markdown']} and {paths['json']}")
 
 
 def _echo_design(ship: str, d: Design) -> None:
@@ -150,7 +192,7 @@ def _g(x: float | None) -> str:
     return "n/a" if x is None else f"{x:.3g}"
 
 
-def _echo_speed(ev) -> None:
+def _echo_speed(ev: MCEvaluation) -> None:
     """Runs done, runs per second and how the work was cut, on stderr."""
     e, n = ev.engine, sum(ev.runs_finished.values())
     typer.echo(f"Monte Carlo: {n} runs in {ev.elapsed_s:.1f} s ({n / max(ev.elapsed_s, 1e-9):.0f} runs/s) on {e['name']}, "
@@ -164,7 +206,7 @@ def _echo_speed(ev) -> None:
                    "--nthreads 1, one per core", err=True)
 
 
-def _fail(ev, what: str) -> None:
+def _fail(ev: MCEvaluation, what: str) -> None:
     """Exit non-zero after an interrupted or failed Monte Carlo: 130 for Ctrl-C, 1 for lost work."""
     done = ", ".join(f"{k} {v}" for k, v in ev.runs_finished.items()) or "none"
     why = "interrupted" if ev.interrupted else f"{len(ev.errors)} task(s) failed ({ev.errors[0]})"

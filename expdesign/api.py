@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from expdesign.dopt import CRITERIA, Constraints, InfoSet, solve_convex
+from expdesign.dopt import CRITERIA, Constraints, InfoSet, lost_to_mean_subtraction, solve_convex, varying_primitives
 from expdesign.errors import DesignError
 from expdesign.nonconvex import solve_nonconvex
 from expdesign.rounding import _efficiency, round_design
@@ -38,6 +38,8 @@ class Design:
     efficiency against equal shares (> 1: better; D: (det Gamma / det Gamma_uniform)^(1/p));
     efficiency_bound: guaranteed efficiency of the convex solution from the equivalence theorem;
     rounded: whole units (pieces of the primitive, see ``unit_s``) per primitive for the trial.
+    warnings: what the design cannot do, one sentence each (a parameter the instrument-mean
+    subtraction leaves unidentifiable, :func:`mean_subtraction_warnings`).
     """
 
     profile: str
@@ -59,6 +61,7 @@ class Design:
     winner: str | None = None
     n_params: int = 0
     references: dict[str, float] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -82,6 +85,7 @@ class Design:
             "winner": self.winner,
             "n_params": self.n_params,
             "reference_efficiency": dict(self.references),
+            "warnings": list(self.warnings),
         }
 
 
@@ -101,6 +105,103 @@ def check_identifiable(profile: ShipProfile, info: InfoSet, mean_subtraction: st
             f"the primitive library {info.names} cannot identify {dead} (mean subtraction {mean_subtraction!r}); "
             f"add a manoeuvre that excites them: {excitation_hint(profile, dead)}"
         )
+
+
+def mean_subtraction_warnings(profile: ShipProfile, info: InfoSet, w: np.ndarray, mean_subtraction: str) -> list[str]:
+    """One sentence per parameter that the instrument-mean subtraction leaves unidentifiable
+    (:func:`expdesign.dopt.lost_to_mean_subtraction`), in the library as a whole (equal shares) or
+    in the design ``w`` only, naming the parameter, why and what would help."""
+    names = profile.predictor_param_names
+    everywhere = lost_to_mean_subtraction(info, np.full(len(info.names), 1.0 / len(info.names)), mean_subtraction)
+    out = []
+    for i, frac in lost_to_mean_subtraction(info, w, mean_subtraction).items():
+        batch = "each primitive" if mean_subtraction == "batchwise" else "the whole trial"
+        why = (f"{names[i]} is not identifiable with {mean_subtraction} instrument-mean subtraction: its instrument is "
+               f"(nearly) constant over {batch}, so only {frac:.1e} of its information survives the subtraction "
+               f"(rounding noise)")
+        varying = varying_primitives(info, i, mean_subtraction)
+        if i in everywhere:
+            out.append(f"{why} in every mix of this library; use --mean-subtraction none, or add a manoeuvre that excites it: "
+                       f"{excitation_hint(profile, [names[i]])}")
+        else:
+            out.append(f"{why} in this design, which gives no time to the primitives in which it varies "
+                       f"({', '.join(varying) or 'none'}); use --mean-subtraction none, or --min-frac to keep them")
+    return out
+
+
+def _informative_library(profile: ShipProfile, primitives: list[Primitive] | None, psi_switch: float | None, criterion: str,
+                         mean_subtraction: str, notes: list[str]) -> list[Primitive]:
+    """The options checked and the informative primitives to design with (default: the profile's
+    thesis dictionary), with unique names; what is ignored goes into ``notes``."""
+    if criterion not in CRITERIA:
+        raise DesignError(f"criterion must be one of {list(CRITERIA)}, got {criterion!r}")
+    if mean_subtraction not in MEAN_SUBTRACTION:
+        raise DesignError(f"mean subtraction must be one of {list(MEAN_SUBTRACTION)}, got {mean_subtraction!r}")
+    if primitives is None:
+        primitives = default_library(profile, psi_switch)
+    elif psi_switch is not None:
+        notes.append("psi_switch ignored: an explicit primitive library was given")
+    prims = [p for p in primitives if p.kind == "informative"]
+    if not prims:
+        raise DesignError("the primitive library has no informative primitives; give zig-zags, spirals, speed changes ...")
+    names = [p.name for p in prims]
+    if len(set(names)) != len(names):
+        raise DesignError(f"primitive names must be unique, got {names}")
+    return prims
+
+
+def _moments(profile: ShipProfile, prims: list[Primitive], disturbed_realisations: int, seed: int) -> list[PrimitiveInfo]:
+    """X, Y, Z of every primitive: from the nominal states, or averaged over
+    ``disturbed_realisations`` noisy, disturbed simulations (the profile's disturbances, seeded)."""
+    kw: dict[str, Any] = {}
+    if disturbed_realisations > 0:
+        kw = dict(disturbances=Disturbances.from_profile(profile), realisations=disturbed_realisations, seed=seed)
+    return library_information(profile, prims, **kw)
+
+
+def _optimise(info: InfoSet, cons: Constraints, criterion: str, mean_subtraction: str, convex_solvers: tuple[str, ...],
+              n_random_starts: int, seed: int, notes: list[str]) -> tuple[Any, np.ndarray, list[dict], str | None, float | None]:
+    """The convex design (7.18)/(7.53) and, for complete mean subtraction or a relaxation that
+    misrepresents the library, the non-convex one started from it: (convex result, final
+    weights with the optimiser's zeros set to 0, non-convex starts, winner, efficiency bound)."""
+    convex = solve_convex(info, criterion, mean_subtraction, cons, convex_solvers)
+    notes += [f"convex: {convex.solver}"] + convex.notes
+    final, starts, winner = convex.weights, [], "convex"
+    bound = convex.efficiency_bound
+    uniform_w = np.full(len(info.names), 1.0 / len(info.names))
+    relaxed_mode = "batchwise" if mean_subtraction == "complete" else mean_subtraction
+    relaxation_ok = info.value(convex.weights, relaxed_mode, criterion) >= info.value(uniform_w, relaxed_mode, criterion)
+    if mean_subtraction == "complete" and not relaxation_ok:
+        bound = None
+        notes.append("the convex relaxation scored below the uniform mix on its exact objective: no efficiency bound")
+    if mean_subtraction != "complete" and not relaxation_ok:
+        # The symmetric relaxation misrepresents this library (the IV Gamma's symmetric part is
+        # far from Gamma, e.g. crude instruments): optimise the exact objective instead.
+        nc = solve_nonconvex(info, cons, criterion=criterion, mean_subtraction=mean_subtraction, convex_start=convex.weights,
+                             n_random=n_random_starts, seed=seed)
+        final, starts, winner, bound = nc.weights, nc.starts, nc.winner, None
+        notes += ["the convex relaxation (symmetric part of Gamma) scored below the uniform mix on the exact objective; "
+                  "solved log|det Gamma| directly by multi-start SLSQP: no efficiency bound"] + nc.notes
+    if mean_subtraction == "complete":
+        nc = solve_nonconvex(info, cons, criterion=criterion, mean_subtraction="complete", convex_start=convex.weights,
+                             n_random=n_random_starts, seed=seed)
+        final, starts, winner = nc.weights, nc.starts, nc.winner
+        notes += nc.notes
+    final = np.where(final < 1e-6, 0.0, final)
+    return convex, final / final.sum(), starts, winner, bound
+
+
+def _reference_efficiencies(references: dict[str, dict[str, float]] | None, names: list[str], info: InfoSet, val: float,
+                            mean_subtraction: str, criterion: str) -> dict[str, float]:
+    """Criterion efficiency of each reference mix (label -> {primitive: share}) against the design's value ``val``."""
+    refs = {}
+    for label, shares in (references or {}).items():
+        unknown = sorted(set(shares) - set(names))
+        if unknown:
+            raise DesignError(f"reference design {label!r} names unknown primitives {unknown}")
+        rw = np.array([float(shares.get(n, 0.0)) for n in names])
+        refs[label] = _efficiency(info.value(rw / rw.sum(), mean_subtraction, criterion), val, info.n_params, criterion)
+    return refs
 
 
 def unit_samples(prim: Primitive) -> int:
@@ -142,26 +243,11 @@ def run_design(
     """
     if isinstance(profile, str):
         profile = load_profile(profile)
-    if criterion not in CRITERIA:
-        raise DesignError(f"criterion must be one of {list(CRITERIA)}, got {criterion!r}")
-    if mean_subtraction not in MEAN_SUBTRACTION:
-        raise DesignError(f"mean subtraction must be one of {list(MEAN_SUBTRACTION)}, got {mean_subtraction!r}")
     notes: list[str] = []
-    if primitives is None:
-        primitives = default_library(profile, psi_switch)
-    elif psi_switch is not None:
-        notes.append("psi_switch ignored: an explicit primitive library was given")
-    prims = [p for p in primitives if p.kind == "informative"]
-    if not prims:
-        raise DesignError("the primitive library has no informative primitives; give zig-zags, spirals, speed changes ...")
+    prims = _informative_library(profile, primitives, psi_switch, criterion, mean_subtraction, notes)
     names = [p.name for p in prims]
-    if len(set(names)) != len(names):
-        raise DesignError(f"primitive names must be unique, got {names}")
     if infos is None:
-        kw: dict[str, Any] = {}
-        if disturbed_realisations > 0:
-            kw = dict(disturbances=Disturbances.from_profile(profile), realisations=disturbed_realisations, seed=seed)
-        infos = library_information(profile, prims, **kw)
+        infos = _moments(profile, prims, disturbed_realisations, seed)
     total_s = float(trial_length_s) if trial_length_s is not None else float(sum(p.duration_s for p in prims))
     if total_s <= 0:
         raise DesignError(f"trial length must be > 0 seconds, got {trial_length_s}")
@@ -169,32 +255,8 @@ def run_design(
     info = InfoSet.from_infos(infos, prior, prior_w)
     check_identifiable(profile, info, mean_subtraction)
     cons = Constraints.build(names, min_frac, max_frac, costs, budgets, total_s)
-
-    convex = solve_convex(info, criterion, mean_subtraction, cons, convex_solvers)
-    notes += [f"convex: {convex.solver}"] + convex.notes
-    final, starts, winner = convex.weights, [], "convex"
-    bound = convex.efficiency_bound
-    uniform_w = np.full(len(names), 1.0 / len(names))
-    relaxed_mode = "batchwise" if mean_subtraction == "complete" else mean_subtraction
-    relaxation_ok = info.value(convex.weights, relaxed_mode, criterion) >= info.value(uniform_w, relaxed_mode, criterion)
-    if mean_subtraction == "complete" and not relaxation_ok:
-        bound = None
-        notes.append("the convex relaxation scored below the uniform mix on its exact objective: no efficiency bound")
-    if mean_subtraction != "complete" and not relaxation_ok:
-        # The symmetric relaxation misrepresents this library (the IV Gamma's symmetric part is
-        # far from Gamma, e.g. crude instruments): optimise the exact objective instead.
-        nc = solve_nonconvex(info, cons, criterion=criterion, mean_subtraction=mean_subtraction, convex_start=convex.weights,
-                             n_random=n_random_starts, seed=seed)
-        final, starts, winner, bound = nc.weights, nc.starts, nc.winner, None
-        notes += ["the convex relaxation (symmetric part of Gamma) scored below the uniform mix on the exact objective; "
-                  "solved log|det Gamma| directly by multi-start SLSQP: no efficiency bound"] + nc.notes
-    if mean_subtraction == "complete":
-        nc = solve_nonconvex(info, cons, criterion=criterion, mean_subtraction="complete", convex_start=convex.weights,
-                             n_random=n_random_starts, seed=seed)
-        final, starts, winner = nc.weights, nc.starts, nc.winner
-        notes += nc.notes
-    final = np.where(final < 1e-6, 0.0, final)
-    final = final / final.sum()
+    convex, final, starts, winner, bound = _optimise(info, cons, criterion, mean_subtraction, convex_solvers, n_random_starts, seed,
+                                                     notes)
     p = info.n_params
     val = info.value(final, mean_subtraction, criterion)
     uni = info.value(np.full(len(names), 1.0 / len(names)), mean_subtraction, criterion)
@@ -203,13 +265,7 @@ def run_design(
     total_samples = int(round(total_s / ts))
     rnd = round_design(final, units, total_samples, lambda s: info.value(s / total_samples, mean_subtraction, criterion), p,
                        criterion=criterion)
-    refs = {}
-    for label, shares in (references or {}).items():
-        unknown = sorted(set(shares) - set(names))
-        if unknown:
-            raise DesignError(f"reference design {label!r} names unknown primitives {unknown}")
-        rw = np.array([float(shares.get(n, 0.0)) for n in names])
-        refs[label] = _efficiency(info.value(rw / rw.sum(), mean_subtraction, criterion), val, p, criterion)
+    refs = _reference_efficiencies(references, names, info, val, mean_subtraction, criterion)
     return Design(
         profile=profile.name,
         criterion=criterion,
@@ -237,4 +293,5 @@ def run_design(
         winner=winner,
         n_params=p,
         references=refs,
+        warnings=mean_subtraction_warnings(profile, info, final, mean_subtraction),
     )

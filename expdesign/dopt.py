@@ -112,6 +112,54 @@ class InfoSet:
         return -float(np.sum(1.0 / sv)) if sv[-1] > 0 else -np.inf
 
 
+# -- what the instrument-mean subtraction removes -------------------------------------------------
+
+# Information below this fraction of what the regressor-instrument products carry before the mean
+# is removed is cancellation noise: X and Y Z^T agree to their last digits when the instrument is
+# constant over every mean-subtraction batch (a surge force held through every zig-zag), and what
+# is left of double precision's 16 digits after that is below 1e-13 of X in practice.
+MEAN_SUBTRACTION_NOISE = 1e-9
+
+
+def lost_to_mean_subtraction(info: InfoSet, w: np.ndarray, mean_subtraction: str,
+                             rel_tol: float = MEAN_SUBTRACTION_NOISE) -> dict[int, float]:
+    """Parameters the instrument-mean subtraction of (7.53)/(7.57) leaves unidentifiable in the mix
+    ``w``: {index: fraction of its information that survives}. A parameter is lost when the
+    diagonal of Gamma(w) after subtraction is below ``rel_tol`` of that before (its instrument is
+    constant over every batch: batchwise over each primitive, complete over the whole trial), or
+    when it loads (> 0.3) on a direction in which Gamma, normalised by the information before
+    subtraction, is singular to ``rel_tol`` (a combination the subtraction removes). Parameters
+    without information before the subtraction are :func:`primitives.information.unidentified_parameters`'s."""
+    if mean_subtraction == "none":
+        return {}
+    w = np.asarray(w, float)
+    raw = np.abs(np.diag(info.gamma(w, "none")))
+    sub = info.gamma(w, mean_subtraction)
+    live = raw > 0
+    frac = np.abs(np.diag(sub)) / np.where(live, raw, 1.0)
+    lost = {int(i): float(frac[i]) for i in np.flatnonzero(live & (frac < rel_tol))}
+    idx = np.flatnonzero(live)
+    d = 1.0 / np.sqrt(raw[idx])
+    g = sub[np.ix_(idx, idx)] * np.outer(d, d)
+    if g.size and np.all(np.isfinite(g)):
+        _, sv, vt = np.linalg.svd(g)
+        for s_k, row in zip(sv, vt):
+            if s_k < rel_tol * max(sv[0], 1e-300):
+                for j in np.flatnonzero(np.abs(row) > 0.3):
+                    lost.setdefault(int(idx[j]), float(frac[idx[j]]))
+    return dict(sorted(lost.items()))
+
+
+def varying_primitives(info: InfoSet, index: int, mean_subtraction: str, rel_tol: float = MEAN_SUBTRACTION_NOISE) -> list[str]:
+    """The primitives in which parameter ``index`` keeps information after the subtraction of
+    each primitive's own instrument mean (its instrument varies within the primitive)."""
+    if mean_subtraction == "none":
+        return list(info.names)
+    raw = np.abs(info.X[:, index, index])
+    sub = np.abs(info.per_primitive("batchwise")[:, index, index])
+    return [n for n, a, b in zip(info.names, raw, sub) if a > 0 and b >= rel_tol * a]
+
+
 # -- constraints -------------------------------------------------------------------------------
 
 

@@ -297,7 +297,7 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) ->
         nu0 = np.stack([e[j][1] for e in exps])
         cur, wind, meas, head = (np.stack(a) for a in zip(*(_noise(d, g, inp.shape[1], o) for g, o in zip(gens, offsets))))
         calm = np.zeros_like(cur)
-        env = Disturbances(current_ne=np.concatenate([cur, calm]), wind_ne=np.concatenate([wind, calm]))
+        env = Disturbances(current_ne=np.concatenate([cur, calm]), wind_ne=np.concatenate([wind, calm]), current_turning=d.current_turning)
         with np.errstate(all="ignore"):
             res = simulate(prof, np.concatenate([inp, inp]), theta, nu0=np.concatenate([nu0, nu0]), disturbances=env, batch=2 * b,
                            positions="psi" in signals_read(sh.predictor))  # the data's heading: integrated when the dynamics need it

@@ -156,7 +156,8 @@ class LocalEngine(Engine):
     def capacity(self) -> tuple[int, int]:
         return self.workers, 1
 
-    def map(self, fn, items, desc="working", progress=True, shared=None, weights=None, unit="tasks") -> MapResult:
+    def map(self, fn: Callable[..., Any], items: Sequence[Any], desc: str = "working", progress: bool = True,
+            shared: Any = None, weights: Sequence[float] | None = None, unit: str = "tasks") -> MapResult:
         if self.workers <= 1 or len(items) <= 1:
             return super().map(fn, items, desc, progress, shared, weights, unit)
         res, done, errors = [None] * len(items), [False] * len(items), {}
@@ -252,7 +253,8 @@ class DaskEngine(Engine):
         return self.client.scheduler_info(n_workers=-1)["workers"] if _takes_n_workers(self.client) \
             else self.client.scheduler_info()["workers"]
 
-    def map(self, fn, items, desc="working", progress=True, shared=None, weights=None, unit="tasks") -> MapResult:
+    def map(self, fn: Callable[..., Any], items: Sequence[Any], desc: str = "working", progress: bool = True,
+            shared: Any = None, weights: Sequence[float] | None = None, unit: str = "tasks") -> MapResult:
         from distributed import as_completed
 
         res, done, errors = [None] * len(items), [False] * len(items), {}

@@ -229,6 +229,7 @@ def markdown(doc: dict[str, Any], figures: dict[str, str]) -> str:
              f"Criterion **{doc['criterion']}**, instrument mean subtraction **{doc['mean_subtraction']}** "
              f"({'(7.57), non-convex' if doc['mean_subtraction'] == 'complete' else '(7.18)/(7.53), convex'}), "
              f"trial length {doc['trial_length_s']:.1f} s.", "",
+             *([f"**Warning:** {w}" for w in doc.get("warnings") or []] + ([""] if doc.get("warnings") else [])),
              "## Shares", "",
              "| primitive | optimized % | convex relaxation % | rounded units | unit s | rounded % |"
              + (" thesis % |" if doc.get("thesis_shares") else ""),

@@ -18,7 +18,7 @@ from expdesign.api import run_design
 from expdesign.dopt import InfoSet
 from primitives import maneuvers as mv
 from primitives.information import library_information
-from primitives.library import make_primitive, model_ship_thesis
+from primitives.library import Primitive, make_primitive, model_ship_thesis
 from primitives.ship import ShipProfile
 
 # Seed 001 section 9.1.1: the (7.57) design the thesis reports for tau1-tau11 (time fractions).
@@ -28,7 +28,7 @@ _ZIGZAGS = [("tau3", 0.35, 0.1, 0.2), ("tau4", 0.8, 0.1, 0.2), ("tau5", 1.15, 0.
             ("tau6", 0.35, 0.15, 0.35), ("tau7", 0.7, 0.15, 0.35), ("tau8", 1.0, 0.15, 0.35)]
 
 
-def variant_library(profile: ShipProfile, psi_switch: float = 0.5, v_scale: float = 1.0, n: int = 300):
+def variant_library(profile: ShipProfile, psi_switch: float = 0.5, v_scale: float = 1.0, n: int = 300) -> list[Primitive]:
     """tau1-tau11 with the zig-zags' sway amplitude scaled by ``v_scale`` (0: no sway force)."""
     lib = model_ship_thesis(profile, n=n, psi_switch=psi_switch)
     if v_scale == 1.0:

@@ -12,7 +12,7 @@ from maps.collision import Window
 from maps.geo import MapError, SeaMap
 from maps.lattice import Move, classes, lattice_basic_moves, place, run_in_inputs, transit_mismatch, with_run_in
 from primitives.library import Primitive
-from primitives.ship import ProfileError, ShipProfile
+from primitives.ship import ShipProfile
 from primitives.simulate import simulate
 
 MIN_POINTS_ACROSS = 8  # lattice points across the narrower side of a trial area
@@ -35,15 +35,12 @@ def default_resolution(profile: ShipProfile, sea: SeaMap | None = None) -> float
 def resolve_primitives(profile: ShipProfile, counts: dict[str, int], given: list[Primitive] | None = None) -> list[Primitive]:
     """The informative primitives named in ``counts``: from ``given``, the section 9.4 scenario,
     the thesis dictionary or the library of the profile."""
-    from maps.scenario import thesis_planning_scenario
+    from maps.scenario import scenario_supports, thesis_planning_scenario
 
     pool = {p.name: p for p in (given or [])}
     missing = [n for n in counts if n not in pool]
-    if missing:
-        try:
-            pool.update({p.name: p for p in thesis_planning_scenario(profile)[0]})
-        except ProfileError:  # the scenario's force-level zig-zags need generalized-force or azimuth inputs
-            pass
+    if missing and scenario_supports(profile):  # its force-level zig-zags need generalized-force or azimuth inputs
+        pool.update({p.name: p for p in thesis_planning_scenario(profile)[0]})
         missing = [n for n in counts if n not in pool]
     if missing:
         from primitives.library import build_library
@@ -55,7 +52,8 @@ def resolve_primitives(profile: ShipProfile, counts: dict[str, int], given: list
     return [pool[n] for n in counts]
 
 
-def planning_window(sea: SeaMap, res: float, start_xy, goal_xy, size: tuple[int, int]) -> Window:
+def planning_window(sea: SeaMap, res: float, start_xy: tuple[float, float], goal_xy: tuple[float, float], size: tuple[int, int]
+                    ) -> Window:
     """Lattice through the start point, at least ``size`` points, covering start and goal (the
     trial area when the map has one)."""
     ni, nj = size

@@ -21,6 +21,7 @@ import numpy as np
 from primitives import maneuvers as mv
 from primitives.library import Primitive, make_primitive
 from primitives.ship import ShipProfile
+from primitives.simulate import has_steady_forces, require_steady_forces
 
 # Helsinki example (bundled map): start in the South Harbour (upper left of the thesis's
 # figure 9.13 is a harbour), goal in open water to the south-east. Lat, lon, heading (deg).
@@ -49,6 +50,14 @@ def zigzag_periods(profile: ShipProfile, name: str, description: str, u: float, 
                      [s for s in sp if s < k], "informative", cmds)
 
 
+def scenario_supports(profile: ShipProfile) -> bool:
+    """Whether the section 9.4 scenario can be built for the ship: its zig-zags are force-level
+    excitation zig-zags (thesis tau17-tau20) holding steady generalized forces, so they need a
+    3-DOF ship with generalized-force or azimuth inputs
+    (:data:`primitives.simulate.STEADY_FORCE_ACTUATORS`), not a rudder/propeller ship."""
+    return has_steady_forces(profile)
+
+
 def thesis_planning_scenario(profile: ShipProfile) -> tuple[list[Primitive], dict[str, int]]:
     """The three informative primitives of section 9.4 and their counts (three uses each).
 
@@ -57,6 +66,7 @@ def thesis_planning_scenario(profile: ShipProfile) -> tuple[list[Primitive], dic
     wide_zigzag_sway: the ship crabs side to side (large alternating sway velocity) with only a
     small heading oscillation.
     """
+    require_steady_forces(profile)  # see scenario_supports
     u = profile.cruise_speed_mps
     L = profile.length_m
     r_unit = u / L  # yaw-rate scale: 0.1 rad/s at 3 m/s for a 30 m ship

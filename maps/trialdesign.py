@@ -10,12 +10,13 @@ criterion efficiency lost against the full library's optimum is stated.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from expdesign.api import run_design
+from expdesign.api import Design, mean_subtraction_warnings, run_design
 from expdesign.dopt import DEDICATED, InfoSet
 from expdesign.errors import DesignError
 from expdesign.rounding import _efficiency, round_design
@@ -36,7 +37,7 @@ class TrialDesign:
     counts: dict[str, int]
     primitives: list[Primitive]  # the library the design ran on (informative)
     record: dict[str, Any]
-    design: Any  # expdesign.api.Design of the final (possibly re-done) design
+    design: Design  # of the final (possibly re-done) design
     notes: list[str] = field(default_factory=list)
 
     def support(self) -> list[Primitive]:
@@ -109,41 +110,66 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
     if trial_s <= 0:
         raise DesignError(f"--trial-length must be > 0 s, got {trial_s:g}")
     keep = [i for i, p in enumerate(lib) if p.name not in exclude]
-    if not keep:
+    prims, sub = [lib[i] for i in keep], [infos[i] for i in keep]
+    d = _design_kept(profile, prims, sub, exclude, criterion, mean_subtraction, trial_s, seed)
+    info = InfoSet.from_infos(sub)
+    w = np.array([d.weights[p.name] for p in prims])
+    counts, d_eff, c_eff = _whole_manoeuvres(w, prims, info, trial_s, criterion, mean_subtraction)
+    notes, dropped = [], []
+    if exclude:
+        wf = np.zeros(len(lib))
+        wf[keep] = w
+        loss = _exclusion_loss(profile, lib, infos, wf, baseline, criterion, mean_subtraction, trial_s, seed)
+        dropped = [{"primitive": name, "needs_m": [float(need[0]), float(need[1])], "efficiency_loss": float(max(0.0, loss))}
+                   for name, need in exclude.items()]
+        notes.append(f"design redone without {', '.join(exclude)} (fits nowhere on the map): {criterion}-efficiency "
+                     f"{100 * (1 - loss):.1f} % of the full library's optimum")
+    record = _record(prims, w, counts, criterion, mean_subtraction, d_eff, c_eff, dropped, trial_s)
+    sailed = counts * np.array([p.n_samples for p in prims], float)
+    notes += [f"warning: {w}" for w in mean_subtraction_warnings(profile, info, sailed / sailed.sum(), mean_subtraction)]
+    notes.insert(0, f"counts from the {criterion}-optimal design ({mean_subtraction} mean subtraction) over "
+                    f"{len(prims)} primitives, rounded to whole manoeuvres for {trial_s:.0f} s: "
+                    f"{', '.join(f'{k} x{v}' for k, v in record['counts'].items())} ({criterion}-efficiency {c_eff:.3f} of the continuous optimum)")
+    return TrialDesign(record["counts"], prims, record, d, notes)
+
+
+def _design_kept(profile: ShipProfile, prims: list[Primitive], infos: list[PrimitiveInfo], exclude: dict[str, tuple[float, float]],
+                 criterion: str, mean_subtraction: str, trial_s: float, seed: int) -> Design:
+    """The continuous design of the primitives kept (``prims``, their moments ``infos``); when
+    the exclusions leave nothing, or nothing that identifies the model, a :class:`NoFitError`
+    that says what was dropped and why."""
+    if not prims:
         raise NoFitError(f"all {len(exclude)} manoeuvres of {profile.name}'s library fit nowhere in the water reachable "
                          f"from the start: {_needs(exclude)}")
-    prims = [lib[i] for i in keep]
-    sub = [infos[i] for i in keep]
     try:
-        d = run_design(profile, prims, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_s,
-                       seed=seed, infos=sub, convex_solvers=SOLVERS)
+        return run_design(profile, prims, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_s,
+                          seed=seed, infos=infos, convex_solvers=SOLVERS)
     except DesignError as exc:
         if exclude:  # the remaining library cannot identify the model: say what was dropped and why
             dead = _dead_count(str(exc))
             raise NoFitError(f"{len(exclude)} manoeuvre(s) fit nowhere in the water reachable from the start: {_needs(exclude)}; "
                              f"without them the rest of {profile.name}'s library cannot identify the model{dead}") from None
         raise
-    info = InfoSet.from_infos(sub)
-    w = np.array([d.weights[p.name] for p in prims])
-    counts, d_eff, c_eff = _whole_manoeuvres(w, prims, info, trial_s, criterion, mean_subtraction)
-    notes = []
-    dropped = []
-    if exclude:
-        full = InfoSet.from_infos(infos)
-        if baseline is None:
-            base = run_design(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_s,
-                              seed=seed, infos=infos, convex_solvers=SOLVERS)
-            baseline = full.value(np.array([base.weights[p.name] for p in lib]), mean_subtraction, criterion)
-        wf = np.zeros(len(lib))
-        wf[keep] = w
-        loss = 1.0 - _efficiency(full.value(wf, mean_subtraction, criterion), baseline, full.n_params, criterion)
-        for name, need in exclude.items():
-            dropped.append({"primitive": name, "needs_m": [float(need[0]), float(need[1])], "efficiency_loss": float(max(0.0, loss))})
-        notes.append(f"design redone without {', '.join(exclude)} (fits nowhere on the map): {criterion}-efficiency "
-                     f"{100 * (1 - loss):.1f} % of the full library's optimum")
+
+
+def _exclusion_loss(profile: ShipProfile, lib: list[Primitive], infos: list[PrimitiveInfo], wf: np.ndarray, baseline: float | None,
+                    criterion: str, mean_subtraction: str, trial_s: float, seed: int) -> float:
+    """The criterion efficiency the mix ``wf`` (over the whole library, zero on the exclusions)
+    loses against the full library's optimum ``baseline`` (designed here when None)."""
+    full = InfoSet.from_infos(infos)
+    if baseline is None:
+        base = run_design(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_s,
+                          seed=seed, infos=infos, convex_solvers=SOLVERS)
+        baseline = full.value(np.array([base.weights[p.name] for p in lib]), mean_subtraction, criterion)
+    return 1.0 - _efficiency(full.value(wf, mean_subtraction, criterion), baseline, full.n_params, criterion)
+
+
+def _record(prims: list[Primitive], w: np.ndarray, counts: np.ndarray, criterion: str, mean_subtraction: str, d_eff: float,
+            c_eff: float, dropped: list[dict[str, Any]], trial_s: float) -> dict[str, Any]:
+    """The plan's ``design`` field (:attr:`TrialDesign.record`)."""
     # the support only: a primitive the optimum gives (next to) no weight is listed once, as not used
     used = [x > UNUSED_WEIGHT or c > 0 for x, c in zip(w, counts)]
-    record = {
+    return {
         "criterion": criterion, "mean_subtraction": mean_subtraction,
         "weights": {p.name: float(x) for p, x, u in zip(prims, w, used) if u},
         "counts": {p.name: int(c) for p, c in zip(prims, counts) if c > 0},
@@ -151,10 +177,6 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
         "d_efficiency": float(d_eff), "efficiency": float(c_eff), "dropped": dropped, "trial_length_s": trial_s,
         "planned_s": float(sum(c * p.duration_s for p, c in zip(prims, counts))),
     }
-    notes.insert(0, f"counts from the {criterion}-optimal design ({mean_subtraction} mean subtraction) over "
-                    f"{len(prims)} primitives, rounded to whole manoeuvres for {trial_s:.0f} s: "
-                    f"{', '.join(f'{k} x{v}' for k, v in record['counts'].items())} ({criterion}-efficiency {c_eff:.3f} of the continuous optimum)")
-    return TrialDesign(record["counts"], prims, record, d, notes)
 
 
 def _needs(exclude: dict[str, tuple[float, float]], show: int = 2) -> str:
@@ -202,7 +224,8 @@ def first_design(profile: ShipProfile, library: list[Primitive] | None = None, *
     return FirstDesign(lib, infos, td, baseline)
 
 
-def design_for_map(profile: ShipProfile, fits_nowhere, library: list[Primitive] | None = None, *, criterion: str = "D",
+def design_for_map(profile: ShipProfile, fits_nowhere: Callable[[list[Primitive], dict[str, int]], dict[str, tuple[float, float]]],
+                   library: list[Primitive] | None = None, *, criterion: str = "D",
                    mean_subtraction: str = "complete", trial_length_s: float | None = None, seed: int = 0,
                    first: FirstDesign | None = None) -> TrialDesign:
     """Design, check the support against the map, redesign without what fits nowhere.

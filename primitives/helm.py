@@ -11,6 +11,8 @@ in IMO MSC.137(76) and ITTC 7.5-04-02-01: approach steady at the trial speed, ex
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from primitives.maneuvers import Generated, model_step, side_sign
@@ -58,7 +60,7 @@ class HelmLoop:
     An order at sample k changes the command before sample k is applied, the same convention
     :func:`primitives.orders.inputs_from_orders` uses to rebuild the inputs."""
 
-    def __init__(self, profile: ShipProfile, nu0, n_rps: float):
+    def __init__(self, profile: ShipProfile, nu0: np.ndarray | tuple[float, float, float], n_rps: float):
         self.p, self.th = profile, profile.params()
         self.ts = profile.sample_time
         self.nu, self.psi, self.k = np.array(nu0, float), 0.0, 0
@@ -281,7 +283,7 @@ def turn(profile: ShipProfile, dpsi_deg: float, *, rudder_deg: float = 20.0, n_r
     return best[1].generated()
 
 
-def validation_inputs(profile: ShipProfile, multisine) -> tuple[np.ndarray, np.ndarray]:
+def validation_inputs(profile: ShipProfile, multisine: Callable[[int], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """A cross-validation input unlike any manoeuvre, in helm terms: a multisine rudder within
     60 % of full rudder (moved at the rudder rate) and a multisine rpm within 70-100 % of the
     approach rpm. ``multisine(k)`` is the caller's seeded sum of k sines scaled to [-1, 1] (one

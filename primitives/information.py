@@ -10,6 +10,7 @@ design (``expdesign.dopt.InfoSet.gamma``) from X, Y and Z.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -86,7 +87,8 @@ def information_moments(name: str, phi: np.ndarray, z: np.ndarray, mask: np.ndar
     return PrimitiveInfo(name, n, X, phi.mean(axis=(0, 1)), z.reshape(-1, z.shape[-1]).mean(axis=0), mask)
 
 
-def library_information(profile: ShipProfile, primitives: list[Primitive], **kw) -> list[PrimitiveInfo]:
+def library_information(profile: ShipProfile, primitives: list[Primitive], **kw: Any) -> list[PrimitiveInfo]:
+    """:func:`primitive_information` of every primitive (``kw`` as there)."""
     return [primitive_information(profile, p, **kw) for p in primitives]
 
 

@@ -61,7 +61,7 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def atomic_savefig(fig, path: str | Path, **kw) -> Path:
+def atomic_savefig(fig: Any, path: str | Path, **kw: Any) -> Path:
     """Save a matplotlib figure atomically (format from the suffix)."""
     import io
 

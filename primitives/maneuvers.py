@@ -46,7 +46,8 @@ class Generated:
 Policy = Callable[[int, np.ndarray, float, dict], tuple[float, float, float] | None]
 
 
-def closed_loop(profile: ShipProfile, policy: Policy, n_max: int, nu0, theta=None) -> tuple[np.ndarray, np.ndarray]:
+def closed_loop(profile: ShipProfile, policy: Policy, n_max: int, nu0: np.ndarray | tuple[float, float, float],
+                theta: np.ndarray | str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Run ``policy(k, nu, psi, memo) -> forces or None (stop)`` on the calm model.
 
     Returns (forces (N, 3), psi (N+1,)). Scalar loop: used only to generate signals.
@@ -95,7 +96,7 @@ class Actuators:
             hit = cls._cache[id(profile)] = (profile, cls(profile))
         return hit[1]
 
-    def feasible(self, f) -> tuple[float, float, float]:
+    def feasible(self, f: tuple[float, float, float] | np.ndarray) -> tuple[float, float, float]:
         if not self.azimuth:
             return feasible(self.p, f)
         comp = (self.pinv @ np.array([[f[0]], [f[1]], [f[2]]], float))[:, 0].tolist()  # the (4, 1) product allocate() forms
@@ -109,7 +110,7 @@ class Actuators:
         return float(tx), float(ty), float(tn)
 
 
-def feasible(profile: ShipProfile, f) -> tuple[float, float, float]:
+def feasible(profile: ShipProfile, f: tuple[float, float, float] | np.ndarray) -> tuple[float, float, float]:
     """The generalized forces the actuators actually give for a request ``f``: allocated,
     clipped to the profile's input limits and mapped back (3.55)."""
     if not profile.input_limits:
@@ -165,7 +166,8 @@ def side_sign(first_side: str) -> float:
 # -- thesis-style excitation signals ----------------------------------------------------------
 
 
-def hold(profile: ShipProfile, n: int, u: float, v: float = 0.0, r: float = 0.0, nu0=None) -> Generated:
+def hold(profile: ShipProfile, n: int, u: float, v: float = 0.0, r: float = 0.0,
+         nu0: np.ndarray | tuple[float, float, float] | None = None) -> Generated:
     """Constant forces that hold (u, v, r); starting from ``nu0`` gives accelerations."""
     f = np.tile(steady_forces(profile, u, v, r), (n, 1))
     return Generated(f, tuple(nu0) if nu0 is not None else (u, v, r))

@@ -105,6 +105,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     helm, engine = _helm_engine(d, src, actuator, inputs, limits, model, sets[sim_set], sizes["cruise_speed_mps"])
     check_table_keys(limits, inputs, src, "[input_limits]", ProfileError)
     check_diagnosed_sections(d, src)
+    check_model_json_as_ship(d, src, actuator, inputs, sizes["sample_time"])
     return ShipProfile(
         name=name,
         description=str(d.get("description", "")),
@@ -124,7 +125,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         predictor_terms=pred,
         predictor_names=pred_names,
         thrusters=thrusters,
-        disturbances=_disturbances(d, src),
+        disturbances=_disturbances(d, src, sizes["cruise_speed_mps"]),
         source=str(d.get("source", "")),
         helm=helm,
         engine=engine,
@@ -303,17 +304,31 @@ def _thrusters(d: dict, src: str) -> tuple[Thruster, ...]:
     )
 
 
-# Disturbance levels a profile may state (Disturbances.from_profile reads them): key -> length (0 = scalar).
-DISTURBANCE_KEYS = {"current_mean_ne": 2, "current_sample_std": 0, "measurement_std": 3, "heading_std": 0}
+# Disturbance levels a profile may state (Disturbances.from_profile reads them): key -> length
+# (0 = scalar, None = true/false).
+DISTURBANCE_KEYS: dict[str, int | None] = {"current_mean_ne": 2, "current_sample_std": 0, "measurement_std": 3, "heading_std": 0,
+                                          "current_turning": None}
 
 
-def _disturbances(d: dict, src: str) -> dict[str, Any]:
+def _disturbances(d: dict, src: str, cruise_speed: float) -> dict[str, Any]:
+    """[disturbances]: the levels, checked. ``current_turning`` (the current fixed in the earth
+    frame turns in body axes as the ship turns, primitives.simulate.Disturbances) defaults to on
+    for a diagnosed model.json whose findings include a current: the diagnosis scored that current
+    so (diagnose.model), and the same model must simulate the same way when it plans a trial."""
     table = d.get("disturbances", {})
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'disturbances' must be a table")
     check_table_keys(table, DISTURBANCE_KEYS, src, "[disturbances]", ProfileError)
+    table = dict(table)
+    if "current_turning" in table:
+        if not isinstance(table["current_turning"], bool):
+            raise ProfileError(f"{src}: field 'disturbances.current_turning' must be true or false, got {table['current_turning']!r}")
+    elif _diagnosed_current(d):
+        table["current_turning"] = True
     for k, v in table.items():
         n = DISTURBANCE_KEYS[k]
+        if n is None:
+            continue
         vals = v if n else [v]
         if not isinstance(vals, list) or len(vals) != max(n, 1):
             raise ProfileError(f"{src}: field 'disturbances.{k}' must be {f'a list of {n} numbers' if n else 'a number'}")
@@ -321,7 +336,21 @@ def _disturbances(d: dict, src: str) -> dict[str, Any]:
             y = finite(x, f"{src}: field 'disturbances.{k}'", "SI units", ProfileError)
             if k != "current_mean_ne" and y < 0:
                 raise ProfileError(f"{src}: field 'disturbances.{k}' is a standard deviation: must be >= 0, got {x!r}")
-    return dict(table)
+    speed = float(np.hypot(*table.get("current_mean_ne", (0.0, 0.0))))
+    if speed >= cruise_speed:
+        raise ProfileError(f"{src}: field 'disturbances.current_mean_ne' is a current of {speed:.3g} m/s, not below the ship's "
+                           f"cruise_speed_mps {cruise_speed:g}: give the current in m/s (north, east), slower than the ship")
+    return table
+
+
+def _diagnosed_current(d: dict) -> bool:
+    """Whether ``d`` is a diagnosed model.json whose findings include a current (in the summary,
+    ``augmentations``, or in the exact model, ``diagnosed_model.candidates``)."""
+    dm = d.get("diagnosed_model")
+    if not isinstance(dm, dict):
+        return False
+    listed = [a for a in (d.get("augmentations"), dm.get("candidates")) if isinstance(a, list)]
+    return any(isinstance(a, dict) and a.get("effect") == "current" for lst in listed for a in lst)
 
 
 DIAGNOSIS_KEYS = ("structure", "structure_prior", "rudder_thrust_share")
@@ -388,6 +417,44 @@ def check_diagnosed_sections(d: dict[str, Any], src: str, error: type[UserError]
         if not isinstance(dm, dict):
             raise error(f"{src}: field 'diagnosed_model' must be a table with {', '.join(DIAGNOSED_MODEL_KEYS)}: {MODEL_JSON_FIX}")
         check_table_keys(dm, DIAGNOSED_MODEL_KEYS, src, "[diagnosed_model]", error)
+
+
+# diagnose.model_file.FORMAT (the library layer does not import the diagnosis; a test keeps them equal)
+DIAGNOSED_FORMAT = "shiptrial-diagnosed-model/1"
+
+
+def check_model_json_as_ship(d: dict[str, Any], src: str, actuator: str, inputs: tuple[str, ...], sample_time: float) -> None:
+    """A diagnosed model.json given as a ship (``--ship model.json``): the profile part is what
+    the commands read, so what would make it another model than the one scored is refused in one
+    line naming the file, the field and the fix: a format of another version, a
+    ``diagnosed_model`` whose baseline is another ship (actuator, inputs, sample time) or whose
+    half-sample shift or candidate list is malformed, and a current among the findings that the
+    profile part has lost (``disturbances.current_mean_ne``)."""
+    dm = d.get("diagnosed_model")
+    if dm is None:
+        return
+    if dm.get("format") != DIAGNOSED_FORMAT:
+        raise ProfileError(f"{src}: field 'diagnosed_model.format' must be {DIAGNOSED_FORMAT!r}, got {dm.get('format')!r}: "
+                           f"{MODEL_JSON_FIX}")
+    base = dm.get("baseline_profile")
+    if not isinstance(base, dict):
+        raise ProfileError(f"{src}: field 'diagnosed_model.baseline_profile' must be the scored ship profile (a table): {MODEL_JSON_FIX}")
+    ours = {"actuator": actuator, "inputs": list(inputs), "sample_time": sample_time}
+    theirs = {"actuator": base.get("actuator", "generalized"), "inputs": base.get("inputs"), "sample_time": base.get("sample_time")}
+    for k, v in ours.items():
+        if theirs[k] != v:
+            raise ProfileError(f"{src}: field 'diagnosed_model.baseline_profile.{k}' is {theirs[k]!r} and the profile's '{k}' is "
+                               f"{v!r}: the two parts are different ships; {MODEL_JSON_FIX}")
+    half = dm.get("half_sample_s", 0.0)
+    if isinstance(half, bool) or not isinstance(half, int | float) or not 0.0 <= half <= sample_time:
+        raise ProfileError(f"{src}: field 'diagnosed_model.half_sample_s' must be a number of seconds in 0..{sample_time:g} "
+                           f"(the model's half-sample shift), got {half!r}: {MODEL_JSON_FIX}")
+    cands = dm.get("candidates", [])
+    if not isinstance(cands, list) or not all(isinstance(c, dict) for c in cands):
+        raise ProfileError(f"{src}: field 'diagnosed_model.candidates' must be a list of tables: {MODEL_JSON_FIX}")
+    if _diagnosed_current(d) and "current_mean_ne" not in (d.get("disturbances") or {}):
+        raise ProfileError(f"{src}: field 'disturbances.current_mean_ne' is missing, and the findings ('augmentations') include "
+                           f"a current: {MODEL_JSON_FIX}")
 
 
 def _starboard_sign(model: TermSet, theta: np.ndarray, cruise: float) -> float:

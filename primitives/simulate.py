@@ -13,6 +13,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from primitives import onestep
 from primitives.pods import pod_generalized_forces
 from primitives.rigidbody import RigidBody
 from primitives.ship import ProfileError, ShipProfile
@@ -30,6 +31,10 @@ class Disturbances:
     process_std: additive noise on the velocity increments (u, v, r).
     measurement_std: additive noise on the measured u, v, r.
     heading_std, position_std: noise on the measured heading and position.
+    current_turning: the current is fixed in the earth frame and the velocity over ground follows
+    it as the ship turns (:func:`_turn_current`, Fossen 2021 section 10.3); off, the current acts
+    through u_r, v_r only (the thesis's form, seed 001 (3.60), (9.1)). A profile says which
+    (``[disturbances] current_turning``; a diagnosed model.json with a current: on).
     """
 
     current_ne: tuple[float, float] = (0.0, 0.0)
@@ -41,6 +46,7 @@ class Disturbances:
     measurement_std: tuple[float, float, float] = (0.0, 0.0, 0.0)
     heading_std: float = 0.0
     position_std: float = 0.0
+    current_turning: bool = False
 
     @classmethod
     def from_profile(cls, profile: ShipProfile) -> Disturbances:
@@ -51,6 +57,7 @@ class Disturbances:
             current_sample_std=float(d.get("current_sample_std", 0.0)),
             measurement_std=tuple(d.get("measurement_std", (0.0, 0.0, 0.0))),
             heading_std=float(d.get("heading_std", 0.0)),
+            current_turning=bool(d.get("current_turning", False)),
         )
 
     @property
@@ -313,7 +320,8 @@ def simulate(
     term that reads psi, roll, pods); what is not integrated is NaN in ``eta`` and ``pos_meas``.
     The velocities are bit-identical either way; the position rows are about a fifth of a step.
     ``current_turning``: the velocity over ground also follows the current as the ship turns
-    (see :func:`_time_loop`); off, the current acts through u_r, v_r only (the thesis's form).
+    (see :func:`_time_loop`), as does ``disturbances.current_turning``; off, the current acts
+    through u_r, v_r only (the thesis's form).
     """
     terms = terms or profile.model
     theta = (
@@ -338,7 +346,7 @@ def simulate(
 
     step = VelocityStep(terms, theta, profile.rigid_body, ts)
     nu, eta = _time_loop(profile, step, u_in, _padded(nu0, nd), _padded(eta0, nd), _moving(cur), _moving(wind), w, batch,
-                         positions, current_turning)
+                         positions, current_turning or dist.current_turning)
 
     meas = _padded(dist.measurement_std, nd)
     y = nu + rng.normal(0.0, 1.0, nu.shape) * meas if np.any(meas) else _read_only(nu)
@@ -420,8 +428,8 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     cur_t, wind_t = (None if a is None else np.ascontiguousarray(a.transpose(1, 2, 0)) for a in (cur, wind))  # (N, 2, B)
     w_t = None if w is None else np.ascontiguousarray(w.transpose(1, 2, 0))  # (N, nd, B)
     heading = positions or nd == 4 or bool(profile.pods) or cur_t is not None or wind_t is not None or step.reads_heading
-    if batch == 1 and nd == 3 and step.scalar and not profile.pods and cur_t is None and wind_t is None and w_t is None:
-        return _one_ship_loop(step, in_names, in_t, nu0, eta0, ts, positions, heading)
+    if onestep.applies(step, batch, nd, bool(profile.pods), cur_t is not None or wind_t is not None, w_t is not None):
+        return onestep.one_ship_loop(step, in_names, in_t, nu0, eta0, ts, positions, heading)
     if heading:
         eta_t = np.full((n_steps + 1, nd, batch), np.nan)
         eta_t[0] = np.broadcast_to(eta0, (batch, nd)).T
@@ -446,10 +454,7 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
         if w_t is not None:
             nxt += w_t[k]
         if current_turning and cur_b is not None:
-            r = row[2]
-            u1, v1 = body_from_ne(cur_t[k].T, psi_k + ts * (np.cos(phi_k) * r if nd == 4 else r))
-            nxt[0] += u1 - cur_b[0]
-            nxt[1] += v1 - cur_b[1]
+            _turn_current(nxt, cur_t[k].T, cur_b, psi_k, row[2], phi_k, ts)
         if eta_t is not None:
             _advance_pose(eta_t, k, row, ts, positions)
     nu = np.ascontiguousarray(nu_t.transpose(2, 0, 1))
@@ -458,6 +463,17 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     eta = np.full((batch, n_steps + 1, nd), np.nan)
     eta[:, 0] = eta0
     return nu, eta
+
+
+def _turn_current(nxt: np.ndarray, cur_ne: np.ndarray, cur_b: tuple[np.ndarray, np.ndarray], psi_k: np.ndarray, r: np.ndarray,
+                  phi_k: np.ndarray | None, ts: float) -> None:
+    """Add to nu(k+1) ``nxt`` (nd, B) the change of an earth-fixed current ``cur_ne`` (B, 2) in body
+    axes over the step, u_c(psi(k+1)) - u_c(psi(k)) (``cur_b`` is u_c(psi(k))): nu = nu_r + u_c(psi)
+    with the hull's dynamics in nu_r (Fossen 2021, section 10.3). The heading advances as in
+    :func:`_advance_pose` (through cos(phi) with roll)."""
+    u1, v1 = body_from_ne(cur_ne, psi_k + ts * (r if phi_k is None else np.cos(phi_k) * r))
+    nxt[0] += u1 - cur_b[0]
+    nxt[1] += v1 - cur_b[1]
 
 
 def _advance_pose(eta_t: np.ndarray, k: int, row: np.ndarray, ts: float, positions: bool) -> None:
@@ -482,37 +498,23 @@ def _advance_pose(eta_t: np.ndarray, k: int, row: np.ndarray, ts: float, positio
     nxt[2] = psi_k + ts * r
 
 
-def _one_ship_loop(step: VelocityStep, in_names: list[str], in_t: np.ndarray, nu0: np.ndarray, eta0: np.ndarray, ts: float,
-                   positions: bool, heading: bool) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_time_loop` for one planar ship in calm water and air without process noise, on
-    Python floats (:meth:`VelocityStep.next_one`'s arithmetic): the same operations in the same
-    order as on one-element arrays, so the same bits (the heading's cosine and sine are numpy's),
-    without numpy's per-call cost, which dominates a batch of one (a primitive, a lattice move,
-    the verification's re-simulation)."""
-    inc, coef = step.inc_floats, step.coef
-    u, v, r = (float(a) for a in nu0)
-    x, y, psi = (float(a) for a in eta0[:3])
-    nu_rows, eta_rows = [(u, v, r)], [(x, y, psi)]
-    nan = float("nan")
-    if not heading:
-        psi = nan  # nothing reads the pose: NaN after the first row (see _time_loop)
-    for row in in_t[:, :, 0].tolist():
-        sig = dict(zip(in_names, row))
-        sig["psi"] = psi
-        sig["u"] = sig["u_r"] = sig["u_q"] = u  # relative_signals in still water and calm air
-        sig["v"] = sig["v_r"] = sig["v_q"] = v
-        sig["r"] = r
-        du, dv, dr = inc(sig, coef)
-        if positions:
-            c, s = np.cos(psi), np.sin(psi)
-            x = x + ts * (c * u - s * v)
-            y = y + ts * (s * u + c * v)
-        if heading:
-            psi = psi + ts * r
-        u, v, r = u + du, v + dv, r + dr
-        nu_rows.append((u, v, r))
-        eta_rows.append((x, y, psi) if positions else (nan, nan, psi))
-    return np.array(nu_rows)[None], np.array(eta_rows)[None]
+# The actuator kinds whose inputs are (or allocate) generalized forces, so that the forces holding
+# a state steady (:func:`steady_forces`) can be applied: not a rudder/propeller ship's helm and rpm.
+STEADY_FORCE_ACTUATORS = ("generalized", "azimuth")
+
+
+def has_steady_forces(profile: ShipProfile) -> bool:
+    """Whether :func:`steady_forces` applies to the ship (a 3-DOF generalized-force or azimuth ship)."""
+    return profile.planar and profile.actuator in STEADY_FORCE_ACTUATORS
+
+
+def require_steady_forces(profile: ShipProfile) -> None:
+    """Refuse a ship :func:`steady_forces` does not apply to, in one line saying why."""
+    profile.require_planar("steady_forces")
+    if profile.actuator not in STEADY_FORCE_ACTUATORS:
+        raise ProfileError(
+            f"profile {profile.name!r}: steady generalized forces need generalized-force or azimuth inputs, not rudder/propeller"
+        )
 
 
 def steady_forces(
@@ -523,11 +525,7 @@ def steady_forces(
     Solves Phi(u, v, r, tau)^T theta = 0 for tau, using that the model is affine in each of
     tau_x, tau_y, tau_n (true for (3.60) and (9.1)).
     """
-    profile.require_planar("steady_forces")
-    if profile.actuator == "rudder_propeller":
-        raise ProfileError(
-            f"profile {profile.name!r}: steady generalized forces need generalized-force or azimuth inputs, not rudder/propeller"
-        )
+    require_steady_forces(profile)
     terms = profile.model
     theta = profile.params(theta)
     # one batched evaluation at tau = 0 and at the three unit forces

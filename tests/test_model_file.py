@@ -33,7 +33,9 @@ def _doc() -> dict:
     ]
     aug = [{"effect": "actuator_delay", "dof": "yaw", "parameters": {"delay_s": 0.5}},
            {"effect": "current", "dof": "sway", "parameters": {"speed_mps": 0.05, "term": None}}]
-    return ms.to_dict() | {"name": "model-ship-diagnosed", "augmentations": aug,
+    profile_part = ms.to_dict()
+    profile_part["disturbances"] = dict(profile_part.get("disturbances", {}), current_mean_ne=[0.03, -0.04])  # the found current
+    return profile_part | {"name": "model-ship-diagnosed", "augmentations": aug,
                            "diagnosed_model": {"format": FORMAT, "note": "exact scored model", "baseline_profile": base,
                                                "half_sample_s": 0.0625, "candidates": cands}}
 

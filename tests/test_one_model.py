@@ -138,7 +138,7 @@ def test_one_ship_float_step_is_the_batch_step(name):
 @pytest.mark.parametrize("name", ["full-scale", "kvlcc2"])
 @pytest.mark.parametrize("positions", [True, False])
 def test_one_ship_simulation_is_the_batch_simulation(name, positions):
-    """simulate() of one ship in calm water runs on floats (simulate._one_ship_loop): the same
+    """simulate() of one ship in calm water runs on floats (primitives.onestep.one_ship_loop): the same
     velocities and pose, bit for bit, as the same ship in a batch of two (the array loop)."""
     prof = load_profile(name)
     rng = np.random.default_rng(4)

@@ -1,0 +1,125 @@
+"""A diagnosed model.json given as a ship (``--ship model.json``): its current turns with the
+ship wherever the profile's current is simulated (the design's disturbed information, the Monte
+Carlo truth), as the diagnosis scored it; and what would make it another model than the one
+scored is refused in one line naming the file, the field and the fix."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from diagnose.model_file import FORMAT
+from primitives.library import build_library
+from primitives.profile_document import DIAGNOSED_FORMAT
+from primitives.ship import load_profile
+from primitives.simulate import Disturbances, simulate
+from tests.test_model_file import _doc, _set
+
+CURRENT = [0.03, -0.04]
+
+
+def _model_json(tmp_path, doc: dict | None = None):
+    doc = _doc() if doc is None else doc
+    doc["disturbances"] = dict(doc.get("disturbances", {}), current_mean_ne=CURRENT)
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_the_format_is_the_diagnosis_format():
+    assert DIAGNOSED_FORMAT == FORMAT
+
+
+def test_a_diagnosed_current_turns_with_the_ship(tmp_path):
+    """The model.json's current is fixed in the earth frame: simulated from the profile's own
+    disturbances, the velocity over ground follows it as the ship turns (current_turning), which a
+    turning run shows; the thesis profiles keep the thesis's form."""
+    prof = load_profile(_model_json(tmp_path))
+    dist = Disturbances.from_profile(prof)
+    assert dist.current_turning and dist.current_ne == tuple(CURRENT)
+    assert not Disturbances.from_profile(load_profile("full-scale")).current_turning
+    assert not Disturbances.from_profile(load_profile("model-ship")).current_turning
+    prim = next(p for p in build_library(prof) if np.ptp(p.track[:, 2]) > np.pi)  # a primitive that turns round
+    off = dataclasses.replace(dist, current_turning=False)
+    turned = simulate(prof, prim.inputs, nu0=prim.nu0, disturbances=dist, seed=1)
+    explicit = simulate(prof, prim.inputs, nu0=prim.nu0, disturbances=off, current_turning=True, seed=1)
+    flat = simulate(prof, prim.inputs, nu0=prim.nu0, disturbances=off, seed=1)
+    np.testing.assert_array_equal(turned.nu, explicit.nu)
+    assert np.max(np.abs(turned.nu - flat.nu)) > 0.01  # the turn of the current matters on this run
+
+
+def test_the_design_information_turns_the_current(tmp_path):
+    """The design's disturbed information matrices (run_design(disturbed_realisations=...)) come
+    from simulations in which the model.json's current turns with the ship."""
+    from primitives.information import primitive_information
+    from primitives.regressors import predictor_regressors
+
+    prof = load_profile(_model_json(tmp_path))
+    prim = next(p for p in build_library(prof) if np.ptp(p.track[:, 2]) > np.pi)
+    dist = Disturbances.from_profile(prof)
+    info = primitive_information(prof, prim, disturbances=dist, realisations=3, seed=5)
+    def mean_regressors(d: Disturbances) -> np.ndarray:
+        res = simulate(prof, prim.inputs, nu0=prim.nu0, disturbances=d, batch=3, seed=5)
+        phi, _ = predictor_regressors(prof, res.y, np.broadcast_to(prim.inputs, (3,) + prim.inputs.shape), res.psi_meas)
+        return phi.mean(axis=(0, 1))
+
+    np.testing.assert_array_equal(info.Y, mean_regressors(dist))
+    assert not np.allclose(info.Y, mean_regressors(dataclasses.replace(dist, current_turning=False)), rtol=1e-6, atol=0)
+
+
+def test_current_turning_may_be_switched_off_and_must_be_a_bool(tmp_path):
+    doc = _doc()
+    doc["disturbances"] = {"current_turning": False}
+    assert not Disturbances.from_profile(load_profile(_model_json(tmp_path, doc))).current_turning
+    doc["disturbances"] = {"current_turning": "yes"}
+    with pytest.raises(Exception, match=r"field 'disturbances.current_turning' must be true or false"):
+        load_profile(_model_json(tmp_path, doc))
+
+
+D = "diagnosed_model"
+BAD = [
+    (f"{D}.format", "shiptrial-diagnosed-model/9", f"field '{D}.format' must be 'shiptrial-diagnosed-model/1'"),
+    (f"{D}.baseline_profile", "x", f"field '{D}.baseline_profile' must be the scored ship profile"),
+    (f"{D}.baseline_profile.actuator", "azimuth", f"field '{D}.baseline_profile.actuator' is 'azimuth'"),
+    (f"{D}.baseline_profile.sample_time", 1.0, f"field '{D}.baseline_profile.sample_time' is 1.0"),
+    (f"{D}.half_sample_s", -1, f"field '{D}.half_sample_s' must be a number of seconds"),
+    (f"{D}.candidates", "x", f"field '{D}.candidates' must be a list of tables"),
+    ("disturbances.current_mean_ne", ..., "field 'disturbances.current_mean_ne' is missing, and the findings"),
+    ("disturbances.current_mean_ne", [5.0, 0.0], "field 'disturbances.current_mean_ne' is a current of 5 m/s"),
+]
+
+
+@pytest.mark.parametrize("where,value,says", BAD, ids=[f"{w}={v!r}"[:50] for w, v, _ in BAD])
+def test_a_model_json_that_is_not_the_scored_model_is_refused_as_a_ship(where, value, says, tmp_path, capsys):
+    from cli.app import _run
+
+    doc = _doc()
+    doc["disturbances"] = dict(doc.get("disturbances", {}), current_mean_ne=CURRENT)
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(_set(doc, where, value)))
+    assert _run(["primitives", "--ship", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"error: {path}: ") and says in err[0], err
+    assert "shiptrial diagnose --out" in err[0] or "slower than the ship" in err[0]
+
+
+def test_the_monte_carlo_truth_turns_the_current(tmp_path):
+    """The Monte Carlo's true system sails in the profile's current as the profile says: a
+    model.json's current turns with the ship (the same numbers as the kernel with
+    current_turning), and switching it off gives the thesis's flat current."""
+    from expdesign.montecarlo import MCConfig, _experiment, _simulate_data, prepare
+
+    prof = load_profile(_model_json(tmp_path))
+    cur = tuple(CURRENT)
+    for turning in (True, False):
+        dist = Disturbances(current_ne=cur, current_turning=turning)
+        sh = prepare(prof, {"one": {"tau9": 1.0}}, MCConfig(runs=1, n_samples=300, protocol="piecewise"), disturbances=dist)
+        segs, _ = _experiment(sh, [("tau9", 300)])
+        (seg,) = _simulate_data(sh, [segs], [np.random.default_rng(1)])
+        want = simulate(prof, seg.inputs[0], prof.params(prof.simulation_set), nu0=seg.nu0[0],
+                        disturbances=Disturbances(current_ne=cur), current_turning=True)
+        same = np.allclose(seg.y[0], want.nu[0], rtol=0, atol=1e-12)
+        assert same is turning
