@@ -132,6 +132,7 @@ def test_next_export_removes_what_a_killed_export_left_and_nothing_else(tmp_path
     .shiptrial-export.* entry shiptrial did not make."""
     import subprocess
     import sys
+    import time
 
     out = tmp_path / "out"
     out.mkdir()
@@ -158,6 +159,7 @@ def test_next_export_removes_what_a_killed_export_left_and_nothing_else(tmp_path
 
     next_export = "import sys; from maps.export.staging import staged_outputs\n" \
                   "with staged_outputs(sys.argv[1]) as tmp: (tmp / 'next.txt').write_text('next')"
+    time.sleep(0.05)  # past the 10 ms clock tick a process's start is known to (see tests/test_io.py)
     subprocess.run([sys.executable, "-c", next_export, str(out)], check=True, timeout=60)
     assert (out / "route.gpx").read_text() == "last week's route"  # put back, then its directory removed
     assert set(_staging_dirs(out)) == {run_dir, ".shiptrial-export.mine", ".shiptrial-export.link", ".shiptrial-export.fake"}

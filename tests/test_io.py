@@ -2,6 +2,7 @@
 
 import os
 import sys
+import time
 
 import pytest
 
@@ -94,6 +95,10 @@ def test_next_run_removes_the_temporaries_a_killed_run_left_and_nothing_else(tmp
 
     next_run = "import sys; from pathlib import Path; from primitives.io import atomic_output_dir\n" \
                "with atomic_output_dir(sys.argv[1]) as d: (d / 'next.txt').write_text('next'); print(Path(sys.argv[1], 'plan.json').read_text())"
+    # A process's start is known to a clock tick (10 ms) and a file's time to the kernel's coarse clock: a
+    # run started within a tick of the kill cannot prove itself younger, and rightly leaves the leftover
+    # to a later run. A user's next run is never that quick; the test waits past the tick.
+    time.sleep(0.05)
     done = subprocess.run([sys.executable, "-c", next_run, str(out)], check=True, timeout=60, capture_output=True, text=True)
     assert done.stdout.strip() == "older process"  # the previous result was put back before this run swapped
     assert _hidden(tmp_path) == {run_dir, other_dest} | looks
