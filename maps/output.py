@@ -18,6 +18,7 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from maps.export.plots import fixed_margins, legend_width_in
     from primitives.io import atomic_savefig
 
     fig, ax = plt.subplots(figsize=(9, 8))
@@ -67,8 +68,9 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     state = "feasible" if plan.feasible else "NOT feasible"
     ax.set_title(f"{sea.name}: {plan.ship}, {state}, {plan.duration_s / 60:.0f} min, {plan.basic_moves} basic moves, "
                  f"clearance {plan.min_clearance_m:.0f} m", fontsize=9)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)  # never over the track
-    fig.tight_layout()
+    leg = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)  # never over the track
+    # fixed margins (inches) beside the legend's own width: tight_layout's pass over every tick label cost as much as the drawing
+    fixed_margins(fig, left=0.95, right=legend_width_in(fig, leg) + 0.2, top=0.35, bottom=0.6)
     out = atomic_savefig(fig, path, dpi=110)
     plt.close(fig)
     return out

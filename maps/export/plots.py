@@ -354,29 +354,69 @@ def draw_states(axes, plan: Plan) -> None:
     axes[-1].set_xlabel("time from start [min]", fontsize=8)
 
 
-def states_figure(plan: Plan):
-    """A figure of :func:`draw_states`."""
+# Fixed margins in inches (what tight_layout found for the bundled ships, rounded up): a layout
+# pass measures every tick label of every axes, which cost as much CPU as drawing the figure.
+STATES_MARGINS_IN = {"left": 0.72, "right": 0.15, "top": 0.56, "bottom": 0.52}
+STATES_HSPACE = 0.15
+
+
+def fixed_margins(fig: Any, left: float, right: float, top: float, bottom: float, **kw: float) -> None:
+    """``fig.subplots_adjust`` with the margins given in inches (``kw``: hspace, wspace)."""
+    w, h = fig.get_size_inches()
+    fig.subplots_adjust(left=left / w, right=1.0 - right / w, top=1.0 - top / h, bottom=bottom / h, **kw)
+
+
+def legend_width_in(fig: Any, legend: Any) -> float:
+    """Width of ``legend`` in inches (its texts laid out, nothing else of the figure)."""
+    return legend.get_window_extent(fig.canvas.get_renderer()).width / fig.dpi
+
+
+def states_figure(plan: Plan) -> Any:
+    """A figure of :func:`draw_states`, laid out with :data:`STATES_MARGINS_IN`."""
     n = 2 + len(plan.input_names)
     fig, axes = plt.subplots(n, 1, figsize=(8.27, 1.5 * n + 1.0), sharex=True)
     draw_states(list(np.atleast_1d(axes)), plan)
     fig.suptitle(f"{plan.ship}: planned speed, heading and commanded inputs (manoeuvre numbers on top)", fontsize=9)
-    fig.tight_layout()
+    fixed_margins(fig, **STATES_MARGINS_IN, hspace=STATES_HSPACE)
     return fig
 
 
-def track_figure(plan: Plan, sea_map: Any = None):
-    """The numbered track coloured by primitive on the map, legend outside, titled."""
+TRACK_MARGINS_IN = {"left": 0.85, "top": 0.35, "bottom": 0.35}
+
+
+def track_figure(plan: Plan, sea_map: Any = None) -> Any:
+    """The numbered track coloured by primitive on the map, legend outside, titled; the axes
+    take the figure less fixed margins and the legend's width (the PNG is cropped to what is
+    drawn)."""
     fig, ax = plt.subplots(figsize=(9.5, 7.5))
     draw_map(ax, plan, sea_map)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)  # outside: never hides the track
+    leg = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)  # outside: never hides the track
     ax.set_title(f"{plan.ship} trial{' on ' + plan.map_name if plan.map_name else ''}: manoeuvres numbered in sailing order", fontsize=9)
-    fig.tight_layout()
+    _fit_to_map(fig, ax, leg)
     return fig
+
+
+def _fit_to_map(fig: Any, ax: Any, legend: Any) -> None:
+    """Size ``fig`` to the map (its aspect fixed by the latitude) plus fixed margins and the
+    legend on the right: the figure ends where the drawing does, with no layout pass over the
+    tick labels and no cropping draw when saved."""
+    r = fig.canvas.get_renderer()
+    leg = legend.get_window_extent(r)
+    leg_w, leg_h = leg.width / fig.dpi, leg.height / fig.dpi
+    m = TRACK_MARGINS_IN
+    fixed_margins(fig, right=leg_w + 0.2, **m)
+    ax.apply_aspect()  # the axes shrink to the map's aspect inside the box the margins leave
+    w, h = fig.get_size_inches()
+    pos = ax.get_position()
+    ax_w, ax_h = pos.width * w, pos.height * h
+    right = 0.01 * ax_w + leg_w + 0.15  # the legend sits 1 % of the axes width right of the map
+    fig.set_size_inches(m["left"] + ax_w + right, m["top"] + max(ax_h, leg_h) + m["bottom"])
+    fixed_margins(fig, right=right, left=m["left"], top=m["top"], bottom=m["bottom"] + max(0.0, leg_h - ax_h))
 
 
 STATES_DPI = 110
 TRACK_DPI = 130
-_SAVE = {"states": (STATES_DPI, None), "track": (TRACK_DPI, "tight")}  # default dpi, bbox_inches (the map cropped)
+_SAVE = {"states": (STATES_DPI, None), "track": (TRACK_DPI, None)}  # default dpi, bbox_inches (the track figure fits its map)
 
 
 class PlanFigures:
