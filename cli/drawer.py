@@ -17,6 +17,7 @@ from __future__ import annotations
 import gc
 import os
 import pickle
+import signal
 import sys
 import threading
 from collections.abc import Callable
@@ -270,13 +271,20 @@ class Drawer:
         if self._early >= 0:  # never read: the drawer's write fails instead of blocking
             os.close(self._early)
             self._early = -1
-        if self._job_w >= 0:  # never sent: cancelled
+        cancelled = self._job_w >= 0
+        if cancelled:  # never sent
             os.close(self._job_w)
             self._job_w = -1
+            # nothing to draw: end it now rather than let it finish its design and imports (CPU and wall
+            # time of a refused run); it has written nothing and started no process of its own
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
         if self._sender is not None:
             self._sender.join()
         msg = _reap(pid, self._report)
-        if msg is not None and not quiet:
+        if msg is not None and not quiet and not cancelled:
             from maps.export import ExportError
 
             raise ExportError(msg or "drawing the figures failed")

@@ -31,10 +31,10 @@ from maps.export.card import (
     _table_rows,
     design_rows,
     page1_layout,
-    page1_map_figure,
     step_sheets,
 )
-from maps.export.plots import PlanFigures, plt
+from maps.export.pdfmap import draw_page1_map
+from maps.export.plots import PlanFigures
 from maps.plan import Plan
 
 PT = 72.0  # points per inch
@@ -124,11 +124,8 @@ class _Card:
 def _page1(doc: _Card, plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> None:
     doc.page()
     lines, abort, y_abort, top = page1_layout(plan, t0, sea_map, vessel)
-    fig = page1_map_figure(plan, sea_map, top, hatch_lines=True)
-    try:
-        doc.svg(fig, 0, 0, W, H)
-    finally:
-        plt.close(fig)
+    # the axes rect of card.page1_map_figure, (0.1, 0.2, 0.85, top - 0.22) of the page, in points from the bottom left
+    draw_page1_map(doc.pdf, FONT, plan, sea_map, (0.1 * W, 0.2 * H, 0.85 * W, (top - 0.22) * H))
     doc.text(0.05, 0.965, f"SEA TRIAL CARD  -  {vessel}", 15, bold=True)
     for k, line in enumerate(lines):
         doc.text(0.05, 0.935 - 0.017 * k, line, 8.5)

@@ -181,25 +181,34 @@ class HatchHandler(HandlerPatch):
 HATCH_LEGEND = {HatchProxy: HatchHandler()}  # legend handler_map for maps drawn with hatch_lines
 
 
-def _hatch(ax, geom, view, m_per_deg: tuple[float, float], colour: str, zorder: float) -> None:
-    """Diagonal lines (rising to the right, ``HATCH_PT`` apart on the page) over ``geom`` inside
-    ``view``: hatching as line geometry, which every vector format reads (SVG patterns are not)."""
-    from matplotlib.collections import LineCollection
+def hatch_segments(geom: Any, view: Any, m_per_deg: tuple[float, float], m_per_pt: float) -> list[np.ndarray]:
+    """Diagonal lines (rising to the right, ``HATCH_PT`` apart on the page, ``m_per_pt`` metres
+    a point) over ``geom`` inside ``view`` as lon/lat segments: hatching as line geometry, which
+    every vector format reads (SVG patterns are not)."""
     from shapely.geometry import MultiLineString
 
     if geom is None or geom.is_empty or not geom.intersects(view):
-        return
+        return []
     g = geom.intersection(view)
+    x0, y0, x1, y1 = view.bounds
+    wx, wy = (x1 - x0) * m_per_deg[0], (y1 - y0) * m_per_deg[1]
+    step = HATCH_PT * m_per_pt * math.sqrt(2.0)
+    cs = np.arange(-wy, wx + step, step)  # lines x - y = c in metres from the view's corner
+    lines = MultiLineString([[(x0 + c / m_per_deg[0], y0), (x0 + (c + wy) / m_per_deg[0], y1)] for c in cs])
+    cut = lines.intersection(g)
+    return [np.asarray(p.coords) for p in getattr(cut, "geoms", [cut]) if p.geom_type == "LineString" and not p.is_empty]
+
+
+def _hatch(ax: Any, geom: Any, view: Any, m_per_deg: tuple[float, float], colour: str, zorder: float) -> None:
+    """:func:`hatch_segments` drawn on ``ax`` (its size on the page sets the spacing)."""
+    from matplotlib.collections import LineCollection
+
     x0, y0, x1, y1 = view.bounds
     wx, wy = (x1 - x0) * m_per_deg[0], (y1 - y0) * m_per_deg[1]
     fig_w, fig_h = ax.figure.get_size_inches()
     pos = ax.get_position()
     m_per_pt = max(wx / (pos.width * fig_w * 72.0), wy / (pos.height * fig_h * 72.0))  # the aspect shrinks one side
-    step = HATCH_PT * m_per_pt * math.sqrt(2.0)
-    cs = np.arange(-wy, wx + step, step)  # lines x - y = c in metres from the view's corner
-    lines = MultiLineString([[(x0 + c / m_per_deg[0], y0), (x0 + (c + wy) / m_per_deg[0], y1)] for c in cs])
-    cut = lines.intersection(g)
-    segs = [np.asarray(p.coords) for p in getattr(cut, "geoms", [cut]) if p.geom_type == "LineString" and not p.is_empty]
+    segs = hatch_segments(geom, view, m_per_deg, m_per_pt)
     if segs:
         ax.add_collection(LineCollection(segs, colors=colour, linewidths=0.6, zorder=zorder))
 
@@ -301,17 +310,23 @@ def draw_map(ax, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None,
                 arrowprops={"arrowstyle": "-|>", "color": "k"}, zorder=6)
 
 
-def _scale_bar(ax, x0: float, y0: float, x1: float, y1: float, m_per_deg_lon: float) -> None:
-    """A round length (m, or NM from 1 NM up) about a fifth of the view width, bottom right."""
+def scale_bar(x0: float, y0: float, x1: float, y1: float, m_per_deg_lon: float) -> tuple[float, float, float, str]:
+    """A round length (m, or NM from 1 NM up) about a fifth of the view width, bottom right:
+    (lon, lat of its left end, its length in degrees of longitude, its label)."""
     width_m = (x1 - x0) * m_per_deg_lon
     unit = M_PER_NM if width_m / 5 >= M_PER_NM else 1.0
     target = width_m / 5 / unit
     mag = 10 ** math.floor(math.log10(max(target, 1e-3)))
     bar = max(n * mag for n in (1, 2, 5) if n * mag <= max(target, mag)) * unit
     bx, by = x1 - 0.04 * (x1 - x0) - bar / m_per_deg_lon, y0 + 0.04 * (y1 - y0)
-    ax.plot([bx, bx + bar / m_per_deg_lon], [by, by], color="k", lw=3, zorder=6)
-    label = f"{bar:g} m" if unit == 1.0 else f"{bar / M_PER_NM:g} NM"
-    ax.text(bx + 0.5 * bar / m_per_deg_lon, by + 0.012 * (y1 - y0), label, ha="center", va="bottom", fontsize=7, zorder=6)
+    return bx, by, bar / m_per_deg_lon, f"{bar:g} m" if unit == 1.0 else f"{bar / M_PER_NM:g} NM"
+
+
+def _scale_bar(ax: Any, x0: float, y0: float, x1: float, y1: float, m_per_deg_lon: float) -> None:
+    """:func:`scale_bar` drawn on ``ax``."""
+    bx, by, length, label = scale_bar(x0, y0, x1, y1, m_per_deg_lon)
+    ax.plot([bx, bx + length], [by, by], color="k", lw=3, zorder=6)
+    ax.text(bx + 0.5 * length, by + 0.012 * (y1 - y0), label, ha="center", va="bottom", fontsize=7, zorder=6)
 
 
 def draw_states(axes, plan: Plan) -> None:
