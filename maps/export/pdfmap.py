@@ -197,11 +197,12 @@ class MapWriter:
         self.out(f"q {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re W n")
         self.out(f"{_col('#eef6fd', 'rg')} {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re f")
         xt, yt = self.ticks()
+        self.chart_layers()
+        # the grid goes with the axis, which matplotlib draws at zorder 1.5: over the chart, under the sea room
         grid = [np.array([[x, f.bottom], [x, f.bottom + f.height]]) for x in xt]
         grid += [np.array([[f.left, y], [f.left + f.width, y]]) for y in yt]
         if grid:
             self.out(f"{_col('white', 'RG')} 0.6 w 2 J [] 0 d\n" + _rings_ops(grid, close=False) + " S")
-        self.chart_layers()
         self.sea_room()
         self.track()
         self.out("Q")
