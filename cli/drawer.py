@@ -126,11 +126,9 @@ def _compute_early(early: Callable[[], object], fd: int) -> None:
 
 def _warm() -> None:
     """Import what drawing needs (the child's work while the parent plans), the modules the
-    writers import when first called included (fpdf and its SVG reader, matplotlib's backends)."""
+    writers import when first called included (fpdf, matplotlib's Agg backend)."""
     import fpdf  # noqa: F401
-    import fpdf.svg  # noqa: F401
     import matplotlib.backends.backend_agg  # noqa: F401
-    import matplotlib.backends.backend_svg  # noqa: F401
 
     import expdesign.report  # noqa: F401
     import maps.export.card  # noqa: F401
@@ -140,9 +138,9 @@ def _warm() -> None:
 
 def draw_here(job: dict[str, Any]) -> None:
     """Write every figure of ``job`` (see :meth:`Drawer.send`) in two processes, each figure drawn
-    once: a forked child (:func:`beside`) writes the PDF trial card and, from the card's states
-    figure, the states PNG; this process writes plan.png, the design ratios and the track PNG,
-    then the HTML trial card with both PNGs."""
+    once: a forked child (:func:`beside`) writes the PDF trial card and the states PNG; this
+    process writes plan.png, the design ratios and the track PNG, then the HTML trial card with
+    both PNGs."""
     from maps.export import _write, default_path
     from maps.export.card import write_card_pdf
     from maps.export.plots import PlanFigures, plot_states, plot_track
@@ -153,11 +151,9 @@ def draw_here(job: dict[str, Any]) -> None:
     stem = default_path(plan, "csv", tmp).with_suffix("")
     track, states = Path(f"{stem}-track.png"), Path(f"{stem}-states.png")
 
-    def card_pdf() -> None:
-        with PlanFigures(plan, chart) as figs:
-            _run_jobs([(html.with_suffix(".pdf"), "the PDF trial card", lambda: write_card_pdf(plan, html.with_suffix(".pdf"),
-                                                                                               chart, t0, figures=figs)),
-                       (states, "the states figure", lambda: plot_states(plan, states, figures=figs))])
+    def card_pdf() -> None:  # the PDF draws its own map and states page: no figure shared with the PNGs
+        _run_jobs([(html.with_suffix(".pdf"), "the PDF trial card", lambda: write_card_pdf(plan, html.with_suffix(".pdf"), chart, t0)),
+                   (states, "the states figure", lambda: plot_states(plan, states))])
 
     wait = beside([(html.with_suffix(".pdf"), "the PDF trial card", card_pdf)])
     try:

@@ -371,16 +371,15 @@ def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None =
 def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None,
                    vessel: str | None = None, figures: PlanFigures | None = None) -> Path:
     """The printable card (A4 PDF, TrueType fonts embedded; written with fpdf2, see
-    :mod:`maps.export.cardpdf`): the pages of :func:`iter_card_figures`. ``figures``: the plan's
-    shared figures (see :class:`maps.export.plots.PlanFigures`)."""
+    :mod:`maps.export.cardpdf`): the pages of :func:`iter_card_figures`. ``figures`` is not
+    needed (the PDF draws its map and states page itself); accepted for the callers that share
+    figures between exports."""
     from maps.export.cardpdf import card_pdf_bytes
 
     check_plan(plan)
     t0 = resolve_start(plan, start)
     sea_map = plan_chart(plan, sea_map)  # one chart for the route, summary and map (a map file is read once)
-    with PlanFigures(plan, sea_map) as own:
-        data = card_pdf_bytes(plan, t0, sea_map, vessel_name(plan, vessel), figures or own)
-    return atomic_write_bytes(path, data)
+    return atomic_write_bytes(path, card_pdf_bytes(plan, t0, sea_map, vessel_name(plan, vessel)))
 
 
 def render_card_page1(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None, dpi: int = 110,

@@ -6,16 +6,15 @@ Why not matplotlib's PDF backend for the whole card: it lays out and draws text 
 through FreeType (about 3 ms a line), and the card's tables and orders are some 600 lines, so the
 text pages cost more CPU than every other output of ``plan-trial`` together. fpdf2 writes a line
 from the font's advance widths. The two figures (the map of page 1 and the states over time) are
-still drawn by matplotlib and placed as vector graphics (SVG, text in the same fonts); hatching is drawn
-as lines (:func:`maps.export.plots.draw_map` ``hatch_lines``) because fpdf2 does not read SVG
-patterns. Text is DejaVu Sans (regular and bold, matplotlib's bundled TrueType fonts), embedded as
-TrueType subsets; no creation date, so the same plan gives the same bytes.
+drawn straight into the PDF as vector paths (:mod:`maps.export.pdfmap`,
+:mod:`maps.export.pdfstates`), as matplotlib draws them, not through matplotlib and an SVG that
+fpdf2 reads back (half the card's CPU). Text is DejaVu Sans (regular and bold, matplotlib's
+bundled TrueType fonts), embedded as TrueType subsets; no creation date, so the same plan gives
+the same bytes.
 """
 
 from __future__ import annotations
 
-import io
-import re
 from datetime import UTC, datetime
 from typing import Any
 
@@ -34,14 +33,14 @@ from maps.export.card import (
     step_sheets,
 )
 from maps.export.pdfmap import draw_page1_map
-from maps.export.plots import PlanFigures
+from maps.export.pdfstates import draw_states_page
 from maps.plan import Plan
 
 PT = 72.0  # points per inch
 W, H = A4[0] * PT, A4[1] * PT
 RED, GREY = (160, 0, 0), (77, 77, 77)
 ASCENT = 0.76  # DejaVu Sans cap height plus a little, as a fraction of the font size: matplotlib's va="top" box
-FONT = "DejaVu Sans"  # the family name matplotlib writes in its SVG text: one embedded font for both
+FONT = "DejaVu Sans"  # the font of the matplotlib figures too
 
 
 def _fonts() -> tuple[str, str]:
@@ -98,27 +97,6 @@ class _Card:
         elif va == "center":
             y += 0.5 * ASCENT * size - 0.08 * size
         p.text(fx * W, y, s)
-
-    def svg(self, fig, x: float = 0.0, y: float = 0.0, w: float | None = None, h: float | None = None) -> None:
-        """A matplotlib figure as vector graphics (text as outlines) at (x, y) points from the top left."""
-        import matplotlib
-
-        buf = io.BytesIO()
-        # text as SVG text in DejaVu Sans, the card's embedded font (searchable, and far cheaper for fpdf2 to
-        # read than glyph outlines); the white page is drawn first, the card's own text goes over it
-        with matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": "shiptrial-card", "font.family": "DejaVu Sans"}):
-            fig.savefig(buf, format="svg", metadata={"Date": None})
-        data = re.sub(rb"<metadata>.*?</metadata>", b"", buf.getvalue(), flags=re.S)  # fpdf2 does not read it (and says so)
-        # matplotlib's SVG user unit is the point, and it writes font sizes in px meaning those units;
-        # fpdf2 reads px as CSS pixels (3/4 point): say pt
-        data = re.sub(rb"font-size: ?([0-9.]+)px", rb"font-size: \1pt", data)
-        fw, fh = fig.get_size_inches()
-        # SVG's default fill is black, but fpdf2 leaves the page's current colours in force for
-        # elements without a fill of their own (matplotlib's text outlines): set them to black
-        self.pdf.set_fill_color(0, 0, 0)
-        self.pdf.set_draw_color(0, 0, 0)
-        self.pdf.set_text_color(0, 0, 0)
-        self.pdf.image(io.BytesIO(data), x=x, y=y, w=w or fw * PT, h=h or fh * PT)
 
 
 def _page1(doc: _Card, plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> None:
@@ -199,10 +177,9 @@ def _detail_pages(doc: _Card, plan: Plan, lines: list[tuple[str, dict]], first: 
                          colour=RED if style.get("color") == "#a00000" else (0, 0, 0))
 
 
-def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str, figures: PlanFigures) -> bytes:
+def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> bytes:
     """The card's pages (as :func:`maps.export.card.iter_card_figures` draws them) as PDF bytes;
-    ``sea_map``: the plan's chart (:func:`maps.export.chart.plan_chart`), ``figures``: the plan's
-    shared figures (the states page)."""
+    ``sea_map``: the plan's chart (:func:`maps.export.chart.plan_chart`)."""
     doc = _Card()
     sheets = step_sheets(plan, t0, sea_map)
     _page1(doc, plan, t0, sea_map, vessel)
@@ -212,8 +189,6 @@ def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str, figures:
         page = _table_pages(doc, plan, "experiment design", ["primitive", "weight", "rounded count", "planned"], drows,
                             [0.4, 0.2, 0.2, 0.2], page)
     _detail_pages(doc, plan, _detail_lines(sheets), page)
-    states = figures.figure("states")
-    doc.page(tuple(states.get_size_inches()))
-    doc.svg(states)
+    draw_states_page(doc.pdf, FONT, plan)
     return _without_date(bytes(doc.pdf.output()))
 

@@ -7,9 +7,7 @@ markers, ticks and legend as the matplotlib figure of :func:`maps.export.card.pa
 without the round trip the card made before: matplotlib drawing the figure, writing it as SVG and
 fpdf2 parsing the SVG back cost about half the CPU of the whole card.
 
-Paths are written as raw PDF operators inside ``q``/``Q`` (so fpdf2's record of the current
-colours and line width stays true): fpdf2's own polygon calls stroke or fill each ring alone and
-cannot fill a polygon with holes (even-odd rule) in one path.
+The operators are written by :class:`maps.export.pdfdraw.Painter`.
 """
 
 from __future__ import annotations
@@ -21,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from maps.export._common import deg_min, step_slice
+from maps.export.pdfdraw import LINE_HEIGHT, Painter, col, rings_ops
 from maps.export.plots import (
     HATCH_PT,
     LAND_COLOUR,
@@ -34,31 +33,7 @@ from maps.export.plots import (
 )
 from maps.plan import Plan
 
-BOLD, REG = "B", ""
 TICK_FS, NUM_FS, LEGEND_FS = 7.0, 7.0, 6.5
-LINE_HEIGHT = 1.17  # DejaVu Sans ascent + descent per point of font size (matplotlib's text box)
-
-
-def _rgb(colour: Any) -> tuple[float, float, float]:
-    from matplotlib.colors import to_rgb
-
-    return to_rgb(colour)
-
-
-def _col(colour: Any, op: str) -> str:
-    r, g, b = _rgb(colour)
-    return f"{r:.3f} {g:.3f} {b:.3f} {op}"
-
-
-def _rings_ops(rings: list[np.ndarray], close: bool = True) -> str:
-    """Subpaths (points on the page, y from the top already flipped by the caller) as PDF
-    path construction operators."""
-    out = []
-    for r in rings:
-        pts = [f"{x:.2f} {y:.2f}" for x, y in r]
-        out.append(f"{pts[0]} m " + " l ".join(pts[1:]) + (" l h" if close else " l"))
-    return "\n".join(out)
-
 
 @dataclass
 class Frame:
@@ -120,55 +95,31 @@ def _geom_rings(geom: Any, view: Any) -> tuple[list[np.ndarray], list[np.ndarray
     return rings, lines
 
 
-class MapWriter:
-    """Writes the map into the current page of an fpdf2 document (``doc.pdf``, unit pt)."""
+class MapWriter(Painter):
+    """Writes the map into the current page of an fpdf2 document (unit pt)."""
 
     def __init__(self, pdf: Any, font: str, plan: Plan, chart: Any, frame: Frame) -> None:
         from shapely.geometry import box
 
-        self.pdf, self.font, self.plan, self.chart, self.f = pdf, font, plan, chart, frame
+        super().__init__(pdf, font)
+        self.plan, self.chart, self.f = plan, chart, frame
         self.view = box(frame.x0, frame.y0, frame.x1, frame.y1)
-        self.page_h = pdf.h * pdf.k
         self.legend: list[dict[str, Any]] = []
-
-    # -- low level ---------------------------------------------------------------------------------
-    def out(self, ops: str) -> None:
-        self.pdf._out(ops)  # noqa: SLF001 - raw operators inside q/Q (see the module docstring)
 
     def page_xy(self, lonlat: np.ndarray) -> np.ndarray:
         return self.f.xy(lonlat)
-
-    def text(self, x: float, y: float, s: str, size: float, *, bold: bool = False, ha: str = "left", va: str = "baseline",
-             colour: tuple[int, int, int] = (0, 0, 0)) -> float:
-        """``s`` at PDF point (x, y up) aligned as matplotlib's ha/va; returns its width."""
-        p = self.pdf
-        p.set_font(self.font, BOLD if bold else REG, size)
-        p.set_text_color(*colour)
-        w = p.get_string_width(s)
-        x -= {"left": 0.0, "center": 0.5 * w, "right": w}[ha]
-        y_base = {"baseline": y, "bottom": y + 0.24 * size, "top": y - 0.76 * size, "center": y - 0.28 * size}[va]
-        p.text(x, self.page_h - y_base, s)
-        return w
-
-    def text_width(self, s: str, size: float, bold: bool = False) -> float:
-        self.pdf.set_font(self.font, BOLD if bold else REG, size)
-        return self.pdf.get_string_width(s)
 
     def fill_geom(self, geom: Any, face: Any, edge: Any | None, lw: float) -> bool:
         rings, lines = _geom_rings(geom, self.view)
         if rings:
             style = ("B*" if edge is not None else "f*")
-            ops = [_col(face, "rg"), f"{lw:.2f} w 0 j"]
+            ops = [col(face, "rg"), f"{lw:.2f} w 0 j"]
             if edge is not None:
-                ops.append(_col(edge, "RG"))
-            self.out("\n".join(ops) + "\n" + _rings_ops([self.page_xy(r) for r in rings]) + f" {style}")
+                ops.append(col(edge, "RG"))
+            self.out("\n".join(ops) + "\n" + rings_ops([self.page_xy(r) for r in rings]) + f" {style}")
         if lines:
-            self.out(f"{_col(edge or 'k', 'RG')} 0.8 w\n" + _rings_ops([self.page_xy(c) for c in lines], close=False) + " S")
+            self.out(f"{col(edge or 'k', 'RG')} 0.8 w\n" + rings_ops([self.page_xy(c) for c in lines], close=False) + " S")
         return bool(rings or lines)
-
-    def polyline(self, pts: np.ndarray, colour: Any, lw: float, dash: tuple[float, float] | None = None, cap: int = 0) -> None:
-        d = f"[{dash[0]:.2f} {dash[1]:.2f}] 0 d" if dash else "[] 0 d"
-        self.out(f"{_col(colour, 'RG')} {lw:.2f} w {cap} J 1 j {d}\n" + _rings_ops([pts], close=False) + " S")
 
     def marker(self, kind: str, x: float, y: float, size: float, face: Any, edge: Any = "k", mew: float = 1.0) -> None:
         """matplotlib's '*', '^' and 's' markers, ``size`` points across."""
@@ -181,11 +132,11 @@ class MapWriter:
             pts = np.array([[x, y + r], [x - r, y - r], [x + r, y - r]])
         else:
             pts = np.array([[x - r, y - r], [x + r, y - r], [x + r, y + r], [x - r, y + r]])
-        self.out(f"{_col(face, 'rg')} {_col(edge, 'RG')} {mew:.2f} w 0 j [] 0 d\n" + _rings_ops([pts]) + " B")
+        self.out(f"{col(face, 'rg')} {col(edge, 'RG')} {mew:.2f} w 0 j [] 0 d\n" + rings_ops([pts]) + " B")
 
     def circle(self, x: float, y: float, r: float, face: Any, edge: Any, lw: float) -> None:
         k = 0.5523 * r  # four Bezier quarter arcs
-        self.out(f"{_col(face, 'rg')} {_col(edge, 'RG')} {lw:.2f} w [] 0 d\n"
+        self.out(f"{col(face, 'rg')} {col(edge, 'RG')} {lw:.2f} w [] 0 d\n"
                  f"{x + r:.2f} {y:.2f} m {x + r:.2f} {y + k:.2f} {x + k:.2f} {y + r:.2f} {x:.2f} {y + r:.2f} c "
                  f"{x - k:.2f} {y + r:.2f} {x - r:.2f} {y + k:.2f} {x - r:.2f} {y:.2f} c "
                  f"{x - r:.2f} {y - k:.2f} {x - k:.2f} {y - r:.2f} {x:.2f} {y - r:.2f} c "
@@ -195,14 +146,14 @@ class MapWriter:
     def draw(self) -> None:
         f = self.f
         self.out(f"q {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re W n")
-        self.out(f"{_col('#eef6fd', 'rg')} {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re f")
+        self.out(f"{col('#eef6fd', 'rg')} {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re f")
         xt, yt = self.ticks()
         self.chart_layers()
         # the grid goes with the axis, which matplotlib draws at zorder 1.5: over the chart, under the sea room
         grid = [np.array([[x, f.bottom], [x, f.bottom + f.height]]) for x in xt]
         grid += [np.array([[f.left, y], [f.left + f.width, y]]) for y in yt]
         if grid:
-            self.out(f"{_col('white', 'RG')} 0.6 w 2 J [] 0 d\n" + _rings_ops(grid, close=False) + " S")
+            self.out(f"{col('white', 'RG')} 0.6 w 2 J [] 0 d\n" + rings_ops(grid, close=False) + " S")
         self.sea_room()
         self.track()
         self.out("Q")
@@ -227,7 +178,7 @@ class MapWriter:
         if self.fill_geom(chart.no_go, NO_GO_COLOUR, "#35607d", 0.6):
             segs = hatch_segments(chart.no_go, self.view, self.f.m_per_deg, self.f.m_per_pt())
             if segs:
-                self.out(f"{_col('#35607d', 'RG')} 0.6 w 2 J [] 0 d\n" + _rings_ops([self.page_xy(s) for s in segs], close=False)
+                self.out(f"{col('#35607d', 'RG')} 0.6 w 2 J [] 0 d\n" + rings_ops([self.page_xy(s) for s in segs], close=False)
                          + " S")
             self.legend.append({"kind": "hatch", "face": NO_GO_COLOUR, "edge": "#35607d", "label": "shallow / restricted (no-go)"})
         if self.fill_geom(chart.land, LAND_COLOUR, "#6b5d3a", 0.6):
@@ -314,12 +265,12 @@ class MapWriter:
         ax_, ay0, ay1 = f.left + 0.95 * f.width, f.bottom + 0.85 * f.height + 0.76 * 9 + 2, f.bottom + 0.95 * f.height - 2
         head = 0.4 * 9
         self.polyline(np.array([[ax_, ay0], [ax_, ay1 - head]]), "k", 1.0)
-        self.out(f"{_col('k', 'rg')} {ax_:.2f} {ay1:.2f} m {ax_ - 0.2 * 9:.2f} {ay1 - head:.2f} l {ax_ + 0.2 * 9:.2f} "
+        self.out(f"{col('k', 'rg')} {ax_:.2f} {ay1:.2f} m {ax_ - 0.2 * 9:.2f} {ay1 - head:.2f} l {ax_ + 0.2 * 9:.2f} "
                  f"{ay1 - head:.2f} l h B")
-        self.out(f"{_col('k', 'RG')} 0.8 w 0 J 0 j [] 0 d {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re S")
+        self.out(f"{col('k', 'RG')} 0.8 w 0 J 0 j [] 0 d {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re S")
         ticks = [np.array([[x, f.bottom], [x, f.bottom - 3.5]]) for x in xt] + [np.array([[f.left, y], [f.left - 3.5, y]]) for y in yt]
         if ticks:
-            self.out("0.8 w\n" + _rings_ops(ticks, close=False) + " S")
+            self.out("0.8 w\n" + rings_ops(ticks, close=False) + " S")
         self.out("Q")
         self.text(0.5 * (p0[0] + p1[0]), p0[1] + 0.012 * f.height, label, 7, ha="center", va="bottom")
         self.text(ax_, f.bottom + 0.85 * f.height, "N", 9, bold=True, ha="center")
@@ -346,7 +297,7 @@ class MapWriter:
         height = pitch * max(len(c) for c in cols) - 0.5 * fs + 2 * pad
         left = f.left + 0.5 * f.width - 0.5 * width
         top = f.bottom - 0.05 * f.height - 0.5 * fs
-        self.out(f"q {_col('white', 'rg')} {_col('0.8', 'RG')} 1 w [] 0 d {left:.2f} {top - height:.2f} {width:.2f} {height:.2f} re B Q")
+        self.out(f"q {col('white', 'rg')} {col('0.8', 'RG')} 1 w [] 0 d {left:.2f} {top - height:.2f} {width:.2f} {height:.2f} re B Q")
         x = left + pad
         for c, w in zip(cols, widths):
             for k, i in enumerate(c):
@@ -365,14 +316,14 @@ class MapWriter:
             self.marker(e["marker"], x + 0.5 * w, yc, e["size"], e["face"], mew=e["mew"])
         else:
             edge = e["edge"]
-            ops = f"{_col(e['face'], 'rg')} {x:.2f} {yc - 0.5 * h:.2f} {w:.2f} {h:.2f} re "
-            self.out((f"{_col(edge, 'RG')} 1 w [] 0 d " + ops + "B") if edge is not None else ops + "f")
+            ops = f"{col(e['face'], 'rg')} {x:.2f} {yc - 0.5 * h:.2f} {w:.2f} {h:.2f} re "
+            self.out((f"{col(edge, 'RG')} 1 w [] 0 d " + ops + "B") if edge is not None else ops + "f")
             if kind == "hatch":
                 segs = []
                 for t in np.arange(-h, w, HATCH_PT):
                     a, b = max(t, 0.0), min(t + h, w)
                     segs.append(np.array([[x + a, yc - 0.5 * h + a - t], [x + b, yc - 0.5 * h + b - t]]))
-                self.out(f"{_col(edge, 'RG')} 0.6 w\n" + _rings_ops(segs, close=False) + " S")
+                self.out(f"{col(edge, 'RG')} 0.6 w\n" + rings_ops(segs, close=False) + " S")
 
 
 def draw_page1_map(pdf: Any, font: str, plan: Plan, chart: Any, box: tuple[float, float, float, float]) -> None:

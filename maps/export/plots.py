@@ -329,18 +329,45 @@ def _scale_bar(ax: Any, x0: float, y0: float, x1: float, y1: float, m_per_deg_lo
     ax.text(bx + 0.5 * length, by + 0.012 * (y1 - y0), label, ha="center", va="bottom", fontsize=7, zorder=6)
 
 
-def draw_states(axes, plan: Plan) -> None:
-    """Speed (kn), heading (deg) and each commanded input over time (minutes) on ``axes``
-    (len 2 + number of inputs), with the manoeuvre numbers along the top."""
-    t_min = (plan.t - plan.t[0]) / 60.0
-    colours = primitive_colours(plan)
-    series = [("speed over ground [kn]", plan.speed * KN_PER_MPS), ("heading [deg]", np.degrees(plan.track[:, 2]) % 360.0)]
+def state_series(plan: Plan) -> list[tuple[str, np.ndarray]]:
+    """(label, values) of each panel of the states figure: speed (kn), heading (deg, NaN where
+    it wraps round), then each commanded input (angles in deg)."""
+    heading = np.degrees(plan.track[:, 2]) % 360.0
+    heading[1:][np.abs(np.diff(heading)) > 180] = np.nan  # no line across the wrap
+    series = [("speed over ground [kn]", plan.speed * KN_PER_MPS), ("heading [deg]", heading)]
     for j, nm in enumerate(plan.input_names):
         v = plan.inputs[:, j] if plan.inputs.ndim == 2 and plan.inputs.shape[1] > j else np.zeros_like(plan.t)
         if nm.startswith("alpha") or nm == "delta":
             series.append((f"{nm} [deg]", np.degrees(v)))
         else:
             series.append((f"{nm}" + (" [rpm]" if nm.startswith("n") and nm[1:].isdigit() else ""), v))
+    return series
+
+
+def state_limits(lo: float, hi: float) -> tuple[float, float]:
+    """The y range of a states panel with data from ``lo`` to ``hi``: matplotlib's autoscaling
+    (non-singular, 5 % margins), except that a series constant to 1e-9 of its size (a steady
+    speed) is shown as constant, not as rounding noise around an offset."""
+    from matplotlib.ticker import MaxNLocator
+
+    if hi - lo <= 1e-9 * max(abs(lo), abs(hi), 1.0):
+        lo = hi = 0.5 * (lo + hi)
+    lo, hi = MaxNLocator().nonsingular(lo, hi)
+    d = 0.05 * (hi - lo)
+    return lo - d, hi + d
+
+
+def states_size_in(plan: Plan) -> tuple[float, float]:
+    """Width and height (inches) of the states figure: A4 wide, 1.5 in a panel plus 1 in."""
+    return 8.27, 1.5 * (2 + len(plan.input_names)) + 1.0
+
+
+def draw_states(axes: list, plan: Plan) -> None:
+    """Speed (kn), heading (deg) and each commanded input over time (minutes) on ``axes``
+    (len 2 + number of inputs), with the manoeuvre numbers along the top."""
+    t_min = (plan.t - plan.t[0]) / 60.0
+    colours = primitive_colours(plan)
+    series = state_series(plan)
     from matplotlib.collections import PolyCollection
 
     spans, span_colours = [], []
@@ -353,11 +380,10 @@ def draw_states(axes, plan: Plan) -> None:
         # each step's span as axvspan shades it (full height, 12 % colour), all in one collection: one artist, not a patch a step
         ax.add_collection(PolyCollection(spans, facecolors=span_colours, alpha=0.12, linewidths=0, transform=ax.get_xaxis_transform()),
                           autolim=False)
-        if label.startswith("heading"):
-            jumps = np.abs(np.diff(y)) > 180
-            y = y.copy().astype(float)
-            y[1:][jumps] = np.nan
         ax.plot(t_min[: len(y)], y, color="k", lw=0.9)
+        finite = y[np.isfinite(y)]
+        if len(finite):
+            ax.set_ylim(*state_limits(float(finite.min()), float(finite.max())))
         ax.set_ylabel(label, fontsize=7)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
@@ -389,7 +415,7 @@ def legend_width_in(fig: Any, legend: Any) -> float:
 def states_figure(plan: Plan) -> Any:
     """A figure of :func:`draw_states`, laid out with :data:`STATES_MARGINS_IN`."""
     n = 2 + len(plan.input_names)
-    fig, axes = plt.subplots(n, 1, figsize=(8.27, 1.5 * n + 1.0), sharex=True)
+    fig, axes = plt.subplots(n, 1, figsize=states_size_in(plan), sharex=True)
     draw_states(list(np.atleast_1d(axes)), plan)
     fig.suptitle(f"{plan.ship}: planned speed, heading and commanded inputs (manoeuvre numbers on top)", fontsize=9)
     fixed_margins(fig, **STATES_MARGINS_IN, hspace=STATES_HSPACE)
