@@ -212,6 +212,7 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
     from maps.export import _write, default_path
     from maps.export._common import check_plan
     from maps.export.chart import plan_chart
+    from maps.export.route import build_route
     from maps.output import write_outputs
 
     exports = result.feasible and not no_export
@@ -226,6 +227,7 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
         return files
     check_plan(result)
     chart = plan_chart(result, sea)  # one chart for every export
+    build_route(result, chart)  # one route for every export: kept on the plan, sent to the drawer with it
     if drawer is None:
         from cli.drawer import Drawer
 

@@ -110,3 +110,15 @@ def test_design_in_the_drawer_gives_the_plan_of_the_design_here(tmp_path, capsys
     assert "design-ratios.png" in a and a.keys() == b.keys()
     assert [k for k in a if k != "plan.json" and a[k] != b[k]] == []
     capsys.readouterr()
+
+
+def test_cancel_ends_a_drawer_that_has_nothing_to_draw_at_once():
+    """A refused run cancels its drawer before sending it a plan: the drawer is ended there and
+    then (not left to finish its design and drawing imports) and reaped."""
+    import time
+
+    before = children()
+    d = drawer.Drawer(lambda: time.sleep(60))  # a design that would take a minute
+    t0 = time.monotonic()
+    d.cancel()
+    assert time.monotonic() - t0 < 30 and children() <= before
