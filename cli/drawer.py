@@ -27,7 +27,7 @@ from typing import Any
 CAN_FORK = sys.platform.startswith("linux")
 
 
-def beside(jobs: list[tuple[Path, str, Callable[[], object]]]):
+def beside(jobs: list[tuple[Path, str, Callable[[], object]]]) -> Callable[..., list[Path]]:
     """Start writing ``jobs`` ((path, what, writer) each); returns a function that waits for them
     and returns their paths (raising the first writer's error, naming its file).
 

@@ -18,6 +18,7 @@ import html
 import io
 import math
 import textwrap
+from collections.abc import Iterator
 from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -214,7 +215,7 @@ TABLE_PAD = 0.02  # gap above a table (matplotlib.table's AXESPAD for loc "upper
 CELL_PAD = 0.1  # text inset as a fraction of the cell width (matplotlib.table.Cell.PAD)
 
 
-def _draw_table(fig, rect: tuple[float, float, float, float], cols: list[str], rows: list[list[str]], widths: list[float]) -> None:
+def _draw_table(fig: Any, rect: tuple[float, float, float, float], cols: list[str], rows: list[list[str]], widths: list[float]) -> None:
     """A table as matplotlib.table draws it (header row grey and bold, 1 pt black cell edges,
     left-aligned 6.5 pt text, fixed row height: every row drawn, none squeezed), built from one
     grid of lines and plain texts: a Table lays out every cell again on every draw, which cost
@@ -242,7 +243,8 @@ def _draw_table(fig, rect: tuple[float, float, float, float], cols: list[str], r
                     fontweight="bold" if r == 0 else "normal")
 
 
-def table_pages(plan: Plan, title: str, cols: list[str], rows: list[list[str]], widths: list[float], first_page: int):
+def table_pages(plan: Plan, title: str, cols: list[str], rows: list[list[str]], widths: list[float],
+                first_page: int) -> Iterator[Any]:
     """A long table on as many A4 pages as it needs (``ROWS_PER_PAGE`` rows each, header
     repeated, "continued" on the following pages): every row is printed. Yields the figures."""
     chunks = [rows[i : i + ROWS_PER_PAGE] for i in range(0, len(rows), ROWS_PER_PAGE)] or [[]]
@@ -269,7 +271,7 @@ def page1_layout(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> tuple[l
     return lines, abort, y - 0.006, y - 0.09
 
 
-def page1_map_figure(plan: Plan, sea_map: Any, top: float, *, hatch_lines: bool = False, fig=None):
+def page1_map_figure(plan: Plan, sea_map: Any, top: float, *, hatch_lines: bool = False, fig: Any = None) -> Any:
     """The map of page 1 (axes below ``top``, legend below the map, never over the track) on an
     A4 figure (``fig``, else a new one); ``hatch_lines``: see :func:`maps.export.plots.draw_map`."""
     fig = fig or plt.figure(figsize=A4)
@@ -279,7 +281,7 @@ def page1_map_figure(plan: Plan, sea_map: Any, top: float, *, hatch_lines: bool 
     return fig
 
 
-def _page1(plan: Plan, t0: datetime, sea_map: Any, vessel: str):
+def _page1(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> Any:
     fig = plt.figure(figsize=A4)
     fig.text(0.05, 0.965, f"SEA TRIAL CARD  -  {vessel}", fontsize=15, fontweight="bold", va="top")
     lines, abort, y_abort, top = page1_layout(plan, t0, sea_map, vessel)
@@ -327,7 +329,7 @@ def _detail_lines(sheets: list[dict]) -> list[tuple[str, dict]]:
 DETAIL_LINES_PER_PAGE = 62
 
 
-def _detail_pages(plan: Plan, lines: list[tuple[str, dict]], first_page: int):
+def _detail_pages(plan: Plan, lines: list[tuple[str, dict]], first_page: int) -> Iterator[Any]:
     """The orders per step, ``DETAIL_LINES_PER_PAGE`` lines a page. Yields the figures."""
     for n, p in enumerate(range(0, len(lines), DETAIL_LINES_PER_PAGE)):
         fig = plt.figure(figsize=A4)
@@ -339,7 +341,7 @@ def _detail_pages(plan: Plan, lines: list[tuple[str, dict]], first_page: int):
 
 
 def iter_card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None,
-                      figures: PlanFigures | None = None):
+                      figures: PlanFigures | None = None) -> Iterator[Any]:
     """The card's pages as matplotlib figures, one at a time (a long plan never holds every
     page open): page 1 (summary, abort criteria, design, map), the table of steps (and of the
     design) over as many pages as they need, the orders per step, the states over time (from
@@ -396,7 +398,7 @@ def render_card_page1(plan: Plan, path: str | Path, sea_map: Any = None, start: 
 # -- HTML --------------------------------------------------------------------------------------
 
 
-def _png(fig, dpi: int = 110) -> bytes:
+def _png(fig: Any, dpi: int = 110) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
     return buf.getvalue()

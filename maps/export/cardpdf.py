@@ -86,7 +86,8 @@ class _Card:
         self.pdf.add_page(format=(size[0] * PT, size[1] * PT))
         self.h = size[1] * PT
 
-    def text(self, fx: float, fy: float, s: str, size: float, *, bold: bool = False, colour=(0, 0, 0), va: str = "top") -> None:
+    def text(self, fx: float, fy: float, s: str, size: float, *, bold: bool = False, colour: tuple[int, int, int] = (0, 0, 0),
+             va: str = "top") -> None:
         """``s`` at figure fraction (fx, fy) with matplotlib's vertical alignment ``va``."""
         p = self.pdf
         p.set_font(FONT, "B" if bold else "", size)

@@ -41,7 +41,7 @@ def _line(lonlat: np.ndarray) -> list[list[float]]:
     return out
 
 
-def sea_room_lonlat(plan: Plan):
+def sea_room_lonlat(plan: Plan) -> Any:
     """The swept sea room (shapely Polygon, lon/lat, exterior CCW) or None without a projection."""
     proj4 = (plan.projection or {}).get("proj4")
     if not proj4:
@@ -62,7 +62,7 @@ def sea_room_lonlat(plan: Plan):
     return orient(ll, sign=1.0)
 
 
-def _polygon_coords(poly) -> list[list[list[float]]]:
+def _polygon_coords(poly: Any) -> list[list[list[float]]]:
     rings = [poly.exterior, *poly.interiors]
     return [[_pos(x, y) for x, y in ring.coords] for ring in rings]
 
@@ -85,7 +85,7 @@ def track_segments(plan: Plan) -> list[dict[str, Any]]:
     return out
 
 
-def _to_lonlat(tr, geom):
+def _to_lonlat(tr: Any, geom: Any) -> Any:
     """``geom`` in the plan's metric frame (x north, y east) in lon/lat by transformer ``tr``."""
     import shapely
     from shapely.geometry.polygon import orient

@@ -23,7 +23,7 @@ from matplotlib.legend_handler import HandlerPatch  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402
 
 from maps.export._common import KN_PER_MPS, M_PER_NM, ExportError, deg_min, step_slice  # noqa: E402
-from maps.plan import Plan  # noqa: E402
+from maps.plan import Plan, PlanStep  # noqa: E402
 from primitives.io import atomic_savefig  # noqa: E402
 
 OBSTACLE_KINDS = ("land", "obstacle", "restricted")
@@ -88,7 +88,7 @@ def primitive_colours(plan: Plan) -> dict[str, Any]:
     return out
 
 
-def step_colour(plan: Plan, st, colours: dict[str, Any] | None = None) -> Any:
+def step_colour(plan: Plan, st: PlanStep, colours: dict[str, Any] | None = None) -> Any:
     """Colour of one step on the map and the time plots."""
     seg = st.segment
     if seg == "run-in":
@@ -98,7 +98,7 @@ def step_colour(plan: Plan, st, colours: dict[str, Any] | None = None) -> Any:
     return (colours or primitive_colours(plan))[st.primitive]
 
 
-def _dm_formatter(pos: str, neg: str, width: int):
+def _dm_formatter(pos: str, neg: str, width: int) -> Any:
     from matplotlib.ticker import FuncFormatter
 
     return FuncFormatter(lambda v, _: deg_min(v, pos, neg, width).replace("'", "′"))
@@ -116,7 +116,7 @@ def _view(plan: Plan, pad_m: float | None) -> tuple[float, float, float, float, 
             lat.max() + pad / m_per_deg_lat, m_per_deg_lon, m_per_deg_lat)
 
 
-def _draw_geom(ax, geom, view, **kw) -> bool:
+def _draw_geom(ax: Any, geom: Any, view: Any, **kw: Any) -> bool:
     """Fill the polygons (draw lines, points) of ``geom`` inside ``view``; True if any drawn.
     The polygons are one compound path (a chart has hundreds of islands: one patch to draw)."""
     from matplotlib.patches import PathPatch
@@ -132,7 +132,7 @@ def _draw_geom(ax, geom, view, **kw) -> bool:
     return drawn or bool(verts)
 
 
-def _collect_geom(ax, g, verts: list, codes: list, kw: dict) -> bool:
+def _collect_geom(ax: Any, g: Any, verts: list, codes: list, kw: dict) -> bool:
     """Rings of the polygons of ``g`` into ``verts``/``codes``; lines and points drawn here."""
     from matplotlib.path import Path as MPath
 
@@ -166,7 +166,8 @@ class HatchProxy(Rectangle):
 class HatchHandler(HandlerPatch):
     """Draws a :class:`HatchProxy` legend key as a filled box crossed by diagonal lines."""
 
-    def create_artists(self, legend, orig, xd, yd, width, height, fontsize, trans):
+    def create_artists(self, legend: Any, orig: Any, xd: float, yd: float, width: float, height: float, fontsize: float,
+                       trans: Any) -> list:
         from matplotlib.collections import LineCollection
 
         box = Rectangle((-xd, -yd), width, height, facecolor=orig.get_facecolor(), edgecolor=orig.get_edgecolor(), lw=0.6,
@@ -213,7 +214,7 @@ def _hatch(ax: Any, geom: Any, view: Any, m_per_deg: tuple[float, float], colour
         ax.add_collection(LineCollection(segs, colors=colour, linewidths=0.6, zorder=zorder))
 
 
-def _draw_chart(ax, plan: Plan, sea_map: Any, view, hatch_lines: bool = False) -> None:
+def _draw_chart(ax: Any, plan: Plan, sea_map: Any, view: Any, hatch_lines: bool = False) -> None:
     """Depth areas (blue shades, deeper darker), land (tan) and other no-go water (hatched:
     shallow for the ship, restricted, charted obstacles; ``hatch_lines``: see :func:`draw_map`)."""
     from maps.export.chart import plan_chart
@@ -241,7 +242,7 @@ def _draw_chart(ax, plan: Plan, sea_map: Any, view, hatch_lines: bool = False) -
         ax.fill([], [], facecolor=LAND_COLOUR, edgecolor="#6b5d3a", label="land")
 
 
-def _draw_track(ax, plan: Plan, numbers: bool) -> None:
+def _draw_track(ax: Any, plan: Plan, numbers: bool) -> None:
     lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
     colours = primitive_colours(plan)
     labelled: set[str] = set()
@@ -270,12 +271,12 @@ def _draw_track(ax, plan: Plan, numbers: bool) -> None:
     ax.plot(lon[-1], lat[-1], marker="s", ms=9, color="red", mec="k", zorder=4, ls="none", label="end")
 
 
-def _m_per_deg(view) -> tuple[float, float]:
+def _m_per_deg(view: Any) -> tuple[float, float]:
     lat = 0.5 * (view.bounds[1] + view.bounds[3])
     return 111_320.0 * math.cos(math.radians(lat)), 111_320.0
 
 
-def draw_map(ax, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True,
+def draw_map(ax: Any, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True,
              hatch_lines: bool = False) -> None:
     """Chart (depth areas, land, shallow/restricted water), sea room (light blue), the track
     (informative manoeuvres coloured by primitive, run-ins dashed green, transit grey), execute
@@ -470,13 +471,13 @@ class PlanFigures:
         self._figs: dict[str, Any] = {}
         self._png: dict[tuple[str, int], bytes] = {}
 
-    def figure(self, name: str):
+    def figure(self, name: str) -> Any:
         """'states' (:func:`states_figure`) or 'track' (:func:`track_figure`), built on first use."""
         if name not in self._figs:
             self._figs[name] = states_figure(self.plan) if name == "states" else track_figure(self.plan, self.sea_map)
         return self._figs[name]
 
-    def owns(self, fig) -> bool:
+    def owns(self, fig: Any) -> bool:
         return any(fig is f for f in self._figs.values())
 
     def png(self, name: str, dpi: int | None = None) -> bytes:
