@@ -258,7 +258,7 @@ def write_outputs_all(result: Plan, sea: SeaMap, tmp: Path, td: TrialDesign | No
     drawer.send({"plan": result, "sea": sea, "chart": chart, "design": td.design if td is not None else None, "t0": t0,
                  "dir": tmp})  # pickled now: the figures are drawn with the chart given, not the one plan.json stores
     try:
-        files = write_outputs(result, sea, tmp, plot=False)
+        files = write_outputs(result, sea, tmp, plot=False, chart=chart)
         with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
             crew = {fmt: _write(result, fmt, default_path(result, fmt, tmp), sea_map=chart, start=t0, vessel=None, pdf=False,
                                 figures=None)[0] for fmt in ("geojson", "gpx", "rtz", "csv")}

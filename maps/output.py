@@ -89,7 +89,7 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     return out
 
 
-def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = True) -> dict[str, Path]:
+def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = True, chart: Any = None) -> dict[str, Path]:
     """plan.json, trajectory.geojson and (``plot``) plan.png (the track in its planning window,
     :func:`plot_plan`) in ``out_dir`` (atomic writes).
 
@@ -99,6 +99,8 @@ def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = Tru
     track alone, one LineString per segment tagged ``run-in``, ``informative`` (with the
     primitive) or ``transit`` (RFC 7946, when there is a track); the crew's chart overlay with
     execute points, waypoints and corridors is ``<ship>-trial.geojson`` (maps.export).
+    ``chart``: the chart of ``sea`` (:func:`maps.export.chart.plan_chart`) when the caller has
+    it already (it costs a second reading of the map file otherwise).
     """
     from maps.export.chart import embed_chart
     from maps.export.geojson import write_geojson
@@ -106,7 +108,7 @@ def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = Tru
 
     out = Path(out_dir)
     if len(plan.track) >= 2:
-        embed_chart(plan, sea)
+        embed_chart(plan, sea if chart is None else chart)
     files = {"plan_json": atomic_write_text(out / "plan.json", plan.to_json())}
     if len(plan.track) >= 2:  # a LineString needs two positions; a failed search has no track
         files["trajectory_geojson"] = write_geojson(plan, out / "trajectory.geojson", overlay=False)
