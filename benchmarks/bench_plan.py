@@ -114,7 +114,7 @@ def _stages() -> dict:
     from maps.export._common import iso, resolve_start
     from maps.export.card import write_card_pdf
     from maps.export.chart import embed_chart, plan_chart
-    from maps.export.geojson import write_geojson
+    from maps.export.geojson import sea_room_lonlat, write_geojson
     from maps.export.plots import PlanFigures
     from maps.export.route import build_route
     from maps.geo import load_map
@@ -138,7 +138,8 @@ def _stages() -> dict:
     t0 = resolve_start(plan, "2026-06-01T08:00Z")
     plan.stats["start_utc"] = iso(t0)
     chart = plan_chart(plan, sea)
-    build_route(plan, chart)  # as the command: one route for every export, built before the figures are sent to be drawn
+    build_route(plan, chart)  # as the command: one route and sea room for every export, before the figures are sent to be drawn
+    sea_room_lonlat(plan)
     mark("chart + route")
     with tempfile.TemporaryDirectory(prefix="bench-stages-") as tmp:
         out = Path(tmp)

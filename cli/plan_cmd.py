@@ -235,6 +235,7 @@ def write_outputs_all(result: Plan, sea: SeaMap, tmp: Path, td: TrialDesign | No
     from maps.export import _write, default_path
     from maps.export._common import check_plan
     from maps.export.chart import plan_chart
+    from maps.export.geojson import sea_room_lonlat
     from maps.export.route import build_route
     from maps.output import write_outputs
 
@@ -250,7 +251,8 @@ def write_outputs_all(result: Plan, sea: SeaMap, tmp: Path, td: TrialDesign | No
         return files
     check_plan(result)
     chart = plan_chart(result, sea)  # one chart for every export
-    build_route(result, chart)  # one route for every export: kept on the plan, sent to the drawer with it
+    build_route(result, chart)  # one route and sea room for every export: kept on the plan, sent to the drawer with it
+    sea_room_lonlat(result)
     if drawer is None:
         from cli.drawer import Drawer
 

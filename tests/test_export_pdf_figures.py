@@ -150,3 +150,18 @@ def test_png_figures_have_their_sizes(charted, tmp_path):
     ink_cols = np.flatnonzero((t < 250).any(axis=0))
     ink_rows = np.flatnonzero((t < 250).any(axis=1))
     assert ink_cols[-1] > 0.97 * t.shape[1] and ink_rows[-1] > 0.9 * t.shape[0]  # nothing much blank right or below
+
+
+def test_one_sea_room_per_plan_even_across_a_pickle(charted):
+    """The overlay, the track figure and the card's map share the plan's sea room, also in the
+    drawing process; a different margin is another sea room."""
+    from dataclasses import replace
+
+    from maps.export.geojson import sea_room_lonlat
+
+    room = sea_room_lonlat(charted)
+    assert room is not None and sea_room_lonlat(charted) is room
+    sent = pickle.loads(pickle.dumps(charted))
+    assert sea_room_lonlat(sent) is sent.__dict__["_sea_room_memo"][1] and sea_room_lonlat(sent).equals(room)
+    wider = replace(charted, margin_m=charted.margin_m + 50.0)
+    assert sea_room_lonlat(wider).area > room.area

@@ -41,8 +41,23 @@ def _line(lonlat: np.ndarray) -> list[list[float]]:
     return out
 
 
+_ROOM_MEMO = "_sea_room_memo"  # kept on the plan object like the route (maps.export.route.build_route)
+
+
 def sea_room_lonlat(plan: Plan) -> Any:
-    """The swept sea room (shapely Polygon, lon/lat, exterior CCW) or None without a projection."""
+    """The swept sea room (shapely Polygon, lon/lat, exterior CCW) or None without a projection.
+    The overlay, the track figure and the card's map draw the same one: it is kept on the plan
+    (for the same track, hull, margin and projection) and travels with it to the drawing process."""
+    key = (plan.track, tuple(plan.hull), plan.margin_m, (plan.projection or {}).get("proj4"))
+    memo = plan.__dict__.get(_ROOM_MEMO)
+    if memo is not None and memo[0][0] is key[0] and memo[0][1:] == key[1:]:
+        return memo[1]
+    room = _sea_room(plan)
+    plan.__dict__[_ROOM_MEMO] = (key, room)
+    return room
+
+
+def _sea_room(plan: Plan) -> Any:
     proj4 = (plan.projection or {}).get("proj4")
     if not proj4:
         return None
