@@ -110,18 +110,50 @@ def _reap(pid: int, report: int) -> str | None:
     return None if os.waitstatus_to_exitcode(status) == 0 else msg
 
 
-def _compute_early(early: Callable[[], object], fd: int) -> None:
+def _compute_early(early: Callable[[], object], fd: int) -> object | None:
     """Run ``early`` and write its pickled result to ``fd`` (nothing when it fails: the parent
-    then computes it itself and reports its own error)."""
+    then computes it itself and reports its own error); returns the result (None if it failed)."""
     try:
-        data = pickle.dumps(early(), protocol=pickle.HIGHEST_PROTOCOL)
+        result = early()
+        data = pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
     except Exception:  # noqa: BLE001 - the parent meets the same error, worded by its own code
-        data = b""
+        result, data = None, b""
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
     except OSError:  # the parent no longer waits for it
         pass
+    return result
+
+
+def _prepare(ahead: Callable[[Any], dict[str, Any]] | None, result: object | None) -> dict[str, Any]:
+    """What ``ahead`` draws from the early result while the parent still plans ({} when there is
+    nothing to draw or it fails: the figure is then drawn from the plan as usual)."""
+    if ahead is None or result is None:
+        return {}
+    try:
+        return ahead(result)
+    except Exception:  # noqa: BLE001 - drawn again from the plan, where an error is reported
+        return {}
+
+
+def _same(a: object, b: object) -> bool:
+    """``a`` and ``b`` are of one type and each attribute pickles to the same bytes (the design
+    sent with the plan is the early one; the whole objects' pickles can differ in which strings
+    they share)."""
+
+    def dump(v: object) -> bytes:
+        return pickle.dumps(v, protocol=pickle.HIGHEST_PROTOCOL)
+
+    try:
+        if type(a) is not type(b):
+            return False
+        if hasattr(a, "__dict__") and hasattr(b, "__dict__"):
+            va, vb = vars(a), vars(b)
+            return va.keys() == vb.keys() and all(dump(va[k]) == dump(vb[k]) for k in va)
+        return dump(a) == dump(b)
+    except Exception:  # noqa: BLE001 - not comparable: drawn again
+        return False
 
 
 def _warm() -> None:
@@ -136,15 +168,17 @@ def _warm() -> None:
     import maps.output  # noqa: F401
 
 
-def draw_here(job: dict[str, Any]) -> None:
+def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> None:
     """Write every figure of ``job`` (see :meth:`Drawer.send`) in two processes, each figure drawn
     once: a forked child (:func:`beside`) writes the PDF trial card and the states PNG; this
     process writes plan.png, the design ratios and the track PNG, then the HTML trial card with
-    both PNGs."""
+    both PNGs. ``prepared``: figures drawn ahead from the early result (``"ratios"``: the design
+    and its ratios PNG), used when the job's design is that design."""
     from maps.export import _write, default_path
     from maps.export.card import write_card_pdf
     from maps.export.plots import PlanFigures, plot_states, plot_track
     from maps.output import plot_plan
+    from primitives.io import atomic_write_bytes
 
     plan, sea, chart, design, t0, tmp = (job[k] for k in ("plan", "sea", "chart", "design", "t0", "dir"))
     html = default_path(plan, "card", tmp)
@@ -159,7 +193,12 @@ def draw_here(job: dict[str, Any]) -> None:
     try:
         jobs = [(tmp / "plan.png", "the plan picture", lambda: plot_plan(plan, sea, tmp / "plan.png"))]
         if design is not None:
-            jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(design, tmp)))
+            ahead = (prepared or {}).get("ratios")
+            if ahead is not None and _same(ahead[0], design):  # drawn while the parent planned
+                jobs.append((tmp / "design-ratios.png", "the design ratios figure",
+                             lambda: atomic_write_bytes(tmp / "design-ratios.png", ahead[1])))
+            else:
+                jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(design, tmp)))
         _run_jobs(jobs)
         with PlanFigures(plan, chart) as figs:  # the card's images are the PNG exports
             _run_jobs([(track, "the track figure", lambda: plot_track(plan, track, chart, figures=figs))])
@@ -187,7 +226,7 @@ class Drawer:
     planned, or the command failed). Without ``fork`` nothing is started and ``send`` draws in
     the calling process."""
 
-    def __init__(self, early: Callable[[], object] | None = None) -> None:
+    def __init__(self, early: Callable[[], object] | None = None, ahead: Callable[[Any], dict[str, Any]] | None = None) -> None:
         self.pid, self._early = 0, -1
         if not CAN_FORK:
             return
@@ -202,7 +241,7 @@ class Drawer:
             os.close(self._report)
             if early is not None:
                 os.close(self._early)
-                _child(report_w, lambda: self._serve(job_r, early, early_w))
+                _child(report_w, lambda: self._serve(job_r, early, early_w, ahead))
             _child(report_w, lambda: self._serve(job_r))
         os.close(job_r)
         os.close(report_w)
@@ -211,14 +250,15 @@ class Drawer:
         self.pid, self._sender = pid, None
 
     @staticmethod
-    def _serve(job_r: int, early: Callable[[], object] | None = None, early_w: int = -1) -> None:
-        if early is not None:
-            _compute_early(early, early_w)
+    def _serve(job_r: int, early: Callable[[], object] | None = None, early_w: int = -1,
+               ahead: Callable[[Any], dict[str, Any]] | None = None) -> None:
+        result = _compute_early(early, early_w) if early is not None else None
         _warm()
+        prepared = _prepare(ahead, result)  # while the parent still plans
         with os.fdopen(job_r, "rb") as fh:
             data = fh.read()
         if data:  # nothing sent: cancelled
-            draw_here(pickle.loads(data))
+            draw_here(pickle.loads(data), prepared)
 
     def early(self) -> Any:
         """The result of the ``early`` function given to the constructor, computed in the drawer

@@ -195,7 +195,7 @@ def plan_and_write(ship: str, map_path: Path | None, opts: PlanOptions, design: 
     early = None
     if counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
         early = partial(_first_design, ship, **design)
-    drawer = None if no_export else Drawer(early)
+    drawer = None if no_export else Drawer(early, ahead=_ratios_ahead if early is not None else None)
     try:
         prof = load_profile(ship)
         prof.require_planar("shiptrial plan")
@@ -224,6 +224,14 @@ def _first_design(ship: str, **design: Any) -> FirstDesign:
     from primitives.ship import load_profile
 
     return first_design(load_profile(ship), **design)
+
+
+def _ratios_ahead(first: FirstDesign) -> dict[str, Any]:
+    """The design ratios figure of the early design, drawn in the drawer while this process plans
+    (used when the plan's design is that one: nothing was dropped for the map)."""
+    from expdesign.report import ratios_png
+
+    return {"ratios": (first.design.design, ratios_png(first.design.design))}
 
 
 def write_outputs_all(result: Plan, sea: SeaMap, tmp: Path, td: TrialDesign | None, t0: datetime, no_export: bool, quiet: bool,
