@@ -255,6 +255,9 @@ class Drawer:
         result = _compute_early(early, early_w) if early is not None else None
         _warm()
         prepared = _prepare(ahead, result)  # while the parent still plans
+        from maps.export.cardpdf import prepare_document
+
+        prepare_document()  # the PDF card's fonts read now, in the process its writer is forked from
         with os.fdopen(job_r, "rb") as fh:
             data = fh.read()
         if data:  # nothing sent: cancelled

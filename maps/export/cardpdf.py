@@ -178,10 +178,21 @@ def _detail_pages(doc: _Card, plan: Plan, lines: list[tuple[str, dict]], first: 
                          colour=RED if style.get("color") == "#a00000" else (0, 0, 0))
 
 
+_SPARE: list[_Card] = []  # an empty document made ahead (prepare_document), used by the next card
+
+
+def prepare_document() -> None:
+    """Make the next card's empty document now (reading the two TrueType fonts is most of its
+    cost): ``plan-trial``'s drawer does it while the plan is still being made, and the process
+    that writes the card, forked from it, starts from it."""
+    if not _SPARE:
+        _SPARE.append(_Card())
+
+
 def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> bytes:
     """The card's pages (as :func:`maps.export.card.iter_card_figures` draws them) as PDF bytes;
     ``sea_map``: the plan's chart (:func:`maps.export.chart.plan_chart`)."""
-    doc = _Card()
+    doc = _SPARE.pop() if _SPARE else _Card()  # a prepared document is a new one: same bytes
     sheets = step_sheets(plan, t0, sea_map)
     _page1(doc, plan, t0, sea_map, vessel)
     page = _table_pages(doc, plan, "steps in sailing order", TABLE_COLS, _table_rows(sheets), TABLE_WIDTHS, 2)
