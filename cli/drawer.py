@@ -1,13 +1,16 @@
 """The figures of ``shiptrial plan`` drawn beside the computation.
 
 Drawing (the PDF trial card, the card's map and time-series figures, plan.png, the design
-ratios) needs matplotlib and fpdf, about half a second of imports, and about a second of
+ratios) needs matplotlib and fpdf, about half a second of imports, and about half a second of
 rendering. A :class:`Drawer` is forked when the command starts: it first runs the command's
 ``early`` function (the design of the ship's library, which needs nothing from the map) and pipes
 the result back while the parent loads the map and builds the basic moves, then imports the
-drawing modules on the other core while the parent plans, then receives the finished plan
-(pickled through a pipe) and draws it in two processes (itself and one forked child) while the
-parent writes the text exports. The figures and bytes are those of one process.
+drawing modules on the other core while the parent plans (and draws what it can ahead: the design
+ratios of its design, the PDF card's empty document with its fonts read), then receives the
+finished plan (pickled through a pipe, with the route and sea room every export shares) and draws
+it in two processes (itself and one forked child) while the parent writes the text exports. The
+figures and bytes are those of one process. A drawer cancelled before it was sent a plan (the
+command refused) is killed at once.
 
 On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`).
 """

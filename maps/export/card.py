@@ -1,5 +1,6 @@
 """Trial card for the bridge: a self-contained HTML page (PNG figures embedded as data URIs)
-and a printable PDF (matplotlib PdfPages, A4, TrueType fonts embedded).
+and a printable PDF (A4, TrueType fonts embedded; written with fpdf2 by :mod:`maps.export.cardpdf`
+after the matplotlib pages drawn here, which remain for the page-1 PNG).
 
 Page 1: the plan at a glance (ship, start, totals, abort criteria, the experiment design's
 D-efficiency), the map with land, shallow/restricted water and depth areas, the track
