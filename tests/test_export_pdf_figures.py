@@ -165,3 +165,33 @@ def test_one_sea_room_per_plan_even_across_a_pickle(charted):
     assert sea_room_lonlat(sent) is sent.__dict__["_sea_room_memo"][1] and sea_room_lonlat(sent).equals(room)
     wider = replace(charted, margin_m=charted.margin_m + 50.0)
     assert sea_room_lonlat(wider).area > room.area
+
+
+def test_track_figure_of_a_narrow_map_keeps_its_title_and_readable_ticks():
+    """A map much taller than wide (a fjord): the figure is as wide as its title, and the
+    longitude labels do not overlap (fewer ticks on a narrow map, in the PDF map too)."""
+    import matplotlib.pyplot as plt
+
+    from maps.export.pdfmap import map_frame
+    from maps.export.plots import lon_ticks, track_figure
+
+    plan = synthetic_plan("full-scale", ("straight",) * 40)
+    lat0 = float(plan.lonlat[0, 1])
+    plan.lonlat[:, 1] = lat0 + np.linspace(0.0, 0.1, len(plan.lonlat))  # 11 km north
+    plan.lonlat[:, 0] = plan.lonlat[0, 0] + np.linspace(0.0, 0.002, len(plan.lonlat))  # 110 m east
+    fig = track_figure(plan)
+    try:
+        r = fig.canvas.get_renderer()
+        ax = fig.axes[0]
+        title, whole = ax.title.get_window_extent(r), fig.bbox
+        assert title.x0 >= whole.x0 - 1 and title.x1 <= whole.x1 + 1
+        boxes = sorted((t.get_window_extent(r) for t in ax.get_xticklabels() if t.get_text() and t.get_visible()),
+                       key=lambda b: b.x0)
+        visible = [b for b in boxes if b.x1 >= ax.bbox.x0 - 1 and b.x0 <= ax.bbox.x1 + 1]
+        assert all(a.x1 <= b.x0 for a, b in zip(visible, visible[1:]))
+    finally:
+        plt.close(fig)
+    f = map_frame(plan, (0.0, 0.0, 500.0, 500.0))
+    ticks = lon_ticks(f.x0, f.x1, f.width)
+    assert ticks and all((b - a) / (f.x1 - f.x0) * f.width >= 60.0 for a, b in zip(ticks, ticks[1:]))
+    assert len(lon_ticks(24.95, 25.02, 400.0)) >= 4  # a wide map keeps its four or five

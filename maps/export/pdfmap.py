@@ -27,6 +27,7 @@ from maps.export.plots import (
     _m_per_deg,
     _view,
     hatch_segments,
+    lon_ticks,
     primitive_colours,
     scale_bar,
     step_colour,
@@ -243,11 +244,12 @@ class MapWriter(Painter):
             self.text(x, y, s, NUM_FS, bold=True, ha="center", va="center")
 
     def ticks(self) -> tuple[list[float], list[float]]:
-        """Tick positions on the page: matplotlib's MaxNLocator(4) along x, its AutoLocator along y."""
+        """Tick positions on the page: matplotlib's MaxNLocator along x (4 intervals, fewer on a narrow
+        map: :func:`maps.export.plots.lon_ticks`), its AutoLocator along y."""
         from matplotlib.ticker import MaxNLocator
 
         f = self.f
-        xs = [v for v in MaxNLocator(4).tick_values(f.x0, f.x1) if f.x0 <= v <= f.x1]
+        xs = lon_ticks(f.x0, f.x1, f.width)
         nbins = int(np.clip(math.floor(f.height / (TICK_FS * 2)), 1, 9))
         ys = [v for v in MaxNLocator(nbins, steps=[1, 2, 2.5, 5, 10]).tick_values(f.y0, f.y1) if f.y0 <= v <= f.y1]
         self._tick_values = (xs, ys)

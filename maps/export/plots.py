@@ -271,6 +271,20 @@ def _draw_track(ax: Any, plan: Plan, numbers: bool) -> None:
     ax.plot(lon[-1], lat[-1], marker="s", ms=9, color="red", mec="k", zorder=4, ls="none", label="end")
 
 
+def lon_ticks(x0: float, x1: float, width_pt: float) -> list[float]:
+    """Longitude ticks of a map from ``x0`` to ``x1`` drawn ``width_pt`` points wide:
+    matplotlib's MaxNLocator(4) ticks inside the view, every other one dropped until they are
+    60 points apart (a label such as 024°57.600′E is some 45 points long at 7 pt): a narrow map
+    (a fjord) gets fewer labels, never overlapping ones."""
+    from matplotlib.ticker import MaxNLocator
+
+    ticks = [float(v) for v in MaxNLocator(4).tick_values(x0, x1) if x0 <= v <= x1]
+    step = 1
+    while len(ticks[::step]) > 1 and (ticks[step] - ticks[0]) / (x1 - x0) * width_pt < 60.0:
+        step += 1
+    return ticks[::step]
+
+
 def _m_per_deg(view: Any) -> tuple[float, float]:
     lat = 0.5 * (view.bounds[1] + view.bounds[3])
     return 111_320.0 * math.cos(math.radians(lat)), 111_320.0
@@ -442,6 +456,8 @@ def _fit_to_map(fig: Any, ax: Any, legend: Any) -> None:
     """Size ``fig`` to the map (its aspect fixed by the latitude) plus fixed margins and the
     legend on the right: the figure ends where the drawing does, with no layout pass over the
     tick labels and no cropping draw when saved."""
+    from matplotlib.ticker import FixedLocator
+
     r = fig.canvas.get_renderer()
     leg = legend.get_window_extent(r)
     leg_w, leg_h = leg.width / fig.dpi, leg.height / fig.dpi
@@ -451,9 +467,14 @@ def _fit_to_map(fig: Any, ax: Any, legend: Any) -> None:
     w, h = fig.get_size_inches()
     pos = ax.get_position()
     ax_w, ax_h = pos.width * w, pos.height * h
-    right = 0.01 * ax_w + leg_w + 0.15  # the legend sits 1 % of the axes width right of the map
-    fig.set_size_inches(m["left"] + ax_w + right, m["top"] + max(ax_h, leg_h) + m["bottom"])
-    fixed_margins(fig, right=right, left=m["left"], top=m["top"], bottom=m["bottom"] + max(0.0, leg_h - ax_h))
+    # the title is centred over the map: a map narrower than its title gets the room on both sides
+    over = max(0.0, 0.5 * (ax.title.get_window_extent(r).width / fig.dpi - ax_w) + 0.1)
+    left = max(m["left"], over)
+    right = max(0.01 * ax_w + leg_w + 0.15, over)  # the legend sits 1 % of the axes width right of the map
+    fig.set_size_inches(left + ax_w + right, m["top"] + max(ax_h, leg_h) + m["bottom"])
+    fixed_margins(fig, right=right, left=left, top=m["top"], bottom=m["bottom"] + max(0.0, leg_h - ax_h))
+    x0, x1 = ax.get_xlim()
+    ax.xaxis.set_major_locator(FixedLocator(lon_ticks(x0, x1, 72.0 * ax_w)))  # labels that do not overlap
 
 
 STATES_DPI = 110
