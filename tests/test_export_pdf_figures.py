@@ -195,3 +195,22 @@ def test_track_figure_of_a_narrow_map_keeps_its_title_and_readable_ticks():
     ticks = lon_ticks(f.x0, f.x1, f.width)
     assert ticks and all((b - a) / (f.x1 - f.x0) * f.width >= 60.0 for a, b in zip(ticks, ticks[1:]))
     assert len(lon_ticks(24.95, 25.02, 400.0)) >= 4  # a wide map keeps its four or five
+
+
+def test_page1_summary_lines_fit_the_page(charted):
+    """A design that leaves many manoeuvres unused: page 1's summary is wrapped, every line
+    inside the page's width in the card's font, none lost."""
+    from datetime import UTC, datetime
+
+    from maps.export.card import page1_layout
+    from maps.export.cardpdf import FONT, W, _Card
+
+    plan = Plan.from_dict(json.loads(charted.to_json()))
+    names = [f"zigzag_{k}_{k}_s" for k in range(10, 30)]
+    plan.design = {"criterion": "D", "mean_subtraction": "complete", "d_efficiency": 0.99, "weights": {"straight": 1.0},
+                   "counts": {"straight": 1}, "not_used": names}
+    lines, _, _, _ = page1_layout(plan, datetime(2026, 6, 1, 8, tzinfo=UTC), plan_chart(plan), "MS Test")
+    doc = _Card()
+    doc.pdf.set_font(FONT, "", 8.5)
+    assert all(0.05 * W + doc.pdf.get_string_width(line) <= 0.97 * W for line in lines)
+    assert all(n in " ".join(lines) for n in names)

@@ -263,10 +263,16 @@ def _n_table_pages(rows: list) -> int:
     return max(1, -(-len(rows) // ROWS_PER_PAGE))
 
 
+PAGE1_CHARS = 110
+
+
 def page1_layout(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> tuple[list[str], list[str], float, float]:
     """Page 1's summary lines, abort box lines, the abort box's top and the map's top (figure fractions)."""
     d_head, _ = design_rows(plan)
-    lines = _summary(plan, t0, vessel, sea_map) + d_head
+    # wrapped to the page (8.5 pt DejaVu Sans, 0.9 of A4's width: some 110 characters): a long
+    # list of unused manoeuvres ran off the page's edge
+    lines = [w for line in _summary(plan, t0, vessel, sea_map) + d_head
+             for w in textwrap.wrap(line, PAGE1_CHARS, subsequent_indent="    ", break_on_hyphens=False) or [""]]
     y = 0.935 - 0.017 * len(lines)
     abort = ["ABORT the manoeuvre (stop, steer clear) if:"] + [f"  - {a}" for a in abort_criteria(plan)]
     return lines, abort, y - 0.006, y - 0.09
