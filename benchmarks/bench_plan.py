@@ -114,8 +114,9 @@ def _stages() -> dict:
     from maps.export._common import iso, resolve_start
     from maps.export.card import write_card_pdf
     from maps.export.chart import embed_chart, plan_chart
-    from maps.export.geojson import write_geojson
+    from maps.export.geojson import sea_room_lonlat, write_geojson
     from maps.export.plots import PlanFigures
+    from maps.export.route import build_route
     from maps.geo import load_map
     from maps.output import plot_plan
     from maps.planner import plan_with_design
@@ -137,14 +138,16 @@ def _stages() -> dict:
     t0 = resolve_start(plan, "2026-06-01T08:00Z")
     plan.stats["start_utc"] = iso(t0)
     chart = plan_chart(plan, sea)
-    mark("chart")
+    build_route(plan, chart)  # as the command: one route and sea room for every export, before the figures are sent to be drawn
+    sea_room_lonlat(plan)
+    mark("chart + route")
     with tempfile.TemporaryDirectory(prefix="bench-stages-") as tmp:
         out = Path(tmp)
         write_card_pdf(plan, out / "card.pdf", chart, t0)
         mark("child: PDF card")
         plot_plan(plan, sea, out / "plan.png")
         mark("child: plan.png")
-        embed_chart(plan, sea)
+        embed_chart(plan, chart)
         (out / "plan.json").write_text(plan.to_json())
         write_geojson(plan, out / "trajectory.geojson", overlay=False)
         mark("plan.json + trajectory")

@@ -1,13 +1,16 @@
 """The figures of ``shiptrial plan`` drawn beside the computation.
 
 Drawing (the PDF trial card, the card's map and time-series figures, plan.png, the design
-ratios) needs matplotlib and fpdf, about half a second of imports, and about a second of
+ratios) needs matplotlib and fpdf, about half a second of imports, and about half a second of
 rendering. A :class:`Drawer` is forked when the command starts: it first runs the command's
 ``early`` function (the design of the ship's library, which needs nothing from the map) and pipes
 the result back while the parent loads the map and builds the basic moves, then imports the
-drawing modules on the other core while the parent plans, then receives the finished plan
-(pickled through a pipe) and draws it in two processes (itself and one forked child) while the
-parent writes the text exports. The figures and bytes are those of one process.
+drawing modules on the other core while the parent plans (and draws what it can ahead: the design
+ratios of its design, the PDF card's empty document with its fonts read), then receives the
+finished plan (pickled through a pipe, with the route and sea room every export shares) and draws
+it in two processes (itself and one forked child) while the parent writes the text exports. The
+figures and bytes are those of one process. A drawer cancelled before it was sent a plan (the
+command refused) is killed at once.
 
 On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`).
 """
@@ -17,6 +20,7 @@ from __future__ import annotations
 import gc
 import os
 import pickle
+import signal
 import sys
 import threading
 from collections.abc import Callable
@@ -26,7 +30,7 @@ from typing import Any
 CAN_FORK = sys.platform.startswith("linux")
 
 
-def beside(jobs: list[tuple[Path, str, Callable[[], object]]]):
+def beside(jobs: list[tuple[Path, str, Callable[[], object]]]) -> Callable[..., list[Path]]:
     """Start writing ``jobs`` ((path, what, writer) each); returns a function that waits for them
     and returns their paths (raising the first writer's error, naming its file).
 
@@ -109,27 +113,57 @@ def _reap(pid: int, report: int) -> str | None:
     return None if os.waitstatus_to_exitcode(status) == 0 else msg
 
 
-def _compute_early(early: Callable[[], object], fd: int) -> None:
+def _compute_early(early: Callable[[], object], fd: int) -> object | None:
     """Run ``early`` and write its pickled result to ``fd`` (nothing when it fails: the parent
-    then computes it itself and reports its own error)."""
+    then computes it itself and reports its own error); returns the result (None if it failed)."""
     try:
-        data = pickle.dumps(early(), protocol=pickle.HIGHEST_PROTOCOL)
+        result = early()
+        data = pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
     except Exception:  # noqa: BLE001 - the parent meets the same error, worded by its own code
-        data = b""
+        result, data = None, b""
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
     except OSError:  # the parent no longer waits for it
         pass
+    return result
+
+
+def _prepare(ahead: Callable[[Any], dict[str, Any]] | None, result: object | None) -> dict[str, Any]:
+    """What ``ahead`` draws from the early result while the parent still plans ({} when there is
+    nothing to draw or it fails: the figure is then drawn from the plan as usual)."""
+    if ahead is None or result is None:
+        return {}
+    try:
+        return ahead(result)
+    except Exception:  # noqa: BLE001 - drawn again from the plan, where an error is reported
+        return {}
+
+
+def _same(a: object, b: object) -> bool:
+    """``a`` and ``b`` are of one type and each attribute pickles to the same bytes (the design
+    sent with the plan is the early one; the whole objects' pickles can differ in which strings
+    they share)."""
+
+    def dump(v: object) -> bytes:
+        return pickle.dumps(v, protocol=pickle.HIGHEST_PROTOCOL)
+
+    try:
+        if type(a) is not type(b):
+            return False
+        if hasattr(a, "__dict__") and hasattr(b, "__dict__"):
+            va, vb = vars(a), vars(b)
+            return va.keys() == vb.keys() and all(dump(va[k]) == dump(vb[k]) for k in va)
+        return dump(a) == dump(b)
+    except Exception:  # noqa: BLE001 - not comparable: drawn again
+        return False
 
 
 def _warm() -> None:
     """Import what drawing needs (the child's work while the parent plans), the modules the
-    writers import when first called included (fpdf and its SVG reader, matplotlib's backends)."""
+    writers import when first called included (fpdf, matplotlib's Agg backend)."""
     import fpdf  # noqa: F401
-    import fpdf.svg  # noqa: F401
     import matplotlib.backends.backend_agg  # noqa: F401
-    import matplotlib.backends.backend_svg  # noqa: F401
 
     import expdesign.report  # noqa: F401
     import maps.export.card  # noqa: F401
@@ -137,32 +171,37 @@ def _warm() -> None:
     import maps.output  # noqa: F401
 
 
-def draw_here(job: dict[str, Any]) -> None:
+def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> None:
     """Write every figure of ``job`` (see :meth:`Drawer.send`) in two processes, each figure drawn
-    once: a forked child (:func:`beside`) writes the PDF trial card and, from the card's states
-    figure, the states PNG; this process writes plan.png, the design ratios and the track PNG,
-    then the HTML trial card with both PNGs."""
+    once: a forked child (:func:`beside`) writes the PDF trial card and the states PNG; this
+    process writes plan.png, the design ratios and the track PNG, then the HTML trial card with
+    both PNGs. ``prepared``: figures drawn ahead from the early result (``"ratios"``: the design
+    and its ratios PNG), used when the job's design is that design."""
     from maps.export import _write, default_path
     from maps.export.card import write_card_pdf
     from maps.export.plots import PlanFigures, plot_states, plot_track
     from maps.output import plot_plan
+    from primitives.io import atomic_write_bytes
 
     plan, sea, chart, design, t0, tmp = (job[k] for k in ("plan", "sea", "chart", "design", "t0", "dir"))
     html = default_path(plan, "card", tmp)
     stem = default_path(plan, "csv", tmp).with_suffix("")
     track, states = Path(f"{stem}-track.png"), Path(f"{stem}-states.png")
 
-    def card_pdf() -> None:
-        with PlanFigures(plan, chart) as figs:
-            _run_jobs([(html.with_suffix(".pdf"), "the PDF trial card", lambda: write_card_pdf(plan, html.with_suffix(".pdf"),
-                                                                                               chart, t0, figures=figs)),
-                       (states, "the states figure", lambda: plot_states(plan, states, figures=figs))])
+    def card_pdf() -> None:  # the PDF draws its own map and states page: no figure shared with the PNGs
+        _run_jobs([(html.with_suffix(".pdf"), "the PDF trial card", lambda: write_card_pdf(plan, html.with_suffix(".pdf"), chart, t0)),
+                   (states, "the states figure", lambda: plot_states(plan, states))])
 
     wait = beside([(html.with_suffix(".pdf"), "the PDF trial card", card_pdf)])
     try:
         jobs = [(tmp / "plan.png", "the plan picture", lambda: plot_plan(plan, sea, tmp / "plan.png"))]
         if design is not None:
-            jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(design, tmp)))
+            ahead = (prepared or {}).get("ratios")
+            if ahead is not None and _same(ahead[0], design):  # drawn while the parent planned
+                jobs.append((tmp / "design-ratios.png", "the design ratios figure",
+                             lambda: atomic_write_bytes(tmp / "design-ratios.png", ahead[1])))
+            else:
+                jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(design, tmp)))
         _run_jobs(jobs)
         with PlanFigures(plan, chart) as figs:  # the card's images are the PNG exports
             _run_jobs([(track, "the track figure", lambda: plot_track(plan, track, chart, figures=figs))])
@@ -190,7 +229,7 @@ class Drawer:
     planned, or the command failed). Without ``fork`` nothing is started and ``send`` draws in
     the calling process."""
 
-    def __init__(self, early: Callable[[], object] | None = None) -> None:
+    def __init__(self, early: Callable[[], object] | None = None, ahead: Callable[[Any], dict[str, Any]] | None = None) -> None:
         self.pid, self._early = 0, -1
         if not CAN_FORK:
             return
@@ -205,7 +244,7 @@ class Drawer:
             os.close(self._report)
             if early is not None:
                 os.close(self._early)
-                _child(report_w, lambda: self._serve(job_r, early, early_w))
+                _child(report_w, lambda: self._serve(job_r, early, early_w, ahead))
             _child(report_w, lambda: self._serve(job_r))
         os.close(job_r)
         os.close(report_w)
@@ -214,14 +253,18 @@ class Drawer:
         self.pid, self._sender = pid, None
 
     @staticmethod
-    def _serve(job_r: int, early: Callable[[], object] | None = None, early_w: int = -1) -> None:
-        if early is not None:
-            _compute_early(early, early_w)
+    def _serve(job_r: int, early: Callable[[], object] | None = None, early_w: int = -1,
+               ahead: Callable[[Any], dict[str, Any]] | None = None) -> None:
+        result = _compute_early(early, early_w) if early is not None else None
         _warm()
+        prepared = _prepare(ahead, result)  # while the parent still plans
+        from maps.export.cardpdf import prepare_document
+
+        prepare_document()  # the PDF card's fonts read now, in the process its writer is forked from
         with os.fdopen(job_r, "rb") as fh:
             data = fh.read()
         if data:  # nothing sent: cancelled
-            draw_here(pickle.loads(data))
+            draw_here(pickle.loads(data), prepared)
 
     def early(self) -> Any:
         """The result of the ``early`` function given to the constructor, computed in the drawer
@@ -270,13 +313,20 @@ class Drawer:
         if self._early >= 0:  # never read: the drawer's write fails instead of blocking
             os.close(self._early)
             self._early = -1
-        if self._job_w >= 0:  # never sent: cancelled
+        cancelled = self._job_w >= 0
+        if cancelled:  # never sent
             os.close(self._job_w)
             self._job_w = -1
+            # nothing to draw: end it now rather than let it finish its design and imports (CPU and wall
+            # time of a refused run); it has written nothing and started no process of its own
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
         if self._sender is not None:
             self._sender.join()
         msg = _reap(pid, self._report)
-        if msg is not None and not quiet:
+        if msg is not None and not quiet and not cancelled:
             from maps.export import ExportError
 
             raise ExportError(msg or "drawing the figures failed")

@@ -3,14 +3,24 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterator
 from contextlib import contextmanager
+from datetime import datetime
 from functools import partial
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import typer
 
 from primitives.errors import UserError
 from primitives.io import dumps
+
+if TYPE_CHECKING:  # annotations only: the command imports the library when it runs
+    from cli.drawer import Drawer
+    from maps.chain import LatLonHdg, PlanOptions
+    from maps.geo import SeaMap
+    from maps.plan import Plan
+    from maps.trialdesign import FirstDesign, TrialDesign
 
 
 def parse_point(text: str | None, what: str) -> tuple[float, float, float | None] | None:
@@ -46,7 +56,7 @@ def parse_counts(text: str | None) -> dict[str, int] | None:
 
 
 @contextmanager
-def stage(text: str, quiet: bool):
+def stage(text: str, quiet: bool) -> Iterator[None]:
     """A spinner on stderr for a long step (only on a terminal, never in --json output)."""
     if quiet or not sys.stderr.isatty():
         yield
@@ -68,7 +78,8 @@ def design_conflict(counts: str | None, scenario: str | None, **design: object) 
                         f"drop {' and '.join(given)} or {chooser}")
 
 
-def print_summary(result, summary: dict, files: dict[str, Path]) -> None:
+def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path]) -> None:
+    """The plan as rich tables on stdout: notes, totals, design, the steps in sailing order, the files written."""
     from rich.console import Console
     from rich.table import Table
 
@@ -140,15 +151,8 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
     ) -> None:
         """Plan a trial: design -> whole manoeuvres -> A* planning -> continuous verification -> exports for the crew."""
-        from cli.drawer import Drawer
         from cli.options import validate_plan_options
         from maps.chain import PlanOptions
-        from maps.export._common import iso, resolve_start
-        from maps.geo import load_map
-        from maps.planner import plan_with_design
-        from maps.trialdesign import NoFitError
-        from primitives.io import atomic_output_dir
-        from primitives.ship import load_profile
 
         design_conflict(counts, scenario, criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length)
         criterion = "D" if criterion is None else criterion
@@ -161,42 +165,60 @@ def register(app: typer.Typer) -> None:
         ni, nj = (int(v) for v in size.lower().split("x"))  # checked by validate_plan_options
         if counts is not None and scenario is not None:
             raise UserError("--counts and --scenario both choose the manoeuvres: give one of them")
-        start_pt, goal_pt = parse_point(start, "start"), parse_point(goal, "goal")
-        cnt = parse_counts(counts)
         opts = PlanOptions(resolution=resolution, headings=headings, heuristic=heuristic, margin=margin, split=split,
                            size=(ni, nj), run_in_s=run_in, max_memory_gib=max_memory)
         opts.check()
-        early = None
-        if counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
-            early = partial(_first_design, ship, criterion=criterion, mean_subtraction=mean_subtraction,
-                            trial_length_s=trial_length, seed=seed)
-        # imports the drawing modules (and designs) on the other core while this one plans
-        drawer = None if no_export else Drawer(early)
-        try:
-            prof = load_profile(ship)
-            prof.require_planar("shiptrial plan")
-            sea = load_map(map_path, draught_m=prof.draught_m)
-            try:
-                with stage("designing the manoeuvre mix and planning on the lattice (A*) ...", json_out):
-                    result, td = plan_with_design(sea, profile=prof, counts=cnt, start=start_pt, goal=goal_pt, scenario=scenario,
-                                                  criterion=criterion, mean_subtraction=mean_subtraction,
-                                                  trial_length_s=trial_length, seed=seed, vessel_name=vessel_name or "",
-                                                  options=opts, first_design=drawer.early if drawer is not None else None)
-            except NoFitError as exc:
-                print(f"error: {str(exc).splitlines()[0]}", file=sys.stderr)
-                raise typer.Exit(1) from None
-            t0 = resolve_start(result, start_time)
-            result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
-            with atomic_output_dir(out) as tmp:
-                files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer)
-        finally:
-            if drawer is not None:
-                drawer.cancel()  # a no-op once it has drawn; ends it when the command failed before
-        files = {k: out / Path(v).relative_to(tmp) for k, v in files.items()}
+        design = {"criterion": criterion, "mean_subtraction": mean_subtraction, "trial_length_s": trial_length, "seed": seed}
+        files, result = plan_and_write(ship, map_path, opts, design, counts=parse_counts(counts), scenario=scenario,
+                                       start=parse_point(start, "start"), goal=parse_point(goal, "goal"),
+                                       vessel_name=vessel_name, out=out, start_time=start_time, no_export=no_export,
+                                       json_out=json_out)
         report(result, files, heuristic, json_out)
 
 
-def _first_design(ship: str, **design: object):
+def plan_and_write(ship: str, map_path: Path | None, opts: PlanOptions, design: dict[str, Any], *,
+                   counts: dict[str, int] | None, scenario: str | None, start: LatLonHdg | None, goal: LatLonHdg | None,
+                   vessel_name: str | None, out: Path, start_time: str | None, no_export: bool,
+                   json_out: bool) -> tuple[dict[str, Path], Plan]:
+    """Plan (``design``: criterion, mean_subtraction, trial_length_s, seed) and write every
+    output into ``out``; returns the files (paths in ``out``) and the plan. The figures are drawn
+    by a :class:`cli.drawer.Drawer` started first (it designs and imports the drawing modules on
+    the other core while this process plans); a NoFitError is the command's exit 1."""
+    from cli.drawer import Drawer
+    from maps.export._common import iso, resolve_start
+    from maps.geo import load_map
+    from maps.planner import plan_with_design
+    from maps.trialdesign import NoFitError
+    from primitives.io import atomic_output_dir
+    from primitives.ship import load_profile
+
+    early = None
+    if counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
+        early = partial(_first_design, ship, **design)
+    drawer = None if no_export else Drawer(early, ahead=_ratios_ahead if early is not None else None)
+    try:
+        prof = load_profile(ship)
+        prof.require_planar("shiptrial plan")
+        sea = load_map(map_path, draught_m=prof.draught_m)
+        try:
+            with stage("designing the manoeuvre mix and planning on the lattice (A*) ...", json_out):
+                result, td = plan_with_design(sea, profile=prof, counts=counts, start=start, goal=goal, scenario=scenario,
+                                              **design, vessel_name=vessel_name or "", options=opts,
+                                              first_design=drawer.early if drawer is not None else None)
+        except NoFitError as exc:
+            print(f"error: {str(exc).splitlines()[0]}", file=sys.stderr)
+            raise typer.Exit(1) from None
+        t0 = resolve_start(result, start_time)
+        result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
+        with atomic_output_dir(out) as tmp:
+            files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer)
+    finally:
+        if drawer is not None:
+            drawer.cancel()  # a no-op once it has drawn; ends it at once when the command failed before
+    return {k: out / Path(v).relative_to(tmp) for k, v in files.items()}, result
+
+
+def _first_design(ship: str, **design: Any) -> FirstDesign:
     """The design of ``ship``'s library before the map is consulted (run in the drawer process)."""
     from maps.trialdesign import first_design
     from primitives.ship import load_profile
@@ -204,7 +226,16 @@ def _first_design(ship: str, **design: object):
     return first_design(load_profile(ship), **design)
 
 
-def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bool, drawer=None) -> dict[str, Path]:
+def _ratios_ahead(first: FirstDesign) -> dict[str, Any]:
+    """The design ratios figure of the early design, drawn in the drawer while this process plans
+    (used when the plan's design is that one: nothing was dropped for the map)."""
+    from expdesign.report import ratios_png
+
+    return {"ratios": (first.design.design, ratios_png(first.design.design))}
+
+
+def write_outputs_all(result: Plan, sea: SeaMap, tmp: Path, td: TrialDesign | None, t0: datetime, no_export: bool, quiet: bool,
+                      drawer: Drawer | None = None) -> dict[str, Path]:
     """Every output into the (temporary) directory ``tmp``. The figures (PDF and HTML trial card,
     their PNGs, the plan picture, the design ratios) are drawn by ``drawer`` (a
     :class:`cli.drawer.Drawer` started with the command) while this process writes the plan and
@@ -212,6 +243,8 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
     from maps.export import _write, default_path
     from maps.export._common import check_plan
     from maps.export.chart import plan_chart
+    from maps.export.geojson import sea_room_lonlat
+    from maps.export.route import build_route
     from maps.output import write_outputs
 
     exports = result.feasible and not no_export
@@ -226,6 +259,8 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
         return files
     check_plan(result)
     chart = plan_chart(result, sea)  # one chart for every export
+    build_route(result, chart)  # one route and sea room for every export: kept on the plan, sent to the drawer with it
+    sea_room_lonlat(result)
     if drawer is None:
         from cli.drawer import Drawer
 
@@ -233,7 +268,7 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
     drawer.send({"plan": result, "sea": sea, "chart": chart, "design": td.design if td is not None else None, "t0": t0,
                  "dir": tmp})  # pickled now: the figures are drawn with the chart given, not the one plan.json stores
     try:
-        files = write_outputs(result, sea, tmp, plot=False)
+        files = write_outputs(result, sea, tmp, plot=False, chart=chart)
         with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
             crew = {fmt: _write(result, fmt, default_path(result, fmt, tmp), sea_map=chart, start=t0, vessel=None, pdf=False,
                                 figures=None)[0] for fmt in ("geojson", "gpx", "rtz", "csv")}
@@ -248,7 +283,7 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
             "states_png": Path(f"{stem}-states.png")}
 
 
-def report(result, files: dict[str, Path], heuristic: str, json_out: bool) -> None:
+def report(result: Plan, files: dict[str, Path], heuristic: str, json_out: bool) -> None:
     """Print the summary (table or one JSON object); exit 1 when no feasible plan was found."""
     st = result.stats
     summary = {

@@ -11,7 +11,7 @@ from expdesign.api import Design
 from expdesign.estimators import OE_TOL
 from expdesign.mc_parallel import MCEvaluation
 from expdesign.mc_result import PARAM_THRESHOLD, SIM_THRESHOLD, THESIS_FRACTIONS, MCResult
-from primitives.io import atomic_savefig, atomic_write_text, dumps
+from primitives.io import atomic_savefig, atomic_write_bytes, atomic_write_text, dumps
 
 
 def report_dict(design: Design, mc: MCEvaluation | None, sensitivity: list[dict] | None = None,
@@ -123,8 +123,11 @@ def _plt():
     return plt
 
 
-def plot_ratios(design: Design, path: Path, thesis: dict[str, float] | None = None) -> None:
-    """Bar chart: optimized, convex-relaxation and rounded shares per primitive (+ thesis)."""
+def ratios_png(design: Design, thesis: dict[str, float] | None = None) -> bytes:
+    """Bar chart: optimized, convex-relaxation and rounded shares per primitive (+ thesis), as
+    PNG bytes (110 dpi)."""
+    import io
+
     plt = _plt()
     names = list(design.weights)
     x = np.arange(len(names))
@@ -139,9 +142,19 @@ def plot_ratios(design: Design, path: Path, thesis: dict[str, float] | None = No
     ax.set_ylabel("share of trial time (%)")
     ax.set_title(f"{design.profile}: {design.criterion}-optimal mix, mean subtraction {design.mean_subtraction}")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    atomic_savefig(fig, path, dpi=110)
-    plt.close(fig)
+    # fixed margins (0.75 in left, 0.15 right, 0.4 top, 0.45 bottom): tight_layout measured every label again
+    fig.subplots_adjust(left=0.75 / 9, right=1 - 0.15 / 9, top=1 - 0.4 / 3.6, bottom=0.45 / 3.6)
+    buf = io.BytesIO()
+    try:
+        fig.savefig(buf, format="png", dpi=110)
+    finally:
+        plt.close(fig)
+    return buf.getvalue()
+
+
+def plot_ratios(design: Design, path: Path, thesis: dict[str, float] | None = None) -> None:
+    """:func:`ratios_png` written to ``path`` (atomically)."""
+    atomic_write_bytes(path, ratios_png(design, thesis))
 
 
 def _ylabel(r: MCResult) -> str:

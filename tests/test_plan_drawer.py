@@ -110,3 +110,47 @@ def test_design_in_the_drawer_gives_the_plan_of_the_design_here(tmp_path, capsys
     assert "design-ratios.png" in a and a.keys() == b.keys()
     assert [k for k in a if k != "plan.json" and a[k] != b[k]] == []
     capsys.readouterr()
+
+
+def test_cancel_ends_a_drawer_that_has_nothing_to_draw_at_once():
+    """A refused run cancels its drawer before sending it a plan: the drawer is ended there and
+    then (not left to finish its design and drawing imports) and reaped."""
+    import time
+
+    before = children()
+    d = drawer.Drawer(lambda: time.sleep(60))  # a design that would take a minute
+    t0 = time.monotonic()
+    d.cancel()
+    assert time.monotonic() - t0 < 30 and children() <= before
+
+
+def test_ratios_drawn_ahead_only_for_the_design_planned(tmp_path, monkeypatch, capsys):
+    """The drawer draws the design ratios of its early design while the parent plans; when the
+    plan's design is another (a manoeuvre dropped for the map, here: a doctored early figure),
+    the figure is drawn from the plan's design: the file is that of the plan's design."""
+    import dataclasses
+    import pickle
+
+    import cli.plan_cmd as plan_cmd
+    from expdesign.report import ratios_png
+    from maps.trialdesign import first_design
+    from primitives.ship import load_profile
+
+    def doctored(d):
+        return dataclasses.replace(d, weights={k: (1.0 if i == 0 else 0.0) for i, k in enumerate(d.weights)})
+
+    design = first_design(load_profile("full-scale")).design.design
+    assert drawer._same(design, pickle.loads(pickle.dumps(design))) and not drawer._same(design, doctored(design))
+
+    def wrong(first):
+        other = doctored(first.design.design)
+        return {"ratios": (other, ratios_png(other))}
+
+    monkeypatch.setattr(plan_cmd, "_ratios_ahead", wrong)
+    out = tmp_path / "doctored"
+    assert _run(["plan", "--out", str(out), "--start-time", START]) == 0
+    here = tmp_path / "here"
+    monkeypatch.setattr(drawer, "CAN_FORK", False)
+    assert _run(["plan", "--out", str(here), "--start-time", START]) == 0
+    assert (out / "design-ratios.png").read_bytes() == (here / "design-ratios.png").read_bytes()
+    capsys.readouterr()

@@ -1,5 +1,6 @@
 """Trial card for the bridge: a self-contained HTML page (PNG figures embedded as data URIs)
-and a printable PDF (matplotlib PdfPages, A4, TrueType fonts embedded).
+and a printable PDF (A4, TrueType fonts embedded; written with fpdf2 by :mod:`maps.export.cardpdf`
+after the matplotlib pages drawn here, which remain for the page-1 PNG).
 
 Page 1: the plan at a glance (ship, start, totals, abort criteria, the experiment design's
 D-efficiency), the map with land, shallow/restricted water and depth areas, the track
@@ -18,6 +19,7 @@ import html
 import io
 import math
 import textwrap
+from collections.abc import Iterator
 from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -214,7 +216,7 @@ TABLE_PAD = 0.02  # gap above a table (matplotlib.table's AXESPAD for loc "upper
 CELL_PAD = 0.1  # text inset as a fraction of the cell width (matplotlib.table.Cell.PAD)
 
 
-def _draw_table(fig, rect: tuple[float, float, float, float], cols: list[str], rows: list[list[str]], widths: list[float]) -> None:
+def _draw_table(fig: Any, rect: tuple[float, float, float, float], cols: list[str], rows: list[list[str]], widths: list[float]) -> None:
     """A table as matplotlib.table draws it (header row grey and bold, 1 pt black cell edges,
     left-aligned 6.5 pt text, fixed row height: every row drawn, none squeezed), built from one
     grid of lines and plain texts: a Table lays out every cell again on every draw, which cost
@@ -242,7 +244,8 @@ def _draw_table(fig, rect: tuple[float, float, float, float], cols: list[str], r
                     fontweight="bold" if r == 0 else "normal")
 
 
-def table_pages(plan: Plan, title: str, cols: list[str], rows: list[list[str]], widths: list[float], first_page: int):
+def table_pages(plan: Plan, title: str, cols: list[str], rows: list[list[str]], widths: list[float],
+                first_page: int) -> Iterator[Any]:
     """A long table on as many A4 pages as it needs (``ROWS_PER_PAGE`` rows each, header
     repeated, "continued" on the following pages): every row is printed. Yields the figures."""
     chunks = [rows[i : i + ROWS_PER_PAGE] for i in range(0, len(rows), ROWS_PER_PAGE)] or [[]]
@@ -260,16 +263,22 @@ def _n_table_pages(rows: list) -> int:
     return max(1, -(-len(rows) // ROWS_PER_PAGE))
 
 
+PAGE1_CHARS = 110
+
+
 def page1_layout(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> tuple[list[str], list[str], float, float]:
     """Page 1's summary lines, abort box lines, the abort box's top and the map's top (figure fractions)."""
     d_head, _ = design_rows(plan)
-    lines = _summary(plan, t0, vessel, sea_map) + d_head
+    # wrapped to the page (8.5 pt DejaVu Sans, 0.9 of A4's width: some 110 characters): a long
+    # list of unused manoeuvres ran off the page's edge
+    lines = [w for line in _summary(plan, t0, vessel, sea_map) + d_head
+             for w in textwrap.wrap(line, PAGE1_CHARS, subsequent_indent="    ", break_on_hyphens=False) or [""]]
     y = 0.935 - 0.017 * len(lines)
     abort = ["ABORT the manoeuvre (stop, steer clear) if:"] + [f"  - {a}" for a in abort_criteria(plan)]
     return lines, abort, y - 0.006, y - 0.09
 
 
-def page1_map_figure(plan: Plan, sea_map: Any, top: float, *, hatch_lines: bool = False, fig=None):
+def page1_map_figure(plan: Plan, sea_map: Any, top: float, *, hatch_lines: bool = False, fig: Any = None) -> Any:
     """The map of page 1 (axes below ``top``, legend below the map, never over the track) on an
     A4 figure (``fig``, else a new one); ``hatch_lines``: see :func:`maps.export.plots.draw_map`."""
     fig = fig or plt.figure(figsize=A4)
@@ -279,7 +288,7 @@ def page1_map_figure(plan: Plan, sea_map: Any, top: float, *, hatch_lines: bool 
     return fig
 
 
-def _page1(plan: Plan, t0: datetime, sea_map: Any, vessel: str):
+def _page1(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> Any:
     fig = plt.figure(figsize=A4)
     fig.text(0.05, 0.965, f"SEA TRIAL CARD  -  {vessel}", fontsize=15, fontweight="bold", va="top")
     lines, abort, y_abort, top = page1_layout(plan, t0, sea_map, vessel)
@@ -327,7 +336,7 @@ def _detail_lines(sheets: list[dict]) -> list[tuple[str, dict]]:
 DETAIL_LINES_PER_PAGE = 62
 
 
-def _detail_pages(plan: Plan, lines: list[tuple[str, dict]], first_page: int):
+def _detail_pages(plan: Plan, lines: list[tuple[str, dict]], first_page: int) -> Iterator[Any]:
     """The orders per step, ``DETAIL_LINES_PER_PAGE`` lines a page. Yields the figures."""
     for n, p in enumerate(range(0, len(lines), DETAIL_LINES_PER_PAGE)):
         fig = plt.figure(figsize=A4)
@@ -339,7 +348,7 @@ def _detail_pages(plan: Plan, lines: list[tuple[str, dict]], first_page: int):
 
 
 def iter_card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None,
-                      figures: PlanFigures | None = None):
+                      figures: PlanFigures | None = None) -> Iterator[Any]:
     """The card's pages as matplotlib figures, one at a time (a long plan never holds every
     page open): page 1 (summary, abort criteria, design, map), the table of steps (and of the
     design) over as many pages as they need, the orders per step, the states over time (from
@@ -371,16 +380,15 @@ def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None =
 def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None,
                    vessel: str | None = None, figures: PlanFigures | None = None) -> Path:
     """The printable card (A4 PDF, TrueType fonts embedded; written with fpdf2, see
-    :mod:`maps.export.cardpdf`): the pages of :func:`iter_card_figures`. ``figures``: the plan's
-    shared figures (see :class:`maps.export.plots.PlanFigures`)."""
+    :mod:`maps.export.cardpdf`): the pages of :func:`iter_card_figures`. ``figures`` is not
+    needed (the PDF draws its map and states page itself); accepted for the callers that share
+    figures between exports."""
     from maps.export.cardpdf import card_pdf_bytes
 
     check_plan(plan)
     t0 = resolve_start(plan, start)
     sea_map = plan_chart(plan, sea_map)  # one chart for the route, summary and map (a map file is read once)
-    with PlanFigures(plan, sea_map) as own:
-        data = card_pdf_bytes(plan, t0, sea_map, vessel_name(plan, vessel), figures or own)
-    return atomic_write_bytes(path, data)
+    return atomic_write_bytes(path, card_pdf_bytes(plan, t0, sea_map, vessel_name(plan, vessel)))
 
 
 def render_card_page1(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None, dpi: int = 110,
@@ -397,7 +405,7 @@ def render_card_page1(plan: Plan, path: str | Path, sea_map: Any = None, start: 
 # -- HTML --------------------------------------------------------------------------------------
 
 
-def _png(fig, dpi: int = 110) -> bytes:
+def _png(fig: Any, dpi: int = 110) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
     return buf.getvalue()

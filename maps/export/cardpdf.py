@@ -6,16 +6,15 @@ Why not matplotlib's PDF backend for the whole card: it lays out and draws text 
 through FreeType (about 3 ms a line), and the card's tables and orders are some 600 lines, so the
 text pages cost more CPU than every other output of ``plan-trial`` together. fpdf2 writes a line
 from the font's advance widths. The two figures (the map of page 1 and the states over time) are
-still drawn by matplotlib and placed as vector graphics (SVG, text in the same fonts); hatching is drawn
-as lines (:func:`maps.export.plots.draw_map` ``hatch_lines``) because fpdf2 does not read SVG
-patterns. Text is DejaVu Sans (regular and bold, matplotlib's bundled TrueType fonts), embedded as
-TrueType subsets; no creation date, so the same plan gives the same bytes.
+drawn straight into the PDF as vector paths (:mod:`maps.export.pdfmap`,
+:mod:`maps.export.pdfstates`), as matplotlib draws them, not through matplotlib and an SVG that
+fpdf2 reads back (half the card's CPU). Text is DejaVu Sans (regular and bold, matplotlib's
+bundled TrueType fonts), embedded as TrueType subsets; no creation date, so the same plan gives
+the same bytes.
 """
 
 from __future__ import annotations
 
-import io
-import re
 from datetime import UTC, datetime
 from typing import Any
 
@@ -31,17 +30,17 @@ from maps.export.card import (
     _table_rows,
     design_rows,
     page1_layout,
-    page1_map_figure,
     step_sheets,
 )
-from maps.export.plots import PlanFigures, plt
+from maps.export.pdfmap import draw_page1_map
+from maps.export.pdfstates import draw_states_page
 from maps.plan import Plan
 
 PT = 72.0  # points per inch
 W, H = A4[0] * PT, A4[1] * PT
 RED, GREY = (160, 0, 0), (77, 77, 77)
 ASCENT = 0.76  # DejaVu Sans cap height plus a little, as a fraction of the font size: matplotlib's va="top" box
-FONT = "DejaVu Sans"  # the family name matplotlib writes in its SVG text: one embedded font for both
+FONT = "DejaVu Sans"  # the font of the matplotlib figures too
 
 
 def _fonts() -> tuple[str, str]:
@@ -87,7 +86,8 @@ class _Card:
         self.pdf.add_page(format=(size[0] * PT, size[1] * PT))
         self.h = size[1] * PT
 
-    def text(self, fx: float, fy: float, s: str, size: float, *, bold: bool = False, colour=(0, 0, 0), va: str = "top") -> None:
+    def text(self, fx: float, fy: float, s: str, size: float, *, bold: bool = False, colour: tuple[int, int, int] = (0, 0, 0),
+             va: str = "top") -> None:
         """``s`` at figure fraction (fx, fy) with matplotlib's vertical alignment ``va``."""
         p = self.pdf
         p.set_font(FONT, "B" if bold else "", size)
@@ -99,36 +99,12 @@ class _Card:
             y += 0.5 * ASCENT * size - 0.08 * size
         p.text(fx * W, y, s)
 
-    def svg(self, fig, x: float = 0.0, y: float = 0.0, w: float | None = None, h: float | None = None) -> None:
-        """A matplotlib figure as vector graphics (text as outlines) at (x, y) points from the top left."""
-        import matplotlib
-
-        buf = io.BytesIO()
-        # text as SVG text in DejaVu Sans, the card's embedded font (searchable, and far cheaper for fpdf2 to
-        # read than glyph outlines); the white page is drawn first, the card's own text goes over it
-        with matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": "shiptrial-card", "font.family": "DejaVu Sans"}):
-            fig.savefig(buf, format="svg", metadata={"Date": None})
-        data = re.sub(rb"<metadata>.*?</metadata>", b"", buf.getvalue(), flags=re.S)  # fpdf2 does not read it (and says so)
-        # matplotlib's SVG user unit is the point, and it writes font sizes in px meaning those units;
-        # fpdf2 reads px as CSS pixels (3/4 point): say pt
-        data = re.sub(rb"font-size: ?([0-9.]+)px", rb"font-size: \1pt", data)
-        fw, fh = fig.get_size_inches()
-        # SVG's default fill is black, but fpdf2 leaves the page's current colours in force for
-        # elements without a fill of their own (matplotlib's text outlines): set them to black
-        self.pdf.set_fill_color(0, 0, 0)
-        self.pdf.set_draw_color(0, 0, 0)
-        self.pdf.set_text_color(0, 0, 0)
-        self.pdf.image(io.BytesIO(data), x=x, y=y, w=w or fw * PT, h=h or fh * PT)
-
 
 def _page1(doc: _Card, plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> None:
     doc.page()
     lines, abort, y_abort, top = page1_layout(plan, t0, sea_map, vessel)
-    fig = page1_map_figure(plan, sea_map, top, hatch_lines=True)
-    try:
-        doc.svg(fig, 0, 0, W, H)
-    finally:
-        plt.close(fig)
+    # the axes rect of card.page1_map_figure, (0.1, 0.2, 0.85, top - 0.22) of the page, in points from the bottom left
+    draw_page1_map(doc.pdf, FONT, plan, sea_map, (0.1 * W, 0.2 * H, 0.85 * W, (top - 0.22) * H))
     doc.text(0.05, 0.965, f"SEA TRIAL CARD  -  {vessel}", 15, bold=True)
     for k, line in enumerate(lines):
         doc.text(0.05, 0.935 - 0.017 * k, line, 8.5)
@@ -202,11 +178,21 @@ def _detail_pages(doc: _Card, plan: Plan, lines: list[tuple[str, dict]], first: 
                          colour=RED if style.get("color") == "#a00000" else (0, 0, 0))
 
 
-def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str, figures: PlanFigures) -> bytes:
+_SPARE: list[_Card] = []  # an empty document made ahead (prepare_document), used by the next card
+
+
+def prepare_document() -> None:
+    """Make the next card's empty document now (reading the two TrueType fonts is most of its
+    cost): ``plan-trial``'s drawer does it while the plan is still being made, and the process
+    that writes the card, forked from it, starts from it."""
+    if not _SPARE:
+        _SPARE.append(_Card())
+
+
+def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> bytes:
     """The card's pages (as :func:`maps.export.card.iter_card_figures` draws them) as PDF bytes;
-    ``sea_map``: the plan's chart (:func:`maps.export.chart.plan_chart`), ``figures``: the plan's
-    shared figures (the states page)."""
-    doc = _Card()
+    ``sea_map``: the plan's chart (:func:`maps.export.chart.plan_chart`)."""
+    doc = _SPARE.pop() if _SPARE else _Card()  # a prepared document is a new one: same bytes
     sheets = step_sheets(plan, t0, sea_map)
     _page1(doc, plan, t0, sea_map, vessel)
     page = _table_pages(doc, plan, "steps in sailing order", TABLE_COLS, _table_rows(sheets), TABLE_WIDTHS, 2)
@@ -215,8 +201,6 @@ def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str, figures:
         page = _table_pages(doc, plan, "experiment design", ["primitive", "weight", "rounded count", "planned"], drows,
                             [0.4, 0.2, 0.2, 0.2], page)
     _detail_pages(doc, plan, _detail_lines(sheets), page)
-    states = figures.figure("states")
-    doc.page(tuple(states.get_size_inches()))
-    doc.svg(states)
+    draw_states_page(doc.pdf, FONT, plan)
     return _without_date(bytes(doc.pdf.output()))
 

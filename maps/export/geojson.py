@@ -41,8 +41,23 @@ def _line(lonlat: np.ndarray) -> list[list[float]]:
     return out
 
 
-def sea_room_lonlat(plan: Plan):
-    """The swept sea room (shapely Polygon, lon/lat, exterior CCW) or None without a projection."""
+_ROOM_MEMO = "_sea_room_memo"  # kept on the plan object like the route (maps.export.route.build_route)
+
+
+def sea_room_lonlat(plan: Plan) -> Any:
+    """The swept sea room (shapely Polygon, lon/lat, exterior CCW) or None without a projection.
+    The overlay, the track figure and the card's map draw the same one: it is kept on the plan
+    (for the same track, hull, margin and projection) and travels with it to the drawing process."""
+    key = (plan.track, tuple(plan.hull), plan.margin_m, (plan.projection or {}).get("proj4"))
+    memo = plan.__dict__.get(_ROOM_MEMO)
+    if memo is not None and memo[0][0] is key[0] and memo[0][1:] == key[1:]:
+        return memo[1]
+    room = _sea_room(plan)
+    plan.__dict__[_ROOM_MEMO] = (key, room)
+    return room
+
+
+def _sea_room(plan: Plan) -> Any:
     proj4 = (plan.projection or {}).get("proj4")
     if not proj4:
         return None
@@ -62,7 +77,7 @@ def sea_room_lonlat(plan: Plan):
     return orient(ll, sign=1.0)
 
 
-def _polygon_coords(poly) -> list[list[list[float]]]:
+def _polygon_coords(poly: Any) -> list[list[list[float]]]:
     rings = [poly.exterior, *poly.interiors]
     return [[_pos(x, y) for x, y in ring.coords] for ring in rings]
 
@@ -85,7 +100,7 @@ def track_segments(plan: Plan) -> list[dict[str, Any]]:
     return out
 
 
-def _to_lonlat(tr, geom):
+def _to_lonlat(tr: Any, geom: Any) -> Any:
     """``geom`` in the plan's metric frame (x north, y east) in lon/lat by transformer ``tr``."""
     import shapely
     from shapely.geometry.polygon import orient

@@ -23,7 +23,7 @@ from matplotlib.legend_handler import HandlerPatch  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402
 
 from maps.export._common import KN_PER_MPS, M_PER_NM, ExportError, deg_min, step_slice  # noqa: E402
-from maps.plan import Plan  # noqa: E402
+from maps.plan import Plan, PlanStep  # noqa: E402
 from primitives.io import atomic_savefig  # noqa: E402
 
 OBSTACLE_KINDS = ("land", "obstacle", "restricted")
@@ -88,7 +88,7 @@ def primitive_colours(plan: Plan) -> dict[str, Any]:
     return out
 
 
-def step_colour(plan: Plan, st, colours: dict[str, Any] | None = None) -> Any:
+def step_colour(plan: Plan, st: PlanStep, colours: dict[str, Any] | None = None) -> Any:
     """Colour of one step on the map and the time plots."""
     seg = st.segment
     if seg == "run-in":
@@ -98,7 +98,7 @@ def step_colour(plan: Plan, st, colours: dict[str, Any] | None = None) -> Any:
     return (colours or primitive_colours(plan))[st.primitive]
 
 
-def _dm_formatter(pos: str, neg: str, width: int):
+def _dm_formatter(pos: str, neg: str, width: int) -> Any:
     from matplotlib.ticker import FuncFormatter
 
     return FuncFormatter(lambda v, _: deg_min(v, pos, neg, width).replace("'", "′"))
@@ -116,7 +116,7 @@ def _view(plan: Plan, pad_m: float | None) -> tuple[float, float, float, float, 
             lat.max() + pad / m_per_deg_lat, m_per_deg_lon, m_per_deg_lat)
 
 
-def _draw_geom(ax, geom, view, **kw) -> bool:
+def _draw_geom(ax: Any, geom: Any, view: Any, **kw: Any) -> bool:
     """Fill the polygons (draw lines, points) of ``geom`` inside ``view``; True if any drawn.
     The polygons are one compound path (a chart has hundreds of islands: one patch to draw)."""
     from matplotlib.patches import PathPatch
@@ -132,7 +132,7 @@ def _draw_geom(ax, geom, view, **kw) -> bool:
     return drawn or bool(verts)
 
 
-def _collect_geom(ax, g, verts: list, codes: list, kw: dict) -> bool:
+def _collect_geom(ax: Any, g: Any, verts: list, codes: list, kw: dict) -> bool:
     """Rings of the polygons of ``g`` into ``verts``/``codes``; lines and points drawn here."""
     from matplotlib.path import Path as MPath
 
@@ -166,7 +166,8 @@ class HatchProxy(Rectangle):
 class HatchHandler(HandlerPatch):
     """Draws a :class:`HatchProxy` legend key as a filled box crossed by diagonal lines."""
 
-    def create_artists(self, legend, orig, xd, yd, width, height, fontsize, trans):
+    def create_artists(self, legend: Any, orig: Any, xd: float, yd: float, width: float, height: float, fontsize: float,
+                       trans: Any) -> list:
         from matplotlib.collections import LineCollection
 
         box = Rectangle((-xd, -yd), width, height, facecolor=orig.get_facecolor(), edgecolor=orig.get_edgecolor(), lw=0.6,
@@ -181,30 +182,39 @@ class HatchHandler(HandlerPatch):
 HATCH_LEGEND = {HatchProxy: HatchHandler()}  # legend handler_map for maps drawn with hatch_lines
 
 
-def _hatch(ax, geom, view, m_per_deg: tuple[float, float], colour: str, zorder: float) -> None:
-    """Diagonal lines (rising to the right, ``HATCH_PT`` apart on the page) over ``geom`` inside
-    ``view``: hatching as line geometry, which every vector format reads (SVG patterns are not)."""
-    from matplotlib.collections import LineCollection
+def hatch_segments(geom: Any, view: Any, m_per_deg: tuple[float, float], m_per_pt: float) -> list[np.ndarray]:
+    """Diagonal lines (rising to the right, ``HATCH_PT`` apart on the page, ``m_per_pt`` metres
+    a point) over ``geom`` inside ``view`` as lon/lat segments: hatching as line geometry, which
+    every vector format reads (SVG patterns are not)."""
     from shapely.geometry import MultiLineString
 
     if geom is None or geom.is_empty or not geom.intersects(view):
-        return
+        return []
     g = geom.intersection(view)
+    x0, y0, x1, y1 = view.bounds
+    wx, wy = (x1 - x0) * m_per_deg[0], (y1 - y0) * m_per_deg[1]
+    step = HATCH_PT * m_per_pt * math.sqrt(2.0)
+    cs = np.arange(-wy, wx + step, step)  # lines x - y = c in metres from the view's corner
+    lines = MultiLineString([[(x0 + c / m_per_deg[0], y0), (x0 + (c + wy) / m_per_deg[0], y1)] for c in cs])
+    cut = lines.intersection(g)
+    return [np.asarray(p.coords) for p in getattr(cut, "geoms", [cut]) if p.geom_type == "LineString" and not p.is_empty]
+
+
+def _hatch(ax: Any, geom: Any, view: Any, m_per_deg: tuple[float, float], colour: str, zorder: float) -> None:
+    """:func:`hatch_segments` drawn on ``ax`` (its size on the page sets the spacing)."""
+    from matplotlib.collections import LineCollection
+
     x0, y0, x1, y1 = view.bounds
     wx, wy = (x1 - x0) * m_per_deg[0], (y1 - y0) * m_per_deg[1]
     fig_w, fig_h = ax.figure.get_size_inches()
     pos = ax.get_position()
     m_per_pt = max(wx / (pos.width * fig_w * 72.0), wy / (pos.height * fig_h * 72.0))  # the aspect shrinks one side
-    step = HATCH_PT * m_per_pt * math.sqrt(2.0)
-    cs = np.arange(-wy, wx + step, step)  # lines x - y = c in metres from the view's corner
-    lines = MultiLineString([[(x0 + c / m_per_deg[0], y0), (x0 + (c + wy) / m_per_deg[0], y1)] for c in cs])
-    cut = lines.intersection(g)
-    segs = [np.asarray(p.coords) for p in getattr(cut, "geoms", [cut]) if p.geom_type == "LineString" and not p.is_empty]
+    segs = hatch_segments(geom, view, m_per_deg, m_per_pt)
     if segs:
         ax.add_collection(LineCollection(segs, colors=colour, linewidths=0.6, zorder=zorder))
 
 
-def _draw_chart(ax, plan: Plan, sea_map: Any, view, hatch_lines: bool = False) -> None:
+def _draw_chart(ax: Any, plan: Plan, sea_map: Any, view: Any, hatch_lines: bool = False) -> None:
     """Depth areas (blue shades, deeper darker), land (tan) and other no-go water (hatched:
     shallow for the ship, restricted, charted obstacles; ``hatch_lines``: see :func:`draw_map`)."""
     from maps.export.chart import plan_chart
@@ -232,7 +242,7 @@ def _draw_chart(ax, plan: Plan, sea_map: Any, view, hatch_lines: bool = False) -
         ax.fill([], [], facecolor=LAND_COLOUR, edgecolor="#6b5d3a", label="land")
 
 
-def _draw_track(ax, plan: Plan, numbers: bool) -> None:
+def _draw_track(ax: Any, plan: Plan, numbers: bool) -> None:
     lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
     colours = primitive_colours(plan)
     labelled: set[str] = set()
@@ -261,12 +271,26 @@ def _draw_track(ax, plan: Plan, numbers: bool) -> None:
     ax.plot(lon[-1], lat[-1], marker="s", ms=9, color="red", mec="k", zorder=4, ls="none", label="end")
 
 
-def _m_per_deg(view) -> tuple[float, float]:
+def lon_ticks(x0: float, x1: float, width_pt: float) -> list[float]:
+    """Longitude ticks of a map from ``x0`` to ``x1`` drawn ``width_pt`` points wide:
+    matplotlib's MaxNLocator(4) ticks inside the view, every other one dropped until they are
+    60 points apart (a label such as 024°57.600′E is some 45 points long at 7 pt): a narrow map
+    (a fjord) gets fewer labels, never overlapping ones."""
+    from matplotlib.ticker import MaxNLocator
+
+    ticks = [float(v) for v in MaxNLocator(4).tick_values(x0, x1) if x0 <= v <= x1]
+    step = 1
+    while len(ticks[::step]) > 1 and (ticks[step] - ticks[0]) / (x1 - x0) * width_pt < 60.0:
+        step += 1
+    return ticks[::step]
+
+
+def _m_per_deg(view: Any) -> tuple[float, float]:
     lat = 0.5 * (view.bounds[1] + view.bounds[3])
     return 111_320.0 * math.cos(math.radians(lat)), 111_320.0
 
 
-def draw_map(ax, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True,
+def draw_map(ax: Any, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True,
              hatch_lines: bool = False) -> None:
     """Chart (depth areas, land, shallow/restricted water), sea room (light blue), the track
     (informative manoeuvres coloured by primitive, run-ins dashed green, transit grey), execute
@@ -301,31 +325,64 @@ def draw_map(ax, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None,
                 arrowprops={"arrowstyle": "-|>", "color": "k"}, zorder=6)
 
 
-def _scale_bar(ax, x0: float, y0: float, x1: float, y1: float, m_per_deg_lon: float) -> None:
-    """A round length (m, or NM from 1 NM up) about a fifth of the view width, bottom right."""
+def scale_bar(x0: float, y0: float, x1: float, y1: float, m_per_deg_lon: float) -> tuple[float, float, float, str]:
+    """A round length (m, or NM from 1 NM up) about a fifth of the view width, bottom right:
+    (lon, lat of its left end, its length in degrees of longitude, its label)."""
     width_m = (x1 - x0) * m_per_deg_lon
     unit = M_PER_NM if width_m / 5 >= M_PER_NM else 1.0
     target = width_m / 5 / unit
     mag = 10 ** math.floor(math.log10(max(target, 1e-3)))
     bar = max(n * mag for n in (1, 2, 5) if n * mag <= max(target, mag)) * unit
     bx, by = x1 - 0.04 * (x1 - x0) - bar / m_per_deg_lon, y0 + 0.04 * (y1 - y0)
-    ax.plot([bx, bx + bar / m_per_deg_lon], [by, by], color="k", lw=3, zorder=6)
-    label = f"{bar:g} m" if unit == 1.0 else f"{bar / M_PER_NM:g} NM"
-    ax.text(bx + 0.5 * bar / m_per_deg_lon, by + 0.012 * (y1 - y0), label, ha="center", va="bottom", fontsize=7, zorder=6)
+    return bx, by, bar / m_per_deg_lon, f"{bar:g} m" if unit == 1.0 else f"{bar / M_PER_NM:g} NM"
 
 
-def draw_states(axes, plan: Plan) -> None:
-    """Speed (kn), heading (deg) and each commanded input over time (minutes) on ``axes``
-    (len 2 + number of inputs), with the manoeuvre numbers along the top."""
-    t_min = (plan.t - plan.t[0]) / 60.0
-    colours = primitive_colours(plan)
-    series = [("speed over ground [kn]", plan.speed * KN_PER_MPS), ("heading [deg]", np.degrees(plan.track[:, 2]) % 360.0)]
+def _scale_bar(ax: Any, x0: float, y0: float, x1: float, y1: float, m_per_deg_lon: float) -> None:
+    """:func:`scale_bar` drawn on ``ax``."""
+    bx, by, length, label = scale_bar(x0, y0, x1, y1, m_per_deg_lon)
+    ax.plot([bx, bx + length], [by, by], color="k", lw=3, zorder=6)
+    ax.text(bx + 0.5 * length, by + 0.012 * (y1 - y0), label, ha="center", va="bottom", fontsize=7, zorder=6)
+
+
+def state_series(plan: Plan) -> list[tuple[str, np.ndarray]]:
+    """(label, values) of each panel of the states figure: speed (kn), heading (deg, NaN where
+    it wraps round), then each commanded input (angles in deg)."""
+    heading = np.degrees(plan.track[:, 2]) % 360.0
+    heading[1:][np.abs(np.diff(heading)) > 180] = np.nan  # no line across the wrap
+    series = [("speed over ground [kn]", plan.speed * KN_PER_MPS), ("heading [deg]", heading)]
     for j, nm in enumerate(plan.input_names):
         v = plan.inputs[:, j] if plan.inputs.ndim == 2 and plan.inputs.shape[1] > j else np.zeros_like(plan.t)
         if nm.startswith("alpha") or nm == "delta":
             series.append((f"{nm} [deg]", np.degrees(v)))
         else:
             series.append((f"{nm}" + (" [rpm]" if nm.startswith("n") and nm[1:].isdigit() else ""), v))
+    return series
+
+
+def state_limits(lo: float, hi: float) -> tuple[float, float]:
+    """The y range of a states panel with data from ``lo`` to ``hi``: matplotlib's autoscaling
+    (non-singular, 5 % margins), except that a series constant to 1e-9 of its size (a steady
+    speed) is shown as constant, not as rounding noise around an offset."""
+    from matplotlib.ticker import MaxNLocator
+
+    if hi - lo <= 1e-9 * max(abs(lo), abs(hi), 1.0):
+        lo = hi = 0.5 * (lo + hi)
+    lo, hi = MaxNLocator().nonsingular(lo, hi)
+    d = 0.05 * (hi - lo)
+    return lo - d, hi + d
+
+
+def states_size_in(plan: Plan) -> tuple[float, float]:
+    """Width and height (inches) of the states figure: A4 wide, 1.5 in a panel plus 1 in."""
+    return 8.27, 1.5 * (2 + len(plan.input_names)) + 1.0
+
+
+def draw_states(axes: list, plan: Plan) -> None:
+    """Speed (kn), heading (deg) and each commanded input over time (minutes) on ``axes``
+    (len 2 + number of inputs), with the manoeuvre numbers along the top."""
+    t_min = (plan.t - plan.t[0]) / 60.0
+    colours = primitive_colours(plan)
+    series = state_series(plan)
     from matplotlib.collections import PolyCollection
 
     spans, span_colours = [], []
@@ -338,11 +395,10 @@ def draw_states(axes, plan: Plan) -> None:
         # each step's span as axvspan shades it (full height, 12 % colour), all in one collection: one artist, not a patch a step
         ax.add_collection(PolyCollection(spans, facecolors=span_colours, alpha=0.12, linewidths=0, transform=ax.get_xaxis_transform()),
                           autolim=False)
-        if label.startswith("heading"):
-            jumps = np.abs(np.diff(y)) > 180
-            y = y.copy().astype(float)
-            y[1:][jumps] = np.nan
         ax.plot(t_min[: len(y)], y, color="k", lw=0.9)
+        finite = y[np.isfinite(y)]
+        if len(finite):
+            ax.set_ylim(*state_limits(float(finite.min()), float(finite.max())))
         ax.set_ylabel(label, fontsize=7)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
@@ -354,29 +410,76 @@ def draw_states(axes, plan: Plan) -> None:
     axes[-1].set_xlabel("time from start [min]", fontsize=8)
 
 
-def states_figure(plan: Plan):
-    """A figure of :func:`draw_states`."""
+# Fixed margins in inches (what tight_layout found for the bundled ships, rounded up): a layout
+# pass measures every tick label of every axes, which cost as much CPU as drawing the figure.
+STATES_MARGINS_IN = {"left": 0.72, "right": 0.15, "top": 0.56, "bottom": 0.52}
+STATES_HSPACE = 0.15
+
+
+def fixed_margins(fig: Any, left: float, right: float, top: float, bottom: float, **kw: float) -> None:
+    """``fig.subplots_adjust`` with the margins given in inches (``kw``: hspace, wspace)."""
+    w, h = fig.get_size_inches()
+    fig.subplots_adjust(left=left / w, right=1.0 - right / w, top=1.0 - top / h, bottom=bottom / h, **kw)
+
+
+def legend_width_in(fig: Any, legend: Any) -> float:
+    """Width of ``legend`` in inches (its texts laid out, nothing else of the figure)."""
+    return legend.get_window_extent(fig.canvas.get_renderer()).width / fig.dpi
+
+
+def states_figure(plan: Plan) -> Any:
+    """A figure of :func:`draw_states`, laid out with :data:`STATES_MARGINS_IN`."""
     n = 2 + len(plan.input_names)
-    fig, axes = plt.subplots(n, 1, figsize=(8.27, 1.5 * n + 1.0), sharex=True)
+    fig, axes = plt.subplots(n, 1, figsize=states_size_in(plan), sharex=True)
     draw_states(list(np.atleast_1d(axes)), plan)
     fig.suptitle(f"{plan.ship}: planned speed, heading and commanded inputs (manoeuvre numbers on top)", fontsize=9)
-    fig.tight_layout()
+    fixed_margins(fig, **STATES_MARGINS_IN, hspace=STATES_HSPACE)
     return fig
 
 
-def track_figure(plan: Plan, sea_map: Any = None):
-    """The numbered track coloured by primitive on the map, legend outside, titled."""
+TRACK_MARGINS_IN = {"left": 0.85, "top": 0.35, "bottom": 0.35}
+
+
+def track_figure(plan: Plan, sea_map: Any = None) -> Any:
+    """The numbered track coloured by primitive on the map, legend outside, titled; the axes
+    take the figure less fixed margins and the legend's width (the PNG is cropped to what is
+    drawn)."""
     fig, ax = plt.subplots(figsize=(9.5, 7.5))
     draw_map(ax, plan, sea_map)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)  # outside: never hides the track
+    leg = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)  # outside: never hides the track
     ax.set_title(f"{plan.ship} trial{' on ' + plan.map_name if plan.map_name else ''}: manoeuvres numbered in sailing order", fontsize=9)
-    fig.tight_layout()
+    _fit_to_map(fig, ax, leg)
     return fig
+
+
+def _fit_to_map(fig: Any, ax: Any, legend: Any) -> None:
+    """Size ``fig`` to the map (its aspect fixed by the latitude) plus fixed margins and the
+    legend on the right: the figure ends where the drawing does, with no layout pass over the
+    tick labels and no cropping draw when saved."""
+    from matplotlib.ticker import FixedLocator
+
+    r = fig.canvas.get_renderer()
+    leg = legend.get_window_extent(r)
+    leg_w, leg_h = leg.width / fig.dpi, leg.height / fig.dpi
+    m = TRACK_MARGINS_IN
+    fixed_margins(fig, right=leg_w + 0.2, **m)
+    ax.apply_aspect()  # the axes shrink to the map's aspect inside the box the margins leave
+    w, h = fig.get_size_inches()
+    pos = ax.get_position()
+    ax_w, ax_h = pos.width * w, pos.height * h
+    # the title is centred over the map: a map narrower than its title gets the room on both sides
+    over = max(0.0, 0.5 * (ax.title.get_window_extent(r).width / fig.dpi - ax_w) + 0.1)
+    left = max(m["left"], over)
+    right = max(0.01 * ax_w + leg_w + 0.15, over)  # the legend sits 1 % of the axes width right of the map
+    fig.set_size_inches(left + ax_w + right, m["top"] + max(ax_h, leg_h) + m["bottom"])
+    fixed_margins(fig, right=right, left=left, top=m["top"], bottom=m["bottom"] + max(0.0, leg_h - ax_h))
+    x0, x1 = ax.get_xlim()
+    ax.xaxis.set_major_locator(FixedLocator(lon_ticks(x0, x1, 72.0 * ax_w)))  # labels that do not overlap
 
 
 STATES_DPI = 110
 TRACK_DPI = 130
-_SAVE = {"states": (STATES_DPI, None), "track": (TRACK_DPI, "tight")}  # default dpi, bbox_inches (the map cropped)
+_SAVE = {"states": (STATES_DPI, None), "track": (TRACK_DPI, None)}  # default dpi, bbox_inches (the track figure fits its map)
 
 
 class PlanFigures:
@@ -389,13 +492,13 @@ class PlanFigures:
         self._figs: dict[str, Any] = {}
         self._png: dict[tuple[str, int], bytes] = {}
 
-    def figure(self, name: str):
+    def figure(self, name: str) -> Any:
         """'states' (:func:`states_figure`) or 'track' (:func:`track_figure`), built on first use."""
         if name not in self._figs:
             self._figs[name] = states_figure(self.plan) if name == "states" else track_figure(self.plan, self.sea_map)
         return self._figs[name]
 
-    def owns(self, fig) -> bool:
+    def owns(self, fig: Any) -> bool:
         return any(fig is f for f in self._figs.values())
 
     def png(self, name: str, dpi: int | None = None) -> bytes:

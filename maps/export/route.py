@@ -189,9 +189,26 @@ def _hull_hits(plan: Plan, ka: int, kb: int, half_beam: float, obstacles: BaseGe
     return bool(shapely.intersects(geom.buffer(max(half_beam, 0.01)), obstacles))
 
 
+_MEMO = "_route_memo"  # the last route built for a plan, kept on the plan object (never in its JSON)
+
+
 def build_route(plan: Plan, chart: Chart | None = None) -> Route:
     """The route of ``plan``; corridors are cut to the land-free water of ``chart`` (when the
-    chart is given and the plan has a projection)."""
+    chart is given and the plan has a projection).
+
+    Every export of a plan (GeoJSON, GPX, RTZ, the card's legs) asks for the same route: the last
+    one built is kept on the plan, for the same chart object and the same track and steps, and
+    travels with it when the plan is pickled to the process that draws (``shiptrial plan``).
+    Treat the returned route as read-only."""
+    memo = plan.__dict__.get(_MEMO)
+    if memo is not None and memo[0] is chart and memo[1] is plan.lonlat and memo[2] is plan.steps:
+        return memo[3]
+    route = _build_route(plan, chart)
+    plan.__dict__[_MEMO] = (chart, plan.lonlat, plan.steps, route)
+    return route
+
+
+def _build_route(plan: Plan, chart: Chart | None) -> Route:
     check_plan(plan)
     starts = [(step_slice(plan, st).start, st) for st in plan.steps]
     marks: list[tuple[int, PlanStep | None, bool]] = []

@@ -126,30 +126,9 @@ def _manoeuvre(w: ET.Element, plan: Plan, st: Any) -> None:
         _el(m, "abort", EXT_NS).text = a
 
 
-def plan_rtz(
-    plan: Plan,
-    *,
-    route_name: str | None = None,
-    start: datetime | str | None = None,
-    sea_map: Any = None,
-    vessel: str | None = None,
-) -> bytes:
-    """The plan as an RTZ 1.2 document (UTF-8 bytes). ``route_name`` should equal the file's
-    stem (ECDIS validators flag a mismatch); ``sea_map`` (or the chart stored in the plan) keeps
-    the corridors off land; ``vessel`` overrides the vessel name."""
-    check_plan(plan)
-    t0 = resolve_start(plan, start)
-    vname = vessel_name(plan, vessel)
-    if len(vname) > VESSEL_NAME_MAX:
-        if vessel is not None:
-            raise ExportError(f"--vessel-name {vname!r} has {len(vname)} characters; RTZ holds at most {VESSEL_NAME_MAX}")
-        vname = vname[:VESSEL_NAME_MAX].rstrip()
-    route = build_route(plan, plan_chart(plan, sea_map))
-    name = route_name or f"{plan.ship}-trial"
-    ET.register_namespace("", RTZ_NS)
-    ET.register_namespace("st", EXT_NS)
-    root = _el(None, "route", version="1.2")
-    _route_info(root, plan, route, name, vname, t0)
+def _waypoints(root: ET.Element, plan: Plan, route: Route) -> None:
+    """``<waypoints>``: the default turn radius, each route point with its leg (cross-track
+    limits, speed range, what is sailed) and, at a manoeuvre, its orders."""
     wpts = _el(root, "waypoints")
     dflt = _el(wpts, "defaultWaypoint", radius=_nm(route.turn_radius_m, 5.0))
     _el(dflt, "leg", geometryType="Loxodrome")
@@ -174,6 +153,10 @@ def plan_rtz(
             )
         if wp.step is not None:
             _manoeuvre(w, plan, wp.step)
+
+
+def _schedule(root: ET.Element, route: Route, t0: datetime) -> None:
+    """``<schedules>``: one calculated schedule, ETD/ETA at each point and each leg's speed."""
     sched = _el(_el(root, "schedules"), "schedule", id=1, name="planned trial")
     calc = _el(sched, "calculated")
     for i, wp in enumerate(route.points):
@@ -187,6 +170,34 @@ def plan_rtz(
             speed=_speed(leg.speed_mps * KN_PER_MPS) if leg is not None and leg.dt_s > 0 else None,
             Note=wp.step.primitive if wp.step else ("via" if wp.via else "end of trial"),
         )
+
+
+def plan_rtz(
+    plan: Plan,
+    *,
+    route_name: str | None = None,
+    start: datetime | str | None = None,
+    sea_map: Any = None,
+    vessel: str | None = None,
+) -> bytes:
+    """The plan as an RTZ 1.2 document (UTF-8 bytes). ``route_name`` should equal the file's
+    stem (ECDIS validators flag a mismatch); ``sea_map`` (or the chart stored in the plan) keeps
+    the corridors off land; ``vessel`` overrides the vessel name."""
+    check_plan(plan)
+    t0 = resolve_start(plan, start)
+    vname = vessel_name(plan, vessel)
+    if len(vname) > VESSEL_NAME_MAX:
+        if vessel is not None:
+            raise ExportError(f"--vessel-name {vname!r} has {len(vname)} characters; RTZ holds at most {VESSEL_NAME_MAX}")
+        vname = vname[:VESSEL_NAME_MAX].rstrip()
+    route = build_route(plan, plan_chart(plan, sea_map))
+    name = route_name or f"{plan.ship}-trial"
+    ET.register_namespace("", RTZ_NS)
+    ET.register_namespace("st", EXT_NS)
+    root = _el(None, "route", version="1.2")
+    _route_info(root, plan, route, name, vname, t0)
+    _waypoints(root, plan, route)
+    _schedule(root, route, t0)
     ET.indent(root, space=" ")
     return ET.tostring(root, encoding="utf-8", xml_declaration=True)
 
@@ -250,6 +261,28 @@ def _time(v: str | None) -> datetime | None:
     return datetime.fromisoformat(v.replace("Z", "+00:00").replace("z", "+00:00")) if v else None
 
 
+def _leg_warnings(where: str, wps: list, i: int, dt: float, sp: str, vmax: float | None, tolerance_s: float) -> list[str]:
+    """Warnings about the leg into waypoint ``i`` (elements ``wps``), scheduled ``dt`` seconds
+    at ``sp`` kn: the time the leg takes at that speed, the leg's speed range, the ship's top speed."""
+    ns = {"r": RTZ_NS}
+    out: list[str] = []
+    a, b = wps[i - 1].find("r:position", ns), wps[i].find("r:position", ns)
+    length = leg_length_m(float(a.get("lon")), float(a.get("lat")), float(b.get("lon")), float(b.get("lat")))
+    v = float(sp) / KN_PER_MPS
+    implied = length / v if v > 0 else (0.0 if length < 0.5 else float("inf"))
+    if abs(implied - dt) > max(tolerance_s, 0.005 * dt):
+        out.append(f"{where}: ETA is {dt:.1f} s after the previous ETD, but the leg of {length:.1f} m "
+                   f"at {sp} kn takes {implied:.1f} s")
+    leg = wps[i].find("r:leg", ns)
+    lo = float(leg.get("speedMin")) if leg is not None and leg.get("speedMin") else None
+    hi = float(leg.get("speedMax")) if leg is not None and leg.get("speedMax") else None
+    if (lo is not None and float(sp) < lo - 1e-9) or (hi is not None and float(sp) > hi + 1e-9):
+        out.append(f"{where}: speed {sp} kn outside the leg's speedMin..speedMax {lo}..{hi} kn")
+    if vmax is not None and float(sp) > vmax + 1e-9:
+        out.append(f"{where}: speed {sp} kn above vesselSpeedMax {vmax} kn")
+    return out
+
+
 def rtz_warnings(doc: bytes | str | Path, *, tolerance_s: float = 1.0) -> list[str]:
     """Warnings about the route's speeds and schedule (an empty list: none), beyond the XSD.
 
@@ -299,21 +332,6 @@ def rtz_warnings(doc: bytes | str | Path, *, tolerance_s: float = 1.0) -> list[s
                 if etd is not None and etd < eta:
                     out.append(f"{where}: ETD before ETA")
                 if sp is not None and prev_t is not None and wid in by_id and by_id[wid][0] > 0:
-                    i = by_id[wid][0]
-                    a, b = wps[i - 1].find("r:position", ns), wps[i].find("r:position", ns)
-                    length = leg_length_m(float(a.get("lon")), float(a.get("lat")), float(b.get("lon")), float(b.get("lat")))
-                    dt = (eta - prev_t).total_seconds()
-                    v = float(sp) / KN_PER_MPS
-                    implied = length / v if v > 0 else (0.0 if length < 0.5 else float("inf"))
-                    if abs(implied - dt) > max(tolerance_s, 0.005 * dt):
-                        out.append(f"{where}: ETA is {dt:.1f} s after the previous ETD, but the leg of {length:.1f} m "
-                                   f"at {sp} kn takes {implied:.1f} s")
-                    leg = wps[i].find("r:leg", ns)
-                    lo = float(leg.get("speedMin")) if leg is not None and leg.get("speedMin") else None
-                    hi = float(leg.get("speedMax")) if leg is not None and leg.get("speedMax") else None
-                    if (lo is not None and float(sp) < lo - 1e-9) or (hi is not None and float(sp) > hi + 1e-9):
-                        out.append(f"{where}: speed {sp} kn outside the leg's speedMin..speedMax {lo}..{hi} kn")
-                    if vmax is not None and float(sp) > vmax + 1e-9:
-                        out.append(f"{where}: speed {sp} kn above vesselSpeedMax {vmax} kn")
+                    out += _leg_warnings(where, wps, by_id[wid][0], (eta - prev_t).total_seconds(), sp, vmax, tolerance_s)
                 prev_t = etd or eta
     return out

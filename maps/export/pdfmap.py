@@ -1,0 +1,336 @@
+"""The map of the trial card's page 1 drawn straight into the PDF with fpdf2: the chart's
+polygons, the hatching, the sea room, the track, markers, numbers, ticks, scale bar, north arrow
+and legend as PDF path operators and text in the card's embedded font.
+
+It draws what :func:`maps.export.plots.draw_map` draws (same view, aspect, colours, line widths,
+markers, ticks and legend as the matplotlib figure of :func:`maps.export.card.page1_map_figure`)
+without the round trip the card made before: matplotlib drawing the figure, writing it as SVG and
+fpdf2 parsing the SVG back cost about half the CPU of the whole card.
+
+The operators are written by :class:`maps.export.pdfdraw.Painter`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from maps.export._common import deg_min, step_slice
+from maps.export.pdfdraw import LINE_HEIGHT, Painter, col, rings_ops
+from maps.export.plots import (
+    HATCH_PT,
+    LAND_COLOUR,
+    NO_GO_COLOUR,
+    _m_per_deg,
+    _view,
+    hatch_segments,
+    lon_ticks,
+    primitive_colours,
+    scale_bar,
+    step_colour,
+)
+from maps.plan import Plan
+
+TICK_FS, NUM_FS, LEGEND_FS = 7.0, 7.0, 6.5
+
+@dataclass
+class Frame:
+    """The map axes on the page: lon/lat -> PDF points (y up, from the page's bottom)."""
+
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+    left: float  # axes box, PDF points from the page's left and bottom
+    bottom: float
+    width: float
+    height: float
+    m_per_deg: tuple[float, float] = field(default=(1.0, 1.0))
+
+    def xy(self, lonlat: np.ndarray) -> np.ndarray:
+        c = np.asarray(lonlat, dtype=float)[:, :2]
+        return np.column_stack([self.left + (c[:, 0] - self.x0) / (self.x1 - self.x0) * self.width,
+                                self.bottom + (c[:, 1] - self.y0) / (self.y1 - self.y0) * self.height])
+
+    def m_per_pt(self) -> float:
+        return max((self.x1 - self.x0) * self.m_per_deg[0] / self.width, (self.y1 - self.y0) * self.m_per_deg[1] / self.height)
+
+
+def map_frame(plan: Plan, box: tuple[float, float, float, float]) -> Frame:
+    """The view of :func:`maps.export.plots.draw_map` placed in ``box`` (left, bottom, width,
+    height in PDF points) as matplotlib places an axes of fixed aspect: shrunk to the map's aspect
+    (1 / cos of the track's mean latitude), centred."""
+    x0, y0, x1, y1, _, _ = _view(plan, None)
+    lat0 = float(np.mean(plan.lonlat[:, 1]))
+    ratio = (y1 - y0) / math.cos(math.radians(lat0)) / (x1 - x0)  # height / width on the page
+    left, bottom, bw, bh = box
+    if bh / bw > ratio:
+        w, h = bw, bw * ratio
+    else:
+        w, h = bh / ratio, bh
+    from shapely.geometry import box as sbox
+
+    return Frame(x0, y0, x1, y1, left + 0.5 * (bw - w), bottom + 0.5 * (bh - h), w, h, _m_per_deg(sbox(x0, y0, x1, y1)))
+
+
+def _geom_rings(geom: Any, view: Any) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Polygon rings and line strings of ``geom`` inside ``view`` (lon/lat)."""
+    if geom is None or geom.is_empty or not geom.intersects(view):
+        return [], []
+    rings: list[np.ndarray] = []
+    lines: list[np.ndarray] = []
+    stack = [geom.intersection(view)]
+    while stack:
+        g = stack.pop()
+        if g.is_empty:
+            continue
+        if g.geom_type == "Polygon":
+            rings += [np.asarray(r.coords) for r in (g.exterior, *g.interiors)]
+        elif g.geom_type in ("LineString", "LinearRing"):
+            lines.append(np.asarray(g.coords))
+        elif hasattr(g, "geoms"):
+            stack.extend(reversed(list(g.geoms)))
+    return rings, lines
+
+
+class MapWriter(Painter):
+    """Writes the map into the current page of an fpdf2 document (unit pt)."""
+
+    def __init__(self, pdf: Any, font: str, plan: Plan, chart: Any, frame: Frame) -> None:
+        from shapely.geometry import box
+
+        super().__init__(pdf, font)
+        self.plan, self.chart, self.f = plan, chart, frame
+        self.view = box(frame.x0, frame.y0, frame.x1, frame.y1)
+        self.legend: list[dict[str, Any]] = []
+
+    def page_xy(self, lonlat: np.ndarray) -> np.ndarray:
+        return self.f.xy(lonlat)
+
+    def fill_geom(self, geom: Any, face: Any, edge: Any | None, lw: float) -> bool:
+        rings, lines = _geom_rings(geom, self.view)
+        if rings:
+            style = ("B*" if edge is not None else "f*")
+            ops = [col(face, "rg"), f"{lw:.2f} w 0 j"]
+            if edge is not None:
+                ops.append(col(edge, "RG"))
+            self.out("\n".join(ops) + "\n" + rings_ops([self.page_xy(r) for r in rings]) + f" {style}")
+        if lines:
+            self.out(f"{col(edge or 'k', 'RG')} 0.8 w\n" + rings_ops([self.page_xy(c) for c in lines], close=False) + " S")
+        return bool(rings or lines)
+
+    def marker(self, kind: str, x: float, y: float, size: float, face: Any, edge: Any = "k", mew: float = 1.0) -> None:
+        """matplotlib's '*', '^' and 's' markers, ``size`` points across."""
+        r = 0.5 * size
+        if kind == "*":
+            a = np.pi / 2 + np.arange(10) * np.pi / 5
+            rad = np.where(np.arange(10) % 2 == 0, r, r * 0.381966)
+            pts = np.column_stack([x + rad * np.cos(a), y + rad * np.sin(a)])
+        elif kind == "^":
+            pts = np.array([[x, y + r], [x - r, y - r], [x + r, y - r]])
+        else:
+            pts = np.array([[x - r, y - r], [x + r, y - r], [x + r, y + r], [x - r, y + r]])
+        self.out(f"{col(face, 'rg')} {col(edge, 'RG')} {mew:.2f} w 0 j [] 0 d\n" + rings_ops([pts]) + " B")
+
+    def circle(self, x: float, y: float, r: float, face: Any, edge: Any, lw: float) -> None:
+        k = 0.5523 * r  # four Bezier quarter arcs
+        self.out(f"{col(face, 'rg')} {col(edge, 'RG')} {lw:.2f} w [] 0 d\n"
+                 f"{x + r:.2f} {y:.2f} m {x + r:.2f} {y + k:.2f} {x + k:.2f} {y + r:.2f} {x:.2f} {y + r:.2f} c "
+                 f"{x - k:.2f} {y + r:.2f} {x - r:.2f} {y + k:.2f} {x - r:.2f} {y:.2f} c "
+                 f"{x - r:.2f} {y - k:.2f} {x - k:.2f} {y - r:.2f} {x:.2f} {y - r:.2f} c "
+                 f"{x + k:.2f} {y - r:.2f} {x + r:.2f} {y - k:.2f} {x + r:.2f} {y:.2f} c h B")
+
+    # -- the map -------------------------------------------------------------------------------------
+    def draw(self) -> None:
+        f = self.f
+        self.out(f"q {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re W n")
+        self.out(f"{col('#eef6fd', 'rg')} {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re f")
+        xt, yt = self.ticks()
+        self.chart_layers()
+        # the grid goes with the axis, which matplotlib draws at zorder 1.5: over the chart, under the sea room
+        grid = [np.array([[x, f.bottom], [x, f.bottom + f.height]]) for x in xt]
+        grid += [np.array([[f.left, y], [f.left + f.width, y]]) for y in yt]
+        if grid:
+            self.out(f"{col('white', 'RG')} 0.6 w 2 J [] 0 d\n" + rings_ops(grid, close=False) + " S")
+        self.sea_room()
+        self.track()
+        self.out("Q")
+        self.numbers()
+        self.furniture(xt, yt)
+
+    def chart_layers(self) -> None:
+        import matplotlib
+
+        chart = self.chart
+        if chart is None:
+            return
+        if chart.depth_areas:
+            depths = sorted({d for _, d in chart.depth_areas})
+            shades = matplotlib.colormaps["Blues"](np.linspace(0.32, 0.04, max(len(depths), 2)))
+            drawn = False
+            for g, d in chart.depth_areas:
+                drawn |= self.fill_geom(g, shades[depths.index(d)][:3], "#5b8db8", 0.4)
+            if drawn:
+                self.legend.append({"kind": "patch", "face": shades[0][:3], "edge": "#5b8db8",
+                                    "label": f"depth areas {depths[0]:g}-{depths[-1]:g} m (darker: shallower)"})
+        if self.fill_geom(chart.no_go, NO_GO_COLOUR, "#35607d", 0.6):
+            segs = hatch_segments(chart.no_go, self.view, self.f.m_per_deg, self.f.m_per_pt())
+            if segs:
+                self.out(f"{col('#35607d', 'RG')} 0.6 w 2 J [] 0 d\n" + rings_ops([self.page_xy(s) for s in segs], close=False)
+                         + " S")
+            self.legend.append({"kind": "hatch", "face": NO_GO_COLOUR, "edge": "#35607d", "label": "shallow / restricted (no-go)"})
+        if self.fill_geom(chart.land, LAND_COLOUR, "#6b5d3a", 0.6):
+            self.legend.append({"kind": "patch", "face": LAND_COLOUR, "edge": "#6b5d3a", "label": "land"})
+
+    def sea_room(self) -> None:
+        from maps.export.geojson import sea_room_lonlat
+
+        room = sea_room_lonlat(self.plan)
+        if room is not None and self.fill_geom(room, "#cfe6fb", None, 0.0):
+            self.legend.append({"kind": "patch", "face": "#cfe6fb", "edge": None, "label": "sea room (hull + margin)"})
+
+    def track(self) -> None:
+        plan = self.plan
+        colours = primitive_colours(plan)
+        labelled: set[str] = set()
+        xy = self.page_xy(plan.lonlat)
+        for st in plan.steps:
+            seg = st.segment
+            key = st.primitive if seg == "informative" else seg
+            lw, dash = {"run-in": (1.8, (4 * 1.8, 2 * 1.8)), "transit": (1.1, None)}.get(seg, (2.2, None))
+            colour = step_colour(plan, st, colours)
+            pts = xy[step_slice(plan, st)]
+            if len(pts) >= 2:
+                self.polyline(pts, colour, lw, dash)
+            if key not in labelled:
+                label = {"run-in": "run-in (steady course and speed)", "transit": "transit"}.get(key, key)
+                self.legend.append({"kind": "line", "colour": colour, "lw": lw, "dash": dash, "label": label})
+                labelled.add(key)
+        self.start_end_execute(xy)
+
+    def start_end_execute(self, xy: np.ndarray) -> None:
+        plan = self.plan
+        self.marker("^", *xy[0], 11, "green")
+        self.marker("s", *xy[-1], 9, "red")
+        execs = [st for st in plan.steps if getattr(st, "execute", False)]
+        for st in execs:
+            self.marker("*", *self.page_xy(np.array([[st.entry_lon, st.entry_lat]]))[0], 15, "#ffd400", mew=0.8)
+        if execs:
+            self.legend.append({"kind": "marker", "marker": "*", "size": 15, "face": "#ffd400", "mew": 0.8, "label": "execute point"})
+        self.legend.append({"kind": "marker", "marker": "^", "size": 11, "face": "green", "mew": 1.0, "label": "start"})
+        self.legend.append({"kind": "marker", "marker": "s", "size": 9, "face": "red", "mew": 1.0, "label": "end"})
+
+    def numbers(self) -> None:
+        """Step numbers in circles 7 pt up and right of each step's entry (as the figure's annotations)."""
+        plan = self.plan
+        colours = primitive_colours(plan)
+        f = self.f
+        for st in plan.steps:
+            if st.segment == "transit" and not getattr(st, "execute", False) and len(plan.steps) > 12:
+                continue
+            x, y = self.page_xy(np.array([[st.entry_lon, st.entry_lat]]))[0]
+            if not (f.left <= x <= f.left + f.width and f.bottom <= y <= f.bottom + f.height):
+                continue  # as matplotlib: an annotation whose point is outside the axes is not drawn
+            x, y = x + 7.0, y + 7.0
+            s = str(st.index + 1)
+            w = self.text_width(s, NUM_FS, bold=True)
+            r = 0.5 * max(w, LINE_HEIGHT * NUM_FS) + 0.15 * NUM_FS
+            self.out("q")
+            self.circle(x, y, r, "white", step_colour(plan, st, colours), 1.2)
+            self.out("Q")
+            self.text(x, y, s, NUM_FS, bold=True, ha="center", va="center")
+
+    def ticks(self) -> tuple[list[float], list[float]]:
+        """Tick positions on the page: matplotlib's MaxNLocator along x (4 intervals, fewer on a narrow
+        map: :func:`maps.export.plots.lon_ticks`), its AutoLocator along y."""
+        from matplotlib.ticker import MaxNLocator
+
+        f = self.f
+        xs = lon_ticks(f.x0, f.x1, f.width)
+        nbins = int(np.clip(math.floor(f.height / (TICK_FS * 2)), 1, 9))
+        ys = [v for v in MaxNLocator(nbins, steps=[1, 2, 2.5, 5, 10]).tick_values(f.y0, f.y1) if f.y0 <= v <= f.y1]
+        self._tick_values = (xs, ys)
+        return ([f.left + (v - f.x0) / (f.x1 - f.x0) * f.width for v in xs],
+                [f.bottom + (v - f.y0) / (f.y1 - f.y0) * f.height for v in ys])
+
+    def furniture(self, xt: list[float], yt: list[float]) -> None:
+        """Scale bar, north arrow, frame, ticks and tick labels."""
+        f = self.f
+        bx, by, length, label = scale_bar(f.x0, f.y0, f.x1, f.y1, f.m_per_deg[0])
+        (p0, p1) = self.page_xy(np.array([[bx, by], [bx + length, by]]))
+        self.out("q")
+        self.polyline(np.array([p0, p1]), "k", 3.0, cap=2)
+        # north arrow: from above the "N" (axes fraction 0.85) to 0.95, a filled head as '-|>'
+        ax_, ay0, ay1 = f.left + 0.95 * f.width, f.bottom + 0.85 * f.height + 0.76 * 9 + 2, f.bottom + 0.95 * f.height - 2
+        head = 0.4 * 9
+        self.polyline(np.array([[ax_, ay0], [ax_, ay1 - head]]), "k", 1.0)
+        self.out(f"{col('k', 'rg')} {ax_:.2f} {ay1:.2f} m {ax_ - 0.2 * 9:.2f} {ay1 - head:.2f} l {ax_ + 0.2 * 9:.2f} "
+                 f"{ay1 - head:.2f} l h B")
+        self.out(f"{col('k', 'RG')} 0.8 w 0 J 0 j [] 0 d {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re S")
+        ticks = [np.array([[x, f.bottom], [x, f.bottom - 3.5]]) for x in xt] + [np.array([[f.left, y], [f.left - 3.5, y]]) for y in yt]
+        if ticks:
+            self.out("0.8 w\n" + rings_ops(ticks, close=False) + " S")
+        self.out("Q")
+        self.text(0.5 * (p0[0] + p1[0]), p0[1] + 0.012 * f.height, label, 7, ha="center", va="bottom")
+        self.text(ax_, f.bottom + 0.85 * f.height, "N", 9, bold=True, ha="center")
+        xs, ys = self._tick_values
+        for x, v in zip(xt, xs):
+            self.text(x, f.bottom - 7.0, deg_min(v, "E", "W", 3).replace("'", "′"), TICK_FS, ha="center", va="top")
+        for y, v in zip(yt, ys):
+            self.text(f.left - 7.0, y, deg_min(v, "N", "S", 2).replace("'", "′"), TICK_FS, ha="right", va="center")
+
+    # -- the legend ----------------------------------------------------------------------------------
+    def draw_legend(self, ncol: int = 3) -> None:
+        """The legend below the map, centred (matplotlib's loc="upper center" at (0.5, -0.05) of
+        the axes, ``ncol`` columns filled top to bottom, its paddings in font sizes)."""
+        fs, f = LEGEND_FS, self.f
+        entries = self.legend
+        if not entries:
+            return
+        cols = [c for c in np.array_split(np.arange(len(entries)), ncol) if len(c)]
+        row_h = 1.0 * fs  # matplotlib packs legend rows by the texts' ink height, about the font size
+        pitch = row_h + 0.5 * fs
+        hl, htp, pad = 2.0 * fs, 0.8 * fs, 0.4 * fs
+        widths = [hl + htp + max(self.text_width(entries[i]["label"], fs) for i in c) for c in cols]
+        width = sum(widths) + 2.0 * fs * (len(cols) - 1) + 2 * pad
+        height = pitch * max(len(c) for c in cols) - 0.5 * fs + 2 * pad
+        left = f.left + 0.5 * f.width - 0.5 * width
+        top = f.bottom - 0.05 * f.height - 0.5 * fs
+        self.out(f"q {col('white', 'rg')} {col('0.8', 'RG')} 1 w [] 0 d {left:.2f} {top - height:.2f} {width:.2f} {height:.2f} re B Q")
+        x = left + pad
+        for c, w in zip(cols, widths):
+            for k, i in enumerate(c):
+                yc = top - pad - k * pitch - 0.5 * row_h
+                self.out("q")
+                self._handle(entries[i], x, yc, hl, 0.7 * fs)
+                self.out("Q")
+                self.text(x + hl + htp, yc, entries[i]["label"], fs, va="center")
+            x += w + 2.0 * fs
+
+    def _handle(self, e: dict[str, Any], x: float, yc: float, w: float, h: float) -> None:
+        kind = e["kind"]
+        if kind == "line":
+            self.polyline(np.array([[x, yc], [x + w, yc]]), e["colour"], e["lw"], e["dash"])
+        elif kind == "marker":
+            self.marker(e["marker"], x + 0.5 * w, yc, e["size"], e["face"], mew=e["mew"])
+        else:
+            edge = e["edge"]
+            ops = f"{col(e['face'], 'rg')} {x:.2f} {yc - 0.5 * h:.2f} {w:.2f} {h:.2f} re "
+            self.out((f"{col(edge, 'RG')} 1 w [] 0 d " + ops + "B") if edge is not None else ops + "f")
+            if kind == "hatch":
+                segs = []
+                for t in np.arange(-h, w, HATCH_PT):
+                    a, b = max(t, 0.0), min(t + h, w)
+                    segs.append(np.array([[x + a, yc - 0.5 * h + a - t], [x + b, yc - 0.5 * h + b - t]]))
+                self.out(f"{col(edge, 'RG')} 0.6 w\n" + rings_ops(segs, close=False) + " S")
+
+
+def draw_page1_map(pdf: Any, font: str, plan: Plan, chart: Any, box: tuple[float, float, float, float]) -> None:
+    """The map of page 1 with its legend below, the axes in ``box`` (left, bottom, width, height
+    in PDF points from the page's bottom left)."""
+    w = MapWriter(pdf, font, plan, chart, map_frame(plan, box))
+    w.draw()
+    w.draw_legend()
