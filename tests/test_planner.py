@@ -13,7 +13,7 @@ from scipy.sparse.csgraph import dijkstra
 from shapely.geometry import LineString, shape
 
 from maps import astar
-from maps.collision import CollisionGrid, Window, rasterise, row_intervals
+from maps.collision import CollisionGrid, Window, quarter_turns, rasterise, row_intervals
 from maps.geo import bundled_map_path, load_map
 from maps.plan import Plan
 from maps.planner import plan_trial
@@ -156,6 +156,34 @@ def test_collision_test_is_conservative(seed):
                 inside = shapely.box(*win.bounds).contains(placed)
                 if ok[i, j]:
                     assert inside and not placed.intersects(no_go)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_valid_everywhere_is_the_brute_force_answer(seed):
+    """A lattice point is valid exactly when none of the footprint's cells, placed there, is blocked."""
+    rng = np.random.default_rng(seed)
+    win = Window(x0=1000.0 + rng.uniform(0, 50), y0=-2000.0 + rng.uniform(0, 50), res=120.0, ni=10, nj=11)
+    grid = CollisionGrid(load_map(), win, margin=0.0, sub=8, pad_m=600.0)
+    rows = grid.footprint_rows(shapely.Polygon(rng.uniform(-250, 250, (6, 2))).convex_hull, rng.uniform(0, 6.3), 5.0)
+    cells = [(a, b) for a, b0, b1 in rows.tolist() for b in range(b0, b1 + 1)]
+    want = np.array([[not any(grid.blocked[grid.pad + i * grid.sub + a, grid.pad + j * grid.sub + b] for a, b in cells)
+                      for j in range(win.nj)] for i in range(win.ni)])
+    assert 0 < want.sum() < want.size  # some points free, some blocked: both answers are checked
+    assert (grid.valid_everywhere(rows) == want).all()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_quarter_turned_cells_are_the_cells_of_the_turned_footprint(seed):
+    """The planner rasterises a footprint once per heading class and turns the cells for the
+    headings a quarter turn apart: the same cells as rasterising the turned footprint."""
+    rng = np.random.default_rng(seed)
+    win = Window(x0=0.0, y0=0.0, res=120.0, ni=3, nj=3)
+    grid = CollisionGrid(load_map(), win, margin=0.0, sub=8, pad_m=600.0)
+    fp = shapely.Polygon(rng.uniform(-300, 300, (7, 2))).convex_hull
+    psi0 = float(rng.uniform(0, np.pi / 2))
+    base = grid.footprint_rows(fp, psi0, 20.0)
+    for k in range(4):
+        assert quarter_turns(base, k).tolist() == grid.footprint_rows(fp, psi0 + k * np.pi / 2, 20.0).tolist()
 
 
 def test_rasterise_touches_every_cell():
