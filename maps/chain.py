@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from maps import astar
-from maps.collision import CollisionGrid, Window
+from maps.collision import CollisionGrid, Window, quarter_turns
 from maps.forked import map_halves
 from maps.geo import MapError, SeaMap, bundled_map_path
 from maps.lattice import Move, heading_table, nearest_heading, run_in_seconds
@@ -124,24 +124,45 @@ class Lattice:
         for m in self.moves:  # footprints first (cached on the primitives): the forked half would lose its copies
             for h in range(K):
                 m.prim(h).footprint  # noqa: B018
-        # every (move, heading) on its own: half of them in a forked child (maps.forked), same results
-        flat = map_halves(lambda mh: self._placement(*mh, extra), [(m, h) for m in self.moves for h in range(K)])
-        out = [flat[i:i + K] for i in range(0, len(flat), K)]
+        # every (move, heading class) on its own: half of them in a forked child (maps.forked), same results
+        q_n = K // 4
+        flat = map_halves(lambda mq: self._class_placements(*mq, extra), [(m, q) for m in self.moves for q in range(q_n)])
+        out = [[flat[mi * q_n + h % q_n][h // q_n] for h in range(K)] for mi in range(len(self.moves))]
         self._placements[extra] = out
         return out
 
-    def _placement(self, m: Move, h: int, extra: float) -> tuple[np.ndarray, np.ndarray]:
-        """(collision-free, inside the soft clearance zone) per lattice point of move ``m`` at heading ``h``."""
+    def _class_placements(self, m: Move, q: int, extra: float) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(collision-free, inside the soft clearance zone) per lattice point of move ``m`` at the
+        headings q, q + K/4, q + K/2, q + 3K/4 (a heading class and its quarter turns)."""
+        o, grid, K = self.options, self.grid, len(self.table)
+        base: dict[float, np.ndarray] = {}
+
+        def rows(h: int, add: float) -> np.ndarray:
+            """The cells of the footprint at heading h grown by margin + snapping + extra + add:
+            rasterised once per class and turned (:func:`maps.collision.quarter_turns`) when the
+            heading's growth is the class's (the snapping errors of turned headings are equal but
+            for float rounding, about 1e-12 m)."""
+            grow = o.margin + m.snap_m[h] + extra + add
+            if m.prim(h) is m.prim(q) and abs(grow - (o.margin + m.snap_m[q] + extra + add)) <= 1e-9:
+                if add not in base:
+                    base[add] = grid.footprint_rows(m.prim(q).footprint, float(self.table[q]), o.margin + m.snap_m[q] + extra + add)
+                return quarter_turns(base[add], (h - q) // (K // 4))
+            return grid.footprint_rows(m.prim(h).footprint, float(self.table[h]), grow)
+
+        return [self._placement(m, h, rows) for h in range(q, K, K // 4)]
+
+    def _placement(self, m: Move, h: int, rows) -> tuple[np.ndarray, np.ndarray]:
+        """(collision-free, inside the soft clearance zone) per lattice point of move ``m`` at
+        heading ``h``; ``rows(h, add)``: the cells of its footprint grown by ``add`` more."""
         o, win, grid = self.options, self.window, self.grid
         soft = o.clearance_lengths * self.profile.length_m
-        fp, psi, grow = m.prim(h).footprint, float(self.table[h]), o.margin + m.snap_m[h] + extra
-        ok = grid.valid_everywhere(grid.footprint_rows(fp, psi, grow))
+        ok = grid.valid_everywhere(rows(h, 0.0))
         di, dj = m.dcell[h]
         ii, jj = np.meshgrid(np.arange(win.ni) + di, np.arange(win.nj) + dj, indexing="ij")
         ok &= (ii >= 0) & (ii < win.ni) & (jj >= 0) & (jj < win.nj)  # ends on a lattice point too
         near = np.zeros_like(ok)
         if soft > 0 and o.clearance_cost > 0 and ok.any():
-            near = ok & ~grid.valid_everywhere(grid.footprint_rows(fp, psi, grow + soft))
+            near = ok & ~grid.valid_everywhere(rows(h, soft))
         return ok, near
 
     def fits_nowhere(self) -> dict[str, tuple[float, float]]:
