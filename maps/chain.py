@@ -283,58 +283,80 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     ``prefilter``: leave out (in ``too_big``) primitives larger than the navigable water in every
     lattice heading, without building their moves.
     """
-    from maps.scenario import HELSINKI_GOAL, HELSINKI_START
-
     t0 = time.perf_counter()
     o = replace(options) if options is not None else PlanOptions()  # the lattice's own: solve may switch off smoothing
     o.check()
     res = float(o.resolution) if o.resolution else default_resolution(profile, sea)
     K = o.headings
-    sx, sy, spsi, start_ll = _endpoint(sea, start, sea.start, HELSINKI_START, "start", o.margin)
-    gx, gy, gpsi, goal_ll = _endpoint(sea, goal, sea.goal, HELSINKI_GOAL, "goal", o.margin)
+    (sx, sy, spsi, start_ll), (gx, gy, gpsi, goal_ll) = _endpoints(sea, start, goal, o.margin)
     win = planning_window(sea, res, (sx, sy), (gx, gy), o.size)
     prims = [p for p in primitives if counts.get(p.name, 0) > 0]
+    _refuse_too_large(win, K, prims, counts, profile, o)
+    table = heading_table(K)
+    h_start = nearest_heading(spsi or 0.0, table)
+    warnings = list(sea.warnings)
+    if spsi is not None and abs(((spsi - table[h_start]) + np.pi) % (2 * np.pi) - np.pi) > 1e-6:
+        warnings.append(f"start heading {np.degrees(spsi):.1f} deg rounded to the lattice heading {np.degrees(table[h_start]):.1f} deg")
+    too_big = _too_big(sea, win, prims, table, o.margin) if prefilter else {}
+    moves, names, targets, notes = _motion_set(profile, [p for p in prims if p.name not in too_big], counts, res, o,
+                                               {} if cache is None else cache)
+    gi, gj = win.cell_of(gx, gy)
+    if not win.contains(gi, gj):
+        raise MapError(f"goal lies outside the planning window ({win.ni} x {win.nj} points of {res:g} m)")
+    return Lattice(sea, profile, o, win, _collision_grid(sea, win, moves, profile, o), table, moves, names, targets,
+                   {p.name: p for p in prims}, (sx, sy, float(table[h_start])), h_start, win.cell_of(sx, sy), (gi, gj),
+                   [nearest_heading(gpsi, table)] if gpsi is not None else list(range(K)), start_ll, goal_ll, notes, warnings,
+                   time.perf_counter() - t0, too_big)
+
+
+def _endpoints(sea: SeaMap, start: LatLonHdg | None, goal: LatLonHdg | None, margin: float) -> tuple[tuple, tuple]:
+    """(x, y, psi or None, (lat, lon, heading)) of the start and of the goal: given, else the map's
+    features, else (bundled map) the thesis's start and goal."""
+    from maps.scenario import HELSINKI_GOAL, HELSINKI_START
+
+    return (_endpoint(sea, start, sea.start, HELSINKI_START, "start", margin),
+            _endpoint(sea, goal, sea.goal, HELSINKI_GOAL, "goal", margin))
+
+
+def _refuse_too_large(win: Window, K: int, prims: list[Primitive], counts: dict[str, int], profile: ShipProfile,
+                      o: PlanOptions) -> None:
+    """MapError, with the estimate, when the lattice would need more than ``max_memory_gib``."""
     n_moves = len(prims) + (5 if o.spot_turns or profile.actuator == "rudder_propeller" else 3)
     need, states = estimate_memory(win.ni, win.nj, K, n_moves, [counts[p.name] for p in prims])
     if need > o.max_memory_gib * 2**30:
         raise MapError(f"the lattice would not fit: {win.ni} x {win.nj} points x {K} headings x counters = {_count(states, ',')} states, "
                        f"an estimated {_count(need / 2**30, ',.1f')} GiB (limit {o.max_memory_gib:g} GiB): use a coarser --resolution, "
                        f"fewer --headings, a shorter --trial-length or raise --max-memory")
-    table = heading_table(K)
-    h_start = nearest_heading(spsi or 0.0, table)
-    warnings = list(sea.warnings)
-    if spsi is not None and abs(((spsi - table[h_start]) + np.pi) % (2 * np.pi) - np.pi) > 1e-6:
-        warnings.append(f"start heading {np.degrees(spsi):.1f} deg rounded to the lattice heading {np.degrees(table[h_start]):.1f} deg")
-    cache = {} if cache is None else cache
+
+
+def _motion_set(profile: ShipProfile, prims: list[Primitive], counts: dict[str, int], res: float, o: PlanOptions,
+                cache: dict[str, Any]) -> tuple[list[Move], list[str], dict[str, int], list[str]]:
+    """(moves, counter names, targets, notes): the informative moves of ``prims`` (one counter
+    each, or one per piece with ``split``) and the basic moves, built into ``cache`` or taken from it."""
+    K = o.headings
     _basic_moves(profile, res, o, cache)
-    moves, names, targets, notes = [], [], {}, []
-    too_big = _too_big(sea, win, prims, heading_table(K), o.margin) if prefilter else {}
     run_in = run_in_seconds(profile, o.run_in_s)
-    todo = [p for p in prims if p.name not in too_big and p.name not in cache]
+    todo = [p for p in prims if p.name not in cache]
     # each primitive's moves on their own: some of them built in a forked child (maps.forked), same moves
     for p, built in zip(todo, map_halves(lambda p: _informative(p, res, K, o.split, run_in), todo, min_items=2)):
         cache[p.name] = built
+    moves, names, targets, notes = [], [], {}, []
     for p in prims:
-        if p.name in too_big:
-            continue
         mv_, nm_, _, nt_ = cache[p.name]
         for m, n in zip(mv_, nm_):
-            m = Move(**{**m.__dict__, "counter": len(names)})
-            moves.append(m)
+            moves.append(Move(**{**m.__dict__, "counter": len(names)}))
             names.append(n)
             targets[n] = int(counts[p.name])
         notes += nt_
-    moves += cache["basic"]
-    gi, gj = win.cell_of(gx, gy)
-    if not win.contains(gi, gj):
-        raise MapError(f"goal lies outside the planning window ({win.ni} x {win.nj} points of {res:g} m)")
+    return moves + cache["basic"], names, targets, notes
+
+
+def _collision_grid(sea: SeaMap, win: Window, moves: list[Move], profile: ShipProfile, o: PlanOptions) -> CollisionGrid:
+    """The window's blocked cells, padded by the reach of the largest footprint grown by every
+    growth the placements use (margin, snapping, a cell, the soft zone and 100 m for re-plans)."""
     ext = max((max(abs(v) for pr in m.prims for v in pr.footprint.bounds) for m in moves), default=0.0)
     snap = max(float(m.snap_m.max()) for m in moves)
-    grid = CollisionGrid(sea, win, o.margin, o.sub, ext + o.margin + snap + res + 100.0 + o.clearance_lengths * profile.length_m)
-    return Lattice(sea, profile, o, win, grid, table, moves, names, targets, {p.name: p for p in prims},
-                   (sx, sy, float(table[h_start])), h_start, win.cell_of(sx, sy), (gi, gj),
-                   [nearest_heading(gpsi, table)] if gpsi is not None else list(range(K)), start_ll, goal_ll, notes, warnings,
-                   time.perf_counter() - t0, too_big)
+    return CollisionGrid(sea, win, o.margin, o.sub, ext + o.margin + snap + win.res + 100.0 + o.clearance_lengths * profile.length_m)
 
 
 def _informative(p: Primitive, res: float, K: int, split: bool, run_in: float) -> tuple:
