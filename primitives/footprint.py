@@ -59,7 +59,9 @@ def swept_footprint(track: np.ndarray, length: float, beam: float, margin: float
         geom = Polygon(hulls[0])
     else:
         pairs = np.concatenate([hulls[:-1], hulls[1:]], axis=1)
-        geom = shapely.union_all(shapely.convex_hull(shapely.multipoints(pairs)))
+        # the hull of each pair's ten vertices, from one linestring per pair: made from the coordinate array in one
+        # call (a multipoint is made point by point), the same vertices in the same order, so the same hulls
+        geom = shapely.union_all(shapely.convex_hull(shapely.linestrings(pairs)))
     if margin + slack > 0:
         geom = geom.buffer(margin + slack, quad_segs=4)
     return geom
