@@ -138,6 +138,20 @@ def test_astar_optimal_on_random_small_lattices(seed):
         assert not res.found
 
 
+def test_successor_rows_are_the_edges_of_each_state_in_their_given_order():
+    """A state's successors, asked one state at a time (the search) or all at once (the failure
+    diagnosis), are its edges in the order given, with Python ints and floats."""
+    rng = np.random.default_rng(5)
+    n, e = 7, 30
+    src, mv, dst, q = (rng.integers(0, n, e) for _ in range(4))
+    cost = rng.uniform(0, 2, e)
+    want = [[(int(mv[k]), int(dst[k]), int(q[k]), float(cost[k])) for k in range(e) if src[k] == s] for s in range(n)]
+    one = astar.Successors.from_edges(n, src, mv, dst, q, cost)
+    assert [one[s] for s in (3, 0, 3, 6, 1, 2, 4, 5)] == [want[s] for s in (3, 0, 3, 6, 1, 2, 4, 5)]
+    assert list(one) == want and [one[s] for s in range(n)] == want
+    assert all(type(x) is int for row in list(one) for t in row for x in t[:3])
+
+
 @pytest.mark.parametrize("seed", range(6))
 def test_collision_test_is_conservative(seed):
     """Whenever the raster says a footprint is free, shapely must agree (never optimistic)."""
