@@ -31,6 +31,7 @@ from maps.motionset import basic_move_set, default_resolution, informative_moves
 from maps.plan import Plan, PlanStep
 from maps.smooth import Leg, Realiser, Shortcutter
 from maps.verify import Verification, resimulate
+from primitives.footprint import swept_hulls
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
 
@@ -395,23 +396,44 @@ def _too_big(sea: SeaMap, win: Window, prims: list[Primitive], table: np.ndarray
     navigable water of the window in every lattice heading: they fit nowhere (a certain, cheap
     test; the collision grid decides for the others)."""
     import shapely
-    from shapely import affinity
 
     water = shapely.box(*win.bounds).difference(sea.no_go())
     if water.is_empty:
         return {p.name: _needs(p, margin) for p in prims}
     wx0, wy0, wx1, wy1 = water.bounds
+    room = (wx1 - wx0, wy1 - wy0)
     out = {}
     for p in prims:
-        fits = False
-        for psi in table:
-            b = affinity.rotate(p.footprint, float(psi), origin=(0, 0), use_radians=True).bounds
-            if b[2] - b[0] + 2 * margin <= wx1 - wx0 and b[3] - b[1] + 2 * margin <= wy1 - wy0:
-                fits = True
-                break
-        if not fits:
+        parts = None if "footprint" in p.__dict__ else swept_hulls(p.track, p.profile.length_m, p.profile.beam_m)
+        if not any(_fits_box(p, parts, float(psi), room, margin) for psi in table):
             out[p.name] = _needs(p, margin)
     return out
+
+
+def _fits_box(p: Primitive, parts: tuple[np.ndarray, float] | None, psi: float, room: tuple[float, float], margin: float) -> bool:
+    """Whether ``p``'s footprint turned by ``psi``, with ``margin`` on both sides, has an extent
+    within ``room`` (north, east).
+
+    Decided from ``parts`` (:func:`primitives.footprint.swept_hulls` of ``p``, or None), the
+    hull placements the footprint is the union of, when their extent, and that extent
+    plus twice the footprint's slack, fall on the same side of ``room`` (by more than a
+    micrometre of rounding): the footprint itself (a union of hundreds of hulls) is made only
+    when they straddle it. The same answers as the footprint's bounds."""
+    from shapely import affinity
+
+    if parts is not None:
+        hulls, slack = parts
+        v = hulls.reshape(-1, 2)
+        c, s = np.cos(psi), np.sin(psi)
+        x, y = v[:, 0] * c - v[:, 1] * s, v[:, 0] * s + v[:, 1] * c
+        ext = np.array([x.max() - x.min(), y.max() - y.min()])
+        tol = 1e-6 * (1.0 + float(np.abs(v).max()))
+        if np.all(ext + 2 * slack + tol + 2 * margin <= room):
+            return True
+        if np.any(ext - tol + 2 * margin > room):
+            return False
+    b = affinity.rotate(p.footprint, psi, origin=(0, 0), use_radians=True).bounds
+    return bool(b[2] - b[0] + 2 * margin <= room[0] and b[3] - b[1] + 2 * margin <= room[1])
 
 
 def _needs(p: Primitive, margin: float) -> tuple[float, float]:

@@ -332,3 +332,24 @@ def test_thesis_scenario_with_run_ins_at_four_headings_says_why_it_fails():
     assert not plan.feasible
     assert "reach only" in plan.stats["reason"] and "lattice states" in plan.stats["reason"]
     assert any("--headings 16" in h for h in plan.stats["help"])
+
+
+def test_cheap_fit_test_gives_the_footprints_answer():
+    """Whether a primitive fits a box in a heading, decided from its hull placements without
+    the footprint where they tell, is the answer of the footprint's own bounds, in boxes just
+    smaller and just larger than the footprint."""
+    from maps.chain import _fits_box
+    from primitives.footprint import swept_hulls
+    from primitives.library import build_library
+
+    prof = load_profile("full-scale")
+    lib = [p for p in build_library(prof) if p.kind == "informative"][:4]
+    for p in lib:
+        parts = swept_hulls(p.track, prof.length_m, prof.beam_m)
+        for psi in (0.0, 0.4, 1.9):
+            b = shapely.affinity.rotate(p.footprint, psi, origin=(0, 0), use_radians=True).bounds
+            w, h = b[2] - b[0] + 40.0, b[3] - b[1] + 40.0
+            for dw, dh in ((0.0, 0.0), (-1e-3, 0.0), (0.0, -1e-3), (-5.0, 5.0), (5.0, 5.0), (-2 * parts[1], 0.0), (1e-7, 1e-7)):
+                room = (w + dw, h + dh)
+                want = b[2] - b[0] + 40.0 <= room[0] and b[3] - b[1] + 40.0 <= room[1]
+                assert _fits_box(p, parts, psi, room, 20.0) == want
