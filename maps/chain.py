@@ -31,7 +31,7 @@ from maps.motionset import basic_move_set, default_resolution, informative_moves
 from maps.plan import Plan, PlanStep
 from maps.smooth import Leg, Realiser, Shortcutter
 from maps.verify import Verification, resimulate
-from primitives.footprint import swept_hulls
+from primitives.footprint import swept_footprints, swept_hulls
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
 
@@ -364,9 +364,10 @@ def _informative(p: Primitive, res: float, K: int, split: bool, run_in: float) -
     """:func:`maps.motionset.informative_moves` of ``p`` alone, with the swept footprints of its
     moves computed (cached on their primitives)."""
     out = informative_moves([p], {p.name: 1}, res, K, split, run_in)
-    for m in out[0]:
-        for pr in m.prims:
-            pr.footprint  # noqa: B018 - a cached property: computed now
+    for m in out[0]:  # a move's primitives share their run-in and manoeuvre: the union of those hulls formed once
+        todo = [pr for pr in m.prims if "footprint" not in pr.__dict__]
+        for pr, fp in zip(todo, swept_footprints([pr.track for pr in todo], p.profile.length_m, p.profile.beam_m)):
+            pr.__dict__["footprint"] = fp  # the cached property's value
     return out
 
 

@@ -73,3 +73,26 @@ def swept_hulls(track: np.ndarray, length: float, beam: float) -> tuple[np.ndarr
     rho = float(np.max(np.hypot(outline[:, 0], outline[:, 1])))
     slack = float(np.max(rho * (1 - np.cos(seg_a / 2)) + seg_d * np.sin(seg_a / 2) / 2, initial=0.0))
     return hull_at(outline, kept), slack
+
+
+def swept_footprints(tracks: list[np.ndarray], length: float, beam: float) -> list[Polygon]:
+    """:func:`swept_footprint` of each of ``tracks`` that begin alike (one manoeuvre's run-in
+    and manoeuvre, then settling legs that differ): the union of the hulls they share is formed
+    once and each footprint is that union with its own hulls, grown by its own slack. The same
+    areas as one by one (the union is associative), with the vertices in another order."""
+    parts = [swept_hulls(t, length, beam) for t in tracks]
+    first = parts[0][0]
+    n = min(len(h) for h, _ in parts)
+    same = np.ones(n, bool)
+    for h, _ in parts[1:]:
+        same &= np.all(h[:n] == first[:n], axis=(1, 2))
+    shared = (int(np.argmin(same)) if not same.all() else n) - 1  # pairs of hulls all of them have
+    if len(tracks) < 2 or shared < 2:
+        return [swept_footprint(t, length, beam) for t in tracks]
+    head = shapely.union_all(shapely.convex_hull(shapely.linestrings(np.concatenate([first[:shared], first[1:shared + 1]], axis=1))))
+    out = []
+    for hulls, slack in parts:
+        pairs = np.concatenate([hulls[shared:-1], hulls[shared + 1:]], axis=1)
+        geom = shapely.union_all(np.concatenate([[head], shapely.convex_hull(shapely.linestrings(pairs))]))
+        out.append(geom.buffer(slack, quad_segs=4) if slack > 0 else geom)
+    return out
