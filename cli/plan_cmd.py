@@ -240,6 +240,9 @@ def write_outputs_all(result, sea, tmp: Path, td, t0, no_export: bool, quiet: bo
     except BaseException:
         drawer.wait(quiet=True)  # no child outlives the command; the first error is the one to report
         raise
+    if not quiet:  # the summary's printer, imported while this process would only wait for the drawer
+        import rich.console  # noqa: F401
+        import rich.table  # noqa: F401
     drawer.wait()
     card = default_path(result, "card", tmp)
     stem = default_path(result, "csv", tmp).with_suffix("")
