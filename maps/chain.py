@@ -13,10 +13,8 @@
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field, replace
-from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
@@ -29,15 +27,14 @@ from maps.geo import MapError, SeaMap, bundled_map_path
 from maps.lattice import Move, heading_table, nearest_heading, run_in_seconds
 from maps.motionset import basic_move_set, default_resolution, informative_moves, planning_window
 from maps.plan import Plan, PlanStep
+from maps.sizing import BYTES_PER_STATE, estimate_memory, needs, refuse_too_large, too_big_for_water
 from maps.smooth import Leg, Realiser, Shortcutter
 from maps.verify import Verification, resimulate
-from primitives.footprint import swept_footprints, swept_hulls
+from primitives.footprint import swept_footprints
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
 
 LatLonHdg = tuple[float, float, float | None]
-BYTES_PER_EDGE = 120  # a successor tuple in a Python list (measured order of magnitude)
-BYTES_PER_STATE = 260  # an A* state: g-cost and parent dict entries, closed-set entry, heap entry
 
 
 @dataclass
@@ -174,7 +171,7 @@ class Lattice:
         used = self._usable_moves()
         for mi, m in enumerate(self.moves):
             if m.counter >= 0 and mi not in used:
-                out[m.source or m.name] = _needs(m.prims[0], self.options.margin)
+                out[m.source or m.name] = needs(m.prims[0], self.options.margin)
         return out
 
     def _usable_moves(self) -> set[int]:
@@ -253,27 +250,6 @@ def _endpoint(sea: SeaMap, given: LatLonHdg | None, feat, default: LatLonHdg, wh
     return x, y, (None if hdg is None else float(np.radians(hdg))), given
 
 
-def estimate_memory(lat_ni: int, lat_nj: int, n_head: int, n_moves: int, targets: list[int]) -> tuple[float, int]:
-    """(bytes, states): memory of the tables every search builds (successors of every move at
-    every lattice point, the relaxed cost-to-go graph with edges x (D + 1)) and the number of
-    counter-augmented states (8.5). A* visits only part of the states; it is stopped when the
-    states it holds reach the rest of the memory budget (``BYTES_PER_STATE`` each).
-
-    Exact Python integers throughout: numpy's int64 wraps around (to a negative state count) for
-    the counts of a very long trial; bytes past the float range are ``inf``."""
-    spatial = int(lat_ni) * int(lat_nj) * int(n_head)
-    states = spatial * math.prod(int(d) + 1 for d in targets)
-    edges = spatial * int(n_moves)
-    D = sum(int(d) for d in targets)
-    need = edges * BYTES_PER_EDGE + edges * (D + 1) * 40 + spatial * (D + 1) * 8 * 3
-    return (float(need) if need.bit_length() < 1000 else math.inf), states
-
-
-def _count(n: float, fmt: str) -> str:
-    """``n`` as ``fmt`` (e.g. ",.1f"), or in scientific notation from 1e15 on (an int of any size)."""
-    return format(n, fmt) if n < 1e15 else f"{Decimal(n):.2e}"
-
-
 def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive], counts: dict[str, int], *,
                   start: LatLonHdg | None = None, goal: LatLonHdg | None = None, options: PlanOptions | None = None,
                   cache: dict[str, Any] | None = None, prefilter: bool = False) -> Lattice:
@@ -292,13 +268,13 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     (sx, sy, spsi, start_ll), (gx, gy, gpsi, goal_ll) = _endpoints(sea, start, goal, o.margin)
     win = planning_window(sea, res, (sx, sy), (gx, gy), o.size)
     prims = [p for p in primitives if counts.get(p.name, 0) > 0]
-    _refuse_too_large(win, K, prims, counts, profile, o)
+    refuse_too_large(win, K, prims, counts, profile, o)
     table = heading_table(K)
     h_start = nearest_heading(spsi or 0.0, table)
     warnings = list(sea.warnings)
     if spsi is not None and abs(((spsi - table[h_start]) + np.pi) % (2 * np.pi) - np.pi) > 1e-6:
         warnings.append(f"start heading {np.degrees(spsi):.1f} deg rounded to the lattice heading {np.degrees(table[h_start]):.1f} deg")
-    too_big = _too_big(sea, win, prims, table, o.margin) if prefilter else {}
+    too_big = too_big_for_water(sea, win, prims, table, o.margin) if prefilter else {}
     moves, names, targets, notes = _motion_set(profile, [p for p in prims if p.name not in too_big], counts, res, o,
                                                {} if cache is None else cache)
     gi, gj = win.cell_of(gx, gy)
@@ -317,17 +293,6 @@ def _endpoints(sea: SeaMap, start: LatLonHdg | None, goal: LatLonHdg | None, mar
 
     return (_endpoint(sea, start, sea.start, HELSINKI_START, "start", margin),
             _endpoint(sea, goal, sea.goal, HELSINKI_GOAL, "goal", margin))
-
-
-def _refuse_too_large(win: Window, K: int, prims: list[Primitive], counts: dict[str, int], profile: ShipProfile,
-                      o: PlanOptions) -> None:
-    """MapError, with the estimate, when the lattice would need more than ``max_memory_gib``."""
-    n_moves = len(prims) + (5 if o.spot_turns or profile.actuator == "rudder_propeller" else 3)
-    need, states = estimate_memory(win.ni, win.nj, K, n_moves, [counts[p.name] for p in prims])
-    if need > o.max_memory_gib * 2**30:
-        raise MapError(f"the lattice would not fit: {win.ni} x {win.nj} points x {K} headings x counters = {_count(states, ',')} states, "
-                       f"an estimated {_count(need / 2**30, ',.1f')} GiB (limit {o.max_memory_gib:g} GiB): use a coarser --resolution, "
-                       f"fewer --headings, a shorter --trial-length or raise --max-memory")
 
 
 def _motion_set(profile: ShipProfile, prims: list[Primitive], counts: dict[str, int], res: float, o: PlanOptions,
@@ -390,56 +355,6 @@ def prepare_basic_moves(sea: SeaMap, profile: ShipProfile, options: PlanOptions,
     for m in _basic_moves(profile, res, options, cache):
         for pr in m.prims:
             pr.footprint  # noqa: B018 - a cached property: computed now, read by build_lattice
-
-
-def _too_big(sea: SeaMap, win: Window, prims: list[Primitive], table: np.ndarray, margin: float) -> dict[str, tuple[float, float]]:
-    """Primitives whose footprint (grown by the margin) is larger than the bounding box of the
-    navigable water of the window in every lattice heading: they fit nowhere (a certain, cheap
-    test; the collision grid decides for the others)."""
-    import shapely
-
-    water = shapely.box(*win.bounds).difference(sea.no_go())
-    if water.is_empty:
-        return {p.name: _needs(p, margin) for p in prims}
-    wx0, wy0, wx1, wy1 = water.bounds
-    room = (wx1 - wx0, wy1 - wy0)
-    out = {}
-    for p in prims:
-        parts = None if "footprint" in p.__dict__ else swept_hulls(p.track, p.profile.length_m, p.profile.beam_m)
-        if not any(_fits_box(p, parts, float(psi), room, margin) for psi in table):
-            out[p.name] = _needs(p, margin)
-    return out
-
-
-def _fits_box(p: Primitive, parts: tuple[np.ndarray, float] | None, psi: float, room: tuple[float, float], margin: float) -> bool:
-    """Whether ``p``'s footprint turned by ``psi``, with ``margin`` on both sides, has an extent
-    within ``room`` (north, east).
-
-    Decided from ``parts`` (:func:`primitives.footprint.swept_hulls` of ``p``, or None), the
-    hull placements the footprint is the union of, when their extent, and that extent
-    plus twice the footprint's slack, fall on the same side of ``room`` (by more than a
-    micrometre of rounding): the footprint itself (a union of hundreds of hulls) is made only
-    when they straddle it. The same answers as the footprint's bounds."""
-    from shapely import affinity
-
-    if parts is not None:
-        hulls, slack = parts
-        v = hulls.reshape(-1, 2)
-        c, s = np.cos(psi), np.sin(psi)
-        x, y = v[:, 0] * c - v[:, 1] * s, v[:, 0] * s + v[:, 1] * c
-        ext = np.array([x.max() - x.min(), y.max() - y.min()])
-        tol = 1e-6 * (1.0 + float(np.abs(v).max()))
-        if np.all(ext + 2 * slack + tol + 2 * margin <= room):
-            return True
-        if np.any(ext - tol + 2 * margin > room):
-            return False
-    b = affinity.rotate(p.footprint, psi, origin=(0, 0), use_radians=True).bounds
-    return bool(b[2] - b[0] + 2 * margin <= room[0] and b[3] - b[1] + 2 * margin <= room[1])
-
-
-def _needs(p: Primitive, margin: float) -> tuple[float, float]:
-    b = p.footprint.bounds
-    return float(b[2] - b[0] + 2 * margin), float(b[3] - b[1] + 2 * margin)
 
 
 @dataclass

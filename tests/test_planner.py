@@ -338,7 +338,7 @@ def test_cheap_fit_test_gives_the_footprints_answer():
     """Whether a primitive fits a box in a heading, decided from its hull placements without
     the footprint where they tell, is the answer of the footprint's own bounds, in boxes just
     smaller and just larger than the footprint."""
-    from maps.chain import _fits_box
+    from maps.sizing import _fits_box
     from primitives.footprint import swept_hulls
     from primitives.library import build_library
 
