@@ -103,25 +103,10 @@ def _run_app(argv: list[str] | None) -> int:
     return rc if isinstance(rc, int) else 0
 
 
-def _skip_final_collection() -> None:
-    """At interpreter exit, before its final garbage collection, move every object to the
-    permanent generation (``gc.freeze``): that collection would walk everything the command
-    made (about 0.1 s at the end of ``plan-trial``) only for the process to end. Registered
-    (once) by the console entry points, so it runs when their process ends (a test calling
-    them in-process: when the test run ends)."""
-    import atexit
-    import gc
-
-    atexit.unregister(gc.freeze)
-    atexit.register(gc.freeze)
-
-
 def main() -> None:
-    _skip_final_collection()
     sys.exit(_run())
 
 
 def plan_main() -> None:
     """``plan-trial`` is ``shiptrial plan``."""
-    _skip_final_collection()
     sys.exit(_run(["plan", *sys.argv[1:]]))
