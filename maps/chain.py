@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -149,7 +150,7 @@ class Lattice:
 
         return [self._placement(m, h, rows) for h in range(q, K, K // 4)]
 
-    def _placement(self, m: Move, h: int, rows) -> tuple[np.ndarray, np.ndarray]:
+    def _placement(self, m: Move, h: int, rows: Callable[[int, float], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         """(collision-free, inside the soft clearance zone) per lattice point of move ``m`` at
         heading ``h``; ``rows(h, add)``: the cells of its footprint grown by ``add`` more."""
         o, win, grid = self.options, self.window, self.grid
