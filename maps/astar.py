@@ -32,12 +32,14 @@ EPS = 1e-9  # weight standing in for a zero-cost edge (csgraph drops explicit ze
 class Successors:
     """Successors of every spatial state in compressed rows: the edges (move, successor, counter q
     or -1, cost) of state s are ``ptr[s]:ptr[s + 1]``. Built from arrays in one go; ``succ[s]``
-    gives the list of tuples the search iterates."""
+    gives the list of tuples the search iterates, made when the search first reaches s (a search
+    often expands a few dozen states of a lattice with 10^5 edges)."""
 
     def __init__(self, ptr: np.ndarray, move: np.ndarray, dst: np.ndarray, counter: np.ndarray, cost: np.ndarray):
         self.ptr, self.move, self.dst, self.counter, self.cost = ptr, move, dst, counter, cost
         self._p = ptr.tolist()
-        self._rows = list(zip(move.tolist(), dst.tolist(), counter.tolist(), cost.tolist()))
+        self._rows: list[tuple[int, int, int, float]] | None = None  # every edge, once all are wanted (iteration)
+        self._of: dict[int, list[tuple[int, int, int, float]]] = {}
 
     @classmethod
     def from_edges(cls, n: int, src: np.ndarray, move: np.ndarray, dst: np.ndarray, counter: np.ndarray,
@@ -52,10 +54,20 @@ class Successors:
         return len(self._p) - 1
 
     def __getitem__(self, s: int) -> list[tuple[int, int, int, float]]:
-        return self._rows[self._p[s]:self._p[s + 1]]
+        a, b = self._p[s], self._p[s + 1]
+        if self._rows is not None:
+            return self._rows[a:b]
+        row = self._of.get(s)
+        if row is None:
+            row = self._of[s] = list(zip(self.move[a:b].tolist(), self.dst[a:b].tolist(), self.counter[a:b].tolist(),
+                                         self.cost[a:b].tolist()))
+        return row
 
     def __iter__(self):
-        return (self[s] for s in range(len(self)))
+        if self._rows is None:
+            self._rows = list(zip(self.move.tolist(), self.dst.tolist(), self.counter.tolist(), self.cost.tolist()))
+        rows, p = self._rows, self._p
+        return (rows[p[s]:p[s + 1]] for s in range(len(self)))
 
     def sources(self) -> np.ndarray:
         return np.repeat(np.arange(len(self)), np.diff(self.ptr))

@@ -13,30 +13,29 @@
 
 from __future__ import annotations
 
-import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from maps import astar
-from maps.collision import CollisionGrid, Window
+from maps.collision import CollisionGrid, Window, quarter_turns
 from maps.forked import map_halves
 from maps.geo import MapError, SeaMap, bundled_map_path
 from maps.lattice import Move, heading_table, nearest_heading, run_in_seconds
 from maps.motionset import basic_move_set, default_resolution, informative_moves, planning_window
 from maps.plan import Plan, PlanStep
+from maps.sizing import BYTES_PER_STATE, estimate_memory, needs, refuse_too_large, too_big_for_water
 from maps.smooth import Leg, Realiser, Shortcutter
 from maps.verify import Verification, resimulate
+from primitives.footprint import swept_footprints
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
 
 LatLonHdg = tuple[float, float, float | None]
-BYTES_PER_EDGE = 120  # a successor tuple in a Python list (measured order of magnitude)
-BYTES_PER_STATE = 260  # an A* state: g-cost and parent dict entries, closed-set entry, heap entry
 
 
 @dataclass
@@ -124,24 +123,45 @@ class Lattice:
         for m in self.moves:  # footprints first (cached on the primitives): the forked half would lose its copies
             for h in range(K):
                 m.prim(h).footprint  # noqa: B018
-        # every (move, heading) on its own: half of them in a forked child (maps.forked), same results
-        flat = map_halves(lambda mh: self._placement(*mh, extra), [(m, h) for m in self.moves for h in range(K)])
-        out = [flat[i:i + K] for i in range(0, len(flat), K)]
+        # every (move, heading class) on its own: half of them in a forked child (maps.forked), same results
+        q_n = K // 4
+        flat = map_halves(lambda mq: self._class_placements(*mq, extra), [(m, q) for m in self.moves for q in range(q_n)])
+        out = [[flat[mi * q_n + h % q_n][h // q_n] for h in range(K)] for mi in range(len(self.moves))]
         self._placements[extra] = out
         return out
 
-    def _placement(self, m: Move, h: int, extra: float) -> tuple[np.ndarray, np.ndarray]:
-        """(collision-free, inside the soft clearance zone) per lattice point of move ``m`` at heading ``h``."""
+    def _class_placements(self, m: Move, q: int, extra: float) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(collision-free, inside the soft clearance zone) per lattice point of move ``m`` at the
+        headings q, q + K/4, q + K/2, q + 3K/4 (a heading class and its quarter turns)."""
+        o, grid, K = self.options, self.grid, len(self.table)
+        base: dict[float, np.ndarray] = {}
+
+        def rows(h: int, add: float) -> np.ndarray:
+            """The cells of the footprint at heading h grown by margin + snapping + extra + add:
+            rasterised once per class and turned (:func:`maps.collision.quarter_turns`) when the
+            heading's growth is the class's (the snapping errors of turned headings are equal but
+            for float rounding, about 1e-12 m)."""
+            grow = o.margin + m.snap_m[h] + extra + add
+            if m.prim(h) is m.prim(q) and abs(grow - (o.margin + m.snap_m[q] + extra + add)) <= 1e-9:
+                if add not in base:
+                    base[add] = grid.footprint_rows(m.prim(q).footprint, float(self.table[q]), o.margin + m.snap_m[q] + extra + add)
+                return quarter_turns(base[add], (h - q) // (K // 4))
+            return grid.footprint_rows(m.prim(h).footprint, float(self.table[h]), grow)
+
+        return [self._placement(m, h, rows) for h in range(q, K, K // 4)]
+
+    def _placement(self, m: Move, h: int, rows: Callable[[int, float], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """(collision-free, inside the soft clearance zone) per lattice point of move ``m`` at
+        heading ``h``; ``rows(h, add)``: the cells of its footprint grown by ``add`` more."""
         o, win, grid = self.options, self.window, self.grid
         soft = o.clearance_lengths * self.profile.length_m
-        fp, psi, grow = m.prim(h).footprint, float(self.table[h]), o.margin + m.snap_m[h] + extra
-        ok = grid.valid_everywhere(grid.footprint_rows(fp, psi, grow))
+        ok = grid.valid_everywhere(rows(h, 0.0))
         di, dj = m.dcell[h]
         ii, jj = np.meshgrid(np.arange(win.ni) + di, np.arange(win.nj) + dj, indexing="ij")
         ok &= (ii >= 0) & (ii < win.ni) & (jj >= 0) & (jj < win.nj)  # ends on a lattice point too
         near = np.zeros_like(ok)
         if soft > 0 and o.clearance_cost > 0 and ok.any():
-            near = ok & ~grid.valid_everywhere(grid.footprint_rows(fp, psi, grow + soft))
+            near = ok & ~grid.valid_everywhere(rows(h, soft))
         return ok, near
 
     def fits_nowhere(self) -> dict[str, tuple[float, float]]:
@@ -152,7 +172,7 @@ class Lattice:
         used = self._usable_moves()
         for mi, m in enumerate(self.moves):
             if m.counter >= 0 and mi not in used:
-                out[m.source or m.name] = _needs(m.prims[0], self.options.margin)
+                out[m.source or m.name] = needs(m.prims[0], self.options.margin)
         return out
 
     def _usable_moves(self) -> set[int]:
@@ -231,27 +251,6 @@ def _endpoint(sea: SeaMap, given: LatLonHdg | None, feat, default: LatLonHdg, wh
     return x, y, (None if hdg is None else float(np.radians(hdg))), given
 
 
-def estimate_memory(lat_ni: int, lat_nj: int, n_head: int, n_moves: int, targets: list[int]) -> tuple[float, int]:
-    """(bytes, states): memory of the tables every search builds (successors of every move at
-    every lattice point, the relaxed cost-to-go graph with edges x (D + 1)) and the number of
-    counter-augmented states (8.5). A* visits only part of the states; it is stopped when the
-    states it holds reach the rest of the memory budget (``BYTES_PER_STATE`` each).
-
-    Exact Python integers throughout: numpy's int64 wraps around (to a negative state count) for
-    the counts of a very long trial; bytes past the float range are ``inf``."""
-    spatial = int(lat_ni) * int(lat_nj) * int(n_head)
-    states = spatial * math.prod(int(d) + 1 for d in targets)
-    edges = spatial * int(n_moves)
-    D = sum(int(d) for d in targets)
-    need = edges * BYTES_PER_EDGE + edges * (D + 1) * 40 + spatial * (D + 1) * 8 * 3
-    return (float(need) if need.bit_length() < 1000 else math.inf), states
-
-
-def _count(n: float, fmt: str) -> str:
-    """``n`` as ``fmt`` (e.g. ",.1f"), or in scientific notation from 1e15 on (an int of any size)."""
-    return format(n, fmt) if n < 1e15 else f"{Decimal(n):.2e}"
-
-
 def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive], counts: dict[str, int], *,
                   start: LatLonHdg | None = None, goal: LatLonHdg | None = None, options: PlanOptions | None = None,
                   cache: dict[str, Any] | None = None, prefilter: bool = False) -> Lattice:
@@ -262,67 +261,85 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     ``prefilter``: leave out (in ``too_big``) primitives larger than the navigable water in every
     lattice heading, without building their moves.
     """
-    from maps.scenario import HELSINKI_GOAL, HELSINKI_START
-
     t0 = time.perf_counter()
     o = replace(options) if options is not None else PlanOptions()  # the lattice's own: solve may switch off smoothing
     o.check()
     res = float(o.resolution) if o.resolution else default_resolution(profile, sea)
     K = o.headings
-    sx, sy, spsi, start_ll = _endpoint(sea, start, sea.start, HELSINKI_START, "start", o.margin)
-    gx, gy, gpsi, goal_ll = _endpoint(sea, goal, sea.goal, HELSINKI_GOAL, "goal", o.margin)
+    (sx, sy, spsi, start_ll), (gx, gy, gpsi, goal_ll) = _endpoints(sea, start, goal, o.margin, cache)
     win = planning_window(sea, res, (sx, sy), (gx, gy), o.size)
     prims = [p for p in primitives if counts.get(p.name, 0) > 0]
-    n_moves = len(prims) + (5 if o.spot_turns or profile.actuator == "rudder_propeller" else 3)
-    need, states = estimate_memory(win.ni, win.nj, K, n_moves, [counts[p.name] for p in prims])
-    if need > o.max_memory_gib * 2**30:
-        raise MapError(f"the lattice would not fit: {win.ni} x {win.nj} points x {K} headings x counters = {_count(states, ',')} states, "
-                       f"an estimated {_count(need / 2**30, ',.1f')} GiB (limit {o.max_memory_gib:g} GiB): use a coarser --resolution, "
-                       f"fewer --headings, a shorter --trial-length or raise --max-memory")
+    refuse_too_large(win, K, prims, counts, profile, o)
     table = heading_table(K)
     h_start = nearest_heading(spsi or 0.0, table)
     warnings = list(sea.warnings)
     if spsi is not None and abs(((spsi - table[h_start]) + np.pi) % (2 * np.pi) - np.pi) > 1e-6:
         warnings.append(f"start heading {np.degrees(spsi):.1f} deg rounded to the lattice heading {np.degrees(table[h_start]):.1f} deg")
-    cache = {} if cache is None else cache
-    _basic_moves(profile, res, o, cache)
-    moves, names, targets, notes = [], [], {}, []
-    too_big = _too_big(sea, win, prims, heading_table(K), o.margin) if prefilter else {}
-    run_in = run_in_seconds(profile, o.run_in_s)
-    todo = [p for p in prims if p.name not in too_big and p.name not in cache]
-    # each primitive's moves on their own: some of them built in a forked child (maps.forked), same moves
-    for p, built in zip(todo, map_halves(lambda p: _informative(p, res, K, o.split, run_in), todo, min_items=2)):
-        cache[p.name] = built
-    for p in prims:
-        if p.name in too_big:
-            continue
-        mv_, nm_, _, nt_ = cache[p.name]
-        for m, n in zip(mv_, nm_):
-            m = Move(**{**m.__dict__, "counter": len(names)})
-            moves.append(m)
-            names.append(n)
-            targets[n] = int(counts[p.name])
-        notes += nt_
-    moves += cache["basic"]
+    too_big = too_big_for_water(sea, win, prims, table, o.margin) if prefilter else {}
+    moves, names, targets, notes = _motion_set(profile, [p for p in prims if p.name not in too_big], counts, res, o,
+                                               {} if cache is None else cache)
     gi, gj = win.cell_of(gx, gy)
     if not win.contains(gi, gj):
         raise MapError(f"goal lies outside the planning window ({win.ni} x {win.nj} points of {res:g} m)")
-    ext = max((max(abs(v) for pr in m.prims for v in pr.footprint.bounds) for m in moves), default=0.0)
-    snap = max(float(m.snap_m.max()) for m in moves)
-    grid = CollisionGrid(sea, win, o.margin, o.sub, ext + o.margin + snap + res + 100.0 + o.clearance_lengths * profile.length_m)
-    return Lattice(sea, profile, o, win, grid, table, moves, names, targets, {p.name: p for p in prims},
-                   (sx, sy, float(table[h_start])), h_start, win.cell_of(sx, sy), (gi, gj),
+    return Lattice(sea, profile, o, win, _collision_grid(sea, win, moves, profile, o), table, moves, names, targets,
+                   {p.name: p for p in prims}, (sx, sy, float(table[h_start])), h_start, win.cell_of(sx, sy), (gi, gj),
                    [nearest_heading(gpsi, table)] if gpsi is not None else list(range(K)), start_ll, goal_ll, notes, warnings,
                    time.perf_counter() - t0, too_big)
+
+
+def _endpoints(sea: SeaMap, start: LatLonHdg | None, goal: LatLonHdg | None, margin: float,
+               cache: dict[str, Any] | None = None) -> tuple[tuple, tuple]:
+    """(x, y, psi or None, (lat, lon, heading)) of the start and of the goal: given, else the map's
+    features, else (bundled map) the thesis's start and goal. Taken from ``cache`` when
+    :func:`prepare_basic_moves` found them already (checking a point against the obstacles grown
+    by the margin is 0.05 s on the bundled map)."""
+    from maps.scenario import HELSINKI_GOAL, HELSINKI_START
+
+    hit = (cache or {}).get("endpoints")
+    if hit is not None and hit[0] is sea and hit[1] == (start, goal, margin):
+        return hit[2]
+    return (_endpoint(sea, start, sea.start, HELSINKI_START, "start", margin),
+            _endpoint(sea, goal, sea.goal, HELSINKI_GOAL, "goal", margin))
+
+
+def _motion_set(profile: ShipProfile, prims: list[Primitive], counts: dict[str, int], res: float, o: PlanOptions,
+                cache: dict[str, Any]) -> tuple[list[Move], list[str], dict[str, int], list[str]]:
+    """(moves, counter names, targets, notes): the informative moves of ``prims`` (one counter
+    each, or one per piece with ``split``) and the basic moves, built into ``cache`` or taken from it."""
+    K = o.headings
+    _basic_moves(profile, res, o, cache)
+    run_in = run_in_seconds(profile, o.run_in_s)
+    todo = [p for p in prims if p.name not in cache]
+    # each primitive's moves on their own: some of them built in a forked child (maps.forked), same moves
+    for p, built in zip(todo, map_halves(lambda p: _informative(p, res, K, o.split, run_in), todo, min_items=2)):
+        cache[p.name] = built
+    moves, names, targets, notes = [], [], {}, []
+    for p in prims:
+        mv_, nm_, _, nt_ = cache[p.name]
+        for m, n in zip(mv_, nm_):
+            moves.append(Move(**{**m.__dict__, "counter": len(names)}))
+            names.append(n)
+            targets[n] = int(counts[p.name])
+        notes += nt_
+    return moves + cache["basic"], names, targets, notes
+
+
+def _collision_grid(sea: SeaMap, win: Window, moves: list[Move], profile: ShipProfile, o: PlanOptions) -> CollisionGrid:
+    """The window's blocked cells, padded by the reach of the largest footprint grown by every
+    growth the placements use (margin, snapping, a cell, the soft zone and 100 m for re-plans)."""
+    ext = max((max(abs(v) for pr in m.prims for v in pr.footprint.bounds) for m in moves), default=0.0)
+    snap = max(float(m.snap_m.max()) for m in moves)
+    return CollisionGrid(sea, win, o.margin, o.sub, ext + o.margin + snap + win.res + 100.0 + o.clearance_lengths * profile.length_m)
 
 
 def _informative(p: Primitive, res: float, K: int, split: bool, run_in: float) -> tuple:
     """:func:`maps.motionset.informative_moves` of ``p`` alone, with the swept footprints of its
     moves computed (cached on their primitives)."""
     out = informative_moves([p], {p.name: 1}, res, K, split, run_in)
-    for m in out[0]:
-        for pr in m.prims:
-            pr.footprint  # noqa: B018 - a cached property: computed now
+    for m in out[0]:  # a move's primitives share their run-in and manoeuvre: the union of those hulls formed once
+        todo = [pr for pr in m.prims if "footprint" not in pr.__dict__]
+        for pr, fp in zip(todo, swept_footprints([pr.track for pr in todo], p.profile.length_m, p.profile.beam_m)):
+            pr.__dict__["footprint"] = fp  # the cached property's value
     return out
 
 
@@ -338,42 +355,19 @@ def _basic_moves(profile: ShipProfile, res: float, o: PlanOptions, cache: dict[s
     return cache["basic"]
 
 
-def prepare_basic_moves(sea: SeaMap, profile: ShipProfile, options: PlanOptions, cache: dict[str, Any]) -> None:
-    """Build the basic moves, and their swept footprints, into ``cache`` for :func:`build_lattice`:
-    work that needs no design, done while a design is computed elsewhere."""
+def prepare_basic_moves(sea: SeaMap, profile: ShipProfile, options: PlanOptions, cache: dict[str, Any], *,
+                        start: LatLonHdg | None = None, goal: LatLonHdg | None = None) -> None:
+    """Build the basic moves, and their swept footprints, and find the start and goal into
+    ``cache`` for :func:`build_lattice`: work that needs no design, done while a design is
+    computed elsewhere."""
     res = float(options.resolution) if options.resolution else default_resolution(profile, sea)
     for m in _basic_moves(profile, res, options, cache):
         for pr in m.prims:
             pr.footprint  # noqa: B018 - a cached property: computed now, read by build_lattice
-
-
-def _too_big(sea: SeaMap, win: Window, prims: list[Primitive], table: np.ndarray, margin: float) -> dict[str, tuple[float, float]]:
-    """Primitives whose footprint (grown by the margin) is larger than the bounding box of the
-    navigable water of the window in every lattice heading: they fit nowhere (a certain, cheap
-    test; the collision grid decides for the others)."""
-    import shapely
-    from shapely import affinity
-
-    water = shapely.box(*win.bounds).difference(sea.no_go())
-    if water.is_empty:
-        return {p.name: _needs(p, margin) for p in prims}
-    wx0, wy0, wx1, wy1 = water.bounds
-    out = {}
-    for p in prims:
-        fits = False
-        for psi in table:
-            b = affinity.rotate(p.footprint, float(psi), origin=(0, 0), use_radians=True).bounds
-            if b[2] - b[0] + 2 * margin <= wx1 - wx0 and b[3] - b[1] + 2 * margin <= wy1 - wy0:
-                fits = True
-                break
-        if not fits:
-            out[p.name] = _needs(p, margin)
-    return out
-
-
-def _needs(p: Primitive, margin: float) -> tuple[float, float]:
-    b = p.footprint.bounds
-    return float(b[2] - b[0] + 2 * margin), float(b[3] - b[1] + 2 * margin)
+    try:
+        cache["endpoints"] = (sea, (start, goal, options.margin), _endpoints(sea, start, goal, options.margin))
+    except MapError:  # said by build_lattice, where it would be said without this step (after the design)
+        pass
 
 
 @dataclass

@@ -73,6 +73,22 @@ def row_intervals(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.column_stack([a[starts], b[starts], b[ends]])
 
 
+def quarter_turns(rows: np.ndarray, k: int) -> np.ndarray:
+    """Row intervals (:func:`row_intervals`) of the cells turned ``k`` quarter turns about the
+    origin cell, the way ``affinity.rotate`` turns a geometry by ``k`` pi/2: (a, b) -> (-b, a).
+    The cell grid is its own image under the turn, so the cells a geometry touches, turned, are
+    the cells the turned geometry touches."""
+    k %= 4
+    if k == 0 or len(rows) == 0:
+        return rows
+    n = rows[:, 2] - rows[:, 1] + 1
+    a = np.repeat(rows[:, 0], n)
+    b = np.repeat(rows[:, 1] - np.cumsum(n) + n, n) + np.arange(int(n.sum()))
+    for _ in range(k):
+        a, b = -b, a
+    return row_intervals(a, b)
+
+
 class CollisionGrid:
     """Blocked cells of the window (obstacles and everything outside the window), padded."""
 
@@ -100,9 +116,10 @@ class CollisionGrid:
             xx, yy = np.meshgrid(xs, ys, indexing="ij")
             blocked[sel] = shapely.contains_xy(g, xx[sel], yy[sel])
         self.blocked = blocked
-        # prefix sums along the east (column) axis: count of blocked cells in [b0, b1]
-        self.csum = np.zeros((na, nb + 1), np.int32)
-        np.cumsum(blocked, axis=1, out=self.csum[:, 1:])
+        # per cell: the column of the first blocked cell at or east of it in its row (nb if none), so
+        # that whether a row interval [b0, b1] touches a blocked cell is one look-up: first[b0] <= b1
+        cols = np.where(blocked, np.arange(nb, dtype=np.int32)[None, :], np.int32(nb))
+        self.first = np.ascontiguousarray(np.minimum.accumulate(cols[:, ::-1], axis=1)[:, ::-1])
 
     def footprint_rows(self, footprint: BaseGeometry, psi: float, grow: float) -> np.ndarray:
         """Row intervals of cells a footprint (start-pose frame) touches when started at heading psi."""
@@ -115,15 +132,21 @@ class CollisionGrid:
     def valid_everywhere(self, rows: np.ndarray) -> np.ndarray:
         """(ni, nj) bool: the move's footprint touches no blocked cell from each lattice point."""
         w, s, p = self.window, self.sub, self.pad
-        ri = p + np.arange(w.ni) * s
-        cj = p + np.arange(w.nj) * s
-        na, nb1 = self.csum.shape
-        ok = np.ones((w.ni, w.nj), bool)
+        nb = self.first.shape[1]
         if len(rows) and (rows[:, 0].min() < -p or rows[:, 0].max() >= p or rows[:, 1].min() < -p or rows[:, 2].max() >= p):
             raise ValueError("footprint larger than the collision grid padding")
-        for k in range(0, len(rows), 128):  # all rows of a chunk at once: (rows, ni, nj) gathers from the prefix sums
-            a, b0, b1 = (rows[k:k + 128, i:i + 1] for i in range(3))
-            r = (ri[None, :] + a)[:, :, None]
-            cnt = self.csum[r, (cj[None, :] + b1 + 1)[:, None, :]] - self.csum[r, (cj[None, :] + b0)[:, None, :]]
-            ok &= ~(cnt != 0).any(axis=0)
-        return ok
+        ii, jj = np.divmod(np.arange(w.ni * w.nj), w.nj)
+        cell = (p + ii * s) * nb + p + jj * s  # flat index of each lattice point's cell
+        col = p + jj * s
+        flat = self.first.ravel()
+        alive = np.arange(w.ni * w.nj)  # lattice points not yet found blocked: only those are looked up further
+        rows = rows.astype(np.int64)
+        for k in range(0, len(rows), 64):
+            if not len(alive):
+                break
+            a, b0, b1 = (rows[k:k + 64, i:i + 1] for i in range(3))
+            hit = (flat[cell[alive][None, :] + (a * nb + b0)] <= col[alive][None, :] + b1).any(axis=0)
+            alive = alive[~hit]
+        ok = np.zeros(w.ni * w.nj, bool)
+        ok[alive] = True
+        return ok.reshape(w.ni, w.nj)

@@ -105,7 +105,7 @@ def plan_with_design(
 
         first = None
         if first_design is not None:
-            prepare_basic_moves(sea, prof, o, cache)
+            prepare_basic_moves(sea, prof, o, cache, start=start, goal=goal)
             first = first_design()
         td = design_for_map(prof, fits_nowhere, primitives, criterion=criterion, mean_subtraction=mean_subtraction,
                             trial_length_s=trial_length_s, seed=seed, first=first)

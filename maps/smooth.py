@@ -17,7 +17,8 @@ from typing import Any
 import numpy as np
 import shapely
 
-from maps.lattice import helm_for, run_in_seconds
+from maps.autopilot import helm_for
+from maps.lattice import run_in_seconds
 from maps.verify import hull_clearance
 from primitives.library import KNOT
 from primitives.ship import ShipProfile

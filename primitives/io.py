@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 from collections.abc import Iterator
@@ -12,11 +13,17 @@ from typing import Any
 
 import numpy as np
 
+_PLAIN_NUMBERS = frozenset({int, float, bool})
+
 
 def to_jsonable(obj: Any) -> Any:
     if isinstance(obj, dict):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
+        kinds = set(map(type, obj))
+        # a list of plain finite numbers (a plan's samples, after tolist()) is already JSON: no call per element
+        if kinds <= _PLAIN_NUMBERS and (float not in kinds or all(map(math.isfinite, obj))):
+            return list(obj)
         return [to_jsonable(v) for v in obj]
     if isinstance(obj, np.ndarray):
         # whole arrays of numbers are already Python numbers after tolist(): no walk element by element

@@ -9,7 +9,7 @@ finds a profile file; :mod:`primitives.profile_document` checks a document and b
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +40,18 @@ class ProfileError(UserError):
 # Prior std of a [diagnosis] structure coefficient, as a fraction of the coefficient that alone
 # would explain its DOF's increments (diagnose.api.term_scales), when the profile gives none.
 DEFAULT_STRUCTURE_PRIOR = 0.01
+
+
+@lru_cache(maxsize=64)
+def _allocation_pinv(arms: tuple[tuple[float, float], ...]) -> np.ndarray:
+    """Pseudo-inverse of the allocation matrix of azimuth thrusters at ``arms`` ((x, y) each):
+    unknowns per thruster fx_i = n cos a, fy_i = n sin a (3.55). Formed once per thruster layout
+    (the planner allocates on every closed-loop run); read-only."""
+    b_mat = np.array([np.ravel([[1.0, 0.0] for _ in arms]), np.ravel([[0.0, 1.0] for _ in arms]),
+                      np.ravel([[-y, x] for x, y in arms])])
+    out = np.linalg.pinv(b_mat)
+    out.flags.writeable = False
+    return out
 
 
 @dataclass(frozen=True)
@@ -185,13 +197,7 @@ class ShipProfile:
             return np.stack([tau_x, tau_y, tau_n], axis=-1)
         if self.actuator != "azimuth":
             raise ProfileError(f"profile {self.name!r}: forces cannot be allocated to {self.actuator} inputs")
-        # Unknowns per thruster: fx_i = n cos a, fy_i = n sin a.
-        rows = []
-        rows.append(np.ravel([[1.0, 0.0] for _ in self.thrusters]))
-        rows.append(np.ravel([[0.0, 1.0] for _ in self.thrusters]))
-        rows.append(np.ravel([[-t.y, t.x] for t in self.thrusters]))
-        b_mat = np.array(rows)
-        f = np.linalg.pinv(b_mat) @ np.stack([tau_x, tau_y, tau_n])
+        f = _allocation_pinv(tuple((float(t.x), float(t.y)) for t in self.thrusters)) @ np.stack([tau_x, tau_y, tau_n])
         cols = []
         for i in range(len(self.thrusters)):
             fx, fy = f[2 * i], f[2 * i + 1]

@@ -130,3 +130,28 @@ def test_planning_leaves_the_callers_options_alone(sea):
     lat.options.smooth = False  # what solve() does after a shortcut broke the margin
     plan = solve(lat)
     assert plan.feasible and opts.smooth and opts == PlanOptions()
+
+
+def test_endpoints_found_before_the_design_are_the_lattices_and_a_bad_one_is_said_by_build_lattice(sea):
+    """prepare_basic_moves finds the start and goal while the design is computed elsewhere; the
+    lattice built afterwards has the same start and goal as one built without it, and a start
+    on land is still refused by build_lattice (where it would be without the early step)."""
+    from maps.chain import PlanOptions, build_lattice, prepare_basic_moves
+    from maps.geo import MapError
+    from maps.motionset import resolve_primitives
+
+    prof = load_profile("full-scale")
+    counts = {"steep_zigzag_surge": 1}
+    prims = resolve_primitives(prof, counts, None)
+    cache: dict = {}
+    prepare_basic_moves(sea, prof, PlanOptions(), cache)
+    assert "endpoints" in cache
+    early = build_lattice(sea, prof, prims, counts, options=PlanOptions(), cache=cache)
+    plain = build_lattice(sea, prof, prims, counts, options=PlanOptions())
+    assert (early.start, early.start_cell, early.goal_cell, early.goal_h) == (plain.start, plain.start_cell, plain.goal_cell, plain.goal_h)
+    land = (60.1699, 24.9384, 0.0)  # Helsinki city centre
+    bad: dict = {}
+    prepare_basic_moves(sea, prof, PlanOptions(), bad, start=land)
+    assert "endpoints" not in bad
+    with pytest.raises(MapError, match="start .* is on land"):
+        build_lattice(sea, prof, prims, counts, start=land, options=PlanOptions(), cache=bad)

@@ -13,7 +13,7 @@ from scipy.sparse.csgraph import dijkstra
 from shapely.geometry import LineString, shape
 
 from maps import astar
-from maps.collision import CollisionGrid, Window, rasterise, row_intervals
+from maps.collision import CollisionGrid, Window, quarter_turns, rasterise, row_intervals
 from maps.geo import bundled_map_path, load_map
 from maps.plan import Plan
 from maps.planner import plan_trial
@@ -138,6 +138,20 @@ def test_astar_optimal_on_random_small_lattices(seed):
         assert not res.found
 
 
+def test_successor_rows_are_the_edges_of_each_state_in_their_given_order():
+    """A state's successors, asked one state at a time (the search) or all at once (the failure
+    diagnosis), are its edges in the order given, with Python ints and floats."""
+    rng = np.random.default_rng(5)
+    n, e = 7, 30
+    src, mv, dst, q = (rng.integers(0, n, e) for _ in range(4))
+    cost = rng.uniform(0, 2, e)
+    want = [[(int(mv[k]), int(dst[k]), int(q[k]), float(cost[k])) for k in range(e) if src[k] == s] for s in range(n)]
+    one = astar.Successors.from_edges(n, src, mv, dst, q, cost)
+    assert [one[s] for s in (3, 0, 3, 6, 1, 2, 4, 5)] == [want[s] for s in (3, 0, 3, 6, 1, 2, 4, 5)]
+    assert list(one) == want and [one[s] for s in range(n)] == want
+    assert all(type(x) is int for row in list(one) for t in row for x in t[:3])
+
+
 @pytest.mark.parametrize("seed", range(6))
 def test_collision_test_is_conservative(seed):
     """Whenever the raster says a footprint is free, shapely must agree (never optimistic)."""
@@ -156,6 +170,34 @@ def test_collision_test_is_conservative(seed):
                 inside = shapely.box(*win.bounds).contains(placed)
                 if ok[i, j]:
                     assert inside and not placed.intersects(no_go)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_valid_everywhere_is_the_brute_force_answer(seed):
+    """A lattice point is valid exactly when none of the footprint's cells, placed there, is blocked."""
+    rng = np.random.default_rng(seed)
+    win = Window(x0=1000.0 + rng.uniform(0, 50), y0=-2000.0 + rng.uniform(0, 50), res=120.0, ni=10, nj=11)
+    grid = CollisionGrid(load_map(), win, margin=0.0, sub=8, pad_m=600.0)
+    rows = grid.footprint_rows(shapely.Polygon(rng.uniform(-250, 250, (6, 2))).convex_hull, rng.uniform(0, 6.3), 5.0)
+    cells = [(a, b) for a, b0, b1 in rows.tolist() for b in range(b0, b1 + 1)]
+    want = np.array([[not any(grid.blocked[grid.pad + i * grid.sub + a, grid.pad + j * grid.sub + b] for a, b in cells)
+                      for j in range(win.nj)] for i in range(win.ni)])
+    assert 0 < want.sum() < want.size  # some points free, some blocked: both answers are checked
+    assert (grid.valid_everywhere(rows) == want).all()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_quarter_turned_cells_are_the_cells_of_the_turned_footprint(seed):
+    """The planner rasterises a footprint once per heading class and turns the cells for the
+    headings a quarter turn apart: the same cells as rasterising the turned footprint."""
+    rng = np.random.default_rng(seed)
+    win = Window(x0=0.0, y0=0.0, res=120.0, ni=3, nj=3)
+    grid = CollisionGrid(load_map(), win, margin=0.0, sub=8, pad_m=600.0)
+    fp = shapely.Polygon(rng.uniform(-300, 300, (7, 2))).convex_hull
+    psi0 = float(rng.uniform(0, np.pi / 2))
+    base = grid.footprint_rows(fp, psi0, 20.0)
+    for k in range(4):
+        assert quarter_turns(base, k).tolist() == grid.footprint_rows(fp, psi0 + k * np.pi / 2, 20.0).tolist()
 
 
 def test_rasterise_touches_every_cell():
@@ -290,3 +332,24 @@ def test_thesis_scenario_with_run_ins_at_four_headings_says_why_it_fails():
     assert not plan.feasible
     assert "reach only" in plan.stats["reason"] and "lattice states" in plan.stats["reason"]
     assert any("--headings 16" in h for h in plan.stats["help"])
+
+
+def test_cheap_fit_test_gives_the_footprints_answer():
+    """Whether a primitive fits a box in a heading, decided from its hull placements without
+    the footprint where they tell, is the answer of the footprint's own bounds, in boxes just
+    smaller and just larger than the footprint."""
+    from maps.sizing import _fits_box
+    from primitives.footprint import swept_hulls
+    from primitives.library import build_library
+
+    prof = load_profile("full-scale")
+    lib = [p for p in build_library(prof) if p.kind == "informative"][:4]
+    for p in lib:
+        parts = swept_hulls(p.track, prof.length_m, prof.beam_m)
+        for psi in (0.0, 0.4, 1.9):
+            b = shapely.affinity.rotate(p.footprint, psi, origin=(0, 0), use_radians=True).bounds
+            w, h = b[2] - b[0] + 40.0, b[3] - b[1] + 40.0
+            for dw, dh in ((0.0, 0.0), (-1e-3, 0.0), (0.0, -1e-3), (-5.0, 5.0), (5.0, 5.0), (-2 * parts[1], 0.0), (1e-7, 1e-7)):
+                room = (w + dw, h + dh)
+                want = b[2] - b[0] + 40.0 <= room[0] and b[3] - b[1] + 40.0 <= room[1]
+                assert _fits_box(p, parts, psi, room, 20.0) == want

@@ -85,6 +85,29 @@ def test_end_pose_and_footprint_follow_the_track(ms, ms_lib):
         assert maxx - minx <= np.ptp(p.track[:, 0]) + 2 * ms.length_m
 
 
+def test_footprints_of_tracks_that_begin_alike_are_their_own_footprints(ms, ms_lib):
+    """The planner's moves share a run-in and manoeuvre and differ in their settling legs: their
+    footprints, made with the shared part's union formed once, cover the same area with the
+    same bounds as each made alone."""
+    import shapely
+
+    from primitives.footprint import swept_footprint, swept_footprints
+
+    head = ms_lib[5].track  # a zig-zag
+    tracks = []
+    for turn in (0.0, 0.3, -0.5):
+        x, y, psi = head[-1]
+        k = np.arange(1, 40)[:, None]
+        tail = np.column_stack([x + 0.5 * k[:, 0] * np.cos(psi + turn), y + 0.5 * k[:, 0] * np.sin(psi + turn),
+                                np.full(len(k), psi + turn)])
+        tracks.append(np.vstack([head, tail]))
+    for alone, shared in zip([swept_footprint(t, ms.length_m, ms.beam_m) for t in tracks],
+                             swept_footprints(tracks, ms.length_m, ms.beam_m)):
+        assert alone.bounds == pytest.approx(shared.bounds, abs=1e-9)
+        assert shapely.symmetric_difference(alone, shared).area <= 1e-9 * alone.area
+    assert len(swept_footprints(tracks[:1], ms.length_m, ms.beam_m)) == 1
+
+
 def test_pieces_recompose_the_track(ms_lib):
     zz = ms_lib[5]  # tau6, zig-zag with half-period splits
     pieces = zz.pieces()
