@@ -22,12 +22,11 @@ from diagnose.model import (
     noise_std,
     noise_std_coloured,
     prepare,
-    residuals,
-    stack,
 )
 from diagnose.recording import Recording, RecordingError
 from diagnose.reference import ReferencedModel, extend, padded_params
-from diagnose.search import MUCH_WORSE, base_bounds, inflation, prior_sd, select
+from diagnose.search import MUCH_WORSE, base_bounds, prior_sd, select
+from diagnose.uncertainty import baseline_cov, finding_cov
 from primitives.ship import DEFAULT_STRUCTURE_PRIOR, DOFS, ShipProfile
 from primitives.simulate import relative_signals
 
@@ -309,6 +308,7 @@ def run(
     notes: list[str] = []
     calm_preps: list[Prepared] = []
     own: list[int] | None = None
+    given = (profile, theta0)
     if fit_on:
         profile, theta0, source, notes, own = _fit_on(profile, theta0, fit_on, list(recordings), joint_reference)
     cands, untestable = build_library(profile, recordings)
@@ -346,7 +346,11 @@ def run(
     P, free, steps, per_run, method, dropped = _guard(model, preps + calm_preps, val_preps, w, P0x, P, free, steps, result.base_free)
     result.rejected += dropped
     findings = []
-    cov = _honest_cov(model, preps + calm_preps, w, P, result.cov) if steps and free == result.free else np.zeros((0, 0))
+    cov = np.zeros((0, 0))
+    if steps and free == result.free:
+        held = [j for j in range(model.n_base) if j not in free] if fit_on and own is not None else []
+        held_cov = _fit_on_cov(given, fit_on, profile, theta0, own)[np.ix_(held, held)] if held else None
+        cov = finding_cov(model, preps + calm_preps, w, P, free, result.prior_std, held, held_cov)
     for st in steps:
         c = st.candidate
         dof = DOFS[c.dof] if c.dof is not None else DOFS[int(np.argmax(st.dof_gain))]
@@ -376,12 +380,23 @@ def run(
     return d
 
 
-def _honest_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, P: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """The fit's covariance scaled by the variance inflation of its residuals: the output-error
-    covariance assumes white residuals, and coloured noise (AR(1), 0.9) hides four times the
-    spread (a 3 s delay read 2.53 +- 0.03 s on one noise seed, 2.97 and 3.26 s on two others)."""
-    res = stack(residuals(model, preps, P[None]), w)[0]
-    return cov * inflation(res)
+def _fit_on_cov(given: tuple[ShipProfile, np.ndarray], fit_on: list[Recording], profile: ShipProfile,
+                theta: np.ndarray, own: list[int]) -> np.ndarray:
+    """Covariance (n_base x n_base) of the baseline ``theta`` as :func:`fit_baseline` fitted it
+    on the --fit-on runs (its prior and weights; ``given`` the profile and parameters it started
+    from, ``own`` their indices in ``profile``, which may be extended by its declared structure);
+    zero for a parameter that fit did not move (a term zero throughout the runs)."""
+    prof0, theta_given = given
+    extended = len(own) < len(theta)
+    ref = padded_params(prof0, theta_given, profile.model_terms) if extended else theta_given
+    new = [j for j in range(len(theta)) if j not in own] if extended else None
+    preps = [prepare(profile, r, i) for i, r in enumerate(fit_on)]
+    w = 1.0 / _noise_scale(np.concatenate([r.y for r in fit_on]))
+    idx, sd, _b = _baseline_prior(AugmentedModel(profile, ref, [], n_rec=len(preps)), preps, w, fit_on, new,
+                                  prof0.structure_prior)
+    out = np.zeros((len(theta), len(theta)))
+    out[np.ix_(idx, idx)] = baseline_cov(AugmentedModel(profile, theta, [], n_rec=len(preps)), preps, w, idx, sd)
+    return out
 
 
 def _structural(model: AugmentedModel, calm: list[Prepared], w: np.ndarray, P: np.ndarray, findings: list[dict]) -> list[dict]:
