@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from diagnose.api import fit_baseline, fit_declared, fit_structure
+from diagnose.baseline import fit_baseline, fit_declared, fit_structure
 from diagnose.model import AugmentedModel, prepare
 from diagnose.recording import Recording
 from primitives.ship import ShipProfile, load_profile

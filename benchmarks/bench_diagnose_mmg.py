@@ -12,7 +12,7 @@ the candidate list claim nothing), every magnitude is within the issue's toleran
 held-out run fits worse after the diagnosis on any channel (per run, 1 point slack), and no
 number is NaN.
 
-    python -m benchmarks.bench_diagnose_mmg [--cases a,b] [--cli] [--jobs 2] [--json out.json]
+    python -m benchmarks.bench_diagnose_mmg [--cases a,b] [--seeds 1-14] [--cli] [--jobs 2] [--json out.json]
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -216,6 +217,24 @@ def _cli(paths: dict[str, list[Path]], ship: str = BASELINE) -> dict:
             "rejected": j.get("rejected")}
 
 
+STD_KEY = {"delay_s": "delay_std", "speed_mps": "speed_std", "loss_percent": "loss_percent_std"}
+
+
+def z_scores(truth: dict, findings: list[dict] | None) -> dict[str, float]:
+    """(estimate - truth) / reported std of each checked magnitude that carries a std, at the
+    scale of the findings (how honest the reported uncertainty is, over noise seeds)."""
+    truth = full_scale_truth(truth)
+    out = {}
+    for eff, checks in truth["checks"].items():
+        f = next((f for f in findings or [] if f.get("effect") == eff), None)
+        for key, spec in checks.items():
+            p = (f or {}).get("parameters") or {}
+            est, sd = _num(p.get(key)), _num(p.get(STD_KEY.get(key, "")))
+            if est is not None and sd and isinstance(spec[0], int | float):
+                out[key] = (est - spec[0]) / sd
+    return out
+
+
 def claimed(out: dict) -> str:
     if out.get("error"):
         return "ERROR"
@@ -246,10 +265,14 @@ def truth_text(t: dict) -> str:
 
 
 def run_case(name: str, out_dir: Path, use_cli: bool, joint: bool = False, ship: str = BASELINE,
-             oracle: bool = False) -> dict:
+             oracle: bool = False, seed: int | None = None) -> dict:
+    """Generate, diagnose and score one case (with ``seed``: its noise drawn from that seed instead)."""
     t0 = time.perf_counter()
     c0 = time.process_time()
-    g = generate(case(name), visibility=True, oracle_calm=oracle)
+    c = case(name)
+    if seed is not None:
+        c = replace(c, seed=seed, name=f"{c.name}-seed{seed}")
+    g = generate(c, visibility=True, oracle_calm=oracle)
     paths = write_case(g, out_dir / name)
     t_gen = time.perf_counter() - t0
     t1 = time.perf_counter()
@@ -260,7 +283,7 @@ def run_case(name: str, out_dir: Path, use_cli: bool, joint: bool = False, ship:
     secs = time.perf_counter() - t1
     cpu = time.process_time() - c0  # this process's CPU (the CLI's child process is not counted)
     hit, why = score(g.truth, out)
-    return {"case": name, "truth": g.truth, "truth_text": truth_text(g.truth), "claimed": claimed(out), "hit": hit,
+    return {"case": c.name, "truth": g.truth, "truth_text": truth_text(g.truth), "claimed": claimed(out), "hit": hit,
             "why": why, "diagnose_s": secs, "generate_s": t_gen, "cpu_s": cpu, "per_run": out.get("per_run"),
             "findings": out.get("findings"), "error": out.get("error"), "notes": out.get("notes"),
             "rejected": out.get("rejected"), "structure": out.get("structure"), "screened": out.get("screened"),
@@ -277,19 +300,26 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--ship", default=BASELINE, help=f"baseline profile (default {BASELINE})")
     ap.add_argument("--joint", action="store_true", help="experimental: extended baseline structure refitted jointly on "
                     "the calm run and the diagnosed runs, candidates on the diagnosed runs only (diagnose.reference)")
+    ap.add_argument("--seeds", default="", help="noise seeds to run each case with instead of its own, e.g. 1-14 or "
+                    "3,5 (the spread of the estimates and how often the reported std covers the truth)")
     ap.add_argument("--oracle-calm", action="store_true", help="study: the --fit-on runs are the diagnosed and "
                     "validation manoeuvres without the effect (isolates the search from the baseline's misfit)")
     a = ap.parse_args(argv)
     names = [n.strip() for n in a.cases.split(",") if n.strip()] or [c.name for c in CASES]
     for n in names:
         case(n)  # unknown names fail before any work
+    seeds: list[int | None] = [None]
+    if a.seeds:
+        seeds = [k for part in a.seeds.split(",") for lo, _s, hi in [part.partition("-")]
+                 for k in range(int(lo), int(hi or lo) + 1)]
+    jobs = [(n, s) for n in names for s in seeds]
     out_dir = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="mmg-battery-"))
     t0 = time.perf_counter()
     if a.jobs > 1:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
         with ProcessPoolExecutor(a.jobs) as ex:
-            futs = [ex.submit(run_case, n, out_dir, a.cli, a.joint, a.ship, a.oracle_calm) for n in names]
+            futs = [ex.submit(run_case, n, out_dir, a.cli, a.joint, a.ship, a.oracle_calm, sd) for n, sd in jobs]
             for f in as_completed(futs):  # progress as cases finish (a long run can be followed)
                 r = f.result()
                 print(f"  {r['case']}: {'hit' if r['hit'] else 'MISS'} {r['claimed']} ({r['cpu_s']:.0f} s CPU)",
@@ -297,10 +327,10 @@ def main(argv: list[str] | None = None) -> dict:
             rows = [f.result() for f in futs]
     else:
         rows = []
-        for n in names:
-            rows.append(run_case(n, out_dir, a.cli, a.joint, a.ship, a.oracle_calm))
+        for n, sd in jobs:
+            rows.append(run_case(n, out_dir, a.cli, a.joint, a.ship, a.oracle_calm, sd))
             r = rows[-1]
-            print(f"  {n}: {'hit' if r['hit'] else 'MISS'} ({r['diagnose_s']:.1f} s)", file=sys.stderr, flush=True)
+            print(f"  {r['case']}: {'hit' if r['hit'] else 'MISS'} ({r['diagnose_s']:.1f} s)", file=sys.stderr, flush=True)
     print(f"{'case':22s} {'truth':44s} {'visible u/v/r':>15s}  {'claimed':48s} {'result':6s} {'time s':>7s} {'cpu s':>7s}")
     for r in rows:
         vis = r["truth"].get("visibility_rms_over_noise", {})
@@ -309,6 +339,14 @@ def main(argv: list[str] | None = None) -> dict:
               f"{'hit' if r['hit'] else 'MISS':6s} {r['diagnose_s']:7.1f} {r['cpu_s']:7.1f}")
         for w in r["why"]:
             print(f"{'':24s}- {w}")
+        z = z_scores(r["truth"], r["findings"])
+        r["z"] = z
+        if z:
+            print(f"{'':24s}  error / reported std: " + ", ".join(f"{k} {v:+.2f}" for k, v in z.items()))
+    zs = np.array([v for r in rows for v in r["z"].values()])
+    if len(zs) >= 3:
+        print(f"reported std over {len(zs)} estimates: RMS of error/std {np.sqrt(np.mean(zs**2)):.2f}, within 1 std "
+              f"{np.mean(np.abs(zs) < 1):.0%} (68 % if honest), within 2 std {np.mean(np.abs(zs) < 2):.0%} (95 %)")
     hits = sum(r["hit"] for r in rows)
     times = sorted(r["diagnose_s"] for r in rows)
     cpus = sorted(r["cpu_s"] for r in rows)

@@ -84,10 +84,23 @@ def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[li
     """
     cands: list[Candidate] = []
     untestable: list[dict] = []
-    used = {f for dof in profile.model_terms for t in dof for f in t.replace("|", "").split("*")}
-    psi = np.concatenate([r.psi for r in recordings])
     y = np.concatenate([r.y for r in recordings])
-    spread = float(np.ptp(psi))
+    for add in (_environment, _actuators, _propulsion, _hull_terms, _sensors_and_inertia):
+        c, u = add(profile, recordings, y)
+        cands += c
+        untestable += u
+    return _excited(cands, untestable, y)
+
+
+Found = tuple[list[Candidate], list[dict]]  # candidates, and those that cannot be tested (with the reason)
+
+
+def _environment(profile: ShipProfile, recordings: list[Recording], y: np.ndarray) -> Found:
+    """A current (through u_r, v_r, when the heading turns enough) and, when measured, wind."""
+    cands: list[Candidate] = []
+    untestable: list[dict] = []
+    used = {f for dof in profile.model_terms for t in dof for f in t.replace("|", "").split("*")}
+    spread = float(np.ptp(np.concatenate([r.psi for r in recordings])))
     if not ({"u_r", "v_r"} & {f.split("^")[0] for f in used}):
         untestable.append({"effect": "current", "reason": "the model has no terms in u_r or v_r through which a current acts"})
     elif spread < np.radians(45.0):
@@ -103,6 +116,13 @@ def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[li
                                description="wind loads V_q u_q, V_q v_q, u_q v_q (coefficients in the relative wind angle)"))
     else:
         untestable.append({"effect": "wind", "reason": "no measured wind (columns wind_speed, wind_dir)"})
+    return cands, untestable
+
+
+def _actuators(profile: ShipProfile, recordings: list[Recording], y: np.ndarray) -> Found:
+    """A common actuator delay (when the inputs move) and a constant offset of each input."""
+    cands: list[Candidate] = []
+    untestable: list[dict] = []
     x = np.concatenate([r.inputs_for(profile.inputs) for r in recordings])
     moving = np.std(np.diff(x, axis=0), axis=0) > 1e-9 * (1 + np.abs(x).max(axis=0))
     if np.any(moving):
@@ -115,6 +135,14 @@ def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[li
             continue  # an rpm offset is a thrust scale: covered by thrust_loss / refit
         cands.append(Candidate("input_offset", f"input_offset:{name}", (Slot("offset", f"offset_{name}", index=j),),
                                description=f"constant offset of input {name}"))
+    return cands, untestable
+
+
+def _propulsion(profile: ShipProfile, recordings: list[Recording], y: np.ndarray) -> Found:
+    """Thrust falling with speed, a constant thrust fraction (the rudder's slipstream share with
+    it) and resistance changes: a surge deficiency is named instead of masking the rest."""
+    cands: list[Candidate] = []
+    untestable: list[dict] = []
     tsig = thrust_signal(profile)
     if _has(profile, 0, f"u_r*{tsig}"):
         untestable.append({"effect": "thrust_loss", "reason": f"the model already has u_r*{tsig}"})
@@ -132,16 +160,22 @@ def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[li
             slots += (Slot("thrust_share", "rudder_share_change", dof=0),)
             what += f", the rudder force by its slipstream share of it (profile {profile.rudder_thrust_share:g})"
         cands.append(Candidate("thrust_loss", "thrust_loss:fraction", slots, dof=0, description=what))
-    for t in profile.model_terms[0]:  # surge-model changes: name a surge deficiency instead of masking it
+    for t in profile.model_terms[0]:
         if _factors(t) <= {"u", "u_r"}:
             cands.append(Candidate("resistance_change", f"resistance_change:{t}", (Slot("term", "coefficient", dof=0, term=t),),
                                    dof=0, description=f"hull resistance changed ({t})"))
+    return cands, untestable
+
+
+def _hull_terms(profile: ShipProfile, recordings: list[Recording], y: np.ndarray) -> Found:
+    """Quadratic damping and missing coupling terms per DOF."""
+    cands: list[Candidate] = []
     for i in range(3):
         for t in QUADRATIC[i]:
             # a term the model has is offered as a change of it (a coefficient added to the
             # profile's): a finding only while the baseline holds that term (select drops it
             # when the term's own parameter is refitted, which would take the change itself);
-            # in surge that change is the resistance_change above
+            # in surge that change is the resistance_change of _propulsion
             if i == 0 and _has(profile, i, t):
                 continue
             what = f"{t} in {DOFS[i]}" + (" changed" if _has(profile, i, t) else "")
@@ -151,6 +185,13 @@ def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[li
             if not _has(profile, i, t):
                 cands.append(Candidate("missing_coupling", f"missing_coupling:{DOFS[i]}:{t}",
                                        (Slot("term", "value", dof=i, term=t),), dof=i, description=f"{t} in {DOFS[i]}"))
+    return cands, []
+
+
+def _sensors_and_inertia(profile: ShipProfile, recordings: list[Recording], y: np.ndarray) -> Found:
+    """Sensor biases, inertia changes and, when roll is measured, roll coupling."""
+    cands: list[Candidate] = []
+    untestable: list[dict] = []
     for i, s in enumerate(SIGNALS):
         cands.append(Candidate("sensor_bias", f"sensor_bias:{s}", (Slot("bias", f"bias_{s}", dof=i, index=i),), dof=i,
                                description=f"constant bias of measured {s}"))
@@ -163,7 +204,12 @@ def build_library(profile: ShipProfile, recordings: list[Recording]) -> tuple[li
                                description="roll angle feeding sway and yaw"))
     else:
         untestable.append({"effect": "roll_coupling", "reason": "no measured roll (column phi)"})
-    # terms whose signals never move in these recordings cannot be tested
+    return cands, untestable
+
+
+def _excited(cands: list[Candidate], untestable: list[dict], y: np.ndarray) -> Found:
+    """The candidates whose term signals move beyond the noise in the recordings; the others
+    are added to the untestable ones."""
     keep = []
     d2 = y[2:] - 2 * y[1:-1] + y[:-2]
     noise = np.median(np.abs(d2), axis=0) * 1.4826 / np.sqrt(6.0)

@@ -25,68 +25,108 @@ def describe(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
     """Physical parameters of candidate ``c`` at P (keys fixed by the issue)."""
     idx = model.slot_of[c.key]
     pos = [free.index(j) for j in idx]
-    sd = _sd(cov, pos)
-    vals = P[idx]
-    prof = model.profile
-    if c.effect == "current":
-        cn, ce = vals
-        spd = float(np.hypot(cn, ce))
-        out = {"speed_mps": spd, "toward_deg": float(np.degrees(np.arctan2(ce, cn)) % 360.0), "north_mps": float(cn),
-               "east_mps": float(ce)}
-        if len(cov):
-            sub = cov[np.ix_(pos, pos)]
-            g_s = np.array([cn, ce]) / max(spd, 1e-12)
-            g_d = np.array([-ce, cn]) / max(spd**2, 1e-12)
-            if np.all(np.isfinite(sub)):
-                out["speed_std"] = float(np.sqrt(max(g_s @ sub @ g_s, 0)))
-                out["toward_std_deg"] = float(np.degrees(np.sqrt(max(g_d @ sub @ g_d, 0))))
-        return out
-    if c.effect == "actuator_delay":
-        d = float(vals[0]) + model.half_sample
-        return {"delay_s": d, "delay_std": sd[0], "samples": d / prof.sample_time,
-                "model_shift_s": float(vals[0]), "half_sample_s": model.half_sample}
-    if c.effect == "input_offset":
-        name = prof.inputs[c.slots[0].index]
-        out = {"input": name, "offset": float(vals[0]), "offset_std": sd[0]}
-        if name in ("delta",) or name.startswith("alpha"):
-            out["offset_deg"] = float(np.degrees(vals[0]))
-        return out
-    if c.effect == "sensor_bias":
-        return {"signal": "uvr"[c.slots[0].index], "bias": float(vals[0]), "bias_std": sd[0]}
-    if c.effect in ("quadratic_damping", "missing_coupling"):
-        out = {"term": c.slots[0].term, "value": float(vals[0]), "value_std": sd[0], "dof": DOFS[c.dof]}
-        key = canonical_term(c.slots[0].term)  # a change of a term the model has: also relative to it
-        j = next((k for k, (i, t, *_r) in enumerate(model.base) if i == c.dof and canonical_term(t) == key), None)
-        if j is not None and P[j] != 0:
-            out["change_percent"] = 100.0 * float(vals[0] / P[j])
-        return out
-    if c.slots[0].kind == "thrust":
-        f = float(vals[0])
-        return {"loss_percent": 100.0 * f, "loss_percent_std": None if sd[0] is None else 100.0 * sd[0],
-                "loss_fraction": f, "terms": [model.base[k][1] for k in model.thrust_terms],
-                "rudder_terms": [f"{DOFS[model.base[k][0]]}:{model.base[k][1]}" for k in model.rudder_terms],
-                "rudder_thrust_share": float(model.thrust_share(P, model.slot_of[c.key][0])[0]),
-                "rudder_force_change_percent": -100.0 * float(model.thrust_share(P, model.slot_of[c.key][0])[0]) * f}
-    if c.effect in ("resistance_change", "thrust_loss") and c.key != "thrust_loss":
-        term = c.slots[0].term
-        j = surge_base_index(model, term)
-        base = float(P[j]) if j is not None else 0.0
-        frac = float(vals[0] / base) if base else None
-        out = {"term": term, "coefficient": float(vals[0]), "coefficient_std": sd[0]}
-        if c.effect == "thrust_loss":
-            out["loss_percent"] = None if frac is None else -100.0 * frac
-        else:
-            out["resistance_change_pct"] = None if frac is None else 100.0 * frac
-        return out
+    fn = _BY_EFFECT.get(c.effect)
+    if fn is None:
+        sd = _sd(cov, pos)
+        return {s.name: float(v) for s, v in zip(c.slots, P[idx])} | {f"{s.name}_std": e for s, e in zip(c.slots, sd)}
+    return fn(c, model, P, cov, pos)
+
+
+def _current(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
+    cn, ce = P[model.slot_of[c.key]]
+    spd = float(np.hypot(cn, ce))
+    out = {"speed_mps": spd, "toward_deg": float(np.degrees(np.arctan2(ce, cn)) % 360.0), "north_mps": float(cn),
+           "east_mps": float(ce)}
+    if len(cov):
+        sub = cov[np.ix_(pos, pos)]
+        g_s = np.array([cn, ce]) / max(spd, 1e-12)
+        g_d = np.array([-ce, cn]) / max(spd**2, 1e-12)
+        if np.all(np.isfinite(sub)):
+            out["speed_std"] = float(np.sqrt(max(g_s @ sub @ g_s, 0)))
+            out["toward_std_deg"] = float(np.degrees(np.sqrt(max(g_d @ sub @ g_d, 0))))
+    return out
+
+
+def _delay(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
+    shift = float(P[model.slot_of[c.key][0]])
+    d = shift + model.half_sample
+    return {"delay_s": d, "delay_std": _sd(cov, pos)[0], "samples": d / model.profile.sample_time,
+            "model_shift_s": shift, "half_sample_s": model.half_sample}
+
+
+def _offset(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
+    name = model.profile.inputs[c.slots[0].index]
+    val = float(P[model.slot_of[c.key][0]])
+    out = {"input": name, "offset": val, "offset_std": _sd(cov, pos)[0]}
+    if name in ("delta",) or name.startswith("alpha"):
+        out["offset_deg"] = float(np.degrees(val))
+    return out
+
+
+def _bias(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
+    return {"signal": "uvr"[c.slots[0].index], "bias": float(P[model.slot_of[c.key][0]]), "bias_std": _sd(cov, pos)[0]}
+
+
+def _term(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
+    """An added hull term; a change of a term the model has is also stated relative to it."""
+    val = float(P[model.slot_of[c.key][0]])
+    out = {"term": c.slots[0].term, "value": val, "value_std": _sd(cov, pos)[0], "dof": DOFS[c.dof]}
+    key = canonical_term(c.slots[0].term)
+    j = next((k for k, (i, t, *_r) in enumerate(model.base) if i == c.dof and canonical_term(t) == key), None)
+    if j is not None and P[j] != 0:
+        out["change_percent"] = 100.0 * float(val / P[j])
+    return out
+
+
+def _thrust_fraction(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
+    """A constant fraction of the thrust lost (every thrust term; the rudder by its slipstream share)."""
+    j0 = model.slot_of[c.key][0]
+    f = float(P[j0])
+    sd = _sd(cov, pos)[0]
+    share = float(model.thrust_share(P, j0)[0])
+    return {"loss_percent": 100.0 * f, "loss_percent_std": None if sd is None else 100.0 * sd,
+            "loss_fraction": f, "terms": [model.base[k][1] for k in model.thrust_terms],
+            "rudder_terms": [f"{DOFS[model.base[k][0]]}:{model.base[k][1]}" for k in model.rudder_terms],
+            "rudder_thrust_share": share, "rudder_force_change_percent": -100.0 * share * f}
+
+
+def _surge_term(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
+    """A change of a surge term the model has (resistance), relative to it."""
+    val = float(P[model.slot_of[c.key][0]])
+    term = c.slots[0].term
+    j = surge_base_index(model, term)
+    base = float(P[j]) if j is not None else 0.0
+    frac = float(val / base) if base else None
+    out = {"term": term, "coefficient": val, "coefficient_std": _sd(cov, pos)[0]}
     if c.effect == "thrust_loss":
-        tsig = thrust_signal(prof)
-        j = surge_base_index(model, tsig)
-        out = {"coefficient": float(vals[0]), "coefficient_std": sd[0], "term": c.slots[0].term}
-        if j is not None and P[j] != 0 and tsig == "tau_x":
-            out["thrust_loss_per_mps"] = float(-vals[0] / P[j])
-            out["thrust_change_at_cruise"] = float(vals[0] * prof.cruise_speed_mps / P[j])
-        return out
-    if c.effect == "inertia_change":
-        s = float(vals[0])
-        return {"scale": s, "scale_std": sd[0], "inertia_ratio": float(1.0 / (1.0 + s)) if s > -1 else None, "dof": DOFS[c.dof]}
-    return {s.name: float(v) for s, v in zip(c.slots, vals)} | {f"{s.name}_std": e for s, e in zip(c.slots, sd)}
+        out["loss_percent"] = None if frac is None else -100.0 * frac
+    else:
+        out["resistance_change_pct"] = None if frac is None else 100.0 * frac
+    return out
+
+
+def _thrust(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
+    if c.slots[0].kind == "thrust":
+        return _thrust_fraction(c, model, P, cov, pos)
+    if c.key != "thrust_loss":
+        return _surge_term(c, model, P, cov, pos)
+    val = float(P[model.slot_of[c.key][0]])  # thrust falling with speed (u_r * thrust signal)
+    prof = model.profile
+    tsig = thrust_signal(prof)
+    j = surge_base_index(model, tsig)
+    out = {"coefficient": val, "coefficient_std": _sd(cov, pos)[0], "term": c.slots[0].term}
+    if j is not None and P[j] != 0 and tsig == "tau_x":
+        out["thrust_loss_per_mps"] = float(-val / P[j])
+        out["thrust_change_at_cruise"] = float(val * prof.cruise_speed_mps / P[j])
+    return out
+
+
+def _inertia(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
+    s = float(P[model.slot_of[c.key][0]])
+    return {"scale": s, "scale_std": _sd(cov, pos)[0], "inertia_ratio": float(1.0 / (1.0 + s)) if s > -1 else None,
+            "dof": DOFS[c.dof]}
+
+
+_BY_EFFECT = {"current": _current, "actuator_delay": _delay, "input_offset": _offset, "sensor_bias": _bias,
+              "quadratic_damping": _term, "missing_coupling": _term, "resistance_change": _surge_term,
+              "thrust_loss": _thrust, "inertia_change": _inertia}

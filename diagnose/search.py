@@ -82,6 +82,7 @@ class SearchResult:
     rejected: list[dict] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     base_free: list[int] = field(default_factory=list)
+    prior_std: np.ndarray | None = None  # the refit's prior std per parameter (None: no prior)
 
 
 def inflation(res: np.ndarray, n_dof: int = 3, max_lag: int = 30) -> float:
@@ -291,6 +292,7 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, val_p
         out.steps.append(step)
         P, free, cov = _backtrack(S, P, free, cov, out, chosen)
     out.P, out.cov, out.free = P, cov, free
+    out.prior_std = S.sd if S.prior is not None else None
     return out
 
 

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import diagnose.api as api
+import diagnose.baseline as baseline
 from diagnose.model import AugmentedModel, prepare
 from diagnose.recording import Recording
 from primitives.profile_document import profile_from_dict
@@ -53,7 +54,7 @@ def test_kernel_and_diagnosis_model_simulate_speed_terms_alike():
     """One kernel: a model with U and station terms simulated by primitives.simulate and by the
     diagnosis's AugmentedModel gives the same numbers."""
     prof = load_profile("kvlcc2")
-    ext, th, added = api._extended(prof, prof.params(), declared=True)
+    ext, th, added = baseline._extended(prof, prof.params(), declared=True)
     assert added == [f"{dof}:{t}" for dof, want, have in zip(("surge", "sway", "yaw"), prof.structure_terms, prof.model_terms)
                      for t in want if t not in have]  # the profile's own terms (surge v_r*r) are not doubled
     th = th.copy()
@@ -116,9 +117,9 @@ def test_declared_structure_fitted_on_calm_runs_simulates_other_manoeuvres_at_th
     sway/yaw, RMS); with its declared structure by 0.66/0.48/0.15 and 0.63/0.51/0.20 (seed 11)."""
     calm, held, truth = mmg_runs
     prof = load_profile("kvlcc2")
-    th_own, note = api.fit_baseline(prof, prof.params(), calm)
+    th_own, note = baseline.fit_baseline(prof, prof.params(), calm)
     assert not note
-    ext, th_ext, source, notes, rejected = api.fit_structure(prof, prof.params(), calm, held)
+    ext, th_ext, source, notes, rejected = baseline.fit_structure(prof, prof.params(), calm, held)
     assert ext is not prof and not rejected and not notes and "[diagnosis]" in source
     for rec, tr in zip(held, truth):
         before, after = _sim_error(prof, th_own, rec, tr), _sim_error(ext, th_ext, rec, tr)
@@ -130,9 +131,9 @@ def test_structure_that_fits_the_diagnosed_runs_worse_is_not_used(mmg_runs, monk
     calm, diag, _ = mmg_runs
     calm = calm[3:]  # one zig-zag: the test is of the decision, not of the fit
     prof = load_profile("kvlcc2")
-    real = api._misfit
-    monkeypatch.setattr(api, "_misfit", lambda p, th, recs: real(p, th, recs) if p is prof else float("inf"))
-    got, theta, _source, notes, rejected = api.fit_structure(prof, prof.params(), calm, diag)
+    real = baseline._misfit
+    monkeypatch.setattr(baseline, "_misfit", lambda p, th, recs: real(p, th, recs) if p is prof else float("inf"))
+    got, theta, _source, notes, rejected = baseline.fit_structure(prof, prof.params(), calm, diag)
     assert got is prof and len(theta) == prof.model.n_params and not rejected
     assert len(notes) == 1 and "[diagnosis] structure" in notes[0] and "not used" in notes[0] and "diverges" in notes[0]
 
@@ -146,7 +147,7 @@ def test_structure_is_judged_on_the_calm_runs_not_on_an_effect_in_the_diagnosed_
     calm, held, _ = mmg_runs
     offset = [dataclasses.replace(r, channels={**r.channels, "delta": r.channels["delta"] + np.radians(1.5)}) for r in held]
     prof = load_profile("kvlcc2")
-    ext, th_ext, source, notes, rejected = api.fit_structure(prof, prof.params(), calm, offset)
+    ext, th_ext, source, notes, rejected = baseline.fit_structure(prof, prof.params(), calm, offset)
     assert ext is not prof and not rejected and not notes and "[diagnosis]" in source
 
 
@@ -156,13 +157,13 @@ def test_a_structure_term_the_calm_run_never_excites_stays_at_zero(mmg_runs):
     calm, _, _ = mmg_runs
     straight = dataclasses.replace(calm[0], channels={**calm[0].channels, "delta": np.zeros_like(calm[0].channels["delta"])})
     prof = load_profile("kvlcc2")
-    ext, th_ext, added = api._extended(prof, prof.params(), declared=True)
+    ext, th_ext, added = baseline._extended(prof, prof.params(), declared=True)
     new = [j for i in range(3) for j in range(ext.model.offsets[i] + len(prof.model_terms[i]), ext.model.offsets[i + 1])]
-    scale = api.term_scales(ext, [straight])
+    scale = baseline.term_scales(ext, [straight])
     terms = [t for i in range(3) for t in ext.model_terms[i]]
     rudder = [j for j in new if "delta" in terms[j]]
     assert rudder and np.array_equal(np.isinf(scale), np.array(["delta" in t for t in terms]))
-    theta, note = api.fit_baseline(ext, th_ext, [straight], new, prof.structure_prior)
+    theta, note = baseline.fit_baseline(ext, th_ext, [straight], new, prof.structure_prior)
     assert not note and np.all(theta[rudder] == 0.0)
 
 

@@ -68,7 +68,7 @@ def _with_noise(rec, rng, std: float, ar: float):
 
 def test_delay_uncertainty_is_honest_under_coloured_noise(ship):
     """Coloured noise carries less information than white noise of the same variance: the
-    reported delay std (the fit's covariance scaled by the residuals' variance inflation) covers
+    reported delay std (the sandwich covariance under AR(1) residuals, diagnose.uncertainty) covers
     the error instead of claiming the white-noise precision (0.014 s for an error of 0.078 s)."""
     calm = [_sampled_run(ship, 0.0, s) for s in (3, 4)]
     rec = _with_noise(_sampled_run(ship, 0.3, 1), np.random.default_rng(5), 0.03, 0.9)

@@ -1,0 +1,231 @@
+"""The baseline a diagnosis measures against: the profile's parameters fitted on the --fit-on
+runs (output error, regularised towards the profile), in the profile's own structure or the one
+its [diagnosis] section declares (issue 13), and the covariance of that fit."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from diagnose.heldout import grams, heldout_rss, make_parts
+from diagnose.model import AugmentedModel, Prepared, diverges, escaped, fit, noise_std, prepare
+from diagnose.recording import Recording, RecordingError
+from diagnose.reference import extend, padded_params
+from diagnose.search import base_bounds, prior_sd
+from diagnose.uncertainty import baseline_cov
+from primitives.ship import DEFAULT_STRUCTURE_PRIOR, ShipProfile
+from primitives.simulate import relative_signals
+
+
+def noise_scale(y: np.ndarray) -> np.ndarray:
+    """Residual scale per output: the noise where there is noise; quantised real data get a
+    floor (2 % of the signal)."""
+    return np.maximum(noise_std(y), 0.02 * np.std(y, axis=0))
+
+
+def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording],
+                 new: list[int] | None = None, new_prior: float = DEFAULT_STRUCTURE_PRIOR) -> tuple[np.ndarray, str]:
+    """Output-error fit of the baseline parameters on the --fit-on recordings. Returns
+    (theta, note); a refit that diverges is rejected and the profile kept.
+
+    In the profile's own structure (``new`` None) each parameter stays within a factor 2 of the
+    profile and keeps its sign (damping stays dissipative), regularised towards it.
+
+    With a declared structure (``new``: the indices of the terms :func:`diagnose.reference.extend`
+    added, value 0) the model is re-expressed rather than corrected: the declared terms share
+    the physics of the profile's own (delta*u_r*n and delta*u_r^2 split the rudder force the
+    profile gave to delta*u_r^2 and delta*n^2; v_r^3*U^-1 takes over from v_r*|v_r|), so the
+    profile's own parameters move with them. Every parameter is held by a Gaussian prior of std
+    ``new_prior`` x :func:`term_scales` (a ridge, the own towards the profile's value, the
+    declared towards zero) and keeps its sign (the declared ones: a DOF's own quadratic damping
+    stays dissipative), with no factor-2 bound. A term that is zero throughout the --fit-on runs
+    is not determined by them and is kept as it is (zero for a declared term)."""
+    preps = [prepare(profile, r, i) for i, r in enumerate(recs)]
+    model = AugmentedModel(profile, theta0, [], n_rec=len(preps))
+    w = 1.0 / noise_scale(np.concatenate([r.y for r in recs]))
+    idx, sd, bounds = _baseline_prior(model, preps, w, recs, new, new_prior)
+    P, _cov, rss = fit(model, preps, model.p0(), idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=bounds,
+                       prior=(model.p0(), sd))
+    if not np.isfinite(rss):
+        return theta0, "the baseline refit on the --fit-on runs diverged: rejected, the profile's parameters are used"
+    return P[: model.n_base], ""
+
+
+def _baseline_prior(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, recs: list[Recording],
+                    new: list[int] | None, new_prior: float) -> tuple[list[int], np.ndarray, dict]:
+    """(fitted indices, prior std per parameter, bounds) of :func:`fit_baseline`."""
+    idx = list(range(model.n_base))
+    P0 = model.p0()
+    if new is None:
+        r0 = np.concatenate([(p.y[1:] - model.simulate(p, P0)[0][1:]) * w for p in preps]).ravel()
+        level = np.sqrt(np.mean(r0**2)) if np.all(np.isfinite(r0)) else 1.0
+        return idx, prior_sd(P0, idx, level, model.n_params), base_bounds(P0, idx, model)
+    scale = term_scales(model.profile, recs)
+    idx = [j for j in idx if np.isfinite(scale[j])]
+    sd = np.full(model.n_params, np.inf)
+    sd[idx] = new_prior * scale[idx]
+    bounds = base_bounds(P0, [j for j in idx if P0[j] == 0.0], model)
+    bounds |= {j: ((0.0, np.inf) if P0[j] > 0 else (-np.inf, 0.0)) for j in idx if P0[j] != 0.0}
+    return idx, sd, bounds
+
+
+def loo_misfit(profile: ShipProfile, theta0: np.ndarray, theta: np.ndarray, recs: list[Recording],
+               new: list[int] | None = None, new_prior: float = DEFAULT_STRUCTURE_PRIOR) -> float:
+    """Noise-weighted mean square misfit of the baseline ``theta`` (fitted by :func:`fit_baseline`
+    from ``theta0`` on ``recs``, same ``new`` and prior) on each of ``recs`` left out in turn:
+    refitted on the others by a Gauss-Newton step from ``theta`` with the same prior
+    (:mod:`diagnose.heldout`). inf when a run cannot be simulated."""
+    preps = [prepare(profile, r) for r in recs]
+    model = AugmentedModel(profile, theta0, [])
+    w = 1.0 / noise_scale(np.concatenate([r.y for r in recs]))
+    idx, sd, _b = _baseline_prior(model, preps, w, recs, new, new_prior)
+    P = model.p0()
+    P[: model.n_base] = theta
+    with np.errstate(all="ignore"):
+        if any(escaped(p, model.simulate(p, P)[0]) for p in preps):
+            return float("inf")
+        parts = make_parts(preps, [])
+        g = grams(model, preps, parts, P, idx, w, model.steps(preps, P))
+    fin = np.isfinite(sd[idx])
+    D = np.where(fin, 1.0 / np.where(fin, sd[idx], 1.0) ** 2, 0.0)
+    pg = D * (P[idx] - model.p0()[idx])
+    rss = heldout_rss(g, parts, list(range(len(idx))), D, pg)
+    return float(rss.sum() / max(3 * g.n_rows.sum(), 1)) if np.all(np.isfinite(rss)) else float("inf")
+
+
+def term_scales(profile: ShipProfile, recs: list[Recording]) -> np.ndarray:
+    """Per model term, the coefficient that alone would explain the spread of its DOF's
+    one-step increments on ``recs``: std(dy_i) / rms(term) (the unit of a structure prior);
+    inf for a term that is zero throughout ``recs``."""
+    sig: dict[str, np.ndarray] = {}
+    parts = [dict(profile.generalized_forces(r.inputs_for(profile.inputs)[:-1]), psi=r.psi[:-1]) for r in recs]
+    for k in parts[0]:
+        sig[k] = np.concatenate([q[k] for q in parts])
+    relative_signals(np.concatenate([r.y[:-1] for r in recs]), into=sig, speed=True)
+    dy = np.concatenate([np.diff(r.y, axis=0) for r in recs])
+    out = []
+    for i in range(3):
+        phi = profile.model.evaluate_dof(i, sig)
+        rms = np.sqrt(np.mean(phi**2, axis=0))
+        with np.errstate(divide="ignore"):
+            out.append(np.where(rms > 0.0, np.std(dy[:, i]) / rms, np.inf))
+    return np.concatenate(out)
+
+
+def _extended(profile: ShipProfile, theta: np.ndarray, declared: bool = False) -> tuple[ShipProfile, np.ndarray, list[str]]:
+    """The profile with the structure terms it lacks (:func:`diagnose.reference.extend`) and
+    ``theta`` with zeros for them."""
+    ext, added = extend(profile, declared)
+    if not added:
+        return profile, theta, []
+    return ext, padded_params(profile, theta, ext.model_terms), added
+
+
+def _misfit(profile: ShipProfile, theta: np.ndarray, recs: list[Recording]) -> float:
+    """Noise-weighted mean square open-loop misfit over ``recs`` (inf when a run diverges)."""
+    model = AugmentedModel(profile, theta, [])
+    preps = [prepare(profile, r) for r in recs]
+    with np.errstate(all="ignore"):
+        sims = [model.simulate(p, model.p0())[0] for p in preps]  # one simulation per run: the test and the misfit
+    if any(escaped(p, yh) for p, yh in zip(preps, sims)):
+        return float("inf")
+    w = 1.0 / noise_scale(np.concatenate([r.y for r in recs]))
+    r = np.concatenate([(p.y[1:] - yh[1:]) * w for p, yh in zip(preps, sims)])
+    return float(np.mean(r**2))
+
+
+def fit_declared(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording]
+                 ) -> tuple[ShipProfile, np.ndarray, str, list[str]]:
+    """The profile extended by its declared [diagnosis] structure and fitted on the --fit-on
+    runs, every term held by the profile's structure prior (:func:`fit_baseline`): (profile,
+    theta, note, added) as :func:`fit_baseline` and :func:`_extended`; the profile unchanged
+    when it adds nothing."""
+    ext, th_ext, added = _extended(profile, theta0, declared=True)
+    if not added:
+        return profile, theta0, "", []
+    new = [j for i in range(3) for j in range(ext.model.offsets[i] + len(profile.model_terms[i]), ext.model.offsets[i + 1])]
+    th_fit, note = fit_baseline(ext, th_ext, fit_on, new, profile.structure_prior)
+    return ext, th_fit, note, added
+
+
+def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording], recordings: list[Recording]
+                  ) -> tuple[ShipProfile, np.ndarray, str, list[str], bool]:
+    """Fit the baseline on the --fit-on runs, with the structure the profile declares for it
+    ([diagnosis] structure) when it has one. The extended model is kept only when it simulates
+    the diagnosed runs at least as well as the baseline refitted in its own structure (its
+    extrapolation from the calm run to other manoeuvres is the risk). Returns (profile, theta,
+    source, notes, rejected): ``rejected`` when the refit diverged and the profile's parameters
+    are kept."""
+    theta, note = fit_baseline(profile, theta0, fit_on)
+    source = "fitted on " + ", ".join(r.source for r in fit_on)
+    if note or not profile.structure_terms:
+        return profile, theta, source, [note] if note else [], bool(note)
+    ext, th_fit, note_ext, added = fit_declared(profile, theta0, fit_on)
+    if not added:
+        return profile, theta, source, [], False
+    if len(fit_on) >= 2:  # judged on --fit-on runs left out in turn: the diagnosed runs hold the effect sought
+        m0 = loo_misfit(profile, theta0, theta, fit_on)
+        m1 = float("inf") if note_ext else loo_misfit(ext, padded_params(profile, theta0, ext.model_terms), th_fit, fit_on,
+                                                    [j for j in range(ext.model.n_params) if j not in _own(profile, ext)],
+                                                    profile.structure_prior)
+        where = "the --fit-on runs, each left out in turn"
+    else:
+        m0, m1 = _misfit(profile, theta, recordings), (_misfit(ext, th_fit, recordings) if not note_ext else float("inf"))
+        where = "the diagnosed runs"
+    if m1 <= m0:
+        return ext, th_fit, f"{source}, structure extended by the profile's [diagnosis] terms ({len(added)})", [], False
+    why = "diverges" if not np.isfinite(m1) else f"weighted mean square misfit {m1:.3g} vs {m0:.3g}"
+    return profile, theta, source, [f"the profile's [diagnosis] structure fitted on the --fit-on runs simulates "
+                                    f"{where} worse than the baseline's own ({why}): not used"], False
+
+
+def _own(profile: ShipProfile, ext: ShipProfile) -> list[int]:
+    """Indices in ``ext`` (the profile extended by :func:`_extended`) of the profile's own terms."""
+    return [j for i in range(3) for j in range(ext.model.offsets[i], ext.model.offsets[i] + len(profile.model_terms[i]))]
+
+
+def fit_reference(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording], recordings: list[Recording],
+            joint_reference: bool) -> tuple[ShipProfile, np.ndarray, str, list[str], list[int] | None]:
+    """The baseline fitted on the --fit-on runs (jointly with the diagnosed runs with
+    ``joint_reference``): (profile, theta, source, notes, own), ``own`` the indices of the
+    profile's own parameters in a structure-extended model (None after a joint fit)."""
+    check_simulable(AugmentedModel(profile, theta0, []), [prepare(profile, r) for r in fit_on], "given")
+    own: list[int] | None = None
+    if joint_reference:
+        profile, theta0, added = _extended(profile, theta0)
+        theta0, note = fit_baseline(profile, theta0, list(fit_on) + recordings)
+        source = ("fitted jointly on the reference run(s) " + ", ".join(r.source for r in fit_on) + " and the diagnosed "
+                  "runs" + (f", structure extended by {', '.join(added)}" if added else ""))
+        fit_notes, rejected = [note] if note else [], bool(note)
+    else:
+        n_own = [len(t) for t in profile.model_terms]
+        profile, theta0, source, fit_notes, rejected = fit_structure(profile, theta0, fit_on, recordings)
+        own = [j for i in range(3) for j in range(profile.model.offsets[i], profile.model.offsets[i] + n_own[i])]
+    source += " (rejected)" if rejected else ""
+    return profile, theta0, source, fit_notes, own
+
+
+def check_simulable(model: AugmentedModel, preps: list[Prepared], what: str) -> None:
+    for p in preps:
+        if diverges(model, [p], model.p0()):
+            raise RecordingError(f"{p.rec.source}: the {what} baseline model cannot be simulated on this recording "
+                                 "(the simulation diverges or is not finite); check the ship profile and --params, or "
+                                 "refit it with --fit-on on a calm-water run")
+
+
+def fit_on_cov(given: tuple[ShipProfile, np.ndarray], fit_on: list[Recording], profile: ShipProfile,
+                theta: np.ndarray, own: list[int]) -> np.ndarray:
+    """Covariance (n_base x n_base) of the baseline ``theta`` as :func:`fit_baseline` fitted it
+    on the --fit-on runs (its prior and weights; ``given`` the profile and parameters it started
+    from, ``own`` their indices in ``profile``, which may be extended by its declared structure);
+    zero for a parameter that fit did not move (a term zero throughout the runs)."""
+    prof0, theta_given = given
+    extended = len(own) < len(theta)
+    ref = padded_params(prof0, theta_given, profile.model_terms) if extended else theta_given
+    new = [j for j in range(len(theta)) if j not in own] if extended else None
+    preps = [prepare(profile, r, i) for i, r in enumerate(fit_on)]
+    w = 1.0 / noise_scale(np.concatenate([r.y for r in fit_on]))
+    idx, sd, _b = _baseline_prior(AugmentedModel(profile, ref, [], n_rec=len(preps)), preps, w, fit_on, new,
+                                  prof0.structure_prior)
+    out = np.zeros((len(theta), len(theta)))
+    out[np.ix_(idx, idx)] = baseline_cov(AugmentedModel(profile, theta, [], n_rec=len(preps)), preps, w, idx, sd)
+    return out

@@ -1,0 +1,82 @@
+"""Held-out fit per run and channel, before and after a diagnosis, and the per-run guard that
+drops findings a held-out run does not support (issue 13)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from diagnose.heldout import RUN_RISE, fit_pct, grams, heldout_rss, make_parts
+from diagnose.model import AugmentedModel, Prepared, fit, fit_percent
+from diagnose.search import MUCH_WORSE
+from primitives.ship import DOFS
+
+
+def _table(labels: list[str], roles: list[str], f0: np.ndarray, f1: np.ndarray, den: np.ndarray) -> list[dict]:
+    """Rows of the per-run table; ``den`` (runs, 3) the noise-weighted spread of each output,
+    from which the fit gives the run's weighted misfit (summed over the channels)."""
+    rows = []
+    for lab, role, a, b, dn in zip(labels, roles, f0, f1, den):
+        w0, w1 = (float(np.sum((1 - f / 100.0) ** 2 * dn)) for f in (a, b))
+        rows.append({"run": lab, "role": role, "before": dict(zip(DOFS, a.tolist())), "after": dict(zip(DOFS, b.tolist())),
+                     "weighted_misfit_before": w0, "weighted_misfit_after": w1})
+    return rows
+
+
+def _den(preps: list[Prepared], w: np.ndarray) -> np.ndarray:
+    return np.array([np.sum(((p.y - p.y.mean(axis=0)) * w) ** 2, axis=0) for p in preps])
+
+
+def per_run_fits(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray,
+                 P0: np.ndarray, P: np.ndarray, free: list[int]) -> tuple[list[dict], str]:
+    """Fit before/after per run and channel. With validation runs: by simulation. Otherwise each
+    diagnosed run is held out in turn: the model refitted without it (a Gauss-Newton step of the
+    free parameters from the final fit) is simulated on it (leave one run out, linearised)."""
+    if val_preps:
+        f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in val_preps])
+        f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in val_preps])
+        return (_table([p.rec.source for p in val_preps], ["validation"] * len(val_preps), f0, f1, _den(val_preps, w)),
+                "validation runs, simulated")
+    f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in preps])
+    cols = [j for j in free if j < model.n_slots_end]
+    if len(preps) < 2 or not cols:
+        f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in preps])
+        return _table([p.rec.source for p in preps], ["diagnosed"] * len(preps), f0, f1, _den(preps, w)), "diagnosed runs, in-sample"
+    parts = make_parts(preps, [])
+    g = grams(model, preps, parts, P, cols, w, model.steps(preps, P))
+    rss = heldout_rss(g, parts, list(range(len(cols))), np.zeros(len(cols)), np.zeros(len(cols)))
+    f1 = fit_pct(rss, g.den)
+    return _table([p.rec.source for p in preps], ["left out"] * len(preps), f0, f1, _den(preps, w)), "leave one run out (linearised refit)"
+
+
+GUARD_SLACK = 1.0  # fit points a validation run may lose on one channel after the diagnosis
+
+
+def guard(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray, P0: np.ndarray,
+           P: np.ndarray, free: list[int], steps: list, base_free: list[int]):
+    """Per-run acceptance: no validation run may fit worse overall (noise-weighted misfit) nor
+    lose more than GUARD_SLACK points on a channel; no left-out run may get more than RUN_RISE
+    worse overall or MUCH_WORSE points on a channel. Findings are dropped, last kept first,
+    until that holds. No finding left: the model is the baseline as given (no refit)."""
+    rise = 0.0 if val_preps else RUN_RISE
+    dropped = []
+    while True:
+        if not steps:
+            table, method = per_run_fits(model, preps, val_preps, w, P0, P0, [])
+            return P0, [], [], table, method, dropped
+        table, method = per_run_fits(model, preps, val_preps, w, P0, P, free)
+        worst = min(row["after"][k] - row["before"][k] for row in table for k in DOFS)
+        worse_run = max(row["weighted_misfit_after"] / max(row["weighted_misfit_before"], 1e-300) - 1.0 for row in table)
+        if worst >= -(GUARD_SLACK if val_preps else MUCH_WORSE) and worse_run <= rise:
+            return P, free, steps, table, method, dropped
+        st = steps.pop()  # the last kept is the weakest
+        own = model.slot_of[st.candidate.key]
+        free = [j for j in free if j not in own]
+        P = P.copy()
+        P[own] = 0.0
+        # the baseline keeps the values fitted with the finding (a refit without its prior could diverge)
+        P, _cov, rss = fit(model, preps, P, [j for j in free if j not in base_free], w, max_iter=6)
+        dropped.append({"key": st.candidate.key, "effect": st.candidate.effect,
+                        "reason": f"a held-out run fits worse with it ({method}: weighted misfit {100 * worse_run:+.1f} %, "
+                                  f"worst channel {worst:+.1f} points)"})
+        if not np.isfinite(rss):
+            steps = []
