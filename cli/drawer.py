@@ -260,7 +260,10 @@ class Drawer:
         prepared = _prepare(ahead, result)  # while the parent still plans
         from maps.export.cardpdf import prepare_document
 
-        prepare_document()  # the PDF card's fonts read now, in the process its writer is forked from
+        try:
+            prepare_document()  # the PDF card's fonts read now, in the process its writer is forked from
+        except Exception:  # noqa: BLE001 - the card's writer reads them again and names its file in the error
+            pass
         with os.fdopen(job_r, "rb") as fh:
             data = fh.read()
         if data:  # nothing sent: cancelled

@@ -53,7 +53,7 @@ def ar1(pairs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndar
     return rho, s2
 
 
-def grams(pairs: list[tuple[np.ndarray, np.ndarray]], rho: np.ndarray, s2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def ar1_grams(pairs: list[tuple[np.ndarray, np.ndarray]], rho: np.ndarray, s2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(J^T J, J^T Sigma J) summed over runs and channels, Sigma the AR(1) noise covariance."""
     c = pairs[0][1].shape[0]
     G, M = np.zeros((c, c)), np.zeros((c, c))
@@ -77,7 +77,7 @@ def _inv(A: np.ndarray) -> np.ndarray:
 def sandwich(pairs: list[tuple[np.ndarray, np.ndarray]], prior_D: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(covariance, H) of a penalised least-squares fit with AR(1) residuals (module docstring)."""
     rho, s2 = ar1(pairs)
-    G, M = grams(pairs, rho, s2)
+    G, M = ar1_grams(pairs, rho, s2)
     H = G + (np.diag(prior_D) if prior_D is not None else 0.0)
     Hi = _inv(H)
     return Hi @ M @ Hi, H

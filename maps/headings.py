@@ -17,8 +17,8 @@ def heading_table(n_head: int) -> np.ndarray:
 
 
 def nearest_heading(psi: float, table: np.ndarray) -> int:
+    """Index of the heading of ``table`` closest to ``psi`` (radians, across the wrap)."""
     return int(np.argmin(np.abs((table - psi + np.pi) % (2 * np.pi) - np.pi)))
-
 
 
 def wrap(a: float) -> float:

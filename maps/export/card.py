@@ -378,11 +378,10 @@ def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None =
 
 
 def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None,
-                   vessel: str | None = None, figures: PlanFigures | None = None) -> Path:
+                   vessel: str | None = None) -> Path:
     """The printable card (A4 PDF, TrueType fonts embedded; written with fpdf2, see
-    :mod:`maps.export.cardpdf`): the pages of :func:`iter_card_figures`. ``figures`` is not
-    needed (the PDF draws its map and states page itself); accepted for the callers that share
-    figures between exports."""
+    :mod:`maps.export.cardpdf`): the layout of :func:`iter_card_figures`' pages, its map and
+    states page drawn straight into the PDF."""
     from maps.export.cardpdf import card_pdf_bytes
 
     check_plan(plan)
@@ -495,11 +494,11 @@ def write_card(plan: Plan, path: str | Path, sea_map: Any = None, start: datetim
     (``figures``: the plan's shared figures, see :class:`maps.export.plots.PlanFigures`)."""
     path = Path(path)
     sea_map = plan_chart(plan, sea_map)  # read a map file once for the HTML, the PDF and the figures
+    if path.suffix.lower() == ".pdf":  # the PDF draws its own map and states page
+        return [write_card_pdf(plan, path, sea_map, start, vessel)]
     with PlanFigures(plan, sea_map) as own:
         figs = figures or own
-        if path.suffix.lower() == ".pdf":
-            return [write_card_pdf(plan, path, sea_map, start, vessel, figs)]
         out = [atomic_write_text(path, card_html(plan, sea_map, start, vessel, figs))]
         if pdf:
-            out.append(write_card_pdf(plan, path.with_suffix(".pdf"), sea_map, start, vessel, figs))
+            out.append(write_card_pdf(plan, path.with_suffix(".pdf"), sea_map, start, vessel))
     return out

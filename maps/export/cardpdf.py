@@ -1,5 +1,6 @@
-"""The printable trial card as PDF, written with fpdf2: the same pages, layout and words as the
-matplotlib pages of :mod:`maps.export.card` (:func:`maps.export.card.iter_card_figures`), in a
+"""The printable trial card as PDF, written with fpdf2: the layout and words of the matplotlib
+pages of :mod:`maps.export.card` (:func:`maps.export.card.iter_card_figures`), the map and states
+page drawn straight into the PDF (:mod:`maps.export.pdfmap`, :mod:`maps.export.pdfstates`), in a
 fraction of the time.
 
 Why not matplotlib's PDF backend for the whole card: it lays out and draws text glyph by glyph
@@ -190,7 +191,7 @@ def prepare_document() -> None:
 
 
 def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> bytes:
-    """The card's pages (as :func:`maps.export.card.iter_card_figures` draws them) as PDF bytes;
+    """The card's pages (laid out as :func:`maps.export.card.iter_card_figures` draws them) as PDF bytes;
     ``sea_map``: the plan's chart (:func:`maps.export.chart.plan_chart`)."""
     doc = _SPARE.pop() if _SPARE else _Card()  # a prepared document is a new one: same bytes
     sheets = step_sheets(plan, t0, sea_map)

@@ -483,9 +483,9 @@ _SAVE = {"states": (STATES_DPI, None), "track": (TRACK_DPI, None)}  # default dp
 
 
 class PlanFigures:
-    """The figures of one plan, each drawn once and shared by the trial card (HTML images, PDF
-    page) and the PNG exports: drawing a figure with its layout passes costs as much as saving
-    it. ``close()`` when done (figures hold memory until closed)."""
+    """The figures of one plan, each drawn once and shared by the HTML trial card's images and
+    the PNG exports (the PDF card draws its own map and states page): drawing a figure with its
+    layout passes costs as much as saving it. ``close()`` when done (figures hold memory until closed)."""
 
     def __init__(self, plan: Plan, sea_map: Any = None) -> None:
         self.plan, self.sea_map = plan, sea_map

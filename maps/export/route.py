@@ -201,10 +201,12 @@ def build_route(plan: Plan, chart: Chart | None = None) -> Route:
     travels with it when the plan is pickled to the process that draws (``shiptrial plan``).
     Treat the returned route as read-only."""
     memo = plan.__dict__.get(_MEMO)
-    if memo is not None and memo[0] is chart and memo[1] is plan.lonlat and memo[2] is plan.steps:
-        return memo[3]
+    radius = plan.stats.get("turning_radius_m") if isinstance(plan.stats, dict) else None
+    key = (tuple(plan.hull), plan.margin_m, radius)  # the values it reads besides those objects
+    if memo is not None and memo[0] is chart and memo[1] is plan.lonlat and memo[2] is plan.steps and memo[3] == key:
+        return memo[4]
     route = _build_route(plan, chart)
-    plan.__dict__[_MEMO] = (chart, plan.lonlat, plan.steps, route)
+    plan.__dict__[_MEMO] = (chart, plan.lonlat, plan.steps, key, route)
     return route
 
 
