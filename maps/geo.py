@@ -285,8 +285,8 @@ def load_map(
         if groups[k]:
             i, g, pr = groups[k][0]
             hd = pr.get("heading_deg")
-            if hd is not None and not _finite_number(hd):
-                raise _fail(src, i, "properties.heading_deg must be a number (degrees from north, clockwise)")
+            if hd is not None and not (_finite_number(hd) and -360 <= hd <= 360):
+                raise _fail(src, i, "properties.heading_deg must be a number of degrees from north, clockwise, within -360..360")
             x, y = (float(v) for v in sm.to_local(g.x, g.y))
-            setattr(sm, k, MapPoint(x, y, None if hd is None else float(np.radians(hd)), float(g.x), float(g.y)))
+            setattr(sm, k, MapPoint(x, y, None if hd is None else float(np.radians(float(hd))), float(g.x), float(g.y)))
     return sm

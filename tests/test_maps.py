@@ -91,6 +91,11 @@ def test_obstacle_point_radius_and_start_goal(tmp_path):
         (fc(feat(square(25, 60, 0.1, 0.1), kind="depth_area")), "min_depth_m"),
         (fc(feat({"type": "Polygon", "coordinates": [[[60, 125], [60.1, 125], [60.1, 125.1], [60, 125]]]})), "swapped"),
         ({"type": "Feature"}, "FeatureCollection"),
+        # a JSON integer beyond int64 (found by the fuzz test) and a heading of turns, not degrees
+        (fc(feat(square(25, 60, 0.1, 0.1)), feat({"type": "Point", "coordinates": [25.2, 60.2]}, kind="start",
+                                                  heading_deg=2**70)), "within -360..360"),
+        (fc(feat(square(25, 60, 0.1, 0.1)), feat({"type": "Point", "coordinates": [25.2, 60.2]}, kind="goal",
+                                                  heading_deg=720)), "within -360..360"),
     ],
 )
 def test_bad_maps_rejected_with_reason(tmp_path, doc, words):
