@@ -10,7 +10,7 @@ ratios of its design, the PDF card's empty document with its fonts read), then r
 finished plan (pickled through a pipe, with the route and sea room every export shares) and draws
 it in two processes (itself and one forked child) while the parent writes the text exports. The
 figures and bytes are those of one process. A drawer cancelled before it was sent a plan (the
-command refused) is killed at once.
+command refused) is ended at once (SIGTERM, on which it unwinds: see :class:`_Cancelled`).
 
 On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`).
 """
@@ -82,6 +82,19 @@ class _Failed(Exception):
     """A writer's error, already worded for the parent."""
 
 
+class _Cancelled(BaseException):
+    """Raised in the drawer by SIGTERM (the parent cancelled it). It unwinds rather than dies:
+    ``finally`` blocks and context managers run on the way out, so a drawer ended while importing
+    matplotlib on a machine without its font cache removes the cache's lock file (killed, it left
+    the lock behind and every later import waited 5 s for it, then did without the cache; the
+    half-written cache is rebuilt by the next import). A BaseException: no ``except Exception``
+    of a writer or library swallows it."""
+
+
+def _on_sigterm(signum: int, frame: Any) -> None:
+    raise _Cancelled
+
+
 def _child(report: int, work: Callable[[], None]) -> None:
     """Run ``work`` in a forked child and exit (never return): status 0, or 1 with the error
     written to the ``report`` pipe."""
@@ -92,6 +105,8 @@ def _child(report: int, work: Callable[[], None]) -> None:
         sys.stdout = sys.stderr = open(os.devnull, "w")
         work()
         code = 0
+    except _Cancelled:  # the parent asked for it and reads no report
+        pass
     except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent
         from maps.export import ExportError
 
@@ -239,6 +254,7 @@ class Drawer:
             self._early, early_w = os.pipe()
         pid = os.fork()
         if pid == 0:
+            signal.signal(signal.SIGTERM, _on_sigterm)  # before it starts anything: cancel() unwinds it
             gc.freeze()  # the parent's objects out of the collector's sight: collections would copy the shared heap
             os.close(self._job_w)
             os.close(self._report)
@@ -321,9 +337,10 @@ class Drawer:
             os.close(self._job_w)
             self._job_w = -1
             # nothing to draw: end it now rather than let it finish its design and imports (CPU and wall
-            # time of a refused run); it has written nothing and started no process of its own
+            # time of a refused run). Not SIGKILL: it may be writing matplotlib's font cache under its
+            # lock file, which SIGTERM (_Cancelled) removes on the way out; it has started no process
             try:
-                os.kill(pid, signal.SIGKILL)
+                os.kill(pid, signal.SIGTERM)
             except ProcessLookupError:
                 pass
         if self._sender is not None:

@@ -15,7 +15,8 @@ from maps.export import FORMATS, export_all
 from maps.export._common import clock, describe_inputs, input_phases
 from maps.export._testing import synthetic_plan
 from maps.export.card import beaufort, card_figures, card_html, render_card_page1, step_sheets
-from maps.export.plots import obstacle_geoms, plot_states
+from maps.export.mapplot import obstacle_geoms
+from maps.export.plots import plot_states
 from maps.plan import Plan
 
 START = "2026-06-01T08:00:00Z"

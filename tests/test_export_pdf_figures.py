@@ -60,11 +60,11 @@ def test_pdf_map_legend_lists_what_the_matplotlib_map_lists(charted):
     segments, start and end, as draw_map's legend."""
     import matplotlib.pyplot as plt
 
-    from maps.export.plots import draw_map
+    from maps.export.mapplot import draw_map
 
     fig, ax = plt.subplots()
     try:
-        draw_map(ax, charted, hatch_lines=True)
+        draw_map(ax, charted)
         want = ax.get_legend_handles_labels()[1]
     finally:
         plt.close(fig)
@@ -176,8 +176,9 @@ def test_track_figure_of_a_narrow_map_keeps_its_title_and_readable_ticks():
     longitude labels do not overlap (fewer ticks on a narrow map, in the PDF map too)."""
     import matplotlib.pyplot as plt
 
+    from maps.export.mapplot import lon_ticks
     from maps.export.pdfmap import map_frame
-    from maps.export.plots import lon_ticks, track_figure
+    from maps.export.plots import track_figure
 
     plan = synthetic_plan("full-scale", ("straight",) * 40)
     lat0 = float(plan.lonlat[0, 1])

@@ -252,14 +252,16 @@ def test_plan_json_carries_the_chart_and_exports_the_same_without_the_map(azi_pl
     assert all(f["properties"]["segment"] in ("run-in", "informative", "transit") for f in traj["features"])
 
 
-@pytest.mark.parametrize("hatch_lines", [False, True], ids=["png", "pdf-card"])
-def test_card_map_draws_land_shallow_and_depth_areas(azi_plan, tmp_path, hatch_lines):
-    """Both ways the map is drawn: with matplotlib's hatch pattern (PNG figures) and with the
-    hatching as line geometry (the PDF card's SVG, which fpdf2 reads without patterns)."""
+def test_card_map_draws_land_shallow_and_depth_areas(azi_plan, tmp_path):
+    """Both ways the map is drawn: by matplotlib with its hatch pattern (PNG figures) and straight
+    into the PDF card, with the hatching as line geometry and the same legend."""
     import matplotlib.pyplot as plt
-    from matplotlib.collections import LineCollection
 
-    from maps.export.plots import HATCH_LEGEND, draw_map
+    from maps.export.cardpdf import _Card
+    from maps.export.chart import plan_chart
+    from maps.export.mapplot import NO_GO_EDGE, NO_GO_LABEL, draw_map
+    from maps.export.pdfdraw import col
+    from maps.export.pdfmap import MapWriter, map_frame
 
     _, fc = _land_beside_zigzag(azi_plan)
     fc["features"] += [
@@ -273,19 +275,22 @@ def test_card_map_draws_land_shallow_and_depth_areas(azi_plan, tmp_path, hatch_l
     embed_chart(plan, fc)
     fig, ax = plt.subplots()
     try:
-        draw_map(ax, plan, hatch_lines=hatch_lines)  # from the plan's own chart
+        draw_map(ax, plan)  # from the plan's own chart
         labels = ax.get_legend_handles_labels()[1]
         hatched = [a for a in ax.patches if a.get_hatch()]
-        hatch_segments = sum(len(c.get_segments()) for c in ax.collections if isinstance(c, LineCollection))
-        leg = ax.legend(handler_map=HATCH_LEGEND)
-        key = leg.legend_handles[labels.index("shallow / restricted (no-go)")]
     finally:
         plt.close(fig)
-    assert "land" in labels and "shallow / restricted (no-go)" in labels
-    assert (hatch_segments > 0 and not hatched) if hatch_lines else (hatched and hatch_segments == 0)
-    assert key is not None
+    assert "land" in labels and NO_GO_LABEL in labels and hatched
     assert any(lab.startswith("depth areas 30-30 m") for lab in labels)
     assert "transit" in labels
+    doc = _Card()
+    doc.page()
+    w = MapWriter(doc.pdf, "DejaVu Sans", plan, plan_chart(plan), map_frame(plan, (60.0, 170.0, 500.0, 500.0)))
+    w.draw()
+    drawn = doc.pdf.pages[doc.pdf.page].contents.decode("latin-1")
+    assert [e["label"] for e in w.legend] == labels
+    assert next(e for e in w.legend if e["label"] == NO_GO_LABEL)["kind"] == "hatch"
+    assert f"{col(NO_GO_EDGE, 'RG')} 0.6 w 2 J" in drawn  # the hatch lines, in the no-go edge colour
 
 
 # -- the card: every row, embedded TrueType fonts ----------------------------------------------

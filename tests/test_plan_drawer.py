@@ -124,6 +124,30 @@ def test_cancel_ends_a_drawer_that_has_nothing_to_draw_at_once():
     assert time.monotonic() - t0 < 30 and children() <= before
 
 
+def test_cancel_lets_the_drawer_remove_the_lock_file_it_holds(tmp_path):
+    """A drawer cancelled while it writes under matplotlib's lock file (its font cache, built by
+    the first import on a machine) removes the lock on its way out: a lock left behind made every
+    later run wait 5 s for it and then do without the cache."""
+    import time
+
+    from matplotlib import cbook
+
+    lock = tmp_path / "fontlist.json.matplotlib-lock"
+
+    def writes_under_lock():
+        with cbook._lock_path(tmp_path / "fontlist.json"):
+            time.sleep(60)
+
+    before = children()
+    d = drawer.Drawer(writes_under_lock)
+    deadline = time.monotonic() + 30
+    while not lock.exists() and time.monotonic() < deadline:
+        time.sleep(0.005)
+    assert lock.exists()
+    d.cancel()
+    assert not lock.exists() and children() <= before
+
+
 def test_ratios_drawn_ahead_only_for_the_design_planned(tmp_path, monkeypatch, capsys):
     """The drawer draws the design ratios of its early design while the parent plans; when the
     plan's design is another (a manoeuvre dropped for the map, here: a doctored early figure),

@@ -42,7 +42,8 @@ from maps.export._common import (
     waypoints,
 )
 from maps.export.chart import plan_chart
-from maps.export.plots import HATCH_LEGEND, PlanFigures, draw_map, plt
+from maps.export.mapplot import draw_map
+from maps.export.plots import PlanFigures, plt
 from maps.export.route import build_route
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes, atomic_write_text
@@ -278,13 +279,13 @@ def page1_layout(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> tuple[l
     return lines, abort, y - 0.006, y - 0.09
 
 
-def page1_map_figure(plan: Plan, sea_map: Any, top: float, *, hatch_lines: bool = False, fig: Any = None) -> Any:
+def page1_map_figure(plan: Plan, sea_map: Any, top: float, *, fig: Any = None) -> Any:
     """The map of page 1 (axes below ``top``, legend below the map, never over the track) on an
-    A4 figure (``fig``, else a new one); ``hatch_lines``: see :func:`maps.export.plots.draw_map`."""
+    A4 figure (``fig``, else a new one)."""
     fig = fig or plt.figure(figsize=A4)
     ax = fig.add_axes((0.1, 0.2, 0.85, top - 0.22))
-    draw_map(ax, plan, sea_map, hatch_lines=hatch_lines)
-    ax.legend(fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.05), ncol=3, framealpha=0.9, handler_map=HATCH_LEGEND)
+    draw_map(ax, plan, sea_map)
+    ax.legend(fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.05), ncol=3, framealpha=0.9)
     return fig
 
 

@@ -137,7 +137,7 @@ def chart_of(sea_map: Any) -> Chart | None:
             pass
         return Chart(str(getattr(sea_map, "name", "")), land, others, depth, tuple(sea_map.lonlat_extent))
     if isinstance(sea_map, dict) and sea_map.get("type") == "FeatureCollection":
-        from maps.export.plots import obstacle_geoms
+        from maps.export.mapplot import obstacle_geoms
 
         feats = sea_map.get("features", [])
         land = [shape(f["geometry"]) for f in feats if f.get("geometry") and (f.get("properties") or {}).get("kind", "land") == "land"]
@@ -146,10 +146,10 @@ def chart_of(sea_map: Any) -> Chart | None:
         return Chart(str(sea_map.get("name", "")), shapely.union_all(land) if land else shapely.Polygon(),
                      shapely.union_all(other) if other else shapely.Polygon(), _depth_areas_of(feats))
     if isinstance(sea_map, (str, Path)):
-        from maps.export.plots import load_geojson
+        from maps.export.mapplot import load_geojson
 
         return chart_of(load_geojson(sea_map))
-    from maps.export.plots import obstacle_geoms
+    from maps.export.mapplot import obstacle_geoms
 
     geoms = obstacle_geoms(sea_map)
     return Chart(land=shapely.union_all(geoms) if geoms else shapely.Polygon())

@@ -2,8 +2,9 @@
 polygons, the hatching, the sea room, the track, markers, numbers, ticks, scale bar, north arrow
 and legend as PDF path operators and text in the card's embedded font.
 
-It draws what :func:`maps.export.plots.draw_map` draws (same view, aspect, colours, line widths,
-markers, ticks and legend as the matplotlib figure of :func:`maps.export.card.page1_map_figure`)
+It draws what :func:`maps.export.mapplot.draw_map` draws (same view, aspect, colours -- the
+style constants of :mod:`maps.export.mapplot` --, line widths, markers, ticks and legend as the
+matplotlib figure of :func:`maps.export.card.page1_map_figure`)
 without the round trip the card made before: matplotlib drawing the figure, writing it as SVG and
 fpdf2 parsing the SVG back cost about half the CPU of the whole card.
 
@@ -19,19 +20,28 @@ from typing import Any
 import numpy as np
 
 from maps.export._common import deg_min, step_slice
-from maps.export.pdfdraw import LINE_HEIGHT, Painter, col, rings_ops
-from maps.export.plots import (
+from maps.export.mapplot import (
+    DEPTH_EDGE,
+    EXECUTE_COLOUR,
     HATCH_PT,
     LAND_COLOUR,
+    LAND_EDGE,
     NO_GO_COLOUR,
-    _m_per_deg,
-    _view,
+    NO_GO_EDGE,
+    NO_GO_LABEL,
+    SEA_ROOM_COLOUR,
+    WATER_COLOUR,
+    depth_label,
+    depth_shades,
     hatch_segments,
     lon_ticks,
+    m_per_deg,
+    map_view,
     primitive_colours,
     scale_bar,
     step_colour,
 )
+from maps.export.pdfdraw import LINE_HEIGHT, Painter, col, rings_ops
 from maps.plan import Plan
 
 TICK_FS, NUM_FS, LEGEND_FS = 7.0, 7.0, 6.5
@@ -60,10 +70,10 @@ class Frame:
 
 
 def map_frame(plan: Plan, box: tuple[float, float, float, float]) -> Frame:
-    """The view of :func:`maps.export.plots.draw_map` placed in ``box`` (left, bottom, width,
+    """The view of :func:`maps.export.mapplot.draw_map` placed in ``box`` (left, bottom, width,
     height in PDF points) as matplotlib places an axes of fixed aspect: shrunk to the map's aspect
     (1 / cos of the track's mean latitude), centred."""
-    x0, y0, x1, y1, _, _ = _view(plan, None)
+    x0, y0, x1, y1, _, _ = map_view(plan)
     lat0 = float(np.mean(plan.lonlat[:, 1]))
     ratio = (y1 - y0) / math.cos(math.radians(lat0)) / (x1 - x0)  # height / width on the page
     left, bottom, bw, bh = box
@@ -73,7 +83,7 @@ def map_frame(plan: Plan, box: tuple[float, float, float, float]) -> Frame:
         w, h = bh / ratio, bh
     from shapely.geometry import box as sbox
 
-    return Frame(x0, y0, x1, y1, left + 0.5 * (bw - w), bottom + 0.5 * (bh - h), w, h, _m_per_deg(sbox(x0, y0, x1, y1)))
+    return Frame(x0, y0, x1, y1, left + 0.5 * (bw - w), bottom + 0.5 * (bh - h), w, h, m_per_deg(sbox(x0, y0, x1, y1)))
 
 
 def _geom_rings(geom: Any, view: Any) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -147,7 +157,7 @@ class MapWriter(Painter):
     def draw(self) -> None:
         f = self.f
         self.out(f"q {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re W n")
-        self.out(f"{col('#eef6fd', 'rg')} {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re f")
+        self.out(f"{col(WATER_COLOUR, 'rg')} {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re f")
         xt, yt = self.ticks()
         self.chart_layers()
         # the grid goes with the axis, which matplotlib draws at zorder 1.5: over the chart, under the sea room
@@ -162,35 +172,33 @@ class MapWriter(Painter):
         self.furniture(xt, yt)
 
     def chart_layers(self) -> None:
-        import matplotlib
-
         chart = self.chart
         if chart is None:
             return
         if chart.depth_areas:
             depths = sorted({d for _, d in chart.depth_areas})
-            shades = matplotlib.colormaps["Blues"](np.linspace(0.32, 0.04, max(len(depths), 2)))
+            shades = depth_shades(len(depths))
             drawn = False
             for g, d in chart.depth_areas:
-                drawn |= self.fill_geom(g, shades[depths.index(d)][:3], "#5b8db8", 0.4)
+                drawn |= self.fill_geom(g, shades[depths.index(d)][:3], DEPTH_EDGE, 0.4)
             if drawn:
-                self.legend.append({"kind": "patch", "face": shades[0][:3], "edge": "#5b8db8",
-                                    "label": f"depth areas {depths[0]:g}-{depths[-1]:g} m (darker: shallower)"})
-        if self.fill_geom(chart.no_go, NO_GO_COLOUR, "#35607d", 0.6):
+                self.legend.append({"kind": "patch", "face": shades[0][:3], "edge": DEPTH_EDGE,
+                                    "label": depth_label(depths)})
+        if self.fill_geom(chart.no_go, NO_GO_COLOUR, NO_GO_EDGE, 0.6):
             segs = hatch_segments(chart.no_go, self.view, self.f.m_per_deg, self.f.m_per_pt())
             if segs:
-                self.out(f"{col('#35607d', 'RG')} 0.6 w 2 J [] 0 d\n" + rings_ops([self.page_xy(s) for s in segs], close=False)
+                self.out(f"{col(NO_GO_EDGE, 'RG')} 0.6 w 2 J [] 0 d\n" + rings_ops([self.page_xy(s) for s in segs], close=False)
                          + " S")
-            self.legend.append({"kind": "hatch", "face": NO_GO_COLOUR, "edge": "#35607d", "label": "shallow / restricted (no-go)"})
-        if self.fill_geom(chart.land, LAND_COLOUR, "#6b5d3a", 0.6):
-            self.legend.append({"kind": "patch", "face": LAND_COLOUR, "edge": "#6b5d3a", "label": "land"})
+            self.legend.append({"kind": "hatch", "face": NO_GO_COLOUR, "edge": NO_GO_EDGE, "label": NO_GO_LABEL})
+        if self.fill_geom(chart.land, LAND_COLOUR, LAND_EDGE, 0.6):
+            self.legend.append({"kind": "patch", "face": LAND_COLOUR, "edge": LAND_EDGE, "label": "land"})
 
     def sea_room(self) -> None:
         from maps.export.geojson import sea_room_lonlat
 
         room = sea_room_lonlat(self.plan)
-        if room is not None and self.fill_geom(room, "#cfe6fb", None, 0.0):
-            self.legend.append({"kind": "patch", "face": "#cfe6fb", "edge": None, "label": "sea room (hull + margin)"})
+        if room is not None and self.fill_geom(room, SEA_ROOM_COLOUR, None, 0.0):
+            self.legend.append({"kind": "patch", "face": SEA_ROOM_COLOUR, "edge": None, "label": "sea room (hull + margin)"})
 
     def track(self) -> None:
         plan = self.plan
@@ -217,9 +225,9 @@ class MapWriter(Painter):
         self.marker("s", *xy[-1], 9, "red")
         execs = [st for st in plan.steps if getattr(st, "execute", False)]
         for st in execs:
-            self.marker("*", *self.page_xy(np.array([[st.entry_lon, st.entry_lat]]))[0], 15, "#ffd400", mew=0.8)
+            self.marker("*", *self.page_xy(np.array([[st.entry_lon, st.entry_lat]]))[0], 15, EXECUTE_COLOUR, mew=0.8)
         if execs:
-            self.legend.append({"kind": "marker", "marker": "*", "size": 15, "face": "#ffd400", "mew": 0.8, "label": "execute point"})
+            self.legend.append({"kind": "marker", "marker": "*", "size": 15, "face": EXECUTE_COLOUR, "mew": 0.8, "label": "execute point"})
         self.legend.append({"kind": "marker", "marker": "^", "size": 11, "face": "green", "mew": 1.0, "label": "start"})
         self.legend.append({"kind": "marker", "marker": "s", "size": 9, "face": "red", "mew": 1.0, "label": "end"})
 
@@ -245,7 +253,7 @@ class MapWriter(Painter):
 
     def ticks(self) -> tuple[list[float], list[float]]:
         """Tick positions on the page: matplotlib's MaxNLocator along x (4 intervals, fewer on a narrow
-        map: :func:`maps.export.plots.lon_ticks`), its AutoLocator along y."""
+        map: :func:`maps.export.mapplot.lon_ticks`), its AutoLocator along y."""
         from matplotlib.ticker import MaxNLocator
 
         f = self.f
