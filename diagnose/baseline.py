@@ -161,8 +161,9 @@ def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recordi
                   ) -> tuple[ShipProfile, np.ndarray, str, list[str], bool]:
     """Fit the baseline on the --fit-on runs, with the structure the profile declares for it
     ([diagnosis] structure) when it has one. The extended model is kept only when it simulates
-    the diagnosed runs at least as well as the baseline refitted in its own structure (its
-    extrapolation from the calm run to other manoeuvres is the risk). Returns (profile, theta,
+    at least as well as the baseline refitted in its own structure (its extrapolation from the
+    calm runs to other manoeuvres is the risk) the --fit-on runs each left out in turn
+    (:func:`loo_misfit`), or with a single --fit-on run the diagnosed runs. Returns (profile, theta,
     source, notes, rejected): ``rejected`` when the refit diverged and the profile's parameters
     are kept."""
     theta, note = fit_baseline(profile, theta0, fit_on)
