@@ -93,7 +93,7 @@ def grams(model: AugmentedModel, all_preps: list[Prepared], parts: Parts, P: np.
     return Grams(G, hv, rr, den, list(cols), np.array([int(m.sum()) for m in parts.mask]))
 
 
-def _step(g: Grams, fit_parts: list[int], sel: list[int], prior_D: np.ndarray, prior_g: np.ndarray) -> np.ndarray:
+def gauss_newton_step(g: Grams, fit_parts: list[int], sel: list[int], prior_D: np.ndarray, prior_g: np.ndarray) -> np.ndarray:
     """Gauss-Newton step of the columns ``sel`` fitted on ``fit_parts`` (with the prior)."""
     ix = np.ix_(sel, sel)
     A = g.G[fit_parts][:, :, ix[0], ix[1]].sum(axis=(0, 1)) + np.diag(prior_D[sel])
@@ -119,7 +119,7 @@ def heldout_rss(g: Grams, parts: Parts, sel: list[int], prior_D: np.ndarray, pri
     Hessian diagonal and gradient over all columns (zero where none)."""
     out = np.empty((len(parts.test), 3))
     for f, (t, fit_parts) in enumerate(zip(parts.test, parts.fit_of)):
-        out[f] = _rss_after(g, [t], sel, _step(g, fit_parts, sel, prior_D, prior_g)) if sel else g.rr[t]
+        out[f] = _rss_after(g, [t], sel, gauss_newton_step(g, fit_parts, sel, prior_D, prior_g)) if sel else g.rr[t]
     return np.maximum(out, 0.0)
 
 
@@ -129,7 +129,7 @@ def insample_rss(g: Grams, parts: Parts, sel: list[int], prior_D: np.ndarray, pr
     and the step."""
     if not sel:
         return float(g.rr[fit_parts].sum()), np.zeros(0)
-    d = _step(g, fit_parts, sel, prior_D, prior_g)
+    d = gauss_newton_step(g, fit_parts, sel, prior_D, prior_g)
     return max(float(_rss_after(g, fit_parts, sel, d).sum()), 0.0), d
 
 
