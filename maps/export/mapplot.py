@@ -94,6 +94,16 @@ def depth_label(depths: list[float]) -> str:
     return f"depth areas {depths[0]:g}-{depths[-1]:g} m (darker: shallower)"
 
 
+def depth_layers(chart: Any) -> tuple[list[tuple[Any, np.ndarray]], np.ndarray, str]:
+    """The chart's depth areas with their shade (RGBA), the legend's shade (the shallowest) and
+    label, as both the PNG and the PDF map draw them (no layers without depth areas)."""
+    depths = sorted({d for _, d in chart.depth_areas})
+    shades = depth_shades(len(depths))
+    if not depths:
+        return [], shades[0], ""
+    return [(g, shades[depths.index(d)]) for g, d in chart.depth_areas], shades[0], depth_label(depths)
+
+
 def primitive_colours(plan: Plan) -> dict[str, Any]:
     """A colour per step primitive: a distinct one per informative primitive (order of first
     appearance), green for run-ins, grey for transit."""
@@ -204,14 +214,12 @@ def _draw_chart(ax: Any, plan: Plan, sea_map: Any, view: Any) -> None:
     chart = plan_chart(plan, sea_map)
     if chart is None:
         return
-    if chart.depth_areas:
-        depths = sorted({d for _, d in chart.depth_areas})
-        shades = depth_shades(len(depths))
-        any_drawn = False
-        for g, d in chart.depth_areas:
-            any_drawn |= _draw_geom(ax, g, view, facecolor=shades[depths.index(d)], edgecolor=DEPTH_EDGE, lw=0.4, zorder=0.5)
-        if any_drawn:
-            ax.fill([], [], facecolor=shades[0], edgecolor=DEPTH_EDGE, label=depth_label(depths))
+    layers, face, label = depth_layers(chart)
+    any_drawn = False
+    for g, shade in layers:
+        any_drawn |= _draw_geom(ax, g, view, facecolor=shade, edgecolor=DEPTH_EDGE, lw=0.4, zorder=0.5)
+    if any_drawn:
+        ax.fill([], [], facecolor=face, edgecolor=DEPTH_EDGE, label=label)
     if _draw_geom(ax, chart.no_go, view, facecolor=NO_GO_COLOUR, edgecolor=NO_GO_EDGE, hatch="////", lw=0.6, zorder=1):
         ax.fill([], [], facecolor=NO_GO_COLOUR, edgecolor=NO_GO_EDGE, hatch="////", label=NO_GO_LABEL)
     if _draw_geom(ax, chart.land, view, facecolor=LAND_COLOUR, edgecolor=LAND_EDGE, lw=0.6, zorder=1):

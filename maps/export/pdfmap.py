@@ -31,8 +31,7 @@ from maps.export.mapplot import (
     NO_GO_LABEL,
     SEA_ROOM_COLOUR,
     WATER_COLOUR,
-    depth_label,
-    depth_shades,
+    depth_layers,
     hatch_segments,
     lon_ticks,
     m_per_deg,
@@ -175,15 +174,12 @@ class MapWriter(Painter):
         chart = self.chart
         if chart is None:
             return
-        if chart.depth_areas:
-            depths = sorted({d for _, d in chart.depth_areas})
-            shades = depth_shades(len(depths))
-            drawn = False
-            for g, d in chart.depth_areas:
-                drawn |= self.fill_geom(g, shades[depths.index(d)][:3], DEPTH_EDGE, 0.4)
-            if drawn:
-                self.legend.append({"kind": "patch", "face": shades[0][:3], "edge": DEPTH_EDGE,
-                                    "label": depth_label(depths)})
+        layers, face, label = depth_layers(chart)
+        drawn = False
+        for g, shade in layers:
+            drawn |= self.fill_geom(g, shade[:3], DEPTH_EDGE, 0.4)
+        if drawn:
+            self.legend.append({"kind": "patch", "face": face[:3], "edge": DEPTH_EDGE, "label": label})
         if self.fill_geom(chart.no_go, NO_GO_COLOUR, NO_GO_EDGE, 0.6):
             segs = hatch_segments(chart.no_go, self.view, self.f.m_per_deg, self.f.m_per_pt())
             if segs:
