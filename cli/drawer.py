@@ -20,6 +20,7 @@ from __future__ import annotations
 import gc
 import os
 import pickle
+import select
 import signal
 import sys
 import threading
@@ -118,6 +119,19 @@ def _child(report: int, work: Callable[[], None]) -> None:
             pass
     finally:
         os._exit(code)
+
+
+def _end(pid: int, report: int, grace_s: float = 1.0) -> None:
+    """End the unreaped child ``pid`` whose ``report`` pipe is still open: SIGTERM, and SIGKILL
+    when it has not exited within ``grace_s`` (a Python handler runs only between bytecodes: a
+    child stuck in C code, e.g. on a lock another thread of the parent held when it forked, never
+    runs it). The pid cannot be reused before it is reaped, so the second signal is safe."""
+    try:
+        os.kill(pid, signal.SIGTERM)
+        if not select.select([report], [], [], grace_s)[0]:  # readable at its exit: the pipe's end closes
+            os.kill(pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
 
 
 def _reap(pid: int, report: int) -> str | None:
@@ -337,12 +351,9 @@ class Drawer:
             os.close(self._job_w)
             self._job_w = -1
             # nothing to draw: end it now rather than let it finish its design and imports (CPU and wall
-            # time of a refused run). Not SIGKILL: it may be writing matplotlib's font cache under its
-            # lock file, which SIGTERM (_Cancelled) removes on the way out; it has started no process
-            try:
-                os.kill(pid, signal.SIGTERM)
-            except ProcessLookupError:
-                pass
+            # time of a refused run). SIGTERM first: it may be writing matplotlib's font cache under its
+            # lock file, which _Cancelled removes on the way out; it has started no process
+            _end(pid, self._report)
         if self._sender is not None:
             self._sender.join()
         msg = _reap(pid, self._report)

@@ -124,6 +124,29 @@ def test_cancel_ends_a_drawer_that_has_nothing_to_draw_at_once():
     assert time.monotonic() - t0 < 30 and children() <= before
 
 
+def _deaf_design():
+    """A design stuck where no Python signal handler runs (as in C code waiting on a lock another
+    thread of the parent held when it forked): SIGTERM blocked, then a minute's sleep."""
+    import signal
+    import time
+
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    time.sleep(60)
+
+
+def test_cancel_ends_a_drawer_deaf_to_sigterm_at_once():
+    """A drawer that cannot unwind on SIGTERM is killed after the grace period, not waited for
+    (a refused run in a test process with threads hung 30-60 s)."""
+    import time
+
+    before = children()
+    d = drawer.Drawer(_deaf_design)
+    time.sleep(0.2)  # let it block the signal
+    t0 = time.monotonic()
+    d.cancel()
+    assert time.monotonic() - t0 < 10 and children() <= before
+
+
 def test_cancel_lets_the_drawer_remove_the_lock_file_it_holds(tmp_path):
     """A drawer cancelled while it writes under matplotlib's lock file (its font cache, built by
     the first import on a machine) removes the lock on its way out: a lock left behind made every
