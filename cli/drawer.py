@@ -268,14 +268,17 @@ class Drawer:
             self._early, early_w = os.pipe()
         pid = os.fork()
         if pid == 0:
-            signal.signal(signal.SIGTERM, _on_sigterm)  # before it starts anything: cancel() unwinds it
-            gc.freeze()  # the parent's objects out of the collector's sight: collections would copy the shared heap
-            os.close(self._job_w)
-            os.close(self._report)
-            if early is not None:
-                os.close(self._early)
-                _child(report_w, lambda: self._serve(job_r, early, early_w, ahead))
-            _child(report_w, lambda: self._serve(job_r))
+            try:  # the child never returns into the caller's code, whatever is raised before _child's own guard
+                signal.signal(signal.SIGTERM, _on_sigterm)  # before it starts anything: cancel() unwinds it
+                gc.freeze()  # the parent's objects out of the collector's sight: collections would copy the shared heap
+                os.close(self._job_w)
+                os.close(self._report)
+                if early is not None:
+                    os.close(self._early)
+                    _child(report_w, lambda: self._serve(job_r, early, early_w, ahead))
+                _child(report_w, lambda: self._serve(job_r))
+            finally:
+                os._exit(1)
         os.close(job_r)
         os.close(report_w)
         if early is not None:

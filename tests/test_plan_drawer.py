@@ -147,6 +147,33 @@ def test_cancel_ends_a_drawer_deaf_to_sigterm_at_once():
     assert time.monotonic() - t0 < 10 and children() <= before
 
 
+def test_a_drawer_cancelled_at_its_start_never_returns_into_the_callers_code(monkeypatch):
+    """SIGTERM can reach the drawer before it is inside its own guard (a run refused at once):
+    the forked child must exit there, never unwind into the caller's code and go on running it
+    as a second copy of the command (or of the test session, as it once did in CI)."""
+    import os
+    import time
+
+    # widen the window between the fork and the child's guard (the child's first steps include gc.freeze)
+    monkeypatch.setattr(drawer.gc, "freeze", lambda: time.sleep(0.3))
+    me = os.getpid()
+    r, w = os.pipe()
+    try:
+        for _ in range(3):
+            try:
+                d = drawer.Drawer(lambda: None)
+            finally:
+                if os.getpid() != me:  # an escaped child, returning or raising: tell the test, then leave
+                    os.write(w, b"x")
+                    os._exit(0)
+            time.sleep(0.1)  # the child is now past its handler's installation, inside the widened window
+            d.cancel()
+    finally:
+        os.close(w)
+    with os.fdopen(r, "rb") as fh:
+        assert fh.read() == b""
+
+
 def test_cancel_lets_the_drawer_remove_the_lock_file_it_holds(tmp_path):
     """A drawer cancelled while it writes under matplotlib's lock file (its font cache, built by
     the first import on a machine) removes the lock on its way out: a lock left behind made every
