@@ -51,8 +51,11 @@ def beside(jobs: list[tuple[Path, str, Callable[[], object]]]) -> Callable[..., 
     read, write = os.pipe()
     pid = os.fork()
     if pid == 0:  # the child: write the files, report an error through the pipe, never return
-        os.close(read)
-        _child(write, lambda: _run_jobs(jobs))
+        try:  # whatever is raised before _child's own guard (a Ctrl-C, the drawer's SIGTERM handler)
+            os.close(read)
+            _child(write, lambda: _run_jobs(jobs))
+        finally:
+            os._exit(1)
     os.close(write)
     state: dict[str, str | None] = {}
 

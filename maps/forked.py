@@ -35,13 +35,13 @@ def map_halves(fn: Callable[[Any], Any], items: Sequence[Any], min_items: int = 
         os.close(read)
         os.close(write)
         return [fn(x) for x in items]
-    if pid == 0:  # the child: never returns
-        os.close(read)
+    if pid == 0:  # the child: never returns, whatever is raised (a Ctrl-C reaches it too)
         code = 1
-        # the parent's objects out of the collector's sight: a collection would write to every
-        # object's header and so copy the whole shared heap page by page
-        gc.freeze()
         try:
+            os.close(read)
+            # the parent's objects out of the collector's sight: a collection would write to every
+            # object's header and so copy the whole shared heap page by page
+            gc.freeze()
             data = pickle.dumps([fn(items[i]) for i in range(1, n, 2)], protocol=pickle.HIGHEST_PROTOCOL)
             with os.fdopen(write, "wb") as fh:
                 fh.write(data)
