@@ -219,3 +219,55 @@ def test_page1_summary_lines_fit_the_page(charted):
     doc.pdf.set_font(FONT, "", 8.5)
     assert all(0.05 * W + doc.pdf.get_string_width(line) <= 0.97 * W for line in lines)
     assert all(n in " ".join(lines) for n in names)
+
+
+def _boxes_apart(boxes: list[tuple[float, float]]) -> bool:
+    """(x0, x1) boxes, sorted by x0, none overlapping the next."""
+    boxes = sorted(boxes)
+    return all(a[1] <= b[0] for a, b in zip(boxes, boxes[1:]))
+
+
+@pytest.fixture(scope="module")
+def long_plan() -> Plan:
+    """80 steps: far more numbers than the states figure's width holds side by side."""
+    return synthetic_plan("full-scale", ("straight", "turn_s") * 40)
+
+
+def test_states_png_step_numbers_do_not_overlap(long_plan):
+    """A long plan's step numbers are thinned to what the top axes hold: no two label boxes
+    overlap, the first and last steps are always numbered, and a short plan keeps every number."""
+    import matplotlib.pyplot as plt
+
+    from maps.export.plots import states_figure
+
+    for plan, every in ((long_plan, False), (synthetic_plan("full-scale"), True)):
+        fig = states_figure(plan)
+        try:
+            r = fig.canvas.get_renderer()
+            texts = [t for t in fig.axes[0].texts if t.get_text().isdigit()]
+            shown = [t.get_text() for t in texts]
+            boxes = [(b.x0, b.x1) for b in (t.get_window_extent(r) for t in texts)]
+            assert _boxes_apart(boxes)
+            assert shown[0] == "1" and shown[-1] == str(len(plan.steps))
+            assert len(shown) == len(plan.steps) if every else 10 < len(shown) < len(plan.steps)
+        finally:
+            plt.close(fig)
+
+
+def test_pdf_states_page_step_numbers_do_not_overlap(long_plan, tmp_path):
+    """The PDF card's states page thins the step numbers likewise (word boxes from pdftotext)."""
+    import re
+
+    from maps.export.card import write_card_pdf
+
+    if not shutil.which("pdftotext"):
+        pytest.skip("poppler-utils not installed")
+    path = write_card_pdf(long_plan, tmp_path / "card.pdf", start=START)
+    html = subprocess.run(["pdftotext", "-bbox", "-f", "0", str(path), "-"], capture_output=True, text=True, check=True).stdout
+    last = html.split("<page ")[-1]
+    words = [(float(a), float(b), float(c), w) for a, b, c, w in
+             re.findall(r'xMin="([\d.]+)" yMin="([\d.]+)" xMax="([\d.]+)" yMax="[\d.]+">([^<]*)<', last)]
+    title_y = next(y for _, y, _, w in words if w == "planned")  # the title, over the step numbers
+    numbers = [(x0, x1, w) for x0, y, x1, w in words if w.isdigit() and title_y < y < title_y + 40]
+    assert numbers[0][2] == "1" and numbers[-1][2] == str(len(long_plan.steps)) and 10 < len(numbers) < len(long_plan.steps)
+    assert _boxes_apart([(a, b) for a, b, _ in numbers])

@@ -19,11 +19,14 @@ from maps.export.pdfdraw import LINE_HEIGHT, Painter, col, rgb, rings_ops
 from maps.export.plots import (
     STATES_HSPACE,
     STATES_MARGINS_IN,
+    STEP_LABEL_GAP_EM,
     primitive_colours,
     state_limits,
     state_series,
     states_size_in,
     step_colour,
+    step_label_centres,
+    thin_labels,
 )
 from maps.plan import Plan
 
@@ -77,14 +80,22 @@ class StatesWriter(Painter):
         xt, xl = _ticks(*self.xlim, self.right - self.left, 3.0)
         for k, (label, y) in enumerate(self.series):
             self.panel(self.ax_bottoms[k], label, y, xt, xl if k == len(self.series) - 1 else None)
-        top = self.ax_bottoms[0] + self.ax_h
-        for (ts, colour), st in zip(self.spans, self.plan.steps):
-            self.text(float(self.x(0.5 * (ts[0] + ts[-1]))), top + 0.02 * self.ax_h, str(st.index + 1), FS, bold=True,
-                      ha="center", va="bottom", colour=tuple(round(255 * c) for c in rgb(colour)))
+        self.step_numbers()
         mid = 0.5 * (self.left + self.right)
         self.text(mid, self.ax_bottoms[-1] - 3.5 - 3.5 - LINE_HEIGHT * FS - 4.0, "time from start [min]", 8.0, ha="center", va="top")
         self.text(0.5 * self.w, 0.98 * self.h, f"{self.plan.ship}: planned speed, heading and commanded inputs (manoeuvre numbers "
                   "on top)", 9.0, ha="center", va="top")
+
+    def step_numbers(self) -> None:
+        """The step numbers over the top panel, thinned as the PNG's (:func:`thin_labels`)."""
+        top = self.ax_bottoms[0] + self.ax_h
+        labels = [str(st.index + 1) for st in self.plan.steps]
+        centres = np.asarray(self.x(step_label_centres(self.plan)), float)
+        widths = np.array([self.text_width(s, FS, bold=True) for s in labels])
+        for i in thin_labels(centres, widths, STEP_LABEL_GAP_EM * FS):
+            colour = self.spans[i][1]
+            self.text(float(centres[i]), top + 0.02 * self.ax_h, labels[i], FS, bold=True, ha="center", va="bottom",
+                      colour=tuple(round(255 * c) for c in rgb(colour)))
 
     def panel(self, bottom: float, label: str, y: np.ndarray, xt: list[float], xl: list[str] | None) -> None:
         """One axes: shaded step spans, grid, the series, frame, ticks and labels."""

@@ -57,7 +57,8 @@ def states_size_in(plan: Plan) -> tuple[float, float]:
 
 def draw_states(axes: list, plan: Plan) -> None:
     """Speed (kn), heading (deg) and each commanded input over time (minutes) on ``axes``
-    (len 2 + number of inputs), with the manoeuvre numbers along the top."""
+    (len 2 + number of inputs); the manoeuvre numbers along the top are
+    :func:`draw_step_numbers`' (drawn once the layout is final)."""
     t_min = (plan.t - plan.t[0]) / 60.0
     colours = primitive_colours(plan)
     series = state_series(plan)
@@ -80,12 +81,58 @@ def draw_states(axes: list, plan: Plan) -> None:
         ax.set_ylabel(label, fontsize=7)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
-    top = axes[0]
-    for st in plan.steps:
-        sl = step_slice(plan, st)
-        top.text(0.5 * (t_min[sl.start] + t_min[sl.stop - 1]), 1.02, str(st.index + 1), transform=top.get_xaxis_transform(),
-                 ha="center", va="bottom", fontsize=7, fontweight="bold", color=step_colour(plan, st, colours))
     axes[-1].set_xlabel("time from start [min]", fontsize=8)
+
+
+def step_label_centres(plan: Plan) -> np.ndarray:
+    """Time (minutes from the start) of the middle of each step: where its number goes on top."""
+    t_min = (plan.t - plan.t[0]) / 60.0
+    return np.array([0.5 * (t_min[sl.start] + t_min[sl.stop - 1]) for sl in (step_slice(plan, st) for st in plan.steps)])
+
+
+STEP_LABEL_GAP_EM = 0.4  # blank between two step numbers, in font sizes
+
+
+def thin_labels(centres: np.ndarray, widths: np.ndarray, gap: float) -> list[int]:
+    """Indices of the centred labels (positions ``centres``, ``widths``, same units) to show so
+    that no two are closer than ``gap``: left to right, a label is kept when it clears the last
+    kept one; the last label is always kept (the kept ones it would touch give way), and so is
+    the first, unless the first and last themselves collide (then only the first)."""
+    n = len(centres)
+    if n == 0:
+        return []
+    lo, hi = np.asarray(centres) - 0.5 * np.asarray(widths), np.asarray(centres) + 0.5 * np.asarray(widths)
+    kept = [0]
+    for i in range(1, n):
+        if lo[i] >= hi[kept[-1]] + gap:
+            kept.append(i)
+    if kept[-1] != n - 1:
+        while len(kept) > 1 and lo[n - 1] < hi[kept[-1]] + gap:
+            kept.pop()
+        if lo[n - 1] >= hi[kept[-1]] + gap:
+            kept.append(n - 1)
+    return kept
+
+
+def draw_step_numbers(fig: Any, ax: Any, plan: Plan, fontsize: float = 7.0) -> None:
+    """The step numbers over ``ax`` (laid out: its width is final), in their primitives'
+    colours, thinned by :func:`thin_labels` to what the axes' width holds without overlap."""
+    from matplotlib.font_manager import FontProperties
+
+    r = fig.canvas.get_renderer()
+    prop = FontProperties(size=fontsize, weight="bold")
+    px_per_pt = fig.dpi / 72.0
+    labels = [str(st.index + 1) for st in plan.steps]
+    widths = np.array([r.get_text_width_height_descent(s, prop, ismath=False)[0] / px_per_pt for s in labels])
+    centres = step_label_centres(plan)
+    x0, x1 = ax.get_xlim()
+    pos = ax.get_position()
+    width_pt = pos.width * fig.get_size_inches()[0] * 72.0
+    colours = primitive_colours(plan)
+    for i in thin_labels((centres - x0) / (x1 - x0) * width_pt, widths, STEP_LABEL_GAP_EM * fontsize):
+        st = plan.steps[i]
+        ax.text(centres[i], 1.02, labels[i], transform=ax.get_xaxis_transform(), ha="center", va="bottom", fontsize=fontsize,
+                fontweight="bold", color=step_colour(plan, st, colours))
 
 
 # Fixed margins in inches (what tight_layout found for the bundled ships, rounded up): a layout
@@ -112,6 +159,7 @@ def states_figure(plan: Plan) -> Any:
     draw_states(list(np.atleast_1d(axes)), plan)
     fig.suptitle(f"{plan.ship}: planned speed, heading and commanded inputs (manoeuvre numbers on top)", fontsize=9)
     fixed_margins(fig, **STATES_MARGINS_IN, hspace=STATES_HSPACE)
+    draw_step_numbers(fig, fig.axes[0], plan)
     return fig
 
 
