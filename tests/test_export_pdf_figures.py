@@ -271,3 +271,58 @@ def test_pdf_states_page_step_numbers_do_not_overlap(long_plan, tmp_path):
     numbers = [(x0, x1, w) for x0, y, x1, w in words if w.isdigit() and title_y < y < title_y + 40]
     assert numbers[0][2] == "1" and numbers[-1][2] == str(len(long_plan.steps)) and 10 < len(numbers) < len(long_plan.steps)
     assert _boxes_apart([(a, b) for a, b, _ in numbers])
+
+
+WIDE_SCALES = pytest.mark.parametrize("scale", [-500.0, -1.2e-7], ids=["MN", "tiny"])
+
+
+def _wide_plan(scale: float) -> Plan:
+    """A generalized-force ship whose surge force is scaled to tick labels of 8-9 characters:
+    to -2.5e6 N (the PDF writes "-2.5e+06") or to -0.0006 (the PNG writes "-0.000575")."""
+    plan = synthetic_plan("model-ship")
+    plan.inputs[:, 0] *= scale
+    return plan
+
+
+@WIDE_SCALES
+def test_states_png_margin_follows_wide_tick_labels(scale):
+    """Nothing of the figure (tick labels, y labels) falls outside it (fails before: the y label
+    was cut at the left edge); the bundled ships keep the fixed margin."""
+    import matplotlib.pyplot as plt
+
+    from maps.export.plots import STATES_MARGINS_IN, states_figure
+
+    fig = states_figure(_wide_plan(scale))
+    try:
+        r = fig.canvas.get_renderer()
+        fig.draw(r)
+        drawn = fig.get_tightbbox(r)  # inches
+        w_in, h_in = fig.get_size_inches()
+        assert drawn.x0 >= 0.0 and drawn.x1 <= w_in and drawn.y0 >= 0.0 and drawn.y1 <= h_in
+        for ax in fig.axes:
+            assert ax.yaxis.label.get_window_extent(r).x0 >= 0.0
+    finally:
+        plt.close(fig)
+    fig = states_figure(synthetic_plan("full-scale"))
+    try:
+        assert fig.axes[0].get_position().x0 * fig.get_size_inches()[0] == pytest.approx(STATES_MARGINS_IN["left"])
+    finally:
+        plt.close(fig)
+
+
+@WIDE_SCALES
+def test_pdf_states_page_margin_follows_wide_tick_labels(scale, tmp_path):
+    """The PDF card's states page: every word (tick labels and the turned y labels) on the page."""
+    import re
+
+    from maps.export.card import write_card_pdf
+
+    if not shutil.which("pdftotext"):
+        pytest.skip("poppler-utils not installed")
+    path = write_card_pdf(_wide_plan(scale), tmp_path / "card.pdf", start=START)
+    html = subprocess.run(["pdftotext", "-bbox", str(path), "-"], capture_output=True, text=True, check=True).stdout
+    last = html.split("<page ")[-1]
+    page_w = float(re.search(r'width="([\d.]+)"', last).group(1))
+    words = re.findall(r'xMin="(-?[\d.]+)" yMin="-?[\d.]+" xMax="(-?[\d.]+)" yMax="-?[\d.]+">([^<]*)<', last)
+    assert "tau_x" in [w for _, _, w in words] and max(len(w) for _, _, w in words if w.startswith("\u2212")) >= 8
+    assert all(float(a) >= 0.0 and float(b) <= page_w for a, b, _ in words)

@@ -1,8 +1,8 @@
 """The trial card's last page, speed, heading and commanded inputs over time, drawn straight into
 the PDF with fpdf2 (:class:`maps.export.pdfdraw.Painter`).
 
-The same panels as :func:`maps.export.plots.states_figure` (page size, fixed margins, the
-step spans shaded in their colours, the step numbers on top, matplotlib's limits, tick positions
+The same panels as :func:`maps.export.plots.states_figure` (page size, margins, the
+step spans shaded in their colours, the step numbers on top thinned alike, matplotlib's limits, tick positions
 and tick labels) without drawing the figure with matplotlib, writing it as SVG and reading the SVG
 back with fpdf2, which cost a third of the card's CPU.
 """
@@ -23,6 +23,7 @@ from maps.export.plots import (
     primitive_colours,
     state_limits,
     state_series,
+    states_left_in,
     states_size_in,
     step_colour,
     step_label_centres,
@@ -64,9 +65,11 @@ class StatesWriter(Painter):
         self.w, self.h = w_in * PT, h_in * PT
         m = STATES_MARGINS_IN
         n = len(self.series)
-        self.left, self.right = m["left"] * PT, self.w - m["right"] * PT
         top, bottom = self.h - m["top"] * PT, m["bottom"] * PT
         self.ax_h = (top - bottom) / (n + (n - 1) * STATES_HSPACE)
+        self.yaxes = [self.y_axis(y) for _, y in self.series]  # (limits, ticks, labels) of each panel
+        widest = max((self.text_width(s, FS) for _, _, labels in self.yaxes for s in labels), default=0.0)
+        self.left, self.right = states_left_in(widest, FS) * PT, self.w - m["right"] * PT
         self.ax_bottoms = [top - (k + 1) * self.ax_h - k * STATES_HSPACE * self.ax_h for k in range(n)]
         self.xlim = state_limits(float(self.t_min[0]), float(self.t_min[-1]))
         colours = primitive_colours(plan)
@@ -79,7 +82,7 @@ class StatesWriter(Painter):
     def draw(self) -> None:
         xt, xl = _ticks(*self.xlim, self.right - self.left, 3.0)
         for k, (label, y) in enumerate(self.series):
-            self.panel(self.ax_bottoms[k], label, y, xt, xl if k == len(self.series) - 1 else None)
+            self.panel(self.ax_bottoms[k], label, y, self.yaxes[k], xt, xl if k == len(self.series) - 1 else None)
         self.step_numbers()
         mid = 0.5 * (self.left + self.right)
         self.text(mid, self.ax_bottoms[-1] - 3.5 - 3.5 - LINE_HEIGHT * FS - 4.0, "time from start [min]", 8.0, ha="center", va="top")
@@ -97,12 +100,17 @@ class StatesWriter(Painter):
             self.text(float(centres[i]), top + 0.02 * self.ax_h, labels[i], FS, bold=True, ha="center", va="bottom",
                       colour=tuple(round(255 * c) for c in rgb(colour)))
 
-    def panel(self, bottom: float, label: str, y: np.ndarray, xt: list[float], xl: list[str] | None) -> None:
-        """One axes: shaded step spans, grid, the series, frame, ticks and labels."""
-        left, right, h = self.left, self.right, self.ax_h
+    def y_axis(self, y: np.ndarray) -> tuple[tuple[float, float], list[float], list[str]]:
+        """The y limits of a panel showing ``y``, its tick positions and tick labels."""
         finite = y[np.isfinite(y)]
         ylim = state_limits(float(finite.min()), float(finite.max())) if len(finite) else (-0.055, 0.055)
-        yt, yl = _ticks(*ylim, h, 2.0)
+        return (ylim, *_ticks(*ylim, self.ax_h, 2.0))
+
+    def panel(self, bottom: float, label: str, y: np.ndarray, yaxis: tuple[tuple[float, float], list[float], list[str]],
+              xt: list[float], xl: list[str] | None) -> None:
+        """One axes: shaded step spans, grid, the series, frame, ticks and labels."""
+        left, right, h = self.left, self.right, self.ax_h
+        ylim, yt, yl = yaxis
 
         def py(v: np.ndarray | float) -> np.ndarray | float:
             return bottom + (np.asarray(v) - ylim[0]) / (ylim[1] - ylim[0]) * h

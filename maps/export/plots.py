@@ -135,10 +135,33 @@ def draw_step_numbers(fig: Any, ax: Any, plan: Plan, fontsize: float = 7.0) -> N
                 fontweight="bold", color=step_colour(plan, st, colours))
 
 
-# Fixed margins in inches (what tight_layout found for the bundled ships, rounded up): a layout
-# pass measures every tick label of every axes, which cost as much CPU as drawing the figure.
+# Margins in inches (what tight_layout found for the bundled ships, rounded up; the left one grows
+# with the y tick labels, :func:`states_left_in`): a layout pass measures every tick label of every
+# axes, which cost as much CPU as drawing the figure.
 STATES_MARGINS_IN = {"left": 0.72, "right": 0.15, "top": 0.56, "bottom": 0.52}
 STATES_HSPACE = 0.15
+
+
+def states_left_in(label_width_pt: float, fontsize: float = 7.0) -> float:
+    """Left margin (inches) of the states figure whose widest y tick label is ``label_width_pt``
+    wide: the tick (3.5 pt), its pad (3.5 pt), the label, the y label's pad (4 pt) and its line,
+    never less than :data:`STATES_MARGINS_IN`'s (so the bundled ships' figures keep their layout)
+    but wide enough that a profile with large values (forces in N) is not cut at the edge."""
+    need_pt = 3.5 + 3.5 + label_width_pt + 4.0 + 1.2 * fontsize + 3.0
+    return max(STATES_MARGINS_IN["left"], need_pt / 72.0)
+
+
+def ytick_label_width_pt(fig: Any, ax: Any, fontsize: float = 7.0) -> float:
+    """Width in points of the widest y tick label ``ax`` will draw (its locator and formatter at
+    its current size and limits; no layout pass over the figure)."""
+    from matplotlib.font_manager import FontProperties
+
+    lo, hi = sorted(ax.get_ylim())
+    locs = [v for v in ax.yaxis.get_major_locator()() if lo - 1e-9 * (hi - lo) <= v <= hi + 1e-9 * (hi - lo)]
+    labels = ax.yaxis.get_major_formatter().format_ticks(locs)
+    r, prop = fig.canvas.get_renderer(), FontProperties(size=fontsize)
+    return max((r.get_text_width_height_descent(s, prop, ismath="$" in s)[0] for s in labels if s),
+               default=0.0) * 72.0 / fig.dpi
 
 
 def fixed_margins(fig: Any, left: float, right: float, top: float, bottom: float, **kw: float) -> None:
@@ -153,12 +176,16 @@ def legend_width_in(fig: Any, legend: Any) -> float:
 
 
 def states_figure(plan: Plan) -> Any:
-    """A figure of :func:`draw_states`, laid out with :data:`STATES_MARGINS_IN`."""
+    """A figure of :func:`draw_states`, laid out with :data:`STATES_MARGINS_IN` (the left one
+    widened to the y tick labels by :func:`states_left_in`)."""
     n = 2 + len(plan.input_names)
     fig, axes = plt.subplots(n, 1, figsize=states_size_in(plan), sharex=True)
     draw_states(list(np.atleast_1d(axes)), plan)
     fig.suptitle(f"{plan.ship}: planned speed, heading and commanded inputs (manoeuvre numbers on top)", fontsize=9)
     fixed_margins(fig, **STATES_MARGINS_IN, hspace=STATES_HSPACE)
+    left = states_left_in(max(ytick_label_width_pt(fig, ax) for ax in fig.axes))
+    if left > STATES_MARGINS_IN["left"]:  # wide tick labels (large values): the axes give way, nothing is cut
+        fixed_margins(fig, **{**STATES_MARGINS_IN, "left": left}, hspace=STATES_HSPACE)
     draw_step_numbers(fig, fig.axes[0], plan)
     return fig
 
