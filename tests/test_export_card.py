@@ -14,7 +14,7 @@ from cli.app import _run
 from maps.export import FORMATS, export_all
 from maps.export._common import clock, describe_inputs, input_phases
 from maps.export._testing import synthetic_plan
-from maps.export.card import beaufort, card_figures, card_html, render_card_page1, step_sheets
+from maps.export.card import beaufort, card_html, step_sheets
 from maps.export.mapplot import obstacle_geoms
 from maps.export.plots import plot_states
 from maps.plan import Plan
@@ -83,20 +83,36 @@ def test_card_html_is_self_contained_and_complete(azi_plan, tmp_path):
         assert st.orders and all(_html.escape(o["text"]) in text for o in st.orders)
 
 
-def test_card_pdf_and_page1_render(azi_plan, tmp_path):
-    figs = card_figures(azi_plan, [ISLAND], START)
-    n_pages = len(figs)
-    import matplotlib.pyplot as plt
+def _page_sizes(path) -> list[tuple[float, float]]:
+    """Width and height (points) of each page of a PDF, in page order (poppler's pdfinfo)."""
+    import shutil
+    import subprocess
 
-    for f in figs:
-        plt.close(f)
+    if not shutil.which("pdfinfo"):
+        pytest.skip("poppler-utils not installed")
+    out = subprocess.run(["pdfinfo", "-f", "1", "-l", "9999", str(path)], capture_output=True, text=True, check=True).stdout
+    return [(float(w), float(h)) for w, h in re.findall(r"^Page +\d+ size: +([\d.]+) x ([\d.]+) pts", out, re.M)]
+
+
+def test_card_pdf_has_every_page(azi_plan, tmp_path):
+    """Page 1, the step table, the design table, the orders per step (as many pages as their
+    lines need) and the states page: A4 portrait but the last, the states figure's size."""
+    from maps.export.card import DETAIL_LINES_PER_PAGE, ROWS_PER_PAGE, _detail_lines, design_rows
+    from maps.export.plots import states_size_in
+
     paths = export_all(azi_plan, tmp_path, sea_map={"type": "FeatureCollection", "features": [
         {"type": "Feature", "properties": {"kind": "land"}, "geometry": ISLAND.__geo_interface__}]}, start=START)
     pdf = paths["card_pdf"].read_bytes()
-    assert pdf.startswith(b"%PDF") and len(re.findall(rb"/Type\s*/Page\b", pdf)) == n_pages
-    png = render_card_page1(azi_plan, tmp_path / "page1.png", [ISLAND], START).read_bytes()
-    w, h = _png_size(png)
-    assert h > w > 800  # A4 portrait
+    assert pdf.startswith(b"%PDF")
+    sheets = step_sheets(azi_plan, START, [ISLAND])
+    drows = design_rows(azi_plan)[1]
+    want = (1 + -(-len(sheets) // ROWS_PER_PAGE) + (-(-len(drows) // ROWS_PER_PAGE) if drows else 0)
+            + -(-len(_detail_lines(sheets)) // DETAIL_LINES_PER_PAGE) + 1)
+    sizes = _page_sizes(paths["card_pdf"])
+    assert len(re.findall(rb"/Type\s*/Page\b", pdf)) == len(sizes) == want >= 4
+    assert all(s == pytest.approx((72 * 8.27, 72 * 11.69), abs=0.01) for s in sizes[:-1])  # A4 portrait
+    w_in, h_in = states_size_in(azi_plan)
+    assert sizes[-1] == pytest.approx((72 * w_in, 72 * h_in), abs=0.01)
 
 
 def test_card_pdf_is_reproducible(model_plan, tmp_path):
@@ -196,8 +212,21 @@ def test_sea_map_object_obstacles_come_back_in_lonlat(azi_plan, tmp_path):
     (g,) = obstacle_geoms(sea)
     lon0, lat0, lon1, lat1 = g.bounds
     assert 24.7 < lon0 < lon1 < 25.3 and 60.0 < lat0 < lat1 < 60.3
-    # the card draws the bundled map's land around the synthetic track (placed in Helsinki)
-    assert render_card_page1(azi_plan, tmp_path / "p1.png", sea, START).stat().st_size > 50_000
+    # the card's page-1 map draws the bundled map's land around the synthetic track (placed in Helsinki)
+    import shutil
+    import subprocess
+
+    from maps.export.card import write_card_pdf
+
+    if not shutil.which("pdftoppm"):
+        pytest.skip("poppler-utils not installed: page 1 not rendered")
+    path = write_card_pdf(azi_plan, tmp_path / "card.pdf", sea, START)
+    subprocess.run(["pdftoppm", "-png", "-r", "40", "-f", "1", "-l", "1", str(path), str(tmp_path / "p")], check=True)
+    from PIL import Image
+
+    (png,) = tmp_path.glob("p-*.png")
+    page1 = np.asarray(Image.open(png).convert("RGB")).reshape(-1, 3).astype(int)
+    assert (np.abs(page1 - [0xC8, 0xB8, 0x8A]).max(axis=1) <= 12).sum() > 200  # land (mapplot.LAND_COLOUR)
 
 
 def test_geojson_sea_map_draws_only_what_the_hull_must_avoid():

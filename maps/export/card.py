@@ -1,6 +1,6 @@
 """Trial card for the bridge: a self-contained HTML page (PNG figures embedded as data URIs)
 and a printable PDF (A4, TrueType fonts embedded; written with fpdf2 by :mod:`maps.export.cardpdf`
-after the matplotlib pages drawn here, which remain for the page-1 PNG).
+from the words, tables and page layout made here).
 
 Page 1: the plan at a glance (ship, start, totals, abort criteria, the experiment design's
 D-efficiency), the map with land, shallow/restricted water and depth areas, the track
@@ -16,10 +16,8 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 import math
 import textwrap
-from collections.abc import Iterator
 from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -42,8 +40,7 @@ from maps.export._common import (
     waypoints,
 )
 from maps.export.chart import plan_chart
-from maps.export.mapplot import draw_map
-from maps.export.plots import PlanFigures, plt
+from maps.export.plots import PlanFigures
 from maps.export.route import build_route
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes, atomic_write_text
@@ -200,7 +197,7 @@ def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list
     ]
 
 
-# -- PDF / PNG pages ---------------------------------------------------------------------------
+# -- PDF pages --------------------------------------------------------------------------------
 
 TABLE_COLS = ["#", "type", "manoeuvre", "WP", "start (UTC)", "position", "hdg", "speed", "time", "sea room"]
 TABLE_WIDTHS = [0.03, 0.075, 0.215, 0.05, 0.15, 0.205, 0.04, 0.065, 0.055, 0.115]
@@ -213,55 +210,9 @@ def _table_rows(sheets: list[dict]) -> list[list[str]]:
              s["duration"], s["space"].replace(" along x ", " x ").replace(" across", "")] for s in sheets]
 
 
+# the PDF's tables keep the look of the matplotlib.table the card was first drawn with
 TABLE_PAD = 0.02  # gap above a table (matplotlib.table's AXESPAD for loc "upper center")
 CELL_PAD = 0.1  # text inset as a fraction of the cell width (matplotlib.table.Cell.PAD)
-
-
-def _draw_table(fig: Any, rect: tuple[float, float, float, float], cols: list[str], rows: list[list[str]], widths: list[float]) -> None:
-    """A table as matplotlib.table draws it (header row grey and bold, 1 pt black cell edges,
-    left-aligned 6.5 pt text, fixed row height: every row drawn, none squeezed), built from one
-    grid of lines and plain texts: a Table lays out every cell again on every draw, which cost
-    more than drawing the text."""
-    from matplotlib.collections import LineCollection
-    from matplotlib.patches import Rectangle
-
-    ax = fig.add_axes(rect)
-    ax.axis("off")
-    if not rows:
-        return
-    h = 1.0 / (ROWS_PER_PAGE + 1)
-    edges = np.concatenate([[0.0], np.cumsum(widths)]) + 0.5 - sum(widths) / 2  # centred like loc="upper center"
-    top = 1.0 - TABLE_PAD
-    ys = top - h * np.arange(len(rows) + 2)
-    tr = ax.transAxes
-    ax.add_patch(Rectangle((edges[0], ys[1]), edges[-1] - edges[0], h, facecolor="#e8e8e8", edgecolor="none", transform=tr,
-                           clip_on=False))
-    lines = [[(edges[0], y), (edges[-1], y)] for y in ys] + [[(x, ys[-1]), (x, ys[0])] for x in edges]
-    ax.add_collection(LineCollection(lines, colors="k", linewidths=1.0, capstyle="projecting", transform=tr, clip_on=False))
-    for r, row in enumerate([cols, *rows]):
-        yc = ys[r] - h / 2
-        for c, text in enumerate(row):
-            ax.text(edges[c] + CELL_PAD * widths[c], yc, text, fontsize=6.5, ha="left", va="center", transform=tr, clip_on=False,
-                    fontweight="bold" if r == 0 else "normal")
-
-
-def table_pages(plan: Plan, title: str, cols: list[str], rows: list[list[str]], widths: list[float],
-                first_page: int) -> Iterator[Any]:
-    """A long table on as many A4 pages as it needs (``ROWS_PER_PAGE`` rows each, header
-    repeated, "continued" on the following pages): every row is printed. Yields the figures."""
-    chunks = [rows[i : i + ROWS_PER_PAGE] for i in range(0, len(rows), ROWS_PER_PAGE)] or [[]]
-    for j, chunk in enumerate(chunks):
-        fig = plt.figure(figsize=A4)
-        a = j * ROWS_PER_PAGE + 1
-        cont = " (continued)" if j else ""
-        fig.text(0.04, 0.975, f"{plan.ship}: {title}{cont}, rows {a}-{a + len(chunk) - 1} of {len(rows)} "
-                 f"(page {first_page + j})", fontsize=10, va="top", fontweight="bold" if not j else "normal")
-        _draw_table(fig, (0.03, 0.03, 0.94, 0.92), cols, chunk, widths)
-        yield fig
-
-
-def _n_table_pages(rows: list) -> int:
-    return max(1, -(-len(rows) // ROWS_PER_PAGE))
 
 
 PAGE1_CHARS = 110
@@ -277,30 +228,6 @@ def page1_layout(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> tuple[l
     y = 0.935 - 0.017 * len(lines)
     abort = ["ABORT the manoeuvre (stop, steer clear) if:"] + [f"  - {a}" for a in abort_criteria(plan)]
     return lines, abort, y - 0.006, y - 0.09
-
-
-def page1_map_figure(plan: Plan, sea_map: Any, top: float, *, fig: Any = None) -> Any:
-    """The map of page 1 (axes below ``top``, legend below the map, never over the track) on an
-    A4 figure (``fig``, else a new one)."""
-    fig = fig or plt.figure(figsize=A4)
-    ax = fig.add_axes((0.1, 0.2, 0.85, top - 0.22))
-    draw_map(ax, plan, sea_map)
-    ax.legend(fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.05), ncol=3, framealpha=0.9)
-    return fig
-
-
-def _page1(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> Any:
-    fig = plt.figure(figsize=A4)
-    fig.text(0.05, 0.965, f"SEA TRIAL CARD  -  {vessel}", fontsize=15, fontweight="bold", va="top")
-    lines, abort, y_abort, top = page1_layout(plan, t0, sea_map, vessel)
-    for k, line in enumerate(lines):
-        fig.text(0.05, 0.935 - 0.017 * k, line, fontsize=8.5, va="top")
-    fig.text(0.05, y_abort, "\n".join(abort), fontsize=8.5, va="top", color="#a00000",
-             bbox={"boxstyle": "round,pad=0.4", "fc": "#fff3f3", "ec": "#a00000"})
-    page1_map_figure(plan, sea_map, top, fig=fig)
-    fig.text(0.05, 0.02, "Manoeuvres in sailing order: next page(s). Numbers on the map are step numbers; "
-             "stars are execute points.", fontsize=7.5, color="0.3")
-    return fig
 
 
 def _step_tag(s: dict) -> str:
@@ -337,52 +264,11 @@ def _detail_lines(sheets: list[dict]) -> list[tuple[str, dict]]:
 DETAIL_LINES_PER_PAGE = 62
 
 
-def _detail_pages(plan: Plan, lines: list[tuple[str, dict]], first_page: int) -> Iterator[Any]:
-    """The orders per step, ``DETAIL_LINES_PER_PAGE`` lines a page. Yields the figures."""
-    for n, p in enumerate(range(0, len(lines), DETAIL_LINES_PER_PAGE)):
-        fig = plt.figure(figsize=A4)
-        fig.text(0.05, 0.975, f"{plan.ship}: orders per step in sailing order (page {first_page + n})", fontsize=10,
-                 va="top", color="0.3")
-        for i, (text, style) in enumerate(lines[p : p + DETAIL_LINES_PER_PAGE]):
-            fig.text(0.05, 0.95 - i * 0.0148, text, va="top", family="DejaVu Sans", **style)
-        yield fig
-
-
-def iter_card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None,
-                      figures: PlanFigures | None = None) -> Iterator[Any]:
-    """The card's pages as matplotlib figures, one at a time (a long plan never holds every
-    page open): page 1 (summary, abort criteria, design, map), the table of steps (and of the
-    design) over as many pages as they need, the orders per step, the states over time (from
-    ``figures`` when given: the caller closes that one)."""
-    check_plan(plan)
-    t0 = resolve_start(plan, start)
-    sea_map = plan_chart(plan, sea_map)  # one chart for the route, summary and map (a map file is read once)
-    sheets = step_sheets(plan, t0, sea_map)
-    rows = _table_rows(sheets)
-    _, drows = design_rows(plan)
-    lines = _detail_lines(sheets)
-    yield _page1(plan, t0, sea_map, vessel_name(plan, vessel))
-    page = 2
-    yield from table_pages(plan, "steps in sailing order", TABLE_COLS, rows, TABLE_WIDTHS, page)
-    page += _n_table_pages(rows)
-    if drows:
-        yield from table_pages(plan, "experiment design", ["primitive", "weight", "rounded count", "planned"], drows,
-                               [0.4, 0.2, 0.2, 0.2], page)
-        page += _n_table_pages(drows)
-    yield from _detail_pages(plan, lines, page)
-    yield (figures or PlanFigures(plan)).figure("states")
-
-
-def card_figures(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None) -> list:
-    """Every page of :func:`iter_card_figures` (the caller closes them)."""
-    return list(iter_card_figures(plan, sea_map, start, vessel))
-
-
 def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None,
                    vessel: str | None = None) -> Path:
     """The printable card (A4 PDF, TrueType fonts embedded; written with fpdf2, see
-    :mod:`maps.export.cardpdf`): the layout of :func:`iter_card_figures`' pages, its map and
-    states page drawn straight into the PDF."""
+    :mod:`maps.export.cardpdf`): page 1 (summary, abort criteria, design, map), the tables of
+    steps and of the design, the orders per step and the states over time."""
     from maps.export.cardpdf import card_pdf_bytes
 
     check_plan(plan)
@@ -391,24 +277,7 @@ def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: dat
     return atomic_write_bytes(path, card_pdf_bytes(plan, t0, sea_map, vessel_name(plan, vessel)))
 
 
-def render_card_page1(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None, dpi: int = 110,
-                      vessel: str | None = None) -> Path:
-    """Page 1 of the card as PNG (what the bridge sees first)."""
-    t0 = resolve_start(plan, start)
-    fig = _page1(plan, t0, sea_map, vessel_name(plan, vessel))
-    try:
-        return atomic_write_bytes(path, _png(fig, dpi))
-    finally:
-        plt.close(fig)
-
-
 # -- HTML --------------------------------------------------------------------------------------
-
-
-def _png(fig: Any, dpi: int = 110) -> bytes:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
-    return buf.getvalue()
 
 
 def _img(png: bytes, alt: str) -> str:

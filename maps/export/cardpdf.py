@@ -1,7 +1,7 @@
-"""The printable trial card as PDF, written with fpdf2: the layout and words of the matplotlib
-pages of :mod:`maps.export.card` (:func:`maps.export.card.iter_card_figures`), the map and states
-page drawn straight into the PDF (:mod:`maps.export.pdfmap`, :mod:`maps.export.pdfstates`), in a
-fraction of the time.
+"""The printable trial card as PDF, written with fpdf2: the words and layout of
+:mod:`maps.export.card` (the look of the matplotlib pages the card was first drawn with), the map
+and states page drawn straight into the PDF (:mod:`maps.export.pdfmap`,
+:mod:`maps.export.pdfstates`), in a fraction of the time.
 
 Why not matplotlib's PDF backend for the whole card: it lays out and draws text glyph by glyph
 through FreeType (about 3 ms a line), and the card's tables and orders are some 600 lines, so the
@@ -104,7 +104,7 @@ class _Card:
 def _page1(doc: _Card, plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> None:
     doc.page()
     lines, abort, y_abort, top = page1_layout(plan, t0, sea_map, vessel)
-    # the axes rect of card.page1_map_figure, (0.1, 0.2, 0.85, top - 0.22) of the page, in points from the bottom left
+    # the map's box, (0.1, 0.2, 0.85, top - 0.22) of the page, in points from the bottom left
     draw_page1_map(doc.pdf, FONT, plan, sea_map, (0.1 * W, 0.2 * H, 0.85 * W, (top - 0.22) * H))
     doc.text(0.05, 0.965, f"SEA TRIAL CARD  -  {vessel}", 15, bold=True)
     for k, line in enumerate(lines):
@@ -129,7 +129,9 @@ def _page1(doc: _Card, plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> N
 
 
 def _table(doc: _Card, cols: list[str], rows: list[list[str]], widths: list[float]) -> None:
-    """:func:`maps.export.card._draw_table` in the axes (0.03, 0.03, 0.94, 0.92) of an A4 page."""
+    """A table as matplotlib.table draws one (header row grey and bold, 1 pt black cell edges,
+    left-aligned 6.5 pt text, fixed row height: every row drawn, none squeezed) in the box
+    (0.03, 0.03, 0.94, 0.92) of an A4 page."""
     if not rows:
         return
     ax_x, ax_y, ax_w, ax_h = 0.03 * W, 0.03 * H, 0.94 * W, 0.92 * H
@@ -191,7 +193,7 @@ def prepare_document() -> None:
 
 
 def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> bytes:
-    """The card's pages (laid out as :func:`maps.export.card.iter_card_figures` draws them) as PDF bytes;
+    """The card's pages (page 1, the tables, the orders per step, the states) as PDF bytes;
     ``sea_map``: the plan's chart (:func:`maps.export.chart.plan_chart`)."""
     doc = _SPARE.pop() if _SPARE else _Card()  # a prepared document is a new one: same bytes
     sheets = step_sheets(plan, t0, sea_map)

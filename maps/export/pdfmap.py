@@ -4,7 +4,7 @@ and legend as PDF path operators and text in the card's embedded font.
 
 It draws what :func:`maps.export.mapplot.draw_map` draws (same view, aspect, colours -- the
 style constants of :mod:`maps.export.mapplot` --, line widths, markers, ticks and legend as the
-matplotlib figure of :func:`maps.export.card.page1_map_figure`)
+matplotlib axes of :func:`maps.export.mapplot.draw_map` with the legend below the map)
 without the round trip the card made before: matplotlib drawing the figure, writing it as SVG and
 fpdf2 parsing the SVG back cost about half the CPU of the whole card.
 
