@@ -51,7 +51,8 @@ from primitives.information import MEAN_SUBTRACTION
 from primitives.library import Primitive, thesis_primitives
 from primitives.regressors import instruments, predictor_regressors
 from primitives.ship import ShipProfile
-from primitives.simulate import Disturbances, signals_read, simulate, steady_forces
+from primitives.simulate import Disturbances, signals_read, simulate
+from primitives.steady_forces import steady_forces
 from primitives.terms import TermSet
 
 PROTOCOLS = ("continuous", "piecewise")

@@ -12,7 +12,8 @@ from maps.headings import heading_table, nearest_heading
 from maps.headings import wrap as _wrap
 from primitives import maneuvers as mv
 from primitives.ship import ShipProfile
-from primitives.simulate import model_signals, simulate, steady_forces
+from primitives.simulate import model_signals, simulate
+from primitives.steady_forces import steady_forces
 
 
 def _gains(profile: ShipProfile) -> np.ndarray:

@@ -21,7 +21,7 @@ import numpy as np
 from primitives import maneuvers as mv
 from primitives.library import Primitive, make_primitive
 from primitives.ship import ShipProfile
-from primitives.simulate import has_steady_forces, require_steady_forces
+from primitives.steady_forces import has_steady_forces, require_steady_forces
 
 # Helsinki example (bundled map): start in the South Harbour (upper left of the thesis's
 # figure 9.13 is a harbour), goal in open water to the south-east. Lat, lon, heading (deg).
@@ -54,7 +54,7 @@ def scenario_supports(profile: ShipProfile) -> bool:
     """Whether the section 9.4 scenario can be built for the ship: its zig-zags are force-level
     excitation zig-zags (thesis tau17-tau20) holding steady generalized forces, so they need a
     3-DOF ship with generalized-force or azimuth inputs
-    (:data:`primitives.simulate.STEADY_FORCE_ACTUATORS`), not a rudder/propeller ship."""
+    (:data:`primitives.steady_forces.STEADY_FORCE_ACTUATORS`), not a rudder/propeller ship."""
     return has_steady_forces(profile)
 
 

@@ -20,6 +20,7 @@ from primitives.footprint import swept_footprint
 from primitives.orders import Order, heading_words, orders_from_inputs, orders_to_dicts, render
 from primitives.ship import ShipProfile, load_profile
 from primitives.simulate import simulate
+from primitives.steady_forces import steady_forces
 
 KNOT = 1852.0 / 3600.0
 
@@ -219,7 +220,7 @@ def full_scale_thesis(profile: ShipProfile, n: int = 200) -> list[Primitive]:
     half = n // 2
     q = n // 4
     acc = mv.Generated(
-        np.vstack([np.tile(mv.steady_forces(profile, 3.5, 0, 0), (half, 1)), np.zeros((n - half, 3))]), (0.0, 0.0, 0.0), [half]
+        np.vstack([np.tile(steady_forces(profile, 3.5, 0, 0), (half, 1)), np.zeros((n - half, 3))]), (0.0, 0.0, 0.0), [half]
     )
     out = [make_primitive(profile, "tau12", "surge accelerations/decelerations (u 0 -> 3.5 -> 0)", acc)]
     steps = mv.sway_steps(profile, [(1.0, q), (0.0, q), (-1.0, q), (0.0, n - 3 * q)])

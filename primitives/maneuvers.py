@@ -19,7 +19,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from primitives.ship import ShipProfile
-from primitives.simulate import VelocityStep, steady_forces
+from primitives.simulate import VelocityStep
+from primitives.steady_forces import steady_forces
 
 MAX_RUDDER_DEG = 35.0
 

@@ -8,7 +8,8 @@ import pytest
 from primitives.profile_document import profile_from_dict
 from primitives.regressors import instruments, predictor_regressors
 from primitives.ship import PROFILE_DIR, ProfileError, builtin_profiles, load_profile
-from primitives.simulate import Disturbances, simulate, steady_forces
+from primitives.simulate import Disturbances, simulate
+from primitives.steady_forces import steady_forces
 
 
 @pytest.fixture(scope="module")
