@@ -72,6 +72,7 @@ def register(app: typer.Typer) -> None:
         resample: bool = typer.Option(False, "--resample", help="interpolate recordings onto the ship's sample time (default: refuse)"),
     ) -> None:
         """Diagnose recordings against a ship model: locate, name and model the missing physics."""
+        from cli.errors import warn_ship
         from cli.options import validate_diagnose_options
         from diagnose import report
         from diagnose.api import run
@@ -83,6 +84,7 @@ def register(app: typer.Typer) -> None:
                                   params=params, out=out)
         profile = load_profile(ship)
         profile.require_planar("shiptrial diagnose")
+        warn_ship(profile)
         theta = _load_params(params, profile) if params else None
 
         def load(paths: list[str]):

@@ -81,6 +81,7 @@ def register(app: typer.Typer) -> None:
         orders: bool = typer.Option(False, "--orders", help="also list each primitive's helm/engine orders and abort criteria"),
     ) -> None:
         """List the manoeuvre primitive library of a ship."""
+        from cli.errors import warn_ship
         from cli.options import validate_primitives_options
         from primitives.library import build_library
         from primitives.ship import load_profile
@@ -88,6 +89,7 @@ def register(app: typer.Typer) -> None:
         validate_primitives_options(plot)
         profile = load_profile(ship)
         profile.require_planar("shiptrial primitives")
+        warn_ship(profile)
         library = build_library(profile)
         rows = library_rows(library)
         if plot:

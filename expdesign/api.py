@@ -293,5 +293,5 @@ def run_design(
         winner=winner,
         n_params=p,
         references=refs,
-        warnings=mean_subtraction_warnings(profile, info, final, mean_subtraction),
+        warnings=[*profile.load_warnings, *mean_subtraction_warnings(profile, info, final, mean_subtraction)],
     )

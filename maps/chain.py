@@ -272,7 +272,7 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     refuse_too_large(win, K, prims, counts, profile, o)
     table = heading_table(K)
     h_start = nearest_heading(spsi or 0.0, table)
-    warnings = list(sea.warnings)
+    warnings = [*profile.load_warnings, *sea.warnings]  # a model.json's findings its profile cannot hold first
     if spsi is not None and abs(((spsi - table[h_start]) + np.pi) % (2 * np.pi) - np.pi) > 1e-6:
         warnings.append(f"start heading {np.degrees(spsi):.1f} deg rounded to the lattice heading {np.degrees(table[h_start]):.1f} deg")
     too_big = too_big_for_water(sea, win, prims, table, o.margin) if prefilter else {}

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from primitives.errors import UserError
+from primitives.model_json_ship import left_out, left_out_warning
 from primitives.physical_tables import Engine, Helm, parse_helm_engine, parse_pods, parse_rigid_body
 from primitives.ship import (
     ACTUATORS,
@@ -106,6 +107,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     check_table_keys(limits, inputs, src, "[input_limits]", ProfileError)
     check_diagnosed_sections(d, src)
     check_model_json_as_ship(d, src, actuator, inputs, sizes["sample_time"])
+    dropped = left_out(d, model.terms)
     return ShipProfile(
         name=name,
         description=str(d.get("description", "")),
@@ -136,6 +138,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         structure_terms=structure,
         structure_prior=structure_prior,
         rudder_thrust_share=rudder_share,
+        load_warnings=(left_out_warning(src, dropped),) if dropped else (),
     )
 
 

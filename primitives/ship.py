@@ -103,6 +103,9 @@ class ShipProfile:
     # inflow u_R grows with the propeller loading 8 K_T / (pi J^2)); 0 when the rudder is not
     # in the slipstream or the profile does not say
     rudder_thrust_share: float = 0.0
+    # what the commands given this ship must tell the user: a diagnosed model.json's findings the
+    # profile cannot hold (primitives.model_json_ship), one line each
+    load_warnings: tuple[str, ...] = ()
 
     # -- structure -------------------------------------------------------------------------
     # cached: compiled once per profile (a frozen dataclass still has an instance __dict__)

@@ -123,3 +123,64 @@ def test_the_monte_carlo_truth_turns_the_current(tmp_path):
                         disturbances=Disturbances(current_ne=cur), current_turning=True)
         same = np.allclose(seg.y[0], want.nu[0], rtol=0, atol=1e-12)
         assert same is turning
+
+
+def test_findings_the_profile_cannot_hold_are_named_in_one_warning(tmp_path):
+    """A model.json's profile part holds the current and a finding's term once it is among the
+    model terms; an actuator delay, a sensor bias and a term the profile part lacks are named, with
+    their values, in one warning line naming the file (before: silently dropped)."""
+    doc = _doc()
+    doc["diagnosed_model"]["candidates"].append(
+        {"effect": "sensor_bias", "key": "sensor_bias:r", "dof": 2, "description": "bias of r",
+         "slots": [{"kind": "bias", "name": "bias_r", "dof": 2, "term": None, "index": 2}], "values": [0.0012]})
+    path = _model_json(tmp_path, doc)
+    prof = load_profile(path)
+    (w,) = prof.load_warnings
+    assert "\n" not in w and w.startswith(f"{path}: ")
+    assert "actuator_delay (delay_s 0.5)" in w and "quadratic_damping:yaw:r*|r| (value -0.02)" in w
+    assert "sensor_bias:r (bias_r 0.0012) [a measurement error]" in w and "current" not in w.split("cannot hold")[1]
+    # the term added to the profile part's yaw terms (as diagnose.model_file.model_dict does): held, not named
+    doc["model"]["yaw"] = [*doc["model"]["yaw"], "r*|r|"]
+    doc["parameter_names"]["yaw"] = [*doc["parameter_names"]["yaw"], "quadratic_damping:r*|r|"]
+    for vals in doc["parameters"].values():
+        vals["yaw"] = [*vals["yaw"], -0.02]
+    (w,) = load_profile(_model_json(tmp_path, doc)).load_warnings
+    assert "actuator_delay" in w and "quadratic_damping" not in w
+    # nothing left out: no warning; a plain profile has none
+    doc["diagnosed_model"]["candidates"] = [c for c in doc["diagnosed_model"]["candidates"]
+                                            if c["effect"] in ("current", "quadratic_damping")]
+    assert load_profile(_model_json(tmp_path, doc)).load_warnings == ()
+    assert load_profile("model-ship").load_warnings == ()
+
+
+def test_commands_given_such_a_ship_warn(tmp_path, capsys):
+    """`shiptrial primitives` says it on stderr; the design carries it in its warnings (stderr
+    and the JSON)."""
+    from cli.app import _run
+
+    path = _model_json(tmp_path)
+    assert _run(["primitives", "--ship", str(path), "--json"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"warning: {path}: ") and "actuator_delay (delay_s 0.5)" in err[0]
+    from expdesign.api import default_library, run_design
+
+    prof = load_profile(path)
+    d = run_design(prof, default_library(prof), trial_length_s=600.0)
+    assert d.warnings[0] == prof.load_warnings[0]
+
+
+def test_a_plan_with_such_a_ship_carries_the_warning(tmp_path):
+    """The plan's warnings (plan.json, printed by plan-trial) start with it."""
+    from maps.planner import plan_trial
+
+    fs = load_profile("full-scale")
+    doc = fs.to_dict() | {"name": "full-scale-diagnosed", "diagnosed_model": {
+        "format": FORMAT, "note": "exact scored model", "half_sample_s": 0.0,
+        "baseline_profile": fs.to_dict() | {"parameters": {"scored": fs.to_dict()["parameters"]["true"]}, "simulation_set": "scored",
+                                            "instrument_set": "scored"},
+        "candidates": [{"effect": "inertia_change", "key": "inertia_change:yaw", "dof": 2, "description": "yaw inertia",
+                        "slots": [{"kind": "scale", "name": "scale", "dof": 2, "term": None, "index": None}], "values": [1.3]}]}}
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(doc))
+    plan = plan_trial(profile=load_profile(path), scenario="thesis-9.4", headings=4, run_in_s=0)
+    assert plan.stats["warnings"][0].startswith(f"{path}: ") and "inertia_change:yaw (scale 1.3)" in plan.stats["warnings"][0]
