@@ -3,9 +3,11 @@
 Yasukawa, H., Yoshimura, Y. (2015) Introduction of MMG standard method for ship maneuvering
 predictions. J. Mar. Sci. Technol. 20:37-52 (doi:10.1007/s00773-014-0293-y). This module is
 independent of the product (it imports nothing from ``primitives`` or ``diagnose``): the
-product's ``kvlcc2`` profile is a linear discrete-time model fitted on MARIN data, this is the
-published nonlinear continuous-time model, and the gap between the two is what a diagnosis
-on real data has to see through.
+product's ``kvlcc2`` profile is a nonlinear discrete-time model fitted on MARIN data (quadratic
+resistance and thrust, cross-flow drag, rudder force growing with inflow and slipstream; its
+deliberately linear diagnosis baseline is ``kvlcc2-linear``), this is the published nonlinear
+continuous-time MMG model, and the gap between them is what a diagnosis on real data has to
+see through.
 
 Equations (numbers are the paper's):
 
