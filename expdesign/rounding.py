@@ -97,47 +97,62 @@ def round_design(
     if total_samples < d.min():
         raise DesignError(f"trial length of {total_samples} samples is shorter than the shortest primitive unit ({d.min()} samples)")
     equal = bool(np.all(d == d[0]))
-    if equal:
-        n = total_samples // d[0]
-        c = efficient_rounding(w, n)
-    else:
-        c = np.floor(w * total_samples / d).astype(int)
-        # every support point gets a unit first (largest weight first) if it fits, as the
-        # efficient rounding does for equal units: a primitive left out can make Gamma singular
-        for q in np.argsort(-w):
-            if w[q] > 1e-3 and c[q] == 0:
-                while c @ d + d[q] > total_samples and np.any((c > 1) & (np.arange(len(c)) != q)):
-                    surplus = np.where(c > 1, c * d - w * total_samples, -np.inf)
-                    c[surplus.argmax()] -= 1
-                if c @ d + d[q] <= total_samples:
-                    c[q] += 1
-        while True:  # greedy fill by largest remaining time deficit that still fits
-            room = total_samples - c @ d
-            deficit = w * total_samples - c * d
-            ok = (d <= room) & (w > 1e-9)
-            if not ok.any():
-                break
-            c[np.where(ok, deficit, -np.inf).argmax()] += 1
+    c = efficient_rounding(w, total_samples // d[0]) if equal else _apportion_time(w, d, total_samples)
+    c, best, moves = _exchange(c, d, total_samples, objective, equal, max_rounds)
+    samples = c * d
+    cont = objective(w * total_samples)
+    eff = _efficiency(best, cont, n_params, criterion)
+    frac = samples / samples.sum() if samples.sum() else samples.astype(float)
+    return Rounded(c, d, samples, frac, float(best), float(cont), eff, moves)
+
+
+def _apportion_time(w: np.ndarray, d: np.ndarray, total_samples: int) -> np.ndarray:
+    """Step 1 for units of different length: floor(w_q T / d_q) units, a unit for every support
+    point that fits, then units added greedily while they fit the trial length."""
+    c = np.floor(w * total_samples / d).astype(int)
+    # every support point gets a unit first (largest weight first) if it fits, as the
+    # efficient rounding does for equal units: a primitive left out can make Gamma singular
+    for q in np.argsort(-w):
+        if w[q] > 1e-3 and c[q] == 0:
+            while c @ d + d[q] > total_samples and np.any((c > 1) & (np.arange(len(c)) != q)):
+                surplus = np.where(c > 1, c * d - w * total_samples, -np.inf)
+                c[surplus.argmax()] -= 1
+            if c @ d + d[q] <= total_samples:
+                c[q] += 1
+    while True:  # greedy fill by largest remaining time deficit that still fits
+        room = total_samples - c @ d
+        deficit = w * total_samples - c * d
+        ok = (d <= room) & (w > 1e-9)
+        if not ok.any():
+            break
+        c[np.where(ok, deficit, -np.inf).argmax()] += 1
+    return c
+
+
+def _moves(c: np.ndarray, equal: bool) -> list[tuple[int, int]]:
+    """Step 2's single moves (from, to) of one unit, -1 for none: between two primitives, and
+    for unequal units also adding or dropping one."""
+    q = len(c)
+    cands = [(i, j) for i in range(q) if c[i] != 0 for j in range(q) if i != j]
+    if not equal:
+        cands += [(-1, j) for j in range(q)] + [(i, -1) for i in range(q) if c[i] > 0]
+    return cands
+
+
+def _exchange(c: np.ndarray, d: np.ndarray, total_samples: int, objective: Callable[[np.ndarray], float], equal: bool,
+              max_rounds: int) -> tuple[np.ndarray, float, int]:
+    """Step 2, the local exchange: the steepest single move (:func:`_moves`) that raises the
+    criterion and keeps the total within the trial length, until none does. Returns the counts,
+    their criterion and the number of moves made."""
 
     def obj(cnt: np.ndarray) -> float:
         return objective(cnt * d) if cnt.sum() else -np.inf
 
     best = obj(c)
     moves = 0
-    q = len(w)
     for _ in range(max_rounds):
-        improved = False
-        cands = []
-        for i in range(q):
-            if c[i] == 0:
-                continue
-            for j in range(q):
-                if i != j:
-                    cands.append((i, j))
-        if not equal:
-            cands += [(-1, j) for j in range(q)] + [(i, -1) for i in range(q) if c[i] > 0]
         best_new, best_v = None, best
-        for i, j in cands:  # best improvement: the steepest single move
+        for i, j in _moves(c, equal):  # best improvement: the steepest single move
             new = c.copy()
             if i >= 0:
                 new[i] -= 1
@@ -148,13 +163,8 @@ def round_design(
             v = obj(new)
             if v > best_v + 1e-10 * (1 + abs(best_v)):
                 best_new, best_v = new, v
-        if best_new is not None:
-            c, best, improved = best_new, best_v, True
-            moves += 1
-        if not improved:
+        if best_new is None:
             break
-    samples = c * d
-    cont = objective(w * total_samples)
-    eff = _efficiency(best, cont, n_params, criterion)
-    frac = samples / samples.sum() if samples.sum() else samples.astype(float)
-    return Rounded(c, d, samples, frac, float(best), float(cont), eff, moves)
+        c, best = best_new, best_v
+        moves += 1
+    return c, best, moves
