@@ -96,42 +96,56 @@ def remove_stale(parent: str | Path, prefix: str, text: bytes, *, contents: Coll
     or with an empty one, goes only when ``legacy(d, owner_file_exists)`` proves it stale.
     Returns the directories removed."""
     parent = Path(parent)
-    removed = []
     started = process_start()
     named = re.compile(re.escape(prefix) + MKDTEMP_CHARS)
     try:
         candidates = sorted(p for p in parent.iterdir() if named.fullmatch(p.name))
     except OSError:
-        return removed
-    for d in candidates:
-        try:
-            if d.is_symlink() or not d.is_dir():
-                continue
-            if not os.path.lexists(d / OWNER):
-                if legacy(d, False) and put_back(d):
-                    shutil.rmtree(d, ignore_errors=True)
-                    removed.append(d)
-                continue
-            fd = os.open(d / OWNER, os.O_RDONLY | os.O_NOFOLLOW)
-        except OSError:
-            continue  # an owner file this process cannot open (a link, another user's): not ours to judge
-        try:
-            found = os.read(fd, 256)
-            if os.fstat(fd).st_mtime >= started or found not in (text, b""):
-                continue
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError:
-                continue  # its creator is running
-            if not {e.name for e in d.iterdir()} <= {OWNER, *contents}:
-                continue  # something else was put in it: not all of it is ours to delete
-            if not found and not legacy(d, True):
-                continue  # an owner file without its text: judged as one without
-            if put_back(d):
-                shutil.rmtree(d, ignore_errors=True)
-                removed.append(d)
-        except OSError:
-            continue  # never let another run's leftovers fail this run
-        finally:
-            os.close(fd)
-    return removed
+        return []
+    return [d for d in candidates if _remove_if_stale(d, text, started, contents, put_back, legacy)]
+
+
+def _remove_if_stale(d: Path, text: bytes, started: float, contents: Collection[str], put_back: Callable[[Path], bool],
+                     legacy: Callable[[Path, bool], bool]) -> bool:
+    """Remove ``d`` if :func:`remove_stale` may (judged with its owner file locked, then put back
+    and removed under that lock); whether it was removed. An OSError keeps it: never let another
+    run's leftovers fail this run."""
+    try:
+        if d.is_symlink() or not d.is_dir():
+            return False
+        if not os.path.lexists(d / OWNER):
+            return bool(legacy(d, False)) and _put_back_and_remove(d, put_back)
+        fd = os.open(d / OWNER, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError:
+        return False  # an owner file this process cannot open (a link, another user's): not ours to judge
+    try:
+        return _owner_says_stale(d, fd, text, started, contents, legacy) and _put_back_and_remove(d, put_back)
+    except OSError:
+        return False
+    finally:
+        os.close(fd)
+
+
+def _owner_says_stale(d: Path, fd: int, text: bytes, started: float, contents: Collection[str],
+                      legacy: Callable[[Path, bool], bool]) -> bool:
+    """Whether the owner file open at ``fd`` marks ``d`` stale: ``text`` (or empty, then
+    ``legacy`` judges), written before this process ``started``, now locked by this process (its
+    creator is gone), and ``d`` holding nothing but it and ``contents``."""
+    found = os.read(fd, 256)
+    if os.fstat(fd).st_mtime >= started or found not in (text, b""):
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return False  # its creator is running
+    if not {e.name for e in d.iterdir()} <= {OWNER, *contents}:
+        return False  # something else was put in it: not all of it is ours to delete
+    return bool(found) or bool(legacy(d, True))  # an owner file without its text: judged as one without
+
+
+def _put_back_and_remove(d: Path, put_back: Callable[[Path], bool]) -> bool:
+    """``put_back(d)``, then remove ``d`` unless it said to keep it; whether it was removed."""
+    if not put_back(d):
+        return False
+    shutil.rmtree(d, ignore_errors=True)
+    return True
