@@ -423,35 +423,42 @@ def solve_convex(
         notes.append("convex relaxation of (7.57): batchwise mean subtraction (7.53), symmetric part of Gamma")
     else:
         notes.append("convex program on the symmetric part of Gamma (the IV Gamma is close to, not exactly, symmetric)")
-    w, used = None, None
-    for name in solvers:
-        if name == DEDICATED:
-            w = _dedicated(mq, m0, cons, criterion, notes)
-            if w is not None:
-                used = name
-                break
-            continue
-        import cvxpy as cp
-
-        try:
-            prob, var = _cvx_problem(mq, m0, cons, criterion)
-            with warnings.catch_warnings():  # an inaccurate status is recorded in the notes instead
-                warnings.simplefilter("ignore", UserWarning)
-                prob.solve(solver=name)
-            if prob.status in ("optimal", "optimal_inaccurate") and var.value is not None:
-                w, used = np.clip(np.asarray(var.value, float), cons.lo, cons.hi), name
-                if prob.status == "optimal_inaccurate":
-                    notes.append(f"{name} reported an inaccurate optimum")
-                break
-            notes.append(f"{name} failed (status {prob.status}); trying the next solver")
-        except (cp.error.SolverError, ValueError, ArithmeticError) as exc:
-            notes.append(f"{name} failed ({type(exc).__name__}: {str(exc).splitlines()[0][:80]}); trying the next solver")
-    if w is None:
-        w, used = _scipy_sym(mq, m0, cons, criterion), "scipy-SLSQP"
-        notes.append("all conic solvers failed; used scipy SLSQP on the same objective")
+    w, used = _solve_sym(mq, m0, cons, criterion, solvers, notes)
     w = cons.project(w / w.sum())
     g, mx, bound = certificate(info, w, cons, criterion, mean_subtraction)
     val = _sym_value(m0 + np.einsum("q,qij->ij", w, mq), criterion)
     if criterion == "D":
         val -= 2 * np.log(info.scale).sum()  # log det of the unscaled symmetric matrix
     return SolveResult(w, float(val), used, notes, g, mx, bound)
+
+
+def _solve_sym(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str, solvers: tuple[str, ...],
+               notes: list[str]) -> tuple[np.ndarray, str]:
+    """The weights of the symmetrized program from the first of ``solvers`` that succeeds, else
+    scipy SLSQP, and the solver's name; each failure and fallback recorded in ``notes``."""
+    for name in solvers:
+        w = _dedicated(mq, m0, cons, criterion, notes) if name == DEDICATED else _solve_cvx(mq, m0, cons, criterion, name, notes)
+        if w is not None:
+            return w, name
+    notes.append("all conic solvers failed; used scipy SLSQP on the same objective")
+    return _scipy_sym(mq, m0, cons, criterion), "scipy-SLSQP"
+
+
+def _solve_cvx(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str, name: str, notes: list[str]) -> np.ndarray | None:
+    """The weights from cvxpy's solver ``name`` (clipped to the bounds), or None when it fails
+    (recorded in ``notes``, as is an inaccurate optimum)."""
+    import cvxpy as cp
+
+    try:
+        prob, var = _cvx_problem(mq, m0, cons, criterion)
+        with warnings.catch_warnings():  # an inaccurate status is recorded in the notes instead
+            warnings.simplefilter("ignore", UserWarning)
+            prob.solve(solver=name)
+        if prob.status in ("optimal", "optimal_inaccurate") and var.value is not None:
+            if prob.status == "optimal_inaccurate":
+                notes.append(f"{name} reported an inaccurate optimum")
+            return np.clip(np.asarray(var.value, float), cons.lo, cons.hi)
+        notes.append(f"{name} failed (status {prob.status}); trying the next solver")
+    except (cp.error.SolverError, ValueError, ArithmeticError) as exc:
+        notes.append(f"{name} failed ({type(exc).__name__}: {str(exc).splitlines()[0][:80]}); trying the next solver")
+    return None
