@@ -184,3 +184,31 @@ def test_a_plan_with_such_a_ship_carries_the_warning(tmp_path):
     path.write_text(json.dumps(doc))
     plan = plan_trial(profile=load_profile(path), scenario="thesis-9.4", headings=4, run_in_s=0)
     assert plan.stats["warnings"][0].startswith(f"{path}: ") and "inertia_change:yaw (scale 1.3)" in plan.stats["warnings"][0]
+
+
+def test_what_model_dict_writes_is_judged_as_it_writes_it():
+    """On the model.json `shiptrial diagnose` writes (diagnose.model_file.model_dict): a thrust
+    loss, a quadratic damping and a coupling term go into the profile part and are not named; a delay, an
+    input offset, a sensor bias and an inertia change are, each once."""
+    from types import SimpleNamespace
+
+    from diagnose.candidates import build_library
+    from diagnose.model import AugmentedModel
+    from diagnose.model_file import model_dict
+    from primitives.profile_document import profile_from_dict
+    from tests.test_diagnose_candidate_physics import _kvlcc2_run
+
+    ship = load_profile("kvlcc2")
+    lib, _ = build_library(ship, [_kvlcc2_run(1), _kvlcc2_run(2)])
+    held = ["thrust_loss:fraction", "quadratic_damping:sway:v_r*|v_r|", "missing_coupling:surge:r^2"]
+    dropped = [next(c.key for c in lib if c.effect == e) for e in ("actuator_delay", "input_offset", "sensor_bias", "inertia_change")]
+    cands = [c for c in lib if c.key in held + dropped]
+    model = AugmentedModel(ship, ship.params(), cands)
+    P = model.p0()
+    for c in cands:
+        P[model.slot_of[c.key]] = 0.01
+    findings = [{"effect": c.effect, "dof": None, "key": c.key, "parameters": {}} for c in cands]
+    doc = model_dict(SimpleNamespace(profile=ship, model=model, P=P, findings=findings, structure=[]))
+    (w,) = profile_from_dict(doc, "model.json").load_warnings
+    assert len(cands) == 7 and all(k not in w for k in held)
+    assert all(w.count(f"{k} (") == 1 for k in dropped), w
