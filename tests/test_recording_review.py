@@ -198,3 +198,40 @@ def test_cli_refuses_a_bad_recording_in_one_line_and_writes_nothing(marin, tmp_p
     assert rc == 2 and len(err.splitlines()) == 1 and "Traceback" not in err
     assert "deg_delta.csv" in err and "'delta'" in err and "deg?" in err and "cannot be simulated" not in err
     assert not out.exists()
+
+
+def test_unstable_baseline_names_the_profile_and_parameter_not_the_recording(marin, tmp_path, capsys):
+    """Reviewer item 11: kvlcc2-linear with a positive yaw damping Nur: the profile is at fault, and
+    --fit-on (which simulates the given parameters first) is no way out."""
+    from primitives.ship import PROFILE_DIR
+
+    text = (PROFILE_DIR / "kvlcc2-linear.toml").read_text()
+    nur = "yaw = [-0.017583188348917526,"
+    assert nur in text
+    prof = tmp_path / "unstable.toml"
+    prof.write_text(text.replace(nur, "yaw = [0.0005,").replace('name = "kvlcc2-linear"', 'name = "kvlcc2-unstable"'))
+    _, good, val = marin
+    out = tmp_path / "out"
+    rc, err = _cli(["diagnose", str(good), "--ship", str(prof), "--fit-on", str(DATA / "MARIN_FREE_KVLCC2_zz_10_m.dat"),
+                    "--out", str(out)], capsys)
+    assert rc == 2 and len(err.splitlines()) == 1, err
+    assert "'kvlcc2-unstable'" in err and "yaw motion is unstable" in err and "Nur = +0.0005" in err
+    assert "refit it with --fit-on" not in err and not out.exists()
+
+
+def test_without_out_nothing_is_left_in_the_temp_dir(tmp_path, monkeypatch, capsys):
+    """Reviewer item 13: every run without --out left ~500 KB in /tmp/shiptrial-diagnose-*."""
+    import tempfile
+
+    from diagnose.battery import scenario
+
+    rec = write_csv(scenario((), 17, n_prims=2).diagnose[0], tmp_path / "run.csv")
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    monkeypatch.chdir(tmp_path)
+    before = set(tmp_path.rglob("*"))
+    rc = _run(["diagnose", str(rec), "--ship", "model-ship"])
+    out = capsys.readouterr().out
+    assert rc == 0 and "no files written: pass --out DIR" in out
+    assert set(tmp_path.rglob("*")) == before
