@@ -6,6 +6,7 @@
   frame, and m/s, not knots or km/h (BRIEF section 2 kinematics);
 - :func:`check_rate`: r against dpsi/dt (and p against dphi/dt): sign, and deg vs rad;
 - :func:`check_inputs`: inputs within the profile's input limits, or the unit they are likely in;
+- :func:`check_rudder_sign`: the yaw rate's response to the rudder against the profile's sign;
 - :func:`check_speed`: speeds within the profile's speed range (another ship, a model scale run
   without its header);
 - :func:`froude_scale`: a model-scale recording to full scale (Froude similarity);
@@ -267,6 +268,55 @@ def check_speed(rec, profile) -> None:
         )
 
 
+# |t| of the data's rudder coefficient above which its sign is a verdict (3 standard errors). On
+# the MARIN runs and every MMG battery run (calm, diagnose, validate; full and model scale) the
+# t value has the profile's sign and |t| >= 4.2; flipped, the opposite sign with |t| >= 4.2.
+RUDDER_T = 3.0
+
+
+def rudder_response_t(rec) -> float:
+    """t value of the rudder's coefficient in a one-step least-squares fit of the yaw-rate increment
+    r(k+1) - r(k) on r(k), v(k), delta(k) U(k)^2 and a constant (the form of a linear yaw equation,
+    seed 001 (3.60)): its sign is the sign of the ship's rudder yaw derivative, whatever the model."""
+    y, d = rec.y, rec.channels["delta"]
+    dr = np.diff(y[:, 2])
+    X = np.column_stack([y[:-1, 2], y[:-1, 1], d[:-1] * (y[:-1, 0] ** 2 + y[:-1, 1] ** 2), np.ones(len(dr))])
+    with np.errstate(all="ignore"):
+        coef = np.linalg.lstsq(X, dr, rcond=None)[0]
+        e = dr - X @ coef
+        var = float(e @ e) / max(len(dr) - X.shape[1], 1) * np.linalg.pinv(X.T @ X)[2, 2]
+    return float(coef[2] / math.sqrt(var)) if var > 0 and math.isfinite(var) else 0.0
+
+
+def _profile_rudder_sign(profile, rec) -> float:
+    """Sign of d r(k+1) / d delta(k) of the profile's model on a straight course at the run's speed."""
+    from primitives.simulate import model_signals
+
+    u = float(np.median(np.hypot(rec.y[:, 0], rec.y[:, 1])))
+    inputs = {k: np.array(float(np.median(rec.channels[k]))) for k in profile.inputs if k in rec.channels}
+    out = []
+    for dd in (-0.01, 0.01):
+        sig = model_signals(profile, np.array([u, 0.0, 0.0]), np.array(0.0), inputs | {"delta": np.array(dd)})
+        out.append(float(profile.model.increments(sig, profile.params())[2]))
+    return float(np.sign(out[1] - out[0]))
+
+
+def check_rudder_sign(rec, profile) -> None:
+    """Refuse a rudder angle of the opposite sign to the profile's: the yaw rate's response to it
+    (:func:`rudder_response_t`) has the opposite sign of the profile's rudder yaw derivative."""
+    if "delta" not in profile.inputs or "delta" not in rec.channels or rec.n_samples < 20:
+        return
+    sign = _profile_rudder_sign(profile, rec)
+    tval = rudder_response_t(rec)
+    if sign != 0 and tval * sign < -RUDDER_T:
+        side = "port" if sign < 0 else "starboard"
+        raise _error()(
+            f"{rec.source}: column 'delta' turns the ship the other way from ship {profile.name!r}: the yaw rate "
+            f"responds to it with the opposite sign of the profile's rudder yaw derivative (t = {tval:+.1f} in a "
+            f"one-step fit); flip the sign of delta (in this profile a positive delta turns to {side})"
+        )
+
+
 def froude_scale(rec, factor: float | None = None):
     """A model-scale recording at full scale by Froude similarity, and a note saying so.
 
@@ -334,5 +384,6 @@ def conform(recs: list, profile, *, resample: bool = False, full_scale: bool = T
         check_speed(rec, profile)  # before the sample time: a model-scale run says why its time step differs
         rec = check_sample_time(rec, profile, resample)
         check_inputs(rec, profile)
+        check_rudder_sign(rec, profile)
         out.append(rec)
     return out

@@ -88,6 +88,8 @@ def test_inputs_in_degrees_or_rpm_are_named_not_blamed_on_the_model(marin, ship,
     ("r_flip", lambda z: {"r": -z.y[:, 2]}, ("'r'", "opposite sign", "flip its sign")),
     ("v_flip", lambda z: {"v": -z.y[:, 1]}, ("'v'", "opposite sign", "starboard", "flip its sign")),
     ("u_flip", lambda z: {"u": -z.y[:, 0]}, ("'u'", "opposite sign", "flip its sign")),
+    ("delta_flip", lambda z: {"delta": -z.channels["delta"]}, ("'delta'", "the other way", "flip the sign of delta",
+                                                               "positive delta turns to port")),
 ])
 def test_rates_in_degrees_and_flipped_signs_are_refused(marin, ship, tmp_path, name, change, needles):
     zz, _, _ = marin
@@ -235,3 +237,33 @@ def test_without_out_nothing_is_left_in_the_temp_dir(tmp_path, monkeypatch, caps
     out = capsys.readouterr().out
     assert rc == 0 and "no files written: pass --out DIR" in out
     assert set(tmp_path.rglob("*")) == before
+
+
+def _battery_runs(name: str, tmp: Path) -> list[Path]:
+    from tests.physics import mmg_battery as battery
+
+    paths = battery.write_case(battery.generate(battery.case(name)), tmp / name)
+    return [p for role in ("calm", "diagnose", "validate") for p in paths[role]]
+
+
+@pytest.mark.parametrize("name", ["current-0.7", "model-current-0.6"])
+def test_mmg_battery_runs_pass_every_check_and_a_flipped_rudder_is_caught(tmp_path, name):
+    """Independent physics (MMG, full and model scale): no check refuses a legitimate run; the same
+    runs with the rudder's sign flipped are refused (the weakest legitimate case of the sweep: a
+    turning circle in a current). The slow test below covers every case."""
+    ship = load_profile("kvlcc2")
+    for p in _battery_runs(name, tmp_path):
+        rec = conform(load_recording(p), ship)[0]
+        flipped = dataclasses.replace(rec, channels=rec.channels | {"delta": -rec.channels["delta"]})
+        with pytest.raises(RecordingError, match="flip the sign of delta"):
+            conform([flipped], ship)
+
+
+@pytest.mark.slow
+def test_every_mmg_battery_run_passes_every_check(tmp_path):
+    from tests.physics import mmg_battery as battery
+
+    for c in battery.CASES:
+        for p in _battery_runs(c.name, tmp_path):
+            for prof in ("kvlcc2", "kvlcc2-linear"):
+                assert conform(load_recording(p), load_profile(prof))
