@@ -93,6 +93,10 @@ SPEED_UNITS = ((1.9438, "u, v in knots?"), (3.6, "u, v in km/h?"), (100.0, "u, v
 # |correlation| (uncentred) between a rate and the differentiated angle above which the run turns
 # (or rolls) well enough above the noise for their ratio and sign to be judged; below it, no verdict.
 MIN_RATE_CORR = 0.8
+# Mean square mismatch of (u, v) and the track's body-frame velocity, relative to the speed squared,
+# beyond which the track, heading and velocities do not describe the same motion (x, y swapped, psi
+# from another reference). Legitimate runs (MARIN, every MMG battery run): at most 0.057.
+TRACK_MISMATCH = 0.5
 
 
 def _unit_hint(ratio: float, units: tuple[tuple[float, str], ...]) -> str:
@@ -142,6 +146,15 @@ def check_frame(src: str, t: np.ndarray, pos: np.ndarray, psi: np.ndarray, u: np
                 f"{src}: column {name!r} has the opposite sign of the track's body-frame {what} "
                 f"(rms mismatch {math.sqrt(same):.3g} m/s, negated {math.sqrt(flipped):.3g}); flip its sign"
             )
+    speed2 = float(np.nanmean(sog[moving] ** 2))
+    if err_body > TRACK_MISMATCH * speed2:
+        sxd, syd, sub, svb, _ = _track_velocity(t, pos[:, ::-1], psi)
+        swapped = np.nanmean(((um - sub) ** 2 + (vm - svb) ** 2)[moving]) < 0.25 * err_body
+        raise _error()(
+            f"{src}: columns 'u', 'v' do not follow the track x, y with heading psi (rms mismatch {math.sqrt(err_body):.3g} m/s "
+            f"at {math.sqrt(speed2):.3g} m/s)" + ("; x and y look swapped: x is north, y east" if swapped else
+                                                  "; give x north, y east in m and psi clockwise from north in rad")
+        )
 
 
 def check_rate(src: str, t: np.ndarray, rate: np.ndarray, angle: np.ndarray, rate_name: str, angle_name: str,

@@ -88,6 +88,7 @@ def test_inputs_in_degrees_or_rpm_are_named_not_blamed_on_the_model(marin, ship,
     ("r_flip", lambda z: {"r": -z.y[:, 2]}, ("'r'", "opposite sign", "flip its sign")),
     ("v_flip", lambda z: {"v": -z.y[:, 1]}, ("'v'", "opposite sign", "starboard", "flip its sign")),
     ("u_flip", lambda z: {"u": -z.y[:, 0]}, ("'u'", "opposite sign", "flip its sign")),
+    ("xy_swap", lambda z: {"pos": z.pos[:, ::-1].copy()}, ("'u', 'v'", "x and y look swapped")),
     ("delta_flip", lambda z: {"delta": -z.channels["delta"]}, ("'delta'", "the other way", "flip the sign of delta",
                                                                "positive delta turns to port")),
 ])
