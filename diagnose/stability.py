@@ -77,13 +77,13 @@ def check_baseline(profile: ShipProfile, theta: np.ndarray, recs: list[Recording
         mode = unstable_mode(profile, theta, rec)
         if mode is None:
             raise RecordingError(
-                f"{where}: the baseline model diverges when simulated on {rec.source} although its straight-course "
+                f"{where}: the baseline model cannot be simulated on {rec.source} (it diverges) although its straight-course "
                 "motion is stable (the run's inputs drive it out of range); check the profile's parameters and input "
                 "limits against this run")
         dof, growth, name, value = mode
         t2 = math.log(2.0) / math.log(growth) * profile.sample_time
         raise RecordingError(
             f"{where}: the baseline's {dof} motion is unstable at the run's speed (a disturbance grows x{growth:.4g} per "
-            f"{profile.sample_time:g} s sample, doubling every {t2:.3g} s), so its simulation of {rec.source} diverges; "
+            f"{profile.sample_time:g} s sample, doubling every {t2:.3g} s), so it cannot be simulated on {rec.source}; "
             f"parameter {name} = {value:+.4g} drives it (its damping must be negative): correct it in the profile or "
             "--params (--fit-on starts from these values and cannot)")
