@@ -4,7 +4,6 @@ model it and show the fit improve (issue 6)."""
 from __future__ import annotations
 
 import json
-import tempfile
 from pathlib import Path
 
 import typer
@@ -78,6 +77,7 @@ def register(app: typer.Typer) -> None:
         from diagnose.api import run
         from diagnose.recording import load_recording
         from diagnose.recording_checks import conform
+        from diagnose.stability import check_baseline
         from primitives.ship import load_profile
 
         validate_diagnose_options(recordings={"RECORDING": _split(recordings), "--fit-on": _split(fit_on), "--validate": _split(validate)},
@@ -96,17 +96,24 @@ def register(app: typer.Typer) -> None:
         recs = load(_split(recordings))
         fit_recs = load(_split(fit_on)) or None
         val_recs = load(_split(validate)) or None
+        # the given baseline must simulate the runs it is first simulated on (the --fit-on runs, else
+        # the diagnosed and validation runs): when it diverges, the profile or --params is at fault
+        where = f"ship profile {profile.name!r} ({ship})" + (f" with --params {params}" if params else "")
+        check_baseline(profile, profile.params(theta), fit_recs or recs + (val_recs or []), where)
         d = run(recs, profile, theta=theta, fit_on=fit_recs, validate=val_recs)
+        paths = {}
         if out is not None:
             from primitives.io import atomic_output_dir
 
             with atomic_output_dir(out) as tmp:  # a failed report never leaves a mix of old and new files
                 written = report.write_all(d, tmp, final_dir=out)
             paths = {k: out / v.relative_to(tmp) for k, v in written.items()}
-        else:
-            paths = report.write_all(d, Path(tempfile.mkdtemp(prefix="shiptrial-diagnose-")))
+        # without --out nothing is written (no scratch directory left behind in /tmp)
         if json_out:
-            typer.echo(dumps(report.to_json(d, str(paths["model"]))))
+            typer.echo(dumps(report.to_json(d, str(paths["model"]) if paths else None)))
             return
         typer.echo(report.to_text(d))
-        typer.echo(f"wrote {', '.join(str(p) for p in paths.values())}")
+        if paths:
+            typer.echo(f"wrote {', '.join(str(p) for p in paths.values())}")
+        else:
+            typer.echo("no files written: pass --out DIR for report.txt, diagnosis.json, model.json and the residual plots")

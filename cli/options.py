@@ -141,10 +141,30 @@ def validate_diagnose_options(*, recordings: dict[str, list[str]], params: str |
     for option, paths in recordings.items():
         for r in paths:
             check_input_file(r, option, "a recording file (.csv or MARIN .dat)", "recording")
+    check_runs_once(recordings)
     if params is not None and Path(params).is_dir():  # a missing file may be a parameter set's name: checked with the ship
         raise UserError(f"--params {params}: is a directory; give a parameter set name, a profile TOML/JSON or a JSON with 'theta'")
     if out is not None:
         check_out_path(out)
+
+
+def check_runs_once(recordings: dict[str, list[str]]) -> None:
+    """Each run once among the diagnosed, --fit-on and --validate recordings: a run given twice (the
+    same file, another path to it, or a copy with identical content) is scored in-sample where the
+    report says held out, or fitted on twice."""
+    import hashlib
+
+    seen: dict[tuple, tuple[str, str]] = {}
+    for option, paths in recordings.items():
+        for r in paths:
+            p = Path(r)
+            digest = hashlib.sha256(p.read_bytes()).hexdigest()
+            for key, why in (((p.resolve(),), "the same file"), (("sha256", digest), "identical content")):
+                if key in seen:
+                    o_opt, o_path = seen[key]
+                    raise UserError(f"{option} {r}: the same run as {o_opt} {o_path} ({why}); a run given twice is "
+                                    "scored or fitted on twice (in-sample where the report says held out): give each run once")
+            seen[(p.resolve(),)] = seen[("sha256", digest)] = (option, r)
 
 
 def _point(text: str | None, option: str) -> None:

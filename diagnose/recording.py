@@ -15,17 +15,19 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from diagnose.recording_checks import check_frame, check_grid, check_values
+from diagnose.recording_checks import check_frame, check_grid, check_rate, check_values
 from primitives.errors import UserError
 from primitives.io import read_input_text
 
 MIN_SAMPLES = 50
 MAX_BRIDGE_S = 5.0  # longest gap bridged by linear interpolation; longer gaps split the run
+INPUTS = ("tau_x", "tau_y", "tau_n", "delta", "n", "n1", "alpha1", "n2", "alpha2")  # never bridged over a long gap
 NUMERIC = ("t", "x", "y", "lat", "lon", "psi", "u", "v", "r", "tau_x", "tau_y", "tau_n", "delta", "n",
            "n1", "alpha1", "n2", "alpha2", "wind_speed", "wind_dir", "phi", "p",
            "v_dot")  # v_dot: measured sway acceleration, m/s^2 (optional; change detection uses it)
@@ -160,6 +162,46 @@ def _group_repeated(t: np.ndarray, cols: dict[str, np.ndarray]) -> tuple[np.ndar
     return uniq, out, int(np.sum(counts > 1))
 
 
+def _check_step(src: str, dt_med: float, ts: float, declared: bool) -> None:
+    """Time stamps whose step is several sample times cannot be a run sampled at ``ts``: the time
+    column is in other units (ms) or the declared sample time is wrong."""
+    if declared and dt_med > 3 * ts:
+        ratio = dt_med / ts
+        hint = next((f" (t in {u}?)" for f, u in ((1000.0, "milliseconds"), (1e6, "microseconds"), (1e9, "nanoseconds"))
+                     if abs(math.log(ratio / f)) < 0.15), "")
+        raise RecordingError(f"{src}: column 't' steps by {dt_med:g} (median) but the sample time is {ts:g} s{hint}; "
+                             "give t in seconds and a matching '# sample_time:'")
+
+
+def _bridged_notes(cols: dict[str, np.ndarray], i0: int, i1: int, t: np.ndarray, valid: np.ndarray) -> list[str]:
+    """What linear interpolation bridged in rows i0..i1 of one piece: rows missing a state or an
+    input, and cells missing in other columns (wind, roll), each said."""
+    out = []
+    bad = ~valid[i0: i1 + 1]
+    if bad.any():
+        which = [k for k, v in cols.items() if np.any(bad & ~np.isfinite(v[i0: i1 + 1]))]
+        j = i0 + int(np.argmax(bad))
+        out.append(f"{int(bad.sum())} row(s) missing {', '.join(which)} (first at t = {t[j]:g} s) bridged by linear "
+                   f"interpolation (gaps <= {MAX_BRIDGE_S:g} s)")
+    for k, v in cols.items():
+        seg = v[i0: i1 + 1]
+        miss = ~np.isfinite(seg) & valid[i0: i1 + 1]  # only cells of otherwise valid rows: not counted twice
+        if miss.any() and np.isfinite(seg).sum() >= 2:
+            j = i0 + int(np.argmax(miss))
+            out.append(f"column {k!r}: {int(miss.sum())} missing value(s) (first at t = {t[j]:g} s) bridged by linear interpolation")
+    return out
+
+
+def _check_kinematics(src: str, grid: np.ndarray, pos: np.ndarray, res: dict[str, np.ndarray]) -> None:
+    """u, v against the track, r against dpsi/dt, p against dphi/dt (recording_checks)."""
+    if "u" in res and "v" in res:
+        check_frame(src, grid, pos, res["psi"], res["u"], res["v"])
+    if "r" in res:
+        check_rate(src, grid, res["r"], res["psi"], "r", "psi", "yaw rate", "heading")
+    if "p" in res and "phi" in res:
+        check_rate(src, grid, res["p"], res["phi"], "p", "phi", "roll rate", "roll angle")
+
+
 def build_recording(
     src: str,
     cols: dict[str, np.ndarray],
@@ -205,25 +247,27 @@ def build_recording(
     ts = float(sample_time or dt_med)
     if not (math.isfinite(ts) and ts > 0):
         raise RecordingError(f"{src}: sample time {ts} is not a positive number of seconds; fix '# sample_time:'")
+    _check_step(src, dt_med, ts, sample_time is not None)
     check_grid(src, t, ts)
     # psi is unwrapped before interpolation
     psi = cols["psi"].copy()
     fin = np.isfinite(psi)
     psi[fin] = np.unwrap(psi[fin])
     cols["psi"] = psi
-    req = ["x", "y", "psi"] + [k for k in ("u", "v", "r") if k in cols]
+    # rows need the state and the inputs: a long gap in either splits the run, a short one is bridged
+    req = ["x", "y", "psi"] + [k for k in ("u", "v", "r", *INPUTS) if k in cols and np.isfinite(cols[k]).sum() >= 2]
     valid = np.all([np.isfinite(cols[k]) for k in req], axis=0)
-    # pieces separated by gaps longer than MAX_BRIDGE_S (missing rows or NaN rows)
     idx = np.flatnonzero(valid)
     if len(idx) == 0:
         raise RecordingError(f"{src}: no row has all of {req}; check the columns")
-    gaps = np.flatnonzero(np.diff(t[idx]) > max(MAX_BRIDGE_S, 3 * ts))
+    # a gap is the time with no valid row: longer than MAX_BRIDGE_S (and than 2 samples) splits
+    longest = max(MAX_BRIDGE_S, 2 * ts)
+    gaps = np.flatnonzero(np.diff(t[idx]) - ts > longest + 1e-9 * ts)
     bounds = np.split(idx, gaps + 1)
-    bridged = int(np.sum(~valid[idx[0]: idx[-1] + 1]))
     if len(bounds) > 1:
-        notes.append(f"{len(bounds) - 1} gap(s) longer than {max(MAX_BRIDGE_S, 3 * ts):g} s split the run into {len(bounds)} pieces")
-    if bridged:
-        notes.append(f"{bridged} rows with missing values bridged by linear interpolation (gaps <= {MAX_BRIDGE_S:g} s)")
+        where = ", ".join(f"t = {t[idx[g]]:g}-{t[idx[g + 1]]:g} s" for g in gaps[:3]) + (", ..." if len(gaps) > 3 else "")
+        notes.append(f"{len(gaps)} gap(s) of missing rows longer than {longest:g} s ({where}) split the run into "
+                     f"{len(bounds)} pieces: never interpolated over")
     if abs(dt_med - ts) > 0.01 * ts or np.ptp(np.diff(t)) > 0.01 * ts:
         notes.append(f"time stamps irregular (median step {dt_med:.3g} s): resampled on a uniform {ts:g} s grid")
     out = []
@@ -246,9 +290,10 @@ def build_recording(
             nearest = np.searchsorted(t, grid).clip(0, len(t) - 1)
             seg = list(seg_arr[nearest]) if len(seg_arr) == len(t) else None
         pos = np.stack([res["x"], res["y"]], axis=-1)
-        pnotes = list(notes)
-        if "u" in res and "v" in res:
-            check_frame(src, grid, pos, res["psi"], res["u"], res["v"])
+        pnotes = list(notes) + _bridged_notes(cols, rows[0], rows[-1], t, valid)
+        if len(bounds) > 1:
+            pnotes.append(f"piece {piece_no + 1} of {len(bounds)}: t = {tp[0]:g}-{tp[-1]:g} s")
+        _check_kinematics(src, grid, pos, res)
         if all(k in res for k in ("u", "v", "r")):
             y = np.stack([res["u"], res["v"], res["r"]], axis=-1)
         else:
@@ -295,9 +340,14 @@ def read_csv(path: str | Path, *, sample_time: float | None = None) -> list[Reco
         raise RecordingError(f"{path}: no header row; the first non-comment line must name the columns (t,x,y,psi,...)")
     reader = csv.reader(body)
     header = [h.strip() for h in next(reader)]
+    _check_header(path, header, body[0])
     rows = list(reader)
     if not rows:
         raise RecordingError(f"{path}: header but no data rows")
+    for i, row in enumerate(rows):
+        if len(row) > len(header) and any(c.strip() for c in row[len(header):]):
+            raise RecordingError(f"{path}: row {i + 2} has {len(row)} fields but the header names {len(header)} columns; "
+                                 "fix the row (a value too many, or a decimal comma?)")
     cols: dict[str, np.ndarray] = {}
     segments = None
     for j, name in enumerate(header):
@@ -318,6 +368,28 @@ def read_csv(path: str | Path, *, sample_time: float | None = None) -> list[Reco
     _check_meta(path, meta)
     ts = sample_time or (float(meta["sample_time"]) if "sample_time" in meta else None)
     return build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts)
+
+
+def _check_header(path: Path, header: list[str], line: str) -> None:
+    """Column names as BRIEF section 7 gives them (lower case, no units, comma-separated, each once);
+    the message quotes the header as read."""
+    shown = line.strip()[:80]
+    if len(header) == 1:
+        sep = next((f"{name} ({c!r})" for c, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "bars")) if c in line), "")
+        raise RecordingError(f"{path}: the header {shown!r} has one column" + (f", separated by {sep}" if sep else "")
+                             + "; separate the columns with commas (t,x,y,psi,...)")
+    seen: dict[str, int] = {}
+    for j, name in enumerate(header):
+        if name in seen:
+            raise RecordingError(f"{path}: column {name!r} appears twice in the header (columns {seen[name] + 1} and {j + 1}); "
+                                 "keep one")
+        seen[name] = j
+        base = re.split(r"[\s\[\(/]", name, maxsplit=1)[0].lower()
+        if name not in NUMERIC and name != "segment" and (base in NUMERIC or base == "segment"):
+            raise RecordingError(f"{path}: column {name!r} in the header {shown!r}: name it exactly {base!r} "
+                                 "(lower case, no unit: values are read in SI units, angles in rad)")
+    if "t" not in header:
+        raise RecordingError(f"{path}: missing required column 't' (time in seconds); the header read is {shown!r}")
 
 
 def _read_text(path: Path, encoding: str) -> str:

@@ -4,7 +4,11 @@
   all-zeros file, u = 1e308, a time axis that would need billions of samples);
 - :func:`check_frame`: u, v against the derivatives of x, y and psi: body frame, not earth
   frame, and m/s, not knots or km/h (BRIEF section 2 kinematics);
-- :func:`check_inputs`: inputs within a plausible multiple of the profile's input limits;
+- :func:`check_rate`: r against dpsi/dt (and p against dphi/dt): sign, and deg vs rad;
+- :func:`check_inputs`: inputs within the profile's input limits, or the unit they are likely in;
+- :func:`check_rudder_sign`: the yaw rate's response to the rudder against the profile's sign;
+- :func:`check_speed`: speeds within the profile's speed range (another ship, a model scale run
+  without its header);
 - :func:`froude_scale`: a model-scale recording to full scale (Froude similarity);
 - :func:`check_sample_time`: refuse, or resample and say so, a sample time other than the profile's.
 
@@ -25,7 +29,6 @@ from primitives.errors import UserError
 MAX_ABS = {"u": 100.0, "v": 100.0, "r": 10.0, "p": 10.0, "phi": 3.2, "x": 1e8, "y": 1e8, "psi": 1e5,
            "wind_speed": 150.0}
 MAX_GRID_SAMPLES = 5_000_000  # a uniform grid beyond this is a unit mistake, not a trial
-INPUT_LIMIT_FACTOR = 50.0  # inputs beyond this multiple of the profile's limits are in other units
 # Froude scaling exponents of lambda per signal kind (length ~ lambda, time ~ sqrt(lambda)).
 FROUDE_POWER = {"x": 1.0, "y": 1.0, "u": 0.5, "v": 0.5, "r": -0.5, "p": -0.5, "n": -0.5, "n1": -0.5, "n2": -0.5,
                 "wind_speed": 0.5, "tau_x": 3.0, "tau_y": 3.0, "tau_n": 4.0}
@@ -68,10 +71,7 @@ def check_values(src: str, cols: dict[str, np.ndarray]) -> None:
 def _track_velocity(t: np.ndarray, pos: np.ndarray, psi: np.ndarray, smooth_s: float = 2.0) -> tuple[np.ndarray, ...]:
     """Earth-frame (xd, yd) and body-frame (ub, vb) velocity from the track, smoothed over ~smooth_s
     so position noise does not swamp the comparison."""
-    ts = float(np.median(np.diff(t)))
-    k = max(1, int(round(smooth_s / ts / 2)))
-    if len(t) <= 2 * k + 2:
-        k = 1
+    k = _half_window(t, smooth_s)
     dt = t[2 * k:] - t[:-2 * k]
     xd = (pos[2 * k:, 0] - pos[:-2 * k, 0]) / dt
     yd = (pos[2 * k:, 1] - pos[:-2 * k, 1]) / dt
@@ -79,28 +79,56 @@ def _track_velocity(t: np.ndarray, pos: np.ndarray, psi: np.ndarray, smooth_s: f
     return xd, yd, c * xd + s * yd, -s * xd + c * yd, slice(k, len(t) - k)
 
 
+def _half_window(t: np.ndarray, smooth_s: float) -> int:
+    ts = float(np.median(np.diff(t)))
+    k = max(1, int(round(smooth_s / ts / 2)))
+    return 1 if len(t) <= 2 * k + 2 else k
+
+
+# A measured signal is within this factor of what the track says, or in other units: the
+# geometric middle between m/s and knots (1.944), the closest unit mistake for a speed.
+RATIO_TOL = math.sqrt(1.9438)
+SPEED_UNITS = ((1.9438, "u, v in knots?"), (3.6, "u, v in km/h?"), (100.0, "u, v in cm/s?"),
+               (1000.0, "t in milliseconds (or u, v in mm/s)?"), (1 / 60.0, "t in minutes?"))
+# |correlation| (uncentred) between a rate and the differentiated angle above which the run turns
+# (or rolls) well enough above the noise for their ratio and sign to be judged; below it, no verdict.
+MIN_RATE_CORR = 0.8
+# Mean square mismatch of (u, v) and the track's body-frame velocity, relative to the speed squared,
+# beyond which the track, heading and velocities do not describe the same motion (x, y swapped, psi
+# from another reference). Legitimate runs (MARIN, every MMG battery run): at most 0.057.
+TRACK_MISMATCH = 0.5
+
+
+def _unit_hint(ratio: float, units: tuple[tuple[float, str], ...]) -> str:
+    """The unit mistake whose factor is within 15 % of ``ratio``, as ' (hint)', else ''."""
+    for f, text in units:
+        if abs(math.log(ratio / f)) < 0.15:
+            return f" ({text})"
+    return ""
+
+
 def check_frame(src: str, t: np.ndarray, pos: np.ndarray, psi: np.ndarray, u: np.ndarray, v: np.ndarray) -> None:
     """u, v must be body-frame velocities over ground in m/s: compare them with the differentiated track.
 
     Earth frame (u = dx/dt, v = dy/dt) is told from body frame by which rotation fits the track
     better; it can only be told when the heading is away from north, so a run heading north
-    passes. Wrong units show as a constant ratio between |(u, v)| and the track's speed.
+    passes. Wrong units show as a constant ratio between |(u, v)| and the track's speed, a wrong
+    sign as u or v matching the track's body-frame component better negated (BRIEF section 2
+    kinematics).
     """
     if len(t) < 10:
         return
     xd, yd, ub, vb, sl = _track_velocity(t, pos, psi)
     um, vm = u[sl], v[sl]
-    sog = np.hypot(xd, yd)
-    moving = sog > max(0.05, 0.1 * np.nanmax(sog, initial=0.0))
+    sog, spd = np.hypot(xd, yd), np.hypot(um, vm)
+    moving = (sog > max(0.05, 0.1 * np.nanmax(sog, initial=0.0))) | (spd > max(0.05, 0.1 * np.nanmax(spd, initial=0.0)))
     if moving.sum() < 10:
         return
-    ratio = np.nanmedian(np.hypot(um, vm)[moving]) / np.nanmedian(sog[moving])
-    if not (0.5 < ratio < 2.0) and ratio > 0:
-        units = {1.94: "knots", 3.6: "km/h", 100.0: "cm/s"}
-        guess = min(units, key=lambda r: abs(math.log(ratio / r)))
-        hint = f" (looks like {units[guess]})" if abs(math.log(ratio / guess)) < 0.2 else ""
+    ratio = np.nanmedian(spd[moving]) / max(float(np.nanmedian(sog[moving])), 1e-12)
+    if not (1 / RATIO_TOL < ratio < RATIO_TOL):
         raise _error()(
-            f"{src}: columns 'u', 'v' are {ratio:.3g} x the speed of the track x, y{hint}; give u, v in m/s"
+            f"{src}: columns 'u', 'v' are {ratio:.3g} x the speed of the track x, y{_unit_hint(ratio, SPEED_UNITS)}; "
+            "give u, v in m/s, x, y in m and t in s"
         )
     err_body = np.nanmean(((um - ub) ** 2 + (vm - vb) ** 2)[moving])
     err_earth = np.nanmean(((um - xd) ** 2 + (vm - yd) ** 2)[moving])
@@ -109,10 +137,74 @@ def check_frame(src: str, t: np.ndarray, pos: np.ndarray, psi: np.ndarray, u: np
             f"{src}: columns 'u', 'v' look like earth-frame velocities (north, east = dx/dt, dy/dt): "
             "give body-frame surge and sway (u = xd cos psi + yd sin psi, v = -xd sin psi + yd cos psi)"
         )
+    for name, meas, track, what in (("u", um, ub, "surge xd cos psi + yd sin psi: positive ahead"),
+                                     ("v", vm, vb, "sway -xd sin psi + yd cos psi: positive to starboard")):
+        same = np.nanmean(((meas - track) ** 2)[moving])
+        flipped = np.nanmean(((meas + track) ** 2)[moving])
+        if flipped < 0.25 * same:  # the negated column fits the track 4 x better than the column
+            raise _error()(
+                f"{src}: column {name!r} has the opposite sign of the track's body-frame {what} "
+                f"(rms mismatch {math.sqrt(same):.3g} m/s, negated {math.sqrt(flipped):.3g}); flip its sign"
+            )
+    speed2 = float(np.nanmean(sog[moving] ** 2))
+    if err_body > TRACK_MISMATCH * speed2:
+        sxd, syd, sub, svb, _ = _track_velocity(t, pos[:, ::-1], psi)
+        swapped = np.nanmean(((um - sub) ** 2 + (vm - svb) ** 2)[moving]) < 0.25 * err_body
+        raise _error()(
+            f"{src}: columns 'u', 'v' do not follow the track x, y with heading psi (rms mismatch {math.sqrt(err_body):.3g} m/s "
+            f"at {math.sqrt(speed2):.3g} m/s)" + ("; x and y look swapped: x is north, y east" if swapped else
+                                                  "; give x north, y east in m and psi clockwise from north in rad")
+        )
+
+
+def check_rate(src: str, t: np.ndarray, rate: np.ndarray, angle: np.ndarray, rate_name: str, angle_name: str,
+               rate_what: str, angle_what: str) -> None:
+    """A rate column (r, p) against its angle's derivative (dpsi/dt, dphi/dt): the same sign and,
+    within RATIO_TOL, the same size; a ratio of 57.3 says one of them is in degrees. Judged only
+    when the run turns (rolls) clearly above the noise (uncentred correlation >= MIN_RATE_CORR)."""
+    ok = np.isfinite(rate) & np.isfinite(angle)
+    if ok.sum() < 10:
+        return
+    tt, a, m = t[ok], angle[ok], rate[ok]
+    k = _half_window(tt, 2.0)
+    ref = (a[2 * k:] - a[:-2 * k]) / (tt[2 * k:] - tt[:-2 * k])
+    m = m[k:-k]
+    norm = math.sqrt(float(np.mean(m**2)) * float(np.mean(ref**2)))
+    if norm == 0:
+        return
+    corr = float(np.mean(m * ref)) / norm
+    if abs(corr) < MIN_RATE_CORR:
+        return
+    gain = math.copysign(math.sqrt(float(np.mean(m**2)) / float(np.mean(ref**2))), corr)
+    if gain < 0:
+        raise _error()(
+            f"{src}: column {rate_name!r} has the opposite sign of d{angle_name}/dt (correlation {corr:.2f}): "
+            f"the {rate_what} must be the rate of the {angle_what} ({rate_name} > 0 turns {angle_name} positive); flip its sign"
+        )
+    if not (1 / RATIO_TOL < gain < RATIO_TOL):
+        units = ((180 / math.pi, f"{rate_name} in deg/s? give rad/s"), (math.pi / 180, f"{angle_name} in degrees? give radians"))
+        raise _error()(
+            f"{src}: column {rate_name!r} is {gain:.3g} x d{angle_name}/dt{_unit_hint(gain, units)}; "
+            f"give {angle_name} in rad and {rate_name} in rad/s"
+        )
+
+
+# Input units a column is most likely in when it exceeds the profile's limits: (factor to SI, unit, SI unit).
+INPUT_UNITS = {"delta": (180 / math.pi, "deg", "rad"), "alpha": (180 / math.pi, "deg", "rad"),
+               "n": (60.0, "rpm", "rev/s")}
+# An actuator cannot go far beyond its limit: a peak beyond this multiple of it is another unit
+# (or another ship); a little above it is a profile limit set conservatively, or noise.
+INPUT_LIMIT_TOL = 1.25
+
+
+def _input_unit(name: str) -> tuple[float, str, str] | None:
+    base = name.rstrip("0123456789")
+    return INPUT_UNITS.get(base)
 
 
 def check_inputs(rec, profile) -> None:
-    """Refuse inputs far beyond the ship's limits: a column in other units (N vs kN, rpm vs rev/s, 1e6 x)."""
+    """Refuse inputs beyond the ship's limits, naming the unit they are most likely in (a rudder
+    angle in degrees, a shaft speed in rpm = 60 x rev/s, forces x 1e6 ...)."""
     for name in profile.inputs:
         lo, hi = profile.input_limits.get(name, (-math.inf, math.inf))
         x = rec.channels.get(name)
@@ -120,11 +212,122 @@ def check_inputs(rec, profile) -> None:
             continue
         span = max(abs(lo), abs(hi))
         peak = float(np.nanmax(np.abs(x), initial=0.0))
-        if span > 0 and peak > INPUT_LIMIT_FACTOR * span:
-            raise _error()(
-                f"{rec.source}: column {name!r} reaches {peak:.3g}, {peak / span:.3g} x the limit {span:g} of ship {profile.name!r}: "
-                "check its units (SI: N, N m, rad, rev/s) or choose the matching --ship"
-            )
+        if not (span > 0 and peak > INPUT_LIMIT_TOL * span):
+            continue
+        unit = _input_unit(name)
+        lim = f"{span:g}"
+        if unit is not None:
+            f, u_name, si = unit
+            lim = f"{span:g} {si}" + (f" ({span * f:.3g} {u_name})" if u_name == "deg" else "")
+            if peak / f <= INPUT_LIMIT_TOL * span:  # in that unit it is within the actuator's range
+                raise _error()(
+                    f"{rec.source}: column {name!r} reaches {peak:.3g}, {peak / span:.3g} x the {lim} limit of ship "
+                    f"{profile.name!r}: {u_name}? give {si} ({name} in {u_name} / {f:.4g})"
+                )
+        raise _error()(
+            f"{rec.source}: column {name!r} reaches {peak:.3g}, {peak / span:.3g} x the {lim} limit of ship {profile.name!r}: "
+            "check its units (SI: N, N m, rad, rev/s) and the recording's scale, or choose the matching --ship"
+        )
+
+
+# A recording's top speed within this factor of the speed the profile expects: beyond it, it is
+# another ship or a model-scale run taken for full scale (a factor sqrt(10): a basin model at 1:10
+# or smaller sails sqrt(lambda) >= 3.2 x slower than its ship).
+SPEED_FACTOR = math.sqrt(10.0)
+
+
+def _profile_speeds(rec, profile) -> tuple[float, float, str]:
+    """(expected speed, top speed, what the expectation is) from the profile's speed range: the
+    straight-course speed its model holds at the run's own shaft speed (rudder/propeller ships
+    with ``n`` within its limits), else its service speed; top: at the engine's highest rps."""
+    cruise = float(profile.cruise_speed_mps)
+    expect, what, top = cruise, f"the profile's {cruise:g} m/s service speed", cruise
+    n = rec.channels.get("n")
+    lim = profile.input_limits.get("n")
+    if "n" not in profile.inputs or lim is None or not np.isfinite(lim).all():
+        return expect, top, what
+    from primitives.helm import steady_speed
+
+    try:
+        top = max(cruise, steady_speed(profile, float(lim[1])))
+        if n is not None:
+            n_run = float(np.nanpercentile(n, 90))
+            if 0 < n_run <= INPUT_LIMIT_TOL * max(abs(lim[0]), abs(lim[1])):
+                u_n = steady_speed(profile, n_run)
+                if u_n > 0:
+                    expect, what = u_n, f"the {u_n:.3g} m/s ship {profile.name!r} sails at this run's {n_run:.3g} rev/s"
+    except (ValueError, FloatingPointError, ArithmeticError):  # a profile whose surge balance has no root
+        pass
+    return expect, top, what
+
+
+def check_speed(rec, profile) -> None:
+    """Refuse a recording whose speeds are far from the ship's (another ship, or a model-scale run
+    without its '# scale: model' header): its top speed (90th percentile) against the profile's
+    speed range (:func:`_profile_speeds`), within SPEED_FACTOR."""
+    top = float(np.nanpercentile(np.hypot(rec.y[:, 0], rec.y[:, 1]), 90))
+    expect, fastest, what = _profile_speeds(rec, profile)
+    if top * SPEED_FACTOR < expect:
+        lam = (expect / max(top, 1e-9)) ** 2
+        raise _error()(
+            f"{rec.source}: speeds ({top:.3g} m/s at the top) are {top / expect:.2g} x {what}: a model-scale recording "
+            f"without a '# scale: model' header (Froude scale ~{lam:.0f})? or another ship: add '# scale: model' and "
+            "'# scale_factor: LAMBDA' to the header, or choose the matching --ship"
+        )
+    if top > SPEED_FACTOR * fastest:
+        raise _error()(
+            f"{rec.source}: speeds ({top:.3g} m/s at the top) are {top / fastest:.2g} x the {fastest:.3g} m/s ship "
+            f"{profile.name!r} can sail: another ship, or u, v in other units? give m/s or choose the matching --ship"
+        )
+
+
+# |t| of the data's rudder coefficient above which its sign is a verdict (3 standard errors). On
+# the MARIN runs and every MMG battery run (calm, diagnose, validate; full and model scale) the
+# t value has the profile's sign and |t| >= 4.2; flipped, the opposite sign with |t| >= 4.2.
+RUDDER_T = 3.0
+
+
+def rudder_response_t(rec) -> float:
+    """t value of the rudder's coefficient in a one-step least-squares fit of the yaw-rate increment
+    r(k+1) - r(k) on r(k), v(k), delta(k) U(k)^2 and a constant (the form of a linear yaw equation,
+    seed 001 (3.60)): its sign is the sign of the ship's rudder yaw derivative, whatever the model."""
+    y, d = rec.y, rec.channels["delta"]
+    dr = np.diff(y[:, 2])
+    X = np.column_stack([y[:-1, 2], y[:-1, 1], d[:-1] * (y[:-1, 0] ** 2 + y[:-1, 1] ** 2), np.ones(len(dr))])
+    with np.errstate(all="ignore"):
+        coef = np.linalg.lstsq(X, dr, rcond=None)[0]
+        e = dr - X @ coef
+        var = float(e @ e) / max(len(dr) - X.shape[1], 1) * np.linalg.pinv(X.T @ X)[2, 2]
+    return float(coef[2] / math.sqrt(var)) if var > 0 and math.isfinite(var) else 0.0
+
+
+def _profile_rudder_sign(profile, rec) -> float:
+    """Sign of d r(k+1) / d delta(k) of the profile's model on a straight course at the run's speed."""
+    from primitives.simulate import model_signals
+
+    u = float(np.median(np.hypot(rec.y[:, 0], rec.y[:, 1])))
+    inputs = {k: np.array(float(np.median(rec.channels[k]))) for k in profile.inputs if k in rec.channels}
+    out = []
+    for dd in (-0.01, 0.01):
+        sig = model_signals(profile, np.array([u, 0.0, 0.0]), np.array(0.0), inputs | {"delta": np.array(dd)})
+        out.append(float(profile.model.increments(sig, profile.params())[2]))
+    return float(np.sign(out[1] - out[0]))
+
+
+def check_rudder_sign(rec, profile) -> None:
+    """Refuse a rudder angle of the opposite sign to the profile's: the yaw rate's response to it
+    (:func:`rudder_response_t`) has the opposite sign of the profile's rudder yaw derivative."""
+    if "delta" not in profile.inputs or "delta" not in rec.channels or rec.n_samples < 20:
+        return
+    sign = _profile_rudder_sign(profile, rec)
+    tval = rudder_response_t(rec)
+    if sign != 0 and tval * sign < -RUDDER_T:
+        side = "port" if sign < 0 else "starboard"
+        raise _error()(
+            f"{rec.source}: column 'delta' turns the ship the other way from ship {profile.name!r}: the yaw rate "
+            f"responds to it with the opposite sign of the profile's rudder yaw derivative (t = {tval:+.1f} in a "
+            f"one-step fit); flip the sign of delta (in this profile a positive delta turns to {side})"
+        )
 
 
 def froude_scale(rec, factor: float | None = None):
@@ -191,7 +394,9 @@ def conform(recs: list, profile, *, resample: bool = False, full_scale: bool = T
         rec.inputs_for(profile.inputs)  # a missing input column says the --ship is wrong: say that first
         if full_scale and rec.scale == "model":
             rec, _ = froude_scale(rec)
+        check_speed(rec, profile)  # before the sample time: a model-scale run says why its time step differs
         rec = check_sample_time(rec, profile, resample)
         check_inputs(rec, profile)
+        check_rudder_sign(rec, profile)
         out.append(rec)
     return out
