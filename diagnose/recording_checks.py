@@ -107,24 +107,55 @@ def _unit_hint(ratio: float, units: tuple[tuple[float, str], ...]) -> str:
     return ""
 
 
+def _track_noise_var(t: np.ndarray, pos: np.ndarray, k: int) -> float:
+    """Variance per component of the track's velocity noise over a 2k-sample central difference,
+    from the position noise: the second difference of white noise of variance s^2 has variance
+    6 s^2 (robust: the median of its square, 0.455 x the variance); a smooth track's own
+    acceleration adds (a ts^2)^2, negligible at sample rates that resolve a manoeuvre."""
+    if len(pos) < 5:
+        return 0.0
+    d2 = pos[2:] - 2.0 * pos[1:-1] + pos[:-2]
+    d2 = d2[np.all(np.isfinite(d2), axis=1)]
+    if len(d2) == 0:
+        return 0.0
+    s2 = float(np.median(d2**2)) / (0.455 * 6.0)
+    span = float(t[2 * k] - t[0]) if len(t) > 2 * k else float(t[-1] - t[0])
+    return 2.0 * s2 / max(span, 1e-12) ** 2
+
+
+# The track's speed is judged only when its mean square exceeds this multiple of the noise it
+# carries (GPS noise differentiated): below it the run holds station (DP) and there is no verdict.
+NOISE_MARGIN = 3.0
+FRAME_WINDOWS_S = (2.0, 8.0, 30.0)  # track differencing windows tried in turn, shortest first
+
+
 def check_frame(src: str, t: np.ndarray, pos: np.ndarray, psi: np.ndarray, u: np.ndarray, v: np.ndarray) -> None:
     """u, v must be body-frame velocities over ground in m/s: compare them with the differentiated track.
 
     Earth frame (u = dx/dt, v = dy/dt) is told from body frame by which rotation fits the track
     better; it can only be told when the heading is away from north, so a run heading north
-    passes. Wrong units show as a constant ratio between |(u, v)| and the track's speed, a wrong
-    sign as u or v matching the track's body-frame component better negated (BRIEF section 2
-    kinematics).
+    passes. Wrong units show as a constant ratio between |(u, v)| and the track's speed (rms,
+    the track's mean square less its noise variance, so a noisy track does not read faster), a
+    wrong sign as u or v matching the track's body-frame component better negated (BRIEF
+    section 2 kinematics). A run whose motion is within the track's noise (station keeping) passes.
     """
     if len(t) < 10:
         return
-    xd, yd, ub, vb, sl = _track_velocity(t, pos, psi)
-    um, vm = u[sl], v[sl]
-    sog, spd = np.hypot(xd, yd), np.hypot(um, vm)
-    moving = (sog > max(0.05, 0.1 * np.nanmax(sog, initial=0.0))) | (spd > max(0.05, 0.1 * np.nanmax(spd, initial=0.0)))
-    if moving.sum() < 10:
-        return
-    ratio = np.nanmedian(spd[moving]) / max(float(np.nanmedian(sog[moving])), 1e-12)
+    for smooth_s in FRAME_WINDOWS_S:  # the shortest window whose track speed stands above its noise
+        xd, yd, ub, vb, sl = _track_velocity(t, pos, psi, smooth_s)
+        um, vm = u[sl], v[sl]
+        noise = 2.0 * _track_noise_var(t, pos, sl.start)  # both components: the bias of |track velocity|^2
+        sog, spd = np.hypot(xd, yd), np.hypot(um, vm)
+        sog_floor = max(0.05, 0.1 * np.nanmax(sog, initial=0.0), 3.0 * math.sqrt(noise))
+        moving = (sog > sog_floor) | (spd > max(0.05, 0.1 * np.nanmax(spd, initial=0.0)))
+        if moving.sum() < 10:
+            return
+        speed2 = float(np.nanmean(sog[moving] ** 2)) - noise
+        if speed2 >= NOISE_MARGIN * noise:
+            break
+    else:
+        return  # the motion is within the track's noise at every window (station keeping): no verdict
+    ratio = math.sqrt(float(np.nanmean(spd[moving] ** 2)) / speed2)
     if not (1 / RATIO_TOL < ratio < RATIO_TOL):
         raise _error()(
             f"{src}: columns 'u', 'v' are {ratio:.3g} x the speed of the track x, y{_unit_hint(ratio, SPEED_UNITS)}; "
@@ -132,22 +163,13 @@ def check_frame(src: str, t: np.ndarray, pos: np.ndarray, psi: np.ndarray, u: np
         )
     err_body = np.nanmean(((um - ub) ** 2 + (vm - vb) ** 2)[moving])
     err_earth = np.nanmean(((um - xd) ** 2 + (vm - yd) ** 2)[moving])
-    if err_earth < 0.25 * err_body and err_body > 0.05 * np.nanmean(sog[moving] ** 2):
+    if err_earth < 0.25 * err_body and err_body - noise > 0.05 * speed2:
         raise _error()(
             f"{src}: columns 'u', 'v' look like earth-frame velocities (north, east = dx/dt, dy/dt): "
             "give body-frame surge and sway (u = xd cos psi + yd sin psi, v = -xd sin psi + yd cos psi)"
         )
-    for name, meas, track, what in (("u", um, ub, "surge xd cos psi + yd sin psi: positive ahead"),
-                                     ("v", vm, vb, "sway -xd sin psi + yd cos psi: positive to starboard")):
-        same = np.nanmean(((meas - track) ** 2)[moving])
-        flipped = np.nanmean(((meas + track) ** 2)[moving])
-        if flipped < 0.25 * same:  # the negated column fits the track 4 x better than the column
-            raise _error()(
-                f"{src}: column {name!r} has the opposite sign of the track's body-frame {what} "
-                f"(rms mismatch {math.sqrt(same):.3g} m/s, negated {math.sqrt(flipped):.3g}); flip its sign"
-            )
-    speed2 = float(np.nanmean(sog[moving] ** 2))
-    if err_body > TRACK_MISMATCH * speed2:
+    _check_signs(src, um, vm, ub, vb, moving)
+    if err_body - noise > TRACK_MISMATCH * speed2:
         sxd, syd, sub, svb, _ = _track_velocity(t, pos[:, ::-1], psi)
         swapped = np.nanmean(((um - sub) ** 2 + (vm - svb) ** 2)[moving]) < 0.25 * err_body
         raise _error()(
@@ -157,18 +179,36 @@ def check_frame(src: str, t: np.ndarray, pos: np.ndarray, psi: np.ndarray, u: np
         )
 
 
+def _check_signs(src: str, um: np.ndarray, vm: np.ndarray, ub: np.ndarray, vb: np.ndarray, moving: np.ndarray) -> None:
+    """u or v of the opposite sign to the track's body-frame component: the negated column fits
+    the track 4 x better than the column."""
+    for name, meas, track, what in (("u", um, ub, "surge xd cos psi + yd sin psi: positive ahead"),
+                                     ("v", vm, vb, "sway -xd sin psi + yd cos psi: positive to starboard")):
+        same = np.nanmean(((meas - track) ** 2)[moving])
+        flipped = np.nanmean(((meas + track) ** 2)[moving])
+        if flipped < 0.25 * same:
+            raise _error()(
+                f"{src}: column {name!r} has the opposite sign of the track's body-frame {what} "
+                f"(rms mismatch {math.sqrt(same):.3g} m/s, negated {math.sqrt(flipped):.3g}); flip its sign"
+            )
+
+
 def check_rate(src: str, t: np.ndarray, rate: np.ndarray, angle: np.ndarray, rate_name: str, angle_name: str,
                rate_what: str, angle_what: str) -> None:
-    """A rate column (r, p) against its angle's derivative (dpsi/dt, dphi/dt): the same sign and,
-    within RATIO_TOL, the same size; a ratio of 57.3 says one of them is in degrees. Judged only
-    when the run turns (rolls) clearly above the noise (uncentred correlation >= MIN_RATE_CORR)."""
+    """A rate column (r, p) against its angle (psi, phi): the angle's change over a ~2 s window
+    against the rate integrated over the same window (trapezoid), the same sign and, within
+    RATIO_TOL, the same size; a ratio of 57.3 says one of them is in degrees. Integrating rather
+    than differentiating keeps fast motion (a model's roll period of 1.5 s) at a gain of ~1 at
+    any window. Judged only when the run turns (rolls) clearly above the noise (uncentred
+    correlation >= MIN_RATE_CORR)."""
     ok = np.isfinite(rate) & np.isfinite(angle)
     if ok.sum() < 10:
         return
     tt, a, m = t[ok], angle[ok], rate[ok]
     k = _half_window(tt, 2.0)
-    ref = (a[2 * k:] - a[:-2 * k]) / (tt[2 * k:] - tt[:-2 * k])
-    m = m[k:-k]
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (m[1:] + m[:-1]) * np.diff(tt))])
+    ref = a[2 * k:] - a[:-2 * k]
+    m = cum[2 * k:] - cum[:-2 * k]
     norm = math.sqrt(float(np.mean(m**2)) * float(np.mean(ref**2)))
     if norm == 0:
         return
@@ -195,6 +235,9 @@ INPUT_UNITS = {"delta": (180 / math.pi, "deg", "rad"), "alpha": (180 / math.pi, 
 # An actuator cannot go far beyond its limit: a peak beyond this multiple of it is another unit
 # (or another ship); a little above it is a profile limit set conservatively, or noise.
 INPUT_LIMIT_TOL = 1.25
+# A unit is hinted only when the column read in it peaks within this band of the limit (a run uses
+# a good part of its actuator's range): 2.6 rev/s is not 2.6 rpm, 0.8 rad is not 0.8 deg.
+UNIT_BAND = (0.2, INPUT_LIMIT_TOL)
 
 
 def _input_unit(name: str) -> tuple[float, str, str] | None:
@@ -219,14 +262,15 @@ def check_inputs(rec, profile) -> None:
         if unit is not None:
             f, u_name, si = unit
             lim = f"{span:g} {si}" + (f" ({span * f:.3g} {u_name})" if u_name == "deg" else "")
-            if peak / f <= INPUT_LIMIT_TOL * span:  # in that unit it is within the actuator's range
+            if UNIT_BAND[0] * span <= peak / f <= UNIT_BAND[1] * span:  # in that unit a plausible order
                 raise _error()(
                     f"{rec.source}: column {name!r} reaches {peak:.3g}, {peak / span:.3g} x the {lim} limit of ship "
                     f"{profile.name!r}: {u_name}? give {si} ({name} in {u_name} / {f:.4g})"
                 )
         raise _error()(
-            f"{rec.source}: column {name!r} reaches {peak:.3g}, {peak / span:.3g} x the {lim} limit of ship {profile.name!r}: "
-            "check its units (SI: N, N m, rad, rev/s) and the recording's scale, or choose the matching --ship"
+            f"{rec.source}: column {name!r} reaches {peak:.3g}, which exceeds the {lim} limit of ship {profile.name!r} "
+            f"({peak / span:.3g} x): check its units (SI: N, N m, rad, rev/s) and the recording's scale, the profile's "
+            "[input_limits], or choose the matching --ship"
         )
 
 
@@ -234,14 +278,23 @@ def check_inputs(rec, profile) -> None:
 # another ship or a model-scale run taken for full scale (a factor sqrt(10): a basin model at 1:10
 # or smaller sails sqrt(lambda) >= 3.2 x slower than its ship).
 SPEED_FACTOR = math.sqrt(10.0)
+# A run sampled this many times faster than its profile is on a model's time scale (lambda >= 9).
+MODEL_TS_FACTOR = 3.0
 
 
-def _profile_speeds(rec, profile) -> tuple[float, float, str]:
+def _profile_speeds(rec, profile) -> tuple[float | None, float, str]:
     """(expected speed, top speed, what the expectation is) from the profile's speed range: the
-    straight-course speed its model holds at the run's own shaft speed (rudder/propeller ships
-    with ``n`` within its limits), else its service speed; top: at the engine's highest rps."""
+    straight-course speed its model holds at the run's own shaft speed going ahead (rudder/propeller
+    ships with ``n`` > 0 within its limits), else the profile's service speed when the run is
+    sampled far faster than the profile (a model's time scale), else None: a slow run (a manoeuvre
+    at low speed, station keeping, astern, engine stopped) is no evidence of another scale. Top:
+    at the engine's highest rps."""
     cruise = float(profile.cruise_speed_mps)
-    expect, what, top = cruise, f"the profile's {cruise:g} m/s service speed", cruise
+    expect, what, top = None, "", cruise
+    if rec.sample_time < profile.sample_time / MODEL_TS_FACTOR:
+        expect = cruise
+        what = (f"the profile's {cruise:g} m/s service speed, sampled every {rec.sample_time:.3g} s "
+                f"(the profile: {profile.sample_time:g} s)")
     n = rec.channels.get("n")
     lim = profile.input_limits.get("n")
     if "n" not in profile.inputs or lim is None or not np.isfinite(lim).all():
@@ -264,10 +317,11 @@ def _profile_speeds(rec, profile) -> tuple[float, float, str]:
 def check_speed(rec, profile) -> None:
     """Refuse a recording whose speeds are far from the ship's (another ship, or a model-scale run
     without its '# scale: model' header): its top speed (90th percentile) against the profile's
-    speed range (:func:`_profile_speeds`), within SPEED_FACTOR."""
+    speed range (:func:`_profile_speeds`), within SPEED_FACTOR. Too slow is judged only against
+    evidence the run should be faster (its own shaft speed ahead, or a model's sample time)."""
     top = float(np.nanpercentile(np.hypot(rec.y[:, 0], rec.y[:, 1]), 90))
     expect, fastest, what = _profile_speeds(rec, profile)
-    if top * SPEED_FACTOR < expect:
+    if expect is not None and top * SPEED_FACTOR < expect:
         lam = (expect / max(top, 1e-9)) ** 2
         raise _error()(
             f"{rec.source}: speeds ({top:.3g} m/s at the top) are {top / expect:.2g} x {what}: a model-scale recording "
@@ -287,13 +341,38 @@ def check_speed(rec, profile) -> None:
 RUDDER_T = 3.0
 
 
+# The rudder's sign is judged only when it moves: peak-to-peak (over the samples going ahead) at
+# least this fraction of the profile's rudder limit (3.5 deg of 35) and never under 2 deg.
+MIN_RUDDER_PTP = 0.1
+# Samples going ahead: u above this fraction of the run's top speed (astern the flow reverses the
+# rudder's effect; near zero speed it has none).
+AHEAD_FRACTION = 0.2
+
+
+def _ahead(rec) -> np.ndarray:
+    """Steps k (0..N-1) that start going ahead (u(k) > AHEAD_FRACTION x the run's top |u|)."""
+    u = rec.y[:-1, 0]
+    top = float(np.nanmax(np.abs(rec.y[:, 0]), initial=0.0))
+    return np.isfinite(u) & (u > AHEAD_FRACTION * top) & (top > 0)
+
+
 def rudder_response_t(rec) -> float:
-    """t value of the rudder's coefficient in a one-step least-squares fit of the yaw-rate increment
-    r(k+1) - r(k) on r(k), v(k), delta(k) U(k)^2 and a constant (the form of a linear yaw equation,
-    seed 001 (3.60)): its sign is the sign of the ship's rudder yaw derivative, whatever the model."""
+    """t value of the rudder's coefficient in a one-step least-squares fit, over the steps going
+    ahead (:func:`_ahead`), of the yaw-rate increment r(k+1) - r(k) on r(k), v(k), delta(k) U(k)^2,
+    U(k)^2 and a constant (the form of a linear yaw equation, seed 001 (3.60)): its sign is the sign
+    of the ship's rudder yaw derivative, whatever the model. The U^2 column takes what a change of
+    speed does, so a rudder held constant carries no information (a large standard error)."""
     y, d = rec.y, rec.channels["delta"]
-    dr = np.diff(y[:, 2])
-    X = np.column_stack([y[:-1, 2], y[:-1, 1], d[:-1] * (y[:-1, 0] ** 2 + y[:-1, 1] ** 2), np.ones(len(dr))])
+    ahead = _ahead(rec)
+    dr = np.diff(y[:, 2])[ahead]
+    u2 = (y[:-1, 0] ** 2 + y[:-1, 1] ** 2)[ahead]
+    X = np.column_stack([y[:-1, 2][ahead], y[:-1, 1][ahead], d[:-1][ahead] * u2, u2, np.ones(len(dr))])
+    if len(dr) <= X.shape[1] + 5:
+        return 0.0
+    others = np.delete(X, 2, axis=1)
+    own = X[:, 2] - others @ np.linalg.lstsq(others, X[:, 2], rcond=None)[0]
+    if not np.linalg.norm(own) > 1e-6 * np.linalg.norm(X[:, 2]):
+        return 0.0  # delta U^2 is a combination of the other columns (a constant rudder): no information
     with np.errstate(all="ignore"):
         coef = np.linalg.lstsq(X, dr, rcond=None)[0]
         e = dr - X @ coef
@@ -302,11 +381,13 @@ def rudder_response_t(rec) -> float:
 
 
 def _profile_rudder_sign(profile, rec) -> float:
-    """Sign of d r(k+1) / d delta(k) of the profile's model on a straight course at the run's speed."""
+    """Sign of d r(k+1) / d delta(k) of the profile's model on a straight course ahead at the
+    run's median speed going ahead."""
     from primitives.simulate import model_signals
 
-    u = float(np.median(np.hypot(rec.y[:, 0], rec.y[:, 1])))
-    inputs = {k: np.array(float(np.median(rec.channels[k]))) for k in profile.inputs if k in rec.channels}
+    ahead = _ahead(rec)
+    u = float(np.median(np.hypot(rec.y[:-1, 0], rec.y[:-1, 1])[ahead]))
+    inputs = {k: np.array(float(np.median(rec.channels[k][:-1][ahead]))) for k in profile.inputs if k in rec.channels}
     out = []
     for dd in (-0.01, 0.01):
         sig = model_signals(profile, np.array([u, 0.0, 0.0]), np.array(0.0), inputs | {"delta": np.array(dd)})
@@ -316,9 +397,17 @@ def _profile_rudder_sign(profile, rec) -> float:
 
 def check_rudder_sign(rec, profile) -> None:
     """Refuse a rudder angle of the opposite sign to the profile's: the yaw rate's response to it
-    (:func:`rudder_response_t`) has the opposite sign of the profile's rudder yaw derivative."""
+    (:func:`rudder_response_t`) has the opposite sign of the profile's rudder yaw derivative. Judged
+    on the steps going ahead, when the rudder moves there (MIN_RUDDER_PTP of its limit)."""
     if "delta" not in profile.inputs or "delta" not in rec.channels or rec.n_samples < 20:
         return
+    ahead = _ahead(rec)
+    if ahead.sum() < 20:
+        return
+    lo, hi = profile.input_limits.get("delta", (-math.radians(35.0), math.radians(35.0)))
+    span = max(abs(lo), abs(hi)) if np.isfinite([lo, hi]).all() else math.radians(35.0)
+    if np.ptp(rec.channels["delta"][:-1][ahead]) < max(MIN_RUDDER_PTP * span, math.radians(2.0)):
+        return  # the rudder does not move: no response to judge
     sign = _profile_rudder_sign(profile, rec)
     tval = rudder_response_t(rec)
     if sign != 0 and tval * sign < -RUDDER_T:
@@ -326,7 +415,7 @@ def check_rudder_sign(rec, profile) -> None:
         raise _error()(
             f"{rec.source}: column 'delta' turns the ship the other way from ship {profile.name!r}: the yaw rate "
             f"responds to it with the opposite sign of the profile's rudder yaw derivative (t = {tval:+.1f} in a "
-            f"one-step fit); flip the sign of delta (in this profile a positive delta turns to {side})"
+            f"one-step fit going ahead); flip the sign of delta (in this profile a positive delta turns to {side})"
         )
 
 
