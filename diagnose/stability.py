@@ -5,7 +5,8 @@ fault is the profile's (or --params') parameters, not the recording, and a refit
 help: it starts from the same parameters and simulates them first. :func:`check_baseline` finds
 the divergence before the diagnosis does and says which motion grows (surge, sway, yaw, from the
 eigenvector of the linearised per-sample model (3.60) at the run's speed) and which parameter
-drives it (its share of the growing mode's own damping, d nu_i(k+1) / d nu_i(k) - 1).
+drives it (its share of the growing eigenvalue, by eigenvalue sensitivity: a damping of the wrong
+sign, or a coupling that makes the straight course unstable though every damping is stable).
 """
 
 from __future__ import annotations
@@ -38,9 +39,48 @@ def linearised(profile: ShipProfile, theta: np.ndarray, speed: float, inputs: di
     return A
 
 
-def unstable_mode(profile: ShipProfile, theta: np.ndarray, rec: Recording) -> tuple[str, float, str, float] | None:
-    """(DOF, growth per sample, parameter, its value) of the fastest growing mode at the run's
-    median speed and inputs, or None when the straight-course motion is stable."""
+def _contributions(profile: ShipProfile, theta: np.ndarray, speed: float, inputs: dict[str, float], A: np.ndarray,
+                   w: np.ndarray, v: np.ndarray, lam: complex) -> np.ndarray:
+    """Each parameter's share of the growth |lambda| of the mode (right eigenvector v, left w), by
+    eigenvalue sensitivity: the model is linear in theta, so theta_j's part of A is A less A with
+    theta_j = 0, dA_j, and its part of lambda is w^H dA_j v / w^H v; of |lambda|, the component of
+    that along lambda (first order)."""
+    wv = complex(np.conj(w) @ v)
+    along = np.conj(lam) / abs(lam)
+    total = np.zeros(len(theta))
+    for j in range(len(theta)):
+        th = np.array(theta, float)
+        th[j] = 0.0
+        with np.errstate(all="ignore"):
+            dA = A - linearised(profile, th, speed, inputs)
+        if not np.all(np.isfinite(dA)):
+            continue
+        total[j] = float(np.real(along * (np.conj(w) @ dA @ v) / wv))
+    return total
+
+
+def _own_damping(profile: ShipProfile, theta: np.ndarray, speed: float, inputs: dict[str, float], A: np.ndarray,
+                 dof: int) -> tuple[str, float]:
+    """(name, value) of the parameter of DOF ``dof``'s own equation with the largest part of its
+    damping A[dof, dof] - 1 (the model is linear in theta)."""
+    lo = profile.model.offsets[dof]
+    own = range(lo, lo + len(profile.model_terms[dof]))
+    share = []
+    for j in own:
+        th = np.array(theta, float)
+        th[j] = 0.0
+        with np.errstate(all="ignore"):
+            share.append(A[dof, dof] - linearised(profile, th, speed, inputs)[dof, dof])
+    j = list(own)[int(np.nanargmax(share))]
+    return profile.param_names[j], float(theta[j])
+
+
+def unstable_mode(profile: ShipProfile, theta: np.ndarray, rec: Recording) -> tuple[str, float, str, float, str] | None:
+    """(DOFs, growth per sample, parameter, its value, how) of the fastest growing mode at the run's
+    median speed and inputs, or None when the straight-course motion is stable. how: 'damping' when
+    a DOF's own damping is unstable (|A[d, d]| > 1): that DOF and its parameter with the largest part
+    of it; else 'coupling' (every damping stable, e.g. a course instability): the parameter with the
+    largest share of the growth (:func:`_contributions`) and the pair of motions it couples."""
     speed = float(np.median(np.hypot(rec.y[:, 0], rec.y[:, 1])))
     inputs = {k: float(np.median(rec.channels[k])) for k in profile.inputs if k in rec.channels}
     with np.errstate(all="ignore"):
@@ -52,19 +92,19 @@ def unstable_mode(profile: ShipProfile, theta: np.ndarray, rec: Recording) -> tu
     growth = float(abs(lam[i]))
     if growth <= 1.0:
         return None
-    scale = np.array([speed, speed, speed / profile.length_m])  # a common size for m/s and rad/s
-    dof = int(np.argmax(np.abs(vec[:, i]) / scale))
-    names = profile.param_names
-    lo = profile.model.offsets[dof]
-    own = range(lo, lo + len(profile.model_terms[dof]))
-    share = []
-    for j in own:  # each parameter's part of this DOF's own damping (the model is linear in theta)
-        th = np.array(theta, float)
-        th[j] = 0.0
-        with np.errstate(all="ignore"):
-            share.append(A[dof, dof] - linearised(profile, th, speed, inputs)[dof, dof])
-    j = list(own)[int(np.nanargmax(share))]
-    return DOFS[dof], growth, names[j], float(theta[j])
+    lam_l, wvec = np.linalg.eig(A.T)
+    w = wvec[:, int(np.argmin(np.abs(lam_l - lam[i])))]
+    own = np.flatnonzero(np.abs(np.diag(A)) > 1.0)
+    if len(own):  # a damping of the wrong sign: wrong in itself, whatever the coupling adds
+        dof = int(own[np.argmax(np.abs(np.diag(A))[own])])
+        return DOFS[dof], growth, *_own_damping(profile, theta, speed, inputs, A, dof), "damping"
+    # every damping is stable: a coupling makes the mode grow; the parameter with the largest
+    # share of the growth, and the motions it couples (the mode's sensitivity to A's off-diagonal)
+    total = _contributions(profile, theta, speed, inputs, A, w, vec[:, i], lam[i])
+    j = int(np.nanargmax(total))
+    sens = np.abs(np.outer(np.conj(w), vec[:, i]) * (A - np.diag(np.diag(A))))
+    a, b = sorted(np.unravel_index(int(np.argmax(sens)), sens.shape))
+    return f"{DOFS[a]}-{DOFS[b]}", growth, profile.param_names[j], float(theta[j]), "coupling"
 
 
 def check_baseline(profile: ShipProfile, theta: np.ndarray, recs: list[Recording], where: str) -> None:
@@ -80,10 +120,16 @@ def check_baseline(profile: ShipProfile, theta: np.ndarray, recs: list[Recording
                 f"{where}: the baseline model cannot be simulated on {rec.source} (it diverges) although its straight-course "
                 "motion is stable (the run's inputs drive it out of range); check the profile's parameters and input "
                 "limits against this run")
-        dof, growth, name, value = mode
+        dofs, growth, name, value, how = mode
         t2 = math.log(2.0) / math.log(growth) * profile.sample_time
+        if how == "damping":
+            what, why = f"{dofs} motion is unstable", "(its damping must be negative)"
+        else:
+            what = f"{dofs} motion is unstable through their coupling" + (" (course instability)" if dofs == "sway-yaw" else "")
+            why = (f"through the {dofs} coupling, not a damping sign (the coupling terms outweigh the product of the "
+                   "dampings" + (", Yuv Nur - Yur Nuv of the wrong sign" if dofs == "sway-yaw" else "") + ")")
         raise RecordingError(
-            f"{where}: the baseline's {dof} motion is unstable at the run's speed (a disturbance grows x{growth:.4g} per "
+            f"{where}: the baseline's {what} at the run's speed (a disturbance grows x{growth:.4g} per "
             f"{profile.sample_time:g} s sample, doubling every {t2:.3g} s), so it cannot be simulated on {rec.source}; "
-            f"parameter {name} = {value:+.4g} drives it (its damping must be negative): correct it in the profile or "
+            f"parameter {name} = {value:+.4g} drives it {why}: correct it in the profile or "
             "--params (--fit-on starts from these values and cannot)")
