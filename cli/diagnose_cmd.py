@@ -90,7 +90,7 @@ def register(app: typer.Typer) -> None:
         def load(paths: list[str]):
             recs = []
             for p in paths:
-                recs += load_recording(p)
+                recs += load_recording(p, inputs=profile.inputs)  # unused input columns never split a run
             return conform(recs, profile, resample=resample)  # Froude scale, sample time, input units: said in notes
 
         recs = load(_split(recordings))

@@ -21,13 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
-from diagnose.recording_checks import check_frame, check_grid, check_rate, check_values
+from diagnose import recording_table as tb
+from diagnose.recording_table import INPUTS, MAX_BRIDGE_S  # noqa: F401  (re-exported)
 from primitives.errors import UserError
 from primitives.io import read_input_text
 
 MIN_SAMPLES = 50
-MAX_BRIDGE_S = 5.0  # longest gap bridged by linear interpolation; longer gaps split the run
-INPUTS = ("tau_x", "tau_y", "tau_n", "delta", "n", "n1", "alpha1", "n2", "alpha2")  # never bridged over a long gap
 NUMERIC = ("t", "x", "y", "lat", "lon", "psi", "u", "v", "r", "tau_x", "tau_y", "tau_n", "delta", "n",
            "n1", "alpha1", "n2", "alpha2", "wind_speed", "wind_dir", "phi", "p",
            "v_dot")  # v_dot: measured sway acceleration, m/s^2 (optional; change detection uses it)
@@ -108,100 +107,6 @@ class Recording:
 # -- generic column table -> Recording ------------------------------------------------------------
 
 
-def _derive_velocities(t: np.ndarray, pos: np.ndarray, psi: np.ndarray) -> np.ndarray:
-    """Body velocities over ground from positions and heading (BRIEF section 2 kinematics)."""
-    xd = np.gradient(pos[:, 0], t)
-    yd = np.gradient(pos[:, 1], t)
-    c, s = np.cos(psi), np.sin(psi)
-    return np.stack([c * xd + s * yd, -s * xd + c * yd, np.gradient(psi, t)], axis=-1)
-
-
-def _check_units(src: str, cols: dict[str, np.ndarray], t: np.ndarray) -> None:
-    psi = cols["psi"]
-    dpsi = np.diff(psi)
-    dt = np.diff(t)
-    if "r" in cols:
-        rate = np.abs(dpsi / dt)
-        ok = (np.abs(dpsi) < 3.0) & (np.abs(cols["r"][:-1]) > 1e-3)
-        if ok.sum() > 10:
-            ratio = np.median(rate[ok]) / max(np.median(np.abs(cols["r"][:-1][ok])), 1e-12)
-            if 20.0 < ratio < 150.0:
-                raise RecordingError(
-                    f"{src}: column 'psi' looks like degrees (its rate is {ratio:.0f} x column 'r'); "
-                    "convert heading to radians"
-                )
-    if np.nanmax(np.abs(psi)) > 2 * np.pi + 0.2 and np.any(np.abs(dpsi) > 300.0):
-        raise RecordingError(f"{src}: column 'psi' looks like degrees (wraps at 360); convert heading to radians")
-    if "r" not in cols and np.nanmax(psi) - np.nanmin(psi) > 7.0 and np.nanmedian(np.abs(dpsi / dt)) > 1.0:
-        raise RecordingError(f"{src}: column 'psi' looks like degrees (turns faster than 1 rad/s); convert to radians")
-    if "x" in cols and "y" in cols:
-        x, y = cols["x"], cols["y"]
-        looks_geo = (np.nanmax(np.abs(x)) <= 90 and np.nanmax(np.abs(y)) <= 180 and np.nanmean(np.abs(x)) > 1.0
-                     and np.ptp(x) < 0.2 and np.ptp(y) < 0.2)
-        if looks_geo and ("u" not in cols or np.nanmax(np.abs(cols["u"])) > 0.05):
-            raise RecordingError(
-                f"{src}: columns 'x', 'y' look like latitude/longitude in degrees; "
-                "name them 'lat', 'lon' or give north/east metres"
-            )
-
-
-def _group_repeated(t: np.ndarray, cols: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray], int]:
-    """Average rows that share a time stamp (values printed with few digits repeat the stamp)."""
-    uniq, inv, counts = np.unique(t, return_inverse=True, return_counts=True)
-    if len(uniq) == len(t):
-        return t, cols, 0
-    out = {}
-    for k, v in cols.items():
-        s = np.zeros(len(uniq))
-        c = np.zeros(len(uniq))
-        ok = np.isfinite(v)
-        np.add.at(s, inv[ok], v[ok])
-        np.add.at(c, inv[ok], 1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out[k] = np.where(c > 0, s / np.maximum(c, 1), np.nan)
-    return uniq, out, int(np.sum(counts > 1))
-
-
-def _check_step(src: str, dt_med: float, ts: float, declared: bool) -> None:
-    """Time stamps whose step is several sample times cannot be a run sampled at ``ts``: the time
-    column is in other units (ms) or the declared sample time is wrong."""
-    if declared and dt_med > 3 * ts:
-        ratio = dt_med / ts
-        hint = next((f" (t in {u}?)" for f, u in ((1000.0, "milliseconds"), (1e6, "microseconds"), (1e9, "nanoseconds"))
-                     if abs(math.log(ratio / f)) < 0.15), "")
-        raise RecordingError(f"{src}: column 't' steps by {dt_med:g} (median) but the sample time is {ts:g} s{hint}; "
-                             "give t in seconds and a matching '# sample_time:'")
-
-
-def _bridged_notes(cols: dict[str, np.ndarray], i0: int, i1: int, t: np.ndarray, valid: np.ndarray) -> list[str]:
-    """What linear interpolation bridged in rows i0..i1 of one piece: rows missing a state or an
-    input, and cells missing in other columns (wind, roll), each said."""
-    out = []
-    bad = ~valid[i0: i1 + 1]
-    if bad.any():
-        which = [k for k, v in cols.items() if np.any(bad & ~np.isfinite(v[i0: i1 + 1]))]
-        j = i0 + int(np.argmax(bad))
-        out.append(f"{int(bad.sum())} row(s) missing {', '.join(which)} (first at t = {t[j]:g} s) bridged by linear "
-                   f"interpolation (gaps <= {MAX_BRIDGE_S:g} s)")
-    for k, v in cols.items():
-        seg = v[i0: i1 + 1]
-        miss = ~np.isfinite(seg) & valid[i0: i1 + 1]  # only cells of otherwise valid rows: not counted twice
-        if miss.any() and np.isfinite(seg).sum() >= 2:
-            j = i0 + int(np.argmax(miss))
-            out.append(f"column {k!r}: {int(miss.sum())} missing value(s) (first at t = {t[j]:g} s) bridged by linear interpolation")
-    return out
-
-
-def _check_kinematics(src: str, grid: np.ndarray, pos: np.ndarray, res: dict[str, np.ndarray]) -> None:
-    """u, v against the track, r against dpsi/dt, p against dphi/dt (recording_checks)."""
-    if "u" in res and "v" in res:
-        check_frame(src, grid, pos, res["psi"], res["u"], res["v"])
-    if "r" in res:
-        check_rate(src, grid, res["r"], res["psi"], "r", "psi", "yaw rate", "heading")
-    if "p" in res and "phi" in res:
-        check_rate(src, grid, res["p"], res["phi"], "p", "phi", "roll rate", "roll angle")
-
-
 def build_recording(
     src: str,
     cols: dict[str, np.ndarray],
@@ -210,108 +115,43 @@ def build_recording(
     segments: list[str] | None = None,
     sample_time: float | None = None,
     min_samples: int = MIN_SAMPLES,
+    inputs: tuple[str, ...] | list[str] | None = None,
 ) -> list[Recording]:
     """Validate columns, average repeated stamps, resample uniformly, bridge or split gaps.
 
-    Returns one recording per gap-free piece (most files give one).
+    ``inputs``: the input columns the ship uses (its profile's inputs): only they and the state
+    split the run at a long gap (None: every input column present). Returns one recording per
+    gap-free piece (most files give one).
     """
     meta = dict(meta or {})
-    if "t" not in cols:
-        raise RecordingError(f"{src}: missing required column 't' (time in seconds)")
-    if "psi" not in cols:
-        raise RecordingError(f"{src}: missing required column 'psi' (heading in radians)")
-    has_xy = "x" in cols and "y" in cols
-    if not has_xy and not ("lat" in cols and "lon" in cols):
-        raise RecordingError(f"{src}: missing required columns 'x', 'y' (north, east in m) or 'lat', 'lon'")
-    t = cols["t"]
-    if np.any(~np.isfinite(t)):
-        raise RecordingError(f"{src}: column 't' has empty or non-numeric values; every row needs a time")
-    if np.any(np.diff(t) < 0):
-        i = int(np.argmax(np.diff(t) < 0))
-        raise RecordingError(f"{src}: column 't' decreases at row {i + 2} ({t[i]} -> {t[i + 1]}); sort the rows by time")
-    cols = dict(cols)
-    if not has_xy:
-        lat0, lon0 = np.nanmean(cols["lat"][:5]), np.nanmean(cols["lon"][:5])
-        r_e = 6371008.8
-        cols["x"] = np.radians(cols.pop("lat") - lat0) * r_e
-        cols["y"] = np.radians(cols.pop("lon") - lon0) * r_e * math.cos(math.radians(lat0))
-    notes: list[str] = []
-    t, cols, n_rep = _group_repeated(t, {k: v for k, v in cols.items() if k != "t"})
-    if n_rep:
-        notes.append(f"{n_rep} repeated time stamps: rows sharing a stamp were averaged")
-    if len(t) < 3:
-        raise RecordingError(f"{src}: only {len(t)} distinct time stamps; a recording needs at least {min_samples}")
-    check_values(src, cols)
-    _check_units(src, cols, t)
-    dt_med = float(np.median(np.diff(t)))
-    ts = float(sample_time or dt_med)
-    if not (math.isfinite(ts) and ts > 0):
-        raise RecordingError(f"{src}: sample time {ts} is not a positive number of seconds; fix '# sample_time:'")
-    _check_step(src, dt_med, ts, sample_time is not None)
-    check_grid(src, t, ts)
-    # psi is unwrapped before interpolation
-    psi = cols["psi"].copy()
-    fin = np.isfinite(psi)
-    psi[fin] = np.unwrap(psi[fin])
-    cols["psi"] = psi
-    # rows need the state and the inputs: a long gap in either splits the run, a short one is bridged
-    req = ["x", "y", "psi"] + [k for k in ("u", "v", "r", *INPUTS) if k in cols and np.isfinite(cols[k]).sum() >= 2]
-    valid = np.all([np.isfinite(cols[k]) for k in req], axis=0)
-    idx = np.flatnonzero(valid)
-    if len(idx) == 0:
-        raise RecordingError(f"{src}: no row has all of {req}; check the columns")
-    # a gap is the time with no valid row: longer than MAX_BRIDGE_S (and than 2 samples) splits
-    longest = max(MAX_BRIDGE_S, 2 * ts)
-    gaps = np.flatnonzero(np.diff(t[idx]) - ts > longest + 1e-9 * ts)
-    bounds = np.split(idx, gaps + 1)
-    if len(bounds) > 1:
-        where = ", ".join(f"t = {t[idx[g]]:g}-{t[idx[g + 1]]:g} s" for g in gaps[:3]) + (", ..." if len(gaps) > 3 else "")
-        notes.append(f"{len(gaps)} gap(s) of missing rows longer than {longest:g} s ({where}) split the run into "
-                     f"{len(bounds)} pieces: never interpolated over")
-    if abs(dt_med - ts) > 0.01 * ts or np.ptp(np.diff(t)) > 0.01 * ts:
-        notes.append(f"time stamps irregular (median step {dt_med:.3g} s): resampled on a uniform {ts:g} s grid")
+    t, cols = tb.check_table(src, cols)
+    t, cols, ts, notes, irregular = tb.uniform_axis(src, t, cols, sample_time, min_samples)
+    valid, _ = tb.complete_rows(src, cols, inputs)
+    bounds, split_note = tb.split_gaps(t, valid, ts)
+    notes += [n for n in (split_note, irregular) if n]
     out = []
-    dropped = 0
     for piece_no, rows in enumerate(bounds):
-        tp = t[rows]
-        grid = np.arange(tp[0], tp[-1] + 1e-9 * ts, ts)
+        grid, res = tb.resample_piece(cols, t, rows, ts)
         if len(grid) < min_samples:
-            dropped += 1
             continue
-        res = {}
-        for k, v in cols.items():
-            ok = np.isfinite(v[rows])
-            if ok.sum() < 2:
-                continue
-            res[k] = np.interp(grid, tp[ok], v[rows][ok])
-        seg = None
-        if segments is not None:
-            seg_arr = np.asarray(segments, dtype=object)
-            nearest = np.searchsorted(t, grid).clip(0, len(t) - 1)
-            seg = list(seg_arr[nearest]) if len(seg_arr) == len(t) else None
         pos = np.stack([res["x"], res["y"]], axis=-1)
-        pnotes = list(notes) + _bridged_notes(cols, rows[0], rows[-1], t, valid)
+        pnotes = list(notes) + tb.bridged_notes(cols, rows[0], rows[-1], t, valid)
         if len(bounds) > 1:
-            pnotes.append(f"piece {piece_no + 1} of {len(bounds)}: t = {tp[0]:g}-{tp[-1]:g} s")
-        _check_kinematics(src, grid, pos, res)
-        if all(k in res for k in ("u", "v", "r")):
-            y = np.stack([res["u"], res["v"], res["r"]], axis=-1)
-        else:
-            y = _derive_velocities(grid, pos, res["psi"])
-            for i, k in enumerate(("u", "v", "r")):
-                if k in res:
-                    y[:, i] = res[k]
-            pnotes.append("u, v, r derived from x, y, psi where missing (central differences)")
+            pnotes.append(f"piece {piece_no + 1} of {len(bounds)}: t = {t[rows[0]]:g}-{t[rows[-1]]:g} s")
+        tb.check_kinematics(src, grid, pos, res)
+        y, derived = tb.piece_velocities(grid, pos, res)
+        pnotes += [derived] if derived else []
         chans = {k: v for k, v in res.items() if k not in ("x", "y", "psi", "u", "v", "r")}
         label = f"piece {piece_no + 1}" if len(bounds) > 1 else ""
-        out.append(Recording(src + (f"[{label}]" if label else ""), grid, y, res["psi"], pos, chans, seg, meta, pnotes))
-    if dropped and out:
-        out[0].notes.append(f"{dropped} piece(s) between gaps shorter than {min_samples} samples were left out")
+        out.append(Recording(src + (f"[{label}]" if label else ""), grid, y, res["psi"], pos, chans,
+                             tb.piece_segments(segments, t, grid), meta, pnotes))
     if not out:
         n_max = max(len(np.arange(t[b][0], t[b][-1] + 1e-9 * ts, ts)) for b in bounds)
         raise RecordingError(
             f"{src}: too short: {n_max} samples at {ts:g} s; a diagnosis needs at least {min_samples} (record longer)"
         )
+    if len(out) < len(bounds):
+        out[0].notes.append(f"{len(bounds) - len(out)} piece(s) between gaps shorter than {min_samples} samples were left out")
     return out
 
 
@@ -332,8 +172,8 @@ def split_metadata(lines: list[str]) -> tuple[dict[str, str], list[str]]:
     return meta, body
 
 
-def read_csv(path: str | Path, *, sample_time: float | None = None) -> list[Recording]:
-    """A recording CSV of BRIEF section 7 (one or more gap-free pieces)."""
+def read_csv(path: str | Path, *, sample_time: float | None = None, inputs: tuple[str, ...] | list[str] | None = None) -> list[Recording]:
+    """A recording CSV of BRIEF section 7 (one or more gap-free pieces; ``inputs``: see :func:`build_recording`)."""
     path = Path(path)
     meta, body = split_metadata(_read_text(path, "utf-8-sig").splitlines())
     if not body:
@@ -367,7 +207,7 @@ def read_csv(path: str | Path, *, sample_time: float | None = None) -> list[Reco
         cols[name] = vals
     _check_meta(path, meta)
     ts = sample_time or (float(meta["sample_time"]) if "sample_time" in meta else None)
-    return build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts)
+    return build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts, inputs=inputs)
 
 
 def _check_header(path: Path, header: list[str], line: str) -> None:
@@ -445,7 +285,7 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
     t_raw = cols["t"]
     if not np.all(np.isfinite(t_raw)) or np.any(np.diff(t_raw) < 0) or len(np.unique(t_raw)) < 3:
         build_recording(str(path), cols, meta=meta, sample_time=sample_time)  # raises the time axis's own error
-    t, g, _ = _group_repeated(t_raw, {k: v for k, v in cols.items() if k != "t"})
+    t, g, _ = tb.group_repeated(t_raw, {k: v for k, v in cols.items() if k != "t"})
     # which frame are u, v in? compare with the differentiated track (early, finely sampled part)
     early = t < 100.0 if np.sum(t < 100.0) > 20 else slice(None)
     with np.errstate(all="ignore"):
@@ -467,13 +307,15 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
     return rec
 
 
-def load_recording(path: str | Path, *, sample_time: float | None = None) -> list[Recording]:
-    """Read a recording file by its suffix (.csv or MARIN .dat); a list of gap-free pieces."""
+def load_recording(path: str | Path, *, sample_time: float | None = None,
+                   inputs: tuple[str, ...] | list[str] | None = None) -> list[Recording]:
+    """Read a recording file by its suffix (.csv or MARIN .dat); a list of gap-free pieces. ``inputs``:
+    the input columns the ship uses (only they and the state split a run at a long gap)."""
     p = Path(path)
     if p.suffix.lower() == ".dat":
         return [read_marin_dat(p, sample_time=sample_time or 1.0)]
     if p.suffix.lower() in (".csv", ".txt"):
-        return read_csv(p, sample_time=sample_time)
+        return read_csv(p, sample_time=sample_time, inputs=inputs)
     raise RecordingError(f"{p}: unknown recording format {p.suffix!r}; give a .csv (BRIEF section 7) or MARIN .dat file")
 
 
