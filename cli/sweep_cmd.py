@@ -25,10 +25,13 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Run a design sweep (ships x speeds x criteria x mean-subtraction modes) into one tidy table."""
         from cli.options import validate_sweep_options
-        from expdesign.sweep import failed_cells, load_sweep, plot_summary, run_sweep, write_table
+        from expdesign.sweep import failed_cells, load_sweep, plot_summary, run_sweep, ship_warnings, write_table
 
         validate_sweep_options(config=config, out=out, plot=plot)
         cells = load_sweep(config)
+        warnings = ship_warnings(cells)
+        for w in warnings:  # a model.json's findings the designs leave out, as every command given the file says
+            typer.echo(f"warning: {w}", err=True)
         res = run_sweep(cells, scheduler or os.environ.get("SHIPTRIAL_SCHEDULER"))
         rows = res.finished()
         if res.interrupted:
@@ -41,7 +44,8 @@ def register(app: typer.Typer) -> None:
         fig = plot_summary(rows, plot or out.with_suffix(".png"))
         failed = [r for r in rows if r.get("error")]
         if json_out:
-            typer.echo(dumps({"rows": rows, "table": str(table), "plot": str(fig), "interrupted": res.interrupted}))
+            typer.echo(dumps({"rows": rows, "table": str(table), "plot": str(fig), "interrupted": res.interrupted,
+                              "warnings": warnings}))
         else:
             typer.echo(f"{len(rows)} of {len(cells)} cells done{' (interrupted: PARTIAL table)' if res.interrupted else ''}; "
                        f"{len(failed)} failed")

@@ -148,6 +148,15 @@ def load_sweep(path: str | Path) -> list[Cell]:
     return [Cell(sh, lib, None if sp is None else float(sp), c, m, sd) for (sh, lib, sp, c, m), sd in zip(cells, seeds)]
 
 
+def ship_warnings(cells: list[Cell]) -> list[str]:
+    """Each swept ship's load warnings (a diagnosed model.json's findings its profile cannot hold:
+    the designs are made without them), once per ship, prefixed with the ship."""
+    from primitives.ship import load_profile
+
+    ships = list(dict.fromkeys(c.ship for c in cells))
+    return [f"{s}: {w}" for s in ships for w in load_profile(s).load_warnings]
+
+
 def failed_cells(rows: list[dict[str, Any]]) -> list[str]:
     """One line per failed cell: which cell and its error."""
     return [f"{r['ship']}{'' if r.get('speed_mps') is None else ' @ ' + format(r['speed_mps'], 'g') + ' m/s'} "
