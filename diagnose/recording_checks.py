@@ -21,7 +21,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from diagnose.recording_kinematics import check_frame, check_rate  # noqa: F401  (re-exported: they lived here)
 from primitives.errors import UserError
 
 # Largest magnitudes a real run can show (a fast craft does 40 m/s; 5 rad/s is a spinning model).
