@@ -299,7 +299,7 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
         c, s = np.cos(cols["psi"]), np.sin(cols["psi"])
         cols["u"], cols["v"] = c * cols["u"] + s * cols["v"], -s * cols["u"] + c * cols["v"]
         # only this reader rotates: the MARIN format is the one place the frame is known; a CSV
-        # with earth-frame u, v is refused (recording_checks.check_frame)
+        # with earth-frame u, v is refused (recording_kinematics.check_frame)
         note = ("u, v as published in MARIN .dat files are earth-frame (dx0/dt, dy0/dt): rotated into the body frame "
                 "(CSV recordings must give body-frame u, v)")
     rec = build_recording(str(path), cols, meta=meta, sample_time=sample_time)[0]
