@@ -220,16 +220,17 @@ def _cli(paths: dict[str, list[Path]], ship: str = BASELINE) -> dict:
 STD_KEY = {"delay_s": "delay_std", "speed_mps": "speed_std", "loss_percent": "loss_percent_std"}
 
 
-def z_scores(truth: dict, findings: list[dict] | None) -> dict[str, float]:
+def z_scores(truth: dict, findings: list[dict] | None, part: str = "") -> dict[str, float]:
     """(estimate - truth) / reported std of each checked magnitude that carries a std, at the
-    scale of the findings (how honest the reported uncertainty is, over noise seeds)."""
+    scale of the findings (how honest the reported uncertainty is, over noise seeds). ``part``
+    "_noise": against the std's noise part alone (the interval before the model-misfit term)."""
     truth = full_scale_truth(truth)
     out = {}
     for eff, checks in truth["checks"].items():
         f = next((f for f in findings or [] if f.get("effect") == eff), None)
         for key, spec in checks.items():
             p = (f or {}).get("parameters") or {}
-            est, sd = _num(p.get(key)), _num(p.get(STD_KEY.get(key, "")))
+            est, sd = _num(p.get(key)), _num(p.get(STD_KEY.get(key, "") + part))
             if est is not None and sd and isinstance(spec[0], int | float):
                 out[key] = (est - spec[0]) / sd
     return out
@@ -339,14 +340,16 @@ def main(argv: list[str] | None = None) -> dict:
               f"{'hit' if r['hit'] else 'MISS':6s} {r['diagnose_s']:7.1f} {r['cpu_s']:7.1f}")
         for w in r["why"]:
             print(f"{'':24s}- {w}")
-        z = z_scores(r["truth"], r["findings"])
-        r["z"] = z
+        z, zn = z_scores(r["truth"], r["findings"]), z_scores(r["truth"], r["findings"], "_noise")
+        r["z"], r["z_noise"] = z, zn
         if z:
-            print(f"{'':24s}  error / reported std: " + ", ".join(f"{k} {v:+.2f}" for k, v in z.items()))
-    zs = np.array([v for r in rows for v in r["z"].values()])
-    if len(zs) >= 3:
-        print(f"reported std over {len(zs)} estimates: RMS of error/std {np.sqrt(np.mean(zs**2)):.2f}, within 1 std "
-              f"{np.mean(np.abs(zs) < 1):.0%} (68 % if honest), within 2 std {np.mean(np.abs(zs) < 2):.0%} (95 %)")
+            print(f"{'':24s}  error / reported std: " + ", ".join(f"{k} {v:+.2f}" for k, v in z.items())
+                  + " (noise part alone: " + ", ".join(f"{k} {v:+.2f}" for k, v in zn.items()) + ")")
+    for label, key in (("reported std (noise + run-to-run misfit)", "z"), ("its noise part alone", "z_noise")):
+        zs = np.array([v for r in rows for v in r[key].values()])
+        if len(zs) >= 3:
+            print(f"{label} over {len(zs)} estimates: RMS of error/std {np.sqrt(np.mean(zs**2)):.2f}, within 1 std "
+                  f"{np.mean(np.abs(zs) < 1):.0%} (68 % if honest), within 2 std {np.mean(np.abs(zs) < 2):.0%} (95 %)")
     hits = sum(r["hit"] for r in rows)
     times = sorted(r["diagnose_s"] for r in rows)
     cpus = sorted(r["cpu_s"] for r in rows)

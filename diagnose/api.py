@@ -20,7 +20,7 @@ from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_
     term_scales,
 )
 from diagnose.candidates import build_library
-from diagnose.describe import describe
+from diagnose.describe import interval_note, with_interval
 from diagnose.heldout import Parts, grams, insample_rss
 from diagnose.locate import locate
 from diagnose.model import AugmentedModel, Prepared, fit_percent, noise_std_coloured, prepare
@@ -28,7 +28,7 @@ from diagnose.perrun import guard
 from diagnose.recording import Recording, RecordingError
 from diagnose.reference import ReferencedModel
 from diagnose.search import select
-from diagnose.uncertainty import finding_cov
+from diagnose.uncertainty import FindingCov, finding_cov
 from primitives.ship import DOFS, ShipProfile
 
 
@@ -170,7 +170,7 @@ def run(
     P, free, steps, per_run, method, dropped = guard(model, preps + S.calm_preps, val_preps, w, P0x, result.P, result.free,
                                                      list(result.steps), result.base_free)
     result.rejected += dropped
-    cov = np.zeros((0, 0))
+    cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0)
     if steps and free == result.free:
         cov = _cov(S, given, fit_on, w, P, free, result.prior_std)
     findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
@@ -191,9 +191,10 @@ def run(
 
 
 def _cov(S: _Setup, given: tuple[ShipProfile, np.ndarray], fit_on: list[Recording] | None, w: np.ndarray,
-         P: np.ndarray, free: list[int], prior_std: np.ndarray | None) -> np.ndarray:
+         P: np.ndarray, free: list[int], prior_std: np.ndarray | None) -> FindingCov:
     """Covariance of the free parameters at P (:func:`diagnose.uncertainty.finding_cov`); with a
-    baseline fitted on --fit-on runs alone, the covariance of that fit carried in as well."""
+    baseline fitted on --fit-on runs alone, the covariance of that fit carried in as well; and
+    the findings' run-to-run misfit over the diagnosed runs."""
     model = S.model
     fitted = bool(fit_on) and S.own is not None and not S.source.endswith("(rejected)")
     held = [j for j in range(model.n_base) if j not in free] if fitted else []
@@ -201,11 +202,11 @@ def _cov(S: _Setup, given: tuple[ShipProfile, np.ndarray], fit_on: list[Recordin
     return finding_cov(model, S.preps + S.calm_preps, w, P, free, prior_std, held, held_cov)
 
 
-def _finding(st, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, free: list[int], inputs: np.ndarray) -> dict:
+def _finding(st, model: AugmentedModel, P: np.ndarray, cov: FindingCov, free: list[int], inputs: np.ndarray) -> dict:
     """The reported finding of a kept search step (``diagnose.search.Step``)."""
     c = st.candidate
     dof = DOFS[c.dof] if c.dof is not None else DOFS[int(np.argmax(st.dof_gain))]
-    params = describe(c, model, P, cov, free)
+    params = with_interval(c, model, P, cov, free)
     _ok, why = plausible.check(c.effect, params, model.profile, inputs)
     return {
         "effect": c.effect, "dof": dof, "key": c.key, "parameters": params,
@@ -214,6 +215,7 @@ def _finding(st, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, free: li
         "rss_drop_per_dof": dict(zip(DOFS, (st.dof_gain / max(st.rss_before, 1e-300)).tolist())),
         "signature_correlation": float(st.correlation), "description": c.description,
         "plausibility": why or "no ship-scaled limit applies", "heldout_per_run": st.heldout,
+        "interval": interval_note(cov) if len(cov.noise) else None,
     }
 
 

@@ -130,3 +130,32 @@ def _inertia(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
 _BY_EFFECT = {"current": _current, "actuator_delay": _delay, "input_offset": _offset, "sensor_bias": _bias,
               "quadratic_damping": _term, "missing_coupling": _term, "resistance_change": _surge_term,
               "thrust_loss": _thrust, "inertia_change": _inertia}
+
+
+STD_SUFFIXES = ("_std", "_std_deg")
+
+
+def with_interval(c: Candidate, model: AugmentedModel, P: np.ndarray, cov, free: list[int]) -> dict:
+    """:func:`describe` with each std the total of ``cov`` (a :class:`diagnose.uncertainty.FindingCov`:
+    noise plus run-to-run model misfit), its noise part kept as ``<name>_noise``."""
+    out = describe(c, model, P, cov.total, free)
+    noise = describe(c, model, P, cov.noise, free)
+    for k in list(out):
+        if k.endswith(STD_SUFFIXES):
+            out[f"{k}_noise"] = noise.get(k)
+    return out
+
+
+def interval_note(cov) -> dict:
+    """What a finding's +- std covers (JSON ``interval``; the text report prints ``covers``), in
+    words a trials engineer can act on."""
+    runs = cov.n_runs
+    parts = ["measurement noise (of the --fit-on runs too)" if cov.fit_on else "measurement noise"]
+    if runs >= 2:
+        parts.append(f"the model's run-to-run misfit over the {runs} diagnosed runs")
+    missing = "a model error common to every run"
+    if runs < 2:
+        missing = ("the model's misfit on this recording (one diagnosed recording gives no between-run check: "
+                   "diagnose two or more runs to measure it) and " + missing)
+    return {"covers": f"1 std of {'; '.join(parts)}. Not covered: {missing}", "diagnosed_runs": runs,
+            "between_runs": runs >= 2}

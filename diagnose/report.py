@@ -15,25 +15,34 @@ from primitives.ship import DOFS
 UNITS = {"u": "m/s", "v": "m/s", "r": "rad/s"}
 
 
+def _pm(p: dict, key: str, fmt: str = ".2g", scale: float = 1.0) -> str:
+    """`` +- std`` of a parameter (1 std, the finding's ``interval``), empty without one."""
+    sd = p.get(key)
+    return f" +- {scale * sd:{fmt}}" if isinstance(sd, int | float) and np.isfinite(sd) else ""
+
+
 def sentence(f: dict) -> str:
     """One plain-language sentence per finding."""
     p, e = f["parameters"], f["effect"]
     if e == "current":
-        what = f"the ship meets a current of {p['speed_mps']:.3g} m/s toward {p['toward_deg']:03.0f} deg"
+        what = (f"the ship meets a current of {p['speed_mps']:.3g}{_pm(p, 'speed_std')} m/s toward "
+                f"{p['toward_deg']:03.0f}{_pm(p, 'toward_std_deg', '.0f')} deg")
     elif e == "actuator_delay":
-        what = f"the actuators act {p['delay_s']:.2g} s late ({p['samples']:.1f} samples)"
+        what = f"the actuators act {p['delay_s']:.2g}{_pm(p, 'delay_std')} s late ({p['samples']:.1f} samples)"
     elif e == "input_offset":
-        extra = f" ({p['offset_deg']:.2f} deg)" if "offset_deg" in p else ""
-        what = f"input {p['input']} has a neutral offset of {p['offset']:.3g}{extra}: the ship acts on {p['input']} - offset"
+        extra = (f" ({p['offset_deg']:.2f}{_pm(p, 'offset_std', '.2f', float(np.degrees(1.0)))} deg)"
+                 if "offset_deg" in p else "")
+        what = (f"input {p['input']} has a neutral offset of {p['offset']:.3g}{_pm(p, 'offset_std')}{extra}: the ship "
+                f"acts on {p['input']} - offset")
     elif e == "sensor_bias":
-        what = f"the measured {p['signal']} reads {p['bias']:+.3g} {UNITS[p['signal']]} too high"
+        what = f"the measured {p['signal']} reads {p['bias']:+.3g}{_pm(p, 'bias_std')} {UNITS[p['signal']]} too high"
     elif e == "quadratic_damping":
         what = f"the {f['dof']} motion has nonlinear damping {p['term']} (coefficient {p['value']:.3g} per sample)"
     elif e == "missing_coupling":
         what = f"the {f['dof']} motion is coupled through {p['term']} (coefficient {p['value']:.3g} per sample)"
     elif e == "thrust_loss" and "loss_percent" in p:
         pct = p["loss_percent"]
-        what = (f"the thrust is {pct:.0f} % lower than the model's" if pct is not None
+        what = (f"the thrust is {pct:.0f}{_pm(p, 'loss_percent_std', '.1f')} % lower than the model's" if pct is not None
                 else f"the thrust term {p['term']} changes by {p['coefficient']:.3g}")
     elif e == "thrust_loss":
         what = f"the thrust falls with speed ({p['term']} coefficient {p['coefficient']:.3g})"
@@ -45,7 +54,7 @@ def sentence(f: dict) -> str:
         what = f"the {f['dof']} inertia is {p['inertia_ratio']:.2f} x the model's (increments scaled by {1 + p['scale']:.3f})"
     elif e == "wind":
         what = "the relative wind pushes the ship (drag coefficients " + ", ".join(
-            f"{k.split('_')[1]} {v:.3g}" for k, v in p.items() if not k.endswith("_std")) + ")"
+            f"{k.split('_')[1]} {v:.3g}" for k, v in p.items() if "_std" not in k) + ")"
     else:
         what = f"{e} in {f['dof']}: " + ", ".join(f"{k} {v:.3g}" for k, v in p.items() if isinstance(v, float))
     plaus = f" Plausible for this ship: {f['plausibility']}." if f.get("plausibility") else ""
@@ -63,6 +72,12 @@ def per_run_lines(d: Diagnosis) -> list[str]:
         cells = [f"{r['before'][k]:7.1f} -> {r['after'][k]:6.1f}" for k in DOFS]
         lines.append(f"  {r['run']:{w}s}  " + "  ".join(f"{c:>17s}" for c in cells))
     return lines
+
+
+def interval_lines(findings: list[dict]) -> list[str]:
+    """What the +- figures cover (one line; the JSON ``interval`` of each finding says the same)."""
+    iv = next((f["interval"] for f in findings if f.get("interval")), None)
+    return [f"  (+- is {iv['covers']}.)"] if iv else []
 
 
 def to_text(d: Diagnosis) -> str:
@@ -100,6 +115,7 @@ def to_text(d: Diagnosis) -> str:
         lines.append("Findings (strongest first):")
         for i, f in enumerate(d.findings, 1):
             lines.append(f"  {i}. [{f['effect']}] {sentence(f)}")
+        lines += interval_lines(d.findings)
     if d.structure:
         lines.append("Baseline structure (the --fit-on reference runs show it too, so it is the model's shape, not a "
                      "condition of these runs; kept in the refitted model):")

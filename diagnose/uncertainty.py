@@ -22,7 +22,10 @@ On the MMG battery's model-scale 3 s delay (AR(1) noise) it is about a third of 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+from scipy import stats
 from scipy.signal import lfilter
 
 from diagnose.model import AugmentedModel, Prepared, fit, residuals
@@ -53,18 +56,30 @@ def ar1(pairs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndar
     return rho, s2
 
 
-def ar1_grams(pairs: list[tuple[np.ndarray, np.ndarray]], rho: np.ndarray, s2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(J^T J, J^T Sigma J) summed over runs and channels, Sigma the AR(1) noise covariance."""
-    c = pairs[0][1].shape[0]
-    G, M = np.zeros((c, c)), np.zeros((c, c))
+def run_grams(pairs: list[tuple[np.ndarray, np.ndarray]], rho: np.ndarray, s2: np.ndarray
+              ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per run, (J^T J, J^T Sigma J) summed over channels, Sigma the AR(1) noise covariance. Only
+    the columns a run moves are filtered (another run's initial state is zero there)."""
+    out = []
     for _r, J in pairs:
+        c = J.shape[0]
+        act = np.flatnonzero(np.any(J != 0, axis=(1, 2)))
+        G, M = np.zeros((c, c)), np.zeros((c, c))
+        ix = np.ix_(act, act)
         for ch in range(J.shape[2]):
-            Jc = J[:, :, ch]
-            G += Jc @ Jc.T
+            Jc = J[act, :, ch]
+            G[ix] += Jc @ Jc.T
             # Sigma = A A^T with A the AR(1) filter (innovation std sqrt(s2)): A^T J runs it backwards
             Z = lfilter([np.sqrt(s2[ch])], [1.0, -rho[ch]], Jc[:, ::-1], axis=1)[:, ::-1]
-            M += Z @ Z.T
-    return G, M
+            M[ix] += Z @ Z.T
+        out.append((G, M))
+    return out
+
+
+def ar1_grams(pairs: list[tuple[np.ndarray, np.ndarray]], rho: np.ndarray, s2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(J^T J, J^T Sigma J) summed over runs and channels, Sigma the AR(1) noise covariance."""
+    per = run_grams(pairs, rho, s2)
+    return sum(g for g, _m in per), sum(m for _g, m in per)
 
 
 def _inv(A: np.ndarray) -> np.ndarray:
@@ -74,10 +89,13 @@ def _inv(A: np.ndarray) -> np.ndarray:
         return np.linalg.pinv(A)
 
 
-def sandwich(pairs: list[tuple[np.ndarray, np.ndarray]], prior_D: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(covariance, H) of a penalised least-squares fit with AR(1) residuals (module docstring)."""
-    rho, s2 = ar1(pairs)
-    G, M = ar1_grams(pairs, rho, s2)
+def sandwich(pairs: list[tuple[np.ndarray, np.ndarray]], prior_D: np.ndarray | None = None,
+             per_run: list[tuple[np.ndarray, np.ndarray]] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(covariance, H) of a penalised least-squares fit with AR(1) residuals (module docstring);
+    ``per_run``: the runs' grams (:func:`run_grams`) when already computed."""
+    if per_run is None:
+        per_run = run_grams(pairs, *ar1(pairs))
+    G, M = sum(g for g, _m in per_run), sum(m for _g, m in per_run)
     H = G + (np.diag(prior_D) if prior_D is not None else 0.0)
     Hi = _inv(H)
     return Hi @ M @ Hi, H
@@ -92,29 +110,126 @@ def _prior_D(sd: np.ndarray | None, n: int) -> np.ndarray:
     return np.where(ok, 1.0 / np.where(ok, sd, 1.0) ** 2, 0.0)
 
 
+def jackknife(pairs: list[tuple[np.ndarray, np.ndarray]], nf: int, prior_D: np.ndarray | None = None,
+              per_run: list[tuple[np.ndarray, np.ndarray]] | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+    """Linearised leave-one-run-out covariance of the first ``nf`` sensitivity columns, and its
+    expected value were the runs' residuals AR(1) noise alone (None with fewer than two runs).
+
+    At the fit's optimum the prior's gradient cancels the data's, so leaving run i out moves the
+    estimate by ``d_i = A_i g_i``, ``A_i = (H - H_i)^-1`` (one Gauss-Newton step; ``H_i``,
+    ``g_i`` run i's Gram matrix and gradient); a column only run i informs (its initial state)
+    stays where it is in that fold. Jackknife covariance ``(n-1)/n sum (d_i - mean d)^2``. Under
+    noise alone ``g_i = u_i - H_i H^-1 sum_j u_j`` with independent ``u_j`` of covariance
+    ``J_j^T Sigma J_j``, so ``d_i = sum_j B_ij u_j`` and the expectation follows exactly; with
+    runs of unequal information it exceeds the noise covariance of the estimate (the jackknife's
+    known upward bias), which is why the excess is measured against it. ``per_run``: the runs'
+    grams of these columns (:func:`run_grams`) when already computed."""
+    n = len(pairs)
+    if n < 2:
+        return None
+    if per_run is None:
+        per_run = run_grams([(r, J[:nf]) for r, J in pairs], *ar1(pairs))
+    Hs = [g for g, _m in per_run]
+    gs = [np.einsum("anc,nc->a", J[:nf], r) for r, J in pairs]
+    H = sum(Hs) + (np.diag(prior_D) if prior_D is not None else 0.0)
+    Hi = _inv(H)
+    scale = float(np.max(np.abs(np.diag(H)))) if nf else 0.0
+    A = np.zeros((n, nf, nf))
+    for i in range(n):
+        Hm = H - Hs[i]
+        act = np.diag(Hm) > 1e-9 * max(scale, 1e-300)
+        if np.any(act):
+            A[i][np.ix_(act, act)] = _inv(Hm[np.ix_(act, act)])
+    dev = np.einsum("iab,ib->ia", A, np.array(gs))
+    dev -= dev.mean(axis=0)
+    V = (n - 1) / n * dev.T @ dev
+    # B_ij = A_i (delta_ij - H_i H^-1), centred over i
+    AH = np.einsum("iab,ibc->iac", A, np.array(Hs)) @ Hi  # A_i H_i H^-1
+    B = -np.repeat(AH[:, None], n, axis=1)
+    B[np.arange(n), np.arange(n)] += A
+    B -= B.mean(axis=0, keepdims=True)
+    E = np.zeros((nf, nf))
+    for j, (_g, M) in enumerate(per_run):
+        E += np.einsum("iab,bc,idc->ad", B[:, j], M, B[:, j])
+    E *= (n - 1) / n
+    fin = lambda X: np.where(np.isfinite(X), X, np.nan)  # noqa: E731
+    return fin(V), fin(E)
+
+
+def small_sample(n: int) -> float:
+    """Variance factor of a spread measured over ``n`` runs (n - 1 degrees of freedom): the
+    Student-t quantile of a one-std (68 %) interval, squared (3 runs: 1.72, 10 runs: 1.11)."""
+    return float(stats.t.ppf(stats.norm.cdf(1.0), n - 1) ** 2) if n >= 2 else 0.0
+
+
+def excess(V: np.ndarray | None, C: np.ndarray) -> np.ndarray:
+    """The part of the between-run covariance ``V`` the noise covariance ``C`` does not explain
+    (zero when the runs agree within their noise): ``V - C`` where positive, in the coordinates
+    that whiten ``C`` (invariant to the parameters' units: ``V x = lambda C x``, the excess
+    ``C^1/2 (Lambda - 1)_+ C^1/2``); on the diagonal alone when ``C`` is singular."""
+    if V is None or not len(C) or not (np.all(np.isfinite(V)) and np.all(np.isfinite(C))):
+        return np.zeros_like(C)
+    try:
+        L = np.linalg.cholesky(0.5 * (C + C.T))
+    except np.linalg.LinAlgError:
+        return np.diag(np.maximum(np.diag(V) - np.diag(C), 0.0))
+    Li = np.linalg.inv(L)
+    lam, U = np.linalg.eigh(Li @ (0.5 * (V + V.T)) @ Li.T)
+    B = L @ U
+    return (B * np.maximum(lam - 1.0, 0.0)) @ B.T
+
+
+@dataclass
+class FindingCov:
+    """Covariance of the fitted parameters, split by source (module docstring)."""
+
+    noise: np.ndarray  # measurement noise (AR(1) sandwich), held baseline's noise carried in
+    model: np.ndarray  # run-to-run model misfit beyond the noise over the diagnosed runs
+    n_runs: int  # diagnosed runs the between-run spread was measured over (<2: none)
+    fit_on: bool = False  # the noise of a baseline fitted on --fit-on runs is carried in
+
+    @property
+    def total(self) -> np.ndarray:
+        return self.noise + self.model
+
+
 def propagated(pairs: list[tuple[np.ndarray, np.ndarray]], nf: int, prior_D: np.ndarray | None = None,
-               held_cov: np.ndarray | None = None) -> np.ndarray:
+               held_cov: np.ndarray | None = None, model_cols: list[int] | None = None) -> FindingCov:
     """Covariance of the first ``nf`` sensitivity columns (the fitted parameters) under AR(1)
     residuals, plus the effect of the remaining columns' parameters (held at values estimated
-    elsewhere, covariance ``held_cov``) through the refit: ``dA/dtheta = -H^-1 G_a,theta``."""
-    cov, H = sandwich([(r, J[:nf]) for r, J in pairs], prior_D)
+    elsewhere, covariance ``held_cov``) through the refit: ``dA/dtheta = -H^-1 G_a,theta``.
+    The model part, on the columns ``model_cols`` (default all): the jackknife over the runs
+    beyond its noise expectation (:func:`jackknife`, :func:`excess`), widened for the few runs
+    it is measured on (:func:`small_sample`)."""
+    own = [(r, J[:nf]) for r, J in pairs]
+    per_run = run_grams(own, *ar1(own))
+    cov, H = sandwich(own, prior_D, per_run)
+    cols = list(range(nf)) if model_cols is None else list(model_cols)
+    model = np.zeros_like(cov)
+    VE = jackknife(own, nf, prior_D, per_run)
+    if VE is not None and cols:
+        ix = np.ix_(cols, cols)
+        model[ix] = small_sample(len(pairs)) * excess(VE[0][ix], VE[1][ix])
     if held_cov is not None and len(held_cov):
         G_ah = sum(np.einsum("anc,bnc->ab", J[:nf], J[nf:]) for _r, J in pairs)
         dA = -_inv(H) @ G_ah
         cov = cov + dA @ held_cov @ dA.T
-    return np.where(np.isfinite(cov), cov, np.nan)
+    fin = lambda C: np.where(np.isfinite(C), C, np.nan)  # noqa: E731
+    return FindingCov(fin(cov), fin(model), len(pairs) if VE is not None else 0, held_cov is not None and len(held_cov) > 0)
 
 
 def finding_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, P: np.ndarray, free: list[int],
                 prior_sd: np.ndarray | None = None, held: list[int] | None = None,
-                held_cov: np.ndarray | None = None) -> np.ndarray:
+                held_cov: np.ndarray | None = None) -> FindingCov:
     """Covariance of the ``free`` parameters at P (coloured residuals; the fit's prior std
     ``prior_sd`` per parameter), plus the propagated covariance ``held_cov`` of the parameters
-    ``held`` (fixed at P, estimated on other runs)."""
+    ``held`` (fixed at P, estimated on other runs), and the run-to-run model misfit of the
+    findings' parameters (the candidate slots among ``free``) over ``preps``."""
     held = list(held or []) if held_cov is not None else []
     pairs = sensitivities(model, preps, P, list(free) + held, w)
     D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[free], len(free))
-    return propagated(pairs, len(free), D, held_cov if held else None)
+    cols = [k for k, j in enumerate(free) if model.n_base <= j < model.n_slots_end]
+    return propagated(pairs, len(free), D, held_cov if held else None, cols)
 
 
 def baseline_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, idx: list[int], sd: np.ndarray
@@ -122,7 +237,10 @@ def baseline_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, id
     """Covariance (len(idx) x len(idx)) of the baseline parameters ``idx`` as fitted on the
     --fit-on runs ``preps`` (``model`` at their fitted values, one initial-state correction
     per run, refitted here; prior std ``sd`` per parameter, inf for none): the sandwich of
-    that penalised fit, the initial states as nuisance parameters."""
+    that penalised fit, the initial states as nuisance parameters. (Its jackknife over those
+    runs, carried into the finding, was tried as a measure of the baseline's misfit: linearised
+    over a many-parameter fit that loses a whole manoeuvre type per fold, it put 5-18 s on a
+    delay of the MMG battery; not used.)"""
     x0 = model.x0_params()
     P, _cov, _rss = fit(model, preps, model.p0(), x0, w, max_iter=5)
     pairs = sensitivities(model, preps, P, list(idx) + x0, w)
