@@ -23,6 +23,7 @@ from diagnose.candidates import build_library
 from diagnose.describe import interval_note, with_interval
 from diagnose.heldout import Parts, grams, insample_rss
 from diagnose.locate import locate
+from diagnose.magnitude import ml_refit
 from diagnose.model import AugmentedModel, Prepared, fit_percent, noise_std_coloured, prepare
 from diagnose.perrun import guard
 from diagnose.recording import Recording, RecordingError
@@ -165,6 +166,11 @@ def run(
     held_by = [prepare(S.profile, r) for r in fit_on] if fit_on and not joint_reference else None
     result = select(model, preps + S.calm_preps, w, val_preps=val_preps, base_free=base_free, max_rounds=max_rounds,
                     inputs=inputs, calm_preps=held_by)
+    # the magnitudes of what the search kept, by the maximum-likelihood criterion (diagnose.magnitude)
+    result.P, w_fit, result.prior_std, note = ml_refit(model, preps + S.calm_preps, result.P, result.free,
+                                                       [st.candidate for st in result.steps], result.base_free, w,
+                                                       result.prior_std)
+    result.notes += [note] if note else []
     P0x = P0.copy()
     P0x[model.x0_params()] = result.P[model.x0_params()]  # the initial state is not physics: same in both
     P, free, steps, per_run, method, dropped = guard(model, preps + S.calm_preps, val_preps, w, P0x, result.P, result.free,
@@ -172,7 +178,7 @@ def run(
     result.rejected += dropped
     cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0)
     if steps and free == result.free:
-        cov = _cov(S, given, fit_on, w, P, free, result.prior_std)
+        cov = _cov(S, given, fit_on, w_fit, P, free, result.prior_std)
     findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
     structure = _structural(model, [prepare(S.profile, r) for r in fit_on or []], w, P, findings)
     findings = [f for f in findings if f not in structure]

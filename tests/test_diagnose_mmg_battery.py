@@ -104,3 +104,34 @@ def test_delay_is_named_without_validation_runs(tmp_path):
     assert [f["effect"] for f in d.findings] == ["actuator_delay"], (d.findings, d.rejected)
     assert abs(d.findings[0]["parameters"]["delay_s"] - 4.0) < 0.3
     assert all(r["after"][ch] >= r["before"][ch] - 1.0 for r in d.per_run for ch in r["before"]), d.per_run
+
+
+@pytest.mark.slow
+def test_model_scale_delay_estimate_spread_over_noise_seeds(tmp_path):
+    """The 3 s steering delay at model scale under AR(1) noise (battery case model-delay-3),
+    noise seeds 1-6: the estimates scatter with a std under 0.13 s and none is off by more
+    than the 0.3 s tolerance. With the search's channel weights (2 % of each signal's spread,
+    not its noise) they scattered 0.167 s (2.72-3.20 s), and seed 7 read 2.56 s; refitted by
+    Kallstrom's maximum-likelihood criterion (diagnose.magnitude) 0.091 s (2.73-2.99 s)."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from diagnose.api import run
+    from diagnose.recording import load_recording
+    from diagnose.recording_checks import conform
+    from primitives.ship import load_profile
+    from tests.physics.mmg_battery import case, generate, write_case
+
+    prof = load_profile("kvlcc2")
+    est = []
+    for seed in range(1, 7):
+        g = generate(replace(case("model-delay-3"), seed=seed), visibility=False)
+        paths = write_case(g, tmp_path / f"seed{seed}")
+        recs = {role: conform([r for p in ps for r in load_recording(p)], prof) for role, ps in paths.items()}
+        d = run(recs["diagnose"], prof, fit_on=recs["calm"], validate=recs["validate"])
+        f = next(f for f in d.findings if f["effect"] == "actuator_delay")
+        est.append(f["parameters"]["delay_s"])  # full scale: the recordings are Froude-scaled to the ship
+    est = np.array(est)
+    assert np.std(est, ddof=1) < 0.13, est
+    assert np.max(np.abs(est - 3.0)) <= 0.3, est
