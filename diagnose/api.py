@@ -25,7 +25,7 @@ from diagnose.heldout import Parts, grams, insample_rss
 from diagnose.locate import locate
 from diagnose.magnitude import ml_refit
 from diagnose.model import AugmentedModel, Prepared, fit_percent, noise_std_coloured, prepare
-from diagnose.perrun import guard
+from diagnose.perrun import fit_str, guard, short_label
 from diagnose.recording import Recording, RecordingError
 from diagnose.reference import ReferencedModel
 from diagnose.search import select
@@ -252,6 +252,7 @@ def _structural(model: AugmentedModel, calm: list[Prepared], w: np.ndarray, P: n
     return out
 
 
+SHARE_SHOWN = 5.0  # fit points: another channel a finding moves this much is named with its own share
 SIGNATURE = {"current": ["cos psi", "sin psi"], "wind": ["wind along", "wind across"], "actuator_delay": ["change of"],
              "input_offset": ["sign", ""], "thrust_loss": ["speed u"], "quadratic_damping": ["|v|", "|r|", "v|v|", "r|r|"],
              "missing_coupling": ["|r|", "speed u", "|v|"], "sensor_bias": [""], "inertia_change": ["change of"]}
@@ -267,5 +268,32 @@ def _evidence(f: dict, location: dict, fb: dict, fa: dict, where: str) -> str:
         parts.append(f"the {dof} residual follows {hit['signal']} (correlation {hit['correlation']:+.2f})")
     parts.append(f"adding it explains {100 * f['rss_drop']:.0f} % of the weighted residual (F = {f['f_statistic']:.1f}, "
                  f"p = {f['p_value']:.2g}) and lowers the held-out residual by {100 * f['cv_gain']:.0f} %")
-    parts.append(f"{dof} fit on the {where} run(s) {fb[dof]:.0f} % -> {fa[dof]:.0f} %")
+    parts.append(_own_share(f, dof, where) or f"{dof} fit on the {where} run(s) {fit_str(fb[dof])} -> {fit_str(fa[dof])} "
+                 "(the whole model's, the baseline refit included)")
     return "; ".join(parts)
+
+
+def _own_share(f: dict, dof: str, where: str) -> str | None:
+    """The finding's own share of the held-out fit, as the search recorded it when the finding
+    was added: the model with the findings kept before it (and the baseline refit) against the
+    same with it added (``Step.heldout``), per held-out run; another channel it moves by
+    SHARE_SHOWN points or more is named too (a surge term can cost the sway fit)."""
+    rows = f.get("heldout_per_run") or []
+    if not rows:
+        return None
+
+    def moved(r: dict) -> str:
+        return ", ".join(f"{k} {fit_str(r['before'][k])} -> {fit_str(r['after'][k])}" for k in DOFS
+                         if k != dof and abs(r["after"][k] - r["before"][k]) >= SHARE_SHOWN)
+
+    cells = []
+    for r in rows:
+        other = moved(r)
+        cell = f"{fit_str(r['before'][dof])} -> {fit_str(r['after'][dof])}"
+        label = short_label(r["run"]) if len(rows) > 1 else ""
+        inner = "; ".join(x for x in (label, other) if x)
+        cells.append(cell + (f" ({inner})" if inner else ""))
+    how = "simulated" if where == "validation" else "linearised refit without it"
+    name = f" {short_label(rows[0]['run'])}" if len(rows) == 1 else "s"
+    return (f"its own share: {dof} fit on the held-out run{name} ({how}) {', '.join(cells)} "
+            "(with the findings before it, then with it added)")

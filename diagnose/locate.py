@@ -77,9 +77,10 @@ def locate(profile: ShipProfile, preps: list[Prepared], res: list[np.ndarray], t
                 seg = None
                 if p.rec.segments is not None:
                     seg = list(dict.fromkeys(p.rec.segments[s:e + 1])) or None
-                windows.append({"recording": p.rec.source, "dof": DOFS[i], "t_start": float(p.rec.t[s]),
-                                "t_end": float(p.rec.t[e]), "peak_cusum": float(g[s:e + 1].max() / sigma[i]),
-                                "segment": seg})
+                t0 = float(p.rec.t[0])  # times from the run's start: a logger's epoch stamps mean nothing to a reader
+                windows.append({"recording": p.rec.source, "dof": DOFS[i], "t_start": float(p.rec.t[s]) - t0,
+                                "t_end": float(p.rec.t[e]) - t0, "run_start_stamp": t0,
+                                "peak_cusum": float(g[s:e + 1].max() / sigma[i]), "segment": seg})
     windows.sort(key=lambda w: -w["peak_cusum"])
     # misfit per manoeuvre segment (when the recording labels them)
     seg_sq: dict[str, list] = {}

@@ -3,12 +3,31 @@ drops findings a held-out run does not support (issue 13)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from diagnose.heldout import RUN_RISE, fit_pct, grams, heldout_rss, make_parts
 from diagnose.model import AugmentedModel, Prepared, fit, fit_percent
 from diagnose.search import MUCH_WORSE
 from primitives.ship import DOFS
+
+FIT_FLOOR = -999.0  # below this an NRMSE fit only says that the simulation left the run
+
+
+def fit_str(v: float, signed: bool = False, decimals: int = 0) -> str:
+    """A fit percentage as a reader can use it: bounded below, a diverged value said."""
+    if not np.isfinite(v):
+        return "n/a (the simulation diverged)"
+    if v < FIT_FLOOR:
+        return f"< {FIT_FLOOR:.0f} % (the model diverges from the run)"
+    return f"{v:+.{decimals}f} %" if signed else f"{v:.{decimals}f} %"
+
+
+def short_label(label: str) -> str:
+    """A held-out run or block label without the directories ("run.csv block 2/5" stays whole)."""
+    src, sep, rest = label.partition(" block ")
+    return Path(src).name + sep + rest
 
 
 def _table(labels: list[str], roles: list[str], f0: np.ndarray, f1: np.ndarray, den: np.ndarray) -> list[dict]:

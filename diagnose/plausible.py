@@ -47,8 +47,9 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
     if effect == "actuator_delay":
         lim, why = max_delay_s(profile)
         d = params["delay_s"]
-        ok = 0.0 < d <= lim
-        return ok, f"delay {d:.2f} s vs at most {lim:.2f} s ({why})"
+        if d <= 0.0:  # the fit found no lag (the lower bound): nothing to name, not an impossible value
+            return False, f"no delay found (the estimate is {d:.2f} s, the lower bound: the actuators act on time)"
+        return d <= lim, f"delay {d:.2f} s vs at most {lim:.2f} s ({why})"
     if effect == "input_offset":
         if "offset_deg" in params:
             ok = abs(params["offset_deg"]) <= MAX_ANGLE_OFFSET_DEG

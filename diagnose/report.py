@@ -3,16 +3,73 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
 
 from diagnose.api import Diagnosis
+from diagnose.heldout import RUN_RISE
 from diagnose.model_file import model_dict
+from diagnose.perrun import FIT_FLOOR, fit_str, short_label
+from diagnose.search import MUCH_WORSE
 from primitives.io import atomic_savefig, atomic_write_text, to_jsonable
 from primitives.ship import DOFS
 
 UNITS = {"u": "m/s", "v": "m/s", "r": "rad/s"}
+# what the report's measures mean, printed once at its end (a trials engineer reads no code)
+GLOSSARY = [
+    "How to read this report:",
+    "  fit % = NRMSE fit of the simulated output, 100 (1 - |recorded - simulated| / |recorded - its mean|): 100 % is "
+    "perfect, 0 % no better than the run's mean, negative worse than the mean (unbounded; below -999 % it is shown as "
+    "'< -999 %': the simulation diverges from the run).",
+    "  residual = recorded - simulated (also in the plots); residual / noise = its RMS over the estimated measurement-"
+    "noise std of the channel: about 1 when the model explains the data.",
+    "  CUSUM alarm (5.1) = the dead-zone cumulative sum of the thesis's eq. (5.1) over |residual| beyond 1.5 noise std "
+    "crossed 10 noise std: the residual stays large over that window (times in s from the run's start).",
+    "  'per sample' coefficient = a hull term's velocity increment over one sample of {ts:g} s per unit of the term in "
+    "SI units (m/s, rad/s, rad); divide by {ts:g} s for an acceleration.",
+    "  pooled fit = one fit over all samples of the runs together: each run weighs by its spread and the differences "
+    "between the runs' means count as spread the model reproduces, so it can exceed every single run's fit.",
+]
+
+
+def _cell(v: float) -> str:
+    return "< -999" if not np.isfinite(v) or v < FIT_FLOOR else f"{v:.1f}"
+
+
+def heldout_change(gain: float) -> str:
+    """A held-out relative drop of the residual (``heldout_gain``) as the change of that residual."""
+    if not np.isfinite(gain) or gain < -9.99:  # the residual grew more than tenfold
+        return "held-out residual more than 10 x larger (the linearised model diverges on the held-out data)"
+    return f"held-out residual {-100 * gain:+.0f} %"
+
+
+_VAL_FAIL = re.compile(r"the refitted model does not improve the validation runs \(held-out AIC (?P<aic>\S+), "
+                       r"(?P<imp>\d+)/(?P<n>\d+) runs better, worst fit drop (?P<drop>\S+) points\)")
+
+
+def rejection(reason: str) -> str:
+    """The search's reason for rejecting a candidate, said as the criterion that failed."""
+    if reason.startswith("implausible estimate: no delay found"):
+        return reason.removeprefix("implausible estimate: ")
+    m = _VAL_FAIL.fullmatch(reason)
+    if not m:
+        return reason
+    aic, imp, n, drop = float(m["aic"]), int(m["imp"]), int(m["n"]), float(m["drop"])
+    if not np.isfinite(aic) or aic >= 0:
+        why = (f"its gain on the validation runs is too small for the penalty of its parameters "
+               f"(held-out AIC {aic:+.1f}, must be negative)")
+    elif 2 * imp <= n:
+        why = f"it improves only {imp} of {n} validation runs (more than half must improve)"
+    elif drop > MUCH_WORSE:
+        why = (f"although the validation runs' weighted misfit falls overall (held-out AIC {aic:+.1f}, {imp}/{n} runs "
+               f"better), one channel of a validation run loses {drop:.1f} points of fit, more than the "
+               f"{MUCH_WORSE:g} allowed")
+    else:
+        why = (f"a validation run's weighted misfit rises by more than {100 * RUN_RISE:g} % although the pooled one "
+               f"falls (held-out AIC {aic:+.1f}, {imp}/{n} runs better)")
+    return f"not confirmed on the validation runs: {why}"
 
 
 def _pm(p: dict, key: str, fmt: str = ".2g", scale: float = 1.0) -> str:
@@ -55,8 +112,13 @@ def sentence(f: dict) -> str:
     elif e == "wind":
         what = "the relative wind pushes the ship (drag coefficients " + ", ".join(
             f"{k.split('_')[1]} {v:.3g}" for k, v in p.items() if "_std" not in k) + ")"
+    elif e == "roll_coupling":
+        what = "the roll angle phi feeds the " + " and the ".join(
+            f"{dof} motion (coefficient {p[k]:.3g}{_pm(p, k + '_std', '.3g')} per sample)"
+            for k, dof in (("phi_sway", "sway"), ("phi_yaw", "yaw")) if k in p)
     else:
-        what = f"{e} in {f['dof']}: " + ", ".join(f"{k} {v:.3g}" for k, v in p.items() if isinstance(v, float))
+        what = f"{e} in {f['dof']}: " + ", ".join(f"{k.removesuffix('_std')} {v:.3g}" + (" (std)" if k.endswith("_std") else "")
+                                                  for k, v in p.items() if isinstance(v, float))
     plaus = f" Plausible for this ship: {f['plausibility']}." if f.get("plausibility") else ""
     return f"{what}: {f['evidence']}.{plaus}"
 
@@ -69,7 +131,7 @@ def per_run_lines(d: Diagnosis) -> list[str]:
     w = max(len(r["run"]) for r in d.per_run)
     lines.append(f"  {'run':{w}s}  " + "  ".join(f"{k:>17s}" for k in DOFS))
     for r in d.per_run:
-        cells = [f"{r['before'][k]:7.1f} -> {r['after'][k]:6.1f}" for k in DOFS]
+        cells = [f"{_cell(r['before'][k]):>7s} -> {_cell(r['after'][k]):>6s}" for k in DOFS]
         lines.append(f"  {r['run']:{w}s}  " + "  ".join(f"{c:>17s}" for c in cells))
     return lines
 
@@ -78,6 +140,30 @@ def interval_lines(findings: list[dict]) -> list[str]:
     """What the +- figures cover (one line; the JSON ``interval`` of each finding says the same)."""
     iv = next((f["interval"] for f in findings if f.get("interval")), None)
     return [f"  (+- is {iv['covers']}.)"] if iv else []
+
+
+def gain_sources(d: Diagnosis) -> list[str]:
+    """Where the held-out gain of the per-run table comes from, per validation run: the baseline
+    as given, the baseline refitted (its share), then each finding added in the search's order
+    (the fits the search recorded, by simulation, when it added them), then the final model."""
+    kept = [f for f in d.findings + d.structure if f.get("heldout_per_run")]
+    # the search scores leave-one-out folds by a linearised refit, the table by simulation: not comparable
+    if not d.per_run or not kept or d.fit_on != "validation":
+        return []
+    by_run = [{r["run"]: r for r in f["heldout_per_run"]} for f in kept]
+    if any(set(b) != {r["run"] for r in d.per_run} for b in by_run):
+        return []
+
+    def fits(row: dict, key: str) -> str:
+        return "/".join(_cell(row[key][k]) for k in DOFS)
+
+    lines = [f"Where the gain comes from ({d.per_run_method}; fit % surge/sway/yaw; each finding as the search added it):"]
+    for r in d.per_run:
+        start = "baseline refitted" if d.refit_parameters else "before the first finding (no baseline parameter refitted)"
+        steps = [f"baseline as given {fits(r, 'before')}", f"{start} {fits(by_run[0][r['run']], 'before')}"]
+        steps += [f"+ {f['key']} {fits(b[r['run']], 'after')}" for f, b in zip(kept, by_run)]
+        lines.append(f"  {short_label(r['run'])}: " + " -> ".join(steps) + f" -> final {fits(r, 'after')}")
+    return lines
 
 
 def to_text(d: Diagnosis) -> str:
@@ -90,7 +176,9 @@ def to_text(d: Diagnosis) -> str:
                  + f"; worst {loc['worst_dof']}.")
     for w in loc["cusum_windows"][:3]:
         seg = f" (segments {', '.join(w['segment'][:6])})" if w["segment"] else ""
-        lines.append(f"  CUSUM alarm (5.1) on {w['dof']} from {w['t_start']:.1f} s to {w['t_end']:.1f} s{seg}")
+        run = f" of {Path(w['recording']).name}" if len(d.preps) > 1 else ""
+        lines.append(f"  CUSUM alarm (5.1) on {w['dof']} from {w['t_start']:.1f} s to {w['t_end']:.1f} s after the start"
+                     f"{run}{seg}")
     if loc.get("segments"):
         top = loc["segments"][:3]
         lines.append("  worst manoeuvre segments (residual / noise): " + "; ".join(
@@ -132,10 +220,10 @@ def to_text(d: Diagnosis) -> str:
     if weak:
         top = sorted(weak.values(), key=lambda c: c["p_value"])[:3]
         lines.append("Not kept (left over after the findings; significant on the estimation data but too weak or not confirmed on held-out blocks): " + "; ".join(
-            f"{c['key']} (p = {c['p_value']:.1g}, held-out {100 * c['heldout_gain']:+.0f} %, "
+            f"{c['key']} (p = {c['p_value']:.1g}, {heldout_change(c['heldout_gain'])}, "
             f"{c['runs_improved']} held-out runs better, estimate "
             + ", ".join(f"{e:.3g}" for e in c["estimate"]) + ")" for c in top) + ".")
-    for text in dict.fromkeys(f"Rejected: {r['key']}: {r['reason']}." for r in d.rejected):
+    for text in dict.fromkeys(f"Rejected: {r['key']}: {rejection(r['reason'])}." for r in d.rejected):
         lines.append(text)
     for n in d.notes:
         lines.append(f"Note: {n}.")
@@ -146,8 +234,10 @@ def to_text(d: Diagnosis) -> str:
     if left:
         lines.append(f"Still above the noise after the findings: {', '.join(left)} (more physics is missing than the library names).")
     lines += per_run_lines(d)
+    lines += gain_sources(d)
     lines.append(f"Pooled over the {d.fit_on} run(s) (summary only), before -> after: " + ", ".join(
-        f"{k} {d.fit_before[k]:.1f} % -> {d.fit_after[k]:.1f} %" for k in DOFS))
+        f"{k} {fit_str(d.fit_before[k], decimals=1)} -> {fit_str(d.fit_after[k], decimals=1)}" for k in DOFS))
+    lines += [g.format(ts=d.profile.sample_time) for g in GLOSSARY]
     return "\n".join(lines)
 
 
@@ -184,6 +274,19 @@ def write_model(d: Diagnosis, path: str | Path) -> Path:
     return atomic_write_text(path, json.dumps(model_dict(d), indent=2))
 
 
+def running_mean(x: np.ndarray, win: int) -> np.ndarray:
+    """Centred mean over ``win`` samples that shrinks at the ends (no zero padding: a zero-padded
+    convolution pulls the ends towards 0 and draws a jump there)."""
+    x = np.asarray(x, float)
+    if win <= 1 or len(x) == 0:
+        return x.copy()
+    c = np.concatenate([[0.0], np.cumsum(x)])
+    k = np.arange(len(x))
+    lo = np.maximum(k - (win - 1) // 2, 0)
+    hi = np.minimum(k + win // 2 + 1, len(x))
+    return (c[hi] - c[lo]) / (hi - lo)
+
+
 def write_plots(d: Diagnosis, out: str | Path) -> list[Path]:
     """Residual plots before/after per recording (diagnosed and validation), PNG."""
     import matplotlib
@@ -201,17 +304,16 @@ def write_plots(d: Diagnosis, out: str | Path) -> list[Path]:
             after = p.y - d.model.simulate(p, d.P)[0]
             fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
             win = max(1, int(round(5.0 / p.rec.sample_time)))
-            kern = np.ones(win) / win
+            t = p.rec.t - p.rec.t[0]  # from the run's start, as the CUSUM windows of the report
             for i, ax in enumerate(axes):
                 for res, lab, col in ((before, "before", "tab:red"), (after, "after", "tab:blue")):
-                    ax.plot(p.rec.t, res[:, i], lw=0.5, color=col, alpha=0.35)
-                    ax.plot(p.rec.t, np.convolve(res[:, i], kern, mode="same"), lw=1.5, color=col,
-                            label=f"{lab} (5 s mean)")
-                ax.set_ylabel(f"{'uvr'[i]} residual [{UNITS['uvr'[i]]}]")
+                    ax.plot(t, res[:, i], lw=0.5, color=col, alpha=0.35)
+                    ax.plot(t, running_mean(res[:, i], win), lw=1.5, color=col, label=f"{lab} (5 s mean)")
+                ax.set_ylabel(f"{'uvr'[i]} recorded - simulated [{UNITS['uvr'[i]]}]", fontsize=9)
                 ax.grid(alpha=0.3)
             axes[0].legend(loc="upper right")
             axes[0].set_title(f"{kind}: {Path(p.rec.source).name}")
-            axes[-1].set_xlabel("t [s]")
+            axes[-1].set_xlabel("time from the run's start [s]")
             fig.tight_layout()
             paths.append(atomic_savefig(fig, out / f"residuals_{kind}_{n + 1}.png", dpi=110))
             plt.close(fig)

@@ -1,0 +1,127 @@
+"""The diagnosis report as a trials engineer reads it (reviewer's findings 7, 8 and 13): each
+finding's own share of the held-out fit, the baseline refit's share apart, plain reasons for a
+rejection, bounded fit percentages, the measures defined once, times from the run's start and
+residual plots without edge artefacts."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from diagnose import plausible, report
+from diagnose.api import _evidence, run
+from diagnose.battery import scenario
+from diagnose.locate import locate
+from diagnose.report import per_run_lines, sentence, to_text
+from primitives.ship import DOFS, load_profile
+
+
+@pytest.fixture(scope="module")
+def ship():
+    return load_profile("model-ship")
+
+
+@pytest.fixture(scope="module")
+def damping(ship):
+    sc = scenario(("quadratic_damping",), 41)
+    return run(sc.diagnose, ship, validate=sc.validate)
+
+
+def _fits(s, w, y):
+    return {"surge": s, "sway": w, "yaw": y}
+
+
+def test_zero_delay_is_no_delay_found_not_an_implausible_one(ship):
+    ok, why = plausible.check("actuator_delay", {"delay_s": 0.0}, ship)
+    assert not ok and "no delay found" in why and "at most" not in why
+    # the search prefixes every failed check with "implausible estimate": the report drops it for this one
+    assert report.rejection(f"implausible estimate: {why}").startswith("no delay found")
+    lim, _ = plausible.max_delay_s(ship)
+    ok, why = plausible.check("actuator_delay", {"delay_s": 3 * lim}, ship)
+    assert not ok and "at most" in why  # the upper bound, when that is the one violated
+
+
+def test_validation_rejection_names_the_criterion_that_failed():
+    text = report.rejection("the refitted model does not improve the validation runs (held-out AIC -9.5, 1/1 runs better, "
+                     "worst fit drop 22.7 points)")
+    assert "does not improve" not in text
+    assert "loses 22.7 points of fit" in text and "15" in text
+    assert "too small for the penalty" in report.rejection(
+        "the refitted model does not improve the validation runs (held-out AIC +3.0, 1/1 runs better, worst fit drop 0.0 points)")
+    assert "only 1 of 3" in report.rejection(
+        "the refitted model does not improve the validation runs (held-out AIC -3.0, 1/3 runs better, worst fit drop 0.0 points)")
+    assert report.rejection("the refit diverged") == "the refit diverged"
+
+
+def test_absurd_fit_percentages_print_bounded():
+    assert "260211219909401792" not in report.heldout_change(-2.602112199094018e15)
+    assert "diverges" in report.heldout_change(-2.6e15) and report.heldout_change(-0.69) == "held-out residual +69 %"
+    d = SimpleNamespace(per_run_method="validation runs, simulated",
+                        per_run=[{"run": "a.csv", "before": _fits(-7840.0, 10.0, 20.0), "after": _fits(-2.6e17, 12.0, 25.0)}])
+    table = "\n".join(per_run_lines(d))
+    assert "< -999" in table and "7840" not in table and "e+" not in table
+
+
+def test_roll_coupling_is_named_for_a_human():
+    f = {"effect": "roll_coupling", "dof": "sway", "evidence": "e", "plausibility": "",
+         "parameters": {"phi_sway": -2.1, "phi_yaw": 0.00674, "phi_sway_std": 0.536, "phi_yaw_std": 0.00681}}
+    text = sentence(f)
+    assert "phi_sway" not in text and "_std" not in text
+    assert "roll angle" in text and "sway motion" in text and "yaw motion" in text
+
+
+def test_finding_states_its_own_share_not_the_whole_models():
+    rows = [{"run": "/x/val.csv", "before": _fits(70.0, 58.0, 60.0), "after": _fits(71.0, 64.0, 50.0)}]
+    f = {"dof": "sway", "effect": "roll_coupling", "rss_drop": 0.7, "f_statistic": 80.0, "p_value": 1e-18,
+         "cv_gain": 0.6, "heldout_per_run": rows}
+    text = _evidence(f, {"conditions": {}}, _fits(-46, 39, 43), _fits(75, 65, 70), "validation")
+    assert "58 % -> 64 % (yaw 60 % -> 50 %)" in text and "val.csv (simulated)" in text and "39 %" not in text
+    f["heldout_per_run"] = []
+    assert "whole model" in _evidence(f, {"conditions": {}}, _fits(-46, 39, 43), _fits(75, 65, 70), "validation")
+
+
+def test_gain_sources_separate_the_baseline_refit_from_each_finding():
+    a = {"key": "a", "heldout_per_run": [{"run": "/x/v.csv", "before": _fits(50, 50, 50), "after": _fits(60, 55, 50)}]}
+    b = {"key": "b", "heldout_per_run": [{"run": "/x/v.csv", "before": _fits(60, 55, 50), "after": _fits(61, 65, 52)}]}
+    d = SimpleNamespace(findings=[a, b], structure=[], per_run_method="validation runs, simulated", fit_on="validation",
+                        refit_parameters=["Xu"],
+                        per_run=[{"run": "/x/v.csv", "before": _fits(-46, 39, 43), "after": _fits(61, 65, 52)}])
+    line = report.gain_sources(d)[1]
+    assert line.startswith("  v.csv: baseline as given -46.0/39.0/43.0 -> baseline refitted 50.0/50.0/50.0")
+    assert "+ a 60.0/55.0/50.0 -> + b 61.0/65.0/52.0 -> final 61.0/65.0/52.0" in line
+    d.refit_parameters = []
+    assert "before the first finding (no baseline parameter refitted) 50.0" in report.gain_sources(d)[1]
+    d.fit_on = "diagnosed"  # leave-one-out folds are scored linearised, the table by simulation: no chain
+    assert report.gain_sources(d) == []
+
+
+def test_running_mean_has_no_edge_jump():
+    x = np.full(50, 2.0)
+    np.testing.assert_allclose(report.running_mean(x, 5), 2.0)  # a zero-padded convolution gives 1.2 at the ends
+    ramp = np.arange(20.0)
+    np.testing.assert_allclose(report.running_mean(ramp, 5)[2:-2], ramp[2:-2])
+    assert report.running_mean(ramp, 5)[0] == pytest.approx(1.0)  # the window shrinks to samples 0..2
+
+
+def test_cusum_times_are_from_the_runs_start(ship):
+    n = 400
+    t = 1.7e9 + np.arange(n + 1.0)  # a logger's epoch stamps
+    rng = np.random.default_rng(3)
+    y = 0.01 * rng.standard_normal((n + 1, 3))
+    rec = SimpleNamespace(t=t, segments=None, source="run.csv")
+    prep = SimpleNamespace(rec=rec, psi=np.zeros(n + 1), y=y, inputs=rng.standard_normal((n + 1, len(ship.inputs))), wind_body=None)
+    res = np.zeros((n + 1, 3))
+    res[200:260, 0] = 5.0  # a misfit from 200 s after the start
+    loc = locate(ship, [prep], [res], ship.params(None), np.ones(3))
+    w = loc["cusum_windows"][0]
+    assert w["dof"] == DOFS[0] and 190 <= w["t_start"] <= 200 and w["run_start_stamp"] == t[0]
+
+
+def test_report_defines_its_measures_and_splits_the_gain(damping):
+    text = to_text(damping)
+    for term in ("fit % = NRMSE fit", "100 % is perfect", "residual = recorded - simulated", "residual / noise =",
+                 "CUSUM alarm (5.1) =", "'per sample' coefficient", "pooled fit ="):
+        assert text.count(term) == 1, term
+    assert "its own share" in text and "Where the gain comes from" in text and "before the first finding" in text
