@@ -97,11 +97,15 @@ def _surge_term(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndar
     j = surge_base_index(model, term)
     base = float(P[j]) if j is not None else 0.0
     frac = float(val / base) if base else None
-    out = {"term": term, "coefficient": val, "coefficient_std": _sd(cov, pos)[0]}
+    sd = _sd(cov, pos)[0]
+    out = {"term": term, "coefficient": val, "coefficient_std": sd}
+    pct_sd = None if frac is None or sd is None else 100.0 * sd / abs(base)
     if c.effect == "thrust_loss":
         out["loss_percent"] = None if frac is None else -100.0 * frac
+        out["loss_percent_std"] = pct_sd
     else:
         out["resistance_change_pct"] = None if frac is None else 100.0 * frac
+        out["resistance_change_pct_std"] = pct_sd
     return out
 
 
@@ -123,8 +127,11 @@ def _thrust(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray,
 
 def _inertia(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
     s = float(P[model.slot_of[c.key][0]])
-    return {"scale": s, "scale_std": _sd(cov, pos)[0], "inertia_ratio": float(1.0 / (1.0 + s)) if s > -1 else None,
-            "dof": DOFS[c.dof]}
+    sd = _sd(cov, pos)[0]
+    ok = s > -1
+    # delta method: d(1 / (1 + s)) / ds = -1 / (1 + s)^2
+    return {"scale": s, "scale_std": sd, "inertia_ratio": float(1.0 / (1.0 + s)) if ok else None,
+            "inertia_ratio_std": float(sd / (1.0 + s) ** 2) if ok and sd is not None else None, "dof": DOFS[c.dof]}
 
 
 _BY_EFFECT = {"current": _current, "actuator_delay": _delay, "input_offset": _offset, "sensor_bias": _bias,
@@ -148,14 +155,25 @@ def with_interval(c: Candidate, model: AugmentedModel, P: np.ndarray, cov, free:
 
 def interval_note(cov) -> dict:
     """What a finding's +- std covers (JSON ``interval``; the text report prints ``covers``), in
-    words a trials engineer can act on."""
-    runs = cov.n_runs
-    parts = ["measurement noise (of the --fit-on runs too)" if cov.fit_on else "measurement noise"]
+    words a trials engineer can act on. ``diagnosed_runs``: the diagnosed recordings given;
+    ``between_run_runs``: the runs the run-to-run misfit was measured over (0: none)."""
+    runs, ref = cov.n_runs, getattr(cov, "reference_runs", 0)
+    given = max(getattr(cov, "runs_given", 0) or runs, 1)
+    noise = "measurement noise (of the --fit-on runs too)" if cov.fit_on else "measurement noise"
+    what = noise
     if runs >= 2:
-        parts.append(f"the model's run-to-run misfit over the {runs} diagnosed runs")
+        over = (f"the {runs} runs ({runs - ref} diagnosed, {ref} --fit-on fitted jointly)" if ref
+                else f"the {runs} diagnosed runs")
+        what = f"{noise} and the model's run-to-run misfit over {over}"
+        if runs == 2:
+            what += (" (rough with two runs: a spread with one degree of freedom, it can be several times too "
+                     "large or too small; diagnose a third run to firm it up)")
     missing = "a model error common to every run"
-    if runs < 2:
+    if getattr(cov, "misfit_failed", False):
+        missing = ("the model's run-to-run misfit (its leave-one-run-out spread was not finite: a run's fit diverges "
+                   "when the others are left out, so no between-run check was made) and " + missing)
+    elif runs < 2:
         missing = ("the model's misfit on this recording (one diagnosed recording gives no between-run check: "
                    "diagnose two or more runs to measure it) and " + missing)
-    return {"covers": f"1 std of {'; '.join(parts)}. Not covered: {missing}", "diagnosed_runs": runs,
-            "between_runs": runs >= 2}
+    return {"covers": f"1 std of {what}. Not covered: {missing}", "diagnosed_runs": given - ref,
+            "between_run_runs": runs, "between_runs": runs >= 2}

@@ -164,8 +164,27 @@ class Verdict:
         """Better by AIC on held-out data, better on most folds, much worse on none: no fold's
         weighted misfit rises by more than RUN_RISE and no channel of a fold loses more than
         ``much_worse`` points of fit."""
-        return (self.delta_aic < 0 and self.gain > 0 and 2 * self.improved > self.n_folds
-                and self.worst_drop <= much_worse and self.worst_run_rise <= RUN_RISE)
+        return self.failed_criterion(much_worse) is None
+
+    def failed_criterion(self, much_worse: float) -> dict | None:
+        """The first criterion of :meth:`accepted` that fails, named (``criterion``: ``penalty``
+        held-out AIC not negative, ``too_few_improved``, ``channel_much_worse``,
+        ``run_misfit_rises``, ``no_pooled_gain``) with the verdict's numbers; None when accepted."""
+        if not self.delta_aic < 0:
+            crit = "penalty"
+        elif not 2 * self.improved > self.n_folds:
+            crit = "too_few_improved"
+        elif not self.worst_drop <= much_worse:
+            crit = "channel_much_worse"
+        elif not self.worst_run_rise <= RUN_RISE:
+            crit = "run_misfit_rises"
+        elif not self.gain > 0:
+            crit = "no_pooled_gain"
+        else:
+            return None
+        return {"criterion": crit, "heldout_delta_aic": self.delta_aic, "runs_improved": self.improved,
+                "n_folds": self.n_folds, "heldout_gain": self.gain, "worst_fit_drop": self.worst_drop,
+                "worst_run_rise": self.worst_run_rise, "much_worse": much_worse, "run_rise": RUN_RISE}
 
     def table(self, labels: list[str]) -> list[dict]:
         f0, f1 = fit_pct(self.rss0, self.den), fit_pct(self.rss1, self.den)
@@ -184,3 +203,25 @@ def verdict(rss0: np.ndarray, rss1: np.ndarray, den: np.ndarray, n_rows: np.ndar
     improved = int(np.sum(rss1.sum(axis=1) < rss0.sum(axis=1)))
     drop = fit_pct(rss0, den) - fit_pct(rss1, den)
     return Verdict(rss0, rss1, den, d_aic, gain, improved, float(np.max(drop)) if drop.size else 0.0)
+
+
+def rejection_entry(v: Verdict, much_worse: float, validation: bool) -> dict | None:
+    """The search's record of a refitted candidate the held-out test rejects (None: accepted):
+    the criterion that failed with its numbers (``failed``), on which held-out data."""
+    failed = v.failed_criterion(much_worse)
+    if failed is None:
+        return None
+    on = "validation runs" if validation else "held-out runs (folds refitted from the refitted model)"
+    return {"reason": f"the refitted model does not improve the {on}", "judged_on": "validation" if validation else "folds",
+            "failed": failed}
+
+
+def refit_verdict(model: AugmentedModel, all_preps: list[Prepared], parts: Parts, P1: np.ndarray, free: list[int],
+                  w: list, prior_terms, v: Verdict, q: int, tau: float) -> Verdict:
+    """Held-out verdict of the refitted model P1 (no validation runs): each fold's refit is a
+    Gauss-Newton step from P1, which is near it, against the round's held-out misfit without the
+    candidate (``v.rss0``). ``prior_terms(P, cols)``: the fit's prior Hessian diagonal and gradient."""
+    cols = [j for j in free if j < model.n_slots_end]
+    g = grams(model, all_preps, parts, P1, cols, w, model.steps([all_preps[i] for i in sorted(set(parts.prep))], P1))
+    D, pg = prior_terms(P1, cols)
+    return verdict(v.rss0, heldout_rss(g, parts, list(range(len(cols))), D, pg), v.den, g.n_rows[parts.test], q, tau)

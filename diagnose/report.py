@@ -3,16 +3,13 @@
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 
 import numpy as np
 
 from diagnose.api import Diagnosis
-from diagnose.heldout import RUN_RISE
 from diagnose.model_file import model_dict
 from diagnose.perrun import FIT_FLOOR, fit_str, short_label
-from diagnose.search import MUCH_WORSE
 from primitives.io import atomic_savefig, atomic_write_text, to_jsonable
 from primitives.ship import DOFS
 
@@ -22,7 +19,7 @@ GLOSSARY = [
     "How to read this report:",
     "  fit % = NRMSE fit of the simulated output, 100 (1 - |recorded - simulated| / |recorded - its mean|): 100 % is "
     "perfect, 0 % no better than the run's mean, negative worse than the mean (unbounded; below -999 % it is shown as "
-    "'< -999 %': the simulation diverges from the run).",
+    "'< -999 %': the simulation diverges from the run; 'n/a': the simulation diverged, no finite fit).",
     "  residual = recorded - simulated (also in the plots); residual / noise = its RMS over the estimated measurement-"
     "noise std of the channel: about 1 when the model explains the data.",
     "  CUSUM alarm (5.1) = the dead-zone cumulative sum of the thesis's eq. (5.1) over |residual| beyond 1.5 noise std "
@@ -35,7 +32,8 @@ GLOSSARY = [
 
 
 def _cell(v: float) -> str:
-    return "< -999" if not np.isfinite(v) or v < FIT_FLOOR else f"{v:.1f}"
+    """A fit % in a table: bounded below, a diverged (non-finite) one said as fit_str says it."""
+    return "n/a" if not np.isfinite(v) else "< -999" if v < FIT_FLOOR else f"{v:.1f}"
 
 
 def heldout_change(gain: float) -> str:
@@ -45,31 +43,35 @@ def heldout_change(gain: float) -> str:
     return f"held-out residual {-100 * gain:+.0f} %"
 
 
-_VAL_FAIL = re.compile(r"the refitted model does not improve the validation runs \(held-out AIC (?P<aic>\S+), "
-                       r"(?P<imp>\d+)/(?P<n>\d+) runs better, worst fit drop (?P<drop>\S+) points\)")
+def _criterion(f: dict, unit: str) -> str:
+    """The held-out criterion a refitted candidate failed (``Verdict.failed_criterion``), in words;
+    ``unit``: what a fold is (a validation run, a left-out run or block)."""
+    aic, imp, n, drop = f["heldout_delta_aic"], f["runs_improved"], f["n_folds"], f["worst_fit_drop"]
+    tally = f"held-out AIC {aic:+.1f}, {imp}/{n} {unit}s better"
+    return {
+        "penalty": f"its held-out gain is too small for the penalty of its parameters (held-out AIC {aic:+.1f}, "
+                   "must be negative)",
+        "too_few_improved": f"it improves only {imp} of {n} {unit}s (more than half must improve)",
+        "channel_much_worse": f"one channel of a {unit} loses {drop:.1f} points of fit, more than the {f['much_worse']:g} allowed "
+                              f"({tally})",
+        "run_misfit_rises": f"a {unit}'s weighted misfit rises by {100 * f['worst_run_rise']:.1f} %, more than the "
+                            f"{100 * f['run_rise']:g} % allowed ({tally})",
+        "no_pooled_gain": f"the pooled held-out misfit does not fall (gain {100 * f['heldout_gain']:+.2f} %; {tally})",
+    }[f["criterion"]]
 
 
-def rejection(reason: str) -> str:
-    """The search's reason for rejecting a candidate, said as the criterion that failed."""
-    if reason.startswith("implausible estimate: no delay found"):
-        return reason.removeprefix("implausible estimate: ")
-    m = _VAL_FAIL.fullmatch(reason)
-    if not m:
-        return reason
-    aic, imp, n, drop = float(m["aic"]), int(m["imp"]), int(m["n"]), float(m["drop"])
-    if not np.isfinite(aic) or aic >= 0:
-        why = (f"its gain on the validation runs is too small for the penalty of its parameters "
-               f"(held-out AIC {aic:+.1f}, must be negative)")
-    elif 2 * imp <= n:
-        why = f"it improves only {imp} of {n} validation runs (more than half must improve)"
-    elif drop > MUCH_WORSE:
-        why = (f"although the validation runs' weighted misfit falls overall (held-out AIC {aic:+.1f}, {imp}/{n} runs "
-               f"better), one channel of a validation run loses {drop:.1f} points of fit, more than the "
-               f"{MUCH_WORSE:g} allowed")
-    else:
-        why = (f"a validation run's weighted misfit rises by more than {100 * RUN_RISE:g} % although the pooled one "
-               f"falls (held-out AIC {aic:+.1f}, {imp}/{n} runs better)")
-    return f"not confirmed on the validation runs: {why}"
+def rejection(r: dict) -> str:
+    """The search's reason for rejecting a candidate (a ``rejected`` entry), said as the
+    criterion that failed, worded from the entry's fields."""
+    if str(r.get("implausible", "")).startswith("no delay found"):
+        return r["implausible"]
+    f = r.get("failed")
+    if not f:
+        return r["reason"]
+    if r.get("judged_on") == "validation":
+        return f"not confirmed on the validation runs: {_criterion(f, 'validation run')}"
+    return ("not confirmed on the held-out data (each left-out run or block refitted from the refitted model): "
+            + _criterion(f, "left-out fold"))
 
 
 def _pm(p: dict, key: str, fmt: str = ".2g", scale: float = 1.0) -> str:
@@ -78,47 +80,76 @@ def _pm(p: dict, key: str, fmt: str = ".2g", scale: float = 1.0) -> str:
     return f" +- {scale * sd:{fmt}}" if isinstance(sd, int | float) and np.isfinite(sd) else ""
 
 
-def sentence(f: dict) -> str:
-    """One plain-language sentence per finding."""
+# the estimate whose interval says whether the effect is there at all (its "no effect" value is 0)
+_MAIN = {"current": [("speed_mps", "speed_std")], "actuator_delay": [("delay_s", "delay_std")],
+         "input_offset": [("offset", "offset_std")], "sensor_bias": [("bias", "bias_std")],
+         "quadratic_damping": [("value", "value_std")], "missing_coupling": [("value", "value_std")],
+         "thrust_loss": [("loss_percent", "loss_percent_std"), ("coefficient", "coefficient_std")],
+         "resistance_change": [("coefficient", "coefficient_std")], "inertia_change": [("scale", "scale_std")]}
+
+
+def _num(x) -> bool:
+    return isinstance(x, int | float) and bool(np.isfinite(x))
+
+
+def includes_no_effect(f: dict) -> bool:
+    """Every main estimate of the finding lies within 1 std of no effect (|estimate| < std)."""
+    p = f["parameters"]
+    pairs = _MAIN.get(f["effect"]) or [(k, f"{k}_std") for k in p if f"{k}_std" in p]
+    pairs = [(p[k], p[s]) for k, s in pairs if _num(p.get(k)) and _num(p.get(s))]
+    return bool(pairs) and all(abs(v) < sd for v, sd in pairs)
+
+
+def _effect(f: dict) -> str:
+    """The finding's effect in words, each figure with its +- (1 std)."""
     p, e = f["parameters"], f["effect"]
     if e == "current":
-        what = (f"the ship meets a current of {p['speed_mps']:.3g}{_pm(p, 'speed_std')} m/s toward "
+        return (f"the ship meets a current of {p['speed_mps']:.3g}{_pm(p, 'speed_std')} m/s toward "
                 f"{p['toward_deg']:03.0f}{_pm(p, 'toward_std_deg', '.0f')} deg")
-    elif e == "actuator_delay":
-        what = f"the actuators act {p['delay_s']:.2g}{_pm(p, 'delay_std')} s late ({p['samples']:.1f} samples)"
-    elif e == "input_offset":
+    if e == "actuator_delay":
+        return f"the actuators act {p['delay_s']:.2g}{_pm(p, 'delay_std')} s late ({p['samples']:.1f} samples)"
+    if e == "input_offset":
         extra = (f" ({p['offset_deg']:.2f}{_pm(p, 'offset_std', '.2f', float(np.degrees(1.0)))} deg)"
                  if "offset_deg" in p else "")
-        what = (f"input {p['input']} has a neutral offset of {p['offset']:.3g}{_pm(p, 'offset_std')}{extra}: the ship "
+        return (f"input {p['input']} has a neutral offset of {p['offset']:.3g}{_pm(p, 'offset_std')}{extra}: the ship "
                 f"acts on {p['input']} - offset")
-    elif e == "sensor_bias":
-        what = f"the measured {p['signal']} reads {p['bias']:+.3g}{_pm(p, 'bias_std')} {UNITS[p['signal']]} too high"
-    elif e == "quadratic_damping":
-        what = f"the {f['dof']} motion has nonlinear damping {p['term']} (coefficient {p['value']:.3g} per sample)"
-    elif e == "missing_coupling":
-        what = f"the {f['dof']} motion is coupled through {p['term']} (coefficient {p['value']:.3g} per sample)"
-    elif e == "thrust_loss" and "loss_percent" in p:
-        pct = p["loss_percent"]
-        what = (f"the thrust is {pct:.0f}{_pm(p, 'loss_percent_std', '.1f')} % lower than the model's" if pct is not None
-                else f"the thrust term {p['term']} changes by {p['coefficient']:.3g}")
-    elif e == "thrust_loss":
-        what = f"the thrust falls with speed ({p['term']} coefficient {p['coefficient']:.3g})"
-    elif e == "resistance_change":
+    if e == "sensor_bias":
+        return f"the measured {p['signal']} reads {p['bias']:+.3g}{_pm(p, 'bias_std')} {UNITS[p['signal']]} too high"
+    if e in ("quadratic_damping", "missing_coupling"):
+        how = "has nonlinear damping" if e == "quadratic_damping" else "is coupled through"
+        return f"the {f['dof']} motion {how} {p['term']} (coefficient {p['value']:.3g}{_pm(p, 'value_std', '.2g')} per sample)"
+    if e == "thrust_loss" and p.get("loss_percent") is not None:
+        return f"the thrust is {p['loss_percent']:.0f}{_pm(p, 'loss_percent_std', '.1f')} % lower than the model's"
+    if e == "thrust_loss" and "loss_percent" in p:
+        return f"the thrust term {p['term']} changes by {p['coefficient']:.3g}{_pm(p, 'coefficient_std')}"
+    if e == "thrust_loss":
+        return f"the thrust falls with speed ({p['term']} coefficient {p['coefficient']:.3g}{_pm(p, 'coefficient_std')})"
+    if e == "resistance_change":
         pct = p["resistance_change_pct"]
-        what = (f"the hull resistance ({p['term']}) is {pct:+.0f} % off the model's" if pct is not None
-                else f"the resistance term {p['term']} changes by {p['coefficient']:.3g}")
-    elif e == "inertia_change":
-        what = f"the {f['dof']} inertia is {p['inertia_ratio']:.2f} x the model's (increments scaled by {1 + p['scale']:.3f})"
-    elif e == "wind":
-        what = "the relative wind pushes the ship (drag coefficients " + ", ".join(
-            f"{k.split('_')[1]} {v:.3g}" for k, v in p.items() if "_std" not in k) + ")"
-    elif e == "roll_coupling":
-        what = "the roll angle phi feeds the " + " and the ".join(
+        return (f"the hull resistance ({p['term']}) is {pct:+.0f}{_pm(p, 'resistance_change_pct_std', '.0f')} % off the "
+                "model's" if pct is not None
+                else f"the resistance term {p['term']} changes by {p['coefficient']:.3g}{_pm(p, 'coefficient_std')}")
+    if e == "inertia_change":
+        ratio = (f"{p['inertia_ratio']:.2f}{_pm(p, 'inertia_ratio_std', '.2f')} x the model's"
+                 if p.get("inertia_ratio") is not None else "not a finite multiple of the model's")
+        return (f"the {f['dof']} inertia is {ratio} (increments scaled by "
+                f"{1 + p['scale']:.3f}{_pm(p, 'scale_std', '.3f')})")
+    if e == "wind":
+        return "the relative wind pushes the ship (drag coefficients " + ", ".join(
+            f"{k.split('_')[1]} {v:.3g}{_pm(p, k + '_std', '.2g')}" for k, v in p.items() if "_std" not in k) + ")"
+    if e == "roll_coupling":
+        return "the roll angle phi feeds the " + " and the ".join(
             f"{dof} motion (coefficient {p[k]:.3g}{_pm(p, k + '_std', '.3g')} per sample)"
             for k, dof in (("phi_sway", "sway"), ("phi_yaw", "yaw")) if k in p)
-    else:
-        what = f"{e} in {f['dof']}: " + ", ".join(f"{k.removesuffix('_std')} {v:.3g}" + (" (std)" if k.endswith("_std") else "")
-                                                  for k, v in p.items() if isinstance(v, float))
+    return f"{e} in {f['dof']}: " + ", ".join(f"{k} {v:.3g}{_pm(p, k + '_std', '.2g')}" for k, v in p.items()
+                                              if isinstance(v, float) and "_std" not in k)
+
+
+def sentence(f: dict) -> str:
+    """One plain-language sentence per finding; an effect within 1 std of none is said to be."""
+    what = _effect(f)
+    if includes_no_effect(f):
+        what += " (the interval includes no effect: within 1 std of none)"
     plaus = f" Plausible for this ship: {f['plausibility']}." if f.get("plausibility") else ""
     return f"{what}: {f['evidence']}.{plaus}"
 
@@ -128,11 +159,11 @@ def per_run_lines(d: Diagnosis) -> list[str]:
     if not d.per_run:
         return []
     lines = [f"Per run ({d.per_run_method}), fit before -> after [%]:"]
-    w = max(len(r["run"]) for r in d.per_run)
+    w = max(len(short_label(r["run"])) for r in d.per_run)
     lines.append(f"  {'run':{w}s}  " + "  ".join(f"{k:>17s}" for k in DOFS))
     for r in d.per_run:
         cells = [f"{_cell(r['before'][k]):>7s} -> {_cell(r['after'][k]):>6s}" for k in DOFS]
-        lines.append(f"  {r['run']:{w}s}  " + "  ".join(f"{c:>17s}" for c in cells))
+        lines.append(f"  {short_label(r['run']):{w}s}  " + "  ".join(f"{c:>17s}" for c in cells))
     return lines
 
 
@@ -166,14 +197,11 @@ def gain_sources(d: Diagnosis) -> list[str]:
     return lines
 
 
-def to_text(d: Diagnosis) -> str:
-    lines = [f"Diagnosis of {', '.join(p.rec.source for p in d.preps)} against ship {d.profile.name!r} ({d.baseline_source})"]
-    for p in d.preps + d.val_preps:
-        if p.rec.notes:
-            lines.append(f"Recording {p.rec.source}: " + "; ".join(p.rec.notes) + ".")
+def location_lines(d: Diagnosis) -> list[str]:
+    """Where the model misses: residual / noise per channel, CUSUM alarms, worst segments, residual tests."""
     loc = d.location
-    lines.append("Where: residual / noise " + ", ".join(f"{k} {v:.1f}" for k, v in loc["rms_over_noise"].items())
-                 + f"; worst {loc['worst_dof']}.")
+    lines = ["Where: residual / noise " + ", ".join(f"{k} {v:.1f}" for k, v in loc["rms_over_noise"].items())
+             + f"; worst {loc['worst_dof']}."]
     for w in loc["cusum_windows"][:3]:
         seg = f" (segments {', '.join(w['segment'][:6])})" if w["segment"] else ""
         run = f" of {Path(w['recording']).name}" if len(d.preps) > 1 else ""
@@ -189,6 +217,12 @@ def to_text(d: Diagnosis) -> str:
         cc = [f"{k}~{c['input']}" for k, v in tests.items() for c in v["cross_correlation"] if c["lags_outside_band"] > 2]
         lines.append(f"  {label} errors: whiteness (Ljung-Box) {white}; input cross-correlation outside the "
                      f"99 % band: {', '.join(cc) if cc else 'none'}")
+    return lines
+
+
+def finding_lines(d: Diagnosis) -> list[str]:
+    """The findings, the baseline structure and what could not be tested."""
+    lines = []
     if d.explained:
         lines.append("Findings: none. The model explains the data: no candidate physics improves the fit "
                      "significantly and on held-out data.")
@@ -212,6 +246,12 @@ def to_text(d: Diagnosis) -> str:
     for u in d.untestable:
         extra = f" ({u['dof']} {u['term']})" if "term" in u else ""
         lines.append(f"Cannot be tested: {u['effect']}{extra}: {u['reason']}.")
+    return lines
+
+
+def leftover_lines(d: Diagnosis) -> list[str]:
+    """Candidates left over (significant but not kept), the rejected ones with their reasons, notes."""
+    lines = []
     said = {f["key"] for f in d.findings + d.structure} | {r["key"] for r in d.rejected}  # already reported above or below
     weak: dict[str, dict] = {}
     for c in d.screened[-1]["candidates"] if d.screened else []:  # the last round: after every kept effect
@@ -223,10 +263,19 @@ def to_text(d: Diagnosis) -> str:
             f"{c['key']} (p = {c['p_value']:.1g}, {heldout_change(c['heldout_gain'])}, "
             f"{c['runs_improved']} held-out runs better, estimate "
             + ", ".join(f"{e:.3g}" for e in c["estimate"]) + ")" for c in top) + ".")
-    for text in dict.fromkeys(f"Rejected: {r['key']}: {rejection(r['reason'])}." for r in d.rejected):
+    for text in dict.fromkeys(f"Rejected: {r['key']}: {rejection(r)}." for r in d.rejected):
         lines.append(text)
     for n in d.notes:
         lines.append(f"Note: {n}.")
+    return lines
+
+
+def to_text(d: Diagnosis) -> str:
+    lines = [f"Diagnosis of {', '.join(p.rec.source for p in d.preps)} against ship {d.profile.name!r} ({d.baseline_source})"]
+    for p in d.preps + d.val_preps:
+        if p.rec.notes:
+            lines.append(f"Recording {p.rec.source}: " + "; ".join(p.rec.notes) + ".")
+    lines += location_lines(d) + finding_lines(d) + leftover_lines(d)
     if d.refit_parameters:
         lines.append("Baseline parameters refitted with the findings (bounded, regularised towards the profile): "
                      + ", ".join(d.refit_parameters) + ".")

@@ -32,7 +32,7 @@ from scipy import stats
 from diagnose import plausible
 from diagnose.candidates import Candidate, canonical_term
 from diagnose.describe import describe, surge_base_index
-from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, verdict
+from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, refit_verdict, rejection_entry, verdict
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
 from diagnose.reference import ReferencedModel
 
@@ -343,8 +343,8 @@ def _round(S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rn
             break
         tries += 1
         res = _try(S, P, r_cur, free, c, beta, rss0_in, v, M, inputs)
-        if isinstance(res, str):
-            out.rejected.append({"round": rnd + 1, "key": c.key, "effect": c.effect, "reason": res})
+        if isinstance(res, dict):
+            out.rejected.append({"round": rnd + 1, "key": c.key, "effect": c.effect, **res})
             continue
         passed.append(res)
         if len(passed) >= MAX_PASSED:
@@ -356,8 +356,8 @@ def _round(S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rn
 
 def _try(S: _Search, P: np.ndarray, r0: np.ndarray, free: list[int], c: Candidate, beta: np.ndarray, rss0: float,
          v: Verdict, M: int, inputs: np.ndarray | None):
-    """Nonlinear refit of one candidate from P (weighted residual ``r0``); a reason string when
-    it is rejected."""
+    """Nonlinear refit of one candidate from P (weighted residual ``r0``); a rejection entry
+    (``reason``, and the held-out criterion that failed as ``failed``) when it is rejected."""
     model = S.model
     new = model.slot_of[c.key]
     start = _line_start(S, P, new, beta)
@@ -365,48 +365,33 @@ def _try(S: _Search, P: np.ndarray, r0: np.ndarray, free: list[int], c: Candidat
         start[new[0]] = _grid_delay(S, P, new[0])
     P1, cov1, rss1 = S.refit(start, free + new, slot_bounds(model, c, P))
     if not np.isfinite(rss1):
-        return "the refit diverged (non-finite or exploding simulation): not scored"
+        return {"reason": "the refit diverged (non-finite or exploding simulation): not scored"}
     params = describe(c, model, P1, cov1, free + new)
     ok, why = plausible.check(c.effect, params, model.profile, inputs)
     if not ok:
-        return f"implausible estimate: {why}"
+        return {"reason": f"implausible estimate: {why}", "implausible": why}
     big, small_why = plausible.practical(c.effect, params, model.profile, _visible(S, P1, new))
     if not big:
-        return f"too small to matter: {small_why}"
+        return {"reason": f"too small to matter: {small_why}"}
     if c.effect == "sensor_bias":
         y = np.concatenate([p.y for p in S.preps])[:, c.slots[0].index]
         if abs(P1[new[0]]) >= 0.5 * np.std(y):
-            return "a sensor bias as large as the signal trades off against the initial state (seed 004 lesson 4)"
+            return {"reason": "a sensor bias as large as the signal trades off against the initial state (seed 004 lesson 4)"}
     f_nl, p_nl, res1 = _lr_test(S, P1, rss0, rss1, len(new), M)
     if not _passes(p_nl, v.gain, S.n_cand, S.alpha, S.independent):
-        return f"the nonlinear refit is not significant (F = {f_nl:.1f}, p = {p_nl:.2g})"
+        return {"reason": f"the nonlinear refit is not significant (F = {f_nl:.1f}, p = {p_nl:.2g})"}
     if S.val:
         heldout = verdict(S.val_rss(P), S.val_rss(P1), v.den, _val_rows(S), len(new), S.tau)
-        if not heldout.accepted(MUCH_WORSE):
-            return (f"the refitted model does not improve the validation runs (held-out AIC {heldout.delta_aic:+.1f}, "
-                    f"{heldout.improved}/{heldout.n_folds} runs better, worst fit drop {heldout.worst_drop:.1f} points)")
     else:
-        heldout = _refit_heldout(S, P1, free + new, v, len(new))
-        if not heldout.accepted(MUCH_WORSE):
-            return (f"the refitted model does not improve the held-out runs (held-out AIC {heldout.delta_aic:+.1f}, "
-                    f"{heldout.improved}/{heldout.n_folds} better, worst fit drop {heldout.worst_drop:.1f} points, "
-                    "folds refitted from the refitted model)")
+        heldout = refit_verdict(model, S.all, S.parts, P1, free + new, S.wr, S.prior_terms, v, len(new), S.tau)
+    failed = rejection_entry(heldout, MUCH_WORSE, bool(S.val))
+    if failed:
+        return failed
     dof_gain = (r0.reshape(-1, 3) ** 2 - res1.reshape(-1, 3) ** 2).sum(axis=0)
     corr = float(np.corrcoef(r0 - res1, r0)[0, 1]) if np.std(r0 - res1) > 0 else 0.0
     step = Step(c, rss0, rss1, f_nl, p_nl, heldout.delta_aic, heldout.gain, dof_gain, corr,
                 heldout.table([S.parts.label[t] for t in S.parts.test]), why)
     return c, new, P1, cov1, step
-
-
-def _refit_heldout(S: _Search, P1: np.ndarray, free: list[int], v: Verdict, q: int) -> Verdict:
-    """Held-out verdict of the refitted model P1 (no validation runs): each fold's refit is a
-    Gauss-Newton step from P1, which is near it (:mod:`diagnose.heldout`), against the round's
-    held-out misfit without the candidate (``v.rss0``)."""
-    cols = [j for j in free if j < S.model.n_slots_end]
-    g = grams(S.model, S.all, S.parts, P1, cols, S.wr, S.model.steps(S.preps, P1))
-    D, pg = S.prior_terms(P1, cols)
-    test = S.parts.test
-    return verdict(v.rss0, heldout_rss(g, S.parts, list(range(len(cols))), D, pg), v.den, g.n_rows[test], q, S.tau)
 
 
 def _visible(S: _Search, P1: np.ndarray, own: list[int]) -> float:

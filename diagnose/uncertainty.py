@@ -82,6 +82,11 @@ def ar1_grams(pairs: list[tuple[np.ndarray, np.ndarray]], rho: np.ndarray, s2: n
     return sum(g for g, _m in per), sum(m for _g, m in per)
 
 
+def _finite(X: np.ndarray) -> np.ndarray:
+    """``X`` with every non-finite entry (inf from an overflow) as NaN: one mark of a failure."""
+    return np.where(np.isfinite(X), X, np.nan)
+
+
 def _inv(A: np.ndarray) -> np.ndarray:
     try:
         return np.linalg.inv(A)
@@ -152,13 +157,12 @@ def jackknife(pairs: list[tuple[np.ndarray, np.ndarray]], nf: int, prior_D: np.n
     for j, (_g, M) in enumerate(per_run):
         E += np.einsum("iab,bc,idc->ad", B[:, j], M, B[:, j])
     E *= (n - 1) / n
-    fin = lambda X: np.where(np.isfinite(X), X, np.nan)  # noqa: E731
-    return fin(V), fin(E)
+    return _finite(V), _finite(E)
 
 
 def small_sample(n: int) -> float:
     """Variance factor of a spread measured over ``n`` runs (n - 1 degrees of freedom): the
-    Student-t quantile of a one-std (68 %) interval, squared (3 runs: 1.72, 10 runs: 1.11)."""
+    Student-t quantile of a one-std (68 %) interval, squared (2 runs: 3.38, 3 runs: 1.746, 10 runs: 1.12)."""
     return float(stats.t.ppf(stats.norm.cdf(1.0), n - 1) ** 2) if n >= 2 else 0.0
 
 
@@ -185,8 +189,11 @@ class FindingCov:
 
     noise: np.ndarray  # measurement noise (AR(1) sandwich), held baseline's noise carried in
     model: np.ndarray  # run-to-run model misfit beyond the noise over the diagnosed runs
-    n_runs: int  # diagnosed runs the between-run spread was measured over (<2: none)
+    n_runs: int  # runs the between-run spread was measured over (0: none, or it failed)
     fit_on: bool = False  # the noise of a baseline fitted on --fit-on runs is carried in
+    runs_given: int = 0  # runs the covariance was computed over (diagnosed and joint --fit-on)
+    reference_runs: int = 0  # of those, --fit-on runs fitted jointly (a ReferencedModel)
+    misfit_failed: bool = False  # the leave-one-run-out spread was not finite: no misfit term
 
     @property
     def total(self) -> np.ndarray:
@@ -207,15 +214,19 @@ def propagated(pairs: list[tuple[np.ndarray, np.ndarray]], nf: int, prior_D: np.
     cols = list(range(nf)) if model_cols is None else list(model_cols)
     model = np.zeros_like(cov)
     VE = jackknife(own, nf, prior_D, per_run)
+    failed = False
     if VE is not None and cols:
         ix = np.ix_(cols, cols)
-        model[ix] = small_sample(len(pairs)) * excess(VE[0][ix], VE[1][ix])
+        # a diverging run makes the spread non-finite: say so, never a zero misfit term
+        failed = not (np.all(np.isfinite(VE[0][ix])) and np.all(np.isfinite(VE[1][ix])))
+        if not failed:
+            model[ix] = small_sample(len(pairs)) * excess(VE[0][ix], VE[1][ix])
     if held_cov is not None and len(held_cov):
         G_ah = sum(np.einsum("anc,bnc->ab", J[:nf], J[nf:]) for _r, J in pairs)
         dA = -_inv(H) @ G_ah
         cov = cov + dA @ held_cov @ dA.T
-    fin = lambda C: np.where(np.isfinite(C), C, np.nan)  # noqa: E731
-    return FindingCov(fin(cov), fin(model), len(pairs) if VE is not None else 0, held_cov is not None and len(held_cov) > 0)
+    return FindingCov(_finite(cov), _finite(model), len(pairs) if VE is not None and not failed else 0,
+                      held_cov is not None and len(held_cov) > 0, len(pairs), misfit_failed=failed)
 
 
 def finding_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, P: np.ndarray, free: list[int],
@@ -229,7 +240,9 @@ def finding_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, P: 
     pairs = sensitivities(model, preps, P, list(free) + held, w)
     D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[free], len(free))
     cols = [k for k, j in enumerate(free) if model.n_base <= j < model.n_slots_end]
-    return propagated(pairs, len(free), D, held_cov if held else None, cols)
+    out = propagated(pairs, len(free), D, held_cov if held else None, cols)
+    out.reference_runs = sum(id(p) in getattr(model, "reference_ids", ()) for p in preps)
+    return out
 
 
 def baseline_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, idx: list[int], sd: np.ndarray

@@ -13,6 +13,7 @@ import pytest
 from diagnose import plausible, report
 from diagnose.api import _evidence, run
 from diagnose.battery import scenario
+from diagnose.heldout import rejection_entry, verdict
 from diagnose.locate import locate
 from diagnose.report import per_run_lines, sentence, to_text
 from primitives.ship import DOFS, load_profile
@@ -36,23 +37,87 @@ def _fits(s, w, y):
 def test_zero_delay_is_no_delay_found_not_an_implausible_one(ship):
     ok, why = plausible.check("actuator_delay", {"delay_s": 0.0}, ship)
     assert not ok and "no delay found" in why and "at most" not in why
-    # the search prefixes every failed check with "implausible estimate": the report drops it for this one
-    assert report.rejection(f"implausible estimate: {why}").startswith("no delay found")
+    # the search records the failed check apart ("implausible"): the report says it without the prefix
+    assert report.rejection({"reason": f"implausible estimate: {why}", "implausible": why}).startswith("no delay found")
     lim, _ = plausible.max_delay_s(ship)
     ok, why = plausible.check("actuator_delay", {"delay_s": 3 * lim}, ship)
     assert not ok and "at most" in why  # the upper bound, when that is the one violated
 
 
-def test_validation_rejection_names_the_criterion_that_failed():
-    text = report.rejection("the refitted model does not improve the validation runs (held-out AIC -9.5, 1/1 runs better, "
-                     "worst fit drop 22.7 points)")
-    assert "does not improve" not in text
-    assert "loses 22.7 points of fit" in text and "15" in text
-    assert "too small for the penalty" in report.rejection(
-        "the refitted model does not improve the validation runs (held-out AIC +3.0, 1/1 runs better, worst fit drop 0.0 points)")
-    assert "only 1 of 3" in report.rejection(
-        "the refitted model does not improve the validation runs (held-out AIC -3.0, 1/3 runs better, worst fit drop 0.0 points)")
-    assert report.rejection("the refit diverged") == "the refit diverged"
+def _verdict(rss0, rss1, den=1e6, rows=1000, q=1):
+    rss0, rss1 = np.array(rss0, float), np.array(rss1, float)
+    return verdict(rss0, rss1, np.full_like(rss0, den), np.full(len(rss0), rows), q, 1.0)
+
+
+# one real Verdict per held-out criterion: (verdict, criterion, what the report must say)
+CRITERIA = [
+    (lambda: _verdict([[1, 1, 1]], [[0.999] * 3], rows=100, q=5), "penalty", ["too small for the penalty", "+9.7"]),
+    (lambda: _verdict(np.ones((3, 3)), [[0.1] * 3, [1.01] * 3, [1.01] * 3]), "too_few_improved", ["only 1 of 3"]),
+    (lambda: _verdict([[1, 1, 1]], [[0.01, 0.01, 2.0]], den=4.0), "channel_much_worse", ["loses 20.7 points", "15 allowed"]),
+    (lambda: _verdict(np.ones((3, 3)), [[0.5] * 3, [0.5] * 3, [1.05] * 3]), "run_misfit_rises", ["rises by 5.0 %", "2 % allowed"]),
+    (lambda: _verdict([[1, 0, 1], [0, 0, 200], [1, 0, 1]], [[0.5, 0, 1], [0, 0, 203], [0.5, 0, 1]], rows=100),
+     "no_pooled_gain", ["pooled held-out misfit does not fall", "gain -0.98 %", "2/3"]),
+]
+
+
+@pytest.mark.parametrize("make,criterion,words", CRITERIA, ids=[c[1] for c in CRITERIA])
+def test_rejection_is_worded_from_the_verdicts_failed_criterion(make, criterion, words):
+    """The search stores the failed criterion with its numbers (``heldout.rejection_entry``);
+    the report words it from those fields, for validation runs and for refitted folds."""
+    from diagnose.search import MUCH_WORSE
+
+    v = make()
+    assert not v.accepted(MUCH_WORSE) and v.failed_criterion(MUCH_WORSE)["criterion"] == criterion
+    val = report.rejection(rejection_entry(v, MUCH_WORSE, validation=True))
+    assert val.startswith("not confirmed on the validation runs: ") and "does not improve" not in val
+    for w in words:
+        assert w in val, (w, val)
+    folds = report.rejection(rejection_entry(v, MUCH_WORSE, validation=False))
+    assert folds.startswith("not confirmed on the held-out data (each left-out run or block refitted")
+    assert "validation" not in folds and all(w in folds for w in words)
+
+
+def test_an_accepted_verdict_is_no_rejection_and_other_reasons_pass_as_said():
+    from diagnose.search import MUCH_WORSE
+
+    v = _verdict(np.ones((3, 3)), np.full((3, 3), 0.5))
+    assert v.accepted(MUCH_WORSE) and v.failed_criterion(MUCH_WORSE) is None
+    assert rejection_entry(v, MUCH_WORSE, validation=True) is None
+    assert report.rejection({"reason": "the refit diverged"}) == "the refit diverged"
+
+
+def _finding(effect, dof="yaw", **p):
+    return {"effect": effect, "dof": dof, "evidence": "e", "plausibility": "", "parameters": p}
+
+
+def test_every_effect_states_its_interval_and_when_it_includes_no_effect():
+    """MARIN's yaw inertia read scale 0.166 +- 0.244: the text printed "0.86 x the model's" with
+    no +-. Each effect now carries its +- (the ratio's by the delta method) and one within 1 std
+    of no effect says so."""
+    from diagnose.describe import _inertia
+
+    c, m = SimpleNamespace(key="k", dof=2), SimpleNamespace(slot_of={"k": [0]})
+    p = _inertia(c, m, np.array([0.166]), np.array([[0.244**2]]), [0])
+    assert p["inertia_ratio_std"] == pytest.approx(0.244 / 1.166**2)
+    text = sentence(_finding("inertia_change", **p))
+    assert "0.86 +- 0.18 x the model's" in text and "1.166 +- 0.244" in text and "includes no effect" in text
+    cases = [
+        (_finding("quadratic_damping", term="r*|r|", value=-0.02, value_std=0.005), "-0.02 +- 0.005"),
+        (_finding("missing_coupling", term="v*r", value=0.3, value_std=0.5), "0.3 +- 0.5"),
+        (_finding("resistance_change", "surge", term="u*|u|", coefficient=-0.01, coefficient_std=0.002,
+                  resistance_change_pct=12.0, resistance_change_pct_std=2.4), "+12 +- 2 %"),
+        (_finding("thrust_loss", "surge", term="tau_x", coefficient=-0.01, coefficient_std=0.002, loss_percent=8.0,
+                  loss_percent_std=1.6), "8 +- 1.6 %"),
+        (_finding("thrust_loss", "surge", term="u*tau_x", coefficient=-0.004, coefficient_std=0.001), "-0.004 +- 0.001"),
+        (_finding("wind", "sway", wind_surge=0.5, wind_surge_std=0.1, wind_sway=0.1, wind_sway_std=0.2),
+         "surge 0.5 +- 0.1, sway 0.1 +- 0.2"),
+    ]
+    for f, pm in cases:
+        text = sentence(f)
+        assert pm in text, (pm, text)
+        weak = all(abs(f["parameters"][k]) < f["parameters"][f"{k}_std"] for k in f["parameters"]
+                   if f"{k}_std" in f["parameters"] and k in ("value", "coefficient", "loss_percent", "wind_surge", "wind_sway"))
+        assert ("includes no effect" in text) == weak, text
 
 
 def test_absurd_fit_percentages_print_bounded():
