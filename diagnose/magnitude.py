@@ -19,9 +19,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from diagnose import plausible
 from diagnose.candidates import Candidate
+from diagnose.describe import describe
+from diagnose.heldout import RUN_RISE
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
-from diagnose.search import base_bounds, slot_bounds
+from diagnose.perrun import GUARD_SLACK, per_run_fits, short_label
+from diagnose.search import MUCH_WORSE, base_bounds, slot_bounds
 
 N_REWEIGHT = 2
 
@@ -61,3 +65,38 @@ def ml_refit(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: 
                           "is reported")
         Pn, wn, sdn = Pk, wk, (prior[1] if prior is not None else prior_std)
     return Pn, wn, sdn, ""
+
+
+def heldout_worse(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray,
+                  P_search: np.ndarray, P_ml: np.ndarray, w_ml: np.ndarray, free: list[int]) -> str:
+    """Why the ML estimate fits the held-out runs worse than the search's, or "" when it does
+    not beyond what noise explains. Held-out runs: the validation runs (simulated), otherwise
+    each diagnosed run left out in turn (linearised refit, each estimate stepped with the
+    weights it was made with). The slack is the per-run guard's (:func:`diagnose.perrun.guard`)
+    with the search's estimate in the baseline's place: a run's noise-weighted misfit (weights
+    ``w``, common to both) may rise by RUN_RISE, a channel lose GUARD_SLACK points of fit
+    (validation) or MUCH_WORSE (left out). The ML criterion is a better estimator only if its
+    model is right (seed 004); a real model error it weighs differently shows as a held-out
+    loss, and then the search's estimate, already judged held out, stands."""
+    ref, method = per_run_fits(model, preps, val_preps, w, P_search, P_search, free, w)
+    new, _ = per_run_fits(model, preps, val_preps, w, P_search, P_ml, free, w_ml)
+    slack = GUARD_SLACK if val_preps else MUCH_WORSE
+    for a, b in zip(ref, new):
+        rise = b["weighted_misfit_after"] / max(a["weighted_misfit_after"], 1e-300) - 1.0
+        drop = {k: b["after"][k] - a["after"][k] for k in a["after"]}
+        k = min(drop, key=drop.get)
+        if not (rise <= RUN_RISE and drop[k] >= -slack):  # a NaN fit fails too
+            return (f"{short_label(a['run'])} ({method}): weighted misfit {100 * rise:+.1f} % (at most "
+                    f"{100 * RUN_RISE:+.0f} %), {k} fit {drop[k]:+.1f} points (at most -{slack:g})")
+    return ""
+
+
+def implausible(model: AugmentedModel, chosen: list[Candidate], P: np.ndarray, free: list[int],
+                inputs: np.ndarray | None) -> list[tuple[Candidate, str]]:
+    """The findings whose magnitude at P fails :func:`diagnose.plausible.check`, with the reason."""
+    out = []
+    for c in chosen:
+        ok, why = plausible.check(c.effect, describe(c, model, P, np.zeros((0, 0)), free), model.profile, inputs)
+        if not ok:
+            out.append((c, why))
+    return out
