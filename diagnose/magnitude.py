@@ -77,7 +77,11 @@ def heldout_worse(model: AugmentedModel, preps: list[Prepared], val_preps: list[
     ``w``, common to both) may rise by RUN_RISE, a channel lose GUARD_SLACK points of fit
     (validation) or MUCH_WORSE (left out). The ML criterion is a better estimator only if its
     model is right (seed 004); a real model error it weighs differently shows as a held-out
-    loss, and then the search's estimate, already judged held out, stands."""
+    loss, and then the search's estimate, already judged held out, stands. One diagnosed run and
+    no validation run: no held-out evidence (in sample the search's estimate is the optimum of
+    the noise-weighted misfit by construction), the ML estimate stands."""
+    if not val_preps and len(preps) < 2:
+        return ""
     ref, method = per_run_fits(model, preps, val_preps, w, P_search, P_search, free, w)
     new, _ = per_run_fits(model, preps, val_preps, w, P_search, P_ml, free, w_ml)
     slack = GUARD_SLACK if val_preps else MUCH_WORSE
