@@ -22,10 +22,9 @@ import numpy as np
 from diagnose import plausible
 from diagnose.candidates import Candidate
 from diagnose.describe import describe
-from diagnose.heldout import RUN_RISE
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
 from diagnose.perrun import GUARD_SLACK, per_run_fits, short_label
-from diagnose.search import MUCH_WORSE, base_bounds, slot_bounds
+from diagnose.search import base_bounds, slot_bounds
 
 N_REWEIGHT = 2
 
@@ -72,26 +71,25 @@ def heldout_worse(model: AugmentedModel, preps: list[Prepared], val_preps: list[
     """Why the ML estimate fits the held-out runs worse than the search's, or "" when it does
     not beyond what noise explains. Held-out runs: the validation runs (simulated), otherwise
     each diagnosed run left out in turn (linearised refit, each estimate stepped with the
-    weights it was made with). The slack is the per-run guard's (:func:`diagnose.perrun.guard`)
-    with the search's estimate in the baseline's place: a run's noise-weighted misfit (weights
-    ``w``, common to both) may rise by RUN_RISE, a channel lose GUARD_SLACK points of fit
-    (validation) or MUCH_WORSE (left out). The ML criterion is a better estimator only if its
-    model is right (seed 004); a real model error it weighs differently shows as a held-out
-    loss, and then the search's estimate, already judged held out, stands. One diagnosed run and
-    no validation run: no held-out evidence (in sample the search's estimate is the optimum of
-    the noise-weighted misfit by construction), the ML estimate stands."""
+    weights it was made with). The test is per run and channel, in fit points, which no
+    weighting enters: no channel may lose more than GUARD_SLACK points, the slack the per-run
+    guard (:func:`diagnose.perrun.guard`) gives a validation channel against the baseline. A
+    misfit weighted by the search's ``w`` would not do: the ML estimate departs from the
+    w-optimum on purpose, and on the MMG battery's model-delay-3 it rose 2-6 % on validation runs
+    whose channels moved 0.2 points at most. The ML criterion is the better estimator only if
+    its model is right (seed 004); a model error it weighs differently shows as a held-out
+    channel's loss, and then the search's estimate, already judged held out, stands. One
+    diagnosed run and no validation run: nothing is held out, the ML estimate stands."""
     if not val_preps and len(preps) < 2:
         return ""
     ref, method = per_run_fits(model, preps, val_preps, w, P_search, P_search, free, w)
     new, _ = per_run_fits(model, preps, val_preps, w, P_search, P_ml, free, w_ml)
-    slack = GUARD_SLACK if val_preps else MUCH_WORSE
     for a, b in zip(ref, new):
-        rise = b["weighted_misfit_after"] / max(a["weighted_misfit_after"], 1e-300) - 1.0
         drop = {k: b["after"][k] - a["after"][k] for k in a["after"]}
         k = min(drop, key=drop.get)
-        if not (rise <= RUN_RISE and drop[k] >= -slack):  # a NaN fit fails too
-            return (f"{short_label(a['run'])} ({method}): weighted misfit {100 * rise:+.1f} % (at most "
-                    f"{100 * RUN_RISE:+.0f} %), {k} fit {drop[k]:+.1f} points (at most -{slack:g})")
+        if not drop[k] >= -GUARD_SLACK:  # a NaN fit fails too
+            return (f"{short_label(a['run'])} ({method}): {k} fit {a['after'][k]:.1f} -> {b['after'][k]:.1f} % "
+                    f"({drop[k]:+.1f} points, at most -{GUARD_SLACK:g})")
     return ""
 
 

@@ -108,7 +108,7 @@ def test_heldout_gate_keeps_an_equal_fit_and_refuses_a_worse_one(setup):
     P_bad = P_true.copy()
     P_bad[j] = 0.2
     why = magnitude.heldout_worse(model, [prep], [val], w, P_true, P_bad, w, free)
-    assert "validation runs, simulated" in why and "weighted misfit" in why
+    assert "validation runs, simulated" in why and "points, at most -1" in why
     # no validation run: each diagnosed run left out in turn (linearised refit)
     runs = [dataclasses.replace(_data(model, prep, P_true, seed=k), index=0) for k in (3, 4)]
     why = magnitude.heldout_worse(model, runs, [], w, P_true, P_bad, w, free)
