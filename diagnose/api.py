@@ -23,12 +23,12 @@ from diagnose.candidates import build_library
 from diagnose.describe import interval_note, with_interval
 from diagnose.heldout import Parts, grams, insample_rss
 from diagnose.locate import locate
-from diagnose.magnitude import ml_refit
-from diagnose.model import AugmentedModel, Prepared, fit_percent, noise_std_coloured, prepare
+from diagnose.magnitude import heldout_worse, implausible, ml_refit
+from diagnose.model import AugmentedModel, Prepared, fit, fit_percent, noise_std_coloured, prepare
 from diagnose.perrun import fit_str, guard, short_label
 from diagnose.recording import Recording, RecordingError
 from diagnose.reference import ReferencedModel
-from diagnose.search import select
+from diagnose.search import SearchResult, select
 from diagnose.uncertainty import FindingCov, finding_cov
 from primitives.ship import DOFS, ShipProfile
 
@@ -59,6 +59,8 @@ class Diagnosis:
     notes: list[str] = field(default_factory=list)
     refit_parameters: list[str] = field(default_factory=list)
     structure: list[dict] = field(default_factory=list)  # findings the --fit-on reference runs show too
+    # the findings' magnitudes are the maximum-likelihood refit's (diagnose.magnitude), not the search's
+    magnitudes_refitted: bool = False
 
     @property
     def explained(self) -> bool:
@@ -166,16 +168,8 @@ def run(
     held_by = [prepare(S.profile, r) for r in fit_on] if fit_on and not joint_reference else None
     result = select(model, preps + S.calm_preps, w, val_preps=val_preps, base_free=base_free, max_rounds=max_rounds,
                     inputs=inputs, calm_preps=held_by)
-    # the magnitudes of what the search kept, by the maximum-likelihood criterion (diagnose.magnitude)
-    result.P, w_fit, result.prior_std, note = ml_refit(model, preps + S.calm_preps, result.P, result.free,
-                                                       [st.candidate for st in result.steps], result.base_free, w,
-                                                       result.prior_std)
-    result.notes += [note] if note else []
-    P0x = P0.copy()
-    P0x[model.x0_params()] = result.P[model.x0_params()]  # the initial state is not physics: same in both
-    P, free, steps, per_run, method, dropped = guard(model, preps + S.calm_preps, val_preps, w, P0x, result.P, result.free,
-                                                     list(result.steps), result.base_free)
-    result.rejected += dropped
+    P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(model, preps + S.calm_preps, val_preps, result,
+                                                                        w, P0, inputs)
     cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0)
     if steps and free == result.free:
         cov = _cov(S, given, fit_on, w_fit, P, free, result.prior_std)
@@ -192,8 +186,61 @@ def run(
                   preps, val_preps, result.screened, fbd, fad, 0.0, per_run, method, result.rejected,
                   S.notes + result.notes, [names[j] for j in result.base_free] if findings else [])
     d.structure = structure
+    d.magnitudes_refitted = refitted
     d.elapsed_s = time.perf_counter() - t0
     return d
+
+
+def _magnitudes(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], result: SearchResult, w: np.ndarray,
+                P0: np.ndarray, inputs: np.ndarray):
+    """The final magnitudes of what the search kept (``result``, a :class:`diagnose.search.SearchResult`;
+    its notes and rejections are extended): the maximum-likelihood refit
+    (:func:`diagnose.magnitude.ml_refit`) unless it fits the held-out runs worse than the search's
+    estimate (:func:`diagnose.magnitude.heldout_worse`) or makes a finding implausible; a finding
+    implausible at the search's estimate too is dropped. Then the per-run guard against the
+    baseline P0 with the final initial states. Returns (P, that baseline, free, steps, per-run
+    table, its method, the weights P was fitted with, refitted?)."""
+    chosen = [st.candidate for st in result.steps]
+    P_ml, w_ml, sd_ml, note = ml_refit(model, preps, result.P, result.free, chosen, result.base_free, w, result.prior_std)
+    why = ""
+    if not note and chosen:
+        why = heldout_worse(model, preps, val_preps, w, result.P, P_ml, w_ml, result.free)
+        why = f"it fits a held-out run worse than the search's estimate: {why}" if why else ""
+        bad = [] if why else implausible(model, chosen, P_ml, result.free, inputs)
+        why = why or "; ".join(f"{c.key} becomes implausible: {r}" for c, r in bad)
+    refitted = bool(chosen) and not note and not why
+    if refitted:
+        result.P, w_fit, result.prior_std = P_ml, w_ml, sd_ml
+    else:
+        w_fit = w
+        note = note or (f"the maximum-likelihood refit of the findings' magnitudes was not kept ({why}): the "
+                        "search's estimate is reported" if why else "")
+    result.notes += [note] if note else []
+    steps = _drop_implausible(model, preps, result, w_fit, inputs)
+    P0x = P0.copy()
+    P0x[model.x0_params()] = result.P[model.x0_params()]  # the initial state is not physics: same in both
+    P, free, steps, per_run, method, dropped = guard(model, preps, val_preps, w, P0x, result.P, result.free, steps,
+                                                     result.base_free, w_fit)
+    result.rejected += dropped
+    return P, P0x, free, steps, per_run, method, w_fit, refitted and bool(steps)
+
+
+def _drop_implausible(model: AugmentedModel, preps: list[Prepared], result: SearchResult, w: np.ndarray, inputs: np.ndarray) -> list:
+    """The kept steps less those implausible at the final estimate (the search judged each at its
+    own refit; later rounds refit it again): each is moved to ``result.rejected`` with the
+    reason, its slots zeroed and the rest refitted (weights ``w``)."""
+    steps = list(result.steps)
+    for c, why in implausible(model, [st.candidate for st in steps], result.P, result.free, inputs):
+        own = model.slot_of[c.key]
+        steps = [st for st in steps if st.candidate.key != c.key]
+        result.free = [j for j in result.free if j not in own]
+        result.P = result.P.copy()
+        result.P[own] = 0.0
+        result.rejected.append({"key": c.key, "effect": c.effect, "reason": f"implausible estimate: {why}"})
+    if len(steps) < len(result.steps) and steps:
+        result.P, _cov, _rss = fit(model, preps, result.P, [j for j in result.free if j not in result.base_free], w,
+                                   max_iter=6)
+    return steps
 
 
 def _cov(S: _Setup, given: tuple[ShipProfile, np.ndarray], fit_on: list[Recording] | None, w: np.ndarray,

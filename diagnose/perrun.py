@@ -46,10 +46,13 @@ def _den(preps: list[Prepared], w: np.ndarray) -> np.ndarray:
 
 
 def per_run_fits(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray,
-                 P0: np.ndarray, P: np.ndarray, free: list[int]) -> tuple[list[dict], str]:
+                 P0: np.ndarray, P: np.ndarray, free: list[int], w_fit: np.ndarray | None = None
+                 ) -> tuple[list[dict], str]:
     """Fit before/after per run and channel. With validation runs: by simulation. Otherwise each
     diagnosed run is held out in turn: the model refitted without it (a Gauss-Newton step of the
-    free parameters from the final fit) is simulated on it (leave one run out, linearised)."""
+    free parameters from the final fit, weighted by ``w_fit``, the weights P was fitted with,
+    default ``w``) is simulated on it (leave one run out, linearised). The weighted misfit of
+    the table always weighs by ``w`` (the noise scale), so before and after compare."""
     if val_preps:
         f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in val_preps])
         f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in val_preps])
@@ -61,7 +64,8 @@ def per_run_fits(model: AugmentedModel, preps: list[Prepared], val_preps: list[P
         f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in preps])
         return _table([p.rec.source for p in preps], ["diagnosed"] * len(preps), f0, f1, _den(preps, w)), "diagnosed runs, in-sample"
     parts = make_parts(preps, [])
-    g = grams(model, preps, parts, P, cols, w, model.steps(preps, P))
+    # the step from P's own optimum: with other weights it would also move P towards their optimum
+    g = grams(model, preps, parts, P, cols, w if w_fit is None else w_fit, model.steps(preps, P))
     rss = heldout_rss(g, parts, list(range(len(cols))), np.zeros(len(cols)), np.zeros(len(cols)))
     f1 = fit_pct(rss, g.den)
     return _table([p.rec.source for p in preps], ["left out"] * len(preps), f0, f1, _den(preps, w)), "leave one run out (linearised refit)"
@@ -71,18 +75,21 @@ GUARD_SLACK = 1.0  # fit points a validation run may lose on one channel after t
 
 
 def guard(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray, P0: np.ndarray,
-           P: np.ndarray, free: list[int], steps: list, base_free: list[int]):
+          P: np.ndarray, free: list[int], steps: list, base_free: list[int], w_fit: np.ndarray | None = None):
     """Per-run acceptance: no validation run may fit worse overall (noise-weighted misfit) nor
     lose more than GUARD_SLACK points on a channel; no left-out run may get more than RUN_RISE
     worse overall or MUCH_WORSE points on a channel. Findings are dropped, last kept first,
-    until that holds. No finding left: the model is the baseline as given (no refit)."""
+    until that holds. No finding left: the model is the baseline as given (no refit).
+    ``w_fit``: the channel weights P was estimated with (default ``w``), those of the
+    left-out refits and of the refit after a drop; the misfit is weighed by ``w``."""
+    wf = w if w_fit is None else w_fit
     rise = 0.0 if val_preps else RUN_RISE
     dropped = []
     while True:
         if not steps:
             table, method = per_run_fits(model, preps, val_preps, w, P0, P0, [])
             return P0, [], [], table, method, dropped
-        table, method = per_run_fits(model, preps, val_preps, w, P0, P, free)
+        table, method = per_run_fits(model, preps, val_preps, w, P0, P, free, wf)
         worst = min(row["after"][k] - row["before"][k] for row in table for k in DOFS)
         worse_run = max(row["weighted_misfit_after"] / max(row["weighted_misfit_before"], 1e-300) - 1.0 for row in table)
         if worst >= -(GUARD_SLACK if val_preps else MUCH_WORSE) and worse_run <= rise:
@@ -93,7 +100,7 @@ def guard(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared
         P = P.copy()
         P[own] = 0.0
         # the baseline keeps the values fitted with the finding (a refit without its prior could diverge)
-        P, _cov, rss = fit(model, preps, P, [j for j in free if j not in base_free], w, max_iter=6)
+        P, _cov, rss = fit(model, preps, P, [j for j in free if j not in base_free], wf, max_iter=6)
         dropped.append({"key": st.candidate.key, "effect": st.candidate.effect,
                         "reason": f"a held-out run fits worse with it ({method}: weighted misfit {100 * worse_run:+.1f} %, "
                                   f"worst channel {worst:+.1f} points)"})
