@@ -189,11 +189,12 @@ def gain_sources(d: Diagnosis) -> list[str]:
         return "/".join(_cell(row[key][k]) for k in DOFS)
 
     lines = [f"Where the gain comes from ({d.per_run_method}; fit % surge/sway/yaw; each finding as the search added it):"]
+    last = "final (magnitudes refitted by maximum likelihood)" if d.magnitudes_refitted else "final"
     for r in d.per_run:
         start = "baseline refitted" if d.refit_parameters else "before the first finding (no baseline parameter refitted)"
         steps = [f"baseline as given {fits(r, 'before')}", f"{start} {fits(by_run[0][r['run']], 'before')}"]
         steps += [f"+ {f['key']} {fits(b[r['run']], 'after')}" for f, b in zip(kept, by_run)]
-        lines.append(f"  {short_label(r['run'])}: " + " -> ".join(steps) + f" -> final {fits(r, 'after')}")
+        lines.append(f"  {short_label(r['run'])}: " + " -> ".join(steps) + f" -> {last} {fits(r, 'after')}")
     return lines
 
 
@@ -314,6 +315,7 @@ def to_json(d: Diagnosis, model_path: str | None) -> dict:
         "rejected": d.rejected,
         "notes": d.notes,
         "refit_parameters": d.refit_parameters,
+        "magnitudes_refitted": d.magnitudes_refitted,
         "screened": d.screened,
         "elapsed_s": d.elapsed_s,
     })

@@ -151,11 +151,13 @@ def test_gain_sources_separate_the_baseline_refit_from_each_finding():
     a = {"key": "a", "heldout_per_run": [{"run": "/x/v.csv", "before": _fits(50, 50, 50), "after": _fits(60, 55, 50)}]}
     b = {"key": "b", "heldout_per_run": [{"run": "/x/v.csv", "before": _fits(60, 55, 50), "after": _fits(61, 65, 52)}]}
     d = SimpleNamespace(findings=[a, b], structure=[], per_run_method="validation runs, simulated", fit_on="validation",
-                        refit_parameters=["Xu"],
+                        refit_parameters=["Xu"], magnitudes_refitted=False,
                         per_run=[{"run": "/x/v.csv", "before": _fits(-46, 39, 43), "after": _fits(61, 65, 52)}])
     line = report.gain_sources(d)[1]
     assert line.startswith("  v.csv: baseline as given -46.0/39.0/43.0 -> baseline refitted 50.0/50.0/50.0")
     assert "+ a 60.0/55.0/50.0 -> + b 61.0/65.0/52.0 -> final 61.0/65.0/52.0" in line
+    d.magnitudes_refitted = True  # the final row is then not the search's estimates: said
+    assert "-> final (magnitudes refitted by maximum likelihood) 61.0/65.0/52.0" in report.gain_sources(d)[1]
     d.refit_parameters = []
     assert "before the first finding (no baseline parameter refitted) 50.0" in report.gain_sources(d)[1]
     d.fit_on = "diagnosed"  # leave-one-out folds are scored linearised, the table by simulation: no chain
