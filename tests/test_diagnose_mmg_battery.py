@@ -109,10 +109,11 @@ def test_delay_is_named_without_validation_runs(tmp_path):
 @pytest.mark.slow
 def test_model_scale_delay_estimate_spread_over_noise_seeds(tmp_path):
     """The 3 s steering delay at model scale under AR(1) noise (battery case model-delay-3),
-    noise seeds 1-6: the estimates scatter with a std under 0.13 s and none is off by more
+    noise seeds 1-4: the estimates scatter with a std under 0.13 s and none is off by more
     than the 0.3 s tolerance. With the search's channel weights (2 % of each signal's spread,
-    not its noise) they scattered 0.167 s (2.72-3.20 s), and seed 7 read 2.56 s; refitted by
-    Kallstrom's maximum-likelihood criterion (diagnose.magnitude) 0.091 s (2.73-2.99 s)."""
+    not its noise) they scattered 0.186 s (2.77-3.20 s; seeds 1-14: 0.160 s, seed 7 2.56 s);
+    refitted by Kallstrom's maximum-likelihood criterion (diagnose.magnitude) 0.072 s
+    (2.82-2.99 s; seeds 1-14: 0.120 s). Four seeds keep the slow step inside CI's time."""
     from dataclasses import replace
 
     import numpy as np
@@ -125,7 +126,7 @@ def test_model_scale_delay_estimate_spread_over_noise_seeds(tmp_path):
 
     prof = load_profile("kvlcc2")
     est = []
-    for seed in range(1, 7):
+    for seed in range(1, 5):
         g = generate(replace(case("model-delay-3"), seed=seed), visibility=False)
         paths = write_case(g, tmp_path / f"seed{seed}")
         recs = {role: conform([r for p in ps for r in load_recording(p)], prof) for role, ps in paths.items()}
