@@ -29,9 +29,8 @@ def ship():
 
 
 @pytest.fixture(scope="module")
-def damping_case(ship):
-    sc = scenario(("quadratic_damping",), 41)
-    return sc, run(sc.diagnose, ship, validate=sc.validate)
+def damping_case(damping_diagnosis):
+    return damping_diagnosis
 
 
 def test_per_run_table_in_text_and_json_and_no_nan(damping_case, tmp_path, capsys):

@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 
 from diagnose import plausible, report
-from diagnose.api import _evidence, run
-from diagnose.battery import scenario
+from diagnose.api import _evidence
 from diagnose.heldout import rejection_entry, verdict
 from diagnose.locate import locate
 from diagnose.report import per_run_lines, sentence, to_text
@@ -25,9 +24,8 @@ def ship():
 
 
 @pytest.fixture(scope="module")
-def damping(ship):
-    sc = scenario(("quadratic_damping",), 41)
-    return run(sc.diagnose, ship, validate=sc.validate)
+def damping(damping_diagnosis):
+    return damping_diagnosis[1]
 
 
 def _fits(s, w, y):
