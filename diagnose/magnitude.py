@@ -29,9 +29,10 @@ from diagnose.search import base_bounds, slot_bounds
 N_REWEIGHT = 2
 
 
-def channel_weights(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> np.ndarray:
-    """Inverse RMS of each output channel's open-loop residual at P (pooled over the runs)."""
-    r = np.concatenate([res[0, 1:] for res in residuals(model, preps, P[None])])
+def channel_weights(res: list[np.ndarray]) -> np.ndarray:
+    """Inverse RMS of each output channel's open-loop residual ``res`` (:func:`diagnose.model.residuals`
+    of one parameter vector; pooled over the runs)."""
+    r = np.concatenate([x[0, 1:] for x in res])
     rms = np.sqrt(np.mean(r**2, axis=0))
     return 1.0 / np.maximum(rms, 1e-12 * (np.max(rms) + 1e-300))
 
@@ -50,13 +51,16 @@ def ml_refit(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: 
     bounds = base_bounds(model.p0(), base_free, model)
     for c in chosen:
         bounds |= slot_bounds(model, c, P)
-    r_old = stack(residuals(model, preps, P[None]), w)[0]
+    res = residuals(model, preps, P[None])  # one simulation per reweighting gives its weights and prior scale
+    r_old = stack(res, w)[0]
     Pn, wn, sdn = P, w, prior_std
-    for _ in range(N_REWEIGHT):
-        wk = channel_weights(model, preps, Pn)
+    for k in range(N_REWEIGHT):
+        if k:
+            res = residuals(model, preps, Pn[None])
+        wk = channel_weights(res)
         prior = None
         if prior_std is not None and base_free:
-            r_new = stack(residuals(model, preps, Pn[None]), wk)[0]
+            r_new = stack(res, wk)[0]
             prior = (model.p0(), prior_std * np.sqrt(float(r_old @ r_old) / max(float(r_new @ r_new), 1e-300)))
         Pk, _cov, rss = fit(model, preps, Pn, free, wk, max_iter=15, tol=1e-7, bounds=bounds, prior=prior)
         if not np.isfinite(rss):
