@@ -38,10 +38,10 @@ def register(app: typer.Typer) -> None:
                                              help="'inline', 'local' or a Dask scheduler address for the Monte Carlo (default: $SHIPTRIAL_SCHEDULER, else all local cores)"),
         mc_protocol: str = typer.Option("continuous", "--mc-protocol",
                                         help="continuous (one experiment per run, primitives back to back; "
-                                             "seed 001) or piecewise (every primitive restarts from its nominal state)"),
+                                             "as Ljungberg 2022, section 9.1.2) or piecewise (every primitive restarts from its nominal state)"),
         mc_order: str = typer.Option("library", "--mc-order",
                                      help="order of a fixed design's primitives in a continuous experiment: library "
-                                          "(one sequence, as seed 001's optimized input), given (the shares' order) or random (drawn per run)"),
+                                          "(one sequence, as Ljungberg's (2022) optimized input), given (the shares' order) or random (drawn per run)"),
         mc_settle: int = typer.Option(0, "--mc-settle", help="settling samples between primitives in a continuous experiment"),
         mc_min_block: int = typer.Option(40, "--mc-min-block", help="shortest sub-experiment in samples (shorter shares are dropped or raised)"),
         mc_estimator: str = typer.Option("oe", "--mc-estimator",

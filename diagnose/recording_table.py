@@ -52,7 +52,7 @@ def check_table(src: str, cols: dict[str, np.ndarray]) -> tuple[np.ndarray, dict
 
 
 def derive_velocities(t: np.ndarray, pos: np.ndarray, psi: np.ndarray) -> np.ndarray:
-    """Body velocities over ground from positions and heading (BRIEF section 2 kinematics)."""
+    """Body velocities over ground from positions and heading (Fossen 2021, eq. 2.40: x north, y east)."""
     xd = np.gradient(pos[:, 0], t)
     yd = np.gradient(pos[:, 1], t)
     c, s = np.cos(psi), np.sin(psi)

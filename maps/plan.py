@@ -1,6 +1,6 @@
 """The Plan: what the planner returns and every exporter reads.
 
-Positions are in the map's local metric frame in the ship convention (BRIEF section 2):
+Positions are in the map's local metric frame in the ship convention (Fossen 2021, ch. 2: x north, y east, psi from north):
 x north, y east, in metres from the projection origin; heading psi in radians from north,
 clockwise. ``lonlat`` columns carry the same points in WGS-84 for the exporters.
 A plan saved as JSON (``Plan.to_json`` / ``Plan.from_json``) is self-contained: exporters

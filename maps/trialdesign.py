@@ -1,4 +1,4 @@
-"""The design step of the planning chain: which manoeuvres, how many times (seed 001 chapter 7 -> 8).
+"""The design step of the planning chain: which manoeuvres, how many times (Ljungberg 2022, chapter 7 -> 8).
 
 The D/A/E-optimal mix of the ship's library (:func:`expdesign.api.run_design`, the same
 criterion and mean-subtraction options as ``shiptrial design``) is rounded to *whole manoeuvres*
