@@ -180,7 +180,7 @@ def read_csv(path: str | Path, *, sample_time: float | None = None, inputs: tupl
         raise RecordingError(f"{path}: no header row; the first non-comment line must name the columns (t,x,y,psi,...)")
     reader = csv.reader(body)
     header = [h.strip() for h in next(reader)]
-    _check_header(path, header, body[0])
+    _check_header(path, header, body[0], inputs or ())
     rows = list(reader)
     if not rows:
         raise RecordingError(f"{path}: header but no data rows")
@@ -210,9 +210,9 @@ def read_csv(path: str | Path, *, sample_time: float | None = None, inputs: tupl
     return build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts, inputs=inputs)
 
 
-def _check_header(path: Path, header: list[str], line: str) -> None:
-    """Column names as the README's recording format gives them (lower case, no units, comma-separated, each once);
-    the message quotes the header as read."""
+def _check_header(path: Path, header: list[str], line: str, inputs: tuple[str, ...] | list[str] = ()) -> None:
+    """Column names as the README's recording format gives them (lower case, no units, comma-separated, each once),
+    every required column and ship input there (all missing ones named at once); the message quotes the header as read."""
     shown = line.strip()[:80]
     if len(header) == 1:
         sep = next((f"{name} ({c!r})" for c, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "bars")) if c in line), "")
@@ -228,8 +228,10 @@ def _check_header(path: Path, header: list[str], line: str) -> None:
         if name not in NUMERIC and name != "segment" and (base in NUMERIC or base == "segment"):
             raise RecordingError(f"{path}: column {name!r} in the header {shown!r}: name it exactly {base!r} "
                                  "(lower case, no unit: values are read in SI units, angles in rad)")
-    if "t" not in header:
-        raise RecordingError(f"{path}: missing required column 't' (time in seconds); the header read is {shown!r}")
+    missing = tb.missing_columns(header, inputs)
+    if missing:
+        ship = f" (the ship's inputs are {', '.join(inputs)}: add them, or choose the matching --ship)" if inputs else ""
+        raise RecordingError(f"{path}: missing required column(s) {', '.join(missing)}{ship}; the header read is {shown!r}")
 
 
 def _read_text(path: Path, encoding: str) -> str:
