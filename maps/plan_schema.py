@@ -70,7 +70,7 @@ CHART = {
 
 # the sample series: arrays here, their numbers checked vectorised (:func:`_check_samples`): a plan
 # holds tens of thousands of samples, item by item a schema walk would cost about a second
-SERIES = {"type": "array", "minItems": 1}
+SERIES = {"type": "array"}  # empty in an infeasible plan
 SERIES_RANGES = {"t": SECONDS, "x": METRES, "y": METRES, "psi": ANGLE, "lon": LON, "lat": LAT, "speed": SPEED}
 
 
@@ -106,7 +106,7 @@ PLAN_SCHEMA: dict[str, Any] = {
                 "efficiency_loss": {"anyOf": [{"type": "null"}, _num(-10.0, 10.0)]}}}},
         }},
         "input_names": {"type": "array", "minItems": 1, "maxItems": 16, "uniqueItems": True, "items": NAME},
-        "steps": {"type": "array", "minItems": 1, "items": STEP},
+        "steps": {"type": "array", "items": STEP},  # none in an infeasible plan
         "samples": {
             "type": "object",
             "required": ["t", "x", "y", "psi", "lon", "lat", "speed", "step", "inputs"],
@@ -139,6 +139,9 @@ def _where(path) -> str:
 
 def _say(err) -> str:
     """One line for a schema violation: the field's path and what it must be, the value cut short."""
+    if err.validator == "required":
+        missing = err.message.split("'")[1] if err.message.count("'") >= 2 else "?"
+        return f"field '{_where([*err.absolute_path, missing])}' is missing"
     v = err.instance
     shown = repr(v) if not isinstance(v, dict | list) else type(v).__name__
     shown = shown.encode("unicode_escape").decode("ascii")[:60]
@@ -146,7 +149,7 @@ def _say(err) -> str:
         "type": f"must be {err.validator_value}" if not isinstance(err.validator_value, list) else f"must be one of {err.validator_value}",
         "minimum": f"must be >= {err.validator_value}", "maximum": f"must be <= {err.validator_value}",
         "pattern": "must be text without control characters (NUL and the like)",
-        "required": "lacks " + err.message.split(" is a required")[0], "enum": f"must be one of {err.validator_value}",
+        "enum": f"must be one of {err.validator_value}",
         "const": f"must be {err.validator_value!r}",
     }.get(err.validator, err.message.splitlines()[0][:120])
     if err.validator == "type" and err.validator_value == "number":
@@ -188,7 +191,7 @@ def _check_samples(s: dict, n_inputs: int, n_steps: int, src: str, err: type[Use
     if np.any(np.diff(np.asarray(s["t"], float)) < 0):
         raise err(f"{src}: field 'samples.t' must not decrease")
     step = _numbers(s["step"], "step", src, err, integer=True)
-    if step.min() < 0 or step.max() >= n_steps:
+    if len(step) and (step.min() < 0 or step.max() >= n_steps):
         raise err(f"{src}: field 'samples.step' must hold step indices 0 .. {n_steps - 1} (the plan has {n_steps} steps)")
     rows = s["inputs"]
     if not all(isinstance(r, list) and len(r) == n_inputs for r in rows):
