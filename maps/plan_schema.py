@@ -216,7 +216,8 @@ def _check_projection(proj4: str, src: str, err: type[UserError]) -> None:
 
 
 def _check_chart(chart: dict, src: str, err: type[UserError]) -> None:
-    """The chart's geometries as shapely reads them (GeoJSON types, coordinates, rings)."""
+    """The chart's geometries as shapely reads them (GeoJSON types, coordinates, rings), and valid:
+    shiptrial writes valid ones, and GEOS's overlays of the exporters fail on a self-touching ring."""
     import shapely
     from shapely.geometry import shape
 
@@ -233,3 +234,6 @@ def _check_chart(chart: dict, src: str, err: type[UserError]) -> None:
         if not ok:
             raise err(f"{src}: field 'stats.chart.{name}' is not a GeoJSON geometry shapely can read; re-create the plan "
                       "with plan-trial (or export with --map)")
+        if not geom.is_valid:
+            raise err(f"{src}: field 'stats.chart.{name}' is an invalid geometry ({shapely.is_valid_reason(geom)[:80]}); "
+                      "re-create the plan with plan-trial (or export with --map)")
