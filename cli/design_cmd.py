@@ -23,7 +23,8 @@ def register(app: typer.Typer) -> None:
         criterion: str = typer.Option("D", "--criterion", help="D, A or E"),
         mean_subtraction: str = typer.Option("complete", "--mean-subtraction",
                                              help="instrument mean removal: none, batchwise (7.53) or complete (7.57)"),
-        trial_length: float | None = typer.Option(None, "--trial-length", help="trial length in seconds (default: every primitive once)"),
+        trial_length_text: str | None = typer.Option(None, "--trial-length", help="trial length: seconds, or with a unit s, min or h "
+                                                                                "(1800, 30min, 0.5h; default: every primitive once)"),
         monte_carlo: int = typer.Option(500, "--monte-carlo", help="Monte Carlo runs per design (0 skips the evaluation)"),
         mc_samples: int = typer.Option(1000, "--mc-samples", help="samples per Monte Carlo experiment (thesis: 1000 = 125 s)"),
         seed: int = typer.Option(0, "--seed", help="seed of every random draw (starts, Monte Carlo)"),
@@ -38,10 +39,10 @@ def register(app: typer.Typer) -> None:
                                              help="'inline', 'local' or a Dask scheduler address for the Monte Carlo (default: $SHIPTRIAL_SCHEDULER, else all local cores)"),
         mc_protocol: str = typer.Option("continuous", "--mc-protocol",
                                         help="continuous (one experiment per run, primitives back to back; "
-                                             "seed 001) or piecewise (every primitive restarts from its nominal state)"),
+                                             "as Ljungberg 2022, section 9.1.2) or piecewise (every primitive restarts from its nominal state)"),
         mc_order: str = typer.Option("library", "--mc-order",
                                      help="order of a fixed design's primitives in a continuous experiment: library "
-                                          "(one sequence, as seed 001's optimized input), given (the shares' order) or random (drawn per run)"),
+                                          "(one sequence, as Ljungberg's (2022) optimized input), given (the shares' order) or random (drawn per run)"),
         mc_settle: int = typer.Option(0, "--mc-settle", help="settling samples between primitives in a continuous experiment"),
         mc_min_block: int = typer.Option(40, "--mc-min-block", help="shortest sub-experiment in samples (shorter shares are dropped or raised)"),
         mc_estimator: str = typer.Option("oe", "--mc-estimator",
@@ -51,8 +52,10 @@ def register(app: typer.Typer) -> None:
                                           help="on Ctrl-C or a lost worker, write the report of the finished runs, marked partial"),
     ) -> None:
         """Choose the mix of manoeuvres that maximises information, and check it by Monte Carlo."""
-        from cli.options import validate_design_options
+        from cli.options import duration_s, validate_design_options
+        from expdesign.errors import DesignError
 
+        trial_length = duration_s(trial_length_text, "--trial-length", DesignError)
         validate_design_options(criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length,
                                 monte_carlo=monte_carlo, mc_samples=mc_samples, seed=seed, out=out, psi_switch=psi_switch,
                                 min_frac=min_frac, max_frac=max_frac, noisy_moments=noisy_moments)

@@ -61,7 +61,7 @@ def _load_params(path: str, profile):
 def register(app: typer.Typer) -> None:
     @app.command("diagnose")
     def diagnose(
-        recordings: list[str] = typer.Argument(..., help="recordings to diagnose (.csv of BRIEF section 7, or MARIN .dat)"),
+        recordings: list[str] = typer.Argument(..., help="recordings to diagnose (.csv with the columns the README lists under Recordings, or MARIN .dat)"),
         ship: str = typer.Option(..., "--ship", help="built-in profile name or a .toml/.json profile file"),
         params: str | None = typer.Option(None, "--params", help="baseline parameters: a parameter set of the ship (e.g. nominal), a built-in profile name, a profile TOML/JSON or a JSON with 'theta'"),
         fit_on: list[str] | None = typer.Option(None, "--fit-on", help="fit the baseline on these recordings first (repeat or comma-separate)"),

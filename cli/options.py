@@ -7,6 +7,7 @@ value, its unit and what to give instead (see :mod:`primitives.validate`).
 from __future__ import annotations
 
 import math
+import re
 import unicodedata
 from pathlib import Path
 
@@ -29,6 +30,23 @@ def check_input_file(path: Path | str | None, option: str, what: str, kind: str)
         raise UserError(f"{option} {p}: is a directory; give {what}")
     if not p.exists():
         raise UserError(f"{option} {p}: no such {kind} file; give {what}")
+
+
+DURATION_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "secs": 1.0, "seconds": 1.0, "min": 60.0, "mins": 60.0, "minutes": 60.0,
+                  "h": 3600.0, "hr": 3600.0, "hours": 3600.0}
+_DURATION = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?|[-+]?inf|nan)\s*([a-z]*)\s*$", re.IGNORECASE)
+
+
+def duration_s(text: str | None, option: str, error: type[UserError] = UserError) -> float | None:
+    """A duration option in seconds: a number (seconds) or a number with a unit s, min or h
+    ("1800", "30min", "0.5 h"); anything else refused naming the forms it takes."""
+    if text is None:
+        return None
+    m = _DURATION.match(text)
+    unit = m.group(2).lower() if m else None
+    if m is None or unit not in DURATION_UNITS:
+        raise error(f"{option} {text!r}: give the duration in seconds (e.g. 1800) or with a unit s, min or h (e.g. 30min, 0.5h)")
+    return float(m.group(1)) * DURATION_UNITS[unit]
 
 
 def check_design_choices(criterion: str, mean_subtraction: str, trial_length: float | None,
@@ -118,10 +136,14 @@ def validate_export_options(*, plan_file: Path, fmt: str, out: Path | None, sea_
     check_input_file(sea_map, "--map", "a GeoJSON sea map", "map")
     if out is None:
         return
-    if fmt_l == "all" or out.is_dir() or not out.suffix:
+    if fmt_l == "all" or out.is_dir():
         check_out_path(out, option="--out")
         return
     allowed = {FORMATS[fmt_l], ".pdf"} if fmt_l == "card" else {FORMATS[fmt_l]}
+    if not out.suffix:  # as every other output file (sweep tables, plots): the extension names the format
+        also = ", its PDF beside it" if fmt_l == "card" else ""
+        raise ExportError(f"--out {out}: no extension: give {out}{FORMATS[fmt_l]} (the {fmt_l} file{also}) or an existing "
+                          "directory to write the default name into")
     if out.suffix.lower() not in allowed:
         raise ExportError(f"--out {out}: extension {out.suffix!r} does not match --format {fmt_l} ({' or '.join(sorted(allowed))})")
     if out.resolve() == plan_file.resolve():

@@ -131,8 +131,9 @@ def register(app: typer.Typer) -> None:
                                                                       "default D)"),
         mean_subtraction: str | None = typer.Option(None, "--mean-subtraction", help="none, batchwise (7.53) or complete (7.57) "
                                                                                     "(default complete)"),
-        trial_length: float | None = typer.Option(None, "--trial-length", help="trial length in seconds the design is rounded to "
-                                                                              "(default: every library primitive once)"),
+        trial_length_text: str | None = typer.Option(None, "--trial-length", help="trial length the design is rounded to: seconds, "
+                                                                                "or with a unit s, min or h (1800, 30min, 0.5h; default: "
+                                                                                "every library primitive once)"),
         resolution: float | None = typer.Option(None, "--resolution", help="lattice spacing in metres (default ~4 ship lengths)"),
         headings: int = typer.Option(16, "--headings", help="lattice headings: 4, 8 or 16"),
         heuristic: str = typer.Option("admissible", "--heuristic", help="admissible (certified optimal) or thesis (8.9)"),
@@ -151,9 +152,10 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
     ) -> None:
         """Plan a trial: design -> whole manoeuvres -> A* planning -> continuous verification -> exports for the crew."""
-        from cli.options import validate_plan_options
+        from cli.options import duration_s, validate_plan_options
         from maps.chain import PlanOptions
 
+        trial_length = duration_s(trial_length_text, "--trial-length")
         design_conflict(counts, scenario, criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length)
         criterion = "D" if criterion is None else criterion
         mean_subtraction = "complete" if mean_subtraction is None else mean_subtraction

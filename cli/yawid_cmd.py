@@ -1,4 +1,4 @@
-"""``shiptrial yawid``: yaw dynamics of a podded ship from a recording (seed 000, chapter 4)."""
+"""``shiptrial yawid``: yaw dynamics of a podded ship from a recording (the podded-ship MSc thesis, chapter 4)."""
 
 from __future__ import annotations
 

@@ -21,7 +21,7 @@ from primitives.ship import ShipProfile, load_profile
 from primitives.simulate import Disturbances, simulate
 from primitives.terms import TermSet
 
-# Concealed effects on the model ship (seed 001 (9.1), Table 9.1, Ts = 0.125 s), each with its
+# Concealed effects on the model ship (Ljungberg 2022, (9.1), Table 9.1, Ts = 0.125 s), each with its
 # true parameters and the tolerance the estimate must meet. Measurement noise 0.02 on u, v, r.
 EFFECTS: dict[str, dict] = {
     "current": {"current_ne": (0.035, -0.035), "check": {"speed_mps": (0.0495, 0.3), "toward_deg": (315.0, 25.0)}},
@@ -35,7 +35,7 @@ EFFECTS: dict[str, dict] = {
     "wind": {"wind_ne": (-6.0, 4.0), "coef": (-4e-4, -8e-4, -2e-4),
              "check": {"wind_surge": (-4e-4, 0.4), "wind_sway": (-8e-4, 0.4), "wind_yaw": (-2e-4, 0.4)}},
 }
-# The full-scale two-azimuth vessel (seed 001 (3.60), Table 6.1, Ts = 1 s) with the noise of
+# The full-scale two-azimuth vessel (Ljungberg 2022, (3.60), Table 6.1, Ts = 1 s) with the noise of
 # (6.2): std 0.014 on u, v, r, 0.01 rad on the heading. Its model already holds u_r*tau_x, so
 # thrust loss is reported as not testable there.
 FULL_SCALE_EFFECTS: dict[str, dict] = {

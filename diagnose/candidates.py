@@ -7,18 +7,18 @@ Every candidate adds one or more *slots* to the augmented simulator (:mod:`diagn
   Phi^T theta`` ((3.60), (9.1)) - quadratic damping (v|v|, r|r|, r|v|, v|r|, u|u|), missing
   coupling (v r, u r, u v, r^2), speed-dependent thrust (u tau_x, u n), wind loads (when
   wind is measured; :data:`primitives.simulate.WIND_EXCESS`) and roll coupling (phi, when roll is measured);
-- ``current``: a constant n-frame current (north, east) entering through u_r, v_r (BRIEF 2;
+- ``current``: a constant n-frame current (north, east) entering through u_r, v_r (Fossen 2021, ch. 2;
   in predictor form the cos psi / sin psi regressors of (5.67)-(5.70));
 - ``delay``: a common actuator time delay (seconds; fractional, linear interpolation);
 - ``offset``: a constant input offset, the input acts as ``x - x0`` (neutral rudder angle,
   thruster misalignment);
-- ``bias``: a constant sensor bias, measured = true + b (seed 004 th15..th17);
-- ``scale``: an inertia change of one DOF, its increment scaled by ``1 + s`` (seed 000 5.2);
+- ``bias``: a constant sensor bias, measured = true + b (Källström 1977, theta15..theta17);
+- ``scale``: an inertia change of one DOF, its increment scaled by ``1 + s`` (the podded-ship MSc thesis, 5.2);
 - ``thrust``: a thrust loss, every surge term in the thrust signal scaled by ``1 - f`` and the
   rudder terms (sway/yaw terms in delta or n) by ``1 - s f``, s the rudder's slipstream share
   (profile ``rudder_thrust_share``, changed by a following ``thrust_share`` slot).
 
-Names of effects are fixed by BRIEF section 7.
+Names of effects are fixed (they are model.json's keys).
 """
 
 from __future__ import annotations

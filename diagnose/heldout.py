@@ -1,4 +1,4 @@
-"""Held-out evidence per run and per channel (seed 004: split-data cross-validation, Table 3.8).
+"""Held-out evidence per run and per channel (Källström 1977: split-data cross-validation, Table 3.8).
 
 One batched simulation gives, per recording and per output channel, the Gram matrix of the
 output-error sensitivities ``G = J^T J``, ``h = J^T r`` and ``r^T r`` at the current model.

@@ -1,10 +1,10 @@
-"""Locate a mismatch: which DOF, when (CUSUM, seed 000 (5.1)) and under which conditions.
+"""Locate a mismatch: which DOF, when (CUSUM, the podded-ship MSc thesis (5.1)) and under which conditions.
 
 Conditions are correlations of the open-loop residual with signals that betray a physical
 cause: heading (an earth-fixed current or wind rotates with psi), input sign and size
 (offsets, asymmetry), lagged input changes (delay), speed (thrust loss), |v| and |r|
 (nonlinear damping) and measured wind. Residual whiteness (Ljung-Box) and input
-cross-correlation tests of the one-step prediction errors follow seed 004.
+cross-correlation tests of the one-step prediction errors follow Källström (1977).
 """
 
 from __future__ import annotations
@@ -120,7 +120,7 @@ def locate(profile: ShipProfile, preps: list[Prepared], res: list[np.ndarray], t
         corr = {k: _corr(r_all[:, i], v) for k, v in sig_cat.items()}
         cs = sorted(((abs(c), k, c) for k, c in corr.items()), reverse=True)
         conditions[DOFS[i]] = [{"signal": k, "correlation": c} for _a, k, c in cs[:4]]
-    # one-step prediction errors: whiteness and cross-correlation with inputs (seed 004)
+    # one-step prediction errors: whiteness and cross-correlation with inputs (Källström 1977)
     eps_all, x_all = [], []
     for p in preps:
         phi, target = predictor_regressors(profile, p.y, p.inputs[:-1], p.psi, terms=profile.model)

@@ -1,5 +1,5 @@
 """The final estimate of the accepted findings' magnitudes: Kallstrom's maximum-likelihood
-output-error criterion with an unknown noise variance per output channel (seed 004), i.e.
+output-error criterion with an unknown noise variance per output channel (Källström 1977), i.e.
 each channel weighted by the inverse RMS of its own residual, iterated (issue 13).
 
 The search weighs the channels by :func:`diagnose.baseline.noise_scale`, a measurement-noise
@@ -81,7 +81,7 @@ def heldout_worse(model: AugmentedModel, preps: list[Prepared], val_preps: list[
     misfit weighted by the search's ``w`` would not do: the ML estimate departs from the
     w-optimum on purpose, and on the MMG battery's model-delay-3 it rose 2-6 % on validation runs
     whose channels moved 0.2 points at most. The ML criterion is the better estimator only if
-    its model is right (seed 004); a model error it weighs differently shows as a held-out
+    its model is right (Källström 1977); a model error it weighs differently shows as a held-out
     channel's loss, and then the search's estimate, already judged held out, stands. One
     diagnosed run and no validation run: nothing is held out, the ML estimate stands."""
     if not val_preps and len(preps) < 2:

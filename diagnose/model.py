@@ -5,8 +5,8 @@ one every simulator uses), driven by the recorded inputs and the measured headin
 the body-frame components of an earth-fixed current or wind), vectorised over a batch of
 parameter vectors so that finite-difference sensitivities of all parameters cost one pass
 over the time axis. Output-error fitting (Levenberg-Marquardt on the simulation residuals,
-the OE method of seed 004) puts the noise where it is, in the measured outputs, so the
-estimates are not biased by noisy regressors (the reason seed 001 uses IV for the
+the OE method of Källström (1977)) puts the noise where it is, in the measured outputs, so the
+estimates are not biased by noisy regressors (the reason Ljungberg (2022) uses IV for the
 one-step predictor, section 4).
 """
 
@@ -71,7 +71,7 @@ class AugmentedModel:
             j += len(c.slots)
         self.n_base = len(self.base)
         self.n_slots_end = j
-        self.n_rec = n_rec  # initial-state corrections (3 per diagnosed recording), seed 004 lesson 4
+        self.n_rec = n_rec  # initial-state corrections (3 per diagnosed recording), Källström 1977: the initial state estimated with the parameters
         self.n_params = j + 3 * n_rec
         # Recorded inputs sampled from a continuous actuator act, over a step, like their value
         # half a sample later than the sample (zero-order-hold convention of nu(k+1) = nu(k) + ...):
@@ -383,7 +383,7 @@ def jacobian(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: 
 
 
 def _prior_rows(P: np.ndarray, free: list[int], prior: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
-    """Regularisation towards the profile (a Gaussian prior, seed 004 lesson 17): residual rows
+    """Regularisation towards the profile (a Gaussian prior, Källström 1977: parameters held near model-test values): residual rows
     (P_j - ref_j) / sd_j for the free parameters with a finite sd, and their Jacobian."""
     if prior is None:
         return np.zeros(0), np.zeros((0, len(free)))

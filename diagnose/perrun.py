@@ -16,11 +16,12 @@ FIT_FLOOR = -999.0  # below this an NRMSE fit only says that the simulation left
 
 
 def fit_str(v: float, signed: bool = False, decimals: int = 0) -> str:
-    """A fit percentage as a reader can use it: bounded below, a diverged value said."""
+    """A fit percentage as a reader can use it: bounded below, a diverged value "n/a" (what "< -999 %"
+    and "n/a" mean is said once, in the report's glossary, not at each of the many places they occur)."""
     if not np.isfinite(v):
-        return "n/a (the simulation diverged)"
+        return "n/a"
     if v < FIT_FLOOR:
-        return f"< {FIT_FLOOR:.0f} % (the model diverges from the run)"
+        return f"< {FIT_FLOOR:.0f} %"
     return f"{v:+.{decimals}f} %" if signed else f"{v:.{decimals}f} %"
 
 

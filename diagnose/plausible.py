@@ -61,7 +61,7 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
             return ok, f"offset {params['offset']:.3g} vs at most 20 % of the recorded range {span:.3g}"
     if effect == "inertia_change":
         ratio = params.get("inertia_ratio")
-        # at the bound means the fit wanted more: the inertia is absorbing another misfit (seed 004 lesson 5)
+        # at the bound means the fit wanted more: the inertia is absorbing another misfit (Källström 1977: a time delay at its bound)
         ok = ratio is not None and 1.0 / MAX_INERTIA_FACTOR * 1.01 < ratio < MAX_INERTIA_FACTOR * 0.99
         return ok, f"inertia {ratio if ratio is not None else float('inf'):.2f} x the model's vs within a factor {MAX_INERTIA_FACTOR:g}"
     if effect == "thrust_loss" and params.get("loss_percent") is not None:

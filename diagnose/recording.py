@@ -1,4 +1,4 @@
-"""Recordings: the measured motion and inputs of one trial run (BRIEF section 7).
+"""Recordings: the measured motion and inputs of one trial run (the README's recording format).
 
 Two readers: the project CSV (``# key: value`` metadata lines, a header, one row per sample)
 and the MARIN KVLCC2 ``.dat`` files as published (two title lines, tab-separated, 3
@@ -159,7 +159,7 @@ def build_recording(
 
 
 def split_metadata(lines: list[str]) -> tuple[dict[str, str], list[str]]:
-    """``# key: value`` metadata lines and the non-empty CSV lines of a recording (BRIEF section 7)."""
+    """``# key: value`` metadata lines and the non-empty CSV lines of a recording (the README's recording format)."""
     meta: dict[str, str] = {}
     body = []
     for line in lines:
@@ -173,14 +173,14 @@ def split_metadata(lines: list[str]) -> tuple[dict[str, str], list[str]]:
 
 
 def read_csv(path: str | Path, *, sample_time: float | None = None, inputs: tuple[str, ...] | list[str] | None = None) -> list[Recording]:
-    """A recording CSV of BRIEF section 7 (one or more gap-free pieces; ``inputs``: see :func:`build_recording`)."""
+    """A recording CSV in the README's recording format (one or more gap-free pieces; ``inputs``: see :func:`build_recording`)."""
     path = Path(path)
     meta, body = split_metadata(_read_text(path, "utf-8-sig").splitlines())
     if not body:
         raise RecordingError(f"{path}: no header row; the first non-comment line must name the columns (t,x,y,psi,...)")
     reader = csv.reader(body)
     header = [h.strip() for h in next(reader)]
-    _check_header(path, header, body[0])
+    _check_header(path, header, body[0], inputs or ())
     rows = list(reader)
     if not rows:
         raise RecordingError(f"{path}: header but no data rows")
@@ -210,9 +210,9 @@ def read_csv(path: str | Path, *, sample_time: float | None = None, inputs: tupl
     return build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts, inputs=inputs)
 
 
-def _check_header(path: Path, header: list[str], line: str) -> None:
-    """Column names as BRIEF section 7 gives them (lower case, no units, comma-separated, each once);
-    the message quotes the header as read."""
+def _check_header(path: Path, header: list[str], line: str, inputs: tuple[str, ...] | list[str] = ()) -> None:
+    """Column names as the README's recording format gives them (lower case, no units, comma-separated, each once),
+    every required column and ship input there (all missing ones named at once); the message quotes the header as read."""
     shown = line.strip()[:80]
     if len(header) == 1:
         sep = next((f"{name} ({c!r})" for c, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "bars")) if c in line), "")
@@ -228,8 +228,10 @@ def _check_header(path: Path, header: list[str], line: str) -> None:
         if name not in NUMERIC and name != "segment" and (base in NUMERIC or base == "segment"):
             raise RecordingError(f"{path}: column {name!r} in the header {shown!r}: name it exactly {base!r} "
                                  "(lower case, no unit: values are read in SI units, angles in rad)")
-    if "t" not in header:
-        raise RecordingError(f"{path}: missing required column 't' (time in seconds); the header read is {shown!r}")
+    missing = tb.missing_columns(header, inputs)
+    if missing:
+        ship = f" (the ship's inputs are {', '.join(inputs)}: add them, or choose the matching --ship)" if inputs else ""
+        raise RecordingError(f"{path}: missing required column(s) {', '.join(missing)}{ship}; the header read is {shown!r}")
 
 
 def _read_text(path: Path, encoding: str) -> str:
@@ -316,11 +318,11 @@ def load_recording(path: str | Path, *, sample_time: float | None = None,
         return [read_marin_dat(p, sample_time=sample_time or 1.0)]
     if p.suffix.lower() in (".csv", ".txt"):
         return read_csv(p, sample_time=sample_time, inputs=inputs)
-    raise RecordingError(f"{p}: unknown recording format {p.suffix!r}; give a .csv (BRIEF section 7) or MARIN .dat file")
+    raise RecordingError(f"{p}: unknown recording format {p.suffix!r}; give a .csv (the README's recording format) or MARIN .dat file")
 
 
 def write_csv(rec: Recording, path: str | Path, *, meta: dict[str, str] | None = None) -> Path:
-    """Write a recording as a BRIEF section 7 CSV (atomically)."""
+    """Write a recording as a CSV in the README's recording format (atomically)."""
     from primitives.io import atomic_write_text
 
     m = dict(rec.meta)

@@ -196,7 +196,7 @@ def _ahead(rec) -> np.ndarray:
 def rudder_response_t(rec) -> float:
     """t value of the rudder's coefficient in a one-step least-squares fit, over the steps going
     ahead (:func:`_ahead`), of the yaw-rate increment r(k+1) - r(k) on r(k), v(k), delta(k) U(k)^2,
-    U(k)^2 and a constant (the form of a linear yaw equation, seed 001 (3.60)): its sign is the sign
+    U(k)^2 and a constant (the form of a linear yaw equation, Ljungberg (2022) (3.60)): its sign is the sign
     of the ship's rudder yaw derivative, whatever the model. The U^2 column takes what a change of
     speed does, so a rudder held constant carries no information (a large standard error)."""
     y, d = rec.y, rec.channels["delta"]

@@ -1,5 +1,5 @@
 """Kinematic checks of a recording as loaded: u, v against the track x, y and heading psi, and
-each rate (r, p) against its angle (psi, phi) (BRIEF section 2 kinematics). They run on the
+each rate (r, p) against its angle (psi, phi) (Fossen 2021, eq. 2.40: x north, y east). They run on the
 recording's own time axis, before any Froude scaling, so each compares like with like: speeds with
 speeds, an angle's change with its rate integrated over the same window. Each raises
 :class:`diagnose.recording.RecordingError` in one line naming the file, the column and the fix.
@@ -88,8 +88,7 @@ def check_frame(src: str, t: np.ndarray, pos: np.ndarray, psi: np.ndarray, u: np
     better; it can only be told when the heading is away from north, so a run heading north
     passes. Wrong units show as a constant ratio between |(u, v)| and the track's speed (rms,
     the track's mean square less its noise variance, so a noisy track does not read faster), a
-    wrong sign as u or v matching the track's body-frame component better negated (BRIEF
-    section 2 kinematics). A run whose motion is within the track's noise (station keeping) passes.
+    wrong sign as u or v matching the track's body-frame component better negated . A run whose motion is within the track's noise (station keeping) passes.
     """
     if len(t) < 10:
         return

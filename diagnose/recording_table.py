@@ -9,6 +9,7 @@ inputs the ship uses), gaps bridged or split, one piece resampled on a uniform g
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 
 import numpy as np
 
@@ -26,16 +27,23 @@ def _error() -> type[UserError]:
     return RecordingError
 
 
+def missing_columns(names: Collection[str], inputs: Collection[str] = ()) -> list[str]:
+    """Every required column (t, psi, x and y or lat and lon) and ship input missing from ``names``,
+    each with its unit, so that one message names them all."""
+    out = [f"'{k}' ({what})" for k, what in (("t", "time, s"), ("psi", "heading, rad")) if k not in names]
+    if not ({"x", "y"} <= set(names) or {"lat", "lon"} <= set(names)):
+        out.append("'x', 'y' (north, east, m) or 'lat', 'lon' (deg)")
+    out += [f"'{k}'" for k in inputs if k not in names]
+    return out
+
+
 def check_table(src: str, cols: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """The required columns (t, psi, x and y or lat and lon) and a time axis that is complete and
     sorted; returns (t, the other columns) with lat/lon converted to north/east metres."""
-    if "t" not in cols:
-        raise _error()(f"{src}: missing required column 't' (time in seconds)")
-    if "psi" not in cols:
-        raise _error()(f"{src}: missing required column 'psi' (heading in radians)")
+    missing = missing_columns(cols)
+    if missing:
+        raise _error()(f"{src}: missing required column(s) {', '.join(missing)}")
     has_xy = "x" in cols and "y" in cols
-    if not has_xy and not ("lat" in cols and "lon" in cols):
-        raise _error()(f"{src}: missing required columns 'x', 'y' (north, east in m) or 'lat', 'lon'")
     t = cols["t"]
     if np.any(~np.isfinite(t)):
         raise _error()(f"{src}: column 't' has empty or non-numeric values; every row needs a time")
@@ -52,7 +60,7 @@ def check_table(src: str, cols: dict[str, np.ndarray]) -> tuple[np.ndarray, dict
 
 
 def derive_velocities(t: np.ndarray, pos: np.ndarray, psi: np.ndarray) -> np.ndarray:
-    """Body velocities over ground from positions and heading (BRIEF section 2 kinematics)."""
+    """Body velocities over ground from positions and heading (Fossen 2021, eq. 2.40: x north, y east)."""
     xd = np.gradient(pos[:, 0], t)
     yd = np.gradient(pos[:, 1], t)
     c, s = np.cos(psi), np.sin(psi)

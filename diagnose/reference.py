@@ -4,7 +4,7 @@ A baseline made from other data (another basin, another model) misfits a ship's 
 more than a concealed effect moves them: whatever is screened first soaks the structural
 misfit up. With ``--fit-on`` runs of the ship as it was made (no current, no wind, no fault),
 the diagnosis can separate the two, following the multi-experiment form of output-error
-identification (seed 004: one model, experiment-specific disturbance parameters):
+identification (Källström 1977: one model, experiment-specific disturbance parameters):
 
 - the baseline is *extended* by hull and rudder terms its structure may lack: the structure its
   profile declares in a [diagnosis] table (``ShipProfile.structure_terms``; e.g. kvlcc2's MMG-shaped hull,

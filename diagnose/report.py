@@ -22,7 +22,7 @@ GLOSSARY = [
     "'< -999 %': the simulation diverges from the run; 'n/a': the simulation diverged, no finite fit).",
     "  residual = recorded - simulated (also in the plots); residual / noise = its RMS over the estimated measurement-"
     "noise std of the channel: about 1 when the model explains the data.",
-    "  CUSUM alarm (5.1) = the dead-zone cumulative sum of the thesis's eq. (5.1) over |residual| beyond 1.5 noise std "
+    "  CUSUM alarm (5.1) = the dead-zone cumulative sum (eq. 5.1 of the podded-ship MSc thesis) over |residual| beyond 1.5 noise std "
     "crossed 10 noise std: the residual stays large over that window (times in s from the run's start).",
     "  'per sample' coefficient = a hull term's velocity increment over one sample of {ts:g} s per unit of the term in "
     "SI units (m/s, rad/s, rad); divide by {ts:g} s for an acceleration.",

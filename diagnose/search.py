@@ -1,4 +1,4 @@
-"""Selection of candidate physics by held-out evidence (seed 004: output error, AIC, split data).
+"""Selection of candidate physics by held-out evidence (Källström 1977: output error, AIC, split data).
 
 Each round:
 1. one batched simulation per run gives the output-error sensitivities of every untried
@@ -135,7 +135,7 @@ def _marginal_var(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, r
                   ) -> np.ndarray | None:
     """Marginal variance of the parameters ``idx`` fitted on ``preps`` alone (Gauss-Newton about
     ``ref``, the noise-weighted Gram matrix scaled by the residual level and colour as an
-    output-error covariance, seed 004); None when the runs cannot be simulated there."""
+    output-error covariance, Källström (1977)); None when the runs cannot be simulated there."""
     parts = Parts(list(range(len(preps))), [np.ones(p.n, bool) for p in preps], [p.rec.source for p in preps], [], [])
     g = grams(model, preps, parts, ref, idx, w, model.steps(preps, ref))
     r = np.concatenate([res[0, 1:] * w for res in residuals(model, preps, ref[None])])
@@ -376,7 +376,7 @@ def _try(S: _Search, P: np.ndarray, r0: np.ndarray, free: list[int], c: Candidat
     if c.effect == "sensor_bias":
         y = np.concatenate([p.y for p in S.preps])[:, c.slots[0].index]
         if abs(P1[new[0]]) >= 0.5 * np.std(y):
-            return {"reason": "a sensor bias as large as the signal trades off against the initial state (seed 004 lesson 4)"}
+            return {"reason": "a sensor bias as large as the signal trades off against the initial state (Källström 1977: the initial state estimated with the parameters)"}
     f_nl, p_nl, res1 = _lr_test(S, P1, rss0, rss1, len(new), M)
     if not _passes(p_nl, v.gain, S.n_cand, S.alpha, S.independent):
         return {"reason": f"the nonlinear refit is not significant (F = {f_nl:.1f}, p = {p_nl:.2g})"}

@@ -1,4 +1,4 @@
-"""Covariance of the findings under coloured residuals (seed 004: output error with a noise model).
+"""Covariance of the findings under coloured residuals (Källström 1977: output error with a noise model).
 
 The search fits by output error on noise-weighted residuals, as if they were white. They are
 not: coloured measurement noise (AR(1), 0.9, in the battery) and the baseline's own misfit make

@@ -1,4 +1,4 @@
-"""Optimal dictionary designs: time fractions of the primitives (seed 001 ch. 7).
+"""Optimal dictionary designs: time fractions of the primitives (Ljungberg 2022, ch. 7).
 
 * (7.18) / (7.53): ``max log|det(sum w_q Gamma_q)|`` with Gamma_q = X_q (no mean subtraction)
   or X_q - Y_q Z_q^T (batchwise, (7.52)). The IV Gamma is not exactly symmetric, so the convex

@@ -1,4 +1,4 @@
-"""Per-run results of a Monte Carlo evaluation and what is read off them (seed 001 section 9.1.2).
+"""Per-run results of a Monte Carlo evaluation and what is read off them (Ljungberg 2022, section 9.1.2).
 
 Metrics of one run (section 9.1.2): the normalized parameter error
 ``sqrt(mean(((theta_hat - theta0) / theta0)^2))`` (Fig. 9.1, threshold 1.5) and the cross-validation

@@ -1,4 +1,4 @@
-"""Monte Carlo evaluation of designs as in seed 001 section 9.1.2.
+"""Monte Carlo evaluation of designs as in Ljungberg (2022) section 9.1.2.
 
 Protocol (default ``continuous``, as the thesis): every run is ONE experiment of ``n_samples``
 samples (thesis: 1000 samples, 125 s at 8 Hz) started from the nominal state of its first

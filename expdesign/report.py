@@ -63,7 +63,7 @@ ESTIMATOR_TEXT = {
 
 
 def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
-    """What seed 001 section 9.1 leaves open, with the value this evaluation used."""
+    """What Ljungberg (2022) section 9.1 leaves open, with the value this evaluation used."""
     cfg, dist = mc.config, mc.disturbances
     order = ("blocks played back to back in one experiment"
              if cfg.protocol == "continuous" else "each block a separate sub-experiment from its primitive's nominal state")
@@ -104,7 +104,7 @@ def open_choices(mc: MCEvaluation) -> list[dict[str, str]]:
             "variables, section 2.4), which costs the IV estimate variance, most for Yur (sway noise std 0.158 against sway "
             "of at most 0.2 m/s)" if cfg.estimator == "oe" else "")},
         {"choice": "IV instruments", "value": f"simulated with the profile's instrument set (model ship: Table 9.1 nominal, "
-         f"seed 001 l. 12502-12531), then re-simulated with the estimate up to {cfg.iv_iterations} times (per run, until the "
+         f"Ljungberg (2022)), then re-simulated with the estimate up to {cfg.iv_iterations} times (per run, until the "
          f"estimate changes < 0.1 %: the refinement of the thesis's simulation studies, l. 3726-3728 and 8825-8827; its "
          f"real-data study used one step, l. 9776-9778); mean subtraction {cfg.mean_subtraction}"},
         {"choice": "parameter error", "value": "per run, sqrt(mean over the parameters of ((estimate - true)/|true|)^2): errors "
@@ -314,7 +314,7 @@ def _ours_vs_thesis(mc: dict[str, Any], kind: str) -> str:
 
 def mc_markdown(doc: dict[str, Any], figures: dict[str, str]) -> list[str]:
     """Monte Carlo section: status, protocol, results beside the thesis's, per-parameter tables,
-    the choices seed 001 leaves open, and the figures with both sets of numbers."""
+    the choices Ljungberg (2022) leaves open, and the figures with both sets of numbers."""
     cfg, st, mc = doc["monte_carlo_config"], doc["monte_carlo_status"], doc["monte_carlo"]
     eng = cfg["engine"]
     lines = ["", "## Monte Carlo evaluation (section 9.1.2)", ""]
@@ -358,7 +358,7 @@ def mc_markdown(doc: dict[str, Any], figures: dict[str, str]) -> list[str]:
                              f"{_f(p['median_abs_error'])} | {_pc(p['frac_within_tolerance'])} |"
                              + (f" {_f(r['spread'])} | {_pc(r['frac_within_tolerance'])} |" if r else ""))
             lines += ["", "Limiting parameter: " + "; ".join(_limiting(x, tol) for x in (s, s.get("reference")) if x) + "."]
-    lines += ["", "### Choices seed 001 leaves open, and the values used", ""]
+    lines += ["", "### Choices Ljungberg (2022) leaves open, and the values used", ""]
     lines += [f"- {c['choice']}: {c['value']}" for c in cfg["open_choices"]]
     caps = {"param": ("Normalized parameter RMSE (Fig. 9.1)", _ours_vs_thesis(mc, "param") + " (share below 1.5)"),
             "dof": ("Simulation RMSE per DOF (Fig. 9.2)", "the thesis gives histograms only; our medians per DOF: "

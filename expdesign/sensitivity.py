@@ -21,7 +21,7 @@ from primitives.information import library_information
 from primitives.library import Primitive, make_primitive, model_ship_thesis
 from primitives.ship import ShipProfile
 
-# Seed 001 section 9.1.1: the (7.57) design the thesis reports for tau1-tau11 (time fractions).
+# Ljungberg (2022), section 9.1.1: the (7.57) design the thesis reports for tau1-tau11 (time fractions).
 THESIS_SHARES = {"tau1": 0.16, "tau2": 0.04, "tau5": 0.09, "tau6": 0.42, "tau8": 0.04, "tau11": 0.25}
 # tau3-tau8 of section 9.1.1: (name, u, v amplitude, r amplitude).
 _ZIGZAGS = [("tau3", 0.35, 0.1, 0.2), ("tau4", 0.8, 0.1, 0.2), ("tau5", 1.15, 0.1, 0.2),

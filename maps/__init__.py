@@ -1,4 +1,4 @@
-"""Sea maps and the planning chain (seed 001 chapters 7-8, section 9.4).
+"""Sea maps and the planning chain (Ljungberg 2022, chapters 7-8, section 9.4).
 
 geo (load/validate/project GeoJSON -> SeaMap, MapError), trialdesign (design of the ship's
 library rounded to whole manoeuvres, redesign without what fits nowhere), motionset and lattice

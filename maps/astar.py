@@ -1,4 +1,4 @@
-"""A* over the counter-augmented state lattice (seed 001 (8.1)-(8.12)).
+"""A* over the counter-augmented state lattice (Ljungberg 2022, (8.1)-(8.12)).
 
 State (8.3): (i, j, heading, g_1..g_Q), packed into one int:
 ``key = spatial * G + counters`` with ``spatial = (i nj + j) K + h`` and ``counters`` the
@@ -10,7 +10,7 @@ Heuristics:
   (``scipy.sparse.csgraph``) on the reversed graph over (i, j, heading, r) where r is the
   number of informative uses still to make, any primitive allowed for any remaining use.
   Every lattice path maps to a relaxed path of the same cost, so the table is admissible and
-  consistent (Knepper & Kelly 2006; seed 001 section 8.2.2) and the returned plan is optimal
+  consistent (Knepper & Kelly 2006; Ljungberg (2022) section 8.2.2) and the returned plan is optimal
   in repositioning cost on the lattice.
 * ``"thesis"``: (8.9) h = a1 ||p - p_f|| + a2 |psi - psi_f| + a3 sum_q (d_q - g_q): greedy,
   neither admissible nor consistent; plans are not certified optimal.

@@ -1,4 +1,4 @@
-"""The planning chain as steps a notebook can call one at a time (seed 001 chapters 7-8, section 9.4).
+"""The planning chain as steps a notebook can call one at a time (Ljungberg 2022, chapters 7-8, section 9.4).
 
     td   = design_counts(profile)                          # maps.trialdesign: design -> whole manoeuvres
     lat  = build_lattice(sea, profile, td.support(), td.counts, options=PlanOptions())
@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import shapely
 
 from maps import astar
 from maps.collision import CollisionGrid, Window, quarter_turns
@@ -326,8 +327,11 @@ def _motion_set(profile: ShipProfile, prims: list[Primitive], counts: dict[str, 
 
 def _collision_grid(sea: SeaMap, win: Window, moves: list[Move], profile: ShipProfile, o: PlanOptions) -> CollisionGrid:
     """The window's blocked cells, padded by the reach of the largest footprint grown by every
-    growth the placements use (margin, snapping, a cell, the soft zone and 100 m for re-plans)."""
-    ext = max((max(abs(v) for pr in m.prims for v in pr.footprint.bounds) for m in moves), default=0.0)
+    growth the placements use (margin, snapping, a cell, the soft zone and 100 m for re-plans).
+    The reach is the farthest footprint point from the move's start at any heading (its distance
+    from the origin: the bounds alone miss up to a factor sqrt(2) once the footprint is turned)."""
+    ext = max((float(np.hypot(*shapely.get_coordinates(pr.footprint).T).max(initial=0.0)) for m in moves for pr in m.prims),
+              default=0.0)
     snap = max(float(m.snap_m.max()) for m in moves)
     return CollisionGrid(sea, win, o.margin, o.sub, ext + o.margin + snap + win.res + 100.0 + o.clearance_lengths * profile.length_m)
 

@@ -1,6 +1,6 @@
 """Sea maps: load a GeoJSON chart, validate and repair it, project it to a local metric frame.
 
-Format (BRIEF section 8): a GeoJSON FeatureCollection in WGS-84 lon/lat (RFC 7946) whose
+Format (the README's map format): a GeoJSON FeatureCollection in WGS-84 lon/lat (RFC 7946) whose
 ``properties.kind`` says what a feature is: ``land`` (Polygon/MultiPolygon, the default when
 ``kind`` is missing), ``depth_area`` (Polygon with ``min_depth_m``; shallower than draught +
 under-keel clearance is an obstacle), ``obstacle`` (Point with ``radius_m`` or Polygon),
@@ -242,6 +242,10 @@ def load_map(
     for k in ("start", "goal"):
         if len(groups[k]) > 1:
             raise MapError(f"{src}: {len(groups[k])} features of kind {k!r}; give at most one")
+    if not any(g.geom_type in POLYGONAL for grp in groups.values() for _, g, _ in grp):
+        raise MapError(f"{src}: the map holds only points (start, goal, point obstacles) and no land, depth_area, restricted or "
+                       "trial_area polygon, so it says nothing of where the water ends: add the coast as land polygons, or a "
+                       "trial_area polygon around the open water to plan in")
 
     # projection: transverse Mercator centred on the map's extent
     allxy = np.vstack([shapely.get_coordinates(g) for grp in groups.values() for _, g, _ in grp])
@@ -259,18 +263,25 @@ def load_map(
         return np.column_stack([n, e])
 
     def proj_geoms(kind: str) -> list[BaseGeometry]:
+        """The kind's geometries in metres; a polygon the projection leaves self-touching (vertices
+        a few nanodegrees apart collapse) repaired again, as GEOS's overlay needs valid input."""
         gs = [g for _, g, _ in groups[kind]]
-        return list(shapely.transform(np.array(gs, dtype=object), project)) if gs else []
+        out = list(shapely.transform(np.array(gs, dtype=object), project)) if gs else []
+        return [_polygonal(shapely.make_valid(g)) if g.geom_type in POLYGONAL and not g.is_valid else g for g in out]
 
-    land = shapely.union_all(proj_geoms("land")) if groups["land"] else shapely.Polygon()
-    draft_need = draught_m + ukc_m
-    shallow = [g for (_, _, pr), g in zip(groups["depth_area"], proj_geoms("depth_area")) if float(pr["min_depth_m"]) < draft_need]
-    obst = []
-    for (_, _, pr), g in zip(groups["obstacle"], proj_geoms("obstacle")):
-        obst.append(g.buffer(float(pr.get("radius_m", 0.0)) or 1.0) if g.geom_type == "Point" else g)
-    restricted = proj_geoms("restricted")
-    obstacles = shapely.union_all([land, *shallow, *obst, *restricted])
-    trial = shapely.union_all(proj_geoms("trial_area")) if groups["trial_area"] else None
+    try:
+        land = shapely.union_all(proj_geoms("land")) if groups["land"] else shapely.Polygon()
+        draft_need = draught_m + ukc_m
+        shallow = [g for (_, _, pr), g in zip(groups["depth_area"], proj_geoms("depth_area")) if float(pr["min_depth_m"]) < draft_need]
+        obst = []
+        for (_, _, pr), g in zip(groups["obstacle"], proj_geoms("obstacle")):
+            obst.append(g.buffer(float(pr.get("radius_m", 0.0)) or 1.0) if g.geom_type == "Point" else g)
+        restricted = proj_geoms("restricted")
+        obstacles = shapely.union_all([land, *shallow, *obst, *restricted])
+        trial = shapely.union_all(proj_geoms("trial_area")) if groups["trial_area"] else None
+    except shapely.errors.GEOSException as exc:  # a topology GEOS cannot overlay even after make_valid
+        raise MapError(f"{src}: the map's polygons cannot be combined ({str(exc).splitlines()[0][:80]}): repair them in a GIS "
+                       "(e.g. QGIS 'Fix geometries') or remove the self-touching polygon") from None
     shapely.prepare(land)
     shapely.prepare(obstacles)
     ex = project(np.array([[lo0, la0], [lo1, la1], [lo0, la1], [lo1, la0]]))

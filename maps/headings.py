@@ -1,4 +1,4 @@
-"""Lattice headings (seed 001 section 8.2): the table of headings a lattice state can have and
+"""Lattice headings (Ljungberg 2022, section 8.2): the table of headings a lattice state can have and
 the nearest one to a course."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The motion set of the state lattice (seed 001 section 8.2, (8.3)-(8.8)).
+"""The motion set of the state lattice (Ljungberg 2022, section 8.2, (8.3)-(8.8)).
 
 Every move starts and ends at the lattice's transit state: cruise speed, no sway, no yaw rate,
 a lattice heading, on a lattice point. Informative primitives get a short *settling leg*
@@ -24,6 +24,7 @@ from primitives.helm import straight as helm_straight
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
 from primitives.simulate import simulate
+from primitives.stability import require_stable
 
 __all__ = ["Move", "heading_table", "nearest_heading", "helm_for", "run_in_seconds", "run_in_inputs", "with_run_in", "classes",
            "lattice_basic_moves", "place", "transit_mismatch"]
@@ -137,6 +138,7 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
     """Basic moves (8.7) at cruise speed, one primitive per heading class: a straight run to the
     next lattice point ahead, turns at speed to the next lattice heading (90 deg with 4
     headings) and, optionally, turns on the spot by 90 deg (stop, turn, speed up again)."""
+    require_stable(profile)
     helm = helm_for(profile, res, n_head)
     uc = helm.uc
     nu0 = (uc, 0.0, 0.0)

@@ -1,4 +1,4 @@
-"""The motion set and the planning window of the lattice (seed 001 section 8.2, (8.3)-(8.8)).
+"""The motion set and the planning window of the lattice (Ljungberg 2022, section 8.2, (8.3)-(8.8)).
 
 Informative primitives (counter q each) open with a run-in to their execute point and close
 with a settling leg onto the lattice; basic moves (cost L-bar, (8.8)) reposition the ship.

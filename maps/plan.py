@@ -1,6 +1,6 @@
 """The Plan: what the planner returns and every exporter reads.
 
-Positions are in the map's local metric frame in the ship convention (BRIEF section 2):
+Positions are in the map's local metric frame in the ship convention (Fossen 2021, ch. 2: x north, y east, psi from north):
 x north, y east, in metres from the projection origin; heading psi in radians from north,
 clockwise. ``lonlat`` columns carry the same points in WGS-84 for the exporters.
 A plan saved as JSON (``Plan.to_json`` / ``Plan.from_json``) is self-contained: exporters
@@ -153,11 +153,15 @@ class Plan:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], src: str = "<plan>") -> Plan:
-        """A plan from its JSON document; any malformed field is a :class:`PlanError` naming it."""
+        """A plan from its JSON document, checked against the declared schema
+        (:mod:`maps.plan_schema`) first: any malformed field is a :class:`PlanError` naming it."""
+        from maps.plan_schema import check_plan_document
+
         if not isinstance(d, dict):
             raise PlanError(f"{src}: malformed plan (a JSON {type(d).__name__}, not an object); re-create it with plan-trial")
         if d.get("format") != PLAN_FORMAT:
             raise PlanError(f"{src}: field 'format' must be {PLAN_FORMAT!r}: not a plan written by shiptrial")
+        check_plan_document(d, src, PlanError)
         try:
             plan = cls._from_dict(d)
         except KeyError as exc:

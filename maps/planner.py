@@ -1,4 +1,4 @@
-"""Top level: plan a trial on a sea map (seed 001 chapter 8, section 9.4) -> :class:`maps.plan.Plan`.
+"""Top level: plan a trial on a sea map (Ljungberg 2022, chapter 8, section 9.4) -> :class:`maps.plan.Plan`.
 
 A thin composition of the steps in :mod:`maps.chain` (each callable on its own):
 

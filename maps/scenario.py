@@ -1,4 +1,4 @@
-"""The planning scenario of seed 001 section 9.4, rebuilt for the full-scale profile.
+"""The planning scenario of Ljungberg (2022) section 9.4, rebuilt for the full-scale profile.
 
 Section 9.4 plans on a sea-depth map of the port of Helsinki with three informative
 primitives, each used three times: a steep and a wide zig-zag in surge and a wide zig-zag in
@@ -20,7 +20,8 @@ import numpy as np
 
 from primitives import maneuvers as mv
 from primitives.library import Primitive, make_primitive
-from primitives.ship import ShipProfile
+from primitives.ship import ProfileError, ShipProfile
+from primitives.stability import require_stable
 from primitives.steady_forces import has_steady_forces, require_steady_forces
 
 # Helsinki example (bundled map): start in the South Harbour (upper left of the thesis's
@@ -40,7 +41,10 @@ def zigzag_periods(profile: ShipProfile, name: str, description: str, u: float, 
     psi = prim.track[:, 2]
     sp = gen.split_points
     if len(sp) < 2 * periods + 1:
-        raise ValueError(f"{name}: zig-zag did not complete {periods} periods in {n} samples")
+        raise ProfileError(
+            f"ship profile {profile.name!r}: the scenario's zig-zag {name} did not complete {periods} period(s) in {n} samples "
+            f"({n * profile.sample_time:g} s): the ship does not swing its heading through +-{np.degrees(psi_switch):.0f} deg "
+            "under the scenario's yaw moment; check the yaw row of the profile's parameters, or plan without --scenario")
     a, b = sp[2 * periods - 1], sp[2 * periods]
     k = a + int(np.argmin(np.abs(psi[a:b + 1])))
     cmds = [f"steady at {u:.1f} m/s",
@@ -67,6 +71,7 @@ def thesis_planning_scenario(profile: ShipProfile) -> tuple[list[Primitive], dic
     small heading oscillation.
     """
     require_steady_forces(profile)  # see scenario_supports
+    require_stable(profile)
     u = profile.cruise_speed_mps
     L = profile.length_m
     r_unit = u / L  # yaw-rate scale: 0.1 rad/s at 3 m/s for a 30 m ship

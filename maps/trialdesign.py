@@ -1,4 +1,4 @@
-"""The design step of the planning chain: which manoeuvres, how many times (seed 001 chapter 7 -> 8).
+"""The design step of the planning chain: which manoeuvres, how many times (Ljungberg 2022, chapter 7 -> 8).
 
 The D/A/E-optimal mix of the ship's library (:func:`expdesign.api.run_design`, the same
 criterion and mean-subtraction options as ``shiptrial design``) is rounded to *whole manoeuvres*
@@ -20,6 +20,7 @@ from expdesign.api import Design, mean_subtraction_warnings, run_design
 from expdesign.dopt import DEDICATED, InfoSet
 from expdesign.errors import DesignError
 from expdesign.rounding import _efficiency, round_design
+from maps.geo import bundled_map_path
 from primitives.information import PrimitiveInfo, library_information
 from primitives.library import Primitive, build_library, thesis_primitives
 from primitives.ship import ShipProfile
@@ -140,7 +141,7 @@ def _design_kept(profile: ShipProfile, prims: list[Primitive], infos: list[Primi
     that says what was dropped and why."""
     if not prims:
         raise NoFitError(f"all {len(exclude)} manoeuvres of {profile.name}'s library fit nowhere in the water reachable "
-                         f"from the start: {_needs(exclude)}")
+                         f"from the start: {_needs(exclude)}; {_what_helps(exclude)}")
     try:
         return run_design(profile, prims, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_s,
                           seed=seed, infos=infos, convex_solvers=SOLVERS)
@@ -148,7 +149,8 @@ def _design_kept(profile: ShipProfile, prims: list[Primitive], infos: list[Primi
         if exclude:  # the remaining library cannot identify the model: say what was dropped and why
             dead = _dead_count(str(exc))
             raise NoFitError(f"{len(exclude)} manoeuvre(s) fit nowhere in the water reachable from the start: {_needs(exclude)}; "
-                             f"without them the rest of {profile.name}'s library cannot identify the model{dead}") from None
+                             f"without them the rest of {profile.name}'s library cannot identify the model{dead}; "
+                             f"{_what_helps(exclude)}") from None
         raise
 
 
@@ -177,6 +179,14 @@ def _record(prims: list[Primitive], w: np.ndarray, counts: np.ndarray, criterion
         "d_efficiency": float(d_eff), "efficiency": float(c_eff), "dropped": dropped, "trial_length_s": trial_s,
         "planned_s": float(sum(c * p.duration_s for p, c in zip(prims, counts))),
     }
+
+
+def _what_helps(exclude: dict[str, tuple[float, float]]) -> str:
+    """What would let the design plan: a map with the open water the smallest excluded manoeuvre needs,
+    e.g. the open-sea map shipped with the package (60 x 60 km of open water)."""
+    a, c = min(exclude.values(), key=lambda ac: ac[0] * ac[1])
+    return (f"plan on a map with at least {_km(a)} x {_km(c)} of open water around the start, e.g. the package's open-sea "
+            f"map: --map {bundled_map_path('open-sea')}")
 
 
 def _needs(exclude: dict[str, tuple[float, float]], show: int = 2) -> str:

@@ -1,6 +1,6 @@
 """Hull outlines and the area a hull sweeps along a track.
 
-Coordinates are (x north, y east) of the frame the track is given in (NED, BRIEF section 2);
+Coordinates are (x north, y east) of the frame the track is given in (NED, Fossen 2021, ch. 2);
 for primitives that is the start-pose frame, so x is the initial forward direction.
 """
 

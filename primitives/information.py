@@ -1,4 +1,4 @@
-"""Information matrices of primitives for the instrumental-variable predictor (seed 001 ch. 7).
+"""Information matrices of primitives for the instrumental-variable predictor (Ljungberg 2022, ch. 7).
 
 For primitive q with regressors Phi_q(k) and instruments Z_q(k) (block diagonal over the DOFs):
 X_q = mean Phi Z^T (7.50), Y_q = mean Phi (7.51), Z_q = mean Z (7.55), and

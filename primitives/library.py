@@ -3,7 +3,7 @@
 A :class:`Primitive` is a manoeuvre with its input sequence, its nominal (calm, simulation-set)
 states and track from the start pose (0, 0, 0), its natural split points, its end pose and
 the hull's swept footprint. Section 9.1.1 (tau1-tau11) and section 9.3 (tau12-tau20) of
-seed 001 define the thesis primitives by the states they produce (BRIEF section 4).
+Ljungberg (2022) defines the thesis primitives by the states they produce.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from primitives.footprint import swept_footprint
 from primitives.orders import Order, heading_words, orders_from_inputs, orders_to_dicts, render
 from primitives.ship import ShipProfile, load_profile
 from primitives.simulate import simulate
+from primitives.stability import require_stable
 from primitives.steady_forces import steady_forces
 
 KNOT = 1852.0 / 3600.0
@@ -241,6 +242,7 @@ def full_scale_thesis(profile: ShipProfile, n: int = 200) -> list[Primitive]:
 
 def standard_trials(profile: ShipProfile) -> list[Primitive]:
     """IMO/ITTC standard manoeuvres as parametrised primitives, with descriptive names."""
+    require_stable(profile)
     u = profile.cruise_speed_mps
     p = []
     for d, s in ((10, "starboard"), (10, "port"), (20, "starboard"), (20, "port")):
@@ -269,6 +271,7 @@ def basic_moves(profile: ShipProfile, step_m: float | None = None) -> list[Primi
     right 90 deg turns at cruise speed. ``step_m`` is the straight-run length (default 5 L).
     A rudder ship cannot turn on the spot: it gets the straight run and the two turns, in helm
     orders (rudder, counter-rudder, midships)."""
+    require_stable(profile)
     step = step_m or 5 * profile.length_m
     if profile.actuator == "rudder_propeller":
         return [
@@ -327,6 +330,7 @@ _THESIS = {"thesis-model-ship": model_ship_thesis, "thesis-full-scale": full_sca
 def thesis_primitives(profile: ShipProfile) -> list[Primitive]:
     """The profile's identification dictionary: the thesis's tau1-tau11 or tau12-tau20 (profile
     key ``library``), the helm dictionary of a rudder/propeller ship, else none."""
+    require_stable(profile)
     if profile.library in _THESIS:
         return _THESIS[profile.library](profile)
     if profile.actuator == "rudder_propeller":

@@ -29,7 +29,7 @@ def one_ship_loop(step: VelocityStep, in_names: list[str], in_t: np.ndarray, nu0
                   positions: bool, heading: bool) -> tuple[np.ndarray, np.ndarray]:
     """nu, eta (1, N+1, 3) of one ship from the time-major input signals ``in_t`` (N, signals, 1)
     named ``in_names``: nu(k+1) = nu(k) + Phi(k)^T theta and eta(k+1) = eta(k) + Ts R(psi(k)) nu(k)
-    (seed 001 (3.60), (9.1); BRIEF section 2). Without ``heading`` nothing reads the pose: psi is
+    (Ljungberg 2022, (3.60), (9.1); Fossen 2021, ch. 2). Without ``heading`` nothing reads the pose: psi is
     NaN after the first row, as in the array loop (primitives.simulate._time_loop); without ``positions`` x, y are NaN. The
     heading's cosine and sine are numpy's, as in the array loop."""
     inc, coef = step.inc_floats, step.coef

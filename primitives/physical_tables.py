@@ -16,6 +16,7 @@ import numpy as np
 from primitives.errors import UserError
 from primitives.pods import Pod, PodModel
 from primitives.rigidbody import ADDED_MASS_KEYS, RigidBody
+from primitives.unit_ranges import check_max_rudder_deg, check_rpm, check_rudder_rate
 from primitives.validate import check_table_keys, finite, positive
 
 POD_MODEL_KEYS = ("rho", "diameter", "strut_area", "c_mx1", "c_mx2", "c_my1", "c_my2", "c_rx1", "c_rx2", "c_ry")
@@ -109,7 +110,7 @@ def parse_pods(d: dict, src: str, inputs: tuple[str, ...], err: type[UserError])
     if inputs != expect:
         raise err(f"{src}: field 'inputs' of a pods profile must be {list(expect)} (rev/s, rad) with one [[pods]] entry each")
     pm = d.get("pod_model")
-    c = _numbers(pm, "pod_model", POD_MODEL_KEYS, src, "Table 2.1 of seed 000", err, other=("yaw_moment",))
+    c = _numbers(pm, "pod_model", POD_MODEL_KEYS, src, "Table 2.1 of the podded-ship MSc thesis", err, other=("yaw_moment",))
     yaw_moment = pm.get("yaw_moment", "thesis")
     if yaw_moment not in ("thesis", "full"):
         raise err(f"{src}: field 'pod_model.yaw_moment' must be 'thesis' (x F_y, eq. 2.12) or 'full' (x F_y - y F_x)")
@@ -137,10 +138,16 @@ def parse_helm_engine(
             raise err(f"{src}: field '{key}' must be a table [{key}]")
         check_table_keys(tab, accepted, src, f"[{key}]", err)
     lim_deg = float(np.degrees(min(abs(x) for x in limits["delta"]))) if "delta" in limits else 35.0
-    max_deg = _positive(h, "helm", "max_rudder_deg", src, "the largest rudder angle in degrees, e.g. 35", err) or lim_deg
+    max_deg = _positive(h, "helm", "max_rudder_deg", src, "the largest rudder angle in degrees, e.g. 35", err)
+    if max_deg is not None:
+        check_max_rudder_deg(max_deg, src, err)
+    max_deg = max_deg or lim_deg
     if max_deg > lim_deg + 1e-6:
         raise err(f"{src}: field 'helm.max_rudder_deg' = {max_deg:g} exceeds input_limits.delta ({lim_deg:.2f} deg)")
-    rate = _positive(h, "helm", "rudder_rate_deg_s", src, "the steering gear's rate in deg/s, e.g. 2.32", err) or 2.32
+    rate = _positive(h, "helm", "rudder_rate_deg_s", src, "the steering gear's rate in deg/s, e.g. 2.32", err)
+    if rate is not None:
+        check_rudder_rate(rate, src, err)
+    rate = rate or 2.32
     sign = h.get("starboard_sign")
     if sign is None:
         sign = starboard_sign()
@@ -154,10 +161,15 @@ def parse_helm_engine(
         raise err(f"{src}: field 'engine.rps_limits' {rps} exceeds input_limits.n [{n_lo:g}, {n_hi:g}]")
     if np.isinf(rps[1]):
         raise err(f"{src}: a rudder_propeller profile needs the propeller's rev/s range: add input_limits.n = [min, max] or engine.rps_limits")
+    rpms = {key: _positive(e, "engine", key, src, hint, err)
+            for key, hint in (("mcr_rpm", "shaft rpm at MCR"), ("approach_rpm", "the rpm of the source's approach runs"))}
+    for key, value in rpms.items():
+        if value is not None:
+            check_rpm(key, value, float(rps[1]), src, err)
     engine = Engine(
         (float(rps[0]), float(rps[1])),
         _positive(e, "engine", "rps_rate", src, "the fastest shaft-speed change in rev/s per second", err),
-        _positive(e, "engine", "mcr_rpm", src, "shaft rpm at MCR", err),
-        _positive(e, "engine", "approach_rpm", src, "the rpm of the source's approach runs", err),
+        rpms["mcr_rpm"],
+        rpms["approach_rpm"],
     )
     return Helm(max_deg, rate, float(sign)), engine

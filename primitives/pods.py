@@ -1,4 +1,4 @@
-"""Podded propulsion (seed 000, section 2.2, eq. 2.9-2.12, Table 2.1; adapted from Gierusz 2015).
+"""Podded propulsion (the podded-ship MSc thesis, section 2.2, eq. 2.9-2.12, Table 2.1; adapted from Gierusz 2015).
 
 Each pod is a rotatable thruster with a rudder-like strut. Its propeller ("motive") and strut
 ("resistive") forces are computed in the pod-through-water frame and rotated into the body frame:

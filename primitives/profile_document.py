@@ -31,6 +31,7 @@ from primitives.ship import (
     Thruster,
 )
 from primitives.terms import TermError, TermSet, signals_used
+from primitives.unit_ranges import check_angle_limits
 from primitives.validate import MAX_PRIMITIVE_SAMPLES, check_table_keys, finite, in_range, manoeuvre_samples, positive
 
 # Every top-level key a profile may hold: one list, so an engineer adding a table adds one line.
@@ -48,6 +49,7 @@ PROFILE_KEYS = frozenset({
     "diagnosis",  # baseline structure a --fit-on refit may add (ShipProfile.structure_terms)
 })
 # Physical sizes a profile must give, all finite and > 0 (unit in the message).
+MAX_LENGTHS_PER_SAMPLE = 2.0
 POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("draught_m", "m"), ("cruise_speed_mps", "m/s"))
 
 
@@ -68,6 +70,15 @@ def _check_sizes(d: dict, src: str) -> dict[str, float]:
             f"take {n:.3g} samples of {sizes['sample_time']:g} s (limit {MAX_PRIMITIVE_SAMPLES:,}): check the units of "
             "length_m, cruise_speed_mps and sample_time"
         )
+    # a discrete-time manoeuvring model samples many times per ship length (the thesis's ships: 8
+    # and 10 times); a sample time in which the ship sails lengths is a unit mistake (ms, minutes)
+    lengths = sizes["sample_time"] * sizes["cruise_speed_mps"] / sizes["length_m"]
+    if lengths > MAX_LENGTHS_PER_SAMPLE:
+        raise ProfileError(
+            f"{src}: field 'sample_time' = {sizes['sample_time']:g} s: at cruise_speed_mps {sizes['cruise_speed_mps']:g} m/s the "
+            f"ship sails {lengths:.3g} ship lengths per sample, too coarse for a manoeuvring model (at most "
+            f"{MAX_LENGTHS_PER_SAMPLE:g}); give sample_time in seconds, e.g. {0.1 * sizes['length_m'] / sizes['cruise_speed_mps']:.3g} s "
+            "(a tenth of a ship length per sample)")
     return sizes
 
 
@@ -287,6 +298,7 @@ def _input_limits(d: dict, src: str) -> dict[str, tuple[float, float]]:
         lo, hi = (finite(x, what, "the input's units", ProfileError) for x in v)
         if not lo < hi:
             raise ProfileError(f"{what} must be [min, max] with min < max, got {v!r}")
+        check_angle_limits(str(k), lo, hi, what, ProfileError)
         limits[k] = (lo, hi)
     return limits
 

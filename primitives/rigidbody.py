@@ -1,4 +1,4 @@
-"""Rigid-body and added-mass part of a 4-DOF (surge, sway, yaw, roll) ship model (seed 000, eq. 2.1-2.4, 2.13-2.14).
+"""Rigid-body and added-mass part of a 4-DOF (surge, sway, yaw, roll) ship model (the podded-ship MSc thesis, eq. 2.1-2.4, 2.13-2.14).
 
     M nu_dot = f(nu, eta) - g(eta) + tau_act - C_RB(nu) nu                                (2.13)
 

@@ -23,7 +23,7 @@ from primitives.terms import TermSet
 
 PROFILE_DIR = Path(__file__).with_name("profiles")
 DOFS = ("surge", "sway", "yaw")
-# A profile with a roll term list is surge-sway-yaw-roll (seed 000); roll is appended so yaw
+# A profile with a roll term list is surge-sway-yaw-roll (the podded-ship MSc thesis); roll is appended so yaw
 # stays the third state of every ship.
 ROLL_DOFS = DOFS + ("roll",)
 ACTUATORS = ("generalized", "azimuth", "rudder_propeller", "pods")

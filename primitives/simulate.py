@@ -1,8 +1,8 @@
-"""Batch simulation of discrete-time ship models (seed 001 (3.60), (9.1)).
+"""Batch simulation of discrete-time ship models (Ljungberg 2022, (3.60), (9.1)).
 
 ``nu(k+1) = nu(k) + Phi(k)^T theta + w(k)`` with the regressors built from velocities relative
 to the water (u_r, v_r) and to the air (u_q, v_q), and Euler kinematics
-``eta(k+1) = eta(k) + Ts R(psi(k)) nu(k)`` (BRIEF section 2). Vectorised over a batch of Monte
+``eta(k+1) = eta(k) + Ts R(psi(k)) nu(k)`` (Fossen 2021, ch. 2: x north, y east, psi from north). Vectorised over a batch of Monte
 Carlo realisations: the time loop is sequential, every realisation moves at once.
 """
 
@@ -33,7 +33,7 @@ class Disturbances:
     heading_std, position_std: noise on the measured heading and position.
     current_turning: the current is fixed in the earth frame and the velocity over ground follows
     it as the ship turns (:func:`_turn_current`, Fossen 2021 section 10.3); off, the current acts
-    through u_r, v_r only (the thesis's form, seed 001 (3.60), (9.1)). A profile says which
+    through u_r, v_r only (the thesis's form, Ljungberg (2022) (3.60), (9.1)). A profile says which
     (``[disturbances] current_turning``; a diagnosed model.json with a current: on).
     """
 
@@ -104,7 +104,7 @@ class SimResult:
 
 
 def body_from_ne(vec_ne: np.ndarray, psi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rotate an n-frame vector (north, east) into the body frame (BRIEF section 2)."""
+    """Rotate an n-frame vector (north, east) into the body frame (Fossen 2021, ch. 2: x north, y east, psi from north)."""
     c, s = np.cos(psi), np.sin(psi)
     return c * vec_ne[..., 0] + s * vec_ne[..., 1], -s * vec_ne[..., 0] + c * vec_ne[..., 1]
 
@@ -113,7 +113,7 @@ def body_from_ne(vec_ne: np.ndarray, psi: np.ndarray) -> tuple[np.ndarray, np.nd
 # in calm air. The loads have the published shape of the wind coefficients as functions of the
 # relative wind angle g (Fossen 2021, (10.8)-(10.11); the leading terms of Isherwood's and
 # Fujiwara's fits): X ~ V_q^2 cos g = V_q u_q, Y ~ V_q^2 sin g ~ V_q v_q, N ~ V_q^2 sin 2g ~ u_q v_q,
-# with V_q the air speed. (Kallstrom's u_q|u_q|, v_q|v_q| of seed 004 is the same in surge at small
+# with V_q the air speed. (Källström's (1977) u_q|u_q|, v_q|v_q| is the same in surge at small
 # angles, but in sway it is quadratic in the cross wind where the load is linear in it.)
 WIND_EXCESS = ("wx", "wy", "wn")
 
@@ -171,7 +171,7 @@ def model_signals(
     speed: bool = True,
 ) -> dict[str, np.ndarray]:
     """Signal dictionary the regressor terms read, for velocities nu (..., 3), or (..., 4) with
-    the roll rate p (then ``phi`` is the roll angle). Pod forces (seed 000 (2.12)) depend on the
+    the roll rate p (then ``phi`` is the roll angle). Pod forces (the podded-ship MSc thesis, (2.12)) depend on the
     velocities, so a podded profile's tau_x, tau_y, tau_k, tau_n are computed here. ``speed=False``
     leaves out the speed through the water :data:`SPEED` (for terms that do not read it)."""
     sig = relative_signals(nu, None if current_ne is None else body_from_ne(current_ne, psi),
@@ -181,7 +181,7 @@ def model_signals(
 
 def _add_state_forces(profile: ShipProfile, nu: np.ndarray, phi: np.ndarray | None, sig: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Add to ``sig`` the signals that depend on the state besides the relative velocities: roll
-    rate and angle (nu (..., 4)) and a podded profile's tau_x, tau_y, tau_k, tau_n (seed 000 (2.12))."""
+    rate and angle (nu (..., 4)) and a podded profile's tau_x, tau_y, tau_k, tau_n (the podded-ship MSc thesis, (2.12))."""
     if nu.shape[-1] == 4:
         sig.update(p=nu[..., 3], phi=np.zeros_like(nu[..., 0]) if phi is None else phi)
     if profile.pods:
@@ -205,7 +205,7 @@ class VelocityStep:
     of every simulator in the project (:func:`simulate`, and the diagnosis's augmented model,
     ``diagnose.model.AugmentedModel``, which adds its candidate terms as ``terms`` and its
     input-only increments as ``forced``). For a physical (rigid-body) profile the terms are
-    forces and the increments are ``Ts M^-1 (F - C_RB nu)`` (seed 000 (2.13)).
+    forces and the increments are ``Ts M^-1 (F - C_RB nu)`` (the podded-ship MSc thesis, (2.13)).
 
     ``theta`` (p,) for one model or (B, p) for one per batch member. Built once per simulation:
     the increment function is generated from the term strings and the coefficients split once,

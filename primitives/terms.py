@@ -1,6 +1,6 @@
 """Regressor terms written as products of named signals.
 
-A model in this project is ``nu(k+1) = nu(k) + Phi(k)^T theta`` (seed 001, (3.60) and (9.1)),
+A model in this project is ``nu(k+1) = nu(k) + Phi(k)^T theta`` (Ljungberg 2022, (3.60) and (9.1)),
 where each degree of freedom has its own list of regressor terms. A term is written as a
 product of factors separated by ``*``; a factor is a signal name (``u_r``), its modulus
 (``|u_r|``) or an integer power (``u^2``; negative for the speed ``U``, ``U^-1``); a lateral

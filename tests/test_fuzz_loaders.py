@@ -1,10 +1,13 @@
 """Property-based tests of every loader: any input file raises the user-error class or loads.
 
 Loaders: sea maps (maps.geo.load_map), recordings (CSV and MARIN .dat), ship profiles (TOML
-and JSON), saved plans (maps.plan.Plan.load) and sweep configs (expdesign.sweep.load_sweep).
+and JSON), saved plans (maps.plan.Plan.load), sweep configs (expdesign.sweep.load_sweep) and
+``shiptrial export`` of a mutated plan.json (a GeoJSON, GPX, RTZ or CSV export: the plan's chart,
+projection, steps and samples reach the exporters, which must refuse in one line or write).
 Inputs are valid documents with fields dropped, replaced by any JSON value or an extreme
 number, plus raw random bytes. The default run uses a small fixed example budget; the
-``slow`` variant runs 5,000 examples per loader (the issue's bar).
+``slow`` variant runs 5,000 examples per loader (the issue's bar) but export, whose 5,000 examples
+(about 0.04 s each) run in ``python benchmarks/fuzz_export.py`` instead of the CI budget.
 """
 
 from __future__ import annotations
@@ -223,6 +226,33 @@ def _sweep_case(doc_or_bytes):
     _loads_or_user_error(load_sweep, _write("s.toml", data))
 
 
+def _export_base() -> dict:
+    """A saved plan with an embedded chart (land west of the track), as ``shiptrial plan`` writes it."""
+    from maps.export._testing import synthetic_plan
+
+    d = json.loads(synthetic_plan("model-ship").to_json())
+    d["stats"]["chart"] = {"name": "fuzz", "land": {"type": "Polygon", "coordinates": [[[24.93, 60.11], [24.94, 60.11], [24.94, 60.13],
+                                                                                     [24.93, 60.11]]]},
+                           "no_go": None, "depth_areas": [], "extent": [24.9, 60.1, 25.0, 60.14]}
+    d["stats"]["turning_radius_m"] = 3.0
+    return d
+
+
+EXPORT_PLAN = _export_base()
+EXPORT_FORMATS = ("geojson", "gpx", "rtz", "csv")
+
+
+def _export_case(doc_and_fmt):
+    """``shiptrial export`` exits 0 (written) or 2 (one line ``error:``); any other exception escapes
+    ``cli.app._run`` and fails the property."""
+    from cli.app import _run
+
+    doc, fmt = doc_and_fmt
+    data = doc if isinstance(doc, bytes) else _json(doc)
+    rc = _run(["export", str(_write("export-plan.json", data)), "--format", fmt, "--out", str(TMP / f"exported.{fmt}")])
+    assert rc in (0, 2), rc
+
+
 def _csv_case(text_or_bytes):
     from diagnose.recording import load_recording
 
@@ -243,7 +273,9 @@ CASES = {
     "sweep": (lambda: st.one_of(mutated(SWEEP, 3), RAW), _sweep_case),
     "recording_csv": (lambda: st.one_of(csv_text(), RAW), _csv_case),
     "recording_dat": (lambda: st.one_of(dat_text(), RAW), _dat_case),
+    "export": (lambda: st.tuples(st.one_of(mutated(EXPORT_PLAN, 3), RAW), st.sampled_from(EXPORT_FORMATS)), _export_case),
 }
+SLOW_CASES = [c for c in CASES if c != "export"]  # export's 5,000: benchmarks/fuzz_export.py
 
 
 def _check(name: str, budget: int) -> None:
@@ -263,7 +295,7 @@ def test_loader_raises_user_error_or_loads(loader):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("loader", list(CASES))
+@pytest.mark.parametrize("loader", SLOW_CASES)
 def test_loader_raises_user_error_or_loads_5000(loader):
     _check(loader, SLOW)
 

@@ -15,11 +15,14 @@ def _step(i: int, kind: str, **kw) -> PlanStep:
                     entry_y=0.0, entry_psi=0.0, entry_lon=25.0, entry_lat=60.0, entry_speed_mps=3.0, **kw)
 
 
+PROJECTION = {"proj4": "+proj=tmerc +lat_0=0 +lon_0=0 +ellps=WGS84 +units=m", "lon0": 0.0, "lat0": 0.0}  # the exporters need one
+
+
 def _plan(steps: list[PlanStep], **kw) -> Plan:
     n = len(steps) + 1
     return Plan(ship="s", steps=steps, t=np.arange(n, dtype=float), track=np.zeros((n, 3)), lonlat=np.zeros((n, 2)),
                 speed=np.ones(n), step_of_sample=np.minimum(np.arange(n), len(steps) - 1), inputs=np.zeros((n, 1)),
-                input_names=["a"], projection={}, feasible=True, optimal=True, min_clearance_m=50.0, margin_m=20.0,
+                input_names=["a"], projection=PROJECTION, feasible=True, optimal=True, min_clearance_m=50.0, margin_m=20.0,
                 counts={"p": 1}, targets={"p": 1}, **kw)
 
 

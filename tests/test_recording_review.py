@@ -121,7 +121,7 @@ def test_model_scale_run_without_its_header_is_refused_with_the_likely_cause(mar
     ("upper", lambda h, rows: [h.upper()] + rows, ("'T'", "name it exactly 't'")),
     ("dup", lambda h, rows: [h + ",r"] + [r + "," + r.split(",")[6] for r in rows], ("'r' appears twice",)),
     ("extra", lambda h, rows: [h] + rows[:6] + [rows[6] + ",1.0"] + rows[7:], ("row 8", "fields", "11 columns")),
-    ("no_t", lambda h, rows: [h.replace("t,", "time,", 1)] + rows, ("missing required column 't'", "header read")),
+    ("no_t", lambda h, rows: [h.replace("t,", "time,", 1)] + rows, ("missing required column(s) 't'", "header read")),
 ])
 def test_header_mistakes_are_named_with_the_header_read(marin, tmp_path, name, text, needles):
     _, good, _ = marin

@@ -1,4 +1,4 @@
-"""Yaw-dynamics identification of a podded ship during operation (seed 000, chapters 2.4 and 4).
+"""Yaw-dynamics identification of a podded ship during operation (the podded-ship MSc thesis, chapters 2.4 and 4).
 
 The yaw row of the 4-DOF model with the lumped parameters of section 2.4.2 -- the full model
 (2.17) and the simplified model (2.18) -- is estimated by an output-error prediction-error method

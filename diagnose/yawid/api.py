@@ -43,6 +43,6 @@ def simulate_file(path: str | Path, seed: int = 0, noise_scale: float = 1.0, man
     profile = load_profile(ship)
     clean = clean_recording(profile, manoeuvre_seed)
     data = measure(clean, Noise().scaled(noise_scale), 1, seed)
-    meta = {"ship": profile.name, "source": "shiptrial yawid-sim (seed 000 chapter 4 experiment, ours)",
+    meta = {"ship": profile.name, "source": "shiptrial yawid-sim (the podded-ship MSc thesis, chapter 4 experiment, ours)",
             "sample_time": f"{profile.sample_time:g}", "noise": f"{noise_scale:g} x Table 4.1", "seed": str(seed)}
     return write_yaw_csv(data, path, meta)

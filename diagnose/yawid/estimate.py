@@ -1,4 +1,4 @@
-"""Output-error estimation of the yaw models (seed 000, section 4.1, eq. 4.1-4.4).
+"""Output-error estimation of the yaw models (the podded-ship MSc thesis, section 4.1, eq. 4.1-4.4).
 
 The predictor is a simulation of (2.17)/(2.18) driven by the measured inputs (L1215-1216):
 ``r_hat(k+1) = r_hat(k) + Ts f(r_hat(k), w(k); theta)`` with ``f = (sum_j theta_j phi_j + tau_r) / I_r``

@@ -1,4 +1,4 @@
-"""Manoeuvres and simulated recordings for the yaw identification (seed 000, sections 3.1 and 4.3).
+"""Manoeuvres and simulated recordings for the yaw identification (the podded-ship MSc thesis, sections 3.1 and 4.3).
 
 Three input programmes for a two-pod profile (inputs n1, delta1, n2, delta2; both pods steered
 alike, as in the thesis):
@@ -75,7 +75,7 @@ def identification_run(ts: float, seed: int, duration_s: float = 600.0) -> np.nd
 
 @dataclass(frozen=True)
 class Noise:
-    """White measurement noise per signal (Table 4.1 of seed 000), standard deviations in SI."""
+    """White measurement noise per signal (Table 4.1 of the podded-ship MSc thesis), standard deviations in SI."""
 
     r: float = 0.0025
     v_dot: float = 0.015

@@ -1,4 +1,4 @@
-"""Identifiability of the yaw row, section 2.4.2 of seed 000 checked on data.
+"""Identifiability of the yaw row, section 2.4.2 of the podded-ship MSc thesis checked on data.
 
 In the yaw row (2.15) written in its physical parameters,
 

@@ -1,4 +1,4 @@
-"""Yaw models (2.17) "full" and (2.18) "simplified" of seed 000 with the lumped parameters (2.19).
+"""Yaw models (2.17) "full" and (2.18) "simplified" of the podded-ship MSc thesis with the lumped parameters (2.19).
 
     I_r r_dot = -M_v v_dot + A u r + N_r|r| r|r| + N_r|v| r|v| + N_phiu|r| phi u|r|
                 + N_|u|v |u|v + N_phi|uv| phi|uv| + N_phiu|u| phi u|u| + tau_r,act        (2.17)

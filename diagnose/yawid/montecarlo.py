@@ -1,4 +1,4 @@
-"""Monte Carlo study of the yaw identification, as section 4.4 of seed 000 (Fig. 4.3-4.4).
+"""Monte Carlo study of the yaw identification, as section 4.4 of the podded-ship MSc thesis (Fig. 4.3-4.4).
 
 One manoeuvre (:func:`diagnose.yawid.experiment.identification_run`), simulated once without
 noise by the shared kernel; each run adds an independent Table 4.1 noise realisation (run i's
@@ -19,7 +19,7 @@ from diagnose.yawid.experiment import Noise, YawData, check_forward, identificat
 from diagnose.yawid.model import MODELS, true_parameters
 from primitives.ship import ShipProfile
 
-# What seed 000 says of each model's Monte Carlo (its numbers are in figures only, L1296-1321).
+# What the podded-ship MSc thesis says of each model's Monte Carlo (its numbers are in figures only, L1296-1321).
 THESIS_NOTES = {
     "full": {"I_r": "barely affected by noise", "N_phiuv": "large relative variance and bias",
              "*": "bias and variance differ greatly between parameters"},
