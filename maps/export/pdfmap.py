@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from maps.export._common import deg_min, step_slice
+from maps.export.labels import Label, leader, place_labels
 from maps.export.mapplot import (
     DEPTH_EDGE,
     EXECUTE_COLOUR,
@@ -41,7 +42,7 @@ from maps.export.mapplot import (
     step_colour,
 )
 from maps.export.pdfdraw import LINE_HEIGHT, Painter, col, rings_ops
-from maps.plan import Plan
+from maps.plan import Plan, PlanStep
 
 TICK_FS, NUM_FS, LEGEND_FS = 7.0, 7.0, 6.5
 
@@ -228,24 +229,19 @@ class MapWriter(Painter):
         self.legend.append({"kind": "marker", "marker": "s", "size": 9, "face": "red", "mew": 1.0, "label": "end"})
 
     def numbers(self) -> None:
-        """Step numbers in circles 7 pt up and right of each step's entry (as the figure's annotations)."""
+        """Every step's number in a circle: up and right of its entry point, or set aside with a
+        leader line where that place is taken (:func:`maps.export.labels.place_labels`)."""
         plan = self.plan
         colours = primitive_colours(plan)
-        f = self.f
-        for st in plan.steps:
-            if st.segment == "transit" and not getattr(st, "execute", False) and len(plan.steps) > 12:
-                continue
-            x, y = self.page_xy(np.array([[st.entry_lon, st.entry_lat]]))[0]
-            if not (f.left <= x <= f.left + f.width and f.bottom <= y <= f.bottom + f.height):
-                continue  # as matplotlib: an annotation whose point is outside the axes is not drawn
-            x, y = x + 7.0, y + 7.0
-            s = str(st.index + 1)
-            w = self.text_width(s, NUM_FS, bold=True)
-            r = 0.5 * max(w, LINE_HEIGHT * NUM_FS) + 0.15 * NUM_FS
+        labels = step_labels(plan, self.f, lambda s: self.text_width(s, NUM_FS, bold=True))
+        for st, lab in labels:
+            colour = step_colour(plan, st, colours)
             self.out("q")
-            self.circle(x, y, r, "white", step_colour(plan, st, colours), 1.2)
+            if lab.moved:
+                self.polyline(leader(lab), colour, 0.7)
+            self.circle(lab.x, lab.y, lab.r, "white", colour, 1.2)
             self.out("Q")
-            self.text(x, y, s, NUM_FS, bold=True, ha="center", va="center")
+            self.text(lab.x, lab.y, lab.text, NUM_FS, bold=True, ha="center", va="center")
 
     def ticks(self) -> tuple[list[float], list[float]]:
         """Tick positions on the page: matplotlib's MaxNLocator along x (4 intervals, fewer on a narrow
@@ -330,6 +326,19 @@ class MapWriter(Painter):
                     a, b = max(t, 0.0), min(t + h, w)
                     segs.append(np.array([[x + a, yc - 0.5 * h + a - t], [x + b, yc - 0.5 * h + b - t]]))
                 self.out(f"{col(edge, 'RG')} 0.6 w\n" + rings_ops(segs, close=False) + " S")
+
+
+def step_labels(plan: Plan, f: Frame, width: Any) -> list[tuple[PlanStep, Label]]:
+    """(step, label) of every step whose entry point is on the map ``f``: number circles sized
+    for their text (``width(text)`` in points at NUM_FS bold), clear of each other and of the
+    track. A step entered outside the map has no label (as matplotlib drops an annotation whose
+    point is outside the axes)."""
+    xy = f.xy(np.array([[st.entry_lon, st.entry_lat] for st in plan.steps]))
+    inside = [k for k, (x, y) in enumerate(xy) if f.left <= x <= f.left + f.width and f.bottom <= y <= f.bottom + f.height]
+    texts = [str(plan.steps[k].index + 1) for k in inside]
+    radii = [0.5 * max(width(s), LINE_HEIGHT * NUM_FS) + 0.15 * NUM_FS for s in texts]
+    labels = place_labels(texts, xy[inside], radii, f.xy(plan.lonlat), (f.left, f.bottom, f.left + f.width, f.bottom + f.height))
+    return [(plan.steps[k], lab) for k, lab in zip(inside, labels)]
 
 
 def draw_page1_map(pdf: Any, font: str, plan: Plan, chart: Any, box: tuple[float, float, float, float]) -> None:
