@@ -234,7 +234,7 @@ def _draw_track(ax: Any, plan: Plan) -> None:
         sl = step_slice(plan, st)
         seg = st.segment
         key = st.primitive if seg == "informative" else seg
-        label = None if key in labelled else {"run-in": "run-in (steady course and speed)", "transit": "transit"}.get(key, key)
+        label = None if key in labelled else {"run-in": "run-in, or stop before a manoeuvre", "transit": "transit"}.get(key, key)
         labelled.add(key)
         style = {"run-in": {"ls": (0, (4, 2)), "lw": 1.8}, "transit": {"ls": "-", "lw": 1.1}}.get(seg, {"ls": "-", "lw": 2.2})
         ax.plot(lon[sl], lat[sl], color=step_colour(plan, st, colours), zorder=3, solid_capstyle="butt", label=label, **style)

@@ -211,7 +211,7 @@ class MapWriter(Painter):
             if len(pts) >= 2:
                 self.polyline(pts, colour, lw, dash)
             if key not in labelled:
-                label = {"run-in": "run-in (steady course and speed)", "transit": "transit"}.get(key, key)
+                label = {"run-in": "run-in, or stop before a manoeuvre", "transit": "transit"}.get(key, key)
                 self.legend.append({"kind": "line", "colour": colour, "lw": lw, "dash": dash, "label": label})
                 labelled.add(key)
         self.start_end_execute(xy)
