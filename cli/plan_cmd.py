@@ -110,6 +110,8 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
                         f"{'certified optimal' if result.optimal else 'not certified optimal'}")
     con.print(t)
     if result.feasible:
+        from rich.markup import escape
+
         from maps.export.wording import manoeuvre_name, phase
 
         # fits 80 columns: the name wraps at its spaces, the design code folds rather than being cut
@@ -118,13 +120,13 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
         steps.add_column("#", justify="right")
         steps.add_column("start", justify="right", no_wrap=True)
         steps.add_column("phase", no_wrap=True)
-        steps.add_column("manoeuvre [design code]", overflow="fold", ratio=1)
+        steps.add_column(escape("manoeuvre [design code]"), overflow="fold", ratio=1)
         steps.add_column("hdg", no_wrap=True)
         steps.add_column("entry position", min_width=10)
         for s_ in result.steps:
             ph = phase(result, s_)
             code = f" [{s_.primitive}]" if ph in ("EXECUTE", "manoeuvre") else ""
-            steps.add_row(str(s_.index + 1), f"{s_.start_time_s / 60:.1f} min", ph, manoeuvre_name(result, s_) + code,
+            steps.add_row(str(s_.index + 1), f"{s_.start_time_s / 60:.1f} min", ph, escape(manoeuvre_name(result, s_) + code),
                           f"{s_.entry_heading_deg:03.0f}°", f"{s_.entry_lat:.5f} N {s_.entry_lon:.5f} E")
         con.print(steps)
     for key, path in files.items():

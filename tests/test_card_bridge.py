@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from maps.export._testing import synthetic_plan
-from maps.export.labels import segment_distances
 from maps.plan import Plan
 
 START = "2026-06-01T08:00Z"
@@ -24,6 +23,8 @@ def crowded() -> Plan:
 
 
 def _check_circles(centres: np.ndarray, radii: np.ndarray, track: np.ndarray) -> None:
+    from maps.export.labels import segment_distances
+
     n = len(centres)
     for i in range(n):
         for j in range(i + 1, n):
@@ -76,3 +77,117 @@ def test_states_figure_plots_propeller_speed_in_rpm_as_the_orders_say(crowded):
     assert ordered and max(ordered) == pytest.approx(np.nanmax(rpm), rel=0.01)
     assert np.nanmax(rpm) == pytest.approx(60.0 * np.nanmax(crowded.inputs[:, 0]))
     assert not any("n1" in label or "alpha" in label for label in series)
+
+
+# -- the PDF: a step's orders never split across pages -------------------------------------------
+
+_HEAD = re.compile(r"^(\d+)\. (EXECUTE|manoeuvre|run-in:|stop:|transit:) ")
+
+
+def _pages(path) -> list[str]:
+    import shutil
+    import subprocess
+
+    if not shutil.which("pdftotext"):
+        pytest.skip("pdftotext (poppler-utils) not installed")
+    text = subprocess.run(["pdftotext", "-layout", str(path), "-"], capture_output=True, text=True, check=True).stdout
+    return text.split("\f")
+
+
+def test_pdf_never_splits_a_step_across_pages(tmp_path):
+    """Per page of the orders: the page starts with a step's heading and holds whole steps (each
+    heading's last line, the wind abort, on the same page); every step is there once."""
+    from maps.export import export_plan
+
+    names = ("straight", "tau17", "spot_turn_s", "tau19", "tau12", "spot_turn_p", "tau17", "tau16", "tau20", "tau13", "tau18")
+    plan = synthetic_plan("full-scale", names, run_in=True)
+    pages = _pages(export_plan(plan, "card", tmp_path / "card.pdf", start=START)[0])
+    orders = [p for p in pages if "orders per step in sailing order" in p]
+    assert len(orders) >= 2  # enough steps for several pages
+    seen = []
+    for page in orders:
+        body = [ln.strip() for ln in page.splitlines()[1:] if ln.strip()]
+        assert _HEAD.match(body[0]), f"a page of orders starts mid-step: {body[0]!r}"
+        heads = [int(m[1]) for ln in body if (m := _HEAD.match(ln))]
+        ends = [ln for ln in body if ln.startswith("Abort if wind above")]
+        assert len(heads) == len(ends), f"steps {heads}: a step runs over the page"
+        seen += heads
+    assert seen == list(range(1, len(plan.steps) + 1))
+
+
+# -- words: knots, helm/engine or azimuth terms, names a master knows ----------------------------
+
+_ENGINEERING = re.compile(r"m/s|\btau_[xyn]\b|side force|turning moment|\bnu\b|\bdeg\b|speed < 0\.0|steady course and speed")
+
+
+def _bridge_texts(plan: Plan, tmp_path) -> dict[str, str]:
+    """The card (HTML text without its images, the PDF's text), the GPX and the RTZ of ``plan``."""
+    from maps.export import export_all
+
+    paths = export_all(plan, tmp_path, start=START)
+    html = re.sub(r'src="data:image/png;base64,[^"]+"', "", paths["card"].read_text(encoding="utf-8"))
+    return {"html": html, "pdf": "".join(_pages(paths["card_pdf"])), "gpx": paths["gpx"].read_text(encoding="utf-8"),
+            "rtz": paths["rtz"].read_text(encoding="utf-8")}
+
+
+@pytest.mark.parametrize("ship, names", [
+    ("full-scale", ("straight", "tau12", "spot_turn_s", "tau16", "zigzag_10_10_s")),
+    ("kvlcc2", ("straight", "zigzag_10_10_s", "turn_p", "stopping")),
+])
+def test_bridge_documents_speak_knots_and_the_ships_own_terms(ship, names, tmp_path):
+    plan = synthetic_plan(ship, names, run_in=True)
+    for doc, text in _bridge_texts(plan, tmp_path).items():
+        bad = sorted({m[0] for m in _ENGINEERING.finditer(text)})
+        assert not bad, f"{ship} {doc}: engineering words on a bridge document: {bad}"
+        assert " kn" in text
+
+
+def test_manoeuvres_are_named_as_a_master_knows_them(crowded):
+    from maps.export.card import step_sheets
+
+    sheets = {s["primitive"]: s for s in step_sheets(crowded, START) if s["segment"] == "EXECUTE"}
+    assert re.fullmatch(r"acceleration 0 → 6\.\d kn, then thrusters stopped, coasting down", sheets["tau12"]["name"])
+    assert re.fullmatch(r"crabbing at \d\.\d kn to starboard, then to port", sheets["tau16"]["name"])
+    kv = synthetic_plan("kvlcc2", ("straight", "zigzag_10_10_s", "turn_p", "stopping"), run_in=True)
+    named = {s["primitive"]: s["name"] for s in step_sheets(kv, START)}
+    assert named["zigzag_10_10_s"] == "10/10 zig-zag to starboard"
+    assert named["turn_p"] == "90° turn to port"
+    assert re.fullmatch(r"engine stop from 1\d\.?\d* kn, coasting to \d+\.?\d* kn", named["stopping"])
+
+
+def test_spot_turn_orders_give_times_thruster_angles_and_rpm(crowded):
+    from maps.export._common import step_orders
+    from maps.plan import PlanStep
+
+    # as the planner's lattice move carries it: its phases in words, no orders of its own
+    st = next(st for st in crowded.steps if st.primitive == "spot_turn_s")
+    spot = PlanStep(**{**st.__dict__, "orders": [], "commands": ["stop the ship", "turn on the spot 90° to starboard",
+                                                                 "regain 5.8 kn on the new course"]})
+    lines = step_orders(crowded, spot)
+    assert [re.match(r"at \+\d+:\d\d: (stop the ship|turn on the spot (89|90|91)° to starboard|on course \d{3}°, regain)", ln) is not None
+            for ln in lines] == [True, True, True]
+    setting = r"(\d+ rpm, thrust (ahead|astern|\d+° to (starboard|port))|thruster stopped)"
+    assert all(re.search(setting, ln) for ln in lines)
+    assert re.search(r"\d+ rpm, thrust \d+° to starboard; stern thruster \d+ rpm, thrust \d+° to port", lines[1])
+
+
+def test_abort_line_has_no_lower_speed_limit_for_a_manoeuvre_from_rest():
+    from primitives.library import build_library
+    from primitives.ship import load_profile
+
+    lib = {p.name: p for p in build_library(load_profile("full-scale"))}
+    assert lib["tau12"].abort_criteria().startswith("abort if speed above ")
+    assert lib["tau17"].abort_criteria().startswith("abort if speed below ")
+
+
+def test_a_run_in_that_stops_the_ship_is_called_a_stop():
+    from maps.export.wording import manoeuvre_name, phase
+    from maps.plan import PlanStep
+
+    plan = synthetic_plan("full-scale", ("tau12",), run_in=True)
+    st = plan.steps[0]
+    assert st.segment == "run-in"
+    stop = PlanStep(**{**st.__dict__, "description": "stop before tau12: come to rest and settle",
+                       "orders": [{"t_s": 0.0, "text": "stop engine(s) and come to rest, heading 117° for 67 s, then execute"}]})
+    assert phase(plan, stop) == "stop" and manoeuvre_name(plan, stop) == "stop and settle"
+    assert phase(plan, st) == "run-in" and manoeuvre_name(plan, st).startswith("steady approach at 5.8 kn")

@@ -27,7 +27,7 @@ def state_series(plan: Plan) -> list[tuple[str, np.ndarray]]:
     it wraps round), then each commanded input (angles in deg)."""
     heading = np.degrees(plan.track[:, 2]) % 360.0
     heading[1:][np.abs(np.diff(heading)) > 180] = np.nan  # no line across the wrap
-    series = [("speed over ground [kn]", plan.speed * KN_PER_MPS), ("heading [deg]", heading)]
+    series = [("speed over ground [kn]", plan.speed * KN_PER_MPS), ("heading [°]", heading)]
     for j, nm in enumerate(plan.input_names):
         v = plan.inputs[:, j] if plan.inputs.ndim == 2 and plan.inputs.shape[1] > j else np.zeros_like(plan.t)
         series.append(input_series(nm, v))
@@ -39,9 +39,9 @@ def input_series(name: str, values: np.ndarray) -> tuple[str, np.ndarray]:
     degrees, shaft speeds (rev/s in the plan) in rpm; other inputs as they are."""
     base, num = name.rstrip("0123456789"), name[len(name.rstrip("0123456789")):]
     if base == "alpha":
-        return f"azimuth {num} angle [deg]", np.degrees(values)
+        return f"azimuth {num} angle [°]", np.degrees(values)
     if base == "delta":
-        return ("rudder [deg]" if not num else f"pod {num} angle [deg]"), np.degrees(values)
+        return ("rudder [°]" if not num else f"pod {num} angle [°]"), np.degrees(values)
     if base == "n":
         return ("propeller [rpm]" if not num else f"propeller {num} [rpm]"), 60.0 * np.asarray(values, float)
     return name, np.asarray(values, float)

@@ -84,15 +84,15 @@ def manoeuvre_name(plan: Plan, st: PlanStep) -> str:
     v0, vmax, vmin, vend = float(v[0]), float(v.max()), float(v.min()), float(v[-1])
     low = desc.lower()
     if name == "stopping" or "stop" in low and "from cruise" in low:
-        if "crash" in low or "astern" in low:
+        if "crash" in low or "full astern" in low:
             return f"crash stop from {_kn(v0)} kn"
         return f"engine stop from {_kn(v0)} kn, coasting to {_kn(vend)} kn"
     if "sway" in low and ("acceleration" in low or "step" in low) and v0 < 0.2:
         return f"crabbing from rest, to starboard and to port (up to {_kn(vmax)} kn)"
     if "sway" in low:
         return f"crabbing at {_kn(v0)} kn to starboard, then to port"
-    if "surge" in low and v0 < 0.2 and (vend < 0.5 * vmax or re.search(r"-> [\d.]+ -> 0\b", desc)):
-        return f"acceleration 0 → {_kn(vmax)} kn, then thrusters stopped, coasting down"
+    if m := re.search(r"u 0 -> ([\d.]+) -> 0\b", desc):  # the thesis's tau12: from rest, thrust ahead, then none
+        return f"acceleration 0 → {_kn(float(m[1]))} kn, then thrusters stopped, coasting down"
     if name in ("acceleration", "tau2") or low.startswith("accelerat"):
         return f"acceleration {_kn(v0)} → {_kn(vmax)} kn"
     if name in ("deceleration", "tau1") or low.startswith("decelerat"):
