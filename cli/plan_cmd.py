@@ -122,12 +122,13 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
         steps.add_column("phase", no_wrap=True)
         steps.add_column(escape("manoeuvre [design code]"), overflow="fold", ratio=1)
         steps.add_column("hdg", no_wrap=True)
-        steps.add_column("entry position", min_width=10)
+        steps.add_column("entry position", no_wrap=True)
         for s_ in result.steps:
             ph = phase(result, s_)
             code = f" [{s_.primitive}]" if ph in ("EXECUTE", "manoeuvre") else ""
             steps.add_row(str(s_.index + 1), f"{s_.start_time_s / 60:.1f} min", ph, escape(manoeuvre_name(result, s_) + code),
-                          f"{s_.entry_heading_deg:03.0f}°", f"{s_.entry_lat:.5f} N {s_.entry_lon:.5f} E")
+                          f"{s_.entry_heading_deg:03.0f}°", f"{abs(s_.entry_lat):.5f}{'N' if s_.entry_lat >= 0 else 'S'} "
+                          f"{abs(s_.entry_lon):.5f}{'E' if s_.entry_lon >= 0 else 'W'}")
         con.print(steps)
     for key, path in files.items():
         con.print(f"wrote {key:18s} {path}", markup=False)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import base64
 import html
 import math
+import re
 import textwrap
 from datetime import datetime, timedelta
 from pathlib import Path
@@ -60,7 +61,7 @@ def _m(metres: float) -> str:
 def abort_criteria(plan: Plan) -> list[str]:
     """Plan-wide abort criteria in plain words."""
     w = plan.max_wind_mps
-    clear = f"{plan.min_clearance_m:.0f} m" if math.isfinite(plan.min_clearance_m) else "n/a"
+    clear = f"{plan.min_clearance_m:.0f} m" if math.isfinite(plan.min_clearance_m) else "none within the map"
     return [
         f"true wind above {w * KN_PER_MPS:.0f} kn (Beaufort {beaufort(w)})",
         f"distance from the hull to land, shallows or any obstacle below {plan.margin_m:.0f} m (planned minimum {clear})",
@@ -209,7 +210,7 @@ def _code(s: dict) -> str:
 def _table_rows(sheets: list[dict]) -> list[list[str]]:
     """The steps in sailing order, names in full (the PDF wraps a long one in its cell)."""
     return [[str(s["n"]), s["segment"], s["name"] + _code(s), s["waypoint"], s["start"].replace(" UTC", ""), s["position"],
-             s["heading"], s["speed"], s["duration"], s["space"].replace(" along x ", " x ").replace(" across", "")] for s in sheets]
+             s["heading"], s["speed"], s["duration"], re.sub(r" m along x (.*) m across$", r" x \1 m", s["space"])] for s in sheets]
 
 
 # the PDF's tables keep the look of the matplotlib.table the card was first drawn with

@@ -135,6 +135,11 @@ TABLE_TOP = 0.03 * H + 0.92 * H * TABLE_PAD  # below the page title, from the to
 TABLE_BOTTOM = H - 0.03 * H
 
 
+def _inset(width: float) -> float:
+    """Text inset of a cell ``width`` points wide: matplotlib.table's tenth of the width, at most 4 pt."""
+    return min(CELL_PAD * width, 4.0)
+
+
 def _wrap_cell(doc: _Card, text: str, width: float, bold: bool) -> list[str]:
     """``text`` broken at spaces into lines no wider than ``width`` points (a word wider than
     the cell stays whole on its line): a name is wrapped, never cut."""
@@ -172,7 +177,7 @@ class _Tables:
         edges = [left]
         for w in widths:
             edges.append(edges[-1] + w * ax_w)
-        cells = [[_wrap_cell(self.doc, str(t), widths[c] * ax_w * (1 - 2 * CELL_PAD), r == 0) for c, t in enumerate(row)]
+        cells = [[_wrap_cell(self.doc, str(t), widths[c] * ax_w - 2 * _inset(widths[c] * ax_w), r == 0) for c, t in enumerate(row)]
                  for r, row in enumerate([cols, *rows])]
         heights = [ROW_H + LINE_PITCH * (max(len(c) for c in row) - 1) for row in cells]
         k, first = 1, True
@@ -213,7 +218,7 @@ class _Tables:
                     base = ys[r] + 0.5 * ROW_H + 0.5 * ASCENT * TABLE_FS - 0.08 * TABLE_FS + LINE_PITCH * i
                     if n == 1:
                         base = ys[r] + 0.5 * (ys[r + 1] - ys[r]) + 0.5 * ASCENT * TABLE_FS - 0.08 * TABLE_FS
-                    pdf.text(edges[c] + CELL_PAD * widths[c] * ax_w, base, text)
+                    pdf.text(edges[c] + _inset(widths[c] * ax_w), base, text)
 
 
 def _detail_pages(doc: _Card, plan: Plan, pages: list[list[tuple[str, dict]]], first: int) -> None:

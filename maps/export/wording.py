@@ -32,8 +32,7 @@ def knots(text: str) -> str:
 
 
 def _kn(v_mps: float) -> str:
-    v = abs(v_mps) * KN_PER_MPS
-    return f"{v:.0f}" if v >= 9.95 else f"{v:.1f}"
+    return f"{abs(v_mps) * KN_PER_MPS:.1f}"
 
 
 def _samples(plan: Plan, st: PlanStep) -> tuple[np.ndarray, np.ndarray]:
@@ -172,5 +171,17 @@ def bridge_orders(plan: Plan, st: PlanStep) -> list[str]:
     out = [knots(c) for c in st.commands]
     if plan.inputs.size and plan.input_names and out:
         n = step_slice(plan, st).stop - step_slice(plan, st).start
-        out.append(f"typical setting: {_typical(plan, st, 0, n - 1)}")
+        out.append(_helm_range(plan, st) if "delta" in plan.input_names else f"typical setting: {_typical(plan, st, 0, n - 1)}")
     return out
+
+
+def _helm_range(plan: Plan, st: PlanStep) -> str:
+    """A rudder ship's helm and engine over a closed-loop step: the largest rudder to each side
+    and the engine's rpm (a median rudder says nothing of a turn)."""
+    names = list(plan.input_names)
+    u = plan.inputs[step_slice(plan, st)]
+    d = np.degrees(u[:, names.index("delta")])
+    sides = [f"{abs(x):.0f}° {w}" for x, w in ((d.max(), "starboard"), (d.min(), "port")) if abs(x) >= 1.0 and x * (1 if w == "starboard" else -1) > 0]
+    helm = f"rudder up to {' and '.join(sides)}" if sides else "rudder amidships"
+    rpm = f", engine about {60 * float(np.median(u[:, names.index('n')])):.0f} rpm" if "n" in names else ""
+    return f"helm as needed: {helm}{rpm}"
