@@ -169,6 +169,8 @@ def bridge_orders(plan: Plan, st: PlanStep) -> list[str]:
     if re.fullmatch(r"spot_turn_[sp]", st.primitive) and any(n.startswith("alpha") for n in plan.input_names):
         return _spot_turn_orders(plan, st)
     out = [knots(c) for c in st.commands]
+    if out and not out[0].startswith(("at +", "t+")):  # the planner's words for a closed-loop step: from its start
+        out[0] = f"at +0:00: {out[0]}"
     if plan.inputs.size and plan.input_names and out:
         n = step_slice(plan, st).stop - step_slice(plan, st).start
         out.append(_helm_range(plan, st) if "delta" in plan.input_names else f"typical setting: {_typical(plan, st, 0, n - 1)}")
