@@ -191,3 +191,32 @@ def test_a_run_in_that_stops_the_ship_is_called_a_stop():
                        "orders": [{"t_s": 0.0, "text": "stop engine(s) and come to rest, heading 117° for 67 s, then execute"}]})
     assert phase(plan, stop) == "stop" and manoeuvre_name(plan, stop) == "stop and settle"
     assert phase(plan, st) == "run-in" and manoeuvre_name(plan, st).startswith("steady approach at 5.8 kn")
+
+
+def test_the_planner_names_stops_recoveries_and_spot_turns_for_the_bridge():
+    """The default Helsinki plan of the full-scale ship (tau12 starts from rest; spot turns
+    reposition it): the run-in before tau12 stops the ship and says so, each manoeuvre ends with
+    its recovery as a separate order, a spot turn gives each phase's thruster angles and rpm,
+    and no step's commands or orders speak m/s."""
+    from maps.export._common import step_orders
+    from maps.export.wording import phase
+    from maps.planner import plan_trial
+    from primitives.ship import load_profile
+
+    plan = plan_trial(profile=load_profile("full-scale"))
+    assert plan.feasible
+    for st in plan.steps:
+        words = " ".join([*st.commands, *(str(o.get("text", "")) for o in st.orders)])  # the description is the library's
+        assert "m/s" not in words and "transit: transit" not in words
+        if st.segment == "informative" and st.primitive == "tau12":
+            before = plan.steps[st.index - 1]
+            assert phase(plan, before) == "stop" and "steady course and speed" not in before.description
+        if st.segment == "informative":
+            rec = [o for o in st.orders if o.get("phase") == "recovery"]
+            assert len(rec) == 1 and rec[0]["text"].startswith("manoeuvre complete; recovery: come to course")
+            assert rec[0]["t_s"] > max(o["t_s"] for o in st.orders if o.get("phase") != "recovery")
+    spots = [st for st in plan.steps if st.primitive.startswith("spot_turn")]
+    assert spots
+    for st in spots:
+        lines = step_orders(plan, st)
+        assert len(lines) == 3 and all(re.search(r"\d+ rpm, thrust", ln) for ln in lines[:2])
