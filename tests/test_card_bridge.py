@@ -220,3 +220,53 @@ def test_the_planner_names_stops_recoveries_and_spot_turns_for_the_bridge():
     for st in spots:
         lines = step_orders(plan, st)
         assert len(lines) == 3 and all(re.search(r"\d+ rpm, thrust", ln) for ln in lines[:2])
+
+
+# -- the map's legend and marks --------------------------------------------------------------------
+
+
+def test_labels_keep_off_the_north_arrow_and_the_end_marker():
+    """A step entered under the north arrow and one entered beside the end marker: their numbers
+    go elsewhere, clear of both marks (the default place, up and right, would sit on them)."""
+    from maps.export.labels import DEFAULT_OFFSET, map_marks, mark_room, place_labels
+
+    frame = (0.0, 0.0, 400.0, 300.0)
+    xn, yn = 0.95 * 400.0, 0.85 * 300.0  # the "N" of the north arrow
+    track = np.array([[100.0, 100.0], [200.0, 100.0], [300.0, 150.0]])
+    end = track[-1]
+    anchors = np.array([[xn - DEFAULT_OFFSET[0], yn + 5.0 - DEFAULT_OFFSET[1]], end - np.array(DEFAULT_OFFSET) + [0.0, 2.0]])
+    labels = place_labels(["7", "8"], anchors, [5.0, 5.0], track, frame)
+    centres = np.array([[lab.x, lab.y] for lab in labels])
+    room = mark_room(centres, map_marks(frame, tuple(end)))
+    assert np.all(room >= 5.0), f"labels on the north arrow or the end marker: {room - 5.0}"
+    assert all(lab.moved for lab in labels)
+
+
+def _check_marks(centres: np.ndarray, radii: np.ndarray, frame: tuple[float, float, float, float], end: np.ndarray) -> None:
+    from maps.export.labels import map_marks, mark_room
+
+    room = mark_room(centres, map_marks(frame, tuple(end))) - radii
+    assert np.all(room >= 0.0), f"labels {np.flatnonzero(room < 0) + 1} on the north arrow or the end marker"
+
+
+def test_map_labels_clear_of_the_marks_in_both_maps(crowded):
+    from maps.export.pdfmap import map_frame, step_labels
+    from maps.export.plots import track_figure
+
+    f = map_frame(crowded, (60.0, 170.0, 500.0, 400.0))
+    labels = [lab for _, lab in step_labels(crowded, f, lambda s: 4.5 * len(s))]
+    _check_marks(np.array([[lab.x, lab.y] for lab in labels]), np.array([lab.r for lab in labels]),
+                 (f.left, f.bottom, f.left + f.width, f.bottom + f.height), f.xy(crowded.lonlat)[-1])
+    fig = track_figure(crowded)
+    try:
+        fig.canvas.draw()
+        r = fig.canvas.get_renderer()
+        ax = fig.axes[0]
+        boxes = [a.get_bbox_patch().get_window_extent(r) for a in ax.texts if (a.get_gid() or "").startswith("step-label-")]
+        bb = ax.get_window_extent()
+        _check_marks(np.array([[0.5 * (b.x0 + b.x1), 0.5 * (b.y0 + b.y1)] for b in boxes]), np.array([0.5 * min(b.width, b.height) for b in boxes]),
+                     (bb.x0, bb.y0, bb.x1, bb.y1), ax.transData.transform(crowded.lonlat[-1:, :2])[0])
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)

@@ -4,7 +4,8 @@ A step number is a circle of radius ``r`` (points). It goes up and right of its 
 point when that place is free; otherwise to the nearest free place on rings around the entry
 point, and a leader line joins it to the point (as chart makers set names aside in crowded
 water). Free: the circle keeps ``gap`` points from every label placed before it, from the
-track's polyline and from the frame. Labels are placed in step order (greedy); a label that
+track's polyline, from the map's own marks (:func:`map_marks`: the north arrow and the end
+marker) and from the frame. Labels are placed in step order (greedy); a label that
 finds no free place within the rings takes the place that is least crowded, never none.
 Everything is in page points; the PDF map and the PNG map (through their transforms) use the
 same placement.
@@ -53,15 +54,44 @@ def _thin(track: np.ndarray, step: float) -> np.ndarray:
     return track[keep]
 
 
+Mark = tuple[tuple[float, float], tuple[float, float], float]  # a segment (ends, points) and its half-width
+
+
+NORTH_FS = 9.0  # the north arrow's "N" (both maps)
+END_MARKER_PT = 9.0  # the end marker's size (matplotlib's ms: a square 9 pt a side)
+
+
+def map_marks(frame: tuple[float, float, float, float], end: tuple[float, float]) -> list[Mark]:
+    """What a label must not cover besides the track: the north arrow (its "N" at 0.85 of the
+    frame's height, 0.95 of its width, the arrow up to 0.95 of the height, as both maps draw it)
+    and the end marker at ``end`` (the square's half-diagonal)."""
+    x0, y0, x1, y1 = frame
+    xn = x0 + 0.95 * (x1 - x0)
+    north = ((xn, y0 + 0.85 * (y1 - y0)), (xn, y0 + 0.95 * (y1 - y0)), 0.45 * NORTH_FS)  # half the "N" and a little
+    e = (float(end[0]), float(end[1]))
+    return [north, (e, e, END_MARKER_PT / np.sqrt(2.0))]
+
+
+def mark_room(p: np.ndarray, marks: list[Mark]) -> np.ndarray:
+    """Distances from points ``p`` (n, 2) to the nearest edge of ``marks``: (n,), inf for none."""
+    room = np.full(len(p), np.inf)
+    for a, b, half in marks:
+        room = np.minimum(room, segment_distances(p, np.array([a], float), np.array([b], float)) - half)
+    return room
+
+
 def place_labels(texts: list[str], anchors: np.ndarray, radii: list[float], track: np.ndarray,
-                 frame: tuple[float, float, float, float], gap: float = 1.0) -> list[Label]:
+                 frame: tuple[float, float, float, float], gap: float = 1.0, marks: list[Mark] | None = None) -> list[Label]:
     """Labels for ``texts`` at ``anchors`` (n, 2 points), each of radius ``radii[i]``, clear of
-    each other and of ``track`` (k, 2 points, the drawn polyline), inside ``frame`` (left,
-    bottom, right, top)."""
+    each other, of ``track`` (k, 2 points, the drawn polyline) and of ``marks`` (default
+    :func:`map_marks` with the track's last point as the end), inside ``frame`` (left, bottom,
+    right, top)."""
     pts = _thin(np.asarray(track, float).reshape(-1, 2), 1.0)
     anchors = np.asarray(anchors, float).reshape(-1, 2)
     # the track's segments and the entry points themselves (stars and marks sit there)
     a, b = np.vstack([pts[:-1], anchors]), np.vstack([pts[1:], anchors])
+    if marks is None:
+        marks = map_marks(frame, tuple(pts[-1])) if len(pts) else []
     x0, y0, x1, y1 = frame
     placed: list[Label] = []
     for text, (ax, ay), r in zip(texts, anchors, radii):
@@ -71,7 +101,7 @@ def place_labels(texts: list[str], anchors: np.ndarray, radii: list[float], trac
             rings.append(np.column_stack([ax + dist * np.cos(_ANGLES), ay + dist * np.sin(_ANGLES)]))
         cand = np.vstack(rings)
         # room: how far each candidate circle is from the nearest thing it must not touch
-        room = segment_distances(cand, a, b) - r - gap
+        room = np.minimum(segment_distances(cand, a, b), mark_room(cand, marks)) - r - gap
         room = np.minimum(room, np.minimum.reduce([cand[:, 0] - x0, x1 - cand[:, 0], cand[:, 1] - y0, y1 - cand[:, 1]]) - r)
         for lab in placed:
             room = np.minimum(room, np.hypot(cand[:, 0] - lab.x, cand[:, 1] - lab.y) - r - lab.r - gap)
