@@ -270,3 +270,37 @@ def test_map_labels_clear_of_the_marks_in_both_maps(crowded):
         import matplotlib.pyplot as plt
 
         plt.close(fig)
+
+
+def test_map_legend_names_manoeuvres_as_the_bridge_does_and_fits_the_page(crowded):
+    """Both maps' legends give a manoeuvre's bridge name with its design code in brackets (never
+    the bare code); the PDF legend takes fewer columns rather than run off the page."""
+    from maps.export.cardpdf import FONT, W, _Card
+    from maps.export.pdfmap import MapWriter, map_frame
+    from maps.export.plots import track_figure
+    from maps.export.wording import manoeuvre_name
+
+    first = {}
+    for st in crowded.steps:
+        if st.segment == "informative":
+            first.setdefault(st.primitive, f"{manoeuvre_name(crowded, st)} [{st.primitive}]")
+    fig = track_figure(crowded)
+    try:
+        png = fig.axes[0].get_legend_handles_labels()[1]
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    doc = _Card()
+    doc.page()
+    w = MapWriter(doc.pdf, FONT, crowded, None, map_frame(crowded, (0.1 * W, 0.2 * 842.0, 0.85 * W, 0.5 * 842.0)))
+    w.draw()
+    boxes = []
+    out = w.out
+    w.out = lambda ops: (boxes.append(ops) if " re B Q" in ops else None, out(ops))[1]
+    w.draw_legend()
+    pdf = [e["label"] for e in w.legend]
+    assert png == pdf
+    assert [x for x in pdf if x.endswith("]")] == list(first.values()) and not set(first) & set(pdf)
+    left, _, width = (float(v) for v in boxes[0].split()[-6:-3])
+    assert left >= 0.0 and left + width <= W, f"the legend runs off the page: {left:.0f}..{left + width:.0f} pt"

@@ -24,6 +24,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from maps.export._common import M_PER_NM, ExportError, deg_min, step_slice  # noqa: E402
+from maps.export.wording import manoeuvre_name  # noqa: E402
 from maps.plan import Plan, PlanStep  # noqa: E402
 
 OBSTACLE_KINDS = ("land", "obstacle", "restricted")
@@ -234,7 +235,7 @@ def _draw_track(ax: Any, plan: Plan) -> None:
         sl = step_slice(plan, st)
         seg = st.segment
         key = st.primitive if seg == "informative" else seg
-        label = None if key in labelled else {"run-in": "run-in, or stop before a manoeuvre", "transit": "transit"}.get(key, key)
+        label = None if key in labelled else track_label(plan, st)
         labelled.add(key)
         style = {"run-in": {"ls": (0, (4, 2)), "lw": 1.8}, "transit": {"ls": "-", "lw": 1.1}}.get(seg, {"ls": "-", "lw": 2.2})
         ax.plot(lon[sl], lat[sl], color=step_colour(plan, st, colours), zorder=3, solid_capstyle="butt", label=label, **style)
@@ -244,6 +245,15 @@ def _draw_track(ax: Any, plan: Plan) -> None:
                 mec="k", mew=0.8, zorder=4.5, label="execute point")
     ax.plot(lon[0], lat[0], marker="^", ms=11, color="green", mec="k", zorder=4, ls="none", label="start")
     ax.plot(lon[-1], lat[-1], marker="s", ms=9, color="red", mec="k", zorder=4, ls="none", label="end")
+
+
+def track_label(plan: Plan, st: PlanStep) -> str:
+    """The legend's words for the line of ``st`` (one entry per colour): a manoeuvre by its
+    bridge name with the design's code in brackets, as the step table names it; run-ins and stops,
+    transit by their phase."""
+    if st.segment == "informative":
+        return f"{manoeuvre_name(plan, st)} [{st.primitive}]"
+    return {"run-in": "run-in, or stop before a manoeuvre", "transit": "transit"}.get(st.segment, st.segment)
 
 
 def annotate_steps(ax: Any, plan: Plan) -> None:

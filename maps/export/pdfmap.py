@@ -40,6 +40,7 @@ from maps.export.mapplot import (
     primitive_colours,
     scale_bar,
     step_colour,
+    track_label,
 )
 from maps.export.pdfdraw import LINE_HEIGHT, Painter, col, rings_ops
 from maps.plan import Plan, PlanStep
@@ -211,8 +212,7 @@ class MapWriter(Painter):
             if len(pts) >= 2:
                 self.polyline(pts, colour, lw, dash)
             if key not in labelled:
-                label = {"run-in": "run-in, or stop before a manoeuvre", "transit": "transit"}.get(key, key)
-                self.legend.append({"kind": "line", "colour": colour, "lw": lw, "dash": dash, "label": label})
+                self.legend.append({"kind": "line", "colour": colour, "lw": lw, "dash": dash, "label": track_label(plan, st)})
                 labelled.add(key)
         self.start_end_execute(xy)
 
@@ -285,17 +285,23 @@ class MapWriter(Painter):
     # -- the legend ----------------------------------------------------------------------------------
     def draw_legend(self, ncol: int = 3) -> None:
         """The legend below the map, centred (matplotlib's loc="upper center" at (0.5, -0.05) of
-        the axes, ``ncol`` columns filled top to bottom, its paddings in font sizes)."""
+        the axes, ``ncol`` columns filled top to bottom, its paddings in font sizes); fewer
+        columns when the manoeuvres' names would take it past the page's 18 pt margins."""
         fs, f = LEGEND_FS, self.f
         entries = self.legend
         if not entries:
             return
-        cols = [c for c in np.array_split(np.arange(len(entries)), ncol) if len(c)]
         row_h = 1.0 * fs  # matplotlib packs legend rows by the texts' ink height, about the font size
         pitch = row_h + 0.5 * fs
         hl, htp, pad = 2.0 * fs, 0.8 * fs, 0.4 * fs
-        widths = [hl + htp + max(self.text_width(entries[i]["label"], fs) for i in c) for c in cols]
-        width = sum(widths) + 2.0 * fs * (len(cols) - 1) + 2 * pad
+        centre = f.left + 0.5 * f.width
+        room = 2.0 * (min(centre, float(self.pdf.w) - centre) - 18.0)
+        for n in range(ncol, 0, -1):
+            cols = [c for c in np.array_split(np.arange(len(entries)), n) if len(c)]
+            widths = [hl + htp + max(self.text_width(entries[i]["label"], fs) for i in c) for c in cols]
+            width = sum(widths) + 2.0 * fs * (len(cols) - 1) + 2 * pad
+            if width <= room:
+                break
         height = pitch * max(len(c) for c in cols) - 0.5 * fs + 2 * pad
         left = f.left + 0.5 * f.width - 0.5 * width
         top = f.bottom - 0.05 * f.height - 0.5 * fs
