@@ -304,3 +304,13 @@ def test_map_legend_names_manoeuvres_as_the_bridge_does_and_fits_the_page(crowde
     assert [x for x in pdf if x.endswith("]")] == list(first.values()) and not set(first) & set(pdf)
     left, _, width = (float(v) for v in boxes[0].split()[-6:-3])
     assert left >= 0.0 and left + width <= W, f"the legend runs off the page: {left:.0f}..{left + width:.0f} pt"
+
+
+def test_gpx_counts_steps_and_manoeuvres_apart(crowded, tmp_path):
+    """The GPX route's description counts manoeuvres, not run-ins and transits as manoeuvres."""
+    from maps.export.gpx import plan_gpx
+
+    n_man = sum(1 for st in crowded.steps if st.segment == "informative")
+    assert 0 < n_man < len(crowded.steps)
+    text = plan_gpx(crowded, start=START).decode("utf-8")
+    assert f"{len(crowded.steps)} steps ({n_man} manoeuvres)" in text

@@ -81,7 +81,9 @@ def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | Non
     title = name or f"{vessel_name(plan, vessel)} trial {plan.map_name}".strip()
     meta = _sub(root, "metadata")
     _sub(meta, "name", title)
-    _sub(meta, "desc", f"{len(plan.steps)} manoeuvres, {clock(plan.duration_s)}, {plan.length_m / M_PER_NM:.2f} NM; "
+    n_man = sum(1 for st in plan.steps if st.segment == "informative")  # run-ins, stops and transits are steps, not manoeuvres
+    _sub(meta, "desc", f"{len(plan.steps)} steps ({n_man} manoeuvre{'s' if n_man != 1 else ''}), {clock(plan.duration_s)}, "
+         f"{plan.length_m / M_PER_NM:.2f} NM; "
          f"abort if wind exceeds {plan.max_wind_mps * KN_PER_MPS:.0f} kn or clearance drops below {plan.margin_m:.0f} m")
     _sub(meta, "time", iso(t0))
     lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
