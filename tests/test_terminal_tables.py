@@ -55,3 +55,16 @@ def test_primitives_table_fits_80_columns_with_whole_names(narrow, capsys):
     out = capsys.readouterr().out
     assert max(len(line) for line in out.splitlines()) <= 80 and "…" not in out
     assert "turning_circle_35_s" in out and "turning_circle_35_p" in out
+
+
+def test_primitives_table_ranges_read_with_negative_bounds(narrow, capsys):
+    """A surge range below zero reads "-1.31..3.00" (it read "-1.31-3.00"), and nothing that
+    rounds to zero carries a minus sign ("-0.00", "-1,-0,-0")."""
+    from cli.app import _run
+
+    assert _run(["primitives", "--ship", "full-scale"]) == 0
+    out = capsys.readouterr().out
+    assert max(len(line) for line in out.splitlines()) <= 80
+    stop = next(ln for ln in out.splitlines() if ln.startswith("stopping "))
+    assert re.search(r" -\d+\.\d\d\.\.\d+\.\d\d ", stop), stop
+    assert not re.search(r"(?<![\d.])-0(?:\.0+)?(?![\d.])", out)  # "-0.50" is a value, "-0.00" and "-0," are not
