@@ -314,3 +314,21 @@ def test_gpx_counts_steps_and_manoeuvres_apart(crowded, tmp_path):
     assert 0 < n_man < len(crowded.steps)
     text = plan_gpx(crowded, start=START).decode("utf-8")
     assert f"{len(crowded.steps)} steps ({n_man} manoeuvres)" in text
+
+
+def test_acceleration_name_gives_the_top_speed_sailed_not_the_nominal(crowded):
+    """tau12's name takes its top speed from the planned track (a ship that tops at 3.4 kn where
+    the library's description says 3.5 m/s is called 'acceleration 0 → 3.4 kn')."""
+    from dataclasses import replace
+
+    from maps.export._common import step_slice
+    from maps.export.wording import manoeuvre_name
+
+    st = next(st for st in crowded.steps if st.primitive == "tau12" and st.segment == "informative")
+    speed = crowded.speed.copy()
+    sl = step_slice(crowded, st)
+    speed[sl] *= 0.5
+    slow = replace(crowded, speed=speed)
+    top = float(speed[sl].max()) * 3600.0 / 1852.0
+    assert manoeuvre_name(slow, st).startswith(f"acceleration 0 → {top:.1f} kn")
+    assert manoeuvre_name(crowded, st).startswith(f"acceleration 0 → {float(crowded.speed[sl].max()) * 3600.0 / 1852.0:.1f} kn")

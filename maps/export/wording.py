@@ -90,8 +90,8 @@ def manoeuvre_name(plan: Plan, st: PlanStep) -> str:
         return f"crabbing from rest, to starboard and to port (up to {_kn(vmax)} kn)"
     if "sway" in low:
         return f"crabbing at {_kn(v0)} kn to starboard, then to port"
-    if m := re.search(r"u 0 -> ([\d.]+) -> 0\b", desc):  # the thesis's tau12: from rest, thrust ahead, then none
-        return f"acceleration 0 → {_kn(float(m[1]))} kn, then thrusters stopped, coasting down"
+    if re.search(r"u 0 -> ([\d.]+) -> 0\b", desc):  # the thesis's tau12: from rest, thrust ahead, then none
+        return f"acceleration 0 → {_kn(vmax)} kn, then thrusters stopped, coasting down"  # the top speed sailed, not the nominal
     if name in ("acceleration", "tau2") or low.startswith("accelerat"):
         return f"acceleration {_kn(v0)} → {_kn(vmax)} kn"
     if name in ("deceleration", "tau1") or low.startswith("decelerat"):
