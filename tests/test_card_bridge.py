@@ -67,8 +67,8 @@ def test_png_map_labels_every_step_none_overlapping_or_on_the_track(crowded):
 
 
 def test_states_figure_plots_propeller_speed_in_rpm_as_the_orders_say(crowded):
-    from maps.export._common import step_orders
     from maps.export.plots import state_series
+    from maps.export.wording import step_orders
 
     series = dict(state_series(crowded))
     rpm = series["propeller 1 [rpm]"]
@@ -156,7 +156,7 @@ def test_manoeuvres_are_named_as_a_master_knows_them(crowded):
 
 
 def test_spot_turn_orders_give_times_thruster_angles_and_rpm(crowded):
-    from maps.export._common import step_orders
+    from maps.export.wording import step_orders
     from maps.plan import PlanStep
 
     # as the planner's lattice move carries it: its phases in words, no orders of its own
@@ -198,8 +198,7 @@ def test_the_planner_names_stops_recoveries_and_spot_turns_for_the_bridge():
     reposition it): the run-in before tau12 stops the ship and says so, each manoeuvre ends with
     its recovery as a separate order, a spot turn gives each phase's thruster angles and rpm,
     and no step's commands or orders speak m/s."""
-    from maps.export._common import step_orders
-    from maps.export.wording import phase
+    from maps.export.wording import phase, step_orders
     from maps.planner import plan_trial
     from primitives.ship import load_profile
 

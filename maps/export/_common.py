@@ -329,15 +329,6 @@ def order_lines(step: PlanStep) -> list[str]:
     return out
 
 
-def step_orders(plan: Plan, step: PlanStep) -> list[str]:
-    """What the crew is told for ``step``, in knots and the ship's own terms
-    (:func:`maps.export.wording.bridge_orders`: its structured orders, a spot turn's phases, its
-    commands), else the timed input orders read from the planned inputs."""
-    from maps.export.wording import bridge_orders  # the words module builds on this one
-
-    return bridge_orders(plan, step) or input_phases(plan, step)
-
-
 def step_abort(plan: Plan, step: PlanStep) -> list[str]:
     """Abort criteria of ``step``: its own (``PlanStep.abort``) plus the plan-wide clearance."""
     own = [re.sub(r"^\s*abort if\s+", "", str(a), flags=re.I) for a in (getattr(step, "abort", None) or [])]

@@ -23,10 +23,9 @@ from maps.export._common import (
     clock,
     iso,
     resolve_start,
-    step_orders,
     vessel_name,
 )
-from maps.export.wording import manoeuvre_name, phase
+from maps.export.wording import manoeuvre_name, phase, step_orders
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes
 

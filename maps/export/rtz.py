@@ -33,12 +33,11 @@ from maps.export._common import (
     order_lines,
     resolve_start,
     step_abort,
-    step_orders,
     vessel_name,
 )
 from maps.export.chart import plan_chart
 from maps.export.route import Route, build_route, leg_length_m
-from maps.export.wording import knots, manoeuvre_name, phase
+from maps.export.wording import knots, manoeuvre_name, phase, step_orders
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes
 

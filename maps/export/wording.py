@@ -16,7 +16,7 @@ import re
 
 import numpy as np
 
-from maps.export._common import KN_PER_MPS, clock, describe_inputs, order_lines, step_slice
+from maps.export._common import KN_PER_MPS, clock, describe_inputs, input_phases, order_lines, step_slice
 from maps.plan import Plan, PlanStep
 
 _SIDE = {"s": "starboard", "p": "port"}
@@ -187,3 +187,10 @@ def _helm_range(plan: Plan, st: PlanStep) -> str:
     helm = f"rudder up to {' and '.join(sides)}" if sides else "rudder amidships"
     rpm = f", engine about {60 * float(np.median(u[:, names.index('n')])):.0f} rpm" if "n" in names else ""
     return f"helm as needed: {helm}{rpm}"
+
+
+def step_orders(plan: Plan, step: PlanStep) -> list[str]:
+    """What the crew is told for ``step``, in knots and the ship's own terms
+    (:func:`bridge_orders`: its structured orders, a spot turn's phases, its commands), else the
+    timed input orders read from the planned inputs."""
+    return bridge_orders(plan, step) or input_phases(plan, step)
