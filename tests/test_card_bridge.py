@@ -331,3 +331,17 @@ def test_acceleration_name_gives_the_top_speed_sailed_not_the_nominal(crowded):
     top = float(speed[sl].max()) * 3600.0 / 1852.0
     assert manoeuvre_name(slow, st).startswith(f"acceleration 0 → {top:.1f} kn")
     assert manoeuvre_name(crowded, st).startswith(f"acceleration 0 → {float(crowded.speed[sl].max()) * 3600.0 / 1852.0:.1f} kn")
+
+
+def test_orders_read_from_the_inputs_name_thrusters_not_variables(crowded):
+    """A step without orders or commands of its own (an older plan.json) is told its inputs as
+    timed settings; a varying one ends with the inputs' ranges, by thruster names ("bow thruster
+    angle -5°..5°"), never the model's variables (alpha1, n1)."""
+    from maps.export._common import input_phases
+    from maps.plan import PlanStep
+
+    st = next(st for st in crowded.steps if st.primitive == "tau16" and st.segment == "informative")
+    bare = PlanStep(**{**st.__dict__, "orders": [], "commands": []})
+    lines = input_phases(crowded, bare, max_phases=1)
+    assert lines[-1].startswith("then ") and "bow thruster angle" in lines[-1] and "rpm" in lines[-1]
+    assert not re.search(r"\b(alpha|n)\d\b", " ".join(lines))

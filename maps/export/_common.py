@@ -309,12 +309,23 @@ def input_phases(plan: Plan, step: PlanStep, max_phases: int = 6) -> list[str]:
     for j, nm in enumerate(plan.input_names):
         lo, hi = float(u[:, j].min()), float(u[:, j].max())
         if nm.startswith("alpha") or nm == "delta":
-            rng.append(f"{nm} {_angle_range(u[:, j])}")
+            rng.append(f"{_input_word(plan, nm)} {_angle_range(u[:, j])}")
         elif nm == "n" or (nm.startswith("n") and nm[1:].isdigit()):
-            rng.append(f"{nm} {60 * lo:.0f}..{60 * hi:.0f} rpm")
+            rng.append(f"{_input_word(plan, nm)} {60 * lo:.0f}..{60 * hi:.0f} rpm")
         else:
             rng.append(f"{nm} {lo:.0f}..{hi:.0f}")
     return [first, f"then {len(merged) - 1} changes of order; inputs range " + ", ".join(rng)]
+
+
+def _input_word(plan: Plan, name: str) -> str:
+    """An angle or shaft-speed input as the bridge names it: "rudder", "engine", "bow thruster
+    angle", "bow thruster" (thruster names from the profile, as :func:`describe_inputs`)."""
+    if name in ("delta", "n"):
+        return {"delta": "rudder", "n": "engine"}[name]
+    i = int(name[len(name.rstrip("0123456789")):] or 1) - 1
+    labels = _thruster_labels(plan)
+    lab = labels[i] if 0 <= i < len(labels) else f"thruster {i + 1}"
+    return f"{lab} angle" if name.startswith("alpha") else lab
 
 
 def order_lines(step: PlanStep) -> list[str]:
