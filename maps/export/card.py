@@ -371,8 +371,9 @@ def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = No
         h.append("<h2>Experiment design</h2>")
         h += [f"<p>{e(line)}</p>" for line in d_head]
         h.append(_html_table(DESIGN_COLS, d_rows, "design"))
-    h.append("<h2>Map</h2><p>Manoeuvres coloured by design code, run-ins and stops dashed green, transit grey; stars mark "
-             "execute points, circled numbers the step numbers (set aside with a thin line where the water is crowded); "
+    h.append("<h2>Map</h2><p>Manoeuvres in one colour each (the legend names them, design code in brackets), run-ins and "
+             "stops dashed green, transit grey; stars mark execute points, circled numbers the step numbers (set aside with a "
+             "thin line where the water is crowded); "
              "shaded blue: sea room swept by the hull plus margin; hatched: shallow or restricted water.</p>")
     h.append(_img(map_png, "map of the planned track"))
     h.append("<h2>Steps in sailing order</h2>")
