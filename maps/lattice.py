@@ -167,7 +167,7 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
                 phases.insert(0, ("run", float((-x_end) % res)))
             f = helm.run(nu0, (0.0, 0.0, psi0), phases)
             per.append(_assemble(profile, f"turn_{side}", f"{abs(dpsi):.0f} deg turn to {word}", "basic", None, nu0, f,
-                                 [f"at {uc / KNOT:.1f} kn turn {abs(dpsi):.0f}° to {word}, steady on the new course"], []))
+                                 [f"turn {abs(dpsi):.0f}° to {word} at {uc / KNOT:.1f} kn, steady on the new course"], []))
         out.append(per)
     if helm.rudder is not None:  # a rudder ship cannot turn on the spot: it reverses course by a round turn at speed
         for side, sgn in (("s", 1.0), ("p", -1.0)):
@@ -177,7 +177,7 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
                 # just short of 180 deg so that the helm turns to the side asked for
                 f = helm.run(nu0, (0.0, 0.0, psi0), [("turn", psi0 + sgn * (np.pi - 1e-6)), ("settle", int(ci + n_head // 2))])
                 per.append(_assemble(profile, f"round_turn_{side}", f"turn 180 deg to {word} at speed onto the reciprocal course",
-                                     "basic", None, nu0, f, [f"at {uc / KNOT:.1f} kn turn 180° to {word}, steady on the reciprocal course"], []))
+                                     "basic", None, nu0, f, [f"turn 180° to {word} at {uc / KNOT:.1f} kn, steady on the reciprocal course"], []))
             out.append(per)
     elif spot_turns:  # stop, turn on the spot, speed up (azimuth and generalized-force ships)
         for side, sgn in (("s", 1.0), ("p", -1.0)):

@@ -210,5 +210,5 @@ class Shortcutter:
         dist = float(np.sum(np.hypot(*np.diff(tr[:, :2], axis=0).T)))
         uc = self.helm.uc
         return Leg("transit", "transit", "basic", "transit", f"{n_legs} straight leg{'s' if n_legs > 1 else ''}, {dist:.0f} m",
-                   self.p, inputs, [f"at {uc / KNOT:.1f} kn steer for each waypoint in turn; {n_legs} leg{'s' if n_legs > 1 else ''}, "
+                   self.p, inputs, [f"steer for each waypoint in turn at {uc / KNOT:.1f} kn; {n_legs} leg{'s' if n_legs > 1 else ''}, "
                                     f"{dist:.0f} m"], (dist, self.corridor * 2), sim=(s_nu, tr))

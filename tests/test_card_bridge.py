@@ -214,6 +214,8 @@ def test_the_planner_names_stops_recoveries_and_spot_turns_for_the_bridge():
             rec = [o for o in st.orders if o.get("phase") == "recovery"]
             assert len(rec) == 1 and rec[0]["text"].startswith("manoeuvre complete; recovery: come to course")
             assert rec[0]["t_s"] > max(o["t_s"] for o in st.orders if o.get("phase") != "recovery")
+    # a timed order reads "at +0:00: steer for ... at 5.8 kn", never "at +0:00: at 5.8 kn steer ..."
+    assert not [ln for st in plan.steps for ln in step_orders(plan, st) if re.match(r"at \+[\d:]+: at ", ln)]
     spots = [st for st in plan.steps if st.primitive.startswith("spot_turn")]
     assert spots
     for st in spots:
