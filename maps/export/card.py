@@ -113,7 +113,6 @@ def step_sheets(plan: Plan, start: datetime | str | None = None, sea_map: Any = 
                 "n": st.index + 1,
                 "primitive": st.primitive,  # the design's code, in small print beside the name
                 "name": manoeuvre_name(plan, st),
-                "description": knots(str(st.description)),
                 "kind": st.kind,
                 "segment": phase(plan, st),
                 "execute": bool(getattr(st, "execute", False)),
