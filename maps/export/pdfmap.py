@@ -14,6 +14,7 @@ The operators are written by :class:`maps.export.pdfdraw.Painter`.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -334,7 +335,7 @@ class MapWriter(Painter):
                 self.out(f"{col(edge, 'RG')} 0.6 w\n" + rings_ops(segs, close=False) + " S")
 
 
-def step_labels(plan: Plan, f: Frame, width: Any) -> list[tuple[PlanStep, Label]]:
+def step_labels(plan: Plan, f: Frame, width: Callable[[str], float]) -> list[tuple[PlanStep, Label]]:
     """(step, label) of every step whose entry point is on the map ``f``: number circles sized
     for their text (``width(text)`` in points at NUM_FS bold), clear of each other and of the
     track. A step entered outside the map has no label (as matplotlib drops an annotation whose
