@@ -116,7 +116,7 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
 
         # fits 80 columns: the name wraps at its spaces, the design code folds rather than being cut
         # (its last letter says starboard or port), the position wraps between latitude and longitude
-        steps = Table(title="manoeuvres in sailing order")
+        steps = Table(title="steps in sailing order")
         steps.add_column("#", justify="right")
         steps.add_column("start", justify="right", no_wrap=True)
         steps.add_column("phase", no_wrap=True)

@@ -33,6 +33,7 @@ def test_plan_summary_fits_80_columns_and_keeps_port_and_starboard(narrow, capsy
     assert "10/10 zig-zag to starboard [zigzag_10_10_s]" in col and "turning circle to port, rudder 35°" in col
     assert "[turning_circle_35_p]" in col  # the design code, whole
     assert "inf m" not in out and "no land or obstacle within the map" in out
+    assert "steps in sailing order" in out  # run-ins, stops and transits are steps, not manoeuvres
 
 
 def test_design_summary_lists_every_primitive_the_rounding_uses(capsys):
