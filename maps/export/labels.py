@@ -57,7 +57,9 @@ def _thin(track: np.ndarray, step: float) -> np.ndarray:
 Mark = tuple[tuple[float, float], tuple[float, float], float]  # a segment (ends, points) and its half-width
 
 
-NORTH_FS = 9.0  # the north arrow's "N" (both maps)
+# the map's own marks, drawn by both maps (mapplot.draw_map, pdfmap.MapWriter) from these figures
+NORTH_FS = 9.0  # the north arrow's "N"
+NORTH_X, NORTH_Y = 0.95, (0.85, 0.95)  # the arrow in axes fractions: its "N" at the first height, its tip at the second
 END_MARKER_PT = 9.0  # the end marker's size (matplotlib's ms: a square 9 pt a side)
 
 
@@ -66,8 +68,8 @@ def map_marks(frame: tuple[float, float, float, float], end: tuple[float, float]
     frame's height, 0.95 of its width, the arrow up to 0.95 of the height, as both maps draw it)
     and the end marker at ``end`` (the square's half-diagonal)."""
     x0, y0, x1, y1 = frame
-    xn = x0 + 0.95 * (x1 - x0)
-    north = ((xn, y0 + 0.85 * (y1 - y0)), (xn, y0 + 0.95 * (y1 - y0)), 0.45 * NORTH_FS)  # half the "N" and a little
+    xn = x0 + NORTH_X * (x1 - x0)
+    north = ((xn, y0 + NORTH_Y[0] * (y1 - y0)), (xn, y0 + NORTH_Y[1] * (y1 - y0)), 0.45 * NORTH_FS)  # half the "N" and a little
     e = (float(end[0]), float(end[1]))
     return [north, (e, e, END_MARKER_PT / np.sqrt(2.0))]
 

@@ -24,6 +24,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from maps.export._common import M_PER_NM, ExportError, deg_min, step_slice  # noqa: E402
+from maps.export.labels import END_MARKER_PT, NORTH_FS, NORTH_X, NORTH_Y  # noqa: E402
 from maps.export.wording import manoeuvre_name  # noqa: E402
 from maps.plan import Plan, PlanStep  # noqa: E402
 
@@ -244,7 +245,7 @@ def _draw_track(ax: Any, plan: Plan) -> None:
         ax.plot([st.entry_lon for st in execs], [st.entry_lat for st in execs], ls="none", marker="*", ms=15, mfc=EXECUTE_COLOUR,
                 mec="k", mew=0.8, zorder=4.5, label="execute point")
     ax.plot(lon[0], lat[0], marker="^", ms=11, color="green", mec="k", zorder=4, ls="none", label="start")
-    ax.plot(lon[-1], lat[-1], marker="s", ms=9, color="red", mec="k", zorder=4, ls="none", label="end")
+    ax.plot(lon[-1], lat[-1], marker="s", ms=END_MARKER_PT, color="red", mec="k", zorder=4, ls="none", label="end")
 
 
 def track_label(plan: Plan, st: PlanStep) -> str:
@@ -341,7 +342,8 @@ def draw_map(ax: Any, plan: Plan, sea_map: Any = None, *, pad_m: float | None = 
     ax.xaxis.set_major_locator(plt.MaxNLocator(4))
     ax.grid(color="white", lw=0.6, zorder=0)
     _scale_bar(ax, x0, y0, x1, y1, m_per_deg_lon)
-    ax.annotate("N", xy=(0.95, 0.95), xytext=(0.95, 0.85), xycoords="axes fraction", ha="center", fontsize=9, fontweight="bold",
+    ax.annotate("N", xy=(NORTH_X, NORTH_Y[1]), xytext=(NORTH_X, NORTH_Y[0]), xycoords="axes fraction", ha="center", fontsize=NORTH_FS,
+                fontweight="bold",
                 arrowprops={"arrowstyle": "-|>", "color": "k"}, zorder=6)
     if numbers:
         annotate_steps(ax, plan)

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from maps.export._common import deg_min, step_slice
-from maps.export.labels import Label, leader, place_labels
+from maps.export.labels import END_MARKER_PT, NORTH_FS, NORTH_X, NORTH_Y, Label, leader, place_labels
 from maps.export.mapplot import (
     DEPTH_EDGE,
     EXECUTE_COLOUR,
@@ -220,14 +220,14 @@ class MapWriter(Painter):
     def start_end_execute(self, xy: np.ndarray) -> None:
         plan = self.plan
         self.marker("^", *xy[0], 11, "green")
-        self.marker("s", *xy[-1], 9, "red")
+        self.marker("s", *xy[-1], END_MARKER_PT, "red")
         execs = [st for st in plan.steps if getattr(st, "execute", False)]
         for st in execs:
             self.marker("*", *self.page_xy(np.array([[st.entry_lon, st.entry_lat]]))[0], 15, EXECUTE_COLOUR, mew=0.8)
         if execs:
             self.legend.append({"kind": "marker", "marker": "*", "size": 15, "face": EXECUTE_COLOUR, "mew": 0.8, "label": "execute point"})
         self.legend.append({"kind": "marker", "marker": "^", "size": 11, "face": "green", "mew": 1.0, "label": "start"})
-        self.legend.append({"kind": "marker", "marker": "s", "size": 9, "face": "red", "mew": 1.0, "label": "end"})
+        self.legend.append({"kind": "marker", "marker": "s", "size": END_MARKER_PT, "face": "red", "mew": 1.0, "label": "end"})
 
     def numbers(self) -> None:
         """Every step's number in a circle: up and right of its entry point, or set aside with a
@@ -265,10 +265,11 @@ class MapWriter(Painter):
         self.out("q")
         self.polyline(np.array([p0, p1]), "k", 3.0, cap=2)
         # north arrow: from above the "N" (axes fraction 0.85) to 0.95, a filled head as '-|>'
-        ax_, ay0, ay1 = f.left + 0.95 * f.width, f.bottom + 0.85 * f.height + 0.76 * 9 + 2, f.bottom + 0.95 * f.height - 2
-        head = 0.4 * 9
+        fs = NORTH_FS
+        ax_, ay0, ay1 = f.left + NORTH_X * f.width, f.bottom + NORTH_Y[0] * f.height + 0.76 * fs + 2, f.bottom + NORTH_Y[1] * f.height - 2
+        head = 0.4 * fs
         self.polyline(np.array([[ax_, ay0], [ax_, ay1 - head]]), "k", 1.0)
-        self.out(f"{col('k', 'rg')} {ax_:.2f} {ay1:.2f} m {ax_ - 0.2 * 9:.2f} {ay1 - head:.2f} l {ax_ + 0.2 * 9:.2f} "
+        self.out(f"{col('k', 'rg')} {ax_:.2f} {ay1:.2f} m {ax_ - 0.2 * fs:.2f} {ay1 - head:.2f} l {ax_ + 0.2 * fs:.2f} "
                  f"{ay1 - head:.2f} l h B")
         self.out(f"{col('k', 'RG')} 0.8 w 0 J 0 j [] 0 d {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re S")
         ticks = [np.array([[x, f.bottom], [x, f.bottom - 3.5]]) for x in xt] + [np.array([[f.left, y], [f.left - 3.5, y]]) for y in yt]
@@ -276,7 +277,7 @@ class MapWriter(Painter):
             self.out("0.8 w\n" + rings_ops(ticks, close=False) + " S")
         self.out("Q")
         self.text(0.5 * (p0[0] + p1[0]), p0[1] + 0.012 * f.height, label, 7, ha="center", va="bottom")
-        self.text(ax_, f.bottom + 0.85 * f.height, "N", 9, bold=True, ha="center")
+        self.text(ax_, f.bottom + NORTH_Y[0] * f.height, "N", fs, bold=True, ha="center")
         xs, ys = self._tick_values
         for x, v in zip(xt, xs):
             self.text(x, f.bottom - 7.0, deg_min(v, "E", "W", 3).replace("'", "′"), TICK_FS, ha="center", va="top")
