@@ -64,9 +64,9 @@ END_MARKER_PT = 9.0  # the end marker's size (matplotlib's ms: a square 9 pt a s
 
 
 def map_marks(frame: tuple[float, float, float, float], end: tuple[float, float]) -> list[Mark]:
-    """What a label must not cover besides the track: the north arrow (its "N" at 0.85 of the
-    frame's height, 0.95 of its width, the arrow up to 0.95 of the height, as both maps draw it)
-    and the end marker at ``end`` (the square's half-diagonal)."""
+    """What a label must not cover besides the track: the north arrow (its "N" and shaft from
+    NORTH_Y[0] to NORTH_Y[1] of the frame's height at NORTH_X of its width, as both maps draw
+    it) and the end marker at ``end`` (the square's half-diagonal)."""
     x0, y0, x1, y1 = frame
     xn = x0 + NORTH_X * (x1 - x0)
     north = ((xn, y0 + NORTH_Y[0] * (y1 - y0)), (xn, y0 + NORTH_Y[1] * (y1 - y0)), 0.45 * NORTH_FS)  # half the "N" and a little
