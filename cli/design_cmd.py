@@ -152,9 +152,11 @@ def _print_step(ship: str, d: Design, doc: dict, ev: MCEvaluation | None, paths:
 def _echo_design(ship: str, d: Design) -> None:
     """The design's mix, its efficiency and the reference shares' efficiency, as text."""
     typer.echo(f"{ship}: {d.criterion}-optimal mix ({d.mean_subtraction} mean subtraction)")
-    for n, w in d.weights.items():
-        if w > 0.005:
-            typer.echo(f"  {n:8s} {100 * w:5.1f} %   {d.rounded[n]:3d} x {d.unit_s[n]:.1f} s")
+    # every primitive the rounding uses (as design.json's "rounded"), and any with a share worth printing
+    shown = [n for n, w in d.weights.items() if w > 0.005 or d.rounded.get(n, 0) > 0]
+    width = max((len(n) for n in shown), default=8)
+    for n in shown:
+        typer.echo(f"  {n:{width}s} {100 * d.weights[n]:5.1f} %   {d.rounded.get(n, 0):3d} x {d.unit_s[n]:.1f} s")
     typer.echo(f"efficiency vs equal shares {d.efficiency_vs_uniform:.3f}; convex certificate >= {d.efficiency_bound or 0:.4f}")
     for label, eff in d.references.items():
         typer.echo(f"the {label}'s shares reach {eff:.3f} of this design's {d.criterion}-efficiency")

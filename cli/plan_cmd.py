@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -102,17 +103,32 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
                                                                   f"{x['needs_m'][1]:.0f} m)" for x in d.get("dropped", [])))
     t.add_row("duration", f"{result.duration_s / 60:.1f} min")
     t.add_row("track length", f"{result.length_m / 1000:.2f} km")
-    t.add_row("smallest clearance", f"{result.min_clearance_m:.1f} m (margin {result.margin_m:g} m)")
+    clear = (f"{result.min_clearance_m:.1f} m" if math.isfinite(result.min_clearance_m)
+             else "no land or obstacle within the map")
+    t.add_row("smallest clearance", f"{clear} (margin {result.margin_m:g} m)")
     t.add_row("search", f"{st.get('expansions')} expansions, {st.get('states_visited')} states, {st.get('plan_time_s', 0):.3f} s, "
                         f"{'certified optimal' if result.optimal else 'not certified optimal'}")
     con.print(t)
     if result.feasible:
-        steps = Table(title="manoeuvres in sailing order")
-        for col in ("#", "start", "segment", "manoeuvre", "heading", "entry position"):
-            steps.add_column(col)
+        from rich.markup import escape
+
+        from maps.export.wording import manoeuvre_name, phase
+
+        # fits 80 columns: the name wraps at its spaces, the design code folds rather than being cut
+        # (its last letter says starboard or port), the position wraps between latitude and longitude
+        steps = Table(title="steps in sailing order")
+        steps.add_column("#", justify="right")
+        steps.add_column("start", justify="right", no_wrap=True)
+        steps.add_column("phase", no_wrap=True)
+        steps.add_column(escape("manoeuvre [design code]"), overflow="fold", ratio=1)
+        steps.add_column("hdg", no_wrap=True)
+        steps.add_column("entry position", no_wrap=True)
         for s_ in result.steps:
-            steps.add_row(str(s_.index + 1), f"{s_.start_time_s / 60:5.1f} min", s_.segment, s_.primitive, f"{s_.entry_heading_deg:05.1f}",
-                          f"{s_.entry_lat:.5f} N {s_.entry_lon:.5f} E")
+            ph = phase(result, s_)
+            code = f" [{s_.primitive}]" if ph in ("EXECUTE", "manoeuvre") else ""
+            steps.add_row(str(s_.index + 1), f"{s_.start_time_s / 60:.1f} min", ph, escape(manoeuvre_name(result, s_) + code),
+                          f"{s_.entry_heading_deg:03.0f}°", f"{abs(s_.entry_lat):.5f}{'N' if s_.entry_lat >= 0 else 'S'} "
+                          f"{abs(s_.entry_lon):.5f}{'E' if s_.entry_lon >= 0 else 'W'}")
         con.print(steps)
     for key, path in files.items():
         con.print(f"wrote {key:18s} {path}", markup=False)

@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
 from primitives.io import atomic_savefig, dumps
+
+if TYPE_CHECKING:
+    from rich.table import Table
+
+    from primitives.ship import ShipProfile
 
 
 def library_rows(library) -> list[dict]:
@@ -98,31 +105,19 @@ def register(app: typer.Typer) -> None:
             typer.echo(dumps(rows))
             return
         from rich.console import Console
-        from rich.table import Table
 
-        table = Table(title=f"primitives of {profile.name} (Ts = {profile.sample_time} s)")
-        for col in ("name", "kind", "duration s", "u m/s", "v m/s", "r rad/s", "end pose dx, dy m, dpsi deg", "footprint m"):
-            table.add_column(col)
-        for r in rows:
-            table.add_row(
-                r["name"],
-                r["kind"],
-                f"{r['duration_s']:.1f}",
-                "{:.2f} .. {:.2f}".format(*r["u_range"]),
-                "{:.3f} .. {:.3f}".format(*r["v_range"]),
-                "{:.3f} .. {:.3f}".format(*r["r_range"]),
-                "{:.1f}, {:.1f}, {:.0f}".format(r["end_pose"][0], r["end_pose"][1], r["end_pose"][2] * 57.29578),
-                "{:.1f} x {:.1f}".format(*r["footprint_m"]),
-            )
-        Console().print(table)
+        Console().print(library_table(profile, rows))
         if profile.actuator == "rudder_propeller":
             from primitives.helm import steady_rps
 
             rpm = 60 * steady_rps(profile)
             src = profile.engine.approach_rpm
-            typer.echo(f"approach: the model holds {profile.cruise_speed_mps:.2f} m/s at {rpm:.1f} rpm"
-                       + (f" (the source's trials ran {src:g} rpm)" if src else "")
-                       + f"; rudder {profile.helm.max_rudder_deg:g} deg max at {profile.helm.rudder_rate_deg_s:g} deg/s")
+            import textwrap
+
+            typer.echo(textwrap.fill(f"approach: the model holds {profile.cruise_speed_mps:.2f} m/s at {rpm:.1f} rpm"
+                                     + (f" (the source's trials ran {src:g} rpm)" if src else "")
+                                     + f"; rudder {profile.helm.max_rudder_deg:g}° max at {profile.helm.rudder_rate_deg_s:g}°/s",
+                                     80, subsequent_indent="  "))
         if orders:
             for p in library:
                 typer.echo(f"\n{p.name} ({p.description}, {p.duration_s:.0f} s)")
@@ -131,3 +126,37 @@ def register(app: typer.Typer) -> None:
                 typer.echo(f"  {p.abort_criteria()}")
         if plot:
             typer.echo(f"wrote {plot}")
+
+
+def _num(x: float, decimals: int) -> str:
+    """``x`` to ``decimals`` places, without the sign of a value that rounds to zero ("-0.00")."""
+    text = f"{x:.{decimals}f}"
+    return text.lstrip("-") if float(text) == 0.0 else text
+
+
+def library_table(profile: ShipProfile, rows: list[dict]) -> Table:
+    """The library as a rich table that fits 80 columns: the name whole (its last letter says
+    starboard or port), speeds and rates as their largest magnitude (--json has the ranges), no
+    cell borders; a range reads "lo..hi" so that a negative bound stays readable."""
+    from rich.table import Table
+
+    table = Table(title=f"primitives of {profile.name} (Ts = {profile.sample_time} s)", box=None, pad_edge=False,
+                  caption="k: i informative, b basic; s: duration; u: surge speed range (m/s); |v|, |r|: largest sway "
+                          "speed (m/s) and yaw rate (°/s); end: x ahead, y to starboard (m), heading change (°); room: "
+                          "swept footprint along x across (m)", caption_justify="left")
+    table.add_column("name", no_wrap=True, min_width=max(len(r["name"]) for r in rows))
+    table.add_column("k", no_wrap=True)
+    for col in ("s", "u", "|v|", "|r|", "end", "room"):
+        table.add_column(col, justify="right", no_wrap=True)
+    for r in rows:
+        table.add_row(
+            r["name"],
+            r["kind"][:1],
+            f"{r['duration_s']:.0f}",
+            "..".join(_num(x, 2) for x in r["u_range"]),
+            f"{max(abs(x) for x in r['v_range']):.2f}",
+            f"{math.degrees(max(abs(x) for x in r['r_range'])):.2f}",
+            ",".join(_num(x, 0) for x in (r["end_pose"][0], r["end_pose"][1], math.degrees(r["end_pose"][2]))),
+            "{:.0f}x{:.0f}".format(*r["footprint_m"]),
+        )
+    return table

@@ -21,7 +21,7 @@ from maps.headings import heading_table, nearest_heading
 from maps.headings import wrap as _wrap
 from primitives import maneuvers as mv
 from primitives.helm import straight as helm_straight
-from primitives.library import Primitive
+from primitives.library import KNOT, Primitive
 from primitives.ship import ShipProfile
 from primitives.simulate import simulate
 from primitives.stability import require_stable
@@ -117,7 +117,7 @@ def with_run_in(prim: Primitive, res: float, n_head: int, psi0: float, run_in: n
     h_end = nearest_heading(psi0 + p, helm.table)
     tail = helm.run(sim.nu[0, -1], (c * x - s * y, s * x + c * y, psi0 + p), [("settle", int(h_end))])
     n_r = len(run_in)
-    cmds = list(prim.commands) + ([f"then steady at {helm.uc:.1f} m/s on the nearest lattice course for "
+    cmds = list(prim.commands) + ([f"then steady at {helm.uc / KNOT:.1f} kn on the nearest lattice course for "
                                    f"{len(tail) * helm.ts:.0f} s"] if len(tail) else [])
     if len(tail):  # the tail continues the head's simulation: no need to simulate the head again
         rest = simulate(prim.profile, tail, nu0=sim.nu[0, -1], eta0=sim.eta[0, -1])
@@ -169,7 +169,7 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
                 phases.insert(0, ("run", float((-x_end) % res)))
             f = helm.run(nu0, (0.0, 0.0, psi0), phases)
             per.append(_assemble(profile, f"turn_{side}", f"{abs(dpsi):.0f} deg turn to {word}", "basic", None, nu0, f,
-                                 [f"at {uc:.1f} m/s turn {abs(dpsi):.0f} deg to {word}, steady on the new course"], []))
+                                 [f"turn {abs(dpsi):.0f}° to {word} at {uc / KNOT:.1f} kn, steady on the new course"], []))
         out.append(per)
     if helm.rudder is not None:  # a rudder ship cannot turn on the spot: it reverses course by a round turn at speed
         for side, sgn in (("s", 1.0), ("p", -1.0)):
@@ -179,7 +179,7 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
                 # just short of 180 deg so that the helm turns to the side asked for
                 f = helm.run(nu0, (0.0, 0.0, psi0), [("turn", psi0 + sgn * (np.pi - 1e-6)), ("settle", int(ci + n_head // 2))])
                 per.append(_assemble(profile, f"round_turn_{side}", f"turn 180 deg to {word} at speed onto the reciprocal course",
-                                     "basic", None, nu0, f, [f"at {uc:.1f} m/s turn 180 deg to {word}, steady on the reciprocal course"], []))
+                                     "basic", None, nu0, f, [f"turn 180° to {word} at {uc / KNOT:.1f} kn, steady on the reciprocal course"], []))
             out.append(per)
     elif spot_turns:  # stop, turn on the spot, speed up (azimuth and generalized-force ships)
         for side, sgn in (("s", 1.0), ("p", -1.0)):
@@ -188,8 +188,8 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
             for psi0 in cls:
                 f = helm.run(nu0, (0.0, 0.0, psi0), [("stop", 0.0), ("turn", psi0 + sgn * np.pi / 2), ("settle", 0.0)])
                 per.append(_assemble(profile, f"spot_turn_{side}", f"stop, turn on the spot 90 deg to {word}, speed up", "basic",
-                                     None, nu0, f, ["stop the ship", f"turn on the spot 90 deg to {word}",
-                                                    f"accelerate to {uc:.1f} m/s on the new course"], []))
+                                     None, nu0, f, ["stop the ship", f"turn on the spot 90° to {word}",
+                                                    f"regain {uc / KNOT:.1f} kn on the new course"], []))
             out.append(per)
     return out
 

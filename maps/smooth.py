@@ -122,10 +122,12 @@ class Realiser:
             course = float(np.degrees(lat.table[h]) % 360)
             hold_s = len(ri) * pr.profile.sample_time
             # a manoeuvre that starts from rest (an acceleration) is approached by stopping, not by a steady run
-            steady = (f"steady on course {course:05.1f} deg at {u / KNOT:.1f} kn" if u > 0.05 * pr.profile.cruise_speed_mps
-                      else f"stop engine(s) and come to rest heading {course:05.1f} deg")
-            text = f"{steady} for {hold_s:.0f} s, then execute {m.name}"
-            legs.append(Leg(f"run-in {m.name}", m.source or m.name, "run-in", "run-in", f"run-in to {m.name}: steady course and speed",
+            moving = u > 0.05 * pr.profile.cruise_speed_mps
+            steady = (f"steady on course {course:03.0f}° at {u / KNOT:.1f} kn" if moving
+                      else f"stop engine(s) and come to rest, heading {course:03.0f}°")
+            text = f"{steady} for {hold_s:.0f} s, then execute"
+            what = f"run-in to {m.name}: steady course and speed" if moving else f"stop before {m.name}: come to rest and settle"
+            legs.append(Leg(f"run-in {m.name}", m.source or m.name, "run-in", "run-in", what,
                             pr.profile, ri, [text], space, mi, spatial,
                             orders=[{"t_s": 0.0, "text": text, "course_deg": course, "speed_kn": u / KNOT}]))
             nu, eta = legs[-1].sail(nu, eta)
@@ -133,8 +135,14 @@ class Realiser:
         b_nu, b_eta = _sail(pr.profile, body, nu, eta)
         tail = helm.run(b_nu[-1], self._rel(spatial, b_eta[-1]), [("settle", goal)], n_max=20000)
         t_nu, t_eta = _sail(pr.profile, tail, b_nu[-1], b_eta[-1])
+        orders = _orders(src)
+        if len(tail) > 1:  # the helm brings the ship back to the lattice's course and speed: not part of the manoeuvre
+            u_c = pr.profile.cruise_speed_mps
+            orders.append({"t_s": len(body) * pr.profile.sample_time, "phase": "recovery",
+                           "text": f"manoeuvre complete; recovery: come to course {np.degrees(goal[2]) % 360:03.0f}° "
+                                   f"at {u_c / KNOT:.1f} kn ({len(tail) * pr.profile.sample_time:.0f} s)"})
         legs.append(Leg(m.name, m.source or m.name, "informative", "informative", pr.description, pr.profile,
-                        np.vstack([body, tail]), list(pr.commands), space, mi, spatial, execute=bool(n_r), orders=_orders(src),
+                        np.vstack([body, tail]), list(pr.commands), space, mi, spatial, execute=bool(n_r), orders=orders,
                         abort=[src.abort_criteria()] if hasattr(src, "abort_criteria") else [],
                         sim=(np.vstack([b_nu[:-1], t_nu]), np.vstack([b_eta[:-1], t_eta]))))
         return legs
@@ -201,6 +209,6 @@ class Shortcutter:
         n_legs = len(wps) - 1
         dist = float(np.sum(np.hypot(*np.diff(tr[:, :2], axis=0).T)))
         uc = self.helm.uc
-        return Leg("transit", "transit", "basic", "transit", f"transit: {n_legs} straight leg(s), {dist:.0f} m",
-                   self.p, inputs, [f"at {uc:.1f} m/s ({uc / KNOT:.1f} kn) steer for the next waypoint; "
-                                    f"{n_legs} leg(s), {dist:.0f} m"], (dist, self.corridor * 2), sim=(s_nu, tr))
+        return Leg("transit", "transit", "basic", "transit", f"{n_legs} straight leg{'s' if n_legs > 1 else ''}, {dist:.0f} m",
+                   self.p, inputs, [f"steer for each waypoint in turn at {uc / KNOT:.1f} kn; {n_legs} leg{'s' if n_legs > 1 else ''}, "
+                                    f"{dist:.0f} m"], (dist, self.corridor * 2), sim=(s_nu, tr))

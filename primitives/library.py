@@ -87,8 +87,9 @@ class Primitive:
         }
 
     def abort_criteria(self, speed_margin: float = 0.15, heading_margin_deg: float = 10.0, yaw_margin: float = 0.25) -> str:
-        """'Abort if speed < 12.1 kn or > 17.0 kn, heading outside 25° port .. 25° stbd of the
-        initial course, or yaw rate > 0.9 °/s' with the given relative / absolute margins."""
+        """'abort if speed below 12.1 kn or above 17.0 kn, heading outside 25° port .. 25° stbd of
+        the initial course, or rate of turn above 0.90 °/s' with the given relative / absolute
+        margins (no lower speed limit for a manoeuvre that reaches rest)."""
         e = self.expectations()
         lo, hi = e["speed_min_kn"] * (1 - speed_margin), e["speed_max_kn"] * (1 + speed_margin)
         h_lo, h_hi = e["heading_change_min_deg"] - heading_margin_deg, e["heading_change_max_deg"] + heading_margin_deg
@@ -100,7 +101,9 @@ class Primitive:
         # a straight run expects no yaw: the floor is a tenth of a 3-lengths-diameter turn's rate
         floor = np.degrees(0.1 * self.profile.cruise_speed_mps / (1.5 * self.profile.length_m))
         yaw = max(e["yaw_rate_max_deg_s"] * (1 + yaw_margin), floor)
-        return f"abort if speed < {lo:.1f} kn or > {hi:.1f} kn,{heading} or yaw rate > {yaw:.2f} °/s"
+        # a manoeuvre that starts or ends at rest has no lower speed limit ("speed < 0.0 kn" cannot happen)
+        speed = f"speed above {hi:.1f} kn" if lo < 0.05 else f"speed below {lo:.1f} kn or above {hi:.1f} kn"
+        return f"abort if {speed},{heading} or rate of turn above {yaw:.2f} °/s"
 
     def to_dict(self) -> dict:
         """JSON-ready summary: no sampled arrays, the orders as dicts, the expectations."""

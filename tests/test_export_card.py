@@ -39,8 +39,8 @@ def _png_size(data: bytes) -> tuple[int, int]:
 
 
 def test_orders_for_azimuth_ship_name_thrusters_rpm_and_directions(azi_plan):
-    row = np.array([25.0, np.radians(90.0), 12.4, np.radians(-30.0)])
-    assert describe_inputs(azi_plan, row) == "bow thruster 25 rpm, thrust 90° to starboard; stern thruster 12 rpm, thrust 30° to port"
+    row = np.array([25.0, np.radians(90.0), 12.4, np.radians(-30.0)])  # the plan's shaft speeds are rev/s
+    assert describe_inputs(azi_plan, row) == "bow thruster 1500 rpm, thrust 90° to starboard; stern thruster 744 rpm, thrust 30° to port"
     # tau14 (pure sway): both thrusters push to starboard, then both to port
     sway = next(st for st in azi_plan.steps if st.primitive == "tau14")
     phases = input_phases(azi_plan, sway)
@@ -76,7 +76,8 @@ def test_card_html_is_self_contained_and_complete(azi_plan, tmp_path):
         assert w > 500 and h > 500
     for st in azi_plan.steps:
         assert st.primitive in text
-    assert "Beaufort 5" in text and "10 m/s" in text
+    words = re.sub(r'src="data:image/png;base64,[^"]+"', "", text)
+    assert "Beaufort 5" in words and "19 kn" in words and "m/s" not in words  # knots on the bridge (10 m/s wind)
     import html as _html
 
     for st in azi_plan.steps:  # every step's orders, in the ship's own terms
@@ -97,7 +98,7 @@ def _page_sizes(path) -> list[tuple[float, float]]:
 def test_card_pdf_has_every_page(azi_plan, tmp_path):
     """Page 1, the step table, the design table, the orders per step (as many pages as their
     lines need) and the states page: A4 portrait but the last, the states figure's size."""
-    from maps.export.card import DETAIL_LINES_PER_PAGE, ROWS_PER_PAGE, _detail_lines, design_rows
+    from maps.export.card import detail_pages
     from maps.export.plots import states_size_in
 
     paths = export_all(azi_plan, tmp_path, sea_map={"type": "FeatureCollection", "features": [
@@ -105,9 +106,8 @@ def test_card_pdf_has_every_page(azi_plan, tmp_path):
     pdf = paths["card_pdf"].read_bytes()
     assert pdf.startswith(b"%PDF")
     sheets = step_sheets(azi_plan, START, [ISLAND])
-    drows = design_rows(azi_plan)[1]
-    want = (1 + -(-len(sheets) // ROWS_PER_PAGE) + (-(-len(drows) // ROWS_PER_PAGE) if drows else 0)
-            + -(-len(_detail_lines(sheets)) // DETAIL_LINES_PER_PAGE) + 1)
+    # page 1, one page of tables (the step table and the design table below it), the orders, the states
+    want = 1 + 1 + len(detail_pages(sheets)) + 1
     sizes = _page_sizes(paths["card_pdf"])
     assert len(re.findall(rb"/Type\s*/Page\b", pdf)) == len(sizes) == want >= 4
     assert all(s == pytest.approx((72 * 8.27, 72 * 11.69), abs=0.01) for s in sizes[:-1])  # A4 portrait

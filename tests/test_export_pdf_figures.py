@@ -115,7 +115,7 @@ def test_card_pdf_pages_render_with_the_map_and_states_drawn(charted, tmp_path):
     assert has("#c8b88a") and has("#8fb3c9") and has("#008000", 40)  # land, no-go, start marker
     text = subprocess.run(["pdftotext", "-f", str(pages), "-l", str(pages), str(path), "-"], capture_output=True, text=True,
                           check=True).stdout
-    assert "time from start [min]" in text and "speed over ground [kn]" in text and "heading [deg]" in text
+    assert "time from start [min]" in text and "speed over ground [kn]" in text and "heading [°]" in text
 
 
 def test_one_route_per_plan_and_chart_even_across_a_pickle(charted):

@@ -115,7 +115,7 @@ def test_expectations_and_abort_criteria():
     assert 0.75 * 7.97 < e["speed_min_mps"] < 0.95 * 7.97 and e["speed_max_mps"] < 8.1
     assert e["speed_min_kn"] == pytest.approx(e["speed_min_mps"] * 3600 / 1852)
     text = zz.abort_criteria()
-    assert text.startswith("abort if speed <") and "kn" in text and "initial course" in text
+    assert text.startswith("abort if speed below ") and "kn" in text and "initial course" in text
     d = zz.to_dict()
     assert d["orders"][0]["t_s"] == 0.0 and "expectations" in d and "inputs" not in d
 

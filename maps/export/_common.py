@@ -215,7 +215,7 @@ def _side(angle_deg: float) -> str:
 
 
 def describe_inputs(plan: Plan, row: np.ndarray) -> str:
-    """One input vector in sailor's words: thruster rpm and the direction it pushes, or the
+    """One input vector in sailor's words: thruster rpm (the plan's rev/s x 60) and the direction it pushes, or the
     generalized forces (tau_x ahead, tau_y to starboard, tau_n turning to starboard)."""
     names = list(plan.input_names)
     sig = dict(zip(names, np.asarray(row, float)))
@@ -223,9 +223,9 @@ def describe_inputs(plan: Plan, row: np.ndarray) -> str:
         labels = _thruster_labels(plan)
         parts = []
         for i, lab in enumerate(labels, start=1):
-            n, a = sig.get(f"n{i}", 0.0), np.degrees(sig.get(f"alpha{i}", 0.0))
+            n, a = 60.0 * sig.get(f"n{i}", 0.0), np.degrees(sig.get(f"alpha{i}", 0.0))  # the plan holds rev/s
             rpm = f"{n:.0f}" if abs(n) >= 10 else f"{n:.1f}"
-            parts.append(f"{lab} {rpm} rpm, thrust {_side(a)}" if abs(n) >= 0.05 else f"{lab} stopped")
+            parts.append(f"{lab} {rpm} rpm, thrust {_side(a)}" if abs(n) >= 3.0 else f"{lab} stopped")
         return "; ".join(parts)
     if {"tau_x", "tau_y", "tau_n"} <= set(names):
         tx, ty, tn = sig["tau_x"], sig["tau_y"], sig["tau_n"]
@@ -235,7 +235,7 @@ def describe_inputs(plan: Plan, row: np.ndarray) -> str:
         return ", ".join(s)
     if "delta" in sig:
         d = np.degrees(sig["delta"])
-        rest = ", ".join(f"{k} {v:.3g}" for k, v in sig.items() if k != "delta")
+        rest = ", ".join(f"engine {60 * v:.0f} rpm" if k == "n" else f"{k} {v:.3g}" for k, v in sig.items() if k != "delta")
         rud = "rudder amidships" if abs(d) < 0.5 else f"rudder {abs(d):.0f}° {'starboard' if d > 0 else 'port'}"
         return f"{rud}, {rest}" if rest else rud
     return ", ".join(f"{k} {v:.3g}" for k, v in sig.items())
@@ -309,10 +309,23 @@ def input_phases(plan: Plan, step: PlanStep, max_phases: int = 6) -> list[str]:
     for j, nm in enumerate(plan.input_names):
         lo, hi = float(u[:, j].min()), float(u[:, j].max())
         if nm.startswith("alpha") or nm == "delta":
-            rng.append(f"{nm} {_angle_range(u[:, j])}")
+            rng.append(f"{_input_word(plan, nm)} {_angle_range(u[:, j])}")
+        elif nm == "n" or (nm.startswith("n") and nm[1:].isdigit()):
+            rng.append(f"{_input_word(plan, nm)} {60 * lo:.0f}..{60 * hi:.0f} rpm")
         else:
             rng.append(f"{nm} {lo:.0f}..{hi:.0f}")
     return [first, f"then {len(merged) - 1} changes of order; inputs range " + ", ".join(rng)]
+
+
+def _input_word(plan: Plan, name: str) -> str:
+    """An angle or shaft-speed input as the bridge names it: "rudder", "engine", "bow thruster
+    angle", "bow thruster" (thruster names from the profile, as :func:`describe_inputs`)."""
+    if name in ("delta", "n"):
+        return {"delta": "rudder", "n": "engine"}[name]
+    i = int(name[len(name.rstrip("0123456789")):] or 1) - 1
+    labels = _thruster_labels(plan)
+    lab = labels[i] if 0 <= i < len(labels) else f"thruster {i + 1}"
+    return f"{lab} angle" if name.startswith("alpha") else lab
 
 
 def order_lines(step: PlanStep) -> list[str]:
@@ -325,12 +338,6 @@ def order_lines(step: PlanStep) -> list[str]:
         t = o.get("t_s")
         out.append(f"at +{clock(float(t))}: {o['text']}" if isinstance(t, (int, float)) else str(o["text"]))
     return out
-
-
-def step_orders(plan: Plan, step: PlanStep) -> list[str]:
-    """What the crew is told for ``step``: its structured orders, else its commands, else the
-    timed input orders read from the planned inputs."""
-    return order_lines(step) or list(step.commands) or input_phases(plan, step)
 
 
 def step_abort(plan: Plan, step: PlanStep) -> list[str]:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import base64
 import html
 import math
+import re
 import textwrap
 from datetime import datetime, timedelta
 from pathlib import Path
@@ -32,16 +33,15 @@ from maps.export._common import (
     cross_track,
     input_phases,
     latlon_dm,
-    order_lines,
     resolve_start,
     step_abort,
-    step_orders,
     vessel_name,
     waypoints,
 )
 from maps.export.chart import plan_chart
 from maps.export.plots import PlanFigures
 from maps.export.route import build_route
+from maps.export.wording import bridge_orders, knots, manoeuvre_name, phase
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes, atomic_write_text
 
@@ -61,19 +61,12 @@ def _m(metres: float) -> str:
 def abort_criteria(plan: Plan) -> list[str]:
     """Plan-wide abort criteria in plain words."""
     w = plan.max_wind_mps
-    clear = f"{plan.min_clearance_m:.0f} m" if math.isfinite(plan.min_clearance_m) else "n/a"
+    clear = f"{plan.min_clearance_m:.0f} m" if math.isfinite(plan.min_clearance_m) else "none within the map"
     return [
-        f"true wind above {w:.0f} m/s ({w * KN_PER_MPS:.0f} kn, Beaufort {beaufort(w)})",
+        f"true wind above {w * KN_PER_MPS:.0f} kn (Beaufort {beaufort(w)})",
         f"distance from the hull to land, shallows or any obstacle below {plan.margin_m:.0f} m (planned minimum {clear})",
         "the ship leaves the corridor of the leg (cross-track limits below) or traffic comes within the sea room",
     ]
-
-
-def _segment_label(st: Any) -> str:
-    seg = st.segment
-    if getattr(st, "execute", False):
-        return "EXECUTE"
-    return {"informative": "manoeuvre", "run-in": "run-in", "transit": "transit"}[seg]
 
 
 def _step_legs(plan: Plan, sea_map: Any) -> dict[int, tuple[str, str, list[str], float, float]]:
@@ -114,32 +107,32 @@ def step_sheets(plan: Plan, start: datetime | str | None = None, sea_map: Any = 
             stbd, port = (v + half for v in cross_track(plan, wps, i + 1))
             here, there, via = wp.name.split()[0], nxt.name.split()[0], []
         line = " -> ".join([here, *via, there])
-        structured = bool(order_lines(st))
+        orders = bridge_orders(plan, st)
         out.append(
             {
                 "n": st.index + 1,
-                "primitive": st.primitive,
-                "description": st.description,
+                "primitive": st.primitive,  # the design's code, in small print beside the name
+                "name": manoeuvre_name(plan, st),
                 "kind": st.kind,
-                "segment": _segment_label(st),
+                "segment": phase(plan, st),
                 "execute": bool(getattr(st, "execute", False)),
                 "waypoint": here,
                 "start": f"+{clock(wp.t_s)} ({(t0 + timedelta(seconds=wp.t_s)).strftime('%H:%M:%S')} UTC)",
                 "position": latlon_dm(wp.lat, wp.lon),
                 "heading": f"{wp.heading_deg:03.0f}°",
-                "speed": f"{wp.speed_kn:.1f} kn ({wp.speed_mps:.2f} m/s)",
-                "orders": step_orders(plan, st),
-                # force-level settings only where the step has no orders in the ship's own terms
-                "settings": [] if structured or st.commands else input_phases(plan, st),
+                "speed": f"{wp.speed_kn:.1f} kn",
+                "orders": orders,
+                # the planned inputs read as timed settings only where the step has no orders of its own
+                "settings": [] if orders else input_phases(plan, st),
                 "duration": clock(st.duration_s),
                 "space": f"{_m(st.space_m[0])} along x {_m(st.space_m[1])} across",
                 "ends": f"at {there} {latlon_dm(nxt.lat, nxt.lon)}, heading {nxt.heading_deg:03.0f}°, "
                 f"{nxt.speed_kn:.1f} kn",
                 "abort": [
-                    *step_abort(plan, st),
+                    *(knots(a) for a in step_abort(plan, st)),
                     f"more than {port:.0f} m to port or {stbd:.0f} m to starboard of the line {line} "
                     "(the route's land-free cross-track limits)",
-                    f"wind above {plan.max_wind_mps:.0f} m/s",
+                    f"wind above {plan.max_wind_mps * KN_PER_MPS:.0f} kn",
                 ],
             }
         )
@@ -182,12 +175,15 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
 
 
 def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list[str]:
-    counts = {seg: sum(1 for st in plan.steps if st.segment == seg) for seg in ("informative", "run-in", "transit")}
+    phases = [phase(plan, st) for st in plan.steps]
+    n_man = sum(1 for p in phases if p in ("EXECUTE", "manoeuvre"))
+    kinds = [f"{n_man} manoeuvre{'s' if n_man != 1 else ''}"] + [
+        f"{n} {w}{'s' if n != 1 else ''}" for w in ("run-in", "stop", "transit") if (n := phases.count(w))]
     chart = plan_chart(plan, sea_map)
     return [
         f"Ship {vessel}" + (f" ({plan.ship})" if vessel != plan.ship else "")
         + (f"   Area {plan.map_name}" if plan.map_name else "") + f"   Start {t0.strftime('%Y-%m-%d %H:%M')} UTC",
-        f"{len(plan.steps)} steps: {counts['informative']} manoeuvres, {counts['run-in']} run-ins, {counts['transit']} transit; "
+        f"{len(plan.steps)} steps: {', '.join(kinds)}; "
         f"duration {clock(plan.duration_s)} (h:)min:s, {plan.length_m:.0f} m ({plan.length_m / M_PER_NM:.2f} NM)",
         "Plan " + ("feasible" if plan.feasible else "NOT FEASIBLE") + (", optimal" if plan.optimal else "")
         + f"; hull {plan.hull[0]:g} m x {plan.hull[1]:g} m; safety margin {plan.margin_m:.0f} m",
@@ -199,15 +195,21 @@ def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list
 
 # -- PDF pages --------------------------------------------------------------------------------
 
-TABLE_COLS = ["#", "type", "manoeuvre", "WP", "start (UTC)", "position", "hdg", "speed", "time", "sea room"]
-TABLE_WIDTHS = [0.03, 0.075, 0.215, 0.05, 0.15, 0.205, 0.04, 0.065, 0.055, 0.115]
+TABLE_COLS = ["#", "phase", "manoeuvre (design code)", "WP", "start (UTC)", "position", "hdg", "speed", "time", "sea room"]
+TABLE_WIDTHS = [0.03, 0.07, 0.22, 0.045, 0.15, 0.205, 0.04, 0.055, 0.045, 0.12]
 ROWS_PER_PAGE = 44
 
 
+def _code(s: dict) -> str:
+    """The design's or planner's code of a step, in brackets (none for a run-in or stop: it
+    carries the code of the manoeuvre it leads to; none for a straightened transit)."""
+    return "" if s["segment"] in ("run-in", "stop") or s["primitive"] == "transit" else f" [{s['primitive']}]"
+
+
 def _table_rows(sheets: list[dict]) -> list[list[str]]:
-    return [[str(s["n"]), s["segment"], textwrap.shorten(f"{s['primitive']}: {s['description']}", 34, placeholder="..."),
-             s["waypoint"], s["start"].replace(" UTC", ""), s["position"], s["heading"], s["speed"].split(" (")[0],
-             s["duration"], s["space"].replace(" along x ", " x ").replace(" across", "")] for s in sheets]
+    """The steps in sailing order, names in full (the PDF wraps a long one in its cell)."""
+    return [[str(s["n"]), s["segment"], s["name"] + _code(s), s["waypoint"], s["start"].replace(" UTC", ""), s["position"],
+             s["heading"], s["speed"], s["duration"], re.sub(r" m along x (.*) m across$", r" x \1 m", s["space"])] for s in sheets]
 
 
 # the PDF's tables keep the look of the matplotlib.table the card was first drawn with
@@ -230,38 +232,61 @@ def page1_layout(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> tuple[l
     return lines, abort, y - 0.006, y - 0.09
 
 
-def _step_tag(s: dict) -> str:
-    """What a step's heading line says before its primitive: "EXECUTE ", "run-in: ", "transit: " or nothing."""
-    return "EXECUTE " if s["execute"] else ("" if s["segment"] == "manoeuvre" else f"{s['segment']}: ")
+def _title(s: dict) -> str:
+    """A step's heading: number, phase and the manoeuvre's name ("3. EXECUTE 10/10 zig-zag to starboard")."""
+    return f"{s['n']}. {s['segment']}: {s['name']}" if s["segment"] in ("run-in", "stop", "transit") else f"{s['n']}. {s['segment']} {s['name']}"
 
 
-def _detail_lines(sheets: list[dict]) -> list[tuple[str, dict]]:
-    lines: list[tuple[str, dict]] = []
-    bold = {"fontweight": "bold", "fontsize": 9.5}
+WRAP = 100  # characters of an 8.5 pt line on the card's A4 text width
+
+
+def _detail_blocks(sheets: list[dict]) -> list[list[tuple[str, dict]]]:
+    """Per step, the lines of its orders section (a step's lines stay on one page)."""
+    blocks = []
     norm = {"fontsize": 8.5}
     red = {"fontsize": 8.5, "color": "#a00000"}
     for s in sheets:
-        tag = _step_tag(s)
-        lines.append((f"{s['n']}. {tag}{s['primitive']}  -  {s['description']}", bold))
+        lines: list[tuple[str, dict]] = []
+        for k, w in enumerate(textwrap.wrap(_title(s), 88)):
+            lines.append((w if k == 0 else f"    {w}", {"fontweight": "bold", "fontsize": 9.5, "code": _code(s).strip() if k == 0 else ""}))
         where = "Execute at" if s["execute"] else "Start at"
         for k, w in enumerate(textwrap.wrap(f"{where} {s['waypoint']} {s['position']}, {s['start']}, heading {s['heading']}, "
-                                            f"speed {s['speed']}", 100)):
+                                            f"speed {s['speed']}", WRAP)):
             lines.append((f"   {w}" if k == 0 else f"      {w}", norm))
         for title, items in (("Orders", s["orders"]), ("Settings", s["settings"])):
             for j, item in enumerate(items):
-                for k, w in enumerate(textwrap.wrap(item, 100)):
+                for k, w in enumerate(textwrap.wrap(item, WRAP)):
                     lead = f"{title}: " if (j == 0 and k == 0) else " " * (len(title) + 2)
                     lines.append((f"   {lead}{'- ' if k == 0 else '  '}{w}", norm))
-        for k, w in enumerate(textwrap.wrap(f"Expected duration {s['duration']}; sea room {s['space']}; ends {s['ends']}", 100)):
+        for k, w in enumerate(textwrap.wrap(f"Expected duration {s['duration']}; sea room {s['space']}; ends {s['ends']}", WRAP)):
             lines.append((f"   {w}" if k == 0 else f"      {w}", norm))
         for a in s["abort"]:
-            for k, w in enumerate(textwrap.wrap(f"Abort if {a}", 100)):
+            for k, w in enumerate(textwrap.wrap(f"Abort if {a}", WRAP)):
                 lines.append((f"   {w}" if k == 0 else f"      {w}", red))
         lines.append(("", norm))
-    return lines
+        blocks.append(lines)
+    return blocks
+
+
+def detail_pages(sheets: list[dict], per_page: int | None = None) -> list[list[tuple[str, dict]]]:
+    """The orders per step laid out on pages of ``per_page`` lines: a step starts a new page when
+    it does not fit on the present one (only a step longer than a whole page is split)."""
+    per_page = per_page or DETAIL_LINES_PER_PAGE
+    pages: list[list[tuple[str, dict]]] = [[]]
+    for block in _detail_blocks(sheets):
+        if pages[-1] and len(pages[-1]) + len(block) - 1 > per_page:  # the trailing blank line may fall off the page
+            pages.append([])
+        for line in block:
+            if len(pages[-1]) == per_page:
+                if line[0] == "":
+                    continue
+                pages.append([])
+            pages[-1].append(line)
+    return [p for p in pages if p]
 
 
 DETAIL_LINES_PER_PAGE = 62
+DESIGN_COLS = ["design code", "weight", "rounded count", "planned"]
 
 
 def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None,
@@ -292,6 +317,7 @@ table{border-collapse:collapse;width:100%;font-size:.9em} td,th{border:1px solid
 th{background:#eee} thead{display:table-header-group} tr{page-break-inside:avoid} img{max-width:100%}
 h3{font-size:1em;margin:.8em 0 .2em} .step{page-break-inside:avoid;margin-bottom:.8em;padding-left:.5em;border-left:3px solid #ccc}
 .step.exec{border-left-color:#e0a800} .step p{margin:.2em 0} .step ul{margin:.1em 0 .1em 1.2em;padding:0} .red{color:#a00000}
+small.code{font-weight:normal;color:#666;font-size:.75em}
 """
 
 
@@ -305,9 +331,9 @@ def _html_table(cols: list[str], rows: list[list[str]], cls: str = "") -> str:
 
 def _html_step(s: dict) -> str:
     e = html.escape
-    tag = _step_tag(s)
     cls = "step exec" if s["execute"] else "step"
-    h = [f"<div class='{cls}'><h3>{s['n']}. {e(tag)}{e(s['primitive'])}: {e(s['description'])}</h3>",
+    code = _code(s).strip()
+    h = [f"<div class='{cls}'><h3>{e(_title(s))}" + (f" <small class='code'>{e(code)}</small>" if code else "") + "</h3>",
          f"<p><b>{'Execute' if s['execute'] else 'Start'} at {e(s['waypoint'])}</b> {e(s['position'])}, {e(s['start'])}, "
          f"heading <b>{e(s['heading'])}</b>, speed <b>{e(s['speed'])}</b></p>"]
     if s["orders"]:
@@ -343,10 +369,11 @@ def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = No
     if d_head or d_rows:
         h.append("<h2>Experiment design</h2>")
         h += [f"<p>{e(line)}</p>" for line in d_head]
-        h.append(_html_table(["primitive", "weight", "rounded count", "planned"], d_rows, "design"))
-    h.append("<h2>Map</h2><p>Informative manoeuvres coloured by primitive, run-ins dashed green, transit grey; stars mark "
-             "execute points, circled numbers the step numbers; shaded blue: sea room swept by the hull plus margin; "
-             "hatched: shallow or restricted water.</p>")
+        h.append(_html_table(DESIGN_COLS, d_rows, "design"))
+    h.append("<h2>Map</h2><p>Manoeuvres in one colour each (the legend names them, design code in brackets), run-ins and "
+             "stops dashed green, transit grey; stars mark execute points, circled numbers the step numbers (set aside with a "
+             "thin line where the water is crowded); "
+             "shaded blue: sea room swept by the hull plus margin; hatched: shallow or restricted water.</p>")
     h.append(_img(map_png, "map of the planned track"))
     h.append("<h2>Steps in sailing order</h2>")
     h.append(_html_table(TABLE_COLS, _table_rows(sheets), "steps"))

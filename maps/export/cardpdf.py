@@ -22,14 +22,14 @@ from typing import Any
 from maps.export.card import (
     A4,
     CELL_PAD,
-    DETAIL_LINES_PER_PAGE,
+    DESIGN_COLS,
     ROWS_PER_PAGE,
     TABLE_COLS,
     TABLE_PAD,
     TABLE_WIDTHS,
-    _detail_lines,
     _table_rows,
     design_rows,
+    detail_pages,
     page1_layout,
     step_sheets,
 )
@@ -128,57 +128,112 @@ def _page1(doc: _Card, plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> N
              "stars are execute points.", 7.5, colour=GREY, va="baseline")
 
 
-def _table(doc: _Card, cols: list[str], rows: list[list[str]], widths: list[float]) -> None:
-    """A table as matplotlib.table draws one (header row grey and bold, 1 pt black cell edges,
-    left-aligned 6.5 pt text, fixed row height: every row drawn, none squeezed) in the box
-    (0.03, 0.03, 0.94, 0.92) of an A4 page."""
-    if not rows:
-        return
-    ax_x, ax_y, ax_w, ax_h = 0.03 * W, 0.03 * H, 0.94 * W, 0.92 * H
-    h = ax_h / (ROWS_PER_PAGE + 1)
-    left = ax_x + ax_w * (0.5 - sum(widths) / 2)
-    edges = [left]
-    for w in widths:
-        edges.append(edges[-1] + w * ax_w)
-    top = H - (ax_y + ax_h * (1.0 - TABLE_PAD))  # from the top of the page
-    ys = [top + h * k for k in range(len(rows) + 2)]
+TABLE_FS = 6.5
+LINE_PITCH = 1.2 * TABLE_FS  # a wrapped cell's further lines
+ROW_H = 0.92 * H / (ROWS_PER_PAGE + 1)  # a one-line row (as matplotlib.table drew 44 rows and a header in the box)
+TABLE_TOP = 0.03 * H + 0.92 * H * TABLE_PAD  # below the page title, from the top of the page
+TABLE_BOTTOM = H - 0.03 * H
+
+
+def _inset(width: float) -> float:
+    """Text inset of a cell ``width`` points wide: matplotlib.table's tenth of the width, at most 4 pt."""
+    return min(CELL_PAD * width, 4.0)
+
+
+def _wrap_cell(doc: _Card, text: str, width: float, bold: bool) -> list[str]:
+    """``text`` broken at spaces into lines no wider than ``width`` points (a word wider than
+    the cell stays whole on its line): a name is wrapped, never cut."""
     pdf = doc.pdf
-    pdf.set_fill_color(232, 232, 232)
-    pdf.rect(edges[0], ys[0], edges[-1] - edges[0], h, style="F")
-    pdf.set_draw_color(0, 0, 0)
-    pdf.set_line_width(1.0)
-    for y in ys:
-        pdf.line(edges[0] - 0.5, y, edges[-1] + 0.5, y)  # projecting caps, as matplotlib's grid
-    for x in edges:
-        pdf.line(x, ys[0] - 0.5, x, ys[-1] + 0.5)
-    pdf.set_text_color(0, 0, 0)
-    for r, row in enumerate([cols, *rows]):
-        pdf.set_font(FONT, "B" if r == 0 else "", 6.5)
-        base = ys[r] + h / 2 + 0.5 * ASCENT * 6.5 - 0.08 * 6.5
-        for c, text in enumerate(row):
-            pdf.text(edges[c] + CELL_PAD * widths[c] * ax_w, base, text)
+    pdf.set_font(FONT, "B" if bold else "", TABLE_FS)
+    lines: list[str] = []
+    for word in text.split(" "):
+        if lines and pdf.get_string_width(f"{lines[-1]} {word}") <= width:
+            lines[-1] = f"{lines[-1]} {word}"
+        else:
+            lines.append(word)
+    return lines or [""]
 
 
-def _table_pages(doc: _Card, plan: Plan, title: str, cols: list[str], rows: list[list[str]], widths: list[float], first: int) -> int:
-    chunks = [rows[i : i + ROWS_PER_PAGE] for i in range(0, len(rows), ROWS_PER_PAGE)] or [[]]
-    for j, chunk in enumerate(chunks):
-        doc.page()
-        a = j * ROWS_PER_PAGE + 1
-        cont = " (continued)" if j else ""
-        doc.text(0.04, 0.975, f"{plan.ship}: {title}{cont}, rows {a}-{a + len(chunk) - 1} of {len(rows)} (page {first + j})", 10,
-                 bold=not j)
-        _table(doc, cols, chunk, widths)
-    return first + len(chunks)
+class _Tables:
+    """Tables flowed down the pages: header row grey and bold, 1 pt black cell edges, 6.5 pt
+    text wrapped in its cell, a row never split; a table that does not fit under the one
+    before it continues on a new page with its header repeated."""
+
+    def __init__(self, doc: _Card, plan: Plan, first_page: int) -> None:
+        self.doc, self.plan, self.page_no = doc, plan, first_page - 1
+        self.y = TABLE_BOTTOM  # no page yet
+
+    def new_page(self, title: str, bold: bool) -> None:
+        self.doc.page()
+        self.page_no += 1
+        self.doc.text(0.04, 0.975, f"{self.plan.ship}: {title} (page {self.page_no})", 10, bold=bold)
+        self.y = TABLE_TOP
+
+    def table(self, title: str, cols: list[str], rows: list[list[str]], widths: list[float]) -> None:
+        if not rows:
+            return
+        ax_w = 0.94 * W
+        left = 0.03 * W + ax_w * (0.5 - sum(widths) / 2)
+        edges = [left]
+        for w in widths:
+            edges.append(edges[-1] + w * ax_w)
+        cells = [[_wrap_cell(self.doc, str(t), widths[c] * ax_w - 2 * _inset(widths[c] * ax_w), r == 0) for c, t in enumerate(row)]
+                 for r, row in enumerate([cols, *rows])]
+        heights = [ROW_H + LINE_PITCH * (max(len(c) for c in row) - 1) for row in cells]
+        k, first = 1, True
+        while k < len(cells):
+            # under the table before (with its own title) when its header and first row fit there
+            fresh = not first or self.y + 2.0 * ROW_H + heights[0] + heights[1] > TABLE_BOTTOM
+            ys = [TABLE_TOP if fresh else self.y + 2.0 * ROW_H]
+            ys.append(ys[0] + heights[0])
+            m = k
+            while m < len(cells) and (ys[-1] + heights[m] <= TABLE_BOTTOM or m == k):
+                ys.append(ys[-1] + heights[m])
+                m += 1
+            head = f"{title}{'' if first else ' (continued)'}, rows {k}-{m - 1} of {len(rows)}"
+            if fresh:
+                self.new_page(head, first)
+            else:
+                self.doc.text(0.04, 1.0 - (self.y + 1.0 * ROW_H) / H, f"{self.plan.ship}: {head}", 10, bold=True)
+            self._draw(edges, [cells[0], *cells[k:m]], ys, widths, ax_w)
+            self.y, k, first = ys[-1], m, False
+
+    def _draw(self, edges: list[float], cells: list[list[list[str]]], ys: list[float], widths: list[float], ax_w: float) -> None:
+        pdf = self.doc.pdf
+        pdf.set_fill_color(232, 232, 232)
+        pdf.rect(edges[0], ys[0], edges[-1] - edges[0], ys[1] - ys[0], style="F")
+        pdf.set_draw_color(0, 0, 0)
+        pdf.set_line_width(1.0)
+        for y in ys:
+            pdf.line(edges[0] - 0.5, y, edges[-1] + 0.5, y)  # projecting caps, as matplotlib's grid
+        for x in edges:
+            pdf.line(x, ys[0] - 0.5, x, ys[-1] + 0.5)
+        pdf.set_text_color(0, 0, 0)
+        for r, row in enumerate(cells):
+            pdf.set_font(FONT, "B" if r == 0 else "", TABLE_FS)
+            n = max(len(c) for c in row)
+            for c, lines in enumerate(row):
+                for i, text in enumerate(lines):
+                    # one-line rows centred as before; a wrapped row's lines from the top of its cell
+                    base = ys[r] + 0.5 * ROW_H + 0.5 * ASCENT * TABLE_FS - 0.08 * TABLE_FS + LINE_PITCH * i
+                    if n == 1:
+                        base = ys[r] + 0.5 * (ys[r + 1] - ys[r]) + 0.5 * ASCENT * TABLE_FS - 0.08 * TABLE_FS
+                    pdf.text(edges[c] + _inset(widths[c] * ax_w), base, text)
 
 
-def _detail_pages(doc: _Card, plan: Plan, lines: list[tuple[str, dict]], first: int) -> None:
-    for n, p in enumerate(range(0, len(lines), DETAIL_LINES_PER_PAGE)):
+def _detail_pages(doc: _Card, plan: Plan, pages: list[list[tuple[str, dict]]], first: int) -> None:
+    for n, lines in enumerate(pages):
         doc.page()
         doc.text(0.05, 0.975, f"{plan.ship}: orders per step in sailing order (page {first + n})", 10, colour=GREY)
-        for i, (text, style) in enumerate(lines[p : p + DETAIL_LINES_PER_PAGE]):
+        for i, (text, style) in enumerate(lines):
             if text:
-                doc.text(0.05, 0.95 - i * 0.0148, text, style.get("fontsize", 8.5), bold=style.get("fontweight") == "bold",
-                         colour=RED if style.get("color") == "#a00000" else (0, 0, 0))
+                size, bold = style.get("fontsize", 8.5), style.get("fontweight") == "bold"
+                y = 0.95 - i * 0.0148
+                doc.text(0.05, y, text, size, bold=bold, colour=RED if style.get("color") == "#a00000" else (0, 0, 0))
+                if style.get("code"):  # the design's code in small print after the name
+                    doc.pdf.set_font(FONT, "B" if bold else "", size)
+                    x = 0.05 + (doc.pdf.get_string_width(text) + 0.6 * size) / W
+                    doc.text(x, y - 0.002, style["code"], 7.0, colour=GREY)
 
 
 _SPARE: list[_Card] = []  # an empty document made ahead (prepare_document), used by the next card
@@ -198,12 +253,10 @@ def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> bytes
     doc = _SPARE.pop() if _SPARE else _Card()  # a prepared document is a new one: same bytes
     sheets = step_sheets(plan, t0, sea_map)
     _page1(doc, plan, t0, sea_map, vessel)
-    page = _table_pages(doc, plan, "steps in sailing order", TABLE_COLS, _table_rows(sheets), TABLE_WIDTHS, 2)
-    _, drows = design_rows(plan)
-    if drows:
-        page = _table_pages(doc, plan, "experiment design", ["primitive", "weight", "rounded count", "planned"], drows,
-                            [0.4, 0.2, 0.2, 0.2], page)
-    _detail_pages(doc, plan, _detail_lines(sheets), page)
+    tables = _Tables(doc, plan, 2)
+    tables.table("steps in sailing order", TABLE_COLS, _table_rows(sheets), TABLE_WIDTHS)
+    tables.table("experiment design", DESIGN_COLS, design_rows(plan)[1], [0.4, 0.2, 0.2, 0.2])
+    _detail_pages(doc, plan, detail_pages(sheets), tables.page_no + 1)
     draw_states_page(doc.pdf, FONT, plan)
     return _without_date(bytes(doc.pdf.output()))
 

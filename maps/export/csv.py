@@ -17,7 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from maps.export._common import KN_PER_MPS, check_plan, clock, iso, resolve_start, step_orders
+from maps.export._common import KN_PER_MPS, check_plan, clock, iso, resolve_start
+from maps.export.wording import step_orders
 from maps.plan import Plan
 from primitives.io import atomic_write_text
 

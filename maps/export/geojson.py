@@ -19,7 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from maps.export._common import KN_PER_MPS, check_plan, step_abort, step_orders, step_slice, vessel_name
+from maps.export._common import KN_PER_MPS, check_plan, step_abort, step_slice, vessel_name
+from maps.export.wording import step_orders
 from maps.plan import Plan
 from primitives.io import atomic_write_text
 

@@ -23,9 +23,9 @@ from maps.export._common import (
     clock,
     iso,
     resolve_start,
-    step_orders,
     vessel_name,
 )
+from maps.export.wording import manoeuvre_name, phase, step_orders
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes
 
@@ -44,7 +44,7 @@ def waypoint_description(plan: Plan, wp: Waypoint, start: datetime, via: bool = 
     """What the bridge needs at a route point, as one paragraph (``via``: a point where the
     route bends round land within a step)."""
     eta = (start + timedelta(seconds=wp.t_s)).strftime("%H:%M:%S UTC")
-    head = f"At +{clock(wp.t_s)} ({eta}): heading {wp.heading_deg:03.0f}°, speed {wp.speed_kn:.1f} kn ({wp.speed_mps:.2f} m/s)."
+    head = f"At +{clock(wp.t_s)} ({eta}): heading {wp.heading_deg:03.0f}°, speed {wp.speed_kn:.1f} kn."
     if via:
         return f"Via point (the route bends round land): carry on with the current manoeuvre. {head}"
     if wp.step is None:
@@ -52,7 +52,7 @@ def waypoint_description(plan: Plan, wp: Waypoint, start: datetime, via: bool = 
     st = wp.step
     orders = " ".join(f"{o.rstrip('.')}." for o in step_orders(plan, st))
     return (
-        f"Manoeuvre {st.index + 1}: {st.primitive} ({st.description}). {head} Orders: {orders} "
+        f"Step {st.index + 1}: {phase(plan, st)} {manoeuvre_name(plan, st)} (design code {st.primitive}). {head} Orders: {orders} "
         f"Duration {clock(st.duration_s)}; sea room {st.space_m[0]:.0f} m x {st.space_m[1]:.0f} m."
     )
 
@@ -80,8 +80,10 @@ def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | Non
     title = name or f"{vessel_name(plan, vessel)} trial {plan.map_name}".strip()
     meta = _sub(root, "metadata")
     _sub(meta, "name", title)
-    _sub(meta, "desc", f"{len(plan.steps)} manoeuvres, {clock(plan.duration_s)}, {plan.length_m / M_PER_NM:.2f} NM; "
-         f"abort if wind exceeds {plan.max_wind_mps:.0f} m/s or clearance drops below {plan.margin_m:.0f} m")
+    n_man = sum(1 for st in plan.steps if st.segment == "informative")  # run-ins, stops and transits are steps, not manoeuvres
+    _sub(meta, "desc", f"{len(plan.steps)} steps ({n_man} manoeuvre{'s' if n_man != 1 else ''}), {clock(plan.duration_s)}, "
+         f"{plan.length_m / M_PER_NM:.2f} NM; "
+         f"abort if wind exceeds {plan.max_wind_mps * KN_PER_MPS:.0f} kn or clearance drops below {plan.margin_m:.0f} m")
     _sub(meta, "time", iso(t0))
     lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
     _sub(meta, "bounds", minlat=f"{lat.min():.7f}", minlon=f"{lon.min():.7f}", maxlat=f"{lat.max():.7f}", maxlon=f"{lon.max():.7f}")

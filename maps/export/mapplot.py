@@ -24,6 +24,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from maps.export._common import M_PER_NM, ExportError, deg_min, step_slice  # noqa: E402
+from maps.export.labels import END_MARKER_PT, NORTH_FS, NORTH_X, NORTH_Y  # noqa: E402
+from maps.export.wording import manoeuvre_name  # noqa: E402
 from maps.plan import Plan, PlanStep  # noqa: E402
 
 OBSTACLE_KINDS = ("land", "obstacle", "restricted")
@@ -226,7 +228,7 @@ def _draw_chart(ax: Any, plan: Plan, sea_map: Any, view: Any) -> None:
         ax.fill([], [], facecolor=LAND_COLOUR, edgecolor=LAND_EDGE, label="land")
 
 
-def _draw_track(ax: Any, plan: Plan, numbers: bool) -> None:
+def _draw_track(ax: Any, plan: Plan) -> None:
     lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
     colours = primitive_colours(plan)
     labelled: set[str] = set()
@@ -234,7 +236,7 @@ def _draw_track(ax: Any, plan: Plan, numbers: bool) -> None:
         sl = step_slice(plan, st)
         seg = st.segment
         key = st.primitive if seg == "informative" else seg
-        label = None if key in labelled else {"run-in": "run-in (steady course and speed)", "transit": "transit"}.get(key, key)
+        label = None if key in labelled else track_label(plan, st)
         labelled.add(key)
         style = {"run-in": {"ls": (0, (4, 2)), "lw": 1.8}, "transit": {"ls": "-", "lw": 1.1}}.get(seg, {"ls": "-", "lw": 2.2})
         ax.plot(lon[sl], lat[sl], color=step_colour(plan, st, colours), zorder=3, solid_capstyle="butt", label=label, **style)
@@ -242,17 +244,54 @@ def _draw_track(ax: Any, plan: Plan, numbers: bool) -> None:
     if execs:
         ax.plot([st.entry_lon for st in execs], [st.entry_lat for st in execs], ls="none", marker="*", ms=15, mfc=EXECUTE_COLOUR,
                 mec="k", mew=0.8, zorder=4.5, label="execute point")
-    if numbers:
-        for st in plan.steps:
-            if st.segment == "transit" and not getattr(st, "execute", False) and len(plan.steps) > 12:
-                continue  # a long plan: number the run-ins and manoeuvres, the table lists the rest
-            ax.annotate(
-                str(st.index + 1), (st.entry_lon, st.entry_lat), xytext=(7, 7), textcoords="offset points", fontsize=7,
-                fontweight="bold", ha="center", va="center", zorder=5,
-                bbox={"boxstyle": "circle,pad=0.15", "fc": "white", "ec": step_colour(plan, st, colours), "lw": 1.2},
-            )
     ax.plot(lon[0], lat[0], marker="^", ms=11, color="green", mec="k", zorder=4, ls="none", label="start")
-    ax.plot(lon[-1], lat[-1], marker="s", ms=9, color="red", mec="k", zorder=4, ls="none", label="end")
+    ax.plot(lon[-1], lat[-1], marker="s", ms=END_MARKER_PT, color="red", mec="k", zorder=4, ls="none", label="end")
+
+
+def track_label(plan: Plan, st: PlanStep) -> str:
+    """The legend's words for the line of ``st`` (one entry per colour): a manoeuvre by its
+    bridge name with the design's code in brackets, as the step table names it; run-ins and stops,
+    transit by their phase."""
+    if st.segment == "informative":
+        return f"{manoeuvre_name(plan, st)} [{st.primitive}]"
+    return {"run-in": "run-in, or stop before a manoeuvre", "transit": "transit"}.get(st.segment, st.segment)
+
+
+def annotate_steps(ax: Any, plan: Plan) -> None:
+    """Every step's number in a circle, placed by :func:`maps.export.labels.place_labels` in the
+    axes' present layout (call it once the figure's size and the axes' limits are final): up and
+    right of the entry point, or set aside with a leader line where that place is taken."""
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import TextToPath
+
+    from maps.export.labels import place_labels
+
+    ax.apply_aspect()
+    fig = ax.figure
+    to_pt = 72.0 / fig.dpi
+    trans = ax.transData
+    anchors = trans.transform(np.array([[st.entry_lon, st.entry_lat] for st in plan.steps])) * to_pt
+    track = trans.transform(plan.lonlat[:, :2]) * to_pt
+    bb = ax.get_window_extent()
+    frame = (bb.x0 * to_pt, bb.y0 * to_pt, bb.x1 * to_pt, bb.y1 * to_pt)
+    inside = [k for k, (x, y) in enumerate(anchors) if frame[0] <= x <= frame[2] and frame[1] <= y <= frame[3]]
+    texts = [str(plan.steps[k].index + 1) for k in inside]
+    prop = FontProperties(family="DejaVu Sans", weight="bold", size=LABEL_FS)
+    widths = [TextToPath().get_text_width_height_descent(s, prop, ismath=False)[0] for s in texts]
+    radii = [0.5 * max(w, 1.17 * LABEL_FS) + 0.15 * LABEL_FS for w in widths]
+    colours = primitive_colours(plan)
+    for k, lab in zip(inside, place_labels(texts, anchors[inside], radii, track, frame)):
+        st = plan.steps[k]
+        colour = step_colour(plan, st, colours)
+        ax.annotate(
+            lab.text, (st.entry_lon, st.entry_lat), xytext=(lab.x - lab.anchor[0], lab.y - lab.anchor[1]), textcoords="offset points",
+            fontsize=LABEL_FS, fontweight="bold", ha="center", va="center", zorder=5, gid=f"step-label-{lab.text}",
+            bbox={"boxstyle": "circle,pad=0.15", "fc": "white", "ec": colour, "lw": 1.2},
+            arrowprops={"arrowstyle": "-", "color": colour, "lw": 0.7, "shrinkA": 0, "shrinkB": 0} if lab.moved else None,
+        )
+
+
+LABEL_FS = 7.0
 
 
 def lon_ticks(x0: float, x1: float, width_pt: float) -> list[float]:
@@ -291,7 +330,7 @@ def draw_map(ax: Any, plan: Plan, sea_map: Any = None, *, pad_m: float | None = 
         room = sea_room_lonlat(plan)
         if room is not None and _draw_geom(ax, room, view, facecolor=SEA_ROOM_COLOUR, edgecolor="none", zorder=2):
             ax.fill([], [], facecolor=SEA_ROOM_COLOUR, label="sea room (hull + margin)")
-    _draw_track(ax, plan, numbers)
+    _draw_track(ax, plan)
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
     lat0 = float(np.mean(plan.lonlat[:, 1]))
@@ -303,8 +342,11 @@ def draw_map(ax: Any, plan: Plan, sea_map: Any = None, *, pad_m: float | None = 
     ax.xaxis.set_major_locator(plt.MaxNLocator(4))
     ax.grid(color="white", lw=0.6, zorder=0)
     _scale_bar(ax, x0, y0, x1, y1, m_per_deg_lon)
-    ax.annotate("N", xy=(0.95, 0.95), xytext=(0.95, 0.85), xycoords="axes fraction", ha="center", fontsize=9, fontweight="bold",
+    ax.annotate("N", xy=(NORTH_X, NORTH_Y[1]), xytext=(NORTH_X, NORTH_Y[0]), xycoords="axes fraction", ha="center", fontsize=NORTH_FS,
+                fontweight="bold",
                 arrowprops={"arrowstyle": "-|>", "color": "k"}, zorder=6)
+    if numbers:
+        annotate_steps(ax, plan)
 
 
 def scale_bar(x0: float, y0: float, x1: float, y1: float, m_per_deg_lon: float) -> tuple[float, float, float, str]:

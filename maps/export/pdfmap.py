@@ -14,12 +14,14 @@ The operators are written by :class:`maps.export.pdfdraw.Painter`.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from maps.export._common import deg_min, step_slice
+from maps.export.labels import END_MARKER_PT, NORTH_FS, NORTH_X, NORTH_Y, Label, leader, place_labels
 from maps.export.mapplot import (
     DEPTH_EDGE,
     EXECUTE_COLOUR,
@@ -39,9 +41,10 @@ from maps.export.mapplot import (
     primitive_colours,
     scale_bar,
     step_colour,
+    track_label,
 )
 from maps.export.pdfdraw import LINE_HEIGHT, Painter, col, rings_ops
-from maps.plan import Plan
+from maps.plan import Plan, PlanStep
 
 TICK_FS, NUM_FS, LEGEND_FS = 7.0, 7.0, 6.5
 
@@ -210,42 +213,36 @@ class MapWriter(Painter):
             if len(pts) >= 2:
                 self.polyline(pts, colour, lw, dash)
             if key not in labelled:
-                label = {"run-in": "run-in (steady course and speed)", "transit": "transit"}.get(key, key)
-                self.legend.append({"kind": "line", "colour": colour, "lw": lw, "dash": dash, "label": label})
+                self.legend.append({"kind": "line", "colour": colour, "lw": lw, "dash": dash, "label": track_label(plan, st)})
                 labelled.add(key)
         self.start_end_execute(xy)
 
     def start_end_execute(self, xy: np.ndarray) -> None:
         plan = self.plan
         self.marker("^", *xy[0], 11, "green")
-        self.marker("s", *xy[-1], 9, "red")
+        self.marker("s", *xy[-1], END_MARKER_PT, "red")
         execs = [st for st in plan.steps if getattr(st, "execute", False)]
         for st in execs:
             self.marker("*", *self.page_xy(np.array([[st.entry_lon, st.entry_lat]]))[0], 15, EXECUTE_COLOUR, mew=0.8)
         if execs:
             self.legend.append({"kind": "marker", "marker": "*", "size": 15, "face": EXECUTE_COLOUR, "mew": 0.8, "label": "execute point"})
         self.legend.append({"kind": "marker", "marker": "^", "size": 11, "face": "green", "mew": 1.0, "label": "start"})
-        self.legend.append({"kind": "marker", "marker": "s", "size": 9, "face": "red", "mew": 1.0, "label": "end"})
+        self.legend.append({"kind": "marker", "marker": "s", "size": END_MARKER_PT, "face": "red", "mew": 1.0, "label": "end"})
 
     def numbers(self) -> None:
-        """Step numbers in circles 7 pt up and right of each step's entry (as the figure's annotations)."""
+        """Every step's number in a circle: up and right of its entry point, or set aside with a
+        leader line where that place is taken (:func:`maps.export.labels.place_labels`)."""
         plan = self.plan
         colours = primitive_colours(plan)
-        f = self.f
-        for st in plan.steps:
-            if st.segment == "transit" and not getattr(st, "execute", False) and len(plan.steps) > 12:
-                continue
-            x, y = self.page_xy(np.array([[st.entry_lon, st.entry_lat]]))[0]
-            if not (f.left <= x <= f.left + f.width and f.bottom <= y <= f.bottom + f.height):
-                continue  # as matplotlib: an annotation whose point is outside the axes is not drawn
-            x, y = x + 7.0, y + 7.0
-            s = str(st.index + 1)
-            w = self.text_width(s, NUM_FS, bold=True)
-            r = 0.5 * max(w, LINE_HEIGHT * NUM_FS) + 0.15 * NUM_FS
+        labels = step_labels(plan, self.f, lambda s: self.text_width(s, NUM_FS, bold=True))
+        for st, lab in labels:
+            colour = step_colour(plan, st, colours)
             self.out("q")
-            self.circle(x, y, r, "white", step_colour(plan, st, colours), 1.2)
+            if lab.moved:
+                self.polyline(leader(lab), colour, 0.7)
+            self.circle(lab.x, lab.y, lab.r, "white", colour, 1.2)
             self.out("Q")
-            self.text(x, y, s, NUM_FS, bold=True, ha="center", va="center")
+            self.text(lab.x, lab.y, lab.text, NUM_FS, bold=True, ha="center", va="center")
 
     def ticks(self) -> tuple[list[float], list[float]]:
         """Tick positions on the page: matplotlib's MaxNLocator along x (4 intervals, fewer on a narrow
@@ -268,10 +265,11 @@ class MapWriter(Painter):
         self.out("q")
         self.polyline(np.array([p0, p1]), "k", 3.0, cap=2)
         # north arrow: from above the "N" (axes fraction 0.85) to 0.95, a filled head as '-|>'
-        ax_, ay0, ay1 = f.left + 0.95 * f.width, f.bottom + 0.85 * f.height + 0.76 * 9 + 2, f.bottom + 0.95 * f.height - 2
-        head = 0.4 * 9
+        fs = NORTH_FS
+        ax_, ay0, ay1 = f.left + NORTH_X * f.width, f.bottom + NORTH_Y[0] * f.height + 0.76 * fs + 2, f.bottom + NORTH_Y[1] * f.height - 2
+        head = 0.4 * fs
         self.polyline(np.array([[ax_, ay0], [ax_, ay1 - head]]), "k", 1.0)
-        self.out(f"{col('k', 'rg')} {ax_:.2f} {ay1:.2f} m {ax_ - 0.2 * 9:.2f} {ay1 - head:.2f} l {ax_ + 0.2 * 9:.2f} "
+        self.out(f"{col('k', 'rg')} {ax_:.2f} {ay1:.2f} m {ax_ - 0.2 * fs:.2f} {ay1 - head:.2f} l {ax_ + 0.2 * fs:.2f} "
                  f"{ay1 - head:.2f} l h B")
         self.out(f"{col('k', 'RG')} 0.8 w 0 J 0 j [] 0 d {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re S")
         ticks = [np.array([[x, f.bottom], [x, f.bottom - 3.5]]) for x in xt] + [np.array([[f.left, y], [f.left - 3.5, y]]) for y in yt]
@@ -279,7 +277,7 @@ class MapWriter(Painter):
             self.out("0.8 w\n" + rings_ops(ticks, close=False) + " S")
         self.out("Q")
         self.text(0.5 * (p0[0] + p1[0]), p0[1] + 0.012 * f.height, label, 7, ha="center", va="bottom")
-        self.text(ax_, f.bottom + 0.85 * f.height, "N", 9, bold=True, ha="center")
+        self.text(ax_, f.bottom + NORTH_Y[0] * f.height, "N", fs, bold=True, ha="center")
         xs, ys = self._tick_values
         for x, v in zip(xt, xs):
             self.text(x, f.bottom - 7.0, deg_min(v, "E", "W", 3).replace("'", "′"), TICK_FS, ha="center", va="top")
@@ -289,17 +287,23 @@ class MapWriter(Painter):
     # -- the legend ----------------------------------------------------------------------------------
     def draw_legend(self, ncol: int = 3) -> None:
         """The legend below the map, centred (matplotlib's loc="upper center" at (0.5, -0.05) of
-        the axes, ``ncol`` columns filled top to bottom, its paddings in font sizes)."""
+        the axes, ``ncol`` columns filled top to bottom, its paddings in font sizes); fewer
+        columns when the manoeuvres' names would take it past the page's 18 pt margins."""
         fs, f = LEGEND_FS, self.f
         entries = self.legend
         if not entries:
             return
-        cols = [c for c in np.array_split(np.arange(len(entries)), ncol) if len(c)]
         row_h = 1.0 * fs  # matplotlib packs legend rows by the texts' ink height, about the font size
         pitch = row_h + 0.5 * fs
         hl, htp, pad = 2.0 * fs, 0.8 * fs, 0.4 * fs
-        widths = [hl + htp + max(self.text_width(entries[i]["label"], fs) for i in c) for c in cols]
-        width = sum(widths) + 2.0 * fs * (len(cols) - 1) + 2 * pad
+        centre = f.left + 0.5 * f.width
+        room = 2.0 * (min(centre, float(self.pdf.w) - centre) - 18.0)
+        for n in range(ncol, 0, -1):
+            cols = [c for c in np.array_split(np.arange(len(entries)), n) if len(c)]
+            widths = [hl + htp + max(self.text_width(entries[i]["label"], fs) for i in c) for c in cols]
+            width = sum(widths) + 2.0 * fs * (len(cols) - 1) + 2 * pad
+            if width <= room:
+                break
         height = pitch * max(len(c) for c in cols) - 0.5 * fs + 2 * pad
         left = f.left + 0.5 * f.width - 0.5 * width
         top = f.bottom - 0.05 * f.height - 0.5 * fs
@@ -330,6 +334,19 @@ class MapWriter(Painter):
                     a, b = max(t, 0.0), min(t + h, w)
                     segs.append(np.array([[x + a, yc - 0.5 * h + a - t], [x + b, yc - 0.5 * h + b - t]]))
                 self.out(f"{col(edge, 'RG')} 0.6 w\n" + rings_ops(segs, close=False) + " S")
+
+
+def step_labels(plan: Plan, f: Frame, width: Callable[[str], float]) -> list[tuple[PlanStep, Label]]:
+    """(step, label) of every step whose entry point is on the map ``f``: number circles sized
+    for their text (``width(text)`` in points at NUM_FS bold), clear of each other and of the
+    track. A step entered outside the map has no label (as matplotlib drops an annotation whose
+    point is outside the axes)."""
+    xy = f.xy(np.array([[st.entry_lon, st.entry_lat] for st in plan.steps]))
+    inside = [k for k, (x, y) in enumerate(xy) if f.left <= x <= f.left + f.width and f.bottom <= y <= f.bottom + f.height]
+    texts = [str(plan.steps[k].index + 1) for k in inside]
+    radii = [0.5 * max(width(s), LINE_HEIGHT * NUM_FS) + 0.15 * NUM_FS for s in texts]
+    labels = place_labels(texts, xy[inside], radii, f.xy(plan.lonlat), (f.left, f.bottom, f.left + f.width, f.bottom + f.height))
+    return [(plan.steps[k], lab) for k, lab in zip(inside, labels)]
 
 
 def draw_page1_map(pdf: Any, font: str, plan: Plan, chart: Any, box: tuple[float, float, float, float]) -> None:

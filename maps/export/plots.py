@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from maps.export._common import KN_PER_MPS, step_slice  # noqa: E402
-from maps.export.mapplot import draw_map, lon_ticks, primitive_colours, step_colour  # noqa: E402
+from maps.export.mapplot import annotate_steps, draw_map, lon_ticks, primitive_colours, step_colour  # noqa: E402
 from maps.plan import Plan  # noqa: E402
 from primitives.io import atomic_savefig  # noqa: E402
 
@@ -27,14 +27,24 @@ def state_series(plan: Plan) -> list[tuple[str, np.ndarray]]:
     it wraps round), then each commanded input (angles in deg)."""
     heading = np.degrees(plan.track[:, 2]) % 360.0
     heading[1:][np.abs(np.diff(heading)) > 180] = np.nan  # no line across the wrap
-    series = [("speed over ground [kn]", plan.speed * KN_PER_MPS), ("heading [deg]", heading)]
+    series = [("speed over ground [kn]", plan.speed * KN_PER_MPS), ("heading [°]", heading)]
     for j, nm in enumerate(plan.input_names):
         v = plan.inputs[:, j] if plan.inputs.ndim == 2 and plan.inputs.shape[1] > j else np.zeros_like(plan.t)
-        if nm.startswith("alpha") or nm == "delta":
-            series.append((f"{nm} [deg]", np.degrees(v)))
-        else:
-            series.append((f"{nm}" + (" [rpm]" if nm.startswith("n") and nm[1:].isdigit() else ""), v))
+        series.append(input_series(nm, v))
     return series
+
+
+def input_series(name: str, values: np.ndarray) -> tuple[str, np.ndarray]:
+    """A commanded input as the states figure plots it, in the units of the orders: angles in
+    degrees, shaft speeds (rev/s in the plan) in rpm; other inputs as they are."""
+    base, num = name.rstrip("0123456789"), name[len(name.rstrip("0123456789")):]
+    if base == "alpha":
+        return f"azimuth {num} angle [°]", np.degrees(values)
+    if base == "delta":
+        return ("rudder [°]" if not num else f"pod {num} angle [°]"), np.degrees(values)
+    if base == "n":
+        return ("propeller [rpm]" if not num else f"propeller {num} [rpm]"), 60.0 * np.asarray(values, float)
+    return name, np.asarray(values, float)
 
 
 def state_limits(lo: float, hi: float) -> tuple[float, float]:
@@ -198,10 +208,11 @@ def track_figure(plan: Plan, sea_map: Any = None) -> Any:
     take the figure less fixed margins and the legend's width (the PNG is cropped to what is
     drawn)."""
     fig, ax = plt.subplots(figsize=(9.5, 7.5))
-    draw_map(ax, plan, sea_map)
+    draw_map(ax, plan, sea_map, numbers=False)
     leg = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)  # outside: never hides the track
     ax.set_title(f"{plan.ship} trial{' on ' + plan.map_name if plan.map_name else ''}: manoeuvres numbered in sailing order", fontsize=9)
     _fit_to_map(fig, ax, leg)
+    annotate_steps(ax, plan)  # in the final layout: the labels are placed in points on the page
     return fig
 
 

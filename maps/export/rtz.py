@@ -33,11 +33,11 @@ from maps.export._common import (
     order_lines,
     resolve_start,
     step_abort,
-    step_orders,
     vessel_name,
 )
 from maps.export.chart import plan_chart
 from maps.export.route import Route, build_route, leg_length_m
+from maps.export.wording import knots, manoeuvre_name, phase, step_orders
 from maps.plan import Plan
 from primitives.io import atomic_write_bytes
 
@@ -112,18 +112,18 @@ def _manoeuvre(w: ET.Element, plan: Plan, st: Any) -> None:
         entryHeading_deg=_dec(st.entry_heading_deg, 1), entrySpeed_kn=_dec(st.entry_speed_mps * KN_PER_MPS, 2),
         spaceAlong_m=_dec(st.space_m[0], 1), spaceAcross_m=_dec(st.space_m[1], 1),
     )
-    _el(m, "description", EXT_NS).text = st.description
+    _el(m, "description", EXT_NS).text = manoeuvre_name(plan, st)
     for o in getattr(st, "orders", None) or []:
         if isinstance(o, dict) and o.get("text"):
             vals = {k: v for k, v in o.items() if k not in ("t_s", "text") and isinstance(v, (int, float, str))
                     and re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", k)}
             t = o.get("t_s")
-            _el(m, "order", EXT_NS, t_s=_dec(float(t), 1) if isinstance(t, (int, float)) else None, **vals).text = str(o["text"])
+            _el(m, "order", EXT_NS, t_s=_dec(float(t), 1) if isinstance(t, (int, float)) else None, **vals).text = knots(str(o["text"]))
     if not order_lines(st):
         for c in step_orders(plan, st):
             _el(m, "command", EXT_NS).text = c
     for a in step_abort(plan, st):
-        _el(m, "abort", EXT_NS).text = a
+        _el(m, "abort", EXT_NS).text = knots(a)
 
 
 def _waypoints(root: ET.Element, plan: Plan, route: Route) -> None:
@@ -147,9 +147,9 @@ def _waypoints(root: ET.Element, plan: Plan, route: Route) -> None:
                 geometryType="Loxodrome",
                 speedMin=_dec(np.floor(leg.speed_min_mps * KN_PER_MPS * 100.0) / 100.0, 2),
                 speedMax=_dec(np.ceil(leg.speed_max_mps * KN_PER_MPS * 100.0) / 100.0, 2),
-                legInfo=(f"manoeuvre {st.index + 1}: {st.primitive}" if st else "continued")
+                legInfo=(f"step {st.index + 1}: {phase(plan, st)} {manoeuvre_name(plan, st)}" if st else "continued")
                 + f"; sails {leg.sailed_mean_mps * KN_PER_MPS:.1f} kn, makes good {leg.speed_mps * KN_PER_MPS:.1f} kn",
-                legNote1=st.description if st else None,
+                legNote1=f"design code {st.primitive}" if st else None,
             )
         if wp.step is not None:
             _manoeuvre(w, plan, wp.step)

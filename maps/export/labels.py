@@ -1,0 +1,121 @@
+"""Where the step numbers go on a map: every label visible, none over another or over the track.
+
+A step number is a circle of radius ``r`` (points). It goes up and right of its step's entry
+point when that place is free; otherwise to the nearest free place on rings around the entry
+point, and a leader line joins it to the point (as chart makers set names aside in crowded
+water). Free: the circle keeps ``gap`` points from every label placed before it, from the
+track's polyline, from the map's own marks (:func:`map_marks`: the north arrow and the end
+marker) and from the frame. Labels are placed in step order (greedy); a label that
+finds no free place within the rings takes the place that is least crowded, never none.
+Everything is in page points; the PDF map and the PNG map (through their transforms) use the
+same placement.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+DEFAULT_OFFSET = (7.0, 7.0)  # points up and right of the entry point: where an uncrowded label sits
+_ANGLES = np.radians(np.arange(45.0, 405.0, 22.5))  # up-right first, round the point
+
+
+@dataclass(frozen=True)
+class Label:
+    """A placed step number: text, centre and radius (points), its anchor, whether it was moved."""
+
+    text: str
+    x: float
+    y: float
+    r: float
+    anchor: tuple[float, float]
+    moved: bool
+
+
+def segment_distances(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distances from points ``p`` (n, 2) to the nearest of the segments a[i]-b[i] (m, 2): (n,)."""
+    d = b - a
+    dd = np.maximum((d * d).sum(axis=1), 1e-12)
+    t = np.clip(((p[:, None, :] - a[None]) * d[None]).sum(axis=2) / dd[None], 0.0, 1.0)
+    q = a[None] + t[..., None] * d[None]
+    return np.sqrt(((p[:, None, :] - q) ** 2).sum(axis=2)).min(axis=1) if len(a) else np.full(len(p), np.inf)
+
+
+def _thin(track: np.ndarray, step: float) -> np.ndarray:
+    """The polyline with points closer than ``step`` to the last kept one dropped (ends kept)."""
+    if len(track) < 3:
+        return track
+    keep = [0]
+    for k in range(1, len(track) - 1):
+        if np.hypot(*(track[k] - track[keep[-1]])) >= step:
+            keep.append(k)
+    keep.append(len(track) - 1)
+    return track[keep]
+
+
+Mark = tuple[tuple[float, float], tuple[float, float], float]  # a segment (ends, points) and its half-width
+
+
+# the map's own marks, drawn by both maps (mapplot.draw_map, pdfmap.MapWriter) from these figures
+NORTH_FS = 9.0  # the north arrow's "N"
+NORTH_X, NORTH_Y = 0.95, (0.85, 0.95)  # the arrow in axes fractions: its "N" at the first height, its tip at the second
+END_MARKER_PT = 9.0  # the end marker's size (matplotlib's ms: a square 9 pt a side)
+
+
+def map_marks(frame: tuple[float, float, float, float], end: tuple[float, float]) -> list[Mark]:
+    """What a label must not cover besides the track: the north arrow (its "N" and shaft from
+    NORTH_Y[0] to NORTH_Y[1] of the frame's height at NORTH_X of its width, as both maps draw
+    it) and the end marker at ``end`` (the square's half-diagonal)."""
+    x0, y0, x1, y1 = frame
+    xn = x0 + NORTH_X * (x1 - x0)
+    north = ((xn, y0 + NORTH_Y[0] * (y1 - y0)), (xn, y0 + NORTH_Y[1] * (y1 - y0)), 0.45 * NORTH_FS)  # half the "N" and a little
+    e = (float(end[0]), float(end[1]))
+    return [north, (e, e, END_MARKER_PT / np.sqrt(2.0))]
+
+
+def mark_room(p: np.ndarray, marks: list[Mark]) -> np.ndarray:
+    """Distances from points ``p`` (n, 2) to the nearest edge of ``marks``: (n,), inf for none."""
+    room = np.full(len(p), np.inf)
+    for a, b, half in marks:
+        room = np.minimum(room, segment_distances(p, np.array([a], float), np.array([b], float)) - half)
+    return room
+
+
+def place_labels(texts: list[str], anchors: np.ndarray, radii: list[float], track: np.ndarray,
+                 frame: tuple[float, float, float, float], gap: float = 1.0, marks: list[Mark] | None = None) -> list[Label]:
+    """Labels for ``texts`` at ``anchors`` (n, 2 points), each of radius ``radii[i]``, clear of
+    each other, of ``track`` (k, 2 points, the drawn polyline) and of ``marks`` (default
+    :func:`map_marks` with the track's last point as the end), inside ``frame`` (left, bottom,
+    right, top)."""
+    pts = _thin(np.asarray(track, float).reshape(-1, 2), 1.0)
+    anchors = np.asarray(anchors, float).reshape(-1, 2)
+    # the track's segments and the entry points themselves (stars and marks sit there)
+    a, b = np.vstack([pts[:-1], anchors]), np.vstack([pts[1:], anchors])
+    if marks is None:
+        marks = map_marks(frame, tuple(pts[-1])) if len(pts) else []
+    x0, y0, x1, y1 = frame
+    placed: list[Label] = []
+    for text, (ax, ay), r in zip(texts, anchors, radii):
+        rings = [np.array([[ax + DEFAULT_OFFSET[0], ay + DEFAULT_OFFSET[1]]])]
+        for k in range(1, 9):
+            dist = 2.0 * r + 1.5 * k * r
+            rings.append(np.column_stack([ax + dist * np.cos(_ANGLES), ay + dist * np.sin(_ANGLES)]))
+        cand = np.vstack(rings)
+        # room: how far each candidate circle is from the nearest thing it must not touch
+        room = np.minimum(segment_distances(cand, a, b), mark_room(cand, marks)) - r - gap
+        room = np.minimum(room, np.minimum.reduce([cand[:, 0] - x0, x1 - cand[:, 0], cand[:, 1] - y0, y1 - cand[:, 1]]) - r)
+        for lab in placed:
+            room = np.minimum(room, np.hypot(cand[:, 0] - lab.x, cand[:, 1] - lab.y) - r - lab.r - gap)
+        free = np.flatnonzero(room >= 0.0)
+        i = int(free[0]) if len(free) else int(np.argmax(room))
+        placed.append(Label(text, float(cand[i, 0]), float(cand[i, 1]), float(r), (float(ax), float(ay)), i != 0))
+    return placed
+
+
+def leader(label: Label) -> np.ndarray:
+    """The leader line of a moved label: from its anchor to the edge of its circle (2, 2)."""
+    ax, ay = label.anchor
+    d = np.hypot(label.x - ax, label.y - ay)
+    f = max(d - label.r, 0.0) / max(d, 1e-9)
+    return np.array([[ax, ay], [ax + f * (label.x - ax), ay + f * (label.y - ay)]])
