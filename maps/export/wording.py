@@ -3,7 +3,7 @@ and its orders in helm/engine or azimuth-angle/rpm terms, speeds in knots.
 
 Names follow IMO MSC.137(76) and ITTC 7.5-04-02-01 (2002) for the standard manoeuvres ("10/10
 zig-zag to starboard", "turning circle to port, rudder 35°", "acceleration 0 → 7 kn"); the
-identification manoeuvres of M. Bergman-Hallgren's thesis (tau1-tau20, sections 9.1.1 and 9.3)
+identification manoeuvres of F. Ljungberg's PhD thesis (2022) (tau1-tau20, sections 9.1.1 and 9.3)
 are named for what the ship does (crabbing, a zig-zag of so many degrees at so many knots), with
 speeds and headings measured on the planned track. The design's own code (``tau12``, ``zigzag_10_10_s``) stays on the card in
 small print, next to the name. Metres per second belong to the engineering outputs (plan.json,
