@@ -64,7 +64,7 @@ def ship_study(variant: str, ship_seed: int, runs: int, tmp: Path) -> dict:
             try:
                 rec = load_runs([path])[0]
                 d = detect(rec, prior)
-                res = {"alarm_s": d.alarm_s, "property": d.property, "change_s": ch, "h": d.threshold,
+                res = {"alarm_s": d.alarm_s, "property": d.property, "change_s": ch, "h": float(d.threshold[0]),
                        "roll_max": float(np.abs(c["phi"]).max()), "failed": False,
                        "onset_s": d.evidence.get("onset_s")}
             except (UserError, FloatingPointError) as e:
