@@ -9,7 +9,7 @@ import pytest
 from diagnose.detect.yawmodel import fit
 from tests.physics.podded_truth import VARIANTS, draw_ship, nominal_ship, recordings
 
-DUR, LEAD = 150.0, 40.0
+DUR, LEAD = 100.0, 30.0
 
 
 @pytest.fixture(scope="module")
@@ -25,7 +25,7 @@ def _sig(c: dict) -> dict:
 def test_the_yaw_row_cannot_reproduce_any_variant(clean):
     # the product's own kernel is reproduced by (2.17) to rounding (test_detect: 1e-12 rad/s); on
     # every variant the best output-error fit on noise-free data misses r by more than 2e-4 rad/s
-    # (measured 2.7e-4 to 1.5e-3 on 150 s), and the prior it gives puts the lumped yaw inertia
+    # (2.7e-4 to 1.5e-3 measured on 150 s), and the prior it gives puts the lumped yaw inertia
     # I_r = I_z - N_rdot over 20 % away from the ship's (measured 0.59-0.67 of it, or diverged):
     # the fit absorbs the pod-hull interaction and the couplings it lacks
     for v, c in clean.items():
@@ -43,18 +43,20 @@ def test_each_variant_carries_its_structure(clean):
     # tau_n is the setpoint's, so it differs from the nominal variant's by a sizeable fraction
     lag, n0 = clean["steering-lag"]["tau_n"], nom["tau_n"]
     assert np.sqrt(np.mean((lag - n0) ** 2)) > 0.1 * np.sqrt(np.mean(n0**2))
-    # pod-hull interaction: the same pod moment turns the ship differently (hull share a_H)
+    # pod-hull interaction (wake, thrust deduction, shadowing): slower on the same commands (6.6
+    # against 7.2 m/s over 150 s of one manoeuvre) with another pod moment (21 % rms apart there)
+    pod = clean["pod-interaction"]
     assert nominal_ship("pod-interaction").a_H > 2 * nominal_ship("nominal-mmg").a_H
-    assert np.sqrt(np.mean((clean["pod-interaction"]["r"] - nom["r"]) ** 2)) > 0.1 * np.sqrt(np.mean(nom["r"] ** 2))
+    assert np.mean(pod["u"]) < 0.95 * np.mean(nom["u"])
+    assert np.sqrt(np.mean((pod["tau_n"] - n0) ** 2)) > 0.1 * np.sqrt(np.mean(n0**2))
     # ships drawn from one variant differ (parameters scattered per seed)
     assert draw_ship("nominal-mmg", 1).N_rr != draw_ship("nominal-mmg", 2).N_rr
 
 
-def test_coloured_noise_is_coloured_and_heavy_tailed():
+def test_coloured_noise_is_coloured_and_heavy_tailed(clean):
     noisy = recordings("coloured-noise", 3, [31], duration_s=DUR, lead_in_s=LEAD)[0]
     white = recordings("nominal-mmg", 3, [31], duration_s=DUR, lead_in_s=LEAD)[0]
-    clean = recordings("coloured-noise", 3, [31], duration_s=DUR, noise_scale=0.0, lead_in_s=LEAD)[0]
-    clean_w = recordings("nominal-mmg", 3, [31], duration_s=DUR, noise_scale=0.0, lead_in_s=LEAD)[0]
+    clean, clean_w = clean["coloured-noise"], clean["nominal-mmg"]
     e, w = noisy["u"] - clean["u"], white["u"] - clean_w["u"]
     lag = 10  # 1 s: the sensor low-pass (0.5 s) leaves white noise nearly uncorrelated there
 
