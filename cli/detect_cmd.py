@@ -7,7 +7,6 @@ from pathlib import Path
 
 import typer
 
-from primitives.errors import UserError
 from primitives.io import dumps
 
 PLOT_PANELS = 4  # recordings in one figure; beyond, one file per recording
@@ -68,10 +67,7 @@ def register(app: typer.Typer) -> None:
         from diagnose.detect.api import load_prior, load_runs
         from diagnose.detect.api import plot as plot_stats
 
-        validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed)
-        if not -1e12 < n_rdot < 0:
-            raise UserError(f"--n-rdot {n_rdot:g}: give the added yaw inertia N_rdot in kg m^2, a negative number "
-                            "(e.g. -28.7e6)")
+        validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot)
         prior = load_prior(prior_file)
         notes: list[str] = []
         recs = load_runs(recordings, prior.kind, notes)
