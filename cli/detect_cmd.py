@@ -103,7 +103,7 @@ def verdict_lines(d, min_change: float) -> list[str]:
                f"{lo:.0f}-{hi:.0f} s): {what}"]
     else:
         why = (f"the statistic crossed a threshold but the estimated change is below --min-change {min_change:g} or "
-               "within its own noise" if ev.get("below_threshold_or_min_change") else
+               "within its own noise" if ev.get("crossed_but_below_min_change") else
                "every statistic stayed below its threshold")
         peaks = ", ".join(f"{c.replace('_', ' ')} {ev['statistic_max'][c]:.1f}/{h:.1f}"
                           for c, h in zip(ev["statistic_max"], d.threshold))

@@ -239,7 +239,7 @@ def _decide(eps, S, prior, st, h, null_raw, min_change, n_rdot) -> tuple[int, di
         if abs(size) >= min_change and abs(c["relative_change"]) >= 2 * c["std"]:
             return upto - 1, ev | {"onset": (tau, lo, hi)}
     tau, lo, hi = onset(eps, S, prior, len(eps), int(np.argmax((st / h).max(axis=0))))
-    return -1, attribute(eps, S, prior, len(eps), null_raw, start=0) | {"onset": (tau, lo, hi), "below_threshold_or_min_change": bool(len(over))}
+    return -1, attribute(eps, S, prior, len(eps), null_raw, start=0) | {"onset": (tau, lo, hi), "crossed_but_below_min_change": bool(len(over))}
 
 
 def detect(rec: Recording, prior: YawPrior, false_alarm: float = 0.02, min_change: float = 0.05, seed: int = 0,

@@ -16,7 +16,8 @@ every signal, this recording's smoothed inputs): a 500 s prior's I_r is only kno
 (the Cramer-Rao bound of the nine-parameter fit), and that error moves r_hat along the very
 signatures tested; input noise passing through the yaw dynamics is slow, coloured noise on r_hat.
 bench_detect (10 priors x 100 runs, Table 4.1 noise, full model): 2.1 % false alarms for a 2 %
-design (12.0 % with the former Gaussian null from the fit's covariance and AR residual noise).
+design (12.0 % with the former Gaussian null from the fit's covariance and AR residual noise),
+measured before the per-candidate thresholds and the structural term of :func:`calibrate`.
 """
 
 from __future__ import annotations
