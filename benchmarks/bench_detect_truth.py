@@ -65,8 +65,7 @@ def ship_study(variant: str, ship_seed: int, runs: int, tmp: Path) -> dict:
                 rec = load_runs([path])[0]
                 d = detect(rec, prior)
                 res = {"alarm_s": d.alarm_s, "property": d.property, "change_s": ch, "h": float(d.threshold[0]),
-                       "roll_max": float(np.abs(c["phi"]).max()), "failed": False,
-                       "onset_s": d.evidence.get("onset_s")}
+                       "roll_max": float(np.abs(c["phi"]).max()), "failed": False}
             except (UserError, FloatingPointError) as e:
                 out["errors"].append(f"ship {ship_seed} run {b + j}: {e}")
                 res = {"failed": True, "change_s": ch}

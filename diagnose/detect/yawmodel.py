@@ -264,8 +264,10 @@ def structural_spread(prior: YawPrior, sig: dict[str, np.ndarray], r_meas: np.nd
     was not fitted on: rms over the two split-half cross-validations of the nominal record
     (:func:`_split_theta`), less (in quadrature) the 95 % point of what the same two estimates give
     on records that the prior's own structure generates with the nominal data's noise (``synthetic``
-    of them: what noise and the half fits' parameter error alone give). Zero for a structure that fits; the detector's calibration adds
-    it as a random apparent change along each candidate's own signature (:func:`glr.calibrate`)."""
+    of them: what noise and the half fits' parameter error alone give). Zero for a structure that
+    fits, and where the half fits diverged (no estimate: ``detect`` then warns that its alarms are
+    not calibrated); the detector's calibration adds it as a random apparent change along each
+    candidate's own signature (:func:`glr.calibrate`)."""
     real = _split_theta(prior, {k: v[None] for k, v in sig.items()}, r_meas[None], x)
     clean = smooth(sig, prior.dt)
     n = len(r_meas)
@@ -281,7 +283,7 @@ def structural_spread(prior: YawPrior, sig: dict[str, np.ndarray], r_meas: np.nd
     ms_noise = np.nanmean(noise**2, axis=(0, 1))
     # two held-out estimates give a mean square that is ms_noise * chi2(2)/2 for a structure that
     # fits: count only what exceeds its 95 % point (3.0 ms_noise), so noise does not pass for misfit
-    return np.sqrt(np.maximum(ms_real - 3.0 * ms_noise, 0.0))
+    return np.nan_to_num(np.sqrt(np.maximum(ms_real - 3.0 * ms_noise, 0.0)), nan=0.0)
 
 
 def model_error(prior: YawPrior, sig: dict[str, np.ndarray], r0: float, derive: Derive | None = None, seed: int = 0) -> float:
