@@ -1,5 +1,6 @@
 """Change detection on recordings: fit a yaw prior on a nominal run, then say whether, when and how
-the ship changed (seed 000 chapter 5, with the change named). A notebook calls these; the CLI
+the ship changed (chapter 5 of the MSc thesis "Estimating a ship's dynamics
+during operation", with the change named). A notebook calls these; the CLI
 ``shiptrial detect-prior`` / ``shiptrial detect`` is a thin layer over them."""
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from diagnose.detect.cusum import calibrate_dead_zone, first_alarms
-from diagnose.detect.glr import SignatureCusum, attribute, calibrate
+from diagnose.detect.glr import SignatureCusum, attribute, calibrate, onset
 from diagnose.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
 from diagnose.detect.yawmodel import (
     CANDIDATES,
@@ -25,7 +26,7 @@ from diagnose.detect.yawmodel import (
     null_records,
     signatures,
 )
-from diagnose.recording import Recording, RecordingError, load_recording, split_metadata
+from diagnose.recording import NUMERIC, Recording, RecordingError, load_recording, split_metadata
 from diagnose.yawid.experiment import pod_yaw_moment
 from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
@@ -35,19 +36,32 @@ MOMENT = "tau_n"  # measured pod yaw moment, N m (the recording format's actuato
 SWAY_ACC = "v_dot"  # measured sway acceleration, m/s^2 (Table 4.1 of seed 000 measures it)
 
 
-def load_runs(paths: list[Path] | list[str]) -> list[Recording]:
+#: columns ``detect`` and ``detect-prior`` read (besides the recording format's t, x, y or lat, lon, psi, u, v)
+KNOWN_COLUMNS = ("t", "x", "y", "lat", "lon", "psi", "u", "v", "r", "phi", "p", MOMENT, SWAY_ACC, *POD_COLUMNS, "segment")
+
+
+def load_runs(paths: list[Path] | list[str], kind: str | None = None, notes: list[str] | None = None) -> list[Recording]:
     """Recordings that carry what the yaw row needs (measured r; the pod inputs or the measured pod
-    yaw moment ``tau_n``; optionally the measured sway acceleration ``v_dot``), one sample time."""
+    yaw moment ``tau_n``; ``phi`` for the full model when ``kind`` says so; optionally the measured
+    sway acceleration ``v_dot``), one sample time. Every missing column of a file is named in one
+    message; a column detect does not read is named in ``notes`` with the closest known name."""
     recs = []
     for p in paths:
         header = _header(Path(p))
-        if "r" not in header:
-            raise RecordingError(f"{p}: no column 'r' (measured yaw rate, rad/s); change detection needs the "
-                                 "measured yaw rate, not one derived from heading")
-        missing = [c for c in POD_COLUMNS if c not in header]
-        if missing and MOMENT not in header:
-            raise RecordingError(f"{p}: missing pod input column(s) {missing}; the podded ship's recording needs "
-                                 f"n1, alpha1, n2, alpha2 (rev/s, rad) or the measured pod yaw moment {MOMENT} (N m)")
+        missing = [] if "r" in header else ["r (measured yaw rate, rad/s; not one derived from heading)"]
+        pods = [c for c in POD_COLUMNS if c not in header]
+        if pods and MOMENT not in header:
+            missing.append(f"{MOMENT} (measured pod yaw moment, N m) or the pod inputs {', '.join(pods)} (rev/s, rad)")
+        if kind == "full" and "phi" not in header:
+            missing.append("phi (roll, rad; or use --model simplified)")
+        if not ({"x", "y"} <= set(header) or {"lat", "lon"} <= set(header)):
+            missing.insert(0, "x, y (north, east, m) or lat, lon (deg)")
+        missing[:0] = [f"{c} ({what})" for c, what in (("t", "time, s"), ("psi", "heading, rad")) if c not in header]
+        if missing:
+            raise RecordingError(f"{p}: missing column(s): {'; '.join(missing)}; add them (README: 'Recordings for "
+                                 "detect and detect-prior')")
+        if notes is not None:
+            notes.extend(unknown_column_notes(p, header))
         runs = load_recording(p)
         if SWAY_ACC in header and any(SWAY_ACC not in r.channels for r in runs):
             raise RecordingError(f"{p}: column '{SWAY_ACC}' holds no finite values; fill it or leave the column out")
@@ -59,9 +73,24 @@ def load_runs(paths: list[Path] | list[str]) -> list[Recording]:
     return recs
 
 
+def unknown_column_notes(path: Path | str, header: list[str]) -> list[str]:
+    """One note per column that detect does not read, with the closest known name (a renamed
+    ``vdot`` would otherwise be ignored and v' differentiated from v instead)."""
+    import difflib
+
+    out = []
+    for h in header:
+        if h in KNOWN_COLUMNS or h in NUMERIC:
+            continue
+        close = difflib.get_close_matches(h.lower(), KNOWN_COLUMNS, n=1, cutoff=0.5)
+        hint = f"; did you mean '{close[0]}'? rename it if so" if close else ""
+        out.append(f"{path}: column '{h}' is not one detect reads and is ignored{hint}")
+    return out
+
+
 def _header(path: Path) -> list[str]:
-    _, body = split_metadata(read_input_text(path, RecordingError, "a recording CSV (BRIEF section 7)",
-                                             "utf-8-sig").splitlines()[:200])
+    _, body = split_metadata(read_input_text(path, RecordingError, "a recording CSV (README: 'Recordings for detect "
+                                             "and detect-prior')", "utf-8-sig").splitlines()[:200])
     return [h.strip() for h in body[0].split(",")] if body else []
 
 
@@ -121,13 +150,14 @@ def _deriver(rec: Recording, kind: str):
     return derive
 
 
-def fit_prior(paths: list[Path] | list[str], kind: str = "full", bootstrap: int = 64, seed: int = 0) -> YawPrior:
+def fit_prior(paths: list[Path] | list[str], kind: str = "full", bootstrap: int = 64, seed: int = 0,
+              notes: list[str] | None = None) -> YawPrior:
     """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s),
     its parameter error described by ``bootstrap`` parametric-bootstrap refits of the nominal
     data (errors in variables: noisy u, v, phi and the v', tau_r derived from them)."""
     if kind not in SIGNALS:
         raise UserError(f"--model {kind!r}: choose full (2.17) or simplified (2.18)")
-    recs = load_runs(paths)
+    recs = load_runs(paths, kind, notes)
     rec = max(recs, key=lambda r: r.n_samples)
     sig, r = signals(rec, kind)
     if np.ptp(r) < 1e-3:
@@ -151,6 +181,12 @@ def load_prior(path: Path) -> YawPrior:
     return YawPrior.from_dict(d, where=str(path))
 
 
+#: N_rdot of Appendix A (Blanke and Christensen 1993), kg m^2: I_z = I_r + N_rdot converts the lumped
+#: yaw inertia the yaw row identifies into the rigid body's (``--n-rdot`` gives the ship's own)
+N_RDOT = -28.7e6
+CHECKS = 60  # most alarm candidates (blocks over the threshold) whose estimate is checked
+
+
 @dataclass
 class Detection:
     """One recording's verdict, the evidence, and the statistics for the plot."""
@@ -161,7 +197,7 @@ class Detection:
     property: str | None
     evidence: dict
     dead_zone_alarm_s: float | None
-    threshold: float
+    threshold: np.ndarray  # per candidate (CANDIDATES)
     t_blocks: np.ndarray = field(repr=False)
     statistic: np.ndarray = field(repr=False)  # (blocks, candidates)
     dead_zone: np.ndarray = field(repr=False)
@@ -170,13 +206,49 @@ class Detection:
 
     def summary(self) -> dict:
         return {"recording": self.source, "changed": self.changed, "alarm_s": self.alarm_s, "property": self.property,
-                "threshold": self.threshold, "evidence": self.evidence, "dead_zone_cusum_alarm_s": self.dead_zone_alarm_s}
+                "onset_s": self.evidence.get("onset_s"), "onset_interval_s": self.evidence.get("onset_interval_s"),
+                "threshold": dict(zip(CANDIDATES, map(float, self.threshold))), "evidence": self.evidence, "dead_zone_cusum_alarm_s": self.dead_zone_alarm_s}
+
+
+def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float | None:
+    """The relative change of the physical property: I_z = I_r + N_rdot for yaw inertia (a change
+    dI = rel I_r of the lumped inertia is dI / I_z of the rigid body's), the same for the others;
+    None when the prior's I_r is not above -N_rdot (I_z would not be positive)."""
+    if name != "yaw_inertia":
+        return rel
+    i_z = i_r + n_rdot
+    return rel * i_r / i_z if i_z > 0 else None
+
+
+def _decide(eps, S, prior, st, h, null_raw, min_change, n_rdot) -> tuple[int, dict]:
+    """First block over the threshold whose change is also worth an alarm: the leading candidate's
+    estimate (from the change point on, :func:`glr.onset`) at least ``min_change`` (of I_z for
+    yaw inertia) and twice its no-change standard deviation. Returns (alarm sample or -1, evidence)."""
+    over = np.flatnonzero((st / h).max(axis=1) > 1.0)
+    step = max(1, len(over) // CHECKS)
+    for b in over[::step]:
+        upto = (int(b) + 1) * prior.block
+        k = int(np.argmax(st[b] / h))
+        tau, lo, hi = onset(eps, S, prior, upto, k)
+        ev = attribute(eps, S, prior, upto + 600, null_raw, start=tau)
+        lead = max(ev["candidates"], key=lambda c: ev["candidates"][c]["llr"])
+        c = ev["candidates"][lead]
+        size = physical_change(lead, c["relative_change"], prior.values["I_r"], n_rdot)
+        if size is None:
+            size = c["relative_change"]
+        if abs(size) >= min_change and abs(c["relative_change"]) >= 2 * c["std"]:
+            return upto - 1, ev | {"onset": (tau, lo, hi)}
+    tau, lo, hi = onset(eps, S, prior, len(eps), int(np.argmax((st / h).max(axis=0))))
+    return -1, attribute(eps, S, prior, len(eps), null_raw, start=0) | {"onset": (tau, lo, hi), "crossed_but_below_min_change": bool(len(over))}
 
 
 def detect(rec: Recording, prior: YawPrior, false_alarm: float = 0.02, min_change: float = 0.05, seed: int = 0,
-           null_runs: int = 400) -> Detection:
+           null_runs: int = 400, n_rdot: float = N_RDOT) -> Detection:
     """Signature LR-CUSUM (and, for comparison, the dead-zone CUSUM of (5.1)) on one recording,
-    calibrated for ``false_alarm`` per recording length from the prior alone."""
+    calibrated for ``false_alarm`` per recording length from the prior alone; an alarm also needs
+    the estimated change to reach ``min_change`` and twice its own noise (:func:`_decide`). The
+    evidence holds the change point with its 95 % interval and, for yaw inertia, the change of
+    I_z = I_r + ``n_rdot`` beside that of the lumped I_r."""
     if abs(rec.sample_time - prior.dt) > 1e-6 * prior.dt:
         raise RecordingError(f"{rec.source}: sample time {rec.sample_time:g} s differs from the prior's {prior.dt:g} s; "
                              "resample the recording or fit the prior on data of this sample time")
@@ -189,14 +261,24 @@ def detect(rec: Recording, prior: YawPrior, false_alarm: float = 0.02, min_chang
     S = signatures(prior, sig)
     null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
     null_blocks = block_mean(null_raw, prior.block)
-    sc: SignatureCusum = calibrate(prior, S, null_blocks, theta1=min_change, false_alarm=false_alarm)
+    # the change worth an alarm, per candidate signature: min_change of I_z is less of the lumped I_r
+    iz_per_ir = physical_change("yaw_inertia", 1.0, prior.values["I_r"], n_rdot) or 1.0
+    theta1 = np.array([min_change / iz_per_ir, min_change, min_change])
+    sc: SignatureCusum = calibrate(prior, S, null_blocks, theta1=theta1, false_alarm=false_alarm, seed=seed)
     dz = calibrate_dead_zone(prior.sigma, null_raw, false_alarm=false_alarm)
     st = sc.statistics(block_mean(eps, prior.block), S)
-    i = int(sc.alarms(st[:, None, :])[0])
+    i, ev = _decide(eps, S, prior, st, sc.h, null_raw, min_change, n_rdot)
     g = dz.statistic(eps)
     j = int(first_alarms(g[:, None], dz.h)[0])
     t = rec.t - rec.t[0]
-    ev = attribute(eps, S, prior, len(eps) if i < 0 else i + 600, null_raw)
+    tau, lo, hi = ev.pop("onset")
+    ev["onset_s"] = float(t[min(tau, len(t) - 1)])
+    ev["onset_interval_s"] = [float(t[min(lo, len(t) - 1)]), float(t[min(hi, len(t) - 1)])]
+    inertia = ev["candidates"]["yaw_inertia"]
+    iz = physical_change("yaw_inertia", inertia["relative_change"], prior.values["I_r"], n_rdot)
+    scale = iz / inertia["relative_change"] if iz is not None and inertia["relative_change"] else None
+    inertia |= {"I_z_relative_change": iz, "I_z_std": None if scale is None else abs(scale) * inertia["std"],
+                "N_rdot": n_rdot, "I_r": prior.values["I_r"]}
     ev["statistic_max"] = {c: float(st[:, k].max()) for k, c in enumerate(CANDIDATES)}
     ev["residual_rms"] = float(np.sqrt(np.mean(eps**2)))
     ev["prior_sigma"] = prior.sigma
@@ -205,8 +287,21 @@ def detect(rec: Recording, prior: YawPrior, false_alarm: float = 0.02, min_chang
                      float(t[j]) if j >= 0 else None, sc.h, tb, st, g, dz.h, t)
 
 
-def plot(dets: list[Detection], path: Path) -> Path:
-    """Test statistic per candidate against time, threshold and alarm, one panel per recording."""
+def plot(dets: list[Detection], path: Path, panels: int = 4) -> list[Path]:
+    """Both detectors against time, one panel per recording: the LR-CUSUM statistic per candidate
+    over its own threshold (left axis, statistic / threshold, alarm at 1) and the dead-zone CUSUM
+    (5.1) over its threshold (right axis), the alarm and the change point with its interval. Up to
+    ``panels`` recordings in ``path``; beyond, one file per recording (``stem-<recording>``)."""
+    if len(dets) <= panels:
+        return [_figure(dets, path)]
+    out = []
+    for k, d in enumerate(dets):
+        name = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in Path(d.source).stem) or f"rec{k}"
+        out.append(_figure([d], path.with_name(f"{path.stem}-{k + 1:03d}-{name}{path.suffix}")))
+    return out
+
+
+def _figure(dets: list[Detection], path: Path) -> Path:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -214,17 +309,28 @@ def plot(dets: list[Detection], path: Path) -> Path:
 
     from primitives.io import atomic_savefig
 
-    fig, axes = plt.subplots(len(dets), 1, figsize=(9, 3.2 * len(dets)), squeeze=False)
+    fig, axes = plt.subplots(len(dets), 1, figsize=(9, 3.4 * len(dets)), squeeze=False)
     for ax, d in zip(axes[:, 0], dets):
         for k, c in enumerate(CANDIDATES):
-            ax.plot(d.t_blocks, d.statistic[:, k], label=f"LR-CUSUM {c.replace('_', ' ')}")
-        ax.axhline(d.threshold, color="k", ls="--", lw=1, label=f"threshold h = {d.threshold:.1f}")
+            ax.plot(d.t_blocks, d.statistic[:, k] / d.threshold[k],
+                    label=f"LR-CUSUM {c.replace('_', ' ')} / h = {d.threshold[k]:.1f}")
+        ax2 = ax.twinx()
+        ax2.plot(d.t[: len(d.dead_zone)], d.dead_zone / d.dead_zone_h, color="0.5", lw=0.8,
+                 label=f"dead-zone CUSUM (5.1) / h = {d.dead_zone_h:.3g}")
+        ax2.set_ylabel("dead-zone CUSUM / threshold", color="0.4")
+        ax.axhline(1.0, color="k", ls="--", lw=1, label="threshold (both)")
+        lo, hi = d.evidence["onset_interval_s"]
         if d.changed:
-            ax.axvline(d.alarm_s, color="r", lw=1.2, label=f"alarm {d.alarm_s:.0f} s: {d.property.replace('_', ' ')}")
-        verdict = f"changed at {d.alarm_s:.0f} s ({d.property.replace('_', ' ')})" if d.changed else "no change detected"
+            ax.axvline(d.alarm_s, color="r", lw=1.2, label=f"alarm {d.alarm_s:.0f} s")
+            ax.axvspan(lo, hi, color="r", alpha=0.12, label=f"change point {d.evidence['onset_s']:.0f} s (95 %: {lo:.0f}-{hi:.0f})")
+        if d.dead_zone_alarm_s is not None:
+            ax.axvline(d.dead_zone_alarm_s, color="0.4", ls=":", lw=1.2, label=f"dead-zone alarm {d.dead_zone_alarm_s:.0f} s")
+        verdict = f"changed, {d.property.replace('_', ' ')}" if d.changed else "no change detected"
         ax.set_title(f"{Path(d.source).name}: {verdict}", fontsize=10)
-        ax.set_ylabel("log-likelihood ratio")
-        ax.legend(fontsize=8, loc="upper left")
+        ax.set_ylabel("LR-CUSUM / threshold")
+        h1, l1 = ax.get_legend_handles_labels()
+        h2, l2 = ax2.get_legend_handles_labels()
+        ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="upper left")
         ax.grid(alpha=0.3)
     axes[-1, 0].set_xlabel("time [s]")
     fig.tight_layout()

@@ -1,4 +1,5 @@
-"""Yaw-row prior models of seed 000, full (2.17) and simplified (2.18), fitted by output error (ch. 4).
+"""Yaw-row prior models, full (2.17) and simplified (2.18) of "Estimating a ship's dynamics during
+operation" (MSc thesis), fitted by output error (its ch. 4).
 
     I_r r' = -M_v v' + A u r + N_r|r| r|r| + N_r|v| r|v| + N_phiu|r| phi u|r|
              + N_|u|v |u| v + N_phi|uv| phi|uv| + N_phiu|u| phi u|u| + tau_r,act          (2.17)
@@ -63,6 +64,9 @@ class YawPrior:
     boot: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # (B, P) bootstrap relative errors
     noise: dict[str, float] = field(default_factory=dict)  # white measurement noise sd per signal, read from the nominal data
     model_error: float = 0.0  # innovation sd of the block-mean fit residual beyond what that noise explains (structure)
+    #: apparent relative change along each candidate (CANDIDATES) that the structure's misfit makes on a
+    #: manoeuvre the prior was not fitted on (split-half cross-validation beyond noise; :func:`structural_spread`)
+    structure: np.ndarray = field(default_factory=lambda: np.zeros(len(CANDIDATES)))
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -80,7 +84,8 @@ class YawPrior:
         return {"format": "shiptrial-yaw-prior/1", "kind": self.kind, "values": self.values, "sigma": self.sigma,
                 "cov": self.cov.tolist(), "ar": self.ar.tolist(), "sigma_w": self.sigma_w, "block": self.block,
                 "dt": self.dt, "source": self.source, "prefilter_hz": self.prefilter_hz,
-                "boot": self.boot.tolist(), "noise": self.noise, "model_error": self.model_error}
+                "boot": self.boot.tolist(), "noise": self.noise, "model_error": self.model_error,
+                "structure": self.structure.tolist()}
 
     @classmethod
     def from_dict(cls, d: dict, where: str = "prior") -> YawPrior:
@@ -94,12 +99,14 @@ class YawPrior:
             p = cls(kind, values, float(d["sigma"]), cov, np.asarray(d["ar"], float).ravel(), float(d["sigma_w"]),
                     int(d["block"]), float(d["dt"]), str(d.get("source", "")), float(d.get("prefilter_hz", 0.0)),
                     np.asarray(d.get("boot", []), float).reshape(-1, len(names)),
-                    {str(k): float(v) for k, v in d.get("noise", {}).items()}, float(d.get("model_error", 0.0)))
+                    {str(k): float(v) for k, v in d.get("noise", {}).items()}, float(d.get("model_error", 0.0)),
+                    np.asarray(d.get("structure", [0.0] * len(CANDIDATES)), float).reshape(len(CANDIDATES)))
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             raise UserError(f"{where}: not a yaw prior written by 'shiptrial detect-prior' (field {e}); "
                             "make one with: shiptrial detect-prior NOMINAL.csv --out PRIOR.json") from None
         ok = [np.isfinite(list(values.values())).all(), np.isfinite(cov).all(), np.isfinite(p.ar).all(),
               np.isfinite(p.boot).all(), np.isfinite(list(p.noise.values())).all(), p.model_error >= 0,
+              np.isfinite(p.structure).all(), np.all(p.structure >= 0),
               p.sigma > 0, p.sigma_w > 0, p.block >= 1, p.dt > 0, values["I_r"] > 0,
               0 <= p.prefilter_hz < 0.5 / p.dt]
         if not all(ok):
@@ -220,7 +227,63 @@ def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, so
     noise = {k: white_noise_sd(v) for k, v in raw.items()} | {"r": white_noise_sd(r_meas)}
     prior = YawPrior(kind, values, robust_sigma(e), cov, ar, sigma_w, block, dt, source, prefilter_hz, boot, noise)
     prior.model_error = model_error(prior, raw, r0, derive, seed)
+    if estimate and bootstrap > 0:
+        prior.structure = structural_spread(prior, raw, r_meas, x, derive, seed)
     return prior
+
+
+def _split_theta(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray, x0: np.ndarray) -> np.ndarray:
+    """Cross-validated apparent changes (halves, B, 3): the yaw row fitted on one half of each of
+    the B records (signals (B, n), as measured) predicts the other half; the residual's GLR
+    estimate along each candidate signature there (whitened 1 s block means) is what a detector
+    would read as a change of a ship that did not change. NaN where a fit diverged."""
+    n = r.shape[1]
+    h = n // 2
+    out = []
+    for a, b in ((slice(0, h), slice(h, n)), (slice(h, n), slice(0, h))):
+        xs = _fit_scales(prior.kind, {k: v[:, a] for k, v in sig.items()}, r[:, a], prior.dt, x0, prior.prefilter_hz)
+        rows = []
+        for i, x in enumerate(xs):
+            if not np.all(np.isfinite(x)):
+                rows.append(np.full(len(CANDIDATES), np.nan))
+                continue
+            half = replace(prior, values={k: float(NOMINAL[k] * xi) for k, xi in zip(prior.names, x)})
+            test = {k: v[i, b] for k, v in sig.items()}
+            rt = r[i, b]
+            eps = rt - half.predict(test, r0=float(np.mean(rt[: prior.block])))
+            Sw = whiten(block_mean(signatures(half, test), prior.block), prior.ar)
+            ew = whiten(block_mean(eps, prior.block), prior.ar)
+            rows.append(Sw.T @ ew / np.maximum(np.sum(Sw**2, axis=0), 1e-300))
+        out.append(rows)
+    return np.asarray(out)
+
+
+def structural_spread(prior: YawPrior, sig: dict[str, np.ndarray], r_meas: np.ndarray, x: np.ndarray,
+                      derive: Derive | None = None, seed: int = 0, synthetic: int = 8) -> np.ndarray:
+    """How far the prior's structure alone moves the detector's change estimates on a manoeuvre it
+    was not fitted on: rms over the two split-half cross-validations of the nominal record
+    (:func:`_split_theta`), less (in quadrature) the 95 % point of what the same two estimates give
+    on records that the prior's own structure generates with the nominal data's noise (``synthetic``
+    of them: what noise and the half fits' parameter error alone give). Zero for a structure that
+    fits, and where the half fits diverged (no estimate: ``detect`` then warns that its alarms are
+    not calibrated); the detector's calibration adds it as a random apparent change along each
+    candidate's own signature (:func:`glr.calibrate`)."""
+    real = _split_theta(prior, {k: v[None] for k, v in sig.items()}, r_meas[None], x)
+    clean = smooth(sig, prior.dt)
+    n = len(r_meas)
+    rng = np.random.default_rng([seed, 5])
+    r_true = simulate_r(prior.kind, x, prior.inputs(clean), prior.dt, r0=float(np.mean(r_meas[:10])))
+    r_b = r_true + prior.noise.get("r", 0.0) * rng.standard_normal((synthetic, n))
+    s_b = {k: clean[k] + prior.noise.get(k, 0.0) * rng.standard_normal((synthetic, n)) for k in sig}
+    if derive is not None:
+        rows = [derive({k: s_b[k][i] for k in sig}, r_b[i]) for i in range(synthetic)]
+        s_b = {k: np.stack([row[k] for row in rows]) for k in rows[0]}
+    noise = _split_theta(prior, s_b, r_b, x)
+    ms_real = np.nanmean(real**2, axis=(0, 1))
+    ms_noise = np.nanmean(noise**2, axis=(0, 1))
+    # two held-out estimates give a mean square that is ms_noise * chi2(2)/2 for a structure that
+    # fits: count only what exceeds its 95 % point (3.0 ms_noise), so noise does not pass for misfit
+    return np.nan_to_num(np.sqrt(np.maximum(ms_real - 3.0 * ms_noise, 0.0)), nan=0.0)
 
 
 def model_error(prior: YawPrior, sig: dict[str, np.ndarray], r0: float, derive: Derive | None = None, seed: int = 0) -> float:
@@ -321,7 +384,9 @@ def null_records(prior: YawPrior, sig: dict[str, np.ndarray], runs: int, seed: i
     levels read from the nominal data (``prior.noise``), ``derive`` recomputes derived inputs as
     for the recording, and the prior predicts r from them as it does on the recording. So noise
     on every input, its path through the yaw dynamics and the prior's parameter error are all in;
-    the structure's own misfit (``prior.model_error``) is added as AR-coloured 1 s block offsets."""
+    the structure's own misfit is added as AR-coloured 1 s block offsets (``prior.model_error``);
+    its apparent change along each candidate (``prior.structure``) is added per candidate by
+    :func:`diagnose.detect.glr.calibrate`."""
     x = np.array([prior.values[k] / NOMINAL[k] for k in prior.names])
     truth_x = x[:, None] - (parameter_draws(prior, runs, seed) * np.maximum(np.abs(x), 1e-6)).T
     clean = smooth(sig, prior.dt)
