@@ -90,7 +90,7 @@ def pod_arrays(profile, index: dict[str, int]) -> tuple[np.ndarray, np.ndarray, 
     """A podded profile's pods for the compiled loop: positions (n_pods, 3), the signal indices of
     each pod's propeller speed and angle (n_pods, 2), and the shared coefficients (see
     :func:`_pod_forces`); empty arrays without pods."""
-    if not profile.pods:
+    if profile is None or not profile.pods:
         return np.zeros((0, 3)), np.zeros((0, 2), np.int64), np.zeros(12)
     m = profile.pod_model
     pos = np.array([(p.x, p.y, p.z) for p in profile.pods], float)
@@ -114,6 +114,32 @@ def writable(a: np.ndarray | None, shape: tuple[int, ...]) -> np.ndarray:
     if a is None:
         return np.zeros(shape)
     return np.require(a, float, ["C", "W"])
+
+
+def open_loop(step, names: list[str], exo: dict[str, np.ndarray], nu0: np.ndarray, cur_body: tuple | None,
+              wind_body: tuple | None, forced: np.ndarray | None) -> np.ndarray | None:
+    """nu (B, N+1, 3) of ``step`` (a :class:`primitives.simulate.VelocityStep` without rigid body)
+    stepped N times from nu0 (B, 3), the loop of a caller that supplies every signal itself: the
+    exogenous signals ``exo[name]`` (N, B) (the heading among them when a term reads it), the
+    current and air velocity already in body axes (each a pair of (N, B) arrays, or None) and
+    increments ``forced`` (N, B, 3) added before the model's, as ``step(nu, exo_k, cur_k, wind_k,
+    forced_k)`` would step after step. None when the compiled loop does not apply."""
+    if not AVAILABLE or step.rigid is not None or nu0.shape[-1] != 3:
+        return None
+    prog = program(step.terms, names, frozenset({"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", "wx", "wy", "wn"}))
+    if prog is None:
+        return None
+    batch, n_steps = nu0.shape[0], (forced.shape[0] if forced is not None else next(iter(exo.values())).shape[0])
+    in_t = np.empty((n_steps, len(names), batch))
+    for i, n in enumerate(names):
+        in_t[:, i] = exo[n]
+    nu_t = np.empty((n_steps + 1, 3, batch))
+    nu_t[0] = nu0.T
+    env = [np.zeros((0, 2, batch)) if e is None else np.ascontiguousarray(np.stack(e, axis=1)) for e in (cur_body, wind_body)]
+    w_t = np.zeros((0, 3, batch)) if forced is None else np.ascontiguousarray(forced.transpose(0, 2, 1))
+    time_loop(in_t, nu_t, np.zeros((1, 3, batch)), env[0], env[1], w_t, step.coef_array, *prog,
+              *pod_arrays(None, {}), *rigid_arrays(None), 0.0, False, False, False, step.wind_excess, step.speed, True, True)
+    return nu_t.transpose(2, 0, 1)
 
 
 def _compiled(fn):
