@@ -142,7 +142,8 @@ def open_loop(step, names: list[str], exo: dict[str, np.ndarray], nu0: np.ndarra
     return nu_t.transpose(2, 0, 1)
 
 
-def _compiled(fn):
+def compiled(fn):
+    """``fn`` compiled by numba (cached on disk) when it is available, else ``fn`` itself."""
     # error_model="numpy": a division by zero gives inf or NaN as numpy's does, without a check that stops vectorising
     return njit(cache=True, nogil=True, error_model="numpy")(fn) if AVAILABLE else fn
 
@@ -338,7 +339,7 @@ def _advance(k, nu_t, eta_t, inc, n_inc, w_t, cur_t, cub, cvb, minv, rb, ts, hea
                 eta_t[k + 1, 2, b] = psi + ts * r
 
 
-@_compiled
+@compiled
 def time_loop(in_t, nu_t, eta_t, cur_t, wind_t, w_t, coef, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow,
               pod_pos, pod_sig, pod_coef, minv, rb, ts, heading, positions, turning, wind_excess, speed, env_body, forced_first):
     """nu_t, eta_t (N+1, nd, B), row 0 set, filled in place step by step.

@@ -111,3 +111,24 @@ def test_environment_selects_numpy_loop():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["numpy", "True"]
+
+
+@needs_numba
+def test_sensitivity_recursion_compiled_matches_numpy(monkeypatch):
+    """The output-error estimator's float32 recursion S(k+1) = (I + J(k)) S(k) + Phi(k): the
+    compiled loop gives the numpy loop's bits, overflow (an unstable estimate) included."""
+    from expdesign import sensloop
+
+    rng = np.random.default_rng(4)
+    n, b, p = 120, 7, 10
+    sens = rng.normal(0, 1, (n + 1, b, 3, p)).astype(np.float32)
+    sens[0] = 0.0
+    jac = rng.normal(0, 0.3, (n, 3, b, 3)).astype(np.float32)
+    jac[:, :, 3] *= 40.0  # one run's recursion blows up to inf / NaN
+    a, c = sens.copy(), sens.copy()
+    sensloop.recurse(a, jac)
+    with monkeypatch.context() as m:
+        m.setattr(jitloop, "AVAILABLE", False)
+        sensloop.recurse(c, jac)
+    assert not np.isfinite(c[:, 3]).all() and np.isfinite(c[:, 0]).all()
+    assert np.array_equal(a, c, equal_nan=True)
