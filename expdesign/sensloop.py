@@ -18,7 +18,7 @@ def recurse(sens: np.ndarray, jac: np.ndarray) -> None:
     """Run the recursion in place: ``sens`` (n+1, b, 3, p) float32 holding S(0) in row 0 and
     Phi(k) (in the rows of its DOF) in row k+1; ``jac`` (n, 3, b, 3) float32, d inc_i / d nu_col
     at step k as jac[k, col, run, i]. Overflow of an unstable estimate gives inf or NaN, silently."""
-    if jitloop.AVAILABLE:
+    if jitloop.use(jac.shape[0] * jac.shape[2]):
         _compiled_recursion(sens, np.ascontiguousarray(jac))
         return
     n, b, _, p = sens.shape

@@ -16,12 +16,14 @@ order of summation). Those differ in the last bit of a step and stay within the 
 tests/test_jitloop.py checks.
 
 The pure-numpy loop is kept: it is used when numba cannot be imported or when the environment
-sets ``SHIPTRIAL_KERNEL=numpy``. Compiled code is cached on disk (``cache=True``) so that a warm
+sets ``SHIPTRIAL_KERNEL=numpy``, and for small calls in a process that has not loaded the
+compiled code (:func:`use`). Compiled code is cached on disk (``cache=True``) so that a warm
 process loads it instead of compiling it again.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import os
 from functools import lru_cache
@@ -30,14 +32,15 @@ import numpy as np
 
 from primitives.terms import TermSet, parse_factor
 
-try:  # the compiler is optional: without it (or with SHIPTRIAL_KERNEL=numpy) the numpy loop runs
-    if os.environ.get("SHIPTRIAL_KERNEL", "").strip().lower() == "numpy":
-        raise ImportError("SHIPTRIAL_KERNEL=numpy")
-    from numba import njit
-except ImportError:  # pragma: no cover - exercised with SHIPTRIAL_KERNEL=numpy in tests/test_jitloop.py
-    njit = None
-
-AVAILABLE = njit is not None
+# The compiler is optional: without it (or with SHIPTRIAL_KERNEL=numpy) the numpy loops run. It is
+# imported, and the cached machine code loaded, on the first call that is worth it (:func:`use`):
+# that costs about a second of CPU per process, more than a command that only steps single ships
+# (plan-trial, the library build) would save.
+AVAILABLE = os.environ.get("SHIPTRIAL_KERNEL", "").strip().lower() != "numpy" and importlib.util.find_spec("numba") is not None
+# Work (batch members x steps) of one call from which the compiled loop is loaded: a 20-member
+# batch of 1000 steps costs about 20 ms in the numpy loop, 1 ms compiled.
+MIN_WORK = 20_000
+_LOADED = False
 
 # Indices of the state signals in the per-step signal vector; the exogenous signals follow.
 _STATE = ("u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", "wx", "wy", "wn", "psi", "p", "phi", "tau_x", "tau_y", "tau_k", "tau_n")
@@ -48,8 +51,15 @@ _NO_STATION = math.nan
 
 
 def kernel_name() -> str:
-    """Which time loop runs: 'numba' or 'numpy'."""
+    """Which time loop a large simulation runs: 'numba' or 'numpy'."""
     return "numba" if AVAILABLE else "numpy"
+
+
+def use(work: int) -> bool:
+    """Whether a call of ``work`` batch members x steps runs compiled: when numba is available and
+    either the compiled code is loaded already or the call is large enough to pay for loading it
+    (:data:`MIN_WORK`). Both loops give the same numbers (to the tolerance tests/test_jitloop.py states)."""
+    return AVAILABLE and (_LOADED or work >= MIN_WORK)
 
 
 @lru_cache(maxsize=256)
@@ -124,7 +134,8 @@ def open_loop(step, names: list[str], exo: dict[str, np.ndarray], nu0: np.ndarra
     current and air velocity already in body axes (each a pair of (N, B) arrays, or None) and
     increments ``forced`` (N, B, 3) added before the model's, as ``step(nu, exo_k, cur_k, wind_k,
     forced_k)`` would step after step. None when the compiled loop does not apply."""
-    if not AVAILABLE or step.rigid is not None or nu0.shape[-1] != 3:
+    n_work = nu0.shape[0] * (forced.shape[0] if forced is not None else next(iter(exo.values())).shape[0])
+    if not use(n_work) or step.rigid is not None or nu0.shape[-1] != 3:
         return None
     prog = program(step.terms, names, frozenset({"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", "wx", "wy", "wn"}))
     if prog is None:
@@ -142,16 +153,46 @@ def open_loop(step, names: list[str], exo: dict[str, np.ndarray], nu0: np.ndarra
     return nu_t.transpose(2, 0, 1)
 
 
-def compiled(fn):
-    """``fn`` compiled by numba (cached on disk) when it is available, else ``fn`` itself."""
-    # error_model="numpy": a division by zero gives inf or NaN as numpy's does, without a check that stops vectorising
-    return njit(cache=True, nogil=True, error_model="numpy")(fn) if AVAILABLE else fn
+_INLINED: list[str] = []
+
+
+class compiled:
+    """``fn`` compiled by numba on its first call (cached on disk: a warm process loads the
+    machine code instead of compiling it), with the helpers marked :func:`_inlined` compiled into
+    it. Called only when :func:`use` says so (or ``AVAILABLE`` for callers that always want it)."""
+
+    def __init__(self, fn):
+        self.fn, self.jit = fn, None
+        self.__doc__, self.__name__ = fn.__doc__, fn.__name__
+
+    def __call__(self, *args):
+        if self.jit is None:
+            _load()
+            from numba import njit
+
+            # error_model="numpy": a division by zero gives inf or NaN as numpy's does, without a check that stops vectorising
+            self.jit = njit(cache=True, nogil=True, error_model="numpy")(self.fn)
+        return self.jit(*args)
+
+
+def _load() -> None:
+    """Import numba and replace the :func:`_inlined` helpers by their compiled form, once."""
+    global _LOADED
+    if _LOADED:
+        return
+    from numba import njit
+
+    g = globals()
+    for name in _INLINED:
+        # inlined into the loop at compile time: a call per step would pass every array argument
+        # through the reference counter, more than the arithmetic's cost for a small batch
+        g[name] = njit(inline="always", error_model="numpy")(g[name])
+    _LOADED = True
 
 
 def _inlined(fn):
-    # inlined into the loop at compile time: a call per step would pass every array argument
-    # through the reference counter, more than the arithmetic's cost for a small batch
-    return njit(inline="always", error_model="numpy")(fn) if AVAILABLE else fn
+    _INLINED.append(fn.__name__)
+    return fn
 
 
 @_inlined

@@ -431,7 +431,7 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     cur_t, wind_t = (None if a is None else np.ascontiguousarray(a.transpose(1, 2, 0)) for a in (cur, wind))  # (N, 2, B)
     w_t = None if w is None else np.ascontiguousarray(w.transpose(1, 2, 0))  # (N, nd, B)
     heading = positions or nd == 4 or bool(profile.pods) or cur_t is not None or wind_t is not None or step.reads_heading
-    if jitloop.AVAILABLE:
+    if jitloop.use(batch * n_steps):
         out = _compiled_loop(profile, step, in_names, in_t, nu0, eta0, cur_t, wind_t, w_t, batch, positions, heading, current_turning)
         if out is not None:
             return out

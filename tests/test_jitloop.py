@@ -21,6 +21,13 @@ from primitives.terms import TermSet
 
 needs_numba = pytest.mark.skipif(not jitloop.AVAILABLE, reason="numba not installed or SHIPTRIAL_KERNEL=numpy")
 
+@pytest.fixture(autouse=True)
+def _compiled_for_every_size(monkeypatch):
+    """The compiled loop for the small calls of these tests too (a process loads it from the
+    first large call on, primitives.jitloop.use)."""
+    monkeypatch.setattr(jitloop, "MIN_WORK", 0)
+
+
 RIGID_RTOL = 1e-12  # the stated tolerance where the numpy loop's BLAS product or vectorised atan2/hypot round differently
 
 WINDY = Disturbances(current_ne=(0.3, -0.2), current_sample_std=0.05, wind_ne=(3.0, 4.0), wind_sample_std=0.5,
@@ -99,6 +106,17 @@ def test_open_loop_matches_stepping():
         nu = step(nu, {m: exo[m][k] for m in exo}, (cur[0][k], cur[1][k]), (wind[0][k], wind[1][k]), forced[k])
         want.append(nu)
     assert np.array_equal(got, np.stack(want, axis=1))
+
+
+def test_small_calls_do_not_load_the_compiler(monkeypatch):
+    """A process that only steps single ships (plan-trial, the library build) keeps the numpy loop:
+    loading numba would cost it more than it saves; a large call loads it for the rest."""
+    monkeypatch.setattr(jitloop, "MIN_WORK", 20_000)
+    monkeypatch.setattr(jitloop, "_LOADED", False)
+    assert not jitloop.use(1000)
+    assert jitloop.use(20_000) == jitloop.AVAILABLE
+    monkeypatch.setattr(jitloop, "_LOADED", True)
+    assert jitloop.use(1) == jitloop.AVAILABLE
 
 
 def test_environment_selects_numpy_loop():
