@@ -9,7 +9,7 @@ seed 000 (2.9)-(2.12), :mod:`primitives.pods`), the rigid-body increments Ts M^-
 (seed 000 (2.13), :mod:`primitives.rigidbody`), an earth-fixed current turned with the heading
 (Fossen 2021, section 10.3) and the Euler kinematics eta(k+1) = eta(k) + Ts R(psi(k)) nu(k).
 Every operation is the numpy path's, in the same order, on the same IEEE doubles (no fast-math, so
-no fused multiply-add): the same bits, except where numpy's own vectorised routines round
+no fused multiply-add): the same bits, except where numpy's own vectorised routines may round
 differently from the C library the compiled code calls, namely ``hypot`` (the speed U, the wind
 terms, pods), ``arctan2`` (pods), and the 4x4 product by M^-1 of rigid-body profiles (BLAS's
 order of summation). Those differ in the last bit of a step and stay within the tolerance
@@ -46,7 +46,7 @@ _LOADED = False
 _STATE = ("u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", "wx", "wy", "wn", "psi", "p", "phi", "tau_x", "tau_y", "tau_k", "tau_n")
 _IDX = {n: i for i, n in enumerate(_STATE)}
 N_STATE = len(_STATE)
-_POD_TAUS = ("tau_x", "tau_y", "tau_k", "tau_n")
+POD_TAUS = ("tau_x", "tau_y", "tau_k", "tau_n")
 _NO_STATION = math.nan
 
 

@@ -480,7 +480,7 @@ def _compiled_loop(profile: ShipProfile, step: VelocityStep, in_names: list[str]
     raises its error)."""
     nd = nu0.shape[-1]
     state = {"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", *WIND_EXCESS, "psi"} | ({"p", "phi"} if nd == 4 else set())
-    state |= set(jitloop._POD_TAUS) if profile.pods else set()
+    state |= set(jitloop.POD_TAUS) if profile.pods else set()
     prog = jitloop.program(step.terms, in_names, frozenset(state))
     if prog is None:
         return None
