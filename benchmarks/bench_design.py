@@ -14,7 +14,8 @@ SHA-256 digests of all per-run results (must equal inline's), tasks per worker, 
 against inline and parallel efficiency (speed-up / workers). Target: >= 1.8x on 2 workers.
 The wall-clock speed-up needs an otherwise idle machine (the load average is printed); the CPU
 seconds of this process and its reaped workers give the load-independent bound
-workers x CPU(inline) / CPU(pool), which shows the pool's own overhead.
+workers x CPU(inline) / CPU(pool), which shows the pool's own overhead, and the CPU per run and its
+ratio to inline's per worker count (CPU the workers waste shows there).
 
 Then the model that reads off larger machines (goal: 70 % efficiency on 16 cores):
 - a task of n runs of design d costs F_d + n p_d CPU seconds, fitted per design from tasks of 16,
@@ -27,6 +28,8 @@ Then the model that reads off larger machines (goal: 70 % efficiency on 16 cores
 - predicted wall(W) = s(W) + the finish time of the engines' own task list (same cut as
   ``evaluate_designs_parallel``) taken in order by the first free of W workers; inline = the sum
   of the inline tasks; speed-up = inline / wall(W), efficiency = speed-up / W, also without s(W).
+- CPU inflation per worker count: the measured CPU over the model's CPU, relative to inline's, applied
+  to the workers' tasks (a worker count not measured takes the largest measured one's figure).
 The model is checked against the measured engines: its CPU (tasks + prepare + pool) beside the
 measured CPU for any worker count (local x3 and x4 on a 2-core machine check the fixed-cost term),
 its wall beside the measured wall where the machine has the cores. It leaves out what a 16-core
