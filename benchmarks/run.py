@@ -187,11 +187,12 @@ def run_case_here(name: str, repeat: int) -> dict:
     factory = CASES[name][0]
     fn = factory()
     fn()  # warm-up
-    times, extras = [], []
+    times, cpu, extras = [], [], []
     for _ in range(repeat):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         r = fn()
         times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)  # this process's CPU: on a loaded machine the steadier figure
         if isinstance(r, dict):
             extras.append(r)
     peak_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
@@ -199,7 +200,7 @@ def run_case_here(name: str, repeat: int) -> dict:
     for k in extra:  # timings reported by the case itself: their median
         if k.endswith("_s") or k.endswith("_per_s"):
             extra[k] = statistics.median(e[k] for e in extras)
-    return {"times_s": times, "peak_mib": peak_kib / 1024.0, "extra": extra}
+    return {"times_s": times, "cpu_s": cpu, "peak_mib": peak_kib / 1024.0, "extra": extra}
 
 
 def run_case(name: str, repeat: int, timeout: float) -> dict:
@@ -219,6 +220,7 @@ def run_case(name: str, repeat: int, timeout: float) -> dict:
         "median_s": med,
         "min_s": min(r["times_s"]),
         "max_s": max(r["times_s"]),
+        "cpu_median_s": statistics.median(r["cpu_s"]),
         "runs": len(r["times_s"]),
         "peak_mib": r["peak_mib"],
         "target_s": target,
@@ -255,7 +257,7 @@ def main() -> None:
             print(f"{name:28s} ERROR {r['error']}")
             continue
         line = (f"{name:28s} median {r['median_s']:8.3f} s  [{r['min_s']:.3f} .. {r['max_s']:.3f}]  peak {r['peak_mib']:7.0f} MiB  "
-                f"target {r['target_s']:g} s (ratio {r['ratio_to_target']:.2f})")
+                f"cpu {r['cpu_median_s']:.3f} s  target {r['target_s']:g} s (ratio {r['ratio_to_target']:.2f})")
         if r["ratio_to_reference"] is not None:
             line += f"  vs reference {r['reference_s']:g} s: {r['ratio_to_reference']:.3f}"
         if "figures" in r:

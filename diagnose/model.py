@@ -18,6 +18,7 @@ import numpy as np
 
 from diagnose.candidates import Candidate, Slot
 from diagnose.recording import Recording
+from primitives import jitloop
 from primitives.ship import ShipProfile
 from primitives.simulate import WIND_EXCESS, VelocityStep, body_from_ne, relative_signals
 from primitives.terms import TermSet, compile_term, signals_used
@@ -232,12 +233,14 @@ class AugmentedModel:
         # the primitives' time step; the environment is rotated by the measured heading, not a simulated one
         step = VelocityStep(tset, np.tile(coef, (R, 1)))
         nu = np.concatenate([nu0 for _p, _e, _x, nu0 in runs])
-        out = np.empty((R * B, n_max + 1, 3))
-        out[:, 0] = nu
-        for k in range(n_max):
-            nu = step(nu, {nm: exo[nm][k] for nm in need_in}, (uc[k], vc[k]) if has_cur else None,
-                      (wu[k], wv[k]) if use_wind else None, pre[k])
-            out[:, k + 1] = nu
+        out = jitloop.open_loop(step, need_in, exo, nu, (uc, vc) if has_cur else None, (wu, wv) if use_wind else None, pre)
+        if out is None:  # the numpy loop (no compiler): the same steps
+            out = np.empty((R * B, n_max + 1, 3))
+            out[:, 0] = nu
+            for k in range(n_max):
+                nu = step(nu, {nm: exo[nm][k] for nm in need_in}, (uc[k], vc[k]) if has_cur else None,
+                          (wu[k], wv[k]) if use_wind else None, pre[k])
+                out[:, k + 1] = nu
         return [out[r * B:(r + 1) * B, : p.n + 1] + bias[:, None, :] for r, p in enumerate(preps)]
 
     def _termset(self, terms: tuple[tuple[str, ...], ...]) -> TermSet:

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from expdesign import sensloop
 from expdesign.errors import DesignError
 from expdesign.ivsolve import iv_solve
 from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo, information_moments
@@ -303,7 +304,6 @@ def _gauss_newton_moments(profile: ShipProfile, terms, data: Sequence[OEData], s
     hess = np.zeros((b, p, p))
     grad = np.zeros((b, p))
     mask = block_mask(terms)[[terms.offsets[i] for i in range(3)]].astype(np.float32)  # (3, p): DOF i's columns
-    tmp = np.empty((3, b, 3, p), np.float32)
     for d, (nu, psi) in zip(data, sims):
         inputs = d.inputs[idx]
         n = inputs.shape[1]
@@ -318,14 +318,7 @@ def _gauss_newton_moments(profile: ShipProfile, terms, data: Sequence[OEData], s
         sens[0] = 0.0
         with np.errstate(all="ignore"):  # an unstable estimate's sensitivities overflow: its step is then rejected
             np.multiply(phi[:, :, None, :], mask, out=sens[1:])  # Phi(k) in the rows of its DOF (times 0 or 1: exact)
-            for k in range(n):
-                s, out = sens[k], sens[k + 1]
-                out += s
-                # the three columns' products in one call, added one by one in column order as ever
-                np.multiply(jac[k][:, :, :, None], s.transpose(1, 0, 2)[:, :, None, :], out=tmp)
-                out += tmp[0]
-                out += tmp[1]
-                out += tmp[2]
+            sensloop.recurse(sens, jac)
         sk = np.empty((p, n, 3))
         for a, r in enumerate(idx):
             sw = np.sqrt(w[r])

@@ -131,13 +131,38 @@ class Engine:
 
 
 _SHARED: Any = None
+# thread pools of the numerical libraries a worker process may load (BLAS, OpenMP)
+THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
+               "NUMEXPR_NUM_THREADS")
+_ONE_THREAD = False
+
+
+def one_thread_per_worker() -> None:
+    """One BLAS / OpenMP thread in this worker process: the engines run one task per core, so a
+    library's own threads would only compete with the other workers for the same cores (CPU
+    spent spinning and switching, not computing). The libraries already loaded are limited with
+    threadpoolctl, those loaded later by the environment variables; once per process."""
+    global _ONE_THREAD
+    if _ONE_THREAD:
+        return
+    for var in THREAD_VARS:
+        os.environ[var] = "1"
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - a dependency; without it only later-loaded libraries are limited
+        pass
+    else:
+        threadpool_limits(1)
+    _ONE_THREAD = True
 
 
 def _init_worker(shared: Any) -> None:
-    """Process-pool initializer: keep the shared inputs; leave Ctrl-C to the parent, which
-    cancels and terminates the pool (workers would otherwise each print a traceback)."""
+    """Process-pool initializer: keep the shared inputs; one BLAS/OpenMP thread
+    (:func:`one_thread_per_worker`); leave Ctrl-C to the parent, which cancels and terminates the
+    pool (workers would otherwise each print a traceback)."""
     global _SHARED
     _SHARED = shared
+    one_thread_per_worker()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
@@ -209,6 +234,7 @@ class DaskEngine(Engine):
     name = "dask"
 
     def __init__(self, address_or_cluster: Any):
+        _CALLER_PIDS.add(os.getpid())
         try:
             from distributed import Client
         except ImportError:  # pragma: no cover - depends on the environment
@@ -284,7 +310,12 @@ class DaskEngine(Engine):
 
 
 def _dask_call(item: Any, fn: Callable, shared: Any = None) -> Any:
+    if os.getpid() not in _CALLER_PIDS:  # a worker process (an in-process cluster leaves the caller's libraries alone)
+        one_thread_per_worker()  # a Dask worker's threads each run a task: no BLAS threads on top
     return _call(fn, item, shared)
+
+
+_CALLER_PIDS: set[int] = set()  # processes that made a DaskEngine
 
 
 def _takes_n_workers(client: Any) -> bool:

@@ -13,7 +13,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from primitives import onestep
+from primitives import jitloop, onestep
 from primitives.pods import pod_generalized_forces
 from primitives.rigidbody import RigidBody
 from primitives.ship import ShipProfile
@@ -215,6 +215,9 @@ class VelocityStep:
     def __init__(self, terms: TermSet, theta: np.ndarray, rigid: RigidBody | None = None, ts: float | None = None):
         theta = np.asarray(theta, dtype=float)
         self.inc = terms.increment_function()
+        self.terms = terms
+        # the coefficients as the compiled loop reads them: (p, 1) for one model, (p, B) for one per member
+        self.coef_array = np.ascontiguousarray(theta.reshape(-1, 1) if theta.ndim == 1 else theta.T)
         # contiguous columns: every step multiplies them (a strided column is a slower loop)
         self.coef = theta.tolist() if theta.ndim == 1 else list(np.ascontiguousarray(theta.T))
         used = signals_read(terms)
@@ -428,6 +431,10 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     cur_t, wind_t = (None if a is None else np.ascontiguousarray(a.transpose(1, 2, 0)) for a in (cur, wind))  # (N, 2, B)
     w_t = None if w is None else np.ascontiguousarray(w.transpose(1, 2, 0))  # (N, nd, B)
     heading = positions or nd == 4 or bool(profile.pods) or cur_t is not None or wind_t is not None or step.reads_heading
+    if jitloop.use(batch * n_steps):
+        out = _compiled_loop(profile, step, in_names, in_t, nu0, eta0, cur_t, wind_t, w_t, batch, positions, heading, current_turning)
+        if out is not None:
+            return out
     if onestep.applies(step, batch, nd, bool(profile.pods), cur_t is not None or wind_t is not None, w_t is not None):
         return onestep.one_ship_loop(step, in_names, in_t, nu0, eta0, ts, positions, heading)
     if heading:
@@ -459,6 +466,37 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
             _advance_pose(eta_t, k, row, ts, positions)
     nu = np.ascontiguousarray(nu_t.transpose(2, 0, 1))
     if eta_t is not None:
+        return nu, np.ascontiguousarray(eta_t.transpose(2, 0, 1))
+    eta = np.full((batch, n_steps + 1, nd), np.nan)
+    eta[:, 0] = eta0
+    return nu, eta
+
+
+def _compiled_loop(profile: ShipProfile, step: VelocityStep, in_names: list[str], in_t: np.ndarray, nu0: np.ndarray,
+                   eta0: np.ndarray, cur_t: np.ndarray | None, wind_t: np.ndarray | None, w_t: np.ndarray | None, batch: int,
+                   positions: bool, heading: bool, current_turning: bool) -> tuple[np.ndarray, np.ndarray] | None:
+    """The loop of :func:`_time_loop` compiled (:mod:`primitives.jitloop`), the same arrays in and
+    out; None when the term set reads a signal the loop does not provide (the numpy loop then
+    raises its error)."""
+    nd = nu0.shape[-1]
+    state = {"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", *WIND_EXCESS, "psi"} | ({"p", "phi"} if nd == 4 else set())
+    state |= set(jitloop.POD_TAUS) if profile.pods else set()
+    prog = jitloop.program(step.terms, in_names, frozenset(state))
+    if prog is None:
+        return None
+    index = {n: jitloop.N_STATE + i for i, n in enumerate(in_names)}
+    pods = jitloop.pod_arrays(profile, index)
+    n_steps = in_t.shape[0]
+    nu_t = np.empty((n_steps + 1, nd, batch))
+    nu_t[0] = np.broadcast_to(nu0, (batch, nd)).T
+    eta_t = np.full((n_steps + 1, nd, batch), np.nan) if heading else np.empty((1, nd, batch))
+    eta_t[0] = np.broadcast_to(eta0, (batch, nd)).T
+    jitloop.time_loop(jitloop.writable(in_t, ()), nu_t, eta_t, jitloop.writable(cur_t, (0, 2, batch)),
+                      jitloop.writable(wind_t, (0, 2, batch)), jitloop.writable(w_t, (0, nd, batch)), step.coef_array,
+                      *prog, *pods, *jitloop.rigid_arrays(step.rigid), float(profile.sample_time), heading, positions,
+                      bool(current_turning), step.wind_excess, step.speed, False, False)
+    nu = np.ascontiguousarray(nu_t.transpose(2, 0, 1))
+    if heading:
         return nu, np.ascontiguousarray(eta_t.transpose(2, 0, 1))
     eta = np.full((batch, n_steps + 1, nd), np.nan)
     eta[:, 0] = eta0

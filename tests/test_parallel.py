@@ -15,6 +15,24 @@ def _noisy_sim(seed: int) -> np.ndarray:
     return res.y[:, -1]
 
 
+def _blas_threads(_item) -> int:
+    from threadpoolctl import threadpool_info
+
+    return max((lib["num_threads"] for lib in threadpool_info()), default=1)
+
+
+def test_workers_run_one_blas_thread(monkeypatch):
+    """A pool worker limits BLAS/OpenMP to one thread (the parent may use several): W workers on W
+    cores, each with the library's own threads on top, would burn CPU competing for the cores."""
+    pytest.importorskip("threadpoolctl")
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(2):  # what an unlimited library does on a machine with >= 2 cores
+        assert _blas_threads(None) == 2
+        res = LocalEngine(2).map(_blas_threads, [0, 1, 2], progress=False)
+    assert res.complete and res.results == [1, 1, 1]
+
+
 def test_task_seeds_are_stable_and_distinct():
     a, b = task_seeds(7, 5), task_seeds(7, 5)
     assert a == b and len(set(a)) == 5
@@ -38,7 +56,9 @@ def test_dask_local_cluster_agrees_with_local():
         with get_engine(cluster.scheduler_address) as eng:
             assert isinstance(eng, DaskEngine)
             remote = eng.map(_noisy_sim, seeds, progress=False)
+            threads = eng.map(_blas_threads, [0, 1], progress=False)
     assert remote.complete
+    assert threads.results == [1, 1]  # Dask workers too run one BLAS thread each
     for x, y in zip(local.results, remote.results):
         np.testing.assert_array_equal(x, y)
 

@@ -1,0 +1,152 @@
+"""The compiled time loop (primitives.jitloop) against the numpy loop it replaces, on the profiles
+and environments the project simulates: the same bits where both use the same IEEE operations,
+and within 1e-12 relative where numpy's own routines round differently (a rigid-body profile's
+4x4 product by M^-1 in BLAS, pods' atan2 and hypot). The numpy loop runs whenever numba is
+missing or SHIPTRIAL_KERNEL=numpy is set; these tests run it in the default suite."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from primitives import jitloop
+from primitives.ship import load_profile
+from primitives.simulate import Disturbances, VelocityStep, simulate
+from primitives.terms import TermSet
+
+needs_numba = pytest.mark.skipif(not jitloop.AVAILABLE, reason="numba not installed or SHIPTRIAL_KERNEL=numpy")
+
+@pytest.fixture(autouse=True)
+def _compiled_for_every_size(monkeypatch):
+    """The compiled loop for the small calls of these tests too (a process loads it from the
+    first large call on, primitives.jitloop.use)."""
+    monkeypatch.setattr(jitloop, "MIN_WORK", 0)
+
+
+RIGID_RTOL = 1e-12  # the stated tolerance where the numpy loop's BLAS product or vectorised atan2/hypot round differently
+
+WINDY = Disturbances(current_ne=(0.3, -0.2), current_sample_std=0.05, wind_ne=(3.0, 4.0), wind_sample_std=0.5,
+                     process_std=(1e-3, 1e-3, 1e-4), measurement_std=(0.01, 0.01, 0.001), heading_std=0.01, position_std=0.5)
+
+
+def _inputs(profile, n: int) -> np.ndarray:
+    """Slow sinusoids within each input's limits (a manoeuvre-like record)."""
+    u = np.empty((n, len(profile.inputs)))
+    for i, name in enumerate(profile.inputs):
+        lo, hi = profile.input_limits.get(name, (-1.0, 1.0))
+        u[:, i] = lo + (hi - lo) * (0.5 + 0.45 * np.sin(np.arange(n) / (37.0 + 11.0 * i)))
+    return u
+
+
+def _both(monkeypatch, profile, **kw):
+    calls = []
+    with monkeypatch.context() as m:  # the compiled loop must be the one that ran
+        m.setattr(jitloop, "time_loop", lambda *a, f=jitloop.time_loop: calls.append(1) or f(*a))
+        compiled = simulate(profile, **kw)
+    assert calls == [1]
+    with monkeypatch.context() as m:
+        m.setattr(jitloop, "AVAILABLE", False)
+        plain = simulate(profile, **kw)
+    return compiled, plain
+
+
+CASES = [  # (profile, disturbances, current_turning, per-member theta, positions)
+    ("model-ship", None, False, False, True),
+    ("model-ship", "profile", False, True, False),
+    ("full-scale", WINDY, True, True, True),
+    ("kvlcc2", WINDY, True, False, True),
+    ("kvlcc2", None, False, False, False),
+    ("naval-vessel", None, False, False, True),
+    ("naval-vessel", WINDY, True, True, True),
+]
+
+
+@needs_numba
+@pytest.mark.parametrize("name,dist,turning,per_member,positions", CASES)
+def test_compiled_loop_matches_numpy_loop(monkeypatch, name, dist, turning, per_member, positions):
+    prof = load_profile(name)
+    batch = 1 if dist is None else 6
+    theta = prof.params(None)
+    if per_member:
+        theta = theta * (1.0 + 0.01 * np.random.default_rng(2).standard_normal((batch, theta.size)))
+    dist = Disturbances.from_profile(prof) if dist == "profile" else dist
+    a, b = _both(monkeypatch, prof, inputs=_inputs(prof, 300), theta=theta, nu0=(prof.cruise_speed_mps, 0.0, 0.0),
+                 disturbances=dist, batch=batch, seed=5, current_turning=turning, positions=positions)
+    assert np.isfinite(b.nu).all()
+    for field in ("nu", "eta", "y", "psi_meas", "pos_meas"):
+        x, y = getattr(a, field), getattr(b, field)
+        if prof.rigid_body is None:  # the same IEEE operations in the same order: the same bits
+            assert np.array_equal(x, y, equal_nan=True), field
+        else:
+            np.testing.assert_allclose(x, y, rtol=RIGID_RTOL, atol=RIGID_RTOL * np.nanmax(np.abs(y)), err_msg=field)
+
+
+@needs_numba
+def test_open_loop_matches_stepping():
+    """The diagnosis's open loop (caller-supplied signals, body-frame current and wind, input-only
+    increments added first) gives the bits of VelocityStep called step by step."""
+    rng = np.random.default_rng(0)
+    terms = TermSet([["u_r", "v_r*r", "u_r*|u_r|", "tau_x", "wx"], ["v_r", "u_r*r", "tau_y", "psi", "u_q*|u_q|"],
+                     ["r", "u_r*v_r", "tau_n", "r*U^-1", "|v_r@-2.5|*r"]])
+    batch, n = 5, 200
+    step = VelocityStep(terms, rng.normal(0, 1e-3, (batch, terms.n_params)))
+    exo = {k: rng.normal(0, 0.1, (n, batch)) for k in ("tau_x", "tau_y", "tau_n", "psi")}
+    cur = (rng.normal(0.1, 0.01, (n, batch)), rng.normal(-0.1, 0.01, (n, batch)))
+    wind = (rng.normal(2, 0.1, (n, batch)), rng.normal(1, 0.1, (n, batch)))
+    forced = rng.normal(0, 1e-4, (n, batch, 3))
+    nu0 = np.tile([1.0, 0.05, 0.01], (batch, 1))
+    got = jitloop.open_loop(step, sorted(exo), exo, nu0, cur, wind, forced)
+    nu, want = nu0, [nu0]
+    for k in range(n):
+        nu = step(nu, {m: exo[m][k] for m in exo}, (cur[0][k], cur[1][k]), (wind[0][k], wind[1][k]), forced[k])
+        want.append(nu)
+    assert np.array_equal(got, np.stack(want, axis=1))
+
+
+def test_small_calls_do_not_load_the_compiler(monkeypatch):
+    """A process that only steps single ships (plan-trial, the library build) keeps the numpy loop:
+    loading numba would cost it more than it saves; a large call loads it for the rest."""
+    monkeypatch.setattr(jitloop, "MIN_WORK", 20_000)
+    monkeypatch.setattr(jitloop, "_LOADED", False)
+    assert not jitloop.use(1000)
+    assert jitloop.use(20_000) == jitloop.AVAILABLE
+    monkeypatch.setattr(jitloop, "_LOADED", True)
+    assert jitloop.use(1) == jitloop.AVAILABLE
+
+
+def test_environment_selects_numpy_loop():
+    """SHIPTRIAL_KERNEL=numpy (or no numba) runs the numpy loop, and a simulation still runs."""
+    code = ("from primitives import jitloop; from primitives.ship import load_profile; from primitives.simulate import simulate; "
+            "import numpy as np; p = load_profile('model-ship'); r = simulate(p, np.ones((50, len(p.inputs))), batch=2); "
+            "print(jitloop.kernel_name(), bool(np.isfinite(r.nu).all()))")
+    root = Path(__file__).resolve().parent.parent
+    env = dict(os.environ, SHIPTRIAL_KERNEL="numpy", PYTHONPATH=str(root))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["numpy", "True"]
+
+
+@needs_numba
+def test_sensitivity_recursion_compiled_matches_numpy(monkeypatch):
+    """The output-error estimator's float32 recursion S(k+1) = (I + J(k)) S(k) + Phi(k): the
+    compiled loop gives the numpy loop's bits, overflow (an unstable estimate) included."""
+    from expdesign import sensloop
+
+    rng = np.random.default_rng(4)
+    n, b, p = 120, 7, 10
+    sens = rng.normal(0, 1, (n + 1, b, 3, p)).astype(np.float32)
+    sens[0] = 0.0
+    jac = rng.normal(0, 0.3, (n, 3, b, 3)).astype(np.float32)
+    jac[:, :, 3] *= 40.0  # one run's recursion blows up to inf / NaN
+    a, c = sens.copy(), sens.copy()
+    sensloop.recurse(a, jac)
+    with monkeypatch.context() as m:
+        m.setattr(jitloop, "AVAILABLE", False)
+        sensloop.recurse(c, jac)
+    assert not np.isfinite(c[:, 3]).all() and np.isfinite(c[:, 0]).all()
+    assert np.array_equal(a, c, equal_nan=True)
