@@ -327,11 +327,16 @@ def _oe(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, z_f:
     if not f.converged:
         est.warnings.append(f"oe: the fit did not converge ({f.message})")
     if with_ci and f.converged and np.all(np.isfinite(f.cov_load)):
-        # slopes of refits at z_f - h and z_f + h, each started at this optimum; a refit can leave for
-        # another local minimum along the flat mass-height ridge, so the smaller slope is kept
+        # slope of the load in z_f from refits at z_f -+ h started at this optimum. Along the flat
+        # mass-height ridge a refit can stop elsewhere: both refits at one other point (the fit had
+        # stopped short: the one-sided slopes are large and opposite, the central one right) or one
+        # refit in another local minimum (the central slope is then large, one one-sided right). The
+        # smallest of the three is kept; it can understate the z_f term (coverage is measured).
         h = max(kn.z_f_prior_sd, 1e-3) * 0.5
-        slopes = [np.array([g.m - f.m, g.zbar_m - f.zbar_m]) / (s * h)
-                  for s in (-1, 1) for g in [fit_output_error(datasets, kn, cal, z_f + s * h, f.values, noise=f.noise)]]
+        lo, hi = (fit_output_error(datasets, kn, cal, z_f + s * h, f.values, noise=f.noise) for s in (-1, 1))
+        at = [np.array([g.m, g.zbar_m]) for g in (lo, hi)]
+        here = np.array([f.m, f.zbar_m])
+        slopes = [(here - at[0]) / h, (at[1] - here) / h, (at[1] - at[0]) / (2 * h)]
         dv = min(slopes, key=lambda d: abs(d[0] / max(abs(f.m), 1e-9)) + abs(d[1]))
         cov = f.cov_load + np.outer(dv, dv) * kn.z_f_prior_sd**2
         est.m_sd, est.zbar_m_sd = float(np.sqrt(cov[0, 0])), float(np.sqrt(cov[1, 1]))
