@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from cli.app import _run
-from diagnose.rollmass.api import known_from_recordings, usability_warnings
 from diagnose.rollmass.estimate import MassEstimate
 from diagnose.rollmass.model import DEFAULT_PROFILE, load_profile
 from diagnose.rollmass.recording import read_roll_csv
@@ -85,6 +84,8 @@ def test_a_profile_contradicting_the_recorded_speed_is_refused(files, capsys, tm
 
 
 def test_speed_and_imu_position_come_from_the_headers(files):
+    from diagnose.rollmass.api import known_from_recordings
+
     metas = [read_roll_csv(p)[1] for p in files]
     prof, notes = known_from_recordings(load_profile(), files, metas, explicit=False)
     assert prof.known.U == pytest.approx(float(metas[0]["speed_m_s"]), rel=0.2)
@@ -121,6 +122,8 @@ def test_an_unknown_column_is_noted_never_silently_ignored(files, tmp_path):
 
 
 def test_unusable_intervals_are_warned():
+    from diagnose.rollmass.api import usability_warnings
+
     prof = load_profile()
     around_zero = MassEstimate("oe", {}, 0.2, -0.256, m_sd=0.12, zbar_m_sd=0.01, corr=0.9)
     too_heavy = MassEstimate("oe", {}, 1.5, -0.256, m_sd=0.4, zbar_m_sd=0.01, corr=0.9)
