@@ -109,23 +109,22 @@ def known_from_recordings(prof: RollProfile, paths: list[Path], metas: list[dict
     """The profile with the recordings' speed and IMU z; a given profile that contradicts them is refused."""
     notes = []
     kn = prof.known
-    for key, field, tol, unit in (("speed_m_s", "U", None, "m/s"), ("imu_z_m", "zbar_s", IMU_TOL, "m")):
+    for key, field, unit in (("speed_m_s", "U", "m/s"), ("imu_z_m", "zbar_s", "m")):
         vals = [(p, v) for p, m in zip(paths, metas) if (v := _meta_float(m, key, p)) is not None]
         if not vals:
             continue
         arr = np.array([v for _, v in vals])
-        spread = np.ptp(arr) / np.mean(np.abs(arr)) if key == "speed_m_s" else np.ptp(arr)
-        lim = SPEED_TOL if key == "speed_m_s" else IMU_TOL
-        if spread > lim:
+        speed = key == "speed_m_s"
+        lim = SPEED_TOL if speed else IMU_TOL
+        if (np.ptp(arr) / np.mean(np.abs(arr)) if speed else np.ptp(arr)) > lim:
             raise UserError(f"{key} differs between the recordings ({', '.join(f'{p.name} {v:g}' for p, v in vals)}); "
                             f"the three runs must be at one speed with the IMU in one place")
         val, have = float(np.mean(arr)), getattr(kn, field)
-        off = abs(val - have) / abs(have) if key == "speed_m_s" else abs(val - have)
-        if off > (SPEED_TOL if tol is None else tol):
-            if explicit:
-                raise UserError(f"the profile's [known] {field} = {have:g} {unit} contradicts the recordings' {key} "
-                                f"{val:g}; correct the profile or the headers")
-            notes.append(f"{field} = {val:g} {unit} from the recordings' {key} header (the default profile has {have:g})")
+        if explicit and (abs(val - have) / abs(have) if speed else abs(val - have)) > lim:
+            raise UserError(f"the profile's [known] {field} = {have:g} {unit} contradicts the recordings' {key} "
+                            f"{val:g}; correct the profile or the headers")
+        if abs(val - have) > 1e-9:
+            notes.append(f"{field} = {val:g} {unit} from the recordings' {key} header (the profile has {have:g})")
         kn = replace(kn, **{field: val})
     return replace(prof, known=kn), notes
 
