@@ -207,8 +207,8 @@ def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int = S
     """Sandwich (Huber-White, Newey-West) covariance ``A^-1 S A^-1`` of a least-squares fit, ``A = J^T J``.
 
     ``S`` sums each dataset's per-sample scores ``h_t = sum_channels J_t f_t`` with Bartlett weights
-    over ``lags`` samples (datasets independent). Unlike ``s^2 A^-1`` it stays honest when the
-    model is not the truth and the residuals keep structure the whitening did not remove.
+    over ``lags`` samples (datasets independent). Unlike ``s^2 A^-1`` it allows for residuals that
+    stay correlated after the whitening (unmodelled dynamics); it does not allow for a bias.
     """
     Ainv = np.linalg.inv(J.T @ J)
     S = np.zeros_like(Ainv)
