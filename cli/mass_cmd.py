@@ -1,4 +1,7 @@
-"""``shiptrial mass``: mass change and centre-of-gravity height from roll (seed 003, Linder et al. 2015)."""
+"""``shiptrial mass``: mass change and centre-of-gravity height from roll (Linder et al. 2015).
+
+Heights are said one way everywhere: body-frame z in metres, origin at the waterline amidships,
+positive down (a load on deck has a negative z)."""
 
 from __future__ import annotations
 
@@ -13,15 +16,18 @@ def register(app: typer.Typer) -> None:
     @app.command("mass")
     def mass(
         nominal: Path = typer.Argument(..., help="nominal run CSV (t, delta, p, a_s, r), no extra load"),
-        calibration: Path = typer.Argument(..., help="calibration run CSV with the known load of --known-load"),
+        calibration: Path = typer.Argument(..., help="calibration run CSV with a known load (--known-load or its header)"),
         loaded: Path = typer.Argument(..., help="run CSV with the unknown load"),
-        known_load: str = typer.Option(..., "--known-load", help="calibration load KG@M: kg at body-frame height m (z down), e.g. 0.2@-0.256"),
-        profile: Path | None = typer.Option(None, "--profile", help="roll profile TOML (default: Our Lass II 1:24)"),
-        method: str = typer.Option("oe", "--method", help="oe (ours: output error on p, a_s, r), improved (refined IV), paper-iv, or ls"),
-        z_f: float | None = typer.Option(None, "--z-f", help="centre-of-rotation offset prior [m] (default: the profile's)"),
+        known_load: str | None = typer.Option(None, "--known-load", help="calibration load KG@Z: kg at z m (z positive down from the "
+                                              "waterline, a load on deck is negative), e.g. 0.2@-0.256; default: the calibration file's header"),
+        profile: Path | None = typer.Option(None, "--profile", help="roll profile TOML (default: Our Lass II 1:24); "
+                                            "speed and IMU z come from the recordings' headers when they have them"),
+        method: str | None = typer.Option(None, "--method", help="oe (output error on p, a_s, r; default), improved (refined IV), "
+                                   "paper-iv (Linder et al. 2015 IV), or ls"),
+        z_f: float | None = typer.Option(None, "--z-f", help="roll-centre offset prior in m (z positive down; default: the profile's)"),
         json_out: bool = typer.Option(False, "--json", help="print the estimate as JSON"),
     ) -> None:
-        """Estimate the loaded run's extra mass and its CoG height, with 95 % confidence intervals."""
+        """Estimate the loaded run's extra mass and its z (CoG of the load), with 95 % confidence intervals (Linder et al. 2015)."""
         from cli.options import validate_mass_options
         from diagnose.rollmass.api import estimate_from_files
 
@@ -29,12 +35,16 @@ def register(app: typer.Typer) -> None:
         e = estimate_from_files(nominal, calibration, loaded, known_load, profile, method, z_f)
         (mlo, mhi), (zlo, zhi) = e.ci()
         if json_out:
-            typer.echo(dumps({"method": e.method, "m": e.m, "m_ci95": [mlo, mhi], "zbar_m": e.zbar_m, "zbar_m_ci95": [zlo, zhi],
-                              "corr": e.corr, "params": e.params, "warnings": e.warnings}))
+            typer.echo(dumps({"method": e.method, "m": e.m, "m_ci95": [mlo, mhi], "z_m": e.zbar_m, "z_m_ci95": [zlo, zhi],
+                              "z_convention": "body frame, m, positive down from the waterline",
+                              "corr": e.corr, "params": e.params, "warnings": e.warnings, "notes": e.notes}))
         else:
+            for n in e.notes:
+                typer.echo(f"note: {n}")
             typer.echo(f"method {e.method}: mass change {e.m:.4f} kg (95 % CI {mlo:.4f} .. {mhi:.4f})")
-            typer.echo(f"CoG height of the load {e.zbar_m:+.4f} m body frame, z down (95 % CI {zlo:+.4f} .. {zhi:+.4f}); "
-                       f"correlation {e.corr:+.2f}")
+            where = "above" if e.zbar_m < 0 else "below"
+            typer.echo(f"load z {e.zbar_m:+.4f} m, i.e. {abs(e.zbar_m):.3f} m {where} the waterline (z positive down; "
+                       f"95 % CI {zlo:+.4f} .. {zhi:+.4f}); correlation {e.corr:+.2f}")
             for w in e.warnings:
                 typer.echo(f"warning: {w}")
         if not e.converged:
@@ -64,7 +74,10 @@ def register(app: typer.Typer) -> None:
         with atomic_output_dir(out) as tmp:  # the three datasets appear together or not at all
             for role, rec in zip(("nominal", "calibration", "loaded"), recs):
                 d = truth[rec.name]
-                write_roll_csv(rec, tmp / f"{role}.csv", {"dataset": rec.name, "load_kg": f"{d['load_kg']:g}", "load_height_m": f"{d['load_height']:g}"})
+                meta = {"role": role, "dataset": rec.name, "speed_m_s": f"{prof.known.U:g}", "imu_z_m": f"{prof.known.zbar_s:g}"}
+                if role != "loaded":
+                    meta.update({"load_kg": f"{d['load_kg']:g}", "load_z_m": f"{d['load_height']:g}"})
+                write_roll_csv(rec, tmp / f"{role}.csv", meta)
         for role in ("nominal", "calibration", "loaded"):
             typer.echo(f"wrote {out / f'{role}.csv'}")
         c = truth[recs[1].name]

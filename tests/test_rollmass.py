@@ -99,7 +99,7 @@ def _cli_error(capsys, argv: list[str]) -> str:
 
 def test_cli_rejects_unknown_load_height(csvs, capsys):
     _, p, _ = csvs
-    assert "unknown load height" in _cli_error(capsys, ["mass", str(p[0]), str(p[1]), str(p[2]), "--known-load", "0.2"])
+    assert "unknown load position" in _cli_error(capsys, ["mass", str(p[0]), str(p[1]), str(p[2]), "--known-load", "0.2"])
 
 
 def test_cli_rejects_recording_without_roll(csvs, capsys):

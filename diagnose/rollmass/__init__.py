@@ -1,4 +1,4 @@
-"""Mass and centre of gravity from roll (Linder et al. 2015, seed 003): model, basin simulation,
+"""Mass and centre of gravity from roll (Linder et al. 2015): model, basin simulation,
 the paper's multi-dataset IV / LS estimators and ours (refined IV; joint output error, the
 default). See :func:`estimate_from_files`."""
 

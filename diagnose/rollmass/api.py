@@ -1,42 +1,186 @@
-"""Library entry points of the mass / CoG estimator (the CLI is a thin layer over these)."""
+"""Library entry points of the mass / CoG estimator (the CLI is a thin layer over these).
+
+Heights are body-frame ``z`` in metres, origin at the waterline amidships, **positive down**: a
+load on deck 0.256 m above the waterline is ``z = -0.256``; the keel is at ``z = draft``.
+"""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from diagnose.rollmass.estimate import METHODS, MassEstimate, estimate
-from diagnose.rollmass.model import Load, load_profile
+from diagnose.rollmass.estimate import DEFAULT_METHOD, METHODS, MassEstimate, estimate
+from diagnose.rollmass.model import Load, RollProfile, load_profile
 from diagnose.rollmass.output_error import start_values
 from diagnose.rollmass.recording import read_roll_csv
+from diagnose.rollmass.signs import check_signs, expected_signs
 from primitives.errors import UserError
+
+ROLES = ("nominal", "calibration", "loaded")
+SPEED_TOL = 0.25  # relative: recordings' speed vs the profile's, and between the three runs (turns slow a run)
+IMU_TOL = 0.005  # m
+LOAD_TOL = (0.001, 0.005)  # kg, m: --known-load vs the calibration file's header
+Z_WORDS = "z in metres, positive down from the waterline amidships (a load on deck is negative)"
 
 
 def parse_known_load(text: str) -> Load:
-    """``"KG@M"`` (mass in kg at body-frame height in m, z down) -> :class:`Load`."""
+    """``"KG@Z"`` (mass in kg at body-frame z in m, positive down) -> :class:`Load`."""
     if "@" not in text:
-        raise UserError(f"--known-load {text!r}: unknown load height; write KG@M, e.g. 0.2@-0.256 (height in the body frame, z down)")
+        raise UserError(f"--known-load {text!r}: unknown load position; write KG@Z, e.g. 0.2@-0.256 ({Z_WORDS})")
     kg, _, m = text.partition("@")
     try:
         load = Load(float(kg), float(m))
     except ValueError:
-        raise UserError(f"--known-load {text!r}: not numbers; write KG@M, e.g. 0.2@-0.256") from None
+        raise UserError(f"--known-load {text!r}: not numbers; write KG@Z, e.g. 0.2@-0.256 ({Z_WORDS})") from None
     if not (0 < load.m < 1e6 and abs(load.zbar) < 1e3):
-        raise UserError(f"--known-load {text!r}: give a finite mass > 0 kg and a height within the hull, in metres (z down), e.g. 0.2@-0.256")
+        raise UserError(f"--known-load {text!r}: give a finite mass > 0 kg and a z within the hull ({Z_WORDS}), e.g. 0.2@-0.256")
     return load
 
 
-def estimate_from_files(nominal: str | Path, calibration: str | Path, loaded: str | Path, known_load: str | Load,
-                        profile: str | Path | None = None, method: str = "oe", z_f: float | None = None) -> MassEstimate:
-    """Read three recordings and estimate the loaded dataset's mass change and CoG height with CIs."""
+def hull_limits(prof: RollProfile) -> tuple[float, float]:
+    """``(z_top, z_keel)``: where a load can sit (profile ``load_z_top``, draft)."""
+    ship = prof.raw["ship"]
+    return float(ship.get("load_z_top", -1.0)), float(ship["draft"])
+
+
+def check_load_in_hull(load: Load, prof: RollProfile, what: str) -> None:
+    """Refuse a load position below the keel or above the highest place a load can sit."""
+    top, keel = hull_limits(prof)
+    if load.zbar > keel:
+        raise UserError(f"{what}: z = {load.zbar:+g} m is {load.zbar - keel:.3f} m below the keel (draft {keel:g} m); "
+                        f"{Z_WORDS}: did you mean {load.m:g}@{-load.zbar:g}?")
+    if load.zbar < top:
+        raise UserError(f"{what}: z = {load.zbar:+g} m is above the highest place a load can sit in the profile "
+                        f"(load_z_top = {top:g} m; {Z_WORDS})")
+
+
+def _meta_float(meta: dict[str, str], key: str, path: Path) -> float | None:
+    if key not in meta:
+        return None
+    try:
+        return float(meta[key])
+    except ValueError:
+        raise UserError(f"{path}: header '# {key}: {meta[key]}' is not a number; write e.g. '# {key}: 0.5'") from None
+
+
+def _header_load(meta: dict[str, str], path: Path) -> Load | None:
+    kg = _meta_float(meta, "load_kg", path)
+    z = _meta_float(meta, "load_z_m", path)
+    if z is None:
+        z = _meta_float(meta, "load_height_m", path)
+    if kg is None:
+        return None
+    if kg > 0 and z is None:
+        raise UserError(f"{path}: header has load_kg but no load_z_m; add '# load_z_m: Z' ({Z_WORDS})")
+    return Load(kg, z or 0.0)
+
+
+def check_roles(paths: list[Path], metas: list[dict[str, str]]) -> list[Load | None]:
+    """Each file's header against the role its position gives it; returns the header loads."""
+    loads = [_header_load(m, p) for p, m in zip(paths, metas)]
+    for role, path, meta, load in zip(ROLES, paths, metas, loads):
+        said = meta.get("role", "").strip().lower()
+        if said and said not in ROLES:
+            raise UserError(f"{path}: header role '{said}' is not one of {', '.join(ROLES)}")
+        if said and said != role:
+            raise UserError(f"{path}: its header says role '{said}' but it was given as the {role} run; "
+                            f"give the files in the order NOMINAL CALIBRATION LOADED")
+        if role == "nominal" and load is not None and load.m > 0:
+            raise UserError(f"{path}: its header says load_kg {load.m:g} but it was given as the nominal run (no extra load); "
+                            f"give the files in the order NOMINAL CALIBRATION LOADED")
+        if role == "calibration" and load is not None and load.m <= 0:
+            raise UserError(f"{path}: its header says load_kg {load.m:g} but it was given as the calibration run (a known load); "
+                            f"give the files in the order NOMINAL CALIBRATION LOADED")
+    return loads
+
+
+def _calibration_load(opt: Load | None, header: Load | None, path: Path) -> Load:
+    if opt is None and header is None:
+        raise UserError(f"{path}: no known load; give --known-load KG@Z or the header lines '# load_kg:' and '# load_z_m:'")
+    if opt is not None and header is not None and (abs(opt.m - header.m) > LOAD_TOL[0] or abs(opt.zbar - header.zbar) > LOAD_TOL[1]):
+        raise UserError(f"--known-load {opt.m:g}@{opt.zbar:g} contradicts {path}'s header (load_kg {header.m:g}, load_z_m "
+                        f"{header.zbar:g}); correct one of them ({Z_WORDS})")
+    return opt if opt is not None else header
+
+
+def known_from_recordings(prof: RollProfile, paths: list[Path], metas: list[dict[str, str]], explicit: bool) -> tuple[RollProfile, list[str]]:
+    """The profile with the recordings' speed and IMU z; a given profile that contradicts them is refused."""
+    notes = []
+    kn = prof.known
+    for key, field, unit in (("speed_m_s", "U", "m/s"), ("imu_z_m", "zbar_s", "m")):
+        vals = [(p, v) for p, m in zip(paths, metas) if (v := _meta_float(m, key, p)) is not None]
+        if not vals:
+            continue
+        arr = np.array([v for _, v in vals])
+        speed = key == "speed_m_s"
+        lim = SPEED_TOL if speed else IMU_TOL
+        if (np.ptp(arr) / np.mean(np.abs(arr)) if speed else np.ptp(arr)) > lim:
+            raise UserError(f"{key} differs between the recordings ({', '.join(f'{p.name} {v:g}' for p, v in vals)}); "
+                            f"the three runs must be at one speed with the IMU in one place")
+        val, have = float(np.mean(arr)), getattr(kn, field)
+        if explicit and (abs(val - have) / abs(have) if speed else abs(val - have)) > lim:
+            raise UserError(f"the profile's [known] {field} = {have:g} {unit} contradicts the recordings' {key} "
+                            f"{val:g}; correct the profile or the headers")
+        if abs(val - have) > 1e-9:
+            notes.append(f"{field} = {val:g} {unit} from the recordings' {key} header (the profile has {have:g})")
+        kn = replace(kn, **{field: val})
+    return replace(prof, known=kn), notes
+
+
+def usability_warnings(e: MassEstimate, prof: RollProfile) -> list[str]:
+    """Warnings for an interval that cannot be used: zero or negative mass, more than the ship can
+    carry, a load position outside the hull."""
+    out = []
+    if not (np.isfinite(e.m_sd) and np.isfinite(e.zbar_m_sd)):
+        return ["no confidence interval could be computed: the estimate is unusable"]
+    (mlo, mhi), (zlo, zhi) = e.ci()
+    cap = float(prof.raw["ship"].get("max_load_kg", np.inf))
+    top, keel = hull_limits(prof)
+    if mlo <= 0:
+        out.append(f"unusable interval: the 95 % mass interval {mlo:.4f} .. {mhi:.4f} kg includes zero or negative mass")
+    if mhi > cap:
+        out.append(f"unusable interval: the 95 % mass interval reaches {mhi:.4f} kg, more than the ship can carry "
+                   f"(max_load_kg {cap:g} in the profile)")
+    if zlo < top or zhi > keel:
+        out.append(f"unusable interval: the 95 % z interval {zlo:+.3f} .. {zhi:+.3f} m reaches outside the hull "
+                   f"({top:+g} .. {keel:+g} m, z positive down)")
+    return out
+
+
+def estimate_from_files(nominal: str | Path, calibration: str | Path, loaded: str | Path, known_load: str | Load | None = None,
+                        profile: str | Path | None = None, method: str | None = None, z_f: float | None = None) -> MassEstimate:
+    """Read three recordings and estimate the loaded run's mass change and the load's z with 95 % intervals.
+
+    The headers' role, speed, IMU z and known load are checked against the file order, the
+    profile and ``known_load`` (which may be omitted when the calibration file's header gives it).
+    """
+    method = DEFAULT_METHOD if method is None else method
     if method not in METHODS:
         raise UserError(f"--method {method!r}: choose one of {', '.join(METHODS)}")
-    cal = known_load if isinstance(known_load, Load) else parse_known_load(known_load)
+    paths = [Path(p) for p in (nominal, calibration, loaded)]
     prof = load_profile(profile)
-    recs = [read_roll_csv(p)[0] for p in (nominal, calibration, loaded)]
+    read = [read_roll_csv(p) for p in paths]
+    recs, metas = [r for r, _ in read], [m for _, m in read]
+    loads = check_roles(paths, metas)
+    if isinstance(known_load, str):
+        known_load = parse_known_load(known_load)
+    for load, what in ((known_load, "--known-load"), (loads[1], str(paths[1]))):
+        if load is not None:
+            check_load_in_hull(load, prof, what)
+    cal = _calibration_load(known_load, loads[1], paths[1])
+    prof, notes = known_from_recordings(prof, paths, metas, explicit=profile is not None)
+    expect = expected_signs(start_values(prof), prof.known, prof.known.z_f_prior, Load(0.0, 0.0))
+    for rec in recs:
+        msg = check_signs(rec, expect)
+        if msg:
+            raise UserError(msg)
     try:
-        return estimate(recs, prof.known, cal, method, with_ci=True, z_f=z_f, start=start_values(prof))
+        e = estimate(recs, prof.known, cal, method, with_ci=True, z_f=z_f, start=start_values(prof))
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:  # a fit that cannot start or diverges is said, never printed
         raise UserError(f"the {method} estimate failed on these recordings ({str(exc).splitlines()[0]}); "
                         "check --z-f, --known-load and that the three runs come from one ship") from None
+    e.notes = notes + [n for r in recs for n in r.notes]
+    e.warnings += usability_warnings(e, prof)
+    return e

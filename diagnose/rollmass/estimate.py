@@ -57,6 +57,7 @@ PARAMS = SHIP_PARAMS + ("m", "zbar_m")
 # the improved estimator fits the loaded dataset's moments (linear in (10) and c), not (m, zbar_m)
 MOMENTS = ("mz", "mzs")
 METHODS = ("ls", "paper-iv", "improved", "oe")
+DEFAULT_METHOD = "oe"
 # Start values (33): [k, A_x, d, K_r, K_vdot, K_delta, z_f, m, zbar_m]
 PAPER_START = np.array([9.0, 0.5, 0.1, -0.4, 1.0, -0.4, -0.018, 0.0, 0.0])
 NOISE_AR = 8  # order of the refined-IV noise prefilter
@@ -79,6 +80,7 @@ class MassEstimate:
     free: tuple[str, ...] = PARAMS
     rel_singular: float = float("nan")  # smallest / largest singular value of the scaled Jacobian
     warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     def ci(self, level_z: float = 1.96) -> tuple[tuple[float, float], tuple[float, float]]:
         return ((self.m - level_z * self.m_sd, self.m + level_z * self.m_sd),
@@ -314,7 +316,8 @@ def _improved(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool
 
 
 def _oe(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, z_f: float, start: dict[str, float]) -> MassEstimate:
-    """Output-error fit; with ``with_ci`` the ``z_f`` prior sd is propagated by a refit at ``z_f + h``."""
+    """Output-error fit; with ``with_ci`` its sandwich covariance plus the ``z_f`` prior sd propagated
+    by refits at ``z_f -+ h``."""
     f = fit_output_error(datasets, kn, cal, z_f, start)
     # K_r of (11) from the fitted K_ur, so the shared parameters read as in the paper's Table 3
     K_r = (f.values["K_ur"] - f.values["K_vdot"]) * kn.U
@@ -324,11 +327,18 @@ def _oe(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, z_f:
     if not f.converged:
         est.warnings.append(f"oe: the fit did not converge ({f.message})")
     if with_ci and f.converged and np.all(np.isfinite(f.cov_load)):
-        cov = f.cov_load.copy()
+        # slope of the load in z_f from refits at z_f -+ h started at this optimum. Along the flat
+        # mass-height ridge a refit can stop elsewhere: both refits at one other point (the fit had
+        # stopped short: the one-sided slopes are large and opposite, the central one right) or one
+        # refit in another local minimum (the central slope is then large, one one-sided right). The
+        # smallest of the three is kept; it can understate the z_f term (coverage is measured).
         h = max(kn.z_f_prior_sd, 1e-3) * 0.5
-        g = fit_output_error(datasets, kn, cal, z_f + h, f.values, noise=f.noise)
-        dv = np.array([g.m - f.m, g.zbar_m - f.zbar_m]) / h
-        cov += np.outer(dv, dv) * kn.z_f_prior_sd**2
+        lo, hi = (fit_output_error(datasets, kn, cal, z_f + s * h, f.values, noise=f.noise) for s in (-1, 1))
+        at = [np.array([g.m, g.zbar_m]) for g in (lo, hi)]
+        here = np.array([f.m, f.zbar_m])
+        slopes = [(here - at[0]) / h, (at[1] - here) / h, (at[1] - at[0]) / (2 * h)]
+        dv = min(slopes, key=lambda d: abs(d[0] / max(abs(f.m), 1e-9)) + abs(d[1]))
+        cov = f.cov_load + np.outer(dv, dv) * kn.z_f_prior_sd**2
         est.m_sd, est.zbar_m_sd = float(np.sqrt(cov[0, 0])), float(np.sqrt(cov[1, 1]))
         est.corr = float(cov[0, 1] / (est.m_sd * est.zbar_m_sd))
     _warn(est)

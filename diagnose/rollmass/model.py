@@ -1,4 +1,4 @@
-"""Linearised roll model of Linder et al. (2015) (seed 003), eqs. (3)-(19), and its profile.
+"""Linearised roll model of Linder et al. (2015), eqs. (3)-(19), and its profile.
 
 Vertical positions are body-frame values ``zbar`` (z down) plus the centre-of-rotation offset
 ``z_f`` (12): ``z = zbar + z_f``. The roll equation after eliminating the unmeasured sway

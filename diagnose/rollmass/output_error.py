@@ -41,6 +41,9 @@ SHARED = ("X_v", "Y_v", "Y_r", "Y_delta", "A_x", "d", "k", "K_vdot", "K_ur", "K_
 CHANNELS = ("p", "a_s", "r")
 N_FREE = 4  # free-response columns per dataset and channel (4 states)
 NOISE_AR = 6  # order of each channel's whitening filter
+# Newey-West lags of the sandwich covariance: 5 s at 50 Hz, the length of a joystick turn, over which
+# unmodelled dynamics leave structure in the residuals (turn entries, Linder et al. 2015 Fig. 5)
+SANDWICH_LAGS = 250
 
 
 @dataclass
@@ -200,6 +203,27 @@ def _best_start(datasets: list[RollRecording], kn: Known, cal: Load, z_f: float,
     return best.x
 
 
+def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int = SANDWICH_LAGS) -> np.ndarray:
+    """Sandwich (Huber-White, Newey-West) covariance ``A^-1 S A^-1`` of a least-squares fit, ``A = J^T J``.
+
+    ``S`` sums each dataset's per-sample scores ``h_t = sum_channels J_t f_t`` with Bartlett weights
+    over ``lags`` samples (datasets independent). Unlike ``s^2 A^-1`` it allows for residuals that
+    stay correlated after the whitening (unmodelled dynamics); it does not allow for a bias.
+    """
+    Ainv = np.linalg.inv(J.T @ J)
+    S = np.zeros_like(Ainv)
+    i = 0
+    for n in lengths:
+        rows = slice(i, i + 3 * n)
+        h = (J[rows] * f[rows, None]).reshape(n, 3, -1).sum(axis=1)
+        S += h.T @ h
+        for lag in range(1, min(lags, n - 1) + 1):
+            G = h[lag:].T @ h[:-lag]
+            S += (1 - lag / (lags + 1)) * (G + G.T)
+        i += 3 * n
+    return Ainv @ S @ Ainv
+
+
 def fit_output_error(datasets: list[RollRecording], kn: Known, cal: Load, z_f: float, start: dict[str, float],
                      n_reweight: int = 2, ar_order: int = NOISE_AR, noise: tuple | None = None) -> OEFit:
     """Fit :data:`SHARED` and the loaded ``m, zbar_m`` by output error on ``p, a_s, r`` of all datasets.
@@ -213,7 +237,9 @@ def fit_output_error(datasets: list[RollRecording], kn: Known, cal: Load, z_f: f
     ar = None
     if noise is not None:
         (w, ar), n_reweight = noise, 0
-        x = np.array([start[k] for k in SHARED] + [cal.m, cal.zbar])
+        # a refit on a known noise model starts where the earlier fit ended, load included: from the
+        # calibration load it could settle in another local minimum
+        x = np.array([start[k] for k in SHARED] + [start.get("m", cal.m), start.get("zbar_m", cal.zbar)])
     else:
         x = _best_start(datasets, kn, cal, z_f, start, w)
     for it in range(n_reweight + 1):
@@ -231,14 +257,11 @@ def fit_output_error(datasets: list[RollRecording], kn: Known, cal: Load, z_f: f
             w = 1.0 / np.maximum(sd, 1e-12)
     v = prob.values(x)
     J = res.jac
-    n_eff = len(res.fun) - len(x) - len(datasets) * 3 * (N_FREE + 1)  # nuisance columns projected out
-    s2 = 2 * res.cost / max(n_eff, 1)
     JtJ = J.T @ J
     scale = np.sqrt(np.maximum(np.diag(JtJ), 1e-300))
     sv = np.linalg.svd(J / scale, compute_uv=False)
     try:
-        cov = s2 * np.linalg.inv(JtJ)
-        cov_load = cov[-2:, -2:]
+        cov_load = sandwich_cov(J, res.fun, [d.n for d in datasets])[-2:, -2:]
     except np.linalg.LinAlgError:
         cov_load = np.full((2, 2), np.nan)
     ok = bool(res.success) and bool(np.all(np.isfinite(x))) and float(res.cost) < 1e5

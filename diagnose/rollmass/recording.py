@@ -1,15 +1,18 @@
-"""Roll recordings as CSV (BRIEF section 7 style) for the mass / CoG estimator.
+"""Roll recordings as CSV for the mass / CoG estimator (Linder et al. 2015, eqs. (6)-(8)).
 
 Columns (SI, radians): ``t`` [s, uniform], ``delta`` [rad, measured rudder], ``p`` [rad/s, roll-rate
 gyro, (6a)], ``a_s`` [m/s^2, IMU lateral (tangential) accelerometer, (6b) and (7)], ``r`` [rad/s,
 yaw-rate gyro in ship sign, i.e. minus (6c)]; optional ``phi`` [rad] (not used). Optional metadata
-lines ``# key: value`` before the header: ``ship``, ``load_kg``, ``load_height_m`` (body frame,
-z down), ``sample_time``.
+lines ``# key: value`` before the header (:data:`META_KEYS`): ``role`` (nominal, calibration,
+loaded), ``speed_m_s``, ``imu_z_m``, ``load_kg``, ``load_z_m`` (z: body frame, metres, positive
+down from the waterline; ``load_height_m`` is read as the same z), ``ship``, ``dataset``,
+``sample_time``.
 """
 
 from __future__ import annotations
 
 import csv
+import difflib
 import io
 from pathlib import Path
 
@@ -20,7 +23,32 @@ from diagnose.rollmass.simulate import RollRecording
 from primitives.io import atomic_write_text, read_input_text
 
 REQUIRED = ("t", "delta", "p", "a_s", "r")
-WHAT = {"p": "roll-rate gyro", "a_s": "lateral accelerometer", "r": "yaw-rate gyro", "delta": "rudder angle", "t": "time"}
+OPTIONAL = ("phi",)
+WHAT = {"p": "roll-rate gyro, rad/s", "a_s": "IMU lateral accelerometer, m/s^2", "r": "yaw-rate gyro, rad/s",
+        "delta": "rudder angle, rad", "t": "time, s"}
+# names other loggers use for our columns; a file with one of them is told which to rename
+ALIASES = {"a_s": ("ay", "a_y", "acc_y", "accy", "acc_lat", "fy", "f_y"), "p": ("roll_rate", "gyro_x", "wx", "phidot", "phi_dot"),
+           "r": ("yaw_rate", "gyro_z", "wz", "psidot", "psi_dot"), "delta": ("rudder", "rudder_angle"), "t": ("time",)}
+META_KEYS = ("role", "speed_m_s", "imu_z_m", "load_kg", "load_z_m", "load_height_m", "ship", "dataset", "sample_time")
+
+
+def _closest(name: str) -> str | None:
+    """The known column an unknown one most likely means (alias table, then spelling)."""
+    low = name.lower()
+    for col, names in ALIASES.items():
+        if low in names:
+            return col
+    hit = difflib.get_close_matches(name, REQUIRED + OPTIONAL, n=1, cutoff=0.6)
+    return hit[0] if hit else None
+
+
+def _missing_message(path: Path, header: list[str], missing: list[str]) -> str:
+    parts = []
+    for c in missing:
+        cand = [h for h in header if h not in REQUIRED + OPTIONAL and _closest(h) == c]
+        hint = f" (the file has '{cand[0]}': if that is it, rename it '{c}' and check its sign)" if cand else ""
+        parts.append(f"'{c}' ({WHAT[c]}){hint}")
+    return f"{path}: missing column{'s' if len(missing) > 1 else ''} " + ", ".join(parts) + f"; columns must include {','.join(REQUIRED)}"
 
 
 def write_roll_csv(rec: RollRecording, path: str | Path, meta: dict[str, str] | None = None) -> Path:
@@ -46,9 +74,13 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
     header = [h.strip() for h in rows[0]]
     missing = [c for c in REQUIRED if c not in header]
     if missing:
-        c = missing[0]
-        hint = " (a recording without roll cannot give the mass)" if c in ("p", "a_s") else ""
-        raise RecordingError(f"{path}: missing column '{c}' ({WHAT[c]}){hint}; columns must include {','.join(REQUIRED)}")
+        raise RecordingError(_missing_message(path, header, missing))
+    notes = []
+    for h in header:
+        if h not in REQUIRED + OPTIONAL:
+            near = _closest(h)
+            notes.append(f"{path.name}: column '{h}' is not read" + (f" (did you mean '{near}'?)" if near else
+                                                                      f" (known columns: {','.join(REQUIRED + OPTIONAL)})"))
     try:
         arr = np.array([[float(x) for x in r] for r in rows[1:]], dtype=float)
     except ValueError as exc:
@@ -65,5 +97,6 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
         raise RecordingError(f"{path}: column 't' is not uniformly sampled (steps {dt.min():g}..{dt.max():g} s); resample it")
     if np.std(col["p"]) < 1e-6:
         raise RecordingError(f"{path}: column 'p' is constant: the recording has no roll motion")
-    rec = RollRecording(name=path.name, T=T, delta=col["delta"], p=col["p"], a_s=col["a_s"], r=col["r"], phi=col.get("phi"))
+    rec = RollRecording(name=path.name, T=T, delta=col["delta"], p=col["p"], a_s=col["a_s"], r=col["r"], phi=col.get("phi"),
+                        notes=notes)
     return rec, meta

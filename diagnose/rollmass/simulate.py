@@ -10,7 +10,7 @@ down-sampled to 50 Hz, as in section 5.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.linalg import expm
@@ -31,6 +31,7 @@ class RollRecording:
     r: np.ndarray  # rad/s, yaw-rate gyro -y3 (6c), ship sign
     load: Load | None = None  # known load (nominal, calibration) or None (loaded, unknown)
     phi: np.ndarray | None = None  # rad, true roll (simulation only; not used by the estimator)
+    notes: list[str] = field(default_factory=list)  # what the reader noticed (unknown columns)
 
     @property
     def n(self) -> int:

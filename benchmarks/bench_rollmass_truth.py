@@ -1,0 +1,124 @@
+"""`shiptrial mass` on an independent truth: the basin truth family of tests/physics/basin_truth.py.
+
+Each run draws its own model ship around nominal and records the four datasets of Table 2 of
+Linder et al. (2015) (nominal, 0.2 kg twice, 0.4 kg) with an Xsens MTi-G; each Table 2 case is
+then estimated as a user would: the three CSVs written with their headers (role, speed, IMU z,
+known load) and read by ``estimate_from_files`` (library of ``shiptrial mass``), no profile edited.
+Per variant, case and method it prints the median absolute mass error [%] and z error [mm], the
+share of runs whose 95 % interval holds the truth (mass, z, both), the runs with a warning and the
+failures (a refused, diverged or NaN fit, counted, never averaged), then the pooled rows, beside
+the paper's Table 3 (one real dataset per case).
+
+    python benchmarks/bench_rollmass_truth.py --runs 100 --methods improved          # Done-when size
+    python benchmarks/bench_rollmass_truth.py --runs 6 --methods oe,improved,paper-iv,ls   # all methods
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from multiprocessing import Pool
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from diagnose.rollmass.api import estimate_from_files  # noqa: E402
+from diagnose.rollmass.estimate import METHODS  # noqa: E402
+from primitives.errors import UserError  # noqa: E402
+from tests.physics import basin_truth as bt  # noqa: E402
+
+# Table 3 of the paper (IV): mass error %, z error mm (|estimate - truth| of the printed -zbar_m).
+PAPER = {"case1": (0.1338, 3.1), "case2": (7.7532, 25.4), "case3": (16.631, 0.9)}
+
+
+def _one(job: tuple) -> list[tuple]:
+    variant, run, case, recs, methods = job
+    m_true, z_true = bt.truth_load(case)
+    out = []
+    with tempfile.TemporaryDirectory() as d:
+        paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in recs]
+        for method in methods:
+            c0 = time.process_time()
+            try:
+                e = estimate_from_files(*paths, method=method)
+                (mlo, mhi), (zlo, zhi) = e.ci()
+                ok = e.converged and np.all(np.isfinite([e.m, e.zbar_m, mlo, mhi, zlo, zhi]))
+                row = (100 * abs(e.m / m_true - 1), 1000 * abs(e.zbar_m - z_true), mlo <= m_true <= mhi, zlo <= z_true <= zhi,
+                       len(e.warnings) > 0) if ok else None
+                why = "" if ok else "; ".join(e.warnings)[:80]
+            except UserError as exc:
+                row, why = None, str(exc)[:80]
+            out.append((variant, case, method, run, row, why, time.process_time() - c0))
+    return out
+
+
+def _summary(rows: list[tuple], label: str, case: str, method: str) -> str:
+    sel = [r for r in rows if r[1] == case and r[2] == method]
+    good = [r[4] for r in sel if r[4] is not None]
+    n, nf = len(sel), len(sel) - len(good)
+    if good:
+        a = np.array(good, dtype=float)
+        med_m, med_z = np.median(a[:, 0]), np.median(a[:, 1])
+        cm, cz, cb, nw = 100 * a[:, 2].mean(), 100 * a[:, 3].mean(), 100 * (a[:, 2] * a[:, 3]).mean(), int(a[:, 4].sum())
+    else:
+        med_m = med_z = cm = cz = cb = float("nan")
+        nw = 0
+    pm, pz = PAPER[case]
+    return (f"{label:10} {case:6} {method:9} {n:5d} | {pm:7.2f} {pz:6.1f} | {med_m:7.2f} {med_z:7.1f} | "
+            f"{cm:6.0f} {cz:6.0f} {cb:6.0f} | {nw:5d} {nf:5d}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=10, help="runs (model ships) per variant")
+    ap.add_argument("--variants", default=",".join(bt.VARIANTS), help="comma-separated; base = the estimator's structure (reference)")
+    ap.add_argument("--methods", default="improved", help=f"comma-separated subset of {','.join(METHODS)}")
+    ap.add_argument("--cases", default="case1,case2,case3")
+    ap.add_argument("--seed", type=int, default=2015)
+    ap.add_argument("--workers", type=int, default=2)
+    a = ap.parse_args()
+    variants, methods, cases = a.variants.split(","), a.methods.split(","), a.cases.split(",")
+    if not set(methods) <= set(METHODS) or not set(variants) <= set(bt.VARIANTS + ("base",)) or not set(cases) <= set(bt.CASES):
+        ap.error("unknown method, variant or case")
+    t0, c_sim, c_fit = time.perf_counter(), 0.0, 0.0
+    rows, fails = [], []
+    for vi, variant in enumerate(variants):
+        c0 = time.process_time()
+        ship, data = bt.simulate_runs(variant, a.runs, a.seed + 1000 * vi)
+        c_sim += time.process_time() - c0
+        jobs = [(variant, run, case, bt.case_recordings(ship, data, case, run), methods) for run in range(a.runs) for case in cases]
+        with Pool(a.workers) as pool:
+            for part in pool.imap_unordered(_one, jobs):
+                for r in part:
+                    rows.append(r)
+                    c_fit += r[6]
+                    if r[4] is None:
+                        fails.append(f"{r[0]} {r[1]} {r[2]} run {r[3]}: {r[5]}")
+        print(f"[{variant} done, {time.perf_counter() - t0:.0f} s wall]", file=sys.stderr, flush=True)
+        for method in methods:
+            for case in cases:
+                print("  " + _summary([r for r in rows if r[0] == variant], variant, case, method), file=sys.stderr, flush=True)
+    print(f"truth family: {len(variants)} variants x {a.runs} runs x {len(cases)} cases, seed {a.seed}; "
+          f"{time.perf_counter() - t0:.0f} s wall, simulation {c_sim:.0f} s cpu, fits {c_fit:.0f} s cpu "
+          f"({c_fit / max(len(rows), 1):.2f} s per fit)\n")
+    print(f"{'variant':10} {'case':6} {'method':9} {'runs':>5} | {'paper m%':>7} {'z mm':>6} | {'m med%':>7} {'z medmm':>7} | "
+          f"{'cov m':>6} {'cov z':>6} {'both':>6} | {'warn':>5} {'fail':>5}")
+    for variant in variants + ["pooled"]:
+        sub = rows if variant == "pooled" else [r for r in rows if r[0] == variant]
+        for method in methods:
+            for case in cases:
+                print(_summary(sub, variant, case, method))
+    print("\ncov: % of the non-failed runs whose 95 % interval holds the true mass / z / both; warn: runs with a warning;"
+          "\npaper: Table 3 (IV), one real dataset per case, z error |0.2529-0.256| etc. in mm.")
+    if fails:
+        print(f"\nfailures ({len(fails)}):")
+        for f in fails[:40]:
+            print("  " + f)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,147 @@
+"""`shiptrial mass` on bad input: roles, headers, loads outside the hull, flipped signs, column
+names, unusable intervals, and one height convention. Recordings come from the independent basin
+truth (tests/physics/basin_truth.py) with the headers a recorder writes; every refusal happens
+before the fit, so these tests are fast."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cli.app import _run
+from diagnose.rollmass.estimate import MassEstimate
+from diagnose.rollmass.model import DEFAULT_PROFILE, load_profile
+from diagnose.rollmass.recording import read_roll_csv
+from tests.physics import basin_truth as bt
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory) -> list[Path]:
+    d = tmp_path_factory.mktemp("massin")
+    ship, data = bt.simulate_runs("base", 1, 4, length=0.35)
+    return [bt.write_csv(r, d / f"{r.role}.csv") for r in bt.case_recordings(ship, data, "case1", 0)]
+
+
+def _error(capsys, argv: list[str]) -> str:
+    assert _run(["mass", *map(str, argv)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: "), err
+    return err[0]
+
+
+def _edit(src: Path, dst: Path, fn) -> Path:
+    """Rewrite the data table of ``src`` into ``dst``: ``fn(header, rows) -> (header, rows)``."""
+    lines = src.read_text().splitlines()
+    meta = [ln for ln in lines if ln.startswith("#")]
+    body = [ln for ln in lines if not ln.startswith("#")]
+    header, rows = body[0].split(","), [ln.split(",") for ln in body[1:]]
+    header, rows = fn(header, rows)
+    dst.write_text("\n".join(meta + [",".join(header)] + [",".join(r) for r in rows]) + "\n")
+    return dst
+
+
+def _negate(col: str):
+    def fn(header, rows):
+        i = header.index(col)
+        return header, [r[:i] + [repr(-float(r[i]))] + r[i + 1:] for r in rows]
+    return fn
+
+
+def _rename(old: str, new: str):
+    return lambda header, rows: ([new if h == old else h for h in header], rows)
+
+
+def _drop(*cols: str):
+    def fn(header, rows):
+        keep = [i for i, h in enumerate(header) if h not in cols]
+        return [header[i] for i in keep], [[r[i] for i in keep] for r in rows]
+    return fn
+
+
+def test_files_in_the_wrong_roles_are_refused(files, capsys):
+    nom, cal, loaded = files
+    msg = _error(capsys, [cal, nom, loaded])
+    assert "calibration.csv" in msg and "role 'calibration'" in msg and "NOMINAL CALIBRATION LOADED" in msg
+
+
+def test_a_load_below_the_keel_is_refused(files, capsys):
+    msg = _error(capsys, [*files, "--known-load", "0.2@0.256"])
+    assert "below the keel" in msg and "0.2@-0.256" in msg
+
+
+def test_known_load_contradicting_the_header_is_refused(files, capsys):
+    msg = _error(capsys, [*files, "--known-load", "0.3@-0.256"])
+    assert "contradicts" in msg and "calibration.csv" in msg
+
+
+def test_a_profile_contradicting_the_recorded_speed_is_refused(files, capsys, tmp_path):
+    prof = tmp_path / "fast.toml"
+    prof.write_text(DEFAULT_PROFILE.read_text().replace("U = 0.5 ", "U = 0.9 "))
+    msg = _error(capsys, [*files, "--profile", prof])
+    assert "U = 0.9" in msg and "speed_m_s" in msg
+
+
+def test_speed_and_imu_position_come_from_the_headers(files):
+    from diagnose.rollmass.api import known_from_recordings
+
+    metas = [read_roll_csv(p)[1] for p in files]
+    prof, notes = known_from_recordings(load_profile(), files, metas, explicit=False)
+    assert prof.known.U == pytest.approx(float(metas[0]["speed_m_s"]), rel=0.2)
+    assert prof.known.zbar_s == pytest.approx(np.mean([float(m["imu_z_m"]) for m in metas]))
+
+
+@pytest.mark.parametrize("col", ["r", "delta", "a_s", "p"])
+def test_a_negated_column_is_named(files, capsys, tmp_path, col):
+    nom, cal, loaded = files
+    bad = _edit(loaded, tmp_path / "loaded.csv", _negate(col))
+    msg = _error(capsys, [nom, cal, bad])
+    assert f"column '{col}' looks negated" in msg and "loaded.csv" in msg
+
+
+def test_a_column_under_another_name_is_named_with_the_fix(files, capsys, tmp_path):
+    nom, cal, loaded = files
+    bad = _edit(cal, tmp_path / "calibration.csv", _rename("a_s", "ay"))
+    msg = _error(capsys, [nom, bad, loaded])
+    assert "'a_s'" in msg and "'ay'" in msg and "rename it 'a_s'" in msg and "without roll" not in msg
+
+
+def test_every_missing_column_in_one_message(files, capsys, tmp_path):
+    nom, cal, loaded = files
+    bad = _edit(nom, tmp_path / "nominal.csv", _drop("p", "r"))
+    msg = _error(capsys, [bad, cal, loaded])
+    assert "missing columns 'p'" in msg and "'r'" in msg
+
+
+def test_an_unknown_column_is_noted_never_silently_ignored(files, tmp_path):
+    def add(header, rows):
+        return header + ["vdot"], [r + ["0"] for r in rows]
+    rec, _ = read_roll_csv(_edit(files[0], tmp_path / "nominal.csv", add))
+    assert any("'vdot' is not read" in n for n in rec.notes)
+
+
+def test_unusable_intervals_are_warned():
+    from diagnose.rollmass.api import usability_warnings
+
+    prof = load_profile()
+    around_zero = MassEstimate("oe", {}, 0.2, -0.256, m_sd=0.12, zbar_m_sd=0.01, corr=0.9)
+    too_heavy = MassEstimate("oe", {}, 1.5, -0.256, m_sd=0.4, zbar_m_sd=0.01, corr=0.9)
+    through_keel = MassEstimate("oe", {}, 0.2, 0.1, m_sd=0.01, zbar_m_sd=0.05, corr=0.9)
+    fine = MassEstimate("oe", {}, 0.2, -0.256, m_sd=0.01, zbar_m_sd=0.01, corr=0.9)
+    assert "zero or negative mass" in " ".join(usability_warnings(around_zero, prof))
+    assert "more than the ship can carry" in " ".join(usability_warnings(too_heavy, prof))
+    assert "outside the hull" in " ".join(usability_warnings(through_keel, prof))
+    assert usability_warnings(fine, prof) == []
+
+
+def test_output_and_help_say_one_height_convention(files, capsys, monkeypatch):
+    from diagnose.rollmass import api
+
+    monkeypatch.setattr(api, "estimate_from_files", lambda *a, **k: MassEstimate("oe", {}, 0.2, -0.267, m_sd=0.01, zbar_m_sd=0.004, corr=0.9))
+    assert _run(["mass", *map(str, files)]) == 0
+    out = capsys.readouterr().out
+    assert "load z -0.2670 m, i.e. 0.267 m above the waterline (z positive down" in out
+    _run(["mass", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "z positive down" in text and "seed" not in text.lower() and "Linder et al. 2015" in text
