@@ -9,7 +9,7 @@ share of runs whose 95 % interval holds the truth (mass, z, both), the runs with
 failures (a refused, diverged or NaN fit, counted, never averaged), then the pooled rows, beside
 the paper's Table 3 (one real dataset per case).
 
-    python benchmarks/bench_rollmass_truth.py --runs 100 --methods improved          # Done-when size
+    python benchmarks/bench_rollmass_truth.py --runs 100 --methods oe                # Done-when size (the default method)
     python benchmarks/bench_rollmass_truth.py --runs 6 --methods oe,improved,paper-iv,ls   # all methods
 """
 
@@ -76,7 +76,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=10, help="runs (model ships) per variant")
     ap.add_argument("--variants", default=",".join(bt.VARIANTS), help="comma-separated; base = the estimator's structure (reference)")
-    ap.add_argument("--methods", default="improved", help=f"comma-separated subset of {','.join(METHODS)}")
+    ap.add_argument("--methods", default="oe", help=f"comma-separated subset of {','.join(METHODS)}")
     ap.add_argument("--cases", default="case1,case2,case3")
     ap.add_argument("--seed", type=int, default=2015)
     ap.add_argument("--workers", type=int, default=2)

@@ -24,7 +24,7 @@ def register(app: typer.Typer) -> None:
                                             "speed and IMU z come from the recordings' headers when they have them"),
         method: str | None = typer.Option(None, "--method", help="oe (output error on p, a_s, r; default), improved (refined IV), "
                                    "paper-iv (Linder et al. 2015 IV), or ls"),
-        z_f: float | None = typer.Option(None, "--z-f", help="roll-centre offset prior in m (z positive down; default: the profile's)"),
+        z_f: float | None = typer.Option(None, "--z-f", help="roll-centre prior z_f in m, minus the roll centre's depth below the waterline: -0.03 puts it 3 cm below (z = zbar + z_f, Linder et al. 2015 (12); default: the profile's)"),
         json_out: bool = typer.Option(False, "--json", help="print the estimate as JSON"),
     ) -> None:
         """Estimate the loaded run's extra mass and its z (CoG of the load), with 95 % confidence intervals (Linder et al. 2015)."""

@@ -263,7 +263,7 @@ def validate_detect_options(*, plot: Path | None, false_alarm: float, min_change
 def validate_mass_options(*, z_f: float | None) -> None:
     """``mass`` options that are numbers (the files and --known-load are checked where they are read)."""
     if z_f is not None:
-        in_range(z_f, "--z-f", -10.0, 10.0, "m (centre-of-rotation offset below the waterline, z down)")
+        in_range(z_f, "--z-f", -10.0, 10.0, "m (minus the roll centre's depth below the waterline: -0.03 = 3 cm below)")
 
 
 def validate_mass_sim_options(*, out: Path, seed: int) -> None:

@@ -88,7 +88,7 @@ def test_speed_and_imu_position_come_from_the_headers(files):
 
     metas = [read_roll_csv(p)[1] for p in files]
     prof, notes = known_from_recordings(load_profile(), files, metas, explicit=False)
-    assert prof.known.U == pytest.approx(float(metas[0]["speed_m_s"]), rel=0.2)
+    assert prof.known.U == pytest.approx(np.mean([float(m["speed_m_s"]) for m in metas]))  # the headers' speed, not the profile's 0.5
     assert prof.known.zbar_s == pytest.approx(np.mean([float(m["imu_z_m"]) for m in metas]))
 
 
