@@ -2,8 +2,12 @@
 "Our Lass II" free-running in the MCLab basin, three datasets (nominal, calibration with a known
 load, loaded) per Table 2 case, recorded by an Xsens MTi-G and filtered as in section 5.
 
-Written without the project's roll-mass code (``diagnose.rollmass``): only the published numbers
-(Table 1, the loads of Table 3, the sample rates and filter of section 5) are shared. The
+Written without the project's roll-mass code (``diagnose.rollmass``): no code is shared. Numbers
+shared: the published ones (Table 1, the loads of Table 3, the sample rates and filter of section 5)
+and, as nominal values, the hydrodynamic derivatives the paper does not print, which are the roll
+profile's own marked choices (Y_vdot, Y_v, Y_r, Y_delta, N_rdot, N_v, N_r, N_delta, K_pdot, K_r, the
+IMU position, U): each run draws around them, so a truth ship starts near where the estimator's fit
+starts; a family with independently chosen nominal values would be a harder exam. The
 dynamics are the 4-DOF (surge optional) rigid-body equations of Fossen (2011, eqs. 7.5-7.10) at
 the roll centre, x_G = y_G = 0, with hydrodynamic derivatives; each structural *variant* adds what a
 real model ship has and the paper's model (3)-(11) leaves out:
