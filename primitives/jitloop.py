@@ -11,8 +11,9 @@ seed 000 (2.9)-(2.12), :mod:`primitives.pods`), the rigid-body increments Ts M^-
 Every operation is the numpy path's, in the same order, on the same IEEE doubles (no fast-math, so
 no fused multiply-add): the same bits, except where numpy's own vectorised routines may round
 differently from the C library the compiled code calls, namely ``hypot`` (the speed U, the wind
-terms, pods), ``arctan2`` (pods), and the 4x4 product by M^-1 of rigid-body profiles (BLAS's
-order of summation). Those differ in the last bit of a step and stay within the tolerance
+terms, pods), ``arctan2`` (pods), powers other than 1, 2 and -1 (``v_r^3``, ``phi^3``: numpy's
+vectorised power against the C library's pow, which differ on some CPUs) and the 4x4 product by
+M^-1 of rigid-body profiles (BLAS's order of summation). Those differ in the last bit of a step and stay within the tolerance
 tests/test_jitloop.py checks.
 
 The pure-numpy loop is kept: it is used when numba cannot be imported or when the environment
@@ -26,6 +27,8 @@ from __future__ import annotations
 import importlib.util
 import math
 import os
+import threading
+import warnings
 from functools import lru_cache
 
 import numpy as np
@@ -41,6 +44,7 @@ AVAILABLE = os.environ.get("SHIPTRIAL_KERNEL", "").strip().lower() != "numpy" an
 # batch of 1000 steps costs about 20 ms in the numpy loop, 1 ms compiled.
 MIN_WORK = 20_000
 _LOADED = False
+_LOCK = threading.RLock()  # two threads of a Dask worker must not load (and jit-decorate) twice
 
 # Indices of the state signals in the per-step signal vector; the exogenous signals follow.
 _STATE = ("u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", "wx", "wy", "wn", "psi", "p", "phi", "tau_x", "tau_y", "tau_k", "tau_n")
@@ -58,8 +62,23 @@ def kernel_name() -> str:
 def use(work: int) -> bool:
     """Whether a call of ``work`` batch members x steps runs compiled: when numba is available and
     either the compiled code is loaded already or the call is large enough to pay for loading it
-    (:data:`MIN_WORK`). Both loops give the same numbers (to the tolerance tests/test_jitloop.py states)."""
-    return AVAILABLE and (_LOADED or work >= MIN_WORK)
+    (:data:`MIN_WORK`). Both loops give the same numbers to the tolerance tests/test_jitloop.py
+    states, so which one a small call takes may depend on what the process ran before (last-bit
+    differences only). A numba that is installed but cannot be loaded (built for another numpy,
+    no writable cache) is said once in a warning and the numpy loop runs."""
+    global AVAILABLE
+    if not AVAILABLE or not (_LOADED or work >= MIN_WORK):
+        return False
+    with _LOCK:
+        if not _LOADED:
+            try:
+                _load()
+            except Exception as e:  # an unusable compiler is no reason to stop: the numpy loop gives the same numbers
+                AVAILABLE = False
+                warnings.warn(f"compiled simulation kernel unavailable ({type(e).__name__}: {e}); using the numpy loop "
+                              "(set SHIPTRIAL_KERNEL=numpy to skip the attempt)", RuntimeWarning, stacklevel=2)
+                return False
+    return True
 
 
 @lru_cache(maxsize=256)
@@ -154,29 +173,41 @@ def open_loop(step, names: list[str], exo: dict[str, np.ndarray], nu0: np.ndarra
 
 
 _INLINED: list[str] = []
+_COMPILED: list = []  # every compiled function, given its dispatcher by _load
 
 
 class compiled:
-    """``fn`` compiled by numba on its first call (cached on disk: a warm process loads the
-    machine code instead of compiling it), with the helpers marked :func:`_inlined` compiled into
-    it. Called only when :func:`use` says so (or ``AVAILABLE`` for callers that always want it)."""
+    """``fn`` compiled by numba (cached on disk: a warm process loads the machine code instead of
+    compiling it), with the helpers marked :func:`_inlined` compiled into it. Its dispatcher is made
+    when :func:`use` first loads numba, so a compiler that cannot work is found there, before a
+    caller has chosen the compiled path. Called only when :func:`use` says so."""
 
     def __init__(self, fn):
         self.fn, self.jit = fn, None
         self.__doc__, self.__name__ = fn.__doc__, fn.__name__
+        _COMPILED.append(self)
 
     def __call__(self, *args):
         if self.jit is None:
-            _load()
-            from numba import njit
+            with _LOCK:
+                _load()
+                if self.jit is None:  # a function defined after numba was loaded
+                    from numba import njit
 
-            # error_model="numpy": a division by zero gives inf or NaN as numpy's does, without a check that stops vectorising
-            self.jit = njit(cache=True, nogil=True, error_model="numpy")(self.fn)
+                    self._dispatch(njit)
         return self.jit(*args)
+
+    def _dispatch(self, njit) -> None:
+        # error_model="numpy": a division by zero gives inf or NaN as numpy's does, without a check that stops vectorising
+        try:
+            self.jit = njit(cache=True, nogil=True, error_model="numpy")(self.fn)
+        except RuntimeError:  # no writable cache directory (read-only install, no home): compile in memory
+            self.jit = njit(nogil=True, error_model="numpy")(self.fn)
 
 
 def _load() -> None:
-    """Import numba and replace the :func:`_inlined` helpers by their compiled form, once."""
+    """Import numba, replace the :func:`_inlined` helpers by their compiled form and make every
+    :class:`compiled` function's dispatcher, once (the caller holds ``_LOCK``)."""
     global _LOADED
     if _LOADED:
         return
@@ -184,9 +215,13 @@ def _load() -> None:
 
     g = globals()
     for name in _INLINED:
-        # inlined into the loop at compile time: a call per step would pass every array argument
-        # through the reference counter, more than the arithmetic's cost for a small batch
-        g[name] = njit(inline="always", error_model="numpy")(g[name])
+        if not hasattr(g[name], "py_func"):
+            # inlined into the loop at compile time: a call per step would pass every array argument
+            # through the reference counter, more than the arithmetic's cost for a small batch
+            g[name] = njit(inline="always", error_model="numpy")(g[name])
+    for c in _COMPILED:
+        if c.jit is None:
+            c._dispatch(njit)
     _LOADED = True
 
 

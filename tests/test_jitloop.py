@@ -122,13 +122,13 @@ def test_small_calls_do_not_load_the_compiler(monkeypatch):
 def test_environment_selects_numpy_loop():
     """SHIPTRIAL_KERNEL=numpy (or no numba) runs the numpy loop, and a simulation still runs."""
     code = ("from primitives import jitloop; from primitives.ship import load_profile; from primitives.simulate import simulate; "
-            "import numpy as np; p = load_profile('model-ship'); r = simulate(p, np.ones((50, len(p.inputs))), batch=2); "
-            "print(jitloop.kernel_name(), bool(np.isfinite(r.nu).all()))")
+            "import numpy as np, sys; p = load_profile('model-ship'); r = simulate(p, np.ones((1000, len(p.inputs))), batch=25); "
+            "print(jitloop.kernel_name(), bool(np.isfinite(r.nu).all()), 'numba' in sys.modules)")
     root = Path(__file__).resolve().parent.parent
     env = dict(os.environ, SHIPTRIAL_KERNEL="numpy", PYTHONPATH=str(root))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root, timeout=120)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.split() == ["numpy", "True"]
+    assert out.stdout.split() == ["numpy", "True", "False"]  # a call past MIN_WORK, and numba never imported
 
 
 @needs_numba
@@ -150,3 +150,22 @@ def test_sensitivity_recursion_compiled_matches_numpy(monkeypatch):
         sensloop.recurse(c, jac)
     assert not np.isfinite(c[:, 3]).all() and np.isfinite(c[:, 0]).all()
     assert np.array_equal(a, c, equal_nan=True)
+
+
+def test_a_numba_that_cannot_load_falls_back_to_the_numpy_loop(tmp_path):
+    """An installed numba that fails to import (built for another numpy, say) is said in one warning
+    and the numpy loop runs: a large simulation still completes, no traceback."""
+    stub = tmp_path / "numba"
+    stub.mkdir()
+    (stub / "__init__.py").write_text("raise ImportError('Numba needs NumPy 2.3 or less')\n")
+    code = ("import warnings; warnings.simplefilter('always'); from primitives import jitloop; "
+            "from primitives.ship import load_profile; from primitives.simulate import simulate; import numpy as np; "
+            "p = load_profile('model-ship'); r = simulate(p, np.ones((1000, len(p.inputs))), batch=25); "
+            "print(jitloop.AVAILABLE, bool(np.isfinite(r.nu).all()))")
+    root = Path(__file__).resolve().parent.parent
+    env = {k: v for k, v in os.environ.items() if k != "SHIPTRIAL_KERNEL"}
+    env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), str(root)])
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["False", "True"]
+    assert "compiled simulation kernel unavailable" in out.stderr and "Traceback" not in out.stderr
