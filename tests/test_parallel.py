@@ -52,7 +52,13 @@ def test_dask_local_cluster_agrees_with_local():
     distributed = pytest.importorskip("distributed")
     seeds = task_seeds(3, 4)
     local = Engine().map(_noisy_sim, seeds, progress=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+    import dask
+
+    # Dask's nanny sets one thread in the workers' environment by default: give them two, so that the
+    # one thread per worker is the engine's doing
+    two = {"OMP_NUM_THREADS": 2, "OPENBLAS_NUM_THREADS": 2, "MKL_NUM_THREADS": 2}
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": two}), \
+            distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         with get_engine(cluster.scheduler_address) as eng:
             assert isinstance(eng, DaskEngine)
             remote = eng.map(_noisy_sim, seeds, progress=False)
@@ -92,7 +98,13 @@ def test_sweep_table_same_inline_and_on_local_cluster(tmp_path):
     cells = load_sweep(cfg)
     assert len(cells) == 4
     local = run_sweep(cells, "inline", progress=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+    import dask
+
+    # Dask's nanny sets one thread in the workers' environment by default: give them two, so that the
+    # one thread per worker is the engine's doing
+    two = {"OMP_NUM_THREADS": 2, "OPENBLAS_NUM_THREADS": 2, "MKL_NUM_THREADS": 2}
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": two}), \
+            distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         remote = run_sweep(cells, cluster.scheduler_address, progress=False)
     key = ["ship", "criterion", "mean_subtraction", "weights", "top_primitive"]
     assert [{k: r[k] for k in key} for r in local.results] == [{k: r[k] for k in key} for r in remote.results]
