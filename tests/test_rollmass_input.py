@@ -14,6 +14,7 @@ from cli.app import _run
 from diagnose.rollmass.estimate import MassEstimate
 from diagnose.rollmass.model import DEFAULT_PROFILE, load_profile
 from diagnose.rollmass.recording import read_roll_csv
+from primitives.errors import UserError
 from tests.physics import basin_truth as bt
 
 
@@ -143,5 +144,22 @@ def test_output_and_help_say_one_height_convention(files, capsys, monkeypatch):
     out = capsys.readouterr().out
     assert "load z -0.2670 m, i.e. 0.267 m above the waterline (z positive down" in out
     _run(["mass", "--help"])
-    text = " ".join(capsys.readouterr().out.split())
+    text = " ".join(capsys.readouterr().out.replace("│", " ").split())  # rich's box, wrapped anywhere
     assert "z positive down" in text and "seed" not in text.lower() and "Linder et al. 2015" in text
+
+
+def test_a_load_height_header_is_refused_as_ambiguous_and_other_runs_need_no_load_z(files, tmp_path):
+    """'load_height_m: 0.1' reads as 0.1 m above the waterline to a user and was taken as 0.1 m
+    below; and a loaded run's header stating its mass without z was refused though only the
+    calibration run's z is used."""
+    from diagnose.rollmass.api import check_roles
+
+    metas = [read_roll_csv(p)[1] for p in files]
+    loads = check_roles(files, metas)
+    cal = dict(metas[1])
+    cal["load_height_m"] = cal.pop("load_z_m")
+    with pytest.raises(UserError, match="load_height_m.*ambiguous.*load_z_m"):
+        check_roles(files, [metas[0], cal, metas[2]])
+    loaded = dict(metas[2], load_kg="0.4")
+    loaded.pop("load_z_m", None)
+    assert check_roles(files, [metas[0], metas[1], loaded])[1] == loads[1]

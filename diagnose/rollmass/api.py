@@ -65,21 +65,25 @@ def _meta_float(meta: dict[str, str], key: str, path: Path) -> float | None:
         raise UserError(f"{path}: header '# {key}: {meta[key]}' is not a number; write e.g. '# {key}: 0.5'") from None
 
 
-def _header_load(meta: dict[str, str], path: Path) -> Load | None:
+def _header_load(meta: dict[str, str], path: Path, need_z: bool) -> Load | None:
+    """The load a header states (``load_kg``, ``load_z_m``); its z is required only where it is used
+    (``need_z``: the calibration run's known load), elsewhere only the mass is read."""
+    if "load_height_m" in meta:  # a height reads as positive up, our z is positive down: refuse the guess
+        raise UserError(f"{path}: header key 'load_height_m' is ambiguous (a height is positive up); write "
+                        f"'# load_z_m: Z' ({Z_WORDS})")
     kg = _meta_float(meta, "load_kg", path)
     z = _meta_float(meta, "load_z_m", path)
-    if z is None:
-        z = _meta_float(meta, "load_height_m", path)
     if kg is None:
         return None
-    if kg > 0 and z is None:
+    if kg > 0 and z is None and need_z:
         raise UserError(f"{path}: header has load_kg but no load_z_m; add '# load_z_m: Z' ({Z_WORDS})")
     return Load(kg, z or 0.0)
 
 
 def check_roles(paths: list[Path], metas: list[dict[str, str]]) -> list[Load | None]:
-    """Each file's header against the role its position gives it; returns the header loads."""
-    loads = [_header_load(m, p) for p, m in zip(paths, metas)]
+    """Each file's header against the role its position gives it; returns the header loads (a z
+    required only of the calibration run's, the one known load)."""
+    loads = [_header_load(m, p, role == "calibration") for role, p, m in zip(ROLES, paths, metas)]
     for role, path, meta, load in zip(ROLES, paths, metas, loads):
         said = meta.get("role", "").strip().lower()
         if said and said not in ROLES:

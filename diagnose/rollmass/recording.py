@@ -5,7 +5,7 @@ gyro, (6a)], ``a_s`` [m/s^2, IMU lateral (tangential) accelerometer, (6b) and (7
 yaw-rate gyro in ship sign, i.e. minus (6c)]; optional ``phi`` [rad] (not used). Optional metadata
 lines ``# key: value`` before the header (:data:`META_KEYS`): ``role`` (nominal, calibration,
 loaded), ``speed_m_s``, ``imu_z_m``, ``load_kg``, ``load_z_m`` (z: body frame, metres, positive
-down from the waterline; ``load_height_m`` is read as the same z), ``ship``, ``dataset``,
+down from the waterline; a ``load_height_m`` is refused as ambiguous), ``ship``, ``dataset``,
 ``sample_time``.
 """
 
@@ -29,7 +29,7 @@ WHAT = {"p": "roll-rate gyro, rad/s", "a_s": "IMU lateral accelerometer, m/s^2",
 # names other loggers use for our columns; a file with one of them is told which to rename
 ALIASES = {"a_s": ("ay", "a_y", "acc_y", "accy", "acc_lat", "fy", "f_y"), "p": ("roll_rate", "gyro_x", "wx", "phidot", "phi_dot"),
            "r": ("yaw_rate", "gyro_z", "wz", "psidot", "psi_dot"), "delta": ("rudder", "rudder_angle"), "t": ("time",)}
-META_KEYS = ("role", "speed_m_s", "imu_z_m", "load_kg", "load_z_m", "load_height_m", "ship", "dataset", "sample_time")
+META_KEYS = ("role", "speed_m_s", "imu_z_m", "load_kg", "load_z_m", "ship", "dataset", "sample_time")
 
 
 def _closest(name: str) -> str | None:
