@@ -308,3 +308,22 @@ def test_plot_one_file_per_recording_beyond_a_handful(prior, tmp_path):
     files = plot(dets, tmp_path / "s.png", panels=4)
     assert len(files) == 5 and all(f.read_bytes()[:4] == b"\x89PNG" for f in files)
     assert plot(dets[:2], tmp_path / "two.png", panels=4) == [tmp_path / "two.png"]
+
+
+@pytest.mark.parametrize("column,factor", [("tau_n", 1000.0), ("tau_n", -1.0), ("r", -1.0)])
+def test_a_moment_or_yaw_rate_of_wrong_unit_or_sign_is_refused_not_called_a_change(prior, column, factor):
+    # tau_n x1000 or x-1 (or r x-1) read as a confident "CHANGED: yaw damping / pod gain" before;
+    # it is an input error: one line naming the file and the fix
+    from dataclasses import replace as dc_replace
+
+    from diagnose.recording import RecordingError
+
+    rec = simulated_recording(Vessel(), 200, seed=33, measured_moment=True, source="bad.csv")
+    if column == "r":
+        rec = dc_replace(rec, y=rec.y * np.array([1.0, 1.0, -1.0]))
+    else:
+        rec = dc_replace(rec, channels=rec.channels | {column: factor * rec.channels[column]})
+    with pytest.raises(RecordingError) as e:
+        detect(rec, prior, null_runs=20)
+    msg = str(e.value)
+    assert msg.startswith("bad.csv:") and "N m" in msg and "starboard" in msg and "\n" not in msg, msg

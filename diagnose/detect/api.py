@@ -185,6 +185,11 @@ def load_prior(path: Path) -> YawPrior:
 #: yaw inertia the yaw row identifies into the rigid body's (``--n-rdot`` gives the ship's own)
 N_RDOT = -28.7e6
 CHECKS = 60  # most alarm candidates (blocks over the threshold) whose estimate is checked
+#: the prior's prediction may miss a recording by this many times its noise sigma before the
+#: recording is refused as an input error: simulated changed and unchanged runs (full and
+#: simplified model, measured or derived tau_r) stay within 2.0x; tau_n x1000 gives ~780x,
+#: tau_n or r of the wrong sign ~18-24x (the sign check below catches these too)
+MISFIT_SIGMAS = 20.0
 
 
 @dataclass
@@ -218,6 +223,29 @@ def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float |
         return rel
     i_z = i_r + n_rdot
     return rel * i_r / i_z if i_z > 0 else None
+
+
+_UNITS_FIX = (f"check the units and signs: {MOMENT} in N m, > 0 turning the ship to starboard, and r in rad/s, "
+              "> 0 turning to starboard (README: 'Recordings for detect and detect-prior')")
+
+
+def check_inputs(rec: Recording, tau_r: np.ndarray, r: np.ndarray, eps: np.ndarray, sigma: float) -> None:
+    """Refuse a recording the prior cannot describe at all (an input error, not a change): a measured
+    pod yaw moment that does not turn the ship the way it is pushed (tau_n against dr/dt, as
+    diagnose checks its columns' signs), or a prediction residual not finite or over
+    MISFIT_SIGMAS times the prior's noise sigma (tau_n in kN m or x1000, a flipped sign)."""
+    if MOMENT in rec.channels and np.ptp(tau_r) > 0 and np.ptp(r) > 0:
+        win = min(len(r) - (1 - len(r) % 2), max(5, 2 * int(1.0 / rec.sample_time) + 1))
+        r_dot = savgol_filter(r, win, 2, deriv=1, delta=rec.sample_time) if win > 2 else np.gradient(r, rec.sample_time)
+        c = float(np.corrcoef(tau_r, r_dot)[0, 1])
+        if not c > 0:
+            raise RecordingError(f"{rec.source}: column '{MOMENT}' correlates {c:+.2f} with the rate of r (a pod yaw "
+                                 f"moment turns the ship its way: expected > 0); {_UNITS_FIX}")
+    rms = float(np.sqrt(np.mean(eps**2)))
+    if not np.isfinite(rms) or rms > MISFIT_SIGMAS * sigma:
+        raise RecordingError(f"{rec.source}: the prior's yaw rate misses the recording's by {rms:.2g} rad/s rms, "
+                             f"{rms / sigma:.0f}x its noise {sigma:.2g} rad/s (over {MISFIT_SIGMAS:g}x is no ship "
+                             f"change: an input error); {_UNITS_FIX}")
 
 
 def _decide(eps, S, prior, st, h, null_raw, min_change, n_rdot) -> tuple[int, dict]:
@@ -258,6 +286,7 @@ def detect(rec: Recording, prior: YawPrior, false_alarm: float = 0.02, min_chang
     sig, r = signals(rec, prior.kind)
     r0 = float(np.mean(r[:5]))
     eps = r - prior.predict(sig, r0=r0)
+    check_inputs(rec, sig["tau_r"], r, eps, prior.sigma)
     S = signatures(prior, sig)
     null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
     null_blocks = block_mean(null_raw, prior.block)
