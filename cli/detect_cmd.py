@@ -51,8 +51,10 @@ def register(app: typer.Typer) -> None:
         prior_file: Path = typer.Option(..., "--prior", help="prior model from `shiptrial detect-prior`"),
         plot: Path | None = typer.Option(None, "--plot", help="figure of both detectors' statistics (.png, .pdf, .svg), one "
                                          f"panel per recording; beyond {PLOT_PANELS} recordings one file per recording "
-                                         "(NAME-<recording>.png)"),
-        false_alarm: float = typer.Option(0.02, "--false-alarm", help="false-alarm probability per recording"),
+                                         "(NAME-001-<recording>.png, numbered in order)"),
+        false_alarm: float = typer.Option(0.02, "--false-alarm", help="design false-alarm probability per recording (on ships the prior's "
+                                          "model describes; measured higher on ships unlike it: README 'Change detection "
+                                          "on the truth family')"),
         min_change: float = typer.Option(0.05, "--min-change", help="smallest relative change worth an alarm (0.05 = 5 %; "
                                          "of I_z for yaw inertia)"),
         n_rdot: float = typer.Option(-28.7e6, "--n-rdot", help="added yaw inertia N_rdot (kg m^2, negative) that converts "

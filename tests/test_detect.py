@@ -78,6 +78,7 @@ def test_prior_recovers_the_nominal_yaw_inertia_and_round_trips(prior, tmp_path)
 def test_no_alarm_on_the_nominal_ship(prior):
     quiet = [detect(simulated_recording(Vessel(), 300, seed=s, measured_moment=True), prior) for s in (31, 32, 33)]
     assert not any(d.changed for d in quiet), [d.evidence["statistic_max"] for d in quiet]
+    assert all(d.summary()["onset_s"] is None and d.summary()["onset_interval_s"] is None for d in quiet)
 
 
 @pytest.mark.parametrize("changed,name", [(Vessel(inertia=1.3), "yaw_inertia"), (Vessel(damping=1.2), "yaw_damping"),
@@ -327,3 +328,22 @@ def test_a_moment_or_yaw_rate_of_wrong_unit_or_sign_is_refused_not_called_a_chan
         detect(rec, prior, null_runs=20)
     msg = str(e.value)
     assert msg.startswith("bad.csv:") and "N m" in msg and "starboard" in msg and "\n" not in msg, msg
+
+
+def test_the_alarm_time_is_when_the_decisions_evidence_ends(prior):
+    # the decision's estimate uses up to 60 s of data after the first threshold crossing; the
+    # alarm was printed at the crossing (63.9 s here), understating the delay by up to 60 s
+    from diagnose.detect.api import LOOK_AHEAD
+
+    rec = simulated_recording(Vessel(), 300, seed=41, change_at_s=CHANGE_S, changed=Vessel(damping=1.2), measured_moment=True)
+    d = detect(rec, prior)
+    crossing = d.t_blocks[np.flatnonzero((d.statistic / d.threshold).max(axis=1) > 1.0)[0]]
+    assert d.changed and d.alarm_s >= min(crossing + LOOK_AHEAD * rec.sample_time, d.t[-1]) - 1e-6, (crossing, d.alarm_s)
+
+
+def test_cli_help_states_the_design_false_alarm_rate_and_the_plot_names(capsys):
+    from cli.app import _run
+
+    assert _run(["detect", "--help"]) in (0, None)
+    text = " ".join(capsys.readouterr().out.split())
+    assert "design false-alarm" in text and "NAME-001-<recording>.png" in text, text

@@ -185,6 +185,7 @@ def load_prior(path: Path) -> YawPrior:
 #: yaw inertia the yaw row identifies into the rigid body's (``--n-rdot`` gives the ship's own)
 N_RDOT = -28.7e6
 CHECKS = 60  # most alarm candidates (blocks over the threshold) whose estimate is checked
+LOOK_AHEAD = 600  # samples after a crossing whose data the alarm decision's estimate also uses
 #: the prior's prediction may miss a recording by this many times its noise sigma before the
 #: recording is refused as an input error: simulated changed and unchanged runs (full and
 #: simplified model, measured or derived tau_r) stay within 2.0x; tau_n x1000 gives ~780x,
@@ -211,7 +212,8 @@ class Detection:
 
     def summary(self) -> dict:
         return {"recording": self.source, "changed": self.changed, "alarm_s": self.alarm_s, "property": self.property,
-                "onset_s": self.evidence.get("onset_s"), "onset_interval_s": self.evidence.get("onset_interval_s"),
+                "onset_s": self.evidence.get("onset_s") if self.changed else None,
+                "onset_interval_s": self.evidence.get("onset_interval_s") if self.changed else None,
                 "threshold": dict(zip(CANDIDATES, map(float, self.threshold))), "evidence": self.evidence, "dead_zone_cusum_alarm_s": self.dead_zone_alarm_s}
 
 
@@ -250,22 +252,24 @@ def check_inputs(rec: Recording, tau_r: np.ndarray, r: np.ndarray, eps: np.ndarr
 
 def _decide(eps, S, prior, st, h, null_raw, min_change, n_rdot) -> tuple[int, dict]:
     """First block over the threshold whose change is also worth an alarm: the leading candidate's
-    estimate (from the change point on, :func:`glr.onset`) at least ``min_change`` (of I_z for
-    yaw inertia) and twice its no-change standard deviation. Returns (alarm sample or -1, evidence)."""
+    estimate (from the change point on, :func:`glr.onset`, to LOOK_AHEAD samples after the
+    crossing) at least ``min_change`` (of I_z for yaw inertia) and twice its no-change standard
+    deviation. Returns (alarm sample: the last one that estimate saw, or -1; evidence)."""
     over = np.flatnonzero((st / h).max(axis=1) > 1.0)
     step = max(1, len(over) // CHECKS)
     for b in over[::step]:
         upto = (int(b) + 1) * prior.block
         k = int(np.argmax(st[b] / h))
         tau, lo, hi = onset(eps, S, prior, upto, k)
-        ev = attribute(eps, S, prior, upto + 600, null_raw, start=tau)
+        end = min(upto + LOOK_AHEAD, len(eps))
+        ev = attribute(eps, S, prior, end, null_raw, start=tau)
         lead = max(ev["candidates"], key=lambda c: ev["candidates"][c]["llr"])
         c = ev["candidates"][lead]
         size = physical_change(lead, c["relative_change"], prior.values["I_r"], n_rdot)
         if size is None:
             size = c["relative_change"]
         if abs(size) >= min_change and abs(c["relative_change"]) >= 2 * c["std"]:
-            return upto - 1, ev | {"onset": (tau, lo, hi)}
+            return end - 1, ev | {"onset": (tau, lo, hi)}  # the alarm time is when its evidence ends
     tau, lo, hi = onset(eps, S, prior, len(eps), int(np.argmax((st / h).max(axis=0))))
     return -1, attribute(eps, S, prior, len(eps), null_raw, start=0) | {"onset": (tau, lo, hi), "crossed_but_below_min_change": bool(len(over))}
 
