@@ -347,3 +347,23 @@ def test_cli_help_states_the_design_false_alarm_rate_and_the_plot_names(capsys):
     assert _run(["detect", "--help"]) in (0, None)
     text = " ".join(capsys.readouterr().out.split())
     assert "design false-alarm" in text and "NAME-001-<recording>.png" in text, text
+
+
+def test_a_rejected_run_does_not_call_an_estimate_over_2_sd_not_significant(prior):
+    # the alarm tests only the leading candidate: "no change detected" above "yaw inertia +10 %
+    # I_z" (over 2 sd) read as a contradiction when the estimates were all called "not significant"
+    from dataclasses import replace as dc_replace
+
+    from cli.detect_cmd import verdict_lines
+
+    d = detect(simulated_recording(Vessel(), 200, seed=52, measured_moment=True), prior)
+    assert not d.changed
+    cands = {k: dict(c) for k, c in d.evidence["candidates"].items()}
+    cands["yaw_inertia"] |= {"relative_change": 0.055, "std": 0.013, "I_z_relative_change": 0.101}
+    cands["pod_gain"] |= {"relative_change": -0.03, "std": 0.01}
+    crossed = dc_replace(d, evidence=d.evidence | {"candidates": cands, "crossed_but_below_min_change": True})
+    text = "\n".join(verdict_lines(crossed, 0.05))
+    assert "not significant" not in text, text
+    inertia = next(line for line in text.splitlines() if line.startswith("  yaw inertia"))
+    pod = next(line for line in text.splitlines() if line.startswith("  pod gain"))
+    assert "not separable from the other candidates" in inertia and "below --min-change" in pod, text
