@@ -185,6 +185,12 @@ def load_prior(path: Path) -> YawPrior:
 #: yaw inertia the yaw row identifies into the rigid body's (``--n-rdot`` gives the ship's own)
 N_RDOT = -28.7e6
 CHECKS = 60  # most alarm candidates (blocks over the threshold) whose estimate is checked
+LOOK_AHEAD = 600  # samples after a crossing whose data the alarm decision's estimate also uses
+#: the prior's prediction may miss a recording by this many times its noise sigma before the
+#: recording is refused as an input error: simulated changed and unchanged runs (full and
+#: simplified model, measured or derived tau_r) stay within 2.0x; tau_n x1000 gives ~780x,
+#: tau_n or r of the wrong sign ~18-24x (the sign check below catches these too)
+MISFIT_SIGMAS = 20.0
 
 
 @dataclass
@@ -206,7 +212,8 @@ class Detection:
 
     def summary(self) -> dict:
         return {"recording": self.source, "changed": self.changed, "alarm_s": self.alarm_s, "property": self.property,
-                "onset_s": self.evidence.get("onset_s"), "onset_interval_s": self.evidence.get("onset_interval_s"),
+                "onset_s": self.evidence.get("onset_s") if self.changed else None,
+                "onset_interval_s": self.evidence.get("onset_interval_s") if self.changed else None,
                 "threshold": dict(zip(CANDIDATES, map(float, self.threshold))), "evidence": self.evidence, "dead_zone_cusum_alarm_s": self.dead_zone_alarm_s}
 
 
@@ -220,24 +227,49 @@ def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float |
     return rel * i_r / i_z if i_z > 0 else None
 
 
+_UNITS_FIX = (f"check the units and signs: {MOMENT} in N m, > 0 turning the ship to starboard, and r in rad/s, "
+              "> 0 turning to starboard (README: 'Recordings for detect and detect-prior')")
+
+
+def check_inputs(rec: Recording, tau_r: np.ndarray, r: np.ndarray, eps: np.ndarray, sigma: float) -> None:
+    """Refuse a recording the prior cannot describe at all (an input error, not a change): a measured
+    pod yaw moment that does not turn the ship the way it is pushed (tau_n against dr/dt, as
+    diagnose checks its columns' signs), or a prediction residual not finite or over
+    MISFIT_SIGMAS times the prior's noise sigma (tau_n in kN m or x1000, a flipped sign)."""
+    if MOMENT in rec.channels and np.ptp(tau_r) > 0 and np.ptp(r) > 0:
+        win = min(len(r) - (1 - len(r) % 2), max(5, 2 * int(1.0 / rec.sample_time) + 1))
+        r_dot = savgol_filter(r, win, 2, deriv=1, delta=rec.sample_time) if win > 2 else np.gradient(r, rec.sample_time)
+        c = float(np.corrcoef(tau_r, r_dot)[0, 1])
+        if not c > 0:
+            raise RecordingError(f"{rec.source}: column '{MOMENT}' correlates {c:+.2f} with the rate of r (a pod yaw "
+                                 f"moment turns the ship its way: expected > 0); {_UNITS_FIX}")
+    rms = float(np.sqrt(np.mean(eps**2)))
+    if not np.isfinite(rms) or rms > MISFIT_SIGMAS * sigma:
+        raise RecordingError(f"{rec.source}: the prior's yaw rate misses the recording's by {rms:.2g} rad/s rms, "
+                             f"{rms / sigma:.0f}x its noise {sigma:.2g} rad/s (over {MISFIT_SIGMAS:g}x is no ship "
+                             f"change: an input error); {_UNITS_FIX}")
+
+
 def _decide(eps, S, prior, st, h, null_raw, min_change, n_rdot) -> tuple[int, dict]:
     """First block over the threshold whose change is also worth an alarm: the leading candidate's
-    estimate (from the change point on, :func:`glr.onset`) at least ``min_change`` (of I_z for
-    yaw inertia) and twice its no-change standard deviation. Returns (alarm sample or -1, evidence)."""
+    estimate (from the change point on, :func:`glr.onset`, to LOOK_AHEAD samples after the
+    crossing) at least ``min_change`` (of I_z for yaw inertia) and twice its no-change standard
+    deviation. Returns (alarm sample: the last one that estimate saw, or -1; evidence)."""
     over = np.flatnonzero((st / h).max(axis=1) > 1.0)
     step = max(1, len(over) // CHECKS)
     for b in over[::step]:
         upto = (int(b) + 1) * prior.block
         k = int(np.argmax(st[b] / h))
         tau, lo, hi = onset(eps, S, prior, upto, k)
-        ev = attribute(eps, S, prior, upto + 600, null_raw, start=tau)
+        end = min(upto + LOOK_AHEAD, len(eps))
+        ev = attribute(eps, S, prior, end, null_raw, start=tau)
         lead = max(ev["candidates"], key=lambda c: ev["candidates"][c]["llr"])
         c = ev["candidates"][lead]
         size = physical_change(lead, c["relative_change"], prior.values["I_r"], n_rdot)
         if size is None:
             size = c["relative_change"]
         if abs(size) >= min_change and abs(c["relative_change"]) >= 2 * c["std"]:
-            return upto - 1, ev | {"onset": (tau, lo, hi)}
+            return end - 1, ev | {"onset": (tau, lo, hi)}  # the alarm time is when its evidence ends
     tau, lo, hi = onset(eps, S, prior, len(eps), int(np.argmax((st / h).max(axis=0))))
     return -1, attribute(eps, S, prior, len(eps), null_raw, start=0) | {"onset": (tau, lo, hi), "crossed_but_below_min_change": bool(len(over))}
 
@@ -258,6 +290,7 @@ def detect(rec: Recording, prior: YawPrior, false_alarm: float = 0.02, min_chang
     sig, r = signals(rec, prior.kind)
     r0 = float(np.mean(r[:5]))
     eps = r - prior.predict(sig, r0=r0)
+    check_inputs(rec, sig["tau_r"], r, eps, prior.sigma)
     S = signatures(prior, sig)
     null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
     null_blocks = block_mean(null_raw, prior.block)
