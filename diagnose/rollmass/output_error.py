@@ -216,6 +216,8 @@ def z_f_sensitivity(prob: _Problem, x: np.ndarray, J: np.ndarray, step: float = 
     Implicit-function theorem on the normal equations ``J^T r = 0`` (Gauss-Newton Hessian): ``dr/dz_f``
     is one central difference of the residual at fixed ``x`` and the fit's final noise weights and
     whitening filters, ``J`` the residual Jacobian at ``x``. NaN when the residual cannot be evaluated.
+    It assumes ``x`` stationary; the oe fit's stopping point is not always so along the mass-height
+    ridge, and there the sensitivity can be far off (see tests/test_rollmass_zf_sensitivity.py).
     """
     shifted = (_Problem(prob.datasets, prob.kn, prob.cal, prob.z_f + s * step, prob.free, prob.w, prob.ar)
                for s in (-1.0, 1.0))
@@ -231,10 +233,10 @@ def z_f_sensitivity(prob: _Problem, x: np.ndarray, J: np.ndarray, step: float = 
 def central_jacobian(fun, x: np.ndarray) -> np.ndarray:
     """Central-difference Jacobian of ``fun`` at ``x``, step ``eps^(1/3) max(1, |x_j|)``.
 
-    The covariance and the ``z_f`` sensitivity need it: the fit's own forward-difference Jacobian
-    (step ``sqrt(eps)``) carries round-off of ~1e-8 relative, as large as the smallest singular
-    value of the mass-height ridge, and on case 1 seed 3 it put the ridge's sensitivity to ``z_f``
-    20x too high (refits and the cost at the predicted optimum confirm the central one).
+    The covariance and the ``z_f`` sensitivity need it along the ill-conditioned mass-height ridge:
+    on ``mass-sim --case case1 --seed 3`` the fit's own forward-difference Jacobian (step
+    ``sqrt(eps)``) gave dm/dz_f = -14.7 kg/m, this one -0.66, and at z_f -+ 1 mm the cost at the
+    optimum this one predicts was below the cost at trust-region refits' stopping points.
     """
     steps = np.finfo(float).eps ** (1 / 3) * np.maximum(1.0, np.abs(x))
     cols = []
