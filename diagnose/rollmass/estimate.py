@@ -316,9 +316,9 @@ def _improved(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool
 
 
 def _oe(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, z_f: float, start: dict[str, float]) -> MassEstimate:
-    """Output-error fit; with ``with_ci`` its sandwich covariance plus the ``z_f`` prior sd propagated
-    by refits at ``z_f -+ h``."""
-    f = fit_output_error(datasets, kn, cal, z_f, start)
+    """Output-error fit; with ``with_ci`` its sandwich covariance plus the ``z_f`` prior variance
+    propagated through the optimum's sensitivity to ``z_f`` (:func:`output_error.z_f_sensitivity`)."""
+    f = fit_output_error(datasets, kn, cal, z_f, start, with_cov=with_ci)
     # K_r of (11) from the fitted K_ur, so the shared parameters read as in the paper's Table 3
     K_r = (f.values["K_ur"] - f.values["K_vdot"]) * kn.U
     params = {**f.values, "K_r": K_r, "z_f": z_f}
@@ -326,18 +326,9 @@ def _oe(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, z_f:
                        free=SHARED + ("m", "zbar_m"), rel_singular=f.rel_singular)
     if not f.converged:
         est.warnings.append(f"oe: the fit did not converge ({f.message})")
-    if with_ci and f.converged and np.all(np.isfinite(f.cov_load)):
-        # slope of the load in z_f from refits at z_f -+ h started at this optimum. Along the flat
-        # mass-height ridge a refit can stop elsewhere: both refits at one other point (the fit had
-        # stopped short: the one-sided slopes are large and opposite, the central one right) or one
-        # refit in another local minimum (the central slope is then large, one one-sided right). The
-        # smallest of the three is kept; it can understate the z_f term (coverage is measured).
-        h = max(kn.z_f_prior_sd, 1e-3) * 0.5
-        lo, hi = (fit_output_error(datasets, kn, cal, z_f + s * h, f.values, noise=f.noise) for s in (-1, 1))
-        at = [np.array([g.m, g.zbar_m]) for g in (lo, hi)]
-        here = np.array([f.m, f.zbar_m])
-        slopes = [(here - at[0]) / h, (at[1] - here) / h, (at[1] - at[0]) / (2 * h)]
-        dv = min(slopes, key=lambda d: abs(d[0] / max(abs(f.m), 1e-9)) + abs(d[1]))
+    if with_ci and f.converged and np.all(np.isfinite(f.cov_load)) and np.all(np.isfinite(f.load_dzf)):
+        # delta method: z_f ~ N(prior, sd^2) moves the optimum by load_dzf per metre
+        dv = f.load_dzf
         cov = f.cov_load + np.outer(dv, dv) * kn.z_f_prior_sd**2
         est.m_sd, est.zbar_m_sd = float(np.sqrt(cov[0, 0])), float(np.sqrt(cov[1, 1]))
         est.corr = float(cov[0, 1] / (est.m_sd * est.zbar_m_sd))

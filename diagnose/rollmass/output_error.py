@@ -21,7 +21,9 @@ calibration load is known. Per dataset and channel a constant (sensor bias) and 
 weighted by the inverse of their innovation sd, re-estimated twice (iterated ML for a diagonal,
 coloured noise model). The centre-of-rotation offset ``z_f`` is fixed at the profile's prior (the flat
 direction of :func:`diagnose.rollmass.model.flat_direction`) and its prior uncertainty is
-propagated into the confidence intervals.
+propagated into the confidence intervals through the implicit-function sensitivity of the optimum,
+``d theta / d z_f = -(J^T J)^-1 J^T dr/dz_f`` (the delta method on the estimating equations
+``J^T r = 0``, Gauss-Newton Hessian; e.g. Seber & Wild 1989, Nonlinear Regression, sec. 2.1).
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import OptimizeResult, least_squares
 from scipy.signal import lfilter, ss2tf
 
 from diagnose.rollmass.model import Known, Load, RollProfile
@@ -44,6 +46,9 @@ NOISE_AR = 6  # order of each channel's whitening filter
 # Newey-West lags of the sandwich covariance: 5 s at 50 Hz, the length of a joystick turn, over which
 # unmodelled dynamics leave structure in the residuals (turn entries, Linder et al. 2015 Fig. 5)
 SANDWICH_LAGS = 250
+# central-difference step of the residual in z_f [m]: the residual is smooth in z_f (a simulation),
+# so a step far below the prior sd (15 mm) gives the derivative, not a secant over the prior
+Z_F_STEP = 1e-4
 
 
 @dataclass
@@ -54,6 +59,7 @@ class OEFit:
     m: float
     zbar_m: float
     cov_load: np.ndarray  # 2x2 covariance of (m, zbar_m), z_f fixed
+    load_dzf: np.ndarray  # d(m, zbar_m)/d z_f of the optimum [kg/m, m/m]; NaN when not computable
     converged: bool
     message: str
     rel_singular: float
@@ -179,11 +185,12 @@ class _Problem:
 
 
 def _best_start(datasets: list[RollRecording], kn: Known, cal: Load, z_f: float, start: dict[str, float],
-                w: np.ndarray) -> np.ndarray:
+                w: np.ndarray) -> OptimizeResult:
     """Two starts for the joint fit, the one with the lower unweighted cost kept: ``start`` itself,
     and the ship parameters fitted to the two runs whose loads are known (nominal, calibration).
     From a poor start the joint fit can otherwise settle in a local minimum (a wrong sway row with
-    a negative or huge load), as a few per cent of the fits from start values 20 % off did."""
+    a negative or huge load), as a few per cent of the fits from start values 20 % off did.
+    Returns the kept joint fit (unwhitened, on the weights ``w``)."""
     try:
         for load, rec in zip((Load(0.0, 0.0), cal), datasets):
             _simulate(start, kn, z_f, load, rec)
@@ -200,7 +207,44 @@ def _best_start(datasets: list[RollRecording], kn: Known, cal: Load, z_f: float,
                             xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=2000)
         if best is None or res.cost < best.cost:
             best = res
-    return best.x
+    return best
+
+
+def z_f_sensitivity(prob: _Problem, x: np.ndarray, J: np.ndarray, step: float = Z_F_STEP) -> np.ndarray:
+    """Sensitivity ``d x / d z_f = -(J^T J)^-1 J^T dr/dz_f`` of the least-squares optimum ``x`` of ``prob``.
+
+    Implicit-function theorem on the normal equations ``J^T r = 0`` (Gauss-Newton Hessian): ``dr/dz_f``
+    is one central difference of the residual at fixed ``x`` and the fit's final noise weights and
+    whitening filters, ``J`` the residual Jacobian at ``x``. NaN when the residual cannot be evaluated.
+    It assumes ``x`` stationary; the oe fit's stopping point is not always so along the mass-height
+    ridge, and there the sensitivity can be far off (see tests/test_rollmass_zf_sensitivity.py).
+    """
+    shifted = (_Problem(prob.datasets, prob.kn, prob.cal, prob.z_f + s * step, prob.free, prob.w, prob.ar)
+               for s in (-1.0, 1.0))
+    try:
+        # errors(), not residual(): the latter hides a failed simulation behind a constant
+        lo, hi = (np.concatenate([(e * w).ravel() for e, w in zip(p.errors(x), p.w)]) for p in shifted)
+        dr = (hi - lo) / (2 * step)
+        return -np.linalg.solve(J.T @ J, J.T @ dr)
+    except (FloatingPointError, np.linalg.LinAlgError):
+        return np.full(len(x), np.nan)
+
+
+def central_jacobian(fun, x: np.ndarray) -> np.ndarray:
+    """Central-difference Jacobian of ``fun`` at ``x``, step ``eps^(1/3) max(1, |x_j|)``.
+
+    The covariance and the ``z_f`` sensitivity need it along the ill-conditioned mass-height ridge:
+    on ``mass-sim --case case1 --seed 3`` the fit's own forward-difference Jacobian (step
+    ``sqrt(eps)``) gave dm/dz_f = -14.7 kg/m, this one -0.66, and at z_f -+ 1 mm the cost at the
+    optimum this one predicts was below the cost at trust-region refits' stopping points.
+    """
+    steps = np.finfo(float).eps ** (1 / 3) * np.maximum(1.0, np.abs(x))
+    cols = []
+    for j, hj in enumerate(steps):
+        e = np.zeros_like(x)
+        e[j] = hj
+        cols.append((fun(x + e) - fun(x - e)) / (2 * hj))
+    return np.column_stack(cols)
 
 
 def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int = SANDWICH_LAGS) -> np.ndarray:
@@ -225,26 +269,35 @@ def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int = S
 
 
 def fit_output_error(datasets: list[RollRecording], kn: Known, cal: Load, z_f: float, start: dict[str, float],
-                     n_reweight: int = 2, ar_order: int = NOISE_AR, noise: tuple | None = None) -> OEFit:
+                     n_reweight: int = 2, ar_order: int = NOISE_AR, noise: tuple | None = None,
+                     with_cov: bool = True) -> OEFit:
     """Fit :data:`SHARED` and the loaded ``m, zbar_m`` by output error on ``p, a_s, r`` of all datasets.
 
     ``start`` holds start values of :data:`SHARED`; ``m, zbar_m`` start at the calibration load.
     Weights: 1/sd of each dataset's channel residual, re-estimated ``n_reweight`` times; with
-    ``noise`` (from an earlier fit) that noise model is kept and the fit is done once.
+    ``noise`` (from an earlier fit) that noise model is kept and the fit is done once. Without
+    ``with_cov`` the sandwich covariance and the ``z_f`` sensitivity are left NaN.
     """
     free = SHARED + ("m", "zbar_m")
     w = np.array([1.0 / np.maximum(_measured(d).std(axis=0), 1e-12) for d in datasets])
-    ar = None
+    ar, first = None, None
     if noise is not None:
         (w, ar), n_reweight = noise, 0
         # a refit on a known noise model starts where the earlier fit ended, load included: from the
         # calibration load it could settle in another local minimum
         x = np.array([start[k] for k in SHARED] + [start.get("m", cal.m), start.get("zbar_m", cal.zbar)])
     else:
-        x = _best_start(datasets, kn, cal, z_f, start, w)
+        first = _best_start(datasets, kn, cal, z_f, start, w)
+        x = first.x
     for it in range(n_reweight + 1):
         prob = _Problem(datasets, kn, cal, z_f, free, w, ar)
-        res = least_squares(prob.residual, x, x_scale="jac", method="lm", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=2000)
+        if it == 0 and first is not None and n_reweight > 0:
+            # _best_start has just solved this problem (same weights, no whitening); its optimum only
+            # seeds the reweighted fits, which run to the tight tolerance below
+            res = first
+        else:
+            res = least_squares(prob.residual, x, x_scale="jac", method="lm", xtol=1e-10, ftol=1e-10, gtol=1e-10,
+                                max_nfev=2000)
         x = res.x
         errs = prob.errors(x)
         sd = np.array([e.std(axis=0) for e in errs])
@@ -260,10 +313,15 @@ def fit_output_error(datasets: list[RollRecording], kn: Known, cal: Load, z_f: f
     JtJ = J.T @ J
     scale = np.sqrt(np.maximum(np.diag(JtJ), 1e-300))
     sv = np.linalg.svd(J / scale, compute_uv=False)
-    try:
-        cov_load = sandwich_cov(J, res.fun, [d.n for d in datasets])[-2:, -2:]
-    except np.linalg.LinAlgError:
-        cov_load = np.full((2, 2), np.nan)
+    cov_load, load_dzf = np.full((2, 2), np.nan), np.full(2, np.nan)
+    if with_cov:
+        J = central_jacobian(prob.residual, x)
+        try:
+            cov_load = sandwich_cov(J, res.fun, [d.n for d in datasets])[-2:, -2:]
+        except np.linalg.LinAlgError:
+            pass
+        load_dzf = z_f_sensitivity(prob, x, J)[-2:]
     ok = bool(res.success) and bool(np.all(np.isfinite(x))) and float(res.cost) < 1e5
-    return OEFit(values=v, m=v["m"], zbar_m=v["zbar_m"], cov_load=cov_load, converged=ok, message=str(res.message),
-                 rel_singular=float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0, noise_sd=sd, noise=(w, ar))
+    return OEFit(values=v, m=v["m"], zbar_m=v["zbar_m"], cov_load=cov_load, load_dzf=load_dzf, converged=ok,
+                 message=str(res.message), rel_singular=float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0, noise_sd=sd,
+                 noise=(w, ar))
