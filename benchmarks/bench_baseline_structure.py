@@ -37,12 +37,22 @@ EXTRA = [Manoeuvre("zigzag", 15, 15, 1, 650), Manoeuvre("turn", 20, 0, -1, 800),
 
 def _recording(run, cols: dict | None, name: str, scale: float) -> Recording:
     """A full-scale Recording of a battery run (Froude-scaled from model scale like the CLI)."""
-    c = cols or {"t": run.t, "x": run.x, "y": run.y, "psi": run.psi, "u": run.u, "v": run.v, "r": run.r,
-                 "delta": run.delta, "n": run.n}
+    c = cols or {
+        "t": run.t,
+        "x": run.x,
+        "y": run.y,
+        "psi": run.psi,
+        "u": run.u,
+        "v": run.v,
+        "r": run.r,
+        "delta": run.delta,
+        "n": run.n,
+    }
     q = np.sqrt(scale)  # Froude: times and speeds x sqrt(lambda), rates / sqrt(lambda), rps / sqrt(lambda)
     y = np.column_stack([c["u"] * q, c["v"] * q, c["r"] / q])
-    return Recording(name, c["t"] * q, y, c["psi"], np.column_stack([c["x"], c["y"]]) * scale,
-                     {"delta": c["delta"], "n": c["n"] / q})
+    return Recording(
+        name, c["t"] * q, y, c["psi"], np.column_stack([c["x"], c["y"]]) * scale, {"delta": c["delta"], "n": c["n"] / q}
+    )
 
 
 def sim_error(profile: ShipProfile, theta: np.ndarray, rec: Recording, truth: Recording) -> np.ndarray:
@@ -62,16 +72,18 @@ def run_case(name: str, ship: str, clean: bool) -> list[dict]:
     if not prof.structure_terms:
         raise SystemExit(f"ship {ship!r} declares no [diagnosis] structure: nothing to compare")
     g = generate(c)
-    extra = simulate_runs(_setup(c)[0], EXTRA, self_propulsion_rps(kvlcc2(c.scale)), sample_time=g.sample_time,
-                          lead_in_s=LEAD_IN_S)
+    extra = simulate_runs(
+        _setup(c)[0], EXTRA, self_propulsion_rps(kvlcc2(c.scale)), sample_time=g.sample_time, lead_in_s=LEAD_IN_S
+    )
     lab = [r.manoeuvre.label for r in g.calm + g.diagnose + g.validate + extra]
-    roles = (["calm"] * len(g.calm) + ["diagnose"] * len(g.diagnose) + ["validate"] * len(g.validate)
-             + ["extra"] * len(extra))
+    roles = ["calm"] * len(g.calm) + ["diagnose"] * len(g.diagnose) + ["validate"] * len(g.validate) + ["extra"] * len(extra)
     runs = g.calm + g.diagnose + g.validate + extra
     truth = [_recording(r, None, f"{lb}", c.scale) for r, lb in zip(runs, lab)]
-    noisy = [_recording(r, None if clean else cols, lb, c.scale)
-             for r, cols, lb in zip(runs, g.noisy["calm"] + g.noisy["diagnose"] + g.noisy["validate"] + [None] * len(extra), lab)]
-    calm, diag = noisy[: len(g.calm)], noisy[len(g.calm): len(g.calm) + len(g.diagnose)]
+    noisy = [
+        _recording(r, None if clean else cols, lb, c.scale)
+        for r, cols, lb in zip(runs, g.noisy["calm"] + g.noisy["diagnose"] + g.noisy["validate"] + [None] * len(extra), lab)
+    ]
+    calm, diag = noisy[: len(g.calm)], noisy[len(g.calm) : len(g.calm) + len(g.diagnose)]
     t0 = time.process_time()
     th_own, _ = fit_baseline(prof, prof.params(), calm)
     t1 = time.process_time()
@@ -81,8 +93,16 @@ def run_case(name: str, ship: str, clean: bool) -> list[dict]:
         ext, th_ext, _note, _added = fit_declared(prof, prof.params(), calm)
     rows = []
     for role, lb, rec, tr in zip(roles, lab, noisy, truth):
-        rows.append({"case": name, "role": role, "run": lb, "before": sim_error(prof, th_own, rec, tr),
-                     "after": sim_error(ext, th_ext, rec, tr), "calm": c.effect is None or role in ("calm", "extra")})
+        rows.append(
+            {
+                "case": name,
+                "role": role,
+                "run": lb,
+                "before": sim_error(prof, th_own, rec, tr),
+                "after": sim_error(ext, th_ext, rec, tr),
+                "calm": c.effect is None or role in ("calm", "extra"),
+            }
+        )
     rows[0]["cpu"] = (t1 - t0, t2 - t1)
     rows[0]["notes"] = notes
     return rows
@@ -95,8 +115,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--ship", default="kvlcc2", help="a profile with a [diagnosis] structure")
     a = ap.parse_args(argv)
     out = []
-    print(f"simulation error / noise (u, v, r), baseline fitted on the {'noise-free' if a.clean else 'noisy'} calm runs; "
-          f"ship {a.ship}")
+    print(
+        f"simulation error / noise (u, v, r), baseline fitted on the {'noise-free' if a.clean else 'noisy'} calm runs; "
+        f"ship {a.ship}"
+    )
     print(f"{'case':16s} {'role':9s} {'run':14s} {'own structure':>20s} {'declared structure':>22s}")
     for name in [n.strip() for n in a.cases.split(",") if n.strip()]:
         rows = run_case(name, a.ship, a.clean)
@@ -108,8 +130,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
         b = np.array([r["before"] for r in held])
         d = np.array([r["after"] for r in held])
         f = lambda e: "/".join(f"{x:6.1f}" for x in e)  # noqa: E731
-        print(f"{'':16s} held-out calm, median {f(np.median(b, 0)):>25s} {f(np.median(d, 0)):>22s}   fit cpu "
-              f"{rows[0]['cpu'][0]:.1f} s, {rows[0]['cpu'][1]:.1f} s" + (f"; {rows[0]['notes'][0]}" if rows[0]["notes"] else ""))
+        print(
+            f"{'':16s} held-out calm, median {f(np.median(b, 0)):>25s} {f(np.median(d, 0)):>22s}   fit cpu "
+            f"{rows[0]['cpu'][0]:.1f} s, {rows[0]['cpu'][1]:.1f} s" + (f"; {rows[0]['notes'][0]}" if rows[0]["notes"] else "")
+        )
         print(f"{'':16s} held-out calm, worst  {f(b.max(0)):>25s} {f(d.max(0)):>22s}")
         out += rows
     return out

@@ -70,7 +70,9 @@ def bench(name: str, fn, target: float, runs: int) -> float:
         fn()
         times.append(time.perf_counter() - t)
     med = statistics.median(times)
-    print(f"{name:45s} median {med:7.3f} s  target {target:5.1f} s  ratio {med / target:5.2f}  {'OK' if med <= target else 'SLOW'}")
+    print(
+        f"{name:45s} median {med:7.3f} s  target {target:5.1f} s  ratio {med / target:5.2f}  {'OK' if med <= target else 'SLOW'}"
+    )
     return med
 
 
@@ -86,8 +88,10 @@ def scaling(runs: int, workers: list[int], scheduler: str | None, repeat: int) -
         engines.append((f"dask {scheduler}", lambda: get_engine(scheduler)))
     base = ref = base_cpu = None
     rows = []
-    print(f"Monte Carlo scaling: {runs} runs x {len(designs)} designs, median of {repeat}; "
-          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    print(
+        f"Monte Carlo scaling: {runs} runs x {len(designs)} designs, median of {repeat}; "
+        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs"
+    )
     for label, make in engines:
         times, cpus = [], []
         for _ in range(repeat):
@@ -104,11 +108,15 @@ def scaling(runs: int, workers: list[int], scheduler: str | None, repeat: int) -
         e = ev.engine
         slots = e["workers"] * e["threads_per_worker"]
         rows.append({"label": label, "slots": slots, "wall": med, "cpu": cpu})
-        print(f"{label:14s} {med:7.2f} s  {2 * runs / med:6.0f} runs/s  speed-up {base / med:5.2f}  efficiency "
-              f"{base / med / slots:5.2f}  {e['tasks']:3d} tasks ({e['tasks_per_worker']:.1f} per worker, {e['runs_per_task']} runs each)  "
-              f"digests {'same as inline' if dig == ref else 'DIFFER from inline'}")
-        print(f"{'':14s} CPU {cpu:7.2f} s (this process and its workers), {1e3 * cpu / (2 * runs):5.2f} ms per run, "
-              f"{cpu / base_cpu:4.2f} x inline's: CPU-bound speed-up {slots * base_cpu / cpu:5.2f} on an idle machine")
+        print(
+            f"{label:14s} {med:7.2f} s  {2 * runs / med:6.0f} runs/s  speed-up {base / med:5.2f}  efficiency "
+            f"{base / med / slots:5.2f}  {e['tasks']:3d} tasks ({e['tasks_per_worker']:.1f} per worker, {e['runs_per_task']} runs each)  "
+            f"digests {'same as inline' if dig == ref else 'DIFFER from inline'}"
+        )
+        print(
+            f"{'':14s} CPU {cpu:7.2f} s (this process and its workers), {1e3 * cpu / (2 * runs):5.2f} ms per run, "
+            f"{cpu / base_cpu:4.2f} x inline's: CPU-bound speed-up {slots * base_cpu / cpu:5.2f} on an idle machine"
+        )
     return rows
 
 
@@ -154,8 +162,10 @@ def fit_task_cost(sh: MCShared, sizes: tuple[int, ...] = SIZES, repeat: int = 3)
             cost.append(statistics.median(ts))
         per_run[d], fixed[d] = np.polyfit(sizes, cost, 1)
         resid = max(abs(fixed[d] + n * per_run[d] - c) / c for n, c in zip(sizes, cost))
-        print(f"task cost {d:9s} (CPU, median of {repeat} at {'/'.join(map(str, sizes))} runs): fixed {1e3 * fixed[d]:5.0f} ms "
-              f"+ {1e3 * per_run[d]:5.2f} ms per run (worst residual of the line {100 * resid:.0f} %)")
+        print(
+            f"task cost {d:9s} (CPU, median of {repeat} at {'/'.join(map(str, sizes))} runs): fixed {1e3 * fixed[d]:5.0f} ms "
+            f"+ {1e3 * per_run[d]:5.2f} ms per run (worst residual of the line {100 * resid:.0f} %)"
+        )
     return TaskCost(fixed, per_run)
 
 
@@ -197,7 +207,7 @@ def first_task_extra(sh: MCShared, n: int, repeat: int = 2) -> float:
     from expdesign.parallel import LocalEngine
 
     items = [("random", k * n, (k + 1) * n) for k in range(2)]
-    warm = [_timed_task(it, sh) for it in items * repeat][len(items):]
+    warm = [_timed_task(it, sh) for it in items * repeat][len(items) :]
     cold = []
     for _ in range(repeat):
         with LocalEngine(2) as eng:
@@ -218,8 +228,16 @@ def makespan(costs: list[float], w: int, first_extra: float = 0.0) -> float:
     return max(t for t, _ in free)
 
 
-def predict(cost: TaskCost, designs: list[str], runs: int, w: int, serial: float, tasks_per_worker: int = 4,
-            first_extra: Callable[[int], float] = lambda n: 0.0, inflation: float = 1.0) -> dict:
+def predict(
+    cost: TaskCost,
+    designs: list[str],
+    runs: int,
+    w: int,
+    serial: float,
+    tasks_per_worker: int = 4,
+    first_extra: Callable[[int], float] = lambda n: 0.0,
+    inflation: float = 1.0,
+) -> dict:
     """Predicted wall time on ``w`` otherwise idle cores: the parent's serial time (pool start and
     stop, Amdahl) plus the makespan of the tasks cut as the engines cut them, in fresh processes
     (as a command runs: inline pays ``first_extra`` once, each worker once). ``inflation``: the
@@ -250,26 +268,39 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
     pool = {w: pool_overhead(sh, w) for w in counts if w > 1}
     serial = {1: 0.0} | {w: v["serial"] for w, v in pool.items()}
     warm = first_task_extra(sh, 250) / 250
-    print(f"a worker's first task costs {1e3 * warm:.2f} ms per run more than in a warm process (heap growth, measured at 250 runs)")
-    print(f"serial in the parent: shared inputs {1e3 * prep:.0f} ms CPU (prepare(), before the clock starts, the same for every "
-          "engine); pool start + stop with W workers, serial part on an idle machine (wall here): "
-          + ", ".join(f"{w}: {1e3 * v['serial']:.0f} ms ({1e3 * v['wall']:.0f})" for w, v in pool.items()))
+    print(
+        f"a worker's first task costs {1e3 * warm:.2f} ms per run more than in a warm process (heap growth, measured at 250 runs)"
+    )
+    print(
+        f"serial in the parent: shared inputs {1e3 * prep:.0f} ms CPU (prepare(), before the clock starts, the same for every "
+        "engine); pool start + stop with W workers, serial part on an idle machine (wall here): "
+        + ", ".join(f"{w}: {1e3 * v['serial']:.0f} ms ({1e3 * v['wall']:.0f})" for w, v in pool.items())
+    )
     modelled = {}
     for row in (r for r in measured if not r["label"].startswith("dask")):  # CPU on any machine, wall up to the core count
         fresh = row["slots"] > 1  # the pools' workers are new processes, the inline runs reuse this warm one
         pr = predict(cost, names, runs, row["slots"], serial.get(row["slots"], 0.0), first_extra=lambda n, f=fresh: n * warm * f)
         cpu = pr["cpu"] + prep + (pool[row["slots"]]["cpu"] if row["slots"] > 1 else 0.0)
         modelled[row["slots"]] = row["cpu"] / cpu
-        print(f"  model vs measured {row['label']:12s}: CPU {cpu:6.2f} s vs {row['cpu']:6.2f} s (inflation {row['cpu'] / cpu:4.2f}); "
-              f"wall {pr['wall']:6.2f} s vs "
-              f"{row['wall']:6.2f} s{'' if row['slots'] <= (os.cpu_count() or 1) else ' (more workers than CPUs: wall not comparable)'}")
+        print(
+            f"  model vs measured {row['label']:12s}: CPU {cpu:6.2f} s vs {row['cpu']:6.2f} s (inflation {row['cpu'] / cpu:4.2f}); "
+            f"wall {pr['wall']:6.2f} s vs "
+            f"{row['wall']:6.2f} s{'' if row['slots'] <= (os.cpu_count() or 1) else ' (more workers than CPUs: wall not comparable)'}"
+        )
     infl = _inflation(modelled)
     _predicted(cost, names, runs, serial, f"{runs} runs x {len(names)} designs", warm, infl)
     # `shiptrial design --monte-carlo 500` evaluates 4 designs; uniform and thesis cost as the optimized one (fixed shares)
     cost.fixed |= {k: cost.fixed["optimized"] for k in ("uniform", "thesis")}
     cost.per_run |= {k: cost.per_run["optimized"] for k in ("uniform", "thesis")}
-    _predicted(cost, ["optimized", "random", "uniform", "thesis"], 500, serial, "shiptrial design --monte-carlo 500 (4 designs)", warm,
-               infl)
+    _predicted(
+        cost,
+        ["optimized", "random", "uniform", "thesis"],
+        500,
+        serial,
+        "shiptrial design --monte-carlo 500 (4 designs)",
+        warm,
+        infl,
+    )
 
 
 def _inflation(measured: dict[int, float]) -> Callable[[int], float]:
@@ -280,14 +311,23 @@ def _inflation(measured: dict[int, float]) -> Callable[[int], float]:
     base = measured.get(1, 1.0)
     rel = {w: max(1.0, v / base) for w, v in measured.items()}
     if rel:
-        print("CPU inflation (measured CPU / modelled CPU, relative to inline): "
-              + ", ".join(f"{w} workers {v:4.2f}" for w, v in sorted(rel.items()))
-              + f"; more workers than measured take the {max(rel)}-worker figure")
+        print(
+            "CPU inflation (measured CPU / modelled CPU, relative to inline): "
+            + ", ".join(f"{w} workers {v:4.2f}" for w, v in sorted(rel.items()))
+            + f"; more workers than measured take the {max(rel)}-worker figure"
+        )
     return lambda w: rel.get(w) or next((rel[k] for k in sorted(rel, reverse=True) if k <= w), 1.0)
 
 
-def _predicted(cost: TaskCost, names: list[str], runs: int, serial: dict[int, float], what: str, warm: float,
-               inflation: Callable[[int], float] = lambda w: 1.0) -> None:
+def _predicted(
+    cost: TaskCost,
+    names: list[str],
+    runs: int,
+    serial: dict[int, float],
+    what: str,
+    warm: float,
+    inflation: Callable[[int], float] = lambda w: 1.0,
+) -> None:
     """Predicted wall, speed-up and efficiency per worker count in ``serial``, and at the most workers by tasks per
     worker; ``warm``: extra CPU seconds per run of a worker's first task; ``inflation``: the measured CPU inflation
     per worker count (:func:`_inflation`), applied to the workers' tasks."""
@@ -297,12 +337,16 @@ def _predicted(cost: TaskCost, names: list[str], runs: int, serial: dict[int, fl
     for w in serial:
         pr = predict(cost, names, runs, w, serial[w], inflation=inflation(w), **extra)
         pr0 = predict(cost, names, runs, w, serial[w], **extra)
-        print(f"  {w:2d} workers: {pr['tasks']:3d} tasks of <= {pr['chunk']:3d} runs ({pr['tasks'] / w:4.1f} per worker)  wall {pr['wall']:6.2f} s  "
-              f"speed-up {inline / pr['wall']:5.2f}  efficiency {inline / pr['wall'] / w:4.2f} with CPU inflation {inflation(w):4.2f} "
-              f"({inline / pr0['wall'] / w:4.2f} without it; without the serial part {inline / pr['compute'] / w:4.2f})")
+        print(
+            f"  {w:2d} workers: {pr['tasks']:3d} tasks of <= {pr['chunk']:3d} runs ({pr['tasks'] / w:4.1f} per worker)  wall {pr['wall']:6.2f} s  "
+            f"speed-up {inline / pr['wall']:5.2f}  efficiency {inline / pr['wall'] / w:4.2f} with CPU inflation {inflation(w):4.2f} "
+            f"({inline / pr0['wall'] / w:4.2f} without it; without the serial part {inline / pr['compute'] / w:4.2f})"
+        )
     w = max(serial)
-    alt = ", ".join(f"{k}: {inline / predict(cost, names, runs, w, serial[w], k, inflation=inflation(w), **extra)['wall'] / w:4.2f}"
-                    for k in (1, 2, 3, 4, 8))
+    alt = ", ".join(
+        f"{k}: {inline / predict(cost, names, runs, w, serial[w], k, inflation=inflation(w), **extra)['wall'] / w:4.2f}"
+        for k in (1, 2, 3, 4, 8)
+    )
     print(f"  {w} workers, efficiency by tasks per worker (the issue asks for >= 4): {alt}")
 
 
@@ -336,8 +380,10 @@ def profile_task(sizes: tuple[int, ...] = (1, 63), repeat: int = 3) -> None:
                     mc.run_chunk(sh, d, range(k * n, (k + 1) * n))
                     rows.append((time.process_time() - t, len(calls), sum(calls)))
                 tot, loops, sim = (statistics.median(r[i] for r in rows) for i in range(3))
-                print(f"task of {n:3d} runs, {d:9s}: CPU {1e3 * tot:6.0f} ms, of which {loops:.0f} kernel time loops "
-                      f"({sh.config.n_samples} steps each) {1e3 * sim:6.0f} ms, the rest {1e3 * (tot - sim):6.0f} ms (median of {repeat})")
+                print(
+                    f"task of {n:3d} runs, {d:9s}: CPU {1e3 * tot:6.0f} ms, of which {loops:.0f} kernel time loops "
+                    f"({sh.config.n_samples} steps each) {1e3 * sim:6.0f} ms, the rest {1e3 * (tot - sim):6.0f} ms (median of {repeat})"
+                )
     finally:
         for m in mods:
             m.simulate = kernel
@@ -365,8 +411,10 @@ def threads_check(runs: int = 63, repeat: int = 3) -> None:
             w, c = time.perf_counter() - w, time.process_time() - c
             walls.append(w)
             ratios.append(c / w)
-        print(f"{k} task(s) of {runs} runs in {k} thread(s) of one process: wall {statistics.median(walls):5.2f} s, "
-              f"CPU / wall {statistics.median(ratios):4.2f} (median of {repeat}; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs)")
+        print(
+            f"{k} task(s) of {runs} runs in {k} thread(s) of one process: wall {statistics.median(walls):5.2f} s, "
+            f"CPU / wall {statistics.median(ratios):4.2f} (median of {repeat}; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs)"
+        )
 
 
 def _cpu_s() -> float:
@@ -388,7 +436,9 @@ def main() -> None:
     ap.add_argument("--workers", type=int, nargs="*", default=[2])
     ap.add_argument("--scheduler", default=None, help="also time this Dask scheduler address")
     ap.add_argument("--model-only", action="store_true", help="with --scaling: only the task-cost model (about a minute)")
-    ap.add_argument("--threads", action="store_true", help="Monte Carlo tasks in threads of one process (Dask workers with --nthreads > 1)")
+    ap.add_argument(
+        "--threads", action="store_true", help="Monte Carlo tasks in threads of one process (Dask workers with --nthreads > 1)"
+    )
     ap.add_argument("--profile-task", action="store_true", help="what a Monte Carlo task's CPU time is made of")
     a = ap.parse_args()
     if a.profile_task:
@@ -409,8 +459,12 @@ def main() -> None:
     bench("convex D-optimal, 11 primitives (Clarabel)", lambda: solve_convex(info, "D", "complete"), 0.5, a.runs)
     bench("non-convex (7.57), 6 starts (SLSQP)", lambda: solve_nonconvex(info, convex_start=cvx.weights, n_random=4), 1.0, a.runs)
     w = dict(zip(info.names, np.round(cvx.weights, 6)))
-    bench(f"Monte Carlo, 1 design, {a.mc_runs} runs x 1000 samples",
-          lambda: evaluate_designs(p, {"optimized": w}, runs=a.mc_runs, seed=0, primitives=lib), 20.0, a.runs)
+    bench(
+        f"Monte Carlo, 1 design, {a.mc_runs} runs x 1000 samples",
+        lambda: evaluate_designs(p, {"optimized": w}, runs=a.mc_runs, seed=0, primitives=lib),
+        20.0,
+        a.runs,
+    )
 
 
 if __name__ == "__main__":

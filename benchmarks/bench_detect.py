@@ -46,8 +46,17 @@ def make_prior(kind: str, noise: dict, m: int, bootstrap: int = 64, prefilter_hz
     its parameter covariance from that many parametric-bootstrap refits (errors in variables)."""
     ch = harbour_inputs(N, DT, seed=10_000 + m)
     meas = measure(truth(ch), noise, np.random.default_rng(20_000 + m))
-    return fit(kind, {k: meas[k] for k in SIGNALS[kind]}, meas["r"], DT, source=f"model {m}", estimate=m > 0,
-               bootstrap=bootstrap, seed=30_000 + m, prefilter_hz=prefilter_hz)
+    return fit(
+        kind,
+        {k: meas[k] for k in SIGNALS[kind]},
+        meas["r"],
+        DT,
+        source=f"model {m}",
+        estimate=m > 0,
+        bootstrap=bootstrap,
+        seed=30_000 + m,
+        prefilter_hz=prefilter_hz,
+    )
 
 
 def evaluate(prior, noise: dict, runs: int, seed: int) -> dict:
@@ -70,8 +79,11 @@ def evaluate(prior, noise: dict, runs: int, seed: int) -> dict:
         eps = meas["r"] - prior.predict({k: meas[k] for k in SIGNALS[kind]})
         st = scs["sc"].statistics(block_mean(eps, prior.block), S)  # the same statistic; the designs differ in h
         out[ship] = {"dz": first_alarms(dz.statistic(eps), dz.h), **{k: sc.alarms(st) for k, sc in scs.items()}}
-        out[ship]["named"] = [attribute(eps[:, k], S, prior, i + 600)["property"]
-                              for k, i in enumerate(out[ship]["sc"]) if i >= 0] if ship != "nominal" else []
+        out[ship]["named"] = (
+            [attribute(eps[:, k], S, prior, i + 600)["property"] for k, i in enumerate(out[ship]["sc"]) if i >= 0]
+            if ship != "nominal"
+            else []
+        )
     return out
 
 
@@ -84,8 +96,13 @@ def study(kind: str, noise: dict, models: int, runs: int, bootstrap: int = 64, p
     per = []
     for m in range(models + 1):
         prior = make_prior(kind, noise, m, bootstrap, prefilter_hz)
-        per.append({"prior_I_r": prior.values["I_r"] / NOMINAL["I_r"] - 1, "prior_I_r_sd": float(np.sqrt(prior.cov[0, 0])),
-                    **evaluate(prior, noise, runs, seed=500 + m)})
+        per.append(
+            {
+                "prior_I_r": prior.values["I_r"] / NOMINAL["I_r"] - 1,
+                "prior_I_r_sd": float(np.sqrt(prior.cov[0, 0])),
+                **evaluate(prior, noise, runs, seed=500 + m),
+            }
+        )
     return per
 
 
@@ -100,18 +117,28 @@ def main() -> None:
     ap.add_argument("--per-model", action="store_true", help="print every prior's row")
     ap.add_argument("--models-kind", choices=("full", "simplified", "both"), default="both", help="prior structures to run")
     ap.add_argument("--strict", type=float, default=0.005, help="the stricter LR-CUSUM design false-alarm rate shown")
-    ap.add_argument("--bootstrap", type=int, default=64,
-                    help="prior parameter errors from N parametric-bootstrap refits (errors in variables); 0: Gaussian, fit Jacobian")
-    ap.add_argument("--prefilter", type=float, default=PREFILTER_HZ, help="low-pass the model inputs at this many Hz (0: as measured)")
+    ap.add_argument(
+        "--bootstrap",
+        type=int,
+        default=64,
+        help="prior parameter errors from N parametric-bootstrap refits (errors in variables); 0: Gaussian, fit Jacobian",
+    )
+    ap.add_argument(
+        "--prefilter", type=float, default=PREFILTER_HZ, help="low-pass the model inputs at this many Hz (0: as measured)"
+    )
     ap.add_argument("--noise", choices=("both", "table", "half"), default="both", help="noise levels to run")
     a = ap.parse_args()
     DESIGNS["sc05"] = (f"LR-CUSUM, {100 * a.strict:g} % design", a.strict)
-    print(f"500 s at 10 Hz; white noise on every measured signal; {a.models} estimated priors (+ model 0, the true "
-          f"parameters), {a.runs} runs per ship; FA on the nominal ship, misses/mean alarm time on each changed ship; "
-          f"prior parameter error: {f'{a.bootstrap} bootstrap refits' if a.bootstrap else 'Gaussian, fit Jacobian'}; "
-          f"inputs {f'low-passed at {a.prefilter:g} Hz' if a.prefilter else 'as measured'}")
-    print(f"{'noise':>9} {'model':10} {'detector':23}| {'FA %':>5} | {'10 % I_z: miss% t s':>19} | "
-          f"{'10 % I_r: miss% t s':>19} | seed 000 FA/miss/t | model 0: FA, miss/t I_z, I_r | named yaw_inertia")
+    print(
+        f"500 s at 10 Hz; white noise on every measured signal; {a.models} estimated priors (+ model 0, the true "
+        f"parameters), {a.runs} runs per ship; FA on the nominal ship, misses/mean alarm time on each changed ship; "
+        f"prior parameter error: {f'{a.bootstrap} bootstrap refits' if a.bootstrap else 'Gaussian, fit Jacobian'}; "
+        f"inputs {f'low-passed at {a.prefilter:g} Hz' if a.prefilter else 'as measured'}"
+    )
+    print(
+        f"{'noise':>9} {'model':10} {'detector':23}| {'FA %':>5} | {'10 % I_z: miss% t s':>19} | "
+        f"{'10 % I_r: miss% t s':>19} | seed 000 FA/miss/t | model 0: FA, miss/t I_z, I_r | named yaw_inertia"
+    )
     t0, c0 = time.perf_counter(), time.process_time()
     for label, scale in (("Table 4.1", 1.0), ("half", 0.5)):
         if a.noise != "both" and (a.noise == "half") != (scale == 0.5):
@@ -127,15 +154,21 @@ def main() -> None:
                 m0z, m0r = rates(per[0]["nominal"][det], per[0]["I_z"][det]), rates(per[0]["nominal"][det], per[0]["I_r"][det])
                 named = [x for p in est for ship in ("I_z", "I_r") for x in p[ship]["named"]] if det == "sc" else []
                 nm = f"{100 * np.mean([x == 'yaw_inertia' for x in named]):.0f} %" if named else ""
-                print(f"{label:>9} {kind:10} {name:23}| {r_z[0]:5.1f} | {r_z[1]:10.1f} {r_z[2]:6.0f}   | {r_r[1]:10.1f} {r_r[2]:6.0f}   | "
-                      f"{ref[0]:4.1f} {ref[1]:4.1f} {ref[2]:4.0f} | {m0z[0]:4.0f}, {m0z[1]:3.0f}/{m0z[2]:3.0f} {m0r[1]:3.0f}/{m0r[2]:3.0f} | {nm}")
+                print(
+                    f"{label:>9} {kind:10} {name:23}| {r_z[0]:5.1f} | {r_z[1]:10.1f} {r_z[2]:6.0f}   | {r_r[1]:10.1f} {r_r[2]:6.0f}   | "
+                    f"{ref[0]:4.1f} {ref[1]:4.1f} {ref[2]:4.0f} | {m0z[0]:4.0f}, {m0z[1]:3.0f}/{m0z[2]:3.0f} {m0r[1]:3.0f}/{m0r[2]:3.0f} | {nm}"
+                )
                 if a.per_model:
                     for m, p in enumerate(per):
                         rz, rr = rates(p["nominal"][det], p["I_z"][det]), rates(p["nominal"][det], p["I_r"][det])
-                        print(f"{'':>9} {'':10}   model {m:2d}: I_r {100 * p['prior_I_r']:+5.1f} % (sd {100 * p['prior_I_r_sd']:.1f}) | "
-                              f"{rz[0]:5.1f} | {rz[1]:10.1f} {rz[2]:6.0f}   | {rr[1]:10.1f} {rr[2]:6.0f}")
-    print(f"seed 000 model 0: full 14/17/304, simplified 10/19/271. ({time.perf_counter() - t0:.0f} s wall, "
-          f"{time.process_time() - c0:.0f} s cpu; machine shared)")
+                        print(
+                            f"{'':>9} {'':10}   model {m:2d}: I_r {100 * p['prior_I_r']:+5.1f} % (sd {100 * p['prior_I_r_sd']:.1f}) | "
+                            f"{rz[0]:5.1f} | {rz[1]:10.1f} {rz[2]:6.0f}   | {rr[1]:10.1f} {rr[2]:6.0f}"
+                        )
+    print(
+        f"seed 000 model 0: full 14/17/304, simplified 10/19/271. ({time.perf_counter() - t0:.0f} s wall, "
+        f"{time.process_time() - c0:.0f} s cpu; machine shared)"
+    )
 
 
 if __name__ == "__main__":

@@ -53,19 +53,25 @@ def ship_study(variant: str, ship_seed: int, runs: int, tmp: Path) -> dict:
     out["prior_I_r"] = prior.values["I_r"]
     for b in range(0, 2 * runs, BATCH):
         try:
-            cols = recordings(variant, ship_seed, seeds[b: b + BATCH], change_at_s=changes[b: b + BATCH])
+            cols = recordings(variant, ship_seed, seeds[b : b + BATCH], change_at_s=changes[b : b + BATCH])
         except FloatingPointError as e:
             out["errors"].append(f"ship {ship_seed} runs {b}-{b + BATCH}: {e}")
-            for c in changes[b: b + BATCH]:
+            for c in changes[b : b + BATCH]:
                 out["unchanged" if c is None else "changed"].append({"failed": True, "change_s": c})
             continue
-        for j, (c, ch) in enumerate(zip(cols, changes[b: b + BATCH])):
+        for j, (c, ch) in enumerate(zip(cols, changes[b : b + BATCH])):
             path = write_csv(c, tmp / f"{variant}-{ship_seed}-{b + j}.csv")
             try:
                 rec = load_runs([path])[0]
                 d = detect(rec, prior)
-                res = {"alarm_s": d.alarm_s, "property": d.property, "change_s": ch, "h": float(d.threshold[0]),
-                       "roll_max": float(np.abs(c["phi"]).max()), "failed": False}
+                res = {
+                    "alarm_s": d.alarm_s,
+                    "property": d.property,
+                    "change_s": ch,
+                    "h": float(d.threshold[0]),
+                    "roll_max": float(np.abs(c["phi"]).max()),
+                    "failed": False,
+                }
             except (UserError, FloatingPointError) as e:
                 out["errors"].append(f"ship {ship_seed} run {b + j}: {e}")
                 res = {"failed": True, "change_s": ch}
@@ -90,17 +96,28 @@ def summarise(studies: list[dict]) -> dict:
         from scipy.stats import spearmanr
 
         rho = float(spearmanr(hs, rolls)[0])
-    return {"n_un": len(un), "n_ch": len(ch), "fa": 100 * np.mean(fa) if fa else np.nan,
-            "miss": 100 * (1 - np.mean(hit)) if hit else np.nan, "early": int(sum(early)),
-            "delay": float(np.mean(delays)) if delays else np.nan, "named": 100 * np.mean(named) if named else np.nan,
-            "undecided": int(sum(undecided)), "failed": failed, "h_range": (min(hs), max(hs)) if hs else (np.nan, np.nan),
-            "rho_h_roll": rho, "errors": [e for s in studies for e in s["errors"]]}
+    return {
+        "n_un": len(un),
+        "n_ch": len(ch),
+        "fa": 100 * np.mean(fa) if fa else np.nan,
+        "miss": 100 * (1 - np.mean(hit)) if hit else np.nan,
+        "early": int(sum(early)),
+        "delay": float(np.mean(delays)) if delays else np.nan,
+        "named": 100 * np.mean(named) if named else np.nan,
+        "undecided": int(sum(undecided)),
+        "failed": failed,
+        "h_range": (min(hs), max(hs)) if hs else (np.nan, np.nan),
+        "rho_h_roll": rho,
+        "errors": [e for s in studies for e in s["errors"]],
+    }
 
 
 def row(label: str, s: dict) -> str:
-    return (f"{label:16s} {s['n_un']:4d}+{s['n_ch']:<4d} {s['fa']:6.1f} {s['miss']:6.1f} {s['early']:5d} {s['delay']:7.0f} "
-            f"{s['named']:8.0f} {s['undecided']:5d} {s['failed']:5d}  {s['h_range'][0]:6.1f}-{s['h_range'][1]:<6.1f} "
-            f"{s['rho_h_roll']:+5.2f}   {THESIS[0]:.1f} / {THESIS[1]:.1f} / {THESIS[2]}")
+    return (
+        f"{label:16s} {s['n_un']:4d}+{s['n_ch']:<4d} {s['fa']:6.1f} {s['miss']:6.1f} {s['early']:5d} {s['delay']:7.0f} "
+        f"{s['named']:8.0f} {s['undecided']:5d} {s['failed']:5d}  {s['h_range'][0]:6.1f}-{s['h_range'][1]:<6.1f} "
+        f"{s['rho_h_roll']:+5.2f}   {THESIS[0]:.1f} / {THESIS[1]:.1f} / {THESIS[2]}"
+    )
 
 
 def main() -> None:
@@ -110,10 +127,14 @@ def main() -> None:
     ap.add_argument("--variants", nargs="*", default=list(VARIANTS), choices=VARIANTS)
     a = ap.parse_args()
     warnings.simplefilter("ignore", RuntimeWarning)
-    print(f"truth family: {a.ships} ships per variant, {a.runs} unchanged + {a.runs} changed runs per ship (+10 % I_z), "
-          "500 s at 10 Hz, Table 4.1 noise levels, measured tau_n and v_dot; full-model prior from the ship's own 500 s")
-    print(f"{'variant':16s} {'runs':>9s} {'FA %':>6s} {'miss%':>6s} {'early':>5s} {'delay s':>7s} {'named Iz%':>8s} "
-          f"{'undec':>5s} {'fail':>5s}  {'threshold h':>13s} {'rho(h,roll)':>6s}  thesis FA/miss/t")
+    print(
+        f"truth family: {a.ships} ships per variant, {a.runs} unchanged + {a.runs} changed runs per ship (+10 % I_z), "
+        "500 s at 10 Hz, Table 4.1 noise levels, measured tau_n and v_dot; full-model prior from the ship's own 500 s"
+    )
+    print(
+        f"{'variant':16s} {'runs':>9s} {'FA %':>6s} {'miss%':>6s} {'early':>5s} {'delay s':>7s} {'named Iz%':>8s} "
+        f"{'undec':>5s} {'fail':>5s}  {'threshold h':>13s} {'rho(h,roll)':>6s}  thesis FA/miss/t"
+    )
     t0, c0 = time.perf_counter(), time.process_time()
     everything = []
     with tempfile.TemporaryDirectory() as td:

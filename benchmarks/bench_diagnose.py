@@ -42,9 +42,12 @@ def main(repeats: int = 3) -> None:
             named = [f["effect"] for f in d.findings]
         med = statistics.median(times)
         target = TARGETS[name]
-        print(f"{name:11s} {len(recs)} run(s) x {recs[0].n_samples} samples, {len(d.model.candidates)} candidates: "
-              f"median {med:.2f} s over {repeats} (min {min(times):.2f}, max {max(times):.2f}); target {target:g} s, "
-              f"ratio {med / target:.2f}; found {named or 'nothing'}", flush=True)
+        print(
+            f"{name:11s} {len(recs)} run(s) x {recs[0].n_samples} samples, {len(d.model.candidates)} candidates: "
+            f"median {med:.2f} s over {repeats} (min {min(times):.2f}, max {max(times):.2f}); target {target:g} s, "
+            f"ratio {med / target:.2f}; found {named or 'nothing'}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

@@ -40,6 +40,7 @@ WORSE_SLACK = 1.0  # fit points a held-out run may lose on a channel
 # ship is part of the test. `--ship kvlcc2-linear` judges the deliberately linear baseline.
 BASELINE = "kvlcc2"
 
+
 def _num(x) -> float | None:
     try:
         return float(x)
@@ -197,24 +198,53 @@ def _api(paths: dict[str, list[Path]], joint: bool = False, ship: str = BASELINE
     if "Xnn" in names:
         extra["Xnn"] = float(d.theta[names.index("Xnn")])
         extra["n0"] = float(np.mean(load(paths["calm"])[0].channels["n"]))
-    return {"findings": d.findings, "per_run": getattr(d, "per_run", None), "fit_before": d.fit_before,
-            "fit_after": d.fit_after, "extra": extra, "notes": getattr(d, "notes", []),
-            "rejected": getattr(d, "rejected", []), "structure": getattr(d, "structure", []),
-            "baseline_rms_over_noise": d.location.get("rms_over_noise"),
-            "screened": [{"round": sc["round"], "top": [{k: c[k] for k in ("key", "heldout_delta_aic", "runs_improved", "p_value")}
-                                                         for c in sc["candidates"][:5]]} for sc in d.screened]}
+    return {
+        "findings": d.findings,
+        "per_run": getattr(d, "per_run", None),
+        "fit_before": d.fit_before,
+        "fit_after": d.fit_after,
+        "extra": extra,
+        "notes": getattr(d, "notes", []),
+        "rejected": getattr(d, "rejected", []),
+        "structure": getattr(d, "structure", []),
+        "baseline_rms_over_noise": d.location.get("rms_over_noise"),
+        "screened": [
+            {
+                "round": sc["round"],
+                "top": [
+                    {k: c[k] for k in ("key", "heldout_delta_aic", "runs_improved", "p_value")} for c in sc["candidates"][:5]
+                ],
+            }
+            for sc in d.screened
+        ],
+    }
 
 
 def _cli(paths: dict[str, list[Path]], ship: str = BASELINE) -> dict:
-    cmd = [str(Path(sys.executable).with_name("shiptrial")), "diagnose", *map(str, paths["diagnose"]), "--ship", ship,
-           "--fit-on", ",".join(map(str, paths["calm"])), "--validate", ",".join(map(str, paths["validate"])), "--json"]
+    cmd = [
+        str(Path(sys.executable).with_name("shiptrial")),
+        "diagnose",
+        *map(str, paths["diagnose"]),
+        "--ship",
+        ship,
+        "--fit-on",
+        ",".join(map(str, paths["calm"])),
+        "--validate",
+        ",".join(map(str, paths["validate"])),
+        "--json",
+    ]
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode != 0:
         return {"error": (p.stderr.strip().splitlines() or [f"exit status {p.returncode}"])[-1]}
     j = json.loads(p.stdout)
-    return {"findings": j.get("findings"), "per_run": j.get("per_run") or j.get("heldout_per_run"),
-            "fit_before": j.get("fit_before"), "fit_after": j.get("fit_after"), "notes": j.get("notes"),
-            "rejected": j.get("rejected")}
+    return {
+        "findings": j.get("findings"),
+        "per_run": j.get("per_run") or j.get("heldout_per_run"),
+        "fit_before": j.get("fit_before"),
+        "fit_after": j.get("fit_after"),
+        "notes": j.get("notes"),
+        "rejected": j.get("rejected"),
+    }
 
 
 STD_KEY = {"delay_s": "delay_std", "speed_mps": "speed_std", "loss_percent": "loss_percent_std"}
@@ -265,8 +295,15 @@ def truth_text(t: dict) -> str:
     return f"{t['concealed']} {json.dumps(t['magnitude'])}"
 
 
-def run_case(name: str, out_dir: Path, use_cli: bool, joint: bool = False, ship: str = BASELINE,
-             oracle: bool = False, seed: int | None = None) -> dict:
+def run_case(
+    name: str,
+    out_dir: Path,
+    use_cli: bool,
+    joint: bool = False,
+    ship: str = BASELINE,
+    oracle: bool = False,
+    seed: int | None = None,
+) -> dict:
     """Generate, diagnose and score one case (with ``seed``: its noise drawn from that seed instead)."""
     t0 = time.perf_counter()
     c0 = time.process_time()
@@ -284,11 +321,25 @@ def run_case(name: str, out_dir: Path, use_cli: bool, joint: bool = False, ship:
     secs = time.perf_counter() - t1
     cpu = time.process_time() - c0  # this process's CPU (the CLI's child process is not counted)
     hit, why = score(g.truth, out)
-    return {"case": c.name, "truth": g.truth, "truth_text": truth_text(g.truth), "claimed": claimed(out), "hit": hit,
-            "why": why, "diagnose_s": secs, "generate_s": t_gen, "cpu_s": cpu, "per_run": out.get("per_run"),
-            "findings": out.get("findings"), "error": out.get("error"), "notes": out.get("notes"),
-            "rejected": out.get("rejected"), "structure": out.get("structure"), "screened": out.get("screened"),
-            "baseline_rms_over_noise": out.get("baseline_rms_over_noise")}
+    return {
+        "case": c.name,
+        "truth": g.truth,
+        "truth_text": truth_text(g.truth),
+        "claimed": claimed(out),
+        "hit": hit,
+        "why": why,
+        "diagnose_s": secs,
+        "generate_s": t_gen,
+        "cpu_s": cpu,
+        "per_run": out.get("per_run"),
+        "findings": out.get("findings"),
+        "error": out.get("error"),
+        "notes": out.get("notes"),
+        "rejected": out.get("rejected"),
+        "structure": out.get("structure"),
+        "screened": out.get("screened"),
+        "baseline_rms_over_noise": out.get("baseline_rms_over_noise"),
+    }
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -299,20 +350,33 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--out", default="", help="directory for the generated recordings (default: a temporary one)")
     ap.add_argument("--json", default="", help="write the per-case results here")
     ap.add_argument("--ship", default=BASELINE, help=f"baseline profile (default {BASELINE})")
-    ap.add_argument("--joint", action="store_true", help="experimental: extended baseline structure refitted jointly on "
-                    "the calm run and the diagnosed runs, candidates on the diagnosed runs only (diagnose.reference)")
-    ap.add_argument("--seeds", default="", help="noise seeds to run each case with instead of its own, e.g. 1-14 or "
-                    "3,5 (the spread of the estimates and how often the reported std covers the truth)")
-    ap.add_argument("--oracle-calm", action="store_true", help="study: the --fit-on runs are the diagnosed and "
-                    "validation manoeuvres without the effect (isolates the search from the baseline's misfit)")
+    ap.add_argument(
+        "--joint",
+        action="store_true",
+        help="experimental: extended baseline structure refitted jointly on "
+        "the calm run and the diagnosed runs, candidates on the diagnosed runs only (diagnose.reference)",
+    )
+    ap.add_argument(
+        "--seeds",
+        default="",
+        help="noise seeds to run each case with instead of its own, e.g. 1-14 or "
+        "3,5 (the spread of the estimates and how often the reported std covers the truth)",
+    )
+    ap.add_argument(
+        "--oracle-calm",
+        action="store_true",
+        help="study: the --fit-on runs are the diagnosed and "
+        "validation manoeuvres without the effect (isolates the search from the baseline's misfit)",
+    )
     a = ap.parse_args(argv)
     names = [n.strip() for n in a.cases.split(",") if n.strip()] or [c.name for c in CASES]
     for n in names:
         case(n)  # unknown names fail before any work
     seeds: list[int | None] = [None]
     if a.seeds:
-        seeds = [k for part in a.seeds.split(",") for lo, _s, hi in [part.partition("-")]
-                 for k in range(int(lo), int(hi or lo) + 1)]
+        seeds = [
+            k for part in a.seeds.split(",") for lo, _s, hi in [part.partition("-")] for k in range(int(lo), int(hi or lo) + 1)
+        ]
     jobs = [(n, s) for n in names for s in seeds]
     out_dir = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="mmg-battery-"))
     t0 = time.perf_counter()
@@ -323,8 +387,11 @@ def main(argv: list[str] | None = None) -> dict:
             futs = [ex.submit(run_case, n, out_dir, a.cli, a.joint, a.ship, a.oracle_calm, sd) for n, sd in jobs]
             for f in as_completed(futs):  # progress as cases finish (a long run can be followed)
                 r = f.result()
-                print(f"  {r['case']}: {'hit' if r['hit'] else 'MISS'} {r['claimed']} ({r['cpu_s']:.0f} s CPU)",
-                      file=sys.stderr, flush=True)
+                print(
+                    f"  {r['case']}: {'hit' if r['hit'] else 'MISS'} {r['claimed']} ({r['cpu_s']:.0f} s CPU)",
+                    file=sys.stderr,
+                    flush=True,
+                )
             rows = [f.result() for f in futs]
     else:
         rows = []
@@ -336,27 +403,38 @@ def main(argv: list[str] | None = None) -> dict:
     for r in rows:
         vis = r["truth"].get("visibility_rms_over_noise", {})
         vt = "/".join(f"{vis[k]:.1f}" for k in "uvr") if vis else "-"
-        print(f"{r['case']:22s} {r['truth_text'][:44]:44s} {vt:>15s}  {r['claimed'][:48]:48s} "
-              f"{'hit' if r['hit'] else 'MISS':6s} {r['diagnose_s']:7.1f} {r['cpu_s']:7.1f}")
+        print(
+            f"{r['case']:22s} {r['truth_text'][:44]:44s} {vt:>15s}  {r['claimed'][:48]:48s} "
+            f"{'hit' if r['hit'] else 'MISS':6s} {r['diagnose_s']:7.1f} {r['cpu_s']:7.1f}"
+        )
         for w in r["why"]:
             print(f"{'':24s}- {w}")
         z, zn = z_scores(r["truth"], r["findings"]), z_scores(r["truth"], r["findings"], "_noise")
         r["z"], r["z_noise"] = z, zn
         if z:
-            print(f"{'':24s}  error / reported std: " + ", ".join(f"{k} {v:+.2f}" for k, v in z.items())
-                  + " (noise part alone: " + ", ".join(f"{k} {v:+.2f}" for k, v in zn.items()) + ")")
+            print(
+                f"{'':24s}  error / reported std: "
+                + ", ".join(f"{k} {v:+.2f}" for k, v in z.items())
+                + " (noise part alone: "
+                + ", ".join(f"{k} {v:+.2f}" for k, v in zn.items())
+                + ")"
+            )
     for label, key in (("reported std (noise + run-to-run misfit)", "z"), ("its noise part alone", "z_noise")):
         zs = np.array([v for r in rows for v in r[key].values()])
         if len(zs) >= 3:
-            print(f"{label} over {len(zs)} estimates: RMS of error/std {np.sqrt(np.mean(zs**2)):.2f}, within 1 std "
-                  f"{np.mean(np.abs(zs) < 1):.0%} (68 % if honest), within 2 std {np.mean(np.abs(zs) < 2):.0%} (95 %)")
+            print(
+                f"{label} over {len(zs)} estimates: RMS of error/std {np.sqrt(np.mean(zs**2)):.2f}, within 1 std "
+                f"{np.mean(np.abs(zs) < 1):.0%} (68 % if honest), within 2 std {np.mean(np.abs(zs) < 2):.0%} (95 %)"
+            )
     hits = sum(r["hit"] for r in rows)
     times = sorted(r["diagnose_s"] for r in rows)
     cpus = sorted(r["cpu_s"] for r in rows)
-    print(f"hit rate {hits}/{len(rows)} = {100 * hits / max(len(rows), 1):.0f} %; diagnosis time median "
-          f"{times[len(times) // 2]:.1f} s, max {times[-1]:.1f} s; case CPU (generation + diagnosis) median "
-          f"{cpus[len(cpus) // 2]:.1f} s, total {sum(cpus):.0f} s; wall {time.perf_counter() - t0:.0f} s "
-          f"({'CLI' if a.cli else 'API'}{', oracle calm runs' if a.oracle_calm else ''}); recordings in {out_dir}")
+    print(
+        f"hit rate {hits}/{len(rows)} = {100 * hits / max(len(rows), 1):.0f} %; diagnosis time median "
+        f"{times[len(times) // 2]:.1f} s, max {times[-1]:.1f} s; case CPU (generation + diagnosis) median "
+        f"{cpus[len(cpus) // 2]:.1f} s, total {sum(cpus):.0f} s; wall {time.perf_counter() - t0:.0f} s "
+        f"({'CLI' if a.cli else 'API'}{', oracle calm runs' if a.oracle_calm else ''}); recordings in {out_dir}"
+    )
     res = {"hits": hits, "cases": len(rows), "rows": rows}
     if a.json:
         from primitives.io import atomic_write_text, to_jsonable

@@ -48,7 +48,16 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 DATA = ROOT / "tests" / "data"
-TARGETS = {"cli_default": 2.0, "stages": 2.0, "map_load": 0.5, "default": 2.0, "kvlcc2_fjord": 10.0, "kvlcc2_open_sea": 10.0, "scenario": 1.0, "refusal": 1.0}
+TARGETS = {
+    "cli_default": 2.0,
+    "stages": 2.0,
+    "map_load": 0.5,
+    "default": 2.0,
+    "kvlcc2_fjord": 10.0,
+    "kvlcc2_open_sea": 10.0,
+    "scenario": 1.0,
+    "refusal": 1.0,
+}
 
 
 def _cpu() -> float:
@@ -73,10 +82,20 @@ def _plan(ship: str, sea_path: Path | None, **kw) -> dict:
         return {"total_s": time.perf_counter() - t0, "cpu_s": _cpu() - c0, "outcome": f"exit 1: {str(exc)[:160]}"}
     total, cpu = time.perf_counter() - t0, _cpu() - c0
     st = plan.stats
-    return {"total_s": total, "cpu_s": cpu, "search_s": st["plan_time_s"], "setup_s": st["setup_time_s"], "design_s": st.get("design_time_s"),
-            "expansions": st["expansions"], "feasible": plan.feasible, "counts_ok": plan.counts == plan.targets,
-            "counts": plan.counts, "outcome": "feasible" if plan.feasible else f"infeasible: {st.get('reason')}",
-            "lattice_states": st["lattice"]["states"], "min_clearance_m": plan.min_clearance_m}
+    return {
+        "total_s": total,
+        "cpu_s": cpu,
+        "search_s": st["plan_time_s"],
+        "setup_s": st["setup_time_s"],
+        "design_s": st.get("design_time_s"),
+        "expansions": st["expansions"],
+        "feasible": plan.feasible,
+        "counts_ok": plan.counts == plan.targets,
+        "counts": plan.counts,
+        "outcome": "feasible" if plan.feasible else f"infeasible: {st.get('reason')}",
+        "lattice_states": st["lattice"]["states"],
+        "min_clearance_m": plan.min_clearance_m,
+    }
 
 
 def _refusal() -> dict:
@@ -189,8 +208,16 @@ def child(case: str, repeat: int) -> dict:
         out["stages_cpu_s"] = {k: round(min(r["stages_cpu_s"][k] for r in rows), 3) for k in rows[-1]["stages_cpu_s"]}
     if "cpu_s" in rows[-1]:  # CPU time of the process: what the wall clock would be on an idle machine (no threads here)
         out["median_cpu_s"] = statistics.median(r["cpu_s"] for r in rows)
-    out.update(median_s=med, timed=key, median_total_s=statistics.median(r["total_s"] for r in rows), runs_s=[round(r["total_s"], 3) for r in rows], target_s=TARGETS[case], ratio_to_target=med / TARGETS[case],
-               peak_rss_gib=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2, memory_target_gib=2.0)
+    out.update(
+        median_s=med,
+        timed=key,
+        median_total_s=statistics.median(r["total_s"] for r in rows),
+        runs_s=[round(r["total_s"], 3) for r in rows],
+        target_s=TARGETS[case],
+        ratio_to_target=med / TARGETS[case],
+        peak_rss_gib=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2,
+        memory_target_gib=2.0,
+    )
     return out
 
 
@@ -205,23 +232,40 @@ def cli_default(repeat: int) -> dict:
         for k in range(repeat + 1):
             out = Path(tmp) / f"run{k}"
             t0 = time.perf_counter()
-            proc = subprocess.Popen([sys.executable, "-c", code, "--out", str(out), "--start-time", "2026-06-01T08:00Z"],
-                                    cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+            proc = subprocess.Popen(
+                [sys.executable, "-c", code, "--out", str(out), "--start-time", "2026-06-01T08:00Z"],
+                cwd=ROOT,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.PIPE,
+            )
             _, status, ru = os.wait4(proc.pid, 0)
             wall = time.perf_counter() - t0
             err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
             if os.waitstatus_to_exitcode(status) != 0:
                 raise RuntimeError(f"plan-trial failed: {err.strip().splitlines()[-1] if err.strip() else status}")
             if k:  # the first run fills the disk cache
-                rows.append({"wall_s": wall, "cpu_s": ru.ru_utime + ru.ru_stime, "rss_gib": ru.ru_maxrss / 1024**2,
-                             "files": len(list(out.iterdir()))})
+                rows.append(
+                    {
+                        "wall_s": wall,
+                        "cpu_s": ru.ru_utime + ru.ru_stime,
+                        "rss_gib": ru.ru_maxrss / 1024**2,
+                        "files": len(list(out.iterdir())),
+                    }
+                )
     med = statistics.median(r["wall_s"] for r in rows)
-    return {"median_s": med, "median_cpu_s": statistics.median(r["cpu_s"] for r in rows), "target_s": TARGETS["cli_default"],
-            "ratio_to_target": med / TARGETS["cli_default"],
-            "cpu_ratio_to_target": statistics.median(r["cpu_s"] for r in rows) / TARGETS["cli_default"],
-            "runs_s": [round(r["wall_s"], 3) for r in rows], "cpu_runs_s": [round(r["cpu_s"], 3) for r in rows],
-            "peak_rss_gib": max(r["rss_gib"] for r in rows), "files_written": rows[-1]["files"], "memory_target_gib": 2.0,
-            "load_average_1min": os.getloadavg()[0]}
+    return {
+        "median_s": med,
+        "median_cpu_s": statistics.median(r["cpu_s"] for r in rows),
+        "target_s": TARGETS["cli_default"],
+        "ratio_to_target": med / TARGETS["cli_default"],
+        "cpu_ratio_to_target": statistics.median(r["cpu_s"] for r in rows) / TARGETS["cli_default"],
+        "runs_s": [round(r["wall_s"], 3) for r in rows],
+        "cpu_runs_s": [round(r["cpu_s"], 3) for r in rows],
+        "peak_rss_gib": max(r["rss_gib"] for r in rows),
+        "files_written": rows[-1]["files"],
+        "memory_target_gib": 2.0,
+        "load_average_1min": os.getloadavg()[0],
+    }
 
 
 def main() -> None:
@@ -236,20 +280,29 @@ def main() -> None:
     for name in args.cases.split(","):
         if name == "cli_default":
             r = cli_default(args.repeat)
-            print(f"{name:18s} median {r['median_s']:8.3f} s  target {r['target_s']:5.1f} s  ratio {r['ratio_to_target']:.3f}  "
-                  f"peak {r['peak_rss_gib']:.2f} GiB  (cpu median {r['median_cpu_s']:.3f} s, cpu ratio {r['cpu_ratio_to_target']:.3f}, "
-                  f"wall runs {r['runs_s']}, cpu runs {r['cpu_runs_s']}, {r['files_written']} files, "
-                  f"load average {r['load_average_1min']:.1f} when done)")
+            print(
+                f"{name:18s} median {r['median_s']:8.3f} s  target {r['target_s']:5.1f} s  ratio {r['ratio_to_target']:.3f}  "
+                f"peak {r['peak_rss_gib']:.2f} GiB  (cpu median {r['median_cpu_s']:.3f} s, cpu ratio {r['cpu_ratio_to_target']:.3f}, "
+                f"wall runs {r['runs_s']}, cpu runs {r['cpu_runs_s']}, {r['files_written']} files, "
+                f"load average {r['load_average_1min']:.1f} when done)"
+            )
             continue
-        proc = subprocess.run([sys.executable, __file__, "--case", name, "--repeat", str(args.repeat)], capture_output=True, text=True)
+        proc = subprocess.run(
+            [sys.executable, __file__, "--case", name, "--repeat", str(args.repeat)], capture_output=True, text=True
+        )
         if proc.returncode:
             print(f"{name:18s} FAILED: {proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}")
             continue
         r = json.loads(proc.stdout.strip().splitlines()[-1])
-        extra = ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()
-                          if k not in ("median_s", "target_s", "ratio_to_target", "memory_target_gib"))
-        print(f"{name:18s} median {r['median_s']:8.3f} s  target {r['target_s']:5.1f} s  ratio {r['ratio_to_target']:.3f}  "
-              f"peak {r['peak_rss_gib']:.2f} GiB  ({extra})")
+        extra = ", ".join(
+            f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}"
+            for k, v in r.items()
+            if k not in ("median_s", "target_s", "ratio_to_target", "memory_target_gib")
+        )
+        print(
+            f"{name:18s} median {r['median_s']:8.3f} s  target {r['target_s']:5.1f} s  ratio {r['ratio_to_target']:.3f}  "
+            f"peak {r['peak_rss_gib']:.2f} GiB  ({extra})"
+        )
 
 
 if __name__ == "__main__":

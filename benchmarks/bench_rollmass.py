@@ -55,9 +55,17 @@ def _one(job: tuple) -> list[tuple]:
             ok = e.converged and np.isfinite(e.m) and np.isfinite(e.zbar_m)
             mz_true = truth[0] * (truth[1] + prof.truth.z_f)
             mz = e.m * (e.zbar_m + e.params["z_f"])
-            out.append((case, method, seed, 100 * abs(e.m / truth[0] - 1) if ok else np.nan,
-                        1000 * abs(e.zbar_m - truth[1]) if ok else np.nan, 100 * abs(mz / mz_true - 1) if ok else np.nan,
-                        time.process_time() - c0))
+            out.append(
+                (
+                    case,
+                    method,
+                    seed,
+                    100 * abs(e.m / truth[0] - 1) if ok else np.nan,
+                    1000 * abs(e.zbar_m - truth[1]) if ok else np.nan,
+                    100 * abs(mz / mz_true - 1) if ok else np.nan,
+                    time.process_time() - c0,
+                )
+            )
         except Exception:  # a diverged fit is counted as a failure, never as a number
             out.append((case, method, seed, np.nan, np.nan, np.nan, time.process_time() - c0))
     return out
@@ -77,19 +85,26 @@ def main() -> None:
     a = ap.parse_args()
     prof = load_profile()
     imu = prof.raw["imu"]
-    print(f"IMU: Xsens MTi-G x{a.noise:g}: gyro {imu['gyro_density_deg'] * a.noise:g} deg/s/rtHz, bias sd {imu['gyro_bias_deg'] * a.noise:g} deg/s; "
-          f"accelerometer {imu['acc_density'] * a.noise:g} m/s^2/rtHz, bias sd {imu['acc_bias'] * a.noise:g} m/s^2")
+    print(
+        f"IMU: Xsens MTi-G x{a.noise:g}: gyro {imu['gyro_density_deg'] * a.noise:g} deg/s/rtHz, bias sd {imu['gyro_bias_deg'] * a.noise:g} deg/s; "
+        f"accelerometer {imu['acc_density'] * a.noise:g} m/s^2/rtHz, bias sd {imu['acc_bias'] * a.noise:g} m/s^2"
+    )
     ex = prof.raw["experiment"]
-    print(f"waves x{a.waves:g}: roll moment sd {ex['wave_roll_sd'] * a.waves:g} N m, sway {ex['wave_sway_sd'] * a.waves:g} N, "
-          f"yaw {ex['wave_yaw_sd'] * a.waves:g} N m at {ex['wave_freq_hz']:g} Hz; {a.seeds} seeds")
+    print(
+        f"waves x{a.waves:g}: roll moment sd {ex['wave_roll_sd'] * a.waves:g} N m, sway {ex['wave_sway_sd'] * a.waves:g} N, "
+        f"yaw {ex['wave_yaw_sd'] * a.waves:g} N m at {ex['wave_freq_hz']:g} Hz; {a.seeds} seeds"
+    )
     methods, cases = tuple(a.methods.split(",")), tuple(a.cases.split(","))
     if not set(cases) <= set(prof.raw["cases"]):
         ap.error(f"--cases: choose from {','.join(prof.raw['cases'])}")
     if not set(methods) <= set(METHODS):
         ap.error(f"--methods: choose from {','.join(METHODS)}")
     n = {d["name"]: int(d["samples"] * a.length) for d in prof.raw["dataset"]}
-    print(f"run length x{a.length:g} of the paper's: " + ", ".join(f"{k} {v} samples ({v * 0.02:.0f} s)" for k, v in n.items())
-          + f"; oe start values: profile x (1 + {a.start_pert:g} N(0,1))")
+    print(
+        f"run length x{a.length:g} of the paper's: "
+        + ", ".join(f"{k} {v} samples ({v * 0.02:.0f} s)" for k, v in n.items())
+        + f"; oe start values: profile x (1 + {a.start_pert:g} N(0,1))"
+    )
     # seed-major order, so an interrupted run still covers the three cases evenly (--progress rows)
     jobs = [(c, s, a.waves, a.noise, a.length, methods, a.start_pert) for s in range(a.seeds) for c in cases]
     t0 = time.perf_counter()
@@ -99,11 +114,16 @@ def main() -> None:
             rows += [r[:6] for r in part]
             cpu += sum(r[6] for r in part)
             if a.progress:
-                print(f"  {i}/{len(jobs)} case-seeds, {time.perf_counter() - t0:.0f} s: "
-                      + "; ".join(f"{r[0]} {r[1]} seed {r[2]} m {r[3]:.2f} % z {r[4]:.1f} mm" for r in part), flush=True)
+                print(
+                    f"  {i}/{len(jobs)} case-seeds, {time.perf_counter() - t0:.0f} s: "
+                    + "; ".join(f"{r[0]} {r[1]} seed {r[2]} m {r[3]:.2f} % z {r[4]:.1f} mm" for r in part),
+                    flush=True,
+                )
     print(f"{len(jobs)} case-seeds in {time.perf_counter() - t0:.0f} s wall, {cpu:.0f} s cpu in the workers\n")
-    print(f"{'case':6} {'method':9} | {'paper m %':>9} {'paper z %':>9} | {'m med %':>8} {'m p90 %':>8} {'z med mm':>8} {'z p90 mm':>8} "
-          f"{'mz med %':>8} {'mz p90 %':>8} {'failed':>6}")
+    print(
+        f"{'case':6} {'method':9} | {'paper m %':>9} {'paper z %':>9} | {'m med %':>8} {'m p90 %':>8} {'z med mm':>8} {'z p90 mm':>8} "
+        f"{'mz med %':>8} {'mz p90 %':>8} {'failed':>6}"
+    )
     for case in cases:
         for method in methods:
             e = np.array([r[3:] for r in rows if r[0] == case and r[1] == method])
@@ -111,10 +131,14 @@ def main() -> None:
             pm, pz = PAPER[case].get(method, (np.nan, np.nan))
             med = np.median(good, axis=0) if len(good) else np.full(3, np.nan)
             p90 = np.percentile(good, 90, axis=0) if len(good) else np.full(3, np.nan)
-            print(f"{case:6} {method:9} | {pm:9.3g} {pz:9.3g} | {med[0]:8.2f} {p90[0]:8.2f} {med[1]:8.1f} {p90[1]:8.1f} "
-                  f"{med[2]:8.2f} {p90[2]:8.2f} {len(e) - len(good):6d}")
-    print("\npaper: one real dataset per case (no spread); its z error is relative (%), ours absolute (mm);"
-          "\nmz = m (zbar_m + z_f), the load's moment about the CR, which the roll data determine best.")
+            print(
+                f"{case:6} {method:9} | {pm:9.3g} {pz:9.3g} | {med[0]:8.2f} {p90[0]:8.2f} {med[1]:8.1f} {p90[1]:8.1f} "
+                f"{med[2]:8.2f} {p90[2]:8.2f} {len(e) - len(good):6d}"
+            )
+    print(
+        "\npaper: one real dataset per case (no spread); its z error is relative (%), ours absolute (mm);"
+        "\nmz = m (zbar_m + z_f), the load's moment about the CR, which the roll data determine best."
+    )
 
 
 if __name__ == "__main__":

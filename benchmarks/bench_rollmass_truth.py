@@ -47,8 +47,17 @@ def _one(job: tuple) -> list[tuple]:
                 e = estimate_from_files(*paths, method=method)
                 (mlo, mhi), (zlo, zhi) = e.ci()
                 ok = e.converged and np.all(np.isfinite([e.m, e.zbar_m, mlo, mhi, zlo, zhi]))
-                row = (100 * abs(e.m / m_true - 1), 1000 * abs(e.zbar_m - z_true), mlo <= m_true <= mhi, zlo <= z_true <= zhi,
-                       len(e.warnings) > 0) if ok else None
+                row = (
+                    (
+                        100 * abs(e.m / m_true - 1),
+                        1000 * abs(e.zbar_m - z_true),
+                        mlo <= m_true <= mhi,
+                        zlo <= z_true <= zhi,
+                        len(e.warnings) > 0,
+                    )
+                    if ok
+                    else None
+                )
                 why = "" if ok else "; ".join(e.warnings)[:80]
             except UserError as exc:
                 row, why = None, str(exc)[:80]
@@ -68,14 +77,18 @@ def _summary(rows: list[tuple], label: str, case: str, method: str) -> str:
         med_m = med_z = cm = cz = cb = float("nan")
         nw = 0
     pm, pz = PAPER[case]
-    return (f"{label:10} {case:6} {method:9} {n:5d} | {pm:7.2f} {pz:6.1f} | {med_m:7.2f} {med_z:7.1f} | "
-            f"{cm:6.0f} {cz:6.0f} {cb:6.0f} | {nw:5d} {nf:5d}")
+    return (
+        f"{label:10} {case:6} {method:9} {n:5d} | {pm:7.2f} {pz:6.1f} | {med_m:7.2f} {med_z:7.1f} | "
+        f"{cm:6.0f} {cz:6.0f} {cb:6.0f} | {nw:5d} {nf:5d}"
+    )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=10, help="runs (model ships) per variant")
-    ap.add_argument("--variants", default=",".join(bt.VARIANTS), help="comma-separated; base = the estimator's structure (reference)")
+    ap.add_argument(
+        "--variants", default=",".join(bt.VARIANTS), help="comma-separated; base = the estimator's structure (reference)"
+    )
     ap.add_argument("--methods", default="oe", help=f"comma-separated subset of {','.join(METHODS)}")
     ap.add_argument("--cases", default="case1,case2,case3")
     ap.add_argument("--seed", type=int, default=2015)
@@ -90,7 +103,9 @@ def main() -> None:
         c0 = time.process_time()
         ship, data = bt.simulate_runs(variant, a.runs, a.seed + 1000 * vi)
         c_sim += time.process_time() - c0
-        jobs = [(variant, run, case, bt.case_recordings(ship, data, case, run), methods) for run in range(a.runs) for case in cases]
+        jobs = [
+            (variant, run, case, bt.case_recordings(ship, data, case, run), methods) for run in range(a.runs) for case in cases
+        ]
         with Pool(a.workers) as pool:
             for part in pool.imap_unordered(_one, jobs):
                 for r in part:
@@ -102,18 +117,24 @@ def main() -> None:
         for method in methods:
             for case in cases:
                 print("  " + _summary([r for r in rows if r[0] == variant], variant, case, method), file=sys.stderr, flush=True)
-    print(f"truth family: {len(variants)} variants x {a.runs} runs x {len(cases)} cases, seed {a.seed}; "
-          f"{time.perf_counter() - t0:.0f} s wall, simulation {c_sim:.0f} s cpu, fits {c_fit:.0f} s cpu "
-          f"({c_fit / max(len(rows), 1):.2f} s per fit)\n")
-    print(f"{'variant':10} {'case':6} {'method':9} {'runs':>5} | {'paper m%':>7} {'z mm':>6} | {'m med%':>7} {'z medmm':>7} | "
-          f"{'cov m':>6} {'cov z':>6} {'both':>6} | {'warn':>5} {'fail':>5}")
+    print(
+        f"truth family: {len(variants)} variants x {a.runs} runs x {len(cases)} cases, seed {a.seed}; "
+        f"{time.perf_counter() - t0:.0f} s wall, simulation {c_sim:.0f} s cpu, fits {c_fit:.0f} s cpu "
+        f"({c_fit / max(len(rows), 1):.2f} s per fit)\n"
+    )
+    print(
+        f"{'variant':10} {'case':6} {'method':9} {'runs':>5} | {'paper m%':>7} {'z mm':>6} | {'m med%':>7} {'z medmm':>7} | "
+        f"{'cov m':>6} {'cov z':>6} {'both':>6} | {'warn':>5} {'fail':>5}"
+    )
     for variant in variants + ["pooled"]:
         sub = rows if variant == "pooled" else [r for r in rows if r[0] == variant]
         for method in methods:
             for case in cases:
                 print(_summary(sub, variant, case, method))
-    print("\ncov: % of the non-failed runs whose 95 % interval holds the true mass / z / both; warn: runs with a warning;"
-          "\npaper: Table 3 (IV), one real dataset per case, z error |0.2529-0.256| etc. in mm.")
+    print(
+        "\ncov: % of the non-failed runs whose 95 % interval holds the true mass / z / both; warn: runs with a warning;"
+        "\npaper: Table 3 (IV), one real dataset per case, z error |0.2529-0.256| etc. in mm."
+    )
     if fails:
         print(f"\nfailures ({len(fails)}):")
         for f in fails[:40]:

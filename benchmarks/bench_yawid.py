@@ -44,27 +44,36 @@ def _identifiability(profile) -> None:
     print("Section 2.4.2 identifiability, noise-free 10 min run (normalised singular values of the yaw-row regressors):")
     for par in ("physical", "lumped"):
         ident = yaw_identifiability(clean, par)
-        print(f"  {par:9s} {len(ident.names)} parameters, smallest singular values "
-              + ", ".join(f"{x:.2e}" for x in ident.singular_values[-3:]) + f"; zero: {ident.rank_deficiency}")
+        print(
+            f"  {par:9s} {len(ident.names)} parameters, smallest singular values "
+            + ", ".join(f"{x:.2e}" for x in ident.singular_values[-3:])
+            + f"; zero: {ident.rank_deficiency}"
+        )
     harb = true_signals(profile, harbour_exit(profile.sample_time))
     frac = forward_only(harb.signals["u"], tol=0.0)
     truth = true_parameters(profile)
     fit = fit_yaw(harb, FULL, truth)
-    print(f"  harbour exit (pods 90 deg, n = 80 on 10-50 s): u min {harb.signals['u'].min():+.2f} m/s, astern in "
-          f"{100 * frac:.0f} % of samples; the full model fitted to it (noise-free) reaches {fit.fit_percent[0]:.1f} % fit "
-          f"with A = {fit.theta[0, 2]:.3g} (true ahead {truth['A']:.3g}; astern the data lump -N_|u|r - m x_g = "
-          f"{-(truth['A'] + 2 * profile.rigid_body.mass * profile.rigid_body.x_g):.3g})")
+    print(
+        f"  harbour exit (pods 90 deg, n = 80 on 10-50 s): u min {harb.signals['u'].min():+.2f} m/s, astern in "
+        f"{100 * frac:.0f} % of samples; the full model fitted to it (noise-free) reaches {fit.fit_percent[0]:.1f} % fit "
+        f"with A = {fit.theta[0, 2]:.3g} (true ahead {truth['A']:.3g}; astern the data lump -N_|u|r - m x_g = "
+        f"{-(truth['A'] + 2 * profile.rigid_body.mass * profile.rigid_body.x_g):.3g})"
+    )
 
 
 def _table(mc) -> list[str]:
     f = mc.fits
-    lines = [f"{mc.model} model: {int(f.ok.sum())}/{len(f.ok)} runs converged ({int((~f.finite).sum())} non-finite), "
-             f"fit to the noisy r {np.median(f.fit_percent[f.ok]):.1f} % median (run range {f.fit_percent[f.ok].min():.1f}"
-             f"..{f.fit_percent[f.ok].max():.1f} %), residual RMS {1e3 * np.median(f.rms[f.ok]):.2f} mrad/s",
-             f"  {'param':10s} {'true':>11s} {'mean':>11s} {'std':>10s} {'bias %':>8s} {'std %':>7s} {'no-noise %':>10s}  thesis (Fig. 4.3/4.4)"]
+    lines = [
+        f"{mc.model} model: {int(f.ok.sum())}/{len(f.ok)} runs converged ({int((~f.finite).sum())} non-finite), "
+        f"fit to the noisy r {np.median(f.fit_percent[f.ok]):.1f} % median (run range {f.fit_percent[f.ok].min():.1f}"
+        f"..{f.fit_percent[f.ok].max():.1f} %), residual RMS {1e3 * np.median(f.rms[f.ok]):.2f} mrad/s",
+        f"  {'param':10s} {'true':>11s} {'mean':>11s} {'std':>10s} {'bias %':>8s} {'std %':>7s} {'no-noise %':>10s}  thesis (Fig. 4.3/4.4)",
+    ]
     for r in mc.rows():
-        lines.append(f"  {LABELS[r['param']]:10s} {r['true']:11.4g} {r['mean']:11.4g} {r['std']:10.3g} {100 * r['rel_bias']:8.1f} "
-                     f"{100 * r['rel_std']:7.1f} {100 * r['noise_free_rel']:10.1f}  {r['thesis']}")
+        lines.append(
+            f"  {LABELS[r['param']]:10s} {r['true']:11.4g} {r['mean']:11.4g} {r['std']:10.3g} {100 * r['rel_bias']:8.1f} "
+            f"{100 * r['rel_std']:7.1f} {100 * r['noise_free_rel']:10.1f}  {r['thesis']}"
+        )
     return lines
 
 
@@ -73,8 +82,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--runs", type=int, default=50, help="noise realisations (thesis: 500)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--noise", type=float, default=1.0, help="scale of Table 4.1's noise")
-    ap.add_argument("--prefilter", type=float, default=None, metavar="HZ",
-                    help="ours: zero-phase low-pass of the measured inputs at HZ before the fit (default: none, the thesis's method)")
+    ap.add_argument(
+        "--prefilter",
+        type=float,
+        default=None,
+        metavar="HZ",
+        help="ours: zero-phase low-pass of the measured inputs at HZ before the fit (default: none, the thesis's method)",
+    )
     ap.add_argument("--json", type=Path, default=None, help="write every run's estimates here")
     args = ap.parse_args(argv)
     if args.runs < 2 or args.noise < 0 or (args.prefilter is not None and not 0 < args.prefilter < 5):
@@ -86,18 +100,35 @@ def main(argv: list[str] | None = None) -> int:
     t0, c0 = time.perf_counter(), time.process_time()
     res = run_monte_carlo(profile, runs=args.runs, seed=args.seed, noise=noise, prefilter_hz=args.prefilter)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    print(f"\nMonte Carlo: {args.runs} runs, seed {args.seed}, noise {args.noise:g} x Table 4.1 "
-          f"(r {noise.r:g} rad/s, v_dot {noise.v_dot:g} m/s2, u, v {noise.u:g} m/s, phi {noise.phi:g} rad, "
-          f"tau_r {noise.tau_r:g} N m; white, no anti-alias filter); inputs "
-          + (f"low-passed at {args.prefilter:g} Hz (ours)" if args.prefilter else "used as measured (thesis)") + "; thesis: 500 runs")
+    print(
+        f"\nMonte Carlo: {args.runs} runs, seed {args.seed}, noise {args.noise:g} x Table 4.1 "
+        f"(r {noise.r:g} rad/s, v_dot {noise.v_dot:g} m/s2, u, v {noise.u:g} m/s, phi {noise.phi:g} rad, "
+        f"tau_r {noise.tau_r:g} N m; white, no anti-alias filter); inputs "
+        + (f"low-passed at {args.prefilter:g} Hz (ours)" if args.prefilter else "used as measured (thesis)")
+        + "; thesis: 500 runs"
+    )
     for mc in res.values():
         print("\n".join(_table(mc)))
     print(f"time: {wall:.1f} s wall, {cpu:.1f} s CPU (both models, {args.runs} runs)")
     if args.json:
-        doc = {"runs": args.runs, "seed": args.seed, "noise_scale": args.noise,
-               "models": {k: {"params": list(mc.fits.model.params), "truth": mc.truth, "rows": mc.rows(),
-                              "per_run": {"theta": mc.fits.theta.tolist(), "ok": mc.fits.ok.tolist(),
-                                          "fit_percent": mc.fits.fit_percent.tolist()}} for k, mc in res.items()}}
+        doc = {
+            "runs": args.runs,
+            "seed": args.seed,
+            "noise_scale": args.noise,
+            "models": {
+                k: {
+                    "params": list(mc.fits.model.params),
+                    "truth": mc.truth,
+                    "rows": mc.rows(),
+                    "per_run": {
+                        "theta": mc.fits.theta.tolist(),
+                        "ok": mc.fits.ok.tolist(),
+                        "fit_percent": mc.fits.fit_percent.tolist(),
+                    },
+                }
+                for k, mc in res.items()
+            },
+        }
         atomic_write_text(args.json, json.dumps(doc, indent=1))
     return 0
 

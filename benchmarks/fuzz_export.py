@@ -32,8 +32,10 @@ def main() -> None:
     t0, c0 = time.perf_counter(), time.process_time()
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):  # "wrote ..." / "error: ..."
         _check(a.loader, a.examples)
-    print(f"{a.loader}: {a.examples} examples, no crash; {time.process_time() - c0:.1f} s CPU, "
-          f"{time.perf_counter() - t0:.1f} s wall ({(time.process_time() - c0) / a.examples * 1e3:.1f} ms CPU per example)")
+    print(
+        f"{a.loader}: {a.examples} examples, no crash; {time.process_time() - c0:.1f} s CPU, "
+        f"{time.perf_counter() - t0:.1f} s wall ({(time.process_time() - c0) / a.examples * 1e3:.1f} ms CPU per example)"
+    )
 
 
 if __name__ == "__main__":

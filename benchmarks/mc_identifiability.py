@@ -45,17 +45,22 @@ def _line(label: str, res: dict) -> str:
 def _table(r) -> None:
     print(f"  {r.name}: parameter      true     bias   spread  median|e|  within 1.5")
     for row in r.parameter_table():
-        print(f"    {row['parameter']:8s} {row['true']:+9.2e} {row['bias']:+8.3f} {row['spread']:8.3f} {row['median_abs_error']:9.3f}"
-              f"  {100 * row['frac_within_tolerance']:6.1f} %")
+        print(
+            f"    {row['parameter']:8s} {row['true']:+9.2e} {row['bias']:+8.3f} {row['spread']:8.3f} {row['median_abs_error']:9.3f}"
+            f"  {100 * row['frac_within_tolerance']:6.1f} %"
+        )
 
 
 def _noise_sources(p, lib, w, seed: int, runs: int) -> None:
     std = Disturbances.from_profile(p)
     s = std.measurement_std[0]
-    cases = {"all (default)": std, "measurement only": dataclasses.replace(std, current_sample_std=0.0),
-             "current only": dataclasses.replace(std, measurement_std=(0.0, 0.0, 0.0)),
-             "sway measurement only": dataclasses.replace(std, current_sample_std=0.0, measurement_std=(0.0, s, 0.0)),
-             "all but the sway measurement": dataclasses.replace(std, measurement_std=(s, 0.0, s))}
+    cases = {
+        "all (default)": std,
+        "measurement only": dataclasses.replace(std, current_sample_std=0.0),
+        "current only": dataclasses.replace(std, measurement_std=(0.0, 0.0, 0.0)),
+        "sway measurement only": dataclasses.replace(std, current_sample_std=0.0, measurement_std=(0.0, s, 0.0)),
+        "all but the sway measurement": dataclasses.replace(std, measurement_std=(s, 0.0, s)),
+    }
     print(f"seed {seed}: optimized design, spread of the normalized error per noise source ({runs} runs)")
     for label, dist in cases.items():
         r = evaluate_designs(p, {"optimized": w}, runs=runs, seed=seed, primitives=lib, disturbances=dist)["optimized"]
@@ -72,10 +77,12 @@ def _orders(p, lib, w, seed: int, runs: int) -> None:
     rows.sort()
     fr = np.array([f for f, _ in rows])
     lib_frac = next(f for f, perm in rows if list(perm) == names)
-    print(f"seed {seed}: optimized blocks in each of the {len(rows)} orders ({runs} runs each), parameter error < 1.5: "
-          f"min {100 * fr.min():.1f}, median {100 * np.median(fr):.1f}, max {100 * fr.max():.1f} %; "
-          f"library order ({' '.join(names)}) {100 * lib_frac:.1f} %, "
-          f"rank {1 + sum(f > lib_frac for f in fr)} of {len(rows)}")
+    print(
+        f"seed {seed}: optimized blocks in each of the {len(rows)} orders ({runs} runs each), parameter error < 1.5: "
+        f"min {100 * fr.min():.1f}, median {100 * np.median(fr):.1f}, max {100 * fr.max():.1f} %; "
+        f"library order ({' '.join(names)}) {100 * lib_frac:.1f} %, "
+        f"rank {1 + sum(f > lib_frac for f in fr)} of {len(rows)}"
+    )
     print("  worst: " + "; ".join(f"{' '.join(pm)} {100 * f:.1f}" for f, pm in rows[:3]))
     print("  best:  " + "; ".join(f"{' '.join(pm)} {100 * f:.1f}" for f, pm in rows[-3:]))
 
@@ -89,10 +96,14 @@ def main() -> None:
     p = load_profile("model-ship")
     lib = model_ship_thesis(p)
     d = run_design(p, lib)
-    print("corr(v, u*r) in the nominal zig-zags:",
-          ", ".join(f"{q.name} {np.corrcoef(q.nu[:, 1], q.nu[:, 0] * q.nu[:, 2])[0, 1]:+.3f}" for q in lib[2:8]))
-    print("sign of v*r in the spirals (section 9.1.1: v > 0 while r -> -0.6):",
-          ", ".join(f"{q.name} {np.sign(np.mean(q.nu[:, 1] * q.nu[:, 2])):+.0f}" for q in lib[8:11]))
+    print(
+        "corr(v, u*r) in the nominal zig-zags:",
+        ", ".join(f"{q.name} {np.corrcoef(q.nu[:, 1], q.nu[:, 0] * q.nu[:, 2])[0, 1]:+.3f}" for q in lib[2:8]),
+    )
+    print(
+        "sign of v*r in the spirals (section 9.1.1: v > 0 while r -> -0.6):",
+        ", ".join(f"{q.name} {np.sign(np.mean(q.nu[:, 1] * q.nu[:, 2])):+.0f}" for q in lib[8:11]),
+    )
     print("optimized shares:", ", ".join(f"{k} {100 * v:.1f}%" for k, v in d.weights.items() if v > 0.005))
     variants = {}
     for vs, label in ((-1.0, "sway in phase with yaw"), (0.0, "no sway force in the zig-zags")):
@@ -106,12 +117,27 @@ def main() -> None:
         base = evaluate_designs(p, both, runs=a.runs, seed=seed, primitives=lib)
         print(_line("default (library order)", base))
         opt = {"optimized": d.weights}
-        print(_line("optimized in a per-run random order", evaluate_designs(p, opt, runs=a.runs, seed=seed, primitives=lib, order="random")))
-        print(_line("piecewise restarts", evaluate_designs(p, both, runs=a.runs, seed=seed, primitives=lib, protocol="piecewise")))
-        print(_line("one IV step (no refinement)", evaluate_designs(p, both, runs=a.runs, seed=seed, primitives=lib, iv_iterations=0)))
+        print(
+            _line(
+                "optimized in a per-run random order",
+                evaluate_designs(p, opt, runs=a.runs, seed=seed, primitives=lib, order="random"),
+            )
+        )
+        print(
+            _line("piecewise restarts", evaluate_designs(p, both, runs=a.runs, seed=seed, primitives=lib, protocol="piecewise"))
+        )
+        print(
+            _line(
+                "one IV step (no refinement)", evaluate_designs(p, both, runs=a.runs, seed=seed, primitives=lib, iv_iterations=0)
+            )
+        )
         print(_line("settling gaps of 8 samples", evaluate_designs(p, opt, runs=a.runs, seed=seed, primitives=lib, settle=8)))
-        print(_line("noise N(0, 0.025) read as std", evaluate_designs(p, both, runs=a.runs, seed=seed, primitives=lib,
-                                                                     disturbances=as_std)))
+        print(
+            _line(
+                "noise N(0, 0.025) read as std",
+                evaluate_designs(p, both, runs=a.runs, seed=seed, primitives=lib, disturbances=as_std),
+            )
+        )
         for label, (vlib, w) in variants.items():
             res = evaluate_designs(p, {"optimized": w}, runs=a.runs, seed=seed, primitives=vlib)
             print(_line(label, res) + "  shares " + ", ".join(f"{k} {100 * v:.0f}%" for k, v in w.items() if v > 0.005))

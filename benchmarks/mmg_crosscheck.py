@@ -21,11 +21,22 @@ import numpy as np
 from tests.physics.mmg_kvlcc2 import MODEL_SCALE, RHO, kvlcc2, self_propulsion_rps
 from tests.physics.mmg_sim import Manoeuvre, Run, advance, overshoots_deg, simulate_runs, straight_speed, tactical_diameter
 
-MANS = [Manoeuvre("turn", 35, 0, 1, 900), Manoeuvre("turn", 35, 0, -1, 900),
-        Manoeuvre("zigzag", 10, 10, 1, 700), Manoeuvre("zigzag", 10, 10, -1, 700),
-        Manoeuvre("zigzag", 20, 20, 1, 700), Manoeuvre("zigzag", 20, 20, -1, 700)]
-MARIN = {"tc35-stbd": "tc_-35", "tc35-port": "tc_35", "zz10-10-stbd": "zz_-10", "zz10-10-port": "zz_10",
-         "zz20-20-stbd": "zz_-20", "zz20-20-port": "zz_20"}  # MARIN positive rudder turns to port
+MANS = [
+    Manoeuvre("turn", 35, 0, 1, 900),
+    Manoeuvre("turn", 35, 0, -1, 900),
+    Manoeuvre("zigzag", 10, 10, 1, 700),
+    Manoeuvre("zigzag", 10, 10, -1, 700),
+    Manoeuvre("zigzag", 20, 20, 1, 700),
+    Manoeuvre("zigzag", 20, 20, -1, 700),
+]
+MARIN = {
+    "tc35-stbd": "tc_-35",
+    "tc35-port": "tc_35",
+    "zz10-10-stbd": "zz_-10",
+    "zz10-10-port": "zz_10",
+    "zz20-20-stbd": "zz_-20",
+    "zz20-20-port": "zz_20",
+}  # MARIN positive rudder turns to port
 
 
 def figures(run: Run, man: Manoeuvre, L: float) -> dict:
@@ -68,16 +79,55 @@ def shipmmg_rows() -> dict[str, dict] | None:
     c = ship.c
     L, d = ship.L, ship.d
     q = 0.5 * RHO * L**2 * d
-    bp = Mmg3DofBasicParams(L_pp=L, B=ship.B, d=d, x_G=ship.x_G, D_p=ship.D_p, m=ship.mass, I_zG=ship.mass * (0.25 * L) ** 2,
-                            A_R=ship.A_R, η=ship.D_p / ship.H_R, m_x=c.m_x * q, m_y=c.m_y * q, J_z=c.J_z * q * L**2,
-                            f_α=c.f_alpha, ϵ=c.epsilon, t_R=c.t_R, x_R=c.x_R * L, a_H=c.a_H, x_H=c.x_H * L,
-                            γ_R_minus=c.gamma_minus, γ_R_plus=c.gamma_plus, l_R=c.l_R, κ=c.kappa, t_P=c.t_P,
-                            w_P0=c.w_P0, x_P=-0.65)
-    mp = Mmg3DofManeuveringParams(k_0=c.k0, k_1=c.k1, k_2=c.k2, R_0_dash=c.R_0, X_vv_dash=c.X_vv, X_vr_dash=c.X_vr,
-                                  X_rr_dash=c.X_rr, X_vvvv_dash=c.X_vvvv, Y_v_dash=c.Y_v, Y_r_dash=c.Y_r,
-                                  Y_vvv_dash=c.Y_vvv, Y_vvr_dash=c.Y_vvr, Y_vrr_dash=c.Y_vrr, Y_rrr_dash=c.Y_rrr,
-                                  N_v_dash=c.N_v, N_r_dash=c.N_r, N_vvv_dash=c.N_vvv, N_vvr_dash=c.N_vvr,
-                                  N_vrr_dash=c.N_vrr, N_rrr_dash=c.N_rrr)
+    bp = Mmg3DofBasicParams(
+        L_pp=L,
+        B=ship.B,
+        d=d,
+        x_G=ship.x_G,
+        D_p=ship.D_p,
+        m=ship.mass,
+        I_zG=ship.mass * (0.25 * L) ** 2,
+        A_R=ship.A_R,
+        η=ship.D_p / ship.H_R,
+        m_x=c.m_x * q,
+        m_y=c.m_y * q,
+        J_z=c.J_z * q * L**2,
+        f_α=c.f_alpha,
+        ϵ=c.epsilon,
+        t_R=c.t_R,
+        x_R=c.x_R * L,
+        a_H=c.a_H,
+        x_H=c.x_H * L,
+        γ_R_minus=c.gamma_minus,
+        γ_R_plus=c.gamma_plus,
+        l_R=c.l_R,
+        κ=c.kappa,
+        t_P=c.t_P,
+        w_P0=c.w_P0,
+        x_P=-0.65,
+    )
+    mp = Mmg3DofManeuveringParams(
+        k_0=c.k0,
+        k_1=c.k1,
+        k_2=c.k2,
+        R_0_dash=c.R_0,
+        X_vv_dash=c.X_vv,
+        X_vr_dash=c.X_vr,
+        X_rr_dash=c.X_rr,
+        X_vvvv_dash=c.X_vvvv,
+        Y_v_dash=c.Y_v,
+        Y_r_dash=c.Y_r,
+        Y_vvv_dash=c.Y_vvv,
+        Y_vvr_dash=c.Y_vvr,
+        Y_vrr_dash=c.Y_vrr,
+        Y_rrr_dash=c.Y_rrr,
+        N_v_dash=c.N_v,
+        N_r_dash=c.N_r,
+        N_vvv_dash=c.N_vvv,
+        N_vvr_dash=c.N_vvr,
+        N_vrr_dash=c.N_vrr,
+        N_rrr_dash=c.N_rrr,
+    )
     n = self_propulsion_rps(ship)
     u0 = straight_speed(ship, n)
     ts = ship.time_scale
@@ -89,8 +139,16 @@ def shipmmg_rows() -> dict[str, dict] | None:
             sol = simulate_mmg_3dof(bp, mp, t, dl, np.full(len(t), n), u0=u0, max_step=0.5 * ts)
             u, v, r, x, y, psi = sol.sol(t)[:6]
         else:
-            dl, u, v, r, x, y, psi = zigzag_test_mmg_3dof(bp, mp, np.radians(m.delta_deg) * m.side, np.radians(m.psi_deg),
-                                                          t, np.full(len(t), n), δ_rad_rate=ship.rudder_rate, u0=u0)
+            dl, u, v, r, x, y, psi = zigzag_test_mmg_3dof(
+                bp,
+                mp,
+                np.radians(m.delta_deg) * m.side,
+                np.radians(m.psi_deg),
+                t,
+                np.full(len(t), n),
+                δ_rad_rate=ship.rudder_rate,
+                u0=u0,
+            )
             dl, psi, x, y = (np.asarray(a) for a in (dl, psi, x, y))
         run = Run(m, t, np.asarray(x), np.asarray(y), np.asarray(psi), None, None, None, np.asarray(dl), None)
         out[m.label] = figures(run, m, L)

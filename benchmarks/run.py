@@ -92,10 +92,13 @@ def _mc_scaling(workers):
     designs = {"optimized": run_design(prof, prims).weights, "random": "random"}
 
     def go():
-        with (Engine() if workers == 1 else LocalEngine(workers)) as eng:
+        with Engine() if workers == 1 else LocalEngine(workers) as eng:
             ev = evaluate_designs_parallel(prof, designs, runs=2000, seed=0, scheduler=eng, primitives=prims, progress=False)
-        return {"runs_per_s": 4000 / ev.elapsed_s, "tasks_per_worker": ev.engine["tasks_per_worker"],
-                "digest": "".join(r.digest()[:8] for r in ev.results.values())}
+        return {
+            "runs_per_s": 4000 / ev.elapsed_s,
+            "tasks_per_worker": ev.engine["tasks_per_worker"],
+            "digest": "".join(r.digest()[:8] for r in ev.results.values()),
+        }
 
     return go
 
@@ -113,8 +116,13 @@ def _planner(counts, **kw):
         st = plan.stats
         if not (plan.feasible and plan.counts == plan.targets):
             raise RuntimeError(f"planning case failed: {st.get('reason')}")
-        return {"search_s": st["plan_time_s"], "expansions": st["expansions"], "expansions_per_s": st["expansions_per_s"],
-                "lattice_states": st["lattice"]["states"], "optimal": plan.optimal}
+        return {
+            "search_s": st["plan_time_s"],
+            "expansions": st["expansions"],
+            "expansions_per_s": st["expansions_per_s"],
+            "lattice_states": st["lattice"]["states"],
+            "optimal": plan.optimal,
+        }
 
     return run
 
@@ -127,8 +135,9 @@ def _plan_thesis():
 
 
 def _plan_5x5():
-    return _planner(dict.fromkeys(["steep_zigzag_surge", "wide_zigzag_surge", "wide_zigzag_sway", "tau17", "tau19"], 5),
-                    **THESIS_LATTICE)
+    return _planner(
+        dict.fromkeys(["steep_zigzag_surge", "wide_zigzag_surge", "wide_zigzag_sway", "tau17", "tau19"], 5), **THESIS_LATTICE
+    )
 
 
 def _plan_design():
@@ -172,11 +181,25 @@ CASES = {
     "design_nonconvex_11": (_nonconvex, 1.0, None, ""),
     "monte_carlo_design_500": (_mc_design, 20.0, None, ""),
     "monte_carlo_2000x2_inline": (lambda: _mc_scaling(1), 20.0, None, "issue 14: reference for the speed-up"),
-    "monte_carlo_2000x2_local2": (lambda: _mc_scaling(2), 6.0, None,
-                                  "issue 14: >= 1.8x faster than inline on 2 workers, same digest (compare the two cases)"),
-    "plan_thesis_scenario": (_plan_thesis, 1.0, 40.0, "thesis: plain A* about 40 s on a laptop (section 9.4); whole plan_trial call timed, search alone in search_s"),
+    "monte_carlo_2000x2_local2": (
+        lambda: _mc_scaling(2),
+        6.0,
+        None,
+        "issue 14: >= 1.8x faster than inline on 2 workers, same digest (compare the two cases)",
+    ),
+    "plan_thesis_scenario": (
+        _plan_thesis,
+        1.0,
+        40.0,
+        "thesis: plain A* about 40 s on a laptop (section 9.4); whole plan_trial call timed, search alone in search_s",
+    ),
     "plan_5x5": (_plan_5x5, 30.0, None, "thesis: 19.25 M-state lattice, 'quite time-consuming'"),
-    "plan_default_design": (_plan_design, 2.0, None, "issue 12: whole plan_trial, design included (more in benchmarks/bench_plan.py)"),
+    "plan_default_design": (
+        _plan_design,
+        2.0,
+        None,
+        "issue 12: whole plan_trial, design included (more in benchmarks/bench_plan.py)",
+    ),
     "diagnose_2000": (_diagnose_2000, 2.0, None, "issue 13: under 2 s"),
     "diagnose_13x3500": (_diagnose_13x3500, 10.0, None, "issue 13: 13-run model test, 3,500 samples per run, under 10 s"),
 }
@@ -256,8 +279,10 @@ def main() -> None:
         if "error" in r:
             print(f"{name:28s} ERROR {r['error']}")
             continue
-        line = (f"{name:28s} median {r['median_s']:8.3f} s  [{r['min_s']:.3f} .. {r['max_s']:.3f}]  peak {r['peak_mib']:7.0f} MiB  "
-                f"cpu {r['cpu_median_s']:.3f} s  target {r['target_s']:g} s (ratio {r['ratio_to_target']:.2f})")
+        line = (
+            f"{name:28s} median {r['median_s']:8.3f} s  [{r['min_s']:.3f} .. {r['max_s']:.3f}]  peak {r['peak_mib']:7.0f} MiB  "
+            f"cpu {r['cpu_median_s']:.3f} s  target {r['target_s']:g} s (ratio {r['ratio_to_target']:.2f})"
+        )
         if r["ratio_to_reference"] is not None:
             line += f"  vs reference {r['reference_s']:g} s: {r['ratio_to_reference']:.3f}"
         if "figures" in r:
@@ -266,8 +291,12 @@ def main() -> None:
             line += f"  vs previous {r['ratio_to_previous']:.2f}"
         print(line, flush=True)
     doc = {
-        "machine": {"platform": platform.platform(), "python": platform.python_version(), "processor": platform.processor(),
-                    "cpus": __import__("os").cpu_count()},
+        "machine": {
+            "platform": platform.platform(),
+            "python": platform.python_version(),
+            "processor": platform.processor(),
+            "cpus": __import__("os").cpu_count(),
+        },
         "date": time.strftime("%Y-%m-%d"),
         "repeat": a.repeat,
         "cases": results,

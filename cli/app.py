@@ -63,7 +63,7 @@ def _split_json(text: str) -> tuple[str, str]:
     """(what comes before the trailing JSON document, the document); ("", text) when none is found."""
     import json
 
-    starts = [0] + [i + 1 for i, c in enumerate(text) if c == "\n" and text[i + 1: i + 2] in ("{", "[")]
+    starts = [0] + [i + 1 for i, c in enumerate(text) if c == "\n" and text[i + 1 : i + 2] in ("{", "[")]
     for i in starts:
         try:
             json.loads(text[i:])

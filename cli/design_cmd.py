@@ -21,51 +21,102 @@ def register(app: typer.Typer) -> None:
     def design(
         ship: str = typer.Option("model-ship", "--ship", help="built-in profile name or a .toml/.json profile file"),
         criterion: str = typer.Option("D", "--criterion", help="D, A or E"),
-        mean_subtraction: str = typer.Option("complete", "--mean-subtraction",
-                                             help="instrument mean removal: none, batchwise (7.53) or complete (7.57)"),
-        trial_length_text: str | None = typer.Option(None, "--trial-length", help="trial length: seconds, or with a unit s, min or h "
-                                                                                "(1800, 30min, 0.5h; default: every primitive once)"),
+        mean_subtraction: str = typer.Option(
+            "complete", "--mean-subtraction", help="instrument mean removal: none, batchwise (7.53) or complete (7.57)"
+        ),
+        trial_length_text: str | None = typer.Option(
+            None,
+            "--trial-length",
+            help="trial length: seconds, or with a unit s, min or h (1800, 30min, 0.5h; default: every primitive once)",
+        ),
         monte_carlo: int = typer.Option(500, "--monte-carlo", help="Monte Carlo runs per design (0 skips the evaluation)"),
         mc_samples: int = typer.Option(1000, "--mc-samples", help="samples per Monte Carlo experiment (thesis: 1000 = 125 s)"),
         seed: int = typer.Option(0, "--seed", help="seed of every random draw (starts, Monte Carlo)"),
-        out: Path | None = typer.Option(None, "--out", help="directory for report.md, design.json and figures (default: write no files)"),
+        out: Path | None = typer.Option(
+            None, "--out", help="directory for report.md, design.json and figures (default: write no files)"
+        ),
         json_out: bool = typer.Option(False, "--json", help="print the report JSON"),
-        sensitivity: bool = typer.Option(False, "--sensitivity", help="add the model-ship sensitivity study (zig-zag period, sway, noisy moments)"),
-        psi_switch: float | None = typer.Option(None, "--psi-switch", help="model-ship zig-zag switching heading in rad (default 0.5)"),
+        sensitivity: bool = typer.Option(
+            False, "--sensitivity", help="add the model-ship sensitivity study (zig-zag period, sway, noisy moments)"
+        ),
+        psi_switch: float | None = typer.Option(
+            None, "--psi-switch", help="model-ship zig-zag switching heading in rad (default 0.5)"
+        ),
         min_frac: float | None = typer.Option(None, "--min-frac", help="minimum share of every primitive"),
         max_frac: float | None = typer.Option(None, "--max-frac", help="maximum share of every primitive"),
-        noisy_moments: int = typer.Option(0, "--noisy-moments", help="estimate the moments from this many noisy simulations (0: noise-free)"),
-        scheduler: str | None = typer.Option(None, "--scheduler",
-                                             help="'inline', 'local' or a Dask scheduler address for the Monte Carlo (default: $SHIPTRIAL_SCHEDULER, else all local cores)"),
-        mc_protocol: str = typer.Option("continuous", "--mc-protocol",
-                                        help="continuous (one experiment per run, primitives back to back; "
-                                             "as Ljungberg 2022, section 9.1.2) or piecewise (every primitive restarts from its nominal state)"),
-        mc_order: str = typer.Option("library", "--mc-order",
-                                     help="order of a fixed design's primitives in a continuous experiment: library "
-                                          "(one sequence, as Ljungberg's (2022) optimized input), given (the shares' order) or random (drawn per run)"),
+        noisy_moments: int = typer.Option(
+            0, "--noisy-moments", help="estimate the moments from this many noisy simulations (0: noise-free)"
+        ),
+        scheduler: str | None = typer.Option(
+            None,
+            "--scheduler",
+            help="'inline', 'local' or a Dask scheduler address for the Monte Carlo (default: $SHIPTRIAL_SCHEDULER, else all local cores)",
+        ),
+        mc_protocol: str = typer.Option(
+            "continuous",
+            "--mc-protocol",
+            help="continuous (one experiment per run, primitives back to back; "
+            "as Ljungberg 2022, section 9.1.2) or piecewise (every primitive restarts from its nominal state)",
+        ),
+        mc_order: str = typer.Option(
+            "library",
+            "--mc-order",
+            help="order of a fixed design's primitives in a continuous experiment: library "
+            "(one sequence, as Ljungberg's (2022) optimized input), given (the shares' order) or random (drawn per run)",
+        ),
         mc_settle: int = typer.Option(0, "--mc-settle", help="settling samples between primitives in a continuous experiment"),
-        mc_min_block: int = typer.Option(40, "--mc-min-block", help="shortest sub-experiment in samples (shorter shares are dropped or raised)"),
-        mc_estimator: str = typer.Option("oe", "--mc-estimator",
-                                         help="oe (output-error refinement of the IV estimate; the IV figures are reported "
-                                              "beside it) or iv (the thesis's estimator only)"),
-        keep_partial: bool = typer.Option(False, "--keep-partial",
-                                          help="on Ctrl-C or a lost worker, write the report of the finished runs, marked partial"),
+        mc_min_block: int = typer.Option(
+            40, "--mc-min-block", help="shortest sub-experiment in samples (shorter shares are dropped or raised)"
+        ),
+        mc_estimator: str = typer.Option(
+            "oe",
+            "--mc-estimator",
+            help="oe (output-error refinement of the IV estimate; the IV figures are reported "
+            "beside it) or iv (the thesis's estimator only)",
+        ),
+        keep_partial: bool = typer.Option(
+            False, "--keep-partial", help="on Ctrl-C or a lost worker, write the report of the finished runs, marked partial"
+        ),
     ) -> None:
         """Choose the mix of manoeuvres that maximises information, and check it by Monte Carlo."""
         from cli.options import duration_s, validate_design_options
         from expdesign.errors import DesignError
 
         trial_length = duration_s(trial_length_text, "--trial-length", DesignError)
-        validate_design_options(criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length,
-                                monte_carlo=monte_carlo, mc_samples=mc_samples, seed=seed, out=out, psi_switch=psi_switch,
-                                min_frac=min_frac, max_frac=max_frac, noisy_moments=noisy_moments)
+        validate_design_options(
+            criterion=criterion,
+            mean_subtraction=mean_subtraction,
+            trial_length=trial_length,
+            monte_carlo=monte_carlo,
+            mc_samples=mc_samples,
+            seed=seed,
+            out=out,
+            psi_switch=psi_switch,
+            min_frac=min_frac,
+            max_frac=max_frac,
+            noisy_moments=noisy_moments,
+        )
         _check_mc_options(mc_protocol, mc_order, mc_estimator, mc_settle, mc_min_block, mc_samples)
-        profile, lib, thesis, d = _design_step(ship, criterion, mean_subtraction, trial_length, seed, psi_switch, min_frac,
-                                               max_frac, noisy_moments)
+        profile, lib, thesis, d = _design_step(
+            ship, criterion, mean_subtraction, trial_length, seed, psi_switch, min_frac, max_frac, noisy_moments
+        )
         ev = None
         if monte_carlo:
-            ev = _monte_carlo_step(profile, lib, d, monte_carlo, seed, scheduler, mc_samples, mean_subtraction, mc_protocol,
-                                   mc_order, mc_settle, mc_min_block, mc_estimator)
+            ev = _monte_carlo_step(
+                profile,
+                lib,
+                d,
+                monte_carlo,
+                seed,
+                scheduler,
+                mc_samples,
+                mean_subtraction,
+                mc_protocol,
+                mc_order,
+                mc_settle,
+                mc_min_block,
+                mc_estimator,
+            )
             if not ev.complete and not (keep_partial and ev.results):
                 _fail(ev, "nothing written (--keep-partial writes the finished runs, marked partial)")
         sens = _sensitivity_step(profile, seed) if sensitivity else None
@@ -74,13 +125,26 @@ def register(app: typer.Typer) -> None:
         doc = report_dict(d, ev, sens, thesis)
         paths = _write_step(out, doc, d, ev, thesis) if out is not None else {}
         if ev is not None and not ev.complete:
-            _fail(ev, f"partial report of the finished runs written to {paths['json']}" if paths else "partial results not written (no --out)")
+            _fail(
+                ev,
+                f"partial report of the finished runs written to {paths['json']}"
+                if paths
+                else "partial results not written (no --out)",
+            )
         _print_step(profile.name, d, doc, ev, paths, json_out)
 
 
-def _design_step(ship: str, criterion: str, mean_subtraction: str, trial_length: float | None, seed: int,
-                 psi_switch: float | None, min_frac: float | None, max_frac: float | None, noisy_moments: int
-                 ) -> tuple[ShipProfile, list[Primitive], dict[str, float] | None, Design]:
+def _design_step(
+    ship: str,
+    criterion: str,
+    mean_subtraction: str,
+    trial_length: float | None,
+    seed: int,
+    psi_switch: float | None,
+    min_frac: float | None,
+    max_frac: float | None,
+    noisy_moments: int,
+) -> tuple[ShipProfile, list[Primitive], dict[str, float] | None, Design]:
     """The ship, its design library, the thesis's shares (model ship) and the design."""
     from expdesign.api import default_library, run_design
     from expdesign.sensitivity import THESIS_SHARES
@@ -90,15 +154,36 @@ def _design_step(ship: str, criterion: str, mean_subtraction: str, trial_length:
     profile.require_planar("shiptrial design")
     lib = default_library(profile, psi_switch)
     thesis = THESIS_SHARES if profile.library == "thesis-model-ship" else None
-    d = run_design(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length,
-                   min_frac=min_frac, max_frac=max_frac, seed=seed, disturbed_realisations=noisy_moments,
-                   references={"thesis": thesis} if thesis else None)
+    d = run_design(
+        profile,
+        lib,
+        criterion=criterion,
+        mean_subtraction=mean_subtraction,
+        trial_length_s=trial_length,
+        min_frac=min_frac,
+        max_frac=max_frac,
+        seed=seed,
+        disturbed_realisations=noisy_moments,
+        references={"thesis": thesis} if thesis else None,
+    )
     return profile, lib, thesis, d
 
 
-def _monte_carlo_step(profile: ShipProfile, lib: list[Primitive], d: Design, runs: int, seed: int, scheduler: str | None,
-                      samples: int, mean_subtraction: str, protocol: str, order: str, settle: int, min_block: int,
-                      estimator: str) -> MCEvaluation:
+def _monte_carlo_step(
+    profile: ShipProfile,
+    lib: list[Primitive],
+    d: Design,
+    runs: int,
+    seed: int,
+    scheduler: str | None,
+    samples: int,
+    mean_subtraction: str,
+    protocol: str,
+    order: str,
+    settle: int,
+    min_block: int,
+    estimator: str,
+) -> MCEvaluation:
     """The Monte Carlo of the optimized design against the random and uniform ones (and the
     thesis's shares for the model ship), with its speed line printed."""
     from expdesign.mc_parallel import evaluate_designs_parallel
@@ -108,9 +193,21 @@ def _monte_carlo_step(profile: ShipProfile, lib: list[Primitive], d: Design, run
     designs = {"optimized": d.weights, "random": "random", "uniform": {n: 1.0 / len(names) for n in names}}
     if profile.library == "thesis-model-ship" and set(THESIS_SHARES) <= set(names):
         designs["thesis"] = THESIS_SHARES  # the shares section 9.1.1 reports, for comparison
-    ev = evaluate_designs_parallel(profile, designs, runs=runs, seed=seed, scheduler=scheduler, primitives=lib,
-                                   n_samples=samples, mean_subtraction=mean_subtraction, protocol=protocol,
-                                   order=order, settle=settle, min_block=min_block, estimator=estimator)
+    ev = evaluate_designs_parallel(
+        profile,
+        designs,
+        runs=runs,
+        seed=seed,
+        scheduler=scheduler,
+        primitives=lib,
+        n_samples=samples,
+        mean_subtraction=mean_subtraction,
+        protocol=protocol,
+        order=order,
+        settle=settle,
+        min_block=min_block,
+        estimator=estimator,
+    )
     _echo_speed(ev)
     return ev
 
@@ -165,15 +262,23 @@ def _echo_design(ship: str, d: Design) -> None:
 def _echo_mc(mc: dict) -> None:
     """One line per Monte Carlo design (and one for the same runs' IV reference), as text."""
     for n, s in mc.items():
-        p = "n/a" if s["param_rmse_p50"] is None else f"{s['param_rmse_p50']:.3g} ({100 * s['frac_param_rmse_below_1_5']:.1f} % < 1.5)"
-        typer.echo(f"  MC {n:9s} param RMSE p50 {p}; sim RMSE p50 {_g(s['sim_rmse_p50'])} "
-                   f"({100 * s['frac_sim_rmse_below_0_15']:.1f} % < 0.15); diverged {s['diverged']} of {s['runs']} "
-                   f"[{s['estimator']}]")
+        p = (
+            "n/a"
+            if s["param_rmse_p50"] is None
+            else f"{s['param_rmse_p50']:.3g} ({100 * s['frac_param_rmse_below_1_5']:.1f} % < 1.5)"
+        )
+        typer.echo(
+            f"  MC {n:9s} param RMSE p50 {p}; sim RMSE p50 {_g(s['sim_rmse_p50'])} "
+            f"({100 * s['frac_sim_rmse_below_0_15']:.1f} % < 0.15); diverged {s['diverged']} of {s['runs']} "
+            f"[{s['estimator']}]"
+        )
         if s.get("reference"):
             r = s["reference"]
             rp = "n/a" if r["param_rmse_p50"] is None else f"{100 * r['frac_param_rmse_below_1_5']:.1f} %"
-            typer.echo(f"     {'':9s} same runs, {r['estimator']} (the thesis's estimator): {rp} < 1.5, "
-                       f"{100 * r['frac_sim_rmse_below_0_15']:.1f} % < 0.15; diverged {r['diverged']}")
+            typer.echo(
+                f"     {'':9s} same runs, {r['estimator']} (the thesis's estimator): {rp} < 1.5, "
+                f"{100 * r['frac_sim_rmse_below_0_15']:.1f} % < 0.15; diverged {r['diverged']}"
+            )
 
 
 def _check_mc_options(protocol: str, order: str, estimator: str, settle: int, min_block: int, samples: int) -> None:
@@ -181,16 +286,21 @@ def _check_mc_options(protocol: str, order: str, estimator: str, settle: int, mi
     from expdesign.errors import DesignError
     from expdesign.montecarlo import ESTIMATORS, ORDERS, PROTOCOLS, MCConfig
 
-    for flag, value, allowed in (("--mc-protocol", protocol, PROTOCOLS), ("--mc-order", order, ORDERS),
-                                 ("--mc-estimator", estimator, ESTIMATORS)):
+    for flag, value, allowed in (
+        ("--mc-protocol", protocol, PROTOCOLS),
+        ("--mc-order", order, ORDERS),
+        ("--mc-estimator", estimator, ESTIMATORS),
+    ):
         if value not in allowed:
             raise DesignError(f"{flag} {value!r} is not one of {', '.join(allowed)}")
     if settle < 0:
         raise DesignError(f"--mc-settle {settle}: the settling gap is a number of samples, 0 or more")
     segment = samples // MCConfig.n_segments
     if not 2 <= min_block <= segment:
-        raise DesignError(f"--mc-min-block {min_block}: use 2 to {segment} samples (a random-design segment is "
-                          f"--mc-samples {samples} / {MCConfig.n_segments}), or raise --mc-samples")
+        raise DesignError(
+            f"--mc-min-block {min_block}: use 2 to {segment} samples (a random-design segment is "
+            f"--mc-samples {samples} / {MCConfig.n_segments}), or raise --mc-samples"
+        )
 
 
 def _g(x: float | None) -> str:
@@ -200,15 +310,21 @@ def _g(x: float | None) -> str:
 def _echo_speed(ev: MCEvaluation) -> None:
     """Runs done, runs per second and how the work was cut, on stderr."""
     e, n = ev.engine, sum(ev.runs_finished.values())
-    typer.echo(f"Monte Carlo: {n} runs in {ev.elapsed_s:.1f} s ({n / max(ev.elapsed_s, 1e-9):.0f} runs/s) on {e['name']}, "
-               f"{e['workers']} workers x {e['threads_per_worker']} threads, {e['tasks']} tasks "
-               f"({e['tasks_per_worker']:.1f} per worker slot)", err=True)
+    typer.echo(
+        f"Monte Carlo: {n} runs in {ev.elapsed_s:.1f} s ({n / max(ev.elapsed_s, 1e-9):.0f} runs/s) on {e['name']}, "
+        f"{e['workers']} workers x {e['threads_per_worker']} threads, {e['tasks']} tasks "
+        f"({e['tasks_per_worker']:.1f} per worker slot)",
+        err=True,
+    )
     if e["name"] == "dask" and e["threads_per_worker"] > 1:
         # the kernel's time loops step arrays of one task's runs, too small for numpy to release the lock: over half
         # of a 63-run task's CPU (bench_design.py --profile-task); bench_design.py --threads measures what threads give
-        typer.echo(f"note: the Dask workers run {e['threads_per_worker']} threads each, which share Python's interpreter "
-                   "lock; the Monte Carlo's time loops hold it most of the time: for full speed start the workers with "
-                   "--nthreads 1, one per core", err=True)
+        typer.echo(
+            f"note: the Dask workers run {e['threads_per_worker']} threads each, which share Python's interpreter "
+            "lock; the Monte Carlo's time loops hold it most of the time: for full speed start the workers with "
+            "--nthreads 1, one per core",
+            err=True,
+        )
 
 
 def _fail(ev: MCEvaluation, what: str) -> None:

@@ -15,15 +15,22 @@ PLOT_PANELS = 4  # recordings in one figure; beyond, one file per recording
 def register(app: typer.Typer) -> None:
     @app.command("detect-prior")
     def detect_prior(
-        nominal: list[Path] = typer.Argument(..., help="nominal recording CSV(s) of the podded ship: t, psi, x, y, u, v, r, phi "
-                                           "(full model), the measured pod yaw moment tau_n or the pod inputs n1, alpha1, n2, "
-                                           "alpha2; optional measured sway acceleration v_dot (README: 'Recordings for detect "
-                                           "and detect-prior')"),
+        nominal: list[Path] = typer.Argument(
+            ...,
+            help="nominal recording CSV(s) of the podded ship: t, psi, x, y, u, v, r, phi "
+            "(full model), the measured pod yaw moment tau_n or the pod inputs n1, alpha1, n2, "
+            "alpha2; optional measured sway acceleration v_dot (README: 'Recordings for detect "
+            "and detect-prior')",
+        ),
         out: Path = typer.Option(..., "--out", help="prior model file to write (.json)"),
         model: str = typer.Option("full", "--model", help="full (2.17, needs phi) or simplified (2.18)"),
-        bootstrap: int = typer.Option(64, "--bootstrap", help="the prior's parameter error from N parametric-bootstrap "
-                                      "refits of the nominal data (errors in variables; one batch, seconds); 0: Gaussian "
-                                      "from the fit's Jacobian (knows the noise on r only)"),
+        bootstrap: int = typer.Option(
+            64,
+            "--bootstrap",
+            help="the prior's parameter error from N parametric-bootstrap "
+            "refits of the nominal data (errors in variables; one batch, seconds); 0: Gaussian "
+            "from the fit's Jacobian (knows the noise on r only)",
+        ),
         seed: int = typer.Option(0, "--seed", help="seed of the bootstrap"),
     ) -> None:
         """Fit the yaw-row prior (2.17)/(2.18) of "Estimating a ship's dynamics during operation" on a nominal recording, for `detect`."""
@@ -37,28 +44,47 @@ def register(app: typer.Typer) -> None:
         for n in notes:
             typer.echo(f"note: {n}", err=True)
         save_prior(prior, out)
-        typer.echo(f"wrote {out}: {prior.kind} yaw row, I_r {prior.values['I_r']:.4g} kg m^2, "
-                   f"residual sigma {prior.sigma:.2g} rad/s")
+        typer.echo(
+            f"wrote {out}: {prior.kind} yaw row, I_r {prior.values['I_r']:.4g} kg m^2, residual sigma {prior.sigma:.2g} rad/s"
+        )
         if prior.structure.max() > 0:
-            typer.echo("  on a manoeuvre it was not fitted on, the structure's misfit alone reads as a change of "
-                       + ", ".join(f"{c.replace('_', ' ')} {100 * x:.1f} %" for c, x in zip(CANDIDATES, prior.structure))
-                       + " (rms); detect's thresholds allow for it")
+            typer.echo(
+                "  on a manoeuvre it was not fitted on, the structure's misfit alone reads as a change of "
+                + ", ".join(f"{c.replace('_', ' ')} {100 * x:.1f} %" for c, x in zip(CANDIDATES, prior.structure))
+                + " (rms); detect's thresholds allow for it"
+            )
 
     @app.command("detect")
     def detect(
-        recordings: list[Path] = typer.Argument(..., help="recording CSV(s) to test against the prior (columns as for "
-                                                "detect-prior; README: 'Recordings for detect and detect-prior')"),
+        recordings: list[Path] = typer.Argument(
+            ...,
+            help="recording CSV(s) to test against the prior (columns as for "
+            "detect-prior; README: 'Recordings for detect and detect-prior')",
+        ),
         prior_file: Path = typer.Option(..., "--prior", help="prior model from `shiptrial detect-prior`"),
-        plot: Path | None = typer.Option(None, "--plot", help="figure of both detectors' statistics (.png, .pdf, .svg), one "
-                                         f"panel per recording; beyond {PLOT_PANELS} recordings one file per recording "
-                                         "(NAME-001-<recording>.png, numbered in order)"),
-        false_alarm: float = typer.Option(0.02, "--false-alarm", help="design false-alarm probability per recording (on ships the prior's "
-                                          "model describes; measured higher on ships unlike it: README 'Change detection "
-                                          "on the truth family')"),
-        min_change: float = typer.Option(0.05, "--min-change", help="smallest relative change worth an alarm (0.05 = 5 %; "
-                                         "of I_z for yaw inertia)"),
-        n_rdot: float = typer.Option(-28.7e6, "--n-rdot", help="added yaw inertia N_rdot (kg m^2, negative) that converts "
-                                     "the identified I_r = I_z - N_rdot into I_z; default Blanke and Christensen (1993)"),
+        plot: Path | None = typer.Option(
+            None,
+            "--plot",
+            help="figure of both detectors' statistics (.png, .pdf, .svg), one "
+            f"panel per recording; beyond {PLOT_PANELS} recordings one file per recording "
+            "(NAME-001-<recording>.png, numbered in order)",
+        ),
+        false_alarm: float = typer.Option(
+            0.02,
+            "--false-alarm",
+            help="design false-alarm probability per recording (on ships the prior's "
+            "model describes; measured higher on ships unlike it: README 'Change detection "
+            "on the truth family')",
+        ),
+        min_change: float = typer.Option(
+            0.05, "--min-change", help="smallest relative change worth an alarm (0.05 = 5 %; of I_z for yaw inertia)"
+        ),
+        n_rdot: float = typer.Option(
+            -28.7e6,
+            "--n-rdot",
+            help="added yaw inertia N_rdot (kg m^2, negative) that converts "
+            "the identified I_r = I_z - N_rdot into I_z; default Blanke and Christensen (1993)",
+        ),
         seed: int = typer.Option(0, "--seed", help="seed of the threshold's no-change simulation"),
         json_out: bool = typer.Option(False, "--json", help="print the verdicts as JSON"),
     ) -> None:
@@ -77,15 +103,28 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"note: {n}", err=True)
         if prior.model_error > 0 and not prior.structure.any():
             # Measured (benchmarks/bench_detect.py): such priors alarm far above the design rate.
-            typer.echo(f"warning: {prior_file}: the prior's structure misfits its own data (model error "
-                       f"{prior.model_error:.2g}) and it holds no held-out estimate of that misfit; alarms are not "
-                       "calibrated to --false-alarm: refit it with detect-prior (--bootstrap > 0)", err=True)
+            typer.echo(
+                f"warning: {prior_file}: the prior's structure misfits its own data (model error "
+                f"{prior.model_error:.2g}) and it holds no held-out estimate of that misfit; alarms are not "
+                "calibrated to --false-alarm: refit it with detect-prior (--bootstrap > 0)",
+                err=True,
+            )
         dets = [run_detect(r, prior, false_alarm, min_change, seed, n_rdot=n_rdot) for r in recs]
         written = plot_stats(dets, plot, PLOT_PANELS) if plot is not None else []
         if json_out:
-            typer.echo(dumps({"prior": str(prior_file), "model": prior.kind, "false_alarm": false_alarm,
-                              "min_change": min_change, "n_rdot": n_rdot, "notes": notes,
-                              "recordings": [d.summary() for d in dets]}))
+            typer.echo(
+                dumps(
+                    {
+                        "prior": str(prior_file),
+                        "model": prior.kind,
+                        "false_alarm": false_alarm,
+                        "min_change": min_change,
+                        "n_rdot": n_rdot,
+                        "notes": notes,
+                        "recordings": [d.summary() for d in dets],
+                    }
+                )
+            )
             return
         for d in dets:
             for line in verdict_lines(d, min_change):
@@ -99,34 +138,51 @@ def verdict_lines(d, min_change: float) -> list[str]:
     ev = d.evidence
     lo, hi = ev["onset_interval_s"]
     if d.changed:
-        what = (f"undecided between {' and '.join(c.replace('_', ' ') for c in ev['undecided_between'])}"
-                if d.property == "undecided" else d.property.replace("_", " "))
-        out = [f"{d.source}: CHANGED (alarm at {d.alarm_s:.0f} s; change point {ev['onset_s']:.0f} s, 95 % interval "
-               f"{lo:.0f}-{hi:.0f} s): {what}"]
+        what = (
+            f"undecided between {' and '.join(c.replace('_', ' ') for c in ev['undecided_between'])}"
+            if d.property == "undecided"
+            else d.property.replace("_", " ")
+        )
+        out = [
+            f"{d.source}: CHANGED (alarm at {d.alarm_s:.0f} s; change point {ev['onset_s']:.0f} s, 95 % interval "
+            f"{lo:.0f}-{hi:.0f} s): {what}"
+        ]
     else:
-        why = (f"the statistic crossed a threshold but the estimated change is below --min-change {min_change:g} or "
-               "within its own noise" if ev.get("crossed_but_below_min_change") else
-               "every statistic stayed below its threshold")
-        peaks = ", ".join(f"{c.replace('_', ' ')} {ev['statistic_max'][c]:.1f}/{h:.1f}"
-                          for c, h in zip(ev["statistic_max"], d.threshold))
-        out = [f"{d.source}: no change detected ({why}; statistic max/threshold: {peaks}); the estimates below are not "
-               "changes worth an alarm"]
+        why = (
+            f"the statistic crossed a threshold but the estimated change is below --min-change {min_change:g} or "
+            "within its own noise"
+            if ev.get("crossed_but_below_min_change")
+            else "every statistic stayed below its threshold"
+        )
+        peaks = ", ".join(
+            f"{c.replace('_', ' ')} {ev['statistic_max'][c]:.1f}/{h:.1f}" for c, h in zip(ev["statistic_max"], d.threshold)
+        )
+        out = [
+            f"{d.source}: no change detected ({why}; statistic max/threshold: {peaks}); the estimates below are not "
+            "changes worth an alarm"
+        ]
     for name, c in ev["candidates"].items():
         line = f"  {name.replace('_', ' '):12s} {100 * c['relative_change']:+6.1f} % +- {100 * c['std']:4.1f} %"
         if name == "yaw_inertia":
             line += " of I_r = I_z - N_rdot"
             if c.get("I_z_relative_change") is not None:
-                line += (f" (I_z {100 * c['I_z_relative_change']:+.1f} % +- {100 * c['I_z_std']:.1f} % with "
-                         f"N_rdot {c['N_rdot']:.3g} kg m^2)")
+                line += (
+                    f" (I_z {100 * c['I_z_relative_change']:+.1f} % +- {100 * c['I_z_std']:.1f} % with "
+                    f"N_rdot {c['N_rdot']:.3g} kg m^2)"
+                )
             else:
                 line += f" (I_z not positive with N_rdot {c['N_rdot']:.3g} kg m^2: check --n-rdot)"
         line += f", log-likelihood ratio {c['llr']:.1f}"
         if not d.changed and abs(c["relative_change"]) >= 2 * c["std"]:
             # the alarm tests only the candidate with the largest log-likelihood ratio
             size = c.get("I_z_relative_change") if name == "yaw_inertia" else c["relative_change"]
-            line += (" (over 2 sd, but every statistic stayed below its threshold)" if not ev.get("crossed_but_below_min_change")
-                     else " (over 2 sd, below --min-change)" if size is not None and abs(size) < min_change
-                     else " (over 2 sd, not separable from the other candidates)")
+            line += (
+                " (over 2 sd, but every statistic stayed below its threshold)"
+                if not ev.get("crossed_but_below_min_change")
+                else " (over 2 sd, below --min-change)"
+                if size is not None and abs(size) < min_change
+                else " (over 2 sd, not separable from the other candidates)"
+            )
         out.append(line)
     dz = f"{d.dead_zone_alarm_s:.0f} s" if d.dead_zone_alarm_s is not None else "none"
     out.append(f"  dead-zone CUSUM (5.1) alarm: {dz}")

@@ -33,9 +33,11 @@ def _load_params(path: str, profile):
         same = [n for n in builtin_profiles() if load_profile(n).model_terms == profile.model_terms]
         if path in same:
             return load_profile(path).params()
-        raise RecordingError(f"--params {path!r}: no such file, and not a parameter set of ship {profile.name!r} "
-                             f"({', '.join(sorted(profile.parameter_sets))}) nor a built-in profile with its model "
-                             f"terms ({', '.join(same)}); give one of those names, a profile TOML/JSON or a JSON with 'theta'")
+        raise RecordingError(
+            f"--params {path!r}: no such file, and not a parameter set of ship {profile.name!r} "
+            f"({', '.join(sorted(profile.parameter_sets))}) nor a built-in profile with its model "
+            f"terms ({', '.join(same)}); give one of those names, a profile TOML/JSON or a JSON with 'theta'"
+        )
     try:
         other = load_profile(p)
         if other.model_terms != profile.model_terms:
@@ -61,14 +63,28 @@ def _load_params(path: str, profile):
 def register(app: typer.Typer) -> None:
     @app.command("diagnose")
     def diagnose(
-        recordings: list[str] = typer.Argument(..., help="recordings to diagnose (.csv with the columns the README lists under Recordings, or MARIN .dat)"),
+        recordings: list[str] = typer.Argument(
+            ..., help="recordings to diagnose (.csv with the columns the README lists under Recordings, or MARIN .dat)"
+        ),
         ship: str = typer.Option(..., "--ship", help="built-in profile name or a .toml/.json profile file"),
-        params: str | None = typer.Option(None, "--params", help="baseline parameters: a parameter set of the ship (e.g. nominal), a built-in profile name, a profile TOML/JSON or a JSON with 'theta'"),
-        fit_on: list[str] | None = typer.Option(None, "--fit-on", help="fit the baseline on these recordings first (repeat or comma-separate)"),
-        validate: list[str] | None = typer.Option(None, "--validate", help="held-out recordings for the before/after fit (repeat or comma-separate)"),
-        out: Path | None = typer.Option(None, "--out", help="directory for report.txt, diagnosis.json, model.json and residual plots"),
+        params: str | None = typer.Option(
+            None,
+            "--params",
+            help="baseline parameters: a parameter set of the ship (e.g. nominal), a built-in profile name, a profile TOML/JSON or a JSON with 'theta'",
+        ),
+        fit_on: list[str] | None = typer.Option(
+            None, "--fit-on", help="fit the baseline on these recordings first (repeat or comma-separate)"
+        ),
+        validate: list[str] | None = typer.Option(
+            None, "--validate", help="held-out recordings for the before/after fit (repeat or comma-separate)"
+        ),
+        out: Path | None = typer.Option(
+            None, "--out", help="directory for report.txt, diagnosis.json, model.json and residual plots"
+        ),
         json_out: bool = typer.Option(False, "--json", help="print the diagnosis as JSON"),
-        resample: bool = typer.Option(False, "--resample", help="interpolate recordings onto the ship's sample time (default: refuse)"),
+        resample: bool = typer.Option(
+            False, "--resample", help="interpolate recordings onto the ship's sample time (default: refuse)"
+        ),
     ) -> None:
         """Diagnose recordings against a ship model: locate, name and model the missing physics."""
         from cli.errors import warn_ship
@@ -80,8 +96,11 @@ def register(app: typer.Typer) -> None:
         from diagnose.stability import check_baseline
         from primitives.ship import load_profile
 
-        validate_diagnose_options(recordings={"RECORDING": _split(recordings), "--fit-on": _split(fit_on), "--validate": _split(validate)},
-                                  params=params, out=out)
+        validate_diagnose_options(
+            recordings={"RECORDING": _split(recordings), "--fit-on": _split(fit_on), "--validate": _split(validate)},
+            params=params,
+            out=out,
+        )
         profile = load_profile(ship)
         profile.require_planar("shiptrial diagnose")
         warn_ship(profile)

@@ -221,8 +221,16 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
     track, states = Path(f"{stem}-track.png"), Path(f"{stem}-states.png")
 
     def card_pdf() -> None:  # the PDF draws its own map and states page: no figure shared with the PNGs
-        _run_jobs([(html.with_suffix(".pdf"), "the PDF trial card", lambda: write_card_pdf(plan, html.with_suffix(".pdf"), chart, t0)),
-                   (states, "the states figure", lambda: plot_states(plan, states))])
+        _run_jobs(
+            [
+                (
+                    html.with_suffix(".pdf"),
+                    "the PDF trial card",
+                    lambda: write_card_pdf(plan, html.with_suffix(".pdf"), chart, t0),
+                ),
+                (states, "the states figure", lambda: plot_states(plan, states)),
+            ]
+        )
 
     wait = beside([(html.with_suffix(".pdf"), "the PDF trial card", card_pdf)])
     try:
@@ -230,8 +238,13 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
         if design is not None:
             ahead = (prepared or {}).get("ratios")
             if ahead is not None and _same(ahead[0], design):  # drawn while the parent planned
-                jobs.append((tmp / "design-ratios.png", "the design ratios figure",
-                             lambda: atomic_write_bytes(tmp / "design-ratios.png", ahead[1])))
+                jobs.append(
+                    (
+                        tmp / "design-ratios.png",
+                        "the design ratios figure",
+                        lambda: atomic_write_bytes(tmp / "design-ratios.png", ahead[1]),
+                    )
+                )
             else:
                 jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(design, tmp)))
         _run_jobs(jobs)
@@ -239,8 +252,15 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
             _run_jobs([(track, "the track figure", lambda: plot_track(plan, track, chart, figures=figs))])
             wait()
             figs.adopt_png("states", states.read_bytes())
-            _run_jobs([(html, "the trial card", lambda: _write(plan, "card", html, sea_map=chart, start=t0, vessel=None,
-                                                               pdf=False, figures=figs))])
+            _run_jobs(
+                [
+                    (
+                        html,
+                        "the trial card",
+                        lambda: _write(plan, "card", html, sea_map=chart, start=t0, vessel=None, pdf=False, figures=figs),
+                    )
+                ]
+            )
     except BaseException:
         wait(quiet=True)  # no child outlives the drawing; the first error is the one to report
         raise
@@ -289,8 +309,12 @@ class Drawer:
         self.pid, self._sender = pid, None
 
     @staticmethod
-    def _serve(job_r: int, early: Callable[[], object] | None = None, early_w: int = -1,
-               ahead: Callable[[Any], dict[str, Any]] | None = None) -> None:
+    def _serve(
+        job_r: int,
+        early: Callable[[], object] | None = None,
+        early_w: int = -1,
+        ahead: Callable[[Any], dict[str, Any]] | None = None,
+    ) -> None:
         result = _compute_early(early, early_w) if early is not None else None
         _warm()
         prepared = _prepare(ahead, result)  # while the parent still plans

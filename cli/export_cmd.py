@@ -63,11 +63,16 @@ def register(app: typer.Typer) -> None:
         plan_file: Path = typer.Argument(..., help="plan JSON written by plan-trial"),
         fmt: str = typer.Option("all", "--format", "-f", help="gpx | rtz | geojson | csv | card | all"),
         out: Path | None = typer.Option(None, "--out", "-o", help="output file (one format) or directory (all)"),
-        sea_map: Path | None = typer.Option(None, "--map", help="GeoJSON sea map to draw on the card (default: the bundled map the plan names)"),
+        sea_map: Path | None = typer.Option(
+            None, "--map", help="GeoJSON sea map to draw on the card (default: the bundled map the plan names)"
+        ),
         start: str | None = typer.Option(None, "--start", help="UTC start of the trial, ISO 8601 (e.g. 2026-06-01T08:00Z)"),
         no_pdf: bool = typer.Option(False, "--no-pdf", help="card: write the HTML only"),
-        vessel: str | None = typer.Option(None, "--vessel-name", help="the ship's name on the route and card "
-                                                                      "(default: the plan's vessel name, else the profile's display name)"),
+        vessel: str | None = typer.Option(
+            None,
+            "--vessel-name",
+            help="the ship's name on the route and card (default: the plan's vessel name, else the profile's display name)",
+        ),
     ) -> None:
         """Export a saved plan for the ship: route (RTZ, GPX), GeoJSON, CSV schedule or trial card."""
         from cli.options import validate_export_options

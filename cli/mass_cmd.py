@@ -18,13 +18,28 @@ def register(app: typer.Typer) -> None:
         nominal: Path = typer.Argument(..., help="nominal run CSV (t, delta, p, a_s, r), no extra load"),
         calibration: Path = typer.Argument(..., help="calibration run CSV with a known load (--known-load or its header)"),
         loaded: Path = typer.Argument(..., help="run CSV with the unknown load"),
-        known_load: str | None = typer.Option(None, "--known-load", help="calibration load KG@Z: kg at z m (z positive down from the "
-                                              "waterline, a load on deck is negative), e.g. 0.2@-0.256; default: the calibration file's header"),
-        profile: Path | None = typer.Option(None, "--profile", help="roll profile TOML (default: Our Lass II 1:24); "
-                                            "speed and IMU z come from the recordings' headers when they have them"),
-        method: str | None = typer.Option(None, "--method", help="oe (output error on p, a_s, r; default), improved (refined IV), "
-                                   "paper-iv (Linder et al. 2015 IV), or ls"),
-        z_f: float | None = typer.Option(None, "--z-f", help="roll-centre prior z_f in m, minus the roll centre's depth below the waterline: -0.03 puts it 3 cm below (z = zbar + z_f, Linder et al. 2015 (12); default: the profile's)"),
+        known_load: str | None = typer.Option(
+            None,
+            "--known-load",
+            help="calibration load KG@Z: kg at z m (z positive down from the "
+            "waterline, a load on deck is negative), e.g. 0.2@-0.256; default: the calibration file's header",
+        ),
+        profile: Path | None = typer.Option(
+            None,
+            "--profile",
+            help="roll profile TOML (default: Our Lass II 1:24); "
+            "speed and IMU z come from the recordings' headers when they have them",
+        ),
+        method: str | None = typer.Option(
+            None,
+            "--method",
+            help="oe (output error on p, a_s, r; default), improved (refined IV), paper-iv (Linder et al. 2015 IV), or ls",
+        ),
+        z_f: float | None = typer.Option(
+            None,
+            "--z-f",
+            help="roll-centre prior z_f in m, minus the roll centre's depth below the waterline: -0.03 puts it 3 cm below (z = zbar + z_f, Linder et al. 2015 (12); default: the profile's)",
+        ),
         json_out: bool = typer.Option(False, "--json", help="print the estimate as JSON"),
     ) -> None:
         """Estimate the loaded run's extra mass and its z (CoG of the load), with 95 % confidence intervals (Linder et al. 2015)."""
@@ -35,16 +50,31 @@ def register(app: typer.Typer) -> None:
         e = estimate_from_files(nominal, calibration, loaded, known_load, profile, method, z_f)
         (mlo, mhi), (zlo, zhi) = e.ci()
         if json_out:
-            typer.echo(dumps({"method": e.method, "m": e.m, "m_ci95": [mlo, mhi], "z_m": e.zbar_m, "z_m_ci95": [zlo, zhi],
-                              "z_convention": "body frame, m, positive down from the waterline",
-                              "corr": e.corr, "params": e.params, "warnings": e.warnings, "notes": e.notes}))
+            typer.echo(
+                dumps(
+                    {
+                        "method": e.method,
+                        "m": e.m,
+                        "m_ci95": [mlo, mhi],
+                        "z_m": e.zbar_m,
+                        "z_m_ci95": [zlo, zhi],
+                        "z_convention": "body frame, m, positive down from the waterline",
+                        "corr": e.corr,
+                        "params": e.params,
+                        "warnings": e.warnings,
+                        "notes": e.notes,
+                    }
+                )
+            )
         else:
             for n in e.notes:
                 typer.echo(f"note: {n}")
             typer.echo(f"method {e.method}: mass change {e.m:.4f} kg (95 % CI {mlo:.4f} .. {mhi:.4f})")
             where = "above" if e.zbar_m < 0 else "below"
-            typer.echo(f"load z {e.zbar_m:+.4f} m, i.e. {abs(e.zbar_m):.3f} m {where} the waterline (z positive down; "
-                       f"95 % CI {zlo:+.4f} .. {zhi:+.4f}); correlation {e.corr:+.2f}")
+            typer.echo(
+                f"load z {e.zbar_m:+.4f} m, i.e. {abs(e.zbar_m):.3f} m {where} the waterline (z positive down; "
+                f"95 % CI {zlo:+.4f} .. {zhi:+.4f}); correlation {e.corr:+.2f}"
+            )
             for w in e.warnings:
                 typer.echo(f"warning: {w}")
         if not e.converged:

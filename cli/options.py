@@ -32,8 +32,19 @@ def check_input_file(path: Path | str | None, option: str, what: str, kind: str)
         raise UserError(f"{option} {p}: no such {kind} file; give {what}")
 
 
-DURATION_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "secs": 1.0, "seconds": 1.0, "min": 60.0, "mins": 60.0, "minutes": 60.0,
-                  "h": 3600.0, "hr": 3600.0, "hours": 3600.0}
+DURATION_UNITS = {
+    "": 1.0,
+    "s": 1.0,
+    "sec": 1.0,
+    "secs": 1.0,
+    "seconds": 1.0,
+    "min": 60.0,
+    "mins": 60.0,
+    "minutes": 60.0,
+    "h": 3600.0,
+    "hr": 3600.0,
+    "hours": 3600.0,
+}
 _DURATION = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?|[-+]?inf|nan)\s*([a-z]*)\s*$", re.IGNORECASE)
 
 
@@ -49,8 +60,9 @@ def duration_s(text: str | None, option: str, error: type[UserError] = UserError
     return float(m.group(1)) * DURATION_UNITS[unit]
 
 
-def check_design_choices(criterion: str, mean_subtraction: str, trial_length: float | None,
-                         error: type[UserError] = UserError) -> None:
+def check_design_choices(
+    criterion: str, mean_subtraction: str, trial_length: float | None, error: type[UserError] = UserError
+) -> None:
     """The design's criterion, mean subtraction and trial length (``design`` and ``plan``)."""
     one_of(criterion, "--criterion", ("D", "A", "E"), error)
     one_of(mean_subtraction, "--mean-subtraction", ("none", "batchwise", "complete"), error)
@@ -74,8 +86,10 @@ def check_vessel_name(name: str | None, rtz: bool, error: type[UserError] = User
 
         shown = " ".join(name.split())  # as the exports write it
         if len(shown) > VESSEL_NAME_MAX:
-            raise error(f"--vessel-name {shown!r} has {len(shown)} characters; the RTZ route holds at most "
-                        f"{VESSEL_NAME_MAX}: give a shorter name")
+            raise error(
+                f"--vessel-name {shown!r} has {len(shown)} characters; the RTZ route holds at most "
+                f"{VESSEL_NAME_MAX}: give a shorter name"
+            )
 
 
 def check_start_time(text: str | None, option: str) -> None:
@@ -89,18 +103,33 @@ def check_start_time(text: str | None, option: str) -> None:
     try:
         t0 = resolve_start(None, text)
     except ExportError:
-        raise ExportError(f"{option} {text!r}: not an ISO 8601 time; give the UTC start, e.g. {option} 2026-06-01T08:00Z") from None
+        raise ExportError(
+            f"{option} {text!r}: not an ISO 8601 time; give the UTC start, e.g. {option} 2026-06-01T08:00Z"
+        ) from None
     if not 1970 <= t0.year <= 2199:
-        raise ExportError(f"{option} {text!r}: year {t0.year} is not a trial date; give the UTC start, e.g. {option} 2026-06-01T08:00Z")
+        raise ExportError(
+            f"{option} {text!r}: year {t0.year} is not a trial date; give the UTC start, e.g. {option} 2026-06-01T08:00Z"
+        )
 
 
 def validate_primitives_options(plot: Path | None) -> None:
     check_plot_path(plot)
 
 
-def validate_design_options(*, criterion: str, mean_subtraction: str, trial_length: float | None, monte_carlo: int,
-                            mc_samples: int, seed: int, out: Path | None, psi_switch: float | None,
-                            min_frac: float | None, max_frac: float | None, noisy_moments: int) -> None:
+def validate_design_options(
+    *,
+    criterion: str,
+    mean_subtraction: str,
+    trial_length: float | None,
+    monte_carlo: int,
+    mc_samples: int,
+    seed: int,
+    out: Path | None,
+    psi_switch: float | None,
+    min_frac: float | None,
+    max_frac: float | None,
+    noisy_moments: int,
+) -> None:
     from expdesign.errors import DesignError
 
     check_design_choices(criterion, mean_subtraction, trial_length, DesignError)
@@ -122,8 +151,9 @@ def validate_design_options(*, criterion: str, mean_subtraction: str, trial_leng
         check_replaceable_dir(out)
 
 
-def validate_export_options(*, plan_file: Path, fmt: str, out: Path | None, sea_map: Path | None,
-                            vessel_name: str | None = None, start: str | None = None) -> None:
+def validate_export_options(
+    *, plan_file: Path, fmt: str, out: Path | None, sea_map: Path | None, vessel_name: str | None = None, start: str | None = None
+) -> None:
     """Export: the format known, the extension of a one-format --out matching it, the plan never overwritten."""
     from maps.export import FORMATS, ExportError
 
@@ -142,10 +172,14 @@ def validate_export_options(*, plan_file: Path, fmt: str, out: Path | None, sea_
     allowed = {FORMATS[fmt_l], ".pdf"} if fmt_l == "card" else {FORMATS[fmt_l]}
     if not out.suffix:  # as every other output file (sweep tables, plots): the extension names the format
         also = ", its PDF beside it" if fmt_l == "card" else ""
-        raise ExportError(f"--out {out}: no extension: give {out}{FORMATS[fmt_l]} (the {fmt_l} file{also}) or an existing "
-                          "directory to write the default name into")
+        raise ExportError(
+            f"--out {out}: no extension: give {out}{FORMATS[fmt_l]} (the {fmt_l} file{also}) or an existing "
+            "directory to write the default name into"
+        )
     if out.suffix.lower() not in allowed:
-        raise ExportError(f"--out {out}: extension {out.suffix!r} does not match --format {fmt_l} ({' or '.join(sorted(allowed))})")
+        raise ExportError(
+            f"--out {out}: extension {out.suffix!r} does not match --format {fmt_l} ({' or '.join(sorted(allowed))})"
+        )
     if out.resolve() == plan_file.resolve():
         raise ExportError(f"--out {out}: is the plan being exported; choose another file")
     check_out_path(out, kind="file")
@@ -165,7 +199,9 @@ def validate_diagnose_options(*, recordings: dict[str, list[str]], params: str |
             check_input_file(r, option, "a recording file (.csv or MARIN .dat)", "recording")
     check_runs_once(recordings)
     if params is not None and Path(params).is_dir():  # a missing file may be a parameter set's name: checked with the ship
-        raise UserError(f"--params {params}: is a directory; give a parameter set name, a profile TOML/JSON or a JSON with 'theta'")
+        raise UserError(
+            f"--params {params}: is a directory; give a parameter set name, a profile TOML/JSON or a JSON with 'theta'"
+        )
     if out is not None:
         check_out_path(out)
 
@@ -184,8 +220,10 @@ def check_runs_once(recordings: dict[str, list[str]]) -> None:
             for key, why in (((p.resolve(),), "the same file"), (("sha256", digest), "identical content")):
                 if key in seen:
                     o_opt, o_path = seen[key]
-                    raise UserError(f"{option} {r}: the same run as {o_opt} {o_path} ({why}); a run given twice is "
-                                    "scored or fitted on twice (in-sample where the report says held out): give each run once")
+                    raise UserError(
+                        f"{option} {r}: the same run as {o_opt} {o_path} ({why}); a run given twice is "
+                        "scored or fitted on twice (in-sample where the report says held out): give each run once"
+                    )
             seen[(p.resolve(),)] = seen[("sha256", digest)] = (option, r)
 
 
@@ -201,11 +239,27 @@ def _point(text: str | None, option: str) -> None:
         in_range(part, f"{option} {name}", lo, hi, unit)
 
 
-def validate_plan_options(*, resolution: float | None, margin: float, headings: int, start: str | None, goal: str | None,
-                          counts: str | None, size: str, out: Path, seed: int = 0, scenario: str | None = None,
-                          criterion: str = "D", mean_subtraction: str = "complete", trial_length: float | None = None,
-                          run_in: float | None = None, max_memory: float = 2.0, vessel_name: str | None = None,
-                          start_time: str | None = None, no_export: bool = False) -> None:
+def validate_plan_options(
+    *,
+    resolution: float | None,
+    margin: float,
+    headings: int,
+    start: str | None,
+    goal: str | None,
+    counts: str | None,
+    size: str,
+    out: Path,
+    seed: int = 0,
+    scenario: str | None = None,
+    criterion: str = "D",
+    mean_subtraction: str = "complete",
+    trial_length: float | None = None,
+    run_in: float | None = None,
+    max_memory: float = 2.0,
+    vessel_name: str | None = None,
+    start_time: str | None = None,
+    no_export: bool = False,
+) -> None:
     """Every ``plan`` option checked before the map is loaded (the lattice's memory estimate is the
     planner's, once it knows the map)."""
     if scenario is not None:
@@ -216,7 +270,9 @@ def validate_plan_options(*, resolution: float | None, margin: float, headings: 
     if run_in is not None:  # held for the whole run-in: an hour is already far past any settling time
         in_range(run_in, "--run-in", 0.0, 3600.0, "s (steady run before each execute point)")
     if positive(max_memory, "--max-memory", "GiB") > 1024:
-        raise UserError(f"--max-memory: {max_memory:g} GiB is more than any machine has; give the memory the planner may use, in GiB")
+        raise UserError(
+            f"--max-memory: {max_memory:g} GiB is more than any machine has; give the memory the planner may use, in GiB"
+        )
     check_vessel_name(vessel_name, rtz=not no_export)
     check_start_time(start_time, "--start-time")
     if resolution is not None:
@@ -251,8 +307,9 @@ def validate_detect_prior_options(*, out: Path, bootstrap: int, seed: int) -> No
     whole(seed, "--seed", 0, 2**63 - 1)
 
 
-def validate_detect_options(*, plot: Path | None, false_alarm: float, min_change: float, seed: int,
-                            n_rdot: float = -28.7e6) -> None:
+def validate_detect_options(
+    *, plot: Path | None, false_alarm: float, min_change: float, seed: int, n_rdot: float = -28.7e6
+) -> None:
     check_plot_path(plot)
     in_range(n_rdot, "--n-rdot", -1e12, -1.0, "kg m^2 (the added yaw inertia N_rdot is negative, e.g. -28.7e6)")
     in_range(false_alarm, "--false-alarm", 1e-4, 0.5)  # a probability per recording

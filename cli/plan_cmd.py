@@ -75,8 +75,10 @@ def design_conflict(counts: str | None, scenario: str | None, **design: object) 
     given = [f"--{k.replace('_', '-')}" for k, v in design.items() if v is not None]
     chooser = "--counts" if counts is not None else "--scenario" if scenario is not None else None
     if given and chooser:
-        raise UserError(f"{given[0]}: sets the experiment design, but {chooser} chooses the manoeuvres without one: "
-                        f"drop {' and '.join(given)} or {chooser}")
+        raise UserError(
+            f"{given[0]}: sets the experiment design, but {chooser} chooses the manoeuvres without one: "
+            f"drop {' and '.join(given)} or {chooser}"
+        )
 
 
 def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path]) -> None:
@@ -94,20 +96,31 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
     used = ", ".join(f"{k} x{v}" for k, v in result.counts.items())
     t.add_row("feasible", "yes" if result.feasible else "NO")
     t.add_row("informative manoeuvres", used or "-")
-    t.add_row("repositioning", f"{len(result.segment_steps('transit'))} transit leg(s) "
-                               f"({st.get('basic_moves', 0)} lattice moves, {st.get('moves_straightened', 0)} straightened)")
+    t.add_row(
+        "repositioning",
+        f"{len(result.segment_steps('transit'))} transit leg(s) "
+        f"({st.get('basic_moves', 0)} lattice moves, {st.get('moves_straightened', 0)} straightened)",
+    )
     if result.design:
         d = result.design
-        t.add_row("design", f"{d['criterion']}-optimal, {d['mean_subtraction']} mean subtraction; rounded D-efficiency "
-                            f"{d['d_efficiency']:.3f}" + "".join(f"; {x['primitive']} dropped (needs {x['needs_m'][0]:.0f} x "
-                                                                  f"{x['needs_m'][1]:.0f} m)" for x in d.get("dropped", [])))
+        t.add_row(
+            "design",
+            f"{d['criterion']}-optimal, {d['mean_subtraction']} mean subtraction; rounded D-efficiency "
+            f"{d['d_efficiency']:.3f}"
+            + "".join(
+                f"; {x['primitive']} dropped (needs {x['needs_m'][0]:.0f} x {x['needs_m'][1]:.0f} m)"
+                for x in d.get("dropped", [])
+            ),
+        )
     t.add_row("duration", f"{result.duration_s / 60:.1f} min")
     t.add_row("track length", f"{result.length_m / 1000:.2f} km")
-    clear = (f"{result.min_clearance_m:.1f} m" if math.isfinite(result.min_clearance_m)
-             else "no land or obstacle within the map")
+    clear = f"{result.min_clearance_m:.1f} m" if math.isfinite(result.min_clearance_m) else "no land or obstacle within the map"
     t.add_row("smallest clearance", f"{clear} (margin {result.margin_m:g} m)")
-    t.add_row("search", f"{st.get('expansions')} expansions, {st.get('states_visited')} states, {st.get('plan_time_s', 0):.3f} s, "
-                        f"{'certified optimal' if result.optimal else 'not certified optimal'}")
+    t.add_row(
+        "search",
+        f"{st.get('expansions')} expansions, {st.get('states_visited')} states, {st.get('plan_time_s', 0):.3f} s, "
+        f"{'certified optimal' if result.optimal else 'not certified optimal'}",
+    )
     con.print(t)
     if result.feasible:
         from rich.markup import escape
@@ -126,9 +139,15 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
         for s_ in result.steps:
             ph = phase(result, s_)
             code = f" [{s_.primitive}]" if ph in ("EXECUTE", "manoeuvre") else ""
-            steps.add_row(str(s_.index + 1), f"{s_.start_time_s / 60:.1f} min", ph, escape(manoeuvre_name(result, s_) + code),
-                          f"{s_.entry_heading_deg:03.0f}°", f"{abs(s_.entry_lat):.5f}{'N' if s_.entry_lat >= 0 else 'S'} "
-                          f"{abs(s_.entry_lon):.5f}{'E' if s_.entry_lon >= 0 else 'W'}")
+            steps.add_row(
+                str(s_.index + 1),
+                f"{s_.start_time_s / 60:.1f} min",
+                ph,
+                escape(manoeuvre_name(result, s_) + code),
+                f"{s_.entry_heading_deg:03.0f}°",
+                f"{abs(s_.entry_lat):.5f}{'N' if s_.entry_lat >= 0 else 'S'} "
+                f"{abs(s_.entry_lon):.5f}{'E' if s_.entry_lon >= 0 else 'W'}",
+            )
         con.print(steps)
     for key, path in files.items():
         con.print(f"wrote {key:18s} {path}", markup=False)
@@ -141,28 +160,44 @@ def register(app: typer.Typer) -> None:
         ship: str = typer.Option("full-scale", "--ship", help="built-in profile name or a .toml/.json profile file"),
         start: str | None = typer.Option(None, "--start", help="LAT,LON,HEADING_DEG (default: the map's start feature)"),
         goal: str | None = typer.Option(None, "--goal", help="LAT,LON[,HEADING_DEG] (default: the map's goal feature)"),
-        counts: str | None = typer.Option(None, "--counts", help="NAME=N,... uses per informative primitive (default: run the design)"),
+        counts: str | None = typer.Option(
+            None, "--counts", help="NAME=N,... uses per informative primitive (default: run the design)"
+        ),
         scenario: str | None = typer.Option(None, "--scenario", help="a named example instead of the design: thesis-9.4"),
-        criterion: str | None = typer.Option(None, "--criterion", help="design criterion: D, A or E (as shiptrial design; "
-                                                                      "default D)"),
-        mean_subtraction: str | None = typer.Option(None, "--mean-subtraction", help="none, batchwise (7.53) or complete (7.57) "
-                                                                                    "(default complete)"),
-        trial_length_text: str | None = typer.Option(None, "--trial-length", help="trial length the design is rounded to: seconds, "
-                                                                                "or with a unit s, min or h (1800, 30min, 0.5h; default: "
-                                                                                "every library primitive once)"),
+        criterion: str | None = typer.Option(
+            None, "--criterion", help="design criterion: D, A or E (as shiptrial design; default D)"
+        ),
+        mean_subtraction: str | None = typer.Option(
+            None, "--mean-subtraction", help="none, batchwise (7.53) or complete (7.57) (default complete)"
+        ),
+        trial_length_text: str | None = typer.Option(
+            None,
+            "--trial-length",
+            help="trial length the design is rounded to: seconds, "
+            "or with a unit s, min or h (1800, 30min, 0.5h; default: "
+            "every library primitive once)",
+        ),
         resolution: float | None = typer.Option(None, "--resolution", help="lattice spacing in metres (default ~4 ship lengths)"),
         headings: int = typer.Option(16, "--headings", help="lattice headings: 4, 8 or 16"),
         heuristic: str = typer.Option("admissible", "--heuristic", help="admissible (certified optimal) or thesis (8.9)"),
         margin: float = typer.Option(20.0, "--margin", help="safety margin around the swept hull, metres"),
-        run_in: float | None = typer.Option(None, "--run-in", help="seconds on steady course and speed before each execute point "
-                                                                  "(default: max(60 s, two ship lengths))"),
+        run_in: float | None = typer.Option(
+            None,
+            "--run-in",
+            help="seconds on steady course and speed before each execute point (default: max(60 s, two ship lengths))",
+        ),
         max_memory: float = typer.Option(2.0, "--max-memory", help="refuse a lattice estimated to need more GiB than this"),
         split: bool = typer.Option(False, "--split", help="split primitives at their natural break points"),
         size: str = typer.Option("35x44", "--size", help="minimum lattice size NORTHxEAST points"),
-        vessel_name: str | None = typer.Option(None, "--vessel-name", help="vessel name for the exports (default: the profile's name)"),
+        vessel_name: str | None = typer.Option(
+            None, "--vessel-name", help="vessel name for the exports (default: the profile's name)"
+        ),
         out: Path = typer.Option(Path("trial-out"), "--out", help="directory for the plan, the crew exports and the figures"),
-        start_time: str | None = typer.Option(None, "--start-time", help="UTC start of the trial for the schedule, e.g. 2026-06-01T08:00Z "
-                                                                         "(default: the next full hour)"),
+        start_time: str | None = typer.Option(
+            None,
+            "--start-time",
+            help="UTC start of the trial for the schedule, e.g. 2026-06-01T08:00Z (default: the next full hour)",
+        ),
         no_export: bool = typer.Option(False, "--no-export", help="write only plan.json, trajectory.geojson and plan.png"),
         json_out: bool = typer.Option(False, "--json", help="print one JSON summary"),
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
@@ -175,30 +210,76 @@ def register(app: typer.Typer) -> None:
         design_conflict(counts, scenario, criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length)
         criterion = "D" if criterion is None else criterion
         mean_subtraction = "complete" if mean_subtraction is None else mean_subtraction
-        validate_plan_options(resolution=resolution, margin=margin, headings=headings, start=start, goal=goal,
-                              counts=counts, size=size, out=out, seed=seed, scenario=scenario, criterion=criterion,
-                              mean_subtraction=mean_subtraction, trial_length=trial_length, run_in=run_in,
-                              max_memory=max_memory, vessel_name=vessel_name, start_time=start_time,
-                              no_export=no_export)
+        validate_plan_options(
+            resolution=resolution,
+            margin=margin,
+            headings=headings,
+            start=start,
+            goal=goal,
+            counts=counts,
+            size=size,
+            out=out,
+            seed=seed,
+            scenario=scenario,
+            criterion=criterion,
+            mean_subtraction=mean_subtraction,
+            trial_length=trial_length,
+            run_in=run_in,
+            max_memory=max_memory,
+            vessel_name=vessel_name,
+            start_time=start_time,
+            no_export=no_export,
+        )
         ni, nj = (int(v) for v in size.lower().split("x"))  # checked by validate_plan_options
         if counts is not None and scenario is not None:
             raise UserError("--counts and --scenario both choose the manoeuvres: give one of them")
-        opts = PlanOptions(resolution=resolution, headings=headings, heuristic=heuristic, margin=margin, split=split,
-                           size=(ni, nj), run_in_s=run_in, max_memory_gib=max_memory)
+        opts = PlanOptions(
+            resolution=resolution,
+            headings=headings,
+            heuristic=heuristic,
+            margin=margin,
+            split=split,
+            size=(ni, nj),
+            run_in_s=run_in,
+            max_memory_gib=max_memory,
+        )
         opts.check()
         design = {"criterion": criterion, "mean_subtraction": mean_subtraction, "trial_length_s": trial_length, "seed": seed}
-        files, result = plan_and_write(ship, map_path, opts, design, counts=parse_counts(counts), scenario=scenario,
-                                       start=parse_point(start, "start"), goal=parse_point(goal, "goal"),
-                                       vessel_name=vessel_name, out=out, start_time=start_time, no_export=no_export,
-                                       json_out=json_out)
+        files, result = plan_and_write(
+            ship,
+            map_path,
+            opts,
+            design,
+            counts=parse_counts(counts),
+            scenario=scenario,
+            start=parse_point(start, "start"),
+            goal=parse_point(goal, "goal"),
+            vessel_name=vessel_name,
+            out=out,
+            start_time=start_time,
+            no_export=no_export,
+            json_out=json_out,
+        )
         _skip_final_collection()
         report(result, files, heuristic, json_out)
 
 
-def plan_and_write(ship: str, map_path: Path | None, opts: PlanOptions, design: dict[str, Any], *,
-                   counts: dict[str, int] | None, scenario: str | None, start: LatLonHdg | None, goal: LatLonHdg | None,
-                   vessel_name: str | None, out: Path, start_time: str | None, no_export: bool,
-                   json_out: bool) -> tuple[dict[str, Path], Plan]:
+def plan_and_write(
+    ship: str,
+    map_path: Path | None,
+    opts: PlanOptions,
+    design: dict[str, Any],
+    *,
+    counts: dict[str, int] | None,
+    scenario: str | None,
+    start: LatLonHdg | None,
+    goal: LatLonHdg | None,
+    vessel_name: str | None,
+    out: Path,
+    start_time: str | None,
+    no_export: bool,
+    json_out: bool,
+) -> tuple[dict[str, Path], Plan]:
     """Plan (``design``: criterion, mean_subtraction, trial_length_s, seed) and write every
     output into ``out``; returns the files (paths in ``out``) and the plan. The figures are drawn
     by a :class:`cli.drawer.Drawer` started first (it designs and imports the drawing modules on
@@ -221,9 +302,18 @@ def plan_and_write(ship: str, map_path: Path | None, opts: PlanOptions, design: 
         sea = load_map(map_path, draught_m=prof.draught_m)
         try:
             with stage("designing the manoeuvre mix and planning on the lattice (A*) ...", json_out):
-                result, td = plan_with_design(sea, profile=prof, counts=counts, start=start, goal=goal, scenario=scenario,
-                                              **design, vessel_name=vessel_name or "", options=opts,
-                                              first_design=drawer.early if drawer is not None else None)
+                result, td = plan_with_design(
+                    sea,
+                    profile=prof,
+                    counts=counts,
+                    start=start,
+                    goal=goal,
+                    scenario=scenario,
+                    **design,
+                    vessel_name=vessel_name or "",
+                    options=opts,
+                    first_design=drawer.early if drawer is not None else None,
+                )
         except NoFitError as exc:
             print(f"error: {str(exc).splitlines()[0]}", file=sys.stderr)
             raise typer.Exit(1) from None
@@ -266,8 +356,16 @@ def _ratios_ahead(first: FirstDesign) -> dict[str, Any]:
     return {"ratios": (first.design.design, ratios_png(first.design.design))}
 
 
-def write_outputs_all(result: Plan, sea: SeaMap, tmp: Path, td: TrialDesign | None, t0: datetime, no_export: bool, quiet: bool,
-                      drawer: Drawer | None = None) -> dict[str, Path]:
+def write_outputs_all(
+    result: Plan,
+    sea: SeaMap,
+    tmp: Path,
+    td: TrialDesign | None,
+    t0: datetime,
+    no_export: bool,
+    quiet: bool,
+    drawer: Drawer | None = None,
+) -> dict[str, Path]:
     """Every output into the (temporary) directory ``tmp``. The figures (PDF and HTML trial card,
     their PNGs, the plan picture, the design ratios) are drawn by ``drawer`` (a
     :class:`cli.drawer.Drawer` started with the command) while this process writes the plan and
@@ -297,13 +395,18 @@ def write_outputs_all(result: Plan, sea: SeaMap, tmp: Path, td: TrialDesign | No
         from cli.drawer import Drawer
 
         drawer = Drawer()
-    drawer.send({"plan": result, "sea": sea, "chart": chart, "design": td.design if td is not None else None, "t0": t0,
-                 "dir": tmp})  # pickled now: the figures are drawn with the chart given, not the one plan.json stores
+    drawer.send(
+        {"plan": result, "sea": sea, "chart": chart, "design": td.design if td is not None else None, "t0": t0, "dir": tmp}
+    )  # pickled now: the figures are drawn with the chart given, not the one plan.json stores
     try:
         files = write_outputs(result, sea, tmp, plot=False, chart=chart)
         with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
-            crew = {fmt: _write(result, fmt, default_path(result, fmt, tmp), sea_map=chart, start=t0, vessel=None, pdf=False,
-                                figures=None)[0] for fmt in ("geojson", "gpx", "rtz", "csv")}
+            crew = {
+                fmt: _write(
+                    result, fmt, default_path(result, fmt, tmp), sea_map=chart, start=t0, vessel=None, pdf=False, figures=None
+                )[0]
+                for fmt in ("geojson", "gpx", "rtz", "csv")
+            }
     except BaseException:
         drawer.wait(quiet=True)  # no child outlives the command; the first error is the one to report
         raise
@@ -313,22 +416,41 @@ def write_outputs_all(result: Plan, sea: SeaMap, tmp: Path, td: TrialDesign | No
     drawer.wait()
     card = default_path(result, "card", tmp)
     stem = default_path(result, "csv", tmp).with_suffix("")
-    return {**files, "plot": tmp / "plan.png", **({"design_ratios_png": tmp / "design-ratios.png"} if td is not None else {}),
-            **crew, "card": card, "card_pdf": card.with_suffix(".pdf"), "track_png": Path(f"{stem}-track.png"),
-            "states_png": Path(f"{stem}-states.png")}
+    return {
+        **files,
+        "plot": tmp / "plan.png",
+        **({"design_ratios_png": tmp / "design-ratios.png"} if td is not None else {}),
+        **crew,
+        "card": card,
+        "card_pdf": card.with_suffix(".pdf"),
+        "track_png": Path(f"{stem}-track.png"),
+        "states_png": Path(f"{stem}-states.png"),
+    }
 
 
 def report(result: Plan, files: dict[str, Path], heuristic: str, json_out: bool) -> None:
     """Print the summary (table or one JSON object); exit 1 when no feasible plan was found."""
     st = result.stats
     summary = {
-        "feasible": result.feasible, "optimal": result.optimal, "counts": result.counts, "targets": result.targets,
-        "basic_moves": result.basic_moves, "duration_s": result.duration_s, "length_m": result.length_m,
-        "min_clearance_m": result.min_clearance_m, "expansions": st.get("expansions"),
-        "states_visited": st.get("states_visited"), "plan_time_s": st.get("plan_time_s"),
-        "setup_time_s": st.get("setup_time_s"), "heuristic": heuristic, "lattice": st.get("lattice"),
-        "drift_m": st.get("drift_m"), "reason": st.get("reason"), "help": st.get("help"),
-        "notes": st.get("notes", []), "warnings": st.get("warnings", []),
+        "feasible": result.feasible,
+        "optimal": result.optimal,
+        "counts": result.counts,
+        "targets": result.targets,
+        "basic_moves": result.basic_moves,
+        "duration_s": result.duration_s,
+        "length_m": result.length_m,
+        "min_clearance_m": result.min_clearance_m,
+        "expansions": st.get("expansions"),
+        "states_visited": st.get("states_visited"),
+        "plan_time_s": st.get("plan_time_s"),
+        "setup_time_s": st.get("setup_time_s"),
+        "heuristic": heuristic,
+        "lattice": st.get("lattice"),
+        "drift_m": st.get("drift_m"),
+        "reason": st.get("reason"),
+        "help": st.get("help"),
+        "notes": st.get("notes", []),
+        "warnings": st.get("warnings", []),
         "design": result.design or None,
         "trajectory_geojson": str(files["trajectory_geojson"]) if "trajectory_geojson" in files else None,
         "plan_json": str(files["plan_json"]),

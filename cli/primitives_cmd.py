@@ -114,10 +114,15 @@ def register(app: typer.Typer) -> None:
             src = profile.engine.approach_rpm
             import textwrap
 
-            typer.echo(textwrap.fill(f"approach: the model holds {profile.cruise_speed_mps:.2f} m/s at {rpm:.1f} rpm"
-                                     + (f" (the source's trials ran {src:g} rpm)" if src else "")
-                                     + f"; rudder {profile.helm.max_rudder_deg:g}° max at {profile.helm.rudder_rate_deg_s:g}°/s",
-                                     80, subsequent_indent="  "))
+            typer.echo(
+                textwrap.fill(
+                    f"approach: the model holds {profile.cruise_speed_mps:.2f} m/s at {rpm:.1f} rpm"
+                    + (f" (the source's trials ran {src:g} rpm)" if src else "")
+                    + f"; rudder {profile.helm.max_rudder_deg:g}° max at {profile.helm.rudder_rate_deg_s:g}°/s",
+                    80,
+                    subsequent_indent="  ",
+                )
+            )
         if orders:
             for p in library:
                 typer.echo(f"\n{p.name} ({p.description}, {p.duration_s:.0f} s)")
@@ -140,10 +145,15 @@ def library_table(profile: ShipProfile, rows: list[dict]) -> Table:
     cell borders; a range reads "lo..hi" so that a negative bound stays readable."""
     from rich.table import Table
 
-    table = Table(title=f"primitives of {profile.name} (Ts = {profile.sample_time} s)", box=None, pad_edge=False,
-                  caption="k: i informative, b basic; s: duration; u: surge speed range (m/s); |v|, |r|: largest sway "
-                          "speed (m/s) and yaw rate (°/s); end: x ahead, y to starboard (m), heading change (°); room: "
-                          "swept footprint along x across (m)", caption_justify="left")
+    table = Table(
+        title=f"primitives of {profile.name} (Ts = {profile.sample_time} s)",
+        box=None,
+        pad_edge=False,
+        caption="k: i informative, b basic; s: duration; u: surge speed range (m/s); |v|, |r|: largest sway "
+        "speed (m/s) and yaw rate (°/s); end: x ahead, y to starboard (m), heading change (°); room: "
+        "swept footprint along x across (m)",
+        caption_justify="left",
+    )
     table.add_column("name", no_wrap=True, min_width=max(len(r["name"]) for r in rows))
     table.add_column("k", no_wrap=True)
     for col in ("s", "u", "|v|", "|r|", "end", "room"):

@@ -13,15 +13,18 @@ from primitives.io import dumps
 def register(app: typer.Typer) -> None:
     @app.command("sweep")
     def sweep(
-        config: Path = typer.Argument(..., help="sweep TOML file ([sweep] ships, criteria, mean_subtraction, library, speeds, seed)"),
+        config: Path = typer.Argument(
+            ..., help="sweep TOML file ([sweep] ships, criteria, mean_subtraction, library, speeds, seed)"
+        ),
         out: Path = typer.Option(Path("sweep.csv"), "--out", help="table to write (.csv, or .parquet with pyarrow)"),
         plot: Path | None = typer.Option(None, "--plot", help="summary plot PNG (default: beside the table)"),
         scheduler: str | None = typer.Option(
             None, "--scheduler", help="Dask scheduler address (default: $SHIPTRIAL_SCHEDULER, else all local cores)"
         ),
         json_out: bool = typer.Option(False, "--json", help="print the rows as JSON"),
-        keep_partial: bool = typer.Option(False, "--keep-partial",
-                                          help="on Ctrl-C, write the finished cells to NAME.partial.csv (default: write nothing)"),
+        keep_partial: bool = typer.Option(
+            False, "--keep-partial", help="on Ctrl-C, write the finished cells to NAME.partial.csv (default: write nothing)"
+        ),
     ) -> None:
         """Run a design sweep (ships x speeds x criteria x mean-subtraction modes) into one tidy table."""
         from cli.options import validate_sweep_options
@@ -44,11 +47,14 @@ def register(app: typer.Typer) -> None:
         fig = plot_summary(rows, plot or out.with_suffix(".png"))
         failed = [r for r in rows if r.get("error")]
         if json_out:
-            typer.echo(dumps({"rows": rows, "table": str(table), "plot": str(fig), "interrupted": res.interrupted,
-                              "warnings": warnings}))
+            typer.echo(
+                dumps({"rows": rows, "table": str(table), "plot": str(fig), "interrupted": res.interrupted, "warnings": warnings})
+            )
         else:
-            typer.echo(f"{len(rows)} of {len(cells)} cells done{' (interrupted: PARTIAL table)' if res.interrupted else ''}; "
-                       f"{len(failed)} failed")
+            typer.echo(
+                f"{len(rows)} of {len(cells)} cells done{' (interrupted: PARTIAL table)' if res.interrupted else ''}; "
+                f"{len(failed)} failed"
+            )
             typer.echo(f"wrote {table}\nwrote {fig}")
         if res.interrupted:
             raise typer.Exit(130)

@@ -12,10 +12,14 @@ from primitives.io import dumps
 def register(app: typer.Typer) -> None:
     @app.command("yawid")
     def yawid(
-        recording: Path = typer.Argument(..., help="CSV with t, r, u, v (+ v_dot, phi for --model full) and tau_r or n1, delta1, n2, delta2"),
+        recording: Path = typer.Argument(
+            ..., help="CSV with t, r, u, v (+ v_dot, phi for --model full) and tau_r or n1, delta1, n2, delta2"
+        ),
         model: str = typer.Option("full", "--model", help="full (2.17, 9 parameters) or simplified (2.18, 5)"),
         ship: str = typer.Option("naval-vessel", "--ship", help="4-DOF podded profile: start values and pod model"),
-        prefilter: float | None = typer.Option(None, "--prefilter", help="ours: low-pass the measured inputs at this many Hz (default: as measured)"),
+        prefilter: float | None = typer.Option(
+            None, "--prefilter", help="ours: low-pass the measured inputs at this many Hz (default: as measured)"
+        ),
         json_out: bool = typer.Option(False, "--json", help="print the estimate as JSON"),
     ) -> None:
         """Estimate the lumped yaw parameters I_r, M_v, A, N_... of (2.17)/(2.18) by output error."""
@@ -33,11 +37,23 @@ def register(app: typer.Typer) -> None:
         est = fit.estimate()
         start = {k: start[k] for k in est}
         if json_out:
-            typer.echo(dumps({"model": model, "estimate": est, "start": start, "converged": bool(fit.ok[0]),
-                              "fit_percent": float(fit.fit_percent[0]), "residual_rms": float(fit.rms[0])}))
+            typer.echo(
+                dumps(
+                    {
+                        "model": model,
+                        "estimate": est,
+                        "start": start,
+                        "converged": bool(fit.ok[0]),
+                        "fit_percent": float(fit.fit_percent[0]),
+                        "residual_rms": float(fit.rms[0]),
+                    }
+                )
+            )
         else:
-            typer.echo(f"{model} model: fit {fit.fit_percent[0]:.1f} %, residual RMS {1e3 * fit.rms[0]:.2f} mrad/s, "
-                       f"{'converged' if fit.ok[0] else 'NOT converged'} in {fit.iterations} iterations")
+            typer.echo(
+                f"{model} model: fit {fit.fit_percent[0]:.1f} %, residual RMS {1e3 * fit.rms[0]:.2f} mrad/s, "
+                f"{'converged' if fit.ok[0] else 'NOT converged'} in {fit.iterations} iterations"
+            )
             for k, v in est.items():
                 typer.echo(f"  {LABELS[k]:10s} {v:12.4g}   (start {start[k]:.4g})")
         if not fit.ok[0]:

@@ -86,8 +86,10 @@ def _check_sample_times(profile: ShipProfile, recs: list[Recording]) -> None:
     for r in recs:
         r.inputs_for(profile.inputs)
         if abs(r.sample_time - ts) > 1e-6 * ts:
-            raise RecordingError(f"{r.source}: sample time {r.sample_time:g} s differs from the ship's {ts:g} s; "
-                                 f"resample the recording or add '# sample_time: {ts:g}'")
+            raise RecordingError(
+                f"{r.source}: sample time {r.sample_time:g} s differs from the ship's {ts:g} s; "
+                f"resample the recording or add '# sample_time: {ts:g}'"
+            )
 
 
 @dataclass
@@ -107,8 +109,14 @@ class _Setup:
     calm_preps: list[Prepared]  # the --fit-on runs inside a joint fit
 
 
-def _setup(recordings: list[Recording], profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording] | None,
-           validate: list[Recording] | None, joint_reference: bool) -> _Setup:
+def _setup(
+    recordings: list[Recording],
+    profile: ShipProfile,
+    theta0: np.ndarray,
+    fit_on: list[Recording] | None,
+    validate: list[Recording] | None,
+    joint_reference: bool,
+) -> _Setup:
     """Fit the baseline (with --fit-on), build the candidates and the augmented model."""
     source, notes, own = "profile", [], None
     if fit_on:
@@ -119,8 +127,7 @@ def _setup(recordings: list[Recording], profile: ShipProfile, theta0: np.ndarray
     calm_preps: list[Prepared] = []
     if fit_on and joint_reference:
         calm_preps = [prepare(profile, r, len(preps) + i) for i, r in enumerate(fit_on)]
-        model: AugmentedModel = ReferencedModel(profile, theta0, cands, n_rec=len(preps) + len(calm_preps),
-                                                reference=calm_preps)
+        model: AugmentedModel = ReferencedModel(profile, theta0, cands, n_rec=len(preps) + len(calm_preps), reference=calm_preps)
     else:
         model = AugmentedModel(profile, theta0, cands, n_rec=len(preps))
     # Sampled inputs act half a sample late on a baseline that has its own timing (the profile's
@@ -166,10 +173,19 @@ def run(
     inputs = np.concatenate([p.inputs for p in preps])
     # the --fit-on runs hold the baseline refit on the diagnosed runs (a joint fit has them among the runs already)
     held_by = [prepare(S.profile, r) for r in fit_on] if fit_on and not joint_reference else None
-    result = select(model, preps + S.calm_preps, w, val_preps=val_preps, base_free=base_free, max_rounds=max_rounds,
-                    inputs=inputs, calm_preps=held_by)
-    P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(model, preps + S.calm_preps, val_preps, result,
-                                                                        w, P0, inputs)
+    result = select(
+        model,
+        preps + S.calm_preps,
+        w,
+        val_preps=val_preps,
+        base_free=base_free,
+        max_rounds=max_rounds,
+        inputs=inputs,
+        calm_preps=held_by,
+    )
+    P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(
+        model, preps + S.calm_preps, val_preps, result, w, P0, inputs
+    )
     cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0)
     if steps and free == result.free:
         cov = _cov(S, given, fit_on, w_fit, P, free, result.prior_std)
@@ -182,17 +198,46 @@ def run(
     for f in findings + structure:
         f["evidence"] = _evidence(f, location, fb, fa, fit_on_name)
     names = [n for dof in S.profile.parameter_names for n in dof]
-    d = Diagnosis(S.profile, S.theta0, model, P, findings, S.untestable, fb, fa, fit_on_name, location, S.source, sigma,
-                  preps, val_preps, result.screened, fbd, fad, 0.0, per_run, method, result.rejected,
-                  S.notes + result.notes, [names[j] for j in result.base_free] if findings else [])
+    d = Diagnosis(
+        S.profile,
+        S.theta0,
+        model,
+        P,
+        findings,
+        S.untestable,
+        fb,
+        fa,
+        fit_on_name,
+        location,
+        S.source,
+        sigma,
+        preps,
+        val_preps,
+        result.screened,
+        fbd,
+        fad,
+        0.0,
+        per_run,
+        method,
+        result.rejected,
+        S.notes + result.notes,
+        [names[j] for j in result.base_free] if findings else [],
+    )
     d.structure = structure
     d.magnitudes_refitted = refitted
     d.elapsed_s = time.perf_counter() - t0
     return d
 
 
-def _magnitudes(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], result: SearchResult, w: np.ndarray,
-                P0: np.ndarray, inputs: np.ndarray):
+def _magnitudes(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    val_preps: list[Prepared],
+    result: SearchResult,
+    w: np.ndarray,
+    P0: np.ndarray,
+    inputs: np.ndarray,
+):
     """The final magnitudes of what the search kept (``result``, a :class:`diagnose.search.SearchResult`;
     its notes and rejections are extended): the maximum-likelihood refit
     (:func:`diagnose.magnitude.ml_refit`) unless it fits the held-out runs worse than the search's
@@ -213,19 +258,25 @@ def _magnitudes(model: AugmentedModel, preps: list[Prepared], val_preps: list[Pr
         result.P, w_fit, result.prior_std = P_ml, w_ml, sd_ml
     else:
         w_fit = w
-        note = note or (f"the maximum-likelihood refit of the findings' magnitudes was not kept ({why}): the "
-                        "search's estimate is reported" if why else "")
+        note = note or (
+            f"the maximum-likelihood refit of the findings' magnitudes was not kept ({why}): the search's estimate is reported"
+            if why
+            else ""
+        )
     result.notes += [note] if note else []
     steps = _drop_implausible(model, preps, result, w_fit, inputs)
     P0x = P0.copy()
     P0x[model.x0_params()] = result.P[model.x0_params()]  # the initial state is not physics: same in both
-    P, free, steps, per_run, method, dropped = guard(model, preps, val_preps, w, P0x, result.P, result.free, steps,
-                                                     result.base_free, w_fit)
+    P, free, steps, per_run, method, dropped = guard(
+        model, preps, val_preps, w, P0x, result.P, result.free, steps, result.base_free, w_fit
+    )
     result.rejected += dropped
     return P, P0x, free, steps, per_run, method, w_fit, refitted and bool(steps)
 
 
-def _drop_implausible(model: AugmentedModel, preps: list[Prepared], result: SearchResult, w: np.ndarray, inputs: np.ndarray) -> list:
+def _drop_implausible(
+    model: AugmentedModel, preps: list[Prepared], result: SearchResult, w: np.ndarray, inputs: np.ndarray
+) -> list:
     """The kept steps less those implausible at the final estimate (the search judged each at its
     own refit; later rounds refit it again): each is moved to ``result.rejected`` with the
     reason, its slots zeroed and the rest refitted (weights ``w``)."""
@@ -238,13 +289,19 @@ def _drop_implausible(model: AugmentedModel, preps: list[Prepared], result: Sear
         result.P[own] = 0.0
         result.rejected.append({"key": c.key, "effect": c.effect, "reason": f"implausible estimate: {why}"})
     if len(steps) < len(result.steps) and steps:
-        result.P, _cov, _rss = fit(model, preps, result.P, [j for j in result.free if j not in result.base_free], w,
-                                   max_iter=6)
+        result.P, _cov, _rss = fit(model, preps, result.P, [j for j in result.free if j not in result.base_free], w, max_iter=6)
     return steps
 
 
-def _cov(S: _Setup, given: tuple[ShipProfile, np.ndarray], fit_on: list[Recording] | None, w: np.ndarray,
-         P: np.ndarray, free: list[int], prior_std: np.ndarray | None) -> FindingCov:
+def _cov(
+    S: _Setup,
+    given: tuple[ShipProfile, np.ndarray],
+    fit_on: list[Recording] | None,
+    w: np.ndarray,
+    P: np.ndarray,
+    free: list[int],
+    prior_std: np.ndarray | None,
+) -> FindingCov:
     """Covariance of the free parameters at P (:func:`diagnose.uncertainty.finding_cov`); with a
     baseline fitted on --fit-on runs alone, the covariance of that fit carried in as well; and
     the findings' run-to-run misfit over the diagnosed runs."""
@@ -262,12 +319,20 @@ def _finding(st, model: AugmentedModel, P: np.ndarray, cov: FindingCov, free: li
     params = with_interval(c, model, P, cov, free)
     _ok, why = plausible.check(c.effect, params, model.profile, inputs)
     return {
-        "effect": c.effect, "dof": dof, "key": c.key, "parameters": params,
-        "f_statistic": float(st.f_stat), "p_value": float(st.p_value), "heldout_delta_aic": float(st.delta_aic),
-        "cv_gain": float(st.cv_gain), "rss_drop": float((st.rss_before - st.rss_after) / max(st.rss_before, 1e-300)),
+        "effect": c.effect,
+        "dof": dof,
+        "key": c.key,
+        "parameters": params,
+        "f_statistic": float(st.f_stat),
+        "p_value": float(st.p_value),
+        "heldout_delta_aic": float(st.delta_aic),
+        "cv_gain": float(st.cv_gain),
+        "rss_drop": float((st.rss_before - st.rss_after) / max(st.rss_before, 1e-300)),
         "rss_drop_per_dof": dict(zip(DOFS, (st.dof_gain / max(st.rss_before, 1e-300)).tolist())),
-        "signature_correlation": float(st.correlation), "description": c.description,
-        "plausibility": why or "no ship-scaled limit applies", "heldout_per_run": st.heldout,
+        "signature_correlation": float(st.correlation),
+        "description": c.description,
+        "plausibility": why or "no ship-scaled limit applies",
+        "heldout_per_run": st.heldout,
         "interval": interval_note(cov) if len(cov.noise) else None,
     }
 
@@ -291,7 +356,7 @@ def _structural(model: AugmentedModel, calm: list[Prepared], w: np.ndarray, P: n
         zero = np.zeros(len(base) + len(own))
         rss0, _ = insample_rss(g, parts, list(range(len(base))), zero, zero, fit_parts)
         rss1, step = insample_rss(g, parts, list(range(len(base) + len(own))), zero, zero, fit_parts)
-        est, val = step[len(base):], P[own]
+        est, val = step[len(base) :], P[own]
         same = float(est @ val) > 0 and np.linalg.norm(est) >= 0.5 * np.linalg.norm(val)
         if rss1 < 0.99 * rss0 and same:
             f["reference_fit_gain"] = float(1.0 - rss1 / max(rss0, 1e-300))
@@ -300,9 +365,17 @@ def _structural(model: AugmentedModel, calm: list[Prepared], w: np.ndarray, P: n
 
 
 SHARE_SHOWN = 5.0  # fit points: another channel a finding moves this much is named with its own share
-SIGNATURE = {"current": ["cos psi", "sin psi"], "wind": ["wind along", "wind across"], "actuator_delay": ["change of"],
-             "input_offset": ["sign", ""], "thrust_loss": ["speed u"], "quadratic_damping": ["|v|", "|r|", "v|v|", "r|r|"],
-             "missing_coupling": ["|r|", "speed u", "|v|"], "sensor_bias": [""], "inertia_change": ["change of"]}
+SIGNATURE = {
+    "current": ["cos psi", "sin psi"],
+    "wind": ["wind along", "wind across"],
+    "actuator_delay": ["change of"],
+    "input_offset": ["sign", ""],
+    "thrust_loss": ["speed u"],
+    "quadratic_damping": ["|v|", "|r|", "v|v|", "r|r|"],
+    "missing_coupling": ["|r|", "speed u", "|v|"],
+    "sensor_bias": [""],
+    "inertia_change": ["change of"],
+}
 
 
 def _evidence(f: dict, location: dict, fb: dict, fa: dict, where: str) -> str:
@@ -313,10 +386,15 @@ def _evidence(f: dict, location: dict, fb: dict, fa: dict, where: str) -> str:
     parts = []
     if hit:
         parts.append(f"the {dof} residual follows {hit['signal']} (correlation {hit['correlation']:+.2f})")
-    parts.append(f"adding it explains {100 * f['rss_drop']:.0f} % of the weighted residual (F = {f['f_statistic']:.1f}, "
-                 f"p = {f['p_value']:.2g}) and lowers the held-out residual by {100 * f['cv_gain']:.0f} %")
-    parts.append(_own_share(f, dof, where) or f"{dof} fit on the {where} run(s) {fit_str(fb[dof])} -> {fit_str(fa[dof])} "
-                 "(the whole model's, the baseline refit included)")
+    parts.append(
+        f"adding it explains {100 * f['rss_drop']:.0f} % of the weighted residual (F = {f['f_statistic']:.1f}, "
+        f"p = {f['p_value']:.2g}) and lowers the held-out residual by {100 * f['cv_gain']:.0f} %"
+    )
+    parts.append(
+        _own_share(f, dof, where)
+        or f"{dof} fit on the {where} run(s) {fit_str(fb[dof])} -> {fit_str(fa[dof])} "
+        "(the whole model's, the baseline refit included)"
+    )
     return "; ".join(parts)
 
 
@@ -330,8 +408,11 @@ def _own_share(f: dict, dof: str, where: str) -> str | None:
         return None
 
     def moved(r: dict) -> str:
-        return ", ".join(f"{k} {fit_str(r['before'][k])} -> {fit_str(r['after'][k])}" for k in DOFS
-                         if k != dof and abs(r["after"][k] - r["before"][k]) >= SHARE_SHOWN)
+        return ", ".join(
+            f"{k} {fit_str(r['before'][k])} -> {fit_str(r['after'][k])}"
+            for k in DOFS
+            if k != dof and abs(r["after"][k] - r["before"][k]) >= SHARE_SHOWN
+        )
 
     cells = []
     for r in rows:
@@ -342,5 +423,7 @@ def _own_share(f: dict, dof: str, where: str) -> str | None:
         cells.append(cell + (f" ({inner})" if inner else ""))
     how = "simulated" if where == "validation" else "linearised refit without it"
     name = f" {short_label(rows[0]['run'])}" if len(rows) == 1 else "s"
-    return (f"its own share: {dof} fit on the held-out run{name} ({how}) {', '.join(cells)} "
-            "(with the findings before it, then with it added)")
+    return (
+        f"its own share: {dof} fit on the held-out run{name} ({how}) {', '.join(cells)} "
+        "(with the findings before it, then with it added)"
+    )

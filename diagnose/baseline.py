@@ -22,8 +22,13 @@ def noise_scale(y: np.ndarray) -> np.ndarray:
     return np.maximum(noise_std(y), 0.02 * np.std(y, axis=0))
 
 
-def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording],
-                 new: list[int] | None = None, new_prior: float = DEFAULT_STRUCTURE_PRIOR) -> tuple[np.ndarray, str]:
+def fit_baseline(
+    profile: ShipProfile,
+    theta0: np.ndarray,
+    recs: list[Recording],
+    new: list[int] | None = None,
+    new_prior: float = DEFAULT_STRUCTURE_PRIOR,
+) -> tuple[np.ndarray, str]:
     """Output-error fit of the baseline parameters on the --fit-on recordings. Returns
     (theta, note); a refit that diverges is rejected and the profile kept.
 
@@ -43,15 +48,17 @@ def fit_baseline(profile: ShipProfile, theta0: np.ndarray, recs: list[Recording]
     model = AugmentedModel(profile, theta0, [], n_rec=len(preps))
     w = 1.0 / noise_scale(np.concatenate([r.y for r in recs]))
     idx, sd, bounds = _baseline_prior(model, preps, w, recs, new, new_prior)
-    P, _cov, rss = fit(model, preps, model.p0(), idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=bounds,
-                       prior=(model.p0(), sd))
+    P, _cov, rss = fit(
+        model, preps, model.p0(), idx + model.x0_params(), w, max_iter=30, tol=1e-7, bounds=bounds, prior=(model.p0(), sd)
+    )
     if not np.isfinite(rss):
         return theta0, "the baseline refit on the --fit-on runs diverged: rejected, the profile's parameters are used"
     return P[: model.n_base], ""
 
 
-def _baseline_prior(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, recs: list[Recording],
-                    new: list[int] | None, new_prior: float) -> tuple[list[int], np.ndarray, dict]:
+def _baseline_prior(
+    model: AugmentedModel, preps: list[Prepared], w: np.ndarray, recs: list[Recording], new: list[int] | None, new_prior: float
+) -> tuple[list[int], np.ndarray, dict]:
     """(fitted indices, prior std per parameter, bounds) of :func:`fit_baseline`."""
     idx = list(range(model.n_base))
     P0 = model.p0()
@@ -68,8 +75,14 @@ def _baseline_prior(model: AugmentedModel, preps: list[Prepared], w: np.ndarray,
     return idx, sd, bounds
 
 
-def loo_misfit(profile: ShipProfile, theta0: np.ndarray, theta: np.ndarray, recs: list[Recording],
-               new: list[int] | None = None, new_prior: float = DEFAULT_STRUCTURE_PRIOR) -> float:
+def loo_misfit(
+    profile: ShipProfile,
+    theta0: np.ndarray,
+    theta: np.ndarray,
+    recs: list[Recording],
+    new: list[int] | None = None,
+    new_prior: float = DEFAULT_STRUCTURE_PRIOR,
+) -> float:
     """Noise-weighted mean square misfit of the baseline ``theta`` (fitted by :func:`fit_baseline`
     from ``theta0`` on ``recs``, same ``new`` and prior) on each of ``recs`` left out in turn:
     refitted on the others by a Gauss-Newton step from ``theta`` with the same prior
@@ -143,8 +156,9 @@ def _misfit(profile: ShipProfile, theta: np.ndarray, recs: list[Recording]) -> f
     return float(np.mean(r**2))
 
 
-def fit_declared(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording]
-                 ) -> tuple[ShipProfile, np.ndarray, str, list[str]]:
+def fit_declared(
+    profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording]
+) -> tuple[ShipProfile, np.ndarray, str, list[str]]:
     """The profile extended by its declared [diagnosis] structure and fitted on the --fit-on
     runs, every term held by the profile's structure prior (:func:`fit_baseline`): (profile,
     theta, note, added) as :func:`fit_baseline` and :func:`_extended`; the profile unchanged
@@ -157,8 +171,9 @@ def fit_declared(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recordin
     return ext, th_fit, note, added
 
 
-def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording], recordings: list[Recording]
-                  ) -> tuple[ShipProfile, np.ndarray, str, list[str], bool]:
+def fit_structure(
+    profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording], recordings: list[Recording]
+) -> tuple[ShipProfile, np.ndarray, str, list[str], bool]:
     """Fit the baseline on the --fit-on runs, with the structure the profile declares for it
     ([diagnosis] structure) when it has one. The extended model is kept only when it simulates
     at least as well as the baseline refitted in its own structure (its extrapolation from the
@@ -175,9 +190,18 @@ def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recordi
         return profile, theta, source, [], False
     if len(fit_on) >= 2:  # judged on --fit-on runs left out in turn: the diagnosed runs hold the effect sought
         m0 = loo_misfit(profile, theta0, theta, fit_on)
-        m1 = float("inf") if note_ext else loo_misfit(ext, padded_params(profile, theta0, ext.model_terms), th_fit, fit_on,
-                                                    [j for j in range(ext.model.n_params) if j not in _own(profile, ext)],
-                                                    profile.structure_prior)
+        m1 = (
+            float("inf")
+            if note_ext
+            else loo_misfit(
+                ext,
+                padded_params(profile, theta0, ext.model_terms),
+                th_fit,
+                fit_on,
+                [j for j in range(ext.model.n_params) if j not in _own(profile, ext)],
+                profile.structure_prior,
+            )
+        )
         where = "the --fit-on runs, each left out in turn"
     else:
         m0, m1 = _misfit(profile, theta, recordings), (_misfit(ext, th_fit, recordings) if not note_ext else float("inf"))
@@ -185,8 +209,16 @@ def fit_structure(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recordi
     if m1 <= m0:
         return ext, th_fit, f"{source}, structure extended by the profile's [diagnosis] terms ({len(added)})", [], False
     why = "diverges" if not np.isfinite(m1) else f"weighted mean square misfit {m1:.3g} vs {m0:.3g}"
-    return profile, theta, source, [f"the profile's [diagnosis] structure fitted on the --fit-on runs simulates "
-                                    f"{where} worse than the baseline's own ({why}): not used"], False
+    return (
+        profile,
+        theta,
+        source,
+        [
+            f"the profile's [diagnosis] structure fitted on the --fit-on runs simulates "
+            f"{where} worse than the baseline's own ({why}): not used"
+        ],
+        False,
+    )
 
 
 def _own(profile: ShipProfile, ext: ShipProfile) -> list[int]:
@@ -194,8 +226,9 @@ def _own(profile: ShipProfile, ext: ShipProfile) -> list[int]:
     return [j for i in range(3) for j in range(ext.model.offsets[i], ext.model.offsets[i] + len(profile.model_terms[i]))]
 
 
-def fit_reference(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording], recordings: list[Recording],
-            joint_reference: bool) -> tuple[ShipProfile, np.ndarray, str, list[str], list[int] | None]:
+def fit_reference(
+    profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording], recordings: list[Recording], joint_reference: bool
+) -> tuple[ShipProfile, np.ndarray, str, list[str], list[int] | None]:
     """The baseline fitted on the --fit-on runs (jointly with the diagnosed runs with
     ``joint_reference``): (profile, theta, source, notes, own), ``own`` the indices of the
     profile's own parameters in a structure-extended model (None after a joint fit)."""
@@ -204,8 +237,10 @@ def fit_reference(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recordi
     if joint_reference:
         profile, theta0, added = _extended(profile, theta0)
         theta0, note = fit_baseline(profile, theta0, list(fit_on) + recordings)
-        source = ("fitted jointly on the reference run(s) " + ", ".join(r.source for r in fit_on) + " and the diagnosed "
-                  "runs" + (f", structure extended by {', '.join(added)}" if added else ""))
+        source = (
+            "fitted jointly on the reference run(s) " + ", ".join(r.source for r in fit_on) + " and the diagnosed "
+            "runs" + (f", structure extended by {', '.join(added)}" if added else "")
+        )
         fit_notes, rejected = [note] if note else [], bool(note)
     else:
         n_own = [len(t) for t in profile.model_terms]
@@ -218,13 +253,16 @@ def fit_reference(profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recordi
 def check_simulable(model: AugmentedModel, preps: list[Prepared], what: str) -> None:
     for p in preps:
         if diverges(model, [p], model.p0()):
-            raise RecordingError(f"{p.rec.source}: the {what} baseline model cannot be simulated on this recording "
-                                 "(the simulation diverges or is not finite); check the ship profile and --params, or "
-                                 "refit it with --fit-on on a calm-water run")
+            raise RecordingError(
+                f"{p.rec.source}: the {what} baseline model cannot be simulated on this recording "
+                "(the simulation diverges or is not finite); check the ship profile and --params, or "
+                "refit it with --fit-on on a calm-water run"
+            )
 
 
-def fit_on_cov(given: tuple[ShipProfile, np.ndarray], fit_on: list[Recording], profile: ShipProfile,
-                theta: np.ndarray, own: list[int]) -> np.ndarray:
+def fit_on_cov(
+    given: tuple[ShipProfile, np.ndarray], fit_on: list[Recording], profile: ShipProfile, theta: np.ndarray, own: list[int]
+) -> np.ndarray:
     """Covariance (n_base x n_base) of the baseline ``theta`` as :func:`fit_baseline` fitted it
     on the --fit-on runs (its prior and weights; ``given`` the profile and parameters it started
     from, ``own`` their indices in ``profile``, which may be extended by its declared structure);
@@ -235,8 +273,9 @@ def fit_on_cov(given: tuple[ShipProfile, np.ndarray], fit_on: list[Recording], p
     new = [j for j in range(len(theta)) if j not in own] if extended else None
     preps = [prepare(profile, r, i) for i, r in enumerate(fit_on)]
     w = 1.0 / noise_scale(np.concatenate([r.y for r in fit_on]))
-    idx, sd, _b = _baseline_prior(AugmentedModel(profile, ref, [], n_rec=len(preps)), preps, w, fit_on, new,
-                                  prof0.structure_prior)
+    idx, sd, _b = _baseline_prior(
+        AugmentedModel(profile, ref, [], n_rec=len(preps)), preps, w, fit_on, new, prof0.structure_prior
+    )
     out = np.zeros((len(theta), len(theta)))
     out[np.ix_(idx, idx)] = baseline_cov(AugmentedModel(profile, theta, [], n_rec=len(preps)), preps, w, idx, sd)
     return out

@@ -32,8 +32,11 @@ EFFECTS: dict[str, dict] = {
     "sensor_bias": {"signal": "v", "bias": 0.03, "check": {"bias": (0.03, 0.35)}},
     "inertia_change": {"dof": 2, "factor": 1.0 / 1.15, "check": {"scale": (1.0 / 1.15 - 1.0, 0.4)}},
     "missing_coupling": {"term": (0, "r^2", -0.03), "check": {"value": (-0.03, 0.4)}},
-    "wind": {"wind_ne": (-6.0, 4.0), "coef": (-4e-4, -8e-4, -2e-4),
-             "check": {"wind_surge": (-4e-4, 0.4), "wind_sway": (-8e-4, 0.4), "wind_yaw": (-2e-4, 0.4)}},
+    "wind": {
+        "wind_ne": (-6.0, 4.0),
+        "coef": (-4e-4, -8e-4, -2e-4),
+        "check": {"wind_surge": (-4e-4, 0.4), "wind_sway": (-8e-4, 0.4), "wind_yaw": (-2e-4, 0.4)},
+    },
 }
 # The full-scale two-azimuth vessel (Ljungberg 2022, (3.60), Table 6.1, Ts = 1 s) with the noise of
 # (6.2): std 0.014 on u, v, r, 0.01 rad on the heading. Its model already holds u_r*tau_x, so
@@ -48,8 +51,10 @@ FULL_SCALE_EFFECTS: dict[str, dict] = {
 # amplitude per speed, so r|r| cannot be told from a speed-dependent linear damping u*r plus an
 # inertia change (the diagnosis names those instead) - a limit of the manoeuvres, not hidden here.
 # Battery noise by the profile's manoeuvre library (profile data, not its name): measurement, process, heading.
-NOISE = {"thesis-model-ship": ((0.02, 0.02, 0.02), (0.001, 0.001, 0.001), 0.002),
-         "thesis-full-scale": ((0.0141, 0.0141, 0.0141), (0.001, 0.001, 0.001), 0.01)}
+NOISE = {
+    "thesis-model-ship": ((0.02, 0.02, 0.02), (0.001, 0.001, 0.001), 0.002),
+    "thesis-full-scale": ((0.0141, 0.0141, 0.0141), (0.001, 0.001, 0.001), 0.01),
+}
 
 
 def effects_for(profile: ShipProfile) -> dict[str, dict]:
@@ -132,8 +137,17 @@ def _one(profile: ShipProfile, effects: tuple[str, ...], rng: np.random.Generato
         spd = float(np.hypot(*wind))
         chans["wind_speed"] = np.full(len(y), spd)
         chans["wind_dir"] = np.full(len(y), float(np.arctan2(-wind[1], -wind[0])))  # comes from
-    return Recording(name, res.t, y, res.psi_meas[0], res.pos_meas[0], chans, labels + labels[-1:],
-                     {"ship": profile.name, "generated": "diagnose.battery", "input_hold": "zoh"}, [])
+    return Recording(
+        name,
+        res.t,
+        y,
+        res.psi_meas[0],
+        res.pos_meas[0],
+        chans,
+        labels + labels[-1:],
+        {"ship": profile.name, "generated": "diagnose.battery", "input_hold": "zoh"},
+        [],
+    )
 
 
 def scenario(effects: tuple[str, ...], seed: int, *, profile: ShipProfile | None = None, n_prims: int = 6) -> Scenario:
@@ -146,8 +160,17 @@ def scenario(effects: tuple[str, ...], seed: int, *, profile: ShipProfile | None
     return Scenario(name, effects, seed, [d], [v])
 
 
-SINGLE = ("current", "actuator_delay", "input_offset", "thrust_loss", "quadratic_damping", "sensor_bias",
-          "inertia_change", "missing_coupling", "wind")
+SINGLE = (
+    "current",
+    "actuator_delay",
+    "input_offset",
+    "thrust_loss",
+    "quadratic_damping",
+    "sensor_bias",
+    "inertia_change",
+    "missing_coupling",
+    "wind",
+)
 COMBINED = (("current", "actuator_delay"), ("input_offset", "quadratic_damping"), ("sensor_bias", "inertia_change"))
 
 
@@ -169,8 +192,9 @@ def battery(seeds: tuple[int, ...] = (1, 2, 3)) -> list[tuple[tuple[str, ...], i
 ABSOLUTE = {"toward_deg", "delay_s"}  # tolerances in degrees / seconds; the others are relative
 
 
-def check(effects: tuple[str, ...], findings: list[dict], fit_before: dict, fit_after: dict,
-          table: dict[str, dict] | None = None) -> tuple[bool, list[str]]:
+def check(
+    effects: tuple[str, ...], findings: list[dict], fit_before: dict, fit_after: dict, table: dict[str, dict] | None = None
+) -> tuple[bool, list[str]]:
     """Did a diagnosis name exactly the concealed effects, within tolerance, and improve the
     validation fit? Returns (hit, reasons for a miss)."""
     why = []
@@ -191,7 +215,9 @@ def check(effects: tuple[str, ...], findings: list[dict], fit_before: dict, fit_
             if err > lim:
                 why.append(f"{eff}: {key} = {est:.4g}, true {true:.4g} (tolerance {lim:.3g})")
     if effects:
-        if not any(fit_after[k] > fit_before[k] + 0.5 for k in fit_before) or any(fit_after[k] < fit_before[k] - 1.0 for k in fit_before):
+        if not any(fit_after[k] > fit_before[k] + 0.5 for k in fit_before) or any(
+            fit_after[k] < fit_before[k] - 1.0 for k in fit_before
+        ):
             why.append("validation fit did not improve")
     return not why, why
 
@@ -206,11 +232,23 @@ def hit_rate(cases: list[tuple[tuple[str, ...], int]] | None = None, verbose: bo
         sc = scenario(effects, seed, profile=profile)
         d = run(sc.diagnose, profile, validate=sc.validate)
         hit, why = check(effects, d.findings, d.fit_before, d.fit_after, effects_for(profile))
-        rows.append({"case": f"{ship}:{sc.name}", "seed": seed, "hit": hit, "why": why, "named": [f["effect"] for f in d.findings],
-                     "fit_before": d.fit_before, "fit_after": d.fit_after, "seconds": d.elapsed_s})
+        rows.append(
+            {
+                "case": f"{ship}:{sc.name}",
+                "seed": seed,
+                "hit": hit,
+                "why": why,
+                "named": [f["effect"] for f in d.findings],
+                "fit_before": d.fit_before,
+                "fit_after": d.fit_after,
+                "seconds": d.elapsed_s,
+            }
+        )
         if verbose:
-            print(f"{ship:10s} {sc.name:32s} seed {seed}: {'hit ' if hit else 'MISS'} {'; '.join(why)} "
-                  f"[{d.elapsed_s:.1f} s]", flush=True)
+            print(
+                f"{ship:10s} {sc.name:32s} seed {seed}: {'hit ' if hit else 'MISS'} {'; '.join(why)} [{d.elapsed_s:.1f} s]",
+                flush=True,
+            )
     n_hit = sum(r["hit"] for r in rows)
     return {"hits": n_hit, "cases": len(rows), "hit_rate": n_hit / max(len(rows), 1), "rows": rows}
 

@@ -104,16 +104,32 @@ def _environment(profile: ShipProfile, recordings: list[Recording], y: np.ndarra
     if not ({"u_r", "v_r"} & {f.split("^")[0] for f in used}):
         untestable.append({"effect": "current", "reason": "the model has no terms in u_r or v_r through which a current acts"})
     elif spread < np.radians(45.0):
-        untestable.append({"effect": "current", "reason": f"the heading spans only {np.degrees(spread):.0f} deg; a current "
-                           "fixed in the earth frame is told apart from a constant force only when the heading "
-                           "changes (run a turn of at least 45 deg, better 360 deg)"})
+        untestable.append(
+            {
+                "effect": "current",
+                "reason": f"the heading spans only {np.degrees(spread):.0f} deg; a current "
+                "fixed in the earth frame is told apart from a constant force only when the heading "
+                "changes (run a turn of at least 45 deg, better 360 deg)",
+            }
+        )
     else:
-        cands.append(Candidate("current", "current", (Slot("current", "current_n", index=0), Slot("current", "current_e", index=1)),
-                               description="constant current in the earth frame (through u_r, v_r)"))
+        cands.append(
+            Candidate(
+                "current",
+                "current",
+                (Slot("current", "current_n", index=0), Slot("current", "current_e", index=1)),
+                description="constant current in the earth frame (through u_r, v_r)",
+            )
+        )
     if all(r.wind_ne is not None for r in recordings):
-        cands.append(Candidate("wind", "wind", tuple(Slot("term", f"wind_{DOFS[i]}", dof=i, term=t)
-                                                     for i, t in enumerate(("wx", "wy", "wn"))),
-                               description="wind loads V_q u_q, V_q v_q, u_q v_q (coefficients in the relative wind angle)"))
+        cands.append(
+            Candidate(
+                "wind",
+                "wind",
+                tuple(Slot("term", f"wind_{DOFS[i]}", dof=i, term=t) for i, t in enumerate(("wx", "wy", "wn"))),
+                description="wind loads V_q u_q, V_q v_q, u_q v_q (coefficients in the relative wind angle)",
+            )
+        )
     else:
         untestable.append({"effect": "wind", "reason": "no measured wind (columns wind_speed, wind_dir)"})
     return cands, untestable
@@ -126,15 +142,22 @@ def _actuators(profile: ShipProfile, recordings: list[Recording], y: np.ndarray)
     x = np.concatenate([r.inputs_for(profile.inputs) for r in recordings])
     moving = np.std(np.diff(x, axis=0), axis=0) > 1e-9 * (1 + np.abs(x).max(axis=0))
     if np.any(moving):
-        cands.append(Candidate("actuator_delay", "actuator_delay", (Slot("delay", "delay_s"),),
-                               description="time delay of all actuators"))
+        cands.append(
+            Candidate("actuator_delay", "actuator_delay", (Slot("delay", "delay_s"),), description="time delay of all actuators")
+        )
     else:
         untestable.append({"effect": "actuator_delay", "reason": "the inputs never change, so a delay has no effect"})
     for j, name in enumerate(profile.inputs):
         if profile.actuator == "rudder_propeller" and name == "n":
             continue  # an rpm offset is a thrust scale: covered by thrust_loss / refit
-        cands.append(Candidate("input_offset", f"input_offset:{name}", (Slot("offset", f"offset_{name}", index=j),),
-                               description=f"constant offset of input {name}"))
+        cands.append(
+            Candidate(
+                "input_offset",
+                f"input_offset:{name}",
+                (Slot("offset", f"offset_{name}", index=j),),
+                description=f"constant offset of input {name}",
+            )
+        )
     return cands, untestable
 
 
@@ -147,11 +170,23 @@ def _propulsion(profile: ShipProfile, recordings: list[Recording], y: np.ndarray
     if _has(profile, 0, f"u_r*{tsig}"):
         untestable.append({"effect": "thrust_loss", "reason": f"the model already has u_r*{tsig}"})
     elif np.ptp(y[:, 0]) < 0.05 * max(np.abs(y[:, 0]).max(), 1e-9):
-        untestable.append({"effect": "thrust_loss", "reason": "the speed hardly changes, so a speed-dependent thrust "
-                           "cannot be told from a constant one (run an acceleration or a speed change)"})
+        untestable.append(
+            {
+                "effect": "thrust_loss",
+                "reason": "the speed hardly changes, so a speed-dependent thrust "
+                "cannot be told from a constant one (run an acceleration or a speed change)",
+            }
+        )
     else:
-        cands.append(Candidate("thrust_loss", "thrust_loss", (Slot("term", "coefficient", dof=0, term=f"u_r*{tsig}"),), dof=0,
-                               description=f"thrust falling with speed (u_r*{tsig})"))
+        cands.append(
+            Candidate(
+                "thrust_loss",
+                "thrust_loss",
+                (Slot("term", "coefficient", dof=0, term=f"u_r*{tsig}"),),
+                dof=0,
+                description=f"thrust falling with speed (u_r*{tsig})",
+            )
+        )
     thrust_terms = [t for t in profile.model_terms[0] if tsig in _factors(t)]
     if thrust_terms:  # one fraction of the whole thrust (every term in n): a fouled propeller, a changed thrust deduction
         slots = (Slot("thrust", "loss_fraction", dof=0),)
@@ -162,8 +197,15 @@ def _propulsion(profile: ShipProfile, recordings: list[Recording], y: np.ndarray
         cands.append(Candidate("thrust_loss", "thrust_loss:fraction", slots, dof=0, description=what))
     for t in profile.model_terms[0]:
         if _factors(t) <= {"u", "u_r"}:
-            cands.append(Candidate("resistance_change", f"resistance_change:{t}", (Slot("term", "coefficient", dof=0, term=t),),
-                                   dof=0, description=f"hull resistance changed ({t})"))
+            cands.append(
+                Candidate(
+                    "resistance_change",
+                    f"resistance_change:{t}",
+                    (Slot("term", "coefficient", dof=0, term=t),),
+                    dof=0,
+                    description=f"hull resistance changed ({t})",
+                )
+            )
     return cands, untestable
 
 
@@ -179,12 +221,26 @@ def _hull_terms(profile: ShipProfile, recordings: list[Recording], y: np.ndarray
             if i == 0 and _has(profile, i, t):
                 continue
             what = f"{t} in {DOFS[i]}" + (" changed" if _has(profile, i, t) else "")
-            cands.append(Candidate("quadratic_damping", f"quadratic_damping:{DOFS[i]}:{t}",
-                                   (Slot("term", "value", dof=i, term=t),), dof=i, description=what))
+            cands.append(
+                Candidate(
+                    "quadratic_damping",
+                    f"quadratic_damping:{DOFS[i]}:{t}",
+                    (Slot("term", "value", dof=i, term=t),),
+                    dof=i,
+                    description=what,
+                )
+            )
         for t in COUPLING[i]:
             if not _has(profile, i, t):
-                cands.append(Candidate("missing_coupling", f"missing_coupling:{DOFS[i]}:{t}",
-                                       (Slot("term", "value", dof=i, term=t),), dof=i, description=f"{t} in {DOFS[i]}"))
+                cands.append(
+                    Candidate(
+                        "missing_coupling",
+                        f"missing_coupling:{DOFS[i]}:{t}",
+                        (Slot("term", "value", dof=i, term=t),),
+                        dof=i,
+                        description=f"{t} in {DOFS[i]}",
+                    )
+                )
     return cands, []
 
 
@@ -193,15 +249,34 @@ def _sensors_and_inertia(profile: ShipProfile, recordings: list[Recording], y: n
     cands: list[Candidate] = []
     untestable: list[dict] = []
     for i, s in enumerate(SIGNALS):
-        cands.append(Candidate("sensor_bias", f"sensor_bias:{s}", (Slot("bias", f"bias_{s}", dof=i, index=i),), dof=i,
-                               description=f"constant bias of measured {s}"))
+        cands.append(
+            Candidate(
+                "sensor_bias",
+                f"sensor_bias:{s}",
+                (Slot("bias", f"bias_{s}", dof=i, index=i),),
+                dof=i,
+                description=f"constant bias of measured {s}",
+            )
+        )
     for i in range(3):
-        cands.append(Candidate("inertia_change", f"inertia_change:{DOFS[i]}", (Slot("scale", "scale", dof=i),), dof=i,
-                               description=f"{DOFS[i]} inertia differs (increment scaled)"))
+        cands.append(
+            Candidate(
+                "inertia_change",
+                f"inertia_change:{DOFS[i]}",
+                (Slot("scale", "scale", dof=i),),
+                dof=i,
+                description=f"{DOFS[i]} inertia differs (increment scaled)",
+            )
+        )
     if all("phi" in r.channels for r in recordings):
-        cands.append(Candidate("roll_coupling", "roll_coupling", (Slot("term", "phi_sway", dof=1, term="phi"),
-                                                                   Slot("term", "phi_yaw", dof=2, term="phi")),
-                               description="roll angle feeding sway and yaw"))
+        cands.append(
+            Candidate(
+                "roll_coupling",
+                "roll_coupling",
+                (Slot("term", "phi_sway", dof=1, term="phi"), Slot("term", "phi_yaw", dof=2, term="phi")),
+                description="roll angle feeding sway and yaw",
+            )
+        )
     else:
         untestable.append({"effect": "roll_coupling", "reason": "no measured roll (column phi)"})
     return cands, untestable
@@ -218,8 +293,14 @@ def _excited(cands: list[Candidate], untestable: list[dict], y: np.ndarray) -> F
             sigs = {f.strip("|").split("^")[0].replace("_r", "") for f in c.slots[0].term.split("*")}
             idx = [SIGNALS.index(s) for s in sigs if s in SIGNALS]
             if any(np.std(y[:, k]) < max(3 * noise[k], 1e-9) for k in idx):
-                untestable.append({"effect": c.effect, "dof": DOFS[c.dof], "term": c.slots[0].term,
-                                   "reason": f"{'/'.join(sorted(sigs))} hardly moves beyond the noise in the recordings"})
+                untestable.append(
+                    {
+                        "effect": c.effect,
+                        "dof": DOFS[c.dof],
+                        "term": c.slots[0].term,
+                        "reason": f"{'/'.join(sorted(sigs))} hardly moves beyond the noise in the recordings",
+                    }
+                )
                 continue
         keep.append(c)
     return keep, untestable

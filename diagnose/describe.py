@@ -35,8 +35,12 @@ def describe(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
 def _current(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
     cn, ce = P[model.slot_of[c.key]]
     spd = float(np.hypot(cn, ce))
-    out = {"speed_mps": spd, "toward_deg": float(np.degrees(np.arctan2(ce, cn)) % 360.0), "north_mps": float(cn),
-           "east_mps": float(ce)}
+    out = {
+        "speed_mps": spd,
+        "toward_deg": float(np.degrees(np.arctan2(ce, cn)) % 360.0),
+        "north_mps": float(cn),
+        "east_mps": float(ce),
+    }
     if len(cov):
         sub = cov[np.ix_(pos, pos)]
         g_s = np.array([cn, ce]) / max(spd, 1e-12)
@@ -50,8 +54,13 @@ def _current(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
 def _delay(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
     shift = float(P[model.slot_of[c.key][0]])
     d = shift + model.half_sample
-    return {"delay_s": d, "delay_std": _sd(cov, pos)[0], "samples": d / model.profile.sample_time,
-            "model_shift_s": shift, "half_sample_s": model.half_sample}
+    return {
+        "delay_s": d,
+        "delay_std": _sd(cov, pos)[0],
+        "samples": d / model.profile.sample_time,
+        "model_shift_s": shift,
+        "half_sample_s": model.half_sample,
+    }
 
 
 def _offset(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
@@ -84,10 +93,15 @@ def _thrust_fraction(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np
     f = float(P[j0])
     sd = _sd(cov, pos)[0]
     share = float(model.thrust_share(P, j0)[0])
-    return {"loss_percent": 100.0 * f, "loss_percent_std": None if sd is None else 100.0 * sd,
-            "loss_fraction": f, "terms": [model.base[k][1] for k in model.thrust_terms],
-            "rudder_terms": [f"{DOFS[model.base[k][0]]}:{model.base[k][1]}" for k in model.rudder_terms],
-            "rudder_thrust_share": share, "rudder_force_change_percent": -100.0 * share * f}
+    return {
+        "loss_percent": 100.0 * f,
+        "loss_percent_std": None if sd is None else 100.0 * sd,
+        "loss_fraction": f,
+        "terms": [model.base[k][1] for k in model.thrust_terms],
+        "rudder_terms": [f"{DOFS[model.base[k][0]]}:{model.base[k][1]}" for k in model.rudder_terms],
+        "rudder_thrust_share": share,
+        "rudder_force_change_percent": -100.0 * share * f,
+    }
 
 
 def _surge_term(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
@@ -130,13 +144,26 @@ def _inertia(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
     sd = _sd(cov, pos)[0]
     ok = s > -1
     # delta method: d(1 / (1 + s)) / ds = -1 / (1 + s)^2
-    return {"scale": s, "scale_std": sd, "inertia_ratio": float(1.0 / (1.0 + s)) if ok else None,
-            "inertia_ratio_std": float(sd / (1.0 + s) ** 2) if ok and sd is not None else None, "dof": DOFS[c.dof]}
+    return {
+        "scale": s,
+        "scale_std": sd,
+        "inertia_ratio": float(1.0 / (1.0 + s)) if ok else None,
+        "inertia_ratio_std": float(sd / (1.0 + s) ** 2) if ok and sd is not None else None,
+        "dof": DOFS[c.dof],
+    }
 
 
-_BY_EFFECT = {"current": _current, "actuator_delay": _delay, "input_offset": _offset, "sensor_bias": _bias,
-              "quadratic_damping": _term, "missing_coupling": _term, "resistance_change": _surge_term,
-              "thrust_loss": _thrust, "inertia_change": _inertia}
+_BY_EFFECT = {
+    "current": _current,
+    "actuator_delay": _delay,
+    "input_offset": _offset,
+    "sensor_bias": _bias,
+    "quadratic_damping": _term,
+    "missing_coupling": _term,
+    "resistance_change": _surge_term,
+    "thrust_loss": _thrust,
+    "inertia_change": _inertia,
+}
 
 
 STD_SUFFIXES = ("_std", "_std_deg")
@@ -162,18 +189,27 @@ def interval_note(cov) -> dict:
     noise = "measurement noise (of the --fit-on runs too)" if cov.fit_on else "measurement noise"
     what = noise
     if runs >= 2:
-        over = (f"the {runs} runs ({runs - ref} diagnosed, {ref} --fit-on fitted jointly)" if ref
-                else f"the {runs} diagnosed runs")
+        over = f"the {runs} runs ({runs - ref} diagnosed, {ref} --fit-on fitted jointly)" if ref else f"the {runs} diagnosed runs"
         what = f"{noise} and the model's run-to-run misfit over {over}"
         if runs == 2:
-            what += (" (rough with two runs: a spread with one degree of freedom, it can be several times too "
-                     "large or too small; diagnose a third run to firm it up)")
+            what += (
+                " (rough with two runs: a spread with one degree of freedom, it can be several times too "
+                "large or too small; diagnose a third run to firm it up)"
+            )
     missing = "a model error common to every run"
     if getattr(cov, "misfit_failed", False):
-        missing = ("the model's run-to-run misfit (its leave-one-run-out spread was not finite: a run's fit diverges "
-                   "when the others are left out, so no between-run check was made) and " + missing)
+        missing = (
+            "the model's run-to-run misfit (its leave-one-run-out spread was not finite: a run's fit diverges "
+            "when the others are left out, so no between-run check was made) and " + missing
+        )
     elif runs < 2:
-        missing = ("the model's misfit on this recording (one diagnosed recording gives no between-run check: "
-                   "diagnose two or more runs to measure it) and " + missing)
-    return {"covers": f"1 std of {what}. Not covered: {missing}", "diagnosed_runs": given - ref,
-            "between_run_runs": runs, "between_runs": runs >= 2}
+        missing = (
+            "the model's misfit on this recording (one diagnosed recording gives no between-run check: "
+            "diagnose two or more runs to measure it) and " + missing
+        )
+    return {
+        "covers": f"1 std of {what}. Not covered: {missing}",
+        "diagnosed_runs": given - ref,
+        "between_run_runs": runs,
+        "between_runs": runs >= 2,
+    }

@@ -44,8 +44,13 @@ def make_parts(preps: list[Prepared], val_preps: list[Prepared]) -> Parts:
         return Parts(prep, mask, label, test, [list(range(nd)) for _ in test])
     if nd >= 2:
         prep = list(range(nd))
-        return Parts(prep, [np.ones(p.n, bool) for p in preps], [p.rec.source for p in preps], prep,
-                     [[j for j in prep if j != i] for i in prep])
+        return Parts(
+            prep,
+            [np.ones(p.n, bool) for p in preps],
+            [p.rec.source for p in preps],
+            prep,
+            [[j for j in prep if j != i] for i in prep],
+        )
     n = preps[0].n
     blk = (np.arange(n) * N_BLOCKS) // max(n, 1)
     mask = [blk == b for b in range(N_BLOCKS)]
@@ -64,8 +69,15 @@ class Grams:
     n_rows: np.ndarray  # (n_parts,)
 
 
-def grams(model: AugmentedModel, all_preps: list[Prepared], parts: Parts, P: np.ndarray, cols: list[int],
-          w: np.ndarray, h_step: np.ndarray) -> Grams:
+def grams(
+    model: AugmentedModel,
+    all_preps: list[Prepared],
+    parts: Parts,
+    P: np.ndarray,
+    cols: list[int],
+    w: np.ndarray,
+    h_step: np.ndarray,
+) -> Grams:
     """Sensitivities of every part at P to the parameters ``cols`` (one batched simulation per run)."""
     c = len(cols)
     Pb = np.repeat(P[None], c + 1, axis=0)
@@ -123,8 +135,9 @@ def heldout_rss(g: Grams, parts: Parts, sel: list[int], prior_D: np.ndarray, pri
     return np.maximum(out, 0.0)
 
 
-def insample_rss(g: Grams, parts: Parts, sel: list[int], prior_D: np.ndarray, prior_g: np.ndarray,
-                 fit_parts: list[int]) -> tuple[float, np.ndarray]:
+def insample_rss(
+    g: Grams, parts: Parts, sel: list[int], prior_D: np.ndarray, prior_g: np.ndarray, fit_parts: list[int]
+) -> tuple[float, np.ndarray]:
     """Residual sum of squares over ``fit_parts`` after a linearised refit of ``sel`` on them,
     and the step."""
     if not sel:
@@ -182,14 +195,24 @@ class Verdict:
             crit = "no_pooled_gain"
         else:
             return None
-        return {"criterion": crit, "heldout_delta_aic": self.delta_aic, "runs_improved": self.improved,
-                "n_folds": self.n_folds, "heldout_gain": self.gain, "worst_fit_drop": self.worst_drop,
-                "worst_run_rise": self.worst_run_rise, "much_worse": much_worse, "run_rise": RUN_RISE}
+        return {
+            "criterion": crit,
+            "heldout_delta_aic": self.delta_aic,
+            "runs_improved": self.improved,
+            "n_folds": self.n_folds,
+            "heldout_gain": self.gain,
+            "worst_fit_drop": self.worst_drop,
+            "worst_run_rise": self.worst_run_rise,
+            "much_worse": much_worse,
+            "run_rise": RUN_RISE,
+        }
 
     def table(self, labels: list[str]) -> list[dict]:
         f0, f1 = fit_pct(self.rss0, self.den), fit_pct(self.rss1, self.den)
-        return [{"run": lab, "before": dict(zip(DOFS, a.tolist())), "after": dict(zip(DOFS, b.tolist()))}
-                for lab, a, b in zip(labels, f0, f1)]
+        return [
+            {"run": lab, "before": dict(zip(DOFS, a.tolist())), "after": dict(zip(DOFS, b.tolist()))}
+            for lab, a, b in zip(labels, f0, f1)
+        ]
 
 
 def verdict(rss0: np.ndarray, rss1: np.ndarray, den: np.ndarray, n_rows: np.ndarray, q: int, tau: float) -> Verdict:
@@ -212,12 +235,25 @@ def rejection_entry(v: Verdict, much_worse: float, validation: bool) -> dict | N
     if failed is None:
         return None
     on = "validation runs" if validation else "held-out runs (folds refitted from the refitted model)"
-    return {"reason": f"the refitted model does not improve the {on}", "judged_on": "validation" if validation else "folds",
-            "failed": failed}
+    return {
+        "reason": f"the refitted model does not improve the {on}",
+        "judged_on": "validation" if validation else "folds",
+        "failed": failed,
+    }
 
 
-def refit_verdict(model: AugmentedModel, all_preps: list[Prepared], parts: Parts, P1: np.ndarray, free: list[int],
-                  w: list, prior_terms, v: Verdict, q: int, tau: float) -> Verdict:
+def refit_verdict(
+    model: AugmentedModel,
+    all_preps: list[Prepared],
+    parts: Parts,
+    P1: np.ndarray,
+    free: list[int],
+    w: list,
+    prior_terms,
+    v: Verdict,
+    q: int,
+    tau: float,
+) -> Verdict:
     """Held-out verdict of the refitted model P1 (no validation runs): each fold's refit is a
     Gauss-Newton step from P1, which is near it, against the round's held-out misfit without the
     candidate (``v.rss0``). ``prior_terms(P, cols)``: the fit's prior Hessian diagonal and gradient."""

@@ -76,11 +76,19 @@ def locate(profile: ShipProfile, preps: list[Prepared], res: list[np.ndarray], t
             for s, e in alarm_windows(g, 10 * sigma[i]):
                 seg = None
                 if p.rec.segments is not None:
-                    seg = list(dict.fromkeys(p.rec.segments[s:e + 1])) or None
+                    seg = list(dict.fromkeys(p.rec.segments[s : e + 1])) or None
                 t0 = float(p.rec.t[0])  # times from the run's start: a logger's epoch stamps mean nothing to a reader
-                windows.append({"recording": p.rec.source, "dof": DOFS[i], "t_start": float(p.rec.t[s]) - t0,
-                                "t_end": float(p.rec.t[e]) - t0, "run_start_stamp": t0,
-                                "peak_cusum": float(g[s:e + 1].max() / sigma[i]), "segment": seg})
+                windows.append(
+                    {
+                        "recording": p.rec.source,
+                        "dof": DOFS[i],
+                        "t_start": float(p.rec.t[s]) - t0,
+                        "t_end": float(p.rec.t[e]) - t0,
+                        "run_start_stamp": t0,
+                        "peak_cusum": float(g[s : e + 1].max() / sigma[i]),
+                        "segment": seg,
+                    }
+                )
     windows.sort(key=lambda w: -w["peak_cusum"])
     # misfit per manoeuvre segment (when the recording labels them)
     seg_sq: dict[str, list] = {}
@@ -89,8 +97,13 @@ def locate(profile: ShipProfile, preps: list[Prepared], res: list[np.ndarray], t
             continue
         for k, lab in enumerate(p.rec.segments[1:], start=1):
             seg_sq.setdefault(str(lab), []).append(r[k] ** 2)
-    segments = sorted(({"segment": k, **{DOFS[i]: float(np.sqrt(np.mean(np.array(v)[:, i])) / sigma[i]) for i in range(3)}}
-                       for k, v in seg_sq.items()), key=lambda s: -max(s[d] for d in DOFS))
+    segments = sorted(
+        (
+            {"segment": k, **{DOFS[i]: float(np.sqrt(np.mean(np.array(v)[:, i])) / sigma[i]) for i in range(3)}}
+            for k, v in seg_sq.items()
+        ),
+        key=lambda s: -max(s[d] for d in DOFS),
+    )
     # conditions
     sig: dict[str, list[np.ndarray]] = {}
 
@@ -132,9 +145,16 @@ def locate(profile: ShipProfile, preps: list[Prepared], res: list[np.ndarray], t
     tests = _tests(eps, x, profile.inputs)
     oe_tests = _tests(r_all, x, profile.inputs)  # the open-loop (output-error) residuals
     band = 2.58 / np.sqrt(len(eps))
-    return {"rms_over_noise": dict(zip(DOFS, ratio.tolist())), "worst_dof": DOFS[worst], "cusum_windows": windows[:10], "segments": segments,
-            "conditions": conditions, "one_step_tests": tests,
-            "output_error_tests": oe_tests, "ccf_band_99": band}
+    return {
+        "rms_over_noise": dict(zip(DOFS, ratio.tolist())),
+        "worst_dof": DOFS[worst],
+        "cusum_windows": windows[:10],
+        "segments": segments,
+        "conditions": conditions,
+        "one_step_tests": tests,
+        "output_error_tests": oe_tests,
+        "ccf_band_99": band,
+    }
 
 
 def _tests(eps: np.ndarray, x: np.ndarray, names: tuple[str, ...]) -> dict:
@@ -150,6 +170,8 @@ def _tests(eps: np.ndarray, x: np.ndarray, names: tuple[str, ...]) -> dict:
             xs = x[:, j] - x[:, j].mean()
             den = np.sqrt((xs @ xs) * (e @ e)) or 1.0
             vals = [float(xs[: n - k] @ e[k:] / den) for k in range(0, 21)]
-            cc.append({"input": nm, "max_abs_ccf": float(np.max(np.abs(vals))), "lags_outside_band": int(np.sum(np.abs(vals) > band))})
+            cc.append(
+                {"input": nm, "max_abs_ccf": float(np.max(np.abs(vals))), "lags_outside_band": int(np.sum(np.abs(vals) > band))}
+            )
         out[DOFS[i]] = {"ljung_box_q": q, "whiteness_p": pv, "cross_correlation": cc}
     return out

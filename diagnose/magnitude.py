@@ -37,9 +37,16 @@ def channel_weights(res: list[np.ndarray]) -> np.ndarray:
     return 1.0 / np.maximum(rms, 1e-12 * (np.max(rms) + 1e-300))
 
 
-def ml_refit(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: list[int], chosen: list[Candidate],
-             base_free: list[int], w: np.ndarray, prior_std: np.ndarray | None
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, str]:
+def ml_refit(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    P: np.ndarray,
+    free: list[int],
+    chosen: list[Candidate],
+    base_free: list[int],
+    w: np.ndarray,
+    prior_std: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, str]:
     """Refit the ``free`` parameters (the kept findings' slots, the refitted baseline
     parameters ``base_free`` and the initial states) from the search's estimate P (weights
     ``w``, prior std ``prior_std`` towards the profile) by the maximum-likelihood criterion of
@@ -64,14 +71,26 @@ def ml_refit(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: 
             prior = (model.p0(), prior_std * np.sqrt(float(r_old @ r_old) / max(float(r_new @ r_new), 1e-300)))
         Pk, _cov, rss = fit(model, preps, Pn, free, wk, max_iter=15, tol=1e-7, bounds=bounds, prior=prior)
         if not np.isfinite(rss):
-            return P, w, prior_std, ("the maximum-likelihood refit of the findings' magnitudes diverged: the search's estimate "
-                          "is reported")
+            return (
+                P,
+                w,
+                prior_std,
+                ("the maximum-likelihood refit of the findings' magnitudes diverged: the search's estimate is reported"),
+            )
         Pn, wn, sdn = Pk, wk, (prior[1] if prior is not None else prior_std)
     return Pn, wn, sdn, ""
 
 
-def heldout_worse(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray,
-                  P_search: np.ndarray, P_ml: np.ndarray, w_ml: np.ndarray, free: list[int]) -> str:
+def heldout_worse(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    val_preps: list[Prepared],
+    w: np.ndarray,
+    P_search: np.ndarray,
+    P_ml: np.ndarray,
+    w_ml: np.ndarray,
+    free: list[int],
+) -> str:
     """Why the ML estimate fits the held-out runs worse than the search's, or "" when it does
     not beyond what noise explains. Held-out runs: the validation runs (simulated), otherwise
     each diagnosed run left out in turn (linearised refit, each estimate stepped with the
@@ -92,13 +111,16 @@ def heldout_worse(model: AugmentedModel, preps: list[Prepared], val_preps: list[
         drop = {k: b["after"][k] - a["after"][k] for k in a["after"]}
         k = min(drop, key=drop.get)
         if not drop[k] >= -GUARD_SLACK:  # a NaN fit fails too
-            return (f"{short_label(a['run'])} ({method}): {k} fit {a['after'][k]:.1f} -> {b['after'][k]:.1f} % "
-                    f"({drop[k]:+.1f} points, at most -{GUARD_SLACK:g})")
+            return (
+                f"{short_label(a['run'])} ({method}): {k} fit {a['after'][k]:.1f} -> {b['after'][k]:.1f} % "
+                f"({drop[k]:+.1f} points, at most -{GUARD_SLACK:g})"
+            )
     return ""
 
 
-def implausible(model: AugmentedModel, chosen: list[Candidate], P: np.ndarray, free: list[int],
-                inputs: np.ndarray | None) -> list[tuple[Candidate, str]]:
+def implausible(
+    model: AugmentedModel, chosen: list[Candidate], P: np.ndarray, free: list[int], inputs: np.ndarray | None
+) -> list[tuple[Candidate, str]]:
     """The findings whose magnitude at P fails :func:`diagnose.plausible.check`, with the reason."""
     out = []
     for c in chosen:

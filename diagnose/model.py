@@ -53,7 +53,9 @@ def initial_state(y: np.ndarray, m: int = 8) -> np.ndarray:
 def prepare(profile: ShipProfile, rec: Recording, index: int | None = None) -> Prepared:
     wn = rec.wind_ne
     wind = None if wn is None else body_from_ne(wn, rec.psi)
-    return Prepared(rec, rec.y, rec.psi, rec.inputs_for(profile.inputs), initial_state(rec.y), wind, rec.channels.get("phi"), index)
+    return Prepared(
+        rec, rec.y, rec.psi, rec.inputs_for(profile.inputs), initial_state(rec.y), wind, rec.channels.get("phi"), index
+    )
 
 
 class AugmentedModel:
@@ -80,15 +82,21 @@ class AugmentedModel:
         self.half_sample = 0.0
         # surge terms that hold the propeller thrust (n or tau_x among the factors): a "thrust" slot scales them all
         tsig = {"rudder_propeller": "n"}.get(profile.actuator, "tau_x")
-        self.thrust_terms = [j for j, (i, t, *_r) in enumerate(self.base)
-                             if i == 0 and tsig in {f.strip("|").split("^")[0] for f in t.split("*")}]
+        self.thrust_terms = [
+            j for j, (i, t, *_r) in enumerate(self.base) if i == 0 and tsig in {f.strip("|").split("^")[0] for f in t.split("*")}
+        ]
         # sway/yaw terms of the rudder (in delta or n): a thrust loss weakens them with the
         # propeller slipstream by the profile's rudder_thrust_share of the loss (MMG (24)), which a
         # resistance change does not; that is what tells the two apart at constant rpm
         self.rudder_share = float(getattr(profile, "rudder_thrust_share", 0.0))
-        self.rudder_terms = [j for j, (i, t, *_r) in enumerate(self.base)
-                             if i > 0 and self.rudder_share > 0 and tsig == "n"
-                             and {"delta", "n"} & {f.strip("|").split("^")[0] for f in t.split("*")}]
+        self.rudder_terms = [
+            j
+            for j, (i, t, *_r) in enumerate(self.base)
+            if i > 0
+            and self.rudder_share > 0
+            and tsig == "n"
+            and {"delta", "n"} & {f.strip("|").split("^")[0] for f in t.split("*")}
+        ]
         self._slot_fn = {k: compile_term(s.term) for k, s in enumerate(self.slots, start=self.n_base) if s.kind == "term"}
 
     def p0(self) -> np.ndarray:
@@ -110,8 +118,14 @@ class AugmentedModel:
         """What P switches on (the same for every recording): terms, current, delay, offsets,
         biases, inertia scales."""
         B = P.shape[0]
-        plan = {"terms": [], "cur": np.zeros((B, 2)), "delay": None, "offsets": [], "bias": np.zeros((B, 3)),
-                "scale": np.ones((B, 3))}
+        plan = {
+            "terms": [],
+            "cur": np.zeros((B, 2)),
+            "delay": None,
+            "offsets": [],
+            "bias": np.zeros((B, 3)),
+            "scale": np.ones((B, 3)),
+        }
         for j, (i, t, names, fn) in enumerate(self.base):
             if np.any(P[:, j] != 0):
                 plan["terms"].append((i, P[:, j], t, names, fn))
@@ -203,7 +217,7 @@ class AugmentedModel:
             nu0 = np.broadcast_to(prep.y0, (B, 3)) - bias
             if prep.index is not None and prep.index < self.n_rec:
                 k0 = self.n_slots_end + 3 * prep.index
-                nu0 = nu0 + P[:, k0: k0 + 3]
+                nu0 = nu0 + P[:, k0 : k0 + 3]
             pre = pre * scale[:, None, :]
             if np.any(cur != 0):  # the kernel's current_turning (primitives.simulate), on the measured heading
                 pre[:, :, :2] += _current_turning(cur, prep.psi)
@@ -216,7 +230,7 @@ class AugmentedModel:
         def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (n_max, R*B, ...) from per-run (B, n_i, ...)
             out = np.zeros((n_max, R * B) + arrs[0].shape[2:])  # time-major: one contiguous row per step
             for r, a in enumerate(arrs):
-                out[: a.shape[1], r * B:(r + 1) * B] = a.swapaxes(0, 1)
+                out[: a.shape[1], r * B : (r + 1) * B] = a.swapaxes(0, 1)
             return out
 
         pre = padded([pre for _p, _e, pre, _n in runs])
@@ -228,8 +242,15 @@ class AugmentedModel:
             uc, vc = body_from_ne(np.tile(cur, (R, 1))[None], psi)
         use_wind = bool(need & {*WIND_EXCESS, "u_q", "v_q"}) and any(p.wind_body is not None for p in preps)
         if use_wind:
-            wu, wv = (padded([np.broadcast_to(p.wind_body[q][:-1] if p.wind_body is not None else np.zeros(p.n),
-                                              (B, p.n))[..., None] for p in preps])[..., 0] for q in (0, 1))
+            wu, wv = (
+                padded(
+                    [
+                        np.broadcast_to(p.wind_body[q][:-1] if p.wind_body is not None else np.zeros(p.n), (B, p.n))[..., None]
+                        for p in preps
+                    ]
+                )[..., 0]
+                for q in (0, 1)
+            )
         # the primitives' time step; the environment is rotated by the measured heading, not a simulated one
         step = VelocityStep(tset, np.tile(coef, (R, 1)))
         nu = np.concatenate([nu0 for _p, _e, _x, nu0 in runs])
@@ -238,10 +259,15 @@ class AugmentedModel:
             out = np.empty((R * B, n_max + 1, 3))
             out[:, 0] = nu
             for k in range(n_max):
-                nu = step(nu, {nm: exo[nm][k] for nm in need_in}, (uc[k], vc[k]) if has_cur else None,
-                          (wu[k], wv[k]) if use_wind else None, pre[k])
+                nu = step(
+                    nu,
+                    {nm: exo[nm][k] for nm in need_in},
+                    (uc[k], vc[k]) if has_cur else None,
+                    (wu[k], wv[k]) if use_wind else None,
+                    pre[k],
+                )
                 out[:, k + 1] = nu
-        return [out[r * B:(r + 1) * B, : p.n + 1] + bias[:, None, :] for r, p in enumerate(preps)]
+        return [out[r * B : (r + 1) * B, : p.n + 1] + bias[:, None, :] for r, p in enumerate(preps)]
 
     def _termset(self, terms: tuple[tuple[str, ...], ...]) -> TermSet:
         cache = self.__dict__.setdefault("_tsets", {})
@@ -340,7 +366,7 @@ def noise_std_coloured(y: np.ndarray, max_lag: int = 6) -> np.ndarray:
     for i in range(y.shape[1]):
         v = np.empty(len(lags))
         for q, L in enumerate(lags):
-            d2 = y[2 * L:, i] - 2 * y[L:-L, i] + y[: -2 * L, i]
+            d2 = y[2 * L :, i] - 2 * y[L:-L, i] + y[: -2 * L, i]
             v[q] = (1.4826 * np.median(np.abs(d2 - np.median(d2)))) ** 2
         if not np.all(v > 0):
             continue
@@ -373,8 +399,15 @@ def stack(res: list[np.ndarray], w: np.ndarray | list[np.ndarray], masks: list[n
     return np.concatenate(parts, axis=1)
 
 
-def jacobian(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: list[int], w: np.ndarray,
-             masks: list[np.ndarray] | None = None, h: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def jacobian(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    P: np.ndarray,
+    free: list[int],
+    w: np.ndarray,
+    masks: list[np.ndarray] | None = None,
+    h: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """(r0 (M,), J (M, len(free))) of the weighted residual; one batched simulation."""
     h = model.steps(preps, P) if h is None else h
     Pb = np.repeat(P[None], len(free) + 1, axis=0)
@@ -399,9 +432,18 @@ def _prior_rows(P: np.ndarray, free: list[int], prior: tuple[np.ndarray, np.ndar
     return r, J
 
 
-def fit(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, free: list[int], w: np.ndarray,
-        masks: list[np.ndarray] | None = None, max_iter: int = 10, bounds: dict[int, tuple[float, float]] | None = None,
-        tol: float = 1e-5, prior: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+def fit(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    P: np.ndarray,
+    free: list[int],
+    w: np.ndarray,
+    masks: list[np.ndarray] | None = None,
+    max_iter: int = 10,
+    bounds: dict[int, tuple[float, float]] | None = None,
+    tol: float = 1e-5,
+    prior: tuple[np.ndarray, np.ndarray] | None = None,
+) -> tuple[np.ndarray, np.ndarray, float]:
     """Output-error Levenberg-Marquardt over the ``free`` parameters within ``bounds``, with an
     optional Gaussian ``prior`` (ref, sd) per parameter. Returns (P, cov, rss); rss is the data
     part only, and ``inf`` when the refit diverged (a non-finite or exploding simulation).

@@ -77,12 +77,24 @@ def model_dict(d: Diagnosis) -> dict:
     base["diagnosed_model"] = {
         "format": FORMAT,
         "note": "exact scored model: baseline profile + candidate slots; read with diagnose.model_file.load_model",
-        "baseline_profile": prof.to_dict() | {"parameters": {"scored": {dof: theta[prof.model.dof_slice(i)].tolist()
-                                                                      for i, dof in enumerate(DOFS)}},
-                                              "simulation_set": "scored", "instrument_set": "scored"},
+        "baseline_profile": prof.to_dict()
+        | {
+            "parameters": {"scored": {dof: theta[prof.model.dof_slice(i)].tolist() for i, dof in enumerate(DOFS)}},
+            "simulation_set": "scored",
+            "instrument_set": "scored",
+        },
         "half_sample_s": m.half_sample,
-        "candidates": [{"effect": c.effect, "key": c.key, "dof": c.dof, "description": c.description,
-                        "slots": [asdict(s) for s in c.slots], "values": d.P[m.slot_of[c.key]].tolist()} for c in chosen],
+        "candidates": [
+            {
+                "effect": c.effect,
+                "key": c.key,
+                "dof": c.dof,
+                "description": c.description,
+                "slots": [asdict(s) for s in c.slots],
+                "values": d.P[m.slot_of[c.key]].tolist(),
+            }
+            for c in chosen
+        ],
     }
     return to_jsonable(base)
 
@@ -96,22 +108,34 @@ def load_model(path: str | Path) -> tuple[AugmentedModel, np.ndarray]:
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
-        raise RecordingError(f"{p}: not a readable model.json ({type(exc).__name__}: {exc}): give the model.json "
-                             "`shiptrial diagnose --out DIR` wrote") from None
+        raise RecordingError(
+            f"{p}: not a readable model.json ({type(exc).__name__}: {exc}): give the model.json "
+            "`shiptrial diagnose --out DIR` wrote"
+        ) from None
     if not isinstance(data, dict) or "diagnosed_model" not in data:
-        raise RecordingError(f"{p}: not a diagnosed model.json (no field 'diagnosed_model'): give the model.json "
-                             "`shiptrial diagnose --out DIR` wrote")
+        raise RecordingError(
+            f"{p}: not a diagnosed model.json (no field 'diagnosed_model'): give the model.json "
+            "`shiptrial diagnose --out DIR` wrote"
+        )
     check_diagnosed_sections(data, str(p), RecordingError)
     doc = data["diagnosed_model"]
     if doc.get("format") != FORMAT:
-        raise RecordingError(f"{p}: field 'diagnosed_model.format' must be {FORMAT!r}, got {doc.get('format')!r}: {MODEL_JSON_FIX}")
+        raise RecordingError(
+            f"{p}: field 'diagnosed_model.format' must be {FORMAT!r}, got {doc.get('format')!r}: {MODEL_JSON_FIX}"
+        )
     if not isinstance(doc.get("baseline_profile"), dict):
-        raise RecordingError(f"{p}: field 'diagnosed_model.baseline_profile' must be the scored ship profile (a table): {MODEL_JSON_FIX}")
+        raise RecordingError(
+            f"{p}: field 'diagnosed_model.baseline_profile' must be the scored ship profile (a table): {MODEL_JSON_FIX}"
+        )
     prof = profile_from_dict(doc["baseline_profile"], f"{p} [diagnosed_model.baseline_profile]")
     if not prof.planar:
-        raise RecordingError(f"{p}: field 'diagnosed_model.baseline_profile' is a {prof.n_dof}-DOF {prof.actuator} profile, and a "
-                             f"diagnosis is of a 3-DOF ship: {MODEL_JSON_FIX}")
-    half = positive(doc.get("half_sample_s", 0.0), f"{p}: field 'diagnosed_model.half_sample_s'", "s", RecordingError, allow_zero=True)
+        raise RecordingError(
+            f"{p}: field 'diagnosed_model.baseline_profile' is a {prof.n_dof}-DOF {prof.actuator} profile, and a "
+            f"diagnosis is of a 3-DOF ship: {MODEL_JSON_FIX}"
+        )
+    half = positive(
+        doc.get("half_sample_s", 0.0), f"{p}: field 'diagnosed_model.half_sample_s'", "s", RecordingError, allow_zero=True
+    )
     cands, values = _candidates(doc.get("candidates"), prof, p)
     model = AugmentedModel(prof, prof.params(), cands)
     model.half_sample = half
@@ -125,15 +149,24 @@ CANDIDATE_KEYS = ("effect", "key", "dof", "description", "slots", "values")
 SLOT_KEYS = tuple(f.name for f in fields(Slot))
 # What a slot of each kind reads besides its name: its DOF, its term, an index below a bound
 # (the current's north/east, the input offset, the biased signal u/v/r).
-SLOT_NEEDS: dict[str, tuple[str, ...]] = {"term": ("dof", "term"), "scale": ("dof",), "current": ("index",), "offset": ("index",),
-                                          "bias": ("index",), "delay": (), "thrust": (), "thrust_share": ()}
+SLOT_NEEDS: dict[str, tuple[str, ...]] = {
+    "term": ("dof", "term"),
+    "scale": ("dof",),
+    "current": ("index",),
+    "offset": ("index",),
+    "bias": ("index",),
+    "delay": (),
+    "thrust": (),
+    "thrust_share": (),
+}
 
 
 def _candidates(raw: object, prof: ShipProfile, p: Path) -> tuple[list[Candidate], list[list[float]]]:
     """The ``diagnosed_model.candidates`` list, checked: the candidates and each one's slot values."""
     if not isinstance(raw, list) or not all(isinstance(c, dict) for c in raw):
-        raise RecordingError(f"{p}: field 'diagnosed_model.candidates' must be a list of tables with "
-                             f"{', '.join(CANDIDATE_KEYS)}: {MODEL_JSON_FIX}")
+        raise RecordingError(
+            f"{p}: field 'diagnosed_model.candidates' must be a list of tables with {', '.join(CANDIDATE_KEYS)}: {MODEL_JSON_FIX}"
+        )
     cands, values = [], []
     for i, c in enumerate(raw):
         at = f"{p}: field 'diagnosed_model.candidates.{i}"
@@ -150,11 +183,19 @@ def _candidates(raw: object, prof: ShipProfile, p: Path) -> tuple[list[Candidate
             raise RecordingError(f"{at}.slots' must be a non-empty list of tables with {', '.join(SLOT_KEYS)}: {MODEL_JSON_FIX}")
         vals = c.get("values")
         if not isinstance(vals, list) or len(vals) != len(slots):
-            raise RecordingError(f"{at}.values' must be a list of {len(slots)} numbers, one per slot, got {vals!r}: {MODEL_JSON_FIX}")
+            raise RecordingError(
+                f"{at}.values' must be a list of {len(slots)} numbers, one per slot, got {vals!r}: {MODEL_JSON_FIX}"
+            )
         values.append([finite(v, f"{at}.values.{j}'", "", RecordingError) for j, v in enumerate(vals)])
-        cands.append(Candidate(c["effect"], c["key"], tuple(_slot(s, prof, p, f"diagnosed_model.candidates.{i}.slots.{j}")
-                                                            for j, s in enumerate(slots)),
-                               _index(c.get("dof"), 3, f"{at}.dof'"), c.get("description", "")))
+        cands.append(
+            Candidate(
+                c["effect"],
+                c["key"],
+                tuple(_slot(s, prof, p, f"diagnosed_model.candidates.{i}.slots.{j}") for j, s in enumerate(slots)),
+                _index(c.get("dof"), 3, f"{at}.dof'"),
+                c.get("description", ""),
+            )
+        )
     return cands, values
 
 
@@ -168,7 +209,9 @@ def _slot(s: dict, prof: ShipProfile, p: Path, field: str) -> Slot:
     if not isinstance(s.get("name"), str):
         raise RecordingError(f"{at}.name' must be the slot's name (a string), got {s.get('name')!r}: {MODEL_JSON_FIX}")
     bound = {"current": 2, "offset": len(prof.inputs), "bias": 3}.get(kind, 0)
-    slot = Slot(kind, s["name"], _index(s.get("dof"), 3, f"{at}.dof'"), s.get("term"), _index(s.get("index"), bound, f"{at}.index'"))
+    slot = Slot(
+        kind, s["name"], _index(s.get("dof"), 3, f"{at}.dof'"), s.get("term"), _index(s.get("index"), bound, f"{at}.index'")
+    )
     for need in SLOT_NEEDS[kind]:
         if getattr(slot, need) is None:
             raise RecordingError(f"{at}.{need}' is needed by a {kind!r} slot: {MODEL_JSON_FIX}")
@@ -187,6 +230,9 @@ def _index(value: object, bound: int, at: str) -> int | None:
     if value is None:
         return None
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < bound:
-        raise RecordingError(f"{at} must be null or a whole number 0..{bound - 1}, got {value!r}: {MODEL_JSON_FIX}"
-                             if bound else f"{at} must be null for this slot kind, got {value!r}: {MODEL_JSON_FIX}")
+        raise RecordingError(
+            f"{at} must be null or a whole number 0..{bound - 1}, got {value!r}: {MODEL_JSON_FIX}"
+            if bound
+            else f"{at} must be null for this slot kind, got {value!r}: {MODEL_JSON_FIX}"
+        )
     return value

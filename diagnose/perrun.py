@@ -37,8 +37,16 @@ def _table(labels: list[str], roles: list[str], f0: np.ndarray, f1: np.ndarray, 
     rows = []
     for lab, role, a, b, dn in zip(labels, roles, f0, f1, den):
         w0, w1 = (float(np.sum((1 - f / 100.0) ** 2 * dn)) for f in (a, b))
-        rows.append({"run": lab, "role": role, "before": dict(zip(DOFS, a.tolist())), "after": dict(zip(DOFS, b.tolist())),
-                     "weighted_misfit_before": w0, "weighted_misfit_after": w1})
+        rows.append(
+            {
+                "run": lab,
+                "role": role,
+                "before": dict(zip(DOFS, a.tolist())),
+                "after": dict(zip(DOFS, b.tolist())),
+                "weighted_misfit_before": w0,
+                "weighted_misfit_after": w1,
+            }
+        )
     return rows
 
 
@@ -46,9 +54,16 @@ def _den(preps: list[Prepared], w: np.ndarray) -> np.ndarray:
     return np.array([np.sum(((p.y - p.y.mean(axis=0)) * w) ** 2, axis=0) for p in preps])
 
 
-def per_run_fits(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray,
-                 P0: np.ndarray, P: np.ndarray, free: list[int], w_fit: np.ndarray | None = None
-                 ) -> tuple[list[dict], str]:
+def per_run_fits(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    val_preps: list[Prepared],
+    w: np.ndarray,
+    P0: np.ndarray,
+    P: np.ndarray,
+    free: list[int],
+    w_fit: np.ndarray | None = None,
+) -> tuple[list[dict], str]:
     """Fit before/after per run and channel. With validation runs: by simulation. Otherwise each
     diagnosed run is held out in turn: the model refitted without it (a Gauss-Newton step of the
     free parameters from the final fit, weighted by ``w_fit``, the weights P was fitted with,
@@ -57,26 +72,42 @@ def per_run_fits(model: AugmentedModel, preps: list[Prepared], val_preps: list[P
     if val_preps:
         f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in val_preps])
         f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in val_preps])
-        return (_table([p.rec.source for p in val_preps], ["validation"] * len(val_preps), f0, f1, _den(val_preps, w)),
-                "validation runs, simulated")
+        return (
+            _table([p.rec.source for p in val_preps], ["validation"] * len(val_preps), f0, f1, _den(val_preps, w)),
+            "validation runs, simulated",
+        )
     f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in preps])
     cols = [j for j in free if j < model.n_slots_end]
     if len(preps) < 2 or not cols:
         f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in preps])
-        return _table([p.rec.source for p in preps], ["diagnosed"] * len(preps), f0, f1, _den(preps, w)), "diagnosed runs, in-sample"
+        return _table(
+            [p.rec.source for p in preps], ["diagnosed"] * len(preps), f0, f1, _den(preps, w)
+        ), "diagnosed runs, in-sample"
     parts = make_parts(preps, [])
     # the step from P's own optimum: with other weights it would also move P towards their optimum
     g = grams(model, preps, parts, P, cols, w if w_fit is None else w_fit, model.steps(preps, P))
     rss = heldout_rss(g, parts, list(range(len(cols))), np.zeros(len(cols)), np.zeros(len(cols)))
     f1 = fit_pct(rss, g.den)
-    return _table([p.rec.source for p in preps], ["left out"] * len(preps), f0, f1, _den(preps, w)), "leave one run out (linearised refit)"
+    return _table(
+        [p.rec.source for p in preps], ["left out"] * len(preps), f0, f1, _den(preps, w)
+    ), "leave one run out (linearised refit)"
 
 
 GUARD_SLACK = 1.0  # fit points a validation run may lose on one channel after the diagnosis
 
 
-def guard(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray, P0: np.ndarray,
-          P: np.ndarray, free: list[int], steps: list, base_free: list[int], w_fit: np.ndarray | None = None):
+def guard(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    val_preps: list[Prepared],
+    w: np.ndarray,
+    P0: np.ndarray,
+    P: np.ndarray,
+    free: list[int],
+    steps: list,
+    base_free: list[int],
+    w_fit: np.ndarray | None = None,
+):
     """Per-run acceptance: no validation run may fit worse overall (noise-weighted misfit) nor
     lose more than GUARD_SLACK points on a channel; no left-out run may get more than RUN_RISE
     worse overall or MUCH_WORSE points on a channel. Findings are dropped, last kept first,
@@ -102,8 +133,13 @@ def guard(model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared
         P[own] = 0.0
         # the baseline keeps the values fitted with the finding (a refit without its prior could diverge)
         P, _cov, rss = fit(model, preps, P, [j for j in free if j not in base_free], wf, max_iter=6)
-        dropped.append({"key": st.candidate.key, "effect": st.candidate.effect,
-                        "reason": f"a held-out run fits worse with it ({method}: weighted misfit {100 * worse_run:+.1f} %, "
-                                  f"worst channel {worst:+.1f} points)"})
+        dropped.append(
+            {
+                "key": st.candidate.key,
+                "effect": st.candidate.effect,
+                "reason": f"a held-out run fits worse with it ({method}: weighted misfit {100 * worse_run:+.1f} %, "
+                f"worst channel {worst:+.1f} points)",
+            }
+        )
         if not np.isfinite(rss):
             steps = []

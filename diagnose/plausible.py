@@ -43,7 +43,10 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
     if effect == "current":
         lim = MAX_CURRENT_FRACTION * profile.cruise_speed_mps
         ok = params["speed_mps"] <= lim
-        return ok, f"current {params['speed_mps']:.2f} m/s vs at most {lim:.2f} m/s ({MAX_CURRENT_FRACTION:.0%} of the cruise speed)"
+        return (
+            ok,
+            f"current {params['speed_mps']:.2f} m/s vs at most {lim:.2f} m/s ({MAX_CURRENT_FRACTION:.0%} of the cruise speed)",
+        )
     if effect == "actuator_delay":
         lim, why = max_delay_s(profile)
         d = params["delay_s"]
@@ -63,7 +66,10 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
         ratio = params.get("inertia_ratio")
         # at the bound means the fit wanted more: the inertia is absorbing another misfit (Källström 1977: a time delay at its bound)
         ok = ratio is not None and 1.0 / MAX_INERTIA_FACTOR * 1.01 < ratio < MAX_INERTIA_FACTOR * 0.99
-        return ok, f"inertia {ratio if ratio is not None else float('inf'):.2f} x the model's vs within a factor {MAX_INERTIA_FACTOR:g}"
+        return (
+            ok,
+            f"inertia {ratio if ratio is not None else float('inf'):.2f} x the model's vs within a factor {MAX_INERTIA_FACTOR:g}",
+        )
     if effect == "thrust_loss" and params.get("loss_percent") is not None:
         loss = params["loss_percent"]
         ok = abs(loss) <= 100 * MAX_THRUST_CHANGE
@@ -101,10 +107,15 @@ def practical(effect: str, params: dict, profile: ShipProfile, visible: float) -
         return False, f"it moves the simulated outputs by {visible:.2f} noise units (RMS), less than {least:g}"
     s = froude(profile)
     if effect == "current" and params.get("speed_mps", np.inf) < MIN_CURRENT_REF_MPS * s:
-        return False, (f"current {params['speed_mps']:.3f} m/s vs at least {MIN_CURRENT_REF_MPS * s:.3f} m/s "
-                       f"({MIN_CURRENT_REF_MPS:g} m/s Froude-scaled to {profile.length_m:g} m)")
+        return False, (
+            f"current {params['speed_mps']:.3f} m/s vs at least {MIN_CURRENT_REF_MPS * s:.3f} m/s "
+            f"({MIN_CURRENT_REF_MPS:g} m/s Froude-scaled to {profile.length_m:g} m)"
+        )
     if effect == "actuator_delay" and params.get("delay_s", np.inf) < MIN_DELAY_REF_S * s:
-        return False, f"delay {params['delay_s']:.2f} s vs at least {MIN_DELAY_REF_S * s:.2f} s ({MIN_DELAY_REF_S:g} s Froude-scaled)"
+        return (
+            False,
+            f"delay {params['delay_s']:.2f} s vs at least {MIN_DELAY_REF_S * s:.2f} s ({MIN_DELAY_REF_S:g} s Froude-scaled)",
+        )
     if effect == "input_offset" and abs(params.get("offset_deg", np.inf)) < MIN_ANGLE_OFFSET_DEG:
         return False, f"offset {params['offset_deg']:.2f} deg vs at least {MIN_ANGLE_OFFSET_DEG:g} deg"
     if effect == "thrust_loss":
@@ -113,8 +124,10 @@ def practical(effect: str, params: dict, profile: ShipProfile, visible: float) -
             return False, f"thrust change {100 * abs(ch):.1f} % vs at least {100 * MIN_THRUST_CHANGE:g} %"
     if effect == "resistance_change" and params.get("resistance_change_pct") is not None:
         if abs(params["resistance_change_pct"]) < 100 * MIN_RESISTANCE_CHANGE:
-            return False, (f"resistance change {abs(params['resistance_change_pct']):.1f} % vs at least "
-                           f"{100 * MIN_RESISTANCE_CHANGE:g} % (the thrust's day-to-day variation it balances)")
+            return False, (
+                f"resistance change {abs(params['resistance_change_pct']):.1f} % vs at least "
+                f"{100 * MIN_RESISTANCE_CHANGE:g} % (the thrust's day-to-day variation it balances)"
+            )
     if effect == "inertia_change" and params.get("inertia_ratio") is not None:
         if abs(params["inertia_ratio"] - 1.0) < MIN_INERTIA_CHANGE:
             return False, f"inertia {params['inertia_ratio']:.3f} x the model's vs at least {MIN_INERTIA_CHANGE:.0%} off"

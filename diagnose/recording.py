@@ -27,9 +27,31 @@ from primitives.errors import UserError
 from primitives.io import read_input_text
 
 MIN_SAMPLES = 50
-NUMERIC = ("t", "x", "y", "lat", "lon", "psi", "u", "v", "r", "tau_x", "tau_y", "tau_n", "delta", "n",
-           "n1", "alpha1", "n2", "alpha2", "wind_speed", "wind_dir", "phi", "p",
-           "v_dot")  # v_dot: measured sway acceleration, m/s^2 (optional; change detection uses it)
+NUMERIC = (
+    "t",
+    "x",
+    "y",
+    "lat",
+    "lon",
+    "psi",
+    "u",
+    "v",
+    "r",
+    "tau_x",
+    "tau_y",
+    "tau_n",
+    "delta",
+    "n",
+    "n1",
+    "alpha1",
+    "n2",
+    "alpha2",
+    "wind_speed",
+    "wind_dir",
+    "phi",
+    "p",
+    "v_dot",
+)  # v_dot: measured sway acceleration, m/s^2 (optional; change detection uses it)
 
 
 class RecordingError(UserError):
@@ -97,7 +119,10 @@ class Recording:
         return replace(
             self,
             source=self.source + (f"[{label}]" if label else ""),
-            t=self.t[sl], y=self.y[sl], psi=self.psi[sl], pos=self.pos[sl],
+            t=self.t[sl],
+            y=self.y[sl],
+            psi=self.psi[sl],
+            pos=self.pos[sl],
             channels={k: v[sl] for k, v in self.channels.items()},
             segments=None if self.segments is None else self.segments[sl],
             notes=list(self.notes),
@@ -143,8 +168,19 @@ def build_recording(
         pnotes += [derived] if derived else []
         chans = {k: v for k, v in res.items() if k not in ("x", "y", "psi", "u", "v", "r")}
         label = f"piece {piece_no + 1}" if len(bounds) > 1 else ""
-        out.append(Recording(src + (f"[{label}]" if label else ""), grid, y, res["psi"], pos, chans,
-                             tb.piece_segments(segments, t, grid), meta, pnotes))
+        out.append(
+            Recording(
+                src + (f"[{label}]" if label else ""),
+                grid,
+                y,
+                res["psi"],
+                pos,
+                chans,
+                tb.piece_segments(segments, t, grid),
+                meta,
+                pnotes,
+            )
+        )
     if not out:
         n_max = max(len(np.arange(t[b][0], t[b][-1] + 1e-9 * ts, ts)) for b in bounds)
         raise RecordingError(
@@ -172,7 +208,9 @@ def split_metadata(lines: list[str]) -> tuple[dict[str, str], list[str]]:
     return meta, body
 
 
-def read_csv(path: str | Path, *, sample_time: float | None = None, inputs: tuple[str, ...] | list[str] | None = None) -> list[Recording]:
+def read_csv(
+    path: str | Path, *, sample_time: float | None = None, inputs: tuple[str, ...] | list[str] | None = None
+) -> list[Recording]:
     """A recording CSV in the README's recording format (one or more gap-free pieces; ``inputs``: see :func:`build_recording`)."""
     path = Path(path)
     meta, body = split_metadata(_read_text(path, "utf-8-sig").splitlines())
@@ -185,9 +223,11 @@ def read_csv(path: str | Path, *, sample_time: float | None = None, inputs: tupl
     if not rows:
         raise RecordingError(f"{path}: header but no data rows")
     for i, row in enumerate(rows):
-        if len(row) > len(header) and any(c.strip() for c in row[len(header):]):
-            raise RecordingError(f"{path}: row {i + 2} has {len(row)} fields but the header names {len(header)} columns; "
-                                 "fix the row (a value too many, or a decimal comma?)")
+        if len(row) > len(header) and any(c.strip() for c in row[len(header) :]):
+            raise RecordingError(
+                f"{path}: row {i + 2} has {len(row)} fields but the header names {len(header)} columns; "
+                "fix the row (a value too many, or a decimal comma?)"
+            )
     cols: dict[str, np.ndarray] = {}
     segments = None
     for j, name in enumerate(header):
@@ -216,18 +256,24 @@ def _check_header(path: Path, header: list[str], line: str, inputs: tuple[str, .
     shown = line.strip()[:80]
     if len(header) == 1:
         sep = next((f"{name} ({c!r})" for c, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "bars")) if c in line), "")
-        raise RecordingError(f"{path}: the header {shown!r} has one column" + (f", separated by {sep}" if sep else "")
-                             + "; separate the columns with commas (t,x,y,psi,...)")
+        raise RecordingError(
+            f"{path}: the header {shown!r} has one column"
+            + (f", separated by {sep}" if sep else "")
+            + "; separate the columns with commas (t,x,y,psi,...)"
+        )
     seen: dict[str, int] = {}
     for j, name in enumerate(header):
         if name in seen:
-            raise RecordingError(f"{path}: column {name!r} appears twice in the header (columns {seen[name] + 1} and {j + 1}); "
-                                 "keep one")
+            raise RecordingError(
+                f"{path}: column {name!r} appears twice in the header (columns {seen[name] + 1} and {j + 1}); keep one"
+            )
         seen[name] = j
         base = re.split(r"[\s\[\(/]", name, maxsplit=1)[0].lower()
         if name not in NUMERIC and name != "segment" and (base in NUMERIC or base == "segment"):
-            raise RecordingError(f"{path}: column {name!r} in the header {shown!r}: name it exactly {base!r} "
-                                 "(lower case, no unit: values are read in SI units, angles in rad)")
+            raise RecordingError(
+                f"{path}: column {name!r} in the header {shown!r}: name it exactly {base!r} "
+                "(lower case, no unit: values are read in SI units, angles in rad)"
+            )
     missing = tb.missing_columns(header, inputs)
     if missing:
         ship = f" (the ship's inputs are {', '.join(inputs)}: add them, or choose the matching --ship)" if inputs else ""
@@ -302,15 +348,18 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
         cols["u"], cols["v"] = c * cols["u"] + s * cols["v"], -s * cols["u"] + c * cols["v"]
         # only this reader rotates: the MARIN format is the one place the frame is known; a CSV
         # with earth-frame u, v is refused (recording_kinematics.check_frame)
-        note = ("u, v as published in MARIN .dat files are earth-frame (dx0/dt, dy0/dt): rotated into the body frame "
-                "(CSV recordings must give body-frame u, v)")
+        note = (
+            "u, v as published in MARIN .dat files are earth-frame (dx0/dt, dy0/dt): rotated into the body frame "
+            "(CSV recordings must give body-frame u, v)"
+        )
     rec = build_recording(str(path), cols, meta=meta, sample_time=sample_time)[0]
     rec.notes.insert(0, note)
     return rec
 
 
-def load_recording(path: str | Path, *, sample_time: float | None = None,
-                   inputs: tuple[str, ...] | list[str] | None = None) -> list[Recording]:
+def load_recording(
+    path: str | Path, *, sample_time: float | None = None, inputs: tuple[str, ...] | list[str] | None = None
+) -> list[Recording]:
     """Read a recording file by its suffix (.csv or MARIN .dat); a list of gap-free pieces. ``inputs``:
     the input columns the ship uses (only they and the state split a run at a long gap)."""
     p = Path(path)
@@ -318,7 +367,9 @@ def load_recording(path: str | Path, *, sample_time: float | None = None,
         return [read_marin_dat(p, sample_time=sample_time or 1.0)]
     if p.suffix.lower() in (".csv", ".txt"):
         return read_csv(p, sample_time=sample_time, inputs=inputs)
-    raise RecordingError(f"{p}: unknown recording format {p.suffix!r}; give a .csv (the README's recording format) or MARIN .dat file")
+    raise RecordingError(
+        f"{p}: unknown recording format {p.suffix!r}; give a .csv (the README's recording format) or MARIN .dat file"
+    )
 
 
 def write_csv(rec: Recording, path: str | Path, *, meta: dict[str, str] | None = None) -> Path:
@@ -328,8 +379,16 @@ def write_csv(rec: Recording, path: str | Path, *, meta: dict[str, str] | None =
     m = dict(rec.meta)
     m.update(meta or {})
     m.setdefault("sample_time", f"{rec.sample_time:g}")
-    cols = {"t": rec.t, "x": rec.pos[:, 0], "y": rec.pos[:, 1], "psi": rec.psi,
-            "u": rec.y[:, 0], "v": rec.y[:, 1], "r": rec.y[:, 2], **rec.channels}
+    cols = {
+        "t": rec.t,
+        "x": rec.pos[:, 0],
+        "y": rec.pos[:, 1],
+        "psi": rec.psi,
+        "u": rec.y[:, 0],
+        "v": rec.y[:, 1],
+        "r": rec.y[:, 2],
+        **rec.channels,
+    }
     lines = [f"# {k}: {v}" for k, v in m.items()]
     lines.append(",".join(cols) + ("," + "segment" if rec.segments is not None else ""))
     arr = np.column_stack(list(cols.values()))

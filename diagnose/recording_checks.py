@@ -24,12 +24,24 @@ import numpy as np
 from primitives.errors import UserError
 
 # Largest magnitudes a real run can show (a fast craft does 40 m/s; 5 rad/s is a spinning model).
-MAX_ABS = {"u": 100.0, "v": 100.0, "r": 10.0, "p": 10.0, "phi": 3.2, "x": 1e8, "y": 1e8, "psi": 1e5,
-           "wind_speed": 150.0}
+MAX_ABS = {"u": 100.0, "v": 100.0, "r": 10.0, "p": 10.0, "phi": 3.2, "x": 1e8, "y": 1e8, "psi": 1e5, "wind_speed": 150.0}
 MAX_GRID_SAMPLES = 5_000_000  # a uniform grid beyond this is a unit mistake, not a trial
 # Froude scaling exponents of lambda per signal kind (length ~ lambda, time ~ sqrt(lambda)).
-FROUDE_POWER = {"x": 1.0, "y": 1.0, "u": 0.5, "v": 0.5, "r": -0.5, "p": -0.5, "n": -0.5, "n1": -0.5, "n2": -0.5,
-                "wind_speed": 0.5, "tau_x": 3.0, "tau_y": 3.0, "tau_n": 4.0}
+FROUDE_POWER = {
+    "x": 1.0,
+    "y": 1.0,
+    "u": 0.5,
+    "v": 0.5,
+    "r": -0.5,
+    "p": -0.5,
+    "n": -0.5,
+    "n1": -0.5,
+    "n2": -0.5,
+    "wind_speed": 0.5,
+    "tau_x": 3.0,
+    "tau_y": 3.0,
+    "tau_n": 4.0,
+}
 
 
 def _error() -> type[UserError]:
@@ -53,22 +65,27 @@ def check_values(src: str, cols: dict[str, np.ndarray]) -> None:
     for k, v in cols.items():
         bad = np.isinf(v)
         if bad.any():
-            raise _error()(f"{src}: column {k!r} row {int(np.argmax(bad)) + 2}: infinite value; give finite numbers or leave the cell empty")
+            raise _error()(
+                f"{src}: column {k!r} row {int(np.argmax(bad)) + 2}: infinite value; give finite numbers or leave the cell empty"
+            )
         lim = MAX_ABS.get(k)
         if lim is not None and np.nanmax(np.abs(v), initial=0.0) > lim:
             i = int(np.nanargmax(np.abs(v)))
             raise _error()(
                 f"{src}: column {k!r} row {i + 2}: {v[i]:.3g} is beyond any ship (|{k}| <= {lim:g} in SI units); check its units"
             )
-    moving = [k for k in ("x", "y", "psi", "u", "v", "r") if k in cols and np.nanmax(cols[k], initial=0) - np.nanmin(cols[k], initial=0) > 0]
+    moving = [
+        k
+        for k in ("x", "y", "psi", "u", "v", "r")
+        if k in cols and np.nanmax(cols[k], initial=0) - np.nanmin(cols[k], initial=0) > 0
+    ]
     speed = max((np.nanmax(np.abs(cols[k]), initial=0.0) for k in ("u", "v") if k in cols), default=0.0)
     if not moving and speed == 0:
         raise _error()(f"{src}: the ship does not move (x, y, psi and u, v, r are constant); nothing to diagnose: check the file")
 
 
 # Input units a column is most likely in when it exceeds the profile's limits: (factor to SI, unit, SI unit).
-INPUT_UNITS = {"delta": (180 / math.pi, "deg", "rad"), "alpha": (180 / math.pi, "deg", "rad"),
-               "n": (60.0, "rpm", "rev/s")}
+INPUT_UNITS = {"delta": (180 / math.pi, "deg", "rad"), "alpha": (180 / math.pi, "deg", "rad"), "n": (60.0, "rpm", "rev/s")}
 # An actuator cannot go far beyond its limit: a peak beyond this multiple of it is another unit
 # (or another ship); a little above it is a profile limit set conservatively, or noise.
 INPUT_LIMIT_TOL = 1.25
@@ -130,8 +147,10 @@ def _profile_speeds(rec, profile) -> tuple[float | None, float, str]:
     expect, what, top = None, "", cruise
     if rec.sample_time < profile.sample_time / MODEL_TS_FACTOR:
         expect = cruise
-        what = (f"the profile's {cruise:g} m/s service speed, sampled every {rec.sample_time:.3g} s "
-                f"(the profile: {profile.sample_time:g} s)")
+        what = (
+            f"the profile's {cruise:g} m/s service speed, sampled every {rec.sample_time:.3g} s "
+            f"(the profile: {profile.sample_time:g} s)"
+        )
     n = rec.channels.get("n")
     lim = profile.input_limits.get("n")
     if "n" not in profile.inputs or lim is None or not np.isfinite(lim).all():
@@ -268,15 +287,20 @@ def froude_scale(rec, factor: float | None = None):
     if rec.scale == "full" and factor is None:
         return rec, ""
     if lam is None or not (math.isfinite(lam) and lam > 0):
-        raise _error()(f"{rec.source}: Froude scaling needs a scale factor > 0 ('# scale_factor: 45.7' in the header), got {lam!r}")
+        raise _error()(
+            f"{rec.source}: Froude scaling needs a scale factor > 0 ('# scale_factor: 45.7' in the header), got {lam!r}"
+        )
     s = math.sqrt(lam)
     y = rec.y * np.array([s, s, 1 / s])
     chans = {k: v * lam ** FROUDE_POWER[k] if k in FROUDE_POWER else v.copy() for k, v in rec.channels.items()}
-    note = (f"Froude-scaled from model to full scale with lambda = {lam:g}: lengths x {lam:g}, times and speeds x {s:.4g}, "
-            f"rates and revolutions / {s:.4g}, forces x lambda^3, moments x lambda^4")
+    note = (
+        f"Froude-scaled from model to full scale with lambda = {lam:g}: lengths x {lam:g}, times and speeds x {s:.4g}, "
+        f"rates and revolutions / {s:.4g}, forces x lambda^3, moments x lambda^4"
+    )
     meta = {**rec.meta, "scale": "full", "scale_factor": "1", "froude_scaled_from": f"model, lambda = {lam:g}"}
-    out = replace(rec, t=rec.t * s, y=y, pos=rec.pos * lam, psi=rec.psi.copy(), channels=chans, meta=meta,
-                  notes=[*rec.notes, note])
+    out = replace(
+        rec, t=rec.t * s, y=y, pos=rec.pos * lam, psi=rec.psi.copy(), channels=chans, meta=meta, notes=[*rec.notes, note]
+    )
     return out, note
 
 
@@ -306,8 +330,16 @@ def check_sample_time(rec, profile, resample: bool = False):
         idx = np.clip(np.searchsorted(rec.t, grid), 0, len(rec.t) - 1)
         seg = [rec.segments[i] for i in idx]
     note = f"resampled from {ts:g} s to the ship's {want:g} s by linear interpolation (--resample)"
-    return replace(rec, t=grid, y=interp(rec.y), psi=interp(rec.psi), pos=interp(rec.pos),
-                   channels={k: interp(v) for k, v in rec.channels.items()}, segments=seg, notes=[*rec.notes, note])
+    return replace(
+        rec,
+        t=grid,
+        y=interp(rec.y),
+        psi=interp(rec.psi),
+        pos=interp(rec.pos),
+        channels={k: interp(v) for k, v in rec.channels.items()},
+        segments=seg,
+        notes=[*rec.notes, note],
+    )
 
 
 def conform(recs: list, profile, *, resample: bool = False, full_scale: bool = True) -> list:

@@ -24,9 +24,9 @@ def _track_velocity(t: np.ndarray, pos: np.ndarray, psi: np.ndarray, smooth_s: f
     """Earth-frame (xd, yd) and body-frame (ub, vb) velocity from the track, smoothed over ~smooth_s
     so position noise does not swamp the comparison."""
     k = _half_window(t, smooth_s)
-    dt = t[2 * k:] - t[:-2 * k]
-    xd = (pos[2 * k:, 0] - pos[:-2 * k, 0]) / dt
-    yd = (pos[2 * k:, 1] - pos[:-2 * k, 1]) / dt
+    dt = t[2 * k :] - t[: -2 * k]
+    xd = (pos[2 * k :, 0] - pos[: -2 * k, 0]) / dt
+    yd = (pos[2 * k :, 1] - pos[: -2 * k, 1]) / dt
     c, s = np.cos(psi[k:-k]), np.sin(psi[k:-k])
     return xd, yd, c * xd + s * yd, -s * xd + c * yd, slice(k, len(t) - k)
 
@@ -40,8 +40,13 @@ def _half_window(t: np.ndarray, smooth_s: float) -> int:
 # A measured signal is within this factor of what the track says, or in other units: the
 # geometric middle between m/s and knots (1.944), the closest unit mistake for a speed.
 RATIO_TOL = math.sqrt(1.9438)
-SPEED_UNITS = ((1.9438, "u, v in knots?"), (3.6, "u, v in km/h?"), (100.0, "u, v in cm/s?"),
-               (1000.0, "t in milliseconds (or u, v in mm/s)?"), (1 / 60.0, "t in minutes?"))
+SPEED_UNITS = (
+    (1.9438, "u, v in knots?"),
+    (3.6, "u, v in km/h?"),
+    (100.0, "u, v in cm/s?"),
+    (1000.0, "t in milliseconds (or u, v in mm/s)?"),
+    (1 / 60.0, "t in minutes?"),
+)
 # |correlation| (uncentred) between a rate and the differentiated angle above which the run turns
 # (or rolls) well enough above the noise for their ratio and sign to be judged; below it, no verdict.
 MIN_RATE_CORR = 0.8
@@ -125,16 +130,22 @@ def check_frame(src: str, t: np.ndarray, pos: np.ndarray, psi: np.ndarray, u: np
         swapped = np.nanmean(((um - sub) ** 2 + (vm - svb) ** 2)[moving]) < 0.25 * err_body
         raise _error()(
             f"{src}: columns 'u', 'v' do not follow the track x, y with heading psi (rms mismatch {math.sqrt(err_body):.3g} m/s "
-            f"at {math.sqrt(speed2):.3g} m/s)" + ("; x and y look swapped: x is north, y east" if swapped else
-                                                  "; give x north, y east in m and psi clockwise from north in rad")
+            f"at {math.sqrt(speed2):.3g} m/s)"
+            + (
+                "; x and y look swapped: x is north, y east"
+                if swapped
+                else "; give x north, y east in m and psi clockwise from north in rad"
+            )
         )
 
 
 def _check_signs(src: str, um: np.ndarray, vm: np.ndarray, ub: np.ndarray, vb: np.ndarray, moving: np.ndarray) -> None:
     """u or v of the opposite sign to the track's body-frame component: the negated column fits
     the track 4 x better than the column."""
-    for name, meas, track, what in (("u", um, ub, "surge xd cos psi + yd sin psi: positive ahead"),
-                                     ("v", vm, vb, "sway -xd sin psi + yd cos psi: positive to starboard")):
+    for name, meas, track, what in (
+        ("u", um, ub, "surge xd cos psi + yd sin psi: positive ahead"),
+        ("v", vm, vb, "sway -xd sin psi + yd cos psi: positive to starboard"),
+    ):
         same = np.nanmean(((meas - track) ** 2)[moving])
         flipped = np.nanmean(((meas + track) ** 2)[moving])
         if flipped < 0.25 * same:
@@ -144,8 +155,9 @@ def _check_signs(src: str, um: np.ndarray, vm: np.ndarray, ub: np.ndarray, vb: n
             )
 
 
-def check_rate(src: str, t: np.ndarray, rate: np.ndarray, angle: np.ndarray, rate_name: str, angle_name: str,
-               rate_what: str, angle_what: str) -> None:
+def check_rate(
+    src: str, t: np.ndarray, rate: np.ndarray, angle: np.ndarray, rate_name: str, angle_name: str, rate_what: str, angle_what: str
+) -> None:
     """A rate column (r, p) against its angle (psi, phi): the angle's change over a ~2 s window
     against the rate integrated over the same window (trapezoid), the same sign and, within
     RATIO_TOL, the same size; a ratio of 57.3 says one of them is in degrees. Integrating rather
@@ -158,8 +170,8 @@ def check_rate(src: str, t: np.ndarray, rate: np.ndarray, angle: np.ndarray, rat
     tt, a, m = t[ok], angle[ok], rate[ok]
     k = _half_window(tt, 2.0)
     cum = np.concatenate([[0.0], np.cumsum(0.5 * (m[1:] + m[:-1]) * np.diff(tt))])
-    ref = a[2 * k:] - a[:-2 * k]
-    m = cum[2 * k:] - cum[:-2 * k]
+    ref = a[2 * k :] - a[: -2 * k]
+    m = cum[2 * k :] - cum[: -2 * k]
     norm = math.sqrt(float(np.mean(m**2)) * float(np.mean(ref**2)))
     if norm == 0:
         return

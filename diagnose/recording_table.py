@@ -78,8 +78,7 @@ def check_units(src: str, cols: dict[str, np.ndarray], t: np.ndarray) -> None:
             ratio = np.median(rate[ok]) / max(np.median(np.abs(cols["r"][:-1][ok])), 1e-12)
             if 20.0 < ratio < 150.0:
                 raise _error()(
-                    f"{src}: column 'psi' looks like degrees (its rate is {ratio:.0f} x column 'r'); "
-                    "convert heading to radians"
+                    f"{src}: column 'psi' looks like degrees (its rate is {ratio:.0f} x column 'r'); convert heading to radians"
                 )
     if np.nanmax(np.abs(psi)) > 2 * np.pi + 0.2 and np.any(np.abs(dpsi) > 300.0):
         raise _error()(f"{src}: column 'psi' looks like degrees (wraps at 360); convert heading to radians")
@@ -87,8 +86,13 @@ def check_units(src: str, cols: dict[str, np.ndarray], t: np.ndarray) -> None:
         raise _error()(f"{src}: column 'psi' looks like degrees (turns faster than 1 rad/s); convert to radians")
     if "x" in cols and "y" in cols:
         x, y = cols["x"], cols["y"]
-        looks_geo = (np.nanmax(np.abs(x)) <= 90 and np.nanmax(np.abs(y)) <= 180 and np.nanmean(np.abs(x)) > 1.0
-                     and np.ptp(x) < 0.2 and np.ptp(y) < 0.2)
+        looks_geo = (
+            np.nanmax(np.abs(x)) <= 90
+            and np.nanmax(np.abs(y)) <= 180
+            and np.nanmean(np.abs(x)) > 1.0
+            and np.ptp(x) < 0.2
+            and np.ptp(y) < 0.2
+        )
         if looks_geo and ("u" not in cols or np.nanmax(np.abs(cols["u"])) > 0.05):
             raise _error()(
                 f"{src}: columns 'x', 'y' look like latitude/longitude in degrees; "
@@ -118,28 +122,40 @@ def check_step(src: str, dt_med: float, ts: float, declared: bool) -> None:
     column is in other units (ms) or the declared sample time is wrong."""
     if declared and dt_med > 3 * ts:
         ratio = dt_med / ts
-        hint = next((f" (t in {u}?)" for f, u in ((1000.0, "milliseconds"), (1e6, "microseconds"), (1e9, "nanoseconds"))
-                     if abs(math.log(ratio / f)) < 0.15), "")
-        raise _error()(f"{src}: column 't' steps by {dt_med:g} (median) but the sample time is {ts:g} s{hint}; "
-                             "give t in seconds and a matching '# sample_time:'")
+        hint = next(
+            (
+                f" (t in {u}?)"
+                for f, u in ((1000.0, "milliseconds"), (1e6, "microseconds"), (1e9, "nanoseconds"))
+                if abs(math.log(ratio / f)) < 0.15
+            ),
+            "",
+        )
+        raise _error()(
+            f"{src}: column 't' steps by {dt_med:g} (median) but the sample time is {ts:g} s{hint}; "
+            "give t in seconds and a matching '# sample_time:'"
+        )
 
 
 def bridged_notes(cols: dict[str, np.ndarray], i0: int, i1: int, t: np.ndarray, valid: np.ndarray) -> list[str]:
     """What linear interpolation bridged in rows i0..i1 of one piece: rows missing a state or an
     input, and cells missing in other columns (wind, roll), each said."""
     out = []
-    bad = ~valid[i0: i1 + 1]
+    bad = ~valid[i0 : i1 + 1]
     if bad.any():
-        which = [k for k, v in cols.items() if np.any(bad & ~np.isfinite(v[i0: i1 + 1]))]
+        which = [k for k, v in cols.items() if np.any(bad & ~np.isfinite(v[i0 : i1 + 1]))]
         j = i0 + int(np.argmax(bad))
-        out.append(f"{int(bad.sum())} row(s) missing {', '.join(which)} (first at t = {t[j]:g} s) bridged by linear "
-                   f"interpolation (gaps <= {MAX_BRIDGE_S:g} s)")
+        out.append(
+            f"{int(bad.sum())} row(s) missing {', '.join(which)} (first at t = {t[j]:g} s) bridged by linear "
+            f"interpolation (gaps <= {MAX_BRIDGE_S:g} s)"
+        )
     for k, v in cols.items():
-        seg = v[i0: i1 + 1]
-        miss = ~np.isfinite(seg) & valid[i0: i1 + 1]  # only cells of otherwise valid rows: not counted twice
+        seg = v[i0 : i1 + 1]
+        miss = ~np.isfinite(seg) & valid[i0 : i1 + 1]  # only cells of otherwise valid rows: not counted twice
         if miss.any() and np.isfinite(seg).sum() >= 2:
             j = i0 + int(np.argmax(miss))
-            out.append(f"column {k!r}: {int(miss.sum())} missing value(s) (first at t = {t[j]:g} s) bridged by linear interpolation")
+            out.append(
+                f"column {k!r}: {int(miss.sum())} missing value(s) (first at t = {t[j]:g} s) bridged by linear interpolation"
+            )
     return out
 
 
@@ -153,7 +169,9 @@ def check_kinematics(src: str, grid: np.ndarray, pos: np.ndarray, res: dict[str,
         check_rate(src, grid, res["p"], res["phi"], "p", "phi", "roll rate", "roll angle")
 
 
-def complete_rows(src: str, cols: dict[str, np.ndarray], inputs: tuple[str, ...] | list[str] | None) -> tuple[np.ndarray, list[str]]:
+def complete_rows(
+    src: str, cols: dict[str, np.ndarray], inputs: tuple[str, ...] | list[str] | None
+) -> tuple[np.ndarray, list[str]]:
     """Rows holding the state (x, y, psi and u, v, r when given) and the inputs the ship uses
     (``inputs``; None: every input column present), and those column names. A column with fewer
     than two values does not count (nothing to interpolate); a column the ship does not use never
@@ -176,11 +194,15 @@ def split_gaps(t: np.ndarray, valid: np.ndarray, ts: float) -> tuple[list[np.nda
     if len(bounds) == 1:
         return bounds, None
     where = ", ".join(f"t = {t[idx[g]]:g}-{t[idx[g + 1]]:g} s" for g in gaps[:3]) + (", ..." if len(gaps) > 3 else "")
-    return bounds, (f"{len(gaps)} gap(s) of missing rows longer than {longest:g} s ({where}) split the run into "
-                    f"{len(bounds)} pieces: never interpolated over")
+    return bounds, (
+        f"{len(gaps)} gap(s) of missing rows longer than {longest:g} s ({where}) split the run into "
+        f"{len(bounds)} pieces: never interpolated over"
+    )
 
 
-def resample_piece(cols: dict[str, np.ndarray], t: np.ndarray, rows: np.ndarray, ts: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def resample_piece(
+    cols: dict[str, np.ndarray], t: np.ndarray, rows: np.ndarray, ts: float
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """One piece's columns on a uniform grid of ``ts`` from its first to its last complete row
     (linear interpolation; a column with fewer than two values in the piece is left out)."""
     tp = t[rows]
@@ -212,8 +234,9 @@ def piece_velocities(grid: np.ndarray, pos: np.ndarray, res: dict[str, np.ndarra
     return y, "u, v, r derived from x, y, psi where missing (central differences)"
 
 
-def uniform_axis(src: str, t: np.ndarray, cols: dict[str, np.ndarray], sample_time: float | None,
-                 min_samples: int) -> tuple[np.ndarray, dict[str, np.ndarray], float, list[str], str | None]:
+def uniform_axis(
+    src: str, t: np.ndarray, cols: dict[str, np.ndarray], sample_time: float | None, min_samples: int
+) -> tuple[np.ndarray, dict[str, np.ndarray], float, list[str], str | None]:
     """Repeated stamps averaged, values and units checked, the sample time (declared, else the
     median step) checked against the stamps, heading unwrapped: (t, columns, sample time, notes,
     the note that the stamps are irregular or None)."""

@@ -35,8 +35,18 @@ def structure_terms(profile: ShipProfile) -> tuple[tuple[str, ...], ...]:
     profile's own signals: steering input s and thrust signal n."""
     s, n = profile.steering_input, thrust_signal(profile)
     surge = ("u_r*|u_r|", f"{n}^2", "v_r*r", "v_r^2", "r^2", f"{s}^2*u_r^2")
-    lateral = ("u_r*v_r", "u_r*r", "v_r*|v_r|", "r*|r|", "v_r*|r|", "r*|v_r|", f"{s}*u_r^2", f"{s}*{n}^2",
-               f"{s}*u_r*{n}", f"{s}^3*u_r^2")
+    lateral = (
+        "u_r*v_r",
+        "u_r*r",
+        "v_r*|v_r|",
+        "r*|r|",
+        "v_r*|r|",
+        "r*|v_r|",
+        f"{s}*u_r^2",
+        f"{s}*{n}^2",
+        f"{s}*u_r*{n}",
+        f"{s}^3*u_r^2",
+    )
     return surge, lateral, lateral
 
 
@@ -60,23 +70,36 @@ def extend(profile: ShipProfile, declared: bool = False) -> tuple[ShipProfile, l
     if not added:
         return profile, []
     sets = {profile.simulation_set: padded_params(profile, profile.params(), terms)}
-    return dataclasses.replace(profile, model_terms=tuple(terms), parameter_names=tuple(names), parameter_sets=sets,
-                               simulation_set=profile.simulation_set, instrument_set=profile.simulation_set,
-                               predictor_terms=None, predictor_names=None, structure_terms=None), added
+    return dataclasses.replace(
+        profile,
+        model_terms=tuple(terms),
+        parameter_names=tuple(names),
+        parameter_sets=sets,
+        simulation_set=profile.simulation_set,
+        instrument_set=profile.simulation_set,
+        predictor_terms=None,
+        predictor_names=None,
+        structure_terms=None,
+    ), added
 
 
 def padded_params(profile: ShipProfile, theta: np.ndarray, terms: tuple[tuple[str, ...], ...]) -> np.ndarray:
     """``theta`` of ``profile`` with zeros for the terms ``terms`` (the extended model's, see
     :func:`extend`) appends to each DOF."""
-    return np.concatenate([np.concatenate([theta[profile.model.dof_slice(i)], np.zeros(len(terms[i]) - len(have))])
-                           for i, have in enumerate(profile.model_terms)])
+    return np.concatenate(
+        [
+            np.concatenate([theta[profile.model.dof_slice(i)], np.zeros(len(terms[i]) - len(have))])
+            for i, have in enumerate(profile.model_terms)
+        ]
+    )
 
 
 class ReferencedModel(AugmentedModel):
     """The augmented model whose candidate slots act on every run except the reference runs."""
 
-    def __init__(self, profile: ShipProfile, theta0: np.ndarray, candidates: list, n_rec: int = 0,
-                 reference: list[Prepared] | None = None):
+    def __init__(
+        self, profile: ShipProfile, theta0: np.ndarray, candidates: list, n_rec: int = 0, reference: list[Prepared] | None = None
+    ):
         super().__init__(profile, theta0, candidates, n_rec)
         self.reference_ids = {id(p) for p in reference or []}
 
@@ -87,7 +110,7 @@ class ReferencedModel(AugmentedModel):
         other = [k for k in range(len(preps)) if k not in ref]
         P = np.atleast_2d(np.asarray(P, float))
         Pr = P.copy()
-        Pr[:, self.n_base: self.n_slots_end] = 0.0  # the reference runs are without the condition
+        Pr[:, self.n_base : self.n_slots_end] = 0.0  # the reference runs are without the condition
         out: list[np.ndarray | None] = [None] * len(preps)
         for k, y in zip(ref, super().simulate_many([preps[k] for k in ref], Pr)):
             out[k] = y

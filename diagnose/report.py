@@ -50,12 +50,12 @@ def _criterion(f: dict, unit: str) -> str:
     tally = f"held-out AIC {aic:+.1f}, {imp}/{n} {unit}s better"
     return {
         "penalty": f"its held-out gain is too small for the penalty of its parameters (held-out AIC {aic:+.1f}, "
-                   "must be negative)",
+        "must be negative)",
         "too_few_improved": f"it improves only {imp} of {n} {unit}s (more than half must improve)",
         "channel_much_worse": f"one channel of a {unit} loses {drop:.1f} points of fit, more than the {f['much_worse']:g} allowed "
-                              f"({tally})",
+        f"({tally})",
         "run_misfit_rises": f"a {unit}'s weighted misfit rises by {100 * f['worst_run_rise']:.1f} %, more than the "
-                            f"{100 * f['run_rise']:g} % allowed ({tally})",
+        f"{100 * f['run_rise']:g} % allowed ({tally})",
         "no_pooled_gain": f"the pooled held-out misfit does not fall (gain {100 * f['heldout_gain']:+.2f} %; {tally})",
     }[f["criterion"]]
 
@@ -70,8 +70,9 @@ def rejection(r: dict) -> str:
         return r["reason"]
     if r.get("judged_on") == "validation":
         return f"not confirmed on the validation runs: {_criterion(f, 'validation run')}"
-    return ("not confirmed on the held-out data (each left-out run or block refitted from the refitted model): "
-            + _criterion(f, "left-out fold"))
+    return "not confirmed on the held-out data (each left-out run or block refitted from the refitted model): " + _criterion(
+        f, "left-out fold"
+    )
 
 
 def _pm(p: dict, key: str, fmt: str = ".2g", scale: float = 1.0) -> str:
@@ -81,11 +82,17 @@ def _pm(p: dict, key: str, fmt: str = ".2g", scale: float = 1.0) -> str:
 
 
 # the estimate whose interval says whether the effect is there at all (its "no effect" value is 0)
-_MAIN = {"current": [("speed_mps", "speed_std")], "actuator_delay": [("delay_s", "delay_std")],
-         "input_offset": [("offset", "offset_std")], "sensor_bias": [("bias", "bias_std")],
-         "quadratic_damping": [("value", "value_std")], "missing_coupling": [("value", "value_std")],
-         "thrust_loss": [("loss_percent", "loss_percent_std"), ("coefficient", "coefficient_std")],
-         "resistance_change": [("coefficient", "coefficient_std")], "inertia_change": [("scale", "scale_std")]}
+_MAIN = {
+    "current": [("speed_mps", "speed_std")],
+    "actuator_delay": [("delay_s", "delay_std")],
+    "input_offset": [("offset", "offset_std")],
+    "sensor_bias": [("bias", "bias_std")],
+    "quadratic_damping": [("value", "value_std")],
+    "missing_coupling": [("value", "value_std")],
+    "thrust_loss": [("loss_percent", "loss_percent_std"), ("coefficient", "coefficient_std")],
+    "resistance_change": [("coefficient", "coefficient_std")],
+    "inertia_change": [("scale", "scale_std")],
+}
 
 
 def _num(x) -> bool:
@@ -104,15 +111,18 @@ def _effect(f: dict) -> str:
     """The finding's effect in words, each figure with its +- (1 std)."""
     p, e = f["parameters"], f["effect"]
     if e == "current":
-        return (f"the ship meets a current of {p['speed_mps']:.3g}{_pm(p, 'speed_std')} m/s toward "
-                f"{p['toward_deg']:03.0f}{_pm(p, 'toward_std_deg', '.0f')} deg")
+        return (
+            f"the ship meets a current of {p['speed_mps']:.3g}{_pm(p, 'speed_std')} m/s toward "
+            f"{p['toward_deg']:03.0f}{_pm(p, 'toward_std_deg', '.0f')} deg"
+        )
     if e == "actuator_delay":
         return f"the actuators act {p['delay_s']:.2g}{_pm(p, 'delay_std')} s late ({p['samples']:.1f} samples)"
     if e == "input_offset":
-        extra = (f" ({p['offset_deg']:.2f}{_pm(p, 'offset_std', '.2f', float(np.degrees(1.0)))} deg)"
-                 if "offset_deg" in p else "")
-        return (f"input {p['input']} has a neutral offset of {p['offset']:.3g}{_pm(p, 'offset_std')}{extra}: the ship "
-                f"acts on {p['input']} - offset")
+        extra = f" ({p['offset_deg']:.2f}{_pm(p, 'offset_std', '.2f', float(np.degrees(1.0)))} deg)" if "offset_deg" in p else ""
+        return (
+            f"input {p['input']} has a neutral offset of {p['offset']:.3g}{_pm(p, 'offset_std')}{extra}: the ship "
+            f"acts on {p['input']} - offset"
+        )
     if e == "sensor_bias":
         return f"the measured {p['signal']} reads {p['bias']:+.3g}{_pm(p, 'bias_std')} {UNITS[p['signal']]} too high"
     if e in ("quadratic_damping", "missing_coupling"):
@@ -126,23 +136,33 @@ def _effect(f: dict) -> str:
         return f"the thrust falls with speed ({p['term']} coefficient {p['coefficient']:.3g}{_pm(p, 'coefficient_std')})"
     if e == "resistance_change":
         pct = p["resistance_change_pct"]
-        return (f"the hull resistance ({p['term']}) is {pct:+.0f}{_pm(p, 'resistance_change_pct_std', '.0f')} % off the "
-                "model's" if pct is not None
-                else f"the resistance term {p['term']} changes by {p['coefficient']:.3g}{_pm(p, 'coefficient_std')}")
+        return (
+            f"the hull resistance ({p['term']}) is {pct:+.0f}{_pm(p, 'resistance_change_pct_std', '.0f')} % off the model's"
+            if pct is not None
+            else f"the resistance term {p['term']} changes by {p['coefficient']:.3g}{_pm(p, 'coefficient_std')}"
+        )
     if e == "inertia_change":
-        ratio = (f"{p['inertia_ratio']:.2f}{_pm(p, 'inertia_ratio_std', '.2f')} x the model's"
-                 if p.get("inertia_ratio") is not None else "not a finite multiple of the model's")
-        return (f"the {f['dof']} inertia is {ratio} (increments scaled by "
-                f"{1 + p['scale']:.3f}{_pm(p, 'scale_std', '.3f')})")
+        ratio = (
+            f"{p['inertia_ratio']:.2f}{_pm(p, 'inertia_ratio_std', '.2f')} x the model's"
+            if p.get("inertia_ratio") is not None
+            else "not a finite multiple of the model's"
+        )
+        return f"the {f['dof']} inertia is {ratio} (increments scaled by {1 + p['scale']:.3f}{_pm(p, 'scale_std', '.3f')})"
     if e == "wind":
-        return "the relative wind pushes the ship (drag coefficients " + ", ".join(
-            f"{k.split('_')[1]} {v:.3g}{_pm(p, k + '_std', '.2g')}" for k, v in p.items() if "_std" not in k) + ")"
+        return (
+            "the relative wind pushes the ship (drag coefficients "
+            + ", ".join(f"{k.split('_')[1]} {v:.3g}{_pm(p, k + '_std', '.2g')}" for k, v in p.items() if "_std" not in k)
+            + ")"
+        )
     if e == "roll_coupling":
         return "the roll angle phi feeds the " + " and the ".join(
             f"{dof} motion (coefficient {p[k]:.3g}{_pm(p, k + '_std', '.3g')} per sample)"
-            for k, dof in (("phi_sway", "sway"), ("phi_yaw", "yaw")) if k in p)
-    return f"{e} in {f['dof']}: " + ", ".join(f"{k} {v:.3g}{_pm(p, k + '_std', '.2g')}" for k, v in p.items()
-                                              if isinstance(v, float) and "_std" not in k)
+            for k, dof in (("phi_sway", "sway"), ("phi_yaw", "yaw"))
+            if k in p
+        )
+    return f"{e} in {f['dof']}: " + ", ".join(
+        f"{k} {v:.3g}{_pm(p, k + '_std', '.2g')}" for k, v in p.items() if isinstance(v, float) and "_std" not in k
+    )
 
 
 def sentence(f: dict) -> str:
@@ -201,23 +221,32 @@ def gain_sources(d: Diagnosis) -> list[str]:
 def location_lines(d: Diagnosis) -> list[str]:
     """Where the model misses: residual / noise per channel, CUSUM alarms, worst segments, residual tests."""
     loc = d.location
-    lines = ["Where: residual / noise " + ", ".join(f"{k} {v:.1f}" for k, v in loc["rms_over_noise"].items())
-             + f"; worst {loc['worst_dof']}."]
+    lines = [
+        "Where: residual / noise "
+        + ", ".join(f"{k} {v:.1f}" for k, v in loc["rms_over_noise"].items())
+        + f"; worst {loc['worst_dof']}."
+    ]
     for w in loc["cusum_windows"][:3]:
         seg = f" (segments {', '.join(w['segment'][:6])})" if w["segment"] else ""
         run = f" of {Path(w['recording']).name}" if len(d.preps) > 1 else ""
-        lines.append(f"  CUSUM alarm (5.1) on {w['dof']} from {w['t_start']:.1f} s to {w['t_end']:.1f} s after the start"
-                     f"{run}{seg}")
+        lines.append(
+            f"  CUSUM alarm (5.1) on {w['dof']} from {w['t_start']:.1f} s to {w['t_end']:.1f} s after the start{run}{seg}"
+        )
     if loc.get("segments"):
         top = loc["segments"][:3]
-        lines.append("  worst manoeuvre segments (residual / noise): " + "; ".join(
-            f"{s['segment']} " + "/".join(f"{s[d]:.1f}" for d in DOFS) for s in top) + " (surge/sway/yaw)")
+        lines.append(
+            "  worst manoeuvre segments (residual / noise): "
+            + "; ".join(f"{s['segment']} " + "/".join(f"{s[d]:.1f}" for d in DOFS) for s in top)
+            + " (surge/sway/yaw)"
+        )
     for label, key in (("simulation", "output_error_tests"), ("one-step prediction", "one_step_tests")):
         tests = loc[key]
         white = ", ".join(f"{k} p={v['whiteness_p']:.2g}" for k, v in tests.items())
         cc = [f"{k}~{c['input']}" for k, v in tests.items() for c in v["cross_correlation"] if c["lags_outside_band"] > 2]
-        lines.append(f"  {label} errors: whiteness (Ljung-Box) {white}; input cross-correlation outside the "
-                     f"99 % band: {', '.join(cc) if cc else 'none'}")
+        lines.append(
+            f"  {label} errors: whiteness (Ljung-Box) {white}; input cross-correlation outside the "
+            f"99 % band: {', '.join(cc) if cc else 'none'}"
+        )
     return lines
 
 
@@ -225,23 +254,29 @@ def finding_lines(d: Diagnosis) -> list[str]:
     """The findings, the baseline structure and what could not be tested."""
     lines = []
     if d.explained:
-        lines.append("Findings: none. The model explains the data: no candidate physics improves the fit "
-                     "significantly and on held-out data.")
+        lines.append(
+            "Findings: none. The model explains the data: no candidate physics improves the fit "
+            "significantly and on held-out data."
+        )
     elif not d.findings and d.structure:
         lines.append("Findings: none that is a condition of these runs (only baseline structure, below).")
     elif not d.findings:
         worst = max(d.location["rms_over_noise"].items(), key=lambda kv: kv[1])
-        lines.append(f"Findings: none, but the model does NOT explain the data (the {worst[0]} residual is {worst[1]:.0f} x "
-                     "the noise): no candidate improves the fit significantly and on held-out data, so the cause lies "
-                     "outside the library or these recordings cannot separate it (see the screened candidates in the JSON).")
+        lines.append(
+            f"Findings: none, but the model does NOT explain the data (the {worst[0]} residual is {worst[1]:.0f} x "
+            "the noise): no candidate improves the fit significantly and on held-out data, so the cause lies "
+            "outside the library or these recordings cannot separate it (see the screened candidates in the JSON)."
+        )
     else:
         lines.append("Findings (strongest first):")
         for i, f in enumerate(d.findings, 1):
             lines.append(f"  {i}. [{f['effect']}] {sentence(f)}")
         lines += interval_lines(d.findings)
     if d.structure:
-        lines.append("Baseline structure (the --fit-on reference runs show it too, so it is the model's shape, not a "
-                     "condition of these runs; kept in the refitted model):")
+        lines.append(
+            "Baseline structure (the --fit-on reference runs show it too, so it is the model's shape, not a "
+            "condition of these runs; kept in the refitted model):"
+        )
         for i, f in enumerate(d.structure, 1):
             lines.append(f"  {i}. [{f['effect']}] {sentence(f)}")
     for u in d.untestable:
@@ -260,10 +295,15 @@ def leftover_lines(d: Diagnosis) -> list[str]:
             weak[c["key"]] = c
     if weak:
         top = sorted(weak.values(), key=lambda c: c["p_value"])[:3]
-        lines.append("Not kept (left over after the findings; significant on the estimation data but too weak or not confirmed on held-out blocks): " + "; ".join(
-            f"{c['key']} (p = {c['p_value']:.1g}, {heldout_change(c['heldout_gain'])}, "
-            f"{c['runs_improved']} held-out runs better, estimate "
-            + ", ".join(f"{e:.3g}" for e in c["estimate"]) + ")" for c in top) + ".")
+        lines.append(
+            "Not kept (left over after the findings; significant on the estimation data but too weak or not confirmed on held-out blocks): "
+            + "; ".join(
+                f"{c['key']} (p = {c['p_value']:.1g}, {heldout_change(c['heldout_gain'])}, "
+                f"{c['runs_improved']} held-out runs better, estimate " + ", ".join(f"{e:.3g}" for e in c["estimate"]) + ")"
+                for c in top
+            )
+            + "."
+        )
     for text in dict.fromkeys(f"Rejected: {r['key']}: {rejection(r)}." for r in d.rejected):
         lines.append(text)
     for n in d.notes:
@@ -278,47 +318,65 @@ def to_text(d: Diagnosis) -> str:
             lines.append(f"Recording {p.rec.source}: " + "; ".join(p.rec.notes) + ".")
     lines += location_lines(d) + finding_lines(d) + leftover_lines(d)
     if d.refit_parameters:
-        lines.append("Baseline parameters refitted with the findings (bounded, regularised towards the profile): "
-                     + ", ".join(d.refit_parameters) + ".")
+        lines.append(
+            "Baseline parameters refitted with the findings (bounded, regularised towards the profile): "
+            + ", ".join(d.refit_parameters)
+            + "."
+        )
     left = d.unexplained_dofs if d.findings or d.structure else []
     if left:
-        lines.append(f"Still above the noise after the findings: {', '.join(left)} (more physics is missing than the library names).")
+        lines.append(
+            f"Still above the noise after the findings: {', '.join(left)} (more physics is missing than the library names)."
+        )
     lines += per_run_lines(d)
     lines += gain_sources(d)
-    lines.append(f"Pooled over the {d.fit_on} run(s) (summary only), before -> after: " + ", ".join(
-        f"{k} {fit_str(d.fit_before[k], decimals=1)} -> {fit_str(d.fit_after[k], decimals=1)}" for k in DOFS))
+    lines.append(
+        f"Pooled over the {d.fit_on} run(s) (summary only), before -> after: "
+        + ", ".join(f"{k} {fit_str(d.fit_before[k], decimals=1)} -> {fit_str(d.fit_after[k], decimals=1)}" for k in DOFS)
+    )
     lines += [g.format(ts=d.profile.sample_time) for g in GLOSSARY]
     return "\n".join(lines)
 
 
 def to_json(d: Diagnosis, model_path: str | None) -> dict:
-    return to_jsonable({
-        "ship": d.profile.name,
-        "baseline": d.baseline_source,
-        "recordings": [{"source": p.rec.source, "role": role, "samples": p.rec.n_samples, "sample_time": p.rec.sample_time,
-                        "notes": p.rec.notes} for role, ps in (("diagnosed", d.preps), ("validation", d.val_preps)) for p in ps],
-        "explained": d.explained,
-        "still_unexplained_dofs": d.unexplained_dofs,
-        "findings": d.findings,
-        "structure": d.structure,
-        "untestable": d.untestable,
-        "fit_before": d.fit_before,
-        "fit_after": d.fit_after,
-        "fit_on": d.fit_on,
-        "fit_before_diagnosed": d.fit_before_diag,
-        "fit_after_diagnosed": d.fit_after_diag,
-        "location": d.location,
-        "noise_std": dict(zip("uvr", d.sigma.tolist())),
-        "model": model_path,
-        "per_run": d.per_run,
-        "per_run_method": d.per_run_method,
-        "rejected": d.rejected,
-        "notes": d.notes,
-        "refit_parameters": d.refit_parameters,
-        "magnitudes_refitted": d.magnitudes_refitted,
-        "screened": d.screened,
-        "elapsed_s": d.elapsed_s,
-    })
+    return to_jsonable(
+        {
+            "ship": d.profile.name,
+            "baseline": d.baseline_source,
+            "recordings": [
+                {
+                    "source": p.rec.source,
+                    "role": role,
+                    "samples": p.rec.n_samples,
+                    "sample_time": p.rec.sample_time,
+                    "notes": p.rec.notes,
+                }
+                for role, ps in (("diagnosed", d.preps), ("validation", d.val_preps))
+                for p in ps
+            ],
+            "explained": d.explained,
+            "still_unexplained_dofs": d.unexplained_dofs,
+            "findings": d.findings,
+            "structure": d.structure,
+            "untestable": d.untestable,
+            "fit_before": d.fit_before,
+            "fit_after": d.fit_after,
+            "fit_on": d.fit_on,
+            "fit_before_diagnosed": d.fit_before_diag,
+            "fit_after_diagnosed": d.fit_after_diag,
+            "location": d.location,
+            "noise_std": dict(zip("uvr", d.sigma.tolist())),
+            "model": model_path,
+            "per_run": d.per_run,
+            "per_run_method": d.per_run_method,
+            "rejected": d.rejected,
+            "notes": d.notes,
+            "refit_parameters": d.refit_parameters,
+            "magnitudes_refitted": d.magnitudes_refitted,
+            "screened": d.screened,
+            "elapsed_s": d.elapsed_s,
+        }
+    )
 
 
 def write_model(d: Diagnosis, path: str | Path) -> Path:
@@ -384,4 +442,3 @@ def write_all(d: Diagnosis, out: str | Path, final_dir: str | Path | None = None
     for i, p in enumerate(write_plots(d, out)):
         paths[f"plot{i + 1}"] = p
     return paths
-

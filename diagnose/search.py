@@ -131,8 +131,9 @@ def prior_sd(ref: np.ndarray, idx: list[int], level: float, n_params: int) -> np
     return sd
 
 
-def _marginal_var(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, ref: np.ndarray, idx: list[int]
-                  ) -> np.ndarray | None:
+def _marginal_var(
+    model: AugmentedModel, preps: list[Prepared], w: np.ndarray, ref: np.ndarray, idx: list[int]
+) -> np.ndarray | None:
     """Marginal variance of the parameters ``idx`` fitted on ``preps`` alone (Gauss-Newton about
     ``ref``, the noise-weighted Gram matrix scaled by the residual level and colour as an
     output-error covariance, Källström (1977)); None when the runs cannot be simulated there."""
@@ -146,8 +147,9 @@ def _marginal_var(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, r
     return np.where(np.isfinite(var) & (var > 0), var, np.inf)
 
 
-def held_by_fit_on(model: AugmentedModel, calm: list[Prepared], diag: list[Prepared], w: np.ndarray, ref: np.ndarray,
-                   idx: list[int]) -> list[int]:
+def held_by_fit_on(
+    model: AugmentedModel, calm: list[Prepared], diag: list[Prepared], w: np.ndarray, ref: np.ndarray, idx: list[int]
+) -> list[int]:
     """The baseline parameters the --fit-on runs determine at least as well as the diagnosed
     runs do (marginal variances of a fit on each alone, :func:`_marginal_var`). They are held as
     fitted on the --fit-on runs: refitted on the diagnosed runs they would absorb the effect
@@ -175,8 +177,11 @@ def refitted_alias(model: AugmentedModel, base_free: list[int]) -> set[str]:
     free baseline parameter, told apart from it by nothing but the prior, so the refit already
     takes such a change (a candidate changing a term is a finding against a baseline that holds it)."""
     free = set(base_free)
-    return {c.key for c in model.candidates if len(c.slots) == 1 and c.slots[0].kind == "term"
-            and base_term_index(model, c.slots[0].dof, c.slots[0].term) in free}
+    return {
+        c.key
+        for c in model.candidates
+        if len(c.slots) == 1 and c.slots[0].kind == "term" and base_term_index(model, c.slots[0].dof, c.slots[0].term) in free
+    }
 
 
 def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int, tuple[float, float]]:
@@ -204,8 +209,16 @@ def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int,
 class _Search:
     """State of one selection: the model, the data, the folds and the prior."""
 
-    def __init__(self, model: AugmentedModel, preps: list[Prepared], val_preps: list[Prepared], w: np.ndarray,
-                 base_free: list[int], alpha: float, calm: list[Prepared] | None = None):
+    def __init__(
+        self,
+        model: AugmentedModel,
+        preps: list[Prepared],
+        val_preps: list[Prepared],
+        w: np.ndarray,
+        base_free: list[int],
+        alpha: float,
+        calm: list[Prepared] | None = None,
+    ):
         self.model, self.preps, self.val, self.w, self.alpha = model, preps, list(val_preps), w, alpha
         self.all = preps + self.val
         self.parts: Parts = make_parts(preps, self.val)
@@ -237,8 +250,9 @@ class _Search:
         return D, g
 
     def refit(self, P: np.ndarray, free: list[int], extra_bounds: dict, max_iter: int = 10):
-        return fit(self.model, self.preps, P, free, self.wr, max_iter=max_iter, bounds={**self.bounds, **extra_bounds},
-                   prior=self.prior)
+        return fit(
+            self.model, self.preps, P, free, self.wr, max_iter=max_iter, bounds={**self.bounds, **extra_bounds}, prior=self.prior
+        )
 
     def val_rss(self, P: np.ndarray) -> np.ndarray:
         """Held-out RSS per validation run and channel by simulation (n_val, 3)."""
@@ -246,9 +260,18 @@ class _Search:
         return np.array([np.sum((r[0, 1:] * self.w) ** 2, axis=0) for r in res])
 
 
-def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, val_preps: list[Prepared] | None = None,
-           base_free: list[int] | None = None, max_rounds: int = 5, alpha: float = ALPHA,
-           inputs: np.ndarray | None = None, calm_preps: list[Prepared] | None = None) -> SearchResult:
+def select(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    w: np.ndarray,
+    *,
+    val_preps: list[Prepared] | None = None,
+    base_free: list[int] | None = None,
+    max_rounds: int = 5,
+    alpha: float = ALPHA,
+    inputs: np.ndarray | None = None,
+    calm_preps: list[Prepared] | None = None,
+) -> SearchResult:
     """Greedy forward selection with backtracking over ``model.candidates``. ``calm_preps``: the
     --fit-on runs the baseline was fitted on; what they determine of ``base_free`` is held
     (:func:`held_by_fit_on`)."""
@@ -256,13 +279,17 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, val_p
     x0 = model.x0_params()
     out = SearchResult(model.p0(), np.zeros((0, 0)), [], base_free=list(S.base_free))
     if S.held:
-        out.notes.append(f"{len(S.held)} of {len(S.held) + len(S.base_free)} baseline parameters are determined by the "
-                         "--fit-on runs and held as fitted there (a finding is what differs from those runs)")
+        out.notes.append(
+            f"{len(S.held)} of {len(S.held) + len(S.base_free)} baseline parameters are determined by the "
+            "--fit-on runs and held as fitted there (a finding is what differs from those runs)"
+        )
     free = list(S.base_free) + x0
     P, cov, rss = S.refit(out.P, free, {}, max_iter=20)
     if not np.isfinite(rss) and S.base_free:
-        out.notes.append("the bounded refit of the baseline parameters on the diagnosed runs diverged; "
-                         "it was rejected and the baseline kept as given")
+        out.notes.append(
+            "the bounded refit of the baseline parameters on the diagnosed runs diverged; "
+            "it was rejected and the baseline kept as given"
+        )
         S.base_free, S.prior, S.bounds = [], None, {}
         free = list(x0)
         P, cov, rss = S.refit(model.p0(), free, {}, max_iter=20)
@@ -270,9 +297,11 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, val_p
     if S.base_free and np.isfinite(rss) and not isinstance(model, ReferencedModel):
         v = _baseline_verdict(S, model.p0(), P, free)
         if not v.accepted(MUCH_WORSE):
-            out.notes.append(f"refitting the baseline parameters on the diagnosed runs does not improve the held-out runs "
-                             f"(held-out AIC {v.delta_aic:+.1f}, {v.improved}/{v.n_folds} better, worst fit drop "
-                             f"{v.worst_drop:.1f} points): the baseline is kept as given")
+            out.notes.append(
+                f"refitting the baseline parameters on the diagnosed runs does not improve the held-out runs "
+                f"(held-out AIC {v.delta_aic:+.1f}, {v.improved}/{v.n_folds} better, worst fit drop "
+                f"{v.worst_drop:.1f} points): the baseline is kept as given"
+            )
             S.base_free, S.prior, S.bounds = [], None, {}
             free = list(x0)
             P, cov, rss = S.refit(model.p0(), free, {}, max_iter=20)
@@ -296,8 +325,9 @@ def select(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, *, val_p
     return out
 
 
-def _round(S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rnd: int, out: SearchResult,
-           inputs: np.ndarray | None):
+def _round(
+    S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rnd: int, out: SearchResult, inputs: np.ndarray | None
+):
     model = S.model
     base_cols = [j for j in free if j < model.n_slots_end]  # refitted baseline and kept candidates
     cand_cols = [j for c in todo for j in model.slot_of[c.key]]
@@ -323,10 +353,25 @@ def _round(S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rn
         p_val = float(stats.f.sf(f_stat, q, max(M / tau - q, 1))) if f_stat > 0 else 1.0
         ranked.append((v.delta_aic, c, v, p_val, f_stat, step[-q:]))
     ranked.sort(key=lambda x: x[0])
-    out.screened.append({"round": rnd + 1, "candidates": [
-        {"key": c.key, "effect": c.effect, "heldout_delta_aic": v.delta_aic, "heldout_gain": v.gain,
-         "runs_improved": f"{v.improved}/{v.n_folds}", "worst_fit_drop": v.worst_drop, "p_value": p, "f": f,
-         "estimate": [float(b) for b in beta]} for _a, c, v, p, f, beta in ranked]})
+    out.screened.append(
+        {
+            "round": rnd + 1,
+            "candidates": [
+                {
+                    "key": c.key,
+                    "effect": c.effect,
+                    "heldout_delta_aic": v.delta_aic,
+                    "heldout_gain": v.gain,
+                    "runs_improved": f"{v.improved}/{v.n_folds}",
+                    "worst_fit_drop": v.worst_drop,
+                    "p_value": p,
+                    "f": f,
+                    "estimate": [float(b) for b in beta],
+                }
+                for _a, c, v, p, f, beta in ranked
+            ],
+        }
+    )
     tries = 0
     passed = []
     best = ranked[0][1] if ranked else None
@@ -354,8 +399,18 @@ def _round(S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rn
     return min(passed, key=lambda r: r[4].delta_aic) if passed else None
 
 
-def _try(S: _Search, P: np.ndarray, r0: np.ndarray, free: list[int], c: Candidate, beta: np.ndarray, rss0: float,
-         v: Verdict, M: int, inputs: np.ndarray | None):
+def _try(
+    S: _Search,
+    P: np.ndarray,
+    r0: np.ndarray,
+    free: list[int],
+    c: Candidate,
+    beta: np.ndarray,
+    rss0: float,
+    v: Verdict,
+    M: int,
+    inputs: np.ndarray | None,
+):
     """Nonlinear refit of one candidate from P (weighted residual ``r0``); a rejection entry
     (``reason``, and the held-out criterion that failed as ``failed``) when it is rejected."""
     model = S.model
@@ -376,7 +431,9 @@ def _try(S: _Search, P: np.ndarray, r0: np.ndarray, free: list[int], c: Candidat
     if c.effect == "sensor_bias":
         y = np.concatenate([p.y for p in S.preps])[:, c.slots[0].index]
         if abs(P1[new[0]]) >= 0.5 * np.std(y):
-            return {"reason": "a sensor bias as large as the signal trades off against the initial state (Källström 1977: the initial state estimated with the parameters)"}
+            return {
+                "reason": "a sensor bias as large as the signal trades off against the initial state (Källström 1977: the initial state estimated with the parameters)"
+            }
     f_nl, p_nl, res1 = _lr_test(S, P1, rss0, rss1, len(new), M)
     if not _passes(p_nl, v.gain, S.n_cand, S.alpha, S.independent):
         return {"reason": f"the nonlinear refit is not significant (F = {f_nl:.1f}, p = {p_nl:.2g})"}
@@ -389,8 +446,19 @@ def _try(S: _Search, P: np.ndarray, r0: np.ndarray, free: list[int], c: Candidat
         return failed
     dof_gain = (r0.reshape(-1, 3) ** 2 - res1.reshape(-1, 3) ** 2).sum(axis=0)
     corr = float(np.corrcoef(r0 - res1, r0)[0, 1]) if np.std(r0 - res1) > 0 else 0.0
-    step = Step(c, rss0, rss1, f_nl, p_nl, heldout.delta_aic, heldout.gain, dof_gain, corr,
-                heldout.table([S.parts.label[t] for t in S.parts.test]), why)
+    step = Step(
+        c,
+        rss0,
+        rss1,
+        f_nl,
+        p_nl,
+        heldout.delta_aic,
+        heldout.gain,
+        dof_gain,
+        corr,
+        heldout.table([S.parts.label[t] for t in S.parts.test]),
+        why,
+    )
     return c, new, P1, cov1, step
 
 
@@ -447,8 +515,13 @@ def _backtrack(S: _Search, P: np.ndarray, free: list[int], cov: np.ndarray, out:
         if drop:
             out.steps.remove(st)
             chosen.remove(st.candidate)
-            out.rejected.append({"key": st.candidate.key, "effect": st.candidate.effect,
-                                 "reason": "made redundant by a later finding (backtracking)"})
+            out.rejected.append(
+                {
+                    "key": st.candidate.key,
+                    "effect": st.candidate.effect,
+                    "reason": "made redundant by a later finding (backtracking)",
+                }
+            )
             free, P, cov = rest, P2, cov2
             r_with = stack(residuals(model, S.preps, P[None]), S.wr)[0]
     return P, free, cov

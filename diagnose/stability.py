@@ -38,17 +38,21 @@ def check_baseline(profile: ShipProfile, theta: np.ndarray, recs: list[Recording
             raise RecordingError(
                 f"{where}: the baseline model cannot be simulated on {rec.source} (it diverges) although its straight-course "
                 "motion is stable (the run's inputs drive it out of range); check the profile's parameters and input "
-                "limits against this run")
+                "limits against this run"
+            )
         dofs, growth, name, value, how = mode
         t2 = doubling_time(growth, profile.sample_time)
         if how == "damping":
             what, why = f"{dofs} motion is unstable", "(its damping must be negative)"
         else:
             what = f"{dofs} motion is unstable through their coupling" + (" (course instability)" if dofs == "sway-yaw" else "")
-            why = (f"through the {dofs} coupling, not a damping sign (the coupling terms outweigh the product of the "
-                   "dampings" + (", Yuv Nur - Yur Nuv of the wrong sign" if dofs == "sway-yaw" else "") + ")")
+            why = (
+                f"through the {dofs} coupling, not a damping sign (the coupling terms outweigh the product of the "
+                "dampings" + (", Yuv Nur - Yur Nuv of the wrong sign" if dofs == "sway-yaw" else "") + ")"
+            )
         raise RecordingError(
             f"{where}: the baseline's {what} at the run's speed (a disturbance grows x{growth:.4g} per "
             f"{profile.sample_time:g} s sample, doubling every {t2:.3g} s), so it cannot be simulated on {rec.source}; "
             f"parameter {name} = {value:+.4g} drives it {why}: correct it in the profile or "
-            "--params (--fit-on starts from these values and cannot)")
+            "--params (--fit-on starts from these values and cannot)"
+        )

@@ -31,8 +31,9 @@ from scipy.signal import lfilter
 from diagnose.model import AugmentedModel, Prepared, fit, residuals
 
 
-def sensitivities(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, cols: list[int],
-                  w: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+def sensitivities(
+    model: AugmentedModel, preps: list[Prepared], P: np.ndarray, cols: list[int], w: np.ndarray
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per recording (weighted residual (N, 3), its sensitivity to ``cols`` (c, N, 3)) at P,
     from one batched simulation (forward differences, the fit's steps)."""
     h = model.steps(preps, P)
@@ -56,8 +57,7 @@ def ar1(pairs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndar
     return rho, s2
 
 
-def run_grams(pairs: list[tuple[np.ndarray, np.ndarray]], rho: np.ndarray, s2: np.ndarray
-              ) -> list[tuple[np.ndarray, np.ndarray]]:
+def run_grams(pairs: list[tuple[np.ndarray, np.ndarray]], rho: np.ndarray, s2: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per run, (J^T J, J^T Sigma J) summed over channels, Sigma the AR(1) noise covariance. Only
     the columns a run moves are filtered (another run's initial state is zero there)."""
     out = []
@@ -94,8 +94,11 @@ def _inv(A: np.ndarray) -> np.ndarray:
         return np.linalg.pinv(A)
 
 
-def sandwich(pairs: list[tuple[np.ndarray, np.ndarray]], prior_D: np.ndarray | None = None,
-             per_run: list[tuple[np.ndarray, np.ndarray]] | None = None) -> tuple[np.ndarray, np.ndarray]:
+def sandwich(
+    pairs: list[tuple[np.ndarray, np.ndarray]],
+    prior_D: np.ndarray | None = None,
+    per_run: list[tuple[np.ndarray, np.ndarray]] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """(covariance, H) of a penalised least-squares fit with AR(1) residuals (module docstring);
     ``per_run``: the runs' grams (:func:`run_grams`) when already computed."""
     if per_run is None:
@@ -115,8 +118,12 @@ def _prior_D(sd: np.ndarray | None, n: int) -> np.ndarray:
     return np.where(ok, 1.0 / np.where(ok, sd, 1.0) ** 2, 0.0)
 
 
-def jackknife(pairs: list[tuple[np.ndarray, np.ndarray]], nf: int, prior_D: np.ndarray | None = None,
-              per_run: list[tuple[np.ndarray, np.ndarray]] | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+def jackknife(
+    pairs: list[tuple[np.ndarray, np.ndarray]],
+    nf: int,
+    prior_D: np.ndarray | None = None,
+    per_run: list[tuple[np.ndarray, np.ndarray]] | None = None,
+) -> tuple[np.ndarray, np.ndarray] | None:
     """Linearised leave-one-run-out covariance of the first ``nf`` sensitivity columns, and its
     expected value were the runs' residuals AR(1) noise alone (None with fewer than two runs).
 
@@ -200,8 +207,13 @@ class FindingCov:
         return self.noise + self.model
 
 
-def propagated(pairs: list[tuple[np.ndarray, np.ndarray]], nf: int, prior_D: np.ndarray | None = None,
-               held_cov: np.ndarray | None = None, model_cols: list[int] | None = None) -> FindingCov:
+def propagated(
+    pairs: list[tuple[np.ndarray, np.ndarray]],
+    nf: int,
+    prior_D: np.ndarray | None = None,
+    held_cov: np.ndarray | None = None,
+    model_cols: list[int] | None = None,
+) -> FindingCov:
     """Covariance of the first ``nf`` sensitivity columns (the fitted parameters) under AR(1)
     residuals, plus the effect of the remaining columns' parameters (held at values estimated
     elsewhere, covariance ``held_cov``) through the refit: ``dA/dtheta = -H^-1 G_a,theta``.
@@ -225,13 +237,26 @@ def propagated(pairs: list[tuple[np.ndarray, np.ndarray]], nf: int, prior_D: np.
         G_ah = sum(np.einsum("anc,bnc->ab", J[:nf], J[nf:]) for _r, J in pairs)
         dA = -_inv(H) @ G_ah
         cov = cov + dA @ held_cov @ dA.T
-    return FindingCov(_finite(cov), _finite(model), len(pairs) if VE is not None and not failed else 0,
-                      held_cov is not None and len(held_cov) > 0, len(pairs), misfit_failed=failed)
+    return FindingCov(
+        _finite(cov),
+        _finite(model),
+        len(pairs) if VE is not None and not failed else 0,
+        held_cov is not None and len(held_cov) > 0,
+        len(pairs),
+        misfit_failed=failed,
+    )
 
 
-def finding_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, P: np.ndarray, free: list[int],
-                prior_sd: np.ndarray | None = None, held: list[int] | None = None,
-                held_cov: np.ndarray | None = None) -> FindingCov:
+def finding_cov(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    w: np.ndarray,
+    P: np.ndarray,
+    free: list[int],
+    prior_sd: np.ndarray | None = None,
+    held: list[int] | None = None,
+    held_cov: np.ndarray | None = None,
+) -> FindingCov:
     """Covariance of the ``free`` parameters at P (coloured residuals; the fit's prior std
     ``prior_sd`` per parameter), plus the propagated covariance ``held_cov`` of the parameters
     ``held`` (fixed at P, estimated on other runs), and the run-to-run model misfit of the
@@ -245,8 +270,7 @@ def finding_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, P: 
     return out
 
 
-def baseline_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, idx: list[int], sd: np.ndarray
-                 ) -> np.ndarray:
+def baseline_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, idx: list[int], sd: np.ndarray) -> np.ndarray:
     """Covariance (len(idx) x len(idx)) of the baseline parameters ``idx`` as fitted on the
     --fit-on runs ``preps`` (``model`` at their fitted values, one initial-state correction
     per run, refitted here; prior std ``sd`` per parameter, inf for none): the sandwich of
@@ -257,5 +281,7 @@ def baseline_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, id
     x0 = model.x0_params()
     P, _cov, _rss = fit(model, preps, model.p0(), x0, w, max_iter=5)
     pairs = sensitivities(model, preps, P, list(idx) + x0, w)
-    cov, _H = sandwich(pairs, _prior_D(np.concatenate([np.asarray(sd, float)[idx], np.full(len(x0), np.inf)]), len(idx) + len(x0)))
+    cov, _H = sandwich(
+        pairs, _prior_D(np.concatenate([np.asarray(sd, float)[idx], np.full(len(x0), np.inf)]), len(idx) + len(x0))
+    )
     return cov[: len(idx), : len(idx)]

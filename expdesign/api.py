@@ -116,21 +116,33 @@ def mean_subtraction_warnings(profile: ShipProfile, info: InfoSet, w: np.ndarray
     out = []
     for i, frac in lost_to_mean_subtraction(info, w, mean_subtraction).items():
         batch = "each primitive" if mean_subtraction == "batchwise" else "the whole trial"
-        why = (f"{names[i]} is not identifiable with {mean_subtraction} instrument-mean subtraction: its instrument is "
-               f"(nearly) constant over {batch}, so only {frac:.1e} of its information survives the subtraction "
-               f"(rounding noise)")
+        why = (
+            f"{names[i]} is not identifiable with {mean_subtraction} instrument-mean subtraction: its instrument is "
+            f"(nearly) constant over {batch}, so only {frac:.1e} of its information survives the subtraction "
+            f"(rounding noise)"
+        )
         varying = varying_primitives(info, i, mean_subtraction)
         if i in everywhere:
-            out.append(f"{why} in every mix of this library; use --mean-subtraction none, or add a manoeuvre that excites it: "
-                       f"{excitation_hint(profile, [names[i]])}")
+            out.append(
+                f"{why} in every mix of this library; use --mean-subtraction none, or add a manoeuvre that excites it: "
+                f"{excitation_hint(profile, [names[i]])}"
+            )
         else:
-            out.append(f"{why} in this design, which gives no time to the primitives in which it varies "
-                       f"({', '.join(varying) or 'none'}); use --mean-subtraction none, or --min-frac to keep them")
+            out.append(
+                f"{why} in this design, which gives no time to the primitives in which it varies "
+                f"({', '.join(varying) or 'none'}); use --mean-subtraction none, or --min-frac to keep them"
+            )
     return out
 
 
-def _informative_library(profile: ShipProfile, primitives: list[Primitive] | None, psi_switch: float | None, criterion: str,
-                         mean_subtraction: str, notes: list[str]) -> list[Primitive]:
+def _informative_library(
+    profile: ShipProfile,
+    primitives: list[Primitive] | None,
+    psi_switch: float | None,
+    criterion: str,
+    mean_subtraction: str,
+    notes: list[str],
+) -> list[Primitive]:
     """The options checked and the informative primitives to design with (default: the profile's
     thesis dictionary), with unique names; what is ignored goes into ``notes``."""
     if criterion not in CRITERIA:
@@ -159,8 +171,16 @@ def _moments(profile: ShipProfile, prims: list[Primitive], disturbed_realisation
     return library_information(profile, prims, **kw)
 
 
-def _optimise(info: InfoSet, cons: Constraints, criterion: str, mean_subtraction: str, convex_solvers: tuple[str, ...],
-              n_random_starts: int, seed: int, notes: list[str]) -> tuple[Any, np.ndarray, list[dict], str | None, float | None]:
+def _optimise(
+    info: InfoSet,
+    cons: Constraints,
+    criterion: str,
+    mean_subtraction: str,
+    convex_solvers: tuple[str, ...],
+    n_random_starts: int,
+    seed: int,
+    notes: list[str],
+) -> tuple[Any, np.ndarray, list[dict], str | None, float | None]:
     """The convex design (7.18)/(7.53) and, for complete mean subtraction or a relaxation that
     misrepresents the library, the non-convex one started from it: (convex result, final
     weights with the optimiser's zeros set to 0, non-convex starts, winner, efficiency bound)."""
@@ -177,22 +197,44 @@ def _optimise(info: InfoSet, cons: Constraints, criterion: str, mean_subtraction
     if mean_subtraction != "complete" and not relaxation_ok:
         # The symmetric relaxation misrepresents this library (the IV Gamma's symmetric part is
         # far from Gamma, e.g. crude instruments): optimise the exact objective instead.
-        nc = solve_nonconvex(info, cons, criterion=criterion, mean_subtraction=mean_subtraction, convex_start=convex.weights,
-                             n_random=n_random_starts, seed=seed)
+        nc = solve_nonconvex(
+            info,
+            cons,
+            criterion=criterion,
+            mean_subtraction=mean_subtraction,
+            convex_start=convex.weights,
+            n_random=n_random_starts,
+            seed=seed,
+        )
         final, starts, winner, bound = nc.weights, nc.starts, nc.winner, None
-        notes += ["the convex relaxation (symmetric part of Gamma) scored below the uniform mix on the exact objective; "
-                  "solved log|det Gamma| directly by multi-start SLSQP: no efficiency bound"] + nc.notes
+        notes += [
+            "the convex relaxation (symmetric part of Gamma) scored below the uniform mix on the exact objective; "
+            "solved log|det Gamma| directly by multi-start SLSQP: no efficiency bound"
+        ] + nc.notes
     if mean_subtraction == "complete":
-        nc = solve_nonconvex(info, cons, criterion=criterion, mean_subtraction="complete", convex_start=convex.weights,
-                             n_random=n_random_starts, seed=seed)
+        nc = solve_nonconvex(
+            info,
+            cons,
+            criterion=criterion,
+            mean_subtraction="complete",
+            convex_start=convex.weights,
+            n_random=n_random_starts,
+            seed=seed,
+        )
         final, starts, winner = nc.weights, nc.starts, nc.winner
         notes += nc.notes
     final = np.where(final < 1e-6, 0.0, final)
     return convex, final / final.sum(), starts, winner, bound
 
 
-def _reference_efficiencies(references: dict[str, dict[str, float]] | None, names: list[str], info: InfoSet, val: float,
-                            mean_subtraction: str, criterion: str) -> dict[str, float]:
+def _reference_efficiencies(
+    references: dict[str, dict[str, float]] | None,
+    names: list[str],
+    info: InfoSet,
+    val: float,
+    mean_subtraction: str,
+    criterion: str,
+) -> dict[str, float]:
     """Criterion efficiency of each reference mix (label -> {primitive: share}) against the design's value ``val``."""
     refs = {}
     for label, shares in (references or {}).items():
@@ -255,16 +297,18 @@ def run_design(
     info = InfoSet.from_infos(infos, prior, prior_w)
     check_identifiable(profile, info, mean_subtraction)
     cons = Constraints.build(names, min_frac, max_frac, costs, budgets, total_s)
-    convex, final, starts, winner, bound = _optimise(info, cons, criterion, mean_subtraction, convex_solvers, n_random_starts, seed,
-                                                     notes)
+    convex, final, starts, winner, bound = _optimise(
+        info, cons, criterion, mean_subtraction, convex_solvers, n_random_starts, seed, notes
+    )
     p = info.n_params
     val = info.value(final, mean_subtraction, criterion)
     uni = info.value(np.full(len(names), 1.0 / len(names)), mean_subtraction, criterion)
     ts = profile.sample_time
     units = np.array([unit_samples(pr) for pr in prims])
     total_samples = int(round(total_s / ts))
-    rnd = round_design(final, units, total_samples, lambda s: info.value(s / total_samples, mean_subtraction, criterion), p,
-                       criterion=criterion)
+    rnd = round_design(
+        final, units, total_samples, lambda s: info.value(s / total_samples, mean_subtraction, criterion), p, criterion=criterion
+    )
     refs = _reference_efficiencies(references, names, info, val, mean_subtraction, criterion)
     return Design(
         profile=profile.name,
@@ -286,7 +330,9 @@ def run_design(
             "gradient": None if convex.gradient is None else {n: float(g) for n, g in zip(names, convex.gradient)},
             "max_over_feasible": convex.max_gradient,
             "efficiency_bound": bound,
-            "relaxation": "symmetric part of Gamma, batchwise mean subtraction" if mean_subtraction == "complete" else "symmetric part of Gamma",
+            "relaxation": "symmetric part of Gamma, batchwise mean subtraction"
+            if mean_subtraction == "complete"
+            else "symmetric part of Gamma",
         },
         solver_notes=notes,
         starts=starts,

@@ -50,8 +50,13 @@ class InfoSet:
     def from_infos(cls, infos: list[PrimitiveInfo], prior: PrimitiveInfo | None = None, prior_weight: float = 0.0) -> InfoSet:
         if not infos:
             raise DesignError("the primitive library is empty; give at least one informative primitive")
-        s = cls([i.name for i in infos], np.stack([i.X for i in infos]), np.stack([i.Y for i in infos]),
-                np.stack([i.Z for i in infos]), infos[0].mask.astype(float))
+        s = cls(
+            [i.name for i in infos],
+            np.stack([i.X for i in infos]),
+            np.stack([i.Y for i in infos]),
+            np.stack([i.Z for i in infos]),
+            infos[0].mask.astype(float),
+        )
         if prior is not None and prior_weight > 0:
             s.X0, s.Y0, s.Z0, s.a = prior.X, prior.Y, prior.Z, float(prior_weight)
         return s
@@ -121,8 +126,9 @@ class InfoSet:
 MEAN_SUBTRACTION_NOISE = 1e-9
 
 
-def lost_to_mean_subtraction(info: InfoSet, w: np.ndarray, mean_subtraction: str,
-                             rel_tol: float = MEAN_SUBTRACTION_NOISE) -> dict[int, float]:
+def lost_to_mean_subtraction(
+    info: InfoSet, w: np.ndarray, mean_subtraction: str, rel_tol: float = MEAN_SUBTRACTION_NOISE
+) -> dict[int, float]:
     """Parameters the instrument-mean subtraction of (7.53)/(7.57) leaves unidentifiable in the mix
     ``w``: {index: fraction of its information that survives}. A parameter is lost when the
     diagonal of Gamma(w) after subtraction is below ``rel_tol`` of that before (its instrument is
@@ -236,18 +242,41 @@ class Constraints:
         if self.A.size:
             from scipy.optimize import linprog  # only constrained designs: not imported by every plan
 
-            r = linprog(np.zeros(len(names)), A_ub=self.A, b_ub=self.b, A_eq=np.ones((1, len(names))), b_eq=[1.0],
-                        bounds=list(zip(self.lo, self.hi)), method="highs")
+            r = linprog(
+                np.zeros(len(names)),
+                A_ub=self.A,
+                b_ub=self.b,
+                A_eq=np.ones((1, len(names))),
+                b_eq=[1.0],
+                bounds=list(zip(self.lo, self.hi)),
+                method="highs",
+            )
             if r.status != 0:
-                cheapest = [float(self.A[i] @ linprog(self.A[i], A_eq=np.ones((1, len(names))), b_eq=[1.0],
-                                                            bounds=list(zip(self.lo, self.hi)), method="highs").x)
-                            for i in range(len(self.b))]
+                cheapest = [
+                    float(
+                        self.A[i]
+                        @ linprog(
+                            self.A[i],
+                            A_eq=np.ones((1, len(names))),
+                            b_eq=[1.0],
+                            bounds=list(zip(self.lo, self.hi)),
+                            method="highs",
+                        ).x
+                    )
+                    for i in range(len(self.b))
+                ]
                 detail = ", ".join(f"{lab}: needs >= {c:.4g}, budget {b:.4g}" for lab, c, b in zip(self.labels, cheapest, self.b))
-                raise DesignError(f"infeasible constraints: no mix meets the budgets ({detail}); raise a budget or shorten the trial")
+                raise DesignError(
+                    f"infeasible constraints: no mix meets the budgets ({detail}); raise a budget or shorten the trial"
+                )
 
     def feasible(self, w: np.ndarray, tol: float = 1e-6) -> bool:
-        return bool(abs(w.sum() - 1) < tol and np.all(w >= self.lo - tol) and np.all(w <= self.hi + tol)
-                    and (not self.A.size or np.all(self.A @ w <= self.b + tol * (1 + np.abs(self.b)))))
+        return bool(
+            abs(w.sum() - 1) < tol
+            and np.all(w >= self.lo - tol)
+            and np.all(w <= self.hi + tol)
+            and (not self.A.size or np.all(self.A @ w <= self.b + tol * (1 + np.abs(self.b))))
+        )
 
     def max_linear(self, g: np.ndarray) -> float:
         """max g.w over the feasible set (a linear program; the vertex max_q g_q on the simplex)."""
@@ -255,8 +284,15 @@ class Constraints:
             return float(np.max(g))
         from scipy.optimize import linprog
 
-        r = linprog(-g, A_ub=self.A if self.A.size else None, b_ub=self.b if self.A.size else None,
-                    A_eq=np.ones((1, len(g))), b_eq=[1.0], bounds=list(zip(self.lo, self.hi)), method="highs")
+        r = linprog(
+            -g,
+            A_ub=self.A if self.A.size else None,
+            b_ub=self.b if self.A.size else None,
+            A_eq=np.ones((1, len(g))),
+            b_eq=[1.0],
+            bounds=list(zip(self.lo, self.hi)),
+            method="highs",
+        )
         return float(-r.fun)
 
     def project(self, w0: np.ndarray) -> np.ndarray:
@@ -270,8 +306,15 @@ class Constraints:
         cons = [{"type": "eq", "fun": lambda x: x.sum() - 1.0, "jac": lambda x: np.ones_like(x)}]
         if self.A.size:
             cons.append({"type": "ineq", "fun": lambda x: self.b - self.A @ x, "jac": lambda x: -self.A})
-        r = minimize(lambda x: 0.5 * np.sum((x - w0) ** 2), w, jac=lambda x: x - w0, bounds=list(zip(self.lo, self.hi)),
-                     constraints=cons, method="SLSQP", options={"maxiter": 200, "ftol": 1e-12})
+        r = minimize(
+            lambda x: 0.5 * np.sum((x - w0) ** 2),
+            w,
+            jac=lambda x: x - w0,
+            bounds=list(zip(self.lo, self.hi)),
+            constraints=cons,
+            method="SLSQP",
+            options={"maxiter": 200, "ftol": 1e-12},
+        )
         return np.clip(r.x, self.lo, self.hi)
 
 
@@ -316,7 +359,9 @@ def _sym_value(m: np.ndarray, criterion: str) -> float:
     return float(np.sum(np.log(ev))) if criterion == "D" else -float(np.sum(1.0 / ev))
 
 
-def certificate(info: InfoSet, w: np.ndarray, cons: Constraints, criterion: str, mean_subtraction: str) -> tuple[np.ndarray, float, float | None]:
+def certificate(
+    info: InfoSet, w: np.ndarray, cons: Constraints, criterion: str, mean_subtraction: str
+) -> tuple[np.ndarray, float, float | None]:
     """General equivalence theorem for the symmetric relaxation.
 
     D: g_q = tr(M^-1 M_q); by the AM-GM inequality on the eigenvalues of M^-1/2 M(w') M^-1/2,
@@ -372,8 +417,14 @@ def _scipy_sym(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str
     cons_l = [{"type": "eq", "fun": lambda x: x.sum() - 1.0}]
     if cons.A.size:
         cons_l.append({"type": "ineq", "fun": lambda x: cons.b - cons.A @ x})
-    r = minimize(f, cons.project(np.full(q, 1.0 / q)), bounds=list(zip(cons.lo, cons.hi)), constraints=cons_l,
-                 method="SLSQP", options={"maxiter": 500, "ftol": 1e-12})
+    r = minimize(
+        f,
+        cons.project(np.full(q, 1.0 / q)),
+        bounds=list(zip(cons.lo, cons.hi)),
+        constraints=cons_l,
+        method="SLSQP",
+        options={"maxiter": 500, "ftol": 1e-12},
+    )
     return np.clip(r.x, cons.lo, cons.hi)
 
 
@@ -384,8 +435,10 @@ def _dedicated(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str
     """Weights from :func:`expdesign.simplexsolver.solve_simplex` where it applies (D or A on the
     plain simplex) and certifies its optimum, else None with a note."""
     if criterion not in SUPPORTED or not cons.is_simplex:
-        notes.append(f"{DEDICATED} does not apply ({criterion}-criterion{'' if cons.is_simplex else ', constrained fractions'}); "
-                     "trying the next solver")
+        notes.append(
+            f"{DEDICATED} does not apply ({criterion}-criterion{'' if cons.is_simplex else ', constrained fractions'}); "
+            "trying the next solver"
+        )
         return None
     r = solve_simplex(mq, m0, criterion)
     if r is None:
@@ -432,8 +485,9 @@ def solve_convex(
     return SolveResult(w, float(val), used, notes, g, mx, bound)
 
 
-def _solve_sym(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str, solvers: tuple[str, ...],
-               notes: list[str]) -> tuple[np.ndarray, str]:
+def _solve_sym(
+    mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str, solvers: tuple[str, ...], notes: list[str]
+) -> tuple[np.ndarray, str]:
     """The weights of the symmetrized program from the first of ``solvers`` that succeeds, else
     scipy SLSQP, and the solver's name; each failure and fallback recorded in ``notes``."""
     for name in solvers:
@@ -444,7 +498,9 @@ def _solve_sym(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str
     return _scipy_sym(mq, m0, cons, criterion), "scipy-SLSQP"
 
 
-def _solve_cvx(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str, name: str, notes: list[str]) -> np.ndarray | None:
+def _solve_cvx(
+    mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str, name: str, notes: list[str]
+) -> np.ndarray | None:
     """The weights from cvxpy's solver ``name`` (clipped to the bounds), or None when it fails
     (recorded in ``notes``, as is an inaccurate optimum)."""
     import cvxpy as cp

@@ -61,8 +61,9 @@ class Estimate:
     notes: list[str] = field(default_factory=list)
 
 
-def solve_blocks(profile: ShipProfile, phis: list[np.ndarray], zs: list[np.ndarray], targets: list[np.ndarray],
-                 mean_subtraction: str = "none") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def solve_blocks(
+    profile: ShipProfile, phis: list[np.ndarray], zs: list[np.ndarray], targets: list[np.ndarray], mean_subtraction: str = "none"
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`iv_solve` over stacked segments (each its own sub-experiment for 'batchwise').
 
     Returns theta (B, p), residuals (B, N, 3), cov (B, p, p), sigma2 (B, 3); NaN for a
@@ -85,8 +86,9 @@ def solve_blocks(profile: ShipProfile, phis: list[np.ndarray], zs: list[np.ndarr
         if ok.any():
             ainv = np.linalg.inv(a[ok])
             zz = np.einsum("bki,bkj->bij", z[ok][..., s], z[ok][..., s])
-            cov[np.ix_(ok, range(s.start, s.stop), range(s.start, s.stop))] = \
+            cov[np.ix_(ok, range(s.start, s.stop), range(s.start, s.stop))] = (
                 sigma2[ok, i, None, None] * ainv @ zz @ np.swapaxes(ainv, 1, 2)
+            )
     cov[:, ~block_mask(terms)] = 0.0
     return theta, res, cov, sigma2
 
@@ -102,8 +104,12 @@ def _sim_instruments(profile: ShipProfile, seg: Segment, theta: np.ndarray | str
     if theta is None or isinstance(theta, str):
         # the instrument set is the same for every realisation: simulate once per distinct input
         shared = seg.inputs.ndim == 2 and nu0.ndim == 1
-        z = instruments(profile, seg.inputs if shared else np.broadcast_to(seg.inputs, (seg.batch,) + seg.inputs.shape[-2:]),
-                        theta, nu0 if shared else np.broadcast_to(nu0, (seg.batch, 3)))
+        z = instruments(
+            profile,
+            seg.inputs if shared else np.broadcast_to(seg.inputs, (seg.batch,) + seg.inputs.shape[-2:]),
+            theta,
+            nu0 if shared else np.broadcast_to(nu0, (seg.batch, 3)),
+        )
         return np.broadcast_to(z, (seg.batch,) + z.shape[-2:])
     inputs = np.broadcast_to(seg.inputs, (seg.batch,) + seg.inputs.shape[-2:])
     with np.errstate(all="ignore"):  # the predictor simulated with an estimate
@@ -172,8 +178,9 @@ def estimate(
     return Estimate(theta, res, cov, s2, iters, converged, notes)
 
 
-def data_information(profile: ShipProfile, segments: Sequence[Segment], instrument_set: str | np.ndarray | None = None,
-                     name: str = "prior") -> PrimitiveInfo:
+def data_information(
+    profile: ShipProfile, segments: Sequence[Segment], instrument_set: str | np.ndarray | None = None, name: str = "prior"
+) -> PrimitiveInfo:
     """Moments X, Y, Z (7.50), (7.51), (7.55) of data already collected (all realisations and
     segments pooled; every segment of the same B realisations), for the prior term (7.58) of a
     re-planned design: pass the result as ``run_design(..., prior=info, prior_samples=info.n_samples)``."""
@@ -293,8 +300,9 @@ def _state_jacobian(profile: ShipProfile, terms, nu: np.ndarray, psi: np.ndarray
     return jac
 
 
-def _gauss_newton_moments(profile: ShipProfile, terms, data: Sequence[OEData], sims, theta: np.ndarray, idx: np.ndarray,
-                          w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _gauss_newton_moments(
+    profile: ShipProfile, terms, data: Sequence[OEData], sims, theta: np.ndarray, idx: np.ndarray, w: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """H = sum_k S(k)^T W S(k) and g = sum_k S(k)^T W (y(k) - y_hat(k)) per run of ``idx``, with
     the output sensitivity S(k) = d y_hat(k) / d theta from the recursion
     S(k+1) = (I + d inc/d nu) S(k) + Phi(k) (block-diagonal (9.2)), S(0) = 0. The recursion is
@@ -353,8 +361,9 @@ def _cost(ms: np.ndarray, w: np.ndarray, valid: np.ndarray, n: int) -> np.ndarra
     return np.where(good, n * _weighted(np.where(good[:, None], ms, 0.0), w), np.inf)
 
 
-def _start(profile: ShipProfile, terms: TermSet, data: Sequence[OEData], theta: np.ndarray, n: int
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
+def _start(
+    profile: ShipProfile, terms: TermSet, data: Sequence[OEData], theta: np.ndarray, n: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
     """At the start estimate: which runs simulate (ok (B,)), the fixed weights w = 1/sigma_i^2
     from their residuals (B, 3), the cost (B,) and the simulated outputs of the ok runs."""
     bsz = theta.shape[0]
@@ -409,8 +418,10 @@ def output_error(
     terms = terms or profile.predictor
     why = output_error_unsupported(profile, terms)
     if why:
-        raise DesignError(f"{why} ({profile.name!r}): use the IV estimate, `shiptrial design --mc-estimator iv` "
-                          "(estimator='iv' in the Monte Carlo)")
+        raise DesignError(
+            f"{why} ({profile.name!r}): use the IV estimate, `shiptrial design --mc-estimator iv` "
+            "(estimator='iv' in the Monte Carlo)"
+        )
     theta = np.array(theta_start, float)
     bsz, p = theta.shape
     n = sum(d.y.shape[1] - 1 for d in data)

@@ -58,8 +58,9 @@ def _column_norms(x: np.ndarray) -> np.ndarray:
     return np.sqrt(np.einsum("...ki,...ki->...i", x, x))
 
 
-def iv_solve(terms: TermSet, phi: np.ndarray, z: np.ndarray, tgt: np.ndarray, mean_subtraction: str = "none",
-             starts: Sequence[int] = (0,)) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+def iv_solve(
+    terms: TermSet, phi: np.ndarray, z: np.ndarray, tgt: np.ndarray, mean_subtraction: str = "none", starts: Sequence[int] = (0,)
+) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
     """The block-diagonal IV estimate (2.18) of (9.2): per DOF i,
     theta_i = (sum Z~_i Phi_i^T)^-1 sum Z~_i (y_i(k+1) - y_i(k)), with Z~ the instruments with
     their mean removed (:func:`remove_instrument_mean`; Z = Phi gives least squares).

@@ -99,8 +99,9 @@ def evaluate_designs_parallel(
     try:
         workers, threads = engine.capacity()
         tasks = cut_tasks(sh.designs, runs, plan_tasks(runs, len(sh.designs), workers * threads, tasks_per_worker, chunk_runs))
-        res = engine.map(_task, tasks, desc="Monte Carlo", progress=progress, shared=sh,
-                         weights=[b - a for _, a, b in tasks], unit="runs")
+        res = engine.map(
+            _task, tasks, desc="Monte Carlo", progress=progress, shared=sh, weights=[b - a for _, a, b in tasks], unit="runs"
+        )
     finally:
         if engine is not scheduler:
             engine.close()
@@ -108,7 +109,24 @@ def evaluate_designs_parallel(
     parts = [{r.name: r} for r in res.finished()]
     results = merge_results(parts) if parts else {}
     errors = [f"task {tasks[i][0]} runs {tasks[i][1]}..{tasks[i][2] - 1}: {msg}" for i, msg in sorted(res.errors.items())]
-    info = {"name": engine.name, "workers": workers, "threads_per_worker": threads, "tasks": len(tasks),
-            "tasks_per_worker": len(tasks) / max(1, workers * threads), "runs_per_task": max(b - a for _, a, b in tasks)}
-    return MCEvaluation(results, cfg, res.complete, res.interrupted, errors, elapsed, info, profile.sample_time, profile.name,
-                        asdict(sh.dist), profile.library)
+    info = {
+        "name": engine.name,
+        "workers": workers,
+        "threads_per_worker": threads,
+        "tasks": len(tasks),
+        "tasks_per_worker": len(tasks) / max(1, workers * threads),
+        "runs_per_task": max(b - a for _, a, b in tasks),
+    }
+    return MCEvaluation(
+        results,
+        cfg,
+        res.complete,
+        res.interrupted,
+        errors,
+        elapsed,
+        info,
+        profile.sample_time,
+        profile.name,
+        asdict(sh.dist),
+        profile.library,
+    )

@@ -105,15 +105,17 @@ class MCResult:
         rows = []
         for j, name in enumerate(self.param_names):
             e = err[ok, j]
-            rows.append({
-                "parameter": name,
-                "true": float(self.theta0[j]),
-                "bias": float(np.mean(e)) if e.size else None,
-                "spread": float(np.std(e)) if e.size else None,
-                "median_abs_error": float(np.median(np.abs(e))) if e.size else None,
-                "frac_within_tolerance": float(np.mean(ok & (np.abs(err[:, j]) < tolerance))),
-                "tolerance": tolerance,
-            })
+            rows.append(
+                {
+                    "parameter": name,
+                    "true": float(self.theta0[j]),
+                    "bias": float(np.mean(e)) if e.size else None,
+                    "spread": float(np.std(e)) if e.size else None,
+                    "median_abs_error": float(np.median(np.abs(e))) if e.size else None,
+                    "frac_within_tolerance": float(np.mean(ok & (np.abs(err[:, j]) < tolerance))),
+                    "tolerance": tolerance,
+                }
+            )
         return rows
 
 
@@ -145,9 +147,17 @@ def merge_results(parts: list[dict[str, MCResult]]) -> dict[str, MCResult]:
         if any(r is not None for r in refs) and not all(r is not None for r in refs):
             raise ValueError(f"design {name!r}: some chunks carry a reference estimate and some do not")
         out[name] = MCResult(
-            name, runs[o], np.concatenate([r.theta for r in rs])[o], np.concatenate([r.param_rmse for r in rs])[o],
-            np.concatenate([r.sim_rmse for r in rs])[o], np.concatenate([r.diverged for r in rs])[o], r0.requested,
-            r0.param_names, r0.theta0, list(dict.fromkeys(n for r in rs for n in r.notes)), r0.estimator,
+            name,
+            runs[o],
+            np.concatenate([r.theta for r in rs])[o],
+            np.concatenate([r.param_rmse for r in rs])[o],
+            np.concatenate([r.sim_rmse for r in rs])[o],
+            np.concatenate([r.diverged for r in rs])[o],
+            r0.requested,
+            r0.param_names,
+            r0.theta0,
+            list(dict.fromkeys(n for r in rs for n in r.notes)),
+            r0.estimator,
             merge_results([{name: r} for r in refs])[name] if refs[0] is not None else None,
         )
     return out

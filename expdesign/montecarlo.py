@@ -99,8 +99,10 @@ class MCConfig:
             if getattr(self, name) < lowest:
                 raise DesignError(f"Monte Carlo {name} {getattr(self, name)} is below {lowest}: give {name} >= {lowest}")
         if self.n_samples // self.n_segments < self.min_block:
-            raise DesignError(f"{self.n_samples} samples in {self.n_segments} random segments is shorter than the minimum "
-                              f"sub-experiment of {self.min_block} samples: raise n_samples or lower min_block")
+            raise DesignError(
+                f"{self.n_samples} samples in {self.n_segments} random segments is shorter than the minimum "
+                f"sub-experiment of {self.min_block} samples: raise n_samples or lower min_block"
+            )
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -181,8 +183,13 @@ def block_lengths(weights: Mapping[str, float], n_samples: int, min_block: int) 
     return [(n, int(c)) for n, c in zip(names, lengths) if c > 0], notes
 
 
-def prepare(profile: ShipProfile, designs: Mapping[str, Any], config: MCConfig, primitives: list[Primitive] | None = None,
-            disturbances: Disturbances | None = None) -> MCShared:
+def prepare(
+    profile: ShipProfile,
+    designs: Mapping[str, Any],
+    config: MCConfig,
+    primitives: list[Primitive] | None = None,
+    disturbances: Disturbances | None = None,
+) -> MCShared:
     """Check the designs and compute the shared inputs once (see :class:`MCShared`)."""
     config.check()
     lib = primitives if primitives is not None else thesis_primitives(profile)
@@ -208,14 +215,28 @@ def prepare(profile: ShipProfile, designs: Mapping[str, Any], config: MCConfig, 
     predictor = profile.predictor
     theta0 = profile.params(profile.simulation_set) if predictor.terms == profile.model.terms else None
     vin, vnu0 = validation_input(profile, config.n_samples, config.validation_seed)
-    hold = {k: profile.allocate(*np.array(steady_forces(profile, *p.nu0))[:, None])[0] for k, p in prims.items()} \
-        if config.settle else {}
+    hold = (
+        {k: profile.allocate(*np.array(steady_forces(profile, *p.nu0))[:, None])[0] for k, p in prims.items()}
+        if config.settle
+        else {}
+    )
     return MCShared(
-        profile=profile, config=config, names=list(prims), inputs={k: p.inputs for k, p in prims.items()},
-        nu0={k: np.asarray(p.nu0, float) for k, p in prims.items()}, hold=hold, designs=specs, blocks=blocks,
-        dist=disturbances if disturbances is not None else Disturbances.from_profile(profile), predictor=predictor,
-        theta0=theta0, param_names=profile.predictor_param_names, val_inputs=vin, val_nu0=vnu0,
-        val_true=simulate(profile, vin, nu0=vnu0).nu[0], notes=notes,
+        profile=profile,
+        config=config,
+        names=list(prims),
+        inputs={k: p.inputs for k, p in prims.items()},
+        nu0={k: np.asarray(p.nu0, float) for k, p in prims.items()},
+        hold=hold,
+        designs=specs,
+        blocks=blocks,
+        dist=disturbances if disturbances is not None else Disturbances.from_profile(profile),
+        predictor=predictor,
+        theta0=theta0,
+        param_names=profile.predictor_param_names,
+        val_inputs=vin,
+        val_nu0=vnu0,
+        val_true=simulate(profile, vin, nu0=vnu0).nu[0],
+        notes=notes,
         oe_unsupported=output_error_unsupported(profile, predictor) if config.estimator == "oe" else None,
     )
 
@@ -298,10 +319,19 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) ->
         nu0 = np.stack([e[j][1] for e in exps])
         cur, wind, meas, head = (np.stack(a) for a in zip(*(_noise(d, g, inp.shape[1], o) for g, o in zip(gens, offsets))))
         calm = np.zeros_like(cur)
-        env = Disturbances(current_ne=np.concatenate([cur, calm]), wind_ne=np.concatenate([wind, calm]), current_turning=d.current_turning)
+        env = Disturbances(
+            current_ne=np.concatenate([cur, calm]), wind_ne=np.concatenate([wind, calm]), current_turning=d.current_turning
+        )
         with np.errstate(all="ignore"):
-            res = simulate(prof, np.concatenate([inp, inp]), theta, nu0=np.concatenate([nu0, nu0]), disturbances=env, batch=2 * b,
-                           positions="psi" in signals_read(sh.predictor))  # the data's heading: integrated when the dynamics need it
+            res = simulate(
+                prof,
+                np.concatenate([inp, inp]),
+                theta,
+                nu0=np.concatenate([nu0, nu0]),
+                disturbances=env,
+                batch=2 * b,
+                positions="psi" in signals_read(sh.predictor),
+            )  # the data's heading: integrated when the dynamics need it
         y = res.nu[:b] + meas
         phi, tgt = predictor_regressors(prof, y, inp, res.eta[:b, :, 2] + head, terms=sh.predictor)
         z, _ = predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)
@@ -375,8 +405,15 @@ def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rmse, diverged
 
 
-def _scored(sh: MCShared, design: str, ids: list[int], theta: np.ndarray, estimator: str, notes: list[str],
-            validation: tuple[np.ndarray, np.ndarray] | None = None) -> MCResult:
+def _scored(
+    sh: MCShared,
+    design: str,
+    ids: list[int],
+    theta: np.ndarray,
+    estimator: str,
+    notes: list[str],
+    validation: tuple[np.ndarray, np.ndarray] | None = None,
+) -> MCResult:
     """Validation and parameter errors of the estimates ``theta`` of runs ``ids`` (``validation``:
     their :func:`_validate` result when already computed)."""
     sim_rmse, diverged = _validate(sh, theta) if validation is None else validation
@@ -386,8 +423,19 @@ def _scored(sh: MCShared, design: str, ids: list[int], theta: np.ndarray, estima
             with np.errstate(all="ignore"):
                 e = (theta[i] - sh.theta0) / np.abs(sh.theta0)
                 prm[i] = np.sqrt(np.mean(e * e)) if np.isfinite(e).all() else np.inf
-    return MCResult(design, np.array(ids, dtype=np.int64), theta, prm, sim_rmse, diverged, sh.config.runs,
-                    sh.param_names, sh.theta0, notes, estimator)
+    return MCResult(
+        design,
+        np.array(ids, dtype=np.int64),
+        theta,
+        prm,
+        sim_rmse,
+        diverged,
+        sh.config.runs,
+        sh.param_names,
+        sh.theta0,
+        notes,
+        estimator,
+    )
 
 
 def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
@@ -408,8 +456,9 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
         return _scored(sh, design, ids, theta, "iv", notes)
     if sh.oe_unsupported:
         return _scored(sh, design, ids, theta, "iv", notes + [f"{sh.oe_unsupported}: the IV estimate is reported unrefined"])
-    oe = output_error(sh.profile, [OEData(s.inputs, s.nu0, s.y) for s in segs], theta, terms=sh.predictor,
-                      max_iter=cfg.oe_iterations)
+    oe = output_error(
+        sh.profile, [OEData(s.inputs, s.nu0, s.y) for s in segs], theta, terms=sh.predictor, max_iter=cfg.oe_iterations
+    )
     b = len(ids)
     val = _validate(sh, np.concatenate([oe.theta, theta]))  # one simulation loop for both; elementwise, so no change
     result = _scored(sh, design, ids, oe.theta, "oe", notes, (val[0][:b], val[1][:b]))

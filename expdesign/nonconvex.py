@@ -86,15 +86,23 @@ def solve_nonconvex(
     for name, w0 in starts:
         w0 = cons.project(w0)
         f0 = fg(w0)[0]
-        r = minimize(fg, w0, jac=True, bounds=bounds, constraints=c_list, method="SLSQP",
-                     options={"maxiter": maxiter, "ftol": 1e-10})
+        r = minimize(
+            fg, w0, jac=True, bounds=bounds, constraints=c_list, method="SLSQP", options={"maxiter": maxiter, "ftol": 1e-10}
+        )
         w1 = cons.project(np.clip(r.x, cons.lo, cons.hi))
         f1 = fg(w1)[0]
         for cand, fc, tag in ((w0, f0, name), (w1, f1, name)):
             if fc < best_f - 1e-12 and cons.feasible(cand):
                 best_w, best_f, winner = cand, fc, tag
-        report.append({"start": name, "start_objective": float(-f0) if f0 < _BAD else None,
-                       "end_objective": float(-f1) if f1 < _BAD else None, "iterations": int(r.nit), "success": bool(r.success)})
+        report.append(
+            {
+                "start": name,
+                "start_objective": float(-f0) if f0 < _BAD else None,
+                "end_objective": float(-f1) if f1 < _BAD else None,
+                "iterations": int(r.nit),
+                "success": bool(r.success),
+            }
+        )
     what = "(7.57)" if mean_subtraction == "complete" else f"log|det Gamma| ({mean_subtraction})"
     notes = [f"{what} solved by SLSQP from {len(starts)} starts; best start: {winner}"]
     if best_w is None:

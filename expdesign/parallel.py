@@ -74,9 +74,13 @@ class _Progress:
                 from rich.console import Console
 
                 self.bar = Progress(
-                    TextColumn("{task.description}"), BarColumn(),
-                    TextColumn("{task.completed:.0f}/{task.total:.0f} " + unit), TextColumn("{task.fields[rate]}"),
-                    TimeRemainingColumn(), console=Console(stderr=True), transient=True,
+                    TextColumn("{task.description}"),
+                    BarColumn(),
+                    TextColumn("{task.completed:.0f}/{task.total:.0f} " + unit),
+                    TextColumn("{task.fields[rate]}"),
+                    TimeRemainingColumn(),
+                    console=Console(stderr=True),
+                    transient=True,
                 )
                 self.bar.start()
                 self.task = self.bar.add_task(desc, total=sum(self.weights), rate="")
@@ -105,8 +109,16 @@ class Engine:
         """(workers, threads per worker) available to tasks."""
         return 1, 1
 
-    def map(self, fn: Callable[..., Any], items: Sequence[Any], desc: str = "working", progress: bool = True,
-            shared: Any = None, weights: Sequence[float] | None = None, unit: str = "tasks") -> MapResult:
+    def map(
+        self,
+        fn: Callable[..., Any],
+        items: Sequence[Any],
+        desc: str = "working",
+        progress: bool = True,
+        shared: Any = None,
+        weights: Sequence[float] | None = None,
+        unit: str = "tasks",
+    ) -> MapResult:
         res, done = [None] * len(items), [False] * len(items)
         bar = _Progress(weights or [1] * len(items), desc, progress, unit)
         try:
@@ -132,8 +144,14 @@ class Engine:
 
 _SHARED: Any = None
 # thread pools of the numerical libraries a worker process may load (BLAS, OpenMP)
-THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
-               "NUMEXPR_NUM_THREADS")
+THREAD_VARS = (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "BLIS_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+)
 _ONE_THREAD = False
 
 
@@ -181,8 +199,16 @@ class LocalEngine(Engine):
     def capacity(self) -> tuple[int, int]:
         return self.workers, 1
 
-    def map(self, fn: Callable[..., Any], items: Sequence[Any], desc: str = "working", progress: bool = True,
-            shared: Any = None, weights: Sequence[float] | None = None, unit: str = "tasks") -> MapResult:
+    def map(
+        self,
+        fn: Callable[..., Any],
+        items: Sequence[Any],
+        desc: str = "working",
+        progress: bool = True,
+        shared: Any = None,
+        weights: Sequence[float] | None = None,
+        unit: str = "tasks",
+    ) -> MapResult:
         if self.workers <= 1 or len(items) <= 1:
             return super().map(fn, items, desc, progress, shared, weights, unit)
         res, done, errors = [None] * len(items), [False] * len(items), {}
@@ -238,15 +264,19 @@ class DaskEngine(Engine):
         try:
             from distributed import Client
         except ImportError:  # pragma: no cover - depends on the environment
-            raise RuntimeError("a Dask scheduler was given but the 'distributed' package is not installed: pip install 'shiptrial[dask]'") from None
+            raise RuntimeError(
+                "a Dask scheduler was given but the 'distributed' package is not installed: pip install 'shiptrial[dask]'"
+            ) from None
         if isinstance(address_or_cluster, Client):
             self.client, self._own = address_or_cluster, False
             return
         try:
             self.client = Client(address_or_cluster, set_as_default=False, timeout=f"{CONNECT_TIMEOUT_S}s")
         except (OSError, TimeoutError, ValueError, TypeError) as exc:  # unreachable, refused or malformed address
-            raise UserError(f"--scheduler {address_or_cluster!r}: no Dask scheduler answered within {CONNECT_TIMEOUT_S} s "
-                            f"({type(exc).__name__}); check the address (tcp://HOST:8786) or use --scheduler local") from None
+            raise UserError(
+                f"--scheduler {address_or_cluster!r}: no Dask scheduler answered within {CONNECT_TIMEOUT_S} s "
+                f"({type(exc).__name__}); check the address (tcp://HOST:8786) or use --scheduler local"
+            ) from None
         self._own = True
 
     def capacity(self) -> tuple[int, int]:
@@ -276,11 +306,22 @@ class DaskEngine(Engine):
         return len(spec) if spec else 0
 
     def _workers(self) -> dict:
-        return self.client.scheduler_info(n_workers=-1)["workers"] if _takes_n_workers(self.client) \
+        return (
+            self.client.scheduler_info(n_workers=-1)["workers"]
+            if _takes_n_workers(self.client)
             else self.client.scheduler_info()["workers"]
+        )
 
-    def map(self, fn: Callable[..., Any], items: Sequence[Any], desc: str = "working", progress: bool = True,
-            shared: Any = None, weights: Sequence[float] | None = None, unit: str = "tasks") -> MapResult:
+    def map(
+        self,
+        fn: Callable[..., Any],
+        items: Sequence[Any],
+        desc: str = "working",
+        progress: bool = True,
+        shared: Any = None,
+        weights: Sequence[float] | None = None,
+        unit: str = "tasks",
+    ) -> MapResult:
         from distributed import as_completed
 
         res, done, errors = [None] * len(items), [False] * len(items), {}

@@ -95,7 +95,9 @@ def round_design(
     if np.any(d <= 0):
         raise DesignError("every primitive unit needs at least one sample")
     if total_samples < d.min():
-        raise DesignError(f"trial length of {total_samples} samples is shorter than the shortest primitive unit ({d.min()} samples)")
+        raise DesignError(
+            f"trial length of {total_samples} samples is shorter than the shortest primitive unit ({d.min()} samples)"
+        )
     equal = bool(np.all(d == d[0]))
     c = efficient_rounding(w, total_samples // d[0]) if equal else _apportion_time(w, d, total_samples)
     c, best, moves = _exchange(c, d, total_samples, objective, equal, max_rounds)
@@ -139,8 +141,9 @@ def _moves(c: np.ndarray, equal: bool) -> list[tuple[int, int]]:
     return cands
 
 
-def _exchange(c: np.ndarray, d: np.ndarray, total_samples: int, objective: Callable[[np.ndarray], float], equal: bool,
-              max_rounds: int) -> tuple[np.ndarray, float, int]:
+def _exchange(
+    c: np.ndarray, d: np.ndarray, total_samples: int, objective: Callable[[np.ndarray], float], equal: bool, max_rounds: int
+) -> tuple[np.ndarray, float, int]:
     """Step 2, the local exchange: the steepest single move (:func:`_moves`) that raises the
     criterion and keeps the total within the trial length, until none does. Returns the counts,
     their criterion and the number of moves made."""

@@ -24,8 +24,14 @@ from primitives.ship import ShipProfile
 # Ljungberg (2022), section 9.1.1: the (7.57) design the thesis reports for tau1-tau11 (time fractions).
 THESIS_SHARES = {"tau1": 0.16, "tau2": 0.04, "tau5": 0.09, "tau6": 0.42, "tau8": 0.04, "tau11": 0.25}
 # tau3-tau8 of section 9.1.1: (name, u, v amplitude, r amplitude).
-_ZIGZAGS = [("tau3", 0.35, 0.1, 0.2), ("tau4", 0.8, 0.1, 0.2), ("tau5", 1.15, 0.1, 0.2),
-            ("tau6", 0.35, 0.15, 0.35), ("tau7", 0.7, 0.15, 0.35), ("tau8", 1.0, 0.15, 0.35)]
+_ZIGZAGS = [
+    ("tau3", 0.35, 0.1, 0.2),
+    ("tau4", 0.8, 0.1, 0.2),
+    ("tau5", 1.15, 0.1, 0.2),
+    ("tau6", 0.35, 0.15, 0.35),
+    ("tau7", 0.7, 0.15, 0.35),
+    ("tau8", 1.0, 0.15, 0.35),
+]
 
 
 def variant_library(profile: ShipProfile, psi_switch: float = 0.5, v_scale: float = 1.0, n: int = 300) -> list[Primitive]:
@@ -33,9 +39,15 @@ def variant_library(profile: ShipProfile, psi_switch: float = 0.5, v_scale: floa
     lib = model_ship_thesis(profile, n=n, psi_switch=psi_switch)
     if v_scale == 1.0:
         return lib
-    zz = {name: make_primitive(profile, name, f"zig-zag u {u}, v +-{v * v_scale:.3g}, r +-{r}",
-                               mv.excitation_zigzag(profile, n, u, v * v_scale, r, psi_switch))
-          for name, u, v, r in _ZIGZAGS}
+    zz = {
+        name: make_primitive(
+            profile,
+            name,
+            f"zig-zag u {u}, v +-{v * v_scale:.3g}, r +-{r}",
+            mv.excitation_zigzag(profile, n, u, v * v_scale, r, psi_switch),
+        )
+        for name, u, v, r in _ZIGZAGS
+    }
     return [zz.get(p.name, p) for p in lib]
 
 
@@ -44,9 +56,14 @@ def tv_distance(w: dict[str, float], ref: dict[str, float]) -> float:
     return 0.5 * float(sum(abs(w.get(k, 0.0) - ref.get(k, 0.0)) for k in keys))
 
 
-def sensitivity_study(profile: ShipProfile, *, seed: int = 0, realisations: int = 20,
-                      psi_switches: tuple[float, ...] = (0.3, 0.5, 0.8, 1.2),
-                      v_scales: tuple[float, ...] = (-1.0, 0.0, 0.5, 1.0, 1.5, 2.0)) -> list[dict[str, Any]]:
+def sensitivity_study(
+    profile: ShipProfile,
+    *,
+    seed: int = 0,
+    realisations: int = 20,
+    psi_switches: tuple[float, ...] = (0.3, 0.5, 0.8, 1.2),
+    v_scales: tuple[float, ...] = (-1.0, 0.0, 0.5, 1.0, 1.5, 2.0),
+) -> list[dict[str, Any]]:
     """Rows {variant, psi_switch, v_scale, realisations, mean_subtraction, weights, tv_to_thesis,
     best_single}; v_scale -1 puts the sway in phase with the yaw rate instead of against it."""
     rows = []
@@ -64,12 +81,18 @@ def sensitivity_study(profile: ShipProfile, *, seed: int = 0, realisations: int 
             for i, nm in enumerate(info.names):
                 single[nm] = info.logdet(np.eye(len(lib))[i], "complete")
         best = max(single, key=single.get) if single else None
-        rows.append({
-            "variant": f"psi_switch {ps} rad, sway x{vs:g}, " + (f"noisy matrices ({real} realisations)" if real else "noise-free matrices")
-            + ("" if ms == "complete" else f", {ms} mean subtraction (7.53)"),
-            "psi_switch": ps, "v_scale": vs, "realisations": real, "mean_subtraction": ms,
-            "weights": {k: round(v, 4) for k, v in d.weights.items()},
-            "tv_to_thesis": tv_distance(d.weights, THESIS_SHARES),
-            "best_single": best,
-        })
+        rows.append(
+            {
+                "variant": f"psi_switch {ps} rad, sway x{vs:g}, "
+                + (f"noisy matrices ({real} realisations)" if real else "noise-free matrices")
+                + ("" if ms == "complete" else f", {ms} mean subtraction (7.53)"),
+                "psi_switch": ps,
+                "v_scale": vs,
+                "realisations": real,
+                "mean_subtraction": ms,
+                "weights": {k: round(v, 4) for k, v in d.weights.items()},
+                "tv_to_thesis": tv_distance(d.weights, THESIS_SHARES),
+                "best_single": best,
+            }
+        )
     return rows

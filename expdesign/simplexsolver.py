@@ -164,8 +164,9 @@ def _newton_on_support(model: _Model, w: np.ndarray, lo: np.ndarray, support: np
     return None
 
 
-def solve_simplex(mq: np.ndarray, m0: np.ndarray, criterion: str = "D", *, tol: float = 1e-9, max_iter: int = 5000,
-                  w0: np.ndarray | None = None) -> SimplexSolution | None:
+def solve_simplex(
+    mq: np.ndarray, m0: np.ndarray, criterion: str = "D", *, tol: float = 1e-9, max_iter: int = 5000, w0: np.ndarray | None = None
+) -> SimplexSolution | None:
     """Maximise the ``criterion`` of M(w) = m0 + sum w_q mq[q] over the simplex (see the module
     docstring). Stops when the Frank-Wolfe gap (relative to |g.w|, or absolute when that is
     below 1) is <= ``tol``; returns None when M(uniform) is singular or the gap is not reached

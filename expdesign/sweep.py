@@ -30,8 +30,20 @@ from primitives.validate import MAX_PRIMITIVE_SAMPLES, check_sweep_size, manoeuv
 CRITERIA = ("D", "A", "E")
 MODES = ("none", "batchwise", "complete")
 COLUMNS = [
-    "ship", "library", "speed_mps", "criterion", "mean_subtraction", "logdet", "efficiency_vs_uniform",
-    "efficiency_bound", "top_primitive", "top_share", "n_primitives_used", "weights", "solve_time_s", "error",
+    "ship",
+    "library",
+    "speed_mps",
+    "criterion",
+    "mean_subtraction",
+    "logdet",
+    "efficiency_vs_uniform",
+    "efficiency_bound",
+    "top_primitive",
+    "top_share",
+    "n_primitives_used",
+    "weights",
+    "solve_time_s",
+    "error",
 ]
 
 
@@ -159,8 +171,12 @@ def ship_warnings(cells: list[Cell]) -> list[str]:
 
 def failed_cells(rows: list[dict[str, Any]]) -> list[str]:
     """One line per failed cell: which cell and its error."""
-    return [f"{r['ship']}{'' if r.get('speed_mps') is None else ' @ ' + format(r['speed_mps'], 'g') + ' m/s'} "
-            f"{r['criterion']}/{r['mean_subtraction']}: {r['error']}" for r in rows if r.get("error")]
+    return [
+        f"{r['ship']}{'' if r.get('speed_mps') is None else ' @ ' + format(r['speed_mps'], 'g') + ' m/s'} "
+        f"{r['criterion']}/{r['mean_subtraction']}: {r['error']}"
+        for r in rows
+        if r.get("error")
+    ]
 
 
 def _library(cell: Cell):
@@ -177,8 +193,12 @@ def _library(cell: Cell):
         profile = dataclasses.replace(profile, cruise_speed_mps=cell.speed_mps)
     u = profile.cruise_speed_mps
     n = int(20 * profile.length_m / u / profile.sample_time)
-    sway = make_primitive(profile, "sway_moves", f"sway steps +-{0.15 * u:.2f} m/s at {u:.2f} m/s",
-                          mv.sway_steps(profile, [(0.15 * u, n), (-0.15 * u, n)], u=u))
+    sway = make_primitive(
+        profile,
+        "sway_moves",
+        f"sway steps +-{0.15 * u:.2f} m/s at {u:.2f} m/s",
+        mv.sway_steps(profile, [(0.15 * u, n), (-0.15 * u, n)], u=u),
+    )
     return profile, [p for p in standard_trials(profile) if p.name != "stopping"] + [sway]
 
 
@@ -187,7 +207,13 @@ def run_cell(cell: Cell) -> dict[str, Any]:
     from expdesign.api import run_design
 
     row: dict[str, Any] = {k: None for k in COLUMNS}
-    row.update(ship=cell.ship, library=cell.library, speed_mps=cell.speed_mps, criterion=cell.criterion, mean_subtraction=cell.mean_subtraction)
+    row.update(
+        ship=cell.ship,
+        library=cell.library,
+        speed_mps=cell.speed_mps,
+        criterion=cell.criterion,
+        mean_subtraction=cell.mean_subtraction,
+    )
     t0 = time.perf_counter()
     try:
         profile, prims = _library(cell)
@@ -260,7 +286,10 @@ def plot_summary(rows: list[dict[str, Any]], path: str | Path) -> Path:
     from primitives.io import atomic_savefig
 
     ok = [r for r in rows if r.get("efficiency_vs_uniform") is not None]
-    labels = [f"{r['ship']}{'' if r['speed_mps'] is None else ' @' + format(r['speed_mps'], 'g')} {r['criterion']}/{r['mean_subtraction']}" for r in ok]
+    labels = [
+        f"{r['ship']}{'' if r['speed_mps'] is None else ' @' + format(r['speed_mps'], 'g')} {r['criterion']}/{r['mean_subtraction']}"
+        for r in ok
+    ]
     fig, ax = plt.subplots(figsize=(max(6, 0.45 * len(ok) + 2), 4))
     ax.bar(range(len(ok)), [r["efficiency_vs_uniform"] for r in ok], color="tab:blue")
     ax.axhline(1.0, color="k", lw=0.8, ls="--")

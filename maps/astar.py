@@ -42,8 +42,9 @@ class Successors:
         self._of: dict[int, list[tuple[int, int, int, float]]] = {}
 
     @classmethod
-    def from_edges(cls, n: int, src: np.ndarray, move: np.ndarray, dst: np.ndarray, counter: np.ndarray,
-                   cost: np.ndarray) -> Successors:
+    def from_edges(
+        cls, n: int, src: np.ndarray, move: np.ndarray, dst: np.ndarray, counter: np.ndarray, cost: np.ndarray
+    ) -> Successors:
         """From edges in any order; a state's edges keep their given order (stable sort)."""
         order = np.argsort(src, kind="stable")
         ptr = np.zeros(n + 1, np.int64)
@@ -59,15 +60,16 @@ class Successors:
             return self._rows[a:b]
         row = self._of.get(s)
         if row is None:
-            row = self._of[s] = list(zip(self.move[a:b].tolist(), self.dst[a:b].tolist(), self.counter[a:b].tolist(),
-                                         self.cost[a:b].tolist()))
+            row = self._of[s] = list(
+                zip(self.move[a:b].tolist(), self.dst[a:b].tolist(), self.counter[a:b].tolist(), self.cost[a:b].tolist())
+            )
         return row
 
     def __iter__(self):
         if self._rows is None:
             self._rows = list(zip(self.move.tolist(), self.dst.tolist(), self.counter.tolist(), self.cost.tolist()))
         rows, p = self._rows, self._p
-        return (rows[p[s]:p[s + 1]] for s in range(len(self)))
+        return (rows[p[s] : p[s + 1]] for s in range(len(self)))
 
     def sources(self) -> np.ndarray:
         return np.repeat(np.arange(len(self)), np.diff(self.ptr))
@@ -155,16 +157,22 @@ class _Rows(dict):
         return out
 
 
-def search(pb: Problem, heuristic: str = "admissible", weights: tuple[float, float, float] = (1.0, 1.0, 1.0),
-           basic_cost: float = 1.0, max_expansions: int = 50_000_000, table: np.ndarray | None = None,
-           max_states: int | None = None) -> SearchResult:
+def search(
+    pb: Problem,
+    heuristic: str = "admissible",
+    weights: tuple[float, float, float] = (1.0, 1.0, 1.0),
+    basic_cost: float = 1.0,
+    max_expansions: int = 50_000_000,
+    table: np.ndarray | None = None,
+    max_states: int | None = None,
+) -> SearchResult:
     """A* with a binary heap (heapq), packed integer keys and a closed set; stops when it holds
     more than ``max_states`` states (the memory budget)."""
     t0 = time.perf_counter()
     K, nj = pb.n_head, pb.nj
     Q = len(pb.targets)
     radix = [d + 1 for d in pb.targets]
-    stride = [int(np.prod(radix[q + 1:])) for q in range(Q)]
+    stride = [int(np.prod(radix[q + 1 :])) for q in range(Q)]
     G = int(np.prod(radix))
     full = sum(d * st for d, st in zip(pb.targets, stride))
     D = int(sum(pb.targets))
@@ -200,10 +208,21 @@ def search(pb: Problem, heuristic: str = "admissible", weights: tuple[float, flo
     k0 = s0 * G
     h0 = htab[s0][remaining[0]]
     if not np.isfinite(h0):
-        return SearchResult(False, [], [], float("inf"), 0, 1, time.perf_counter() - t0, heuristic, False, h0,
-                            f"no sequence of moves that uses all {D} informative manoeuvres reaches the goal, even with the "
-                            "counters pooled and in any order (the relaxed problem): some manoeuvre ends where the goal "
-                            "cannot be reached, or the water between them is too tight")
+        return SearchResult(
+            False,
+            [],
+            [],
+            float("inf"),
+            0,
+            1,
+            time.perf_counter() - t0,
+            heuristic,
+            False,
+            h0,
+            f"no sequence of moves that uses all {D} informative manoeuvres reaches the goal, even with the "
+            "counters pooled and in any order (the relaxed problem): some manoeuvre ends where the goal "
+            "cannot be reached, or the water between them is too tight",
+        )
     gcost = {k0: 0.0}
     parent: dict[int, tuple[int, int]] = {}
     closed: set[int] = set()
@@ -256,9 +275,20 @@ def search(pb: Problem, heuristic: str = "admissible", weights: tuple[float, flo
             why = f"memory limit reached ({len(gcost):,} states held; raise --max-memory or plan fewer manoeuvres)"
         else:
             why = "every reachable state was explored"
-        return SearchResult(False, [], [], float("inf"), expansions, len(gcost), dt, heuristic, False, h0,
-                            f"no sequence of moves meets all counters and reaches the goal ({why})",
-                            {"D": D})
+        return SearchResult(
+            False,
+            [],
+            [],
+            float("inf"),
+            expansions,
+            len(gcost),
+            dt,
+            heuristic,
+            False,
+            h0,
+            f"no sequence of moves meets all counters and reaches the goal ({why})",
+            {"D": D},
+        )
     moves, spatial = [], [found_key // G]
     k = found_key
     while k in parent:
@@ -267,5 +297,6 @@ def search(pb: Problem, heuristic: str = "admissible", weights: tuple[float, flo
         spatial.append(k // G)
     moves.reverse()
     spatial.reverse()
-    return SearchResult(True, moves, spatial, gcost[found_key], expansions, len(gcost), dt, heuristic,
-                        heuristic == "admissible", h0)
+    return SearchResult(
+        True, moves, spatial, gcost[found_key], expansions, len(gcost), dt, heuristic, heuristic == "admissible", h0
+    )

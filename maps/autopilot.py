@@ -41,6 +41,7 @@ def _clamp(x: float, lo: float, hi: float) -> float:
 _DEG8, _DEG20, _DEG05, _DEG02, _DEG005 = (float(np.radians(a)) for a in (8.0, 20.0, 0.5, 0.2, 0.05))
 _NEIGHBOURS = np.array([[a, b] for a in (-1, 0, 1) for b in (-1, 0, 1)], float)  # a lattice point and its 8 neighbours
 
+
 class _Rudder:
     """Helm and engine for a rudder/propeller ship: yaw-rate and speed references -> rudder angle
     and shaft speed, moved at the profile's rudder and shaft rates ([helm], [engine]).
@@ -139,11 +140,13 @@ class _Helm:
         self.r_lim = self.uc / (1.5 * profile.length_m)
         b = _gains(profile)
         self.k = 0.3 / np.where(np.abs(b) > 1e-12, b, 1e-12)
-        self.fmax = np.array([
-            1.5 * abs(steady_forces(profile, self.uc, 0, 0)[0]),
-            2.0 * abs(steady_forces(profile, 0.0, 0.5, 0)[1]),
-            2.0 * abs(steady_forces(profile, self.uc, 0, self.uc / (1.5 * profile.length_m))[2]),
-        ])
+        self.fmax = np.array(
+            [
+                1.5 * abs(steady_forces(profile, self.uc, 0, 0)[0]),
+                2.0 * abs(steady_forces(profile, 0.0, 0.5, 0)[1]),
+                2.0 * abs(steady_forces(profile, self.uc, 0, self.uc / (1.5 * profile.length_m))[2]),
+            ]
+        )
         self.k_f, self.fmax_f = self.k.tolist(), self.fmax.tolist()
 
     def feedforward(self, u: float, v: float, r: float) -> np.ndarray:
@@ -256,11 +259,21 @@ class _Helm:
                 if rudder:  # no sway control: steer the cross-track error out by line of sight
                     L = self.p.length_m
                     # tight on yaw rate and sway: a course-unstable hull amplifies them over a long open-loop manoeuvre
-                    settled = abs(err) < _DEG02 and abs(nu[2]) * L < 0.005 and abs(c_err) < 0.01 * L \
-                        and abs(nu[1]) < 0.01 and abs(nu[0] - uc) < 0.05
+                    settled = (
+                        abs(err) < _DEG02
+                        and abs(nu[2]) * L < 0.005
+                        and abs(c_err) < 0.01 * L
+                        and abs(nu[1]) < 0.01
+                        and abs(nu[0] - uc) < 0.05
+                    )
                 else:
-                    settled = abs(err) < _DEG005 and abs(nu[2]) < 5e-4 and abs(c_err) < 0.3 and abs(nu[1]) < 0.01 \
+                    settled = (
+                        abs(err) < _DEG005
+                        and abs(nu[2]) < 5e-4
+                        and abs(c_err) < 0.3
+                        and abs(nu[1]) < 0.01
                         and abs(nu[0] - uc) < 0.01
+                    )
                 dist = float(np.min(np.hypot(*(near - pos).T)))
                 if given and float((near[0] - pos) @ d) <= 0.5 * uc * self.ts:  # abreast the given point: stop
                     state["i"] += 1
@@ -299,4 +312,3 @@ def helm_for(profile: ShipProfile, res: float, n_head: int) -> _Helm:
             _HELMS.clear()
         hit = _HELMS[key] = (profile, _Helm(profile, res, n_head))
     return hit[1]
-

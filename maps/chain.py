@@ -145,7 +145,9 @@ class Lattice:
             grow = o.margin + m.snap_m[h] + extra + add
             if m.prim(h) is m.prim(q) and abs(grow - (o.margin + m.snap_m[q] + extra + add)) <= 1e-9:
                 if add not in base:
-                    base[add] = grid.footprint_rows(m.prim(q).footprint, float(self.table[q]), o.margin + m.snap_m[q] + extra + add)
+                    base[add] = grid.footprint_rows(
+                        m.prim(q).footprint, float(self.table[q]), o.margin + m.snap_m[q] + extra + add
+                    )
                 return quarter_turns(base[add], (h - q) // (K // 4))
             return grid.footprint_rows(m.prim(h).footprint, float(self.table[h]), grow)
 
@@ -226,12 +228,26 @@ class Lattice:
             n_sp = win.ni * nj * K
             keep = ~np.isin(mv.astype(np.int64) * n_sp + src.astype(np.int64), [a * n_sp + b for a, b in blocked])
             src, mv, dst, q, cost = src[keep], mv[keep], dst[keep], q[keep], cost[keep]
-        succ = astar.Successors.from_edges(win.ni * nj * K, src.astype(np.int64), mv.astype(np.int64), dst.astype(np.int64),
-                                           q.astype(np.int64), cost.astype(float))
+        succ = astar.Successors.from_edges(
+            win.ni * nj * K,
+            src.astype(np.int64),
+            mv.astype(np.int64),
+            dst.astype(np.int64),
+            q.astype(np.int64),
+            cost.astype(float),
+        )
         si, sj = self.start_cell
         gi, gj = self.goal_cell
-        return astar.Problem(win.ni, nj, K, [self.targets[n] for n in self.cnames], succ, (si * nj + sj) * K + self.h_start,
-                             [(gi * nj + gj) * K + h for h in self.goal_h], self.res)
+        return astar.Problem(
+            win.ni,
+            nj,
+            K,
+            [self.targets[n] for n in self.cnames],
+            succ,
+            (si * nj + sj) * K + self.h_start,
+            [(gi * nj + gj) * K + h for h in self.goal_h],
+            self.res,
+        )
 
     def pose(self, spatial: int) -> tuple[float, float, float]:
         K, nj = len(self.table), self.window.nj
@@ -252,9 +268,18 @@ def _endpoint(sea: SeaMap, given: LatLonHdg | None, feat, default: LatLonHdg, wh
     return x, y, (None if hdg is None else float(np.radians(hdg))), given
 
 
-def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive], counts: dict[str, int], *,
-                  start: LatLonHdg | None = None, goal: LatLonHdg | None = None, options: PlanOptions | None = None,
-                  cache: dict[str, Any] | None = None, prefilter: bool = False) -> Lattice:
+def build_lattice(
+    sea: SeaMap,
+    profile: ShipProfile,
+    primitives: list[Primitive],
+    counts: dict[str, int],
+    *,
+    start: LatLonHdg | None = None,
+    goal: LatLonHdg | None = None,
+    options: PlanOptions | None = None,
+    cache: dict[str, Any] | None = None,
+    prefilter: bool = False,
+) -> Lattice:
     """Window, collision grid and motion set for planning ``counts`` uses of ``primitives``.
 
     ``cache`` (a dict kept between calls) reuses moves already built for the same options.
@@ -275,21 +300,44 @@ def build_lattice(sea: SeaMap, profile: ShipProfile, primitives: list[Primitive]
     h_start = nearest_heading(spsi or 0.0, table)
     warnings = [*profile.load_warnings, *sea.warnings]  # a model.json's findings its profile cannot hold first
     if spsi is not None and abs(((spsi - table[h_start]) + np.pi) % (2 * np.pi) - np.pi) > 1e-6:
-        warnings.append(f"start heading {np.degrees(spsi):.1f} deg rounded to the lattice heading {np.degrees(table[h_start]):.1f} deg")
+        warnings.append(
+            f"start heading {np.degrees(spsi):.1f} deg rounded to the lattice heading {np.degrees(table[h_start]):.1f} deg"
+        )
     too_big = too_big_for_water(sea, win, prims, table, o.margin) if prefilter else {}
-    moves, names, targets, notes = _motion_set(profile, [p for p in prims if p.name not in too_big], counts, res, o,
-                                               {} if cache is None else cache)
+    moves, names, targets, notes = _motion_set(
+        profile, [p for p in prims if p.name not in too_big], counts, res, o, {} if cache is None else cache
+    )
     gi, gj = win.cell_of(gx, gy)
     if not win.contains(gi, gj):
         raise MapError(f"goal lies outside the planning window ({win.ni} x {win.nj} points of {res:g} m)")
-    return Lattice(sea, profile, o, win, _collision_grid(sea, win, moves, profile, o), table, moves, names, targets,
-                   {p.name: p for p in prims}, (sx, sy, float(table[h_start])), h_start, win.cell_of(sx, sy), (gi, gj),
-                   [nearest_heading(gpsi, table)] if gpsi is not None else list(range(K)), start_ll, goal_ll, notes, warnings,
-                   time.perf_counter() - t0, too_big)
+    return Lattice(
+        sea,
+        profile,
+        o,
+        win,
+        _collision_grid(sea, win, moves, profile, o),
+        table,
+        moves,
+        names,
+        targets,
+        {p.name: p for p in prims},
+        (sx, sy, float(table[h_start])),
+        h_start,
+        win.cell_of(sx, sy),
+        (gi, gj),
+        [nearest_heading(gpsi, table)] if gpsi is not None else list(range(K)),
+        start_ll,
+        goal_ll,
+        notes,
+        warnings,
+        time.perf_counter() - t0,
+        too_big,
+    )
 
 
-def _endpoints(sea: SeaMap, start: LatLonHdg | None, goal: LatLonHdg | None, margin: float,
-               cache: dict[str, Any] | None = None) -> tuple[tuple, tuple]:
+def _endpoints(
+    sea: SeaMap, start: LatLonHdg | None, goal: LatLonHdg | None, margin: float, cache: dict[str, Any] | None = None
+) -> tuple[tuple, tuple]:
     """(x, y, psi or None, (lat, lon, heading)) of the start and of the goal: given, else the map's
     features, else (bundled map) the thesis's start and goal. Taken from ``cache`` when
     :func:`prepare_basic_moves` found them already (checking a point against the obstacles grown
@@ -299,12 +347,15 @@ def _endpoints(sea: SeaMap, start: LatLonHdg | None, goal: LatLonHdg | None, mar
     hit = (cache or {}).get("endpoints")
     if hit is not None and hit[0] is sea and hit[1] == (start, goal, margin):
         return hit[2]
-    return (_endpoint(sea, start, sea.start, HELSINKI_START, "start", margin),
-            _endpoint(sea, goal, sea.goal, HELSINKI_GOAL, "goal", margin))
+    return (
+        _endpoint(sea, start, sea.start, HELSINKI_START, "start", margin),
+        _endpoint(sea, goal, sea.goal, HELSINKI_GOAL, "goal", margin),
+    )
 
 
-def _motion_set(profile: ShipProfile, prims: list[Primitive], counts: dict[str, int], res: float, o: PlanOptions,
-                cache: dict[str, Any]) -> tuple[list[Move], list[str], dict[str, int], list[str]]:
+def _motion_set(
+    profile: ShipProfile, prims: list[Primitive], counts: dict[str, int], res: float, o: PlanOptions, cache: dict[str, Any]
+) -> tuple[list[Move], list[str], dict[str, int], list[str]]:
     """(moves, counter names, targets, notes): the informative moves of ``prims`` (one counter
     each, or one per piece with ``split``) and the basic moves, built into ``cache`` or taken from it."""
     K = o.headings
@@ -330,10 +381,13 @@ def _collision_grid(sea: SeaMap, win: Window, moves: list[Move], profile: ShipPr
     growth the placements use (margin, snapping, a cell, the soft zone and 100 m for re-plans).
     The reach is the farthest footprint point from the move's start at any heading (its distance
     from the origin: the bounds alone miss up to a factor sqrt(2) once the footprint is turned)."""
-    ext = max((float(np.hypot(*shapely.get_coordinates(pr.footprint).T).max(initial=0.0)) for m in moves for pr in m.prims),
-              default=0.0)
+    ext = max(
+        (float(np.hypot(*shapely.get_coordinates(pr.footprint).T).max(initial=0.0)) for m in moves for pr in m.prims), default=0.0
+    )
     snap = max(float(m.snap_m.max()) for m in moves)
-    return CollisionGrid(sea, win, o.margin, o.sub, ext + o.margin + snap + win.res + 100.0 + o.clearance_lengths * profile.length_m)
+    return CollisionGrid(
+        sea, win, o.margin, o.sub, ext + o.margin + snap + win.res + 100.0 + o.clearance_lengths * profile.length_m
+    )
 
 
 def _informative(p: Primitive, res: float, K: int, split: bool, run_in: float) -> tuple:
@@ -359,8 +413,15 @@ def _basic_moves(profile: ShipProfile, res: float, o: PlanOptions, cache: dict[s
     return cache["basic"]
 
 
-def prepare_basic_moves(sea: SeaMap, profile: ShipProfile, options: PlanOptions, cache: dict[str, Any], *,
-                        start: LatLonHdg | None = None, goal: LatLonHdg | None = None) -> None:
+def prepare_basic_moves(
+    sea: SeaMap,
+    profile: ShipProfile,
+    options: PlanOptions,
+    cache: dict[str, Any],
+    *,
+    start: LatLonHdg | None = None,
+    goal: LatLonHdg | None = None,
+) -> None:
     """Build the basic moves, and their swept footprints, and find the start and goal into
     ``cache`` for :func:`build_lattice`: work that needs no design, done while a design is
     computed elsewhere."""
@@ -395,8 +456,9 @@ def search_plan(lat: Lattice, extra: float = 0.0, blocked: frozenset = frozenset
     o = lat.options
     fixed, _ = estimate_memory(lat.window.ni, lat.window.nj, len(lat.table), len(lat.moves), list(lat.targets.values()))
     max_states = max(10_000, int((o.max_memory_gib * 2**30 - fixed) / BYTES_PER_STATE))
-    return SearchOutcome(astar.search(pb, o.heuristic, o.weights, o.basic_cost, o.max_expansions, max_states=max_states),
-                         pb, extra, blocked)
+    return SearchOutcome(
+        astar.search(pb, o.heuristic, o.weights, o.basic_cost, o.max_expansions, max_states=max_states), pb, extra, blocked
+    )
 
 
 @dataclass
@@ -451,13 +513,27 @@ def verify_plan(lat: Lattice, out: SearchOutcome) -> Realised:
                 nu, eta = leg.sail(nu, eta)
             k += 1
     end_cell = res.spatial[-1] // K
-    ver = resimulate(lat.sea, legs, lat.start, lat.options.margin, lat.window.point(end_cell // lat.window.nj, end_cell % lat.window.nj),
-                     nu0=np.array([p.cruise_speed_mps, 0.0, 0.0]), sims=[leg.sim for leg in legs])
+    ver = resimulate(
+        lat.sea,
+        legs,
+        lat.start,
+        lat.options.margin,
+        lat.window.point(end_cell // lat.window.nj, end_cell % lat.window.nj),
+        nu0=np.array([p.cruise_speed_mps, 0.0, 0.0]),
+        sims=[leg.sim for leg in legs],
+    )
     return Realised(legs, ver, shortcuts, replaced)
 
 
-def assemble_plan(lat: Lattice, out: SearchOutcome, real: Realised, stats: dict[str, Any] | None = None, *,
-                  design: dict[str, Any] | None = None, vessel_name: str = "") -> Plan:
+def assemble_plan(
+    lat: Lattice,
+    out: SearchOutcome,
+    real: Realised,
+    stats: dict[str, Any] | None = None,
+    *,
+    design: dict[str, Any] | None = None,
+    vessel_name: str = "",
+) -> Plan:
     """The Plan of a found path: steps (legs), the re-simulated track, counts and figures."""
     sea, p, ver = lat.sea, lat.profile, real.verification
     lon, lat_ = sea.to_lonlat(ver.track[:, 0], ver.track[:, 1])
@@ -467,13 +543,28 @@ def assemble_plan(lat: Lattice, out: SearchOutcome, real: Realised, stats: dict[
     generic = "heading more than 10 deg or speed more than 10 % off the expected values at a check point: abort and repeat"
     for k, leg in enumerate(real.legs):
         x, y, psi = ver.track[t_acc]
-        steps.append(PlanStep(
-            index=k, primitive=leg.source if leg.segment != "transit" else leg.name, kind=leg.kind, description=leg.description,
-            start_time_s=float(ver.t[t_acc]), duration_s=leg.duration_s, entry_x=float(x), entry_y=float(y), entry_psi=float(psi),
-            entry_lon=float(lon[t_acc]), entry_lat=float(lat_[t_acc]), entry_speed_mps=float(np.hypot(*ver.nu[t_acc, :2])),
-            commands=list(leg.commands), space_m=leg.space_m, segment=leg.segment, orders=list(leg.orders),
-            abort=[clear, *(leg.abort or [generic])] if leg.segment == "informative" else [], execute=leg.execute,
-        ))
+        steps.append(
+            PlanStep(
+                index=k,
+                primitive=leg.source if leg.segment != "transit" else leg.name,
+                kind=leg.kind,
+                description=leg.description,
+                start_time_s=float(ver.t[t_acc]),
+                duration_s=leg.duration_s,
+                entry_x=float(x),
+                entry_y=float(y),
+                entry_psi=float(psi),
+                entry_lon=float(lon[t_acc]),
+                entry_lat=float(lat_[t_acc]),
+                entry_speed_mps=float(np.hypot(*ver.nu[t_acc, :2])),
+                commands=list(leg.commands),
+                space_m=leg.space_m,
+                segment=leg.segment,
+                orders=list(leg.orders),
+                abort=[clear, *(leg.abort or [generic])] if leg.segment == "informative" else [],
+                execute=leg.execute,
+            )
+        )
         t_acc += leg.n_samples
     used = dict.fromkeys(lat.cnames, 0)
     for mi in out.result.moves:
@@ -481,13 +572,34 @@ def assemble_plan(lat: Lattice, out: SearchOutcome, real: Realised, stats: dict[
         if q >= 0:
             used[lat.cnames[q]] += 1
     st = dict(stats or {})
-    st.update(drift_m=ver.drift_m, basic_moves=sum(1 for mi in out.result.moves if lat.moves[mi].counter < 0),
-              shortcuts=real.shortcuts, moves_straightened=real.replaced_moves)
+    st.update(
+        drift_m=ver.drift_m,
+        basic_moves=sum(1 for mi in out.result.moves if lat.moves[mi].counter < 0),
+        shortcuts=real.shortcuts,
+        moves_straightened=real.replaced_moves,
+    )
     if not ver.ok:
         st.update(reason=ver.reason, help=["increase --margin (more room for drift)", "use a finer --resolution"])
-    return Plan(ship=p.name, steps=steps, t=ver.t, track=ver.track, lonlat=np.column_stack([lon, lat_]),
-                speed=np.hypot(ver.nu[:, 0], ver.nu[:, 1]), step_of_sample=ver.step_of_sample, inputs=ver.inputs,
-                input_names=list(p.inputs), projection=sea.projection_info(), feasible=ver.ok, optimal=out.result.optimal and ver.ok,
-                min_clearance_m=ver.min_clearance_m, margin_m=lat.options.margin, counts=used, targets=dict(lat.targets),
-                stats=st, map_name=sea.name, hull=(p.length_m, p.beam_m), design=dict(design or {}),
-                vessel_name=vessel_name or getattr(p, "display_name", "") or p.name)
+    return Plan(
+        ship=p.name,
+        steps=steps,
+        t=ver.t,
+        track=ver.track,
+        lonlat=np.column_stack([lon, lat_]),
+        speed=np.hypot(ver.nu[:, 0], ver.nu[:, 1]),
+        step_of_sample=ver.step_of_sample,
+        inputs=ver.inputs,
+        input_names=list(p.inputs),
+        projection=sea.projection_info(),
+        feasible=ver.ok,
+        optimal=out.result.optimal and ver.ok,
+        min_clearance_m=ver.min_clearance_m,
+        margin_m=lat.options.margin,
+        counts=used,
+        targets=dict(lat.targets),
+        stats=st,
+        map_name=sea.name,
+        hull=(p.length_m, p.beam_m),
+        design=dict(design or {}),
+        vessel_name=vessel_name or getattr(p, "display_name", "") or p.name,
+    )

@@ -144,7 +144,7 @@ class CollisionGrid:
         for k in range(0, len(rows), 64):
             if not len(alive):
                 break
-            a, b0, b1 = (rows[k:k + 64, i:i + 1] for i in range(3))
+            a, b0, b1 = (rows[k : k + 64, i : i + 1] for i in range(3))
             hit = (flat[cell[alive][None, :] + (a * nb + b0)] <= col[alive][None, :] + b1).any(axis=0)
             alive = alive[~hit]
         ok = np.zeros(w.ni * w.nj, bool)

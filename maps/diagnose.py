@@ -31,30 +31,52 @@ def explain_failure(pb: Problem, moves: list[Move], counters: list[str], result:
     for mi, m in enumerate(moves):
         if m.counter >= 0 and pb.targets[m.counter] > 0 and placements[mi] == 0:
             b = m.prims[0].footprint.bounds
-            return (f"primitive {m.name} fits nowhere in the planning window ({win}): it needs "
-                    f"{b[2] - b[0]:.0f} x {b[3] - b[1]:.0f} m of water plus the margin",
-                    [f"a smaller or shorter version of {m.name}", "a larger area (trial_area or a coarser --resolution)",
-                     "a smaller --margin"])
+            return (
+                f"primitive {m.name} fits nowhere in the planning window ({win}): it needs "
+                f"{b[2] - b[0]:.0f} x {b[3] - b[1]:.0f} m of water plus the margin",
+                [
+                    f"a smaller or shorter version of {m.name}",
+                    "a larger area (trial_area or a coarser --resolution)",
+                    "a smaller --margin",
+                ],
+            )
     reach = _reachable(pb)
     if not any(g in reach for g in pb.goal_spatial):
-        few = (f": from the start the moves reach only {len(reach)} lattice states (the water round the start is too "
-               f"tight for them)" if len(reach) < 0.01 * len(pb.succ) else "")
+        few = (
+            f": from the start the moves reach only {len(reach)} lattice states (the water round the start is too tight for them)"
+            if len(reach) < 0.01 * len(pb.succ)
+            else ""
+        )
         more = "more headings (--headings 16: shorter turns)" if pb.n_head < 16 else "more headings"
-        return ("the goal cannot be reached from the start with these moves, even ignoring the counters" + few,
-                ["choose a goal in water connected to the start", more, "a smaller --margin", "a finer --resolution",
-                 "shorter run-ins (--run-in)"])
+        return (
+            "the goal cannot be reached from the start with these moves, even ignoring the counters" + few,
+            [
+                "choose a goal in water connected to the start",
+                more,
+                "a smaller --margin",
+                "a finer --resolution",
+                "shorter run-ins (--run-in)",
+            ],
+        )
     for mi, m in enumerate(moves):
         if m.counter < 0 or pb.targets[m.counter] == 0:
             continue
         if not any(s in reach for s, lst in enumerate(pb.succ) for mm, _, _, _ in lst if mm == mi):
-            return (f"counter of {counters[m.counter]} (target {pb.targets[m.counter]}) cannot be met: "
-                    f"{m.name} fits nowhere reachable from the start",
-                    [f"lower the count of {counters[m.counter]}", "a larger area", f"a smaller version of {m.name}"])
+            return (
+                f"counter of {counters[m.counter]} (target {pb.targets[m.counter]}) cannot be met: "
+                f"{m.name} fits nowhere reachable from the start",
+                [f"lower the count of {counters[m.counter]}", "a larger area", f"a smaller version of {m.name}"],
+            )
     if result.expansions == 0 and result.reason:  # refused before the search: the relaxed problem has no solution
-        return (result.reason, ["lower counts (a shorter --trial-length)", "a larger area", "shorter primitives (split them: --split)"])
+        return (
+            result.reason,
+            ["lower counts (a shorter --trial-length)", "a larger area", "shorter primitives (split them: --split)"],
+        )
     if result.expansions >= 0 and "limit" in result.reason:
         return (result.reason, ["lower counts", "the admissible heuristic", "a coarser --resolution"])
     tg = ", ".join(f"{n}={d}" for n, d in zip(counters, pb.targets))
-    return (f"the counters ({tg}) cannot all be met on the way from start to goal: "
-            f"every reachable combination was explored ({result.expansions} expansions)",
-            ["lower counts", "a larger area", "shorter primitives (split them: --split)"])
+    return (
+        f"the counters ({tg}) cannot all be met on the way from start to goal: "
+        f"every reachable combination was explored ({result.expansions} expansions)",
+        ["lower counts", "a larger area", "shorter primitives (split them: --split)"],
+    )

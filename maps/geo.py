@@ -178,9 +178,7 @@ def _check_coords(src: str, i: int, geom: BaseGeometry) -> None:
         raise _fail(src, i, f"coordinates out of range for WGS-84 lon/lat{swap}")
 
 
-def load_map(
-    path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: float = 0.5, repair: bool = True
-) -> SeaMap:
+def load_map(path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: float = 0.5, repair: bool = True) -> SeaMap:
     """Load and project a GeoJSON sea map (default: the bundled Helsinki map).
 
     Invalid polygons are repaired with ``shapely.make_valid`` and reported in ``warnings``.
@@ -191,7 +189,9 @@ def load_map(
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise MapError(f"{src}: no such map file (give a GeoJSON FeatureCollection, or omit --map for the Helsinki example)") from None
+        raise MapError(
+            f"{src}: no such map file (give a GeoJSON FeatureCollection, or omit --map for the Helsinki example)"
+        ) from None
     except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
         raise MapError(f"{src}: not valid JSON ({type(exc).__name__}): a sea map must be a GeoJSON FeatureCollection") from None
     except IsADirectoryError:
@@ -208,7 +208,7 @@ def load_map(
             raise _fail(src, i, "not a GeoJSON Feature with a geometry")
         props = f.get("properties") or {}
         if not isinstance(props, dict):
-            raise _fail(src, i, "properties must be an object (e.g. {\"kind\": \"land\"})")
+            raise _fail(src, i, 'properties must be an object (e.g. {"kind": "land"})')
         kind = props.get("kind", "land")
         if kind not in KINDS:
             raise _fail(src, i, f"properties.kind {kind!r} unknown; use one of {', '.join(KINDS)}")
@@ -243,9 +243,11 @@ def load_map(
         if len(groups[k]) > 1:
             raise MapError(f"{src}: {len(groups[k])} features of kind {k!r}; give at most one")
     if not any(g.geom_type in POLYGONAL for grp in groups.values() for _, g, _ in grp):
-        raise MapError(f"{src}: the map holds only points (start, goal, point obstacles) and no land, depth_area, restricted or "
-                       "trial_area polygon, so it says nothing of where the water ends: add the coast as land polygons, or a "
-                       "trial_area polygon around the open water to plan in")
+        raise MapError(
+            f"{src}: the map holds only points (start, goal, point obstacles) and no land, depth_area, restricted or "
+            "trial_area polygon, so it says nothing of where the water ends: add the coast as land polygons, or a "
+            "trial_area polygon around the open water to plan in"
+        )
 
     # projection: transverse Mercator centred on the map's extent
     allxy = np.vstack([shapely.get_coordinates(g) for grp in groups.values() for _, g, _ in grp])
@@ -272,7 +274,9 @@ def load_map(
     try:
         land = shapely.union_all(proj_geoms("land")) if groups["land"] else shapely.Polygon()
         draft_need = draught_m + ukc_m
-        shallow = [g for (_, _, pr), g in zip(groups["depth_area"], proj_geoms("depth_area")) if float(pr["min_depth_m"]) < draft_need]
+        shallow = [
+            g for (_, _, pr), g in zip(groups["depth_area"], proj_geoms("depth_area")) if float(pr["min_depth_m"]) < draft_need
+        ]
         obst = []
         for (_, _, pr), g in zip(groups["obstacle"], proj_geoms("obstacle")):
             obst.append(g.buffer(float(pr.get("radius_m", 0.0)) or 1.0) if g.geom_type == "Point" else g)
@@ -280,17 +284,31 @@ def load_map(
         obstacles = shapely.union_all([land, *shallow, *obst, *restricted])
         trial = shapely.union_all(proj_geoms("trial_area")) if groups["trial_area"] else None
     except shapely.errors.GEOSException as exc:  # a topology GEOS cannot overlay even after make_valid
-        raise MapError(f"{src}: the map's polygons cannot be combined ({str(exc).splitlines()[0][:80]}): repair them in a GIS "
-                       "(e.g. QGIS 'Fix geometries') or remove the self-touching polygon") from None
+        raise MapError(
+            f"{src}: the map's polygons cannot be combined ({str(exc).splitlines()[0][:80]}): repair them in a GIS "
+            "(e.g. QGIS 'Fix geometries') or remove the self-touching polygon"
+        ) from None
     shapely.prepare(land)
     shapely.prepare(obstacles)
     ex = project(np.array([[lo0, la0], [lo1, la1], [lo0, la1], [lo1, la0]]))
     extent = (float(ex[:, 0].min()), float(ex[:, 1].min()), float(ex[:, 0].max()), float(ex[:, 1].max()))
     sm = SeaMap(
-        name=str(doc.get("name") or path.stem), source=src, lon0=float(lon0), lat0=float(lat0), proj4=proj4,
-        land=land, obstacles=obstacles, trial_area=trial, extent=extent,
+        name=str(doc.get("name") or path.stem),
+        source=src,
+        lon0=float(lon0),
+        lat0=float(lat0),
+        proj4=proj4,
+        land=land,
+        obstacles=obstacles,
+        trial_area=trial,
+        extent=extent,
         lonlat_extent=(float(lo0), float(la0), float(lo1), float(la1)),
-        draught_m=draught_m, ukc_m=ukc_m, n_shallow=len(shallow), warnings=warnings, _fwd=fwd, _inv=inv,
+        draught_m=draught_m,
+        ukc_m=ukc_m,
+        n_shallow=len(shallow),
+        warnings=warnings,
+        _fwd=fwd,
+        _inv=inv,
     )
     for k in ("start", "goal"):
         if groups[k]:

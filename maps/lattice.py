@@ -26,8 +26,19 @@ from primitives.ship import ShipProfile
 from primitives.simulate import simulate
 from primitives.stability import require_stable
 
-__all__ = ["Move", "heading_table", "nearest_heading", "helm_for", "run_in_seconds", "run_in_inputs", "with_run_in", "classes",
-           "lattice_basic_moves", "place", "transit_mismatch"]
+__all__ = [
+    "Move",
+    "heading_table",
+    "nearest_heading",
+    "helm_for",
+    "run_in_seconds",
+    "run_in_inputs",
+    "with_run_in",
+    "classes",
+    "lattice_basic_moves",
+    "place",
+    "transit_mismatch",
+]
 
 
 @dataclass
@@ -60,9 +71,17 @@ class Move:
         return self.core[h % len(self.core)] if self.core else self.prim(h).n_samples
 
 
-
-def _assemble(profile: ShipProfile, name: str, desc: str, kind: str, head_inputs: np.ndarray | None, nu0,
-              tail: np.ndarray, commands: list[str], splits: list[int]) -> Primitive:
+def _assemble(
+    profile: ShipProfile,
+    name: str,
+    desc: str,
+    kind: str,
+    head_inputs: np.ndarray | None,
+    nu0,
+    tail: np.ndarray,
+    commands: list[str],
+    splits: list[int],
+) -> Primitive:
     parts = [] if head_inputs is None else [head_inputs]
     if len(tail):
         parts.append(tail)
@@ -99,7 +118,9 @@ def run_in_inputs(prim: Primitive, res: float, n_head: int, run_in_s: float) -> 
     return np.vstack([reach, np.tile(row, (n_hold, 1))]) if n_hold + len(reach) else np.zeros((0, m))
 
 
-def with_run_in(prim: Primitive, res: float, n_head: int, psi0: float, run_in: np.ndarray, head_sim=None) -> tuple[Primitive, int]:
+def with_run_in(
+    prim: Primitive, res: float, n_head: int, psi0: float, run_in: np.ndarray, head_sim=None
+) -> tuple[Primitive, int]:
     """Run-in + primitive + settling leg, started from transit at lattice heading ``psi0``.
 
     ``run_in`` (:func:`run_in_inputs`) brings the ship to the primitive's entry velocity and holds
@@ -117,15 +138,27 @@ def with_run_in(prim: Primitive, res: float, n_head: int, psi0: float, run_in: n
     h_end = nearest_heading(psi0 + p, helm.table)
     tail = helm.run(sim.nu[0, -1], (c * x - s * y, s * x + c * y, psi0 + p), [("settle", int(h_end))])
     n_r = len(run_in)
-    cmds = list(prim.commands) + ([f"then steady at {helm.uc / KNOT:.1f} kn on the nearest lattice course for "
-                                   f"{len(tail) * helm.ts:.0f} s"] if len(tail) else [])
+    cmds = list(prim.commands) + (
+        [f"then steady at {helm.uc / KNOT:.1f} kn on the nearest lattice course for {len(tail) * helm.ts:.0f} s"]
+        if len(tail)
+        else []
+    )
     if len(tail):  # the tail continues the head's simulation: no need to simulate the head again
         rest = simulate(prim.profile, tail, nu0=sim.nu[0, -1], eta0=sim.eta[0, -1])
         nu, eta = np.vstack([sim.nu[0], rest.nu[0, 1:]]), np.vstack([sim.eta[0], rest.eta[0, 1:]])
     else:
         nu, eta = sim.nu[0], sim.eta[0]
-    whole = Primitive(prim.name, prim.description, prim.profile, np.vstack([head, tail]) if len(tail) else head, nu, eta,
-                      [n_r + k for k in prim.split_points], prim.kind, cmds)
+    whole = Primitive(
+        prim.name,
+        prim.description,
+        prim.profile,
+        np.vstack([head, tail]) if len(tail) else head,
+        nu,
+        eta,
+        [n_r + k for k in prim.split_points],
+        prim.kind,
+        cmds,
+    )
     return whole, n_r
 
 
@@ -168,8 +201,19 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
                 x_end = simulate(profile, f0, nu0=nu0).eta[0, -1, 0] if len(f0) else 0.0
                 phases.insert(0, ("run", float((-x_end) % res)))
             f = helm.run(nu0, (0.0, 0.0, psi0), phases)
-            per.append(_assemble(profile, f"turn_{side}", f"{abs(dpsi):.0f} deg turn to {word}", "basic", None, nu0, f,
-                                 [f"turn {abs(dpsi):.0f}° to {word} at {uc / KNOT:.1f} kn, steady on the new course"], []))
+            per.append(
+                _assemble(
+                    profile,
+                    f"turn_{side}",
+                    f"{abs(dpsi):.0f} deg turn to {word}",
+                    "basic",
+                    None,
+                    nu0,
+                    f,
+                    [f"turn {abs(dpsi):.0f}° to {word} at {uc / KNOT:.1f} kn, steady on the new course"],
+                    [],
+                )
+            )
         out.append(per)
     if helm.rudder is not None:  # a rudder ship cannot turn on the spot: it reverses course by a round turn at speed
         for side, sgn in (("s", 1.0), ("p", -1.0)):
@@ -178,8 +222,19 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
             for ci, psi0 in enumerate(cls):
                 # just short of 180 deg so that the helm turns to the side asked for
                 f = helm.run(nu0, (0.0, 0.0, psi0), [("turn", psi0 + sgn * (np.pi - 1e-6)), ("settle", int(ci + n_head // 2))])
-                per.append(_assemble(profile, f"round_turn_{side}", f"turn 180 deg to {word} at speed onto the reciprocal course",
-                                     "basic", None, nu0, f, [f"turn 180° to {word} at {uc / KNOT:.1f} kn, steady on the reciprocal course"], []))
+                per.append(
+                    _assemble(
+                        profile,
+                        f"round_turn_{side}",
+                        f"turn 180 deg to {word} at speed onto the reciprocal course",
+                        "basic",
+                        None,
+                        nu0,
+                        f,
+                        [f"turn 180° to {word} at {uc / KNOT:.1f} kn, steady on the reciprocal course"],
+                        [],
+                    )
+                )
             out.append(per)
     elif spot_turns:  # stop, turn on the spot, speed up (azimuth and generalized-force ships)
         for side, sgn in (("s", 1.0), ("p", -1.0)):
@@ -187,15 +242,33 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
             per = []
             for psi0 in cls:
                 f = helm.run(nu0, (0.0, 0.0, psi0), [("stop", 0.0), ("turn", psi0 + sgn * np.pi / 2), ("settle", 0.0)])
-                per.append(_assemble(profile, f"spot_turn_{side}", f"stop, turn on the spot 90 deg to {word}, speed up", "basic",
-                                     None, nu0, f, ["stop the ship", f"turn on the spot 90° to {word}",
-                                                    f"regain {uc / KNOT:.1f} kn on the new course"], []))
+                per.append(
+                    _assemble(
+                        profile,
+                        f"spot_turn_{side}",
+                        f"stop, turn on the spot 90 deg to {word}, speed up",
+                        "basic",
+                        None,
+                        nu0,
+                        f,
+                        ["stop the ship", f"turn on the spot 90° to {word}", f"regain {uc / KNOT:.1f} kn on the new course"],
+                        [],
+                    )
+                )
             out.append(per)
     return out
 
 
-def place(prims: list[Primitive], res: float, n_head: int, counter: int, cost: float, source: str = "",
-          run_in: tuple[int, ...] = (), core: tuple[int, ...] = ()) -> Move:
+def place(
+    prims: list[Primitive],
+    res: float,
+    n_head: int,
+    counter: int,
+    cost: float,
+    source: str = "",
+    run_in: tuple[int, ...] = (),
+    core: tuple[int, ...] = (),
+) -> Move:
     """Snap the end poses of a move (one primitive per heading class) to the lattice for every
     start heading: cells moved, heading steps and the snapping error."""
     table = heading_table(n_head)

@@ -48,12 +48,15 @@ def resolve_primitives(profile: ShipProfile, counts: dict[str, int], given: list
         pool.update({p.name: p for p in build_library(profile, basic=False) if p.kind == "informative"})
         missing = [n for n in counts if n not in pool]
     if missing:
-        raise MapError(f"--counts: unknown primitive(s) {', '.join(missing)} for {profile.name}; known: {', '.join(sorted(pool))}")
+        raise MapError(
+            f"--counts: unknown primitive(s) {', '.join(missing)} for {profile.name}; known: {', '.join(sorted(pool))}"
+        )
     return [pool[n] for n in counts]
 
 
-def planning_window(sea: SeaMap, res: float, start_xy: tuple[float, float], goal_xy: tuple[float, float], size: tuple[int, int]
-                    ) -> Window:
+def planning_window(
+    sea: SeaMap, res: float, start_xy: tuple[float, float], goal_xy: tuple[float, float], size: tuple[int, int]
+) -> Window:
     """Lattice through the start point, at least ``size`` points, covering start and goal (the
     trial area when the map has one)."""
     ni, nj = size
@@ -83,8 +86,9 @@ def from_transit(prim: Primitive) -> Primitive:
     return Primitive(prim.name, prim.description, prim.profile, prim.inputs, sim.nu[0], sim.eta[0], [], prim.kind, prim.commands)
 
 
-def informative_moves(prims: list[Primitive], counts: dict[str, int], res: float, n_head: int, split: bool,
-                      run_in_s: float, q0: int = 0) -> tuple[list[Move], list[str], dict[str, int], list[str]]:
+def informative_moves(
+    prims: list[Primitive], counts: dict[str, int], res: float, n_head: int, split: bool, run_in_s: float, q0: int = 0
+) -> tuple[list[Move], list[str], dict[str, int], list[str]]:
     """One move per informative primitive (or per piece with ``split``): run-in, primitive,
     settling leg. Returns (moves, counter names, targets, notes); counters number from ``q0``."""
     moves: list[Move] = []
@@ -108,8 +112,18 @@ def informative_moves(prims: list[Primitive], counts: dict[str, int], res: float
                 notes.append(f"{part.name}: exit velocity differs from transit by {mm:.2f}; the re-simulation will tell")
             names.append(part.name)
             targets[part.name] = n
-            moves.append(place(per, res, n_head, q0 + len(names) - 1, 0.0, prim.name, tuple(b[1] for b in built),
-                               tuple(b[1] + part.n_samples for b in built)))
+            moves.append(
+                place(
+                    per,
+                    res,
+                    n_head,
+                    q0 + len(names) - 1,
+                    0.0,
+                    prim.name,
+                    tuple(b[1] for b in built),
+                    tuple(b[1] + part.n_samples for b in built),
+                )
+            )
     return moves, names, targets, notes
 
 

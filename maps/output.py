@@ -40,14 +40,32 @@ def _plan_track(plan: Plan, ax: Any, plt: Any) -> None:
         sel = plan.step_of_sample == s.index
         seg = s.segment
         key = s.primitive if seg == "informative" else seg
-        col = colors[names.index(s.primitive) % 10] if seg == "informative" else ("#1b7f3b" if seg == "run-in" else (0.5, 0.5, 0.5, 1))
-        ax.plot(plan.track[sel, 1], plan.track[sel, 0], color=col, lw=1.6 if seg == "informative" else 1.0,
-                ls="--" if seg == "run-in" else "-", label=None if key in seen else key)
+        col = (
+            colors[names.index(s.primitive) % 10]
+            if seg == "informative"
+            else ("#1b7f3b" if seg == "run-in" else (0.5, 0.5, 0.5, 1))
+        )
+        ax.plot(
+            plan.track[sel, 1],
+            plan.track[sel, 0],
+            color=col,
+            lw=1.6 if seg == "informative" else 1.0,
+            ls="--" if seg == "run-in" else "-",
+            label=None if key in seen else key,
+        )
         seen.add(key)
     ex = [s for s in plan.steps if getattr(s, "execute", False)]
     if ex:
-        ax.plot([s.entry_y for s in ex], [s.entry_x for s in ex], "*", color="#ffd400", mec="k", ms=11, ls="none",
-                label="execute point")
+        ax.plot(
+            [s.entry_y for s in ex],
+            [s.entry_x for s in ex],
+            "*",
+            color="#ffd400",
+            mec="k",
+            ms=11,
+            ls="none",
+            label="execute point",
+        )
     ax.plot(plan.track[0, 1], plan.track[0, 0], "go", ms=7, label="start")
     ax.plot(plan.track[-1, 1], plan.track[-1, 0], "rs", ms=7, label="goal")
 
@@ -69,7 +87,11 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     box = _plan_box(plan, sea, ax)
     clip = shapely.clip_by_rect(sea.obstacles, *box)
     # one collection for every obstacle (a map has hundreds of islands): one draw call, not a patch each
-    rings = [np.asarray(g.exterior.coords)[:, ::-1] for g in getattr(clip, "geoms", [clip]) if not g.is_empty and g.geom_type == "Polygon"]
+    rings = [
+        np.asarray(g.exterior.coords)[:, ::-1]
+        for g in getattr(clip, "geoms", [clip])
+        if not g.is_empty and g.geom_type == "Polygon"
+    ]
     ax.add_collection(PolyCollection(rings, facecolors="#d8c8a0", edgecolors="#8a7a50", linewidths=0.5, zorder=1))
     if plan.track.size:
         _plan_track(plan, ax, plt)
@@ -79,8 +101,11 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
     state = "feasible" if plan.feasible else "NOT feasible"
-    ax.set_title(f"{sea.name}: {plan.ship}, {state}, {plan.duration_s / 60:.0f} min, {plan.basic_moves} basic moves, "
-                 f"clearance {plan.min_clearance_m:.0f} m", fontsize=9)
+    ax.set_title(
+        f"{sea.name}: {plan.ship}, {state}, {plan.duration_s / 60:.0f} min, {plan.basic_moves} basic moves, "
+        f"clearance {plan.min_clearance_m:.0f} m",
+        fontsize=9,
+    )
     leg = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)  # never over the track
     # fixed margins (inches) beside the legend's own width: tight_layout's pass over every tick label cost as much as the drawing
     fixed_margins(fig, left=0.95, right=legend_width_in(fig, leg) + 0.2, top=0.35, bottom=0.6)

@@ -167,11 +167,15 @@ class Plan:
         except KeyError as exc:
             raise PlanError(f"{src}: plan field {exc} is missing: re-create the plan with plan-trial") from None
         except (TypeError, ValueError, AttributeError, IndexError, OverflowError) as exc:
-            raise PlanError(f"{src}: malformed plan ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}); "
-                            "re-create it with plan-trial") from None
+            raise PlanError(
+                f"{src}: malformed plan ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}); "
+                "re-create it with plan-trial"
+            ) from None
         for name, arr in (("t", plan.t), ("x, y, psi", plan.track), ("lon, lat", plan.lonlat)):
             if not np.all(np.isfinite(arr)):
-                raise PlanError(f"{src}: samples '{name}' hold values that are not finite numbers; re-create the plan with plan-trial")
+                raise PlanError(
+                    f"{src}: samples '{name}' hold values that are not finite numbers; re-create the plan with plan-trial"
+                )
         return plan
 
     @classmethod
@@ -211,7 +215,9 @@ class Plan:
         except FileNotFoundError:
             raise FileNotFoundError(f"{path}: no such plan file (write one with plan-trial --out DIR)") from None
         except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
-            raise PlanError(f"{path}: not valid JSON text ({type(exc).__name__}); give the plan.json written by plan-trial") from None
+            raise PlanError(
+                f"{path}: not valid JSON text ({type(exc).__name__}); give the plan.json written by plan-trial"
+            ) from None
         except IsADirectoryError:
             raise PlanError(f"{path}: is a directory; give the plan.json written by plan-trial") from None
         return cls.from_dict(d, str(path))

@@ -37,20 +37,46 @@ GEOMETRY = {"type": ["object", "null"], "required": ["type"], "properties": {"ty
 
 STEP = {
     "type": "object",
-    "required": ["index", "primitive", "kind", "description", "start_time_s", "duration_s", "entry_x", "entry_y",
-                 "entry_psi", "entry_lon", "entry_lat", "entry_speed_mps"],
+    "required": [
+        "index",
+        "primitive",
+        "kind",
+        "description",
+        "start_time_s",
+        "duration_s",
+        "entry_x",
+        "entry_y",
+        "entry_psi",
+        "entry_lon",
+        "entry_lat",
+        "entry_speed_mps",
+    ],
     "additionalProperties": False,
     "properties": {
-        "index": COUNT, "primitive": NAME, "kind": {"enum": ["informative", "basic", "run-in"]}, "description": TEXT,
-        "start_time_s": SECONDS, "duration_s": SECONDS, "entry_x": METRES, "entry_y": METRES, "entry_psi": ANGLE,
-        "entry_lon": LON, "entry_lat": LAT, "entry_speed_mps": SPEED,
+        "index": COUNT,
+        "primitive": NAME,
+        "kind": {"enum": ["informative", "basic", "run-in"]},
+        "description": TEXT,
+        "start_time_s": SECONDS,
+        "duration_s": SECONDS,
+        "entry_x": METRES,
+        "entry_y": METRES,
+        "entry_psi": ANGLE,
+        "entry_lon": LON,
+        "entry_lat": LAT,
+        "entry_speed_mps": SPEED,
         "commands": {"type": "array", "items": TEXT},
         "space_m": {"type": "array", "minItems": 2, "maxItems": 2, "items": _num(0.0, 1e7)},
         "segment": {"enum": ["", "run-in", "informative", "transit"]},
-        "orders": {"type": "array", "items": {
-            "type": "object", "required": ["t_s", "text"],
-            "properties": {"t_s": _num(-1e7, 1e8), "text": TEXT},
-            "additionalProperties": {"anyOf": [_num(-1e12, 1e12), TEXT, {"type": ["boolean", "null"]}]}}},
+        "orders": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "required": ["t_s", "text"],
+                "properties": {"t_s": _num(-1e7, 1e8), "text": TEXT},
+                "additionalProperties": {"anyOf": [_num(-1e12, 1e12), TEXT, {"type": ["boolean", "null"]}]},
+            },
+        },
         "abort": {"type": "array", "items": TEXT},
         "execute": {"type": "boolean"},
     },
@@ -59,11 +85,20 @@ STEP = {
 CHART = {
     "type": "object",
     "properties": {
-        "name": NAME, "land": GEOMETRY, "no_go": GEOMETRY,
-        "depth_areas": {"type": "array", "items": {"type": "object", "required": ["geometry"],
-                                                   "properties": {"geometry": GEOMETRY, "min_depth_m": _num(-1e4, 1e5)}}},
-        "extent": {"anyOf": [{"type": "null"}, {"type": "array", "minItems": 4, "maxItems": 4,
-                                                "prefixItems": [LON, LAT, LON, LAT]}]},
+        "name": NAME,
+        "land": GEOMETRY,
+        "no_go": GEOMETRY,
+        "depth_areas": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "required": ["geometry"],
+                "properties": {"geometry": GEOMETRY, "min_depth_m": _num(-1e4, 1e5)},
+            },
+        },
+        "extent": {
+            "anyOf": [{"type": "null"}, {"type": "array", "minItems": 4, "maxItems": 4, "prefixItems": [LON, LAT, LON, LAT]}]
+        },
     },
 }
 
@@ -78,33 +113,68 @@ PLAN_SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "title": "shiptrial plan (shiptrial-plan/1)",
     "type": "object",
-    "required": ["format", "ship", "feasible", "optimal", "min_clearance_m", "margin_m", "counts", "targets", "projection",
-                 "input_names", "steps", "samples"],
+    "required": [
+        "format",
+        "ship",
+        "feasible",
+        "optimal",
+        "min_clearance_m",
+        "margin_m",
+        "counts",
+        "targets",
+        "projection",
+        "input_names",
+        "steps",
+        "samples",
+    ],
     "properties": {
         "format": {"const": "shiptrial-plan/1"},
-        "ship": NAME, "map_name": NAME, "vessel_name": NAME,
-        "feasible": {"type": "boolean"}, "optimal": {"type": "boolean"},
+        "ship": NAME,
+        "map_name": NAME,
+        "vessel_name": NAME,
+        "feasible": {"type": "boolean"},
+        "optimal": {"type": "boolean"},
         "min_clearance_m": {"anyOf": [{"type": "null"}, _num(0.0, 1e8)]},
         "margin_m": _num(0.0, 1e5),
         "counts": {"type": "object", "additionalProperties": COUNT, "propertyNames": NAME},
         "targets": {"type": "object", "additionalProperties": COUNT, "propertyNames": NAME},
-        "stats": {"type": "object", "properties": {"chart": CHART, "start_utc": {"anyOf": [{"type": "null"}, NAME]},
-                                                    "turning_radius_m": {"anyOf": [{"type": "null"}, _num(0.0, 1e6)]}}},
-        "projection": {"type": "object", "required": ["proj4"],
-                       "properties": {"proj4": {**NAME, "minLength": 1}, "lon0": LON, "lat0": LAT}},
+        "stats": {
+            "type": "object",
+            "properties": {
+                "chart": CHART,
+                "start_utc": {"anyOf": [{"type": "null"}, NAME]},
+                "turning_radius_m": {"anyOf": [{"type": "null"}, _num(0.0, 1e6)]},
+            },
+        },
+        "projection": {
+            "type": "object",
+            "required": ["proj4"],
+            "properties": {"proj4": {**NAME, "minLength": 1}, "lon0": LON, "lat0": LAT},
+        },
         "hull": {"type": "array", "minItems": 2, "maxItems": 2, "items": _num(0.0, 2000.0)},
         "max_wind_mps": _num(0.0, 100.0),
-        "design": {"type": ["object", "null"], "properties": {
-            "criterion": {"anyOf": [{"type": "null"}, NAME]},
-            "mean_subtraction": {"anyOf": [{"type": ["null", "boolean"]}, NAME]},
-            "weights": {"type": "object", "additionalProperties": _num(0.0, 1.0)},
-            "counts": {"type": "object", "additionalProperties": COUNT},
-            "d_efficiency": {"anyOf": [{"type": "null"}, _num(0.0, 10.0)]},
-            "not_used": {"type": "array", "items": NAME},
-            "dropped": {"type": "array", "items": {"type": "object", "properties": {
-                "primitive": NAME, "needs_m": {"type": "array", "minItems": 2, "maxItems": 2, "items": _num(0.0, 1e8)},
-                "efficiency_loss": {"anyOf": [{"type": "null"}, _num(-10.0, 10.0)]}}}},
-        }},
+        "design": {
+            "type": ["object", "null"],
+            "properties": {
+                "criterion": {"anyOf": [{"type": "null"}, NAME]},
+                "mean_subtraction": {"anyOf": [{"type": ["null", "boolean"]}, NAME]},
+                "weights": {"type": "object", "additionalProperties": _num(0.0, 1.0)},
+                "counts": {"type": "object", "additionalProperties": COUNT},
+                "d_efficiency": {"anyOf": [{"type": "null"}, _num(0.0, 10.0)]},
+                "not_used": {"type": "array", "items": NAME},
+                "dropped": {
+                    "type": "array",
+                    "items": {
+                        "type": "object",
+                        "properties": {
+                            "primitive": NAME,
+                            "needs_m": {"type": "array", "minItems": 2, "maxItems": 2, "items": _num(0.0, 1e8)},
+                            "efficiency_loss": {"anyOf": [{"type": "null"}, _num(-10.0, 10.0)]},
+                        },
+                    },
+                },
+            },
+        },
         "input_names": {"type": "array", "minItems": 1, "maxItems": 16, "uniqueItems": True, "items": NAME},
         "steps": {"type": "array", "items": STEP},  # none in an infeasible plan
         "samples": {
@@ -146,8 +216,11 @@ def _say(err) -> str:
     shown = repr(v) if not isinstance(v, dict | list) else type(v).__name__
     shown = shown.encode("unicode_escape").decode("ascii")[:60]
     must = {
-        "type": f"must be {err.validator_value}" if not isinstance(err.validator_value, list) else f"must be one of {err.validator_value}",
-        "minimum": f"must be >= {err.validator_value}", "maximum": f"must be <= {err.validator_value}",
+        "type": f"must be {err.validator_value}"
+        if not isinstance(err.validator_value, list)
+        else f"must be one of {err.validator_value}",
+        "minimum": f"must be >= {err.validator_value}",
+        "maximum": f"must be <= {err.validator_value}",
         "pattern": "must be text without control characters (NUL and the like)",
         "enum": f"must be one of {err.validator_value}",
         "const": f"must be {err.validator_value!r}",
@@ -183,7 +256,9 @@ def _check_samples(s: dict, n_inputs: int, n_steps: int, src: str, err: type[Use
     n = len(s["t"])
     for k in (*SERIES_RANGES, "step", "inputs"):
         if len(s[k]) != n:
-            raise err(f"{src}: field 'samples.{k}' holds {len(s[k])} values and samples.t {n}: every sample series must be as long")
+            raise err(
+                f"{src}: field 'samples.{k}' holds {len(s[k])} values and samples.t {n}: every sample series must be as long"
+            )
     for k, rng in SERIES_RANGES.items():
         a = _numbers(s[k], k, src, err)
         if not (np.all(np.isfinite(a)) and np.all(a >= rng["minimum"]) and np.all(a <= rng["maximum"])):
@@ -208,11 +283,15 @@ def _check_projection(proj4: str, src: str, err: type[UserError]) -> None:
     try:
         crs = CRS.from_user_input(proj4)
     except CRSError:
-        raise err(f"{src}: field 'projection.proj4' = {proj4[:60]!r} is no coordinate system pyproj knows "
-                  "(unknown EPSG code or PROJ string); re-create the plan with plan-trial") from None
+        raise err(
+            f"{src}: field 'projection.proj4' = {proj4[:60]!r} is no coordinate system pyproj knows "
+            "(unknown EPSG code or PROJ string); re-create the plan with plan-trial"
+        ) from None
     if not crs.is_projected or crs.axis_info[0].unit_name not in ("metre", "meter"):
-        raise err(f"{src}: field 'projection.proj4' = {proj4[:60]!r} must be a projected coordinate system in metres "
-                  "(the plan's local frame); re-create the plan with plan-trial")
+        raise err(
+            f"{src}: field 'projection.proj4' = {proj4[:60]!r} must be a projected coordinate system in metres "
+            "(the plan's local frame); re-create the plan with plan-trial"
+        )
 
 
 def _check_chart(chart: dict, src: str, err: type[UserError]) -> None:
@@ -232,8 +311,12 @@ def _check_chart(chart: dict, src: str, err: type[UserError]) -> None:
         except Exception:  # shapely raises many types for malformed GeoJSON (KeyError, TypeError, GEOSException...)
             ok = False
         if not ok:
-            raise err(f"{src}: field 'stats.chart.{name}' is not a GeoJSON geometry shapely can read; re-create the plan "
-                      "with plan-trial (or export with --map)")
+            raise err(
+                f"{src}: field 'stats.chart.{name}' is not a GeoJSON geometry shapely can read; re-create the plan "
+                "with plan-trial (or export with --map)"
+            )
         if not geom.is_valid:
-            raise err(f"{src}: field 'stats.chart.{name}' is an invalid geometry ({shapely.is_valid_reason(geom)[:80]}); "
-                      "re-create the plan with plan-trial (or export with --map)")
+            raise err(
+                f"{src}: field 'stats.chart.{name}' is an invalid geometry ({shapely.is_valid_reason(geom)[:80]}); "
+                "re-create the plan with plan-trial (or export with --map)"
+            )

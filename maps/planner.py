@@ -34,7 +34,9 @@ MAX_EXTRA_M = 100.0
 __all__ = ["PlanOptions", "plan_trial", "plan_with_design", "default_resolution", "SCENARIOS"]
 
 
-def _counts_given(prof: ShipProfile, counts: dict[str, int], primitives: list[Primitive] | None) -> tuple[list[Primitive], dict[str, int]]:
+def _counts_given(
+    prof: ShipProfile, counts: dict[str, int], primitives: list[Primitive] | None
+) -> tuple[list[Primitive], dict[str, int]]:
     bad = {k: v for k, v in counts.items() if not isinstance(v, (int, np.integer)) or v < 0}
     if bad:
         raise MapError(f"--counts must be whole numbers >= 0, got {bad}")
@@ -107,8 +109,16 @@ def plan_with_design(
         if first_design is not None:
             prepare_basic_moves(sea, prof, o, cache, start=start, goal=goal)
             first = first_design()
-        td = design_for_map(prof, fits_nowhere, primitives, criterion=criterion, mean_subtraction=mean_subtraction,
-                            trial_length_s=trial_length_s, seed=seed, first=first)
+        td = design_for_map(
+            prof,
+            fits_nowhere,
+            primitives,
+            criterion=criterion,
+            mean_subtraction=mean_subtraction,
+            trial_length_s=trial_length_s,
+            seed=seed,
+            first=first,
+        )
         lat = built["lat"]
         lat.notes[:0] = td.notes
     design_s = time.perf_counter() - t_design - lat.setup_s
@@ -134,7 +144,9 @@ def solve(lat, *, design: dict | None = None, vessel_name: str = "", t_all: floa
             break
         real = verify_plan(lat, out)
         ver = real.verification
-        attempts.append({"inflation_m": extra, "blocked": len(blocked), "min_clearance_m": ver.min_clearance_m, "search_s": r.time_s})
+        attempts.append(
+            {"inflation_m": extra, "blocked": len(blocked), "min_clearance_m": ver.min_clearance_m, "search_s": r.time_s}
+        )
         if ver.ok or extra >= MAX_EXTRA_M:
             break
         leg = real.legs[int(ver.step_of_sample[ver.worst_sample])]
@@ -146,14 +158,34 @@ def solve(lat, *, design: dict | None = None, vessel_name: str = "", t_all: floa
             extra = min(MAX_EXTRA_M, extra + (o.margin - ver.min_clearance_m) + 2.0)
     pb = out.problem
     stats: dict[str, Any] = {
-        "expansions": expansions, "states_visited": visited, "plan_time_s": search_s, "heuristic": o.heuristic,
-        "expansions_per_s": expansions / max(search_s, 1e-9), "setup_time_s": lat.setup_s, "design_time_s": design_s,
-        "lattice": {"ni": lat.window.ni, "nj": lat.window.nj, "headings": len(lat.table), "resolution_m": lat.res,
-                    "x0": lat.window.x0, "y0": lat.window.y0, "states": lat.n_states()},
-        "cost": out.result.cost, "basic_cost": o.basic_cost, "h_start": out.result.h_start, "snap_max_m": lat.snap_max,
-        "notes": lat.notes, "warnings": lat.warnings, "start": list(lat.start_ll), "goal": list(lat.goal_ll),
+        "expansions": expansions,
+        "states_visited": visited,
+        "plan_time_s": search_s,
+        "heuristic": o.heuristic,
+        "expansions_per_s": expansions / max(search_s, 1e-9),
+        "setup_time_s": lat.setup_s,
+        "design_time_s": design_s,
+        "lattice": {
+            "ni": lat.window.ni,
+            "nj": lat.window.nj,
+            "headings": len(lat.table),
+            "resolution_m": lat.res,
+            "x0": lat.window.x0,
+            "y0": lat.window.y0,
+            "states": lat.n_states(),
+        },
+        "cost": out.result.cost,
+        "basic_cost": o.basic_cost,
+        "h_start": out.result.h_start,
+        "snap_max_m": lat.snap_max,
+        "notes": lat.notes,
+        "warnings": lat.warnings,
+        "start": list(lat.start_ll),
+        "goal": list(lat.goal_ll),
         "moves_valid": {m.name: int(sum(ok.sum() for ok, _ in per)) for m, per in zip(lat.moves, lat.placements(out.extra))},
-        "attempts": attempts, "inflation_m": extra, "blocked": len(blocked),
+        "attempts": attempts,
+        "inflation_m": extra,
+        "blocked": len(blocked),
     }
     if not out.found:
         from maps.diagnose import explain_failure
@@ -164,11 +196,29 @@ def solve(lat, *, design: dict | None = None, vessel_name: str = "", t_all: floa
         stats.update(reason=reason, help=helps, total_time_s=time.perf_counter() - t_all)
         p = lat.profile
         empty = np.zeros((0,))
-        return Plan(ship=p.name, steps=[], t=empty, track=np.zeros((0, 3)), lonlat=np.zeros((0, 2)), speed=empty,
-                    step_of_sample=np.zeros((0,), int), inputs=np.zeros((0, len(p.inputs))), input_names=list(p.inputs),
-                    projection=lat.sea.projection_info(), feasible=False, optimal=False, min_clearance_m=float("nan"),
-                    margin_m=o.margin, counts=dict.fromkeys(lat.cnames, 0), targets=dict(lat.targets), stats=stats,
-                    map_name=lat.sea.name, hull=(p.length_m, p.beam_m), design=dict(design or {}), vessel_name=vessel_name)
+        return Plan(
+            ship=p.name,
+            steps=[],
+            t=empty,
+            track=np.zeros((0, 3)),
+            lonlat=np.zeros((0, 2)),
+            speed=empty,
+            step_of_sample=np.zeros((0,), int),
+            inputs=np.zeros((0, len(p.inputs))),
+            input_names=list(p.inputs),
+            projection=lat.sea.projection_info(),
+            feasible=False,
+            optimal=False,
+            min_clearance_m=float("nan"),
+            margin_m=o.margin,
+            counts=dict.fromkeys(lat.cnames, 0),
+            targets=dict(lat.targets),
+            stats=stats,
+            map_name=lat.sea.name,
+            hull=(p.length_m, p.beam_m),
+            design=dict(design or {}),
+            vessel_name=vessel_name,
+        )
     plan = assemble_plan(lat, out, real, stats, design=design, vessel_name=vessel_name)
     plan.stats["total_time_s"] = time.perf_counter() - t_all
     return plan

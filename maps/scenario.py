@@ -30,8 +30,9 @@ HELSINKI_START = (60.1625, 24.9600, 180.0)
 HELSINKI_GOAL = (60.1230, 24.9900, None)
 
 
-def zigzag_periods(profile: ShipProfile, name: str, description: str, u: float, v_amp: float, r_amp: float,
-                   psi_switch: float, periods: int) -> Primitive:
+def zigzag_periods(
+    profile: ShipProfile, name: str, description: str, u: float, v_amp: float, r_amp: float, psi_switch: float, periods: int
+) -> Primitive:
     """An excitation zig-zag (thesis tau3-tau8, tau17-tau20) of whole periods: it ends where the
     heading crosses zero after ``periods`` full swings, so it leaves on its entry course."""
     half = max(2.0 * psi_switch / max(r_amp, 1e-6) / profile.sample_time, 4.0)
@@ -44,14 +45,26 @@ def zigzag_periods(profile: ShipProfile, name: str, description: str, u: float, 
         raise ProfileError(
             f"ship profile {profile.name!r}: the scenario's zig-zag {name} did not complete {periods} period(s) in {n} samples "
             f"({n * profile.sample_time:g} s): the ship does not swing its heading through +-{np.degrees(psi_switch):.0f} deg "
-            "under the scenario's yaw moment; check the yaw row of the profile's parameters, or plan without --scenario")
+            "under the scenario's yaw moment; check the yaw row of the profile's parameters, or plan without --scenario"
+        )
     a, b = sp[2 * periods - 1], sp[2 * periods]
-    k = a + int(np.argmin(np.abs(psi[a:b + 1])))
-    cmds = [f"steady at {u:.1f} m/s",
-            f"zig-zag: yaw rate {np.degrees(r_amp):.1f} deg/s with sway {v_amp:.1f} m/s, reverse when the heading is "
-            f"{np.degrees(psi_switch):.0f} deg off the base course; {periods} full period(s), end on the base course"]
-    return Primitive(name, description, profile, prim.inputs[:k], prim.nu[: k + 1], prim.track[: k + 1],
-                     [s for s in sp if s < k], "informative", cmds)
+    k = a + int(np.argmin(np.abs(psi[a : b + 1])))
+    cmds = [
+        f"steady at {u:.1f} m/s",
+        f"zig-zag: yaw rate {np.degrees(r_amp):.1f} deg/s with sway {v_amp:.1f} m/s, reverse when the heading is "
+        f"{np.degrees(psi_switch):.0f} deg off the base course; {periods} full period(s), end on the base course",
+    ]
+    return Primitive(
+        name,
+        description,
+        profile,
+        prim.inputs[:k],
+        prim.nu[: k + 1],
+        prim.track[: k + 1],
+        [s for s in sp if s < k],
+        "informative",
+        cmds,
+    )
 
 
 def scenario_supports(profile: ShipProfile) -> bool:
@@ -76,11 +89,35 @@ def thesis_planning_scenario(profile: ShipProfile) -> tuple[list[Primitive], dic
     L = profile.length_m
     r_unit = u / L  # yaw-rate scale: 0.1 rad/s at 3 m/s for a 30 m ship
     prims = [
-        zigzag_periods(profile, "steep_zigzag_surge", "steep zig-zag in surge (short period, large yaw rate)",
-                       u, 0.1 * u, 0.6 * r_unit, 0.35, 2),
-        zigzag_periods(profile, "wide_zigzag_surge", "wide zig-zag in surge (long period, small yaw rate)",
-                       u, 0.17 * u, 0.3 * r_unit, 0.75, 1),
-        zigzag_periods(profile, "wide_zigzag_sway", "wide zig-zag in sway (alternating sway, small heading swing)",
-                       u, 0.27 * u, 0.06 * r_unit, 0.12, 1),
+        zigzag_periods(
+            profile,
+            "steep_zigzag_surge",
+            "steep zig-zag in surge (short period, large yaw rate)",
+            u,
+            0.1 * u,
+            0.6 * r_unit,
+            0.35,
+            2,
+        ),
+        zigzag_periods(
+            profile,
+            "wide_zigzag_surge",
+            "wide zig-zag in surge (long period, small yaw rate)",
+            u,
+            0.17 * u,
+            0.3 * r_unit,
+            0.75,
+            1,
+        ),
+        zigzag_periods(
+            profile,
+            "wide_zigzag_sway",
+            "wide zig-zag in sway (alternating sway, small heading swing)",
+            u,
+            0.27 * u,
+            0.06 * r_unit,
+            0.12,
+            1,
+        ),
     ]
     return prims, {p.name: 3 for p in prims}

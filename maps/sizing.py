@@ -44,18 +44,23 @@ def _count(n: float, fmt: str) -> str:
     return format(n, fmt) if n < 1e15 else f"{Decimal(n):.2e}"
 
 
-def refuse_too_large(win: Window, K: int, prims: list[Primitive], counts: dict[str, int], profile: ShipProfile,
-                      o: PlanOptions) -> None:
+def refuse_too_large(
+    win: Window, K: int, prims: list[Primitive], counts: dict[str, int], profile: ShipProfile, o: PlanOptions
+) -> None:
     """MapError, with the estimate, when the lattice would need more than ``max_memory_gib``."""
     n_moves = len(prims) + (5 if o.spot_turns or profile.actuator == "rudder_propeller" else 3)
     need, states = estimate_memory(win.ni, win.nj, K, n_moves, [counts[p.name] for p in prims])
     if need > o.max_memory_gib * 2**30:
-        raise MapError(f"the lattice would not fit: {win.ni} x {win.nj} points x {K} headings x counters = {_count(states, ',')} states, "
-                       f"an estimated {_count(need / 2**30, ',.1f')} GiB (limit {o.max_memory_gib:g} GiB): use a coarser --resolution, "
-                       f"fewer --headings, a shorter --trial-length or raise --max-memory")
+        raise MapError(
+            f"the lattice would not fit: {win.ni} x {win.nj} points x {K} headings x counters = {_count(states, ',')} states, "
+            f"an estimated {_count(need / 2**30, ',.1f')} GiB (limit {o.max_memory_gib:g} GiB): use a coarser --resolution, "
+            f"fewer --headings, a shorter --trial-length or raise --max-memory"
+        )
 
 
-def too_big_for_water(sea: SeaMap, win: Window, prims: list[Primitive], table: np.ndarray, margin: float) -> dict[str, tuple[float, float]]:
+def too_big_for_water(
+    sea: SeaMap, win: Window, prims: list[Primitive], table: np.ndarray, margin: float
+) -> dict[str, tuple[float, float]]:
     """Primitives whose footprint (grown by the margin) is larger than the bounding box of the
     navigable water of the window in every lattice heading: they fit nowhere (a certain, cheap
     test; the collision grid decides for the others)."""

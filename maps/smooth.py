@@ -68,7 +68,9 @@ def _orders(prim: Any) -> list[dict[str, Any]]:
     """Primitive.orders (a list of Order(t_s, text, values)) as plain dicts; [] when absent."""
     out = []
     for o in getattr(prim, "orders", None) or []:
-        out.append({"t_s": float(getattr(o, "t_s", 0.0)), "text": str(getattr(o, "text", "")), **dict(getattr(o, "values", {}) or {})})
+        out.append(
+            {"t_s": float(getattr(o, "t_s", 0.0)), "text": str(getattr(o, "text", "")), **dict(getattr(o, "values", {}) or {})}
+        )
     return out
 
 
@@ -111,7 +113,9 @@ class Realiser:
             else:
                 phases = [("turn", target), ("settle", goal)]
             ins = helm.run(nu, self._rel(spatial, eta), phases, n_max=20000)
-            return [Leg(pr.name, pr.name, "basic", "transit", pr.description, pr.profile, ins, list(pr.commands), space, mi, spatial)]
+            return [
+                Leg(pr.name, pr.name, "basic", "transit", pr.description, pr.profile, ins, list(pr.commands), space, mi, spatial)
+            ]
         n_r, core = m.run_in_samples(h), m.core_samples(h)
         src = lat.primitives.get(m.source or m.name)
         legs = []
@@ -123,13 +127,29 @@ class Realiser:
             hold_s = len(ri) * pr.profile.sample_time
             # a manoeuvre that starts from rest (an acceleration) is approached by stopping, not by a steady run
             moving = u > 0.05 * pr.profile.cruise_speed_mps
-            steady = (f"steady on course {course:03.0f}° at {u / KNOT:.1f} kn" if moving
-                      else f"stop engine(s) and come to rest, heading {course:03.0f}°")
+            steady = (
+                f"steady on course {course:03.0f}° at {u / KNOT:.1f} kn"
+                if moving
+                else f"stop engine(s) and come to rest, heading {course:03.0f}°"
+            )
             text = f"{steady} for {hold_s:.0f} s, then execute"
             what = f"run-in to {m.name}: steady course and speed" if moving else f"stop before {m.name}: come to rest and settle"
-            legs.append(Leg(f"run-in {m.name}", m.source or m.name, "run-in", "run-in", what,
-                            pr.profile, ri, [text], space, mi, spatial,
-                            orders=[{"t_s": 0.0, "text": text, "course_deg": course, "speed_kn": u / KNOT}]))
+            legs.append(
+                Leg(
+                    f"run-in {m.name}",
+                    m.source or m.name,
+                    "run-in",
+                    "run-in",
+                    what,
+                    pr.profile,
+                    ri,
+                    [text],
+                    space,
+                    mi,
+                    spatial,
+                    orders=[{"t_s": 0.0, "text": text, "course_deg": course, "speed_kn": u / KNOT}],
+                )
+            )
             nu, eta = legs[-1].sail(nu, eta)
         body = pr.inputs[n_r:core]
         b_nu, b_eta = _sail(pr.profile, body, nu, eta)
@@ -138,13 +158,33 @@ class Realiser:
         orders = _orders(src)
         if len(tail) > 1:  # the helm brings the ship back to the lattice's course and speed: not part of the manoeuvre
             u_c = pr.profile.cruise_speed_mps
-            orders.append({"t_s": len(body) * pr.profile.sample_time, "phase": "recovery",
-                           "text": f"manoeuvre complete; recovery: come to course {np.degrees(goal[2]) % 360:03.0f}° "
-                                   f"at {u_c / KNOT:.1f} kn ({len(tail) * pr.profile.sample_time:.0f} s)"})
-        legs.append(Leg(m.name, m.source or m.name, "informative", "informative", pr.description, pr.profile,
-                        np.vstack([body, tail]), list(pr.commands), space, mi, spatial, execute=bool(n_r), orders=orders,
-                        abort=[src.abort_criteria()] if hasattr(src, "abort_criteria") else [],
-                        sim=(np.vstack([b_nu[:-1], t_nu]), np.vstack([b_eta[:-1], t_eta]))))
+            orders.append(
+                {
+                    "t_s": len(body) * pr.profile.sample_time,
+                    "phase": "recovery",
+                    "text": f"manoeuvre complete; recovery: come to course {np.degrees(goal[2]) % 360:03.0f}° "
+                    f"at {u_c / KNOT:.1f} kn ({len(tail) * pr.profile.sample_time:.0f} s)",
+                }
+            )
+        legs.append(
+            Leg(
+                m.name,
+                m.source or m.name,
+                "informative",
+                "informative",
+                pr.description,
+                pr.profile,
+                np.vstack([body, tail]),
+                list(pr.commands),
+                space,
+                mi,
+                spatial,
+                execute=bool(n_r),
+                orders=orders,
+                abort=[src.abort_criteria()] if hasattr(src, "abort_criteria") else [],
+                sim=(np.vstack([b_nu[:-1], t_nu]), np.vstack([b_eta[:-1], t_eta])),
+            )
+        )
         return legs
 
 
@@ -202,13 +242,24 @@ class Shortcutter:
         wps = [tuple(eta[:2])] + [tuple(pts[k]) for k in keep[1:]]
         inputs = self.helm.run(nu, tuple(eta), [("track", (wps, 2.0 * self.p.length_m))], n_max=20000)
         s_nu, tr = _sail(self.p, inputs, nu, eta)
-        if np.hypot(*(tr[-1, :2] - end[:2])) > 0.25 * self.helm.res or abs(np.angle(np.exp(1j * (tr[-1, 2] - end[2])))) > np.radians(5):
+        if np.hypot(*(tr[-1, :2] - end[:2])) > 0.25 * self.helm.res or abs(
+            np.angle(np.exp(1j * (tr[-1, 2] - end[2])))
+        ) > np.radians(5):
             return None
         if hull_clearance(self.sea, self.p.length_m, self.p.beam_m, tr, self.margin).min() < self.margin + 1.0:
             return None
         n_legs = len(wps) - 1
         dist = float(np.sum(np.hypot(*np.diff(tr[:, :2], axis=0).T)))
         uc = self.helm.uc
-        return Leg("transit", "transit", "basic", "transit", f"{n_legs} straight leg{'s' if n_legs > 1 else ''}, {dist:.0f} m",
-                   self.p, inputs, [f"steer for each waypoint in turn at {uc / KNOT:.1f} kn; {n_legs} leg{'s' if n_legs > 1 else ''}, "
-                                    f"{dist:.0f} m"], (dist, self.corridor * 2), sim=(s_nu, tr))
+        return Leg(
+            "transit",
+            "transit",
+            "basic",
+            "transit",
+            f"{n_legs} straight leg{'s' if n_legs > 1 else ''}, {dist:.0f} m",
+            self.p,
+            inputs,
+            [f"steer for each waypoint in turn at {uc / KNOT:.1f} kn; {n_legs} leg{'s' if n_legs > 1 else ''}, {dist:.0f} m"],
+            (dist, self.corridor * 2),
+            sim=(s_nu, tr),
+        )

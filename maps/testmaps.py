@@ -32,8 +32,15 @@ def _feature(kind: str, geom, lat0: float, lon0: float, **props) -> dict:
 def archipelago(lat0: float = 60.0, lon0: float = 25.0) -> dict:
     """8 km x 8 km of sea with seven islands between a start in the south-west and a goal in the
     north-east (for transit-length checks against an independent shortest path)."""
-    islands = [((2000, 2500), 600), ((3500, 1200), 500), ((4200, 4200), 700), ((2600, 5200), 450),
-               ((5600, 2600), 550), ((6000, 5600), 600), ((1200, 4200), 350)]
+    islands = [
+        ((2000, 2500), 600),
+        ((3500, 1200), 500),
+        ((4200, 4200), 700),
+        ((2600, 5200), 450),
+        ((5600, 2600), 550),
+        ((6000, 5600), 600),
+        ((1200, 4200), 350),
+    ]
     feats = [_feature("trial_area", shapely.box(0, 0, 8000, 8000), lat0, lon0)]
     for (x, y), r in islands:
         feats.append(_feature("land", shapely.Point(x, y).buffer(r, quad_segs=4), lat0, lon0))
@@ -49,10 +56,13 @@ def fjord(lat0: float = 60.0, lon0: float = 5.0, length_m: float = 20_000.0, wid
     shore = 2000.0
     west = shapely.box(-2000, -shore, L + 2000, 0).union(shapely.Point(0.6 * L, 0).buffer(900, quad_segs=4))
     east = shapely.box(-2000, W, L + 2000, W + shore).union(shapely.Point(0.3 * L, W).buffer(900, quad_segs=4))
-    feats = [_feature("land", west, lat0, lon0), _feature("land", east, lat0, lon0),
-             _feature("trial_area", shapely.box(-1000, 0, L + 1000, W), lat0, lon0),
-             _feature("start", shapely.Point(1500, 0.5 * W), lat0, lon0, heading_deg=0.0),
-             _feature("goal", shapely.Point(L - 1500, 0.5 * W), lat0, lon0)]
+    feats = [
+        _feature("land", west, lat0, lon0),
+        _feature("land", east, lat0, lon0),
+        _feature("trial_area", shapely.box(-1000, 0, L + 1000, W), lat0, lon0),
+        _feature("start", shapely.Point(1500, 0.5 * W), lat0, lon0, heading_deg=0.0),
+        _feature("goal", shapely.Point(L - 1500, 0.5 * W), lat0, lon0),
+    ]
     return {"type": "FeatureCollection", "name": f"fjord {L / 1000:.0f} x {W / 1000:.0f} km (synthetic)", "features": feats}
 
 
@@ -60,7 +70,9 @@ def open_sea(lat0: float = 57.0, lon0: float = 11.0, size_m: float = 60_000.0) -
     """A square trial area of open deep water (``size_m`` on a side), start in the south-west
     corner heading north-east, goal in the north-east corner: room for a VLCC's trials."""
     S = size_m
-    feats = [_feature("trial_area", shapely.box(0, 0, S, S), lat0, lon0),
-             _feature("start", shapely.Point(0.1 * S, 0.1 * S), lat0, lon0, heading_deg=45.0),
-             _feature("goal", shapely.Point(0.9 * S, 0.9 * S), lat0, lon0)]
+    feats = [
+        _feature("trial_area", shapely.box(0, 0, S, S), lat0, lon0),
+        _feature("start", shapely.Point(0.1 * S, 0.1 * S), lat0, lon0, heading_deg=45.0),
+        _feature("goal", shapely.Point(0.9 * S, 0.9 * S), lat0, lon0),
+    ]
     return {"type": "FeatureCollection", "name": f"open sea {S / 1000:.0f} x {S / 1000:.0f} km (synthetic)", "features": feats}

@@ -66,8 +66,9 @@ def ship_library(profile: ShipProfile) -> list[Primitive]:
     return lib
 
 
-def _whole_manoeuvres(weights: np.ndarray, prims: list[Primitive], info: InfoSet, trial_s: float, criterion: str,
-                      mean_subtraction: str) -> tuple[np.ndarray, float, float]:
+def _whole_manoeuvres(
+    weights: np.ndarray, prims: list[Primitive], info: InfoSet, trial_s: float, criterion: str, mean_subtraction: str
+) -> tuple[np.ndarray, float, float]:
     """Counts of whole primitives for the trial length, the D-efficiency of the rounded mix
     against the continuous optimum (exp((log det M(n) - log det M(w)) / p)) and its efficiency
     in the design's own criterion."""
@@ -76,26 +77,41 @@ def _whole_manoeuvres(weights: np.ndarray, prims: list[Primitive], info: InfoSet
     total = int(round(trial_s / ts))
     if total < units.min():
         short = min(prims, key=lambda p: p.n_samples)
-        raise DesignError(f"--trial-length {trial_s:g} s is shorter than one manoeuvre (the shortest, {short.name}, "
-                          f"lasts {short.duration_s:.0f} s): give --trial-length >= {short.duration_s:.0f}")
-    rnd = round_design(weights, units, total, lambda s: info.value(s / total, mean_subtraction, criterion), info.n_params,
-                       criterion=criterion)
+        raise DesignError(
+            f"--trial-length {trial_s:g} s is shorter than one manoeuvre (the shortest, {short.name}, "
+            f"lasts {short.duration_s:.0f} s): give --trial-length >= {short.duration_s:.0f}"
+        )
+    rnd = round_design(
+        weights, units, total, lambda s: info.value(s / total, mean_subtraction, criterion), info.n_params, criterion=criterion
+    )
     counts = rnd.counts
     sel = weights > 1e-9
     if not np.isfinite(info.value(counts * units / max(1, counts @ units), mean_subtraction, "D")):
         need = float(units[sel].sum() * ts)
-        raise DesignError(f"--trial-length {trial_s:g} s cannot hold one of each manoeuvre the design needs "
-                          f"({', '.join(p.name for p, s in zip(prims, sel) if s)}): give --trial-length >= {need:.0f}")
+        raise DesignError(
+            f"--trial-length {trial_s:g} s cannot hold one of each manoeuvre the design needs "
+            f"({', '.join(p.name for p, s in zip(prims, sel) if s)}): give --trial-length >= {need:.0f}"
+        )
     real = counts * units / (counts @ units)
-    eff = {c: _efficiency(info.value(real, mean_subtraction, c), info.value(weights, mean_subtraction, c), info.n_params, c)
-           for c in {"D", criterion}}
+    eff = {
+        c: _efficiency(info.value(real, mean_subtraction, c), info.value(weights, mean_subtraction, c), info.n_params, c)
+        for c in {"D", criterion}
+    }
     return counts, eff["D"], eff[criterion]
 
 
-def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, *, criterion: str = "D",
-                  mean_subtraction: str = "complete", trial_length_s: float | None = None, seed: int = 0,
-                  exclude: dict[str, tuple[float, float]] | None = None, infos: list[PrimitiveInfo] | None = None,
-                  baseline: float | None = None) -> TrialDesign:
+def design_counts(
+    profile: ShipProfile,
+    library: list[Primitive] | None = None,
+    *,
+    criterion: str = "D",
+    mean_subtraction: str = "complete",
+    trial_length_s: float | None = None,
+    seed: int = 0,
+    exclude: dict[str, tuple[float, float]] | None = None,
+    infos: list[PrimitiveInfo] | None = None,
+    baseline: float | None = None,
+) -> TrialDesign:
     """Design the mix of ``library`` (default :func:`ship_library`) without the primitives in
     ``exclude`` ({name: (along, cross) metres of water it needs}) and round it to whole manoeuvres.
 
@@ -121,62 +137,119 @@ def design_counts(profile: ShipProfile, library: list[Primitive] | None = None, 
         wf = np.zeros(len(lib))
         wf[keep] = w
         loss = _exclusion_loss(profile, lib, infos, wf, baseline, criterion, mean_subtraction, trial_s, seed)
-        dropped = [{"primitive": name, "needs_m": [float(need[0]), float(need[1])], "efficiency_loss": float(max(0.0, loss))}
-                   for name, need in exclude.items()]
-        notes.append(f"design redone without {', '.join(exclude)} (fits nowhere on the map): {criterion}-efficiency "
-                     f"{100 * (1 - loss):.1f} % of the full library's optimum")
+        dropped = [
+            {"primitive": name, "needs_m": [float(need[0]), float(need[1])], "efficiency_loss": float(max(0.0, loss))}
+            for name, need in exclude.items()
+        ]
+        notes.append(
+            f"design redone without {', '.join(exclude)} (fits nowhere on the map): {criterion}-efficiency "
+            f"{100 * (1 - loss):.1f} % of the full library's optimum"
+        )
     record = _record(prims, w, counts, criterion, mean_subtraction, d_eff, c_eff, dropped, trial_s)
     sailed = counts * np.array([p.n_samples for p in prims], float)
     notes += [f"warning: {w}" for w in mean_subtraction_warnings(profile, info, sailed / sailed.sum(), mean_subtraction)]
-    notes.insert(0, f"counts from the {criterion}-optimal design ({mean_subtraction} mean subtraction) over "
-                    f"{len(prims)} primitives, rounded to whole manoeuvres for {trial_s:.0f} s: "
-                    f"{', '.join(f'{k} x{v}' for k, v in record['counts'].items())} ({criterion}-efficiency {c_eff:.3f} of the continuous optimum)")
+    notes.insert(
+        0,
+        f"counts from the {criterion}-optimal design ({mean_subtraction} mean subtraction) over "
+        f"{len(prims)} primitives, rounded to whole manoeuvres for {trial_s:.0f} s: "
+        f"{', '.join(f'{k} x{v}' for k, v in record['counts'].items())} ({criterion}-efficiency {c_eff:.3f} of the continuous optimum)",
+    )
     return TrialDesign(record["counts"], prims, record, d, notes)
 
 
-def _design_kept(profile: ShipProfile, prims: list[Primitive], infos: list[PrimitiveInfo], exclude: dict[str, tuple[float, float]],
-                 criterion: str, mean_subtraction: str, trial_s: float, seed: int) -> Design:
+def _design_kept(
+    profile: ShipProfile,
+    prims: list[Primitive],
+    infos: list[PrimitiveInfo],
+    exclude: dict[str, tuple[float, float]],
+    criterion: str,
+    mean_subtraction: str,
+    trial_s: float,
+    seed: int,
+) -> Design:
     """The continuous design of the primitives kept (``prims``, their moments ``infos``); when
     the exclusions leave nothing, or nothing that identifies the model, a :class:`NoFitError`
     that says what was dropped and why."""
     if not prims:
-        raise NoFitError(f"all {len(exclude)} manoeuvres of {profile.name}'s library fit nowhere in the water reachable "
-                         f"from the start: {_needs(exclude)}; {_what_helps(exclude)}")
+        raise NoFitError(
+            f"all {len(exclude)} manoeuvres of {profile.name}'s library fit nowhere in the water reachable "
+            f"from the start: {_needs(exclude)}; {_what_helps(exclude)}"
+        )
     try:
-        return run_design(profile, prims, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_s,
-                          seed=seed, infos=infos, convex_solvers=SOLVERS)
+        return run_design(
+            profile,
+            prims,
+            criterion=criterion,
+            mean_subtraction=mean_subtraction,
+            trial_length_s=trial_s,
+            seed=seed,
+            infos=infos,
+            convex_solvers=SOLVERS,
+        )
     except DesignError as exc:
         if exclude:  # the remaining library cannot identify the model: say what was dropped and why
             dead = _dead_count(str(exc))
-            raise NoFitError(f"{len(exclude)} manoeuvre(s) fit nowhere in the water reachable from the start: {_needs(exclude)}; "
-                             f"without them the rest of {profile.name}'s library cannot identify the model{dead}; "
-                             f"{_what_helps(exclude)}") from None
+            raise NoFitError(
+                f"{len(exclude)} manoeuvre(s) fit nowhere in the water reachable from the start: {_needs(exclude)}; "
+                f"without them the rest of {profile.name}'s library cannot identify the model{dead}; "
+                f"{_what_helps(exclude)}"
+            ) from None
         raise
 
 
-def _exclusion_loss(profile: ShipProfile, lib: list[Primitive], infos: list[PrimitiveInfo], wf: np.ndarray, baseline: float | None,
-                    criterion: str, mean_subtraction: str, trial_s: float, seed: int) -> float:
+def _exclusion_loss(
+    profile: ShipProfile,
+    lib: list[Primitive],
+    infos: list[PrimitiveInfo],
+    wf: np.ndarray,
+    baseline: float | None,
+    criterion: str,
+    mean_subtraction: str,
+    trial_s: float,
+    seed: int,
+) -> float:
     """The criterion efficiency the mix ``wf`` (over the whole library, zero on the exclusions)
     loses against the full library's optimum ``baseline`` (designed here when None)."""
     full = InfoSet.from_infos(infos)
     if baseline is None:
-        base = run_design(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_s,
-                          seed=seed, infos=infos, convex_solvers=SOLVERS)
+        base = run_design(
+            profile,
+            lib,
+            criterion=criterion,
+            mean_subtraction=mean_subtraction,
+            trial_length_s=trial_s,
+            seed=seed,
+            infos=infos,
+            convex_solvers=SOLVERS,
+        )
         baseline = full.value(np.array([base.weights[p.name] for p in lib]), mean_subtraction, criterion)
     return 1.0 - _efficiency(full.value(wf, mean_subtraction, criterion), baseline, full.n_params, criterion)
 
 
-def _record(prims: list[Primitive], w: np.ndarray, counts: np.ndarray, criterion: str, mean_subtraction: str, d_eff: float,
-            c_eff: float, dropped: list[dict[str, Any]], trial_s: float) -> dict[str, Any]:
+def _record(
+    prims: list[Primitive],
+    w: np.ndarray,
+    counts: np.ndarray,
+    criterion: str,
+    mean_subtraction: str,
+    d_eff: float,
+    c_eff: float,
+    dropped: list[dict[str, Any]],
+    trial_s: float,
+) -> dict[str, Any]:
     """The plan's ``design`` field (:attr:`TrialDesign.record`)."""
     # the support only: a primitive the optimum gives (next to) no weight is listed once, as not used
     used = [x > UNUSED_WEIGHT or c > 0 for x, c in zip(w, counts)]
     return {
-        "criterion": criterion, "mean_subtraction": mean_subtraction,
+        "criterion": criterion,
+        "mean_subtraction": mean_subtraction,
         "weights": {p.name: float(x) for p, x, u in zip(prims, w, used) if u},
         "counts": {p.name: int(c) for p, c in zip(prims, counts) if c > 0},
         "not_used": [p.name for p, u in zip(prims, used) if not u],
-        "d_efficiency": float(d_eff), "efficiency": float(c_eff), "dropped": dropped, "trial_length_s": trial_s,
+        "d_efficiency": float(d_eff),
+        "efficiency": float(c_eff),
+        "dropped": dropped,
+        "trial_length_s": trial_s,
         "planned_s": float(sum(c * p.duration_s for p, c in zip(prims, counts))),
     }
 
@@ -185,8 +258,10 @@ def _what_helps(exclude: dict[str, tuple[float, float]]) -> str:
     """What would let the design plan: a map with the open water the smallest excluded manoeuvre needs,
     e.g. the open-sea map shipped with the package (60 x 60 km of open water)."""
     a, c = min(exclude.values(), key=lambda ac: ac[0] * ac[1])
-    return (f"plan on a map with at least {_km(a)} x {_km(c)} of open water around the start, e.g. the package's open-sea "
-            f"map: --map {bundled_map_path('open-sea')}")
+    return (
+        f"plan on a map with at least {_km(a)} x {_km(c)} of open water around the start, e.g. the package's open-sea "
+        f"map: --map {bundled_map_path('open-sea')}"
+    )
 
 
 def _needs(exclude: dict[str, tuple[float, float]], show: int = 2) -> str:
@@ -222,22 +297,43 @@ class FirstDesign:
     baseline: float  # criterion value of the full library's optimum
 
 
-def first_design(profile: ShipProfile, library: list[Primitive] | None = None, *, criterion: str = "D",
-                 mean_subtraction: str = "complete", trial_length_s: float | None = None, seed: int = 0) -> FirstDesign:
+def first_design(
+    profile: ShipProfile,
+    library: list[Primitive] | None = None,
+    *,
+    criterion: str = "D",
+    mean_subtraction: str = "complete",
+    trial_length_s: float | None = None,
+    seed: int = 0,
+) -> FirstDesign:
     """Design ``library`` (default :func:`ship_library`) and round it to whole manoeuvres."""
     lib = [p for p in (library if library is not None else ship_library(profile)) if p.kind == "informative"]
     infos = library_information(profile, lib)
-    td = design_counts(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length_s,
-                       seed=seed, infos=infos)
+    td = design_counts(
+        profile,
+        lib,
+        criterion=criterion,
+        mean_subtraction=mean_subtraction,
+        trial_length_s=trial_length_s,
+        seed=seed,
+        infos=infos,
+    )
     full = InfoSet.from_infos(infos)
     baseline = full.value(np.array([td.design.weights[p.name] for p in lib]), mean_subtraction, criterion)
     return FirstDesign(lib, infos, td, baseline)
 
 
-def design_for_map(profile: ShipProfile, fits_nowhere: Callable[[list[Primitive], dict[str, int]], dict[str, tuple[float, float]]],
-                   library: list[Primitive] | None = None, *, criterion: str = "D",
-                   mean_subtraction: str = "complete", trial_length_s: float | None = None, seed: int = 0,
-                   first: FirstDesign | None = None) -> TrialDesign:
+def design_for_map(
+    profile: ShipProfile,
+    fits_nowhere: Callable[[list[Primitive], dict[str, int]], dict[str, tuple[float, float]]],
+    library: list[Primitive] | None = None,
+    *,
+    criterion: str = "D",
+    mean_subtraction: str = "complete",
+    trial_length_s: float | None = None,
+    seed: int = 0,
+    first: FirstDesign | None = None,
+) -> TrialDesign:
     """Design, check the support against the map, redesign without what fits nowhere.
 
     ``fits_nowhere(primitives, counts) -> {name: (along, cross)}`` tells which of the designed
@@ -245,8 +341,9 @@ def design_for_map(profile: ShipProfile, fits_nowhere: Callable[[list[Primitive]
     :func:`first_design` of the same profile, library and options, computed already.
     """
     if first is None:
-        first = first_design(profile, library, criterion=criterion, mean_subtraction=mean_subtraction,
-                             trial_length_s=trial_length_s, seed=seed)
+        first = first_design(
+            profile, library, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length_s, seed=seed
+        )
     lib, infos, td, baseline = first.library, first.infos, first.design, first.baseline
     exclude: dict[str, tuple[float, float]] = {}
     while True:
@@ -254,5 +351,14 @@ def design_for_map(profile: ShipProfile, fits_nowhere: Callable[[list[Primitive]
         if not bad:
             return td
         exclude.update(bad)
-        td = design_counts(profile, lib, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length_s,
-                           seed=seed, exclude=exclude, infos=infos, baseline=baseline)
+        td = design_counts(
+            profile,
+            lib,
+            criterion=criterion,
+            mean_subtraction=mean_subtraction,
+            trial_length_s=trial_length_s,
+            seed=seed,
+            exclude=exclude,
+            infos=infos,
+            baseline=baseline,
+        )

@@ -72,9 +72,15 @@ def hull_clearance(sea: SeaMap, length_m: float, beam_m: float, track: np.ndarra
     return clear
 
 
-def resimulate(sea: SeaMap, prims: list[Primitive], start: tuple[float, float, float], margin: float,
-               lattice_end: tuple[float, float] | None = None, nu0: np.ndarray | None = None,
-               sims: list | None = None) -> Verification:
+def resimulate(
+    sea: SeaMap,
+    prims: list[Primitive],
+    start: tuple[float, float, float],
+    margin: float,
+    lattice_end: tuple[float, float] | None = None,
+    nu0: np.ndarray | None = None,
+    sims: list | None = None,
+) -> Verification:
     """Simulate the concatenated inputs of ``prims`` (anything with ``inputs``, ``n_samples``,
     ``name``) from ``start`` and check the swept hull against the map with the margin.
 
@@ -95,9 +101,13 @@ def resimulate(sea: SeaMap, prims: list[Primitive], start: tuple[float, float, f
     mc = float(clear[worst])
     drift = float(np.hypot(*(track[-1, :2] - np.asarray(lattice_end)))) if lattice_end is not None else 0.0
     ok = mc >= margin - 1e-6
-    reason = "" if ok else (
-        f"the re-simulated track comes {mc:.1f} m from an obstacle (margin {margin:g} m) at t = {t[worst]:.0f} s "
-        f"in step {int(step[worst]) + 1} ({prims[int(step[worst])].name}): increase --margin or use a finer --resolution"
+    reason = (
+        ""
+        if ok
+        else (
+            f"the re-simulated track comes {mc:.1f} m from an obstacle (margin {margin:g} m) at t = {t[worst]:.0f} s "
+            f"in step {int(step[worst]) + 1} ({prims[int(step[worst])].name}): increase --margin or use a finer --resolution"
+        )
     )
     ins = np.vstack([inputs, inputs[-1:]])
     return Verification(t, track, nu, ins, step, clear, mc, worst, drift, ok, reason)

@@ -89,10 +89,12 @@ def swept_footprints(tracks: list[np.ndarray], length: float, beam: float) -> li
     shared = (int(np.argmin(same)) if not same.all() else n) - 1  # pairs of hulls all of them have
     if len(tracks) < 2 or shared < 2:
         return [swept_footprint(t, length, beam) for t in tracks]
-    head = shapely.union_all(shapely.convex_hull(shapely.linestrings(np.concatenate([first[:shared], first[1:shared + 1]], axis=1))))
+    head = shapely.union_all(
+        shapely.convex_hull(shapely.linestrings(np.concatenate([first[:shared], first[1 : shared + 1]], axis=1)))
+    )
     out = []
     for hulls, slack in parts:
-        pairs = np.concatenate([hulls[shared:-1], hulls[shared + 1:]], axis=1)
+        pairs = np.concatenate([hulls[shared:-1], hulls[shared + 1 :]], axis=1)
         geom = shapely.union_all(np.concatenate([[head], shapely.convex_hull(shapely.linestrings(pairs))]))
         out.append(geom.buffer(slack, quad_segs=4) if slack > 0 else geom)
     return out

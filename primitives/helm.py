@@ -35,7 +35,8 @@ def steady_rps(profile: ShipProfile, u: float | None = None) -> float:
     if _surge_increment(profile, th, u, hi) < 0:
         raise ProfileError(
             f"profile {profile.name!r}: the model cannot hold {u:.2f} m/s within the engine's {60 * hi:.0f} rpm; "
-            "lower cruise_speed_mps or raise engine.rps_limits / input_limits.n")
+            "lower cruise_speed_mps or raise engine.rps_limits / input_limits.n"
+        )
     if _surge_increment(profile, th, u, lo) >= 0:
         return lo
     for _ in range(60):
@@ -127,8 +128,15 @@ def _lengths(profile: ShipProfile, u: float, n_lengths: float) -> int:
     return max(1, int(n_lengths * profile.length_m / max(u, 0.1 * profile.cruise_speed_mps) / profile.sample_time))
 
 
-def zigzag(profile: ShipProfile, delta_deg: float, psi_deg: float, *, first_side: str = "starboard",
-           n_switches: int = 4, n_rps: float | None = None) -> Generated:
+def zigzag(
+    profile: ShipProfile,
+    delta_deg: float,
+    psi_deg: float,
+    *,
+    first_side: str = "starboard",
+    n_switches: int = 4,
+    n_rps: float | None = None,
+) -> Generated:
     """Zig-zag delta/psi (IMO): rudder to one side, counter-rudder each time the heading change
     passes psi; ends at the heading after ``n_switches`` rudder reversals."""
     n, u = _approach(profile, n_rps)
@@ -148,8 +156,14 @@ def zigzag(profile: ShipProfile, delta_deg: float, psi_deg: float, *, first_side
     return loop.generated()
 
 
-def turning_circle(profile: ShipProfile, delta_deg: float | None = None, *, side: str = "starboard",
-                   turns: float = 1.0, n_rps: float | None = None) -> Generated:
+def turning_circle(
+    profile: ShipProfile,
+    delta_deg: float | None = None,
+    *,
+    side: str = "starboard",
+    turns: float = 1.0,
+    n_rps: float | None = None,
+) -> Generated:
     """Turning circle: full (or ``delta_deg``) rudder held until the heading has changed 360 deg x turns."""
     n, u = _approach(profile, n_rps)
     delta = profile.helm.max_rudder_deg if delta_deg is None else delta_deg
@@ -187,8 +201,9 @@ def pull_out(profile: ShipProfile, delta_deg: float = 20.0, *, side: str = "star
 DIEUDONNE_STEPS = (15.0, 10.0, 5.0, 2.0, 0.0, -2.0, -5.0, -10.0, -15.0, -10.0, -5.0, -2.0, 0.0, 2.0, 5.0, 10.0, 15.0)
 
 
-def direct_spiral(profile: ShipProfile, steps_deg: tuple[float, ...] = DIEUDONNE_STEPS, *, hold_lengths: float = 5.0,
-                  n_rps: float | None = None) -> Generated:
+def direct_spiral(
+    profile: ShipProfile, steps_deg: tuple[float, ...] = DIEUDONNE_STEPS, *, hold_lengths: float = 5.0, n_rps: float | None = None
+) -> Generated:
     """Direct (Dieudonne) spiral: rudder steps (+ starboard), each held ``hold_lengths`` ship
     lengths for the yaw rate to settle; the engine setting is left unchanged (ITTC)."""
     n, u = _approach(profile, n_rps)
@@ -203,8 +218,9 @@ def direct_spiral(profile: ShipProfile, steps_deg: tuple[float, ...] = DIEUDONNE
     return loop.generated()
 
 
-def speed_change(profile: ShipProfile, rps_from: float, rps_to: float, *, until_speed: float | None = None,
-                 max_lengths: float = 40.0) -> Generated:
+def speed_change(
+    profile: ShipProfile, rps_from: float, rps_to: float, *, until_speed: float | None = None, max_lengths: float = 40.0
+) -> Generated:
     """Engine step from steady ``rps_from`` to ``rps_to`` with the rudder midships: an
     acceleration or a deceleration, run until the speed is within 2 % of the change from its
     new steady value (or ``until_speed`` is passed, or ``max_lengths`` ship lengths)."""
@@ -221,7 +237,8 @@ def speed_change(profile: ShipProfile, rps_from: float, rps_to: float, *, until_
     while loop.k < n_max:
         loop.step()
         if (until_speed is not None and (loop.nu[0] - u1) * np.sign(u0 - u1) <= 0) or (
-                until_speed is None and abs(loop.nu[0] - u1) < tol):
+            until_speed is None and abs(loop.nu[0] - u1) < tol
+        ):
             break
     return loop.generated()
 
@@ -235,8 +252,10 @@ def stopping(profile: ShipProfile) -> tuple[Generated, str]:
     th = profile.params()
     if lo < 0 and _surge_increment(profile, th, 0.0, lo) < 0:
         return speed_change(profile, n0, lo, until_speed=0.0), "crash stop: full astern from cruise speed until stopped"
-    return (speed_change(profile, n0, 0.0, until_speed=0.5 * profile.cruise_speed_mps),
-            "engine stop from cruise speed, coasting to half speed (the profile's engine has no astern)")
+    return (
+        speed_change(profile, n0, 0.0, until_speed=0.5 * profile.cruise_speed_mps),
+        "engine stop from cruise speed, coasting to half speed (the profile's engine has no astern)",
+    )
 
 
 def straight(profile: ShipProfile, distance_m: float, n_rps: float | None = None) -> Generated:

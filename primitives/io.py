@@ -179,7 +179,9 @@ def atomic_output_dir(path: str | Path) -> Iterator[Path]:
     check_replaceable_dir(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     prefix = f".{path.name}."
-    remove_stale(path.parent, prefix, OUTPUT_OWNER_TEXT, contents=("new", "old"), put_back=lambda d: _put_back_dir(d / "old", path))
+    remove_stale(
+        path.parent, prefix, OUTPUT_OWNER_TEXT, contents=("new", "old"), put_back=lambda d: _put_back_dir(d / "old", path)
+    )
     with owned_tempdir(path.parent, prefix, OUTPUT_OWNER_TEXT) as box:
         new, old = box / "new", box / "old"
         new.mkdir()

@@ -75,8 +75,12 @@ def use(work: int) -> bool:
                 _load()
             except Exception as e:  # an unusable compiler is no reason to stop: the numpy loop gives the same numbers
                 AVAILABLE = False
-                warnings.warn(f"compiled simulation kernel unavailable ({type(e).__name__}: {e}); using the numpy loop "
-                              "(set SHIPTRIAL_KERNEL=numpy to skip the attempt)", RuntimeWarning, stacklevel=2)
+                warnings.warn(
+                    f"compiled simulation kernel unavailable ({type(e).__name__}: {e}); using the numpy loop "
+                    "(set SHIPTRIAL_KERNEL=numpy to skip the attempt)",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
                 return False
     return True
 
@@ -84,8 +88,10 @@ def use(work: int) -> bool:
 @lru_cache(maxsize=256)
 def _factors(terms: tuple[tuple[str, ...], ...]) -> tuple:
     """The parsed factors of every term, per DOF: [[(name, modulus, station, power), ...] per term]."""
-    return tuple(tuple(tuple((f.name, f.modulus, f.station, f.power) for f in (parse_factor(s) for s in t.split("*")))
-                       for t in dof) for dof in terms)
+    return tuple(
+        tuple(tuple((f.name, f.modulus, f.station, f.power) for f in (parse_factor(s) for s in t.split("*"))) for t in dof)
+        for dof in terms
+    )
 
 
 def program(terms: TermSet, in_names: list[str], state_names: frozenset[str]) -> tuple[np.ndarray, ...] | None:
@@ -125,8 +131,22 @@ def pod_arrays(profile, index: dict[str, int]) -> tuple[np.ndarray, np.ndarray, 
     pos = np.array([(p.x, p.y, p.z) for p in profile.pods], float)
     sig = np.array([(index[f"n{i}"], index[f"delta{i}"]) for i in range(1, len(profile.pods) + 1)], np.int64)
     # the Python-float products of PodModel.local_forces, formed once as they are there
-    coef = np.array([m.rho * m.diameter**4, m.diameter, m.c_mx1, m.c_mx2, m.c_my1, m.c_my2, 0.5 * m.rho * m.strut_area,
-                     m.c_rx1, m.c_rx2, m.c_ry, 1.0 if m.yaw_moment == "full" else 0.0, 0.0])
+    coef = np.array(
+        [
+            m.rho * m.diameter**4,
+            m.diameter,
+            m.c_mx1,
+            m.c_mx2,
+            m.c_my1,
+            m.c_my2,
+            0.5 * m.rho * m.strut_area,
+            m.c_rx1,
+            m.c_rx2,
+            m.c_ry,
+            1.0 if m.yaw_moment == "full" else 0.0,
+            0.0,
+        ]
+    )
     return pos, sig, coef
 
 
@@ -145,8 +165,15 @@ def writable(a: np.ndarray | None, shape: tuple[int, ...]) -> np.ndarray:
     return np.require(a, float, ["C", "W"])
 
 
-def open_loop(step, names: list[str], exo: dict[str, np.ndarray], nu0: np.ndarray, cur_body: tuple | None,
-              wind_body: tuple | None, forced: np.ndarray | None) -> np.ndarray | None:
+def open_loop(
+    step,
+    names: list[str],
+    exo: dict[str, np.ndarray],
+    nu0: np.ndarray,
+    cur_body: tuple | None,
+    wind_body: tuple | None,
+    forced: np.ndarray | None,
+) -> np.ndarray | None:
     """nu (B, N+1, 3) of ``step`` (a :class:`primitives.simulate.VelocityStep` without rigid body)
     stepped N times from nu0 (B, 3), the loop of a caller that supplies every signal itself: the
     exogenous signals ``exo[name]`` (N, B) (the heading among them when a term reads it), the
@@ -167,8 +194,26 @@ def open_loop(step, names: list[str], exo: dict[str, np.ndarray], nu0: np.ndarra
     nu_t[0] = nu0.T
     env = [np.zeros((0, 2, batch)) if e is None else np.ascontiguousarray(np.stack(e, axis=1)) for e in (cur_body, wind_body)]
     w_t = np.zeros((0, 3, batch)) if forced is None else np.ascontiguousarray(forced.transpose(0, 2, 1))
-    time_loop(in_t, nu_t, np.zeros((1, 3, batch)), env[0], env[1], w_t, step.coef_array, *prog,
-              *pod_arrays(None, {}), *rigid_arrays(None), 0.0, False, False, False, step.wind_excess, step.speed, True, True)
+    time_loop(
+        in_t,
+        nu_t,
+        np.zeros((1, 3, batch)),
+        env[0],
+        env[1],
+        w_t,
+        step.coef_array,
+        *prog,
+        *pod_arrays(None, {}),
+        *rigid_arrays(None),
+        0.0,
+        False,
+        False,
+        False,
+        step.wind_excess,
+        step.speed,
+        True,
+        True,
+    )
     return nu_t.transpose(2, 0, 1)
 
 
@@ -285,8 +330,19 @@ def _increments(inc, tmp, sig, coef, batch, dof_first, dof_n, t_first, t_n, f_si
 @_inlined
 def _pod_forces(sig, b, u, v, r, p, pod_pos, pod_sig, pc):
     """tau_x, tau_y, tau_k, tau_n of the pods (seed 000 (2.9)-(2.12), primitives.pods) into ``sig``."""
-    d4, d, c_mx1, c_mx2, c_my1, c_my2, qc, c_rx1, c_rx2, c_ry, full = (pc[0], pc[1], pc[2], pc[3], pc[4], pc[5], pc[6],
-                                                                     pc[7], pc[8], pc[9], pc[10])
+    d4, d, c_mx1, c_mx2, c_my1, c_my2, qc, c_rx1, c_rx2, c_ry, full = (
+        pc[0],
+        pc[1],
+        pc[2],
+        pc[3],
+        pc[4],
+        pc[5],
+        pc[6],
+        pc[7],
+        pc[8],
+        pc[9],
+        pc[10],
+    )
     tx = ty = tk = tn = 0.0
     for i in range(pod_pos.shape[0]):
         px, py, pz = pod_pos[i, 0], pod_pos[i, 1], pod_pos[i, 2]
@@ -311,8 +367,9 @@ def _pod_forces(sig, b, u, v, r, p, pod_pos, pod_sig, pc):
 
 
 @_inlined
-def _state_signals(sig, cub, cvb, k, nu_t, eta_t, in_t, cur_t, wind_t, pod_pos, pod_sig, pod_coef, heading, wind_excess,
-                   speed, env_body):
+def _state_signals(
+    sig, cub, cvb, k, nu_t, eta_t, in_t, cur_t, wind_t, pod_pos, pod_sig, pod_coef, heading, wind_excess, speed, env_body
+):
     """The signals of step k per member into ``sig`` (primitives.simulate.relative_signals and
     _add_state_forces): inputs, u, v, r, psi (p, phi), pod forces, the velocities relative to the
     water and the air, U, the wind signals; the current in body axes into ``cub``, ``cvb``."""
@@ -416,8 +473,36 @@ def _advance(k, nu_t, eta_t, inc, n_inc, w_t, cur_t, cub, cvb, minv, rb, ts, hea
 
 
 @compiled
-def time_loop(in_t, nu_t, eta_t, cur_t, wind_t, w_t, coef, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow,
-              pod_pos, pod_sig, pod_coef, minv, rb, ts, heading, positions, turning, wind_excess, speed, env_body, forced_first):
+def time_loop(
+    in_t,
+    nu_t,
+    eta_t,
+    cur_t,
+    wind_t,
+    w_t,
+    coef,
+    dof_first,
+    dof_n,
+    t_first,
+    t_n,
+    f_sig,
+    f_mod,
+    f_sta,
+    f_pow,
+    pod_pos,
+    pod_sig,
+    pod_coef,
+    minv,
+    rb,
+    ts,
+    heading,
+    positions,
+    turning,
+    wind_excess,
+    speed,
+    env_body,
+    forced_first,
+):
     """nu_t, eta_t (N+1, nd, B), row 0 set, filled in place step by step.
 
     ``in_t`` (N, S, 1 or B) exogenous signals; ``cur_t``, ``wind_t`` (N, 2, B) over ground in the
@@ -435,7 +520,8 @@ def time_loop(in_t, nu_t, eta_t, cur_t, wind_t, w_t, coef, dof_first, dof_n, t_f
     cub, cvb = np.zeros(batch), np.zeros(batch)
     n_inc = 4 if minv.shape[0] > 0 else dof_first.shape[0]
     for k in range(n_steps):
-        _state_signals(sig, cub, cvb, k, nu_t, eta_t, in_t, cur_t, wind_t, pod_pos, pod_sig, pod_coef, heading, wind_excess,
-                       speed, env_body)
+        _state_signals(
+            sig, cub, cvb, k, nu_t, eta_t, in_t, cur_t, wind_t, pod_pos, pod_sig, pod_coef, heading, wind_excess, speed, env_body
+        )
         _increments(inc, tmp, sig, coef, batch, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow)
         _advance(k, nu_t, eta_t, inc, n_inc, w_t, cur_t, cub, cvb, minv, rb, ts, heading, positions, turning, forced_first)

@@ -188,7 +188,9 @@ def make_primitive(profile: ShipProfile, name: str, description: str, gen: mv.Ge
     res = simulate(profile, inputs, nu0=gen.nu0)
     if gen.heading_switched and gen.inputs is None:
         orders = heading_switch_orders(orders, res.eta[0], gen.split_points, profile.sample_time)
-    return Primitive(name, description, profile, inputs, res.nu[0], res.eta[0], list(gen.split_points), kind, render(orders), orders)
+    return Primitive(
+        name, description, profile, inputs, res.nu[0], res.eta[0], list(gen.split_points), kind, render(orders), orders
+    )
 
 
 # -- the thesis primitives -----------------------------------------------------------------------
@@ -306,22 +308,49 @@ def rudder_dictionary(profile: ShipProfile) -> list[Primitive]:
     full = profile.helm.max_rudder_deg
     out = []
     for d, s in ((10, "starboard"), (10, "port"), (20, "starboard"), (20, "port")):
-        out.append(make_primitive(profile, f"zigzag_{d}_{d}_{s[0]}", f"zig-zag {d}/{d}, first rudder to {s}",
-                                  hm.zigzag(profile, d, d, first_side=s)))
+        out.append(
+            make_primitive(
+                profile, f"zigzag_{d}_{d}_{s[0]}", f"zig-zag {d}/{d}, first rudder to {s}", hm.zigzag(profile, d, d, first_side=s)
+            )
+        )
     for n, pct in ((n0, 100), (n_slow, round(100 * n_slow / n0))):
         for d, psi in ((10, 5), (min(25, full), 5)):
-            out.append(make_primitive(profile, f"zz_exc_{d:g}_{psi}_{pct}", f"excitation zig-zag {d:g}/{psi} at {pct} % of approach rpm",
-                                      hm.zigzag(profile, d, psi, n_rps=n, n_switches=6)))
+            out.append(
+                make_primitive(
+                    profile,
+                    f"zz_exc_{d:g}_{psi}_{pct}",
+                    f"excitation zig-zag {d:g}/{psi} at {pct} % of approach rpm",
+                    hm.zigzag(profile, d, psi, n_rps=n, n_switches=6),
+                )
+            )
     for s in ("starboard", "port"):
-        out.append(make_primitive(profile, f"turning_circle_{full:g}_{s[0]}", f"turning circle, rudder {full:g} deg {s}",
-                                  hm.turning_circle(profile, side=s)))
+        out.append(
+            make_primitive(
+                profile,
+                f"turning_circle_{full:g}_{s[0]}",
+                f"turning circle, rudder {full:g} deg {s}",
+                hm.turning_circle(profile, side=s),
+            )
+        )
     out.append(make_primitive(profile, "pull_out_20_s", "pull-out after a 20 deg starboard turn", hm.pull_out(profile, 20)))
     out.append(make_primitive(profile, "direct_spiral", "direct (Dieudonne) spiral", hm.direct_spiral(profile)))
     half = max(0.5 * n0, profile.engine.rps_limits[0])
-    out.append(make_primitive(profile, "acceleration", f"acceleration: engine {60 * half:.0f} -> {60 * n0:.0f} rpm",
-                              hm.speed_change(profile, half, n0)))
-    out.append(make_primitive(profile, "deceleration", f"deceleration: engine {60 * n0:.0f} -> {60 * half:.0f} rpm",
-                              hm.speed_change(profile, n0, half)))
+    out.append(
+        make_primitive(
+            profile,
+            "acceleration",
+            f"acceleration: engine {60 * half:.0f} -> {60 * n0:.0f} rpm",
+            hm.speed_change(profile, half, n0),
+        )
+    )
+    out.append(
+        make_primitive(
+            profile,
+            "deceleration",
+            f"deceleration: engine {60 * n0:.0f} -> {60 * half:.0f} rpm",
+            hm.speed_change(profile, n0, half),
+        )
+    )
     gen, what = hm.stopping(profile)
     out.append(make_primitive(profile, "stopping", what, gen))
     return out

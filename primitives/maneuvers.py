@@ -47,8 +47,13 @@ class Generated:
 Policy = Callable[[int, np.ndarray, float, dict], tuple[float, float, float] | None]
 
 
-def closed_loop(profile: ShipProfile, policy: Policy, n_max: int, nu0: np.ndarray | tuple[float, float, float],
-                theta: np.ndarray | str | None = None) -> tuple[np.ndarray, np.ndarray]:
+def closed_loop(
+    profile: ShipProfile,
+    policy: Policy,
+    n_max: int,
+    nu0: np.ndarray | tuple[float, float, float],
+    theta: np.ndarray | str | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Run ``policy(k, nu, psi, memo) -> forces or None (stop)`` on the calm model.
 
     Returns (forces (N, 3), psi (N+1,)). Scalar loop: used only to generate signals.
@@ -81,12 +86,15 @@ class Actuators:
         self.azimuth = profile.actuator == "azimuth" and bool(profile.input_limits)
         if self.azimuth:
             th = profile.thrusters
-            b_mat = np.array([np.ravel([[1.0, 0.0] for _ in th]), np.ravel([[0.0, 1.0] for _ in th]),
-                              np.ravel([[-t.y, t.x] for t in th])])
+            b_mat = np.array(
+                [np.ravel([[1.0, 0.0] for _ in th]), np.ravel([[0.0, 1.0] for _ in th]), np.ravel([[-t.y, t.x] for t in th])]
+            )
             self.pinv = np.linalg.pinv(b_mat)
             big = (-np.inf, np.inf)
-            self.lim = [(profile.input_limits.get(f"n{i}", big), profile.input_limits.get(f"alpha{i}", big))
-                        for i in range(1, len(th) + 1)]
+            self.lim = [
+                (profile.input_limits.get(f"n{i}", big), profile.input_limits.get(f"alpha{i}", big))
+                for i in range(1, len(th) + 1)
+            ]
             self.arm = [(t.x, t.y) for t in th]
             self.order = [profile.inputs.index(f"{k}{i}") for i in range(1, len(th) + 1) for k in ("n", "alpha")]
 
@@ -167,8 +175,14 @@ def side_sign(first_side: str) -> float:
 # -- thesis-style excitation signals ----------------------------------------------------------
 
 
-def hold(profile: ShipProfile, n: int, u: float, v: float = 0.0, r: float = 0.0,
-         nu0: np.ndarray | tuple[float, float, float] | None = None) -> Generated:
+def hold(
+    profile: ShipProfile,
+    n: int,
+    u: float,
+    v: float = 0.0,
+    r: float = 0.0,
+    nu0: np.ndarray | tuple[float, float, float] | None = None,
+) -> Generated:
     """Constant forces that hold (u, v, r); starting from ``nu0`` gives accelerations."""
     f = np.tile(steady_forces(profile, u, v, r), (n, 1))
     return Generated(f, tuple(nu0) if nu0 is not None else (u, v, r))

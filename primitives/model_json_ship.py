@@ -41,8 +41,9 @@ def left_out(d: dict[str, Any], model_terms: tuple[tuple[str, ...], ...]) -> lis
         if all(_held(s, model_terms) for s in slots):
             continue
         vals = values if isinstance(values, list) and len(values) == len(slots) else [None] * len(slots)
-        said = ", ".join(f"{s.get('name')} {v:.3g}" if isinstance(v, int | float) else str(s.get("name"))
-                         for s, v in zip(slots, vals))
+        said = ", ".join(
+            f"{s.get('name')} {v:.3g}" if isinstance(v, int | float) else str(s.get("name")) for s, v in zip(slots, vals)
+        )
         kind = " [a measurement error]" if all(s.get("kind") in MEASUREMENT_KINDS for s in slots) else ""
         out.append(f"{c.get('key', c.get('effect'))} ({said}){kind}")
     return out
@@ -52,12 +53,19 @@ def _held(slot: dict, model_terms: tuple[tuple[str, ...], ...]) -> bool:
     if slot.get("kind") in HELD_KINDS:
         return True
     dof = slot.get("dof")
-    return (slot.get("kind") == "term" and isinstance(dof, int) and not isinstance(dof, bool) and 0 <= dof < len(model_terms)
-            and slot.get("term") in model_terms[dof])
+    return (
+        slot.get("kind") == "term"
+        and isinstance(dof, int)
+        and not isinstance(dof, bool)
+        and 0 <= dof < len(model_terms)
+        and slot.get("term") in model_terms[dof]
+    )
 
 
 def left_out_warning(src: str, dropped: list[str]) -> str:
     """The one-line warning for the findings ``dropped`` of the model.json ``src``."""
-    return (f"{src}: the ship profile in this model.json leaves out {len(dropped)} finding(s) of the diagnosed model that a "
-            f"profile cannot hold: {'; '.join(dropped)}; plans, designs and simulations with --ship {src} run without "
-            "them (the exact model: diagnose.model_file.load_model)")
+    return (
+        f"{src}: the ship profile in this model.json leaves out {len(dropped)} finding(s) of the diagnosed model that a "
+        f"profile cannot hold: {'; '.join(dropped)}; plans, designs and simulations with --ship {src} run without "
+        "them (the exact model: diagnose.model_file.load_model)"
+    )

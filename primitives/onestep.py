@@ -25,8 +25,16 @@ def applies(step: VelocityStep, batch: int, n_dof: int, pods: bool, moving_env: 
     return batch == 1 and n_dof == 3 and step.scalar and not pods and not moving_env and not noise
 
 
-def one_ship_loop(step: VelocityStep, in_names: list[str], in_t: np.ndarray, nu0: np.ndarray, eta0: np.ndarray, ts: float,
-                  positions: bool, heading: bool) -> tuple[np.ndarray, np.ndarray]:
+def one_ship_loop(
+    step: VelocityStep,
+    in_names: list[str],
+    in_t: np.ndarray,
+    nu0: np.ndarray,
+    eta0: np.ndarray,
+    ts: float,
+    positions: bool,
+    heading: bool,
+) -> tuple[np.ndarray, np.ndarray]:
     """nu, eta (1, N+1, 3) of one ship from the time-major input signals ``in_t`` (N, signals, 1)
     named ``in_names``: nu(k+1) = nu(k) + Phi(k)^T theta and eta(k+1) = eta(k) + Ts R(psi(k)) nu(k)
     (Ljungberg 2022, (3.60), (9.1); Fossen 2021, ch. 2). Without ``heading`` nothing reads the pose: psi is

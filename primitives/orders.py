@@ -123,8 +123,11 @@ def _azimuth_words(profile: ShipProfile, row: np.ndarray) -> tuple[str, dict[str
     return "; ".join(parts), vals
 
 
-_FORCE_WORDS = {"tau_x": ("thrust", "ahead", "astern"), "tau_y": ("side force", "to starboard", "to port"),
-                "tau_n": ("turning moment", "to starboard", "to port")}
+_FORCE_WORDS = {
+    "tau_x": ("thrust", "ahead", "astern"),
+    "tau_y": ("side force", "to starboard", "to port"),
+    "tau_n": ("turning moment", "to starboard", "to port"),
+}
 
 
 def _generalized_words(profile: ShipProfile, row: np.ndarray) -> tuple[str, dict[str, float]]:
@@ -254,8 +257,11 @@ def inputs_from_orders(profile: ShipProfile, orders: list[Order], n: int, start:
         first_n = next((o.values["n_rps"] for o in orders if "n_rps" in o.values), 0.0)
         d0, n0 = (0.0, first_n) if start is None else (helm.rudder_deg(start[0]), start[1])
         rud = rate_limited(cmd[:, 0], d0, helm.rudder_rate_deg_s * ts)
-        shaft = rate_limited(np.where(np.arange(n) * ts < _first_time(orders, "n_rps"), n0, cmd[:, 1]), n0,
-                             None if eng.rps_rate is None else eng.rps_rate * ts)
+        shaft = rate_limited(
+            np.where(np.arange(n) * ts < _first_time(orders, "n_rps"), n0, cmd[:, 1]),
+            n0,
+            None if eng.rps_rate is None else eng.rps_rate * ts,
+        )
         return np.column_stack([helm.delta_rad(rud), shaft])
     if profile.actuator == "azimuth":
         keys = [k for i in range(1, len(profile.thrusters) + 1) for k in (f"n{i}_rps", f"alpha{i}_deg")]

@@ -85,9 +85,15 @@ def unwritten_owner_stale(d: Path, owner: bool) -> bool:
     return st.st_uid == os.geteuid() and time.time() - max(st.st_mtime, fs.st_mtime) > UNWRITTEN_STALE_S
 
 
-def remove_stale(parent: str | Path, prefix: str, text: bytes, *, contents: Collection[str],
-                 put_back: Callable[[Path], bool] = _put_back_nothing,
-                 legacy: Callable[[Path, bool], bool] = unwritten_owner_stale) -> list[Path]:
+def remove_stale(
+    parent: str | Path,
+    prefix: str,
+    text: bytes,
+    *,
+    contents: Collection[str],
+    put_back: Callable[[Path], bool] = _put_back_nothing,
+    legacy: Callable[[Path, bool], bool] = unwritten_owner_stale,
+) -> list[Path]:
     """Remove the directories killed runs left in ``parent``: named ``prefix`` and mkdtemp's 8
     characters, not a link, whose owner file holds ``text``, was written before this process
     started and is not locked by a running process, and that hold nothing but the owner file and
@@ -105,8 +111,14 @@ def remove_stale(parent: str | Path, prefix: str, text: bytes, *, contents: Coll
     return [d for d in candidates if _remove_if_stale(d, text, started, contents, put_back, legacy)]
 
 
-def _remove_if_stale(d: Path, text: bytes, started: float, contents: Collection[str], put_back: Callable[[Path], bool],
-                     legacy: Callable[[Path, bool], bool]) -> bool:
+def _remove_if_stale(
+    d: Path,
+    text: bytes,
+    started: float,
+    contents: Collection[str],
+    put_back: Callable[[Path], bool],
+    legacy: Callable[[Path, bool], bool],
+) -> bool:
     """Remove ``d`` if :func:`remove_stale` may (judged with its owner file locked, then put back
     and removed under that lock); whether it was removed. An OSError keeps it: never let another
     run's leftovers fail this run."""
@@ -126,8 +138,9 @@ def _remove_if_stale(d: Path, text: bytes, started: float, contents: Collection[
         os.close(fd)
 
 
-def _owner_says_stale(d: Path, fd: int, text: bytes, started: float, contents: Collection[str],
-                      legacy: Callable[[Path, bool], bool]) -> bool:
+def _owner_says_stale(
+    d: Path, fd: int, text: bytes, started: float, contents: Collection[str], legacy: Callable[[Path, bool], bool]
+) -> bool:
     """Whether the owner file open at ``fd`` marks ``d`` stale: ``text`` (or empty, then
     ``legacy`` judges), written before this process ``started``, now locked by this process (its
     creator is gone), and ``d`` holding nothing but it and ``contents``."""

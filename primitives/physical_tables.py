@@ -65,8 +65,9 @@ class Engine:
     approach_rpm: float | None = None
 
 
-def _numbers(table: Any, section: str, keys: tuple[str, ...], src: str, hint: str, err: type[UserError],
-             other: tuple[str, ...] = ()) -> dict[str, float]:
+def _numbers(
+    table: Any, section: str, keys: tuple[str, ...], src: str, hint: str, err: type[UserError], other: tuple[str, ...] = ()
+) -> dict[str, float]:
     """Every key of ``keys`` from a table of finite numbers; ``other`` keys the caller reads, none else."""
     if not isinstance(table, dict):
         raise err(f"{src}: field '{section}' must be a table [{section}] ({hint})")
@@ -99,7 +100,7 @@ def parse_rigid_body(d: dict, src: str, n_dof: int, err: type[UserError]) -> Rig
 def parse_pods(d: dict, src: str, inputs: tuple[str, ...], err: type[UserError]) -> tuple[tuple[Pod, ...], PodModel]:
     table = d.get("pods")
     if not isinstance(table, list) or not table or not all(isinstance(t, dict) for t in table):
-        raise err(f"{src}: an actuator = \"pods\" profile needs [[pods]] tables with x, y, z in metres")
+        raise err(f'{src}: an actuator = "pods" profile needs [[pods]] tables with x, y, z in metres')
     for i, t in enumerate(table):
         check_table_keys(t, POD_KEYS, src, f"[[pods]] number {i + 1}", err)
     pods = tuple(
@@ -160,9 +161,13 @@ def parse_helm_engine(
     if rps[0] < n_lo or rps[1] > n_hi:
         raise err(f"{src}: field 'engine.rps_limits' {rps} exceeds input_limits.n [{n_lo:g}, {n_hi:g}]")
     if np.isinf(rps[1]):
-        raise err(f"{src}: a rudder_propeller profile needs the propeller's rev/s range: add input_limits.n = [min, max] or engine.rps_limits")
-    rpms = {key: _positive(e, "engine", key, src, hint, err)
-            for key, hint in (("mcr_rpm", "shaft rpm at MCR"), ("approach_rpm", "the rpm of the source's approach runs"))}
+        raise err(
+            f"{src}: a rudder_propeller profile needs the propeller's rev/s range: add input_limits.n = [min, max] or engine.rps_limits"
+        )
+    rpms = {
+        key: _positive(e, "engine", key, src, hint, err)
+        for key, hint in (("mcr_rpm", "shaft rpm at MCR"), ("approach_rpm", "the rpm of the source's approach runs"))
+    }
     for key, value in rpms.items():
         if value is not None:
             check_rpm(key, value, float(rps[1]), src, err)

@@ -82,9 +82,7 @@ def pod_body_forces(
     return fx * c - fy * s, fx * s + fy * c
 
 
-def pod_generalized_forces(
-    model: PodModel, pods: tuple[Pod, ...], sig: dict[str, np.ndarray]
-) -> dict[str, np.ndarray]:
+def pod_generalized_forces(model: PodModel, pods: tuple[Pod, ...], sig: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """tau_act of (2.12) as signals tau_x, tau_y, tau_k (roll), tau_n (yaw).
 
     ``sig`` holds the ship velocities u, v, r, p and the inputs n1, delta1, n2, delta2, ...

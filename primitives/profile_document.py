@@ -35,19 +35,39 @@ from primitives.unit_ranges import check_angle_limits
 from primitives.validate import MAX_PRIMITIVE_SAMPLES, check_table_keys, finite, in_range, manoeuvre_samples, positive
 
 # Every top-level key a profile may hold: one list, so an engineer adding a table adds one line.
-PROFILE_KEYS = frozenset({
-    "name", "description", "source", "sample_time", "length_m", "beam_m", "draught_m", "cruise_speed_mps",
-    "actuator", "inputs", "input_limits", "model", "parameter_names", "parameters", "simulation_set",
-    "instrument_set", "predictor", "predictor_names", "thrusters", "disturbances",
-    "helm",  # optional helm table (rudder-ship manoeuvres)
-    "engine",  # optional engine table (rudder-ship manoeuvres)
-    "library",  # which built-in manoeuvre dictionary the ship uses (primitives.library)
-    "augmentations",  # effects a diagnosed model.json lists beside its terms (diagnose.report.model_dict)
-    "diagnosed_model",  # what a diagnosed model.json was scored on (diagnose.model_file)
-    "rigid_body",  # mass, inertias, CoG and added mass of a 4-DOF physical model (primitives.rigidbody)
-    "pods", "pod_model",  # podded propulsion (primitives.pods), actuator = "pods"
-    "diagnosis",  # baseline structure a --fit-on refit may add (ShipProfile.structure_terms)
-})
+PROFILE_KEYS = frozenset(
+    {
+        "name",
+        "description",
+        "source",
+        "sample_time",
+        "length_m",
+        "beam_m",
+        "draught_m",
+        "cruise_speed_mps",
+        "actuator",
+        "inputs",
+        "input_limits",
+        "model",
+        "parameter_names",
+        "parameters",
+        "simulation_set",
+        "instrument_set",
+        "predictor",
+        "predictor_names",
+        "thrusters",
+        "disturbances",
+        "helm",  # optional helm table (rudder-ship manoeuvres)
+        "engine",  # optional engine table (rudder-ship manoeuvres)
+        "library",  # which built-in manoeuvre dictionary the ship uses (primitives.library)
+        "augmentations",  # effects a diagnosed model.json lists beside its terms (diagnose.report.model_dict)
+        "diagnosed_model",  # what a diagnosed model.json was scored on (diagnose.model_file)
+        "rigid_body",  # mass, inertias, CoG and added mass of a 4-DOF physical model (primitives.rigidbody)
+        "pods",
+        "pod_model",  # podded propulsion (primitives.pods), actuator = "pods"
+        "diagnosis",  # baseline structure a --fit-on refit may add (ShipProfile.structure_terms)
+    }
+)
 # Physical sizes a profile must give, all finite and > 0 (unit in the message).
 MAX_LENGTHS_PER_SAMPLE = 2.0
 POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("draught_m", "m"), ("cruise_speed_mps", "m/s"))
@@ -60,8 +80,10 @@ def _check_keys(d: dict, src: str) -> None:
 
 
 def _check_sizes(d: dict, src: str) -> dict[str, float]:
-    sizes = {k: positive(_need(d, k, src, (int, float), f"a number in {unit}, > 0"), f"{src}: field '{k}'", unit, ProfileError)
-             for k, unit in POSITIVE_FIELDS}
+    sizes = {
+        k: positive(_need(d, k, src, (int, float), f"a number in {unit}, > 0"), f"{src}: field '{k}'", unit, ProfileError)
+        for k, unit in POSITIVE_FIELDS
+    }
     # a manoeuvre spans ~20 ship lengths: too slow a ship or too short a sample time makes it endless
     n = manoeuvre_samples(20 * sizes["length_m"], sizes["cruise_speed_mps"], sizes["sample_time"])
     if n > MAX_PRIMITIVE_SAMPLES:
@@ -78,13 +100,19 @@ def _check_sizes(d: dict, src: str) -> dict[str, float]:
             f"{src}: field 'sample_time' = {sizes['sample_time']:g} s: at cruise_speed_mps {sizes['cruise_speed_mps']:g} m/s the "
             f"ship sails {lengths:.3g} ship lengths per sample, too coarse for a manoeuvring model (at most "
             f"{MAX_LENGTHS_PER_SAMPLE:g}); give sample_time in seconds, e.g. {0.1 * sizes['length_m'] / sizes['cruise_speed_mps']:.3g} s "
-            "(a tenth of a ship length per sample)")
+            "(a tenth of a ship length per sample)"
+        )
     return sizes
 
 
 # Tables only one kind of actuator reads: in another ship's profile they would be silently ignored.
-ACTUATOR_TABLES = {"helm": "rudder_propeller", "engine": "rudder_propeller", "pods": "pods", "pod_model": "pods",
-                   "thrusters": "azimuth"}
+ACTUATOR_TABLES = {
+    "helm": "rudder_propeller",
+    "engine": "rudder_propeller",
+    "pods": "pods",
+    "pod_model": "pods",
+    "thrusters": "azimuth",
+}
 
 
 def _check_actuator_tables(d: dict, src: str, actuator: str) -> None:
@@ -92,8 +120,10 @@ def _check_actuator_tables(d: dict, src: str, actuator: str) -> None:
     for key, reader in ACTUATOR_TABLES.items():
         if d.get(key) not in (None, {}, []) and actuator != reader:  # an empty one says nothing
             table = f"[[{key}]]" if key in ("pods", "thrusters") else f"[{key}]"
-            raise ProfileError(f"{src}: table {table} is read only in an actuator = {reader!r} profile, and this one's actuator "
-                               f"is {actuator!r}: remove {table} (or make the ship {reader!r})")
+            raise ProfileError(
+                f"{src}: table {table} is read only in an actuator = {reader!r} profile, and this one's actuator "
+                f"is {actuator!r}: remove {table} (or make the ship {reader!r})"
+            )
 
 
 def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
@@ -194,8 +224,9 @@ def _parameter_sets(d: dict, src: str, model: TermSet, dofs: tuple[str, ...]) ->
     sets_raw = _need(d, "parameters", src, dict, "a table of parameter sets, e.g. [parameters.true]")
     sets = {}
     for set_name, table in sets_raw.items():
-        vals = _per_dof({"p": table}, "p", f"{src} [parameters.{set_name}]", (int, float), "numbers", dofs,
-                        (src, f"parameters.{set_name}"))
+        vals = _per_dof(
+            {"p": table}, "p", f"{src} [parameters.{set_name}]", (int, float), "numbers", dofs, (src, f"parameters.{set_name}")
+        )
         for i, dof in enumerate(dofs):
             if len(vals[i]) != len(terms[i]):
                 raise ProfileError(
@@ -247,13 +278,16 @@ def _library(d: dict, src: str) -> str:
     return library
 
 
-def _helm_engine(d: dict, src: str, actuator: str, inputs: tuple[str, ...], limits: dict, model: TermSet,
-                 theta: np.ndarray, cruise: float) -> tuple[Helm, Engine]:
+def _helm_engine(
+    d: dict, src: str, actuator: str, inputs: tuple[str, ...], limits: dict, model: TermSet, theta: np.ndarray, cruise: float
+) -> tuple[Helm, Engine]:
     """[helm] and [engine] of a rudder/propeller ship (inputs delta, n); defaults for the others."""
     if actuator != "rudder_propeller":
         return Helm(), Engine()
     if inputs != ("delta", "n"):
-        raise ProfileError(f"{src}: field 'inputs' of a rudder_propeller profile must be ['delta', 'n'] (rudder rad, propeller rev/s)")
+        raise ProfileError(
+            f"{src}: field 'inputs' of a rudder_propeller profile must be ['delta', 'n'] (rudder rad, propeller rev/s)"
+        )
     return parse_helm_engine(d, src, limits, lambda: _starboard_sign(model, theta, cruise), ProfileError)
 
 
@@ -266,8 +300,16 @@ def _need(d: dict, key: str, src: str, kind: type | tuple[type, ...], hint: str)
     return val
 
 
-def _per_dof(d: dict, key: str, src: str, item: type, hint: str, dofs: tuple[str, ...] = DOFS,
-             table_of: tuple[str, str] | None = None, accept: tuple[str, ...] | None = None) -> tuple[tuple, ...]:
+def _per_dof(
+    d: dict,
+    key: str,
+    src: str,
+    item: type,
+    hint: str,
+    dofs: tuple[str, ...] = DOFS,
+    table_of: tuple[str, str] | None = None,
+    accept: tuple[str, ...] | None = None,
+) -> tuple[tuple, ...]:
     """The lists of a per-DOF table; ``table_of`` (file, table name) refuses keys other than
     ``accept`` (default the DOFs)."""
     table = _need(d, key, src, dict, f"a table with {', '.join(dofs)} lists")
@@ -313,16 +355,24 @@ def _thrusters(d: dict, src: str) -> tuple[Thruster, ...]:
     for i, t in enumerate(table):
         check_table_keys(t, THRUSTER_KEYS, src, f"[[thrusters]] number {i + 1}", ProfileError)
     return tuple(
-        Thruster(str(t.get("name", f"thruster{i + 1}")), finite(t["x"], f"{src}: field 'thrusters.{i}.x'", "m", ProfileError),
-                 finite(t.get("y", 0.0), f"{src}: field 'thrusters.{i}.y'", "m", ProfileError))
+        Thruster(
+            str(t.get("name", f"thruster{i + 1}")),
+            finite(t["x"], f"{src}: field 'thrusters.{i}.x'", "m", ProfileError),
+            finite(t.get("y", 0.0), f"{src}: field 'thrusters.{i}.y'", "m", ProfileError),
+        )
         for i, t in enumerate(table)
     )
 
 
 # Disturbance levels a profile may state (Disturbances.from_profile reads them): key -> length
 # (0 = scalar, None = true/false).
-DISTURBANCE_KEYS: dict[str, int | None] = {"current_mean_ne": 2, "current_sample_std": 0, "measurement_std": 3, "heading_std": 0,
-                                          "current_turning": None}
+DISTURBANCE_KEYS: dict[str, int | None] = {
+    "current_mean_ne": 2,
+    "current_sample_std": 0,
+    "measurement_std": 3,
+    "heading_std": 0,
+    "current_turning": None,
+}
 
 
 def _disturbances(d: dict, src: str, cruise_speed: float) -> dict[str, Any]:
@@ -337,7 +387,9 @@ def _disturbances(d: dict, src: str, cruise_speed: float) -> dict[str, Any]:
     table = dict(table)
     if "current_turning" in table:
         if not isinstance(table["current_turning"], bool):
-            raise ProfileError(f"{src}: field 'disturbances.current_turning' must be true or false, got {table['current_turning']!r}")
+            raise ProfileError(
+                f"{src}: field 'disturbances.current_turning' must be true or false, got {table['current_turning']!r}"
+            )
     elif _diagnosed_current(d):
         table["current_turning"] = True
     for k, v in table.items():
@@ -353,8 +405,10 @@ def _disturbances(d: dict, src: str, cruise_speed: float) -> dict[str, Any]:
                 raise ProfileError(f"{src}: field 'disturbances.{k}' is a standard deviation: must be >= 0, got {x!r}")
     speed = float(np.hypot(*table.get("current_mean_ne", (0.0, 0.0))))
     if speed >= cruise_speed:
-        raise ProfileError(f"{src}: field 'disturbances.current_mean_ne' is a current of {speed:.3g} m/s, not below the ship's "
-                           f"cruise_speed_mps {cruise_speed:g}: give the current in m/s (north, east), slower than the ship")
+        raise ProfileError(
+            f"{src}: field 'disturbances.current_mean_ne' is a current of {speed:.3g} m/s, not below the ship's "
+            f"cruise_speed_mps {cruise_speed:g}: give the current in m/s (north, east), slower than the ship"
+        )
     return table
 
 
@@ -371,8 +425,9 @@ def _diagnosed_current(d: dict) -> bool:
 DIAGNOSIS_KEYS = ("structure", "structure_prior", "rudder_thrust_share")
 
 
-def _diagnosis(d: dict, src: str, dofs: tuple[str, ...], known: set[str]
-               ) -> tuple[tuple[tuple[str, ...], ...] | None, float, float]:
+def _diagnosis(
+    d: dict, src: str, dofs: tuple[str, ...], known: set[str]
+) -> tuple[tuple[tuple[str, ...], ...] | None, float, float]:
     """The optional [diagnosis] table: ``structure`` (term lists per DOF that a --fit-on refit
     adds to the model), ``structure_prior`` (> 0: the prior std of their coefficients, as a
     fraction of the coefficient that alone would explain the increments' spread) and
@@ -384,13 +439,23 @@ def _diagnosis(d: dict, src: str, dofs: tuple[str, ...], known: set[str]
     if not isinstance(table, dict):
         raise ProfileError(f"{src}: field 'diagnosis' must be a table with 'structure' (and 'structure_prior')")
     check_table_keys(table, DIAGNOSIS_KEYS, src, "[diagnosis]", ProfileError)
-    prior = positive(table.get("structure_prior", DEFAULT_STRUCTURE_PRIOR), f"{src}: field 'diagnosis.structure_prior'", "", ProfileError)
-    share = in_range(table.get("rudder_thrust_share", 0.0), f"{src}: field 'diagnosis.rudder_thrust_share'", 0.0, 1.0, "",
-                     ProfileError)
+    prior = positive(
+        table.get("structure_prior", DEFAULT_STRUCTURE_PRIOR), f"{src}: field 'diagnosis.structure_prior'", "", ProfileError
+    )
+    share = in_range(
+        table.get("rudder_thrust_share", 0.0), f"{src}: field 'diagnosis.rudder_thrust_share'", 0.0, 1.0, "", ProfileError
+    )
     if "structure" not in table:
         return None, prior, share
-    terms = _per_dof(table, "structure", f"{src} [diagnosis]", str, "regressor term strings like 'v_r^3*U^-1'", dofs,
-                     (src, "diagnosis.structure"))
+    terms = _per_dof(
+        table,
+        "structure",
+        f"{src} [diagnosis]",
+        str,
+        "regressor term strings like 'v_r^3*U^-1'",
+        dofs,
+        (src, "diagnosis.structure"),
+    )
     try:
         unknown = signals_used(terms) - known
         TermSet(terms)
@@ -415,22 +480,32 @@ def check_diagnosed_sections(d: dict[str, Any], src: str, error: type[UserError]
     aug = d.get("augmentations")
     if aug is not None:
         if not isinstance(aug, list) or not all(isinstance(a, dict) for a in aug):
-            raise error(f"{src}: field 'augmentations' must be a list of tables with {', '.join(AUGMENTATION_KEYS)}: {MODEL_JSON_FIX}")
+            raise error(
+                f"{src}: field 'augmentations' must be a list of tables with {', '.join(AUGMENTATION_KEYS)}: {MODEL_JSON_FIX}"
+            )
         for i, a in enumerate(aug):
             check_table_keys(a, AUGMENTATION_KEYS, src, f"[[augmentations]] number {i + 1}", error)
             if not isinstance(a.get("effect"), str) or not a["effect"]:
-                raise error(f"{src}: field 'augmentations.{i}.effect' must name the effect (e.g. 'current'), got {a.get('effect')!r}: "
-                            f"{MODEL_JSON_FIX}")
+                raise error(
+                    f"{src}: field 'augmentations.{i}.effect' must name the effect (e.g. 'current'), got {a.get('effect')!r}: "
+                    f"{MODEL_JSON_FIX}"
+                )
             if a.get("dof") not in (None, *ROLL_DOFS):
-                raise error(f"{src}: field 'augmentations.{i}.dof' must be one of {list(ROLL_DOFS)} or null, got {a.get('dof')!r}: "
-                            f"{MODEL_JSON_FIX}")
+                raise error(
+                    f"{src}: field 'augmentations.{i}.dof' must be one of {list(ROLL_DOFS)} or null, got {a.get('dof')!r}: "
+                    f"{MODEL_JSON_FIX}"
+                )
             if not isinstance(a.get("parameters", {}), dict):
-                raise error(f"{src}: field 'augmentations.{i}.parameters' must be a table of the effect's values, got "
-                            f"{a['parameters']!r}: {MODEL_JSON_FIX}")
+                raise error(
+                    f"{src}: field 'augmentations.{i}.parameters' must be a table of the effect's values, got "
+                    f"{a['parameters']!r}: {MODEL_JSON_FIX}"
+                )
     dm = d.get("diagnosed_model")
     if dm is not None:
         if not isinstance(dm, dict):
-            raise error(f"{src}: field 'diagnosed_model' must be a table with {', '.join(DIAGNOSED_MODEL_KEYS)}: {MODEL_JSON_FIX}")
+            raise error(
+                f"{src}: field 'diagnosed_model' must be a table with {', '.join(DIAGNOSED_MODEL_KEYS)}: {MODEL_JSON_FIX}"
+            )
         check_table_keys(dm, DIAGNOSED_MODEL_KEYS, src, "[diagnosed_model]", error)
 
 
@@ -449,27 +524,40 @@ def check_model_json_as_ship(d: dict[str, Any], src: str, actuator: str, inputs:
     if dm is None:
         return
     if dm.get("format") != DIAGNOSED_FORMAT:
-        raise ProfileError(f"{src}: field 'diagnosed_model.format' must be {DIAGNOSED_FORMAT!r}, got {dm.get('format')!r}: "
-                           f"{MODEL_JSON_FIX}")
+        raise ProfileError(
+            f"{src}: field 'diagnosed_model.format' must be {DIAGNOSED_FORMAT!r}, got {dm.get('format')!r}: {MODEL_JSON_FIX}"
+        )
     base = dm.get("baseline_profile")
     if not isinstance(base, dict):
-        raise ProfileError(f"{src}: field 'diagnosed_model.baseline_profile' must be the scored ship profile (a table): {MODEL_JSON_FIX}")
+        raise ProfileError(
+            f"{src}: field 'diagnosed_model.baseline_profile' must be the scored ship profile (a table): {MODEL_JSON_FIX}"
+        )
     ours = {"actuator": actuator, "inputs": list(inputs), "sample_time": sample_time}
-    theirs = {"actuator": base.get("actuator", "generalized"), "inputs": base.get("inputs"), "sample_time": base.get("sample_time")}
+    theirs = {
+        "actuator": base.get("actuator", "generalized"),
+        "inputs": base.get("inputs"),
+        "sample_time": base.get("sample_time"),
+    }
     for k, v in ours.items():
         if theirs[k] != v:
-            raise ProfileError(f"{src}: field 'diagnosed_model.baseline_profile.{k}' is {theirs[k]!r} and the profile's '{k}' is "
-                               f"{v!r}: the two parts are different ships; {MODEL_JSON_FIX}")
+            raise ProfileError(
+                f"{src}: field 'diagnosed_model.baseline_profile.{k}' is {theirs[k]!r} and the profile's '{k}' is "
+                f"{v!r}: the two parts are different ships; {MODEL_JSON_FIX}"
+            )
     half = dm.get("half_sample_s", 0.0)
     if isinstance(half, bool) or not isinstance(half, int | float) or not 0.0 <= half <= sample_time:
-        raise ProfileError(f"{src}: field 'diagnosed_model.half_sample_s' must be a number of seconds in 0..{sample_time:g} "
-                           f"(the model's half-sample shift), got {half!r}: {MODEL_JSON_FIX}")
+        raise ProfileError(
+            f"{src}: field 'diagnosed_model.half_sample_s' must be a number of seconds in 0..{sample_time:g} "
+            f"(the model's half-sample shift), got {half!r}: {MODEL_JSON_FIX}"
+        )
     cands = dm.get("candidates", [])
     if not isinstance(cands, list) or not all(isinstance(c, dict) for c in cands):
         raise ProfileError(f"{src}: field 'diagnosed_model.candidates' must be a list of tables: {MODEL_JSON_FIX}")
     if _diagnosed_current(d) and "current_mean_ne" not in (d.get("disturbances") or {}):
-        raise ProfileError(f"{src}: field 'disturbances.current_mean_ne' is missing, and the findings ('augmentations') include "
-                           f"a current: {MODEL_JSON_FIX}")
+        raise ProfileError(
+            f"{src}: field 'disturbances.current_mean_ne' is missing, and the findings ('augmentations') include "
+            f"a current: {MODEL_JSON_FIX}"
+        )
 
 
 def _starboard_sign(model: TermSet, theta: np.ndarray, cruise: float) -> float:

@@ -43,12 +43,14 @@ class RigidBody:
     def mass_matrix(self) -> np.ndarray:
         """M = M_RB - M_A of (2.14), rows/columns in state order (u, v, r, p)."""
         m, xg, zg, a = self.mass, self.x_g, self.z_g, self.added
-        return np.array([
-            [m - a["X_udot"], 0.0, 0.0, 0.0],
-            [0.0, m - a["Y_vdot"], m * xg - a["Y_rdot"], -(m * zg + a["Y_pdot"])],
-            [0.0, m * xg - a["N_vdot"], self.i_z - a["N_rdot"], 0.0],
-            [0.0, -(m * zg + a["K_vdot"]), 0.0, self.i_x - a["K_pdot"]],
-        ])
+        return np.array(
+            [
+                [m - a["X_udot"], 0.0, 0.0, 0.0],
+                [0.0, m - a["Y_vdot"], m * xg - a["Y_rdot"], -(m * zg + a["Y_pdot"])],
+                [0.0, m * xg - a["N_vdot"], self.i_z - a["N_rdot"], 0.0],
+                [0.0, -(m * zg + a["K_vdot"]), 0.0, self.i_x - a["K_pdot"]],
+            ]
+        )
 
     @cached_property
     def inverse_mass(self) -> np.ndarray:

@@ -47,8 +47,9 @@ def _allocation_pinv(arms: tuple[tuple[float, float], ...]) -> np.ndarray:
     """Pseudo-inverse of the allocation matrix of azimuth thrusters at ``arms`` ((x, y) each):
     unknowns per thruster fx_i = n cos a, fy_i = n sin a (3.55). Formed once per thruster layout
     (the planner allocates on every closed-loop run); read-only."""
-    b_mat = np.array([np.ravel([[1.0, 0.0] for _ in arms]), np.ravel([[0.0, 1.0] for _ in arms]),
-                      np.ravel([[-y, x] for x, y in arms])])
+    b_mat = np.array(
+        [np.ravel([[1.0, 0.0] for _ in arms]), np.ravel([[0.0, 1.0] for _ in arms]), np.ravel([[-y, x] for x, y in arms])]
+    )
     out = np.linalg.pinv(b_mat)
     out.flags.writeable = False
     return out
@@ -245,15 +246,21 @@ class ShipProfile:
             d["thrusters"] = [{"name": t.name, "x": t.x, "y": t.y} for t in self.thrusters]
         if self.actuator == "rudder_propeller":
             h, e = self.helm, self.engine
-            d["helm"] = {"max_rudder_deg": h.max_rudder_deg, "rudder_rate_deg_s": h.rudder_rate_deg_s,
-                         "starboard_sign": h.starboard_sign}
+            d["helm"] = {
+                "max_rudder_deg": h.max_rudder_deg,
+                "rudder_rate_deg_s": h.rudder_rate_deg_s,
+                "starboard_sign": h.starboard_sign,
+            }
             d["engine"] = {"rps_limits": list(e.rps_limits)} | {
-                k: getattr(e, k) for k in ("rps_rate", "mcr_rpm", "approach_rpm") if getattr(e, k) is not None}
+                k: getattr(e, k) for k in ("rps_rate", "mcr_rpm", "approach_rpm") if getattr(e, k) is not None
+            }
         if self.library:
             d["library"] = self.library
         if self.structure_terms:
-            d["diagnosis"] = {"structure": dict(zip(self.dofs, map(list, self.structure_terms))),
-                              "structure_prior": self.structure_prior}
+            d["diagnosis"] = {
+                "structure": dict(zip(self.dofs, map(list, self.structure_terms))),
+                "structure_prior": self.structure_prior,
+            }
         if self.rudder_thrust_share:
             d.setdefault("diagnosis", {"structure_prior": self.structure_prior})["rudder_thrust_share"] = self.rudder_thrust_share
         if self.rigid_body is not None:

@@ -174,18 +174,27 @@ def model_signals(
     the roll rate p (then ``phi`` is the roll angle). Pod forces (the podded-ship MSc thesis, (2.12)) depend on the
     velocities, so a podded profile's tau_x, tau_y, tau_k, tau_n are computed here. ``speed=False``
     leaves out the speed through the water :data:`SPEED` (for terms that do not read it)."""
-    sig = relative_signals(nu, None if current_ne is None else body_from_ne(current_ne, psi),
-                           None if wind_ne is None else body_from_ne(wind_ne, psi), into=dict(input_sig, psi=psi), speed=speed)
+    sig = relative_signals(
+        nu,
+        None if current_ne is None else body_from_ne(current_ne, psi),
+        None if wind_ne is None else body_from_ne(wind_ne, psi),
+        into=dict(input_sig, psi=psi),
+        speed=speed,
+    )
     return _add_state_forces(profile, nu, phi, sig)
 
 
-def _add_state_forces(profile: ShipProfile, nu: np.ndarray, phi: np.ndarray | None, sig: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def _add_state_forces(
+    profile: ShipProfile, nu: np.ndarray, phi: np.ndarray | None, sig: dict[str, np.ndarray]
+) -> dict[str, np.ndarray]:
     """Add to ``sig`` the signals that depend on the state besides the relative velocities: roll
     rate and angle (nu (..., 4)) and a podded profile's tau_x, tau_y, tau_k, tau_n (the podded-ship MSc thesis, (2.12))."""
     if nu.shape[-1] == 4:
         sig.update(p=nu[..., 3], phi=np.zeros_like(nu[..., 0]) if phi is None else phi)
     if profile.pods:
-        sig.update(pod_generalized_forces(profile.pod_model, profile.pods, sig | {"u": nu[..., 0], "v": nu[..., 1], "r": nu[..., 2]}))
+        sig.update(
+            pod_generalized_forces(profile.pod_model, profile.pods, sig | {"u": nu[..., 0], "v": nu[..., 1], "r": nu[..., 2]})
+        )
     return sig
 
 
@@ -348,8 +357,19 @@ def simulate(
     w = rng.normal(0.0, 1.0, (batch, n_steps, nd)) * proc if np.any(proc) else None
 
     step = VelocityStep(terms, theta, profile.rigid_body, ts)
-    nu, eta = _time_loop(profile, step, u_in, _padded(nu0, nd), _padded(eta0, nd), _moving(cur), _moving(wind), w, batch,
-                         positions, current_turning or dist.current_turning)
+    nu, eta = _time_loop(
+        profile,
+        step,
+        u_in,
+        _padded(nu0, nd),
+        _padded(eta0, nd),
+        _moving(cur),
+        _moving(wind),
+        w,
+        batch,
+        positions,
+        current_turning or dist.current_turning,
+    )
 
     meas = _padded(dist.measurement_std, nd)
     y = nu + rng.normal(0.0, 1.0, nu.shape) * meas if np.any(meas) else _read_only(nu)
@@ -368,8 +388,9 @@ def simulate(
     )
 
 
-def _environment(mean: tuple[float, float] | np.ndarray, shape: tuple[int, int], rng: np.random.Generator, offset_std: float,
-                 sample_std: float) -> np.ndarray:
+def _environment(
+    mean: tuple[float, float] | np.ndarray, shape: tuple[int, int], rng: np.random.Generator, offset_std: float, sample_std: float
+) -> np.ndarray:
     """A current or air velocity (B, N, 2) over ground: ``mean``, plus an offset drawn once per
     realisation and an i.i.d. part per sample. Without a random part it is a read-only broadcast
     of ``mean`` (no (B, N, 2) array is filled with one constant); with one, a new array."""
@@ -410,9 +431,19 @@ def _time_major_forces(profile: ShipProfile, u_in: np.ndarray) -> tuple[list[str
     return list(forces), in_t
 
 
-def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: np.ndarray, eta0: np.ndarray,
-               cur: np.ndarray | None, wind: np.ndarray | None, w: np.ndarray | None, batch: int, positions: bool,
-               current_turning: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def _time_loop(
+    profile: ShipProfile,
+    step: VelocityStep,
+    u_in: np.ndarray,
+    nu0: np.ndarray,
+    eta0: np.ndarray,
+    cur: np.ndarray | None,
+    wind: np.ndarray | None,
+    w: np.ndarray | None,
+    batch: int,
+    positions: bool,
+    current_turning: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
     """The sequential loop of :func:`simulate`: nu, eta (B, N+1, nd); ``cur``, ``wind`` (B, N, 2)
     or None for still water, calm air.
 
@@ -432,7 +463,9 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     w_t = None if w is None else np.ascontiguousarray(w.transpose(1, 2, 0))  # (N, nd, B)
     heading = positions or nd == 4 or bool(profile.pods) or cur_t is not None or wind_t is not None or step.reads_heading
     if jitloop.use(batch * n_steps):
-        out = _compiled_loop(profile, step, in_names, in_t, nu0, eta0, cur_t, wind_t, w_t, batch, positions, heading, current_turning)
+        out = _compiled_loop(
+            profile, step, in_names, in_t, nu0, eta0, cur_t, wind_t, w_t, batch, positions, heading, current_turning
+        )
         if out is not None:
             return out
     if onestep.applies(step, batch, nd, bool(profile.pods), cur_t is not None or wind_t is not None, w_t is not None):
@@ -457,7 +490,7 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
         for i, d in enumerate(inc):  # one increment per DOF of the term set: nu(k+1) = nu(k) + inc
             np.add(row[i], d, out=nxt[i])
         if len(inc) < nd:  # DOFs without terms keep their velocity
-            nxt[len(inc):] = row[len(inc):]
+            nxt[len(inc) :] = row[len(inc) :]
         if w_t is not None:
             nxt += w_t[k]
         if current_turning and cur_b is not None:
@@ -472,9 +505,21 @@ def _time_loop(profile: ShipProfile, step: VelocityStep, u_in: np.ndarray, nu0: 
     return nu, eta
 
 
-def _compiled_loop(profile: ShipProfile, step: VelocityStep, in_names: list[str], in_t: np.ndarray, nu0: np.ndarray,
-                   eta0: np.ndarray, cur_t: np.ndarray | None, wind_t: np.ndarray | None, w_t: np.ndarray | None, batch: int,
-                   positions: bool, heading: bool, current_turning: bool) -> tuple[np.ndarray, np.ndarray] | None:
+def _compiled_loop(
+    profile: ShipProfile,
+    step: VelocityStep,
+    in_names: list[str],
+    in_t: np.ndarray,
+    nu0: np.ndarray,
+    eta0: np.ndarray,
+    cur_t: np.ndarray | None,
+    wind_t: np.ndarray | None,
+    w_t: np.ndarray | None,
+    batch: int,
+    positions: bool,
+    heading: bool,
+    current_turning: bool,
+) -> tuple[np.ndarray, np.ndarray] | None:
     """The loop of :func:`_time_loop` compiled (:mod:`primitives.jitloop`), the same arrays in and
     out; None when the term set reads a signal the loop does not provide (the numpy loop then
     raises its error)."""
@@ -491,10 +536,26 @@ def _compiled_loop(profile: ShipProfile, step: VelocityStep, in_names: list[str]
     nu_t[0] = np.broadcast_to(nu0, (batch, nd)).T
     eta_t = np.full((n_steps + 1, nd, batch), np.nan) if heading else np.empty((1, nd, batch))
     eta_t[0] = np.broadcast_to(eta0, (batch, nd)).T
-    jitloop.time_loop(jitloop.writable(in_t, ()), nu_t, eta_t, jitloop.writable(cur_t, (0, 2, batch)),
-                      jitloop.writable(wind_t, (0, 2, batch)), jitloop.writable(w_t, (0, nd, batch)), step.coef_array,
-                      *prog, *pods, *jitloop.rigid_arrays(step.rigid), float(profile.sample_time), heading, positions,
-                      bool(current_turning), step.wind_excess, step.speed, False, False)
+    jitloop.time_loop(
+        jitloop.writable(in_t, ()),
+        nu_t,
+        eta_t,
+        jitloop.writable(cur_t, (0, 2, batch)),
+        jitloop.writable(wind_t, (0, 2, batch)),
+        jitloop.writable(w_t, (0, nd, batch)),
+        step.coef_array,
+        *prog,
+        *pods,
+        *jitloop.rigid_arrays(step.rigid),
+        float(profile.sample_time),
+        heading,
+        positions,
+        bool(current_turning),
+        step.wind_excess,
+        step.speed,
+        False,
+        False,
+    )
     nu = np.ascontiguousarray(nu_t.transpose(2, 0, 1))
     if heading:
         return nu, np.ascontiguousarray(eta_t.transpose(2, 0, 1))
@@ -503,8 +564,15 @@ def _compiled_loop(profile: ShipProfile, step: VelocityStep, in_names: list[str]
     return nu, eta
 
 
-def _turn_current(nxt: np.ndarray, cur_ne: np.ndarray, cur_b: tuple[np.ndarray, np.ndarray], psi_k: np.ndarray, r: np.ndarray,
-                  phi_k: np.ndarray | None, ts: float) -> None:
+def _turn_current(
+    nxt: np.ndarray,
+    cur_ne: np.ndarray,
+    cur_b: tuple[np.ndarray, np.ndarray],
+    psi_k: np.ndarray,
+    r: np.ndarray,
+    phi_k: np.ndarray | None,
+    ts: float,
+) -> None:
     """Add to nu(k+1) ``nxt`` (nd, B) the change of an earth-fixed current ``cur_ne`` (B, 2) in body
     axes over the step, u_c(psi(k+1)) - u_c(psi(k)) (``cur_b`` is u_c(psi(k))): nu = nu_r + u_c(psi)
     with the hull's dynamics in nu_r (Fossen 2021, section 10.3). The heading advances as in

@@ -35,8 +35,16 @@ def linearised(profile: ShipProfile, theta: np.ndarray, speed: float, inputs: di
     return A
 
 
-def _contributions(profile: ShipProfile, theta: np.ndarray, speed: float, inputs: dict[str, float], A: np.ndarray,
-                   w: np.ndarray, v: np.ndarray, lam: complex) -> np.ndarray:
+def _contributions(
+    profile: ShipProfile,
+    theta: np.ndarray,
+    speed: float,
+    inputs: dict[str, float],
+    A: np.ndarray,
+    w: np.ndarray,
+    v: np.ndarray,
+    lam: complex,
+) -> np.ndarray:
     """Each parameter's share of the growth |lambda| of the mode (right eigenvector v, left w), by
     eigenvalue sensitivity: the model is linear in theta, so theta_j's part of A is A less A with
     theta_j = 0, dA_j, and its part of lambda is w^H dA_j v / w^H v; of |lambda|, the component of
@@ -55,8 +63,9 @@ def _contributions(profile: ShipProfile, theta: np.ndarray, speed: float, inputs
     return total
 
 
-def _own_damping(profile: ShipProfile, theta: np.ndarray, speed: float, inputs: dict[str, float], A: np.ndarray,
-                 dof: int) -> tuple[str, float]:
+def _own_damping(
+    profile: ShipProfile, theta: np.ndarray, speed: float, inputs: dict[str, float], A: np.ndarray, dof: int
+) -> tuple[str, float]:
     """(name, value) of the parameter of DOF ``dof``'s own equation with the largest part of its
     damping A[dof, dof] - 1 (the model is linear in theta)."""
     lo = profile.model.offsets[dof]
@@ -71,8 +80,9 @@ def _own_damping(profile: ShipProfile, theta: np.ndarray, speed: float, inputs: 
     return profile.param_names[j], float(theta[j])
 
 
-def straight_course_mode(profile: ShipProfile, theta: np.ndarray, speed: float,
-                         inputs: dict[str, float]) -> tuple[str, float, str, float, str] | None:
+def straight_course_mode(
+    profile: ShipProfile, theta: np.ndarray, speed: float, inputs: dict[str, float]
+) -> tuple[str, float, str, float, str] | None:
     """(DOFs, growth per sample, parameter, its value, how) of the fastest growing mode on a straight
     course at ``speed`` with ``inputs``, or None when that motion is stable (or cannot be
     linearised). how: 'damping' when a DOF's own damping is unstable (|A[d, d]| > 1): that DOF and
@@ -125,9 +135,9 @@ def require_stable(profile: ShipProfile) -> None:
         t2 = doubling_time(growth, profile.sample_time)
         if how == "coupling" and t2 >= one_length_s:
             continue
-        why = ("its damping must be negative" if how == "damping"
-               else f"the {dofs} coupling outweighs the dampings")
+        why = "its damping must be negative" if how == "damping" else f"the {dofs} coupling outweighs the dampings"
         raise ProfileError(
             f"ship profile {profile.name!r}: parameter set [parameters.{name}] makes the {dofs} motion unstable at cruise "
             f"speed (a disturbance grows x{growth:.4g} per {profile.sample_time:g} s sample, doubling every {t2:.3g} s), so "
-            f"no manoeuvre can be simulated: {param} = {value:+.4g} drives it ({why}); correct it in the profile")
+            f"no manoeuvre can be simulated: {param} = {value:+.4g} drives it ({why}); correct it in the profile"
+        )

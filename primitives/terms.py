@@ -28,8 +28,10 @@ class TermError(UserError):
     """A term string cannot be parsed."""
 
 
-_FACTOR = re.compile(r"^(\|)?([A-Za-z_][A-Za-z0-9_]*)(?:@([-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?))?(\|)?"
-                     r"(?:\^(-?[0-9]+))?$")
+_FACTOR = re.compile(
+    r"^(\|)?([A-Za-z_][A-Za-z0-9_]*)(?:@([-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?))?(\|)?"
+    r"(?:\^(-?[0-9]+))?$"
+)
 # Signals a negative power may divide by: positive by construction (the speed through the water,
 # floored, primitives.simulate.relative_signals). 1/v_r would blow up at every zero crossing.
 POSITIVE_SIGNALS = frozenset({"U"})
@@ -82,12 +84,15 @@ def parse_factor(factor: str) -> Factor:
     :data:`POSITIVE_SIGNALS` signal, a station only on a :data:`STATION_SIGNALS` one."""
     m = _FACTOR.match(factor.strip())
     if not m or bool(m.group(1)) != bool(m.group(4)):
-        raise TermError(f"term factor {factor!r} is not a signal name, |name| or name^k (e.g. 'u_r', '|v_r|', 'u^2', "
-                        "'U^-1', '|v_r@-227|')")
+        raise TermError(
+            f"term factor {factor!r} is not a signal name, |name| or name^k (e.g. 'u_r', '|v_r|', 'u^2', 'U^-1', '|v_r@-227|')"
+        )
     name, power = m.group(2), int(m.group(5) or 1)
     if power < 0 and name not in POSITIVE_SIGNALS:
-        raise TermError(f"term factor {factor!r}: a negative power is allowed only of {sorted(POSITIVE_SIGNALS)} "
-                        "(signals that cannot be zero)")
+        raise TermError(
+            f"term factor {factor!r}: a negative power is allowed only of {sorted(POSITIVE_SIGNALS)} "
+            "(signals that cannot be zero)"
+        )
     station = None if m.group(3) is None else float(m.group(3))
     if station is not None and name not in STATION_SIGNALS:
         raise TermError(f"term factor {factor!r}: a station '@x' (metres forward) applies only to {sorted(STATION_SIGNALS)}")

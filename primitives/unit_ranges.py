@@ -34,28 +34,42 @@ def check_angle_limits(name: str, lo: float, hi: float, what: str, err: type[Use
     bound = _angle_bound(name)
     if bound is None or max(abs(lo), abs(hi)) <= bound + 1e-3:
         return
-    kind = "rudder or pod angle (at most 90 deg = 1.571 rad)" if bound == RUDDER_MAX_RAD else "azimuth angle (a full circle is 6.283 rad)"
-    raise err(f"{what} = [{lo:g}, {hi:g}] is in radians, and that is no {kind}: if these are degrees, write "
-              f"{name} = [{math.radians(lo):.4f}, {math.radians(hi):.4f}]")
+    kind = (
+        "rudder or pod angle (at most 90 deg = 1.571 rad)"
+        if bound == RUDDER_MAX_RAD
+        else "azimuth angle (a full circle is 6.283 rad)"
+    )
+    raise err(
+        f"{what} = [{lo:g}, {hi:g}] is in radians, and that is no {kind}: if these are degrees, write "
+        f"{name} = [{math.radians(lo):.4f}, {math.radians(hi):.4f}]"
+    )
 
 
 def check_max_rudder_deg(value: float, src: str, err: type[UserError]) -> None:
     if value < MIN_MAX_RUDDER_DEG:
-        raise err(f"{src}: field 'helm.max_rudder_deg' = {value:g} is in degrees, and no rudder steers to at most {value:g} deg "
-                  f"(ships: 30-45 deg): if it is radians, write max_rudder_deg = {math.degrees(value):.1f}")
+        raise err(
+            f"{src}: field 'helm.max_rudder_deg' = {value:g} is in degrees, and no rudder steers to at most {value:g} deg "
+            f"(ships: 30-45 deg): if it is radians, write max_rudder_deg = {math.degrees(value):.1f}"
+        )
     if value > 90.0:
-        raise err(f"{src}: field 'helm.max_rudder_deg' = {value:g} deg is beyond 90 deg, where no rudder turns: give the "
-                  "largest rudder angle in degrees, e.g. 35")
+        raise err(
+            f"{src}: field 'helm.max_rudder_deg' = {value:g} deg is beyond 90 deg, where no rudder turns: give the "
+            "largest rudder angle in degrees, e.g. 35"
+        )
 
 
 def check_rudder_rate(value: float, src: str, err: type[UserError]) -> None:
     if value < MIN_RUDDER_RATE_DEG_S:
-        raise err(f"{src}: field 'helm.rudder_rate_deg_s' = {value:g} is in deg/s, far below the SOLAS II-1/29 minimum of "
-                  f"2.32 deg/s: if it is rad/s, write rudder_rate_deg_s = {math.degrees(value):.3g}")
+        raise err(
+            f"{src}: field 'helm.rudder_rate_deg_s' = {value:g} is in deg/s, far below the SOLAS II-1/29 minimum of "
+            f"2.32 deg/s: if it is rad/s, write rudder_rate_deg_s = {math.degrees(value):.3g}"
+        )
 
 
 def check_rpm(key: str, value: float, rps_max: float, src: str, err: type[UserError]) -> None:
     """[engine] mcr_rpm / approach_rpm against the top of the propeller's rev/s range."""
     if math.isfinite(rps_max) and value / 60.0 < MIN_RPM_SHARE * rps_max:
-        raise err(f"{src}: field 'engine.{key}' = {value:g} is in rpm ({value / 60:.3g} rev/s), a trickle against the "
-                  f"propeller's {rps_max:g} rev/s ({rps_max * 60:g} rpm) top speed: if it is rev/s, write {key} = {value * 60:.4g}")
+        raise err(
+            f"{src}: field 'engine.{key}' = {value:g} is in rpm ({value / 60:.3g} rev/s), a trickle against the "
+            f"propeller's {rps_max:g} rev/s ({rps_max * 60:g} rpm) top speed: if it is rev/s, write {key} = {value * 60:.4g}"
+        )

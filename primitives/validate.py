@@ -46,7 +46,9 @@ def finite(value: object, option: str, unit: str = "", error: type[UserError] = 
     return _as_float(value, option, unit, error)
 
 
-def positive(value: object, option: str, unit: str = "", error: type[UserError] = UserError, *, allow_zero: bool = False) -> float:
+def positive(
+    value: object, option: str, unit: str = "", error: type[UserError] = UserError, *, allow_zero: bool = False
+) -> float:
     """A finite number > 0 (>= 0 with ``allow_zero``)."""
     x = _as_float(value, option, unit, error)
     if x < 0 or (x == 0 and not allow_zero):
@@ -96,8 +98,9 @@ def unknown_key(keys: Iterable[object], allowed: Iterable[object]) -> tuple[str,
     return None
 
 
-def check_table_keys(table: Iterable[object], accepted: Iterable[object], file: str, where: str,
-                     error: type[UserError] = UserError) -> None:
+def check_table_keys(
+    table: Iterable[object], accepted: Iterable[object], file: str, where: str, error: type[UserError] = UserError
+) -> None:
     """Refuse the first key of ``table`` that is not ``accepted``, in one line naming the ``file``,
     the table (``where``: "[rigid_body]", "[[pods]] number 1", "the top level"), the key, the nearest
     accepted key and every accepted key: a stray or misspelt key is never silently ignored."""

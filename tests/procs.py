@@ -36,8 +36,9 @@ with mod.{context}(out) as tmp:
 """
 
 
-def killable_writer(module: str, context: str, file_name: str, swap_mode: str, out, mode: str, text: str = "mode",
-                    **kw) -> subprocess.Popen:
+def killable_writer(
+    module: str, context: str, file_name: str, swap_mode: str, out, mode: str, text: str = "mode", **kw
+) -> subprocess.Popen:
     """A child process writing ``file_name`` through ``module.context(out)``: SIGKILLed while
     writing (``mode`` "writing"), mid-swap (``mode`` == ``swap_mode``), or left running until its
     stdin closes ("running", after printing "ready"). ``text`` is the Python expression written."""

@@ -66,7 +66,9 @@ def files(tmp_path_factory):
     f["plan"].write_text(synthetic_plan("model-ship").to_json())
     run = scenario((), 17, n_prims=2).diagnose[0]
     f["rec"] = write_csv(run, tmp / "run.csv")
-    f["rec_scaled"] = write_csv(dataclasses.replace(run, channels={k: v * 1e6 for k, v in run.channels.items()}), tmp / "scaled.csv")
+    f["rec_scaled"] = write_csv(
+        dataclasses.replace(run, channels={k: v * 1e6 for k, v in run.channels.items()}), tmp / "scaled.csv"
+    )
     huge = run.y.copy()
     huge[5, 0] = 1e308
     f["rec_huge"] = write_csv(dataclasses.replace(run, y=huge), tmp / "huge.csv")
@@ -81,17 +83,23 @@ def files(tmp_path_factory):
         "cfg_nan": '[sweep]\nlibrary = "standard"\nspeeds = [nan]\n',
         "cfg_neg": '[sweep]\nlibrary = "standard"\nspeeds = [-1.0]\n',
         "cfg_badtoml": "[sweep\nships = 1\n",
-        "cfg_seed": '[sweep]\nseed = -3\n',
+        "cfg_seed": "[sweep]\nseed = -3\n",
         "cfg_podded": '[sweep]\nships = ["naval-vessel"]\n',
         "cfg_huge": '[sweep]\nlibrary = "standard"\nspeeds = [' + ", ".join(str(0.5 + i / 100) for i in range(700)) + "]\n"
-                    'criteria = ["D", "A", "E"]\n',
+        'criteria = ["D", "A", "E"]\n',
     }.items():
         f[name] = tmp / f"{name}.toml"
         f[name].write_text(body)
     for name, change in {
-        "ship_neg_length": {"length_m": -1.0}, "ship_neg_beam": {"beam_m": -0.3}, "ship_nan_draught": {"draught_m": float("nan")},
-        "ship_zero_speed": {"cruise_speed_mps": 0.0}, "ship_zero_ts": {"sample_time": 0.0}, "ship_no_draught": {"draught_m": None},
-        "ship_typo": {"draught": 0.1}, "ship_str_length": {"length_m": "long"}, "ship_tiny_ts": {"sample_time": 1e-9},
+        "ship_neg_length": {"length_m": -1.0},
+        "ship_neg_beam": {"beam_m": -0.3},
+        "ship_nan_draught": {"draught_m": float("nan")},
+        "ship_zero_speed": {"cruise_speed_mps": 0.0},
+        "ship_zero_ts": {"sample_time": 0.0},
+        "ship_no_draught": {"draught_m": None},
+        "ship_typo": {"draught": 0.1},
+        "ship_str_length": {"length_m": "long"},
+        "ship_tiny_ts": {"sample_time": 1e-9},
     }.items():
         f[name] = _profile(tmp, **change)
     from diagnose.rollmass.model import load_profile as roll_profile
@@ -99,7 +107,9 @@ def files(tmp_path_factory):
     from diagnose.rollmass.simulate import Noise, simulate_case
 
     roll = roll_profile(None)
-    for role, rec in zip(("nominal", "calibration", "loaded"), simulate_case(roll, "case1", Noise.from_profile(roll), 0, length_factor=0.2)):
+    for role, rec in zip(
+        ("nominal", "calibration", "loaded"), simulate_case(roll, "case1", Noise.from_profile(roll), 0, length_factor=0.2)
+    ):
         f[f"roll_{role}"] = write_roll_csv(rec, tmp / f"roll-{role}.csv")
     f.update(_yaw_files(tmp))
     f["roll_bad_profile"] = tmp / "roll-bad.toml"
@@ -148,9 +158,23 @@ def _detect_inputs(tmp: Path, f: dict) -> None:
 
 def _cases() -> list[tuple[str, list[str]]]:
     """(case id, argv) with {placeholders} filled from ``files``."""
-    ship_bad = ["no-such-ship", "{missing}", "{dir}", "{binary}", "{notjson}", "{ship_neg_length}", "{ship_neg_beam}",
-                "{ship_nan_draught}", "{ship_zero_speed}", "{ship_zero_ts}", "{ship_no_draught}", "{ship_typo}",
-                "{ship_str_length}", "{ship_tiny_ts}", "{file}"]
+    ship_bad = [
+        "no-such-ship",
+        "{missing}",
+        "{dir}",
+        "{binary}",
+        "{notjson}",
+        "{ship_neg_length}",
+        "{ship_neg_beam}",
+        "{ship_nan_draught}",
+        "{ship_zero_speed}",
+        "{ship_zero_ts}",
+        "{ship_no_draught}",
+        "{ship_typo}",
+        "{ship_str_length}",
+        "{ship_tiny_ts}",
+        "{file}",
+    ]
     out_dir_bad = ["{file}", "/proc/shiptrial-out", "{dir}"]
     cases: list[tuple[str, list[str]]] = []
 
@@ -189,9 +213,17 @@ def _cases() -> list[tuple[str, list[str]]]:
     p = ["plan", "--counts", "tau12=1"]  # a plan of the default ship (full-scale): only the bad option can fail it
     add(p, "--map", ["{missing}", "{dir}", "{binary}", "{notjson}", "{plan}"])
     add(p, "--ship", ship_bad)
-    add(p, "--start", ["60.1,24.9,nan", "nan,24.9", "60.1,inf", "1e400,24.9", "abc", "60.1", "95,24.9,0", "60.1,24.9,1e9", "1,2,3,4"])
+    add(
+        p,
+        "--start",
+        ["60.1,24.9,nan", "nan,24.9", "60.1,inf", "1e400,24.9", "abc", "60.1", "95,24.9,0", "60.1,24.9,1e9", "1,2,3,4"],
+    )
     add(p, "--goal", ["nan,24.9", "60.1,-inf", "x,y", "60.1,200"])
-    add(["plan"], "--counts", ["tau1=1", "tau1=1000000", "tau1=-1", "tau1=abc", "=3", "tau1", ",", "tau1=50,tau2=50,tau3=50,tau4=50"])
+    add(
+        ["plan"],
+        "--counts",
+        ["tau1=1", "tau1=1000000", "tau1=-1", "tau1=abc", "=3", "tau1", ",", "tau1=50,tau2=50,tau3=50,tau4=50"],
+    )
     add(p, "--resolution", [*FLOATS_BAD, "0", "1e9"])
     add(p, "--headings", ["5", "0", "-4", "1000000", "abc"])
     add(p, "--heuristic", ["greedy", ""])
@@ -222,22 +254,57 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["export", "{plan}", "--format", "rtz"], "--out", ["{tmp}/x.gpx", "{tmp}/x.rtz.json"])
     add(["export", "{plan}", "--format", "all"], "--out", ["{file}", "/proc/shiptrial-out"])
     add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--map", ["{missing}", "{dir}", "{binary}", "{notjson}"])
-    add(["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"], "--start", ["yesterday", "2026-99-01T00:00Z", "9999-12-31T23:59Z", "0226-06-01T08:00Z"],
-        named=True)
+    add(
+        ["export", "{plan}", "--format", "gpx", "--out", "{tmp}/o.gpx"],
+        "--start",
+        ["yesterday", "2026-99-01T00:00Z", "9999-12-31T23:59Z", "0226-06-01T08:00Z"],
+        named=True,
+    )
     add(["export", "{plan}", "--format", "rtz", "--out", "{tmp}/o.rtz"], "--vessel-name", VESSEL_NAMES_BAD, named=True)
-    add(["export", "{plan}", "--format", "all", "--out", "{tmp}/all-out"], "--vessel-name", ["MT Example\x01", "x" * 40], named=True)
+    add(
+        ["export", "{plan}", "--format", "all", "--out", "{tmp}/all-out"],
+        "--vessel-name",
+        ["MT Example\x01", "x" * 40],
+        named=True,
+    )
     # diagnose
-    for rec in ["{missing}", "{dir}", "{latin1}", "{binary}", "{zeros}", "{cfg}", "{plan}", "{rec_scaled}", "{rec_huge}",
-                "{rec_coarse}"]:
+    for rec in [
+        "{missing}",
+        "{dir}",
+        "{latin1}",
+        "{binary}",
+        "{zeros}",
+        "{cfg}",
+        "{plan}",
+        "{rec_scaled}",
+        "{rec_huge}",
+        "{rec_coarse}",
+    ]:
         cases.append((f"diagnose RECORDING {rec}", ["diagnose", rec, "--ship", "model-ship"]))
     add(["diagnose", "{rec}"], "--ship", ship_bad)
-    add(["diagnose", "{rec}", "--ship", "model-ship"], "--params", ["{missing}", "{dir}", "{binary}", "{notjson}", "{ship_neg_length}"])
+    add(
+        ["diagnose", "{rec}", "--ship", "model-ship"],
+        "--params",
+        ["{missing}", "{dir}", "{binary}", "{notjson}", "{ship_neg_length}"],
+    )
     add(["diagnose", "{rec}", "--ship", "model-ship"], "--fit-on", ["{missing}", "{dir}", "{latin1}", "{zeros}"])
     add(["diagnose", "{rec}", "--ship", "model-ship"], "--validate", ["{missing}", "{dir}", "{latin1}", "{zeros}"])
     add(["diagnose", "{rec}", "--ship", "model-ship"], "--out", ["{file}", "/proc/shiptrial-out"])
     # sweep
-    for cfg in ["{missing}", "{dir}", "{binary}", "{cfg_badtoml}", "{cfg_unknown}", "{cfg_slow}", "{cfg_nan}", "{cfg_neg}",
-                "{cfg_seed}", "{cfg_huge}", "{plan}", "{cfg_podded}"]:
+    for cfg in [
+        "{missing}",
+        "{dir}",
+        "{binary}",
+        "{cfg_badtoml}",
+        "{cfg_unknown}",
+        "{cfg_slow}",
+        "{cfg_nan}",
+        "{cfg_neg}",
+        "{cfg_seed}",
+        "{cfg_huge}",
+        "{plan}",
+        "{cfg_podded}",
+    ]:
         cases.append((f"sweep CONFIG {cfg}", ["sweep", cfg, "--out", "{tmp}/s.csv"]))
     add(["sweep", "{cfg}"], "--out", ["{tmp}/t.xlsx", "{tmp}/t", "/proc/s.csv", "{dir}"])
     add(["sweep", "{cfg}", "--out", "{tmp}/s.csv"], "--plot", ["{tmp}/p.txt", "/proc/p.png", "{dir}"])
@@ -279,7 +346,9 @@ def _cases() -> list[tuple[str, list[str]]]:
     add([*det, "--prior", "{det_prior}"], "--n-rdot", ["abc", "nan", "inf", "", "0", "28.7e6", "-1e13"], named=True)
     for rec in ["{missing}", "{dir}", "{binary}", "{det_nopods}", "{det_nor}"]:
         cases.append((f"detect-prior RECORDING {rec}", ["detect-prior", rec, "--out", "{tmp}/p.json"]))
-    cases.append(("detect-prior RECORDINGS of different sample times", ["detect-prior", "{det_rec}", "{det_dt2}", "--out", "{tmp}/p.json"]))
+    cases.append(
+        ("detect-prior RECORDINGS of different sample times", ["detect-prior", "{det_rec}", "{det_dt2}", "--out", "{tmp}/p.json"])
+    )
     add(["detect-prior", "{det_rec}"], "--out", ["{tmp}/p.txt", "{dir}", "/proc/p.json"])
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--model", ["fancy", ""])
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--bootstrap", ["-1", "1001", "1.5", "abc"], named=True)
@@ -321,8 +390,9 @@ def test_bad_input_is_one_line_nonzero_and_writes_nothing(case, argv, files, tmp
     if first.startswith("error:"):
         assert len(err.strip().splitlines()) == 1 or case.startswith("sweep"), f"{case}: more than one line {err!r}"
     if case in NAMED:
-        assert f"'{NAMED[case]}'" in err if "Usage:" in err else first.startswith(f"error: {NAMED[case]}"), \
+        assert f"'{NAMED[case]}'" in err if "Usage:" in err else first.startswith(f"error: {NAMED[case]}"), (
             f"{case}: the message does not name {NAMED[case]}: {err!r}"
+        )
     assert _snapshot(files["tmp"], tmp_path) == before, f"{case}: wrote files on invalid input"
 
 

@@ -22,9 +22,21 @@ def _oe_values(sh: bt.Ship, j: int) -> dict[str, float]:
     s = sh.U0[j] / bt.U_REF
     m33 = sh.Iz[j] - sh.Nrd[j]
     zg = -(bt.KG - bt.DRAFT) + sh.z_f[j]
-    return dict(X_v=-sh.Yvd[j], Y_v=sh.Yv[j] * s, Y_r=sh.Yr[j] * s, Y_delta=sh.Yd[j] * s * s, A_x=sh.Ix[j] - sh.Kpd[j],
-                d=-sh.Kp[j], k=bt.M0 * bt.G * (bt.GM0 - zg), K_vdot=sh.Kvd[j], K_ur=sh.Kr[j] * s / sh.U0[j],
-                K_delta=sh.Kd[j] * s * s, n_v=sh.Nv[j] * s / m33, n_r=sh.Nr[j] * s / m33, n_delta=sh.Nd[j] * s * s / m33)
+    return dict(
+        X_v=-sh.Yvd[j],
+        Y_v=sh.Yv[j] * s,
+        Y_r=sh.Yr[j] * s,
+        Y_delta=sh.Yd[j] * s * s,
+        A_x=sh.Ix[j] - sh.Kpd[j],
+        d=-sh.Kp[j],
+        k=bt.M0 * bt.G * (bt.GM0 - zg),
+        K_vdot=sh.Kvd[j],
+        K_ur=sh.Kr[j] * s / sh.U0[j],
+        K_delta=sh.Kd[j] * s * s,
+        n_v=sh.Nv[j] * s / m33,
+        n_r=sh.Nr[j] * s / m33,
+        n_delta=sh.Nd[j] * s * s / m33,
+    )
 
 
 def _mismatch(variant: str) -> np.ndarray:

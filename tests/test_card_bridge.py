@@ -13,8 +13,18 @@ from maps.plan import Plan
 
 START = "2026-06-01T08:00Z"
 # spot turns and short moves crowd many entry points into a few hundred metres
-CROWDED = ("straight", "spot_turn_s", "spot_turn_s", "tau12", "spot_turn_p", "spot_turn_p", "straight", "tau16", "spot_turn_s",
-           "straight")
+CROWDED = (
+    "straight",
+    "spot_turn_s",
+    "spot_turn_s",
+    "tau12",
+    "spot_turn_p",
+    "spot_turn_p",
+    "straight",
+    "tau16",
+    "spot_turn_s",
+    "straight",
+)
 
 
 @pytest.fixture(scope="module")
@@ -126,14 +136,21 @@ def _bridge_texts(plan: Plan, tmp_path) -> dict[str, str]:
 
     paths = export_all(plan, tmp_path, start=START)
     html = re.sub(r'src="data:image/png;base64,[^"]+"', "", paths["card"].read_text(encoding="utf-8"))
-    return {"html": html, "pdf": "".join(_pages(paths["card_pdf"])), "gpx": paths["gpx"].read_text(encoding="utf-8"),
-            "rtz": paths["rtz"].read_text(encoding="utf-8")}
+    return {
+        "html": html,
+        "pdf": "".join(_pages(paths["card_pdf"])),
+        "gpx": paths["gpx"].read_text(encoding="utf-8"),
+        "rtz": paths["rtz"].read_text(encoding="utf-8"),
+    }
 
 
-@pytest.mark.parametrize("ship, names", [
-    ("full-scale", ("straight", "tau12", "spot_turn_s", "tau16", "zigzag_10_10_s")),
-    ("kvlcc2", ("straight", "zigzag_10_10_s", "turn_p", "stopping")),
-])
+@pytest.mark.parametrize(
+    "ship, names",
+    [
+        ("full-scale", ("straight", "tau12", "spot_turn_s", "tau16", "zigzag_10_10_s")),
+        ("kvlcc2", ("straight", "zigzag_10_10_s", "turn_p", "stopping")),
+    ],
+)
 def test_bridge_documents_speak_knots_and_the_ships_own_terms(ship, names, tmp_path):
     plan = synthetic_plan(ship, names, run_in=True)
     for doc, text in _bridge_texts(plan, tmp_path).items():
@@ -161,11 +178,19 @@ def test_spot_turn_orders_give_times_thruster_angles_and_rpm(crowded):
 
     # as the planner's lattice move carries it: its phases in words, no orders of its own
     st = next(st for st in crowded.steps if st.primitive == "spot_turn_s")
-    spot = PlanStep(**{**st.__dict__, "orders": [], "commands": ["stop the ship", "turn on the spot 90° to starboard",
-                                                                 "regain 5.8 kn on the new course"]})
+    spot = PlanStep(
+        **{
+            **st.__dict__,
+            "orders": [],
+            "commands": ["stop the ship", "turn on the spot 90° to starboard", "regain 5.8 kn on the new course"],
+        }
+    )
     lines = step_orders(crowded, spot)
-    assert [re.match(r"at \+\d+:\d\d: (stop the ship|turn on the spot (89|90|91)° to starboard|on course \d{3}°, regain)", ln) is not None
-            for ln in lines] == [True, True, True]
+    assert [
+        re.match(r"at \+\d+:\d\d: (stop the ship|turn on the spot (89|90|91)° to starboard|on course \d{3}°, regain)", ln)
+        is not None
+        for ln in lines
+    ] == [True, True, True]
     setting = r"(\d+ rpm, thrust (ahead|astern|\d+° to (starboard|port))|thruster stopped)"
     assert all(re.search(setting, ln) for ln in lines)
     assert re.search(r"\d+ rpm, thrust \d+° to starboard; stern thruster \d+ rpm, thrust \d+° to port", lines[1])
@@ -187,8 +212,13 @@ def test_a_run_in_that_stops_the_ship_is_called_a_stop():
     plan = synthetic_plan("full-scale", ("tau12",), run_in=True)
     st = plan.steps[0]
     assert st.segment == "run-in"
-    stop = PlanStep(**{**st.__dict__, "description": "stop before tau12: come to rest and settle",
-                       "orders": [{"t_s": 0.0, "text": "stop engine(s) and come to rest, heading 117° for 67 s, then execute"}]})
+    stop = PlanStep(
+        **{
+            **st.__dict__,
+            "description": "stop before tau12: come to rest and settle",
+            "orders": [{"t_s": 0.0, "text": "stop engine(s) and come to rest, heading 117° for 67 s, then execute"}],
+        }
+    )
     assert phase(plan, stop) == "stop" and manoeuvre_name(plan, stop) == "stop and settle"
     assert phase(plan, st) == "run-in" and manoeuvre_name(plan, st).startswith("steady approach at 5.8 kn")
 
@@ -256,8 +286,12 @@ def test_map_labels_clear_of_the_marks_in_both_maps(crowded):
 
     f = map_frame(crowded, (60.0, 170.0, 500.0, 400.0))
     labels = [lab for _, lab in step_labels(crowded, f, lambda s: 4.5 * len(s))]
-    _check_marks(np.array([[lab.x, lab.y] for lab in labels]), np.array([lab.r for lab in labels]),
-                 (f.left, f.bottom, f.left + f.width, f.bottom + f.height), f.xy(crowded.lonlat)[-1])
+    _check_marks(
+        np.array([[lab.x, lab.y] for lab in labels]),
+        np.array([lab.r for lab in labels]),
+        (f.left, f.bottom, f.left + f.width, f.bottom + f.height),
+        f.xy(crowded.lonlat)[-1],
+    )
     fig = track_figure(crowded)
     try:
         fig.canvas.draw()
@@ -265,8 +299,12 @@ def test_map_labels_clear_of_the_marks_in_both_maps(crowded):
         ax = fig.axes[0]
         boxes = [a.get_bbox_patch().get_window_extent(r) for a in ax.texts if (a.get_gid() or "").startswith("step-label-")]
         bb = ax.get_window_extent()
-        _check_marks(np.array([[0.5 * (b.x0 + b.x1), 0.5 * (b.y0 + b.y1)] for b in boxes]), np.array([0.5 * min(b.width, b.height) for b in boxes]),
-                     (bb.x0, bb.y0, bb.x1, bb.y1), ax.transData.transform(crowded.lonlat[-1:, :2])[0])
+        _check_marks(
+            np.array([[0.5 * (b.x0 + b.x1), 0.5 * (b.y0 + b.y1)] for b in boxes]),
+            np.array([0.5 * min(b.width, b.height) for b in boxes]),
+            (bb.x0, bb.y0, bb.x1, bb.y1),
+            ax.transData.transform(crowded.lonlat[-1:, :2])[0],
+        )
     finally:
         import matplotlib.pyplot as plt
 

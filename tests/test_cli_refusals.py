@@ -26,8 +26,10 @@ def test_export_without_the_formats_extension_is_refused_with_the_name_to_give(t
     assert f"give {tmp_path / 'route'}.gpx" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("text,seconds", [("1800", 1800.0), ("30min", 1800.0), ("30 min", 1800.0), ("0.5h", 1800.0),
-                                          ("1800s", 1800.0), ("30 minutes", 1800.0)])
+@pytest.mark.parametrize(
+    "text,seconds",
+    [("1800", 1800.0), ("30min", 1800.0), ("30 min", 1800.0), ("0.5h", 1800.0), ("1800s", 1800.0), ("30 minutes", 1800.0)],
+)
 def test_trial_length_takes_a_unit(text, seconds):
     from cli.options import duration_s
 
@@ -48,7 +50,13 @@ def test_every_missing_recording_column_is_named_at_once(tmp_path, capsys):
     assert _run(["diagnose", str(rec), "--ship", "kvlcc2"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1, err
-    for col in ("'psi' (heading, rad)", "'x', 'y' (north, east, m) or 'lat', 'lon' (deg)", "'delta'", "'n'", "choose the matching --ship"):
+    for col in (
+        "'psi' (heading, rad)",
+        "'x', 'y' (north, east, m) or 'lat', 'lon' (deg)",
+        "'delta'",
+        "'n'",
+        "choose the matching --ship",
+    ):
         assert col in err, (col, err)
 
 

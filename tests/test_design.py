@@ -33,6 +33,7 @@ def test_convex_d_optimal_certificate(ship, ms):
     assert r.max_gradient == pytest.approx(10.0, rel=2e-3)
     assert r.gradient.max() == pytest.approx(r.max_gradient)
     assert 0.998 <= r.efficiency_bound <= 1.0
+
     # no other design beats the certified bound
     def mq_val(w):
         g = info.scaled(info.gamma(w, "batchwise" if ms == "complete" else ms))
@@ -135,8 +136,13 @@ def test_round_design_reports_efficiency(ship):
     assert rd.counts.sum() == 20
     assert 0.9 < rd.efficiency <= 1.0 + 1e-9 and rd.efficiency_loss == pytest.approx(max(0, 1 - rd.efficiency))
     # unequal units never exceed the trial length
-    rd2 = round_design(r.weights, np.array([300, 300, 43, 43, 43, 27, 27, 27, 150, 150, 150]), 1000,
-                       lambda s: info.value(s / 1000, "complete"), 10)
+    rd2 = round_design(
+        r.weights,
+        np.array([300, 300, 43, 43, 43, 27, 27, 27, 150, 150, 150]),
+        1000,
+        lambda s: info.value(s / 1000, "complete"),
+        10,
+    )
     assert rd2.samples.sum() <= 1000 and rd2.efficiency > 0.8
 
 

@@ -29,7 +29,9 @@ def test_design_json_keys_and_files(tmp_path, capsys):
 
 
 def test_design_without_monte_carlo(tmp_path, capsys):
-    rc = _run(["design", "--monte-carlo", "0", "--criterion", "A", "--mean-subtraction", "batchwise", "--out", str(tmp_path), "--json"])
+    rc = _run(
+        ["design", "--monte-carlo", "0", "--criterion", "A", "--mean-subtraction", "batchwise", "--out", str(tmp_path), "--json"]
+    )
     assert rc == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["monte_carlo"] is None and doc["criterion"] == "A"

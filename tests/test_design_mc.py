@@ -93,8 +93,9 @@ def test_report_gives_both_estimators_beside_the_thesis(setup):
     from expdesign.report import markdown, report_dict
 
     p, lib, d = setup
-    ev = evaluate_designs_parallel(p, {"optimized": d, "random": "random"}, runs=6, seed=1, scheduler="inline", progress=False,
-                                   primitives=lib, n_samples=400)
+    ev = evaluate_designs_parallel(
+        p, {"optimized": d, "random": "random"}, runs=6, seed=1, scheduler="inline", progress=False, primitives=lib, n_samples=400
+    )
     doc = report_dict(d, ev)
     opt = doc["monte_carlo"]["optimized"]
     assert opt["estimator"] == "oe" and opt["reference"]["estimator"] == "iv"
@@ -104,6 +105,10 @@ def test_report_gives_both_estimators_beside_the_thesis(setup):
     assert "| optimized (oe) | 6 |" in text and "| optimized (iv, thesis's estimator) | 6 |" in text
     assert "| random (iv, thesis's estimator) | 6 |" in text and "iv: spread" in text
     assert any(c["choice"] == "estimator" and "output error" in c["value"] for c in doc["monte_carlo_config"]["open_choices"])
-    iv = report_dict(d, evaluate_designs_parallel(p, {"optimized": d}, runs=6, seed=1, scheduler="inline", progress=False,
-                                                  primitives=lib, n_samples=400, estimator="iv"))
+    iv = report_dict(
+        d,
+        evaluate_designs_parallel(
+            p, {"optimized": d}, runs=6, seed=1, scheduler="inline", progress=False, primitives=lib, n_samples=400, estimator="iv"
+        ),
+    )
     assert "reference" not in iv["monte_carlo"]["optimized"] and "| optimized (iv) | 6 |" in markdown(iv, {})

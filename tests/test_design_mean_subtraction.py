@@ -55,14 +55,18 @@ def test_a_library_that_cannot_keep_the_parameter_is_named_in_the_cli(monkeypatc
     from cli.app import _run
 
     real = expdesign.api.default_library
-    monkeypatch.setattr(expdesign.api, "default_library", lambda prof, psi=None: [p for p in real(prof, psi) if p.name != "tau12"])
+    monkeypatch.setattr(
+        expdesign.api, "default_library", lambda prof, psi=None: [p for p in real(prof, psi) if p.name != "tau12"]
+    )
     out = tmp_path / "out"
-    code = _run(["design", "--ship", "full-scale", "--mean-subtraction", "batchwise", "--monte-carlo", "0", "--json", "--out", str(out)])
+    code = _run(
+        ["design", "--ship", "full-scale", "--mean-subtraction", "batchwise", "--monte-carlo", "0", "--json", "--out", str(out)]
+    )
     assert code == 0
     cap = capsys.readouterr()
     warn = [line for line in cap.err.splitlines() if line.startswith("warning:")]
     assert len(warn) == 1 and "Xtau is not identifiable" in warn[0] and "in every mix of this library" in warn[0], cap.err
-    assert json.loads(cap.out)["warnings"] == [warn[0][len("warning: "):]]
+    assert json.loads(cap.out)["warnings"] == [warn[0][len("warning: ") :]]
     assert "**Warning:** Xtau is not identifiable" in (out / "report.md").read_text()
 
 

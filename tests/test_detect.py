@@ -81,8 +81,10 @@ def test_no_alarm_on_the_nominal_ship(prior):
     assert all(d.summary()["onset_s"] is None and d.summary()["onset_interval_s"] is None for d in quiet)
 
 
-@pytest.mark.parametrize("changed,name", [(Vessel(inertia=1.3), "yaw_inertia"), (Vessel(damping=1.2), "yaw_damping"),
-                                          (Vessel(pod_gain=0.85), "pod_gain")])
+@pytest.mark.parametrize(
+    "changed,name",
+    [(Vessel(inertia=1.3), "yaw_inertia"), (Vessel(damping=1.2), "yaw_damping"), (Vessel(pod_gain=0.85), "pod_gain")],
+)
 def test_step_change_alarms_soon_after_it_and_names_the_property(prior, changed, name):
     rec = simulated_recording(Vessel(), 300, seed=41, change_at_s=CHANGE_S, changed=changed, measured_moment=True)
     d = detect(rec, prior)
@@ -96,9 +98,13 @@ def test_cli_detect_plot(prior, tmp_path):
     from cli.app import _run
 
     save_prior(prior, tmp_path / "prior.json")
-    write_csv(simulated_recording(Vessel(), 300, seed=51, change_at_s=CHANGE_S, changed=Vessel(inertia=1.3), measured_moment=True), tmp_path / "r.csv")
-    assert _run(["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "prior.json"), "--plot",
-                 str(tmp_path / "s.png")]) in (0, None)
+    write_csv(
+        simulated_recording(Vessel(), 300, seed=51, change_at_s=CHANGE_S, changed=Vessel(inertia=1.3), measured_moment=True),
+        tmp_path / "r.csv",
+    )
+    assert _run(
+        ["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "prior.json"), "--plot", str(tmp_path / "s.png")]
+    ) in (0, None)
     assert (tmp_path / "s.png").read_bytes()[:4] == b"\x89PNG"
 
 
@@ -106,12 +112,19 @@ def test_cli_detect_json(prior, tmp_path, capsys):
     from cli.app import _run
 
     save_prior(prior, tmp_path / "prior.json")
-    write_csv(simulated_recording(Vessel(), 300, seed=52, change_at_s=CHANGE_S, changed=Vessel(damping=1.2), measured_moment=True), tmp_path / "r.csv")
+    write_csv(
+        simulated_recording(Vessel(), 300, seed=52, change_at_s=CHANGE_S, changed=Vessel(damping=1.2), measured_moment=True),
+        tmp_path / "r.csv",
+    )
     assert _run(["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "prior.json"), "--json"]) in (0, None)
     doc = json.loads(capsys.readouterr().out)
     v = doc["recordings"][0]
     assert doc["model"] == "full" and v["changed"] is True and v["property"] == "yaw_damping"
-    assert CHANGE_S <= v["alarm_s"] <= CHANGE_S + 120 and set(v["evidence"]["candidates"]) == {"yaw_inertia", "yaw_damping", "pod_gain"}
+    assert CHANGE_S <= v["alarm_s"] <= CHANGE_S + 120 and set(v["evidence"]["candidates"]) == {
+        "yaw_inertia",
+        "yaw_damping",
+        "pod_gain",
+    }
 
 
 def test_cli_detect_warns_when_the_prior_misfits_its_own_data(prior, tmp_path, capsys):
@@ -210,8 +223,14 @@ def _rolling_run(prior_dt: float = 0.1, seed: int = 61, scale: float = 1.6):
     tr = truth(ch, Vessel(inertia=1.1))
     noisy = measure(tr, TABLE_4_1, np.random.default_rng(seed + 1))
     chans = {"phi": noisy["phi"], SWAY_ACC: noisy["v_dot"], MOMENT: noisy["tau_r"]}
-    rec = Recording("rolling", np.arange(len(tr["r"])) * 0.1, np.column_stack([noisy["u"], noisy["v"], noisy["r"]]),
-                    tr["psi"], np.column_stack([tr["x"], tr["y"]]), chans)
+    rec = Recording(
+        "rolling",
+        np.arange(len(tr["r"])) * 0.1,
+        np.column_stack([noisy["u"], noisy["v"], noisy["r"]]),
+        tr["psi"],
+        np.column_stack([tr["x"], tr["y"]]),
+        chans,
+    )
     return dc_replace(rec, meta={"sample_time": "0.1"}), float(np.abs(tr["phi"]).max())
 
 
@@ -260,7 +279,9 @@ def _csv(path, drop=(), rename=None):
     head = lines[i].split(",")
     keep = [k for k, h in enumerate(head) if h not in drop]
     rename = rename or {}
-    rows = [",".join(row.split(",")[k] if j > i else rename.get(head[k], head[k]) for k in keep) for j, row in enumerate(lines[i:], i)]
+    rows = [
+        ",".join(row.split(",")[k] if j > i else rename.get(head[k], head[k]) for k in keep) for j, row in enumerate(lines[i:], i)
+    ]
     path.write_text("\n".join(lines[:i] + rows) + "\n")
     return path
 
@@ -288,8 +309,10 @@ def test_cli_detect_reports_change_point_and_i_z_without_internal_words(prior, t
     from cli.app import _run
 
     save_prior(prior, tmp_path / "prior.json")
-    write_csv(simulated_recording(Vessel(), 300, seed=51, change_at_s=CHANGE_S, changed=Vessel(inertia=1.3), measured_moment=True),
-              tmp_path / "r.csv")
+    write_csv(
+        simulated_recording(Vessel(), 300, seed=51, change_at_s=CHANGE_S, changed=Vessel(inertia=1.3), measured_moment=True),
+        tmp_path / "r.csv",
+    )
     assert _run(["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "prior.json")]) in (0, None)
     out = capsys.readouterr().out
     assert "change point" in out and "95 % interval" in out and "I_z" in out and "N_rdot" in out, out

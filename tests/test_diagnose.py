@@ -64,8 +64,9 @@ def test_current_cannot_be_tested_on_a_straight_run(ship):
     sc = scenario(("current",), 15)
     rec = sc.diagnose[0]
     n = 400
-    straight = Recording("straight", rec.t[:n], rec.y[:n], np.zeros(n), rec.pos[:n],
-                         {k: np.tile(v[:1], n) for k, v in rec.channels.items()})
+    straight = Recording(
+        "straight", rec.t[:n], rec.y[:n], np.zeros(n), rec.pos[:n], {k: np.tile(v[:1], n) for k, v in rec.channels.items()}
+    )
     straight.y[:, 1:] = np.random.default_rng(0).normal(0, 0.02, (n, 2))
     straight.channels["tau_x"][:] = 4000.0
     d = run([straight], ship)
@@ -163,7 +164,9 @@ def test_cli_params_file_and_bad_params(tmp_path, capsys):
     rec = write_csv(sc.diagnose[0], tmp_path / "run.csv")
     good = tmp_path / "theta.json"
     good.write_text(json.dumps({"theta": ship_true()}))
-    assert _run(["diagnose", str(rec), "--ship", "model-ship", "--params", str(good), "--out", str(tmp_path / "o"), "--json"]) == 0
+    assert (
+        _run(["diagnose", str(rec), "--ship", "model-ship", "--params", str(good), "--out", str(tmp_path / "o"), "--json"]) == 0
+    )
     doc = json.loads(capsys.readouterr().out)
     assert doc["findings"] == [] and doc["explained"] is True
     bad = tmp_path / "bad.json"

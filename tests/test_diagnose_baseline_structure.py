@@ -24,14 +24,24 @@ from tests.physics.mmg_kvlcc2 import kvlcc2, self_propulsion_rps
 from tests.physics.mmg_sim import Manoeuvre, simulate_runs
 
 SIG = {"u": np.array([7.0, 5.0]), "v": np.array([0.3, -0.4]), "r": np.array([0.002, -0.003])}
-SIG |= {"u_r": SIG["u"], "v_r": SIG["v"], "U": np.hypot(SIG["u"], SIG["v"]), "delta": np.array([0.1, -0.2]),
-        "n": np.array([1.5, 1.5])}
+SIG |= {
+    "u_r": SIG["u"],
+    "v_r": SIG["v"],
+    "U": np.hypot(SIG["u"], SIG["v"]),
+    "delta": np.array([0.1, -0.2]),
+    "n": np.array([1.5, 1.5]),
+}
 
 
 def test_speed_and_station_factors_evaluate_as_written():
     u, v, r, U = SIG["u_r"], SIG["v_r"], SIG["r"], SIG["U"]
-    want = {"v_r^3*U^-1": v**3 / U, "v_r^4*U^-2": v**4 / U**2, "u_r*|v_r@-160|": u * np.abs(v - 160.0 * r),
-            "n*v_r@-160": SIG["n"] * (v - 160.0 * r), "delta*u_r*|v_r@2.5e1|^2": SIG["delta"] * u * (v + 25.0 * r) ** 2}
+    want = {
+        "v_r^3*U^-1": v**3 / U,
+        "v_r^4*U^-2": v**4 / U**2,
+        "u_r*|v_r@-160|": u * np.abs(v - 160.0 * r),
+        "n*v_r@-160": SIG["n"] * (v - 160.0 * r),
+        "delta*u_r*|v_r@2.5e1|^2": SIG["delta"] * u * (v + 25.0 * r) ** 2,
+    }
     for term, val in want.items():
         np.testing.assert_allclose(compile_term(term)[1](SIG), val, rtol=1e-14)
     assert compile_term("u_r*|v_r@-160|")[0] == ("u_r", "v_r", "r")  # the station reads r
@@ -43,8 +53,9 @@ def test_speed_and_station_factors_evaluate_as_written():
         np.testing.assert_allclose(inc[i], ts.evaluate_dof(i, SIG) @ theta[ts.dof_slice(i)], rtol=1e-13)
 
 
-@pytest.mark.parametrize("term, msg", [("v_r^-1", "negative power is allowed only of"), ("u_r@-3", "station"),
-                                        ("|v_r@|", "not a signal name")])
+@pytest.mark.parametrize(
+    "term, msg", [("v_r^-1", "negative power is allowed only of"), ("u_r@-3", "station"), ("|v_r@|", "not a signal name")]
+)
 def test_factors_that_make_no_sense_are_refused(term, msg):
     with pytest.raises(TermError, match=msg):
         compile_term(term)
@@ -55,8 +66,12 @@ def test_kernel_and_diagnosis_model_simulate_speed_terms_alike():
     diagnosis's AugmentedModel gives the same numbers."""
     prof = load_profile("kvlcc2")
     ext, th, added = baseline._extended(prof, prof.params(), declared=True)
-    assert added == [f"{dof}:{t}" for dof, want, have in zip(("surge", "sway", "yaw"), prof.structure_terms, prof.model_terms)
-                     for t in want if t not in have]  # the profile's own terms (surge v_r*r) are not doubled
+    assert added == [
+        f"{dof}:{t}"
+        for dof, want, have in zip(("surge", "sway", "yaw"), prof.structure_terms, prof.model_terms)
+        for t in want
+        if t not in have
+    ]  # the profile's own terms (surge v_r*r) are not doubled
     th = th.copy()
     th[th == 0] = 1e-7  # every structure term acts (small: the run stays physical)
     k = np.arange(400)
@@ -75,10 +90,15 @@ def test_diagnosis_table_round_trips_and_bad_fields_are_named():
     again = profile_from_dict(prof.to_dict())
     assert again.structure_terms == prof.structure_terms and again.structure_prior == prof.structure_prior
     d = prof.to_dict()
-    for bad, msg in [({"structur": {}}, r"ship\.toml: unknown key 'structur' in \[diagnosis\] \(did you mean 'structure'\?\); accepted keys: structure, structure_prior"),
-                     ({"structure": {"surge": ["w_r*u"], "sway": [], "yaw": []}}, r"diagnosis\.structure' uses unknown signals \['w_r'\]"),
-                     ({"structure": {"surge": ["v_r^-2"], "sway": [], "yaw": []}}, "negative power"),
-                     ({"structure": d["diagnosis"]["structure"], "structure_prior": -1}, r"structure_prior': must be > 0")]:
+    for bad, msg in [
+        (
+            {"structur": {}},
+            r"ship\.toml: unknown key 'structur' in \[diagnosis\] \(did you mean 'structure'\?\); accepted keys: structure, structure_prior",
+        ),
+        ({"structure": {"surge": ["w_r*u"], "sway": [], "yaw": []}}, r"diagnosis\.structure' uses unknown signals \['w_r'\]"),
+        ({"structure": {"surge": ["v_r^-2"], "sway": [], "yaw": []}}, "negative power"),
+        ({"structure": d["diagnosis"]["structure"], "structure_prior": -1}, r"structure_prior': must be > 0"),
+    ]:
         with pytest.raises(ProfileError, match=msg):
             profile_from_dict(d | {"diagnosis": bad}, "ship.toml")
 
@@ -107,7 +127,7 @@ def mmg_runs():
     ship = kvlcc2(1.0)
     runs = simulate_runs(ship, CALM + HELD_OUT, self_propulsion_rps(ship), sample_time=1.0)
     noisy = _recordings(runs, np.random.default_rng(11), True)
-    return noisy[: len(CALM)], noisy[len(CALM):], _recordings(runs[len(CALM):], None, False)
+    return noisy[: len(CALM)], noisy[len(CALM) :], _recordings(runs[len(CALM) :], None, False)
 
 
 def test_declared_structure_fitted_on_calm_runs_simulates_other_manoeuvres_at_the_noise(mmg_runs):

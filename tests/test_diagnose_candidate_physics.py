@@ -218,7 +218,7 @@ def test_a_change_of_the_profiles_own_damping_is_a_candidate_only_against_a_held
     held = [k for k in range(model.n_base) if k != j]  # every other baseline parameter refitted
     assert cand.key not in refitted_alias(model, held) and refitted_alias(model, []) == set()
     P = model.p0()
-    (lo, hi), = slot_bounds(model, cand, P).values()
+    ((lo, hi),) = slot_bounds(model, cand, P).values()
     assert lo == -np.inf and hi == pytest.approx(-P[j]) and hi > 0  # the sum stays dissipative
     # a term the profile lacks is a plain added damping, bounded dissipative on its own
     sway = next(c for c in lib if c.key == "quadratic_damping:sway:v_r*|v_r|")

@@ -45,7 +45,9 @@ def test_per_run_table_in_text_and_json_and_no_nan(damping_case, tmp_path, capsy
     assert d.findings[0]["heldout_per_run"] and d.findings[0]["plausibility"]
     rec = write_csv(sc.diagnose[0], tmp_path / "run.csv")
     val = write_csv(sc.validate[0], tmp_path / "val.csv")
-    assert _run(["diagnose", str(rec), "--ship", "model-ship", "--validate", str(val), "--out", str(tmp_path / "o"), "--json"]) == 0
+    assert (
+        _run(["diagnose", str(rec), "--ship", "model-ship", "--validate", str(val), "--out", str(tmp_path / "o"), "--json"]) == 0
+    )
     out = capsys.readouterr().out
     assert "NaN" not in out and "nan" not in out.lower()
     doc = json.loads(out)
@@ -137,11 +139,17 @@ def _sampled_run(ship, delay_s: float, seed: int, n: int = 1600):
 
     t = np.arange(n + 1) * ts
     felt = x(t[:-1] + 0.5 * ts - delay_s)
-    sim = simulate(ship, felt, nu0=(0.8, 0.0, 0.0), seed=seed,
-                   disturbances=Disturbances(measurement_std=(0.02, 0.02, 0.02), heading_std=0.002))
+    sim = simulate(
+        ship,
+        felt,
+        nu0=(0.8, 0.0, 0.0),
+        seed=seed,
+        disturbances=Disturbances(measurement_std=(0.02, 0.02, 0.02), heading_std=0.002),
+    )
     rec = x(t)
-    return Recording(f"sampled-{seed}", t, sim.y[0], sim.psi_meas[0], sim.pos_meas[0],
-                     {nm: rec[:, j] for j, nm in enumerate(ship.inputs)})
+    return Recording(
+        f"sampled-{seed}", t, sim.y[0], sim.psi_meas[0], sim.pos_meas[0], {nm: rec[:, j] for j, nm in enumerate(ship.inputs)}
+    )
 
 
 def test_fractional_delay_of_sampled_inputs_has_no_half_sample_bias(ship):

@@ -50,8 +50,7 @@ def test_linear_baseline_fits_the_10_10_zigzags_but_not_the_turning_circle():
 @pytest.mark.slow
 def test_zigzag_20_diagnosis_names_nonlinear_physics_and_improves_turning_circles():
     p = load_profile("kvlcc2-linear")
-    d = run([_rec("zz_20"), _rec("zz_-20")], p, fit_on=[_rec("zz_10"), _rec("zz_-10")],
-            validate=[_rec("tc_35"), _rec("tc_-35")])
+    d = run([_rec("zz_20"), _rec("zz_-20")], p, fit_on=[_rec("zz_10"), _rec("zz_-10")], validate=[_rec("tc_35"), _rec("tc_-35")])
     effects = {f["effect"] for f in d.findings}
     # quadratic resistance is nonlinear hull physics too; with the --fit-on runs holding the baseline
     # parameters they determine (issue 13), it is what the search names first here
@@ -62,8 +61,7 @@ def test_zigzag_20_diagnosis_names_nonlinear_physics_and_improves_turning_circle
 @pytest.mark.slow
 def test_turning_circle_diagnosis_improves_the_20_20_zigzags():
     p = load_profile("kvlcc2-linear")
-    d = run([_rec("tc_35"), _rec("tc_-35")], p, fit_on=[_rec("zz_10"), _rec("zz_-10")],
-            validate=[_rec("zz_20"), _rec("zz_-20")])
+    d = run([_rec("tc_35"), _rec("tc_-35")], p, fit_on=[_rec("zz_10"), _rec("zz_-10")], validate=[_rec("zz_20"), _rec("zz_-20")])
     # what the turning circles add is also in the 10/10 reference runs: baseline structure (issue 13)
     assert d.findings or d.structure
     assert d.fit_after["surge"] > d.fit_before["surge"] and d.fit_after["yaw"] > d.fit_before["yaw"]

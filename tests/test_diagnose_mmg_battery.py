@@ -25,12 +25,19 @@ def test_battery_case_stays_right(name, tmp_path):
 
 def test_scoring_names_every_miss():
     truth = {"effects": ["current"], "checks": {"current": {"speed_mps": [0.7, 0.3, "rel"], "toward_deg": [60.0, 25.0, "angle"]}}}
-    right = {"findings": [{"effect": "current", "parameters": {"speed_mps": 0.75, "toward_deg": 80.0}}],
-             "per_run": [{"run": "a", "before": {"surge": 50.0}, "after": {"surge": 60.0}}]}
+    right = {
+        "findings": [{"effect": "current", "parameters": {"speed_mps": 0.75, "toward_deg": 80.0}}],
+        "per_run": [{"run": "a", "before": {"surge": 50.0}, "after": {"surge": 60.0}}],
+    }
     assert score(truth, right) == (True, [])
-    wrong = {"findings": [{"effect": "current", "parameters": {"speed_mps": 1.2, "toward_deg": 100.0}},
-                          {"effect": "actuator_delay", "parameters": {"delay_s": 10.8}}],
-             "per_run": [{"run": "a", "before": {"surge": 50.0}, "after": {"surge": 40.0}}], "fit_after": {"yaw": float("nan")}}
+    wrong = {
+        "findings": [
+            {"effect": "current", "parameters": {"speed_mps": 1.2, "toward_deg": 100.0}},
+            {"effect": "actuator_delay", "parameters": {"delay_s": 10.8}},
+        ],
+        "per_run": [{"run": "a", "before": {"surge": 50.0}, "after": {"surge": 40.0}}],
+        "fit_after": {"yaw": float("nan")},
+    }
     hit, why = score(truth, wrong)
     assert not hit and len(why) == 5, why  # extra effect, speed, direction, a worse held-out run, NaN
     assert score({"effects": [], "checks": {}}, {"error": "RecordingError: x"})[0] is False
@@ -55,8 +62,10 @@ def test_model_scale_truth_is_judged_at_full_scale():
     c = case("model-delay-3")
     d = full_scale_truth(truth_of(c, ship, [], Environment(), ship.time_scale))["checks"]["actuator_delay"]["delay_s"]
     assert abs(d[0] - 3.0) < 1e-9 and abs(d[1] - 0.3) < 1e-9  # value and absolute tolerance
-    assert full_scale_truth(truth_of(case("current-0.7"), kvlcc2(1.0), [], Environment(), 1.0))["checks"]["current"][
-        "speed_mps"][0] == 0.7
+    assert (
+        full_scale_truth(truth_of(case("current-0.7"), kvlcc2(1.0), [], Environment(), 1.0))["checks"]["current"]["speed_mps"][0]
+        == 0.7
+    )
 
 
 def test_wind_truth_froude_powers():

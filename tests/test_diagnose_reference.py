@@ -27,8 +27,12 @@ def test_extension_adds_only_missing_terms_and_keeps_the_model():
     sc = scenario((), 1, profile=load_profile("model-ship"))
     ms = load_profile("model-ship")
     ems, _ = extend(ms)
-    th = np.concatenate([np.concatenate([ms.params()[ms.model.dof_slice(i)],
-                                         np.zeros(len(ems.model_terms[i]) - len(ms.model_terms[i]))]) for i in range(3)])
+    th = np.concatenate(
+        [
+            np.concatenate([ms.params()[ms.model.dof_slice(i)], np.zeros(len(ems.model_terms[i]) - len(ms.model_terms[i]))])
+            for i in range(3)
+        ]
+    )
     p, pe = prepare(ms, sc.diagnose[0]), prepare(ems, sc.diagnose[0])
     y0 = AugmentedModel(ms, ms.params(), []).simulate(p, AugmentedModel(ms, ms.params(), []).p0())
     me = AugmentedModel(ems, th, [])

@@ -52,9 +52,16 @@ CRITERIA = [
     (lambda: _verdict([[1, 1, 1]], [[0.999] * 3], rows=100, q=5), "penalty", ["too small for the penalty", "+9.7"]),
     (lambda: _verdict(np.ones((3, 3)), [[0.1] * 3, [1.01] * 3, [1.01] * 3]), "too_few_improved", ["only 1 of 3"]),
     (lambda: _verdict([[1, 1, 1]], [[0.01, 0.01, 2.0]], den=4.0), "channel_much_worse", ["loses 20.7 points", "15 allowed"]),
-    (lambda: _verdict(np.ones((3, 3)), [[0.5] * 3, [0.5] * 3, [1.05] * 3]), "run_misfit_rises", ["rises by 5.0 %", "2 % allowed"]),
-    (lambda: _verdict([[1, 0, 1], [0, 0, 200], [1, 0, 1]], [[0.5, 0, 1], [0, 0, 203], [0.5, 0, 1]], rows=100),
-     "no_pooled_gain", ["pooled held-out misfit does not fall", "gain -0.98 %", "2/3"]),
+    (
+        lambda: _verdict(np.ones((3, 3)), [[0.5] * 3, [0.5] * 3, [1.05] * 3]),
+        "run_misfit_rises",
+        ["rises by 5.0 %", "2 % allowed"],
+    ),
+    (
+        lambda: _verdict([[1, 0, 1], [0, 0, 200], [1, 0, 1]], [[0.5, 0, 1], [0, 0, 203], [0.5, 0, 1]], rows=100),
+        "no_pooled_gain",
+        ["pooled held-out misfit does not fall", "gain -0.98 %", "2/3"],
+    ),
 ]
 
 
@@ -102,34 +109,66 @@ def test_every_effect_states_its_interval_and_when_it_includes_no_effect():
     cases = [
         (_finding("quadratic_damping", term="r*|r|", value=-0.02, value_std=0.005), "-0.02 +- 0.005"),
         (_finding("missing_coupling", term="v*r", value=0.3, value_std=0.5), "0.3 +- 0.5"),
-        (_finding("resistance_change", "surge", term="u*|u|", coefficient=-0.01, coefficient_std=0.002,
-                  resistance_change_pct=12.0, resistance_change_pct_std=2.4), "+12 +- 2 %"),
-        (_finding("thrust_loss", "surge", term="tau_x", coefficient=-0.01, coefficient_std=0.002, loss_percent=8.0,
-                  loss_percent_std=1.6), "8 +- 1.6 %"),
+        (
+            _finding(
+                "resistance_change",
+                "surge",
+                term="u*|u|",
+                coefficient=-0.01,
+                coefficient_std=0.002,
+                resistance_change_pct=12.0,
+                resistance_change_pct_std=2.4,
+            ),
+            "+12 +- 2 %",
+        ),
+        (
+            _finding(
+                "thrust_loss",
+                "surge",
+                term="tau_x",
+                coefficient=-0.01,
+                coefficient_std=0.002,
+                loss_percent=8.0,
+                loss_percent_std=1.6,
+            ),
+            "8 +- 1.6 %",
+        ),
         (_finding("thrust_loss", "surge", term="u*tau_x", coefficient=-0.004, coefficient_std=0.001), "-0.004 +- 0.001"),
-        (_finding("wind", "sway", wind_surge=0.5, wind_surge_std=0.1, wind_sway=0.1, wind_sway_std=0.2),
-         "surge 0.5 +- 0.1, sway 0.1 +- 0.2"),
+        (
+            _finding("wind", "sway", wind_surge=0.5, wind_surge_std=0.1, wind_sway=0.1, wind_sway_std=0.2),
+            "surge 0.5 +- 0.1, sway 0.1 +- 0.2",
+        ),
     ]
     for f, pm in cases:
         text = sentence(f)
         assert pm in text, (pm, text)
-        weak = all(abs(f["parameters"][k]) < f["parameters"][f"{k}_std"] for k in f["parameters"]
-                   if f"{k}_std" in f["parameters"] and k in ("value", "coefficient", "loss_percent", "wind_surge", "wind_sway"))
+        weak = all(
+            abs(f["parameters"][k]) < f["parameters"][f"{k}_std"]
+            for k in f["parameters"]
+            if f"{k}_std" in f["parameters"] and k in ("value", "coefficient", "loss_percent", "wind_surge", "wind_sway")
+        )
         assert ("includes no effect" in text) == weak, text
 
 
 def test_absurd_fit_percentages_print_bounded():
     assert "260211219909401792" not in report.heldout_change(-2.602112199094018e15)
     assert "diverges" in report.heldout_change(-2.6e15) and report.heldout_change(-0.69) == "held-out residual +69 %"
-    d = SimpleNamespace(per_run_method="validation runs, simulated",
-                        per_run=[{"run": "a.csv", "before": _fits(-7840.0, 10.0, 20.0), "after": _fits(-2.6e17, 12.0, 25.0)}])
+    d = SimpleNamespace(
+        per_run_method="validation runs, simulated",
+        per_run=[{"run": "a.csv", "before": _fits(-7840.0, 10.0, 20.0), "after": _fits(-2.6e17, 12.0, 25.0)}],
+    )
     table = "\n".join(per_run_lines(d))
     assert "< -999" in table and "7840" not in table and "e+" not in table
 
 
 def test_roll_coupling_is_named_for_a_human():
-    f = {"effect": "roll_coupling", "dof": "sway", "evidence": "e", "plausibility": "",
-         "parameters": {"phi_sway": -2.1, "phi_yaw": 0.00674, "phi_sway_std": 0.536, "phi_yaw_std": 0.00681}}
+    f = {
+        "effect": "roll_coupling",
+        "dof": "sway",
+        "evidence": "e",
+        "plausibility": "",
+        "parameters": {"phi_sway": -2.1, "phi_yaw": 0.00674, "phi_sway_std": 0.536, "phi_yaw_std": 0.00681},
+    }
     text = sentence(f)
     assert "phi_sway" not in text and "_std" not in text
     assert "roll angle" in text and "sway motion" in text and "yaw motion" in text
@@ -137,8 +176,15 @@ def test_roll_coupling_is_named_for_a_human():
 
 def test_finding_states_its_own_share_not_the_whole_models():
     rows = [{"run": "/x/val.csv", "before": _fits(70.0, 58.0, 60.0), "after": _fits(71.0, 64.0, 50.0)}]
-    f = {"dof": "sway", "effect": "roll_coupling", "rss_drop": 0.7, "f_statistic": 80.0, "p_value": 1e-18,
-         "cv_gain": 0.6, "heldout_per_run": rows}
+    f = {
+        "dof": "sway",
+        "effect": "roll_coupling",
+        "rss_drop": 0.7,
+        "f_statistic": 80.0,
+        "p_value": 1e-18,
+        "cv_gain": 0.6,
+        "heldout_per_run": rows,
+    }
     text = _evidence(f, {"conditions": {}}, _fits(-46, 39, 43), _fits(75, 65, 70), "validation")
     assert "58 % -> 64 % (yaw 60 % -> 50 %)" in text and "val.csv (simulated)" in text and "39 %" not in text
     f["heldout_per_run"] = []
@@ -148,9 +194,15 @@ def test_finding_states_its_own_share_not_the_whole_models():
 def test_gain_sources_separate_the_baseline_refit_from_each_finding():
     a = {"key": "a", "heldout_per_run": [{"run": "/x/v.csv", "before": _fits(50, 50, 50), "after": _fits(60, 55, 50)}]}
     b = {"key": "b", "heldout_per_run": [{"run": "/x/v.csv", "before": _fits(60, 55, 50), "after": _fits(61, 65, 52)}]}
-    d = SimpleNamespace(findings=[a, b], structure=[], per_run_method="validation runs, simulated", fit_on="validation",
-                        refit_parameters=["Xu"], magnitudes_refitted=False,
-                        per_run=[{"run": "/x/v.csv", "before": _fits(-46, 39, 43), "after": _fits(61, 65, 52)}])
+    d = SimpleNamespace(
+        findings=[a, b],
+        structure=[],
+        per_run_method="validation runs, simulated",
+        fit_on="validation",
+        refit_parameters=["Xu"],
+        magnitudes_refitted=False,
+        per_run=[{"run": "/x/v.csv", "before": _fits(-46, 39, 43), "after": _fits(61, 65, 52)}],
+    )
     line = report.gain_sources(d)[1]
     assert line.startswith("  v.csv: baseline as given -46.0/39.0/43.0 -> baseline refitted 50.0/50.0/50.0")
     assert "+ a 60.0/55.0/50.0 -> + b 61.0/65.0/52.0 -> final 61.0/65.0/52.0" in line
@@ -176,7 +228,9 @@ def test_cusum_times_are_from_the_runs_start(ship):
     rng = np.random.default_rng(3)
     y = 0.01 * rng.standard_normal((n + 1, 3))
     rec = SimpleNamespace(t=t, segments=None, source="run.csv")
-    prep = SimpleNamespace(rec=rec, psi=np.zeros(n + 1), y=y, inputs=rng.standard_normal((n + 1, len(ship.inputs))), wind_body=None)
+    prep = SimpleNamespace(
+        rec=rec, psi=np.zeros(n + 1), y=y, inputs=rng.standard_normal((n + 1, len(ship.inputs))), wind_body=None
+    )
     res = np.zeros((n + 1, 3))
     res[200:260, 0] = 5.0  # a misfit from 200 s after the start
     loc = locate(ship, [prep], [res], ship.params(None), np.ones(3))
@@ -186,7 +240,14 @@ def test_cusum_times_are_from_the_runs_start(ship):
 
 def test_report_defines_its_measures_and_splits_the_gain(damping):
     text = to_text(damping)
-    for term in ("fit % = NRMSE fit", "100 % is perfect", "residual = recorded - simulated", "residual / noise =",
-                 "CUSUM alarm (5.1) =", "'per sample' coefficient", "pooled fit ="):
+    for term in (
+        "fit % = NRMSE fit",
+        "100 % is perfect",
+        "residual = recorded - simulated",
+        "residual / noise =",
+        "CUSUM alarm (5.1) =",
+        "'per sample' coefficient",
+        "pooled fit =",
+    ):
         assert text.count(term) == 1, term
     assert "its own share" in text and "Where the gain comes from" in text and "before the first finding" in text

@@ -24,9 +24,20 @@ def test_main_job_writes_every_export(trial, capsys):
     rc, out = trial
     assert rc == 0
     names = {p.name for p in out.iterdir()}
-    for f in ("plan.json", "trajectory.geojson", "plan.png", "design-ratios.png", "full-scale-trial.geojson", "full-scale-trial.gpx",
-              "full-scale-trial.rtz", "full-scale-trial.csv", "full-scale-trial.html", "full-scale-trial.pdf",
-              "full-scale-trial-track.png", "full-scale-trial-states.png"):
+    for f in (
+        "plan.json",
+        "trajectory.geojson",
+        "plan.png",
+        "design-ratios.png",
+        "full-scale-trial.geojson",
+        "full-scale-trial.gpx",
+        "full-scale-trial.rtz",
+        "full-scale-trial.csv",
+        "full-scale-trial.html",
+        "full-scale-trial.pdf",
+        "full-scale-trial-track.png",
+        "full-scale-trial-states.png",
+    ):
         assert f in names, f
     plan = Plan.load(out / "plan.json")
     assert plan.feasible and plan.counts == plan.targets and sum(plan.counts.values()) > 0
@@ -38,7 +49,10 @@ def test_main_job_writes_every_export(trial, capsys):
 
     from maps.export.rtz import RTZ_NS
 
-    rtz_names = [w.get("name") for w in etree.parse(str(out / "full-scale-trial.rtz")).findall(f"{{{RTZ_NS}}}waypoints/{{{RTZ_NS}}}waypoint")]
+    rtz_names = [
+        w.get("name")
+        for w in etree.parse(str(out / "full-scale-trial.rtz")).findall(f"{{{RTZ_NS}}}waypoints/{{{RTZ_NS}}}waypoint")
+    ]
     assert [p.name for p in gpx.routes[0].points] == rtz_names and len(rtz_names) >= len(plan.steps) + 1
     csv_lines = (out / "full-scale-trial.csv").read_text().splitlines()
     assert len(csv_lines) > len(plan.t) // 2

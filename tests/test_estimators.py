@@ -87,7 +87,7 @@ def test_singular_system_fails_instead_of_giving_a_number(ship):
         est = estimate(profile, segs, method=method, mean_subtraction="batchwise")
         surge = profile.predictor.dof_slice(0)
         assert np.isnan(est.theta[:, surge]).all() and np.isnan(est.cov[:, surge, surge]).all()
-        assert np.isfinite(est.theta[:, surge.stop:]).all()
+        assert np.isfinite(est.theta[:, surge.stop :]).all()
         assert any("4 realisation(s) failed: a singular or ill-conditioned IV system" in n for n in est.notes)
         assert not any("kept earlier instruments" in n for n in est.notes)
     # over the whole experiment the two surge-force levels differ: every DOF is solved
@@ -100,8 +100,10 @@ def test_iv_solve_gives_each_system_its_own_numbers(ship):
     equal each one solved alone, bit for bit, and a failed one does not touch the others."""
     profile, lib = ship
     segs = _noisy_segments(profile, [q for q in lib if q.name in ("tau3", "tau6", "tau9")], batch=3, seed=4)
-    phi, tgt = (np.concatenate(x, axis=1) for x in zip(*(predictor_regressors(profile, s.y, np.broadcast_to(
-        s.inputs, (3,) + s.inputs.shape), s.psi) for s in segs)))
+    phi, tgt = (
+        np.concatenate(x, axis=1)
+        for x in zip(*(predictor_regressors(profile, s.y, np.broadcast_to(s.inputs, (3,) + s.inputs.shape), s.psi) for s in segs))
+    )
     starts = np.cumsum([0] + [len(s.inputs) for s in segs[:-1]])
     z = phi.copy()
     z[1, :, 0] = np.nan  # realisation 1's surge system is not finite
@@ -178,7 +180,7 @@ def test_output_error_run_does_not_depend_on_its_batch(ship):
     batched = output_error(profile, [data], start)
     assert np.isinf(batched.cost[2]) and np.array_equal(batched.theta[2], start[2])
     for b in range(2):
-        one = output_error(profile, [OEData(data.inputs[b:b + 1], data.nu0[b:b + 1], data.y[b:b + 1])], start[b:b + 1])
+        one = output_error(profile, [OEData(data.inputs[b : b + 1], data.nu0[b : b + 1], data.y[b : b + 1])], start[b : b + 1])
         assert np.array_equal(one.theta[0], batched.theta[b]) and one.iterations[0] == batched.iterations[b]
 
 

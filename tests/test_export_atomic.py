@@ -54,8 +54,11 @@ def out(tmp_path):
     return d
 
 
-@pytest.mark.parametrize("module, writer", [(rtz, "write_rtz"), (card, "write_card_pdf"), (plots, "plot_states")],
-                         ids=["rtz", "card-pdf", "states-png-last"])
+@pytest.mark.parametrize(
+    "module, writer",
+    [(rtz, "write_rtz"), (card, "write_card_pdf"), (plots, "plot_states")],
+    ids=["rtz", "card-pdf", "states-png-last"],
+)
 def test_cli_export_all_failing_late_writes_nothing(plan_file, out, module, writer, monkeypatch, capsys):
     before = _snapshot(out)
     monkeypatch.setattr(module, writer, _refuse)
@@ -70,8 +73,9 @@ def test_cli_export_all_failing_late_writes_nothing(plan_file, out, module, writ
 def test_cli_export_all_replaces_files_and_leaves_no_temporary(plan_file, out, capsys):
     assert _run(["export", str(plan_file), "--format", "all", "--out", str(out), "--start", START]) == 0
     names = {p.name for p in out.iterdir()}
-    assert names == {"notes.txt"} | {f"model-ship-trial{s}" for s in
-                                     (".geojson", ".gpx", ".rtz", ".csv", ".html", ".pdf", "-track.png", "-states.png")}
+    assert names == {"notes.txt"} | {
+        f"model-ship-trial{s}" for s in (".geojson", ".gpx", ".rtz", ".csv", ".html", ".pdf", "-track.png", "-states.png")
+    }
     assert (out / "model-ship-trial.gpx").read_bytes() != OLD_GPX and (out / "notes.txt").read_text() == "crew notes"
     wrote = [line.split(" ", 1)[1] for line in capsys.readouterr().out.splitlines()]
     assert sorted(wrote) == sorted(str(out / n) for n in names - {"notes.txt"})
@@ -118,7 +122,9 @@ def test_plan_failing_late_leaves_the_last_run_as_it_was(tmp_path, monkeypatch, 
 
 
 def _child(out, mode, **kw):
-    return killable_writer("maps.export.staging", "staged_outputs", "route.gpx", "publishing", out, mode, text="'new route'", **kw)
+    return killable_writer(
+        "maps.export.staging", "staged_outputs", "route.gpx", "publishing", out, mode, text="'new route'", **kw
+    )
 
 
 def _staging_dirs(d):
@@ -157,8 +163,10 @@ def test_next_export_removes_what_a_killed_export_left_and_nothing_else(tmp_path
     (out / ".shiptrial-export.fake").mkdir()
     (out / ".shiptrial-export.fake" / staging.OWNER).write_text("not shiptrial's")
 
-    next_export = "import sys; from maps.export.staging import staged_outputs\n" \
-                  "with staged_outputs(sys.argv[1]) as tmp: (tmp / 'next.txt').write_text('next')"
+    next_export = (
+        "import sys; from maps.export.staging import staged_outputs\n"
+        "with staged_outputs(sys.argv[1]) as tmp: (tmp / 'next.txt').write_text('next')"
+    )
     time.sleep(0.05)  # past the 10 ms clock tick a process's start is known to (see tests/test_io.py)
     subprocess.run([sys.executable, "-c", next_export, str(out)], check=True, timeout=60)
     assert (out / "route.gpx").read_text() == "last week's route"  # put back, then its directory removed
@@ -197,16 +205,20 @@ def test_next_export_removes_an_earlier_versions_stale_staging_and_nothing_else(
     out = tmp_path / "out"
     out.mkdir()
     (out / "taken.gpx").write_text("this week's route")
-    gone = [_old_version_dir(out, ".shiptrial-export.k1ll3d_w", {"new/ship-trial.gpx": "g", "new/.ship-trial.csv.x1y2": "c"}),
-            _old_version_dir(out, ".shiptrial-export.publ1sh3", {"new/ship-trial.rtz": "r", "old/route.gpx": "last week's route"}),
-            _old_version_dir(out, ".shiptrial-export.0nlyold0", {"old/card.html": "last week's card"}),
-            _old_version_dir(out, ".shiptrial-export.empty000", {})]
-    kept = [_old_version_dir(out, ".shiptrial-export.recent00", {"new/ship-trial.gpx": "g"}, age_s=60.0),
-            _old_version_dir(out, ".shiptrial-export.short", {"new/ship-trial.gpx": "g"}),
-            _old_version_dir(out, ".shiptrial-export.extra000", {"new/ship-trial.gpx": "g"}, top=("notes.txt",)),
-            _old_version_dir(out, ".shiptrial-export.subdir00", {"new/deep/ship-trial.gpx": "g"}),
-            _old_version_dir(out, ".shiptrial-export.notours0", {"new/thesis.tex": "mine"}),
-            _old_version_dir(out, ".shiptrial-export.taken000", {"old/taken.gpx": "last week's route"})]
+    gone = [
+        _old_version_dir(out, ".shiptrial-export.k1ll3d_w", {"new/ship-trial.gpx": "g", "new/.ship-trial.csv.x1y2": "c"}),
+        _old_version_dir(out, ".shiptrial-export.publ1sh3", {"new/ship-trial.rtz": "r", "old/route.gpx": "last week's route"}),
+        _old_version_dir(out, ".shiptrial-export.0nlyold0", {"old/card.html": "last week's card"}),
+        _old_version_dir(out, ".shiptrial-export.empty000", {}),
+    ]
+    kept = [
+        _old_version_dir(out, ".shiptrial-export.recent00", {"new/ship-trial.gpx": "g"}, age_s=60.0),
+        _old_version_dir(out, ".shiptrial-export.short", {"new/ship-trial.gpx": "g"}),
+        _old_version_dir(out, ".shiptrial-export.extra000", {"new/ship-trial.gpx": "g"}, top=("notes.txt",)),
+        _old_version_dir(out, ".shiptrial-export.subdir00", {"new/deep/ship-trial.gpx": "g"}),
+        _old_version_dir(out, ".shiptrial-export.notours0", {"new/thesis.tex": "mine"}),
+        _old_version_dir(out, ".shiptrial-export.taken000", {"old/taken.gpx": "last week's route"}),
+    ]
     link = out / ".shiptrial-export.link0000"
     link.symlink_to(kept[0])
 

@@ -40,7 +40,10 @@ def _png_size(data: bytes) -> tuple[int, int]:
 
 def test_orders_for_azimuth_ship_name_thrusters_rpm_and_directions(azi_plan):
     row = np.array([25.0, np.radians(90.0), 12.4, np.radians(-30.0)])  # the plan's shaft speeds are rev/s
-    assert describe_inputs(azi_plan, row) == "bow thruster 1500 rpm, thrust 90° to starboard; stern thruster 744 rpm, thrust 30° to port"
+    assert (
+        describe_inputs(azi_plan, row)
+        == "bow thruster 1500 rpm, thrust 90° to starboard; stern thruster 744 rpm, thrust 30° to port"
+    )
     # tau14 (pure sway): both thrusters push to starboard, then both to port
     sway = next(st for st in azi_plan.steps if st.primitive == "tau14")
     phases = input_phases(azi_plan, sway)
@@ -101,8 +104,15 @@ def test_card_pdf_has_every_page(azi_plan, tmp_path):
     from maps.export.card import detail_pages
     from maps.export.plots import states_size_in
 
-    paths = export_all(azi_plan, tmp_path, sea_map={"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"kind": "land"}, "geometry": ISLAND.__geo_interface__}]}, start=START)
+    paths = export_all(
+        azi_plan,
+        tmp_path,
+        sea_map={
+            "type": "FeatureCollection",
+            "features": [{"type": "Feature", "properties": {"kind": "land"}, "geometry": ISLAND.__geo_interface__}],
+        },
+        start=START,
+    )
     pdf = paths["card_pdf"].read_bytes()
     assert pdf.startswith(b"%PDF")
     sheets = step_sheets(azi_plan, START, [ISLAND])
@@ -231,10 +241,13 @@ def test_sea_map_object_obstacles_come_back_in_lonlat(azi_plan, tmp_path):
 
 def test_geojson_sea_map_draws_only_what_the_hull_must_avoid():
     box = {"type": "Polygon", "coordinates": [[[24.9, 60.1], [25.0, 60.1], [25.0, 60.2], [24.9, 60.1]]]}
-    fc = {"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"kind": "trial_area"}, "geometry": box},
-        {"type": "Feature", "properties": {"kind": "land"}, "geometry": ISLAND.__geo_interface__},
-    ]}
+    fc = {
+        "type": "FeatureCollection",
+        "features": [
+            {"type": "Feature", "properties": {"kind": "trial_area"}, "geometry": box},
+            {"type": "Feature", "properties": {"kind": "land"}, "geometry": ISLAND.__geo_interface__},
+        ],
+    }
     (g,) = obstacle_geoms(fc)
     assert g.equals(ISLAND)
 

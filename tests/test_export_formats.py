@@ -67,8 +67,14 @@ def test_geojson_tags_every_segment_and_trajectory_differs_from_overlay(tmp_path
     assert {f["properties"]["kind"] for f in traj["features"]} == {"track"}
     # transit, run-in, zig-zag, transit + run-in merge? no: turn_s is transit, then run-in, tau17, transit
     assert [(p["segment"], p["primitive"]) for p in segs] == [
-        ("transit", None), ("run-in", None), ("informative", "zigzag_10_10_s"), ("transit", None), ("run-in", None),
-        ("informative", "tau17"), ("transit", None)]
+        ("transit", None),
+        ("run-in", None),
+        ("informative", "zigzag_10_10_s"),
+        ("transit", None),
+        ("run-in", None),
+        ("informative", "tau17"),
+        ("transit", None),
+    ]
     # the segments join end to start and together are the whole track
     coords = [f["geometry"]["coordinates"] for f in traj["features"]]
     assert all(a[-1] == b[0] for a, b in zip(coords[:-1], coords[1:]))
@@ -205,7 +211,9 @@ def test_csv_schedule_rows_columns_and_units(azi_plan, tmp_path):
     path = export_plan(azi_plan, "csv", tmp_path / "t.csv", start=START)[0]
     rows = list(csv.DictReader(io.StringIO(path.read_text())))
     assert len(rows) == len(azi_plan.t)
-    assert {"time_s", "lat", "lon", "heading_deg", "speed_mps", "speed_kn", "manoeuvre", "primitive", "n1", "alpha1_deg"} <= set(rows[0])
+    assert {"time_s", "lat", "lon", "heading_deg", "speed_mps", "speed_kn", "manoeuvre", "primitive", "n1", "alpha1_deg"} <= set(
+        rows[0]
+    )
     k = 300
     r = rows[k]
     assert float(r["lat"]) == pytest.approx(azi_plan.lonlat[k, 1], abs=1e-7)

@@ -28,13 +28,19 @@ def charted() -> Plan:
     """The synthetic azimuth plan with land, a restricted patch and two depth areas around it."""
     plan = synthetic_plan("full-scale")
     lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
-    fc = {"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"kind": "land"}, "geometry": _square(lon.max() + 0.0005, lat.min(), 0.001)},
-        {"type": "Feature", "properties": {"kind": "restricted"}, "geometry": _square(lon.min() - 0.0008, lat.min(), 0.0004)},
-        {"type": "Feature", "properties": {"kind": "depth_area", "min_depth_m": 30.0}, "geometry": _square(24.9, 60.1, 0.1)},
-        {"type": "Feature", "properties": {"kind": "depth_area", "min_depth_m": 10.0},
-         "geometry": _square(float(lon.mean()), float(lat.mean()), 0.0005)},
-    ]}
+    fc = {
+        "type": "FeatureCollection",
+        "features": [
+            {"type": "Feature", "properties": {"kind": "land"}, "geometry": _square(lon.max() + 0.0005, lat.min(), 0.001)},
+            {"type": "Feature", "properties": {"kind": "restricted"}, "geometry": _square(lon.min() - 0.0008, lat.min(), 0.0004)},
+            {"type": "Feature", "properties": {"kind": "depth_area", "min_depth_m": 30.0}, "geometry": _square(24.9, 60.1, 0.1)},
+            {
+                "type": "Feature",
+                "properties": {"kind": "depth_area", "min_depth_m": 10.0},
+                "geometry": _square(float(lon.mean()), float(lat.mean()), 0.0005),
+            },
+        ],
+    }
     plan = Plan.from_dict(json.loads(plan.to_json()))
     embed_chart(plan, fc)
     return plan
@@ -99,8 +105,13 @@ def test_card_pdf_pages_render_with_the_map_and_states_drawn(charted, tmp_path):
     assert f"/MediaBox [0 0 {w_in * 72:.2f} {h_in * 72:.2f}]".encode() in pdf
     if not shutil.which("pdftoppm") or not shutil.which("pdftotext"):
         pytest.skip("poppler-utils not installed: pages not rendered")
-    pages = int(next(ln.split()[-1] for ln in subprocess.run(["pdfinfo", str(path)], capture_output=True, text=True,
-                                                               check=True).stdout.splitlines() if ln.startswith("Pages:")))
+    pages = int(
+        next(
+            ln.split()[-1]
+            for ln in subprocess.run(["pdfinfo", str(path)], capture_output=True, text=True, check=True).stdout.splitlines()
+            if ln.startswith("Pages:")
+        )
+    )
     subprocess.run(["pdftoppm", "-png", "-r", "40", str(path), str(tmp_path / "p")], check=True)
     pngs = sorted(tmp_path.glob("p-*.png"))
     assert len(pngs) == pages >= 4
@@ -109,12 +120,13 @@ def test_card_pdf_pages_render_with_the_map_and_states_drawn(charted, tmp_path):
     page1 = np.asarray(Image.open(pngs[0]).convert("RGB")).reshape(-1, 3).astype(int)
 
     def has(hex_colour: str, tol: int = 12) -> bool:
-        c = np.array([int(hex_colour[i:i + 2], 16) for i in (1, 3, 5)])
+        c = np.array([int(hex_colour[i : i + 2], 16) for i in (1, 3, 5)])
         return bool((np.abs(page1 - c).max(axis=1) <= tol).sum() >= 3)
 
     assert has("#c8b88a") and has("#8fb3c9") and has("#008000", 40)  # land, no-go, start marker
-    text = subprocess.run(["pdftotext", "-f", str(pages), "-l", str(pages), str(path), "-"], capture_output=True, text=True,
-                          check=True).stdout
+    text = subprocess.run(
+        ["pdftotext", "-f", str(pages), "-l", str(pages), str(path), "-"], capture_output=True, text=True, check=True
+    ).stdout
     assert "time from start [min]" in text and "speed over ground [kn]" in text and "heading [°]" in text
 
 
@@ -190,8 +202,9 @@ def test_track_figure_of_a_narrow_map_keeps_its_title_and_readable_ticks():
         ax = fig.axes[0]
         title, whole = ax.title.get_window_extent(r), fig.bbox
         assert title.x0 >= whole.x0 - 1 and title.x1 <= whole.x1 + 1
-        boxes = sorted((t.get_window_extent(r) for t in ax.get_xticklabels() if t.get_text() and t.get_visible()),
-                       key=lambda b: b.x0)
+        boxes = sorted(
+            (t.get_window_extent(r) for t in ax.get_xticklabels() if t.get_text() and t.get_visible()), key=lambda b: b.x0
+        )
         visible = [b for b in boxes if b.x1 >= ax.bbox.x0 - 1 and b.x0 <= ax.bbox.x1 + 1]
         assert all(a.x1 <= b.x0 for a, b in zip(visible, visible[1:]))
     finally:
@@ -212,8 +225,14 @@ def test_page1_summary_lines_fit_the_page(charted):
 
     plan = Plan.from_dict(json.loads(charted.to_json()))
     names = [f"zigzag_{k}_{k}_s" for k in range(10, 30)]
-    plan.design = {"criterion": "D", "mean_subtraction": "complete", "d_efficiency": 0.99, "weights": {"straight": 1.0},
-                   "counts": {"straight": 1}, "not_used": names}
+    plan.design = {
+        "criterion": "D",
+        "mean_subtraction": "complete",
+        "d_efficiency": 0.99,
+        "weights": {"straight": 1.0},
+        "counts": {"straight": 1},
+        "not_used": names,
+    }
     lines, _, _, _ = page1_layout(plan, datetime(2026, 6, 1, 8, tzinfo=UTC), plan_chart(plan), "MS Test")
     doc = _Card()
     doc.pdf.set_font(FONT, "", 8.5)
@@ -265,8 +284,10 @@ def test_pdf_states_page_step_numbers_do_not_overlap(long_plan, tmp_path):
     path = write_card_pdf(long_plan, tmp_path / "card.pdf", start=START)
     html = subprocess.run(["pdftotext", "-bbox", "-f", "0", str(path), "-"], capture_output=True, text=True, check=True).stdout
     last = html.split("<page ")[-1]
-    words = [(float(a), float(b), float(c), w) for a, b, c, w in
-             re.findall(r'xMin="([\d.]+)" yMin="([\d.]+)" xMax="([\d.]+)" yMax="[\d.]+">([^<]*)<', last)]
+    words = [
+        (float(a), float(b), float(c), w)
+        for a, b, c, w in re.findall(r'xMin="([\d.]+)" yMin="([\d.]+)" xMax="([\d.]+)" yMax="[\d.]+">([^<]*)<', last)
+    ]
     title_y = next(y for _, y, _, w in words if w == "planned")  # the title, over the step numbers
     numbers = [(x0, x1, w) for x0, y, x1, w in words if w.isdigit() and title_y < y < title_y + 40]
     assert numbers[0][2] == "1" and numbers[-1][2] == str(len(long_plan.steps)) and 10 < len(numbers) < len(long_plan.steps)

@@ -115,7 +115,7 @@ def test_turn_radius_is_the_ships_own_and_fits_the_legs(tanker_plan):
     at_speed = sog >= 0.8 * np.median(sog)
     radii = []
     for k in range(0, len(idx) - 10):
-        if not at_speed[idx[k]: idx[k + 10]].all():
+        if not at_speed[idx[k] : idx[k + 10]].all():
             continue
         a, b, c = (tanker_plan.track[idx[j], :2] for j in (k, k + 5, k + 10))
         ab, bc, ca = np.hypot(*(b - a)), np.hypot(*(c - b)), np.hypot(*(a - c))
@@ -158,14 +158,17 @@ def _land_beside_zigzag(plan: Plan) -> tuple[shapely.Polygon, dict]:
     half_beam = 0.5 * plan.hull[1]
     exc = leg.need_port_m - half_beam - plan.margin_m
     near = exc + half_beam + 0.5 * plan.margin_m  # clear of the hull by half the margin
-    land = shapely.Polygon([a + near * n + 0.1 * d, a + near * n + 0.9 * d, a + (near + 400) * n + 0.9 * d,
-                            a + (near + 400) * n + 0.1 * d])
+    land = shapely.Polygon(
+        [a + near * n + 0.1 * d, a + near * n + 0.9 * d, a + (near + 400) * n + 0.9 * d, a + (near + 400) * n + 0.1 * d]
+    )
     hull = shapely.LineString(plan.track[:, :2]).buffer(half_beam + 0.25 * plan.margin_m)
     assert not hull.intersects(land)  # the planned track itself keeps clear of this land
     tr = Transformer.from_crs(plan.projection["proj4"], "EPSG:4326", always_xy=True)
     ll = shapely.transform(land, lambda c: np.column_stack(tr.transform(c[:, 1], c[:, 0])))
-    fc = {"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"kind": "land"}, "geometry": shapely.geometry.mapping(ll)}]}
+    fc = {
+        "type": "FeatureCollection",
+        "features": [{"type": "Feature", "properties": {"kind": "land"}, "geometry": shapely.geometry.mapping(ll)}],
+    }
     return land, json.loads(json.dumps(fc))
 
 
@@ -236,8 +239,16 @@ def test_plan_json_carries_the_chart_and_exports_the_same_without_the_map(azi_pl
     from maps.output import write_outputs
 
     _, fc = _land_beside_zigzag(azi_plan)
-    fc["features"].append({"type": "Feature", "properties": {"kind": "depth_area", "min_depth_m": 2.0}, "geometry": {
-        "type": "Polygon", "coordinates": [[[24.93, 60.11], [24.935, 60.11], [24.935, 60.115], [24.93, 60.115], [24.93, 60.11]]]}})
+    fc["features"].append(
+        {
+            "type": "Feature",
+            "properties": {"kind": "depth_area", "min_depth_m": 2.0},
+            "geometry": {
+                "type": "Polygon",
+                "coordinates": [[[24.93, 60.11], [24.935, 60.11], [24.935, 60.115], [24.93, 60.115], [24.93, 60.11]]],
+            },
+        }
+    )
     (tmp_path / "m.geojson").write_text(json.dumps(fc))
     sea = load_map(tmp_path / "m.geojson", draught_m=5.0)
     plan = Plan.from_dict(json.loads(azi_plan.to_json()))
@@ -265,11 +276,24 @@ def test_card_map_draws_land_shallow_and_depth_areas(azi_plan, tmp_path):
 
     _, fc = _land_beside_zigzag(azi_plan)
     fc["features"] += [
-        {"type": "Feature", "properties": {"kind": "depth_area", "min_depth_m": 30.0}, "geometry": {
-            "type": "Polygon", "coordinates": [[[24.9, 60.1], [25.0, 60.1], [25.0, 60.15], [24.9, 60.15], [24.9, 60.1]]]}},
-        {"type": "Feature", "properties": {"kind": "restricted"}, "geometry": {  # 55-80 m west of the start
-            "type": "Polygon", "coordinates": [[[24.9486, 60.1198], [24.9490, 60.1198], [24.9490, 60.1202], [24.9486, 60.1202],
-                                                [24.9486, 60.1198]]]}},
+        {
+            "type": "Feature",
+            "properties": {"kind": "depth_area", "min_depth_m": 30.0},
+            "geometry": {
+                "type": "Polygon",
+                "coordinates": [[[24.9, 60.1], [25.0, 60.1], [25.0, 60.15], [24.9, 60.15], [24.9, 60.1]]],
+            },
+        },
+        {
+            "type": "Feature",
+            "properties": {"kind": "restricted"},
+            "geometry": {  # 55-80 m west of the start
+                "type": "Polygon",
+                "coordinates": [
+                    [[24.9486, 60.1198], [24.9490, 60.1198], [24.9490, 60.1202], [24.9486, 60.1202], [24.9486, 60.1198]]
+                ],
+            },
+        },
     ]
     plan = Plan.from_dict(json.loads(azi_plan.to_json()))
     embed_chart(plan, fc)
@@ -306,8 +330,9 @@ def test_card_pdf_prints_every_row_and_embeds_truetype_fonts(tmp_path):
         assert fonts and all("TrueType" in f and " yes " in f for f in fonts)
     if not shutil.which("pdftotext"):
         pytest.skip("pdftotext (poppler-utils) not installed: rows not checked")
-    text = subprocess.run(["pdftotext", "-layout", str(tmp_path / "card.pdf"), "-"], capture_output=True, text=True,
-                          check=True).stdout
+    text = subprocess.run(
+        ["pdftotext", "-layout", str(tmp_path / "card.pdf"), "-"], capture_output=True, text=True, check=True
+    ).stdout
     assert "rows 1-44 of 50" in text and "rows 45-50 of 50 (page 3)" in text.replace("(continued), ", "")
     rows = [int(m) for m in re.findall(r"^\s*(\d+)\s+transit\s", text, flags=re.M)]
     assert sorted(set(rows)) == list(range(1, 51))

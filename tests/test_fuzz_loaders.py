@@ -32,7 +32,7 @@ PROFILE_DIR = Path(__file__).resolve().parents[1] / "primitives" / "profiles"
 
 EXTREME = st.sampled_from([0, -1, 1e-300, 1e308, -1e308, math.nan, math.inf, -math.inf, 2**70, True, "", "x", None])
 JSONVAL = st.recursive(
-    st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(allow_nan=True) | st.text(max_size=8),
+    st.none() | st.booleans() | st.integers(-(10**6), 10**6) | st.floats(allow_nan=True) | st.text(max_size=8),
     lambda kids: st.lists(kids, max_size=4) | st.dictionaries(st.text(max_size=6), kids, max_size=4),
     max_leaves=12,
 )
@@ -40,8 +40,13 @@ ANY = EXTREME | JSONVAL
 
 
 def _cfg(n: int):
-    return settings(max_examples=n, deadline=None, derandomize=True, database=None,
-                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.filter_too_much])
+    return settings(
+        max_examples=n,
+        deadline=None,
+        derandomize=True,
+        database=None,
+        suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.filter_too_much],
+    )
 
 
 def _paths(doc) -> list[tuple]:
@@ -118,42 +123,112 @@ def _toml(doc: dict) -> str:
 
 # -- the loaders' base documents --------------------------------------------------------------------
 
-MAP = {"type": "FeatureCollection", "name": "fuzz", "features": [
-    {"type": "Feature", "properties": {"kind": "land"},
-     "geometry": {"type": "Polygon", "coordinates": [[[24.9, 60.1], [24.95, 60.1], [24.95, 60.12], [24.9, 60.1]]]}},
-    {"type": "Feature", "properties": {"kind": "depth_area", "min_depth_m": 3.0},
-     "geometry": {"type": "Polygon", "coordinates": [[[24.96, 60.1], [24.97, 60.1], [24.97, 60.11], [24.96, 60.1]]]}},
-    {"type": "Feature", "properties": {"kind": "obstacle", "radius_m": 20},
-     "geometry": {"type": "Point", "coordinates": [24.98, 60.13]}},
-    {"type": "Feature", "properties": {"kind": "start", "heading_deg": 90},
-     "geometry": {"type": "Point", "coordinates": [24.99, 60.14]}},
-]}
+MAP = {
+    "type": "FeatureCollection",
+    "name": "fuzz",
+    "features": [
+        {
+            "type": "Feature",
+            "properties": {"kind": "land"},
+            "geometry": {"type": "Polygon", "coordinates": [[[24.9, 60.1], [24.95, 60.1], [24.95, 60.12], [24.9, 60.1]]]},
+        },
+        {
+            "type": "Feature",
+            "properties": {"kind": "depth_area", "min_depth_m": 3.0},
+            "geometry": {"type": "Polygon", "coordinates": [[[24.96, 60.1], [24.97, 60.1], [24.97, 60.11], [24.96, 60.1]]]},
+        },
+        {
+            "type": "Feature",
+            "properties": {"kind": "obstacle", "radius_m": 20},
+            "geometry": {"type": "Point", "coordinates": [24.98, 60.13]},
+        },
+        {
+            "type": "Feature",
+            "properties": {"kind": "start", "heading_deg": 90},
+            "geometry": {"type": "Point", "coordinates": [24.99, 60.14]},
+        },
+    ],
+}
 
 PROFILE = tomllib.loads((PROFILE_DIR / "model-ship.toml").read_text())
 
-PLAN = {"format": "shiptrial-plan/1", "ship": "model-ship", "map_name": "helsinki", "feasible": True, "optimal": True,
-        "min_clearance_m": 50.0, "margin_m": 20.0, "counts": {"tau1": 1}, "targets": {"tau1": 1}, "stats": {},
-        "projection": {"proj4": "+proj=tmerc +lat_0=60.1 +lon_0=24.9 +ellps=WGS84 +units=m", "lon0": 24.9, "lat0": 60.1},
-        "hull": [1.0, 0.3], "max_wind_mps": 10.0, "input_names": ["tau_x", "tau_y", "tau_n"],
-        "steps": [{"index": 0, "primitive": "tau1", "kind": "informative", "description": "d", "start_time_s": 0.0,
-                   "duration_s": 0.25, "entry_x": 0.0, "entry_y": 0.0, "entry_psi": 0.0, "entry_lon": 24.9,
-                   "entry_lat": 60.1, "entry_speed_mps": 1.0, "commands": ["go"], "space_m": [1.0, 0.5]}],
-        "samples": {"t": [0.0, 0.125, 0.25], "x": [0.0, 0.1, 0.2], "y": [0.0, 0.0, 0.0], "psi": [0.0, 0.0, 0.0],
-                    "lon": [24.9, 24.9, 24.9], "lat": [60.1, 60.100001, 60.100002], "speed": [1.0, 1.0, 1.0],
-                    "step": [0, 0, 0], "inputs": [[0.0, 0.0, 0.0]] * 3}}
+PLAN = {
+    "format": "shiptrial-plan/1",
+    "ship": "model-ship",
+    "map_name": "helsinki",
+    "feasible": True,
+    "optimal": True,
+    "min_clearance_m": 50.0,
+    "margin_m": 20.0,
+    "counts": {"tau1": 1},
+    "targets": {"tau1": 1},
+    "stats": {},
+    "projection": {"proj4": "+proj=tmerc +lat_0=60.1 +lon_0=24.9 +ellps=WGS84 +units=m", "lon0": 24.9, "lat0": 60.1},
+    "hull": [1.0, 0.3],
+    "max_wind_mps": 10.0,
+    "input_names": ["tau_x", "tau_y", "tau_n"],
+    "steps": [
+        {
+            "index": 0,
+            "primitive": "tau1",
+            "kind": "informative",
+            "description": "d",
+            "start_time_s": 0.0,
+            "duration_s": 0.25,
+            "entry_x": 0.0,
+            "entry_y": 0.0,
+            "entry_psi": 0.0,
+            "entry_lon": 24.9,
+            "entry_lat": 60.1,
+            "entry_speed_mps": 1.0,
+            "commands": ["go"],
+            "space_m": [1.0, 0.5],
+        }
+    ],
+    "samples": {
+        "t": [0.0, 0.125, 0.25],
+        "x": [0.0, 0.1, 0.2],
+        "y": [0.0, 0.0, 0.0],
+        "psi": [0.0, 0.0, 0.0],
+        "lon": [24.9, 24.9, 24.9],
+        "lat": [60.1, 60.100001, 60.100002],
+        "speed": [1.0, 1.0, 1.0],
+        "step": [0, 0, 0],
+        "inputs": [[0.0, 0.0, 0.0]] * 3,
+    },
+}
 
-SWEEP = {"sweep": {"ships": ["model-ship"], "criteria": ["D"], "mean_subtraction": ["complete"], "library": "standard",
-                   "speeds": [1.0], "seed": 1}}
+SWEEP = {
+    "sweep": {
+        "ships": ["model-ship"],
+        "criteria": ["D"],
+        "mean_subtraction": ["complete"],
+        "library": "standard",
+        "speeds": [1.0],
+        "seed": 1,
+    }
+}
 
 _t = np.arange(60) * 0.5
-REC_COLS = {"t": _t, "x": np.cumsum(np.full(60, 0.5)), "y": 0.01 * _t**2, "psi": 0.02 * _t, "u": np.ones(60),
-            "v": np.zeros(60), "r": np.full(60, 0.02), "tau_x": np.full(60, 100.0)}
+REC_COLS = {
+    "t": _t,
+    "x": np.cumsum(np.full(60, 0.5)),
+    "y": 0.01 * _t**2,
+    "psi": 0.02 * _t,
+    "u": np.ones(60),
+    "v": np.zeros(60),
+    "r": np.full(60, 0.02),
+    "tau_x": np.full(60, 100.0),
+}
 
 
 # -- strategies per loader --------------------------------------------------------------------------
 
-CSV_CELL = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64).map(repr), st.sampled_from(["", "nan", "x", "1e400", "-0"]),
-                     st.integers(-10**12, 10**12).map(str))
+CSV_CELL = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True, width=64).map(repr),
+    st.sampled_from(["", "nan", "x", "1e400", "-0"]),
+    st.integers(-(10**12), 10**12).map(str),
+)
 
 
 @st.composite
@@ -166,11 +241,15 @@ def _corruptions(draw, n_rows: int, n_cols: int, cell) -> list[tuple[int, int, o
 
 @st.composite
 def csv_text(draw) -> str:
-    names = draw(st.lists(st.sampled_from(list(REC_COLS) + ["lat", "lon", "segment", "n", "junk"]), min_size=1, max_size=9, unique=True))
+    names = draw(
+        st.lists(st.sampled_from(list(REC_COLS) + ["lat", "lon", "segment", "n", "junk"]), min_size=1, max_size=9, unique=True)
+    )
     n = draw(st.integers(0, 60))
-    header = [f"# {draw(st.sampled_from(['sample_time', 'scale', 'scale_factor', 'ship']))}: "
-              f"{draw(st.sampled_from(['0.5', '0', '-1', 'nan', 'model', 'full', 'abc', '1e-9', '45.7']))}"
-              for _ in range(draw(st.integers(0, 3)))]
+    header = [
+        f"# {draw(st.sampled_from(['sample_time', 'scale', 'scale_factor', 'ship']))}: "
+        f"{draw(st.sampled_from(['0.5', '0', '-1', 'nan', 'model', 'full', 'abc', '1e-9', '45.7']))}"
+        for _ in range(draw(st.integers(0, 3)))
+    ]
     table = [[repr(float(REC_COLS[c][i])) if c in REC_COLS else "1.0" for c in names] for i in range(n)]
     for i, j, v in draw(_corruptions(n, len(names), CSV_CELL)):
         table[i][j] = v
@@ -181,8 +260,10 @@ def csv_text(draw) -> str:
 def dat_text(draw) -> str:
     n = draw(st.integers(0, 120))
     step = draw(st.sampled_from([0.135, 0.135, 1.0, 0.0, -1.0, 1e9]))
-    table = [[i * step, 8.0 * i * step, 0.1 * i * step, 0.2, 0.5 * i * step, 8.0, 0.02, 0.0, 0.5, 10.0 * (-1) ** (i // 20), 91.5]
-             for i in range(n)]
+    table = [
+        [i * step, 8.0 * i * step, 0.1 * i * step, 0.2, 0.5 * i * step, 8.0, 0.02, 0.0, 0.5, 10.0 * (-1) ** (i // 20), 91.5]
+        for i in range(n)
+    ]
     for i, j, v in draw(_corruptions(n, 11, st.floats(allow_nan=True, allow_infinity=True))):
         table[i][j] = v
     rows = ["\t".join(f"{v:.2E}" if math.isfinite(v) else str(v) for v in r) for r in table]
@@ -231,9 +312,13 @@ def _export_base() -> dict:
     from maps.export._testing import synthetic_plan
 
     d = json.loads(synthetic_plan("model-ship").to_json())
-    d["stats"]["chart"] = {"name": "fuzz", "land": {"type": "Polygon", "coordinates": [[[24.93, 60.11], [24.94, 60.11], [24.94, 60.13],
-                                                                                     [24.93, 60.11]]]},
-                           "no_go": None, "depth_areas": [], "extent": [24.9, 60.1, 25.0, 60.14]}
+    d["stats"]["chart"] = {
+        "name": "fuzz",
+        "land": {"type": "Polygon", "coordinates": [[[24.93, 60.11], [24.94, 60.11], [24.94, 60.13], [24.93, 60.11]]]},
+        "no_go": None,
+        "depth_areas": [],
+        "extent": [24.9, 60.1, 25.0, 60.14],
+    }
     d["stats"]["turning_radius_m"] = 3.0
     return d
 

@@ -93,8 +93,10 @@ def test_next_run_removes_the_temporaries_a_killed_run_left_and_nothing_else(tmp
     (tmp_path / ".out.fake0000" / ".owner").write_text("not shiptrial's")
     looks = {".out.mine0000", ".out.link0000", ".out.fake0000"}
 
-    next_run = "import sys; from pathlib import Path; from primitives.io import atomic_output_dir\n" \
-               "with atomic_output_dir(sys.argv[1]) as d: (d / 'next.txt').write_text('next'); print(Path(sys.argv[1], 'plan.json').read_text())"
+    next_run = (
+        "import sys; from pathlib import Path; from primitives.io import atomic_output_dir\n"
+        "with atomic_output_dir(sys.argv[1]) as d: (d / 'next.txt').write_text('next'); print(Path(sys.argv[1], 'plan.json').read_text())"
+    )
     # A process's start is known to a clock tick (10 ms) and a file's time to the kernel's coarse clock: a
     # run started within a tick of the kill cannot prove itself younger, and rightly leaves the leftover
     # to a later run. A user's next run is never that quick; the test waits past the tick.
@@ -159,12 +161,27 @@ def test_to_jsonable_arrays_give_plain_numbers_and_none_for_non_finite():
 
     from primitives.io import to_jsonable
 
-    obj = {"f": np.array([[1.5, 2.0], [3.25, -0.0]]), "f32": np.array([0.1], np.float32), "i": np.arange(3),
-           "b": np.array([True, False]), "nan": np.array([1.0, np.nan, np.inf]), "nan0": np.array(np.nan),
-           "f0": np.array(2.5), "nested": [np.array([1.0]), (np.int64(2), np.float64(np.nan))]}
+    obj = {
+        "f": np.array([[1.5, 2.0], [3.25, -0.0]]),
+        "f32": np.array([0.1], np.float32),
+        "i": np.arange(3),
+        "b": np.array([True, False]),
+        "nan": np.array([1.0, np.nan, np.inf]),
+        "nan0": np.array(np.nan),
+        "f0": np.array(2.5),
+        "nested": [np.array([1.0]), (np.int64(2), np.float64(np.nan))],
+    }
     out = to_jsonable(obj)
-    assert out == {"f": [[1.5, 2.0], [3.25, -0.0]], "f32": [float(np.float32(0.1))], "i": [0, 1, 2], "b": [True, False],
-                   "nan": [1.0, None, None], "nan0": None, "f0": 2.5, "nested": [[1.0], [2, None]]}
+    assert out == {
+        "f": [[1.5, 2.0], [3.25, -0.0]],
+        "f32": [float(np.float32(0.1))],
+        "i": [0, 1, 2],
+        "b": [True, False],
+        "nan": [1.0, None, None],
+        "nan0": None,
+        "f0": 2.5,
+        "nested": [[1.0], [2, None]],
+    }
     kinds = {type(v) for v in (out["f"][0][0], out["f32"][0], out["i"][0], out["b"][0], out["f0"])}
     assert kinds == {float, int, bool}
     json.dumps(out, allow_nan=False)

@@ -21,6 +21,7 @@ from primitives.terms import TermSet
 
 needs_numba = pytest.mark.skipif(not jitloop.AVAILABLE, reason="numba not installed or SHIPTRIAL_KERNEL=numpy")
 
+
 @pytest.fixture(autouse=True)
 def _compiled_for_every_size(monkeypatch):
     """The compiled loop for the small calls of these tests too (a process loads it from the
@@ -30,8 +31,16 @@ def _compiled_for_every_size(monkeypatch):
 
 RIGID_RTOL = 1e-12  # the stated tolerance where the numpy loop's BLAS product or vectorised atan2/hypot round differently
 
-WINDY = Disturbances(current_ne=(0.3, -0.2), current_sample_std=0.05, wind_ne=(3.0, 4.0), wind_sample_std=0.5,
-                     process_std=(1e-3, 1e-3, 1e-4), measurement_std=(0.01, 0.01, 0.001), heading_std=0.01, position_std=0.5)
+WINDY = Disturbances(
+    current_ne=(0.3, -0.2),
+    current_sample_std=0.05,
+    wind_ne=(3.0, 4.0),
+    wind_sample_std=0.5,
+    process_std=(1e-3, 1e-3, 1e-4),
+    measurement_std=(0.01, 0.01, 0.001),
+    heading_std=0.01,
+    position_std=0.5,
+)
 
 
 def _inputs(profile, n: int) -> np.ndarray:
@@ -75,8 +84,18 @@ def test_compiled_loop_matches_numpy_loop(monkeypatch, name, dist, turning, per_
     if per_member:
         theta = theta * (1.0 + 0.01 * np.random.default_rng(2).standard_normal((batch, theta.size)))
     dist = Disturbances.from_profile(prof) if dist == "profile" else dist
-    a, b = _both(monkeypatch, prof, inputs=_inputs(prof, 300), theta=theta, nu0=(prof.cruise_speed_mps, 0.0, 0.0),
-                 disturbances=dist, batch=batch, seed=5, current_turning=turning, positions=positions)
+    a, b = _both(
+        monkeypatch,
+        prof,
+        inputs=_inputs(prof, 300),
+        theta=theta,
+        nu0=(prof.cruise_speed_mps, 0.0, 0.0),
+        disturbances=dist,
+        batch=batch,
+        seed=5,
+        current_turning=turning,
+        positions=positions,
+    )
     assert np.isfinite(b.nu).all()
     for field in ("nu", "eta", "y", "psi_meas", "pos_meas"):
         x, y = getattr(a, field), getattr(b, field)
@@ -91,8 +110,13 @@ def test_open_loop_matches_stepping():
     """The diagnosis's open loop (caller-supplied signals, body-frame current and wind, input-only
     increments added first) gives the bits of VelocityStep called step by step."""
     rng = np.random.default_rng(0)
-    terms = TermSet([["u_r", "v_r*r", "u_r*|u_r|", "tau_x", "wx"], ["v_r", "u_r*r", "tau_y", "psi", "u_q*|u_q|"],
-                     ["r", "u_r*v_r", "tau_n", "r*U^-1", "|v_r@-2.5|*r"]])
+    terms = TermSet(
+        [
+            ["u_r", "v_r*r", "u_r*|u_r|", "tau_x", "wx"],
+            ["v_r", "u_r*r", "tau_y", "psi", "u_q*|u_q|"],
+            ["r", "u_r*v_r", "tau_n", "r*U^-1", "|v_r@-2.5|*r"],
+        ]
+    )
     batch, n = 5, 200
     step = VelocityStep(terms, rng.normal(0, 1e-3, (batch, terms.n_params)))
     exo = {k: rng.normal(0, 0.1, (n, batch)) for k in ("tau_x", "tau_y", "tau_n", "psi")}
@@ -121,9 +145,11 @@ def test_small_calls_do_not_load_the_compiler(monkeypatch):
 
 def test_environment_selects_numpy_loop():
     """SHIPTRIAL_KERNEL=numpy (or no numba) runs the numpy loop, and a simulation still runs."""
-    code = ("from primitives import jitloop; from primitives.ship import load_profile; from primitives.simulate import simulate; "
-            "import numpy as np, sys; p = load_profile('model-ship'); r = simulate(p, np.ones((1000, len(p.inputs))), batch=25); "
-            "print(jitloop.kernel_name(), bool(np.isfinite(r.nu).all()), 'numba' in sys.modules)")
+    code = (
+        "from primitives import jitloop; from primitives.ship import load_profile; from primitives.simulate import simulate; "
+        "import numpy as np, sys; p = load_profile('model-ship'); r = simulate(p, np.ones((1000, len(p.inputs))), batch=25); "
+        "print(jitloop.kernel_name(), bool(np.isfinite(r.nu).all()), 'numba' in sys.modules)"
+    )
     root = Path(__file__).resolve().parent.parent
     env = dict(os.environ, SHIPTRIAL_KERNEL="numpy", PYTHONPATH=str(root))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root, timeout=120)
@@ -158,10 +184,12 @@ def test_a_numba_that_cannot_load_falls_back_to_the_numpy_loop(tmp_path):
     stub = tmp_path / "numba"
     stub.mkdir()
     (stub / "__init__.py").write_text("raise ImportError('Numba needs NumPy 2.3 or less')\n")
-    code = ("import warnings; warnings.simplefilter('always'); from primitives import jitloop; "
-            "from primitives.ship import load_profile; from primitives.simulate import simulate; import numpy as np; "
-            "p = load_profile('model-ship'); r = simulate(p, np.ones((1000, len(p.inputs))), batch=25); "
-            "print(jitloop.AVAILABLE, bool(np.isfinite(r.nu).all()))")
+    code = (
+        "import warnings; warnings.simplefilter('always'); from primitives import jitloop; "
+        "from primitives.ship import load_profile; from primitives.simulate import simulate; import numpy as np; "
+        "p = load_profile('model-ship'); r = simulate(p, np.ones((1000, len(p.inputs))), batch=25); "
+        "print(jitloop.AVAILABLE, bool(np.isfinite(r.nu).all()))"
+    )
     root = Path(__file__).resolve().parent.parent
     env = {k: v for k, v in os.environ.items() if k != "SHIPTRIAL_KERNEL"}
     env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), str(root)])

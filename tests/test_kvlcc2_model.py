@@ -113,7 +113,7 @@ def test_pull_out_yaw_rate_decays():
     r = np.abs(po.nu[k:, 2])
     assert r[0] > np.radians(0.2)
     assert r[-1] < 0.5 * r[0]
-    assert np.all(np.diff(r[len(r) // 2:]) <= 1e-12)  # still decaying, no limit cycle
+    assert np.all(np.diff(r[len(r) // 2 :]) <= 1e-12)  # still decaying, no limit cycle
 
 
 def test_damping_is_dissipative():
@@ -125,8 +125,7 @@ def test_damping_is_dissipative():
     # sway-yaw damping at the approach speed: the symmetric part of the linear damping is
     # negative definite once the cross-flow drag of a moderate drift and yaw rate is added
     u, v, r = p.cruise_speed_mps, 0.1 * p.cruise_speed_mps, np.radians(0.5)
-    D = np.array([[th["Yuv"] * u + th["Yvv"] * abs(v), th["Yur"] * u],
-                  [th["Nuv"] * u, th["Nur"] * u + th["Nrr"] * abs(r)]])
+    D = np.array([[th["Yuv"] * u + th["Yvv"] * abs(v), th["Yur"] * u], [th["Nuv"] * u, th["Nur"] * u + th["Nrr"] * abs(r)]])
     assert D[0, 0] < 0 and D[1, 1] < 0
 
 

@@ -24,22 +24,34 @@ def _export(tmp_path, doc, fmt="rtz"):
     return _run(["export", str(p), "--format", fmt, "--out", str(tmp_path / f"out.{fmt}")])
 
 
-@pytest.mark.parametrize("edit,fmt,field", [
-    (lambda d: d.update(vessel_name="MT Nul\x00"), "rtz", "vessel_name"),
-    (lambda d: d["steps"][0].update(description="go\x00"), "csv", "steps[0].description"),
-    (lambda d: d["projection"].update(proj4="EPSG:999999"), "geojson", "projection.proj4"),
-    (lambda d: d["projection"].update(proj4="EPSG:4326"), "geojson", "projection.proj4"),
-    (lambda d: d.update(hull="long"), "gpx", "hull"),
-    (lambda d: d["steps"][0].update(entry_lat=True), "rtz", "steps[0].entry_lat"),
-    (lambda d: d["samples"]["lat"].__setitem__(3, 1e308), "gpx", "samples.lat"),
-    (lambda d: d["samples"]["step"].__setitem__(3, 99), "csv", "samples.step"),
-    (lambda d: d["samples"].update(x=d["samples"]["x"][:-1]), "csv", "samples.x"),
-    (lambda d: d["stats"].update(chart={"land": {"type": "Polygon", "coordinates": [[[1, 2]]]}}), "geojson", "stats.chart.land"),
-    (lambda d: d["steps"][0]["orders"][0].update(t_s="soon"), "rtz", "steps[0].orders[0].t_s"),
-    # the 5,000-example fuzz's find: a self-crossing land ring made GEOS's union raise a TopologyException
-    (lambda d: d["stats"].update(chart={"land": {"type": "Polygon", "coordinates": [[[24.93, 60.11], [24.94, 60.11], [24.94, 60.13],
-                                                                                    [24.93, 0]]]}}), "geojson", "stats.chart.land"),
-])
+@pytest.mark.parametrize(
+    "edit,fmt,field",
+    [
+        (lambda d: d.update(vessel_name="MT Nul\x00"), "rtz", "vessel_name"),
+        (lambda d: d["steps"][0].update(description="go\x00"), "csv", "steps[0].description"),
+        (lambda d: d["projection"].update(proj4="EPSG:999999"), "geojson", "projection.proj4"),
+        (lambda d: d["projection"].update(proj4="EPSG:4326"), "geojson", "projection.proj4"),
+        (lambda d: d.update(hull="long"), "gpx", "hull"),
+        (lambda d: d["steps"][0].update(entry_lat=True), "rtz", "steps[0].entry_lat"),
+        (lambda d: d["samples"]["lat"].__setitem__(3, 1e308), "gpx", "samples.lat"),
+        (lambda d: d["samples"]["step"].__setitem__(3, 99), "csv", "samples.step"),
+        (lambda d: d["samples"].update(x=d["samples"]["x"][:-1]), "csv", "samples.x"),
+        (
+            lambda d: d["stats"].update(chart={"land": {"type": "Polygon", "coordinates": [[[1, 2]]]}}),
+            "geojson",
+            "stats.chart.land",
+        ),
+        (lambda d: d["steps"][0]["orders"][0].update(t_s="soon"), "rtz", "steps[0].orders[0].t_s"),
+        # the 5,000-example fuzz's find: a self-crossing land ring made GEOS's union raise a TopologyException
+        (
+            lambda d: d["stats"].update(
+                chart={"land": {"type": "Polygon", "coordinates": [[[24.93, 60.11], [24.94, 60.11], [24.94, 60.13], [24.93, 0]]]}}
+            ),
+            "geojson",
+            "stats.chart.land",
+        ),
+    ],
+)
 def test_a_malformed_plan_is_refused_naming_the_field(tmp_path, capsys, plan_doc, edit, fmt, field):
     """Each of these crashed an exporter (NUL in XML, unknown EPSG code, wrong types...)."""
     doc = json.loads(json.dumps(plan_doc))
@@ -74,7 +86,9 @@ def test_a_map_of_points_only_is_refused_with_the_fix(tmp_path):
 
 def test_a_self_touching_polygon_is_repaired_and_said(tmp_path):
     ring = [[24.9, 60.1], [24.92, 60.1], [24.92, 60.12], [24.91, 60.1], [24.9, 60.12], [24.9, 60.1]]
-    p = _map(tmp_path, [{"type": "Feature", "properties": {"kind": "land"}, "geometry": {"type": "Polygon", "coordinates": [ring]}}])
+    p = _map(
+        tmp_path, [{"type": "Feature", "properties": {"kind": "land"}, "geometry": {"type": "Polygon", "coordinates": [ring]}}]
+    )
     sea = load_map(p)
     assert sea.land.is_valid and not sea.land.is_empty
     assert any("repaired with make_valid" in w for w in sea.warnings)
@@ -83,7 +97,9 @@ def test_a_self_touching_polygon_is_repaired_and_said(tmp_path):
 def test_a_topology_geos_cannot_overlay_is_a_map_error(tmp_path, monkeypatch):
     """GEOS's TopologyException in the union of the map's polygons escaped load_map."""
     ring = [[24.9, 60.1], [24.92, 60.1], [24.92, 60.12], [24.9, 60.1]]
-    p = _map(tmp_path, [{"type": "Feature", "properties": {"kind": "land"}, "geometry": {"type": "Polygon", "coordinates": [ring]}}])
+    p = _map(
+        tmp_path, [{"type": "Feature", "properties": {"kind": "land"}, "geometry": {"type": "Polygon", "coordinates": [ring]}}]
+    )
 
     def boom(*_a, **_k):
         raise shapely.errors.GEOSException("TopologyException: side location conflict at 24.91 60.11")

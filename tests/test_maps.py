@@ -20,7 +20,10 @@ def feat(geom, **props):
 
 
 def square(lon, lat, dlon, dlat):
-    return {"type": "Polygon", "coordinates": [[[lon, lat], [lon + dlon, lat], [lon + dlon, lat + dlat], [lon, lat + dlat], [lon, lat]]]}
+    return {
+        "type": "Polygon",
+        "coordinates": [[[lon, lat], [lon + dlon, lat], [lon + dlon, lat + dlat], [lon, lat + dlat], [lon, lat]]],
+    }
 
 
 def write(tmp_path, doc, name="m.geojson"):
@@ -58,9 +61,11 @@ def test_invalid_polygon_repaired_and_reported(tmp_path):
 
 
 def test_depth_areas_shallower_than_draught_plus_ukc_are_obstacles(tmp_path):
-    doc = fc(feat(square(25.0, 60.0, 0.01, 0.005), kind="depth_area", min_depth_m=2.0),
-             feat(square(25.03, 60.0, 0.01, 0.005), kind="depth_area", min_depth_m=10.0),
-             feat(square(24.99, 59.99, 0.06, 0.03), kind="trial_area"))
+    doc = fc(
+        feat(square(25.0, 60.0, 0.01, 0.005), kind="depth_area", min_depth_m=2.0),
+        feat(square(25.03, 60.0, 0.01, 0.005), kind="depth_area", min_depth_m=10.0),
+        feat(square(24.99, 59.99, 0.06, 0.03), kind="trial_area"),
+    )
     p = write(tmp_path, doc)
     deep_ship = load_map(p, draught_m=2.5, ukc_m=0.5)
     assert deep_ship.n_shallow == 1
@@ -73,10 +78,12 @@ def test_depth_areas_shallower_than_draught_plus_ukc_are_obstacles(tmp_path):
 
 
 def test_obstacle_point_radius_and_start_goal(tmp_path):
-    doc = fc(feat({"type": "Point", "coordinates": [25.01, 60.005]}, kind="obstacle", radius_m=100.0),
-             feat({"type": "Point", "coordinates": [25.0, 60.0]}, kind="start", heading_deg=90),
-             feat({"type": "Point", "coordinates": [25.03, 60.01]}, kind="goal"),
-             feat(square(24.98, 59.99, 0.07, 0.03), kind="trial_area"))
+    doc = fc(
+        feat({"type": "Point", "coordinates": [25.01, 60.005]}, kind="obstacle", radius_m=100.0),
+        feat({"type": "Point", "coordinates": [25.0, 60.0]}, kind="start", heading_deg=90),
+        feat({"type": "Point", "coordinates": [25.03, 60.01]}, kind="goal"),
+        feat(square(24.98, 59.99, 0.07, 0.03), kind="trial_area"),
+    )
     sea = load_map(write(tmp_path, doc))
     assert abs(sea.obstacles.area - np.pi * 100**2) < 0.02 * np.pi * 100**2
     assert sea.start is not None and abs(sea.start.psi - np.pi / 2) < 1e-12 and sea.goal.psi is None
@@ -92,10 +99,19 @@ def test_obstacle_point_radius_and_start_goal(tmp_path):
         (fc(feat({"type": "Polygon", "coordinates": [[[60, 125], [60.1, 125], [60.1, 125.1], [60, 125]]]})), "swapped"),
         ({"type": "Feature"}, "FeatureCollection"),
         # a JSON integer beyond int64 (found by the fuzz test) and a heading of turns, not degrees
-        (fc(feat(square(25, 60, 0.1, 0.1)), feat({"type": "Point", "coordinates": [25.2, 60.2]}, kind="start",
-                                                  heading_deg=2**70)), "within -360..360"),
-        (fc(feat(square(25, 60, 0.1, 0.1)), feat({"type": "Point", "coordinates": [25.2, 60.2]}, kind="goal",
-                                                  heading_deg=720)), "within -360..360"),
+        (
+            fc(
+                feat(square(25, 60, 0.1, 0.1)),
+                feat({"type": "Point", "coordinates": [25.2, 60.2]}, kind="start", heading_deg=2**70),
+            ),
+            "within -360..360",
+        ),
+        (
+            fc(
+                feat(square(25, 60, 0.1, 0.1)), feat({"type": "Point", "coordinates": [25.2, 60.2]}, kind="goal", heading_deg=720)
+            ),
+            "within -360..360",
+        ),
     ],
 )
 def test_bad_maps_rejected_with_reason(tmp_path, doc, words):

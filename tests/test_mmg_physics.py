@@ -23,8 +23,9 @@ def test_straight_run_at_the_approach_rps_holds_the_approach_speed():
 
 
 def test_35_deg_turning_circle_has_the_published_tactical_diameter_on_both_sides():
-    runs = simulate_runs(FULL, [Manoeuvre("turn", 35, 0, 1, 560), Manoeuvre("turn", 35, 0, -1, 560)], N0,
-                         lead_in_s=0.0, pre_s=0.0)
+    runs = simulate_runs(
+        FULL, [Manoeuvre("turn", 35, 0, 1, 560), Manoeuvre("turn", 35, 0, -1, 560)], N0, lead_in_s=0.0, pre_s=0.0
+    )
     td = [tactical_diameter(r) / FULL.L for r in runs]
     assert all(2.9 < x < 3.4 for x in td), td  # MARIN free-running: 3.07 and 3.33 L
     assert runs[0].r[-1] > 0 > runs[1].r[-1]  # positive MMG rudder turns to starboard
@@ -81,8 +82,9 @@ def test_actuator_delay_shifts_the_response_and_offset_and_thrust_loss_show_on_t
     base = simulate_runs(FULL, man, N0, lead_in_s=10.0, pre_s=10.0)[0]
     late = simulate_runs(FULL, man, N0, lead_in_s=10.0, pre_s=10.0, delay_s=3.0)[0]
     assert np.allclose(late.r[3:], base.r[:-3], atol=1e-12) and np.allclose(late.delta, base.delta)
-    off = simulate_runs(FULL, [Manoeuvre("zigzag", 10, 10, 1, 120)], N0, offset_rad=np.radians(1.5), lead_in_s=600.0,
-                        pre_s=20.0)[0]
+    off = simulate_runs(FULL, [Manoeuvre("zigzag", 10, 10, 1, 120)], N0, offset_rad=np.radians(1.5), lead_in_s=600.0, pre_s=20.0)[
+        0
+    ]
     assert np.degrees(np.mean(off.delta[:20])) == pytest.approx(1.5, abs=0.05)  # helm holds the course against it
     assert np.degrees(off.delta.min()) == pytest.approx(-10.0) and np.degrees(off.delta.max()) == pytest.approx(10.0)
     slow = with_effects(FULL, thrust_factor=0.8)
@@ -157,14 +159,16 @@ def test_still_air_drags_the_hull_in_calm_water_and_the_wind_truth_is_the_excess
     drag = 0.5 * RHO_AIR * 7.97**2 * FULL.A_F * FULL.wind_c[0]  # N, about 31 kN (0.65 % of the hull's)
     assert still == pytest.approx(0.0, abs=1e-9)  # the self-propulsion rpm balances it
     assert airless - still == pytest.approx(drag * Minv[0, 0], rel=1e-9)
-    assert np.array_equal(derivative(FULL, Minv, s, 0.0, N0, Environment(wind_ne=(0.0, 0.0))),
-                          derivative(FULL, Minv, s, 0.0, N0, Environment()))
+    assert np.array_equal(
+        derivative(FULL, Minv, s, 0.0, N0, Environment(wind_ne=(0.0, 0.0))), derivative(FULL, Minv, s, 0.0, N0, Environment())
+    )
     # the truth of a wind case: coefficients of the excess loads (zero for still air)
     runs = simulate_runs(FULL, bat.DIAGNOSE, N0, lead_in_s=60.0)
     assert all(c == 0.0 for c in bat._wind_truth(FULL, runs, (0.0, 0.0), 1.0)["coefficients"].values())
     head = bat._wind_truth(FULL, runs, (-15.0, 0.0), 1.0)["coefficients"]  # 15 m/s from ahead
     u = runs[0].u
-    excess = (wind_forces(FULL, u, 0 * u, 0 * u, np.array([-15.0, 0.0]))[0]
-              - wind_forces(FULL, u, 0 * u, 0 * u, np.zeros(2))[0]) * Minv[0, 0]
+    excess = (
+        wind_forces(FULL, u, 0 * u, 0 * u, np.array([-15.0, 0.0]))[0] - wind_forces(FULL, u, 0 * u, 0 * u, np.zeros(2))[0]
+    ) * Minv[0, 0]
     regressor = (u + 15.0) ** 2 - u**2  # V_q u_q - V u straight ahead
     assert head["wind_surge"] == pytest.approx(float(np.mean(excess / regressor)), rel=0.05)

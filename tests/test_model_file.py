@@ -20,24 +20,57 @@ def _doc() -> dict:
     """A model.json as `shiptrial diagnose --out` writes it: the model-ship with a delay, a
     current and an extra yaw damping term."""
     ms = load_profile("model-ship")
-    base = ms.to_dict() | {"parameters": {"scored": ms.to_dict()["parameters"]["true"]}, "simulation_set": "scored",
-                           "instrument_set": "scored"}
+    base = ms.to_dict() | {
+        "parameters": {"scored": ms.to_dict()["parameters"]["true"]},
+        "simulation_set": "scored",
+        "instrument_set": "scored",
+    }
     cands = [
-        {"effect": "actuator_delay", "key": "actuator_delay", "dof": None, "description": "time delay of all actuators",
-         "slots": [{"kind": "delay", "name": "delay_s", "dof": None, "term": None, "index": None}], "values": [0.5]},
-        {"effect": "current", "key": "current", "dof": None, "description": "constant current",
-         "slots": [{"kind": "current", "name": "current_n", "dof": None, "term": None, "index": 0},
-                   {"kind": "current", "name": "current_e", "dof": None, "term": None, "index": 1}], "values": [0.03, -0.04]},
-        {"effect": "quadratic_damping", "key": "quadratic_damping:yaw:r*|r|", "dof": 2, "description": "r*|r| in yaw",
-         "slots": [{"kind": "term", "name": "value", "dof": 2, "term": "r*|r|", "index": None}], "values": [-0.02]},
+        {
+            "effect": "actuator_delay",
+            "key": "actuator_delay",
+            "dof": None,
+            "description": "time delay of all actuators",
+            "slots": [{"kind": "delay", "name": "delay_s", "dof": None, "term": None, "index": None}],
+            "values": [0.5],
+        },
+        {
+            "effect": "current",
+            "key": "current",
+            "dof": None,
+            "description": "constant current",
+            "slots": [
+                {"kind": "current", "name": "current_n", "dof": None, "term": None, "index": 0},
+                {"kind": "current", "name": "current_e", "dof": None, "term": None, "index": 1},
+            ],
+            "values": [0.03, -0.04],
+        },
+        {
+            "effect": "quadratic_damping",
+            "key": "quadratic_damping:yaw:r*|r|",
+            "dof": 2,
+            "description": "r*|r| in yaw",
+            "slots": [{"kind": "term", "name": "value", "dof": 2, "term": "r*|r|", "index": None}],
+            "values": [-0.02],
+        },
     ]
-    aug = [{"effect": "actuator_delay", "dof": "yaw", "parameters": {"delay_s": 0.5}},
-           {"effect": "current", "dof": "sway", "parameters": {"speed_mps": 0.05, "term": None}}]
+    aug = [
+        {"effect": "actuator_delay", "dof": "yaw", "parameters": {"delay_s": 0.5}},
+        {"effect": "current", "dof": "sway", "parameters": {"speed_mps": 0.05, "term": None}},
+    ]
     profile_part = ms.to_dict()
     profile_part["disturbances"] = dict(profile_part.get("disturbances", {}), current_mean_ne=[0.03, -0.04])  # the found current
-    return profile_part | {"name": "model-ship-diagnosed", "augmentations": aug,
-                           "diagnosed_model": {"format": FORMAT, "note": "exact scored model", "baseline_profile": base,
-                                               "half_sample_s": 0.0625, "candidates": cands}}
+    return profile_part | {
+        "name": "model-ship-diagnosed",
+        "augmentations": aug,
+        "diagnosed_model": {
+            "format": FORMAT,
+            "note": "exact scored model",
+            "baseline_profile": base,
+            "half_sample_s": 0.0625,
+            "candidates": cands,
+        },
+    }
 
 
 def test_a_well_formed_model_json_loads_as_the_scored_model(tmp_path):
@@ -117,8 +150,10 @@ def test_malformed_sections_refused_when_the_model_json_is_a_ship(where, value, 
     assert len(err) == 1 and err[0].startswith(f"error: {path}: ") and says in err[0]
 
 
-@pytest.mark.parametrize("text,says", [("{", "not a readable model.json"), ("[]", "no field 'diagnosed_model'"),
-                                       ('{"name": "x"}', "no field 'diagnosed_model'")])
+@pytest.mark.parametrize(
+    "text,says",
+    [("{", "not a readable model.json"), ("[]", "no field 'diagnosed_model'"), ('{"name": "x"}', "no field 'diagnosed_model'")],
+)
 def test_not_a_model_json(text, says, tmp_path):
     path = tmp_path / "model.json"
     path.write_text(text)

@@ -61,6 +61,7 @@ def test_the_design_information_turns_the_current(tmp_path):
     prim = next(p for p in build_library(prof) if np.ptp(p.track[:, 2]) > np.pi)
     dist = Disturbances.from_profile(prof)
     info = primitive_information(prof, prim, disturbances=dist, realisations=3, seed=5)
+
     def mean_regressors(d: Disturbances) -> np.ndarray:
         res = simulate(prof, prim.inputs, nu0=prim.nu0, disturbances=d, batch=3, seed=5)
         phi, _ = predictor_regressors(prof, res.y, np.broadcast_to(prim.inputs, (3,) + prim.inputs.shape), res.psi_meas)
@@ -119,8 +120,14 @@ def test_the_monte_carlo_truth_turns_the_current(tmp_path):
         sh = prepare(prof, {"one": {"tau9": 1.0}}, MCConfig(runs=1, n_samples=300, protocol="piecewise"), disturbances=dist)
         segs, _ = _experiment(sh, [("tau9", 300)])
         (seg,) = _simulate_data(sh, [segs], [np.random.default_rng(1)])
-        want = simulate(prof, seg.inputs[0], prof.params(prof.simulation_set), nu0=seg.nu0[0],
-                        disturbances=Disturbances(current_ne=cur), current_turning=True)
+        want = simulate(
+            prof,
+            seg.inputs[0],
+            prof.params(prof.simulation_set),
+            nu0=seg.nu0[0],
+            disturbances=Disturbances(current_ne=cur),
+            current_turning=True,
+        )
         same = np.allclose(seg.y[0], want.nu[0], rtol=0, atol=1e-12)
         assert same is turning
 
@@ -131,8 +138,15 @@ def test_findings_the_profile_cannot_hold_are_named_in_one_warning(tmp_path):
     their values, in one warning line naming the file (before: silently dropped)."""
     doc = _doc()
     doc["diagnosed_model"]["candidates"].append(
-        {"effect": "sensor_bias", "key": "sensor_bias:r", "dof": 2, "description": "bias of r",
-         "slots": [{"kind": "bias", "name": "bias_r", "dof": 2, "term": None, "index": 2}], "values": [0.0012]})
+        {
+            "effect": "sensor_bias",
+            "key": "sensor_bias:r",
+            "dof": 2,
+            "description": "bias of r",
+            "slots": [{"kind": "bias", "name": "bias_r", "dof": 2, "term": None, "index": 2}],
+            "values": [0.0012],
+        }
+    )
     path = _model_json(tmp_path, doc)
     prof = load_profile(path)
     (w,) = prof.load_warnings
@@ -147,8 +161,9 @@ def test_findings_the_profile_cannot_hold_are_named_in_one_warning(tmp_path):
     (w,) = load_profile(_model_json(tmp_path, doc)).load_warnings
     assert "actuator_delay" in w and "quadratic_damping" not in w
     # nothing left out: no warning; a plain profile has none
-    doc["diagnosed_model"]["candidates"] = [c for c in doc["diagnosed_model"]["candidates"]
-                                            if c["effect"] in ("current", "quadratic_damping")]
+    doc["diagnosed_model"]["candidates"] = [
+        c for c in doc["diagnosed_model"]["candidates"] if c["effect"] in ("current", "quadratic_damping")
+    ]
     assert load_profile(_model_json(tmp_path, doc)).load_warnings == ()
     assert load_profile("model-ship").load_warnings == ()
 
@@ -174,12 +189,30 @@ def test_a_plan_with_such_a_ship_carries_the_warning(tmp_path):
     from maps.planner import plan_trial
 
     fs = load_profile("full-scale")
-    doc = fs.to_dict() | {"name": "full-scale-diagnosed", "diagnosed_model": {
-        "format": FORMAT, "note": "exact scored model", "half_sample_s": 0.0,
-        "baseline_profile": fs.to_dict() | {"parameters": {"scored": fs.to_dict()["parameters"]["true"]}, "simulation_set": "scored",
-                                            "instrument_set": "scored"},
-        "candidates": [{"effect": "inertia_change", "key": "inertia_change:yaw", "dof": 2, "description": "yaw inertia",
-                        "slots": [{"kind": "scale", "name": "scale", "dof": 2, "term": None, "index": None}], "values": [1.3]}]}}
+    doc = fs.to_dict() | {
+        "name": "full-scale-diagnosed",
+        "diagnosed_model": {
+            "format": FORMAT,
+            "note": "exact scored model",
+            "half_sample_s": 0.0,
+            "baseline_profile": fs.to_dict()
+            | {
+                "parameters": {"scored": fs.to_dict()["parameters"]["true"]},
+                "simulation_set": "scored",
+                "instrument_set": "scored",
+            },
+            "candidates": [
+                {
+                    "effect": "inertia_change",
+                    "key": "inertia_change:yaw",
+                    "dof": 2,
+                    "description": "yaw inertia",
+                    "slots": [{"kind": "scale", "name": "scale", "dof": 2, "term": None, "index": None}],
+                    "values": [1.3],
+                }
+            ],
+        },
+    }
     path = tmp_path / "model.json"
     path.write_text(json.dumps(doc))
     plan = plan_trial(profile=load_profile(path), scenario="thesis-9.4", headings=4, run_in_s=0)
@@ -201,7 +234,9 @@ def test_what_model_dict_writes_is_judged_as_it_writes_it():
     ship = load_profile("kvlcc2")
     lib, _ = build_library(ship, [_kvlcc2_run(1), _kvlcc2_run(2)])
     held = ["thrust_loss:fraction", "quadratic_damping:sway:v_r*|v_r|", "missing_coupling:surge:r^2"]
-    dropped = [next(c.key for c in lib if c.effect == e) for e in ("actuator_delay", "input_offset", "sensor_bias", "inertia_change")]
+    dropped = [
+        next(c.key for c in lib if c.effect == e) for e in ("actuator_delay", "input_offset", "sensor_bias", "inertia_change")
+    ]
     cands = [c for c in lib if c.key in held + dropped]
     model = AugmentedModel(ship, ship.params(), cands)
     P = model.p0()

@@ -57,6 +57,13 @@ def test_complete_report_states_protocol_thesis_numbers_and_open_choices(tmp_pat
     choices = {c["choice"]: c["value"] for c in doc["monte_carlo_config"]["open_choices"]}
     assert "library order" in choices["primitive order"] and "Table 6.2" in choices["parameter error"]
     md = (out / "report.md").read_text()
-    for text in ("Protocol **continuous**", "| thesis |", "Choices Ljungberg (2022) leaves open", "settling between primitives: 4 samples",
-                 "optimized thesis 99.0 %, ours", r"X\|u\|u", "Limiting parameter:"):
+    for text in (
+        "Protocol **continuous**",
+        "| thesis |",
+        "Choices Ljungberg (2022) leaves open",
+        "settling between primitives: 4 samples",
+        "optimized thesis 99.0 %, ours",
+        r"X\|u\|u",
+        "Limiting parameter:",
+    ):
         assert text in md

@@ -25,4 +25,3 @@ def test_output_error_error_tells_the_user_to_use_the_iv_estimator(case):
     msg = str(err.value)
     assert "--mc-estimator iv" in msg and p.name in msg and ("planar" if case == "roll" else "heading") in msg
     assert "\n" not in msg
-

@@ -60,7 +60,7 @@ def test_settling_gaps_hold_the_next_start_state(ship):
     inp = segs[0][0]
     assert inp.shape == (1000 + 8 * 3, 3)
     n0, k1 = seq[0][1], seq[1][0]
-    np.testing.assert_array_equal(inp[n0:n0 + 8], np.tile(sh.hold[k1], (8, 1)))
+    np.testing.assert_array_equal(inp[n0 : n0 + 8], np.tile(sh.hold[k1], (8, 1)))
     assert starts[1] == n0
 
 
@@ -98,9 +98,23 @@ def test_diverged_runs_are_counted_not_put_in_the_percentiles():
     assert [t["parameter"] for t in table] == ["a", "b"]
     assert table[1]["bias"] == pytest.approx(0.25) and table[1]["frac_within_tolerance"] == 0.5
     # a reference estimate of the same runs is summarised beside, merged with its chunks, in the digest
-    halves = [MCResult("x", np.arange(4)[s], theta[s], prm[s], sim[s], r.diverged[s], 5, ["a", "b"], theta0, [], "oe",
-                       MCResult("x", np.arange(4)[s], theta[s], prm[s], sim[s], r.diverged[s], 5, ["a", "b"], theta0, [], "iv"))
-              for s in (slice(2, 4), slice(0, 2))]
+    halves = [
+        MCResult(
+            "x",
+            np.arange(4)[s],
+            theta[s],
+            prm[s],
+            sim[s],
+            r.diverged[s],
+            5,
+            ["a", "b"],
+            theta0,
+            [],
+            "oe",
+            MCResult("x", np.arange(4)[s], theta[s], prm[s], sim[s], r.diverged[s], 5, ["a", "b"], theta0, [], "iv"),
+        )
+        for s in (slice(2, 4), slice(0, 2))
+    ]
     merged = merge_results([{"x": h} for h in halves])["x"]
     assert merged.reference.estimator == "iv" and np.array_equal(merged.reference.runs, np.arange(4))
     s2 = merged.summary()
@@ -114,8 +128,16 @@ def test_singular_solve_is_a_failed_run_not_a_number(ship):
     from expdesign.montecarlo import evaluate_designs
 
     p, lib = ship
-    r = evaluate_designs(p, {"d": {"tau3": 0.5, "tau6": 0.5}}, runs=3, seed=1, n_samples=400, primitives=lib,
-                         mean_subtraction="batchwise", oe_iterations=2)["d"]
+    r = evaluate_designs(
+        p,
+        {"d": {"tau3": 0.5, "tau6": 0.5}},
+        runs=3,
+        seed=1,
+        n_samples=400,
+        primitives=lib,
+        mean_subtraction="batchwise",
+        oe_iterations=2,
+    )["d"]
     for res in (r, r.reference):
         assert res.diverged.all() and np.isnan(res.theta[:, :4]).all() and np.isinf(res.param_rmse).all()
         assert res.summary()["diverged"] == 3 and res.summary()["param_rmse_p50"] is None

@@ -42,8 +42,15 @@ def test_augmented_model_is_the_kernel_with_a_current_and_wind(ship):
         terms[i] += [tw]
         theta[i] += [c]
     nu0 = np.array([0.6, 0.0, 0.0])
-    sim = simulate(ship, x[:-1], np.concatenate(theta), terms=TermSet(terms), nu0=nu0,
-                   disturbances=Disturbances(current_ne=CURRENT, wind_ne=WIND), current_turning=True)
+    sim = simulate(
+        ship,
+        x[:-1],
+        np.concatenate(theta),
+        terms=TermSet(terms),
+        nu0=nu0,
+        disturbances=Disturbances(current_ne=CURRENT, wind_ne=WIND),
+        current_turning=True,
+    )
     chans = {n: x[:, j] for j, n in enumerate(ship.inputs)}
     n = len(sim.t)
     chans["wind_speed"] = np.full(n, float(np.hypot(*WIND)))
@@ -61,8 +68,14 @@ def test_augmented_model_is_the_kernel_with_a_current_and_wind(ship):
     # and the current and the wind matter: without them the model is far off
     assert np.max(np.abs(model.simulate(prep, model.p0())[0] - sim.nu[0])) > 0.05
     # and the turning of the current matters (the ship turns through it)
-    flat = simulate(ship, x[:-1], np.concatenate(theta), terms=TermSet(terms), nu0=nu0,
-                    disturbances=Disturbances(current_ne=CURRENT, wind_ne=WIND))
+    flat = simulate(
+        ship,
+        x[:-1],
+        np.concatenate(theta),
+        terms=TermSet(terms),
+        nu0=nu0,
+        disturbances=Disturbances(current_ne=CURRENT, wind_ne=WIND),
+    )
     assert np.max(np.abs(flat.nu[0] - sim.nu[0])) > 0.01
 
 
@@ -91,8 +104,7 @@ def test_closed_loop_generators_step_with_the_kernel(ship):
     from primitives.maneuvers import closed_loop, excitation_zigzag
 
     gen = excitation_zigzag(ship, 300, 0.8, 0.1, 0.2, np.radians(10))
-    forces, psi = closed_loop(ship, lambda k, nu, psi, memo: tuple(gen.forces[k]) if k < len(gen.forces) else None,
-                              1000, gen.nu0)
+    forces, psi = closed_loop(ship, lambda k, nu, psi, memo: tuple(gen.forces[k]) if k < len(gen.forces) else None, 1000, gen.nu0)
     sim = simulate(ship, ship.allocate(*forces.T), nu0=gen.nu0)
     assert len(gen.split_points) >= 2
     np.testing.assert_array_equal(psi, sim.eta[0, :, 2])

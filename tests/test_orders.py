@@ -89,7 +89,9 @@ def test_order_words_and_dict_round_trip():
     prof = dataclasses.replace(load_profile("kvlcc2"), engine=Engine((0.0, 2.0), mcr_rpm=60 / 0.75 ** (1 / 3)))
     assert engine_text(prof, 1.0) == "Engine 60 rpm (75 % MCR)"
     assert engine_text(prof, 0.0) == "Stop engine"
-    o = Order(12.0, "Port 20 at heading 20° to starboard of the initial course", {"rudder_deg": -20.0, "at_heading_change_deg": 20.0})
+    o = Order(
+        12.0, "Port 20 at heading 20° to starboard of the initial course", {"rudder_deg": -20.0, "at_heading_change_deg": 20.0}
+    )
     d = o.to_dict()
     assert d == {"t_s": 12.0, "text": o.text, "rudder_deg": -20.0, "at_heading_change_deg": 20.0}
     assert Order.from_dict(d) == o

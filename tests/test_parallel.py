@@ -11,7 +11,9 @@ def _noisy_sim(seed: int) -> np.ndarray:
     from primitives.simulate import Disturbances, simulate
 
     prof = load_profile("model-ship")
-    res = simulate(prof, np.tile([3000.0, 200.0, 100.0], (80, 1)), disturbances=Disturbances.from_profile(prof), batch=4, seed=seed)
+    res = simulate(
+        prof, np.tile([3000.0, 200.0, 100.0], (80, 1)), disturbances=Disturbances.from_profile(prof), batch=4, seed=seed
+    )
     return res.y[:, -1]
 
 
@@ -57,8 +59,10 @@ def test_dask_local_cluster_agrees_with_local():
     # Dask's nanny sets one thread in the workers' environment by default: give them two, so that the
     # one thread per worker is the engine's doing
     two = {"OMP_NUM_THREADS": 2, "OPENBLAS_NUM_THREADS": 2, "MKL_NUM_THREADS": 2}
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": two}), \
-            distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+    with (
+        dask.config.set({"distributed.nanny.pre-spawn-environ": two}),
+        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
+    ):
         with get_engine(cluster.scheduler_address) as eng:
             assert isinstance(eng, DaskEngine)
             remote = eng.map(_noisy_sim, seeds, progress=False)
@@ -94,7 +98,9 @@ def test_sweep_table_same_inline_and_on_local_cluster(tmp_path):
     from expdesign.sweep import load_sweep, run_sweep, write_table
 
     cfg = tmp_path / "sweep.toml"
-    cfg.write_text('[sweep]\nships = ["model-ship"]\ncriteria = ["D", "A"]\nmean_subtraction = ["batchwise", "complete"]\nseed = 3\n')
+    cfg.write_text(
+        '[sweep]\nships = ["model-ship"]\ncriteria = ["D", "A"]\nmean_subtraction = ["batchwise", "complete"]\nseed = 3\n'
+    )
     cells = load_sweep(cfg)
     assert len(cells) == 4
     local = run_sweep(cells, "inline", progress=False)
@@ -103,8 +109,10 @@ def test_sweep_table_same_inline_and_on_local_cluster(tmp_path):
     # Dask's nanny sets one thread in the workers' environment by default: give them two, so that the
     # one thread per worker is the engine's doing
     two = {"OMP_NUM_THREADS": 2, "OPENBLAS_NUM_THREADS": 2, "MKL_NUM_THREADS": 2}
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": two}), \
-            distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+    with (
+        dask.config.set({"distributed.nanny.pre-spawn-environ": two}),
+        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
+    ):
         remote = run_sweep(cells, cluster.scheduler_address, progress=False)
     key = ["ship", "criterion", "mean_subtraction", "weights", "top_primitive"]
     assert [{k: r[k] for k in key} for r in local.results] == [{k: r[k] for k in key} for r in remote.results]
@@ -152,7 +160,9 @@ def test_profiles_and_primitives_cross_process_boundaries():
 
     prof = load_profile("model-ship")
     prim = model_ship_thesis(prof)[5]
-    prof.model.increments({"u": 1.0, "v": 0.0, "r": 0.0, "u_r": 1.0, "v_r": 0.0, "tau_x": 0.0, "tau_y": 0.0, "tau_n": 0.0}, prof.params())
+    prof.model.increments(
+        {"u": 1.0, "v": 0.0, "r": 0.0, "u_r": 1.0, "v_r": 0.0, "tau_x": 0.0, "tau_y": 0.0, "tau_n": 0.0}, prof.params()
+    )
     _ = prim.footprint
     again = pickle.loads(pickle.dumps(prim))
     np.testing.assert_array_equal(again.nu, prim.nu)

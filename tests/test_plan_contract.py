@@ -11,8 +11,21 @@ from maps.plan import Plan, PlanStep
 
 
 def _step(i: int, kind: str, **kw) -> PlanStep:
-    return PlanStep(index=i, primitive="p", kind=kind, description="d", start_time_s=float(i), duration_s=1.0, entry_x=0.0,
-                    entry_y=0.0, entry_psi=0.0, entry_lon=25.0, entry_lat=60.0, entry_speed_mps=3.0, **kw)
+    return PlanStep(
+        index=i,
+        primitive="p",
+        kind=kind,
+        description="d",
+        start_time_s=float(i),
+        duration_s=1.0,
+        entry_x=0.0,
+        entry_y=0.0,
+        entry_psi=0.0,
+        entry_lon=25.0,
+        entry_lat=60.0,
+        entry_speed_mps=3.0,
+        **kw,
+    )
 
 
 PROJECTION = {"proj4": "+proj=tmerc +lat_0=0 +lon_0=0 +ellps=WGS84 +units=m", "lon0": 0.0, "lat0": 0.0}  # the exporters need one
@@ -20,18 +33,47 @@ PROJECTION = {"proj4": "+proj=tmerc +lat_0=0 +lon_0=0 +ellps=WGS84 +units=m", "l
 
 def _plan(steps: list[PlanStep], **kw) -> Plan:
     n = len(steps) + 1
-    return Plan(ship="s", steps=steps, t=np.arange(n, dtype=float), track=np.zeros((n, 3)), lonlat=np.zeros((n, 2)),
-                speed=np.ones(n), step_of_sample=np.minimum(np.arange(n), len(steps) - 1), inputs=np.zeros((n, 1)),
-                input_names=["a"], projection=PROJECTION, feasible=True, optimal=True, min_clearance_m=50.0, margin_m=20.0,
-                counts={"p": 1}, targets={"p": 1}, **kw)
+    return Plan(
+        ship="s",
+        steps=steps,
+        t=np.arange(n, dtype=float),
+        track=np.zeros((n, 3)),
+        lonlat=np.zeros((n, 2)),
+        speed=np.ones(n),
+        step_of_sample=np.minimum(np.arange(n), len(steps) - 1),
+        inputs=np.zeros((n, 1)),
+        input_names=["a"],
+        projection=PROJECTION,
+        feasible=True,
+        optimal=True,
+        min_clearance_m=50.0,
+        margin_m=20.0,
+        counts={"p": 1},
+        targets={"p": 1},
+        **kw,
+    )
 
 
 def test_new_fields_round_trip():
-    steps = [_step(0, "basic"), _step(1, "run-in"),
-             _step(2, "informative", execute=True, orders=[{"t_s": 0.0, "text": "rudder 10 deg starboard", "rudder_deg": 10.0}],
-                   abort=["clearance below 50 m"])]
-    design = {"criterion": "D", "mean_subtraction": "complete", "weights": {"p": 1.0}, "counts": {"p": 1}, "d_efficiency": 0.97,
-              "dropped": [{"primitive": "q", "needs_m": [900.0, 400.0], "efficiency_loss": 0.1}]}
+    steps = [
+        _step(0, "basic"),
+        _step(1, "run-in"),
+        _step(
+            2,
+            "informative",
+            execute=True,
+            orders=[{"t_s": 0.0, "text": "rudder 10 deg starboard", "rudder_deg": 10.0}],
+            abort=["clearance below 50 m"],
+        ),
+    ]
+    design = {
+        "criterion": "D",
+        "mean_subtraction": "complete",
+        "weights": {"p": 1.0},
+        "counts": {"p": 1},
+        "d_efficiency": 0.97,
+        "dropped": [{"primitive": "q", "needs_m": [900.0, 400.0], "efficiency_loss": 0.1}],
+    }
     p = _plan(steps, design=design, vessel_name="M/S Test")
     q = Plan.from_dict(json.loads(p.to_json()))
     assert [s.segment for s in q.steps] == ["transit", "run-in", "informative"]

@@ -34,8 +34,17 @@ def test_drawer_writes_what_one_process_writes(forked, tmp_path, monkeypatch, ca
     out = tmp_path / "here"
     assert _run(["plan", "--counts", COUNTS, "--out", str(out), "--start-time", START]) == 0
     a, b = _files(forked), _files(out)
-    assert a.keys() == b.keys() and {"plan.png", "full-scale-trial.pdf", "full-scale-trial.html",
-                                     "full-scale-trial-track.png", "full-scale-trial-states.png"} <= a.keys()
+    assert (
+        a.keys() == b.keys()
+        and {
+            "plan.png",
+            "full-scale-trial.pdf",
+            "full-scale-trial.html",
+            "full-scale-trial-track.png",
+            "full-scale-trial-states.png",
+        }
+        <= a.keys()
+    )
     assert [k for k in a if k != "plan.json" and a[k] != b[k]] == []
     capsys.readouterr()
 

@@ -148,7 +148,12 @@ def test_endpoints_found_before_the_design_are_the_lattices_and_a_bad_one_is_sai
     assert "endpoints" in cache
     early = build_lattice(sea, prof, prims, counts, options=PlanOptions(), cache=cache)
     plain = build_lattice(sea, prof, prims, counts, options=PlanOptions())
-    assert (early.start, early.start_cell, early.goal_cell, early.goal_h) == (plain.start, plain.start_cell, plain.goal_cell, plain.goal_h)
+    assert (early.start, early.start_cell, early.goal_cell, early.goal_h) == (
+        plain.start,
+        plain.start_cell,
+        plain.goal_cell,
+        plain.goal_h,
+    )
     land = (60.1699, 24.9384, 0.0)  # Helsinki city centre
     bad: dict = {}
     prepare_basic_moves(sea, prof, PlanOptions(), bad, start=land)

@@ -86,7 +86,7 @@ def _brute_force_cost(pb: astar.Problem) -> float:
     """Dijkstra on the full counter-augmented state graph (tiny problems only)."""
     radix = [d + 1 for d in pb.targets]
     G = int(np.prod(radix))
-    strides = [int(np.prod(radix[q + 1:])) for q in range(len(radix))]
+    strides = [int(np.prod(radix[q + 1 :])) for q in range(len(radix))]
     ns = len(pb.succ)
     rows, cols, w = [], [], []
     for s, lst in enumerate(pb.succ):
@@ -122,7 +122,9 @@ def test_astar_optimal_on_random_small_lattices(seed):
                     a, b = rot[h] @ np.array([di, dj])
                     i2, j2 = i + a, j + b
                     if 0 <= i2 < ni and 0 <= j2 < nj and not blocked[i2, j2]:
-                        succ[(i * nj + j) * K + h].append((mi, (int(i2) * nj + int(j2)) * K + (h + dh) % K, q, 0.0 if q >= 0 else 1.0))
+                        succ[(i * nj + j) * K + h].append(
+                            (mi, (int(i2) * nj + int(j2)) * K + (h + dh) % K, q, 0.0 if q >= 0 else 1.0)
+                        )
     pb = astar.Problem(ni, nj, K, [2, 1], succ, 0, [((ni - 1) * nj + nj - 1) * K + h for h in range(K)])
     res = astar.search(pb, "admissible")
     best = _brute_force_cost(pb)
@@ -180,8 +182,15 @@ def test_valid_everywhere_is_the_brute_force_answer(seed):
     grid = CollisionGrid(load_map(), win, margin=0.0, sub=8, pad_m=600.0)
     rows = grid.footprint_rows(shapely.Polygon(rng.uniform(-250, 250, (6, 2))).convex_hull, rng.uniform(0, 6.3), 5.0)
     cells = [(a, b) for a, b0, b1 in rows.tolist() for b in range(b0, b1 + 1)]
-    want = np.array([[not any(grid.blocked[grid.pad + i * grid.sub + a, grid.pad + j * grid.sub + b] for a, b in cells)
-                      for j in range(win.nj)] for i in range(win.ni)])
+    want = np.array(
+        [
+            [
+                not any(grid.blocked[grid.pad + i * grid.sub + a, grid.pad + j * grid.sub + b] for a, b in cells)
+                for j in range(win.nj)
+            ]
+            for i in range(win.ni)
+        ]
+    )
     assert 0 < want.sum() < want.size  # some points free, some blocked: both answers are checked
     assert (grid.valid_everywhere(rows) == want).all()
 
@@ -210,13 +219,37 @@ def test_rasterise_touches_every_cell():
 
 def _tiny_sea(tmp_path, size_deg=(0.04, 0.08)):
     dlat, dlon = size_deg
-    doc = {"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"kind": "trial_area"}, "geometry": {"type": "Polygon", "coordinates": [
-            [[25.0, 60.0], [25.0 + dlon, 60.0], [25.0 + dlon, 60.0 + dlat], [25.0, 60.0 + dlat], [25.0, 60.0]]]}},
-        {"type": "Feature", "properties": {"kind": "land"}, "geometry": {"type": "Polygon", "coordinates": [
-            [[25.0 + dlon * 0.45, 60.0 + dlat * 0.4], [25.0 + dlon * 0.55, 60.0 + dlat * 0.4], [25.0 + dlon * 0.55, 60.0 + dlat * 0.6],
-             [25.0 + dlon * 0.45, 60.0 + dlat * 0.6], [25.0 + dlon * 0.45, 60.0 + dlat * 0.4]]]}},
-    ]}
+    doc = {
+        "type": "FeatureCollection",
+        "features": [
+            {
+                "type": "Feature",
+                "properties": {"kind": "trial_area"},
+                "geometry": {
+                    "type": "Polygon",
+                    "coordinates": [
+                        [[25.0, 60.0], [25.0 + dlon, 60.0], [25.0 + dlon, 60.0 + dlat], [25.0, 60.0 + dlat], [25.0, 60.0]]
+                    ],
+                },
+            },
+            {
+                "type": "Feature",
+                "properties": {"kind": "land"},
+                "geometry": {
+                    "type": "Polygon",
+                    "coordinates": [
+                        [
+                            [25.0 + dlon * 0.45, 60.0 + dlat * 0.4],
+                            [25.0 + dlon * 0.55, 60.0 + dlat * 0.4],
+                            [25.0 + dlon * 0.55, 60.0 + dlat * 0.6],
+                            [25.0 + dlon * 0.45, 60.0 + dlat * 0.6],
+                            [25.0 + dlon * 0.45, 60.0 + dlat * 0.4],
+                        ]
+                    ],
+                },
+            },
+        ],
+    }
     p = tmp_path / "sea.geojson"
     p.write_text(json.dumps(doc))
     return p
@@ -224,16 +257,22 @@ def _tiny_sea(tmp_path, size_deg=(0.04, 0.08)):
 
 def test_small_map_plan_meets_counters(tmp_path, profile):
     path = _tiny_sea(tmp_path)
-    plan = plan_trial(path, profile=profile, counts={"steep_zigzag_surge": 2, "wide_zigzag_sway": 1},
-                      start=(60.005, 25.01, 0.0), goal=(60.035, 25.07, None))
+    plan = plan_trial(
+        path,
+        profile=profile,
+        counts={"steep_zigzag_surge": 2, "wide_zigzag_sway": 1},
+        start=(60.005, 25.01, 0.0),
+        goal=(60.035, 25.07, None),
+    )
     assert plan.feasible and plan.counts == {"steep_zigzag_surge": 2, "wide_zigzag_sway": 1}
     assert not LineString(plan.lonlat).intersects(land_polygons(path))
 
 
 def test_infeasible_counts_explained(tmp_path, profile):
     path = _tiny_sea(tmp_path, (0.006, 0.014))  # about 670 x 780 m: the 840 m sway zig-zag cannot fit
-    plan = plan_trial(path, profile=profile, counts={"wide_zigzag_sway": 1}, start=(60.001, 25.002, 90.0),
-                      goal=(60.005, 25.012, None))
+    plan = plan_trial(
+        path, profile=profile, counts={"wide_zigzag_sway": 1}, start=(60.001, 25.002, 90.0), goal=(60.005, 25.012, None)
+    )
     assert not plan.feasible
     assert "wide_zigzag_sway" in plan.stats["reason"] and "fits nowhere" in plan.stats["reason"]
     assert any("smaller" in h for h in plan.stats["help"])
@@ -243,15 +282,29 @@ def test_counter_cannot_be_met(tmp_path, profile):
     """Start and goal in a small enclosed basin: the sway zig-zag fits only in the outer channel."""
     ring = [[24.99, 59.995], [25.07, 59.995], [25.07, 60.035], [24.99, 60.035], [24.99, 59.995]]
     basin = [[25.02, 60.01], [25.032, 60.01], [25.032, 60.016], [25.02, 60.016], [25.02, 60.01]]
-    doc = {"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"kind": "trial_area"}, "geometry": {"type": "Polygon", "coordinates": [
-            [[24.98, 59.99], [25.08, 59.99], [25.08, 60.04], [24.98, 60.04], [24.98, 59.99]]]}},
-        {"type": "Feature", "properties": {"kind": "land"}, "geometry": {"type": "Polygon", "coordinates": [ring, basin[::-1]]}},
-    ]}
+    doc = {
+        "type": "FeatureCollection",
+        "features": [
+            {
+                "type": "Feature",
+                "properties": {"kind": "trial_area"},
+                "geometry": {
+                    "type": "Polygon",
+                    "coordinates": [[[24.98, 59.99], [25.08, 59.99], [25.08, 60.04], [24.98, 60.04], [24.98, 59.99]]],
+                },
+            },
+            {
+                "type": "Feature",
+                "properties": {"kind": "land"},
+                "geometry": {"type": "Polygon", "coordinates": [ring, basin[::-1]]},
+            },
+        ],
+    }
     path = tmp_path / "basin.geojson"
     path.write_text(json.dumps(doc))
-    plan = plan_trial(path, profile=profile, counts={"wide_zigzag_sway": 1}, start=(60.0118, 25.0235, 90.0),
-                      goal=(60.0142, 25.0285, None))
+    plan = plan_trial(
+        path, profile=profile, counts={"wide_zigzag_sway": 1}, start=(60.0118, 25.0235, 90.0), goal=(60.0142, 25.0285, None)
+    )
     assert not plan.feasible
     assert "counter of wide_zigzag_sway" in plan.stats["reason"] and "reachable" in plan.stats["reason"]
     assert any("lower the count" in h for h in plan.stats["help"])
@@ -266,8 +319,14 @@ def test_more_headings_snap_to_lattice_and_verify(profile, headings):
 
 
 def test_split_primitives_count_pieces(profile, tmp_path):
-    plan = plan_trial(_tiny_sea(tmp_path), profile=profile, split=True, counts={"steep_zigzag_surge": 1},
-                      start=(60.005, 25.01, 0.0), goal=(60.035, 25.07, None))
+    plan = plan_trial(
+        _tiny_sea(tmp_path),
+        profile=profile,
+        split=True,
+        counts={"steep_zigzag_surge": 1},
+        start=(60.005, 25.01, 0.0),
+        goal=(60.035, 25.07, None),
+    )
     assert plan.feasible
     assert len(plan.counts) > 1 and all(k.startswith("steep_zigzag_surge.") for k in plan.counts)
     assert all(v == 1 for v in plan.counts.values())

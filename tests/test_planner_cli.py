@@ -20,8 +20,18 @@ def test_plan_writes_outputs_and_json(tmp_path, capsys):
     rc = _run(["plan", "--counts", COUNTS, "--out", str(out), "--json"])
     assert rc == 0
     summary = json.loads(capsys.readouterr().out)
-    for key in ("feasible", "optimal", "counts", "basic_moves", "duration_s", "length_m", "min_clearance_m",
-                "expansions", "plan_time_s", "trajectory_geojson"):
+    for key in (
+        "feasible",
+        "optimal",
+        "counts",
+        "basic_moves",
+        "duration_s",
+        "length_m",
+        "min_clearance_m",
+        "expansions",
+        "plan_time_s",
+        "trajectory_geojson",
+    ):
         assert key in summary
     assert summary["feasible"] and summary["counts"] == {"steep_zigzag_surge": 3, "wide_zigzag_surge": 3, "wide_zigzag_sway": 3}
     doc = json.loads((out / "trajectory.geojson").read_text())
@@ -58,20 +68,53 @@ def test_user_errors_exit_2(args, words, capsys):
 
 def test_map_with_non_polygon_land_exit_2(tmp_path, capsys):
     p = tmp_path / "m.geojson"
-    p.write_text(json.dumps({"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"kind": "land"}, "geometry": {"type": "Point", "coordinates": [25.0, 60.0]}}]}))
+    p.write_text(
+        json.dumps(
+            {
+                "type": "FeatureCollection",
+                "features": [
+                    {
+                        "type": "Feature",
+                        "properties": {"kind": "land"},
+                        "geometry": {"type": "Point", "coordinates": [25.0, 60.0]},
+                    }
+                ],
+            }
+        )
+    )
     rc = _run(["plan", "--map", str(p), "--counts", "steep_zigzag_surge=1"])
     assert rc == 2 and "must be a Polygon" in capsys.readouterr().err
 
 
 def test_no_feasible_plan_exit_1_with_reason(tmp_path, capsys):
     p = tmp_path / "small.geojson"
-    p.write_text(json.dumps({"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"kind": "trial_area"}, "geometry": {"type": "Polygon", "coordinates": [
-            [[25.0, 60.0], [25.014, 60.0], [25.014, 60.006], [25.0, 60.006], [25.0, 60.0]]]}},
-        {"type": "Feature", "properties": {"kind": "start", "heading_deg": 90}, "geometry": {"type": "Point", "coordinates": [25.002, 60.001]}},
-        {"type": "Feature", "properties": {"kind": "goal"}, "geometry": {"type": "Point", "coordinates": [25.012, 60.005]}},
-    ]}))
+    p.write_text(
+        json.dumps(
+            {
+                "type": "FeatureCollection",
+                "features": [
+                    {
+                        "type": "Feature",
+                        "properties": {"kind": "trial_area"},
+                        "geometry": {
+                            "type": "Polygon",
+                            "coordinates": [[[25.0, 60.0], [25.014, 60.0], [25.014, 60.006], [25.0, 60.006], [25.0, 60.0]]],
+                        },
+                    },
+                    {
+                        "type": "Feature",
+                        "properties": {"kind": "start", "heading_deg": 90},
+                        "geometry": {"type": "Point", "coordinates": [25.002, 60.001]},
+                    },
+                    {
+                        "type": "Feature",
+                        "properties": {"kind": "goal"},
+                        "geometry": {"type": "Point", "coordinates": [25.012, 60.005]},
+                    },
+                ],
+            }
+        )
+    )
     rc = _run(["plan", "--map", str(p), "--counts", "wide_zigzag_sway=1", "--json", "--out", str(tmp_path / "o")])
     cap = capsys.readouterr()
     assert rc == 1

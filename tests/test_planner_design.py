@@ -64,7 +64,7 @@ def _water_shortest_path(land, a, b, clearance: float) -> float:
     nodes = [tuple(a), tuple(b)] + [tuple(c) for p in polys for c in list(p.exterior.coords)[:-1]]
     g = nx.Graph()
     for i, p in enumerate(nodes):
-        for q in nodes[i + 1:]:
+        for q in nodes[i + 1 :]:
             if not LineString([p, q]).intersects(inner):
                 g.add_edge(p, q, weight=float(np.hypot(p[0] - q[0], p[1] - q[1])))
     return nx.dijkstra_path_length(g, tuple(a), tuple(b))
@@ -93,7 +93,7 @@ def test_transit_close_to_shortest_path_through_water(profile):
     for run in runs:
         sel = np.isin(plan.step_of_sample, run)
         idx = np.flatnonzero(sel)
-        xy = plan.track[idx[0]: idx[-1] + 2, :2]
+        xy = plan.track[idx[0] : idx[-1] + 2, :2]
         sailed = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
         shortest = _water_shortest_path(land, xy[0], xy[-1], plan.margin_m + profile.beam_m / 2)
         if shortest > 20 * profile.length_m:  # long enough that the turns at its ends do not dominate
@@ -128,11 +128,19 @@ def test_chain_steps_one_at_a_time(profile):
 def _box_map(tmp_path, box, start, goal):
     """A rectangular trial area (lon0, lat0, lon1, lat1) with a start (lon, lat, heading) and a goal (lon, lat)."""
     lo0, la0, lo1, la1 = box
-    feats = [{"type": "Feature", "properties": {"kind": "trial_area"}, "geometry": {"type": "Polygon", "coordinates": [
-                 [[lo0, la0], [lo1, la0], [lo1, la1], [lo0, la1], [lo0, la0]]]}},
-             {"type": "Feature", "properties": {"kind": "start", "heading_deg": start[2]},
-              "geometry": {"type": "Point", "coordinates": list(start[:2])}},
-             {"type": "Feature", "properties": {"kind": "goal"}, "geometry": {"type": "Point", "coordinates": list(goal)}}]
+    feats = [
+        {
+            "type": "Feature",
+            "properties": {"kind": "trial_area"},
+            "geometry": {"type": "Polygon", "coordinates": [[[lo0, la0], [lo1, la0], [lo1, la1], [lo0, la1], [lo0, la0]]]},
+        },
+        {
+            "type": "Feature",
+            "properties": {"kind": "start", "heading_deg": start[2]},
+            "geometry": {"type": "Point", "coordinates": list(start[:2])},
+        },
+        {"type": "Feature", "properties": {"kind": "goal"}, "geometry": {"type": "Point", "coordinates": list(goal)}},
+    ]
     p = tmp_path / "box.geojson"
     p.write_text(json.dumps({"type": "FeatureCollection", "features": feats}))
     return p

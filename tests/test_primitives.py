@@ -98,11 +98,13 @@ def test_footprints_of_tracks_that_begin_alike_are_their_own_footprints(ms, ms_l
     for turn in (0.0, 0.3, -0.5):
         x, y, psi = head[-1]
         k = np.arange(1, 40)[:, None]
-        tail = np.column_stack([x + 0.5 * k[:, 0] * np.cos(psi + turn), y + 0.5 * k[:, 0] * np.sin(psi + turn),
-                                np.full(len(k), psi + turn)])
+        tail = np.column_stack(
+            [x + 0.5 * k[:, 0] * np.cos(psi + turn), y + 0.5 * k[:, 0] * np.sin(psi + turn), np.full(len(k), psi + turn)]
+        )
         tracks.append(np.vstack([head, tail]))
-    for alone, shared in zip([swept_footprint(t, ms.length_m, ms.beam_m) for t in tracks],
-                             swept_footprints(tracks, ms.length_m, ms.beam_m)):
+    for alone, shared in zip(
+        [swept_footprint(t, ms.length_m, ms.beam_m) for t in tracks], swept_footprints(tracks, ms.length_m, ms.beam_m)
+    ):
         assert alone.bounds == pytest.approx(shared.bounds, abs=1e-9)
         assert shapely.symmetric_difference(alone, shared).area <= 1e-9 * alone.area
     assert len(swept_footprints(tracks[:1], ms.length_m, ms.beam_m)) == 1

@@ -54,7 +54,9 @@ def test_course_unstable_kvlcc2_still_builds_its_library():
 def test_huge_sample_time_refused_at_load_naming_the_field(tmp_path):
     """sample_time = 50 s for the 1 m model ship ended in 'footprint larger than the collision grid padding'."""
     p = _variant(tmp_path, "model-ship", "big-ts", lambda d: d.update(sample_time=50.0))
-    with pytest.raises(UserError, match=r"field 'sample_time' = 50 s: .* 50 ship lengths per sample.*give sample_time in seconds"):
+    with pytest.raises(
+        UserError, match=r"field 'sample_time' = 50 s: .* 50 ship lengths per sample.*give sample_time in seconds"
+    ):
         load_profile(str(p))
 
 
@@ -86,12 +88,27 @@ def test_scenario_zigzag_the_ship_never_completes_is_a_profile_error(tmp_path):
         thesis_planning_scenario(prof)
 
 
-@pytest.mark.parametrize("old,new,expect", [
-    ("max_rudder_deg = 35.0", "max_rudder_deg = 0.6109", r"'helm.max_rudder_deg' = 0.6109 is in degrees.*write max_rudder_deg = 35.0"),
-    ("delta = [-0.6109, 0.6109]", "delta = [-35, 35]", r"'input_limits.delta' = \[-35, 35\] is in radians.*write delta = \[-0.6109, 0.6109\]"),
-    ("rudder_rate_deg_s = 2.32", "rudder_rate_deg_s = 0.0405", r"'helm.rudder_rate_deg_s' = 0.0405 is in deg/s.*write rudder_rate_deg_s = 2.32"),
-    ("approach_rpm = 91.4", "approach_rpm = 1.52", r"'engine.approach_rpm' = 1.52 is in rpm.*write approach_rpm = 91.2"),
-])
+@pytest.mark.parametrize(
+    "old,new,expect",
+    [
+        (
+            "max_rudder_deg = 35.0",
+            "max_rudder_deg = 0.6109",
+            r"'helm.max_rudder_deg' = 0.6109 is in degrees.*write max_rudder_deg = 35.0",
+        ),
+        (
+            "delta = [-0.6109, 0.6109]",
+            "delta = [-35, 35]",
+            r"'input_limits.delta' = \[-35, 35\] is in radians.*write delta = \[-0.6109, 0.6109\]",
+        ),
+        (
+            "rudder_rate_deg_s = 2.32",
+            "rudder_rate_deg_s = 0.0405",
+            r"'helm.rudder_rate_deg_s' = 0.0405 is in deg/s.*write rudder_rate_deg_s = 2.32",
+        ),
+        ("approach_rpm = 91.4", "approach_rpm = 1.52", r"'engine.approach_rpm' = 1.52 is in rpm.*write approach_rpm = 91.2"),
+    ],
+)
 def test_a_value_in_the_other_unit_is_refused_with_the_likely_fix(tmp_path, old, new, expect):
     """max_rudder_deg = 0.6109 gave 1,619 s turns; delta = [-35, 35] rad was accepted."""
     text = (PROFILE_DIR / "kvlcc2.toml").read_text()

@@ -23,7 +23,7 @@ README = Path(__file__).resolve().parents[1] / "README.md"
 # (substring of the example, why it is not run here: CPU time measured on the shared 2-core machine)
 SLOW = {
     "plan-trial --out trial-out": "the quick start: tests/test_end_to_end.py runs the same plan --out and checks its exports "
-                                  "(about 4 s CPU, not spent twice)",
+    "(about 4 s CPU, not spent twice)",
     "plan-trial --ship kvlcc2 --map": "KVLCC2 on the 60 km open sea: 14 s CPU (106 s wall on the loaded machine)",
     "shiptrial mass ": "the roll mass estimate: 10 s CPU (its own tests run it)",
 }
@@ -62,9 +62,9 @@ def _substitute(cmd: str) -> str:
             depth += {"(": 1, ")": -1}.get(cmd[j], 0)
             if depth == 0:
                 break
-        inner = shlex.split(cmd[i + 2:j])
+        inner = shlex.split(cmd[i + 2 : j])
         assert inner[:2] == ["python", "-c"], inner
-        cmd = cmd[:i] + _python(inner[2]) + cmd[j + 1:]
+        cmd = cmd[:i] + _python(inner[2]) + cmd[j + 1 :]
     return cmd
 
 

@@ -115,8 +115,15 @@ def test_scale_header_parsed_and_froude_scaling_says_so(run, tmp_path):
     assert full.scale == "full"
 
 
-@pytest.mark.parametrize("meta,needle", [({"scale": "half"}, "model' or 'full"), ({"scale": "model"}, "scale_factor"),
-                                         ({"sample_time": "abc"}, "sample_time"), ({"scale_factor": "-2"}, "scale_factor")])
+@pytest.mark.parametrize(
+    "meta,needle",
+    [
+        ({"scale": "half"}, "model' or 'full"),
+        ({"scale": "model"}, "scale_factor"),
+        ({"sample_time": "abc"}, "sample_time"),
+        ({"scale_factor": "-2"}, "scale_factor"),
+    ],
+)
 def test_bad_scale_headers_are_refused(run, tmp_path, meta, needle):
     with pytest.raises(RecordingError, match=needle):
         read_csv(_with(run, tmp_path, meta=meta))
@@ -124,8 +131,15 @@ def test_bad_scale_headers_are_refused(run, tmp_path, meta, needle):
 
 def test_sample_time_differing_from_the_profile_is_refused_or_resampled(run, ship, tmp_path):
     coarse = run.window(0, len(run.t), "")
-    coarse = dataclasses.replace(coarse, t=run.t[::2], y=run.y[::2], psi=run.psi[::2], pos=run.pos[::2],
-                                 channels={k: v[::2] for k, v in run.channels.items()}, segments=None)
+    coarse = dataclasses.replace(
+        coarse,
+        t=run.t[::2],
+        y=run.y[::2],
+        psi=run.psi[::2],
+        pos=run.pos[::2],
+        channels={k: v[::2] for k, v in run.channels.items()},
+        segments=None,
+    )
     with pytest.raises(RecordingError, match=r"0\.25 s.*0\.125 s.*--resample"):
         check_sample_time(coarse, ship, resample=False)
     fine = check_sample_time(coarse, ship, resample=True)
@@ -135,8 +149,16 @@ def test_sample_time_differing_from_the_profile_is_refused_or_resampled(run, shi
 
 
 def test_cli_refuses_other_sample_time_unless_resample(run, tmp_path, capsys):
-    coarse = dataclasses.replace(run, t=run.t[::2], y=run.y[::2], psi=run.psi[::2], pos=run.pos[::2],
-                                 channels={k: v[::2] for k, v in run.channels.items()}, segments=None, meta={})
+    coarse = dataclasses.replace(
+        run,
+        t=run.t[::2],
+        y=run.y[::2],
+        psi=run.psi[::2],
+        pos=run.pos[::2],
+        channels={k: v[::2] for k, v in run.channels.items()},
+        segments=None,
+        meta={},
+    )
     p = write_csv(coarse, tmp_path / "coarse.csv")
     assert _run(["diagnose", str(p), "--ship", "model-ship"]) == 2
     assert "--resample" in capsys.readouterr().err
@@ -145,9 +167,18 @@ def test_cli_refuses_other_sample_time_unless_resample(run, tmp_path, capsys):
 def test_conform_froude_scales_a_model_scale_header_and_says_so(run, ship, tmp_path):
     """A recording whose header says model scale reaches the (full-scale) profile scaled, with a note."""
     lam = 4.0  # the model run of the ship at 1/4 scale: times / 2, lengths / 4, forces / 64, moments / 256
-    model = dataclasses.replace(run, t=run.t / 2, pos=run.pos / lam, y=run.y * [0.5, 0.5, 2.0], meta={},
-                                channels={"tau_x": run.channels["tau_x"] / lam**3, "tau_y": run.channels["tau_y"] / lam**3,
-                                          "tau_n": run.channels["tau_n"] / lam**4})
+    model = dataclasses.replace(
+        run,
+        t=run.t / 2,
+        pos=run.pos / lam,
+        y=run.y * [0.5, 0.5, 2.0],
+        meta={},
+        channels={
+            "tau_x": run.channels["tau_x"] / lam**3,
+            "tau_y": run.channels["tau_y"] / lam**3,
+            "tau_n": run.channels["tau_n"] / lam**4,
+        },
+    )
     rec = read_csv(_with(model, tmp_path, meta={"scale": "model", "scale_factor": str(lam)}))[0]
     out = conform([rec], ship)[0]
     assert out.sample_time == pytest.approx(ship.sample_time)

@@ -57,8 +57,7 @@ def _passes(path: Path, ship: str, **kw) -> list:
     return conform(load_recording(path, inputs=prof.inputs), prof, **kw)
 
 
-@pytest.mark.parametrize("name,speed,n", [("astern_2", -2.0, -1.0), ("astern_3", -3.0, -1.2),
-                                          ("engine_stopped", 1.0, 0.0)])
+@pytest.mark.parametrize("name,speed,n", [("astern_2", -2.0, -1.0), ("astern_3", -3.0, -1.2), ("engine_stopped", 1.0, 0.0)])
 def test_slow_astern_and_stopped_kvlcc2_runs_pass(tmp_path, name, speed, n):
     u = speed * ONE
     r = _nomoto(T1, ZIGZAG, u)
@@ -94,8 +93,17 @@ def _primitive_runs(ship: str, tmp: Path) -> list[Path]:
             continue
         t = np.arange(prim.n_samples + 1) * prof.sample_time
         inp = np.vstack([prim.inputs, prim.inputs[-1:]])
-        rec = Recording(prim.name, t, prim.nu.copy(), prim.track[:, 2].copy(), prim.track[:, :2].copy(),
-                        {k: inp[:, i] for i, k in enumerate(prof.inputs)}, None, {"scale": "full"}, [])
+        rec = Recording(
+            prim.name,
+            t,
+            prim.nu.copy(),
+            prim.track[:, 2].copy(),
+            prim.track[:, :2].copy(),
+            {k: inp[:, i] for i, k in enumerate(prof.inputs)},
+            None,
+            {"scale": "full"},
+            [],
+        )
         out.append(write_csv(rec, tmp / f"{ship}_{prim.name}.csv"))
     return out
 
@@ -114,14 +122,29 @@ def test_slow_and_station_keeping_runs_without_a_shaft_speed_pass(tmp_path):
     t = np.arange(0.0, 120.0, 0.125)
     one = np.ones(len(t))
     tau = {"tau_x": 300 * one, "tau_y": 0 * one, "tau_n": 50 * np.sign(np.sin(2 * np.pi * t / 30))}
-    slow = _run(tmp_path / "ms_slow.csv", t, 0.25 * one, 0.02 * np.sin(2 * np.pi * t / 30), 0.05 * np.sin(2 * np.pi * t / 30), tau)
-    dp = _run(tmp_path / "ms_dp.csv", t, 0.01 * np.sin(2 * np.pi * t / 20), 0.01 * np.cos(2 * np.pi * t / 25),
-              0.01 * np.sin(2 * np.pi * t / 15), tau, pos_noise=0.002)
+    slow = _run(
+        tmp_path / "ms_slow.csv", t, 0.25 * one, 0.02 * np.sin(2 * np.pi * t / 30), 0.05 * np.sin(2 * np.pi * t / 30), tau
+    )
+    dp = _run(
+        tmp_path / "ms_dp.csv",
+        t,
+        0.01 * np.sin(2 * np.pi * t / 20),
+        0.01 * np.cos(2 * np.pi * t / 25),
+        0.01 * np.sin(2 * np.pi * t / 15),
+        tau,
+        pos_noise=0.002,
+    )
     for p in (slow, dp):
         assert _passes(p, "model-ship")
     azi = {"n1": 10 * ONE, "alpha1": 1.57 * ONE, "n2": 10 * ONE, "alpha2": 1.57 * ONE}
-    crab = _run(tmp_path / "fs_crab.csv", T1, 0.05 * np.sin(2 * np.pi * T1 / 200), 0.5 * np.sin(np.pi * T1 / 600),
-                0.002 * np.sin(2 * np.pi * T1 / 100), azi)
+    crab = _run(
+        tmp_path / "fs_crab.csv",
+        T1,
+        0.05 * np.sin(2 * np.pi * T1 / 200),
+        0.5 * np.sin(np.pi * T1 / 600),
+        0.002 * np.sin(2 * np.pi * T1 / 100),
+        azi,
+    )
     assert _passes(crab, "full-scale")
 
 
@@ -146,10 +169,10 @@ def test_fast_roll_and_yaw_of_a_model_pass_and_degrees_are_still_caught(tmp_path
         text = bad.read_text().splitlines()
         head = text.index(next(ln for ln in text if ln.startswith("t,")))
         col = text[head].split(",").index("r")
-        rows = [ln.split(",") for ln in text[head + 1:]]
+        rows = [ln.split(",") for ln in text[head + 1 :]]
         for row in rows:
             row[col] = repr(-float(row[col]))
-        bad.write_text("\n".join(text[:head + 1] + [",".join(row) for row in rows]) + "\n")
+        bad.write_text("\n".join(text[: head + 1] + [",".join(row) for row in rows]) + "\n")
         needle = "'r' has the opposite sign"
     with pytest.raises(RecordingError, match=needle):
         load_recording(bad)
@@ -173,8 +196,15 @@ def test_slow_runs_with_gps_noise_pass_and_knots_are_still_caught(tmp_path, spee
 @pytest.mark.parametrize("noise", [0.1, 0.5, 1.0])
 def test_a_dp_run_within_the_gps_noise_passes(tmp_path, noise):
     azi = {"n1": 5 * ONE, "alpha1": 1.0 * ONE, "n2": 5 * ONE, "alpha2": -1.0 * ONE}
-    p = _run(tmp_path / "dp.csv", T1, 0.05 * np.sin(2 * np.pi * T1 / 200), 0.05 * np.cos(2 * np.pi * T1 / 150),
-             0.001 * np.sin(2 * np.pi * T1 / 100), azi, pos_noise=noise)
+    p = _run(
+        tmp_path / "dp.csv",
+        T1,
+        0.05 * np.sin(2 * np.pi * T1 / 200),
+        0.05 * np.cos(2 * np.pi * T1 / 150),
+        0.001 * np.sin(2 * np.pi * T1 / 100),
+        azi,
+        pos_noise=noise,
+    )
     assert load_recording(p)
 
 

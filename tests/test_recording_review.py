@@ -38,8 +38,14 @@ def marin(tmp_path_factory):
 
 
 def _variant(rec, path: Path, meta: dict | None = None, drop_meta: tuple[str, ...] = (), **cols) -> Path:
-    rec = dataclasses.replace(rec, channels=dict(rec.channels), y=rec.y.copy(), pos=rec.pos.copy(), t=rec.t.copy(),
-                              meta={k: v for k, v in rec.meta.items() if k not in drop_meta})
+    rec = dataclasses.replace(
+        rec,
+        channels=dict(rec.channels),
+        y=rec.y.copy(),
+        pos=rec.pos.copy(),
+        t=rec.t.copy(),
+        meta={k: v for k, v in rec.meta.items() if k not in drop_meta},
+    )
     for k, v in cols.items():
         if k in ("u", "v", "r"):
             rec.y[:, "uvr".index(k)] = v
@@ -74,24 +80,35 @@ def test_velocities_in_knots_are_refused_and_named(marin, ship, tmp_path):
     _refused(p, ship, ("'u', 'v'", "knots", "m/s"))
 
 
-@pytest.mark.parametrize("col,factor,needles", [("delta", np.degrees(1.0), ("'delta'", "35 deg", "deg?", "give rad")),
-                                                 ("n", 60.0, ("'n'", "2 rev/s", "rpm?", "give rev/s"))])
+@pytest.mark.parametrize(
+    "col,factor,needles",
+    [
+        ("delta", np.degrees(1.0), ("'delta'", "35 deg", "deg?", "give rad")),
+        ("n", 60.0, ("'n'", "2 rev/s", "rpm?", "give rev/s")),
+    ],
+)
 def test_inputs_in_degrees_or_rpm_are_named_not_blamed_on_the_model(marin, ship, tmp_path, col, factor, needles):
     zz, _, _ = marin
     p = _variant(zz, tmp_path / f"{col}.csv", **{col: zz.channels[col] * factor})
     _refused(p, ship, needles)
 
 
-@pytest.mark.parametrize("name,change,needles", [
-    ("deg_r", lambda z: {"r": np.degrees(z.y[:, 2])}, ("'r'", "deg/s", "rad/s")),
-    ("deg_phi", lambda z: {"phi": np.degrees(z.channels["phi"])}, ("'p'", "phi in degrees", "radians")),
-    ("r_flip", lambda z: {"r": -z.y[:, 2]}, ("'r'", "opposite sign", "flip its sign")),
-    ("v_flip", lambda z: {"v": -z.y[:, 1]}, ("'v'", "opposite sign", "starboard", "flip its sign")),
-    ("u_flip", lambda z: {"u": -z.y[:, 0]}, ("'u'", "opposite sign", "flip its sign")),
-    ("xy_swap", lambda z: {"pos": z.pos[:, ::-1].copy()}, ("'u', 'v'", "x and y look swapped")),
-    ("delta_flip", lambda z: {"delta": -z.channels["delta"]}, ("'delta'", "the other way", "flip the sign of delta",
-                                                               "positive delta turns to port")),
-])
+@pytest.mark.parametrize(
+    "name,change,needles",
+    [
+        ("deg_r", lambda z: {"r": np.degrees(z.y[:, 2])}, ("'r'", "deg/s", "rad/s")),
+        ("deg_phi", lambda z: {"phi": np.degrees(z.channels["phi"])}, ("'p'", "phi in degrees", "radians")),
+        ("r_flip", lambda z: {"r": -z.y[:, 2]}, ("'r'", "opposite sign", "flip its sign")),
+        ("v_flip", lambda z: {"v": -z.y[:, 1]}, ("'v'", "opposite sign", "starboard", "flip its sign")),
+        ("u_flip", lambda z: {"u": -z.y[:, 0]}, ("'u'", "opposite sign", "flip its sign")),
+        ("xy_swap", lambda z: {"pos": z.pos[:, ::-1].copy()}, ("'u', 'v'", "x and y look swapped")),
+        (
+            "delta_flip",
+            lambda z: {"delta": -z.channels["delta"]},
+            ("'delta'", "the other way", "flip the sign of delta", "positive delta turns to port"),
+        ),
+    ],
+)
 def test_rates_in_degrees_and_flipped_signs_are_refused(marin, ship, tmp_path, name, change, needles):
     zz, _, _ = marin
     _refused(_variant(zz, tmp_path / f"{name}.csv", **change(zz)), ship, needles)
@@ -101,28 +118,48 @@ def test_model_scale_run_without_its_header_is_refused_with_the_likely_cause(mar
     zz, _, _ = marin
     lam = 45.7
     s = np.sqrt(lam)
-    p = _variant(zz, tmp_path / "model_noheader.csv", drop_meta=("scale", "scale_factor"),
-                 meta={"sample_time": f"{1 / s:.9g}"}, t=zz.t / s, pos=zz.pos / lam,
-                 u=zz.y[:, 0] / s, v=zz.y[:, 1] / s, r=zz.y[:, 2] * s, n=zz.channels["n"] * s,
-                 p=zz.channels["p"] * s)
+    p = _variant(
+        zz,
+        tmp_path / "model_noheader.csv",
+        drop_meta=("scale", "scale_factor"),
+        meta={"sample_time": f"{1 / s:.9g}"},
+        t=zz.t / s,
+        pos=zz.pos / lam,
+        u=zz.y[:, 0] / s,
+        v=zz.y[:, 1] / s,
+        r=zz.y[:, 2] * s,
+        n=zz.channels["n"] * s,
+        p=zz.channels["p"] * s,
+    )
     msg = _refused(p, ship, ("0.15 x", "7.97 m/s service speed", "# scale: model"), resample=True)
     assert "Froude scale ~4" in msg  # ~46, from the speeds alone
     # the same file with its header is Froude-scaled and accepted
-    ok = _variant(zz, tmp_path / "model_header.csv", meta={"sample_time": f"{1 / s:.9g}", "scale": "model",
-                                                         "scale_factor": f"{lam:g}"},
-                  t=zz.t / s, pos=zz.pos / lam, u=zz.y[:, 0] / s, v=zz.y[:, 1] / s, r=zz.y[:, 2] * s,
-                  n=zz.channels["n"] * s, p=zz.channels["p"] * s)
+    ok = _variant(
+        zz,
+        tmp_path / "model_header.csv",
+        meta={"sample_time": f"{1 / s:.9g}", "scale": "model", "scale_factor": f"{lam:g}"},
+        t=zz.t / s,
+        pos=zz.pos / lam,
+        u=zz.y[:, 0] / s,
+        v=zz.y[:, 1] / s,
+        r=zz.y[:, 2] * s,
+        n=zz.channels["n"] * s,
+        p=zz.channels["p"] * s,
+    )
     assert conform(load_recording(ok), ship, resample=True)
 
 
-@pytest.mark.parametrize("name,text,needles", [
-    ("semicolon", lambda h, rows: [h.replace(",", ";")] + [r.replace(",", ";") for r in rows], ("semicolons", "commas")),
-    ("units", lambda h, rows: [",".join(f"{c} [x]" for c in h.split(","))] + rows, ("'t [x]'", "name it exactly 't'")),
-    ("upper", lambda h, rows: [h.upper()] + rows, ("'T'", "name it exactly 't'")),
-    ("dup", lambda h, rows: [h + ",r"] + [r + "," + r.split(",")[6] for r in rows], ("'r' appears twice",)),
-    ("extra", lambda h, rows: [h] + rows[:6] + [rows[6] + ",1.0"] + rows[7:], ("row 8", "fields", "11 columns")),
-    ("no_t", lambda h, rows: [h.replace("t,", "time,", 1)] + rows, ("missing required column(s) 't'", "header read")),
-])
+@pytest.mark.parametrize(
+    "name,text,needles",
+    [
+        ("semicolon", lambda h, rows: [h.replace(",", ";")] + [r.replace(",", ";") for r in rows], ("semicolons", "commas")),
+        ("units", lambda h, rows: [",".join(f"{c} [x]" for c in h.split(","))] + rows, ("'t [x]'", "name it exactly 't'")),
+        ("upper", lambda h, rows: [h.upper()] + rows, ("'T'", "name it exactly 't'")),
+        ("dup", lambda h, rows: [h + ",r"] + [r + "," + r.split(",")[6] for r in rows], ("'r' appears twice",)),
+        ("extra", lambda h, rows: [h] + rows[:6] + [rows[6] + ",1.0"] + rows[7:], ("row 8", "fields", "11 columns")),
+        ("no_t", lambda h, rows: [h.replace("t,", "time,", 1)] + rows, ("missing required column(s) 't'", "header read")),
+    ],
+)
 def test_header_mistakes_are_named_with_the_header_read(marin, tmp_path, name, text, needles):
     _, good, _ = marin
     lines = good.read_text().splitlines()
@@ -141,8 +178,13 @@ def test_header_mistakes_are_named_with_the_header_read(marin, tmp_path, name, t
 @pytest.mark.parametrize("declared", [True, False])
 def test_time_in_milliseconds_is_named(marin, ship, tmp_path, declared):
     zz, _, _ = marin
-    p = _variant(zz, tmp_path / "ms.csv", t=zz.t * 1000.0, meta={"sample_time": "1"} if declared else None,
-                 drop_meta=() if declared else ("sample_time",))
+    p = _variant(
+        zz,
+        tmp_path / "ms.csv",
+        t=zz.t * 1000.0,
+        meta={"sample_time": "1"} if declared else None,
+        drop_meta=() if declared else ("sample_time",),
+    )
     if not declared:
         text = p.read_text().splitlines()
         p.write_text("\n".join(ln for ln in text if not ln.startswith("# sample_time")) + "\n")
@@ -215,8 +257,10 @@ def test_unstable_baseline_names_the_profile_and_parameter_not_the_recording(mar
     prof.write_text(text.replace(nur, "yaw = [0.0005,").replace('name = "kvlcc2-linear"', 'name = "kvlcc2-unstable"'))
     _, good, val = marin
     out = tmp_path / "out"
-    rc, err = _cli(["diagnose", str(good), "--ship", str(prof), "--fit-on", str(DATA / "MARIN_FREE_KVLCC2_zz_10_m.dat"),
-                    "--out", str(out)], capsys)
+    rc, err = _cli(
+        ["diagnose", str(good), "--ship", str(prof), "--fit-on", str(DATA / "MARIN_FREE_KVLCC2_zz_10_m.dat"), "--out", str(out)],
+        capsys,
+    )
     assert rc == 2 and len(err.splitlines()) == 1, err
     assert "'kvlcc2-unstable'" in err and "yaw motion is unstable" in err and "Nur = +0.0005" in err
     assert "refit it with --fit-on" not in err and not out.exists()

@@ -29,8 +29,9 @@ CAL = Load(0.2, -0.256)
 
 def _stacked_g(x: np.ndarray, loaded: Load) -> np.ndarray:
     p = RollParams.from_vector(x)
-    return np.concatenate([discrete_coefficients(continuous_coefficients(p, PROF.known, ld), 0.02)
-                           for ld in (Load(0, 0), CAL, loaded)])
+    return np.concatenate(
+        [discrete_coefficients(continuous_coefficients(p, PROF.known, ld), 0.02) for ld in (Load(0, 0), CAL, loaded)]
+    )
 
 
 def test_tustin_ratios_invert_the_discretisation():

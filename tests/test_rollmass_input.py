@@ -46,7 +46,8 @@ def _edit(src: Path, dst: Path, fn) -> Path:
 def _negate(col: str):
     def fn(header, rows):
         i = header.index(col)
-        return header, [r[:i] + [repr(-float(r[i]))] + r[i + 1:] for r in rows]
+        return header, [r[:i] + [repr(-float(r[i]))] + r[i + 1 :] for r in rows]
+
     return fn
 
 
@@ -58,6 +59,7 @@ def _drop(*cols: str):
     def fn(header, rows):
         keep = [i for i, h in enumerate(header) if h not in cols]
         return [header[i] for i in keep], [[r[i] for i in keep] for r in rows]
+
     return fn
 
 
@@ -89,7 +91,9 @@ def test_speed_and_imu_position_come_from_the_headers(files):
 
     metas = [read_roll_csv(p)[1] for p in files]
     prof, notes = known_from_recordings(load_profile(), files, metas, explicit=False)
-    assert prof.known.U == pytest.approx(np.mean([float(m["speed_m_s"]) for m in metas]))  # the headers' speed, not the profile's 0.5
+    assert prof.known.U == pytest.approx(
+        np.mean([float(m["speed_m_s"]) for m in metas])
+    )  # the headers' speed, not the profile's 0.5
     assert prof.known.zbar_s == pytest.approx(np.mean([float(m["imu_z_m"]) for m in metas]))
 
 
@@ -118,6 +122,7 @@ def test_every_missing_column_in_one_message(files, capsys, tmp_path):
 def test_an_unknown_column_is_noted_never_silently_ignored(files, tmp_path):
     def add(header, rows):
         return header + ["vdot"], [r + ["0"] for r in rows]
+
     rec, _ = read_roll_csv(_edit(files[0], tmp_path / "nominal.csv", add))
     assert any("'vdot' is not read" in n for n in rec.notes)
 
@@ -139,7 +144,9 @@ def test_unusable_intervals_are_warned():
 def test_output_and_help_say_one_height_convention(files, capsys, monkeypatch):
     from diagnose.rollmass import api
 
-    monkeypatch.setattr(api, "estimate_from_files", lambda *a, **k: MassEstimate("oe", {}, 0.2, -0.267, m_sd=0.01, zbar_m_sd=0.004, corr=0.9))
+    monkeypatch.setattr(
+        api, "estimate_from_files", lambda *a, **k: MassEstimate("oe", {}, 0.2, -0.267, m_sd=0.01, zbar_m_sd=0.004, corr=0.9)
+    )
     assert _run(["mass", *map(str, files)]) == 0
     out = capsys.readouterr().out
     assert "load z -0.2670 m, i.e. 0.267 m above the waterline (z positive down" in out

@@ -39,8 +39,9 @@ def test_z_f_sensitivity_matches_the_slope_of_converged_refits():
     opt = {}
     for dz in (-h, 0.0, h):
         prob = _Problem(ds, kn, CAL, z_f + dz, FREE, w, ar)
-        opt[dz] = least_squares(prob.residual, x0, jac="3-point", method="trf", x_scale="jac", xtol=1e-12,
-                                ftol=1e-12, gtol=1e-10, max_nfev=100).x
+        opt[dz] = least_squares(
+            prob.residual, x0, jac="3-point", method="trf", x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-10, max_nfev=100
+        ).x
     prob = _Problem(ds, kn, CAL, z_f, FREE, w, ar)
     sens = z_f_sensitivity(prob, opt[0.0], central_jacobian(prob.residual, opt[0.0]))[-2:]
     slope = (opt[h] - opt[-h])[-2:] / (2 * h)

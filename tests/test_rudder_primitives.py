@@ -34,9 +34,22 @@ def _heading_deg(p, k):
 
 def test_kvlcc2_library_has_the_issue_manoeuvres():
     names = {p.name for p in kv_lib()}
-    assert {"zigzag_10_10_s", "zigzag_10_10_p", "zigzag_20_20_s", "zigzag_20_20_p", "turning_circle_35_s",
-            "turning_circle_35_p", "pull_out_20_s", "direct_spiral", "acceleration", "deceleration", "stopping",
-            "straight", "turn_s", "turn_p"} <= names
+    assert {
+        "zigzag_10_10_s",
+        "zigzag_10_10_p",
+        "zigzag_20_20_s",
+        "zigzag_20_20_p",
+        "turning_circle_35_s",
+        "turning_circle_35_p",
+        "pull_out_20_s",
+        "direct_spiral",
+        "acceleration",
+        "deceleration",
+        "stopping",
+        "straight",
+        "turn_s",
+        "turn_p",
+    } <= names
     assert sum(n.startswith("zz_exc_") for n in names) == 4
     assert "spot_turn_s" not in names  # a single-screw ship cannot turn on the spot
 
@@ -112,7 +125,9 @@ def _without_helm_engine(text):
 
 
 def test_user_rudder_profile_without_helm_gets_defaults(tmp_path):
-    prof = load_profile(_user_profile(tmp_path, _without_helm_engine(KVLCC2_TOML).replace('name = "kvlcc2"', 'name = "my-tanker"')))
+    prof = load_profile(
+        _user_profile(tmp_path, _without_helm_engine(KVLCC2_TOML).replace('name = "kvlcc2"', 'name = "my-tanker"'))
+    )
     assert prof.helm.rudder_rate_deg_s == 2.32 and prof.helm.max_rudder_deg == pytest.approx(35.0, abs=0.01)
     assert prof.helm.starboard_sign == -1.0  # derived from the model's yaw response
     assert prof.engine.rps_limits == (0.0, 2.0)

@@ -21,8 +21,9 @@ def test_the_scenario_says_which_ships_it_supports(name):
         with pytest.raises(ProfileError) as err:
             thesis_planning_scenario(prof)
         if prof.planar:  # the message of before: the scenario's zig-zags hold steady generalized forces
-            assert str(err.value) == (f"profile {name!r}: steady generalized forces need generalized-force or azimuth "
-                                      "inputs, not rudder/propeller")
+            assert str(err.value) == (
+                f"profile {name!r}: steady generalized forces need generalized-force or azimuth inputs, not rudder/propeller"
+            )
         else:
             assert "is a 4-DOF pods profile; steady_forces supports 3-DOF ships only" in str(err.value)
 

@@ -184,11 +184,17 @@ def test_cli_stray_key_exit_code_from_the_installed_command(tmp_path):
     text = _with_line((PROFILE_DIR / "naval-vessel.toml").read_text(), "[rigid_body]", "yaw_moment = 1.0")
     path = tmp_path / "stray.toml"
     path.write_text(text)
-    proc = subprocess.run([sys.executable, "-c", "from cli.app import main; main()", "primitives", "--ship", str(path)],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-c", "from cli.app import main; main()", "primitives", "--ship", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2
-    assert proc.stderr.strip() == (f"error: {path}: unknown key 'yaw_moment' in [rigid_body]; accepted keys: mass, I_x, "
-                                   "I_z, x_g, z_g, X_udot, Y_vdot, Y_pdot, Y_rdot, K_vdot, K_pdot, N_vdot, N_rdot")
+    assert proc.stderr.strip() == (
+        f"error: {path}: unknown key 'yaw_moment' in [rigid_body]; accepted keys: mass, I_x, "
+        "I_z, x_g, z_g, X_udot, Y_vdot, Y_pdot, Y_rdot, K_vdot, K_pdot, N_vdot, N_rdot"
+    )
 
 
 def test_every_bundled_profile_loads():

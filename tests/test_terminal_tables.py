@@ -21,7 +21,9 @@ def narrow(monkeypatch):
 def test_plan_summary_fits_80_columns_and_keeps_port_and_starboard(narrow, capsys):
     from cli.plan_cmd import print_summary
 
-    plan = synthetic_plan("full-scale", ("straight", "zigzag_10_10_s", "turning_circle_35_p", "spot_turn_s", "tau16"), run_in=True)
+    plan = synthetic_plan(
+        "full-scale", ("straight", "zigzag_10_10_s", "turning_circle_35_p", "spot_turn_s", "tau16"), run_in=True
+    )
     plan = replace(plan, min_clearance_m=math.inf)
     print_summary(plan, {}, {})
     out = capsys.readouterr().out
@@ -39,10 +41,16 @@ def test_plan_summary_fits_80_columns_and_keeps_port_and_starboard(narrow, capsy
 def test_design_summary_lists_every_primitive_the_rounding_uses(capsys):
     from cli.design_cmd import _echo_design
 
-    d = SimpleNamespace(criterion="D", mean_subtraction="complete", weights={"tau12": 0.6, "turning_circle_35_s": 0.396, "tau17": 0.004},
-                        rounded={"tau12": 3, "turning_circle_35_s": 2, "tau17": 1}, unit_s={"tau12": 200.0, "turning_circle_35_s": 300.0,
-                                                                                           "tau17": 200.0},
-                        efficiency_vs_uniform=1.2, efficiency_bound=0.99, references={})
+    d = SimpleNamespace(
+        criterion="D",
+        mean_subtraction="complete",
+        weights={"tau12": 0.6, "turning_circle_35_s": 0.396, "tau17": 0.004},
+        rounded={"tau12": 3, "turning_circle_35_s": 2, "tau17": 1},
+        unit_s={"tau12": 200.0, "turning_circle_35_s": 300.0, "tau17": 200.0},
+        efficiency_vs_uniform=1.2,
+        efficiency_bound=0.99,
+        references={},
+    )
     _echo_design("full-scale", d)
     out = capsys.readouterr().out
     assert all(n in out for n in d.rounded)  # tau17 has under 0.5 % but is rounded to one run: design.json has it

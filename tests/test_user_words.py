@@ -25,8 +25,20 @@ def test_help_has_no_internal_words(command, capsys):
 
 
 def test_commands_cover_the_app():
-    assert {"primitives", "design", "plan", "export", "diagnose", "sweep", "yawid", "yawid-sim", "detect", "detect-prior", "mass",
-            "mass-sim"} <= set(COMMANDS)
+    assert {
+        "primitives",
+        "design",
+        "plan",
+        "export",
+        "diagnose",
+        "sweep",
+        "yawid",
+        "yawid-sim",
+        "detect",
+        "detect-prior",
+        "mass",
+        "mass-sim",
+    } <= set(COMMANDS)
 
 
 def test_diagnosis_report_has_no_internal_words(damping_diagnosis):

@@ -87,8 +87,10 @@ def test_identifiability_of_section_2_4_2(nv, clean):
     assert harbour.signals["u"].min() < -1.0  # the thesis's pods-at-90-deg exit goes astern
     with pytest.raises(UserError, match="astern"):
         check_forward(harbour, "harbour exit")
-    both = YawData(np.arange(clean.t.size + harbour.t.size) * clean.sample_time,
-                   {k: np.concatenate([clean.signals[k], harbour.signals[k]]) for k in clean.signals})
+    both = YawData(
+        np.arange(clean.t.size + harbour.t.size) * clean.sample_time,
+        {k: np.concatenate([clean.signals[k], harbour.signals[k]]) for k in clean.signals},
+    )
     assert yaw_identifiability(both, "physical").rank_deficiency == 1  # |u| r and u r separate: no single A
 
 
@@ -103,8 +105,10 @@ def test_recording_roundtrip_and_missing_signals(tmp_path, nv, capsys):
     def without(name):
         j = cols.index(name)
         out = tmp_path / f"no_{name}.csv"
-        out.write_text("\n".join(text[:header] + [",".join(c for i, c in enumerate(line.split(",")) if i != j)
-                                                     for line in text[header:]]) + "\n")
+        out.write_text(
+            "\n".join(text[:header] + [",".join(c for i, c in enumerate(line.split(",")) if i != j) for line in text[header:]])
+            + "\n"
+        )
         return out
 
     with pytest.raises(RecordingError, match="no column 'phi'"):
@@ -129,8 +133,16 @@ def test_pod_inputs_stand_in_for_a_measured_moment(tmp_path, nv):
     res = simulate(nv, inputs)
     nu, eta = res.nu[0, :-1], res.eta[0, :-1]
     clean = true_signals(nv, inputs)
-    cols = {"t": res.t[:-1], "r": nu[:, 2], "u": nu[:, 0], "v": nu[:, 1], "p": nu[:, 3], "phi": eta[:, 3],
-            "v_dot": clean.signals["v_dot"], **{name: inputs[:, i] for i, name in enumerate(nv.inputs)}}
+    cols = {
+        "t": res.t[:-1],
+        "r": nu[:, 2],
+        "u": nu[:, 0],
+        "v": nu[:, 1],
+        "p": nu[:, 3],
+        "phi": eta[:, 3],
+        "v_dot": clean.signals["v_dot"],
+        **{name: inputs[:, i] for i, name in enumerate(nv.inputs)},
+    }
     path = tmp_path / "pods.csv"
     np.savetxt(path, np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols), comments="")
     data = read_yaw_csv(path, FULL, nv)

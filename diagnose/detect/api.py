@@ -58,8 +58,9 @@ def load_runs(paths: list[Path] | list[str], kind: str | None = None, notes: lis
             missing.insert(0, "x, y (north, east, m) or lat, lon (deg)")
         missing[:0] = [f"{c} ({what})" for c, what in (("t", "time, s"), ("psi", "heading, rad")) if c not in header]
         if missing:
-            raise RecordingError(f"{p}: missing column(s): {'; '.join(missing)}; add them (README: 'Recordings for "
-                                 "detect and detect-prior')")
+            raise RecordingError(
+                f"{p}: missing column(s): {'; '.join(missing)}; add them (README: 'Recordings for detect and detect-prior')"
+            )
         if notes is not None:
             notes.extend(unknown_column_notes(p, header))
         runs = load_recording(p)
@@ -68,8 +69,10 @@ def load_runs(paths: list[Path] | list[str], kind: str | None = None, notes: lis
         recs.extend(runs)
     dts = {round(r.sample_time, 9) for r in recs}
     if len(dts) > 1:
-        raise RecordingError(f"{', '.join(str(p) for p in paths)}: different sample times {sorted(dts)} s; "
-                             "resample the recordings to one sample time")
+        raise RecordingError(
+            f"{', '.join(str(p) for p in paths)}: different sample times {sorted(dts)} s; "
+            "resample the recordings to one sample time"
+        )
     return recs
 
 
@@ -89,8 +92,11 @@ def unknown_column_notes(path: Path | str, header: list[str]) -> list[str]:
 
 
 def _header(path: Path) -> list[str]:
-    _, body = split_metadata(read_input_text(path, RecordingError, "a recording CSV (README: 'Recordings for detect "
-                                             "and detect-prior')", "utf-8-sig").splitlines()[:200])
+    _, body = split_metadata(
+        read_input_text(
+            path, RecordingError, "a recording CSV (README: 'Recordings for detect and detect-prior')", "utf-8-sig"
+        ).splitlines()[:200]
+    )
     return [h.strip() for h in body[0].split(",")] if body else []
 
 
@@ -107,8 +113,10 @@ def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarra
     sig = {"u": u, "v": v} | ({"tau_r": rec.channels[MOMENT]} if MOMENT in rec.channels else {})
     if kind == "full":
         if "phi" not in rec.channels:
-            raise RecordingError(f"{rec.source}: no column 'phi' (roll, rad) that the full model (2.17) needs; "
-                                 "add it or use the simplified model (--model simplified)")
+            raise RecordingError(
+                f"{rec.source}: no column 'phi' (roll, rad) that the full model (2.17) needs; "
+                "add it or use the simplified model (--model simplified)"
+            )
         sig["phi"] = rec.channels["phi"]
         if SWAY_ACC in rec.channels:
             sig["v_dot"] = rec.channels[SWAY_ACC]
@@ -141,17 +149,20 @@ def _deriver(rec: Recording, kind: str):
         p = np.broadcast_to(p_rec[col], v.shape) if p_rec is not None else rate(sig["phi"]) if "phi" in sig else np.zeros_like(v)
         # the pod model is nonlinear in the motion (drift angle, speed squared): feed it the
         # low-passed motion (v fused with v'), as the prior's inputs are, so noise does not bias tau_r
-        motion = model_inputs({"u": sig["u"], "v": v, "r": r, "p": p} | ({"v_dot": out["v_dot"]} if "v_dot" in out else {}),
-                              dt, PREFILTER_HZ)
-        out["tau_r"] = pod_yaw_moment(base_profile(), {k: x[col] for k, x in pods.items()},
-                                      **{k: motion[k] for k in ("u", "v", "r", "p")})
+        motion = model_inputs(
+            {"u": sig["u"], "v": v, "r": r, "p": p} | ({"v_dot": out["v_dot"]} if "v_dot" in out else {}), dt, PREFILTER_HZ
+        )
+        out["tau_r"] = pod_yaw_moment(
+            base_profile(), {k: x[col] for k, x in pods.items()}, **{k: motion[k] for k in ("u", "v", "r", "p")}
+        )
         return {k: out[k] for k in SIGNALS[kind]}
 
     return derive
 
 
-def fit_prior(paths: list[Path] | list[str], kind: str = "full", bootstrap: int = 64, seed: int = 0,
-              notes: list[str] | None = None) -> YawPrior:
+def fit_prior(
+    paths: list[Path] | list[str], kind: str = "full", bootstrap: int = 64, seed: int = 0, notes: list[str] | None = None
+) -> YawPrior:
     """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s),
     its parameter error described by ``bootstrap`` parametric-bootstrap refits of the nominal
     data (errors in variables: noisy u, v, phi and the v', tau_r derived from them)."""
@@ -162,8 +173,7 @@ def fit_prior(paths: list[Path] | list[str], kind: str = "full", bootstrap: int 
     sig, r = signals(rec, kind)
     if np.ptp(r) < 1e-3:
         raise RecordingError(f"{rec.source}: the yaw rate hardly moves (range {np.ptp(r):.1e} rad/s); a prior needs turning")
-    return fit(kind, sig, r, rec.sample_time, source=str(rec.source), bootstrap=bootstrap, seed=seed,
-               derive=_deriver(rec, kind))
+    return fit(kind, sig, r, rec.sample_time, source=str(rec.source), bootstrap=bootstrap, seed=seed, derive=_deriver(rec, kind))
 
 
 def save_prior(prior: YawPrior, path: Path) -> Path:
@@ -175,7 +185,9 @@ def load_prior(path: Path) -> YawPrior:
     try:
         d = json.loads(text)
     except ValueError as e:
-        raise UserError(f"{path}: not JSON ({e.msg} at line {e.lineno}); give a prior written by 'shiptrial detect-prior'") from None
+        raise UserError(
+            f"{path}: not JSON ({e.msg} at line {e.lineno}); give a prior written by 'shiptrial detect-prior'"
+        ) from None
     if not isinstance(d, dict):
         raise UserError(f"{path}: not a yaw prior; give a prior written by 'shiptrial detect-prior'")
     return YawPrior.from_dict(d, where=str(path))
@@ -211,10 +223,17 @@ class Detection:
     t: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
 
     def summary(self) -> dict:
-        return {"recording": self.source, "changed": self.changed, "alarm_s": self.alarm_s, "property": self.property,
-                "onset_s": self.evidence.get("onset_s") if self.changed else None,
-                "onset_interval_s": self.evidence.get("onset_interval_s") if self.changed else None,
-                "threshold": dict(zip(CANDIDATES, map(float, self.threshold))), "evidence": self.evidence, "dead_zone_cusum_alarm_s": self.dead_zone_alarm_s}
+        return {
+            "recording": self.source,
+            "changed": self.changed,
+            "alarm_s": self.alarm_s,
+            "property": self.property,
+            "onset_s": self.evidence.get("onset_s") if self.changed else None,
+            "onset_interval_s": self.evidence.get("onset_interval_s") if self.changed else None,
+            "threshold": dict(zip(CANDIDATES, map(float, self.threshold))),
+            "evidence": self.evidence,
+            "dead_zone_cusum_alarm_s": self.dead_zone_alarm_s,
+        }
 
 
 def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float | None:
@@ -227,8 +246,10 @@ def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float |
     return rel * i_r / i_z if i_z > 0 else None
 
 
-_UNITS_FIX = (f"check the units and signs: {MOMENT} in N m, > 0 turning the ship to starboard, and r in rad/s, "
-              "> 0 turning to starboard (README: 'Recordings for detect and detect-prior')")
+_UNITS_FIX = (
+    f"check the units and signs: {MOMENT} in N m, > 0 turning the ship to starboard, and r in rad/s, "
+    "> 0 turning to starboard (README: 'Recordings for detect and detect-prior')"
+)
 
 
 def check_inputs(rec: Recording, tau_r: np.ndarray, r: np.ndarray, eps: np.ndarray, sigma: float) -> None:
@@ -241,13 +262,17 @@ def check_inputs(rec: Recording, tau_r: np.ndarray, r: np.ndarray, eps: np.ndarr
         r_dot = savgol_filter(r, win, 2, deriv=1, delta=rec.sample_time) if win > 2 else np.gradient(r, rec.sample_time)
         c = float(np.corrcoef(tau_r, r_dot)[0, 1])
         if not c > 0:
-            raise RecordingError(f"{rec.source}: column '{MOMENT}' correlates {c:+.2f} with the rate of r (a pod yaw "
-                                 f"moment turns the ship its way: expected > 0); {_UNITS_FIX}")
+            raise RecordingError(
+                f"{rec.source}: column '{MOMENT}' correlates {c:+.2f} with the rate of r (a pod yaw "
+                f"moment turns the ship its way: expected > 0); {_UNITS_FIX}"
+            )
     rms = float(np.sqrt(np.mean(eps**2)))
     if not np.isfinite(rms) or rms > MISFIT_SIGMAS * sigma:
-        raise RecordingError(f"{rec.source}: the prior's yaw rate misses the recording's by {rms:.2g} rad/s rms, "
-                             f"{rms / sigma:.0f}x its noise {sigma:.2g} rad/s (over {MISFIT_SIGMAS:g}x is no ship "
-                             f"change: an input error); {_UNITS_FIX}")
+        raise RecordingError(
+            f"{rec.source}: the prior's yaw rate misses the recording's by {rms:.2g} rad/s rms, "
+            f"{rms / sigma:.0f}x its noise {sigma:.2g} rad/s (over {MISFIT_SIGMAS:g}x is no ship "
+            f"change: an input error); {_UNITS_FIX}"
+        )
 
 
 def _decide(eps, S, prior, st, h, null_raw, min_change, n_rdot) -> tuple[int, dict]:
@@ -271,22 +296,36 @@ def _decide(eps, S, prior, st, h, null_raw, min_change, n_rdot) -> tuple[int, di
         if abs(size) >= min_change and abs(c["relative_change"]) >= 2 * c["std"]:
             return end - 1, ev | {"onset": (tau, lo, hi)}  # the alarm time is when its evidence ends
     tau, lo, hi = onset(eps, S, prior, len(eps), int(np.argmax((st / h).max(axis=0))))
-    return -1, attribute(eps, S, prior, len(eps), null_raw, start=0) | {"onset": (tau, lo, hi), "crossed_but_below_min_change": bool(len(over))}
+    return -1, attribute(eps, S, prior, len(eps), null_raw, start=0) | {
+        "onset": (tau, lo, hi),
+        "crossed_but_below_min_change": bool(len(over)),
+    }
 
 
-def detect(rec: Recording, prior: YawPrior, false_alarm: float = 0.02, min_change: float = 0.05, seed: int = 0,
-           null_runs: int = 400, n_rdot: float = N_RDOT) -> Detection:
+def detect(
+    rec: Recording,
+    prior: YawPrior,
+    false_alarm: float = 0.02,
+    min_change: float = 0.05,
+    seed: int = 0,
+    null_runs: int = 400,
+    n_rdot: float = N_RDOT,
+) -> Detection:
     """Signature LR-CUSUM (and, for comparison, the dead-zone CUSUM of (5.1)) on one recording,
     calibrated for ``false_alarm`` per recording length from the prior alone; an alarm also needs
     the estimated change to reach ``min_change`` and twice its own noise (:func:`_decide`). The
     evidence holds the change point with its 95 % interval and, for yaw inertia, the change of
     I_z = I_r + ``n_rdot`` beside that of the lumped I_r."""
     if abs(rec.sample_time - prior.dt) > 1e-6 * prior.dt:
-        raise RecordingError(f"{rec.source}: sample time {rec.sample_time:g} s differs from the prior's {prior.dt:g} s; "
-                             "resample the recording or fit the prior on data of this sample time")
+        raise RecordingError(
+            f"{rec.source}: sample time {rec.sample_time:g} s differs from the prior's {prior.dt:g} s; "
+            "resample the recording or fit the prior on data of this sample time"
+        )
     if rec.n_samples < 20 * prior.block:
-        raise RecordingError(f"{rec.source}: {rec.duration_s:.0f} s is too short to detect a change; give at least "
-                             f"{20 * prior.block * prior.dt:.0f} s")
+        raise RecordingError(
+            f"{rec.source}: {rec.duration_s:.0f} s is too short to detect a change; give at least "
+            f"{20 * prior.block * prior.dt:.0f} s"
+        )
     sig, r = signals(rec, prior.kind)
     r0 = float(np.mean(r[:5]))
     eps = r - prior.predict(sig, r0=r0)
@@ -310,14 +349,30 @@ def detect(rec: Recording, prior: YawPrior, false_alarm: float = 0.02, min_chang
     inertia = ev["candidates"]["yaw_inertia"]
     iz = physical_change("yaw_inertia", inertia["relative_change"], prior.values["I_r"], n_rdot)
     scale = iz / inertia["relative_change"] if iz is not None and inertia["relative_change"] else None
-    inertia |= {"I_z_relative_change": iz, "I_z_std": None if scale is None else abs(scale) * inertia["std"],
-                "N_rdot": n_rdot, "I_r": prior.values["I_r"]}
+    inertia |= {
+        "I_z_relative_change": iz,
+        "I_z_std": None if scale is None else abs(scale) * inertia["std"],
+        "N_rdot": n_rdot,
+        "I_r": prior.values["I_r"],
+    }
     ev["statistic_max"] = {c: float(st[:, k].max()) for k, c in enumerate(CANDIDATES)}
     ev["residual_rms"] = float(np.sqrt(np.mean(eps**2)))
     ev["prior_sigma"] = prior.sigma
-    tb = t[prior.block - 1:: prior.block][: len(st)]
-    return Detection(str(rec.source), i >= 0, float(t[i]) if i >= 0 else None, ev["property"] if i >= 0 else None, ev,
-                     float(t[j]) if j >= 0 else None, sc.h, tb, st, g, dz.h, t)
+    tb = t[prior.block - 1 :: prior.block][: len(st)]
+    return Detection(
+        str(rec.source),
+        i >= 0,
+        float(t[i]) if i >= 0 else None,
+        ev["property"] if i >= 0 else None,
+        ev,
+        float(t[j]) if j >= 0 else None,
+        sc.h,
+        tb,
+        st,
+        g,
+        dz.h,
+        t,
+    )
 
 
 def plot(dets: list[Detection], path: Path, panels: int = 4) -> list[Path]:
@@ -345,17 +400,25 @@ def _figure(dets: list[Detection], path: Path) -> Path:
     fig, axes = plt.subplots(len(dets), 1, figsize=(9, 3.4 * len(dets)), squeeze=False)
     for ax, d in zip(axes[:, 0], dets):
         for k, c in enumerate(CANDIDATES):
-            ax.plot(d.t_blocks, d.statistic[:, k] / d.threshold[k],
-                    label=f"LR-CUSUM {c.replace('_', ' ')} / h = {d.threshold[k]:.1f}")
+            ax.plot(
+                d.t_blocks, d.statistic[:, k] / d.threshold[k], label=f"LR-CUSUM {c.replace('_', ' ')} / h = {d.threshold[k]:.1f}"
+            )
         ax2 = ax.twinx()
-        ax2.plot(d.t[: len(d.dead_zone)], d.dead_zone / d.dead_zone_h, color="0.5", lw=0.8,
-                 label=f"dead-zone CUSUM (5.1) / h = {d.dead_zone_h:.3g}")
+        ax2.plot(
+            d.t[: len(d.dead_zone)],
+            d.dead_zone / d.dead_zone_h,
+            color="0.5",
+            lw=0.8,
+            label=f"dead-zone CUSUM (5.1) / h = {d.dead_zone_h:.3g}",
+        )
         ax2.set_ylabel("dead-zone CUSUM / threshold", color="0.4")
         ax.axhline(1.0, color="k", ls="--", lw=1, label="threshold (both)")
         lo, hi = d.evidence["onset_interval_s"]
         if d.changed:
             ax.axvline(d.alarm_s, color="r", lw=1.2, label=f"alarm {d.alarm_s:.0f} s")
-            ax.axvspan(lo, hi, color="r", alpha=0.12, label=f"change point {d.evidence['onset_s']:.0f} s (95 %: {lo:.0f}-{hi:.0f})")
+            ax.axvspan(
+                lo, hi, color="r", alpha=0.12, label=f"change point {d.evidence['onset_s']:.0f} s (95 %: {lo:.0f}-{hi:.0f})"
+            )
         if d.dead_zone_alarm_s is not None:
             ax.axvline(d.dead_zone_alarm_s, color="0.4", ls=":", lw=1.2, label=f"dead-zone alarm {d.dead_zone_alarm_s:.0f} s")
         verdict = f"changed, {d.property.replace('_', ' ')}" if d.changed else "no change detected"
@@ -372,9 +435,17 @@ def _figure(dets: list[Detection], path: Path) -> Path:
     return out
 
 
-def simulated_recording(vessel: Vessel, duration_s: float = 500.0, dt: float = 0.1, seed: int = 0,
-                        noise_scale: float = 1.0, change_at_s: float | None = None, changed: Vessel | None = None,
-                        source: str = "simulated", measured_moment: bool = False) -> Recording:
+def simulated_recording(
+    vessel: Vessel,
+    duration_s: float = 500.0,
+    dt: float = 0.1,
+    seed: int = 0,
+    noise_scale: float = 1.0,
+    change_at_s: float | None = None,
+    changed: Vessel | None = None,
+    source: str = "simulated",
+    measured_moment: bool = False,
+) -> Recording:
     """A podded-ship recording simulated by the shared kernel (``naval-vessel`` profile, changed as
     ``vessel`` says) with Table 4.1 noise on u, v, r, phi and the measured sway acceleration
     ``v_dot`` (and, with ``measured_moment``, on a measured pod yaw moment ``tau_r``, as the
@@ -395,9 +466,22 @@ def simulated_recording(vessel: Vessel, duration_s: float = 500.0, dt: float = 0
     m = len(tr["r"])
     rng = np.random.default_rng(seed + 1)
     noisy = measure(tr, {k: noise_scale * sd for k, sd in TABLE_4_1.items()}, rng)
-    chans = {"phi": noisy["phi"], SWAY_ACC: noisy["v_dot"], "n1": ch[:, 0], "alpha1": ch[:, 1], "n2": ch[:, 2], "alpha2": ch[:, 3]}
+    chans = {
+        "phi": noisy["phi"],
+        SWAY_ACC: noisy["v_dot"],
+        "n1": ch[:, 0],
+        "alpha1": ch[:, 1],
+        "n2": ch[:, 2],
+        "alpha2": ch[:, 3],
+    }
     if measured_moment:
         chans[MOMENT] = noisy["tau_r"]
-    rec = Recording(source, np.arange(m) * dt, np.column_stack([noisy["u"], noisy["v"], noisy["r"]]), tr["psi"],
-                    np.column_stack([tr["x"], tr["y"]]), chans)
+    rec = Recording(
+        source,
+        np.arange(m) * dt,
+        np.column_stack([noisy["u"], noisy["v"], noisy["r"]]),
+        tr["psi"],
+        np.column_stack([tr["x"], tr["y"]]),
+        chans,
+    )
     return replace(rec, meta={"sample_time": f"{dt:g}"})

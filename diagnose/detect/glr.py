@@ -59,8 +59,9 @@ class SignatureCusum:
         return np.where(b >= 0, (b + 1) * self.prior.block - 1, -1)
 
 
-def calibrate(prior: YawPrior, S: np.ndarray, null: np.ndarray, theta1: float | np.ndarray = 0.05,
-              false_alarm: float = 0.02, seed: int = 0) -> SignatureCusum:
+def calibrate(
+    prior: YawPrior, S: np.ndarray, null: np.ndarray, theta1: float | np.ndarray = 0.05, false_alarm: float = 0.02, seed: int = 0
+) -> SignatureCusum:
     """Thresholds, one per candidate: the same quantile ``q`` of each candidate's statistic maximum
     over ``null`` (nb, runs) no-change block residuals (:func:`yawmodel.null_records`), ``q`` chosen
     so that a fraction ``false_alarm`` of the no-change records alarms on any candidate. Candidate
@@ -78,7 +79,7 @@ def calibrate(prior: YawPrior, S: np.ndarray, null: np.ndarray, theta1: float | 
         Sb = block_mean(S, prior.block)[: len(null)]
         for k, sd in enumerate(prior.structure):
             if sd > 0:
-                peaks[:, k] = det.statistics(null + sd * xi[None, :] * Sb[:, k:k + 1], S)[..., k].max(axis=0)
+                peaks[:, k] = det.statistics(null + sd * xi[None, :] * Sb[:, k : k + 1], S)[..., k].max(axis=0)
     lo, hi = 1 - false_alarm, 1.0
     for _ in range(30):  # bisection on the common quantile level
         q = 0.5 * (lo + hi)
@@ -111,8 +112,7 @@ def onset(eps: np.ndarray, S: np.ndarray, prior: YawPrior, upto: int, k: int) ->
     return best * prior.block, int(inside[0]) * prior.block, int(inside[-1] + 1) * prior.block
 
 
-def attribute(eps: np.ndarray, S: np.ndarray, prior: YawPrior, upto: int, null: np.ndarray | None = None,
-              start: int = 0) -> dict:
+def attribute(eps: np.ndarray, S: np.ndarray, prior: YawPrior, upto: int, null: np.ndarray | None = None, start: int = 0) -> dict:
     """Which candidate explains the residual from sample ``start`` up to ``upto``: per candidate, the
     GLR estimate ``theta_j = sum S_j eps / sum S_j^2`` (whitened) and its log-likelihood ratio
     ``(sum S_j eps)^2 / (2 s^2 sum S_j^2)``. A property is named only when its log-likelihood ratio
@@ -135,8 +135,12 @@ def attribute(eps: np.ndarray, S: np.ndarray, prior: YawPrior, upto: int, null: 
     llr = num**2 / (2 * s2 * den)
     order = np.argsort(-llr)
     close = [CANDIDATES[int(i)] for i in order if llr[order[0]] - llr[i] < SEPARATION]
-    return {"property": close[0] if len(close) == 1 else "undecided",
-            "undecided_between": close if len(close) > 1 else [],
-            "candidates": {c: {"relative_change": float(num[i] / den[i]), "llr": float(llr[i]), "std": float(std[i])}
-                           for i, c in enumerate(CANDIDATES)},
-            "llr_margin": float(llr[order[0]] - llr[order[1]])}
+    return {
+        "property": close[0] if len(close) == 1 else "undecided",
+        "undecided_between": close if len(close) > 1 else [],
+        "candidates": {
+            c: {"relative_change": float(num[i] / den[i]), "llr": float(llr[i]), "std": float(std[i])}
+            for i, c in enumerate(CANDIDATES)
+        },
+        "llr_margin": float(llr[order[0]] - llr[order[1]]),
+    }

@@ -90,8 +90,13 @@ def _run(profile: ShipProfile, inputs: np.ndarray, nu0, eta0) -> tuple[np.ndarra
     return res.nu[0], res.eta[0]
 
 
-def truth(inputs: np.ndarray, vessel: Vessel = Vessel(), changed: Vessel | None = None,
-          change_at: int | None = None, lead_in_s: float = LEAD_IN_S) -> dict[str, np.ndarray]:
+def truth(
+    inputs: np.ndarray,
+    vessel: Vessel = Vessel(),
+    changed: Vessel | None = None,
+    change_at: int | None = None,
+    lead_in_s: float = LEAD_IN_S,
+) -> dict[str, np.ndarray]:
     """Noise-free signals of a kernel simulation, each (n,) for the ``inputs`` (n, 4) of
     :func:`harbour_inputs`: ``vessel`` throughout, or ``changed`` from sample ``change_at`` on (a
     step change; the second simulation starts from the first one's state).
@@ -106,19 +111,30 @@ def truth(inputs: np.ndarray, vessel: Vessel = Vessel(), changed: Vessel | None 
     lead = np.zeros((int(round(lead_in_s / ts)), inputs.shape[1]))
     lead[:, 0::2] = inputs[0, 0::2]
     nu, eta = _run(vessel.profile(base), np.vstack([lead, inputs]), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0))
-    nu, eta = nu[len(lead):], eta[len(lead):]
+    nu, eta = nu[len(lead) :], eta[len(lead) :]
     eta[:, :2] -= eta[0, :2]
     if change_at is not None:
         k = change_at
         nu_b, eta_b = _run((changed or vessel).profile(base), inputs[k:], nu[k], eta[k])
         nu, eta = np.concatenate([nu[:k], nu_b]), np.concatenate([eta[:k], eta_b])
     yaw = yaw_row_signals(base, nu, eta, inputs)
-    return {"u": yaw["u"], "v": yaw["v"], "r": yaw["r"], "p": nu[:-1, 3], "x": eta[:-1, 0], "y": eta[:-1, 1],
-            "psi": eta[:-1, 2], "phi": yaw["phi"], "v_dot": yaw["v_dot"], "tau_r": yaw["tau_r"]}
+    return {
+        "u": yaw["u"],
+        "v": yaw["v"],
+        "r": yaw["r"],
+        "p": nu[:-1, 3],
+        "x": eta[:-1, 0],
+        "y": eta[:-1, 1],
+        "psi": eta[:-1, 2],
+        "phi": yaw["phi"],
+        "v_dot": yaw["v_dot"],
+        "tau_r": yaw["tau_r"],
+    }
 
 
-def measure(tr: dict[str, np.ndarray], noise: dict[str, float], rng: np.random.Generator,
-            runs: int | None = None) -> dict[str, np.ndarray]:
+def measure(
+    tr: dict[str, np.ndarray], noise: dict[str, float], rng: np.random.Generator, runs: int | None = None
+) -> dict[str, np.ndarray]:
     """Measured signals with white noise of the given standard deviations (Table 4.1 names);
     ``runs`` adds a second axis of independent realisations."""
     n = len(tr["r"])

@@ -81,11 +81,23 @@ class YawPrior:
         return simulate_r(self.kind, self.values, self.inputs(sig), self.dt, r0=r0)
 
     def to_dict(self) -> dict:
-        return {"format": "shiptrial-yaw-prior/1", "kind": self.kind, "values": self.values, "sigma": self.sigma,
-                "cov": self.cov.tolist(), "ar": self.ar.tolist(), "sigma_w": self.sigma_w, "block": self.block,
-                "dt": self.dt, "source": self.source, "prefilter_hz": self.prefilter_hz,
-                "boot": self.boot.tolist(), "noise": self.noise, "model_error": self.model_error,
-                "structure": self.structure.tolist()}
+        return {
+            "format": "shiptrial-yaw-prior/1",
+            "kind": self.kind,
+            "values": self.values,
+            "sigma": self.sigma,
+            "cov": self.cov.tolist(),
+            "ar": self.ar.tolist(),
+            "sigma_w": self.sigma_w,
+            "block": self.block,
+            "dt": self.dt,
+            "source": self.source,
+            "prefilter_hz": self.prefilter_hz,
+            "boot": self.boot.tolist(),
+            "noise": self.noise,
+            "model_error": self.model_error,
+            "structure": self.structure.tolist(),
+        }
 
     @classmethod
     def from_dict(cls, d: dict, where: str = "prior") -> YawPrior:
@@ -96,22 +108,48 @@ class YawPrior:
             names = PARAMS[kind]
             values = {k: float(d["values"][k]) for k in names}
             cov = np.asarray(d["cov"], float).reshape(len(names), len(names))
-            p = cls(kind, values, float(d["sigma"]), cov, np.asarray(d["ar"], float).ravel(), float(d["sigma_w"]),
-                    int(d["block"]), float(d["dt"]), str(d.get("source", "")), float(d.get("prefilter_hz", 0.0)),
-                    np.asarray(d.get("boot", []), float).reshape(-1, len(names)),
-                    {str(k): float(v) for k, v in d.get("noise", {}).items()}, float(d.get("model_error", 0.0)),
-                    np.asarray(d.get("structure", [0.0] * len(CANDIDATES)), float).reshape(len(CANDIDATES)))
+            p = cls(
+                kind,
+                values,
+                float(d["sigma"]),
+                cov,
+                np.asarray(d["ar"], float).ravel(),
+                float(d["sigma_w"]),
+                int(d["block"]),
+                float(d["dt"]),
+                str(d.get("source", "")),
+                float(d.get("prefilter_hz", 0.0)),
+                np.asarray(d.get("boot", []), float).reshape(-1, len(names)),
+                {str(k): float(v) for k, v in d.get("noise", {}).items()},
+                float(d.get("model_error", 0.0)),
+                np.asarray(d.get("structure", [0.0] * len(CANDIDATES)), float).reshape(len(CANDIDATES)),
+            )
         except (KeyError, TypeError, ValueError, AttributeError) as e:
-            raise UserError(f"{where}: not a yaw prior written by 'shiptrial detect-prior' (field {e}); "
-                            "make one with: shiptrial detect-prior NOMINAL.csv --out PRIOR.json") from None
-        ok = [np.isfinite(list(values.values())).all(), np.isfinite(cov).all(), np.isfinite(p.ar).all(),
-              np.isfinite(p.boot).all(), np.isfinite(list(p.noise.values())).all(), p.model_error >= 0,
-              np.isfinite(p.structure).all(), np.all(p.structure >= 0),
-              p.sigma > 0, p.sigma_w > 0, p.block >= 1, p.dt > 0, values["I_r"] > 0,
-              0 <= p.prefilter_hz < 0.5 / p.dt]
+            raise UserError(
+                f"{where}: not a yaw prior written by 'shiptrial detect-prior' (field {e}); "
+                "make one with: shiptrial detect-prior NOMINAL.csv --out PRIOR.json"
+            ) from None
+        ok = [
+            np.isfinite(list(values.values())).all(),
+            np.isfinite(cov).all(),
+            np.isfinite(p.ar).all(),
+            np.isfinite(p.boot).all(),
+            np.isfinite(list(p.noise.values())).all(),
+            p.model_error >= 0,
+            np.isfinite(p.structure).all(),
+            np.all(p.structure >= 0),
+            p.sigma > 0,
+            p.sigma_w > 0,
+            p.block >= 1,
+            p.dt > 0,
+            values["I_r"] > 0,
+            0 <= p.prefilter_hz < 0.5 / p.dt,
+        ]
         if not all(ok):
-            raise UserError(f"{where}: the prior holds non-finite or non-physical values (I_r, sigma and dt must be > 0, "
-                            "prefilter_hz below Nyquist); refit it")
+            raise UserError(
+                f"{where}: the prior holds non-finite or non-physical values (I_r, sigma and dt must be > 0, "
+                "prefilter_hz below Nyquist); refit it"
+            )
         return p
 
 
@@ -151,8 +189,9 @@ def _theta(kind: str, x: np.ndarray | dict) -> dict[str, np.ndarray]:
     return th
 
 
-def simulate_r(kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], dt: float, gain: float | np.ndarray = 1.0,
-               r0: float = 0.0) -> np.ndarray:
+def simulate_r(
+    kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], dt: float, gain: float | np.ndarray = 1.0, r0: float = 0.0
+) -> np.ndarray:
     """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig``, from ``r0``.
 
     yawid's simulator (:func:`diagnose.yawid.estimate.simulate_yaw`, the explicit Euler step of
@@ -189,9 +228,18 @@ def _jacobian(kind: str, x: np.ndarray, sig: dict[str, np.ndarray], dt: float, s
     return (r[:, 1:] - r[:, :1]) / step
 
 
-def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, source: str = "",
-        estimate: bool = True, bootstrap: int = 64, seed: int = 0, derive: Derive | None = None,
-        prefilter_hz: float = PREFILTER_HZ) -> YawPrior:
+def fit(
+    kind: str,
+    sig: dict[str, np.ndarray],
+    r_meas: np.ndarray,
+    dt: float,
+    source: str = "",
+    estimate: bool = True,
+    bootstrap: int = 64,
+    seed: int = 0,
+    derive: Derive | None = None,
+    prefilter_hz: float = PREFILTER_HZ,
+) -> YawPrior:
     """Output-error fit of (2.17)/(2.18) (ch. 4, eq. 4.1-4.4; yawid's batched Levenberg-Marquardt
     from the nominal values, with section 4.3's sign constraints) on the inputs low-passed at
     ``prefilter_hz`` (:func:`model_inputs`), with the residual's robust sigma and whitening filter.
@@ -205,8 +253,11 @@ def fit(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, so
     knows the noise on r alone."""
     raw, sig = sig, model_inputs(sig, dt, prefilter_hz)
     p = len(PARAMS[kind])
-    x = _fit_scales(kind, {k: v[None] for k, v in raw.items()}, r_meas[None], dt, np.ones(p), prefilter_hz)[0] \
-        if estimate else np.ones(p)
+    x = (
+        _fit_scales(kind, {k: v[None] for k, v in raw.items()}, r_meas[None], dt, np.ones(p), prefilter_hz)[0]
+        if estimate
+        else np.ones(p)
+    )
     block = max(1, int(round(1.0 / dt)))
     r0 = float(np.mean(r_meas[:block]))
     e = simulate_r(kind, x, sig, dt, r0=r0) - r_meas if np.all(np.isfinite(x)) else np.full(len(r_meas), np.nan)
@@ -258,8 +309,15 @@ def _split_theta(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray, x0:
     return np.asarray(out)
 
 
-def structural_spread(prior: YawPrior, sig: dict[str, np.ndarray], r_meas: np.ndarray, x: np.ndarray,
-                      derive: Derive | None = None, seed: int = 0, synthetic: int = 8) -> np.ndarray:
+def structural_spread(
+    prior: YawPrior,
+    sig: dict[str, np.ndarray],
+    r_meas: np.ndarray,
+    x: np.ndarray,
+    derive: Derive | None = None,
+    seed: int = 0,
+    synthetic: int = 8,
+) -> np.ndarray:
     """How far the prior's structure alone moves the detector's change estimates on a manoeuvre it
     was not fitted on: rms over the two split-half cross-validations of the nominal record
     (:func:`_split_theta`), less (in quadrature) the 95 % point of what the same two estimates give
@@ -300,8 +358,9 @@ def model_error(prior: YawPrior, sig: dict[str, np.ndarray], r0: float, derive: 
     return float(np.sqrt(prior.sigma_w**2 - s_noise**2))
 
 
-def _fit_scales(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, x0: np.ndarray,
-                prefilter_hz: float) -> np.ndarray:
+def _fit_scales(
+    kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, x0: np.ndarray, prefilter_hz: float
+) -> np.ndarray:
     """Scales (B, P) fitted to a batch of B records (signals (B, n), as measured: the fit sees them
     through :func:`model_inputs`, as the prediction does) by :func:`diagnose.yawid.estimate.fit_yaw`
     from the scales ``x0``; NaN rows did not converge."""
@@ -313,8 +372,9 @@ def _fit_scales(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: f
     return np.where(f.ok[:, None], f.theta / scale, np.nan)
 
 
-def _covariance(kind: str, sig: dict, dt: float, x: np.ndarray, r0: float, block: int, ar: np.ndarray,
-                sigma_w: float) -> np.ndarray:
+def _covariance(
+    kind: str, sig: dict, dt: float, x: np.ndarray, r0: float, block: int, ar: np.ndarray, sigma_w: float
+) -> np.ndarray:
     """``sigma_w^2 (Jw^T Jw)^-1`` of the whitened 1 s block means, ``J = d r_hat / d ln(theta)``."""
     Jw = whiten(block_mean(_jacobian(kind, x, sig, dt, r0=r0) * x[None, :], block), ar)
     return sigma_w**2 * np.linalg.pinv(Jw.T @ Jw)
@@ -327,8 +387,17 @@ def white_noise_sd(x: np.ndarray) -> float:
     return robust_sigma(np.diff(np.asarray(x, float), 2)) / np.sqrt(6.0)
 
 
-def bootstrap_deviations(kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, x: np.ndarray,
-                         runs: int, seed: int = 0, derive: Derive | None = None, prefilter_hz: float = PREFILTER_HZ) -> np.ndarray:
+def bootstrap_deviations(
+    kind: str,
+    sig: dict[str, np.ndarray],
+    r_meas: np.ndarray,
+    dt: float,
+    x: np.ndarray,
+    runs: int,
+    seed: int = 0,
+    derive: Derive | None = None,
+    prefilter_hz: float = PREFILTER_HZ,
+) -> np.ndarray:
     """Relative parameter errors ``(x_b - x) / |x|`` (runs, P) of ``runs`` parametric-bootstrap
     refits, errors in variables included (the Jacobian covariance knows only the noise on r).
 
@@ -373,8 +442,9 @@ def smooth(sig: dict[str, np.ndarray], dt: float) -> dict[str, np.ndarray]:
     return {k: savgol_filter(s, win, 2, axis=0) if len(s) > win else s for k, s in sig.items()}
 
 
-def null_records(prior: YawPrior, sig: dict[str, np.ndarray], runs: int, seed: int = 0, derive: Derive | None = None,
-                 r0: float = 0.0) -> np.ndarray:
+def null_records(
+    prior: YawPrior, sig: dict[str, np.ndarray], runs: int, seed: int = 0, derive: Derive | None = None, r0: float = 0.0
+) -> np.ndarray:
     """No-change residuals ``r - r_hat`` (n, runs) on the manoeuvre ``sig`` (a parametric bootstrap
     of the detection, from the prior's own data only).
 
@@ -424,7 +494,7 @@ def block_mean(x: np.ndarray, block: int) -> np.ndarray:
 def ar_fit(e: np.ndarray, order: int = 4) -> np.ndarray:
     """AR(order) coefficients ``a`` of ``e_t = sum a_i e_{t-i} + w_t`` by least squares."""
     e = np.asarray(e, float) - np.mean(e)
-    X = np.column_stack([e[order - i - 1: len(e) - i - 1] for i in range(order)])
+    X = np.column_stack([e[order - i - 1 : len(e) - i - 1] for i in range(order)])
     a, *_ = np.linalg.lstsq(X, e[order:], rcond=None)
     return a
 

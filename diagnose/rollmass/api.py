@@ -49,11 +49,15 @@ def check_load_in_hull(load: Load, prof: RollProfile, what: str) -> None:
     """Refuse a load position below the keel or above the highest place a load can sit."""
     top, keel = hull_limits(prof)
     if load.zbar > keel:
-        raise UserError(f"{what}: z = {load.zbar:+g} m is {load.zbar - keel:.3f} m below the keel (draft {keel:g} m); "
-                        f"{Z_WORDS}: did you mean {load.m:g}@{-load.zbar:g}?")
+        raise UserError(
+            f"{what}: z = {load.zbar:+g} m is {load.zbar - keel:.3f} m below the keel (draft {keel:g} m); "
+            f"{Z_WORDS}: did you mean {load.m:g}@{-load.zbar:g}?"
+        )
     if load.zbar < top:
-        raise UserError(f"{what}: z = {load.zbar:+g} m is above the highest place a load can sit in the profile "
-                        f"(load_z_top = {top:g} m; {Z_WORDS})")
+        raise UserError(
+            f"{what}: z = {load.zbar:+g} m is above the highest place a load can sit in the profile "
+            f"(load_z_top = {top:g} m; {Z_WORDS})"
+        )
 
 
 def _meta_float(meta: dict[str, str], key: str, path: Path) -> float | None:
@@ -69,8 +73,9 @@ def _header_load(meta: dict[str, str], path: Path, need_z: bool) -> Load | None:
     """The load a header states (``load_kg``, ``load_z_m``); its z is required only where it is used
     (``need_z``: the calibration run's known load), elsewhere only the mass is read."""
     if "load_height_m" in meta:  # a height reads as positive up, our z is positive down: refuse the guess
-        raise UserError(f"{path}: header key 'load_height_m' is ambiguous (a height is positive up); write "
-                        f"'# load_z_m: Z' ({Z_WORDS})")
+        raise UserError(
+            f"{path}: header key 'load_height_m' is ambiguous (a height is positive up); write '# load_z_m: Z' ({Z_WORDS})"
+        )
     kg = _meta_float(meta, "load_kg", path)
     z = _meta_float(meta, "load_z_m", path)
     if kg is None:
@@ -89,27 +94,41 @@ def check_roles(paths: list[Path], metas: list[dict[str, str]]) -> list[Load | N
         if said and said not in ROLES:
             raise UserError(f"{path}: header role '{said}' is not one of {', '.join(ROLES)}")
         if said and said != role:
-            raise UserError(f"{path}: its header says role '{said}' but it was given as the {role} run; "
-                            f"give the files in the order NOMINAL CALIBRATION LOADED")
+            raise UserError(
+                f"{path}: its header says role '{said}' but it was given as the {role} run; "
+                f"give the files in the order NOMINAL CALIBRATION LOADED"
+            )
         if role == "nominal" and load is not None and load.m > 0:
-            raise UserError(f"{path}: its header says load_kg {load.m:g} but it was given as the nominal run (no extra load); "
-                            f"give the files in the order NOMINAL CALIBRATION LOADED")
+            raise UserError(
+                f"{path}: its header says load_kg {load.m:g} but it was given as the nominal run (no extra load); "
+                f"give the files in the order NOMINAL CALIBRATION LOADED"
+            )
         if role == "calibration" and load is not None and load.m <= 0:
-            raise UserError(f"{path}: its header says load_kg {load.m:g} but it was given as the calibration run (a known load); "
-                            f"give the files in the order NOMINAL CALIBRATION LOADED")
+            raise UserError(
+                f"{path}: its header says load_kg {load.m:g} but it was given as the calibration run (a known load); "
+                f"give the files in the order NOMINAL CALIBRATION LOADED"
+            )
     return loads
 
 
 def _calibration_load(opt: Load | None, header: Load | None, path: Path) -> Load:
     if opt is None and header is None:
         raise UserError(f"{path}: no known load; give --known-load KG@Z or the header lines '# load_kg:' and '# load_z_m:'")
-    if opt is not None and header is not None and (abs(opt.m - header.m) > LOAD_TOL[0] or abs(opt.zbar - header.zbar) > LOAD_TOL[1]):
-        raise UserError(f"--known-load {opt.m:g}@{opt.zbar:g} contradicts {path}'s header (load_kg {header.m:g}, load_z_m "
-                        f"{header.zbar:g}); correct one of them ({Z_WORDS})")
+    if (
+        opt is not None
+        and header is not None
+        and (abs(opt.m - header.m) > LOAD_TOL[0] or abs(opt.zbar - header.zbar) > LOAD_TOL[1])
+    ):
+        raise UserError(
+            f"--known-load {opt.m:g}@{opt.zbar:g} contradicts {path}'s header (load_kg {header.m:g}, load_z_m "
+            f"{header.zbar:g}); correct one of them ({Z_WORDS})"
+        )
     return opt if opt is not None else header
 
 
-def known_from_recordings(prof: RollProfile, paths: list[Path], metas: list[dict[str, str]], explicit: bool) -> tuple[RollProfile, list[str]]:
+def known_from_recordings(
+    prof: RollProfile, paths: list[Path], metas: list[dict[str, str]], explicit: bool
+) -> tuple[RollProfile, list[str]]:
     """The profile with the recordings' speed and IMU z; a given profile that contradicts them is refused."""
     notes = []
     kn = prof.known
@@ -121,12 +140,16 @@ def known_from_recordings(prof: RollProfile, paths: list[Path], metas: list[dict
         speed = key == "speed_m_s"
         lim = SPEED_TOL if speed else IMU_TOL
         if (np.ptp(arr) / np.mean(np.abs(arr)) if speed else np.ptp(arr)) > lim:
-            raise UserError(f"{key} differs between the recordings ({', '.join(f'{p.name} {v:g}' for p, v in vals)}); "
-                            f"the three runs must be at one speed with the IMU in one place")
+            raise UserError(
+                f"{key} differs between the recordings ({', '.join(f'{p.name} {v:g}' for p, v in vals)}); "
+                f"the three runs must be at one speed with the IMU in one place"
+            )
         val, have = float(np.mean(arr)), getattr(kn, field)
         if explicit and (abs(val - have) / abs(have) if speed else abs(val - have)) > lim:
-            raise UserError(f"the profile's [known] {field} = {have:g} {unit} contradicts the recordings' {key} "
-                            f"{val:g}; correct the profile or the headers")
+            raise UserError(
+                f"the profile's [known] {field} = {have:g} {unit} contradicts the recordings' {key} "
+                f"{val:g}; correct the profile or the headers"
+            )
         if abs(val - have) > 1e-9:
             notes.append(f"{field} = {val:g} {unit} from the recordings' {key} header (the profile has {have:g})")
         kn = replace(kn, **{field: val})
@@ -145,16 +168,27 @@ def usability_warnings(e: MassEstimate, prof: RollProfile) -> list[str]:
     if mlo <= 0:
         out.append(f"unusable interval: the 95 % mass interval {mlo:.4f} .. {mhi:.4f} kg includes zero or negative mass")
     if mhi > cap:
-        out.append(f"unusable interval: the 95 % mass interval reaches {mhi:.4f} kg, more than the ship can carry "
-                   f"(max_load_kg {cap:g} in the profile)")
+        out.append(
+            f"unusable interval: the 95 % mass interval reaches {mhi:.4f} kg, more than the ship can carry "
+            f"(max_load_kg {cap:g} in the profile)"
+        )
     if zlo < top or zhi > keel:
-        out.append(f"unusable interval: the 95 % z interval {zlo:+.3f} .. {zhi:+.3f} m reaches outside the hull "
-                   f"({top:+g} .. {keel:+g} m, z positive down)")
+        out.append(
+            f"unusable interval: the 95 % z interval {zlo:+.3f} .. {zhi:+.3f} m reaches outside the hull "
+            f"({top:+g} .. {keel:+g} m, z positive down)"
+        )
     return out
 
 
-def estimate_from_files(nominal: str | Path, calibration: str | Path, loaded: str | Path, known_load: str | Load | None = None,
-                        profile: str | Path | None = None, method: str | None = None, z_f: float | None = None) -> MassEstimate:
+def estimate_from_files(
+    nominal: str | Path,
+    calibration: str | Path,
+    loaded: str | Path,
+    known_load: str | Load | None = None,
+    profile: str | Path | None = None,
+    method: str | None = None,
+    z_f: float | None = None,
+) -> MassEstimate:
     """Read three recordings and estimate the loaded run's mass change and the load's z with 95 % intervals.
 
     The headers' role, speed, IMU z and known load are checked against the file order, the
@@ -182,9 +216,15 @@ def estimate_from_files(nominal: str | Path, calibration: str | Path, loaded: st
             raise UserError(msg)
     try:
         e = estimate(recs, prof.known, cal, method, with_ci=True, z_f=z_f, start=start_values(prof))
-    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:  # a fit that cannot start or diverges is said, never printed
-        raise UserError(f"the {method} estimate failed on these recordings ({str(exc).splitlines()[0]}); "
-                        "check --z-f, --known-load and that the three runs come from one ship") from None
+    except (
+        ValueError,
+        FloatingPointError,
+        np.linalg.LinAlgError,
+    ) as exc:  # a fit that cannot start or diverges is said, never printed
+        raise UserError(
+            f"the {method} estimate failed on these recordings ({str(exc).splitlines()[0]}); "
+            "check --z-f, --known-load and that the three runs come from one ship"
+        ) from None
     e.notes = notes + [n for r in recs for n in r.notes]
     e.warnings += usability_warnings(e, prof)
     return e

@@ -83,8 +83,10 @@ class MassEstimate:
     notes: list[str] = field(default_factory=list)
 
     def ci(self, level_z: float = 1.96) -> tuple[tuple[float, float], tuple[float, float]]:
-        return ((self.m - level_z * self.m_sd, self.m + level_z * self.m_sd),
-                (self.zbar_m - level_z * self.zbar_m_sd, self.zbar_m + level_z * self.zbar_m_sd))
+        return (
+            (self.m - level_z * self.m_sd, self.m + level_z * self.m_sd),
+            (self.zbar_m - level_z * self.zbar_m_sd, self.zbar_m + level_z * self.zbar_m_sd),
+        )
 
 
 @dataclass
@@ -114,7 +116,9 @@ def _block(rec: RollRecording, Z: np.ndarray) -> _Block:
 class _Problem:
     """The stacked residual (27) over the free physical parameters (plus intercepts)."""
 
-    def __init__(self, blocks: list[_Block], kn: Known, cal: Load, free: tuple[str, ...], fixed: dict[str, float], intercept: bool):
+    def __init__(
+        self, blocks: list[_Block], kn: Known, cal: Load, free: tuple[str, ...], fixed: dict[str, float], intercept: bool
+    ):
         self.blocks, self.kn, self.cal, self.free, self.fixed, self.intercept = blocks, kn, cal, free, fixed, intercept
 
     def full(self, x: np.ndarray) -> dict[str, float]:
@@ -130,7 +134,7 @@ class _Problem:
     def errors(self, x: np.ndarray) -> list[np.ndarray]:
         vals = self.full(x)
         p = RollParams(*(vals[k] for k in SHIP_PARAMS))
-        b = x[len(self.free):] if self.intercept else np.zeros(3)
+        b = x[len(self.free) :] if self.intercept else np.zeros(3)
         out = []
         for i, (blk, load) in enumerate(zip(self.blocks, self.loads(vals))):
             g = discrete_coefficients(continuous_coefficients(p, self.kn, load), blk.T)
@@ -146,7 +150,7 @@ class _Problem:
         out = np.zeros((sum(c.shape[0] for c in covs),) * 2)
         i = 0
         for c in covs:
-            out[i:i + len(c), i:i + len(c)] = c
+            out[i : i + len(c), i : i + len(c)] = c
             i += len(c)
         return out
 
@@ -163,16 +167,26 @@ def _check(datasets: list[RollRecording]) -> None:
     T0 = datasets[0].T
     for d in datasets:
         if abs(d.T - T0) > 1e-9 * T0:
-            raise UserError(f"{d.name}: sample time {d.T:g} s differs from {datasets[0].name}'s {T0:g} s; resample all three to one rate")
+            raise UserError(
+                f"{d.name}: sample time {d.T:g} s differs from {datasets[0].name}'s {T0:g} s; resample all three to one rate"
+            )
         if d.n < 4 * N_LAGS:
             raise UserError(f"{d.name}: only {d.n} samples; need at least {4 * N_LAGS}")
         if np.std(d.delta) < 1e-4:
             raise UserError(f"{d.name}: the rudder does not move; the estimator needs rudder excitation")
 
 
-def estimate(datasets: list[RollRecording], kn: Known, cal: Load, method: str = "improved",
-             with_ci: bool = False, z_f: float | None = None, max_iter: int = 8,
-             fix: dict[str, float] | None = None, start: dict[str, float] | None = None) -> MassEstimate:
+def estimate(
+    datasets: list[RollRecording],
+    kn: Known,
+    cal: Load,
+    method: str = "improved",
+    with_ci: bool = False,
+    z_f: float | None = None,
+    max_iter: int = 8,
+    fix: dict[str, float] | None = None,
+    start: dict[str, float] | None = None,
+) -> MassEstimate:
     """Estimate the loaded dataset's ``m``, ``zbar_m`` from ``[nominal, calibration, loaded]``.
 
     ``cal`` is the known calibration load. ``z_f`` (improved, oe) overrides the profile prior.
@@ -259,7 +273,9 @@ def _improved_blocks(datasets: list[RollRecording], sims: list[tuple], polys: li
     return blocks
 
 
-def _improved(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, fixed: dict[str, float], n_iter: int = 4) -> MassEstimate:
+def _improved(
+    datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, fixed: dict[str, float], n_iter: int = 4
+) -> MassEstimate:
     """Our estimator: z_f fixed, refined IV (noise-model prefilter, model-simulated instruments that
     carry v' through the black-box accelerometer), two-step optimal weighting of the moments."""
     free = tuple(k for k in SHIP_PARAMS + MOMENTS if k not in fixed)
@@ -267,7 +283,9 @@ def _improved(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool
     sims = bb
     polys = [(np.array([1.0]), np.array([1.0]))] * 3
     start = dict(zip(PARAMS, _paper_start(cal)))
-    start.update(zip(MOMENTS, load_moments(RollParams(*(start[k] if k != "z_f" else fixed["z_f"] for k in SHIP_PARAMS)), kn, cal)))
+    start.update(
+        zip(MOMENTS, load_moments(RollParams(*(start[k] if k != "z_f" else fixed["z_f"] for k in SHIP_PARAMS)), kn, cal))
+    )
     x = np.r_[[start[k] for k in free], np.zeros(3)]
     Ls = None
     for it in range(n_iter):
@@ -279,7 +297,7 @@ def _improved(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool
         loads = prob.loads(vals)
         # refine: noise model from the unfiltered equation error, instruments from the model
         polys, sims = [], []
-        for d, ld, (y_bb, a_hat, r_hat), bi in zip(datasets, loads, bb, x[len(free):]):
+        for d, ld, (y_bb, a_hat, r_hat), bi in zip(datasets, loads, bb, x[len(free) :]):
             Y, Phi = regression(d)
             g = discrete_coefficients(continuous_coefficients(p, kn, ld), d.T)
             # refined IV (Young; Gilson et al. 2006): prefilter by 1/A(q) turns the equation error
@@ -322,8 +340,15 @@ def _oe(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, z_f:
     # K_r of (11) from the fitted K_ur, so the shared parameters read as in the paper's Table 3
     K_r = (f.values["K_ur"] - f.values["K_vdot"]) * kn.U
     params = {**f.values, "K_r": K_r, "z_f": z_f}
-    est = MassEstimate(method="oe", params=params, m=f.m, zbar_m=f.zbar_m, converged=f.converged,
-                       free=SHARED + ("m", "zbar_m"), rel_singular=f.rel_singular)
+    est = MassEstimate(
+        method="oe",
+        params=params,
+        m=f.m,
+        zbar_m=f.zbar_m,
+        converged=f.converged,
+        free=SHARED + ("m", "zbar_m"),
+        rel_singular=f.rel_singular,
+    )
     if not f.converged:
         est.warnings.append(f"oe: the fit did not converge ({f.message})")
     if with_ci and f.converged and np.all(np.isfinite(f.cov_load)) and np.all(np.isfinite(f.load_dzf)):
@@ -360,9 +385,16 @@ def _finish(method: str, prob: _Problem, x0: np.ndarray, with_ci: bool) -> MassE
     npar = len(prob.free)
     J = res.jac[:, :npar] * np.maximum(np.abs(res.x[:npar]), 1e-3)
     sv = np.linalg.svd(J, compute_uv=False)
-    est = MassEstimate(method=method, params={k: float(vals[k]) for k in PARAMS}, m=float(vals["m"]), zbar_m=float(vals["zbar_m"]),
-                       cost=float(res.cost), converged=bool(res.success) and np.all(np.isfinite(res.x)), free=prob.free,
-                       rel_singular=float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0)
+    est = MassEstimate(
+        method=method,
+        params={k: float(vals[k]) for k in PARAMS},
+        m=float(vals["m"]),
+        zbar_m=float(vals["zbar_m"]),
+        cost=float(res.cost),
+        converged=bool(res.success) and np.all(np.isfinite(res.x)),
+        free=prob.free,
+        rel_singular=float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
+    )
     if not est.converged:
         est.warnings.append(f"{method}: the fit did not converge ({res.message})")
     if with_ci:
@@ -408,5 +440,5 @@ def _warn(est: MassEstimate) -> None:
     if np.isfinite(est.m_sd) and (est.m_sd > 0.25 * abs(est.m) or est.zbar_m_sd > 0.05):
         est.warnings.append(
             f"the data cannot separate the mass from its height (sd {est.m_sd:.3g} kg, {est.zbar_m_sd * 1000:.0f} mm, "
-            f"correlation {est.corr:+.3f}); only the moment m*z_m is determined: record longer or more rudder excitation")
-
+            f"correlation {est.corr:+.3f}); only the moment m*z_m is determined: record longer or more rudder excitation"
+        )

@@ -30,8 +30,7 @@ def lagged(x: np.ndarray, n: int) -> np.ndarray:
 def regression(rec: RollRecording) -> tuple[np.ndarray, np.ndarray]:
     """``Y = y_t`` and ``Phi = [-y_{t-1}, -y_{t-2}, mu1, mu2, mu3]`` of (16)-(18), all rows."""
     y = rec.p
-    Phi = np.column_stack([-np.r_[0, y[:-1]], -np.r_[0, 0, y[:-2]],
-                           diff2(rec.a_s), diff2(rec.r), diff2(rec.delta)])
+    Phi = np.column_stack([-np.r_[0, y[:-1]], -np.r_[0, 0, y[:-2]], diff2(rec.a_s), diff2(rec.r), diff2(rec.delta)])
     return y, Phi
 
 
@@ -49,10 +48,12 @@ def black_box_sim(u: np.ndarray, y: np.ndarray, na: int = 4, nb: int = 10) -> np
     if big.any():
         roots[big] = 0.99 / np.conj(roots[big])
         a = np.real(np.poly(roots))
-    return lfilter(coef[na:na + nb], a, u - u.mean()) + coef[-1] / a.sum()
+    return lfilter(coef[na : na + nb], a, u - u.mean()) + coef[-1] / a.sum()
 
 
-def paper_model_sim(p: RollParams, kn: Known, load: Load, r_hat: np.ndarray, delta: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray]:
+def paper_model_sim(
+    p: RollParams, kn: Known, load: Load, r_hat: np.ndarray, delta: np.ndarray, T: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Refined instruments (31)-(32) as we read them: roll (3) simulated with ``v' = 0``.
 
     The printed (31)-(32) use an undefined ``F_y,d`` and (32) does not follow from (31); their
@@ -74,11 +75,13 @@ def paper_model_sim(p: RollParams, kn: Known, load: Load, r_hat: np.ndarray, del
     return pr, z_s * pdot + kn.g * phi - kn.U * r_hat
 
 
-def instrument_matrix(y_hat: np.ndarray, as_hat: np.ndarray, r_hat: np.ndarray, delta: np.ndarray,
-                      n_lags: int = N_LAGS, n_delta: int = N_DELTA) -> np.ndarray:
+def instrument_matrix(
+    y_hat: np.ndarray, as_hat: np.ndarray, r_hat: np.ndarray, delta: np.ndarray, n_lags: int = N_LAGS, n_delta: int = N_DELTA
+) -> np.ndarray:
     """(30): ``[y_hat lags, mu1_hat lags, mu2_hat lags, mu3 lags]`` (the rudder from the data)."""
-    return np.column_stack([lagged(y_hat, n_lags), lagged(diff2(as_hat), n_lags),
-                            lagged(diff2(r_hat), n_lags), lagged(diff2(delta), n_delta)])
+    return np.column_stack(
+        [lagged(y_hat, n_lags), lagged(diff2(as_hat), n_lags), lagged(diff2(r_hat), n_lags), lagged(diff2(delta), n_delta)]
+    )
 
 
 def black_box_instruments(rec: RollRecording) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -116,13 +116,15 @@ def discrete_coefficients(cc: np.ndarray, T: float) -> np.ndarray:
     """
     A2, d, kp, c, K_r, K_delta = cc
     A2cal = 2 * d * T + kp * T**2 + 4 * A2
-    return np.array([
-        (2 * kp * T**2 - 8 * A2) / A2cal,
-        (-2 * d * T + kp * T**2 + 4 * A2) / A2cal,
-        -2 * T * c / A2cal,
-        2 * T * K_r / A2cal,
-        2 * T * K_delta / A2cal,
-    ])
+    return np.array(
+        [
+            (2 * kp * T**2 - 8 * A2) / A2cal,
+            (-2 * d * T + kp * T**2 + 4 * A2) / A2cal,
+            -2 * T * c / A2cal,
+            2 * T * K_r / A2cal,
+            2 * T * K_delta / A2cal,
+        ]
+    )
 
 
 def ratios_from_discrete(gd: np.ndarray, T: float) -> np.ndarray:
@@ -169,10 +171,14 @@ def load_profile(path: str | Path | None = None) -> RollProfile:
         z_g = kn.zbar_g + roll["z_f"]
         k = kn.M * kn.g * ship["GM_T"] - kn.M * kn.g * z_g
         truth = RollParams(
-            k=k, A_x=I_x - roll["K_pdot"], d=roll["d"], K_r=(roll["K_ur"] - roll["K_vdot"]) * kn.U,
-            K_vdot=roll["K_vdot"], K_delta=roll["K_delta"], z_f=roll["z_f"],
+            k=k,
+            A_x=I_x - roll["K_pdot"],
+            d=roll["d"],
+            K_r=(roll["K_ur"] - roll["K_vdot"]) * kn.U,
+            K_vdot=roll["K_vdot"],
+            K_delta=roll["K_delta"],
+            z_f=roll["z_f"],
         )
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise ProfileError(f"{path}: missing or malformed field {exc}; see {DEFAULT_PROFILE.name}") from exc
     return RollProfile(name=str(ship.get("name", path.stem)), known=kn, truth=truth, K_ur=float(roll["K_ur"]), raw=raw)
-

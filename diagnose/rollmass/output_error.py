@@ -72,9 +72,21 @@ def start_values(prof: RollProfile) -> dict[str, float]:
     ``[sway_yaw]`` table, the yaw row divided by its inertia)."""
     sy, th, ship = prof.raw["sway_yaw"], prof.truth, prof.raw["ship"]
     m33 = prof.known.M * (ship["kzz_over_L"] * ship["L_pp"]) ** 2 - sy["N_rdot"]
-    return {"X_v": -sy["Y_vdot"], "Y_v": sy["Y_v"], "Y_r": sy["Y_r"], "Y_delta": sy["Y_delta"], "A_x": th.A_x, "d": th.d,
-            "k": th.k, "K_vdot": th.K_vdot, "K_ur": prof.K_ur, "K_delta": th.K_delta,
-            "n_v": sy["N_v"] / m33, "n_r": sy["N_r"] / m33, "n_delta": sy["N_delta"] / m33}
+    return {
+        "X_v": -sy["Y_vdot"],
+        "Y_v": sy["Y_v"],
+        "Y_r": sy["Y_r"],
+        "Y_delta": sy["Y_delta"],
+        "A_x": th.A_x,
+        "d": th.d,
+        "k": th.k,
+        "K_vdot": th.K_vdot,
+        "K_ur": prof.K_ur,
+        "K_delta": th.K_delta,
+        "n_v": sy["N_v"] / m33,
+        "n_r": sy["N_r"] / m33,
+        "n_delta": sy["N_delta"] / m33,
+    }
 
 
 def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load) -> tuple[np.ndarray, ...]:
@@ -89,9 +101,13 @@ def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load) -> tu
     A1 = v["A_x"] + kn.M * z_g**2 + m * z_m**2  # (4)
     C = v["k"] + kn.M * g * z_g + m * g * z_m  # (3) with (5a)
     Mm = np.array([[kn.M + m + v["X_v"], -c, 0.0], [-c, A1, 0.0], [0.0, 0.0, 1.0]])
-    F = np.array([[v["Y_v"], 0.0, v["Y_r"] - (kn.M + m) * U, 0.0],
-                  [0.0, -v["d"], (v["K_ur"] + kn.M * z_g + m * z_m) * U, -C],
-                  [v["n_v"], 0.0, v["n_r"], 0.0]])
+    F = np.array(
+        [
+            [v["Y_v"], 0.0, v["Y_r"] - (kn.M + m) * U, 0.0],
+            [0.0, -v["d"], (v["K_ur"] + kn.M * z_g + m * z_m) * U, -C],
+            [v["n_v"], 0.0, v["n_r"], 0.0],
+        ]
+    )
     G = np.array([[v["Y_delta"]], [v["K_delta"]], [v["n_delta"]]])
     Minv = np.linalg.inv(Mm)
     A = np.vstack([Minv @ F, [0.0, 1.0, 0.0, 0.0]])
@@ -147,8 +163,16 @@ class _Problem:
     """Stacked, channel-weighted output errors of the three datasets with the linear nuisance
     (bias, initial state) projected out per dataset and channel."""
 
-    def __init__(self, datasets: list[RollRecording], kn: Known, cal: Load, z_f: float, free: tuple[str, ...],
-                 weights: np.ndarray, ar: list[list[np.ndarray]] | None = None):
+    def __init__(
+        self,
+        datasets: list[RollRecording],
+        kn: Known,
+        cal: Load,
+        z_f: float,
+        free: tuple[str, ...],
+        weights: np.ndarray,
+        ar: list[list[np.ndarray]] | None = None,
+    ):
         self.datasets, self.kn, self.cal, self.z_f, self.free, self.w = datasets, kn, cal, z_f, free, weights
         self.ar = ar if ar is not None else [[np.ones(1)] * 3 for _ in datasets]
         self.Y = [_measured(d) for d in datasets]
@@ -184,8 +208,9 @@ class _Problem:
         return np.concatenate([(e * w).ravel() for e, w in zip(errs, self.w)])
 
 
-def _best_start(datasets: list[RollRecording], kn: Known, cal: Load, z_f: float, start: dict[str, float],
-                w: np.ndarray) -> OptimizeResult:
+def _best_start(
+    datasets: list[RollRecording], kn: Known, cal: Load, z_f: float, start: dict[str, float], w: np.ndarray
+) -> OptimizeResult:
     """Two starts for the joint fit, the one with the lower unweighted cost kept: ``start`` itself,
     and the ship parameters fitted to the two runs whose loads are known (nominal, calibration).
     From a poor start the joint fit can otherwise settle in a local minimum (a wrong sway row with
@@ -195,16 +220,27 @@ def _best_start(datasets: list[RollRecording], kn: Known, cal: Load, z_f: float,
         for load, rec in zip((Load(0.0, 0.0), cal), datasets):
             _simulate(start, kn, z_f, load, rec)
     except FloatingPointError:
-        raise ValueError("the start values give an unstable ship with the known loads (roll restoring "
-                         "k + M g z_g + m g z_m <= 0?); check the profile's GM_T, [roll] and [sway_yaw]") from None
+        raise ValueError(
+            "the start values give an unstable ship with the known loads (roll restoring "
+            "k + M g z_g + m g z_m <= 0?); check the profile's GM_T, [roll] and [sway_yaw]"
+        ) from None
     known = _Problem(datasets[:2], kn, cal, z_f, SHARED, w[:2])
-    fitted = least_squares(known.residual, [start[k] for k in SHARED], x_scale="jac", method="lm",
-                           xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=2000).x
+    fitted = least_squares(
+        known.residual, [start[k] for k in SHARED], x_scale="jac", method="lm", xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=2000
+    ).x
     prob = _Problem(datasets, kn, cal, z_f, SHARED + ("m", "zbar_m"), w)
     best = None
     for ship in (np.array([start[k] for k in SHARED]), fitted):
-        res = least_squares(prob.residual, np.r_[ship, cal.m, cal.zbar], x_scale="jac", method="lm",
-                            xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=2000)
+        res = least_squares(
+            prob.residual,
+            np.r_[ship, cal.m, cal.zbar],
+            x_scale="jac",
+            method="lm",
+            xtol=1e-8,
+            ftol=1e-8,
+            gtol=1e-8,
+            max_nfev=2000,
+        )
         if best is None or res.cost < best.cost:
             best = res
     return best
@@ -219,8 +255,7 @@ def z_f_sensitivity(prob: _Problem, x: np.ndarray, J: np.ndarray, step: float = 
     It assumes ``x`` stationary; the oe fit's stopping point is not always so along the mass-height
     ridge, and there the sensitivity can be far off (see tests/test_rollmass_zf_sensitivity.py).
     """
-    shifted = (_Problem(prob.datasets, prob.kn, prob.cal, prob.z_f + s * step, prob.free, prob.w, prob.ar)
-               for s in (-1.0, 1.0))
+    shifted = (_Problem(prob.datasets, prob.kn, prob.cal, prob.z_f + s * step, prob.free, prob.w, prob.ar) for s in (-1.0, 1.0))
     try:
         # errors(), not residual(): the latter hides a failed simulation behind a constant
         lo, hi = (np.concatenate([(e * w).ravel() for e, w in zip(p.errors(x), p.w)]) for p in shifted)
@@ -268,9 +303,17 @@ def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int = S
     return Ainv @ S @ Ainv
 
 
-def fit_output_error(datasets: list[RollRecording], kn: Known, cal: Load, z_f: float, start: dict[str, float],
-                     n_reweight: int = 2, ar_order: int = NOISE_AR, noise: tuple | None = None,
-                     with_cov: bool = True) -> OEFit:
+def fit_output_error(
+    datasets: list[RollRecording],
+    kn: Known,
+    cal: Load,
+    z_f: float,
+    start: dict[str, float],
+    n_reweight: int = 2,
+    ar_order: int = NOISE_AR,
+    noise: tuple | None = None,
+    with_cov: bool = True,
+) -> OEFit:
     """Fit :data:`SHARED` and the loaded ``m, zbar_m`` by output error on ``p, a_s, r`` of all datasets.
 
     ``start`` holds start values of :data:`SHARED`; ``m, zbar_m`` start at the calibration load.
@@ -296,16 +339,20 @@ def fit_output_error(datasets: list[RollRecording], kn: Known, cal: Load, z_f: f
             # seeds the reweighted fits, which run to the tight tolerance below
             res = first
         else:
-            res = least_squares(prob.residual, x, x_scale="jac", method="lm", xtol=1e-10, ftol=1e-10, gtol=1e-10,
-                                max_nfev=2000)
+            res = least_squares(prob.residual, x, x_scale="jac", method="lm", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=2000)
         x = res.x
         errs = prob.errors(x)
         sd = np.array([e.std(axis=0) for e in errs])
         if it < n_reweight:
             # iterated ML: whiten each channel's output error (waves are narrow-band process noise
             # that reaches the outputs coloured), then weight it by its innovation sd
-            ar = [[_whitener(e[:, j], ar_order) if ar is None else np.convolve(_whitener(e[:, j], ar_order), ar[i][j])
-                   for j in range(3)] for i, e in enumerate(errs)]
+            ar = [
+                [
+                    _whitener(e[:, j], ar_order) if ar is None else np.convolve(_whitener(e[:, j], ar_order), ar[i][j])
+                    for j in range(3)
+                ]
+                for i, e in enumerate(errs)
+            ]
             sd = np.array([[lfilter(ar[i][j], [1.0], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
             w = 1.0 / np.maximum(sd, 1e-12)
     v = prob.values(x)
@@ -322,6 +369,15 @@ def fit_output_error(datasets: list[RollRecording], kn: Known, cal: Load, z_f: f
             pass
         load_dzf = z_f_sensitivity(prob, x, J)[-2:]
     ok = bool(res.success) and bool(np.all(np.isfinite(x))) and float(res.cost) < 1e5
-    return OEFit(values=v, m=v["m"], zbar_m=v["zbar_m"], cov_load=cov_load, load_dzf=load_dzf, converged=ok,
-                 message=str(res.message), rel_singular=float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0, noise_sd=sd,
-                 noise=(w, ar))
+    return OEFit(
+        values=v,
+        m=v["m"],
+        zbar_m=v["zbar_m"],
+        cov_load=cov_load,
+        load_dzf=load_dzf,
+        converged=ok,
+        message=str(res.message),
+        rel_singular=float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
+        noise_sd=sd,
+        noise=(w, ar),
+    )

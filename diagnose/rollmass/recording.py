@@ -24,11 +24,21 @@ from primitives.io import atomic_write_text, read_input_text
 
 REQUIRED = ("t", "delta", "p", "a_s", "r")
 OPTIONAL = ("phi",)
-WHAT = {"p": "roll-rate gyro, rad/s", "a_s": "IMU lateral accelerometer, m/s^2", "r": "yaw-rate gyro, rad/s",
-        "delta": "rudder angle, rad", "t": "time, s"}
+WHAT = {
+    "p": "roll-rate gyro, rad/s",
+    "a_s": "IMU lateral accelerometer, m/s^2",
+    "r": "yaw-rate gyro, rad/s",
+    "delta": "rudder angle, rad",
+    "t": "time, s",
+}
 # names other loggers use for our columns; a file with one of them is told which to rename
-ALIASES = {"a_s": ("ay", "a_y", "acc_y", "accy", "acc_lat", "fy", "f_y"), "p": ("roll_rate", "gyro_x", "wx", "phidot", "phi_dot"),
-           "r": ("yaw_rate", "gyro_z", "wz", "psidot", "psi_dot"), "delta": ("rudder", "rudder_angle"), "t": ("time",)}
+ALIASES = {
+    "a_s": ("ay", "a_y", "acc_y", "accy", "acc_lat", "fy", "f_y"),
+    "p": ("roll_rate", "gyro_x", "wx", "phidot", "phi_dot"),
+    "r": ("yaw_rate", "gyro_z", "wz", "psidot", "psi_dot"),
+    "delta": ("rudder", "rudder_angle"),
+    "t": ("time",),
+}
 META_KEYS = ("role", "speed_m_s", "imu_z_m", "load_kg", "load_z_m", "ship", "dataset", "sample_time")
 
 
@@ -48,7 +58,11 @@ def _missing_message(path: Path, header: list[str], missing: list[str]) -> str:
         cand = [h for h in header if h not in REQUIRED + OPTIONAL and _closest(h) == c]
         hint = f" (the file has '{cand[0]}': if that is it, rename it '{c}' and check its sign)" if cand else ""
         parts.append(f"'{c}' ({WHAT[c]}){hint}")
-    return f"{path}: missing column{'s' if len(missing) > 1 else ''} " + ", ".join(parts) + f"; columns must include {','.join(REQUIRED)}"
+    return (
+        f"{path}: missing column{'s' if len(missing) > 1 else ''} "
+        + ", ".join(parts)
+        + f"; columns must include {','.join(REQUIRED)}"
+    )
 
 
 def write_roll_csv(rec: RollRecording, path: str | Path, meta: dict[str, str] | None = None) -> Path:
@@ -79,8 +93,10 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
     for h in header:
         if h not in REQUIRED + OPTIONAL:
             near = _closest(h)
-            notes.append(f"{path.name}: column '{h}' is not read" + (f" (did you mean '{near}'?)" if near else
-                                                                      f" (known columns: {','.join(REQUIRED + OPTIONAL)})"))
+            notes.append(
+                f"{path.name}: column '{h}' is not read"
+                + (f" (did you mean '{near}'?)" if near else f" (known columns: {','.join(REQUIRED + OPTIONAL)})")
+            )
     try:
         arr = np.array([[float(x) for x in r] for r in rows[1:]], dtype=float)
     except ValueError as exc:
@@ -97,6 +113,7 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
         raise RecordingError(f"{path}: column 't' is not uniformly sampled (steps {dt.min():g}..{dt.max():g} s); resample it")
     if np.std(col["p"]) < 1e-6:
         raise RecordingError(f"{path}: column 'p' is constant: the recording has no roll motion")
-    rec = RollRecording(name=path.name, T=T, delta=col["delta"], p=col["p"], a_s=col["a_s"], r=col["r"], phi=col.get("phi"),
-                        notes=notes)
+    rec = RollRecording(
+        name=path.name, T=T, delta=col["delta"], p=col["p"], a_s=col["a_s"], r=col["r"], phi=col.get("phi"), notes=notes
+    )
     return rec, meta

@@ -75,10 +75,14 @@ def check_signs(rec: RollRecording, expect: tuple[float, float]) -> str | None:
         col = "p or a_s"
     if col is None:
         return None
-    what = {"p": "the roll rate integrates to a roll angle opposite to the accelerometer's heel",
-            "a_s": "the accelerometer's heel is opposite to both the roll rate and the turn",
-            "r": "the yaw rate turns the ship against its heel",
-            "delta": "the yaw rate answers the rudder the other way round from the profile's ship",
-            "p or a_s": "the roll rate and the accelerometer disagree on the heel"}[col]
-    return (f"{rec.name}: column '{col}' looks negated ({what}; correlations {r1:+.2f}, {r2:+.2f}, {r3:+.2f}); "
-            f"negate it ({SHIP_SIGN})")
+    what = {
+        "p": "the roll rate integrates to a roll angle opposite to the accelerometer's heel",
+        "a_s": "the accelerometer's heel is opposite to both the roll rate and the turn",
+        "r": "the yaw rate turns the ship against its heel",
+        "delta": "the yaw rate answers the rudder the other way round from the profile's ship",
+        "p or a_s": "the roll rate and the accelerometer disagree on the heel",
+    }[col]
+    return (
+        f"{rec.name}: column '{col}' looks negated ({what}; correlations {r1:+.2f}, {r2:+.2f}, {r3:+.2f}); "
+        f"negate it ({SHIP_SIGN})"
+    )

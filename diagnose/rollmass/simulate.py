@@ -52,8 +52,13 @@ class Noise:
     def from_profile(cls, prof: RollProfile, scale: float = 1.0) -> Noise:
         imu = prof.raw["imu"]
         d2r = np.pi / 180
-        return cls(scale * imu["gyro_density_deg"] * d2r, scale * imu["acc_density"],
-                   scale * imu["gyro_bias_deg"] * d2r, scale * imu["acc_bias"], scale * imu["rudder_sd_deg"] * d2r)
+        return cls(
+            scale * imu["gyro_density_deg"] * d2r,
+            scale * imu["acc_density"],
+            scale * imu["gyro_bias_deg"] * d2r,
+            scale * imu["acc_bias"],
+            scale * imu["rudder_sd_deg"] * d2r,
+        )
 
 
 def state_space(prof: RollProfile, load: Load) -> tuple[np.ndarray, np.ndarray]:
@@ -64,14 +69,22 @@ def state_space(prof: RollProfile, load: Load) -> tuple[np.ndarray, np.ndarray]:
     c = th.K_vdot + kn.M * z_g + m * z_m
     A1 = th.A_x + kn.M * z_g**2 + m * z_m**2  # (4)
     C = th.k + kn.M * kn.g * z_g + m * kn.g * z_m  # restoring, (3) with (5a)
-    Mm = np.array([[kn.M + m - sy["Y_vdot"], -c, 0.0], [-c, A1, 0.0], [0.0, 0.0, kn.M * (prof.raw["ship"]["kzz_over_L"] * prof.raw["ship"]["L_pp"]) ** 2 - sy["N_rdot"]]])
+    Mm = np.array(
+        [
+            [kn.M + m - sy["Y_vdot"], -c, 0.0],
+            [-c, A1, 0.0],
+            [0.0, 0.0, kn.M * (prof.raw["ship"]["kzz_over_L"] * prof.raw["ship"]["L_pp"]) ** 2 - sy["N_rdot"]],
+        ]
+    )
     U = kn.U
     # rows: sway, roll, yaw; columns v, p, r, phi
-    F = np.array([
-        [sy["Y_v"], 0.0, sy["Y_r"] - (kn.M + m) * U, 0.0],
-        [0.0, -th.d, (prof.K_ur + kn.M * z_g + m * z_m) * U, -C],
-        [sy["N_v"], 0.0, sy["N_r"], 0.0],
-    ])
+    F = np.array(
+        [
+            [sy["Y_v"], 0.0, sy["Y_r"] - (kn.M + m) * U, 0.0],
+            [0.0, -th.d, (prof.K_ur + kn.M * z_g + m * z_m) * U, -C],
+            [sy["N_v"], 0.0, sy["N_r"], 0.0],
+        ]
+    )
     G = np.array([[sy["Y_delta"], 1, 0, 0], [th.K_delta, 0, 1, 0], [sy["N_delta"], 0, 0, 1]], dtype=float)
     Minv = np.linalg.inv(Mm)
     A = np.vstack([Minv @ F, [0, 1, 0, 0]])
@@ -88,7 +101,7 @@ def joystick_rudder(n: int, fs: float, exp: dict, rng: np.random.Generator) -> n
     while i < n:
         hold = int(rng.uniform(lo, hi) * fs)
         level = 0.0 if rng.random() < 0.2 else rng.choice([-1, 1]) * rng.uniform(0.3, 1.0) * dmax
-        target[i:i + hold] = level
+        target[i : i + hold] = level
         i += hold
     rate = np.deg2rad(exp["rudder_rate_deg"]) / fs
     out = np.empty(n)
@@ -118,8 +131,9 @@ def fir_lowpass(exp: dict) -> np.ndarray:
     return remez(exp["fir_order"] + 1, [0, exp["fir_cutoff"], exp["fir_stop"], exp["fs_raw"] / 2], [1, 0], fs=exp["fs_raw"])
 
 
-def simulate_dataset(prof: RollProfile, load: Load, samples: int, noise: Noise, seed: int,
-                     name: str = "", known_load: bool = True) -> RollRecording:
+def simulate_dataset(
+    prof: RollProfile, load: Load, samples: int, noise: Noise, seed: int, name: str = "", known_load: bool = True
+) -> RollRecording:
     """One free-running basin run with ``samples`` samples after decimation (seeded, reproducible)."""
     exp = prof.raw["experiment"]
     rng = np.random.default_rng(seed)
@@ -144,16 +158,26 @@ def simulate_dataset(prof: RollProfile, load: Load, samples: int, noise: Noise, 
     a_s = z_s * p_dot + kn.g * phi - (v_dot + kn.U * r)  # (7)-(8)
     sq = np.sqrt(fs)  # white noise of density q sampled at fs has sigma q sqrt(fs/2)... per channel
     sig_g, sig_a = noise.gyro_density * sq / np.sqrt(2), noise.acc_density * sq / np.sqrt(2)
-    meas = np.column_stack([
-        p + rng.normal(0, noise.gyro_bias) + sig_g * rng.standard_normal(n),
-        a_s + rng.normal(0, noise.acc_bias) + sig_a * rng.standard_normal(n),
-        r + rng.normal(0, noise.gyro_bias) + sig_g * rng.standard_normal(n),
-        delta + noise.rudder_sd * rng.standard_normal(n),
-        phi,
-    ])
+    meas = np.column_stack(
+        [
+            p + rng.normal(0, noise.gyro_bias) + sig_g * rng.standard_normal(n),
+            a_s + rng.normal(0, noise.acc_bias) + sig_a * rng.standard_normal(n),
+            r + rng.normal(0, noise.gyro_bias) + sig_g * rng.standard_normal(n),
+            delta + noise.rudder_sd * rng.standard_normal(n),
+            phi,
+        ]
+    )
     filt = lfilter(fir_lowpass(exp), 1.0, meas, axis=0)[warm::dec][:samples]
-    return RollRecording(name=name, T=dec / fs, delta=filt[:, 3], p=filt[:, 0], a_s=filt[:, 1], r=filt[:, 2],
-                         load=load if known_load else None, phi=filt[:, 4])
+    return RollRecording(
+        name=name,
+        T=dec / fs,
+        delta=filt[:, 3],
+        p=filt[:, 0],
+        a_s=filt[:, 1],
+        r=filt[:, 2],
+        load=load if known_load else None,
+        phi=filt[:, 4],
+    )
 
 
 def simulate_case(prof: RollProfile, case: str, noise: Noise, seed: int, length_factor: float = 1.0) -> list[RollRecording]:
@@ -165,7 +189,15 @@ def simulate_case(prof: RollProfile, case: str, noise: Noise, seed: int, length_
         d = specs[nm]
         # dataset names are shared across cases (nominal-1 is the same run): seed by name, not role
         ds_seed = seed * 1000 + sorted(specs).index(nm)
-        out.append(simulate_dataset(prof, Load(d["load_kg"], d["load_height"]), int(d["samples"] * length_factor),
-                                    noise, ds_seed, name=nm, known_load=(i < 2)))
+        out.append(
+            simulate_dataset(
+                prof,
+                Load(d["load_kg"], d["load_height"]),
+                int(d["samples"] * length_factor),
+                noise,
+                ds_seed,
+                name=nm,
+                known_load=(i < 2),
+            )
+        )
     return out
-

@@ -19,8 +19,9 @@ def _model(name: str):
     return MODELS[name]
 
 
-def identify_file(path: str | Path, model: str = "full", ship: str | ShipProfile = "naval-vessel",
-                  prefilter_hz: float | None = None) -> tuple[YawFit, dict[str, float]]:
+def identify_file(
+    path: str | Path, model: str = "full", ship: str | ShipProfile = "naval-vessel", prefilter_hz: float | None = None
+) -> tuple[YawFit, dict[str, float]]:
     """Fit the yaw model to one recording; start values are the ship profile's lumped parameters
     (2.19), as the thesis starts from its simulation parameters (L1784-1785). Returns the fit and
     those start values."""
@@ -30,12 +31,15 @@ def identify_file(path: str | Path, model: str = "full", ship: str | ShipProfile
     data = read_yaw_csv(path, m, profile)
     check_forward(data, str(path))
     if prefilter_hz is not None and not 0 < prefilter_hz < 0.5 / data.sample_time:  # also NaN
-        raise UserError(f"--prefilter {prefilter_hz:g}: must be between 0 and the Nyquist frequency {0.5 / data.sample_time:g} Hz")
+        raise UserError(
+            f"--prefilter {prefilter_hz:g}: must be between 0 and the Nyquist frequency {0.5 / data.sample_time:g} Hz"
+        )
     return fit_yaw(data, m, start, prefilter_hz=prefilter_hz), start
 
 
-def simulate_file(path: str | Path, seed: int = 0, noise_scale: float = 1.0, manoeuvre_seed: int = 0,
-                  ship: str = "naval-vessel") -> Path:
+def simulate_file(
+    path: str | Path, seed: int = 0, noise_scale: float = 1.0, manoeuvre_seed: int = 0, ship: str = "naval-vessel"
+) -> Path:
     """A 10-minute, 10 Hz recording of the forward-only identification run with Table 4.1 noise
     scaled by ``noise_scale`` (example input of :func:`identify_file`)."""
     if noise_scale < 0:
@@ -43,6 +47,11 @@ def simulate_file(path: str | Path, seed: int = 0, noise_scale: float = 1.0, man
     profile = load_profile(ship)
     clean = clean_recording(profile, manoeuvre_seed)
     data = measure(clean, Noise().scaled(noise_scale), 1, seed)
-    meta = {"ship": profile.name, "source": "shiptrial yawid-sim (the podded-ship MSc thesis, chapter 4 experiment, ours)",
-            "sample_time": f"{profile.sample_time:g}", "noise": f"{noise_scale:g} x Table 4.1", "seed": str(seed)}
+    meta = {
+        "ship": profile.name,
+        "source": "shiptrial yawid-sim (the podded-ship MSc thesis, chapter 4 experiment, ours)",
+        "sample_time": f"{profile.sample_time:g}",
+        "noise": f"{noise_scale:g} x Table 4.1",
+        "seed": str(seed),
+    }
     return write_yaw_csv(data, path, meta)

@@ -45,8 +45,9 @@ def _as_batch(data: YawData, names: tuple[str, ...]) -> dict[str, np.ndarray]:
     return {k: np.atleast_2d(np.asarray(data.signals[k], float)) for k in names}
 
 
-def simulate_yaw(model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], r0: np.ndarray, ts: float,
-                 sensitivities: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+def simulate_yaw(
+    model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], r0: np.ndarray, ts: float, sensitivities: bool = True
+) -> tuple[np.ndarray, np.ndarray | None]:
     """Predicted yaw rate (B, N) of (2.17)/(2.18) and its sensitivities (B, N, p) to theta (B, p)
     (None with ``sensitivities=False``), from the measured inputs ``w`` (B, N) and ``r0`` (B,).
 
@@ -102,8 +103,9 @@ def _input_regressors(model: YawModel, w: dict[str, np.ndarray], col: dict[str, 
     return reg
 
 
-def _input_forcing(model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], col: dict[str, int],
-                   reg: np.ndarray | None = None) -> np.ndarray:
+def _input_forcing(
+    model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], col: dict[str, int], reg: np.ndarray | None = None
+) -> np.ndarray:
     """The terms of (2.17)/(2.18) that do not involve r, plus tau_r: (B, N), summed once outside the
     time loop, block by block along time (each sample's sum over the regressors is the same), from
     the input regressors ``reg`` of :func:`_input_regressors` when the caller has them."""
@@ -137,8 +139,14 @@ def prefilter(w: dict[str, np.ndarray], ts: float, cutoff_hz: float, axis: int =
     return {k: filtfilt(b, a, v, axis=axis) for k, v in w.items()}
 
 
-def fit_yaw(data: YawData, model: YawModel, theta0: dict[str, float], max_iter: int = 200, rtol: float = 1e-9,
-            prefilter_hz: float | None = None) -> YawFit:
+def fit_yaw(
+    data: YawData,
+    model: YawModel,
+    theta0: dict[str, float],
+    max_iter: int = 200,
+    rtol: float = 1e-9,
+    prefilter_hz: float | None = None,
+) -> YawFit:
     """Output-error fit of ``model`` to each recording of ``data`` (signals (N,) or (B, N)),
     starting from ``theta0`` (physical values by name); ``prefilter_hz`` low-passes the inputs
     (:func:`prefilter`), None uses them as measured (the thesis's method)."""

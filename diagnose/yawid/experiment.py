@@ -40,8 +40,9 @@ def pods_inputs(n: np.ndarray, delta: np.ndarray, ts: float, tau_s: float = POD_
     return np.stack([n, d, n, d], axis=-1)
 
 
-def turn_pulse(ts: float, duration_s: float = 200.0, n: float = 80.0, angle_deg: float = -10.0,
-               start_s: float = 50.0, length_s: float = 50.0) -> np.ndarray:
+def turn_pulse(
+    ts: float, duration_s: float = 200.0, n: float = 80.0, angle_deg: float = -10.0, start_s: float = 50.0, length_s: float = 50.0
+) -> np.ndarray:
     """Experiment 1 of chapter 3: straight run from rest at n rev/s, then a pod-angle pulse."""
     t = np.arange(int(round(duration_s / ts))) * ts
     delta = np.where((t >= start_s) & (t < start_s + length_s), np.radians(angle_deg), 0.0)
@@ -121,12 +122,19 @@ def yaw_row_signals(profile: ShipProfile, nu: np.ndarray, eta: np.ndarray, input
     driven by ``inputs`` (N, m): v_dot the Euler increment, tau_r the profile's pod yaw moment (2.12)."""
     in_sig = {name: inputs[:, i] for i, name in enumerate(profile.inputs)}
     u, v, r, p = nu[:-1].T
-    return {"r": r, "v_dot": np.diff(nu[:, 1]) / profile.sample_time, "u": u, "v": v,
-            "phi": eta[:-1, 3], "tau_r": pod_yaw_moment(profile, in_sig, u, v, r, p)}
+    return {
+        "r": r,
+        "v_dot": np.diff(nu[:, 1]) / profile.sample_time,
+        "u": u,
+        "v": v,
+        "phi": eta[:-1, 3],
+        "tau_r": pod_yaw_moment(profile, in_sig, u, v, r, p),
+    }
 
 
-def pod_yaw_moment(profile: ShipProfile, inputs: dict[str, np.ndarray], u: np.ndarray, v: np.ndarray, r: np.ndarray,
-                   p: np.ndarray | None = None) -> np.ndarray:
+def pod_yaw_moment(
+    profile: ShipProfile, inputs: dict[str, np.ndarray], u: np.ndarray, v: np.ndarray, r: np.ndarray, p: np.ndarray | None = None
+) -> np.ndarray:
     """The pods' yaw moment tau_n of (2.12) from the pod inputs (named as ``profile.inputs``: n1,
     delta1, ...) and the motion, by the kernel's own signal function (``model_signals``); all
     arrays broadcast together (e.g. (n, 1) inputs with (n, runs) motion)."""
@@ -149,5 +157,7 @@ def check_forward(data: YawData, what: str) -> None:
     """Refuse a recording in which the ship goes astern: A u r of (2.17) needs u >= 0."""
     frac = forward_only(data.signals["u"], tol=0.5)
     if frac > 0.01:  # a few noisy samples near rest are not a manoeuvre astern
-        raise UserError(f"{what}: the ship goes astern (u < -0.5 m/s) in {100 * frac:.1f} % of the samples; "
-                        "the lumped A u r of (2.17) needs u >= 0 (use a forward-only manoeuvre)")
+        raise UserError(
+            f"{what}: the ship goes astern (u < -0.5 m/s) in {100 * frac:.1f} % of the samples; "
+            "the lumped A u r of (2.17) needs u >= 0 (use a forward-only manoeuvre)"
+        )

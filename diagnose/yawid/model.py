@@ -68,15 +68,26 @@ SIMPLIFIED = YawModel("simplified", ("I_r", "A", "N_rr", "N_rv", "N_uv"))
 MODELS = {"full": FULL, "simplified": SIMPLIFIED}
 
 # Symbols as the thesis prints them, for tables.
-LABELS = {"I_r": "I_r", "M_v": "M_v", "A": "A", "N_rr": "N_r|r|", "N_rv": "N_r|v|", "N_phiur": "N_phiu|r|",
-          "N_uv": "N_|u|v", "N_phiuu": "N_phiu|u|", "N_phiuv": "N_phi|uv|"}
+LABELS = {
+    "I_r": "I_r",
+    "M_v": "M_v",
+    "A": "A",
+    "N_rr": "N_r|r|",
+    "N_rv": "N_r|v|",
+    "N_phiur": "N_phiu|r|",
+    "N_uv": "N_|u|v",
+    "N_phiuu": "N_phiu|u|",
+    "N_phiuv": "N_phi|uv|",
+}
 
 
 def true_parameters(profile: ShipProfile, theta: str | np.ndarray | None = None) -> dict[str, float]:
     """The lumped yaw parameters (2.19) of a 4-DOF profile's parameter set (all nine of (2.17))."""
     rb = profile.rigid_body
     if rb is None or profile.n_dof != 4:
-        raise ProfileError(f"ship {profile.name!r} has no roll DOF and rigid body: yaw identification needs a 4-DOF profile like 'naval-vessel'")
+        raise ProfileError(
+            f"ship {profile.name!r} has no roll DOF and rigid body: yaw identification needs a 4-DOF profile like 'naval-vessel'"
+        )
     vals = profile.params(theta)[profile.model.dof_slice(2)]
     yaw = dict(zip(profile.model.terms[2], vals))
 

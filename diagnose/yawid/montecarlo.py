@@ -21,10 +21,15 @@ from primitives.ship import ShipProfile
 
 # What the podded-ship MSc thesis says of each model's Monte Carlo (its numbers are in figures only, L1296-1321).
 THESIS_NOTES = {
-    "full": {"I_r": "barely affected by noise", "N_phiuv": "large relative variance and bias",
-             "*": "bias and variance differ greatly between parameters"},
-    "simplified": {"I_r": "more accurate than with the full model",
-                   "*": "every bias larger than the full model's, variance much smaller"},
+    "full": {
+        "I_r": "barely affected by noise",
+        "N_phiuv": "large relative variance and bias",
+        "*": "bias and variance differ greatly between parameters",
+    },
+    "simplified": {
+        "I_r": "more accurate than with the full model",
+        "*": "every bias larger than the full model's, variance much smaller",
+    },
 }
 
 
@@ -44,14 +49,18 @@ class MonteCarlo:
         for j, name in enumerate(self.fits.model.params):
             th0 = self.truth[name]
             est = self.fits.theta[ok, j]
-            out.append({
-                "param": name, "true": th0, "mean": float(est.mean()) if est.size else float("nan"),
-                "std": float(est.std(ddof=1)) if est.size > 1 else float("nan"),
-                "rel_bias": float((est.mean() - th0) / th0) if est.size else float("nan"),
-                "rel_std": float(est.std(ddof=1) / abs(th0)) if est.size > 1 else float("nan"),
-                "noise_free_rel": float((self.noise_free.theta[0, j] - th0) / th0),
-                "thesis": notes.get(name, notes["*"]),
-            })
+            out.append(
+                {
+                    "param": name,
+                    "true": th0,
+                    "mean": float(est.mean()) if est.size else float("nan"),
+                    "std": float(est.std(ddof=1)) if est.size > 1 else float("nan"),
+                    "rel_bias": float((est.mean() - th0) / th0) if est.size else float("nan"),
+                    "rel_std": float(est.std(ddof=1) / abs(th0)) if est.size > 1 else float("nan"),
+                    "noise_free_rel": float((self.noise_free.theta[0, j] - th0) / th0),
+                    "thesis": notes.get(name, notes["*"]),
+                }
+            )
         return out
 
 
@@ -62,9 +71,16 @@ def clean_recording(profile: ShipProfile, manoeuvre_seed: int = 0, duration_s: f
     return data
 
 
-def run_monte_carlo(profile: ShipProfile, runs: int = 50, seed: int = 0, noise: Noise | None = None,
-                    models: tuple[str, ...] = ("full", "simplified"), manoeuvre_seed: int = 0,
-                    chunk: int = 25, prefilter_hz: float | None = None) -> dict[str, MonteCarlo]:
+def run_monte_carlo(
+    profile: ShipProfile,
+    runs: int = 50,
+    seed: int = 0,
+    noise: Noise | None = None,
+    models: tuple[str, ...] = ("full", "simplified"),
+    manoeuvre_seed: int = 0,
+    chunk: int = 25,
+    prefilter_hz: float | None = None,
+) -> dict[str, MonteCarlo]:
     """Estimates of each model over ``runs`` noise realisations, in chunks of ``chunk`` runs (a
     run's result does not depend on the chunk it is fitted in). ``prefilter_hz``: see
     :func:`diagnose.yawid.estimate.prefilter`."""
@@ -85,6 +101,9 @@ def run_monte_carlo(profile: ShipProfile, runs: int = 50, seed: int = 0, noise: 
 
 def _concat(parts: list[YawFit]) -> YawFit:
     """One fit of the runs of ``parts`` (chunks of one model): per-run arrays joined, the most iterations."""
-    per_run = {f.name: np.concatenate([getattr(p, f.name) for p in parts])
-               for f in fields(YawFit) if f.name not in ("model", "iterations")}
+    per_run = {
+        f.name: np.concatenate([getattr(p, f.name) for p in parts])
+        for f in fields(YawFit)
+        if f.name not in ("model", "iterations")
+    }
     return replace(parts[0], iterations=max(p.iterations for p in parts), **per_run)

@@ -35,7 +35,9 @@ def write_yaw_csv(data: YawData, path: str | Path, meta: dict[str, str] | None =
 
 
 def _columns(path: Path) -> tuple[dict[str, str], dict[str, np.ndarray]]:
-    meta, body = split_metadata(read_input_text(path, RecordingError, "a yaw recording CSV (t, r, u, v, ...)", "utf-8-sig").splitlines())
+    meta, body = split_metadata(
+        read_input_text(path, RecordingError, "a yaw recording CSV (t, r, u, v, ...)", "utf-8-sig").splitlines()
+    )
     if len(body) < 2:
         raise RecordingError(f"{path}: needs a header row (t,r,u,v,...) and data rows")
     reader = csv.reader(body)
@@ -48,7 +50,9 @@ def _columns(path: Path) -> tuple[dict[str, str], dict[str, np.ndarray]]:
             try:
                 vals[i] = float(row[j])
             except (IndexError, ValueError):
-                raise RecordingError(f"{path}: row {i + 2}, column '{name}': {row[j] if j < len(row) else ''!r} is not a number") from None
+                raise RecordingError(
+                    f"{path}: row {i + 2}, column '{name}': {row[j] if j < len(row) else ''!r} is not a number"
+                ) from None
         if not np.all(np.isfinite(vals)):
             raise RecordingError(f"{path}: column '{name}' holds NaN or inf; the yaw fit needs gap-free signals")
         cols[name] = vals
@@ -62,8 +66,10 @@ def read_yaw_csv(path: str | Path, model: YawModel, profile: ShipProfile | None 
     need = ("t", "r") + model.signals
     for name in need:
         if name not in cols:
-            why = {"phi": "the roll angle phi [rad] (the full model (2.17) needs roll; --model simplified does not)",
-                   "v_dot": "the measured sway acceleration v_dot [m/s2] (the full model needs it; --model simplified does not)"}
+            why = {
+                "phi": "the roll angle phi [rad] (the full model (2.17) needs roll; --model simplified does not)",
+                "v_dot": "the measured sway acceleration v_dot [m/s2] (the full model needs it; --model simplified does not)",
+            }
             raise RecordingError(f"{path}: no column '{name}': add {why.get(name, f'{name} in SI units')}")
     t = cols["t"]
     if t.size < 50:
@@ -82,8 +88,10 @@ def _pod_moment(path: Path, cols: dict[str, np.ndarray], profile: ShipProfile | 
         return cols["tau_r"]
     missing = [c for c in POD_COLUMNS if c not in cols]
     if missing:
-        raise RecordingError(f"{path}: no pod yaw moment: add column 'tau_r' [N m] (measured pod forces) or the pod inputs "
-                             f"{', '.join(POD_COLUMNS)} (missing: {', '.join(missing)})")
+        raise RecordingError(
+            f"{path}: no pod yaw moment: add column 'tau_r' [N m] (measured pod forces) or the pod inputs "
+            f"{', '.join(POD_COLUMNS)} (missing: {', '.join(missing)})"
+        )
     if profile is None or not profile.pods:
         raise RecordingError(f"{path}: pod inputs without 'tau_r' need a ship profile with [[pods]] (e.g. --ship naval-vessel)")
     inputs = {name: cols[name] for name in profile.inputs if name in cols}

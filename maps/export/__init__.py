@@ -62,8 +62,9 @@ def export_plan(
     return [path.parent / p.name for p in written]
 
 
-def _write(plan: Plan, fmt: str, path: Path, *, sea_map: Any, start: datetime | str | None, pdf: bool, vessel: str | None,
-           figures: Any) -> list[Path]:
+def _write(
+    plan: Plan, fmt: str, path: Path, *, sea_map: Any, start: datetime | str | None, pdf: bool, vessel: str | None, figures: Any
+) -> list[Path]:
     """:func:`export_plan` of a known format, written straight to ``path`` (and beside it)."""
     if fmt == "geojson":
         from maps.export.geojson import write_geojson
@@ -116,10 +117,12 @@ def export_all(
     t0 = resolve_start(plan, start)  # one start time for every file
     sea_map = plan_chart(plan, sea_map)  # one chart for every file (projecting the map was done once per export)
     out: dict[str, Path] = {}
-    with PlanFigures(plan, sea_map) as own, (staged_outputs(out_dir) if staged else nullcontext(Path(out_dir))) as tmp:
+    with PlanFigures(plan, sea_map) as own, staged_outputs(out_dir) if staged else nullcontext(Path(out_dir)) as tmp:
         figs = figures or own
         for fmt in FORMATS:
-            written = _write(plan, fmt, default_path(plan, fmt, tmp), sea_map=sea_map, start=t0, vessel=vessel, pdf=pdf, figures=figs)
+            written = _write(
+                plan, fmt, default_path(plan, fmt, tmp), sea_map=sea_map, start=t0, vessel=vessel, pdf=pdf, figures=figs
+            )
             out[fmt] = written[0]
             if fmt == "card" and len(written) > 1:
                 out["card_pdf"] = written[1]

@@ -102,13 +102,31 @@ def waypoints(plan: Plan) -> list[Waypoint]:
         k = step_slice(plan, st).start
         label = f"EXECUTE {st.primitive}" if getattr(st, "execute", False) else st.primitive
         out.append(
-            Waypoint(i, f"WP{i + 1:02d} {label}", float(st.entry_lon), float(st.entry_lat), float(st.start_time_s),
-                     st.entry_heading_deg, float(st.entry_speed_mps), st, k)
+            Waypoint(
+                i,
+                f"WP{i + 1:02d} {label}",
+                float(st.entry_lon),
+                float(st.entry_lat),
+                float(st.start_time_s),
+                st.entry_heading_deg,
+                float(st.entry_speed_mps),
+                st,
+                k,
+            )
         )
     k = len(plan.t) - 1
     out.append(
-        Waypoint(len(out), f"WP{len(out) + 1:02d} end", float(plan.lonlat[k, 0]), float(plan.lonlat[k, 1]),
-                 float(plan.t[k] - plan.t[0]), float(np.degrees(plan.track[k, 2]) % 360.0), float(plan.speed[k]), None, k)
+        Waypoint(
+            len(out),
+            f"WP{len(out) + 1:02d} end",
+            float(plan.lonlat[k, 0]),
+            float(plan.lonlat[k, 1]),
+            float(plan.t[k] - plan.t[0]),
+            float(np.degrees(plan.track[k, 2]) % 360.0),
+            float(plan.speed[k]),
+            None,
+            k,
+        )
     )
     return out
 
@@ -231,7 +249,9 @@ def describe_inputs(plan: Plan, row: np.ndarray) -> str:
         tx, ty, tn = sig["tau_x"], sig["tau_y"], sig["tau_n"]
         s = [f"thrust {abs(tx):.0f} {'ahead' if tx >= 0 else 'astern'}"]
         s.append(f"side force {abs(ty):.0f} to {'starboard' if ty >= 0 else 'port'}" if abs(ty) >= 0.5 else "no side force")
-        s.append(f"turning moment {abs(tn):.0f} to {'starboard' if tn >= 0 else 'port'}" if abs(tn) >= 0.5 else "no turning moment")
+        s.append(
+            f"turning moment {abs(tn):.0f} to {'starboard' if tn >= 0 else 'port'}" if abs(tn) >= 0.5 else "no turning moment"
+        )
         return ", ".join(s)
     if "delta" in sig:
         d = np.degrees(sig["delta"])
@@ -322,7 +342,7 @@ def _input_word(plan: Plan, name: str) -> str:
     angle", "bow thruster" (thruster names from the profile, as :func:`describe_inputs`)."""
     if name in ("delta", "n"):
         return {"delta": "rudder", "n": "engine"}[name]
-    i = int(name[len(name.rstrip("0123456789")):] or 1) - 1
+    i = int(name[len(name.rstrip("0123456789")) :] or 1) - 1
     labels = _thruster_labels(plan)
     lab = labels[i] if 0 <= i < len(labels) else f"thruster {i + 1}"
     return f"{lab} angle" if name.startswith("alpha") else lab

@@ -83,8 +83,13 @@ def _step_legs(plan: Plan, sea_map: Any) -> dict[int, tuple[str, str, list[str],
         while k < len(pts) - 1 and pts[k].step is None:
             k += 1
         legs = [route.legs[m] for m in range(j + 1, k + 1)]
-        out[pt.step.index] = (pts[j].name.split()[0], pts[k].name.split()[0], [pts[m].name.split()[0] for m in range(j + 1, k)],
-                              min(g.port_m for g in legs), min(g.stbd_m for g in legs))
+        out[pt.step.index] = (
+            pts[j].name.split()[0],
+            pts[k].name.split()[0],
+            [pts[m].name.split()[0] for m in range(j + 1, k)],
+            min(g.port_m for g in legs),
+            min(g.stbd_m for g in legs),
+        )
     return out
 
 
@@ -126,8 +131,7 @@ def step_sheets(plan: Plan, start: datetime | str | None = None, sea_map: Any = 
                 "settings": [] if orders else input_phases(plan, st),
                 "duration": clock(st.duration_s),
                 "space": f"{_m(st.space_m[0])} along x {_m(st.space_m[1])} across",
-                "ends": f"at {there} {latlon_dm(nxt.lat, nxt.lon)}, heading {nxt.heading_deg:03.0f}°, "
-                f"{nxt.speed_kn:.1f} kn",
+                "ends": f"at {there} {latlon_dm(nxt.lat, nxt.lon)}, heading {nxt.heading_deg:03.0f}°, {nxt.speed_kn:.1f} kn",
                 "abort": [
                     *(knots(a) for a in step_abort(plan, st)),
                     f"more than {port:.0f} m to port or {stbd:.0f} m to starboard of the line {line} "
@@ -149,8 +153,20 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
     crit = d.get("criterion")
     if crit:
         ms = d.get("mean_subtraction")
-        head.append(f"Design: {crit}-optimal" + ("" if ms is None else (", with mean subtraction" if ms is True else
-                                                                         ", without mean subtraction" if ms is False else f", mean subtraction {ms}")))
+        head.append(
+            f"Design: {crit}-optimal"
+            + (
+                ""
+                if ms is None
+                else (
+                    ", with mean subtraction"
+                    if ms is True
+                    else ", without mean subtraction"
+                    if ms is False
+                    else f", mean subtraction {ms}"
+                )
+            )
+        )
     eff = d.get("d_efficiency")
     if isinstance(eff, (int, float)):
         head.append(f"D-efficiency of the rounded design against the continuous optimum: {100.0 * eff:.1f} %")
@@ -158,17 +174,20 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
         if isinstance(dr, dict):
             need = dr.get("needs_m")
             loss = dr.get("efficiency_loss")
-            head.append(f"Dropped {dr.get('primitive')}: fits nowhere on the map"
-                        + (f" (needs {need[0]:.0f} m x {need[1]:.0f} m)" if isinstance(need, (list, tuple)) and len(need) == 2 else "")
-                        + (f", efficiency loss {100.0 * loss:.1f} %" if isinstance(loss, (int, float)) else ""))
+            head.append(
+                f"Dropped {dr.get('primitive')}: fits nowhere on the map"
+                + (f" (needs {need[0]:.0f} m x {need[1]:.0f} m)" if isinstance(need, (list, tuple)) and len(need) == 2 else "")
+                + (f", efficiency loss {100.0 * loss:.1f} %" if isinstance(loss, (int, float)) else "")
+            )
     weights = d.get("weights") or {}
     counts = d.get("counts") or {}
     # rows for the primitives the design uses; those it gives no weight (maps.trialdesign.UNUSED_WEIGHT) are named
     # once, not listed with count 0
     unused = [*(d.get("not_used") or []), *(n for n, x in weights.items() if float(x) <= 1e-4 and not counts.get(n))]
     names = [n for n in dict.fromkeys([*weights, *counts]) if n not in unused]
-    rows = [[n, f"{float(weights[n]):.3f}" if n in weights else "", str(counts.get(n, 0)), str(plan.counts.get(n, 0))]
-            for n in names]
+    rows = [
+        [n, f"{float(weights[n]):.3f}" if n in weights else "", str(counts.get(n, 0)), str(plan.counts.get(n, 0))] for n in names
+    ]
     if unused:
         head.append(f"Not used (no weight in the optimal design): {', '.join(dict.fromkeys(unused))}")
     return head, rows
@@ -178,18 +197,28 @@ def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list
     phases = [phase(plan, st) for st in plan.steps]
     n_man = sum(1 for p in phases if p in ("EXECUTE", "manoeuvre"))
     kinds = [f"{n_man} manoeuvre{'s' if n_man != 1 else ''}"] + [
-        f"{n} {w}{'s' if n != 1 else ''}" for w in ("run-in", "stop", "transit") if (n := phases.count(w))]
+        f"{n} {w}{'s' if n != 1 else ''}" for w in ("run-in", "stop", "transit") if (n := phases.count(w))
+    ]
     chart = plan_chart(plan, sea_map)
     return [
-        f"Ship {vessel}" + (f" ({plan.ship})" if vessel != plan.ship else "")
-        + (f"   Area {plan.map_name}" if plan.map_name else "") + f"   Start {t0.strftime('%Y-%m-%d %H:%M')} UTC",
+        f"Ship {vessel}"
+        + (f" ({plan.ship})" if vessel != plan.ship else "")
+        + (f"   Area {plan.map_name}" if plan.map_name else "")
+        + f"   Start {t0.strftime('%Y-%m-%d %H:%M')} UTC",
         f"{len(plan.steps)} steps: {', '.join(kinds)}; "
         f"duration {clock(plan.duration_s)} (h:)min:s, {plan.length_m:.0f} m ({plan.length_m / M_PER_NM:.2f} NM)",
-        "Plan " + ("feasible" if plan.feasible else "NOT FEASIBLE") + (", optimal" if plan.optimal else "")
+        "Plan "
+        + ("feasible" if plan.feasible else "NOT FEASIBLE")
+        + (", optimal" if plan.optimal else "")
         + f"; hull {plan.hull[0]:g} m x {plan.hull[1]:g} m; safety margin {plan.margin_m:.0f} m",
-        "Cross-track limits of the route: " + ("NOT checked against a chart (export with --map)" if chart is None
-                                               else "the chart shows no land or no-go water near the track"
-                                               if chart.is_empty() else "cut to the land-free water of the chart"),
+        "Cross-track limits of the route: "
+        + (
+            "NOT checked against a chart (export with --map)"
+            if chart is None
+            else "the chart shows no land or no-go water near the track"
+            if chart.is_empty()
+            else "cut to the land-free water of the chart"
+        ),
     ]
 
 
@@ -208,8 +237,21 @@ def _code(s: dict) -> str:
 
 def _table_rows(sheets: list[dict]) -> list[list[str]]:
     """The steps in sailing order, names in full (the PDF wraps a long one in its cell)."""
-    return [[str(s["n"]), s["segment"], s["name"] + _code(s), s["waypoint"], s["start"].replace(" UTC", ""), s["position"],
-             s["heading"], s["speed"], s["duration"], re.sub(r" m along x (.*) m across$", r" x \1 m", s["space"])] for s in sheets]
+    return [
+        [
+            str(s["n"]),
+            s["segment"],
+            s["name"] + _code(s),
+            s["waypoint"],
+            s["start"].replace(" UTC", ""),
+            s["position"],
+            s["heading"],
+            s["speed"],
+            s["duration"],
+            re.sub(r" m along x (.*) m across$", r" x \1 m", s["space"]),
+        ]
+        for s in sheets
+    ]
 
 
 # the PDF's tables keep the look of the matplotlib.table the card was first drawn with
@@ -225,8 +267,11 @@ def page1_layout(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> tuple[l
     d_head, _ = design_rows(plan)
     # wrapped to the page (8.5 pt DejaVu Sans, 0.9 of A4's width: some 110 characters): a long
     # list of unused manoeuvres ran off the page's edge
-    lines = [w for line in _summary(plan, t0, vessel, sea_map) + d_head
-             for w in textwrap.wrap(line, PAGE1_CHARS, subsequent_indent="    ", break_on_hyphens=False) or [""]]
+    lines = [
+        w
+        for line in _summary(plan, t0, vessel, sea_map) + d_head
+        for w in textwrap.wrap(line, PAGE1_CHARS, subsequent_indent="    ", break_on_hyphens=False) or [""]
+    ]
     y = 0.935 - 0.017 * len(lines)
     abort = ["ABORT the manoeuvre (stop, steer clear) if:"] + [f"  - {a}" for a in abort_criteria(plan)]
     return lines, abort, y - 0.006, y - 0.09
@@ -234,7 +279,11 @@ def page1_layout(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> tuple[l
 
 def _title(s: dict) -> str:
     """A step's heading: number, phase and the manoeuvre's name ("3. EXECUTE 10/10 zig-zag to starboard")."""
-    return f"{s['n']}. {s['segment']}: {s['name']}" if s["segment"] in ("run-in", "stop", "transit") else f"{s['n']}. {s['segment']} {s['name']}"
+    return (
+        f"{s['n']}. {s['segment']}: {s['name']}"
+        if s["segment"] in ("run-in", "stop", "transit")
+        else f"{s['n']}. {s['segment']} {s['name']}"
+    )
 
 
 WRAP = 100  # characters of an 8.5 pt line on the card's A4 text width
@@ -248,10 +297,15 @@ def _detail_blocks(sheets: list[dict]) -> list[list[tuple[str, dict]]]:
     for s in sheets:
         lines: list[tuple[str, dict]] = []
         for k, w in enumerate(textwrap.wrap(_title(s), 88)):
-            lines.append((w if k == 0 else f"    {w}", {"fontweight": "bold", "fontsize": 9.5, "code": _code(s).strip() if k == 0 else ""}))
+            lines.append(
+                (w if k == 0 else f"    {w}", {"fontweight": "bold", "fontsize": 9.5, "code": _code(s).strip() if k == 0 else ""})
+            )
         where = "Execute at" if s["execute"] else "Start at"
-        for k, w in enumerate(textwrap.wrap(f"{where} {s['waypoint']} {s['position']}, {s['start']}, heading {s['heading']}, "
-                                            f"speed {s['speed']}", WRAP)):
+        for k, w in enumerate(
+            textwrap.wrap(
+                f"{where} {s['waypoint']} {s['position']}, {s['start']}, heading {s['heading']}, speed {s['speed']}", WRAP
+            )
+        ):
             lines.append((f"   {w}" if k == 0 else f"      {w}", norm))
         for title, items in (("Orders", s["orders"]), ("Settings", s["settings"])):
             for j, item in enumerate(items):
@@ -289,8 +343,9 @@ DETAIL_LINES_PER_PAGE = 62
 DESIGN_COLS = ["design code", "weight", "rounded count", "planned"]
 
 
-def write_card_pdf(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None,
-                   vessel: str | None = None) -> Path:
+def write_card_pdf(
+    plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None
+) -> Path:
     """The printable card (A4 PDF, TrueType fonts embedded; written with fpdf2, see
     :mod:`maps.export.cardpdf`): page 1 (summary, abort criteria, design, map), the tables of
     steps and of the design, the orders per step and the states over time."""
@@ -333,20 +388,31 @@ def _html_step(s: dict) -> str:
     e = html.escape
     cls = "step exec" if s["execute"] else "step"
     code = _code(s).strip()
-    h = [f"<div class='{cls}'><h3>{e(_title(s))}" + (f" <small class='code'>{e(code)}</small>" if code else "") + "</h3>",
-         f"<p><b>{'Execute' if s['execute'] else 'Start'} at {e(s['waypoint'])}</b> {e(s['position'])}, {e(s['start'])}, "
-         f"heading <b>{e(s['heading'])}</b>, speed <b>{e(s['speed'])}</b></p>"]
+    h = [
+        f"<div class='{cls}'><h3>{e(_title(s))}" + (f" <small class='code'>{e(code)}</small>" if code else "") + "</h3>",
+        f"<p><b>{'Execute' if s['execute'] else 'Start'} at {e(s['waypoint'])}</b> {e(s['position'])}, {e(s['start'])}, "
+        f"heading <b>{e(s['heading'])}</b>, speed <b>{e(s['speed'])}</b></p>",
+    ]
     if s["orders"]:
         h.append("<p><b>Orders</b></p><ul>" + "".join(f"<li>{e(o)}</li>" for o in s["orders"]) + "</ul>")
     if s["settings"]:
-        h.append("<p><b>Settings</b> (from the planned inputs)</p><ul>" + "".join(f"<li>{e(o)}</li>" for o in s["settings"]) + "</ul>")
+        h.append(
+            "<p><b>Settings</b> (from the planned inputs)</p><ul>" + "".join(f"<li>{e(o)}</li>" for o in s["settings"]) + "</ul>"
+        )
     h.append(f"<p><b>Expected duration</b> {e(s['duration'])}; <b>sea room</b> {e(s['space'])}; ends {e(s['ends'])}</p>")
-    h.append("<p class='red'><b>Abort if</b></p><ul class='red'>" + "".join(f"<li>{e(a)}</li>" for a in s["abort"]) + "</ul></div>")
+    h.append(
+        "<p class='red'><b>Abort if</b></p><ul class='red'>" + "".join(f"<li>{e(a)}</li>" for a in s["abort"]) + "</ul></div>"
+    )
     return "\n".join(h)
 
 
-def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = None, vessel: str | None = None,
-              figures: PlanFigures | None = None) -> str:
+def card_html(
+    plan: Plan,
+    sea_map: Any = None,
+    start: datetime | str | None = None,
+    vessel: str | None = None,
+    figures: PlanFigures | None = None,
+) -> str:
     """The card as one self-contained HTML page (every table complete; prints with repeated
     table headers). Its map and states images are the track and states PNG exports
     (``figures``: the plan's shared figures, drawn here when not given)."""
@@ -359,8 +425,11 @@ def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = No
     with PlanFigures(plan, sea_map) as own:
         figs = figures or own
         map_png, states_png = figs.png("track"), figs.png("states")
-    h = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>Sea trial card {e(vname)}</title>",
-         f"<style>{_CSS}</style></head><body>", f"<h1>Sea trial card: {e(vname)}</h1>"]
+    h = [
+        f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>Sea trial card {e(vname)}</title>",
+        f"<style>{_CSS}</style></head><body>",
+        f"<h1>Sea trial card: {e(vname)}</h1>",
+    ]
     h += [f"<p>{e(line)}</p>" for line in _summary(plan, t0, vname, sea_map)]
     h.append("<div class='abort'><b>ABORT the manoeuvre (stop, steer clear) if:</b><ul>")
     h += [f"<li>{e(a)}</li>" for a in abort_criteria(plan)]
@@ -370,10 +439,12 @@ def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = No
         h.append("<h2>Experiment design</h2>")
         h += [f"<p>{e(line)}</p>" for line in d_head]
         h.append(_html_table(DESIGN_COLS, d_rows, "design"))
-    h.append("<h2>Map</h2><p>Manoeuvres in one colour each (the legend names them, design code in brackets), run-ins and "
-             "stops dashed green, transit grey; stars mark execute points, circled numbers the step numbers (set aside with a "
-             "thin line where the water is crowded); "
-             "shaded blue: sea room swept by the hull plus margin; hatched: shallow or restricted water.</p>")
+    h.append(
+        "<h2>Map</h2><p>Manoeuvres in one colour each (the legend names them, design code in brackets), run-ins and "
+        "stops dashed green, transit grey; stars mark execute points, circled numbers the step numbers (set aside with a "
+        "thin line where the water is crowded); "
+        "shaded blue: sea room swept by the hull plus margin; hatched: shallow or restricted water.</p>"
+    )
     h.append(_img(map_png, "map of the planned track"))
     h.append("<h2>Steps in sailing order</h2>")
     h.append(_html_table(TABLE_COLS, _table_rows(sheets), "steps"))
@@ -385,8 +456,15 @@ def card_html(plan: Plan, sea_map: Any = None, start: datetime | str | None = No
     return "\n".join(h)
 
 
-def write_card(plan: Plan, path: str | Path, sea_map: Any = None, start: datetime | str | None = None, pdf: bool = True,
-               vessel: str | None = None, figures: PlanFigures | None = None) -> list[Path]:
+def write_card(
+    plan: Plan,
+    path: str | Path,
+    sea_map: Any = None,
+    start: datetime | str | None = None,
+    pdf: bool = True,
+    vessel: str | None = None,
+    figures: PlanFigures | None = None,
+) -> list[Path]:
     """Write the HTML card to ``path`` (suffix .html) and, with ``pdf``, the PDF beside it
     (``figures``: the plan's shared figures, see :class:`maps.export.plots.PlanFigures`)."""
     path = Path(path)

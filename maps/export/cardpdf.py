@@ -87,8 +87,17 @@ class _Card:
         self.pdf.add_page(format=(size[0] * PT, size[1] * PT))
         self.h = size[1] * PT
 
-    def text(self, fx: float, fy: float, s: str, size: float, *, bold: bool = False, colour: tuple[int, int, int] = (0, 0, 0),
-             va: str = "top") -> None:
+    def text(
+        self,
+        fx: float,
+        fy: float,
+        s: str,
+        size: float,
+        *,
+        bold: bool = False,
+        colour: tuple[int, int, int] = (0, 0, 0),
+        va: str = "top",
+    ) -> None:
         """``s`` at figure fraction (fx, fy) with matplotlib's vertical alignment ``va``."""
         p = self.pdf
         p.set_font(FONT, "B" if bold else "", size)
@@ -119,13 +128,26 @@ def _page1(doc: _Card, plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> N
     pdf.set_draw_color(*RED)
     pdf.set_fill_color(255, 243, 243)
     pdf.set_line_width(1.0)
-    pdf.rect(x0 - pad, y0 - pad, width + 2 * pad, lead * (len(abort) - 1) + ASCENT * size + 0.24 * size + 2 * pad, style="DF",
-             round_corners=True, corner_radius=pad)
+    pdf.rect(
+        x0 - pad,
+        y0 - pad,
+        width + 2 * pad,
+        lead * (len(abort) - 1) + ASCENT * size + 0.24 * size + 2 * pad,
+        style="DF",
+        round_corners=True,
+        corner_radius=pad,
+    )
     for k, a in enumerate(abort):
         pdf.set_text_color(*RED)
         pdf.text(x0, y0 + ASCENT * size + k * lead, a)
-    doc.text(0.05, 0.02, "Manoeuvres in sailing order: next page(s). Numbers on the map are step numbers; "
-             "stars are execute points.", 7.5, colour=GREY, va="baseline")
+    doc.text(
+        0.05,
+        0.02,
+        "Manoeuvres in sailing order: next page(s). Numbers on the map are step numbers; stars are execute points.",
+        7.5,
+        colour=GREY,
+        va="baseline",
+    )
 
 
 TABLE_FS = 6.5
@@ -177,8 +199,10 @@ class _Tables:
         edges = [left]
         for w in widths:
             edges.append(edges[-1] + w * ax_w)
-        cells = [[_wrap_cell(self.doc, str(t), widths[c] * ax_w - 2 * _inset(widths[c] * ax_w), r == 0) for c, t in enumerate(row)]
-                 for r, row in enumerate([cols, *rows])]
+        cells = [
+            [_wrap_cell(self.doc, str(t), widths[c] * ax_w - 2 * _inset(widths[c] * ax_w), r == 0) for c, t in enumerate(row)]
+            for r, row in enumerate([cols, *rows])
+        ]
         heights = [ROW_H + LINE_PITCH * (max(len(c) for c in row) - 1) for row in cells]
         k, first = 1, True
         while k < len(cells):
@@ -259,4 +283,3 @@ def card_pdf_bytes(plan: Plan, t0: datetime, sea_map: Any, vessel: str) -> bytes
     _detail_pages(doc, plan, detail_pages(sheets), tables.page_no + 1)
     draw_states_page(doc.pdf, FONT, plan)
     return _without_date(bytes(doc.pdf.output()))
-

@@ -125,6 +125,7 @@ def chart_of(sea_map: Any) -> Chart | None:
     if isinstance(sea_map, Chart):
         return sea_map
     if hasattr(sea_map, "obstacles") and hasattr(sea_map, "to_lonlat"):  # maps.geo.SeaMap (metric)
+
         def to_ll(c: np.ndarray) -> np.ndarray:
             return np.column_stack(sea_map.to_lonlat(c[:, 0], c[:, 1]))
 
@@ -140,11 +141,24 @@ def chart_of(sea_map: Any) -> Chart | None:
         from maps.export.mapplot import obstacle_geoms
 
         feats = sea_map.get("features", [])
-        land = [shape(f["geometry"]) for f in feats if f.get("geometry") and (f.get("properties") or {}).get("kind", "land") == "land"]
-        other = [g for g in obstacle_geoms({"type": "FeatureCollection", "features": [
-            f for f in feats if (f.get("properties") or {}).get("kind", "land") != "land"]})]
-        return Chart(str(sea_map.get("name", "")), shapely.union_all(land) if land else shapely.Polygon(),
-                     shapely.union_all(other) if other else shapely.Polygon(), _depth_areas_of(feats))
+        land = [
+            shape(f["geometry"]) for f in feats if f.get("geometry") and (f.get("properties") or {}).get("kind", "land") == "land"
+        ]
+        other = [
+            g
+            for g in obstacle_geoms(
+                {
+                    "type": "FeatureCollection",
+                    "features": [f for f in feats if (f.get("properties") or {}).get("kind", "land") != "land"],
+                }
+            )
+        ]
+        return Chart(
+            str(sea_map.get("name", "")),
+            shapely.union_all(land) if land else shapely.Polygon(),
+            shapely.union_all(other) if other else shapely.Polygon(),
+            _depth_areas_of(feats),
+        )
     if isinstance(sea_map, (str, Path)):
         from maps.export.mapplot import load_geojson
 
@@ -171,8 +185,12 @@ def chart_window(plan: Plan, pad_m: float | None = None) -> tuple[float, float, 
     lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
     m_lat = 111_320.0
     m_lon = m_lat * math.cos(math.radians(float(np.mean(lat))))
-    return (float(lon.min() - pad_m / m_lon), float(lat.min() - pad_m / m_lat),
-            float(lon.max() + pad_m / m_lon), float(lat.max() + pad_m / m_lat))
+    return (
+        float(lon.min() - pad_m / m_lon),
+        float(lat.min() - pad_m / m_lat),
+        float(lon.max() + pad_m / m_lon),
+        float(lat.max() + pad_m / m_lat),
+    )
 
 
 def embed_chart(plan: Plan, sea_map: Any, pad_m: float | None = None) -> dict[str, Any] | None:

@@ -37,8 +37,23 @@ def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(
-        ["time_s", "time_from_start", "utc", "lat", "lon", "x_north_m", "y_east_m", "heading_deg", "speed_mps", "speed_kn",
-         "manoeuvre", "segment", "primitive", "orders"] + [c for c, _ in cols]
+        [
+            "time_s",
+            "time_from_start",
+            "utc",
+            "lat",
+            "lon",
+            "x_north_m",
+            "y_east_m",
+            "heading_deg",
+            "speed_mps",
+            "speed_kn",
+            "manoeuvre",
+            "segment",
+            "primitive",
+            "orders",
+        ]
+        + [c for c, _ in cols]
     )
     k_total = len(plan.t)
     first_of = {}
@@ -54,12 +69,20 @@ def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1)
         st = by_index.get(si)
         orders = " | ".join(step_orders(plan, st)) if (st is not None and k == first_of[si]) else ""
         row: list[Any] = [
-            f"{ts:.3f}", clock(ts), iso(t0 + timedelta(seconds=ts)),
-            f"{plan.lonlat[k, 1]:.7f}", f"{plan.lonlat[k, 0]:.7f}",
-            f"{plan.track[k, 0]:.2f}", f"{plan.track[k, 1]:.2f}",
+            f"{ts:.3f}",
+            clock(ts),
+            iso(t0 + timedelta(seconds=ts)),
+            f"{plan.lonlat[k, 1]:.7f}",
+            f"{plan.lonlat[k, 0]:.7f}",
+            f"{plan.track[k, 0]:.2f}",
+            f"{plan.track[k, 1]:.2f}",
             f"{np.degrees(plan.track[k, 2]) % 360.0:.1f}",
-            f"{plan.speed[k]:.3f}", f"{plan.speed[k] * KN_PER_MPS:.2f}",
-            si + 1, st.segment if st else "", st.primitive if st else "", orders,
+            f"{plan.speed[k]:.3f}",
+            f"{plan.speed[k] * KN_PER_MPS:.2f}",
+            si + 1,
+            st.segment if st else "",
+            st.primitive if st else "",
+            orders,
         ]
         for j, (_, is_angle) in enumerate(cols):
             v = float(plan.inputs[min(k, len(plan.inputs) - 1), j]) if n_in else float("nan")

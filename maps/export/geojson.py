@@ -96,8 +96,9 @@ def track_segments(plan: Plan) -> list[dict[str, Any]]:
             out[-1]["steps"].append(st.index + 1)
             out[-1]["b"] = max(out[-1]["b"], b)
             continue
-        out.append({"segment": seg, "primitive": st.primitive if seg == "informative" else None,
-                    "steps": [st.index + 1], "a": a, "b": b})
+        out.append(
+            {"segment": seg, "primitive": st.primitive if seg == "informative" else None, "steps": [st.index + 1], "a": a, "b": b}
+        )
     return out
 
 
@@ -126,8 +127,13 @@ def _segment_features(plan: Plan) -> list[dict[str, Any]]:
             "duration_s": round(float(plan.t[b] - plan.t[a]), 2),
             "length_m": round(float(np.sum(np.hypot(*np.diff(xy, axis=0).T))), 1),
         }
-        feats.append({"type": "Feature", "geometry": {"type": "LineString", "coordinates": _line(plan.lonlat[a : b + 1])},
-                      "properties": props})
+        feats.append(
+            {
+                "type": "Feature",
+                "geometry": {"type": "LineString", "coordinates": _line(plan.lonlat[a : b + 1])},
+                "properties": props,
+            }
+        )
     return feats
 
 
@@ -177,10 +183,20 @@ def _corridor_features(plan: Plan, sea_map: Any) -> list[dict[str, Any]]:
         ll = _to_lonlat(tr, poly)
         if ll.geom_type != "Polygon":
             continue
-        feats.append({"type": "Feature", "geometry": {"type": "Polygon", "coordinates": _polygon_coords(ll)},
-                      "properties": {"kind": "corridor", "waypoint": route.points[i].id, "name": route.points[i].name,
-                                     "starboard_xtd_m": round(leg.stbd_m, 1), "port_xtd_m": round(leg.port_m, 1),
-                                     "land_checked": route.land_checked}})
+        feats.append(
+            {
+                "type": "Feature",
+                "geometry": {"type": "Polygon", "coordinates": _polygon_coords(ll)},
+                "properties": {
+                    "kind": "corridor",
+                    "waypoint": route.points[i].id,
+                    "name": route.points[i].name,
+                    "starboard_xtd_m": round(leg.stbd_m, 1),
+                    "port_xtd_m": round(leg.port_m, 1),
+                    "land_checked": route.land_checked,
+                },
+            }
+        )
     return feats
 
 
@@ -245,7 +261,11 @@ def _ring_area(ring: list) -> float:
 
 
 def _check_position(p: Any, where: str, errs: list[str]) -> None:
-    if not isinstance(p, list) or len(p) not in (2, 3) or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p):
+    if (
+        not isinstance(p, list)
+        or len(p) not in (2, 3)
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p)
+    ):
         errs.append(f"{where}: a position is [lon, lat] or [lon, lat, alt] of numbers, got {p!r}")
         return
     lon, lat = p[0], p[1]

@@ -57,8 +57,15 @@ def waypoint_description(plan: Plan, wp: Waypoint, start: datetime, via: bool = 
     )
 
 
-def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | None = None, track: bool = True,
-             vessel: str | None = None, sea_map: Any = None) -> bytes:
+def plan_gpx(
+    plan: Plan,
+    *,
+    start: datetime | str | None = None,
+    name: str | None = None,
+    track: bool = True,
+    vessel: str | None = None,
+    sea_map: Any = None,
+) -> bytes:
     """The plan as a GPX 1.1 document (UTF-8 bytes). Route points are the manoeuvre starts and
     the end, named as in the RTZ route and on the card (whose numbers also count the RTZ's via
     points, where a corridor bends round land: ``sea_map`` or the plan's chart)."""
@@ -69,8 +76,20 @@ def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | Non
     t0 = resolve_start(plan, start)
     # one source of waypoints for every export: the RTZ route's points (via points included)
     route = build_route(plan, plan_chart(plan, sea_map))
-    wps = [Waypoint(pt.id - 1, pt.name, pt.lon, pt.lat, pt.t_s, float(np.degrees(plan.track[pt.sample, 2]) % 360.0),
-                    float(plan.speed[pt.sample]), pt.step, pt.sample) for pt in route.points]
+    wps = [
+        Waypoint(
+            pt.id - 1,
+            pt.name,
+            pt.lon,
+            pt.lat,
+            pt.t_s,
+            float(np.degrees(plan.track[pt.sample, 2]) % 360.0),
+            float(plan.speed[pt.sample]),
+            pt.step,
+            pt.sample,
+        )
+        for pt in route.points
+    ]
     ET.register_namespace("", GPX_NS)
     ET.register_namespace("xsi", XSI_NS)
     root = ET.Element(
@@ -81,12 +100,18 @@ def plan_gpx(plan: Plan, *, start: datetime | str | None = None, name: str | Non
     meta = _sub(root, "metadata")
     _sub(meta, "name", title)
     n_man = sum(1 for st in plan.steps if st.segment == "informative")  # run-ins, stops and transits are steps, not manoeuvres
-    _sub(meta, "desc", f"{len(plan.steps)} steps ({n_man} manoeuvre{'s' if n_man != 1 else ''}), {clock(plan.duration_s)}, "
-         f"{plan.length_m / M_PER_NM:.2f} NM; "
-         f"abort if wind exceeds {plan.max_wind_mps * KN_PER_MPS:.0f} kn or clearance drops below {plan.margin_m:.0f} m")
+    _sub(
+        meta,
+        "desc",
+        f"{len(plan.steps)} steps ({n_man} manoeuvre{'s' if n_man != 1 else ''}), {clock(plan.duration_s)}, "
+        f"{plan.length_m / M_PER_NM:.2f} NM; "
+        f"abort if wind exceeds {plan.max_wind_mps * KN_PER_MPS:.0f} kn or clearance drops below {plan.margin_m:.0f} m",
+    )
     _sub(meta, "time", iso(t0))
     lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
-    _sub(meta, "bounds", minlat=f"{lat.min():.7f}", minlon=f"{lon.min():.7f}", maxlat=f"{lat.max():.7f}", maxlon=f"{lon.max():.7f}")
+    _sub(
+        meta, "bounds", minlat=f"{lat.min():.7f}", minlon=f"{lon.min():.7f}", maxlat=f"{lat.max():.7f}", maxlon=f"{lon.max():.7f}"
+    )
     rte = _sub(root, "rte")
     _sub(rte, "name", title)
     _sub(rte, "desc", "Planned sea trial: sail each manoeuvre from its route point; see the trial card for details.")

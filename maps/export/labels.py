@@ -82,8 +82,15 @@ def mark_room(p: np.ndarray, marks: list[Mark]) -> np.ndarray:
     return room
 
 
-def place_labels(texts: list[str], anchors: np.ndarray, radii: list[float], track: np.ndarray,
-                 frame: tuple[float, float, float, float], gap: float = 1.0, marks: list[Mark] | None = None) -> list[Label]:
+def place_labels(
+    texts: list[str],
+    anchors: np.ndarray,
+    radii: list[float],
+    track: np.ndarray,
+    frame: tuple[float, float, float, float],
+    gap: float = 1.0,
+    marks: list[Mark] | None = None,
+) -> list[Label]:
     """Labels for ``texts`` at ``anchors`` (n, 2 points), each of radius ``radii[i]``, clear of
     each other, of ``track`` (k, 2 points, the drawn polyline) and of ``marks`` (default
     :func:`map_marks` with the track's last point as the end), inside ``frame`` (left, bottom,

@@ -62,8 +62,11 @@ def obstacle_geoms(sea_map: Any) -> list:
     if isinstance(sea_map, dict):
         t = sea_map.get("type")
         if t == "FeatureCollection":  # sea-map kinds: draw what the hull must avoid
-            return [shape(f["geometry"]) for f in sea_map.get("features", [])
-                    if f.get("geometry") and (f.get("properties") or {}).get("kind", "land") in OBSTACLE_KINDS]
+            return [
+                shape(f["geometry"])
+                for f in sea_map.get("features", [])
+                if f.get("geometry") and (f.get("properties") or {}).get("kind", "land") in OBSTACLE_KINDS
+            ]
         if t == "Feature":
             return [shape(sea_map["geometry"])] if sea_map.get("geometry") else []
         return [shape(sea_map)]
@@ -143,8 +146,14 @@ def map_view(plan: Plan, pad_m: float | None = None) -> tuple[float, float, floa
     if pad_m is None:  # room for the sea-room band and the markers
         pad_m = max(1.5 * (0.5 * plan.hull[1] + plan.margin_m), 3.0 * plan.hull[0], 1.0)
     pad = max(pad_m, 0.08 * max((lon.max() - lon.min()) * m_per_deg_lon, (lat.max() - lat.min()) * m_per_deg_lat))
-    return (lon.min() - pad / m_per_deg_lon, lat.min() - pad / m_per_deg_lat, lon.max() + pad / m_per_deg_lon,
-            lat.max() + pad / m_per_deg_lat, m_per_deg_lon, m_per_deg_lat)
+    return (
+        lon.min() - pad / m_per_deg_lon,
+        lat.min() - pad / m_per_deg_lat,
+        lon.max() + pad / m_per_deg_lon,
+        lat.max() + pad / m_per_deg_lat,
+        m_per_deg_lon,
+        m_per_deg_lat,
+    )
 
 
 def _draw_geom(ax: Any, geom: Any, view: Any, **kw: Any) -> bool:
@@ -242,8 +251,18 @@ def _draw_track(ax: Any, plan: Plan) -> None:
         ax.plot(lon[sl], lat[sl], color=step_colour(plan, st, colours), zorder=3, solid_capstyle="butt", label=label, **style)
     execs = [st for st in plan.steps if getattr(st, "execute", False)]
     if execs:
-        ax.plot([st.entry_lon for st in execs], [st.entry_lat for st in execs], ls="none", marker="*", ms=15, mfc=EXECUTE_COLOUR,
-                mec="k", mew=0.8, zorder=4.5, label="execute point")
+        ax.plot(
+            [st.entry_lon for st in execs],
+            [st.entry_lat for st in execs],
+            ls="none",
+            marker="*",
+            ms=15,
+            mfc=EXECUTE_COLOUR,
+            mec="k",
+            mew=0.8,
+            zorder=4.5,
+            label="execute point",
+        )
     ax.plot(lon[0], lat[0], marker="^", ms=11, color="green", mec="k", zorder=4, ls="none", label="start")
     ax.plot(lon[-1], lat[-1], marker="s", ms=END_MARKER_PT, color="red", mec="k", zorder=4, ls="none", label="end")
 
@@ -284,8 +303,16 @@ def annotate_steps(ax: Any, plan: Plan) -> None:
         st = plan.steps[k]
         colour = step_colour(plan, st, colours)
         ax.annotate(
-            lab.text, (st.entry_lon, st.entry_lat), xytext=(lab.x - lab.anchor[0], lab.y - lab.anchor[1]), textcoords="offset points",
-            fontsize=LABEL_FS, fontweight="bold", ha="center", va="center", zorder=5, gid=f"step-label-{lab.text}",
+            lab.text,
+            (st.entry_lon, st.entry_lat),
+            xytext=(lab.x - lab.anchor[0], lab.y - lab.anchor[1]),
+            textcoords="offset points",
+            fontsize=LABEL_FS,
+            fontweight="bold",
+            ha="center",
+            va="center",
+            zorder=5,
+            gid=f"step-label-{lab.text}",
             bbox={"boxstyle": "circle,pad=0.15", "fc": "white", "ec": colour, "lw": 1.2},
             arrowprops={"arrowstyle": "-", "color": colour, "lw": 0.7, "shrinkA": 0, "shrinkB": 0} if lab.moved else None,
         )
@@ -314,7 +341,9 @@ def m_per_deg(view: Any) -> tuple[float, float]:
     return 111_320.0 * math.cos(math.radians(lat)), 111_320.0
 
 
-def draw_map(ax: Any, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True) -> None:
+def draw_map(
+    ax: Any, plan: Plan, sea_map: Any = None, *, pad_m: float | None = None, numbers: bool = True, sea_room: bool = True
+) -> None:
     """Chart (depth areas, land, shallow/restricted water), sea room (light blue), the track
     (informative manoeuvres coloured by primitive, run-ins dashed green, transit grey), execute
     points (stars), numbered manoeuvre starts, start/end marks, a scale bar and a north arrow,
@@ -342,9 +371,17 @@ def draw_map(ax: Any, plan: Plan, sea_map: Any = None, *, pad_m: float | None = 
     ax.xaxis.set_major_locator(plt.MaxNLocator(4))
     ax.grid(color="white", lw=0.6, zorder=0)
     _scale_bar(ax, x0, y0, x1, y1, m_per_deg_lon)
-    ax.annotate("N", xy=(NORTH_X, NORTH_Y[1]), xytext=(NORTH_X, NORTH_Y[0]), xycoords="axes fraction", ha="center", fontsize=NORTH_FS,
-                fontweight="bold",
-                arrowprops={"arrowstyle": "-|>", "color": "k"}, zorder=6)
+    ax.annotate(
+        "N",
+        xy=(NORTH_X, NORTH_Y[1]),
+        xytext=(NORTH_X, NORTH_Y[0]),
+        xycoords="axes fraction",
+        ha="center",
+        fontsize=NORTH_FS,
+        fontweight="bold",
+        arrowprops={"arrowstyle": "-|>", "color": "k"},
+        zorder=6,
+    )
     if numbers:
         annotate_steps(ax, plan)
 

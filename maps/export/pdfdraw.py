@@ -49,8 +49,18 @@ class Painter:
     def out(self, ops: str) -> None:
         self.pdf._out(ops)  # noqa: SLF001 - raw operators inside q/Q (see the module docstring)
 
-    def text(self, x: float, y: float, s: str, size: float, *, bold: bool = False, ha: str = "left", va: str = "baseline",
-             colour: tuple[int, int, int] = (0, 0, 0)) -> float:
+    def text(
+        self,
+        x: float,
+        y: float,
+        s: str,
+        size: float,
+        *,
+        bold: bool = False,
+        ha: str = "left",
+        va: str = "baseline",
+        colour: tuple[int, int, int] = (0, 0, 0),
+    ) -> float:
         """``s`` at PDF point (x, y up) aligned as matplotlib's ha/va; returns its width."""
         p = self.pdf
         p.set_font(self.font, BOLD if bold else REG, size)

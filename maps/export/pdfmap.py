@@ -48,6 +48,7 @@ from maps.plan import Plan, PlanStep
 
 TICK_FS, NUM_FS, LEGEND_FS = 7.0, 7.0, 6.5
 
+
 @dataclass
 class Frame:
     """The map axes on the page: lon/lat -> PDF points (y up, from the page's bottom)."""
@@ -64,8 +65,12 @@ class Frame:
 
     def xy(self, lonlat: np.ndarray) -> np.ndarray:
         c = np.asarray(lonlat, dtype=float)[:, :2]
-        return np.column_stack([self.left + (c[:, 0] - self.x0) / (self.x1 - self.x0) * self.width,
-                                self.bottom + (c[:, 1] - self.y0) / (self.y1 - self.y0) * self.height])
+        return np.column_stack(
+            [
+                self.left + (c[:, 0] - self.x0) / (self.x1 - self.x0) * self.width,
+                self.bottom + (c[:, 1] - self.y0) / (self.y1 - self.y0) * self.height,
+            ]
+        )
 
     def m_per_pt(self) -> float:
         return max((self.x1 - self.x0) * self.m_per_deg[0] / self.width, (self.y1 - self.y0) * self.m_per_deg[1] / self.height)
@@ -125,7 +130,7 @@ class MapWriter(Painter):
     def fill_geom(self, geom: Any, face: Any, edge: Any | None, lw: float) -> bool:
         rings, lines = _geom_rings(geom, self.view)
         if rings:
-            style = ("B*" if edge is not None else "f*")
+            style = "B*" if edge is not None else "f*"
             ops = [col(face, "rg"), f"{lw:.2f} w 0 j"]
             if edge is not None:
                 ops.append(col(edge, "RG"))
@@ -149,11 +154,13 @@ class MapWriter(Painter):
 
     def circle(self, x: float, y: float, r: float, face: Any, edge: Any, lw: float) -> None:
         k = 0.5523 * r  # four Bezier quarter arcs
-        self.out(f"{col(face, 'rg')} {col(edge, 'RG')} {lw:.2f} w [] 0 d\n"
-                 f"{x + r:.2f} {y:.2f} m {x + r:.2f} {y + k:.2f} {x + k:.2f} {y + r:.2f} {x:.2f} {y + r:.2f} c "
-                 f"{x - k:.2f} {y + r:.2f} {x - r:.2f} {y + k:.2f} {x - r:.2f} {y:.2f} c "
-                 f"{x - r:.2f} {y - k:.2f} {x - k:.2f} {y - r:.2f} {x:.2f} {y - r:.2f} c "
-                 f"{x + k:.2f} {y - r:.2f} {x + r:.2f} {y - k:.2f} {x + r:.2f} {y:.2f} c h B")
+        self.out(
+            f"{col(face, 'rg')} {col(edge, 'RG')} {lw:.2f} w [] 0 d\n"
+            f"{x + r:.2f} {y:.2f} m {x + r:.2f} {y + k:.2f} {x + k:.2f} {y + r:.2f} {x:.2f} {y + r:.2f} c "
+            f"{x - k:.2f} {y + r:.2f} {x - r:.2f} {y + k:.2f} {x - r:.2f} {y:.2f} c "
+            f"{x - r:.2f} {y - k:.2f} {x - k:.2f} {y - r:.2f} {x:.2f} {y - r:.2f} c "
+            f"{x + k:.2f} {y - r:.2f} {x + r:.2f} {y - k:.2f} {x + r:.2f} {y:.2f} c h B"
+        )
 
     # -- the map -------------------------------------------------------------------------------------
     def draw(self) -> None:
@@ -186,8 +193,9 @@ class MapWriter(Painter):
         if self.fill_geom(chart.no_go, NO_GO_COLOUR, NO_GO_EDGE, 0.6):
             segs = hatch_segments(chart.no_go, self.view, self.f.m_per_deg, self.f.m_per_pt())
             if segs:
-                self.out(f"{col(NO_GO_EDGE, 'RG')} 0.6 w 2 J [] 0 d\n" + rings_ops([self.page_xy(s) for s in segs], close=False)
-                         + " S")
+                self.out(
+                    f"{col(NO_GO_EDGE, 'RG')} 0.6 w 2 J [] 0 d\n" + rings_ops([self.page_xy(s) for s in segs], close=False) + " S"
+                )
             self.legend.append({"kind": "hatch", "face": NO_GO_COLOUR, "edge": NO_GO_EDGE, "label": NO_GO_LABEL})
         if self.fill_geom(chart.land, LAND_COLOUR, LAND_EDGE, 0.6):
             self.legend.append({"kind": "patch", "face": LAND_COLOUR, "edge": LAND_EDGE, "label": "land"})
@@ -225,7 +233,9 @@ class MapWriter(Painter):
         for st in execs:
             self.marker("*", *self.page_xy(np.array([[st.entry_lon, st.entry_lat]]))[0], 15, EXECUTE_COLOUR, mew=0.8)
         if execs:
-            self.legend.append({"kind": "marker", "marker": "*", "size": 15, "face": EXECUTE_COLOUR, "mew": 0.8, "label": "execute point"})
+            self.legend.append(
+                {"kind": "marker", "marker": "*", "size": 15, "face": EXECUTE_COLOUR, "mew": 0.8, "label": "execute point"}
+            )
         self.legend.append({"kind": "marker", "marker": "^", "size": 11, "face": "green", "mew": 1.0, "label": "start"})
         self.legend.append({"kind": "marker", "marker": "s", "size": END_MARKER_PT, "face": "red", "mew": 1.0, "label": "end"})
 
@@ -254,8 +264,10 @@ class MapWriter(Painter):
         nbins = int(np.clip(math.floor(f.height / (TICK_FS * 2)), 1, 9))
         ys = [v for v in MaxNLocator(nbins, steps=[1, 2, 2.5, 5, 10]).tick_values(f.y0, f.y1) if f.y0 <= v <= f.y1]
         self._tick_values = (xs, ys)
-        return ([f.left + (v - f.x0) / (f.x1 - f.x0) * f.width for v in xs],
-                [f.bottom + (v - f.y0) / (f.y1 - f.y0) * f.height for v in ys])
+        return (
+            [f.left + (v - f.x0) / (f.x1 - f.x0) * f.width for v in xs],
+            [f.bottom + (v - f.y0) / (f.y1 - f.y0) * f.height for v in ys],
+        )
 
     def furniture(self, xt: list[float], yt: list[float]) -> None:
         """Scale bar, north arrow, frame, ticks and tick labels."""
@@ -266,13 +278,21 @@ class MapWriter(Painter):
         self.polyline(np.array([p0, p1]), "k", 3.0, cap=2)
         # north arrow: from above the "N" (axes fraction 0.85) to 0.95, a filled head as '-|>'
         fs = NORTH_FS
-        ax_, ay0, ay1 = f.left + NORTH_X * f.width, f.bottom + NORTH_Y[0] * f.height + 0.76 * fs + 2, f.bottom + NORTH_Y[1] * f.height - 2
+        ax_, ay0, ay1 = (
+            f.left + NORTH_X * f.width,
+            f.bottom + NORTH_Y[0] * f.height + 0.76 * fs + 2,
+            f.bottom + NORTH_Y[1] * f.height - 2,
+        )
         head = 0.4 * fs
         self.polyline(np.array([[ax_, ay0], [ax_, ay1 - head]]), "k", 1.0)
-        self.out(f"{col('k', 'rg')} {ax_:.2f} {ay1:.2f} m {ax_ - 0.2 * fs:.2f} {ay1 - head:.2f} l {ax_ + 0.2 * fs:.2f} "
-                 f"{ay1 - head:.2f} l h B")
+        self.out(
+            f"{col('k', 'rg')} {ax_:.2f} {ay1:.2f} m {ax_ - 0.2 * fs:.2f} {ay1 - head:.2f} l {ax_ + 0.2 * fs:.2f} "
+            f"{ay1 - head:.2f} l h B"
+        )
         self.out(f"{col('k', 'RG')} 0.8 w 0 J 0 j [] 0 d {f.left:.2f} {f.bottom:.2f} {f.width:.2f} {f.height:.2f} re S")
-        ticks = [np.array([[x, f.bottom], [x, f.bottom - 3.5]]) for x in xt] + [np.array([[f.left, y], [f.left - 3.5, y]]) for y in yt]
+        ticks = [np.array([[x, f.bottom], [x, f.bottom - 3.5]]) for x in xt] + [
+            np.array([[f.left, y], [f.left - 3.5, y]]) for y in yt
+        ]
         if ticks:
             self.out("0.8 w\n" + rings_ops(ticks, close=False) + " S")
         self.out("Q")
@@ -307,7 +327,9 @@ class MapWriter(Painter):
         height = pitch * max(len(c) for c in cols) - 0.5 * fs + 2 * pad
         left = f.left + 0.5 * f.width - 0.5 * width
         top = f.bottom - 0.05 * f.height - 0.5 * fs
-        self.out(f"q {col('white', 'rg')} {col('0.8', 'RG')} 1 w [] 0 d {left:.2f} {top - height:.2f} {width:.2f} {height:.2f} re B Q")
+        self.out(
+            f"q {col('white', 'rg')} {col('0.8', 'RG')} 1 w [] 0 d {left:.2f} {top - height:.2f} {width:.2f} {height:.2f} re B Q"
+        )
         x = left + pad
         for c, w in zip(cols, widths):
             for k, i in enumerate(c):

@@ -85,9 +85,17 @@ class StatesWriter(Painter):
             self.panel(self.ax_bottoms[k], label, y, self.yaxes[k], xt, xl if k == len(self.series) - 1 else None)
         self.step_numbers()
         mid = 0.5 * (self.left + self.right)
-        self.text(mid, self.ax_bottoms[-1] - 3.5 - 3.5 - LINE_HEIGHT * FS - 4.0, "time from start [min]", 8.0, ha="center", va="top")
-        self.text(0.5 * self.w, 0.98 * self.h, f"{self.plan.ship}: planned speed, heading and commanded inputs (manoeuvre numbers "
-                  "on top)", 9.0, ha="center", va="top")
+        self.text(
+            mid, self.ax_bottoms[-1] - 3.5 - 3.5 - LINE_HEIGHT * FS - 4.0, "time from start [min]", 8.0, ha="center", va="top"
+        )
+        self.text(
+            0.5 * self.w,
+            0.98 * self.h,
+            f"{self.plan.ship}: planned speed, heading and commanded inputs (manoeuvre numbers on top)",
+            9.0,
+            ha="center",
+            va="top",
+        )
 
     def step_numbers(self) -> None:
         """The step numbers over the top panel, thinned as the PNG's (:func:`thin_labels`)."""
@@ -97,8 +105,16 @@ class StatesWriter(Painter):
         widths = np.array([self.text_width(s, FS, bold=True) for s in labels])
         for i in thin_labels(centres, widths, STEP_LABEL_GAP_EM * FS):
             colour = self.spans[i][1]
-            self.text(float(centres[i]), top + 0.02 * self.ax_h, labels[i], FS, bold=True, ha="center", va="bottom",
-                      colour=tuple(round(255 * c) for c in rgb(colour)))
+            self.text(
+                float(centres[i]),
+                top + 0.02 * self.ax_h,
+                labels[i],
+                FS,
+                bold=True,
+                ha="center",
+                va="bottom",
+                colour=tuple(round(255 * c) for c in rgb(colour)),
+            )
 
     def y_axis(self, y: np.ndarray) -> tuple[tuple[float, float], list[float], list[str]]:
         """The y limits of a panel showing ``y``, its tick positions and tick labels."""
@@ -106,8 +122,15 @@ class StatesWriter(Painter):
         ylim = state_limits(float(finite.min()), float(finite.max())) if len(finite) else (-0.055, 0.055)
         return (ylim, *_ticks(*ylim, self.ax_h, 2.0))
 
-    def panel(self, bottom: float, label: str, y: np.ndarray, yaxis: tuple[tuple[float, float], list[float], list[str]],
-              xt: list[float], xl: list[str] | None) -> None:
+    def panel(
+        self,
+        bottom: float,
+        label: str,
+        y: np.ndarray,
+        yaxis: tuple[tuple[float, float], list[float], list[str]],
+        xt: list[float],
+        xl: list[str] | None,
+    ) -> None:
         """One axes: shaded step spans, grid, the series, frame, ticks and labels."""
         left, right, h = self.left, self.right, self.ax_h
         ylim, yt, yl = yaxis
@@ -128,8 +151,11 @@ class StatesWriter(Painter):
         self.out("Q q")
         ticks = [np.array([[self.x(v), bottom], [self.x(v), bottom - 3.5]]) for v in xt]
         ticks += [np.array([[left, py(v)], [left - 3.5, py(v)]]) for v in yt]
-        self.out(f"{col('k', 'RG')} 0.8 w 0 J 0 j [] 0 d {left:.2f} {bottom:.2f} {right - left:.2f} {h:.2f} re S\n"
-                 + rings_ops(ticks, close=False) + " S Q")
+        self.out(
+            f"{col('k', 'RG')} 0.8 w 0 J 0 j [] 0 d {left:.2f} {bottom:.2f} {right - left:.2f} {h:.2f} re S\n"
+            + rings_ops(ticks, close=False)
+            + " S Q"
+        )
         widths = [self.text(left - 7.0, float(py(v)), s, FS, ha="right", va="center") for v, s in zip(yt, yl)]
         if xl is not None:
             for v, s in zip(xt, xl):

@@ -37,7 +37,7 @@ def state_series(plan: Plan) -> list[tuple[str, np.ndarray]]:
 def input_series(name: str, values: np.ndarray) -> tuple[str, np.ndarray]:
     """A commanded input as the states figure plots it, in the units of the orders: angles in
     degrees, shaft speeds (rev/s in the plan) in rpm; other inputs as they are."""
-    base, num = name.rstrip("0123456789"), name[len(name.rstrip("0123456789")):]
+    base, num = name.rstrip("0123456789"), name[len(name.rstrip("0123456789")) :]
     if base == "alpha":
         return f"azimuth {num} angle [°]", np.degrees(values)
     if base == "delta":
@@ -82,8 +82,10 @@ def draw_states(axes: list, plan: Plan) -> None:
         span_colours.append(step_colour(plan, st, colours))
     for ax, (label, y) in zip(axes, series):
         # each step's span as axvspan shades it (full height, 12 % colour), all in one collection: one artist, not a patch a step
-        ax.add_collection(PolyCollection(spans, facecolors=span_colours, alpha=0.12, linewidths=0, transform=ax.get_xaxis_transform()),
-                          autolim=False)
+        ax.add_collection(
+            PolyCollection(spans, facecolors=span_colours, alpha=0.12, linewidths=0, transform=ax.get_xaxis_transform()),
+            autolim=False,
+        )
         ax.plot(t_min[: len(y)], y, color="k", lw=0.9)
         finite = y[np.isfinite(y)]
         if len(finite):
@@ -141,8 +143,17 @@ def draw_step_numbers(fig: Any, ax: Any, plan: Plan, fontsize: float = 7.0) -> N
     colours = primitive_colours(plan)
     for i in thin_labels((centres - x0) / (x1 - x0) * width_pt, widths, STEP_LABEL_GAP_EM * fontsize):
         st = plan.steps[i]
-        ax.text(centres[i], 1.02, labels[i], transform=ax.get_xaxis_transform(), ha="center", va="bottom", fontsize=fontsize,
-                fontweight="bold", color=step_colour(plan, st, colours))
+        ax.text(
+            centres[i],
+            1.02,
+            labels[i],
+            transform=ax.get_xaxis_transform(),
+            ha="center",
+            va="bottom",
+            fontsize=fontsize,
+            fontweight="bold",
+            color=step_colour(plan, st, colours),
+        )
 
 
 # Margins in inches (what tight_layout found for the bundled ships, rounded up; the left one grows
@@ -170,8 +181,7 @@ def ytick_label_width_pt(fig: Any, ax: Any, fontsize: float = 7.0) -> float:
     locs = [v for v in ax.yaxis.get_major_locator()() if lo - 1e-9 * (hi - lo) <= v <= hi + 1e-9 * (hi - lo)]
     labels = ax.yaxis.get_major_formatter().format_ticks(locs)
     r, prop = fig.canvas.get_renderer(), FontProperties(size=fontsize)
-    return max((r.get_text_width_height_descent(s, prop, ismath="$" in s)[0] for s in labels if s),
-               default=0.0) * 72.0 / fig.dpi
+    return max((r.get_text_width_height_descent(s, prop, ismath="$" in s)[0] for s in labels if s), default=0.0) * 72.0 / fig.dpi
 
 
 def fixed_margins(fig: Any, left: float, right: float, top: float, bottom: float, **kw: float) -> None:
@@ -210,7 +220,9 @@ def track_figure(plan: Plan, sea_map: Any = None) -> Any:
     fig, ax = plt.subplots(figsize=(9.5, 7.5))
     draw_map(ax, plan, sea_map, numbers=False)
     leg = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)  # outside: never hides the track
-    ax.set_title(f"{plan.ship} trial{' on ' + plan.map_name if plan.map_name else ''}: manoeuvres numbered in sailing order", fontsize=9)
+    ax.set_title(
+        f"{plan.ship} trial{' on ' + plan.map_name if plan.map_name else ''}: manoeuvres numbered in sailing order", fontsize=9
+    )
     _fit_to_map(fig, ax, leg)
     annotate_steps(ax, plan)  # in the final layout: the labels are placed in points on the page
     return fig
@@ -309,7 +321,9 @@ def plot_states(plan: Plan, path: str | Path, dpi: int = STATES_DPI, figures: Pl
         return figs.save("states", path, dpi)
 
 
-def plot_track(plan: Plan, path: str | Path, sea_map: Any = None, dpi: int = TRACK_DPI, figures: PlanFigures | None = None) -> Path:
+def plot_track(
+    plan: Plan, path: str | Path, sea_map: Any = None, dpi: int = TRACK_DPI, figures: PlanFigures | None = None
+) -> Path:
     """The numbered track coloured by primitive on the map, as PNG (or PDF/SVG by suffix)."""
     if figures is not None:
         return figures.save("track", path, dpi)

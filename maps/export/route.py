@@ -146,8 +146,15 @@ def free_width(a: np.ndarray, b: np.ndarray, obstacles: BaseGeometry | None, sid
     return min(float(shapely.distance(shapely.LineString([a, b]), hit)), reach)
 
 
-def _leg(plan: Plan, ka: int, kb: int, lonlat: tuple[float, float, float, float], half: float, half_beam: float,
-         obstacles: BaseGeometry | None) -> Leg:
+def _leg(
+    plan: Plan,
+    ka: int,
+    kb: int,
+    lonlat: tuple[float, float, float, float],
+    half: float,
+    half_beam: float,
+    obstacles: BaseGeometry | None,
+) -> Leg:
     seg = plan.track[ka : kb + 1, :2]
     off, chord = line_offsets(seg)
     exc_s, exc_p = float(max(off.max(), 0.0)), float(max(-off.min(), 0.0))
@@ -163,9 +170,18 @@ def _leg(plan: Plan, ka: int, kb: int, lonlat: tuple[float, float, float, float]
     path = float(np.sum(np.hypot(*np.diff(seg, axis=0).T)))
     stbd, port = xtd_floor_m(min(need_s, free_s)), xtd_floor_m(min(need_p, free_p))
     return Leg(
-        length_m=length, dt_s=dt, speed_mps=length / dt if dt > 0 else 0.0,
-        sailed_min_mps=float(sp.min()), sailed_max_mps=float(sp.max()), sailed_mean_mps=path / dt if dt > 0 else 0.0,
-        stbd_m=stbd, port_m=port, need_stbd_m=need_s, need_port_m=need_p, free_stbd_m=free_s, free_port_m=free_p,
+        length_m=length,
+        dt_s=dt,
+        speed_mps=length / dt if dt > 0 else 0.0,
+        sailed_min_mps=float(sp.min()),
+        sailed_max_mps=float(sp.max()),
+        sailed_mean_mps=path / dt if dt > 0 else 0.0,
+        stbd_m=stbd,
+        port_m=port,
+        need_stbd_m=need_s,
+        need_port_m=need_p,
+        free_stbd_m=free_s,
+        free_port_m=free_p,
         hull_fits=(stbd >= exc_s + half_beam - 1e-6) and (port >= exc_p + half_beam - 1e-6),
     )
 
@@ -232,8 +248,11 @@ def _build_route(plan: Plan, chart: Chart | None) -> Route:
     while i < len(marks):
         ka, kb = marks[i - 1][0], marks[i][0]
         leg = _leg(plan, ka, kb, (*ll(ka), *ll(kb)), half, half_beam, obstacles)
-        k = None if leg.hull_fits or splits >= MAX_SPLITS or _hull_hits(plan, ka, kb, half_beam, obstacles) \
+        k = (
+            None
+            if leg.hull_fits or splits >= MAX_SPLITS or _hull_hits(plan, ka, kb, half_beam, obstacles)
             else _split_at(plan, ka, kb)
+        )
         if k is not None:
             marks.insert(i, (k, None, True))
             splits += 1

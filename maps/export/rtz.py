@@ -74,7 +74,8 @@ def _nm(metres: float, cap_nm: float) -> str:
 def _route_info(root: ET.Element, plan: Plan, route: Route, name: str, vessel: str, t0: datetime) -> None:
     vmax = max(float(np.max(plan.speed)), max(leg.speed_max_mps for leg in route.legs[1:])) * KN_PER_MPS
     info = _el(
-        root, "routeInfo",
+        root,
+        "routeInfo",
         routeName=name,
         routeAuthor=TOOL,
         routeStatus="planned sea trial" + ("" if plan.feasible else " (NOT FEASIBLE)"),
@@ -87,7 +88,9 @@ def _route_info(root: ET.Element, plan: Plan, route: Route, name: str, vessel: s
     )
     ext = _el(_el(info, "extensions"), "extension", manufacturer=TOOL, name="trialPlan", version="1")
     _el(
-        ext, "abortCriteria", EXT_NS,
+        ext,
+        "abortCriteria",
+        EXT_NS,
         minClearance_m=_dec(plan.margin_m, 1),
         plannedMinClearance_m=_dec(plan.min_clearance_m, 1) if np.isfinite(plan.min_clearance_m) else None,
         maxWind_mps=_dec(plan.max_wind_mps, 1),
@@ -96,8 +99,13 @@ def _route_info(root: ET.Element, plan: Plan, route: Route, name: str, vessel: s
     _el(ext, "corridors", EXT_NS, landChecked="true" if route.land_checked else "false")
     design = getattr(plan, "design", None) or {}
     if design:
-        d = _el(ext, "design", EXT_NS, criterion=design.get("criterion"),
-                dEfficiency=_dec(float(design["d_efficiency"]), 4) if isinstance(design.get("d_efficiency"), (int, float)) else None)
+        d = _el(
+            ext,
+            "design",
+            EXT_NS,
+            criterion=design.get("criterion"),
+            dEfficiency=_dec(float(design["d_efficiency"]), 4) if isinstance(design.get("d_efficiency"), (int, float)) else None,
+        )
         for prim, w in (design.get("weights") or {}).items():
             _el(d, "primitive", EXT_NS, name=prim, weight=_dec(float(w), 4), count=(design.get("counts") or {}).get(prim))
 
@@ -105,20 +113,33 @@ def _route_info(root: ET.Element, plan: Plan, route: Route, name: str, vessel: s
 def _manoeuvre(w: ET.Element, plan: Plan, st: Any) -> None:
     e = _el(_el(w, "extensions"), "extension", manufacturer=TOOL, name="trialManoeuvre", version="1")
     m = _el(
-        e, "manoeuvre", EXT_NS,
-        index=st.index + 1, primitive=st.primitive, kind=st.kind, segment=st.segment,
+        e,
+        "manoeuvre",
+        EXT_NS,
+        index=st.index + 1,
+        primitive=st.primitive,
+        kind=st.kind,
+        segment=st.segment,
         execute="true" if getattr(st, "execute", False) else None,
-        startTime_s=_dec(st.start_time_s, 2), duration_s=_dec(st.duration_s, 2),
-        entryHeading_deg=_dec(st.entry_heading_deg, 1), entrySpeed_kn=_dec(st.entry_speed_mps * KN_PER_MPS, 2),
-        spaceAlong_m=_dec(st.space_m[0], 1), spaceAcross_m=_dec(st.space_m[1], 1),
+        startTime_s=_dec(st.start_time_s, 2),
+        duration_s=_dec(st.duration_s, 2),
+        entryHeading_deg=_dec(st.entry_heading_deg, 1),
+        entrySpeed_kn=_dec(st.entry_speed_mps * KN_PER_MPS, 2),
+        spaceAlong_m=_dec(st.space_m[0], 1),
+        spaceAcross_m=_dec(st.space_m[1], 1),
     )
     _el(m, "description", EXT_NS).text = manoeuvre_name(plan, st)
     for o in getattr(st, "orders", None) or []:
         if isinstance(o, dict) and o.get("text"):
-            vals = {k: v for k, v in o.items() if k not in ("t_s", "text") and isinstance(v, (int, float, str))
-                    and re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", k)}
+            vals = {
+                k: v
+                for k, v in o.items()
+                if k not in ("t_s", "text") and isinstance(v, (int, float, str)) and re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", k)
+            }
             t = o.get("t_s")
-            _el(m, "order", EXT_NS, t_s=_dec(float(t), 1) if isinstance(t, (int, float)) else None, **vals).text = knots(str(o["text"]))
+            _el(m, "order", EXT_NS, t_s=_dec(float(t), 1) if isinstance(t, (int, float)) else None, **vals).text = knots(
+                str(o["text"])
+            )
     if not order_lines(st):
         for c in step_orders(plan, st):
             _el(m, "command", EXT_NS).text = c
@@ -141,7 +162,8 @@ def _waypoints(root: ET.Element, plan: Plan, route: Route) -> None:
             prev = route.points[i - 1]
             st = prev.step
             _el(
-                w, "leg",
+                w,
+                "leg",
                 starboardXTD=_nm(leg.stbd_m, 9.999),
                 portsideXTD=_nm(leg.port_m, 9.999),
                 geometryType="Loxodrome",
@@ -163,7 +185,8 @@ def _schedule(root: ET.Element, route: Route, t0: datetime) -> None:
         when = iso(t0 + timedelta(seconds=wp.t_s))
         leg = route.legs[i]
         _el(
-            calc, "scheduleElement",
+            calc,
+            "scheduleElement",
             waypointId=wp.id,
             etd=when if i + 1 < len(route.points) else None,
             eta=when if i > 0 else None,
@@ -271,8 +294,9 @@ def _leg_warnings(where: str, wps: list, i: int, dt: float, sp: str, vmax: float
     v = float(sp) / KN_PER_MPS
     implied = length / v if v > 0 else (0.0 if length < 0.5 else float("inf"))
     if abs(implied - dt) > max(tolerance_s, 0.005 * dt):
-        out.append(f"{where}: ETA is {dt:.1f} s after the previous ETD, but the leg of {length:.1f} m "
-                   f"at {sp} kn takes {implied:.1f} s")
+        out.append(
+            f"{where}: ETA is {dt:.1f} s after the previous ETD, but the leg of {length:.1f} m at {sp} kn takes {implied:.1f} s"
+        )
     leg = wps[i].find("r:leg", ns)
     lo = float(leg.get("speedMin")) if leg is not None and leg.get("speedMin") else None
     hi = float(leg.get("speedMax")) if leg is not None and leg.get("speedMax") else None
@@ -295,8 +319,11 @@ def rtz_warnings(doc: bytes | str | Path, *, tolerance_s: float = 1.0) -> list[s
     """
     from lxml import etree
 
-    data = Path(doc).read_bytes() if isinstance(doc, Path) or (isinstance(doc, str) and not doc.lstrip().startswith("<")) \
+    data = (
+        Path(doc).read_bytes()
+        if isinstance(doc, Path) or (isinstance(doc, str) and not doc.lstrip().startswith("<"))
         else (doc.encode("utf-8") if isinstance(doc, str) else doc)
+    )
     tree = etree.fromstring(data)
     ns = {"r": RTZ_NS}
     out: list[str] = []

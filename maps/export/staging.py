@@ -70,8 +70,14 @@ def remove_stale(out_dir: Path) -> list[Path]:
     is free again; while such a file cannot go back, the directory stays. A directory without an
     owner file (an earlier version's), or with an empty one, goes only when
     :func:`_old_version_stale` proves it one and stale. Returns the directories removed."""
-    return owned_dirs.remove_stale(out_dir, PREFIX, OWNER_TEXT, contents=("new", "old"),
-                                   put_back=lambda d: _put_back(d / "old", out_dir), legacy=_old_version_stale)
+    return owned_dirs.remove_stale(
+        out_dir,
+        PREFIX,
+        OWNER_TEXT,
+        contents=("new", "old"),
+        put_back=lambda d: _put_back(d / "old", out_dir),
+        legacy=_old_version_stale,
+    )
 
 
 def _old_version_stale(d: Path, owner: bool = False) -> bool:
@@ -124,7 +130,9 @@ def _publish(tmp: Path, out_dir: Path) -> None:
     names = sorted(p.name for p in new.iterdir())
     for name in names:
         if (out_dir / name).is_dir():
-            raise ExportError(f"{out_dir / name}: is a directory, where the export writes a file; move it or choose another output")
+            raise ExportError(
+                f"{out_dir / name}: is a directory, where the export writes a file; move it or choose another output"
+            )
     old.mkdir()
     done: list[str] = []
     try:

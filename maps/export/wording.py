@@ -134,7 +134,7 @@ def phase(plan: Plan, st: PlanStep) -> str:
 def _typical(plan: Plan, st: PlanStep, a: int, b: int) -> str:
     """The inputs of samples a..b of the step as one setting (median; the angles' circular mean)."""
     sl = step_slice(plan, st)
-    u = plan.inputs[sl][a:max(b, a + 1)]
+    u = plan.inputs[sl][a : max(b, a + 1)]
     row = np.median(u, axis=0)
     for j, nm in enumerate(plan.input_names):
         if nm.startswith("alpha") or nm.startswith("delta"):
@@ -153,9 +153,11 @@ def _spot_turn_orders(plan: Plan, st: PlanStep) -> list[str]:
     k2 = k1 + (int(on[0]) if len(on) else (len(v) - k1) // 2)
     side = "starboard" if dpsi[-1] > 0 else "port"
     course = (np.degrees(plan.track[step_slice(plan, st)][-1, 2])) % 360
-    return [f"at +{clock(t[0])}: stop the ship: {_typical(plan, st, 0, k1)}",
-            f"at +{clock(t[k1])}: turn on the spot {abs(dpsi[-1]):.0f}° to {side}: {_typical(plan, st, k1, k2)}",
-            f"at +{clock(t[k2])}: on course {course:03.0f}°, regain {_kn(float(v[-1]))} kn: {_typical(plan, st, k2, len(v) - 1)}"]
+    return [
+        f"at +{clock(t[0])}: stop the ship: {_typical(plan, st, 0, k1)}",
+        f"at +{clock(t[k1])}: turn on the spot {abs(dpsi[-1]):.0f}° to {side}: {_typical(plan, st, k1, k2)}",
+        f"at +{clock(t[k2])}: on course {course:03.0f}°, regain {_kn(float(v[-1]))} kn: {_typical(plan, st, k2, len(v) - 1)}",
+    ]
 
 
 def bridge_orders(plan: Plan, st: PlanStep) -> list[str]:
@@ -183,7 +185,11 @@ def _helm_range(plan: Plan, st: PlanStep) -> str:
     names = list(plan.input_names)
     u = plan.inputs[step_slice(plan, st)]
     d = np.degrees(u[:, names.index("delta")])
-    sides = [f"{abs(x):.0f}° {w}" for x, w in ((d.max(), "starboard"), (d.min(), "port")) if abs(x) >= 1.0 and x * (1 if w == "starboard" else -1) > 0]
+    sides = [
+        f"{abs(x):.0f}° {w}"
+        for x, w in ((d.max(), "starboard"), (d.min(), "port"))
+        if abs(x) >= 1.0 and x * (1 if w == "starboard" else -1) > 0
+    ]
     helm = f"rudder up to {' and '.join(sides)}" if sides else "rudder amidships"
     rpm = f", engine about {60 * float(np.median(u[:, names.index('n')])):.0f} rpm" if "n" in names else ""
     return f"helm as needed: {helm}{rpm}"

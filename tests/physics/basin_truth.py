@@ -53,10 +53,17 @@ EFFECTS = ("sway_roll", "restoring", "imu_mount", "speed_loss", "waves")
 M0, KG, DRAFT, BEAM, LPP, LWL = 22.04, 0.146, 0.144, 0.3, 0.8, 0.85
 GM0 = 0.018
 # Datasets of Table 2 (samples at 50 Hz; the last one's length is not printed) and the loads of Table 3.
-DATASETS = {"nominal-1": (3277, 0.0, 0.0), "0.200kg-2": (1927, 0.2, -0.256),
-            "0.200kg-3": (2677, 0.2, -0.256), "0.400kg-4": (2400, 0.4, -0.268)}
-CASES = {"case1": ("nominal-1", "0.200kg-2", "0.200kg-3"), "case2": ("nominal-1", "0.200kg-3", "0.400kg-4"),
-         "case3": ("nominal-1", "0.200kg-2", "0.400kg-4")}
+DATASETS = {
+    "nominal-1": (3277, 0.0, 0.0),
+    "0.200kg-2": (1927, 0.2, -0.256),
+    "0.200kg-3": (2677, 0.2, -0.256),
+    "0.400kg-4": (2400, 0.4, -0.268),
+}
+CASES = {
+    "case1": ("nominal-1", "0.200kg-2", "0.200kg-3"),
+    "case2": ("nominal-1", "0.200kg-3", "0.400kg-4"),
+    "case3": ("nominal-1", "0.200kg-2", "0.400kg-4"),
+}
 IMU_Z = -0.09  # nominal IMU mounting height (z down from the waterline) told to the estimator
 
 
@@ -109,19 +116,37 @@ def draw_ships(n: int, variant: str, seed: int) -> Ship:
     Iz = M0 * (0.272 * LPP) ** 2
     # every parameter is drawn in every variant (same stream), then the variant's effects switched on
     d = {
-        "z_f": -(0.029 + 0.004 * np.clip(rng.standard_normal(n), -2.5, 2.5)), "U0": rng.uniform(0.42, 0.58, n),
-        "z_imu": IMU_Z + 0.005 * np.clip(rng.standard_normal(n), -2, 2), "Ix": np.full(n, Ix), "Iz": np.full(n, Iz),
-        "Yvd": _draw(rng, n, -20.0, rel), "Kvd": _draw(rng, n, 0.95, rel), "Kpd": _draw(rng, n, -0.02, 0.2),
-        "Nrd": _draw(rng, n, -0.5, rel), "Yv": _draw(rng, n, -15.0, rel), "Yr": _draw(rng, n, 2.0, rel),
-        "Kp": _draw(rng, n, -0.27, rel), "Kr": _draw(rng, n, -1.525, rel), "Nv": _draw(rng, n, -1.5, rel),
-        "Nr": _draw(rng, n, -2.5, rel), "Yd": _draw(rng, n, 2.0, rel), "Kd": _draw(rng, n, -0.45, rel),
-        "Nd": _draw(rng, n, -0.8, rel), "Xu": -_draw(rng, n, 4.5, rel),
+        "z_f": -(0.029 + 0.004 * np.clip(rng.standard_normal(n), -2.5, 2.5)),
+        "U0": rng.uniform(0.42, 0.58, n),
+        "z_imu": IMU_Z + 0.005 * np.clip(rng.standard_normal(n), -2, 2),
+        "Ix": np.full(n, Ix),
+        "Iz": np.full(n, Iz),
+        "Yvd": _draw(rng, n, -20.0, rel),
+        "Kvd": _draw(rng, n, 0.95, rel),
+        "Kpd": _draw(rng, n, -0.02, 0.2),
+        "Nrd": _draw(rng, n, -0.5, rel),
+        "Yv": _draw(rng, n, -15.0, rel),
+        "Yr": _draw(rng, n, 2.0, rel),
+        "Kp": _draw(rng, n, -0.27, rel),
+        "Kr": _draw(rng, n, -1.525, rel),
+        "Nv": _draw(rng, n, -1.5, rel),
+        "Nr": _draw(rng, n, -2.5, rel),
+        "Yd": _draw(rng, n, 2.0, rel),
+        "Kd": _draw(rng, n, -0.45, rel),
+        "Nd": _draw(rng, n, -0.8, rel),
+        "Xu": -_draw(rng, n, 4.5, rel),
         # lateral force centre ~4 cm below the roll centre: Y_p = K_v = -z Y_v (lever of the keel's lift)
-        "Yp": _draw(rng, n, 0.6, 0.3), "Yphi": _draw(rng, n, -0.5, 0.5), "Kv": _draw(rng, n, 0.6, 0.3),
-        "Np": _draw(rng, n, 0.05, 0.5), "Ypd_ratio": rng.uniform(0.4, 0.7, n),
-        "x_imu": rng.uniform(0.05, 0.2, n), "eps": np.deg2rad(rng.normal(0, 1.0, (n, 3))),
-        "Xdd": -_draw(rng, n, 3.0, 0.2), "wave_scale": np.exp(rng.uniform(np.log(2), np.log(4), n)),
-        "Tp": rng.uniform(0.6, 1.2, n), "beta": rng.uniform(0, 2 * np.pi, n),
+        "Yp": _draw(rng, n, 0.6, 0.3),
+        "Yphi": _draw(rng, n, -0.5, 0.5),
+        "Kv": _draw(rng, n, 0.6, 0.3),
+        "Np": _draw(rng, n, 0.05, 0.5),
+        "Ypd_ratio": rng.uniform(0.4, 0.7, n),
+        "x_imu": rng.uniform(0.05, 0.2, n),
+        "eps": np.deg2rad(rng.normal(0, 1.0, (n, 3))),
+        "Xdd": -_draw(rng, n, 3.0, 0.2),
+        "wave_scale": np.exp(rng.uniform(np.log(2), np.log(4), n)),
+        "Tp": rng.uniform(0.6, 1.2, n),
+        "beta": rng.uniform(0, 2 * np.pi, n),
     }
     ratio = d.pop("Ypd_ratio")
     d["Ypd"] = d["Kvd"] * (ratio if "sway_roll" in on else 1.0)
@@ -151,7 +176,7 @@ def _joystick(n: int, rng: np.random.Generator, runs: int) -> np.ndarray:
         i = 0
         while i < n:
             hold = int(rng.uniform(1.0, 6.0) * FS)
-            tgt[i:i + hold] = 0.0 if rng.random() < 0.25 else rng.choice([-1, 1]) * np.deg2rad(rng.uniform(8, 28))
+            tgt[i : i + hold] = 0.0 if rng.random() < 0.25 else rng.choice([-1, 1]) * np.deg2rad(rng.uniform(8, 28))
             i += hold
         rate = np.deg2rad(rng.uniform(50, 70)) / FS
         cur, lag = 0.0, 0.0
@@ -229,8 +254,9 @@ def _restoring(ship: Ship, m: float, zm: float, on: tuple[str, ...]) -> tuple[np
     return (M0 + m) * G * GM, BM / (2 * np.maximum(GM, 1e-3))
 
 
-def simulate(ship: Ship, variant: str, load: tuple[float, float], n_out: int, seed: int,
-             quiet: bool = False) -> dict[str, np.ndarray]:
+def simulate(
+    ship: Ship, variant: str, load: tuple[float, float], n_out: int, seed: int, quiet: bool = False
+) -> dict[str, np.ndarray]:
     """Integrate one dataset for every run of ``ship``; returns measured channels (runs, n_out)
     at 50 Hz: ``delta, p, a_s, r, phi`` (the recorder's signs: roll starboard down, yaw to
     starboard positive, a_s as (7)) and the mean surge speed ``speed``. ``quiet``: no IMU noise or
@@ -296,8 +322,9 @@ def simulate(ship: Ship, variant: str, load: tuple[float, float], n_out: int, se
     return _measure(ship, rng, delta, v, p, r, phi, u, vd, pd, rd, ud, warm, n_out, 0.0 if quiet else 1.0)
 
 
-def _measure(ship: Ship, rng: np.random.Generator, delta, v, p, r, phi, u, vd, pd, rd, ud,
-             warm: int, n_out: int, noise: float) -> dict[str, np.ndarray]:
+def _measure(
+    ship: Ship, rng: np.random.Generator, delta, v, p, r, phi, u, vd, pd, rd, ud, warm: int, n_out: int, noise: float
+) -> dict[str, np.ndarray]:
     """The Xsens MTi-G at the IMU's true position and orientation, its noise and filters, the FIR
     of section 5 and the decimation."""
     R = len(ship.U0)
@@ -363,8 +390,14 @@ def case_recordings(ship: Ship, data: dict, case: str, run: int) -> list[Recordi
     for role, name in zip(("nominal", "calibration", "loaded"), CASES[case]):
         d = data[name]
         _, m, zm = DATASETS[name]
-        meta = {"ship": "our_lass_ii", "role": role, "dataset": name, "speed_m_s": f"{d['speed'][run]:.4f}",
-                "imu_z_m": f"{ship.z_imu[run]:.4f}", "sample_time": f"{DEC / FS:g}"}
+        meta = {
+            "ship": "our_lass_ii",
+            "role": role,
+            "dataset": name,
+            "speed_m_s": f"{d['speed'][run]:.4f}",
+            "imu_z_m": f"{ship.z_imu[run]:.4f}",
+            "sample_time": f"{DEC / FS:g}",
+        }
         if role != "loaded":
             meta.update({"load_kg": f"{m:g}", "load_z_m": f"{zm:g}"})
         out.append(Recording(role, name, DEC / FS, {k: d[k][run] for k in ("delta", "p", "a_s", "r", "phi")}, meta))

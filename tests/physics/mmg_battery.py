@@ -44,8 +44,12 @@ from tests.physics.mmg_kvlcc2 import (
 )
 from tests.physics.mmg_sim import Manoeuvre, Run, simulate_runs
 
-CALM = [Manoeuvre("turn", 35, 0, 1, 800), Manoeuvre("turn", 35, 0, -1, 800), Manoeuvre("zigzag", 10, 10, 1, 550),
-        Manoeuvre("zigzag", 20, 20, -1, 650)]
+CALM = [
+    Manoeuvre("turn", 35, 0, 1, 800),
+    Manoeuvre("turn", 35, 0, -1, 800),
+    Manoeuvre("zigzag", 10, 10, 1, 550),
+    Manoeuvre("zigzag", 20, 20, -1, 650),
+]
 DIAGNOSE = [Manoeuvre("zigzag", 10, 10, 1, 550), Manoeuvre("zigzag", 20, 20, -1, 650), Manoeuvre("turn", 35, 0, 1, 800)]
 VALIDATE = [Manoeuvre("zigzag", 10, 10, -1, 550), Manoeuvre("zigzag", 20, 20, 1, 650)]
 
@@ -151,19 +155,23 @@ def _noise(rng: np.random.Generator, shape: tuple[int, ...], std: float, kind: s
     return std * e
 
 
-def _measure(run: Run, ship: MMGShip, rng: np.random.Generator, kind: str, bias: dict | None,
-             wind_ne: tuple[float, float] | None) -> dict[str, np.ndarray]:
+def _measure(
+    run: Run, ship: MMGShip, rng: np.random.Generator, kind: str, bias: dict | None, wind_ne: tuple[float, float] | None
+) -> dict[str, np.ndarray]:
     """Recorded columns: the run plus measurement noise (and a sensor bias, if any)."""
     n = len(run.t)
     sq = ship.time_scale  # Froude: speeds and times x ts, rates / ts, lengths x ts^2
-    cols = {"t": run.t.copy(),
-            "x": run.x + _noise(rng, (n,), NOISE_FULL["xy"] * ship.time_scale**2, kind),
-            "y": run.y + _noise(rng, (n,), NOISE_FULL["xy"] * ship.time_scale**2, kind),
-            "psi": run.psi + _noise(rng, (n,), NOISE_FULL["psi"], kind),
-            "u": run.u + _noise(rng, (n,), NOISE_FULL["u"] * sq, kind),
-            "v": run.v + _noise(rng, (n,), NOISE_FULL["v"] * sq, kind),
-            "r": run.r + _noise(rng, (n,), NOISE_FULL["r"] / ship.time_scale, kind),
-            "delta": run.delta.copy(), "n": run.n.copy()}
+    cols = {
+        "t": run.t.copy(),
+        "x": run.x + _noise(rng, (n,), NOISE_FULL["xy"] * ship.time_scale**2, kind),
+        "y": run.y + _noise(rng, (n,), NOISE_FULL["xy"] * ship.time_scale**2, kind),
+        "psi": run.psi + _noise(rng, (n,), NOISE_FULL["psi"], kind),
+        "u": run.u + _noise(rng, (n,), NOISE_FULL["u"] * sq, kind),
+        "v": run.v + _noise(rng, (n,), NOISE_FULL["v"] * sq, kind),
+        "r": run.r + _noise(rng, (n,), NOISE_FULL["r"] / ship.time_scale, kind),
+        "delta": run.delta.copy(),
+        "n": run.n.copy(),
+    }
     if bias:
         cols[bias["signal"]] = cols[bias["signal"]] + bias["value"]
     if wind_ne is not None:
@@ -202,8 +210,10 @@ def _wind_truth(ship: MMGShip, runs: list[Run], wind_ne: tuple[float, float], Ts
         c = float(f @ y / max(f @ f, 1e-300))
         coef.append(c)
         weight.append(float(np.mean((c * f) ** 2) / sig[i] ** 2))
-    return {"coefficients": dict(zip(("wind_surge", "wind_sway", "wind_yaw"), coef)),
-            "weights": dict(zip(("wind_surge", "wind_sway", "wind_yaw"), weight))}
+    return {
+        "coefficients": dict(zip(("wind_surge", "wind_sway", "wind_yaw"), coef)),
+        "weights": dict(zip(("wind_surge", "wind_sway", "wind_yaw"), weight)),
+    }
 
 
 def truth_of(c: Case, ship: MMGShip, runs: list[Run], env: Environment, Ts: float) -> dict:
@@ -211,8 +221,15 @@ def truth_of(c: Case, ship: MMGShip, runs: list[Run], env: Environment, Ts: floa
     (kind: abs, rel, angle; tolerances of issue 13, Froude-scaled where they carry units)."""
     ts = ship.time_scale
     m = c.magnitude
-    base = {"case": c.name, "scale": "model" if c.scale != 1.0 else "full", "scale_factor": c.scale,
-            "noise": c.noise, "seed": c.seed, "concealed": c.effect, "magnitude": m}
+    base = {
+        "case": c.name,
+        "scale": "model" if c.scale != 1.0 else "full",
+        "scale_factor": c.scale,
+        "noise": c.noise,
+        "seed": c.seed,
+        "concealed": c.effect,
+        "magnitude": m,
+    }
     if c.effect is None or c.effect == "shallow_water":
         return base | {"effects": [], "checks": {}}
     if c.effect == "current":
@@ -245,8 +262,13 @@ def _visibility(c: Case, ship: MMGShip, n: float, runs: list[Run], Ts: float) ->
     sig = {"u": NOISE_FULL["u"] * Ts, "v": NOISE_FULL["v"] * Ts, "r": NOISE_FULL["r"] / Ts}
     out = {}
     for k in ("u", "v", "r"):
-        d = np.concatenate([getattr(a, k)[:m] - getattr(b, k)[:m] + (bias if k == c.magnitude.get("signal") else 0.0)
-                            for a, b in zip(runs, calm) for m in [min(len(a.t), len(b.t))]])
+        d = np.concatenate(
+            [
+                getattr(a, k)[:m] - getattr(b, k)[:m] + (bias if k == c.magnitude.get("signal") else 0.0)
+                for a, b in zip(runs, calm)
+                for m in [min(len(a.t), len(b.t))]
+            ]
+        )
         out[k] = float(np.sqrt(np.mean(d**2)) / sig[k])
     return out
 
@@ -269,12 +291,14 @@ def generate(c: Case, *, visibility: bool = False, oracle_calm: bool = False) ->
     n = self_propulsion_rps(kvlcc2(c.scale))  # the approach rpm the crew sets, for every run
     calm = simulate_runs(ship, CALM, n, sample_time=Ts, lead_in_s=LEAD_IN_S)
     runs = simulate_runs(eff_ship, DIAGNOSE + VALIDATE, n, env=env, sample_time=Ts, lead_in_s=LEAD_IN_S, **act)
-    diag, val = runs[: len(DIAGNOSE)], runs[len(DIAGNOSE):]
+    diag, val = runs[: len(DIAGNOSE)], runs[len(DIAGNOSE) :]
     rng = np.random.default_rng(c.seed)
     bias = {"signal": c.magnitude["signal"], "value": c.magnitude["bias"] / Ts} if c.effect == "sensor_bias" else None
-    noisy = {"calm": [_measure(r, ship, rng, c.noise, None, None) for r in calm],
-             "diagnose": [_measure(r, ship, rng, c.noise, bias, env.wind_ne) for r in diag],
-             "validate": [_measure(r, ship, rng, c.noise, bias, env.wind_ne) for r in val]}
+    noisy = {
+        "calm": [_measure(r, ship, rng, c.noise, None, None) for r in calm],
+        "diagnose": [_measure(r, ship, rng, c.noise, bias, env.wind_ne) for r in diag],
+        "validate": [_measure(r, ship, rng, c.noise, bias, env.wind_ne) for r in val],
+    }
     truth = truth_of(c, eff_ship, diag, env, Ts)
     if visibility:
         truth["visibility_rms_over_noise"] = _visibility(c, ship, n, diag, Ts)
@@ -301,9 +325,13 @@ def write_case(g: Generated, out: str | Path) -> dict[str, list[Path]]:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     c = g.case
-    meta = {"ship": "kvlcc2", "sample_time": f"{g.sample_time:.9g}",
-            "scale": "model" if c.scale != 1.0 else "full", "scale_factor": f"{c.scale:g}",
-            "generated": "tests/physics/mmg_battery.py (MMG standard model, Yasukawa & Yoshimura 2015)"}
+    meta = {
+        "ship": "kvlcc2",
+        "sample_time": f"{g.sample_time:.9g}",
+        "scale": "model" if c.scale != 1.0 else "full",
+        "scale_factor": f"{c.scale:g}",
+        "generated": "tests/physics/mmg_battery.py (MMG standard model, Yasukawa & Yoshimura 2015)",
+    }
     paths: dict[str, list[Path]] = {}
     mans = {"calm": g.calm_manoeuvres or CALM, "diagnose": DIAGNOSE, "validate": VALIDATE}
     for role, runs in g.noisy.items():

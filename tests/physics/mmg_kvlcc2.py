@@ -155,14 +155,25 @@ def kvlcc2(scale: float = 1.0) -> MMGShip:
     A_F = 1 130 m^2, A_L = 3 950 m^2.
     """
     s = float(scale)
-    return MMGShip(scale=s, L=320.0 / s, B=58.0 / s, d=20.8 / s, volume=312600.0 / s**3, x_G=11.2 / s,
-                   D_p=9.86 / s, H_R=15.80 / s, A_R=112.5 / s**2, U0=7.97 / np.sqrt(s),
-                   rudder_rate=np.radians(2.32) * np.sqrt(s), rudder_max=np.radians(35.0),
-                   A_F=1130.0 / s**2, A_L=3950.0 / s**2)
+    return MMGShip(
+        scale=s,
+        L=320.0 / s,
+        B=58.0 / s,
+        d=20.8 / s,
+        volume=312600.0 / s**3,
+        x_G=11.2 / s,
+        D_p=9.86 / s,
+        H_R=15.80 / s,
+        A_R=112.5 / s**2,
+        U0=7.97 / np.sqrt(s),
+        rudder_rate=np.radians(2.32) * np.sqrt(s),
+        rudder_max=np.radians(35.0),
+        A_F=1130.0 / s**2,
+        A_L=3950.0 / s**2,
+    )
 
 
-def with_effects(ship: MMGShip, *, thrust_factor: float | None = None, extra_N_rr: float | None = None,
-                 **coef: float) -> MMGShip:
+def with_effects(ship: MMGShip, *, thrust_factor: float | None = None, extra_N_rr: float | None = None, **coef: float) -> MMGShip:
     """The ship with changed physics (thrust loss, extra yaw damping, changed hull coefficients)."""
     out = ship
     if coef:
@@ -205,8 +216,19 @@ def hull_forces(ship: MMGShip, u, v, r):
     q = 0.5 * RHO * ship.L * ship.d * U**2
     X = q * (-c.R_0 + c.X_vv * vp**2 + c.X_vr * vp * rp + c.X_rr * rp**2 + c.X_vvvv * vp**4)
     Y = q * (c.Y_v * vp + c.Y_r * rp + c.Y_vvv * vp**3 + c.Y_vvr * vp**2 * rp + c.Y_vrr * vp * rp**2 + c.Y_rrr * rp**3)
-    N = q * ship.L * (c.N_v * vp + c.N_r * rp + c.N_vvv * vp**3 + c.N_vvr * vp**2 * rp + c.N_vrr * vp * rp**2
-                      + c.N_rrr * rp**3 + ship.extra_N_rr * rp * np.abs(rp))
+    N = (
+        q
+        * ship.L
+        * (
+            c.N_v * vp
+            + c.N_r * rp
+            + c.N_vvv * vp**3
+            + c.N_vvr * vp**2 * rp
+            + c.N_vrr * vp * rp**2
+            + c.N_rrr * rp**3
+            + ship.extra_N_rr * rp * np.abs(rp)
+        )
+    )
     return X, Y, N
 
 
@@ -225,8 +247,11 @@ def rudder_forces(ship: MMGShip, u, v, r, delta, KT, J, one_w):
     uR = c.epsilon * u * one_w * np.sqrt(eta * (1.0 + c.kappa * (slip - 1.0)) ** 2 + (1.0 - eta))
     alpha = delta - np.arctan2(vR, uR)
     FN = 0.5 * RHO * ship.A_R * (uR**2 + vR**2) * c.f_alpha * np.sin(alpha)
-    return (-(1.0 - c.t_R) * FN * np.sin(delta), -(1.0 + c.a_H) * FN * np.cos(delta),
-            -(c.x_R + c.a_H * c.x_H) * ship.L * FN * np.cos(delta))
+    return (
+        -(1.0 - c.t_R) * FN * np.sin(delta),
+        -(1.0 + c.a_H) * FN * np.cos(delta),
+        -(c.x_R + c.a_H * c.x_H) * ship.L * FN * np.cos(delta),
+    )
 
 
 def wind_forces(ship: MMGShip, u, v, psi, wind_ne):
@@ -273,9 +298,10 @@ def derivative(ship: MMGShip, Minv: np.ndarray, s: np.ndarray, delta, n, env: En
     m, xg = ship.mass, ship.x_G
     q = 0.5 * RHO * ship.L**2 * ship.d
     mx, my = ship.c.m_x * q, ship.c.m_y * q
-    rhs = np.stack([XH + XR + XP + XW + (m + my) * vr * r + xg * m * r**2,
-                    YH + YR + YW - (m + mx) * ur * r,
-                    NH + NR + NW - xg * m * ur * r], axis=-1)
+    rhs = np.stack(
+        [XH + XR + XP + XW + (m + my) * vr * r + xg * m * r**2, YH + YR + YW - (m + mx) * ur * r, NH + NR + NW - xg * m * ur * r],
+        axis=-1,
+    )
     acc = rhs @ Minv.T
     return np.stack([u * cp - v * sp, u * sp + v * cp, r, acc[..., 0], acc[..., 1], acc[..., 2]], axis=-1)
 

@@ -76,8 +76,9 @@ def straight_speed(ship: MMGShip, n: float) -> float:
     return float(brentq(xsum, 1e-3 * ship.U0, 3.0 * ship.U0, xtol=1e-12))
 
 
-def _commands(mans: list[Manoeuvre], psi_dev: np.ndarray, r: np.ndarray, cmd: np.ndarray, started: bool,
-              ship: MMGShip) -> np.ndarray:
+def _commands(
+    mans: list[Manoeuvre], psi_dev: np.ndarray, r: np.ndarray, cmd: np.ndarray, started: bool, ship: MMGShip
+) -> np.ndarray:
     """Rudder commands (MMG convention) of each run for its heading deviation from the course."""
     out = cmd.copy()
     if not started:  # heading-hold autopilot on the approach; gains scaled with the ship's time
@@ -97,9 +98,19 @@ def _commands(mans: list[Manoeuvre], psi_dev: np.ndarray, r: np.ndarray, cmd: np
     return out
 
 
-def simulate_runs(ship: MMGShip, mans: list[Manoeuvre], n_rps: float, *, env: Environment = Environment(),
-                  delay_s: float = 0.0, offset_rad: float = 0.0, sample_time: float | None = None,
-                  lead_in_s: float = 300.0, pre_s: float = 30.0, psi0: float = 0.0) -> list[Run]:
+def simulate_runs(
+    ship: MMGShip,
+    mans: list[Manoeuvre],
+    n_rps: float,
+    *,
+    env: Environment = Environment(),
+    delay_s: float = 0.0,
+    offset_rad: float = 0.0,
+    sample_time: float | None = None,
+    lead_in_s: float = 300.0,
+    pre_s: float = 30.0,
+    psi0: float = 0.0,
+) -> list[Run]:
     """Integrate the runs (one batch) and sample them every ``sample_time`` s.
 
     ``delay_s`` and ``offset_rad`` are this ship's seconds and the offset in the recorded
@@ -166,8 +177,20 @@ def simulate_runs(ship: MMGShip, mans: list[Manoeuvre], n_rps: float, *, env: En
         u = ur + np.cos(psi) * cn + np.sin(psi) * ce
         v = vr - np.sin(psi) * cn + np.cos(psi) * ce
         n_keep = int(round((pre_s + m.duration_s) * ts_scale / Ts)) + 1
-        out.append(Run(m, t[:n_keep], x[:n_keep], y[:n_keep], psi[:n_keep], u[:n_keep], v[:n_keep], r[:n_keep],
-                       g[:n_keep], np.full(n_keep, n_rps)))
+        out.append(
+            Run(
+                m,
+                t[:n_keep],
+                x[:n_keep],
+                y[:n_keep],
+                psi[:n_keep],
+                u[:n_keep],
+                v[:n_keep],
+                r[:n_keep],
+                g[:n_keep],
+                np.full(n_keep, n_rps),
+            )
+        )
     return out
 
 

@@ -135,8 +135,7 @@ class Ship:
 
 _NOMINAL = {
     "nominal-mmg": {},
-    "strong-roll": {"GM": 0.65, "K_p": -0.35e6, "K_pp": -0.3e6, "N_p": -4.0e6, "Y_p": -0.3e6,
-                    "roll_weave": math.radians(3.0)},
+    "strong-roll": {"GM": 0.65, "K_p": -0.35e6, "K_pp": -0.3e6, "N_p": -4.0e6, "Y_p": -0.3e6, "roll_weave": math.radians(3.0)},
     "steering-lag": {"gear_tau": 2.0, "gear_rate": math.radians(3.5), "n_tau": 3.0, "tau_from_setpoint": True},
     "coloured-noise": {"coloured": True},
     "pod-interaction": {"w": 0.3, "t_d": 0.25, "a_H": 0.45, "shadow": 0.35, "kt1": -0.45},
@@ -176,7 +175,7 @@ def harbour_commands(n: int, dt: float, seed: int, weave: float = 0.0) -> tuple[
     i = 0
     while i < n:
         hold = int(rng.uniform(10.0, 25.0) / dt)
-        a[i: i + hold] = rng.uniform(-1, 1) * math.radians(20.0)
+        a[i : i + hold] = rng.uniform(-1, 1) * math.radians(20.0)
         i += hold
     k = dt / 2.0
     eased = np.empty(n)
@@ -191,10 +190,14 @@ def harbour_commands(n: int, dt: float, seed: int, weave: float = 0.0) -> tuple[
 
 def _mass_inverse(s: Ship, i_z: float) -> np.ndarray:
     mz = s.m * s.z_g
-    M = np.array([[s.m - s.X_ud, 0, 0, 0],
-                  [0, s.m - s.Y_vd, -(mz + s.Y_pd), s.m * s.x_g - s.Y_rd],
-                  [0, -(mz + s.K_vd), s.I_x - s.K_pd, 0],
-                  [0, s.m * s.x_g - s.N_vd, 0, i_z - s.N_rd]])
+    M = np.array(
+        [
+            [s.m - s.X_ud, 0, 0, 0],
+            [0, s.m - s.Y_vd, -(mz + s.Y_pd), s.m * s.x_g - s.Y_rd],
+            [0, -(mz + s.K_vd), s.I_x - s.K_pd, 0],
+            [0, s.m * s.x_g - s.N_vd, 0, i_z - s.N_rd],
+        ]
+    )
     return np.linalg.inv(M)
 
 
@@ -233,15 +236,45 @@ def _derivatives(s: Ship, Minv: np.ndarray, x: np.ndarray, n_cmd, a_cmd):
     u, v, p, r, phi, psi, _, _, a1, a2, n = x.T
     au, av, ar_, ap = np.abs(u), np.abs(v), np.abs(r), np.abs(p)
     X = s.X_uu * u * au + s.m * (v * r + s.x_g * r * r - s.z_g * p * r)
-    Y = (s.Y_uv * au * v + s.Y_ur * u * r + s.Y_vv * v * av + s.Y_vr * v * ar_ + s.Y_rv * r * av
-         + s.Y_fuv * phi * np.abs(u * v) + s.Y_fur * phi * np.abs(u * r) + s.Y_fuu * phi * u * u + s.Y_p * p
-         - s.m * u * r)
+    Y = (
+        s.Y_uv * au * v
+        + s.Y_ur * u * r
+        + s.Y_vv * v * av
+        + s.Y_vr * v * ar_
+        + s.Y_rv * r * av
+        + s.Y_fuv * phi * np.abs(u * v)
+        + s.Y_fur * phi * np.abs(u * r)
+        + s.Y_fuu * phi * u * u
+        + s.Y_p * p
+        - s.m * u * r
+    )
     gz = s.GM * np.sin(phi) + s.gz3 * phi**3 + s.gz5 * phi**5
-    K = (s.K_uv * au * v + s.K_ur * u * r + s.K_vv * v * av + s.K_vr * v * ar_ + s.K_rv * r * av
-         + s.K_fuv * phi * np.abs(u * v) + s.K_fur * phi * np.abs(u * r) + s.K_fuu * phi * u * u
-         + s.K_pp * p * ap + s.K_p * p + s.K_up * au * p - RHO * G * s.disp * gz + s.m * s.z_g * u * r)
-    N = (s.N_uv * au * v + s.N_ur * au * r + s.N_rr * r * ar_ + s.N_rv * r * av + s.N_fuv * phi * np.abs(u * v)
-         + s.N_fur * phi * u * ar_ + s.N_fuu * phi * u * au + s.N_p * p - s.m * s.x_g * u * r)
+    K = (
+        s.K_uv * au * v
+        + s.K_ur * u * r
+        + s.K_vv * v * av
+        + s.K_vr * v * ar_
+        + s.K_rv * r * av
+        + s.K_fuv * phi * np.abs(u * v)
+        + s.K_fur * phi * np.abs(u * r)
+        + s.K_fuu * phi * u * u
+        + s.K_pp * p * ap
+        + s.K_p * p
+        + s.K_up * au * p
+        - RHO * G * s.disp * gz
+        + s.m * s.z_g * u * r
+    )
+    N = (
+        s.N_uv * au * v
+        + s.N_ur * au * r
+        + s.N_rr * r * ar_
+        + s.N_rv * r * av
+        + s.N_fuv * phi * np.abs(u * v)
+        + s.N_fur * phi * u * ar_
+        + s.N_fuu * phi * u * au
+        + s.N_p * p
+        - s.m * s.x_g * u * r
+    )
     for a, yp, other in ((a1, -s.y_pod, 1.0), (a2, s.y_pod, -1.0)):
         fx, fy, T = pod_forces(s, u, v, p, r, a, n, yp, other)
         X = X + fx - s.t_d * T * np.cos(a)
@@ -254,18 +287,25 @@ def _derivatives(s: Ship, Minv: np.ndarray, x: np.ndarray, n_cmd, a_cmd):
     def gear(a):
         return np.clip((a_cmd - a) / s.gear_tau, -s.gear_rate, s.gear_rate)
 
-    return np.column_stack([acc, p, r * cphi, u * cpsi - v * cphi * spsi, u * spsi + v * cphi * cpsi,
-                            gear(a1), gear(a2), (n_cmd - n) / s.n_tau])
+    return np.column_stack(
+        [acc, p, r * cphi, u * cpsi - v * cphi * spsi, u * spsi + v * cphi * cpsi, gear(a1), gear(a2), (n_cmd - n) / s.n_tau]
+    )
 
 
 def measured_moment(s: Ship, u, v, p, r, a1, a2, n) -> np.ndarray:
     """The pods' load-cell yaw moment ``sum x_pod F_y`` (no hull share, no ``-y_pod F_x``)."""
-    return sum(s.x_pod * pod_forces(s, u, v, p, r, a, n, yp, o)[1]
-               for a, yp, o in ((a1, -s.y_pod, 1.0), (a2, s.y_pod, -1.0)))
+    return sum(s.x_pod * pod_forces(s, u, v, p, r, a, n, yp, o)[1] for a, yp, o in ((a1, -s.y_pod, 1.0), (a2, s.y_pod, -1.0)))
 
 
-def simulate(ship: Ship, n_cmd: np.ndarray, a_cmd: np.ndarray, dt: float, change_at_s: np.ndarray | None = None,
-             iz_factor: float = 1.1, lead_in_s: float = 150.0) -> dict[str, np.ndarray]:
+def simulate(
+    ship: Ship,
+    n_cmd: np.ndarray,
+    a_cmd: np.ndarray,
+    dt: float,
+    change_at_s: np.ndarray | None = None,
+    iz_factor: float = 1.1,
+    lead_in_s: float = 150.0,
+) -> dict[str, np.ndarray]:
     """Noise-free signals (n, runs) for setpoints ``n_cmd``, ``a_cmd`` (n, runs); ``change_at_s``
     (runs,) the time from which each run's ``I_z`` is ``iz_factor`` times larger (NaN: never).
     A straight lead-in at the first setpoints brings the ship to speed first (dropped)."""
@@ -301,9 +341,22 @@ def simulate(ship: Ship, n_cmd: np.ndarray, a_cmd: np.ndarray, dt: float, change
     else:
         tau = measured_moment(ship, u, v, p, r, a1, a2, nn)
         alpha = a1
-    return {"u": u, "v": v, "p": p, "r": r, "phi": phi, "psi": psi, "x": X - X[0], "y": Y - Y[0],
-            "v_dot": deriv[:, :, 1], "tau_n": tau, "alpha1": alpha, "alpha2": a2 if not ship.tau_from_setpoint else alpha,
-            "n1": nn, "n2": nn}
+    return {
+        "u": u,
+        "v": v,
+        "p": p,
+        "r": r,
+        "phi": phi,
+        "psi": psi,
+        "x": X - X[0],
+        "y": Y - Y[0],
+        "v_dot": deriv[:, :, 1],
+        "tau_n": tau,
+        "alpha1": alpha,
+        "alpha2": a2 if not ship.tau_from_setpoint else alpha,
+        "n1": nn,
+        "n2": nn,
+    }
 
 
 def _lowpass(x: np.ndarray, tau: float, dt: float) -> np.ndarray:
@@ -342,9 +395,17 @@ def measure(ship: Ship, tr: dict[str, np.ndarray], dt: float, seed: int, noise_s
     return out
 
 
-def recordings(variant: str, ship_seed: int, run_seeds: list[int], duration_s: float = 500.0, dt: float = 0.1,
-               change_at_s: list[float | None] | None = None, noise_scale: float = 1.0, ship: Ship | None = None,
-               lead_in_s: float = 150.0) -> list[dict[str, np.ndarray]]:
+def recordings(
+    variant: str,
+    ship_seed: int,
+    run_seeds: list[int],
+    duration_s: float = 500.0,
+    dt: float = 0.1,
+    change_at_s: list[float | None] | None = None,
+    noise_scale: float = 1.0,
+    ship: Ship | None = None,
+    lead_in_s: float = 150.0,
+) -> list[dict[str, np.ndarray]]:
     """Recorded columns of one ship (``draw_ship(variant, ship_seed)`` unless ``ship`` is given)
     on the manoeuvres ``run_seeds``, one dict of (n,) columns per run, ``change_at_s`` per run
     (None: unchanged; else +10 % I_z from that time)."""
@@ -360,8 +421,13 @@ def recordings(variant: str, ship_seed: int, run_seeds: list[int], duration_s: f
     return [{"t": t} | {k: x[:, j] for k, x in meas.items()} for j in range(len(run_seeds))]
 
 
-def write_csv(cols: dict[str, np.ndarray], path: str | Path, sample_time: float = 0.1,
-              rename: dict[str, str] | None = None, drop: tuple[str, ...] = ()) -> Path:
+def write_csv(
+    cols: dict[str, np.ndarray],
+    path: str | Path,
+    sample_time: float = 0.1,
+    rename: dict[str, str] | None = None,
+    drop: tuple[str, ...] = (),
+) -> Path:
     """The recording CSV the product reads: ``# sample_time`` metadata line, a header, one row per
     sample. ``rename`` and ``drop`` make the header of a different logger."""
     rename = rename or {}
