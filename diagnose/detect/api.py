@@ -131,11 +131,10 @@ def _deriver(rec: Recording, kind: str):
     # the recording's pod angles alpha_i are the profile's inputs delta_i
     pods = {} if measured_tau else {c.replace("alpha", "delta"): rec.channels[c] for c in POD_COLUMNS}
     p_rec = rec.channels.get("p")
-    win = max(5, 2 * int(1.0 / dt) + 1)
     measured_vdot = SWAY_ACC in rec.channels
 
     def rate(x: np.ndarray) -> np.ndarray:
-        return savgol_filter(x, win, 2, deriv=1, delta=dt, axis=0) if len(x) > win else np.gradient(x, dt, axis=0)
+        return _rate(x, dt)
 
     def derive(sig: dict[str, np.ndarray], r: np.ndarray) -> dict[str, np.ndarray]:
         out = dict(sig)
@@ -252,15 +251,21 @@ _UNITS_FIX = (
 )
 
 
-def check_inputs(rec: Recording, tau_r: np.ndarray, r: np.ndarray, eps: np.ndarray, sigma: float) -> None:
+def _rate(x: np.ndarray, dt: float) -> np.ndarray:
+    """d/dt along axis 0 by a quadratic Savitzky-Golay fit over about 2 s (np.gradient on records
+    shorter than that window)."""
+    win = max(5, 2 * int(1.0 / dt) + 1)
+    return savgol_filter(x, win, 2, deriv=1, delta=dt, axis=0) if len(x) > win else np.gradient(x, dt, axis=0)
+
+
+def check_inputs(rec: Recording, tau_r: np.ndarray, r: np.ndarray, eps: np.ndarray, sigma: float) -> float:
     """Refuse a recording the prior cannot describe at all (an input error, not a change): a measured
     pod yaw moment that does not turn the ship the way it is pushed (tau_n against dr/dt, as
     diagnose checks its columns' signs), or a prediction residual not finite or over
-    MISFIT_SIGMAS times the prior's noise sigma (tau_n in kN m or x1000, a flipped sign)."""
+    MISFIT_SIGMAS times the prior's noise sigma (tau_n in kN m or x1000, a flipped sign). Returns
+    the residual's rms."""
     if MOMENT in rec.channels and np.ptp(tau_r) > 0 and np.ptp(r) > 0:
-        win = min(len(r) - (1 - len(r) % 2), max(5, 2 * int(1.0 / rec.sample_time) + 1))
-        r_dot = savgol_filter(r, win, 2, deriv=1, delta=rec.sample_time) if win > 2 else np.gradient(r, rec.sample_time)
-        c = float(np.corrcoef(tau_r, r_dot)[0, 1])
+        c = float(np.corrcoef(tau_r, _rate(r, rec.sample_time))[0, 1])
         if not c > 0:
             raise RecordingError(
                 f"{rec.source}: column '{MOMENT}' correlates {c:+.2f} with the rate of r (a pod yaw "
@@ -273,6 +278,7 @@ def check_inputs(rec: Recording, tau_r: np.ndarray, r: np.ndarray, eps: np.ndarr
             f"{rms / sigma:.0f}x its noise {sigma:.2g} rad/s (over {MISFIT_SIGMAS:g}x is no ship "
             f"change: an input error); {_UNITS_FIX}"
         )
+    return rms
 
 
 def _decide(eps, S, prior, st, h, null_raw, min_change, n_rdot) -> tuple[int, dict]:
@@ -329,7 +335,7 @@ def detect(
     sig, r = signals(rec, prior.kind)
     r0 = float(np.mean(r[:5]))
     eps = r - prior.predict(sig, r0=r0)
-    check_inputs(rec, sig["tau_r"], r, eps, prior.sigma)
+    residual_rms = check_inputs(rec, sig["tau_r"], r, eps, prior.sigma)
     S = signatures(prior, sig)
     null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
     null_blocks = block_mean(null_raw, prior.block)
@@ -356,7 +362,7 @@ def detect(
         "I_r": prior.values["I_r"],
     }
     ev["statistic_max"] = {c: float(st[:, k].max()) for k, c in enumerate(CANDIDATES)}
-    ev["residual_rms"] = float(np.sqrt(np.mean(eps**2)))
+    ev["residual_rms"] = residual_rms
     ev["prior_sigma"] = prior.sigma
     tb = t[prior.block - 1 :: prior.block][: len(st)]
     return Detection(
