@@ -64,7 +64,7 @@ class OEFit:
     message: str
     rel_singular: float
     noise_sd: np.ndarray  # (3 datasets, 3 channels) residual standard deviations
-    noise: tuple  # (weights, whitening filters) the fit ended with; pass back to refit on the same noise model
+    noise: tuple  # (weights, whitening filters) the fit ended with: the noise model of a refit at another z_f
 
 
 def start_values(prof: RollProfile) -> dict[str, float]:
@@ -311,30 +311,22 @@ def fit_output_error(
     start: dict[str, float],
     n_reweight: int = 2,
     ar_order: int = NOISE_AR,
-    noise: tuple | None = None,
     with_cov: bool = True,
 ) -> OEFit:
     """Fit :data:`SHARED` and the loaded ``m, zbar_m`` by output error on ``p, a_s, r`` of all datasets.
 
     ``start`` holds start values of :data:`SHARED`; ``m, zbar_m`` start at the calibration load.
-    Weights: 1/sd of each dataset's channel residual, re-estimated ``n_reweight`` times; with
-    ``noise`` (from an earlier fit) that noise model is kept and the fit is done once. Without
+    Weights: 1/sd of each dataset's channel residual, re-estimated ``n_reweight`` times. Without
     ``with_cov`` the sandwich covariance and the ``z_f`` sensitivity are left NaN.
     """
     free = SHARED + ("m", "zbar_m")
     w = np.array([1.0 / np.maximum(_measured(d).std(axis=0), 1e-12) for d in datasets])
-    ar, first = None, None
-    if noise is not None:
-        (w, ar), n_reweight = noise, 0
-        # a refit on a known noise model starts where the earlier fit ended, load included: from the
-        # calibration load it could settle in another local minimum
-        x = np.array([start[k] for k in SHARED] + [start.get("m", cal.m), start.get("zbar_m", cal.zbar)])
-    else:
-        first = _best_start(datasets, kn, cal, z_f, start, w)
-        x = first.x
+    ar = None
+    first = _best_start(datasets, kn, cal, z_f, start, w)
+    x = first.x
     for it in range(n_reweight + 1):
         prob = _Problem(datasets, kn, cal, z_f, free, w, ar)
-        if it == 0 and first is not None and n_reweight > 0:
+        if it == 0 and n_reweight > 0:
             # _best_start has just solved this problem (same weights, no whitening); its optimum only
             # seeds the reweighted fits, which run to the tight tolerance below
             res = first
