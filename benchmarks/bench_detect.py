@@ -2,7 +2,7 @@
 
 Truth: the shared kernel (primitives.simulate) on the 4-DOF podded profile ``naval-vessel``
 (surge-sway-yaw-roll, (2.13) with the two pods); changed ships are that profile with changed data
-(diagnose/detect/vessel.py: ``Vessel.profile``). Priors, as in section 5.2: model 0 = true
+(identify/detect/vessel.py: ``Vessel.profile``). Priors, as in section 5.2: model 0 = true
 parameters, models 1..M = output-error fits of the full (2.17) or simplified (2.18) yaw row to
 500 s of noisy harbour manoeuvring (10 Hz). Each prior is evaluated on ``--runs`` noise
 realisations of the nominal ship and of a ship with "a moment of inertia 10 % larger" (L1591),
@@ -29,10 +29,10 @@ import time
 
 import numpy as np
 
-from diagnose.detect.cusum import calibrate_dead_zone, first_alarms
-from diagnose.detect.glr import attribute, calibrate
-from diagnose.detect.vessel import TABLE_4_1, Vessel, harbour_inputs, measure, truth
-from diagnose.detect.yawmodel import NOMINAL, PREFILTER_HZ, SIGNALS, block_mean, fit, null_records, signatures
+from identify.detect.cusum import calibrate_dead_zone, first_alarms
+from identify.detect.glr import attribute, calibrate
+from identify.detect.vessel import TABLE_4_1, Vessel, harbour_inputs, measure, truth
+from identify.detect.yawmodel import NOMINAL, PREFILTER_HZ, SIGNALS, block_mean, fit, null_records, signatures
 
 DT, N = 0.1, 5000
 #: seed 000 Tables 5.2/5.3 aggregated over models 1-10 (false alarm %, miss %, mean time s), and model 0

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from diagnose.detect.api import detect, fit_prior, load_runs
+from identify.detect.api import detect, fit_prior, load_runs
 from primitives.errors import UserError
 from tests.physics.podded_truth import VARIANTS, recordings, write_csv
 

@@ -1,6 +1,6 @@
 """Monte Carlo of Linder et al. (2015) Table 3: mass and CoG height from roll, ours beside the paper's.
 
-Simulated basin experiment of the 1:24 Our Lass II model (diagnose/rollmass/our_lass_ii.toml) with
+Simulated basin experiment of the 1:24 Our Lass II model (identify/rollmass/our_lass_ii.toml) with
 the Xsens MTi-G noise and biases as the realistic IMU case, for each Table 2 case and each
 estimator (the paper's LS and IV, our refined IV 'improved' and our output-error 'oe'). Prints
 median and 90th-percentile absolute errors of the mass [%] and the CoG height [mm] over the noise
@@ -20,10 +20,10 @@ from multiprocessing import Pool
 
 import numpy as np
 
-from diagnose.rollmass.estimate import METHODS, estimate
-from diagnose.rollmass.model import load_profile
-from diagnose.rollmass.output_error import start_values
-from diagnose.rollmass.simulate import Noise, simulate_case
+from identify.rollmass.estimate import METHODS, estimate
+from identify.rollmass.model import load_profile
+from identify.rollmass.output_error import start_values
+from identify.rollmass.simulate import Noise, simulate_case
 
 # Table 3 (IV) and Table 4 (LS) of the paper: relative errors of m and zbar_m, in %.
 PAPER = {

@@ -26,8 +26,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from diagnose.rollmass.api import estimate_from_files  # noqa: E402
-from diagnose.rollmass.estimate import METHODS  # noqa: E402
+from identify.rollmass.api import estimate_from_files  # noqa: E402
+from identify.rollmass.estimate import METHODS  # noqa: E402
 from primitives.errors import UserError  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
 

@@ -1,7 +1,7 @@
 """Seed 000 chapter 4: yaw-dynamics identification Monte Carlo, ours beside the thesis's.
 
 The multipurpose naval vessel (primitives/profiles/naval-vessel.toml) in the shared 4-DOF kernel,
-10 min at 10 Hz of our forward-only manoeuvring (diagnose.yawid.experiment.identification_run:
+10 min at 10 Hz of our forward-only manoeuvring (identify.yawid.experiment.identification_run:
 pod-angle pulses up to 20 deg, propeller steps 55-80 rev/s, u >= 0 throughout so the lumped A u r
 of (2.17) holds), Table 4.1 white noise on r, v_dot, u, v, phi and the measured pod yaw moment,
 output-error fits of the full (2.17) and simplified (2.18) models from the true values. Seed 000
@@ -30,11 +30,11 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from diagnose.yawid.estimate import fit_yaw  # noqa: E402
-from diagnose.yawid.experiment import Noise, harbour_exit, true_signals  # noqa: E402
-from diagnose.yawid.identifiability import yaw_identifiability  # noqa: E402
-from diagnose.yawid.model import FULL, LABELS, forward_only, true_parameters  # noqa: E402
-from diagnose.yawid.montecarlo import clean_recording, run_monte_carlo  # noqa: E402
+from identify.yawid.estimate import fit_yaw  # noqa: E402
+from identify.yawid.experiment import Noise, harbour_exit, true_signals  # noqa: E402
+from identify.yawid.identifiability import yaw_identifiability  # noqa: E402
+from identify.yawid.model import FULL, LABELS, forward_only, true_parameters  # noqa: E402
+from identify.yawid.montecarlo import clean_recording, run_monte_carlo  # noqa: E402
 from primitives.io import atomic_write_text  # noqa: E402
 from primitives.ship import load_profile  # noqa: E402
 

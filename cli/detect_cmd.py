@@ -35,8 +35,8 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Fit the yaw-row prior (2.17)/(2.18) of "Estimating a ship's dynamics during operation" on a nominal recording, for `detect`."""
         from cli.options import validate_detect_prior_options
-        from diagnose.detect.api import fit_prior, save_prior
-        from diagnose.detect.yawmodel import CANDIDATES
+        from identify.detect.api import fit_prior, save_prior
+        from identify.detect.yawmodel import CANDIDATES
 
         validate_detect_prior_options(out=out, bootstrap=bootstrap, seed=seed)
         notes: list[str] = []
@@ -91,9 +91,9 @@ def register(app: typer.Typer) -> None:
         """Say whether the ship changed, when it changed (a change point with its 95 % interval) and which
         property (yaw inertia, yaw damping, pod gain, or undecided between them)."""
         from cli.options import validate_detect_options
-        from diagnose.detect.api import detect as run_detect
-        from diagnose.detect.api import load_prior, load_runs
-        from diagnose.detect.api import plot as plot_stats
+        from identify.detect.api import detect as run_detect
+        from identify.detect.api import load_prior, load_runs
+        from identify.detect.api import plot as plot_stats
 
         validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot)
         prior = load_prior(prior_file)

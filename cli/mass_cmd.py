@@ -44,7 +44,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Estimate the loaded run's extra mass and its z (CoG of the load), with 95 % confidence intervals (Linder et al. 2015)."""
         from cli.options import validate_mass_options
-        from diagnose.rollmass.api import estimate_from_files
+        from identify.rollmass.api import estimate_from_files
 
         validate_mass_options(z_f=z_f)
         e = estimate_from_files(nominal, calibration, loaded, known_load, profile, method, z_f)
@@ -89,9 +89,9 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Simulate the basin experiment of one Table 2 case into three recordings (example input of `mass`)."""
         from cli.options import validate_mass_sim_options
-        from diagnose.rollmass.model import load_profile
-        from diagnose.rollmass.recording import write_roll_csv
-        from diagnose.rollmass.simulate import Noise, simulate_case
+        from identify.rollmass.model import load_profile
+        from identify.rollmass.recording import write_roll_csv
+        from identify.rollmass.simulate import Noise, simulate_case
         from primitives.errors import UserError
         from primitives.io import atomic_output_dir
 

@@ -24,8 +24,8 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Estimate the lumped yaw parameters I_r, M_v, A, N_... of (2.17)/(2.18) by output error."""
         from cli.options import check_input_file
-        from diagnose.yawid.api import identify_file
-        from diagnose.yawid.model import LABELS
+        from identify.yawid.api import identify_file
+        from identify.yawid.model import LABELS
         from primitives.validate import in_range, one_of
 
         check_input_file(recording, "RECORDING", "a yaw recording CSV (t, r, u, v, v_dot, phi, tau_r)", "recording")
@@ -66,7 +66,7 @@ def register(app: typer.Typer) -> None:
         noise: float = typer.Option(1.0, "--noise", help="multiple of Table 4.1's noise"),
     ) -> None:
         """Simulate the 10-minute forward-only identification run of the naval vessel (example input of `yawid`)."""
-        from diagnose.yawid.api import simulate_file
+        from identify.yawid.api import simulate_file
         from primitives.io import check_out_file
         from primitives.validate import in_range, whole
 

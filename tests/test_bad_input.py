@@ -102,9 +102,9 @@ def files(tmp_path_factory):
         "ship_tiny_ts": {"sample_time": 1e-9},
     }.items():
         f[name] = _profile(tmp, **change)
-    from diagnose.rollmass.model import load_profile as roll_profile
-    from diagnose.rollmass.recording import write_roll_csv
-    from diagnose.rollmass.simulate import Noise, simulate_case
+    from identify.rollmass.model import load_profile as roll_profile
+    from identify.rollmass.recording import write_roll_csv
+    from identify.rollmass.simulate import Noise, simulate_case
 
     roll = roll_profile(None)
     for role, rec in zip(
@@ -120,8 +120,8 @@ def files(tmp_path_factory):
 
 def _yaw_files(tmp: Path) -> dict[str, Path]:
     """A short good yaw recording, and the same without roll, without pod moment, going astern."""
-    from diagnose.yawid.experiment import YawData, harbour_exit, true_signals, turn_pulse
-    from diagnose.yawid.recording import write_yaw_csv
+    from identify.yawid.experiment import YawData, harbour_exit, true_signals, turn_pulse
+    from identify.yawid.recording import write_yaw_csv
     from primitives.ship import load_profile
 
     nv = load_profile("naval-vessel")
@@ -135,10 +135,10 @@ def _yaw_files(tmp: Path) -> dict[str, Path]:
 
 def _detect_inputs(tmp: Path, f: dict) -> None:
     """Podded-ship recordings (good, without pods, without r, another sample time) and priors."""
-    from diagnose.detect.api import save_prior, simulated_recording
-    from diagnose.detect.vessel import Vessel
-    from diagnose.detect.yawmodel import NOMINAL, PARAMS, YawPrior
     from diagnose.recording import write_csv
+    from identify.detect.api import save_prior, simulated_recording
+    from identify.detect.vessel import Vessel
+    from identify.detect.yawmodel import NOMINAL, PARAMS, YawPrior
 
     rec = simulated_recording(Vessel(), 60, seed=1)
     f["det_rec"] = write_csv(rec, tmp / "podded.csv")

@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from diagnose.rollmass.model import Known, Load
-from diagnose.rollmass.output_error import _simulate
-from diagnose.rollmass.simulate import RollRecording
+from identify.rollmass.model import Known, Load
+from identify.rollmass.output_error import _simulate
+from identify.rollmass.simulate import RollRecording
 from tests.physics import basin_truth as bt
 
 LOAD = (0.4, -0.268)

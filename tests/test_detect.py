@@ -7,12 +7,12 @@ import json
 import numpy as np
 import pytest
 
-from diagnose.detect.api import detect, fit_prior, load_prior, save_prior, simulated_recording
-from diagnose.detect.cusum import DeadZoneCusum, calibrate_dead_zone
-from diagnose.detect.vessel import Vessel, base_profile, harbour_inputs, truth
-from diagnose.detect.yawmodel import NOMINAL, SIGNALS, simulate_r
 from diagnose.recording import write_csv
-from diagnose.yawid.model import true_parameters
+from identify.detect.api import detect, fit_prior, load_prior, save_prior, simulated_recording
+from identify.detect.cusum import DeadZoneCusum, calibrate_dead_zone
+from identify.detect.vessel import Vessel, base_profile, harbour_inputs, truth
+from identify.detect.yawmodel import NOMINAL, SIGNALS, simulate_r
+from identify.yawid.model import true_parameters
 from primitives.simulate import simulate
 
 CHANGE_S = 60.0
@@ -144,7 +144,7 @@ def test_cli_detect_warns_when_the_prior_misfits_its_own_data(prior, tmp_path, c
 
 
 def test_white_noise_level_is_read_from_the_data():
-    from diagnose.detect.yawmodel import white_noise_sd
+    from identify.detect.yawmodel import white_noise_sd
 
     t = np.arange(5000) * 0.1
     smooth = 1.3 * np.sin(2 * np.pi * t / 60) + 0.5 * np.sin(2 * np.pi * t / 17)
@@ -154,8 +154,8 @@ def test_white_noise_level_is_read_from_the_data():
 
 
 def test_sway_fusion_keeps_v_and_sheds_its_noise():
-    from diagnose.detect.vessel import TABLE_4_1, measure
-    from diagnose.detect.yawmodel import fuse_sway
+    from identify.detect.vessel import TABLE_4_1, measure
+    from identify.detect.yawmodel import fuse_sway
 
     tr = truth(harbour_inputs(3000, 0.1, seed=4))
     meas = measure(tr, TABLE_4_1, np.random.default_rng(0))
@@ -170,8 +170,8 @@ def test_bootstrap_prior_spread_matches_the_monte_carlo_spread():
     # The bootstrap sees only the nominal record; its I_r error (second moment: spread and bias)
     # must match that of priors fitted to independent noise realisations (Table 4.1 noise on every
     # input, 400 s) within a factor 2 (12 fits estimate an rms to about +-25 %)
-    from diagnose.detect.vessel import TABLE_4_1, measure
-    from diagnose.detect.yawmodel import fit
+    from identify.detect.vessel import TABLE_4_1, measure
+    from identify.detect.yawmodel import fit
 
     tr = truth(harbour_inputs(4000, 0.1, seed=5))
     errs = []
@@ -188,8 +188,8 @@ def test_bootstrap_prior_spread_matches_the_monte_carlo_spread():
 def test_the_prior_simulates_with_yawids_simulator():
     """One yaw-row simulator: the detector's prediction, several parameter columns with their own
     actuator gains at once, is yawid's simulate_yaw on the same inputs, bit for bit."""
-    from diagnose.yawid.estimate import simulate_yaw
-    from diagnose.yawid.model import MODELS
+    from identify.yawid.estimate import simulate_yaw
+    from identify.yawid.model import MODELS
 
     nominal = truth(harbour_inputs(300, 0.1, seed=4), lead_in_s=0.0)
     rng = np.random.default_rng(2)
@@ -214,9 +214,9 @@ def _rolling_run(prior_dt: float = 0.1, seed: int = 61, scale: float = 1.6):
     the ship 10 % heavier in I_z from the start; Table 4.1 noise, measured tau_n and v_dot."""
     from dataclasses import replace as dc_replace
 
-    from diagnose.detect.api import MOMENT, SWAY_ACC
-    from diagnose.detect.vessel import TABLE_4_1, measure
     from diagnose.recording import Recording
+    from identify.detect.api import MOMENT, SWAY_ACC
+    from identify.detect.vessel import TABLE_4_1, measure
 
     ch = harbour_inputs(3000, 0.1, seed=seed)
     ch[:, 1::2] *= scale
@@ -250,9 +250,9 @@ def test_a_strongly_rolling_changed_run_is_detected_as_yaw_inertia(prior):
 
 
 def test_attribution_is_undecided_when_the_evidence_does_not_separate(prior):
-    from diagnose.detect.api import signals
-    from diagnose.detect.glr import attribute
-    from diagnose.detect.yawmodel import signatures
+    from identify.detect.api import signals
+    from identify.detect.glr import attribute
+    from identify.detect.yawmodel import signatures
 
     sig, _ = signals(simulated_recording(Vessel(), 200, seed=71, measured_moment=True), "full")
     S = signatures(prior, sig)
@@ -287,7 +287,7 @@ def _csv(path, drop=(), rename=None):
 
 
 def test_an_unknown_column_is_named_with_the_closest_known_name(tmp_path):
-    from diagnose.detect.api import load_runs
+    from identify.detect.api import load_runs
 
     notes: list[str] = []
     load_runs([_csv(tmp_path / "r.csv", rename={"v_dot": "vdot"})], "full", notes)
@@ -295,8 +295,8 @@ def test_an_unknown_column_is_named_with_the_closest_known_name(tmp_path):
 
 
 def test_every_missing_column_in_one_message(tmp_path):
-    from diagnose.detect.api import load_runs
     from diagnose.recording import RecordingError
+    from identify.detect.api import load_runs
 
     path = _csv(tmp_path / "r.csv", drop=("r", "phi", "tau_n", "n1"))
     with pytest.raises(RecordingError) as e:
@@ -325,7 +325,7 @@ def test_cli_detect_reports_change_point_and_i_z_without_internal_words(prior, t
 def test_plot_one_file_per_recording_beyond_a_handful(prior, tmp_path):
     from dataclasses import replace as dc_replace
 
-    from diagnose.detect.api import plot
+    from identify.detect.api import plot
 
     d = detect(simulated_recording(Vessel(), 200, seed=52, measured_moment=True), prior)
     dets = [dc_replace(d, source=f"run{k}.csv") for k in range(5)]
@@ -356,7 +356,7 @@ def test_a_moment_or_yaw_rate_of_wrong_unit_or_sign_is_refused_not_called_a_chan
 def test_the_alarm_time_is_when_the_decisions_evidence_ends(prior):
     # the decision's estimate uses up to 60 s of data after the first threshold crossing; the
     # alarm was printed at the crossing (63.9 s here), understating the delay by up to 60 s
-    from diagnose.detect.api import LOOK_AHEAD
+    from identify.detect.api import LOOK_AHEAD
 
     rec = simulated_recording(Vessel(), 300, seed=41, change_at_s=CHANGE_S, changed=Vessel(damping=1.2), measured_moment=True)
     d = detect(rec, prior)

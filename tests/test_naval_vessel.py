@@ -6,7 +6,7 @@ import tomllib
 import numpy as np
 import pytest
 
-from diagnose.yawid.experiment import turn_pulse
+from identify.yawid.experiment import turn_pulse
 from primitives.pods import pod_body_forces
 from primitives.profile_document import profile_from_dict
 from primitives.ship import PROFILE_DIR, ProfileError, load_profile

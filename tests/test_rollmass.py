@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from cli.app import _run
-from diagnose.rollmass.estimate import estimate
-from diagnose.rollmass.model import (
+from identify.rollmass.estimate import estimate
+from identify.rollmass.model import (
     Load,
     RollParams,
     continuous_coefficients,
@@ -20,8 +20,8 @@ from diagnose.rollmass.model import (
     load_profile,
     ratios_from_discrete,
 )
-from diagnose.rollmass.recording import read_roll_csv, write_roll_csv
-from diagnose.rollmass.simulate import Noise, simulate_case
+from identify.rollmass.recording import read_roll_csv, write_roll_csv
+from identify.rollmass.simulate import Noise, simulate_case
 
 PROF = load_profile()
 CAL = Load(0.2, -0.256)
@@ -62,7 +62,7 @@ def test_estimator_recovers_load_on_a_clean_short_case(method):
     """Low noise (IMU and waves x0.05). Over seeds 0-11 of this setting the largest errors of
     'improved' were 10.7 % (0.021 kg) and 22 mm (median 3.2 %, 8 mm), so 0.03 kg and 30 mm hold
     with margin; oe is several times closer (noise-free it is within about 1 % and 2 mm)."""
-    from diagnose.rollmass.output_error import start_values
+    from identify.rollmass.output_error import start_values
 
     prof = load_profile()
     for k in ("wave_roll_sd", "wave_sway_sd", "wave_yaw_sd"):
@@ -133,8 +133,8 @@ def test_output_error_model_is_the_basin_truth():
     """At the profile's values and the true z_f, the oe model's sway-roll-yaw matrices are the
     simulator's (state_space), for the nominal ship and a load: the estimator's model class holds
     the truth, so its error is noise, not structure."""
-    from diagnose.rollmass.output_error import model_matrices, start_values
-    from diagnose.rollmass.simulate import state_space
+    from identify.rollmass.output_error import model_matrices, start_values
+    from identify.rollmass.simulate import state_space
 
     for load in (Load(0.0, 0.0), Load(0.4, -0.268)):
         A, B, _, _ = model_matrices(start_values(PROF), PROF.known, PROF.truth.z_f, load)
@@ -148,7 +148,7 @@ def test_output_error_recovers_load_at_realistic_noise():
     """Xsens MTi-G noise and basin waves as in the profile, case 2 (0.4 kg), start values 20 %
     off. bench_rollmass.py --seeds 50 puts the oe 90th percentiles for case 2 at about 2 % and
     6 mm, so 0.04 kg (10 %) and 20 mm hold with margin; the 95 % CI must hold the truth."""
-    from diagnose.rollmass.output_error import start_values
+    from identify.rollmass.output_error import start_values
 
     ds = simulate_case(PROF, "case2", Noise.from_profile(PROF), seed=5)
     rng = np.random.default_rng(1)
@@ -168,7 +168,7 @@ def test_oe_needs_start_values():
 
 
 def test_wide_intervals_warn_that_mass_and_height_do_not_separate():
-    from diagnose.rollmass.estimate import MassEstimate, _warn
+    from identify.rollmass.estimate import MassEstimate, _warn
 
     sharp = MassEstimate("oe", {}, 0.2, -0.256, m_sd=0.01, zbar_m_sd=0.005, corr=0.999)
     _warn(sharp)
@@ -179,8 +179,8 @@ def test_wide_intervals_warn_that_mass_and_height_do_not_separate():
 
 
 def test_cli_prints_the_warning_and_intervals(csvs, capsys, monkeypatch):
-    from diagnose.rollmass import api
-    from diagnose.rollmass.estimate import MassEstimate, _warn
+    from identify.rollmass import api
+    from identify.rollmass.estimate import MassEstimate, _warn
 
     def fake(*args, **kwargs):
         e = MassEstimate("oe", {}, 0.2, -0.256, m_sd=0.08, zbar_m_sd=0.09, corr=0.99)

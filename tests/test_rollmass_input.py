@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from cli.app import _run
-from diagnose.rollmass.estimate import MassEstimate
-from diagnose.rollmass.model import DEFAULT_PROFILE, load_profile
-from diagnose.rollmass.recording import read_roll_csv
+from identify.rollmass.estimate import MassEstimate
+from identify.rollmass.model import DEFAULT_PROFILE, load_profile
+from identify.rollmass.recording import read_roll_csv
 from primitives.errors import UserError
 from tests.physics import basin_truth as bt
 
@@ -87,7 +87,7 @@ def test_a_profile_contradicting_the_recorded_speed_is_refused(files, capsys, tm
 
 
 def test_speed_and_imu_position_come_from_the_headers(files):
-    from diagnose.rollmass.api import known_from_recordings
+    from identify.rollmass.api import known_from_recordings
 
     metas = [read_roll_csv(p)[1] for p in files]
     prof, notes = known_from_recordings(load_profile(), files, metas, explicit=False)
@@ -128,7 +128,7 @@ def test_an_unknown_column_is_noted_never_silently_ignored(files, tmp_path):
 
 
 def test_unusable_intervals_are_warned():
-    from diagnose.rollmass.api import usability_warnings
+    from identify.rollmass.api import usability_warnings
 
     prof = load_profile()
     around_zero = MassEstimate("oe", {}, 0.2, -0.256, m_sd=0.12, zbar_m_sd=0.01, corr=0.9)
@@ -142,7 +142,7 @@ def test_unusable_intervals_are_warned():
 
 
 def test_output_and_help_say_one_height_convention(files, capsys, monkeypatch):
-    from diagnose.rollmass import api
+    from identify.rollmass import api
 
     monkeypatch.setattr(
         api, "estimate_from_files", lambda *a, **k: MassEstimate("oe", {}, 0.2, -0.267, m_sd=0.01, zbar_m_sd=0.004, corr=0.9)
@@ -159,7 +159,7 @@ def test_a_load_height_header_is_refused_as_ambiguous_and_other_runs_need_no_loa
     """'load_height_m: 0.1' reads as 0.1 m above the waterline to a user and was taken as 0.1 m
     below; and a loaded run's header stating its mass without z was refused though only the
     calibration run's z is used."""
-    from diagnose.rollmass.api import check_roles
+    from identify.rollmass.api import check_roles
 
     metas = [read_roll_csv(p)[1] for p in files]
     loads = check_roles(files, metas)

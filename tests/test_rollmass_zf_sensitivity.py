@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from diagnose.rollmass.model import Load, load_profile
-from diagnose.rollmass.output_error import (
+from identify.rollmass.model import Load, load_profile
+from identify.rollmass.output_error import (
     SHARED,
     _Problem,
     central_jacobian,
@@ -15,7 +15,7 @@ from diagnose.rollmass.output_error import (
     start_values,
     z_f_sensitivity,
 )
-from diagnose.rollmass.simulate import Noise, simulate_case
+from identify.rollmass.simulate import Noise, simulate_case
 
 CAL = Load(0.2, -0.256)
 FREE = SHARED + ("m", "zbar_m")

@@ -1,13 +1,13 @@
-"""Yaw-dynamics identification of seed 000 chapter 4 (diagnose.yawid) on short simulated cases."""
+"""Yaw-dynamics identification of seed 000 chapter 4 (identify.yawid) on short simulated cases."""
 
 import numpy as np
 import pytest
 
 from cli.app import _run
 from diagnose.recording import RecordingError
-from diagnose.yawid.api import identify_file, simulate_file
-from diagnose.yawid.estimate import fit_yaw, simulate_yaw
-from diagnose.yawid.experiment import (
+from identify.yawid.api import identify_file, simulate_file
+from identify.yawid.estimate import fit_yaw, simulate_yaw
+from identify.yawid.experiment import (
     Noise,
     YawData,
     check_forward,
@@ -17,9 +17,9 @@ from diagnose.yawid.experiment import (
     true_signals,
     turn_pulse,
 )
-from diagnose.yawid.identifiability import yaw_identifiability
-from diagnose.yawid.model import FULL, SIMPLIFIED, true_parameters
-from diagnose.yawid.montecarlo import clean_recording
+from identify.yawid.identifiability import yaw_identifiability
+from identify.yawid.model import FULL, SIMPLIFIED, true_parameters
+from identify.yawid.montecarlo import clean_recording
 from primitives.errors import UserError
 from primitives.ship import load_profile
 
@@ -126,7 +126,7 @@ def test_recording_roundtrip_and_missing_signals(tmp_path, nv, capsys):
 
 def test_pod_inputs_stand_in_for_a_measured_moment(tmp_path, nv):
     """Without tau_r, the pod model of the ship profile computes it from n1, delta1, n2, delta2 (and p)."""
-    from diagnose.yawid.recording import read_yaw_csv
+    from identify.yawid.recording import read_yaw_csv
     from primitives.simulate import simulate
 
     inputs = turn_pulse(nv.sample_time, duration_s=120.0)

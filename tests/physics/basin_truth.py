@@ -2,7 +2,7 @@
 "Our Lass II" free-running in the MCLab basin, three datasets (nominal, calibration with a known
 load, loaded) per Table 2 case, recorded by an Xsens MTi-G and filtered as in section 5.
 
-Written without the project's roll-mass code (``diagnose.rollmass``): no code is shared. Numbers
+Written without the project's roll-mass code (``identify.rollmass``): no code is shared. Numbers
 shared: the published ones (Table 1, the loads of Table 3, the sample rates and filter of section 5)
 and, as nominal values, the hydrodynamic derivatives the paper does not print, which are the roll
 profile's own marked choices (Y_vdot, Y_v, Y_r, Y_delta, N_rdot, N_v, N_r, N_delta, K_pdot, K_r, the

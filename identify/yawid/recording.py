@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from diagnose.recording import RecordingError, split_metadata
-from diagnose.yawid.experiment import YawData, pod_yaw_moment
-from diagnose.yawid.model import YawModel
+from identify.yawid.experiment import YawData, pod_yaw_moment
+from identify.yawid.model import YawModel
 from primitives.io import atomic_write_text, read_input_text
 from primitives.ship import ShipProfile
 

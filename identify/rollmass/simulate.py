@@ -16,7 +16,7 @@ import numpy as np
 from scipy.linalg import expm
 from scipy.signal import lfilter, remez
 
-from diagnose.rollmass.model import Load, RollProfile
+from identify.rollmass.model import Load, RollProfile
 
 
 @dataclass

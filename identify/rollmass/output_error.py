@@ -20,7 +20,7 @@ calibration load is known. Per dataset and channel a constant (sensor bias) and 
 (initial state) are projected out exactly (variable projection). Channels are whitened and
 weighted by the inverse of their innovation sd, re-estimated twice (iterated ML for a diagonal,
 coloured noise model). The centre-of-rotation offset ``z_f`` is fixed at the profile's prior (the flat
-direction of :func:`diagnose.rollmass.model.flat_direction`) and its prior uncertainty is
+direction of :func:`identify.rollmass.model.flat_direction`) and its prior uncertainty is
 propagated into the confidence intervals through the implicit-function sensitivity of the optimum,
 ``d theta / d z_f = -(J^T J)^-1 J^T dr/dz_f`` (the delta method on the estimating equations
 ``J^T r = 0``, Gauss-Newton Hessian; e.g. Seber & Wild 1989, Nonlinear Regression, sec. 2.1).
@@ -34,8 +34,8 @@ import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
 from scipy.signal import lfilter, ss2tf
 
-from diagnose.rollmass.model import Known, Load, RollProfile
-from diagnose.rollmass.simulate import RollRecording
+from identify.rollmass.model import Known, Load, RollProfile
+from identify.rollmass.simulate import RollRecording
 
 # Shared parameters: sway (minus added mass, damping, yaw coupling, rudder), roll (3)-(5), yaw
 # row divided by its inertia (its scale is not identifiable from the rudder alone).

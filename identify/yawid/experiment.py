@@ -7,7 +7,7 @@ alike, as in the thesis):
   low-pass filtered pod-angle pulse after 50 s.
 - :func:`harbour_exit` -- experiment 2 (L968-983): pods at 90 deg, propellers on at 10 s and off at
   50 s. In this model it drives the ship astern (u < 0), which breaks the lumped A u r term of
-  (2.17); kept only to show that (:func:`diagnose.yawid.model.forward_only`).
+  (2.17); kept only to show that (:func:`identify.yawid.model.forward_only`).
 - :func:`identification_run` -- ours for chapter 4's 10 min at 10 Hz: from rest, pod-angle pulses of
   random sign, size (5-20 deg) and length (15-60 s) with straight gaps, and propeller-speed steps
   (55-80 rev/s) so that u varies and A u r separates from N_r|r| r|r|. The pod angle stays within
@@ -25,7 +25,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 from scipy.signal import lfilter
 
-from diagnose.yawid.model import forward_only
+from identify.yawid.model import forward_only
 from primitives.errors import UserError
 from primitives.ship import ShipProfile
 from primitives.simulate import model_signals, simulate

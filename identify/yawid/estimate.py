@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import butter, filtfilt
 
-from diagnose.yawid.experiment import YawData
-from diagnose.yawid.model import INPUT_TERMS, NEGATIVE, STATE_TERMS, YawModel
+from identify.yawid.experiment import YawData
+from identify.yawid.model import INPUT_TERMS, NEGATIVE, STATE_TERMS, YawModel
 
 
 @dataclass
@@ -52,7 +52,7 @@ def simulate_yaw(
     (None with ``sensitivities=False``), from the measured inputs ``w`` (B, N) and ``r0`` (B,).
 
     The one yaw-row simulator of the project: the change detector's prior
-    (``diagnose.detect.yawmodel.simulate_r``) is this function on its column layout. Without
+    (``identify.detect.yawmodel.simulate_r``) is this function on its column layout. Without
     sensitivities it needs memory of the order of the inputs only (a detector's 400 no-change
     records of a long recording)."""
     b, n = w["u"].shape

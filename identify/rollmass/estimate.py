@@ -12,7 +12,7 @@ Methods:
               do), identity weighting, all 9 parameters free from the start values (33).
 ``oe``        ours, the default: joint output-error / maximum-likelihood fit of the sway-roll-yaw
               model to all three IMU channels of all three datasets (``a_s`` an output, not a
-              noisy regressor), ``z_f`` fixed at its prior; see :mod:`diagnose.rollmass.output_error`.
+              noisy regressor), ``z_f`` fixed at its prior; see :mod:`identify.rollmass.output_error`.
 ``improved``  our first attempt, kept for comparison: (i) the exact flat direction (scale of (11) vs ``z_f``) removed by fixing
               ``z_f`` at a prior whose uncertainty is propagated into the confidence intervals;
               (ii) the load enters through its two moments ``m z_m`` and ``m z_m (zbar_m - zbar_s)``,
@@ -32,7 +32,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import lfilter
 
-from diagnose.rollmass.instruments import (
+from identify.rollmass.instruments import (
     N_LAGS,
     black_box_instruments,
     diff2,
@@ -40,7 +40,7 @@ from diagnose.rollmass.instruments import (
     paper_model_sim,
     regression,
 )
-from diagnose.rollmass.model import (
+from identify.rollmass.model import (
     SHIP_PARAMS,
     Known,
     Load,
@@ -50,8 +50,8 @@ from diagnose.rollmass.model import (
     load_from_moments,
     load_moments,
 )
-from diagnose.rollmass.output_error import SHARED, fit_output_error
-from diagnose.rollmass.simulate import RollRecording
+from identify.rollmass.output_error import SHARED, fit_output_error
+from identify.rollmass.simulate import RollRecording
 
 PARAMS = SHIP_PARAMS + ("m", "zbar_m")
 # the improved estimator fits the loaded dataset's moments (linear in (10) and c), not (m, zbar_m)
@@ -191,7 +191,7 @@ def estimate(
 
     ``cal`` is the known calibration load. ``z_f`` (improved, oe) overrides the profile prior.
     ``start`` (oe only, required) holds start values of the ship parameters, e.g.
-    :func:`diagnose.rollmass.output_error.start_values` of the profile.
+    :func:`identify.rollmass.output_error.start_values` of the profile.
     """
     _check(datasets)
     if method not in METHODS:

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from diagnose.yawid.experiment import YawData
+from identify.yawid.experiment import YawData
 
 COMMON = {
     "N_rr": lambda s: s["r"] * np.abs(s["r"]),

@@ -24,14 +24,14 @@ from functools import lru_cache
 
 import numpy as np
 
-from diagnose.yawid.experiment import Noise, pods_inputs, yaw_row_signals
+from identify.yawid.experiment import Noise, pods_inputs, yaw_row_signals
 from primitives.ship import ShipProfile, load_profile
 from primitives.simulate import simulate
 
 PROFILE = "naval-vessel"
 POD_FORCES = ("tau_x", "tau_y", "tau_k", "tau_n")
 #: Table 4.1 white measurement noise (standard deviations) of the signals the prior model uses.
-TABLE_4_1 = asdict(Noise())  # seed 000 Table 4.1, one source: diagnose.yawid.experiment.Noise
+TABLE_4_1 = asdict(Noise())  # seed 000 Table 4.1, one source: identify.yawid.experiment.Noise
 LEAD_IN_S = 120.0  # straight run from rest before a manoeuvre, so it starts at cruise speed
 
 
@@ -104,7 +104,7 @@ def truth(
     A straight lead-in of ``lead_in_s`` at the first propeller speed brings the ship from rest to
     cruise speed; it is dropped. ``v_dot`` is the kernel's Euler increment ``(v(k+1) - v(k)) / Ts``
     and ``tau_r`` the pod model's yaw moment at sample k, so the full yaw row (2.17) with the
-    profile's parameters reproduces the kernel's yaw rate exactly (as diagnose.yawid.true_signals).
+    profile's parameters reproduces the kernel's yaw rate exactly (as identify.yawid.true_signals).
     """
     base = base_profile()
     ts = base.sample_time

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
-from diagnose.rollmass.model import Known, Load, RollParams
-from diagnose.rollmass.simulate import RollRecording
+from identify.rollmass.model import Known, Load, RollParams
+from identify.rollmass.simulate import RollRecording
 
 N_LAGS = 16  # n_y = n_as = n_r = 16 of section 5
 N_DELTA = 2  # n_delta = 2

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from diagnose.detect.cusum import cusum_path, first_alarms
-from diagnose.detect.yawmodel import CANDIDATES, YawPrior, block_mean, whiten
+from identify.detect.cusum import cusum_path, first_alarms
+from identify.detect.yawmodel import CANDIDATES, YawPrior, block_mean, whiten
 
 
 @dataclass

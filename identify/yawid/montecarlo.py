@@ -1,6 +1,6 @@
 """Monte Carlo study of the yaw identification, as section 4.4 of the podded-ship MSc thesis (Fig. 4.3-4.4).
 
-One manoeuvre (:func:`diagnose.yawid.experiment.identification_run`), simulated once without
+One manoeuvre (:func:`identify.yawid.experiment.identification_run`), simulated once without
 noise by the shared kernel; each run adds an independent Table 4.1 noise realisation (run i's
 noise depends on (seed, i) only) and estimates the full (2.17) and simplified (2.18) models from
 the true values (as the thesis does, L1231-1236). A noise-free fit isolates the bias a model's
@@ -14,9 +14,9 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
-from diagnose.yawid.estimate import YawFit, fit_yaw
-from diagnose.yawid.experiment import Noise, YawData, check_forward, identification_run, measure, true_signals
-from diagnose.yawid.model import MODELS, true_parameters
+from identify.yawid.estimate import YawFit, fit_yaw
+from identify.yawid.experiment import Noise, YawData, check_forward, identification_run, measure, true_signals
+from identify.yawid.model import MODELS, true_parameters
 from primitives.ship import ShipProfile
 
 # What the podded-ship MSc thesis says of each model's Monte Carlo (its numbers are in figures only, L1296-1321).
@@ -83,7 +83,7 @@ def run_monte_carlo(
 ) -> dict[str, MonteCarlo]:
     """Estimates of each model over ``runs`` noise realisations, in chunks of ``chunk`` runs (a
     run's result does not depend on the chunk it is fitted in). ``prefilter_hz``: see
-    :func:`diagnose.yawid.estimate.prefilter`."""
+    :func:`identify.yawid.estimate.prefilter`."""
     clean = clean_recording(profile, manoeuvre_seed)
     truth = true_parameters(profile)
     noise = noise or Noise()

@@ -18,8 +18,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import butter, filtfilt, lfilter
 
-from diagnose.rollmass.model import Known, Load
-from diagnose.rollmass.simulate import RollRecording
+from identify.rollmass.model import Known, Load
+from identify.rollmass.simulate import RollRecording
 
 MIN_RHO = 0.4  # |correlation| below which a relation is not judged (weak excitation, noise)
 SHIP_SIGN = "ship sign: roll positive starboard down, yaw positive to starboard, a_s as eq. (7)"
@@ -53,7 +53,7 @@ def relations(rec: RollRecording) -> tuple[float, float, float]:
 
 def expected_signs(values: dict[str, float], kn: Known, z_f: float, load: Load) -> tuple[float, float]:
     """Signs of the steady ``a_s / r`` and ``r / delta`` gains of the profile's sway-roll-yaw model."""
-    from diagnose.rollmass.output_error import model_matrices
+    from identify.rollmass.output_error import model_matrices
 
     A, B, C, D = model_matrices(values, kn, z_f, load)
     dc = (D - C @ np.linalg.solve(A, B)).ravel()  # steady outputs [p, a_s, r] per unit rudder

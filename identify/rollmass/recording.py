@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from diagnose.recording import RecordingError, split_metadata
-from diagnose.rollmass.simulate import RollRecording
+from identify.rollmass.simulate import RollRecording
 from primitives.io import atomic_write_text, read_input_text
 
 REQUIRED = ("t", "delta", "p", "a_s", "r")

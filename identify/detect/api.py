@@ -12,10 +12,11 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import savgol_filter
 
-from diagnose.detect.cusum import calibrate_dead_zone, first_alarms
-from diagnose.detect.glr import SignatureCusum, attribute, calibrate, onset
-from diagnose.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
-from diagnose.detect.yawmodel import (
+from diagnose.recording import NUMERIC, Recording, RecordingError, load_recording, split_metadata
+from identify.detect.cusum import calibrate_dead_zone, first_alarms
+from identify.detect.glr import SignatureCusum, attribute, calibrate, onset
+from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
+from identify.detect.yawmodel import (
     CANDIDATES,
     PREFILTER_HZ,
     SIGNALS,
@@ -26,8 +27,7 @@ from diagnose.detect.yawmodel import (
     null_records,
     signatures,
 )
-from diagnose.recording import NUMERIC, Recording, RecordingError, load_recording, split_metadata
-from diagnose.yawid.experiment import pod_yaw_moment
+from identify.yawid.experiment import pod_yaw_moment
 from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
 

@@ -11,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from diagnose.rollmass.estimate import DEFAULT_METHOD, METHODS, MassEstimate, estimate
-from diagnose.rollmass.model import Load, RollProfile, load_profile
-from diagnose.rollmass.output_error import start_values
-from diagnose.rollmass.recording import read_roll_csv
-from diagnose.rollmass.signs import check_signs, expected_signs
+from identify.rollmass.estimate import DEFAULT_METHOD, METHODS, MassEstimate, estimate
+from identify.rollmass.model import Load, RollProfile, load_profile
+from identify.rollmass.output_error import start_values
+from identify.rollmass.recording import read_roll_csv
+from identify.rollmass.signs import check_signs, expected_signs
 from primitives.errors import UserError
 
 ROLES = ("nominal", "calibration", "loaded")

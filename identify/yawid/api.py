@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from diagnose.yawid.estimate import YawFit, fit_yaw
-from diagnose.yawid.experiment import Noise, check_forward, measure
-from diagnose.yawid.model import MODELS, true_parameters
-from diagnose.yawid.montecarlo import clean_recording
-from diagnose.yawid.recording import read_yaw_csv, write_yaw_csv
+from identify.yawid.estimate import YawFit, fit_yaw
+from identify.yawid.experiment import Noise, check_forward, measure
+from identify.yawid.model import MODELS, true_parameters
+from identify.yawid.montecarlo import clean_recording
+from identify.yawid.recording import read_yaw_csv, write_yaw_csv
 from primitives.errors import UserError
 from primitives.ship import ShipProfile, load_profile
 

@@ -11,7 +11,7 @@ but ``r`` is an input. Parameters are scales ``x`` of the nominal values of the 
 and the signatures are one call each).
 
 The nominal values (the scale of every parameter) are the lumped yaw parameters (2.19) of the
-shared kernel's ``naval-vessel`` profile (:func:`diagnose.yawid.model.true_parameters`).
+shared kernel's ``naval-vessel`` profile (:func:`identify.yawid.model.true_parameters`).
 """
 
 from __future__ import annotations
@@ -22,10 +22,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.signal import lfilter
 
-from diagnose.detect.vessel import base_profile
-from diagnose.yawid.estimate import fit_yaw, prefilter, simulate_yaw
-from diagnose.yawid.experiment import YawData
-from diagnose.yawid.model import FULL, MODELS, true_parameters
+from identify.detect.vessel import base_profile
+from identify.yawid.estimate import fit_yaw, prefilter, simulate_yaw
+from identify.yawid.experiment import YawData
+from identify.yawid.model import FULL, MODELS, true_parameters
 from primitives.errors import UserError
 
 
@@ -156,7 +156,7 @@ class YawPrior:
 def model_inputs(sig: dict[str, np.ndarray], dt: float, prefilter_hz: float) -> dict[str, np.ndarray]:
     """The measured inputs ``sig`` as the prior uses them (time on axis 0): with ``prefilter_hz`` > 0,
     v fused with the measured v' when there is one (:func:`fuse_sway`), then every input low-passed
-    at ``prefilter_hz`` (:func:`diagnose.yawid.estimate.prefilter`); as measured with 0 (the thesis)."""
+    at ``prefilter_hz`` (:func:`identify.yawid.estimate.prefilter`); as measured with 0 (the thesis)."""
     if prefilter_hz <= 0:
         return sig
     out = dict(sig)
@@ -194,7 +194,7 @@ def simulate_r(
 ) -> np.ndarray:
     """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig``, from ``r0``.
 
-    yawid's simulator (:func:`diagnose.yawid.estimate.simulate_yaw`, the explicit Euler step of
+    yawid's simulator (:func:`identify.yawid.estimate.simulate_yaw`, the explicit Euler step of
     the shared kernel ``primitives.simulate``, seed 001 (3.60)) on this module's layout: the prior
     is the yaw row of the same discrete-time model, so with the profile's parameters and the
     kernel's own v' and tau_r it reproduces the kernel's yaw rate to rounding.
@@ -362,7 +362,7 @@ def _fit_scales(
     kind: str, sig: dict[str, np.ndarray], r_meas: np.ndarray, dt: float, x0: np.ndarray, prefilter_hz: float
 ) -> np.ndarray:
     """Scales (B, P) fitted to a batch of B records (signals (B, n), as measured: the fit sees them
-    through :func:`model_inputs`, as the prediction does) by :func:`diagnose.yawid.estimate.fit_yaw`
+    through :func:`model_inputs`, as the prediction does) by :func:`identify.yawid.estimate.fit_yaw`
     from the scales ``x0``; NaN rows did not converge."""
     model = MODELS[kind]
     scale = np.array([NOMINAL[_prior_name(n)] for n in model.params])
@@ -456,7 +456,7 @@ def null_records(
     on every input, its path through the yaw dynamics and the prior's parameter error are all in;
     the structure's own misfit is added as AR-coloured 1 s block offsets (``prior.model_error``);
     its apparent change along each candidate (``prior.structure``) is added per candidate by
-    :func:`diagnose.detect.glr.calibrate`."""
+    :func:`identify.detect.glr.calibrate`."""
     x = np.array([prior.values[k] / NOMINAL[k] for k in prior.names])
     truth_x = x[:, None] - (parameter_draws(prior, runs, seed) * np.maximum(np.abs(x), 1e-6)).T
     clean = smooth(sig, prior.dt)
