@@ -66,6 +66,8 @@ PROFILE_KEYS = frozenset(
         "pods",
         "pod_model",  # podded propulsion (primitives.pods), actuator = "pods"
         "diagnosis",  # baseline structure a --fit-on refit may add (ShipProfile.structure_terms)
+        "prior",  # prior spread (1 sigma) of each coefficient of the simulation set (ShipProfile.prior_std)
+        "particulars",  # the main particulars a profile was made from (primitives.particulars), a record
     }
 )
 # Physical sizes a profile must give, all finite and > 0 (unit in the message).
@@ -178,6 +180,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
         pod_model=pod_model,
         structure_terms=structure,
         structure_prior=structure_prior,
+        prior_std=_prior(d, src, model, dofs),
         rudder_thrust_share=rudder_share,
         load_warnings=(left_out_warning(src, dropped),) if dropped else (),
     )
@@ -289,6 +292,28 @@ def _helm_engine(
             f"{src}: field 'inputs' of a rudder_propeller profile must be ['delta', 'n'] (rudder rad, propeller rev/s)"
         )
     return parse_helm_engine(d, src, limits, lambda: _starboard_sign(model, theta, cruise), ProfileError)
+
+
+PRIOR_KEYS = ("std", "source", "draws", "seed")
+
+
+def _prior(d: dict, src: str, model: TermSet, dofs: tuple[str, ...]) -> np.ndarray | None:
+    """[prior] std: one finite value >= 0 per model term, the 1-sigma spread of the simulation
+    set's coefficients (``shiptrial profile new`` writes it from the regressions' scatter)."""
+    if "prior" not in d:
+        return None
+    table = d["prior"]
+    if not isinstance(table, dict) or not isinstance(table.get("std"), dict):
+        raise ProfileError(f"{src}: field 'prior' must be a table with a [prior.std] table of surge/sway/yaw lists")
+    check_table_keys(table, PRIOR_KEYS, src, "[prior]", ProfileError)
+    vals = _per_dof({"p": table["std"]}, "p", f"{src} [prior.std]", (int, float), "numbers", dofs, (src, "prior.std"))
+    for i, dof in enumerate(dofs):
+        if len(vals[i]) != len(model.terms[i]):
+            raise ProfileError(f"{src}: field 'prior.std.{dof}' has {len(vals[i])} values for {len(model.terms[i])} terms")
+    arr = np.array([v for dof in vals for v in dof], dtype=float)
+    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise ProfileError(f"{src}: field 'prior.std' must hold finite numbers >= 0 (a 1-sigma spread per coefficient)")
+    return arr
 
 
 def _need(d: dict, key: str, src: str, kind: type | tuple[type, ...], hint: str) -> Any:

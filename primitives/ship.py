@@ -99,6 +99,9 @@ class ShipProfile:
     # baseline on calm-water runs (--fit-on), and the prior that holds them towards zero
     structure_terms: tuple[tuple[str, ...], ...] | None = None
     structure_prior: float = DEFAULT_STRUCTURE_PRIOR
+    # [prior] std: 1-sigma spread of each coefficient of the simulation set, in the model's
+    # parameter order (a profile made from particulars carries its regressions' scatter here)
+    prior_std: np.ndarray | None = None
     # [diagnosis] rudder_thrust_share: d ln(rudder force) / d ln(thrust) at the approach, the
     # part of a thrust loss the rudder loses with the propeller slipstream (MMG (24): the rudder
     # inflow u_R grows with the propeller loading 8 K_T / (pi J^2)); 0 when the rudder is not
