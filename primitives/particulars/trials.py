@@ -42,7 +42,7 @@ class TrialFigures:
         return out
 
 
-def _turn_figures(track: np.ndarray) -> tuple[float | None, float | None]:
+def turn_figures(track: np.ndarray) -> tuple[float | None, float | None]:
     """(advance, tactical diameter) [m] of a turning circle from a start pose heading psi0: the
     advance along the initial course at 90 deg heading change, the transfer at 180 deg."""
     xy, psi = track[:, :2] - track[0, :2], track[:, 2] - track[0, 2]
@@ -74,7 +74,7 @@ def standard_trials(profile: ShipProfile) -> TrialFigures:
     tactical, advance, os10, os20 = {}, {}, {}, {}
     for side in ("starboard", "port"):
         tc = make_primitive(profile, "tc", "turning circle", hm.turning_circle(profile, side=side))
-        a, td = _turn_figures(tc.track)
+        a, td = turn_figures(tc.track)
         advance[side], tactical[side] = (None if a is None else a / L), (None if td is None else td / L)
         for angle, out in ((10, os10), (20, os20)):
             zz = make_primitive(profile, "zz", "zig-zag", hm.zigzag(profile, angle, angle, first_side=side, n_switches=1))

@@ -1,0 +1,78 @@
+"""KVLCC2 rebuilt from its main particulars (`shiptrial profile new`) against MARIN's free-running
+tests: the issue-31 check.
+
+    python benchmarks/bench_profile_new.py
+
+Particulars only (L 320 m, B 58 m, T 20.8 m, Cb 0.81, rudder 142 m^2, screw 9.86 m, 15.5 kn);
+nothing of the MARIN runs enters the build. The profile's 35 deg turning circles and 10/10
+zig-zags, simulated through the project's kernel (primitives.helm) as the planner does, are
+compared with the bundled MARIN recordings (diagnose/data), measured the same way: tactical
+diameter within 20 % and first overshoot within 4 deg of each MARIN run. Prints the build's CPU
+time (median of 3 builds).
+"""
+
+from __future__ import annotations
+
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from diagnose.recording import read_marin_dat  # noqa: E402
+from primitives.particulars.build import Particulars, build_profile  # noqa: E402
+from primitives.particulars.trials import first_overshoot, standard_trials, turn_figures  # noqa: E402
+
+DATA = ROOT / "diagnose" / "data"
+KVLCC2 = Particulars("kvlcc2-particulars", 320.0, 58.0, 20.8, 0.81, 15.5, rudder_area=142.0, prop_diameter=9.86)
+
+
+def marin() -> dict[str, float]:
+    out = {}
+    for run in ("tc_35", "tc_-35"):
+        rec = read_marin_dat(DATA / f"MARIN_FREE_KVLCC2_{run}_m.dat")
+        track = [[*p, psi] for p, psi in zip(rec.pos, rec.psi)]
+        out[run] = turn_figures(np.array(track))[1]
+    for run in ("zz_10", "zz_-10"):
+        out[run] = first_overshoot(read_marin_dat(DATA / f"MARIN_FREE_KVLCC2_{run}_m.dat").psi, 10.0)
+    return out
+
+
+def main() -> int:
+    ref = marin()
+    cpu = []
+    for _ in range(3):
+        t = time.process_time()
+        built = build_profile(KVLCC2)
+        cpu.append(time.process_time() - t)
+    fig = standard_trials(built.profile)
+    print(f"build (default: output error, 12 prior draws): {statistics.median(cpu):.1f} s CPU, median of 3")
+    print(f"approach {60 * built.approach_rps:.1f} rpm (MARIN runs: 91.4 rpm; full-scale friction, B-series P/D 0.75)")
+    ok = True
+    for side in ("starboard", "port"):
+        td = fig.tactical_l[side] * KVLCC2.length
+        for run in ("tc_35", "tc_-35"):
+            err = (td - ref[run]) / ref[run]
+            ok &= abs(err) <= 0.20
+            print(
+                f"tactical diameter {side:9s} {td:6.0f} m  vs MARIN {run:7s} {ref[run]:6.0f} m: {100 * err:+5.1f} %  (limit 20 %)"
+            )
+    for side in ("starboard", "port"):
+        os10 = fig.overshoot_10[side]
+        for run in ("zz_10", "zz_-10"):
+            d = os10 - ref[run]
+            ok &= abs(d) <= 4.0
+            print(
+                f"10/10 overshoot  {side:9s} {os10:5.1f} deg vs MARIN {run:7s} {ref[run]:5.1f} deg: {d:+5.1f} deg (limit 4 deg)"
+            )
+    print(f"20/20 overshoot {fig.overshoot_20['starboard']:.1f} deg; advance {fig.advance_l['starboard']:.2f} L; {fig.stopping}")
+    print("PASS" if ok else "FAIL")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
