@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.optimize import least_squares
 
+from primitives import jitloop
 from primitives.errors import UserError
 from primitives.particulars import regressions as rg
 from primitives.particulars.mmg import MMGShip, Run, fixed_helm, run, zigzag_helm
@@ -246,22 +247,22 @@ def sample_time(p: Particulars) -> float:
 
 
 def excitation_runs(ship: MMGShip, speed: float, n0: float, ts: float) -> list[Run]:
-    """The standard manoeuvres (IMO MSC.137(76)) the per-sample model is fitted to, both sides:
-    35 deg turning circles, 10/10 and 20/20 zig-zags, and an engine step to half rpm with 10 deg
-    rudder (it separates resistance from thrust)."""
+    """The standard manoeuvres (IMO MSC.137(76)) the per-sample model is fitted to: a 35 deg turning
+    circle, 10/10 and 20/20 zig-zags, and an engine step to half rpm with 10 deg rudder (it
+    separates resistance from thrust). One side only: the MMG model is symmetric (x_G = 0, no
+    propeller side force), so the port runs would mirror these."""
     rate, dmax = math.radians(RUDDER_RATE_DEG_S), math.radians(MAX_RUDDER_DEG)
     lengths = ship.length / speed / ts  # samples per ship length at the approach
 
     def go(name: str, helm, n_lengths: float) -> Run:
         return run(ship, name, helm, speed, int(n_lengths * lengths), ts, rate, dmax)
 
-    out = []
-    for side, tag in ((1.0, "stbd"), (-1.0, "port")):
-        out.append(go(f"tc35-{tag}", fixed_helm(side * dmax, n0), 25))
-        out.append(go(f"zz10-{tag}", zigzag_helm(math.radians(10), side, n0), 14))
-        out.append(go(f"zz20-{tag}", zigzag_helm(math.radians(20), side, n0), 14))
-    out.append(go("engine-half", fixed_helm(math.radians(10), n0, n_after=0.5 * n0, at=int(2 * lengths)), 14))
-    return out
+    return [
+        go("tc35", fixed_helm(dmax, n0), 25),
+        go("zz10", zigzag_helm(math.radians(10), 1.0, n0), 14),
+        go("zz20", zigzag_helm(math.radians(20), 1.0, n0), 14),
+        go("engine-half", fixed_helm(math.radians(10), n0, n_after=0.5 * n0, at=int(2 * lengths)), 14),
+    ]
 
 
 def _document(p: Particulars, ts: float, n0: float, n_max: float, theta: np.ndarray | None) -> dict:
@@ -318,9 +319,12 @@ def balance_thrust(profile: ShipProfile, theta: np.ndarray, speed: float, n0: fl
     return th
 
 
-def output_error(profile: ShipProfile, theta: np.ndarray, runs: list[Run], max_nfev: int = 30) -> np.ndarray:
+def output_error(profile: ShipProfile, theta: np.ndarray, runs: list[Run], max_nfev: int = 15) -> np.ndarray:
     """Output-error least squares of every parameter on the open-loop simulated runs, each run's
     residual scaled by its own spread (batched finite-difference Jacobian through ``simulate``)."""
+    # the fit simulates every run some 15 x (p + 1) times in all: worth loading the compiled loop
+    # (jitloop.use decides per call, and each call here is below its threshold)
+    jitloop.use(jitloop.MIN_WORK)
     scale = [np.std(r.nu, axis=0) * math.sqrt(len(r.nu)) + 1e-12 for r in runs]
     typ = np.where(theta != 0, theta, 1e-9)
 
@@ -353,7 +357,7 @@ def fit_percent(profile: ShipProfile, theta: np.ndarray, r: Run) -> tuple[float,
     return tuple(float(x) for x in 100.0 * (1.0 - err / np.maximum(dev, 1e-12)))
 
 
-def fit_profile(p: Particulars, ship: MMGShip, n0: float, ts: float, n_max: float, oe_nfev: int = 30) -> tuple[np.ndarray, dict]:
+def fit_profile(p: Particulars, ship: MMGShip, n0: float, ts: float, n_max: float, oe_nfev: int = 15) -> tuple[np.ndarray, dict]:
     """The per-sample model fitted to the MMG model's manoeuvres; per-run fit % as evidence."""
     shell = profile_from_dict(_document(p, ts, n0, n_max, None), p.name)
     runs = excitation_runs(ship, p.speed, n0, ts)
@@ -467,7 +471,7 @@ def _header(p: Particulars, ship: MMGShip, pitch: float, n0: float, power_kw: fl
         f"#   f_alpha {ship.f_alpha:.3f}: Fujii & Tuda (1961); steering gear 35 deg, 2.32 deg/s: SOLAS II-1 reg. 29",
         "#",
         "# [parameters.particulars]: the per-sample model (kvlcc2.toml's structure) fitted by one-step least squares",
-        "# then output error on the MMG model's 35 deg turning circles, 10/10 and 20/20 zig-zags (both sides) and an",
+        "# then output error on the MMG model's 35 deg turning circle, 10/10 and 20/20 zig-zags (starboard; the MMG model is symmetric) and an",
         "# engine step to half rpm; Xnn then holds the approach speed. Open-loop fit % (surge / sway / yaw) on them:",
     ]
     lines += [f"#   {name:12s} {a:5.1f} / {b:5.1f} / {c:5.1f}" for name, (a, b, c) in fits.items()]
@@ -522,7 +526,7 @@ def render(
     return "\n\n".join(body) + "\n"
 
 
-def build_profile(p: Particulars, *, oe_nfev: int = 30, draws: int = 12, seed: int = 0) -> Built:
+def build_profile(p: Particulars, *, oe_nfev: int = 15, draws: int = 12, seed: int = 0) -> Built:
     """The profile of the particulars ``p`` (see the module docstring); raises ParticularsError on
     particulars no ship has, FloatingPointError if the MMG model or the fit diverges."""
     check_particulars(p)

@@ -108,7 +108,7 @@ class MMGShip:
             ]
         )
 
-    def step(self, nu: np.ndarray, delta: float, n: float, dt: float, substeps: int = 2) -> np.ndarray:
+    def step(self, nu: np.ndarray, delta: float, n: float, dt: float, substeps: int = 1) -> np.ndarray:
         """Classical Runge-Kutta over dt with the inputs held."""
         h = dt / substeps
         for _ in range(substeps):

@@ -1,0 +1,93 @@
+"""`shiptrial profile new` (issue 31): a profile written from main particulars that the other
+commands accept, its standard manoeuvres printed, and bad particulars refused in one line with
+the plausible range, exit 2 and nothing written."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from cli.app import _run
+
+COASTER = [
+    "--name",
+    "coaster",
+    "--length",
+    "100",
+    "--beam",
+    "16",
+    "--draught",
+    "6",
+    "--block-coefficient",
+    "0.7",
+    "--speed",
+    "13",
+]
+
+
+def test_profile_new_writes_a_profile_and_prints_its_standard_manoeuvres(tmp_path, capsys):
+    out = tmp_path / "coaster.toml"
+    assert _run(["profile", "new", *COASTER, "--mcr-kw", "3000", "--prior-draws", "2", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert out.exists() and "[prior.std]" in out.read_text()
+    for what in ("tactical diameter", "10/10", "20/20", "stopping"):
+        assert what in text, what
+    assert _run(["primitives", "--ship", str(out)]) == 0
+
+
+def test_a_profile_from_particulars_designs(tmp_path, capsys):
+    from tests.test_particulars import kvlcc2_built
+
+    ship = tmp_path / "kvlcc2-particulars.toml"
+    ship.write_text(kvlcc2_built().text)
+    assert _run(["design", "--ship", str(ship), "--monte-carlo", "0", "--out", str(tmp_path / "rep")]) == 0
+    assert "Traceback" not in capsys.readouterr().err
+    assert (tmp_path / "rep" / "design.json").exists()
+
+
+def _with(**changes: str) -> list[str]:
+    args = list(COASTER)
+    for key, val in changes.items():
+        flag = "--" + key.replace("_", "-")
+        if flag in args:
+            args[args.index(flag) + 1] = val
+        else:
+            args += [flag, val]
+    return args
+
+
+@pytest.mark.parametrize(
+    ("changes", "says"),
+    [
+        ({"block_coefficient": "0.95"}, ["--block-coefficient 0.95", "0.35-0.9"]),
+        ({"block_coefficient": "0.3"}, ["--block-coefficient 0.3", "0.35-0.9"]),
+        ({"beam": "120"}, ["--beam 120", "L/B"]),
+        ({"draught": "17"}, ["--draught 17", "B/T"]),
+        ({"rudder_area": "40"}, ["--rudder-area 40", "5 % of L*T", "6-30 m^2"]),
+        ({"mcr_kw": "500"}, ["--speed 13 kn", "--mcr-kw 500", "at most"]),
+        ({"length": "-100"}, ["--length -100", "> 0"]),
+        ({"speed": "60"}, ["--speed 60 kn", "Froude"]),
+        ({"actuator": "twin_screw"}, ["--actuator twin_screw", "rudder_propeller"]),
+        ({"pitch_ratio": "2.5"}, ["--pitch-ratio 2.5", "0.5-1.4"]),
+        ({"rpm": "5000"}, ["--rpm 5000", "rpm"]),
+    ],
+)
+def test_bad_particulars_are_refused_in_one_line_and_nothing_is_written(tmp_path, capsys, changes, says):
+    out = tmp_path / "ship.toml"
+    assert _run(["profile", "new", *_with(**changes), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), err
+    for s in says:
+        assert s in lines[0], (s, lines[0])
+    assert not out.exists() and list(Path(tmp_path).iterdir()) == []
+
+
+def test_a_missing_particular_is_named(tmp_path, capsys):
+    args = [a for a in COASTER]
+    i = args.index("--draught")
+    del args[i : i + 2]
+    assert _run(["profile", "new", *args, "--out", str(tmp_path / "s.toml")]) == 2
+    assert "--draught" in capsys.readouterr().err
+    assert not (tmp_path / "s.toml").exists()
