@@ -25,6 +25,8 @@ SLOW = {
     "plan-trial --out trial-out": "the quick start: tests/test_end_to_end.py runs the same plan --out and checks its exports "
     "(about 4 s CPU, not spent twice)",
     "plan-trial --ship kvlcc2 --map": "KVLCC2 on the 60 km open sea: 14 s CPU (106 s wall on the loaded machine)",
+    "plan-trial --ship coaster.toml": "a ship from particulars planned on the open sea: 19 s CPU (55 s wall on the loaded machine); "
+    "tests/test_particulars_cli.py runs profile new, primitives and design on such a profile",
     "shiptrial mass ": "the roll mass estimate: 10 s CPU (its own tests run it)",
 }
 NOT_RUN = ("pip install", "python -m pytest", "python benchmarks/")  # CI's own steps; benchmarks print figures, minutes each
