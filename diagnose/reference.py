@@ -80,6 +80,7 @@ def extend(profile: ShipProfile, declared: bool = False) -> tuple[ShipProfile, l
         predictor_terms=None,
         predictor_names=None,
         structure_terms=None,
+        prior_std=None,  # the spread is of the profile's own terms; the extended model's has more
     ), added
 
 

@@ -120,3 +120,32 @@ def test_kvlcc2_from_particulars_turns_and_zigzags_like_marin():
         assert all(abs(fig.overshoot_10[side] - m) <= 5.0 for m in MARIN_OVERSHOOT_10), fig.overshoot_10
         assert fig.overshoot_20[side] > fig.overshoot_10[side]
     assert fig.warnings(KVLCC2.length) == []
+
+
+def test_prior_spread_round_trips_and_bad_spreads_are_refused():
+    from primitives.profile_document import profile_from_dict
+    from primitives.ship import ProfileError
+
+    b = kvlcc2_built()
+    again = profile_from_dict(b.profile.to_dict(), "again")
+    assert np.array_equal(again.prior_std, b.profile.prior_std)
+    doc = tomllib.loads(b.text)
+    doc["prior"]["std"]["yaw"] = doc["prior"]["std"]["yaw"][:-1]
+    with pytest.raises(ProfileError, match="prior.std.yaw"):
+        profile_from_dict(doc, "short.toml")
+    doc = tomllib.loads(b.text)
+    doc["prior"]["std"]["surge"][0] = -1.0
+    with pytest.raises(ProfileError, match=">= 0"):
+        profile_from_dict(doc, "negative.toml")
+
+
+def test_manoeuvres_outside_the_range_ships_have_are_warned():
+    from primitives.particulars.trials import TrialFigures
+
+    def fig(td):
+        return TrialFigures({"starboard": td, "port": 3.0}, {"starboard": 3.0, "port": 3.0}, {}, {}, "")
+
+    assert fig(3.5).warnings(100.0) == []
+    assert "9.0 L" in fig(9.0).warnings(100.0)[0] and "2-8 L" in fig(9.0).warnings(100.0)[0]
+    assert "1.5 L" in fig(1.5).warnings(100.0)[0]
+    assert "never turned 180 deg" in fig(None).warnings(100.0)[0]
