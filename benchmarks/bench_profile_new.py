@@ -1,5 +1,6 @@
 """KVLCC2 rebuilt from its main particulars (`shiptrial profile new`) against MARIN's free-running
-tests: the issue-31 check.
+tests: the issue-31 check; and the Mariner class cargo ship against its planar-motion-mechanism
+model (Chislett & Strom-Tejsen 1965, benchmarks/mariner_pmm.py), the second published ship.
 
     python benchmarks/bench_profile_new.py
 
@@ -8,11 +9,14 @@ nothing of the MARIN runs enters the build. The profile's 35 deg turning circles
 zig-zags, simulated through the project's kernel (primitives.helm) as the planner does, are
 compared with the bundled MARIN recordings (diagnose/data), measured the same way: tactical
 diameter within 20 % and first overshoot within 4 deg of each MARIN run. Prints the build's CPU
-time (median of 3 builds).
+time (median of 3 builds). The Mariner is checked the same way, its PMM model sailing the same
+manoeuvres with the same steering gear (35 deg, 2.32 deg/s); its rudder area and screw are not in
+the publication, so the build takes its defaults (DNV rule guidance, 0.6 T).
 """
 
 from __future__ import annotations
 
+import math
 import statistics
 import sys
 import time
@@ -22,6 +26,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import mariner_pmm as mp  # noqa: E402
 
 from diagnose.recording import read_marin_dat  # noqa: E402
 from primitives.particulars.build import Particulars, build_profile  # noqa: E402
@@ -40,6 +47,49 @@ def marin() -> dict[str, float]:
     for run in ("zz_10", "zz_-10"):
         out[run] = first_overshoot(read_marin_dat(DATA / f"MARIN_FREE_KVLCC2_{run}_m.dat").psi, 10.0)
     return out
+
+
+MARINER = Particulars("mariner", mp.L, mp.B, mp.T, mp.CB, 15.0)
+
+
+def _zigzag_10(side: float):
+    state = {"s": side}
+
+    def helm(k: int, psi: float) -> float:
+        if state["s"] * psi >= math.radians(10):
+            state["s"] = -state["s"]
+        return state["s"] * math.radians(10)
+
+    return helm
+
+
+def mariner_pmm() -> dict[str, float]:
+    """Tactical diameter [m] (35 deg, both sides) and 10/10 first overshoot [deg] of the PMM model."""
+    rate, out = math.radians(2.32), {}
+    for side in (1.0, -1.0):
+        track, _ = mp.simulate(lambda k, psi, s=side: s * math.radians(35), 3000, 1.0, rate)
+        out[f"tc {side:+.0f}"] = turn_figures(track)[1]
+        out[f"zz {side:+.0f}"] = first_overshoot(mp.simulate(_zigzag_10(side), 1500, 1.0, rate)[0][:, 2], 10.0)
+    return out
+
+
+def mariner_check() -> bool:
+    ref = mariner_pmm()
+    fig = standard_trials(build_profile(MARINER).profile)
+    ok = True
+    for side, key in (("starboard", "+1"), ("port", "-1")):
+        td, want = fig.tactical_l[side] * MARINER.length, ref[f"tc {key}"]
+        ok &= abs(td - want) <= 0.2 * want
+        print(
+            f"Mariner tactical diameter {side:9s} {td:6.0f} m vs PMM {want:6.0f} m: {100 * (td - want) / want:+5.1f} % (limit 20 %)"
+        )
+        os10, want = fig.overshoot_10[side], ref[f"zz {key}"]
+        ok &= abs(os10 - want) <= 4.0
+        print(
+            f"Mariner 10/10 overshoot   {side:9s} {os10:5.1f} deg vs PMM {want:5.1f} deg: {os10 - want:+5.1f} deg (limit 4 deg)"
+        )
+    print("Mariner: " + ("PASS" if ok else "FAIL"))
+    return ok
 
 
 def main() -> int:
@@ -70,7 +120,8 @@ def main() -> int:
                 f"10/10 overshoot  {side:9s} {os10:5.1f} deg vs MARIN {run:7s} {ref[run]:5.1f} deg: {d:+5.1f} deg (limit 4 deg)"
             )
     print(f"20/20 overshoot {fig.overshoot_20['starboard']:.1f} deg; advance {fig.advance_l['starboard']:.2f} L; {fig.stopping}")
-    print("PASS" if ok else "FAIL")
+    print("KVLCC2: " + ("PASS" if ok else "FAIL"))
+    ok &= mariner_check()
     return 0 if ok else 1
 
 
