@@ -107,7 +107,7 @@ def test_built_profile_loads_with_sources_and_a_prior_spread():
     assert np.all(p.prior_std > 0) and np.all(np.isfinite(p.prior_std))
     th = dict(zip(p.param_names, p.params()))
     assert th["Xuu"] < 0 < th["Xnn"] and th["Nur"] < 0 and th["Yuv"] < 0  # resistance, thrust, damping
-    assert p.engine.approach_rpm == pytest.approx(60 * b.approach_rps)
+    assert p.engine.approach_rpm == pytest.approx(60 * b.approach_rps, abs=0.05)  # written to 0.1 rpm
 
 
 def test_kvlcc2_from_particulars_turns_and_zigzags_like_marin():

@@ -1,0 +1,135 @@
+"""The profile document of a ship made from particulars: its tables, and the TOML text with the
+source of every coefficient in its comments."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+from primitives.particulars import regressions as rg
+from primitives.particulars.inputs import Particulars
+from primitives.particulars.mmg import MMGShip
+
+MAX_RUDDER_DEG = 35.0  # SOLAS II-1 reg. 29.3.2: 35 deg each side
+RUDDER_RATE_DEG_S = 2.32  # SOLAS II-1 reg. 29.3.2: 35 deg port to 30 deg stbd in 28 s
+
+# the per-sample model: kvlcc2.toml's structure (Ljungberg 2022, eq. 3.60, with quadratic
+# resistance and thrust, cross-flow drag and rudder force growing with inflow and slipstream)
+MODEL = {
+    "surge": ["u_r*|u_r|", "n^2", "v_r*r"],
+    "sway": ["u_r*v_r", "u_r*r", "v_r*|v_r|", "delta*u_r^2", "delta*n^2"],
+    "yaw": ["u_r*r", "u_r*v_r", "r*|r|", "delta*u_r^2", "delta*n^2"],
+}
+
+NAMES = {
+    "surge": ["Xuu", "Xnn", "Xvr"],
+    "sway": ["Yuv", "Yur", "Yvv", "Ydelta", "Ydnn"],
+    "yaw": ["Nur", "Nuv", "Nrr", "Ndelta", "Ndnn"],
+}
+
+
+def split(theta: np.ndarray) -> dict[str, list[float]]:
+    """A parameter vector as the profile's per-DOF lists."""
+    out, i = {}, 0
+    for dof, terms in MODEL.items():
+        out[dof] = [float(x) for x in theta[i : i + len(terms)]]
+        i += len(terms)
+    return out
+
+
+def profile_document(p: Particulars, ts: float, n0: float, n_max: float, theta: np.ndarray | None = None) -> dict:
+    """The profile's tables (parameters zero when ``theta`` is None: the shell the fit's regressors
+    are built from)."""
+    per = split(theta) if theta is not None else {dof: [0.0] * len(terms) for dof, terms in MODEL.items()}
+    return {
+        "name": p.name,
+        "description": f"{p.name}: 3-DOF model made from main particulars (shiptrial profile new)",
+        "source": "main particulars -> MMG standard model (Yasukawa & Yoshimura 2015) -> fitted by shiptrial",
+        "sample_time": ts,
+        "length_m": float(p.length),
+        "beam_m": float(p.beam),
+        "draught_m": float(p.draught),
+        "cruise_speed_mps": p.speed,
+        "actuator": "rudder_propeller",
+        "inputs": ["delta", "n"],
+        "simulation_set": "particulars",
+        "instrument_set": "particulars",
+        "input_limits": {"delta": [-math.radians(MAX_RUDDER_DEG), math.radians(MAX_RUDDER_DEG)], "n": [0.0, n_max]},
+        "helm": {"max_rudder_deg": MAX_RUDDER_DEG, "rudder_rate_deg_s": RUDDER_RATE_DEG_S, "starboard_sign": 1},
+        "engine": {"rps_limits": [0.0, n_max], "approach_rpm": round(60.0 * n0, 1)},
+        "model": MODEL,
+        "parameter_names": NAMES,
+        "parameters": {"particulars": per},
+    }
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)  # a JSON string is a TOML basic string
+    return "[" + ", ".join(_value(x) for x in v) + "]"
+
+
+def toml_text(doc: dict, comments: dict[str, str] | None = None, path: str = "") -> str:
+    """``doc`` as TOML: scalars and lists first, then each sub-table under its dotted header (a table
+    of tables only, like [parameters], gets no header of its own); ``comments[path]`` (lines
+    without the '#') is written above that table."""
+    comments = comments or {}
+    parts = ["\n".join(f"{k} = {_value(v)}" for k, v in doc.items() if not isinstance(v, dict))]
+    for k, v in doc.items():
+        if isinstance(v, dict):
+            sub = f"{path}.{k}" if path else k
+            note = "".join(f"# {line}\n" for line in comments.get(sub, "").splitlines())
+            head = f"[{sub}]\n" if any(not isinstance(x, dict) for x in v.values()) else ""
+            parts.append(note + head + toml_text(v, comments, sub))
+    return "\n\n".join(p for p in parts if p)
+
+
+def header(p: Particulars, ship: MMGShip, pitch: float, n0: float, power_kw: float, fits: dict, aspect: float) -> str:
+    given = lambda v, what: "given" if v is not None else what  # noqa: E731
+    h = ship.hull
+    lines = [
+        f"# {p.name}: made by `shiptrial profile new` from main particulars, before any trial.",
+        f"# L {p.length:g} m, B {p.beam:g} m, T {p.draught:g} m, Cb {p.cb:g}, {p.speed_kn:g} kn ({p.speed:.3f} m/s);",
+        f"# rudder {ship.rudder_area:.4g} m^2 ({given(p.rudder_area, 'DNV rule guidance T L/100 (1 + 25 (B/L)^2)')}),"
+        f" span {ship.rudder_span:.3g} m (aspect {aspect:g}, at most 0.8 T);",
+        f"# screw {ship.prop_diameter:.3g} m ({given(p.prop_diameter, 'assumed 0.6 T')}), B-series Z = 4, A_E/A_0 = 0.55,"
+        f" P/D {pitch:.3f} ({given(p.pitch_ratio, 'solved for the rpm' if p.rpm else 'assumed 0.75')});",
+        f"# approach {60 * n0:.1f} rpm (thrust = resistance at {p.speed_kn:g} kn), brake power {power_kw:,.0f} kW"
+        + (f" of MCR {p.mcr_kw:,.0f} kW" if p.mcr_kw else "")
+        + ".",
+        "#",
+        "# Sources (an MMG standard model, Yasukawa & Yoshimura 2015, eqs. 4-27; non-dimensional as there):",
+        f"#   R'_0 = {h['R0']:.5f}: ITTC-1957 friction x Watanabe form factor 1+k = {rg.form_factor(p.hull):.3f},"
+        " Denny-Mumford wetted surface",
+        "#   X'_vv {Xvv:.4f}, X'_vr {Xvr:.4f}, X'_rr {Xrr:.4f}, X'_vvvv {Xvvvv:.4f}: Yoshimura & Masumoto (2012), Table 3".format(
+            **h
+        ),
+        "#   Y'_v {Yv:.4f}, Y'_r {Yr:.4f}, N'_v {Nv:.4f}, N'_r {Nr:.4f}: Clarke, Gedling & Hine (1983), eqs. (9)-(12)".format(
+            **h
+        ),
+        "#   Y'_bb {Ybb:.4f}, Y'_rr {Yrr:.4f}, Y'_bbr {Ybbr:.4f}, Y'_brr {Ybrr:.4f}, N'_bb {Nbb:.4f}, N'_rr {Nrr:.4f},".format(
+            **h
+        ),
+        "#   N'_bbr {Nbbr:.4f}, N'_brr {Nbrr:.4f}: Kijima, Katsuno, Nakiri & Furukawa (1990), even keel".format(**h),
+        "#   m'_y {my:.4f}, J'_z {Jz:.5f}: Clarke et al. (1983), eqs. (13), (16); m'_x {mx:.4f} = 0.05 m'".format(**ship.mass),
+        "#   t_R {tR:.3f}, a_H {aH:.3f}, x'_H {xH:.3f}, gamma_R {gammaR:.3f}, l'_R {lR:.2f}, eps {eps:.3f}, kappa {kappa:.2f}:"
+        " Kijima et al. (1990)".format(**ship.inter),
+        "#   w_P0 {wP0:.3f} (Taylor 0.5 Cb - 0.05), t_P {tP:.3f} (0.6 w_P0): Harvald (1983)".format(**ship.inter),
+        f"#   K_T = {ship.kt[0]:.4f} {ship.kt[1]:+.4f} J {ship.kt[2]:+.4f} J^2: Wageningen B-series (Oosterveld & van Oossanen"
+        " 1975), quadratic fit",
+        f"#   f_alpha {ship.f_alpha:.3f}: Fujii & Tuda (1961); steering gear 35 deg, 2.32 deg/s: SOLAS II-1 reg. 29",
+        "#",
+        "# [parameters.particulars]: the per-sample model (kvlcc2.toml's structure) fitted by one-step least squares",
+        "# then output error on the MMG model's 35 deg turning circle, 10/10 and 20/20 zig-zags (starboard; the MMG model is symmetric) and an",
+        "# engine step to half rpm; Xnn then holds the approach speed. Open-loop fit % (surge / sway / yaw) on them:",
+    ]
+    lines += [f"#   {name:12s} {a:5.1f} / {b:5.1f} / {c:5.1f}" for name, (a, b, c) in fits.items()]
+    return "\n".join(lines) + "\n"

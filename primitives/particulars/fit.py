@@ -1,0 +1,110 @@
+"""The per-sample model of a profile fitted to an MMG model's manoeuvres: one-step least squares,
+then output error, as ``benchmarks/fit_kvlcc2.py`` fits the MARIN runs."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from primitives import jitloop
+from primitives.particulars.document import MAX_RUDDER_DEG, RUDDER_RATE_DEG_S, profile_document
+from primitives.particulars.inputs import Particulars
+from primitives.particulars.mmg import MMGShip, Run, fixed_helm, run, zigzag_helm
+from primitives.profile_document import profile_from_dict
+from primitives.regressors import predictor_regressors
+from primitives.ship import ShipProfile
+from primitives.simulate import simulate
+
+
+def excitation_runs(ship: MMGShip, speed: float, n0: float, ts: float) -> list[Run]:
+    """The standard manoeuvres (IMO MSC.137(76)) the per-sample model is fitted to: a 35 deg turning
+    circle, 10/10 and 20/20 zig-zags, and an engine step to half rpm with 10 deg rudder (it
+    separates resistance from thrust). One side only: the MMG model is symmetric (x_G = 0, no
+    propeller side force), so the port runs would mirror these."""
+    rate, dmax = math.radians(RUDDER_RATE_DEG_S), math.radians(MAX_RUDDER_DEG)
+    lengths = ship.length / speed / ts  # samples per ship length at the approach
+
+    def go(name: str, helm, n_lengths: float) -> Run:
+        return run(ship, name, helm, speed, int(n_lengths * lengths), ts, rate, dmax)
+
+    return [
+        go("tc35", fixed_helm(dmax, n0), 25),
+        go("zz10", zigzag_helm(math.radians(10), 1.0, n0), 14),
+        go("zz20", zigzag_helm(math.radians(20), 1.0, n0), 14),
+        go("engine-half", fixed_helm(math.radians(10), n0, n_after=0.5 * n0, at=int(2 * lengths)), 14),
+    ]
+
+
+def one_step_ls(profile: ShipProfile, runs: list[Run]) -> np.ndarray:
+    """Equation-error start: per DOF least squares of nu(k+1) - nu(k) on the regressors, each run
+    weighted by the spread of its own increments (a zig-zag weighs as much as a turning circle)."""
+    phis, dys = [], []
+    for r in runs:
+        phi, dy = predictor_regressors(profile, r.nu, r.inputs, terms=profile.model)
+        w = 1.0 / np.maximum(dy.std(axis=0), 1e-12)
+        phis.append((phi, w)), dys.append(dy * w)
+    th = np.zeros(profile.model.n_params)
+    for i in range(3):
+        s = profile.model.dof_slice(i)
+        A = np.concatenate([phi[:, s] * w[i] for phi, w in phis])
+        th[s] = np.linalg.lstsq(A, np.concatenate([d[:, i] for d in dys]), rcond=None)[0]
+    return th
+
+
+def balance_thrust(profile: ShipProfile, theta: np.ndarray, speed: float, n0: float) -> np.ndarray:
+    """Xnn so that the model holds ``speed`` at ``n0`` (surge increment zero): u|u| Xuu + n^2 Xnn = 0."""
+    th = theta.copy()
+    th[1] = -th[0] * speed * abs(speed) / n0**2
+    return th
+
+
+def output_error(profile: ShipProfile, theta: np.ndarray, runs: list[Run], max_nfev: int = 15) -> np.ndarray:
+    """Output-error least squares of every parameter on the open-loop simulated runs, each run's
+    residual scaled by its own spread (batched finite-difference Jacobian through ``simulate``)."""
+    # the fit simulates every run some 15 x (p + 1) times in all: worth loading the compiled loop
+    # (jitloop.use decides per call, and each call here is below its threshold)
+    jitloop.use(jitloop.MIN_WORK)
+    scale = [np.std(r.nu, axis=0) * math.sqrt(len(r.nu)) + 1e-12 for r in runs]
+    typ = np.where(theta != 0, theta, 1e-9)
+
+    def resid(Z: np.ndarray) -> np.ndarray:
+        P = (1.0 + np.atleast_2d(Z)) * typ
+        parts = []
+        with np.errstate(all="ignore"):
+            for r, s in zip(runs, scale):
+                nu = simulate(profile, r.inputs, P, nu0=r.nu[0], batch=len(P), positions=False).nu
+                parts.append(((r.nu[None] - nu)[:, 1:] / s).reshape(len(P), -1))
+        R = np.concatenate(parts, axis=1)
+        return np.where(np.isfinite(R), np.clip(R, -1e3, 1e3), 1e3)
+
+    def jac(z: np.ndarray) -> np.ndarray:
+        h = 1e-5
+        Z = np.repeat(z[None], len(z) + 1, axis=0)
+        Z[1:] += h * np.eye(len(z))
+        R = resid(Z)
+        return ((R[1:] - R[0]) / h).T
+
+    sol = least_squares(lambda z: resid(z)[0], np.zeros_like(theta), jac=jac, method="trf", x_scale=0.05, max_nfev=max_nfev)
+    return (1.0 + sol.x) * typ
+
+
+def fit_percent(profile: ShipProfile, theta: np.ndarray, r: Run) -> tuple[float, float, float]:
+    """Open-loop NRMSE fit % per DOF of the profile on one MMG run."""
+    nu = simulate(profile, r.inputs, theta, nu0=r.nu[0], positions=False).nu[0]
+    err = np.linalg.norm(r.nu - nu, axis=0)
+    dev = np.linalg.norm(r.nu - r.nu.mean(axis=0), axis=0)
+    return tuple(float(x) for x in 100.0 * (1.0 - err / np.maximum(dev, 1e-12)))
+
+
+def fit_profile(p: Particulars, ship: MMGShip, n0: float, ts: float, n_max: float, oe_nfev: int = 15) -> tuple[np.ndarray, dict]:
+    """The per-sample model fitted to the MMG model's manoeuvres; per-run fit % as evidence."""
+    shell = profile_from_dict(profile_document(p, ts, n0, n_max), p.name)
+    runs = excitation_runs(ship, p.speed, n0, ts)
+    theta = balance_thrust(shell, one_step_ls(shell, runs), p.speed, n0)
+    if oe_nfev:
+        theta = balance_thrust(shell, output_error(shell, theta, runs, oe_nfev), p.speed, n0)
+    if not np.all(np.isfinite(theta)):
+        raise FloatingPointError("the fit of the per-sample model diverged")
+    return theta, {r.name: fit_percent(shell, theta, r) for r in runs}

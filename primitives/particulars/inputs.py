@@ -1,0 +1,97 @@
+"""What a user gives ``shiptrial profile new``, and the checks that refuse particulars no ship has."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from primitives.errors import UserError
+from primitives.particulars import regressions as rg
+
+KNOT = 1852.0 / 3600.0
+
+ACTUATORS = ("rudder_propeller",)
+
+PLANNED_ACTUATORS = ("twin_screw", "azimuth")
+
+
+class ParticularsError(UserError):
+    """A main particular out of the range ships have, or one the chosen actuator needs missing."""
+
+
+@dataclass(frozen=True)
+class Particulars:
+    """What an owner or a yard knows before the trial [m, -, kn, m^2, m, -, rpm, kW]."""
+
+    name: str
+    length: float
+    beam: float
+    draught: float
+    cb: float
+    speed_kn: float
+    rudder_area: float | None = None
+    prop_diameter: float | None = None
+    pitch_ratio: float | None = None
+    rpm: float | None = None
+    mcr_kw: float | None = None
+    actuator: str = "rudder_propeller"
+
+    @property
+    def hull(self) -> rg.Hull:
+        return rg.Hull(self.length, self.beam, self.draught, self.cb)
+
+    @property
+    def speed(self) -> float:
+        return self.speed_kn * KNOT
+
+
+def _positive(name: str, value: float | None, unit: str) -> None:
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise ParticularsError(f"--{name} {value!r}: must be a number > 0 {unit}".rstrip())
+
+
+def check_particulars(p: Particulars) -> None:
+    """Refuse particulars no ship has, one line naming the value and the plausible range."""
+    if p.actuator in PLANNED_ACTUATORS:
+        raise ParticularsError(
+            f"--actuator {p.actuator}: not built from particulars yet; use --actuator rudder_propeller (single screw, one rudder)"
+        )
+    if p.actuator not in ACTUATORS:
+        raise ParticularsError(f"--actuator {p.actuator!r}: must be rudder_propeller")
+    for name, val, unit in (
+        ("length", p.length, "m"),
+        ("beam", p.beam, "m"),
+        ("draught", p.draught, "m"),
+        ("block-coefficient", p.cb, ""),
+        ("speed", p.speed_kn, "kn"),
+        ("rudder-area", p.rudder_area, "m^2"),
+        ("propeller-diameter", p.prop_diameter, "m"),
+        ("pitch-ratio", p.pitch_ratio, ""),
+        ("rpm", p.rpm, "rpm"),
+        ("mcr-kw", p.mcr_kw, "kW"),
+    ):
+        _positive(name, val, unit)
+    if not 0.35 <= p.cb <= 0.9:
+        raise ParticularsError(f"--block-coefficient {p.cb:g}: outside 0.35-0.9, the range of displacement ships")
+    if p.beam >= p.length:
+        raise ParticularsError(f"--beam {p.beam:g} m: not below the length {p.length:g} m; ships have L/B 3-9")
+    if p.draught >= p.beam:
+        raise ParticularsError(f"--draught {p.draught:g} m: not below the beam {p.beam:g} m; ships have B/T 1.5-5")
+    lt = p.length * p.draught
+    if p.rudder_area is not None and p.rudder_area > 0.05 * lt:
+        raise ParticularsError(
+            f"--rudder-area {p.rudder_area:g} m^2: over 5 % of L*T ({0.05 * lt:.4g} m^2); rudders are 1-5 % of L*T "
+            f"({0.01 * lt:.4g}-{0.05 * lt:.4g} m^2 for this ship)"
+        )
+    if p.prop_diameter is not None and p.prop_diameter > p.draught:
+        raise ParticularsError(
+            f"--propeller-diameter {p.prop_diameter:g} m: larger than the draught {p.draught:g} m; screws are 0.4-0.8 x the draught"
+        )
+    if p.pitch_ratio is not None and not 0.5 <= p.pitch_ratio <= 1.4:
+        raise ParticularsError(f"--pitch-ratio {p.pitch_ratio:g}: outside 0.5-1.4, the range of the Wageningen B-series")
+    fn = p.speed / math.sqrt(9.81 * p.length)
+    if fn > 0.45:
+        raise ParticularsError(
+            f"--speed {p.speed_kn:g} kn: Froude number {fn:.2f} on a {p.length:g} m hull; a displacement ship's regressions "
+            f"hold below 0.45 (at most {0.45 * math.sqrt(9.81 * p.length) / KNOT:.1f} kn)"
+        )
