@@ -1,4 +1,4 @@
-"""Open-water curves of a Wageningen B-series propeller and the propulsion point.
+"""Open-water curves of a Wageningen B-series propeller.
 
 K_T and K_Q are the polynomials of Oosterveld & van Oossanen (1975), "Further computer-analyzed
 data of the Wageningen B-screw series", Int. Shipbuilding Progress 22 (251), Table 1 (Re = 2e6):
@@ -7,7 +7,6 @@ K = sum C (J)^s (P/D)^t (A_E/A_0)^u Z^v. Rows here: (C, s, t, u, v).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -79,23 +78,3 @@ class BSeries:
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if self.kt(mid) > 0 else (lo, mid)
         return 0.5 * (lo + hi)
-
-
-def propulsion_point(prop: BSeries, diameter: float, thrust: float, advance_speed: float, rho: float) -> tuple[float, float]:
-    """(n [rev/s], delivered power [W]) at which the screw gives ``thrust`` [N] at ``advance_speed``
-    V_A = (1 - w) U: bisection on T(n) = rho n^2 D^4 K_T(V_A / (n D)); P_D = 2 pi rho n^3 D^5 K_Q."""
-
-    def excess(n: float) -> float:
-        return rho * n**2 * diameter**4 * float(prop.kt(advance_speed / (n * diameter))) - thrust
-
-    lo = advance_speed / (diameter * prop.zero_thrust_j()) + 1e-9
-    hi = max(2.0 * lo, 0.1)
-    while excess(hi) < 0:
-        hi *= 2.0
-        if hi > 1e3:
-            raise ValueError("the propeller cannot give the thrust at any shaft speed")
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if excess(mid) < 0 else (lo, mid)
-    n = 0.5 * (lo + hi)
-    return n, 2.0 * math.pi * rho * n**3 * diameter**5 * float(prop.kq(advance_speed / (n * diameter)))
