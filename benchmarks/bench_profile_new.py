@@ -16,6 +16,7 @@ the publication, so the build takes its defaults (DNV rule guidance, 0.6 T).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import statistics
 import sys
@@ -31,8 +32,12 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import mariner_pmm as mp  # noqa: E402
 
 from diagnose.recording import read_marin_dat  # noqa: E402
-from primitives.particulars.build import Particulars, build_profile  # noqa: E402
+from primitives import helm as hm  # noqa: E402
+from primitives.library import make_primitive  # noqa: E402
+from primitives.particulars.build import Built, Particulars, build_profile  # noqa: E402
+from primitives.particulars.fit import balance_thrust  # noqa: E402
 from primitives.particulars.trials import first_overshoot, standard_trials, turn_figures  # noqa: E402
+from primitives.ship import ProfileError  # noqa: E402
 
 DATA = ROOT / "diagnose" / "data"
 KVLCC2 = Particulars("kvlcc2-particulars", 320.0, 58.0, 20.8, 0.81, 15.5, rudder_area=142.0, prop_diameter=9.86)
@@ -50,6 +55,36 @@ def marin() -> dict[str, float]:
 
 
 MARINER = Particulars("mariner", mp.L, mp.B, mp.T, mp.CB, 15.0)
+
+
+def prior_band(built: Built, draws: int = 40, seed: int = 0) -> tuple[np.ndarray, int]:
+    """5/50/95 % of the 35 deg tactical diameter [m] over profiles drawn from the prior spread
+    ([prior] std, independent normal per coefficient, Xnn rebalanced to hold the approach speed as
+    the build does); and how many draws never turned 180 deg or could not hold the speed."""
+    prof, rng = built.profile, np.random.default_rng(seed)
+    th, sd = prof.params(), prof.prior_std
+    tds, lost = [], 0
+    for _ in range(draws):
+        theta = balance_thrust(prof, th + sd * rng.standard_normal(th.size), prof.cruise_speed_mps, built.approach_rps)
+        q = dataclasses.replace(prof, parameter_sets={prof.simulation_set: theta})
+        try:
+            td = turn_figures(make_primitive(q, "tc", "turning circle", hm.turning_circle(q)).track)[1]
+        except ProfileError:
+            td = None
+        if td is None:
+            lost += 1
+        else:
+            tds.append(td)
+    return np.percentile(tds, [5, 50, 95]), lost
+
+
+def _say_band(name: str, built: Built, ref: list[float]) -> None:
+    band, lost = prior_band(built)
+    inside = all(band[0] <= r <= band[2] for r in ref)
+    print(
+        f"{name} prior spread: tactical diameter 5/50/95 % {band[0]:.0f} / {band[1]:.0f} / {band[2]:.0f} m over 40 draws "
+        f"({lost} lost); reference {' / '.join(f'{r:.0f}' for r in ref)} m {'inside' if inside else 'OUTSIDE'} the 90 % band"
+    )
 
 
 def _zigzag_10(side: float):
@@ -75,7 +110,8 @@ def mariner_pmm() -> dict[str, float]:
 
 def mariner_check() -> bool:
     ref = mariner_pmm()
-    fig = standard_trials(build_profile(MARINER).profile)
+    built = build_profile(MARINER)
+    fig = standard_trials(built.profile)
     ok = True
     for side, key in (("starboard", "+1"), ("port", "-1")):
         td, want = fig.tactical_l[side] * MARINER.length, ref[f"tc {key}"]
@@ -89,6 +125,7 @@ def mariner_check() -> bool:
             f"Mariner 10/10 overshoot   {side:9s} {os10:5.1f} deg vs PMM {want:5.1f} deg: {os10 - want:+5.1f} deg (limit 4 deg)"
         )
     print("Mariner: " + ("PASS" if ok else "FAIL"))
+    _say_band("Mariner", built, [ref["tc +1"], ref["tc -1"]])
     return ok
 
 
@@ -121,6 +158,7 @@ def main() -> int:
             )
     print(f"20/20 overshoot {fig.overshoot_20['starboard']:.1f} deg; advance {fig.advance_l['starboard']:.2f} L; {fig.stopping}")
     print("KVLCC2: " + ("PASS" if ok else "FAIL"))
+    _say_band("KVLCC2", built, [ref["tc_35"], ref["tc_-35"]])
     ok &= mariner_check()
     return 0 if ok else 1
 
