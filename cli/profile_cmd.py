@@ -23,20 +23,20 @@ def register(app: typer.Typer) -> None:
     @sub.command("new")
     def new(
         name: str = typer.Option(..., "--name", help="profile name, e.g. my-ship"),
-        length: float = typer.Option(..., "--length", help="length between perpendiculars L [m]"),
-        beam: float = typer.Option(..., "--beam", help="beam B [m]"),
-        draught: float = typer.Option(..., "--draught", help="draught T [m]"),
+        length: float = typer.Option(..., "--length", help="length between perpendiculars L, m"),
+        beam: float = typer.Option(..., "--beam", help="beam B, m"),
+        draught: float = typer.Option(..., "--draught", help="draught T, m"),
         block_coefficient: float = typer.Option(..., "--block-coefficient", help="block coefficient Cb (0.35-0.9)"),
-        speed: float = typer.Option(..., "--speed", help="service (approach) speed [kn]"),
+        speed: float = typer.Option(..., "--speed", help="service (approach) speed, knots"),
         rudder_area: float | None = typer.Option(
-            None, "--rudder-area", help="movable rudder area [m^2] (default: DNV rule guidance)"
+            None, "--rudder-area", help="movable rudder area, m^2 (default: DNV rule guidance)"
         ),
-        propeller_diameter: float | None = typer.Option(None, "--propeller-diameter", help="screw diameter [m] (default 0.6 T)"),
+        propeller_diameter: float | None = typer.Option(None, "--propeller-diameter", help="screw diameter, m (default 0.6 T)"),
         pitch_ratio: float | None = typer.Option(
             None, "--pitch-ratio", help="screw pitch ratio P/D (default 0.75, or solved for --rpm)"
         ),
-        rpm: float | None = typer.Option(None, "--rpm", help="shaft speed at the service speed [rpm] (default: solved)"),
-        mcr_kw: float | None = typer.Option(None, "--mcr-kw", help="engine maximum continuous rating [kW]; checks the speed"),
+        rpm: float | None = typer.Option(None, "--rpm", help="shaft speed at the service speed, rpm (default: solved)"),
+        mcr_kw: float | None = typer.Option(None, "--mcr-kw", help="engine maximum continuous rating, kW; checks the speed"),
         actuator: str = typer.Option("rudder_propeller", "--actuator", help="rudder_propeller (single screw, one rudder)"),
         out: Path = typer.Option(..., "--out", help="profile TOML to write"),
         seed: int = typer.Option(0, "--seed", help="seed of the draws that set the prior spread"),
