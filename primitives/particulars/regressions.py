@@ -29,6 +29,7 @@ import math
 from dataclasses import dataclass
 
 RHO = 1025.0  # sea water [kg/m^3]
+MX_FRACTION = 0.05  # m'_x / m' of a merchant hull (see added_mass)
 NU_WATER = 1.19e-6  # kinematic viscosity of sea water at 15 deg C [m^2/s] (ITTC 7.5-02-01-03)
 
 
@@ -99,14 +100,16 @@ def clarke_linear(h: Hull) -> dict[str, float]:
     c = pi (d/L)^2: -Y_v = c (1 + 0.40 Cb B/d), -Y_r = c (-1/2 + 2.2 B/L - 0.080 B/d),
     -N_v = c (1/2 + 2.4 d/L), -N_r = c (1/4 + 0.039 B/d - 0.56 B/L), -Y_vdot = c (1 + 0.16 Cb B/d
     - 5.1 (B/L)^2), -N_rdot = c (1/12 + 0.017 Cb B/d - 0.33 B/L). Multiplying by L/d gives the
-    MMG normalisation; m'_y = -Y'_vdot, J'_z = -N'_rdot.
+    MMG normalisation; m'_y = -Y'_vdot, J'_z = -N'_rdot. Clarke's Y_r is the total sway force per
+    unit yaw rate; the MMG hull force leaves (m + m_x) u r on the left-hand side (Yasukawa &
+    Yoshimura 2015, eq. 4), so Y'_r(MMG) = Y'_r(Clarke) + m'_x (Y_v, N_v, N_r are unchanged).
     """
     c = math.pi * (h.draught / h.length) ** 2
     b_d, b_l, d_l = h.beam / h.draught, h.beam / h.length, h.draught / h.length
     to_mmg = h.length / h.draught
     return {
         "Yv": -c * (1.0 + 0.40 * h.cb * b_d) * to_mmg,
-        "Yr": -c * (-0.5 + 2.2 * b_l - 0.080 * b_d) * to_mmg,
+        "Yr": -c * (-0.5 + 2.2 * b_l - 0.080 * b_d) * to_mmg + MX_FRACTION * h.mass_nd,
         "Nv": -c * (0.5 + 2.4 * d_l) * to_mmg,
         "Nr": -c * (0.25 + 0.039 * b_d - 0.56 * b_l) * to_mmg,
         "my": c * (1.0 + 0.16 * h.cb * b_d - 5.1 * b_l**2) * to_mmg,
@@ -118,7 +121,7 @@ def added_mass(h: Hull) -> dict[str, float]:
     """m'_x, m'_y, J'_z: m'_y and J'_z of Clarke et al. (1983) eqs. (13), (16); m'_x = 0.05 m'
     (the customary estimate for merchant hulls, e.g. Yoshimura & Masumoto 2012)."""
     cl = clarke_linear(h)
-    return {"mx": 0.05 * h.mass_nd, "my": cl["my"], "Jz": cl["Jz"]}
+    return {"mx": MX_FRACTION * h.mass_nd, "my": cl["my"], "Jz": cl["Jz"]}
 
 
 def yoshimura_surge(h: Hull, my: float) -> dict[str, float]:
