@@ -120,8 +120,8 @@ def header(p: Particulars, ship: MMGShip, pitch: float, n0: float, power_kw: flo
         ),
         "#   N'_bbr {Nbbr:.4f}, N'_brr {Nbrr:.4f}: Kijima, Katsuno, Nakiri & Furukawa (1990), even keel".format(**h),
         "#   m'_y {my:.4f}, J'_z {Jz:.5f}: Clarke et al. (1983), eqs. (13), (16); m'_x {mx:.4f} = 0.05 m'".format(**ship.mass),
-        "#   t_R {tR:.3f}, a_H {aH:.3f}, x'_H {xH:.3f}, gamma_R {gammaR:.3f}, l'_R {lR:.2f}, eps {eps:.3f}, kappa {kappa:.2f}:"
-        " Kijima et al. (1990)".format(**ship.inter),
+        "#   t_R {tR:.3f}, a_H {aH:.3f}, x'_H {xH:.3f}, gamma_R {gammaR:.3f}, l'_R {lR:.2f}, eps {eps:.3f}: Kijima et al. (1990);"
+        " kappa {kappa:.2f} assumed (KVLCC2's, Yasukawa & Yoshimura 2015)".format(**ship.inter),
         "#   w_P0 {wP0:.3f} (Taylor 0.5 Cb - 0.05), t_P {tP:.3f} (0.6 w_P0): Harvald (1983)".format(**ship.inter),
         f"#   K_T = {ship.kt[0]:.4f} {ship.kt[1]:+.4f} J {ship.kt[2]:+.4f} J^2: Wageningen B-series (Oosterveld & van Oossanen"
         " 1975), quadratic fit",

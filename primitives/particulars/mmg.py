@@ -77,7 +77,8 @@ class MMGShip:
                 + (h["Nbbr"] * beta + h["Nbrr"] * rp) * beta * rp
             )
         )
-        # propeller, eqs. (13)-(16); the wake falls in a turn as w_P0 exp(-4 beta_P^2) (Inoue et al. 1981)
+        # propeller, eqs. (13)-(15); the turn wake is not eq. (16) (Yasukawa & Yoshimura's C_1, C_2 need
+        # captive tests) but Inoue et al. (1981): w_P = w_P0 exp(-4 beta_P^2)
         beta_p = beta - self.x_p * rp
         w_p = it["wP0"] * math.exp(-4.0 * beta_p**2)
         u_p = (1.0 - w_p) * u

@@ -14,8 +14,11 @@ forces on 1/2 rho L d U^2, moments on 1/2 rho L^2 d U^2, masses on 1/2 rho L^2 d
 - Surge cross terms: Yoshimura & Masumoto (2012), "Hydrodynamic database and manoeuvring
   prediction method with medium high-speed merchant ships and fishing vessels", MARSIM 2012,
   Table 3 (X'_vv, X'_vr, X'_rr, X'_vvvv).
-- Hull-propeller-rudder interaction: Kijima et al. (1990) (1 - t_R, a_H, x'_H, gamma_R, eps),
-  l'_R = -0.9; rudder lift gradient of Fujii & Tuda (1961), f_alpha = 6.13 L/(L + 2.25).
+- Hull-propeller-rudder interaction: Kijima et al. (1990) (1 - t_R, a_H, x'_H, eps and the flow-
+  straightening gamma_R = -22.2 (Cb B/L)^2 + 0.02 Cb B/L + 0.68 with l'_R = -0.9); the linear form
+  gamma_R = 2.06 Cb B/L + 0.14 found in some compilations is not Kijima's; kappa = 0.5 is assumed
+  (KVLCC2's 0.50, Yasukawa & Yoshimura 2015, Table 4); rudder lift gradient of Fujii & Tuda (1961),
+  f_alpha = 6.13 L/(L + 2.25).
 - Wake and thrust deduction: Taylor's w = 0.5 Cb - 0.05 (Harvald 1983, "Resistance and
   propulsion of ships", eq. 5.6.3), t = 0.6 w (ibid., single screw).
 - Resistance: ITTC-1957 friction line C_F = 0.075 / (log10 Re - 2)^2, form factor of Watanabe
@@ -134,16 +137,16 @@ def yoshimura_surge(h: Hull, my: float) -> dict[str, float]:
 
 def interaction(h: Hull) -> dict[str, float]:
     """Hull-propeller-rudder interaction coefficients (Kijima et al. 1990; Harvald 1983):
-    1 - t_R = 0.28 Cb + 0.55, a_H = 0.627 Cb - 0.153, x'_H = -(0.4 + 0.1 Cb), gamma_R = 2.06 Cb B/L
-    + 0.14, l'_R = -0.9, eps = -156.5 (Cb B/L)^2 + 41.6 Cb B/L - 1.76, kappa = 0.5;
-    w_P0 = 0.5 Cb - 0.05 (Taylor), t_P = 0.6 w_P0."""
+    1 - t_R = 0.28 Cb + 0.55, a_H = 0.627 Cb - 0.153, x'_H = -(0.4 + 0.1 Cb), gamma_R = -22.2 (Cb B/L)^2
+    + 0.02 Cb B/L + 0.68, l'_R = -0.9, eps = -156.5 (Cb B/L)^2 + 41.6 Cb B/L - 1.76; kappa = 0.5
+    (assumed, KVLCC2's value); w_P0 = 0.5 Cb - 0.05 (Taylor), t_P = 0.6 w_P0."""
     c = h.cb_b_l
     w = 0.5 * h.cb - 0.05
     return {
         "tR": 1.0 - (0.28 * h.cb + 0.55),
         "aH": 0.627 * h.cb - 0.153,
         "xH": -(0.4 + 0.1 * h.cb),
-        "gammaR": 2.06 * c + 0.14,
+        "gammaR": -22.2 * c**2 + 0.02 * c + 0.68,
         "lR": -0.9,
         "eps": -156.5 * c**2 + 41.6 * c - 1.76,
         "kappa": 0.5,
