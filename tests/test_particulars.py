@@ -111,13 +111,14 @@ def test_built_profile_loads_with_sources_and_a_prior_spread():
 
 
 def test_kvlcc2_from_particulars_turns_and_zigzags_like_marin():
-    """Looser than the issue's check (benchmarks/bench_profile_new.py measures the full build):
-    tactical diameter within 25 % and the 10/10 first overshoot within 5 deg of each MARIN run."""
+    """The issue's check on the fast build (one-step least squares, no output-error polish;
+    benchmarks/bench_profile_new.py measures the full build): tactical diameter within 20 % and the
+    10/10 first overshoot within 4 deg of each MARIN run."""
     fig = standard_trials(kvlcc2_built().profile)
     for side in ("starboard", "port"):
         td = fig.tactical_l[side] * KVLCC2.length
-        assert all(abs(td - m) <= 0.25 * m for m in MARIN_TACTICAL_M), td
-        assert all(abs(fig.overshoot_10[side] - m) <= 5.0 for m in MARIN_OVERSHOOT_10), fig.overshoot_10
+        assert all(abs(td - m) <= 0.20 * m for m in MARIN_TACTICAL_M), td
+        assert all(abs(fig.overshoot_10[side] - m) <= 4.0 for m in MARIN_OVERSHOOT_10), fig.overshoot_10
         assert fig.overshoot_20[side] > fig.overshoot_10[side]
     assert fig.warnings(KVLCC2.length) == []
 
