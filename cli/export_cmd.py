@@ -64,7 +64,9 @@ def register(app: typer.Typer) -> None:
         fmt: str = typer.Option("all", "--format", "-f", help="gpx | rtz | geojson | csv | card | all"),
         out: Path | None = typer.Option(None, "--out", "-o", help="output file (one format) or directory (all)"),
         sea_map: Path | None = typer.Option(
-            None, "--map", help="GeoJSON sea map to draw on the card (default: the bundled map the plan names)"
+            None,
+            "--map",
+            help="GeoJSON sea map file or a bundled map's name to draw on the card (default: the bundled map the plan names)",
         ),
         start: str | None = typer.Option(None, "--start", help="UTC start of the trial, ISO 8601 (e.g. 2026-06-01T08:00Z)"),
         no_pdf: bool = typer.Option(False, "--no-pdf", help="card: write the HTML only"),

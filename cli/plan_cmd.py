@@ -156,7 +156,9 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
 def register(app: typer.Typer) -> None:
     @app.command("plan")
     def plan(
-        map_path: Path | None = typer.Option(None, "--map", help="GeoJSON sea map (default: the bundled Helsinki example)"),
+        map_path: Path | None = typer.Option(
+            None, "--map", help="GeoJSON sea map file, or a bundled map's name: helsinki (default), open-sea"
+        ),
         ship: str = typer.Option("full-scale", "--ship", help="built-in profile name or a .toml/.json profile file"),
         start: str | None = typer.Option(None, "--start", help="LAT,LON,HEADING_DEG (default: the map's start feature)"),
         goal: str | None = typer.Option(None, "--goal", help="LAT,LON[,HEADING_DEG] (default: the map's goal feature)"),

@@ -41,6 +41,23 @@ def bundled_map_path(name: str = "helsinki") -> Path:
     return Path(__file__).resolve().parent / "data" / f"{name}.geojson"
 
 
+def bundled_map_names() -> list[str]:
+    """Names of the sea maps shipped with the package (``helsinki``, ``open-sea``)."""
+    return sorted(p.stem for p in bundled_map_path().parent.glob("*.geojson"))
+
+
+def map_source(path: str | Path | None) -> Path:
+    """The file a ``--map`` value names: an existing file as given, else a bundled map's name
+    (``open-sea``) resolved to its file, as ``--ship kvlcc2`` names a bundled profile; None is the
+    Helsinki example."""
+    if path is None:
+        return bundled_map_path()
+    path = Path(path)
+    if not path.exists() and path.name == str(path) and bundled_map_path(path.name).is_file():
+        return bundled_map_path(path.name)
+    return path
+
+
 @dataclass
 class MapPoint:
     """A start or goal point of the map (metric, ship convention) with its lon/lat."""
@@ -179,18 +196,20 @@ def _check_coords(src: str, i: int, geom: BaseGeometry) -> None:
 
 
 def load_map(path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: float = 0.5, repair: bool = True) -> SeaMap:
-    """Load and project a GeoJSON sea map (default: the bundled Helsinki map).
+    """Load and project a GeoJSON sea map, a file or a bundled map's name (:func:`map_source`;
+    default: the bundled Helsinki map).
 
     Invalid polygons are repaired with ``shapely.make_valid`` and reported in ``warnings``.
     Depth areas with ``min_depth_m < draught_m + ukc_m`` become obstacles.
     """
-    path = Path(path) if path is not None else bundled_map_path()
+    path = map_source(path)
     src = str(path)
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise MapError(
-            f"{src}: no such map file (give a GeoJSON FeatureCollection, or omit --map for the Helsinki example)"
+            f"{src}: no such map file (give a GeoJSON FeatureCollection or a bundled map's name: "
+            f"{', '.join(bundled_map_names())}; omit --map for the Helsinki example)"
         ) from None
     except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
         raise MapError(f"{src}: not valid JSON ({type(exc).__name__}): a sea map must be a GeoJSON FeatureCollection") from None

@@ -20,7 +20,6 @@ from expdesign.api import Design, mean_subtraction_warnings, run_design
 from expdesign.dopt import DEDICATED, InfoSet
 from expdesign.errors import DesignError
 from expdesign.rounding import _efficiency, round_design
-from maps.geo import bundled_map_path
 from primitives.information import PrimitiveInfo, library_information
 from primitives.library import Primitive, build_library, thesis_primitives
 from primitives.ship import ShipProfile
@@ -260,7 +259,7 @@ def _what_helps(exclude: dict[str, tuple[float, float]]) -> str:
     a, c = min(exclude.values(), key=lambda ac: ac[0] * ac[1])
     return (
         f"plan on a map with at least {_km(a)} x {_km(c)} of open water around the start, e.g. the package's open-sea "
-        f"map: --map {bundled_map_path('open-sea')}"
+        "map: --map open-sea"
     )
 
 

@@ -66,8 +66,17 @@ def test_a_map_too_small_says_what_would_help_and_the_open_sea_map_ships():
     from maps.trialdesign import _what_helps
 
     text = _what_helps({"zigzag_10_10_s": (6200.0, 2100.0), "turning_circle_35_s": (9000.0, 9000.0)})
-    assert "at least 6.2 km x 2.1 km of open water" in text and f"--map {bundled_map_path('open-sea')}" in text
-    sea = load_map(bundled_map_path("open-sea"))
+    assert "at least 6.2 km x 2.1 km of open water" in text and text.endswith("--map open-sea")
+    sea = load_map("open-sea")  # the name given as --map loads the shipped map
+    assert sea.source == str(bundled_map_path("open-sea"))
     assert sea.start is not None and sea.goal is not None
     data = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["maps"]
     assert "data/*.geojson" in data
+
+
+def test_a_map_name_that_is_neither_a_file_nor_bundled_names_the_bundled_maps(tmp_path, monkeypatch):
+    from maps.geo import MapError, load_map
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(MapError, match="no such map file.*bundled map's name: helsinki, open-sea"):
+        load_map("open-seas")

@@ -185,10 +185,12 @@ def test_kvlcc2_on_the_bundled_helsinki_map_exit_1(tmp_path, capsys):
 
 
 def _one_line_with_the_way_on(err: str) -> None:
-    """One line: why (under 400 characters), then what would help: the package's open-sea map by path."""
+    """One line: why (under 400 characters), then what would help: the package's open-sea map by name."""
+    from maps.geo import map_source
+
     why, _, way = err.strip().partition(", e.g. ")
     assert "\n" not in err.strip() and len(why) < 400, f"{len(why)} characters: {err}"
-    assert "open-sea.geojson" in way and Path(way.split("--map ")[-1]).exists(), err
+    assert way.endswith("--map open-sea") and map_source(way.split("--map ")[-1]).exists(), err
 
 
 @pytest.mark.slow

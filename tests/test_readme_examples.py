@@ -99,10 +99,16 @@ def test_readme_example_runs(cmds, tmp_path, monkeypatch, capsys):
     capsys.readouterr()
 
 
-def test_the_readme_example_of_the_open_sea_map_names_a_shipped_map():
-    """The KVLCC2 open-sea example is not run (minutes); its substitution is, and names a map that loads."""
-    from maps.geo import load_map
+@pytest.mark.parametrize("ship", ["kvlcc2", "coaster.toml"])
+def test_the_readme_examples_on_the_open_sea_name_a_shipped_map(ship, tmp_path, monkeypatch):
+    """The open-sea examples are not run here (a minute each); their ``--map open-sea`` is a
+    bundled map's name, which plan resolves as --ship resolves a bundled profile's."""
+    from maps.geo import bundled_map_path, load_map
 
-    line = next(c for cmds in EXAMPLES for c in cmds if "plan-trial --ship kvlcc2 --map" in c)
-    path = shlex.split(_substitute(line))[4]
-    assert load_map(path).start is not None
+    monkeypatch.chdir(tmp_path)  # no file named open-sea where the user stands
+    line = next(c for cmds in EXAMPLES for c in cmds if f"plan-trial --ship {ship} --map" in c)
+    argv = shlex.split(line)
+    name = argv[argv.index("--map") + 1]
+    assert name == "open-sea"
+    sea = load_map(name)
+    assert sea.source == str(bundled_map_path("open-sea")) and sea.start is not None
