@@ -71,6 +71,9 @@ def _with(**changes: str) -> list[str]:
         ({"actuator": "twin_screw"}, ["--actuator twin_screw", "rudder_propeller"]),
         ({"pitch_ratio": "2.5"}, ["--pitch-ratio 2.5", "0.5-1.4"]),
         ({"rpm": "5000"}, ["--rpm 5000", "rpm"]),
+        ({"name": "two\nlines"}, ["--name 'two\\nlines'", "letters, digits"]),
+        ({"name": "my ship"}, ["--name 'my ship'", "letters, digits"]),
+        ({"seed": "-1"}, ["--seed -1", ">= 0"]),
     ],
 )
 def test_bad_particulars_are_refused_in_one_line_and_nothing_is_written(tmp_path, capsys, changes, says):

@@ -198,6 +198,8 @@ def build_profile(p: Particulars, *, oe_nfev: int = 15, draws: int = 12, seed: i
     """The profile of the particulars ``p`` (see the module docstring); raises ParticularsError on
     particulars no ship has, FloatingPointError if the MMG model or the fit diverges."""
     check_particulars(p)
+    if seed < 0:
+        raise ParticularsError(f"--seed {seed}: give an integer >= 0 (the seed of the prior's draws)")
     pitch = p.pitch_ratio or (_pitch_for_rpm(p) if p.rpm else 0.75)
     power = _check_power(p, pitch)
     ship = mmg_ship(p, pitch)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 from primitives.errors import UserError
@@ -50,8 +51,13 @@ def _positive(name: str, value: float | None, unit: str) -> None:
         raise ParticularsError(f"--{name} {value!r}: must be a number > 0 {unit}".rstrip())
 
 
+NAME = re.compile(r"[A-Za-z0-9_-]+")  # the profile's name: a file stem and a one-line TOML comment
+
+
 def check_particulars(p: Particulars) -> None:
     """Refuse particulars no ship has, one line naming the value and the plausible range."""
+    if not NAME.fullmatch(p.name):
+        raise ParticularsError(f"--name {p.name!r}: use letters, digits, '_' and '-' only (e.g. my-coaster)")
     if p.actuator in PLANNED_ACTUATORS:
         raise ParticularsError(
             f"--actuator {p.actuator}: not built from particulars yet; use --actuator rudder_propeller (single screw, one rudder)"
