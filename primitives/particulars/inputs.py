@@ -79,23 +79,36 @@ def check_particulars(p: Particulars) -> None:
         _positive(name, val, unit)
     if not 0.35 <= p.cb <= 0.9:
         raise ParticularsError(f"--block-coefficient {p.cb:g}: outside 0.35-0.9, the range of displacement ships")
-    if p.beam >= p.length:
-        raise ParticularsError(f"--beam {p.beam:g} m: not below the length {p.length:g} m; ships have L/B 3-9")
-    if p.draught >= p.beam:
-        raise ParticularsError(f"--draught {p.draught:g} m: not below the beam {p.beam:g} m; ships have B/T 1.5-5")
-    lt = p.length * p.draught
-    if p.rudder_area is not None and p.rudder_area > 0.05 * lt:
+    if not 3.0 <= p.length / p.beam <= 9.0:
         raise ParticularsError(
-            f"--rudder-area {p.rudder_area:g} m^2: over 5 % of L*T ({0.05 * lt:.4g} m^2); rudders are 1-5 % of L*T "
+            f"--beam {p.beam:g} m: L/B {p.length / p.beam:.2f} with the length {p.length:g} m; ships have L/B 3-9 "
+            f"({p.length / 9:.4g}-{p.length / 3:.4g} m of beam for this length)"
+        )
+    if not 1.5 <= p.beam / p.draught <= 5.0:
+        raise ParticularsError(
+            f"--draught {p.draught:g} m: B/T {p.beam / p.draught:.2f} with the beam {p.beam:g} m; ships have B/T 1.5-5 "
+            f"({p.beam / 5:.4g}-{p.beam / 1.5:.4g} m of draught for this beam)"
+        )
+    lt = p.length * p.draught
+    if p.rudder_area is not None and not 0.01 * lt <= p.rudder_area <= 0.05 * lt:
+        raise ParticularsError(
+            f"--rudder-area {p.rudder_area:g} m^2: {100 * p.rudder_area / lt:.2g} % of L*T; rudders are 1-5 % of L*T "
             f"({0.01 * lt:.4g}-{0.05 * lt:.4g} m^2 for this ship)"
         )
-    if p.prop_diameter is not None and p.prop_diameter > p.draught:
+    if p.prop_diameter is not None and not 0.4 * p.draught <= p.prop_diameter <= 0.8 * p.draught:
         raise ParticularsError(
-            f"--propeller-diameter {p.prop_diameter:g} m: larger than the draught {p.draught:g} m; screws are 0.4-0.8 x the draught"
+            f"--propeller-diameter {p.prop_diameter:g} m: {p.prop_diameter / p.draught:.2f} x the draught {p.draught:g} m; "
+            f"screws are 0.4-0.8 x the draught ({0.4 * p.draught:.3g}-{0.8 * p.draught:.3g} m)"
         )
     if p.pitch_ratio is not None and not 0.5 <= p.pitch_ratio <= 1.4:
         raise ParticularsError(f"--pitch-ratio {p.pitch_ratio:g}: outside 0.5-1.4, the range of the Wageningen B-series")
     fn = p.speed / math.sqrt(9.81 * p.length)
+    if fn < 0.05:
+        raise ParticularsError(
+            f"--speed {p.speed_kn:g} kn: Froude number {fn:.3f} on a {p.length:g} m hull; trials are sailed at a service "
+            f"speed, Froude number 0.05-0.45 ({0.05 * math.sqrt(9.81 * p.length) / KNOT:.1f}-"
+            f"{0.45 * math.sqrt(9.81 * p.length) / KNOT:.1f} kn)"
+        )
     if fn > 0.45:
         raise ParticularsError(
             f"--speed {p.speed_kn:g} kn: Froude number {fn:.2f} on a {p.length:g} m hull; a displacement ship's regressions "
