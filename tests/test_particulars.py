@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from primitives.particulars import regressions as rg
-from primitives.particulars.build import Particulars, build_profile, coefficient_spreads
+from primitives.particulars.build import Particulars, build_profile
 from primitives.particulars.propeller import BSeries
 from primitives.particulars.trials import standard_trials
 
@@ -36,22 +36,57 @@ MARIN_TACTICAL_M = (982.0, 1068.0)
 MARIN_OVERSHOOT_10 = (9.4, 8.0)
 
 
-def test_linear_hull_derivatives_reproduce_the_published_kvlcc2_within_their_spread():
-    """Clarke et al. (1983), the model's linear derivatives, within two of the spreads the profile's
-    prior draws them with; Kijima et al. (1990) within the same band."""
-    spread = coefficient_spreads(KVLCC2)
-    for source in (rg.clarke_linear(KVLCC2.hull), rg.kijima_linear(KVLCC2.hull)):
-        for k in ("Yv", "Yr", "Nv", "Nr"):
-            assert abs(source[k] - MMG_KVLCC2[k]) <= 2 * spread[k] * abs(source[k]), (k, source[k])
-    cl = rg.clarke_linear(KVLCC2.hull)
-    assert cl["Nv"] == pytest.approx(MMG_KVLCC2["Nv"], rel=0.05)  # the course-stability pair, the tightest
-    assert cl["Nr"] == pytest.approx(MMG_KVLCC2["Nr"], rel=0.10)
+# A worked example computed by hand from the published formulas (L 100 m, B 20 m, T 5 m, Cb 0.5:
+# Cb B/L = 0.1, k = 2T/L = 0.1, m' = 0.2, d/B = 0.25, B/d = 4, d/L = 0.05, B/L = 0.2,
+# Clarke's c = pi (d/L)^2 = 0.0078540, x L/d = 20); each line is one formula.
+WORKED = rg.Hull(100.0, 20.0, 5.0, 0.5)
+BY_HAND = {
+    rg.clarke_linear: {
+        "Yv": -0.0078540 * (1 + 0.40 * 0.5 * 4) * 20,  # -0.28274
+        "Yr": -0.0078540 * (-0.5 + 2.2 * 0.2 - 0.080 * 4) * 20 + 0.05 * 0.2,  # + m'_x: 0.06969
+        "Nv": -0.0078540 * (0.5 + 2.4 * 0.05) * 20,  # -0.09739
+        "Nr": -0.0078540 * (0.25 + 0.039 * 4 - 0.56 * 0.2) * 20,  # -0.04618
+        "my": 0.0078540 * (1 + 0.16 * 0.5 * 4 - 5.1 * 0.04) * 20,  # 0.17530
+        "Jz": 0.0078540 * (1 / 12 + 0.017 * 0.5 * 4 - 0.33 * 0.2) * 20,  # 0.00806
+    },
+    rg.kijima_linear: {"Yv": -0.29708, "Yr": 0.2 + 0.01 - 0.15, "Nv": -0.1, "Nr": -0.054 + 0.01},
+    rg.kijima_nonlinear: {"Yrr": 0.343 * 0.25 * 0.5 - 0.07, "Nbbr": -(0.575 - 1.84 + 1.6), "Nbrr": -(0.0625 - 0.05)},
+    rg.interaction: {
+        "tR": 0.31, "aH": 0.1605, "xH": -0.45, "gammaR": -0.222 + 0.002 + 0.68, "lR": -0.9,
+        "eps": -1.565 + 4.16 - 1.76, "wP0": 0.2, "tP": 0.12,
+    },
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("formula", list(BY_HAND), ids=lambda f: f.__name__)
+def test_each_regression_reproduces_the_worked_example(formula):
+    got = formula(WORKED)
+    for k, want in BY_HAND[formula].items():
+        assert got[k] == pytest.approx(want, rel=1e-4, abs=1e-6), (k, got[k], want)
+
+
+def test_yoshimura_surge_terms_reproduce_the_worked_example():
+    """Yoshimura & Masumoto (2012), Table 3, at Cb B/L = 0.1 with m'_y = 0.2."""
+    got = rg.yoshimura_surge(WORKED, 0.2)
+    want = {"Xvv": 0.115 - 0.18, "Xvr": 0.2 - 0.191 + 0.08, "Xrr": -0.0085 + 0.008, "Xvvvv": -0.668 + 1.1}
+    assert got == pytest.approx(want, abs=1e-9)
+
+
+def test_linear_hull_derivatives_reproduce_the_published_kvlcc2():
+    """Clarke et al. (1983) with Y'_r + m'_x, the model's linear derivatives, against KVLCC2's captive
+    tests at fixed tolerances (measured: Y'_v +23 %, Y'_r -3 %, N'_v -2 %, N'_r +7 %); Kijima et al.
+    (1990), the independent check, within 10 % except Y'_v (+30 %)."""
+    cl, kj = rg.clarke_linear(KVLCC2.hull), rg.kijima_linear(KVLCC2.hull)
+    for k, rel in (("Yv", 0.25), ("Yr", 0.05), ("Nv", 0.05), ("Nr", 0.10)):
+        assert cl[k] == pytest.approx(MMG_KVLCC2[k], rel=rel), (k, cl[k])
+    for k, rel in (("Yv", 0.35), ("Yr", 0.10), ("Nv", 0.10), ("Nr", 0.10)):
+        assert kj[k] == pytest.approx(MMG_KVLCC2[k], rel=rel), (k, kj[k])
 
 
 @pytest.mark.parametrize(("v", "r"), [(-0.2, 0.4), (-0.2, 0.6)])
 def test_kijima_nonlinear_hull_forces_in_a_turn_match_the_published_kvlcc2(v, r):
     """Kijima's beta|beta|, r|r|, beta^2 r, beta r^2 form against the published cubic MMG terms at a
-    turning-circle state (drift 0.2, r' 0.4-0.6): within the 50 % spread the prior assumes."""
+    turning-circle state (drift 0.2, r' 0.4-0.6): same sign, within 50 %."""
     k, m = rg.kijima_nonlinear(KVLCC2.hull), MMG_KVLCC2
     b = -v
     for dof in ("Y", "N"):
@@ -62,10 +97,13 @@ def test_kijima_nonlinear_hull_forces_in_a_turn_match_the_published_kvlcc2(v, r)
 
 
 def test_added_mass_and_interaction_match_the_published_kvlcc2():
+    """Within 20 % of KVLCC2's captive-test values: m'_y, J'_z, a_H, x'_H, eps, t_P. Not checked,
+    because the regressions miss KVLCC2 by more (README): t_R 0.22 (0.39), gamma_R 0.20 (0.40 / 0.64),
+    l'_R -0.9 (-0.71), m'_x 0.015 (0.022); kappa is not a regression (0.5 assumed)."""
     am, it = rg.added_mass(KVLCC2.hull), rg.interaction(KVLCC2.hull)
     assert am["my"] == pytest.approx(MMG_KVLCC2["my"], rel=0.15)
     assert am["Jz"] == pytest.approx(MMG_KVLCC2["Jz"], rel=0.20)
-    for k in ("aH", "xH", "eps", "tP", "kappa"):  # within the 20 % spread the prior draws them with
+    for k in ("aH", "xH", "eps", "tP"):
         assert it[k] == pytest.approx(MMG_KVLCC2[k], rel=0.2), k
     # KVLCC2's rudder: span 15.8 m for 136.7 m^2 (model 0.345 m, scale 45.7) gives the published f_alpha
     assert rg.rudder_lift_slope(15.8**2 / 136.7) == pytest.approx(MMG_KVLCC2["f_alpha"], rel=0.01)
@@ -87,8 +125,8 @@ def test_bseries_thrust_reproduces_the_published_kvlcc2_open_water_curve():
 def test_resistance_reproduces_the_ittc_line_and_the_published_kvlcc2_model_within_its_spread():
     assert rg.friction_ittc57(1.0, 1e7 * rg.NU_WATER) == pytest.approx(0.003, rel=1e-9)  # log10 Re = 7
     model = rg.Hull(7.0, 7.0 * 58 / 320, 7.0 * 20.8 / 320, 0.81)  # the 7 m KVLCC2 model, fresh water
-    est = rg.resistance_nd(model, 1.179, nu=1.139e-6)
-    assert abs(est - MMG_KVLCC2["R0"]) <= 2 * coefficient_spreads(KVLCC2)["R0"] * est
+    est = rg.resistance_nd(model, 1.179, nu=1.139e-6)  # friction and form only: 0.0165, 25 % below
+    assert est == pytest.approx(MMG_KVLCC2["R0"], rel=0.30)
 
 
 @cache
