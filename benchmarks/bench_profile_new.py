@@ -35,7 +35,7 @@ from diagnose.recording import read_marin_dat  # noqa: E402
 from primitives import helm as hm  # noqa: E402
 from primitives.library import make_primitive  # noqa: E402
 from primitives.particulars.build import Built, Particulars, build_profile  # noqa: E402
-from primitives.particulars.fit import balance_thrust  # noqa: E402
+from primitives.particulars.fit import balance_thrust, excitation_runs  # noqa: E402
 from primitives.particulars.trials import first_overshoot, standard_trials, turn_figures  # noqa: E402
 from primitives.ship import ProfileError  # noqa: E402
 
@@ -87,6 +87,13 @@ def _say_band(name: str, built: Built, ref: list[float]) -> None:
     )
 
 
+def mmg_turn(built: Built, p: Particulars) -> float:
+    """Tactical diameter [m] of the MMG model behind the profile (before the per-sample fit), on the
+    35 deg turning circle the fit sees."""
+    r = excitation_runs(built.mmg, p.speed, built.approach_rps, built.profile.sample_time)[0]
+    return turn_figures(np.column_stack([r.xy, r.psi]))[1]
+
+
 def _zigzag_10(side: float):
     state = {"s": side}
 
@@ -124,6 +131,8 @@ def mariner_check() -> bool:
         print(
             f"Mariner 10/10 overshoot   {side:9s} {os10:5.1f} deg vs PMM {want:5.1f} deg: {os10 - want:+5.1f} deg (limit 4 deg)"
         )
+    td = mmg_turn(built, MARINER)
+    print(f"Mariner MMG model alone (before the fit): tactical diameter {td:.0f} m ({td / MARINER.length:.2f} L)")
     print("Mariner: " + ("PASS" if ok else "FAIL"))
     _say_band("Mariner", built, [ref["tc +1"], ref["tc -1"]])
     return ok
@@ -157,6 +166,8 @@ def main() -> int:
                 f"10/10 overshoot  {side:9s} {os10:5.1f} deg vs MARIN {run:7s} {ref[run]:5.1f} deg: {d:+5.1f} deg (limit 4 deg)"
             )
     print(f"20/20 overshoot {fig.overshoot_20['starboard']:.1f} deg; advance {fig.advance_l['starboard']:.2f} L; {fig.stopping}")
+    td = mmg_turn(built, KVLCC2)
+    print(f"KVLCC2 MMG model alone (before the fit): tactical diameter {td:.0f} m ({td / KVLCC2.length:.2f} L)")
     print("KVLCC2: " + ("PASS" if ok else "FAIL"))
     _say_band("KVLCC2", built, [ref["tc_35"], ref["tc_-35"]])
     ok &= mariner_check()

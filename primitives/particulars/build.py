@@ -42,7 +42,6 @@ class Built:
     mmg: MMGShip
     approach_rps: float
     notes: list[str] = field(default_factory=list)
-    fit_percent: dict[str, tuple[float, float, float]] = field(default_factory=dict)
 
 
 # -- the MMG model --------------------------------------------------------------
@@ -224,4 +223,4 @@ def build_profile(p: Particulars, *, oe_nfev: int = 15, draws: int = 12, seed: i
     notes = []
     if p.rpm and p.pitch_ratio:
         notes.append(f"the screw of P/D {pitch:g} holds {p.speed_kn:g} kn at {60 * n0:.1f} rpm, not the given {p.rpm:g} rpm")
-    return Built(text, profile, ship, n0, notes, fits)
+    return Built(text, profile, ship, n0, notes)

@@ -15,7 +15,7 @@ from primitives.particulars.mmg import MMGShip, Run, fixed_helm, run, zigzag_hel
 from primitives.profile_document import profile_from_dict
 from primitives.regressors import predictor_regressors
 from primitives.ship import ShipProfile
-from primitives.simulate import simulate
+from primitives.simulate import model_signals, simulate
 
 
 def excitation_runs(ship: MMGShip, speed: float, n0: float, ts: float) -> list[Run]:
@@ -54,18 +54,22 @@ def one_step_ls(profile: ShipProfile, runs: list[Run]) -> np.ndarray:
 
 
 def balance_thrust(profile: ShipProfile, theta: np.ndarray, speed: float, n0: float) -> np.ndarray:
-    """Xnn so that the model holds ``speed`` at ``n0`` (surge increment zero): u|u| Xuu + n^2 Xnn = 0."""
+    """Xnn so that the model holds ``speed`` [m/s] straight ahead at ``n0`` [rev/s]: the surge
+    increment of every other term there, cancelled by Xnn n0^2."""
     th = theta.copy()
-    th[1] = -th[0] * speed * abs(speed) / n0**2
+    j = profile.param_names.index("Xnn")
+    th[j] = 0.0
+    sig = model_signals(profile, np.array([speed, 0.0, 0.0]), np.array(0.0), {"delta": 0.0, "n": n0})
+    th[j] = -float(profile.model.increments(sig, th)[0]) / n0**2
     return th
 
 
 def output_error(profile: ShipProfile, theta: np.ndarray, runs: list[Run], max_nfev: int = 15) -> np.ndarray:
     """Output-error least squares of every parameter on the open-loop simulated runs, each run's
     residual scaled by its own spread (batched finite-difference Jacobian through ``simulate``)."""
-    # the fit simulates every run some 15 x (p + 1) times in all: worth loading the compiled loop
-    # (jitloop.use decides per call, and each call here is below its threshold)
-    jitloop.use(jitloop.MIN_WORK)
+    # the fit simulates every run some max_nfev x (p + 1) times: each call is below jitloop's
+    # threshold, their sum decides whether loading the compiled loop pays (as jitloop.use would)
+    jitloop.use(max_nfev * (theta.size + 1) * sum(len(r.nu) for r in runs))
     scale = [np.std(r.nu, axis=0) * math.sqrt(len(r.nu)) + 1e-12 for r in runs]
     typ = np.where(theta != 0, theta, 1e-9)
 

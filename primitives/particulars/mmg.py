@@ -40,7 +40,7 @@ class MMGShip:
     def derivatives(self, nu: np.ndarray, delta: float, n: float) -> np.ndarray:
         """(u', v', r') [m/s^2, m/s^2, rad/s^2] of eq. (4)."""
         u, v, r = nu
-        L, d, h, it = self.length, self.draught, self.hull, self.inter
+        L, d = self.length, self.draught
         m = RHO * self.volume
         q = 0.5 * RHO * L * d
         mx, my = self.mass["mx"] * q * L, self.mass["my"] * q * L
@@ -52,45 +52,54 @@ class MMGShip:
         else:
             vp, rp = v / U, r * L / U
         beta = -vp  # drift angle (small-angle form of atan(-v/u) the regressions use)
-        # hull, eqs. (10)-(12) with the Kijima et al. (1990) non-linear terms
-        xh = q * U**2 * (-h["R0"] + h["Xvv"] * vp**2 + h["Xvr"] * vp * rp + h["Xrr"] * rp**2 + h["Xvvvv"] * vp**4)
-        yh = (
-            q
-            * U**2
-            * (
-                h["Yv"] * vp
-                + h["Yr"] * rp
-                + h["Ybb"] * beta * abs(beta)
-                + h["Yrr"] * rp * abs(rp)
-                + (h["Ybbr"] * beta + h["Ybrr"] * rp) * beta * rp
-            )
+        xh, yh, nh = self.hull_forces(vp, rp, U)
+        xp, u_p = self.propeller_force(u, n, beta, rp)
+        xr, yr, nr = self.rudder_forces(delta, n, u_p, U, beta, rp)
+        return np.array(
+            [
+                (xh + xr + xp + (m + my) * v * r) / (m + mx),
+                (yh + yr - (m + mx) * u * r) / (m + my),
+                (nh + nr) / (izg + jz),
+            ]
         )
-        nh = (
-            q
-            * L
-            * U**2
-            * (
-                h["Nv"] * vp
-                + h["Nr"] * rp
-                + h["Nbb"] * beta * abs(beta)
-                + h["Nrr"] * rp * abs(rp)
-                + (h["Nbbr"] * beta + h["Nbrr"] * rp) * beta * rp
+
+    def hull_forces(self, vp: float, rp: float, U: float) -> tuple[float, float, float]:
+        """X_H, Y_H, N_H [N, N, N m] of eqs. (10)-(12), with the Kijima et al. (1990) non-linear terms
+        in beta = -v'."""
+        h, L = self.hull, self.length
+        q = 0.5 * RHO * L * self.draught * U**2
+        b = -vp
+        xh = q * (-h["R0"] + h["Xvv"] * vp**2 + h["Xvr"] * vp * rp + h["Xrr"] * rp**2 + h["Xvvvv"] * vp**4)
+
+        def lateral(dof: str) -> float:
+            return (
+                h[f"{dof}v"] * vp
+                + h[f"{dof}r"] * rp
+                + h[f"{dof}bb"] * b * abs(b)
+                + h[f"{dof}rr"] * rp * abs(rp)
+                + (h[f"{dof}bbr"] * b + h[f"{dof}brr"] * rp) * b * rp
             )
-        )
-        # propeller, eqs. (13)-(15); the turn wake is not eq. (16) (Yasukawa & Yoshimura's C_1, C_2 need
-        # captive tests) but Inoue et al. (1981): w_P = w_P0 exp(-4 beta_P^2)
+
+        return xh, q * lateral("Y"), q * L * lateral("N")
+
+    def propeller_force(self, u: float, n: float, beta: float, rp: float) -> tuple[float, float]:
+        """X_P [N] of eqs. (13)-(15) and the inflow speed u_P [m/s]. The turn wake is not eq. (16)
+        (Yasukawa & Yoshimura's C_1, C_2 need captive tests) but Inoue et al. (1981):
+        w_P = w_P0 exp(-4 beta_P^2)."""
         beta_p = beta - self.x_p * rp
-        w_p = it["wP0"] * math.exp(-4.0 * beta_p**2)
-        u_p = (1.0 - w_p) * u
+        u_p = (1.0 - self.inter["wP0"] * math.exp(-4.0 * beta_p**2)) * u
         D = self.prop_diameter
         k0, k1, k2 = self.kt
         thrust = RHO * D**4 * (k0 * n * abs(n) + k1 * n * u_p / D + k2 * u_p * abs(u_p) / D**2)
-        xp = (1.0 - it["tP"]) * thrust
-        # rudder, eqs. (17)-(27)
+        return (1.0 - self.inter["tP"]) * thrust, u_p
+
+    def rudder_forces(self, delta: float, n: float, u_p: float, U: float, beta: float, rp: float) -> tuple[float, float, float]:
+        """X_R, Y_R, N_R [N, N, N m] of eqs. (17)-(27)."""
+        it, D = self.inter, self.prop_diameter
         eta = min(D / self.rudder_span, 1.0)
         if abs(n) > 1e-6 and u_p > 0:
             j = u_p / (n * D)
-            kt = k0 + k1 * j + k2 * j * j
+            kt = self.kt[0] + self.kt[1] * j + self.kt[2] * j * j
             load = max(1.0 + 8.0 * max(kt, 0.0) / (math.pi * j * j), 0.0)
             u_r = it["eps"] * u_p * math.sqrt(eta * (1.0 + it["kappa"] * (math.sqrt(load) - 1.0)) ** 2 + (1.0 - eta))
         else:
@@ -100,25 +109,16 @@ class MMGShip:
         fn = 0.5 * RHO * self.rudder_area * (u_r**2 + v_r**2) * self.f_alpha * math.sin(alpha)
         xr = -(1.0 - it["tR"]) * fn * math.sin(delta)
         yr = -(1.0 + it["aH"]) * fn * math.cos(delta)
-        nr = -(self.x_r + it["aH"] * it["xH"]) * L * fn * math.cos(delta)
-        return np.array(
-            [
-                (xh + xr + xp + (m + my) * v * r) / (m + mx),
-                (yh + yr - (m + mx) * u * r) / (m + my),
-                (nh + nr) / (izg + jz),
-            ]
-        )
+        nr = -(self.x_r + it["aH"] * it["xH"]) * self.length * fn * math.cos(delta)
+        return xr, yr, nr
 
-    def step(self, nu: np.ndarray, delta: float, n: float, dt: float, substeps: int = 1) -> np.ndarray:
+    def step(self, nu: np.ndarray, delta: float, n: float, dt: float) -> np.ndarray:
         """Classical Runge-Kutta over dt with the inputs held."""
-        h = dt / substeps
-        for _ in range(substeps):
-            k1 = self.derivatives(nu, delta, n)
-            k2 = self.derivatives(nu + 0.5 * h * k1, delta, n)
-            k3 = self.derivatives(nu + 0.5 * h * k2, delta, n)
-            k4 = self.derivatives(nu + h * k3, delta, n)
-            nu = nu + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-        return nu
+        k1 = self.derivatives(nu, delta, n)
+        k2 = self.derivatives(nu + 0.5 * dt * k1, delta, n)
+        k3 = self.derivatives(nu + 0.5 * dt * k2, delta, n)
+        k4 = self.derivatives(nu + dt * k3, delta, n)
+        return nu + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
 
 
 @dataclass
@@ -133,7 +133,7 @@ class Run:
     inputs: np.ndarray
 
 
-Helm = Callable[[int, float, float], tuple[float, float]]  # (k, psi, r) -> (rudder command [rad], n [rev/s])
+Helm = Callable[[int, float], tuple[float, float]]  # (k, psi) -> (rudder command [rad], n [rev/s])
 
 
 def run(ship: MMGShip, name: str, helm: Helm, u0: float, steps: int, dt: float, rate: float, max_rudder: float) -> Run:
@@ -143,7 +143,7 @@ def run(ship: MMGShip, name: str, helm: Helm, u0: float, steps: int, dt: float, 
     psi, pos, delta = 0.0, np.zeros(2), 0.0
     nus, psis, xys, ins = [nu], [psi], [pos], []
     for k in range(steps):
-        cmd, n = helm(k, psi, nu[2])
+        cmd, n = helm(k, psi)
         cmd = float(np.clip(cmd, -max_rudder, max_rudder))
         delta += float(np.clip(cmd - delta, -rate * dt, rate * dt))
         new = ship.step(nu, delta, n, dt)
@@ -165,7 +165,7 @@ def zigzag_helm(angle: float, side: float, n: float) -> Helm:
     check angle to that side (ITTC 7.5-04-02-01)."""
     state = {"s": side}
 
-    def helm(k: int, psi: float, r: float) -> tuple[float, float]:
+    def helm(k: int, psi: float) -> tuple[float, float]:
         if state["s"] * psi >= angle:
             state["s"] = -state["s"]
         return state["s"] * angle, n
@@ -173,12 +173,11 @@ def zigzag_helm(angle: float, side: float, n: float) -> Helm:
     return helm
 
 
-def fixed_helm(rudder: float, n: float, start: int = 0, n_after: float | None = None, at: int | None = None) -> Helm:
-    """A constant rudder from sample ``start`` (turning circle); optionally the shaft speed changes
-    to ``n_after`` at sample ``at`` (speed change, stopping)."""
+def fixed_helm(rudder: float, n: float, n_after: float | None = None, at: int | None = None) -> Helm:
+    """A constant rudder (turning circle); optionally the shaft speed changes to ``n_after`` at
+    sample ``at`` (speed change, stopping)."""
 
-    def helm(k: int, psi: float, r: float) -> tuple[float, float]:
-        shaft = n if at is None or k < at else n_after
-        return (rudder if k >= start else 0.0), shaft
+    def helm(k: int, psi: float) -> tuple[float, float]:
+        return rudder, (n if at is None or k < at else n_after)
 
     return helm
