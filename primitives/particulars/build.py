@@ -190,7 +190,8 @@ def prior_std(p: Particulars, ship: MMGShip, n0: float, ts: float, n_max: float,
 
 PRIOR_NOTE = """Prior spread (1 sigma) of each coefficient above: the std over MMG models whose coefficients are drawn
 from their regressions' spread (linear hull: max(20 %, |Clarke - Kijima|); non-linear hull 50 %,
-interaction 20 %, resistance 30 %, assumed where the regressions publish no scatter), each refitted."""
+interaction 20 %, resistance 30 %, assumed where the regressions publish no scatter), each refitted by one-step
+least squares only (the coefficients above are also fitted by output error)."""
 
 
 def build_profile(p: Particulars, *, oe_nfev: int = 15, draws: int = 12, seed: int = 0) -> Built:
