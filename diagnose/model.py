@@ -19,6 +19,7 @@ import numpy as np
 from diagnose.candidates import Candidate, Slot
 from diagnose.recording import Recording
 from primitives import jitloop
+from primitives.goodness import fit_percent  # noqa: F401  (diagnose.model.fit_percent, as before)
 from primitives.ship import ShipProfile
 from primitives.simulate import WIND_EXCESS, VelocityStep, body_from_ne, relative_signals
 from primitives.terms import TermSet, compile_term, signals_used
@@ -520,10 +521,3 @@ def escaped(p: Prepared, yh: np.ndarray) -> bool:
     recorded range by far (the test of :func:`diverges`, for a simulation already made)."""
     span = np.max(np.abs(p.y), axis=0) + 3.0 * np.std(p.y, axis=0) + 1e-9
     return bool(not np.all(np.isfinite(yh)) or np.any(np.max(np.abs(yh), axis=0) > 20.0 * span))
-
-
-def fit_percent(y: np.ndarray, yhat: np.ndarray) -> np.ndarray:
-    """NRMSE fit per DOF, 100 (1 - ||y - y_hat|| / ||y - mean y||)."""
-    num = np.linalg.norm(y - yhat, axis=0)
-    den = np.linalg.norm(y - y.mean(axis=0), axis=0)
-    return 100.0 * (1.0 - num / np.maximum(den, 1e-300))

@@ -8,11 +8,11 @@ import math
 
 import numpy as np
 
+from primitives.maneuvers import MAX_RUDDER_DEG  # SOLAS II-1 reg. 29.3.2: 35 deg each side
 from primitives.particulars import regressions as rg
 from primitives.particulars.inputs import Particulars
 from primitives.particulars.mmg import MMGShip
 
-MAX_RUDDER_DEG = 35.0  # SOLAS II-1 reg. 29.3.2: 35 deg each side
 RUDDER_RATE_DEG_S = 2.32  # SOLAS II-1 reg. 29.3.2: 35 deg port to 30 deg stbd in 28 s
 
 # the per-sample model: kvlcc2.toml's structure (Ljungberg 2022, eq. 3.60, with quadratic

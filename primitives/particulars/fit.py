@@ -9,7 +9,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from primitives import jitloop
-from primitives.particulars.document import MAX_RUDDER_DEG, RUDDER_RATE_DEG_S, profile_document
+from primitives.goodness import fit_percent
+from primitives.maneuvers import MAX_RUDDER_DEG
+from primitives.particulars.document import RUDDER_RATE_DEG_S, profile_document
 from primitives.particulars.inputs import Particulars
 from primitives.particulars.mmg import MMGShip, Run, fixed_helm, run, zigzag_helm
 from primitives.profile_document import profile_from_dict
@@ -94,12 +96,10 @@ def output_error(profile: ShipProfile, theta: np.ndarray, runs: list[Run], max_n
     return (1.0 + sol.x) * typ
 
 
-def fit_percent(profile: ShipProfile, theta: np.ndarray, r: Run) -> tuple[float, float, float]:
+def run_fit_percent(profile: ShipProfile, theta: np.ndarray, r: Run) -> tuple[float, float, float]:
     """Open-loop NRMSE fit % per DOF of the profile on one MMG run."""
     nu = simulate(profile, r.inputs, theta, nu0=r.nu[0], positions=False).nu[0]
-    err = np.linalg.norm(r.nu - nu, axis=0)
-    dev = np.linalg.norm(r.nu - r.nu.mean(axis=0), axis=0)
-    return tuple(float(x) for x in 100.0 * (1.0 - err / np.maximum(dev, 1e-12)))
+    return tuple(float(x) for x in fit_percent(r.nu, nu))
 
 
 def fit_profile(p: Particulars, ship: MMGShip, n0: float, ts: float, n_max: float, oe_nfev: int = 15) -> tuple[np.ndarray, dict]:
@@ -111,4 +111,4 @@ def fit_profile(p: Particulars, ship: MMGShip, n0: float, ts: float, n_max: floa
         theta = balance_thrust(shell, output_error(shell, theta, runs, oe_nfev), p.speed, n0)
     if not np.all(np.isfinite(theta)):
         raise FloatingPointError("the fit of the per-sample model diverged")
-    return theta, {r.name: fit_percent(shell, theta, r) for r in runs}
+    return theta, {r.name: run_fit_percent(shell, theta, r) for r in runs}

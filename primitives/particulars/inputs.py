@@ -7,9 +7,8 @@ import re
 from dataclasses import dataclass
 
 from primitives.errors import UserError
+from primitives.library import KNOT
 from primitives.particulars import regressions as rg
-
-KNOT = 1852.0 / 3600.0
 
 ACTUATORS = ("rudder_propeller",)
 
