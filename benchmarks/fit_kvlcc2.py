@@ -34,10 +34,10 @@ sys.path.insert(0, str(ROOT))
 from diagnose.model import AugmentedModel, fit_percent, prepare  # noqa: E402
 from diagnose.recording import Recording, read_marin_dat  # noqa: E402
 from primitives.io import atomic_write_text  # noqa: E402
+from primitives.particulars.fit import balance_thrust as hold_speed  # noqa: E402
 from primitives.profile_document import profile_from_dict  # noqa: E402
 from primitives.regressors import predictor_regressors  # noqa: E402
 from primitives.ship import load_profile  # noqa: E402
-from primitives.simulate import model_signals  # noqa: E402
 
 DATA = ROOT / "diagnose" / "data"
 PROFILE = ROOT / "primitives" / "profiles" / "kvlcc2.toml"
@@ -74,13 +74,7 @@ def one_step_ls(profile, recs: list[Recording]) -> np.ndarray:
 
 def balance_thrust(profile, theta: np.ndarray) -> np.ndarray:
     """Set the n^2 coefficient so the surge increment is zero at cruise speed and approach rpm."""
-    th = theta.copy()
-    j = profile.param_names.index("Xnn")
-    n0 = profile.engine.approach_rpm / 60.0
-    th[j] = 0.0
-    sig = model_signals(profile, np.array([profile.cruise_speed_mps, 0.0, 0.0]), np.array(0.0), {"delta": 0.0, "n": n0})
-    th[j] = -float(profile.model.increments(sig, th)[0]) / n0**2
-    return th
+    return hold_speed(profile, theta, profile.cruise_speed_mps, profile.engine.approach_rpm / 60.0)
 
 
 def output_error(profile, theta: np.ndarray, recs: list[Recording], max_nfev: int = 60) -> np.ndarray:
