@@ -112,7 +112,7 @@ def header(p: Particulars, ship: MMGShip, pitch: float, n0: float, power_kw: flo
         "#   X'_vv {Xvv:.4f}, X'_vr {Xvr:.4f}, X'_rr {Xrr:.4f}, X'_vvvv {Xvvvv:.4f}: Yoshimura & Masumoto (2012), Table 3".format(
             **h
         ),
-        "#   Y'_v {Yv:.4f}, Y'_r {Yr:.4f}, N'_v {Nv:.4f}, N'_r {Nr:.4f}: Clarke, Gedling & Hine (1983), eqs. (9)-(12)".format(
+        "#   Y'_v {Yv:.4f}, Y'_r {Yr:.4f}, N'_v {Nv:.4f}, N'_r {Nr:.4f}: Clarke, Gedling & Hine (1983), eqs. (9)-(12); Y'_r + m'_x".format(
             **h
         ),
         "#   Y'_bb {Ybb:.4f}, Y'_rr {Yrr:.4f}, Y'_bbr {Ybbr:.4f}, Y'_brr {Ybrr:.4f}, N'_bb {Nbb:.4f}, N'_rr {Nrr:.4f},".format(
