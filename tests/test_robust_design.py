@@ -1,0 +1,129 @@
+"""Robust design over parameter draws: the prior, the information at each draw, bayes-D and
+maximin-D (expdesign.prior, expdesign.robust, expdesign.api.run_design)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from expdesign.api import run_design
+from expdesign.dopt import Constraints, InfoSet
+from expdesign.errors import DesignError
+from expdesign.prior import file_prior, spread_prior
+from expdesign.robust import draw_information, solve_local, solve_robust
+from primitives.information import library_information
+from primitives.library import design_dictionary
+from primitives.ship import load_profile
+
+
+@pytest.fixture(scope="module")
+def model_ship():
+    p = load_profile("model-ship")
+    lib = [x for x in design_dictionary(p) if x.kind == "informative"]
+    return p, lib, draw_information(p, lib, spread_prior(p, 0.3, 40, seed=3), "batchwise")
+
+
+def test_spread_prior_draws_within_the_spread_seeded(model_ship):
+    p = model_ship[0]
+    a, b = spread_prior(p, 0.3, 50, seed=1), spread_prior(p, 0.3, 50, seed=1)
+    theta0 = p.params(p.simulation_set)
+    assert a.draws.shape == (50, theta0.size) and np.array_equal(a.draws, b.draws)
+    rel = (a.draws - theta0) / theta0
+    assert np.all(np.abs(rel) <= 0.3 + 1e-12) and np.abs(rel).max() > 0.25  # fills the box, never beyond it
+    assert not np.array_equal(a.draws, spread_prior(p, 0.3, 50, seed=2).draws)
+
+
+@pytest.mark.parametrize("bad", [0.0, -0.1, 1.5, float("nan")])
+def test_spread_outside_0_1_is_refused(model_ship, bad):
+    with pytest.raises(DesignError, match=r"--prior-spread .*\(0, 1\]"):
+        spread_prior(model_ship[0], bad)
+
+
+def test_prior_file_draws_and_covariance_follow_the_parameter_names(tmp_path, model_ship):
+    p = model_ship[0]
+    names, theta0 = p.param_names, p.params(p.simulation_set)
+    rev = names[::-1]
+    f = tmp_path / "draws.json"
+    draws = np.vstack([theta0 * 1.1, theta0 * 0.9])
+    f.write_text(json.dumps({"parameter_names": rev, "draws": draws[:, ::-1].tolist()}))
+    assert np.allclose(file_prior(p, f).draws, draws)  # columns put back in the profile's order
+    sd = np.abs(theta0) * 0.1 + 1e-9
+    g = tmp_path / "cov.json"
+    g.write_text(json.dumps({"parameter_names": rev, "covariance": np.diag(sd[::-1] ** 2).tolist()}))
+    pr = file_prior(p, g, n_draws=4000, seed=0)
+    assert np.allclose(pr.draws.mean(axis=0), theta0, atol=4 * sd / np.sqrt(4000) + 1e-12)
+    assert np.allclose(pr.draws.std(axis=0), sd, rtol=0.1)
+
+
+@pytest.mark.parametrize(
+    "doc, match",
+    [
+        ("{not json", "not a readable prior file"),
+        ({"parameter_names": ["Xu"], "covariance": [[1.0]]}, "'parameter_names' does not match .*missing"),
+        ({"draws": [[1.0]]}, "'parameter_names' must list"),
+        ({"diagnosed_model": {"format": "x"}}, "holds no parameter covariance"),
+        ({"parameter_names": "NAMES", "covariance": [[-1.0] * 10] * 10}, "not positive semi-definite"),
+    ],
+)
+def test_bad_prior_file_is_refused_naming_file_and_field(tmp_path, model_ship, doc, match):
+    p = model_ship[0]
+    f = tmp_path / "prior.json"
+    if isinstance(doc, dict) and doc.get("parameter_names") == "NAMES":
+        doc = doc | {"parameter_names": p.param_names}
+    f.write_text(doc if isinstance(doc, str) else json.dumps(doc))
+    with pytest.raises(DesignError, match=match) as e:
+        file_prior(p, f)
+    assert str(f) in str(e.value) and "\n" not in str(e.value)
+
+
+def test_information_at_the_profile_values_is_the_library_information():
+    """kvlcc2's instruments are its simulation set, so at theta_0 the draws' matrices are the
+    library's batchwise IV information (up to the scaling, a constant in log det)."""
+    p = load_profile("kvlcc2")
+    lib = [x for x in design_dictionary(p) if x.kind == "informative"]
+    dinfo = draw_information(p, lib, spread_prior(p, 0.3, 4, seed=0), "batchwise")
+    info = InfoSet.from_infos(library_information(p, lib))
+    rng = np.random.default_rng(0)
+    ws = rng.dirichlet(np.ones(len(lib)), 5)
+    shift = [info.logdet(w, "batchwise") - dinfo.value(w, criterion="local-D") for w in ws]
+    assert np.ptp(shift) < 1e-6
+    # and the draws differ from it: the information does depend on the parameters
+    assert np.ptp([dinfo.logdets(w) - dinfo.value(w, criterion="local-D") for w in ws[:1]]) > 1e-3
+
+
+def test_each_draws_optimum_is_certified_and_nothing_beats_it(model_ship):
+    _, lib, dinfo = model_ship
+    assert dinfo.optimum_bound >= 1 - 1e-4
+    rng = np.random.default_rng(1)
+    for w in rng.dirichlet(np.ones(len(lib)), 20):
+        assert np.all(dinfo.efficiencies(w) <= 1 + 1e-9)
+
+
+def test_robust_designs_beat_the_local_one_where_they_promise(model_ship):
+    """A smaller version of benchmarks/bench_robust_design.py (40 draws at 30 %): bayes-D
+    raises the mean log-efficiency and the model ship's 10th percentile, maximin-D the worst draw."""
+    _, lib, dinfo = model_ship
+    cons = Constraints.simplex(len(lib))
+    local = solve_local(dinfo, cons)
+    bayes = solve_robust(dinfo, "bayes-D", cons, local.weights)
+    maximin = solve_robust(dinfo, "maximin-D", cons, local.weights)
+    eff = {k: dinfo.efficiencies(s.weights) for k, s in (("local", local), ("bayes", bayes), ("maximin", maximin))}
+    assert np.log(eff["bayes"]).mean() > np.log(eff["local"]).mean()
+    assert bayes.efficiency_bound > 0.9999
+    assert np.percentile(eff["bayes"], 10) > np.percentile(eff["local"], 10) + 0.01
+    assert eff["maximin"].min() > eff["local"].min() + 0.02 and eff["maximin"].min() >= eff["bayes"].min()
+
+
+def test_run_design_robust_criteria_report_both_designs():
+    p = load_profile("model-ship")
+    d = run_design(p, criterion="maximin-D", parameter_prior=spread_prior(p, 0.3, 30, seed=0))
+    r = d.to_dict()["robust"]
+    assert r["draws_used"] == 30 and set(r["d_efficiency"]) == {"local-D", "maximin-D", "rounded"}
+    assert r["d_efficiency"]["maximin-D"]["min"] > r["d_efficiency"]["local-D"]["min"]
+    assert sum(d.rounded.values()) > 0 and 0 < d.rounding_efficiency <= 1 + 1e-9
+    with pytest.raises(DesignError, match="--prior-spread"):
+        run_design(p, criterion="bayes-D")
+    with pytest.raises(DesignError, match="bayes-D or maximin-D"):
+        run_design(p, criterion="A", parameter_prior=spread_prior(p, 0.3, 10))
