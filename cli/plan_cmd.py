@@ -18,6 +18,7 @@ from primitives.io import dumps
 
 if TYPE_CHECKING:  # annotations only: the command imports the library when it runs
     from cli.drawer import Drawer
+    from expdesign.prior import ParameterPrior
     from maps.chain import LatLonHdg, PlanOptions
     from maps.geo import SeaMap
     from maps.plan import Plan
@@ -112,6 +113,15 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
                 for x in d.get("dropped", [])
             ),
         )
+        if d.get("robust"):
+            r = d["robust"]
+            t.add_row(
+                f"D-efficiency over {r['draws_used']} draws",
+                "; ".join(
+                    f"{k}: median {s['median']:.3f}, 10th percentile {s['p10']:.3f}, worst {s['min']:.3f}"
+                    for k, s in r["d_efficiency"].items()
+                ),
+            )
     t.add_row("duration", f"{result.duration_s / 60:.1f} min")
     t.add_row("track length", f"{result.length_m / 1000:.2f} km")
     clear = f"{result.min_clearance_m:.1f} m" if math.isfinite(result.min_clearance_m) else "no land or obstacle within the map"
@@ -165,8 +175,19 @@ def register(app: typer.Typer) -> None:
         ),
         scenario: str | None = typer.Option(None, "--scenario", help="a named example instead of the design: thesis-9.4"),
         criterion: str | None = typer.Option(
-            None, "--criterion", help="design criterion: D, A or E (as shiptrial design; default D)"
+            None,
+            "--criterion",
+            help="design criterion: D (= local-D), A, E, bayes-D or maximin-D (as shiptrial design; default D)",
         ),
+        prior_spread: float | None = typer.Option(
+            None,
+            "--prior-spread",
+            help="robust criteria: parameters drawn within +-FRACTION of the profile's (0 < FRACTION <= 1)",
+        ),
+        prior_file: Path | None = typer.Option(
+            None, "--prior-file", help="robust criteria: JSON prior (parameter_names with draws or a covariance)"
+        ),
+        prior_draws: int = typer.Option(200, "--prior-draws", help="parameter draws of the robust criteria"),
         mean_subtraction: str | None = typer.Option(
             None, "--mean-subtraction", help="none, batchwise (7.53) or complete (7.57) (default complete)"
         ),
@@ -207,8 +228,16 @@ def register(app: typer.Typer) -> None:
         from maps.chain import PlanOptions
 
         trial_length = duration_s(trial_length_text, "--trial-length")
-        design_conflict(counts, scenario, criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length)
-        criterion = "D" if criterion is None else criterion
+        design_conflict(
+            counts,
+            scenario,
+            criterion=criterion,
+            mean_subtraction=mean_subtraction,
+            trial_length=trial_length,
+            prior_spread=prior_spread,
+            prior_file=prior_file,
+        )
+        criterion = "D" if criterion in (None, "local-D") else criterion
         mean_subtraction = "complete" if mean_subtraction is None else mean_subtraction
         validate_plan_options(
             resolution=resolution,
@@ -244,7 +273,13 @@ def register(app: typer.Typer) -> None:
             max_memory_gib=max_memory,
         )
         opts.check()
-        design = {"criterion": criterion, "mean_subtraction": mean_subtraction, "trial_length_s": trial_length, "seed": seed}
+        design = {
+            "criterion": criterion,
+            "mean_subtraction": mean_subtraction,
+            "trial_length_s": trial_length,
+            "seed": seed,
+            "parameter_prior": _prior(ship, criterion, prior_spread, prior_file, prior_draws, seed),
+        }
         files, result = plan_and_write(
             ship,
             map_path,
@@ -262,6 +297,19 @@ def register(app: typer.Typer) -> None:
         )
         _skip_final_collection()
         report(result, files, heuristic, json_out)
+
+
+def _prior(ship: str, criterion: str, spread: float | None, path: Path | None, draws: int, seed: int) -> ParameterPrior | None:
+    """The parameter prior of a robust criterion (None for a local one), refused in one line when bad."""
+    from cli.options import check_prior_options
+    from expdesign.prior import file_prior, spread_prior
+    from primitives.ship import load_profile
+
+    check_prior_options(criterion, spread, path, draws)
+    if spread is None and path is None:
+        return None
+    profile = load_profile(ship)
+    return spread_prior(profile, spread, draws, seed) if spread is not None else file_prior(profile, path, draws, seed)
 
 
 def plan_and_write(

@@ -127,3 +127,28 @@ def test_run_design_robust_criteria_report_both_designs():
         run_design(p, criterion="bayes-D")
     with pytest.raises(DesignError, match="bayes-D or maximin-D"):
         run_design(p, criterion="A", parameter_prior=spread_prior(p, 0.3, 10))
+
+
+def test_planner_design_step_keeps_the_robust_criterion_when_a_manoeuvre_fits_nowhere():
+    """plan's design step (maps.trialdesign): whole manoeuvres by the robust criterion, and a
+    redesign without a primitive the map cannot hold, still over the same draws."""
+    from maps.trialdesign import design_for_map, first_design
+
+    p = load_profile("kvlcc2")
+    prior = spread_prior(p, 0.3, 20, seed=0)
+    first = first_design(p, criterion="maximin-D", parameter_prior=prior)
+    assert first.design.record["criterion"] == "maximin-D" and first.draws.n_draws == 20
+    big = max(first.design.counts, key=first.design.counts.get)
+    calls = []
+
+    def fits_nowhere(prims, counts):
+        calls.append(dict(counts))
+        return {big: (20000.0, 2000.0)} if big in counts else {}
+
+    td = design_for_map(p, fits_nowhere, criterion="maximin-D", parameter_prior=prior, first=first)
+    assert big not in td.counts and len(calls) == 2
+    r = td.record["robust"]
+    assert r["criterion"] == "maximin-D" and set(r["d_efficiency"]) == {"local-D", "maximin-D", "rounded"}
+    # against the whole library's optimum at each draw: losing the main manoeuvre costs efficiency
+    assert r["d_efficiency"]["rounded"]["median"] < first.design.record["robust"]["d_efficiency"]["rounded"]["median"]
+    assert td.record["dropped"][0]["primitive"] == big and 0 < td.record["dropped"][0]["efficiency_loss"] < 1
