@@ -331,7 +331,9 @@ def _echo_design(ship: str, d: Design) -> None:
     for n in shown:
         typer.echo(f"  {n:{width}s} {100 * d.weights[n]:5.1f} %   {d.rounded.get(n, 0):3d} x {d.unit_s[n]:.1f} s")
     bound = "no efficiency bound" if d.efficiency_bound is None else f"certificate >= {d.efficiency_bound:.4f}"
-    typer.echo(f"efficiency vs equal shares {d.efficiency_vs_uniform:.3f}; {'' if d.criterion.endswith('-D') else 'convex '}{bound}")
+    typer.echo(
+        f"efficiency vs equal shares {d.efficiency_vs_uniform:.3f}; {'' if d.criterion.endswith('-D') else 'convex '}{bound}"
+    )
     for label, eff in d.references.items():
         typer.echo(f"the {label}'s shares reach {eff:.3f} of this design's {d.criterion}-efficiency")
 
