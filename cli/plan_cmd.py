@@ -225,6 +225,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Plan a trial: design -> whole manoeuvres -> A* planning -> continuous verification -> exports for the crew."""
         from cli.options import duration_s, validate_plan_options
+        from expdesign.dopt import canonical_criterion
         from maps.chain import PlanOptions
 
         trial_length = duration_s(trial_length_text, "--trial-length")
@@ -237,7 +238,7 @@ def register(app: typer.Typer) -> None:
             prior_spread=prior_spread,
             prior_file=prior_file,
         )
-        criterion = "D" if criterion in (None, "local-D") else criterion
+        criterion = "D" if criterion is None else canonical_criterion(criterion)
         mean_subtraction = "complete" if mean_subtraction is None else mean_subtraction
         validate_plan_options(
             resolution=resolution,

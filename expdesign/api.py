@@ -14,11 +14,20 @@ from typing import Any
 
 import numpy as np
 
-from expdesign.dopt import CRITERIA, Constraints, InfoSet, lost_to_mean_subtraction, solve_convex, varying_primitives
+from expdesign.dopt import (
+    CRITERIA,
+    ROBUST,
+    Constraints,
+    InfoSet,
+    canonical_criterion,
+    lost_to_mean_subtraction,
+    solve_convex,
+    varying_primitives,
+)
 from expdesign.errors import DesignError
 from expdesign.nonconvex import solve_nonconvex
 from expdesign.prior import ParameterPrior
-from expdesign.robust import LOCAL, ROBUST, DrawInformation, draw_information, robust_design
+from expdesign.robust import DrawInformation, draw_information, robust_design
 from expdesign.rounding import _efficiency, round_design
 from primitives.information import (
     MEAN_SUBTRACTION,
@@ -378,7 +387,7 @@ def run_design(
     """
     if isinstance(profile, str):
         profile = load_profile(profile)
-    criterion = "D" if criterion == LOCAL else criterion
+    criterion = canonical_criterion(criterion)
     robust = criterion in ROBUST
     if robust and parameter_prior is None:
         raise DesignError(

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from expdesign.dopt import Constraints
+from expdesign.dopt import ROBUST, Constraints
 from expdesign.errors import DesignError
 from expdesign.prior import ParameterPrior
 from primitives.library import Primitive
@@ -42,8 +42,6 @@ from primitives.regressors import predictor_regressors
 from primitives.ship import ShipProfile
 from primitives.simulate import signals_read, simulate
 
-ROBUST = ("bayes-D", "maximin-D")
-LOCAL = "local-D"
 OPTIMUM_TOL = 1e-4  # each draw's own optimum to a D-efficiency certificate of 1 - this
 _MAX_MULTIPLICATIVE = 20_000
 _EXPLODED = 1e6  # a draw whose states exceed this many times the nominal ones has diverged
@@ -86,9 +84,11 @@ class DrawInformation:
         object stands where an :class:`expdesign.dopt.InfoSet` does): bayes-D, mean log det;
         maximin-D, min_k (log det M(w; theta_k) - optimum_k), p log of the worst efficiency;
         local-D, log det at the profile's values."""
-        if criterion == LOCAL or criterion == "D":
+        if criterion == "D":
             sign, ld = np.linalg.slogdet(np.einsum("q,qij->ij", np.asarray(w, float), self.centre))
             return float(ld) if sign > 0 else -np.inf
+        if criterion not in ROBUST:
+            raise DesignError(f"criterion over parameter draws must be D, bayes-D or maximin-D, got {criterion!r}")
         ld = self.logdets(w)
         return float(ld.mean()) if criterion == "bayes-D" else float(np.min(ld - self.optimum))
 

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from expdesign.dopt import canonical_criterion
 from expdesign.prior import ParameterPrior
 from maps.chain import LatLonHdg, PlanOptions, assemble_plan, build_lattice, prepare_basic_moves, search_plan, verify_plan
 from maps.geo import MapError, SeaMap, load_map
@@ -87,7 +88,7 @@ def plan_with_design(
     t_all = time.perf_counter()
     o = options or PlanOptions(**opts)
     o.check()
-    criterion = "D" if criterion == "local-D" else criterion
+    criterion = canonical_criterion(criterion)
     prof = load_profile(profile) if isinstance(profile, str) else profile
     if not isinstance(sea, SeaMap):
         sea = load_map(sea, draught_m=prof.draught_m, ukc_m=o.ukc_m)

@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 
 from expdesign.api import Design, mean_subtraction_warnings, run_design
-from expdesign.dopt import DEDICATED, InfoSet
+from expdesign.dopt import DEDICATED, ROBUST, InfoSet, canonical_criterion
 from expdesign.errors import DesignError
 from expdesign.prior import ParameterPrior
-from expdesign.robust import ROBUST, DrawInformation, draw_information
+from expdesign.robust import DrawInformation, draw_information
 from expdesign.rounding import _efficiency, round_design
 from maps.geo import bundled_map_path
 from primitives.information import PrimitiveInfo, library_information
@@ -132,6 +132,7 @@ def design_counts(
     exclusions (computed here when None). ``criterion`` bayes-D or maximin-D designs over the
     draws of ``parameter_prior`` (``draws``: their matrices for ``library``, computed already).
     """
+    criterion = canonical_criterion(criterion)
     lib = [p for p in (library if library is not None else ship_library(profile)) if p.kind == "informative"]
     if infos is None:
         infos = library_information(profile, lib)
@@ -341,6 +342,7 @@ def first_design(
 ) -> FirstDesign:
     """Design ``library`` (default :func:`ship_library`) and round it to whole manoeuvres
     (``parameter_prior``: the draws of a robust criterion)."""
+    criterion = canonical_criterion(criterion)
     lib = [p for p in (library if library is not None else ship_library(profile)) if p.kind == "informative"]
     infos = library_information(profile, lib)
     draws = draw_information(profile, lib, parameter_prior, mean_subtraction) if criterion in ROBUST and parameter_prior else None
@@ -378,6 +380,7 @@ def design_for_map(
     primitives have no place on the map (e.g. ``build_lattice(...).fits_nowhere``). ``first``:
     :func:`first_design` of the same profile, library and options, computed already.
     """
+    criterion = canonical_criterion(criterion)
     if first is None:
         first = first_design(
             profile,

@@ -87,10 +87,10 @@ def test_information_at_the_profile_values_is_the_library_information():
     info = InfoSet.from_infos(library_information(p, lib))
     rng = np.random.default_rng(0)
     ws = rng.dirichlet(np.ones(len(lib)), 5)
-    shift = [info.logdet(w, "batchwise") - dinfo.value(w, criterion="local-D") for w in ws]
+    shift = [info.logdet(w, "batchwise") - dinfo.value(w, criterion="D") for w in ws]
     assert np.ptp(shift) < 1e-6
     # and the draws differ from it: the information does depend on the parameters
-    assert np.ptp([dinfo.logdets(w) - dinfo.value(w, criterion="local-D") for w in ws[:1]]) > 1e-3
+    assert np.ptp([dinfo.logdets(w) - dinfo.value(w, criterion="D") for w in ws[:1]]) > 1e-3
 
 
 def test_each_draws_optimum_is_certified_and_nothing_beats_it(model_ship):
@@ -152,3 +152,20 @@ def test_planner_design_step_keeps_the_robust_criterion_when_a_manoeuvre_fits_no
     # against the whole library's optimum at each draw: losing the main manoeuvre costs efficiency
     assert r["d_efficiency"]["rounded"]["median"] < first.design.record["robust"]["d_efficiency"]["rounded"]["median"]
     assert td.record["dropped"][0]["primitive"] == big and 0 < td.record["dropped"][0]["efficiency_loss"] < 1
+
+
+def test_local_d_alias_is_d_in_the_map_design_and_unknown_criteria_raise():
+    """'local-D' names the D design everywhere (the map's whole-manoeuvre design scored it as A
+    and its efficiency as E before); a criterion no design knows is refused, never scored as another."""
+    from maps.trialdesign import first_design
+
+    p = load_profile("model-ship")
+    a = first_design(p, criterion="D").design
+    b = first_design(p, criterion="local-D").design
+    assert a.counts == b.counts and a.design.weights == pytest.approx(b.design.weights)
+    assert a.record["d_efficiency"] == pytest.approx(b.record["d_efficiency"]) and b.record["d_efficiency"] > 0.9
+    with pytest.raises(DesignError, match="criterion must be one of"):
+        first_design(p, criterion="G")
+    info = InfoSet.from_infos(library_information(p, [x for x in design_dictionary(p) if x.kind == "informative"]))
+    with pytest.raises(DesignError, match="criterion must be one of"):
+        info.value(np.full(len(info.names), 1.0 / len(info.names)), "batchwise", "local-D")
