@@ -330,10 +330,12 @@ def _robust_step(
     mean_subtraction: str,
     prior: ParameterPrior,
     draw_info: DrawInformation | None,
+    local_weights: np.ndarray,
 ) -> _Step:
-    """bayes-D or maximin-D over the prior's draws (:mod:`expdesign.robust`)."""
+    """bayes-D or maximin-D over the prior's draws (:mod:`expdesign.robust`), beside the local
+    design ``local_weights`` (what ``--criterion D`` gives with the same options)."""
     dinfo = draw_info if draw_info is not None else draw_information(profile, prims, prior, mean_subtraction)
-    rd = robust_design(dinfo, criterion, cons, prior, mean_subtraction)
+    rd = robust_design(dinfo, criterion, cons, prior, mean_subtraction, local_weights)
     return _Step(
         rd.weights,
         rd.efficiency_bound,
@@ -410,7 +412,8 @@ def run_design(
     check_identifiable(profile, info, mean_subtraction)
     cons = Constraints.build(names, min_frac, max_frac, costs, budgets, total_s)
     if robust:
-        step = _robust_step(profile, prims, cons, criterion, mean_subtraction, parameter_prior, draw_info)
+        local = _local_step(info, cons, "D", mean_subtraction, convex_solvers, n_random_starts, seed)
+        step = _robust_step(profile, prims, cons, criterion, mean_subtraction, parameter_prior, draw_info, local.weights)
     else:
         step = _local_step(info, cons, criterion, mean_subtraction, convex_solvers, n_random_starts, seed)
     final, bound, value, eff_kind, section = step.weights, step.bound, step.value, step.eff_kind, step.section

@@ -13,7 +13,8 @@ w. The whole-experiment subtraction (7.57) is relaxed to (7.53), as in the local
 step. The library's inputs are fixed: a zig-zag whose rudder switches on the nominal ship's
 heading is replayed, not re-steered, for each draw.
 
-* local-D: max log det M(w; theta_0) (the profile's values).
+* local-D: the design ``--criterion D`` produces (expdesign.api: the profile's values, its own
+  instruments and mean subtraction), scored on the draws' matrices beside the robust mix.
 * bayes-D: max (1/K) sum_k log det M(w; theta_k) (Chaloner & Verdinelli 1995, section 2.2: the
   expected log det over the prior; a sum of concave functions, still convex to solve).
 * maximin-D: max min_k eff_k(w), eff_k(w) = (det M(w; theta_k) / det M(w_k*; theta_k))^(1/p) with
@@ -224,11 +225,6 @@ class RobustSolution:
 _FLOOR = -1e3  # log det given to a singular mix inside SLSQP (a finite number it can step away from)
 
 
-def solve_local(info: DrawInformation, cons: Constraints) -> RobustSolution:
-    """local-D on the same matrices at the profile's values (bayes-D with the one draw theta_0)."""
-    return _solve_bayes(info.centre[None], cons, np.full(len(info.names), 1.0 / len(info.names)), "local-D")
-
-
 def solve_robust(info: DrawInformation, criterion: str, cons: Constraints, start: np.ndarray | None = None) -> RobustSolution:
     """bayes-D or maximin-D (module doc) from ``start`` (default equal shares, projected)."""
     if criterion not in ROBUST:
@@ -337,11 +333,19 @@ class RobustDesign:
 
 
 def robust_design(
-    info: DrawInformation, criterion: str, cons: Constraints, prior: ParameterPrior, mean_subtraction: str
+    info: DrawInformation,
+    criterion: str,
+    cons: Constraints,
+    prior: ParameterPrior,
+    mean_subtraction: str,
+    local_weights: np.ndarray,
 ) -> RobustDesign:
-    """The local-D mix on the same matrices, the robust mix started from it, and the report section."""
-    local = solve_local(info, cons)
-    sol = solve_robust(info, criterion, cons, local.weights)
+    """The robust mix started from ``local_weights`` and the report section, where both are scored
+    on the draws. ``local_weights``: the mix ``--criterion D`` designs with the same options (its
+    own information, instruments and mean subtraction, with the refinement the local design runs),
+    the design a user compares with, not a local-D optimum of the draws' relaxed matrices."""
+    local_weights = np.asarray(local_weights, float)
+    sol = solve_robust(info, criterion, cons, local_weights)
     relaxed = "batchwise (7.53)" if mean_subtraction == "complete" else mean_subtraction
     notes = [
         f"{criterion} over {info.n_draws} parameter draws ({prior.source}); information of the converged IV "
@@ -356,8 +360,8 @@ def robust_design(
         "dropped": list(info.dropped),
         "mean_subtraction": relaxed,
         "optimum_certificate": info.optimum_bound,
-        "local_weights": {n: float(w) for n, w in zip(info.names, local.weights)},
-        "d_efficiency": {"local-D": info.summary(local.weights), criterion: info.summary(sol.weights)},
+        "local_weights": {n: float(w) for n, w in zip(info.names, local_weights)},
+        "d_efficiency": {"local-D": info.summary(local_weights), criterion: info.summary(sol.weights)},
     }
     certificate = {
         "criterion": criterion,
