@@ -87,6 +87,8 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
     from rich.console import Console
     from rich.table import Table
 
+    from expdesign.robust_report import PROVENANCE
+
     con = Console()
     st = result.stats
     for n in st.get("notes", []):
@@ -120,7 +122,8 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
                 "; ".join(
                     f"{k}: median {s['median']:.3f}, 10th percentile {s['p10']:.3f}, worst {s['min']:.3f}"
                     for k, s in r["d_efficiency"].items()
-                ),
+                )
+                + f". {PROVENANCE}",
             )
     t.add_row("duration", f"{result.duration_s / 60:.1f} min")
     t.add_row("track length", f"{result.length_m / 1000:.2f} km")

@@ -5,6 +5,12 @@ from __future__ import annotations
 
 from typing import Any
 
+# where the D-efficiencies come from, said beside every table of them (report and plan output)
+PROVENANCE = (
+    "Measured on the profile's own model at parameter draws around it (simulated): robustness to parameter "
+    "error in this model, not evidence about a real ship or about model-structure error."
+)
+
 
 def robust_lines(doc: dict[str, Any]) -> list[str]:
     """Plain-text lines (terminal and Markdown alike) of ``doc['robust']`` and ``doc['prior_monte_carlo']``."""
@@ -20,6 +26,7 @@ def robust_lines(doc: dict[str, Any]) -> list[str]:
         what = "rounded to whole units" if label == "rounded" else f"{label} mix"
         lines.append(f"  {what:24s} median {s['median']:.3f}   10th percentile {s['p10']:.3f}   worst {s['min']:.3f}")
     lines += [f"  left out: {d}" for d in r["dropped"]]
+    lines.append(PROVENANCE)
     mc = doc.get("prior_monte_carlo")
     if mc:
         lines.append(

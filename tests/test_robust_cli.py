@@ -22,6 +22,8 @@ def test_design_robust_report_json_and_markdown(tmp_path, capsys):
     assert set(mc) == {"local-D", "bayes-D"} and all(s["truths"] == 2 and s["runs"] == 4 for s in mc.values())
     md = (out / "report.md").read_text()
     assert "## Robust design" in md and "10th percentile" in md and "truths drawn from the prior" in md
+    # where the figures come from, beside them (simulated on the profile's own model)
+    assert "not evidence about a real ship or about model-structure error" in md
 
 
 ROBUST = ["design", "--ship", "model-ship", "--monte-carlo", "0"]
