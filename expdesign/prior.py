@@ -18,6 +18,7 @@ theta0 is the profile's simulation set: the parameters the local design is compu
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +28,15 @@ from expdesign.errors import DesignError
 from primitives.ship import ShipProfile
 
 DEFAULT_DRAWS = 200
+# Independent seed streams of one --seed (SeedSequence spawn keys, namespaced by this issue's 28 so
+# they meet no other stream of the project's): the draws a robust mix is optimised on, the fresh
+# draws it is scored on, and the Monte Carlo's truths (held out from both).
+DESIGN, EVALUATION, TRUTHS = (28, 0), (28, 1), (28, 2)
+
+
+def stream(seed: int, key: tuple[int, ...]) -> np.random.Generator:
+    """The generator of one of the streams above (or a sub-stream: ``key`` extended)."""
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=key))
 
 
 @dataclass(frozen=True)
@@ -38,6 +48,12 @@ class ParameterPrior:
     centre: np.ndarray
     draws: np.ndarray
     source: str
+    sampler: Callable[[int, np.random.Generator], np.ndarray] | None = None  # fresh draws; None: a file's fixed draws
+
+    def fresh(self, n_draws: int, key: tuple[int, ...], seed: int) -> np.ndarray | None:
+        """``n_draws`` new draws from the stream ``key`` of ``seed``, independent of ``draws``;
+        None for a file's fixed draws (there is nothing to draw from but them: in-sample)."""
+        return None if self.sampler is None else self.sampler(int(n_draws), stream(seed, key))
 
     @property
     def n_draws(self) -> int:
@@ -61,8 +77,13 @@ def spread_prior(profile: ShipProfile, spread: float, n_draws: int = DEFAULT_DRA
         )
     _check_count(n_draws)
     centre = profile.params(profile.simulation_set)
-    u = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(28,))).uniform(-1.0, 1.0, (int(n_draws), centre.size))
-    return ParameterPrior(profile.param_names, centre, centre * (1.0 + spread * u), f"+-{100 * spread:g} % uniform spread")
+
+    def sample(n: int, rng: np.random.Generator) -> np.ndarray:
+        return centre * (1.0 + spread * rng.uniform(-1.0, 1.0, (n, centre.size)))
+
+    return ParameterPrior(
+        profile.param_names, centre, sample(int(n_draws), stream(seed, DESIGN)), f"+-{100 * spread:g} % uniform spread", sample
+    )
 
 
 def file_prior(profile: ShipProfile, path: str | Path, n_draws: int = DEFAULT_DRAWS, seed: int = 0) -> ParameterPrior:
@@ -101,9 +122,15 @@ def file_prior(profile: ShipProfile, path: str | Path, n_draws: int = DEFAULT_DR
     if ev[0] < -1e-9 * max(ev[-1], 1e-300):
         raise DesignError(f"{p}: field 'covariance' is not positive semi-definite (eigenvalue {ev[0]:.3g}): fix the matrix")
     mean = centre if doc.get("mean") is None else _matrix([doc["mean"]], p, "mean", (1, len(order)))[0][order]
-    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(28,)))
-    draws = mean + rng.standard_normal((int(n_draws), mean.size)) * np.sqrt(np.clip(ev, 0.0, None)) @ vec.T
-    return ParameterPrior(profile.param_names, mean, draws, f"Gaussian covariance from {p.name}")
+    root = np.sqrt(np.clip(ev, 0.0, None)) * vec  # x = mean + root @ z, z ~ N(0, I)
+
+    def sample(n: int, rng: np.random.Generator) -> np.ndarray:
+        return mean + rng.standard_normal((n, mean.size)) @ root.T
+
+    # the centre stays the profile's simulation set (the module doc): the mean only moves the draws
+    return ParameterPrior(
+        profile.param_names, centre, sample(int(n_draws), stream(seed, DESIGN)), f"Gaussian covariance from {p.name}", sample
+    )
 
 
 def _order(profile: ShipProfile, names: object, p: Path) -> np.ndarray:

@@ -36,10 +36,14 @@ def robust_lines(doc: dict[str, Any]) -> list[str]:
         for label, s in mc.items():
             p50 = "n/a" if s["param_error_p50"] is None else f"{s['param_error_p50']:.3f}"
             p90 = "n/a" if s["param_error_p90"] is None else f"{s['param_error_p90']:.3f}"
+            below = "n/a" if s["frac_param_error_below_0_3"] is None else f"{100 * s['frac_param_error_below_0_3']:.1f} %"
+            vr = s.get("validation_rmse_p50")
+            val = "" if vr is None else f"; validation RMSE u, v, r median {vr[0]:.3g}, {vr[1]:.3g}, {vr[2]:.3g}"
             lines.append(
-                f"  {label:10s} median {p50}   90th percentile {p90}   < 0.3 in {100 * s['frac_param_error_below_0_3']:.1f} % "
-                f"of {s['runs']} runs over {s['truths']} truths; failed {s['failed']}"
+                f"  {label:10s} median {p50}   90th percentile {p90}   < 0.3 in {below} "
+                f"of {s['runs']} runs over {s['truths']} truths; failed (diverged) {s['failed']}{val}"
             )
+            lines += [f"    {n}" for n in s.get("notes", [])]
     return lines
 
 
