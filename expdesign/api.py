@@ -395,6 +395,12 @@ def run_design(
         raise DesignError(
             f"--criterion {criterion} designs over parameter draws: give --prior-spread FRACTION or --prior-file PATH"
         )
+    if robust and (disturbed_realisations or prior is not None):
+        given = "--noisy-moments (disturbed_realisations)" if disturbed_realisations else "data already collected (prior)"
+        raise DesignError(
+            f"{given} is not used by --criterion {criterion} (its information at each draw is noise-free, "
+            "with no data counted in): drop it, or design with --criterion D"
+        )
     if parameter_prior is not None and not robust:
         raise DesignError(
             f"a parameter prior is for the robust criteria: give --criterion bayes-D or maximin-D (got {criterion!r})"

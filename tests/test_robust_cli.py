@@ -38,6 +38,8 @@ ROBUST = ["design", "--ship", "model-ship", "--monte-carlo", "0"]
         (["--prior-spread", "0.3"], "--prior-spread is for the robust criteria"),
         (["--criterion", "bayes-D", "--prior-file", "NOFILE"], "NOFILE: not a readable prior file"),
         (["--criterion", "bayes-D", "--prior-file", "COV"], "'parameter_names' does not match ship 'model-ship'"),
+        # the robust path's draws are noise-free: refused, never silently dropped (review B2)
+        (["--criterion", "bayes-D", "--prior-spread", "0.3", "--noisy-moments", "3"], "--noisy-moments (disturbed"),
     ],
 )
 def test_bad_prior_one_line_exit_2_nothing_written(tmp_path, capsys, extra, match):

@@ -132,6 +132,9 @@ def test_run_design_robust_criteria_report_both_designs():
         run_design(p, criterion="bayes-D")
     with pytest.raises(DesignError, match="bayes-D or maximin-D"):
         run_design(p, criterion="A", parameter_prior=spread_prior(p, 0.3, 10))
+    info = library_information(p, [x for x in design_dictionary(p) if x.kind == "informative"])[0]
+    with pytest.raises(DesignError, match=r"data already collected \(prior\) is not used by --criterion bayes-D"):
+        run_design(p, criterion="bayes-D", parameter_prior=spread_prior(p, 0.3, 10), prior=info, prior_samples=100)
 
 
 def test_planner_design_step_keeps_the_robust_criterion_when_a_manoeuvre_fits_nowhere():
