@@ -153,7 +153,7 @@ def register(app: typer.Typer) -> None:
 
         doc = report_dict(d, ev, sens, thesis)
         if d.robust and monte_carlo:
-            doc["prior_monte_carlo"] = _prior_mc_step(
+            doc["prior_truths_drawn"], doc["prior_monte_carlo"] = _prior_mc_step(
                 profile, lib, d, prior, prior_truths, monte_carlo, seed, mc_samples, mean_subtraction, mc_estimator
             )
         paths = _write_step(out, doc, d, ev, thesis) if out is not None else {}
@@ -222,16 +222,24 @@ def _prior_mc_step(
     samples: int,
     mean_subtraction: str,
     estimator: str,
-) -> dict:
-    """The local-D and robust mixes against the first ``truths`` draws of the prior, the runs shared among them."""
+) -> tuple[str, dict]:
+    """Where the truths come from and the local-D and robust mixes against them, the runs shared
+    among them: ``truths`` fresh draws of the prior (its TRUTHS stream, held out from the draws
+    designed on), or for a file's fixed draws its first ``truths`` (in-sample)."""
+    from expdesign.prior import TRUTHS
     from expdesign.prior_mc import prior_monte_carlo
 
     designs = {"local-D": d.robust["local_weights"], d.criterion: d.weights}
-    n = min(truths, prior.n_draws)
-    return prior_monte_carlo(
+    fresh = prior.fresh(truths, TRUTHS)
+    if fresh is None:
+        thetas, label = prior.draws[: min(truths, prior.n_draws)], "in-sample: draws of the file the mix was designed on"
+    else:
+        thetas, label = fresh, "held out: fresh draws from an independent seed stream"
+    n = len(thetas)
+    return label, prior_monte_carlo(
         profile,
         designs,
-        prior.draws[:n],
+        thetas,
         max(1, runs // n),
         seed,
         primitives=lib,

@@ -118,7 +118,7 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
         if d.get("robust"):
             r = d["robust"]
             t.add_row(
-                f"D-efficiency over {r['draws_used']} draws",
+                f"D-efficiency over draws ({r['evaluated_on'].split(':')[0]})",
                 "; ".join(
                     f"{k}: median {s['median']:.3f}, 10th percentile {s['p10']:.3f}, worst {s['min']:.3f}"
                     for k, s in r["d_efficiency"].items()

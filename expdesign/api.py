@@ -334,7 +334,7 @@ def _robust_step(
 ) -> _Step:
     """bayes-D or maximin-D over the prior's draws (:mod:`expdesign.robust`), beside the local
     design ``local_weights`` (what ``--criterion D`` gives with the same options)."""
-    dinfo = draw_info if draw_info is not None else draw_information(profile, prims, prior, mean_subtraction)
+    dinfo = draw_info if draw_info is not None else draw_information(profile, prims, prior, mean_subtraction, held_out=True)
     rd = robust_design(dinfo, criterion, cons, prior, mean_subtraction, local_weights)
     return _Step(
         rd.weights,
@@ -432,7 +432,7 @@ def run_design(
     total_samples = int(round(total_s / ts))
     rnd = round_design(final, units, total_samples, lambda s: value(s / total_samples), p, criterion=eff_kind)
     if section is not None:
-        section["d_efficiency"]["rounded"] = step.draws.summary(rnd.fractions)
+        section["d_efficiency"]["rounded"] = step.draws.score(rnd.fractions)
     refs = _reference_efficiencies(references, names, value, val, p, eff_kind)
     return Design(
         profile=profile.name,

@@ -49,11 +49,17 @@ class ParameterPrior:
     draws: np.ndarray
     source: str
     sampler: Callable[[int, np.random.Generator], np.ndarray] | None = None  # fresh draws; None: a file's fixed draws
+    seed: int = 0
 
-    def fresh(self, n_draws: int, key: tuple[int, ...], seed: int) -> np.ndarray | None:
-        """``n_draws`` new draws from the stream ``key`` of ``seed``, independent of ``draws``;
-        None for a file's fixed draws (there is nothing to draw from but them: in-sample)."""
-        return None if self.sampler is None else self.sampler(int(n_draws), stream(seed, key))
+    def fresh(self, n_draws: int, key: tuple[int, ...]) -> np.ndarray | None:
+        """``n_draws`` new draws from the stream ``key`` of the prior's seed, independent of
+        ``draws``; None for a file's fixed draws (nothing to draw from but them: in-sample)."""
+        return None if self.sampler is None else self.sampler(int(n_draws), stream(self.seed, key))
+
+    def held_out(self) -> ParameterPrior | None:
+        """As many fresh draws as ``draws`` from the EVALUATION stream (None for a file's draws)."""
+        d = self.fresh(self.n_draws, EVALUATION)
+        return None if d is None else ParameterPrior(self.names, self.centre, d, self.source, None, self.seed)
 
     @property
     def n_draws(self) -> int:
@@ -82,7 +88,12 @@ def spread_prior(profile: ShipProfile, spread: float, n_draws: int = DEFAULT_DRA
         return centre * (1.0 + spread * rng.uniform(-1.0, 1.0, (n, centre.size)))
 
     return ParameterPrior(
-        profile.param_names, centre, sample(int(n_draws), stream(seed, DESIGN)), f"+-{100 * spread:g} % uniform spread", sample
+        profile.param_names,
+        centre,
+        sample(int(n_draws), stream(seed, DESIGN)),
+        f"+-{100 * spread:g} % uniform spread",
+        sample,
+        seed,
     )
 
 
@@ -129,7 +140,12 @@ def file_prior(profile: ShipProfile, path: str | Path, n_draws: int = DEFAULT_DR
 
     # the centre stays the profile's simulation set (the module doc): the mean only moves the draws
     return ParameterPrior(
-        profile.param_names, centre, sample(int(n_draws), stream(seed, DESIGN)), f"Gaussian covariance from {p.name}", sample
+        profile.param_names,
+        centre,
+        sample(int(n_draws), stream(seed, DESIGN)),
+        f"Gaussian covariance from {p.name}",
+        sample,
+        seed,
     )
 
 

@@ -62,6 +62,18 @@ class DrawInformation:
     optimum_bound: float
     draws: np.ndarray
     dropped: list[str] = field(default_factory=list)
+    held_out: DrawInformation | None = None  # the same primitives at fresh draws, for scoring
+
+    @property
+    def evaluated_on(self) -> str:
+        """Which draws :meth:`score` reports on, for the report."""
+        if self.held_out is not None:
+            return f"held out: {self.held_out.n_draws} fresh draws from an independent seed stream"
+        return f"in-sample: the {self.n_draws} draws the robust mix was optimised on (a file's fixed draws)"
+
+    def score(self, w: np.ndarray) -> dict[str, float]:
+        """:meth:`summary` on the held-out draws when there are, else in-sample."""
+        return (self.held_out or self).summary(w)
 
     @property
     def n_params(self) -> int:
@@ -105,6 +117,7 @@ class DrawInformation:
             self.optimum_bound,
             self.draws,
             list(self.dropped),
+            None if self.held_out is None else self.held_out.subset(keep),
         )
 
     def summary(self, w: np.ndarray) -> dict[str, float]:
@@ -128,12 +141,19 @@ def _moment_matrices(phi: np.ndarray, blocks: list[slice], mean_subtraction: str
 
 
 def draw_information(
-    profile: ShipProfile, primitives: list[Primitive], prior: ParameterPrior, mean_subtraction: str = "batchwise"
+    profile: ShipProfile,
+    primitives: list[Primitive],
+    prior: ParameterPrior,
+    mean_subtraction: str = "batchwise",
+    held_out: bool = False,
 ) -> DrawInformation:
     """The matrices of every primitive at the profile's values and at each draw (module doc):
     one simulation of each primitive's inputs batched over the draws. Draws whose simulation
     diverges, or at which the library as a whole cannot identify the model, are left out (said in
-    ``dropped``); a DesignError when fewer than half are left."""
+    ``dropped``); a DesignError when fewer than half are left. ``held_out``: also the matrices at
+    as many fresh draws of the prior (:meth:`ParameterPrior.held_out`), to score the mixes on."""
+    fresh = prior.held_out() if held_out else None
+    evaluation = None if fresh is None else draw_information(profile, primitives, fresh, mean_subtraction)
     thetas = np.vstack([prior.centre[None], prior.draws])
     b = thetas.shape[0]
     blocks = [profile.predictor.dof_slice(i) for i in range(profile.predictor.n_dof)]
@@ -173,7 +193,9 @@ def draw_information(
     # converge in a fraction of the iterations equal shares need
     opt_w, bound = draw_optima(m[1:][keep], start=0.5 * centre_w[0] + 0.5 / m.shape[1])
     optimum = np.linalg.slogdet(np.einsum("kq,kqij->kij", opt_w, m[1:][keep]))[1]
-    return DrawInformation([p.name for p in primitives], m[0], m[1:][keep], optimum, bound, prior.draws[keep], dropped)
+    return DrawInformation(
+        [p.name for p in primitives], m[0], m[1:][keep], optimum, bound, prior.draws[keep], dropped, evaluation
+    )
 
 
 def draw_optima(m: np.ndarray, tol: float = OPTIMUM_TOL, start: np.ndarray | None = None) -> tuple[np.ndarray, float]:
@@ -361,7 +383,8 @@ def robust_design(
         "mean_subtraction": relaxed,
         "optimum_certificate": info.optimum_bound,
         "local_weights": {n: float(w) for n, w in zip(info.names, local_weights)},
-        "d_efficiency": {"local-D": info.summary(local_weights), criterion: info.summary(sol.weights)},
+        "evaluated_on": info.evaluated_on,
+        "d_efficiency": {"local-D": info.score(local_weights), criterion: info.score(sol.weights)},
     }
     certificate = {
         "criterion": criterion,

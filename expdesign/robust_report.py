@@ -19,8 +19,8 @@ def robust_lines(doc: dict[str, Any]) -> list[str]:
         return []
     prior = r["prior"]
     lines = [
-        f"D-efficiency over {r['draws_used']} parameter draws ({prior['source']}; each draw against its own "
-        f"D-optimal mix, certified to {r['optimum_certificate']:.5f}):"
+        f"D-efficiency over parameter draws ({prior['source']}; {r['evaluated_on']}; the robust mix optimised "
+        f"on {r['draws_used']} draws; each draw against its own D-optimal mix, certified to {r['optimum_certificate']:.5f}):"
     ]
     for label, s in r["d_efficiency"].items():
         what = "rounded to whole units" if label == "rounded" else f"{label} mix"
@@ -30,7 +30,8 @@ def robust_lines(doc: dict[str, Any]) -> list[str]:
     mc = doc.get("prior_monte_carlo")
     if mc:
         lines.append(
-            "Monte Carlo against truths drawn from the prior (the estimator's model structure with the drawn values); "
+            f"Monte Carlo against truths drawn from the prior ({doc.get('prior_truths_drawn', 'fresh draws')}; the "
+            "estimator's model structure with the drawn values); "
             "parameter-error fraction = rms of (estimate - truth) / truth:"
         )
         for label, s in mc.items():

@@ -137,7 +137,7 @@ def design_counts(
     if infos is None:
         infos = library_information(profile, lib)
     if criterion in ROBUST and draws is None and parameter_prior is not None:
-        draws = draw_information(profile, lib, parameter_prior, mean_subtraction)
+        draws = draw_information(profile, lib, parameter_prior, mean_subtraction, held_out=True)
     exclude = dict(exclude or {})
     trial_s = float(trial_length_s) if trial_length_s is not None else float(sum(p.duration_s for p in lib))
     if trial_s <= 0:
@@ -167,7 +167,7 @@ def design_counts(
     record = _record(prims, w, counts, criterion, mean_subtraction, d_eff, c_eff, dropped, trial_s)
     if d.robust:  # each mix's D-efficiency over the draws, "rounded" now the whole manoeuvres sailed
         sailed_w = counts * np.array([p.n_samples for p in prims], float)
-        eff = d.robust["d_efficiency"] | {"rounded": sub_draws.summary(sailed_w / sailed_w.sum())}
+        eff = d.robust["d_efficiency"] | {"rounded": sub_draws.score(sailed_w / sailed_w.sum())}
         record["robust"] = d.robust | {"d_efficiency": eff}
     sailed = counts * np.array([p.n_samples for p in prims], float)
     notes += [f"warning: {w}" for w in mean_subtraction_warnings(profile, info, sailed / sailed.sum(), mean_subtraction)]
@@ -345,7 +345,11 @@ def first_design(
     criterion = canonical_criterion(criterion)
     lib = [p for p in (library if library is not None else ship_library(profile)) if p.kind == "informative"]
     infos = library_information(profile, lib)
-    draws = draw_information(profile, lib, parameter_prior, mean_subtraction) if criterion in ROBUST and parameter_prior else None
+    draws = (
+        draw_information(profile, lib, parameter_prior, mean_subtraction, held_out=True)
+        if criterion in ROBUST and parameter_prior
+        else None
+    )
     td = design_counts(
         profile,
         lib,

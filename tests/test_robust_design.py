@@ -190,3 +190,24 @@ def test_prior_monte_carlo_counts_only_diverged_runs_as_failed():
     assert s["validation_rmse_p50"] == [1.0, 1.0, 1.0]
     s = _summary(np.array([0.1, 0.2, np.inf]), np.array([[1.0] * 3, [2.0] * 3, [np.inf] * 3]), 1, [])
     assert s["failed"] == 1 and s["param_error_p50"] == pytest.approx(0.2) and s["validation_rmse_p50"] == [1.5] * 3
+
+
+def test_mixes_are_scored_on_held_out_draws_and_a_draws_file_is_called_in_sample(tmp_path):
+    """The report's efficiencies come from fresh draws of an independent stream, not the draws the
+    robust mix was optimised on (review B3); a file's fixed draws can only be scored in-sample."""
+    p = load_profile("model-ship")
+    prior = spread_prior(p, 0.3, 20, seed=0)
+    held = prior.held_out()
+    assert held.n_draws == 20 and not np.isin(held.draws, prior.draws).any()
+    assert np.array_equal(held.draws, spread_prior(p, 0.3, 20, seed=0).held_out().draws)  # seeded
+    d = run_design(p, criterion="bayes-D", parameter_prior=prior)
+    r = d.robust
+    assert r["evaluated_on"].startswith("held out: 20 fresh draws")
+    lib = [x for x in design_dictionary(p) if x.kind == "informative"]
+    ev = draw_information(p, lib, held, "batchwise")
+    w = np.array([d.weights[x.name] for x in lib])
+    assert r["d_efficiency"]["bayes-D"]["p10"] == pytest.approx(ev.summary(w)["p10"], rel=1e-9)
+    f = tmp_path / "draws.json"
+    f.write_text(json.dumps({"parameter_names": p.param_names, "draws": prior.draws.tolist()}))
+    r = run_design(p, criterion="bayes-D", parameter_prior=file_prior(p, f)).robust
+    assert r["evaluated_on"].startswith("in-sample")
