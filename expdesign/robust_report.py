@@ -23,7 +23,7 @@ def robust_lines(doc: dict[str, Any]) -> list[str]:
         f"on {r['draws_used']} draws; each draw against its own D-optimal mix, certified to {r['optimum_certificate']:.5f}):"
     ]
     for label, s in r["d_efficiency"].items():
-        what = "rounded to whole units" if label == "rounded" else f"{label} mix"
+        what = {"rounded": "rounded to whole units", "local-D rounded": "local-D rounded"}.get(label, f"{label} mix")
         lines.append(f"  {what:24s} median {s['median']:.3f}   10th percentile {s['p10']:.3f}   worst {s['min']:.3f}")
     lines += [f"  left out: {d}" for d in r["dropped"]]
     lines.append(PROVENANCE)

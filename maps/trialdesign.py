@@ -167,7 +167,10 @@ def design_counts(
     record = _record(prims, w, counts, criterion, mean_subtraction, d_eff, c_eff, dropped, trial_s)
     if d.robust:  # each mix's D-efficiency over the draws, "rounded" now the whole manoeuvres sailed
         sailed_w = counts * np.array([p.n_samples for p in prims], float)
-        eff = d.robust["d_efficiency"] | {"rounded": sub_draws.score(sailed_w / sailed_w.sum())}
+        # the unit-rounded rows of run_design give way to the whole manoeuvres sailed (the local
+        # mix's whole-manoeuvre rounding is not computed here)
+        eff = {k: v for k, v in d.robust["d_efficiency"].items() if k != "local-D rounded"}
+        eff["rounded"] = sub_draws.score(sailed_w / sailed_w.sum())
         record["robust"] = d.robust | {"d_efficiency": eff}
     sailed = counts * np.array([p.n_samples for p in prims], float)
     notes += [f"warning: {w}" for w in mean_subtraction_warnings(profile, info, sailed / sailed.sum(), mean_subtraction)]

@@ -17,7 +17,7 @@ def test_design_robust_report_json_and_markdown(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     r = doc["robust"]
     assert doc["criterion"] == "bayes-D" and r["draws_used"] == 20 and r["prior"]["source"].startswith("+-30 %")
-    assert set(r["d_efficiency"]) == {"local-D", "bayes-D", "rounded"}
+    assert set(r["d_efficiency"]) == {"local-D", "bayes-D", "local-D rounded", "rounded"}
     mc = doc["prior_monte_carlo"]
     assert set(mc) == {"local-D", "bayes-D"} and all(s["truths"] == 2 and s["runs"] == 4 for s in mc.values())
     md = (out / "report.md").read_text()
