@@ -93,11 +93,13 @@ def register(app: typer.Typer) -> None:
             "--prior-file",
             help="robust criteria: JSON with parameter_names and draws, or a covariance (also a model.json's parameter_covariance)",
         ),
-        prior_draws: int = typer.Option(200, "--prior-draws", help="parameter draws of the robust criteria"),
-        prior_truths: int = typer.Option(
-            20,
+        prior_draws: int | None = typer.Option(
+            None, "--prior-draws", help="parameter draws of the robust criteria (default 200; a prior file's draws as given)"
+        ),
+        prior_truths: int | None = typer.Option(
+            None,
             "--prior-truths",
-            help="robust criteria: truths drawn from the prior for the Monte Carlo (--monte-carlo runs shared)",
+            help="robust criteria: truths drawn from the prior for the Monte Carlo (default 20; --monte-carlo runs shared)",
         ),
     ) -> None:
         """Choose the mix of manoeuvres that maximises information, and check it by Monte Carlo."""
@@ -120,12 +122,18 @@ def register(app: typer.Typer) -> None:
         )
         _check_mc_options(mc_protocol, mc_order, mc_estimator, mc_settle, mc_min_block, mc_samples)
         from cli.options import check_prior_options
+        from expdesign.prior import make_prior
         from primitives.ship import load_profile
 
         profile = load_profile(ship)
         check_prior_options(criterion, prior_spread, prior_file, prior_draws, DesignError)
+        if prior_truths is not None and (not monte_carlo or criterion not in ("bayes-D", "maximin-D")):
+            raise DesignError(
+                "--prior-truths is for the Monte Carlo of a robust design: add --monte-carlo R and a robust --criterion"
+            )
+        prior_truths = 20 if prior_truths is None else prior_truths
         whole(prior_truths, "--prior-truths", 1, 10_000, "truths", DesignError)
-        prior = _prior_step(profile, prior_spread, prior_file, prior_draws, seed)
+        prior = make_prior(profile, prior_spread, prior_file, prior_draws, seed)
         lib, thesis, d = _design_step(
             profile, criterion, mean_subtraction, trial_length, seed, psi_switch, min_frac, max_frac, noisy_moments, prior
         )
@@ -165,15 +173,6 @@ def register(app: typer.Typer) -> None:
                 else "partial results not written (no --out)",
             )
         _print_step(profile.name, d, doc, ev, paths, json_out)
-
-
-def _prior_step(profile: ShipProfile, spread: float | None, path: Path | None, draws: int, seed: int) -> ParameterPrior | None:
-    """The parameter prior of a robust criterion (none for a local one)."""
-    from expdesign.prior import file_prior, spread_prior
-
-    if spread is not None:
-        return spread_prior(profile, spread, draws, seed)
-    return file_prior(profile, path, draws, seed) if path is not None else None
 
 
 def _design_step(

@@ -71,9 +71,10 @@ def check_design_choices(
 
 
 def check_prior_options(
-    criterion: str, spread: float | None, path: Path | None, draws: int, error: type[UserError] = UserError
+    criterion: str, spread: float | None, path: Path | None, draws: int | None, error: type[UserError] = UserError
 ) -> None:
-    """A robust criterion has one prior (``--prior-spread`` or ``--prior-file``); a local one none."""
+    """A robust criterion has one prior (``--prior-spread`` or ``--prior-file``); a local one none,
+    nor ``--prior-draws`` (None: not given)."""
     robust = criterion in ("bayes-D", "maximin-D")
     if spread is not None and path is not None:
         raise error("--prior-spread and --prior-file both give the prior: give one of them")
@@ -81,14 +82,15 @@ def check_prior_options(
         raise error(
             f"--criterion {criterion} designs over parameter draws: give --prior-spread FRACTION (e.g. 0.3) or --prior-file PATH"
         )
-    if not robust and (spread is not None or path is not None):
-        given = "--prior-spread" if spread is not None else "--prior-file"
+    if not robust and (spread is not None or path is not None or draws is not None):
+        given = "--prior-spread" if spread is not None else "--prior-file" if path is not None else "--prior-draws"
         raise error(f"{given} is for the robust criteria: add --criterion bayes-D or maximin-D")
     if spread is not None and not (math.isfinite(spread) and 0.0 < spread <= 1.0):
         raise error(
             f"--prior-spread {spread:g}: give a fraction in (0, 1], e.g. 0.3 for parameters within +-30 % of the profile's"
         )
-    whole(draws, "--prior-draws", 2, 100_000, "parameter draws", error)
+    if draws is not None:
+        whole(draws, "--prior-draws", 2, 100_000, "parameter draws", error)
 
 
 def check_vessel_name(name: str | None, rtz: bool, error: type[UserError] = UserError) -> None:

@@ -190,7 +190,9 @@ def register(app: typer.Typer) -> None:
         prior_file: Path | None = typer.Option(
             None, "--prior-file", help="robust criteria: JSON prior (parameter_names with draws or a covariance)"
         ),
-        prior_draws: int = typer.Option(200, "--prior-draws", help="parameter draws of the robust criteria"),
+        prior_draws: int | None = typer.Option(
+            None, "--prior-draws", help="parameter draws of the robust criteria (default 200; a prior file's draws as given)"
+        ),
         mean_subtraction: str | None = typer.Option(
             None, "--mean-subtraction", help="none, batchwise (7.53) or complete (7.57) (default complete)"
         ),
@@ -303,17 +305,18 @@ def register(app: typer.Typer) -> None:
         report(result, files, heuristic, json_out)
 
 
-def _prior(ship: str, criterion: str, spread: float | None, path: Path | None, draws: int, seed: int) -> ParameterPrior | None:
+def _prior(
+    ship: str, criterion: str, spread: float | None, path: Path | None, draws: int | None, seed: int
+) -> ParameterPrior | None:
     """The parameter prior of a robust criterion (None for a local one), refused in one line when bad."""
     from cli.options import check_prior_options
-    from expdesign.prior import file_prior, spread_prior
+    from expdesign.prior import make_prior
     from primitives.ship import load_profile
 
     check_prior_options(criterion, spread, path, draws)
     if spread is None and path is None:
         return None
-    profile = load_profile(ship)
-    return spread_prior(profile, spread, draws, seed) if spread is not None else file_prior(profile, path, draws, seed)
+    return make_prior(load_profile(ship), spread, path, draws, seed)
 
 
 def plan_and_write(

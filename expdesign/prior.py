@@ -70,6 +70,16 @@ class ParameterPrior:
         return {"source": self.source, "draws": self.n_draws, "max_relative_deviation": float(rel.max(initial=0.0))}
 
 
+def make_prior(
+    profile: ShipProfile, spread: float | None, path: str | Path | None, n_draws: int | None, seed: int
+) -> ParameterPrior | None:
+    """The prior of ``--prior-spread`` or ``--prior-file`` (None when neither is given);
+    ``n_draws`` None: the default count (a file's own draws are used as given)."""
+    if spread is not None:
+        return spread_prior(profile, spread, DEFAULT_DRAWS if n_draws is None else n_draws, seed)
+    return file_prior(profile, path, n_draws, seed) if path is not None else None
+
+
 def _check_count(n_draws: int) -> None:
     if not 2 <= int(n_draws) <= 100_000:
         raise DesignError(f"--prior-draws {n_draws}: give 2 to 100000 parameter draws")
@@ -97,9 +107,10 @@ def spread_prior(profile: ShipProfile, spread: float, n_draws: int = DEFAULT_DRA
     )
 
 
-def file_prior(profile: ShipProfile, path: str | Path, n_draws: int = DEFAULT_DRAWS, seed: int = 0) -> ParameterPrior:
+def file_prior(profile: ShipProfile, path: str | Path, n_draws: int | None = None, seed: int = 0) -> ParameterPrior:
     """Draws from a prior file (module doc); a malformed file or one that does not match the
-    profile's parameters is refused in one line naming the file, the field and the fix."""
+    profile's parameters is refused in one line naming the file, the field and the fix.
+    ``n_draws`` (default 200) is for a covariance: a file's own draws are used as given."""
     p = Path(path)
     try:
         doc = json.loads(p.read_text(encoding="utf-8"))
@@ -122,9 +133,14 @@ def file_prior(profile: ShipProfile, path: str | Path, n_draws: int = DEFAULT_DR
     centre = profile.params(profile.simulation_set)
     if "draws" in doc:
         draws = _matrix(doc["draws"], p, "draws", (None, len(order)))[:, order]
-        if draws.shape[0] < 2:
-            raise DesignError(f"{p}: field 'draws' has {draws.shape[0]} row(s): give at least 2 parameter draws")
+        if not 2 <= draws.shape[0] <= 100_000:
+            raise DesignError(f"{p}: field 'draws' has {draws.shape[0]} row(s): give 2 to 100000 parameter draws")
+        if n_draws is not None:
+            raise DesignError(
+                f"--prior-draws {n_draws}: {p} gives its own {draws.shape[0]} draws, used as given: drop --prior-draws"
+            )
         return ParameterPrior(profile.param_names, centre, draws, f"{draws.shape[0]} draws from {p.name}")
+    n_draws = DEFAULT_DRAWS if n_draws is None else n_draws
     _check_count(n_draws)
     cov = _matrix(doc["covariance"], p, "covariance", (len(order), len(order)))[np.ix_(order, order)]
     if not np.allclose(cov, cov.T, rtol=1e-9, atol=0.0):

@@ -40,12 +40,19 @@ ROBUST = ["design", "--ship", "model-ship", "--monte-carlo", "0"]
         (["--criterion", "bayes-D", "--prior-file", "COV"], "'parameter_names' does not match ship 'model-ship'"),
         # the robust path's draws are noise-free: refused, never silently dropped (review B2)
         (["--criterion", "bayes-D", "--prior-spread", "0.3", "--noisy-moments", "3"], "--noisy-moments (disturbed"),
+        # options that would be silently ignored (review N8)
+        (["--prior-draws", "50"], "--prior-draws is for the robust criteria"),
+        (["--criterion", "bayes-D", "--prior-spread", "0.3", "--prior-truths", "5"], "--prior-truths is for the Monte Carlo"),
+        (["--criterion", "bayes-D", "--prior-file", "DRAWS", "--prior-draws", "50"], "used as given: drop --prior-draws"),
     ],
 )
 def test_bad_prior_one_line_exit_2_nothing_written(tmp_path, capsys, extra, match):
     cov = tmp_path / "cov.json"
     cov.write_text(json.dumps({"parameter_names": ["Xu", "Yv"], "covariance": [[1.0, 0.0], [0.0, 1.0]]}))
-    extra = [str(cov) if a == "COV" else str(tmp_path / "missing.json") if a == "NOFILE" else a for a in extra]
+    drw = tmp_path / "draws.json"
+    names = ["Xu", "Xvr", "X|u|u", "Xtau", "Yv", "Yur", "Ytau", "Nr", "Nuv", "Ntau"]
+    drw.write_text(json.dumps({"parameter_names": names, "draws": [[1.0] * 10, [2.0] * 10]}))
+    extra = [str(drw) if a == "DRAWS" else str(cov) if a == "COV" else str(tmp_path / "missing.json") if a == "NOFILE" else a for a in extra]
     out = tmp_path / "rep"
     assert _run([*ROBUST, *extra, "--out", str(out)]) == 2
     err = capsys.readouterr().err
