@@ -24,6 +24,7 @@ def test_design_robust_report_json_and_markdown(tmp_path, capsys):
     assert "## Robust design" in md and "10th percentile" in md and "truths drawn from the prior" in md
     # where the figures come from, beside them (simulated on the profile's own model)
     assert "not evidence about a real ship or about model-structure error" in md
+    assert "Convex certificate" not in md and "bayes-D efficiency on the relaxed matrices" in md  # review N3
 
 
 ROBUST = ["design", "--ship", "model-ship", "--monte-carlo", "0"]
@@ -52,7 +53,10 @@ def test_bad_prior_one_line_exit_2_nothing_written(tmp_path, capsys, extra, matc
     drw = tmp_path / "draws.json"
     names = ["Xu", "Xvr", "X|u|u", "Xtau", "Yv", "Yur", "Ytau", "Nr", "Nuv", "Ntau"]
     drw.write_text(json.dumps({"parameter_names": names, "draws": [[1.0] * 10, [2.0] * 10]}))
-    extra = [str(drw) if a == "DRAWS" else str(cov) if a == "COV" else str(tmp_path / "missing.json") if a == "NOFILE" else a for a in extra]
+    extra = [
+        str(drw) if a == "DRAWS" else str(cov) if a == "COV" else str(tmp_path / "missing.json") if a == "NOFILE" else a
+        for a in extra
+    ]
     out = tmp_path / "rep"
     assert _run([*ROBUST, *extra, "--out", str(out)]) == 2
     err = capsys.readouterr().err
