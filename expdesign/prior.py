@@ -41,10 +41,9 @@ def stream(seed: int, key: tuple[int, ...]) -> np.random.Generator:
 
 @dataclass(frozen=True)
 class ParameterPrior:
-    """K draws (K, p) of the model parameters ``names`` (the profile's order) around ``centre``
+    """K draws (K, p) of the model parameters (the profile's order) around ``centre``
     (p,), and where they come from (one phrase for reports)."""
 
-    names: list[str]
     centre: np.ndarray
     draws: np.ndarray
     source: str
@@ -59,7 +58,7 @@ class ParameterPrior:
     def held_out(self) -> ParameterPrior | None:
         """As many fresh draws as ``draws`` from the EVALUATION stream (None for a file's draws)."""
         d = self.fresh(self.n_draws, EVALUATION)
-        return None if d is None else ParameterPrior(self.names, self.centre, d, self.source, None, self.seed)
+        return None if d is None else ParameterPrior(self.centre, d, self.source, None, self.seed)
 
     @property
     def n_draws(self) -> int:
@@ -98,7 +97,6 @@ def spread_prior(profile: ShipProfile, spread: float, n_draws: int = DEFAULT_DRA
         return centre * (1.0 + spread * rng.uniform(-1.0, 1.0, (n, centre.size)))
 
     return ParameterPrior(
-        profile.param_names,
         centre,
         sample(int(n_draws), stream(seed, DESIGN)),
         f"+-{100 * spread:g} % uniform spread",
@@ -139,7 +137,7 @@ def file_prior(profile: ShipProfile, path: str | Path, n_draws: int | None = Non
             raise DesignError(
                 f"--prior-draws {n_draws}: {p} gives its own {draws.shape[0]} draws, used as given: drop --prior-draws"
             )
-        return ParameterPrior(profile.param_names, centre, draws, f"{draws.shape[0]} draws from {p.name}")
+        return ParameterPrior(centre, draws, f"{draws.shape[0]} draws from {p.name}")
     n_draws = DEFAULT_DRAWS if n_draws is None else n_draws
     _check_count(n_draws)
     cov = _matrix(doc["covariance"], p, "covariance", (len(order), len(order)))[np.ix_(order, order)]
@@ -156,7 +154,6 @@ def file_prior(profile: ShipProfile, path: str | Path, n_draws: int | None = Non
 
     # the centre stays the profile's simulation set (the module doc): the mean only moves the draws
     return ParameterPrior(
-        profile.param_names,
         centre,
         sample(int(n_draws), stream(seed, DESIGN)),
         f"Gaussian covariance from {p.name}",

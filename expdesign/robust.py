@@ -60,7 +60,6 @@ class DrawInformation:
     M: np.ndarray
     optimum: np.ndarray
     optimum_bound: float
-    draws: np.ndarray
     dropped: list[str] = field(default_factory=list)
     held_out: DrawInformation | None = None  # the same primitives at fresh draws, for scoring
 
@@ -115,7 +114,6 @@ class DrawInformation:
             self.M[:, idx],
             self.optimum,
             self.optimum_bound,
-            self.draws,
             list(self.dropped),
             None if self.held_out is None else self.held_out.subset(keep),
         )
@@ -193,9 +191,7 @@ def draw_information(
     # converge in a fraction of the iterations equal shares need
     opt_w, bound = draw_optima(m[1:][keep], start=0.5 * centre_w[0] + 0.5 / m.shape[1])
     optimum = np.linalg.slogdet(np.einsum("kq,kqij->kij", opt_w, m[1:][keep]))[1]
-    return DrawInformation(
-        [p.name for p in primitives], m[0], m[1:][keep], optimum, bound, prior.draws[keep], dropped, evaluation
-    )
+    return DrawInformation([p.name for p in primitives], m[0], m[1:][keep], optimum, bound, dropped, evaluation)
 
 
 def draw_optima(m: np.ndarray, tol: float = OPTIMUM_TOL, start: np.ndarray | None = None) -> tuple[np.ndarray, float]:
@@ -234,11 +230,10 @@ def _gradients(m: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass
 class RobustSolution:
-    """Fractions, the criterion value, the solver and its notes, and for bayes-D the
+    """Fractions, the solver and its notes, and for bayes-D the
     concavity certificate (a lower bound on the D-efficiency against its optimum)."""
 
     weights: np.ndarray
-    objective: float
     solver: str
     notes: list[str]
     efficiency_bound: float | None = None
@@ -301,7 +296,7 @@ def _solve_bayes(m: np.ndarray, cons: Constraints, w0: np.ndarray, label: str) -
     top = cons.max_linear(grad)
     notes = [] if r.success else [f"SLSQP stopped early ({r.message})"]
     bound = float(min(1.0, m.shape[-1] / top)) if np.all(np.isfinite(ld)) and top > 0 else None
-    return RobustSolution(w, float(ld.mean()), f"{label}: SLSQP", notes, bound)
+    return RobustSolution(w, f"{label}: SLSQP", notes, bound)
 
 
 def _solve_maximin(info: DrawInformation, cons: Constraints, starts: list[np.ndarray]) -> RobustSolution:
@@ -340,7 +335,7 @@ def _solve_maximin(info: DrawInformation, cons: Constraints, starts: list[np.nda
     if worst(w) < worst(w0):
         notes.append("SLSQP ended below its start; the start (the bayes-D mix or equal shares) is returned")
         w = w0
-    return RobustSolution(w, worst(w) * p, "maximin-D: SLSQP (epigraph form)", notes, None)
+    return RobustSolution(w, "maximin-D: SLSQP (epigraph form)", notes, None)
 
 
 @dataclass
