@@ -124,10 +124,9 @@ def bench_ship(name: str, args: argparse.Namespace) -> dict:
         for k, s in mc.items():
             p50 = "n/a" if s["param_error_p50"] is None else f"{s['param_error_p50']:.3f}"
             p90 = "n/a" if s["param_error_p90"] is None else f"{s['param_error_p90']:.3f}"
-            print(
-                f"    {k:10s} median {p50}   p90 {p90}   < 0.3: {100 * s['frac_param_error_below_0_3']:.1f} %   "
-                f"failed {s['failed']} of {s['runs']}"
-            )
+            below = "n/a" if s["frac_param_error_below_0_3"] is None else f"{100 * s['frac_param_error_below_0_3']:.1f} %"
+            print(f"    {k:10s} median {p50}   p90 {p90}   < 0.3: {below}   failed (diverged) {s['failed']} of {s['runs']}")
+            print("".join(f"      {n}\n" for n in s["notes"]), end="")
     return summary
 
 
