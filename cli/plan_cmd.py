@@ -243,7 +243,7 @@ def register(app: typer.Typer) -> None:
             prior_spread=prior_spread,
             prior_file=prior_file,
         )
-        criterion = "D" if criterion is None else canonical_criterion(criterion)
+        criterion = "D" if criterion is None else criterion
         mean_subtraction = "complete" if mean_subtraction is None else mean_subtraction
         validate_plan_options(
             resolution=resolution,
@@ -265,6 +265,7 @@ def register(app: typer.Typer) -> None:
             start_time=start_time,
             no_export=no_export,
         )
+        criterion = canonical_criterion(criterion)  # checked by validate_plan_options: "local-D" is "D"
         ni, nj = (int(v) for v in size.lower().split("x"))  # checked by validate_plan_options
         if counts is not None and scenario is not None:
             raise UserError("--counts and --scenario both choose the manoeuvres: give one of them")

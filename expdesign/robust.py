@@ -174,8 +174,8 @@ def draw_information(
     d = np.sqrt(np.abs(np.einsum("bqii->bi", m)) / m.shape[1])
     d = np.where(d > 0, d, 1.0)
     m = m / (d[:, None, :, None] * d[:, None, None, :])
-    uniform = np.linalg.eigvalsh(m.mean(axis=1))[:, 0]
-    live = uniform > 1e-12 * np.maximum(np.abs(np.linalg.eigvalsh(m.mean(axis=1))[:, -1]), 1e-300)
+    ev = np.linalg.eigvalsh(m.mean(axis=1))  # of the equal-shares mix, once
+    live = ev[:, 0] > 1e-12 * np.maximum(np.abs(ev[:, -1]), 1e-300)
     dropped = []
     if (~ok[1:]).any():
         dropped.append(f"{int((~ok[1:]).sum())} draw(s) whose simulation diverges")
