@@ -162,7 +162,17 @@ def register(app: typer.Typer) -> None:
         doc = report_dict(d, ev, sens, thesis)
         if d.robust and monte_carlo:
             doc["prior_truths_drawn"], doc["prior_monte_carlo"] = _prior_mc_step(
-                profile, lib, d, prior, prior_truths, monte_carlo, seed, mc_samples, mean_subtraction, mc_estimator
+                profile,
+                lib,
+                d,
+                prior,
+                prior_truths,
+                monte_carlo,
+                seed,
+                mc_samples,
+                mean_subtraction,
+                mc_estimator,
+                {"protocol": mc_protocol, "order": mc_order, "settle": mc_settle, "min_block": mc_min_block},
             )
         paths = _write_step(out, doc, d, ev, thesis) if out is not None else {}
         if ev is not None and not ev.complete:
@@ -221,14 +231,17 @@ def _prior_mc_step(
     samples: int,
     mean_subtraction: str,
     estimator: str,
+    protocol: dict,
 ) -> tuple[str, dict]:
     """Where the truths come from and the local-D and robust mixes against them, the runs shared
     among them: ``truths`` fresh draws of the prior (its TRUTHS stream, held out from the draws
-    designed on), or for a file's fixed draws its first ``truths`` (in-sample)."""
+    designed on), or for a file's fixed draws its first ``truths`` (in-sample); never more truths
+    than ``runs``, so at most ``runs`` runs in all; ``protocol``: the --mc-* options."""
     from expdesign.prior import TRUTHS
     from expdesign.prior_mc import prior_monte_carlo
 
     designs = {"local-D": d.robust["local_weights"], d.criterion: d.weights}
+    truths = min(truths, runs)
     fresh = prior.fresh(truths, TRUTHS)
     if fresh is None:
         thetas, label = prior.draws[: min(truths, prior.n_draws)], "in-sample: draws of the file the mix was designed on"
@@ -245,6 +258,7 @@ def _prior_mc_step(
         n_samples=samples,
         mean_subtraction=mean_subtraction,
         estimator=estimator,
+        **protocol,
     )
 
 

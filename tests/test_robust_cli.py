@@ -24,6 +24,10 @@ def test_design_robust_report_json_and_markdown(tmp_path, capsys):
     assert "## Robust design" in md and "10th percentile" in md and "truths drawn from the prior" in md
     # where the figures come from, beside them (simulated on the profile's own model)
     assert "not evidence about a real ship or about model-structure error" in md
+    # fewer runs than truths: never more runs than asked (review N6)
+    rc = _run([*args, "--monte-carlo", "2", "--prior-truths", "5", "--scheduler", "inline", "--json"])
+    mc = json.loads(capsys.readouterr().out)["prior_monte_carlo"]
+    assert rc == 0 and all(s["truths"] == 2 and s["runs"] == 2 for s in mc.values())
     assert "Convex certificate" not in md and "bayes-D efficiency on the relaxed matrices" in md  # review N3
 
 
