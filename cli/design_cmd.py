@@ -12,6 +12,7 @@ from primitives.io import dumps
 if TYPE_CHECKING:
     from expdesign.api import Design
     from expdesign.mc_parallel import MCEvaluation
+    from expdesign.prior import ParameterPrior
     from primitives.library import Primitive
     from primitives.ship import ShipProfile
 
@@ -20,7 +21,12 @@ def register(app: typer.Typer) -> None:
     @app.command("design")
     def design(
         ship: str = typer.Option("model-ship", "--ship", help="built-in profile name or a .toml/.json profile file"),
-        criterion: str = typer.Option("D", "--criterion", help="D, A or E"),
+        criterion: str = typer.Option(
+            "D",
+            "--criterion",
+            help="D (= local-D), A, E, or the robust bayes-D (mean log det over the prior's draws) "
+            "or maximin-D (best worst-case D-efficiency over them)",
+        ),
         mean_subtraction: str = typer.Option(
             "complete", "--mean-subtraction", help="instrument mean removal: none, batchwise (7.53) or complete (7.57)"
         ),
@@ -77,9 +83,27 @@ def register(app: typer.Typer) -> None:
         keep_partial: bool = typer.Option(
             False, "--keep-partial", help="on Ctrl-C or a lost worker, write the report of the finished runs, marked partial"
         ),
+        prior_spread: float | None = typer.Option(
+            None,
+            "--prior-spread",
+            help="robust criteria: every parameter drawn within +-FRACTION of the profile's value (0 < FRACTION <= 1)",
+        ),
+        prior_file: Path | None = typer.Option(
+            None,
+            "--prior-file",
+            help="robust criteria: JSON with parameter_names and draws, or a covariance (also a model.json's parameter_covariance)",
+        ),
+        prior_draws: int | None = typer.Option(
+            None, "--prior-draws", help="parameter draws of the robust criteria (default 200; a prior file's draws as given)"
+        ),
+        prior_truths: int | None = typer.Option(
+            None,
+            "--prior-truths",
+            help="robust criteria: truths drawn from the prior for the Monte Carlo (default 20; --monte-carlo runs shared)",
+        ),
     ) -> None:
         """Choose the mix of manoeuvres that maximises information, and check it by Monte Carlo."""
-        from cli.options import duration_s, validate_design_options
+        from cli.options import duration_s, validate_design_options, whole
         from expdesign.errors import DesignError
 
         trial_length = duration_s(trial_length_text, "--trial-length", DesignError)
@@ -97,8 +121,21 @@ def register(app: typer.Typer) -> None:
             noisy_moments=noisy_moments,
         )
         _check_mc_options(mc_protocol, mc_order, mc_estimator, mc_settle, mc_min_block, mc_samples)
-        profile, lib, thesis, d = _design_step(
-            ship, criterion, mean_subtraction, trial_length, seed, psi_switch, min_frac, max_frac, noisy_moments
+        from cli.options import check_prior_options
+        from expdesign.prior import make_prior
+        from primitives.ship import load_profile
+
+        profile = load_profile(ship)
+        check_prior_options(criterion, prior_spread, prior_file, prior_draws, DesignError)
+        if prior_truths is not None and (not monte_carlo or criterion not in ("bayes-D", "maximin-D")):
+            raise DesignError(
+                "--prior-truths is for the Monte Carlo of a robust design: add --monte-carlo R and a robust --criterion"
+            )
+        prior_truths = 20 if prior_truths is None else prior_truths
+        whole(prior_truths, "--prior-truths", 1, 10_000, "truths", DesignError)
+        prior = make_prior(profile, prior_spread, prior_file, prior_draws, seed)
+        lib, thesis, d = _design_step(
+            profile, criterion, mean_subtraction, trial_length, seed, psi_switch, min_frac, max_frac, noisy_moments, prior
         )
         ev = None
         if monte_carlo:
@@ -123,6 +160,20 @@ def register(app: typer.Typer) -> None:
         from expdesign.report import report_dict
 
         doc = report_dict(d, ev, sens, thesis)
+        if d.robust and monte_carlo:
+            doc["prior_truths_drawn"], doc["prior_monte_carlo"] = _prior_mc_step(
+                profile,
+                lib,
+                d,
+                prior,
+                prior_truths,
+                monte_carlo,
+                seed,
+                mc_samples,
+                mean_subtraction,
+                mc_estimator,
+                {"protocol": mc_protocol, "order": mc_order, "settle": mc_settle, "min_block": mc_min_block},
+            )
         paths = _write_step(out, doc, d, ev, thesis) if out is not None else {}
         if ev is not None and not ev.complete:
             _fail(
@@ -135,7 +186,7 @@ def register(app: typer.Typer) -> None:
 
 
 def _design_step(
-    ship: str,
+    profile: ShipProfile,
     criterion: str,
     mean_subtraction: str,
     trial_length: float | None,
@@ -144,13 +195,12 @@ def _design_step(
     min_frac: float | None,
     max_frac: float | None,
     noisy_moments: int,
-) -> tuple[ShipProfile, list[Primitive], dict[str, float] | None, Design]:
-    """The ship, its design library, the thesis's shares (model ship) and the design."""
+    prior: ParameterPrior | None,
+) -> tuple[list[Primitive], dict[str, float] | None, Design]:
+    """The ship's design library, the thesis's shares (model ship) and the design."""
     from expdesign.api import default_library, run_design
     from expdesign.sensitivity import THESIS_SHARES
-    from primitives.ship import load_profile
 
-    profile = load_profile(ship)
     profile.require_planar("shiptrial design")
     lib = default_library(profile, psi_switch)
     thesis = THESIS_SHARES if profile.library == "thesis-model-ship" else None
@@ -165,8 +215,51 @@ def _design_step(
         seed=seed,
         disturbed_realisations=noisy_moments,
         references={"thesis": thesis} if thesis else None,
+        parameter_prior=prior,
     )
-    return profile, lib, thesis, d
+    return lib, thesis, d
+
+
+def _prior_mc_step(
+    profile: ShipProfile,
+    lib: list[Primitive],
+    d: Design,
+    prior: ParameterPrior,
+    truths: int,
+    runs: int,
+    seed: int,
+    samples: int,
+    mean_subtraction: str,
+    estimator: str,
+    protocol: dict,
+) -> tuple[str, dict]:
+    """Where the truths come from and the local-D and robust mixes against them, the runs shared
+    among them: ``truths`` fresh draws of the prior (its TRUTHS stream, held out from the draws
+    designed on), or for a file's fixed draws its first ``truths`` (in-sample); never more truths
+    than ``runs``, so at most ``runs`` runs in all; ``protocol``: the --mc-* options."""
+    from expdesign.prior import TRUTHS
+    from expdesign.prior_mc import prior_monte_carlo
+
+    designs = {"local-D": d.robust["local_weights"], d.criterion: d.weights}
+    truths = min(truths, runs)
+    fresh = prior.fresh(truths, TRUTHS)
+    if fresh is None:
+        thetas, label = prior.draws[: min(truths, prior.n_draws)], "in-sample: draws of the file the mix was designed on"
+    else:
+        thetas, label = fresh, "held out: fresh draws from an independent seed stream"
+    n = len(thetas)
+    return label, prior_monte_carlo(
+        profile,
+        designs,
+        thetas,
+        max(1, runs // n),
+        seed,
+        primitives=lib,
+        n_samples=samples,
+        mean_subtraction=mean_subtraction,
+        estimator=estimator,
+        **protocol,
+    )
 
 
 def _monte_carlo_step(
@@ -242,6 +335,10 @@ def _print_step(ship: str, d: Design, doc: dict, ev: MCEvaluation | None, paths:
     _echo_design(ship, d)
     if ev:
         _echo_mc(doc["monte_carlo"])
+    from expdesign.robust_report import robust_lines
+
+    for line in robust_lines(doc):
+        typer.echo(line)
     if paths:
         typer.echo(f"wrote {paths['markdown']} and {paths['json']}")
 
@@ -254,7 +351,10 @@ def _echo_design(ship: str, d: Design) -> None:
     width = max((len(n) for n in shown), default=8)
     for n in shown:
         typer.echo(f"  {n:{width}s} {100 * d.weights[n]:5.1f} %   {d.rounded.get(n, 0):3d} x {d.unit_s[n]:.1f} s")
-    typer.echo(f"efficiency vs equal shares {d.efficiency_vs_uniform:.3f}; convex certificate >= {d.efficiency_bound or 0:.4f}")
+    bound = "no efficiency bound" if d.efficiency_bound is None else f"certificate >= {d.efficiency_bound:.4f}"
+    typer.echo(
+        f"efficiency vs equal shares {d.efficiency_vs_uniform:.3f}; {'' if d.criterion.endswith('-D') else 'convex '}{bound}"
+    )
     for label, eff in d.references.items():
         typer.echo(f"the {label}'s shares reach {eff:.3f} of this design's {d.criterion}-efficiency")
 

@@ -64,10 +64,33 @@ def check_design_choices(
     criterion: str, mean_subtraction: str, trial_length: float | None, error: type[UserError] = UserError
 ) -> None:
     """The design's criterion, mean subtraction and trial length (``design`` and ``plan``)."""
-    one_of(criterion, "--criterion", ("D", "A", "E"), error)
+    one_of(criterion, "--criterion", ("D", "A", "E", "local-D", "bayes-D", "maximin-D"), error)
     one_of(mean_subtraction, "--mean-subtraction", ("none", "batchwise", "complete"), error)
     if trial_length is not None:
         in_range(trial_length, "--trial-length", 1.0, 30 * 86400.0, "s", error)
+
+
+def check_prior_options(
+    criterion: str, spread: float | None, path: Path | None, draws: int | None, error: type[UserError] = UserError
+) -> None:
+    """A robust criterion has one prior (``--prior-spread`` or ``--prior-file``); a local one none,
+    nor ``--prior-draws`` (None: not given)."""
+    robust = criterion in ("bayes-D", "maximin-D")
+    if spread is not None and path is not None:
+        raise error("--prior-spread and --prior-file both give the prior: give one of them")
+    if robust and spread is None and path is None:
+        raise error(
+            f"--criterion {criterion} designs over parameter draws: give --prior-spread FRACTION (e.g. 0.3) or --prior-file PATH"
+        )
+    if not robust and (spread is not None or path is not None or draws is not None):
+        given = "--prior-spread" if spread is not None else "--prior-file" if path is not None else "--prior-draws"
+        raise error(f"{given} is for the robust criteria: add --criterion bayes-D or maximin-D")
+    if spread is not None and not (math.isfinite(spread) and 0.0 < spread <= 1.0):
+        raise error(
+            f"--prior-spread {spread:g}: give a fraction in (0, 1], e.g. 0.3 for parameters within +-30 % of the profile's"
+        )
+    if draws is not None:
+        whole(draws, "--prior-draws", 2, 100_000, "parameter draws", error)
 
 
 def check_vessel_name(name: str | None, rtz: bool, error: type[UserError] = UserError) -> None:

@@ -18,6 +18,7 @@ from primitives.io import dumps
 
 if TYPE_CHECKING:  # annotations only: the command imports the library when it runs
     from cli.drawer import Drawer
+    from expdesign.prior import ParameterPrior
     from maps.chain import LatLonHdg, PlanOptions
     from maps.geo import SeaMap
     from maps.plan import Plan
@@ -86,6 +87,8 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
     from rich.console import Console
     from rich.table import Table
 
+    from expdesign.robust_report import PROVENANCE
+
     con = Console()
     st = result.stats
     for n in st.get("notes", []):
@@ -112,6 +115,16 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
                 for x in d.get("dropped", [])
             ),
         )
+        if d.get("robust"):
+            r = d["robust"]
+            t.add_row(
+                f"D-efficiency over draws ({r['evaluated_on'].split(':')[0]})",
+                "; ".join(
+                    f"{k}: median {s['median']:.3f}, 10th percentile {s['p10']:.3f}, worst {s['min']:.3f}"
+                    for k, s in r["d_efficiency"].items()
+                )
+                + f". {PROVENANCE}",
+            )
     t.add_row("duration", f"{result.duration_s / 60:.1f} min")
     t.add_row("track length", f"{result.length_m / 1000:.2f} km")
     clear = f"{result.min_clearance_m:.1f} m" if math.isfinite(result.min_clearance_m) else "no land or obstacle within the map"
@@ -167,7 +180,20 @@ def register(app: typer.Typer) -> None:
         ),
         scenario: str | None = typer.Option(None, "--scenario", help="a named example instead of the design: thesis-9.4"),
         criterion: str | None = typer.Option(
-            None, "--criterion", help="design criterion: D, A or E (as shiptrial design; default D)"
+            None,
+            "--criterion",
+            help="design criterion: D (= local-D), A, E, bayes-D or maximin-D (as shiptrial design; default D)",
+        ),
+        prior_spread: float | None = typer.Option(
+            None,
+            "--prior-spread",
+            help="robust criteria: parameters drawn within +-FRACTION of the profile's (0 < FRACTION <= 1)",
+        ),
+        prior_file: Path | None = typer.Option(
+            None, "--prior-file", help="robust criteria: JSON prior (parameter_names with draws or a covariance)"
+        ),
+        prior_draws: int | None = typer.Option(
+            None, "--prior-draws", help="parameter draws of the robust criteria (default 200; a prior file's draws as given)"
         ),
         mean_subtraction: str | None = typer.Option(
             None, "--mean-subtraction", help="none, batchwise (7.53) or complete (7.57) (default complete)"
@@ -206,10 +232,19 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Plan a trial: design -> whole manoeuvres -> A* planning -> continuous verification -> exports for the crew."""
         from cli.options import duration_s, validate_plan_options
+        from expdesign.dopt import canonical_criterion
         from maps.chain import PlanOptions
 
         trial_length = duration_s(trial_length_text, "--trial-length")
-        design_conflict(counts, scenario, criterion=criterion, mean_subtraction=mean_subtraction, trial_length=trial_length)
+        design_conflict(
+            counts,
+            scenario,
+            criterion=criterion,
+            mean_subtraction=mean_subtraction,
+            trial_length=trial_length,
+            prior_spread=prior_spread,
+            prior_file=prior_file,
+        )
         criterion = "D" if criterion is None else criterion
         mean_subtraction = "complete" if mean_subtraction is None else mean_subtraction
         validate_plan_options(
@@ -232,6 +267,7 @@ def register(app: typer.Typer) -> None:
             start_time=start_time,
             no_export=no_export,
         )
+        criterion = canonical_criterion(criterion)  # checked by validate_plan_options: "local-D" is "D"
         ni, nj = (int(v) for v in size.lower().split("x"))  # checked by validate_plan_options
         if counts is not None and scenario is not None:
             raise UserError("--counts and --scenario both choose the manoeuvres: give one of them")
@@ -246,7 +282,13 @@ def register(app: typer.Typer) -> None:
             max_memory_gib=max_memory,
         )
         opts.check()
-        design = {"criterion": criterion, "mean_subtraction": mean_subtraction, "trial_length_s": trial_length, "seed": seed}
+        design = {
+            "criterion": criterion,
+            "mean_subtraction": mean_subtraction,
+            "trial_length_s": trial_length,
+            "seed": seed,
+            "parameter_prior": _prior(ship, criterion, prior_spread, prior_file, prior_draws, seed),
+        }
         files, result = plan_and_write(
             ship,
             map_path,
@@ -264,6 +306,20 @@ def register(app: typer.Typer) -> None:
         )
         _skip_final_collection()
         report(result, files, heuristic, json_out)
+
+
+def _prior(
+    ship: str, criterion: str, spread: float | None, path: Path | None, draws: int | None, seed: int
+) -> ParameterPrior | None:
+    """The parameter prior of a robust criterion (None for a local one), refused in one line when bad."""
+    from cli.options import check_prior_options
+    from expdesign.prior import make_prior
+    from primitives.ship import load_profile
+
+    check_prior_options(criterion, spread, path, draws)
+    if spread is None and path is None:
+        return None
+    return make_prior(load_profile(ship), spread, path, draws, seed)
 
 
 def plan_and_write(

@@ -8,14 +8,26 @@ primitives' pieces for the trial length.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from expdesign.dopt import CRITERIA, Constraints, InfoSet, lost_to_mean_subtraction, solve_convex, varying_primitives
+from expdesign.dopt import (
+    CRITERIA,
+    ROBUST,
+    Constraints,
+    InfoSet,
+    canonical_criterion,
+    lost_to_mean_subtraction,
+    solve_convex,
+    varying_primitives,
+)
 from expdesign.errors import DesignError
 from expdesign.nonconvex import solve_nonconvex
+from expdesign.prior import ParameterPrior
+from expdesign.robust import DrawInformation, draw_information, robust_design
 from expdesign.rounding import _efficiency, round_design
 from primitives.information import (
     MEAN_SUBTRACTION,
@@ -62,6 +74,7 @@ class Design:
     n_params: int = 0
     references: dict[str, float] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    robust: dict[str, Any] | None = None  # bayes-D / maximin-D: the prior and each mix's D-efficiency over its draws
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -86,6 +99,7 @@ class Design:
             "n_params": self.n_params,
             "reference_efficiency": dict(self.references),
             "warnings": list(self.warnings),
+            "robust": self.robust,
         }
 
 
@@ -230,9 +244,9 @@ def _optimise(
 def _reference_efficiencies(
     references: dict[str, dict[str, float]] | None,
     names: list[str],
-    info: InfoSet,
+    value: Callable[[np.ndarray], float],
     val: float,
-    mean_subtraction: str,
+    n_params: int,
     criterion: str,
 ) -> dict[str, float]:
     """Criterion efficiency of each reference mix (label -> {primitive: share}) against the design's value ``val``."""
@@ -242,13 +256,110 @@ def _reference_efficiencies(
         if unknown:
             raise DesignError(f"reference design {label!r} names unknown primitives {unknown}")
         rw = np.array([float(shares.get(n, 0.0)) for n in names])
-        refs[label] = _efficiency(info.value(rw / rw.sum(), mean_subtraction, criterion), val, info.n_params, criterion)
+        refs[label] = _efficiency(value(rw / rw.sum()), val, n_params, criterion)
     return refs
 
 
 def unit_samples(prim: Primitive) -> int:
     """Samples of one unit of a primitive: a piece between natural split points (mean length)."""
     return max(1, int(round(prim.n_samples / max(1, len(prim.pieces())))))
+
+
+@dataclass
+class _Step:
+    """The optimisation step of :func:`run_design`: final fractions, their efficiency bound, the
+    criterion as a function of the fractions and the kind of efficiency it gives (D for the robust
+    criteria, whose values are log dets), the certificate record, notes, the non-convex starts and
+    winner, and for a robust design its report section and matrices over the draws."""
+
+    weights: np.ndarray
+    bound: float | None
+    value: Callable[[np.ndarray], float]
+    eff_kind: str
+    convex_weights: np.ndarray
+    certificate: dict[str, Any]
+    notes: list[str]
+    starts: list[dict] = field(default_factory=list)
+    winner: str | None = None
+    section: dict[str, Any] | None = None
+    draws: DrawInformation | None = None
+
+
+def _local_step(
+    info: InfoSet,
+    cons: Constraints,
+    criterion: str,
+    mean_subtraction: str,
+    convex_solvers: tuple[str, ...],
+    n_random_starts: int,
+    seed: int,
+) -> _Step:
+    """The design at the profile's values: :func:`_optimise` and its certificate."""
+    notes: list[str] = []
+    convex, final, starts, winner, bound = _optimise(
+        info, cons, criterion, mean_subtraction, convex_solvers, n_random_starts, seed, notes
+    )
+    certificate = {
+        "criterion": criterion,
+        "n_params": info.n_params,
+        "gradient": None if convex.gradient is None else {n: float(g) for n, g in zip(info.names, convex.gradient)},
+        "max_over_feasible": convex.max_gradient,
+        "efficiency_bound": bound,
+        "relaxation": "symmetric part of Gamma, batchwise mean subtraction"
+        if mean_subtraction == "complete"
+        else "symmetric part of Gamma",
+    }
+    return _Step(
+        final,
+        bound,
+        lambda w: info.value(w, mean_subtraction, criterion),
+        criterion,
+        convex.weights,
+        certificate,
+        notes,
+        starts,
+        winner,
+    )
+
+
+def _robust_step(
+    profile: ShipProfile,
+    prims: list[Primitive],
+    cons: Constraints,
+    criterion: str,
+    mean_subtraction: str,
+    prior: ParameterPrior,
+    draw_info: DrawInformation | None,
+    local_weights: np.ndarray,
+) -> _Step:
+    """bayes-D or maximin-D over the prior's draws (:mod:`expdesign.robust`), beside the local
+    design ``local_weights`` (what ``--criterion D`` gives with the same options)."""
+    dinfo = draw_info if draw_info is not None else draw_information(profile, prims, prior, mean_subtraction, held_out=True)
+    rd = robust_design(dinfo, criterion, cons, prior, mean_subtraction, local_weights)
+    return _Step(
+        rd.weights,
+        rd.efficiency_bound,
+        lambda w: dinfo.value(w, criterion=criterion),
+        "D",
+        rd.weights,
+        rd.certificate,
+        rd.notes,
+        winner=criterion,
+        section=rd.section,
+        draws=dinfo,
+    )
+
+
+def _rounded_rows(section: dict, local: dict, robust: dict, criterion: str, notes: list[str]) -> None:
+    """The rounded local and robust mixes' D-efficiencies in the report section, and a note when
+    rounding leaves the robust mix's 10th percentile no better than the local one's."""
+    section["d_efficiency"]["local-D rounded"] = local
+    section["d_efficiency"]["rounded"] = robust
+    if robust["p10"] <= local["p10"]:
+        notes.append(
+            f"rounded to whole units, the {criterion} mix's 10th-percentile D-efficiency ({robust['p10']:.3f}) is no "
+            f"better than the rounded local mix's ({local['p10']:.3f}): rounding removes the robust gain at this trial length"
+        )
 
 
 def run_design(
@@ -271,6 +382,8 @@ def run_design(
     infos: list[PrimitiveInfo] | None = None,
     references: dict[str, dict[str, float]] | None = None,
     convex_solvers: tuple[str, ...] = ("CLARABEL", "SCS"),
+    parameter_prior: ParameterPrior | None = None,
+    draw_info: DrawInformation | None = None,
 ) -> Design:
     """Design the mix of ``primitives`` (default: the profile's thesis dictionary).
 
@@ -282,11 +395,30 @@ def run_design(
     moment computation (precomputed moments in the order of ``primitives``); ``references``
     (label -> {primitive: share}) are scored by their criterion efficiency relative to the result;
     ``convex_solvers``: the solvers of the convex step in order (see :func:`expdesign.dopt.solve_convex`).
+    ``criterion`` "bayes-D" or "maximin-D" designs over the draws of ``parameter_prior``
+    (:mod:`expdesign.robust`; ``draw_info``: its matrices computed already for ``primitives``);
+    "local-D" is "D".
     """
     if isinstance(profile, str):
         profile = load_profile(profile)
+    criterion = canonical_criterion(criterion)
+    robust = criterion in ROBUST
+    if robust and parameter_prior is None:
+        raise DesignError(
+            f"--criterion {criterion} designs over parameter draws: give --prior-spread FRACTION or --prior-file PATH"
+        )
+    if robust and (disturbed_realisations or prior is not None):
+        given = "--noisy-moments (disturbed_realisations)" if disturbed_realisations else "data already collected (prior)"
+        raise DesignError(
+            f"{given} is not used by --criterion {criterion} (its information at each draw is noise-free, "
+            "with no data counted in): drop it, or design with --criterion D"
+        )
+    if parameter_prior is not None and not robust:
+        raise DesignError(
+            f"a parameter prior is for the robust criteria: give --criterion bayes-D or maximin-D (got {criterion!r})"
+        )
     notes: list[str] = []
-    prims = _informative_library(profile, primitives, psi_switch, criterion, mean_subtraction, notes)
+    prims = _informative_library(profile, primitives, psi_switch, "D" if robust else criterion, mean_subtraction, notes)
     names = [p.name for p in prims]
     if infos is None:
         infos = _moments(profile, prims, disturbed_realisations, seed)
@@ -297,47 +429,45 @@ def run_design(
     info = InfoSet.from_infos(infos, prior, prior_w)
     check_identifiable(profile, info, mean_subtraction)
     cons = Constraints.build(names, min_frac, max_frac, costs, budgets, total_s)
-    convex, final, starts, winner, bound = _optimise(
-        info, cons, criterion, mean_subtraction, convex_solvers, n_random_starts, seed, notes
-    )
+    if robust:
+        local = _local_step(info, cons, "D", mean_subtraction, convex_solvers, n_random_starts, seed)
+        step = _robust_step(profile, prims, cons, criterion, mean_subtraction, parameter_prior, draw_info, local.weights)
+    else:
+        step = _local_step(info, cons, criterion, mean_subtraction, convex_solvers, n_random_starts, seed)
+    final, bound, value, eff_kind, section = step.weights, step.bound, step.value, step.eff_kind, step.section
+    notes += step.notes
     p = info.n_params
-    val = info.value(final, mean_subtraction, criterion)
-    uni = info.value(np.full(len(names), 1.0 / len(names)), mean_subtraction, criterion)
+    val = value(final)
+    uni = value(np.full(len(names), 1.0 / len(names)))
     ts = profile.sample_time
     units = np.array([unit_samples(pr) for pr in prims])
     total_samples = int(round(total_s / ts))
-    rnd = round_design(
-        final, units, total_samples, lambda s: info.value(s / total_samples, mean_subtraction, criterion), p, criterion=criterion
-    )
-    refs = _reference_efficiencies(references, names, info, val, mean_subtraction, criterion)
+    rnd = round_design(final, units, total_samples, lambda s: value(s / total_samples), p, criterion=eff_kind)
+    if section is not None:  # rounded beside rounded: rounding can take the robust gain away
+        lw = np.array([section["local_weights"][n] for n in names])
+        lrnd = round_design(lw, units, total_samples, lambda s: info.value(s / total_samples, mean_subtraction), p)
+        _rounded_rows(section, step.draws.score(lrnd.fractions), step.draws.score(rnd.fractions), criterion, notes)
+    refs = _reference_efficiencies(references, names, value, val, p, eff_kind)
     return Design(
         profile=profile.name,
         criterion=criterion,
         mean_subtraction=mean_subtraction,
         weights={n: float(w) for n, w in zip(names, final)},
         logdet=info.logdet(final, mean_subtraction),
-        efficiency_vs_uniform=_efficiency(val, uni, p, criterion),
+        efficiency_vs_uniform=_efficiency(val, uni, p, eff_kind),
         efficiency_bound=bound,
         rounded={n: int(c) for n, c in zip(names, rnd.counts)},
         unit_s={n: float(u * ts) for n, u in zip(names, units)},
         trial_length_s=total_s,
         rounded_fractions={n: float(f) for n, f in zip(names, rnd.fractions)},
         rounding_efficiency=rnd.efficiency,
-        convex_weights={n: float(w) for n, w in zip(names, convex.weights)},
-        certificate={
-            "criterion": criterion,
-            "n_params": p,
-            "gradient": None if convex.gradient is None else {n: float(g) for n, g in zip(names, convex.gradient)},
-            "max_over_feasible": convex.max_gradient,
-            "efficiency_bound": bound,
-            "relaxation": "symmetric part of Gamma, batchwise mean subtraction"
-            if mean_subtraction == "complete"
-            else "symmetric part of Gamma",
-        },
+        convex_weights={n: float(w) for n, w in zip(names, step.convex_weights)},
+        certificate=step.certificate,
         solver_notes=notes,
-        starts=starts,
-        winner=winner,
+        starts=step.starts,
+        winner=step.winner,
         n_params=p,
         references=refs,
         warnings=[*profile.load_warnings, *mean_subtraction_warnings(profile, info, final, mean_subtraction)],
+        robust=section,
     )

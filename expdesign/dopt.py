@@ -28,6 +28,16 @@ from expdesign.simplexsolver import SUPPORTED, solve_simplex
 from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo
 
 CRITERIA = ("D", "A", "E")
+ROBUST = ("bayes-D", "maximin-D")
+ALIASES = {"local-D": "D"}  # the robust criteria's name for the design at the profile's values
+
+
+def canonical_criterion(criterion: str) -> str:
+    """The criterion's one name ("local-D" is "D"); a DesignError for one no design knows."""
+    c = ALIASES.get(criterion, criterion)
+    if c not in CRITERIA + ROBUST:
+        raise DesignError(f"criterion must be one of {[*CRITERIA, *ALIASES, *ROBUST]}, got {criterion!r}")
+    return c
 
 
 @dataclass
@@ -111,6 +121,8 @@ class InfoSet:
         of (7.57) can have an indefinite symmetric part although it is well conditioned.)"""
         if criterion == "D":
             return self.logdet(w, mean_subtraction)
+        if criterion not in CRITERIA:
+            raise DesignError(f"criterion must be one of {list(CRITERIA)}, got {criterion!r}")
         sv = np.linalg.svd(self.scaled(self.gamma(w, mean_subtraction)), compute_uv=False)
         if criterion == "E":
             return float(sv[-1])

@@ -11,7 +11,25 @@ from expdesign.api import Design
 from expdesign.estimators import OE_TOL
 from expdesign.mc_parallel import MCEvaluation
 from expdesign.mc_result import PARAM_THRESHOLD, SIM_THRESHOLD, THESIS_FRACTIONS, MCResult
+from expdesign.robust_report import robust_markdown
 from primitives.io import atomic_savefig, atomic_write_bytes, atomic_write_text, dumps
+
+
+def _certificate_line(doc: dict[str, Any], cert: dict[str, Any]) -> str:
+    """The certificate bullet: the equivalence theorem's bound for a local criterion, the bayes-D
+    bound on its relaxed matrices, none for maximin-D."""
+    if doc["criterion"] == "bayes-D":
+        return (
+            f"- bayes-D efficiency on the relaxed matrices ({cert['relaxation']}) against the bayes-D optimum "
+            f">= {_f(doc['efficiency_bound'], '{:.4f}')}."
+        )
+    if doc["criterion"] == "maximin-D":
+        return "- maximin-D: no efficiency bound (SLSQP on the epigraph form; each draw's own optimum is certified)."
+    return (
+        f"- Convex certificate (equivalence theorem, {cert['relaxation']}): max over feasible designs of the "
+        f"directional term = {_f(cert.get('max_over_feasible'), '{:.5g}')} vs p = {cert['n_params']}; "
+        f"guaranteed efficiency of the convex solution >= {_f(doc['efficiency_bound'], '{:.4f}')}."
+    )
 
 
 def report_dict(
@@ -321,9 +339,7 @@ def markdown(doc: dict[str, Any], figures: dict[str, str]) -> str:
         "",
         f"- log|det Gamma| of the design: {doc['logdet']:.4g}; efficiency vs equal shares: "
         f"{doc['efficiency_vs_uniform']:.3f} (criterion {doc['criterion']}, > 1 is better).",
-        f"- Convex certificate (equivalence theorem, {cert['relaxation']}): max over feasible designs of the "
-        f"directional term = {_f(cert['max_over_feasible'], '{:.5g}')} vs p = {cert['n_params']}; "
-        f"guaranteed efficiency of the convex solution >= {_f(doc['efficiency_bound'], '{:.4f}')}.",
+        _certificate_line(doc, cert),
         f"- Rounding to whole units (pieces between natural split points) keeps {100 * doc['rounding_efficiency']:.1f} % "
         f"efficiency (loss {100 * doc['rounding_efficiency_loss']:.2f} %).",
         *[
@@ -347,6 +363,7 @@ def markdown(doc: dict[str, Any], figures: dict[str, str]) -> str:
             )
     if figures.get("ratios"):
         lines += ["", f"![shares]({figures['ratios']})"]
+    lines += robust_markdown(doc)
     if doc.get("monte_carlo"):
         lines += mc_markdown(doc, figures)
     if doc.get("sensitivity"):

@@ -43,6 +43,8 @@ def efficient_rounding(weights: np.ndarray, n: int, tol: float = 1e-9) -> np.nda
 def _efficiency(value: float, reference: float, n_params: int, criterion: str) -> float:
     """Efficiency of a design value against a reference value of the same criterion:
     D (log det): exp((v - ref) / p); A (-tr M^-1): ref / v; E (lambda_min): v / ref."""
+    if criterion not in ("D", "A", "E"):
+        raise DesignError(f"efficiency of criterion {criterion!r}: only D, A and E values compare")
     if not (np.isfinite(value) and np.isfinite(reference)):
         return 0.0
     if criterion == "D":

@@ -469,6 +469,12 @@ class Realised:
     replaced_moves: int = 0
 
 
+def _track_m(leg: Leg) -> float:
+    """Distance sailed along a leg (its simulated track; sailed already)."""
+    eta = leg.sim[1]
+    return float(np.hypot(*np.diff(eta[:, :2], axis=0).T).sum())
+
+
 def verify_plan(lat: Lattice, out: SearchOutcome) -> Realised:
     """Legs of the found path (run-ins split off, transit runs straightened where the water
     allows), re-simulated continuously from the start and checked against the margin."""
@@ -492,20 +498,25 @@ def verify_plan(lat: Lattice, out: SearchOutcome) -> Realised:
             while k1 < len(moves) and lat.moves[moves[k1]].counter < 0:
                 k1 += 1
             run = [(moves[i], res.spatial[i]) for i in range(k, k1)]
+            sailed, s_nu, s_eta = [], nu, eta
+            for i, (mi, s) in enumerate(run):
+                for leg in sailor.legs(mi, s, s_nu, s_eta, res.spatial[k + i + 1]):
+                    sailed.append(leg)
+                    s_nu, s_eta = leg.sail(s_nu, s_eta)
             new = None
-            if cutter is not None and len(run) > 1:
+            if cutter is not None:
                 poses = np.array([lat.pose(res.spatial[i]) for i in range(k, k1 + 1)])
                 new = cutter.legs(poses, nu, eta)
-            if new is not None:
+            # the shortcut only where it is the shorter way: a lattice move sailed from the ship's
+            # actual state can be long (a round turn that settles on a lattice line it overshot)
+            if new is not None and _track_m(new) < sum(_track_m(leg) for leg in sailed):
                 shortcuts += 1
                 replaced += len(run)
                 legs.append(new)
                 nu, eta = new.sail(nu, eta)
             else:
-                for i, (mi, s) in enumerate(run):
-                    for leg in sailor.legs(mi, s, nu, eta, res.spatial[k + i + 1]):
-                        legs.append(leg)
-                        nu, eta = leg.sail(nu, eta)
+                legs += sailed
+                nu, eta = s_nu, s_eta
             k = k1
         else:
             for leg in sailor.legs(moves[k], res.spatial[k], nu, eta, res.spatial[k + 1]):

@@ -19,6 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from expdesign.dopt import canonical_criterion
+from expdesign.prior import ParameterPrior
 from maps.chain import LatLonHdg, PlanOptions, assemble_plan, build_lattice, prepare_basic_moves, search_plan, verify_plan
 from maps.geo import MapError, SeaMap, load_map
 from maps.motionset import default_resolution, resolve_primitives
@@ -67,13 +69,15 @@ def plan_with_design(
     vessel_name: str = "",
     options: PlanOptions | None = None,
     first_design: Callable[[], FirstDesign | None] | None = None,
+    parameter_prior: ParameterPrior | None = None,
     **opts: Any,
 ) -> tuple[Plan, TrialDesign | None]:
     """Plan a trial that sails every informative primitive ``counts[name]`` times (8.4) with as
     little repositioning as possible (8.8), from ``start`` to ``goal`` ((lat, lon, heading_deg|None)).
 
     Without ``counts``: the design of the ship's library (``criterion``, ``mean_subtraction``,
-    ``trial_length_s``, ``seed`` as in ``shiptrial design``), or ``scenario="thesis-9.4"``.
+    ``trial_length_s``, ``seed`` as in ``shiptrial design``; ``parameter_prior`` for the robust
+    criteria bayes-D and maximin-D), or ``scenario="thesis-9.4"``.
     ``options`` (or keyword arguments of :class:`maps.chain.PlanOptions`) set the lattice.
     ``first_design``: returns :func:`maps.trialdesign.first_design` of ``profile`` and these design
     options computed elsewhere (another process), or None to compute it here; it is called once
@@ -84,6 +88,7 @@ def plan_with_design(
     t_all = time.perf_counter()
     o = options or PlanOptions(**opts)
     o.check()
+    criterion = canonical_criterion(criterion)
     prof = load_profile(profile) if isinstance(profile, str) else profile
     if not isinstance(sea, SeaMap):
         sea = load_map(sea, draught_m=prof.draught_m, ukc_m=o.ukc_m)
@@ -118,6 +123,7 @@ def plan_with_design(
             trial_length_s=trial_length_s,
             seed=seed,
             first=first,
+            parameter_prior=parameter_prior,
         )
         lat = built["lat"]
         lat.notes[:0] = td.notes

@@ -228,17 +228,18 @@ class Shortcutter:
 
     def legs(self, poses: np.ndarray, nu: np.ndarray, eta: np.ndarray) -> Leg | None:
         """One transit leg from the actual state (nu, eta) to the last lattice pose of the run
-        (x, y, psi), or None when no shortcut shortens it safely."""
+        (x, y, psi), or None when the water or the arrival (position, course) does not allow
+        one; the caller keeps it only where it is shorter than the lattice moves it replaces."""
         end = poses[-1]
         d_end = np.array([np.cos(end[2]), np.sin(end[2])])
         app = end[:2] - self.approach * d_end
         if not self.free(app, end[:2]):
             return None
         pts = np.vstack([poses[:, :2], app[None, :]])
-        pts[-2], pts[-1] = app, end[:2]  # the last lattice point is reached along its course
-        keep = string_pull(pts, self.free)
-        if len(keep) >= len(poses) + 1:
-            return None
+        pts[-2], pts[-1] = app, end[:2]
+        # pulled up to the approach point, which is always kept: the last lattice point is reached
+        # along its course (string pulling over it would arrive on the bearing of the last leg)
+        keep = [*string_pull(pts[:-1], self.free), len(pts) - 1]
         wps = [tuple(eta[:2])] + [tuple(pts[k]) for k in keep[1:]]
         inputs = self.helm.run(nu, tuple(eta), [("track", (wps, 2.0 * self.p.length_m))], n_max=20000)
         s_nu, tr = _sail(self.p, inputs, nu, eta)

@@ -17,8 +17,10 @@ from typing import Any
 import numpy as np
 
 from expdesign.api import Design, mean_subtraction_warnings, run_design
-from expdesign.dopt import DEDICATED, InfoSet
+from expdesign.dopt import DEDICATED, ROBUST, InfoSet, canonical_criterion
 from expdesign.errors import DesignError
+from expdesign.prior import ParameterPrior
+from expdesign.robust import DrawInformation, draw_information
 from expdesign.rounding import _efficiency, round_design
 from primitives.information import PrimitiveInfo, library_information
 from primitives.library import Primitive, build_library, thesis_primitives
@@ -66,11 +68,17 @@ def ship_library(profile: ShipProfile) -> list[Primitive]:
 
 
 def _whole_manoeuvres(
-    weights: np.ndarray, prims: list[Primitive], info: InfoSet, trial_s: float, criterion: str, mean_subtraction: str
+    weights: np.ndarray,
+    prims: list[Primitive],
+    info: InfoSet,
+    trial_s: float,
+    criterion: str,
+    mean_subtraction: str,
+    draws: DrawInformation | None = None,
 ) -> tuple[np.ndarray, float, float]:
     """Counts of whole primitives for the trial length, the D-efficiency of the rounded mix
     against the continuous optimum (exp((log det M(n) - log det M(w)) / p)) and its efficiency
-    in the design's own criterion."""
+    in the design's own criterion (a robust one over ``draws``, its values log dets: D-type)."""
     ts = prims[0].profile.sample_time
     units = np.array([p.n_samples for p in prims])
     total = int(round(trial_s / ts))
@@ -80,8 +88,10 @@ def _whole_manoeuvres(
             f"--trial-length {trial_s:g} s is shorter than one manoeuvre (the shortest, {short.name}, "
             f"lasts {short.duration_s:.0f} s): give --trial-length >= {short.duration_s:.0f}"
         )
+    crit = draws if criterion in ROBUST else info  # the object that scores the design's own criterion
+    kind = "D" if criterion in ROBUST else criterion
     rnd = round_design(
-        weights, units, total, lambda s: info.value(s / total, mean_subtraction, criterion), info.n_params, criterion=criterion
+        weights, units, total, lambda s: crit.value(s / total, mean_subtraction, criterion), info.n_params, criterion=kind
     )
     counts = rnd.counts
     sel = weights > 1e-9
@@ -92,11 +102,11 @@ def _whole_manoeuvres(
             f"({', '.join(p.name for p, s in zip(prims, sel) if s)}): give --trial-length >= {need:.0f}"
         )
     real = counts * units / (counts @ units)
-    eff = {
-        c: _efficiency(info.value(real, mean_subtraction, c), info.value(weights, mean_subtraction, c), info.n_params, c)
-        for c in {"D", criterion}
-    }
-    return counts, eff["D"], eff[criterion]
+    d_eff = _efficiency(info.value(real, mean_subtraction, "D"), info.value(weights, mean_subtraction, "D"), info.n_params, "D")
+    own = _efficiency(
+        crit.value(real, mean_subtraction, criterion), crit.value(weights, mean_subtraction, criterion), info.n_params, kind
+    )
+    return counts, d_eff, own
 
 
 def design_counts(
@@ -110,32 +120,41 @@ def design_counts(
     exclude: dict[str, tuple[float, float]] | None = None,
     infos: list[PrimitiveInfo] | None = None,
     baseline: float | None = None,
+    parameter_prior: ParameterPrior | None = None,
+    draws: DrawInformation | None = None,
 ) -> TrialDesign:
     """Design the mix of ``library`` (default :func:`ship_library`) without the primitives in
     ``exclude`` ({name: (along, cross) metres of water it needs}) and round it to whole manoeuvres.
 
     ``trial_length_s`` defaults to every primitive of the library once (as ``shiptrial design``).
     ``baseline``: criterion value of the full library's optimum, for the efficiency lost by the
-    exclusions (computed here when None).
+    exclusions (computed here when None). ``criterion`` bayes-D or maximin-D designs over the
+    draws of ``parameter_prior`` (``draws``: their matrices for ``library``, computed already).
     """
+    criterion = canonical_criterion(criterion)
     lib = [p for p in (library if library is not None else ship_library(profile)) if p.kind == "informative"]
     if infos is None:
         infos = library_information(profile, lib)
+    if criterion in ROBUST and draws is None and parameter_prior is not None:
+        draws = draw_information(profile, lib, parameter_prior, mean_subtraction, held_out=True)
     exclude = dict(exclude or {})
     trial_s = float(trial_length_s) if trial_length_s is not None else float(sum(p.duration_s for p in lib))
     if trial_s <= 0:
         raise DesignError(f"--trial-length must be > 0 s, got {trial_s:g}")
     keep = [i for i, p in enumerate(lib) if p.name not in exclude]
     prims, sub = [lib[i] for i in keep], [infos[i] for i in keep]
-    d = _design_kept(profile, prims, sub, exclude, criterion, mean_subtraction, trial_s, seed)
+    sub_draws = draws.subset(keep) if draws is not None else None
+    d = _design_kept(profile, prims, sub, exclude, criterion, mean_subtraction, trial_s, seed, parameter_prior, sub_draws)
     info = InfoSet.from_infos(sub)
     w = np.array([d.weights[p.name] for p in prims])
-    counts, d_eff, c_eff = _whole_manoeuvres(w, prims, info, trial_s, criterion, mean_subtraction)
+    counts, d_eff, c_eff = _whole_manoeuvres(w, prims, info, trial_s, criterion, mean_subtraction, sub_draws)
     notes, dropped = [], []
     if exclude:
         wf = np.zeros(len(lib))
         wf[keep] = w
-        loss = _exclusion_loss(profile, lib, infos, wf, baseline, criterion, mean_subtraction, trial_s, seed)
+        loss = _exclusion_loss(
+            profile, lib, infos, wf, baseline, criterion, mean_subtraction, trial_s, seed, parameter_prior, draws
+        )
         dropped = [
             {"primitive": name, "needs_m": [float(need[0]), float(need[1])], "efficiency_loss": float(max(0.0, loss))}
             for name, need in exclude.items()
@@ -145,6 +164,13 @@ def design_counts(
             f"{100 * (1 - loss):.1f} % of the full library's optimum"
         )
     record = _record(prims, w, counts, criterion, mean_subtraction, d_eff, c_eff, dropped, trial_s)
+    if d.robust:  # each mix's D-efficiency over the draws, "rounded" now the whole manoeuvres sailed
+        sailed_w = counts * np.array([p.n_samples for p in prims], float)
+        # the unit-rounded rows of run_design give way to the whole manoeuvres sailed (the local
+        # mix's whole-manoeuvre rounding is not computed here)
+        eff = {k: v for k, v in d.robust["d_efficiency"].items() if k != "local-D rounded"}
+        eff["rounded"] = sub_draws.score(sailed_w / sailed_w.sum())
+        record["robust"] = d.robust | {"d_efficiency": eff}
     sailed = counts * np.array([p.n_samples for p in prims], float)
     notes += [f"warning: {w}" for w in mean_subtraction_warnings(profile, info, sailed / sailed.sum(), mean_subtraction)]
     notes.insert(
@@ -165,6 +191,8 @@ def _design_kept(
     mean_subtraction: str,
     trial_s: float,
     seed: int,
+    parameter_prior: ParameterPrior | None = None,
+    draws: DrawInformation | None = None,
 ) -> Design:
     """The continuous design of the primitives kept (``prims``, their moments ``infos``); when
     the exclusions leave nothing, or nothing that identifies the model, a :class:`NoFitError`
@@ -184,6 +212,8 @@ def _design_kept(
             seed=seed,
             infos=infos,
             convex_solvers=SOLVERS,
+            parameter_prior=parameter_prior,
+            draw_info=draws,
         )
     except DesignError as exc:
         if exclude:  # the remaining library cannot identify the model: say what was dropped and why
@@ -206,10 +236,12 @@ def _exclusion_loss(
     mean_subtraction: str,
     trial_s: float,
     seed: int,
+    parameter_prior: ParameterPrior | None = None,
+    draws: DrawInformation | None = None,
 ) -> float:
     """The criterion efficiency the mix ``wf`` (over the whole library, zero on the exclusions)
     loses against the full library's optimum ``baseline`` (designed here when None)."""
-    full = InfoSet.from_infos(infos)
+    full = draws if criterion in ROBUST else InfoSet.from_infos(infos)
     if baseline is None:
         base = run_design(
             profile,
@@ -220,9 +252,12 @@ def _exclusion_loss(
             seed=seed,
             infos=infos,
             convex_solvers=SOLVERS,
+            parameter_prior=parameter_prior,
+            draw_info=draws,
         )
         baseline = full.value(np.array([base.weights[p.name] for p in lib]), mean_subtraction, criterion)
-    return 1.0 - _efficiency(full.value(wf, mean_subtraction, criterion), baseline, full.n_params, criterion)
+    kind = "D" if criterion in ROBUST else criterion
+    return 1.0 - _efficiency(full.value(wf, mean_subtraction, criterion), baseline, full.n_params, kind)
 
 
 def _record(
@@ -294,6 +329,7 @@ class FirstDesign:
     infos: list[PrimitiveInfo]
     design: TrialDesign
     baseline: float  # criterion value of the full library's optimum
+    draws: DrawInformation | None = None  # a robust criterion's matrices over the prior's draws
 
 
 def first_design(
@@ -304,10 +340,18 @@ def first_design(
     mean_subtraction: str = "complete",
     trial_length_s: float | None = None,
     seed: int = 0,
+    parameter_prior: ParameterPrior | None = None,
 ) -> FirstDesign:
-    """Design ``library`` (default :func:`ship_library`) and round it to whole manoeuvres."""
+    """Design ``library`` (default :func:`ship_library`) and round it to whole manoeuvres
+    (``parameter_prior``: the draws of a robust criterion)."""
+    criterion = canonical_criterion(criterion)
     lib = [p for p in (library if library is not None else ship_library(profile)) if p.kind == "informative"]
     infos = library_information(profile, lib)
+    draws = (
+        draw_information(profile, lib, parameter_prior, mean_subtraction, held_out=True)
+        if criterion in ROBUST and parameter_prior
+        else None
+    )
     td = design_counts(
         profile,
         lib,
@@ -316,10 +360,12 @@ def first_design(
         trial_length_s=trial_length_s,
         seed=seed,
         infos=infos,
+        parameter_prior=parameter_prior,
+        draws=draws,
     )
-    full = InfoSet.from_infos(infos)
+    full = draws if draws is not None else InfoSet.from_infos(infos)
     baseline = full.value(np.array([td.design.weights[p.name] for p in lib]), mean_subtraction, criterion)
-    return FirstDesign(lib, infos, td, baseline)
+    return FirstDesign(lib, infos, td, baseline, draws)
 
 
 def design_for_map(
@@ -332,6 +378,7 @@ def design_for_map(
     trial_length_s: float | None = None,
     seed: int = 0,
     first: FirstDesign | None = None,
+    parameter_prior: ParameterPrior | None = None,
 ) -> TrialDesign:
     """Design, check the support against the map, redesign without what fits nowhere.
 
@@ -339,9 +386,16 @@ def design_for_map(
     primitives have no place on the map (e.g. ``build_lattice(...).fits_nowhere``). ``first``:
     :func:`first_design` of the same profile, library and options, computed already.
     """
+    criterion = canonical_criterion(criterion)
     if first is None:
         first = first_design(
-            profile, library, criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length_s, seed=seed
+            profile,
+            library,
+            criterion=criterion,
+            mean_subtraction=mean_subtraction,
+            trial_length_s=trial_length_s,
+            seed=seed,
+            parameter_prior=parameter_prior,
         )
     lib, infos, td, baseline = first.library, first.infos, first.design, first.baseline
     exclude: dict[str, tuple[float, float]] = {}
@@ -360,4 +414,6 @@ def design_for_map(
             exclude=exclude,
             infos=infos,
             baseline=baseline,
+            parameter_prior=parameter_prior,
+            draws=first.draws,
         )

@@ -209,6 +209,13 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(d, "--mc-estimator", ["ml", "", "OE"])
     add(d, "--mc-settle", ["-1", "abc"])
     add(d, "--mc-min-block", ["1", "-5", "201", "abc"])
+    # robust design's prior (issue 28): refused before the draws are simulated
+    rb = [*d, "--criterion", "bayes-D"]
+    add(rb, "--prior-spread", [*FLOATS_BAD, "0", "1.5"])
+    add(rb, "--prior-file", ["{missing}", "{dir}", "{binary}", "{notjson}", "{plan}"])
+    add([*rb, "--prior-spread", "0.3"], "--prior-draws", ["1", "0", "-5", "1000000", "abc"])
+    add([*rb, "--prior-spread", "0.3"], "--prior-truths", ["0", "-1", "1000000", "abc"])
+    add(d, "--prior-spread", ["0.3"])  # a prior without a robust criterion
     # plan
     p = ["plan", "--counts", "tau12=1"]  # a plan of the default ship (full-scale): only the bad option can fail it
     add(p, "--map", ["{missing}", "{dir}", "{binary}", "{notjson}", "{plan}"])
@@ -236,6 +243,9 @@ def _cases() -> list[tuple[str, list[str]]]:
     # (the design runs when neither --counts nor --scenario is given), so only the refusal fails fast
     add(["plan"], "--scenario", ["thesis-9.5", "", "9.4"], named=True)
     add(["plan"], "--criterion", ["X", "", "d-optimal"], named=True)
+    add(["plan", "--criterion", "maximin-D"], "--prior-spread", [*FLOATS_BAD, "0", "1.5"])
+    add(["plan", "--criterion", "maximin-D"], "--prior-file", ["{missing}", "{dir}", "{notjson}"])
+    add(["plan", "--criterion", "maximin-D", "--prior-spread", "0.3"], "--prior-draws", ["1", "1000000", "abc"])
     add(["plan"], "--mean-subtraction", ["sometimes", ""], named=True)
     add(["plan"], "--trial-length", [*FLOATS_BAD, "0", "1e12"], named=True)
     add(["plan"], "--run-in", [*FLOATS_BAD, "1e9"], named=True)
