@@ -122,18 +122,19 @@ def register(app: typer.Typer) -> None:
         )
         _check_mc_options(mc_protocol, mc_order, mc_estimator, mc_settle, mc_min_block, mc_samples)
         from cli.options import check_prior_options
+        from expdesign.dopt import ROBUST
         from expdesign.prior import make_prior
         from primitives.ship import load_profile
 
         profile = load_profile(ship)
-        check_prior_options(criterion, prior_spread, prior_file, prior_draws, DesignError)
+        check_prior_options(criterion, prior_spread, prior_file, prior_draws, DesignError, profile.prior_std is not None)
         if prior_truths is not None and (not monte_carlo or criterion not in ("bayes-D", "maximin-D")):
             raise DesignError(
                 "--prior-truths is for the Monte Carlo of a robust design: add --monte-carlo R and a robust --criterion"
             )
         prior_truths = 20 if prior_truths is None else prior_truths
         whole(prior_truths, "--prior-truths", 1, 10_000, "truths", DesignError)
-        prior = make_prior(profile, prior_spread, prior_file, prior_draws, seed)
+        prior = make_prior(profile, prior_spread, prior_file, prior_draws, seed) if criterion in ROBUST else None
         lib, thesis, d = _design_step(
             profile, criterion, mean_subtraction, trial_length, seed, psi_switch, min_frac, max_frac, noisy_moments, prior
         )

@@ -71,16 +71,22 @@ def check_design_choices(
 
 
 def check_prior_options(
-    criterion: str, spread: float | None, path: Path | None, draws: int | None, error: type[UserError] = UserError
+    criterion: str,
+    spread: float | None,
+    path: Path | None,
+    draws: int | None,
+    error: type[UserError] = UserError,
+    profile_prior: bool = False,
 ) -> None:
-    """A robust criterion has one prior (``--prior-spread`` or ``--prior-file``); a local one none,
-    nor ``--prior-draws`` (None: not given)."""
+    """A robust criterion has one prior (``--prior-spread``, ``--prior-file``, or the profile's own
+    ``[prior] std`` when ``profile_prior``); a local one none, nor ``--prior-draws`` (None: not given)."""
     robust = criterion in ("bayes-D", "maximin-D")
     if spread is not None and path is not None:
         raise error("--prior-spread and --prior-file both give the prior: give one of them")
-    if robust and spread is None and path is None:
+    if robust and spread is None and path is None and not profile_prior:
         raise error(
             f"--criterion {criterion} designs over parameter draws: give --prior-spread FRACTION (e.g. 0.3) or --prior-file PATH"
+            " (a profile made by `shiptrial profile new` carries its own prior)"
         )
     if not robust and (spread is not None or path is not None or draws is not None):
         given = "--prior-spread" if spread is not None else "--prior-file" if path is not None else "--prior-draws"

@@ -313,13 +313,15 @@ def _prior(
 ) -> ParameterPrior | None:
     """The parameter prior of a robust criterion (None for a local one), refused in one line when bad."""
     from cli.options import check_prior_options
+    from expdesign.dopt import ROBUST
     from expdesign.prior import make_prior
     from primitives.ship import load_profile
 
-    check_prior_options(criterion, spread, path, draws)
-    if spread is None and path is None:
+    profile = load_profile(ship)
+    check_prior_options(criterion, spread, path, draws, profile_prior=profile.prior_std is not None)
+    if criterion not in ROBUST:
         return None
-    return make_prior(load_profile(ship), spread, path, draws, seed)
+    return make_prior(profile, spread, path, draws, seed)
 
 
 def plan_and_write(

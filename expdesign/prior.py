@@ -76,7 +76,26 @@ def make_prior(
     ``n_draws`` None: the default count (a file's own draws are used as given)."""
     if spread is not None:
         return spread_prior(profile, spread, DEFAULT_DRAWS if n_draws is None else n_draws, seed)
-    return file_prior(profile, path, n_draws, seed) if path is not None else None
+    if path is not None:
+        return file_prior(profile, path, n_draws, seed)
+    return profile_prior(profile, DEFAULT_DRAWS if n_draws is None else n_draws, seed) if profile.prior_std is not None else None
+
+
+def profile_prior(profile: ShipProfile, n_draws: int = DEFAULT_DRAWS, seed: int = 0) -> ParameterPrior:
+    """Independent Gaussian draws with the profile's own ``[prior] std`` (1 sigma per coefficient, as
+    ``shiptrial profile new`` writes it from the regressions' scatter) around its simulation set."""
+    if profile.prior_std is None:
+        raise DesignError(f"ship {profile.name!r} has no [prior] std: give --prior-spread FRACTION or --prior-file PATH")
+    _check_count(n_draws)
+    centre = profile.params(profile.simulation_set)
+    std = np.asarray(profile.prior_std, float)
+
+    def sample(n: int, rng: np.random.Generator) -> np.ndarray:
+        return centre + std * rng.standard_normal((n, centre.size))
+
+    return ParameterPrior(
+        centre, sample(int(n_draws), stream(seed, DESIGN)), "the profile's [prior] std (Gaussian)", sample, seed
+    )
 
 
 def _check_count(n_draws: int) -> None:

@@ -46,6 +46,24 @@ def test_a_profile_from_particulars_designs(tmp_path, capsys):
     assert (tmp_path / "rep" / "design.json").exists()
 
 
+def test_a_robust_design_draws_from_the_profiles_own_prior(tmp_path, capsys):
+    """The [prior] std that `profile new` writes is the robust design's prior when no other is given;
+    a bundled profile without one still asks for --prior-spread or --prior-file."""
+    import json
+
+    from tests.test_particulars import kvlcc2_built
+
+    ship = tmp_path / "kvlcc2-particulars.toml"
+    ship.write_text(kvlcc2_built().text)
+    args = ["design", "--ship", str(ship), "--criterion", "bayes-D", "--prior-draws", "20", "--monte-carlo", "0"]
+    assert _run([*args, "--out", str(tmp_path / "rep")]) == 0
+    robust = json.loads((tmp_path / "rep" / "design.json").read_text())["robust"]
+    assert "[prior] std" in json.dumps(robust)
+    capsys.readouterr()
+    assert _run(["design", "--ship", "kvlcc2", "--criterion", "bayes-D", "--monte-carlo", "0"]) == 2
+    assert "give --prior-spread" in capsys.readouterr().err
+
+
 def _with(**changes: str) -> list[str]:
     args = list(COASTER)
     for key, val in changes.items():
