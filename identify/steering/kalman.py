@@ -1,0 +1,104 @@
+"""The time loop shared by output error and maximum likelihood: a Kalman predictor on a sampled
+linear model with per-step intervals, scalar sequential measurement updates (R2 is diagonal) and
+missing measurements (NaN) skipped, i.e. the innovations form (3.9)/(4.4) of Källström (1977) with a
+time-varying gain; with ``update=False`` it is the deterministic simulation of output error
+(Kalman gain zero). Compiled with numba when it can be imported (the plain function otherwise).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _loop(Phi, Gam, Qd, idx, u, y, C, D, R, x0, P0, update):  # pragma: no cover - compiled
+    N, ny = y.shape
+    n, nu = x0.shape[0], u.shape[1]
+    e = np.full((N, ny), np.nan)
+    s = np.full((N, ny), np.nan)
+    yhat = np.empty((N, ny))
+    x = x0.copy()
+    P = P0.copy()
+    xn = np.empty(n)
+    T = np.empty((n, n))
+    Ph = np.empty(n)
+    for k in range(N):
+        if k > 0:
+            j = idx[k - 1]
+            for i in range(n):
+                acc = 0.0
+                for m in range(n):
+                    acc += Phi[j, i, m] * x[m]
+                for m in range(nu):
+                    acc += Gam[j, i, m] * u[k - 1, m]
+                xn[i] = acc
+            x[:] = xn
+            if update:  # P = Phi P Phi' + Qd
+                for i in range(n):
+                    for m in range(n):
+                        acc = 0.0
+                        for q in range(n):
+                            acc += Phi[j, i, q] * P[q, m]
+                        T[i, m] = acc
+                for i in range(n):
+                    for m in range(n):
+                        acc = Qd[j, i, m]
+                        for q in range(n):
+                            acc += T[i, q] * Phi[j, m, q]
+                        P[i, m] = acc
+        for c in range(ny):
+            yh = 0.0
+            for i in range(n):
+                yh += C[c, i] * x[i]
+            for i in range(nu):
+                yh += D[c, i] * u[k, i]
+            yhat[k, c] = yh
+            if np.isnan(y[k, c]):
+                continue
+            ek = y[k, c] - yh
+            e[k, c] = ek
+            if not update:
+                s[k, c] = 1.0
+                continue
+            sk = R[c]
+            for i in range(n):
+                acc = 0.0
+                for m in range(n):
+                    acc += P[i, m] * C[c, m]
+                Ph[i] = acc
+                sk += C[c, i] * acc
+            s[k, c] = sk
+            if sk > 0.0:
+                for i in range(n):
+                    x[i] += Ph[i] / sk * ek
+                for i in range(n):
+                    for m in range(n):
+                        P[i, m] -= Ph[i] * Ph[m] / sk
+    return e, s, yhat
+
+
+try:  # the compiled loop: about 1 us a step instead of about 20 us of numpy call overhead
+    from numba import njit
+
+    _compiled = njit(cache=True)(_loop)
+except ImportError:  # pragma: no cover
+    _compiled = _loop
+
+
+def predict(Phi, Gam, Qd, idx, u, y, C, D, R, x0, P0, update: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Innovations e (N, ny), their variances s (N, ny) (NaN where not measured) and the predicted
+    outputs (N, ny); ``update=False``: simulation errors, s = 1."""
+    f = np.ascontiguousarray
+    return _compiled(
+        f(Phi),
+        f(Gam),
+        f(Qd),
+        f(idx),
+        f(u),
+        f(y),
+        f(C),
+        f(D),
+        f(R, dtype=float),
+        f(x0, dtype=float),
+        f(P0, dtype=float),
+        bool(update),
+    )
