@@ -24,9 +24,31 @@ def _root() -> None:
 
 
 # Each command module registers its subcommand(s) on the app.
-from cli import design_cmd, detect_cmd, diagnose_cmd, export_cmd, mass_cmd, plan_cmd, primitives_cmd, sweep_cmd, yawid_cmd  # noqa: E402
+from cli import (  # noqa: E402
+    design_cmd,
+    detect_cmd,
+    diagnose_cmd,
+    export_cmd,
+    mass_cmd,
+    plan_cmd,
+    primitives_cmd,
+    steering_cmd,
+    sweep_cmd,
+    yawid_cmd,
+)
 
-for _module in (primitives_cmd, design_cmd, plan_cmd, export_cmd, diagnose_cmd, sweep_cmd, mass_cmd, yawid_cmd, detect_cmd):
+for _module in (
+    primitives_cmd,
+    design_cmd,
+    plan_cmd,
+    export_cmd,
+    diagnose_cmd,
+    sweep_cmd,
+    mass_cmd,
+    yawid_cmd,
+    detect_cmd,
+    steering_cmd,
+):
     _module.register(app)
 
 

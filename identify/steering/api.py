@@ -4,12 +4,16 @@ the transfer-function parameters with intervals, and the AIC table."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from identify.steering.estimate import Fit, SteeringData, fit
 from identify.steering.mappings import canonical_to_nomoto, nomoto_to_canonical
 from identify.steering.models import Structure
+from identify.steering.recording import read_records
+from primitives.errors import UserError
+from primitives.ship import ShipProfile, load_profile
 
 MODELS = ("nomoto1", "nomoto2", "state-space")
 ESTIMATORS = ("oe", "ml")
@@ -24,38 +28,46 @@ def _rate(data: SteeringData) -> np.ndarray:
     return np.gradient(psi, data.t)
 
 
-def first_order_start(data: SteeringData, L: float, V: float) -> dict[str, float]:
-    """K', T', delta_0 of Nomoto's first-order model by least squares on the differenced yaw rate
-    (r_{k+1} - r_k) / h_k = -r_k / T + (K/T)(delta_k + delta_0): the output-error fit's start."""
-    r = _rate(data)
-    h = np.diff(data.t)
-    ok = np.isfinite(r[:-1]) & np.isfinite(r[1:])
-    X = np.column_stack([r[:-1], data.delta[:-1], np.ones(len(h))])[ok]
-    b = ((r[1:] - r[:-1]) / h)[ok]
-    a, kb, c = np.linalg.lstsq(X, b, rcond=None)[0]
+def _first(x: np.ndarray) -> float:
+    ok = np.isfinite(x)
+    return float(x[ok][0]) if ok.any() else 0.0
+
+
+def first_order_start(records: list[SteeringData], L: float, V: float) -> dict[str, float]:
+    """K', T', delta_0 of Nomoto's first-order model by least squares on the differenced yaw rate of every
+    record, (r_{k+1} - r_k) / h_k = -r_k / T + (K/T)(delta_k + delta_0), and each record's first yaw rate and
+    heading (``r_0@i``, ``psi_0@i``): the output-error fit's start."""
+    X, b = [], []
+    for d in records:
+        r = _rate(d)
+        h = np.diff(d.t)
+        ok = np.isfinite(r[:-1]) & np.isfinite(r[1:])
+        X.append(np.column_stack([r[:-1], d.delta[:-1], np.ones(len(h))])[ok])
+        b.append(((r[1:] - r[:-1]) / h)[ok])
+    a, kb, c = np.linalg.lstsq(np.concatenate(X), np.concatenate(b), rcond=None)[0]
     T = -1.0 / a if a < 0 else 2.0 * L / V
-    K = kb * T
-    if not np.isfinite(K) or K == 0:
-        K = -V / L
-    psi = data.y[:, data.channels.index("psi")] if "psi" in data.channels else np.array([0.0])
-    first = lambda x: float(x[np.isfinite(x)][0]) if np.isfinite(x).any() else 0.0  # noqa: E731
-    return {
+    K = kb * T if np.isfinite(kb * T) and kb != 0 else -V / L
+    out = {
         "K'": K * L / V,
         "T'": float(np.clip(T * V / L, 0.05, 50.0)),
-        "delta_0": float(np.clip(c / kb, -0.1, 0.1)) if kb != 0 else 0.0,
-        "r_0": first(r),
-        "psi_0": first(psi),
+        "delta_0": float(np.clip(c / kb, -0.1, 0.1)) if kb else 0.0,
     }
+    for i, d in enumerate(records):
+        sfx = f"@{i}" if len(records) > 1 else ""
+        out["r_0" + sfx] = _first(_rate(d))
+        out["psi_0" + sfx] = _first(d.y[:, d.channels.index("psi")]) if "psi" in d.channels else 0.0
+        if sfx:
+            out["delta_0" + sfx] = out["delta_0"]
+    return out
 
 
-def _defaults(st: Structure) -> dict[str, float]:
-    return {q.name: 0.0 for q in st.params}
-
-
-def start_values(st: Structure, data: SteeringData, nomoto1: dict[str, float]) -> dict[str, float]:
-    """Start values of ``st`` from a first-order model's K', T', delta_0, r_0, psi_0 (T1' + T2' - T3' = T')."""
-    p = _defaults(st)
-    p.update({k: v for k, v in nomoto1.items() if k in p})
+def start_values(st: Structure, nomoto1: dict[str, float]) -> dict[str, float]:
+    """Start values of ``st`` from a first-order model's K', T', biases and initial states (T1' + T2' - T3' = T')."""
+    p = {q.name: 0.0 for q in st.params}
+    p.update(nomoto1)
+    if st.name != "nomoto1":
+        p.pop("K'", None)
+        p.pop("T'", None)
     if st.name == "nomoto2":
         T = abs(nomoto1["T'"])
         ph = nomoto_to_canonical(nomoto1["K'"], 1.35 * T, 0.25 * T, 0.6 * T)
@@ -67,38 +79,51 @@ def start_values(st: Structure, data: SteeringData, nomoto1: dict[str, float]) -
     return p
 
 
-def fit_model(data: SteeringData, L: float, V: float, model: str, estimator: str, start: dict[str, float] | None = None) -> Fit:
-    """One model by one estimator. Without ``start``: the first-order least-squares start, refined by output
-    error of Nomoto's first-order model, then of ``model``; maximum likelihood starts from that output-error fit
-    and from three process-noise levels, and keeps the best likelihood."""
-    st = Structure(model, L, V, tuple(c for c in data.channels if model == "state-space" or c != "v"))
-    d = data if st.channels == data.channels else _select(data, st.channels)
+def _select(data: SteeringData, channels: tuple[str, ...]) -> SteeringData:
+    if data.channels == channels:
+        return data
+    cols = [data.channels.index(c) for c in channels]
+    return SteeringData(data.t, data.delta, data.y[:, cols], channels, data.source)
+
+
+def _oe_start(st: Structure, records: list[SteeringData], L: float, V: float) -> dict[str, float]:
+    """First-order least squares, refined by output error of Nomoto's first-order model, then of ``st``."""
+    s1 = first_order_start(records, L, V)
+    ch1 = tuple(c for c in st.channels if c != "v")
+    st1 = Structure("nomoto1", L, V, ch1)
+    oe1 = fit(st1, [_select(d, ch1) for d in records], start_values(st1, s1), "oe")
+    if oe1.converged:
+        s1.update({k: v for k, v in oe1.p.items() if k.split("@")[0] in ("K'", "T'", "delta_0", "r_0", "psi_0")})
+    start = start_values(st, s1)
+    if st.name != "nomoto1":
+        oe = fit(st, records, start, "oe")
+        if oe.converged:
+            start.update({k: oe.p[k] for k in oe.free})
+    return start
+
+
+def fit_model(
+    data: SteeringData | list[SteeringData], L: float, V: float, model: str, estimator: str, start: dict[str, float] | None = None
+) -> Fit:
+    """One model by one estimator on one record or several pooled (dynamics shared, biases and initial state per
+    record). Without ``start``: the output-error chain of :func:`_oe_start`; maximum likelihood starts from the
+    output-error fit at three process-noise levels and keeps the best likelihood."""
+    records = [data] if isinstance(data, SteeringData) else list(data)
+    channels = tuple(c for c in records[0].channels if model == "state-space" or c != "v")
+    records = [_select(d, channels) for d in records]
+    st = Structure(model, L, V, channels)
     if start is None:
-        s1 = first_order_start(d, L, V)
-        st1 = Structure("nomoto1", L, V, st.channels if "v" not in st.channels else tuple(c for c in st.channels if c != "v"))
-        d1 = d if st1.channels == d.channels else _select(d, st1.channels)
-        oe1 = fit(st1, d1, start_values(st1, d1, s1), "oe")
-        s1.update({k: oe1.p[k] for k in ("K'", "T'", "delta_0", "r_0", "psi_0")} if oe1.converged else {})
-        start = start_values(st, d, s1)
-        if model != "nomoto1" or estimator == "ml":
-            oe = fit(st, d, start, "oe") if model != "nomoto1" else oe1
-            if oe.converged:
-                start = {**start, **{k: oe.p[k] for k in oe.free}}
+        start = _oe_start(st, records, L, V)
     if estimator == "oe":
-        return fit(st, d, start, "oe")
+        return fit(st, records, start, "oe")
     best = None
     for lq in (-4.0, 0.0, 4.0):
         s = dict(start)
         s.update({q.name: lq for q in st.params if q.name.startswith("ln_q")})
-        f = fit(st, d, s, "ml")
+        f = fit(st, records, s, "ml")
         if best is None or (f.converged and (not best.converged or f.neg_log_lik < best.neg_log_lik)):
             best = f
     return best
-
-
-def _select(data: SteeringData, channels: tuple[str, ...]) -> SteeringData:
-    cols = [data.channels.index(c) for c in channels]
-    return SteeringData(data.t, data.delta, data.y[:, cols], channels, data.source)
 
 
 @dataclass
@@ -152,3 +177,163 @@ def nomoto_parameters(f: Fit) -> dict[str, Estimate]:
     var = np.einsum("ij,jk,ik->i", J, cov, J)
     std = np.where(var > 0, np.sqrt(np.abs(var)), np.nan)
     return {k: Estimate(k, float(v), float(s)) for k, v, s in zip(("K'", "T1'", "T2'", "T3'"), g0, std)}
+
+
+@dataclass
+class ModelResult:
+    """One model by one estimator on the pooled records, or the reason it failed."""
+
+    model: str
+    estimator: str
+    fit: Fit | None
+    failure: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.fit is not None and self.fit.ok and not self.failure
+
+
+@dataclass
+class SteeringResult:
+    """What ``shiptrial steering`` reports: every model/estimator on the pooled records (the AIC table), the
+    chosen one's parameters with intervals, per-record fits when there are several, residual tests, warnings."""
+
+    ship: str
+    L: float
+    V: float
+    speed_source: str
+    starboard_sign: float
+    sources: list[str]
+    model: str
+    estimator: str
+    results: list[ModelResult]
+    per_run: list[ModelResult]
+    warnings: list[str]
+    notes: list[str]
+
+    @property
+    def main(self) -> ModelResult:
+        return next(r for r in self.results if r.model == self.model and r.estimator == self.estimator)
+
+
+def _try_fit(records, L, V, model, estimator) -> ModelResult:
+    try:
+        f = fit_model(records, L, V, model, estimator)
+    except (np.linalg.LinAlgError, ValueError, FloatingPointError) as exc:
+        return ModelResult(model, estimator, None, f"{type(exc).__name__}: {exc}")
+    if not f.converged:
+        return ModelResult(model, estimator, f, f"did not converge ({f.message})")
+    if not f.ok:
+        return ModelResult(
+            model, estimator, f, "singular information matrix: some parameters are not determined by these records"
+        )
+    if not all(np.isfinite(e.value) for e in nomoto_parameters(f).values()):
+        return ModelResult(model, estimator, f, "complex time constants (an oscillatory yaw mode): no Nomoto form")
+    return ModelResult(model, estimator, f)
+
+
+def fastest_time_constant_s(r: ModelResult) -> float | None:
+    """The smallest positive time constant of a fit, in seconds (None without one)."""
+    if not r.ok:
+        return None
+    st = r.fit.structure
+    Ts = [e.value * st.L / st.V for k, e in nomoto_parameters(r.fit).items() if k.startswith("T") and k != "T3'"]
+    Ts = [T for T in Ts if np.isfinite(T) and T > 0]
+    return min(Ts) if Ts else None
+
+
+def sampling_warning(records: list[SteeringData], r: ModelResult) -> str | None:
+    """Källström's experiment 1 (T = 30 s against T2 of about 14 s): a record sampled slower than half the fastest
+    identified time constant cannot resolve it."""
+    Tf = fastest_time_constant_s(r)
+    h = max(float(np.median(np.diff(d.t))) for d in records)
+    if Tf is not None and h > 0.5 * Tf:
+        return (
+            f"sampled every {h:g} s, slower than half the fastest time constant ({Tf:.3g} s of the {r.model} {r.estimator} "
+            f"model): that time constant is poorly resolved; sample at {0.5 * Tf:.2g} s or faster"
+        )
+    return None
+
+
+def identify_records(
+    records: list[SteeringData],
+    L: float,
+    V: float,
+    model: str = "nomoto2",
+    estimator: str = "ml",
+    *,
+    ship: str = "",
+    speed_source: str = "",
+    starboard_sign: float = 0.0,
+    notes: list[str] | None = None,
+) -> SteeringResult:
+    """Every structure (Nomoto 1 and 2, and the state-space model when asked for) by OE and ML on the pooled
+    records, the chosen one per record too when there are several."""
+    if model not in MODELS:
+        raise ValueError(f"model {model!r}: one of {', '.join(MODELS)}")
+    models = ("nomoto1", "nomoto2") + (("state-space",) if model == "state-space" else ())
+    results = [_try_fit(records, L, V, m, e) for m in models for e in ESTIMATORS]
+    per_run = [_try_fit([d], L, V, model, estimator) for d in records] if len(records) > 1 else []
+    res = SteeringResult(
+        ship,
+        L,
+        V,
+        speed_source,
+        starboard_sign,
+        [d.source for d in records],
+        model,
+        estimator,
+        results,
+        per_run,
+        [],
+        list(notes or []),
+    )
+    w = sampling_warning(records, res.main)
+    if w:
+        res.warnings.append(w)
+    if res.main.ok and starboard_sign:
+        K = nomoto_parameters(res.main.fit)["K'"].value
+        if np.sign(K) != np.sign(starboard_sign):
+            res.warnings.append(
+                f"K' = {K:.3g}: a positive delta turns this ship to {'starboard' if K > 0 else 'port'}, but the profile's "
+                f"[helm] starboard_sign is {starboard_sign:+g}: check the rudder column's sign"
+            )
+    return res
+
+
+def identify_files(
+    paths: list[str | Path], ship: str | ShipProfile, model: str = "nomoto2", estimator: str = "ml"
+) -> SteeringResult:
+    """Read the recordings, take L from the profile and V from the recorded forward speed (the profile's cruise
+    speed when no recording has ``u``), and identify."""
+    profile = ship if isinstance(ship, ShipProfile) else load_profile(ship)
+    records, speeds, notes = [], [], []
+    for p in paths:
+        recs, u, n = read_records(p)
+        records += recs
+        speeds += [u] if u is not None else []
+        notes += [f"{Path(p).name}: {x}" for x in n]
+    chans = {d.channels for d in records}
+    if len(chans) > 1:
+        raise UserError(
+            f"the recordings measure different channels ({' / '.join(','.join(c) for c in chans)}); give records with the same columns"
+        )
+    if model == "state-space" and "v" not in records[0].channels:
+        raise UserError(
+            f"--model state-space needs the sway velocity: add column 'v' [m/s] to {paths[0]}, or use nomoto1/nomoto2"
+        )
+    if speeds:
+        V, src = float(np.mean(speeds)), "mean recorded forward speed u"
+    else:
+        V, src = float(profile.cruise_speed_mps), "the profile's cruise speed (no 'u' column)"
+    return identify_records(
+        records,
+        float(profile.length_m),
+        V,
+        model,
+        estimator,
+        ship=profile.name,
+        speed_source=src,
+        starboard_sign=float(profile.helm.starboard_sign) if profile.actuator == "rudder_propeller" else 0.0,
+        notes=notes,
+    )

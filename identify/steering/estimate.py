@@ -17,7 +17,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -53,7 +53,9 @@ class SteeringData:
 
 @dataclass
 class Fit:
-    """One identified model: estimates, standard errors, likelihood, AIC and both residual sets."""
+    """One identified model on one or more records (dynamics and noise shared, biases and initial state per
+    record, named ``name@i`` when there are several): estimates, standard errors, likelihood, AIC and the
+    prediction and simulation residuals of every record."""
 
     structure: Structure
     estimator: str
@@ -67,31 +69,40 @@ class Fit:
     n_obs: int
     converged: bool
     message: str
-    e_pred: np.ndarray  # one-step prediction errors (ML) or simulation errors (OE), (N, ny)
-    e_sim: np.ndarray  # simulation errors (N, ny)
-    y_sim: np.ndarray
-    s_pred: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    records: list[SteeringData]
+    e_pred: list[np.ndarray]  # one-step prediction errors (ML) or simulation errors (OE), (N, ny) per record
+    e_sim: list[np.ndarray]  # simulation errors per record
+    y_sim: list[np.ndarray]
 
     @property
     def ok(self) -> bool:
-        """Converged, finite likelihood and finite, positive standard errors for every free parameter."""
-        return (
+        """Converged, finite likelihood and finite, positive standard errors for every free non-noise parameter."""
+        roles = {q.name: q.role for q in self.structure.params}
+        return bool(
             self.converged
             and np.isfinite(self.neg_log_lik)
-            and all(np.isfinite(self.std[k]) and self.std[k] > 0 for k in self.free if self.structure_role(k) != "noise")
+            and all(np.isfinite(self.std[k]) and self.std[k] > 0 for k in self.free if roles[k.split("@")[0]] != "noise")
         )
 
-    def structure_role(self, name: str) -> str:
-        return next(q.role for q in self.structure.params if q.name == name)
+    def record_params(self, i: int) -> dict[str, float]:
+        """The parameter values of record ``i`` under the structure's plain names."""
+        return _record_params(self.p, i, len(self.records))
 
-    def fit_percent(self, sim: bool = True) -> dict[str, float]:
-        """Per channel 100 (1 - |e| / |y - mean y|) of the simulation (or prediction) errors."""
-        return _fit_percent(self.e_sim if sim else self.e_pred, self._y)
+    def fit_percent(self, sim: bool = True) -> list[list[float]]:
+        """Per record and channel 100 (1 - |e| / |y - mean y|) of the simulation (or prediction) errors."""
+        es = self.e_sim if sim else self.e_pred
+        return [_fit_percent(e, d.y) for e, d in zip(es, self.records)]
 
-    _y: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+def _record_params(p: dict[str, float], i: int, n: int) -> dict[str, float]:
+    if n == 1:
+        return dict(p)
+    out = {k: v for k, v in p.items() if "@" not in k}
+    out.update({k.split("@")[0]: v for k, v in p.items() if k.endswith(f"@{i}")})
+    return out
 
 
-def _fit_percent(e: np.ndarray, y: np.ndarray) -> dict[str, float]:
+def _fit_percent(e: np.ndarray, y: np.ndarray) -> list[float]:
     out = []
     for c in range(y.shape[1]):
         ok = np.isfinite(e[:, c])
@@ -129,13 +140,14 @@ def ml_neg_log_lik(e: np.ndarray, s: np.ndarray) -> float:
 
 
 class _Problem:
-    """Free parameters in scaled units (value / typical size) -> residual vectors and likelihoods."""
+    """Free parameters in scaled units (value / typical size) -> residual vectors and likelihoods over records."""
 
-    def __init__(self, structure: Structure, data: SteeringData, p0: dict[str, float], free: tuple[str, ...], ml: bool):
-        self.st, self.data, self.base, self.free, self.ml = structure, data, dict(p0), free, ml
+    def __init__(self, structure: Structure, records: list[SteeringData], p0: dict[str, float], free: tuple[str, ...], ml: bool):
+        self.st, self.records, self.base, self.free, self.ml = structure, records, dict(p0), free, ml
         sc = {q.name: q.scale for q in structure.params}
-        self.scale = np.array([sc[k] for k in free])
-        self.weights = np.ones(len(data.channels))
+        self.scale = np.array([sc[k.split("@")[0]] for k in free])
+        self.weights = np.ones(len(records[0].channels))
+        self.ok = [np.isfinite(d.y) for d in records]
 
     def params(self, z: np.ndarray) -> dict[str, float]:
         p = dict(self.base)
@@ -145,13 +157,20 @@ class _Problem:
     def z0(self) -> np.ndarray:
         return np.array([self.base[k] for k in self.free]) / self.scale
 
-    def evaluate(self, z: np.ndarray):
+    def evaluate(self, z: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        p = self.params(z)
+        n = len(self.records)
         with np.errstate(all="ignore"):
-            return run(self.st, self.data, self.params(z), self.ml)
+            return [run(self.st, d, _record_params(p, i, n), self.ml) for i, d in enumerate(self.records)]
+
+    def stacked(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Measured-sample errors and variances of every record, (n_obs, ny) with NaN where not measured."""
+        out = self.evaluate(z)
+        return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
 
     def residuals(self, z: np.ndarray) -> np.ndarray:
-        e, s, _ = self.evaluate(z)
-        ok = np.isfinite(self.data.y)
+        e, s = self.stacked(z)
+        ok = np.concatenate(self.ok)
         if self.ml:
             ss = s[ok]
             if not np.all(np.isfinite(ss)) or np.any(ss <= 0):
@@ -162,7 +181,7 @@ class _Problem:
         return np.where(np.isfinite(r), r, 1e6)
 
     def neg_log_lik(self, z: np.ndarray) -> float:
-        e, s, _ = self.evaluate(z)
+        e, s = self.stacked(z)
         return ml_neg_log_lik(e, s) if self.ml else oe_neg_log_lik(e)
 
 
@@ -176,8 +195,8 @@ def _fisher(prob: _Problem, z: np.ndarray, keep: np.ndarray) -> np.ndarray:
     """Fisher information of the innovations likelihood with the scale profiled out (scoring form, first
     derivatives only, by central differences):  sum_k de_k' de_k / (lambda s_k) + 1/2 [sum g g' - (sum g)(sum g)'/N_m],
     g_k = d log s_k / d theta. Better conditioned than a finite-difference Hessian of -log L."""
-    e0, s0, _ = prob.evaluate(z)
-    ok = np.isfinite(prob.data.y)
+    e0, s0 = prob.stacked(z)
+    ok = np.concatenate(prob.ok)
     lam = np.mean(e0[ok] ** 2 / s0[ok])
     de, dg = [], []
     for i in keep:
@@ -185,8 +204,8 @@ def _fisher(prob: _Problem, z: np.ndarray, keep: np.ndarray) -> np.ndarray:
         zp, zm = z.copy(), z.copy()
         zp[i] += h
         zm[i] -= h
-        ep, sp, _ = prob.evaluate(zp)
-        em, sm, _ = prob.evaluate(zm)
+        ep, sp = prob.stacked(zp)
+        em, sm = prob.stacked(zm)
         de.append(((ep - em)[ok] / (2 * h)) / np.sqrt(lam * s0[ok]))
         dg.append((np.log(sp[ok]) - np.log(sm[ok])) / (2 * h))
     J, G = np.array(de).T, np.array(dg).T
@@ -205,8 +224,7 @@ def _covariance(prob: _Problem, z: np.ndarray, jac: np.ndarray, at_bound: np.nda
         H = (jac.T @ jac)[np.ix_(keep, keep)]
     out = np.full((n, n), np.nan)
     try:
-        w = np.linalg.eigvalsh(H)
-        if not np.all(np.isfinite(H)) or w.min() <= 1e-12 * max(w.max(), 1e-300):
+        if not np.all(np.isfinite(H)) or np.linalg.eigvalsh(H).min() <= 0:
             return out
         cov_z = np.linalg.inv(H)
     except np.linalg.LinAlgError:
@@ -215,43 +233,74 @@ def _covariance(prob: _Problem, z: np.ndarray, jac: np.ndarray, at_bound: np.nda
     return out
 
 
+def free_names(structure: Structure, n_records: int, estimator: str, fixed: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """The estimated parameters: dynamics and noise shared, biases and initial state per record (``name@i``)."""
+    out = []
+    for q in structure.params:
+        if q.name in fixed or (estimator != "ml" and q.role == "noise"):
+            continue
+        if n_records > 1 and q.role in ("bias", "initial"):
+            out += [f"{q.name}@{i}" for i in range(n_records)]
+        else:
+            out.append(q.name)
+    return tuple(out)
+
+
 def fit(
     structure: Structure,
-    data: SteeringData,
+    data: SteeringData | list[SteeringData],
     start: dict[str, float],
     estimator: str = "ml",
     fixed: tuple[str, ...] = (),
-    max_nfev: int = 400,
+    max_nfev: int = 300,
 ) -> Fit:
-    """Fit ``structure`` to ``data`` by output error (``"oe"``) or maximum likelihood (``"ml"``) from ``start``
-    (every parameter of the structure; the names in ``fixed`` and, for OE, the noise parameters are held)."""
+    """Fit ``structure`` to one record or several (pooled) by output error (``"oe"``) or maximum likelihood
+    (``"ml"``) from ``start`` (every parameter; a per-record ``name@i`` falls back to ``name``); the names in
+    ``fixed`` and, for OE, the noise parameters are held. BLAS runs single-threaded here: the optimiser's
+    SVDs of a tall, thin Jacobian are about 40 times slower on several threads of a shared machine."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1):
+        return _fit(structure, data, start, estimator, fixed, max_nfev)
+
+
+def _fit(
+    structure: Structure,
+    data: SteeringData | list[SteeringData],
+    start: dict[str, float],
+    estimator: str = "ml",
+    fixed: tuple[str, ...] = (),
+    max_nfev: int = 300,
+) -> Fit:
+    records = [data] if isinstance(data, SteeringData) else list(data)
     ml = estimator == "ml"
-    roles = {q.name: q.role for q in structure.params}
-    free = tuple(k for k in structure.names if k not in fixed and (ml or roles[k] != "noise"))
-    prob = _Problem(structure, data, start, free, ml)
+    free = free_names(structure, len(records), estimator, fixed)
+    p0 = dict(start)
+    for k in free:
+        p0.setdefault(k, start.get(k.split("@")[0], 0.0))
+    prob = _Problem(structure, records, p0, free, ml)
     z = prob.z0()
     lo, hi = _bounds(free, prob.scale)
     z = np.clip(z, lo, hi)
     res = None
-    passes = 1 if ml else 3
-    for _ in range(passes):
+    for _ in range(1 if ml else 3):
         if not ml:
-            e, _, _ = prob.evaluate(z)
+            e, _ = prob.stacked(z)
             rms = np.sqrt(np.nanmean(e**2, axis=0))
             prob.weights = 1.0 / np.where(np.isfinite(rms) & (rms > 0), rms, 1.0)
         res = least_squares(prob.residuals, z, bounds=(lo, hi), x_scale=1.0, max_nfev=max_nfev, method="trf")
         z = res.x
     p = prob.params(z)
-    e, s, _ = prob.evaluate(z)
-    e_sim, _, y_sim = run(structure, data, p, False)
+    outs = prob.evaluate(z)
+    sims = [run(structure, d, _record_params(p, i, len(records)), False) for i, d in enumerate(records)]
     nll = prob.neg_log_lik(z)
     # a noise intensity below e^-15 of its reference (or at a bound) is negligible for this record: the
     # likelihood is flat in it, so it is held and gets no variance
     at_bound = np.array([k.startswith("ln_") for k in free]) & ((z * prob.scale <= -15.0) | (z >= hi - 1e-6))
     cov = _covariance(prob, z, res.jac, at_bound)
     std = {k: float(np.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) and cov[i, i] > 0 else float("nan") for i, k in enumerate(free)}
-    nu = len(free) + (1 if ml else len(data.channels))
-    f = Fit(
+    nu = len(free) + (1 if ml else len(records[0].channels))
+    return Fit(
         structure,
         estimator,
         p,
@@ -261,13 +310,11 @@ def fit(
         nll,
         nu,
         2 * nll + 2 * nu,
-        data.n_obs,
+        sum(d.n_obs for d in records),
         bool(res.status > 0 and np.isfinite(nll)),
         str(res.message),
-        e,
-        e_sim,
-        y_sim,
-        s,
+        records,
+        [o[0] for o in outs],
+        [o[0] for o in sims],
+        [o[2] for o in sims],
     )
-    f._y = data.y
-    return f

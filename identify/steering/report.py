@@ -1,0 +1,187 @@
+"""The report of ``shiptrial steering``: text, JSON document and plots (written atomically by the caller's
+output directory)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from identify.steering.api import ModelResult, SteeringResult, nomoto_parameters
+from identify.steering.residuals import residual_tests
+
+UNITS = {"v": ("m/s", 1.0), "r": ("deg/s", 180 / np.pi), "psi": ("deg", 180 / np.pi)}
+LABEL = {"nomoto1": "Nomoto 1st order", "nomoto2": "Nomoto 2nd order", "state-space": "state space [v, r, psi]"}
+
+
+def _tests(r: ModelResult, max_lag: int) -> list[dict]:
+    f = r.fit
+    out = []
+    for i, d in enumerate(f.records):
+        entry = {"record": d.source}
+        for kind, e in (("prediction", f.e_pred[i]), ("simulation", f.e_sim[i])):
+            tests = residual_tests(e, d.delta, d.channels, max_lag)
+            entry[kind] = {c: {k: t.as_dict() for k, t in v.items()} for c, v in tests.items()}
+        out.append(entry)
+    return out
+
+
+def _params(r: ModelResult) -> dict:
+    return {k: {"value": e.value, "std": e.std, "ci95": list(e.interval)} for k, e in nomoto_parameters(r.fit).items()}
+
+
+def model_document(r: ModelResult, max_lag: int = 20) -> dict:
+    """One fit as JSON: the failure, or parameters with intervals, likelihood, AIC, fit and residual tests."""
+    doc = {"model": r.model, "estimator": r.estimator, "ok": r.ok}
+    if not r.ok:
+        doc["failure"] = r.failure
+        return doc
+    f = r.fit
+    doc.update(
+        {
+            "nomoto": _params(r),
+            "parameters": {k: {"value": f.p[k], "std": f.std[k]} for k in f.free},
+            "neg_log_likelihood": f.neg_log_lik,
+            "nu": f.nu,
+            "aic": f.aic,
+            "n_obs": f.n_obs,
+            "fit_percent_simulation": dict(zip(f.records[0].channels, np.mean(f.fit_percent(True), axis=0).tolist())),
+            "fit_percent_prediction": dict(zip(f.records[0].channels, np.mean(f.fit_percent(False), axis=0).tolist())),
+            "residual_tests": _tests(r, max_lag),
+        }
+    )
+    return doc
+
+
+def document(res: SteeringResult) -> dict:
+    """The whole report as a JSON-able dict."""
+    return {
+        "ship": res.ship,
+        "L_m": res.L,
+        "V_mps": res.V,
+        "V_source": res.speed_source,
+        "records": res.sources,
+        "model": res.model,
+        "estimator": res.estimator,
+        "chosen": model_document(res.main),
+        "aic_table": [
+            {
+                "model": r.model,
+                "estimator": r.estimator,
+                "ok": r.ok,
+                "aic": r.fit.aic if r.ok else None,
+                "nu": r.fit.nu if r.ok else None,
+                "failure": r.failure or None,
+            }
+            for r in res.results
+        ],
+        "per_run": [dict(model_document(r), record=src) for r, src in zip(res.per_run, res.sources)],
+        "warnings": res.warnings,
+        "notes": res.notes,
+    }
+
+
+def _fmt_params(r: ModelResult) -> list[str]:
+    return [
+        f"    {k:5s} {e.value:9.3f}  95 % [{e.interval[0]:.3f}, {e.interval[1]:.3f}]" for k, e in nomoto_parameters(r.fit).items()
+    ]
+
+
+def text(res: SteeringResult) -> str:
+    """The human-readable report."""
+    m = res.main
+    lines = [
+        f"steering dynamics of {res.ship}: L = {res.L:g} m, V = {res.V:.3g} m/s ({res.speed_source}); primed with L/V = {res.L / res.V:.3g} s",
+        f"records: {', '.join(Path(s).name for s in res.sources)}",
+        f"{LABEL[res.model]}, {'maximum likelihood' if res.estimator == 'ml' else 'output error'} "
+        + ("(pooled: dynamics shared, biases and initial state per record)" if len(res.sources) > 1 else ""),
+    ]
+    if m.ok:
+        lines += _fmt_params(m)
+        side = "starboard" if nomoto_parameters(m.fit)["K'"].value > 0 else "port"
+        lines.append(f"    (a positive delta turns the ship to {side})")
+        f = m.fit
+        for i, d in enumerate(f.records):
+            sim, pred = f.fit_percent(True)[i], f.fit_percent(False)[i]
+            lines.append(
+                f"  fit {Path(d.source).name}: "
+                + ", ".join(f"{c} {s:.1f} % simulated / {p:.1f} % predicted" for c, s, p in zip(d.channels, sim, pred))
+            )
+        for t in _tests(m, 20):
+            for kind in ("prediction", "simulation"):
+                bits = [
+                    f"{c} {'white' if v['whiteness']['passed'] else 'NOT white'}"
+                    f" ({v['whiteness']['lags_outside']}/{v['whiteness']['lags']} lags out),"
+                    f" {'uncorrelated' if v['rudder']['passed'] else 'CORRELATED'} with rudder"
+                    f" ({v['rudder']['lags_outside']}/{v['rudder']['lags']})"
+                    for c, v in t[kind].items()
+                ]
+                lines.append(f"  {kind} residuals {Path(t['record']).name}: " + "; ".join(bits))
+    else:
+        lines.append(f"  FAILED: {m.failure}")
+    lines.append("AIC (lower is better; pooled records):")
+    ok = [r for r in res.results if r.ok]
+    best = min(ok, key=lambda r: r.fit.aic) if ok else None
+    for r in res.results:
+        if r.ok:
+            lines.append(
+                f"  {LABEL[r.model]:24s} {r.estimator.upper():3s} AIC {r.fit.aic:12.1f}  nu {r.fit.nu:3d}"
+                + ("  <- best" if r is best else "")
+            )
+        else:
+            lines.append(f"  {LABEL[r.model]:24s} {r.estimator.upper():3s} failed: {r.failure}")
+    for r, src in zip(res.per_run, res.sources):
+        lines.append(f"per record {Path(src).name}:")
+        lines += _fmt_params(r) if r.ok else [f"    FAILED: {r.failure}"]
+    lines += [f"warning: {w}" for w in res.warnings]
+    lines += [f"note: {n}" for n in res.notes]
+    return "\n".join(lines)
+
+
+def write_plots(res: SteeringResult, out: Path) -> list[Path]:
+    """Per record: measured, simulated and predicted outputs with the rudder; residual ACF and rudder CCF with
+    +-2 sigma bands, prediction and simulation. PNGs written atomically."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from primitives.io import atomic_savefig
+
+    m = res.main
+    if not m.ok:
+        return []
+    f = m.fit
+    paths = []
+    for i, d in enumerate(f.records):
+        stem = f"record{i + 1}"
+        fig, axes = plt.subplots(len(d.channels) + 1, 1, figsize=(9, 2.2 * (len(d.channels) + 1)), sharex=True)
+        axes[0].step(d.t, np.degrees(d.delta), where="post", color="k")
+        axes[0].set_ylabel("delta [deg]")
+        for j, c in enumerate(d.channels):
+            unit, k = UNITS[c]
+            ax = axes[j + 1]
+            ax.plot(d.t, k * d.y[:, j], ".", ms=3, label="measured")
+            ax.plot(d.t, k * f.y_sim[i][:, j], "-", label="simulated")
+            ax.plot(d.t, k * (d.y[:, j] - f.e_pred[i][:, j]), "--", lw=0.8, label="predicted")
+            ax.set_ylabel(f"{c} [{unit}]")
+        axes[1].legend(fontsize=7)
+        axes[-1].set_xlabel("t [s]")
+        fig.suptitle(f"{Path(d.source).name}: {LABEL[m.model]}, {m.estimator.upper()}", fontsize=9)
+        paths.append(atomic_savefig(fig, out / f"{stem}_fit.png", dpi=100))
+        plt.close(fig)
+        fig, axes = plt.subplots(2, 2 * len(d.channels), figsize=(3 * 2 * len(d.channels), 5), squeeze=False)
+        for row, (kind, e) in enumerate((("prediction", f.e_pred[i]), ("simulation", f.e_sim[i]))):
+            tests = residual_tests(e, d.delta, d.channels)
+            for j, (c, tt) in enumerate(tests.items()):
+                for q, key in enumerate(("whiteness", "rudder")):
+                    t = tt[key]
+                    ax = axes[row, 2 * j + q]
+                    ax.bar(t.lags, t.values, width=0.6)
+                    ax.axhline(t.band, ls="--", c="r", lw=0.8)
+                    ax.axhline(-t.band, ls="--", c="r", lw=0.8)
+                    ax.set_title(f"{kind} {c}: {'ACF' if key == 'whiteness' else 'CCF rudder'}", fontsize=8)
+        fig.tight_layout()
+        paths.append(atomic_savefig(fig, out / f"{stem}_residuals.png", dpi=100))
+        plt.close(fig)
+    return paths
