@@ -86,43 +86,46 @@ def _select(data: SteeringData, channels: tuple[str, ...]) -> SteeringData:
     return SteeringData(data.t, data.delta, data.y[:, cols], channels, data.source)
 
 
-def _oe_start(st: Structure, records: list[SteeringData], L: float, V: float) -> dict[str, float]:
-    """First-order least squares, refined by output error of Nomoto's first-order model, then of ``st``."""
+def _starts(st: Structure, records: list[SteeringData], L: float, V: float) -> list[dict[str, float]]:
+    """Start values: the first-order least-squares start refined by output error of Nomoto's first-order model,
+    mapped to ``st`` (T1' + T2' - T3' = T'), and that start refined by output error of ``st`` itself."""
     s1 = first_order_start(records, L, V)
     ch1 = tuple(c for c in st.channels if c != "v")
     st1 = Structure("nomoto1", L, V, ch1)
     oe1 = fit(st1, [_select(d, ch1) for d in records], start_values(st1, s1), "oe")
     if oe1.converged:
-        s1.update({k: v for k, v in oe1.p.items() if k.split("@")[0] in ("K'", "T'", "delta_0", "r_0", "psi_0")})
+        s1.update({k: v for k, v in oe1.p.items() if k.split("@")[0] in ("K'", "T'", "delta_0", "r_0", "psi_0", "T_D")})
     start = start_values(st, s1)
-    if st.name != "nomoto1":
-        oe = fit(st, records, start, "oe")
-        if oe.converged:
-            start.update({k: oe.p[k] for k in oe.free})
-    return start
+    if st.name == "nomoto1":
+        return [start]
+    oe = fit(st, records, start, "oe")
+    return [start] + ([{**start, **{k: oe.p[k] for k in oe.free}}] if oe.converged else [])
+
+
+def _better(f: Fit, best: Fit | None) -> bool:
+    if best is None:
+        return True
+    return bool(f.converged and np.isfinite(f.neg_log_lik) and (not best.converged or not f.neg_log_lik >= best.neg_log_lik))
 
 
 def fit_model(
     data: SteeringData | list[SteeringData], L: float, V: float, model: str, estimator: str, start: dict[str, float] | None = None
 ) -> Fit:
     """One model by one estimator on one record or several pooled (dynamics shared, biases and initial state per
-    record). Without ``start``: the output-error chain of :func:`_oe_start`; maximum likelihood starts from the
-    output-error fit at three process-noise levels and keeps the best likelihood."""
+    record). Without ``start``: from each start of :func:`_starts` (maximum likelihood: at two process-noise
+    levels each), the best likelihood among the converged fits."""
     records = [data] if isinstance(data, SteeringData) else list(data)
     channels = tuple(c for c in records[0].channels if model == "state-space" or c != "v")
     records = [_select(d, channels) for d in records]
     st = Structure(model, L, V, channels)
-    if start is None:
-        start = _oe_start(st, records, L, V)
-    if estimator == "oe":
-        return fit(st, records, start, "oe")
+    starts = [start] if start is not None else _starts(st, records, L, V)
     best = None
-    for lq in (-4.0, 0.0, 4.0):
-        s = dict(start)
-        s.update({q.name: lq for q in st.params if q.name.startswith("ln_q")})
-        f = fit(st, records, s, "ml")
-        if best is None or (f.converged and (not best.converged or f.neg_log_lik < best.neg_log_lik)):
-            best = f
+    for s0 in starts:
+        for lq in (-3.0, 3.0) if estimator == "ml" else (0.0,):
+            s = dict(s0)
+            s.update({q.name: lq for q in st.params if q.name.startswith("ln_q")})
+            f = fit(st, records, s, estimator)
+            best = f if _better(f, best) else best
     return best
 
 

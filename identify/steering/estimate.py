@@ -26,6 +26,7 @@ from identify.steering.kalman import predict
 from identify.steering.models import Structure, discretize, intervals, measurement_variances
 
 LN2PI = float(np.log(2 * np.pi))
+LN_BOUND = 12.0
 
 
 @dataclass
@@ -41,7 +42,8 @@ class SteeringData:
 
     def __post_init__(self) -> None:
         self.h, self.idx = intervals(self.t)
-        self.u = np.column_stack([self.delta, np.ones_like(self.delta)])
+        prev = np.concatenate([self.delta[:1], self.delta[:-1]])
+        self.u = np.column_stack([self.delta, np.ones_like(self.delta), prev])
 
     @property
     def n_obs(self) -> int:
@@ -76,12 +78,13 @@ class Fit:
 
     @property
     def ok(self) -> bool:
-        """Converged, finite likelihood and finite, positive standard errors for every free non-noise parameter."""
+        """Converged, finite likelihood and finite, positive standard errors for every free dynamics, bias and
+        initial-state parameter (a noise intensity or delay held at its bound has none)."""
         roles = {q.name: q.role for q in self.structure.params}
         return bool(
             self.converged
             and np.isfinite(self.neg_log_lik)
-            and all(np.isfinite(self.std[k]) and self.std[k] > 0 for k in self.free if roles[k.split("@")[0]] != "noise")
+            and all(np.isfinite(self.std[k]) and self.std[k] > 0 for k in self.free if roles[k.split("@")[0]] not in ("noise", "delay"))
         )
 
     def record_params(self, i: int) -> dict[str, float]:
@@ -114,9 +117,10 @@ def _fit_percent(e: np.ndarray, y: np.ndarray) -> list[float]:
 def run(structure: Structure, data: SteeringData, p: dict[str, float], ml: bool):
     """(e, s, yhat) of the predictor (``ml``) or the simulation for parameter values ``p``."""
     A, B, C, D, x0, Qc = structure.system(p)
-    Phi, Gam, Qd = discretize(A, B, Qc if ml else np.zeros_like(Qc), data.h)
+    Phi, Gam, Qd = discretize(A, B, Qc if ml else np.zeros_like(Qc), data.h, float(np.clip(p.get("T_D", 0.0), 0.0, data.h.min())))
     R = measurement_variances(structure, p)
-    return predict(Phi, Gam, Qd, data.idx, data.u, data.y, C, D, R, x0, np.zeros_like(A), ml)
+    D3 = np.column_stack([D, np.zeros(len(D))])
+    return predict(Phi, Gam, Qd, data.idx, data.u, data.y, C, D3, R, x0, np.zeros_like(A), ml)
 
 
 def oe_neg_log_lik(e: np.ndarray) -> float:
@@ -185,9 +189,12 @@ class _Problem:
         return ml_neg_log_lik(e, s) if self.ml else oe_neg_log_lik(e)
 
 
-def _bounds(free: tuple[str, ...], scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    lo = np.array([-30.0 if k.startswith("ln_") else -np.inf for k in free])
-    hi = np.array([30.0 if k.startswith("ln_") else np.inf for k in free])
+def _bounds(free: tuple[str, ...], scale: np.ndarray, h_min: float) -> tuple[np.ndarray, np.ndarray]:
+    """ln-variances within e^+-LN_BOUND of their references (beyond, the filter degenerates: a rate measured
+    exactly against unbounded process noise); the delay within [0, shortest interval] (Källström's
+    T_D = T (1 - |sin theta_34|) bounds it the same way)."""
+    lo = np.array([-LN_BOUND if k.startswith("ln_") else 0.0 if k == "T_D" else -np.inf for k in free])
+    hi = np.array([LN_BOUND if k.startswith("ln_") else h_min if k == "T_D" else np.inf for k in free])
     return lo / scale, hi / scale
 
 
@@ -280,7 +287,7 @@ def _fit(
         p0.setdefault(k, start.get(k.split("@")[0], 0.0))
     prob = _Problem(structure, records, p0, free, ml)
     z = prob.z0()
-    lo, hi = _bounds(free, prob.scale)
+    lo, hi = _bounds(free, prob.scale, min(float(d.h.min()) for d in records))
     z = np.clip(z, lo, hi)
     res = None
     for _ in range(1 if ml else 3):
@@ -294,9 +301,10 @@ def _fit(
     outs = prob.evaluate(z)
     sims = [run(structure, d, _record_params(p, i, len(records)), False) for i, d in enumerate(records)]
     nll = prob.neg_log_lik(z)
-    # a noise intensity below e^-15 of its reference (or at a bound) is negligible for this record: the
-    # likelihood is flat in it, so it is held and gets no variance
-    at_bound = np.array([k.startswith("ln_") for k in free]) & ((z * prob.scale <= -15.0) | (z >= hi - 1e-6))
+    # a noise intensity at a bound is negligible (or degenerate) for this record: the likelihood is flat in
+    # it, so it is held and gets no variance
+    at_bound = np.array([k.startswith("ln_") for k in free]) & (np.abs(z * prob.scale) >= LN_BOUND - 0.1)
+    at_bound |= np.array([k == "T_D" for k in free]) & ((z <= lo + 1e-4) | (z >= hi - 1e-4))
     cov = _covariance(prob, z, res.jac, at_bound)
     std = {k: float(np.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) and cov[i, i] > 0 else float("nan") for i, k in enumerate(free)}
     nu = len(free) + (1 if ml else len(records[0].channels))

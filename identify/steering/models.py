@@ -73,7 +73,7 @@ class Structure:
 
 
 def _common(s: Structure, rate_noise: tuple[str, ...]) -> list[Param]:
-    out = []
+    out = [Param("T_D", "s", 10.0, "delay")]
     if "v" in s.channels:
         out.append(Param("b_v", "m/s", 0.05, "bias"))
     if "r" in s.channels:
@@ -233,19 +233,30 @@ def expm(M: np.ndarray) -> np.ndarray:
     return E
 
 
-def discretize(A: np.ndarray, B: np.ndarray, Qc: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Exact zero-order-hold sampling for each interval in ``h``: Phi (m, n, n), Gamma (m, n, nu), Qd (m, n, n)
-    (Van Loan 1978, block matrix exponentials; batched over the intervals)."""
-    n, nu = B.shape
-    h = np.asarray(h, float)[:, None, None]
-    M = np.zeros((n + nu, n + nu))
+def discretize(
+    A: np.ndarray, B: np.ndarray, Qc: np.ndarray, h: np.ndarray, delay: float = 0.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Exact zero-order-hold sampling for each interval in ``h`` with the rudder delayed by ``delay`` <= h
+    (Källström's T_D): Phi (m, n, n), Gamma (m, n, 3) for the inputs [delta_k, U, delta_{k-1}], Qd (m, n, n).
+    Over [t_k, t_k + T_D) the ship still feels delta_{k-1}, then delta_k: Gamma_delta = Gamma(h - T_D),
+    Gamma_delta_prev = Phi(h - T_D) Gamma(T_D) (Åström and Wittenmark, Computer-Controlled Systems, sec. 2.3;
+    Van Loan 1978's block matrix exponentials, batched over the intervals)."""
+    n = B.shape[0]
+    h = np.asarray(h, float)
+    M = np.zeros((n + 2, n + 2))
     M[:n, :n], M[:n, n:] = A, B
-    E = expm(M[None] * h)
-    Phi, Gam = E[:, :n, :n], E[:, :n, n:]
+    E = expm(M[None] * np.concatenate([h - delay, h, np.full(1, delay)])[:, None, None])
+    m = len(h)
+    Ea, Eh, Ed = E[:m], E[m : 2 * m], E[2 * m]
+    Phi = Eh[:, :n, :n]
+    Gam = np.empty((m, n, 3))
+    Gam[:, :, 0] = Ea[:, :n, n]
+    Gam[:, :, 1] = Eh[:, :n, n + 1]
+    Gam[:, :, 2] = Ea[:, :n, :n] @ Ed[:n, n]
     if not np.any(Qc):
         return Phi, Gam, np.zeros((len(h), n, n))
     W = np.zeros((2 * n, 2 * n))
     W[:n, :n], W[:n, n:], W[n:, n:] = -A, Qc, A.T
-    F = expm(W[None] * h)
+    F = expm(W[None] * h[:, None, None])
     Qd = Phi @ F[:, :n, n:]
     return Phi, Gam, 0.5 * (Qd + np.swapaxes(Qd, 1, 2))
