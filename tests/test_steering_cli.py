@@ -1,0 +1,59 @@
+"""``shiptrial steering`` end to end on a simulated Sea Splendour record (tests/physics/sea_splendour.py):
+the report's parts, the plots, and the warnings a commissioning engineer relies on."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from cli.app import _run
+from tests.physics import sea_splendour as ss
+
+
+@pytest.fixture(scope="module")
+def record(tmp_path_factory):
+    path = tmp_path_factory.mktemp("steer") / "sea-splendour-exp1.csv"
+    ss.write_csv(ss.simulate(ss.EXPERIMENT_1, 0), path)
+    return path
+
+
+def test_report_has_fit_tests_aic_intervals_and_plots(record, tmp_path, capsys):
+    out = tmp_path / "report"
+    rc = _run(["steering", str(record), "--ship", "kvlcc2", "--out", str(out), "--json"])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    doc = json.loads(cap.out)
+    chosen = doc["chosen"]
+    assert chosen["ok"] and chosen["model"] == "nomoto2" and chosen["estimator"] == "ml"
+    for k in ("K'", "T1'", "T2'", "T3'"):
+        lo, hi = chosen["nomoto"][k]["ci95"]
+        assert lo < chosen["nomoto"][k]["value"] < hi
+    tests = chosen["residual_tests"][0]
+    assert set(tests["prediction"]) == {"r", "psi"} and set(tests["simulation"]) == {"r", "psi"}
+    assert {"whiteness", "rudder"} <= set(tests["prediction"]["r"])
+    assert {(r["model"], r["estimator"]) for r in doc["aic_table"]} == {
+        ("nomoto1", "oe"),
+        ("nomoto1", "ml"),
+        ("nomoto2", "oe"),
+        ("nomoto2", "ml"),
+    }
+    # Källström's experiment 1: 30 s sampling against T2 of about 14 s is warned
+    assert any("slower than half the fastest time constant" in w for w in doc["warnings"])
+    assert "slower than half the fastest time constant" in cap.err
+    assert json.loads((out / "steering.json").read_text())["chosen"]["nomoto"] == chosen["nomoto"]
+    assert (out / "record1_fit.png").stat().st_size > 0 and (out / "record1_residuals.png").stat().st_size > 0
+
+
+def test_rudder_sign_against_the_profile_is_warned(record, tmp_path, capsys):
+    lines = record.read_text().splitlines()
+    i = lines[0].split(",").index("delta")
+    flipped = [lines[0]] + [
+        ",".join(f"{-float(v):.9g}" if j == i else v for j, v in enumerate(row.split(","))) for row in lines[1:]
+    ]
+    path = tmp_path / "flipped.csv"
+    path.write_text("\n".join(flipped) + "\n")
+    rc = _run(["steering", str(path), "--ship", "kvlcc2", "--model", "nomoto1", "--estimator", "oe"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "starboard_sign is -1: check the rudder column's sign" in out
