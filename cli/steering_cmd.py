@@ -20,6 +20,9 @@ def register(app: typer.Typer) -> None:
         ship: str = typer.Option(..., "--ship", help="profile (name or file): length L for the prime system, rudder sign"),
         model: str = typer.Option("nomoto2", "--model", help="nomoto1, nomoto2 or state-space ([v, r, psi], needs v)"),
         estimator: str = typer.Option("ml", "--estimator", help="ml (Kalman predictor, process noise) or oe (output error)"),
+        split: str | None = typer.Option(
+            None, "--split", help="S or S1:S2 seconds: identify each part (window S1-S2 left out) and cross-validate"
+        ),
         out: Path | None = typer.Option(
             None, "--out", help="directory for steering.json and the plots (written whole or not at all)"
         ),
@@ -35,11 +38,15 @@ def register(app: typer.Typer) -> None:
 
         one_of(model, "--model", MODELS)
         one_of(estimator, "--estimator", ESTIMATORS)
+        if split is not None:
+            from identify.steering.api import parse_split
+
+            parse_split(split)
         for r in recordings:
             check_input_file(r, "RECORDING", "a steering recording (.csv or MARIN .dat)", "recording")
         if out is not None:
             check_replaceable_dir(out)
-        res = identify_files(list(recordings), ship, model, estimator)
+        res = identify_files(list(recordings), ship, model, estimator, split)
         doc = document(res)
         if out is not None:
             with atomic_output_dir(out) as tmp:

@@ -392,6 +392,8 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["steering", "{steer}", "--ship", "kvlcc2"], "--model", ["fancy", "", "nomoto3"], named=True)
     add(["steering", "{steer}", "--ship", "kvlcc2"], "--estimator", ["pem", ""], named=True)
     add(["steering", "{steer}", "--ship", "kvlcc2"], "--out", out_dir_bad)
+    add(["steering", "{steer}", "--ship", "kvlcc2"], "--split", ["abc", "-5", "300:100", "nan", "1e9", "5"], named=True)
+    cases.append(("steering --split two recordings", ["steering", "{steer}", "{steer}", "--ship", "kvlcc2", "--split", "300"]))
     cases.append(("steering state-space without v", ["steering", "{steer}", "--ship", "kvlcc2", "--model", "state-space"]))
     return cases
 

@@ -213,6 +213,9 @@ class SteeringResult:
     per_run: list[ModelResult]
     warnings: list[str]
     notes: list[str]
+    split: tuple[float, float] | None = None
+    part_fits: dict | None = None  # (part, estimator) -> Fit
+    cross_rows: list | None = None  # identify.steering.crossval.CrossRow
 
     @property
     def main(self) -> ModelResult:
@@ -304,8 +307,47 @@ def identify_records(
     return res
 
 
+def parse_split(text: str) -> tuple[float, float]:
+    """``--split S`` (split at S seconds) or ``S1:S2`` (leave the window S1-S2 out, as Källström left out his
+    course change 1158-1732 s)."""
+    try:
+        a, _, b = text.partition(":")
+        s1 = float(a)
+        s2 = float(b) if b else s1
+    except ValueError:
+        raise UserError(f"--split {text!r}: give seconds, S or S1:S2 (e.g. 1158:1732)") from None
+    if not (np.isfinite(s1) and np.isfinite(s2) and 0 <= s1 <= s2):
+        raise UserError(f"--split {text!r}: need 0 <= S1 <= S2, finite seconds")
+    return s1, s2
+
+
+def split_parts(records: list[SteeringData], split: tuple[float, float]) -> tuple[SteeringData, SteeringData]:
+    """The two parts of the one record, each with at least 10 readings."""
+    from identify.steering.crossval import split_record
+
+    if len(records) != 1:
+        raise UserError("--split needs exactly one recording (it splits one record at a course change)")
+    parts = split_record(records[0], *split)
+    for i, part in enumerate(parts):
+        if len(part.t) < 10:
+            raise UserError(
+                f"--split {split[0]:g}:{split[1]:g}: part {i + 1} has {len(part.t)} readings; "
+                f"the record runs {records[0].t[0]:g}-{records[0].t[-1]:g} s, split inside it"
+            )
+    return parts
+
+
+def add_cross_validation(res: SteeringResult, records: list[SteeringData], split: tuple[float, float]) -> None:
+    """Identify each part of the (single) record and cross-validate (Källström's Tables 3.5-3.8)."""
+    from identify.steering.crossval import cross_validate
+
+    p1, p2 = split_parts(records, split)
+    res.split = split
+    res.part_fits, res.cross_rows = cross_validate((p1, p2), res.L, res.V, res.model if res.model != "state-space" else "nomoto2")
+
+
 def identify_files(
-    paths: list[str | Path], ship: str | ShipProfile, model: str = "nomoto2", estimator: str = "ml"
+    paths: list[str | Path], ship: str | ShipProfile, model: str = "nomoto2", estimator: str = "ml", split: str | None = None
 ) -> SteeringResult:
     """Read the recordings, take L from the profile and V from the recorded forward speed (the profile's cruise
     speed when no recording has ``u``), and identify."""
@@ -329,7 +371,10 @@ def identify_files(
         V, src = float(np.mean(speeds)), "mean recorded forward speed u"
     else:
         V, src = float(profile.cruise_speed_mps), "the profile's cruise speed (no 'u' column)"
-    return identify_records(
+    cut = parse_split(split) if split is not None else None
+    if cut is not None:
+        split_parts(records, cut)  # refused before any fit
+    res = identify_records(
         records,
         float(profile.length_m),
         V,
@@ -340,3 +385,6 @@ def identify_files(
         starboard_sign=float(profile.helm.starboard_sign) if profile.actuator == "rudder_propeller" else 0.0,
         notes=notes,
     )
+    if cut is not None:
+        add_cross_validation(res, records, cut)
+    return res

@@ -84,7 +84,11 @@ class Fit:
         return bool(
             self.converged
             and np.isfinite(self.neg_log_lik)
-            and all(np.isfinite(self.std[k]) and self.std[k] > 0 for k in self.free if roles[k.split("@")[0]] not in ("noise", "delay"))
+            and all(
+                np.isfinite(self.std[k]) and self.std[k] > 0
+                for k in self.free
+                if roles[k.split("@")[0]] not in ("noise", "delay")
+            )
         )
 
     def record_params(self, i: int) -> dict[str, float]:
@@ -267,7 +271,7 @@ def fit(
     SVDs of a tall, thin Jacobian are about 40 times slower on several threads of a shared machine."""
     from threadpoolctl import threadpool_limits
 
-    with threadpool_limits(1):
+    with threadpool_limits(1), np.errstate(all="ignore"):  # a trial step into overflow is rejected by the optimiser
         return _fit(structure, data, start, estimator, fixed, max_nfev)
 
 

@@ -76,9 +76,68 @@ def document(res: SteeringResult) -> dict:
             for r in res.results
         ],
         "per_run": [dict(model_document(r), record=src) for r, src in zip(res.per_run, res.sources)],
+        "cross_validation": _cross_document(res),
         "warnings": res.warnings,
         "notes": res.notes,
     }
+
+
+def _cross_document(res: SteeringResult) -> dict | None:
+    if res.split is None:
+        return None
+    parts = [
+        {
+            "part": part,
+            "estimator": e,
+            "ok": f.ok,
+            "aic": f.aic,
+            "nu": f.nu,
+            "n_obs": f.n_obs,
+            "nomoto": {k: {"value": x.value, "std": x.std} for k, x in nomoto_parameters(f).items()} if f.ok else None,
+        }
+        for (part, e), f in res.part_fits.items()
+    ]
+    rows = [
+        {
+            "data_part": r.data_part,
+            "model_part": r.model_part,
+            "estimator": r.estimator,
+            "ok": r.fit is not None and r.fit.converged,
+            "aic": r.fit.aic if r.fit is not None and r.fit.converged else None,
+            "nu": r.fit.nu if r.fit is not None else None,
+            "fit_percent_simulation": r.fit.fit_percent(True)[0] if r.fit is not None and r.fit.converged else None,
+            "failure": r.failure or None,
+        }
+        for r in res.cross_rows
+    ]
+    return {"split_s": list(res.split), "parts": parts, "cross": rows}
+
+
+def _cross_text(res: SteeringResult) -> list[str]:
+    if res.split is None:
+        return []
+    a, b = res.split
+    lines = [f"split at {a:g}" + (f"-{b:g}" if b != a else "") + " s (window left out); each part on its own:"]
+    for (part, e), f in res.part_fits.items():
+        if f.ok:
+            nm = nomoto_parameters(f)
+            lines.append(
+                f"  part {part} {e.upper():3s} AIC {f.aic:10.1f} nu {f.nu:3d}  "
+                + ", ".join(f"{k} {x.value:.3f} +- {1.96 * x.std:.3f}" for k, x in nm.items())
+            )
+        else:
+            lines.append(f"  part {part} {e.upper():3s} FAILED")
+    lines.append(
+        "cross-validation (dynamics and delay held, biases and initial state refitted by OE; lower AIC generalises better):"
+    )
+    for r in res.cross_rows:
+        head = f"  part {r.data_part} data, model from part {r.model_part} {r.estimator.upper():3s}"
+        if r.fit is not None and r.fit.converged:
+            fp = ", ".join(f"{c} {x:.1f} %" for c, x in zip(r.fit.records[0].channels, r.fit.fit_percent(True)[0]))
+            lines.append(f"{head}: AIC {r.fit.aic:10.1f} nu {r.fit.nu:3d}, simulated fit {fp}")
+        else:
+            lines.append(f"{head}: FAILED ({r.failure})")
+    return lines
 
 
 def _fmt_params(r: ModelResult) -> list[str]:
@@ -130,6 +189,7 @@ def text(res: SteeringResult) -> str:
             )
         else:
             lines.append(f"  {LABEL[r.model]:24s} {r.estimator.upper():3s} failed: {r.failure}")
+    lines += _cross_text(res)
     for r, src in zip(res.per_run, res.sources):
         lines.append(f"per record {Path(src).name}:")
         lines += _fmt_params(r) if r.ok else [f"    FAILED: {r.failure}"]
