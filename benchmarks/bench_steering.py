@@ -1,6 +1,6 @@
 """Benchmark of ``shiptrial steering`` (issue 27: Källström 1977, LISPID on the Sea Splendour).
 
-    python benchmarks/bench_steering.py [--seeds 50] [--parts sea,time,kvlcc2] [--json FILE]
+    python benchmarks/bench_steering.py [--seeds 50] [--parts sea,split,time,kvlcc2] [--json FILE]
 
 * ``sea``: the simulated Sea Splendour experiments (tests/physics/sea_splendour.py: SSPA's model of
   Table 3.1 as the truth, integrated there by its own RK4, with a rudder rate limit, PRBS with manual
@@ -8,6 +8,8 @@
   ``--seeds`` noise seeds each of experiment 1 (30 s) and 2 (15 s): the share of seeds whose
   maximum-likelihood 95 % interval holds the truth, for K', T1', T2', T3' (a failed fit counts as not
   holding it, and is counted); how often AIC prefers ML to OE (Källström: always); median estimates.
+* ``split``: experiment 1 split at the course change (1158-1732 s left out), each part by OE and ML and
+  cross-validated (Källström's Tables 3.5 and 3.8 beside ours, medians over up to 20 seeds).
 * ``time``: CPU time of one maximum-likelihood fit of the second-order model to a 3,000-sample record
   (the simulated experiment sampled every second), from its output-error start (median of 3), and of
   the whole ``fit_model`` (every start); target < 2 s.
@@ -43,9 +45,10 @@ def _record(run: dict) -> SteeringData:
     return SteeringData(run["t"], run["delta"], np.column_stack([run["r"], run["psi"]]), ("r", "psi"), "sea-splendour")
 
 
-def sea(seeds: int) -> dict:
+def sea(seeds: int, experiments: str = "1,2") -> dict:
     out = {}
-    for label, exp in (("experiment 1 (30 s)", ss.EXPERIMENT_1), ("experiment 2 (15 s)", ss.EXPERIMENT_2)):
+    chosen = [("experiment 1 (30 s)", ss.EXPERIMENT_1), ("experiment 2 (15 s)", ss.EXPERIMENT_2)]
+    for label, exp in [c for i, c in enumerate(chosen) if str(i + 1) in experiments.split(",")]:
         cover = {k: 0 for k in NAMES}
         failed_ml = failed_oe = ml_better = 0
         est = {k: [] for k in NAMES}
@@ -122,18 +125,22 @@ def timing(repeat: int = 3) -> dict:
     return r
 
 
-def _overshoots(t: np.ndarray, delta: np.ndarray, psi: np.ndarray) -> list[float]:
-    """Zig-zag overshoot angles [deg]: after each rudder reversal, how far the heading goes on beyond its value
-    at the reversal (the check heading), until the next reversal."""
-    d = delta - np.median(delta)
-    sgn = np.sign(np.where(np.abs(d) > np.radians(2.0), d, 0.0))
+def _overshoots(delta: np.ndarray, psi: np.ndarray, check_deg: float) -> list[float]:
+    """Zig-zag overshoot angles [deg] (IMO MSC.137(76)): after each rudder reversal, how far the heading change
+    from the approach heading goes beyond the check angle before the ship turns back; a segment cut off by the
+    end of the record (its peak at its last sample) is left out."""
+    neutral = 0.5 * (delta.max() + delta.min())
+    d = delta - neutral
+    half = 0.5 * (delta.max() - delta.min())
+    sgn = np.where(np.abs(d) > 0.5 * half, np.sign(d), 0.0)
     nz = np.flatnonzero(sgn)
     rev = [nz[i] for i in range(1, len(nz)) if sgn[nz[i]] != sgn[nz[i - 1]]]
+    dpsi = np.degrees(psi - psi[0])
     out = []
-    for a, b in zip(rev, rev[1:] + [len(t) - 1]):
-        seg = psi[a : b + 1] - psi[a]
-        turn = -np.sign(psi[a] - psi[max(a - 5, 0)])  # the turn the reversal has to stop
-        out.append(float(np.degrees(np.max(-turn * seg))))
+    for a, b in zip(rev, rev[1:] + [len(psi) - 1]):
+        seg = np.sign(dpsi[a]) * dpsi[a : b + 1]
+        if np.argmax(seg) < len(seg) - 1:
+            out.append(float(seg.max() - check_deg))
     return out
 
 
@@ -159,8 +166,8 @@ def kvlcc2() -> dict:
                         entry["overshoots_deg"] = [
                             {
                                 "record": Path(rec.source).name,
-                                "measured": _overshoots(rec.t, rec.delta, rec.y[:, rec.channels.index("psi")]),
-                                "model": _overshoots(rec.t, rec.delta, ys[:, rec.channels.index("psi") - 1]),
+                                "measured": _overshoots(rec.delta, rec.y[:, rec.channels.index("psi")], amp),
+                                "model": _overshoots(rec.delta, ys[:, 1], amp),
                             }
                             for rec, ys in zip(recs, f.y_sim)
                         ]
@@ -196,10 +203,66 @@ def _print_kvlcc2(out: dict) -> None:
             )
 
 
+# Källström (1977) Table 3.5 (AIC of each part) and Table 3.8 (cross-validation AIC), as printed
+PRINTED_PARTS = {(1, "oe"): -279, (1, "ml"): -299, (2, "oe"): -200, (2, "ml"): -321}
+PRINTED_CROSS = {(2, 1, "oe"): -158, (2, 1, "ml"): -163, (1, 2, "oe"): -250, (1, 2, "ml"): -262}
+
+
+def split(seeds: int) -> dict:
+    """Experiment 1 split at the course change (1158-1732 s left out, as Källström did), each part by OE and ML,
+    each part's models cross-validated on the other part (Table 3.8)."""
+    from identify.steering.crossval import cross_validate, split_record
+
+    rows_all, parts_all = [], []
+    for seed in range(seeds):
+        p1, p2 = split_record(_record(ss.simulate(ss.EXPERIMENT_1, seed)), 1158.0, 1732.0)
+        fits, rows = cross_validate((p1, p2), ss.L, ss.V)
+        parts_all.append({k: (f.aic if f.converged else np.nan) for k, f in fits.items()})
+        rows_all.append(
+            {
+                (r.data_part, r.model_part, r.estimator): (r.fit.aic if r.fit is not None and r.fit.converged else np.nan)
+                for r in rows
+            }
+        )
+    print(
+        f"Experiment 1 split at 1158-1732 s, {seeds} seeds: median AIC (ours: r and psi; Källström: 4 outputs in knots and deg,"
+    )
+    print("so only the order within a column compares)")
+    out = {"parts": {}, "cross": {}}
+    for k, printed in PRINTED_PARTS.items():
+        v = np.array([p[k] for p in parts_all])
+        out["parts"][f"part {k[0]} {k[1]}"] = {
+            "median_aic": float(np.nanmedian(v)),
+            "failed": int(np.isnan(v).sum()),
+            "printed": printed,
+        }
+        print(
+            f"  part {k[0]} {k[1].upper():3s}: ours {np.nanmedian(v):9.1f} (failed {int(np.isnan(v).sum())})   Table 3.5 {printed}"
+        )
+    for k, printed in PRINTED_CROSS.items():
+        v = np.array([r[k] for r in rows_all])
+        out["cross"][f"part {k[0]} data, model from part {k[1]} {k[2]}"] = {
+            "median_aic": float(np.nanmedian(v)),
+            "printed": printed,
+        }
+        print(f"  part {k[0]} data, model from part {k[1]} {k[2].upper():3s}: ours {np.nanmedian(v):9.1f}   Table 3.8 {printed}")
+    for dp, mp in ((2, 1), (1, 2)):
+        ml_wins = sum(r[(dp, mp, "ml")] < r[(dp, mp, "oe")] for r in rows_all)
+        print(
+            f"  part {dp} data: the part-{mp} ML model generalises better than the OE model (lower AIC) in {ml_wins}/{seeds} seeds"
+        )
+        out["cross"][f"ml_better_on_part_{dp}"] = f"{ml_wins}/{seeds}"
+    ml_parts = sum(p[(i, "ml")] < p[(i, "oe")] for p in parts_all for i in (1, 2))
+    print(f"  within the parts AIC prefers ML to OE in {ml_parts}/{2 * seeds} part fits (Källström: both parts)")
+    out["ml_preferred_in_parts"] = f"{ml_parts}/{2 * seeds}"
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=50)
-    ap.add_argument("--parts", default="sea,time,kvlcc2")
+    ap.add_argument("--parts", default="sea,split,time,kvlcc2")
+    ap.add_argument("--experiments", default="1,2", help="Sea Splendour experiments to run (1: 30 s, 2: 15 s)")
     ap.add_argument("--json", default=None)
     a = ap.parse_args()
     parts = a.parts.split(",")
@@ -209,7 +272,9 @@ def main() -> None:
     if "kvlcc2" in parts:
         res["kvlcc2"] = kvlcc2()
     if "sea" in parts:
-        res["sea"] = sea(a.seeds)
+        res["sea"] = sea(a.seeds, a.experiments)
+    if "split" in parts:
+        res["split"] = split(min(a.seeds, 20))
     if a.json:
         Path(a.json).write_text(json.dumps(res, indent=1, default=float) + "\n")
 

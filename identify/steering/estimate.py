@@ -91,10 +91,6 @@ class Fit:
             )
         )
 
-    def record_params(self, i: int) -> dict[str, float]:
-        """The parameter values of record ``i`` under the structure's plain names."""
-        return _record_params(self.p, i, len(self.records))
-
     def fit_percent(self, sim: bool = True) -> list[list[float]]:
         """Per record and channel 100 (1 - |e| / |y - mean y|) of the simulation (or prediction) errors."""
         es = self.e_sim if sim else self.e_pred
@@ -202,10 +198,19 @@ def _bounds(free: tuple[str, ...], scale: np.ndarray, h_min: float) -> tuple[np.
     return lo / scale, hi / scale
 
 
-def _fisher(prob: _Problem, z: np.ndarray, keep: np.ndarray) -> np.ndarray:
+def _obs_times(prob: _Problem) -> np.ndarray:
+    """For each measured value in stacked order (time-major), the index of its sample over all records."""
+    rows, off = [], 0
+    for ok in prob.ok:
+        rows.append(np.nonzero(ok)[0] + off)
+        off += ok.shape[0]
+    return np.concatenate(rows)
+
+
+def _ml_information(prob: _Problem, z: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Fisher information of the innovations likelihood with the scale profiled out (scoring form, first
-    derivatives only, by central differences):  sum_k de_k' de_k / (lambda s_k) + 1/2 [sum g g' - (sum g)(sum g)'/N_m],
-    g_k = d log s_k / d theta. Better conditioned than a finite-difference Hessian of -log L."""
+    derivatives by central differences): sum_k de_k' de_k / (lambda s_k) + 1/2 [sum g g' - (sum g)(sum g)'/N_m],
+    g_k = d log s_k / d theta; and each measured value's score eps_k de_k/sqrt(lambda s_k) + (1 - eps_k^2) g_k / 2."""
     e0, s0 = prob.stacked(z)
     ok = np.concatenate(prob.ok)
     lam = np.mean(e0[ok] ** 2 / s0[ok])
@@ -221,25 +226,47 @@ def _fisher(prob: _Problem, z: np.ndarray, keep: np.ndarray) -> np.ndarray:
         dg.append((np.log(sp[ok]) - np.log(sm[ok])) / (2 * h))
     J, G = np.array(de).T, np.array(dg).T
     gs = G.sum(axis=0)
-    return J.T @ J + 0.5 * (G.T @ G - np.outer(gs, gs) / ok.sum())
+    eps = e0[ok] / np.sqrt(lam * s0[ok])
+    scores = eps[:, None] * J + 0.5 * (1.0 - eps[:, None] ** 2) * (G - gs / ok.sum())
+    return J.T @ J + 0.5 * (G.T @ G - np.outer(gs, gs) / ok.sum()), scores
+
+
+def _hac(scores: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """Newey and West (1987): the long-run covariance of the per-sample scores (Bartlett weights, lag
+    floor(4 (n/100)^(2/9))), so that residuals a mismatched model leaves correlated widen the interval."""
+    n_t = int(times.max()) + 1
+    S = np.zeros((n_t, scores.shape[1]))
+    np.add.at(S, times, scores)
+    S = S[np.any(S != 0, axis=1)]
+    n = len(S)
+    lag = int(np.floor(4 * (n / 100.0) ** (2.0 / 9.0)))
+    B = S.T @ S
+    for k in range(1, lag + 1):
+        G = S[k:].T @ S[:-k]
+        B += (1 - k / (lag + 1)) * (G + G.T)
+    return B
 
 
 def _covariance(prob: _Problem, z: np.ndarray, jac: np.ndarray, at_bound: np.ndarray) -> np.ndarray:
-    """Covariance of the free parameters; a noise intensity driven to its bound (a variance that is zero
-    for this record) is held there and gets no variance (NaN) instead of making the Hessian singular."""
+    """Sandwich covariance H^-1 B H^-1 of the free parameters (White 1982, misspecification-robust, with the
+    Newey-West long-run B of the scores), H the information; a noise intensity or delay at its bound is held
+    there and gets no variance (NaN) instead of making H singular."""
     n = len(z)
     keep = np.flatnonzero(~at_bound)
     if prob.ml:
-        H = _fisher(prob, z, keep)
+        H, scores = _ml_information(prob, z, keep)
     else:
-        H = (jac.T @ jac)[np.ix_(keep, keep)]
+        Jk = jac[:, keep]
+        H = Jk.T @ Jk
+        scores = prob.residuals(z)[:, None] * Jk
     out = np.full((n, n), np.nan)
     try:
-        if not np.all(np.isfinite(H)) or np.linalg.eigvalsh(H).min() <= 0:
+        if not np.all(np.isfinite(H)) or not np.all(np.isfinite(scores)) or np.linalg.eigvalsh(H).min() <= 0:
             return out
-        cov_z = np.linalg.inv(H)
+        Hi = np.linalg.inv(H)
     except np.linalg.LinAlgError:
         return out
+    cov_z = Hi @ _hac(scores, _obs_times(prob)) @ Hi
     out[np.ix_(keep, keep)] = cov_z * np.outer(prob.scale[keep], prob.scale[keep])
     return out
 
