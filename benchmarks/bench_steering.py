@@ -144,6 +144,35 @@ def _overshoots(delta: np.ndarray, psi: np.ndarray, check_deg: float) -> list[fl
     return out
 
 
+def model_zigzag(f, amp_deg: float, first_side: float, duration_s: float = 1200.0) -> list[float]:
+    """The identified model's own zig-zag (IMO MSC.137(76)): rudder to ``first_side`` * amp at 2.32 deg/s (the
+    KVLCC2 steering gear), reversed each time the heading change reaches the check angle; its overshoots [deg].
+    Rudder sign as recorded (a positive delta turns the KVLCC2 to port); the fitted rudder offset is kept."""
+    from identify.steering.models import discretize
+
+    p = dict(f.p)
+    p = {k.split("@")[0]: v for k, v in p.items() if "@" not in k or k.endswith("@0")}
+    p.update({"r_0": 0.0, "psi_0": 0.0, "rdot_0": 0.0, "b_r": 0.0})
+    A, B, C, D, x0, _ = f.structure.system(p)
+    Phi, Gam, _ = discretize(A, B, np.zeros_like(A), np.array([1.0]), 0.0)
+    x, rud = np.zeros(len(x0)), 0.0
+    target = -first_side * np.radians(amp_deg)  # recorded sign: a negative delta turns to starboard
+    psi, reversals = [], []
+    for k in range(int(duration_s)):
+        rud += float(np.clip(target - rud, -np.radians(2.32), np.radians(2.32)))
+        x = Phi[0] @ x + Gam[0] @ np.array([rud, 1.0, rud])
+        psi.append(float(np.degrees(x[-1])))
+        if -np.sign(target) * psi[-1] >= amp_deg:  # the heading change the rudder drives reached the check angle
+            target = -target
+            reversals.append(k)
+    psi = np.array(psi)
+    out = []
+    for a, b in zip(reversals, reversals[1:]):
+        seg = np.sign(psi[a]) * psi[a : b + 1]
+        out.append(float(seg.max() - amp_deg))
+    return out[:4]
+
+
 def kvlcc2() -> dict:
     files = {a: [ROOT / "diagnose" / "data" / f"MARIN_FREE_KVLCC2_zz_{s}{a}_m.dat" for s in ("", "-")] for a in (10, 20)}
     out = {}
@@ -167,7 +196,8 @@ def kvlcc2() -> dict:
                             {
                                 "record": Path(rec.source).name,
                                 "measured": _overshoots(rec.delta, rec.y[:, rec.channels.index("psi")], amp),
-                                "model": _overshoots(rec.delta, ys[:, 1], amp),
+                                "model_driven_by_measured_rudder": _overshoots(rec.delta, ys[:, 1], amp),
+                                "model_own_zigzag": model_zigzag(f, amp, 1.0 if "_-" not in rec.source else -1.0),
                             }
                             for rec, ys in zip(recs, f.y_sim)
                         ]
@@ -190,8 +220,9 @@ def _print_kvlcc2(out: dict) -> None:
             print(f"  {key:36s} {txt}")
             for o in e.get("overshoots_deg", []):
                 print(
-                    f"    overshoots {o['record']}: measured {', '.join(f'{x:.1f}' for x in o['measured'][:4])}; "
-                    f"model {', '.join(f'{x:.1f}' for x in o['model'][:4])} deg"
+                    f"    overshoots {o['record']}: measured {', '.join(f'{x:.1f}' for x in o['measured'][:4])}; model's own "
+                    f"zig-zag {', '.join(f'{x:.1f}' for x in o['model_own_zigzag'][:4])}; model driven by the measured rudder "
+                    f"{', '.join(f'{x:.1f}' for x in o['model_driven_by_measured_rudder'][:4])} deg"
                 )
     a, b = out["10/10"].get("nomoto1 pooled", {}), out["20/20"].get("nomoto1 pooled", {})
     if a.get("ok") and b.get("ok"):

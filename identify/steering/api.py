@@ -109,15 +109,22 @@ def _better(f: Fit, best: Fit | None) -> bool:
 
 
 def fit_model(
-    data: SteeringData | list[SteeringData], L: float, V: float, model: str, estimator: str, start: dict[str, float] | None = None
+    data: SteeringData | list[SteeringData],
+    L: float,
+    V: float,
+    model: str,
+    estimator: str,
+    start: dict[str, float] | None = None,
+    accel: dict[str, float] | None = None,
 ) -> Fit:
     """One model by one estimator on one record or several pooled (dynamics shared, biases and initial state per
     record). Without ``start``: from each start of :func:`_starts` (maximum likelihood: at two process-noise
-    levels each), the best likelihood among the converged fits."""
+    levels each), the best likelihood among the converged fits. ``accel``: the state-space model's theta_1..theta_4
+    (``th1``..``th4``; default Källström's Table 3.1)."""
     records = [data] if isinstance(data, SteeringData) else list(data)
     channels = tuple(c for c in records[0].channels if model == "state-space" or c != "v")
     records = [_select(d, channels) for d in records]
-    st = Structure(model, L, V, channels)
+    st = Structure(model, L, V, channels, **({"accel": accel} if accel else {}))
     starts = [start] if start is not None else _starts(st, records, L, V)
     best = None
     for s0 in starts:
@@ -294,6 +301,11 @@ def identify_records(
         [],
         list(notes or []),
     )
+    if model == "state-space":
+        res.notes.append(
+            "state-space model: the acceleration derivatives theta_1..theta_4 are held at Källström's Table 3.1 values "
+            "(SSPA, a 255 000 tdw tanker); for another hull give your model-test values (Structure(accel=...))"
+        )
     w = sampling_warning(records, res.main)
     if w:
         res.warnings.append(w)
