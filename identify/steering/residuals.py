@@ -37,8 +37,22 @@ class CorrelationTest:
 
 
 def _allowed(m: int) -> int:
-    # at 95 % per lag about 5 % fall outside by chance: allow that many (at least one)
-    return max(1, int(np.ceil(0.05 * m)))
+    """Lags a white residual puts outside its 95 % band in 95 % of records: the 95th percentile of Binomial(m, 0.05)
+    (lags treated as independent), 3 of 20."""
+    from scipy.stats import binom
+
+    return int(binom.ppf(0.95, m, 0.05))
+
+
+def _verdict(values: np.ndarray, band: float, n: int) -> tuple[int, bool]:
+    """Lags outside the +-2 sigma band, and the verdict: no more of them than chance allows (:func:`_allowed`)
+    and none beyond the Bonferroni band z(1 - 0.025/m)/sqrt(n) (one large spike is a finding too)."""
+    from scipy.stats import norm
+
+    m = len(values)
+    out = int(np.sum(np.abs(values) > band))
+    big = float(np.max(np.abs(values))) if m else 0.0
+    return out, out <= _allowed(m) and big <= norm.ppf(1 - 0.025 / max(m, 1)) / np.sqrt(n)
 
 
 def whiteness(e: np.ndarray, max_lag: int) -> CorrelationTest:
@@ -50,8 +64,8 @@ def whiteness(e: np.ndarray, max_lag: int) -> CorrelationTest:
     den = float(e @ e) or 1.0
     acf = np.array([e[:-k] @ e[k:] / den for k in range(1, m + 1)])
     band = 2.0 / np.sqrt(n)
-    out = int(np.sum(np.abs(acf) > band))
-    return CorrelationTest("whiteness", np.arange(1, m + 1), acf, band, out, out <= _allowed(m))
+    out, ok = _verdict(acf, band, n)
+    return CorrelationTest("whiteness", np.arange(1, m + 1), acf, band, out, ok)
 
 
 def rudder_correlation(e: np.ndarray, delta: np.ndarray, max_lag: int) -> CorrelationTest:
@@ -65,8 +79,8 @@ def rudder_correlation(e: np.ndarray, delta: np.ndarray, max_lag: int) -> Correl
     den = float(np.sqrt((e @ e) * (u @ u))) or 1.0
     ccf = np.array([u[: n - k] @ e[k:] / den for k in range(0, m + 1)])
     band = 2.0 / np.sqrt(n)
-    out = int(np.sum(np.abs(ccf) > band))
-    return CorrelationTest("rudder", np.arange(0, m + 1), ccf, band, out, out <= _allowed(m + 1))
+    out, ok = _verdict(ccf, band, n)
+    return CorrelationTest("rudder", np.arange(0, m + 1), ccf, band, out, ok)
 
 
 def residual_tests(
