@@ -26,6 +26,8 @@ SLOW = {
     "(about 4 s CPU, not spent twice)",
     "plan-trial --ship kvlcc2 --map": "KVLCC2 on the 60 km open sea: 14 s CPU (106 s wall on the loaded machine)",
     "shiptrial mass ": "the roll mass estimate: 10 s CPU (its own tests run it)",
+    "shiptrial steering diagnose/data": "the two 20/20 KVLCC2 zig-zags pooled, four models and estimators: 13 s CPU "
+    "(tests/test_steering_cli.py runs the command on a simulated record)",
 }
 NOT_RUN = ("pip install", "python -m pytest", "python benchmarks/")  # CI's own steps; benchmarks print figures, minutes each
 
