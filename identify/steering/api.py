@@ -339,14 +339,15 @@ def split_parts(records: list[SteeringData], split: tuple[float, float]) -> tupl
 
     if len(records) != 1:
         raise UserError("--split needs exactly one recording (it splits one record at a course change)")
-    parts = split_record(records[0], *split)
-    for i, part in enumerate(parts):
-        if len(part.t) < 10:
+    t = records[0].t
+    sizes = (int(np.searchsorted(t, split[0])), len(t) - int(np.searchsorted(t, split[1])))
+    for i, n in enumerate(sizes):
+        if n < 10:
             raise UserError(
-                f"--split {split[0]:g}:{split[1]:g}: part {i + 1} has {len(part.t)} readings; "
-                f"the record runs {records[0].t[0]:g}-{records[0].t[-1]:g} s, split inside it"
+                f"--split {split[0]:g}:{split[1]:g}: part {i + 1} has {n} readings; "
+                f"the record runs {t[0]:g}-{t[-1]:g} s, split inside it"
             )
-    return parts
+    return split_record(records[0], *split)
 
 
 def add_cross_validation(res: SteeringResult, records: list[SteeringData], split: tuple[float, float]) -> None:
