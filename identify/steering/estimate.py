@@ -10,8 +10,10 @@
   concentrated out: -log L = N_m/2 (log lambda + 1 + log 2 pi) + 1/2 sum log s_k, lambda = mean(e^2/s).
   Minimised as the sum of squares of rho_k = g e_k / sqrt(s_k), g = exp(mean(log s)/2), a monotone
   transform of -log L (so least squares finds the ML estimate).
-- Standard errors: OE from the Gauss-Newton Jacobian (white residuals assumed); ML from the Fisher
-  information of the innovations (scoring form, the scale profiled out) at the estimate.
+- Standard errors: the sandwich H^-1 B H^-1 (White 1982), H the Gauss-Newton information (OE) or the
+  Fisher information of the innovations (ML, scoring form, the scale profiled out), B the Newey-West
+  (1987) long-run covariance of the per-sample scores: residuals a mismatched model leaves coloured
+  widen the intervals instead of being assumed white.
 - AIC = 2 (-log L) + 2 nu (Akaike 1974; Källström's (3.4)), nu counting the estimated variances.
 """
 
