@@ -15,7 +15,7 @@ def register(app: typer.Typer) -> None:
     @app.command("steering")
     def steering(
         recordings: list[Path] = typer.Argument(
-            ..., help="CSV (t, delta, psi and/or r, optional v, u; SI units, rad) or MARIN .dat; several are pooled"
+            ..., help="CSV (t, delta, psi, optional r, v, u; SI units, rad) or MARIN .dat; several are pooled"
         ),
         ship: str = typer.Option(..., "--ship", help="profile (name or file): length L for the prime system, rudder sign"),
         model: str = typer.Option("nomoto2", "--model", help="nomoto1, nomoto2 or state-space ([v, r, psi], needs v)"),

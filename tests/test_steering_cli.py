@@ -57,3 +57,19 @@ def test_rudder_sign_against_the_profile_is_warned(record, tmp_path, capsys):
     out = capsys.readouterr().out
     assert rc == 0
     assert "starboard_sign is -1: check the rudder column's sign" in out
+
+
+def _without(record, tmp_path, column):
+    rows = [line.split(",") for line in record.read_text().splitlines()]
+    i = rows[0].index(column)
+    path = tmp_path / f"no-{column}.csv"
+    path.write_text("\n".join(",".join(v for j, v in enumerate(row) if j != i) for row in rows) + "\n")
+    return path
+
+
+def test_record_without_heading_is_refused_in_one_line(record, tmp_path, capsys):
+    out = tmp_path / "report"
+    rc = _run(["steering", str(_without(record, tmp_path, "psi")), "--ship", "kvlcc2", "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and err[0].startswith("error:") and "psi" in err[0], err
+    assert not out.exists()

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from identify.steering.api import fit_model, nomoto_parameters
-from identify.steering.estimate import SteeringData
+from identify.steering.api import first_order_start, fit_model, nomoto_parameters, start_values
+from identify.steering.estimate import SteeringData, fit
+from identify.steering.models import Structure
 
 L, V = 329.2, 8.2
 TRUTH = {"K'": -0.72, "T1'": 2.30, "T2'": 0.36, "T3'": 1.03}
@@ -100,3 +101,16 @@ def test_irregular_grid_with_missing_samples_gives_the_same_estimate():
     fake = SteeringData(np.arange(len(irregular)) * 10.0, b_data.delta, b_data.y, b_data.channels)
     ec = nomoto_parameters(fit_model(fake, L, V, "nomoto2", "ml", start=b.p))
     assert any(not (ea[k].interval[0] <= ec[k].value <= ea[k].interval[1]) for k in TRUTH)
+
+
+def test_yaw_rate_without_heading_is_not_reported_as_a_fit():
+    """Without psi the initial heading is a parameter no measurement sees and the rudder offset aliases the rate
+    gyro's bias: the fit must say its parameters are undetermined, not print them with huge intervals."""
+    t, delta, r, psi, rng = _truth_run(1)
+    data = _sample(t, delta, r, psi, rng, np.arange(0, len(t), 10))
+    r_only = SteeringData(data.t, data.delta, data.y[:, :1], ("r",))
+    st = Structure("nomoto2", L, V, ("r",))
+    f = fit(st, r_only, start_values(st, first_order_start([data], L, V)), "oe")
+    assert not f.ok and "psi_0" in f.undetermined, {k: (f.p[k], f.std[k]) for k in f.free}
+    with pytest.raises(ValueError, match="needs the heading psi"):
+        fit_model(r_only, L, V, "nomoto2", "oe")

@@ -122,6 +122,10 @@ def fit_model(
     levels each), the best likelihood among the converged fits. ``accel``: the state-space model's theta_1..theta_4
     (``th1``..``th4``; default Källström's Table 3.1)."""
     records = [data] if isinstance(data, SteeringData) else list(data)
+    if any("psi" not in d.channels for d in records):
+        # without heading the initial heading is a free parameter nothing measures, and the rudder offset
+        # and the rate gyro's bias are the same input to r: the information matrix is singular
+        raise ValueError("a steering fit needs the heading psi in every record (the yaw rate alone leaves it undetermined)")
     channels = tuple(c for c in records[0].channels if model == "state-space" or c != "v")
     records = [_select(d, channels) for d in records]
     st = Structure(model, L, V, channels, **({"accel": accel} if accel else {}))
@@ -237,9 +241,8 @@ def _try_fit(records, L, V, model, estimator) -> ModelResult:
     if not f.converged:
         return ModelResult(model, estimator, f, f"did not converge ({f.message})")
     if not f.ok:
-        return ModelResult(
-            model, estimator, f, "singular information matrix: some parameters are not determined by these records"
-        )
+        names = ", ".join(f.undetermined) or "the information matrix is singular"
+        return ModelResult(model, estimator, f, f"parameters not determined by these records ({names})")
     if not all(np.isfinite(e.value) for e in nomoto_parameters(f).values()):
         return ModelResult(model, estimator, f, "complex time constants (an oscillatory yaw mode): no Nomoto form")
     return ModelResult(model, estimator, f)

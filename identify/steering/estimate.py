@@ -29,6 +29,9 @@ from identify.steering.models import Structure, discretize, intervals, measureme
 
 LN2PI = float(np.log(2 * np.pi))
 LN_BOUND = 12.0
+# A standard error this many times a parameter's typical size (Param.scale) means the records do not
+# determine it (a near-singular information matrix inverts to huge but finite variances).
+UNDETERMINED = 1e3
 
 
 @dataclass
@@ -79,19 +82,25 @@ class Fit:
     y_sim: list[np.ndarray]
 
     @property
+    def undetermined(self) -> tuple[str, ...]:
+        """The free dynamics, bias and initial-state parameters the records do not determine: no finite,
+        positive standard error, or one over :data:`UNDETERMINED` times the parameter's typical size (a noise
+        intensity or delay held at its bound has no standard error and is not counted)."""
+        qs = {q.name: q for q in self.structure.params}
+        out = []
+        for k in self.free:
+            q = qs[k.split("@")[0]]
+            if q.role in ("noise", "delay"):
+                continue
+            sd = self.std[k]
+            if not (np.isfinite(sd) and 0 < sd < UNDETERMINED * q.scale):
+                out.append(k)
+        return tuple(out)
+
+    @property
     def ok(self) -> bool:
-        """Converged, finite likelihood and finite, positive standard errors for every free dynamics, bias and
-        initial-state parameter (a noise intensity or delay held at its bound has none)."""
-        roles = {q.name: q.role for q in self.structure.params}
-        return bool(
-            self.converged
-            and np.isfinite(self.neg_log_lik)
-            and all(
-                np.isfinite(self.std[k]) and self.std[k] > 0
-                for k in self.free
-                if roles[k.split("@")[0]] not in ("noise", "delay")
-            )
-        )
+        """Converged, finite likelihood and every dynamics, bias and initial-state parameter determined."""
+        return bool(self.converged and np.isfinite(self.neg_log_lik) and not self.undetermined)
 
     def fit_percent(self, sim: bool = True) -> list[list[float]]:
         """Per record and channel 100 (1 - |e| / |y - mean y|) of the simulation (or prediction) errors."""

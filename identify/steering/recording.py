@@ -5,8 +5,10 @@ A CSV is read with its time stamps as they are: irregular stamps stay irregular 
 is a missing reading, because the steering fit samples its model exactly on any grid (the diagnosis
 reader would resample the stamps onto a uniform grid and cut the record at a gap of more than two
 samples). Columns (SI units, radians): ``t`` [s] increasing; ``delta`` [rad] rudder angle in the sign
-of the profile's ``[helm] starboard_sign``; ``psi`` [rad] heading, clockwise positive, and/or ``r``
-[rad/s]; optional ``v`` [m/s] sway (for the state-space model) and ``u`` [m/s] forward speed.
+of the profile's ``[helm] starboard_sign``; ``psi`` [rad] heading, clockwise positive; optional ``r``
+[rad/s] yaw rate, ``v`` [m/s] sway (for the state-space model) and ``u`` [m/s] forward speed. A record
+without heading is refused: the initial heading would stay a parameter no measurement determines and
+the rudder offset and the rate gyro's bias could not be told apart.
 """
 
 from __future__ import annotations
@@ -53,13 +55,11 @@ def _read_csv(p: Path) -> tuple[dict[str, np.ndarray], list[str]]:
         raise RecordingError(f"{p}: no header row; the first non-comment line must name the columns (t,delta,psi,r,...)")
     rows = list(csv.reader(body))
     header = [h.strip() for h in rows[0]]
-    missing = [c for c in ("t", "delta") if c not in header]
-    if "psi" not in header and "r" not in header:
-        missing.append("psi or r")
+    missing = [c for c in ("t", "delta", "psi") if c not in header]
     if missing:
         raise RecordingError(
-            f"{p}: missing column(s) {', '.join(missing)}; a steering record needs t [s], delta [rad] and psi [rad] "
-            f"and/or r [rad/s] (the header read is {body[0].strip()[:80]!r})"
+            f"{p}: missing column(s) {', '.join(missing)}; a steering record needs t [s], delta [rad] and psi [rad], "
+            f"r [rad/s] optional (the header read is {body[0].strip()[:80]!r})"
         )
     cols = {}
     for j, name in enumerate(header):
@@ -102,6 +102,8 @@ def _checked(p: Path, cols: dict[str, np.ndarray], notes: list[str]) -> Steering
             f"{int((~keep).sum())} row(s) without a rudder reading left out (the rudder is held from the reading before)"
         )
     channels = tuple(c for c in ("v", "r", "psi") if c in cols and np.isfinite(cols[c][keep]).sum() >= 2)
+    if "psi" not in channels:
+        raise RecordingError(f"{p}: column 'psi' has fewer than 2 readings; a steering fit needs the heading [rad]")
     y = np.column_stack([cols[c][keep] for c in channels])
     if "psi" in channels:
         psi = y[:, channels.index("psi")]
