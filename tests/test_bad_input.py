@@ -122,7 +122,7 @@ def files(tmp_path_factory):
 def _steering_files(tmp: Path) -> dict[str, Path]:
     """A good steering record (first-order Nomoto response to a square-wave rudder, 2 s sampling) and the
     same with each defect the command refuses: a missing column, time not increasing, a rudder in degrees,
-    a yaw rate in deg/s."""
+    a yaw rate in deg/s, a yaw rate without heading, a lone heading in degrees."""
     t = np.arange(0.0, 600.0, 2.0)
     delta = np.radians(10.0) * np.sign(np.sin(2 * np.pi * t / 200.0) + 1e-9)
     r = np.zeros_like(t)
@@ -145,6 +145,8 @@ def _steering_files(tmp: Path) -> dict[str, Path]:
         "steer_tback": write("steer-tback", {**cols, "t": t_back}),
         "steer_deg": write("steer-deg", {**cols, "delta": np.degrees(delta)}),
         "steer_rdeg": write("steer-rdeg", {**cols, "r": np.degrees(r)}),
+        "steer_ronly": write("steer-ronly", {k: v for k, v in cols.items() if k != "psi"}),
+        "steer_psideg_only": write("steer-psideg-only", {"t": t, "delta": delta, "psi": np.degrees(psi)}),
     }
 
 
@@ -386,7 +388,7 @@ def _cases() -> list[tuple[str, list[str]]]:
     # steering (Källström 1977): records without rudder or heading, time not increasing, degrees for radians
     for rec in ["{missing}", "{dir}", "{binary}", "{latin1}", "{plan}", "{steer_nodelta}", "{steer_noheading}", "{steer_tback}"]:
         cases.append((f"steering RECORDING {rec}", ["steering", rec, "--ship", "kvlcc2"]))
-    for rec in ["{steer_deg}", "{steer_rdeg}"]:
+    for rec in ["{steer_deg}", "{steer_rdeg}", "{steer_ronly}", "{steer_psideg_only}"]:
         cases.append((f"steering RECORDING {rec}", ["steering", rec, "--ship", "kvlcc2", "--out", "{tmp}/steer-out"]))
     add(["steering", "{steer}"], "--ship", [*ship_bad])
     add(["steering", "{steer}", "--ship", "kvlcc2"], "--model", ["fancy", "", "nomoto3"], named=True)

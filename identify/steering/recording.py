@@ -25,6 +25,8 @@ from primitives.io import read_input_text
 COLUMNS = ("t", "delta", "psi", "r", "v", "u")
 MAX_RUDDER_RAD = 0.7  # 40 deg: no rudder goes further; larger values are degrees
 MIN_READINGS = 20
+MAX_HEADING_RAD = 2 * np.pi + 0.5  # a gyro reads within [0, 2 pi) or [-pi, pi); beyond (with margin): degrees
+MAX_RATE_RAD_S = 0.2  # 11.5 deg/s: beyond any ship's yaw rate (a tanker turns at under 1 deg/s); larger: deg/s
 
 
 def read_records(path: str | Path) -> tuple[list[SteeringData], float | None, list[str]]:
@@ -95,7 +97,7 @@ def _checked(p: Path, cols: dict[str, np.ndarray], notes: list[str]) -> Steering
             f"{p}: column 'delta' reaches {big:.3g}, more than any rudder turns in radians: a rudder angle in degrees? "
             f"give radians ({big:.3g} deg = {np.radians(big):.3g} rad)"
         )
-    _check_rate_units(p, cols)
+    _check_angle_units(p, cols)
     keep = np.isfinite(d)
     if not keep.all():
         notes.append(
@@ -116,9 +118,19 @@ def _checked(p: Path, cols: dict[str, np.ndarray], notes: list[str]) -> Steering
     return SteeringData(t[keep], d[keep], y, channels, str(p))
 
 
-def _check_rate_units(p: Path, cols: dict[str, np.ndarray]) -> None:
-    """psi and r in the same angle unit: the rate of the heading against r (deg vs rad is a factor 57.3)."""
-    if "psi" not in cols or "r" not in cols:
+def _check_angle_units(p: Path, cols: dict[str, np.ndarray]) -> None:
+    """Heading and yaw rate in radians: a raw heading beyond 2 pi (with margin) or a rate beyond any ship's is
+    in degrees; with both columns, the rate of the heading against r (deg vs rad is a factor 57.3)."""
+    for name, limit, unit in (("psi", MAX_HEADING_RAD, "rad"), ("r", MAX_RATE_RAD_S, "rad/s")):
+        x = cols.get(name)
+        big = float(np.nanmax(np.abs(x))) if x is not None and np.isfinite(x).any() else 0.0
+        if big > limit:
+            fix = "give radians wrapped to [-pi, pi) or [0, 2 pi)" if name == "psi" else "give rad/s"
+            raise RecordingError(
+                f"{p}: column '{name}' reaches {big:.3g}, more than {limit:.3g} {unit}: in degrees? {fix} "
+                f"({big:.3g} deg = {np.radians(big):.3g} rad)"
+            )
+    if "r" not in cols:
         return
     t, psi, r = cols["t"], cols["psi"], cols["r"]
     ok = np.isfinite(psi) & np.isfinite(r)
