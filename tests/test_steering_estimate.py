@@ -114,3 +114,25 @@ def test_yaw_rate_without_heading_is_not_reported_as_a_fit():
     assert not f.ok and "psi_0" in f.undetermined, {k: (f.p[k], f.std[k]) for k in f.free}
     with pytest.raises(ValueError, match="needs the heading psi"):
         fit_model(r_only, L, V, "nomoto2", "oe")
+
+
+def test_numpy_loop_gives_the_compiled_loops_numbers(monkeypatch):
+    """SHIPTRIAL_KERNEL=numpy (or a numba that cannot load) runs kalman._numpy_loop: the same predictor and
+    simulation as the loop numba compiles (run here as Python), on a record with lost readings."""
+    from identify.steering import kalman
+    from identify.steering.estimate import run
+
+    t, delta, r, psi, rng = _truth_run(2, q_moment=np.radians(3.0), minutes=10)
+    data = _sample(t, delta, r, psi, rng, np.arange(0, len(t), 10))
+    data.y[5:9, 0] = np.nan
+    data.y[20, 1] = np.nan
+    st = Structure("nomoto2", L, V, data.channels)
+    p = {**start_values(st, first_order_start([data], L, V)), "ln_q_r": -3.0, "T_D": 2.0}
+    monkeypatch.setattr(kalman.jitloop, "use", lambda work: False)
+    for ml in (True, False):
+        a = run(st, data, p, ml)
+        with monkeypatch.context() as m:
+            m.setattr(kalman, "_numpy_loop", kalman._loop.fn)
+            b = run(st, data, p, ml)
+        for x, y in zip(a, b):
+            np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-15)

@@ -2,14 +2,24 @@
 linear model with per-step intervals, scalar sequential measurement updates (R2 is diagonal) and
 missing measurements (NaN) skipped, i.e. the innovations form (3.9)/(4.4) of Källström (1977) with a
 time-varying gain; with ``update=False`` it is the deterministic simulation of output error
-(Kalman gain zero). Compiled with numba when it can be imported (the plain function otherwise).
+(Kalman gain zero). Compiled with numba when :mod:`primitives.jitloop` says so (numba importable and
+loadable, ``SHIPTRIAL_KERNEL`` not ``numpy``); otherwise the same recursion in numpy matrix products
+(:func:`_numpy_loop`, about 26 us a step against about 1 us compiled: a 361-sample second-order ML fit
+takes about 9 s of CPU instead of 0.7 s).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from primitives import jitloop
 
+# A fit runs the loop hundreds of times (a Jacobian column per free parameter, per iteration): a record's
+# samples times this is the work :func:`jitloop.use` weighs against loading the compiler.
+CALLS_PER_FIT = 100
+
+
+@jitloop.compiled
 def _loop(Phi, Gam, Qd, idx, u, y, C, D, R, x0, P0, update):  # pragma: no cover - compiled
     N, ny = y.shape
     n, nu = x0.shape[0], u.shape[1]
@@ -76,19 +86,44 @@ def _loop(Phi, Gam, Qd, idx, u, y, C, D, R, x0, P0, update):  # pragma: no cover
     return e, s, yhat
 
 
-try:  # the compiled loop: about 1 us a step instead of about 20 us of numpy call overhead
-    from numba import njit
-
-    _compiled = njit(cache=True)(_loop)
-except ImportError:  # pragma: no cover
-    _compiled = _loop
+def _numpy_loop(Phi, Gam, Qd, idx, u, y, C, D, R, x0, P0, update):
+    """:func:`_loop` without the compiler: the same operations with numpy's small matrix products."""
+    N, ny = y.shape
+    e = np.full((N, ny), np.nan)
+    s = np.full((N, ny), np.nan)
+    yhat = np.empty((N, ny))
+    x, P = x0.copy(), P0.copy()
+    measured = np.isfinite(y).tolist()
+    for k in range(N):
+        if k > 0:
+            j = idx[k - 1]
+            x = Phi[j] @ x + Gam[j] @ u[k - 1]
+            if update:
+                P = Phi[j] @ P @ Phi[j].T + Qd[j]
+        if not update:  # no measurement update: every channel predicted from the same state
+            yhat[k] = C @ x + D @ u[k]
+            e[k] = y[k] - yhat[k]
+            s[k, measured[k]] = 1.0
+            continue
+        for c in range(ny):
+            yhat[k, c] = yh = C[c] @ x + D[c] @ u[k]
+            if not measured[k][c]:
+                continue
+            e[k, c] = ek = y[k, c] - yh
+            Ph = P @ C[c]
+            s[k, c] = sk = R[c] + C[c] @ Ph
+            if sk > 0.0:
+                x = x + Ph * (ek / sk)
+                P = P - np.outer(Ph, Ph) / sk
+    return e, s, yhat
 
 
 def predict(Phi, Gam, Qd, idx, u, y, C, D, R, x0, P0, update: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Innovations e (N, ny), their variances s (N, ny) (NaN where not measured) and the predicted
     outputs (N, ny); ``update=False``: simulation errors, s = 1."""
     f = np.ascontiguousarray
-    return _compiled(
+    loop = _loop if jitloop.use(y.shape[0] * CALLS_PER_FIT) else _numpy_loop
+    return loop(
         f(Phi),
         f(Gam),
         f(Qd),
