@@ -73,3 +73,28 @@ def test_record_without_heading_is_refused_in_one_line(record, tmp_path, capsys)
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and err[0].startswith("error:") and "psi" in err[0], err
     assert not out.exists()
+
+
+def test_aic_tables_do_not_compare_fits_of_different_channels():
+    """The state-space model also fits the sway v: its AIC is on other data than the Nomoto models' (r, psi),
+    so it gets a table of its own and is never marked best against them."""
+    from types import SimpleNamespace
+
+    from identify.steering.api import ModelResult
+    from identify.steering.report import _aic_text
+
+    def row(model, aic, channels):
+        return ModelResult(model, "ml", SimpleNamespace(ok=True, aic=aic, nu=10), channels=channels)
+
+    res = SimpleNamespace(
+        sources=["a.csv"],
+        results=[
+            row("nomoto1", -90.0, ("r", "psi")),
+            row("nomoto2", -100.0, ("r", "psi")),
+            row("state-space", -5000.0, ("v", "r", "psi")),
+        ],
+    )
+    lines = _aic_text(res)
+    assert lines[0] == "AIC on r, psi (lower is better; one record):" and "<- best" in lines[2] and "2nd" in lines[2]
+    assert lines[3] == "AIC on v, r, psi (lower is better; one record):"
+    assert "best" not in lines[4]

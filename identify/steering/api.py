@@ -126,7 +126,7 @@ def fit_model(
         # without heading the initial heading is a free parameter nothing measures, and the rudder offset
         # and the rate gyro's bias are the same input to r: the information matrix is singular
         raise ValueError("a steering fit needs the heading psi in every record (the yaw rate alone leaves it undetermined)")
-    channels = tuple(c for c in records[0].channels if model == "state-space" or c != "v")
+    channels = fitted_channels(records[0].channels, model)
     records = [_select(d, channels) for d in records]
     st = Structure(model, L, V, channels, **({"accel": accel} if accel else {}))
     starts = [start] if start is not None else _starts(st, records, L, V)
@@ -193,14 +193,20 @@ def nomoto_parameters(f: Fit) -> dict[str, Estimate]:
     return {k: Estimate(k, float(v), float(s)) for k, v, s in zip(("K'", "T1'", "T2'", "T3'"), g0, std)}
 
 
+def fitted_channels(channels: tuple[str, ...], model: str) -> tuple[str, ...]:
+    """The measured channels a model is fitted to: the Nomoto forms have no sway, so ``v`` is left out."""
+    return tuple(c for c in channels if model == "state-space" or c != "v")
+
+
 @dataclass
 class ModelResult:
-    """One model by one estimator on the pooled records, or the reason it failed."""
+    """One model by one estimator on the pooled records (fitted to ``channels``), or the reason it failed."""
 
     model: str
     estimator: str
     fit: Fit | None
     failure: str = ""
+    channels: tuple[str, ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -234,18 +240,19 @@ class SteeringResult:
 
 
 def _try_fit(records, L, V, model, estimator) -> ModelResult:
+    ch = fitted_channels(records[0].channels, model)
     try:
         f = fit_model(records, L, V, model, estimator)
     except (np.linalg.LinAlgError, ValueError, FloatingPointError) as exc:
-        return ModelResult(model, estimator, None, f"{type(exc).__name__}: {exc}")
+        return ModelResult(model, estimator, None, f"{type(exc).__name__}: {exc}", ch)
     if not f.converged:
-        return ModelResult(model, estimator, f, f"did not converge ({f.message})")
+        return ModelResult(model, estimator, f, f"did not converge ({f.message})", ch)
     if not f.ok:
         names = ", ".join(f.undetermined) or "the information matrix is singular"
-        return ModelResult(model, estimator, f, f"parameters not determined by these records ({names})")
+        return ModelResult(model, estimator, f, f"parameters not determined by these records ({names})", ch)
     if not all(np.isfinite(e.value) for e in nomoto_parameters(f).values()):
-        return ModelResult(model, estimator, f, "complex time constants (an oscillatory yaw mode): no Nomoto form")
-    return ModelResult(model, estimator, f)
+        return ModelResult(model, estimator, f, "complex time constants (an oscillatory yaw mode): no Nomoto form", ch)
+    return ModelResult(model, estimator, f, channels=ch)
 
 
 def fastest_time_constant_s(r: ModelResult) -> float | None:

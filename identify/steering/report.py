@@ -68,6 +68,7 @@ def document(res: SteeringResult) -> dict:
             {
                 "model": r.model,
                 "estimator": r.estimator,
+                "channels": list(r.channels),
                 "ok": r.ok,
                 "aic": r.fit.aic if r.ok else None,
                 "nu": r.fit.nu if r.ok else None,
@@ -140,6 +141,27 @@ def _cross_text(res: SteeringResult) -> list[str]:
     return lines
 
 
+def _aic_text(res: SteeringResult) -> list[str]:
+    """One AIC table per set of fitted channels: likelihoods of different data (the state-space model also fits
+    the sway v) do not compare."""
+    lines = []
+    pooled = "pooled records" if len(res.sources) > 1 else "one record"
+    for ch in dict.fromkeys(r.channels for r in res.results):
+        rows = [r for r in res.results if r.channels == ch]
+        lines.append(f"AIC on {', '.join(ch)} (lower is better; {pooled}):")
+        ok = [r for r in rows if r.ok]
+        best = min(ok, key=lambda r: r.fit.aic) if len(ok) > 1 else None
+        for r in rows:
+            if r.ok:
+                lines.append(
+                    f"  {LABEL[r.model]:24s} {r.estimator.upper():3s} AIC {r.fit.aic:12.1f}  nu {r.fit.nu:3d}"
+                    + ("  <- best" if r is best else "")
+                )
+            else:
+                lines.append(f"  {LABEL[r.model]:24s} {r.estimator.upper():3s} failed: {r.failure}")
+    return lines
+
+
 def _fmt_params(r: ModelResult) -> list[str]:
     return [
         f"    {k:5s} {e.value:9.3f}  95 % [{e.interval[0]:.3f}, {e.interval[1]:.3f}]" for k, e in nomoto_parameters(r.fit).items()
@@ -178,17 +200,7 @@ def text(res: SteeringResult) -> str:
                 lines.append(f"  {kind} residuals {Path(t['record']).name}: " + "; ".join(bits))
     else:
         lines.append(f"  FAILED: {m.failure}")
-    lines.append("AIC (lower is better; pooled records):")
-    ok = [r for r in res.results if r.ok]
-    best = min(ok, key=lambda r: r.fit.aic) if ok else None
-    for r in res.results:
-        if r.ok:
-            lines.append(
-                f"  {LABEL[r.model]:24s} {r.estimator.upper():3s} AIC {r.fit.aic:12.1f}  nu {r.fit.nu:3d}"
-                + ("  <- best" if r is best else "")
-            )
-        else:
-            lines.append(f"  {LABEL[r.model]:24s} {r.estimator.upper():3s} failed: {r.failure}")
+    lines += _aic_text(res)
     lines += _cross_text(res)
     for r, src in zip(res.per_run, res.sources):
         lines.append(f"per record {Path(src).name}:")
