@@ -136,3 +136,17 @@ def test_numpy_loop_gives_the_compiled_loops_numbers(monkeypatch):
             b = run(st, data, p, ml)
         for x, y in zip(a, b):
             np.testing.assert_allclose(x, y, rtol=1e-9, atol=1e-15)
+
+
+def test_newey_west_lag_follows_the_scores_correlation_not_the_sample_count():
+    """Scores correlated over about 10 samples (AR(1), rho 0.9) need a lag of tens of samples; white scores a
+    few. floor(4 (n/100)^(2/9)), the sample-count rule, gives 5 for both at n = 1000."""
+    from identify.steering.estimate import andrews_lag
+
+    rng = np.random.default_rng(0)
+    w = rng.normal(size=(1000, 2))
+    ar = np.zeros_like(w)
+    for k in range(1, len(w)):
+        ar[k] = 0.9 * ar[k - 1] + w[k]
+    assert andrews_lag(w) <= 3
+    assert andrews_lag(ar) >= 20

@@ -12,7 +12,7 @@
   transform of -log L (so least squares finds the ML estimate).
 - Standard errors: the sandwich H^-1 B H^-1 (White 1982), H the Gauss-Newton information (OE) or the
   Fisher information of the innovations (ML, scoring form, the scale profiled out), B the Newey-West
-  (1987) long-run covariance of the per-sample scores: residuals a mismatched model leaves coloured
+  (1987) long-run covariance of the per-sample scores with Andrews' (1991) automatic lag: residuals a mismatched model leaves coloured
   widen the intervals instead of being assumed white.
 - AIC = 2 (-log L) + 2 nu (Akaike 1974; Källström's (3.4)), nu counting the estimated variances.
 """
@@ -242,15 +242,30 @@ def _ml_information(prob: _Problem, z: np.ndarray, keep: np.ndarray) -> tuple[np
     return J.T @ J + 0.5 * (G.T @ G - np.outer(gs, gs) / ok.sum()), scores
 
 
+def andrews_lag(S: np.ndarray) -> int:
+    """Andrews (1991) automatic Bartlett bandwidth from AR(1) fits to each score series, eq. (6.4):
+    alpha(1) = sum 4 rho^2 sigma^4 / ((1 - rho)^6 (1 + rho)^2) / sum sigma^4 / (1 - rho)^4,
+    lag = 1.1447 (alpha(1) n)^(1/3). A lag set by the residuals' own correlation, not by the sample count:
+    1 s samples of a ship whose time constant is 80 s need a lag of tens of samples, not floor(4 (n/100)^(2/9))."""
+    n = len(S)
+    a, b = S[1:], S[:-1]
+    den = np.einsum("ij,ij->j", b, b)
+    rho = np.clip(np.einsum("ij,ij->j", a, b) / np.where(den > 0, den, 1.0), -0.97, 0.97)
+    sig2 = np.mean((a - rho * b) ** 2, axis=0)
+    num = np.sum(4 * rho**2 * sig2**2 / ((1 - rho) ** 6 * (1 + rho) ** 2))
+    d = np.sum(sig2**2 / (1 - rho) ** 4)
+    alpha = num / d if d > 0 else 0.0
+    return int(min(n - 1, np.floor(1.1447 * (alpha * n) ** (1.0 / 3.0))))
+
+
 def _hac(scores: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """Newey and West (1987): the long-run covariance of the per-sample scores (Bartlett weights, lag
-    floor(4 (n/100)^(2/9))), so that residuals a mismatched model leaves correlated widen the interval."""
+    """Newey and West (1987): the long-run covariance of the per-sample scores (Bartlett weights, the lag of
+    :func:`andrews_lag`), so that residuals a mismatched model leaves correlated widen the interval."""
     n_t = int(times.max()) + 1
     S = np.zeros((n_t, scores.shape[1]))
     np.add.at(S, times, scores)
     S = S[np.any(S != 0, axis=1)]
-    n = len(S)
-    lag = int(np.floor(4 * (n / 100.0) ** (2.0 / 9.0)))
+    lag = andrews_lag(S)
     B = S.T @ S
     for k in range(1, lag + 1):
         G = S[k:].T @ S[:-k]
