@@ -150,3 +150,18 @@ def test_newey_west_lag_follows_the_scores_correlation_not_the_sample_count():
         ar[k] = 0.9 * ar[k - 1] + w[k]
     assert andrews_lag(w) <= 3
     assert andrews_lag(ar) >= 20
+
+
+def test_delay_at_its_bound_is_warned():
+    """The rudder acts 30 s late, sampled every 10 s: the fitted delay stops at its bound (the shortest interval),
+    which must be said rather than reported as the ship's delay."""
+    from identify.steering.api import ModelResult, delay_warning
+
+    t, delta, r, psi, rng = _truth_run(1)
+    data = _sample(t, delta, r, psi, rng, np.arange(0, len(t), 10))
+    # the recorded rudder leads the rudder the ship felt by 3 samples (30 s)
+    late = SteeringData(data.t, np.concatenate([data.delta[3:], np.full(3, data.delta[-1])]), data.y, data.channels)
+    f = fit_model(late, L, V, "nomoto1", "oe")
+    w = delay_warning([late], ModelResult("nomoto1", "oe", f))
+    assert f.p["T_D"] == pytest.approx(10.0) and w is not None and "upper bound" in w, (f.p["T_D"], w)
+    assert delay_warning([data], ModelResult("nomoto1", "oe", fit_model(data, L, V, "nomoto1", "oe"))) is None

@@ -278,6 +278,22 @@ def sampling_warning(records: list[SteeringData], r: ModelResult) -> str | None:
     return None
 
 
+def delay_warning(records: list[SteeringData], r: ModelResult) -> str | None:
+    """The rudder delay T_D is bounded by the shortest sampling interval (Källström's T_D = T (1 - |sin theta|));
+    a fitted delay at that bound is the bound's value, not the ship's: the true delay may be longer."""
+    if r.fit is None or "T_D" not in r.fit.free:
+        return None
+    h_min = min(float(d.h.min()) for d in records)
+    T_D = r.fit.p["T_D"]
+    if T_D >= h_min * (1 - 1e-3):
+        return (
+            f"the rudder delay T_D = {T_D:.3g} s of the {r.model} {r.estimator} model sits at its upper bound, the shortest "
+            f"sampling interval ({h_min:g} s): the delay may be longer than the model can express and its interval is not "
+            "given; a longer delay shows in the other parameters (a larger T')"
+        )
+    return None
+
+
 def identify_records(
     records: list[SteeringData],
     L: float,
@@ -314,11 +330,10 @@ def identify_records(
     if model == "state-space":
         res.notes.append(
             "state-space model: the acceleration derivatives theta_1..theta_4 are held at Källström's Table 3.1 values "
-            "(SSPA, a 255 000 tdw tanker); for another hull give your model-test values (Structure(accel=...))"
+            "(SSPA, a 255 000 tdw tanker); the command has no option for another hull's values: the library takes "
+            "them (identify.steering.api.fit_model(..., accel={'th1': ..., 'th4': ...}))"
         )
-    w = sampling_warning(records, res.main)
-    if w:
-        res.warnings.append(w)
+    res.warnings += [w for w in (sampling_warning(records, res.main), delay_warning(records, res.main)) if w]
     if res.main.ok and starboard_sign:
         K = nomoto_parameters(res.main.fit)["K'"].value
         if np.sign(K) != np.sign(starboard_sign):
