@@ -2,7 +2,7 @@
 from the printed (rounded) derivatives of Tables 3.1, 3.2, 3.5 and 4.1.
 
 Printed numbers copied from: C. G. Källström, "Identification of the linear steering dynamics of
-the tanker Sea Splendour", Lund Institute of Technology, report TFRT-7121 (1977), Tables 3.1-3.6,
+the tanker Sea Splendour", Lund Institute of Technology, report TFRT-7129 (1977), Tables 3.1-3.6,
 4.1, 4.2. Every printed value carries the rounding of its last digit, and K', T1' are very
 sensitive to it (T1' = -189.75 comes from derivatives printed to one significant digit), so each
 printed output is checked to lie within the range the mapping gives over the rounding box of its

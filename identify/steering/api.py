@@ -20,7 +20,8 @@ ESTIMATORS = ("oe", "ml")
 Z95 = 1.959963984540054
 
 
-def _rate(data: SteeringData) -> np.ndarray:
+def yaw_rate(data: SteeringData) -> np.ndarray:
+    """The record's yaw rate [rad/s]: measured r, else the time derivative of the heading."""
     ch = data.channels
     if "r" in ch:
         return data.y[:, ch.index("r")]
@@ -28,7 +29,8 @@ def _rate(data: SteeringData) -> np.ndarray:
     return np.gradient(psi, data.t)
 
 
-def _first(x: np.ndarray) -> float:
+def first_reading(x: np.ndarray) -> float:
+    """The first finite value of ``x`` (0 when there is none): an initial-state start value."""
     ok = np.isfinite(x)
     return float(x[ok][0]) if ok.any() else 0.0
 
@@ -39,7 +41,7 @@ def first_order_start(records: list[SteeringData], L: float, V: float) -> dict[s
     heading (``r_0@i``, ``psi_0@i``): the output-error fit's start."""
     X, b = [], []
     for d in records:
-        r = _rate(d)
+        r = yaw_rate(d)
         h = np.diff(d.t)
         ok = np.isfinite(r[:-1]) & np.isfinite(r[1:])
         X.append(np.column_stack([r[:-1], d.delta[:-1], np.ones(len(h))])[ok])
@@ -54,8 +56,8 @@ def first_order_start(records: list[SteeringData], L: float, V: float) -> dict[s
     }
     for i, d in enumerate(records):
         sfx = f"@{i}" if len(records) > 1 else ""
-        out["r_0" + sfx] = _first(_rate(d))
-        out["psi_0" + sfx] = _first(d.y[:, d.channels.index("psi")]) if "psi" in d.channels else 0.0
+        out["r_0" + sfx] = first_reading(yaw_rate(d))
+        out["psi_0" + sfx] = first_reading(d.y[:, d.channels.index("psi")]) if "psi" in d.channels else 0.0
         if sfx:
             out["delta_0" + sfx] = out["delta_0"]
     return out
@@ -278,6 +280,12 @@ def sampling_warning(records: list[SteeringData], r: ModelResult) -> str | None:
     return None
 
 
+NOT_MODELLED = (
+    "not modelled: heading-dependent wind (Källström's theta_9, theta_10, phi_3), correlated process noise, "
+    "Doppler-log lever arms (v is the sway at midship); the identified model is not saved as a profile"
+)
+
+
 def delay_warning(records: list[SteeringData], r: ModelResult) -> str | None:
     """The rudder delay T_D is bounded by the shortest sampling interval (Källström's T_D = T (1 - |sin theta|));
     a fitted delay at that bound is the bound's value, not the ship's: the true delay may be longer."""
@@ -313,6 +321,7 @@ def identify_records(
     models = ("nomoto1", "nomoto2") + (("state-space",) if model == "state-space" else ())
     results = [_try_fit(records, L, V, m, e) for m in models for e in ESTIMATORS]
     per_run = [_try_fit([d], L, V, model, estimator) for d in records] if len(records) > 1 else []
+    notes = list(notes or []) + [NOT_MODELLED]
     res = SteeringResult(
         ship,
         L,
@@ -325,7 +334,7 @@ def identify_records(
         results,
         per_run,
         [],
-        list(notes or []),
+        notes,
     )
     if model == "state-space":
         res.notes.append(

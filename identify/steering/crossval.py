@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identify.steering.api import ESTIMATORS, _first, _rate, fit_model
+from identify.steering.api import ESTIMATORS, first_reading, fit_model, yaw_rate
 from identify.steering.estimate import Fit, SteeringData, fit
 
 
@@ -42,9 +42,9 @@ def _nuisance_start(f: Fit, d: SteeringData) -> dict[str, float]:
     for k in list(p):
         if roles.get(k) == "initial":
             p[k] = 0.0
-    p["r_0"] = _first(_rate(d))
+    p["r_0"] = first_reading(yaw_rate(d))
     if "psi" in d.channels:
-        p["psi_0"] = _first(d.y[:, d.channels.index("psi")])
+        p["psi_0"] = first_reading(d.y[:, d.channels.index("psi")])
     return p
 
 

@@ -28,8 +28,6 @@ import numpy as np
 
 from identify.steering.mappings import SSPA_DERIVATIVES, prime_state_matrices
 
-CHANNELS = ("v", "r", "psi")  # measured outputs, in this order when present
-
 
 @dataclass(frozen=True)
 class Param:

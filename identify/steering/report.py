@@ -141,6 +141,21 @@ def _cross_text(res: SteeringResult) -> list[str]:
     return lines
 
 
+def _dimensional(r: ModelResult, res: SteeringResult) -> list[str]:
+    """The gain and time constants in seconds at the trial speed (K = K' V / L, T = T' L / V), the rudder delay
+    and offset: the figures an autopilot is tuned with."""
+    est = nomoto_parameters(r.fit)
+    tv = res.L / res.V
+    K = est["K'"].value / tv
+    bits = [f"K = {K:.4g} 1/s"]
+    bits += [f"{k[:-1]} = {e.value * tv:.3g} s" for k, e in est.items() if k.startswith("T")]
+    p = r.fit.p
+    d0 = [v for k, v in p.items() if k.split("@")[0] == "delta_0"]
+    extra = f"; rudder delay T_D = {p.get('T_D', 0.0):.2f} s"
+    extra += f", rudder offset delta_0 = {', '.join(f'{np.degrees(v):.2f}' for v in d0)} deg" if d0 else ""
+    return [f"    at V = {res.V:.3g} m/s: " + ", ".join(bits) + extra]
+
+
 def _aic_text(res: SteeringResult) -> list[str]:
     """One AIC table per set of fitted channels: likelihoods of different data (the state-space model also fits
     the sway v) do not compare."""
@@ -178,7 +193,7 @@ def text(res: SteeringResult) -> str:
         + ("(pooled: dynamics shared, biases and initial state per record)" if len(res.sources) > 1 else ""),
     ]
     if m.ok:
-        lines += _fmt_params(m)
+        lines += _fmt_params(m) + _dimensional(m, res)
         side = "starboard" if nomoto_parameters(m.fit)["K'"].value > 0 else "port"
         lines.append(f"    (a positive delta turns the ship to {side})")
         f = m.fit
@@ -197,7 +212,9 @@ def text(res: SteeringResult) -> str:
                     f" ({v['rudder']['lags_outside']}/{v['rudder']['lags']})"
                     for c, v in t[kind].items()
                 ]
-                lines.append(f"  {kind} residuals {Path(t['record']).name}: " + "; ".join(bits))
+                why = " (with process noise in the model, simulation residuals carry it: not expected white)"
+                tail = why if kind == "simulation" and m.estimator == "ml" else ""
+                lines.append(f"  {kind} residuals {Path(t['record']).name}: " + "; ".join(bits) + tail)
     else:
         lines.append(f"  FAILED: {m.failure}")
     lines += _aic_text(res)
