@@ -10,10 +10,12 @@
   concentrated out: -log L = N_m/2 (log lambda + 1 + log 2 pi) + 1/2 sum log s_k, lambda = mean(e^2/s).
   Minimised as the sum of squares of rho_k = g e_k / sqrt(s_k), g = exp(mean(log s)/2), a monotone
   transform of -log L (so least squares finds the ML estimate).
-- Standard errors: the sandwich H^-1 B H^-1 (White 1982), H the Gauss-Newton information (OE) or the
-  Fisher information of the innovations (ML, scoring form, the scale profiled out), B the Newey-West
-  (1987) long-run covariance of the per-sample scores with Andrews' (1991) automatic lag: residuals a mismatched model leaves coloured
-  widen the intervals instead of being assumed white.
+- Standard errors: the sandwich H^-1 B H^-1 (the form of White 1982), H the Gauss-Newton information (OE)
+  or the Fisher information of the innovations (ML, scoring form, the scale profiled out), B the
+  Newey-West (1987) long-run covariance of the per-sample scores with Andrews' (1991) automatic lag:
+  residuals a mismatched model leaves coloured widen the intervals instead of being assumed white. H is
+  the expected information, not the Hessian of -log L, so the result is robust to coloured residuals but
+  not White's full misspecification-robust covariance.
 - AIC = 2 (-log L) + 2 nu (Akaike 1974; Källström's (3.4)), nu counting the estimated variances.
 """
 
@@ -274,8 +276,8 @@ def _hac(scores: np.ndarray, times: np.ndarray) -> np.ndarray:
 
 
 def _covariance(prob: _Problem, z: np.ndarray, jac: np.ndarray, at_bound: np.ndarray) -> np.ndarray:
-    """Sandwich covariance H^-1 B H^-1 of the free parameters (White 1982, misspecification-robust, with the
-    Newey-West long-run B of the scores), H the information; a noise intensity or delay at its bound is held
+    """Sandwich covariance H^-1 B H^-1 of the free parameters (White 1982's form with the information for his
+    Hessian, and the Newey-West long-run B of the scores); a noise intensity or delay at its bound is held
     there and gets no variance (NaN) instead of making H singular."""
     n = len(z)
     keep = np.flatnonzero(~at_bound)
