@@ -296,8 +296,8 @@ def delay_warning(records: list[SteeringData], r: ModelResult) -> str | None:
     if T_D >= h_min * (1 - 1e-3):
         return (
             f"the rudder delay T_D = {T_D:.3g} s of the {r.model} {r.estimator} model sits at its upper bound, the shortest "
-            f"sampling interval ({h_min:g} s): the delay may be longer than the model can express and its interval is not "
-            "given; a longer delay shows in the other parameters (a larger T')"
+            f"sampling interval ({h_min:g} s): the delay may be longer than the model can express (the rest is absorbed "
+            "by the other parameters), and it has no interval; sample faster to resolve it"
         )
     return None
 
