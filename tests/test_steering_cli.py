@@ -27,8 +27,11 @@ def test_report_has_fit_tests_aic_intervals_and_plots(record, tmp_path, capsys):
     chosen = doc["chosen"]
     assert chosen["ok"] and chosen["model"] == "nomoto2" and chosen["estimator"] == "ml"
     for k in ("K'", "T1'", "T2'", "T3'"):
-        lo, hi = chosen["nomoto"][k]["ci95"]
-        assert lo < chosen["nomoto"][k]["value"] < hi
+        e = chosen["nomoto"][k]
+        assert e["ci95"] == pytest.approx([e["value"] - 1.96 * e["std"], e["value"] + 1.96 * e["std"]], abs=1e-3 * e["std"])
+    # the gain's interval holds the simulated truth and excludes zero: the rudder's effect is determined
+    lo, hi = chosen["nomoto"]["K'"]["ci95"]
+    assert lo < ss.TRUTH["K'"] < hi and hi < 0
     tests = chosen["residual_tests"][0]
     assert set(tests["prediction"]) == {"r", "psi"} and set(tests["simulation"]) == {"r", "psi"}
     assert {"whiteness", "rudder"} <= set(tests["prediction"]["r"])
