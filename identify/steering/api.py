@@ -369,12 +369,13 @@ def parse_split(text: str) -> tuple[float, float]:
 
 def split_parts(records: list[SteeringData], split: tuple[float, float]) -> tuple[SteeringData, SteeringData]:
     """The two parts of the one record, each with at least 10 readings."""
-    from identify.steering.crossval import split_record
+    from identify.steering.crossval import split_indices, split_record
 
     if len(records) != 1:
         raise UserError("--split needs exactly one recording (it splits one record at a course change)")
     t = records[0].t
-    sizes = (int(np.searchsorted(t, split[0])), len(t) - int(np.searchsorted(t, split[1])))
+    i1, i2 = split_indices(t, *split)
+    sizes = (i1, len(t) - i2)
     for i, n in enumerate(sizes):
         if n < 10:
             raise UserError(

@@ -30,10 +30,13 @@ class CrossRow:
 def split_record(d: SteeringData, start_s: float, end_s: float | None = None) -> tuple[SteeringData, SteeringData]:
     """Part 1 before ``start_s``, part 2 from ``end_s`` (default ``start_s``): the window between (the course
     change, in Källström's experiment 1: 1158-1732 s) is left out of both."""
-    end_s = start_s if end_s is None else end_s
-    i1 = int(np.searchsorted(d.t, start_s))
-    i2 = int(np.searchsorted(d.t, end_s))
+    i1, i2 = split_indices(d.t, start_s, start_s if end_s is None else end_s)
     return d.window(0, i1), d.window(i2, len(d.t))
+
+
+def split_indices(t: np.ndarray, start_s: float, end_s: float) -> tuple[int, int]:
+    """The end of part 1 and the start of part 2 in the time stamps ``t``."""
+    return int(np.searchsorted(t, start_s)), int(np.searchsorted(t, end_s))
 
 
 def _nuisance_start(f: Fit, d: SteeringData) -> dict[str, float]:
