@@ -33,6 +33,7 @@ from cli import (  # noqa: E402
     plan_cmd,
     primitives_cmd,
     profile_cmd,
+    steering_cmd,
     sweep_cmd,
     yawid_cmd,
 )
@@ -48,6 +49,7 @@ for _module in (
     mass_cmd,
     yawid_cmd,
     detect_cmd,
+    steering_cmd,
 ):
     _module.register(app)
 

@@ -115,7 +115,39 @@ def files(tmp_path_factory):
     f["roll_bad_profile"] = tmp / "roll-bad.toml"
     f["roll_bad_profile"].write_text("this is = not [a roll profile\n")
     _detect_inputs(tmp, f)
+    f.update(_steering_files(tmp))
     return f
+
+
+def _steering_files(tmp: Path) -> dict[str, Path]:
+    """A good steering record (first-order Nomoto response to a square-wave rudder, 2 s sampling) and the
+    same with each defect the command refuses: a missing column, time not increasing, a rudder in degrees,
+    a yaw rate in deg/s, a yaw rate without heading, a lone heading in degrees."""
+    t = np.arange(0.0, 600.0, 2.0)
+    delta = np.radians(10.0) * np.sign(np.sin(2 * np.pi * t / 200.0) + 1e-9)
+    r = np.zeros_like(t)
+    for k in range(1, len(t)):
+        r[k] = r[k - 1] + 2.0 * (-0.05 * delta[k - 1] - r[k - 1]) / 60.0
+    psi = np.concatenate([[0.0], np.cumsum(2.0 * r[:-1])])
+    cols = {"t": t, "delta": delta, "r": r, "psi": psi}
+
+    def write(name, c):
+        path = tmp / f"{name}.csv"
+        path.write_text(",".join(c) + "\n" + "\n".join(",".join(f"{c[k][i]:.9g}" for k in c) for i in range(len(t))) + "\n")
+        return path
+
+    t_back = t.copy()
+    t_back[100] = t_back[99]
+    return {
+        "steer": write("steer", cols),
+        "steer_nodelta": write("steer-nodelta", {k: v for k, v in cols.items() if k != "delta"}),
+        "steer_noheading": write("steer-noheading", {k: v for k, v in cols.items() if k not in ("r", "psi")}),
+        "steer_tback": write("steer-tback", {**cols, "t": t_back}),
+        "steer_deg": write("steer-deg", {**cols, "delta": np.degrees(delta)}),
+        "steer_rdeg": write("steer-rdeg", {**cols, "r": np.degrees(r)}),
+        "steer_ronly": write("steer-ronly", {k: v for k, v in cols.items() if k != "psi"}),
+        "steer_psideg_only": write("steer-psideg-only", {"t": t, "delta": delta, "psi": np.degrees(psi)}),
+    }
 
 
 def _yaw_files(tmp: Path) -> dict[str, Path]:
@@ -363,6 +395,18 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--model", ["fancy", ""])
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--bootstrap", ["-1", "1001", "1.5", "abc"], named=True)
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--seed", ["-1", "abc", "1.5"], named=True)
+    # steering (Källström 1977): records without rudder or heading, time not increasing, degrees for radians
+    for rec in ["{missing}", "{dir}", "{binary}", "{latin1}", "{plan}", "{steer_nodelta}", "{steer_noheading}", "{steer_tback}"]:
+        cases.append((f"steering RECORDING {rec}", ["steering", rec, "--ship", "kvlcc2"]))
+    for rec in ["{steer_deg}", "{steer_rdeg}", "{steer_ronly}", "{steer_psideg_only}"]:
+        cases.append((f"steering RECORDING {rec}", ["steering", rec, "--ship", "kvlcc2", "--out", "{tmp}/steer-out"]))
+    add(["steering", "{steer}"], "--ship", [*ship_bad])
+    add(["steering", "{steer}", "--ship", "kvlcc2"], "--model", ["fancy", "", "nomoto3"], named=True)
+    add(["steering", "{steer}", "--ship", "kvlcc2"], "--estimator", ["pem", ""], named=True)
+    add(["steering", "{steer}", "--ship", "kvlcc2"], "--out", out_dir_bad)
+    add(["steering", "{steer}", "--ship", "kvlcc2"], "--split", ["abc", "-5", "300:100", "nan", "1e9", "5"], named=True)
+    cases.append(("steering --split two recordings", ["steering", "{steer}", "{steer}", "--ship", "kvlcc2", "--split", "300"]))
+    cases.append(("steering state-space without v", ["steering", "{steer}", "--ship", "kvlcc2", "--model", "state-space"]))
     return cases
 
 

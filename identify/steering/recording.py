@@ -1,0 +1,148 @@
+"""Steering records from recording files (the README's recording format; MARIN .dat through
+:func:`diagnose.recording.load_recording`).
+
+A CSV is read with its time stamps as they are: irregular stamps stay irregular and an empty cell
+is a missing reading, because the steering fit samples its model exactly on any grid (the diagnosis
+reader would resample the stamps onto a uniform grid and cut the record at a gap of more than two
+samples). Columns (SI units, radians): ``t`` [s] increasing; ``delta`` [rad] rudder angle in the sign
+of the profile's ``[helm] starboard_sign``; ``psi`` [rad] heading, clockwise positive; optional ``r``
+[rad/s] yaw rate, ``v`` [m/s] sway (for the state-space model) and ``u`` [m/s] forward speed. A record
+without heading is refused: the initial heading would stay a parameter no measurement determines and
+the rudder offset and the rate gyro's bias could not be told apart.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from diagnose.recording import RecordingError, load_recording, split_metadata
+from identify.steering.estimate import SteeringData
+from primitives.io import read_input_text
+
+COLUMNS = ("t", "delta", "psi", "r", "v", "u")
+MAX_RUDDER_RAD = 0.7  # 40 deg: no rudder goes further; larger values are degrees
+MIN_READINGS = 20
+MAX_HEADING_RAD = 2 * np.pi + 0.5  # a gyro reads within [0, 2 pi) or [-pi, pi); beyond (with margin): degrees
+MAX_RATE_RAD_S = 0.2  # 11.5 deg/s: beyond any ship's yaw rate (a tanker turns at under 1 deg/s); larger: deg/s
+
+
+def read_records(path: str | Path) -> tuple[list[SteeringData], float | None, list[str]]:
+    """The record(s) of one file, its mean forward speed (None when the file has no ``u``) and notes."""
+    p = Path(path)
+    if p.suffix.lower() == ".dat":
+        out, speeds, notes = [], [], []
+        for rec in load_recording(p):
+            y = np.column_stack([rec.y[:, 1], rec.y[:, 2], rec.psi])
+            out.append(SteeringData(rec.t, rec.channels["delta"], y, ("v", "r", "psi"), rec.source))
+            speeds.append(float(np.mean(rec.y[:, 0])))
+            notes += rec.notes
+        return out, float(np.mean(speeds)), notes
+    if p.suffix.lower() not in (".csv", ".txt"):
+        raise RecordingError(
+            f"{p}: unknown recording format {p.suffix!r}; give a .csv (the README's recording format) or MARIN .dat file"
+        )
+    cols, notes = _read_csv(p)
+    data = _checked(p, cols, notes)
+    u = cols.get("u")
+    return [data], (float(np.nanmean(u)) if u is not None and np.isfinite(u).any() else None), notes
+
+
+def _read_csv(p: Path) -> tuple[dict[str, np.ndarray], list[str]]:
+    text = read_input_text(p, RecordingError, "a steering recording (.csv saved as UTF-8, or MARIN .dat)", "utf-8-sig")
+    _, body = split_metadata(text.splitlines())
+    if not body:
+        raise RecordingError(f"{p}: no header row; the first non-comment line must name the columns (t,delta,psi,r,...)")
+    rows = list(csv.reader(body))
+    header = [h.strip() for h in rows[0]]
+    missing = [c for c in ("t", "delta", "psi") if c not in header]
+    if missing:
+        raise RecordingError(
+            f"{p}: missing column(s) {', '.join(missing)}; a steering record needs t [s], delta [rad] and psi [rad], "
+            f"r [rad/s] optional (the header read is {body[0].strip()[:80]!r})"
+        )
+    cols = {}
+    for j, name in enumerate(header):
+        if name not in COLUMNS:
+            continue
+        vals = np.full(len(rows) - 1, np.nan)
+        for i, row in enumerate(rows[1:]):
+            s = row[j].strip() if j < len(row) else ""
+            if s and s.lower() != "nan":
+                try:
+                    vals[i] = float(s)
+                except ValueError:
+                    raise RecordingError(f"{p}: row {i + 2}, column '{name}': {s!r} is not a number") from None
+        cols[name] = vals
+    return cols, []
+
+
+def _checked(p: Path, cols: dict[str, np.ndarray], notes: list[str]) -> SteeringData:
+    t = cols["t"]
+    if not np.all(np.isfinite(t)):
+        i = int(np.argmax(~np.isfinite(t)))
+        raise RecordingError(f"{p}: column 't' is empty at row {i + 2}; every row needs a time in seconds")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if len(bad):
+        i = int(bad[0])
+        raise RecordingError(
+            f"{p}: column 't' does not increase at row {i + 3} ({t[i]:g} -> {t[i + 1]:g} s); sort the rows, drop repeats"
+        )
+    d = cols["delta"]
+    big = np.nanmax(np.abs(d)) if np.isfinite(d).any() else 0.0
+    if big > MAX_RUDDER_RAD:
+        raise RecordingError(
+            f"{p}: column 'delta' reaches {big:.3g}, more than any rudder turns in radians: a rudder angle in degrees? "
+            f"give radians ({big:.3g} deg = {np.radians(big):.3g} rad)"
+        )
+    _check_angle_units(p, cols)
+    keep = np.isfinite(d)
+    if not keep.all():
+        notes.append(
+            f"{int((~keep).sum())} row(s) without a rudder reading left out (the rudder is held from the reading before)"
+        )
+    channels = tuple(c for c in ("v", "r", "psi") if c in cols and np.isfinite(cols[c][keep]).sum() >= 2)
+    if "psi" not in channels:
+        raise RecordingError(f"{p}: column 'psi' has fewer than 2 readings; a steering fit needs the heading [rad]")
+    y = np.column_stack([cols[c][keep] for c in channels])
+    if "psi" in channels:
+        psi = y[:, channels.index("psi")]
+        ok = np.isfinite(psi)
+        psi[ok] = np.unwrap(psi[ok])
+    if np.isfinite(y).sum() < MIN_READINGS or keep.sum() < MIN_READINGS:
+        raise RecordingError(
+            f"{p}: only {int(keep.sum())} rows with a rudder reading; a steering fit needs at least {MIN_READINGS}"
+        )
+    return SteeringData(t[keep], d[keep], y, channels, str(p))
+
+
+def _check_angle_units(p: Path, cols: dict[str, np.ndarray]) -> None:
+    """Heading and yaw rate in radians: a raw heading beyond 2 pi (with margin) or a rate beyond any ship's is
+    in degrees; with both columns, the rate of the heading against r (deg vs rad is a factor 57.3)."""
+    for name, limit, unit in (("psi", MAX_HEADING_RAD, "rad"), ("r", MAX_RATE_RAD_S, "rad/s")):
+        x = cols.get(name)
+        big = float(np.nanmax(np.abs(x))) if x is not None and np.isfinite(x).any() else 0.0
+        if big > limit:
+            fix = "give radians wrapped to [-pi, pi) or [0, 2 pi)" if name == "psi" else "give rad/s"
+            raise RecordingError(
+                f"{p}: column '{name}' reaches {big:.3g}, more than {limit:.3g} {unit}: in degrees? {fix} "
+                f"({big:.3g} deg = {np.radians(big):.3g} rad)"
+            )
+    if "r" not in cols:
+        return
+    t, psi, r = cols["t"], cols["psi"], cols["r"]
+    ok = np.isfinite(psi) & np.isfinite(r)
+    if ok.sum() < 10:
+        return
+    dpsi = np.diff(np.unwrap(psi[ok])) / np.diff(t[ok])
+    rm = 0.5 * (r[ok][1:] + r[ok][:-1])
+    den = float(rm @ rm)
+    if den <= 0 or float(dpsi @ dpsi) <= 0:
+        return
+    k = float(dpsi @ rm) / den
+    if k > 0 and abs(np.log(k * 180 / np.pi)) < 0.35:
+        raise RecordingError(f"{p}: column 'r' is about 57 times the rate of 'psi': r in deg/s? give rad/s")
+    if k > 0 and abs(np.log(k * np.pi / 180)) < 0.35:
+        raise RecordingError(f"{p}: column 'psi' changes about 57 times faster than 'r': psi in degrees? give radians")

@@ -1,0 +1,103 @@
+"""``shiptrial steering`` end to end on a simulated Sea Splendour record (tests/physics/sea_splendour.py):
+the report's parts, the plots, and the warnings a commissioning engineer relies on."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from cli.app import _run
+from tests.physics import sea_splendour as ss
+
+
+@pytest.fixture(scope="module")
+def record(tmp_path_factory):
+    path = tmp_path_factory.mktemp("steer") / "sea-splendour-exp1.csv"
+    ss.write_csv(ss.simulate(ss.EXPERIMENT_1, 0), path)
+    return path
+
+
+def test_report_has_fit_tests_aic_intervals_and_plots(record, tmp_path, capsys):
+    out = tmp_path / "report"
+    rc = _run(["steering", str(record), "--ship", "kvlcc2", "--out", str(out), "--json"])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    doc = json.loads(cap.out)
+    chosen = doc["chosen"]
+    assert chosen["ok"] and chosen["model"] == "nomoto2" and chosen["estimator"] == "ml"
+    for k in ("K'", "T1'", "T2'", "T3'"):
+        e = chosen["nomoto"][k]
+        assert e["ci95"] == pytest.approx([e["value"] - 1.96 * e["std"], e["value"] + 1.96 * e["std"]], abs=1e-3 * e["std"])
+    # the gain's interval holds the simulated truth and excludes zero: the rudder's effect is determined
+    lo, hi = chosen["nomoto"]["K'"]["ci95"]
+    assert lo < ss.TRUTH["K'"] < hi and hi < 0
+    tests = chosen["residual_tests"][0]
+    assert set(tests["prediction"]) == {"r", "psi"} and set(tests["simulation"]) == {"r", "psi"}
+    assert {"whiteness", "rudder"} <= set(tests["prediction"]["r"])
+    assert {(r["model"], r["estimator"]) for r in doc["aic_table"]} == {
+        ("nomoto1", "oe"),
+        ("nomoto1", "ml"),
+        ("nomoto2", "oe"),
+        ("nomoto2", "ml"),
+    }
+    # Källström's experiment 1: 30 s sampling against T2 of about 14 s is warned
+    assert any("slower than half the fastest time constant" in w for w in doc["warnings"])
+    assert "slower than half the fastest time constant" in cap.err
+    assert json.loads((out / "steering.json").read_text())["chosen"]["nomoto"] == chosen["nomoto"]
+    assert (out / "record1_fit.png").stat().st_size > 0 and (out / "record1_residuals.png").stat().st_size > 0
+
+
+def test_rudder_sign_against_the_profile_is_warned(record, tmp_path, capsys):
+    lines = record.read_text().splitlines()
+    i = lines[0].split(",").index("delta")
+    flipped = [lines[0]] + [
+        ",".join(f"{-float(v):.9g}" if j == i else v for j, v in enumerate(row.split(","))) for row in lines[1:]
+    ]
+    path = tmp_path / "flipped.csv"
+    path.write_text("\n".join(flipped) + "\n")
+    rc = _run(["steering", str(path), "--ship", "kvlcc2", "--model", "nomoto1", "--estimator", "oe"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "starboard_sign is -1: check the rudder column's sign" in out
+
+
+def _without(record, tmp_path, column):
+    rows = [line.split(",") for line in record.read_text().splitlines()]
+    i = rows[0].index(column)
+    path = tmp_path / f"no-{column}.csv"
+    path.write_text("\n".join(",".join(v for j, v in enumerate(row) if j != i) for row in rows) + "\n")
+    return path
+
+
+def test_record_without_heading_is_refused_in_one_line(record, tmp_path, capsys):
+    out = tmp_path / "report"
+    rc = _run(["steering", str(_without(record, tmp_path, "psi")), "--ship", "kvlcc2", "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and err[0].startswith("error:") and "psi" in err[0], err
+    assert not out.exists()
+
+
+def test_aic_tables_do_not_compare_fits_of_different_channels():
+    """The state-space model also fits the sway v: its AIC is on other data than the Nomoto models' (r, psi),
+    so it gets a table of its own and is never marked best against them."""
+    from types import SimpleNamespace
+
+    from identify.steering.api import ModelResult
+    from identify.steering.report import _aic_text
+
+    def row(model, aic, channels):
+        return ModelResult(model, "ml", SimpleNamespace(ok=True, aic=aic, nu=10), channels=channels)
+
+    res = SimpleNamespace(
+        sources=["a.csv"],
+        results=[
+            row("nomoto1", -90.0, ("r", "psi")),
+            row("nomoto2", -100.0, ("r", "psi")),
+            row("state-space", -5000.0, ("v", "r", "psi")),
+        ],
+    )
+    lines = _aic_text(res)
+    assert lines[0] == "AIC on r, psi (lower is better; one record):" and "<- best" in lines[2] and "2nd" in lines[2]
+    assert lines[3] == "AIC on v, r, psi (lower is better; one record):"
+    assert "best" not in lines[4]
