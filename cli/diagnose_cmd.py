@@ -85,6 +85,17 @@ def register(app: typer.Typer) -> None:
         resample: bool = typer.Option(
             False, "--resample", help="interpolate recordings onto the ship's sample time (default: refuse)"
         ),
+        environment: str | None = typer.Option(
+            None,
+            "--environment",
+            help="where every run was recorded: sea, basin or towing-tank (no current, no wind); overrides '# environment:'",
+        ),
+        rudder_sign: str | None = typer.Option(
+            None,
+            "--rudder-sign",
+            help="the recordings' rudder convention: port-positive or starboard-positive (converted to the ship's); "
+            "overrides '# rudder_sign:'",
+        ),
     ) -> None:
         """Diagnose recordings against a ship model: locate, name and model the missing physics."""
         from cli.errors import warn_ship
@@ -100,7 +111,10 @@ def register(app: typer.Typer) -> None:
             recordings={"RECORDING": _split(recordings), "--fit-on": _split(fit_on), "--validate": _split(validate)},
             params=params,
             out=out,
+            environment=environment,
+            rudder_sign=rudder_sign,
         )
+        said = {k: v for k, v in (("environment", environment), ("rudder_sign", rudder_sign)) if v is not None}
         profile = load_profile(ship)
         profile.require_planar("shiptrial diagnose")
         warn_ship(profile)
@@ -110,6 +124,8 @@ def register(app: typer.Typer) -> None:
             recs = []
             for p in paths:
                 recs += load_recording(p, inputs=profile.inputs)  # unused input columns never split a run
+            for r in recs:  # the options stand for the header lines of every file
+                r.meta = {**r.meta, **said}
             return conform(recs, profile, resample=resample)  # Froude scale, sample time, input units: said in notes
 
         recs = load(_split(recordings))

@@ -54,6 +54,11 @@ NUMERIC = (
 )  # v_dot: measured sway acceleration, m/s^2 (optional; change detection uses it)
 
 
+# header values that say where and how a run was recorded (the README's recording format)
+ENVIRONMENTS = ("sea", "basin", "towing-tank")  # a basin or towing tank has no current and no wind
+RUDDER_SIGNS = ("port-positive", "starboard-positive")  # the sign of delta that turns the ship to that side
+
+
 class RecordingError(UserError):
     """A recording cannot be used as given; the message names the file, the field and the fix."""
 
@@ -82,6 +87,16 @@ class Recording:
         """Froude scale factor lambda from ``# scale_factor:`` (full-scale length / model length)."""
         v = self.meta.get("scale_factor")
         return None if v is None else float(v)
+
+    @property
+    def environment(self) -> str | None:
+        """``sea``, ``basin`` or ``towing-tank`` from ``# environment:``; None when the file does not say."""
+        return self.meta.get("environment")
+
+    @property
+    def in_tank(self) -> bool:
+        """Recorded in a basin or towing tank: no current, no wind (header ``# environment:``)."""
+        return self.environment in ("basin", "towing-tank")
 
     @property
     def n_samples(self) -> int:
@@ -294,6 +309,9 @@ def _check_meta(path: Path, meta: dict[str, str]) -> None:
                 v = float("nan")
             if not (math.isfinite(v) and v > 0):
                 raise RecordingError(f"{path}: header '# {key}: {meta[key]}' must be a positive number")
+    for key, allowed in (("environment", ENVIRONMENTS), ("rudder_sign", RUDDER_SIGNS)):
+        if key in meta and meta[key] not in allowed:
+            raise RecordingError(f"{path}: header '# {key}: {meta[key]}' must be one of {', '.join(allowed)}")
     if "scale" in meta and meta["scale"] not in ("model", "full"):
         raise RecordingError(f"{path}: header '# scale: {meta['scale']}' must be 'model' or 'full'")
     if meta.get("scale") == "model" and "scale_factor" not in meta:
@@ -329,7 +347,14 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
     for k in ("phi", "psi", "p", "r", "delta"):
         cols[k] = np.radians(cols[k])
     cols["n"] = cols["n"] / 60.0
-    meta = {"source": "MARIN KVLCC2 (SIMMAN 2008)", "scale": "full", "scale_factor": "1"}
+    # free-running model tests in MARIN's basin, published at full scale, positive rudder to port
+    meta = {
+        "source": "MARIN KVLCC2 (SIMMAN 2008)",
+        "scale": "full",
+        "scale_factor": "1",
+        "environment": "basin",
+        "rudder_sign": "port-positive",
+    }
     t_raw = cols["t"]
     if not np.all(np.isfinite(t_raw)) or np.any(np.diff(t_raw) < 0) or len(np.unique(t_raw)) < 3:
         build_recording(str(path), cols, meta=meta, sample_time=sample_time)  # raises the time axis's own error
