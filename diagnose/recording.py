@@ -57,6 +57,10 @@ NUMERIC = (
 # header values that say where and how a run was recorded (the README's recording format)
 ENVIRONMENTS = ("sea", "basin", "towing-tank")  # a basin or towing tank has no current and no wind
 RUDDER_SIGNS = ("port-positive", "starboard-positive")  # the sign of delta that turns the ship to that side
+WIND_REFERENCES = ("true", "relative")  # wind over ground, or as felt on board (from the bow, clockwise)
+# a true wind above this (median over the run) is a storm (Beaufort 10) no trial is run in: the
+# speed is taken to be in knots (1 kn = 0.5144 m/s), not m/s
+MAX_TRIAL_WIND_MPS = 25.0
 
 
 class RecordingError(UserError):
@@ -262,7 +266,44 @@ def read_csv(
         cols[name] = vals
     _check_meta(path, meta)
     ts = sample_time or (float(meta["sample_time"]) if "sample_time" in meta else None)
-    return build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts, inputs=inputs)
+    recs = build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts, inputs=inputs)
+    return [_true_wind(path, r) for r in recs]
+
+
+def _true_wind(path: Path, rec: Recording) -> Recording:
+    """The recording's wind as the true wind (over ground, the direction it comes from, clockwise
+    from north), converted from a relative one, and checked for knots.
+
+    A relative (apparent) wind of speed V_a from the angle g_a off the bow (clockwise) is the air's
+    velocity relative to the ship, -V_a (cos g_a, sin g_a) in body axes; the true air velocity is
+    that plus the ship's velocity over ground (u, v) (Fossen 2021, (10.8)-(10.9): u_rw = u - u_w)."""
+    has = [k for k in ("wind_speed", "wind_dir") if k in rec.channels]
+    if not has:
+        return rec
+    if len(has) == 1:
+        raise RecordingError(f"{path}: column {has[0]!r} without its partner; a wind needs both wind_speed and wind_dir")
+    ref = rec.meta.get("wind_reference")
+    if ref is None:
+        raise RecordingError(
+            f"{path}: columns wind_speed, wind_dir without their reference; add '# wind_reference: true' "
+            "(over ground, direction from north) or '# wind_reference: relative' (as felt on board, direction from the bow)"
+        )
+    chans = dict(rec.channels)
+    notes = list(rec.notes)
+    if ref == "relative":
+        va, ga = chans["wind_speed"], chans["wind_dir"]
+        ub, vb = rec.y[:, 0] - va * np.cos(ga), rec.y[:, 1] - va * np.sin(ga)  # true air velocity (toward), body axes
+        c, s = np.cos(rec.psi), np.sin(rec.psi)
+        wn, we = c * ub - s * vb, s * ub + c * vb
+        chans["wind_speed"], chans["wind_dir"] = np.hypot(wn, we), np.arctan2(-we, -wn) % (2 * np.pi)
+        notes.append("relative wind (as felt on board) converted to the true wind with the recorded u, v and heading")
+    med = float(np.nanmedian(chans["wind_speed"]))
+    if med > MAX_TRIAL_WIND_MPS:
+        raise RecordingError(
+            f"{path}: column 'wind_speed': the true wind's median is {med:.1f} m/s, a storm no trial is run in; "
+            f"is it in knots? give m/s (knots x 0.5144: {0.5144 * med:.1f} m/s)"
+        )
+    return replace(rec, channels=chans, notes=notes, meta={**rec.meta, "wind_reference": "true"})
 
 
 def _check_header(path: Path, header: list[str], line: str, inputs: tuple[str, ...] | list[str] = ()) -> None:
@@ -309,7 +350,7 @@ def _check_meta(path: Path, meta: dict[str, str]) -> None:
                 v = float("nan")
             if not (math.isfinite(v) and v > 0):
                 raise RecordingError(f"{path}: header '# {key}: {meta[key]}' must be a positive number")
-    for key, allowed in (("environment", ENVIRONMENTS), ("rudder_sign", RUDDER_SIGNS)):
+    for key, allowed in (("environment", ENVIRONMENTS), ("rudder_sign", RUDDER_SIGNS), ("wind_reference", WIND_REFERENCES)):
         if key in meta and meta[key] not in allowed:
             raise RecordingError(f"{path}: header '# {key}: {meta[key]}' must be one of {', '.join(allowed)}")
     if "scale" in meta and meta["scale"] not in ("model", "full"):

@@ -100,3 +100,44 @@ def test_starboard_positive_recording_converted_on_reading(tmp_path):
         conform(load_recording(wrong, inputs=ship.inputs), ship)
     same = conform(load_recording(write_csv(rec, tmp_path / "same.csv"), inputs=ship.inputs), ship)[0]
     assert not any("converted" in n for n in same.notes)  # already in the ship's convention: unchanged
+
+
+def _with_wind(rec, speed, frm, reference: str | None):
+    n = rec.n_samples
+    ch = {**rec.channels, "wind_speed": np.full(n, speed), "wind_dir": np.full(n, frm)}
+    meta = {k: v for k, v in rec.meta.items() if k != "wind_reference"} | ({"wind_reference": reference} if reference else {})
+    return dataclasses.replace(rec, channels=ch, meta=meta)
+
+
+def test_wind_without_its_reference_or_in_knots_refused_in_one_line(tmp_path, capsys):
+    rec = read_marin_dat(DATA / "MARIN_FREE_KVLCC2_zz_10_m.dat")
+    bare = write_csv(_with_wind(rec, 9.0, 1.0, None), tmp_path / "bare.csv")
+    with pytest.raises(RecordingError, match="wind_reference: true"):
+        load_recording(bare)
+    knots = write_csv(_with_wind(rec, 35.0, 1.0, "true"), tmp_path / "knots.csv")  # 18 m/s written in knots
+    with pytest.raises(RecordingError, match="knots"):
+        load_recording(knots)
+    assert load_recording(write_csv(_with_wind(rec, 18.0, 1.0, "true"), tmp_path / "ok.csv"))[0].wind_ne is not None
+    for path in (bare, knots):
+        code = _run(["diagnose", str(path), "--ship", "kvlcc2-linear"])
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and err.startswith("error:") and len(err.splitlines()) == 1, err
+
+
+def test_relative_wind_converted_to_the_true_wind(tmp_path):
+    """The apparent wind on board of a ship turning through a steady true wind: read back as that
+    true wind (18 m/s from 300 deg) on every sample."""
+    rec = read_marin_dat(DATA / "MARIN_FREE_KVLCC2_tc_35_m.dat")
+    frm = np.radians(300.0)
+    wn, we = -18.0 * np.cos(frm), -18.0 * np.sin(frm)  # air velocity toward, north/east
+    c, s = np.cos(rec.psi), np.sin(rec.psi)
+    ub, vb = c * wn + s * we, -s * wn + c * we  # in body axes
+    qa, qv = ub - rec.y[:, 0], vb - rec.y[:, 1]  # the air relative to the ship
+    rel = dataclasses.replace(
+        rec,
+        channels={**rec.channels, "wind_speed": np.hypot(qa, qv), "wind_dir": np.arctan2(-qv, -qa) % (2 * np.pi)},
+        meta={**rec.meta, "wind_reference": "relative"},
+    )
+    got = load_recording(write_csv(rel, tmp_path / "rel.csv"))[0]
+    np.testing.assert_allclose(got.wind_ne, np.tile([wn, we], (got.n_samples, 1)), atol=1e-4)
+    assert any("relative wind" in n for n in got.notes)
