@@ -20,7 +20,7 @@ from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_
     term_scales,
 )
 from diagnose.candidates import build_library
-from diagnose.describe import interval_note, with_interval
+from diagnose.describe import includes_no_effect, interval_note, with_interval
 from diagnose.heldout import Parts, grams, insample_rss
 from diagnose.locate import locate
 from diagnose.magnitude import heldout_worse, implausible, ml_refit
@@ -183,13 +183,16 @@ def run(
         inputs=inputs,
         calm_preps=held_by,
     )
-    P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(
-        model, preps + S.calm_preps, val_preps, result, w, P0, inputs
-    )
-    cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0)
-    if steps and free == result.free:
-        cov = _cov(S, given, fit_on, w_fit, P, free, result.prior_std)
-    findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
+    for _pass in range(2):
+        P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(
+            model, preps + S.calm_preps, val_preps, result, w, P0, inputs
+        )
+        cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0)
+        if steps and free == result.free:
+            cov = _cov(S, given, fit_on, w_fit, P, free, result.prior_std)
+        findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
+        if _pass or not _drop_indistinct(model, preps + S.calm_preps, result, steps, findings, cov, w):
+            break
     structure = _structural(model, [prepare(S.profile, r) for r in fit_on or []], w, P, findings)
     findings = [f for f in findings if f not in structure]
     fit_on_name = "validation" if val_preps else "diagnosed"
@@ -272,6 +275,47 @@ def _magnitudes(
     )
     result.rejected += dropped
     return P, P0x, free, steps, per_run, method, w_fit, refitted and bool(steps)
+
+
+def _drop_indistinct(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    result: SearchResult,
+    steps: list,
+    findings: list[dict],
+    cov: FindingCov,
+    w: np.ndarray,
+) -> bool:
+    """Drop the findings whose interval (noise and the run-to-run misfit, measured over two or
+    more runs) includes no effect: |estimate| < 1 std (:func:`diagnose.describe.includes_no_effect`).
+    Such a term improves the fit by no more than the model's misfit moves it from run to run: with
+    few runs, a damping term beside a delay that absorbs what the baseline lacks (issue 26). The
+    search's result keeps the others, refitted without them (``result`` changed in place); True
+    when any was dropped."""
+    if cov.n_runs < 2:
+        return False  # one run: the +- holds noise only, no model-error term to judge by
+    weak = {f["key"] for f in findings if includes_no_effect(f)}
+    if not weak:
+        return False
+    result.steps = [st for st in steps if st.candidate.key not in weak]
+    own = [j for k in weak for j in model.slot_of[k]]
+    result.free = [j for j in result.free if j not in own]
+    result.P = result.P.copy()
+    result.P[own] = 0.0
+    refit = [j for j in result.free if j not in result.base_free]
+    if refit:
+        result.P, _cov, _rss = fit(model, preps, result.P, refit, w, max_iter=6)
+    for f in findings:
+        if f["key"] in weak:
+            result.rejected.append(
+                {
+                    "key": f["key"],
+                    "effect": f["effect"],
+                    "reason": "its interval (noise and run-to-run model misfit, 1 std) includes no effect: "
+                    "not told apart from the model's misfit",
+                }
+            )
+    return True
 
 
 def _drop_implausible(
