@@ -90,6 +90,8 @@ CASES: tuple[Case, ...] = (
     Case("wind-18", "wind", {"speed": 18.0, "from_deg": 45.0}),
     # issue 26: a gusty wind (15 % turbulence intensity, 20 s gusts) with the anemometer recorded
     Case("wind-18-gusty", "wind", {"speed": 18.0, "from_deg": 300.0, "gust": 0.15}, seed=11),
+    # the same with the anemometer's relative (apparent) wind recorded, '# wind_reference: relative'
+    Case("wind-18-gusty-relative", "wind", {"speed": 18.0, "from_deg": 300.0, "gust": 0.15, "reference": "relative"}, seed=11),
     # issue 26: a delay told from quadratic damping with two runs (the two zig-zags) only
     Case("delay-3-two-runs", "actuator_delay", {"delay_s": 3.0}, seed=12, n_diagnose=2),
     Case("gyro-bias", "sensor_bias", {"signal": "r", "bias": 5.0e-4}),
@@ -170,6 +172,7 @@ def _measure(
     bias: dict | None,
     wind_ne: tuple[float, float] | None,
     anemo: np.random.Generator | None = None,
+    relative: bool = False,
 ) -> dict[str, np.ndarray]:
     """Recorded columns: the run plus measurement noise (and a sensor bias, if any)."""
     n = len(run.t)
@@ -187,10 +190,16 @@ def _measure(
     }
     if bias:
         cols[bias["signal"]] = cols[bias["signal"]] + bias["value"]
-    if wind_ne is not None:  # the anemometer: true wind (header '# wind_reference: true'), 0.3 m/s and 2 deg noise
-        spd = float(np.hypot(*wind_ne)) * (np.ones(n) if run.wind_gain is None else run.wind_gain)
+    if wind_ne is not None:  # the anemometer (0.3 m/s and 2 deg noise): true wind, or relative when asked
+        gain = np.ones(n) if run.wind_gain is None else run.wind_gain
+        wn, we = wind_ne[0] * gain, wind_ne[1] * gain  # air velocity toward, north/east
+        if relative:  # as felt on board: the air's velocity relative to the ship, in body axes
+            c, s = np.cos(run.psi), np.sin(run.psi)
+            qa, qv = c * wn + s * we - run.u, -s * wn + c * we - run.v
+            spd, frm = np.hypot(qa, qv), np.arctan2(-qv, -qa)  # the angle off the bow it comes from
+        else:
+            spd, frm = np.hypot(wn, we), np.arctan2(-we, -wn)
         cols["wind_speed"] = spd + _noise(anemo, (n,), ANEMOMETER[0] * sq, "white")
-        frm = float(np.arctan2(-wind_ne[1], -wind_ne[0]))
         cols["wind_dir"] = (frm + _noise(anemo, (n,), ANEMOMETER[1], "white")) % (2 * np.pi)
     return cols
 
@@ -311,11 +320,12 @@ def generate(c: Case, *, visibility: bool = False, oracle_calm: bool = False) ->
     diag, val = runs[: c.n_diagnose], runs[len(DIAGNOSE) :]
     rng = np.random.default_rng(c.seed)
     bias = {"signal": c.magnitude["signal"], "value": c.magnitude["bias"] / Ts} if c.effect == "sensor_bias" else None
+    rel = c.magnitude.get("reference") == "relative"
     anemo = np.random.default_rng([c.seed, 27])  # its own stream: the motion's noise is as before the anemometer's
     noisy = {
         "calm": [_measure(r, ship, rng, c.noise, None, None) for r in calm],
-        "diagnose": [_measure(r, ship, rng, c.noise, bias, env.wind_ne, anemo) for r in diag],
-        "validate": [_measure(r, ship, rng, c.noise, bias, env.wind_ne, anemo) for r in val],
+        "diagnose": [_measure(r, ship, rng, c.noise, bias, env.wind_ne, anemo, rel) for r in diag],
+        "validate": [_measure(r, ship, rng, c.noise, bias, env.wind_ne, anemo, rel) for r in val],
     }
     truth = truth_of(c, eff_ship, diag, env, Ts)
     if visibility:
@@ -353,7 +363,7 @@ def write_case(g: Generated, out: str | Path) -> dict[str, list[Path]]:
         "rudder_sign": "starboard-positive",  # MMG's convention, converted to the kvlcc2 profile's on reading
     }
     if c.effect == "wind":
-        meta["wind_reference"] = "true"
+        meta["wind_reference"] = c.magnitude.get("reference", "true")
     paths: dict[str, list[Path]] = {}
     mans = {"calm": g.calm_manoeuvres or CALM, "diagnose": DIAGNOSE, "validate": VALIDATE}
     for role, runs in g.noisy.items():
