@@ -141,3 +141,17 @@ def test_relative_wind_converted_to_the_true_wind(tmp_path):
     got = load_recording(write_csv(rel, tmp_path / "rel.csv"))[0]
     np.testing.assert_allclose(got.wind_ne, np.tile([wn, we], (got.n_samples, 1)), atol=1e-4)
     assert any("relative wind" in n for n in got.notes)
+
+
+def test_environment_option_stands_for_the_header(tc35, tmp_path, capsys):
+    """--environment basin on a file whose header says sea: no current is offered, and the report says why."""
+    import json
+
+    short = tc35.window(0, 200)  # the turn's first 200 s: the heading turns well past 45 deg
+    assert np.ptp(short.psi) > np.radians(90.0)
+    path = write_csv(short, tmp_path / "tc.csv", meta={"environment": "sea"})
+    assert _run(["diagnose", str(path), "--ship", "kvlcc2-linear", "--environment", "basin", "--json"]) in (0, None)
+    out = json.loads(capsys.readouterr().out)
+    reasons = {u["effect"]: u["reason"] for u in out["untestable"]}
+    assert "basin or towing tank" in reasons["current"], reasons
+    assert not any(f["effect"] == "current" for f in out["findings"])
