@@ -87,6 +87,9 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
 MIN_CURRENT_REF_MPS = 0.10  # about 0.2 kn: below what a trial's speed correction would notice
 MIN_DELAY_REF_S = 0.5  # steering-machine latency below half a second does not change a manoeuvre
 MIN_ANGLE_OFFSET_DEG = 0.2  # below the reading of a rudder angle indicator
+# a yaw-rate gyro's realistic accuracy (Källström 1977: 0.005 deg/s, a large tanker), taken for
+# 320 m and Froude-scaled (rates as 1/sqrt(L)): a smaller fitted bias is within any gyro's error
+MIN_GYRO_BIAS_REF = float(np.radians(0.005))
 MIN_THRUST_CHANGE = 0.03  # 3 % of the thrust: within a propeller's day-to-day variation
 # at a set rpm the resistance balances the thrust: a change of it below the thrust's day-to-day
 # variation is the same unnoticeable speed change
@@ -115,6 +118,11 @@ def practical(effect: str, params: dict, profile: ShipProfile, visible: float) -
         return (
             False,
             f"delay {params['delay_s']:.2f} s vs at least {MIN_DELAY_REF_S * s:.2f} s ({MIN_DELAY_REF_S:g} s Froude-scaled)",
+        )
+    if effect == "sensor_bias" and params.get("signal") == "r" and abs(params.get("bias", np.inf)) < MIN_GYRO_BIAS_REF / s:
+        return False, (
+            f"yaw-rate bias {params['bias']:.2g} rad/s vs at least {MIN_GYRO_BIAS_REF / s:.2g} rad/s "
+            f"(a gyro's realistic accuracy, 0.005 deg/s, Froude-scaled to {profile.length_m:g} m)"
         )
     if effect == "input_offset" and abs(params.get("offset_deg", np.inf)) < MIN_ANGLE_OFFSET_DEG:
         return False, f"offset {params['offset_deg']:.2f} deg vs at least {MIN_ANGLE_OFFSET_DEG:g} deg"

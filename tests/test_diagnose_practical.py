@@ -55,6 +55,17 @@ def test_minimum_sizes_are_froude_scaled(tanker, ship):
     assert not plausible.practical("inertia_change", {"inertia_ratio": 0.98}, tanker, visible=5.0)[0]
 
 
+def test_yaw_rate_bias_below_a_gyros_accuracy_is_not_named(tanker, ship):
+    """Issue 26: a control with coloured noise claimed a gyro bias of -6.2e-5 rad/s (0.0036 deg/s,
+    below the 0.005 deg/s a gyro is accurate to); the battery's gyro bias (5e-4) stays."""
+    ok, why = plausible.practical("sensor_bias", {"signal": "r", "bias": -6.2e-5}, tanker, visible=5.0)
+    assert not ok and "0.005 deg/s" in why
+    assert plausible.practical("sensor_bias", {"signal": "r", "bias": 5.0e-4}, tanker, visible=5.0)[0]
+    assert plausible.practical("sensor_bias", {"signal": "v", "bias": 6.2e-5}, tanker, visible=5.0)[0]  # r only
+    # the 1 m model: Froude-scaled (rates x sqrt(320))
+    assert not plausible.practical("sensor_bias", {"signal": "r", "bias": 1.0e-3}, ship, visible=5.0)[0]
+
+
 def test_a_finding_that_hardly_moves_the_outputs_is_not_named(tanker):
     """Below a fifth of the noise any finding, below half the noise a sensor bias (a constant on
     one output moves it by its own size)."""
