@@ -104,8 +104,7 @@ def _environment(profile: ShipProfile, recordings: list[Recording], y: np.ndarra
     tank = [r.source for r in recordings if r.in_tank]
     if tank:
         why = (
-            f"recorded in a basin or towing tank (header '# environment:' of {', '.join(tank)}), "
-            "which has no current and no wind"
+            f"recorded in a basin or towing tank (header '# environment:' of {', '.join(tank)}), which has no current and no wind"
         )
         return cands, [{"effect": "current", "reason": why}, {"effect": "wind", "reason": why}]
     used = {f for dof in profile.model_terms for t in dof for f in t.replace("|", "").split("*")}
