@@ -103,7 +103,7 @@ def register(app: typer.Typer) -> None:
         from diagnose import report
         from diagnose.api import run
         from diagnose.recording import load_recording
-        from diagnose.recording_checks import conform
+        from diagnose.recording_checks import conform, with_conventions
         from diagnose.stability import check_baseline
         from primitives.ship import load_profile
 
@@ -114,7 +114,6 @@ def register(app: typer.Typer) -> None:
             environment=environment,
             rudder_sign=rudder_sign,
         )
-        said = {k: v for k, v in (("environment", environment), ("rudder_sign", rudder_sign)) if v is not None}
         profile = load_profile(ship)
         profile.require_planar("shiptrial diagnose")
         warn_ship(profile)
@@ -124,8 +123,7 @@ def register(app: typer.Typer) -> None:
             recs = []
             for p in paths:
                 recs += load_recording(p, inputs=profile.inputs)  # unused input columns never split a run
-            for r in recs:  # the options stand for the header lines of every file
-                r.meta = {**r.meta, **said}
+            recs = with_conventions(recs, environment, rudder_sign)  # the options stand for every file's header lines
             return conform(recs, profile, resample=resample)  # Froude scale, sample time, input units: said in notes
 
         recs = load(_split(recordings))

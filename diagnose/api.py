@@ -27,6 +27,7 @@ from diagnose.magnitude import heldout_worse, implausible, ml_refit
 from diagnose.model import AugmentedModel, Prepared, fit, fit_percent, noise_std_coloured, prepare
 from diagnose.perrun import fit_str, guard, short_label
 from diagnose.recording import Recording, RecordingError
+from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
 from diagnose.search import SearchResult, select
 from diagnose.uncertainty import FindingCov, finding_cov
@@ -148,16 +149,24 @@ def run(
     validate: list[Recording] | None = None,
     max_rounds: int = 5,
     joint_reference: bool = False,
+    environment: str | None = None,
+    rudder_sign: str | None = None,
 ) -> Diagnosis:
     """Diagnose ``recordings`` against ``profile`` (parameters ``theta`` or the simulation set).
 
     With ``fit_on`` the baseline is fitted on those runs first. With ``joint_reference`` as well
     (experimental, issue 13) its structure is extended (:mod:`diagnose.reference`) and refitted
     jointly on the ``fit_on`` runs and the diagnosed runs, every candidate acting on the
-    diagnosed runs only."""
+    diagnosed runs only. ``environment`` and ``rudder_sign`` stand for every recording's
+    ``# environment:`` and ``# rudder_sign:`` header lines; a rudder in the other convention is
+    converted to the profile's (or refused when it turns the ship the other way), as the CLI does."""
     t0 = time.perf_counter()
     if not recordings:
         raise RecordingError("no recording given: pass at least one CSV or .dat file")
+    recordings, fit_on, validate = (
+        rudder_in_profile_sign(with_conventions(rs, environment, rudder_sign), profile) if rs else rs
+        for rs in (list(recordings), fit_on, validate)
+    )
     _check_sample_times(profile, list(recordings) + list(fit_on or []) + list(validate or []))
     given = (profile, profile.params(theta if theta is not None else None))
     S = _setup(recordings, *given, fit_on, validate, joint_reference)

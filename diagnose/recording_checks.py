@@ -295,8 +295,47 @@ def check_rudder_sign(rec, profile) -> None:
             f"one-step fit going ahead); flip the sign of delta, or say the file's convention in its header "
             f"('# rudder_sign: {'starboard' if side == 'port' else 'port'}-positive', converted on reading; "
             f"in this profile a positive delta turns to {side})"
-            + (" - the header's rudder_sign is wrong" if "rudder_sign" in rec.meta else "")
+            + _said_wrong(rec)
         )
+
+
+def _said_wrong(rec) -> str:
+    """Who named the wrong rudder convention: the --rudder-sign option or the file's header."""
+    if rec.meta.get("rudder_sign_from") == "option":
+        return " - the rudder_sign given as an option (--rudder-sign) is wrong"
+    return " - the header's rudder_sign is wrong" if "rudder_sign" in rec.meta else ""
+
+
+def with_conventions(recs: list, environment: str | None = None, rudder_sign: str | None = None) -> list:
+    """The recordings with ``environment`` and ``rudder_sign`` standing for their header lines
+    (``# environment:``, ``# rudder_sign:``; the CLI's --environment and --rudder-sign). An unknown
+    value is refused. A recording whose rudder was converted already keeps its convention."""
+    from diagnose.recording import ENVIRONMENTS, RUDDER_SIGNS
+
+    for name, value, allowed in (("environment", environment, ENVIRONMENTS), ("rudder_sign", rudder_sign, RUDDER_SIGNS)):
+        if value is not None and value not in allowed:
+            raise _error()(f"{name} {value!r} is not one of {', '.join(allowed)}")
+    out = []
+    for rec in recs:
+        meta = dict(rec.meta)
+        if environment is not None:
+            meta["environment"] = environment
+        if rudder_sign is not None and "rudder_sign_converted_from" not in meta:
+            meta |= {"rudder_sign": rudder_sign, "rudder_sign_from": "option"}
+        out.append(replace(rec, meta=meta))
+    return out
+
+
+def rudder_in_profile_sign(recs: list, profile) -> list:
+    """Every recording's rudder in the profile's convention (:func:`apply_rudder_sign`), or refused
+    when it turns the ship the other way (:func:`check_rudder_sign`). Idempotent: a converted
+    recording says the profile's convention."""
+    out = []
+    for rec in recs:
+        rec = apply_rudder_sign(rec, profile)
+        check_rudder_sign(rec, profile)
+        out.append(rec)
+    return out
 
 
 def froude_scale(rec, factor: float | None = None):
