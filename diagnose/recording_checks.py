@@ -294,8 +294,7 @@ def check_rudder_sign(rec, profile) -> None:
             f"responds to it with the opposite sign of the profile's rudder yaw derivative (t = {tval:+.1f} in a "
             f"one-step fit going ahead); flip the sign of delta, or say the file's convention in its header "
             f"('# rudder_sign: {'starboard' if side == 'port' else 'port'}-positive', converted on reading; "
-            f"in this profile a positive delta turns to {side})"
-            + _said_wrong(rec)
+            f"in this profile a positive delta turns to {side})" + _said_wrong(rec)
         )
 
 
