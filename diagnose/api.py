@@ -20,7 +20,7 @@ from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_
     term_scales,
 )
 from diagnose.candidates import build_library
-from diagnose.describe import includes_no_effect, interval_note, with_interval
+from diagnose.describe import includes_no_effect, interval_note, with_interval, z_score
 from diagnose.heldout import Parts, grams, insample_rss
 from diagnose.locate import locate
 from diagnose.magnitude import heldout_worse, implausible, ml_refit
@@ -192,15 +192,15 @@ def run(
         inputs=inputs,
         calm_preps=held_by,
     )
-    for _pass in range(2):
+    for _pass in range(len(result.steps) + 1):  # one finding dropped a pass at most
         P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(
             model, preps + S.calm_preps, val_preps, result, w, P0, inputs
         )
         cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0)
-        if steps and free == result.free:
+        if steps:  # the per-run guard's set too: its findings get an interval and face the rule below
             cov = _cov(S, given, fit_on, w_fit, P, free, result.prior_std)
         findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
-        if _pass or not _drop_indistinct(model, preps + S.calm_preps, result, steps, findings, cov, w):
+        if not _drop_indistinct(model, preps + S.calm_preps, result, steps, findings, cov, w):
             break
     structure = _structural(model, [prepare(S.profile, r) for r in fit_on or []], w, P, findings)
     findings = [f for f in findings if f not in structure]
@@ -295,35 +295,39 @@ def _drop_indistinct(
     cov: FindingCov,
     w: np.ndarray,
 ) -> bool:
-    """Drop the findings whose interval (noise and the run-to-run misfit, measured over two or
-    more runs) includes no effect: |estimate| < 1 std (:func:`diagnose.describe.includes_no_effect`).
-    Such a term improves the fit by no more than the model's misfit moves it from run to run: with
-    few runs, a damping term beside a delay that absorbs what the baseline lacks (issue 26). The
-    search's result keeps the others, refitted without them (``result`` changed in place); True
-    when any was dropped."""
+    """Drop the one finding with the smallest |estimate / std| when its interval (noise and the
+    run-to-run misfit, measured over two or more runs) includes no effect: |estimate| < 1 std
+    (:func:`diagnose.describe.includes_no_effect`). Such a term improves the fit by no more than
+    the model's misfit moves it from run to run: with few runs, a damping term beside a delay that
+    absorbs what the baseline lacks (issue 26). One at a time: a delay and a damping term competing
+    for the same misfit both get wide intervals while both are in; without the weaker, the other's
+    interval narrows. The rest are refitted (``result`` changed in place) and the caller recomputes
+    the covariance and asks again; True when one was dropped. ``steps``: the kept steps after the
+    per-run guard (``result.steps`` may hold more)."""
     if cov.n_runs < 2:
         return False  # one run: the +- holds noise only, no model-error term to judge by
-    weak = {f["key"] for f in findings if includes_no_effect(f)}
+    weak = [f for f in findings if includes_no_effect(f)]
     if not weak:
         return False
-    result.steps = [st for st in steps if st.candidate.key not in weak]
-    own = [j for k in weak for j in model.slot_of[k]]
+    f = min(weak, key=z_score)
+    result.steps = [st for st in steps if st.candidate.key != f["key"]]
+    own = model.slot_of[f["key"]]
     result.free = [j for j in result.free if j not in own]
     result.P = result.P.copy()
     result.P[own] = 0.0
     refit = [j for j in result.free if j not in result.base_free]
     if refit:
-        result.P, _cov, _rss = fit(model, preps, result.P, refit, w, max_iter=6)
-    for f in findings:
-        if f["key"] in weak:
-            result.rejected.append(
-                {
-                    "key": f["key"],
-                    "effect": f["effect"],
-                    "reason": "its interval (noise and run-to-run model misfit, 1 std) includes no effect: "
-                    "not told apart from the model's misfit",
-                }
-            )
+        result.P, _c, _rss = fit(model, preps, result.P, refit, w, max_iter=6)
+    misfit = not cov.misfit_failed and bool(np.any(np.asarray(cov.model) != 0.0))
+    covers = "noise and run-to-run model misfit" if misfit else "noise; the run-to-run misfit came out zero"
+    result.rejected.append(
+        {
+            "key": f["key"],
+            "effect": f["effect"],
+            "reason": f"its interval ({covers}, 1 std) includes no effect (|estimate/std| = {z_score(f):.2f}): "
+            + ("not told apart from the model's misfit" if misfit else "not told apart from the noise"),
+        }
+    )
     return True
 
 

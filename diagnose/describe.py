@@ -233,9 +233,19 @@ def _finite(x) -> bool:
     return isinstance(x, int | float) and bool(np.isfinite(x))
 
 
-def includes_no_effect(f: dict) -> bool:
-    """Every main estimate of the finding lies within 1 std of no effect (|estimate| < std)."""
+def _main_pairs(f: dict) -> list[tuple[float, float]]:
     p = f["parameters"]
     pairs = _MAIN.get(f["effect"]) or [(k, f"{k}_std") for k in p if f"{k}_std" in p]
-    pairs = [(p[k], p[s]) for k, s in pairs if _finite(p.get(k)) and _finite(p.get(s))]
+    return [(p[k], p[s]) for k, s in pairs if _finite(p.get(k)) and _finite(p.get(s))]
+
+
+def z_score(f: dict) -> float:
+    """The finding's largest |estimate / std| over its main estimates (inf without an interval)."""
+    pairs = _main_pairs(f)
+    return max((abs(v) / sd if sd > 0 else float("inf") for v, sd in pairs), default=float("inf"))
+
+
+def includes_no_effect(f: dict) -> bool:
+    """Every main estimate of the finding lies within 1 std of no effect (|estimate| < std)."""
+    pairs = _main_pairs(f)
     return bool(pairs) and all(abs(v) < sd for v, sd in pairs)

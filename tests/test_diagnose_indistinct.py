@@ -55,3 +55,19 @@ def test_one_run_keeps_every_finding():
     cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), n_runs=0)
     assert not _drop_indistinct(model, preps, result, list(result.steps), findings, cov, w)
     assert len(result.steps) == 2 and not result.rejected
+
+
+def test_only_the_weakest_is_dropped_and_the_text_says_noise_without_a_misfit_term():
+    """Two findings within 1 std of none: the one with the smaller |estimate/std| goes first (the
+    other may firm up once refitted alone); with a zero run-to-run misfit the reason says noise."""
+    model, preps, result, findings, w = _setup()
+    findings[1]["parameters"] = {"bias": 0.8e-4, "bias_std": 1e-4}  # |z| 0.8 against the damping's 0.5
+    cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), n_runs=2)
+    assert _drop_indistinct(model, preps, result, list(result.steps), findings, cov, w)
+    assert [st.candidate.key for st in result.steps] == ["sensor_bias:r"]
+    assert len(result.rejected) == 1
+    reason = result.rejected[0]["reason"]
+    assert "noise; the run-to-run misfit came out zero" in reason and "|estimate/std| = 0.50" in reason, reason
+    cov = FindingCov(np.zeros((2, 2)), np.eye(2) * 1e-8, n_runs=2)
+    assert _drop_indistinct(model, preps, result, list(result.steps), findings[1:], cov, w)
+    assert "noise and run-to-run model misfit" in result.rejected[1]["reason"]
