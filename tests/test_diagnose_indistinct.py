@@ -71,3 +71,31 @@ def test_only_the_weakest_is_dropped_and_the_text_says_noise_without_a_misfit_te
     cov = FindingCov(np.zeros((2, 2)), np.eye(2) * 1e-8, n_runs=2)
     assert _drop_indistinct(model, preps, result, list(result.steps), findings[1:], cov, w)
     assert "noise and run-to-run model misfit" in result.rejected[1]["reason"]
+
+
+def test_a_delay_beside_a_weaker_damping_term_stays_named():
+    """Issue 26's two-run delay: a delay (|z| 0.9) and a yaw damping term (|z| 0.4) compete for the
+    same misfit, both within 1 std while both are in. Only the damping term is dropped; the delay
+    is refitted alone and judged again on its own interval (before the review both went at once)."""
+    p = load_profile("model-ship")
+    sc = scenario((), 7, n_prims=2)
+    recs = sc.diagnose + sc.validate
+    cands, _ = build_library(p, recs)
+    model = AugmentedModel(p, p.params(), cands, n_rec=len(recs))
+    preps = [prepare(p, r, i) for i, r in enumerate(recs)]
+    keys = ["actuator_delay", "quadratic_damping:yaw:r*|r|"]
+    by_key = {c.key: c for c in cands}
+    P = model.p0()
+    free = list(model.x0_params()) + [j for k in keys for j in model.slot_of[k]]
+    P[model.slot_of["actuator_delay"]] = 0.3
+    result = SearchResult(P, np.zeros((0, 0)), free, steps=[SimpleNamespace(candidate=by_key[k]) for k in keys])
+    findings = [
+        {"key": keys[0], "effect": "actuator_delay", "parameters": {"delay_s": 2.7, "delay_std": 3.0}},
+        {"key": keys[1], "effect": "quadratic_damping", "parameters": {"value": 0.016, "value_std": 0.04}},
+    ]
+    w = np.ones(3) / np.array([0.01, 0.01, 1e-3])
+    cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), n_runs=2)
+    assert _drop_indistinct(model, preps, result, list(result.steps), findings, cov, w)
+    assert [st.candidate.key for st in result.steps] == ["actuator_delay"]
+    assert [r["key"] for r in result.rejected] == [keys[1]]
+    assert set(model.slot_of["actuator_delay"]) <= set(result.free)
