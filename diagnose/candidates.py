@@ -106,7 +106,9 @@ def _environment(profile: ShipProfile, recordings: list[Recording], y: np.ndarra
         why = (
             f"recorded in a basin or towing tank (header '# environment:' of {', '.join(tank)}), which has no current and no wind"
         )
-        return cands, [{"effect": "current", "reason": why}, {"effect": "wind", "reason": why}]
+        windy = [r.source for r in recordings if r.in_tank and r.wind_ne is not None]
+        wind_why = why + (f"; the recorded wind columns of {', '.join(windy)} are not used" if windy else "")
+        return cands, [{"effect": "current", "reason": why}, {"effect": "wind", "reason": wind_why}]
     used = {f for dof in profile.model_terms for t in dof for f in t.replace("|", "").split("*")}
     spread = float(np.ptp(np.concatenate([r.psi for r in recordings])))
     if not ({"u_r", "v_r"} & {f.split("^")[0] for f in used}):

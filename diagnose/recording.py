@@ -290,6 +290,13 @@ def _true_wind(path: Path, rec: Recording) -> Recording:
         )
     chans = dict(rec.channels)
     notes = list(rec.notes)
+    if not np.isfinite(chans["wind_speed"]).any():
+        raise RecordingError(f"{path}: column 'wind_speed' holds no value; fill it in m/s or drop the wind columns")
+    top = float(np.nanmax(np.abs(chans["wind_dir"])))
+    if top > 2 * np.pi + 1e-9:
+        raise RecordingError(
+            f"{path}: column 'wind_dir' reaches {top:.1f}, more than 2 pi: is it in degrees? give radians (degrees x pi / 180)"
+        )
     if ref == "relative":
         va, ga = chans["wind_speed"], chans["wind_dir"]
         ub, vb = rec.y[:, 0] - va * np.cos(ga), rec.y[:, 1] - va * np.sin(ga)  # true air velocity (toward), body axes

@@ -117,11 +117,16 @@ def test_wind_without_its_reference_or_in_knots_refused_in_one_line(tmp_path, ca
     knots = write_csv(_with_wind(rec, 35.0, 1.0, "true"), tmp_path / "knots.csv")  # 18 m/s written in knots
     with pytest.raises(RecordingError, match="knots"):
         load_recording(knots)
+    degrees = write_csv(_with_wind(rec, 9.0, 300.0, "true"), tmp_path / "deg.csv")  # from 300 deg, written in degrees
+    with pytest.raises(RecordingError, match="wind_dir.*degrees"):
+        load_recording(degrees)
     assert load_recording(write_csv(_with_wind(rec, 18.0, 1.0, "true"), tmp_path / "ok.csv"))[0].wind_ne is not None
-    for path in (bare, knots):
-        code = _run(["diagnose", str(path), "--ship", "kvlcc2-linear"])
+    for path in (bare, knots, degrees):
+        out = tmp_path / f"out-{path.stem}"
+        code = _run(["diagnose", str(path), "--ship", "kvlcc2-linear", "--out", str(out)])
         err = capsys.readouterr().err.strip()
         assert code == 2 and err.startswith("error:") and len(err.splitlines()) == 1, err
+        assert not out.exists()  # nothing written
 
 
 def test_relative_wind_converted_to_the_true_wind(tmp_path):
@@ -141,6 +146,13 @@ def test_relative_wind_converted_to_the_true_wind(tmp_path):
     got = load_recording(write_csv(rel, tmp_path / "rel.csv"))[0]
     np.testing.assert_allclose(got.wind_ne, np.tile([wn, we], (got.n_samples, 1)), atol=1e-4)
     assert any("relative wind" in n for n in got.notes)
+
+
+def test_a_basin_says_its_recorded_wind_is_not_used(tc35):
+    """A basin run with wind columns: no wind candidate, and the reason says the columns are not used."""
+    windy = _with_wind(tc35, 5.0, 1.0, "true")
+    reasons = _environment_untestable(load_profile("kvlcc2-linear"), [windy])
+    assert "recorded wind columns" in reasons["wind"] and "recorded wind" not in reasons["current"], reasons
 
 
 def test_environment_option_stands_for_the_header(tc35, tmp_path, capsys):
