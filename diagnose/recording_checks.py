@@ -20,10 +20,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from primitives.errors import UserError
+
+if TYPE_CHECKING:
+    from diagnose.recording import Recording
+    from primitives.ship import ShipProfile
 
 # Largest magnitudes a real run can show (a fast craft does 40 m/s; 5 rad/s is a spinning model).
 MAX_ABS = {"u": 100.0, "v": 100.0, "r": 10.0, "p": 10.0, "phi": 3.2, "x": 1e8, "y": 1e8, "psi": 1e5, "wind_speed": 150.0}
@@ -253,15 +258,18 @@ def _profile_rudder_sign(profile, rec) -> float:
     return float(np.sign(out[1] - out[0]))
 
 
-def apply_rudder_sign(rec, profile):
+def apply_rudder_sign(rec: Recording, profile: ShipProfile) -> Recording:
     """The recording with its rudder angle in the profile's sign convention, and a note when it
     was converted. The header ``# rudder_sign: port-positive|starboard-positive`` says which side a
     positive delta turns the ship to (MMG's convention, Yasukawa & Yoshimura 2015, is
     starboard-positive; the MARIN / ``kvlcc2`` profile's is port-positive); a recording without it
     is taken in the profile's convention (and :func:`check_rudder_sign` judges that)."""
     said = rec.meta.get("rudder_sign")
-    if said is None or "delta" not in profile.inputs or "delta" not in rec.channels:
+    if said is None:
         return rec
+    if "delta" not in profile.inputs or "delta" not in rec.channels:
+        note = f"rudder_sign {said} not used: ship {profile.name!r} or the file has no rudder angle 'delta'"
+        return rec if note in rec.notes else replace(rec, notes=[*rec.notes, note])
     theirs = 1.0 if said == "starboard-positive" else -1.0
     ours = float(np.sign(profile.helm.starboard_sign))
     if theirs == ours:

@@ -58,3 +58,14 @@ def test_run_rudder_sign_argument_stands_for_the_header(ship, zz, tmp_path):
     k = ship.inputs.index("delta")
     np.testing.assert_allclose(d.preps[0].inputs[:, k], zz.channels["delta"][: len(d.preps[0].inputs)], atol=1e-9)
     assert not any(f["effect"] in ("current", "wind") for f in d.findings)
+
+
+def test_rudder_sign_on_a_ship_without_delta_is_said_not_used(zz):
+    """A rudder_sign header on a ship with no 'delta' input is not silently ignored: a note says so."""
+    from diagnose.recording_checks import apply_rudder_sign
+
+    pods = load_profile("full-scale")
+    rec = dataclasses.replace(zz, meta={"rudder_sign": "starboard-positive"})
+    got = apply_rudder_sign(apply_rudder_sign(rec, pods), pods)
+    assert [n for n in got.notes if "rudder_sign starboard-positive not used" in n] != []
+    assert len(got.notes) == len(rec.notes) + 1  # said once, however often applied
