@@ -25,7 +25,7 @@ from diagnose.heldout import Parts, grams, insample_rss
 from diagnose.locate import locate
 from diagnose.magnitude import heldout_worse, implausible, ml_refit
 from diagnose.model import AugmentedModel, Prepared, fit, fit_percent, noise_std_coloured, prepare
-from diagnose.perrun import fit_str, guard, short_label
+from diagnose.perrun import fit_str, guard, short_label, without
 from diagnose.recording import Recording, RecordingError
 from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
@@ -311,10 +311,7 @@ def _drop_indistinct(
         return False
     f = min(weak, key=z_score)
     result.steps = [st for st in steps if st.candidate.key != f["key"]]
-    own = model.slot_of[f["key"]]
-    result.free = [j for j in result.free if j not in own]
-    result.P = result.P.copy()
-    result.P[own] = 0.0
+    result.P, result.free = without(model, result.P, result.free, f["key"])
     refit = [j for j in result.free if j not in result.base_free]
     if refit:
         result.P, _c, _rss = fit(model, preps, result.P, refit, w, max_iter=6)
@@ -339,14 +336,11 @@ def _drop_implausible(
     reason, its slots zeroed and the rest refitted (weights ``w``)."""
     steps = list(result.steps)
     for c, why in implausible(model, [st.candidate for st in steps], result.P, result.free, inputs):
-        own = model.slot_of[c.key]
         steps = [st for st in steps if st.candidate.key != c.key]
-        result.free = [j for j in result.free if j not in own]
-        result.P = result.P.copy()
-        result.P[own] = 0.0
+        result.P, result.free = without(model, result.P, result.free, c.key)
         result.rejected.append({"key": c.key, "effect": c.effect, "reason": f"implausible estimate: {why}"})
     if len(steps) < len(result.steps) and steps:
-        result.P, _cov, _rss = fit(model, preps, result.P, [j for j in result.free if j not in result.base_free], w, max_iter=6)
+        result.P, _c, _rss = fit(model, preps, result.P, [j for j in result.free if j not in result.base_free], w, max_iter=6)
     return steps
 
 
