@@ -310,8 +310,11 @@ def _drop_indistinct(
     if not weak:
         return False
     f = min(weak, key=z_score)
-    result.steps = [st for st in steps if st.candidate.key != f["key"]]
-    result.P, result.free = without(model, result.P, result.free, f["key"])
+    kept = {st.candidate.key for st in steps} - {f["key"]}
+    for st in result.steps:  # the weakest, and what the implausibility check or the per-run guard took out
+        if st.candidate.key not in kept:
+            result.P, result.free = without(model, result.P, result.free, st.candidate.key)
+    result.steps = [st for st in steps if st.candidate.key in kept]
     refit = [j for j in result.free if j not in result.base_free]
     if refit:
         result.P, _c, _rss = fit(model, preps, result.P, refit, w, max_iter=6)

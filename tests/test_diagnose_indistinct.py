@@ -99,3 +99,17 @@ def test_a_delay_beside_a_weaker_damping_term_stays_named():
     assert [st.candidate.key for st in result.steps] == ["actuator_delay"]
     assert [r["key"] for r in result.rejected] == [keys[1]]
     assert set(model.slot_of["actuator_delay"]) <= set(result.free)
+
+
+def test_a_finding_the_per_run_guard_dropped_leaves_the_refit_too():
+    """After the per-run guard dropped a finding, the rule still runs: the weak finding goes, and
+    the guard's drop is taken out of the search's parameters as well (not refitted unreported)."""
+    model, preps, result, findings, w = _setup()
+    guarded = [result.steps[1]]  # the guard kept the bias only
+    findings[1]["parameters"] = {"bias": 0.5e-4, "bias_std": 1e-4}
+    cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), n_runs=3)
+    assert _drop_indistinct(model, preps, result, guarded, findings[1:], cov, w)
+    assert result.steps == [] and [r["key"] for r in result.rejected] == ["sensor_bias:r"]
+    for key in ("quadratic_damping:yaw:r*|r|", "sensor_bias:r"):
+        own = model.slot_of[key]
+        assert np.all(result.P[own] == 0.0) and not set(own) & set(result.free)
