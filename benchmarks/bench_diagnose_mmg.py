@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import subprocess
 import sys
 import tempfile
@@ -342,6 +343,31 @@ def run_case(
     }
 
 
+def finding_z(r: dict) -> list[tuple[str, float, str]]:
+    """Each finding's |estimate / std| (diagnose.describe.z_score), labelled true (its effect is
+    the case's truth), spurious, or dropped (rejected as including no effect, |z| from the reason)."""
+    from diagnose.describe import z_score
+
+    truth = set(r["truth"].get("effects", []))
+    out = [
+        (f["effect"], z_score(f), "true" if f["effect"] in truth else "spurious")
+        for f in (r.get("findings") or []) + (r.get("structure") or [])
+    ]
+    for j in r.get("rejected") or []:
+        m = re.search(r"\|estimate/std\| = ([0-9.]+)", j.get("reason", ""))
+        if m:
+            out.append((j["effect"], float(m.group(1)), "dropped, " + ("true" if j["effect"] in truth else "spurious")))
+    return out
+
+
+def _print_z_spread(rows: list[dict]) -> None:
+    """The spread of |estimate/std| for true and spurious findings over all rows (kept or dropped)."""
+    for kind in ("true", "spurious"):
+        zs = sorted(z for r in rows for _e, z, k in r.get("finding_z", []) if k.endswith(kind))
+        if zs:
+            print(f"|estimate/std| of {kind} findings (kept and dropped) over {len(zs)}: " + ", ".join(f"{z:.2f}" for z in zs))
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", default="", help="comma-separated case names (default: all)")
@@ -419,6 +445,11 @@ def main(argv: list[str] | None = None) -> dict:
                 + ", ".join(f"{k} {v:+.2f}" for k, v in zn.items())
                 + ")"
             )
+        sig = finding_z(r)
+        r["finding_z"] = sig
+        if sig:
+            print(f"{'':24s}  |estimate/std| of each finding: " + ", ".join(f"{e} {z:.2f} ({k})" for e, z, k in sig))
+    _print_z_spread(rows)
     for label, key in (("reported std (noise + run-to-run misfit)", "z"), ("its noise part alone", "z_noise")):
         zs = np.array([v for r in rows for v in r[key].values()])
         if len(zs) >= 3:

@@ -85,6 +85,17 @@ def register(app: typer.Typer) -> None:
         resample: bool = typer.Option(
             False, "--resample", help="interpolate recordings onto the ship's sample time (default: refuse)"
         ),
+        environment: str | None = typer.Option(
+            None,
+            "--environment",
+            help="where every run was recorded: sea, basin or towing-tank (no current, no wind); overrides '# environment:'",
+        ),
+        rudder_sign: str | None = typer.Option(
+            None,
+            "--rudder-sign",
+            help="the recordings' rudder convention: port-positive or starboard-positive (converted to the ship's); "
+            "overrides '# rudder_sign:'",
+        ),
     ) -> None:
         """Diagnose recordings against a ship model: locate, name and model the missing physics."""
         from cli.errors import warn_ship
@@ -92,7 +103,7 @@ def register(app: typer.Typer) -> None:
         from diagnose import report
         from diagnose.api import run
         from diagnose.recording import load_recording
-        from diagnose.recording_checks import conform
+        from diagnose.recording_checks import conform, with_conventions
         from diagnose.stability import check_baseline
         from primitives.ship import load_profile
 
@@ -100,6 +111,8 @@ def register(app: typer.Typer) -> None:
             recordings={"RECORDING": _split(recordings), "--fit-on": _split(fit_on), "--validate": _split(validate)},
             params=params,
             out=out,
+            environment=environment,
+            rudder_sign=rudder_sign,
         )
         profile = load_profile(ship)
         profile.require_planar("shiptrial diagnose")
@@ -110,6 +123,7 @@ def register(app: typer.Typer) -> None:
             recs = []
             for p in paths:
                 recs += load_recording(p, inputs=profile.inputs)  # unused input columns never split a run
+            recs = with_conventions(recs, environment, rudder_sign)  # the options stand for every file's header lines
             return conform(recs, profile, resample=resample)  # Froude scale, sample time, input units: said in notes
 
         recs = load(_split(recordings))

@@ -221,8 +221,21 @@ def validate_sweep_options(*, config: Path, out: Path, plot: Path | None) -> Non
     check_outputs(out, plot)
 
 
-def validate_diagnose_options(*, recordings: dict[str, list[str]], params: str | None, out: Path | None) -> None:
-    """``recordings``: option name (RECORDING, --fit-on, --validate) -> its files."""
+def validate_diagnose_options(
+    *,
+    recordings: dict[str, list[str]],
+    params: str | None,
+    out: Path | None,
+    environment: str | None = None,
+    rudder_sign: str | None = None,
+) -> None:
+    """``recordings``: option name (RECORDING, --fit-on, --validate) -> its files; ``environment`` and
+    ``rudder_sign``: the values of --environment and --rudder-sign (the header values they stand for)."""
+    from diagnose.recording import ENVIRONMENTS, RUDDER_SIGNS
+
+    for option, value, allowed in (("--environment", environment, ENVIRONMENTS), ("--rudder-sign", rudder_sign, RUDDER_SIGNS)):
+        if value is not None and value not in allowed:
+            raise UserError(f"{option} {value}: must be one of {', '.join(allowed)}")
     for option, paths in recordings.items():
         for r in paths:
             check_input_file(r, option, "a recording file (.csv or MARIN .dat)", "recording")

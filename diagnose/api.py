@@ -20,13 +20,14 @@ from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_
     term_scales,
 )
 from diagnose.candidates import build_library
-from diagnose.describe import interval_note, with_interval
+from diagnose.describe import includes_no_effect, interval_note, with_interval, z_score
 from diagnose.heldout import Parts, grams, insample_rss
 from diagnose.locate import locate
 from diagnose.magnitude import heldout_worse, implausible, ml_refit
 from diagnose.model import AugmentedModel, Prepared, fit, fit_percent, noise_std_coloured, prepare
-from diagnose.perrun import fit_str, guard, short_label
+from diagnose.perrun import fit_str, guard, short_label, without
 from diagnose.recording import Recording, RecordingError
+from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
 from diagnose.search import SearchResult, select
 from diagnose.uncertainty import FindingCov, finding_cov
@@ -148,16 +149,24 @@ def run(
     validate: list[Recording] | None = None,
     max_rounds: int = 5,
     joint_reference: bool = False,
+    environment: str | None = None,
+    rudder_sign: str | None = None,
 ) -> Diagnosis:
     """Diagnose ``recordings`` against ``profile`` (parameters ``theta`` or the simulation set).
 
     With ``fit_on`` the baseline is fitted on those runs first. With ``joint_reference`` as well
     (experimental, issue 13) its structure is extended (:mod:`diagnose.reference`) and refitted
     jointly on the ``fit_on`` runs and the diagnosed runs, every candidate acting on the
-    diagnosed runs only."""
+    diagnosed runs only. ``environment`` and ``rudder_sign`` stand for every recording's
+    ``# environment:`` and ``# rudder_sign:`` header lines; a rudder in the other convention is
+    converted to the profile's (or refused when it turns the ship the other way), as the CLI does."""
     t0 = time.perf_counter()
     if not recordings:
         raise RecordingError("no recording given: pass at least one CSV or .dat file")
+    recordings, fit_on, validate = (
+        rudder_in_profile_sign(with_conventions(rs, environment, rudder_sign), profile) if rs else rs
+        for rs in (list(recordings), fit_on, validate)
+    )
     _check_sample_times(profile, list(recordings) + list(fit_on or []) + list(validate or []))
     given = (profile, profile.params(theta if theta is not None else None))
     S = _setup(recordings, *given, fit_on, validate, joint_reference)
@@ -183,13 +192,16 @@ def run(
         inputs=inputs,
         calm_preps=held_by,
     )
-    P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(
-        model, preps + S.calm_preps, val_preps, result, w, P0, inputs
-    )
-    cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0)
-    if steps and free == result.free:
-        cov = _cov(S, given, fit_on, w_fit, P, free, result.prior_std)
-    findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
+    for _pass in range(len(result.steps) + 1):  # one finding dropped a pass at most
+        P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(
+            model, preps + S.calm_preps, val_preps, result, w, P0, inputs
+        )
+        cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0)
+        if steps:  # the per-run guard's set too: its findings get an interval and face the rule below
+            cov = _cov(S, given, fit_on, w_fit, P, free, result.prior_std)
+        findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
+        if not _drop_indistinct(model, preps + S.calm_preps, result, steps, findings, cov, w):
+            break
     structure = _structural(model, [prepare(S.profile, r) for r in fit_on or []], w, P, findings)
     findings = [f for f in findings if f not in structure]
     fit_on_name = "validation" if val_preps else "diagnosed"
@@ -274,6 +286,51 @@ def _magnitudes(
     return P, P0x, free, steps, per_run, method, w_fit, refitted and bool(steps)
 
 
+def _drop_indistinct(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    result: SearchResult,
+    steps: list,
+    findings: list[dict],
+    cov: FindingCov,
+    w: np.ndarray,
+) -> bool:
+    """Drop the one finding with the smallest |estimate / std| when its interval (noise and the
+    run-to-run misfit, measured over two or more runs) includes no effect: |estimate| < 1 std
+    (:func:`diagnose.describe.includes_no_effect`). Such a term improves the fit by no more than
+    the model's misfit moves it from run to run: with few runs, a damping term beside a delay that
+    absorbs what the baseline lacks (issue 26). One at a time: a delay and a damping term competing
+    for the same misfit both get wide intervals while both are in; without the weaker, the other's
+    interval narrows. The rest are refitted (``result`` changed in place) and the caller recomputes
+    the covariance and asks again; True when one was dropped. ``steps``: the kept steps after the
+    per-run guard (``result.steps`` may hold more)."""
+    if cov.n_runs < 2:
+        return False  # one run: the +- holds noise only, no model-error term to judge by
+    weak = [f for f in findings if includes_no_effect(f)]
+    if not weak:
+        return False
+    f = min(weak, key=z_score)
+    kept = {st.candidate.key for st in steps} - {f["key"]}
+    for st in result.steps:  # the weakest, and what the implausibility check or the per-run guard took out
+        if st.candidate.key not in kept:
+            result.P, result.free = without(model, result.P, result.free, st.candidate.key)
+    result.steps = [st for st in steps if st.candidate.key in kept]
+    refit = [j for j in result.free if j not in result.base_free]
+    if refit:
+        result.P, _c, _rss = fit(model, preps, result.P, refit, w, max_iter=6)
+    misfit = not cov.misfit_failed and bool(np.any(np.asarray(cov.model) != 0.0))
+    covers = "noise and run-to-run model misfit" if misfit else "noise; the run-to-run misfit came out zero"
+    result.rejected.append(
+        {
+            "key": f["key"],
+            "effect": f["effect"],
+            "reason": f"its interval ({covers}, 1 std) includes no effect (|estimate/std| = {z_score(f):.2f}): "
+            + ("not told apart from the model's misfit" if misfit else "not told apart from the noise"),
+        }
+    )
+    return True
+
+
 def _drop_implausible(
     model: AugmentedModel, preps: list[Prepared], result: SearchResult, w: np.ndarray, inputs: np.ndarray
 ) -> list:
@@ -282,14 +339,11 @@ def _drop_implausible(
     reason, its slots zeroed and the rest refitted (weights ``w``)."""
     steps = list(result.steps)
     for c, why in implausible(model, [st.candidate for st in steps], result.P, result.free, inputs):
-        own = model.slot_of[c.key]
         steps = [st for st in steps if st.candidate.key != c.key]
-        result.free = [j for j in result.free if j not in own]
-        result.P = result.P.copy()
-        result.P[own] = 0.0
+        result.P, result.free = without(model, result.P, result.free, c.key)
         result.rejected.append({"key": c.key, "effect": c.effect, "reason": f"implausible estimate: {why}"})
     if len(steps) < len(result.steps) and steps:
-        result.P, _cov, _rss = fit(model, preps, result.P, [j for j in result.free if j not in result.base_free], w, max_iter=6)
+        result.P, _c, _rss = fit(model, preps, result.P, [j for j in result.free if j not in result.base_free], w, max_iter=6)
     return steps
 
 

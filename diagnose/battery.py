@@ -145,7 +145,8 @@ def _one(profile: ShipProfile, effects: tuple[str, ...], rng: np.random.Generato
         res.pos_meas[0],
         chans,
         labels + labels[-1:],
-        {"ship": profile.name, "generated": "diagnose.battery", "input_hold": "zoh"},
+        {"ship": profile.name, "generated": "diagnose.battery", "input_hold": "zoh"}
+        | ({"wind_reference": "true"} if wind else {}),
         [],
     )
 

@@ -96,9 +96,19 @@ Found = tuple[list[Candidate], list[dict]]  # candidates, and those that cannot 
 
 
 def _environment(profile: ShipProfile, recordings: list[Recording], y: np.ndarray) -> Found:
-    """A current (through u_r, v_r, when the heading turns enough) and, when measured, wind."""
+    """A current (through u_r, v_r, when the heading turns enough) and, when measured, wind;
+    neither for a run recorded in a basin or towing tank (header ``# environment:``), which has
+    no current and no wind: a misfit there is the model's, not the water's."""
     cands: list[Candidate] = []
     untestable: list[dict] = []
+    tank = [r.source for r in recordings if r.in_tank]
+    if tank:
+        why = (
+            f"recorded in a basin or towing tank (header '# environment:' of {', '.join(tank)}), which has no current and no wind"
+        )
+        windy = [r.source for r in recordings if r.in_tank and r.wind_ne is not None]
+        wind_why = why + (f"; the recorded wind columns of {', '.join(windy)} are not used" if windy else "")
+        return cands, [{"effect": "current", "reason": why}, {"effect": "wind", "reason": wind_why}]
     used = {f for dof in profile.model_terms for t in dof for f in t.replace("|", "").split("*")}
     spread = float(np.ptp(np.concatenate([r.psi for r in recordings])))
     if not ({"u_r", "v_r"} & {f.split("^")[0] for f in used}):

@@ -213,3 +213,39 @@ def interval_note(cov) -> dict:
         "between_run_runs": runs,
         "between_runs": runs >= 2,
     }
+
+
+# the estimate whose interval says whether the effect is there at all (its "no effect" value is 0)
+_MAIN = {
+    "current": [("speed_mps", "speed_std")],
+    "actuator_delay": [("delay_s", "delay_std")],
+    "input_offset": [("offset", "offset_std")],
+    "sensor_bias": [("bias", "bias_std")],
+    "quadratic_damping": [("value", "value_std")],
+    "missing_coupling": [("value", "value_std")],
+    "thrust_loss": [("loss_percent", "loss_percent_std"), ("coefficient", "coefficient_std")],
+    "resistance_change": [("coefficient", "coefficient_std")],
+    "inertia_change": [("scale", "scale_std")],
+}
+
+
+def _finite(x) -> bool:
+    return isinstance(x, int | float) and bool(np.isfinite(x))
+
+
+def _main_pairs(f: dict) -> list[tuple[float, float]]:
+    p = f["parameters"]
+    pairs = _MAIN.get(f["effect"]) or [(k, f"{k}_std") for k in p if f"{k}_std" in p]
+    return [(p[k], p[s]) for k, s in pairs if _finite(p.get(k)) and _finite(p.get(s))]
+
+
+def z_score(f: dict) -> float:
+    """The finding's largest |estimate / std| over its main estimates (inf without an interval)."""
+    pairs = _main_pairs(f)
+    return max((abs(v) / sd if sd > 0 else float("inf") for v, sd in pairs), default=float("inf"))
+
+
+def includes_no_effect(f: dict) -> bool:
+    """Every main estimate of the finding lies within 1 std of no effect (|estimate| < std)."""
+    pairs = _main_pairs(f)
+    return bool(pairs) and all(abs(v) < sd for v, sd in pairs)

@@ -96,6 +96,15 @@ def per_run_fits(
 GUARD_SLACK = 1.0  # fit points a validation run may lose on one channel after the diagnosis
 
 
+def without(model: AugmentedModel, P: np.ndarray, free: list[int], key: str) -> tuple[np.ndarray, list[int]]:
+    """P and the free parameters without the finding ``key``: its slots zeroed and held (the
+    one way every rule that drops a finding takes it out; the caller refits)."""
+    own = model.slot_of[key]
+    P = P.copy()
+    P[own] = 0.0
+    return P, [j for j in free if j not in own]
+
+
 def guard(
     model: AugmentedModel,
     preps: list[Prepared],
@@ -127,10 +136,7 @@ def guard(
         if worst >= -(GUARD_SLACK if val_preps else MUCH_WORSE) and worse_run <= rise:
             return P, free, steps, table, method, dropped
         st = steps.pop()  # the last kept is the weakest
-        own = model.slot_of[st.candidate.key]
-        free = [j for j in free if j not in own]
-        P = P.copy()
-        P[own] = 0.0
+        P, free = without(model, P, free, st.candidate.key)
         # the baseline keeps the values fitted with the finding (a refit without its prior could diverge)
         P, _cov, rss = fit(model, preps, P, [j for j in free if j not in base_free], wf, max_iter=6)
         dropped.append(

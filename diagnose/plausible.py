@@ -87,6 +87,12 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
 MIN_CURRENT_REF_MPS = 0.10  # about 0.2 kn: below what a trial's speed correction would notice
 MIN_DELAY_REF_S = 0.5  # steering-machine latency below half a second does not change a manoeuvre
 MIN_ANGLE_OFFSET_DEG = 0.2  # below the reading of a rudder angle indicator
+# a sensor bias b on a channel adds the constant b to its error, which moves the channel's fit
+# (100 (1 - |e| / |y - mean y|)) by at most 100 |b| / std(y) points: below MIN_BIAS_FIT_POINTS
+# (the 1 point a validation run may lose, diagnose.perrun.GUARD_SLACK) it cannot change a
+# prediction anyone acts on. Stated relative to the run's own signal, not a sensor's accuracy
+# (a gyro's accuracy does not Froude-scale, and modern ones are far better than any floor)
+MIN_BIAS_FIT_POINTS = 1.0
 MIN_THRUST_CHANGE = 0.03  # 3 % of the thrust: within a propeller's day-to-day variation
 # at a set rpm the resistance balances the thrust: a change of it below the thrust's day-to-day
 # variation is the same unnoticeable speed change
@@ -96,12 +102,16 @@ MIN_VISIBLE = 0.2  # noise units: the finding must move a simulated output by a 
 MIN_BIAS_VISIBLE = 0.5  # a sensor bias (a constant on one output) below half the channel's noise is calibration noise
 
 
-def practical(effect: str, params: dict, profile: ShipProfile, visible: float) -> tuple[bool, str]:
+def practical(
+    effect: str, params: dict, profile: ShipProfile, visible: float, signal_std: float | None = None
+) -> tuple[bool, str]:
     """(large enough to name?, the minimum it was compared with, in words). ``visible``: RMS
     change of the simulated outputs the finding makes, in noise units, largest over the
     channels (every effect; a sensor bias, which moves its output by about its own size, must
     be half the channel's noise). A transient effect (a delay) moves the RMS little for its
-    size: the generic minimum is low."""
+    size: the generic minimum is low. ``signal_std``: for a sensor bias, the std of its recorded
+    channel over the diagnosed runs; a bias that cannot move that channel's fit by
+    MIN_BIAS_FIT_POINTS is too small to name."""
     least = MIN_BIAS_VISIBLE if effect == "sensor_bias" else MIN_VISIBLE
     if visible < least:
         return False, f"it moves the simulated outputs by {visible:.2f} noise units (RMS), less than {least:g}"
@@ -115,6 +125,12 @@ def practical(effect: str, params: dict, profile: ShipProfile, visible: float) -
         return (
             False,
             f"delay {params['delay_s']:.2f} s vs at least {MIN_DELAY_REF_S * s:.2f} s ({MIN_DELAY_REF_S:g} s Froude-scaled)",
+        )
+    if effect == "sensor_bias" and signal_std and abs(params.get("bias", np.inf)) < MIN_BIAS_FIT_POINTS / 100.0 * signal_std:
+        pts = 100.0 * abs(params["bias"]) / signal_std
+        return False, (
+            f"{params.get('signal', 'sensor')} bias {params['bias']:.2g} moves its channel's fit by at most {pts:.2f} "
+            f"points (100 |bias| / std {signal_std:.2g} of the recorded signal), less than {MIN_BIAS_FIT_POINTS:g}"
         )
     if effect == "input_offset" and abs(params.get("offset_deg", np.inf)) < MIN_ANGLE_OFFSET_DEG:
         return False, f"offset {params['offset_deg']:.2f} deg vs at least {MIN_ANGLE_OFFSET_DEG:g} deg"

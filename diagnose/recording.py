@@ -14,7 +14,6 @@ the recording: a long gap is never interpolated over.
 from __future__ import annotations
 
 import csv
-import math
 import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -22,6 +21,14 @@ from pathlib import Path
 import numpy as np
 
 from diagnose import recording_table as tb
+from diagnose.recording_meta import (  # noqa: F401  (the header values re-exported)
+    ENVIRONMENTS,
+    MAX_TRIAL_WIND_MPS,
+    RUDDER_SIGNS,
+    WIND_REFERENCES,
+    check_meta,
+    true_wind,
+)
 from diagnose.recording_table import INPUTS, MAX_BRIDGE_S  # noqa: F401  (re-exported)
 from primitives.errors import UserError
 from primitives.io import read_input_text
@@ -82,6 +89,16 @@ class Recording:
         """Froude scale factor lambda from ``# scale_factor:`` (full-scale length / model length)."""
         v = self.meta.get("scale_factor")
         return None if v is None else float(v)
+
+    @property
+    def environment(self) -> str | None:
+        """``sea``, ``basin`` or ``towing-tank`` from ``# environment:``; None when the file does not say."""
+        return self.meta.get("environment")
+
+    @property
+    def in_tank(self) -> bool:
+        """Recorded in a basin or towing tank: no current, no wind (header ``# environment:``)."""
+        return self.environment in ("basin", "towing-tank")
 
     @property
     def n_samples(self) -> int:
@@ -245,9 +262,10 @@ def read_csv(
                 except ValueError:
                     raise RecordingError(f"{path}: row {i + 2}, column '{name}': {s!r} is not a number") from None
         cols[name] = vals
-    _check_meta(path, meta)
+    check_meta(path, meta)
     ts = sample_time or (float(meta["sample_time"]) if "sample_time" in meta else None)
-    return build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts, inputs=inputs)
+    recs = build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts, inputs=inputs)
+    return [true_wind(path, r) for r in recs]
 
 
 def _check_header(path: Path, header: list[str], line: str, inputs: tuple[str, ...] | list[str] = ()) -> None:
@@ -284,22 +302,6 @@ def _read_text(path: Path, encoding: str) -> str:
     return read_input_text(path, RecordingError, "a recording file (.csv saved as UTF-8, or MARIN .dat)", encoding)
 
 
-def _check_meta(path: Path, meta: dict[str, str]) -> None:
-    """Header values the loader uses: sample time (s), scale (model|full) and scale factor."""
-    for key in ("sample_time", "scale_factor"):
-        if key in meta:
-            try:
-                v = float(meta[key])
-            except ValueError:
-                v = float("nan")
-            if not (math.isfinite(v) and v > 0):
-                raise RecordingError(f"{path}: header '# {key}: {meta[key]}' must be a positive number")
-    if "scale" in meta and meta["scale"] not in ("model", "full"):
-        raise RecordingError(f"{path}: header '# scale: {meta['scale']}' must be 'model' or 'full'")
-    if meta.get("scale") == "model" and "scale_factor" not in meta:
-        raise RecordingError(f"{path}: header '# scale: model' needs '# scale_factor: LAMBDA' (full-scale length / model length)")
-
-
 KVLCC2_COLUMNS = ("t", "x", "y", "phi", "psi", "u", "v", "p", "r", "delta", "n")
 
 
@@ -329,7 +331,14 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
     for k in ("phi", "psi", "p", "r", "delta"):
         cols[k] = np.radians(cols[k])
     cols["n"] = cols["n"] / 60.0
-    meta = {"source": "MARIN KVLCC2 (SIMMAN 2008)", "scale": "full", "scale_factor": "1"}
+    # free-running model tests in MARIN's basin, published at full scale, positive rudder to port
+    meta = {
+        "source": "MARIN KVLCC2 (SIMMAN 2008)",
+        "scale": "full",
+        "scale_factor": "1",
+        "environment": "basin",
+        "rudder_sign": "port-positive",
+    }
     t_raw = cols["t"]
     if not np.all(np.isfinite(t_raw)) or np.any(np.diff(t_raw) < 0) or len(np.unique(t_raw)) < 3:
         build_recording(str(path), cols, meta=meta, sample_time=sample_time)  # raises the time axis's own error

@@ -4,6 +4,8 @@
   all-zeros file, u = 1e308, a time axis that would need billions of samples);
 - (:mod:`diagnose.recording_kinematics`: u, v against the track, r and p against psi and phi);
 - :func:`check_inputs`: inputs within the profile's input limits, or the unit they are likely in;
+- :func:`apply_rudder_sign`: a rudder angle in the other sign convention (header ``# rudder_sign:``)
+  converted to the profile's;
 - :func:`check_rudder_sign`: the yaw rate's response to the rudder against the profile's sign;
 - :func:`check_speed`: speeds within the profile's speed range (another ship, a model scale run
   without its header);
@@ -18,10 +20,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from primitives.errors import UserError
+
+if TYPE_CHECKING:
+    from diagnose.recording import Recording
+    from primitives.ship import ShipProfile
 
 # Largest magnitudes a real run can show (a fast craft does 40 m/s; 5 rad/s is a spinning model).
 MAX_ABS = {"u": 100.0, "v": 100.0, "r": 10.0, "p": 10.0, "phi": 3.2, "x": 1e8, "y": 1e8, "psi": 1e5, "wind_speed": 150.0}
@@ -251,6 +258,28 @@ def _profile_rudder_sign(profile, rec) -> float:
     return float(np.sign(out[1] - out[0]))
 
 
+def apply_rudder_sign(rec: Recording, profile: ShipProfile) -> Recording:
+    """The recording with its rudder angle in the profile's sign convention, and a note when it
+    was converted. The header ``# rudder_sign: port-positive|starboard-positive`` says which side a
+    positive delta turns the ship to (MMG's convention, Yasukawa & Yoshimura 2015, is
+    starboard-positive; the MARIN / ``kvlcc2`` profile's is port-positive); a recording without it
+    is taken in the profile's convention (and :func:`check_rudder_sign` judges that)."""
+    said = rec.meta.get("rudder_sign")
+    if said is None:
+        return rec
+    if "delta" not in profile.inputs or "delta" not in rec.channels:
+        note = f"rudder_sign {said} not used: ship {profile.name!r} or the file has no rudder angle 'delta'"
+        return rec if note in rec.notes else replace(rec, notes=[*rec.notes, note])
+    theirs = 1.0 if said == "starboard-positive" else -1.0
+    ours = float(np.sign(profile.helm.starboard_sign))
+    if theirs == ours:
+        return rec
+    mine = "starboard-positive" if ours > 0 else "port-positive"
+    note = f"rudder angle converted from the file's {said} convention to ship {profile.name!r}'s {mine} (delta x -1)"
+    meta = {**rec.meta, "rudder_sign": mine, "rudder_sign_converted_from": said}
+    return replace(rec, channels={**rec.channels, "delta": -rec.channels["delta"]}, meta=meta, notes=[*rec.notes, note])
+
+
 def check_rudder_sign(rec, profile) -> None:
     """Refuse a rudder angle of the opposite sign to the profile's: the yaw rate's response to it
     (:func:`rudder_response_t`) has the opposite sign of the profile's rudder yaw derivative. Judged
@@ -271,8 +300,49 @@ def check_rudder_sign(rec, profile) -> None:
         raise _error()(
             f"{rec.source}: column 'delta' turns the ship the other way from ship {profile.name!r}: the yaw rate "
             f"responds to it with the opposite sign of the profile's rudder yaw derivative (t = {tval:+.1f} in a "
-            f"one-step fit going ahead); flip the sign of delta (in this profile a positive delta turns to {side})"
+            f"one-step fit going ahead); flip the sign of delta, or say the file's convention in its header "
+            f"('# rudder_sign: {'starboard' if side == 'port' else 'port'}-positive', converted on reading; "
+            f"in this profile a positive delta turns to {side})" + _said_wrong(rec)
         )
+
+
+def _said_wrong(rec) -> str:
+    """Who named the wrong rudder convention: the --rudder-sign option or the file's header."""
+    if rec.meta.get("rudder_sign_from") == "option":
+        return " - the rudder_sign given as an option (--rudder-sign) is wrong"
+    return " - the header's rudder_sign is wrong" if "rudder_sign" in rec.meta else ""
+
+
+def with_conventions(recs: list, environment: str | None = None, rudder_sign: str | None = None) -> list:
+    """The recordings with ``environment`` and ``rudder_sign`` standing for their header lines
+    (``# environment:``, ``# rudder_sign:``; the CLI's --environment and --rudder-sign). An unknown
+    value is refused. A recording whose rudder was converted already keeps its convention."""
+    from diagnose.recording import ENVIRONMENTS, RUDDER_SIGNS
+
+    for name, value, allowed in (("environment", environment, ENVIRONMENTS), ("rudder_sign", rudder_sign, RUDDER_SIGNS)):
+        if value is not None and value not in allowed:
+            raise _error()(f"{name} {value!r} is not one of {', '.join(allowed)}")
+    out = []
+    for rec in recs:
+        meta = dict(rec.meta)
+        if environment is not None:
+            meta["environment"] = environment
+        if rudder_sign is not None and "rudder_sign_converted_from" not in meta:
+            meta |= {"rudder_sign": rudder_sign, "rudder_sign_from": "option"}
+        out.append(replace(rec, meta=meta))
+    return out
+
+
+def rudder_in_profile_sign(recs: list, profile) -> list:
+    """Every recording's rudder in the profile's convention (:func:`apply_rudder_sign`), or refused
+    when it turns the ship the other way (:func:`check_rudder_sign`). Idempotent: a converted
+    recording says the profile's convention."""
+    out = []
+    for rec in recs:
+        rec = apply_rudder_sign(rec, profile)
+        check_rudder_sign(rec, profile)
+        out.append(rec)
+    return out
 
 
 def froude_scale(rec, factor: float | None = None):
@@ -354,7 +424,8 @@ def conform(recs: list, profile, *, resample: bool = False, full_scale: bool = T
             rec, _ = froude_scale(rec)
         check_speed(rec, profile)  # before the sample time: a model-scale run says why its time step differs
         rec = check_sample_time(rec, profile, resample)
+        rec = apply_rudder_sign(rec, profile)  # before the limits: a converted rudder is judged as the ship's
         check_inputs(rec, profile)
-        check_rudder_sign(rec, profile)
+        check_rudder_sign(rec, profile)  # a header naming the wrong convention is still caught here
         out.append(rec)
     return out

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from diagnose.api import Diagnosis
+from diagnose.describe import includes_no_effect
 from diagnose.model_file import model_dict
 from diagnose.perrun import FIT_FLOOR, fit_str, short_label
 from primitives.io import atomic_savefig, atomic_write_text, to_jsonable
@@ -79,32 +80,6 @@ def _pm(p: dict, key: str, fmt: str = ".2g", scale: float = 1.0) -> str:
     """`` +- std`` of a parameter (1 std, the finding's ``interval``), empty without one."""
     sd = p.get(key)
     return f" +- {scale * sd:{fmt}}" if isinstance(sd, int | float) and np.isfinite(sd) else ""
-
-
-# the estimate whose interval says whether the effect is there at all (its "no effect" value is 0)
-_MAIN = {
-    "current": [("speed_mps", "speed_std")],
-    "actuator_delay": [("delay_s", "delay_std")],
-    "input_offset": [("offset", "offset_std")],
-    "sensor_bias": [("bias", "bias_std")],
-    "quadratic_damping": [("value", "value_std")],
-    "missing_coupling": [("value", "value_std")],
-    "thrust_loss": [("loss_percent", "loss_percent_std"), ("coefficient", "coefficient_std")],
-    "resistance_change": [("coefficient", "coefficient_std")],
-    "inertia_change": [("scale", "scale_std")],
-}
-
-
-def _num(x) -> bool:
-    return isinstance(x, int | float) and bool(np.isfinite(x))
-
-
-def includes_no_effect(f: dict) -> bool:
-    """Every main estimate of the finding lies within 1 std of no effect (|estimate| < std)."""
-    p = f["parameters"]
-    pairs = _MAIN.get(f["effect"]) or [(k, f"{k}_std") for k in p if f"{k}_std" in p]
-    pairs = [(p[k], p[s]) for k, s in pairs if _num(p.get(k)) and _num(p.get(s))]
-    return bool(pairs) and all(abs(v) < sd for v, sd in pairs)
 
 
 def _effect(f: dict) -> str:

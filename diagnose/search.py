@@ -425,7 +425,8 @@ def _try(
     ok, why = plausible.check(c.effect, params, model.profile, inputs)
     if not ok:
         return {"reason": f"implausible estimate: {why}", "implausible": why}
-    big, small_why = plausible.practical(c.effect, params, model.profile, _visible(S, P1, new))
+    spread = float(np.std(np.concatenate([p.y for p in S.preps])[:, c.slots[0].index])) if c.effect == "sensor_bias" else None
+    big, small_why = plausible.practical(c.effect, params, model.profile, _visible(S, P1, new), spread)
     if not big:
         return {"reason": f"too small to matter: {small_why}"}
     if c.effect == "sensor_bias":

@@ -56,6 +56,10 @@ def test_zigzag_20_diagnosis_names_nonlinear_physics_and_improves_turning_circle
     # parameters they determine (issue 13), it is what the search names first here
     assert effects & {"quadratic_damping", "missing_coupling", "thrust_loss", "resistance_change"}, d.findings
     assert all(d.fit_after[k] > d.fit_before[k] for k in d.fit_before), (d.fit_before, d.fit_after)
+    # basin runs (issue 26): no current and no wind (before, a 0.46 m/s current was named here),
+    # and no held-out run worse
+    assert not effects & {"current", "wind"}, d.findings
+    assert all(r["after"][k] >= r["before"][k] for r in d.per_run for k in r["before"]), d.per_run
 
 
 @pytest.mark.slow

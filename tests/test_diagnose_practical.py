@@ -55,6 +55,22 @@ def test_minimum_sizes_are_froude_scaled(tanker, ship):
     assert not plausible.practical("inertia_change", {"inertia_ratio": 0.98}, tanker, visible=5.0)[0]
 
 
+def test_sensor_bias_that_cannot_move_its_channels_fit_by_a_point_is_not_named(tanker, ship):
+    """A bias b moves its channel's fit by at most 100 |b| / std(y) points: below 1 point it is not
+    named, relative to the run's own signal on any ship (no sensor accuracy Froude-scaled). The
+    MMG battery's yaw rates (std 5.6e-3 rad/s): its gyro bias (5e-4, 8.9 points) stays; the
+    AR(1) control's -6.2e-5 (1.1 points) is not removed by this rule."""
+    sd = 5.64e-3
+    assert plausible.practical("sensor_bias", {"signal": "r", "bias": 5.0e-4}, tanker, visible=5.0, signal_std=sd)[0]
+    assert plausible.practical("sensor_bias", {"signal": "r", "bias": -6.2e-5}, tanker, visible=5.0, signal_std=sd)[0]
+    ok, why = plausible.practical("sensor_bias", {"signal": "r", "bias": -3.0e-5}, tanker, visible=5.0, signal_std=sd)
+    assert not ok and "0.53 points" in why, why
+    # the same bias on the 1 m model's much larger yaw rates (no Froude-scaled sensor floor)
+    assert not plausible.practical("sensor_bias", {"signal": "r", "bias": 1.0e-4}, ship, visible=5.0, signal_std=0.044)[0]
+    assert plausible.practical("sensor_bias", {"signal": "v", "bias": 0.05}, tanker, visible=5.0, signal_std=0.5)[0]
+    assert not plausible.practical("sensor_bias", {"signal": "v", "bias": 0.004}, tanker, visible=5.0, signal_std=0.5)[0]
+
+
 def test_a_finding_that_hardly_moves_the_outputs_is_not_named(tanker):
     """Below a fifth of the noise any finding, below half the noise a sensor bias (a constant on
     one output moves it by its own size)."""

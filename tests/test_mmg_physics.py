@@ -119,8 +119,10 @@ def test_battery_is_reproducible_per_seed_and_writes_the_recording_format(short_
     paths = bat.write_case(a, tmp_path)
     rec = load_recording(paths["diagnose"][0])[0]
     assert rec.meta["ship"] == "kvlcc2" and rec.meta["scale"] == "full" and rec.sample_time == pytest.approx(1.0)
-    assert np.allclose(rec.channels["wind_speed"], 18.0)
-    assert np.degrees(rec.channels["wind_dir"][0]) == pytest.approx(45.0)
+    assert rec.meta["wind_reference"] == "true" and rec.meta["rudder_sign"] == "starboard-positive"
+    assert np.mean(rec.channels["wind_speed"]) == pytest.approx(18.0, abs=0.05)  # the anemometer: 0.3 m/s noise
+    assert np.degrees(np.median(rec.channels["wind_dir"])) == pytest.approx(45.0, abs=0.5)
+    np.testing.assert_allclose(rec.channels["delta"], a.diagnose[0].delta_mmg)  # MMG's convention, as written
     assert set(a.truth["checks"]["wind"]["wind"][0]) == {"wind_surge", "wind_sway", "wind_yaw"}
 
 
@@ -172,3 +174,22 @@ def test_still_air_drags_the_hull_in_calm_water_and_the_wind_truth_is_the_excess
     ) * Minv[0, 0]
     regressor = (u + 15.0) ** 2 - u**2  # V_q u_q - V u straight ahead
     assert head["wind_surge"] == pytest.approx(float(np.mean(excess / regressor)), rel=0.05)
+
+
+def test_gusty_wind_is_recorded_as_the_anemometer_reads_it(short_battery, tmp_path):
+    """The gusty wind case (issue 26): the wind speed varies with the gusts (15 % turbulence) and
+    the anemometer records it; the relative-wind variant, read back, is the same true wind."""
+    from diagnose.recording import load_recording
+
+    g = bat.generate(bat.case("wind-18-gusty"))
+    gain = g.diagnose[0].wind_gain
+    assert gain is not None and 0.05 < np.std(gain) < 0.3 and abs(np.mean(gain) - 1.0) < 0.2
+    rel = bat.generate(bat.case("wind-18-gusty-relative"))
+    np.testing.assert_array_equal(rel.diagnose[0].wind_gain, gain)  # the same gusts, seeded
+    paths = bat.write_case(rel, tmp_path)
+    rec = load_recording(paths["diagnose"][0])[0]
+    assert rec.meta["wind_reference"] == "true" and any("relative wind" in n for n in rec.notes)
+    true_speed = 18.0 * gain[: rec.n_samples]
+    assert np.sqrt(np.mean((rec.channels["wind_speed"] - true_speed) ** 2)) < 0.6  # anemometer noise 0.3 m/s, u/v noise
+    err = (np.degrees(rec.channels["wind_dir"]) - 300.0 + 180.0) % 360.0 - 180.0
+    assert abs(np.median(err)) < 1.0

@@ -20,8 +20,9 @@ Every case has, seeded:
 
 Recordings are written as the CSV of BRIEF section 7 (columns t, x, y, psi, u, v, r, delta,
 n and, when there is wind, wind_speed, wind_dir) with metadata lines ``# ship: kvlcc2``,
-``# sample_time``, ``# scale`` and ``# scale_factor``; the rudder angle follows the MARIN /
-``kvlcc2`` profile convention (positive turns to port).
+``# sample_time``, ``# scale``, ``# scale_factor``, ``# environment: sea`` and ``# rudder_sign: starboard-positive``
+(the rudder angle in MMG's convention, converted to the ``kvlcc2`` profile's port-positive one on
+reading), with wind ``# wind_reference: true`` (the anemometer's true wind, 0.3 m/s and 2 deg noise).
 """
 
 from __future__ import annotations
@@ -56,6 +57,7 @@ VALIDATE = [Manoeuvre("zigzag", 10, 10, -1, 550), Manoeuvre("zigzag", 20, 20, 1,
 # full-scale measurement noise (std): u, v [m/s], r [rad/s], psi [rad], x, y [m]
 NOISE_FULL = {"u": 0.02, "v": 0.01, "r": 2.0e-4, "psi": 2.0e-3, "xy": 1.0}
 AR_COEF = 0.9
+ANEMOMETER = (0.3, np.radians(2.0))  # anemometer noise (std): speed (full-scale m/s), direction (rad)
 LEAD_IN_S = 300.0  # straight approach under the autopilot before each manoeuvre (full-scale s)
 # a shallow-water-like change of the hull (not a published shallow-water model): larger sway
 # and yaw damping and resistance, larger sway added mass. It applies to every run, the calm one
@@ -73,6 +75,7 @@ class Case:
     scale: float = 1.0
     noise: str = "white"
     seed: int = 1
+    n_diagnose: int = 3  # the first n of DIAGNOSE are diagnosed (2: the two zig-zags, no turning circle)
 
 
 CASES: tuple[Case, ...] = (
@@ -85,6 +88,12 @@ CASES: tuple[Case, ...] = (
     Case("offset-1.5", "input_offset", {"offset_deg": 1.5}),
     Case("thrust-loss-20", "thrust_loss", {"loss": 0.20}),
     Case("wind-18", "wind", {"speed": 18.0, "from_deg": 45.0}),
+    # issue 26: a gusty wind (15 % turbulence intensity, 20 s gusts) with the anemometer recorded
+    Case("wind-18-gusty", "wind", {"speed": 18.0, "from_deg": 300.0, "gust": 0.15}, seed=11),
+    # the same with the anemometer's relative (apparent) wind recorded, '# wind_reference: relative'
+    Case("wind-18-gusty-relative", "wind", {"speed": 18.0, "from_deg": 300.0, "gust": 0.15, "reference": "relative"}, seed=11),
+    # issue 26: a delay told from quadratic damping with two runs (the two zig-zags) only
+    Case("delay-3-two-runs", "actuator_delay", {"delay_s": 3.0}, seed=12, n_diagnose=2),
     Case("gyro-bias", "sensor_bias", {"signal": "r", "bias": 5.0e-4}),
     Case("yaw-damping", "quadratic_damping", {"N_rr": -0.03}),
     Case("shallow-water", "shallow_water", {}),
@@ -131,7 +140,7 @@ def _setup(c: Case) -> tuple[MMGShip, MMGShip, Environment, dict]:
     elif c.effect == "wind":
         spd = m["speed"] * ts
         a = np.radians(m["from_deg"])
-        env = Environment(wind_ne=(-spd * np.cos(a), -spd * np.sin(a)))
+        env = Environment(wind_ne=(-spd * np.cos(a), -spd * np.sin(a)), gust=m.get("gust", 0.0), gust_seed=c.seed)
     elif c.effect == "actuator_delay":
         act["delay_s"] = m["delay_s"] * ts
     elif c.effect == "input_offset":
@@ -156,7 +165,14 @@ def _noise(rng: np.random.Generator, shape: tuple[int, ...], std: float, kind: s
 
 
 def _measure(
-    run: Run, ship: MMGShip, rng: np.random.Generator, kind: str, bias: dict | None, wind_ne: tuple[float, float] | None
+    run: Run,
+    ship: MMGShip,
+    rng: np.random.Generator,
+    kind: str,
+    bias: dict | None,
+    wind_ne: tuple[float, float] | None,
+    anemo: np.random.Generator | None = None,
+    relative: bool = False,
 ) -> dict[str, np.ndarray]:
     """Recorded columns: the run plus measurement noise (and a sensor bias, if any)."""
     n = len(run.t)
@@ -169,15 +185,22 @@ def _measure(
         "u": run.u + _noise(rng, (n,), NOISE_FULL["u"] * sq, kind),
         "v": run.v + _noise(rng, (n,), NOISE_FULL["v"] * sq, kind),
         "r": run.r + _noise(rng, (n,), NOISE_FULL["r"] / ship.time_scale, kind),
-        "delta": run.delta.copy(),
+        "delta": run.delta_mmg.copy(),  # MMG's convention (starboard-positive), said in the header
         "n": run.n.copy(),
     }
     if bias:
         cols[bias["signal"]] = cols[bias["signal"]] + bias["value"]
-    if wind_ne is not None:
-        spd = float(np.hypot(*wind_ne))
-        cols["wind_speed"] = np.full(n, spd)
-        cols["wind_dir"] = np.full(n, float(np.arctan2(-wind_ne[1], -wind_ne[0]) % (2 * np.pi)))
+    if wind_ne is not None:  # the anemometer (0.3 m/s and 2 deg noise): true wind, or relative when asked
+        gain = np.ones(n) if run.wind_gain is None else run.wind_gain
+        wn, we = wind_ne[0] * gain, wind_ne[1] * gain  # air velocity toward, north/east
+        if relative:  # as felt on board: the air's velocity relative to the ship, in body axes
+            c, s = np.cos(run.psi), np.sin(run.psi)
+            qa, qv = c * wn + s * we - run.u, -s * wn + c * we - run.v
+            spd, frm = np.hypot(qa, qv), np.arctan2(-qv, -qa)  # the angle off the bow it comes from
+        else:
+            spd, frm = np.hypot(wn, we), np.arctan2(-we, -wn)
+        cols["wind_speed"] = spd + _noise(anemo, (n,), ANEMOMETER[0] * sq, "white")
+        cols["wind_dir"] = (frm + _noise(anemo, (n,), ANEMOMETER[1], "white")) % (2 * np.pi)
     return cols
 
 
@@ -192,11 +215,14 @@ def _wind_truth(ship: MMGShip, runs: list[Run], wind_ne: tuple[float, float], Ts
     for r in runs:
         # the wind's loads beyond the still-air drag of the ship's own motion (which the calm
         # runs have too, so a baseline fitted on them holds it): the excess the regressors model
-        wind = np.stack(wind_forces(ship, r.u, r.v, r.psi, np.asarray(wind_ne, float)), axis=-1)
+        gain = getattr(r, "wind_gain", None)
+        gain = np.ones(len(r.psi)) if gain is None else gain
+        wn, we = wind_ne[0] * gain, wind_ne[1] * gain  # the gusts included
+        wind = np.stack(wind_forces(ship, r.u, r.v, r.psi, np.stack([wn, we])), axis=-1)
         still = np.stack(wind_forces(ship, r.u, r.v, r.psi, np.zeros(2)), axis=-1)
         a = (wind - still) @ Minv.T * Ts
         cp, sp = np.cos(r.psi), np.sin(r.psi)
-        uw, vw = cp * wind_ne[0] + sp * wind_ne[1], -sp * wind_ne[0] + cp * wind_ne[1]
+        uw, vw = cp * wn + sp * we, -sp * wn + cp * we
         uq, vq = r.u - uw, r.v - vw
         vq_abs, v_abs = np.hypot(uq, vq), np.hypot(r.u, r.v)
         for i, f in enumerate((vq_abs * uq - v_abs * r.u, vq_abs * vq - v_abs * r.v, uq * vq - r.u * r.v)):
@@ -257,7 +283,7 @@ def truth_of(c: Case, ship: MMGShip, runs: list[Run], env: Environment, Ts: floa
 def _visibility(c: Case, ship: MMGShip, n: float, runs: list[Run], Ts: float) -> dict[str, float]:
     """How visible the effect is: RMS over the diagnosed runs of (run with the effect - the same
     manoeuvre without it) per channel, in units of the measurement noise (noise-free runs)."""
-    calm = simulate_runs(ship, DIAGNOSE, n, sample_time=Ts, lead_in_s=LEAD_IN_S)
+    calm = simulate_runs(ship, DIAGNOSE[: len(runs)], n, sample_time=Ts, lead_in_s=LEAD_IN_S)
     bias = c.magnitude["bias"] / Ts if c.effect == "sensor_bias" else 0.0
     sig = {"u": NOISE_FULL["u"] * Ts, "v": NOISE_FULL["v"] * Ts, "r": NOISE_FULL["r"] / Ts}
     out = {}
@@ -291,13 +317,15 @@ def generate(c: Case, *, visibility: bool = False, oracle_calm: bool = False) ->
     n = self_propulsion_rps(kvlcc2(c.scale))  # the approach rpm the crew sets, for every run
     calm = simulate_runs(ship, CALM, n, sample_time=Ts, lead_in_s=LEAD_IN_S)
     runs = simulate_runs(eff_ship, DIAGNOSE + VALIDATE, n, env=env, sample_time=Ts, lead_in_s=LEAD_IN_S, **act)
-    diag, val = runs[: len(DIAGNOSE)], runs[len(DIAGNOSE) :]
+    diag, val = runs[: c.n_diagnose], runs[len(DIAGNOSE) :]
     rng = np.random.default_rng(c.seed)
     bias = {"signal": c.magnitude["signal"], "value": c.magnitude["bias"] / Ts} if c.effect == "sensor_bias" else None
+    rel = c.magnitude.get("reference") == "relative"
+    anemo = np.random.default_rng([c.seed, 27])  # its own stream: the motion's noise is as before the anemometer's
     noisy = {
         "calm": [_measure(r, ship, rng, c.noise, None, None) for r in calm],
-        "diagnose": [_measure(r, ship, rng, c.noise, bias, env.wind_ne) for r in diag],
-        "validate": [_measure(r, ship, rng, c.noise, bias, env.wind_ne) for r in val],
+        "diagnose": [_measure(r, ship, rng, c.noise, bias, env.wind_ne, anemo, rel) for r in diag],
+        "validate": [_measure(r, ship, rng, c.noise, bias, env.wind_ne, anemo, rel) for r in val],
     }
     truth = truth_of(c, eff_ship, diag, env, Ts)
     if visibility:
@@ -331,7 +359,11 @@ def write_case(g: Generated, out: str | Path) -> dict[str, list[Path]]:
         "scale": "model" if c.scale != 1.0 else "full",
         "scale_factor": f"{c.scale:g}",
         "generated": "tests/physics/mmg_battery.py (MMG standard model, Yasukawa & Yoshimura 2015)",
+        "environment": "sea",
+        "rudder_sign": "starboard-positive",  # MMG's convention, converted to the kvlcc2 profile's on reading
     }
+    if c.effect == "wind":
+        meta["wind_reference"] = c.magnitude.get("reference", "true")
     paths: dict[str, list[Path]] = {}
     mans = {"calm": g.calm_manoeuvres or CALM, "diagnose": DIAGNOSE, "validate": VALIDATE}
     for role, runs in g.noisy.items():

@@ -274,6 +274,11 @@ def wind_forces(ship: MMGShip, u, v, psi, wind_ne):
 class Environment:
     current_ne: tuple[float, float] = (0.0, 0.0)  # water velocity toward, north/east m/s
     wind_ne: tuple[float, float] | None = None  # air velocity toward, north/east m/s (None: still air, not recorded)
+    # gusts: the wind speed times (1 + g(t)), g a first-order Gauss-Markov process of this std
+    # (turbulence intensity, 0.1-0.2 over the sea) and time constant (full-scale s), seeded
+    gust: float = 0.0
+    gust_time_s: float = 20.0
+    gust_seed: int = 0
 
     @property
     def air_ne(self) -> tuple[float, float]:

@@ -12,7 +12,7 @@ Runs are integrated together as one batch (vectorised over the leading axis).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -56,6 +56,7 @@ class Run:
     r: np.ndarray
     delta_mmg: np.ndarray  # steering-gear angle (what a rudder indicator shows)
     n: np.ndarray
+    wind_gain: np.ndarray | None = None  # the gusts: wind speed / its mean at each sample (None: steady)
 
     @property
     def delta(self) -> np.ndarray:
@@ -147,15 +148,18 @@ def simulate_runs(
         f = lag - k
         return (1 - f) * hist[k] + f * hist[k + 1] + offset_rad  # recorded - offset, in MMG sign
 
+    gains = _gusts(env, B, n_steps + 1, h, ts_scale)
+
     for k in range(n_steps + 1):
         t = k * h
+        env_k = env if gains is None else replace(env, wind_ne=(env.wind_ne[0] * gains[k], env.wind_ne[1] * gains[k]))
         if not started and t >= lead - 1e-9:
             started = True
             psi_ref = s[:, 2].copy()
         dev = s[:, 2] - psi_ref
         cmd = _commands(mans, dev, s[:, 5], cmd, started, ship)
         if k >= rec_from and (k - rec_from) % SUBSTEPS == 0:
-            rows.append(np.column_stack([np.full(B, t), s, gear]))
+            rows.append(np.column_stack([np.full(B, t), s, gear, np.ones(B) if gains is None else gains[k]]))
         if k == n_steps:
             break
         new_gear = gear + np.clip(cmd - gear, -max_step, max_step)
@@ -163,13 +167,13 @@ def simulate_runs(
         hist = np.vstack([new_gear[None], hist[:-1]]) if len(hist) > 1 else new_gear[None]
         # the gear moves linearly over the step: stage inputs at t, t + h/2, t + h
         d0, d1, d2 = felt(n_delay + 1.0), felt(n_delay + 0.5), felt(n_delay)
-        k1 = derivative(ship, Minv, s, d0, n_arr, env)
-        k2 = derivative(ship, Minv, s + 0.5 * h * k1, d1, n_arr, env)
-        k3 = derivative(ship, Minv, s + 0.5 * h * k2, d1, n_arr, env)
-        k4 = derivative(ship, Minv, s + h * k3, d2, n_arr, env)
+        k1 = derivative(ship, Minv, s, d0, n_arr, env_k)  # the gust held over the step
+        k2 = derivative(ship, Minv, s + 0.5 * h * k1, d1, n_arr, env_k)
+        k3 = derivative(ship, Minv, s + 0.5 * h * k2, d1, n_arr, env_k)
+        k4 = derivative(ship, Minv, s + h * k3, d2, n_arr, env_k)
         s = s + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
         gear = new_gear
-    a = np.stack(rows, axis=1)  # (B, N, 8)
+    a = np.stack(rows, axis=1)  # (B, N, 9)
     out = []
     for i, m in enumerate(mans):
         t = a[i, :, 0] - a[i, 0, 0]
@@ -189,9 +193,26 @@ def simulate_runs(
                 r[:n_keep],
                 g[:n_keep],
                 np.full(n_keep, n_rps),
+                None if gains is None else a[i, :n_keep, 8],
             )
         )
     return out
+
+
+def _gusts(env: Environment, B: int, n: int, h: float, ts_scale: float) -> np.ndarray | None:
+    """Gust factors 1 + g (n, B) on the integration grid, or None for a steady wind: g first-order
+    Gauss-Markov with std ``env.gust`` and time constant ``env.gust_time_s`` (Froude-scaled),
+    stationary from the first step, seeded by ``env.gust_seed`` (each run its own gusts)."""
+    if env.wind_ne is None or env.gust <= 0.0:
+        return None
+    rng = np.random.default_rng([env.gust_seed, 26])
+    a = float(np.exp(-h / (env.gust_time_s * ts_scale)))
+    g = np.empty((n, B))
+    g[0] = env.gust * rng.standard_normal(B)
+    w = env.gust * np.sqrt(1.0 - a * a) * rng.standard_normal((n, B))
+    for k in range(1, n):
+        g[k] = a * g[k - 1] + w[k]
+    return 1.0 + g
 
 
 def tactical_diameter(run: Run) -> float:

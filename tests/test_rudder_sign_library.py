@@ -1,0 +1,71 @@
+"""The library call converts (or refuses) a recording's rudder sign exactly as the CLI does
+(issue 26): ``diagnose.api.run`` on a '# rudder_sign: starboard-positive' file, and its
+``rudder_sign`` / ``environment`` arguments standing for the header lines."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from diagnose.api import run
+from diagnose.recording import RecordingError, load_recording, read_marin_dat, write_csv
+from primitives.ship import load_profile
+
+DATA = Path(__file__).resolve().parents[1] / "diagnose" / "data"
+
+
+@pytest.fixture(scope="module")
+def ship():
+    return load_profile("kvlcc2-linear")
+
+
+@pytest.fixture(scope="module")
+def zz():
+    return read_marin_dat(DATA / "MARIN_FREE_KVLCC2_zz_10_m.dat").window(0, 300)
+
+
+def _mmg(rec):
+    """The run written in MMG's convention (starboard-positive), header lines stripped."""
+    return dataclasses.replace(rec, channels={**rec.channels, "delta": -rec.channels["delta"]}, meta={})
+
+
+def test_run_converts_a_starboard_positive_header(ship, zz, tmp_path):
+    path = write_csv(_mmg(zz), tmp_path / "mmg.csv", meta={"rudder_sign": "starboard-positive"})
+    d = run(load_recording(path, inputs=ship.inputs), ship, max_rounds=1)
+    k = ship.inputs.index("delta")
+    np.testing.assert_allclose(d.preps[0].inputs[:, k], zz.channels["delta"][: len(d.preps[0].inputs)], atol=1e-9)
+
+
+def test_run_refuses_the_other_convention_unless_told(ship, zz, tmp_path):
+    bare = load_recording(write_csv(_mmg(zz), tmp_path / "bare.csv"), inputs=ship.inputs)
+    with pytest.raises(RecordingError, match="rudder_sign: starboard-positive"):
+        run(bare, ship)  # before issue 26's review this ran on the unconverted rudder
+    with pytest.raises(RecordingError, match=r"option \(--rudder-sign\) is wrong"):
+        run(bare, ship, rudder_sign="port-positive")
+    wrong = write_csv(_mmg(zz), tmp_path / "wrong.csv", meta={"rudder_sign": "port-positive"})
+    with pytest.raises(RecordingError, match="header's rudder_sign is wrong"):
+        run(load_recording(wrong, inputs=ship.inputs), ship)
+    with pytest.raises(RecordingError, match="environment 'lake'"):
+        run(bare, ship, environment="lake")
+
+
+def test_run_rudder_sign_argument_stands_for_the_header(ship, zz, tmp_path):
+    bare = load_recording(write_csv(_mmg(zz), tmp_path / "bare.csv"), inputs=ship.inputs)
+    d = run(bare, ship, rudder_sign="starboard-positive", environment="basin", max_rounds=1)
+    k = ship.inputs.index("delta")
+    np.testing.assert_allclose(d.preps[0].inputs[:, k], zz.channels["delta"][: len(d.preps[0].inputs)], atol=1e-9)
+    assert not any(f["effect"] in ("current", "wind") for f in d.findings)
+
+
+def test_rudder_sign_on_a_ship_without_delta_is_said_not_used(zz):
+    """A rudder_sign header on a ship with no 'delta' input is not silently ignored: a note says so."""
+    from diagnose.recording_checks import apply_rudder_sign
+
+    pods = load_profile("full-scale")
+    rec = dataclasses.replace(zz, meta={"rudder_sign": "starboard-positive"})
+    got = apply_rudder_sign(apply_rudder_sign(rec, pods), pods)
+    assert [n for n in got.notes if "rudder_sign starboard-positive not used" in n] != []
+    assert len(got.notes) == len(rec.notes) + 1  # said once, however often applied
