@@ -46,7 +46,8 @@ def _mismatch(variant: str) -> np.ndarray:
     out = bt.simulate(sh, variant, LOAD, N, 11, quiet=True)
     worst = np.zeros(3)
     for j in range(2):
-        kn = Known(M=bt.M0, zbar_g=-(bt.KG - bt.DRAFT), zbar_s=sh.z_imu[j], U=sh.U0[j])
+        # the base structure is the paper's (3): the load's buoyancy at the roll centre (zbar_b = -z_f)
+        kn = Known(M=bt.M0, zbar_g=-(bt.KG - bt.DRAFT), zbar_s=sh.z_imu[j], U=sh.U0[j], zbar_b=-sh.z_f[j])
         rec = RollRecording("x", 0.02, out["delta"][j], out["p"][j], out["a_s"][j], out["r"][j])
         yhat, _ = _simulate(_oe_values(sh, j), kn, sh.z_f[j], Load(*LOAD), rec)
         Y = np.column_stack([rec.p, rec.a_s, rec.r])[200:]

@@ -42,6 +42,11 @@ class Known:
     U: float = 0.5
     z_f_prior: float = -0.03
     z_f_prior_sd: float = 0.015
+    # body-frame z [m] where a load's added buoyancy acts: the centroid of the extra layer of
+    # displacement it sinks the hull by, the waterline for a wall-sided hull. The paper's (3) lets it
+    # act at the roll centre (the load's restoring m g z_m about the CR); hydrostatics give
+    # d((M + m) g GM)/dm = g (zbar_m - zbar_b) (wall-sided hull, e.g. Biran 2003, Ship Hydrostatics, ch. 6)
+    zbar_b: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -93,6 +98,12 @@ def load_from_moments(p: RollParams, kn: Known, mz: float, mzs: float) -> Load:
     """Invert :func:`load_moments`: ``zbar_m = zbar_s + mzs / mz``, ``m = mz / (zbar_m + z_f)``."""
     zbar = kn.zbar_s + mzs / mz if mz != 0 else float("nan")
     return Load(mz / (zbar + p.z_f), zbar)
+
+
+def load_restoring(kn: Known, load: Load) -> float:
+    """Roll restoring a load adds [N m/rad]: its weight at ``zbar_m`` less its added buoyancy at
+    ``zbar_b`` (both body frame, z down), ``m g (zbar_m - zbar_b)``; independent of the roll centre."""
+    return load.m * kn.g * (load.zbar - kn.zbar_b)
 
 
 def continuous_coefficients(p: RollParams, kn: Known, load: Load | tuple[float, float]) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 from scipy.linalg import expm
 from scipy.signal import lfilter, remez
 
-from identify.rollmass.model import Load, RollProfile
+from identify.rollmass.model import Load, RollProfile, load_restoring
 
 
 @dataclass
@@ -32,6 +32,7 @@ class RollRecording:
     load: Load | None = None  # known load (nominal, calibration) or None (loaded, unknown)
     phi: np.ndarray | None = None  # rad, true roll (simulation only; not used by the estimator)
     notes: list[str] = field(default_factory=list)  # what the reader noticed (unknown columns)
+    U: float | None = None  # m/s, this run's forward speed (header speed_m_s); None: the profile's
 
     @property
     def n(self) -> int:
@@ -68,7 +69,7 @@ def state_space(prof: RollProfile, load: Load) -> tuple[np.ndarray, np.ndarray]:
     z_g, z_m = kn.zbar_g + th.z_f, load.zbar + th.z_f
     c = th.K_vdot + kn.M * z_g + m * z_m
     A1 = th.A_x + kn.M * z_g**2 + m * z_m**2  # (4)
-    C = th.k + kn.M * kn.g * z_g + m * kn.g * z_m  # restoring, (3) with (5a)
+    C = th.k + kn.M * kn.g * z_g + load_restoring(kn, load)  # restoring, (3) with (5a), the load's buoyancy at zbar_b
     Mm = np.array(
         [
             [kn.M + m - sy["Y_vdot"], -c, 0.0],
