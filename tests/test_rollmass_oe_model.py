@@ -59,3 +59,14 @@ def test_each_run_has_its_own_speed():
     v = start_values(PROF)
     a, b = (model_matrices(v, PROF.known, -0.03, Load(0.0, 0.0), U=u) for u in (0.45, 0.55))
     assert abs(a[0][1, 2] - b[0][1, 2]) > 1e-3 and abs(a[2][1, 2] - b[2][1, 2]) > 1e-3
+
+
+def test_the_rudder_force_scales_with_the_runs_speed_squared():
+    """A run 10 % faster feels 21 % more rudder force and 10 % more sway damping (rho U^2 L^2 scaling)
+    at the same derivatives: runs at different speeds share one ship, not one set of coefficients."""
+    v = start_values(PROF)
+    kn = dataclasses.replace(PROF.known, U=0.5)
+    slow = model_matrices({**v, "n_v": 0.0}, kn, -0.03, Load(0.0, 0.0), U=0.5)
+    fast = model_matrices({**v, "n_v": 0.0}, kn, -0.03, Load(0.0, 0.0), U=0.55)
+    assert fast[1][2, 0] / slow[1][2, 0] == pytest.approx(1.21, rel=1e-9)  # r' per rudder: n_delta U^2
+    assert fast[0][2, 2] / slow[0][2, 2] == pytest.approx(1.1, rel=1e-9)  # r' per r: n_r U (n_v = 0)

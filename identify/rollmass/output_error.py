@@ -47,6 +47,7 @@ PAPER_ROWS = ("X_v", "Y_v", "Y_r", "Y_delta", "A_x", "d", "k", "K_vdot", "K_ur",
 # output through that row, the load is biased (basin truth, sway_roll variant).
 COUPLINGS = ("Y_p", "Y_phi", "K_v", "n_p", "Y_pdot")
 SHARED = PAPER_ROWS + COUPLINGS
+RUDDER = ("Y_delta", "K_delta", "n_delta")  # rudder derivatives, scaling with U^2
 CHANNELS = ("p", "a_s", "r")
 N_FREE = 4  # free-response columns per dataset and channel (4 states)
 NOISE_AR = 6  # order of each channel's whitening filter
@@ -107,9 +108,16 @@ def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load, U: fl
     """Continuous ``(A, B, C, D)`` for ``x = [v, p, r, phi]``, input rudder, outputs ``[p, a_s, r]``.
 
     Roll row (3)-(5); sway row with the rigid-body and added-mass couplings of the same ``c``;
-    ``a_s = z_s p' + g phi - (v' + U r)`` (7)-(8).
+    ``a_s = z_s p' + g phi - (v' + U r)`` (7)-(8). ``U`` is this run's speed; the hydrodynamic
+    derivatives in ``v`` hold at ``kn.U`` and scale as forces do, ``rho U^2 L^2`` (Fossen 2011, ch.
+    6.4): velocity derivatives with ``U``, rudder ones with ``U^2``. The paper keeps U constant and
+    names the speed dependence of k, d and K_r as the cause of its turn-entry misfit (its Fig. 6).
     """
     m, U, g = load.m, kn.U if U is None else U, kn.g
+    s = U / kn.U
+    v = {**v, **{k: v[k] * s for k in ("Y_v", "Y_r", "n_v", "n_r")}, **{k: v[k] * s * s for k in RUDDER}}
+    if "Y_p" in v:
+        v["Y_p"], v["K_v"] = v["Y_p"] * s, v["K_v"] * s
     z_g, z_m, z_s = kn.zbar_g + z_f, load.zbar + z_f, kn.zbar_s + z_f
     mz = kn.M * z_g + m * z_m
     c = v["K_vdot"] + mz
