@@ -4,9 +4,9 @@ The paper's regression (11) uses the measured lateral acceleration ``a_s`` as an
 Xsens MTi-G's accelerometer noise that is an errors-in-variables problem: the accelerometer's white
 noise passes through the lightly damped roll resonance and, in a Monte Carlo of the basin
 experiment, sets the mass error. Here ``a_s`` is an *output*: the linearised sway-roll-yaw
-model (1)-(8) (surge decoupled, roll row exactly (3), symmetric mass matrix ``Y_pdot = K_vdot``) is
-driven by the measured rudder alone and fitted to the three IMU channels ``p``, ``a_s``, ``r`` of
-all three datasets at once.
+model (1)-(8) (surge decoupled, roll row (3) plus the sway-roll couplings :data:`COUPLINGS`, the
+load's added buoyancy at ``Known.zbar_b``, each run at its own speed) is driven by the measured
+rudder alone and fitted to the three IMU channels ``p``, ``a_s``, ``r`` of all three datasets at once.
 
 Why (measured, case 1, 4 seeds, waves off): the roll-only model (11) fitted by output error with
 the measured ``a_s`` as input has a median error of 16 % / 47 mm at the MTi-G noise, and 0.8 % /
