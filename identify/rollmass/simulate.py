@@ -1,7 +1,9 @@
 """Simulated basin experiment of Linder et al. (2015) section 4-5 with the 1:24 Our Lass II model.
 
-Truth is a linear surge-decoupled sway-roll-yaw model whose roll row is eq. (3) and whose mass
-matrix is symmetric (``Y_pdot = K_vdot``), driven by a joystick-like rudder and a wave-like
+Truth is a linear surge-decoupled sway-roll-yaw model whose roll row is eq. (3) with the load's
+added buoyancy at ``Known.zbar_b`` (the waterline, :func:`model.load_restoring`; the paper puts it
+at the roll centre, so ``ls``, ``paper-iv`` and ``improved``, which keep (3)-(12), are off by
+``m g z_f`` in the restoring here) and whose mass matrix is symmetric (``Y_pdot = K_vdot``), driven by a joystick-like rudder and a wave-like
 disturbance acting coherently on sway, roll and yaw (so the regressors of (11) correlate with the
 disturbance, the paper's "closed-loop-like" situation). The IMU (6)-(8) adds constant biases and
 white noise at 100 Hz; every channel is then FIR-filtered (equiripple, order 20, 0.5 Hz) and
