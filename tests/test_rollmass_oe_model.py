@@ -46,7 +46,7 @@ def test_a_loads_restoring_is_its_weight_less_its_buoyancy_at_the_waterline(load
 
 
 def test_sway_roll_couplings_enter_the_model():
-    """Y_p, Y_phi, K_v, n_p and an unequal Y_pdot change the rudder response (free parameters of the fit)."""
+    """Y_p, Y_phi, K_v, n_p and an unequal Y_pdot change the rudder response (the fit frees K_v, n_p, Y_pdot)."""
     v = start_values(PROF)
     base = model_matrices(v, PROF.known, -0.03, Load(0.0, 0.0))[0]
     for k, val in (("Y_p", 0.6), ("Y_phi", -0.5), ("K_v", 0.6), ("n_p", 0.05), ("Y_pdot", 0.5)):
