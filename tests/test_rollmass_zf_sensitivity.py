@@ -22,6 +22,12 @@ FREE = SHARED + ("m", "zbar_m")
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="since the load's buoyancy moved from the roll centre to the waterline (issue 25) z_f enters the load "
+    "only through the inertia couplings: refit slope -0.044 kg/m, -0.072 m/m, sensitivity +0.052, +0.094 "
+    "(opposite sign; 0.8 g and 1.4 mm at the prior's 15 mm sd). A case where z_f matters is needed (open).",
+)
 def test_z_f_sensitivity_matches_the_slope_of_converged_refits():
     """Case 1, seed 3, profile noise, 0.3 of the run length (~20 s CPU, hence slow). The load's
     d(m, zbar_m)/d z_f = -(J^T J)^-1 J^T dr/dz_f at a converged optimum must match the central slope

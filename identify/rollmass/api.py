@@ -209,6 +209,9 @@ def estimate_from_files(
             check_load_in_hull(load, prof, what)
     cal = _calibration_load(known_load, loads[1], paths[1])
     prof, notes = known_from_recordings(prof, paths, metas, explicit=profile is not None)
+    # each run at its own speed (turns slow a run, and the runs differ): the oe model's U r terms
+    # use the run's header speed, the profile's U only where a header has none
+    recs = [replace(r, U=_meta_float(m, "speed_m_s", p)) for r, m, p in zip(recs, metas, paths)]
     expect = expected_signs(start_values(prof), prof.known, prof.known.z_f_prior, Load(0.0, 0.0))
     for rec in recs:
         msg = check_signs(rec, expect)

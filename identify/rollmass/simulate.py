@@ -1,7 +1,9 @@
 """Simulated basin experiment of Linder et al. (2015) section 4-5 with the 1:24 Our Lass II model.
 
-Truth is a linear surge-decoupled sway-roll-yaw model whose roll row is eq. (3) and whose mass
-matrix is symmetric (``Y_pdot = K_vdot``), driven by a joystick-like rudder and a wave-like
+Truth is a linear surge-decoupled sway-roll-yaw model whose roll row is eq. (3) with the load's
+added buoyancy at ``Known.zbar_b`` (the waterline, :func:`model.load_restoring`; the paper puts it
+at the roll centre, so ``ls``, ``paper-iv`` and ``improved``, which keep (3)-(12), are off by
+``m g z_f`` in the restoring here) and whose mass matrix is symmetric (``Y_pdot = K_vdot``), driven by a joystick-like rudder and a wave-like
 disturbance acting coherently on sway, roll and yaw (so the regressors of (11) correlate with the
 disturbance, the paper's "closed-loop-like" situation). The IMU (6)-(8) adds constant biases and
 white noise at 100 Hz; every channel is then FIR-filtered (equiripple, order 20, 0.5 Hz) and
@@ -16,7 +18,7 @@ import numpy as np
 from scipy.linalg import expm
 from scipy.signal import lfilter, remez
 
-from identify.rollmass.model import Load, RollProfile
+from identify.rollmass.model import Load, RollProfile, load_restoring
 
 
 @dataclass
@@ -32,6 +34,7 @@ class RollRecording:
     load: Load | None = None  # known load (nominal, calibration) or None (loaded, unknown)
     phi: np.ndarray | None = None  # rad, true roll (simulation only; not used by the estimator)
     notes: list[str] = field(default_factory=list)  # what the reader noticed (unknown columns)
+    U: float | None = None  # m/s, this run's forward speed (header speed_m_s); None: the profile's
 
     @property
     def n(self) -> int:
@@ -68,7 +71,7 @@ def state_space(prof: RollProfile, load: Load) -> tuple[np.ndarray, np.ndarray]:
     z_g, z_m = kn.zbar_g + th.z_f, load.zbar + th.z_f
     c = th.K_vdot + kn.M * z_g + m * z_m
     A1 = th.A_x + kn.M * z_g**2 + m * z_m**2  # (4)
-    C = th.k + kn.M * kn.g * z_g + m * kn.g * z_m  # restoring, (3) with (5a)
+    C = th.k + kn.M * kn.g * z_g + load_restoring(kn, load)  # restoring, (3) with (5a), the load's buoyancy at zbar_b
     Mm = np.array(
         [
             [kn.M + m - sy["Y_vdot"], -c, 0.0],
