@@ -26,7 +26,6 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import least_squares
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -35,6 +34,7 @@ from diagnose.model import AugmentedModel, fit_percent, prepare  # noqa: E402
 from diagnose.recording import Recording, read_marin_dat  # noqa: E402
 from primitives.io import atomic_write_text  # noqa: E402
 from primitives.particulars.fit import balance_thrust as hold_speed  # noqa: E402
+from primitives.particulars.fit import relative_least_squares  # noqa: E402
 from primitives.profile_document import profile_from_dict  # noqa: E402
 from primitives.regressors import predictor_regressors  # noqa: E402
 from primitives.ship import load_profile  # noqa: E402
@@ -84,26 +84,11 @@ def output_error(profile, theta: np.ndarray, recs: list[Recording], max_nfev: in
     model = AugmentedModel(profile, theta, [])
     preps = [prepare(profile, r) for r in recs]
     scale = [np.std(p.y, axis=0) * np.sqrt(p.n) for p in preps]
-    typ = np.where(theta != 0, theta, 1e-9)  # signed: z = 0 is the start
 
-    def resid(Z: np.ndarray) -> np.ndarray:
-        P = (1.0 + np.atleast_2d(Z)) * typ
-        with np.errstate(all="ignore"):
-            parts = [((p.y[None] - model.simulate(p, P))[:, 1:] / s).reshape(len(P), -1) for p, s in zip(preps, scale)]
-        R = np.concatenate(parts, axis=1)
-        return np.where(np.isfinite(R), np.clip(R, -1e3, 1e3), 1e3)
+    def parts(P: np.ndarray) -> list[np.ndarray]:
+        return [((p.y[None] - model.simulate(p, P))[:, 1:] / s).reshape(len(P), -1) for p, s in zip(preps, scale)]
 
-    def jac(z: np.ndarray) -> np.ndarray:
-        h = 1e-5
-        Z = np.repeat(z[None], len(z) + 1, axis=0)
-        Z[1:] += h * np.eye(len(z))
-        R = resid(Z)
-        return ((R[1:] - R[0]) / h).T
-
-    # z = relative change from the start, which sets the first trust region to 5 %: larger
-    # steps leave the stable region of the open-loop model
-    sol = least_squares(lambda z: resid(z)[0], np.zeros_like(theta), jac=jac, method="trf", x_scale=0.05, max_nfev=max_nfev)
-    return (1.0 + sol.x) * typ
+    return relative_least_squares(parts, theta, max_nfev)
 
 
 def run_fits(profile, theta: np.ndarray, recs: list[Recording]) -> list[tuple[str, np.ndarray]]:

@@ -73,16 +73,28 @@ def output_error(profile: ShipProfile, theta: np.ndarray, runs: list[Run], max_n
     # threshold, their sum decides whether loading the compiled loop pays (as jitloop.use would)
     jitloop.use(max_nfev * (theta.size + 1) * sum(len(r.nu) for r in runs))
     scale = [np.std(r.nu, axis=0) * math.sqrt(len(r.nu)) + 1e-12 for r in runs]
-    typ = np.where(theta != 0, theta, 1e-9)
+
+    def parts(P: np.ndarray) -> list[np.ndarray]:
+        out = []
+        for r, s in zip(runs, scale):
+            nu = simulate(profile, r.inputs, P, nu0=r.nu[0], batch=len(P), positions=False).nu
+            out.append(((r.nu[None] - nu)[:, 1:] / s).reshape(len(P), -1))
+        return out
+
+    return relative_least_squares(parts, theta, max_nfev)
+
+
+def relative_least_squares(parts, theta: np.ndarray, max_nfev: int) -> np.ndarray:
+    """Least squares of the stacked residual ``parts(P)`` (one (batch, m) array per run for a batch of
+    parameter rows P) over relative changes z of ``theta`` (P = (1 + z) theta, so z = 0 is the start
+    and x_scale 0.05 sets the first trust region to 5 %: larger steps leave the stable region of the
+    open-loop model), with a batched forward-difference Jacobian; non-finite residuals count 1e3."""
+    typ = np.where(theta != 0, theta, 1e-9)  # signed: z = 0 is the start
 
     def resid(Z: np.ndarray) -> np.ndarray:
         P = (1.0 + np.atleast_2d(Z)) * typ
-        parts = []
         with np.errstate(all="ignore"):
-            for r, s in zip(runs, scale):
-                nu = simulate(profile, r.inputs, P, nu0=r.nu[0], batch=len(P), positions=False).nu
-                parts.append(((r.nu[None] - nu)[:, 1:] / s).reshape(len(P), -1))
-        R = np.concatenate(parts, axis=1)
+            R = np.concatenate(parts(P), axis=1)
         return np.where(np.isfinite(R), np.clip(R, -1e3, 1e3), 1e3)
 
     def jac(z: np.ndarray) -> np.ndarray:
