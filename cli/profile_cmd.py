@@ -48,7 +48,7 @@ def register(app: typer.Typer) -> None:
         an MMG model, its manoeuvres are fitted into the profile's per-sample form, and the new
         ship's standard manoeuvres are printed for a sanity check before planning."""
         from primitives.particulars.build import Particulars, build_profile
-        from primitives.particulars.trials import describe, standard_trials
+        from primitives.particulars.trials import describe, imo_warnings, standard_trials
 
         check_out_file(out, (".toml",), "--out", "profile")
         if prior_draws < 2:
@@ -83,5 +83,5 @@ def register(app: typer.Typer) -> None:
             print(f"  {line}")
         for note in built.notes:
             print(f"note: {note}", file=sys.stderr)
-        for w in figures.warnings(length):
+        for w in figures.warnings(length) + imo_warnings(figures, length, built.profile.cruise_speed_mps):
             print(f"warning: {w}", file=sys.stderr)

@@ -188,3 +188,50 @@ def test_manoeuvres_outside_the_range_ships_have_are_warned():
     assert "9.0 L" in fig(9.0).warnings(100.0)[0] and "2-8 L" in fig(9.0).warnings(100.0)[0]
     assert "1.5 L" in fig(1.5).warnings(100.0)[0]
     assert "never turned 180 deg" in fig(None).warnings(100.0)[0]
+
+
+def _figures(td=3.0, adv=3.0, os10=5.0, os20=10.0, track=None):
+    from primitives.particulars.trials import TrialFigures
+
+    side = ("starboard", "port")
+    return TrialFigures(
+        {s: td for s in side}, {s: adv for s in side}, {s: os10 for s in side}, {s: os20 for s in side}, "", track
+    )
+
+
+def test_imo_10_10_overshoot_limit_follows_l_over_v():
+    """MSC.137(76) 5.3.3.1: 10 deg below L/V 10 s, 20 deg from 30 s, 5 + (L/V)/2 between."""
+    from primitives.particulars.trials import imo_overshoot_10_limit
+
+    assert imo_overshoot_10_limit(5.0) == 10.0 and imo_overshoot_10_limit(9.99) == 10.0
+    assert imo_overshoot_10_limit(10.0) == 10.0 and imo_overshoot_10_limit(20.0) == 15.0
+    assert imo_overshoot_10_limit(29.9) == pytest.approx(19.95) and imo_overshoot_10_limit(30.0) == 20.0
+    assert imo_overshoot_10_limit(60.0) == 20.0
+
+
+@pytest.mark.parametrize(
+    ("figures", "criterion", "ours", "limit"),
+    [
+        (dict(td=5.2), "tactical diameter", "5.20 L", "5 L"),
+        (dict(adv=4.6), "advance", "4.60 L", "4.5 L"),
+        (dict(os10=15.5), "10/10 zig-zag first overshoot", "15.50 deg", "15 deg"),  # L/V 20 s
+        (dict(os20=25.5), "20/20 zig-zag first overshoot", "25.50 deg", "25 deg"),
+        (dict(track=16.0), "stopping track reach", "16.00 L", "15 L"),
+    ],
+)
+def test_each_imo_criterion_is_warned_with_ours_and_the_limit(figures, criterion, ours, limit):
+    from primitives.particulars.trials import imo_warnings
+
+    assert imo_warnings(_figures(), 200.0, 10.0) == []  # inside every limit (L/V 20 s)
+    assert imo_warnings(_figures(td=5.0, adv=4.5, os10=15.0, os20=25.0, track=15.0), 200.0, 10.0) == []  # on them
+    lines = imo_warnings(_figures(**figures), 200.0, 10.0)
+    assert len(lines) == 2 - ("track" in figures), lines  # both sides, one stop
+    assert all(f"IMO criterion {criterion}" in w and f"ours {ours}, limit {limit}" in w for w in lines), lines
+
+
+def test_imo_stopping_beyond_the_large_ship_allowance_and_a_coasting_stop():
+    from primitives.particulars.trials import imo_warnings
+
+    assert "up to 20 L" in imo_warnings(_figures(track=18.0), 200.0, 10.0)[0]
+    assert "over the 20 L allowed" in imo_warnings(_figures(track=21.0), 200.0, 10.0)[0]
+    assert imo_warnings(_figures(track=None), 200.0, 10.0) == []  # no astern: no crash stop to check

@@ -29,10 +29,15 @@ COASTER = [
 def test_profile_new_writes_a_profile_and_prints_its_standard_manoeuvres(tmp_path, capsys):
     out = tmp_path / "coaster.toml"
     assert _run(["profile", "new", *COASTER, "--mcr-kw", "3000", "--prior-draws", "2", "--out", str(out)]) == 0
-    text = capsys.readouterr().out
+    said = capsys.readouterr()
+    text = said.out
     assert out.exists() and "[prior.std]" in out.read_text()
     for what in ("tactical diameter", "10/10", "20/20", "stopping"):
         assert what in text, what
+    # this coaster turns 5.35 L / 4.78 L: over IMO MSC.137(76)'s 5 L and 4.5 L, warned but written
+    assert "warning: IMO criterion tactical diameter (35 deg turn to starboard): ours 5.35 L, limit 5 L" in said.err
+    assert "warning: IMO criterion advance (35 deg turn to port): ours 4.78 L, limit 4.5 L" in said.err
+    assert "IMO criterion 10/10" not in said.err and "stopping criterion (full astern) not checked" in text
     assert _run(["primitives", "--ship", str(out)]) == 0
 
 

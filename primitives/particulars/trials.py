@@ -1,6 +1,7 @@
 """The standard manoeuvres of a profile, run through the project's simulation kernel
 (:mod:`primitives.helm`), and their figures: IMO MSC.137(76) turning circle (advance, tactical
-diameter), zig-zag first overshoots, stopping."""
+diameter), zig-zag first overshoots, stopping; and the figures against the IMO Standards for
+ship manoeuvrability (resolution MSC.137(76), 2002, section 5.3)."""
 
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ class TrialFigures:
     overshoot_10: dict[str, float | None]  # first overshoot of the 10/10 zig-zag, by first side
     overshoot_20: dict[str, float | None]
     stopping: str  # one line: what the stopping manoeuvre is and its head reach
+    stop_track_l: float | None = None  # track reach of a full-astern crash stop [L]; None if no astern
 
     def warnings(self, length: float) -> list[str]:
         lo, hi = TACTICAL_RANGE_L
@@ -81,8 +83,51 @@ def standard_trials(profile: ShipProfile) -> TrialFigures:
             out[side] = first_overshoot(zz.track[:, 2], angle)
     gen, what = hm.stopping(profile)
     st = make_primitive(profile, "stop", what, gen)
-    reach = float(np.linalg.norm(st.track[-1, :2] - st.track[0, :2]))
-    return TrialFigures(tactical, advance, os10, os20, f"{what}: head reach {reach / L:.1f} L ({reach:.0f} m)")
+    xy = st.track[st.split_points[0] if st.split_points else 0 :, :2]  # from the execute point
+    reach = float(np.linalg.norm(xy[-1] - xy[0]))
+    track = float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=1)))
+    crash = what.startswith("crash stop")
+    line = f"{what}: head reach {reach / L:.1f} L ({reach:.0f} m)" + (f", track reach {track / L:.1f} L" if crash else "")
+    return TrialFigures(tactical, advance, os10, os20, line, track / L if crash else None)
+
+
+# IMO MSC.137(76), 5.3: the limits on the standard manoeuvres (lengths in ship lengths)
+IMO_TACTICAL_L, IMO_ADVANCE_L, IMO_OVERSHOOT_20, IMO_TRACK_REACH_L, IMO_TRACK_REACH_LARGE_L = 5.0, 4.5, 25.0, 15.0, 20.0
+
+
+def imo_overshoot_10_limit(l_over_v: float) -> float:
+    """First-overshoot limit of the 10/10 zig-zag [deg] (MSC.137(76) 5.3.3.1): 10 deg if L/V < 10 s,
+    20 deg if L/V >= 30 s, 5 + (L/V)/2 deg between."""
+    return 10.0 if l_over_v < 10.0 else 20.0 if l_over_v >= 30.0 else 5.0 + 0.5 * l_over_v
+
+
+def imo_warnings(fig: TrialFigures, length: float, speed_mps: float) -> list[str]:
+    """One line per IMO MSC.137(76) criterion the simulated manoeuvres miss, "IMO criterion X: ours
+    Y, limit Z". The resolution's test speed is 90 % of the speed at 85 % MCR; these manoeuvres are
+    sailed from the profile's cruise speed. A coasting stop (no astern) is not the resolution's
+    full-astern stopping test and is not checked."""
+    out = []
+
+    def over(what: str, ours: float | None, limit: float, unit: str, note: str = "") -> None:
+        if ours is not None and ours > limit:
+            out.append(f"IMO criterion {what}: ours {ours:.2f} {unit}, limit {limit:g} {unit}{note}")
+
+    for side in ("starboard", "port"):
+        over(f"tactical diameter (35 deg turn to {side})", fig.tactical_l.get(side), IMO_TACTICAL_L, "L")
+        over(f"advance (35 deg turn to {side})", fig.advance_l.get(side), IMO_ADVANCE_L, "L")
+    lim10 = imo_overshoot_10_limit(length / speed_mps)
+    for side in ("starboard", "port"):
+        over(
+            f"10/10 zig-zag first overshoot (first to {side}, L/V {length / speed_mps:.1f} s)",
+            fig.overshoot_10.get(side),
+            lim10,
+            "deg",
+        )
+        over(f"20/20 zig-zag first overshoot (first to {side})", fig.overshoot_20.get(side), IMO_OVERSHOOT_20, "deg")
+    large = f" (an Administration may accept up to {IMO_TRACK_REACH_LARGE_L:g} L for a ship of large displacement)"
+    over("stopping track reach (full astern)", fig.stop_track_l, IMO_TRACK_REACH_L, "L",
+         large if (fig.stop_track_l or 0.0) <= IMO_TRACK_REACH_LARGE_L else f", and over the {IMO_TRACK_REACH_LARGE_L:g} L allowed for large ships")  # fmt: skip
+    return out
 
 
 def describe(fig: TrialFigures, length: float) -> list[str]:
@@ -101,5 +146,6 @@ def describe(fig: TrialFigures, length: float) -> list[str]:
         lines.append(
             f"zig-zag first overshoot, first to {side}: 10/10 {f(fig.overshoot_10[side], 'deg')}, 20/20 {f(fig.overshoot_20[side], 'deg')}"
         )
-    lines.append(f"stopping: {fig.stopping}")
+    no_astern = "; IMO's stopping criterion (full astern) not checked" if fig.stop_track_l is None else ""
+    lines.append(f"stopping: {fig.stopping}{no_astern}")
     return lines
