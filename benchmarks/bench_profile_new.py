@@ -36,7 +36,7 @@ from primitives import helm as hm  # noqa: E402
 from primitives.library import make_primitive  # noqa: E402
 from primitives.particulars.build import Built, Particulars, build_profile  # noqa: E402
 from primitives.particulars.fit import balance_thrust, excitation_runs  # noqa: E402
-from primitives.particulars.trials import first_overshoot, standard_trials, turn_figures  # noqa: E402
+from primitives.particulars.trials import first_overshoot, imo_warnings, standard_trials, turn_figures  # noqa: E402
 from primitives.ship import ProfileError  # noqa: E402
 
 DATA = ROOT / "diagnose" / "data"
@@ -115,27 +115,56 @@ def mariner_pmm() -> dict[str, float]:
     return out
 
 
-def mariner_check() -> bool:
+Row = tuple[str, str, str, str, str, str, bool]  # ship, check, ours, reference, difference, limit, pass
+
+
+def check_rows(
+    ship: str, fig, length: float, tactical_ref: dict[str, float], overshoot_ref: dict[str, float], who: str
+) -> list[Row]:
+    """The issue's check: each side's tactical diameter within 20 % of each reference run, each
+    side's 10/10 first overshoot within 4 deg of each reference run."""
+    rows = []
+    for side in ("starboard", "port"):
+        td = fig.tactical_l[side] * length
+        for run, want in tactical_ref.items():
+            err = (td - want) / want
+            rows.append((ship, f"tactical diameter 35 deg {side} vs {run}", f"{td:.0f} m", f"{who} {want:.0f} m",
+                         f"{100 * err:+.1f} %", "20 %", abs(err) <= 0.20))  # fmt: skip
+    for side in ("starboard", "port"):
+        os10 = fig.overshoot_10[side]
+        for run, want in overshoot_ref.items():
+            rows.append((ship, f"10/10 first overshoot {side} vs {run}", f"{os10:.1f} deg", f"{who} {want:.1f} deg",
+                         f"{os10 - want:+.1f} deg", "4 deg", abs(os10 - want) <= 4.0))  # fmt: skip
+    return rows
+
+
+def mariner_check() -> list[Row]:
     ref = mariner_pmm()
     built = build_profile(MARINER)
     fig = standard_trials(built.profile)
-    ok = True
-    for side, key in (("starboard", "+1"), ("port", "-1")):
-        td, want = fig.tactical_l[side] * MARINER.length, ref[f"tc {key}"]
-        ok &= abs(td - want) <= 0.2 * want
-        print(
-            f"Mariner tactical diameter {side:9s} {td:6.0f} m vs PMM {want:6.0f} m: {100 * (td - want) / want:+5.1f} % (limit 20 %)"
-        )
-        os10, want = fig.overshoot_10[side], ref[f"zz {key}"]
-        ok &= abs(os10 - want) <= 4.0
-        print(
-            f"Mariner 10/10 overshoot   {side:9s} {os10:5.1f} deg vs PMM {want:5.1f} deg: {os10 - want:+5.1f} deg (limit 4 deg)"
-        )
     td = mmg_turn(built, MARINER)
     print(f"Mariner MMG model alone (before the fit): tactical diameter {td:.0f} m ({td / MARINER.length:.2f} L)")
-    print("Mariner: " + ("PASS" if ok else "FAIL"))
+    _say_imo("Mariner", fig, MARINER)
     _say_band("Mariner", built, [ref["tc +1"], ref["tc -1"]])
-    return ok
+    return check_rows(
+        "Mariner", fig, MARINER.length, {"tc +35": ref["tc +1"], "tc -35": ref["tc -1"]},
+        {"zz +10": ref["zz +1"], "zz -10": ref["zz -1"]}, "PMM",
+    )  # fmt: skip
+
+
+def _say_imo(name: str, fig, p: Particulars) -> None:
+    lines = imo_warnings(fig, p.length, p.speed)
+    print(f"{name} against IMO MSC.137(76): " + ("; ".join(lines) if lines else "every checked criterion met"))
+
+
+def print_table(rows: list[Row]) -> bool:
+    print("| ship | check | ours | reference | difference | limit | verdict |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for *cells, ok in rows:
+        print("| " + " | ".join(cells) + f" | {'pass' if ok else 'FAIL'} |")
+    for ship in dict.fromkeys(r[0] for r in rows):
+        print(f"{ship}: " + ("PASS" if all(r[6] for r in rows if r[0] == ship) else "FAIL"))
+    return all(r[6] for r in rows)
 
 
 def main() -> int:
@@ -148,30 +177,18 @@ def main() -> int:
     fig = standard_trials(built.profile)
     print(f"build (default: output error, 12 prior draws): {statistics.median(cpu):.1f} s CPU, median of 3")
     print(f"approach {60 * built.approach_rps:.1f} rpm (MARIN runs: 91.4 rpm; full-scale friction, B-series P/D 0.75)")
-    ok = True
-    for side in ("starboard", "port"):
-        td = fig.tactical_l[side] * KVLCC2.length
-        for run in ("tc_35", "tc_-35"):
-            err = (td - ref[run]) / ref[run]
-            ok &= abs(err) <= 0.20
-            print(
-                f"tactical diameter {side:9s} {td:6.0f} m  vs MARIN {run:7s} {ref[run]:6.0f} m: {100 * err:+5.1f} %  (limit 20 %)"
-            )
-    for side in ("starboard", "port"):
-        os10 = fig.overshoot_10[side]
-        for run in ("zz_10", "zz_-10"):
-            d = os10 - ref[run]
-            ok &= abs(d) <= 4.0
-            print(
-                f"10/10 overshoot  {side:9s} {os10:5.1f} deg vs MARIN {run:7s} {ref[run]:5.1f} deg: {d:+5.1f} deg (limit 4 deg)"
-            )
-    print(f"20/20 overshoot {fig.overshoot_20['starboard']:.1f} deg; advance {fig.advance_l['starboard']:.2f} L; {fig.stopping}")
+    print(
+        f"KVLCC2 20/20 overshoot {fig.overshoot_20['starboard']:.1f} deg; advance {fig.advance_l['starboard']:.2f} L; {fig.stopping}"
+    )
     td = mmg_turn(built, KVLCC2)
     print(f"KVLCC2 MMG model alone (before the fit): tactical diameter {td:.0f} m ({td / KVLCC2.length:.2f} L)")
-    print("KVLCC2: " + ("PASS" if ok else "FAIL"))
+    _say_imo("KVLCC2", fig, KVLCC2)
     _say_band("KVLCC2", built, [ref["tc_35"], ref["tc_-35"]])
-    ok &= mariner_check()
-    return 0 if ok else 1
+    rows = check_rows(
+        "KVLCC2", fig, KVLCC2.length, {k: ref[k] for k in ("tc_35", "tc_-35")}, {k: ref[k] for k in ("zz_10", "zz_-10")}, "MARIN"
+    )
+    rows += mariner_check()
+    return 0 if print_table(rows) else 1
 
 
 if __name__ == "__main__":
