@@ -138,7 +138,7 @@ def test_built_profile_loads_with_sources_and_a_prior_spread():
     b = kvlcc2_built()
     doc = tomllib.loads(b.text)
     assert doc["particulars"]["rudder_area_m2"] == 142.0
-    for source in ("Clarke", "Kijima", "Yoshimura & Masumoto", "Oosterveld", "ITTC-1957", "SOLAS"):
+    for source in ("Clarke", "Kijima", "Yoshimura & Masumoto", "Oosterveld", "ITTC-1957", "SOLAS", "Seiun Maru"):
         assert source in b.text, source
     p = b.profile
     assert p.prior_std is not None and p.prior_std.shape == p.params().shape
@@ -273,3 +273,26 @@ def test_mariner_from_particulars_turns_like_its_pmm_model():
     for side in ("starboard", "port"):
         td = fig.tactical_l[side] * MARINER.length
         assert all(abs(td - m) <= 0.20 * m for m in PMM_TACTICAL_M), td
+
+
+def test_a_full_astern_stop_gets_its_track_reach_measured_from_the_execute_point(monkeypatch):
+    """The track reach of a crash stop is the path length sailed after the execute point (no
+    bundled rudder-propeller profile goes astern yet, so the stop is a straight engine stop
+    labelled as a crash stop: its track reach then equals its head reach)."""
+    from primitives import helm as hm
+    from primitives.particulars.trials import imo_warnings
+
+    prof = kvlcc2_built().profile
+
+    def labelled(profile):
+        gen = hm.speed_change(profile, hm.steady_rps(profile), 0.0, until_speed=0.5 * profile.cruise_speed_mps)
+        return gen, "crash stop: full astern from cruise speed until stopped"
+
+    monkeypatch.setattr(hm, "stopping", labelled)
+    fig = standard_trials(prof)
+    head = float(fig.stopping.split("head reach ")[1].split(" L")[0])
+    assert fig.stop_track_l == pytest.approx(head, abs=0.06)  # printed to 0.1 L
+    assert 15.0 < fig.stop_track_l < 40.0  # a coast to half speed runs long: over IMO's 15 L
+    assert any(
+        w.startswith("IMO criterion stopping track reach") for w in imo_warnings(fig, prof.length_m, prof.cruise_speed_mps)
+    )

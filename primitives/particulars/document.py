@@ -122,6 +122,9 @@ def header(p: Particulars, ship: MMGShip, pitch: float, n0: float, power_kw: flo
         "#   m'_y {my:.4f}, J'_z {Jz:.5f}: Clarke et al. (1983), eqs. (13), (16); m'_x {mx:.4f} = 0.05 m'".format(**ship.mass),
         "#   t_R {tR:.3f}, a_H {aH:.3f}, x'_H {xH:.3f}, gamma_R {gammaR:.3f}, l'_R {lR:.2f}, eps {eps:.3f}: Kijima et al. (1990);"
         " kappa {kappa:.2f} assumed (KVLCC2's, Yasukawa & Yoshimura 2015)".format(**ship.inter),
+        "#   (Kijima's eps is a quadratic in Cb B/L that peaks at 0.133 and falls for finer hulls: it gives 0.67 for the"
+        " Seiun Maru, Cb B/L 0.087, whose captive tests measured 1.03 (Yoshimura & Masumoto 2012); a low eps weakens the"
+        f" rudder and widens the turn; this hull's Cb B/L is {p.hull.cb_b_l:.3f})",
         "#   w_P0 {wP0:.3f} (Taylor 0.5 Cb - 0.05), t_P {tP:.3f} (0.6 w_P0): Harvald (1983)".format(**ship.inter),
         f"#   K_T = {ship.kt[0]:.4f} {ship.kt[1]:+.4f} J {ship.kt[2]:+.4f} J^2: Wageningen B-series (Oosterveld & van Oossanen"
         " 1975), quadratic fit",

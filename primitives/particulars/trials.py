@@ -86,7 +86,7 @@ def standard_trials(profile: ShipProfile) -> TrialFigures:
     xy = st.track[st.split_points[0] if st.split_points else 0 :, :2]  # from the execute point
     reach = float(np.linalg.norm(xy[-1] - xy[0]))
     track = float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=1)))
-    crash = what.startswith("crash stop")
+    crash = what.startswith("crash stop")  # helm.stopping names the full-astern stop so when the engine goes astern
     line = f"{what}: head reach {reach / L:.1f} L ({reach:.0f} m)" + (f", track reach {track / L:.1f} L" if crash else "")
     return TrialFigures(tactical, advance, os10, os20, line, track / L if crash else None)
 
