@@ -138,7 +138,7 @@ def test_built_profile_loads_with_sources_and_a_prior_spread():
     b = kvlcc2_built()
     doc = tomllib.loads(b.text)
     assert doc["particulars"]["rudder_area_m2"] == 142.0
-    for source in ("Clarke", "Kijima", "Yoshimura & Masumoto", "Oosterveld", "ITTC-1957", "SOLAS", "Seiun Maru"):
+    for source in ("Clarke", "Kijima", "Yoshimura & Masumoto", "Oosterveld", "ITTC-1957", "SOLAS"):
         assert source in b.text, source
     p = b.profile
     assert p.prior_std is not None and p.prior_std.shape == p.params().shape
@@ -247,8 +247,20 @@ PMM_OVERSHOOT_10 = (6.4, 4.7)
 
 
 @cache
+def mariner_built():
+    return build_profile(MARINER, oe_nfev=0, draws=2, seed=1)
+
+
+@cache
 def mariner_figures():
-    return standard_trials(build_profile(MARINER, oe_nfev=0, draws=2, seed=1).profile)
+    return standard_trials(mariner_built().profile)
+
+
+def test_the_fine_hull_note_is_written_for_the_mariner_only():
+    """Below Cb B/L 0.1 (Mariner 0.086) the header warns that Kijima's eps regression is far under
+    the fine-hull values known; KVLCC2 (0.147) is inside the regression's range and gets no note."""
+    assert "Fine hull (Cb B/L 0.086 < 0.1)" in mariner_built().text
+    assert "Fine hull" not in kvlcc2_built().text
 
 
 def test_mariner_from_particulars_zigzags_like_its_pmm_model_and_its_wide_turn_is_warned():
