@@ -36,7 +36,7 @@ from primitives import helm as hm  # noqa: E402
 from primitives.library import make_primitive  # noqa: E402
 from primitives.particulars.build import Built, Particulars, build_profile  # noqa: E402
 from primitives.particulars.fit import balance_thrust, excitation_runs  # noqa: E402
-from primitives.particulars.trials import first_overshoot, imo_warnings, standard_trials, turn_figures  # noqa: E402
+from primitives.particulars.trials import imo_warnings, standard_trials, turn_figures, zigzag_overshoots  # noqa: E402
 from primitives.ship import ProfileError  # noqa: E402
 
 DATA = ROOT / "diagnose" / "data"
@@ -50,7 +50,8 @@ def marin() -> dict[str, float]:
         track = [[*p, psi] for p, psi in zip(rec.pos, rec.psi)]
         out[run] = turn_figures(np.array(track))[1]
     for run in ("zz_10", "zz_-10"):
-        out[run] = first_overshoot(read_marin_dat(DATA / f"MARIN_FREE_KVLCC2_{run}_m.dat").psi, 10.0)
+        ovs = zigzag_overshoots(read_marin_dat(DATA / f"MARIN_FREE_KVLCC2_{run}_m.dat").psi, 10.0)
+        out[run], out[f"{run} second"] = ovs[0], ovs[1]
     return out
 
 
@@ -111,7 +112,7 @@ def mariner_pmm() -> dict[str, float]:
     for side in (1.0, -1.0):
         track, _ = mp.simulate(lambda k, psi, s=side: s * math.radians(35), 3000, 1.0, rate)
         out[f"tc {side:+.0f}"] = turn_figures(track)[1]
-        out[f"zz {side:+.0f}"] = first_overshoot(mp.simulate(_zigzag_10(side), 1500, 1.0, rate)[0][:, 2], 10.0)
+        out[f"zz {side:+.0f}"] = zigzag_overshoots(mp.simulate(_zigzag_10(side), 1500, 1.0, rate)[0][:, 2], 10.0)[0]
     return out
 
 
@@ -179,6 +180,11 @@ def main() -> int:
     print(f"approach {60 * built.approach_rps:.1f} rpm (MARIN runs: 91.4 rpm; full-scale friction, B-series P/D 0.75)")
     print(
         f"KVLCC2 20/20 overshoot {fig.overshoot_20['starboard']:.1f} deg; advance {fig.advance_l['starboard']:.2f} L; {fig.stopping}"
+    )
+    print(
+        f"KVLCC2 10/10 second overshoot {fig.second_overshoot_10['starboard']:.1f} deg "
+        f"(MARIN {ref['zz_10 second']:.1f} / {ref['zz_-10 second']:.1f} deg); "
+        f"initial turning (10 deg rudder, track to 10 deg heading) {fig.initial_turn_l['starboard']:.2f} L"
     )
     td = mmg_turn(built, KVLCC2)
     print(f"KVLCC2 MMG model alone (before the fit): tactical diameter {td:.0f} m ({td / KVLCC2.length:.2f} L)")

@@ -243,14 +243,20 @@ def speed_change(
     return loop.generated()
 
 
+def goes_astern(profile: ShipProfile) -> bool:
+    """Whether the profile's engine goes astern and the model's thrust reverses with it (the
+    stopping manoeuvre is then a full-astern crash stop)."""
+    lo = profile.engine.rps_limits[0]
+    return bool(lo < 0 and _surge_increment(profile, profile.params(), 0.0, lo) < 0)
+
+
 def stopping(profile: ShipProfile) -> tuple[Generated, str]:
     """Stopping from cruise speed within what the engine allows: full astern until stopped when
-    the profile's engine goes astern and the model's thrust reverses with it; otherwise engine
-    stop, coasting until the speed has halved. Returns the manoeuvre and its description."""
+    the engine goes astern (:func:`goes_astern`); otherwise engine stop, coasting until the speed
+    has halved. Returns the manoeuvre and its description."""
     n0 = steady_rps(profile)
     lo = profile.engine.rps_limits[0]
-    th = profile.params()
-    if lo < 0 and _surge_increment(profile, th, 0.0, lo) < 0:
+    if goes_astern(profile):
         return speed_change(profile, n0, lo, until_speed=0.0), "crash stop: full astern from cruise speed until stopped"
     return (
         speed_change(profile, n0, 0.0, until_speed=0.5 * profile.cruise_speed_mps),

@@ -13,6 +13,7 @@ from diagnose.recording import read_marin_dat
 from primitives import helm as hm
 from primitives.information import library_information, unidentified_parameters
 from primitives.library import build_library, make_primitive
+from primitives.particulars.trials import zigzag_overshoots
 from primitives.ship import load_profile
 
 DATA = Path(__file__).resolve().parents[1] / "diagnose" / "data"
@@ -42,24 +43,6 @@ def speed_after_turn(nu: np.ndarray, psi: np.ndarray) -> float:
     k = k if k > 0 else len(psi) - 1
     sp = np.hypot(nu[:, 0], nu[:, 1])
     return float(sp[k] / sp[0])
-
-
-def zigzag_overshoots(psi: np.ndarray, check_deg: float = 10.0) -> list[float]:
-    """Overshoot angles [deg]: heading peak beyond the check angle after each rudder reversal."""
-    d = np.degrees(psi - psi[0])
-    s = np.sign(d[int(np.argmax(np.abs(d) > check_deg))])
-    out, k = [], 0
-    while True:
-        past = np.nonzero(s * d[k:] >= check_deg)[0]
-        if not len(past):
-            return out
-        k += int(past[0])
-        falling = np.nonzero(np.diff(s * d[k:]) < 0)[0]
-        if not len(falling):
-            return out
-        k += int(falling[0])
-        out.append(float(s * d[k] - check_deg))
-        s = -s
 
 
 @cache
@@ -92,13 +75,13 @@ def test_turning_circle_loses_speed_and_has_marin_tactical_diameter(side):
 
 def test_zigzag_10_overshoots_as_marin_and_do_not_grow():
     p = kv()
-    marin_os = np.array([zigzag_overshoots(marin(r).psi)[:2] for r in ("zz_10", "zz_-10")])
+    marin_os = np.array([zigzag_overshoots(marin(r).psi, 10.0)[:2] for r in ("zz_10", "zz_-10")])
     assert np.all((5.0 < marin_os[:, 0]) & (marin_os[:, 0] < 12.0))  # MARIN: 9.4 and 8.0 deg
     first, second = marin_os[:, 0], marin_os[:, 1]  # second: 15.1 and 22.1 deg
     for side in ("starboard", "port"):
         zz = make_primitive(p, "zz", "zig-zag", hm.zigzag(p, 10, 10, first_side=side))
         assert np.all(np.isfinite(zz.nu))
-        os_ = zigzag_overshoots(zz.track[:, 2])
+        os_ = zigzag_overshoots(zz.track[:, 2], 10.0)
         assert len(os_) >= 3
         assert 0.7 * first.min() <= os_[0] <= 1.3 * first.max()
         assert 0.7 * second.min() <= os_[1] <= 1.3 * second.max()

@@ -34,10 +34,13 @@ def test_profile_new_writes_a_profile_and_prints_its_standard_manoeuvres(tmp_pat
     assert out.exists() and "[prior.std]" in out.read_text()
     for what in ("tactical diameter", "10/10", "20/20", "stopping"):
         assert what in text, what
-    # this coaster turns 5.35 L / 4.78 L: over IMO MSC.137(76)'s 5 L and 4.5 L, warned but written
+    # this coaster turns 5.35 L / 4.78 L and needs 2.64 L to 10 deg of heading: over IMO MSC.137(76)'s 5 L,
+    # 4.5 L and 2.5 L, warned but written
     assert "warning: IMO criterion tactical diameter (35 deg turn to starboard): ours 5.35 L, limit 5 L" in said.err
     assert "warning: IMO criterion advance (35 deg turn to port): ours 4.78 L, limit 4.5 L" in said.err
-    assert "IMO criterion 10/10" not in said.err and "stopping criterion (full astern) not checked" in text
+    assert "warning: IMO criterion initial turning (10 deg rudder to port, track to 10 deg heading): ours 2.64 L" in said.err
+    assert "IMO criterion 10/10" not in said.err and "second 8.09 deg" in text  # 10/10 second overshoot, within 25 deg
+    assert "the engine has no astern, so IMO's stopping criterion (full-astern track reach) is not checked" in text
     assert _run(["primitives", "--ship", str(out)]) == 0
 
 

@@ -1,11 +1,11 @@
 """The standard manoeuvres of a profile, run through the project's simulation kernel
 (:mod:`primitives.helm`), and their figures: IMO MSC.137(76) turning circle (advance, tactical
-diameter), zig-zag first overshoots, stopping; and the figures against the IMO Standards for
-ship manoeuvrability (resolution MSC.137(76), 2002, section 5.3)."""
+diameter), initial turning, zig-zag first and second overshoots, stopping; and the figures
+against the IMO Standards for ship manoeuvrability (resolution MSC.137(76), 2002, section 5.3)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,6 +29,8 @@ class TrialFigures:
     overshoot_20: dict[str, float | None]
     stopping: str  # one line: what the stopping manoeuvre is and its head reach
     stop_track_l: float | None = None  # track reach of a full-astern crash stop [L]; None if no astern
+    second_overshoot_10: dict[str, float | None] = field(default_factory=dict)  # 10/10, by first side
+    initial_turn_l: dict[str, float | None] = field(default_factory=dict)  # track to 10 deg heading, 10 deg rudder
 
     def warnings(self, length: float) -> list[str]:
         lo, hi = TACTICAL_RANGE_L
@@ -57,42 +59,68 @@ def turn_figures(track: np.ndarray) -> tuple[float | None, float | None]:
     return out[0], out[1]
 
 
-def first_overshoot(psi: np.ndarray, check_deg: float) -> float | None:
-    """Heading overshoot [deg] beyond the check angle after the first rudder reversal."""
+def zigzag_overshoots(psi: np.ndarray, check_deg: float) -> list[float]:
+    """Overshoot angles [deg] of a zig-zag: the heading's peak beyond the check angle after each
+    rudder reversal (IMO MSC.137(76), 4.2.4), as many as the record holds."""
     d = np.degrees(psi - psi[0])
-    past = np.nonzero(np.abs(d) >= check_deg)[0]
+    s = np.sign(d[int(np.argmax(np.abs(d) > check_deg))])
+    out, k = [], 0
+    while True:
+        past = np.nonzero(s * d[k:] >= check_deg)[0]
+        if not len(past):
+            return out
+        k += int(past[0])
+        falling = np.nonzero(np.diff(s * d[k:]) < 0)[0]
+        if not len(falling):
+            return out
+        k += int(falling[0])
+        out.append(float(s * d[k] - check_deg))
+        s = -s
+
+
+def initial_turn(track: np.ndarray, heading_deg: float = 10.0) -> float | None:
+    """Track sailed [m] from the execute (the first sample) until the heading has changed by
+    ``heading_deg`` (IMO MSC.137(76), 5.3.2 initial turning ability); None if it never does."""
+    past = np.nonzero(np.abs(np.degrees(track[:, 2] - track[0, 2])) >= heading_deg)[0]
     if not len(past):
         return None
-    s = np.sign(d[past[0]])
-    k = past[0]
-    falling = np.nonzero(np.diff(s * d[k:]) < 0)[0]
-    return float(s * d[k + falling[0]] - check_deg) if len(falling) else None
+    return float(np.sum(np.linalg.norm(np.diff(track[: past[0] + 1, :2], axis=0), axis=1)))
+
+
+def _nth(values: list[float], k: int) -> float | None:
+    return values[k] if len(values) > k else None
 
 
 def standard_trials(profile: ShipProfile) -> TrialFigures:
-    """Turning circles (35 deg, both sides), 10/10 and 20/20 zig-zags and the stopping manoeuvre of
-    the profile as the planner simulates them."""
+    """Turning circles (35 deg, both sides), 10/10 (two reversals) and 20/20 zig-zags and the
+    stopping manoeuvre of the profile as the planner simulates them."""
     L = profile.length_m
-    tactical, advance, os10, os20 = {}, {}, {}, {}
+    tactical, advance, os10, os20, os10b, initial = {}, {}, {}, {}, {}, {}
     for side in ("starboard", "port"):
         tc = make_primitive(profile, "tc", "turning circle", hm.turning_circle(profile, side=side))
         a, td = turn_figures(tc.track)
         advance[side], tactical[side] = (None if a is None else a / L), (None if td is None else td / L)
-        for angle, out in ((10, os10), (20, os20)):
-            zz = make_primitive(profile, "zz", "zig-zag", hm.zigzag(profile, angle, angle, first_side=side, n_switches=1))
-            out[side] = first_overshoot(zz.track[:, 2], angle)
+        zz10 = make_primitive(profile, "zz", "zig-zag", hm.zigzag(profile, 10, 10, first_side=side, n_switches=2))
+        ovs = zigzag_overshoots(zz10.track[:, 2], 10)
+        os10[side], os10b[side] = _nth(ovs, 0), _nth(ovs, 1)
+        it = initial_turn(zz10.track)
+        initial[side] = None if it is None else it / L
+        zz20 = make_primitive(profile, "zz", "zig-zag", hm.zigzag(profile, 20, 20, first_side=side, n_switches=1))
+        os20[side] = _nth(zigzag_overshoots(zz20.track[:, 2], 20), 0)
     gen, what = hm.stopping(profile)
     st = make_primitive(profile, "stop", what, gen)
     xy = st.track[st.split_points[0] if st.split_points else 0 :, :2]  # from the execute point
     reach = float(np.linalg.norm(xy[-1] - xy[0]))
     track = float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=1)))
-    crash = what.startswith("crash stop")  # helm.stopping names the full-astern stop so when the engine goes astern
+    crash = hm.goes_astern(profile)  # the stop is then full astern (helm.stopping)
     line = f"{what}: head reach {reach / L:.1f} L ({reach:.0f} m)" + (f", track reach {track / L:.1f} L" if crash else "")
-    return TrialFigures(tactical, advance, os10, os20, line, track / L if crash else None)
+    return TrialFigures(tactical, advance, os10, os20, line, track / L if crash else None, os10b, initial)
 
 
 # IMO MSC.137(76), 5.3: the limits on the standard manoeuvres (lengths in ship lengths)
 IMO_TACTICAL_L, IMO_ADVANCE_L, IMO_OVERSHOOT_20, IMO_TRACK_REACH_L, IMO_TRACK_REACH_LARGE_L = 5.0, 4.5, 25.0, 15.0, 20.0
+IMO_INITIAL_TURN_L = 2.5  # 5.3.2: track sailed by 10 deg of heading change with 10 deg rudder
+IMO_MIN_LENGTH_M = 100.0  # 1.2: ships of 100 m and over (and chemical and gas carriers of any length)
 
 
 def imo_overshoot_10_limit(l_over_v: float) -> float:
@@ -101,32 +129,69 @@ def imo_overshoot_10_limit(l_over_v: float) -> float:
     return 10.0 if l_over_v < 10.0 else 20.0 if l_over_v >= 30.0 else 5.0 + 0.5 * l_over_v
 
 
+def imo_second_overshoot_10_limit(l_over_v: float) -> float:
+    """Second-overshoot limit of the 10/10 zig-zag [deg] (MSC.137(76) 5.3.3.2): 25 deg if L/V < 10 s,
+    40 deg if L/V >= 30 s, 17.5 + 0.75 L/V deg between."""
+    return 25.0 if l_over_v < 10.0 else 40.0 if l_over_v >= 30.0 else 17.5 + 0.75 * l_over_v
+
+
 def imo_warnings(fig: TrialFigures, length: float, speed_mps: float) -> list[str]:
-    """One line per IMO MSC.137(76) criterion the simulated manoeuvres miss, "IMO criterion X: ours
-    Y, limit Z". The resolution's test speed is 90 % of the speed at 85 % MCR; these manoeuvres are
-    sailed from the profile's cruise speed. A coasting stop (no astern) is not the resolution's
-    full-astern stopping test and is not checked."""
+    """One line per IMO MSC.137(76) 5.3 criterion the simulated manoeuvres miss, "IMO criterion X:
+    ours Y, limit Z", or cannot be checked because the manoeuvre never reached its figure. The
+    resolution's test speed is 90 % of the speed at 85 % MCR; these manoeuvres are sailed from the
+    profile's cruise speed (``speed_mps`` > 0). A coasting stop (no astern) is not the resolution's
+    full-astern stopping test and is not checked (``fig.stop_track_l`` None). The resolution applies
+    to ships of 100 m and over (and to chemical and gas carriers of any length): for a shorter ship
+    each line says it is shown for reference."""
+    if speed_mps <= 0:
+        raise ValueError(f"speed_mps {speed_mps}: the manoeuvres' approach speed must be positive")
     out = []
+    scope = (
+        ""
+        if length >= IMO_MIN_LENGTH_M
+        else f" (MSC.137(76) applies to ships of {IMO_MIN_LENGTH_M:g} m and over; shown for reference)"
+    )
 
     def over(what: str, ours: float | None, limit: float, unit: str, note: str = "") -> None:
-        if ours is not None and ours > limit:
-            out.append(f"IMO criterion {what}: ours {ours:.2f} {unit}, limit {limit:g} {unit}{note}")
+        if ours is None:
+            out.append(f"IMO criterion {what}: not reached, cannot be checked{scope}")
+        elif ours > limit:
+            out.append(f"IMO criterion {what}: ours {ours:.2f} {unit}, limit {limit:g} {unit}{note}{scope}")
 
+    l_v = length / speed_mps
     for side in ("starboard", "port"):
         over(f"tactical diameter (35 deg turn to {side})", fig.tactical_l.get(side), IMO_TACTICAL_L, "L")
         over(f"advance (35 deg turn to {side})", fig.advance_l.get(side), IMO_ADVANCE_L, "L")
-    lim10 = imo_overshoot_10_limit(length / speed_mps)
     for side in ("starboard", "port"):
+        if side in fig.initial_turn_l:
+            over(
+                f"initial turning (10 deg rudder to {side}, track to 10 deg heading)",
+                fig.initial_turn_l[side],
+                IMO_INITIAL_TURN_L,
+                "L",
+            )
         over(
-            f"10/10 zig-zag first overshoot (first to {side}, L/V {length / speed_mps:.1f} s)",
+            f"10/10 zig-zag first overshoot (first to {side}, L/V {l_v:.1f} s)",
             fig.overshoot_10.get(side),
-            lim10,
+            imo_overshoot_10_limit(l_v),
             "deg",
         )
+        if side in fig.second_overshoot_10:
+            over(
+                f"10/10 zig-zag second overshoot (first to {side}, L/V {l_v:.1f} s)",
+                fig.second_overshoot_10[side],
+                imo_second_overshoot_10_limit(l_v),
+                "deg",
+            )
         over(f"20/20 zig-zag first overshoot (first to {side})", fig.overshoot_20.get(side), IMO_OVERSHOOT_20, "deg")
-    large = f" (an Administration may accept up to {IMO_TRACK_REACH_LARGE_L:g} L for a ship of large displacement)"
-    over("stopping track reach (full astern)", fig.stop_track_l, IMO_TRACK_REACH_L, "L",
-         large if (fig.stop_track_l or 0.0) <= IMO_TRACK_REACH_LARGE_L else f", and over the {IMO_TRACK_REACH_LARGE_L:g} L allowed for large ships")  # fmt: skip
+    if fig.stop_track_l is not None:
+        beyond = fig.stop_track_l > IMO_TRACK_REACH_LARGE_L
+        note = (
+            f", and over the {IMO_TRACK_REACH_LARGE_L:g} L allowed for large ships"
+            if beyond
+            else f" (an Administration may accept up to {IMO_TRACK_REACH_LARGE_L:g} L for a ship of large displacement)"
+        )
+        over("stopping track reach (full astern)", fig.stop_track_l, IMO_TRACK_REACH_L, "L", note)
     return out
 
 
@@ -144,8 +209,14 @@ def describe(fig: TrialFigures, length: float) -> list[str]:
         )
     for side in ("starboard", "port"):
         lines.append(
-            f"zig-zag first overshoot, first to {side}: 10/10 {f(fig.overshoot_10[side], 'deg')}, 20/20 {f(fig.overshoot_20[side], 'deg')}"
+            f"zig-zag overshoots, first to {side}: 10/10 first {f(fig.overshoot_10[side], 'deg')}, "
+            f"second {f(fig.second_overshoot_10.get(side), 'deg')}; 20/20 first {f(fig.overshoot_20[side], 'deg')}; "
+            f"initial turning (10 deg rudder) {f(fig.initial_turn_l.get(side), 'L', length)} to 10 deg heading"
         )
-    no_astern = "; IMO's stopping criterion (full astern) not checked" if fig.stop_track_l is None else ""
+    no_astern = (
+        "; the engine has no astern, so IMO's stopping criterion (full-astern track reach) is not checked"
+        if fig.stop_track_l is None
+        else ""
+    )
     lines.append(f"stopping: {fig.stopping}{no_astern}")
     return lines
