@@ -355,6 +355,7 @@ def test_a_full_astern_stop_gets_its_track_reach_measured_from_the_execute_point
     assert from_start - from_execute > 0.5  # the approach before the execute point
     assert fig.stop_track_l == pytest.approx(from_execute, rel=1e-9)
     assert 15.0 < fig.stop_track_l < 40.0  # a coast to half speed runs long: over IMO's 15 L
+    assert "not stopped: still" in fig.stopping  # it ends at half speed: a crash stop that did not stop says so
     assert any(
         w.startswith("IMO criterion stopping track reach") for w in imo_warnings(fig, prof.length_m, prof.cruise_speed_mps)
     )

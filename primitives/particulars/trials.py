@@ -114,6 +114,8 @@ def standard_trials(profile: ShipProfile) -> TrialFigures:
     track = float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=1)))
     crash = hm.goes_astern(profile)  # the stop is then full astern (helm.stopping)
     line = f"{what}: head reach {reach / L:.1f} L ({reach:.0f} m)" + (f", track reach {track / L:.1f} L" if crash else "")
+    if crash and st.nu[-1, 0] > 0.01 * profile.cruise_speed_mps:  # helm.speed_change gave up at its length cap
+        line += f" (not stopped: still {st.nu[-1, 0]:.1f} m/s at the end; the reaches are lower bounds)"
     return TrialFigures(tactical, advance, os10, os20, line, track / L if crash else None, os10b, initial)
 
 
