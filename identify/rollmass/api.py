@@ -16,6 +16,7 @@ from identify.rollmass.model import Load, RollProfile, load_profile
 from identify.rollmass.output_error import start_values
 from identify.rollmass.recording import read_roll_csv
 from identify.rollmass.signs import check_signs, expected_signs
+from identify.rollmass.simulate import RollRecording
 from primitives.errors import UserError
 
 ROLES = ("nominal", "calibration", "loaded")
@@ -156,6 +157,27 @@ def known_from_recordings(
     return replace(prof, known=kn), notes
 
 
+def speed_notes(recs: list[RollRecording], paths: list[Path], method: str) -> list[str]:
+    """Check each recording's measured speed ``u`` against its header speed; say how the speed is
+    used: ``oe`` follows ``u`` sample by sample, else holds the run's header (or profile) speed."""
+    notes = []
+    for rec, path in zip(recs, paths):
+        if rec.u is not None and rec.U is not None and abs(np.mean(rec.u) / rec.U - 1) > SPEED_TOL:
+            raise UserError(
+                f"{path}: column 'u' has a mean of {np.mean(rec.u):g} m/s but the header says speed_m_s {rec.U:g}; "
+                "give u in m/s (surge speed, positive ahead) or correct the header"
+            )
+        if rec.u is None and method == "oe":
+            notes.append(
+                f"{path.name}: no column 'u' (surge speed, m/s): the speed is held at "
+                + (f"the header's {rec.U:g} m/s" if rec.U is not None else "the profile's U")
+                + " through the run; a ship that slows in turns biases the load (record u to avoid it)"
+            )
+        elif rec.u is not None and method != "oe":
+            notes.append(f"{path.name}: column 'u' is used by --method oe only; {method} holds one speed per run")
+    return notes
+
+
 def usability_warnings(e: MassEstimate, prof: RollProfile) -> list[str]:
     """Warnings for an interval that cannot be used: zero or negative mass, more than the ship can
     carry, a load position outside the hull."""
@@ -210,8 +232,9 @@ def estimate_from_files(
     cal = _calibration_load(known_load, loads[1], paths[1])
     prof, notes = known_from_recordings(prof, paths, metas, explicit=profile is not None)
     # each run at its own speed (turns slow a run, and the runs differ): the oe model's U r terms
-    # use the run's header speed, the profile's U only where a header has none
+    # use the run's measured u(t) (column u), else its header speed, else the profile's U
     recs = [replace(r, U=_meta_float(m, "speed_m_s", p)) for r, m, p in zip(recs, metas, paths)]
+    notes += speed_notes(recs, paths, method)
     expect = expected_signs(start_values(prof), prof.known, prof.known.z_f_prior, Load(0.0, 0.0))
     for rec in recs:
         msg = check_signs(rec, expect)
