@@ -170,3 +170,34 @@ def test_a_load_height_header_is_refused_as_ambiguous_and_other_runs_need_no_loa
     loaded = dict(metas[2], load_kg="0.4")
     loaded.pop("load_z_m", None)
     assert check_roles(files, [metas[0], metas[1], loaded])[1] == loads[1]
+
+
+def _scale(col: str, k: float):
+    def fn(header, rows):
+        i = header.index(col)
+        return header, [r[:i] + [repr(k * float(r[i]))] + r[i + 1 :] for r in rows]
+
+    return fn
+
+
+@pytest.mark.parametrize(("edit", "words"), [(_scale("u", 3.6), "speed_m_s"), (_negate("u"), "positive")])
+def test_a_speed_column_in_the_wrong_unit_or_sign_is_refused(files, capsys, tmp_path, edit, words):
+    """u in km/h (its mean against the header's speed_m_s) or negated: refused before the fit."""
+    nom, cal, loaded = files
+    msg = _error(capsys, [nom, cal, _edit(loaded, tmp_path / "loaded.csv", edit)])
+    assert "'u'" in msg and words in msg
+
+
+def test_a_recording_without_speed_is_told_the_speed_is_held(files, tmp_path):
+    """Without a u column oe holds one speed per run; the user is told, and told what to record."""
+    from identify.rollmass.api import speed_notes
+
+    paths = [files[0], _edit(files[1], tmp_path / "calibration.csv", _drop("u"))]
+    recs = []
+    for p in paths:
+        rec, meta = read_roll_csv(p)
+        recs.append(rec.__class__(**{**rec.__dict__, "U": float(meta["speed_m_s"])}))
+    assert recs[0].u is not None and np.mean(recs[0].u) == pytest.approx(recs[0].U, rel=0.05)
+    notes = speed_notes(recs, paths, "oe")
+    assert len(notes) == 1 and "calibration.csv: no column 'u'" in notes[0] and "held at the header's" in notes[0]
+    assert any("oe only" in n for n in speed_notes(recs, paths, "improved"))

@@ -30,8 +30,8 @@ Every variant has the Xsens MTi-G noise (white noise at the data sheet's densiti
 bias plus an in-run bias random walk), the sensor's own 2nd-order low-pass, the 100 Hz sampling,
 the order-20 equiripple FIR at 0.5 Hz and the decimation to 50 Hz of section 5, and a quantised
 rudder encoder, and the surge speed ``u`` from the basin's positioning system (as the paper's Fig. 6
-got it: Qualisys positions through a Kalman smoother; 1 % scale and 5 mm/s slow error), filtered with
-the others. Parameters are drawn per run around nominal from the run's seed.
+got it: Qualisys positions through a Kalman smoother; 1 % scale and 5 mm/s slow error; not through
+the IMU's FIR). Parameters are drawn per run around nominal from the run's seed.
 
 Runs are integrated together (RK4 at 100 Hz, vectorised over runs).
 """
@@ -364,8 +364,11 @@ def _measure(
     u_meas = u * (1 + noise * rng.normal(0, 0.01, (R, 1))) + noise * 0.005 * slow
     fir = remez(21, [0, 0.5, 5.0, FS / 2], [1, 0], fs=FS)
     out = {}
-    for name, s in (("delta", enc), ("p", gyro_p), ("a_s", acc), ("r", gyro_r), ("phi", phi), ("u", u_meas)):
+    for name, s in (("delta", enc), ("p", gyro_p), ("a_s", acc), ("r", gyro_r), ("phi", phi)):
         out[name] = lfilter(fir, 1.0, s, axis=1)[:, warm::DEC][:, :n_out]
+    # the speed comes from the positioning's own smoother, not through the IMU's FIR (whose DC gain,
+    # 0.935, cancels between the IMU channels and the rudder but would scale a speed)
+    out["u"] = u_meas[:, warm::DEC][:, :n_out]
     out["speed"] = u[:, warm:].mean(axis=1)
     return out
 
