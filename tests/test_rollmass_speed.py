@@ -1,6 +1,7 @@
 """The oe model follows a recorded surge speed u(t): a ship that slows in turns (Linder et al. 2015,
 Fig. 6) has velocity terms that scale with u(t) and rudder forces with u(t)^2, and holding one
-speed per run biases the load (basin truth, speed_loss variant: 28-54 % median mass error)."""
+speed per run biases the load. These tests use the model's own structure (they check the speed path,
+they are not accuracy evidence: on the independent basin truth the bias remains, see README)."""
 
 from __future__ import annotations
 

@@ -171,7 +171,7 @@ def speed_notes(recs: list[RollRecording], paths: list[Path], method: str) -> li
             notes.append(
                 f"{path.name}: no column 'u' (surge speed, m/s): the speed is held at "
                 + (f"the header's {rec.U:g} m/s" if rec.U is not None else "the profile's U")
-                + " through the run; a ship that slows in turns biases the load (record u to avoid it)"
+                + " through the run, though a ship slows in turns (a column u lets oe follow the speed)"
             )
         elif rec.u is not None and method != "oe":
             notes.append(f"{path.name}: column 'u' is used by --method oe only; {method} holds one speed per run")
