@@ -188,8 +188,8 @@ def test_a_speed_column_in_the_wrong_unit_or_sign_is_refused(files, capsys, tmp_
     assert "'u'" in msg and words in msg
 
 
-def test_a_recording_without_speed_is_told_the_speed_is_held(files, tmp_path):
-    """Without a u column oe holds one speed per run; the user is told, and told what to record."""
+def test_a_speed_column_is_said_to_be_unused(files, tmp_path):
+    """A u column is checked and the user told it is not followed; a file without one gets no note."""
     from identify.rollmass.api import speed_notes
 
     paths = [files[0], _edit(files[1], tmp_path / "calibration.csv", _drop("u"))]
@@ -199,5 +199,4 @@ def test_a_recording_without_speed_is_told_the_speed_is_held(files, tmp_path):
         recs.append(rec.__class__(**{**rec.__dict__, "U": float(meta["speed_m_s"])}))
     assert recs[0].u is not None and np.mean(recs[0].u) == pytest.approx(recs[0].U, rel=0.05)
     notes = speed_notes(recs, paths, "oe")
-    assert len(notes) == 1 and "calibration.csv: no column 'u'" in notes[0] and "held at the header's" in notes[0]
-    assert any("oe only" in n for n in speed_notes(recs, paths, "improved"))
+    assert len(notes) == 1 and "nominal.csv: column 'u'" in notes[0] and "not used" in notes[0]

@@ -158,8 +158,9 @@ def known_from_recordings(
 
 
 def speed_notes(recs: list[RollRecording], paths: list[Path], method: str) -> list[str]:
-    """Check each recording's measured speed ``u`` against its header speed; say how the speed is
-    used: ``oe`` follows ``u`` sample by sample, else holds the run's header (or profile) speed."""
+    """Check each recording's measured speed ``u`` against its header speed, and say it is not used:
+    the oe model can follow it (:func:`identify.rollmass.output_error._simulate_speed`), but on the
+    independent basin truth family that made the load worse on every variant measured (README)."""
     notes = []
     for rec, path in zip(recs, paths):
         if rec.u is not None and rec.U is not None and abs(np.mean(rec.u) / rec.U - 1) > SPEED_TOL:
@@ -167,14 +168,11 @@ def speed_notes(recs: list[RollRecording], paths: list[Path], method: str) -> li
                 f"{path}: column 'u' has a mean of {np.mean(rec.u):g} m/s but the header says speed_m_s {rec.U:g}; "
                 "give u in m/s (surge speed, positive ahead) or correct the header"
             )
-        if rec.u is None and method == "oe":
+        if rec.u is not None:
             notes.append(
-                f"{path.name}: no column 'u' (surge speed, m/s): the speed is held at "
-                + (f"the header's {rec.U:g} m/s" if rec.U is not None else "the profile's U")
-                + " through the run, though a ship slows in turns (a column u lets oe follow the speed)"
+                f"{path.name}: column 'u' (surge speed) is checked but not used: following it made the oe "
+                "estimate worse on an independent basin truth (README); one speed per run is held"
             )
-        elif rec.u is not None and method != "oe":
-            notes.append(f"{path.name}: column 'u' is used by --method oe only; {method} holds one speed per run")
     return notes
 
 
@@ -232,9 +230,10 @@ def estimate_from_files(
     cal = _calibration_load(known_load, loads[1], paths[1])
     prof, notes = known_from_recordings(prof, paths, metas, explicit=profile is not None)
     # each run at its own speed (turns slow a run, and the runs differ): the oe model's U r terms
-    # use the run's measured u(t) (column u), else its header speed, else the profile's U
+    # use the run's header speed, else the profile's U (a u column is checked, not followed: speed_notes)
     recs = [replace(r, U=_meta_float(m, "speed_m_s", p)) for r, m, p in zip(recs, metas, paths)]
     notes += speed_notes(recs, paths, method)
+    recs = [replace(r, u=None) for r in recs]
     expect = expected_signs(start_values(prof), prof.known, prof.known.z_f_prior, Load(0.0, 0.0))
     for rec in recs:
         msg = check_signs(rec, expect)
