@@ -198,5 +198,5 @@ def test_a_speed_column_is_said_to_be_unused(files, tmp_path):
         rec, meta = read_roll_csv(p)
         recs.append(rec.__class__(**{**rec.__dict__, "U": float(meta["speed_m_s"])}))
     assert recs[0].u is not None and np.mean(recs[0].u) == pytest.approx(recs[0].U, rel=0.05)
-    notes = speed_notes(recs, paths, "oe")
+    notes = speed_notes(recs, paths)
     assert len(notes) == 1 and "nominal.csv: column 'u'" in notes[0] and "not used" in notes[0]

@@ -157,7 +157,7 @@ def known_from_recordings(
     return replace(prof, known=kn), notes
 
 
-def speed_notes(recs: list[RollRecording], paths: list[Path], method: str) -> list[str]:
+def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
     """Check each recording's measured speed ``u`` against its header speed, and say it is not used:
     the oe model can follow it (:func:`identify.rollmass.output_error._simulate_speed`), but on the
     independent basin truth family that made the load worse on every variant measured (README)."""
@@ -232,7 +232,7 @@ def estimate_from_files(
     # each run at its own speed (turns slow a run, and the runs differ): the oe model's U r terms
     # use the run's header speed, else the profile's U (a u column is checked, not followed: speed_notes)
     recs = [replace(r, U=_meta_float(m, "speed_m_s", p)) for r, m, p in zip(recs, metas, paths)]
-    notes += speed_notes(recs, paths, method)
+    notes += speed_notes(recs, paths)
     recs = [replace(r, u=None) for r in recs]
     expect = expected_signs(start_values(prof), prof.known, prof.known.z_f_prior, Load(0.0, 0.0))
     for rec in recs:
