@@ -159,8 +159,8 @@ def known_from_recordings(
 
 def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
     """Check each recording's measured speed ``u`` against its header speed, and say it is not used:
-    the oe model can follow it (:func:`identify.rollmass.output_error._simulate_speed`), but on the
-    independent basin truth family that made the load worse on every variant measured (README)."""
+    an oe model that followed it sample by sample made the load worse on every variant of the
+    independent basin truth family measured (README), so one speed per run is held."""
     notes = []
     for rec, path in zip(recs, paths):
         if rec.u is not None and rec.U is not None and abs(np.mean(rec.u) / rec.U - 1) > SPEED_TOL:

@@ -65,10 +65,6 @@ SANDWICH_LAG_S = 5.0
 # central-difference step of the residual in z_f [m]: the residual is smooth in z_f (a simulation),
 # so a step far below the prior sd (15 mm) gives the derivative, not a secant over the prior
 Z_F_STEP = 1e-4
-# Picard iterations of the speed-varying model (:func:`_simulate_speed`): on a recording of the
-# product's own simulator with a rudder-correlated speed drop of up to 15 %, 1 / 2 / 3 iterations
-# differ from 6 by up to 4e-3 / 1.2e-4 / 9e-6 of each output's sd
-SPEED_ITER = 2
 
 
 @dataclass
@@ -160,77 +156,18 @@ def _bilinear(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, T: flo
 def _simulate(v: dict[str, float], kn: Known, z_f: float, load: Load, rec: RollRecording) -> tuple[np.ndarray, np.ndarray]:
     """Rudder-driven outputs (n, 3) and the free-response + bias basis (n, N_FREE + 1).
 
-    Bilinear (Tustin) discretisation, as the paper's (13)-(15): the filtered rudder is smooth. With a
-    measured speed ``rec.u`` the model is the speed-varying one of :func:`_simulate_speed`.
+    Bilinear (Tustin) discretisation, as the paper's (13)-(15): the filtered rudder is smooth.
     """
-    if rec.u is not None:
-        return _simulate_speed(v, kn, z_f, load, rec)
     Ad, Bd, Cd, Dd = _bilinear(*model_matrices(v, kn, z_f, load, rec.U), rec.T)
     num, den = ss2tf(Ad, Bd, Cd, Dd)
-    _check_stable(den)
-    out = np.column_stack([lfilter(num[j], den, rec.delta) for j in range(3)])
-    return out, _free_basis(den, rec.n)
-
-
-def _check_stable(den: np.ndarray) -> None:
     if not np.all(np.isfinite(den)) or np.any(np.abs(np.roots(den)) >= 1.0):
         raise FloatingPointError("unstable model")
-
-
-def _free_basis(den: np.ndarray, n: int) -> np.ndarray:
-    """Free response (initial state, ``N_FREE`` columns) and a constant (sensor bias)."""
-    imp = np.zeros(n)
+    out = np.column_stack([lfilter(num[j], den, rec.delta) for j in range(3)])
+    imp = np.zeros(rec.n)
     imp[0] = 1.0
     h = lfilter([1.0], den, imp)
-    return np.column_stack([np.r_[np.zeros(j), h[: n - j]] for j in range(N_FREE)] + [np.ones(n)])
-
-
-def _simulate_speed(v: dict[str, float], kn: Known, z_f: float, load: Load, rec: RollRecording) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_simulate` with the run's measured surge speed ``u(t)`` in the velocity terms.
-
-    The model's velocity terms are affine in the speed and its rudder terms scale with ``U^2``
-    (:func:`model_matrices`), so with ``U`` the run's mean speed and ``du = u(t) - U`` it is exactly
-    ``x' = A x + B delta (u/U)^2 + A_u x du``, ``y = C x + D delta (u/U)^2 + C_u x du``, where
-    ``A_u = dA/dU``, ``C_u = dC/dU``. The bilinear term ``x du`` is an input of the constant-``U``
-    model evaluated on the previous iterate's states (Picard iteration, :data:`SPEED_ITER` times;
-    each adds a factor of order ``|du| / U`` times the velocity terms' share to the error). This is
-    the speed dependence the paper names as the cause of its turn-entry residuals (its Fig. 6).
-    The free-response basis stays the constant-``U`` one (a nuisance that decays).
-    """
-    u = rec.u
-    U = float(np.mean(u))
-    du = u - U
-    A, B, C, D = model_matrices(v, kn, z_f, load, U)
-    A1, _, C1, _ = model_matrices(v, kn, z_f, load, U + 1.0)  # exact: A and C are affine in U
-    # inputs [delta_e, du v, du p, du r, du phi]; outputs the 4 states, then p, a_s, r
-    Bx = np.hstack([B, A1 - A])
-    Cx = np.vstack([np.eye(4), C])
-    Dx = np.vstack([np.zeros((4, 5)), np.hstack([D, C1 - C])])
-    Ad, Bd, Cd, Dd = _bilinear(A, Bx, Cx, Dx, rec.T)
-    den = np.real(np.poly(Ad))
-    _check_stable(den)
-    # one common denominator: filter each input by 1/den once, then each output is a 5-tap FIR (the
-    # numerator) of those: C adj(zI - Ad) B + D det(zI - Ad), adj by Faddeev-LeVerrier (R_0 = I,
-    # R_k = Ad R_(k-1) + a_k I); num[k] is (inputs, outputs)
-    R, taps = np.eye(4), [Dd]
-    for k in range(1, 5):
-        taps.append(Cd @ R @ Bd + den[k] * Dd)
-        R = Ad @ R + den[k] * np.eye(4)
-    num = np.array([t.T for t in taps])
-    n = rec.n
-
-    def response(inputs: np.ndarray, cols: slice) -> np.ndarray:
-        z = lfilter([1.0], den, inputs, axis=0)
-        out = np.zeros((n, 7))
-        for k, tap in enumerate(num):
-            out[k:] += z[: n - k] @ tap[cols]
-        return out
-
-    base = response((rec.delta * (u / U) ** 2)[:, None], slice(0, 1))
-    y = base
-    for _ in range(SPEED_ITER):
-        y = base + response(du[:, None] * y[:, :4], slice(1, 5))
-    return y[:, 4:], _free_basis(den, n)
+    basis = np.column_stack([np.r_[np.zeros(j), h[: rec.n - j]] for j in range(N_FREE)] + [np.ones(rec.n)])
+    return out, basis
 
 
 def _whitener(e: np.ndarray, order: int) -> np.ndarray:
