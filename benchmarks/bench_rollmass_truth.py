@@ -11,6 +11,7 @@ the paper's Table 3 (one real dataset per case).
 
     python benchmarks/bench_rollmass_truth.py --runs 100 --methods oe                # Done-when size (the default method)
     python benchmarks/bench_rollmass_truth.py --runs 8 --methods all                # every method
+    python benchmarks/bench_rollmass_truth.py --runs 4 --no-u                       # logs without the speed u(t)
 """
 
 from __future__ import annotations
@@ -36,11 +37,11 @@ PAPER = {"case1": (0.1338, 3.1), "case2": (7.7532, 25.4), "case3": (16.631, 0.9)
 
 
 def _one(job: tuple) -> list[tuple]:
-    variant, run, case, recs, methods = job
+    variant, run, case, recs, methods, with_u = job
     m_true, z_true = bt.truth_load(case)
     out = []
     with tempfile.TemporaryDirectory() as d:
-        paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in recs]
+        paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv", with_u) for r in recs]
         for method in methods:
             c0 = time.process_time()
             try:
@@ -93,6 +94,9 @@ def main() -> None:
     ap.add_argument("--cases", default="case1,case2,case3")
     ap.add_argument("--seed", type=int, default=2015)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument(
+        "--no-u", action="store_true", help="write the recordings without the surge-speed column u (one speed per run)"
+    )
     a = ap.parse_args()
     variants, cases = a.variants.split(","), a.cases.split(",")
     methods = list(METHODS) if a.methods == "all" else a.methods.split(",")
@@ -106,7 +110,9 @@ def main() -> None:
         ship, data = bt.simulate_runs(variant, a.runs, a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant))
         c_sim += time.process_time() - c0
         jobs = [
-            (variant, run, case, bt.case_recordings(ship, data, case, run), methods) for run in range(a.runs) for case in cases
+            (variant, run, case, bt.case_recordings(ship, data, case, run), methods, not a.no_u)
+            for run in range(a.runs)
+            for case in cases
         ]
         with Pool(a.workers) as pool:
             for part in pool.imap_unordered(_one, jobs):
@@ -120,7 +126,8 @@ def main() -> None:
             for case in cases:
                 print("  " + _summary([r for r in rows if r[0] == variant], variant, case, method), file=sys.stderr, flush=True)
     print(
-        f"truth family: {len(variants)} variants x {a.runs} runs x {len(cases)} cases, seed {a.seed}; "
+        f"truth family: {len(variants)} variants x {a.runs} runs x {len(cases)} cases, seed {a.seed}, "
+        f"{'without' if a.no_u else 'with'} the u column; "
         f"{time.perf_counter() - t0:.0f} s wall, simulation {c_sim:.0f} s cpu, fits {c_fit:.0f} s cpu "
         f"({c_fit / max(len(rows), 1):.2f} s per fit)\n"
     )

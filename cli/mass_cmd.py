@@ -15,7 +15,9 @@ from primitives.io import dumps
 def register(app: typer.Typer) -> None:
     @app.command("mass")
     def mass(
-        nominal: Path = typer.Argument(..., help="nominal run CSV (t, delta, p, a_s, r), no extra load"),
+        nominal: Path = typer.Argument(
+            ..., help="nominal run CSV (t, delta, p, a_s, r; optional u, surge speed m/s), no extra load"
+        ),
         calibration: Path = typer.Argument(..., help="calibration run CSV with a known load (--known-load or its header)"),
         loaded: Path = typer.Argument(..., help="run CSV with the unknown load"),
         known_load: str | None = typer.Option(

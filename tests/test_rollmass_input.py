@@ -170,3 +170,33 @@ def test_a_load_height_header_is_refused_as_ambiguous_and_other_runs_need_no_loa
     loaded = dict(metas[2], load_kg="0.4")
     loaded.pop("load_z_m", None)
     assert check_roles(files, [metas[0], metas[1], loaded])[1] == loads[1]
+
+
+def _scale(col: str, k: float):
+    def fn(header, rows):
+        i = header.index(col)
+        return header, [r[:i] + [repr(k * float(r[i]))] + r[i + 1 :] for r in rows]
+
+    return fn
+
+
+@pytest.mark.parametrize(("edit", "words"), [(_scale("u", 3.6), "speed_m_s"), (_negate("u"), "positive")])
+def test_a_speed_column_in_the_wrong_unit_or_sign_is_refused(files, capsys, tmp_path, edit, words):
+    """u in km/h (its mean against the header's speed_m_s) or negated: refused before the fit."""
+    nom, cal, loaded = files
+    msg = _error(capsys, [nom, cal, _edit(loaded, tmp_path / "loaded.csv", edit)])
+    assert "'u'" in msg and words in msg
+
+
+def test_a_speed_column_is_said_to_be_unused(files, tmp_path):
+    """A u column is checked and the user told it is not followed; a file without one gets no note."""
+    from identify.rollmass.api import speed_notes
+
+    paths = [files[0], _edit(files[1], tmp_path / "calibration.csv", _drop("u"))]
+    recs = []
+    for p in paths:
+        rec, meta = read_roll_csv(p)
+        recs.append(rec.__class__(**{**rec.__dict__, "U": float(meta["speed_m_s"])}))
+    assert recs[0].u is not None and np.mean(recs[0].u) == pytest.approx(recs[0].U, rel=0.05)
+    notes = speed_notes(recs, paths)
+    assert len(notes) == 1 and "nominal.csv: column 'u'" in notes[0] and "not used" in notes[0]

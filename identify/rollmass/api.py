@@ -16,6 +16,7 @@ from identify.rollmass.model import Load, RollProfile, load_profile
 from identify.rollmass.output_error import start_values
 from identify.rollmass.recording import read_roll_csv
 from identify.rollmass.signs import check_signs, expected_signs
+from identify.rollmass.simulate import RollRecording
 from primitives.errors import UserError
 
 ROLES = ("nominal", "calibration", "loaded")
@@ -156,6 +157,25 @@ def known_from_recordings(
     return replace(prof, known=kn), notes
 
 
+def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
+    """Check each recording's measured speed ``u`` against its header speed, and say it is not used:
+    an oe model that followed it sample by sample made the load worse on every variant of the
+    independent basin truth family measured (README), so one speed per run is held."""
+    notes = []
+    for rec, path in zip(recs, paths):
+        if rec.u is not None and rec.U is not None and abs(np.mean(rec.u) / rec.U - 1) > SPEED_TOL:
+            raise UserError(
+                f"{path}: column 'u' has a mean of {np.mean(rec.u):g} m/s but the header says speed_m_s {rec.U:g}; "
+                "give u in m/s (surge speed, positive ahead) or correct the header"
+            )
+        if rec.u is not None:
+            notes.append(
+                f"{path.name}: column 'u' (surge speed) is checked but not used: following it made the oe "
+                "estimate worse on an independent basin truth (README); one speed per run is held"
+            )
+    return notes
+
+
 def usability_warnings(e: MassEstimate, prof: RollProfile) -> list[str]:
     """Warnings for an interval that cannot be used: zero or negative mass, more than the ship can
     carry, a load position outside the hull."""
@@ -210,8 +230,10 @@ def estimate_from_files(
     cal = _calibration_load(known_load, loads[1], paths[1])
     prof, notes = known_from_recordings(prof, paths, metas, explicit=profile is not None)
     # each run at its own speed (turns slow a run, and the runs differ): the oe model's U r terms
-    # use the run's header speed, the profile's U only where a header has none
+    # use the run's header speed, else the profile's U (a u column is checked, not followed: speed_notes)
     recs = [replace(r, U=_meta_float(m, "speed_m_s", p)) for r, m, p in zip(recs, metas, paths)]
+    notes += speed_notes(recs, paths)
+    recs = [replace(r, u=None) for r in recs]
     expect = expected_signs(start_values(prof), prof.known, prof.known.z_f_prior, Load(0.0, 0.0))
     for rec in recs:
         msg = check_signs(rec, expect)

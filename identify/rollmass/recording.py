@@ -2,7 +2,8 @@
 
 Columns (SI, radians): ``t`` [s, uniform], ``delta`` [rad, measured rudder], ``p`` [rad/s, roll-rate
 gyro, (6a)], ``a_s`` [m/s^2, IMU lateral (tangential) accelerometer, (6b) and (7)], ``r`` [rad/s,
-yaw-rate gyro in ship sign, i.e. minus (6c)]; optional ``phi`` [rad] (not used). Optional metadata
+yaw-rate gyro in ship sign, i.e. minus (6c)]; optional ``u`` [m/s, surge speed, positive ahead: the
+``oe`` model's velocity terms follow it sample by sample] and ``phi`` [rad] (not used). Optional metadata
 lines ``# key: value`` before the header (:data:`META_KEYS`): ``role`` (nominal, calibration,
 loaded), ``speed_m_s``, ``imu_z_m``, ``load_kg``, ``load_z_m`` (z: body frame, metres, positive
 down from the waterline; a ``load_height_m`` is refused as ambiguous), ``ship``, ``dataset``,
@@ -23,13 +24,14 @@ from identify.rollmass.simulate import RollRecording
 from primitives.io import atomic_write_text, read_input_text
 
 REQUIRED = ("t", "delta", "p", "a_s", "r")
-OPTIONAL = ("phi",)
+OPTIONAL = ("u", "phi")
 WHAT = {
     "p": "roll-rate gyro, rad/s",
     "a_s": "IMU lateral accelerometer, m/s^2",
     "r": "yaw-rate gyro, rad/s",
     "delta": "rudder angle, rad",
     "t": "time, s",
+    "u": "surge speed, m/s, positive ahead",
 }
 # names other loggers use for our columns; a file with one of them is told which to rename
 ALIASES = {
@@ -38,6 +40,7 @@ ALIASES = {
     "r": ("yaw_rate", "gyro_z", "wz", "psidot", "psi_dot"),
     "delta": ("rudder", "rudder_angle"),
     "t": ("time",),
+    "u": ("speed", "surge", "surge_speed", "u_m_s", "stw", "sog", "speed_m_s"),
 }
 META_KEYS = ("role", "speed_m_s", "imu_z_m", "load_kg", "load_z_m", "ship", "dataset", "sample_time")
 
@@ -66,12 +69,13 @@ def _missing_message(path: Path, header: list[str], missing: list[str]) -> str:
 
 
 def write_roll_csv(rec: RollRecording, path: str | Path, meta: dict[str, str] | None = None) -> Path:
-    """Write one dataset atomically; ``phi`` is written when present."""
+    """Write one dataset atomically; ``u`` and ``phi`` are written when present."""
     buf = io.StringIO()
     for k, v in {"ship": "our_lass_ii", "sample_time": f"{rec.T:g}", **(meta or {})}.items():
         buf.write(f"# {k}: {v}\n")
-    cols = list(REQUIRED) + (["phi"] if rec.phi is not None else [])
-    data = [np.arange(rec.n) * rec.T, rec.delta, rec.p, rec.a_s, rec.r] + ([rec.phi] if rec.phi is not None else [])
+    extra = {k: x for k, x in (("u", rec.u), ("phi", rec.phi)) if x is not None}
+    cols = list(REQUIRED) + list(extra)
+    data = [np.arange(rec.n) * rec.T, rec.delta, rec.p, rec.a_s, rec.r, *extra.values()]
     buf.write(",".join(cols) + "\n")
     for row in np.column_stack(data):
         buf.write(",".join(f"{x:.9g}" for x in row) + "\n")
@@ -113,7 +117,13 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
         raise RecordingError(f"{path}: column 't' is not uniformly sampled (steps {dt.min():g}..{dt.max():g} s); resample it")
     if np.std(col["p"]) < 1e-6:
         raise RecordingError(f"{path}: column 'p' is constant: the recording has no roll motion")
+    u = col.get("u")
+    if u is not None and not (np.all(np.isfinite(u)) and np.min(u) > 0):
+        raise RecordingError(
+            f"{path}: column 'u' (surge speed, m/s) must be finite and positive (the ship going ahead); "
+            f"it has {np.nanmin(u):g}..{np.nanmax(u):g}: fill gaps, check its sign, or drop the column"
+        )
     rec = RollRecording(
-        name=path.name, T=T, delta=col["delta"], p=col["p"], a_s=col["a_s"], r=col["r"], phi=col.get("phi"), notes=notes
+        name=path.name, T=T, delta=col["delta"], p=col["p"], a_s=col["a_s"], r=col["r"], phi=col.get("phi"), notes=notes, u=u
     )
     return rec, meta

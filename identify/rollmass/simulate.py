@@ -35,6 +35,7 @@ class RollRecording:
     phi: np.ndarray | None = None  # rad, true roll (simulation only; not used by the estimator)
     notes: list[str] = field(default_factory=list)  # what the reader noticed (unknown columns)
     U: float | None = None  # m/s, this run's forward speed (header speed_m_s); None: the profile's
+    u: np.ndarray | None = None  # m/s, measured surge speed per sample (column u); None: U held through the run
 
     @property
     def n(self) -> int:

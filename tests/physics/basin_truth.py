@@ -29,7 +29,9 @@ real model ship has and the paper's model (3)-(11) leaves out:
 Every variant has the Xsens MTi-G noise (white noise at the data sheet's densities, a constant
 bias plus an in-run bias random walk), the sensor's own 2nd-order low-pass, the 100 Hz sampling,
 the order-20 equiripple FIR at 0.5 Hz and the decimation to 50 Hz of section 5, and a quantised
-rudder encoder. Parameters are drawn per run around nominal from the run's seed.
+rudder encoder, and the surge speed ``u`` from the basin's positioning system (as the paper's Fig. 6
+got it: Qualisys positions through a Kalman smoother; 1 % scale and 5 mm/s slow error; not through
+the IMU's FIR). Parameters are drawn per run around nominal from the run's seed.
 
 Runs are integrated together (RK4 at 100 Hz, vectorised over runs).
 """
@@ -258,8 +260,8 @@ def simulate(
     ship: Ship, variant: str, load: tuple[float, float], n_out: int, seed: int, quiet: bool = False
 ) -> dict[str, np.ndarray]:
     """Integrate one dataset for every run of ``ship``; returns measured channels (runs, n_out)
-    at 50 Hz: ``delta, p, a_s, r, phi`` (the recorder's signs: roll starboard down, yaw to
-    starboard positive, a_s as (7)) and the mean surge speed ``speed``. ``quiet``: no IMU noise or
+    at 50 Hz: ``delta, p, a_s, r, phi``, the measured surge speed ``u`` (the recorder's signs: roll
+    starboard down, yaw to starboard positive, a_s as (7)) and the mean surge speed ``speed``. ``quiet``: no IMU noise or
     bias (the filters stay), for comparing structures."""
     on = _effects(variant)
     rng = np.random.default_rng(seed)
@@ -355,10 +357,18 @@ def _measure(
     b, a = butter(2, 30.0, fs=FS)
     gyro_p, gyro_r, acc = (lfilter(b, a, s, axis=1) for s in (gyro_p, gyro_r, acc))
     enc = np.round((delta + rng.normal(0, 0.05 * d2r, (R, 1))) / (0.1 * d2r)) * (0.1 * d2r) if noise else delta
+    # surge speed as the basin's positioning gives it (Qualisys positions through a Kalman smoother, the
+    # paper's Fig. 6): a per-run scale error (1 %) and a slowly varying error (5 mm/s, ~1 s correlation)
+    ar1 = math.exp(-1 / FS)
+    slow = lfilter([math.sqrt(1 - ar1 * ar1)], [1, -ar1], rng.standard_normal((R, n)), axis=1)
+    u_meas = u * (1 + noise * rng.normal(0, 0.01, (R, 1))) + noise * 0.005 * slow
     fir = remez(21, [0, 0.5, 5.0, FS / 2], [1, 0], fs=FS)
     out = {}
     for name, s in (("delta", enc), ("p", gyro_p), ("a_s", acc), ("r", gyro_r), ("phi", phi)):
         out[name] = lfilter(fir, 1.0, s, axis=1)[:, warm::DEC][:, :n_out]
+    # the speed comes from the positioning's own smoother, not through the IMU's FIR (whose DC gain,
+    # 0.935, cancels between the IMU channels and the rudder but would scale a speed)
+    out["u"] = u_meas[:, warm::DEC][:, :n_out]
     out["speed"] = u[:, warm:].mean(axis=1)
     return out
 
@@ -400,15 +410,16 @@ def case_recordings(ship: Ship, data: dict, case: str, run: int) -> list[Recordi
         }
         if role != "loaded":
             meta.update({"load_kg": f"{m:g}", "load_z_m": f"{zm:g}"})
-        out.append(Recording(role, name, DEC / FS, {k: d[k][run] for k in ("delta", "p", "a_s", "r", "phi")}, meta))
+        out.append(Recording(role, name, DEC / FS, {k: d[k][run] for k in ("delta", "p", "a_s", "r", "phi", "u")}, meta))
     return out
 
 
-def write_csv(rec: Recording, path: str | Path) -> Path:
-    """Write in the format ``shiptrial mass`` reads: ``# key: value`` lines, then t, delta, p, a_s, r, phi."""
+def write_csv(rec: Recording, path: str | Path, with_u: bool = True) -> Path:
+    """Write in the format ``shiptrial mass`` reads: ``# key: value`` lines, then t, delta, p, a_s, r,
+    phi and, unless ``with_u`` is false (a log without the positioning system), the surge speed u."""
     path = Path(path)
     n = len(rec.cols["p"])
-    cols = ["t", "delta", "p", "a_s", "r", "phi"]
+    cols = ["t", "delta", "p", "a_s", "r", "phi"] + (["u"] if with_u else [])
     arr = np.column_stack([np.arange(n) * rec.T] + [rec.cols[c] for c in cols[1:]])
     head = "".join(f"# {k}: {v}\n" for k, v in rec.meta.items()) + ",".join(cols) + "\n"
     tmp = path.with_suffix(".tmp")
