@@ -123,22 +123,27 @@ def held_records(
     values = dict(zip(profile.predictor_param_names, _predictor_values(profile)))
     helps = what_identifies(profile, room, held, mean_subtraction)
     rows = [{"parameter": h, "value": values.get(h), "identified_by": helps.get(h)} for h in held]
-    groups: dict[str, list[str]] = {}  # one clause per manoeuvre that would identify them
+    note = (
+        f"{len(held)} parameter(s) the manoeuvres that fit cannot identify are held at the profile's values "
+        f"and the design is over the other {len(profile.predictor_param_names) - len(held)}: {held_text(rows)}"
+    )
+    return rows, [note]
+
+
+def held_text(rows: list[dict[str, Any]]) -> str:
+    """The plan's held parameters in one line: 'Yur = -0.6433, Nrr = -1.74 (zz_exc_10_5_60 would
+    identify them, needs 10.1 km x 529 m of open water)', grouped by what would identify them."""
+    groups: dict[str, list[str]] = {}
     for r in rows:
-        by = r["identified_by"]
+        by = r.get("identified_by")
         how = (
             f"{by['primitive']} would identify them, needs {_km(by['needs_m'][0])} x {_km(by['needs_m'][1])} of open water"
             if by
             else "no manoeuvre of the library identifies them here"
         )
-        val = f"{r['value']:.4g}" if r["value"] is not None else "the profile's value"
+        val = f"{r['value']:.4g}" if isinstance(r.get("value"), (int, float)) else "the profile's value"
         groups.setdefault(how, []).append(f"{r['parameter']} = {val}")
-    note = (
-        f"{len(held)} parameter(s) the manoeuvres that fit cannot identify are held at the profile's values "
-        f"and the design is over the other {len(profile.predictor_param_names) - len(held)}: "
-        + "; ".join(f"{', '.join(names)} ({how})" for how, names in groups.items())
-    )
-    return rows, [note]
+    return "; ".join(f"{', '.join(names)} ({how})" for how, names in groups.items())
 
 
 def _predictor_values(profile: ShipProfile) -> list[float | None]:

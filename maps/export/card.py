@@ -179,6 +179,11 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
                 + (f" (needs {need[0]:.0f} m x {need[1]:.0f} m)" if isinstance(need, (list, tuple)) and len(need) == 2 else "")
                 + (f", efficiency loss {100.0 * loss:.1f} %" if isinstance(loss, (int, float)) else "")
             )
+    held = [h for h in d.get("held_parameters") or [] if isinstance(h, dict) and "parameter" in h]
+    if held:
+        from maps.searoom import held_text
+
+        head.append(f"Held at the profile's values (the manoeuvres that fit cannot identify them): {held_text(held)}")
     weights = d.get("weights") or {}
     counts = d.get("counts") or {}
     # rows for the primitives the design uses; those it gives no weight (maps.trialdesign.UNUSED_WEIGHT) are named
