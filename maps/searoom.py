@@ -96,11 +96,11 @@ def restrict(infos: list[PrimitiveInfo], keep: np.ndarray) -> list[PrimitiveInfo
 
 
 def what_identifies(profile: ShipProfile, room: SeaRoom, held: list[str], mean_subtraction: str) -> dict[str, dict[str, Any]]:
-    """For each held parameter, the manoeuvre that fits nowhere (smallest open water first) whose
-    addition to what fits would identify it, with the water it needs; {} for a parameter none does."""
+    """For each held parameter, the manoeuvre that fits nowhere (shortest longer side of open water first) whose
+    addition to what fits would identify it, with the water it needs; none for a parameter none does."""
     keep = room.fitting
     out: dict[str, dict[str, Any]] = {}
-    for name, need in sorted(room.exclude.items(), key=lambda kv: kv[1][0] * kv[1][1]):
+    for name, need in sorted(room.exclude.items(), key=lambda kv: (max(kv[1]), kv[1][0] * kv[1][1])):
         idx = next((i for i, p in enumerate(room.library) if p.name == name), None)
         if idx is None:
             continue

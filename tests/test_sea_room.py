@@ -10,11 +10,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import shapely
 
 from cli.app import _run
 from maps.planner import plan_with_design
-from maps.testmaps import _feature
+from maps.testmaps import bay
 from maps.trialdesign import design_for_map, first_design
 from primitives import helm as hm
 from primitives.library import by_name, thesis_primitives
@@ -89,16 +88,9 @@ def test_large_water_keeps_the_first_design_and_offers_no_short_form(kvlcc2, kvl
 
 
 def _bay(tmp_path: Path) -> Path:
-    """8 km (north) x 6 km (east) of navigable water, start in the south-west heading north, goal
-    to the east of it: the issue's fjord piece, synthetic."""
-    lat0, lon0 = 60.0, 5.0
-    feats = [
-        _feature("trial_area", shapely.box(0, 0, 8000, 6000), lat0, lon0),
-        _feature("start", shapely.Point(1000, 1500), lat0, lon0, heading_deg=0.0),
-        _feature("goal", shapely.Point(1000, 4500), lat0, lon0),
-    ]
+    """8 km (north) x 6 km (east) of navigable water as a GeoJSON fixture (maps.testmaps.bay)."""
     path = tmp_path / "bay-8x6.geojson"
-    path.write_text(json.dumps({"type": "FeatureCollection", "name": "bay 8 x 6 km (synthetic)", "features": feats}))
+    path.write_text(json.dumps(bay()))
     return path
 
 
