@@ -416,12 +416,14 @@ def design_for_map(
         room.exclude.update(bad)
         if with_short_forms(profile, room, fits_nowhere) and draws is not None:  # the draws' matrices of the new ones too
             draws = draw_information(profile, room.library, parameter_prior, mean_subtraction, held_out=True)
-        for trial_s in lengths:
+        for i, trial_s in enumerate(lengths):
             try:
                 td = _redesign(profile, room, first, trial_s, criterion, mean_subtraction, seed, parameter_prior, draws)
-                too_short = None
+                too_short = None if i == 0 else too_short  # only the length asked for clears it
                 break
             except TrialTooShort as exc:
+                if i == len(lengths) - 1:
+                    raise
                 too_short = exc
 
 

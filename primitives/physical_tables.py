@@ -67,11 +67,6 @@ class Engine:
     approach_rpm: float | None = None
     astern_rpm: float | None = None
 
-    @property
-    def astern_rps(self) -> float:
-        """The most astern shaft speed [rev/s, > 0], 0 without astern power."""
-        return max(0.0, -self.rps_limits[0])
-
 
 def _numbers(
     table: Any, section: str, keys: tuple[str, ...], src: str, hint: str, err: type[UserError], other: tuple[str, ...] = ()
