@@ -51,7 +51,7 @@ class SeaRoom:
 
 def with_short_forms(profile: ShipProfile, room: SeaRoom, fits_nowhere: FitsNowhere) -> bool:
     """Add the short forms of the excluded long manoeuvres not offered yet; those that fit
-    nowhere either (one lattice built for all of them) join the exclusions. True if any was added."""
+    nowhere either (checked ``CHECK_AT_ONCE`` to a lattice) join the exclusions. True if any was added."""
     table = short_form_table(profile)
     todo = [n for n in room.exclude if n in table and n not in room.offered]
     if not todo:

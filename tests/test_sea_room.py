@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from cli.app import _run
+from maps.export.card import design_rows
 from maps.planner import plan_with_design
 from maps.testmaps import bay
 from maps.trialdesign import design_for_map, first_design
@@ -111,6 +112,8 @@ def test_kvlcc2_in_an_8_by_6_km_bay_gets_a_verified_plan_with_the_held_parameter
         assert h["value"] == pytest.approx(values[name])
         assert h["identified_by"]["primitive"] in {d["primitive"] for d in rec["dropped"]}
     assert any("held at the profile's values" in n for n in plan.stats["notes"])
+    head, _ = design_rows(plan)  # the trial card's design section names them too
+    assert any(line.startswith("Held at the profile's values") and all(n in line for n in held) for line in head)
 
 
 def test_astern_power_declared_stops_the_ship_through_the_kernel(kvlcc2):
