@@ -11,7 +11,8 @@ theta_h known, its regressor's part phi_h theta_h moves to the left-hand side of
 instrumental-variable normal equations (Ljungberg 2022, (7.50)-(7.53)) and the information of
 the rest is the information matrix restricted to their rows and columns (no Schur complement:
 nothing is estimated for the held ones). Each held parameter is named with the manoeuvre that
-fits nowhere but would identify it, and the open water that manoeuvre needs.
+fits nowhere but would identify it, and the open water that manoeuvre needs (or, when the
+water would hold it but its move has no placement reachable from the start, that).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import numpy as np
 
 from expdesign.dopt import ROBUST, InfoSet
 from expdesign.errors import DesignError
+from maps.sizing import water_text
 from primitives.information import PrimitiveInfo, library_information, unidentified_parameters
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
@@ -110,6 +112,7 @@ def what_identifies(profile: ShipProfile, room: SeaRoom, held: list[str], mean_s
         for h in held:
             if h not in out and h not in dead:
                 out[h] = {"primitive": name, "needs_m": [float(need[0]), float(need[1])]}
+                out[h] |= {"unreachable": True} if getattr(need, "reach", False) else {}
         if len(out) == len(held):
             break
     return out
@@ -131,19 +134,29 @@ def held_records(
 
 
 def held_text(rows: list[dict[str, Any]]) -> str:
-    """The plan's held parameters in one line: 'Yur = -0.6433, Nrr = -1.74 (zz_exc_10_5_60 would
-    identify them, needs 10.1 km x 529 m of open water)', grouped by what would identify them."""
+    """The plan's held parameters in one line: 'Yur = -0.6433, Nrr = -1.74 (zz_exc_10_5_60 needs
+    10.1 km x 529 m of open water; it would identify them)', grouped by what would identify them (the water as :func:`maps.sizing.water_text` says it)."""
     groups: dict[str, list[str]] = {}
     for r in rows:
         by = r.get("identified_by")
         how = (
-            f"{by['primitive']} would identify them, needs {_km(by['needs_m'][0])} x {_km(by['needs_m'][1])} of open water"
+            f"{water_text(by['primitive'], by['needs_m'], bool(by.get('unreachable')))}; it would identify them"
             if by
             else "no manoeuvre of the library identifies them here"
         )
         val = f"{r['value']:.4g}" if isinstance(r.get("value"), (int, float)) else "the profile's value"
         groups.setdefault(how, []).append(f"{r['parameter']} = {val}")
     return "; ".join(f"{', '.join(names)} ({how})" for how, names in groups.items())
+
+
+def dropped_text(rows: list[dict[str, Any]], show: int = 4) -> str:
+    """The plan's dropped manoeuvres for the summary: '; stopping dropped (stopping needs 10.6 km x
+    98 m of open water)' each, past ``show`` of them only a count."""
+    parts = [
+        f"; {r['primitive']} dropped ({water_text(r['primitive'], r['needs_m'], bool(r.get('unreachable')))})"
+        for r in rows[:show]
+    ]
+    return "".join(parts) + (f"; and {len(rows) - show} more dropped" if len(rows) > show else "")
 
 
 def _predictor_values(profile: ShipProfile) -> list[float | None]:
@@ -162,7 +175,3 @@ def check_robust(criterion: str) -> None:
             f"--criterion {criterion}: the manoeuvres that fit this map cannot identify every parameter, and holding "
             "parameters is built for the local criteria only: use --criterion D on this map, or a map with more open water"
         )
-
-
-def _km(m: float) -> str:
-    return f"{m / 1000:.1f} km" if m >= 1000 else f"{m:.0f} m"

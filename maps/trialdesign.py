@@ -23,6 +23,7 @@ from expdesign.prior import ParameterPrior
 from expdesign.robust import DrawInformation, draw_information
 from expdesign.rounding import _efficiency, round_design
 from maps.searoom import SeaRoom, check_robust, held_parameters, held_records, reduced_profile, restrict, with_short_forms
+from maps.sizing import km, water_text
 from primitives.information import PrimitiveInfo, library_information
 from primitives.library import Primitive, build_library, thesis_primitives
 from primitives.ship import ShipProfile
@@ -164,6 +165,7 @@ def design_counts(
         )
         dropped = [
             {"primitive": name, "needs_m": [float(need[0]), float(need[1])], "efficiency_loss": float(max(0.0, loss))}
+            | ({"unreachable": True} if getattr(need, "reach", False) else {})
             for name, need in exclude.items()
         ]
         notes.append(
@@ -296,26 +298,25 @@ def _record(
 
 
 def _what_helps(exclude: dict[str, tuple[float, float]]) -> str:
-    """What would let the design plan: a map with the open water the smallest excluded manoeuvre needs,
-    e.g. the open-sea map shipped with the package (60 x 60 km of open water)."""
-    a, c = min(exclude.values(), key=lambda ac: ac[0] * ac[1])
+    """What would let the design plan: a map with the open water the smallest excluded manoeuvre
+    takes (at least that when it is larger than the water, more when its move has no placement
+    reachable: :class:`maps.sizing.Needs`), e.g. the open-sea map shipped with the package (60 x 60 km)."""
+    need = min(exclude.values(), key=lambda ac: ac[0] * ac[1])
+    how = "more than" if getattr(need, "reach", False) else "at least"
     return (
-        f"plan on a map with at least {_km(a)} x {_km(c)} of open water around the start, e.g. the package's open-sea "
-        "map: --map open-sea"
+        f"plan on a map with {how} {km(need[0])} x {km(need[1])} of open water around the start, e.g. the package's "
+        "open-sea map: --map open-sea"
     )
 
 
 def _needs(exclude: dict[str, tuple[float, float]], show: int = 2) -> str:
-    """One short clause: the manoeuvres that fit nowhere, smallest first, with the open water
-    (along x across, margin included) each needs; past ``show`` of them only a count."""
+    """One short clause: the manoeuvres that fit nowhere, smallest first, each with the open water
+    it needs or the move that has no reachable placement (:func:`maps.sizing.water_text`); past
+    ``show`` of them only a count."""
     items = sorted(exclude.items(), key=lambda kv: kv[1][0] * kv[1][1])
-    head = ", ".join(f"{n} needs {_km(a)} x {_km(c)} of open water" for n, (a, c) in items[:show])
+    head = ", ".join(water_text(n, need) for n, need in items[:show])
     more = len(items) - show
     return head + (f" (and {more} more, each larger)" if more > 0 else "")
-
-
-def _km(m: float) -> str:
-    return f"{m / 1000:.1f} km" if m >= 1000 else f"{m:.0f} m"
 
 
 def _dead_count(msg: str) -> str:
