@@ -56,25 +56,17 @@ class ShortForm:
     make: Callable[[], Generated]
 
 
-def _zigzags(profile: ShipProfile, long: str, d: float, side: str) -> list[ShortForm]:
+def _zigzags(
+    profile: ShipProfile, long: str, d: float, psi: float, executes: tuple[int, ...], side: str, what: str, n: float | None = None
+) -> list[ShortForm]:
+    """The zig-zag ``long`` with each of ``executes`` rudder executes (``what``: its description, '{e}' the executes)."""
     return [
         ShortForm(
             f"{long}_e{e}",
-            f"zig-zag {d:g}/{d:g}, first rudder to {side}, {e} rudder executes (IMO)",
-            lambda e=e: hm.zigzag(profile, d, d, first_side=side, n_switches=e - 1, regain=True),
+            what.format(e=e),
+            lambda e=e: hm.zigzag(profile, d, psi, first_side=side, n_rps=n, n_switches=e - 1, regain=True),
         )
-        for e in ZIGZAG_EXECUTES
-    ]
-
-
-def _excitations(profile: ShipProfile, long: str, d: float, psi: float, n: float, pct: int) -> list[ShortForm]:
-    return [
-        ShortForm(
-            f"{long}_e{e}",
-            f"excitation zig-zag {d:g}/{psi:g} at {pct} % of approach rpm, {e} rudder executes",
-            lambda e=e: hm.zigzag(profile, d, psi, n_rps=n, n_switches=e - 1, regain=True),
-        )
-        for e in EXCITATION_EXECUTES
+        for e in executes
     ]
 
 
@@ -154,11 +146,14 @@ def short_form_table(profile: ShipProfile) -> dict[str, list[ShortForm]]:
     table: dict[str, list[ShortForm]] = {}
     for d, s in ((10, "starboard"), (10, "port"), (20, "starboard"), (20, "port")):
         name = f"zigzag_{d}_{d}_{s[0]}"
-        table[name] = _zigzags(profile, name, d, s)
+        table[name] = _zigzags(
+            profile, name, d, d, ZIGZAG_EXECUTES, s, f"zig-zag {d:g}/{d:g}, first rudder to {s}, " + "{e} rudder executes (IMO)"
+        )
     for n, pct in ((n0, 100), (n_slow, round(100 * n_slow / n0))):
         for d, psi in ((10, 5), (min(25, full), 5)):
             name = f"zz_exc_{d:g}_{psi}_{pct}"
-            table[name] = _excitations(profile, name, d, psi, n, pct)
+            what = f"excitation zig-zag {d:g}/{psi:g} at {pct} % of approach rpm, " + "{e} rudder executes"
+            table[name] = _zigzags(profile, name, d, psi, EXCITATION_EXECUTES, "starboard", what, n)
     for s in ("starboard", "port"):
         name = f"turning_circle_{full:g}_{s[0]}"
         table[name] = _turns(profile, name, s)
