@@ -169,3 +169,21 @@ def test_bad_astern_declarations_exit_2_in_one_line(tmp_path, capsys, edit, word
     rc = _run(["primitives", "--ship", str(p)])
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1 and err.startswith("error:") and words in err, err
+
+
+def test_held_design_information_is_gammas_principal_submatrix_in_every_mean_subtraction(kvlcc2, kvlcc2_lib):
+    """With the held parameters known, their regressors move to the left-hand side and the design's
+    information for the rest is Gamma's principal submatrix (no Schur complement), whatever the
+    instrument-mean subtraction: restricting each primitive's moments must give exactly that."""
+    from expdesign.dopt import InfoSet
+    from maps.searoom import restrict
+    from primitives.information import MEAN_SUBTRACTION, library_information
+
+    infos = library_information(kvlcc2, by_name(kvlcc2_lib, ["zigzag_10_10_s", "stopping"]))
+    names = kvlcc2.predictor_param_names
+    keep = np.array([n not in ("Xvr", "Nrr", "Ydnn") for n in names])
+    w = np.array([0.3, 0.7])
+    for ms in MEAN_SUBTRACTION:
+        whole = InfoSet.from_infos(infos).gamma(w, ms)
+        part = InfoSet.from_infos(restrict(infos, keep)).gamma(w, ms)
+        assert np.allclose(part, whole[np.ix_(keep, keep)], rtol=1e-12, atol=0.0), ms
