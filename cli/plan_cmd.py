@@ -88,6 +88,7 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
     from rich.table import Table
 
     from expdesign.robust_report import PROVENANCE
+    from maps.searoom import dropped_text, held_text
 
     con = Console()
     st = result.stats
@@ -109,12 +110,10 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
         t.add_row(
             "design",
             f"{d['criterion']}-optimal, {d['mean_subtraction']} mean subtraction; rounded D-efficiency "
-            f"{d['d_efficiency']:.3f}"
-            + "".join(
-                f"; {x['primitive']} dropped (needs {x['needs_m'][0]:.0f} x {x['needs_m'][1]:.0f} m)"
-                for x in d.get("dropped", [])
-            ),
+            f"{d['d_efficiency']:.3f}" + dropped_text(d.get("dropped", [])),
         )
+        if d.get("held_parameters"):
+            t.add_row("held at the profile's values", held_text(d["held_parameters"]))
         if d.get("robust"):
             r = d["robust"]
             t.add_row(

@@ -170,12 +170,13 @@ class Lattice:
     def fits_nowhere(self) -> dict[str, tuple[float, float]]:
         """Informative primitives with no collision-free placement in the water the ship can use
         (reachable from the start, the goal reachable after it): {name: (along, cross) metres of
-        open water the move needs, margin included on both sides}."""
+        water the move takes, margin included on both sides, as :class:`maps.sizing.Needs` that
+        says which of the two it is: too large for the water, or no placement reachable}."""
         out: dict[str, tuple[float, float]] = dict(self.too_big)
         used = self._usable_moves()
         for mi, m in enumerate(self.moves):
             if m.counter >= 0 and mi not in used:
-                out[m.source or m.name] = needs(m.prims[0], self.options.margin)
+                out[m.source or m.name] = needs(m.prims[0], self.options.margin, reach=True)
         return out
 
     def _usable_moves(self) -> set[int]:

@@ -170,6 +170,33 @@ PLAN_SCHEMA: dict[str, Any] = {
                             "primitive": NAME,
                             "needs_m": {"type": "array", "minItems": 2, "maxItems": 2, "items": _num(0.0, 1e8)},
                             "efficiency_loss": {"anyOf": [{"type": "null"}, _num(-10.0, 10.0)]},
+                            "unreachable": {"type": "boolean"},
+                        },
+                    },
+                },
+                # issue 28: parameters the manoeuvres that fit cannot identify (maps.searoom.held_records)
+                "held_parameters": {
+                    "type": "array",
+                    "items": {
+                        "type": "object",
+                        "required": ["parameter"],
+                        "properties": {
+                            "parameter": NAME,
+                            "value": {"anyOf": [{"type": "null"}, _num(-1e12, 1e12)]},
+                            "identified_by": {
+                                "anyOf": [
+                                    {"type": "null"},
+                                    {
+                                        "type": "object",
+                                        "required": ["primitive", "needs_m"],
+                                        "properties": {
+                                            "primitive": NAME,
+                                            "needs_m": {"type": "array", "minItems": 2, "maxItems": 2, "items": _num(0.0, 1e8)},
+                                            "unreachable": {"type": "boolean"},
+                                        },
+                                    },
+                                ]
+                            },
                         },
                     },
                 },

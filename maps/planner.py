@@ -26,7 +26,7 @@ from maps.geo import MapError, SeaMap, load_map
 from maps.motionset import default_resolution, resolve_primitives
 from maps.plan import Plan
 from maps.scenario import thesis_planning_scenario
-from maps.trialdesign import FirstDesign, TrialDesign, design_for_map
+from maps.trialdesign import FirstDesign, TrialDesign, TrialTooShort, design_for_map
 from primitives.library import Primitive
 from primitives.ship import ShipProfile, load_profile
 
@@ -113,7 +113,10 @@ def plan_with_design(
         first = None
         if first_design is not None:
             prepare_basic_moves(sea, prof, o, cache, start=start, goal=goal)
-            first = first_design()
+            try:
+                first = first_design()
+            except TrialTooShort:  # design_for_map sees whether what fits the map needs less time
+                first = None
         td = design_for_map(
             prof,
             fits_nowhere,

@@ -103,7 +103,43 @@ def _fits_box(p: Primitive, parts: tuple[np.ndarray, float] | None, psi: float, 
     return bool(b[2] - b[0] + 2 * margin <= room[0] and b[3] - b[1] + 2 * margin <= room[1])
 
 
-def needs(p: Primitive, margin: float) -> tuple[float, float]:
-    """(along, cross) metres of open water ``p`` needs: its footprint's extent plus ``margin`` on both sides."""
+class Needs(tuple):
+    """(along, cross) metres a manoeuvre that fits nowhere takes, ``margin`` included on both sides
+    (a plain pair to every reader), and why it fits nowhere: ``reach`` False when its footprint is
+    larger than the navigable water in every heading (the water it needs at least); True when the
+    water's extent would hold it but no collision-free placement of its move (run-in, manoeuvre
+    and the autopilot's settling leg) is reachable from the start with the goal reachable after it
+    (then the pair is the move's extent, and the water it needs is more than that)."""
+
+    reach: bool
+
+    def __new__(cls, along: float, cross: float, reach: bool = False) -> Needs:
+        obj = super().__new__(cls, (float(along), float(cross)))
+        obj.reach = bool(reach)
+        return obj
+
+    def __getnewargs__(self) -> tuple[float, float, bool]:  # pickles with its reason
+        return (self[0], self[1], self.reach)
+
+
+def needs(p: Primitive, margin: float, reach: bool = False) -> Needs:
+    """(along, cross) metres of open water ``p`` takes: its footprint's extent plus ``margin`` on both
+    sides (``reach``: see :class:`Needs`)."""
     b = p.footprint.bounds
-    return float(b[2] - b[0] + 2 * margin), float(b[3] - b[1] + 2 * margin)
+    return Needs(b[2] - b[0] + 2 * margin, b[3] - b[1] + 2 * margin, reach)
+
+
+def km(m: float) -> str:
+    """A length for a message: '6.2 km', or '530 m' below a kilometre."""
+    return f"{m / 1000:.1f} km" if m >= 1000 else f"{m:.0f} m"
+
+
+def water_text(name: str, need: tuple[float, float], reach: bool | None = None) -> str:
+    """What ``name`` that fits nowhere takes, truthfully for either reason (:class:`Needs`;
+    ``reach`` None: read from ``need``): 'stopping needs 10.6 km x 98 m of open water', or
+    'pull_out_20_s (6.7 km x 5.4 km with run-in and settling leg) has no reachable placement' (none
+    reachable from the start with the goal reachable after it; one line with the others stays short)."""
+    a, c = float(need[0]), float(need[1])
+    if reach if reach is not None else getattr(need, "reach", False):
+        return f"{name} ({km(a)} x {km(c)} with run-in and settling leg) has no reachable placement"
+    return f"{name} needs {km(a)} x {km(c)} of open water"

@@ -76,3 +76,16 @@ def open_sea(lat0: float = 57.0, lon0: float = 11.0, size_m: float = 60_000.0) -
         _feature("goal", shapely.Point(0.9 * S, 0.9 * S), lat0, lon0),
     ]
     return {"type": "FeatureCollection", "name": f"open sea {S / 1000:.0f} x {S / 1000:.0f} km (synthetic)", "features": feats}
+
+
+def bay(lat0: float = 60.0, lon0: float = 5.0, length_m: float = 8_000.0, width_m: float = 6_000.0) -> dict:
+    """``length_m`` (north) x ``width_m`` (east) of navigable water, start in the south-west heading
+    north, goal ``width_m`` / 2 to the east of it: a VLCC turns round once to reach it (the
+    issue-28 fjord piece of about 8 x 6 km, where the library's long manoeuvres fit nowhere)."""
+    L, W = length_m, width_m
+    feats = [
+        _feature("trial_area", shapely.box(0, 0, L, W), lat0, lon0),
+        _feature("start", shapely.Point(L / 8, W / 4), lat0, lon0, heading_deg=0.0),
+        _feature("goal", shapely.Point(L / 8, 3 * W / 4), lat0, lon0),
+    ]
+    return {"type": "FeatureCollection", "name": f"bay {L / 1000:.0f} x {W / 1000:.0f} km (synthetic)", "features": feats}

@@ -22,6 +22,8 @@ from expdesign.errors import DesignError
 from expdesign.prior import ParameterPrior
 from expdesign.robust import DrawInformation, draw_information
 from expdesign.rounding import _efficiency, round_design
+from maps.searoom import SeaRoom, check_robust, held_parameters, held_records, reduced_profile, restrict, with_short_forms
+from maps.sizing import km, water_text
 from primitives.information import PrimitiveInfo, library_information
 from primitives.library import Primitive, build_library, thesis_primitives
 from primitives.ship import ShipProfile
@@ -56,6 +58,12 @@ class NoFitError(DesignError):
     """The design's manoeuvres fit nowhere on the map (the CLI exits 1: the map, not the input, is short)."""
 
 
+class TrialTooShort(DesignError):
+    """The trial length cannot hold one of each manoeuvre the design needs, or even one
+    manoeuvre (what fits a small map may need fewer or shorter: :func:`design_for_map` tries
+    that before it says so)."""
+
+
 def ship_library(profile: ShipProfile) -> list[Primitive]:
     """The informative primitives the design chooses from: the profile's thesis dictionary (what
     ``shiptrial design`` uses), else every informative manoeuvre of its library."""
@@ -84,7 +92,7 @@ def _whole_manoeuvres(
     total = int(round(trial_s / ts))
     if total < units.min():
         short = min(prims, key=lambda p: p.n_samples)
-        raise DesignError(
+        raise TrialTooShort(
             f"--trial-length {trial_s:g} s is shorter than one manoeuvre (the shortest, {short.name}, "
             f"lasts {short.duration_s:.0f} s): give --trial-length >= {short.duration_s:.0f}"
         )
@@ -97,7 +105,7 @@ def _whole_manoeuvres(
     sel = weights > 1e-9
     if not np.isfinite(info.value(counts * units / max(1, counts @ units), mean_subtraction, "D")):
         need = float(units[sel].sum() * ts)
-        raise DesignError(
+        raise TrialTooShort(
             f"--trial-length {trial_s:g} s cannot hold one of each manoeuvre the design needs "
             f"({', '.join(p.name for p, s in zip(prims, sel) if s)}): give --trial-length >= {need:.0f}"
         )
@@ -157,6 +165,7 @@ def design_counts(
         )
         dropped = [
             {"primitive": name, "needs_m": [float(need[0]), float(need[1])], "efficiency_loss": float(max(0.0, loss))}
+            | ({"unreachable": True} if getattr(need, "reach", False) else {})
             for name, need in exclude.items()
         ]
         notes.append(
@@ -289,26 +298,25 @@ def _record(
 
 
 def _what_helps(exclude: dict[str, tuple[float, float]]) -> str:
-    """What would let the design plan: a map with the open water the smallest excluded manoeuvre needs,
-    e.g. the open-sea map shipped with the package (60 x 60 km of open water)."""
-    a, c = min(exclude.values(), key=lambda ac: ac[0] * ac[1])
+    """What would let the design plan: a map with the open water the smallest excluded manoeuvre
+    takes (at least that when it is larger than the water, more when its move has no placement
+    reachable: :class:`maps.sizing.Needs`), e.g. the open-sea map shipped with the package (60 x 60 km)."""
+    need = min(exclude.values(), key=lambda ac: ac[0] * ac[1])
+    how = "more than" if getattr(need, "reach", False) else "at least"
     return (
-        f"plan on a map with at least {_km(a)} x {_km(c)} of open water around the start, e.g. the package's open-sea "
-        "map: --map open-sea"
+        f"plan on a map with {how} {km(need[0])} x {km(need[1])} of open water around the start, e.g. the package's "
+        "open-sea map: --map open-sea"
     )
 
 
 def _needs(exclude: dict[str, tuple[float, float]], show: int = 2) -> str:
-    """One short clause: the manoeuvres that fit nowhere, smallest first, with the open water
-    (along x across, margin included) each needs; past ``show`` of them only a count."""
+    """One short clause: the manoeuvres that fit nowhere, smallest first, each with the open water
+    it needs or the move that has no reachable placement (:func:`maps.sizing.water_text`); past
+    ``show`` of them only a count."""
     items = sorted(exclude.items(), key=lambda kv: kv[1][0] * kv[1][1])
-    head = ", ".join(f"{n} needs {_km(a)} x {_km(c)} of open water" for n, (a, c) in items[:show])
+    head = ", ".join(water_text(n, need) for n, need in items[:show])
     more = len(items) - show
     return head + (f" (and {more} more, each larger)" if more > 0 else "")
-
-
-def _km(m: float) -> str:
-    return f"{m / 1000:.1f} km" if m >= 1000 else f"{m:.0f} m"
 
 
 def _dead_count(msg: str) -> str:
@@ -387,33 +395,72 @@ def design_for_map(
     :func:`first_design` of the same profile, library and options, computed already.
     """
     criterion = canonical_criterion(criterion)
+    too_short: TrialTooShort | None = None
     if first is None:
-        first = first_design(
-            profile,
-            library,
-            criterion=criterion,
-            mean_subtraction=mean_subtraction,
-            trial_length_s=trial_length_s,
-            seed=seed,
-            parameter_prior=parameter_prior,
-        )
-    lib, infos, td, baseline = first.library, first.infos, first.design, first.baseline
-    exclude: dict[str, tuple[float, float]] = {}
+        kw = dict(criterion=criterion, mean_subtraction=mean_subtraction, seed=seed, parameter_prior=parameter_prior)
+        try:
+            first = first_design(profile, library, trial_length_s=trial_length_s, **kw)
+        except TrialTooShort as exc:  # the whole library's mix needs more time: what fits the map may need less
+            too_short = exc
+            first = first_design(profile, library, **kw)
+    room = SeaRoom(list(first.library), list(first.infos), {}, set())
+    td, draws = first.design, first.draws
+    # the trial length of the redesigns: the one asked for, else the first design's (the ship's library once)
+    lengths = [trial_length_s if trial_length_s is not None else first.design.record["trial_length_s"]]
+    lengths.append(first.design.record["trial_length_s"])  # to learn the support when the asked one is too short for it
     while True:
         bad = fits_nowhere(td.support(), td.counts)
         if not bad:
+            if too_short is not None:
+                raise too_short
             return td
-        exclude.update(bad)
-        td = design_counts(
-            profile,
-            lib,
-            criterion=criterion,
-            mean_subtraction=mean_subtraction,
-            trial_length_s=trial_length_s,
-            seed=seed,
-            exclude=exclude,
-            infos=infos,
-            baseline=baseline,
-            parameter_prior=parameter_prior,
-            draws=first.draws,
-        )
+        room.exclude.update(bad)
+        if with_short_forms(profile, room, fits_nowhere) and draws is not None:  # the draws' matrices of the new ones too
+            draws = draw_information(profile, room.library, parameter_prior, mean_subtraction, held_out=True)
+        for i, trial_s in enumerate(lengths):
+            try:
+                td = _redesign(profile, room, first, trial_s, criterion, mean_subtraction, seed, parameter_prior, draws)
+                too_short = None if i == 0 else too_short  # only the length asked for clears it
+                break
+            except TrialTooShort as exc:
+                if i == len(lengths) - 1:
+                    raise
+                too_short = exc
+
+
+def _redesign(
+    profile: ShipProfile,
+    room: SeaRoom,
+    first: FirstDesign,
+    trial_s: float,
+    criterion: str,
+    mean_subtraction: str,
+    seed: int,
+    parameter_prior: ParameterPrior | None,
+    draws: DrawInformation | None,
+) -> TrialDesign:
+    """The design over what fits the map so far; the parameters it cannot identify held."""
+    opts = dict(criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_s, seed=seed)
+    try:
+        return design_counts(
+            profile, room.library, **opts, exclude=room.exclude, infos=room.infos, baseline=first.baseline,
+            parameter_prior=parameter_prior, draws=draws,
+        )  # fmt: skip
+    except NoFitError:
+        held = held_parameters(profile, room, mean_subtraction)
+        if not room.fitting or not held:
+            raise
+        check_robust(criterion)
+        return _held_design(profile, room, held, opts)
+
+
+def _held_design(profile: ShipProfile, room: SeaRoom, held: list[str], opts: dict[str, Any]) -> TrialDesign:
+    """The design over the parameters what fits can identify, the others held at the profile's
+    values; its record lists them (:func:`maps.searoom.held_records`)."""
+    keep = np.array([n not in held for n in profile.predictor_param_names])
+    reduced = reduced_profile(profile, held)
+    td = design_counts(reduced, room.library, **opts, exclude=room.exclude, infos=restrict(room.infos, keep))
+    rows, notes = held_records(profile, room, held, opts["mean_subtraction"])
+    td.record["held_parameters"] = rows
+    td.notes[1:1] = notes
+    return td

@@ -116,6 +116,53 @@ class HelmLoop:
         return Generated(None, self.nu0, list(self.splits), inputs=inputs, orders=list(self.orders))
 
 
+REGAIN_TOL = 0.01  # share of the approach speed below it at which a regained speed counts as regained
+HELM_DEG = 10.0  # rudder that brings the ship back to the initial course, and meets her swing
+SWING_DEG_S = 0.02  # a yaw rate below it is steady
+ON_COURSE_DEG = 1.0  # a heading within it of the initial course is on it
+
+
+def regain_speed(loop: HelmLoop, n_rps: float, u: float, course: float | None = 0.0) -> None:
+    """Back on the initial course with the engine full ahead, then the approach rpm ``n_rps`` once
+    the speed is within ``REGAIN_TOL`` of ``u``: how a master regains speed and course after a
+    manoeuvre in confined water, rather than waiting for the approach rpm to bring the speed
+    back (and a course-unstable hull left midships keeps turning). The helm in whole orders:
+    rudder towards the initial course, counter-rudder ("meet her") when the swing would carry the
+    ship onto it within two ship lengths' sailing, midships ("steady") once the swing is met
+    (``course``: the heading change from the initial course to steer onto, deg; None: the swing
+    met on whatever heading she has)."""
+    p = loop.p
+    lead = 2.0 * p.length_m / max(u, 1e-6)
+    loop.helm(0.0, "midships")
+    if loop.nu[0] < (1 - REGAIN_TOL) * u:
+        loop.engine(p.engine.rps_limits[1], "full ahead: regain speed")
+    n_max = loop.k + _lengths(p, u, 60)
+    phase = "steady"
+    while loop.k < n_max:
+        h, r = loop.heading_deg - (course or 0.0), loop.yaw_rate_deg_s
+        slow = loop.nu[0] < (1 - REGAIN_TOL) * u
+        if course is None:  # any heading will do: meet the swing where she is
+            h = 0.0
+        onto = (h + r * lead) * h <= 0  # the swing carries her onto the course within the lead
+        if phase != "meet" and abs(r) >= SWING_DEG_S and onto:
+            phase = "meet"
+            loop.helm(-np.sign(r) * HELM_DEG, "meet her")
+        elif phase == "meet" and abs(r) < SWING_DEG_S:
+            phase = "steady"
+            loop.helm(0.0, "steady, midships")
+        elif phase == "steady" and abs(h) > ON_COURSE_DEG and not onto:
+            phase = "return"
+            loop.helm(-np.sign(h) * HELM_DEG, "back to the initial course")
+        elif phase == "steady" and abs(h) <= ON_COURSE_DEG and abs(r) < SWING_DEG_S and not slow:
+            break
+        if not slow and loop.cmd_n != n_rps:
+            loop.engine(n_rps, "back to approach rpm")
+        loop.step()
+    if loop.cmd_n != n_rps:
+        loop.engine(n_rps, "back to approach rpm")
+    loop.step()
+
+
 def _approach(profile: ShipProfile, n_rps: float | None) -> tuple[float, float]:
     """(rps, steady speed) of the approach: cruise speed by default."""
     if n_rps is None:
@@ -136,9 +183,11 @@ def zigzag(
     first_side: str = "starboard",
     n_switches: int = 4,
     n_rps: float | None = None,
+    regain: bool = False,
 ) -> Generated:
     """Zig-zag delta/psi (IMO): rudder to one side, counter-rudder each time the heading change
-    passes psi; ends at the heading after ``n_switches`` rudder reversals."""
+    passes psi; ends at the heading after ``n_switches`` rudder reversals (``regain``: then
+    :func:`regain_speed`)."""
     n, u = _approach(profile, n_rps)
     loop = HelmLoop(profile, (u, 0.0, 0.0), n)
     s = side_sign(first_side)
@@ -153,6 +202,8 @@ def zigzag(
             loop.splits.append(loop.k)
             loop.helm(s * delta_deg, at_heading=True)
         loop.step()
+    if regain:
+        regain_speed(loop, n, u, course=None)
     return loop.generated()
 
 
@@ -163,18 +214,24 @@ def turning_circle(
     side: str = "starboard",
     turns: float = 1.0,
     n_rps: float | None = None,
+    regain: bool = False,
 ) -> Generated:
-    """Turning circle: full (or ``delta_deg``) rudder held until the heading has changed 360 deg x turns."""
+    """Turning circle: full (or ``delta_deg``) rudder held until the heading has changed 360 deg x
+    turns (``regain``: the rudder eased two ship lengths' sailing before, then
+    :func:`regain_speed` onto that heading change)."""
     n, u = _approach(profile, n_rps)
     delta = profile.helm.max_rudder_deg if delta_deg is None else delta_deg
     loop = HelmLoop(profile, (u, 0.0, 0.0), n)
     loop.engine(n, "approach, hold")
     loop.helm(side_sign(side) * delta, "execute, hold")
     n_max = _lengths(profile, u, 200)
-    while loop.k < n_max and abs(loop.heading_deg) < 360.0 * turns:
+    lead = 2.0 * profile.length_m / u if regain else 0.0
+    while loop.k < n_max and abs(loop.heading_deg) + lead * abs(loop.yaw_rate_deg_s) < 360.0 * turns:
         loop.step()
     k = loop.k
     loop.splits = [k // 4, k // 2, 3 * k // 4]
+    if regain:
+        regain_speed(loop, n, u, course=side_sign(side) * 360.0 * turns)
     return loop.generated()
 
 
@@ -202,10 +259,16 @@ DIEUDONNE_STEPS = (15.0, 10.0, 5.0, 2.0, 0.0, -2.0, -5.0, -10.0, -15.0, -10.0, -
 
 
 def direct_spiral(
-    profile: ShipProfile, steps_deg: tuple[float, ...] = DIEUDONNE_STEPS, *, hold_lengths: float = 5.0, n_rps: float | None = None
+    profile: ShipProfile,
+    steps_deg: tuple[float, ...] = DIEUDONNE_STEPS,
+    *,
+    hold_lengths: float = 5.0,
+    n_rps: float | None = None,
+    regain: bool = False,
 ) -> Generated:
     """Direct (Dieudonne) spiral: rudder steps (+ starboard), each held ``hold_lengths`` ship
-    lengths for the yaw rate to settle; the engine setting is left unchanged (ITTC)."""
+    lengths for the yaw rate to settle; the engine setting is left unchanged (ITTC)
+    (``regain``: then :func:`regain_speed`)."""
     n, u = _approach(profile, n_rps)
     loop = HelmLoop(profile, (u, 0.0, 0.0), n)
     loop.engine(n, "approach, leave unchanged")
@@ -215,15 +278,24 @@ def direct_spiral(
             loop.splits.append(loop.k)
         loop.helm(d, f"hold {m * profile.sample_time:.0f} s")
         loop.step(m)
+    if regain:
+        regain_speed(loop, n, u)
     return loop.generated()
 
 
 def speed_change(
-    profile: ShipProfile, rps_from: float, rps_to: float, *, until_speed: float | None = None, max_lengths: float = 40.0
+    profile: ShipProfile,
+    rps_from: float,
+    rps_to: float,
+    *,
+    until_speed: float | None = None,
+    max_lengths: float = 40.0,
+    regain: bool = False,
 ) -> Generated:
     """Engine step from steady ``rps_from`` to ``rps_to`` with the rudder midships: an
     acceleration or a deceleration, run until the speed is within 2 % of the change from its
-    new steady value (or ``until_speed`` is passed, or ``max_lengths`` ship lengths)."""
+    new steady value (or ``until_speed`` is passed, or ``max_lengths`` ship lengths);
+    ``regain``: then back to the approach speed by :func:`regain_speed`."""
     u0 = steady_speed(profile, rps_from)
     u1 = steady_speed(profile, rps_to) if until_speed is None else until_speed
     loop = HelmLoop(profile, (u0, 0.0, 0.0), rps_from)
@@ -240,23 +312,26 @@ def speed_change(
             until_speed is None and abs(loop.nu[0] - u1) < tol
         ):
             break
+    if regain:
+        regain_speed(loop, steady_rps(profile), profile.cruise_speed_mps)
     return loop.generated()
 
 
-def goes_astern(profile: ShipProfile) -> bool:
-    """Whether the profile's engine goes astern and the model's thrust reverses with it (the
-    stopping manoeuvre is then a full-astern crash stop)."""
+def has_astern(profile: ShipProfile) -> bool:
+    """Whether the engine goes astern (rps_limits below 0, e.g. from [engine] astern_rpm) and the
+    model's thrust reverses with it (a ship at rest gathers sternway; the stopping manoeuvre is then
+    a full-astern crash stop)."""
     lo = profile.engine.rps_limits[0]
     return bool(lo < 0 and _surge_increment(profile, profile.params(), 0.0, lo) < 0)
 
 
 def stopping(profile: ShipProfile) -> tuple[Generated, str]:
     """Stopping from cruise speed within what the engine allows: full astern until stopped when
-    the engine goes astern (:func:`goes_astern`); otherwise engine stop, coasting until the speed
+    the engine goes astern (:func:`has_astern`); otherwise engine stop, coasting until the speed
     has halved. Returns the manoeuvre and its description."""
     n0 = steady_rps(profile)
     lo = profile.engine.rps_limits[0]
-    if goes_astern(profile):
+    if has_astern(profile):
         return speed_change(profile, n0, lo, until_speed=0.0), "crash stop: full astern from cruise speed until stopped"
     return (
         speed_change(profile, n0, 0.0, until_speed=0.5 * profile.cruise_speed_mps),

@@ -23,7 +23,7 @@ POD_MODEL_KEYS = ("rho", "diameter", "strut_area", "c_mx1", "c_mx2", "c_my1", "c
 RIGID_BODY_KEYS = ("mass", "I_x", "I_z", "x_g", "z_g") + ADDED_MASS_KEYS
 POD_KEYS = ("name", "x", "y", "z")
 HELM_KEYS = ("max_rudder_deg", "rudder_rate_deg_s", "starboard_sign")
-ENGINE_KEYS = ("rps_limits", "rps_rate", "mcr_rpm", "approach_rpm")
+ENGINE_KEYS = ("rps_limits", "rps_rate", "mcr_rpm", "approach_rpm", "astern_rpm")
 
 
 @dataclass(frozen=True)
@@ -56,13 +56,16 @@ class Engine:
     rps_limits: propeller speed range [rev/s] (default the input limits of ``n``); rps_rate:
     fastest change of the shaft speed [rev/s per s] (None: steps); mcr_rpm: shaft rpm at MCR,
     for % MCR under the propeller law (power ~ rpm^3); approach_rpm: the rpm the source ran
-    its trials at (compared with the model's steady rpm for the cruise speed).
+    its trials at (compared with the model's steady rpm for the cruise speed); astern_rpm: the
+    most the engine turns astern, in rpm (None: no astern power; declared, the lower end of
+    ``rps_limits`` is -astern_rpm / 60 and the model's thrust must reverse with the shaft).
     """
 
     rps_limits: tuple[float, float] = (0.0, np.inf)
     rps_rate: float | None = None
     mcr_rpm: float | None = None
     approach_rpm: float | None = None
+    astern_rpm: float | None = None
 
 
 def _numbers(
@@ -128,10 +131,17 @@ def _positive(table: dict, section: str, key: str, src: str, hint: str, err: typ
 
 
 def parse_helm_engine(
-    d: dict, src: str, limits: dict, starboard_sign: Callable[[], float], err: type[UserError]
+    d: dict,
+    src: str,
+    limits: dict,
+    starboard_sign: Callable[[], float],
+    err: type[UserError],
+    astern_thrust: Callable[[float], float] | None = None,
 ) -> tuple[Helm, Engine]:
     """[helm] and [engine] of a rudder/propeller profile, defaults from the input limits;
-    ``starboard_sign()`` derives the helm's sign from the model when [helm] does not state it."""
+    ``starboard_sign()`` derives the helm's sign from the model when [helm] does not state it;
+    ``astern_thrust(rps)``: the model's surge force at rest with the shaft at ``rps`` (checks
+    that a declared astern_rpm reverses the thrust)."""
     h = d.get("helm", {})
     e = d.get("engine", {})
     for key, tab, accepted in (("helm", h, HELM_KEYS), ("engine", e, ENGINE_KEYS)):
@@ -171,10 +181,43 @@ def parse_helm_engine(
     for key, value in rpms.items():
         if value is not None:
             check_rpm(key, value, float(rps[1]), src, err)
+    astern = _astern(e, src, rps, limits, astern_thrust, err)
     engine = Engine(
-        (float(rps[0]), float(rps[1])),
+        (-astern / 60.0 if astern else float(rps[0]), float(rps[1])),
         _positive(e, "engine", "rps_rate", src, "the fastest shaft-speed change in rev/s per second", err),
         rpms["mcr_rpm"],
         rpms["approach_rpm"],
+        astern,
     )
     return Helm(max_deg, rate, float(sign)), engine
+
+
+def _astern(
+    e: dict, src: str, rps: list, limits: dict, astern_thrust: Callable[[float], float] | None, err: type[UserError]
+) -> float | None:
+    """[engine] astern_rpm, checked: above 0 and at most the ahead rpm (a fixed-pitch propeller
+    turns astern no faster than ahead), within input_limits.n, consistent with rps_limits, and
+    the model's thrust reverses with the shaft (a thrust term even in n, ``n^2``, does not)."""
+    value = _positive(e, "engine", "astern_rpm", src, "the most astern shaft rpm, a positive number, e.g. 60", err)
+    if value is None:
+        return None
+    ahead = 60.0 * float(rps[1])
+    if value > ahead + 1e-9:
+        raise err(f"{src}: field 'engine.astern_rpm' = {value:g} exceeds the ahead maximum {ahead:g} rpm; give at most {ahead:g}")
+    n_lo = limits.get("n", (-np.inf, np.inf))[0]
+    if -value / 60.0 < n_lo - 1e-12:
+        raise err(
+            f"{src}: field 'engine.astern_rpm' = {value:g} needs input_limits.n down to {-value / 60:.4g} rev/s "
+            f"(it starts at {n_lo:g}): lower input_limits.n[0] or remove astern_rpm"
+        )
+    if "rps_limits" in e and rps[0] not in (0, 0.0) and abs(rps[0] + value / 60.0) > 1e-9:
+        raise err(
+            f"{src}: field 'engine.rps_limits' starts at {rps[0]:g} rev/s, but astern_rpm = {value:g} means "
+            f"{-value / 60:.4g}: give rps_limits[0] = 0 (astern_rpm sets the astern end) or drop astern_rpm"
+        )
+    if astern_thrust is not None and not astern_thrust(-value / 60.0) < 0.0:
+        raise err(
+            f"{src}: field 'engine.astern_rpm': the model's surge terms do not reverse the thrust at {-value:g} rpm "
+            "(a thrust term even in n, such as n^2, pushes ahead astern too): write the thrust as n*|n| or remove astern_rpm"
+        )
+    return value

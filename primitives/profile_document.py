@@ -291,7 +291,9 @@ def _helm_engine(
         raise ProfileError(
             f"{src}: field 'inputs' of a rudder_propeller profile must be ['delta', 'n'] (rudder rad, propeller rev/s)"
         )
-    return parse_helm_engine(d, src, limits, lambda: _starboard_sign(model, theta, cruise), ProfileError)
+    return parse_helm_engine(
+        d, src, limits, lambda: _starboard_sign(model, theta, cruise), ProfileError, lambda n: _thrust_at_rest(model, theta, n)
+    )
 
 
 PRIOR_KEYS = ("std", "source", "draws", "seed")
@@ -592,6 +594,13 @@ def _starboard_sign(model: TermSet, theta: np.ndarray, cruise: float) -> float:
         sig = {k: 0.0 for k in BASE_SIGNALS} | {"u": cruise, "u_r": cruise, "u_q": cruise, "U": cruise, "delta": delta, "n": 0.0}
         rates.append(float(model.increments(sig, theta)[2]))
     return 1.0 if rates[1] >= rates[0] else -1.0
+
+
+def _thrust_at_rest(model: TermSet, theta: np.ndarray, n: float) -> float:
+    """Surge increment of the model at rest, rudder midships, shaft at ``n`` rev/s."""
+    # U is a divisor (floored in the kernel); at rest every term it divides holds a zero velocity
+    sig = {k: 0.0 for k in BASE_SIGNALS} | {"U": 1.0, "delta": 0.0, "n": n}
+    return float(model.increments(sig, theta)[0])
 
 
 def read_profile_file(path: Path) -> ShipProfile:

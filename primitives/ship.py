@@ -255,7 +255,7 @@ class ShipProfile:
                 "starboard_sign": h.starboard_sign,
             }
             d["engine"] = {"rps_limits": list(e.rps_limits)} | {
-                k: getattr(e, k) for k in ("rps_rate", "mcr_rpm", "approach_rpm") if getattr(e, k) is not None
+                k: getattr(e, k) for k in ("rps_rate", "mcr_rpm", "approach_rpm", "astern_rpm") if getattr(e, k) is not None
             }
         if self.prior_std is not None and self.prior_std.shape == (self.model.n_params,):
             d["prior"] = {"std": {dof: self.prior_std[self.model.dof_slice(i)].tolist() for i, dof in enumerate(self.dofs)}}

@@ -67,6 +67,10 @@ def test_a_map_too_small_says_what_would_help_and_the_open_sea_map_ships():
 
     text = _what_helps({"zigzag_10_10_s": (6200.0, 2100.0), "turning_circle_35_s": (9000.0, 9000.0)})
     assert "at least 6.2 km x 2.1 km of open water" in text and text.endswith("--map open-sea")
+    # a move that fits the water's extent but has no reachable placement (issue 28): it needs more than that
+    from maps.sizing import Needs
+
+    assert "more than 6.2 km x 2.1 km of open water" in _what_helps({"zigzag_10_10_s": Needs(6200.0, 2100.0, reach=True)})
     sea = load_map("open-sea")  # the name given as --map loads the shipped map
     assert sea.source == str(bundled_map_path("open-sea"))
     assert sea.start is not None and sea.goal is not None

@@ -326,7 +326,7 @@ def test_a_built_profile_has_no_astern_so_the_imo_stop_is_said_unchecked():
     from primitives.particulars.trials import describe
 
     prof = kvlcc2_built().profile
-    assert prof.engine.rps_limits[0] == 0.0 and not hm.goes_astern(prof)
+    assert prof.engine.rps_limits[0] == 0.0 and not hm.has_astern(prof)
     fig = standard_trials(prof)
     assert fig.stop_track_l is None
     assert "stopping criterion (full-astern track reach) is not checked" in describe(fig, prof.length_m)[-1]
@@ -342,7 +342,7 @@ def test_a_full_astern_stop_gets_its_track_reach_measured_from_the_execute_point
     from primitives.particulars.trials import imo_warnings
 
     prof = kvlcc2_built().profile
-    monkeypatch.setattr(hm, "goes_astern", lambda profile: True)
+    monkeypatch.setattr(hm, "has_astern", lambda profile: True)
     fig = standard_trials(prof)
     gen, what = hm.stopping(prof)
     st = make_primitive(prof, "stop", what, gen)

@@ -98,3 +98,21 @@ def test_old_plan_json_still_loads():
 def test_unknown_segment_rejected():
     with pytest.raises(ValueError, match="segment"):
         _step(0, "basic", segment="approach")
+
+
+def test_held_parameters_round_trip_and_a_malformed_row_is_refused_in_one_line():
+    """Issue 28's design rows: the card words them from the file, so a hand-edited row is refused
+    naming the field (before, a string 'identified_by' loaded and the card export raised a TypeError)."""
+    from maps.plan import PlanError
+
+    held = [
+        {"parameter": "Yur", "value": -0.64, "identified_by": {"primitive": "q", "needs_m": [900.0, 400.0], "unreachable": True}},
+        {"parameter": "Nrr", "value": -1.7, "identified_by": None},
+    ]
+    design = {"counts": {"p": 1}, "dropped": [{"primitive": "q", "needs_m": [900.0, 400.0], "unreachable": True}]}
+    d = json.loads(_plan([_step(0, "informative")], design=design | {"held_parameters": held}).to_json())
+    assert Plan.from_dict(d).design["held_parameters"] == held
+    d["design"]["held_parameters"][0]["identified_by"] = "q"
+    with pytest.raises(PlanError, match=r"design.held_parameters\[0\].identified_by") as exc:
+        Plan.from_dict(d, "p.json")
+    assert len(str(exc.value).splitlines()) == 1

@@ -152,11 +152,14 @@ def test_trial_length_too_short(tmp_path, capsys):
     assert rc == 2 and "--trial-length" in err and "shorter than one manoeuvre" in err and not out.exists()
 
 
-def test_design_that_fits_nowhere_exit_1(tmp_path, capsys):
+def test_design_that_fits_only_in_part_is_planned_over_what_fits_exit_1(tmp_path, capsys):
+    """A 330 m box: the design is redone over what fits, the parameter that cannot identify held
+    (issue 28); the whole library's length of trial has no plan there: exit 1 with the reason."""
     p = _box_map(tmp_path, (25.0, 60.0, 25.006, 60.003), (25.001, 60.0015, 90), (25.005, 60.0015))
-    out = tmp_path / "o"
-    rc, err = _cli_fails(["--map", str(p), "--out", str(out)], capsys)
-    assert rc == 1 and "fit nowhere" in err and "m of open water" in err and "tau" in err and not out.exists()
+    rc = _run(["plan", "--map", str(p), "--out", str(tmp_path / "o")])
+    cap = capsys.readouterr()
+    assert rc == 1 and "Traceback" not in cap.err and "no feasible plan" in cap.err
+    assert "held at the profile's values" in " ".join(cap.out.split()) and "fits nowhere" in " ".join(cap.out.split())
 
 
 def test_lattice_too_big_refused_up_front(tmp_path, capsys):

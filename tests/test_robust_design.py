@@ -154,7 +154,9 @@ def test_planner_design_step_keeps_the_robust_criterion_when_a_manoeuvre_fits_no
         return {big: (20000.0, 2000.0)} if big in counts else {}
 
     td = design_for_map(p, fits_nowhere, criterion="maximin-D", parameter_prior=prior, first=first)
-    assert big not in td.counts and len(calls) == 2
+    # the support, the short forms of the one that fits nowhere (issue 28: offered, each counted once), the redesign
+    assert big not in td.counts and len(calls) == 3
+    assert calls[1] and all(n.startswith(big + "_e") and c == 1 for n, c in calls[1].items())
     r = td.record["robust"]
     assert r["criterion"] == "maximin-D" and set(r["d_efficiency"]) == {"local-D", "maximin-D", "rounded"}
     # against the whole library's optimum at each draw: losing the main manoeuvre costs efficiency

@@ -43,6 +43,7 @@ from maps.export.plots import PlanFigures
 from maps.export.route import build_route
 from maps.export.wording import bridge_orders, knots, manoeuvre_name, phase
 from maps.plan import Plan
+from maps.sizing import water_text
 from primitives.io import atomic_write_bytes, atomic_write_text
 
 A4 = (8.27, 11.69)
@@ -174,11 +175,21 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
         if isinstance(dr, dict):
             need = dr.get("needs_m")
             loss = dr.get("efficiency_loss")
+            pair = isinstance(need, (list, tuple)) and len(need) == 2 and all(isinstance(x, (int, float)) for x in need)
+            name = str(dr.get("primitive"))
             head.append(
-                f"Dropped {dr.get('primitive')}: fits nowhere on the map"
-                + (f" (needs {need[0]:.0f} m x {need[1]:.0f} m)" if isinstance(need, (list, tuple)) and len(need) == 2 else "")
+                (
+                    f"Dropped (fits nowhere on the map): {water_text(name, need, dr.get('unreachable') is True)}"
+                    if pair
+                    else f"Dropped {name}: fits nowhere on the map"
+                )
                 + (f", efficiency loss {100.0 * loss:.1f} %" if isinstance(loss, (int, float)) else "")
             )
+    held = [h for h in d.get("held_parameters") or [] if isinstance(h, dict) and "parameter" in h]
+    if held:
+        from maps.searoom import held_text
+
+        head.append(f"Held at the profile's values (the manoeuvres that fit cannot identify them): {held_text(held)}")
     weights = d.get("weights") or {}
     counts = d.get("counts") or {}
     # rows for the primitives the design uses; those it gives no weight (maps.trialdesign.UNUSED_WEIGHT) are named

@@ -83,9 +83,11 @@ def manoeuvre_name(plan: Plan, st: PlanStep) -> str:
     v0, vmax, vmin, vend = float(v[0]), float(v.max()), float(v.min()), float(v[-1])
     low = desc.lower()
     if name == "stopping" or "stop" in low and "from cruise" in low:
+        # a short form regains speed full ahead afterwards (primitives.sized): name the lowest speed, and the regain
+        again = ", then full ahead back to speed" if vend > vmin + 0.05 * max(v0, 1e-6) else ""
         if "crash" in low or "full astern" in low:
-            return f"crash stop from {_kn(v0)} kn"
-        return f"engine stop from {_kn(v0)} kn, coasting to {_kn(vend)} kn"
+            return f"crash stop from {_kn(v0)} kn" + (f" to {_kn(vmin)} kn{again}" if again else "")
+        return f"engine stop from {_kn(v0)} kn, coasting to {_kn(vmin)} kn{again}"
     if "sway" in low and ("acceleration" in low or "step" in low) and v0 < 0.2:
         return f"crabbing from rest, to starboard and to port (up to {_kn(vmax)} kn)"
     if "sway" in low:

@@ -112,7 +112,7 @@ def standard_trials(profile: ShipProfile) -> TrialFigures:
     xy = st.track[st.split_points[0] if st.split_points else 0 :, :2]  # from the execute point
     reach = float(np.linalg.norm(xy[-1] - xy[0]))
     track = float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=1)))
-    crash = hm.goes_astern(profile)  # the stop is then full astern (helm.stopping)
+    crash = hm.has_astern(profile)  # the stop is then full astern (helm.stopping)
     line = f"{what}: head reach {reach / L:.1f} L ({reach:.0f} m)" + (f", track reach {track / L:.1f} L" if crash else "")
     if crash and st.nu[-1, 0] > 0.01 * profile.cruise_speed_mps:  # helm.speed_change gave up at its length cap
         line += f" (not stopped: still {st.nu[-1, 0]:.1f} m/s at the end; the reaches are lower bounds)"
