@@ -1,0 +1,274 @@
+"""Re-design mid-trial: the information already gathered counted in the rest of the trial.
+
+Ljungberg (2022), section 7.5, re-planning (7.58): when part of the experiment has been sailed,
+its moments enter the design as a fixed prior term, Gamma = a Gamma_sailed + sum_q w_q Gamma_q,
+and the rest of the trial maximises the criterion of the whole. Here
+
+1. the model is re-identified from the recordings of the steps sailed with the project's own
+   IV estimator (:func:`expdesign.estimators.estimate`, the estimator the information matrices
+   (7.50)-(7.57) describe and the Monte Carlo runs);
+2. M_sailed is the moments of those recordings, with instruments simulated by the predictor at
+   the re-identified parameters (:func:`expdesign.estimators.data_information`);
+3. M_rest: every library primitive's inputs replayed through the predictor at the re-identified
+   parameters, regressors and instruments from that simulation (the converged IV);
+4. the mix of the rest is designed with the sailed moments as the prior term
+   (:func:`expdesign.api.run_design` ``prior``) and rounded to whole manoeuvres that fit the
+   time left.
+
+Pure functions over dataclasses; reading plans and recordings is :mod:`maps.resume`'s.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from expdesign.api import run_design
+from expdesign.dopt import DEDICATED, InfoSet
+from expdesign.errors import DesignError
+from expdesign.estimators import Segment, data_information, estimate
+from expdesign.rounding import round_design
+from primitives.information import PrimitiveInfo, information_moments
+from primitives.library import Primitive
+from primitives.regressors import block_mask, predictor_regressors
+from primitives.ship import ShipProfile
+from primitives.simulate import simulate
+
+# A run whose simulated output (predictor at the re-identified parameters, from the run's own
+# inputs and first state) misses the recorded one by more than this fraction of the recorded
+# signal's size (RMS over u, v, r, each normalised by its RMS) disagrees with the model: diagnose's domain.
+DISAGREE_NRMSE = 0.3
+DESIGN_SOLVERS = (DEDICATED, "CLARABEL", "SCS")  # as the planner: no cvxpy import when the dedicated solver applies
+
+
+@dataclass
+class SailedRun:
+    """The recording of one informative step sailed: inputs (N, m) in the profile's input
+    order, measured body velocities y (N+1, 3) and heading psi (N+1,) (rad)."""
+
+    step: int  # the plan's step index (0-based)
+    primitive: str
+    inputs: np.ndarray
+    y: np.ndarray
+    psi: np.ndarray
+    source: str = ""
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.inputs.shape[0])
+
+    def segment(self) -> Segment:
+        return Segment(self.inputs, self.y[None], self.y[0], self.psi[None])
+
+
+@dataclass
+class Reidentification:
+    """The predictor's parameters re-identified from the runs sailed, and how well the model
+    reproduces each run (normalised RMS of the simulated output; ``disagrees``: the runs beyond
+    :data:`DISAGREE_NRMSE`, one line each)."""
+
+    theta: np.ndarray
+    names: list[str]
+    nrmse: dict[str, float]
+    disagrees: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "parameters": {n: float(v) for n, v in zip(self.names, self.theta)},
+            "simulation_nrmse": self.nrmse,
+            "disagrees": self.disagrees,
+            "notes": self.notes,
+        }
+
+
+@dataclass
+class Redesign:
+    """Whole-manoeuvre counts of the rest of the trial, the continuous mix behind them and what
+    the sailed information is worth (log det of M_sailed alone, of the whole trial planned)."""
+
+    counts: dict[str, int]
+    weights: dict[str, float]
+    time_left_s: float
+    planned_s: float
+    logdet_sailed: float
+    logdet_total: float
+    reid: Reidentification
+    record: dict[str, Any]
+    notes: list[str] = field(default_factory=list)
+
+
+def _simulate_predictor(profile: ShipProfile, inputs: np.ndarray, theta: np.ndarray, nu0: np.ndarray):
+    heading = "psi" in _signals(profile)
+    with np.errstate(all="ignore"):
+        return simulate(profile, inputs, theta, terms=profile.predictor, nu0=nu0, positions=heading)
+
+
+def _signals(profile: ShipProfile) -> frozenset[str]:
+    from primitives.simulate import signals_read
+
+    return signals_read(profile.predictor)
+
+
+def profile_predictor(profile: ShipProfile, prims: Sequence[Primitive]) -> np.ndarray:
+    """The predictor's parameters of the profile as it stands: the least-squares fit of the
+    predictor to the library's noise-free nominal simulation (the profile's own values when the
+    predictor is its model structure)."""
+    if profile.predictor_param_names == profile.param_names:
+        return profile.params()
+    segs = [Segment(p.inputs, p.nu[None], p.nu0, p.track[None, :, 2]) for p in prims]
+    return estimate(profile, segs, method="ls", mean_subtraction="none").theta[0]
+
+
+def reidentify(
+    profile: ShipProfile,
+    runs: Sequence[SailedRun],
+    reference: np.ndarray,
+    mean_subtraction: str = "batchwise",
+) -> Reidentification:
+    """IV estimate of the predictor from the runs sailed (each its own sub-experiment), and each
+    run's simulated-output fit at the estimate. A DOF the runs cannot identify yet (its IV system
+    singular: no excitation of it sailed) keeps its ``reference`` values (the profile's,
+    :func:`profile_predictor`), said in the notes; never a NaN passed on."""
+    if not runs:
+        raise DesignError("no recordings of a sailed manoeuvre: give --recordings of at least one informative step")
+    est = estimate(profile, [r.segment() for r in runs], method="iv", mean_subtraction=mean_subtraction)
+    theta = est.theta[0].copy()
+    names = profile.predictor_param_names
+    notes = [n for n in est.notes if "failed" not in n]
+    for i in range(profile.predictor.n_dof):
+        sl = profile.predictor.dof_slice(i)
+        if not np.all(np.isfinite(theta[sl])):
+            theta[sl] = reference[sl]
+            notes.append(
+                f"the recordings so far cannot identify {', '.join(names[sl])}: held at the profile's values "
+                "until the manoeuvres that excite them are sailed"
+            )
+    nrmse, disagree = {}, []
+    held = len(notes) > len([n for n in est.notes if "failed" not in n])
+    for r in runs:
+        sim = _simulate_predictor(profile, r.inputs, theta, r.y[0]).nu[0]
+        spread = np.maximum(np.sqrt(np.mean(r.y**2, axis=0)), 1e-9)  # RMS: a steady surge speed is no zero
+        e = float(np.sqrt(np.mean(((sim - r.y) / spread) ** 2))) if np.all(np.isfinite(sim)) else float("inf")
+        key = f"step {r.step + 1} ({r.primitive})"
+        nrmse[key] = e
+        if not e <= DISAGREE_NRMSE and not held:  # a DOF held at the profile's values misses by construction
+            disagree.append(
+                f"{r.source or key}: the re-identified model misses the recorded motion by {e:.2f} of its spread "
+                f"(> {DISAGREE_NRMSE}): the model structure may not fit this ship; run `shiptrial diagnose` on the recordings"
+            )
+    return Reidentification(theta, names, nrmse, disagree, notes)
+
+
+def information_at(profile: ShipProfile, prims: Sequence[Primitive], theta: np.ndarray) -> list[PrimitiveInfo]:
+    """Moments (7.50)-(7.55) of each primitive at the predictor parameters ``theta``: its inputs
+    replayed through the predictor from its own first state; regressors and instruments both
+    from that simulation (the IV's instruments once it has converged on the ship as it is)."""
+    mask = block_mask(profile.predictor)
+    out = []
+    for p in prims:
+        res = _simulate_predictor(profile, p.inputs, theta, np.asarray(p.nu0, float))
+        nu, psi = res.nu[0], res.eta[0, :, 2]
+        if not np.all(np.isfinite(nu)):
+            raise DesignError(f"{p.name}: its simulation at the re-identified parameters diverges; run `shiptrial diagnose`")
+        phi, _ = predictor_regressors(profile, nu, p.inputs, psi)
+        out.append(information_moments(p.name, phi[None], phi, mask))
+    return out
+
+
+def sailed_information(profile: ShipProfile, runs: Sequence[SailedRun], theta: np.ndarray) -> PrimitiveInfo:
+    """M_sailed: the moments of the recordings, instruments simulated by the predictor at ``theta``."""
+    return data_information(profile, [r.segment() for r in runs], np.asarray(theta, float)[None], name="sailed")
+
+
+def redesign(
+    profile: ShipProfile,
+    library: Sequence[Primitive],
+    runs: Sequence[SailedRun],
+    time_left_s: float,
+    *,
+    mean_subtraction: str = "complete",
+    seed: int = 0,
+    reid: Reidentification | None = None,
+) -> Redesign:
+    """The D-optimal rest of the trial given the runs sailed (7.58): re-identify (unless
+    ``reid``), M_sailed and M_rest at the estimate, design with M_sailed as the prior term over
+    ``time_left_s`` seconds of manoeuvres, round to whole manoeuvres."""
+    lib = [p for p in library if p.kind == "informative"]
+    shortest = min(lib, key=lambda p: p.duration_s)
+    if not time_left_s >= shortest.duration_s:
+        raise DesignError(
+            f"--time-left {time_left_s:g} s holds no manoeuvre: the shortest, {shortest.name}, lasts "
+            f"{shortest.duration_s:.0f} s; give --time-left >= {shortest.duration_s:.0f} or end the trial"
+        )
+    reid = reid if reid is not None else reidentify(profile, runs, profile_predictor(profile, lib))
+    infos = information_at(profile, lib, reid.theta)
+    sailed = sailed_information(profile, runs, reid.theta)
+    d = run_design(
+        profile,
+        lib,
+        criterion="D",
+        mean_subtraction=mean_subtraction,
+        trial_length_s=time_left_s,
+        seed=seed,
+        infos=infos,
+        prior=sailed,
+        prior_samples=sailed.n_samples,
+        convex_solvers=DESIGN_SOLVERS,
+    )
+    ts = profile.sample_time
+    a = sailed.n_samples * ts / time_left_s
+    info = InfoSet.from_infos(infos, sailed, a)
+    w = np.array([d.weights[p.name] for p in lib])
+    units = np.array([p.n_samples for p in lib])
+    total = int(round(time_left_s / ts))
+    rnd = round_design(w, units, total, lambda s: info.value(s / total, mean_subtraction), info.n_params)
+    counts = {p.name: int(c) for p, c in zip(lib, rnd.counts) if c > 0}
+    alone = InfoSet.from_infos(infos, sailed, 1.0)
+    ld_sailed = alone.logdet(np.zeros(len(lib)), mean_subtraction)
+    ld_total = info.logdet(rnd.counts * units / total, mean_subtraction)
+    planned = float(sum(c * p.duration_s for p, c in zip(lib, rnd.counts)))
+    record = {
+        "criterion": "D",
+        "mean_subtraction": mean_subtraction,
+        "weights": {p.name: float(x) for p, x in zip(lib, w) if x > 1e-4},
+        "counts": counts,
+        "not_used": [p.name for p, x, c in zip(lib, w, rnd.counts) if x <= 1e-4 and c == 0],
+        "d_efficiency": float(rnd.efficiency),
+        "efficiency": float(rnd.efficiency),
+        "dropped": [],
+        "trial_length_s": float(time_left_s),
+        "planned_s": planned,
+        "sailed_samples": int(sailed.n_samples),
+        "reidentified": reid.to_dict(),
+    }
+    notes = [
+        f"re-designed after {len(runs)} sailed manoeuvre(s) ({sailed.n_samples * ts:.0f} s recorded), counting their "
+        f"information (7.58): {', '.join(f'{k} x{v}' for k, v in counts.items())} in {time_left_s:.0f} s"
+    ]
+    notes += [f"warning: {x}" for x in reid.disagrees]
+    return Redesign(counts, record["weights"], float(time_left_s), planned, ld_sailed, ld_total, reid, record, notes)
+
+
+def sail(
+    profile: ShipProfile,
+    prims: Sequence[Primitive],
+    theta_true: np.ndarray,
+    noise_std: Sequence[float],
+    rng: np.random.Generator,
+    first_step: int = 0,
+) -> list[SailedRun]:
+    """Simulated sailing of ``prims`` in order by a ship whose model parameters are ``theta_true``
+    (the profile's model structure), each from its nominal first state, with white measurement
+    noise of ``noise_std`` (u, v, r) on the velocities: the recordings a benchmark resumes from."""
+    std = np.asarray(noise_std, float)
+    runs = []
+    for i, p in enumerate(prims):
+        with np.errstate(all="ignore"):
+            res = simulate(profile, p.inputs, np.asarray(theta_true, float), nu0=np.asarray(p.nu0, float))
+        y = res.nu[0] + rng.standard_normal(res.nu[0].shape) * std
+        runs.append(SailedRun(first_step + i, p.name, p.inputs, y, res.eta[0, :, 2], f"simulated {p.name}"))
+    return runs
