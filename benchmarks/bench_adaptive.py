@@ -88,8 +88,10 @@ def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float) -> None
         ratios.append(ratio)
         print(f"{t:5d} {ef:8.4f} {ea:9.4f} {ratio:7.3f}  {rd.counts}" + ("" if ok else "  (a fit failed)"))
     r = np.array(ratios)
-    print(f"\nadaptive lower in {wins} of {trials} trials ({wins / trials:.0%}; Done-when >= 75 %); "
-          f"median ratio adaptive/fixed {np.nanmedian(r):.3f}; failed fits {int(np.isnan(r).sum())}")
+    print(
+        f"\nadaptive lower in {wins} of {trials} trials ({wins / trials:.0%}; Done-when >= 75 %); "
+        f"median ratio adaptive/fixed {np.nanmedian(r):.3f}; failed fits {int(np.isnan(r).sum())}"
+    )
 
 
 def resume_timing(repeats: int) -> None:
@@ -101,9 +103,11 @@ def resume_timing(repeats: int) -> None:
         t0 = time.process_time()
         plan = demo_resume(warm=i > 0)
         times.append(time.process_time() - t0)
-    print(f"\nresume (re-identify, re-design, re-plan) for full-scale on helsinki: CPU {times[1:]} s; "
-          f"median {np.median(times[1:]):.2f} s (first call {times[0]:.2f} s incl. imports/caches); "
-          f"feasible {plan.feasible}, counts {plan.counts}")
+    print(
+        f"\nresume (re-identify, re-design, re-plan) for full-scale on helsinki: CPU {times[1:]} s; "
+        f"median {np.median(times[1:]):.2f} s (first call {times[0]:.2f} s incl. imports/caches); "
+        f"feasible {plan.feasible}, counts {plan.counts}"
+    )
 
 
 def main() -> None:

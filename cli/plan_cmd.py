@@ -229,12 +229,55 @@ def register(app: typer.Typer) -> None:
         no_export: bool = typer.Option(False, "--no-export", help="write only plan.json, trajectory.geojson and plan.png"),
         json_out: bool = typer.Option(False, "--json", help="print one JSON summary"),
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
+        resume: Path | None = typer.Option(
+            None,
+            "--resume",
+            help="re-design the rest of the trial planned in this plan.json (with --recordings, --from, --time-left)",
+        ),
+        recordings: list[Path] | None = typer.Option(
+            None, "--recordings", help="recording (CSV) of a manoeuvre sailed, or a directory of them; repeat for each"
+        ),
+        start_from: str | None = typer.Option(
+            None, "--from", help="resume: the ship's position and heading now, LAT,LON,HEADING_DEG"
+        ),
+        time_left: str | None = typer.Option(
+            None, "--time-left", help="resume: manoeuvring time left, seconds or with a unit s, min or h (transits come on top)"
+        ),
     ) -> None:
         """Plan a trial: design -> whole manoeuvres -> A* planning -> continuous verification -> exports for the crew."""
         from cli.options import duration_s, validate_plan_options
+        from cli.resume_cmd import resume_conflict, run_resume
         from expdesign.dopt import canonical_criterion
         from maps.chain import PlanOptions
 
+        resume_conflict(
+            resume,
+            recordings,
+            start_from,
+            time_left,
+            counts=counts,
+            scenario=scenario,
+            criterion=criterion,
+            trial_length=trial_length_text,
+            prior_spread=prior_spread,
+            prior_file=prior_file,
+            start=start,
+        )
+        if resume is not None:
+            run_resume(
+                resume,
+                recordings or [],
+                start_from or "",
+                time_left or "",
+                map_path=map_path,
+                ship=None if ship == "full-scale" else ship,
+                out=out,
+                start_time=start_time,
+                no_export=no_export,
+                json_out=json_out,
+                seed=seed,
+            )
+            return
         trial_length = duration_s(trial_length_text, "--trial-length")
         design_conflict(
             counts,

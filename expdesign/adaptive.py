@@ -31,7 +31,7 @@ from expdesign.dopt import DEDICATED, InfoSet
 from expdesign.errors import DesignError
 from expdesign.estimators import Segment, data_information, estimate
 from expdesign.rounding import round_design
-from primitives.information import PrimitiveInfo, information_moments
+from primitives.information import PrimitiveInfo, information_moments, library_information
 from primitives.library import Primitive
 from primitives.regressors import block_mask, predictor_regressors
 from primitives.ship import ShipProfile
@@ -138,7 +138,12 @@ def reidentify(
     est = estimate(profile, [r.segment() for r in runs], method="iv", mean_subtraction=mean_subtraction)
     theta = est.theta[0].copy()
     names = profile.predictor_param_names
-    notes = [n for n in est.notes if "failed" not in n]
+    # the estimator's own notes speak of Monte Carlo realisations: here there is one, the trial
+    notes = [
+        "the IV iteration kept its first instruments: the predictor simulated at an estimate diverged"
+        for n in est.notes
+        if "kept earlier instruments" in n
+    ]
     for i in range(profile.predictor.n_dof):
         sl = profile.predictor.dof_slice(i)
         if not np.all(np.isfinite(theta[sl])):
@@ -147,8 +152,12 @@ def reidentify(
                 f"the recordings so far cannot identify {', '.join(names[sl])}: held at the profile's values "
                 "until the manoeuvres that excite them are sailed"
             )
-    nrmse, disagree = {}, []
-    held = len(notes) > len([n for n in est.notes if "failed" not in n])
+    nrmse: dict[str, float] = {}
+    disagree: list[str] = []
+    if not same_structure(profile):
+        notes.append("the recordings' fit to the model is not measured here: `shiptrial diagnose` checks them against it")
+        return Reidentification(theta, names, nrmse, disagree, notes)
+    held = any("held at the profile's values" in n for n in notes)
     for r in runs:
         sim = _simulate_predictor(profile, r.inputs, theta, r.y[0]).nu[0]
         spread = np.maximum(np.sqrt(np.mean(r.y**2, axis=0)), 1e-9)  # RMS: a steady surge speed is no zero
@@ -161,6 +170,28 @@ def reidentify(
                 f"(> {DISAGREE_NRMSE}): the model structure may not fit this ship; run `shiptrial diagnose` on the recordings"
             )
     return Reidentification(theta, names, nrmse, disagree, notes)
+
+
+def same_structure(profile: ShipProfile) -> bool:
+    """The predictor is the profile's simulation model (its parameters simulate the ship)."""
+    return profile.predictor_param_names == profile.param_names and profile.predictor_terms in (None, profile.model_terms)
+
+
+def rest_information(
+    profile: ShipProfile, prims: Sequence[Primitive], theta: np.ndarray
+) -> tuple[list[PrimitiveInfo], list[str]]:
+    """M_rest: :func:`information_at` the re-identified ``theta`` when the predictor is the
+    simulation model and its simulation stays finite; else the library's information at the
+    profile's values (:func:`primitives.information.library_information`, what the first design
+    used), said in the notes."""
+    if same_structure(profile):
+        try:
+            return information_at(profile, prims, theta), []
+        except DesignError as exc:
+            why = str(exc)
+    else:
+        why = "the ship's predictor is not its simulation model"
+    return library_information(profile, list(prims)), [f"the rest's information is at the profile's values ({why})"]
 
 
 def information_at(profile: ShipProfile, prims: Sequence[Primitive], theta: np.ndarray) -> list[PrimitiveInfo]:
@@ -179,9 +210,11 @@ def information_at(profile: ShipProfile, prims: Sequence[Primitive], theta: np.n
     return out
 
 
-def sailed_information(profile: ShipProfile, runs: Sequence[SailedRun], theta: np.ndarray) -> PrimitiveInfo:
-    """M_sailed: the moments of the recordings, instruments simulated by the predictor at ``theta``."""
-    return data_information(profile, [r.segment() for r in runs], np.asarray(theta, float)[None], name="sailed")
+def sailed_information(profile: ShipProfile, runs: Sequence[SailedRun], theta: np.ndarray | None) -> PrimitiveInfo:
+    """M_sailed: the moments of the recordings, instruments simulated by the predictor at
+    ``theta`` (None: the profile's instrument set, as M_rest at the profile's values)."""
+    inst = None if theta is None else np.asarray(theta, float)[None]
+    return data_information(profile, [r.segment() for r in runs], inst, name="sailed")
 
 
 def redesign(
@@ -205,8 +238,8 @@ def redesign(
             f"{shortest.duration_s:.0f} s; give --time-left >= {shortest.duration_s:.0f} or end the trial"
         )
     reid = reid if reid is not None else reidentify(profile, runs, profile_predictor(profile, lib))
-    infos = information_at(profile, lib, reid.theta)
-    sailed = sailed_information(profile, runs, reid.theta)
+    infos, info_notes = rest_information(profile, lib, reid.theta)
+    sailed = sailed_information(profile, runs, None if info_notes else reid.theta)
     d = run_design(
         profile,
         lib,
@@ -249,7 +282,7 @@ def redesign(
         f"re-designed after {len(runs)} sailed manoeuvre(s) ({sailed.n_samples * ts:.0f} s recorded), counting their "
         f"information (7.58): {', '.join(f'{k} x{v}' for k, v in counts.items())} in {time_left_s:.0f} s"
     ]
-    notes += [f"warning: {x}" for x in reid.disagrees]
+    notes += reid.notes + info_notes + [f"warning: {x}" for x in reid.disagrees]
     return Redesign(counts, record["weights"], float(time_left_s), planned, ld_sailed, ld_total, reid, record, notes)
 
 

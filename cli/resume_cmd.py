@@ -1,0 +1,111 @@
+"""``plan-trial --resume PLAN.json --recordings RUN.csv ... --from LAT,LON,HDG --time-left S``:
+re-design and re-plan the rest of a trial from the recordings sailed so far (:mod:`maps.resume`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from primitives.errors import UserError
+
+
+def resume_conflict(
+    resume: Path | None, recordings: list[Path] | None, start_from: str | None, time_left: str | None, **other: object
+) -> None:
+    """The resume options go together, and without the options that choose a first design."""
+    given = {"--recordings": recordings, "--from": start_from, "--time-left": time_left}
+    if resume is None:
+        extra = [k for k, v in given.items() if v]
+        if extra:
+            raise UserError(f"{extra[0]}: resumes a trial; give the plan sailed so far with --resume PLAN.json")
+        return
+    missing = [k for k, v in given.items() if not v]
+    if missing:
+        raise UserError(
+            f"--resume: also give {' and '.join(missing)} (the recordings sailed, the ship's position and heading, the time left)"
+        )
+    clash = [f"--{k.replace('_', '-')}" for k, v in other.items() if v is not None]
+    if clash:
+        raise UserError(
+            f"{clash[0]}: chooses a first design; a resumed trial's design comes from --resume and the recordings: drop {clash[0]}"
+        )
+
+
+def _recording_files(paths: list[Path]) -> list[Path]:
+    """The files given, a directory standing for the .csv files in it."""
+    out: list[Path] = []
+    for p in paths:
+        if p.is_dir():
+            found = sorted(p.glob("*.csv"))
+            if not found:
+                raise UserError(f"--recordings {p}: the directory holds no .csv recording")
+            out += found
+        else:
+            out.append(p)
+    return out
+
+
+def _position(text: str):
+    from cli.plan_cmd import parse_point
+    from maps.resume import Position
+
+    pt = parse_point(text, "from")
+    if pt is None or pt[2] is None:
+        raise UserError(f"--from: expected LAT,LON,HEADING_DEG (the ship's position now and its heading), got {text!r}")
+    return Position(*pt)
+
+
+def run_resume(
+    resume: Path,
+    recordings: list[Path],
+    start_from: str,
+    time_left_text: str,
+    *,
+    map_path: Path | str | None,
+    ship: str | None,
+    out: Path,
+    start_time: str | None,
+    no_export: bool,
+    json_out: bool,
+    seed: int,
+) -> None:
+    """Read and check everything first (one line and exit 2 on a bad input, nothing written),
+    then re-design, re-plan and write the exports as ``plan-trial`` does."""
+    from cli.options import duration_s
+    from cli.plan_cmd import _skip_final_collection, report, stage, write_outputs_all
+    from diagnose.recording import load_recording
+    from maps.export._common import iso, resolve_start
+    from maps.geo import bundled_map_names, load_map
+    from maps.plan import Plan
+    from maps.resume import match_recordings, plan_options, resume_plan
+    from primitives.io import atomic_output_dir
+    from primitives.ship import load_profile
+
+    time_left = duration_s(time_left_text, "--time-left")
+    if time_left is None or not time_left > 0:
+        raise UserError(f"--time-left {time_left_text!r}: no time left for a manoeuvre; give the seconds left (> 0)")
+    pos = _position(start_from)
+    plan = Plan.load(resume)
+    prof = load_profile(ship or plan.ship)
+    if prof.name != plan.ship:
+        raise UserError(f"--ship {ship}: the plan {resume} is for {plan.ship}; give that ship's profile")
+    if map_path is None:
+        if plan.map_name not in bundled_map_names():
+            raise UserError(f"--map: the plan was made on {plan.map_name!r}, not a bundled map: give its map file with --map")
+        map_path = plan.map_name
+    recs = []
+    for f in _recording_files(recordings):
+        pieces = load_recording(f, inputs=prof.inputs)
+        if len(pieces) != 1:
+            raise UserError(f"{f}: the recording is split by a long gap; give one gap-free recording per manoeuvre")
+        recs.append(pieces[0])
+    runs = match_recordings(plan, recs, prof)
+    sea = load_map(map_path, draught_m=prof.draught_m)
+    with stage("re-identifying, re-designing the rest and planning it (A*) ...", json_out):
+        result, _ = resume_plan(plan, runs, pos, time_left, sea, prof, options=plan_options(plan), seed=seed)
+    t0 = resolve_start(result, start_time)
+    result.stats["start_utc"] = iso(t0)
+    with atomic_output_dir(out) as tmp:
+        files = write_outputs_all(result, sea, tmp, None, t0, no_export, json_out)
+    files = {k: out / Path(v).relative_to(tmp) for k, v in files.items()}
+    _skip_final_collection()
+    report(result, files, result.stats.get("heuristic", "admissible"), json_out)
