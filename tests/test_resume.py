@@ -1,0 +1,179 @@
+"""Re-design mid-trial (issue 28): ``plan-trial --resume`` end to end on a small plan, its bad
+input refused in one line with nothing written, and the library's bookkeeping of the information
+already sailed (:mod:`expdesign.adaptive`, :mod:`maps.resume`).
+
+The recordings are simulated on the profile's own model at parameters 20 % off its values
+(:func:`maps.resume.simulated_recordings`): the tests check the plumbing and the bookkeeping,
+not the estimator's accuracy on a real ship."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from cli.app import _run
+from diagnose.recording import write_csv
+from expdesign import adaptive as ad
+from maps.plan import Plan
+from maps.resume import simulated_recordings
+from maps.trialdesign import first_design, ship_library
+from primitives.ship import load_profile
+
+
+@pytest.fixture(scope="module")
+def sailed(tmp_path_factory):
+    """A 15-minute full-scale plan on the bundled map, the recordings of its first two
+    manoeuvres and the ship's position after them (--from)."""
+    d = tmp_path_factory.mktemp("resume")
+    assert _run(["plan", "--trial-length", "15min", "--no-export", "--json", "--out", str(d / "plan")]) == 0
+    plan = Plan.load(d / "plan" / "plan.json")
+    prof = load_profile(plan.ship)
+    steps = [s for s in plan.steps if s.segment == "informative"][:2]
+    theta = prof.params() * (1 + 0.2 * np.random.default_rng(0).uniform(-1, 1, prof.params().shape))
+    recs = simulated_recordings(plan, prof, steps, theta, (0.02, 0.02, 0.0005), 0)
+    for r in recs:
+        write_csv(r, d / "rec" / r.source)
+    k = int(np.nonzero(plan.step_of_sample == steps[-1].index)[0][-1])
+    pos = f"{plan.lonlat[k, 1]:.6f},{plan.lonlat[k, 0]:.6f},{np.degrees(plan.track[k, 2]) % 360:.1f}"
+    return {"dir": d, "plan": plan, "steps": steps, "from": pos}
+
+
+def _resume(s, out, *extra, recordings=None, start=None, left="10min"):
+    args = ["plan", "--resume", str(s["dir"] / "plan" / "plan.json"), "--from", start or s["from"], "--time-left", left]
+    for r in recordings or sorted((s["dir"] / "rec").glob("*.csv")):
+        args += ["--recordings", str(r)]
+    return _run([*args, "--out", str(out), *extra])
+
+
+def test_resume_end_to_end_writes_the_rest_with_the_sailed_part(sailed, tmp_path, capsys):
+    out = tmp_path / "rest"
+    assert _resume(sailed, out, "--no-export", "--json") == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["feasible"] and sum(summary["counts"].values()) > 0
+    doc = json.loads((out / "plan.json").read_text())
+    r = doc["stats"]["resume"]
+    recorded = [s for s in r["sailed"]["steps"] if "recording" in s]
+    assert [s["step"] for s in recorded] == [s.index + 1 for s in sailed["steps"]]
+    assert r["sailed"]["steps"][-1]["step"] == sailed["steps"][-1].index + 1 and len(r["sailed"]["lonlat"]) > 10
+    # the sailed information went into the design: its samples, the re-identified parameters
+    by = {p.name: p for p in ship_library(load_profile("full-scale"))}
+    assert doc["design"]["sailed_samples"] == sum(by[s.primitive].n_samples for s in sailed["steps"])
+    assert set(doc["design"]["reidentified"]["parameters"]) == set(load_profile("full-scale").predictor_param_names)
+    assert doc["design"]["planned_s"] <= 600.0
+    assert any("re-designed after 2 sailed manoeuvre(s)" in n for n in doc["stats"]["notes"])
+    # the plan starts where the ship is
+    lat, lon, _ = (float(v) for v in sailed["from"].split(","))
+    assert abs(doc["samples"]["lat"][0] - lat) < 1e-3 and abs(doc["samples"]["lon"][0] - lon) < 1e-3
+    traj = json.loads((out / "trajectory.geojson").read_text())
+    assert [f for f in traj["features"] if f["properties"]["kind"] == "sailed"]
+    Plan.load(out / "plan.json")  # the resumed plan reads back (the exports read it)
+
+
+def _edit(src, dst, header=None, shift=0.0):
+    """A copy of recording ``src`` with one header line replaced or its time column shifted."""
+    lines = src.read_text().splitlines()
+    if header:
+        key = header.split(":")[0]
+        lines = [header if ln.startswith(key + ":") else ln for ln in lines]
+    if shift:
+        i = next(i for i, ln in enumerate(lines) if ln.startswith("t,"))
+        lines[i + 1 :] = [",".join([f"{float(ln.split(',')[0]) + shift:g}", *ln.split(",")[1:]]) for ln in lines[i + 1 :]]
+    dst.write_text("\n".join(lines) + "\n")
+    return dst
+
+
+@pytest.mark.parametrize(
+    "case, match",
+    [
+        ("ship", "header '# ship: kvlcc2' but the plan is for full-scale"),
+        ("manoeuvre", "header '# manoeuvre: tau99' but step"),
+        ("time", "was planned at"),
+        ("land", "is on land"),
+        ("off-map", "is outside the map"),
+        ("no-time", "holds no manoeuvre"),
+        ("twice", "has a recording already"),
+    ],
+)
+def test_bad_resume_input_one_line_exit_2_nothing_written(sailed, tmp_path, capsys, case, match):
+    recs = sorted((sailed["dir"] / "rec").glob("*.csv"))
+    kw = {}
+    if case == "ship":
+        kw["recordings"] = [_edit(recs[0], tmp_path / "a.csv", header="# ship: kvlcc2"), recs[1]]
+    elif case == "manoeuvre":
+        kw["recordings"] = [_edit(recs[0], tmp_path / "a.csv", header="# manoeuvre: tau99")]
+    elif case == "time":
+        kw["recordings"] = [_edit(recs[0], tmp_path / "a.csv", shift=2000.0)]
+    elif case == "land":
+        kw["start"] = "60.17,24.94,90"
+    elif case == "off-map":
+        kw["start"] = "59.0,24.9,90"
+    elif case == "no-time":
+        kw["left"] = "10"
+    elif case == "twice":
+        kw["recordings"] = [recs[0], recs[0]]
+    out = tmp_path / "out"
+    capsys.readouterr()
+    assert _resume(sailed, out, "--no-export", **kw) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and match in err[0], err
+    assert not out.exists()
+
+
+def test_resume_options_need_each_other(sailed, tmp_path, capsys):
+    assert _run(["plan", "--time-left", "10min", "--out", str(tmp_path / "o")]) == 2
+    assert "--time-left: resumes a trial" in capsys.readouterr().err
+    args = ["plan", "--resume", str(sailed["dir"] / "plan" / "plan.json"), "--time-left", "10min", "--out", str(tmp_path / "o")]
+    assert _run(args) == 2
+    assert "also give --recordings and --from" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+# -- the library: information sailed counted in the rest (7.58) -------------------------------------
+
+
+@pytest.fixture(scope="module")
+def model_ship():
+    prof = load_profile("model-ship")
+    lib = ship_library(prof)
+    return prof, lib, {p.name: p for p in lib}
+
+
+def test_reidentify_recovers_the_ship_sailed_and_the_rest_complements_it(model_ship):
+    """Noise-free runs of a ship 20 % off the profile: the IV estimate recovers it; and the rest of
+    a trial whose first part sailed only some manoeuvres is designed towards the others (without
+    the sailed term the rest would be the first design's mix)."""
+    prof, lib, by = model_ship
+    truth = prof.params() * (1 + 0.2 * np.random.default_rng(3).uniform(-1, 1, prof.params().shape))
+    fresh = first_design(prof, lib).design.counts
+    top = max(fresh, key=fresh.get)
+    seq = [by[n] for n in fresh for _ in range(fresh[n])]
+    runs = ad.sail(prof, seq, truth, (0.0, 0.0, 0.0), np.random.default_rng(0))
+    reid = ad.reidentify(prof, runs, ad.profile_predictor(prof, lib))
+    assert np.allclose(reid.theta, truth, rtol=1e-3, atol=1e-9) and not reid.disagrees
+    # sailed: the most used manoeuvre of the design, as often as the whole design uses it, and one of each other
+    part = [by[top]] * fresh[top] + [by[n] for n in fresh if n != top]
+    rd = ad.redesign(prof, lib, ad.sail(prof, part, truth, (0.0, 0.0, 0.0), np.random.default_rng(0)), 300.0)
+    assert rd.counts.get(top, 0) < fresh[top] * 300.0 / sum(c * by[n].duration_s for n, c in fresh.items())
+    assert rd.planned_s <= 300.0 and np.isfinite(rd.logdet_total) and rd.logdet_total > rd.logdet_sailed
+
+
+def test_a_recording_the_model_cannot_reproduce_points_to_diagnose(model_ship):
+    """A ship with a structure the model lacks (here a slow sway oscillation no term carries)
+    is said to disagree, naming `shiptrial diagnose`."""
+    prof, lib, by = model_ship
+    seq = [by[n] for n in ("tau1", "tau6", "tau8", "tau11")]
+    runs = ad.sail(prof, seq, prof.params(), (0.0, 0.0, 0.0), np.random.default_rng(0))
+    for r in runs:
+        t = np.arange(len(r.y)) * prof.sample_time
+        r.y[:, 1] += 0.5 * np.abs(r.y[:, 1]).max() * np.sin(2 * np.pi * t / 20.0) + 0.05
+    reid = ad.reidentify(prof, runs, ad.profile_predictor(prof, lib))
+    assert reid.disagrees and all("shiptrial diagnose" in d for d in reid.disagrees)
+
+
+def test_no_time_for_a_manoeuvre_is_refused(model_ship):
+    prof, lib, by = model_ship
+    runs = ad.sail(prof, [by["tau1"]], prof.params(), (0.0, 0.0, 0.0), np.random.default_rng(0))
+    with pytest.raises(ad.DesignError, match="holds no manoeuvre"):
+        ad.redesign(prof, lib, runs, 10.0)
