@@ -35,7 +35,7 @@ from primitives.information import PrimitiveInfo, information_moments, library_i
 from primitives.library import Primitive
 from primitives.regressors import block_mask, predictor_regressors
 from primitives.ship import ShipProfile
-from primitives.simulate import simulate
+from primitives.simulate import SimResult, signals_read, simulate
 
 # A run whose simulated output (predictor at the re-identified parameters, from the run's own
 # inputs and first state) misses the recorded one by more than this fraction of the recorded
@@ -101,23 +101,19 @@ class Redesign:
     notes: list[str] = field(default_factory=list)
 
 
-def _simulate_predictor(profile: ShipProfile, inputs: np.ndarray, theta: np.ndarray, nu0: np.ndarray):
-    heading = "psi" in _signals(profile)
+def _simulate_predictor(profile: ShipProfile, inputs: np.ndarray, theta: np.ndarray, nu0: np.ndarray) -> SimResult:
+    """The predictor simulated at ``theta`` (a diverging estimate gives non-finite states, checked by the callers)."""
     with np.errstate(all="ignore"):
-        return simulate(profile, inputs, theta, terms=profile.predictor, nu0=nu0, positions=heading)
-
-
-def _signals(profile: ShipProfile) -> frozenset[str]:
-    from primitives.simulate import signals_read
-
-    return signals_read(profile.predictor)
+        return simulate(
+            profile, inputs, theta, terms=profile.predictor, nu0=nu0, positions="psi" in signals_read(profile.predictor)
+        )
 
 
 def profile_predictor(profile: ShipProfile, prims: Sequence[Primitive]) -> np.ndarray:
     """The predictor's parameters of the profile as it stands: the least-squares fit of the
     predictor to the library's noise-free nominal simulation (the profile's own values when the
     predictor is its model structure)."""
-    if profile.predictor_param_names == profile.param_names:
+    if same_structure(profile):
         return profile.params()
     segs = [Segment(p.inputs, p.nu[None], p.nu0, p.track[None, :, 2]) for p in prims]
     return estimate(profile, segs, method="ls", mean_subtraction="none").theta[0]
@@ -144,10 +140,12 @@ def reidentify(
         for n in est.notes
         if "kept earlier instruments" in n
     ]
+    held = False
     for i in range(profile.predictor.n_dof):
         sl = profile.predictor.dof_slice(i)
         if not np.all(np.isfinite(theta[sl])):
             theta[sl] = reference[sl]
+            held = True
             notes.append(
                 f"the recordings so far cannot identify {', '.join(names[sl])}: held at the profile's values "
                 "until the manoeuvres that excite them are sailed"
@@ -157,7 +155,6 @@ def reidentify(
     if not same_structure(profile):
         notes.append("the recordings' fit to the model is not measured here: `shiptrial diagnose` checks them against it")
         return Reidentification(theta, names, nrmse, disagree, notes)
-    held = any("held at the profile's values" in n for n in notes)
     for r in runs:
         sim = _simulate_predictor(profile, r.inputs, theta, r.y[0]).nu[0]
         spread = np.maximum(np.sqrt(np.mean(r.y**2, axis=0)), 1e-9)  # RMS: a steady surge speed is no zero
@@ -166,7 +163,7 @@ def reidentify(
         nrmse[key] = e
         if not e <= DISAGREE_NRMSE and not held:  # a DOF held at the profile's values misses by construction
             disagree.append(
-                f"{r.source or key}: the re-identified model misses the recorded motion by {e:.2f} of its spread "
+                f"{r.source or key}: the re-identified model misses the recorded motion by {e:.2f} of its RMS "
                 f"(> {DISAGREE_NRMSE}): the model structure may not fit this ship; run `shiptrial diagnose` on the recordings"
             )
     return Reidentification(theta, names, nrmse, disagree, notes)
