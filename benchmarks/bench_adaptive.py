@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import argparse
 import time
+import zlib
+from collections import Counter
 
 import numpy as np
 
@@ -53,18 +55,31 @@ def param_error(prof, runs, truth: np.ndarray) -> float:
     return float(np.sqrt(np.mean(((th[nz] - truth[nz]) / truth[nz]) ** 2)))
 
 
+def sail_crn(prof, prims: list, truth: np.ndarray, seed: tuple, seen: Counter) -> list:
+    """:func:`expdesign.adaptive.sail` with common random numbers: the k-th time manoeuvre q is
+    sailed in a run it meets the noise of stream (seed, q, k) whichever plan sails it, so two
+    plans with the same manoeuvres get the same error and a difference is the design's."""
+    noise = NOISE.get(prof.name, (0.005, 0.005, 0.002))
+    runs = []
+    for p in prims:
+        k = seen[p.name]
+        seen[p.name] += 1
+        runs += ad.sail(prof, [p], truth, noise, np.random.default_rng([*seed, zlib.crc32(p.name.encode()), k]), len(runs))
+    return runs
+
+
 def one_run(prof, lib, seq, trial_s, truth, seed):
     """One noisy trial at ``truth`` sailed both ways: the fixed plan's sequence ``seq``, and its
     first third followed by the rest re-designed from that third's recordings (the same first
     third: the same noise). Returns (fixed error, adaptive error, the re-designed rest)."""
     n_first = max(1, round(len(seq) / 3))
-    noise = NOISE.get(prof.name, (0.005, 0.005, 0.002))
-    sailed = ad.sail(prof, seq[:n_first], truth, noise, np.random.default_rng([seed, 1]))
-    rest_fixed = ad.sail(prof, seq[n_first:], truth, noise, np.random.default_rng([seed, 2]), n_first)
+    seen: Counter = Counter()
+    sailed = sail_crn(prof, seq[:n_first], truth, seed, seen)
+    rest_fixed = sail_crn(prof, seq[n_first:], truth, seed, seen.copy())
     e_fixed = param_error(prof, sailed + rest_fixed, truth)
     left = trial_s - sum(r.n_samples for r in sailed) * prof.sample_time
     rd = ad.redesign(prof, lib, sailed, left)
-    rest_ad = ad.sail(prof, interleave(rd.counts, lib), truth, noise, np.random.default_rng([seed, 2]), n_first)
+    rest_ad = sail_crn(prof, interleave(rd.counts, lib), truth, seed, seen.copy())
     return e_fixed, param_error(prof, sailed + rest_ad, truth), rd
 
 
