@@ -261,7 +261,10 @@ def register(app: typer.Typer) -> None:
             trial_length=trial_length_text,
             prior_spread=prior_spread,
             prior_file=prior_file,
+            prior_draws=prior_draws,
+            mean_subtraction=mean_subtraction,
             start=start,
+            goal=goal,
         )
         if resume is not None:
             run_resume(

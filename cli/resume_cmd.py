@@ -24,6 +24,8 @@ def resume_conflict(
             f"--resume: also give {' and '.join(missing)} (the recordings sailed, the ship's position and heading, the time left)"
         )
     clash = [f"--{k.replace('_', '-')}" for k, v in other.items() if v is not None]
+    if clash and clash[0] in ("--start", "--goal"):
+        raise UserError(f"{clash[0]}: a resumed trial starts at --from and keeps the plan's goal: drop {clash[0]}")
     if clash:
         raise UserError(
             f"{clash[0]}: chooses a first design; a resumed trial's design comes from --resume and the recordings: drop {clash[0]}"

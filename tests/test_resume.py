@@ -127,6 +127,11 @@ def test_resume_options_need_each_other(sailed, tmp_path, capsys):
     args = ["plan", "--resume", str(sailed["dir"] / "plan" / "plan.json"), "--time-left", "10min", "--out", str(tmp_path / "o")]
     assert _run(args) == 2
     assert "also give --recordings and --from" in capsys.readouterr().err
+    args += ["--recordings", str(sailed["dir"] / "rec"), "--from", sailed["from"]]
+    assert _run([*args, "--criterion", "A"]) == 2
+    assert "--criterion: chooses a first design" in capsys.readouterr().err
+    assert _run([*args, "--start", sailed["from"]]) == 2
+    assert "--start: a resumed trial starts at --from" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
 
 
