@@ -6,9 +6,10 @@ THE TRUTH IS THE ESTIMATOR'S OWN MODEL STRUCTURE AT DRAWN PARAMETERS (each param
 +-30 % of the profile's, seeded): no ship in the project has a truth of another structure whose
 parameters the predictor's can be scored against (tests/physics/mmg_kvlcc2.py is an MMG model,
 whose coefficients are not the predictor's), so this is evidence for the re-design, not for a
-real ship. Recordings: white measurement noise on u, v, r (the figures printed). Parameter error
-of a trial: sqrt(mean(((theta_hat - theta_true) / theta_true)^2)) over the non-zero parameters,
-the IV estimate (:func:`expdesign.estimators.estimate`) from every run sailed.
+real ship. Recordings: white measurement noise on u, v, r (the figures printed), common random
+numbers (:func:`sail_crn`). Parameter error of a trial: sqrt(mean(((theta_hat - theta_true) /
+theta_true)^2)) over the non-zero parameters, the IV estimate (:func:`expdesign.estimators.estimate`)
+from every run sailed; per truth the median over ``--runs`` noisy runs.
 
 Second part: CPU time of resume + re-identify + re-design + re-plan for the default ship on the
 bundled map (target < 5 s), through :func:`maps.resume.resume_plan` (the CLI adds imports and exports).

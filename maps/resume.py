@@ -135,7 +135,7 @@ def check_position(sea: SeaMap, pos: Position, margin_m: float) -> None:
     sea.locate(pos.lat, pos.lon, "--from", margin_m)
 
 
-def sailed_part(plan: Plan, runs: list[SailedRun]) -> dict[str, Any]:
+def sailed_part(plan: Plan, runs: list[SailedRun], sample_time: float) -> dict[str, Any]:
     """What the resumed plan shows of the trial sailed: the steps up to the last one recorded,
     the planned track of them (lon, lat), their recordings and the time they took."""
     last = max(r.step for r in runs)
@@ -155,12 +155,8 @@ def sailed_part(plan: Plan, runs: list[SailedRun]) -> dict[str, Any]:
         ],
         "lonlat": plan.lonlat[keep].tolist(),
         "sailed_s": float(plan.steps[last].start_time_s + plan.steps[last].duration_s),
-        "recorded_s": float(sum(r.n_samples for r in runs) * plan_sample(plan)),
+        "recorded_s": float(sum(r.n_samples for r in runs) * sample_time),
     }
-
-
-def plan_sample(plan: Plan) -> float:
-    return float(np.median(np.diff(plan.t))) if len(plan.t) > 1 else 1.0
 
 
 def plan_options(plan: Plan) -> PlanOptions:
@@ -209,7 +205,7 @@ def resume_plan(
     new.stats["resume"] = {
         "position": [position.lat, position.lon, position.heading_deg],
         "time_left_s": float(time_left_s),
-        "sailed": sailed_part(plan, runs),
+        "sailed": sailed_part(plan, runs, profile.sample_time),
         # log det of M_sailed alone (None: singular, the runs sailed cannot identify every parameter) and of the whole trial
         "logdet_sailed": rd.logdet_sailed if math.isfinite(rd.logdet_sailed) else None,
         "logdet_total": rd.logdet_total if math.isfinite(rd.logdet_total) else None,
