@@ -3,6 +3,7 @@ re-design and re-plan the rest of a trial from the recordings sailed so far (:mo
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from primitives.errors import UserError
@@ -14,11 +15,11 @@ def resume_conflict(
     """The resume options go together, and without the options that choose a first design."""
     given = {"--recordings": recordings, "--from": start_from, "--time-left": time_left}
     if resume is None:
-        extra = [k for k, v in given.items() if v]
+        extra = [k for k, v in given.items() if v is not None]
         if extra:
             raise UserError(f"{extra[0]}: resumes a trial; give the plan sailed so far with --resume PLAN.json")
         return
-    missing = [k for k, v in given.items() if not v]
+    missing = [k for k, v in given.items() if v is None]
     if missing:
         raise UserError(
             f"--resume: also give {' and '.join(missing)} (the recordings sailed, the ship's position and heading, the time left)"
@@ -51,7 +52,7 @@ def _position(text: str):
     from maps.resume import Position
 
     pt = parse_point(text, "from")
-    if pt is None or pt[2] is None:
+    if pt is None or pt[2] is None or not all(math.isfinite(v) for v in pt) or not (-90 <= pt[0] <= 90 and -180 <= pt[1] <= 360):
         raise UserError(f"--from: expected LAT,LON,HEADING_DEG (the ship's position now and its heading), got {text!r}")
     return Position(*pt)
 
@@ -90,10 +91,6 @@ def run_resume(
     prof = load_profile(ship or plan.ship)
     if prof.name != plan.ship:
         raise UserError(f"--ship {ship}: the plan {resume} is for {plan.ship}; give that ship's profile")
-    if map_path is None:
-        if plan.map_name not in bundled_map_names():
-            raise UserError(f"--map: the plan was made on {plan.map_name!r}, not a bundled map: give its map file with --map")
-        map_path = plan.map_name
     recs = []
     for f in _recording_files(recordings):
         pieces = load_recording(f, inputs=prof.inputs)
@@ -101,6 +98,10 @@ def run_resume(
             raise UserError(f"{f}: the recording is split by a long gap; give one gap-free recording per manoeuvre")
         recs.append(pieces[0])
     runs = match_recordings(plan, recs, prof)
+    if map_path is None:
+        if plan.map_name not in bundled_map_names():
+            raise UserError(f"--map: the plan was made on {plan.map_name!r}, not a bundled map: give its map file with --map")
+        map_path = plan.map_name
     sea = load_map(map_path, draught_m=prof.draught_m)
     with stage("re-identifying, re-designing the rest and planning it (A*) ...", json_out):
         result, _ = resume_plan(plan, runs, pos, time_left, sea, prof, options=plan_options(plan), seed=seed)

@@ -88,7 +88,8 @@ class Reidentification:
 @dataclass
 class Redesign:
     """Whole-manoeuvre counts of the rest of the trial, the continuous mix behind them and what
-    the sailed information is worth (log det of M_sailed alone, of the whole trial planned)."""
+    the sailed information is worth: log det of a M_sailed alone and of the whole trial planned,
+    a M_sailed + sum w_q M_q, both per sample of the time left (7.58)."""
 
     counts: dict[str, int]
     weights: dict[str, float]
@@ -257,8 +258,7 @@ def redesign(
     total = int(round(time_left_s / ts))
     rnd = round_design(w, units, total, lambda s: info.value(s / total, mean_subtraction), info.n_params)
     counts = {p.name: int(c) for p, c in zip(lib, rnd.counts) if c > 0}
-    alone = InfoSet.from_infos(infos, sailed, 1.0)
-    ld_sailed = alone.logdet(np.zeros(len(lib)), mean_subtraction)
+    ld_sailed = info.logdet(np.zeros(len(lib)), mean_subtraction)  # the same normalisation: what the rest adds shows
     ld_total = info.logdet(rnd.counts * units / total, mean_subtraction)
     planned = float(sum(c * p.duration_s for p, c in zip(lib, rnd.counts)))
     record = {
