@@ -57,6 +57,18 @@ def _position(text: str):
     return Position(*pt)
 
 
+def check_out_spares_inputs(out: Path, resume: Path, recordings: list[Path]) -> None:
+    """``--out`` is replaced whole (:func:`primitives.io.atomic_output_dir`): refuse one that is
+    the resumed plan's directory or holds the plan or a recording, which the swap would delete
+    (``--out`` defaults to ``trial-out``, where the first plan was written)."""
+    dest = Path(out).resolve()
+    for opt, p in [("--resume", Path(resume).resolve().parent), *(("--recordings", Path(r).resolve()) for r in recordings)]:
+        if p == dest or dest in p.parents:
+            raise UserError(
+                f"--out {out}: would replace {opt} {p} (the output directory is replaced whole); give --out a new directory"
+            )
+
+
 def run_resume(
     resume: Path,
     recordings: list[Path],
@@ -80,9 +92,11 @@ def run_resume(
     from maps.geo import bundled_map_names, load_map
     from maps.plan import Plan
     from maps.resume import match_recordings, plan_options, resume_plan
-    from primitives.io import atomic_output_dir
+    from primitives.io import atomic_output_dir, check_replaceable_dir
     from primitives.ship import load_profile
 
+    check_out_spares_inputs(out, resume, recordings)
+    check_replaceable_dir(out)
     time_left = duration_s(time_left_text, "--time-left")
     if time_left is None or not time_left > 0:
         raise UserError(f"--time-left {time_left_text!r}: no time left for a manoeuvre; give the seconds left (> 0)")

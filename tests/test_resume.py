@@ -121,6 +121,25 @@ def test_bad_resume_input_one_line_exit_2_nothing_written(sailed, tmp_path, caps
     assert not out.exists()
 
 
+def test_default_out_holding_the_plan_and_recordings_is_refused(sailed, tmp_path, monkeypatch, capsys):
+    """The default --out is trial-out, where the first plan was written; the output directory is
+    replaced whole, so resuming trial-out/plan.json with its recordings inside it must refuse
+    (one line, exit 2) and leave the plan and the recordings untouched."""
+    import shutil
+
+    shutil.copytree(sailed["dir"] / "plan", tmp_path / "trial-out")
+    shutil.copytree(sailed["dir"] / "rec", tmp_path / "trial-out" / "rec")
+    before = sorted(p.relative_to(tmp_path) for p in (tmp_path / "trial-out").rglob("*"))
+    monkeypatch.chdir(tmp_path)
+    base = ["plan", "--resume", "trial-out/plan.json", "--from", sailed["from"], "--time-left", "10min", "--no-export"]
+    capsys.readouterr()
+    for extra in ([], ["--out", "trial-out/rec"]):
+        assert _run([*base, "--recordings", "trial-out/rec", *extra]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("error: --out ") and "would replace" in err[0], err
+    assert sorted(p.relative_to(tmp_path) for p in (tmp_path / "trial-out").rglob("*")) == before
+
+
 def test_resume_options_need_each_other(sailed, tmp_path, capsys):
     assert _run(["plan", "--time-left", "10min", "--out", str(tmp_path / "o")]) == 2
     assert "--time-left: resumes a trial" in capsys.readouterr().err
