@@ -8,7 +8,8 @@ and the rest of the trial maximises the criterion of the whole. Here
    IV estimator (:func:`expdesign.estimators.estimate`, the estimator the information matrices
    (7.50)-(7.57) describe and the Monte Carlo runs);
 2. M_sailed is the moments of those recordings, with instruments simulated by the predictor at
-   the re-identified parameters (:func:`expdesign.estimators.data_information`);
+   the re-identified parameters (:func:`expdesign.estimators.data_information`), each run's own
+   mean removed under 'batchwise' (7.53), one mean over the trial under 'complete' (7.57);
 3. M_rest: every library primitive's inputs replayed through the predictor at the re-identified
    parameters, regressors and instruments from that simulation (the converged IV);
 4. the mix of the rest is designed with the sailed moments as the prior term
@@ -208,11 +209,25 @@ def information_at(profile: ShipProfile, prims: Sequence[Primitive], theta: np.n
     return out
 
 
-def sailed_information(profile: ShipProfile, runs: Sequence[SailedRun], theta: np.ndarray | None) -> PrimitiveInfo:
+def sailed_information(
+    profile: ShipProfile, runs: Sequence[SailedRun], theta: np.ndarray | None, mean_subtraction: str = "complete"
+) -> PrimitiveInfo:
     """M_sailed: the moments of the recordings, instruments simulated by the predictor at
-    ``theta`` (None: the profile's instrument set, as M_rest at the profile's values)."""
+    ``theta`` (None: the profile's instrument set, as M_rest at the profile's values), each run
+    its own sub-experiment as the primitives of the rest are.
+
+    'complete' (7.57) removes one mean over the whole trial: the runs' pooled X0, Y0, Z0 enter
+    its sums T, S and Z-bar. 'batchwise' (7.53) removes each run's own mean, so the prior is
+    X0 = sum_r n_r (X_r - Y_r Z_r^T) / N with Y0 = Z0 = 0 (pooling would count the spread between
+    the runs' means as information); 'none' (7.18) is the same sum of X_r."""
     inst = None if theta is None else np.asarray(theta, float)[None]
-    return data_information(profile, [r.segment() for r in runs], inst, name="sailed")
+    if mean_subtraction == "complete":
+        return data_information(profile, [r.segment() for r in runs], inst, name="sailed")
+    per_run = [data_information(profile, [r.segment()], inst, name=r.primitive) for r in runs]
+    n = sum(i.n_samples for i in per_run)
+    X = sum(i.n_samples * i.gamma(mean_subtraction) for i in per_run) / n
+    zero = np.zeros(X.shape[0])
+    return PrimitiveInfo("sailed", n, X, zero, zero.copy(), per_run[0].mask)
 
 
 def redesign(
@@ -237,7 +252,7 @@ def redesign(
         )
     reid = reid if reid is not None else reidentify(profile, runs, profile_predictor(profile, lib))
     infos, info_notes = rest_information(profile, lib, reid.theta)
-    sailed = sailed_information(profile, runs, None if info_notes else reid.theta)
+    sailed = sailed_information(profile, runs, None if info_notes else reid.theta, mean_subtraction)
     d = run_design(
         profile,
         lib,

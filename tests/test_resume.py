@@ -201,3 +201,26 @@ def test_no_time_for_a_manoeuvre_is_refused(model_ship):
     runs = ad.sail(prof, [by["tau1"]], prof.params(), (0.0, 0.0, 0.0), np.random.default_rng(0))
     with pytest.raises(ad.DesignError, match="holds no manoeuvre"):
         ad.redesign(prof, lib, runs, 10.0)
+
+
+def test_batchwise_sailed_information_removes_each_runs_own_mean(model_ship):
+    """Under 'batchwise' (7.53) each sailed run is its own sub-experiment: M_sailed is
+    sum_r n_r (X_r - Y_r Z_r^T) / N, not the pooled runs with one mean removed (which counts the
+    spread between the runs' means as information); under 'complete' (7.57) the pooled moments."""
+    from expdesign.estimators import data_information
+
+    prof, lib, by = model_ship
+    runs = ad.sail(prof, [by[n] for n in ("tau1", "tau6", "tau8", "tau11")], prof.params(), (0.0,) * 3, np.random.default_rng(0))
+    rd = ad.redesign(prof, lib, runs, 300.0, mean_subtraction="batchwise")
+    inst = rd.reid.theta[None]
+    per_run = [data_information(prof, [r.segment()], inst) for r in runs]
+    n = sum(i.n_samples for i in per_run)
+    want = sum(i.n_samples * i.gamma("batchwise") for i in per_run) / n
+    pooled = data_information(prof, [r.segment() for r in runs], inst).gamma("batchwise")
+    a = n * prof.sample_time / 300.0
+    assert rd.logdet_sailed == pytest.approx(np.linalg.slogdet(a * want)[1], abs=1e-6)
+    assert np.linalg.slogdet(a * pooled)[1] > rd.logdet_sailed + 1.0  # the runs' means differ: pooling inflates it
+    got = ad.sailed_information(prof, runs, inst[0], "batchwise")
+    assert got.n_samples == n and np.allclose(got.gamma("batchwise"), want, rtol=1e-12, atol=1e-15)
+    complete = ad.sailed_information(prof, runs, inst[0], "complete")
+    assert np.allclose(complete.X, data_information(prof, [r.segment() for r in runs], inst).X)
