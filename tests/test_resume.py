@@ -164,7 +164,7 @@ def model_ship():
     return prof, lib, {p.name: p for p in lib}
 
 
-def test_reidentify_recovers_the_ship_sailed_and_the_rest_complements_it(model_ship):
+def test_reidentify_recovers_the_ship_sailed_and_the_rest_complements_it(model_ship, monkeypatch):
     """Noise-free runs of a ship 20 % off the profile: the IV estimate recovers it; and the rest of
     a trial whose first part sailed only some manoeuvres is designed towards the others (without
     the sailed term the rest would be the first design's mix)."""
@@ -178,9 +178,15 @@ def test_reidentify_recovers_the_ship_sailed_and_the_rest_complements_it(model_s
     assert np.allclose(reid.theta, truth, rtol=1e-3, atol=1e-9) and not reid.disagrees
     # sailed: the most used manoeuvre of the design, as often as the whole design uses it, and one of each other
     part = [by[top]] * fresh[top] + [by[n] for n in fresh if n != top]
-    rd = ad.redesign(prof, lib, ad.sail(prof, part, truth, (0.0, 0.0, 0.0), np.random.default_rng(0)), 300.0)
-    assert rd.counts.get(top, 0) < fresh[top] * 300.0 / sum(c * by[n].duration_s for n, c in fresh.items())
+    part_runs = ad.sail(prof, part, truth, (0.0, 0.0, 0.0), np.random.default_rng(0))
+    rd = ad.redesign(prof, lib, part_runs, 300.0)
     assert rd.planned_s <= 300.0 and np.isfinite(rd.logdet_total) and rd.logdet_total > rd.logdet_sailed
+    # the same re-design with the sailed term dropped (the same re-identification and M_rest) sails top more
+    real_design, real_from = ad.run_design, ad.InfoSet.from_infos
+    monkeypatch.setattr(ad, "run_design", lambda *a, **k: real_design(*a, **{**k, "prior": None, "prior_samples": 0}))
+    monkeypatch.setattr(ad.InfoSet, "from_infos", lambda infos, prior=None, a=0.0: real_from(infos))
+    blind = ad.redesign(prof, lib, part_runs, 300.0, reid=rd.reid)
+    assert rd.counts.get(top, 0) < blind.counts.get(top, 0), (rd.counts, blind.counts)
 
 
 def test_a_recording_the_model_cannot_reproduce_points_to_diagnose(model_ship):
