@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import typer
+from click.core import ParameterSource
 
 from primitives.errors import UserError
 from primitives.io import dumps
@@ -169,6 +170,7 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
 def register(app: typer.Typer) -> None:
     @app.command("plan")
     def plan(
+        ctx: typer.Context,
         map_path: Path | None = typer.Option(
             None, "--map", help="GeoJSON sea map file, or a bundled map's name: helsinki (default), open-sea"
         ),
@@ -267,18 +269,42 @@ def register(app: typer.Typer) -> None:
             goal=goal,
         )
         if resume is not None:
+            validate_plan_options(
+                resolution=resolution,
+                margin=margin,
+                headings=headings,
+                start=None,
+                goal=None,
+                counts=None,
+                size=size,
+                out=out,
+                seed=seed,
+                run_in=run_in,
+                max_memory=max_memory,
+                vessel_name=vessel_name,
+                start_time=start_time,
+                no_export=no_export,
+            )
+            # the lattice options given override the plan's; those left at their defaults keep the plan's
+            given = {k for k in ctx.params if ctx.get_parameter_source(k) not in (None, ParameterSource.DEFAULT)}
+            size_t = tuple(int(v) for v in size.lower().split("x"))  # checked by validate_plan_options
+            lattice = {"resolution": resolution, "headings": headings, "heuristic": heuristic, "margin": margin}
+            lattice |= {"split": split, "size": size_t, "run_in_s": run_in, "max_memory_gib": max_memory}
+            names = {"run_in_s": "run_in", "max_memory_gib": "max_memory"}  # PlanOptions field -> parameter
             run_resume(
                 resume,
                 recordings or [],
                 start_from or "",
                 time_left or "",
                 map_path=map_path,
-                ship=None if ship == "full-scale" else ship,
+                ship=ship if "ship" in given else None,
                 out=out,
                 start_time=start_time,
                 no_export=no_export,
                 json_out=json_out,
                 seed=seed,
+                overrides={k: v for k, v in lattice.items() if names.get(k, k) in given},
+                vessel_name=vessel_name,
             )
             return
         trial_length = duration_s(trial_length_text, "--trial-length")

@@ -4,7 +4,9 @@ re-design and re-plan the rest of a trial from the recordings sailed so far (:mo
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 from primitives.errors import UserError
 
@@ -82,9 +84,13 @@ def run_resume(
     no_export: bool,
     json_out: bool,
     seed: int,
+    overrides: dict[str, Any] | None = None,
+    vessel_name: str | None = None,
 ) -> None:
     """Read and check everything first (one line and exit 2 on a bad input, nothing written),
-    then re-design, re-plan and write the exports as ``plan-trial`` does."""
+    then re-design, re-plan and write the exports as ``plan-trial`` does. The lattice options
+    are the plan's (:func:`maps.resume.plan_options`) but for those given (``overrides``,
+    :class:`maps.chain.PlanOptions` fields)."""
     from cli.options import duration_s
     from cli.plan_cmd import _skip_final_collection, report, stage, write_outputs_all
     from diagnose.recording import load_recording
@@ -112,13 +118,15 @@ def run_resume(
             raise UserError(f"{f}: the recording is split by a long gap; give one gap-free recording per manoeuvre")
         recs.append(pieces[0])
     runs = match_recordings(plan, recs, prof)
+    opts = replace(plan_options(plan), **(overrides or {}))
+    opts.check()
     if map_path is None:
         if plan.map_name not in bundled_map_names():
             raise UserError(f"--map: the plan was made on {plan.map_name!r}, not a bundled map: give its map file with --map")
         map_path = plan.map_name
     sea = load_map(map_path, draught_m=prof.draught_m)
     with stage("re-identifying, re-designing the rest and planning it (A*) ...", json_out):
-        result, _ = resume_plan(plan, runs, pos, time_left, sea, prof, options=plan_options(plan), seed=seed)
+        result, _ = resume_plan(plan, runs, pos, time_left, sea, prof, options=opts, seed=seed, vessel_name=vessel_name)
     t0 = resolve_start(result, start_time)
     result.stats["start_utc"] = iso(t0)
     with atomic_output_dir(out) as tmp:

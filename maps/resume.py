@@ -160,13 +160,25 @@ def sailed_part(plan: Plan, runs: list[SailedRun], sample_time: float) -> dict[s
 
 
 def plan_options(plan: Plan) -> PlanOptions:
-    """The lattice options the plan was made with (as far as it records them)."""
+    """The lattice and search options the plan was made with (as far as it records them: a plan
+    made before ``stats['options']`` keeps the defaults of those)."""
     lat = plan.stats.get("lattice") or {}
+    rec = plan.stats.get("options") or {}
     kw: dict[str, Any] = {"margin": plan.margin_m}
     if lat.get("resolution_m"):
         kw["resolution"] = float(lat["resolution_m"])
     if lat.get("headings") in (4, 8, 16):
         kw["headings"] = int(lat["headings"])
+    if plan.stats.get("heuristic") in ("admissible", "thesis"):
+        kw["heuristic"] = plan.stats["heuristic"]
+    if "run_in_s" in rec:
+        kw["run_in_s"] = None if rec["run_in_s"] is None else float(rec["run_in_s"])
+    if "split" in rec:
+        kw["split"] = bool(rec["split"])
+    if rec.get("size"):
+        kw["size"] = tuple(int(v) for v in rec["size"])
+    if rec.get("max_memory_gib"):
+        kw["max_memory_gib"] = float(rec["max_memory_gib"])
     return PlanOptions(**kw)
 
 
@@ -181,6 +193,7 @@ def resume_plan(
     options: PlanOptions | None = None,
     mean_subtraction: str | None = None,
     seed: int = 0,
+    vessel_name: str | None = None,
 ) -> tuple[Plan, Redesign]:
     """Re-identify from ``runs``, re-design the rest for ``time_left_s`` seconds of manoeuvres
     counting what was sailed (7.58), plan it from ``position`` to the plan's goal; the new plan
@@ -197,7 +210,7 @@ def resume_plan(
         start=(position.lat, position.lon, position.heading_deg),
         goal=tuple(goal) if goal else None,
         options=o,
-        vessel_name=plan.vessel_name,
+        vessel_name=vessel_name or plan.vessel_name,
     )
     new.design = rd.record
     new.stats["notes"] = list(rd.notes) + list(new.stats.get("notes", []))

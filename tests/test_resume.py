@@ -140,6 +140,26 @@ def test_default_out_holding_the_plan_and_recordings_is_refused(sailed, tmp_path
     assert sorted(p.relative_to(tmp_path) for p in (tmp_path / "trial-out").rglob("*")) == before
 
 
+def test_plan_options_given_with_resume_override_the_plans_others_are_restored(sailed, tmp_path):
+    """The lattice options a plan was made with come back on resume (heuristic, run-in, split,
+    size from plan.json); those given on the command line override them, none is ignored."""
+    import copy
+
+    from maps.resume import plan_options
+
+    plan = copy.deepcopy(sailed["plan"])
+    assert plan_options(plan).size == (35, 44) and plan.stats["options"]["split"] is False
+    plan.stats["heuristic"] = "thesis"
+    plan.stats["options"] |= {"run_in_s": 120.0, "split": True, "size": [40, 50]}
+    o = plan_options(plan)
+    assert (o.heuristic, o.run_in_s, o.split, o.size) == ("thesis", 120.0, True, (40, 50))
+    out = tmp_path / "rest"
+    extra = ("--margin", "35", "--heuristic", "thesis", "--vessel-name", "Aurora", "--no-export", "--json")
+    assert _resume(sailed, out, *extra) == 0
+    doc = json.loads((out / "plan.json").read_text())
+    assert doc["margin_m"] == 35.0 and doc["stats"]["heuristic"] == "thesis" and doc["vessel_name"] == "Aurora"
+
+
 def test_resume_options_need_each_other(sailed, tmp_path, capsys):
     assert _run(["plan", "--time-left", "10min", "--out", str(tmp_path / "o")]) == 2
     assert "--time-left: resumes a trial" in capsys.readouterr().err
