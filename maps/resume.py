@@ -4,8 +4,8 @@ The loop a notebook drives step by step (each a pure function over dataclasses; 
 is the CLI's, :mod:`cli.resume_cmd`):
 
 1. :func:`match_recordings`: each recording to the plan's informative step it belongs to (the
-   recording's ``# ship:`` and ``# manoeuvre:`` header lines, its time stamps on the plan's clock,
-   optionally ``# step: N`` as numbered on the trial card); a mismatch is a :class:`ResumeError`;
+   recording's ``# ship:`` and ``# manoeuvre:`` header lines, optionally ``# step: N`` as numbered
+   on the trial card, its time stamps on the plan's clock); a mismatch is a :class:`ResumeError`;
 2. :func:`expdesign.adaptive.redesign`: re-identify, count the information sailed (7.58),
    design the rest for the time left;
 3. :func:`resume_plan`: the rest planned from the ship's present position with the planner
@@ -31,8 +31,9 @@ from maps.trialdesign import ship_library
 from primitives.errors import UserError
 from primitives.ship import ShipProfile
 
-# A recording starts within this many seconds of its step's planned start (on the plan's clock,
-# seconds from the trial's start): a crew runs late or early, not by a quarter of an hour per step.
+# A crew runs late or early by more with every hour, not by a quarter of an hour from one
+# manoeuvre to the next: a recording without '# step:' starts within this many seconds of its
+# step's planned start shifted by the previous recording's lateness (the trial's start for the first).
 TIME_TOLERANCE_S = 900.0
 MIN_COVER = 0.8  # a recording covers at least this share of its manoeuvre's duration
 
@@ -60,57 +61,90 @@ def _header(rec: Recording, key: str) -> str:
     return v
 
 
-def _step_for(plan: Plan, rec: Recording, manoeuvre: str) -> PlanStep:
-    """The informative step ``rec`` belongs to: its ``# step:`` (card numbering) or the step of
-    that manoeuvre starting nearest the recording."""
+def _numbered_step(plan: Plan, rec: Recording, manoeuvre: str) -> PlanStep:
+    """The informative step a recording's ``# step: N`` names (card numbering; the run-in's
+    number names its manoeuvre too)."""
+    try:
+        n = int(rec.meta["step"])
+    except ValueError:
+        n = -1
+    if not 1 <= n <= len(plan.steps):
+        raise ResumeError(
+            f"{rec.source}: header '# step: {rec.meta['step']}' must be a step number 1..{len(plan.steps)} of the plan"
+        )
+    named = plan.steps[n - 1]
+    if named.segment == "run-in" and n < len(plan.steps):
+        named = plan.steps[n]
+    if named.segment != "informative" or named.primitive != manoeuvre:
+        raise ResumeError(
+            f"{rec.source}: header '# manoeuvre: {manoeuvre}' but step {n} of the plan sails "
+            f"{plan.steps[n - 1].primitive}: fix the header or give the recording of that step"
+        )
+    return named
+
+
+def _next_step_of(plan: Plan, rec: Recording, manoeuvre: str, taken: dict[int, SailedRun]) -> PlanStep:
+    """Without ``# step:``: the first step of that manoeuvre with no recording yet (the
+    recordings taken in time order: a ship sails its steps in the plan's order)."""
     informative = [s for s in plan.steps if s.segment == "informative"]
-    if "step" in rec.meta:
-        try:
-            n = int(rec.meta["step"])
-        except ValueError:
-            n = -1
-        if not 1 <= n <= len(plan.steps):
-            raise ResumeError(
-                f"{rec.source}: header '# step: {rec.meta['step']}' must be a step number 1..{len(plan.steps)} of the plan"
-            )
-        cand = [s for s in informative if s.index in (n - 1, n)]  # the run-in's number names its manoeuvre too
-        if not cand or cand[0].primitive != manoeuvre:
-            raise ResumeError(
-                f"{rec.source}: header '# manoeuvre: {manoeuvre}' but step {n} of the plan sails "
-                f"{plan.steps[n - 1].primitive}: fix the header or give the recording of that step"
-            )
-        return cand[0]
     cand = [s for s in informative if s.primitive == manoeuvre]
     if not cand:
         raise ResumeError(
             f"{rec.source}: header '# manoeuvre: {manoeuvre}' names no manoeuvre of the plan "
             f"(its design codes: {', '.join(sorted({s.primitive for s in informative}))})"
         )
-    return min(cand, key=lambda s: abs(s.start_time_s - float(rec.t[0])))
+    free = [s for s in cand if s.index not in taken]
+    if not free:
+        prev = taken[cand[-1].index]
+        raise ResumeError(
+            f"{rec.source}: step {cand[-1].index + 1} ({manoeuvre}) has a recording already ({prev.source}), and the "
+            f"plan sails {manoeuvre} {len(cand)} time(s): add '# step: N' (the card's number) to say which step it is"
+        )
+    return free[0]
+
+
+def _check_times(plan: Plan, matched: list[tuple[Recording, PlanStep]]) -> None:
+    """In the plan's order the recordings start later and later without overlapping; one
+    without ``# step:`` is also no more than :data:`TIME_TOLERANCE_S` off its planned start
+    shifted by the lateness of the recording before it (a common schedule offset, not a fixed window)."""
+    late, prev = 0.0, None
+    for rec, step in sorted(matched, key=lambda m: m[1].index):
+        t0 = float(rec.t[0])
+        if prev is not None and t0 < float(prev[0].t[-1]):
+            raise ResumeError(
+                f"{rec.source}: starts at t = {t0:.0f} s, before {prev[0].source} (step {prev[1].index + 1}, which the "
+                f"plan sails before step {step.index + 1}) ends at {float(prev[0].t[-1]):.0f} s: column 't' must be "
+                "seconds from the trial's start, on the plan's clock"
+            )
+        if "step" not in rec.meta and abs(t0 - step.start_time_s - late) > TIME_TOLERANCE_S:
+            raise ResumeError(
+                f"{rec.source}: starts at t = {t0:.0f} s but step {step.index + 1} ({step.primitive}) was planned at "
+                f"{step.start_time_s:.0f} s, {late:+.0f} s late as the recording before it (more than "
+                f"{TIME_TOLERANCE_S:.0f} s apart): column 't' must be seconds from the trial's start, on the plan's "
+                "clock; add '# step: N' when the schedule slipped"
+            )
+        late, prev = t0 - step.start_time_s, (rec, step)
 
 
 def match_recordings(plan: Plan, recordings: list[Recording], profile: ShipProfile) -> list[SailedRun]:
-    """Each recording as the :class:`SailedRun` of its plan step, in sailing order. Refused in
-    one line: another ship, a manoeuvre the plan does not sail (there), a start off the step's
-    time by more than :data:`TIME_TOLERANCE_S`, a recording shorter than :data:`MIN_COVER` of
-    its step, two recordings of one step."""
+    """Each recording as the :class:`SailedRun` of its plan step, in sailing order: the step its
+    ``# step: N`` names, else (in time order) the next step of its manoeuvre without a recording.
+    Refused in one line: another ship, a manoeuvre the plan does not sail (there), recordings out
+    of the plan's order or overlapping, a start without ``# step:`` off its step's time by more
+    than :data:`TIME_TOLERANCE_S` beyond the schedule's slip so far, a recording shorter than
+    :data:`MIN_COVER` of its step, two recordings of one step."""
     runs: dict[int, SailedRun] = {}
+    matched: list[tuple[Recording, PlanStep]] = []
     durations = {p.name: p.duration_s for p in ship_library(profile)}
-    for rec in recordings:
+    numbered = sorted(recordings, key=lambda r: ("step" not in r.meta, float(r.t[0])))  # named steps first
+    for rec in numbered:
         ship = _header(rec, "ship")
         if ship != plan.ship:
             raise ResumeError(
                 f"{rec.source}: header '# ship: {ship}' but the plan is for {plan.ship}: give that ship's recordings"
             )
         man = _header(rec, "manoeuvre")
-        step = _step_for(plan, rec, man)
-        t0 = float(rec.t[0])
-        if abs(t0 - step.start_time_s) > TIME_TOLERANCE_S:
-            raise ResumeError(
-                f"{rec.source}: starts at t = {t0:.0f} s but step {step.index + 1} ({man}) was planned at "
-                f"{step.start_time_s:.0f} s (more than {TIME_TOLERANCE_S:.0f} s apart): column 't' must be seconds "
-                "from the trial's start, on the plan's clock"
-            )
+        step = _numbered_step(plan, rec, man) if "step" in rec.meta else _next_step_of(plan, rec, man, runs)
         need = durations.get(man, step.duration_s)
         if rec.duration_s < MIN_COVER * need:
             raise ResumeError(
@@ -125,6 +159,8 @@ def match_recordings(plan: Plan, recordings: list[Recording], profile: ShipProfi
             )
         u = rec.inputs_for(profile.inputs)
         runs[step.index] = SailedRun(step.index, man, u[:-1], rec.y, rec.psi, rec.source)
+        matched.append((rec, step))
+    _check_times(plan, matched)
     return [runs[k] for k in sorted(runs)]
 
 

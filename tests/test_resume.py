@@ -71,9 +71,9 @@ def test_resume_end_to_end_writes_the_rest_with_the_sailed_part(sailed, tmp_path
     Plan.load(out / "plan.json")  # the resumed plan reads back (the exports read it)
 
 
-def _edit(src, dst, header=None, shift=0.0):
-    """A copy of recording ``src`` with one header line replaced or its time column shifted."""
-    lines = src.read_text().splitlines()
+def _edit(src, dst, header=None, shift=0.0, drop=None):
+    """A copy of recording ``src`` with one header line replaced or dropped, or its time column shifted."""
+    lines = [ln for ln in src.read_text().splitlines() if not (drop and ln.startswith(drop))]
     if header:
         key = header.split(":")[0]
         lines = [header if ln.startswith(key + ":") else ln for ln in lines]
@@ -90,6 +90,7 @@ def _edit(src, dst, header=None, shift=0.0):
         ("ship", "header '# ship: kvlcc2' but the plan is for full-scale"),
         ("manoeuvre", "header '# manoeuvre: tau99' but step"),
         ("time", "was planned at"),
+        ("order", "which the plan sails before step"),
         ("land", "is on land"),
         ("off-map", "is outside the map"),
         ("no-time", "holds no manoeuvre"),
@@ -103,8 +104,10 @@ def test_bad_resume_input_one_line_exit_2_nothing_written(sailed, tmp_path, caps
         kw["recordings"] = [_edit(recs[0], tmp_path / "a.csv", header="# ship: kvlcc2"), recs[1]]
     elif case == "manoeuvre":
         kw["recordings"] = [_edit(recs[0], tmp_path / "a.csv", header="# manoeuvre: tau99")]
-    elif case == "time":
-        kw["recordings"] = [_edit(recs[0], tmp_path / "a.csv", shift=2000.0)]
+    elif case == "time":  # without '# step:' the time names the step: 2000 s late on the first is no step of it
+        kw["recordings"] = [_edit(recs[0], tmp_path / "a.csv", shift=2000.0, drop="# step:")]
+    elif case == "order":  # '# step:' names the step; the first then overlaps the second
+        kw["recordings"] = [_edit(recs[0], tmp_path / "a.csv", shift=2000.0), recs[1]]
     elif case == "land":
         kw["start"] = "60.17,24.94,90"
     elif case == "off-map":
@@ -158,6 +161,37 @@ def test_plan_options_given_with_resume_override_the_plans_others_are_restored(s
     assert _resume(sailed, out, *extra) == 0
     doc = json.loads((out / "plan.json").read_text())
     assert doc["margin_m"] == 35.0 and doc["stats"]["heuristic"] == "thesis" and doc["vessel_name"] == "Aurora"
+
+
+def _matched(plan, files):
+    from diagnose.recording import load_recording
+    from maps.resume import match_recordings
+
+    prof = load_profile(plan.ship)
+    return [(r.step + 1, r.source) for r in match_recordings(plan, [load_recording(f)[0] for f in files], prof)]
+
+
+def test_a_late_schedule_matches_by_step_number_or_in_sailing_order(sailed, tmp_path):
+    """A trial running behind: '# step: N' decides the step whatever the delay (only the order is
+    checked); without it the recordings go in time order to the next step of their manoeuvre, the
+    schedule's slip carried from one to the next, so a repeated manoeuvre sailed late is not taken
+    for its later repetition."""
+    import copy
+
+    recs = sorted((sailed["dir"] / "rec").glob("*.csv"))
+    steps = [s.index + 1 for s in sailed["steps"]]
+    late = [_edit(r, tmp_path / f"late{i}.csv", shift=1000.0) for i, r in enumerate(recs)]
+    assert [n for n, _ in _matched(sailed["plan"], late)] == steps  # 1000 s behind: refused before (900 s window)
+    bare = [_edit(r, tmp_path / f"bare{i}.csv", shift=500.0 + 400 * i, drop="# step:") for i, r in enumerate(recs)]
+    assert [n for n, _ in _matched(sailed["plan"], bare)] == steps
+    # the plan sails the first manoeuvre again as its second; the crew is 500 s behind: the first
+    # recording (nearer the second's planned start) is the first step, the next one the second
+    plan = copy.deepcopy(sailed["plan"])
+    first, second = sailed["steps"]
+    plan.steps[second.index].primitive = first.primitive
+    dt = second.start_time_s - first.start_time_s
+    again = [bare[0], _edit(recs[0], tmp_path / "again.csv", shift=500.0 + dt, drop="# step:")]
+    assert _matched(plan, again) == [(first.index + 1, str(again[0])), (second.index + 1, str(again[1]))]
 
 
 def test_resume_options_need_each_other(sailed, tmp_path, capsys):
