@@ -12,7 +12,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import typer
-from click.core import ParameterSource
 
 from primitives.errors import UserError
 from primitives.io import dumps
@@ -286,7 +285,8 @@ def register(app: typer.Typer) -> None:
                 no_export=no_export,
             )
             # the lattice options given override the plan's; those left at their defaults keep the plan's
-            given = {k for k in ctx.params if ctx.get_parameter_source(k) not in (None, ParameterSource.DEFAULT)}
+            # (by name: typer's vendored click has its own ParameterSource)
+            given = {k for k in ctx.params if getattr(ctx.get_parameter_source(k), "name", "DEFAULT") != "DEFAULT"}
             size_t = tuple(int(v) for v in size.lower().split("x"))  # checked by validate_plan_options
             lattice = {"resolution": resolution, "headings": headings, "heuristic": heuristic, "margin": margin}
             lattice |= {"split": split, "size": size_t, "run_in_s": run_in, "max_memory_gib": max_memory}
