@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from datetime import timedelta
 from pathlib import Path
 from typing import Any
 
@@ -108,7 +109,16 @@ def run_resume(
         raise UserError(f"--time-left {time_left_text!r}: no time left for a manoeuvre; give the seconds left (> 0)")
     pos = _position(start_from)
     plan = Plan.load(resume)
-    prof = load_profile(ship or plan.ship)
+    try:
+        prof = load_profile(ship or plan.ship)
+    except UserError as exc:
+        if ship is not None:
+            raise
+        raise UserError(
+            f"--resume {resume}: the plan is for ship {plan.ship!r}, not a built-in profile: give its profile file with "
+            f"--ship PROFILE.toml ({str(exc).splitlines()[0]})"
+        ) from None
+    prof.require_planar("shiptrial plan --resume")
     if prof.name != plan.ship:
         raise UserError(f"--ship {ship}: the plan {resume} is for {plan.ship}; give that ship's profile")
     recs = []
@@ -127,6 +137,8 @@ def run_resume(
     sea = load_map(map_path, draught_m=prof.draught_m)
     with stage("re-identifying, re-designing the rest and planning it (A*) ...", json_out):
         result, _ = resume_plan(plan, runs, pos, time_left, sea, prof, options=opts, seed=seed, vessel_name=vessel_name)
+    if start_time is None and plan.stats.get("start_utc"):  # the rest starts when the last recording ended, not next hour
+        start_time = iso(resolve_start(plan, None) + timedelta(seconds=max(float(r.t[-1]) for r in recs)))
     t0 = resolve_start(result, start_time)
     result.stats["start_utc"] = iso(t0)
     with atomic_output_dir(out) as tmp:

@@ -69,6 +69,12 @@ def test_resume_end_to_end_writes_the_rest_with_the_sailed_part(sailed, tmp_path
     traj = json.loads((out / "trajectory.geojson").read_text())
     assert [f for f in traj["features"] if f["properties"]["kind"] == "sailed"]
     Plan.load(out / "plan.json")  # the resumed plan reads back (the exports read it)
+    # the schedule of the rest starts when the last recording ended, on the first plan's clock
+    from datetime import datetime, timedelta
+
+    end = max(float(ln.split(",")[0]) for f in (sailed["dir"] / "rec").glob("*.csv") for ln in f.read_text().splitlines()[5:])
+    first = datetime.fromisoformat(sailed["plan"].stats["start_utc"].replace("Z", "+00:00"))
+    assert doc["stats"]["start_utc"] == (first + timedelta(seconds=end)).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
 def _edit(src, dst, header=None, shift=0.0, drop=None):
@@ -82,6 +88,24 @@ def _edit(src, dst, header=None, shift=0.0, drop=None):
         lines[i + 1 :] = [",".join([f"{float(ln.split(',')[0]) + shift:g}", *ln.split(",")[1:]]) for ln in lines[i + 1 :]]
     dst.write_text("\n".join(lines) + "\n")
     return dst
+
+
+@pytest.mark.parametrize(
+    "ship, match",
+    [("naval-vessel", "supports 3-DOF ships only"), ("coaster", "give its profile file with --ship")],
+)
+def test_resume_of_a_plan_for_a_ship_it_cannot_load_or_plan(sailed, tmp_path, capsys, ship, match):
+    """A 4-DOF profile is refused as plan-trial refuses it; a ship from particulars (not built in)
+    is asked for its profile file."""
+    doc = json.loads((sailed["dir"] / "plan" / "plan.json").read_text())
+    (tmp_path / "p").mkdir()
+    (tmp_path / "p" / "plan.json").write_text(json.dumps({**doc, "ship": ship}))
+    args = ["plan", "--resume", str(tmp_path / "p" / "plan.json"), "--from", sailed["from"], "--time-left", "10min"]
+    capsys.readouterr()
+    assert _run([*args, "--recordings", str(sailed["dir"] / "rec"), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and match in err[0], err
+    assert not (tmp_path / "o").exists()
 
 
 @pytest.mark.parametrize(
@@ -156,11 +180,16 @@ def test_plan_options_given_with_resume_override_the_plans_others_are_restored(s
     plan.stats["options"] |= {"run_in_s": 120.0, "split": True, "size": [40, 50]}
     o = plan_options(plan)
     assert (o.heuristic, o.run_in_s, o.split, o.size) == ("thesis", 120.0, True, (40, 50))
+    doc = json.loads((sailed["dir"] / "plan" / "plan.json").read_text())
+    doc["stats"]["heuristic"], doc["margin_m"] = "thesis", 25.0  # as if planned with --heuristic thesis --margin 25
+    (tmp_path / "p").mkdir()
+    (tmp_path / "p" / "plan.json").write_text(json.dumps(doc))
     out = tmp_path / "rest"
-    extra = ("--margin", "35", "--heuristic", "thesis", "--vessel-name", "Aurora", "--no-export", "--json")
-    assert _resume(sailed, out, *extra) == 0
+    args = ["plan", "--resume", str(tmp_path / "p" / "plan.json"), "--from", sailed["from"], "--time-left", "10min"]
+    args += ["--recordings", str(sailed["dir"] / "rec"), "--margin", "30", "--vessel-name", "Aurora", "--no-export"]
+    assert _run([*args, "--out", str(out)]) == 0
     doc = json.loads((out / "plan.json").read_text())
-    assert doc["margin_m"] == 35.0 and doc["stats"]["heuristic"] == "thesis" and doc["vessel_name"] == "Aurora"
+    assert doc["margin_m"] == 30.0 and doc["stats"]["heuristic"] == "thesis" and doc["vessel_name"] == "Aurora"
 
 
 def _matched(plan, files):
