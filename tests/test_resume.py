@@ -313,3 +313,22 @@ def test_batchwise_sailed_information_removes_each_runs_own_mean(model_ship):
     assert got.n_samples == n and np.allclose(got.gamma("batchwise"), want, rtol=1e-12, atol=1e-15)
     complete = ad.sailed_information(prof, runs, inst[0], "complete")
     assert np.allclose(complete.X, data_information(prof, [r.segment() for r in runs], inst).X)
+
+
+def test_a_held_dof_does_not_silence_the_others_disagreement(model_ship):
+    """Runs that cannot identify surge yet (tau6, tau8: surge held at the profile's values): a
+    structurally wrong sway is still reported, while clean runs of a ship 20 % off the profile are
+    not (the held surge misses by construction and is not judged)."""
+    prof, lib, by = model_ship
+    truth = prof.params() * (1 + 0.2 * np.random.default_rng(3).uniform(-1, 1, prof.params().shape))
+    seq = [by["tau6"], by["tau8"]]
+    clean = ad.sail(prof, seq, truth, (0.0, 0.0, 0.0), np.random.default_rng(0))
+    reid = ad.reidentify(prof, clean, ad.profile_predictor(prof, lib))
+    assert any("cannot identify Xu" in n for n in reid.notes) and not reid.disagrees
+    wrong = ad.sail(prof, seq, truth, (0.0, 0.0, 0.0), np.random.default_rng(0))
+    for r in wrong:
+        t = np.arange(len(r.y)) * prof.sample_time
+        r.y[:, 1] += 0.5 * np.abs(r.y[:, 1]).max() * np.sin(2 * np.pi * t / 20.0) + 0.05
+    reid = ad.reidentify(prof, wrong, ad.profile_predictor(prof, lib))
+    assert any("cannot identify Xu" in n for n in reid.notes)
+    assert len(reid.disagrees) == 2 and all("shiptrial diagnose" in d for d in reid.disagrees)
