@@ -3,7 +3,7 @@ input refused in one line with nothing written, and the library's bookkeeping of
 already sailed (:mod:`expdesign.adaptive`, :mod:`maps.resume`).
 
 The recordings are simulated on the profile's own model at parameters 20 % off its values
-(:func:`maps.resume.simulated_recordings`): the tests check the plumbing and the bookkeeping,
+(:func:`maps.resume_example.example_recordings`): the tests check the plumbing and the bookkeeping,
 not the estimator's accuracy on a real ship."""
 
 from __future__ import annotations
@@ -14,10 +14,9 @@ import numpy as np
 import pytest
 
 from cli.app import _run
-from diagnose.recording import write_csv
 from expdesign import adaptive as ad
 from maps.plan import Plan
-from maps.resume import simulated_recordings
+from maps.resume_example import example_recordings
 from maps.trialdesign import first_design, ship_library
 from primitives.ship import load_profile
 
@@ -25,18 +24,13 @@ from primitives.ship import load_profile
 @pytest.fixture(scope="module")
 def sailed(tmp_path_factory):
     """A 15-minute full-scale plan on the bundled map, the recordings of its first two
-    manoeuvres and the ship's position after them (--from)."""
+    manoeuvres (:func:`maps.resume_example.example_recordings`, as the README's resume example
+    makes them) and the ship's position after them (--from)."""
     d = tmp_path_factory.mktemp("resume")
     assert _run(["plan", "--trial-length", "15min", "--no-export", "--json", "--out", str(d / "plan")]) == 0
     plan = Plan.load(d / "plan" / "plan.json")
-    prof = load_profile(plan.ship)
     steps = [s for s in plan.steps if s.segment == "informative"][:2]
-    theta = prof.params() * (1 + 0.2 * np.random.default_rng(0).uniform(-1, 1, prof.params().shape))
-    recs = simulated_recordings(plan, prof, steps, theta, (0.02, 0.02, 0.0005), 0)
-    for r in recs:
-        write_csv(r, d / "rec" / r.source)
-    k = int(np.nonzero(plan.step_of_sample == steps[-1].index)[0][-1])
-    pos = f"{plan.lonlat[k, 1]:.6f},{plan.lonlat[k, 0]:.6f},{np.degrees(plan.track[k, 2]) % 360:.1f}"
+    pos = example_recordings(d / "plan" / "plan.json", d / "rec", 2)  # the README example's recordings
     return {"dir": d, "plan": plan, "steps": steps, "from": pos}
 
 
