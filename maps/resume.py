@@ -237,7 +237,13 @@ def resume_plan(
     o = options or plan_options(plan)
     check_position(sea, position, o.margin)
     ms = mean_subtraction or (plan.design or {}).get("mean_subtraction") or "complete"
-    rd = redesign(profile, ship_library(profile), runs, time_left_s, mean_subtraction=ms, seed=seed)
+    # what the first plan dropped for fitting nowhere on this map fits nowhere now either
+    dropped = {d["primitive"] for d in (plan.design or {}).get("dropped") or []}
+    library = [p for p in ship_library(profile) if p.name not in dropped]
+    rd = redesign(profile, library, runs, time_left_s, mean_subtraction=ms, seed=seed)
+    if dropped:
+        rd.record["dropped"] = list((plan.design or {})["dropped"])
+        rd.notes.append(f"the rest leaves out {', '.join(sorted(dropped))}, as the first plan did (fits nowhere on the map)")
     goal = plan.stats.get("goal")
     new, _ = plan_with_design(
         sea,

@@ -326,3 +326,29 @@ def test_a_held_dof_does_not_silence_the_others_disagreement(model_ship):
     reid = ad.reidentify(prof, wrong, ad.profile_predictor(prof, lib))
     assert any("cannot identify Xu" in n for n in reid.notes)
     assert len(reid.disagrees) == 2 and all("shiptrial diagnose" in d for d in reid.disagrees)
+
+
+def test_the_rest_leaves_out_what_the_first_plan_dropped_for_sea_room(sailed, monkeypatch):
+    """A manoeuvre the first plan dropped because it fits nowhere on the map is not offered to the
+    re-design of the rest (it would make the rest's plan infeasible)."""
+    import copy
+
+    import maps.resume as mr
+    from diagnose.recording import load_recording
+    from maps.geo import load_map
+
+    plan = copy.deepcopy(sailed["plan"])
+    prof = load_profile(plan.ship)
+    plan.design = {**(plan.design or {}), "dropped": [{"primitive": "tau12", "needs_m": [9000.0, 300.0]}]}
+    runs = mr.match_recordings(plan, [load_recording(f)[0] for f in sorted((sailed["dir"] / "rec").glob("*.csv"))], prof)
+    seen = {}
+
+    def capture(profile, library, *a, **k):
+        seen["names"] = [p.name for p in library]
+        raise RuntimeError("captured")
+
+    monkeypatch.setattr(mr, "redesign", capture)
+    lat, lon, hdg = (float(v) for v in sailed["from"].split(","))
+    with pytest.raises(RuntimeError, match="captured"):
+        mr.resume_plan(plan, runs, mr.Position(lat, lon, hdg), 600.0, load_map("helsinki", draught_m=prof.draught_m), prof)
+    assert "tau12" not in seen["names"] and "tau16" in seen["names"]
