@@ -195,6 +195,29 @@ def sailed_part(plan: Plan, runs: list[SailedRun], sample_time: float) -> dict[s
     }
 
 
+def earlier_runs(plan: Plan) -> list[SailedRun]:
+    """The runs a resumed ``plan`` counted already (``stats['resume']['runs']``: the recordings
+    of every plan before it), for the next resume to count them too: re-planning step by step
+    (7.58) keeps all the information sailed, not only the latest part's."""
+    out = []
+    for d in (plan.stats.get("resume") or {}).get("runs") or []:
+        inputs = np.asarray(d["inputs"], float)
+        y, psi = np.asarray(d["y"], float), np.asarray(d["psi"], float)
+        out.append(SailedRun(int(d["step"]), str(d["primitive"]), inputs, y, psi, str(d.get("source", ""))))
+    return out
+
+
+def _run_record(r: SailedRun) -> dict[str, Any]:
+    return {
+        "step": r.step,
+        "primitive": r.primitive,
+        "source": r.source,
+        "inputs": r.inputs.tolist(),
+        "y": r.y.tolist(),
+        "psi": r.psi.tolist(),
+    }
+
+
 def plan_options(plan: Plan) -> PlanOptions:
     """The lattice and search options the plan was made with (as far as it records them: a plan
     made before ``stats['options']`` keeps the defaults of those)."""
@@ -240,7 +263,8 @@ def resume_plan(
     # what the first plan dropped for fitting nowhere on this map fits nowhere now either
     dropped = {d["primitive"] for d in (plan.design or {}).get("dropped") or []}
     library = [p for p in ship_library(profile) if p.name not in dropped]
-    rd = redesign(profile, library, runs, time_left_s, mean_subtraction=ms, seed=seed)
+    before = earlier_runs(plan)
+    rd = redesign(profile, library, before + runs, time_left_s, mean_subtraction=ms, seed=seed)
     if dropped:
         rd.record["dropped"] = list((plan.design or {})["dropped"])
         rd.notes.append(f"the rest leaves out {', '.join(sorted(dropped))}, as the first plan did (fits nowhere on the map)")
@@ -257,10 +281,15 @@ def resume_plan(
     new.design = rd.record
     new.stats["notes"] = list(rd.notes) + list(new.stats.get("notes", []))
     new.stats["warnings"] = list(new.stats.get("warnings", [])) + rd.reid.disagrees
+    sailed = sailed_part(plan, runs, profile.sample_time)
+    sailed["lonlat"] = ((plan.stats.get("resume") or {}).get("sailed") or {}).get("lonlat", []) + sailed["lonlat"]
     new.stats["resume"] = {
         "position": [position.lat, position.lon, position.heading_deg],
         "time_left_s": float(time_left_s),
-        "sailed": sailed_part(plan, runs, profile.sample_time),
+        "sailed": sailed,
+        # every run counted, this plan's and the plans' before it (step numbers on each one's own card)
+        "runs": [_run_record(r) for r in before + runs],
+        "earlier_runs": len(before),
         # log det of M_sailed alone (None: singular, the runs sailed cannot identify every parameter) and of the whole trial
         "logdet_sailed": rd.logdet_sailed if math.isfinite(rd.logdet_sailed) else None,
         "logdet_total": rd.logdet_total if math.isfinite(rd.logdet_total) else None,

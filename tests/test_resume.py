@@ -14,8 +14,10 @@ import numpy as np
 import pytest
 
 from cli.app import _run
+from diagnose.recording import write_csv
 from expdesign import adaptive as ad
 from maps.plan import Plan
+from maps.resume import simulated_recordings
 from maps.resume_example import example_recordings
 from maps.trialdesign import first_design, ship_library
 from primitives.ship import load_profile
@@ -69,6 +71,21 @@ def test_resume_end_to_end_writes_the_rest_with_the_sailed_part(sailed, tmp_path
     end = max(float(ln.split(",")[0]) for f in (sailed["dir"] / "rec").glob("*.csv") for ln in f.read_text().splitlines()[5:])
     first = datetime.fromisoformat(sailed["plan"].stats["start_utc"].replace("Z", "+00:00"))
     assert doc["stats"]["start_utc"] == (first + timedelta(seconds=end)).strftime("%Y-%m-%dT%H:%M:%SZ")
+    # resumed again after the rest's first manoeuvre: the first part's recordings still count (7.58)
+    rest = Plan.load(out / "plan.json")
+    prof = load_profile(rest.ship)
+    step = next(s for s in rest.steps if s.segment == "informative")
+    for rec in simulated_recordings(rest, prof, [step], prof.params(), (0.02, 0.02, 0.0005), 1):
+        write_csv(rec, tmp_path / "rec2" / rec.source)
+    k = int(np.nonzero(rest.step_of_sample == step.index)[0][-1])
+    pos = f"{rest.lonlat[k, 1]:.6f},{rest.lonlat[k, 0]:.6f},{np.degrees(rest.track[k, 2]) % 360:.1f}"
+    args = ["plan", "--resume", str(out / "plan.json"), "--recordings", str(tmp_path / "rec2"), "--from", pos]
+    assert _run([*args, "--time-left", "5min", "--no-export", "--out", str(tmp_path / "rest2")]) == 0
+    again = json.loads((tmp_path / "rest2" / "plan.json").read_text())
+    assert again["design"]["sailed_samples"] == doc["design"]["sailed_samples"] + by[step.primitive].n_samples
+    assert again["stats"]["resume"]["earlier_runs"] == 2 and len(again["stats"]["resume"]["runs"]) == 3
+    assert any("re-designed after 3 sailed manoeuvre(s)" in n for n in again["stats"]["notes"])
+    assert len(again["stats"]["resume"]["sailed"]["lonlat"]) > len(r["sailed"]["lonlat"])
 
 
 def _edit(src, dst, header=None, shift=0.0, drop=None):

@@ -200,9 +200,10 @@ def _resumed(plan: Plan) -> list[str]:
         return []
     steps = r["sailed"]["steps"]
     rec = [s for s in steps if "recording" in s]
+    before = f", {r['earlier_runs']} recorded under the plans before" if r.get("earlier_runs") else ""
     return [
         f"RESUMED TRIAL: steps 1-{steps[-1]['step']} sailed ({clock(r['sailed']['sailed_s'])} (h:)min:s, {len(rec)} manoeuvre(s) "
-        f"recorded: {', '.join(s['primitive'] for s in rec)}); this plan is the rest, from {r['position'][0]:.5f}, "
+        f"recorded: {', '.join(s['primitive'] for s in rec)}{before}); this plan is the rest, from {r['position'][0]:.5f}, "
         f"{r['position'][1]:.5f}, heading {r['position'][2]:03.0f}"
     ]
 
