@@ -7,9 +7,12 @@ import math
 from dataclasses import replace
 from datetime import timedelta
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from primitives.errors import UserError
+
+if TYPE_CHECKING:  # annotations only: the command imports the library when it runs
+    from maps.resume import Position
 
 
 def resume_conflict(
@@ -50,7 +53,7 @@ def _recording_files(paths: list[Path]) -> list[Path]:
     return out
 
 
-def _position(text: str):
+def _position(text: str) -> Position:
     from cli.plan_cmd import parse_point
     from maps.resume import Position
 
