@@ -36,6 +36,7 @@ from primitives.ship import ShipProfile
 # step's planned start shifted by the previous recording's lateness (the trial's start for the first).
 TIME_TOLERANCE_S = 900.0
 MIN_COVER = 0.8  # a recording covers at least this share of its manoeuvre's duration
+MAX_COVER = 1.5  # and no more than this: beyond, it holds the next transit or manoeuvre, not modelled as this step
 
 
 class ResumeError(UserError):
@@ -132,7 +133,7 @@ def match_recordings(plan: Plan, recordings: list[Recording], profile: ShipProfi
     Refused in one line: another ship, a manoeuvre the plan does not sail (there), recordings out
     of the plan's order or overlapping, a start without ``# step:`` off its step's time by more
     than :data:`TIME_TOLERANCE_S` beyond the schedule's slip so far, a recording shorter than
-    :data:`MIN_COVER` of its step, two recordings of one step."""
+    :data:`MIN_COVER` or longer than :data:`MAX_COVER` of its step, two recordings of one step."""
     runs: dict[int, SailedRun] = {}
     matched: list[tuple[Recording, PlanStep]] = []
     durations = {p.name: p.duration_s for p in ship_library(profile)}
@@ -150,6 +151,11 @@ def match_recordings(plan: Plan, recordings: list[Recording], profile: ShipProfi
             raise ResumeError(
                 f"{rec.source}: lasts {rec.duration_s:.0f} s but the manoeuvre of step {step.index + 1} ({man}) lasts "
                 f"{need:.0f} s: give the recording of the whole manoeuvre"
+            )
+        if rec.duration_s > MAX_COVER * need:
+            raise ResumeError(
+                f"{rec.source}: lasts {rec.duration_s:.0f} s but the manoeuvre of step {step.index + 1} ({man}) lasts "
+                f"{need:.0f} s: trim the recording to the manoeuvre (it holds what was sailed after it)"
             )
         if step.index in runs:
             raise ResumeError(f"{rec.source}: step {step.index + 1} ({man}) has a recording already ({runs[step.index].source})")

@@ -130,6 +130,7 @@ def test_resume_of_a_plan_for_a_ship_it_cannot_load_or_plan(sailed, tmp_path, ca
         ("off-map", "is outside the map"),
         ("no-time", "holds no manoeuvre"),
         ("twice", "has a recording already"),
+        ("too-long", "trim the recording to the manoeuvre"),
     ],
 )
 def test_bad_resume_input_one_line_exit_2_nothing_written(sailed, tmp_path, capsys, case, match):
@@ -151,6 +152,15 @@ def test_bad_resume_input_one_line_exit_2_nothing_written(sailed, tmp_path, caps
         kw["left"] = "10"
     elif case == "twice":
         kw["recordings"] = [recs[0], recs[0]]
+    elif case == "too-long":  # the manoeuvre and as long again after it
+        lines = recs[0].read_text().splitlines()
+        i = next(i for i, ln in enumerate(lines) if ln.startswith("t,"))
+        rows = np.array([[float(v) for v in ln.split(",")] for ln in lines[i + 1 :]])
+        more = rows.copy()  # the same run again, its time and track (t, x, y) carried on from the end
+        more[:, :3] += 2 * rows[-1, :3] - rows[0, :3] - rows[-2, :3]
+        more = [",".join(f"{v:.9g}" for v in row) for row in more]
+        (tmp_path / "long.csv").write_text("\n".join(lines + more) + "\n")
+        kw["recordings"] = [tmp_path / "long.csv"]
     out = tmp_path / "out"
     capsys.readouterr()
     assert _resume(sailed, out, "--no-export", **kw) == 2
