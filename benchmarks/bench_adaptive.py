@@ -96,7 +96,8 @@ def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: i
     )
     print(f"noise std u, v, r {NOISE.get(ship)}; TRUTH = THE ESTIMATOR'S OWN MODEL AT DRAWN PARAMETERS")
     print("parameter error rms((theta_hat - theta) / theta), median over the runs\n")
-    print(f"{'trial':>5} {'fixed':>8} {'adaptive':>9} {'ratio':>7}  re-designed rest (first run)")
+    rest_fixed_s = sum(p.duration_s for p in seq[max(1, round(len(seq) / 3)) :])
+    print(f"{'trial':>5} {'fixed':>8} {'adaptive':>9} {'ratio':>7} {'rest s':>13}  re-designed rest (first run)")
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(28, 5)))
     th0 = prof.params()
     ratios, wins = [], 0
@@ -111,7 +112,14 @@ def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: i
         ratio = ma / mf if ok else float("nan")
         wins += bool(ok and ma < mf)
         ratios.append(ratio)
-        print(f"{t:5d} {mf:8.4f} {ma:9.4f} {ratio:7.3f}  {res[0][2].counts}" + (f"  ({failed} fit(s) failed)" if failed else ""))
+        # the rests compared must be of one length (fixed/adaptive manoeuvring seconds); flagged when not
+        rest = [r[2].planned_s for r in res]
+        same = all(abs(x - rest_fixed_s) < 1e-6 for x in rest)
+        lengths_txt = f"{rest_fixed_s:6.1f}/{rest[0]:<6.1f}" + ("" if same else "  UNEQUAL REST LENGTHS")
+        print(
+            f"{t:5d} {mf:8.4f} {ma:9.4f} {ratio:7.3f} {lengths_txt:>13}  {res[0][2].counts}"
+            + (f"  ({failed} fit(s) failed)" if failed else "")
+        )
     r = np.array(ratios)
     print(
         f"\nadaptive lower in {wins} of {trials} trials ({wins / trials:.0%}; Done-when >= 75 %); "
