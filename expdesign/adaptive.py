@@ -221,7 +221,11 @@ def sailed_information(
     'complete' (7.57) removes one mean over the whole trial: the runs' pooled X0, Y0, Z0 enter
     its sums T, S and Z-bar. 'batchwise' (7.53) removes each run's own mean, so the prior is
     X0 = sum_r n_r (X_r - Y_r Z_r^T) / N with Y0 = Z0 = 0 (pooling would count the spread between
-    the runs' means as information); 'none' (7.18) is the same sum of X_r."""
+    the runs' means as information); 'none' (7.18) is the same sum of X_r.
+
+    The recorded regressors carry measurement noise and M_rest's do not: the quadratic terms' X
+    and Y are biased by about the noise variance, negligible at a GNSS/gyro's noise against the
+    manoeuvres' velocities."""
     inst = None if theta is None else np.asarray(theta, float)[None]
     if mean_subtraction == "complete":
         return data_information(profile, [r.segment() for r in runs], inst, name="sailed")
