@@ -168,6 +168,7 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
 def register(app: typer.Typer) -> None:
     @app.command("plan")
     def plan(
+        ctx: typer.Context,
         map_path: Path | None = typer.Option(
             None, "--map", help="GeoJSON sea map file, or a bundled map's name: helsinki (default), open-sea"
         ),
@@ -228,12 +229,83 @@ def register(app: typer.Typer) -> None:
         no_export: bool = typer.Option(False, "--no-export", help="write only plan.json, trajectory.geojson and plan.png"),
         json_out: bool = typer.Option(False, "--json", help="print one JSON summary"),
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
+        resume: Path | None = typer.Option(
+            None,
+            "--resume",
+            help="re-design the rest of the trial planned in this plan.json (with --recordings, --from, --time-left)",
+        ),
+        recordings: list[Path] | None = typer.Option(
+            None, "--recordings", help="recording (CSV) of a manoeuvre sailed, or a directory of them; repeat for each"
+        ),
+        start_from: str | None = typer.Option(
+            None, "--from", help="resume: the ship's position and heading now, LAT,LON,HEADING_DEG"
+        ),
+        time_left: str | None = typer.Option(
+            None, "--time-left", help="resume: manoeuvring time left, seconds or with a unit s, min or h (transits come on top)"
+        ),
     ) -> None:
         """Plan a trial: design -> whole manoeuvres -> A* planning -> continuous verification -> exports for the crew."""
         from cli.options import duration_s, validate_plan_options
+        from cli.resume_cmd import resume_conflict, run_resume
         from expdesign.dopt import canonical_criterion
         from maps.chain import PlanOptions
 
+        resume_conflict(
+            resume,
+            recordings,
+            start_from,
+            time_left,
+            counts=counts,
+            scenario=scenario,
+            criterion=criterion,
+            trial_length=trial_length_text,
+            prior_spread=prior_spread,
+            prior_file=prior_file,
+            prior_draws=prior_draws,
+            mean_subtraction=mean_subtraction,
+            start=start,
+            goal=goal,
+        )
+        if resume is not None:
+            validate_plan_options(
+                resolution=resolution,
+                margin=margin,
+                headings=headings,
+                start=None,
+                goal=None,
+                counts=None,
+                size=size,
+                out=out,
+                seed=seed,
+                run_in=run_in,
+                max_memory=max_memory,
+                vessel_name=vessel_name,
+                start_time=start_time,
+                no_export=no_export,
+            )
+            # the lattice options given override the plan's; those left at their defaults keep the plan's
+            # (by name: typer's vendored click has its own ParameterSource)
+            given = {k for k in ctx.params if getattr(ctx.get_parameter_source(k), "name", "DEFAULT") != "DEFAULT"}
+            size_t = tuple(int(v) for v in size.lower().split("x"))  # checked by validate_plan_options
+            lattice = {"resolution": resolution, "headings": headings, "heuristic": heuristic, "margin": margin}
+            lattice |= {"split": split, "size": size_t, "run_in_s": run_in, "max_memory_gib": max_memory}
+            names = {"run_in_s": "run_in", "max_memory_gib": "max_memory"}  # PlanOptions field -> parameter
+            run_resume(
+                resume,
+                recordings or [],
+                start_from or "",
+                time_left or "",
+                map_path=map_path,
+                ship=ship if "ship" in given else None,
+                out=out,
+                start_time=start_time,
+                no_export=no_export,
+                json_out=json_out,
+                seed=seed,
+                overrides={k: v for k, v in lattice.items() if names.get(k, k) in given},
+                vessel_name=vessel_name,
+            )
+            return
         trial_length = duration_s(trial_length_text, "--trial-length")
         design_conflict(
             counts,

@@ -171,6 +171,8 @@ def solve(lat, *, design: dict | None = None, vessel_name: str = "", t_all: floa
         "states_visited": visited,
         "plan_time_s": search_s,
         "heuristic": o.heuristic,
+        # the options the lattice does not record, for a resumed trial (maps.resume.plan_options)
+        "options": {"run_in_s": o.run_in_s, "split": o.split, "size": list(o.size), "max_memory_gib": o.max_memory_gib},
         "expansions_per_s": expansions / max(search_s, 1e-9),
         "setup_time_s": lat.setup_s,
         "design_time_s": design_s,

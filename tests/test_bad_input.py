@@ -288,6 +288,23 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["plan", "--counts", "tau12=1"], "--mean-subtraction", ["none"], named=True)
     add(["plan", "--scenario", "thesis-9.4"], "--trial-length", ["3600"], named=True)
     add(["plan", "--scenario", "thesis-9.4"], "--criterion", ["D"], named=True)
+    # resuming a trial (issue 28): each option refused before any work, the others given
+    at = "60.165,24.955,90"  # open water of the bundled map
+    add(
+        ["plan", "--recordings", "{rec}", "--from", at, "--time-left", "600"],
+        "--resume",
+        ["{missing}", "{dir}", "{notjson}", "{rec}"],
+    )
+    rr = ["plan", "--resume", "{plan}", "--from", at, "--time-left", "600"]
+    add(rr, "--recordings", ["{missing}", "{dir}", "{binary}", "{notjson}", "{rec}"])
+    add(
+        ["plan", "--resume", "{plan}", "--recordings", "{rec}", "--time-left", "600"],
+        "--from",
+        ["abc", "60.1,24.9", "nan,24.9,0", "95,24.9,0", "1,2,3,4"],
+        named=True,
+    )
+    add(["plan", "--resume", "{plan}", "--recordings", "{rec}", "--from", at], "--time-left", ["abc", "0", "-1", ""], named=True)
+    add(["plan"], "--time-left", ["600"], named=True)  # without --resume
     # export
     for plan in ["{missing}", "{dir}", "{binary}", "{notjson}", "{rec}", "{cfg}"]:
         cases.append((f"export PLAN {plan}", ["export", plan, "--format", "gpx", "--out", "{tmp}/o.gpx"]))

@@ -27,6 +27,8 @@ SLOW = {
     "plan-trial --ship kvlcc2 --map": "KVLCC2 on the 60 km open sea: 14 s CPU (106 s wall on the loaded machine)",
     "plan-trial --ship coaster.toml": "a ship from particulars planned on the open sea: 14 s CPU (34 s wall on the loaded machine); "
     "run by the slow test_the_readme_example_plans_a_ship_made_from_particulars",
+    "plan-trial --resume": "a plan, then its resume with every export: about 8 s CPU; tests/test_resume.py runs "
+    "the same resume end to end on a 15-minute plan, its recordings made by the example's example_recordings",
     "shiptrial mass ": "the roll mass estimate: 10 s CPU (its own tests run it)",
     "shiptrial steering diagnose/data": "the two 20/20 KVLCC2 zig-zags pooled, four models and estimators: 13 s CPU "
     "(tests/test_steering_cli.py runs the command on a simulated record)",

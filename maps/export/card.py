@@ -204,6 +204,21 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
     return head, rows
 
 
+def _resumed(plan: Plan) -> list[str]:
+    """A resumed plan's first line: what was sailed before it (``stats['resume']``)."""
+    r = plan.stats.get("resume")
+    if not r:
+        return []
+    steps = r["sailed"]["steps"]
+    rec = [s for s in steps if "recording" in s]
+    before = f", {r['earlier_runs']} recorded under the plans before" if r.get("earlier_runs") else ""
+    return [
+        f"RESUMED TRIAL: steps 1-{steps[-1]['step']} sailed ({clock(r['sailed']['sailed_s'])} (h:)min:s, {len(rec)} manoeuvre(s) "
+        f"recorded: {', '.join(s['primitive'] for s in rec)}{before}); this plan is the rest, from {r['position'][0]:.5f}, "
+        f"{r['position'][1]:.5f}, heading {r['position'][2]:03.0f}"
+    ]
+
+
 def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list[str]:
     phases = [phase(plan, st) for st in plan.steps]
     n_man = sum(1 for p in phases if p in ("EXECUTE", "manoeuvre"))
@@ -212,6 +227,7 @@ def _summary(plan: Plan, t0: datetime, vessel: str, sea_map: Any = None) -> list
     ]
     chart = plan_chart(plan, sea_map)
     return [
+        *_resumed(plan),
         f"Ship {vessel}"
         + (f" ({plan.ship})" if vessel != plan.ship else "")
         + (f"   Area {plan.map_name}" if plan.map_name else "")

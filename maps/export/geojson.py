@@ -137,6 +137,17 @@ def _segment_features(plan: Plan) -> list[dict[str, Any]]:
     return feats
 
 
+def _sailed_features(plan: Plan) -> list[dict[str, Any]]:
+    """A resumed plan's trial sailed before it (``stats['resume']``, :mod:`maps.resume`): the
+    planned track of the steps sailed, ``kind = "sailed"``."""
+    sailed = (plan.stats.get("resume") or {}).get("sailed") or {}
+    line = sailed.get("lonlat") or []
+    if len(line) < 2:
+        return []
+    props = {"kind": "sailed", "steps": [s["step"] for s in sailed.get("steps", [])], "duration_s": sailed.get("sailed_s")}
+    return [{"type": "Feature", "geometry": {"type": "LineString", "coordinates": _line(np.asarray(line))}, "properties": props}]
+
+
 def _start_features(plan: Plan) -> list[dict[str, Any]]:
     feats = []
     for st in plan.steps:
@@ -224,7 +235,7 @@ def plan_geojson(plan: Plan, *, sea_room: bool = True, overlay: bool = True, sea
         "margin_m": plan.margin_m,
         "max_wind_mps": plan.max_wind_mps,
     }
-    feats = _segment_features(plan)
+    feats = _segment_features(plan) + _sailed_features(plan)
     if not overlay:
         return {"type": "FeatureCollection", "properties": summary, "features": feats}
     feats += _start_features(plan)
