@@ -386,7 +386,9 @@ def _estimate(sh: MCShared, segs: list[_Seg], starts: list[list[int]]) -> np.nda
             break
         znew = [_resimulated_instruments(sh, s, theta, idx) for s in segs]
         with np.errstate(invalid="ignore"):
-            sane = np.logical_and.reduce([np.isfinite(z).all(axis=(1, 2)) & (np.abs(z).max(axis=(1, 2)) < _Z_LIMIT) for z in znew])
+            sane = np.logical_and.reduce(
+                [np.isfinite(z).all(axis=(1, 2)) & (np.abs(z).max(axis=(1, 2)) < _Z_LIMIT) for z in znew]
+            )
         active[idx[~sane]] = False  # its simulation diverged: keep the previous instruments
         idx = idx[sane]
         if not idx.size:
