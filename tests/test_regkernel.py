@@ -1,9 +1,12 @@
 """The compiled regressor build (primitives.regkernel) against the numpy build it replaces: the same
 bits for every built-in profile's predictor and for terms with stations, moduli, squares and
-reciprocals; a term set with another power keeps the numpy build. The numpy build runs whenever
+reciprocals; a term set with another power keeps the numpy build; the build never loads numba. The numpy build runs whenever
 numba is missing or SHIPTRIAL_KERNEL=numpy is set (tests/test_jitloop.py checks the selection)."""
 
 from __future__ import annotations
+
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -34,7 +37,7 @@ def _numpy_build(monkeypatch, *args, **kw):
 @needs_numba
 @pytest.mark.parametrize("name", [n for n in builtin_profiles() if load_profile(n).n_dof == 3])
 def test_compiled_regressors_are_the_numpy_bits(monkeypatch, name):
-    monkeypatch.setattr(jitloop, "MIN_WORK", 0)
+    assert jitloop.use(jitloop.MIN_WORK)  # the compiled build runs once a simulation has loaded numba
     profile = load_profile(name)
     y, inputs, psi = _data(profile)
     calls = []
@@ -49,7 +52,7 @@ def test_compiled_regressors_are_the_numpy_bits(monkeypatch, name):
 
 @needs_numba
 def test_stations_moduli_squares_and_reciprocals(monkeypatch):
-    monkeypatch.setattr(jitloop, "MIN_WORK", 0)
+    assert jitloop.use(jitloop.MIN_WORK)
     profile = load_profile("model-ship")
     terms = TermSet(
         [
@@ -67,9 +70,33 @@ def test_stations_moduli_squares_and_reciprocals(monkeypatch):
     assert np.array_equal(compiled, numpy_phi, equal_nan=True)
 
 
-def test_other_powers_keep_the_numpy_build(monkeypatch):
+def test_other_powers_keep_the_numpy_build():
     """v_r^3: numpy's vectorised power and the C library's pow may differ in the last bit."""
-    monkeypatch.setattr(jitloop, "MIN_WORK", 0)
+    jitloop.use(jitloop.MIN_WORK)
     terms = TermSet([["u_r"], ["v_r^3", "tau_y"], ["r"]])
     assert regkernel._program(terms.terms) is None
     assert regkernel.regressor_matrix(terms, {"u_r": np.ones(3)}, (3,)) is None
+
+
+_NO_LOAD = """
+import numpy as np
+from primitives import jitloop
+from primitives.regressors import predictor_regressors
+from primitives.ship import load_profile
+rng = np.random.default_rng(0)
+for name in ("model-ship", "naval-vessel"):  # one the compiled build covers, one it leaves to numpy
+    p = load_profile(name)
+    b, n = 20, 1000  # 20,000 samples: as large as the simulation kernel's load threshold
+    y = rng.normal(0.0, 0.1, (b, n + 1, p.n_dof)) + 1.0
+    phi = predictor_regressors(p, y, rng.normal(0.0, 1.0, (b, n, len(p.inputs))), rng.uniform(-3, 3, (b, n + 1)))[0]
+    assert np.isfinite(phi).any()
+print(jitloop._LOADED)
+"""
+
+
+@needs_numba
+def test_the_regressor_build_never_loads_numba():
+    """Loading numba costs about 0.6 s of CPU for a build numpy does about as fast: a process whose
+    first large call is a Phi build (the particulars fit, robust design, information) must not pay it."""
+    out = subprocess.run([sys.executable, "-c", _NO_LOAD], capture_output=True, text=True, timeout=120, check=True).stdout
+    assert out.split() == ["False"]
