@@ -46,9 +46,9 @@ def _solve_checked(a: np.ndarray, rhs: np.ndarray, row_norm: np.ndarray, col_nor
     with np.errstate(all="ignore"):
         scaled = a2 / (row_norm.reshape(-1, n, 1) * col_norm.reshape(-1, 1, n))
         todo = np.flatnonzero(~np.reshape(fail, -1) & np.isfinite(scaled).all(axis=(1, 2)) & np.isfinite(a2).all(axis=(1, 2)))
+        if not todo.size:
+            return x.reshape(rhs.shape)
         try:
-            if not todo.size:
-                return x.reshape(rhs.shape)
             s = np.linalg.svd(scaled[todo], compute_uv=False)
             good = todo[s[:, -1] * MAX_CONDITION >= s[:, 0]]
             x[good] = np.linalg.solve(a2[good], r2[good][..., None])[..., 0]
