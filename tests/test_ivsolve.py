@@ -77,7 +77,9 @@ def test_stacked_solve_matches_the_per_system_loop(monkeypatch):
     assert calls == [3]  # one batched solve, no fallback
     _check(x, ref, nan_rows)
     # two batch axes: the same systems, the same bits
-    x2 = ivsolve._solve_checked(a.reshape(3, 4, 4, 4), rhs.reshape(3, 4, 4), row.reshape(3, 4, 4), col.reshape(3, 4, 4), fail.reshape(3, 4))
+    x2 = ivsolve._solve_checked(
+        a.reshape(3, 4, 4, 4), rhs.reshape(3, 4, 4), row.reshape(3, 4, 4), col.reshape(3, 4, 4), fail.reshape(3, 4)
+    )
     assert np.array_equal(x2.reshape(x.shape), x, equal_nan=True)
 
 
