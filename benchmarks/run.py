@@ -302,8 +302,22 @@ def main() -> None:
         "cases": results,
     }
     if a.json:
+        _say_dropped(a.json, results)
         a.json.write_text(json.dumps(doc, indent=2) + "\n")
         print(f"wrote {a.json}")
+
+
+def _say_dropped(path: Path, results: list[dict]) -> None:
+    """Name the keys of ``path``'s cases the new file will not hold (added by hand, or a case not
+    run): this script rewrites the file from its own runs; hand-made figures belong in a sibling
+    file (benchmarks/results_issue30.json)."""
+    if not path.exists():
+        return
+    new = {r["name"]: r for r in results}
+    for c in json.loads(path.read_text()).get("cases", []):
+        lost = ["(whole case)"] if c.get("name") not in new else sorted(set(c) - set(new[c["name"]]))
+        if lost:
+            print(f"note: {path} loses {c.get('name')}: {', '.join(lost)}")
 
 
 if __name__ == "__main__":

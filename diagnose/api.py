@@ -6,6 +6,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from diagnose import plausible
 from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_structure, loo_misfit, term_scales: the library API)
@@ -140,6 +141,13 @@ def _setup(
     return _Setup(profile, theta0, source, notes, own, model, untestable, preps, val_preps, calm_preps)
 
 
+# BLAS runs on one thread during a diagnosis: the refits' products of a tall Jacobian (136,500 x 40
+# for 13 runs of 3,500 samples) spent 0.05 to 2.9 s of CPU each on two threads of a shared machine,
+# the second thread spinning while it waited for a core (one thread: the same products, 0.05 s).
+# The limit is process-wide while run() runs: other threads of the process (a Dask worker's, a
+# library caller's) get one BLAS thread too, and two run() calls overlapping in two threads may
+# leave the process at one thread when they end; no caller in the project runs it in threads.
+@threadpool_limits.wrap(limits=1, user_api="blas")
 def run(
     recordings: list[Recording],
     profile: ShipProfile,
@@ -159,7 +167,8 @@ def run(
     jointly on the ``fit_on`` runs and the diagnosed runs, every candidate acting on the
     diagnosed runs only. ``environment`` and ``rudder_sign`` stand for every recording's
     ``# environment:`` and ``# rudder_sign:`` header lines; a rudder in the other convention is
-    converted to the profile's (or refused when it turns the ship the other way), as the CLI does."""
+    converted to the profile's (or refused when it turns the ship the other way), as the CLI does.
+    BLAS runs on one thread meanwhile, for the whole process (see the comment above)."""
     t0 = time.perf_counter()
     if not recordings:
         raise RecordingError("no recording given: pass at least one CSV or .dat file")

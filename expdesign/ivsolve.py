@@ -37,20 +37,29 @@ def remove_instrument_mean(z: np.ndarray, mean_subtraction: str, starts: Sequenc
 def _solve_checked(a: np.ndarray, rhs: np.ndarray, row_norm: np.ndarray, col_norm: np.ndarray, fail: np.ndarray) -> np.ndarray:
     """x of a x = rhs for each system (a (..., n, n), rhs (..., n)); NaN where ``fail`` (...,) or
     where the system is not finite, singular, or its condition number scaled by ``row_norm`` and
-    ``col_norm`` (..., n) exceeds MAX_CONDITION. Each system is solved on its own: its numbers do
-    not depend on the batch."""
+    ``col_norm`` (..., n) exceeds MAX_CONDITION. Each system is solved on its own: the SVDs and
+    solves of a stack are LAPACK's calls per matrix, the numbers of one system do not depend on
+    the batch (a stack with a system LAPACK rejects is redone one system at a time)."""
     n = a.shape[-1]
     a2, r2 = a.reshape(-1, n, n), rhs.reshape(-1, n)
     x = np.full(r2.shape, np.nan)
     with np.errstate(all="ignore"):
         scaled = a2 / (row_norm.reshape(-1, n, 1) * col_norm.reshape(-1, 1, n))
-        for k in np.flatnonzero(~np.reshape(fail, -1)):
-            try:  # NaN singular values (a matrix not finite) fail the comparison
-                s = np.linalg.svd(scaled[k], compute_uv=False)
-                if s[-1] * MAX_CONDITION >= s[0]:
-                    x[k] = np.linalg.solve(a2[k], r2[k])
-            except np.linalg.LinAlgError:  # the SVD of a matrix not finite, or an exact zero pivot
-                pass
+        todo = np.flatnonzero(~np.reshape(fail, -1) & np.isfinite(scaled).all(axis=(1, 2)) & np.isfinite(a2).all(axis=(1, 2)))
+        if not todo.size:
+            return x.reshape(rhs.shape)
+        try:
+            s = np.linalg.svd(scaled[todo], compute_uv=False)
+            good = todo[s[:, -1] * MAX_CONDITION >= s[:, 0]]
+            x[good] = np.linalg.solve(a2[good], r2[good][..., None])[..., 0]
+        except np.linalg.LinAlgError:  # an exact zero pivot (or an SVD that did not converge): one by one
+            for k in todo:
+                try:
+                    s = np.linalg.svd(scaled[k], compute_uv=False)
+                    if s[-1] * MAX_CONDITION >= s[0]:
+                        x[k] = np.linalg.solve(a2[k], r2[k])
+                except np.linalg.LinAlgError:
+                    pass
     return x.reshape(rhs.shape)
 
 

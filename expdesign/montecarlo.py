@@ -342,17 +342,30 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) ->
 # -- per-run estimation -----------------------------------------------------------------------------
 
 
-def _solve_run(sh: MCShared, segs: list[_Seg], b: int, starts: list[int]) -> np.ndarray:
-    """IV estimate of run b (:func:`expdesign.ivsolve.iv_solve`), the instrument mean removed
-    per block (7.19) or over the experiment (7.20); NaN (a failed run) where a DOF's system is
-    singular or ill-conditioned."""
-    if len(segs) == 1:  # the continuous protocol: the run's rows as they are (C-contiguous, as a concatenation)
-        phi, tgt, z = segs[0].phi[b], segs[0].tgt[b], segs[0].z[b]
+def _solve_runs(sh: MCShared, segs: list[_Seg], runs: np.ndarray, starts: list[list[int]]) -> np.ndarray:
+    """IV estimates (len(runs), p) of the runs at batch positions ``runs``
+    (:func:`expdesign.ivsolve.iv_solve`), the instrument mean removed per block (7.19) or over
+    the experiment (7.20); NaN (a failed run) where a DOF's system is singular or
+    ill-conditioned. The runs are solved as one stack (per-run reductions over the sample axis
+    and LAPACK calls per system: a run's numbers are those of a solve of it alone), grouped by
+    their block starts when the mean is removed per block."""
+    theta = np.empty((len(runs), sh.predictor.n_params))
+    if sh.config.mean_subtraction == "batchwise":
+        groups: dict[tuple, list[int]] = {}
+        for j, i in enumerate(runs):
+            groups.setdefault(tuple(starts[i]), []).append(j)
     else:
-        phi = np.concatenate([s.phi[b] for s in segs])
-        tgt = np.concatenate([s.tgt[b] for s in segs])
-        z = np.concatenate([s.z[b] for s in segs])
-    return iv_solve(sh.predictor, phi, z, tgt, sh.config.mean_subtraction, starts)[0]
+        groups = {(0,): list(range(len(runs)))}
+    for key, js in groups.items():
+        sel = runs[js]
+        if len(segs) == 1:  # the continuous protocol: the runs' rows as they are
+            phi, tgt, z = segs[0].phi[sel], segs[0].tgt[sel], segs[0].z[sel]
+        else:
+            phi = np.concatenate([s.phi[sel] for s in segs], axis=1)
+            tgt = np.concatenate([s.tgt[sel] for s in segs], axis=1)
+            z = np.concatenate([s.z[sel] for s in segs], axis=1)
+        theta[js] = iv_solve(sh.predictor, phi, z, tgt, sh.config.mean_subtraction, list(key))[0]
+    return theta
 
 
 def _resimulated_instruments(sh: MCShared, seg: _Seg, theta: np.ndarray, idx: np.ndarray) -> np.ndarray:
@@ -365,24 +378,28 @@ def _estimate(sh: MCShared, segs: list[_Seg], starts: list[list[int]]) -> np.nda
     """Per-run IV estimates; each run re-simulates its instruments until its own estimate
     changes by less than 1e-3 (relative) or ``iv_iterations`` re-simulations were made."""
     b = segs[0].phi.shape[0]
-    theta = np.stack([_solve_run(sh, segs, i, starts[i]) for i in range(b)])
+    theta = _solve_runs(sh, segs, np.arange(b), starts)
     active = np.isfinite(theta).all(axis=1)
     for _ in range(sh.config.iv_iterations):
         idx = np.flatnonzero(active)
         if not idx.size:
             break
         znew = [_resimulated_instruments(sh, s, theta, idx) for s in segs]
-        for a, i in enumerate(idx):
-            if not all(np.isfinite(z[a]).all() and np.abs(z[a]).max() < _Z_LIMIT for z in znew):
-                active[i] = False  # its simulation diverged: keep the previous instruments
-                continue
-            for s, z in zip(segs, znew):
-                s.z[i] = z[a]
-            th = _solve_run(sh, segs, i, starts[i])
-            with np.errstate(all="ignore"):
-                change = np.max(np.abs(th - theta[i]) / np.maximum(np.abs(th), 1e-12))
-            theta[i] = th
-            active[i] = bool(np.isfinite(th).all() and change >= 1e-3)
+        with np.errstate(invalid="ignore"):
+            sane = np.logical_and.reduce(
+                [np.isfinite(z).all(axis=(1, 2)) & (np.abs(z).max(axis=(1, 2)) < _Z_LIMIT) for z in znew]
+            )
+        active[idx[~sane]] = False  # its simulation diverged: keep the previous instruments
+        idx = idx[sane]
+        if not idx.size:
+            break
+        for s, z in zip(segs, znew):
+            s.z[idx] = z[sane]
+        th = _solve_runs(sh, segs, idx, starts)
+        with np.errstate(all="ignore"):
+            change = np.max(np.abs(th - theta[idx]) / np.maximum(np.abs(th), 1e-12), axis=1)
+        theta[idx] = th
+        active[idx] = np.isfinite(th).all(axis=1) & (change >= 1e-3)
     return theta
 
 

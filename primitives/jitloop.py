@@ -59,6 +59,12 @@ def kernel_name() -> str:
     return "numba" if AVAILABLE else "numpy"
 
 
+def loaded() -> bool:
+    """Whether the compiled code is loaded in this process and usable (a call of :func:`use`
+    loaded it): callers whose own work never pays for the load run compiled only then."""
+    return AVAILABLE and _LOADED
+
+
 def use(work: int) -> bool:
     """Whether a call of ``work`` batch members x steps runs compiled: when numba is available and
     either the compiled code is loaded already or the call is large enough to pay for loading it

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from primitives.regkernel import regressor_matrix
 from primitives.ship import ShipProfile
 from primitives.simulate import model_signals, signals_read, simulate
 from primitives.terms import TermSet
@@ -56,7 +57,9 @@ def predictor_regressors(
     sig = model_signals(profile, yk, psi_k, in_sig, None, None if wind_ne is None else wind_ne[..., :n, :])
     if extra:
         sig.update({k: v[..., :n] for k, v in extra.items()})
-    phi = np.concatenate([terms.evaluate_dof(i, sig) for i in range(terms.n_dof)], axis=-1)
+    phi = regressor_matrix(terms, sig, yk.shape[:-1])  # compiled when worth it, the same bits
+    if phi is None:
+        phi = np.concatenate([terms.evaluate_dof(i, sig) for i in range(terms.n_dof)], axis=-1)
     return phi, np.diff(y, axis=-2)
 
 
