@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from diagnose import plausible
+from diagnose import delaycheck, plausible
 from diagnose.candidates import Candidate, canonical_term
 from diagnose.describe import describe, surge_base_index
 from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, refit_verdict, rejection_entry, verdict
@@ -394,9 +394,16 @@ def _round(
         passed.append(res)
         if len(passed) >= MAX_PASSED:
             break
-    # of the refitted survivors, keep the one best on the held-out runs (simulated with
-    # validation runs; a delay or a current is far from its linearised score)
-    return min(passed, key=lambda r: r[4].delta_aic) if passed else None
+    # a delay against a damping term by the residual's phase and the delay profile; else the
+    # refitted survivor best on the held-out runs (a delay or a current is far from its linearised score)
+    pick = None
+    damp = [r[1][0] for r in passed if r[0].effect == "quadratic_damping"]
+    if damp and any(r[0].effect == "actuator_delay" for r in passed):
+        phase = delaycheck.rudder_phase_at(S.model, S.preps, P, damp[0])
+        pick = delaycheck.choose(passed, phase, S.delay_profile)
+    if pick is not None:
+        out.notes.append(delaycheck.describe(phase, S.delay_profile) + f": {pick[0].effect} kept")
+    return pick or (min(passed, key=lambda r: r[4].delta_aic) if passed else None)
 
 
 def _try(
@@ -417,7 +424,7 @@ def _try(
     new = model.slot_of[c.key]
     start = _line_start(S, P, new, beta)
     if c.effect == "actuator_delay":
-        start[new[0]] = _grid_delay(S, P, new[0])
+        start[new[0]], S.delay_profile = delaycheck.grid_delay(model, S.preps, S.wr, P, new[0])
     P1, cov1, rss1 = S.refit(start, free + new, slot_bounds(model, c, P))
     if not np.isfinite(rss1):
         return {"reason": "the refit diverged (non-finite or exploding simulation): not scored"}
@@ -551,14 +558,3 @@ def _line_start(S: _Search, P: np.ndarray, new: list[int], beta: np.ndarray) -> 
     Pb[:, new] = P[new] + np.outer(fr, beta)
     R = stack(residuals(S.model, S.preps, Pb), S.wr)
     return Pb[int(np.argmin(np.einsum("ij,ij->i", R, R)))]
-
-
-def _grid_delay(S: _Search, P: np.ndarray, j: int, max_samples: int = 12) -> float:
-    """Grid search over half-sample delays in one batched simulation."""
-    ts = S.model.profile.sample_time
-    grid = np.arange(-1, 2 * max_samples + 1) * 0.5 * ts
-    grid = grid[grid >= -S.model.half_sample]
-    Pb = np.repeat(P[None], len(grid), axis=0)
-    Pb[:, j] = grid
-    R = stack(residuals(S.model, S.preps, Pb), S.wr)
-    return float(grid[int(np.argmin((R**2).sum(axis=1)))]) or 0.25 * ts
