@@ -249,7 +249,14 @@ def _cli(paths: dict[str, list[Path]], ship: str = BASELINE) -> dict:
     }
 
 
-STD_KEY = {"delay_s": "delay_std", "speed_mps": "speed_std", "loss_percent": "loss_percent_std"}
+STD_KEY = {
+    "delay_s": "delay_std",
+    "speed_mps": "speed_std",
+    "loss_percent": "loss_percent_std",
+    "bias": "bias_std",
+    "value": "value_std",
+    "offset_deg": "offset_std",  # in rad: converted below
+}
 
 
 def z_scores(truth: dict, findings: list[dict] | None, part: str = "") -> dict[str, float]:
@@ -262,7 +269,15 @@ def z_scores(truth: dict, findings: list[dict] | None, part: str = "") -> dict[s
         f = next((f for f in findings or [] if f.get("effect") == eff), None)
         for key, spec in checks.items():
             p = (f or {}).get("parameters") or {}
+            if key == "wind":  # one estimate per DOF (the wind candidate's scales)
+                for k, true in spec[0].items():
+                    est, sd = _num(p.get(k)), _num(p.get(f"{k}_std{part}"))
+                    if est is not None and sd:
+                        out[k] = (est - true) / sd
+                continue
             est, sd = _num(p.get(key)), _num(p.get(STD_KEY.get(key, "") + part))
+            if key == "offset_deg" and sd:
+                sd = math.degrees(sd)
             if est is not None and sd and isinstance(spec[0], int | float):
                 out[key] = (est - spec[0]) / sd
     return out
