@@ -28,7 +28,11 @@ def table(rows: list[dict]) -> str:
         name, seed = (m.group(1), int(m.group(2))) if m else (r["case"], 0)
         by_case[name][seed] = r
     seeds = sorted({s for c in by_case.values() for s in c})
-    head = f"{'case':24s} " + " ".join(f"{'s' + str(s):>5s}" for s in seeds) + "   right  in 95 %   wall s (median)  CPU s (median)"
+    head = (
+        f"{'case':24s} "
+        + " ".join(f"{'s' + str(s):>5s}" for s in seeds)
+        + "   right  in 95 %  held-out fit change surge/sway/yaw (points)  wall s (median)  CPU s (median)"
+    )
     lines = [head]
     zs_all, zs_wind, zs_rest, walls, cpus = [], [], [], [], []
     for name, runs in by_case.items():
@@ -43,7 +47,8 @@ def table(rows: list[dict]) -> str:
         walls += w
         cpus += c
         hits = sum(r["hit"] for r in runs.values())
-        lines.append(f"{name:24s} {cells}   {hits}/{len(runs):<4d} {cov:>7s}   {np.median(w):14.1f}  {np.median(c):14.1f}")
+        ho = _heldout_change(list(runs.values()))
+        lines.append(f"{name:24s} {cells}   {hits}/{len(runs):<4d} {cov:>7s}  {ho:>43s}  {np.median(w):14.1f}  {np.median(c):14.1f}")
     hits = sum(r["hit"] for r in rows)
     lines.append(f"right {hits}/{len(rows)} ({100 * hits / max(len(rows), 1):.0f} %)")
     for label, zs in (("all", zs_all), ("wind scales (truth: Isherwood, estimator: Blendermann)", zs_wind), ("the others", zs_rest)):
@@ -58,6 +63,17 @@ def table(rows: list[dict]) -> str:
         f"CPU per case (generation + diagnosis): median {np.median(cpus):.1f} s, max {np.max(cpus):.1f} s"
     )
     return "\n".join(lines)
+
+
+def _heldout_change(rows: list[dict]) -> str:
+    """Mean change of the validation runs' fit per channel after the diagnosis, over runs and seeds."""
+    d = [
+        [pr["after"][ch] - pr["before"][ch] for ch in ("surge", "sway", "yaw")]
+        for r in rows
+        for pr in r.get("per_run") or []
+        if pr.get("role") == "validation" and pr.get("after") and pr.get("before")
+    ]
+    return "/".join(f"{x:+.1f}" for x in np.mean(d, axis=0)) if d else "-"
 
 
 def main(argv: list[str] | None = None) -> str:
