@@ -100,6 +100,8 @@ def _wind_error(params: dict, chk: dict) -> str | None:
         e = _num(params.get(k))
         if e is None:
             return f"no parameter {k}"
+        if t == 0.0:  # no share of the effect (still air): nothing to weigh
+            continue
         num += wts[k] * ((e - t) / t) ** 2
         den += wts[k]
     err = math.sqrt(num / den)
@@ -111,7 +113,7 @@ def _wind_error(params: dict, chk: dict) -> str | None:
 # so a coefficient c of dy = c * f(y) scales as [dy] / [f]: r|r| in yaw (rate / rate^2) as
 # sqrt(lambda); the wind scales (diagnose.windload: increment = c * load / (1/2 rho L^2 d), an
 # acceleration) as a time in surge and sway and a time per length in yaw (load / (1/2 rho L^3 d)).
-FROUDE_POWER = {"speed_mps": 1, "delay_s": 1, "value": 1, "wind_surge": 1, "wind_sway": 1, "wind_yaw": -1}
+FROUDE_POWER = {"speed_mps": 1, "delay_s": 1, "value": 1, "wind_surge": 1, "wind_sway": 1, "wind_yaw": -1, "wind_yaw_arm": -1}
 BIAS_POWER = {"u": 1, "v": 1, "r": -1}
 
 

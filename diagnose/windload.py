@@ -14,9 +14,10 @@ C_Dt = 0.70, C_DlAF = 0.90 (wind from ahead) / 0.55 (from astern), delta = 0.40.
 
 The areas come from the profile's main particulars: a loaded tanker's above-water profile is
 taken as a box of the freeboard's height, 0.45 d (KVLCC2: 9.2 m on 20.8 m), so A_L = 0.45 L d
-and A_F = 0.45 B d, and the lateral centroid at midship (s_L = 0). The magnitude of each DOF is
-refitted (the candidate's coefficients), so the areas and the air density set only the shape
-over the wind angle and the starting scale. The signals are the loads made dimensionless
+and A_F = 0.45 B d. The magnitude of each DOF is refitted (the candidate's coefficients), and in
+yaw the lateral centroid's arm s_L too (a fourth signal, q A_L L C_Y, whose coefficient is the
+arm s_L/L times the yaw scale), so the areas and the air density set only the shape over the
+wind angle and the starting scale. The signals are the loads made dimensionless
 with the hull's 1/2 rho L^2 d (and L for the moment), so a coefficient is about
 T_s / (m' + m'_a), the sample time over the dimensionless mass with added mass.
 
@@ -29,7 +30,11 @@ import numpy as np
 
 from primitives.ship import ShipProfile
 
-SIGNALS = ("wind_X", "wind_Y", "wind_N")  # exogenous signals of the wind candidate's terms
+# exogenous signals of the wind candidate's terms: X, Y, N at the centroid assumed (midship) and
+# the moment of Y about a centroid s_L forward per unit s_L/L (C_Y itself): the main particulars
+# do not place the superstructure, so its yaw arm is refitted with the magnitudes
+SIGNALS = ("wind_X", "wind_Y", "wind_N", "wind_N_arm")
+DOF_OF = (0, 1, 2, 2)
 RHO_AIR, RHO_WATER = 1.225, 1025.0
 TANKER = {"C_Dt": 0.70, "C_DlAF_bow": 0.90, "C_DlAF_stern": 0.55, "delta": 0.40}  # Blendermann (1994), loaded tanker
 FREEBOARD_OVER_DRAUGHT = 0.45
@@ -46,13 +51,14 @@ def coefficients(gamma: np.ndarray, af_over_al: float, sl_over_l: float = 0.0, c
 
 
 def _loads(profile: ShipProfile, uq: np.ndarray, vq: np.ndarray) -> np.ndarray:
-    """(..., 3) dimensionless X, Y, N of the air relative to the ship (u_q, v_q body axes)."""
+    """(..., 4) dimensionless X, Y, N and the moment per unit centroid arm (q A_L L C_Y) of the
+    air relative to the ship (u_q, v_q body axes)."""
     L, B, d = profile.length_m, profile.beam_m, profile.draught_m
     h = FREEBOARD_OVER_DRAUGHT * d
     a_l, a_f = h * L, h * B
     cx, cy, cn = coefficients(-np.arctan2(vq, uq), a_f / a_l)
     q = (RHO_AIR / RHO_WATER) * (uq**2 + vq**2) / (L * L * d)  # 1/2 rho_a V^2 / (1/2 rho L^2 d)
-    return np.stack([q * a_f * cx, q * a_l * cy, q * a_l * cn], axis=-1)
+    return np.stack([q * a_f * cx, q * a_l * cy, q * a_l * cn, q * a_l * cy], axis=-1)
 
 
 def excess_loads(profile: ShipProfile, y: np.ndarray, wind_body: tuple[np.ndarray, np.ndarray]) -> dict[str, np.ndarray]:

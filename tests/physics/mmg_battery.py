@@ -237,7 +237,7 @@ def _wind_truth(ship: MMGShip, runs: list[Run], wind_ne: tuple[float, float], Ts
     scoring reads the estimator's parametrisation; the physics does not."""
     from types import SimpleNamespace
 
-    from diagnose.windload import SIGNALS, excess_loads
+    from diagnose.windload import DOF_OF, SIGNALS, excess_loads
 
     Minv = np.linalg.inv(ship.mass_matrix())
     dims = SimpleNamespace(length_m=ship.L, beam_m=ship.B, draught_m=ship.d)
@@ -251,21 +251,20 @@ def _wind_truth(ship: MMGShip, runs: list[Run], wind_ne: tuple[float, float], Ts
         a = (wind - still) @ Minv.T * Ts
         cp, sp = np.cos(r.psi), np.sin(r.psi)
         sig = excess_loads(dims, np.column_stack([r.u, r.v, r.r]), (cp * wn + sp * we, -sp * wn + cp * we))
-        for i, k in enumerate(SIGNALS):
-            phi[i].append(sig[k])
+        for i in range(3):
+            phi[i].append(np.stack([sig[k] for k, dof in zip(SIGNALS, DOF_OF) if dof == i], axis=-1))
             inc[i].append(a[:, i])
     coef, weight = [], []
     sq = ship.time_scale
     sig = (NOISE_FULL["u"] * sq, NOISE_FULL["v"] * sq, NOISE_FULL["r"] / ship.time_scale)
     for i in range(3):
         f, y = np.concatenate(phi[i]), np.concatenate(inc[i])
-        c = float(f @ y / max(f @ f, 1e-300))
-        coef.append(c)
-        weight.append(float(np.mean((c * f) ** 2) / sig[i] ** 2))
-    return {
-        "coefficients": dict(zip(("wind_surge", "wind_sway", "wind_yaw"), coef)),
-        "weights": dict(zip(("wind_surge", "wind_sway", "wind_yaw"), weight)),
-    }
+        c = np.linalg.lstsq(f, y, rcond=None)[0] if np.any(f) else np.zeros(f.shape[1])
+        for k in range(f.shape[1]):  # each signal's share of the wind effect, in noise units
+            coef.append(float(c[k]))
+            weight.append(float(np.mean((c[k] * f[:, k]) ** 2) / sig[i] ** 2))
+    keys = ("wind_surge", "wind_sway", "wind_yaw", "wind_yaw_arm")
+    return {"coefficients": dict(zip(keys, coef)), "weights": dict(zip(keys, weight))}
 
 
 def truth_of(c: Case, ship: MMGShip, runs: list[Run], env: Environment, Ts: float) -> dict:
