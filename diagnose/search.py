@@ -236,6 +236,7 @@ class _Search:
         self.prior = (self.ref, self.sd) if self.base_free else None
         self.bounds = base_bounds(self.ref, self.base_free, model)
         self.n_cand = max(len(model.candidates), 1)
+        self.delay_profile: delaycheck.Profile | None = None  # the last delay grid's (delaycheck.grid_delay)
         # two or more whole held-out runs (validation runs, or leave one run out) are evidence
         # enough to relax the in-sample test; a single held-out run is not
         self.independent = len(self.val) >= 2 or (not self.val and len(preps) >= 2)
