@@ -128,7 +128,7 @@ def test_battery_is_reproducible_per_seed_and_writes_the_recording_format(short_
     assert abs(np.mean(reading[0]) - 18.0) > 0.3  # the flow distortion is in it
     assert np.degrees(np.median(rec.channels["wind_dir"])) == pytest.approx(45.0, abs=4.0)
     np.testing.assert_allclose(rec.channels["delta"], a.diagnose[0].delta_mmg)  # MMG's convention, as written
-    assert set(a.truth["checks"]["wind"]["wind"][0]) == {"wind_surge", "wind_sway", "wind_yaw"}
+    assert set(a.truth["checks"]["wind"]["wind"][0]) == {"wind_surge", "wind_sway", "wind_yaw", "wind_yaw_arm"}
 
 
 def test_battery_effects_have_the_size_the_truth_says(short_battery, tmp_path):
