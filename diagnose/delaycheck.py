@@ -9,11 +9,15 @@ residual in phase with the model's response to an r|r| force (the damping slot's
 against the rudder tells them apart: the lag of its cross-correlation with the rudder angle,
 measured from the lag of the model's own yaw rate (negative: ahead of the yaw rate, a delay's),
 and its correlation with the two signatures (Box, Jenkins & Reinsel 2008, section 11.1: sample
-cross-correlations and their +-2/sqrt(N) band). Measured on the MMG truth (tests/physics,
-3 s delay vs extra N_rr = -0.03, two zig-zags, yaw noise 2e-4 rad/s): correlation with the yaw
-acceleration -0.81 vs -0.20, with r|r| -0.09 vs -0.74. The fit as a function of an assumed delay
-(a profile: residual sum of squares over a grid of delays, the other parameters held) is the
-other test: a real delay has its minimum inside the grid.
+cross-correlations and their band). A simulation residual is strongly autocorrelated (the yaw
+time constant is tens of samples), so the band is taken at Bartlett's (1935) effective sample size
+for the correlation of two autocorrelated series, N_eff = N / sum_k rho_res(k) rho_sig(k)
+(Bretherton et al. 1999, J. Climate 12, eq. 31), not at N. A delay's residual is -tau dr/dt, so
+its correlation with the yaw acceleration must be negative (a positive one would be a negative,
+unphysical delay). The fit as a function of an assumed delay (a profile: residual sum of squares
+over a grid of delays, the other parameters held) is the other test: a real delay has its minimum
+inside the grid and removes a clear part of the misfit. When neither signature is clearly
+followed the rule is undecided and the round keeps its held-out choice.
 """
 
 from __future__ import annotations
@@ -24,7 +28,8 @@ import numpy as np
 
 from diagnose.model import AugmentedModel, Prepared, residuals, stack
 
-BAND = 3.0  # the correlation band in units of 1/sqrt(N)
+BAND = 3.0  # the correlation band in units of 1/sqrt(N_eff)
+MIN_DROP = 0.2  # a delay's profile removes at least this fraction of the no-delay misfit
 MAX_LAG_S = 60.0  # cross-correlation lags searched, full-scale seconds (about a zig-zag's half period)
 
 
@@ -32,15 +37,20 @@ MAX_LAG_S = 60.0  # cross-correlation lags searched, full-scale seconds (about a
 class Phase:
     """The yaw residual against the rudder and the model's response."""
 
-    lag_s: float  # lag of |xcorr(residual, rudder)|'s peak minus that of the model's yaw rate (< 0: ahead of it)
-    shift_corr: float  # correlation with the model's yaw acceleration (a delay's signature)
+    lag_s: float  # lag of |xcorr(residual, rudder)|'s peak minus that of the model's yaw rate (reported, not used)
+    shift_corr: float  # correlation with the model's yaw acceleration (a delay's signature: negative)
     damping_corr: float  # correlation with the model's response to the damping term (its signature)
-    band: float  # |correlation| above this is not noise
+    band: float  # |correlation| above this is not noise (BAND / sqrt(N_eff), the larger of the two signatures')
 
     @property
     def locked(self) -> bool:
-        """The residual is a time shift of the response to the rudder (a delay's signature)."""
-        return abs(self.shift_corr) > self.band and abs(self.shift_corr) > abs(self.damping_corr)
+        """The residual is a positive time shift of the response to the rudder (a delay's signature)."""
+        return -self.shift_corr > self.band and -self.shift_corr > abs(self.damping_corr)
+
+    @property
+    def damped(self) -> bool:
+        """The residual follows the damping term's signature more than a delay's, above noise."""
+        return abs(self.damping_corr) > self.band and abs(self.damping_corr) > abs(self.shift_corr)
 
 
 def _corr(a: list[np.ndarray], b: list[np.ndarray], lag: int = 0) -> float:
@@ -51,6 +61,38 @@ def _corr(a: list[np.ndarray], b: list[np.ndarray], lag: int = 0) -> float:
         x, y = (x[lag:], y[: len(y) - lag]) if lag >= 0 else (x[:lag], y[-lag:])
         num, aa, bb = num + float(x @ y), aa + float(x @ x), bb + float(y @ y)
     return num / np.sqrt(max(aa * bb, 1e-300))
+
+
+def _acf(x: np.ndarray, max_lag: int) -> np.ndarray:
+    """Sample autocorrelation of x at lags 0..max_lag (biased estimator, x demeaned)."""
+    x = x - x.mean()
+    n = len(x)
+    f = np.fft.rfft(x, 2 * n)
+    c = np.fft.irfft(f * np.conj(f))[: max_lag + 1]
+    return c / max(c[0], 1e-300)
+
+
+def n_eff(a: list[np.ndarray], b: list[np.ndarray]) -> float:
+    """Effective number of independent samples for the correlation of a with b, pooled over runs:
+    sum over runs of N / (1 + 2 sum_{k=1}^{N/4} rho_a(k) rho_b(k)) (Bartlett 1935; Bretherton et
+    al. 1999, eq. 31), at most N."""
+    total = 0.0
+    for x, y in zip(a, b):
+        m = max(1, len(x) // 4)
+        s = 1.0 + 2.0 * float(_acf(x, m)[1:] @ _acf(y, m)[1:])
+        total += len(x) / max(s, 1.0)
+    return total
+
+
+def _unexplained(res: list[np.ndarray], sigs: list[list[np.ndarray]]) -> list[np.ndarray]:
+    """Per run, the residual less its least-squares fit on the signatures: the noise whose
+    autocorrelation sets the band (a residual that follows a signature is not noise, and its
+    smoothness must not widen the band that tests it)."""
+    out = []
+    for i, x in enumerate(res):
+        A = np.column_stack([np.ones(len(x))] + [s[i] for s in sigs])
+        out.append(x - A @ np.linalg.lstsq(A, x, rcond=None)[0])
+    return out
 
 
 def _peak_lag(a: list[np.ndarray], b: list[np.ndarray], max_lag: int) -> int:
@@ -72,8 +114,9 @@ def rudder_phase(
     lag = _peak_lag(res_r, delta, max_lag) - _peak_lag(r_hat, delta, max_lag)
     acc = [np.gradient(r) for r in r_hat]
     damping = damping if damping is not None else [r * np.abs(r) for r in r_hat]
-    n = sum(len(r) for r in res_r)
-    return Phase(lag * ts, _corr(res_r, acc), _corr(res_r, damping), BAND / np.sqrt(max(n, 1)))
+    noise = _unexplained(res_r, [acc, damping])
+    n = min(n_eff(noise, acc), n_eff(noise, damping))
+    return Phase(lag * ts, _corr(res_r, acc), _corr(res_r, damping), BAND / np.sqrt(max(n, 1.0)))
 
 
 @dataclass(frozen=True)
@@ -97,17 +140,19 @@ class Profile:
     def interior(self) -> bool:
         """The minimum lies inside the grid (a delay of its own, not the edge of a trend)."""
         k = int(np.argmin(self.rss))
-        return 0 < k < len(self.rss) - 1 and self.delays[k] > 0
+        return 0 < k < len(self.rss) - 1
 
 
 def prefer_delay(phase: Phase | None, profile: Profile | None) -> bool | None:
-    """True: the residual is a delay's (rudder-locked and a profile minimum inside the grid);
-    False: it is not rudder-locked (a damping term's); None: not decided (no evidence)."""
+    """True: the residual is a delay's (negatively correlated with the yaw acceleration above the
+    noise band, and a profile minimum inside the grid removing at least MIN_DROP of the misfit);
+    False: it follows the damping term's signature above the band and more than a delay's;
+    None: neither is clearly followed (noise, or no evidence)."""
     if phase is None or profile is None:
         return None
-    if phase.locked and profile.interior:
+    if phase.locked and profile.interior and profile.drop >= MIN_DROP:
         return True
-    if not phase.locked:
+    if phase.damped:
         return False
     return None
 
