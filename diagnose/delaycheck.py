@@ -158,9 +158,9 @@ def prefer_delay(phase: Phase | None, profile: Profile | None) -> bool | None:
 
 
 def choose(passed: list, phase: Phase | None, profile: Profile | None):
-    """Of the refitted survivors of a search round (tuples whose first item is the candidate),
-    a delay over a damping term or the reverse as the evidence says; otherwise None (the round
-    keeps its held-out choice)."""
+    """Of the refitted survivors of a search round (tuples whose first item is the candidate,
+    best first), the first delay over the first damping term or the reverse as the evidence
+    says; otherwise None (the round keeps its held-out choice)."""
     delay = [p for p in passed if p[0].effect == "actuator_delay"]
     damp = [p for p in passed if p[0].effect == "quadratic_damping"]
     if not (delay and damp):
@@ -169,6 +169,23 @@ def choose(passed: list, phase: Phase | None, profile: Profile | None):
     if pick is None:
         return None
     return delay[0] if pick else damp[0]
+
+
+def arbitrate(model: AugmentedModel, preps: list[Prepared], P: np.ndarray, passed: list):
+    """(the survivor kept or None, a note or None) for a search round's refitted survivors
+    ``passed`` (candidate, slots, P1, cov1, step, delay profile), best first on the held-out
+    runs: when they hold a delay and a damping term, the phase is taken against the best damping
+    survivor's signature and the profile of the best delay's grid (:func:`choose`)."""
+    delay = next((r for r in passed if r[0].effect == "actuator_delay"), None)
+    damp = next((r for r in passed if r[0].effect == "quadratic_damping"), None)
+    if delay is None or damp is None:
+        return None, None
+    phase = rudder_phase_at(model, preps, P, damp[1][0])
+    if phase is None:
+        return None, None
+    pick = choose(passed, phase, delay[5])
+    kept = f"{pick[0].effect} kept" if pick is not None else "undecided: the held-out choice stands"
+    return pick, describe(phase, delay[5]) + ": " + kept
 
 
 def describe(phase: Phase, profile: Profile | None) -> str:
