@@ -139,7 +139,9 @@ def _environment(profile: ShipProfile, recordings: list[Recording], y: np.ndarra
                 "wind",
                 tuple(
                     Slot("term", name, dof=i, term=t)
-                    for name, i, t in zip(("wind_surge", "wind_sway", "wind_yaw", "wind_yaw_arm"), windload.DOF_OF, windload.SIGNALS)
+                    for name, i, t in zip(
+                        ("wind_surge", "wind_sway", "wind_yaw", "wind_yaw_arm"), windload.DOF_OF, windload.SIGNALS
+                    )
                 ),
                 description="wind loads of the recorded wind: Blendermann's (1994) loaded-tanker coefficients "
                 "on areas from the main particulars, the magnitude of each DOF and the yaw arm refitted",

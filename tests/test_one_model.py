@@ -59,7 +59,9 @@ def test_augmented_model_is_the_kernel_with_a_current_and_wind(ship):
     cands, _ = build_library(ship, [rec])
     # the library's wind candidate is the recorded wind's Blendermann loads (diagnose.windload);
     # the kernel's wind-load terms enter the same model as term slots
-    kernel_wind = Candidate("wind", "wind", tuple(Slot("term", f"wind_{DOFS[i]}", dof=i, term=t) for i, t in enumerate(WIND_EXCESS)))
+    kernel_wind = Candidate(
+        "wind", "wind", tuple(Slot("term", f"wind_{DOFS[i]}", dof=i, term=t) for i, t in enumerate(WIND_EXCESS))
+    )
     cands = [c for c in cands if c.effect != "wind"] + [kernel_wind]
     model = AugmentedModel(ship, ship.params(), cands)
     P = model.p0()
