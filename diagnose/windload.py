@@ -26,9 +26,18 @@ The truth the battery tests this with (tests/physics) uses Isherwood's (1972) ta
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 
-from primitives.ship import ShipProfile
+
+class Particulars(Protocol):
+    """What the loads need of a ship: its main particulars (a ``ShipProfile`` has them)."""
+
+    length_m: float
+    beam_m: float
+    draught_m: float
+
 
 # exogenous signals of the wind candidate's terms: X, Y, N at the centroid assumed (midship) and
 # the moment of Y about a centroid s_L forward per unit s_L/L (C_Y itself): the main particulars
@@ -50,9 +59,11 @@ def coefficients(gamma: np.ndarray, af_over_al: float, sl_over_l: float = 0.0, c
     return -cdl_af * np.cos(g) / den, cy, (sl_over_l - 0.18 * (np.abs(g) - np.pi / 2)) * cy
 
 
-def _loads(profile: ShipProfile, uq: np.ndarray, vq: np.ndarray) -> np.ndarray:
+def _loads(profile: Particulars, uq: np.ndarray, vq: np.ndarray) -> np.ndarray:
     """(..., 4) dimensionless X, Y, N and the moment per unit centroid arm (q A_L L C_Y) of the
-    air relative to the ship (u_q, v_q body axes)."""
+    air relative to the ship (u_q, v_q body axes). L is the profile's length between
+    perpendiculars where Blendermann uses the length overall: harmless, since each DOF's scale
+    and the yaw arm are refitted, but the starting scale is that much off."""
     L, B, d = profile.length_m, profile.beam_m, profile.draught_m
     h = FREEBOARD_OVER_DRAUGHT * d
     a_l, a_f = h * L, h * B
@@ -61,7 +72,7 @@ def _loads(profile: ShipProfile, uq: np.ndarray, vq: np.ndarray) -> np.ndarray:
     return np.stack([q * a_f * cx, q * a_l * cy, q * a_l * cn, q * a_l * cy], axis=-1)
 
 
-def excess_loads(profile: ShipProfile, y: np.ndarray, wind_body: tuple[np.ndarray, np.ndarray]) -> dict[str, np.ndarray]:
+def excess_loads(profile: Particulars, y: np.ndarray, wind_body: tuple[np.ndarray, np.ndarray]) -> dict[str, np.ndarray]:
     """The :data:`SIGNALS` of a recording: wind loads with the recorded air velocity
     ``wind_body`` (body axes) minus those of still air, at the recorded velocities ``y`` (u, v,
     r). The baseline fitted on calm runs holds the still-air drag of the ship's own motion; the
