@@ -12,7 +12,7 @@ and its correlation with the two signatures (Box, Jenkins & Reinsel 2008, sectio
 cross-correlations and their band). A simulation residual is strongly autocorrelated (the yaw
 time constant is tens of samples), so the band is taken at Bartlett's (1935) effective sample size
 for the correlation of two autocorrelated series, N_eff = N / sum_k rho_res(k) rho_sig(k)
-(Bretherton et al. 1999, J. Climate 12, eq. 31), not at N. A delay's residual is -tau dr/dt, so
+(Bretherton et al. 1999, J. Climate 12, 1990-2009), not at N. A delay's residual is -tau dr/dt, so
 its correlation with the yaw acceleration must be negative (a positive one would be a negative,
 unphysical delay). The fit as a function of an assumed delay (a profile: residual sum of squares
 over a grid of delays, the other parameters held) is the other test: a real delay has its minimum
@@ -40,7 +40,7 @@ class Phase:
     lag_s: float  # lag of |xcorr(residual, rudder)|'s peak minus that of the model's yaw rate (reported, not used)
     shift_corr: float  # correlation with the model's yaw acceleration (a delay's signature: negative)
     damping_corr: float  # correlation with the model's response to the damping term (its signature)
-    band: float  # |correlation| above this is not noise (BAND / sqrt(N_eff), the larger of the two signatures')
+    band: float  # |correlation| above this is not noise (BAND / sqrt(N_eff) at the smaller N_eff of the two signatures')
 
     @property
     def locked(self) -> bool:
@@ -75,7 +75,7 @@ def _acf(x: np.ndarray, max_lag: int) -> np.ndarray:
 def n_eff(a: list[np.ndarray], b: list[np.ndarray]) -> float:
     """Effective number of independent samples for the correlation of a with b, pooled over runs:
     sum over runs of N / (1 + 2 sum_{k=1}^{N/4} rho_a(k) rho_b(k)) (Bartlett 1935; Bretherton et
-    al. 1999, eq. 31), at most N."""
+    al. 1999), at most N."""
     total = 0.0
     for x, y in zip(a, b):
         m = max(1, len(x) // 4)
