@@ -100,6 +100,8 @@ def _wind_error(params: dict, chk: dict) -> str | None:
         e = _num(params.get(k))
         if e is None:
             return f"no parameter {k}"
+        if t == 0.0:  # no share of the effect (still air): nothing to weigh
+            continue
         num += wts[k] * ((e - t) / t) ** 2
         den += wts[k]
     err = math.sqrt(num / den)
@@ -109,8 +111,9 @@ def _wind_error(params: dict, chk: dict) -> str | None:
 # Froude power (of sqrt(lambda)) of each checked quantity, model -> full scale. Per-sample
 # coefficients: the sample count is the same at both scales (the sample time scales as a time),
 # so a coefficient c of dy = c * f(y) scales as [dy] / [f]: r|r| in yaw (rate / rate^2) as
-# sqrt(lambda), the relative-wind drags as speed / speed^2 (surge, sway) and rate / speed^2 (yaw).
-FROUDE_POWER = {"speed_mps": 1, "delay_s": 1, "value": 1, "wind_surge": -1, "wind_sway": -1, "wind_yaw": -3}
+# sqrt(lambda); the wind scales (diagnose.windload: increment = c * load / (1/2 rho L^2 d), an
+# acceleration) as a time in surge and sway and a time per length in yaw (load / (1/2 rho L^3 d)).
+FROUDE_POWER = {"speed_mps": 1, "delay_s": 1, "value": 1, "wind_surge": 1, "wind_sway": 1, "wind_yaw": -1, "wind_yaw_arm": -1}
 BIAS_POWER = {"u": 1, "v": 1, "r": -1}
 
 
@@ -248,7 +251,14 @@ def _cli(paths: dict[str, list[Path]], ship: str = BASELINE) -> dict:
     }
 
 
-STD_KEY = {"delay_s": "delay_std", "speed_mps": "speed_std", "loss_percent": "loss_percent_std"}
+STD_KEY = {
+    "delay_s": "delay_std",
+    "speed_mps": "speed_std",
+    "loss_percent": "loss_percent_std",
+    "bias": "bias_std",
+    "value": "value_std",
+    "offset_deg": "offset_std",  # in rad: converted below
+}
 
 
 def z_scores(truth: dict, findings: list[dict] | None, part: str = "") -> dict[str, float]:
@@ -261,7 +271,15 @@ def z_scores(truth: dict, findings: list[dict] | None, part: str = "") -> dict[s
         f = next((f for f in findings or [] if f.get("effect") == eff), None)
         for key, spec in checks.items():
             p = (f or {}).get("parameters") or {}
+            if key == "wind":  # one estimate per DOF (the wind candidate's scales)
+                for k, true in spec[0].items():
+                    est, sd = _num(p.get(k)), _num(p.get(f"{k}_std{part}"))
+                    if est is not None and sd:
+                        out[k] = (est - true) / sd
+                continue
             est, sd = _num(p.get(key)), _num(p.get(STD_KEY.get(key, "") + part))
+            if key == "offset_deg" and sd:
+                sd = math.degrees(sd)
             if est is not None and sd and isinstance(spec[0], int | float):
                 out[key] = (est - spec[0]) / sd
     return out

@@ -6,7 +6,7 @@ Every candidate adds one or more *slots* to the augmented simulator (:mod:`diagn
   thrust deduction) with a coefficient in one DOF of ``nu(k+1) = nu(k) +
   Phi^T theta`` ((3.60), (9.1)) - quadratic damping (v|v|, r|r|, r|v|, v|r|, u|u|), missing
   coupling (v r, u r, u v, r^2), speed-dependent thrust (u tau_x, u n), wind loads (when
-  wind is measured; :data:`primitives.simulate.WIND_EXCESS`) and roll coupling (phi, when roll is measured);
+  wind is measured; :mod:`diagnose.windload`) and roll coupling (phi, when roll is measured);
 - ``current``: a constant n-frame current (north, east) entering through u_r, v_r (Fossen 2021, ch. 2;
   in predictor form the cos psi / sin psi regressors of (5.67)-(5.70));
 - ``delay``: a common actuator time delay (seconds; fractional, linear interpolation);
@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from diagnose import windload
 from diagnose.recording import Recording
 from primitives.ship import DOFS, ShipProfile
 
@@ -136,8 +137,14 @@ def _environment(profile: ShipProfile, recordings: list[Recording], y: np.ndarra
             Candidate(
                 "wind",
                 "wind",
-                tuple(Slot("term", f"wind_{DOFS[i]}", dof=i, term=t) for i, t in enumerate(("wx", "wy", "wn"))),
-                description="wind loads V_q u_q, V_q v_q, u_q v_q (coefficients in the relative wind angle)",
+                tuple(
+                    Slot("term", name, dof=i, term=t)
+                    for name, i, t in zip(
+                        ("wind_surge", "wind_sway", "wind_yaw", "wind_yaw_arm"), windload.DOF_OF, windload.SIGNALS
+                    )
+                ),
+                description="wind loads of the recorded wind: Blendermann's (1994) loaded-tanker coefficients "
+                "on areas from the main particulars, the magnitude of each DOF and the yaw arm refitted",
             )
         )
     else:

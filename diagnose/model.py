@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from diagnose import windload
 from diagnose.candidates import Candidate, Slot
 from diagnose.recording import Recording
 from primitives import jitloop
@@ -37,6 +38,7 @@ class Prepared:
     wind_body: tuple[np.ndarray, np.ndarray] | None  # air velocity in body axes (N+1,)
     phi: np.ndarray | None
     index: int | None = None  # position among the diagnosed recordings (its initial-state parameters)
+    wind_loads: dict[str, np.ndarray] | None = None  # diagnose.windload.SIGNALS of the recorded wind (N+1,)
 
     @property
     def n(self) -> int:
@@ -54,8 +56,9 @@ def initial_state(y: np.ndarray, m: int = 8) -> np.ndarray:
 def prepare(profile: ShipProfile, rec: Recording, index: int | None = None) -> Prepared:
     wn = rec.wind_ne
     wind = None if wn is None else body_from_ne(wn, rec.psi)
+    loads = None if wind is None else windload.excess_loads(profile, rec.y, wind)
     return Prepared(
-        rec, rec.y, rec.psi, rec.inputs_for(profile.inputs), initial_state(rec.y), wind, rec.channels.get("phi"), index
+        rec, rec.y, rec.psi, rec.inputs_for(profile.inputs), initial_state(rec.y), wind, rec.channels.get("phi"), index, loads
     )
 
 
@@ -188,6 +191,8 @@ class AugmentedModel:
         exo["psi"] = np.broadcast_to(prep.psi[:-1], (B, n))
         if prep.phi is not None:
             exo["phi"] = np.broadcast_to(prep.phi[:-1], (B, n))
+        for k, v in (prep.wind_loads or {}).items():
+            exo[k] = np.broadcast_to(v[:-1], (B, n))
         return exo
 
     def simulate_many(self, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
@@ -206,7 +211,7 @@ class AugmentedModel:
         scale, bias, cur = plan["scale"], plan["bias"], plan["cur"]
         loop: list[list[tuple[str, np.ndarray]]] = [[], [], []]
         for i, coef, term, names, _fn in plan["terms"]:
-            if not set(names) <= {"psi", "phi", *self.profile.inputs, "tau_x", "tau_y", "tau_n"}:
+            if not set(names) <= {"psi", "phi", *self.profile.inputs, "tau_x", "tau_y", "tau_n", *windload.SIGNALS}:
                 loop[i].append((term, coef))
         runs = []
         for prep in preps:
@@ -313,9 +318,9 @@ class AugmentedModel:
     def _term_rms(self, preps: list[Prepared], s: Slot) -> float:
         vals = []
         for p in preps:
-            if s.term in WIND_EXCESS and p.wind_body is None:
+            if (s.term in WIND_EXCESS or s.term in windload.SIGNALS) and p.wind_body is None:
                 continue
-            sig = dict(self.profile.generalized_forces(p.inputs), psi=p.psi)
+            sig = dict(self.profile.generalized_forces(p.inputs), psi=p.psi, **(p.wind_loads or {}))
             if p.phi is not None:
                 sig["phi"] = p.phi
             relative_signals(p.y, None, p.wind_body, wind_excess=True, into=sig, speed=True)

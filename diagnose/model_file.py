@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from diagnose import windload
 from diagnose.candidates import Candidate, Slot
 from diagnose.model import AugmentedModel
 from diagnose.recording import RecordingError
@@ -216,7 +217,7 @@ def _slot(s: dict, prof: ShipProfile, p: Path, field: str) -> Slot:
         if getattr(slot, need) is None:
             raise RecordingError(f"{at}.{need}' is needed by a {kind!r} slot: {MODEL_JSON_FIX}")
     if slot.term is not None:
-        known = BASE_SIGNALS | set(prof.inputs) | set(WIND_EXCESS) | {"phi"}
+        known = BASE_SIGNALS | set(prof.inputs) | set(WIND_EXCESS) | set(windload.SIGNALS) | {"phi"}
         try:
             if not isinstance(slot.term, str) or not set(compile_term(slot.term)[0]) <= known:
                 raise TermError(f"it must be a term string of the signals {sorted(known)}")

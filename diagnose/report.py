@@ -125,9 +125,9 @@ def _effect(f: dict) -> str:
         return f"the {f['dof']} inertia is {ratio} (increments scaled by {1 + p['scale']:.3f}{_pm(p, 'scale_std', '.3f')})"
     if e == "wind":
         return (
-            "the relative wind pushes the ship (drag coefficients "
+            "the recorded wind pushes the ship (Blendermann's loads scaled per DOF by "
             + ", ".join(f"{k.split('_')[1]} {v:.3g}{_pm(p, k + '_std', '.2g')}" for k, v in p.items() if "_std" not in k)
-            + ")"
+            + "; areas from the main particulars as a loaded tanker's)"
         )
     if e == "roll_coupling":
         return "the roll angle phi feeds the " + " and the ".join(

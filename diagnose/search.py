@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from diagnose import plausible
+from diagnose import delaycheck, plausible
 from diagnose.candidates import Candidate, canonical_term
 from diagnose.describe import describe, surge_base_index
 from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, refit_verdict, rejection_entry, verdict
@@ -315,7 +315,7 @@ def select(
         best = _round(S, P, free, todo, rnd, out, inputs)
         if best is None:
             break
-        c, new, P, cov, step = best
+        c, new, P, cov, step, _profile = best
         chosen.append(c)
         free = free + new
         out.steps.append(step)
@@ -325,9 +325,9 @@ def select(
     return out
 
 
-def _round(
-    S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rnd: int, out: SearchResult, inputs: np.ndarray | None
-):
+def _rank(S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate]):
+    """The linearised screen of a round: (ranked, rss0_in, M, r_cur) with ranked the tuples
+    (held-out delta AIC, candidate, verdict, p-value, F, Gauss-Newton step), best first."""
     model = S.model
     base_cols = [j for j in free if j < model.n_slots_end]  # refitted baseline and kept candidates
     cand_cols = [j for c in todo for j in model.slot_of[c.key]]
@@ -353,25 +353,35 @@ def _round(
         p_val = float(stats.f.sf(f_stat, q, max(M / tau - q, 1))) if f_stat > 0 else 1.0
         ranked.append((v.delta_aic, c, v, p_val, f_stat, step[-q:]))
     ranked.sort(key=lambda x: x[0])
-    out.screened.append(
-        {
-            "round": rnd + 1,
-            "candidates": [
-                {
-                    "key": c.key,
-                    "effect": c.effect,
-                    "heldout_delta_aic": v.delta_aic,
-                    "heldout_gain": v.gain,
-                    "runs_improved": f"{v.improved}/{v.n_folds}",
-                    "worst_fit_drop": v.worst_drop,
-                    "p_value": p,
-                    "f": f,
-                    "estimate": [float(b) for b in beta],
-                }
-                for _a, c, v, p, f, beta in ranked
-            ],
-        }
-    )
+    return ranked, rss0_in, M, r_cur
+
+
+def _screened(rnd: int, ranked: list) -> dict:
+    """The round's screen for the report."""
+    return {
+        "round": rnd + 1,
+        "candidates": [
+            {
+                "key": c.key,
+                "effect": c.effect,
+                "heldout_delta_aic": v.delta_aic,
+                "heldout_gain": v.gain,
+                "runs_improved": f"{v.improved}/{v.n_folds}",
+                "worst_fit_drop": v.worst_drop,
+                "p_value": p,
+                "f": f,
+                "estimate": [float(b) for b in beta],
+            }
+            for _a, c, v, p, f, beta in ranked
+        ],
+    }
+
+
+def _round(
+    S: _Search, P: np.ndarray, free: list[int], todo: list[Candidate], rnd: int, out: SearchResult, inputs: np.ndarray | None
+):
+    ranked, rss0_in, M, r_cur = _rank(S, P, free, todo)
+    out.screened.append(_screened(rnd, ranked))
     tries = 0
     passed = []
     best = ranked[0][1] if ranked else None
@@ -394,9 +404,13 @@ def _round(
         passed.append(res)
         if len(passed) >= MAX_PASSED:
             break
-    # of the refitted survivors, keep the one best on the held-out runs (simulated with
-    # validation runs; a delay or a current is far from its linearised score)
-    return min(passed, key=lambda r: r[4].delta_aic) if passed else None
+    # the refitted survivors best first on the held-out runs (a delay or a current is far from its
+    # linearised score); a delay against a damping term by the residual's phase and the delay profile
+    passed.sort(key=lambda r: r[4].delta_aic)
+    pick, note = delaycheck.arbitrate(S.model, S.preps, P, passed)
+    if note:
+        out.notes.append(note)
+    return pick or (passed[0] if passed else None)
 
 
 def _try(
@@ -411,13 +425,15 @@ def _try(
     M: int,
     inputs: np.ndarray | None,
 ):
-    """Nonlinear refit of one candidate from P (weighted residual ``r0``); a rejection entry
-    (``reason``, and the held-out criterion that failed as ``failed``) when it is rejected."""
+    """Nonlinear refit of one candidate from P (weighted residual ``r0``): (candidate, its slots,
+    P1, cov1, :class:`Step`, the delay grid's :class:`delaycheck.Profile` or None); a rejection
+    entry (``reason``, and the held-out criterion that failed as ``failed``) when it is rejected."""
     model = S.model
     new = model.slot_of[c.key]
     start = _line_start(S, P, new, beta)
+    profile = None
     if c.effect == "actuator_delay":
-        start[new[0]] = _grid_delay(S, P, new[0])
+        start[new[0]], profile = delaycheck.grid_delay(model, S.preps, S.wr, P, new[0])
     P1, cov1, rss1 = S.refit(start, free + new, slot_bounds(model, c, P))
     if not np.isfinite(rss1):
         return {"reason": "the refit diverged (non-finite or exploding simulation): not scored"}
@@ -460,7 +476,7 @@ def _try(
         heldout.table([S.parts.label[t] for t in S.parts.test]),
         why,
     )
-    return c, new, P1, cov1, step
+    return c, new, P1, cov1, step, profile
 
 
 def _visible(S: _Search, P1: np.ndarray, own: list[int]) -> float:
@@ -551,14 +567,3 @@ def _line_start(S: _Search, P: np.ndarray, new: list[int], beta: np.ndarray) -> 
     Pb[:, new] = P[new] + np.outer(fr, beta)
     R = stack(residuals(S.model, S.preps, Pb), S.wr)
     return Pb[int(np.argmin(np.einsum("ij,ij->i", R, R)))]
-
-
-def _grid_delay(S: _Search, P: np.ndarray, j: int, max_samples: int = 12) -> float:
-    """Grid search over half-sample delays in one batched simulation."""
-    ts = S.model.profile.sample_time
-    grid = np.arange(-1, 2 * max_samples + 1) * 0.5 * ts
-    grid = grid[grid >= -S.model.half_sample]
-    Pb = np.repeat(P[None], len(grid), axis=0)
-    Pb[:, j] = grid
-    R = stack(residuals(S.model, S.preps, Pb), S.wr)
-    return float(grid[int(np.argmin((R**2).sum(axis=1)))]) or 0.25 * ts

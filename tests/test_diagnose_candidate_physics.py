@@ -2,8 +2,9 @@
 the search can tell them from a sensor bias, damping or a resistance change.
 
 - Wind: the published wind coefficients as functions of the relative wind angle g
-  (C_X ~ -cos g, C_Y ~ sin g, C_N ~ sin 2g; Fossen 2021 (10.8)-(10.11)) are held by the wind
-  candidate's three terms at every angle a turning ship sees.
+  (C_X ~ -cos g, C_Y ~ sin g, C_N ~ sin 2g; Fossen 2021 (10.8)-(10.11)) are held by the
+  primitives' wind terms at every angle a turning ship sees; with the wind recorded, the
+  diagnosis's wind candidate uses Blendermann's (1994) loads of it (diagnose.windload).
 - Thrust loss: a thrust loss also weakens the rudder through the propeller slipstream
   (MMG (24)); the candidate scales the rudder terms by the profile's ``rudder_thrust_share``
   of the loss, and the exported model holds the same scaling."""
@@ -235,3 +236,53 @@ def test_a_change_of_the_profiles_own_damping_is_a_candidate_only_against_a_held
     assert "change_percent" not in describe(missing, model, P, np.zeros((0, 0)), model.slot_of[missing.key])
     # in surge the change of the model's own u|u| is the resistance change, not a second candidate
     assert "quadratic_damping:surge:u_r*|u_r|" not in {c.key for c in lib}
+
+
+def test_blendermann_coefficients_have_the_published_values_and_no_load_in_still_air():
+    """diagnose.windload: Blendermann's (1994) loaded tanker (C_Dt 0.70, C_DlAF 0.90 ahead / 0.55
+    astern): C_X(0) = -0.90, C_X(180) = 0.55, C_Y(90) = 0.70, the moment's arm 0.18 (g - 90 deg)
+    L; and the candidate's signals are the loads beyond still air's (zero without wind)."""
+    from diagnose import windload
+
+    g = np.radians([0.0, 180.0, 90.0, -90.0, 30.0])
+    cx, cy, cn = windload.coefficients(g, 0.2)
+    np.testing.assert_allclose(cx[:3], [-0.90, 0.55, 0.0], atol=1e-12)
+    np.testing.assert_allclose(cy[2:4], [0.70, -0.70], atol=1e-12)
+    assert cn[2] == pytest.approx(0.0, abs=1e-12) and cn[4] == pytest.approx(0.18 * np.radians(60.0) * cy[4])
+    # not the sin g of the regressor terms: the denominator lifts C_Y off the bow (12 % at 30 deg)
+    assert cy[4] > 1.1 * 0.70 * np.sin(g[4])
+    profile = load_profile("kvlcc2")
+    nu, psi = _turning_ship()
+    still = windload.excess_loads(profile, nu, (np.zeros(len(nu)), np.zeros(len(nu))))
+    assert all(np.all(v == 0.0) for v in still.values())
+
+
+def test_wind_candidate_uses_the_recorded_wind_as_an_input():
+    """With wind recorded, the wind candidate's terms are the loads of the recorded wind
+    (diagnose.windload.SIGNALS), input terms summed before the time loop: the first step of a
+    simulation moves by the coefficient times the load of the wind recorded at sample 0."""
+    from diagnose import windload
+
+    profile = load_profile("kvlcc2")
+    nu, psi = _turning_ship(300)
+    n = len(psi)
+    t = np.arange(n, dtype=float)
+    ch = {
+        "delta": np.radians(10.0) * np.sign(np.sin(t / 40.0)),
+        "n": np.full(n, 1.52),
+        "wind_speed": np.full(n, 15.0),
+        "wind_dir": np.full(n, np.radians(300.0)),
+    }
+    rec = Recording("windy", t, nu, psi, np.zeros((n, 2)), ch, meta={"environment": "sea"})
+    cands, _ = build_library(profile, [rec])
+    wind = next(c for c in cands if c.effect == "wind")
+    assert tuple(s.term for s in wind.slots) == windload.SIGNALS
+    model = AugmentedModel(profile, profile.params(), [wind])
+    prep = prepare(profile, rec)
+    j = model.slot_of[wind.key][1]  # sway
+    P0 = model.p0()
+    P1 = P0.copy()
+    P1[j] = 0.3
+    d = model.simulate(prep, P1[None])[0] - model.simulate(prep, P0[None])[0]
+    assert d[1, 1] == pytest.approx(0.3 * prep.wind_loads["wind_Y"][0], rel=1e-9)
+    assert abs(prep.wind_loads["wind_Y"][0]) > 0

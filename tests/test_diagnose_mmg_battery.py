@@ -83,8 +83,14 @@ def test_wind_truth_froude_powers():
     u, v, psi = 7.5 - 0.01 * k, 0.3 * np.sin(k / 20), 0.02 * k
     wind = np.array([-10.0, 6.0])
     s = np.sqrt(MODEL_SCALE)
-    full = _wind_truth(kvlcc2(1.0), [SimpleNamespace(u=u, v=v, psi=psi)], wind, 1.0)["coefficients"]
-    model = _wind_truth(kvlcc2(MODEL_SCALE), [SimpleNamespace(u=u / s, v=v / s, psi=psi)], wind / s, 1.0 / s)["coefficients"]
+
+    def run(scale: float):  # a steady wind: the mean at every sample
+        return SimpleNamespace(
+            u=u / scale, v=v / scale, r=0 * u, psi=psi, wind_ne=lambda w: (np.full(200, w[0]), np.full(200, w[1]))
+        )
+
+    full = _wind_truth(kvlcc2(1.0), [run(1.0)], wind, 1.0)["coefficients"]
+    model = _wind_truth(kvlcc2(MODEL_SCALE), [run(s)], wind / s, 1.0 / s)["coefficients"]
     truth = {"scale": "model", "scale_factor": MODEL_SCALE, "checks": {"wind": {"wind": [model, 0.4, "wind"]}}}
     conv = full_scale_truth(truth)["checks"]["wind"]["wind"][0]
     for key in full:

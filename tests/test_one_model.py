@@ -10,7 +10,7 @@ import pytest
 
 from diagnose.api import run
 from diagnose.battery import scenario
-from diagnose.candidates import build_library
+from diagnose.candidates import Candidate, Slot, build_library
 from diagnose.model import AugmentedModel, fit_percent, prepare
 from diagnose.model_file import load_model
 from diagnose.recording import Recording
@@ -57,6 +57,12 @@ def test_augmented_model_is_the_kernel_with_a_current_and_wind(ship):
     chans["wind_dir"] = np.full(n, float(np.arctan2(-WIND[1], -WIND[0])))  # where it comes from
     rec = Recording("kernel", sim.t, sim.nu[0], sim.eta[0, :, 2], sim.eta[0, :, :2], chans)
     cands, _ = build_library(ship, [rec])
+    # the library's wind candidate is the recorded wind's Blendermann loads (diagnose.windload);
+    # the kernel's wind-load terms enter the same model as term slots
+    kernel_wind = Candidate(
+        "wind", "wind", tuple(Slot("term", f"wind_{DOFS[i]}", dof=i, term=t) for i, t in enumerate(WIND_EXCESS))
+    )
+    cands = [c for c in cands if c.effect != "wind"] + [kernel_wind]
     model = AugmentedModel(ship, ship.params(), cands)
     P = model.p0()
     P[model.slot_of["current"]] = CURRENT

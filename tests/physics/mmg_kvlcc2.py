@@ -38,10 +38,10 @@ correction): a model-scale run is exactly the Froude-scaled full-scale run.
 Current: constant in the earth frame; the hull, propeller and rudder see the water-relative
 velocity, and for a uniform irrotational current the equations hold unchanged in relative
 velocities (Fossen 2021, section 10.3), so the state integrated is (x, y, psi, u_r, v_r, r)
-and the velocity over ground is u_r + u_c(psi). Wind: the simple model of Fossen (2021,
-section 10.1, eqs. (10.8)-(10.11)): X = q A_F (-c_x cos g), Y = q A_L c_y sin g,
-N = q A_L L c_n sin 2g, q = 1/2 rho_a V_rw^2, g = -atan2(v_rw, u_rw), with the over-ground
-velocity relative to the air. Every run has it: without wind the air is still and the ship's
+and the velocity over ground is u_r + u_c(psi). Wind: Isherwood's (1972) tabulated coefficients
+for merchant ships (``tests.physics.isherwood``; not the cos g, sin g, sin 2g shapes the
+diagnosis's wind terms have), q = 1/2 rho_a V_rw^2, g = -atan2(v_rw, u_rw), with the
+over-ground velocity relative to the air. Every run has it: without wind the air is still and the ship's
 own motion drags the superstructure through it (a calm-water trial has this air resistance;
 the MMG resistance R'_0, from captive tank tests, does not hold it).
 """
@@ -51,6 +51,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+
+from tests.physics import isherwood
 
 RHO = 1025.0  # sea water, kg/m^3
 RHO_AIR = 1.225
@@ -122,7 +124,14 @@ class MMGShip:
     rudder_max: float  # rad
     A_F: float  # frontal and lateral windage areas, m^2
     A_L: float
-    wind_c: tuple[float, float, float] = (0.70, 0.85, 0.10)  # c_x, c_y, c_n (Fossen 2021 ranges for merchant ships)
+    # Isherwood's (1972) other above-water particulars: length overall, superstructure lateral
+    # area, perimeter of the lateral projection (without the waterline), its centroid's
+    # distance from the bow, mast groups
+    L_oa: float = 0.0
+    A_SS: float = 0.0
+    S_perimeter: float = 0.0
+    C_centroid: float = 0.0
+    masts: int = 1
     c: Coefficients = field(default_factory=Coefficients)
     thrust_factor: float = 1.0  # 0.8 = 20 % thrust loss (K_T scaled: thrust and slipstream)
     extra_N_rr: float = 0.0  # extra yaw damping N' += extra_N_rr r'|r'| (a concealed effect)
@@ -151,8 +160,9 @@ def kvlcc2(scale: float = 1.0) -> MMGShip:
     Full-scale particulars (Yasukawa & Yoshimura 2015, Table 1): L = 320 m, B = 58 m,
     d = 20.8 m, displacement 312 600 m^3, x_G = 11.2 m, D_P = 9.86 m, H_R = 15.80 m,
     A_R = 112.5 m^2, 15.5 kn. Rudder rate 2.32 deg/s (SIMMAN 2008). Windage (not in the paper;
-    an estimate for the loaded tanker: 9.2 m freeboard plus the superstructure):
-    A_F = 1 130 m^2, A_L = 3 950 m^2.
+    an estimate for the loaded tanker: 9.2 m freeboard, 30 m depth, plus the superstructure):
+    A_F = 1 130 m^2, A_L = 3 950 m^2, L_oa 325 m, superstructure 900 m^2 (a 40 m x 22 m
+    accommodation block), perimeter 400 m, centroid 180 m from the bow (the block aft), one mast group.
     """
     s = float(scale)
     return MMGShip(
@@ -170,6 +180,10 @@ def kvlcc2(scale: float = 1.0) -> MMGShip:
         rudder_max=np.radians(35.0),
         A_F=1130.0 / s**2,
         A_L=3950.0 / s**2,
+        L_oa=325.0 / s,
+        A_SS=900.0 / s**2,
+        S_perimeter=400.0 / s,
+        C_centroid=180.0 / s,
     )
 
 
@@ -255,8 +269,8 @@ def rudder_forces(ship: MMGShip, u, v, r, delta, KT, J, one_w):
 
 
 def wind_forces(ship: MMGShip, u, v, psi, wind_ne):
-    """Fossen (2021) (10.8)-(10.11): forces of the wind (air velocity toward, north/east m/s)
-    on a ship moving at (u, v) over ground with heading psi."""
+    """Isherwood (1972) loads of the wind (air velocity toward, north/east m/s) on a ship moving
+    at (u, v) over ground with heading psi (``tests.physics.isherwood``)."""
     if wind_ne is None:
         z = np.zeros_like(u)
         return z, z, z
@@ -266,8 +280,13 @@ def wind_forces(ship: MMGShip, u, v, psi, wind_ne):
     urw, vrw = u - uw, v - vw
     q = 0.5 * RHO_AIR * (urw**2 + vrw**2)
     g = -np.arctan2(vrw, urw)
-    cx, cy, cn = ship.wind_c
-    return (q * ship.A_F * (-cx * np.cos(g)), q * ship.A_L * cy * np.sin(g), q * ship.A_L * ship.L * cn * np.sin(2 * g))
+    return isherwood.loads(_wind_curves(ship), q, g, ship.A_F, ship.A_L, ship.L_oa)
+
+
+def _wind_curves(ship: MMGShip) -> np.ndarray:
+    return isherwood.coefficient_curves(
+        ship.L_oa, ship.B, ship.A_L, ship.A_F, ship.A_SS, ship.S_perimeter, ship.C_centroid, ship.masts
+    )
 
 
 @dataclass(frozen=True)
@@ -278,6 +297,9 @@ class Environment:
     # (turbulence intensity, 0.1-0.2 over the sea) and time constant (full-scale s), seeded
     gust: float = 0.0
     gust_time_s: float = 20.0
+    # direction gusts: the wind turned by a Gauss-Markov angle of this std (rad), same time constant
+    # (over the sea the lateral turbulence is about 0.8 of the longitudinal: 0.12 rad at 15 %)
+    gust_dir: float = 0.0
     gust_seed: int = 0
 
     @property

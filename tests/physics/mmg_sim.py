@@ -57,6 +57,15 @@ class Run:
     delta_mmg: np.ndarray  # steering-gear angle (what a rudder indicator shows)
     n: np.ndarray
     wind_gain: np.ndarray | None = None  # the gusts: wind speed / its mean at each sample (None: steady)
+    wind_turn: np.ndarray | None = None  # direction gusts: the wind's turn from its mean, rad (None: steady)
+
+    def wind_ne(self, mean_ne: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+        """The air velocity (north, east) at each sample for the mean wind ``mean_ne``, gusts included."""
+        k = len(self.t)
+        g = np.ones(k) if self.wind_gain is None else self.wind_gain
+        a = np.zeros(k) if self.wind_turn is None else self.wind_turn
+        c, s = np.cos(a), np.sin(a)
+        return g * (c * mean_ne[0] - s * mean_ne[1]), g * (s * mean_ne[0] + c * mean_ne[1])
 
     @property
     def delta(self) -> np.ndarray:
@@ -152,14 +161,15 @@ def simulate_runs(
 
     for k in range(n_steps + 1):
         t = k * h
-        env_k = env if gains is None else replace(env, wind_ne=(env.wind_ne[0] * gains[k], env.wind_ne[1] * gains[k]))
+        env_k = env if gains is None else replace(env, wind_ne=_gusty(env.wind_ne, gains[0][k], gains[1][k]))
         if not started and t >= lead - 1e-9:
             started = True
             psi_ref = s[:, 2].copy()
         dev = s[:, 2] - psi_ref
         cmd = _commands(mans, dev, s[:, 5], cmd, started, ship)
         if k >= rec_from and (k - rec_from) % SUBSTEPS == 0:
-            rows.append(np.column_stack([np.full(B, t), s, gear, np.ones(B) if gains is None else gains[k]]))
+            g_k = (np.ones(B), np.zeros(B)) if gains is None else (gains[0][k], gains[1][k])
+            rows.append(np.column_stack([np.full(B, t), s, gear, *g_k]))
         if k == n_steps:
             break
         new_gear = gear + np.clip(cmd - gear, -max_step, max_step)
@@ -173,7 +183,7 @@ def simulate_runs(
         k4 = derivative(ship, Minv, s + h * k3, d2, n_arr, env_k)
         s = s + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
         gear = new_gear
-    a = np.stack(rows, axis=1)  # (B, N, 9)
+    a = np.stack(rows, axis=1)  # (B, N, 10)
     out = []
     for i, m in enumerate(mans):
         t = a[i, :, 0] - a[i, 0, 0]
@@ -194,25 +204,37 @@ def simulate_runs(
                 g[:n_keep],
                 np.full(n_keep, n_rps),
                 None if gains is None else a[i, :n_keep, 8],
+                None if gains is None else a[i, :n_keep, 9],
             )
         )
     return out
 
 
-def _gusts(env: Environment, B: int, n: int, h: float, ts_scale: float) -> np.ndarray | None:
-    """Gust factors 1 + g (n, B) on the integration grid, or None for a steady wind: g first-order
-    Gauss-Markov with std ``env.gust`` and time constant ``env.gust_time_s`` (Froude-scaled),
-    stationary from the first step, seeded by ``env.gust_seed`` (each run its own gusts)."""
+def _gusty(mean_ne: tuple[float, float], gain: np.ndarray, turn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The mean wind scaled by ``gain`` and turned by ``turn`` (rad)."""
+    c, s = np.cos(turn), np.sin(turn)
+    return gain * (c * mean_ne[0] - s * mean_ne[1]), gain * (s * mean_ne[0] + c * mean_ne[1])
+
+
+def _gusts(env: Environment, B: int, n: int, h: float, ts_scale: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """Gust factors 1 + g and turns a (n, B each) on the integration grid, or None for a steady
+    wind: g and a first-order Gauss-Markov with std ``env.gust`` and ``env.gust_dir`` and time
+    constant ``env.gust_time_s`` (Froude-scaled), stationary from the first step, seeded by
+    ``env.gust_seed`` (each run its own gusts; the speed draws come first, as before direction
+    gusts were added)."""
     if env.wind_ne is None or env.gust <= 0.0:
         return None
     rng = np.random.default_rng([env.gust_seed, 26])
     a = float(np.exp(-h / (env.gust_time_s * ts_scale)))
-    g = np.empty((n, B))
-    g[0] = env.gust * rng.standard_normal(B)
-    w = env.gust * np.sqrt(1.0 - a * a) * rng.standard_normal((n, B))
-    for k in range(1, n):
-        g[k] = a * g[k - 1] + w[k]
-    return 1.0 + g
+    out = []
+    for std in (env.gust, env.gust_dir):
+        g = np.empty((n, B))
+        g[0] = std * rng.standard_normal(B)
+        w = std * np.sqrt(1.0 - a * a) * rng.standard_normal((n, B))
+        for k in range(1, n):
+            g[k] = a * g[k - 1] + w[k]
+        out.append(g)
+    return 1.0 + out[0], out[1]
 
 
 def tactical_diameter(run: Run) -> float:

@@ -1,0 +1,179 @@
+"""The MMG battery over noise seeds as one table (issue 26): per case x seed right/wrong, the
+coverage of the findings' 95 % intervals (estimate +- 1.96 reported std holding the battery's
+true value; a concealed magnitude that is not estimated, has no std or sits in an ERROR row counts
+as not covered, and every magnitude of a finding that was not concealed is scored against a true
+value of 0) and the diagnosis wall and CPU time per case, from the ``--json`` files of
+``benchmarks.bench_diagnose_mmg --seeds ...`` runs (one or several, e.g. chunks of cases).
+
+    python -m benchmarks.mmg_battery_table run1.json [run2.json ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import sys
+from collections import Counter, defaultdict
+
+import numpy as np
+
+from benchmarks.bench_diagnose_mmg import STD_KEY, _num, full_scale_truth
+
+Z95 = 1.96
+OUTCOMES = ("in", "out", "no estimate", "no std", "error", "spurious in", "spurious out")
+NOT_COVERED = ("out", "no estimate", "no std", "error", "spurious out")
+
+
+def _score(est: float | None, sd: float | None, true: float, deg: bool = False) -> str:
+    if est is None:
+        return "no estimate"
+    if not sd or not math.isfinite(sd):
+        return "no std"
+    return "in" if abs(est - true) < Z95 * (math.degrees(sd) if deg else sd) else "out"
+
+
+def _matches(f: dict, checks: dict) -> bool:
+    """The finding is the concealed effect's: its name-like checks (dof, term, signal) agree."""
+    p = {**(f.get("parameters") or {}), "dof": f.get("dof")}
+    return all(p.get(k) == spec[0] for k, spec in checks.items() if len(spec) > 2 and spec[2] == "equal")
+
+
+def _magnitudes(checks: dict) -> list[tuple[str, float]]:
+    """(key, true value) of every checked magnitude that has a std key (the wind: one per DOF)."""
+    out = []
+    for key, spec in checks.items():
+        if key == "wind":
+            out += list(spec[0].items())
+        elif key in STD_KEY and isinstance(spec[0], int | float):
+            out.append((key, float(spec[0])))
+    return out
+
+
+def _std_of(p: dict, key: str) -> float | None:
+    return _num(p.get(f"{key}_std" if key.startswith("wind_") else STD_KEY[key]))
+
+
+def coverage(row: dict) -> Counter:
+    """Outcome counts (OUTCOMES) of one battery row's 95 % intervals: each concealed magnitude
+    is in, out, not estimated (a miss or a wrong effect), without a std, or in an ERROR row; each
+    magnitude of a finding that is not the concealed effect's is scored against 0 (spurious)."""
+    checks = {e: c for e, c in full_scale_truth(row["truth"])["checks"].items() if e != "weights"}
+    if row.get("error") or row.get("findings") is None:
+        return Counter({"error": sum(len(_magnitudes(c)) for c in checks.values()) or 1})
+    out: Counter = Counter()
+    used: set[int] = set()
+    for eff, chk in checks.items():
+        i = next((i for i, f in enumerate(row["findings"]) if f.get("effect") == eff and _matches(f, chk)), None)
+        p = row["findings"][i].get("parameters") or {} if i is not None else {}
+        if i is not None:
+            used.add(i)
+        for key, true in _magnitudes(chk):
+            out[_score(_num(p.get(key)), _std_of(p, key), true, key == "offset_deg")] += 1
+    for i, f in enumerate(row["findings"]):
+        if i in used:
+            continue
+        p = f.get("parameters") or {}
+        keys = [k for k in p if (k in STD_KEY or (k.startswith("wind_") and "_std" not in k)) and _num(p[k]) is not None]
+        for key in keys or ["-"]:
+            s = "no std" if key == "-" else _score(_num(p.get(key)), _std_of(p, key), 0.0, key == "offset_deg")
+            out[s if s == "no std" else f"spurious {s}"] += 1
+    return out
+
+
+def _coverage_text(c: Counter) -> str:
+    n = sum(c.values())
+    parts = ", ".join(f"{k} {c[k]}" for k in OUTCOMES if c[k])
+    return f"{c['in'] + c['spurious in']}/{n} ({100 * (c['in'] + c['spurious in']) / max(n, 1):.0f} %; {parts})"
+
+
+def table(rows: list[dict]) -> str:
+    """The per-case x seed table, the 95 % coverage and the times, as text."""
+    by_case: dict[str, dict[int, dict]] = defaultdict(dict)
+    for r in rows:
+        m = re.fullmatch(r"(.+)-seed(\d+)", r["case"])
+        name, seed = (m.group(1), int(m.group(2))) if m else (r["case"], 0)
+        by_case[name][seed] = r
+    seeds = sorted({s for c in by_case.values() for s in c})
+    head = (
+        f"{'case':24s} "
+        + " ".join(f"{'s' + str(s):>5s}" for s in seeds)
+        + "   right  in 95 %  held-out fit change surge/sway/yaw (points)  wall s (median)  CPU s (median)"
+    )
+    lines = [head]
+    cov_all, cov_wind, cov_rest, walls, cpus = Counter(), Counter(), Counter(), [], []
+    for name, runs in by_case.items():
+        cells = " ".join(f"{('hit' if runs[s]['hit'] else 'MISS') if s in runs else '-':>5s}" for s in seeds)
+        # recomputed from each row's truth and findings; misses, errors and spurious findings count
+        c = sum((coverage(r) for r in runs.values()), Counter())
+        cov_all += c
+        if name.startswith(("wind", "model-wind")):
+            cov_wind += c
+        else:
+            cov_rest += c
+        n = sum(c.values())
+        cov = f"{c['in'] + c['spurious in']}/{n}" if n else "-"
+        w = [r["diagnose_s"] for r in runs.values()]
+        cpu = [r["cpu_s"] for r in runs.values()]
+        walls += w
+        cpus += cpu
+        hits = sum(r["hit"] for r in runs.values())
+        ho = _heldout_change(list(runs.values()))
+        lines.append(
+            f"{name:24s} {cells}   {hits}/{len(runs):<4d} {cov:>7s}  {ho:>43s}  {np.median(w):14.1f}  {np.median(cpu):14.1f}"
+        )
+    hits = sum(r["hit"] for r in rows)
+    lines.append(f"right {hits}/{len(rows)} ({100 * hits / max(len(rows), 1):.0f} %)")
+    for label, c in (
+        ("all", cov_all),
+        ("wind scales (truth: Isherwood, estimator: Blendermann)", cov_wind),
+        ("the others", cov_rest),
+    ):
+        if c:
+            lines.append(f"95 % intervals holding the true value, {label}: {_coverage_text(c)}")
+    lines.append(
+        "(magnitudes scored: delay, current speed, offset, thrust loss, bias, damping value, wind scale per DOF; "
+        "not covered: out, no estimate (missed or wrong effect), no std, error (ERROR row), spurious out "
+        "(a finding not concealed whose interval excludes 0); spurious in counts as covered)"
+    )
+    lines.append(
+        f"diagnosis wall per case: median {np.median(walls):.1f} s, max {np.max(walls):.1f} s; "
+        f"CPU per case (generation + diagnosis): median {np.median(cpus):.1f} s, max {np.max(cpus):.1f} s"
+    )
+    return "\n".join(lines)
+
+
+def _heldout_change(rows: list[dict]) -> str:
+    """Mean change of the validation runs' fit per channel after the diagnosis, over runs and seeds."""
+    d = [
+        [pr["after"][ch] - pr["before"][ch] for ch in ("surge", "sway", "yaw")]
+        for r in rows
+        for pr in r.get("per_run") or []
+        if pr.get("role") == "validation" and pr.get("after") and pr.get("before")
+    ]
+    return "/".join(f"{x:+.1f}" for x in np.mean(d, axis=0)) if d else "-"
+
+
+def main(argv: list[str] | None = None) -> str:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("json", nargs="+", help="--json outputs of benchmarks.bench_diagnose_mmg")
+    a = ap.parse_args(argv)
+    rows = []
+    for p in a.json:
+        try:
+            with open(p, encoding="utf-8") as fh:
+                rows += json.load(fh)["rows"]
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            print(
+                f"error: {p}: not a benchmarks.bench_diagnose_mmg --json output ({e}); pass the file --json wrote",
+                file=sys.stderr,
+            )
+            raise SystemExit(2) from None
+    text = table(rows)
+    print(text)
+    return text
+
+
+if __name__ == "__main__":
+    main()

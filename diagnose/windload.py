@@ -1,0 +1,83 @@
+"""Wind loads from the recorded wind for the wind candidate (issue 26): Blendermann's (1994)
+closed-form coefficients for a loaded tanker, in excess of the still air's.
+
+W. Blendermann (1994), Parameter identification of wind loads on ships, J. Wind Eng. Ind.
+Aerodyn. 51, 339-351 (as given by Fossen 2021, section 10.1.2), relative wind angle
+g = -atan2(v_q, u_q) (0 from ahead, positive from port), u_q, v_q the ship's velocity
+relative to the air:
+
+    C_X = -C_DlAF(g) cos g / D,  C_Y = C_Dt sin g / D,  C_N = (s_L/L - 0.18 (|g| - pi/2)) C_Y,
+    D = 1 - delta/2 (1 - C_Dl/C_Dt) sin^2 2g,  C_Dl = C_DlAF A_F / A_L,
+
+X = q A_F C_X, Y = q A_L C_Y, N = q A_L L C_N, q = rho_a V_q^2 / 2; for a loaded tanker
+C_Dt = 0.70, C_DlAF = 0.90 (wind from ahead) / 0.55 (from astern), delta = 0.40.
+
+The areas come from the profile's main particulars: a loaded tanker's above-water profile is
+taken as a box of the freeboard's height, 0.45 d (KVLCC2: 9.2 m on 20.8 m), so A_L = 0.45 L d
+and A_F = 0.45 B d. The magnitude of each DOF is refitted (the candidate's coefficients), and in
+yaw the lateral centroid's arm s_L too (a fourth signal, q A_L L C_Y, whose coefficient is the
+arm s_L/L times the yaw scale), so the areas and the air density set only the shape over the
+wind angle and the starting scale. The signals are the loads made dimensionless
+with the hull's 1/2 rho L^2 d (and L for the moment), so a coefficient is about
+T_s / (m' + m'_a), the sample time over the dimensionless mass with added mass.
+
+The truth the battery tests this with (tests/physics) uses Isherwood's (1972) tables instead.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+
+
+class Particulars(Protocol):
+    """What the loads need of a ship: its main particulars (a ``ShipProfile`` has them)."""
+
+    length_m: float
+    beam_m: float
+    draught_m: float
+
+
+# exogenous signals of the wind candidate's terms: X, Y, N at the centroid assumed (midship) and
+# the moment of Y about a centroid s_L forward per unit s_L/L (C_Y itself): the main particulars
+# do not place the superstructure, so its yaw arm is refitted with the magnitudes
+SIGNALS = ("wind_X", "wind_Y", "wind_N", "wind_N_arm")
+DOF_OF = (0, 1, 2, 2)
+RHO_AIR, RHO_WATER = 1.225, 1025.0
+TANKER = {"C_Dt": 0.70, "C_DlAF_bow": 0.90, "C_DlAF_stern": 0.55, "delta": 0.40}  # Blendermann (1994), loaded tanker
+FREEBOARD_OVER_DRAUGHT = 0.45
+
+
+def coefficients(gamma: np.ndarray, af_over_al: float, sl_over_l: float = 0.0, c: dict = TANKER) -> tuple[np.ndarray, ...]:
+    """Blendermann's (1994) C_X, C_Y, C_N at relative wind angles ``gamma`` (rad, -pi..pi)."""
+    g = np.asarray(gamma, float)
+    cdl_af = np.where(np.abs(g) <= np.pi / 2, c["C_DlAF_bow"], c["C_DlAF_stern"])
+    cdl = cdl_af * af_over_al
+    den = 1.0 - 0.5 * c["delta"] * (1.0 - cdl / c["C_Dt"]) * np.sin(2.0 * g) ** 2
+    cy = c["C_Dt"] * np.sin(g) / den
+    return -cdl_af * np.cos(g) / den, cy, (sl_over_l - 0.18 * (np.abs(g) - np.pi / 2)) * cy
+
+
+def _loads(profile: Particulars, uq: np.ndarray, vq: np.ndarray) -> np.ndarray:
+    """(..., 4) dimensionless X, Y, N and the moment per unit centroid arm (q A_L L C_Y) of the
+    air relative to the ship (u_q, v_q body axes). L is the profile's length between
+    perpendiculars where Blendermann uses the length overall: harmless, since each DOF's scale
+    and the yaw arm are refitted, but the starting scale is that much off."""
+    L, B, d = profile.length_m, profile.beam_m, profile.draught_m
+    h = FREEBOARD_OVER_DRAUGHT * d
+    a_l, a_f = h * L, h * B
+    cx, cy, cn = coefficients(-np.arctan2(vq, uq), a_f / a_l)
+    q = (RHO_AIR / RHO_WATER) * (uq**2 + vq**2) / (L * L * d)  # 1/2 rho_a V^2 / (1/2 rho L^2 d)
+    return np.stack([q * a_f * cx, q * a_l * cy, q * a_l * cn, q * a_l * cy], axis=-1)
+
+
+def excess_loads(profile: Particulars, y: np.ndarray, wind_body: tuple[np.ndarray, np.ndarray]) -> dict[str, np.ndarray]:
+    """The :data:`SIGNALS` of a recording: wind loads with the recorded air velocity
+    ``wind_body`` (body axes) minus those of still air, at the recorded velocities ``y`` (u, v,
+    r). The baseline fitted on calm runs holds the still-air drag of the ship's own motion; the
+    excess is zero in still air. Recorded, not simulated, velocities: the relative wind is what
+    the anemometer measures, and the ship's speed changes its load by little against an 18 m/s wind."""
+    u, v = y[..., 0], y[..., 1]
+    ex = _loads(profile, u - wind_body[0], v - wind_body[1]) - _loads(profile, u, v)
+    return dict(zip(SIGNALS, np.moveaxis(ex, -1, 0)))
