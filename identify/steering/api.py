@@ -95,7 +95,9 @@ def _starts(st: Structure, records: list[SteeringData], L: float, V: float) -> l
     ch1 = tuple(c for c in st.channels if c != "v")
     st1 = Structure("nomoto1", L, V, ch1)
     oe1 = fit(st1, [_select(d, ch1) for d in records], start_values(st1, s1), "oe")
-    if oe1.converged:
+    # a first-order fit whose lag went to zero (the delay T_D taking its place when the record is sampled as slowly
+    # as the ship's time constant) maps to second-order time constants of zero and a start no fit recovers from
+    if oe1.converged and 0.05 <= oe1.p["T'"] <= 50.0:
         s1.update({k: v for k, v in oe1.p.items() if k.split("@")[0] in ("K'", "T'", "delta_0", "r_0", "psi_0", "T_D")})
     start = start_values(st, s1)
     if st.name == "nomoto1":

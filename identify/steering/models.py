@@ -253,8 +253,26 @@ def discretize(
     Gam[:, :, 2] = Ea[:, :n, :n] @ Ed[:n, n]
     if not np.any(Qc):
         return Phi, Gam, np.zeros((len(h), n, n))
+    return Phi, Gam, process_noise(A, Qc, h)
+
+
+def process_noise(A: np.ndarray, Qc: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Qd = int_0^h e^{A s} Qc e^{A' s} ds for each interval: Van Loan's (1978) block exponential
+    [[-A, Qc], [0, A']] over h / 2^m with ||A|| h / 2^m <= 1/2, then doubled m times,
+    Qd(2 h) = Phi(h) Qd(h) Phi(h)' + Qd(h). The block exponential over the whole interval holds e^{-A h},
+    which for a fast mode sampled slowly (a 3 s time constant read every 30 s: e^{10}) cancels
+    catastrophically and gives an indefinite Qd, a negative innovation variance and a failed fit;
+    the doubling adds positive semi-definite terms only."""
+    n = A.shape[0]
+    norm = float(np.max(np.sum(np.abs(A), axis=1))) * float(np.max(h))
+    m = int(max(0, np.ceil(np.log2(max(norm, 1e-300) / 0.5))))
+    hs = h / 2.0**m
     W = np.zeros((2 * n, 2 * n))
     W[:n, :n], W[:n, n:], W[n:, n:] = -A, Qc, A.T
-    F = expm(W[None] * h[:, None, None])
+    F = expm(W[None] * hs[:, None, None])
+    Phi = np.swapaxes(F[:, n:, n:], 1, 2)  # e^{A hs}
     Qd = Phi @ F[:, :n, n:]
-    return Phi, Gam, 0.5 * (Qd + np.swapaxes(Qd, 1, 2))
+    for _ in range(m):
+        Qd = Phi @ Qd @ np.swapaxes(Phi, 1, 2) + Qd
+        Phi = Phi @ Phi
+    return 0.5 * (Qd + np.swapaxes(Qd, 1, 2))
