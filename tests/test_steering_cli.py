@@ -101,3 +101,39 @@ def test_aic_tables_do_not_compare_fits_of_different_channels():
     assert lines[0] == "AIC on r, psi (lower is better; one record):" and "<- best" in lines[2] and "2nd" in lines[2]
     assert lines[3] == "AIC on v, r, psi (lower is better; one record):"
     assert "best" not in lines[4]
+
+
+def test_saved_profile_is_written_and_design_plan_and_diagnose_accept_it(record, tmp_path, capsys):
+    from primitives.ship import PROFILE_DIR, load_profile
+
+    ship = tmp_path / "sea-splendour-kvlcc2.toml"
+    assert _run(["steering", str(record), "--ship", "kvlcc2", "--model", "nomoto1", "--save-profile", str(ship)]) == 0
+    capsys.readouterr()
+    text = ship.read_text()
+    assert "from the base profile 'kvlcc2'" in text and "Nur:" in text and "[parameters.steering]" in text
+    assert load_profile(ship).simulation_set == "steering"
+    assert _run(["design", "--ship", str(ship), "--monte-carlo", "0", "--out", str(tmp_path / "design")]) == 0
+    root = PROFILE_DIR.parent.parent
+    sea = root / "maps" / "data" / "open-sea.geojson"
+    assert (
+        _run(["plan", "--ship", str(ship), "--map", str(sea), "--counts", "zigzag_10_10_s=1", "--out", str(tmp_path / "plan")])
+        == 0
+    )
+    marin = root / "diagnose" / "data" / "MARIN_FREE_KVLCC2_zz_20_m.dat"
+    assert _run(["diagnose", str(marin), "--ship", str(ship)]) == 0
+    assert "Traceback" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "args, says",
+    [
+        (["--ship", "kvlcc2", "--save-profile", "{tmp}/ship.txt"], "--save-profile"),
+        (["--ship", "full-scale", "--save-profile", "{tmp}/ship.toml"], "not a 3-DOF rudder ship"),
+    ],
+)
+def test_save_profile_bad_input_is_one_line_and_writes_nothing(record, tmp_path, capsys, args, says):
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    assert _run(["steering", str(record), *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error:") and says in err[0]
+    assert list(tmp_path.iterdir()) == []

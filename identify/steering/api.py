@@ -284,7 +284,7 @@ def sampling_warning(records: list[SteeringData], r: ModelResult) -> str | None:
 
 NOT_MODELLED = (
     "not modelled: heading-dependent wind (Källström's theta_9, theta_10, phi_3), correlated process noise, "
-    "Doppler-log lever arms (v is the sway at midship); the identified model is not saved as a profile"
+    "Doppler-log lever arms (v is the sway at midship)"
 )
 
 
