@@ -114,8 +114,10 @@ def _nomoto2_params(s: Structure) -> tuple[Param, ...]:
 def _state_space_params(s: Structure) -> tuple[Param, ...]:
     dyn = [Param(n, "-", 0.005, "dynamics") for n in ("Yv", "Yr", "Nv", "Nr")]
     dyn += [Param("Yd", "-", 0.002, "dynamics"), Param("Nd", "-", 0.001, "dynamics")]
-    nuis = [
-        Param("th13", "-", 1e-4, "bias"),
+    # the sway-force bias theta_13 and the log's bias b_v move the measured sway by constants only the sum of
+    # which a record sees (the yaw rate's mean is fixed by the heading): with v measured, theta_13 is held at zero
+    nuis = [Param("th13", "-", 1e-4, "bias")] if "v" not in s.channels else []
+    nuis += [
         Param("th14", "-", 1e-5, "bias"),
         Param("v_0", "m/s", 0.1, "initial"),
         Param("r_0", "rad/s", 1e-3, "initial"),
@@ -181,7 +183,7 @@ def _state_space_system(s: Structure, p: dict[str, float]) -> tuple[np.ndarray, 
     d = dict(s.accel)
     d.update({k: p[k] for k in ("Yv", "Yr", "Nv", "Nr", "Yd", "Nd")})
     Ap, Bp = prime_state_matrices(d)
-    _, Bb = prime_state_matrices({**d, "Yd": p["th13"], "Nd": p["th14"]})
+    _, Bb = prime_state_matrices({**d, "Yd": p.get("th13", 0.0), "Nd": p["th14"]})
     # prime -> SI: v = V v', r = (V/L) r', t = (L/V) t'
     Sx = np.diag([V, V / L])
     A2 = (V / L) * Sx @ Ap @ np.linalg.inv(Sx)
