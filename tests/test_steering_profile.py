@@ -63,3 +63,24 @@ def test_a_nonlinear_base_keeps_its_nonlinear_terms_and_matches_in_the_linear_li
     again = nomoto_parameters(fit_model(_prbs_record(saved.profile, V, amp_deg=0.05), 320.0, V, "nomoto1", "oe"))
     for k, e in nm.items():
         assert again[k].value == pytest.approx(e.value, rel=1.5e-2), k
+
+
+def test_a_state_space_model_is_written_whole():
+    """The state-space model gives all six linear coefficients: Table 3.1's derivatives written into kvlcc2-linear
+    steer, identified again, with Table 3.3's K', T1', T2', T3' (prime values: any L)."""
+    from types import SimpleNamespace
+
+    from identify.steering.api import Estimate
+    from identify.steering.mappings import SSPA_DERIVATIVES, derivatives_to_nomoto
+    from identify.steering.models import Structure
+
+    V = 7.5
+    st = Structure("state-space", 320.0, V, ("v", "r", "psi"))
+    p = {q.name: 0.0 for q in st.params} | {k: SSPA_DERIVATIVES[k] for k in ("Yv", "Yr", "Nv", "Nr", "Yd", "Nd")}
+    truth = derivatives_to_nomoto(SSPA_DERIVATIVES).as_dict()
+    nm = {k: Estimate(k, truth[k], float("nan")) for k in ("K'", "T1'", "T2'", "T3'")}
+    saved = steering_profile(SimpleNamespace(structure=st, p=p, estimator="ml"), nm, "kvlcc2-linear", V, "sspa", ["table 3.1"])
+    assert len(saved.changes) == 6
+    again = nomoto_parameters(fit_model(_prbs_record(saved.profile, V), 320.0, V, "nomoto2", "oe"))
+    for k, e in nm.items():
+        assert again[k].value == pytest.approx(e.value, rel=5e-3), k

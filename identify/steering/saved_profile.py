@@ -130,7 +130,7 @@ def chosen_terms(profile: ShipProfile, theta: np.ndarray, lin: Linearisation) ->
                     f"profile {profile.name!r}: its {ROWS[i]} row has no term linear in {VARS[j]} alone "
                     f"(e.g. '{'delta*u_r^2' if VARS[j] == 'delta' else 'u_r*' + VARS[j]}'): the identified model cannot be written into it"
                 )
-            out[(i, j)] = int(cand[np.argmax(np.abs(th[cand] * S[cand, j]) + 1e-300 * np.arange(len(cand))[::-1])])
+            out[(i, j)] = int(cand[np.argmax(np.abs(th[cand] * S[cand, j]))])
     return out
 
 
