@@ -167,22 +167,25 @@ def test_delay_at_its_bound_is_warned():
     assert delay_warning([data], ModelResult("nomoto1", "oe", fit_model(data, L, V, "nomoto1", "oe"))) is None
 
 
-def test_process_noise_of_a_fast_mode_sampled_slowly_is_exact_and_positive():
-    """Qd of a 3 s mode read every 30 s (e^{A h} about e^-10): the block exponential over the whole interval
-    cancelled to an indefinite Qd (a negative innovation variance, five of 50 Sea Splendour fits at 30 s
-    failed); scaled and doubled it matches the integral and is positive semi-definite."""
-    from scipy.integrate import quad_vec
-    from scipy.linalg import expm as sexpm
-
+def test_process_noise_of_a_fast_mode_across_lost_readings_is_exact_and_positive():
+    """Qd of the seed-4 start below (a 3.4 s and an 18 s mode) across 30 s and across the 210 s gap of seven lost
+    30 s readings (e^{-A h} about e^70): the block exponential over the whole interval was wrong by 1e11 relative
+    and indefinite at 210 s (0.3 at 120 s); scaled and doubled it matches the closed form
+    Qd = S [(S^-1 Qc S^-T)_ij (e^{(l_i + l_j) h} - 1) / (l_i + l_j)] S^T (A = S diag(l) S^-1) and is positive."""
     from identify.steering.models import process_noise
 
-    A = np.array([[-0.35, -0.02, 0.0], [1.0, -0.3, 0.0], [0.0, 1.0, 0.0]])
-    Qc = np.diag([1e-6, 1e-8, 0.0])
-    for h in (1.0, 30.0):
-        ref = quad_vec(lambda s: sexpm(A * s) @ Qc @ sexpm(A * s).T, 0.0, h, epsabs=1e-22, epsrel=1e-11)[0]
+    a = 8.2 / 329.2
+    A = np.array([[0.0, 0.0, 0.0], [1.0, -a * 14.18, -a * a * 26.51], [0.0, 1.0, 0.0]])
+    Qc = np.diag([1e-8 * a**2, 1e-8, 0.0])
+    lam, S = np.linalg.eig(A)
+    G = np.linalg.solve(S, np.linalg.solve(S, Qc.T).T)  # S^-1 Qc S^-T
+    s = lam[:, None] + lam[None, :]
+    for h in (30.0, 210.0):
+        f = np.where(s == 0, h, (np.exp(s * h) - 1.0) / np.where(s == 0, 1.0, s))
+        ref = np.real(S @ (G * f) @ S.T)
         q = process_noise(A, Qc, np.array([h]))[0]
-        assert np.abs(q - ref).max() < 1e-9 * np.abs(ref).max()
-        assert np.linalg.eigvalsh(q).min() > -1e-15 * np.abs(ref).max()
+        assert np.abs(q - ref).max() < 1e-9 * np.abs(ref).max(), h
+        assert np.linalg.eigvalsh(q).min() > 0, h
 
 
 def test_a_stiff_start_on_a_30_s_record_has_positive_innovation_variances():

@@ -262,8 +262,8 @@ def process_noise(A: np.ndarray, Qc: np.ndarray, h: np.ndarray) -> np.ndarray:
     """Qd = int_0^h e^{A s} Qc e^{A' s} ds for each interval: Van Loan's (1978) block exponential
     [[-A, Qc], [0, A']] over h / 2^m with ||A|| h / 2^m <= 1/2, then doubled m times,
     Qd(2 h) = Phi(h) Qd(h) Phi(h)' + Qd(h). The block exponential over the whole interval holds e^{-A h},
-    which for a fast mode sampled slowly (a 3 s time constant read every 30 s: e^{10}) cancels
-    catastrophically and gives an indefinite Qd, a negative innovation variance and a failed fit;
+    which for a fast mode across a long interval (a 3 s time constant across the 210 s gap of seven lost 30 s
+    readings: e^{70}) cancels catastrophically and gives an indefinite Qd, a negative innovation variance and a failed fit;
     the doubling adds positive semi-definite terms only."""
     n = A.shape[0]
     norm = float(np.max(np.sum(np.abs(A), axis=1))) * float(np.max(h))
