@@ -120,11 +120,14 @@ def fit_model(
     estimator: str,
     start: dict[str, float] | None = None,
     accel: dict[str, float] | None = None,
+    wind: bool = False,
+    log_x: float = 0.0,
 ) -> Fit:
     """One model by one estimator on one record or several pooled (dynamics shared, biases and initial state per
     record). Without ``start``: from each start of :func:`_starts` (maximum likelihood: at two process-noise
     levels each), the best likelihood among the converged fits. ``accel``: the state-space model's theta_1..theta_4
-    (``th1``..``th4``; default Källström's Table 3.1)."""
+    (``th1``..``th4``; default Källström's Table 3.1). ``wind``: estimate the heading-dependent wind (nomoto2,
+    state-space); ``log_x``: the sway log's distance forward of midship [m] (see :class:`Structure`)."""
     records = [data] if isinstance(data, SteeringData) else list(data)
     if any("psi" not in d.channels for d in records):
         # without heading the initial heading is a free parameter nothing measures, and the rudder offset
@@ -132,7 +135,7 @@ def fit_model(
         raise ValueError("a steering fit needs the heading psi in every record (the yaw rate alone leaves it undetermined)")
     channels = fitted_channels(records[0].channels, model)
     records = [_select(d, channels) for d in records]
-    st = Structure(model, L, V, channels, **({"accel": accel} if accel else {}))
+    st = Structure(model, L, V, channels, **({"accel": accel} if accel else {}), wind=wind, log_x=log_x)
     starts = [start] if start is not None else _starts(st, records, L, V)
     best = None
     for s0 in starts:
@@ -305,8 +308,8 @@ def sampling_warning(records: list[SteeringData], r: ModelResult) -> str | None:
 
 
 NOT_MODELLED = (
-    "not modelled: heading-dependent wind (Källström's theta_9, theta_10, phi_3), correlated process noise, "
-    "Doppler-log lever arms (v is the sway at midship)"
+    "not modelled: correlated process noise; heading-dependent wind (Källström's theta_9, theta_10, phi_3) and "
+    "Doppler-log lever arms (v is taken at midship) only through the library (fit_model(..., wind=True, log_x=...))"
 )
 
 
