@@ -27,6 +27,15 @@ def register(app: typer.Typer) -> None:
             None, "--out", help="directory for steering.json and the plots (written whole or not at all)"
         ),
         json_out: bool = typer.Option(False, "--json", help="print the report as JSON"),
+        wind: bool = typer.Option(
+            False,
+            "--wind",
+            help="also estimate a steady wind's heading-dependent force and moment (Källström's theta_9, theta_10; "
+            "phi_3 of nomoto2)",
+        ),
+        log_x: float = typer.Option(
+            0.0, "--log-x", help="the sway log's distance forward of midship [m] (it reads v + X r; negative aft)"
+        ),
         save_profile: Path | None = typer.Option(
             None,
             "--save-profile",
@@ -58,7 +67,7 @@ def register(app: typer.Typer) -> None:
 
             check_out_file(save_profile, (".toml",), "--save-profile", "profile")
             check_base(load_profile(ship))
-        res = identify_files(list(recordings), ship, model, estimator, split)
+        res = identify_files(list(recordings), ship, model, estimator, split, wind, log_x)
         doc = document(res)
         saved = _saved_profile(res, ship, save_profile) if save_profile is not None and res.main.ok else None
         if out is not None:

@@ -162,3 +162,17 @@ def test_sampling_warning_says_what_such_sampling_did_on_the_simulated_tanker(mo
     d = SteeringData(t, np.zeros_like(t), np.zeros((len(t), 1)), ("psi",))
     w = api.sampling_warning([d], api.ModelResult("nomoto2", "ml", None))
     assert (w is None) if says is None else (says in w)
+
+
+def test_wind_option_adds_phi_3_to_the_second_order_fits(record, capsys):
+    """--wind estimates Källström's phi_3 in every nomoto2 fit (one more parameter in its AIC), none in nomoto1."""
+    assert _run(["steering", str(record), "--ship", "kvlcc2", "--wind", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["chosen"]["model"] == "nomoto2" and "phi_3" in doc["chosen"]["parameters"]
+    from identify.steering.estimate import free_names
+    from identify.steering.models import Structure
+
+    nu = {(r["model"], r["estimator"]): r["nu"] for r in doc["aic_table"]}
+    for m in ("nomoto1", "nomoto2"):
+        without = len(free_names(Structure(m, ss.L, ss.V, ("r", "psi")), 1, "ml")) + 1  # + the likelihood's scale
+        assert nu[(m, "ml")] == without + (m == "nomoto2"), m

@@ -246,10 +246,10 @@ class SteeringResult:
         return next(r for r in self.results if r.model == self.model and r.estimator == self.estimator)
 
 
-def _try_fit(records, L, V, model, estimator) -> ModelResult:
+def _try_fit(records, L, V, model, estimator, wind: bool = False, log_x: float = 0.0) -> ModelResult:
     ch = fitted_channels(records[0].channels, model)
     try:
-        f = fit_model(records, L, V, model, estimator)
+        f = fit_model(records, L, V, model, estimator, wind=wind and model != "nomoto1", log_x=log_x)
     except (np.linalg.LinAlgError, ValueError, FloatingPointError) as exc:
         return ModelResult(model, estimator, None, f"{type(exc).__name__}: {exc}", ch)
     if not f.converged:
@@ -308,8 +308,9 @@ def sampling_warning(records: list[SteeringData], r: ModelResult) -> str | None:
 
 
 NOT_MODELLED = (
-    "not modelled: correlated process noise; heading-dependent wind (Källström's theta_9, theta_10, phi_3) and "
-    "Doppler-log lever arms (v is taken at midship) only through the library (fit_model(..., wind=True, log_x=...))"
+    "not modelled: correlated process noise; heading-dependent wind (Källström's theta_9, theta_10, phi_3) only "
+    "with --wind and not in the --split cross-validation; the sway log is taken at midship unless --log-x gives "
+    "its lever arm"
 )
 
 
@@ -340,14 +341,17 @@ def identify_records(
     speed_source: str = "",
     starboard_sign: float = 0.0,
     notes: list[str] | None = None,
+    wind: bool = False,
+    log_x: float = 0.0,
 ) -> SteeringResult:
     """Every structure (Nomoto 1 and 2, and the state-space model when asked for) by OE and ML on the pooled
-    records, the chosen one per record too when there are several."""
+    records, the chosen one per record too when there are several; ``wind`` and ``log_x`` as in :func:`fit_model`
+    (the wind for the second-order and state-space models only)."""
     if model not in MODELS:
         raise ValueError(f"model {model!r}: one of {', '.join(MODELS)}")
     models = ("nomoto1", "nomoto2") + (("state-space",) if model == "state-space" else ())
-    results = [_try_fit(records, L, V, m, e) for m in models for e in ESTIMATORS]
-    per_run = [_try_fit([d], L, V, model, estimator) for d in records] if len(records) > 1 else []
+    results = [_try_fit(records, L, V, m, e, wind, log_x) for m in models for e in ESTIMATORS]
+    per_run = [_try_fit([d], L, V, model, estimator, wind, log_x) for d in records] if len(records) > 1 else []
     notes = list(notes or []) + [NOT_MODELLED]
     res = SteeringResult(
         ship,
@@ -422,10 +426,16 @@ def add_cross_validation(res: SteeringResult, records: list[SteeringData], split
 
 
 def identify_files(
-    paths: list[str | Path], ship: str | ShipProfile, model: str = "nomoto2", estimator: str = "ml", split: str | None = None
+    paths: list[str | Path],
+    ship: str | ShipProfile,
+    model: str = "nomoto2",
+    estimator: str = "ml",
+    split: str | None = None,
+    wind: bool = False,
+    log_x: float = 0.0,
 ) -> SteeringResult:
     """Read the recordings, take L from the profile and V from the recorded forward speed (the profile's cruise
-    speed when no recording has ``u``), and identify."""
+    speed when no recording has ``u``), and identify (``wind``, ``log_x``: :func:`fit_model`)."""
     profile = ship if isinstance(ship, ShipProfile) else load_profile(ship)
     records, speeds, notes = [], [], []
     for p in paths:
@@ -437,6 +447,11 @@ def identify_files(
     if len(chans) > 1:
         raise UserError(
             f"the recordings measure different channels ({' / '.join(','.join(c) for c in chans)}); give records with the same columns"
+        )
+    if not (np.isfinite(log_x) and abs(log_x) <= 0.5 * float(profile.length_m)):
+        raise UserError(
+            f"--log-x {log_x:g}: the sway log's distance forward of midship in metres, within half the ship's length "
+            f"({0.5 * float(profile.length_m):g} m for {profile.name!r}); negative aft"
         )
     if model == "state-space" and "v" not in records[0].channels:
         raise UserError(
@@ -459,6 +474,8 @@ def identify_files(
         speed_source=src,
         starboard_sign=float(profile.helm.starboard_sign) if profile.actuator == "rudder_propeller" else 0.0,
         notes=notes,
+        wind=wind,
+        log_x=log_x,
     )
     if cut is not None:
         add_cross_validation(res, records, cut)
