@@ -8,6 +8,8 @@
   ``--seeds`` noise seeds each of experiment 1 (30 s) and 2 (15 s): the share of seeds whose
   maximum-likelihood 95 % interval holds the truth, for K', T1', T2', T3' (a failed fit counts as not
   holding it, and is counted); how often AIC prefers ML to OE (Källström: always); median estimates.
+  ``--sample-times 20,25``: experiment 1 also read every 20 and 25 s (coverage and interval width against
+  the sampling interval; the fastest time constant T2 is 14.4 s).
 * ``split``: experiment 1 split at the course change (1158-1732 s left out), each part by OE and ML and
   cross-validated (Källström's Tables 3.5 and 3.8 beside ours, medians over up to 20 seeds).
 * ``time``: CPU time of one maximum-likelihood fit of the second-order model to a 3,000-sample record
@@ -16,6 +18,9 @@
 * ``kvlcc2``: the MARIN KVLCC2 zig-zags (diagnose/data): first- and second-order Nomoto by ML per run
   and pooled per amplitude, K' and T' of 10/10 against 20/20, and the overshoots of the identified
   first- and second-order models simulated with the measured rudder beside the measured ones.
+* ``wind`` (not in the default parts): experiment 2 (15 s, 10 m/s wind, the course change) by nomoto2 with and
+  without the heading-dependent wind phi_3: the ML intervals' coverage of K', T1', T2', T3' and how often AIC
+  prefers the wind term, by ML and by OE (Källström's Table 4.1: OE preferred it, ML did not).
 
 Figures are measured on this machine; the script prints them, it does not assert targets.
 """
@@ -45,13 +50,23 @@ def _record(run: dict) -> SteeringData:
     return SteeringData(run["t"], run["delta"], np.column_stack([run["r"], run["psi"]]), ("r", "psi"), "sea-splendour")
 
 
-def sea(seeds: int, experiments: str = "1,2") -> dict:
+def sea(seeds: int, experiments: str = "1,2", sample_times: str = "") -> dict:
+    import dataclasses
+
     out = {}
     chosen = [("experiment 1 (30 s)", ss.EXPERIMENT_1), ("experiment 2 (15 s)", ss.EXPERIMENT_2)]
-    for label, exp in [c for i, c in enumerate(chosen) if str(i + 1) in experiments.split(",")]:
+    chosen = [c for i, c in enumerate(chosen) if str(i + 1) in experiments.split(",")]
+    # experiment 1's record (3120 s, the course change, the lost readings) read every h s instead of 30
+    chosen += [
+        (f"experiment 1 read every {h} s", dataclasses.replace(ss.EXPERIMENT_1, sample_time=float(h)))
+        for h in sample_times.split(",")
+        if h
+    ]
+    for label, exp in chosen:
         cover = {k: 0 for k in NAMES}
         failed_ml = failed_oe = ml_better = 0
         est = {k: [] for k in NAMES}
+        width = {k: [] for k in NAMES}
         aic = []
         t0 = time.process_time()
         for seed in range(seeds):
@@ -66,6 +81,7 @@ def sea(seeds: int, experiments: str = "1,2") -> dict:
                 for k in NAMES:
                     cover[k] += nm[k].covers(ss.TRUTH[k])
                     est[k].append(nm[k].value)
+                    width[k].append(nm[k].interval[1] - nm[k].interval[0])
             if ok_ml and oe.converged:
                 ml_better += ml.aic < oe.aic
                 aic.append((ml.aic, oe.aic))
@@ -80,6 +96,7 @@ def sea(seeds: int, experiments: str = "1,2") -> dict:
             "median_aic_ml": float(np.median(a[:, 0])) if len(a) else None,
             "median_aic_oe": float(np.median(a[:, 1])) if len(a) else None,
             "median_estimate": {k: float(np.median(v)) if v else None for k, v in est.items()},
+            "median_width_95": {k: float(np.median(v)) if v else None for k, v in width.items()},
             "truth": {k: float(ss.TRUTH[k]) for k in NAMES},
             "cpu_s": cpu,
         }
@@ -89,7 +106,8 @@ def sea(seeds: int, experiments: str = "1,2") -> dict:
             med = r["median_estimate"][k]
             print(
                 f"  {k:4s} truth {ss.TRUTH[k]:7.3f}  ML median {med if med is None else round(med, 3)!s:>7}  "
-                f"95 % interval holds the truth in {100 * r['coverage_95'][k]:.0f} % of seeds"
+                f"95 % interval holds the truth in {100 * r['coverage_95'][k]:.0f} % of seeds, median width "
+                f"{r['median_width_95'][k] if r['median_width_95'][k] is None else round(r['median_width_95'][k], 3)}"
             )
         print(f"  AIC prefers ML to OE in {r['aic_prefers_ml']} seeds (median ML {r['median_aic_ml']}, OE {r['median_aic_oe']})")
     return out
@@ -289,11 +307,44 @@ def split(seeds: int) -> dict:
     return out
 
 
+def wind(seeds: int) -> dict:
+    """nomoto2 with and without phi_3 on the simulated experiment 2 (its wind turns with the heading)."""
+    cover = {w: {k: 0 for k in NAMES} for w in (False, True)}
+    ok = {False: 0, True: 0}
+    prefer = {"ml": 0, "oe": 0}
+    t0 = time.process_time()
+    for seed in range(seeds):
+        d = _record(ss.simulate(ss.EXPERIMENT_2, seed))
+        fits = {(w, e): fit_model(d, ss.L, ss.V, "nomoto2", e, wind=w) for w in (False, True) for e in ("ml", "oe")}
+        for w in (False, True):
+            if fits[w, "ml"].ok:
+                ok[w] += 1
+                nm = nomoto_parameters(fits[w, "ml"])
+                for k in NAMES:
+                    cover[w][k] += nm[k].covers(ss.TRUTH[k])
+        for e in prefer:
+            prefer[e] += fits[True, e].aic < fits[False, e].aic
+    print(f"Wind term phi_3, experiment 2 (15 s), {seeds} seeds, {time.process_time() - t0:.0f} s CPU:")
+    for w in (False, True):
+        print(
+            f"  {'with' if w else 'without'} phi_3: ML ok {ok[w]}/{seeds}, 95 % intervals hold the truth (K'/T1'/T2'/T3') "
+            + "/".join(f"{cover[w][k]}" for k in NAMES)
+        )
+    print(f"  AIC prefers phi_3: ML {prefer['ml']}/{seeds}, OE {prefer['oe']}/{seeds}")
+    return {
+        "seeds": seeds,
+        "coverage": {str(w): cover[w] for w in cover},
+        "ok": {str(w): ok[w] for w in ok},
+        "aic_prefers_wind": prefer,
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=50)
     ap.add_argument("--parts", default="sea,split,time,kvlcc2")
     ap.add_argument("--experiments", default="1,2", help="Sea Splendour experiments to run (1: 30 s, 2: 15 s)")
+    ap.add_argument("--sample-times", default="", help="also experiment 1 read every h s, e.g. 20,25 (coverage against sampling)")
     ap.add_argument("--json", default=None)
     a = ap.parse_args()
     parts = a.parts.split(",")
@@ -303,9 +354,11 @@ def main() -> None:
     if "kvlcc2" in parts:
         res["kvlcc2"] = kvlcc2()
     if "sea" in parts:
-        res["sea"] = sea(a.seeds, a.experiments)
+        res["sea"] = sea(a.seeds, a.experiments, a.sample_times)
     if "split" in parts:
         res["split"] = split(min(a.seeds, 20))
+    if "wind" in parts:
+        res["wind"] = wind(a.seeds)
     if a.json:
         Path(a.json).write_text(json.dumps(res, indent=1, default=float) + "\n")
 

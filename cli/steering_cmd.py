@@ -27,13 +27,28 @@ def register(app: typer.Typer) -> None:
             None, "--out", help="directory for steering.json and the plots (written whole or not at all)"
         ),
         json_out: bool = typer.Option(False, "--json", help="print the report as JSON"),
+        wind: bool = typer.Option(
+            False,
+            "--wind",
+            help="also estimate a steady wind's heading-dependent force and moment (Källström's theta_9, theta_10; "
+            "phi_3 of nomoto2)",
+        ),
+        log_x: float = typer.Option(
+            0.0, "--log-x", help="the sway log's distance forward of midship [m] (it reads v + X r; negative aft)"
+        ),
+        save_profile: Path | None = typer.Option(
+            None,
+            "--save-profile",
+            help="write the --ship profile with the identified model in its linear sway/yaw terms (.toml) for design, "
+            "plan-trial and diagnose",
+        ),
     ) -> None:
         """Identify K', T1', T2', T3' (and first-order K', T') with 95 % intervals, AIC over the models and
         estimators, residual whiteness and rudder cross-correlation for prediction and simulation."""
         from cli.options import check_input_file
         from identify.steering.api import ESTIMATORS, MODELS, identify_files
         from identify.steering.report import document, text, write_plots
-        from primitives.io import atomic_output_dir, atomic_write_text, check_replaceable_dir
+        from primitives.io import atomic_output_dir, atomic_write_text, check_out_file, check_replaceable_dir
         from primitives.validate import one_of
 
         one_of(model, "--model", MODELS)
@@ -46,8 +61,15 @@ def register(app: typer.Typer) -> None:
             check_input_file(r, "RECORDING", "a steering recording (.csv or MARIN .dat)", "recording")
         if out is not None:
             check_replaceable_dir(out)
-        res = identify_files(list(recordings), ship, model, estimator, split)
+        if save_profile is not None:
+            from identify.steering.saved_profile import check_base
+            from primitives.ship import load_profile
+
+            check_out_file(save_profile, (".toml",), "--save-profile", "profile")
+            check_base(load_profile(ship))
+        res = identify_files(list(recordings), ship, model, estimator, split, wind, log_x)
         doc = document(res)
+        saved = _saved_profile(res, ship, save_profile) if save_profile is not None and res.main.ok else None
         if out is not None:
             with atomic_output_dir(out) as tmp:
                 atomic_write_text(tmp / "steering.json", dumps(doc) + "\n")
@@ -60,5 +82,23 @@ def register(app: typer.Typer) -> None:
                 typer.echo(f"wrote {out}/steering.json and plots")
         for w in res.warnings if json_out else ():
             print(f"warning: {w}", file=sys.stderr)
+        if saved is not None:
+            atomic_write_text(save_profile, saved.text)
+            print(f"wrote {save_profile}: {saved.source_line}", file=sys.stderr)
         if not res.main.ok:
+            if save_profile is not None:
+                print(
+                    f"error: --save-profile {save_profile}: the {res.model} {res.estimator} fit failed; nothing written",
+                    file=sys.stderr,
+                )
             raise typer.Exit(1)
+
+
+def _saved_profile(res, ship: str, path: Path):
+    """The --ship profile with the chosen fit written into it (identify.steering.saved_profile)."""
+    from identify.steering.api import nomoto_parameters
+    from identify.steering.saved_profile import steering_profile
+
+    return steering_profile(
+        res.main.fit, nomoto_parameters(res.main.fit), ship, res.V, path.stem, [Path(s).name for s in res.sources]
+    )

@@ -426,6 +426,14 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["steering", "{steer}", "--ship", "kvlcc2"], "--split", ["abc", "-5", "300:100", "nan", "1e9", "5"], named=True)
     cases.append(("steering --split two recordings", ["steering", "{steer}", "{steer}", "--ship", "kvlcc2", "--split", "300"]))
     cases.append(("steering state-space without v", ["steering", "{steer}", "--ship", "kvlcc2", "--model", "state-space"]))
+    add(["steering", "{steer}", "--ship", "kvlcc2"], "--log-x", ["nan", "400", "-1e9"], named=True)
+    add(["steering", "{steer}", "--ship", "kvlcc2"], "--save-profile", ["{tmp}/ship.txt", "/proc/ship.toml", "{dir}"])
+    cases.append(
+        (
+            "steering --save-profile into a non-rudder ship",
+            ["steering", "{steer}", "--ship", "full-scale", "--save-profile", "{tmp}/s.toml"],
+        )
+    )
     return cases
 
 

@@ -300,12 +300,12 @@ def _covariance(prob: _Problem, z: np.ndarray, jac: np.ndarray, at_bound: np.nda
 
 
 def free_names(structure: Structure, n_records: int, estimator: str, fixed: tuple[str, ...] = ()) -> tuple[str, ...]:
-    """The estimated parameters: dynamics and noise shared, biases and initial state per record (``name@i``)."""
+    """The estimated parameters: dynamics and noise shared, biases, wind and initial state per record (``name@i``)."""
     out = []
     for q in structure.params:
         if q.name in fixed or (estimator != "ml" and q.role == "noise"):
             continue
-        if n_records > 1 and q.role in ("bias", "initial"):
+        if n_records > 1 and q.role in ("bias", "initial", "wind"):  # the wind's direction differs by record
             out += [f"{q.name}@{i}" for i in range(n_records)]
         else:
             out.append(q.name)

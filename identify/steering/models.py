@@ -10,6 +10,14 @@ irregular instants (Källström 1977, eqs. (3.1) and (4.1)):
 - ``state-space``: (3.1) in [v, r, psi] with the acceleration derivatives theta_1..theta_4 fixed
   (Table 3.1's SSPA values unless given), force and moment biases theta_13, theta_14 on U.
 
+Optional (``Structure(..., wind=True)``): Källström's heading-dependent wind, a steady wind's force and moment
+linear in the heading — in (3.1) the prime force theta_9 psi and moment theta_9 theta_10 psi (here ``Y_psi`` and
+``N_psi``, estimated separately so that neither is undetermined when the other is small), in (4.1) phi_3, the
+constant term it adds to the denominator s^3 + phi_1 s^2 + phi_2 s + phi_3 (prime time). The spring is taken
+about each record's initial heading psi_0: the wind's force and moment at psi_0 are constants the biases
+already carry, so the biases keep their meaning. ``Structure(..., log_x=x_L)``: the Doppler log x_L metres
+forward of midship measures v + x_L r (Källström's v1 = alpha2 (v + L1 r)); v stays the sway at midship.
+
 Dynamics parameters are the primed ones (time in L/V, Källström's (3.8)), so their intervals are the
 intervals of K', T'; the rate gyro and sway log get a bias on U (theta_15..theta_17, phi_8); the
 heading has none (the initial heading absorbs it). Process noise enters the rate equations
@@ -17,7 +25,7 @@ heading has none (the initial heading absorbs it). Process noise enters the rate
 
 Sampling (Källström's ISAMP = 3, exact for any step): for each distinct interval h,
 Phi = e^{A h}, Gamma = int_0^h e^{A s} ds B (Van Loan 1978's block exponential), and
-Qd = int_0^h e^{A s} Qc e^{A' s} ds from the block exponential [[-A, Qc], [0, A']] h.
+Qd = int_0^h e^{A s} Qc e^{A' s} ds from the block exponential [[-A, Qc], [0, A']] over h / 2^m, doubled m times.
 """
 
 from __future__ import annotations
@@ -48,10 +56,14 @@ class Structure:
     V: float
     channels: tuple[str, ...]
     accel: dict[str, float] = field(default_factory=lambda: {k: SSPA_DERIVATIVES[k] for k in ("th1", "th2", "th3", "th4")})
+    wind: bool = False  # estimate the heading-dependent wind (Y_psi, N_psi or phi_3)
+    log_x: float = 0.0  # the sway log's distance forward of midship [m]: it measures v + log_x r
 
     def __post_init__(self) -> None:
         if self.name not in STRUCTURES:
             raise ValueError(f"unknown steering model {self.name!r}; one of {', '.join(STRUCTURES)}")
+        if self.wind and self.name == "nomoto1":
+            raise ValueError("heading-dependent wind is a parameter of the nomoto2 and state-space models (4.1), (3.1)")
         self.params: tuple[Param, ...] = STRUCTURES[self.name](self)
 
     @property
@@ -103,6 +115,7 @@ def _nomoto2_params(s: Structure) -> tuple[Param, ...]:
             Param("phi_4", "-", 0.5, "dynamics"),
             Param("phi_5", "-", 0.5, "dynamics"),
             Param("delta_0", "rad", 0.01, "bias"),
+            *([Param("phi_3", "-", 0.01, "wind")] if s.wind else []),
             Param("rdot_0", "rad/s^2", 1e-5, "initial"),
             Param("r_0", "rad/s", 1e-3, "initial"),
             Param("psi_0", "rad", 0.1, "initial"),
@@ -114,8 +127,11 @@ def _nomoto2_params(s: Structure) -> tuple[Param, ...]:
 def _state_space_params(s: Structure) -> tuple[Param, ...]:
     dyn = [Param(n, "-", 0.005, "dynamics") for n in ("Yv", "Yr", "Nv", "Nr")]
     dyn += [Param("Yd", "-", 0.002, "dynamics"), Param("Nd", "-", 0.001, "dynamics")]
-    nuis = [
-        Param("th13", "-", 1e-4, "bias"),
+    # the sway-force bias theta_13 and the log's bias b_v move the measured sway by constants only the sum of
+    # which a record sees (the yaw rate's mean is fixed by the heading): with v measured, theta_13 is held at zero
+    nuis = [Param("th13", "-", 1e-4, "bias")] if "v" not in s.channels else []
+    nuis += [Param("Y_psi", "-", 1e-4, "wind"), Param("N_psi", "-", 1e-5, "wind")] if s.wind else []
+    nuis += [
         Param("th14", "-", 1e-5, "bias"),
         Param("v_0", "m/s", 0.1, "initial"),
         Param("r_0", "rad/s", 1e-3, "initial"),
@@ -133,6 +149,8 @@ def _outputs(s: Structure, p: dict[str, float], rows: dict[str, int]) -> tuple[n
     D = np.zeros((len(s.channels), 2))
     for i, c in enumerate(s.channels):
         C[i, rows[c]] = 1.0
+        if c == "v":
+            C[i, rows["r"]] = s.log_x
         if c != "psi":
             D[i, 1] = p[f"b_{c}"]
     return C, D
@@ -168,6 +186,9 @@ def _nomoto2_system(s: Structure, p: dict[str, float]) -> tuple[np.ndarray, ...]
     A = np.array([[0.0, 0.0, 0.0], [1.0, -a * ph1, -a * a * ph2], [0.0, 1.0, 0.0]])
     b = np.array([a**3 * ph5, a * a * ph4, 0.0])
     B = np.stack([b, b * p["delta_0"]], axis=1)
+    if s.wind:  # x1' = ... - a^3 phi_3 (psi - psi_0): the constant part at psi_0 on the unit step
+        A[0, 2] = -(a**3) * p["phi_3"]
+        B[0, 1] += a**3 * p["phi_3"] * p["psi_0"]
     C, D = _outputs(s, p, {"r": 1, "psi": 2})
     # x1 from the initial yaw acceleration (r' = x1 - a phi_1 r - a^2 phi_2 psi + a^2 phi_4 delta), so that the
     # initial state does not depend on where north is; the rudder part is taken at delta = delta_0 only
@@ -181,7 +202,7 @@ def _state_space_system(s: Structure, p: dict[str, float]) -> tuple[np.ndarray, 
     d = dict(s.accel)
     d.update({k: p[k] for k in ("Yv", "Yr", "Nv", "Nr", "Yd", "Nd")})
     Ap, Bp = prime_state_matrices(d)
-    _, Bb = prime_state_matrices({**d, "Yd": p["th13"], "Nd": p["th14"]})
+    _, Bb = prime_state_matrices({**d, "Yd": p.get("th13", 0.0), "Nd": p["th14"]})
     # prime -> SI: v = V v', r = (V/L) r', t = (L/V) t'
     Sx = np.diag([V, V / L])
     A2 = (V / L) * Sx @ Ap @ np.linalg.inv(Sx)
@@ -191,6 +212,10 @@ def _state_space_system(s: Structure, p: dict[str, float]) -> tuple[np.ndarray, 
     B = np.zeros((3, 2))
     B[:2, 0] = (V / L) * Sx @ Bp
     B[:2, 1] = (V / L) * Sx @ Bb
+    if s.wind:  # the wind's prime force and moment per radian of heading, about the initial heading
+        _, Bw = prime_state_matrices({**d, "Yd": p["Y_psi"], "Nd": p["N_psi"]})
+        A[:2, 2] = (V / L) * Sx @ Bw
+        B[:2, 1] -= A[:2, 2] * p["psi_0"]
     C, D = _outputs(s, p, {"v": 0, "r": 1, "psi": 2})
     x0 = np.array([p["v_0"], p["r_0"], p["psi_0"]])
     Q = np.diag([_q(p, "ln_q_v"), _q(p, "ln_q_r"), 0.0])
@@ -253,8 +278,26 @@ def discretize(
     Gam[:, :, 2] = Ea[:, :n, :n] @ Ed[:n, n]
     if not np.any(Qc):
         return Phi, Gam, np.zeros((len(h), n, n))
+    return Phi, Gam, process_noise(A, Qc, h)
+
+
+def process_noise(A: np.ndarray, Qc: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Qd = int_0^h e^{A s} Qc e^{A' s} ds for each interval: Van Loan's (1978) block exponential
+    [[-A, Qc], [0, A']] over h / 2^m with ||A|| h / 2^m <= 1/2, then doubled m times,
+    Qd(2 h) = Phi(h) Qd(h) Phi(h)' + Qd(h). The block exponential over the whole interval holds e^{-A h},
+    which for a fast mode across a long interval (a 3 s time constant across the 210 s gap of seven lost 30 s
+    readings: e^{70}) cancels catastrophically and gives an indefinite Qd, a negative innovation variance and a failed fit;
+    the doubling adds positive semi-definite terms only."""
+    n = A.shape[0]
+    norm = float(np.max(np.sum(np.abs(A), axis=1))) * float(np.max(h))
+    m = int(max(0, np.ceil(np.log2(max(norm, 1e-300) / 0.5))))
+    hs = h / 2.0**m
     W = np.zeros((2 * n, 2 * n))
     W[:n, :n], W[:n, n:], W[n:, n:] = -A, Qc, A.T
-    F = expm(W[None] * h[:, None, None])
+    F = expm(W[None] * hs[:, None, None])
+    Phi = np.swapaxes(F[:, n:, n:], 1, 2)  # e^{A hs}
     Qd = Phi @ F[:, :n, n:]
-    return Phi, Gam, 0.5 * (Qd + np.swapaxes(Qd, 1, 2))
+    for _ in range(m):
+        Qd = Phi @ Qd @ np.swapaxes(Phi, 1, 2) + Qd
+        Phi = Phi @ Phi
+    return 0.5 * (Qd + np.swapaxes(Qd, 1, 2))

@@ -64,6 +64,7 @@ class Experiment:
     prbs_amplitude_deg: float = 5.0
     prbs_offset_s: float = 0.0  # the PRBS switches this long after a reading
     sea: float = 1.0  # multiple of the force/moment disturbance
+    log_x: float = 0.0  # the Doppler log's distance forward of midship [m] (Källström's fore log: 147.6 m)
 
 
 EXPERIMENT_1 = Experiment()
@@ -149,7 +150,7 @@ def simulate(exp: Experiment, seed: int) -> dict[str, np.ndarray]:
         "delta": np.round(rud / q_rud) * q_rud,
         "r": X[:, 1] + np.radians(0.004) + rng.normal(0, np.radians(0.005), len(t)),
         "psi": np.round(X[:, 2] / q_psi) * q_psi,
-        "v": X[:, 0] + 0.1 * 0.5144 + rng.normal(0, 0.02 * 0.5144, len(t)),
+        "v": X[:, 0] + exp.log_x * X[:, 1] + 0.1 * 0.5144 + rng.normal(0, 0.02 * 0.5144, len(t)),
         "u": np.full(len(t), V),
     }
     return {k: v[keep] for k, v in out.items()}
