@@ -19,7 +19,7 @@ def narrow(monkeypatch):
 
 
 def test_plan_summary_fits_80_columns_and_keeps_port_and_starboard(narrow, capsys):
-    from cli.plan_cmd import print_summary
+    from cli.plan_summary import print_summary
 
     plan = synthetic_plan(
         "full-scale", ("straight", "zigzag_10_10_s", "turning_circle_35_p", "spot_turn_s", "tau16"), run_in=True
