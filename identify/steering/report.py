@@ -106,6 +106,7 @@ def _cross_document(res: SteeringResult) -> dict | None:
             "ok": r.fit is not None and r.fit.converged,
             "aic": r.fit.aic if r.fit is not None and r.fit.converged else None,
             "nu": r.fit.nu if r.fit is not None else None,
+            "refitted": list(r.fit.free) if r.fit is not None else None,
             "fit_percent_simulation": r.fit.fit_percent(True)[0] if r.fit is not None and r.fit.converged else None,
             "failure": r.failure or None,
         }
@@ -128,8 +129,10 @@ def _cross_text(res: SteeringResult) -> list[str]:
             )
         else:
             lines.append(f"  part {part} {e.upper():3s} FAILED")
+    wind = any(q.role == "wind" for f in res.part_fits.values() for q in f.structure.params)
     lines.append(
-        "cross-validation (dynamics and delay held, biases and initial state refitted by OE; lower AIC generalises better):"
+        f"cross-validation (dynamics and delay held, biases, {'wind ' if wind else ''}and initial state refitted by OE; "
+        "lower AIC generalises better):"
     )
     for r in res.cross_rows:
         head = f"  part {r.data_part} data, model from part {r.model_part} {r.estimator.upper():3s}"
