@@ -64,3 +64,21 @@ def test_without_a_correlated_sea_the_correlation_interval_holds_zero():
     lo, hi = _rho_interval(f)
     assert lo < 0.0 < hi, (lo, hi)
     assert hi - lo < 1.0  # informative: not the whole of (-1, 1)
+
+
+def test_identify_records_passes_the_correlation_to_the_second_order_ml_fits_only():
+    """``--noise-corr``: the nomoto2 ML fit carries R1(1,2); nomoto1 (one noisy state) and OE fits run without it."""
+    from identify.steering.api import identify_records
+
+    run = ss.simulate(ss.EXPERIMENT_2, 3)
+    d = SteeringData(run["t"], run["delta"], np.column_stack([run["r"], run["psi"]]), ("r", "psi"))
+    res = identify_records([d], ss.L, ss.V, "nomoto2", "ml", noise_corr=True)
+    fits = {(r.model, r.estimator): r.fit for r in res.results}
+    assert all(f is not None and f.converged for f in fits.values())
+    assert RHO in fits["nomoto2", "ml"].free
+    assert RHO in fits["nomoto2", "oe"].structure.names and RHO not in fits["nomoto2", "oe"].free
+    assert RHO not in fits["nomoto1", "ml"].structure.names
+    assert any("--noise-corr" in n for n in res.notes)
+    from identify.steering.report import text
+
+    assert "process-noise correlation rho" in text(res)

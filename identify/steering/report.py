@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from identify.steering.api import ModelResult, SteeringResult, nomoto_parameters
+from identify.steering.api import Z95, ModelResult, SteeringResult, nomoto_parameters
+from identify.steering.models import RHO
 from identify.steering.residuals import residual_tests
 
 UNITS = {"v": ("m/s", 1.0), "r": ("deg/s", 180 / np.pi), "psi": ("deg", 180 / np.pi)}
@@ -159,6 +160,18 @@ def _dimensional(r: ModelResult, res: SteeringResult) -> list[str]:
     return [f"    at V = {res.V:.3g} m/s: " + ", ".join(bits) + extra]
 
 
+def _noise_corr_text(r: ModelResult) -> list[str]:
+    """The process noise's correlation rho = tanh(atanh_rho_q) (Källström's R1(1,2)) with its 95 % interval, mapped
+    through tanh from the parameter's (monotone, so the interval is rho's)."""
+    if RHO not in r.fit.free:
+        return []
+    z, sd = r.fit.p[RHO], r.fit.std[RHO]
+    head = f"    process-noise correlation rho {np.tanh(z):.2f}"
+    if not np.isfinite(sd):
+        return [head + " (at a bound, or a rate's noise negligible: no interval)"]
+    return [head + f"  95 % [{np.tanh(z - Z95 * sd):.2f}, {np.tanh(z + Z95 * sd):.2f}] (R1(1,2) / sqrt(R1(1,1) R1(2,2)))"]
+
+
 def _aic_text(res: SteeringResult) -> list[str]:
     """One AIC table per set of fitted channels: likelihoods of different data (the state-space model also fits
     the sway v) do not compare."""
@@ -196,7 +209,7 @@ def text(res: SteeringResult) -> str:
         + ("(pooled: dynamics shared, biases and initial state per record)" if len(res.sources) > 1 else ""),
     ]
     if m.ok:
-        lines += _fmt_params(m) + _dimensional(m, res)
+        lines += _fmt_params(m) + _dimensional(m, res) + _noise_corr_text(m)
         side = "starboard" if nomoto_parameters(m.fit)["K'"].value > 0 else "port"
         lines.append(f"    (a positive delta turns the ship to {side})")
         f = m.fit
