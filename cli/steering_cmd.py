@@ -33,6 +33,12 @@ def register(app: typer.Typer) -> None:
             help="also estimate a steady wind's heading-dependent force and moment (Källström's theta_9, theta_10; "
             "phi_3 of nomoto2)",
         ),
+        noise_corr: bool = typer.Option(
+            False,
+            "--noise-corr",
+            help="maximum likelihood: also estimate the correlation of the process noise on the two rate equations "
+            "(Källström's R1(1,2)); nomoto2 and state-space",
+        ),
         log_x: float = typer.Option(
             0.0, "--log-x", help="the sway log's distance forward of midship [m] (it reads v + X r; negative aft)"
         ),
@@ -67,7 +73,7 @@ def register(app: typer.Typer) -> None:
 
             check_out_file(save_profile, (".toml",), "--save-profile", "profile")
             check_base(load_profile(ship))
-        res = identify_files(list(recordings), ship, model, estimator, split, wind, log_x)
+        res = identify_files(list(recordings), ship, model, estimator, split, wind, log_x, noise_corr)
         doc = document(res)
         saved = _saved_profile(res, ship, save_profile) if save_profile is not None and res.main.ok else None
         if out is not None:

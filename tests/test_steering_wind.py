@@ -78,3 +78,29 @@ def test_wind_terms_are_per_record_when_records_are_pooled():
     assert "phi_3@0" in names and "phi_3@1" in names and "phi_1" in names
     with pytest.raises(ValueError, match="nomoto2 and state-space"):
         Structure("nomoto1", ss.L, ss.V, ("r", "psi"), wind=True)
+
+
+def test_split_cross_validation_refits_the_wind_with_the_dynamics_held():
+    """--split with --wind (Källström's Table 3.8 refits the nuisance, wind included): on the simulated experiment 2
+    (the 20 deg course change turns the wind relative to the ship) each cross row holds the other part's dynamics,
+    delay and noise and refits the wind phi_3 with the biases and initial state; without --wind there is no phi_3."""
+    from identify.steering.api import SteeringResult, add_cross_validation
+    from identify.steering.report import _cross_document
+
+    run = ss.simulate(dataclasses.replace(ss.EXPERIMENT_2, wind_speed=25.0), 2)
+    d = _record(run, ("r", "psi"))
+    res = SteeringResult("sea splendour", ss.L, ss.V, "", 0.0, [""], "nomoto2", "oe", [], [], [], [])
+    add_cross_validation(res, [d], (840.0, 960.0), wind=True)
+    assert len(res.cross_rows) == 4
+    moved = 0
+    for r in res.cross_rows:
+        assert r.fit is not None and r.fit.converged, r.failure
+        src = res.part_fits[(r.model_part, r.estimator)]
+        assert "phi_3" in src.free and "phi_3" in r.fit.free
+        assert set(r.fit.free) == {"delta_0", "phi_3", "rdot_0", "r_0", "psi_0", "b_r"}
+        for k in ("phi_1", "phi_2", "phi_4", "phi_5", "T_D"):
+            assert r.fit.p[k] == src.p[k]
+        moved += r.fit.p["phi_3"] != src.p["phi_3"]
+    assert moved == 4  # refitted on the other part, not carried over
+    doc = _cross_document(res)
+    assert all("phi_3" in row["refitted"] for row in doc["cross"])

@@ -122,12 +122,14 @@ def fit_model(
     accel: dict[str, float] | None = None,
     wind: bool = False,
     log_x: float = 0.0,
+    noise_corr: bool = False,
 ) -> Fit:
     """One model by one estimator on one record or several pooled (dynamics shared, biases and initial state per
     record). Without ``start``: from each start of :func:`_starts` (maximum likelihood: at two process-noise
     levels each), the best likelihood among the converged fits. ``accel``: the state-space model's theta_1..theta_4
     (``th1``..``th4``; default Källström's Table 3.1). ``wind``: estimate the heading-dependent wind (nomoto2,
-    state-space); ``log_x``: the sway log's distance forward of midship [m] (see :class:`Structure`)."""
+    state-space); ``log_x``: the sway log's distance forward of midship [m]; ``noise_corr``: estimate the correlation
+    of the two rate equations' process noise, R1(1,2) (nomoto2, state-space; see :class:`Structure`)."""
     records = [data] if isinstance(data, SteeringData) else list(data)
     if any("psi" not in d.channels for d in records):
         # without heading the initial heading is a free parameter nothing measures, and the rudder offset
@@ -135,7 +137,7 @@ def fit_model(
         raise ValueError("a steering fit needs the heading psi in every record (the yaw rate alone leaves it undetermined)")
     channels = fitted_channels(records[0].channels, model)
     records = [_select(d, channels) for d in records]
-    st = Structure(model, L, V, channels, **({"accel": accel} if accel else {}), wind=wind, log_x=log_x)
+    st = Structure(model, L, V, channels, **({"accel": accel} if accel else {}), wind=wind, log_x=log_x, noise_corr=noise_corr)
     starts = [start] if start is not None else _starts(st, records, L, V)
     best = None
     for s0 in starts:
@@ -246,10 +248,11 @@ class SteeringResult:
         return next(r for r in self.results if r.model == self.model and r.estimator == self.estimator)
 
 
-def _try_fit(records, L, V, model, estimator, wind: bool = False, log_x: float = 0.0) -> ModelResult:
+def _try_fit(records, L, V, model, estimator, wind: bool = False, log_x: float = 0.0, noise_corr: bool = False) -> ModelResult:
     ch = fitted_channels(records[0].channels, model)
+    two = model != "nomoto1"  # the wind and the noise correlation are terms of the second-order models only
     try:
-        f = fit_model(records, L, V, model, estimator, wind=wind and model != "nomoto1", log_x=log_x)
+        f = fit_model(records, L, V, model, estimator, wind=wind and two, log_x=log_x, noise_corr=noise_corr and two)
     except (np.linalg.LinAlgError, ValueError, FloatingPointError) as exc:
         return ModelResult(model, estimator, None, f"{type(exc).__name__}: {exc}", ch)
     if not f.converged:
@@ -308,9 +311,9 @@ def sampling_warning(records: list[SteeringData], r: ModelResult) -> str | None:
 
 
 NOT_MODELLED = (
-    "not modelled: correlated process noise; heading-dependent wind (Källström's theta_9, theta_10, phi_3) only "
-    "with --wind and not in the --split cross-validation; the sway log is taken at midship unless --log-x gives "
-    "its lever arm"
+    "not modelled unless asked for: heading-dependent wind (Källström's theta_9, theta_10, phi_3) only with --wind "
+    "(then refitted with the biases and initial state in the --split cross-validation); correlated process noise "
+    "(Källström's R1(1,2)) only with --noise-corr; the sway log is taken at midship unless --log-x gives its lever arm"
 )
 
 
@@ -343,15 +346,16 @@ def identify_records(
     notes: list[str] | None = None,
     wind: bool = False,
     log_x: float = 0.0,
+    noise_corr: bool = False,
 ) -> SteeringResult:
     """Every structure (Nomoto 1 and 2, and the state-space model when asked for) by OE and ML on the pooled
-    records, the chosen one per record too when there are several; ``wind`` and ``log_x`` as in :func:`fit_model`
-    (the wind for the second-order and state-space models only)."""
+    records, the chosen one per record too when there are several; ``wind``, ``log_x`` and ``noise_corr`` as in
+    :func:`fit_model` (the wind and the noise correlation for the second-order and state-space models only)."""
     if model not in MODELS:
         raise ValueError(f"model {model!r}: one of {', '.join(MODELS)}")
     models = ("nomoto1", "nomoto2") + (("state-space",) if model == "state-space" else ())
-    results = [_try_fit(records, L, V, m, e, wind, log_x) for m in models for e in ESTIMATORS]
-    per_run = [_try_fit([d], L, V, model, estimator, wind, log_x) for d in records] if len(records) > 1 else []
+    results = [_try_fit(records, L, V, m, e, wind, log_x, noise_corr) for m in models for e in ESTIMATORS]
+    per_run = [_try_fit([d], L, V, model, estimator, wind, log_x, noise_corr) for d in records] if len(records) > 1 else []
     notes = list(notes or []) + [NOT_MODELLED]
     res = SteeringResult(
         ship,
@@ -416,13 +420,17 @@ def split_parts(records: list[SteeringData], split: tuple[float, float]) -> tupl
     return split_record(records[0], *split)
 
 
-def add_cross_validation(res: SteeringResult, records: list[SteeringData], split: tuple[float, float]) -> None:
-    """Identify each part of the (single) record and cross-validate (Källström's Tables 3.5-3.8)."""
+def add_cross_validation(
+    res: SteeringResult, records: list[SteeringData], split: tuple[float, float], wind: bool = False
+) -> None:
+    """Identify each part of the (single) record and cross-validate (Källström's Tables 3.5-3.8); ``wind``: with the
+    heading-dependent wind in the parts' models (second order), refitted on the other part with the nuisance."""
     from identify.steering.crossval import cross_validate
 
     p1, p2 = split_parts(records, split)
     res.split = split
-    res.part_fits, res.cross_rows = cross_validate((p1, p2), res.L, res.V, res.model if res.model != "state-space" else "nomoto2")
+    model = res.model if res.model != "state-space" else "nomoto2"
+    res.part_fits, res.cross_rows = cross_validate((p1, p2), res.L, res.V, model, wind and model != "nomoto1")
 
 
 def identify_files(
@@ -433,9 +441,10 @@ def identify_files(
     split: str | None = None,
     wind: bool = False,
     log_x: float = 0.0,
+    noise_corr: bool = False,
 ) -> SteeringResult:
     """Read the recordings, take L from the profile and V from the recorded forward speed (the profile's cruise
-    speed when no recording has ``u``), and identify (``wind``, ``log_x``: :func:`fit_model`)."""
+    speed when no recording has ``u``), and identify (``wind``, ``log_x``, ``noise_corr``: :func:`fit_model`)."""
     profile = ship if isinstance(ship, ShipProfile) else load_profile(ship)
     records, speeds, notes = [], [], []
     for p in paths:
@@ -476,7 +485,8 @@ def identify_files(
         notes=notes,
         wind=wind,
         log_x=log_x,
+        noise_corr=noise_corr,
     )
     if cut is not None:
-        add_cross_validation(res, records, cut)
+        add_cross_validation(res, records, cut, wind)
     return res

@@ -2,8 +2,8 @@
 
 Each part is identified on its own (OE and ML); then each part's models are simulated with the other part's
 rudder, the dynamics and the delay held and only the nuisance parameters (rudder offset, gyro bias, initial
-state) fitted by output error, as in Källström's Table 3.8. The model that generalises best to the other part
-has the lowest AIC there.
+state and, when the models carry it, the heading-dependent wind) fitted by output error, as in Källström's
+Table 3.8. The model that generalises best to the other part has the lowest AIC there.
 """
 
 from __future__ import annotations
@@ -52,10 +52,12 @@ def _nuisance_start(f: Fit, d: SteeringData) -> dict[str, float]:
 
 
 def cross_validate(
-    parts: tuple[SteeringData, SteeringData], L: float, V: float, model: str = "nomoto2"
+    parts: tuple[SteeringData, SteeringData], L: float, V: float, model: str = "nomoto2", wind: bool = False
 ) -> tuple[dict[tuple[int, str], Fit], list[CrossRow]]:
-    """Fits of each part by each estimator, and the four cross rows of Table 3.8."""
-    fits = {(i + 1, e): fit_model(parts[i], L, V, model, e) for i in range(2) for e in ESTIMATORS}
+    """Fits of each part by each estimator, and the four cross rows of Table 3.8. ``wind``: the parts' models
+    carry the heading-dependent wind (nomoto2, state-space) and the cross rows refit it with the other nuisance
+    parameters: a wind is the other part's weather, not the ship's dynamics (Källström's Table 3.8 refits it)."""
+    fits = {(i + 1, e): fit_model(parts[i], L, V, model, e, wind=wind) for i in range(2) for e in ESTIMATORS}
     rows = []
     for data_part, model_part in ((2, 1), (1, 2)):
         d = parts[data_part - 1]

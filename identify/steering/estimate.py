@@ -27,10 +27,12 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from identify.steering.kalman import predict
-from identify.steering.models import Structure, discretize, intervals, measurement_variances
+from identify.steering.models import RHO, Structure, discretize, intervals, measurement_variances
 
 LN2PI = float(np.log(2 * np.pi))
 LN_BOUND = 12.0
+# |atanh rho| of the process noise's correlation: |rho| <= 0.9993 (at 1 the filter's R1 is singular)
+RHO_BOUND = 4.0
 # A standard error this many times a parameter's typical size (Param.scale) means the records do not
 # determine it (a near-singular information matrix inverts to huge but finite variances).
 UNDETERMINED = 1e3
@@ -205,9 +207,10 @@ class _Problem:
 def _bounds(free: tuple[str, ...], scale: np.ndarray, h_min: float) -> tuple[np.ndarray, np.ndarray]:
     """ln-variances within e^+-LN_BOUND of their references (beyond, the filter degenerates: a rate measured
     exactly against unbounded process noise); the delay within [0, shortest interval] (Källström's
-    T_D = T (1 - |sin theta_34|) bounds it the same way)."""
-    lo = np.array([-LN_BOUND if k.startswith("ln_") else 0.0 if k == "T_D" else -np.inf for k in free])
-    hi = np.array([LN_BOUND if k.startswith("ln_") else h_min if k == "T_D" else np.inf for k in free])
+    T_D = T (1 - |sin theta_34|) bounds it the same way); the process noise's correlation within +-tanh(RHO_BOUND)."""
+    b = {"T_D": (0.0, h_min), RHO: (-RHO_BOUND, RHO_BOUND)}
+    lo = np.array([-LN_BOUND if k.startswith("ln_") else b.get(k, (-np.inf, np.inf))[0] for k in free])
+    hi = np.array([LN_BOUND if k.startswith("ln_") else b.get(k, (-np.inf, np.inf))[1] for k in free])
     return lo / scale, hi / scale
 
 
@@ -363,7 +366,10 @@ def _fit(
     # a noise intensity at a bound is negligible (or degenerate) for this record: the likelihood is flat in
     # it, so it is held and gets no variance
     at_bound = np.array([k.startswith("ln_") for k in free]) & (np.abs(z * prob.scale) >= LN_BOUND - 0.1)
-    at_bound |= np.array([k == "T_D" for k in free]) & ((z <= lo + 1e-4) | (z >= hi - 1e-4))
+    at_bound |= np.array([k in ("T_D", RHO) for k in free]) & ((z <= lo + 1e-4) | (z >= hi - 1e-4))
+    # a correlation with a negligible process noise (at its lower bound) has nothing to correlate: flat likelihood
+    nil = np.array([k.startswith("ln_q") for k in free]) & (z * prob.scale <= -LN_BOUND + 0.1)
+    at_bound |= np.array([k == RHO for k in free]) & bool(nil.any())
     cov = _covariance(prob, z, res.jac, at_bound)
     std = {k: float(np.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) and cov[i, i] > 0 else float("nan") for i, k in enumerate(free)}
     nu = len(free) + (1 if ml else len(records[0].channels))

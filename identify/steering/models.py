@@ -21,7 +21,8 @@ forward of midship measures v + x_L r (Källström's v1 = alpha2 (v + L1 r)); v 
 Dynamics parameters are the primed ones (time in L/V, Källström's (3.8)), so their intervals are the
 intervals of K', T'; the rate gyro and sway log get a bias on U (theta_15..theta_17, phi_8); the
 heading has none (the initial heading absorbs it). Process noise enters the rate equations
-(R1 of (3.1)/(4.1)), measurement noise is diagonal (R2).
+(R1 of (3.1)/(4.1)), with ``Structure(..., noise_corr=True)`` correlated between them as in Källström's R1
+(R1(1,2) = sqrt(R1(1,1) R1(2,2)) sin theta_20; here tanh, monotone); measurement noise is diagonal (R2).
 
 Sampling (Källström's ISAMP = 3, exact for any step): for each distinct interval h,
 Phi = e^{A h}, Gamma = int_0^h e^{A s} ds B (Van Loan 1978's block exponential), and
@@ -35,6 +36,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from identify.steering.mappings import SSPA_DERIVATIVES, prime_state_matrices
+
+# the parameter of the process noise's correlation coefficient, rho = tanh(atanh_rho_q)
+RHO = "atanh_rho_q"
 
 
 @dataclass(frozen=True)
@@ -58,12 +62,15 @@ class Structure:
     accel: dict[str, float] = field(default_factory=lambda: {k: SSPA_DERIVATIVES[k] for k in ("th1", "th2", "th3", "th4")})
     wind: bool = False  # estimate the heading-dependent wind (Y_psi, N_psi or phi_3)
     log_x: float = 0.0  # the sway log's distance forward of midship [m]: it measures v + log_x r
+    noise_corr: bool = False  # estimate the correlation of the two rate equations' process noise (R1(1,2))
 
     def __post_init__(self) -> None:
         if self.name not in STRUCTURES:
             raise ValueError(f"unknown steering model {self.name!r}; one of {', '.join(STRUCTURES)}")
         if self.wind and self.name == "nomoto1":
             raise ValueError("heading-dependent wind is a parameter of the nomoto2 and state-space models (4.1), (3.1)")
+        if self.noise_corr and self.name == "nomoto1":
+            raise ValueError("correlated process noise needs two noisy states: the nomoto2 and state-space models (4.1), (3.1)")
         self.params: tuple[Param, ...] = STRUCTURES[self.name](self)
 
     @property
@@ -89,6 +96,8 @@ def _common(s: Structure, rate_noise: tuple[str, ...]) -> list[Param]:
     if "r" in s.channels:
         out.append(Param("b_r", "rad/s", 1e-4, "bias"))
     out += [Param(n, "ln", 1.0, "noise") for n in rate_noise]
+    if s.noise_corr:  # R1(1,2) = sqrt(R1(1,1) R1(2,2)) tanh(z): Källström's sin(theta_20) without its periodicity
+        out.append(Param(RHO, "-", 1.0, "noise"))
     # measured variances relative to the heading's (fixed: the scale ambiguity of the likelihood)
     out += [Param(f"ln_R_{c}", "ln", 1.0, "noise") for c in s.channels if c != "psi"]
     return out
@@ -166,6 +175,14 @@ def _q(p: dict[str, float], name: str) -> float:
     return float(Q_REF[name] * np.exp(p[name])) if name in p else 0.0
 
 
+def _rate_noise(p: dict[str, float], q1: float, q2: float) -> np.ndarray:
+    """R1 of (3.1)/(4.1) (Källström 1977): the two rate equations' intensities q1, q2 on the diagonal and
+    sqrt(q1 q2) rho off it, |rho| < 1 so that R1 stays positive semi-definite (rho = 0 without the parameter);
+    the heading's row and column are zero."""
+    c = np.sqrt(q1 * q2) * float(np.tanh(p.get(RHO, 0.0)))
+    return np.array([[q1, c, 0.0], [c, q2, 0.0], [0.0, 0.0, 0.0]])
+
+
 def measurement_variances(s: Structure, p: dict[str, float]) -> np.ndarray:
     """Diagonal of R2 relative to the likelihood's scale: the heading's fixed, the others R_REF e^{ln_R}."""
     return np.array([R_REF[c] * (np.exp(p[f"ln_R_{c}"]) if f"ln_R_{c}" in p else 1.0) for c in s.channels])
@@ -194,7 +211,7 @@ def _nomoto2_system(s: Structure, p: dict[str, float]) -> tuple[np.ndarray, ...]
     # initial state does not depend on where north is; the rudder part is taken at delta = delta_0 only
     x1 = p["rdot_0"] + a * ph1 * p["r_0"] + a * a * ph2 * p["psi_0"] - a * a * ph4 * p["delta_0"]
     x0 = np.array([x1, p["r_0"], p["psi_0"]])
-    return A, B, C, D, x0, np.diag([_q(p, "ln_q_x") * a * a, _q(p, "ln_q_r"), 0.0])
+    return A, B, C, D, x0, _rate_noise(p, _q(p, "ln_q_x") * a * a, _q(p, "ln_q_r"))
 
 
 def _state_space_system(s: Structure, p: dict[str, float]) -> tuple[np.ndarray, ...]:
@@ -218,8 +235,7 @@ def _state_space_system(s: Structure, p: dict[str, float]) -> tuple[np.ndarray, 
         B[:2, 1] -= A[:2, 2] * p["psi_0"]
     C, D = _outputs(s, p, {"v": 0, "r": 1, "psi": 2})
     x0 = np.array([p["v_0"], p["r_0"], p["psi_0"]])
-    Q = np.diag([_q(p, "ln_q_v"), _q(p, "ln_q_r"), 0.0])
-    return A, B, C, D, x0, Q
+    return A, B, C, D, x0, _rate_noise(p, _q(p, "ln_q_v"), _q(p, "ln_q_r"))
 
 
 _SYSTEMS = {"nomoto1": _nomoto1_system, "nomoto2": _nomoto2_system, "state-space": _state_space_system}

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from identify.steering.api import ModelResult, SteeringResult, nomoto_parameters
+from identify.steering.api import Z95, ModelResult, SteeringResult, nomoto_parameters
+from identify.steering.models import RHO
 from identify.steering.residuals import residual_tests
 
 UNITS = {"v": ("m/s", 1.0), "r": ("deg/s", 180 / np.pi), "psi": ("deg", 180 / np.pi)}
@@ -106,6 +107,7 @@ def _cross_document(res: SteeringResult) -> dict | None:
             "ok": r.fit is not None and r.fit.converged,
             "aic": r.fit.aic if r.fit is not None and r.fit.converged else None,
             "nu": r.fit.nu if r.fit is not None else None,
+            "refitted": list(r.fit.free) if r.fit is not None else None,
             "fit_percent_simulation": r.fit.fit_percent(True)[0] if r.fit is not None and r.fit.converged else None,
             "failure": r.failure or None,
         }
@@ -128,8 +130,10 @@ def _cross_text(res: SteeringResult) -> list[str]:
             )
         else:
             lines.append(f"  part {part} {e.upper():3s} FAILED")
+    wind = any(q.role == "wind" for f in res.part_fits.values() for q in f.structure.params)
     lines.append(
-        "cross-validation (dynamics and delay held, biases and initial state refitted by OE; lower AIC generalises better):"
+        f"cross-validation (dynamics and delay held, biases, {'wind ' if wind else ''}and initial state refitted by OE; "
+        "lower AIC generalises better):"
     )
     for r in res.cross_rows:
         head = f"  part {r.data_part} data, model from part {r.model_part} {r.estimator.upper():3s}"
@@ -154,6 +158,18 @@ def _dimensional(r: ModelResult, res: SteeringResult) -> list[str]:
     extra = f"; rudder delay T_D = {p.get('T_D', 0.0):.2f} s"
     extra += f", rudder offset delta_0 = {', '.join(f'{np.degrees(v):.2f}' for v in d0)} deg" if d0 else ""
     return [f"    at V = {res.V:.3g} m/s: " + ", ".join(bits) + extra]
+
+
+def _noise_corr_text(r: ModelResult) -> list[str]:
+    """The process noise's correlation rho = tanh(atanh_rho_q) (Källström's R1(1,2)) with its 95 % interval, mapped
+    through tanh from the parameter's (monotone, so the interval is rho's)."""
+    if RHO not in r.fit.free:
+        return []
+    z, sd = r.fit.p[RHO], r.fit.std[RHO]
+    head = f"    process-noise correlation rho {np.tanh(z):.2f}"
+    if not np.isfinite(sd):
+        return [head + " (at a bound, or a rate's noise negligible: no interval)"]
+    return [head + f"  95 % [{np.tanh(z - Z95 * sd):.2f}, {np.tanh(z + Z95 * sd):.2f}] (R1(1,2) / sqrt(R1(1,1) R1(2,2)))"]
 
 
 def _aic_text(res: SteeringResult) -> list[str]:
@@ -193,7 +209,7 @@ def text(res: SteeringResult) -> str:
         + ("(pooled: dynamics shared, biases and initial state per record)" if len(res.sources) > 1 else ""),
     ]
     if m.ok:
-        lines += _fmt_params(m) + _dimensional(m, res)
+        lines += _fmt_params(m) + _dimensional(m, res) + _noise_corr_text(m)
         side = "starboard" if nomoto_parameters(m.fit)["K'"].value > 0 else "port"
         lines.append(f"    (a positive delta turns the ship to {side})")
         f = m.fit

@@ -12,7 +12,7 @@ with classical RK4 at a 0.5 s step, plus what the estimator does not model:
   more than 6 deg from the set course, and the 20 deg course change to port in the middle (140 -> 120 deg);
 - a 10 m/s wind from starboard whose force and moment depend on the relative wind angle (a heading
   spring that turns with the course change);
-- white force and moment disturbances (sea), sensor biases (rate gyro 0.004 deg/s, Doppler log 0.1 kn),
+- white force and moment disturbances (sea; correlated with ``Experiment.sea_corr``), sensor biases (rate gyro 0.004 deg/s, Doppler log 0.1 kn),
   quantisation (rudder 0.6 deg, compass 1/6 deg), gyro noise 0.005 deg/s, Doppler noise 0.02 kn;
 - sampling every 30 s (experiment 1) or 15 s (experiment 2), "a few seconds too long sometimes",
   and seven consecutive readings lost (1520-1700 s and 600-690 s).
@@ -64,6 +64,7 @@ class Experiment:
     prbs_amplitude_deg: float = 5.0
     prbs_offset_s: float = 0.0  # the PRBS switches this long after a reading
     sea: float = 1.0  # multiple of the force/moment disturbance
+    sea_corr: float = 0.0  # correlation of the sea's sway force and yaw moment (waves acting off midship)
     log_x: float = 0.0  # the Doppler log's distance forward of midship [m] (Källström's fore log: 147.6 m)
 
 
@@ -121,6 +122,7 @@ def simulate(exp: Experiment, seed: int) -> dict[str, np.ndarray]:
     switch_at = set(np.round((stamps + exp.prbs_offset_s) / STEP).astype(int).tolist())
     rows = []
     sea = exp.sea * np.array([4e-5, 4e-6])  # prime force/moment per sqrt(prime time)
+    mix = np.linalg.cholesky(np.array([[1.0, exp.sea_corr], [exp.sea_corr, 1.0]]))
     for k in range(n + 1):
         t = k * STEP
         psi_set = psi_set0 - (np.radians(20.0) if t >= exp.course_change_s else 0.0)
@@ -138,7 +140,7 @@ def simulate(exp: Experiment, seed: int) -> dict[str, np.ndarray]:
         if k in sample_at:
             rows.append((t, rudder, cmd, x.copy()))
         rudder += float(np.clip(cmd - rudder, -RUDDER_RATE * STEP, RUDDER_RATE * STEP))
-        w = sea * rng.normal(size=2) / np.sqrt(STEP * V / L)
+        w = sea * (mix @ rng.normal(size=2)) / np.sqrt(STEP * V / L)
         x = _rk4(x, rudder, w, exp.wind_speed)
     t = np.array([r[0] for r in rows])
     keep = ~((t > exp.missing[0]) & (t < exp.missing[1]))
