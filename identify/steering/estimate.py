@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
+from threadpoolctl import threadpool_limits
 
 from identify.steering.kalman import predict
 from identify.steering.models import RHO, Structure, discretize, intervals, measurement_variances
@@ -315,6 +316,8 @@ def free_names(structure: Structure, n_records: int, estimator: str, fixed: tupl
     return tuple(out)
 
 
+@threadpool_limits.wrap(limits=1)
+@np.errstate(all="ignore")  # a trial step into overflow is rejected by the optimiser
 def fit(
     structure: Structure,
     data: SteeringData | list[SteeringData],
@@ -327,20 +330,6 @@ def fit(
     (``"ml"``) from ``start`` (every parameter; a per-record ``name@i`` falls back to ``name``); the names in
     ``fixed`` and, for OE, the noise parameters are held. BLAS runs single-threaded here: the optimiser's
     SVDs of a tall, thin Jacobian are about 40 times slower on several threads of a shared machine."""
-    from threadpoolctl import threadpool_limits
-
-    with threadpool_limits(1), np.errstate(all="ignore"):  # a trial step into overflow is rejected by the optimiser
-        return _fit(structure, data, start, estimator, fixed, max_nfev)
-
-
-def _fit(
-    structure: Structure,
-    data: SteeringData | list[SteeringData],
-    start: dict[str, float],
-    estimator: str = "ml",
-    fixed: tuple[str, ...] = (),
-    max_nfev: int = 300,
-) -> Fit:
     records = [data] if isinstance(data, SteeringData) else list(data)
     ml = estimator == "ml"
     free = free_names(structure, len(records), estimator, fixed)
