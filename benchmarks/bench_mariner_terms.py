@@ -11,16 +11,16 @@ the MMG model with one group of coefficients replaced at a time.
    on the left-hand side and has x_G = 0, so our Y_r is shown as Y_r - m' - m'_x and our N_r as is.
 2. The rudder's inflow: the terms of the MMG rudder model (Yasukawa & Yoshimura 2015, eqs. 17-27).
 3. One substitution at a time: the PMM's linear hull derivatives (its totals less our rudder's
-   share, Y_r + m' + m'_x, N_r as is), the non-linear hull terms off, and the interaction
-   coefficients of the one fine hull we have values for: the training ship Seiun Maru (L 105 m,
-   Cb 0.508, Cb B/L 0.087, close to the Mariner's 0.086). The values are second-hand: they are
-   taken from the table of calibrated vessels in the mmgdynamics package (calibrated_vessels.py),
-   which cites Yoshimura & Masumoto (2012), "Hydrodynamic database and manoeuvring prediction
-   method with medium high-speed merchant ships and fishing vessels", MARSIM 2012, for the vessel
-   and Quadvlieg (2013) for a_H; we have not checked them against the paper, nor which of them
-   were measured in captive tests and which estimated:
-   eps 1.033, gamma_R 0.394 / 0.312 (mean 0.353), l'_R -0.947, a_H 0.236, t_R 0.341, kappa 0.676.
-   These are a diagnosis, not a fix: the builder keeps the published regressions.
+   share, Y_r + m' + m'_x, N_r as is), the non-linear hull terms off, eps of each regression
+   (the build takes Lee & Shin (1998)'s below the maximum of Kijima et al. (1990)'s quadratic at
+   Cb B/L 0.133; Kijima's, 0.666 here, is what the build used before), and the interaction
+   coefficients of the training ship Seiun Maru (L 105 m, Cb 0.508, Cb B/L 0.087, close to the
+   Mariner's 0.086) from the table of calibrated vessels in the mmgdynamics package
+   (calibrated_vessels.py), which cites Yoshimura & Masumoto (2012), MARSIM 2012, for the vessel and
+   Quadvlieg (2013) for a_H: gamma_R 0.394 / 0.312 (mean 0.353), l'_R -0.947, a_H 0.236, t_R 0.341,
+   kappa 0.676, eps 1.033. That eps is not a measurement: Lee & Shin's formula as the same package
+   transcribes it gives 1.0329 at the Seiun Maru's particulars. Kijima's eps constant appears as
+   -156.5 (ours) and -156.2 (another public transcription); both are shown.
 """
 
 from __future__ import annotations
@@ -93,11 +93,16 @@ def main() -> None:
         f"   A_R {ship.rudder_area:.1f} m^2 (DNV rule guidance, A_R/(L T) = 1/{p.length * p.draught / ship.rudder_area:.1f}), "
         f"f_alpha {ship.f_alpha:.2f}, a_H {it['aH']:.3f}, screw {ship.prop_diameter:.2f} m (0.6 T), w_P0 {it['wP0']:.3f}"
     )
+    kv = rg.Hull(320, 58, 20.8, 0.81)
+    c = p.hull.cb_b_l
     print(
-        f"   eps = (1 - w_R)/(1 - w_P) from Kijima et al. (1990): {it['eps']:.3f} at Cb B/L {p.hull.cb_b_l:.4f}; "
-        f"the same regression gives {rg.interaction(SEIUN_MARU_HULL)['eps']:.3f} for the Seiun Maru "
-        f"(Cb B/L {SEIUN_MARU_HULL.cb_b_l:.4f}), tabulated as 1.033 by mmgdynamics, and "
-        f"{rg.interaction(rg.Hull(320, 58, 20.8, 0.81))['eps']:.3f} for KVLCC2 (captive 1.09)"
+        f"   eps = (1 - w_R)/(1 - w_P) at Cb B/L {c:.4f}, k = 2T/L {p.hull.k:.4f}: Lee & Shin (1998) {rg.lee_shin_eps(p.hull):.3f}"
+        f" (built); Kijima et al. (1990) {rg.kijima_eps(p.hull):.3f} (-156.5) / {-156.2 * c * c + 41.6 * c - 1.76:.3f} (-156.2)"
+    )
+    print(
+        f"   Seiun Maru: Lee & Shin {rg.lee_shin_eps(SEIUN_MARU_HULL):.4f} (mmgdynamics tabulates 1.033), Kijima "
+        f"{rg.kijima_eps(SEIUN_MARU_HULL):.3f}; KVLCC2 (captive 1.09): Kijima {rg.kijima_eps(kv):.3f} (built), "
+        f"Lee & Shin {rg.lee_shin_eps(kv):.3f}"
     )
     y_d = linearised(dataclasses.replace(ship, inter=it | {"eps": SEIUN_MARU["eps"]}))["Y_delta"][0]
     print(f"   with eps {SEIUN_MARU['eps']}: Y_delta {y_d:.0f} (x 1e-5, {y_d / pmm['Y_delta']:.2f} of the PMM's)")
@@ -117,6 +122,7 @@ def main() -> None:
         "as built (regressions)": ship,
         "linear hull: the PMM's": rep(ship, hull=ship.hull | pmm_hull),
         "non-linear hull terms off": rep(ship, hull=ship.hull | {x: 0.0 for x in nonlin}),
+        "eps: Kijima (1990)'s (the build before)": rep(ship, inter=it | {"eps": rg.kijima_eps(p.hull)}),
         **{f"{k_}: Seiun Maru's {v:.3g}": rep(ship, inter=it | {k_: v}) for k_, v in SEIUN_MARU.items()},
         "all six Seiun Maru interaction values": rep(ship, inter=it | SEIUN_MARU),
         "rudder area x 1.5": rep(ship, rudder_area=1.5 * ship.rudder_area),

@@ -145,8 +145,10 @@ def sample_time(p: Particulars) -> float:
 
 # 1-sigma relative spread of each group of MMG coefficients. Linear hull derivatives: the larger of
 # 20 % and the difference between Clarke et al. (1983) and Kijima et al. (1990) for this ship
-# (two independent regressions); the non-linear ones and the interaction coefficients: the
-# regressions publish no scatter, 50 % and 20 % are assumed; resistance 30 %: the one published
+# (two independent regressions); likewise eps of a hull finer than Kijima's eps maximum, where the
+# choice of Lee & Shin (1998) over Kijima is ours: the larger of 20 % and their difference; the
+# non-linear ones and the other interaction coefficients: the regressions publish no scatter, 50 %
+# and 20 % are assumed; resistance 30 %: the one published
 # check, the KVLCC2 model (L 7 m, 1.179 m/s) at R'_0 = 0.022 (Yasukawa & Yoshimura 2015, Table 2),
 # is 25 % above friction and form alone (wave resistance, the form factor's scale effect).
 NONLINEAR_SPREAD, INTERACTION_SPREAD, RESISTANCE_SPREAD, LINEAR_FLOOR = 0.5, 0.2, 0.3, 0.2
@@ -160,6 +162,9 @@ def coefficient_spreads(p: Particulars) -> dict[str, float]:
     out |= {k: NONLINEAR_SPREAD for k in rg.kijima_nonlinear(h)}
     out |= {k: NONLINEAR_SPREAD for k in ("Xvv", "Xvr", "Xrr", "Xvvvv")}
     out |= {k: INTERACTION_SPREAD for k in ("tR", "aH", "xH", "gammaR", "lR", "eps", "wP0", "tP")}
+    if rg.eps_source(h) != "Kijima et al. (1990)":
+        chosen = rg.lee_shin_eps(h)
+        out["eps"] = max(INTERACTION_SPREAD, abs(chosen - rg.kijima_eps(h)) / abs(chosen))
     out["R0"] = RESISTANCE_SPREAD
     return out
 
@@ -190,7 +195,8 @@ def prior_std(p: Particulars, ship: MMGShip, n0: float, ts: float, n_max: float,
 
 PRIOR_NOTE = """Prior spread (1 sigma) of each coefficient above: the std over MMG models whose coefficients are drawn
 from their regressions' spread (linear hull: max(20 %, |Clarke - Kijima|); non-linear hull 50 %,
-interaction 20 %, resistance 30 %, assumed where the regressions publish no scatter), each refitted by one-step
+interaction 20 % (eps of a fine hull: max(20 %, |Lee & Shin - Kijima|)), resistance 30 %, assumed where the
+regressions publish no scatter), each refitted by one-step
 least squares only (the coefficients above are also fitted by output error)."""
 
 

@@ -92,10 +92,6 @@ def toml_text(doc: dict, comments: dict[str, str] | None = None, path: str = "")
     return "\n\n".join(p for p in parts if p)
 
 
-# below this Cb B/L, Kijima et al. (1990)'s eps regression is far under the fine-hull values known
-FINE_HULL_CB_B_L = 0.1
-
-
 def header(p: Particulars, ship: MMGShip, pitch: float, n0: float, power_kw: float, fits: dict, aspect: float) -> str:
     given = lambda v, what: "given" if v is not None else what  # noqa: E731
     h = ship.hull
@@ -124,8 +120,11 @@ def header(p: Particulars, ship: MMGShip, pitch: float, n0: float, power_kw: flo
         ),
         "#   N'_bbr {Nbbr:.4f}, N'_brr {Nbrr:.4f}: Kijima, Katsuno, Nakiri & Furukawa (1990), even keel".format(**h),
         "#   m'_y {my:.4f}, J'_z {Jz:.5f}: Clarke et al. (1983), eqs. (13), (16); m'_x {mx:.4f} = 0.05 m'".format(**ship.mass),
-        "#   t_R {tR:.3f}, a_H {aH:.3f}, x'_H {xH:.3f}, gamma_R {gammaR:.3f}, l'_R {lR:.2f}, eps {eps:.3f}: Kijima et al. (1990);"
-        " kappa {kappa:.2f} assumed (KVLCC2's, Yasukawa & Yoshimura 2015)".format(**ship.inter),
+        "#   t_R {tR:.3f}, a_H {aH:.3f}, x'_H {xH:.3f}, gamma_R {gammaR:.3f}, l'_R {lR:.2f}: Kijima et al. (1990);".format(
+            **ship.inter
+        ),
+        f"#   eps {ship.inter['eps']:.3f}: {rg.eps_source(p.hull)}; kappa {ship.inter['kappa']:.2f} assumed (KVLCC2's,"
+        " Yasukawa & Yoshimura 2015)",
         "#   w_P0 {wP0:.3f} (Taylor 0.5 Cb - 0.05), t_P {tP:.3f} (0.6 w_P0): Harvald (1983)".format(**ship.inter),
         f"#   K_T = {ship.kt[0]:.4f} {ship.kt[1]:+.4f} J {ship.kt[2]:+.4f} J^2: Wageningen B-series (Oosterveld & van Oossanen"
         " 1975), quadratic fit",
@@ -136,14 +135,15 @@ def header(p: Particulars, ship: MMGShip, pitch: float, n0: float, power_kw: flo
         "# engine step to half rpm; Xnn then holds the approach speed. Open-loop fit % (surge / sway / yaw) on them:",
     ]
     lines += [f"#   {name:12s} {a:5.1f} / {b:5.1f} / {c:5.1f}" for name, (a, b, c) in fits.items()]
-    if p.hull.cb_b_l < FINE_HULL_CB_B_L:
+    if rg.eps_source(p.hull) != "Kijima et al. (1990)":
         lines += [
             "#",
-            f"# Fine hull (Cb B/L {p.hull.cb_b_l:.3f} < {FINE_HULL_CB_B_L:g}): Kijima et al. (1990)'s eps is a quadratic in"
-            f" Cb B/L that peaks at 0.133 and falls for finer hulls (eps {ship.inter['eps']:.3f} here). For the Seiun Maru",
-            "# (Cb B/L 0.087) it gives 0.67, where the table of calibrated vessels in the mmgdynamics package gives 1.033,"
-            " citing Yoshimura & Masumoto (2012).",
-            "# A low eps weakens the rudder: for the Mariner (Cb B/L 0.086) the MMG model turns 60 % wider than its"
-            " captive-test (PMM) model, so the turning circle printed for this profile is likely too wide.",
+            f"# Fine hull (Cb B/L {p.hull.cb_b_l:.3f} < {rg.KIJIMA_EPS_PEAK:.3f}, the maximum of Kijima et al. (1990)'s eps"
+            f" quadratic, which gives {rg.kijima_eps(p.hull):.3f} here):",
+            f"# eps {ship.inter['eps']:.3f} is Lee & Shin (1998)'s regression in Cb and 2 d / L, transcribed second-hand"
+            " (mmgdynamics package); its database and",
+            "# range of validity were not available to us. Its prior spread is the two regressions' difference. A low eps"
+            " weakens the rudder:",
+            "# with Kijima's eps the Mariner (Cb B/L 0.086) turned 60 % wider than its captive-test (PMM) model.",
         ]
     return "\n".join(lines) + "\n"

@@ -19,6 +19,14 @@ forces on 1/2 rho L d U^2, moments on 1/2 rho L^2 d U^2, masses on 1/2 rho L^2 d
   gamma_R = 2.06 Cb B/L + 0.14 found in some compilations is not Kijima's; kappa = 0.5 is assumed
   (KVLCC2's 0.50, Yasukawa & Yoshimura 2015, Table 4); rudder lift gradient of Fujii & Tuda (1961),
   f_alpha = 6.13 L/(L + 2.25).
+- The wake ratio eps = (1 - w_R)/(1 - w_P) of fine hulls: Kijima's eps is a quadratic in Cb B/L
+  whose maximum is at Cb B/L = 41.6 / (2 x 156.5) = 0.133; finer than that it falls (0.67 at the
+  Mariner's 0.086), so there eps is taken from Lee & Shin (1998), "The prediction of ship's
+  manoeuvring performance in initial design stage", PRADS '98: eps = -2.3281 + 8.697 Cb - 3.78 k
+  + 1.19 Cb^2 + 292 k^2 - 81.51 Cb k with k = 2 d / L. That formula is transcribed second-hand
+  (the mmgdynamics package, N. Paulig, which cites the paper); the paper itself, its database and
+  its stated range of validity were not available to us. The switch at Kijima's maximum is our
+  rule (from Kijima's formula alone, not fitted to any ship).
 - Wake and thrust deduction: Taylor's w = 0.5 Cb - 0.05 (Harvald 1983, "Resistance and
   propulsion of ships", eq. 5.6.3), t = 0.6 w (ibid., single screw).
 - Resistance: ITTC-1957 friction line C_F = 0.075 / (log10 Re - 2)^2, form factor of Watanabe
@@ -135,11 +143,34 @@ def yoshimura_surge(h: Hull, my: float) -> dict[str, float]:
     return {"Xvv": 1.15 * c - 0.18, "Xvr": my - 1.91 * c + 0.08, "Xrr": -0.085 * c + 0.008, "Xvvvv": -6.68 * c + 1.1}
 
 
+KIJIMA_EPS_PEAK = 41.6 / (2.0 * 156.5)  # Cb B/L of the maximum of Kijima et al. (1990)'s eps quadratic
+
+
+def kijima_eps(h: Hull) -> float:
+    """eps = -156.5 (Cb B/L)^2 + 41.6 Cb B/L - 1.76 (Kijima et al. 1990)."""
+    c = h.cb_b_l
+    return -156.5 * c**2 + 41.6 * c - 1.76
+
+
+def lee_shin_eps(h: Hull) -> float:
+    """eps = -2.3281 + 8.697 Cb - 3.78 k + 1.19 Cb^2 + 292 k^2 - 81.51 Cb k, k = 2 d / L (Lee & Shin
+    1998, as transcribed in the mmgdynamics package; see the module docstring)."""
+    k = h.k
+    return -2.3281 + 8.697 * h.cb - 3.78 * k + 1.19 * h.cb**2 + 292.0 * k**2 - 81.51 * h.cb * k
+
+
+def eps_source(h: Hull) -> str:
+    """Which regression gives this hull's eps: Kijima et al. (1990) at or above the maximum of its
+    quadratic in Cb B/L, Lee & Shin (1998) below it (finer hulls)."""
+    return "Kijima et al. (1990)" if h.cb_b_l >= KIJIMA_EPS_PEAK else "Lee & Shin (1998)"
+
+
 def interaction(h: Hull) -> dict[str, float]:
     """Hull-propeller-rudder interaction coefficients (Kijima et al. 1990; Harvald 1983):
     1 - t_R = 0.28 Cb + 0.55, a_H = 0.627 Cb - 0.153, x'_H = -(0.4 + 0.1 Cb), gamma_R = -22.2 (Cb B/L)^2
-    + 0.02 Cb B/L + 0.68, l'_R = -0.9, eps = -156.5 (Cb B/L)^2 + 41.6 Cb B/L - 1.76; kappa = 0.5
-    (assumed, KVLCC2's value); w_P0 = 0.5 Cb - 0.05 (Taylor), t_P = 0.6 w_P0."""
+    + 0.02 Cb B/L + 0.68, l'_R = -0.9, eps of :func:`kijima_eps` or, for hulls finer than its maximum,
+    :func:`lee_shin_eps` (:func:`eps_source`); kappa = 0.5 (assumed, KVLCC2's value);
+    w_P0 = 0.5 Cb - 0.05 (Taylor), t_P = 0.6 w_P0."""
     c = h.cb_b_l
     w = 0.5 * h.cb - 0.05
     return {
@@ -148,7 +179,7 @@ def interaction(h: Hull) -> dict[str, float]:
         "xH": -(0.4 + 0.1 * h.cb),
         "gammaR": -22.2 * c**2 + 0.02 * c + 0.68,
         "lR": -0.9,
-        "eps": -156.5 * c**2 + 41.6 * c - 1.76,
+        "eps": kijima_eps(h) if c >= KIJIMA_EPS_PEAK else lee_shin_eps(h),
         "kappa": 0.5,
         "wP0": w,
         "tP": 0.6 * w,

@@ -158,7 +158,7 @@ def imo_warnings(fig: TrialFigures, length: float, speed_mps: float) -> list[str
         if ours is None:
             out.append(f"IMO criterion {what}: not reached, cannot be checked{scope}")
         elif ours > limit:
-            out.append(f"IMO criterion {what}: ours {ours:.2f} {unit}, limit {limit:g} {unit}{note}{scope}")
+            out.append(f"IMO criterion {what}: ours {ours:.2f} {unit}, limit {limit:.3g} {unit}{note}{scope}")
 
     l_v = length / speed_mps
     for side in ("starboard", "port"):
