@@ -328,6 +328,21 @@ def test_the_fine_hull_note_names_the_eps_regression_and_its_limits():
     assert "eps 0.974: Kijima et al. (1990)" in kvlcc2_built().text
 
 
+def test_a_fine_hull_is_told_how_far_the_two_eps_regressions_disagree():
+    """An inland-vessel-like hull (L 110 m, B 11.45 m, T 3.5 m, Cb 0.85: Cb B/L 0.088, 2T/L 0.064)
+    is far from any hull we could check Lee & Shin on: 2.457 against Kijima's 0.696, said in one
+    note and carried into the prior (72 %)."""
+    from primitives.particulars.build import coefficient_spreads, fine_hull_note
+
+    barge = Particulars("barge", 110.0, 11.45, 3.5, 0.85, 10.0)
+    assert rg.lee_shin_eps(barge.hull) == pytest.approx(2.457, abs=1e-3)
+    note = fine_hull_note(barge)
+    assert "eps 2.457" in note and "gives 0.696" in note and "differ by 72 %" in note
+    assert coefficient_spreads(barge)["eps"] == pytest.approx(0.717, abs=1e-3)
+    assert any(n.startswith("eps 0.944") for n in mariner_built().notes)
+    assert kvlcc2_built().notes == []
+
+
 def test_a_fine_hulls_eps_prior_spread_is_the_two_regressions_difference():
     from primitives.particulars.build import coefficient_spreads
 

@@ -200,6 +200,16 @@ regressions publish no scatter), each refitted by one-step
 least squares only (the coefficients above are also fitted by output error)."""
 
 
+def fine_hull_note(p: Particulars) -> str:
+    """What `profile new` says of a hull finer than the maximum of Kijima's eps quadratic."""
+    ls, kj = rg.lee_shin_eps(p.hull), rg.kijima_eps(p.hull)
+    return (
+        f"eps {ls:.3f} (the rudder's inflow) is Lee & Shin (1998)'s; Kijima et al. (1990)'s gives {kj:.3f} for a hull this "
+        f"fine (Cb B/L {p.hull.cb_b_l:.3f} < {rg.KIJIMA_EPS_PEAK:.3f}); they differ by {100 * abs(ls - kj) / ls:.0f} % and "
+        "Lee & Shin's range of validity is not known to us: the rudder's strength is the least certain part of this profile"
+    )
+
+
 def build_profile(p: Particulars, *, oe_nfev: int = 15, draws: int = 12, seed: int = 0) -> Built:
     """The profile of the particulars ``p`` (see the module docstring); raises ParticularsError on
     particulars no ship has, FloatingPointError if the MMG model or the fit diverges."""
@@ -227,7 +237,7 @@ def build_profile(p: Particulars, *, oe_nfev: int = 15, draws: int = 12, seed: i
     doc["particulars"] = {k: float(v) for k, v in made_of.items() if v is not None}
     text = header(p, ship, pitch, n0, power, fits, RUDDER_ASPECT) + toml_text(doc, {"prior": PRIOR_NOTE}) + "\n"
     profile = profile_from_dict(tomllib.loads(text), f"{p.name}.toml")
-    notes = []
+    notes = [fine_hull_note(p)] if rg.eps_source(p.hull) != "Kijima et al. (1990)" else []
     if p.rpm and p.pitch_ratio:
         notes.append(f"the screw of P/D {pitch:g} holds {p.speed_kn:g} kn at {60 * n0:.1f} rpm, not the given {p.rpm:g} rpm")
     return Built(text, profile, ship, n0, notes)
