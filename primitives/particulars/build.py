@@ -162,7 +162,7 @@ def coefficient_spreads(p: Particulars) -> dict[str, float]:
     out |= {k: NONLINEAR_SPREAD for k in rg.kijima_nonlinear(h)}
     out |= {k: NONLINEAR_SPREAD for k in ("Xvv", "Xvr", "Xrr", "Xvvvv")}
     out |= {k: INTERACTION_SPREAD for k in ("tR", "aH", "xH", "gammaR", "lR", "eps", "wP0", "tP")}
-    if rg.eps_source(h) != "Kijima et al. (1990)":
+    if rg.fine_for_kijima_eps(h):
         chosen = rg.lee_shin_eps(h)
         out["eps"] = max(INTERACTION_SPREAD, abs(chosen - rg.kijima_eps(h)) / abs(chosen))
     out["R0"] = RESISTANCE_SPREAD
@@ -237,7 +237,7 @@ def build_profile(p: Particulars, *, oe_nfev: int = 15, draws: int = 12, seed: i
     doc["particulars"] = {k: float(v) for k, v in made_of.items() if v is not None}
     text = header(p, ship, pitch, n0, power, fits, RUDDER_ASPECT) + toml_text(doc, {"prior": PRIOR_NOTE}) + "\n"
     profile = profile_from_dict(tomllib.loads(text), f"{p.name}.toml")
-    notes = [fine_hull_note(p)] if rg.eps_source(p.hull) != "Kijima et al. (1990)" else []
+    notes = [fine_hull_note(p)] if rg.fine_for_kijima_eps(p.hull) else []
     if p.rpm and p.pitch_ratio:
         notes.append(f"the screw of P/D {pitch:g} holds {p.speed_kn:g} kn at {60 * n0:.1f} rpm, not the given {p.rpm:g} rpm")
     return Built(text, profile, ship, n0, notes)

@@ -135,7 +135,7 @@ def header(p: Particulars, ship: MMGShip, pitch: float, n0: float, power_kw: flo
         "# engine step to half rpm; Xnn then holds the approach speed. Open-loop fit % (surge / sway / yaw) on them:",
     ]
     lines += [f"#   {name:12s} {a:5.1f} / {b:5.1f} / {c:5.1f}" for name, (a, b, c) in fits.items()]
-    if rg.eps_source(p.hull) != "Kijima et al. (1990)":
+    if rg.fine_for_kijima_eps(p.hull):
         lines += [
             "#",
             f"# Fine hull (Cb B/L {p.hull.cb_b_l:.3f} < {rg.KIJIMA_EPS_PEAK:.3f}, the maximum of Kijima et al. (1990)'s eps"

@@ -159,10 +159,15 @@ def lee_shin_eps(h: Hull) -> float:
     return -2.3281 + 8.697 * h.cb - 3.78 * k + 1.19 * h.cb**2 + 292.0 * k**2 - 81.51 * h.cb * k
 
 
+def fine_for_kijima_eps(h: Hull) -> bool:
+    """True for a hull finer than the maximum of Kijima et al. (1990)'s eps quadratic in Cb B/L, where
+    eps is taken from Lee & Shin (1998) instead."""
+    return h.cb_b_l < KIJIMA_EPS_PEAK
+
+
 def eps_source(h: Hull) -> str:
-    """Which regression gives this hull's eps: Kijima et al. (1990) at or above the maximum of its
-    quadratic in Cb B/L, Lee & Shin (1998) below it (finer hulls)."""
-    return "Kijima et al. (1990)" if h.cb_b_l >= KIJIMA_EPS_PEAK else "Lee & Shin (1998)"
+    """The regression that gives this hull's eps (:func:`fine_for_kijima_eps`)."""
+    return "Lee & Shin (1998)" if fine_for_kijima_eps(h) else "Kijima et al. (1990)"
 
 
 def interaction(h: Hull) -> dict[str, float]:
@@ -179,7 +184,7 @@ def interaction(h: Hull) -> dict[str, float]:
         "xH": -(0.4 + 0.1 * h.cb),
         "gammaR": -22.2 * c**2 + 0.02 * c + 0.68,
         "lR": -0.9,
-        "eps": kijima_eps(h) if c >= KIJIMA_EPS_PEAK else lee_shin_eps(h),
+        "eps": lee_shin_eps(h) if fine_for_kijima_eps(h) else kijima_eps(h),
         "kappa": 0.5,
         "wP0": w,
         "tP": 0.6 * w,
