@@ -51,9 +51,9 @@ BY_HAND = {
     },
     rg.kijima_linear: {"Yv": -0.29708, "Yr": 0.2 + 0.01 - 0.15, "Nv": -0.1, "Nr": -0.054 + 0.01},
     rg.kijima_nonlinear: {"Yrr": 0.343 * 0.25 * 0.5 - 0.07, "Nbbr": -(0.575 - 1.84 + 1.6), "Nbrr": -(0.0625 - 0.05)},
-    rg.interaction: {  # Cb B/L 0.1 is finer than Kijima's eps maximum (0.133): eps is Lee & Shin's
-        "tR": 0.31, "aH": 0.1605, "xH": -0.45, "gammaR": -0.222 + 0.002 + 0.68, "lR": -0.9,
-        "eps": -2.3281 + 4.3485 - 0.378 + 0.2975 + 2.92 - 4.0755, "wP0": 0.2, "tP": 0.12,  # 0.7844
+    rg.interaction: {  # Cb B/L 0.1 is finer than Kijima's eps maximum (0.133): Lee & Shin's 0.7844
+        "tR": 0.31, "aH": 0.1605, "xH": -0.45, "gammaR": -0.222 + 0.002 + 0.68, "lR": -0.9,  # is under Kijima's:
+        "eps": -1.565 + 4.16 - 1.76, "wP0": 0.2, "tP": 0.12,  # clipped up to Kijima's 0.835
     },
 }  # fmt: skip
 
@@ -74,15 +74,49 @@ def test_lee_shin_eps_reproduces_the_seiun_maru_value_of_mmgdynamics():
 
 def test_eps_switches_to_lee_shin_below_the_maximum_of_kijimas_quadratic():
     """Kijima's eps for KVLCC2 (Cb B/L 0.147, above its maximum at 0.133); Lee & Shin's for the
-    Mariner (0.086), where Kijima's quadratic has fallen to 0.67; never chosen by name."""
+    Mariner (0.086), where Kijima's quadratic has fallen to 0.67 and Lee & Shin's 0.944 lies between
+    it and Kijima's maximum 1.004; never chosen by name."""
     assert rg.KIJIMA_EPS_PEAK == pytest.approx(0.13291, abs=1e-5)
+    assert rg.KIJIMA_EPS_MAX == pytest.approx(rg.kijima_eps(rg.Hull(100.0, 100.0 * rg.KIJIMA_EPS_PEAK, 6.0, 1.0)))
     assert rg.interaction(KVLCC2.hull)["eps"] == rg.kijima_eps(KVLCC2.hull)
     mariner = rg.Hull(160.93, 23.17, 7.47, 0.6)
     assert rg.kijima_eps(mariner) == pytest.approx(0.666, abs=1e-3)
     assert rg.interaction(mariner)["eps"] == rg.lee_shin_eps(mariner) == pytest.approx(0.944, abs=1e-3)
-    just_finer = rg.Hull(100.0, 100.0 * (rg.KIJIMA_EPS_PEAK - 1e-6) / 0.7, 6.0, 0.7)
-    assert rg.eps_source(just_finer) == "Lee & Shin (1998)"
-    assert rg.eps_source(rg.Hull(100.0, 100.0 * rg.KIJIMA_EPS_PEAK / 0.7 * 1.000001, 6.0, 0.7)) == "Kijima et al. (1990)"
+    assert rg.eps_source(mariner) == "Lee & Shin (1998)"
+    assert rg.eps_source(KVLCC2.hull) == "Kijima et al. (1990)"
+
+
+# hulls of Cb 0.5-0.85 and T/L 0.02-0.07 (coasters, inland vessels, cargo ships, tankers)
+HULL_FORMS = [(cb, t_l) for cb in (0.5, 0.6, 0.7, 0.8, 0.85) for t_l in (0.02, 0.03, 0.045, 0.06, 0.07)]
+
+
+@pytest.mark.parametrize(("cb", "t_l"), HULL_FORMS)
+def test_eps_is_continuous_across_the_switch_and_bounded(cb, t_l):
+    """A hull a hair either side of Kijima's maximum gets (nearly) the same eps: unclipped, Lee &
+    Shin's formula jumped from 1.004 to 1.25 (Cb 0.7, T/L 0.06) or 3.5 (Cb 0.85, T/L 0.02) for a
+    0.1 % change of beam. No fine hull's eps exceeds Kijima's maximum (Lee & Shin gives 2.46 for a
+    shallow full hull, a rudder wake of -50 %) or falls below Kijima's own value."""
+    b_switch = rg.KIJIMA_EPS_PEAK * 100.0 / cb
+    finer, fuller = (rg.Hull(100.0, b_switch * f, 100.0 * t_l, cb) for f in (0.999, 1.001))
+    assert rg.fine_for_kijima_eps(finer) and not rg.fine_for_kijima_eps(fuller)
+    assert rg.interaction(finer)["eps"] == pytest.approx(rg.interaction(fuller)["eps"], abs=1e-4)
+    for f in (0.6, 0.75, 0.9, 0.999):
+        h = rg.Hull(100.0, b_switch * f, 100.0 * t_l, cb)
+        assert rg.kijima_eps(h) <= rg.interaction(h)["eps"] <= rg.KIJIMA_EPS_MAX
+
+
+def test_the_turning_circle_does_not_jump_across_the_eps_switch():
+    """What a user sees: a 100 m coaster (Cb 0.7, T 6 m) and a shallow full hull (Cb 0.8, T 4 m)
+    1 % of beam either side of Cb B/L 0.133 turn alike. Before eps was clipped the profile's
+    tactical diameter fell 23 % (3.63 -> 2.79 L) and 45 % (3.65 -> 2.01 L) for 0.5 % of beam."""
+    for draught, cb, speed in ((6.0, 0.7, 13.0), (4.0, 0.8, 11.0)):
+        b_switch = rg.KIJIMA_EPS_PEAK * 100.0 / cb
+        td = [
+            standard_trials(build_profile(Particulars("x", 100.0, b_switch * f, draught, cb, speed), oe_nfev=0, draws=2).profile)
+            .tactical_l["starboard"]
+            for f in (0.995, 1.005)
+        ]  # fmt: skip
+        assert td[0] == pytest.approx(td[1], rel=0.05), td
 
 
 @pytest.mark.parametrize("formula", list(BY_HAND), ids=lambda f: f.__name__)
@@ -323,27 +357,28 @@ def test_the_fine_hull_note_names_the_eps_regression_and_its_limits():
     second-hand, with Kijima's value beside it; KVLCC2 (0.147) gets Kijima's eps and no note."""
     text = mariner_built().text
     assert "eps 0.944: Lee & Shin (1998)" in text
-    assert "Fine hull (Cb B/L 0.086 < 0.133" in text and "gives 0.666 here" in text and "second-hand" in text
+    assert "Fine hull (Cb B/L 0.0864 < 0.1329" in text and "gives 0.666 here" in text and "second-hand" in text
     assert "Fine hull" not in kvlcc2_built().text
     assert "eps 0.974: Kijima et al. (1990)" in kvlcc2_built().text
 
 
-def test_a_fine_hull_is_told_how_far_the_two_eps_regressions_disagree():
-    """An inland-vessel-like hull (L 110 m, B 11.45 m, T 3.5 m, Cb 0.85: Cb B/L 0.088, 2T/L 0.064)
-    is far from any hull we could check Lee & Shin on: 2.457 against Kijima's 0.696, said in one
-    note and carried into the prior (72 %)."""
+def test_a_fine_hull_is_told_both_eps_regressions_and_the_clip():
+    """An inland-vessel-like hull (L 110 m, B 11.45 m, T 3.5 m, Cb 0.85: Cb B/L 0.088, 2T/L 0.064):
+    Lee & Shin's 2.457 is cut to Kijima's maximum 1.004, Kijima gives 0.696; the note says all
+    three (the note), and the prior spread is the gap between the eps used and Kijima's (31 %)."""
     from primitives.particulars.build import coefficient_spreads, fine_hull_note
 
     barge = Particulars("barge", 110.0, 11.45, 3.5, 0.85, 10.0)
     assert rg.lee_shin_eps(barge.hull) == pytest.approx(2.457, abs=1e-3)
     note = fine_hull_note(barge)
-    assert "eps 2.457" in note and "gives 0.696" in note and "differ by 72 %" in note
-    assert coefficient_spreads(barge)["eps"] == pytest.approx(0.717, abs=1e-3)
-    assert any(n.startswith("eps 0.944") for n in mariner_built().notes)
+    assert note.startswith("eps 1.004 (the rudder's inflow): Lee & Shin (1998)'s 2.457 cut to the maximum of Kijima")
+    assert "Kijima et al. (1990)'s quadratic gives 0.696" in note
+    assert coefficient_spreads(barge)["eps"] == pytest.approx((1.004 - 0.696) / 1.004, abs=1e-3)
+    assert any(n.startswith("eps 0.944 (the rudder's inflow): Lee & Shin (1998);") for n in mariner_built().notes)
     assert kvlcc2_built().notes == []
 
 
-def test_a_fine_hulls_eps_prior_spread_is_the_two_regressions_difference():
+def test_a_fine_hulls_eps_prior_spread_is_the_gap_to_kijimas():
     from primitives.particulars.build import coefficient_spreads
 
     assert coefficient_spreads(MARINER)["eps"] == pytest.approx((0.944 - 0.666) / 0.944, abs=2e-3)

@@ -34,8 +34,10 @@ def test_profile_new_writes_a_profile_and_prints_its_standard_manoeuvres(tmp_pat
     assert out.exists() and "[prior.std]" in out.read_text()
     for what in ("tactical diameter", "10/10", "20/20", "stopping"):
         assert what in text, what
-    # the quick-start coaster (Cb B/L 0.112: Lee & Shin's eps 1.247) meets every checked IMO criterion
-    assert "warning: IMO criterion" not in said.err and "tactical diameter 3.71 L" in text
+    # the quick-start coaster (Cb B/L 0.112: Lee & Shin's eps 1.247 cut to Kijima's maximum 1.004) meets every
+    # checked IMO criterion, narrowly: tactical diameter 4.91 L (limit 5), advance 4.49 L (4.5), initial turning 2.48 L (2.5)
+    assert "warning: IMO criterion" not in said.err and "tactical diameter 4.91 L" in text
+    assert "note: eps 1.004 (the rudder's inflow): Lee & Shin (1998)'s 1.247 cut to the maximum" in said.err
     assert "the engine has no astern, so IMO's stopping criterion (full-astern track reach) is not checked" in text
     assert _run(["primitives", "--ship", str(out)]) == 0
 

@@ -146,7 +146,9 @@ def sample_time(p: Particulars) -> float:
 # 1-sigma relative spread of each group of MMG coefficients. Linear hull derivatives: the larger of
 # 20 % and the difference between Clarke et al. (1983) and Kijima et al. (1990) for this ship
 # (two independent regressions); likewise eps of a hull finer than Kijima's eps maximum, where the
-# choice of Lee & Shin (1998) over Kijima is ours: the larger of 20 % and their difference; the
+# choice of Lee & Shin (1998) (clipped) over Kijima is ours: the larger of 20 % and the gap between
+# the chosen eps and Kijima's (Lee & Shin beyond the clip is not counted: values no database
+# supports, and a spread of 70 % or more would reverse the rudder in some draws); the
 # non-linear ones and the other interaction coefficients: the regressions publish no scatter, 50 %
 # and 20 % are assumed; resistance 30 %: the one published
 # check, the KVLCC2 model (L 7 m, 1.179 m/s) at R'_0 = 0.022 (Yasukawa & Yoshimura 2015, Table 2),
@@ -163,8 +165,8 @@ def coefficient_spreads(p: Particulars) -> dict[str, float]:
     out |= {k: NONLINEAR_SPREAD for k in ("Xvv", "Xvr", "Xrr", "Xvvvv")}
     out |= {k: INTERACTION_SPREAD for k in ("tR", "aH", "xH", "gammaR", "lR", "eps", "wP0", "tP")}
     if rg.fine_for_kijima_eps(h):
-        chosen = rg.lee_shin_eps(h)
-        out["eps"] = max(INTERACTION_SPREAD, abs(chosen - rg.kijima_eps(h)) / abs(chosen))
+        chosen = rg.eps(h)
+        out["eps"] = max(INTERACTION_SPREAD, abs(chosen - rg.kijima_eps(h)) / chosen)
     out["R0"] = RESISTANCE_SPREAD
     return out
 
@@ -195,18 +197,18 @@ def prior_std(p: Particulars, ship: MMGShip, n0: float, ts: float, n_max: float,
 
 PRIOR_NOTE = """Prior spread (1 sigma) of each coefficient above: the std over MMG models whose coefficients are drawn
 from their regressions' spread (linear hull: max(20 %, |Clarke - Kijima|); non-linear hull 50 %,
-interaction 20 % (eps of a fine hull: max(20 %, |Lee & Shin - Kijima|)), resistance 30 %, assumed where the
+interaction 20 % (eps of a fine hull: max(20 %, |eps - Kijima's|)), resistance 30 %, assumed where the
 regressions publish no scatter), each refitted by one-step
 least squares only (the coefficients above are also fitted by output error)."""
 
 
 def fine_hull_note(p: Particulars) -> str:
     """What `profile new` says of a hull finer than the maximum of Kijima's eps quadratic."""
-    ls, kj = rg.lee_shin_eps(p.hull), rg.kijima_eps(p.hull)
+    h = p.hull
     return (
-        f"eps {ls:.3f} (the rudder's inflow) is Lee & Shin (1998)'s; Kijima et al. (1990)'s gives {kj:.3f} for a hull this "
-        f"fine (Cb B/L {p.hull.cb_b_l:.3f} < {rg.KIJIMA_EPS_PEAK:.3f}); they differ by {100 * abs(ls - kj) / ls:.0f} % and "
-        "Lee & Shin's range of validity is not known to us: the rudder's strength is the least certain part of this profile"
+        f"eps {rg.eps(h):.3f} (the rudder's inflow): {rg.eps_source(h)}; Kijima et al. (1990)'s quadratic gives"
+        f" {rg.kijima_eps(h):.3f} for a hull this fine (Cb B/L {h.cb_b_l:.4f} < {rg.KIJIMA_EPS_PEAK:.4f}); Lee & Shin's range"
+        " of validity is not known to us: the rudder's strength is the least certain part of this profile"
     )
 
 

@@ -138,12 +138,14 @@ def header(p: Particulars, ship: MMGShip, pitch: float, n0: float, power_kw: flo
     if rg.fine_for_kijima_eps(p.hull):
         lines += [
             "#",
-            f"# Fine hull (Cb B/L {p.hull.cb_b_l:.3f} < {rg.KIJIMA_EPS_PEAK:.3f}, the maximum of Kijima et al. (1990)'s eps"
+            f"# Fine hull (Cb B/L {p.hull.cb_b_l:.4f} < {rg.KIJIMA_EPS_PEAK:.4f}, the maximum of Kijima et al. (1990)'s eps"
             f" quadratic, which gives {rg.kijima_eps(p.hull):.3f} here):",
-            f"# eps {ship.inter['eps']:.3f} is Lee & Shin (1998)'s regression in Cb and 2 d / L, transcribed second-hand"
-            " (mmgdynamics package); its database and",
-            "# range of validity were not available to us. Its prior spread is the two regressions' difference. A low eps"
-            " weakens the rudder:",
-            "# with Kijima's eps the Mariner (Cb B/L 0.086) turned 60 % wider than its captive-test (PMM) model.",
+            f"# eps {ship.inter['eps']:.3f} is Lee & Shin (1998)'s regression in Cb and 2 d / L ({rg.lee_shin_eps(p.hull):.3f} here),"
+            f" clipped to between Kijima's value and its maximum {rg.KIJIMA_EPS_MAX:.3f};",
+            "# transcribed second-hand (mmgdynamics package): its database and range of validity were not available to us."
+            " Its prior spread is",
+            "# the gap to Kijima's value (at least 20 %). A low eps weakens the rudder: with Kijima's eps the Mariner"
+            " (Cb B/L 0.086) turned 60 % wider",
+            "# than its captive-test (PMM) model.",
         ]
     return "\n".join(lines) + "\n"

@@ -20,13 +20,18 @@ forces on 1/2 rho L d U^2, moments on 1/2 rho L^2 d U^2, masses on 1/2 rho L^2 d
   (KVLCC2's 0.50, Yasukawa & Yoshimura 2015, Table 4); rudder lift gradient of Fujii & Tuda (1961),
   f_alpha = 6.13 L/(L + 2.25).
 - The wake ratio eps = (1 - w_R)/(1 - w_P) of fine hulls: Kijima's eps is a quadratic in Cb B/L
-  whose maximum is at Cb B/L = 41.6 / (2 x 156.5) = 0.133; finer than that it falls (0.67 at the
-  Mariner's 0.086), so there eps is taken from Lee & Shin (1998), "The prediction of ship's
-  manoeuvring performance in initial design stage", PRADS '98: eps = -2.3281 + 8.697 Cb - 3.78 k
-  + 1.19 Cb^2 + 292 k^2 - 81.51 Cb k with k = 2 d / L. That formula is transcribed second-hand
-  (the mmgdynamics package, N. Paulig, which cites the paper); the paper itself, its database and
-  its stated range of validity were not available to us. The switch at Kijima's maximum is our
-  rule (from Kijima's formula alone, not fitted to any ship).
+  whose maximum, 1.004, is at Cb B/L = 41.6 / (2 x 156.5) = 0.133; finer than that it falls (0.67
+  at the Mariner's 0.086). There eps is Lee & Shin (1998), "The prediction of ship's manoeuvring
+  performance in initial design stage", PRADS '98: eps = -2.3281 + 8.697 Cb - 3.78 k + 1.19 Cb^2
+  + 292 k^2 - 81.51 Cb k with k = 2 d / L, clipped to lie between Kijima's value for the hull and
+  Kijima's maximum. The clip keeps eps continuous across the switch (unclipped, eps jumped from
+  1.004 to 1.25 for Cb 0.7, T/L 0.06 and to 2.3 for Cb 0.8, T/L 0.03 at a 0.5 % change of beam)
+  and out of values no regression database supports (Lee & Shin give 1.36 for KVLCC2, captive
+  1.09, and 2.46 for a shallow full hull, w_R = -0.5). The formula is transcribed second-hand (the
+  mmgdynamics package, N. Paulig, which cites the paper; the compilation of Sukas, Kinaci & Bal
+  2019, Ocean Eng. 192, is named there as its source of empirical formulas); the paper itself, its
+  database and its stated range of validity were not available to us. The switch at Kijima's
+  maximum and the clip are our rule (from the two formulas alone, fitted to no ship).
 - Wake and thrust deduction: Taylor's w = 0.5 Cb - 0.05 (Harvald 1983, "Resistance and
   propulsion of ships", eq. 5.6.3), t = 0.6 w (ibid., single screw).
 - Resistance: ITTC-1957 friction line C_F = 0.075 / (log10 Re - 2)^2, form factor of Watanabe
@@ -144,6 +149,7 @@ def yoshimura_surge(h: Hull, my: float) -> dict[str, float]:
 
 
 KIJIMA_EPS_PEAK = 41.6 / (2.0 * 156.5)  # Cb B/L of the maximum of Kijima et al. (1990)'s eps quadratic
+KIJIMA_EPS_MAX = 41.6**2 / (4.0 * 156.5) - 1.76  # that maximum, 1.004
 
 
 def kijima_eps(h: Hull) -> float:
@@ -161,20 +167,35 @@ def lee_shin_eps(h: Hull) -> float:
 
 def fine_for_kijima_eps(h: Hull) -> bool:
     """True for a hull finer than the maximum of Kijima et al. (1990)'s eps quadratic in Cb B/L, where
-    eps is taken from Lee & Shin (1998) instead."""
+    eps is taken from Lee & Shin (1998) instead (:func:`eps`)."""
     return h.cb_b_l < KIJIMA_EPS_PEAK
 
 
+def eps(h: Hull) -> float:
+    """The build's eps: Kijima et al. (1990) at and above the maximum of its quadratic; finer than
+    that, Lee & Shin (1998) clipped to [Kijima's value, Kijima's maximum] (continuous at the switch)."""
+    if not fine_for_kijima_eps(h):
+        return kijima_eps(h)
+    return min(max(lee_shin_eps(h), kijima_eps(h)), KIJIMA_EPS_MAX)
+
+
 def eps_source(h: Hull) -> str:
-    """The regression that gives this hull's eps (:func:`fine_for_kijima_eps`)."""
-    return "Lee & Shin (1998)" if fine_for_kijima_eps(h) else "Kijima et al. (1990)"
+    """The regression that gives this hull's eps (:func:`eps`), and the clip when it acts."""
+    if not fine_for_kijima_eps(h):
+        return "Kijima et al. (1990)"
+    ls = lee_shin_eps(h)
+    if ls > KIJIMA_EPS_MAX:
+        return f"Lee & Shin (1998)'s {ls:.3f} cut to the maximum of Kijima et al. (1990)'s quadratic"
+    if ls < kijima_eps(h):
+        return f"Kijima et al. (1990), above Lee & Shin (1998)'s {ls:.3f}"
+    return "Lee & Shin (1998)"
 
 
 def interaction(h: Hull) -> dict[str, float]:
     """Hull-propeller-rudder interaction coefficients (Kijima et al. 1990; Harvald 1983):
     1 - t_R = 0.28 Cb + 0.55, a_H = 0.627 Cb - 0.153, x'_H = -(0.4 + 0.1 Cb), gamma_R = -22.2 (Cb B/L)^2
-    + 0.02 Cb B/L + 0.68, l'_R = -0.9, eps of :func:`kijima_eps` or, for hulls finer than its maximum,
-    :func:`lee_shin_eps` (:func:`eps_source`); kappa = 0.5 (assumed, KVLCC2's value);
+    + 0.02 Cb B/L + 0.68, l'_R = -0.9, eps of :func:`eps` (Kijima's, or for hulls finer than its
+    maximum Lee & Shin's, clipped); kappa = 0.5 (assumed, KVLCC2's value);
     w_P0 = 0.5 Cb - 0.05 (Taylor), t_P = 0.6 w_P0."""
     c = h.cb_b_l
     w = 0.5 * h.cb - 0.05
@@ -184,7 +205,7 @@ def interaction(h: Hull) -> dict[str, float]:
         "xH": -(0.4 + 0.1 * h.cb),
         "gammaR": -22.2 * c**2 + 0.02 * c + 0.68,
         "lR": -0.9,
-        "eps": lee_shin_eps(h) if fine_for_kijima_eps(h) else kijima_eps(h),
+        "eps": eps(h),
         "kappa": 0.5,
         "wP0": w,
         "tP": 0.6 * w,
