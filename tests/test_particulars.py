@@ -385,6 +385,22 @@ def test_a_fine_hulls_eps_prior_spread_is_the_gap_to_kijimas():
     assert coefficient_spreads(KVLCC2)["eps"] == 0.2
 
 
+def test_the_eps_spread_reaches_the_profiles_prior(monkeypatch):
+    """The eps spread is carried into [prior] std (what `design`'s robust criteria draw from when no
+    other prior is given): with every other spread 0, no eps spread gives no prior, and the Mariner's
+    29 % gives a wider one than 20 % (same seed, the same normal draws scaled)."""
+    from primitives.particulars import build as bd
+
+    b, full = mariner_built(), bd.coefficient_spreads(MARINER)
+
+    def std(eps_spread: float) -> np.ndarray:
+        monkeypatch.setattr(bd, "coefficient_spreads", lambda p: dict.fromkeys(full, 0.0) | {"eps": eps_spread})
+        return bd.prior_std(MARINER, b.mmg, b.approach_rps, bd.sample_time(MARINER), 1.15 * b.approach_rps, 4, 0)
+
+    assert np.all(std(0.0) == 0.0)
+    assert np.sum(std(full["eps"])) > 1.2 * np.sum(std(0.2)) > 0.0
+
+
 def test_mariner_from_particulars_zigzags_like_its_pmm_model():
     """The part of the second ship's check that passes (10/10 first overshoot within 4 deg of each
     PMM run)."""
