@@ -12,8 +12,9 @@ the MMG model with one group of coefficients replaced at a time.
 2. The rudder's inflow: the terms of the MMG rudder model (Yasukawa & Yoshimura 2015, eqs. 17-27).
 3. One substitution at a time: the PMM's linear hull derivatives (its totals less our rudder's
    share, Y_r + m' + m'_x, N_r as is), the non-linear hull terms off, eps of each regression
-   (the build takes Lee & Shin (1998)'s below the maximum of Kijima et al. (1990)'s quadratic at
-   Cb B/L 0.133; Kijima's, 0.666 here, is what the build used before), and the interaction
+   (the build takes Lee & Shin (1998)'s, clipped to [Kijima's value, Kijima's maximum 1.004], below
+   the maximum of Kijima et al. (1990)'s quadratic at Cb B/L 0.133; Kijima's, 0.666 here, is what
+   the build used before), and the interaction
    coefficients of the training ship Seiun Maru (L 105 m, Cb 0.508, Cb B/L 0.087, close to the
    Mariner's 0.086) from the table of calibrated vessels in the mmgdynamics package
    (calibrated_vessels.py), which cites Yoshimura & Masumoto (2012), MARSIM 2012, for the vessel and
@@ -97,7 +98,7 @@ def main() -> None:
     c = p.hull.cb_b_l
     print(
         f"   eps = (1 - w_R)/(1 - w_P) at Cb B/L {c:.4f}, k = 2T/L {p.hull.k:.4f}: Lee & Shin (1998) {rg.lee_shin_eps(p.hull):.3f}"
-        f" (built); Kijima et al. (1990) {rg.kijima_eps(p.hull):.3f} (-156.5) / {-156.2 * c * c + 41.6 * c - 1.76:.3f} (-156.2)"
+        f" (built: {rg.eps(p.hull):.3f}, {rg.eps_source(p.hull)}); Kijima et al. (1990) {rg.kijima_eps(p.hull):.3f} (-156.5) / {-156.2 * c * c + 41.6 * c - 1.76:.3f} (-156.2)"
     )
     print(
         f"   Seiun Maru: Lee & Shin {rg.lee_shin_eps(SEIUN_MARU_HULL):.4f} (mmgdynamics tabulates 1.033), Kijima "
