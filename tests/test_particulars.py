@@ -84,6 +84,7 @@ def test_eps_switches_to_lee_shin_below_the_maximum_of_kijimas_quadratic():
     assert rg.interaction(mariner)["eps"] == rg.lee_shin_eps(mariner) == pytest.approx(0.944, abs=1e-3)
     assert rg.eps_source(mariner) == "Lee & Shin (1998)"
     assert rg.eps_source(KVLCC2.hull) == "Kijima et al. (1990)"
+    assert rg.eps_source(WORKED) == "Kijima et al. (1990), Lee & Shin (1998)'s lower 0.784 raised to it"
 
 
 # hulls of Cb 0.5-0.85 and T/L 0.02-0.07 (coasters, inland vessels, cargo ships, tankers)

@@ -187,7 +187,7 @@ def eps_source(h: Hull) -> str:
     if ls > KIJIMA_EPS_MAX:
         return f"Lee & Shin (1998)'s {ls:.3f} cut to the maximum of Kijima et al. (1990)'s quadratic"
     if ls < kijima_eps(h):
-        return f"Kijima et al. (1990), above Lee & Shin (1998)'s {ls:.3f}"
+        return f"Kijima et al. (1990), Lee & Shin (1998)'s lower {ls:.3f} raised to it"
     return "Lee & Shin (1998)"
 
 
