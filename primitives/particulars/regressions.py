@@ -28,8 +28,8 @@ forces on 1/2 rho L d U^2, moments on 1/2 rho L^2 d U^2, masses on 1/2 rho L^2 d
   1.004 to 1.25 for Cb 0.7, T/L 0.06 and to 2.3 for Cb 0.8, T/L 0.03 at a 0.5 % change of beam)
   and out of values no regression database supports (Lee & Shin give 1.36 for KVLCC2, captive
   1.09, and 2.46 for a shallow full hull, w_R = -0.5). The formula is transcribed second-hand (the
-  mmgdynamics package, N. Paulig, which cites the paper; the compilation of Sukas, Kinaci & Bal
-  2019, Ocean Eng. 192, is named there as its source of empirical formulas); the paper itself, its
+  mmgdynamics package, N. Paulig, which cites the paper and names "Suras and Sakir Bal (2019)",
+  presumably Sukas, Kinaci & Bal 2019, Ocean Eng. 192, as its source of empirical formulas); the paper itself, its
   database and its stated range of validity were not available to us. The switch at Kijima's
   maximum and the clip are our rule (from the two formulas alone, fitted to no ship).
 - Wake and thrust deduction: Taylor's w = 0.5 Cb - 0.05 (Harvald 1983, "Resistance and
