@@ -47,8 +47,8 @@ def interleave(counts: dict[str, int], lib: list) -> list:
     return seq
 
 
-def param_error(prof, runs, truth: np.ndarray) -> float:
-    est = estimate(prof, [r.segment() for r in runs], method="iv", mean_subtraction="batchwise")
+def param_error(prof, runs, truth: np.ndarray, ms: str) -> float:
+    est = estimate(prof, [r.segment() for r in runs], method="iv", mean_subtraction=ms)
     th = est.theta[0]
     nz = truth != 0
     if not np.all(np.isfinite(th)):
@@ -69,62 +69,136 @@ def sail_crn(prof, prims: list, truth: np.ndarray, seed: tuple, seen: Counter) -
     return runs
 
 
-def one_run(prof, lib, seq, trial_s, truth, seed):
-    """One noisy trial at ``truth`` sailed both ways: the fixed plan's sequence ``seq``, and its
-    first third followed by the rest re-designed from that third's recordings (the same first
-    third: the same noise). Returns (fixed error, adaptive error, the re-designed rest)."""
+def one_run(prof, lib, seq, trial_s, truth, seed, ms, oracle_counts):
+    """One noisy trial at ``truth`` sailed three ways from the same first third (the same noise):
+    the fixed plan's rest, the rest re-designed from that third's recordings, and the rest
+    re-designed knowing the truth (``oracle_counts``: what a perfect re-identification would
+    sail). Returns (fixed error, adaptive error, oracle error, the re-design)."""
     n_first = max(1, round(len(seq) / 3))
     seen: Counter = Counter()
     sailed = sail_crn(prof, seq[:n_first], truth, seed, seen)
-    rest_fixed = sail_crn(prof, seq[n_first:], truth, seed, seen.copy())
-    e_fixed = param_error(prof, sailed + rest_fixed, truth)
+    e = [param_error(prof, sailed + sail_crn(prof, seq[n_first:], truth, seed, seen.copy()), truth, ms)]
     left = trial_s - sum(r.n_samples for r in sailed) * prof.sample_time
-    rd = ad.redesign(prof, lib, sailed, left)
-    rest_ad = sail_crn(prof, interleave(rd.counts, lib), truth, seed, seen.copy())
-    return e_fixed, param_error(prof, sailed + rest_ad, truth), rd
+    rd = ad.redesign(prof, lib, sailed, left, mean_subtraction=ms)
+    for counts in (rd.counts, oracle_counts):
+        e.append(param_error(prof, sailed + sail_crn(prof, interleave(counts, lib), truth, seed, seen.copy()), truth, ms))
+    return *e, rd
 
 
-def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: int) -> None:
+def ceiling(prof, lib, seq, trial_s, truth, ms):
+    """What any re-design could gain at ``truth``: the rest re-designed at the true parameters
+    from the noise-free first third (the oracle), and the D-efficiency there of the fixed plan's
+    rest against the oracle's continuous optimum (Ljungberg 2022, (7.58)). Returns (oracle
+    re-design, the fixed rest's efficiency, the first third)."""
+    n_first = max(1, round(len(seq) / 3))
+    sailed = ad.sail(prof, seq[:n_first], truth, (0.0, 0.0, 0.0), np.random.default_rng(0))
+    left = trial_s - sum(r.n_samples for r in sailed) * prof.sample_time
+    reid = ad.Reidentification(np.asarray(truth, float), prof.predictor_param_names, {})
+    oracle = ad.redesign(prof, lib, sailed, left, mean_subtraction=ms, reid=reid)
+    eff = ad.rest_efficiency(prof, lib, sailed, truth, Counter(p.name for p in seq[n_first:]), left, oracle.logdet_continuous, ms)
+    return oracle, eff, sailed, left
+
+
+def predicted_error(prof, lib, sailed, truth, counts: dict, left: float, ms: str) -> float:
+    """The asymptotic rms relative parameter error of the trial (sailed + the rest ``counts``)
+    at ``truth``, up to a factor common to every rest of that length: sqrt(sum_i s_i^2
+    (Gamma^-1)_ii / theta_i^2 / p), Gamma the (7.58) information at the truth (symmetric part),
+    s_i the noise std of parameter i's equation. The IV covariance with converged instruments
+    and white equation error (Ljungberg 2022, ch. 7); the differenced measurement noise is not
+    white, so a model-based figure beside the measured ones, never instead of them."""
+    lib = [p for p in lib if p.kind == "informative"]
+    _, _, info, _ = ad.rest_problem(prof, lib, sailed, truth, left, ms)
+    total = left / prof.sample_time
+    g = info.gamma(np.array([counts.get(p.name, 0) * p.n_samples / total for p in lib]), ms)
+    dof = np.zeros(len(truth), int)
+    for i in range(prof.predictor.n_dof):
+        dof[prof.predictor.dof_slice(i)] = i
+    s2 = np.asarray(NOISE.get(prof.name, (0.005, 0.005, 0.002)))[dof] ** 2
+    nz = truth != 0
+    v = np.diag(np.linalg.inv((g + g.T) / 2))
+    return float(np.sqrt(np.mean((s2 * v / truth**2)[nz])))
+
+
+def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: int, ms: str) -> dict:
     prof = load_profile(ship)
     lib = ship_library(prof)
     trial_s = lengths * sum(p.duration_s for p in lib)
-    fixed = first_design(prof, lib, trial_length_s=trial_s).design.counts
+    fixed = first_design(prof, lib, trial_length_s=trial_s, mean_subtraction=ms).design.counts
     seq = interleave(fixed, lib)
+    n_first = max(1, round(len(seq) / 3))
     print(
         f"{ship}: trial {trial_s:.0f} s of manoeuvres, fixed plan {fixed} sailed round-robin, re-designed after "
-        f"{max(1, round(len(seq) / 3))} of {len(seq)}; truths within +-{SPREAD:.0%} (seed {seed}); {runs} noisy runs per truth"
+        f"{n_first} of {len(seq)}; truths within +-{SPREAD:.0%} (seed {seed}); {runs} noisy runs per truth; "
+        f"mean subtraction {ms} (design and estimate)"
     )
     print(f"noise std u, v, r {NOISE.get(ship)}; TRUTH = THE ESTIMATOR'S OWN MODEL AT DRAWN PARAMETERS")
-    print("parameter error rms((theta_hat - theta) / theta), median over the runs\n")
-    rest_fixed_s = sum(p.duration_s for p in seq[max(1, round(len(seq) / 3)) :])
-    print(f"{'trial':>5} {'fixed':>8} {'adaptive':>9} {'ratio':>7} {'rest s':>13}  re-designed rest (first run)")
+    print("parameter error rms((theta_hat - theta) / theta), median over the runs; oracle: the rest re-designed at the truth;")
+    print("run wins: runs (one noisy trial each, common random numbers) where the adaptive error is lower, of those that differ;")
+    print("pred: model-based asymptotic error ratio adaptive/fixed and oracle/fixed (predicted_error), not a measurement;")
+    print("eff fixed / eff adapt: D-efficiency at the truth of the fixed / re-designed rest against the best rest there")
+    print("(eff fixed is the ceiling: 1.0 = no re-design can gain in D)\n")
+    rest_fixed_s = sum(p.duration_s for p in seq[n_first:])
+    print(
+        f"{'trial':>5} {'fixed':>8} {'adaptive':>9} {'ratio':>6} {'oracle':>8} {'o.ratio':>7} {'run wins':>8} "
+        f"{'pred':>5} {'o.pred':>6} {'eff fixed':>9} {'eff adapt':>9}  re-designed rest (first run)"
+    )
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(28, 5)))
     th0 = prof.params()
-    ratios, wins = [], 0
+    rows = []
+    fixed_rest = Counter(p.name for p in seq[n_first:])
     for t in range(trials):
         truth = th0 * (1 + SPREAD * rng.uniform(-1, 1, th0.shape))
-        res = [one_run(prof, lib, seq, trial_s, truth, (seed, t, j)) for j in range(runs)]
-        ef = np.array([r[0] for r in res])
-        ea = np.array([r[1] for r in res])
-        failed = int((~np.isfinite(ef)).sum() + (~np.isfinite(ea)).sum())
-        mf, ma = np.median(ef), np.median(ea)  # a failed fit (inf) counts as the worst run, never as a number
+        oracle, eff_fixed, sailed0, left0 = ceiling(prof, lib, seq, trial_s, truth, ms)
+        res = [one_run(prof, lib, seq, trial_s, truth, (seed, t, j), ms, oracle.counts) for j in range(runs)]
+        ef, ea, eo = (np.array([r[i] for r in res]) for i in range(3))
+        failed = int(sum((~np.isfinite(x)).sum() for x in (ef, ea, eo)))
+        mf, ma, mo = np.median(ef), np.median(ea), np.median(eo)  # a failed fit (inf) counts as the worst run
         ok = np.isfinite(mf) and np.isfinite(ma)
-        ratio = ma / mf if ok else float("nan")
-        wins += bool(ok and ma < mf)
-        ratios.append(ratio)
+        pe = {k: predicted_error(prof, lib, sailed0, truth, c, left0, ms) for k, c in (("f", fixed_rest), ("o", oracle.counts))}
+        pa = np.median([predicted_error(prof, lib, sailed0, truth, r[3].counts, left0, ms) for r in res])
+        row = {
+            "ratio": ma / mf if ok else float("nan"),
+            "oratio": mo / mf if ok and np.isfinite(mo) else float("nan"),
+            "win": bool(ok and ma < mf),
+            "owin": bool(ok and mo < mf),
+            "run_wins": int((ea < ef).sum()),
+            "run_differ": int((ea != ef).sum()),
+            "pred": pa / pe["f"],
+            "opred": pe["o"] / pe["f"],
+            "eff": eff_fixed,
+            "eff_ad": ad.rest_efficiency(prof, lib, sailed0, truth, res[0][3].counts, left0, oracle.logdet_continuous, ms),
+        }
+        rows.append(row)
         # the rests compared must be of one length (fixed/adaptive manoeuvring seconds); flagged when not
-        rest = [r[2].planned_s for r in res]
-        same = all(abs(x - rest_fixed_s) < 1e-6 for x in rest)
-        lengths_txt = f"{rest_fixed_s:6.1f}/{rest[0]:<6.1f}" + ("" if same else "  UNEQUAL REST LENGTHS")
+        unequal = any(abs(r[3].planned_s - rest_fixed_s) > 1e-6 for r in res)
         print(
-            f"{t:5d} {mf:8.4f} {ma:9.4f} {ratio:7.3f} {lengths_txt:>13}  {res[0][2].counts}"
+            f"{t:5d} {mf:8.4f} {ma:9.4f} {row['ratio']:6.3f} {mo:8.4f} {row['oratio']:7.3f} "
+            f"{row['run_wins']:>4}/{row['run_differ']:<3} {row['pred']:5.3f} {row['opred']:6.3f} {eff_fixed:9.4f} "
+            f"{row['eff_ad']:9.4f}  {dict(res[0][3].counts)}"
             + (f"  ({failed} fit(s) failed)" if failed else "")
+            + ("  UNEQUAL REST LENGTHS" if unequal else "")
         )
-    r = np.array(ratios)
+    col = {k: np.array([r[k] for r in rows], float) for k in rows[0]}
+    wins, owins = int(col["win"].sum()), int(col["owin"].sum())
+    rw, rd = int(col["run_wins"].sum()), int(col["run_differ"].sum())
+    r, ef = col["ratio"], col["eff"]
     print(
-        f"\nadaptive lower in {wins} of {trials} trials ({wins / trials:.0%}; Done-when >= 75 %); "
+        f"\n{ship}: adaptive lower in {wins} of {trials} trials ({wins / trials:.0%}; Done-when >= 75 %); "
         f"median ratio adaptive/fixed {np.nanmedian(r):.3f}; trials without a defined median {int(np.isnan(r).sum())}"
     )
+    print(
+        f"{ship}: single noisy runs: adaptive lower in {rw} of the {rd} that differ ({rw / max(rd, 1):.0%}); "
+        f"oracle re-design lower in {owins} of {trials} ({owins / trials:.0%}), median ratio {np.nanmedian(col['oratio']):.3f}"
+    )
+    print(
+        f"{ship}: predicted (model-based) ratio adaptive/fixed median {np.median(col['pred']):.3f}, below 1 in "
+        f"{int((col['pred'] < 1).sum())} of {trials}; oracle/fixed median {np.median(col['opred']):.3f}"
+    )
+    print(
+        f"{ship}: CEILING fixed rest's D-efficiency at the truth: min {ef.min():.4f}, median {np.median(ef):.4f}, "
+        f"under 0.99 in {int((ef < 0.99).sum())} of {trials}; re-designed rest's median {np.median(col['eff_ad']):.4f}"
+    )
+    return {"ship": ship, "trials": trials, "wins": wins, "run_wins": rw, "run_differ": rd}
 
 
 def resume_timing(repeats: int) -> None:
@@ -161,13 +235,21 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--trials", type=int, default=20)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--ship", default="model-ship")
+    ap.add_argument("--ship", default="model-ship", help="one ship, or several separated by commas (pooled at the end)")
+    ap.add_argument("--mean-subtraction", default="batchwise", help="of the designs and of the scored estimate")
     ap.add_argument("--lengths", type=float, default=2.0, help="trial length in library lengths (every primitive once)")
     ap.add_argument("--runs", type=int, default=10, help="noisy runs per truth (the error compared is their median)")
     ap.add_argument("--timing-repeats", type=int, default=3)
     a = ap.parse_args()
     if a.trials:
-        adaptive_vs_fixed(a.ship, a.trials, a.seed, a.lengths, a.runs)
+        rows = [adaptive_vs_fixed(s, a.trials, a.seed, a.lengths, a.runs, a.mean_subtraction) for s in a.ship.split(",")]
+        if len(rows) > 1:
+            w, n = sum(r["wins"] for r in rows), sum(r["trials"] for r in rows)
+            rw, rd = sum(r["run_wins"] for r in rows), sum(r["run_differ"] for r in rows)
+            print(
+                f"\npooled over {', '.join(r['ship'] for r in rows)}: adaptive lower in {w} of {n} trials ({w / n:.0%}); "
+                f"single runs {rw} of {rd} ({rw / max(rd, 1):.0%})"
+            )
     if a.timing_repeats:
         resume_timing(a.timing_repeats)
 
