@@ -69,7 +69,13 @@ def sail_crn(prof, prims: list, truth: np.ndarray, seed: tuple, seen: Counter) -
     return runs
 
 
-def one_run(prof, lib, seq, trial_s, truth, seed, ms, oracle_counts):
+def rest_seconds(seq: list, n_first: int) -> float:
+    """The time the re-design may fill: the fixed plan's own rest, not the trial's slack the
+    first design's rounding left unused (a longer adaptive rest would win by length)."""
+    return float(sum(p.duration_s for p in seq[n_first:]))
+
+
+def one_run(prof, lib, seq, truth, seed, ms, oracle_counts):
     """One noisy trial at ``truth`` sailed three ways from the same first third (the same noise):
     the fixed plan's rest, the rest re-designed from that third's recordings, and the rest
     re-designed knowing the truth (``oracle_counts``: what a perfect re-identification would
@@ -78,48 +84,80 @@ def one_run(prof, lib, seq, trial_s, truth, seed, ms, oracle_counts):
     seen: Counter = Counter()
     sailed = sail_crn(prof, seq[:n_first], truth, seed, seen)
     e = [param_error(prof, sailed + sail_crn(prof, seq[n_first:], truth, seed, seen.copy()), truth, ms)]
-    left = trial_s - sum(r.n_samples for r in sailed) * prof.sample_time
+    left = rest_seconds(seq, n_first)
     rd = ad.redesign(prof, lib, sailed, left, mean_subtraction=ms)
     for counts in (rd.counts, oracle_counts):
         e.append(param_error(prof, sailed + sail_crn(prof, interleave(counts, lib), truth, seed, seen.copy()), truth, ms))
     return *e, rd
 
 
-def ceiling(prof, lib, seq, trial_s, truth, ms):
+def ceiling(prof, lib, seq, truth, ms):
     """What any re-design could gain at ``truth``: the rest re-designed at the true parameters
     from the noise-free first third (the oracle), and the D-efficiency there of the fixed plan's
     rest against the oracle's continuous optimum (Ljungberg 2022, (7.58)). Returns (oracle
     re-design, the fixed rest's efficiency, the first third)."""
     n_first = max(1, round(len(seq) / 3))
     sailed = ad.sail(prof, seq[:n_first], truth, (0.0, 0.0, 0.0), np.random.default_rng(0))
-    left = trial_s - sum(r.n_samples for r in sailed) * prof.sample_time
+    left = rest_seconds(seq, n_first)
     reid = ad.Reidentification(np.asarray(truth, float), prof.predictor_param_names, {})
     oracle = ad.redesign(prof, lib, sailed, left, mean_subtraction=ms, reid=reid)
     eff = ad.rest_efficiency(prof, lib, sailed, truth, Counter(p.name for p in seq[n_first:]), left, oracle.logdet_continuous, ms)
     return oracle, eff, sailed, left
 
 
-def predicted_error(prof, lib, sailed, truth, counts: dict, left: float, ms: str) -> float:
-    """The asymptotic rms relative parameter error of the trial (sailed + the rest ``counts``)
-    at ``truth``, up to a factor common to every rest of that length: sqrt(sum_i s_i^2
+def error_model(prof, lib, sailed, truth, left: float, ms: str):
+    """The asymptotic rms relative parameter error at ``truth`` of the trial sailed + a rest of
+    time fractions w, up to a factor common to every rest of that length: sqrt(sum_i s_i^2
     (Gamma^-1)_ii / theta_i^2 / p), Gamma the (7.58) information at the truth (symmetric part),
-    s_i the noise std of parameter i's equation. The IV covariance with converged instruments
-    and white equation error (Ljungberg 2022, ch. 7); the differenced measurement noise is not
-    white, so a model-based figure beside the measured ones, never instead of them."""
+    s_i the noise std of parameter i's equation: the IV covariance with converged instruments
+    and white equation error (Ljungberg 2022, ch. 7). The differenced measurement noise is not
+    white: a model-based figure beside the measured ones, never instead of them. Returns the
+    function of w and the function of whole-manoeuvre counts."""
     lib = [p for p in lib if p.kind == "informative"]
     _, _, info, _ = ad.rest_problem(prof, lib, sailed, truth, left, ms)
-    total = left / prof.sample_time
-    g = info.gamma(np.array([counts.get(p.name, 0) * p.n_samples / total for p in lib]), ms)
     dof = np.zeros(len(truth), int)
     for i in range(prof.predictor.n_dof):
         dof[prof.predictor.dof_slice(i)] = i
-    s2 = np.asarray(NOISE.get(prof.name, (0.005, 0.005, 0.002)))[dof] ** 2
-    nz = truth != 0
-    v = np.diag(np.linalg.inv((g + g.T) / 2))
-    return float(np.sqrt(np.mean((s2 * v / truth**2)[nz])))
+    c = (np.asarray(NOISE.get(prof.name, (0.005, 0.005, 0.002)))[dof] / np.where(truth != 0, truth, np.inf)) ** 2
+
+    def of_w(w: np.ndarray) -> float:
+        g = info.gamma(w, ms)
+        return float(np.sqrt(np.sum(c * np.diag(np.linalg.inv((g + g.T) / 2))) / np.count_nonzero(c)))
+
+    total = left / prof.sample_time
+    return of_w, lambda counts: of_w(np.array([counts.get(p.name, 0) * p.n_samples / total for p in lib]))
 
 
-def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: int, ms: str) -> dict:
+def error_optimum(of_w, q: int) -> np.ndarray:
+    """The continuous rest minimising ``of_w`` (the scored metric's model, an A-criterion in
+    relative units) over the simplex: softmax weights, three seeded starts."""
+    from scipy.optimize import minimize
+
+    def f(z):
+        return np.log(of_w(np.exp(z - z.max()) / np.exp(z - z.max()).sum()))
+
+    best = min((minimize(f, np.random.default_rng(k).normal(size=q), method="L-BFGS-B") for k in range(3)), key=lambda r: r.fun)
+    return np.exp(best.x - best.x.max()) / np.exp(best.x - best.x.max()).sum()
+
+
+def criterion_gap(prof, lib, seq, truth, th0, ms) -> tuple[float, float]:
+    """Model-based: the predicted error of the rest optimal for the scored metric at the truth,
+    over (a) the fixed D rest's and (b) the rest optimal for that metric at the profile's values
+    (a fixed plan in the scored metric, its first third the same). (b) is that criterion's ceiling
+    of re-design, (a) also counts what changing the criterion gains."""
+    lib = [p for p in lib if p.kind == "informative"]
+    n_first = max(1, round(len(seq) / 3))
+    left = rest_seconds(seq, n_first)
+    zero = (0.0, 0.0, 0.0)
+    sailed = ad.sail(prof, seq[:n_first], truth, zero, np.random.default_rng(0))
+    of_w, of_counts = error_model(prof, lib, sailed, truth, left, ms)
+    best = of_w(error_optimum(of_w, len(lib)))
+    nominal = ad.sail(prof, seq[:n_first], th0, zero, np.random.default_rng(0))
+    w_nom = error_optimum(error_model(prof, lib, nominal, th0, left, ms)[0], len(lib))
+    return best / of_counts(Counter(p.name for p in seq[n_first:])), best / of_w(w_nom)
+
+
+def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: int, ms: str, gaps: bool) -> dict:
     prof = load_profile(ship)
     lib = ship_library(prof)
     trial_s = lengths * sum(p.duration_s for p in lib)
@@ -136,11 +174,14 @@ def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: i
     print("run wins: runs (one noisy trial each, common random numbers) where the adaptive error is lower, of those that differ;")
     print("pred: model-based asymptotic error ratio adaptive/fixed and oracle/fixed (predicted_error), not a measurement;")
     print("eff fixed / eff adapt: D-efficiency at the truth of the fixed / re-designed rest against the best rest there")
-    print("(eff fixed is the ceiling: 1.0 = no re-design can gain in D)\n")
-    rest_fixed_s = sum(p.duration_s for p in seq[n_first:])
+    print("(eff fixed is the ceiling: 1.0 = no re-design can gain in D); A/D, A/A (model-based, --criterion-gap): predicted")
+    print(
+        "error of the rest optimal at the truth for the scored metric over the fixed D rest's / over that metric's fixed rest\n"
+    )
+    rest_fixed_s = rest_seconds(seq, n_first)
     print(
         f"{'trial':>5} {'fixed':>8} {'adaptive':>9} {'ratio':>6} {'oracle':>8} {'o.ratio':>7} {'run wins':>8} "
-        f"{'pred':>5} {'o.pred':>6} {'eff fixed':>9} {'eff adapt':>9}  re-designed rest (first run)"
+        f"{'pred':>5} {'o.pred':>6} {'eff fixed':>9} {'eff adapt':>9} {'A/D':>6} {'A/A':>6}  re-designed rest (first run)"
     )
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(28, 5)))
     th0 = prof.params()
@@ -148,14 +189,16 @@ def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: i
     fixed_rest = Counter(p.name for p in seq[n_first:])
     for t in range(trials):
         truth = th0 * (1 + SPREAD * rng.uniform(-1, 1, th0.shape))
-        oracle, eff_fixed, sailed0, left0 = ceiling(prof, lib, seq, trial_s, truth, ms)
-        res = [one_run(prof, lib, seq, trial_s, truth, (seed, t, j), ms, oracle.counts) for j in range(runs)]
+        oracle, eff_fixed, sailed0, left0 = ceiling(prof, lib, seq, truth, ms)
+        res = [one_run(prof, lib, seq, truth, (seed, t, j), ms, oracle.counts) for j in range(runs)]
         ef, ea, eo = (np.array([r[i] for r in res]) for i in range(3))
         failed = int(sum((~np.isfinite(x)).sum() for x in (ef, ea, eo)))
         mf, ma, mo = np.median(ef), np.median(ea), np.median(eo)  # a failed fit (inf) counts as the worst run
         ok = np.isfinite(mf) and np.isfinite(ma)
-        pe = {k: predicted_error(prof, lib, sailed0, truth, c, left0, ms) for k, c in (("f", fixed_rest), ("o", oracle.counts))}
-        pa = np.median([predicted_error(prof, lib, sailed0, truth, r[3].counts, left0, ms) for r in res])
+        _, pred = error_model(prof, lib, sailed0, truth, left0, ms)
+        pe = {k: pred(c) for k, c in (("f", fixed_rest), ("o", oracle.counts))}
+        pa = np.median([pred(r[3].counts) for r in res])
+        gap_d, gap_a = criterion_gap(prof, lib, seq, truth, th0, ms) if gaps else (np.nan, np.nan)
         row = {
             "ratio": ma / mf if ok else float("nan"),
             "oratio": mo / mf if ok and np.isfinite(mo) else float("nan"),
@@ -166,17 +209,19 @@ def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: i
             "pred": pa / pe["f"],
             "opred": pe["o"] / pe["f"],
             "eff": eff_fixed,
+            "gap_d": gap_d,
+            "gap_a": gap_a,
             "eff_ad": ad.rest_efficiency(prof, lib, sailed0, truth, res[0][3].counts, left0, oracle.logdet_continuous, ms),
         }
         rows.append(row)
         # the rests compared must be of one length (fixed/adaptive manoeuvring seconds); flagged when not
-        unequal = any(abs(r[3].planned_s - rest_fixed_s) > 1e-6 for r in res)
+        unequal = max(r[3].planned_s for r in res) > rest_fixed_s + 1e-6
         print(
             f"{t:5d} {mf:8.4f} {ma:9.4f} {row['ratio']:6.3f} {mo:8.4f} {row['oratio']:7.3f} "
             f"{row['run_wins']:>4}/{row['run_differ']:<3} {row['pred']:5.3f} {row['opred']:6.3f} {eff_fixed:9.4f} "
-            f"{row['eff_ad']:9.4f}  {dict(res[0][3].counts)}"
+            f"{row['eff_ad']:9.4f} {gap_d:6.3f} {gap_a:6.3f}  {dict(res[0][3].counts)}"
             + (f"  ({failed} fit(s) failed)" if failed else "")
-            + ("  UNEQUAL REST LENGTHS" if unequal else "")
+            + ("  ADAPTIVE REST LONGER" if unequal else "")
         )
     col = {k: np.array([r[k] for r in rows], float) for k in rows[0]}
     wins, owins = int(col["win"].sum()), int(col["owin"].sum())
@@ -198,6 +243,11 @@ def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: i
         f"{ship}: CEILING fixed rest's D-efficiency at the truth: min {ef.min():.4f}, median {np.median(ef):.4f}, "
         f"under 0.99 in {int((ef < 0.99).sum())} of {trials}; re-designed rest's median {np.median(col['eff_ad']):.4f}"
     )
+    if gaps:
+        print(
+            f"{ship}: scored-metric optimum at the truth over the fixed D rest (model-based) median {np.median(col['gap_d']):.3f}, "
+            f"over that metric's fixed rest median {np.median(col['gap_a']):.3f} (min {col['gap_a'].min():.3f})"
+        )
     return {"ship": ship, "trials": trials, "wins": wins, "run_wins": rw, "run_differ": rd}
 
 
@@ -240,9 +290,13 @@ def main() -> None:
     ap.add_argument("--lengths", type=float, default=2.0, help="trial length in library lengths (every primitive once)")
     ap.add_argument("--runs", type=int, default=10, help="noisy runs per truth (the error compared is their median)")
     ap.add_argument("--timing-repeats", type=int, default=3)
+    ap.add_argument("--criterion-gap", action="store_true", help="also the model-based gap of the scored metric's criterion")
     a = ap.parse_args()
     if a.trials:
-        rows = [adaptive_vs_fixed(s, a.trials, a.seed, a.lengths, a.runs, a.mean_subtraction) for s in a.ship.split(",")]
+        rows = [
+            adaptive_vs_fixed(s, a.trials, a.seed, a.lengths, a.runs, a.mean_subtraction, a.criterion_gap)
+            for s in a.ship.split(",")
+        ]
         if len(rows) > 1:
             w, n = sum(r["wins"] for r in rows), sum(r["trials"] for r in rows)
             rw, rd = sum(r["run_wins"] for r in rows), sum(r["run_differ"] for r in rows)
