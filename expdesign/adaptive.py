@@ -137,7 +137,7 @@ def rest_efficiency(
     rest ``counts``: 1.0 means the rest is already the optimum there."""
     lib = [p for p in library if p.kind == "informative"]
     _, _, info, _ = rest_problem(profile, lib, runs, theta, time_left_s, mean_subtraction)
-    total = time_left_s / profile.sample_time
+    total = int(round(time_left_s / profile.sample_time))  # as redesign's rounding counts it
     w = np.array([counts.get(p.name, 0) * p.n_samples / total for p in lib])
     return float(np.exp((info.logdet(w, mean_subtraction) - logdet_optimum) / info.n_params))
 
