@@ -89,6 +89,11 @@ def draw_truth(th0: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return th0 * (1 + SPREAD * rng.uniform(-1, 1, th0.shape))
 
 
+def first_third(seq: list) -> int:
+    """The manoeuvres sailed before the re-design: the first third of the fixed plan, at least one."""
+    return max(1, round(len(seq) / 3))
+
+
 def rest_seconds(seq: list, n_first: int) -> float:
     """The time the re-design may fill: the fixed plan's own rest, not the trial's slack the
     first design's rounding left unused (a longer adaptive rest would win by length)."""
@@ -100,7 +105,7 @@ def one_run(prof, lib, seq, truth, seed, ms, oracle_counts):
     the fixed plan's rest, the rest re-designed from that third's recordings, and the rest
     re-designed knowing the truth (``oracle_counts``: what a perfect re-identification would
     sail). Returns (fixed error, adaptive error, oracle error, the re-design)."""
-    n_first = max(1, round(len(seq) / 3))
+    n_first = first_third(seq)
     seen: Counter = Counter()
     sailed = sail_crn(prof, seq[:n_first], truth, seed, seen)
     e = [param_error(prof, sailed + sail_crn(prof, seq[n_first:], truth, seed, seen.copy()), truth, ms)]
@@ -115,8 +120,8 @@ def ceiling(prof, lib, seq, truth, ms):
     """What any re-design could gain at ``truth``: the rest re-designed at the true parameters
     from the noise-free first third (the oracle), and the D-efficiency there of the fixed plan's
     rest against the oracle's continuous optimum (Ljungberg 2022, (7.58)). Returns (oracle
-    re-design, the fixed rest's efficiency, the first third)."""
-    n_first = max(1, round(len(seq) / 3))
+    re-design, the fixed rest's efficiency, the first third, the rest's seconds)."""
+    n_first = first_third(seq)
     sailed = ad.sail(prof, seq[:n_first], truth, (0.0, 0.0, 0.0), np.random.default_rng(0))
     left = rest_seconds(seq, n_first)
     reid = ad.Reidentification(np.asarray(truth, float), prof.predictor_param_names, {})
@@ -166,7 +171,7 @@ def criterion_gap(prof, lib, seq, truth, th0, ms) -> tuple[float, float]:
     (a fixed plan in the scored metric, its first third the same). (b) is that criterion's ceiling
     of re-design, (a) also counts what changing the criterion gains."""
     lib = [p for p in lib if p.kind == "informative"]
-    n_first = max(1, round(len(seq) / 3))
+    n_first = first_third(seq)
     left = rest_seconds(seq, n_first)
     zero = (0.0, 0.0, 0.0)
     sailed = ad.sail(prof, seq[:n_first], truth, zero, np.random.default_rng(0))
@@ -183,7 +188,7 @@ def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: i
     trial_s = lengths * sum(p.duration_s for p in lib)
     fixed = first_design(prof, lib, trial_length_s=trial_s, mean_subtraction=ms).design.counts
     seq = interleave(fixed, lib)
-    n_first = max(1, round(len(seq) / 3))
+    n_first = first_third(seq)
     print(
         f"{ship}: trial {trial_s:.0f} s of manoeuvres, fixed plan {fixed} sailed round-robin, re-designed after "
         f"{n_first} of {len(seq)}; truths {'at' if CORNERS else 'within'} +-{SPREAD:.0%} (seed {seed}); {runs} noisy runs per truth; "
@@ -316,7 +321,7 @@ def predictive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs:
     lib = ship_library(prof)
     trial_s = lengths * sum(p.duration_s for p in lib)
     seq = interleave(first_design(prof, lib, trial_length_s=trial_s, mean_subtraction=ms).design.counts, lib)
-    n_first = max(1, round(len(seq) / 3))
+    n_first = first_third(seq)
     left = rest_seconds(seq, n_first)
     print(
         f"\n{ship}: predictive error "
