@@ -396,9 +396,17 @@ def test_rest_efficiency_bounds_what_a_redesign_can_gain(model_ship):
     def eff(counts):
         return ad.rest_efficiency(prof, lib, runs, truth, counts, 300.0, oracle.logdet_continuous, "batchwise")
 
+    # the bound is the continuous optimum's log det (not the rounded one's) on the efficiency's own
+    # normalisation: the design's weights give it back through rest_problem's (7.58) sum
+    lib_i = [q for q in lib if q.kind == "informative"]
+    _, _, info, _ = ad.rest_problem(prof, lib_i, runs, truth, 300.0, "batchwise")
+    w = np.array([oracle.weights.get(q.name, 0.0) for q in lib_i])
+    assert info.logdet(w / w.sum(), "batchwise") == pytest.approx(oracle.logdet_continuous, abs=1e-3)
     own = eff(oracle.counts)
     assert own == pytest.approx(np.exp((oracle.logdet_total - oracle.logdet_continuous) / p), rel=1e-9)
     assert 0.9 < own <= 1.0 + 1e-9
-    one = eff({"tau1": int(300.0 // by["tau1"].duration_s)})
+    n_one = int(300.0 // by["tau1"].duration_s)
+    one = eff({"tau1": n_one})
+    assert eff({"tau1": n_one // 2}) < one  # half the time left unsailed: less information, not the same mix
     fresh = first_design(prof, lib, trial_length_s=300.0, mean_subtraction="batchwise").design.counts
     assert one < 0.8 and one < eff(fresh) <= own + 1e-9
