@@ -11,14 +11,21 @@ numbers (:func:`sail_crn`). Parameter error of a trial: sqrt(mean(((theta_hat - 
 theta_true)^2)) over the non-zero parameters, the IV estimate (:func:`expdesign.estimators.estimate`)
 from every run sailed; per truth the median over ``--runs`` noisy runs.
 
-Per truth also: the CEILING, the D-efficiency at the truth of the fixed plan's rest against the
-best rest there (:func:`expdesign.adaptive.rest_efficiency`; 1.0: no re-design can gain in D); an
-oracle re-design at the truth sailed beside the two; single-run wins (each run one noisy trial);
-a model-based predicted error ratio (:func:`error_model`, beside the measurements, never instead);
-``--criterion-gap``: the same model's gain of a design in the scored metric (relative A).
-``--runs 0``: the model-based columns only. ``--score predictive``: the estimates scored by the
-predictor's simulation of held-out noise-free runs of the truth (:func:`predictive_vs_fixed`). Design and scored estimate share ``--mean-subtraction``
-(default batchwise; designing under 'complete' and scoring a batchwise estimate mismatched them).
+Per truth also, MODEL-BASED (:mod:`benchmarks.adaptive_model`, information matrices at the truth,
+printed beside the measurements, never instead): the CEILING, the D-efficiency at the truth of the
+fixed plan's rest against the best rest there, both counting the first third sailed
+(:func:`expdesign.adaptive.rest_efficiency`; 1.0: no re-design can gain in D); a predicted error
+ratio; ``--criterion-gap``: the same model's gain of a design in the scored metric (relative A).
+Measured beside them: an oracle re-design at the truth, sailed as the other two; single-run wins
+(each run one noisy trial). ``--runs 0``: the model-based columns only. ``--score predictive``:
+the estimates scored by the predictor's simulation of held-out noise-free runs of the truth
+(:func:`predictive_vs_fixed`; refused where the predictor is not the ship's simulation model).
+
+Design and scored estimate share ``--mean-subtraction`` (default batchwise). NOT what a default
+``plan-trial --resume`` does: the resumed re-design keeps the plan's mean subtraction, 'complete'
+unless the plan was made with ``--mean-subtraction batchwise``, and re-identifies batchwise;
+``--mean-subtraction complete`` here measures that case (the fixed rest's D-efficiency at the
+truth is then 0.992 or more on the model ship: little for a re-design to gain).
 
 Second part: CPU time of resume + re-identify + re-design + re-plan for the default ship on the
 bundled map (target < 5 s), through :func:`maps.resume.resume_plan` (the CLI adds imports and exports).
@@ -30,12 +37,14 @@ bundled map (target < 5 s), through :func:`maps.resume.resume_plan` (the CLI add
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 import zlib
 from collections import Counter
 
 import numpy as np
 
+from benchmarks.adaptive_model import ceiling, criterion_gap, error_model
 from expdesign import adaptive as ad
 from expdesign.estimators import estimate
 from maps.trialdesign import first_design, ship_library
@@ -43,6 +52,11 @@ from primitives.ship import load_profile
 
 SPREAD = 0.30
 NOISE = {"model-ship": (0.005, 0.005, 0.002), "kvlcc2": (0.05, 0.05, 0.0005)}
+
+
+def noise_of(prof) -> tuple[float, float, float]:
+    """The measurement noise std on u, v, r of ``prof``'s simulated recordings (the model ship's by default)."""
+    return NOISE.get(prof.name, NOISE["model-ship"])
 
 
 def interleave(counts: dict[str, int], lib: list) -> list:
@@ -70,7 +84,7 @@ def sail_crn(prof, prims: list, truth: np.ndarray, seed: tuple, seen: Counter) -
     """:func:`expdesign.adaptive.sail` with common random numbers: the k-th time manoeuvre q is
     sailed in a run it meets the noise of stream (seed, q, k) whichever plan sails it, so two
     plans with the same manoeuvres get the same error and a difference is the design's."""
-    noise = NOISE.get(prof.name, (0.005, 0.005, 0.002))
+    noise = noise_of(prof)
     runs = []
     for p in prims:
         k = seen[p.name]
@@ -79,12 +93,10 @@ def sail_crn(prof, prims: list, truth: np.ndarray, seed: tuple, seen: Counter) -
     return runs
 
 
-CORNERS = False  # --corners: every parameter exactly 30 % off (random sign), the prior furthest off
-
-
-def draw_truth(th0: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """A truth within +-SPREAD of the profile's parameters (uniform), or on a corner of that box."""
-    if CORNERS:
+def draw_truth(th0: np.ndarray, rng: np.random.Generator, corners: bool = False) -> np.ndarray:
+    """A truth within +-SPREAD of the profile's parameters (uniform), or (``corners``, --corners)
+    on a corner of that box: every parameter exactly SPREAD off, random sign."""
+    if corners:
         return th0 * (1 + SPREAD * rng.choice([-1.0, 1.0], th0.shape))
     return th0 * (1 + SPREAD * rng.uniform(-1, 1, th0.shape))
 
@@ -116,73 +128,9 @@ def one_run(prof, lib, seq, truth, seed, ms, oracle_counts):
     return *e, rd
 
 
-def ceiling(prof, lib, seq, truth, ms):
-    """What any re-design could gain at ``truth``: the rest re-designed at the true parameters
-    from the noise-free first third (the oracle), and the D-efficiency there of the fixed plan's
-    rest against the oracle's continuous optimum (Ljungberg 2022, (7.58)). Returns (oracle
-    re-design, the fixed rest's efficiency, the first third, the rest's seconds)."""
-    n_first = first_third(seq)
-    sailed = ad.sail(prof, seq[:n_first], truth, (0.0, 0.0, 0.0), np.random.default_rng(0))
-    left = rest_seconds(seq, n_first)
-    reid = ad.Reidentification(np.asarray(truth, float), prof.predictor_param_names, {})
-    oracle = ad.redesign(prof, lib, sailed, left, mean_subtraction=ms, reid=reid)
-    eff = ad.rest_efficiency(prof, lib, sailed, truth, Counter(p.name for p in seq[n_first:]), left, oracle.logdet_continuous, ms)
-    return oracle, eff, sailed, left
-
-
-def error_model(prof, lib, sailed, truth, left: float, ms: str):
-    """The asymptotic rms relative parameter error at ``truth`` of the trial sailed + a rest of
-    time fractions w, up to a factor common to every rest of that length: sqrt(sum_i s_i^2
-    (Gamma^-1)_ii / theta_i^2 / p), Gamma the (7.58) information at the truth (symmetric part),
-    s_i the noise std of parameter i's equation: the IV covariance with converged instruments
-    and white equation error (Ljungberg 2022, ch. 7). The differenced measurement noise is not
-    white: a model-based figure beside the measured ones, never instead of them. Returns the
-    function of w and the function of whole-manoeuvre counts."""
-    lib = [p for p in lib if p.kind == "informative"]
-    _, _, info, _ = ad.rest_problem(prof, lib, sailed, truth, left, ms)
-    dof = np.zeros(len(truth), int)
-    for i in range(prof.predictor.n_dof):
-        dof[prof.predictor.dof_slice(i)] = i
-    c = (np.asarray(NOISE.get(prof.name, (0.005, 0.005, 0.002)))[dof] / np.where(truth != 0, truth, np.inf)) ** 2
-
-    def of_w(w: np.ndarray) -> float:
-        g = info.gamma(w, ms)
-        return float(np.sqrt(np.sum(c * np.diag(np.linalg.inv((g + g.T) / 2))) / np.count_nonzero(c)))
-
-    total = left / prof.sample_time
-    return of_w, lambda counts: of_w(np.array([counts.get(p.name, 0) * p.n_samples / total for p in lib]))
-
-
-def error_optimum(of_w, q: int) -> np.ndarray:
-    """The continuous rest minimising ``of_w`` (the scored metric's model, an A-criterion in
-    relative units) over the simplex: softmax weights, three seeded starts."""
-    from scipy.optimize import minimize
-
-    def f(z):
-        return np.log(of_w(np.exp(z - z.max()) / np.exp(z - z.max()).sum()))
-
-    best = min((minimize(f, np.random.default_rng(k).normal(size=q), method="L-BFGS-B") for k in range(3)), key=lambda r: r.fun)
-    return np.exp(best.x - best.x.max()) / np.exp(best.x - best.x.max()).sum()
-
-
-def criterion_gap(prof, lib, seq, truth, th0, ms) -> tuple[float, float]:
-    """Model-based: the predicted error of the rest optimal for the scored metric at the truth,
-    over (a) the fixed D rest's and (b) the rest optimal for that metric at the profile's values
-    (a fixed plan in the scored metric, its first third the same). (b) is that criterion's ceiling
-    of re-design, (a) also counts what changing the criterion gains."""
-    lib = [p for p in lib if p.kind == "informative"]
-    n_first = first_third(seq)
-    left = rest_seconds(seq, n_first)
-    zero = (0.0, 0.0, 0.0)
-    sailed = ad.sail(prof, seq[:n_first], truth, zero, np.random.default_rng(0))
-    of_w, of_counts = error_model(prof, lib, sailed, truth, left, ms)
-    best = of_w(error_optimum(of_w, len(lib)))
-    nominal = ad.sail(prof, seq[:n_first], th0, zero, np.random.default_rng(0))
-    w_nom = error_optimum(error_model(prof, lib, nominal, th0, left, ms)[0], len(lib))
-    return best / of_counts(Counter(p.name for p in seq[n_first:])), best / of_w(w_nom)
-
-
-def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: int, ms: str, gaps: bool) -> dict:
+def adaptive_vs_fixed(
+    ship: str, trials: int, seed: int, lengths: float, runs: int, ms: str, gaps: bool, corners: bool = False
+) -> dict:
     prof = load_profile(ship)
     lib = ship_library(prof)
     trial_s = lengths * sum(p.duration_s for p in lib)
@@ -191,14 +139,18 @@ def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: i
     n_first = first_third(seq)
     print(
         f"{ship}: trial {trial_s:.0f} s of manoeuvres, fixed plan {fixed} sailed round-robin, re-designed after "
-        f"{n_first} of {len(seq)}; truths {'at' if CORNERS else 'within'} +-{SPREAD:.0%} (seed {seed}); {runs} noisy runs per truth; "
+        f"{n_first} of {len(seq)}; truths {'at' if corners else 'within'} +-{SPREAD:.0%} (seed {seed}); {runs} noisy runs per truth; "
         f"mean subtraction {ms} (design and estimate)"
     )
-    print(f"noise std u, v, r {NOISE.get(ship)}; TRUTH = THE ESTIMATOR'S OWN MODEL AT DRAWN PARAMETERS")
+    print(f"noise std u, v, r {noise_of(prof)}; TRUTH = THE ESTIMATOR'S OWN MODEL AT DRAWN PARAMETERS")
     print("parameter error rms((theta_hat - theta) / theta), median over the runs; oracle: the rest re-designed at the truth;")
     print("run wins: runs (one noisy trial each, common random numbers) where the adaptive error is lower, of those that differ;")
-    print("pred: model-based asymptotic error ratio adaptive/fixed and oracle/fixed (predicted_error), not a measurement;")
-    print("eff fixed / eff adapt: D-efficiency at the truth of the fixed / re-designed rest against the best rest there")
+    print(
+        "pred: model-based asymptotic error ratio adaptive/fixed and oracle/fixed (benchmarks/adaptive_model.py), not a measurement;"
+    )
+    print(
+        "eff fixed / eff adapt (model-based): D-efficiency at the truth of the fixed / re-designed rest against the best rest there"
+    )
     print("(eff fixed is the ceiling: 1.0 = no re-design can gain in D); A/D, A/A (model-based, --criterion-gap): predicted")
     print(
         "error of the rest optimal at the truth for the scored metric over the fixed D rest's / over that metric's fixed rest\n"
@@ -210,21 +162,22 @@ def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: i
     )
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(28, 5)))
     th0 = prof.params()
+    noise = noise_of(prof)
     rows = []
     fixed_rest = Counter(p.name for p in seq[n_first:])
     for t in range(trials):
-        truth = draw_truth(th0, rng)
-        oracle, eff_fixed, sailed0, left0 = ceiling(prof, lib, seq, truth, ms)
+        truth = draw_truth(th0, rng, corners)
+        oracle, eff_fixed, sailed0, left0 = ceiling(prof, lib, seq[:n_first], seq[n_first:], truth, ms)
         res = [one_run(prof, lib, seq, truth, (seed, t, j), ms, oracle.counts) for j in range(runs)]
         ef, ea, eo = (np.array([r[i] for r in res]) for i in range(3))
         failed = int(sum((~np.isfinite(x)).sum() for x in (ef, ea, eo)))
         # a failed fit (inf) counts as the worst run; --runs 0: the model-based columns only
         mf, ma, mo = (np.median(x) if runs else np.nan for x in (ef, ea, eo))
         ok = np.isfinite(mf) and np.isfinite(ma)
-        _, pred = error_model(prof, lib, sailed0, truth, left0, ms)
+        _, pred = error_model(prof, lib, sailed0, truth, left0, ms, noise)
         pe = {k: pred(c) for k, c in (("f", fixed_rest), ("o", oracle.counts))}
         pa = np.median([pred(r[3].counts) for r in res]) if runs else np.nan
-        gap_d, gap_a = criterion_gap(prof, lib, seq, truth, th0, ms) if gaps else (np.nan, np.nan)
+        gap_d, gap_a = criterion_gap(prof, lib, seq[:n_first], seq[n_first:], truth, th0, ms, noise) if gaps else (np.nan, np.nan)
         row = {
             "ratio": ma / mf if ok else float("nan"),
             "oratio": mo / mf if ok and np.isfinite(mo) else float("nan"),
@@ -274,7 +227,7 @@ def adaptive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: i
         f"{int((col['opred'] < 1).sum())} of {trials}"
     )
     print(
-        f"{ship}: CEILING fixed rest's D-efficiency at the truth: min {ef.min():.4f}, median {np.median(ef):.4f}, "
+        f"{ship}: CEILING (model-based) fixed rest's D-efficiency at the truth: min {ef.min():.4f}, median {np.median(ef):.4f}, "
         f"under 0.99 in {int((ef < 0.99).sum())} of {trials}"
         + (f"; re-designed rest's median {np.median(col['eff_ad']):.4f}" if runs else "")
     )
@@ -290,7 +243,8 @@ def predictive_error(prof, runs, heldout: list, ms: str) -> float:
     """The IV estimate from ``runs`` scored by prediction: the predictor simulated at the
     estimate through the inputs of each held-out recording (a noise-free truth run, from its
     first state) against the recorded velocities; RMS over u, v, r of the error normalised by
-    each signal's RMS, mean over the recordings. Defined whatever the truth's structure."""
+    each signal's RMS, mean over the recordings. Meaningful only where the predictor simulates the
+    ship (:func:`predictive_vs_fixed` refuses the others)."""
     from primitives.simulate import signals_read, simulate
 
     est = estimate(prof, [r.segment() for r in runs], method="iv", mean_subtraction=ms)
@@ -309,15 +263,22 @@ def predictive_error(prof, runs, heldout: list, ms: str) -> float:
     return float(np.mean(out))
 
 
-def predictive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: int, ms: str) -> dict:
+def predictive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs: int, ms: str, corners: bool = False) -> dict:
     """Fixed against adaptive scored by prediction of the truth's held-out runs (every library
     manoeuvre once, noise-free), the truth the profile's simulation model at drawn parameters: a
     score the user reads (how well the identified model predicts), not the parameters. Not for a
     ship whose predictor is not its simulation model: full-scale's predictor (9.2), estimated
     batchwise from its own noise-free library at the profile's values, predicts those runs at a
     normalised RMS error of 4.8 (the mean subtraction drops the force levels a simulation needs),
-    so the score there says nothing about the design."""
+    so the score there says nothing about the design: refused."""
     prof = load_profile(ship)
+    if not ad.same_structure(prof):
+        print(
+            f"error: --score predictive: {ship}'s predictor is not its simulation model, so its prediction error "
+            "says nothing about the design; use --score parameters or a ship whose predictor simulates it",
+            file=sys.stderr,
+        )
+        sys.exit(2)
     lib = ship_library(prof)
     trial_s = lengths * sum(p.duration_s for p in lib)
     seq = interleave(first_design(prof, lib, trial_length_s=trial_s, mean_subtraction=ms).design.counts, lib)
@@ -332,7 +293,7 @@ def predictive_vs_fixed(ship: str, trials: int, seed: int, lengths: float, runs:
     th0 = prof.params()
     ratios, wins, rw, rdiff = [], 0, 0, 0
     for t in range(trials):
-        truth = draw_truth(th0, rng)
+        truth = draw_truth(th0, rng, corners)
         heldout = ad.sail(prof, lib, truth, (0.0, 0.0, 0.0), np.random.default_rng(0))
         ef, ea, rests = [], [], []
         for j in range(runs):
@@ -402,14 +363,15 @@ def main() -> None:
     ap.add_argument("--corners", action="store_true", help="truths with every parameter exactly 30 %% off")
     ap.add_argument("--criterion-gap", action="store_true", help="also the model-based gap of the scored metric's criterion")
     a = ap.parse_args()
-    global CORNERS
-    CORNERS = a.corners
     if a.trials:
         ships = a.ship.split(",")
         if a.score == "predictive":
-            rows = [predictive_vs_fixed(s, a.trials, a.seed, a.lengths, a.runs, a.mean_subtraction) for s in ships]
+            rows = [predictive_vs_fixed(s, a.trials, a.seed, a.lengths, a.runs, a.mean_subtraction, a.corners) for s in ships]
         else:
-            rows = [adaptive_vs_fixed(s, a.trials, a.seed, a.lengths, a.runs, a.mean_subtraction, a.criterion_gap) for s in ships]
+            rows = [
+                adaptive_vs_fixed(s, a.trials, a.seed, a.lengths, a.runs, a.mean_subtraction, a.criterion_gap, a.corners)
+                for s in ships
+            ]
         if len(rows) > 1:
             w, n = sum(r["wins"] for r in rows), sum(r["trials"] for r in rows)
             rw, rd = sum(r["run_wins"] for r in rows), sum(r["run_differ"] for r in rows)
