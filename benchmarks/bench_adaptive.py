@@ -113,19 +113,23 @@ def rest_seconds(seq: list, n_first: int) -> float:
 
 
 def one_run(prof, lib, seq, truth, seed, ms, oracle_counts):
-    """One noisy trial at ``truth`` sailed three ways from the same first third (the same noise):
-    the fixed plan's rest, the rest re-designed from that third's recordings, and the rest
+    """One noisy trial at ``truth`` sailed four ways from the same first third (the same noise):
+    the fixed plan's rest, the rest re-designed from that third's recordings, the rest
     re-designed knowing the truth (``oracle_counts``: what a perfect re-identification would
-    sail). Returns (fixed error, adaptive error, oracle error, the re-design)."""
+    sail), and the CONTROL: the rest re-designed from the same recordings at the profile's values
+    (no re-identification; what counting the sailed information alone gains). Returns (fixed,
+    adaptive, oracle, control error, the re-design, the control re-design)."""
     n_first = first_third(seq)
     seen: Counter = Counter()
     sailed = sail_crn(prof, seq[:n_first], truth, seed, seen)
     e = [param_error(prof, sailed + sail_crn(prof, seq[n_first:], truth, seed, seen.copy()), truth, ms)]
     left = rest_seconds(seq, n_first)
     rd = ad.redesign(prof, lib, sailed, left, mean_subtraction=ms)
-    for counts in (rd.counts, oracle_counts):
+    nominal = ad.Reidentification(ad.profile_predictor(prof, lib), prof.predictor_param_names, {})
+    rd_nom = ad.redesign(prof, lib, sailed, left, mean_subtraction=ms, reid=nominal)
+    for counts in (rd.counts, oracle_counts, rd_nom.counts):
         e.append(param_error(prof, sailed + sail_crn(prof, interleave(counts, lib), truth, seed, seen.copy()), truth, ms))
-    return *e, rd
+    return *e, rd, rd_nom
 
 
 def adaptive_vs_fixed(
@@ -151,6 +155,10 @@ def adaptive_vs_fixed(
     print(
         "eff fixed / eff adapt (model-based): D-efficiency at the truth of the fixed / re-designed rest against the best rest there"
     )
+    print(
+        "c.ratio: measured error ratio control/fixed, the control the rest re-designed from the same recordings at the "
+        "profile's values (no re-identification); eff ctrl (model-based): its rest's D-efficiency at the truth"
+    )
     print("(eff fixed is the ceiling: 1.0 = no re-design can gain in D); A/D, A/A (model-based, --criterion-gap): predicted")
     print(
         "error of the rest optimal at the truth for the scored metric over the fixed D rest's / over that metric's fixed rest\n"
@@ -158,7 +166,7 @@ def adaptive_vs_fixed(
     rest_fixed_s = rest_seconds(seq, n_first)
     print(
         f"{'trial':>5} {'fixed':>8} {'adaptive':>9} {'ratio':>6} {'oracle':>8} {'o.ratio':>7} {'run wins':>8} "
-        f"{'pred':>5} {'o.pred':>6} {'eff fixed':>9} {'eff adapt':>9} {'A/D':>6} {'A/A':>6}  re-designed rest (first run)"
+        f"{'pred':>5} {'o.pred':>6} {'eff fixed':>9} {'eff adapt':>9} {'c.ratio':>7} {'eff ctrl':>8} {'A/D':>6} {'A/A':>6}  re-designed rest (first run)"
     )
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(28, 5)))
     th0 = prof.params()
@@ -169,20 +177,23 @@ def adaptive_vs_fixed(
         truth = draw_truth(th0, rng, corners)
         oracle, eff_fixed, sailed0, left0 = ceiling(prof, lib, seq[:n_first], seq[n_first:], truth, ms)
         res = [one_run(prof, lib, seq, truth, (seed, t, j), ms, oracle.counts) for j in range(runs)]
-        ef, ea, eo = (np.array([r[i] for r in res]) for i in range(3))
-        failed = int(sum((~np.isfinite(x)).sum() for x in (ef, ea, eo)))
+        ef, ea, eo, en = (np.array([r[i] for r in res]) for i in range(4))
+        failed = int(sum((~np.isfinite(x)).sum() for x in (ef, ea, eo, en)))
         # a failed fit (inf) counts as the worst run; --runs 0: the model-based columns only
-        mf, ma, mo = (np.median(x) if runs else np.nan for x in (ef, ea, eo))
+        mf, ma, mo, mn = (np.median(x) if runs else np.nan for x in (ef, ea, eo, en))
         ok = np.isfinite(mf) and np.isfinite(ma)
         _, pred = error_model(prof, lib, sailed0, truth, left0, ms, noise)
         pe = {k: pred(c) for k, c in (("f", fixed_rest), ("o", oracle.counts))}
-        pa = np.median([pred(r[3].counts) for r in res]) if runs else np.nan
+        pa = np.median([pred(r[4].counts) for r in res]) if runs else np.nan
         gap_d, gap_a = criterion_gap(prof, lib, seq[:n_first], seq[n_first:], truth, th0, ms, noise) if gaps else (np.nan, np.nan)
         row = {
             "ratio": ma / mf if ok else float("nan"),
             "oratio": mo / mf if ok and np.isfinite(mo) else float("nan"),
             "win": bool(ok and ma < mf),
             "owin": bool(ok and mo < mf),
+            "nratio": mn / mf if ok and np.isfinite(mn) else float("nan"),
+            "nwin": bool(ok and mn < mf),
+            "a_vs_n": bool(ok and ma < mn),
             "run_wins": int((ea < ef).sum()),
             "run_differ": int((ea != ef).sum()),
             "pred": pa / pe["f"],
@@ -190,17 +201,20 @@ def adaptive_vs_fixed(
             "eff": eff_fixed,
             "gap_d": gap_d,
             "gap_a": gap_a,
-            "eff_ad": ad.rest_efficiency(prof, lib, sailed0, truth, res[0][3].counts, left0, oracle.logdet_continuous, ms)
+            "eff_ad": ad.rest_efficiency(prof, lib, sailed0, truth, res[0][4].counts, left0, oracle.logdet_continuous, ms)
+            if runs
+            else np.nan,
+            "eff_n": ad.rest_efficiency(prof, lib, sailed0, truth, res[0][5].counts, left0, oracle.logdet_continuous, ms)
             if runs
             else np.nan,
         }
         rows.append(row)
         # the rests compared must be of one length (fixed/adaptive manoeuvring seconds); flagged when not
-        unequal = max((r[3].planned_s for r in res), default=0.0) > rest_fixed_s + 1e-6
+        unequal = max((r[4].planned_s for r in res), default=0.0) > rest_fixed_s + 1e-6
         print(
             f"{t:5d} {mf:8.4f} {ma:9.4f} {row['ratio']:6.3f} {mo:8.4f} {row['oratio']:7.3f} "
             f"{row['run_wins']:>4}/{row['run_differ']:<3} {row['pred']:5.3f} {row['opred']:6.3f} {eff_fixed:9.4f} "
-            f"{row['eff_ad']:9.4f} {gap_d:6.3f} {gap_a:6.3f}  {dict(res[0][3].counts) if runs else dict(oracle.counts)}"
+            f"{row['eff_ad']:9.4f} {row['nratio']:7.3f} {row['eff_n']:8.4f} {gap_d:6.3f} {gap_a:6.3f}  {dict(res[0][4].counts) if runs else dict(oracle.counts)}"
             + (f"  ({failed} fit(s) failed)" if failed else "")
             + ("  ADAPTIVE REST LONGER" if unequal else "")
         )
@@ -221,6 +235,14 @@ def adaptive_vs_fixed(
         print(
             f"{ship}: predicted (model-based) ratio adaptive/fixed median {np.median(col['pred']):.3f}, below 1 in "
             f"{int((col['pred'] < 1).sum())} of {trials}"
+        )
+    if runs:
+        nw, avn = int(col["nwin"].sum()), int(col["a_vs_n"].sum())
+        print(
+            f"{ship}: CONTROL (the rest re-designed from the same recordings at the profile's values, no re-identification) "
+            f"lower than fixed in {nw} of {trials}, median ratio control/fixed {np.nanmedian(col['nratio']):.3f}, its rest's "
+            f"D-efficiency at the truth (model-based) median {np.nanmedian(col['eff_n']):.4f}; adaptive lower than the "
+            f"control in {avn} of {trials}"
         )
     print(
         f"{ship}: predicted (model-based) ratio oracle/fixed median {np.median(col['opred']):.3f}, below 1 in "
