@@ -136,6 +136,9 @@ def rest_efficiency(
     ``theta``. Evaluated at the true parameters this bounds what any re-design can gain over the
     rest ``counts``: 1.0 means the rest is already the optimum there."""
     lib = [p for p in library if p.kind == "informative"]
+    unknown = sorted(set(counts) - {p.name for p in lib})
+    if unknown:  # a misspelt name would score a shorter rest without a word
+        raise DesignError(f"rest_efficiency: {', '.join(unknown)} not an informative manoeuvre of the library")
     _, _, info, _ = rest_problem(profile, lib, runs, theta, time_left_s, mean_subtraction)
     total = int(round(time_left_s / profile.sample_time))  # as redesign's rounding counts it
     w = np.array([counts.get(p.name, 0) * p.n_samples / total for p in lib])

@@ -410,3 +410,5 @@ def test_rest_efficiency_bounds_what_a_redesign_can_gain(model_ship):
     assert eff({"tau1": n_one // 2}) < one  # half the time left unsailed: less information, not the same mix
     fresh = first_design(prof, lib, trial_length_s=300.0, mean_subtraction="batchwise").design.counts
     assert one < 0.8 and one < eff(fresh) <= own + 1e-9
+    with pytest.raises(ad.DesignError, match="tau99"):
+        eff({"tau99": 1})
