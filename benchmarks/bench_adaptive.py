@@ -16,8 +16,9 @@ printed beside the measurements, never instead): the CEILING, the D-efficiency a
 fixed plan's rest against the best rest there, both counting the first third sailed
 (:func:`expdesign.adaptive.rest_efficiency`; 1.0: no re-design can gain in D); a predicted error
 ratio; ``--criterion-gap``: the same model's gain of a design in the scored metric (relative A).
-Measured beside them: an oracle re-design at the truth, sailed as the other two; single-run wins
-(each run one noisy trial). ``--runs 0``: the model-based columns only. ``--score predictive``:
+Measured beside them: an oracle re-design at the truth, and a CONTROL re-designed from the same
+recordings at the profile's values (no re-identification: what the re-design gains without
+learning the ship), sailed as the other two; single-run wins (each run one noisy trial). ``--runs 0``: the model-based columns only. ``--score predictive``:
 the estimates scored by the predictor's simulation of held-out noise-free runs of the truth
 (:func:`predictive_vs_fixed`; refused where the predictor is not the ship's simulation model).
 
