@@ -101,6 +101,48 @@ class Redesign:
     reid: Reidentification
     record: dict[str, Any]
     notes: list[str] = field(default_factory=list)
+    logdet_continuous: float = float("nan")  # the continuous optimum's, before rounding: the bound rounding leaves
+
+
+def rest_problem(
+    profile: ShipProfile,
+    lib: Sequence[Primitive],
+    runs: Sequence[SailedRun],
+    theta: np.ndarray,
+    time_left_s: float,
+    mean_subtraction: str,
+) -> tuple[list[PrimitiveInfo], PrimitiveInfo, InfoSet, list[str]]:
+    """M_rest and M_sailed at ``theta`` and their (7.58) sum's InfoSet, the sailed term weighted
+    by its samples against the time left's."""
+    infos, notes = rest_information(profile, lib, theta)
+    sailed = sailed_information(profile, runs, None if notes else theta, mean_subtraction)
+    info = InfoSet.from_infos(infos, sailed, sailed.n_samples * profile.sample_time / time_left_s)
+    return infos, sailed, info, notes
+
+
+def rest_efficiency(
+    profile: ShipProfile,
+    library: Sequence[Primitive],
+    runs: Sequence[SailedRun],
+    theta: np.ndarray,
+    counts: dict[str, int],
+    time_left_s: float,
+    logdet_optimum: float,
+    mean_subtraction: str = "complete",
+) -> float:
+    """D-efficiency (det Gamma_counts / det Gamma_opt)^(1/p) at ``theta`` of the whole trial
+    whose rest is ``counts`` (whole manoeuvres of ``library``), both trials counting the sailed
+    ``runs`` (7.58); ``logdet_optimum``: :attr:`Redesign.logdet_continuous` of the re-design at
+    ``theta``. Evaluated at the true parameters this bounds what any re-design can gain over the
+    rest ``counts``: 1.0 means the rest is already the optimum there."""
+    lib = [p for p in library if p.kind == "informative"]
+    unknown = sorted(set(counts) - {p.name for p in lib})
+    if unknown:  # a misspelt name would score a shorter rest without a word
+        raise DesignError(f"rest_efficiency: {', '.join(unknown)} not an informative manoeuvre of the library")
+    _, _, info, _ = rest_problem(profile, lib, runs, theta, time_left_s, mean_subtraction)
+    total = int(round(time_left_s / profile.sample_time))  # as redesign's rounding counts it
+    w = np.array([counts.get(p.name, 0) * p.n_samples / total for p in lib])
+    return float(np.exp((info.logdet(w, mean_subtraction) - logdet_optimum) / info.n_params))
 
 
 def _simulate_predictor(profile: ShipProfile, inputs: np.ndarray, theta: np.ndarray, nu0: np.ndarray) -> SimResult:
@@ -257,8 +299,7 @@ def redesign(
             f"{shortest.duration_s:.0f} s; give --time-left >= {shortest.duration_s:.0f} or end the trial"
         )
     reid = reid if reid is not None else reidentify(profile, runs, profile_predictor(profile, lib))
-    infos, info_notes = rest_information(profile, lib, reid.theta)
-    sailed = sailed_information(profile, runs, None if info_notes else reid.theta, mean_subtraction)
+    infos, sailed, info, info_notes = rest_problem(profile, lib, runs, reid.theta, time_left_s, mean_subtraction)
     d = run_design(
         profile,
         lib,
@@ -272,8 +313,6 @@ def redesign(
         convex_solvers=DESIGN_SOLVERS,
     )
     ts = profile.sample_time
-    a = sailed.n_samples * ts / time_left_s
-    info = InfoSet.from_infos(infos, sailed, a)
     w = np.array([d.weights[p.name] for p in lib])
     units = np.array([p.n_samples for p in lib])
     total = int(round(time_left_s / ts))
@@ -301,7 +340,7 @@ def redesign(
         f"information (7.58): {', '.join(f'{k} x{v}' for k, v in counts.items())} in {time_left_s:.0f} s"
     ]
     notes += reid.notes + info_notes + [f"warning: {x}" for x in reid.disagrees]
-    return Redesign(counts, record["weights"], float(time_left_s), planned, ld_sailed, ld_total, reid, record, notes)
+    return Redesign(counts, record["weights"], float(time_left_s), planned, ld_sailed, ld_total, reid, record, notes, d.logdet)
 
 
 def sail(

@@ -379,3 +379,36 @@ def test_the_rest_leaves_out_what_the_first_plan_dropped_for_sea_room(sailed, mo
     with pytest.raises(RuntimeError, match="captured"):
         mr.resume_plan(plan, runs, mr.Position(lat, lon, hdg), 600.0, load_map("helsinki", draught_m=prof.draught_m), prof)
     assert "tau12" not in seen["names"] and "tau16" in seen["names"]
+
+
+def test_rest_efficiency_bounds_what_a_redesign_can_gain(model_ship):
+    """The D-efficiency at the true parameters of a rest of the trial against the best rest there
+    (both counting the sailed runs, (7.58)): the re-design at the truth scores its own rounding
+    loss only (consistent with its log-dets, <= 1), a rest of one manoeuvre repeated scores far
+    lower, and the first design's rest lies between (what the benchmark prints as the ceiling)."""
+    prof, lib, by = model_ship
+    truth = prof.params() * (1 + 0.3 * np.random.default_rng(5).uniform(-1, 1, prof.params().shape))
+    runs = ad.sail(prof, [by[n] for n in ("tau1", "tau6", "tau8")], truth, (0.0,) * 3, np.random.default_rng(0))
+    reid = ad.Reidentification(truth, prof.predictor_param_names, {})
+    oracle = ad.redesign(prof, lib, runs, 300.0, mean_subtraction="batchwise", reid=reid)
+    p = len(truth)
+
+    def eff(counts):
+        return ad.rest_efficiency(prof, lib, runs, truth, counts, 300.0, oracle.logdet_continuous, "batchwise")
+
+    # the bound is the continuous optimum's log det (not the rounded one's) on the efficiency's own
+    # normalisation: the design's weights give it back through rest_problem's (7.58) sum
+    lib_i = [q for q in lib if q.kind == "informative"]
+    _, _, info, _ = ad.rest_problem(prof, lib_i, runs, truth, 300.0, "batchwise")
+    w = np.array([oracle.weights.get(q.name, 0.0) for q in lib_i])
+    assert info.logdet(w / w.sum(), "batchwise") == pytest.approx(oracle.logdet_continuous, abs=1e-3)
+    own = eff(oracle.counts)
+    assert own == pytest.approx(np.exp((oracle.logdet_total - oracle.logdet_continuous) / p), rel=1e-9)
+    assert 0.9 < own <= 1.0 + 1e-9
+    n_one = int(300.0 // by["tau1"].duration_s)
+    one = eff({"tau1": n_one})
+    assert eff({"tau1": n_one // 2}) < one  # half the time left unsailed: less information, not the same mix
+    fresh = first_design(prof, lib, trial_length_s=300.0, mean_subtraction="batchwise").design.counts
+    assert one < 0.8 and one < eff(fresh) <= own + 1e-9
+    with pytest.raises(ad.DesignError, match="tau99"):
+        eff({"tau99": 1})
