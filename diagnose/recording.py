@@ -26,8 +26,10 @@ from diagnose.recording_meta import (  # noqa: F401  (the header values re-expor
     MAX_TRIAL_WIND_MPS,
     RUDDER_SIGNS,
     WIND_REFERENCES,
+    YAW_RATE_SIGNS,
     check_meta,
     true_wind,
+    yaw_rate_as_said,
 )
 from diagnose.recording_table import INPUTS, MAX_BRIDGE_S  # noqa: F401  (re-exported)
 from primitives.errors import UserError
@@ -226,9 +228,14 @@ def split_metadata(lines: list[str]) -> tuple[dict[str, str], list[str]]:
 
 
 def read_csv(
-    path: str | Path, *, sample_time: float | None = None, inputs: tuple[str, ...] | list[str] | None = None
+    path: str | Path,
+    *,
+    sample_time: float | None = None,
+    inputs: tuple[str, ...] | list[str] | None = None,
+    yaw_rate_sign: str | None = None,
 ) -> list[Recording]:
-    """A recording CSV in the README's recording format (one or more gap-free pieces; ``inputs``: see :func:`build_recording`)."""
+    """A recording CSV in the README's recording format (one or more gap-free pieces; ``inputs``: see
+    :func:`build_recording`; ``yaw_rate_sign``: stands for the header line ``# yaw_rate_sign:``)."""
     path = Path(path)
     meta, body = split_metadata(_read_text(path, "utf-8-sig").splitlines())
     if not body:
@@ -264,8 +271,9 @@ def read_csv(
         cols[name] = vals
     check_meta(path, meta)
     ts = sample_time or (float(meta["sample_time"]) if "sample_time" in meta else None)
+    yaw_note = yaw_rate_as_said(cols, meta, yaw_rate_sign)
     recs = build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts, inputs=inputs)
-    return [true_wind(path, r) for r in recs]
+    return [true_wind(path, replace(r, notes=[*r.notes, yaw_note]) if yaw_note else r) for r in recs]
 
 
 def _check_header(path: Path, header: list[str], line: str, inputs: tuple[str, ...] | list[str] = ()) -> None:
@@ -367,15 +375,21 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
 
 
 def load_recording(
-    path: str | Path, *, sample_time: float | None = None, inputs: tuple[str, ...] | list[str] | None = None
+    path: str | Path,
+    *,
+    sample_time: float | None = None,
+    inputs: tuple[str, ...] | list[str] | None = None,
+    yaw_rate_sign: str | None = None,
 ) -> list[Recording]:
     """Read a recording file by its suffix (.csv or MARIN .dat); a list of gap-free pieces. ``inputs``:
-    the input columns the ship uses (only they and the state split a run at a long gap)."""
+    the input columns the ship uses (only they and the state split a run at a long gap);
+    ``yaw_rate_sign``: the CSV's yaw rate convention, for its header line ``# yaw_rate_sign:``
+    (a MARIN file's is known: starboard-positive)."""
     p = Path(path)
     if p.suffix.lower() == ".dat":
         return [read_marin_dat(p, sample_time=sample_time or 1.0)]
     if p.suffix.lower() in (".csv", ".txt"):
-        return read_csv(p, sample_time=sample_time, inputs=inputs)
+        return read_csv(p, sample_time=sample_time, inputs=inputs, yaw_rate_sign=yaw_rate_sign)
     raise RecordingError(
         f"{p}: unknown recording format {p.suffix!r}; give a .csv (the README's recording format) or MARIN .dat file"
     )

@@ -55,6 +55,7 @@ def test_environment_header_read_from_csv(tc35, tmp_path):
     [
         ("# environment: lake", ["environment", "lake", "sea, basin, towing-tank"]),
         ("# rudder_sign: left", ["rudder_sign", "left", "port-positive, starboard-positive"]),
+        ("# yaw_rate_sign: clockwise", ["yaw_rate_sign", "clockwise", "starboard-positive, port-positive"]),
     ],
 )
 def test_unknown_header_value_refused_in_one_line(tmp_path, capsys, line, words):
@@ -75,7 +76,7 @@ def test_unknown_header_value_refused_in_one_line(tmp_path, capsys, line, words)
 
 def test_option_values_refused_in_one_line(tmp_path, capsys):
     path = DATA / "MARIN_FREE_KVLCC2_zz_10_m.dat"
-    for opt in (["--environment", "lake"], ["--rudder-sign", "port"]):
+    for opt in (["--environment", "lake"], ["--rudder-sign", "port"], ["--yaw-rate-sign", "cw"]):
         code = _run(["diagnose", str(path), "--ship", "kvlcc2-linear", *opt])
         err = capsys.readouterr().err.strip()
         assert code == 2 and err.startswith(f"error: {opt[0]} {opt[1]}") and len(err.splitlines()) == 1
@@ -167,3 +168,27 @@ def test_environment_option_stands_for_the_header(tc35, tmp_path, capsys):
     reasons = {u["effect"]: u["reason"] for u in out["untestable"]}
     assert "basin or towing tank" in reasons["current"], reasons
     assert not any(f["effect"] == "current" for f in out["findings"])
+
+
+def test_yaw_rate_in_the_other_convention_converted_or_refused(tmp_path, capsys):
+    """A log whose r is positive turning to port (the mathematical convention) loads unchanged with
+    '# yaw_rate_sign: port-positive' or --yaw-rate-sign port-positive (r negated before it is
+    checked against the heading, said in the notes); without either it is refused in one line that
+    names the header, nothing written."""
+    rec = read_marin_dat(DATA / "MARIN_FREE_KVLCC2_zz_10_m.dat")
+    y = rec.y.copy()
+    y[:, 2] = -y[:, 2]
+    flipped = dataclasses.replace(rec, y=y)
+    path = write_csv(flipped, tmp_path / "port.csv", meta={"yaw_rate_sign": "port-positive"})
+    got = load_recording(path)[0]
+    np.testing.assert_allclose(got.y[:, 2], rec.y[:, 2], atol=1e-6)
+    assert any("yaw rate r converted from port-positive" in n for n in got.notes), got.notes
+    bare = write_csv(flipped, tmp_path / "bare.csv")
+    with pytest.raises(RecordingError, match="yaw_rate_sign: port-positive"):
+        load_recording(bare)
+    np.testing.assert_allclose(load_recording(bare, yaw_rate_sign="port-positive")[0].y[:, 2], rec.y[:, 2], atol=1e-6)
+    out = tmp_path / "out"
+    code = _run(["diagnose", str(bare), "--ship", "kvlcc2-linear", "--out", str(out)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.startswith("error:") and len(err.splitlines()) == 1 and "yaw_rate_sign" in err
+    assert not out.exists()
