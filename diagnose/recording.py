@@ -60,7 +60,10 @@ NUMERIC = (
     "phi",
     "p",
     "v_dot",
-)  # v_dot: measured sway acceleration, m/s^2 (optional; change detection uses it)
+    "u_water",
+    "v_water",
+)  # v_dot: measured sway acceleration, m/s^2 (optional; change detection uses it); u_water, v_water: speed
+# through the water, body axes, m/s (a log's; optional, diagnose.current_direct measures the current with it)
 
 
 class RecordingError(UserError):
@@ -168,6 +171,8 @@ def build_recording(
     gap-free piece (most files give one).
     """
     meta = dict(meta or {})
+    # u, v over ground: measured (columns, e.g. a GNSS Doppler) or derived from the track (the reader's own)
+    meta.setdefault("velocities", "recorded" if "u" in cols and "v" in cols else "derived from the track")
     t, cols = tb.check_table(src, cols)
     t, cols, ts, notes, irregular = tb.uniform_axis(src, t, cols, sample_time, min_samples)
     valid, _ = tb.complete_rows(src, cols, inputs)
@@ -346,6 +351,7 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
         "scale_factor": "1",
         "environment": "basin",
         "rudder_sign": "port-positive",
+        "velocities": "derived from the track",  # the published u, v are dx0/dt, dy0/dt
     }
     t_raw = cols["t"]
     if not np.all(np.isfinite(t_raw)) or np.any(np.diff(t_raw) < 0) or len(np.unique(t_raw)) < 3:

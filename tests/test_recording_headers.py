@@ -37,9 +37,40 @@ def test_marin_runs_are_basin_runs_and_get_no_current_candidate(tc35):
     assert tc35.environment == "basin" and tc35.in_tank
     reasons = _environment_untestable(p, [tc35])
     assert "basin or towing tank" in reasons["current"] and "basin or towing tank" in reasons["wind"]
-    at_sea = dataclasses.replace(tc35, meta={**tc35.meta, "environment": "sea"})
+    # the same turning circle at sea with u, v measured over ground: a current is a candidate
+    at_sea = dataclasses.replace(tc35, meta={**tc35.meta, "environment": "sea", "velocities": "recorded"})
     cands, _ = build_library(p, [at_sea])
-    assert "current" in {c.effect for c in cands}  # the same turning circle at sea: a current is a candidate
+    assert "current" in {c.effect for c in cands}
+
+
+def test_a_current_is_not_inferred_from_a_track_alone_and_is_measured_with_a_log(tc35):
+    """At sea, u, v derived from the track (MARIN's are: dx0/dt, dy0/dt) and no speed through the
+    water: a current is not offered, the reason says it cannot be told from a model error (before,
+    MARIN's zig-zags named a 0.46 m/s current). With a log's speed through the water the drift
+    between the two measures it: 0.5 m/s toward 60 deg recovered; a log that agrees with the track
+    rules a current out."""
+    from diagnose.current_direct import measure
+
+    p = load_profile("kvlcc2-linear")
+    sea = dataclasses.replace(tc35, meta={**tc35.meta, "environment": "sea"})
+    cands, untestable = build_library(p, [sea])
+    assert "current" not in {c.effect for c in cands}
+    why = next(u["reason"] for u in untestable if u["effect"] == "current")
+    assert "derived from the track" in why and "cannot be told" in why
+    c, s_ = np.cos(sea.psi), np.sin(sea.psi)
+    cn, ce = 0.5 * np.cos(np.radians(60.0)), 0.5 * np.sin(np.radians(60.0))
+    noise = np.random.default_rng(1).normal(0.0, 0.05, (2, len(sea.t)))
+    logged = {"u_water": sea.y[:, 0] - (c * cn + s_ * ce) + noise[0], "v_water": sea.y[:, 1] - (-s_ * cn + c * ce) + noise[1]}
+    with_log = dataclasses.replace(sea, channels={**sea.channels, **logged})
+    m = measure([with_log])
+    assert m.speed == pytest.approx(0.5, abs=0.02) and m.toward_deg == pytest.approx(60.0, abs=3.0) and 0 < m.std < 0.02
+    cands, _ = build_library(p, [with_log])
+    cur = next(c for c in cands if c.effect == "current")
+    assert "measured from the track against the speed through the water" in cur.description
+    agree = dataclasses.replace(sea, channels={**sea.channels, "u_water": sea.y[:, 0] + noise[0]})  # a one-axis log
+    cands, untestable = build_library(p, [agree])
+    assert "current" not in {c.effect for c in cands}
+    assert "within 2 std of no current" in next(u["reason"] for u in untestable if u["effect"] == "current")
 
 
 def test_environment_header_read_from_csv(tc35, tmp_path):
