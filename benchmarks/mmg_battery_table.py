@@ -90,6 +90,22 @@ def coverage(row: dict, part: str = "") -> Counter:
     return out
 
 
+def wind_by_dof(rows: list[dict]) -> str:
+    """Coverage of the concealed wind's mean acceleration per DOF (whole interval), over the rows."""
+    hit: Counter = Counter()
+    n: Counter = Counter()
+    for row in rows:
+        chk = full_scale_truth(row["truth"])["checks"].get("wind", {}).get("wind")
+        if not chk or row.get("error"):
+            continue
+        f = next((f for f in row.get("findings") or [] if f.get("effect") == "wind"), None)
+        p = (f or {}).get("parameters") or {}
+        for key, true in chk[0].items():
+            n[key] += 1
+            hit[key] += _score(_num(p.get(key)), _std_of(p, key), true) == "in"
+    return ", ".join(f"{k.removeprefix('wind_accel_')} {hit[k]}/{n[k]}" for k in n)
+
+
 def _coverage_text(c: Counter) -> str:
     n = sum(c.values())
     parts = ", ".join(f"{k} {c[k]}" for k in OUTCOMES if c[k])
@@ -142,6 +158,8 @@ def table(rows: list[dict]) -> str:
         for part, what in PARTS.items():
             if groups[g][part]:
                 lines.append(f"95 % intervals holding the true value, {label}, {what}: {_coverage_text(groups[g][part])}")
+    if any(r["truth"].get("concealed") == "wind" for r in rows):
+        lines.append(f"the wind's mean acceleration inside its 95 % interval, per DOF: {wind_by_dof(rows)}")
     lines.append(
         "named findings whose reported interval includes no effect (|estimate| < 1 std, which the diagnosis "
         f"drops when judged on noise and run-to-run misfit): {len(flips)}" + (f" ({', '.join(flips)})" if flips else "")
