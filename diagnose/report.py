@@ -124,7 +124,9 @@ def _effect(f: dict) -> str:
         )
         return f"the {f['dof']} inertia is {ratio} (increments scaled by {1 + p['scale']:.3f}{_pm(p, 'scale_std', '.3f')})"
     if e == "wind":
-        acc = [(k, u) for k, u in (("surge", "m/s^2"), ("sway", "m/s^2"), ("yaw", "rad/s^2")) if p.get(f"wind_accel_{k}") is not None]
+        acc = [
+            (k, u) for k, u in (("surge", "m/s^2"), ("sway", "m/s^2"), ("yaw", "rad/s^2")) if p.get(f"wind_accel_{k}") is not None
+        ]
         return (
             "the recorded wind pushes the ship (Blendermann's loads scaled per DOF by "
             + ", ".join(
