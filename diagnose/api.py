@@ -401,7 +401,7 @@ def _finding(st, model: AugmentedModel, P: np.ndarray, cov: FindingCov, free: li
         "description": c.description,
         "plausibility": why or "no ship-scaled limit applies",
         "heldout_per_run": st.heldout,
-        "interval": interval_note(cov) if len(cov.noise) else None,
+        "interval": interval_note(cov, c.key) if len(cov.noise) else None,
     }
 
 

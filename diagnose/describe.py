@@ -197,9 +197,10 @@ def add_wind_means(findings: list[dict], model: AugmentedModel, preps: list, P: 
         f["parameters"].update(windload.mean_acceleration(preps, P[idx], {k: C[ix] for k, C in parts.items()}))
 
 
-def interval_note(cov) -> dict:
+def interval_note(cov, key: str | None = None) -> dict:
     """What a finding's +- std covers (JSON ``interval``; the text report prints ``covers``), in
-    words a trials engineer can act on. ``diagnosed_runs``: the diagnosed recordings given;
+    words a trials engineer can act on; ``key``: the finding's candidate key (whether the --fit-on
+    runs' misfit was measured for it). ``diagnosed_runs``: the diagnosed recordings given;
     ``between_run_runs``: the runs the run-to-run misfit was measured over (0: none)."""
     runs, ref = cov.n_runs, getattr(cov, "reference_runs", 0)
     given = max(getattr(cov, "runs_given", 0) or runs, 1)
@@ -213,14 +214,18 @@ def interval_note(cov) -> dict:
                 " (rough with two runs: a spread with one degree of freedom, it can be several times too "
                 "large or too small; diagnose a third run to firm it up)"
             )
-    measured = getattr(cov, "reference", None) is not None
+    tried = getattr(cov, "reference", None) is not None
+    measured = tried and (key is None or key in getattr(cov, "reference_keys", frozenset()))
     if measured:
         what += " and the misfit the --fit-on runs (which hold no such effect) put on the finding"
-    missing = (
-        "a model error common to every run that the --fit-on runs do not show"
-        if measured
-        else "a model error common to every run (give --fit-on runs to measure it)"
-    )
+        missing = "a model error common to every run that the --fit-on runs do not show"
+    elif tried:
+        missing = (
+            "a model error common to every run (the --fit-on runs do not move this finding's parameters, "
+            "e.g. they recorded no wind, or its refit there was not finite: their misfit on it was not measured)"
+        )
+    else:
+        missing = "a model error common to every run (give --fit-on runs to measure it)"
     if getattr(cov, "misfit_failed", False):
         missing = (
             "the model's run-to-run misfit (its leave-one-run-out spread was not finite: a run's fit diverges "

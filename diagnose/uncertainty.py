@@ -210,6 +210,7 @@ class FindingCov:
     reference_runs: int = 0  # of those, --fit-on runs fitted jointly (a ReferencedModel)
     misfit_failed: bool = False  # the leave-one-run-out spread was not finite: no misfit term
     reference: np.ndarray | None = None  # --fit-on runs' misfit on the findings (module docstring)
+    reference_keys: frozenset[str] = frozenset()  # findings (candidate keys) that misfit was measured for
 
     @property
     def runs(self) -> np.ndarray:
@@ -359,15 +360,19 @@ def with_reference(
     """``cov`` with the --fit-on runs' misfit (:func:`reference_misfit`) of each finding ``keys``
     (candidate keys, their slots among ``free``; the baseline parameters among ``free`` refitted
     with it, prior std ``prior_sd``) as its ``reference`` part, one block per finding (each
-    refitted alone on those runs)."""
+    refitted alone on those runs); ``reference_keys`` the findings it was measured for (not one
+    those runs do not move, such as a wind where they recorded none)."""
     base_free = [j for j in free if j < model.n_base]
     R = np.zeros_like(cov.noise)
     P0 = model.p0()
+    measured = set()
     for key in keys:
         own = list(model.slot_of[key])
         term = reference_misfit(model, calm, w, P0, own, base_free, prior_sd)
         if term is not None:
             pos = [free.index(j) for j in own]
             R[np.ix_(pos, pos)] = term
+            measured.add(key)
     cov.reference = _finite(R)
+    cov.reference_keys = frozenset(measured)
     return cov

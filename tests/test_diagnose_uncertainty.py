@@ -296,3 +296,19 @@ def test_the_fit_on_misfit_term_covers_a_model_error_common_to_every_run():
     assert np.mean(z_runs < 1.96) < 0.5  # noise and run-to-run spread: the bias is outside most intervals
     assert np.mean(z_all < 1.96) > 0.9
     assert np.median(widen) < 1.05
+
+
+def test_a_finding_the_fit_on_runs_cannot_move_is_not_said_to_cover_their_misfit():
+    """The --fit-on runs' misfit is measured per finding: a wind finding gets none when the calm
+    runs recorded no wind. Its interval then must not claim that misfit, and says why it was not
+    measured; a finding it was measured for says it is covered."""
+    from diagnose.describe import interval_note
+    from diagnose.uncertainty import FindingCov
+
+    c = FindingCov(np.eye(2), np.zeros((2, 2)), 3, fit_on=True, runs_given=3)
+    c.reference, c.reference_keys = np.zeros((2, 2)), frozenset({"delay"})
+    moved, unmoved = interval_note(c, "delay")["covers"], interval_note(c, "wind")["covers"]
+    assert "the misfit the --fit-on runs (which hold no such effect) put on the finding" in moved
+    assert "that the --fit-on runs do not show" in moved
+    assert "put on the finding" not in unmoved
+    assert "the --fit-on runs do not move this finding's parameters, e.g. they recorded no wind" in unmoved
