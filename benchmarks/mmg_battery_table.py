@@ -28,6 +28,13 @@ Z95 = 1.96
 PARTS = {"": "whole interval", "_runs": "noise and run-to-run part", "_noise": "noise part"}
 OUTCOMES = ("in", "out", "no estimate", "no std", "error", "spurious in", "spurious out")
 NOT_COVERED = ("out", "no estimate", "no std", "error", "spurious out")
+# magnitudes shown apart, never counted in a coverage figure: the wind's mean yaw acceleration is
+# near zero by cancellation (the yaw moment changes sign with the relative wind's side over a
+# run's headings: 5e-7 to 1e-6 rad/s^2 at full scale, 0.13 and 0.35 of its rms over the diagnosed
+# runs on seed 1 of wind-18-gusty and wind-18, where surge's and sway's means are 0.64 to 0.83 of
+# theirs), so an error relative to it, or a 95 % interval's hold on it, says little about how
+# well the yaw moment was measured
+APART = {"wind_accel_yaw": "a mean near zero by cancellation over the headings, not counted in the figures above"}
 
 
 def _score(est: float | None, sd: float | None, true: float, deg: bool = False) -> str:
@@ -45,11 +52,12 @@ def _matches(f: dict, checks: dict) -> bool:
 
 
 def _magnitudes(checks: dict) -> list[tuple[str, float]]:
-    """(key, true value) of every checked magnitude that has a std key (the wind: one per DOF)."""
+    """(key, true value) of every checked magnitude that has a std key (the wind: one per DOF but
+    those shown :data:`APART`)."""
     out = []
     for key, spec in checks.items():
         if key == "wind":
-            out += list(spec[0].items())
+            out += [(k, v) for k, v in spec[0].items() if k not in APART]
         elif key in STD_KEY and isinstance(spec[0], int | float):
             out.append((key, float(spec[0])))
     return out
@@ -83,7 +91,11 @@ def coverage(row: dict, part: str = "") -> Counter:
         if i in used:
             continue
         p = f.get("parameters") or {}
-        keys = [k for k in p if (k in STD_KEY or k.startswith("wind_accel_") and "_std" not in k) and _num(p[k]) is not None]
+        keys = [
+            k
+            for k in p
+            if (k in STD_KEY or k.startswith("wind_accel_") and "_std" not in k) and k not in APART and _num(p[k]) is not None
+        ]
         for key in keys or ["-"]:
             s = "no std" if key == "-" else _score(_num(p.get(key)), _std_of(p, key, part), 0.0, key == "offset_deg")
             out[s if s == "no std" else f"spurious {s}"] += 1
@@ -91,7 +103,8 @@ def coverage(row: dict, part: str = "") -> Counter:
 
 
 def wind_by_dof(rows: list[dict]) -> str:
-    """Coverage of the concealed wind's mean acceleration per DOF (whole interval), over the rows."""
+    """Coverage of the concealed wind's mean acceleration per DOF (whole interval), over the rows;
+    a DOF shown :data:`APART` says why it is not counted elsewhere."""
     hit: Counter = Counter()
     n: Counter = Counter()
     for row in rows:
@@ -103,7 +116,7 @@ def wind_by_dof(rows: list[dict]) -> str:
         for key, true in chk[0].items():
             n[key] += 1
             hit[key] += _score(_num(p.get(key)), _std_of(p, key), true) == "in"
-    return ", ".join(f"{k.removeprefix('wind_accel_')} {hit[k]}/{n[k]}" for k in n)
+    return ", ".join(f"{k.removeprefix('wind_accel_')} {hit[k]}/{n[k]}" + (f" ({APART[k]})" if k in APART else "") for k in n)
 
 
 def _coverage_text(c: Counter) -> str:
@@ -152,7 +165,7 @@ def table(rows: list[dict]) -> str:
     lines.append(f"right {hits}/{len(rows)} ({100 * hits / max(len(rows), 1):.0f} %)")
     for g, label in (
         ("all", "all"),
-        ("wind", "wind's mean acceleration per DOF (truth: Isherwood, estimator: Blendermann)"),
+        ("wind", "wind's mean acceleration in surge and sway (truth: Isherwood, estimator: Blendermann)"),
         ("rest", "the others"),
     ):
         for part, what in PARTS.items():
@@ -165,7 +178,8 @@ def table(rows: list[dict]) -> str:
         f"drops when judged on noise and run-to-run misfit): {len(flips)}" + (f" ({', '.join(flips)})" if flips else "")
     )
     lines.append(
-        "(magnitudes scored: delay, current speed, offset, thrust loss, bias, damping value, wind's mean acceleration per DOF; "
+        "(magnitudes scored: delay, current speed, offset, thrust loss, bias, damping value, wind's mean acceleration in "
+        "surge and sway (yaw's shown apart above); "
         "not covered: out, no estimate (missed or wrong effect), no std, error (ERROR row), spurious out "
         "(a finding not concealed whose interval excludes 0); spurious in counts as covered)"
     )
