@@ -305,6 +305,11 @@ def _check_header(path: Path, header: list[str], line: str, inputs: tuple[str, .
                 f"{path}: column {name!r} in the header {shown!r}: name it exactly {base!r} "
                 "(lower case, no unit: values are read in SI units, angles in rad)"
             )
+    if "v_water" in seen and "u_water" not in seen:
+        raise RecordingError(
+            f"{path}: column 'v_water' without 'u_water': a log's speed through the water needs its forward part; "
+            "add column u_water (m/s, body frame, forward) or drop v_water"
+        )
     missing = tb.missing_columns(header, inputs)
     if missing:
         ship = f" (the ship's inputs are {', '.join(inputs)}: add them, or choose the matching --ship)" if inputs else ""

@@ -223,3 +223,14 @@ def test_yaw_rate_in_the_other_convention_converted_or_refused(tmp_path, capsys)
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.startswith("error:") and len(err.splitlines()) == 1 and "yaw_rate_sign" in err
     assert not out.exists()
+
+
+def test_a_sideways_log_without_its_forward_part_refused_in_one_line(tc35, tmp_path, capsys):
+    """v_water alone (no u_water) cannot measure a current and is not silently ignored: one line
+    naming the file and both columns, exit 2, nothing written."""
+    path = write_csv(dataclasses.replace(tc35, channels={**tc35.channels, "v_water": tc35.y[:, 1]}), tmp_path / "log.csv")
+    out = tmp_path / "out"
+    code = _run(["diagnose", str(path), "--ship", "kvlcc2-linear", "--out", str(out)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and str(path) in err
+    assert "'v_water' without 'u_water'" in err and not out.exists()
