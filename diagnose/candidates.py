@@ -117,8 +117,8 @@ def _environment(profile: ShipProfile, recordings: list[Recording], y: np.ndarra
         untestable.append(
             {
                 "effect": "current",
-                "reason": "u, v were derived from the track (no u, v columns) and no speed through the water was "
-                "recorded: a current would be a misfit rotating with the heading, which a model error can mimic, so "
+                "reason": "u, v were derived from the track (no u, v columns, or a model test's track derivatives) and "
+                "no speed through the water was recorded: a current would be a misfit rotating with the heading, which a model error can mimic, so "
                 "it cannot be told from one; record the speed through the water (columns u_water, v_water) to measure it",
             }
         )

@@ -171,8 +171,13 @@ def build_recording(
     gap-free piece (most files give one).
     """
     meta = dict(meta or {})
-    # u, v over ground: measured (columns, e.g. a GNSS Doppler) or derived from the track (the reader's own)
-    meta.setdefault("velocities", "recorded" if "u" in cols and "v" in cols else "derived from the track")
+    # u, v over ground: measured (columns, e.g. a GNSS Doppler) or derived from the track (the reader's own;
+    # a header '# velocities: derived from the track', as write_csv keeps a MARIN run's, is believed, the
+    # other way round it is not: without the columns they are derived here, whatever a header says)
+    if "u" in cols and "v" in cols:
+        meta.setdefault("velocities", "recorded")
+    else:
+        meta["velocities"] = "derived from the track"
     t, cols = tb.check_table(src, cols)
     t, cols, ts, notes, irregular = tb.uniform_axis(src, t, cols, sample_time, min_samples)
     valid, _ = tb.complete_rows(src, cols, inputs)

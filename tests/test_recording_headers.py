@@ -234,3 +234,23 @@ def test_a_sideways_log_without_its_forward_part_refused_in_one_line(tc35, tmp_p
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and str(path) in err
     assert "'v_water' without 'u_water'" in err and not out.exists()
+
+
+def test_a_header_cannot_say_velocities_were_recorded_when_the_file_has_no_u_v(tc35, tmp_path):
+    """Provenance of u, v comes from the columns: a file without u, v has them derived from the
+    track whatever a '# velocities:' header says (else a current would be inferred from a track
+    alone); a MARIN run written back to CSV keeps 'derived from the track'."""
+    from diagnose.current_direct import from_track_alone
+
+    back = load_recording(write_csv(tc35, tmp_path / "back.csv"))
+    assert back[0].meta["velocities"] == "derived from the track" and from_track_alone(back)
+    text = (tmp_path / "back.csv").read_text().splitlines()
+    head = [ln for ln in text if ln.startswith("#") and "velocities" not in ln]
+    rows = [ln for ln in text if not ln.startswith("#")]
+    names = rows[0].split(",")
+    keep = [i for i, n in enumerate(names) if n not in ("u", "v")]
+    body = [",".join(r.split(",")[i] for i in keep) for r in rows]
+    path = tmp_path / "track.csv"
+    path.write_text("\n".join([*head, "# velocities: recorded", *body]) + "\n")
+    got = load_recording(path)
+    assert got[0].meta["velocities"] == "derived from the track" and from_track_alone(got)
