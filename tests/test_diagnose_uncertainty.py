@@ -280,22 +280,26 @@ def test_the_fit_on_misfit_term_covers_a_model_error_common_to_every_run():
     zero (the interval is not widened for nothing)."""
     from diagnose.uncertainty import misfit_term
 
-    z_runs, z_all, widen = [], [], []
+    z_runs, z_all, z_one, widen = [], [], [], []
     for seed in range(200):
         rng = np.random.default_rng(seed)
         b_hat, pairs = _misfit_runs(rng, c=0.2, b=0.5)
         _b0, calm = _misfit_runs(rng, c=0.2, b=0.0, finding=False)
         cov = propagated(pairs, 2)
-        ref = misfit_term(calm, 1)
-        assert ref is not None and ref.shape == (1, 1)
+        ref, ref_one = misfit_term(calm, 1), misfit_term(calm[:1], 1)  # two --fit-on runs, and one
+        assert ref is not None and ref.shape == (1, 1) and ref[0, 0] >= 0 and ref_one[0, 0] >= 0  # never narrower
         z_runs.append(abs(b_hat - 0.5) / np.sqrt(cov.total[1, 1]))
         z_all.append(abs(b_hat - 0.5) / np.sqrt(cov.total[1, 1] + ref[0, 0]))
+        z_one.append(abs(b_hat - 0.5) / np.sqrt(cov.total[1, 1] + ref_one[0, 0]))
         _b1, clean = _misfit_runs(rng, c=0.0, b=0.0, finding=False)
         widen.append(np.sqrt((cov.noise[1, 1] + misfit_term(clean, 1)[0, 0]) / cov.noise[1, 1]))
-    z_runs, z_all = np.array(z_runs), np.array(z_all)
+    z_runs, z_all, widen = np.array(z_runs), np.array(z_all), np.array(widen)
     assert np.mean(z_runs < 1.96) < 0.5  # noise and run-to-run spread: the bias is outside most intervals
     assert np.mean(z_all < 1.96) > 0.9
-    assert np.median(widen) < 1.05
+    assert np.mean(np.array(z_one) < 1.96) > 0.8  # one --fit-on run: a single draw of the misfit, rougher
+    # without the model error the excess is the positive part of one noise draw: zero in two cases of
+    # three (|delta| below its std), a wider interval in the third (measured: 32.5 %, mean ratio 1.18)
+    assert np.median(widen) < 1.05 and np.mean(widen > 1.05) < 0.4 and np.mean(widen) < 1.3
 
 
 def test_a_finding_the_fit_on_runs_cannot_move_is_not_said_to_cover_their_misfit():
