@@ -111,9 +111,9 @@ def _wind_error(params: dict, chk: dict) -> str | None:
 # Froude power (of sqrt(lambda)) of each checked quantity, model -> full scale. Per-sample
 # coefficients: the sample count is the same at both scales (the sample time scales as a time),
 # so a coefficient c of dy = c * f(y) scales as [dy] / [f]: r|r| in yaw (rate / rate^2) as
-# sqrt(lambda); the wind scales (diagnose.windload: increment = c * load / (1/2 rho L^2 d), an
-# acceleration) as a time in surge and sway and a time per length in yaw (load / (1/2 rho L^3 d)).
-FROUDE_POWER = {"speed_mps": 1, "delay_s": 1, "value": 1, "wind_surge": 1, "wind_sway": 1, "wind_yaw": -1, "wind_yaw_arm": -1}
+# sqrt(lambda); the wind's mean accelerations: linear ones are the same at both scales (lengths
+# over times squared, both lambda), the angular one scales as 1 / lambda.
+FROUDE_POWER = {"speed_mps": 1, "delay_s": 1, "value": 1, "wind_accel_surge": 0, "wind_accel_sway": 0, "wind_accel_yaw": -2}
 BIAS_POWER = {"u": 1, "v": 1, "r": -1}
 
 

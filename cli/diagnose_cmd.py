@@ -96,6 +96,12 @@ def register(app: typer.Typer) -> None:
             help="the recordings' rudder convention: port-positive or starboard-positive (converted to the ship's); "
             "overrides '# rudder_sign:'",
         ),
+        yaw_rate_sign: str | None = typer.Option(
+            None,
+            "--yaw-rate-sign",
+            help="the recordings' yaw rate convention: starboard-positive (r = dpsi/dt, the default) or port-positive "
+            "(converted); overrides '# yaw_rate_sign:'",
+        ),
     ) -> None:
         """Diagnose recordings against a ship model: locate, name and model the missing physics."""
         from cli.errors import warn_ship
@@ -113,6 +119,7 @@ def register(app: typer.Typer) -> None:
             out=out,
             environment=environment,
             rudder_sign=rudder_sign,
+            yaw_rate_sign=yaw_rate_sign,
         )
         profile = load_profile(ship)
         profile.require_planar("shiptrial diagnose")
@@ -122,7 +129,8 @@ def register(app: typer.Typer) -> None:
         def load(paths: list[str]):
             recs = []
             for p in paths:
-                recs += load_recording(p, inputs=profile.inputs)  # unused input columns never split a run
+                # unused input columns never split a run; --yaw-rate-sign is applied before r is checked against psi
+                recs += load_recording(p, inputs=profile.inputs, yaw_rate_sign=yaw_rate_sign)
             recs = with_conventions(recs, environment, rudder_sign)  # the options stand for every file's header lines
             return conform(recs, profile, resample=resample)  # Froude scale, sample time, input units: said in notes
 

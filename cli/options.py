@@ -228,12 +228,18 @@ def validate_diagnose_options(
     out: Path | None,
     environment: str | None = None,
     rudder_sign: str | None = None,
+    yaw_rate_sign: str | None = None,
 ) -> None:
-    """``recordings``: option name (RECORDING, --fit-on, --validate) -> its files; ``environment`` and
-    ``rudder_sign``: the values of --environment and --rudder-sign (the header values they stand for)."""
-    from diagnose.recording import ENVIRONMENTS, RUDDER_SIGNS
+    """``recordings``: option name (RECORDING, --fit-on, --validate) -> its files; ``environment``,
+    ``rudder_sign`` and ``yaw_rate_sign``: the values of --environment, --rudder-sign and
+    --yaw-rate-sign (the header values they stand for)."""
+    from diagnose.recording import ENVIRONMENTS, RUDDER_SIGNS, YAW_RATE_SIGNS
 
-    for option, value, allowed in (("--environment", environment, ENVIRONMENTS), ("--rudder-sign", rudder_sign, RUDDER_SIGNS)):
+    for option, value, allowed in (
+        ("--environment", environment, ENVIRONMENTS),
+        ("--rudder-sign", rudder_sign, RUDDER_SIGNS),
+        ("--yaw-rate-sign", yaw_rate_sign, YAW_RATE_SIGNS),
+    ):
         if value is not None and value not in allowed:
             raise UserError(f"{option} {value}: must be one of {', '.join(allowed)}")
     for option, paths in recordings.items():

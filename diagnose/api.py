@@ -21,7 +21,7 @@ from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_
     term_scales,
 )
 from diagnose.candidates import build_library
-from diagnose.describe import includes_no_effect, interval_note, with_interval, z_score
+from diagnose.describe import add_wind_means, includes_no_effect, interval_note, with_interval, z_score
 from diagnose.heldout import Parts, grams, insample_rss
 from diagnose.locate import locate
 from diagnose.magnitude import heldout_worse, implausible, ml_refit
@@ -31,7 +31,7 @@ from diagnose.recording import Recording, RecordingError
 from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
 from diagnose.search import SearchResult, select
-from diagnose.uncertainty import FindingCov, finding_cov
+from diagnose.uncertainty import FindingCov, finding_cov, with_reference
 from primitives.ship import DOFS, ShipProfile
 
 
@@ -211,7 +211,12 @@ def run(
         findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
         if not _drop_indistinct(model, preps + S.calm_preps, result, steps, findings, cov, w):
             break
-    structure = _structural(model, [prepare(S.profile, r) for r in fit_on or []], w, P, findings)
+    calm = [prepare(S.profile, r) for r in fit_on or []]
+    if calm and steps and len(cov.noise):  # the model error common to every run, after the rule above
+        cov = with_reference(cov, model, calm, w_fit, free, [st.candidate.key for st in steps], result.prior_std)
+        findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
+    add_wind_means(findings, model, preps, P, cov, free)
+    structure = _structural(model, calm, w, P, findings)
     findings = [f for f in findings if f not in structure]
     fit_on_name = "validation" if val_preps else "diagnosed"
     fbd, fad = _fits(model, preps, P0x), _fits(model, preps, P)
@@ -396,7 +401,7 @@ def _finding(st, model: AugmentedModel, P: np.ndarray, cov: FindingCov, free: li
         "description": c.description,
         "plausibility": why or "no ship-scaled limit applies",
         "heldout_per_run": st.heldout,
-        "interval": interval_note(cov) if len(cov.noise) else None,
+        "interval": interval_note(cov, c.key) if len(cov.noise) else None,
     }
 
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from diagnose import windload
+from diagnose import current_direct, windload
 from diagnose.recording import Recording
 from primitives.ship import DOFS, ShipProfile
 
@@ -112,7 +112,19 @@ def _environment(profile: ShipProfile, recordings: list[Recording], y: np.ndarra
         return cands, [{"effect": "current", "reason": why}, {"effect": "wind", "reason": wind_why}]
     used = {f for dof in profile.model_terms for t in dof for f in t.replace("|", "").split("*")}
     spread = float(np.ptp(np.concatenate([r.psi for r in recordings])))
-    if not ({"u_r", "v_r"} & {f.split("^")[0] for f in used}):
+    measured = current_direct.measure(recordings)
+    if current_direct.from_track_alone(recordings):
+        untestable.append(
+            {
+                "effect": "current",
+                "reason": "u, v were derived from the track (no u, v columns, or a model test's track derivatives) and "
+                "no speed through the water was recorded: a current would be a misfit rotating with the heading, which a model error can mimic, so "
+                "it cannot be told from one; record the speed through the water (columns u_water, v_water) to measure it",
+            }
+        )
+    elif measured is not None and measured.speed < 2.0 * measured.std:
+        untestable.append({"effect": "current", "reason": f"none: {measured.text()}, within 2 std of no current"})
+    elif not ({"u_r", "v_r"} & {f.split("^")[0] for f in used}):
         untestable.append({"effect": "current", "reason": "the model has no terms in u_r or v_r through which a current acts"})
     elif spread < np.radians(45.0):
         untestable.append(
@@ -129,7 +141,8 @@ def _environment(profile: ShipProfile, recordings: list[Recording], y: np.ndarra
                 "current",
                 "current",
                 (Slot("current", "current_n", index=0), Slot("current", "current_e", index=1)),
-                description="constant current in the earth frame (through u_r, v_r)",
+                description="constant current in the earth frame (through u_r, v_r)"
+                + (f"; {measured.text()}" if measured is not None else ""),
             )
         )
     if all(r.wind_ne is not None for r in recordings):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from diagnose import windload
 from diagnose.candidates import Candidate, canonical_term, thrust_signal
 from diagnose.model import AugmentedModel
 from primitives.ship import DOFS
@@ -171,18 +172,35 @@ STD_SUFFIXES = ("_std", "_std_deg")
 
 def with_interval(c: Candidate, model: AugmentedModel, P: np.ndarray, cov, free: list[int]) -> dict:
     """:func:`describe` with each std the total of ``cov`` (a :class:`diagnose.uncertainty.FindingCov`:
-    noise plus run-to-run model misfit), its noise part kept as ``<name>_noise``."""
+    noise, run-to-run model misfit and the --fit-on runs' misfit), its noise part kept as
+    ``<name>_noise`` and, when the --fit-on part was measured, noise and run-to-run part as ``<name>_runs``."""
     out = describe(c, model, P, cov.total, free)
-    noise = describe(c, model, P, cov.noise, free)
-    for k in list(out):
-        if k.endswith(STD_SUFFIXES):
-            out[f"{k}_noise"] = noise.get(k)
+    parts = {"noise": cov.noise} | ({"runs": cov.runs} if getattr(cov, "reference", None) is not None else {})
+    for part, C in parts.items():
+        d = describe(c, model, P, C, free)
+        for k in [k for k in out if k.endswith(STD_SUFFIXES)]:
+            out[f"{k}_{part}"] = d.get(k)
     return out
 
 
-def interval_note(cov) -> dict:
+def add_wind_means(findings: list[dict], model: AugmentedModel, preps: list, P: np.ndarray, cov, free: list[int]) -> None:
+    """Each wind finding's mean acceleration of the ship per DOF over the diagnosed runs ``preps``
+    (:func:`diagnose.windload.mean_acceleration`), with its interval from ``cov`` (a
+    :class:`diagnose.uncertainty.FindingCov`), added to its parameters in place."""
+    for f in findings:
+        if f["effect"] != "wind" or not len(cov.noise):
+            continue
+        idx = model.slot_of[f["key"]]
+        pos = [free.index(j) for j in idx]
+        ix = np.ix_(pos, pos)
+        parts = {"": cov.total, "_noise": cov.noise} | ({"_runs": cov.runs} if cov.reference is not None else {})
+        f["parameters"].update(windload.mean_acceleration(preps, P[idx], {k: C[ix] for k, C in parts.items()}))
+
+
+def interval_note(cov, key: str | None = None) -> dict:
     """What a finding's +- std covers (JSON ``interval``; the text report prints ``covers``), in
-    words a trials engineer can act on. ``diagnosed_runs``: the diagnosed recordings given;
+    words a trials engineer can act on; ``key``: the finding's candidate key (whether the --fit-on
+    runs' misfit was measured for it). ``diagnosed_runs``: the diagnosed recordings given;
     ``between_run_runs``: the runs the run-to-run misfit was measured over (0: none)."""
     runs, ref = cov.n_runs, getattr(cov, "reference_runs", 0)
     given = max(getattr(cov, "runs_given", 0) or runs, 1)
@@ -196,7 +214,18 @@ def interval_note(cov) -> dict:
                 " (rough with two runs: a spread with one degree of freedom, it can be several times too "
                 "large or too small; diagnose a third run to firm it up)"
             )
-    missing = "a model error common to every run"
+    tried = getattr(cov, "reference", None) is not None
+    measured = tried and (key is None or key in getattr(cov, "reference_keys", frozenset()))
+    if measured:
+        what += " and the misfit the --fit-on runs (which hold no such effect) put on the finding"
+        missing = "a model error common to every run that the --fit-on runs do not show"
+    elif tried:
+        missing = (
+            "a model error common to every run (the --fit-on runs do not move this finding's parameters, "
+            "e.g. they recorded no wind, or its refit there was not finite: their misfit on it was not measured)"
+        )
+    else:
+        missing = "a model error common to every run (give --fit-on runs to measure it)"
     if getattr(cov, "misfit_failed", False):
         missing = (
             "the model's run-to-run misfit (its leave-one-run-out spread was not finite: a run's fit diverges "

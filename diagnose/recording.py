@@ -26,8 +26,10 @@ from diagnose.recording_meta import (  # noqa: F401  (the header values re-expor
     MAX_TRIAL_WIND_MPS,
     RUDDER_SIGNS,
     WIND_REFERENCES,
+    YAW_RATE_SIGNS,
     check_meta,
     true_wind,
+    yaw_rate_as_said,
 )
 from diagnose.recording_table import INPUTS, MAX_BRIDGE_S  # noqa: F401  (re-exported)
 from primitives.errors import UserError
@@ -58,7 +60,10 @@ NUMERIC = (
     "phi",
     "p",
     "v_dot",
-)  # v_dot: measured sway acceleration, m/s^2 (optional; change detection uses it)
+    "u_water",
+    "v_water",
+)  # v_dot: measured sway acceleration, m/s^2 (optional; change detection uses it); u_water, v_water: speed
+# through the water, body axes, m/s (a log's; optional, diagnose.current_direct measures the current with it)
 
 
 class RecordingError(UserError):
@@ -166,6 +171,13 @@ def build_recording(
     gap-free piece (most files give one).
     """
     meta = dict(meta or {})
+    # u, v over ground: measured (columns, e.g. a GNSS Doppler) or derived from the track (the reader's own;
+    # a header '# velocities: derived from the track', as write_csv keeps a MARIN run's, is believed, the
+    # other way round it is not: without the columns they are derived here, whatever a header says)
+    if "u" in cols and "v" in cols:
+        meta.setdefault("velocities", "recorded")
+    else:
+        meta["velocities"] = "derived from the track"
     t, cols = tb.check_table(src, cols)
     t, cols, ts, notes, irregular = tb.uniform_axis(src, t, cols, sample_time, min_samples)
     valid, _ = tb.complete_rows(src, cols, inputs)
@@ -226,9 +238,14 @@ def split_metadata(lines: list[str]) -> tuple[dict[str, str], list[str]]:
 
 
 def read_csv(
-    path: str | Path, *, sample_time: float | None = None, inputs: tuple[str, ...] | list[str] | None = None
+    path: str | Path,
+    *,
+    sample_time: float | None = None,
+    inputs: tuple[str, ...] | list[str] | None = None,
+    yaw_rate_sign: str | None = None,
 ) -> list[Recording]:
-    """A recording CSV in the README's recording format (one or more gap-free pieces; ``inputs``: see :func:`build_recording`)."""
+    """A recording CSV in the README's recording format (one or more gap-free pieces; ``inputs``: see
+    :func:`build_recording`; ``yaw_rate_sign``: stands for the header line ``# yaw_rate_sign:``)."""
     path = Path(path)
     meta, body = split_metadata(_read_text(path, "utf-8-sig").splitlines())
     if not body:
@@ -264,8 +281,9 @@ def read_csv(
         cols[name] = vals
     check_meta(path, meta)
     ts = sample_time or (float(meta["sample_time"]) if "sample_time" in meta else None)
+    yaw_note = yaw_rate_as_said(cols, meta, yaw_rate_sign)
     recs = build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts, inputs=inputs)
-    return [true_wind(path, r) for r in recs]
+    return [true_wind(path, replace(r, notes=[*r.notes, yaw_note]) if yaw_note else r) for r in recs]
 
 
 def _check_header(path: Path, header: list[str], line: str, inputs: tuple[str, ...] | list[str] = ()) -> None:
@@ -292,6 +310,11 @@ def _check_header(path: Path, header: list[str], line: str, inputs: tuple[str, .
                 f"{path}: column {name!r} in the header {shown!r}: name it exactly {base!r} "
                 "(lower case, no unit: values are read in SI units, angles in rad)"
             )
+    if "v_water" in seen and "u_water" not in seen:
+        raise RecordingError(
+            f"{path}: column 'v_water' without 'u_water': a log's speed through the water needs its forward part; "
+            "add column u_water (m/s, body frame, forward) or drop v_water"
+        )
     missing = tb.missing_columns(header, inputs)
     if missing:
         ship = f" (the ship's inputs are {', '.join(inputs)}: add them, or choose the matching --ship)" if inputs else ""
@@ -338,6 +361,7 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
         "scale_factor": "1",
         "environment": "basin",
         "rudder_sign": "port-positive",
+        "velocities": "derived from the track",  # the published u, v are dx0/dt, dy0/dt
     }
     t_raw = cols["t"]
     if not np.all(np.isfinite(t_raw)) or np.any(np.diff(t_raw) < 0) or len(np.unique(t_raw)) < 3:
@@ -367,15 +391,21 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
 
 
 def load_recording(
-    path: str | Path, *, sample_time: float | None = None, inputs: tuple[str, ...] | list[str] | None = None
+    path: str | Path,
+    *,
+    sample_time: float | None = None,
+    inputs: tuple[str, ...] | list[str] | None = None,
+    yaw_rate_sign: str | None = None,
 ) -> list[Recording]:
     """Read a recording file by its suffix (.csv or MARIN .dat); a list of gap-free pieces. ``inputs``:
-    the input columns the ship uses (only they and the state split a run at a long gap)."""
+    the input columns the ship uses (only they and the state split a run at a long gap);
+    ``yaw_rate_sign``: the CSV's yaw rate convention, for its header line ``# yaw_rate_sign:``
+    (a MARIN file's is known: starboard-positive)."""
     p = Path(path)
     if p.suffix.lower() == ".dat":
         return [read_marin_dat(p, sample_time=sample_time or 1.0)]
     if p.suffix.lower() in (".csv", ".txt"):
-        return read_csv(p, sample_time=sample_time, inputs=inputs)
+        return read_csv(p, sample_time=sample_time, inputs=inputs, yaw_rate_sign=yaw_rate_sign)
     raise RecordingError(
         f"{p}: unknown recording format {p.suffix!r}; give a .csv (the README's recording format) or MARIN .dat file"
     )

@@ -183,6 +183,7 @@ def check_rate(
         raise _error()(
             f"{src}: column {rate_name!r} has the opposite sign of d{angle_name}/dt (correlation {corr:.2f}): "
             f"the {rate_what} must be the rate of the {angle_what} ({rate_name} > 0 turns {angle_name} positive); flip its sign"
+            + (", or say the log's convention: '# yaw_rate_sign: port-positive' (or --yaw-rate-sign)" if rate_name == "r" else "")
         )
     if not (1 / RATIO_TOL < gain < RATIO_TOL):
         units = ((180 / math.pi, f"{rate_name} in deg/s? give rad/s"), (math.pi / 180, f"{angle_name} in degrees? give radians"))

@@ -18,6 +18,9 @@ if TYPE_CHECKING:
 # header values that say where and how a run was recorded (the README's recording format)
 ENVIRONMENTS = ("sea", "basin", "towing-tank")  # a basin or towing tank has no current and no wind
 RUDDER_SIGNS = ("port-positive", "starboard-positive")  # the sign of delta that turns the ship to that side
+# the side a positive yaw rate turns the bow to: the house convention (r = dpsi/dt, heading clockwise
+# from north) is starboard-positive; a log in the other (mathematical, counter-clockwise) one is converted
+YAW_RATE_SIGNS = ("starboard-positive", "port-positive")
 WIND_REFERENCES = ("true", "relative")  # wind over ground, or as felt on board (from the bow, clockwise)
 # a true wind above this (median over the run) is a storm (Beaufort 10) no trial is run in: the
 # speed is taken to be in knots (1 kn = 0.5144 m/s), not m/s
@@ -37,7 +40,12 @@ def check_meta(path: Path, meta: dict[str, str]) -> None:
                 v = float("nan")
             if not (math.isfinite(v) and v > 0):
                 raise RecordingError(f"{path}: header '# {key}: {meta[key]}' must be a positive number")
-    for key, allowed in (("environment", ENVIRONMENTS), ("rudder_sign", RUDDER_SIGNS), ("wind_reference", WIND_REFERENCES)):
+    for key, allowed in (
+        ("environment", ENVIRONMENTS),
+        ("rudder_sign", RUDDER_SIGNS),
+        ("yaw_rate_sign", YAW_RATE_SIGNS),
+        ("wind_reference", WIND_REFERENCES),
+    ):
         if key in meta and meta[key] not in allowed:
             raise RecordingError(f"{path}: header '# {key}: {meta[key]}' must be one of {', '.join(allowed)}")
     if "scale" in meta and meta["scale"] not in ("model", "full"):
@@ -89,3 +97,25 @@ def true_wind(path: Path, rec: Recording) -> Recording:
             f"is it in knots? give m/s (knots x 0.5144: {0.5144 * med:.1f} m/s)"
         )
     return replace(rec, channels=chans, notes=notes, meta={**rec.meta, "wind_reference": "true"})
+
+
+def yaw_rate_as_said(cols: dict[str, np.ndarray], meta: dict[str, str], option: str | None = None) -> str | None:
+    """A recorded yaw rate ``cols["r"]`` turned into the house convention (starboard-positive,
+    r = dpsi/dt, heading clockwise) in place, when the header ``# yaw_rate_sign:`` (or ``option``,
+    the CLI's --yaw-rate-sign, which overrides it) says it is port-positive; the note that says
+    what was done (None when nothing was said). Done before the reader compares r with the
+    heading's rate, which refuses an r of the other sign."""
+    said = option or meta.get("yaw_rate_sign")
+    if said is None:
+        return None
+    if said not in YAW_RATE_SIGNS:
+        from diagnose.recording import RecordingError
+
+        raise RecordingError(f"yaw_rate_sign {said!r} is not one of {', '.join(YAW_RATE_SIGNS)}")
+    if "r" not in cols:
+        return f"yaw_rate_sign {said} not used: no column 'r' (the yaw rate is derived from the heading)"
+    if said == YAW_RATE_SIGNS[0]:
+        return None
+    cols["r"] = -cols["r"]
+    meta["yaw_rate_sign"], meta["yaw_rate_sign_converted_from"] = YAW_RATE_SIGNS[0], said
+    return f"yaw rate r converted from {said} to starboard-positive (r = dpsi/dt, heading clockwise)"

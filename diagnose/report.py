@@ -124,10 +124,23 @@ def _effect(f: dict) -> str:
         )
         return f"the {f['dof']} inertia is {ratio} (increments scaled by {1 + p['scale']:.3f}{_pm(p, 'scale_std', '.3f')})"
     if e == "wind":
+        acc = [
+            (k, u) for k, u in (("surge", "m/s^2"), ("sway", "m/s^2"), ("yaw", "rad/s^2")) if p.get(f"wind_accel_{k}") is not None
+        ]
         return (
             "the recorded wind pushes the ship (Blendermann's loads scaled per DOF by "
-            + ", ".join(f"{k.split('_')[1]} {v:.3g}{_pm(p, k + '_std', '.2g')}" for k, v in p.items() if "_std" not in k)
+            + ", ".join(
+                f"{k.split('_', 1)[1]} {v:.3g}{_pm(p, k + '_std', '.2g')}"
+                for k, v in p.items()
+                if "_std" not in k and not k.startswith("wind_accel_")
+            )
             + "; areas from the main particulars as a loaded tanker's)"
+            + (
+                "; its mean acceleration of the ship over the diagnosed runs: "
+                + ", ".join(f"{k} {p[f'wind_accel_{k}']:.3g}{_pm(p, f'wind_accel_{k}_std', '.2g')} {u}" for k, u in acc)
+                if acc
+                else ""
+            )
         )
     if e == "roll_coupling":
         return "the roll angle phi feeds the " + " and the ".join(

@@ -18,6 +18,14 @@ finding is measured against them. Their error (the same sandwich for the --fit-o
 finding by ``dA/dtheta = -H_aa^-1 G_a,theta`` (the refit of the free parameters ``a`` after a
 change of the held ``theta``), so that covariance is added: ``C + (dA/dtheta) C_theta (dA/dtheta)^T``.
 On the MMG battery's model-scale 3 s delay (AR(1) noise) it is about a third of the variance.
+
+Model error common to every run is neither noise nor run-to-run spread. The --fit-on runs measure
+it: they hold none of the effects looked for, so a finding refitted with the baseline on them
+(linearised, from the baseline as fitted there) should come out zero; what it comes out as,
+``delta``, is what the model's structural misfit alone puts on that finding's parameters. Its
+excess over what the noise of those runs would put there (``delta delta^T`` against the same
+sandwich, :func:`excess`) is a third part of the covariance, ``reference``: a misspecification
+term in the sense of White (1982), measured on the one set of runs known to hold no effect.
 """
 
 from __future__ import annotations
@@ -201,10 +209,17 @@ class FindingCov:
     runs_given: int = 0  # runs the covariance was computed over (diagnosed and joint --fit-on)
     reference_runs: int = 0  # of those, --fit-on runs fitted jointly (a ReferencedModel)
     misfit_failed: bool = False  # the leave-one-run-out spread was not finite: no misfit term
+    reference: np.ndarray | None = None  # --fit-on runs' misfit on the findings (module docstring)
+    reference_keys: frozenset[str] = frozenset()  # findings (candidate keys) that misfit was measured for
+
+    @property
+    def runs(self) -> np.ndarray:
+        """Noise and run-to-run misfit: the part the "includes no effect" rule judges by."""
+        return self.noise + self.model
 
     @property
     def total(self) -> np.ndarray:
-        return self.noise + self.model
+        return self.runs + (self.reference if self.reference is not None else 0.0)
 
 
 def propagated(
@@ -285,3 +300,79 @@ def baseline_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, id
         pairs, _prior_D(np.concatenate([np.asarray(sd, float)[idx], np.full(len(x0), np.inf)]), len(idx) + len(x0))
     )
     return cov[: len(idx), : len(idx)]
+
+
+def reference_misfit(
+    model: AugmentedModel,
+    calm: list[Prepared],
+    w: np.ndarray,
+    P0: np.ndarray,
+    own: list[int],
+    base_free: list[int],
+    prior_sd: np.ndarray | None = None,
+) -> np.ndarray | None:
+    """Covariance term (len(own) x len(own)) of the model error the --fit-on runs ``calm`` put on
+    one finding's parameters ``own`` (module docstring): the linearised refit on those runs, from
+    ``P0`` (the baseline as fitted there, no findings), of ``own`` with the baseline parameters
+    the diagnosis refits (``base_free``) under the diagnosis's prior (std ``prior_sd`` per
+    parameter; centred on P0, so its gradient is zero there) gives ``delta``; the term is the
+    excess of ``delta delta^T`` over the noise covariance of that refit. Parameters the runs do
+    not move (a wind where none was recorded) get none; None when no parameter is moved or the
+    refit is not finite."""
+    cols = list(base_free) + list(own)
+    D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[cols], len(cols))
+    return misfit_term(sensitivities(model, calm, P0, cols, w), len(base_free), D)
+
+
+def misfit_term(pairs: list[tuple[np.ndarray, np.ndarray]], nb: int, prior_D: np.ndarray | None = None) -> np.ndarray | None:
+    """The --fit-on misfit term of :func:`reference_misfit` from those runs' (residual,
+    sensitivity) pairs at the baseline fitted there: columns ``:nb`` the baseline's refitted
+    parameters, the rest the finding's. The Gauss-Newton step ``d = -H^-1 J^T r`` (H with the
+    prior's Hessian ``prior_D``), its finding part ``delta`` and the excess of ``delta delta^T``
+    over that part's noise covariance (AR(1) sandwich). None when no finding column is moved."""
+    G = sum(np.einsum("anc,bnc->ab", J, J) for _r, J in pairs)
+    g = sum(np.einsum("anc,nc->a", J, r) for r, J in pairs)
+    k = len(g) - nb
+    act = np.flatnonzero(np.diag(G) > 1e-12 * max(float(np.max(np.diag(G))), 1e-300))
+    own_act = [i for i in range(k) if nb + i in set(act.tolist())]
+    if not own_act:
+        return None
+    C, H = sandwich([(r, J[act]) for r, J in pairs], None if prior_D is None else np.asarray(prior_D)[act])
+    d = -_inv(H) @ g[act]
+    pos = [int(np.flatnonzero(act == nb + i)[0]) for i in own_act]
+    delta, C_d = d[pos], C[np.ix_(pos, pos)]
+    if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(C_d))):
+        return None
+    out = np.zeros((k, k))
+    out[np.ix_(own_act, own_act)] = excess(np.outer(delta, delta), C_d)
+    return out
+
+
+def with_reference(
+    cov: FindingCov,
+    model: AugmentedModel,
+    calm: list[Prepared],
+    w: np.ndarray,
+    free: list[int],
+    keys: list[str],
+    prior_sd: np.ndarray | None = None,
+) -> FindingCov:
+    """``cov`` with the --fit-on runs' misfit (:func:`reference_misfit`) of each finding ``keys``
+    (candidate keys, their slots among ``free``; the baseline parameters among ``free`` refitted
+    with it, prior std ``prior_sd``) as its ``reference`` part, one block per finding (each
+    refitted alone on those runs); ``reference_keys`` the findings it was measured for (not one
+    those runs do not move, such as a wind where they recorded none)."""
+    base_free = [j for j in free if j < model.n_base]
+    R = np.zeros_like(cov.noise)
+    P0 = model.p0()
+    measured = set()
+    for key in keys:
+        own = list(model.slot_of[key])
+        term = reference_misfit(model, calm, w, P0, own, base_free, prior_sd)
+        if term is not None:
+            pos = [free.index(j) for j in own]
+            R[np.ix_(pos, pos)] = term
+            measured.add(key)
+    cov.reference = _finite(R)
+    cov.reference_keys = frozenset(measured)
+    return cov

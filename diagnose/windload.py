@@ -81,3 +81,31 @@ def excess_loads(profile: Particulars, y: np.ndarray, wind_body: tuple[np.ndarra
     u, v = y[..., 0], y[..., 1]
     ex = _loads(profile, u - wind_body[0], v - wind_body[1]) - _loads(profile, u, v)
     return dict(zip(SIGNALS, np.moveaxis(ex, -1, 0)))
+
+
+MEAN_KEYS = ("wind_accel_surge", "wind_accel_sway", "wind_accel_yaw")  # m/s^2, m/s^2, rad/s^2
+
+
+def mean_acceleration(preps: list, values: np.ndarray, covs: dict[str, np.ndarray]) -> dict[str, float | None]:
+    """The fitted wind's mean acceleration of the ship per DOF over the diagnosed runs
+    (``preps``, diagnose.model.Prepared with :data:`SIGNALS` in ``wind_loads``): each DOF's
+    increment ``sum_k c_k s_k`` (its signals s_k, coefficients ``values`` in the order of
+    :data:`SIGNALS`) averaged over every step of every run and divided by the sample time; its
+    std ``<key>_std<part>`` from each covariance ``covs[part]`` of the coefficients (same order;
+    the mean is linear in them). A quantity of the ship's motion, not of the coefficients'
+    parametrisation: what the wind did, whichever published coefficients shaped it (the yaw
+    scale and the centroid's arm, which trade off against each other, are summed here)."""
+    sums, n = np.zeros(len(SIGNALS)), 0
+    for p in preps:
+        if p.wind_loads:
+            sums += np.array([np.sum(p.wind_loads[k][:-1]) for k in SIGNALS]) / float(p.rec.sample_time)
+            n += len(p.wind_loads[SIGNALS[0]]) - 1
+    means = sums / max(n, 1)
+    out: dict[str, float | None] = {}
+    for i, key in enumerate(MEAN_KEYS):
+        g = np.where(np.array(DOF_OF) == i, means, 0.0)
+        out[key] = float(g @ values) if n else None
+        for part, C in covs.items():
+            var = float(g @ C @ g)
+            out[f"{key}_std{part}"] = float(np.sqrt(var)) if n and np.isfinite(var) and var >= 0 else None
+    return out

@@ -351,6 +351,7 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["diagnose", "{rec}", "--ship", "model-ship"], "--out", ["{file}", "/proc/shiptrial-out"])
     add(["diagnose", "{rec}", "--ship", "model-ship"], "--environment", ["lake", "Basin"], named=True)
     add(["diagnose", "{rec}", "--ship", "model-ship"], "--rudder-sign", ["port", "+1"], named=True)
+    add(["diagnose", "{rec}", "--ship", "model-ship"], "--yaw-rate-sign", ["clockwise", "-1"], named=True)
     # sweep
     for cfg in [
         "{missing}",

@@ -69,7 +69,7 @@ def test_model_scale_truth_is_judged_at_full_scale():
 
 
 def test_wind_truth_froude_powers():
-    """The per-sample wind coefficients of a model-scale run, converted, equal those of the
+    """The wind's mean accelerations of a model-scale run, converted, equal those of the
     Froude-similar full-scale run (checks the powers of the conversion, not just its form)."""
     from types import SimpleNamespace
 
@@ -89,8 +89,8 @@ def test_wind_truth_froude_powers():
             u=u / scale, v=v / scale, r=0 * u, psi=psi, wind_ne=lambda w: (np.full(200, w[0]), np.full(200, w[1]))
         )
 
-    full = _wind_truth(kvlcc2(1.0), [run(1.0)], wind, 1.0)["coefficients"]
-    model = _wind_truth(kvlcc2(MODEL_SCALE), [run(s)], wind / s, 1.0 / s)["coefficients"]
+    full = _wind_truth(kvlcc2(1.0), [run(1.0)], wind)["coefficients"]
+    model = _wind_truth(kvlcc2(MODEL_SCALE), [run(s)], wind / s)["coefficients"]
     truth = {"scale": "model", "scale_factor": MODEL_SCALE, "checks": {"wind": {"wind": [model, 0.4, "wind"]}}}
     conv = full_scale_truth(truth)["checks"]["wind"]["wind"][0]
     for key in full:

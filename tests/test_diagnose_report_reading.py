@@ -138,6 +138,11 @@ def test_every_effect_states_its_interval_and_when_it_includes_no_effect():
             _finding("wind", "sway", wind_surge=0.5, wind_surge_std=0.1, wind_sway=0.1, wind_sway_std=0.2),
             "surge 0.5 +- 0.1, sway 0.1 +- 0.2",
         ),
+        (  # the mean accelerations are printed apart from the scales, with their units
+            _finding("wind", "sway", wind_surge=0.5, wind_surge_std=0.1, wind_accel_surge=-0.0012, wind_accel_surge_std=0.0001),
+            "scaled per DOF by surge 0.5 +- 0.1; areas from the main particulars as a loaded tanker's); its mean "
+            "acceleration of the ship over the diagnosed runs: surge -0.0012 +- 0.0001 m/s^2",
+        ),
     ]
     for f, pm in cases:
         text = sentence(f)

@@ -128,7 +128,7 @@ def test_battery_is_reproducible_per_seed_and_writes_the_recording_format(short_
     assert abs(np.mean(reading[0]) - 18.0) > 0.3  # the flow distortion is in it
     assert np.degrees(np.median(rec.channels["wind_dir"])) == pytest.approx(45.0, abs=4.0)
     np.testing.assert_allclose(rec.channels["delta"], a.diagnose[0].delta_mmg)  # MMG's convention, as written
-    assert set(a.truth["checks"]["wind"]["wind"][0]) == {"wind_surge", "wind_sway", "wind_yaw", "wind_yaw_arm"}
+    assert set(a.truth["checks"]["wind"]["wind"][0]) == {"wind_accel_surge", "wind_accel_sway", "wind_accel_yaw"}
 
 
 def test_battery_effects_have_the_size_the_truth_says(short_battery, tmp_path):
@@ -169,23 +169,23 @@ def test_still_air_drags_the_hull_in_calm_water_and_the_wind_truth_is_the_excess
     assert np.array_equal(
         derivative(FULL, Minv, s, 0.0, N0, Environment(wind_ne=(0.0, 0.0))), derivative(FULL, Minv, s, 0.0, N0, Environment())
     )
-    # the truth of a wind case: coefficients of the excess loads (zero for still air)
+    # the truth of a wind case: the mean acceleration of the excess loads (zero for still air),
+    # from the truth's own loads and mass matrix alone (no estimator code)
     runs = simulate_runs(FULL, bat.DIAGNOSE, N0, lead_in_s=60.0)
-    assert all(c == 0.0 for c in bat._wind_truth(FULL, runs, (0.0, 0.0), 1.0)["coefficients"].values())
-    head = bat._wind_truth(FULL, runs, (-15.0, 0.0), 1.0)["coefficients"]  # 15 m/s from ahead
-    u = runs[0].u
-    excess = (
-        wind_forces(FULL, u, 0 * u, 0 * u, np.array([-15.0, 0.0]))[0] - wind_forces(FULL, u, 0 * u, 0 * u, np.zeros(2))[0]
-    ) * Minv[0, 0]
-    # the candidate's surge signal (Blendermann's loads, diagnose.windload) straight ahead
-    from types import SimpleNamespace
-
-    from diagnose.windload import excess_loads
-
-    dims = SimpleNamespace(length_m=FULL.L, beam_m=FULL.B, draught_m=FULL.d)
-    regressor = excess_loads(dims, np.column_stack([u, 0 * u, 0 * u]), (np.full_like(u, -15.0), 0 * u))["wind_X"]
-    # a zig-zag turns the head wind up to 20 deg off the bow, where the two published fits differ
-    assert head["wind_surge"] == pytest.approx(float(np.mean(excess / regressor)), rel=0.15)
+    assert all(c == 0.0 for c in bat._wind_truth(FULL, runs, (0.0, 0.0))["coefficients"].values())
+    head = bat._wind_truth(FULL, runs, (-15.0, 0.0))["coefficients"]  # 15 m/s from ahead
+    acc = []
+    for r in runs:
+        wn, we = r.wind_ne((-15.0, 0.0))
+        f = np.stack(wind_forces(FULL, r.u, r.v, r.psi, np.stack([wn, we])), -1)
+        f0 = np.stack(wind_forces(FULL, r.u, r.v, r.psi, np.zeros(2)), -1)
+        acc.append(((f - f0) @ Minv.T)[:-1])
+    mean = np.concatenate(acc).mean(axis=0)
+    assert [head[k] for k in ("wind_accel_surge", "wind_accel_sway", "wind_accel_yaw")] == pytest.approx(mean.tolist())
+    # a head wind pushes the ship astern: the excess surge load of 15 m/s from ahead at ~8 m/s,
+    # about -1.02 q A_F (Isherwood's C_X(0)) less the still air's, over the surge mass
+    q = 0.5 * RHO_AIR * ((7.97 + 15.0) ** 2 - 7.97**2) * FULL.A_F
+    assert head["wind_accel_surge"] == pytest.approx(-1.02 * q * Minv[0, 0], rel=0.2)
 
 
 def test_gusty_wind_is_recorded_as_the_anemometer_reads_it(short_battery, tmp_path):

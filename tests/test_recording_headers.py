@@ -37,9 +37,40 @@ def test_marin_runs_are_basin_runs_and_get_no_current_candidate(tc35):
     assert tc35.environment == "basin" and tc35.in_tank
     reasons = _environment_untestable(p, [tc35])
     assert "basin or towing tank" in reasons["current"] and "basin or towing tank" in reasons["wind"]
-    at_sea = dataclasses.replace(tc35, meta={**tc35.meta, "environment": "sea"})
+    # the same turning circle at sea with u, v measured over ground: a current is a candidate
+    at_sea = dataclasses.replace(tc35, meta={**tc35.meta, "environment": "sea", "velocities": "recorded"})
     cands, _ = build_library(p, [at_sea])
-    assert "current" in {c.effect for c in cands}  # the same turning circle at sea: a current is a candidate
+    assert "current" in {c.effect for c in cands}
+
+
+def test_a_current_is_not_inferred_from_a_track_alone_and_is_measured_with_a_log(tc35):
+    """At sea, u, v derived from the track (MARIN's are: dx0/dt, dy0/dt) and no speed through the
+    water: a current is not offered, the reason says it cannot be told from a model error (before,
+    MARIN's zig-zags named a 0.46 m/s current). With a log's speed through the water the drift
+    between the two measures it: 0.5 m/s toward 60 deg recovered; a log that agrees with the track
+    rules a current out."""
+    from diagnose.current_direct import measure
+
+    p = load_profile("kvlcc2-linear")
+    sea = dataclasses.replace(tc35, meta={**tc35.meta, "environment": "sea"})
+    cands, untestable = build_library(p, [sea])
+    assert "current" not in {c.effect for c in cands}
+    why = next(u["reason"] for u in untestable if u["effect"] == "current")
+    assert "derived from the track" in why and "cannot be told" in why
+    c, s_ = np.cos(sea.psi), np.sin(sea.psi)
+    cn, ce = 0.5 * np.cos(np.radians(60.0)), 0.5 * np.sin(np.radians(60.0))
+    noise = np.random.default_rng(1).normal(0.0, 0.05, (2, len(sea.t)))
+    logged = {"u_water": sea.y[:, 0] - (c * cn + s_ * ce) + noise[0], "v_water": sea.y[:, 1] - (-s_ * cn + c * ce) + noise[1]}
+    with_log = dataclasses.replace(sea, channels={**sea.channels, **logged})
+    m = measure([with_log])
+    assert m.speed == pytest.approx(0.5, abs=0.02) and m.toward_deg == pytest.approx(60.0, abs=3.0) and 0 < m.std < 0.02
+    cands, _ = build_library(p, [with_log])
+    cur = next(c for c in cands if c.effect == "current")
+    assert "measured from the track against the speed through the water" in cur.description
+    agree = dataclasses.replace(sea, channels={**sea.channels, "u_water": sea.y[:, 0] + noise[0]})  # a one-axis log
+    cands, untestable = build_library(p, [agree])
+    assert "current" not in {c.effect for c in cands}
+    assert "within 2 std of no current" in next(u["reason"] for u in untestable if u["effect"] == "current")
 
 
 def test_environment_header_read_from_csv(tc35, tmp_path):
@@ -55,6 +86,7 @@ def test_environment_header_read_from_csv(tc35, tmp_path):
     [
         ("# environment: lake", ["environment", "lake", "sea, basin, towing-tank"]),
         ("# rudder_sign: left", ["rudder_sign", "left", "port-positive, starboard-positive"]),
+        ("# yaw_rate_sign: clockwise", ["yaw_rate_sign", "clockwise", "starboard-positive, port-positive"]),
     ],
 )
 def test_unknown_header_value_refused_in_one_line(tmp_path, capsys, line, words):
@@ -75,7 +107,7 @@ def test_unknown_header_value_refused_in_one_line(tmp_path, capsys, line, words)
 
 def test_option_values_refused_in_one_line(tmp_path, capsys):
     path = DATA / "MARIN_FREE_KVLCC2_zz_10_m.dat"
-    for opt in (["--environment", "lake"], ["--rudder-sign", "port"]):
+    for opt in (["--environment", "lake"], ["--rudder-sign", "port"], ["--yaw-rate-sign", "cw"]):
         code = _run(["diagnose", str(path), "--ship", "kvlcc2-linear", *opt])
         err = capsys.readouterr().err.strip()
         assert code == 2 and err.startswith(f"error: {opt[0]} {opt[1]}") and len(err.splitlines()) == 1
@@ -167,3 +199,58 @@ def test_environment_option_stands_for_the_header(tc35, tmp_path, capsys):
     reasons = {u["effect"]: u["reason"] for u in out["untestable"]}
     assert "basin or towing tank" in reasons["current"], reasons
     assert not any(f["effect"] == "current" for f in out["findings"])
+
+
+def test_yaw_rate_in_the_other_convention_converted_or_refused(tmp_path, capsys):
+    """A log whose r is positive turning to port (the mathematical convention) loads unchanged with
+    '# yaw_rate_sign: port-positive' or --yaw-rate-sign port-positive (r negated before it is
+    checked against the heading, said in the notes); without either it is refused in one line that
+    names the header, nothing written."""
+    rec = read_marin_dat(DATA / "MARIN_FREE_KVLCC2_zz_10_m.dat")
+    y = rec.y.copy()
+    y[:, 2] = -y[:, 2]
+    flipped = dataclasses.replace(rec, y=y)
+    path = write_csv(flipped, tmp_path / "port.csv", meta={"yaw_rate_sign": "port-positive"})
+    got = load_recording(path)[0]
+    np.testing.assert_allclose(got.y[:, 2], rec.y[:, 2], atol=1e-6)
+    assert any("yaw rate r converted from port-positive" in n for n in got.notes), got.notes
+    bare = write_csv(flipped, tmp_path / "bare.csv")
+    with pytest.raises(RecordingError, match="yaw_rate_sign: port-positive"):
+        load_recording(bare)
+    np.testing.assert_allclose(load_recording(bare, yaw_rate_sign="port-positive")[0].y[:, 2], rec.y[:, 2], atol=1e-6)
+    out = tmp_path / "out"
+    code = _run(["diagnose", str(bare), "--ship", "kvlcc2-linear", "--out", str(out)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.startswith("error:") and len(err.splitlines()) == 1 and "yaw_rate_sign" in err
+    assert not out.exists()
+
+
+def test_a_sideways_log_without_its_forward_part_refused_in_one_line(tc35, tmp_path, capsys):
+    """v_water alone (no u_water) cannot measure a current and is not silently ignored: one line
+    naming the file and both columns, exit 2, nothing written."""
+    path = write_csv(dataclasses.replace(tc35, channels={**tc35.channels, "v_water": tc35.y[:, 1]}), tmp_path / "log.csv")
+    out = tmp_path / "out"
+    code = _run(["diagnose", str(path), "--ship", "kvlcc2-linear", "--out", str(out)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and str(path) in err
+    assert "'v_water' without 'u_water'" in err and not out.exists()
+
+
+def test_a_header_cannot_say_velocities_were_recorded_when_the_file_has_no_u_v(tc35, tmp_path):
+    """Provenance of u, v comes from the columns: a file without u, v has them derived from the
+    track whatever a '# velocities:' header says (else a current would be inferred from a track
+    alone); a MARIN run written back to CSV keeps 'derived from the track'."""
+    from diagnose.current_direct import from_track_alone
+
+    back = load_recording(write_csv(tc35, tmp_path / "back.csv"))
+    assert back[0].meta["velocities"] == "derived from the track" and from_track_alone(back)
+    text = (tmp_path / "back.csv").read_text().splitlines()
+    head = [ln for ln in text if ln.startswith("#") and "velocities" not in ln]
+    rows = [ln for ln in text if not ln.startswith("#")]
+    names = rows[0].split(",")
+    keep = [i for i, n in enumerate(names) if n not in ("u", "v")]
+    body = [",".join(r.split(",")[i] for i in keep) for r in rows]
+    path = tmp_path / "track.csv"
+    path.write_text("\n".join([*head, "# velocities: recorded", *body]) + "\n")
+    got = load_recording(path)
+    assert got[0].meta["velocities"] == "derived from the track" and from_track_alone(got)
