@@ -390,3 +390,25 @@ def test_a_rejected_run_does_not_call_an_estimate_over_2_sd_not_significant(prio
     inertia = next(line for line in text.splitlines() if line.startswith("  yaw inertia"))
     pod = next(line for line in text.splitlines() if line.startswith("  pod gain"))
     assert "not separable from the other candidates" in inertia and "below --min-change" in pod, text
+
+
+def test_a_roll_rate_column_gives_the_prior_its_roll_yaw_term(tmp_path):
+    # with p recorded, the full prior's yaw row gets N_p p (kind full-p); on our own kernel, whose
+    # yaw row has no roll-rate term, the fit keeps I_r and finds N_p small (0.40e6 N m s measured,
+    # from the noise of p; the truth family's ships have -2e6 to -4e6); a recording
+    # tested with that prior must then carry p, and --no-roll-rate keeps the thesis's (2.17)
+    from dataclasses import replace as dc_replace
+
+    from identify.detect.api import _rate, load_runs
+    from primitives.errors import UserError
+
+    rec = simulated_recording(Vessel(), 300, seed=24, measured_moment=True)
+    p = _rate(rec.channels["phi"], 0.1)  # a roll-rate gyro's smooth signal, from the noisy roll
+    path = write_csv(dc_replace(rec, channels=rec.channels | {"p": p}), tmp_path / "with_p.csv")
+    with_p = fit_prior([path], "full", bootstrap=8)
+    assert with_p.kind == "full-p" and abs(with_p.values["N_p"]) < 0.8e6
+    assert abs(with_p.values["I_r"] / NOMINAL["I_r"] - 1) < 0.1
+    assert fit_prior([path], "full", bootstrap=0, roll_rate=False).kind == "full"
+    bare = write_csv(rec, tmp_path / "no_p.csv")
+    with pytest.raises(UserError, match=r"\bp \(roll rate"):
+        load_runs([bare], with_p.kind)

@@ -52,8 +52,10 @@ def load_runs(paths: list[Path] | list[str], kind: str | None = None, notes: lis
         pods = [c for c in POD_COLUMNS if c not in header]
         if pods and MOMENT not in header:
             missing.append(f"{MOMENT} (measured pod yaw moment, N m) or the pod inputs {', '.join(pods)} (rev/s, rad)")
-        if kind == "full" and "phi" not in header:
+        if kind in ("full", "full-p") and "phi" not in header:
             missing.append("phi (roll, rad; or use --model simplified)")
+        if kind == "full-p" and "p" not in header:
+            missing.append("p (roll rate, rad/s: the prior's yaw row has the roll-rate term N_p p)")
         if not ({"x", "y"} <= set(header) or {"lat", "lon"} <= set(header)):
             missing.insert(0, "x, y (north, east, m) or lat, lon (deg)")
         missing[:0] = [f"{c} ({what})" for c, what in (("t", "time, s"), ("psi", "heading, rad")) if c not in header]
@@ -111,7 +113,7 @@ def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarra
     motion then enters tau_r and biases the prior (+12 to +14 % on I_r in 400 s at Table 4.1 noise)."""
     u, v, r = rec.y[:, 0], rec.y[:, 1], rec.y[:, 2]
     sig = {"u": u, "v": v} | ({"tau_r": rec.channels[MOMENT]} if MOMENT in rec.channels else {})
-    if kind == "full":
+    if kind != "simplified":
         if "phi" not in rec.channels:
             raise RecordingError(
                 f"{rec.source}: no column 'phi' (roll, rad) that the full model (2.17) needs; "
@@ -120,6 +122,13 @@ def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarra
         sig["phi"] = rec.channels["phi"]
         if SWAY_ACC in rec.channels:
             sig["v_dot"] = rec.channels[SWAY_ACC]
+    if kind == "full-p":
+        if "p" not in rec.channels:
+            raise RecordingError(
+                f"{rec.source}: no column 'p' (roll rate, rad/s) that the prior's yaw row needs (its "
+                "roll-rate term N_p p); add it, or refit the prior on a nominal recording without p"
+            )
+        sig["p"] = rec.channels["p"]
     return _deriver(rec, kind)(sig, r), r
 
 
@@ -140,12 +149,17 @@ def _deriver(rec: Recording, kind: str):
         out = dict(sig)
         v = sig["v"]
         col = (slice(None),) + (None,) * (v.ndim - 1)  # recorded channels broadcast over runs
-        if kind == "full" and not measured_vdot:
+        if kind != "simplified" and not measured_vdot:
             out["v_dot"] = rate(v)
         if measured_tau:
             return {k: out[k] for k in SIGNALS[kind]}
         # roll rate moves the pods sideways (z_pod p): measured p, else the rate of the measured roll
-        p = np.broadcast_to(p_rec[col], v.shape) if p_rec is not None else rate(sig["phi"]) if "phi" in sig else np.zeros_like(v)
+        if "p" in sig:  # the prior's own roll-rate input (noisy in the no-change records)
+            p = sig["p"]
+        elif p_rec is not None:
+            p = np.broadcast_to(p_rec[col], v.shape)
+        else:
+            p = rate(sig["phi"]) if "phi" in sig else np.zeros_like(v)
         # the pod model is nonlinear in the motion (drift angle, speed squared): feed it the
         # low-passed motion (v fused with v'), as the prior's inputs are, so noise does not bias tau_r
         motion = model_inputs(
@@ -160,15 +174,24 @@ def _deriver(rec: Recording, kind: str):
 
 
 def fit_prior(
-    paths: list[Path] | list[str], kind: str = "full", bootstrap: int = 64, seed: int = 0, notes: list[str] | None = None
+    paths: list[Path] | list[str],
+    kind: str = "full",
+    bootstrap: int = 64,
+    seed: int = 0,
+    notes: list[str] | None = None,
+    roll_rate: bool = True,
 ) -> YawPrior:
     """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s),
     its parameter error described by ``bootstrap`` parametric-bootstrap refits of the nominal
-    data (errors in variables: noisy u, v, phi and the v', tau_r derived from them)."""
-    if kind not in SIGNALS:
+    data (errors in variables: noisy u, v, phi and the v', tau_r derived from them). The full
+    model gets the roll-rate term ``N_p p`` (kind ``full-p``) when that recording has the roll
+    rate ``p`` and ``roll_rate`` is on; the recordings tested with the prior then need ``p`` too."""
+    if kind not in ("full", "simplified"):
         raise UserError(f"--model {kind!r}: choose full (2.17) or simplified (2.18)")
     recs = load_runs(paths, kind, notes)
     rec = max(recs, key=lambda r: r.n_samples)
+    if kind == "full" and roll_rate and "p" in rec.channels:
+        kind = "full-p"  # the measured roll rate lets the yaw row carry the roll-yaw coupling N_p p
     sig, r = signals(rec, kind)
     if np.ptp(r) < 1e-3:
         raise RecordingError(f"{rec.source}: the yaw rate hardly moves (range {np.ptp(r):.1e} rad/s); a prior needs turning")

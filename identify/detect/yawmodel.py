@@ -25,7 +25,7 @@ from scipy.signal import lfilter
 from identify.detect.vessel import base_profile
 from identify.yawid.estimate import fit_yaw, prefilter, simulate_yaw
 from identify.yawid.experiment import YawData
-from identify.yawid.model import FULL, MODELS, true_parameters
+from identify.yawid.model import FULL, FULL_P, MODELS, true_parameters
 from primitives.errors import UserError
 
 
@@ -35,11 +35,20 @@ def _prior_name(name: str) -> str:
 
 
 _TRUE = true_parameters(base_profile())
-#: (2.19) of the profile, in the order of the full model (2.17)
-NOMINAL = {_prior_name(k): _TRUE[k] for k in FULL.params}
-PARAMS = {kind: tuple(map(_prior_name, m.params)) for kind, m in MODELS.items()}
+#: the yaw rows a prior can have: yawid's (2.17), (2.18), and (2.17) with the roll-rate term N_p p
+YAW_MODELS = MODELS | {FULL_P.name: FULL_P}
+#: scale (and fit start) of N_p, N m s: the profile has no roll-rate term in its yaw row; this is
+#: the order of a 50 m hull's (Blanke and Christensen 1993 give K_p ~ -0.5e6 N m s), not a value
+N_P_SCALE = -1.0e6
+#: (2.19) of the profile, in the order of the full model (2.17), then the roll-rate term's scale
+NOMINAL = {_prior_name(k): _TRUE[k] for k in FULL.params} | {"N_p": N_P_SCALE}
+PARAMS = {kind: tuple(map(_prior_name, m.params)) for kind, m in YAW_MODELS.items()}
 DAMPING = ("A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")
-SIGNALS = {"full": ("u", "v", "v_dot", "phi", "tau_r"), "simplified": ("u", "v", "tau_r")}
+SIGNALS = {
+    "full": ("u", "v", "v_dot", "phi", "tau_r"),
+    "full-p": ("u", "v", "v_dot", "phi", "p", "tau_r"),
+    "simplified": ("u", "v", "tau_r"),
+}
 PREFILTER_HZ = 0.5  # the model inputs' low-pass (manoeuvres are slower than 0.2 Hz, roll ~0.13 Hz)
 #: the candidate changes a detector names (BRIEF effect ``inertia_change`` is "yaw_inertia")
 CANDIDATES = ("yaw_inertia", "yaw_damping", "pod_gain")
@@ -203,7 +212,7 @@ def simulate_r(
     which scales tau_r) scalars or (cols,): one simulated column per parameter set.
     """
     th = _theta(kind, theta)
-    model = MODELS[kind]
+    model = YAW_MODELS[kind]
     names = tuple(map(_prior_name, model.params))
     tau = np.asarray(gain) * sig["tau_r"]
     shape = np.broadcast_shapes(tau.shape, *(np.shape(sig[k]) for k in model.signals), *(np.shape(th[k]) for k in names))
@@ -364,7 +373,7 @@ def _fit_scales(
     """Scales (B, P) fitted to a batch of B records (signals (B, n), as measured: the fit sees them
     through :func:`model_inputs`, as the prediction does) by :func:`identify.yawid.estimate.fit_yaw`
     from the scales ``x0``; NaN rows did not converge."""
-    model = MODELS[kind]
+    model = YAW_MODELS[kind]
     scale = np.array([NOMINAL[_prior_name(n)] for n in model.params])
     w = model_inputs({k: sig[k].T for k in ("tau_r", *model.signals)}, dt, prefilter_hz)  # time on axis 0 there
     data = YawData(np.arange(r_meas.shape[-1]) * dt, {"r": r_meas, **{k: x.T for k, x in w.items()}})
