@@ -334,10 +334,11 @@ def test_plot_one_file_per_recording_beyond_a_handful(prior, tmp_path):
     assert plot(dets[:2], tmp_path / "two.png", panels=4) == [tmp_path / "two.png"]
 
 
-@pytest.mark.parametrize("column,factor", [("tau_n", 1000.0), ("tau_n", -1.0), ("r", -1.0)])
+@pytest.mark.parametrize("column,factor", [("tau_n", 1000.0), ("tau_n", 0.001), ("tau_n", -1.0), ("r", -1.0)])
 def test_a_moment_or_yaw_rate_of_wrong_unit_or_sign_is_refused_not_called_a_change(prior, column, factor):
     # tau_n x1000 or x-1 (or r x-1) read as a confident "CHANGED: yaw damping / pod gain" before;
-    # it is an input error: one line naming the file and the fix
+    # it is an input error: one line naming the file and the fix. tau_n in kN m (x0.001) missed
+    # by only ~10x the noise and passed the misfit check
     from dataclasses import replace as dc_replace
 
     from diagnose.recording import RecordingError
@@ -412,3 +413,15 @@ def test_a_roll_rate_column_gives_the_prior_its_roll_yaw_term(tmp_path):
     bare = write_csv(rec, tmp_path / "no_p.csv")
     with pytest.raises(UserError, match=r"\bp \(roll rate"):
         load_runs([bare], with_p.kind)
+
+
+def test_detect_prior_refuses_a_nominal_moment_of_the_wrong_sign(tmp_path):
+    # a prior fitted on a flipped tau_n fitted a negative-gain ship without a word
+    from dataclasses import replace as dc_replace
+
+    from diagnose.recording import RecordingError
+
+    rec = simulated_recording(Vessel(), 100, seed=25, measured_moment=True)
+    path = write_csv(dc_replace(rec, channels=rec.channels | {"tau_n": -rec.channels["tau_n"]}), tmp_path / "flip.csv")
+    with pytest.raises(RecordingError, match=r"flip\.csv: column 'tau_n' correlates -"):
+        fit_prior([path], "full", bootstrap=0)

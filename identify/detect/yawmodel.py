@@ -517,6 +517,28 @@ def whiten(x: np.ndarray, ar: np.ndarray) -> np.ndarray:
     return out
 
 
+def moment_scale(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray) -> float:
+    """How many times the yaw moment the prior's row needs to turn the ship as recorded is the
+    recorded actuator moment: the least-squares slope of ``I_r r' - sum_j theta_j phi_j(r, w)``
+    ((2.17)/(2.18) solved for tau_r, with the measured r low-passed like the inputs and r' its
+    Savitzky-Golay rate) on ``tau_r``. About 1 for a recording of the ship in the units the prior
+    was fitted in (within the change of its properties); 1000 for a moment given in kN m as N m."""
+    from scipy.signal import savgol_filter
+
+    from identify.yawid.model import INPUT_TERMS, STATE_TERMS
+
+    w = prior.inputs(sig)
+    rl = model_inputs({"r": r}, prior.dt, prior.prefilter_hz)["r"]
+    rest = np.zeros_like(rl)
+    for name in YAW_MODELS[prior.kind].params[1:]:  # after I_r
+        reg = STATE_TERMS[name][0](rl, w) if name in STATE_TERMS else INPUT_TERMS[name](w)
+        rest = rest + prior.values[_prior_name(name)] * reg
+    win = 2 * int(1.0 / prior.dt) + 1
+    need = prior.values["I_r"] * savgol_filter(rl, win, 2, deriv=1, delta=prior.dt) - rest
+    tau = w["tau_r"]
+    return float(np.dot(need, tau) / max(float(np.dot(tau, tau)), 1e-300))
+
+
 def signatures(prior: YawPrior, sig: dict[str, np.ndarray], rel: float = 0.05) -> np.ndarray:
     """``S`` (n, 3): the change of r_hat per unit relative change of each candidate in CANDIDATES
     (yaw inertia, all damping terms together, actuator gain) on the manoeuvre ``sig``."""
