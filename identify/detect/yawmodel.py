@@ -20,12 +20,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.signal import lfilter
+from scipy.signal import lfilter, savgol_filter
 
 from identify.detect.vessel import base_profile
 from identify.yawid.estimate import fit_yaw, prefilter, simulate_yaw
 from identify.yawid.experiment import YawData
-from identify.yawid.model import FULL, FULL_P, MODELS, true_parameters
+from identify.yawid.model import FULL, FULL_P, INPUT_TERMS, MODELS, STATE_TERMS, true_parameters
 from primitives.errors import UserError
 
 
@@ -445,8 +445,6 @@ def parameter_draws(prior: YawPrior, runs: int, seed: int = 0) -> np.ndarray:
 
 def smooth(sig: dict[str, np.ndarray], dt: float) -> dict[str, np.ndarray]:
     """Savitzky-Golay smoothing (2 s, quadratic) along time: the bootstraps' stand-in for the true inputs."""
-    from scipy.signal import savgol_filter
-
     win = 2 * int(1.0 / dt) + 1
     return {k: savgol_filter(s, win, 2, axis=0) if len(s) > win else s for k, s in sig.items()}
 
@@ -523,10 +521,6 @@ def moment_scale(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray) -> 
     ((2.17)/(2.18) solved for tau_r, with the measured r low-passed like the inputs and r' its
     Savitzky-Golay rate) on ``tau_r``. About 1 for a recording of the ship in the units the prior
     was fitted in (within the change of its properties); 1000 for a moment given in kN m as N m."""
-    from scipy.signal import savgol_filter
-
-    from identify.yawid.model import INPUT_TERMS, STATE_TERMS
-
     w = prior.inputs(sig)
     rl = model_inputs({"r": r}, prior.dt, prior.prefilter_hz)["r"]
     rest = np.zeros_like(rl)
