@@ -425,3 +425,17 @@ def test_detect_prior_refuses_a_nominal_moment_of_the_wrong_sign(tmp_path):
     path = write_csv(dc_replace(rec, channels=rec.channels | {"tau_n": -rec.channels["tau_n"]}), tmp_path / "flip.csv")
     with pytest.raises(RecordingError, match=r"flip\.csv: column 'tau_n' correlates -"):
         fit_prior([path], "full", bootstrap=0)
+
+
+def test_a_straight_run_is_refused_for_too_little_turning_not_called_a_unit_error(prior, monkeypatch):
+    # pods held straight: the recorded tau_n is noise, so the moment-scale slope is noise too (0.17
+    # on a podded-truth ship); it read "a unit error, kN m gives 1000" (and before the scale check
+    # a +100 % yaw-inertia alarm); the fix is to record manoeuvres, said in one line
+    import identify.detect.api as api
+    from diagnose.recording import RecordingError
+
+    steer = api.harbour_inputs
+    monkeypatch.setattr(api, "harbour_inputs", lambda n, dt, seed: steer(n, dt, seed) * np.array([1.0, 0.0, 1.0, 0.0]))
+    rec = simulated_recording(Vessel(), 300, seed=61, measured_moment=True)
+    with pytest.raises(RecordingError, match=r"turns the ship too little"):
+        detect(rec, prior)

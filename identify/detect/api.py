@@ -56,7 +56,10 @@ def load_runs(paths: list[Path] | list[str], kind: str | None = None, notes: lis
         if kind in ("full", "full-p") and "phi" not in header:
             missing.append("phi (roll, rad; or use --model simplified)")
         if kind == "full-p" and "p" not in header:
-            missing.append("p (roll rate, rad/s: the prior's yaw row has the roll-rate term N_p p)")
+            missing.append(
+                "p (roll rate, rad/s: the prior's yaw row has the roll-rate term N_p p; or refit the prior "
+                "with detect-prior --no-roll-rate)"
+            )
         if not ({"x", "y"} <= set(header) or {"lat", "lon"} <= set(header)):
             missing.insert(0, "x, y (north, east, m) or lat, lon (deg)")
         missing[:0] = [f"{c} ({what})" for c, what in (("t", "time, s"), ("psi", "heading, rad")) if c not in header]
@@ -127,7 +130,7 @@ def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarra
         if "p" not in rec.channels:
             raise RecordingError(
                 f"{rec.source}: no column 'p' (roll rate, rad/s) that the prior's yaw row needs (its "
-                "roll-rate term N_p p); add it, or refit the prior on a nominal recording without p"
+                "roll-rate term N_p p); add it, or refit the prior with detect-prior --no-roll-rate"
             )
         sig["p"] = rec.channels["p"]
     return _deriver(rec, kind)(sig, r), r
@@ -232,6 +235,9 @@ MISFIT_SIGMAS = 20.0
 #: runs (0.90 for a -10 % pod gain), 0.70-0.99 on the podded truth family's (steering lag lowest);
 #: a moment in kN m gives ~1000
 MOMENT_FACTOR = 4.0
+#: below this correlation of the two moments the slope is noise, not a unit (a straight run: 0.06,
+#: slope 0.17, measured on a podded-truth ship; harbour manoeuvres 0.97-1.00, steering lag 0.66)
+MOMENT_CORRELATION = 0.3
 
 
 @dataclass
@@ -304,17 +310,25 @@ def check_inputs(rec: Recording, prior: YawPrior, sig: dict[str, np.ndarray], r:
     """Refuse a recording the prior cannot describe at all (an input error, not a change): a
     measured pod yaw moment of the wrong sign (:func:`check_moment_sign`) or off the moment the
     prior needs to turn the ship as recorded by more than MOMENT_FACTOR (tau_n in kN m, x1000:
-    :func:`identify.detect.yawmodel.moment_scale`), or a prediction residual not finite or over
-    MISFIT_SIGMAS times the prior's noise sigma. Returns the residual's rms."""
+    :func:`identify.detect.yawmodel.moment_scale`), a recording that turns the ship too little for
+    either check (the two moments correlate less than MOMENT_CORRELATION: a straight run, which
+    read as a +100 % change before), or a prediction residual not finite or over MISFIT_SIGMAS
+    times the prior's noise sigma. Returns the residual's rms."""
+    k, c = moment_scale(prior, sig, r) if MOMENT in rec.channels else (1.0, 1.0)
+    if not 1 / MOMENT_FACTOR <= k <= MOMENT_FACTOR and abs(c) < MOMENT_CORRELATION:
+        raise RecordingError(
+            f"{rec.source}: the recorded '{MOMENT}' and the moment the prior needs to turn the ship as "
+            f"recorded hardly correlate ({c:+.2f}): the recording turns the ship too little (a straight "
+            "run?) to be tested against the prior (neither its sign nor its unit can be checked); record "
+            "manoeuvres (turns, zigzags)"
+        )
     check_moment_sign(rec, sig["tau_r"], r)
-    if MOMENT in rec.channels:
-        k = moment_scale(prior, sig, r)
-        if not 1 / MOMENT_FACTOR <= k <= MOMENT_FACTOR:
-            raise RecordingError(
-                f"{rec.source}: the prior needs {k:.3g} times the recorded '{MOMENT}' to turn the ship as "
-                f"recorded (more than {MOMENT_FACTOR:g}x either way is no ship change: a unit error, kN m "
-                f"gives 1000); {_UNITS_FIX}"
-            )
+    if not 1 / MOMENT_FACTOR <= k <= MOMENT_FACTOR:
+        raise RecordingError(
+            f"{rec.source}: the prior needs {k:.3g} times the recorded '{MOMENT}' to turn the ship as "
+            f"recorded (more than {MOMENT_FACTOR:g}x either way is no ship change: a unit error, kN m "
+            f"gives 1000); {_UNITS_FIX}"
+        )
     sigma = prior.sigma
     rms = float(np.sqrt(np.mean(eps**2)))
     if not np.isfinite(rms) or rms > MISFIT_SIGMAS * sigma:

@@ -515,12 +515,14 @@ def whiten(x: np.ndarray, ar: np.ndarray) -> np.ndarray:
     return out
 
 
-def moment_scale(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray) -> float:
+def moment_scale(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray) -> tuple[float, float]:
     """How many times the yaw moment the prior's row needs to turn the ship as recorded is the
     recorded actuator moment: the least-squares slope of ``I_r r' - sum_j theta_j phi_j(r, w)``
     ((2.17)/(2.18) solved for tau_r, with the measured r low-passed like the inputs and r' its
     Savitzky-Golay rate) on ``tau_r``. About 1 for a recording of the ship in the units the prior
-    was fitted in (within the change of its properties); 1000 for a moment given in kN m as N m."""
+    was fitted in (within the change of its properties); 1000 for a moment given in kN m as N m.
+    Returns the slope and the correlation of the two moments (near 0 when the recording hardly
+    turns the ship: the slope is then noise, not a unit)."""
     w = prior.inputs(sig)
     rl = model_inputs({"r": r}, prior.dt, prior.prefilter_hz)["r"]
     rest = np.zeros_like(rl)
@@ -530,7 +532,9 @@ def moment_scale(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray) -> 
     win = 2 * int(1.0 / prior.dt) + 1
     need = prior.values["I_r"] * savgol_filter(rl, win, 2, deriv=1, delta=prior.dt) - rest
     tau = w["tau_r"]
-    return float(np.dot(need, tau) / max(float(np.dot(tau, tau)), 1e-300))
+    k = float(np.dot(need, tau) / max(float(np.dot(tau, tau)), 1e-300))
+    c = float(np.corrcoef(need, tau)[0, 1]) if np.ptp(need) > 0 and np.ptp(tau) > 0 else 0.0
+    return k, c
 
 
 def signatures(prior: YawPrior, sig: dict[str, np.ndarray], rel: float = 0.05) -> np.ndarray:
