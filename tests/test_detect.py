@@ -400,11 +400,12 @@ def test_a_roll_rate_column_gives_the_prior_its_roll_yaw_term(tmp_path):
     # tested with that prior must then carry p, and --no-roll-rate keeps the thesis's (2.17)
     from dataclasses import replace as dc_replace
 
-    from identify.detect.api import _rate, load_runs
+    from identify.detect.api import load_runs
+    from identify.detect.checks import time_derivative
     from primitives.errors import UserError
 
     rec = simulated_recording(Vessel(), 300, seed=24, measured_moment=True)
-    p = _rate(rec.channels["phi"], 0.1)  # a roll-rate gyro's smooth signal, from the noisy roll
+    p = time_derivative(rec.channels["phi"], 0.1)  # a roll-rate gyro's smooth signal, from the noisy roll
     path = write_csv(dc_replace(rec, channels=rec.channels | {"p": p}), tmp_path / "with_p.csv")
     with_p = fit_prior([path], "full", bootstrap=8)
     assert with_p.kind == "full-p" and abs(with_p.values["N_p"]) < 0.8e6

@@ -10,9 +10,9 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from diagnose.recording import NUMERIC, Recording, RecordingError, load_recording, split_metadata
+from identify.detect.checks import MOMENT, check_inputs, check_moment_sign, time_derivative
 from identify.detect.cusum import calibrate_dead_zone, first_alarms
 from identify.detect.glr import SignatureCusum, attribute, calibrate, onset
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
@@ -24,7 +24,6 @@ from identify.detect.yawmodel import (
     block_mean,
     fit,
     model_inputs,
-    moment_scale,
     null_records,
     signatures,
 )
@@ -33,7 +32,6 @@ from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
 
 POD_COLUMNS = ("n1", "alpha1", "n2", "alpha2")
-MOMENT = "tau_n"  # measured pod yaw moment, N m (the recording format's actuator yaw moment)
 SWAY_ACC = "v_dot"  # measured sway acceleration, m/s^2 (Table 4.1 of seed 000 measures it)
 
 
@@ -147,7 +145,7 @@ def _deriver(rec: Recording, kind: str):
     measured_vdot = SWAY_ACC in rec.channels
 
     def rate(x: np.ndarray) -> np.ndarray:
-        return _rate(x, dt)
+        return time_derivative(x, dt)
 
     def derive(sig: dict[str, np.ndarray], r: np.ndarray) -> dict[str, np.ndarray]:
         out = dict(sig)
@@ -225,19 +223,6 @@ def load_prior(path: Path) -> YawPrior:
 N_RDOT = -28.7e6
 CHECKS = 60  # most alarm candidates (blocks over the threshold) whose estimate is checked
 LOOK_AHEAD = 600  # samples after a crossing whose data the alarm decision's estimate also uses
-#: the prior's prediction may miss a recording by this many times its noise sigma before the
-#: recording is refused as an input error: simulated changed and unchanged runs (full and
-#: simplified model, measured or derived tau_r) stay within 2.0x; tau_n x1000 gives ~780x,
-#: tau_n or r of the wrong sign ~18-24x (the sign check below catches these too)
-MISFIT_SIGMAS = 20.0
-#: the recorded tau_n may be off the moment the prior needs by this factor before the recording is
-#: refused (:func:`identify.detect.yawmodel.moment_scale`): measured 0.90-1.00 on our own kernel's
-#: runs (0.90 for a -10 % pod gain), 0.70-0.99 on the podded truth family's (steering lag lowest);
-#: a moment in kN m gives ~1000
-MOMENT_FACTOR = 4.0
-#: below this correlation of the two moments the slope is noise, not a unit (a straight run: 0.06,
-#: slope 0.17, measured on a podded-truth ship; harbour manoeuvres 0.97-1.00, steering lag 0.66)
-MOMENT_CORRELATION = 0.3
 
 
 @dataclass
@@ -279,65 +264,6 @@ def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float |
         return rel
     i_z = i_r + n_rdot
     return rel * i_r / i_z if i_z > 0 else None
-
-
-_UNITS_FIX = (
-    f"check the units and signs: {MOMENT} in N m, > 0 turning the ship to starboard, and r in rad/s, "
-    "> 0 turning to starboard (README: 'Recordings for detect and detect-prior')"
-)
-
-
-def _rate(x: np.ndarray, dt: float) -> np.ndarray:
-    """d/dt along axis 0 by a quadratic Savitzky-Golay fit over about 2 s (np.gradient on records
-    shorter than that window)."""
-    win = max(5, 2 * int(1.0 / dt) + 1)
-    return savgol_filter(x, win, 2, deriv=1, delta=dt, axis=0) if len(x) > win else np.gradient(x, dt, axis=0)
-
-
-def check_moment_sign(rec: Recording, tau_r: np.ndarray, r: np.ndarray) -> None:
-    """Refuse a measured pod yaw moment that does not turn the ship the way it is pushed (tau_n
-    against dr/dt, as diagnose checks its columns' signs): a flipped tau_n or r."""
-    if MOMENT in rec.channels and np.ptp(tau_r) > 0 and np.ptp(r) > 0:
-        c = float(np.corrcoef(tau_r, _rate(r, rec.sample_time))[0, 1])
-        if not c > 0:
-            raise RecordingError(
-                f"{rec.source}: column '{MOMENT}' correlates {c:+.2f} with the rate of r (a pod yaw "
-                f"moment turns the ship its way: expected > 0); {_UNITS_FIX}"
-            )
-
-
-def check_inputs(rec: Recording, prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray, eps: np.ndarray) -> float:
-    """Refuse a recording the prior cannot describe at all (an input error, not a change): a
-    measured pod yaw moment of the wrong sign (:func:`check_moment_sign`) or off the moment the
-    prior needs to turn the ship as recorded by more than MOMENT_FACTOR (tau_n in kN m, x1000:
-    :func:`identify.detect.yawmodel.moment_scale`), a recording that turns the ship too little for
-    either check (the two moments correlate less than MOMENT_CORRELATION: a straight run, which
-    read as a +100 % change before), or a prediction residual not finite or over MISFIT_SIGMAS
-    times the prior's noise sigma. Returns the residual's rms."""
-    k, c = moment_scale(prior, sig, r) if MOMENT in rec.channels else (1.0, 1.0)
-    if not 1 / MOMENT_FACTOR <= k <= MOMENT_FACTOR and abs(c) < MOMENT_CORRELATION:
-        raise RecordingError(
-            f"{rec.source}: the recorded '{MOMENT}' and the moment the prior needs to turn the ship as "
-            f"recorded hardly correlate ({c:+.2f}): the recording turns the ship too little (a straight "
-            "run?) to be tested against the prior (neither its sign nor its unit can be checked); record "
-            "manoeuvres (turns, zigzags)"
-        )
-    check_moment_sign(rec, sig["tau_r"], r)
-    if not 1 / MOMENT_FACTOR <= k <= MOMENT_FACTOR:
-        raise RecordingError(
-            f"{rec.source}: the prior needs {k:.3g} times the recorded '{MOMENT}' to turn the ship as "
-            f"recorded (more than {MOMENT_FACTOR:g}x either way is no ship change: a unit error, kN m "
-            f"gives 1000); {_UNITS_FIX}"
-        )
-    sigma = prior.sigma
-    rms = float(np.sqrt(np.mean(eps**2)))
-    if not np.isfinite(rms) or rms > MISFIT_SIGMAS * sigma:
-        raise RecordingError(
-            f"{rec.source}: the prior's yaw rate misses the recording's by {rms:.2g} rad/s rms, "
-            f"{rms / sigma:.0f}x its noise {sigma:.2g} rad/s (over {MISFIT_SIGMAS:g}x is no ship "
-            f"change: an input error); {_UNITS_FIX}"
-        )
-    return rms
 
 
 def _decide(eps, S, prior, st, h, null_raw, min_change, n_rdot) -> tuple[int, dict]:
