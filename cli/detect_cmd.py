@@ -32,6 +32,12 @@ def register(app: typer.Typer) -> None:
             "from the fit's Jacobian (knows the noise on r only)",
         ),
         seed: int = typer.Option(0, "--seed", help="seed of the bootstrap"),
+        roll_rate: bool = typer.Option(
+            True,
+            "--roll-rate/--no-roll-rate",
+            help="with the full model and a roll-rate column p, add the yaw moment N_p p of the roll "
+            "rate to the yaw row (the recordings tested then need p too)",
+        ),
     ) -> None:
         """Fit the yaw-row prior (2.17)/(2.18) of "Estimating a ship's dynamics during operation" on a nominal recording, for `detect`."""
         from cli.options import validate_detect_prior_options
@@ -40,12 +46,13 @@ def register(app: typer.Typer) -> None:
 
         validate_detect_prior_options(out=out, bootstrap=bootstrap, seed=seed)
         notes: list[str] = []
-        prior = fit_prior(nominal, model, bootstrap, seed, notes)
+        prior = fit_prior(nominal, model, bootstrap, seed, notes, roll_rate=roll_rate)
         for n in notes:
             typer.echo(f"note: {n}", err=True)
         save_prior(prior, out)
         typer.echo(
             f"wrote {out}: {prior.kind} yaw row, I_r {prior.values['I_r']:.4g} kg m^2, residual sigma {prior.sigma:.2g} rad/s"
+            + (f", N_p {prior.values['N_p']:.3g} N m s (yaw moment of the roll rate)" if "N_p" in prior.values else "")
         )
         if prior.structure.max() > 0:
             typer.echo(

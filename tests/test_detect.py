@@ -334,10 +334,11 @@ def test_plot_one_file_per_recording_beyond_a_handful(prior, tmp_path):
     assert plot(dets[:2], tmp_path / "two.png", panels=4) == [tmp_path / "two.png"]
 
 
-@pytest.mark.parametrize("column,factor", [("tau_n", 1000.0), ("tau_n", -1.0), ("r", -1.0)])
+@pytest.mark.parametrize("column,factor", [("tau_n", 1000.0), ("tau_n", 0.001), ("tau_n", -1.0), ("r", -1.0)])
 def test_a_moment_or_yaw_rate_of_wrong_unit_or_sign_is_refused_not_called_a_change(prior, column, factor):
     # tau_n x1000 or x-1 (or r x-1) read as a confident "CHANGED: yaw damping / pod gain" before;
-    # it is an input error: one line naming the file and the fix
+    # it is an input error: one line naming the file and the fix. tau_n in kN m (x0.001) missed
+    # by only ~10x the noise and passed the misfit check
     from dataclasses import replace as dc_replace
 
     from diagnose.recording import RecordingError
@@ -390,3 +391,52 @@ def test_a_rejected_run_does_not_call_an_estimate_over_2_sd_not_significant(prio
     inertia = next(line for line in text.splitlines() if line.startswith("  yaw inertia"))
     pod = next(line for line in text.splitlines() if line.startswith("  pod gain"))
     assert "not separable from the other candidates" in inertia and "below --min-change" in pod, text
+
+
+def test_a_roll_rate_column_gives_the_prior_its_roll_yaw_term(tmp_path):
+    # with p recorded, the full prior's yaw row gets N_p p (kind full-p); on our own kernel, whose
+    # yaw row has no roll-rate term, the fit keeps I_r and finds N_p small (0.40e6 N m s measured,
+    # from the noise of p; the truth family's ships have -2e6 to -4e6); a recording
+    # tested with that prior must then carry p, and --no-roll-rate keeps the thesis's (2.17)
+    from dataclasses import replace as dc_replace
+
+    from identify.detect.api import load_runs
+    from identify.detect.checks import time_derivative
+    from primitives.errors import UserError
+
+    rec = simulated_recording(Vessel(), 300, seed=24, measured_moment=True)
+    p = time_derivative(rec.channels["phi"], 0.1)  # a roll-rate gyro's smooth signal, from the noisy roll
+    path = write_csv(dc_replace(rec, channels=rec.channels | {"p": p}), tmp_path / "with_p.csv")
+    with_p = fit_prior([path], "full", bootstrap=8)
+    assert with_p.kind == "full-p" and abs(with_p.values["N_p"]) < 0.8e6
+    assert abs(with_p.values["I_r"] / NOMINAL["I_r"] - 1) < 0.1
+    assert fit_prior([path], "full", bootstrap=0, roll_rate=False).kind == "full"
+    bare = write_csv(rec, tmp_path / "no_p.csv")
+    with pytest.raises(UserError, match=r"\bp \(roll rate"):
+        load_runs([bare], with_p.kind)
+
+
+def test_detect_prior_refuses_a_nominal_moment_of_the_wrong_sign(tmp_path):
+    # a prior fitted on a flipped tau_n fitted a negative-gain ship without a word
+    from dataclasses import replace as dc_replace
+
+    from diagnose.recording import RecordingError
+
+    rec = simulated_recording(Vessel(), 100, seed=25, measured_moment=True)
+    path = write_csv(dc_replace(rec, channels=rec.channels | {"tau_n": -rec.channels["tau_n"]}), tmp_path / "flip.csv")
+    with pytest.raises(RecordingError, match=r"flip\.csv: column 'tau_n' correlates -"):
+        fit_prior([path], "full", bootstrap=0)
+
+
+def test_a_straight_run_is_refused_for_too_little_turning_not_called_a_unit_error(prior, monkeypatch):
+    # pods held straight: the recorded tau_n is noise, so the moment-scale slope is noise too (0.17
+    # on a podded-truth ship); it read "a unit error, kN m gives 1000" (and before the scale check
+    # a +100 % yaw-inertia alarm); the fix is to record manoeuvres, said in one line
+    import identify.detect.api as api
+    from diagnose.recording import RecordingError
+
+    steer = api.harbour_inputs
+    monkeypatch.setattr(api, "harbour_inputs", lambda n, dt, seed: steer(n, dt, seed) * np.array([1.0, 0.0, 1.0, 0.0]))
+    rec = simulated_recording(Vessel(), 300, seed=61, measured_moment=True)
+    with pytest.raises(RecordingError, match=r"turns the ship too little"):
+        detect(rec, prior)

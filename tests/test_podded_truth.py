@@ -67,3 +67,17 @@ def test_coloured_noise_is_coloured_and_heavy_tailed(clean):
     er = noisy["r"] - clean["r"] - np.mean(noisy["r"] - clean["r"])
     kurt = float(np.mean(er**4) / np.mean(er**2) ** 2)
     assert kurt > 3.0  # heavier than Gaussian tails survive the sensor filter, plus the gyro bias drift
+
+
+def test_the_roll_rate_term_narrows_the_gap_without_closing_it(clean):
+    # the prior's yaw row with N_p p (kind full-p, used when the recording has p) takes out most of
+    # the strong-roll variant's misfit (1.55e-3 -> 4.3e-4 rad/s measured, I_r 0.60 -> 1.00 of the
+    # ship's), yet no variant is reproduced: every fit still misses r by > 1.5e-4 rad/s on
+    # noise-free data (2.0e-4 to 4.3e-4 measured), the interaction terms stay unmodelled
+    fits = {}
+    for v, c in clean.items():
+        fits[v] = fit("full-p", _sig(c) | {"p": c["p"]}, c["r"], 0.1, bootstrap=0)
+        assert fits[v].sigma > 1.5e-4, (v, fits[v].sigma)
+    roll = clean["strong-roll"]
+    without = fit("full", _sig(roll), roll["r"], 0.1, bootstrap=0)
+    assert fits["strong-roll"].sigma < 0.5 * without.sigma

@@ -10,9 +10,9 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from diagnose.recording import NUMERIC, Recording, RecordingError, load_recording, split_metadata
+from identify.detect.checks import MOMENT, check_inputs, check_moment_sign, time_derivative
 from identify.detect.cusum import calibrate_dead_zone, first_alarms
 from identify.detect.glr import SignatureCusum, attribute, calibrate, onset
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
@@ -32,7 +32,6 @@ from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
 
 POD_COLUMNS = ("n1", "alpha1", "n2", "alpha2")
-MOMENT = "tau_n"  # measured pod yaw moment, N m (the recording format's actuator yaw moment)
 SWAY_ACC = "v_dot"  # measured sway acceleration, m/s^2 (Table 4.1 of seed 000 measures it)
 
 
@@ -52,8 +51,13 @@ def load_runs(paths: list[Path] | list[str], kind: str | None = None, notes: lis
         pods = [c for c in POD_COLUMNS if c not in header]
         if pods and MOMENT not in header:
             missing.append(f"{MOMENT} (measured pod yaw moment, N m) or the pod inputs {', '.join(pods)} (rev/s, rad)")
-        if kind == "full" and "phi" not in header:
+        if kind in ("full", "full-p") and "phi" not in header:
             missing.append("phi (roll, rad; or use --model simplified)")
+        if kind == "full-p" and "p" not in header:
+            missing.append(
+                "p (roll rate, rad/s: the prior's yaw row has the roll-rate term N_p p; or refit the prior "
+                "with detect-prior --no-roll-rate)"
+            )
         if not ({"x", "y"} <= set(header) or {"lat", "lon"} <= set(header)):
             missing.insert(0, "x, y (north, east, m) or lat, lon (deg)")
         missing[:0] = [f"{c} ({what})" for c, what in (("t", "time, s"), ("psi", "heading, rad")) if c not in header]
@@ -111,7 +115,7 @@ def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarra
     motion then enters tau_r and biases the prior (+12 to +14 % on I_r in 400 s at Table 4.1 noise)."""
     u, v, r = rec.y[:, 0], rec.y[:, 1], rec.y[:, 2]
     sig = {"u": u, "v": v} | ({"tau_r": rec.channels[MOMENT]} if MOMENT in rec.channels else {})
-    if kind == "full":
+    if kind != "simplified":
         if "phi" not in rec.channels:
             raise RecordingError(
                 f"{rec.source}: no column 'phi' (roll, rad) that the full model (2.17) needs; "
@@ -120,6 +124,13 @@ def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarra
         sig["phi"] = rec.channels["phi"]
         if SWAY_ACC in rec.channels:
             sig["v_dot"] = rec.channels[SWAY_ACC]
+    if kind == "full-p":
+        if "p" not in rec.channels:
+            raise RecordingError(
+                f"{rec.source}: no column 'p' (roll rate, rad/s) that the prior's yaw row needs (its "
+                "roll-rate term N_p p); add it, or refit the prior with detect-prior --no-roll-rate"
+            )
+        sig["p"] = rec.channels["p"]
     return _deriver(rec, kind)(sig, r), r
 
 
@@ -134,18 +145,23 @@ def _deriver(rec: Recording, kind: str):
     measured_vdot = SWAY_ACC in rec.channels
 
     def rate(x: np.ndarray) -> np.ndarray:
-        return _rate(x, dt)
+        return time_derivative(x, dt)
 
     def derive(sig: dict[str, np.ndarray], r: np.ndarray) -> dict[str, np.ndarray]:
         out = dict(sig)
         v = sig["v"]
         col = (slice(None),) + (None,) * (v.ndim - 1)  # recorded channels broadcast over runs
-        if kind == "full" and not measured_vdot:
+        if kind != "simplified" and not measured_vdot:
             out["v_dot"] = rate(v)
         if measured_tau:
             return {k: out[k] for k in SIGNALS[kind]}
         # roll rate moves the pods sideways (z_pod p): measured p, else the rate of the measured roll
-        p = np.broadcast_to(p_rec[col], v.shape) if p_rec is not None else rate(sig["phi"]) if "phi" in sig else np.zeros_like(v)
+        if "p" in sig:  # the prior's own roll-rate input (noisy in the no-change records)
+            p = sig["p"]
+        elif p_rec is not None:
+            p = np.broadcast_to(p_rec[col], v.shape)
+        else:
+            p = rate(sig["phi"]) if "phi" in sig else np.zeros_like(v)
         # the pod model is nonlinear in the motion (drift angle, speed squared): feed it the
         # low-passed motion (v fused with v'), as the prior's inputs are, so noise does not bias tau_r
         motion = model_inputs(
@@ -160,18 +176,28 @@ def _deriver(rec: Recording, kind: str):
 
 
 def fit_prior(
-    paths: list[Path] | list[str], kind: str = "full", bootstrap: int = 64, seed: int = 0, notes: list[str] | None = None
+    paths: list[Path] | list[str],
+    kind: str = "full",
+    bootstrap: int = 64,
+    seed: int = 0,
+    notes: list[str] | None = None,
+    roll_rate: bool = True,
 ) -> YawPrior:
     """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s),
     its parameter error described by ``bootstrap`` parametric-bootstrap refits of the nominal
-    data (errors in variables: noisy u, v, phi and the v', tau_r derived from them)."""
-    if kind not in SIGNALS:
+    data (errors in variables: noisy u, v, phi and the v', tau_r derived from them). The full
+    model gets the roll-rate term ``N_p p`` (kind ``full-p``) when that recording has the roll
+    rate ``p`` and ``roll_rate`` is on; the recordings tested with the prior then need ``p`` too."""
+    if kind not in ("full", "simplified"):
         raise UserError(f"--model {kind!r}: choose full (2.17) or simplified (2.18)")
     recs = load_runs(paths, kind, notes)
     rec = max(recs, key=lambda r: r.n_samples)
+    if kind == "full" and roll_rate and "p" in rec.channels:
+        kind = "full-p"  # the measured roll rate lets the yaw row carry the roll-yaw coupling N_p p
     sig, r = signals(rec, kind)
     if np.ptp(r) < 1e-3:
         raise RecordingError(f"{rec.source}: the yaw rate hardly moves (range {np.ptp(r):.1e} rad/s); a prior needs turning")
+    check_moment_sign(rec, sig["tau_r"], r)
     return fit(kind, sig, r, rec.sample_time, source=str(rec.source), bootstrap=bootstrap, seed=seed, derive=_deriver(rec, kind))
 
 
@@ -197,11 +223,6 @@ def load_prior(path: Path) -> YawPrior:
 N_RDOT = -28.7e6
 CHECKS = 60  # most alarm candidates (blocks over the threshold) whose estimate is checked
 LOOK_AHEAD = 600  # samples after a crossing whose data the alarm decision's estimate also uses
-#: the prior's prediction may miss a recording by this many times its noise sigma before the
-#: recording is refused as an input error: simulated changed and unchanged runs (full and
-#: simplified model, measured or derived tau_r) stay within 2.0x; tau_n x1000 gives ~780x,
-#: tau_n or r of the wrong sign ~18-24x (the sign check below catches these too)
-MISFIT_SIGMAS = 20.0
 
 
 @dataclass
@@ -243,42 +264,6 @@ def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float |
         return rel
     i_z = i_r + n_rdot
     return rel * i_r / i_z if i_z > 0 else None
-
-
-_UNITS_FIX = (
-    f"check the units and signs: {MOMENT} in N m, > 0 turning the ship to starboard, and r in rad/s, "
-    "> 0 turning to starboard (README: 'Recordings for detect and detect-prior')"
-)
-
-
-def _rate(x: np.ndarray, dt: float) -> np.ndarray:
-    """d/dt along axis 0 by a quadratic Savitzky-Golay fit over about 2 s (np.gradient on records
-    shorter than that window)."""
-    win = max(5, 2 * int(1.0 / dt) + 1)
-    return savgol_filter(x, win, 2, deriv=1, delta=dt, axis=0) if len(x) > win else np.gradient(x, dt, axis=0)
-
-
-def check_inputs(rec: Recording, tau_r: np.ndarray, r: np.ndarray, eps: np.ndarray, sigma: float) -> float:
-    """Refuse a recording the prior cannot describe at all (an input error, not a change): a measured
-    pod yaw moment that does not turn the ship the way it is pushed (tau_n against dr/dt, as
-    diagnose checks its columns' signs), or a prediction residual not finite or over
-    MISFIT_SIGMAS times the prior's noise sigma (tau_n in kN m or x1000, a flipped sign). Returns
-    the residual's rms."""
-    if MOMENT in rec.channels and np.ptp(tau_r) > 0 and np.ptp(r) > 0:
-        c = float(np.corrcoef(tau_r, _rate(r, rec.sample_time))[0, 1])
-        if not c > 0:
-            raise RecordingError(
-                f"{rec.source}: column '{MOMENT}' correlates {c:+.2f} with the rate of r (a pod yaw "
-                f"moment turns the ship its way: expected > 0); {_UNITS_FIX}"
-            )
-    rms = float(np.sqrt(np.mean(eps**2)))
-    if not np.isfinite(rms) or rms > MISFIT_SIGMAS * sigma:
-        raise RecordingError(
-            f"{rec.source}: the prior's yaw rate misses the recording's by {rms:.2g} rad/s rms, "
-            f"{rms / sigma:.0f}x its noise {sigma:.2g} rad/s (over {MISFIT_SIGMAS:g}x is no ship "
-            f"change: an input error); {_UNITS_FIX}"
-        )
-    return rms
 
 
 def _decide(eps, S, prior, st, h, null_raw, min_change, n_rdot) -> tuple[int, dict]:
@@ -335,7 +320,7 @@ def detect(
     sig, r = signals(rec, prior.kind)
     r0 = float(np.mean(r[:5]))
     eps = r - prior.predict(sig, r0=r0)
-    residual_rms = check_inputs(rec, sig["tau_r"], r, eps, prior.sigma)
+    residual_rms = check_inputs(rec, prior, sig, r, eps)
     S = signatures(prior, sig)
     null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
     null_blocks = block_mean(null_raw, prior.block)

@@ -74,12 +74,14 @@ def calibrate(
     det = SignatureCusum(prior, theta1)
     peaks = det.statistics(null, S).max(axis=0)  # (runs, k)
     if np.any(prior.structure > 0):
-        # the structure's misfit on a new manoeuvre: an apparent change of sd structure_k along S_k
-        xi = np.random.default_rng(seed).standard_normal(null.shape[1])
+        # the structure's misfit on a new manoeuvre: an apparent change of sd structure_k along S_k,
+        # drawn independently per candidate (one draw shared by all made their alarms coincide, so
+        # "any candidate" alarmed on fewer records and the thresholds came out too low)
+        xi = np.random.default_rng(seed).standard_normal((len(prior.structure), null.shape[1]))
         Sb = block_mean(S, prior.block)[: len(null)]
         for k, sd in enumerate(prior.structure):
             if sd > 0:
-                peaks[:, k] = det.statistics(null + sd * xi[None, :] * Sb[:, k : k + 1], S)[..., k].max(axis=0)
+                peaks[:, k] = det.statistics(null + sd * xi[k][None, :] * Sb[:, k : k + 1], S)[..., k].max(axis=0)
     lo, hi = 1 - false_alarm, 1.0
     for _ in range(30):  # bisection on the common quantile level
         q = 0.5 * (lo + hi)

@@ -20,12 +20,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.signal import lfilter
+from scipy.signal import lfilter, savgol_filter
 
 from identify.detect.vessel import base_profile
 from identify.yawid.estimate import fit_yaw, prefilter, simulate_yaw
 from identify.yawid.experiment import YawData
-from identify.yawid.model import FULL, MODELS, true_parameters
+from identify.yawid.model import FULL, FULL_P, INPUT_TERMS, MODELS, STATE_TERMS, true_parameters
 from primitives.errors import UserError
 
 
@@ -35,11 +35,20 @@ def _prior_name(name: str) -> str:
 
 
 _TRUE = true_parameters(base_profile())
-#: (2.19) of the profile, in the order of the full model (2.17)
-NOMINAL = {_prior_name(k): _TRUE[k] for k in FULL.params}
-PARAMS = {kind: tuple(map(_prior_name, m.params)) for kind, m in MODELS.items()}
+#: the yaw rows a prior can have: yawid's (2.17), (2.18), and (2.17) with the roll-rate term N_p p
+YAW_MODELS = MODELS | {FULL_P.name: FULL_P}
+#: scale (and fit start) of N_p, N m s: the profile has no roll-rate term in its yaw row; this is
+#: the order of a 50 m hull's (Blanke and Christensen 1993 give K_p ~ -0.5e6 N m s), not a value
+N_P_SCALE = -1.0e6
+#: (2.19) of the profile, in the order of the full model (2.17), then the roll-rate term's scale
+NOMINAL = {_prior_name(k): _TRUE[k] for k in FULL.params} | {"N_p": N_P_SCALE}
+PARAMS = {kind: tuple(map(_prior_name, m.params)) for kind, m in YAW_MODELS.items()}
 DAMPING = ("A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")
-SIGNALS = {"full": ("u", "v", "v_dot", "phi", "tau_r"), "simplified": ("u", "v", "tau_r")}
+SIGNALS = {
+    "full": ("u", "v", "v_dot", "phi", "tau_r"),
+    "full-p": ("u", "v", "v_dot", "phi", "p", "tau_r"),
+    "simplified": ("u", "v", "tau_r"),
+}
 PREFILTER_HZ = 0.5  # the model inputs' low-pass (manoeuvres are slower than 0.2 Hz, roll ~0.13 Hz)
 #: the candidate changes a detector names (BRIEF effect ``inertia_change`` is "yaw_inertia")
 CANDIDATES = ("yaw_inertia", "yaw_damping", "pod_gain")
@@ -203,7 +212,7 @@ def simulate_r(
     which scales tau_r) scalars or (cols,): one simulated column per parameter set.
     """
     th = _theta(kind, theta)
-    model = MODELS[kind]
+    model = YAW_MODELS[kind]
     names = tuple(map(_prior_name, model.params))
     tau = np.asarray(gain) * sig["tau_r"]
     shape = np.broadcast_shapes(tau.shape, *(np.shape(sig[k]) for k in model.signals), *(np.shape(th[k]) for k in names))
@@ -364,7 +373,7 @@ def _fit_scales(
     """Scales (B, P) fitted to a batch of B records (signals (B, n), as measured: the fit sees them
     through :func:`model_inputs`, as the prediction does) by :func:`identify.yawid.estimate.fit_yaw`
     from the scales ``x0``; NaN rows did not converge."""
-    model = MODELS[kind]
+    model = YAW_MODELS[kind]
     scale = np.array([NOMINAL[_prior_name(n)] for n in model.params])
     w = model_inputs({k: sig[k].T for k in ("tau_r", *model.signals)}, dt, prefilter_hz)  # time on axis 0 there
     data = YawData(np.arange(r_meas.shape[-1]) * dt, {"r": r_meas, **{k: x.T for k, x in w.items()}})
@@ -436,8 +445,6 @@ def parameter_draws(prior: YawPrior, runs: int, seed: int = 0) -> np.ndarray:
 
 def smooth(sig: dict[str, np.ndarray], dt: float) -> dict[str, np.ndarray]:
     """Savitzky-Golay smoothing (2 s, quadratic) along time: the bootstraps' stand-in for the true inputs."""
-    from scipy.signal import savgol_filter
-
     win = 2 * int(1.0 / dt) + 1
     return {k: savgol_filter(s, win, 2, axis=0) if len(s) > win else s for k, s in sig.items()}
 
@@ -506,6 +513,28 @@ def whiten(x: np.ndarray, ar: np.ndarray) -> np.ndarray:
     for i, a in enumerate(ar, start=1):
         out[i:] -= a * x[:-i]
     return out
+
+
+def moment_scale(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray) -> tuple[float, float]:
+    """How many times the yaw moment the prior's row needs to turn the ship as recorded is the
+    recorded actuator moment: the least-squares slope of ``I_r r' - sum_j theta_j phi_j(r, w)``
+    ((2.17)/(2.18) solved for tau_r, with the measured r low-passed like the inputs and r' its
+    Savitzky-Golay rate) on ``tau_r``. About 1 for a recording of the ship in the units the prior
+    was fitted in (within the change of its properties); 1000 for a moment given in kN m as N m.
+    Returns the slope and the correlation of the two moments (near 0 when the recording hardly
+    turns the ship: the slope is then noise, not a unit)."""
+    w = prior.inputs(sig)
+    rl = model_inputs({"r": r}, prior.dt, prior.prefilter_hz)["r"]
+    rest = np.zeros_like(rl)
+    for name in YAW_MODELS[prior.kind].params[1:]:  # after I_r
+        reg = STATE_TERMS[name][0](rl, w) if name in STATE_TERMS else INPUT_TERMS[name](w)
+        rest = rest + prior.values[_prior_name(name)] * reg
+    win = 2 * int(1.0 / prior.dt) + 1
+    need = prior.values["I_r"] * savgol_filter(rl, win, 2, deriv=1, delta=prior.dt) - rest
+    tau = w["tau_r"]
+    k = float(np.dot(need, tau) / max(float(np.dot(tau, tau)), 1e-300))
+    c = float(np.corrcoef(need, tau)[0, 1]) if np.ptp(need) > 0 and np.ptp(tau) > 0 else 0.0
+    return k, c
 
 
 def signatures(prior: YawPrior, sig: dict[str, np.ndarray], rel: float = 0.05) -> np.ndarray:

@@ -31,6 +31,7 @@ INPUT_TERMS = {
     "N_uv": lambda w: np.abs(w["u"]) * w["v"],
     "N_phiuv": lambda w: w["phi"] * np.abs(w["u"] * w["v"]),
     "N_phiuu": lambda w: w["phi"] * w["u"] * np.abs(w["u"]),
+    "N_p": lambda w: w["p"],
 }
 # Sign constraints of section 4.3 (L1240-1243): I_r > 0 and the damping coefficients <= 0. The
 # cross couplings M_v, N_phiu|u|, N_phi|uv| are left free (they are not damping terms).
@@ -60,12 +61,19 @@ class YawModel:
             need.add("v_dot")
         if any(p.startswith("N_phi") for p in self.params):
             need.add("phi")
-        return tuple(s for s in ("v_dot", "u", "v", "phi") if s in need)
+        if "N_p" in self.params:
+            need.add("p")
+        return tuple(s for s in ("v_dot", "u", "v", "phi", "p") if s in need)
 
 
 FULL = YawModel("full", ("I_r", "M_v", "A", "N_rr", "N_rv", "N_phiur", "N_uv", "N_phiuu", "N_phiuv"))
 SIMPLIFIED = YawModel("simplified", ("I_r", "A", "N_rr", "N_rv", "N_uv"))
 MODELS = {"full": FULL, "simplified": SIMPLIFIED}
+#: (2.17) with a yaw moment from the roll rate, ``+ N_p p``: a real hull's roll-yaw coupling that
+#: (2.17) leaves out (Blanke and Christensen 1993 list roll-rate terms in the roll and sway rows;
+#: a strongly rolling ship's yaw feels its own). Not one of yawid's models: the change detector's
+#: prior uses it when the recording has the roll rate ``p``.
+FULL_P = YawModel("full-p", (*FULL.params, "N_p"))
 
 # Symbols as the thesis prints them, for tables.
 LABELS = {
@@ -78,6 +86,7 @@ LABELS = {
     "N_uv": "N_|u|v",
     "N_phiuu": "N_phiu|u|",
     "N_phiuv": "N_phi|uv|",
+    "N_p": "N_p",
 }
 
 

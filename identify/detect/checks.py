@@ -1,0 +1,84 @@
+"""Input checks of ``detect`` and ``detect-prior``: a recording the prior cannot describe at all
+(a pod yaw moment of the wrong sign or unit, a flipped yaw rate, a run that hardly turns the ship)
+is an input error, refused in one line, not a change."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+from diagnose.recording import Recording, RecordingError
+from identify.detect.yawmodel import YawPrior, moment_scale
+
+MOMENT = "tau_n"  # measured pod yaw moment, N m (the recording format's actuator yaw moment)
+#: the prior's prediction may miss a recording by this many times its noise sigma before the
+#: recording is refused as an input error: simulated changed and unchanged runs (full and
+#: simplified model, measured or derived tau_r) stay within 2.0x; tau_n x1000 gives ~780x,
+#: tau_n or r of the wrong sign ~18-24x (the sign check below catches these too)
+MISFIT_SIGMAS = 20.0
+#: the recorded tau_n may be off the moment the prior needs by this factor before the recording is
+#: refused (:func:`identify.detect.yawmodel.moment_scale`): measured 0.90-1.00 on our own kernel's
+#: runs (0.90 for a -10 % pod gain), 0.70-0.99 on the podded truth family's (steering lag lowest);
+#: a moment in kN m gives ~1000
+MOMENT_FACTOR = 4.0
+#: below this correlation of the two moments the slope is noise, not a unit (a straight run: 0.06,
+#: slope 0.17, measured on a podded-truth ship; harbour manoeuvres 0.97-1.00, steering lag 0.66)
+MOMENT_CORRELATION = 0.3
+
+UNITS_FIX = (
+    f"check the units and signs: {MOMENT} in N m, > 0 turning the ship to starboard, and r in rad/s, "
+    "> 0 turning to starboard (README: 'Recordings for detect and detect-prior')"
+)
+
+
+def time_derivative(x: np.ndarray, dt: float) -> np.ndarray:
+    """d/dt along axis 0 by a quadratic Savitzky-Golay fit over about 2 s (np.gradient on records
+    shorter than that window)."""
+    win = max(5, 2 * int(1.0 / dt) + 1)
+    return savgol_filter(x, win, 2, deriv=1, delta=dt, axis=0) if len(x) > win else np.gradient(x, dt, axis=0)
+
+
+def check_moment_sign(rec: Recording, tau_r: np.ndarray, r: np.ndarray) -> None:
+    """Refuse a measured pod yaw moment that does not turn the ship the way it is pushed (tau_n
+    against dr/dt, as diagnose checks its columns' signs): a flipped tau_n or r."""
+    if MOMENT in rec.channels and np.ptp(tau_r) > 0 and np.ptp(r) > 0:
+        c = float(np.corrcoef(tau_r, time_derivative(r, rec.sample_time))[0, 1])
+        if not c > 0:
+            raise RecordingError(
+                f"{rec.source}: column '{MOMENT}' correlates {c:+.2f} with the rate of r (a pod yaw "
+                f"moment turns the ship its way: expected > 0); {UNITS_FIX}"
+            )
+
+
+def check_inputs(rec: Recording, prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray, eps: np.ndarray) -> float:
+    """Refuse a recording the prior cannot describe at all (an input error, not a change): a
+    measured pod yaw moment of the wrong sign (:func:`check_moment_sign`) or off the moment the
+    prior needs to turn the ship as recorded by more than MOMENT_FACTOR (tau_n in kN m, x1000:
+    :func:`identify.detect.yawmodel.moment_scale`), a recording that turns the ship too little for
+    either check (the two moments correlate less than MOMENT_CORRELATION: a straight run, which
+    read as a +100 % change before), or a prediction residual not finite or over MISFIT_SIGMAS
+    times the prior's noise sigma. Returns the residual's rms."""
+    k, c = moment_scale(prior, sig, r) if MOMENT in rec.channels else (1.0, 1.0)
+    if not 1 / MOMENT_FACTOR <= k <= MOMENT_FACTOR and abs(c) < MOMENT_CORRELATION:
+        raise RecordingError(
+            f"{rec.source}: the recorded '{MOMENT}' and the moment the prior needs to turn the ship as "
+            f"recorded hardly correlate ({c:+.2f}): the recording turns the ship too little (a straight "
+            "run?) to be tested against the prior (neither its sign nor its unit can be checked); record "
+            "manoeuvres (turns, zigzags)"
+        )
+    check_moment_sign(rec, sig["tau_r"], r)
+    if not 1 / MOMENT_FACTOR <= k <= MOMENT_FACTOR:
+        raise RecordingError(
+            f"{rec.source}: the prior needs {k:.3g} times the recorded '{MOMENT}' to turn the ship as "
+            f"recorded (more than {MOMENT_FACTOR:g}x either way is no ship change: a unit error, kN m "
+            f"gives 1000); {UNITS_FIX}"
+        )
+    sigma = prior.sigma
+    rms = float(np.sqrt(np.mean(eps**2)))
+    if not np.isfinite(rms) or rms > MISFIT_SIGMAS * sigma:
+        raise RecordingError(
+            f"{rec.source}: the prior's yaw rate misses the recording's by {rms:.2g} rad/s rms, "
+            f"{rms / sigma:.0f}x its noise {sigma:.2g} rad/s (over {MISFIT_SIGMAS:g}x is no ship "
+            f"change: an input error); {UNITS_FIX}"
+        )
+    return rms
