@@ -174,10 +174,16 @@ class AugmentedModel:
         return share
 
     def _exogenous(self, prep: Prepared, plan: dict, B: int) -> dict[str, np.ndarray]:
-        """Input-driven signals (B, N) of one recording: delayed, offset inputs and heading."""
+        """Input-driven signals (B, N) of one recording: delayed, offset inputs and heading; (1, N),
+        the same for every member, when no member delays or offsets the inputs (computed once and
+        broadcast: the same numbers)."""
         n, ts = prep.n, prep.rec.sample_time
-        x = np.broadcast_to(prep.inputs[:-1], (B, n, prep.inputs.shape[1])).copy()
         delay = plan["delay"]
+        if delay is not None and not np.any(delay != 0):
+            delay = None
+        if delay is None and not plan["offsets"]:
+            B = 1
+        x = np.broadcast_to(prep.inputs[:-1], (B, n, prep.inputs.shape[1])).copy()
         if delay is not None:
             kk = np.arange(n, dtype=float)
             base_x = prep.inputs[:-1]
@@ -199,11 +205,12 @@ class AugmentedModel:
         """Open-loop outputs, one (B, N_i+1, 3) per recording, for parameter vectors P (B, n_params).
 
         One simulation with the primitives' time step (``primitives.simulate.VelocityStep``) over
-        every recording and batch member at once (recordings padded to the longest). The candidate
-        slots enter around it: extra terms and inertia scales in the step's terms, a current
-        rotated by the measured heading, delays and offsets in the inputs, sensor biases on the
-        outputs, initial-state corrections in nu(0). Input-only terms are summed before the loop
-        and enter the step as its ``forced`` increments.
+        every batch member, recording by recording in the compiled loop (the recordings padded to
+        the longest and stepped at once in the numpy loop). The candidate slots enter around it:
+        extra terms and inertia scales in the step's terms, a current rotated by the measured
+        heading, delays and offsets in the inputs, sensor biases on the outputs, initial-state
+        corrections in nu(0). Input-only terms are summed before the loop and enter the step as
+        its ``forced`` increments.
         """
         P = np.atleast_2d(np.asarray(P, float))
         B = P.shape[0]
@@ -213,72 +220,100 @@ class AugmentedModel:
         for i, coef, term, names, _fn in plan["terms"]:
             if not set(names) <= {"psi", "phi", *self.profile.inputs, "tau_x", "tau_y", "tau_n", *windload.SIGNALS}:
                 loop[i].append((term, coef))
-        runs = []
-        for prep in preps:
-            exo = self._exogenous(prep, plan, B)
-            pre = np.zeros((B, prep.n, 3))
-            for i, coef, _term, names, fn in plan["terms"]:
-                if set(names) <= set(exo):
-                    pre[:, :, i] += coef[:, None] * fn(exo)
-            nu0 = np.broadcast_to(prep.y0, (B, 3)) - bias
-            if prep.index is not None and prep.index < self.n_rec:
-                k0 = self.n_slots_end + 3 * prep.index
-                nu0 = nu0 + P[:, k0 : k0 + 3]
-            pre = pre * scale[:, None, :]
-            if np.any(cur != 0):  # the kernel's current_turning (primitives.simulate), on the measured heading
-                pre[:, :, :2] += _current_turning(cur, prep.psi)
-            runs.append((prep, exo, pre, nu0))
-        tset = self._termset(tuple(tuple(t for t, _c in dof) for dof in loop))
+        runs = [self._run_inputs(prep, plan, P) for prep in preps]
+        tset, need = self._termset(tuple(tuple(t for t, _c in dof) for dof in loop))
         coef = np.column_stack([c * scale[:, i] for i, dof in enumerate(loop) for _t, c in dof] or [np.zeros((B, 0))])
-        need = signals_used(tset.terms)
-        R, n_max = len(runs), max(p.n for p in preps)
+        need_in = sorted(need & set(runs[0][0]))
+        has_cur = bool(np.any(cur != 0))
+        use_wind = bool(need & {*WIND_EXCESS, "u_q", "v_q"}) and any(p.wind_body is not None for p in preps)
+        outs = self._compiled(preps, runs, VelocityStep(tset, coef), need_in, cur if has_cur else None, use_wind)
+        if outs is None:  # the numpy loop (no compiler): the same steps
+            outs = self._numpy_loop(preps, runs, tset, coef, need_in, cur if has_cur else None, use_wind)
+        return [o + bias[:, None, :] for o in outs]
 
-        def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (n_max, R*B, ...) from per-run (B, n_i, ...)
+    def _run_inputs(self, prep: Prepared, plan: dict, P: np.ndarray) -> tuple[dict, np.ndarray, np.ndarray]:
+        """(exogenous signals, input-only increments (B, N, 3), nu(0) (B, 3)) of one recording."""
+        B = P.shape[0]
+        exo = self._exogenous(prep, plan, B)
+        pre = np.zeros((B, prep.n, 3))
+        for i, coef, _term, names, fn in plan["terms"]:
+            if set(names) <= set(exo):
+                pre[:, :, i] += coef[:, None] * fn(exo)
+        nu0 = np.broadcast_to(prep.y0, (B, 3)) - plan["bias"]
+        if prep.index is not None and prep.index < self.n_rec:
+            k0 = self.n_slots_end + 3 * prep.index
+            nu0 = nu0 + P[:, k0 : k0 + 3]
+        pre = pre * plan["scale"][:, None, :]
+        if np.any(plan["cur"] != 0):  # the kernel's current_turning (primitives.simulate), on the measured heading
+            pre[:, :, :2] += _current_turning(plan["cur"], prep.psi)
+        return exo, pre, nu0
+
+    @staticmethod
+    def _env(prep: Prepared, cur: np.ndarray | None, use_wind: bool, B: int) -> tuple:
+        """The current and air velocity in body axes of one recording, each a pair of (N, B) or
+        (N, 1) arrays, or None (the current on the measured heading)."""
+        cb = wb = None
+        if cur is not None:
+            cb = body_from_ne(cur[None], prep.psi[:-1, None])
+        if use_wind:
+            wind = prep.wind_body if prep.wind_body is not None else (np.zeros(prep.n + 1),) * 2
+            wb = tuple(np.broadcast_to(q[:-1, None], (prep.n, B)) for q in wind)
+        return cb, wb
+
+    def _compiled(self, preps, runs, step, need_in, cur, use_wind) -> list[np.ndarray] | None:
+        """The compiled loop, one call per recording (its own length, its inputs once for every
+        member when they are the same); None when it does not apply."""
+        outs = []
+        for prep, (exo, pre, nu0) in zip(preps, runs):
+            B = nu0.shape[0]
+            ex = {nm: np.asarray(exo[nm]).T for nm in need_in}
+            out = jitloop.open_loop(step, need_in, ex, np.array(nu0), *self._env(prep, cur, use_wind, B), pre.swapaxes(0, 1))
+            if out is None:
+                return None
+            outs.append(out)
+        return outs
+
+    def _numpy_loop(self, preps, runs, tset, coef, need_in, cur, use_wind) -> list[np.ndarray]:
+        """The numpy loop over every recording and member at once (padded to the longest)."""
+        B, R, n_max = coef.shape[0], len(preps), max(p.n for p in preps)
+
+        def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (n_max, R*B, ...) from per-run (B or 1, n_i, ...)
             out = np.zeros((n_max, R * B) + arrs[0].shape[2:])  # time-major: one contiguous row per step
             for r, a in enumerate(arrs):
                 out[: a.shape[1], r * B : (r + 1) * B] = a.swapaxes(0, 1)
             return out
 
-        pre = padded([pre for _p, _e, pre, _n in runs])
-        need_in = sorted(need & set(runs[0][1]))
-        exo = {nm: padded([np.asarray(e[nm])[..., None] for _p, e, _x, _n in runs])[..., 0] for nm in need_in}
-        has_cur = bool(np.any(cur != 0))
-        if has_cur:
-            psi = padded([np.broadcast_to(p.psi[:-1], (B, p.n))[..., None] for p in preps])[..., 0]
-            uc, vc = body_from_ne(np.tile(cur, (R, 1))[None], psi)
-        use_wind = bool(need & {*WIND_EXCESS, "u_q", "v_q"}) and any(p.wind_body is not None for p in preps)
-        if use_wind:
-            wu, wv = (
-                padded(
-                    [
-                        np.broadcast_to(p.wind_body[q][:-1] if p.wind_body is not None else np.zeros(p.n), (B, p.n))[..., None]
-                        for p in preps
-                    ]
-                )[..., 0]
-                for q in (0, 1)
+        pre = padded([pre for _e, pre, _n in runs])
+        exo = {nm: padded([np.asarray(e[nm])[..., None] for e, _x, _n in runs])[..., 0] for nm in need_in}
+        env = [self._env(p, cur, use_wind, B) for p in preps]
+        cb = (
+            None
+            if cur is None
+            else tuple(
+                padded([np.broadcast_to(e[0][q].T, (B, p.n))[..., None] for e, p in zip(env, preps)])[..., 0] for q in (0, 1)
             )
-        # the primitives' time step; the environment is rotated by the measured heading, not a simulated one
+        )
+        wb = None if not use_wind else tuple(padded([e[1][q].T[..., None] for e in env])[..., 0] for q in (0, 1))
         step = VelocityStep(tset, np.tile(coef, (R, 1)))
-        nu = np.concatenate([nu0 for _p, _e, _x, nu0 in runs])
-        out = jitloop.open_loop(step, need_in, exo, nu, (uc, vc) if has_cur else None, (wu, wv) if use_wind else None, pre)
-        if out is None:  # the numpy loop (no compiler): the same steps
-            out = np.empty((R * B, n_max + 1, 3))
-            out[:, 0] = nu
-            for k in range(n_max):
-                nu = step(
-                    nu,
-                    {nm: exo[nm][k] for nm in need_in},
-                    (uc[k], vc[k]) if has_cur else None,
-                    (wu[k], wv[k]) if use_wind else None,
-                    pre[k],
-                )
-                out[:, k + 1] = nu
-        return [out[r * B : (r + 1) * B, : p.n + 1] + bias[:, None, :] for r, p in enumerate(preps)]
+        nu = np.concatenate([nu0 for _e, _x, nu0 in runs])
+        out = np.empty((R * B, n_max + 1, 3))
+        out[:, 0] = nu
+        for k in range(n_max):
+            nu = step(
+                nu,
+                {nm: exo[nm][k] for nm in need_in},
+                (cb[0][k], cb[1][k]) if cb is not None else None,
+                (wb[0][k], wb[1][k]) if wb is not None else None,
+                pre[k],
+            )
+            out[:, k + 1] = nu
+        return [out[r * B : (r + 1) * B, : p.n + 1] for r, p in enumerate(preps)]
 
-    def _termset(self, terms: tuple[tuple[str, ...], ...]) -> TermSet:
+    def _termset(self, terms: tuple[tuple[str, ...], ...]) -> tuple[TermSet, set[str]]:
+        """The term set of ``terms`` and the signals it reads, made once per model."""
         cache = self.__dict__.setdefault("_tsets", {})
         if terms not in cache:
-            cache[terms] = TermSet(terms)
+            cache[terms] = (TermSet(terms), signals_used(terms))
         return cache[terms]
 
     # -- steps for finite differences ------------------------------------------------------------------
