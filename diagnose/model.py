@@ -262,7 +262,10 @@ class AugmentedModel:
 
     def _compiled(self, preps, runs, step, need_in, cur, use_wind) -> list[np.ndarray] | None:
         """The compiled loop, one call per recording (its own length, its inputs once for every
-        member when they are the same); None when it does not apply."""
+        member when they are the same); None when it does not apply. Whether it is worth loading
+        is judged on the whole call's work, as for one padded call."""
+        if not jitloop.use(runs[0][2].shape[0] * sum(p.n for p in preps)):
+            return None
         outs = []
         for prep, (exo, pre, nu0) in zip(preps, runs):
             B = nu0.shape[0]

@@ -78,3 +78,21 @@ def test_open_loop_reads_inputs_shared_by_the_batch(monkeypatch):
     a = jitloop.open_loop(step, sorted(once), once, nu0, None, None, forced)
     b = jitloop.open_loop(step, sorted(each), each, nu0, None, None, forced)
     assert a is not None and np.array_equal(a, b)
+
+
+@needs_numba
+def test_compiled_loop_chosen_on_the_whole_calls_work(monkeypatch):
+    """Run by run, each recording's work may be under jitloop.MIN_WORK while the call's is over
+    it: the call still runs compiled (as one padded call did), every recording of it."""
+    prof = load_profile("model-ship")
+    sc = scenario((), 6, profile=prof)
+    recs = [sc.diagnose[0].window(0, 400), sc.validate[0].window(0, 300)]
+    model = AugmentedModel(prof, prof.params(), [], n_rec=2)
+    preps = [prepare(prof, r, i) for i, r in enumerate(recs)]
+    P = np.repeat(model.p0()[None], 5, axis=0)
+    monkeypatch.setattr(jitloop, "_LOADED", False)
+    monkeypatch.setattr(jitloop, "MIN_WORK", 5 * sum(p.n for p in preps))  # the call's work; each run's is below it
+    ran, open_loop = [], jitloop.open_loop
+    monkeypatch.setattr(jitloop, "open_loop", lambda *a: ran.append(open_loop(*a)) or ran[-1])
+    model.simulate_many(preps, P)
+    assert len(ran) == 2 and all(r is not None for r in ran)
