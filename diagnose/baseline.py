@@ -18,9 +18,9 @@ from primitives.simulate import relative_signals
 # The baseline refit stops when an accepted step lowers its objective by less than this fraction.
 # Past it, Levenberg-Marquardt crawls along directions the prior alone holds, about 1e-5 a step,
 # and never met the former 1e-7 before the 30-iteration cap: on the MMG battery's four calm runs
-# (wind-18-gusty, 2,920 samples) the declared 60-term structure stops after 10 iterations at a
-# weighted data misfit of 4726.1 (4723.5 after all 30), the profile's own 25 terms after 4 at
-# 61424 (61409); the 41 iterations saved were half a diagnosis's CPU.
+# (wind-18-gusty, 2,920 samples) the declared structure's fit (60 free parameters) stops after
+# 11 Jacobians at a weighted data misfit of 4726.1 (4723.5 after all 30), the profile's own (25)
+# after 5 at 61424 (61409); the 44 Jacobians saved were about 40 % of a diagnosis's CPU.
 BASELINE_TOL = 1e-4
 
 
