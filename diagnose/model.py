@@ -18,8 +18,8 @@ import numpy as np
 
 from diagnose import windload
 from diagnose.candidates import Candidate, Slot
+from diagnose.openloop import compiled_loop, current_turning, numpy_loop
 from diagnose.recording import Recording
-from primitives import jitloop
 from primitives.goodness import fit_percent  # noqa: F401  (diagnose.model.fit_percent, as before)
 from primitives.ship import ShipProfile
 from primitives.simulate import WIND_EXCESS, VelocityStep, body_from_ne, relative_signals
@@ -206,7 +206,8 @@ class AugmentedModel:
 
         One simulation with the primitives' time step (``primitives.simulate.VelocityStep``) over
         every batch member, recording by recording in the compiled loop (the recordings padded to
-        the longest and stepped at once in the numpy loop). The candidate slots enter around it:
+        the longest and stepped at once in the numpy loop; :mod:`diagnose.openloop`). The
+        candidate slots enter around it:
         extra terms and inertia scales in the step's terms, a current rotated by the measured
         heading, delays and offsets in the inputs, sensor biases on the outputs, initial-state
         corrections in nu(0). Input-only terms are summed before the loop and enter the step as
@@ -226,9 +227,9 @@ class AugmentedModel:
         need_in = sorted(need & set(runs[0][0]))
         has_cur = bool(np.any(cur != 0))
         use_wind = bool(need & {*WIND_EXCESS, "u_q", "v_q"}) and any(p.wind_body is not None for p in preps)
-        outs = self._compiled(preps, runs, VelocityStep(tset, coef), need_in, cur if has_cur else None, use_wind)
+        outs = compiled_loop(preps, runs, VelocityStep(tset, coef), need_in, cur if has_cur else None, use_wind)
         if outs is None:  # the numpy loop (no compiler): the same steps
-            outs = self._numpy_loop(preps, runs, tset, coef, need_in, cur if has_cur else None, use_wind)
+            outs = numpy_loop(preps, runs, tset, coef, need_in, cur if has_cur else None, use_wind)
         return [o + bias[:, None, :] for o in outs]
 
     def _run_inputs(self, prep: Prepared, plan: dict, P: np.ndarray) -> tuple[dict, np.ndarray, np.ndarray]:
@@ -245,72 +246,8 @@ class AugmentedModel:
             nu0 = nu0 + P[:, k0 : k0 + 3]
         pre = pre * plan["scale"][:, None, :]
         if np.any(plan["cur"] != 0):  # the kernel's current_turning (primitives.simulate), on the measured heading
-            pre[:, :, :2] += _current_turning(plan["cur"], prep.psi)
+            pre[:, :, :2] += current_turning(plan["cur"], prep.psi)
         return exo, pre, nu0
-
-    @staticmethod
-    def _env(prep: Prepared, cur: np.ndarray | None, use_wind: bool, B: int) -> tuple:
-        """The current and air velocity in body axes of one recording, each a pair of (N, B) or
-        (N, 1) arrays, or None (the current on the measured heading)."""
-        cb = wb = None
-        if cur is not None:
-            cb = body_from_ne(cur[None], prep.psi[:-1, None])
-        if use_wind:
-            wind = prep.wind_body if prep.wind_body is not None else (np.zeros(prep.n + 1),) * 2
-            wb = tuple(np.broadcast_to(q[:-1, None], (prep.n, B)) for q in wind)
-        return cb, wb
-
-    def _compiled(self, preps, runs, step, need_in, cur, use_wind) -> list[np.ndarray] | None:
-        """The compiled loop, one call per recording (its own length, its inputs once for every
-        member when they are the same); None when it does not apply. Whether it is worth loading
-        is judged on the whole call's work, as for one padded call."""
-        if not jitloop.use(runs[0][2].shape[0] * sum(p.n for p in preps)):
-            return None
-        outs = []
-        for prep, (exo, pre, nu0) in zip(preps, runs):
-            B = nu0.shape[0]
-            ex = {nm: np.asarray(exo[nm]).T for nm in need_in}
-            out = jitloop.open_loop(step, need_in, ex, np.array(nu0), *self._env(prep, cur, use_wind, B), pre.swapaxes(0, 1))
-            if out is None:
-                return None
-            outs.append(out)
-        return outs
-
-    def _numpy_loop(self, preps, runs, tset, coef, need_in, cur, use_wind) -> list[np.ndarray]:
-        """The numpy loop over every recording and member at once (padded to the longest)."""
-        B, R, n_max = coef.shape[0], len(preps), max(p.n for p in preps)
-
-        def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (n_max, R*B, ...) from per-run (B or 1, n_i, ...)
-            out = np.zeros((n_max, R * B) + arrs[0].shape[2:])  # time-major: one contiguous row per step
-            for r, a in enumerate(arrs):
-                out[: a.shape[1], r * B : (r + 1) * B] = a.swapaxes(0, 1)
-            return out
-
-        pre = padded([pre for _e, pre, _n in runs])
-        exo = {nm: padded([np.asarray(e[nm])[..., None] for e, _x, _n in runs])[..., 0] for nm in need_in}
-        env = [self._env(p, cur, use_wind, B) for p in preps]
-        cb = (
-            None
-            if cur is None
-            else tuple(
-                padded([np.broadcast_to(e[0][q].T, (B, p.n))[..., None] for e, p in zip(env, preps)])[..., 0] for q in (0, 1)
-            )
-        )
-        wb = None if not use_wind else tuple(padded([e[1][q].T[..., None] for e in env])[..., 0] for q in (0, 1))
-        step = VelocityStep(tset, np.tile(coef, (R, 1)))
-        nu = np.concatenate([nu0 for _e, _x, nu0 in runs])
-        out = np.empty((R * B, n_max + 1, 3))
-        out[:, 0] = nu
-        for k in range(n_max):
-            nu = step(
-                nu,
-                {nm: exo[nm][k] for nm in need_in},
-                (cb[0][k], cb[1][k]) if cb is not None else None,
-                (wb[0][k], wb[1][k]) if wb is not None else None,
-                pre[k],
-            )
-            out[:, k + 1] = nu
-        return [out[r * B : (r + 1) * B, : p.n + 1] for r, p in enumerate(preps)]
 
     def _termset(self, terms: tuple[tuple[str, ...], ...]) -> tuple[TermSet, set[str]]:
         """The term set of ``terms`` and the signals it reads, made once per model."""
@@ -365,18 +302,6 @@ class AugmentedModel:
             val = compile_term(s.term)[1](sig)
             vals.append(np.asarray(val, float))
         return float(np.sqrt(np.mean(np.concatenate(vals) ** 2))) if vals else 0.0
-
-
-def _current_turning(cur: np.ndarray, psi: np.ndarray) -> np.ndarray:
-    """Change of an earth-fixed current's body-frame components over each step, (B, N, 2).
-
-    The hull feels the water-relative velocity (u_r, v_r); for a uniform current its dynamics
-    are those of calm water in u_r, v_r (Fossen 2021, section 10.3), while the state here (and
-    the recording) is the velocity over ground u = u_r + u_c(psi). As the ship turns, u_c(psi)
-    turns with it: the over-ground velocity changes by u_c(psi(k+1)) - u_c(psi(k)) on top of
-    the hydrodynamic increment (the measured heading, as for the relative velocities)."""
-    uc, vc = body_from_ne(cur[:, None, :], psi[None, :])  # (B, N+1)
-    return np.stack([np.diff(uc, axis=1), np.diff(vc, axis=1)], axis=-1)
 
 
 # -- residuals and fitting ----------------------------------------------------------------------------

@@ -1,7 +1,8 @@
-"""The augmented model's simulation (diagnose.model.AugmentedModel.simulate_many): the compiled
-loop, run recording by recording with inputs shared by the batch members that do not shift them,
-gives the bits of the numpy loop over every recording padded to the longest, for members that
-switch on each kind of candidate slot (issue 26: the speed of one diagnosis case)."""
+"""The augmented model's simulation (diagnose.model.AugmentedModel.simulate_many, the loops of
+diagnose.openloop): the compiled loop, run recording by recording with inputs shared by the batch
+members that do not shift them, gives the bits of the numpy loop over every recording padded to
+the longest, for members that switch on each kind of candidate slot (issue 26: the speed of one
+diagnosis case)."""
 
 from __future__ import annotations
 
