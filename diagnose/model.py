@@ -412,10 +412,13 @@ def fit(
     bounds: dict[int, tuple[float, float]] | None = None,
     tol: float = 1e-5,
     prior: tuple[np.ndarray, np.ndarray] | None = None,
+    patience: int = 1,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Output-error Levenberg-Marquardt over the ``free`` parameters within ``bounds``, with an
     optional Gaussian ``prior`` (ref, sd) per parameter. Returns (P, cov, rss); rss is the data
     part only, and ``inf`` when the refit diverged (a non-finite or exploding simulation).
+    It stops after ``patience`` accepted steps in a row that each lower the objective by less
+    than ``tol`` of it (one short step may be a dip, or a step the damping just raised held back).
 
     Each iteration tries four damping values in one batched simulation.
     """
@@ -435,6 +438,7 @@ def fit(
     obj = rss + float(rp @ rp)
     lam = 1e-3
     lams = np.array([0.1, 1.0, 10.0, 1000.0])
+    short = 0  # accepted steps in a row under tol
     for _ in range(max_iter):
         if not np.all(np.isfinite(J)):
             break
@@ -462,7 +466,8 @@ def fit(
         rel = (obj - obj_c[k]) / max(obj, 1e-300)
         P, rss, obj = cand[k], float(data_c[k]), float(obj_c[k])
         lam = max(lam * lams[k] / 10, 1e-9)
-        if rel < tol:
+        short = short + 1 if rel < tol else 0
+        if short >= patience:
             break
         r, J = jacobian(model, preps, P, free, w, masks, h)
         rp, Jp = _prior_rows(P, free, prior)
