@@ -174,6 +174,32 @@ def _diagnose_13x3500():
     return go
 
 
+def _diagnose_mmg_case():
+    """Issue 26/30's case shape on the MMG battery (tests/physics/mmg_battery.py, an independent
+    truth): three diagnosed runs (2,090 samples), ``--fit-on`` the four calm runs (2,920), one
+    validation run (581), the kvlcc2 profile with its declared [diagnosis] structure; the
+    recordings written as CSV and read back as the CLI reads them (generation not timed)."""
+    import tempfile
+
+    from benchmarks.bench_diagnose_mmg import BASELINE
+    from diagnose.api import run
+    from diagnose.recording import load_recording
+    from diagnose.recording_checks import conform
+    from primitives.ship import load_profile
+    from tests.physics.mmg_battery import case, generate, write_case
+
+    prof = load_profile(BASELINE)
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = write_case(generate(case("wind-18-gusty")), tmp)
+        recs = {role: conform([r for p in ps for r in load_recording(p)], prof) for role, ps in paths.items()}
+
+    def go():
+        d = run(recs["diagnose"], prof, fit_on=recs["calm"], validate=recs["validate"][:1])
+        return {"findings": [f["effect"] for f in d.findings]}
+
+    return go
+
+
 CASES = {
     "library_build": (_library_build, 2.0, None, ""),
     "monte_carlo_sim_500x1000": (_mc_sim, 2.0, None, ""),
@@ -202,6 +228,12 @@ CASES = {
     ),
     "diagnose_2000": (_diagnose_2000, 2.0, None, "issue 13: under 2 s"),
     "diagnose_13x3500": (_diagnose_13x3500, 10.0, None, "issue 13: 13-run model test, 3,500 samples per run, under 10 s"),
+    "diagnose_mmg_case": (
+        _diagnose_mmg_case,
+        10.0,
+        None,
+        "issues 26/30: one MMG battery case (wind-18-gusty), 3 runs + --fit-on (4 calm runs) + 1 validation run, under 10 s",
+    ),
 }
 
 

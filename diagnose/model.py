@@ -18,8 +18,8 @@ import numpy as np
 
 from diagnose import windload
 from diagnose.candidates import Candidate, Slot
+from diagnose.openloop import compiled_loop, current_turning, numpy_loop
 from diagnose.recording import Recording
-from primitives import jitloop
 from primitives.goodness import fit_percent  # noqa: F401  (diagnose.model.fit_percent, as before)
 from primitives.ship import ShipProfile
 from primitives.simulate import WIND_EXCESS, VelocityStep, body_from_ne, relative_signals
@@ -174,10 +174,16 @@ class AugmentedModel:
         return share
 
     def _exogenous(self, prep: Prepared, plan: dict, B: int) -> dict[str, np.ndarray]:
-        """Input-driven signals (B, N) of one recording: delayed, offset inputs and heading."""
+        """Input-driven signals (B, N) of one recording: delayed, offset inputs and heading; (1, N),
+        the same for every member, when no member delays or offsets the inputs (computed once and
+        broadcast: the same numbers)."""
         n, ts = prep.n, prep.rec.sample_time
-        x = np.broadcast_to(prep.inputs[:-1], (B, n, prep.inputs.shape[1])).copy()
         delay = plan["delay"]
+        if delay is not None and not np.any(delay != 0):
+            delay = None
+        if delay is None and not plan["offsets"]:
+            B = 1
+        x = np.broadcast_to(prep.inputs[:-1], (B, n, prep.inputs.shape[1])).copy()
         if delay is not None:
             kk = np.arange(n, dtype=float)
             base_x = prep.inputs[:-1]
@@ -199,11 +205,13 @@ class AugmentedModel:
         """Open-loop outputs, one (B, N_i+1, 3) per recording, for parameter vectors P (B, n_params).
 
         One simulation with the primitives' time step (``primitives.simulate.VelocityStep``) over
-        every recording and batch member at once (recordings padded to the longest). The candidate
-        slots enter around it: extra terms and inertia scales in the step's terms, a current
-        rotated by the measured heading, delays and offsets in the inputs, sensor biases on the
-        outputs, initial-state corrections in nu(0). Input-only terms are summed before the loop
-        and enter the step as its ``forced`` increments.
+        every batch member, recording by recording in the compiled loop (the recordings padded to
+        the longest and stepped at once in the numpy loop; :mod:`diagnose.openloop`). The
+        candidate slots enter around it:
+        extra terms and inertia scales in the step's terms, a current rotated by the measured
+        heading, delays and offsets in the inputs, sensor biases on the outputs, initial-state
+        corrections in nu(0). Input-only terms are summed before the loop and enter the step as
+        its ``forced`` increments.
         """
         P = np.atleast_2d(np.asarray(P, float))
         B = P.shape[0]
@@ -213,72 +221,39 @@ class AugmentedModel:
         for i, coef, term, names, _fn in plan["terms"]:
             if not set(names) <= {"psi", "phi", *self.profile.inputs, "tau_x", "tau_y", "tau_n", *windload.SIGNALS}:
                 loop[i].append((term, coef))
-        runs = []
-        for prep in preps:
-            exo = self._exogenous(prep, plan, B)
-            pre = np.zeros((B, prep.n, 3))
-            for i, coef, _term, names, fn in plan["terms"]:
-                if set(names) <= set(exo):
-                    pre[:, :, i] += coef[:, None] * fn(exo)
-            nu0 = np.broadcast_to(prep.y0, (B, 3)) - bias
-            if prep.index is not None and prep.index < self.n_rec:
-                k0 = self.n_slots_end + 3 * prep.index
-                nu0 = nu0 + P[:, k0 : k0 + 3]
-            pre = pre * scale[:, None, :]
-            if np.any(cur != 0):  # the kernel's current_turning (primitives.simulate), on the measured heading
-                pre[:, :, :2] += _current_turning(cur, prep.psi)
-            runs.append((prep, exo, pre, nu0))
-        tset = self._termset(tuple(tuple(t for t, _c in dof) for dof in loop))
+        runs = [self._run_inputs(prep, plan, P) for prep in preps]
+        tset, need = self._termset(tuple(tuple(t for t, _c in dof) for dof in loop))
         coef = np.column_stack([c * scale[:, i] for i, dof in enumerate(loop) for _t, c in dof] or [np.zeros((B, 0))])
-        need = signals_used(tset.terms)
-        R, n_max = len(runs), max(p.n for p in preps)
-
-        def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (n_max, R*B, ...) from per-run (B, n_i, ...)
-            out = np.zeros((n_max, R * B) + arrs[0].shape[2:])  # time-major: one contiguous row per step
-            for r, a in enumerate(arrs):
-                out[: a.shape[1], r * B : (r + 1) * B] = a.swapaxes(0, 1)
-            return out
-
-        pre = padded([pre for _p, _e, pre, _n in runs])
-        need_in = sorted(need & set(runs[0][1]))
-        exo = {nm: padded([np.asarray(e[nm])[..., None] for _p, e, _x, _n in runs])[..., 0] for nm in need_in}
+        need_in = sorted(need & set(runs[0][0]))
         has_cur = bool(np.any(cur != 0))
-        if has_cur:
-            psi = padded([np.broadcast_to(p.psi[:-1], (B, p.n))[..., None] for p in preps])[..., 0]
-            uc, vc = body_from_ne(np.tile(cur, (R, 1))[None], psi)
         use_wind = bool(need & {*WIND_EXCESS, "u_q", "v_q"}) and any(p.wind_body is not None for p in preps)
-        if use_wind:
-            wu, wv = (
-                padded(
-                    [
-                        np.broadcast_to(p.wind_body[q][:-1] if p.wind_body is not None else np.zeros(p.n), (B, p.n))[..., None]
-                        for p in preps
-                    ]
-                )[..., 0]
-                for q in (0, 1)
-            )
-        # the primitives' time step; the environment is rotated by the measured heading, not a simulated one
-        step = VelocityStep(tset, np.tile(coef, (R, 1)))
-        nu = np.concatenate([nu0 for _p, _e, _x, nu0 in runs])
-        out = jitloop.open_loop(step, need_in, exo, nu, (uc, vc) if has_cur else None, (wu, wv) if use_wind else None, pre)
-        if out is None:  # the numpy loop (no compiler): the same steps
-            out = np.empty((R * B, n_max + 1, 3))
-            out[:, 0] = nu
-            for k in range(n_max):
-                nu = step(
-                    nu,
-                    {nm: exo[nm][k] for nm in need_in},
-                    (uc[k], vc[k]) if has_cur else None,
-                    (wu[k], wv[k]) if use_wind else None,
-                    pre[k],
-                )
-                out[:, k + 1] = nu
-        return [out[r * B : (r + 1) * B, : p.n + 1] + bias[:, None, :] for r, p in enumerate(preps)]
+        outs = compiled_loop(preps, runs, VelocityStep(tset, coef), need_in, cur if has_cur else None, use_wind)
+        if outs is None:  # the numpy loop (no compiler): the same steps
+            outs = numpy_loop(preps, runs, tset, coef, need_in, cur if has_cur else None, use_wind)
+        return [o + bias[:, None, :] for o in outs]
 
-    def _termset(self, terms: tuple[tuple[str, ...], ...]) -> TermSet:
+    def _run_inputs(self, prep: Prepared, plan: dict, P: np.ndarray) -> tuple[dict, np.ndarray, np.ndarray]:
+        """(exogenous signals, input-only increments (B, N, 3), nu(0) (B, 3)) of one recording."""
+        B = P.shape[0]
+        exo = self._exogenous(prep, plan, B)
+        pre = np.zeros((B, prep.n, 3))
+        for i, coef, _term, names, fn in plan["terms"]:
+            if set(names) <= set(exo):
+                pre[:, :, i] += coef[:, None] * fn(exo)
+        nu0 = np.broadcast_to(prep.y0, (B, 3)) - plan["bias"]
+        if prep.index is not None and prep.index < self.n_rec:
+            k0 = self.n_slots_end + 3 * prep.index
+            nu0 = nu0 + P[:, k0 : k0 + 3]
+        pre = pre * plan["scale"][:, None, :]
+        if np.any(plan["cur"] != 0):  # the kernel's current_turning (primitives.simulate), on the measured heading
+            pre[:, :, :2] += current_turning(plan["cur"], prep.psi)
+        return exo, pre, nu0
+
+    def _termset(self, terms: tuple[tuple[str, ...], ...]) -> tuple[TermSet, set[str]]:
+        """The term set of ``terms`` and the signals it reads, made once per model."""
         cache = self.__dict__.setdefault("_tsets", {})
         if terms not in cache:
-            cache[terms] = TermSet(terms)
+            cache[terms] = (TermSet(terms), signals_used(terms))
         return cache[terms]
 
     # -- steps for finite differences ------------------------------------------------------------------
@@ -327,18 +302,6 @@ class AugmentedModel:
             val = compile_term(s.term)[1](sig)
             vals.append(np.asarray(val, float))
         return float(np.sqrt(np.mean(np.concatenate(vals) ** 2))) if vals else 0.0
-
-
-def _current_turning(cur: np.ndarray, psi: np.ndarray) -> np.ndarray:
-    """Change of an earth-fixed current's body-frame components over each step, (B, N, 2).
-
-    The hull feels the water-relative velocity (u_r, v_r); for a uniform current its dynamics
-    are those of calm water in u_r, v_r (Fossen 2021, section 10.3), while the state here (and
-    the recording) is the velocity over ground u = u_r + u_c(psi). As the ship turns, u_c(psi)
-    turns with it: the over-ground velocity changes by u_c(psi(k+1)) - u_c(psi(k)) on top of
-    the hydrodynamic increment (the measured heading, as for the relative velocities)."""
-    uc, vc = body_from_ne(cur[:, None, :], psi[None, :])  # (B, N+1)
-    return np.stack([np.diff(uc, axis=1), np.diff(vc, axis=1)], axis=-1)
 
 
 # -- residuals and fitting ----------------------------------------------------------------------------
@@ -449,10 +412,13 @@ def fit(
     bounds: dict[int, tuple[float, float]] | None = None,
     tol: float = 1e-5,
     prior: tuple[np.ndarray, np.ndarray] | None = None,
+    patience: int = 1,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Output-error Levenberg-Marquardt over the ``free`` parameters within ``bounds``, with an
     optional Gaussian ``prior`` (ref, sd) per parameter. Returns (P, cov, rss); rss is the data
     part only, and ``inf`` when the refit diverged (a non-finite or exploding simulation).
+    It stops after ``patience`` accepted steps in a row that each lower the objective by less
+    than ``tol`` of it (one short step may be a dip, or a step the damping just raised held back).
 
     Each iteration tries four damping values in one batched simulation.
     """
@@ -472,6 +438,7 @@ def fit(
     obj = rss + float(rp @ rp)
     lam = 1e-3
     lams = np.array([0.1, 1.0, 10.0, 1000.0])
+    short = 0  # accepted steps in a row under tol
     for _ in range(max_iter):
         if not np.all(np.isfinite(J)):
             break
@@ -499,7 +466,8 @@ def fit(
         rel = (obj - obj_c[k]) / max(obj, 1e-300)
         P, rss, obj = cand[k], float(data_c[k]), float(obj_c[k])
         lam = max(lam * lams[k] / 10, 1e-9)
-        if rel < tol:
+        short = short + 1 if rel < tol else 0
+        if short >= patience:
             break
         r, J = jacobian(model, preps, P, free, w, masks, h)
         rp, Jp = _prior_rows(P, free, prior)

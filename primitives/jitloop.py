@@ -101,6 +101,15 @@ def _factors(terms: tuple[tuple[str, ...], ...]) -> tuple:
 
 
 def program(terms: TermSet, in_names: list[str], state_names: frozenset[str]) -> tuple[np.ndarray, ...] | None:
+    """:func:`_program` of the term strings, made once per term list and signal names (a
+    diagnosis simulates the same few hundred times; the loop only reads the arrays)."""
+    return _program(terms.terms, tuple(in_names), state_names)
+
+
+@lru_cache(maxsize=256)
+def _program(
+    terms: tuple[tuple[str, ...], ...], in_names: tuple[str, ...], state_names: frozenset[str]
+) -> tuple[np.ndarray, ...] | None:
     """The term set as arrays the compiled loop reads: per DOF its first term and term count, per
     term its first factor and factor count, per factor the signal index, modulus, station (NaN:
     none) and power. Signals are looked up as the numpy loop's dictionary resolves them: the state
@@ -109,7 +118,7 @@ def program(terms: TermSet, in_names: list[str], state_names: frozenset[str]) ->
     index = {n: N_STATE + i for i, n in enumerate(in_names)}
     index.update({n: _IDX[n] for n in state_names})
     dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow = [], [], [], [], [], [], [], []
-    for dof in _factors(terms.terms):
+    for dof in _factors(terms):
         dof_first.append(len(t_first))
         dof_n.append(len(dof))
         for term in dof:
@@ -185,7 +194,9 @@ def open_loop(
     exogenous signals ``exo[name]`` (N, B) (the heading among them when a term reads it), the
     current and air velocity already in body axes (each a pair of (N, B) arrays, or None) and
     increments ``forced`` (N, B, 3) added before the model's, as ``step(nu, exo_k, cur_k, wind_k,
-    forced_k)`` would step after step. None when the compiled loop does not apply."""
+    forced_k)`` would step after step; an exogenous signal may be (N, 1), the same for every
+    member (when all are, it is stored once per step for the whole batch). None when the compiled
+    loop does not apply."""
     n_work = nu0.shape[0] * (forced.shape[0] if forced is not None else next(iter(exo.values())).shape[0])
     if not use(n_work) or step.rigid is not None or nu0.shape[-1] != 3:
         return None
@@ -193,7 +204,7 @@ def open_loop(
     if prog is None:
         return None
     batch, n_steps = nu0.shape[0], (forced.shape[0] if forced is not None else next(iter(exo.values())).shape[0])
-    in_t = np.empty((n_steps, len(names), batch))
+    in_t = np.empty((n_steps, len(names), batch if any(exo[n].shape[1] > 1 for n in names) else 1))
     for i, n in enumerate(names):
         in_t[:, i] = exo[n]
     nu_t = np.empty((n_steps + 1, 3, batch))

@@ -238,3 +238,27 @@ def test_leave_one_out_misfit_is_the_refitted_model_simulated_on_the_run_left_ou
         sq.append(np.sum(((preps[t].y[1:] - model.simulate(preps[t], Pf)[0][1:]) * w) ** 2))
     expected = sum(sq) / (3 * sum(p.n for p in preps))
     assert baseline.loo_misfit(prof, prof.params(), theta, calm) == pytest.approx(expected, rel=1e-9)
+
+
+def test_fit_stops_only_after_patience_short_steps_in_a_row(monkeypatch):
+    """The --fit-on refit's stopping rule (diagnose.baseline.BASELINE_PATIENCE): with patience 2 the
+    fit goes on past its first step under ``tol`` and ends no worse than where one short step
+    stopped it."""
+    import diagnose.model as dm
+    from diagnose.battery import scenario
+
+    prof = load_profile("model-ship")
+    recs = [r.window(0, 400) for r in scenario((), 6, profile=prof).diagnose[:2]]
+    preps = [prepare(prof, r, i) for i, r in enumerate(recs)]
+    model = AugmentedModel(prof, 1.3 * prof.params(), [], n_rec=len(preps))
+    w = 1.0 / baseline.noise_scale(np.concatenate([r.y for r in recs]))
+    free = list(range(model.n_base)) + model.x0_params()
+    n_jac, jacobian = [], dm.jacobian
+    monkeypatch.setattr(dm, "jacobian", lambda *a, **k: n_jac.append(1) or jacobian(*a, **k))
+    out = {}
+    for patience in (1, 2):
+        n_jac.clear()
+        _P, _cov, rss = dm.fit(model, preps, model.p0(), free, w, max_iter=30, tol=0.05, patience=patience)
+        out[patience] = (len(n_jac), rss)
+    assert out[2][0] > out[1][0] and out[2][1] <= out[1][1]
+    assert baseline.BASELINE_PATIENCE >= 2

@@ -1,0 +1,113 @@
+"""The time loops of the augmented model's open-loop simulation (:meth:`diagnose.model.
+AugmentedModel.simulate_many`): the compiled loop recording by recording, the numpy loop over
+every recording at once (padded to the longest), and the environment both read, the current and
+the air velocity turned into body axes by the measured heading (not a simulated one).
+
+Both loops step the primitives' time step (:class:`primitives.simulate.VelocityStep`) with the
+same inputs in the same order: the same bits (``tests/test_diagnose_simulate.py``).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from primitives import jitloop
+from primitives.simulate import VelocityStep, body_from_ne
+from primitives.terms import TermSet
+
+if TYPE_CHECKING:
+    from diagnose.model import Prepared
+
+# One recording's (exogenous signals, input-only increments (B, N, 3), nu(0) (B, 3)), as
+# AugmentedModel._run_inputs makes them.
+RunInputs = tuple[dict, np.ndarray, np.ndarray]
+
+
+def current_turning(cur: np.ndarray, psi: np.ndarray) -> np.ndarray:
+    """Change of an earth-fixed current's body-frame components over each step, (B, N, 2).
+
+    The hull feels the water-relative velocity (u_r, v_r); for a uniform current its dynamics
+    are those of calm water in u_r, v_r (Fossen 2021, section 10.3), while the state here (and
+    the recording) is the velocity over ground u = u_r + u_c(psi). As the ship turns, u_c(psi)
+    turns with it: the over-ground velocity changes by u_c(psi(k+1)) - u_c(psi(k)) on top of
+    the hydrodynamic increment (the measured heading, as for the relative velocities)."""
+    uc, vc = body_from_ne(cur[:, None, :], psi[None, :])  # (B, N+1)
+    return np.stack([np.diff(uc, axis=1), np.diff(vc, axis=1)], axis=-1)
+
+
+def environment(prep: Prepared, cur: np.ndarray | None, use_wind: bool, B: int) -> tuple:
+    """The current ``cur`` (B, 2), north and east, and the recorded air velocity of one recording
+    in body axes on its measured heading: each a pair of (N, B) arrays, or None."""
+    cb = wb = None
+    if cur is not None:
+        cb = body_from_ne(cur[None], prep.psi[:-1, None])
+    if use_wind:
+        wind = prep.wind_body if prep.wind_body is not None else (np.zeros(prep.n + 1),) * 2
+        wb = tuple(np.broadcast_to(q[:-1, None], (prep.n, B)) for q in wind)
+    return cb, wb
+
+
+def compiled_loop(
+    preps: list[Prepared], runs: list[RunInputs], step: VelocityStep, need_in: list[str], cur: np.ndarray | None, use_wind: bool
+) -> list[np.ndarray] | None:
+    """nu (B, N_i+1, 3) per recording from the compiled loop, one call per recording (its own
+    length, its inputs once for every member when they are the same); None when the compiled
+    loop does not apply. Whether it is worth loading is judged on the whole call's work, as for
+    one padded call."""
+    if not jitloop.use(runs[0][2].shape[0] * sum(p.n for p in preps)):
+        return None
+    outs = []
+    for prep, (exo, pre, nu0) in zip(preps, runs):
+        B = nu0.shape[0]
+        ex = {nm: np.asarray(exo[nm]).T for nm in need_in}
+        out = jitloop.open_loop(step, need_in, ex, np.array(nu0), *environment(prep, cur, use_wind, B), pre.swapaxes(0, 1))
+        if out is None:
+            return None
+        outs.append(out)
+    return outs
+
+
+def numpy_loop(
+    preps: list[Prepared],
+    runs: list[RunInputs],
+    tset: TermSet,
+    coef: np.ndarray,
+    need_in: list[str],
+    cur: np.ndarray | None,
+    use_wind: bool,
+) -> list[np.ndarray]:
+    """nu (B, N_i+1, 3) per recording from the numpy loop over every recording and member at once
+    (padded to the longest; the padding's steps are cut off)."""
+    B, R, n_max = coef.shape[0], len(preps), max(p.n for p in preps)
+
+    def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (n_max, R*B, ...) from per-run (B or 1, n_i, ...)
+        out = np.zeros((n_max, R * B) + arrs[0].shape[2:])  # time-major: one contiguous row per step
+        for r, a in enumerate(arrs):
+            out[: a.shape[1], r * B : (r + 1) * B] = a.swapaxes(0, 1)
+        return out
+
+    pre = padded([pre for _e, pre, _n in runs])
+    exo = {nm: padded([np.asarray(e[nm])[..., None] for e, _x, _n in runs])[..., 0] for nm in need_in}
+    env = [environment(p, cur, use_wind, B) for p in preps]
+    cb = (
+        None
+        if cur is None
+        else tuple(padded([np.broadcast_to(e[0][q].T, (B, p.n))[..., None] for e, p in zip(env, preps)])[..., 0] for q in (0, 1))
+    )
+    wb = None if not use_wind else tuple(padded([e[1][q].T[..., None] for e in env])[..., 0] for q in (0, 1))
+    step = VelocityStep(tset, np.tile(coef, (R, 1)))
+    nu = np.concatenate([nu0 for _e, _x, nu0 in runs])
+    out = np.empty((R * B, n_max + 1, 3))
+    out[:, 0] = nu
+    for k in range(n_max):
+        nu = step(
+            nu,
+            {nm: exo[nm][k] for nm in need_in},
+            (cb[0][k], cb[1][k]) if cb is not None else None,
+            (wb[0][k], wb[1][k]) if wb is not None else None,
+            pre[k],
+        )
+        out[:, k + 1] = nu
+    return [out[r * B : (r + 1) * B, : p.n + 1] for r, p in enumerate(preps)]
