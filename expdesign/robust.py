@@ -39,7 +39,8 @@ from expdesign.dopt import ROBUST, Constraints
 from expdesign.errors import DesignError
 from expdesign.prior import ParameterPrior
 from primitives.library import Primitive
-from primitives.regressors import predictor_regressors
+from primitives.regkernel import block_moments
+from primitives.regressors import predictor_regressors, regressor_signals
 from primitives.ship import ShipProfile
 from primitives.simulate import signals_read, simulate
 
@@ -138,6 +139,27 @@ def _moment_matrices(phi: np.ndarray, blocks: list[slice], mean_subtraction: str
     return 0.5 * (x + np.swapaxes(x, 1, 2))
 
 
+def _draw_moments(
+    profile: ShipProfile, nu: np.ndarray, inputs: np.ndarray, psi: np.ndarray | None, blocks: list[slice], mean_subtraction: str
+) -> np.ndarray:
+    """:func:`_moment_matrices` of the predictor's regressors of ``nu`` (B, N+1, 3): summed in one
+    compiled pass that never stores Phi when the compiled code is loaded (:func:`primitives.regkernel.block_moments`;
+    for kvlcc2's library at 201 draws Phi is about 400 MB), else from Phi. The two differ by the
+    order of the sums only (tests/test_robust_speed.py)."""
+    sig, shape = regressor_signals(profile, nu, inputs, psi)
+    sums = block_moments(profile.predictor, sig, shape, blocks)
+    if sums is None:
+        phi, _ = predictor_regressors(profile, nu, inputs, psi)
+        return _moment_matrices(phi, blocks, mean_subtraction)
+    xx, ss = sums
+    n = shape[-1]
+    x, mu = xx / n, ss / n
+    if mean_subtraction != "none":
+        for s in blocks:
+            x[:, s, s] -= mu[:, s, None] * mu[:, None, s]
+    return x
+
+
 def draw_information(
     profile: ShipProfile,
     primitives: list[Primitive],
@@ -166,8 +188,9 @@ def draw_information(
             ok &= np.isfinite(res.nu).all(axis=(1, 2)) & (np.abs(res.nu).max(axis=(1, 2)) < _EXPLODED * scale)
             nu = np.where(ok[:, None, None], res.nu, 0.0)
             psi = np.where(ok[:, None], res.eta[..., 2], 0.0) if heading else None
-            phi, _ = predictor_regressors(profile, nu, np.broadcast_to(prim.inputs, (b,) + prim.inputs.shape), psi)
-        mats.append(_moment_matrices(phi, blocks, mean_subtraction))
+            mats.append(
+                _draw_moments(profile, nu, np.broadcast_to(prim.inputs, (b,) + prim.inputs.shape), psi, blocks, mean_subtraction)
+            )
     m = np.stack(mats, axis=1)  # (B, Q, p, p)
     if not ok[0]:
         raise DesignError(f"ship {profile.name!r}: the library's simulation at the profile's values diverges; check the profile")
@@ -204,14 +227,19 @@ def draw_optima(m: np.ndarray, tol: float = OPTIMUM_TOL, start: np.ndarray | Non
     w = np.tile(np.full(q, 1.0 / q) if start is None else np.asarray(start, float) / np.sum(start), (k, 1))
     bound = np.zeros(k)
     active = np.arange(k)
+    # M(w) and tr(M^-1 M_q) as products with the flattened matrices (tr(A M_q) = sum A_ij (M_q)_ij for
+    # a symmetric M_q); the draws still active are gathered only when one leaves
+    ma, wa = m.reshape(k, q, p * p), w.copy()
     for _ in range(_MAX_MULTIPLICATIVE):
-        ma, wa = m[active], w[active]
-        g = np.einsum("kij,kqji->kq", np.linalg.inv(np.einsum("kq,kqij->kij", wa, ma)), ma)
+        mw = (wa[:, None, :] @ ma)[:, 0].reshape(-1, p, p)
+        g = (ma @ np.linalg.inv(mw).reshape(-1, p * p, 1))[..., 0]
         bound[active] = p / g.max(axis=1)
         left = bound[active] < 1.0 - tol
-        wa = wa[left] * g[left] / p
-        w[active[left]] = wa / wa.sum(axis=1, keepdims=True)
-        active = active[left]
+        wa = wa * g / p
+        wa /= wa.sum(axis=1, keepdims=True)
+        w[active[left]] = wa[left]
+        if not left.all():
+            active, ma, wa = active[left], ma[left], wa[left]
         if not active.size:
             break
     return w, float(bound.min())

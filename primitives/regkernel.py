@@ -95,3 +95,72 @@ def _build(sig, out, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx):
                     x = 1.0 / x
                 acc = acc * x
             out[m, t] = acc
+
+
+def block_moments(
+    terms: TermSet, sig: dict[str, np.ndarray], shape: tuple[int, ...], blocks: list[slice]
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Sums over the last axis of ``shape`` (B, N) of Phi Phi^T within the DOF ``blocks`` (zero
+    between them) and of Phi: ((B, p, p), (B, p)), from the signals ``sig`` in one compiled pass
+    that never stores Phi (each row built as :func:`regressor_matrix` builds it, the same bits);
+    None when :func:`regressor_matrix` would use the numpy build. The sums run sample by sample,
+    so they differ from numpy's blocked and pairwise sums by rounding only."""
+    size = int(np.prod(shape))
+    prog = _program(terms.terms) if size and terms.n_params and len(shape) == 2 else None
+    if prog is None or not jitloop.loaded():
+        return None
+    names, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx = prog
+    if any(n not in sig for n in names):
+        return None
+    s = np.empty((len(names), size))
+    for i, n in enumerate(names):
+        s[i] = np.broadcast_to(sig[n], shape).reshape(-1)
+    p = terms.n_params
+    block_end = np.arange(1, p + 1, dtype=np.int64)  # parameters outside every block pair with themselves only
+    for b in blocks:
+        block_end[b] = b.stop
+    xx, ss = np.zeros((shape[0], p, p)), np.zeros((shape[0], p))
+    _moments(s, shape[1], xx, ss, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx, block_end)
+    return xx, ss
+
+
+_TILE = 128  # samples per tile of Phi: (128, p) doubles stay in the first-level cache
+
+
+@jitloop.compiled
+def _moments(sig, n, xx, ss, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx, block_end):
+    n_b, p = ss.shape
+    tile = np.empty((_TILE, p))
+    lx, ls = np.empty((p, p)), np.empty(p)  # one draw's sums
+    for b in range(n_b):
+        lx[:] = 0.0
+        ls[:] = 0.0
+        for c0 in range(0, n, _TILE):
+            w = min(_TILE, n - c0)
+            m0 = b * n + c0
+            for t in range(p):  # column t of Phi over the tile, factor by factor as _build multiplies them
+                for j in range(w):
+                    tile[j, t] = 1.0
+                for f in range(t_first[t], t_first[t] + t_n[t]):
+                    g, st, mod, pw = f_sig[f], f_sta[f], f_mod[f], f_pow[f]
+                    for j in range(w):
+                        x = sig[g, m0 + j]
+                        if not math.isnan(st):
+                            x = x + st * sig[r_idx, m0 + j]
+                        if mod:
+                            x = abs(x)
+                        if pw == 2:
+                            x = x * x
+                        elif pw == -1:
+                            x = 1.0 / x
+                        tile[j, t] = tile[j, t] * x
+            part = tile[:w]
+            lx += np.dot(part.T, part)  # BLAS on the tile (the products across blocks are dropped below)
+            for j in range(w):
+                for t in range(p):
+                    ls[t] += part[j, t]
+        for i in range(p):
+            ss[b, i] = ls[i]
+            for j in range(i, block_end[i]):
+                xx[b, i, j] = lx[i, j]
+                xx[b, j, i] = lx[i, j]
