@@ -31,6 +31,7 @@ constraints; bayes-D carries the certificate p / max_w' g.w' (g the mean gradien
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -38,6 +39,7 @@ import numpy as np
 from expdesign.dopt import ROBUST, Constraints
 from expdesign.errors import DesignError
 from expdesign.prior import ParameterPrior
+from primitives import jitloop
 from primitives.library import Primitive
 from primitives.regkernel import block_moments
 from primitives.regressors import predictor_regressors, regressor_signals
@@ -226,6 +228,11 @@ def draw_optima(m: np.ndarray, tol: float = OPTIMUM_TOL, start: np.ndarray | Non
     k, q, p = m.shape[0], m.shape[1], m.shape[2]
     w = np.tile(np.full(q, 1.0 / q) if start is None else np.asarray(start, float) / np.sum(start), (k, 1))
     bound = np.zeros(k)
+    if jitloop.loaded():  # draw by draw in machine code (no per-iteration gathering and calls): the same steps
+        w_c = w.copy()
+        _optima_compiled(np.ascontiguousarray(m, float), w_c, float(tol), _MAX_MULTIPLICATIVE, bound)
+        if not np.isnan(bound).any():
+            return w_c, float(bound.min())
     active = np.arange(k)
     # M(w) and tr(M^-1 M_q) as products with the flattened matrices (tr(A M_q) = sum A_ij (M_q)_ij for
     # a symmetric M_q); the draws still active are gathered only when one leaves
@@ -243,6 +250,71 @@ def draw_optima(m: np.ndarray, tol: float = OPTIMUM_TOL, start: np.ndarray | Non
         if not active.size:
             break
     return w, float(bound.min())
+
+
+@jitloop.compiled
+def _optima_compiled(m, w, tol, max_iter, bound):
+    """:func:`draw_optima`'s iterations for one draw after another, in place on ``w`` (K, Q) and
+    ``bound`` (K,); M(w)^-1 by Cholesky (M(w) is positive definite while the library identifies the model;
+    a draw where it is not gets a NaN bound)."""
+    k, q, p = m.shape[0], m.shape[1], m.shape[2]
+    a = np.empty((p, p))
+    inv = np.empty((p, p))
+    g = np.empty(q)
+    for d in range(k):
+        for _ in range(max_iter):
+            for i in range(p):  # M(w), lower triangle
+                for c in range(i + 1):
+                    acc = 0.0
+                    for j in range(q):
+                        acc += w[d, j] * m[d, j, i, c]
+                    a[i, c] = acc
+            singular = False
+            for c in range(p):  # Cholesky M = L L^T in place (lower triangle)
+                x = a[c, c]
+                for t in range(c):
+                    x -= a[c, t] * a[c, t]
+                if not x > 0.0:
+                    singular = True
+                    break
+                x = math.sqrt(x)
+                a[c, c] = x
+                for i in range(c + 1, p):
+                    y = a[i, c]
+                    for t in range(c):
+                        y -= a[i, t] * a[c, t]
+                    a[i, c] = y / x
+            if singular:  # the caller runs the numpy iterations, which say so
+                bound[d] = math.nan
+                break
+            for c in range(p):  # M^-1 column by column: L y = e_c, L^T x = y
+                for i in range(p):
+                    y = 1.0 if i == c else 0.0
+                    for t in range(i):
+                        y -= a[i, t] * inv[t, c]
+                    inv[i, c] = y / a[i, i]
+                for i in range(p - 1, -1, -1):
+                    y = inv[i, c]
+                    for t in range(i + 1, p):
+                        y -= a[t, i] * inv[t, c]
+                    inv[i, c] = y / a[i, i]
+            top = 0.0
+            for j in range(q):  # tr(M^-1 M_q)
+                acc = 0.0
+                for i in range(p):
+                    for c in range(p):
+                        acc += inv[i, c] * m[d, j, i, c]
+                g[j] = acc
+                top = max(top, acc)
+            bound[d] = p / top
+            if bound[d] >= 1.0 - tol:
+                break
+            total = 0.0
+            for j in range(q):
+                w[d, j] *= g[j] / p
+                total += w[d, j]
+            for j in range(q):
+                w[d, j] /= total
 
 
 def _gradients(m: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -85,14 +85,23 @@ def _optima_einsum(m, tol, start):
     return w, float(bound.min())
 
 
-def test_draw_optima_are_the_einsum_algorithm():
+@pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=needs_numba)])
+def test_draw_optima_are_the_einsum_algorithm(monkeypatch, compiled):
+    """Both paths (numpy on flattened matrices; compiled draw by draw) take the einsum form's steps."""
+    if compiled:
+        assert jitloop.use(jitloop.MIN_WORK)
+    else:
+        monkeypatch.setattr(jitloop, "AVAILABLE", False)
     rng = np.random.default_rng(2)
     a = rng.normal(size=(30, 7, 9, 5))
     m = np.einsum("kqni,kqnj->kqij", a, a) / 9  # rank-5 matrices of 5 parameters: mixes are needed
     start = rng.uniform(0.5, 1.5, 7)
+    calls = []
+    monkeypatch.setattr(robust, "_optima_compiled", lambda *x, f=robust._optima_compiled: calls.append(1) or f(*x))
     w, bound = robust.draw_optima(m, 1e-4, start)
+    assert calls == ([1] if compiled else [])
     w0, bound0 = _optima_einsum(m, 1e-4, start)
-    assert bound >= 1 - 1e-4 and bound0 >= 1 - 1e-4
+    assert bound >= 1 - 1e-4 and bound0 >= 1 - 1e-4 and abs(bound - bound0) < 1e-9
     ld = np.linalg.slogdet(np.einsum("kq,kqij->kij", w, m))[1]
     ld0 = np.linalg.slogdet(np.einsum("kq,kqij->kij", w0, m))[1]
     assert np.abs(w - w0).max() < 1e-9 and np.abs(ld - ld0).max() < 1e-9  # rounding of the products only
@@ -106,9 +115,9 @@ def test_robust_designs_are_those_of_the_numpy_path(monkeypatch, criterion):
     prior = spread_prior(profile, 0.3, 40, seed=3)
     assert jitloop.use(jitloop.MIN_WORK)
     fast = robust.draw_information(profile, lib, prior, "batchwise")
-    with monkeypatch.context() as m:
-        m.setattr(regkernel, "block_moments", lambda *a: None)
+    with monkeypatch.context() as m:  # the numpy paths: Phi stored, the optima by the batched algorithm
         m.setattr(robust, "block_moments", lambda *a: None)
+        m.setattr(jitloop, "loaded", lambda: False)
         slow = robust.draw_information(profile, lib, prior, "batchwise")
     cons = Constraints.simplex(len(lib))
     a, b = robust.solve_robust(fast, criterion, cons), robust.solve_robust(slow, criterion, cons)
@@ -116,3 +125,16 @@ def test_robust_designs_are_those_of_the_numpy_path(monkeypatch, criterion):
     for info in (fast, slow):  # and the same criterion at both mixes
         assert abs(info.value(a.weights, criterion=criterion) - info.value(b.weights, criterion=criterion)) < 1e-6
     assert np.abs(fast.optimum - slow.optimum).max() < 2e-3  # each draw's optimum to its certificate, p x 1e-4 in log det
+
+
+@pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=needs_numba)])
+def test_draw_optima_of_a_singular_draw_raise_as_before(monkeypatch, compiled):
+    """A draw whose mix is singular: the compiled path hands it to the numpy iterations, which raise."""
+    if compiled:
+        assert jitloop.use(jitloop.MIN_WORK)
+    else:
+        monkeypatch.setattr(jitloop, "AVAILABLE", False)
+    m = np.tile(np.eye(3), (4, 2, 1, 1))
+    m[2] = 0.0
+    with pytest.raises(np.linalg.LinAlgError):
+        robust.draw_optima(m)
