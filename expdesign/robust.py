@@ -224,7 +224,8 @@ def draw_optima(m: np.ndarray, tol: float = OPTIMUM_TOL, start: np.ndarray | Non
     multiplicative algorithm w_q <- w_q tr(M^-1 M_q) / p, all draws at once (a draw leaves the
     batch once certified), and the worst D-efficiency certificate p / max_q tr(M^-1 M_q) reached
     (module doc). ``start`` (Q,), all positive (the algorithm never revives a zero weight): the
-    first fractions of every draw, default equal shares."""
+    first fractions of every draw, default equal shares. Once numba is loaded the same iterations run
+    draw by draw in machine code (:func:`_optima_compiled`; the sums in another order, rounding only)."""
     k, q, p = m.shape[0], m.shape[1], m.shape[2]
     w = np.tile(np.full(q, 1.0 / q) if start is None else np.asarray(start, float) / np.sum(start), (k, 1))
     bound = np.zeros(k)

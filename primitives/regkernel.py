@@ -103,8 +103,9 @@ def block_moments(
     """Sums over the last axis of ``shape`` (B, N) of Phi Phi^T within the DOF ``blocks`` (zero
     between them) and of Phi: ((B, p, p), (B, p)), from the signals ``sig`` in one compiled pass
     that never stores Phi (each row built as :func:`regressor_matrix` builds it, the same bits);
-    None when :func:`regressor_matrix` would use the numpy build. The sums run sample by sample,
-    so they differ from numpy's blocked and pairwise sums by rounding only."""
+    None when :func:`regressor_matrix` would use the numpy build. Phi is built 128 samples at a
+    time and each tile's products summed by BLAS, so the sums differ from those over the whole Phi
+    (numpy's pairwise sum, one BLAS product per block) by their order, rounding only."""
     size = int(np.prod(shape))
     prog = _program(terms.terms) if size and terms.n_params and len(shape) == 2 else None
     if prog is None or not jitloop.loaded():
@@ -129,6 +130,8 @@ _TILE = 128  # samples per tile of Phi: (128, p) doubles stay in the first-level
 
 @jitloop.compiled
 def _moments(sig, n, xx, ss, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx, block_end):
+    """:func:`block_moments`' sums into ``xx`` (B, p, p) and ``ss`` (B, p); the rows of draw b are
+    ``sig[:, b n : (b + 1) n]``; ``block_end[i]``: one past the last parameter of i's block."""
     n_b, p = ss.shape
     tile = np.empty((_TILE, p))
     lx, ls = np.empty((p, p)), np.empty(p)  # one draw's sums

@@ -85,13 +85,18 @@ def _optima_einsum(m, tol, start):
     return w, float(bound.min())
 
 
-@pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=needs_numba)])
-def test_draw_optima_are_the_einsum_algorithm(monkeypatch, compiled):
-    """Both paths (numpy on flattened matrices; compiled draw by draw) take the einsum form's steps."""
+def _kernel(monkeypatch, compiled: bool) -> None:
+    """The compiled code loaded, or numba out of the picture (the numpy paths)."""
     if compiled:
         assert jitloop.use(jitloop.MIN_WORK)
     else:
         monkeypatch.setattr(jitloop, "AVAILABLE", False)
+
+
+@pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=needs_numba)])
+def test_draw_optima_are_the_einsum_algorithm(monkeypatch, compiled):
+    """Both paths (numpy on flattened matrices; compiled draw by draw) take the einsum form's steps."""
+    _kernel(monkeypatch, compiled)
     rng = np.random.default_rng(2)
     a = rng.normal(size=(30, 7, 9, 5))
     m = np.einsum("kqni,kqnj->kqij", a, a) / 9  # rank-5 matrices of 5 parameters: mixes are needed
@@ -130,10 +135,7 @@ def test_robust_designs_are_those_of_the_numpy_path(monkeypatch, criterion):
 @pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=needs_numba)])
 def test_draw_optima_of_a_singular_draw_raise_as_before(monkeypatch, compiled):
     """A draw whose mix is singular: the compiled path hands it to the numpy iterations, which raise."""
-    if compiled:
-        assert jitloop.use(jitloop.MIN_WORK)
-    else:
-        monkeypatch.setattr(jitloop, "AVAILABLE", False)
+    _kernel(monkeypatch, compiled)
     m = np.tile(np.eye(3), (4, 2, 1, 1))
     m[2] = 0.0
     with pytest.raises(np.linalg.LinAlgError):
