@@ -77,6 +77,23 @@ def regressor_matrix(terms: TermSet, sig: dict[str, np.ndarray], shape: tuple[in
     return out.reshape(shape + (terms.n_params,))
 
 
+@jitloop.inlined
+def _factor(x, r, station, modulus, power):
+    """|x + station r|^power, one factor of a term as numpy evaluates it (module doc): the station
+    term when ``station`` is not NaN, the modulus, a square as x * x, a reciprocal as 1 / x. Shared
+    by :func:`_build` and :func:`_moments`; :func:`primitives.jitloop._times_factor` does the same
+    arithmetic over the simulation kernel's batch layout (r at a fixed row, any power)."""
+    if not math.isnan(station):
+        x = x + station * r
+    if modulus:
+        x = abs(x)
+    if power == 2:
+        x = x * x
+    elif power == -1:
+        x = 1.0 / x
+    return x
+
+
 @jitloop.compiled
 def _build(sig, out, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx):
     size, p = out.shape
@@ -84,16 +101,7 @@ def _build(sig, out, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx):
         for t in range(p):
             acc = 1.0
             for f in range(t_first[t], t_first[t] + t_n[t]):
-                x = sig[f_sig[f], m]
-                if not math.isnan(f_sta[f]):
-                    x = x + f_sta[f] * sig[r_idx, m]
-                if f_mod[f]:
-                    x = abs(x)
-                if f_pow[f] == 2:
-                    x = x * x
-                elif f_pow[f] == -1:
-                    x = 1.0 / x
-                acc = acc * x
+                acc = acc * _factor(sig[f_sig[f], m], sig[r_idx, m], f_sta[f], f_mod[f], f_pow[f])
             out[m, t] = acc
 
 
@@ -147,16 +155,7 @@ def _moments(sig, n, xx, ss, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx, bl
                 for f in range(t_first[t], t_first[t] + t_n[t]):
                     g, st, mod, pw = f_sig[f], f_sta[f], f_mod[f], f_pow[f]
                     for j in range(w):
-                        x = sig[g, m0 + j]
-                        if not math.isnan(st):
-                            x = x + st * sig[r_idx, m0 + j]
-                        if mod:
-                            x = abs(x)
-                        if pw == 2:
-                            x = x * x
-                        elif pw == -1:
-                            x = 1.0 / x
-                        tile[j, t] = tile[j, t] * x
+                        tile[j, t] = tile[j, t] * _factor(sig[g, m0 + j], sig[r_idx, m0 + j], st, mod, pw)
             part = tile[:w]
             lx += np.dot(part.T, part)  # BLAS on the tile (the products across blocks are dropped below)
             for j in range(w):
