@@ -6,6 +6,8 @@ and the robust designs of both paths, which must agree to the tolerances stated 
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -65,6 +67,22 @@ def test_fused_moments_fall_back_without_the_compiler(monkeypatch):
     assert regkernel.block_moments(profile.predictor, sig, shape, blocks) is None
     ref = robust._moment_matrices(predictor_regressors(profile, nu, inputs, psi)[0], blocks, "batchwise")
     assert np.array_equal(robust._draw_moments(profile, nu, inputs, psi, blocks, "batchwise"), ref)
+
+
+@needs_numba
+def test_fused_moments_fall_back_for_a_term_set_the_pass_does_not_build(monkeypatch):
+    """A power other than 1, 2, -1 (v_r^3): the compiled pass is not used, the moments are those of Phi exactly."""
+    assert jitloop.use(jitloop.MIN_WORK)
+    profile, runs = _draw_states("model-ship", n_draws=4, n_prims=1)
+    t = profile.predictor.terms
+    profile = dataclasses.replace(profile, predictor_terms=(t[0], t[1] + ("v_r^3",), t[2]))
+    nu, inputs, psi = runs[0]
+    blocks = [profile.predictor.dof_slice(i) for i in range(3)]
+    monkeypatch.setattr(regkernel, "_moments", lambda *a: pytest.fail("the compiled pass ran"))
+    got = robust._draw_moments(profile, nu, inputs, psi, blocks, "batchwise")
+    phi = predictor_regressors(profile, nu, inputs, psi)[0]
+    assert phi.shape[-1] == got.shape[-1] == 11
+    assert np.array_equal(got, robust._moment_matrices(phi, blocks, "batchwise"))
 
 
 def _optima_einsum(m, tol, start):
