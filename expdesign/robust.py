@@ -42,7 +42,7 @@ from expdesign.prior import ParameterPrior
 from primitives import jitloop
 from primitives.library import Primitive
 from primitives.regkernel import block_moments
-from primitives.regressors import predictor_regressors, regressor_signals
+from primitives.regressors import regressor_signals, signal_regressors
 from primitives.ship import ShipProfile
 from primitives.simulate import signals_read, simulate
 
@@ -150,9 +150,8 @@ def _draw_moments(
     order of the sums only (tests/test_robust_speed.py)."""
     sig, shape = regressor_signals(profile, nu, inputs, psi)
     sums = block_moments(profile.predictor, sig, shape, blocks)
-    if sums is None:
-        phi, _ = predictor_regressors(profile, nu, inputs, psi)
-        return _moment_matrices(phi, blocks, mean_subtraction)
+    if sums is None:  # the signals already built, Phi from them
+        return _moment_matrices(signal_regressors(profile.predictor, sig, shape), blocks, mean_subtraction)
     xx, ss = sums
     n = shape[-1]
     x, mu = xx / n, ss / n

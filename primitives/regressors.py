@@ -47,10 +47,16 @@ def predictor_regressors(
     terms = terms or profile.predictor
     y = np.asarray(y, float)
     sig, shape = regressor_signals(profile, y, inputs, psi, wind_ne, extra)
-    phi = regressor_matrix(terms, sig, shape)  # compiled when worth it, the same bits
+    return signal_regressors(terms, sig, shape), np.diff(y, axis=-2)
+
+
+def signal_regressors(terms: TermSet, sig: dict[str, np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
+    """Phi (*shape, p) of ``terms`` from the signals of :func:`regressor_signals`: the compiled
+    build when worth it (:func:`primitives.regkernel.regressor_matrix`, the same bits), else numpy's."""
+    phi = regressor_matrix(terms, sig, shape)
     if phi is None:
         phi = np.concatenate([terms.evaluate_dof(i, sig) for i in range(terms.n_dof)], axis=-1)
-    return phi, np.diff(y, axis=-2)
+    return phi
 
 
 def regressor_signals(
