@@ -1,6 +1,6 @@
 """Benchmarks of the sea maps and the planning chain (issues 4 and 12).
 
-    python benchmarks/bench_plan.py [--repeat 3] [--cases cli_default,default,kvlcc2_fjord,...]
+    python benchmarks/bench_plan.py [--repeat 3] [--cases cli_default,default,kvlcc2_fjord,...] [--against /work/main]
 
 ``cli_default`` times the command a user runs, ``plan-trial --out DIR`` for the default ship on
 the bundled map with every default export (plan JSON, GeoJSON, GPX, RTZ, CSV, HTML and PDF trial
@@ -8,7 +8,8 @@ card, PNG figures), as a whole process: interpreter start, imports, design, plan
 It reports the median over ``--repeat`` runs (after one untimed run) of the wall clock and of
 the process's CPU time (user + system, from ``wait4``; on a shared machine the CPU time is the
 steadier figure, on an idle one the wall clock is about the CPU time) and the peak resident
-memory, against the 2 s target of issue 12.
+memory, against the 2 s target of issue 12. ``--against DIR`` runs another checkout's command
+(e.g. main's) alternately with this one's, for a paired before/after on a shared machine.
 
 Every other case runs in a fresh subprocess (its own peak resident memory, from getrusage) and is
 timed as the median of ``--repeat`` runs after one warm-up in that process (wall clock, and
@@ -221,37 +222,61 @@ def child(case: str, repeat: int) -> dict:
     return out
 
 
-def cli_default(repeat: int) -> dict:
-    """The whole ``plan-trial --out DIR`` process, ``repeat`` times after one untimed run."""
+def _cli_run(root: Path, out: Path) -> dict:
+    """One ``plan-trial --out OUT`` process run from the checkout ``root``: wall, CPU (user + system
+    of it and every child it reaped: the drawer, the lattice's forked helper), peak memory."""
     import os
-    import tempfile
 
     code = "from cli.app import plan_main; plan_main()"
-    rows = []
+    env = dict(os.environ, PYTHONPATH=str(root))  # the checkout's code, not an installed copy
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, "--out", str(out), "--start-time", "2026-06-01T08:00Z"],
+        cwd=root,
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    _, status, ru = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
+    if os.waitstatus_to_exitcode(status) != 0:
+        raise RuntimeError(f"plan-trial failed: {err.strip().splitlines()[-1] if err.strip() else status}")
+    return {
+        "wall_s": wall,
+        "cpu_s": ru.ru_utime + ru.ru_stime,
+        "rss_gib": ru.ru_maxrss / 1024**2,
+        "files": len(list(out.iterdir())),
+    }
+
+
+def cli_default(repeat: int, against: Path | None = None) -> dict:
+    """The whole ``plan-trial --out DIR`` process, ``repeat`` times after one untimed run; with
+    ``against`` (another checkout, e.g. main's) that checkout's command run alternately with this
+    one's, paired on the same machine state, under ``against_*`` keys."""
+    import tempfile
+
+    rows: list[dict] = []
+    other: list[dict] = []
     with tempfile.TemporaryDirectory(prefix="bench-plan-") as tmp:
         for k in range(repeat + 1):
-            out = Path(tmp) / f"run{k}"
-            t0 = time.perf_counter()
-            proc = subprocess.Popen(
-                [sys.executable, "-c", code, "--out", str(out), "--start-time", "2026-06-01T08:00Z"],
-                cwd=ROOT,
-                stdout=subprocess.DEVNULL,
-                stderr=subprocess.PIPE,
-            )
-            _, status, ru = os.wait4(proc.pid, 0)
-            wall = time.perf_counter() - t0
-            err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
-            if os.waitstatus_to_exitcode(status) != 0:
-                raise RuntimeError(f"plan-trial failed: {err.strip().splitlines()[-1] if err.strip() else status}")
-            if k:  # the first run fills the disk cache
-                rows.append(
-                    {
-                        "wall_s": wall,
-                        "cpu_s": ru.ru_utime + ru.ru_stime,
-                        "rss_gib": ru.ru_maxrss / 1024**2,
-                        "files": len(list(out.iterdir())),
-                    }
-                )
+            for root, into in ((ROOT, rows), (against, other)):
+                if root is None:
+                    continue
+                r = _cli_run(root, Path(tmp) / f"{'this' if root is ROOT else 'other'}{k}")
+                if k:  # the first run fills the disk cache
+                    into.append(r)
+    out = _cli_summary(rows)
+    if against is not None:
+        base = _cli_summary(other)
+        out.update({f"against_{k}": v for k, v in base.items() if k in ("median_s", "median_cpu_s", "runs_s", "cpu_runs_s")})
+        out["against"] = str(against)
+    return out
+
+
+def _cli_summary(rows: list[dict]) -> dict:
+    import os
+
     med = statistics.median(r["wall_s"] for r in rows)
     return {
         "median_s": med,
@@ -272,6 +297,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--cases", default=",".join(["cli_default", *CASES]))
+    ap.add_argument(
+        "--against",
+        type=Path,
+        help="cli_default only: also time this other checkout's plan-trial (e.g. /work/main), alternating runs",
+    )
     ap.add_argument("--case", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.case:
@@ -279,13 +309,18 @@ def main() -> None:
         return
     for name in args.cases.split(","):
         if name == "cli_default":
-            r = cli_default(args.repeat)
+            r = cli_default(args.repeat, args.against)
             print(
                 f"{name:18s} median {r['median_s']:8.3f} s  target {r['target_s']:5.1f} s  ratio {r['ratio_to_target']:.3f}  "
                 f"peak {r['peak_rss_gib']:.2f} GiB  (cpu median {r['median_cpu_s']:.3f} s, cpu ratio {r['cpu_ratio_to_target']:.3f}, "
                 f"wall runs {r['runs_s']}, cpu runs {r['cpu_runs_s']}, {r['files_written']} files, "
                 f"load average {r['load_average_1min']:.1f} when done)"
             )
+            if args.against:
+                print(
+                    f"{'  against':18s} median {r['against_median_s']:8.3f} s  cpu median {r['against_median_cpu_s']:.3f} s  "
+                    f"(wall runs {r['against_runs_s']}, cpu runs {r['against_cpu_runs_s']}; {r['against']}, run alternately)"
+                )
             continue
         proc = subprocess.run(
             [sys.executable, __file__, "--case", name, "--repeat", str(args.repeat)], capture_output=True, text=True

@@ -31,6 +31,7 @@ constraints; bayes-D carries the certificate p / max_w' g.w' (g the mean gradien
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -38,8 +39,10 @@ import numpy as np
 from expdesign.dopt import ROBUST, Constraints
 from expdesign.errors import DesignError
 from expdesign.prior import ParameterPrior
+from primitives import jitloop
 from primitives.library import Primitive
-from primitives.regressors import predictor_regressors
+from primitives.regkernel import block_moments
+from primitives.regressors import regressor_signals, signal_regressors
 from primitives.ship import ShipProfile
 from primitives.simulate import signals_read, simulate
 
@@ -138,6 +141,26 @@ def _moment_matrices(phi: np.ndarray, blocks: list[slice], mean_subtraction: str
     return 0.5 * (x + np.swapaxes(x, 1, 2))
 
 
+def _draw_moments(
+    profile: ShipProfile, nu: np.ndarray, inputs: np.ndarray, psi: np.ndarray | None, blocks: list[slice], mean_subtraction: str
+) -> np.ndarray:
+    """:func:`_moment_matrices` of the predictor's regressors of ``nu`` (B, N+1, 3): summed in one
+    compiled pass that never stores Phi when the compiled code is loaded (:func:`primitives.regkernel.block_moments`;
+    for kvlcc2's library at 201 draws Phi is about 400 MB), else from Phi. The two differ by the
+    order of the sums only (tests/test_robust_speed.py)."""
+    sig, shape = regressor_signals(profile, nu, inputs, psi)
+    sums = block_moments(profile.predictor, sig, shape, blocks)
+    if sums is None:  # the signals already built, Phi from them
+        return _moment_matrices(signal_regressors(profile.predictor, sig, shape), blocks, mean_subtraction)
+    xx, ss = sums
+    n = shape[-1]
+    x, mu = xx / n, ss / n
+    if mean_subtraction != "none":
+        for s in blocks:
+            x[:, s, s] -= mu[:, s, None] * mu[:, None, s]
+    return x
+
+
 def draw_information(
     profile: ShipProfile,
     primitives: list[Primitive],
@@ -166,8 +189,9 @@ def draw_information(
             ok &= np.isfinite(res.nu).all(axis=(1, 2)) & (np.abs(res.nu).max(axis=(1, 2)) < _EXPLODED * scale)
             nu = np.where(ok[:, None, None], res.nu, 0.0)
             psi = np.where(ok[:, None], res.eta[..., 2], 0.0) if heading else None
-            phi, _ = predictor_regressors(profile, nu, np.broadcast_to(prim.inputs, (b,) + prim.inputs.shape), psi)
-        mats.append(_moment_matrices(phi, blocks, mean_subtraction))
+            mats.append(
+                _draw_moments(profile, nu, np.broadcast_to(prim.inputs, (b,) + prim.inputs.shape), psi, blocks, mean_subtraction)
+            )
     m = np.stack(mats, axis=1)  # (B, Q, p, p)
     if not ok[0]:
         raise DesignError(f"ship {profile.name!r}: the library's simulation at the profile's values diverges; check the profile")
@@ -199,22 +223,98 @@ def draw_optima(m: np.ndarray, tol: float = OPTIMUM_TOL, start: np.ndarray | Non
     multiplicative algorithm w_q <- w_q tr(M^-1 M_q) / p, all draws at once (a draw leaves the
     batch once certified), and the worst D-efficiency certificate p / max_q tr(M^-1 M_q) reached
     (module doc). ``start`` (Q,), all positive (the algorithm never revives a zero weight): the
-    first fractions of every draw, default equal shares."""
+    first fractions of every draw, default equal shares. Once numba is loaded the same iterations run
+    draw by draw in machine code (:func:`_optima_compiled`; the sums in another order, rounding only)."""
     k, q, p = m.shape[0], m.shape[1], m.shape[2]
     w = np.tile(np.full(q, 1.0 / q) if start is None else np.asarray(start, float) / np.sum(start), (k, 1))
     bound = np.zeros(k)
+    if jitloop.loaded():  # draw by draw in machine code (no per-iteration gathering and calls): the same steps
+        w_c = w.copy()
+        _optima_compiled(np.ascontiguousarray(m, float), w_c, float(tol), _MAX_MULTIPLICATIVE, bound)
+        if not np.isnan(bound).any():
+            return w_c, float(bound.min())
     active = np.arange(k)
+    # M(w) and tr(M^-1 M_q) as products with the flattened matrices (tr(A M_q) = sum A_ij (M_q)_ij for
+    # a symmetric M_q); the draws still active are gathered only when one leaves
+    ma, wa = m.reshape(k, q, p * p), w.copy()
     for _ in range(_MAX_MULTIPLICATIVE):
-        ma, wa = m[active], w[active]
-        g = np.einsum("kij,kqji->kq", np.linalg.inv(np.einsum("kq,kqij->kij", wa, ma)), ma)
+        mw = (wa[:, None, :] @ ma)[:, 0].reshape(-1, p, p)
+        g = (ma @ np.linalg.inv(mw).reshape(-1, p * p, 1))[..., 0]
         bound[active] = p / g.max(axis=1)
         left = bound[active] < 1.0 - tol
-        wa = wa[left] * g[left] / p
-        w[active[left]] = wa / wa.sum(axis=1, keepdims=True)
-        active = active[left]
+        wa = wa * g / p
+        wa /= wa.sum(axis=1, keepdims=True)
+        w[active[left]] = wa[left]
+        if not left.all():
+            active, ma, wa = active[left], ma[left], wa[left]
         if not active.size:
             break
     return w, float(bound.min())
+
+
+@jitloop.compiled
+def _optima_compiled(m, w, tol, max_iter, bound):
+    """:func:`draw_optima`'s iterations for one draw after another, in place on ``w`` (K, Q) and
+    ``bound`` (K,); M(w)^-1 by Cholesky (M(w) is positive definite while the library identifies the model;
+    a draw where it is not gets a NaN bound)."""
+    k, q, p = m.shape[0], m.shape[1], m.shape[2]
+    a = np.empty((p, p))
+    inv = np.empty((p, p))
+    g = np.empty(q)
+    for d in range(k):
+        for _ in range(max_iter):
+            for i in range(p):  # M(w), lower triangle
+                for c in range(i + 1):
+                    acc = 0.0
+                    for j in range(q):
+                        acc += w[d, j] * m[d, j, i, c]
+                    a[i, c] = acc
+            singular = False
+            for c in range(p):  # Cholesky M = L L^T in place (lower triangle)
+                x = a[c, c]
+                for t in range(c):
+                    x -= a[c, t] * a[c, t]
+                if not x > 0.0:
+                    singular = True
+                    break
+                x = math.sqrt(x)
+                a[c, c] = x
+                for i in range(c + 1, p):
+                    y = a[i, c]
+                    for t in range(c):
+                        y -= a[i, t] * a[c, t]
+                    a[i, c] = y / x
+            if singular:  # the caller runs the numpy iterations, which say so
+                bound[d] = math.nan
+                break
+            for c in range(p):  # M^-1 column by column: L y = e_c, L^T x = y
+                for i in range(p):
+                    y = 1.0 if i == c else 0.0
+                    for t in range(i):
+                        y -= a[i, t] * inv[t, c]
+                    inv[i, c] = y / a[i, i]
+                for i in range(p - 1, -1, -1):
+                    y = inv[i, c]
+                    for t in range(i + 1, p):
+                        y -= a[t, i] * inv[t, c]
+                    inv[i, c] = y / a[i, i]
+            top = 0.0
+            for j in range(q):  # tr(M^-1 M_q)
+                acc = 0.0
+                for i in range(p):
+                    for c in range(p):
+                        acc += inv[i, c] * m[d, j, i, c]
+                g[j] = acc
+                top = max(top, acc)
+            bound[d] = p / top
+            if bound[d] >= 1.0 - tol:
+                break
+            total = 0.0
+            for j in range(q):
+                w[d, j] *= g[j] / p
+                total += w[d, j]
+            for j in range(q):
+                w[d, j] /= total
 
 
 def _gradients(m: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

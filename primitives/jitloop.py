@@ -234,13 +234,13 @@ def open_loop(
     return nu_t.transpose(2, 0, 1)
 
 
-_INLINED: list[str] = []
+_INLINED: list[tuple[dict, str]] = []  # (the helper's module globals, its name)
 _COMPILED: list = []  # every compiled function, given its dispatcher by _load
 
 
 class compiled:
     """``fn`` compiled by numba (cached on disk: a warm process loads the machine code instead of
-    compiling it), with the helpers marked :func:`_inlined` compiled into it. Its dispatcher is made
+    compiling it), with the helpers marked :func:`inlined` compiled into it. Its dispatcher is made
     when :func:`use` first loads numba, so a compiler that cannot work is found there, before a
     caller has chosen the compiled path. Called only when :func:`use` says so."""
 
@@ -268,15 +268,14 @@ class compiled:
 
 
 def _load() -> None:
-    """Import numba, replace the :func:`_inlined` helpers by their compiled form and make every
+    """Import numba, replace the :func:`inlined` helpers by their compiled form and make every
     :class:`compiled` function's dispatcher, once (the caller holds ``_LOCK``)."""
     global _LOADED
     if _LOADED:
         return
     from numba import njit
 
-    g = globals()
-    for name in _INLINED:
+    for g, name in _INLINED:
         if not hasattr(g[name], "py_func"):
             # inlined into the loop at compile time: a call per step would pass every array argument
             # through the reference counter, more than the arithmetic's cost for a small batch
@@ -287,12 +286,19 @@ def _load() -> None:
     _LOADED = True
 
 
-def _inlined(fn):
-    _INLINED.append(fn.__name__)
+def inlined(fn):
+    """Mark the module-level helper ``fn`` to be compiled into the :class:`compiled` functions of its
+    own module that call it (kept in the caller's file: numba's disk cache is invalidated by that
+    file's changes only). Compiled at once when numba is loaded already."""
+    if _LOADED:
+        from numba import njit
+
+        return njit(inline="always", error_model="numpy")(fn)
+    _INLINED.append((fn.__globals__, fn.__name__))
     return fn
 
 
-@_inlined
+@inlined
 def _times_factor(acc, sig, idx, station, modulus, power, batch):
     """acc[b] *= |sig[idx, b] + station * r|^power over the batch: one factor of a term (the
     numpy expression of primitives.terms.Factor.code: x**2 a square, x**-1 a reciprocal)."""
@@ -320,7 +326,7 @@ def _times_factor(acc, sig, idx, station, modulus, power, batch):
         acc[b] = acc[b] * x
 
 
-@_inlined
+@inlined
 def _increments(inc, tmp, sig, coef, batch, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow):
     """inc[i, b] = Phi_i^T theta per DOF i: each term c_j * f_1 * f_2 ... and their sum, left to
     right, as the generated increment function (primitives.terms.TermSet.increment_function);
@@ -344,7 +350,7 @@ def _increments(inc, tmp, sig, coef, batch, dof_first, dof_n, t_first, t_n, f_si
                     inc[i, b] = inc[i, b] + tmp[b]
 
 
-@_inlined
+@inlined
 def _pod_forces(sig, b, u, v, r, p, pod_pos, pod_sig, pc):
     """tau_x, tau_y, tau_k, tau_n of the pods (seed 000 (2.9)-(2.12), primitives.pods) into ``sig``."""
     d4, d, c_mx1, c_mx2, c_my1, c_my2, qc, c_rx1, c_rx2, c_ry, full = (
@@ -383,7 +389,7 @@ def _pod_forces(sig, b, u, v, r, p, pod_pos, pod_sig, pc):
     sig[14, b], sig[15, b], sig[16, b], sig[17, b] = tx, ty, tk, tn
 
 
-@_inlined
+@inlined
 def _state_signals(
     sig, cub, cvb, k, nu_t, eta_t, in_t, cur_t, wind_t, pod_pos, pod_sig, pod_coef, heading, wind_excess, speed, env_body
 ):
@@ -434,7 +440,7 @@ def _state_signals(
             sig[8, b] = sig[9, b] = sig[10, b] = 0.0
 
 
-@_inlined
+@inlined
 def _advance(k, nu_t, eta_t, inc, n_inc, w_t, cur_t, cub, cvb, minv, rb, ts, heading, positions, turning, forced_first):
     """nu(k+1) and eta(k+1) of every member from the increments ``inc`` (primitives.simulate._time_loop,
     RigidBody.increments, _turn_current, _advance_pose: the same operations in the same order).

@@ -77,6 +77,23 @@ def regressor_matrix(terms: TermSet, sig: dict[str, np.ndarray], shape: tuple[in
     return out.reshape(shape + (terms.n_params,))
 
 
+@jitloop.inlined
+def _factor(x, r, station, modulus, power):
+    """|x + station r|^power, one factor of a term as numpy evaluates it (module doc): the station
+    term when ``station`` is not NaN, the modulus, a square as x * x, a reciprocal as 1 / x. Shared
+    by :func:`_build` and :func:`_moments`; :func:`primitives.jitloop._times_factor` does the same
+    arithmetic over the simulation kernel's batch layout (r at a fixed row, any power)."""
+    if not math.isnan(station):
+        x = x + station * r
+    if modulus:
+        x = abs(x)
+    if power == 2:
+        x = x * x
+    elif power == -1:
+        x = 1.0 / x
+    return x
+
+
 @jitloop.compiled
 def _build(sig, out, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx):
     size, p = out.shape
@@ -84,14 +101,68 @@ def _build(sig, out, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx):
         for t in range(p):
             acc = 1.0
             for f in range(t_first[t], t_first[t] + t_n[t]):
-                x = sig[f_sig[f], m]
-                if not math.isnan(f_sta[f]):
-                    x = x + f_sta[f] * sig[r_idx, m]
-                if f_mod[f]:
-                    x = abs(x)
-                if f_pow[f] == 2:
-                    x = x * x
-                elif f_pow[f] == -1:
-                    x = 1.0 / x
-                acc = acc * x
+                acc = acc * _factor(sig[f_sig[f], m], sig[r_idx, m], f_sta[f], f_mod[f], f_pow[f])
             out[m, t] = acc
+
+
+def block_moments(
+    terms: TermSet, sig: dict[str, np.ndarray], shape: tuple[int, ...], blocks: list[slice]
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Sums over the last axis of ``shape`` (B, N) of Phi Phi^T within the DOF ``blocks`` (zero
+    between them) and of Phi: ((B, p, p), (B, p)), from the signals ``sig`` in one compiled pass
+    that never stores Phi (each row built as :func:`regressor_matrix` builds it, the same bits);
+    None when :func:`regressor_matrix` would use the numpy build. Phi is built 128 samples at a
+    time and each tile's products summed by BLAS, so the sums differ from those over the whole Phi
+    (numpy's pairwise sum, one BLAS product per block) by their order, rounding only."""
+    size = int(np.prod(shape))
+    prog = _program(terms.terms) if size and terms.n_params and len(shape) == 2 else None
+    if prog is None or not jitloop.loaded():
+        return None
+    names, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx = prog
+    if any(n not in sig for n in names):
+        return None
+    s = np.empty((len(names), size))
+    for i, n in enumerate(names):
+        s[i] = np.broadcast_to(sig[n], shape).reshape(-1)
+    p = terms.n_params
+    block_end = np.arange(1, p + 1, dtype=np.int64)  # parameters outside every block pair with themselves only
+    for b in blocks:
+        block_end[b] = b.stop
+    xx, ss = np.zeros((shape[0], p, p)), np.zeros((shape[0], p))
+    _moments(s, shape[1], xx, ss, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx, block_end)
+    return xx, ss
+
+
+_TILE = 128  # samples per tile of Phi: (128, p) doubles stay in the first-level cache
+
+
+@jitloop.compiled
+def _moments(sig, n, xx, ss, t_first, t_n, f_sig, f_mod, f_sta, f_pow, r_idx, block_end):
+    """:func:`block_moments`' sums into ``xx`` (B, p, p) and ``ss`` (B, p); the rows of draw b are
+    ``sig[:, b n : (b + 1) n]``; ``block_end[i]``: one past the last parameter of i's block."""
+    n_b, p = ss.shape
+    tile = np.empty((_TILE, p))
+    lx, ls = np.empty((p, p)), np.empty(p)  # one draw's sums
+    for b in range(n_b):
+        lx[:] = 0.0
+        ls[:] = 0.0
+        for c0 in range(0, n, _TILE):
+            w = min(_TILE, n - c0)
+            m0 = b * n + c0
+            for t in range(p):  # column t of Phi over the tile, factor by factor as _build multiplies them
+                for j in range(w):
+                    tile[j, t] = 1.0
+                for f in range(t_first[t], t_first[t] + t_n[t]):
+                    g, st, mod, pw = f_sig[f], f_sta[f], f_mod[f], f_pow[f]
+                    for j in range(w):
+                        tile[j, t] = tile[j, t] * _factor(sig[g, m0 + j], sig[r_idx, m0 + j], st, mod, pw)
+            part = tile[:w]
+            lx += np.dot(part.T, part)  # BLAS on the tile (the products across blocks are dropped below)
+            for j in range(w):
+                for t in range(p):
+                    ls[t] += part[j, t]
+        for i in range(p):
+            ss[b, i] = ls[i]
+            for j in range(i, block_end[i]):
+                xx[b, i, j] = lx[i, j]
+                xx[b, j, i] = lx[i, j]

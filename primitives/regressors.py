@@ -46,6 +46,30 @@ def predictor_regressors(
     """
     terms = terms or profile.predictor
     y = np.asarray(y, float)
+    sig, shape = regressor_signals(profile, y, inputs, psi, wind_ne, extra)
+    return signal_regressors(terms, sig, shape), np.diff(y, axis=-2)
+
+
+def signal_regressors(terms: TermSet, sig: dict[str, np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
+    """Phi (*shape, p) of ``terms`` from the signals of :func:`regressor_signals`: the compiled
+    build when worth it (:func:`primitives.regkernel.regressor_matrix`, the same bits), else numpy's."""
+    phi = regressor_matrix(terms, sig, shape)
+    if phi is None:
+        phi = np.concatenate([terms.evaluate_dof(i, sig) for i in range(terms.n_dof)], axis=-1)
+    return phi
+
+
+def regressor_signals(
+    profile: ShipProfile,
+    y: np.ndarray,
+    inputs: np.ndarray,
+    psi: np.ndarray | None = None,
+    wind_ne: np.ndarray | None = None,
+    extra: dict[str, np.ndarray] | None = None,
+) -> tuple[dict[str, np.ndarray], tuple[int, ...]]:
+    """The signals the regressors of :func:`predictor_regressors` read (each broadcastable to the
+    returned shape (..., N): row k from samples k) for its arguments."""
+    y = np.asarray(y, float)
     inputs = np.asarray(inputs, float)
     n = inputs.shape[-2]
     if y.shape[-2] != n + 1:
@@ -57,10 +81,7 @@ def predictor_regressors(
     sig = model_signals(profile, yk, psi_k, in_sig, None, None if wind_ne is None else wind_ne[..., :n, :])
     if extra:
         sig.update({k: v[..., :n] for k, v in extra.items()})
-    phi = regressor_matrix(terms, sig, yk.shape[:-1])  # compiled when worth it, the same bits
-    if phi is None:
-        phi = np.concatenate([terms.evaluate_dof(i, sig) for i in range(terms.n_dof)], axis=-1)
-    return phi, np.diff(y, axis=-2)
+    return sig, yk.shape[:-1]
 
 
 def instruments(

@@ -385,3 +385,24 @@ def test_orders_read_from_the_inputs_name_thrusters_not_variables(crowded):
     lines = input_phases(crowded, bare, max_phases=1)
     assert lines[-1].startswith("then ") and "bow thruster angle" in lines[-1] and "rpm" in lines[-1]
     assert not re.search(r"\b(alpha|n)\d\b", " ".join(lines))
+
+
+def test_segment_distances_are_the_bits_of_the_broadcast_form():
+    """The label placement's distances, x and y apart, against the (n, m, 2) form they replace
+    (same bits: the card's label positions and so its PDF bytes do not move)."""
+    from maps.export.labels import segment_distances
+
+    def broadcast(p, a, b):
+        d = b - a
+        dd = np.maximum((d * d).sum(axis=1), 1e-12)
+        t = np.clip(((p[:, None, :] - a[None]) * d[None]).sum(axis=2) / dd[None], 0.0, 1.0)
+        q = a[None] + t[..., None] * d[None]
+        return np.sqrt(((p[:, None, :] - q) ** 2).sum(axis=2)).min(axis=1)
+
+    rng = np.random.default_rng(4)
+    for n, m in [(73, 500), (10, 3), (1, 1)]:
+        p, a = rng.normal(size=(n, 2)) * 100, rng.normal(size=(m, 2)) * 100
+        b = a + rng.normal(size=(m, 2)) * 10
+        b[0] = a[0]  # a point (a zero-length segment), as the anchors are
+        assert np.array_equal(segment_distances(p, a, b), broadcast(p, a, b))
+    assert np.all(segment_distances(np.zeros((3, 2)), np.zeros((0, 2)), np.zeros((0, 2))) == np.inf)

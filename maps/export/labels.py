@@ -35,11 +35,16 @@ class Label:
 
 def segment_distances(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Distances from points ``p`` (n, 2) to the nearest of the segments a[i]-b[i] (m, 2): (n,)."""
-    d = b - a
-    dd = np.maximum((d * d).sum(axis=1), 1e-12)
-    t = np.clip(((p[:, None, :] - a[None]) * d[None]).sum(axis=2) / dd[None], 0.0, 1.0)
-    q = a[None] + t[..., None] * d[None]
-    return np.sqrt(((p[:, None, :] - q) ** 2).sum(axis=2)).min(axis=1) if len(a) else np.full(len(p), np.inf)
+    if not len(a):
+        return np.full(len(p), np.inf)
+    # x and y apart: a sum over an axis of length 2 is x + y, so these are the bits of the (n, m, 2)
+    # form, without its temporaries (the card's label placement calls this for every step)
+    dx, dy = b[:, 0] - a[:, 0], b[:, 1] - a[:, 1]
+    dd = np.maximum(dx * dx + dy * dy, 1e-12)
+    px, py = p[:, 0, None] - a[None, :, 0], p[:, 1, None] - a[None, :, 1]
+    t = np.clip((px * dx + py * dy) / dd, 0.0, 1.0)
+    ex, ey = p[:, 0, None] - (a[None, :, 0] + t * dx), p[:, 1, None] - (a[None, :, 1] + t * dy)  # p - q, q on the segment
+    return np.sqrt(ex * ex + ey * ey).min(axis=1)
 
 
 def _thin(track: np.ndarray, step: float) -> np.ndarray:
