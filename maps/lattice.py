@@ -27,6 +27,7 @@ from primitives.simulate import simulate
 from primitives.stability import require_stable
 
 __all__ = [
+    "SETTLE_PHASES",
     "Move",
     "heading_table",
     "nearest_heading",
@@ -39,6 +40,11 @@ __all__ = [
     "place",
     "transit_mismatch",
 ]
+
+
+# how a move settles onto the lattice, as the helm's phase: "lattice", the autopilot's tight tolerance (0.2 deg,
+# 1 % of a length off the line); "ship", the tolerance scaled to the ship for confined water (maps.autopilot.steady_enough)
+SETTLE_PHASES = {"lattice": "settle", "ship": "steady"}
 
 
 @dataclass
@@ -119,14 +125,15 @@ def run_in_inputs(prim: Primitive, res: float, n_head: int, run_in_s: float) -> 
 
 
 def with_run_in(
-    prim: Primitive, res: float, n_head: int, psi0: float, run_in: np.ndarray, head_sim=None
+    prim: Primitive, res: float, n_head: int, psi0: float, run_in: np.ndarray, head_sim=None, settle: str = "settle"
 ) -> tuple[Primitive, int]:
     """Run-in + primitive + settling leg, started from transit at lattice heading ``psi0``.
 
     ``run_in`` (:func:`run_in_inputs`) brings the ship to the primitive's entry velocity and holds
     it on a steady course; the primitive's inputs then start at the execute point. Returns the
     whole move (track in the start frame) and the run-in's samples. ``head_sim``: the simulation
-    of run-in + primitive from transit (the same for every start heading), if already done."""
+    of run-in + primitive from transit (the same for every start heading), if already done.
+    ``settle``: the helm's settling phase (a value of :data:`SETTLE_PHASES`)."""
     helm = helm_for(prim.profile, res, n_head)
     nu_t = np.array([helm.uc, 0.0, 0.0])
     head = np.vstack([run_in, prim.inputs])
@@ -136,7 +143,7 @@ def with_run_in(
     # settle on the lattice heading nearest the primitive's end heading, fixed when it ends: a hull still
     # turning (a VLCC after a zig-zag) would otherwise drift onto the next heading while it settles
     h_end = nearest_heading(psi0 + p, helm.table)
-    tail = helm.run(sim.nu[0, -1], (c * x - s * y, s * x + c * y, psi0 + p), [("settle", int(h_end))])
+    tail = helm.run(sim.nu[0, -1], (c * x - s * y, s * x + c * y, psi0 + p), [(settle, int(h_end))])
     n_r = len(run_in)
     cmds = list(prim.commands) + (
         [f"then steady at {helm.uc / KNOT:.1f} kn on the nearest lattice course for {len(tail) * helm.ts:.0f} s"]
@@ -167,10 +174,34 @@ def classes(n_head: int) -> np.ndarray:
     return heading_table(n_head)[: n_head // 4]
 
 
-def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turns: bool = True) -> list[list[Primitive]]:
+def _run_onto_line(helm, psi0: float, target: float) -> float:
+    """Metres of straight run at cruise speed on ``psi0`` before a turn to ``target`` (a lattice
+    heading) that make the turn end on a lattice line of that heading, so that settling need not
+    steer the ship across to one (a VLCC takes minutes to close a few hundred metres). Lattice lines
+    of a heading along the integer direction (a, b) lie res / |(a, b)| apart; a run of d metres moves
+    the turn's end across them by d sin(target - psi0)."""
+    p = helm.p
+    nu0 = (helm.uc, 0.0, 0.0)
+    f0 = helm.run(nu0, (0.0, 0.0, psi0), [("turn", target)])
+    xe, ye = simulate(p, f0, nu0=nu0).eta[0, -1, :2] if len(f0) else (0.0, 0.0)
+    c, s = np.cos(psi0), np.sin(psi0)
+    end = np.array([c * xe - s * ye, s * xe + c * ye])
+    a, b = min(
+        ((i, j) for i in range(-3, 4) for j in range(-3, 4) if i or j), key=lambda v: abs(_wrap(np.arctan2(v[1], v[0]) - target))
+    )
+    spacing = helm.res / float(np.hypot(a, b))
+    across = float(end @ np.array([-np.sin(target), np.cos(target)]))
+    shift = float(np.sin(target - psi0))
+    return float((-across / shift) % (spacing / abs(shift)))
+
+
+def lattice_basic_moves(
+    profile: ShipProfile, res: float, n_head: int, spot_turns: bool = True, settle: str = "settle"
+) -> list[list[Primitive]]:
     """Basic moves (8.7) at cruise speed, one primitive per heading class: a straight run to the
     next lattice point ahead, turns at speed to the next lattice heading (90 deg with 4
-    headings) and, optionally, turns on the spot by 90 deg (stop, turn, speed up again)."""
+    headings) and, optionally, turns on the spot by 90 deg (stop, turn, speed up again).
+    ``settle``: the helm's settling phase that ends the turns (a value of :data:`SETTLE_PHASES`)."""
     require_stable(profile)
     helm = helm_for(profile, res, n_head)
     uc = helm.uc
@@ -195,11 +226,9 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
             h_to = (ci + sgn * step) % n_head
             target = psi0 + _wrap(float(table[h_to]) - psi0)
             dpsi = np.degrees(target - psi0)
-            phases = [("turn", target), ("settle", int(h_to))]
-            if n_head == 4:  # a short straight run first makes the turn end on a lattice line
-                f0 = helm.run(nu0, (0.0, 0.0, 0.0), [("turn", target)])
-                x_end = simulate(profile, f0, nu0=nu0).eta[0, -1, 0] if len(f0) else 0.0
-                phases.insert(0, ("run", float((-x_end) % res)))
+            phases = [("turn", target), (settle, int(h_to))]
+            if n_head == 4 or settle == "steady":  # a short straight run first makes the turn end on a lattice line
+                phases.insert(0, ("run", _run_onto_line(helm, psi0, target)))
             f = helm.run(nu0, (0.0, 0.0, psi0), phases)
             per.append(
                 _assemble(
@@ -221,7 +250,7 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
             per = []
             for ci, psi0 in enumerate(cls):
                 # just short of 180 deg so that the helm turns to the side asked for
-                f = helm.run(nu0, (0.0, 0.0, psi0), [("turn", psi0 + sgn * (np.pi - 1e-6)), ("settle", int(ci + n_head // 2))])
+                f = helm.run(nu0, (0.0, 0.0, psi0), [("turn", psi0 + sgn * (np.pi - 1e-6)), (settle, int(ci + n_head // 2))])
                 per.append(
                     _assemble(
                         profile,

@@ -18,7 +18,7 @@ import numpy as np
 import shapely
 
 from maps.autopilot import helm_for
-from maps.lattice import run_in_seconds
+from maps.lattice import SETTLE_PHASES, run_in_seconds
 from maps.verify import hull_clearance
 from primitives.library import KNOT
 from primitives.ship import ShipProfile
@@ -121,7 +121,8 @@ class Realiser:
         legs = []
         if n_r:
             u0, v0, r0 = (float(x) for x in pr.nu[n_r])
-            ri = helm.run(nu, self._rel(spatial, eta), [("hold", (u0, v0, r0, self.run_in_s, float(lat.table[h])))], n_max=20000)
+            hold = (u0, v0, r0, self.run_in_s, float(lat.table[h]), SETTLE_PHASES[lat.options.settle])
+            ri = helm.run(nu, self._rel(spatial, eta), [("hold", hold)], n_max=20000)
             u = float(np.hypot(u0, v0))
             course = float(np.degrees(lat.table[h]) % 360)
             hold_s = len(ri) * pr.profile.sample_time

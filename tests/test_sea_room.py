@@ -187,3 +187,37 @@ def test_held_design_information_is_gammas_principal_submatrix_in_every_mean_sub
         whole = InfoSet.from_infos(infos).gamma(w, ms)
         part = InfoSet.from_infos(restrict(infos, keep)).gamma(w, ms)
         assert np.allclose(part, whole[np.ix_(keep, keep)], rtol=1e-12, atol=0.0), ms
+
+
+def _settled_end(prim, psi0: float, res: float, heading: float) -> tuple[float, float, np.ndarray, float]:
+    """(heading error rad, distance m to the nearest lattice point, end velocities, cross-track m to
+    the lattice line through that point) of a basic move started on a lattice point at ``psi0``."""
+    x, y, p = prim.track[-1]
+    c, s = np.cos(psi0), np.sin(psi0)
+    end = np.array([c * x - s * y, s * x + c * y])
+    point = np.round(end / res) * res
+    err = float(np.angle(np.exp(1j * (heading - psi0 - p))))
+    cross = float((end - point) @ np.array([-np.sin(heading), np.cos(heading)]))
+    return err, float(np.hypot(*(end - point))), prim.nu[-1], cross
+
+
+def test_confined_settling_shortens_a_vlccs_course_change_and_ends_it_steady_on_a_lattice_point(kvlcc2):
+    """The lattice autopilot's settling (0.2 deg, 1 % of a length off the line, yaw rate under
+    0.005 m/s at the hull's ends) takes a VLCC 4-6 km after a 45 deg course change; settled as a
+    master would (maps.autopilot.steady_enough: full ahead to regain speed, steady to 0.5 deg, the
+    turn started where it ends on a lattice line) the same change is much shorter, and still ends
+    steady on a lattice point of the new heading."""
+    from maps.autopilot import steady_enough
+    from maps.lattice import heading_table, lattice_basic_moves
+
+    step = kvlcc2.cruise_speed_mps * kvlcc2.sample_time
+    res = round(400.0 / step) * step
+    tight = lattice_basic_moves(kvlcc2, res, 8, spot_turns=False, settle="settle")
+    steady = lattice_basic_moves(kvlcc2, res, 8, spot_turns=False, settle="steady")
+    table = heading_table(8)
+    for side, h_to in ((1, 1), (2, 7)):  # turn_s and turn_p from north: to 045 and 315
+        t, s = tight[side][0], steady[side][0]
+        assert s.duration_s < 0.8 * t.duration_s, (s.duration_s, t.duration_s)
+        err, dist, nu, cross = _settled_end(s, 0.0, res, float(table[h_to]))
+        assert steady_enough(kvlcc2, err, nu, cross)
+        assert dist <= step  # on a lattice point, to half a sample of travel either side
