@@ -70,6 +70,7 @@ def main() -> None:
     print(
         f"  plan {plan.duration_s / 60:.1f} min, {plan.length_m / 1000:.1f} km; dropped {len(td.record['dropped'])} (fit nowhere)"
     )
+    print(f"  dropped: {', '.join(d['primitive'] for d in td.record['dropped'])}")
     for h in td.record.get("held_parameters", []):
         by = h["identified_by"]
         why = f"  (identified by {water_text(by['primitive'], by['needs_m'], bool(by.get('unreachable')))})" if by else ""
