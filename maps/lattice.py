@@ -174,27 +174,6 @@ def classes(n_head: int) -> np.ndarray:
     return heading_table(n_head)[: n_head // 4]
 
 
-def _run_onto_line(helm, psi0: float, target: float) -> float:
-    """Metres of straight run at cruise speed on ``psi0`` before a turn to ``target`` (a lattice
-    heading) that make the turn end on a lattice line of that heading, so that settling need not
-    steer the ship across to one (a VLCC takes minutes to close a few hundred metres). Lattice lines
-    of a heading along the integer direction (a, b) lie res / |(a, b)| apart; a run of d metres moves
-    the turn's end across them by d sin(target - psi0)."""
-    p = helm.p
-    nu0 = (helm.uc, 0.0, 0.0)
-    f0 = helm.run(nu0, (0.0, 0.0, psi0), [("turn", target)])
-    xe, ye = simulate(p, f0, nu0=nu0).eta[0, -1, :2] if len(f0) else (0.0, 0.0)
-    c, s = np.cos(psi0), np.sin(psi0)
-    end = np.array([c * xe - s * ye, s * xe + c * ye])
-    a, b = min(
-        ((i, j) for i in range(-3, 4) for j in range(-3, 4) if i or j), key=lambda v: abs(_wrap(np.arctan2(v[1], v[0]) - target))
-    )
-    spacing = helm.res / float(np.hypot(a, b))
-    across = float(end @ np.array([-np.sin(target), np.cos(target)]))
-    shift = float(np.sin(target - psi0))
-    return float((-across / shift) % (spacing / abs(shift)))
-
-
 def lattice_basic_moves(
     profile: ShipProfile, res: float, n_head: int, spot_turns: bool = True, settle: str = "settle"
 ) -> list[list[Primitive]]:
@@ -227,8 +206,10 @@ def lattice_basic_moves(
             target = psi0 + _wrap(float(table[h_to]) - psi0)
             dpsi = np.degrees(target - psi0)
             phases = [("turn", target), (settle, int(h_to))]
-            if n_head == 4 or settle == "steady":  # a short straight run first makes the turn end on a lattice line
-                phases.insert(0, ("run", _run_onto_line(helm, psi0, target)))
+            if n_head == 4:  # a short straight run first makes the turn end on a lattice line
+                f0 = helm.run(nu0, (0.0, 0.0, 0.0), [("turn", target)])
+                x_end = simulate(profile, f0, nu0=nu0).eta[0, -1, 0] if len(f0) else 0.0
+                phases.insert(0, ("run", float((-x_end) % res)))
             f = helm.run(nu0, (0.0, 0.0, psi0), phases)
             per.append(
                 _assemble(

@@ -227,9 +227,8 @@ def test_confined_settling_shortens_a_vlccs_course_reversal_and_ends_every_turn_
     """The lattice autopilot's settling (0.2 deg, 1 % of a length off the line, yaw rate under
     0.005 m/s at the hull's ends) makes a VLCC's course reversal 21-22 minutes on a 1.25 L lattice;
     settled as a master would (maps.autopilot.steady_enough: full ahead to regain speed, steady to
-    0.5 deg, turns started where they end on a lattice line) it is at least 10 % shorter (measured
-    13 % and 29 %); no 45 deg turn is more than 2 % longer (measured -20 % and +1 %), and every turn
-    still ends steady on a lattice point of its new heading."""
+    0.5 deg) it is at least 10 % shorter (measured 13 % and 29 %), a 45 deg course change at least
+    15 % (measured 21 % and 30 %), and every turn still ends steady on a lattice point of its new heading."""
     from maps.autopilot import steady_enough
     from maps.lattice import classes, lattice_basic_moves
 
@@ -243,7 +242,7 @@ def test_confined_settling_shortens_a_vlccs_course_reversal_and_ends_every_turn_
             if t.name.startswith("round_turn"):
                 assert s.duration_s < 0.9 * t.duration_s, (t.name, s.duration_s, t.duration_s)
             else:
-                assert s.duration_s < 1.02 * t.duration_s, (t.name, s.duration_s, t.duration_s)
+                assert s.duration_s < 0.85 * t.duration_s, (t.name, s.duration_s, t.duration_s)
             err, dist, nu, cross = _settled_end(s, float(psi0), res, float(psi0) + turns[t.name])
             assert steady_enough(kvlcc2, err, nu, cross), (t.name, err, nu, cross)
             assert dist <= step  # on a lattice point, to half a sample of travel either side
