@@ -134,18 +134,27 @@ def plan_with_design(
         except (DesignError, MapError) as exc:  # confined-water settling found no design: today's planning decides
             if not tried:
                 raise
-            lat, td, switched = design(False)
-            lat.notes.append(f"{CONFINED_TRIED}: {exc}")
+            lat, td = _fallback(design, f"{CONFINED_TRIED}: {exc}")
+            switched = False
         if switched:
             design_s = time.perf_counter() - t_design - lat.setup_s
             plan = solve(lat, design=td.record, vessel_name=vessel_name, t_all=t_all, design_s=design_s)
             if plan.feasible:
                 return plan, td
-            why = plan.stats.get("reason", "")
-            lat, td, _ = design(False)
-            lat.notes.append(f"{CONFINED_TRIED}: no verified plan ({why})")
+            lat, td = _fallback(design, f"{CONFINED_TRIED}: no verified plan ({plan.stats.get('reason', '')})")
     design_s = time.perf_counter() - t_design - lat.setup_s
     return solve(lat, design=td.record if td else None, vessel_name=vessel_name, t_all=t_all, design_s=design_s), td
+
+
+def _fallback(design: Callable[[bool], tuple[Any, TrialDesign, bool]], why: str) -> tuple[Any, TrialDesign]:
+    """Today's lattice and design after the confined-water attempt failed (``why``, one line): a note
+    on the plan, or appended to the refusal when today's planning refuses too, so the user sees both."""
+    try:
+        lat, td, _ = design(False)
+    except (DesignError, MapError) as exc:
+        raise type(exc)(f"{exc}; {why}") from exc
+    lat.notes.append(why)
+    return lat, td
 
 
 def _design_on_map(
@@ -163,14 +172,15 @@ def _design_on_map(
     (:func:`maps.trialdesign.design_for_map`). ``confined`` (a dict, or None for today's lattice only): a
     rudder ship whose library does not all fit switches to the confined-water lattice
     (:func:`confined_options`) for the rest, and ``confined["switched"]`` is set (also when the design then fails)."""
-    built: dict[str, Any] = {"o": o}
+    built: dict[str, Any] = {"o": o, "cache": cache}
 
     def fits_nowhere(ps: list[Primitive], cs: dict[str, int]) -> dict[str, tuple[float, float]]:
-        lo = built["o"]
-        built["lat"] = build_lattice(sea, prof, ps, cs, start=start, goal=goal, options=lo, cache=cache, prefilter=True)
+        lo, lc = built["o"], built["cache"]
+        built["lat"] = build_lattice(sea, prof, ps, cs, start=start, goal=goal, options=lo, cache=lc, prefilter=True)
         bad = built["lat"].fits_nowhere()
         if bad and confined is not None and lo.settle == "lattice" and prof.actuator == "rudder_propeller":
-            built["o"] = confined_options(lo, prof, sea)
+            # its own cache: today's lattice's moves, built already, stay for the fallback
+            built["o"], built["cache"] = confined_options(lo, prof, sea), {}
             confined["switched"] = True
             return fits_nowhere(ps, cs)
         return bad

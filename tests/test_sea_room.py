@@ -246,3 +246,26 @@ def test_confined_settling_shortens_a_vlccs_course_reversal_and_ends_every_turn_
             err, dist, nu, cross = _settled_end(s, float(psi0), res, float(psi0) + turns[t.name])
             assert steady_enough(kvlcc2, err, nu, cross), (t.name, err, nu, cross)
             assert dist <= step  # on a lattice point, to half a sample of travel either side
+
+
+def test_a_refusal_after_the_confined_attempt_says_why_that_failed_too():
+    """When the confined-water lattice gave no plan and today's planning refuses as well, the
+    one-line refusal carries both reasons (the user would otherwise see only today's); when today's
+    planning answers, the confined attempt's reason is a note of its lattice."""
+    from maps.planner import CONFINED_TRIED, _fallback
+    from maps.trialdesign import TrialTooShort
+
+    def refuses(confined: bool):
+        assert not confined
+        raise TrialTooShort("--trial-length 1800 s cannot hold ...: give --trial-length >= 5988")
+
+    why = f"{CONFINED_TRIED}: no verified plan (no sequence of moves reaches the goal)"
+    with pytest.raises(TrialTooShort) as err:
+        _fallback(refuses, why)
+    assert str(err.value) == f"--trial-length 1800 s cannot hold ...: give --trial-length >= 5988; {why}"
+
+    class Lat:
+        notes: list[str] = []
+
+    lat, td = _fallback(lambda confined: (Lat(), "design", False), why)
+    assert (lat.notes, td) == ([why], "design")
