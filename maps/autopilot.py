@@ -44,6 +44,8 @@ _DEG8, _DEG20, _DEG05, _DEG02, _DEG005 = (float(np.radians(a)) for a in (8.0, 20
 # 0.05 m/s, speed within 0.1 m/s, on the lattice line within half the beam (the rest is the move's snapping
 # error, added to its collision margin); the lattice's own settling asks 0.2 deg, 0.005 m/s, 0.01 m/s and 0.01 L
 STEADY_DEG, STEADY_RL, STEADY_V, STEADY_DU, STEADY_BEAMS = 0.5, 0.05, 0.05, 0.1, 0.5
+# a rudder ship's run-in counts its steady time once (u, v, r L) are this close to the execute point's (m/s)
+RUN_IN_TOL = (0.02, 0.01, 0.005)
 
 
 def steady_enough(p: ShipProfile, err: float, nu, c_err: float) -> bool:
@@ -227,7 +229,7 @@ class _Helm:
                 if len(arg) > 4:  # the course to keep (default: the course at the start of the phase)
                     memo.setdefault("course", psi + _wrap(arg[4] - psi))
                 err = np.abs(np.array([u_t, v_t, r_t]) - nu) * (1.0, 1.0, self.p.length_m)
-                tol = np.array([0.02, 0.01, 0.005]) if rudder else 0.02
+                tol = np.array(RUN_IN_TOL) if rudder else 0.02
                 if len(arg) > 5 and arg[5] == "steady" and rudder:  # the run-in after a move settled as a master would
                     tol = np.array([STEADY_DU, STEADY_V, STEADY_RL])
                 if "held" not in memo and np.all(err < tol):

@@ -28,6 +28,7 @@ from maps.geo import MapError, SeaMap, load_map
 from maps.motionset import default_resolution, resolve_primitives
 from maps.plan import Plan
 from maps.scenario import thesis_planning_scenario
+from maps.smooth import unsteady_executes
 from maps.trialdesign import FirstDesign, TrialDesign, TrialTooShort, design_for_map
 from primitives.library import Primitive
 from primitives.ship import ShipProfile, load_profile
@@ -266,7 +267,7 @@ def solve(lat, *, design: dict | None = None, vessel_name: str = "", t_all: floa
         "basic_cost": o.basic_cost,
         "h_start": out.result.h_start,
         "snap_max_m": lat.snap_max,
-        "notes": lat.notes,
+        "notes": lat.notes + (unsteady_executes(real.legs) if real is not None and o.settle == "ship" else []),
         "warnings": lat.warnings,
         "start": list(lat.start_ll),
         "goal": list(lat.goal_ll),

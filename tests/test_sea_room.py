@@ -5,6 +5,7 @@ at the profile's values; a profile's engine declaring astern power."""
 from __future__ import annotations
 
 import json
+import re
 import tomllib
 from pathlib import Path
 
@@ -21,6 +22,7 @@ from primitives.library import by_name, thesis_primitives
 from primitives.orders import inputs_from_orders
 from primitives.profile_document import profile_from_dict
 from primitives.ship import PROFILE_DIR, ProfileError, load_profile
+from primitives.simulate import simulate
 from primitives.sized import short_form_table, short_forms
 
 
@@ -150,6 +152,23 @@ def test_kvlcc2_in_the_bay_turns_round_on_a_confined_water_lattice_and_the_plan_
     assert any(n.startswith("confined water: ") for n in plan.stats["notes"])
     sailed = [s.primitive for s in plan.steps if s.kind == "informative"]
     assert sorted(sailed) == ["turning_circle_35_s_180"] * 2
+    # a run-in counted from the master's tolerance: the plan names each manoeuvre executed off the steady approach
+    # its design assumed (the large-water run-in's tolerance), checked on the plan's inputs sailed again from the start
+    nu = simulate(kvlcc2, plan.inputs[:-1], nu0=(kvlcc2.cruise_speed_mps, 0.0, 0.0), eta0=plan.track[0]).nu[0]
+    prims = {p.name: p for p in td.primitives}
+    expect = {}
+    for s in plan.steps:
+        if s.execute:
+            d = nu[round(s.start_time_s / kvlcc2.sample_time)] - prims[s.primitive].nu0
+            off = (d[0], d[1], d[2] * kvlcc2.length_m)
+            assert abs(off[0]) < 0.1 and abs(off[1]) < 0.05 and abs(off[2]) < 0.05, (s.index, off)  # steady_enough's
+            if any(abs(x) > t for x, t in zip(off, (0.02, 0.01, 0.005))):
+                expect[s.index + 1] = off
+    notes = [n for n in plan.stats["notes"] if "executed off the steady approach" in n]
+    assert len(notes) == len(expect)  # measured: one, the second turn (speed -0.031 m/s, sway -0.003, r L -0.0044)
+    for n in notes:
+        got = [float(v) for v in re.findall(r"([+-]\d+\.\d+) m/s", n)]
+        assert got == pytest.approx(expect[int(n.split()[1])], abs=1e-3), n
 
 
 def test_astern_power_declared_stops_the_ship_through_the_kernel(kvlcc2):
