@@ -59,7 +59,7 @@ def main() -> None:
     lat = plan.stats["lattice"]
     print(f"  lattice {lat['resolution_m']:.0f} m, {lat['headings']} headings, settling: {plan.stats['options']['settle']}")
     for n in plan.stats["notes"]:
-        if "confined" in n:
+        if "confined" in n or "executed off the steady approach" in n:
             print(f"  note: {n}")
     lib = {p.name: p for p in td.primitives}
     for name, n in td.record["counts"].items():
