@@ -48,7 +48,7 @@ STEADY_DEG, STEADY_RL, STEADY_V, STEADY_DU, STEADY_BEAMS = 0.5, 0.05, 0.05, 0.1,
 RUN_IN_TOL = (0.02, 0.01, 0.005)
 
 
-def steady_enough(p: ShipProfile, err: float, nu, c_err: float) -> bool:
+def steady_enough(p: ShipProfile, err: float, nu: np.ndarray, c_err: float) -> bool:
     """Whether a rudder ship settling onto a lattice line (heading error ``err`` rad, velocities
     ``nu``, cross-track error ``c_err`` m) is steady to the ship-scaled tolerance above."""
     return bool(

@@ -150,6 +150,7 @@ def plan_with_design(
 def _fallback(design: Callable[[bool], tuple[Any, TrialDesign, bool]], why: str) -> tuple[Any, TrialDesign]:
     """Today's lattice and design after the confined-water attempt failed (``why``, one line): a note
     on the plan, or appended to the refusal when today's planning refuses too, so the user sees both."""
+    why = " ".join(why.split())  # one line, whatever the reason held
     try:
         lat, td, _ = design(False)
     except (DesignError, MapError) as exc:
