@@ -1,7 +1,7 @@
 """Manoeuvres sized to the sea room (issue 28): kvlcc2 on a synthetic 8 x 6 km bay, the library's
 build time, and the short forms' (paid only where the long forms fit nowhere).
 
-    nice -n 10 python benchmarks/bench_sea_room.py [--trial-length S]
+    nice -n 10 python benchmarks/bench_sea_room.py [--trial-length S] [--resolution M]
 
 Prints the plan (manoeuvres, their lengths, time, held parameters) and CPU times (builds: median of
 5; the plan: once, its forked children's CPU included).
@@ -37,6 +37,7 @@ def cpu(fn, n: int = 5) -> float:
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--trial-length", type=float, default=360.0)
+    ap.add_argument("--resolution", type=float, default=None, help="lattice spacing, m (default: the planner's)")
     a = ap.parse_args()
     kv = load_profile("kvlcc2")
     build_library(kv)  # warm-up (numba, caches)
@@ -47,12 +48,19 @@ def main() -> None:
         path = Path(d) / "bay.geojson"
         path.write_text(json.dumps(bay()))
         t, t_child = time.process_time(), _children_cpu()
-        plan, td = plan_with_design(path, profile=kv, trial_length_s=a.trial_length)
+        plan, td = plan_with_design(path, profile=kv, trial_length_s=a.trial_length, resolution=a.resolution)
         cpu_s, child_s = time.process_time() - t, _children_cpu() - t_child
         print(
             f"plan on the 8 x 6 km bay, trial length {a.trial_length:g} s: CPU {cpu_s + child_s:.1f} s "
             f"({cpu_s:.1f} s here, {child_s:.1f} s in the lattice's forked children), feasible {plan.feasible}"
         )
+    if not plan.feasible:
+        print(f"  why: {plan.stats.get('reason')}")
+    lat = plan.stats["lattice"]
+    print(f"  lattice {lat['resolution_m']:.0f} m, {lat['headings']} headings, settling: {plan.stats['options']['settle']}")
+    for n in plan.stats["notes"]:
+        if "confined" in n or "executed off the steady approach" in n:
+            print(f"  note: {n}")
     lib = {p.name: p for p in td.primitives}
     for name, n in td.record["counts"].items():
         b = lib[name].footprint.bounds
@@ -62,6 +70,7 @@ def main() -> None:
     print(
         f"  plan {plan.duration_s / 60:.1f} min, {plan.length_m / 1000:.1f} km; dropped {len(td.record['dropped'])} (fit nowhere)"
     )
+    print(f"  dropped: {', '.join(d['primitive'] for d in td.record['dropped'])}")
     for h in td.record.get("held_parameters", []):
         by = h["identified_by"]
         why = f"  (identified by {water_text(by['primitive'], by['needs_m'], bool(by.get('unreachable')))})" if by else ""

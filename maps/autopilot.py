@@ -39,6 +39,27 @@ def _clamp(x: float, lo: float, hi: float) -> float:
 
 
 _DEG8, _DEG20, _DEG05, _DEG02, _DEG005 = (float(np.radians(a)) for a in (8.0, 20.0, 0.5, 0.2, 0.05))
+# steady enough to hand a rudder ship over to the next move in confined water: heading within what an
+# autopilot holds, a rate of turn under half a degree a minute x (320 m / L) (r L < 0.05 m/s), sway under
+# 0.05 m/s, speed within 0.1 m/s, on the lattice line within half the beam (the rest is the move's snapping
+# error, added to its collision margin); the lattice's own settling asks 0.2 deg, 0.005 m/s, 0.01 m/s and 0.01 L
+STEADY_DEG, STEADY_RL, STEADY_V, STEADY_DU, STEADY_BEAMS = 0.5, 0.05, 0.05, 0.1, 0.5
+# a rudder ship's run-in counts its steady time once (u, v, r L) are this close to the execute point's (m/s)
+RUN_IN_TOL = (0.02, 0.01, 0.005)
+
+
+def steady_enough(p: ShipProfile, err: float, nu: np.ndarray, c_err: float) -> bool:
+    """Whether a rudder ship settling onto a lattice line (heading error ``err`` rad, velocities
+    ``nu``, cross-track error ``c_err`` m) is steady to the ship-scaled tolerance above."""
+    return bool(
+        abs(err) < np.radians(STEADY_DEG)
+        and abs(nu[2]) * p.length_m < STEADY_RL
+        and abs(nu[1]) < STEADY_V
+        and abs(nu[0] - p.cruise_speed_mps) < STEADY_DU
+        and abs(c_err) < STEADY_BEAMS * p.beam_m
+    )
+
+
 _NEIGHBOURS = np.array([[a, b] for a in (-1, 0, 1) for b in (-1, 0, 1)], float)  # a lattice point and its 8 neighbours
 
 
@@ -51,12 +72,12 @@ class _Rudder:
     60 % of the steady rate at full rudder and at most U / (3 L), so the helm always has rudder in hand."""
 
     def __init__(self, profile: ShipProfile):
-        from primitives.helm import steady_rps
+        from primitives.helm import REGAIN_TOL, steady_rps
 
         self.p, self.th = profile, profile.params()
         self.uc = profile.cruise_speed_mps
         self._rps: dict[float, float] = {}
-        self.steady_rps = steady_rps
+        self.steady_rps, self.regain_tol = steady_rps, REGAIN_TOL
         self.n_c = self.rps(self.uc)
         self.max_deg = float(profile.helm.max_rudder_deg)
         one = float(profile.helm.delta_rad(1.0))
@@ -93,13 +114,17 @@ class _Rudder:
             self._rps[key] = float(self.steady_rps(self.p, max(key, 0.0)))
         return self._rps[key]
 
-    def command(self, nu: np.ndarray, u_ref: float, r_ref: float, err: float) -> tuple[float, float]:
+    def command(self, nu: np.ndarray, u_ref: float, r_ref: float, err: float, regain: bool = False) -> tuple[float, float]:
         """(rudder degrees, rev/s) ordered for the references; the heading error is limited so
-        that the autopilot turns at about ``r_lim``."""
+        that the autopilot turns at about ``r_lim``. ``regain``: full ahead while the speed is short
+        of ``u_ref`` by more than :data:`primitives.helm.REGAIN_TOL`, as a master regains speed in
+        confined water (the proportional order alone takes ten minutes to bring a VLCC back)."""
         e = _clamp(err, -_DEG8, _DEG8)
         rudder = -float(self.K @ np.array([nu[1], nu[2] - r_ref, -e]))
         lo, hi = self.p.engine.rps_limits
         n = self.rps(u_ref) + 0.5 * self.n_c * (u_ref - nu[0]) / max(self.uc, 1e-6)
+        if regain and nu[0] < (1.0 - self.regain_tol) * u_ref:
+            n = hi
         return _clamp(rudder, -self.max_deg, self.max_deg), _clamp(n, lo, hi)
 
     def loop(self, policy, n_max: int, nu0) -> np.ndarray:
@@ -157,11 +182,13 @@ class _Helm:
             ff = self._ff[key] = np.array(steady_forces(self.p, *key))
         return ff
 
-    def forces(self, nu: np.ndarray, u_ref: float, v_ref: float, r_ref: float, err: float = 0.0) -> tuple[float, float, float]:
+    def forces(
+        self, nu: np.ndarray, u_ref: float, v_ref: float, r_ref: float, err: float = 0.0, regain: bool = False
+    ) -> tuple[float, float, float]:
         """Generalized forces, or (rudder deg, rev/s, 0) for a rudder ship (``v_ref`` ignored;
         ``err``: heading error, rad, that its autopilot steers out)."""
         if self.rudder is not None:
-            return (*self.rudder.command(nu, u_ref, r_ref, err), 0.0)
+            return (*self.rudder.command(nu, u_ref, r_ref, err, regain), 0.0)
         ff = self.feedforward(u_ref, v_ref, r_ref).tolist()
         out = []
         # per DOF on floats (a closed-loop step's hot path): the elementwise arithmetic of
@@ -172,8 +199,10 @@ class _Helm:
         return float(out[0]), float(out[1]), float(out[2])
 
     def run(self, nu0, pose0, phases: list[tuple[str, float]], n_max: int = 3000) -> np.ndarray:
-        """Phases: ("run", metres), ("stop", 0), ("turn", target psi), ("settle", 0.0 | heading index), ("hold", (u, v, r,
-        seconds)), ("track", (waypoints [(x, y), ...], lookahead m)). Returns the inputs (N, m)."""
+        """Phases: ("run", metres), ("stop", 0), ("turn", target psi), ("settle" | "steady", 0.0 | heading index),
+        ("hold", (u, v, r, seconds[, course[, "steady"]])), ("track", (waypoints [(x, y), ...], lookahead m)). Returns the
+        inputs (N, m). "steady" settles (and, as the last item of "hold", reaches the velocity before holding it) to the
+        ship-scaled tolerance of :func:`steady_enough` (rudder ships; the others as "settle")."""
         state = {"pos": np.array(pose0[:2], float), "i": 0, "k0": 0}
         psi0 = float(pose0[2])
         res, uc = self.res, self.uc
@@ -200,7 +229,9 @@ class _Helm:
                 if len(arg) > 4:  # the course to keep (default: the course at the start of the phase)
                     memo.setdefault("course", psi + _wrap(arg[4] - psi))
                 err = np.abs(np.array([u_t, v_t, r_t]) - nu) * (1.0, 1.0, self.p.length_m)
-                tol = np.array([0.02, 0.01, 0.005]) if rudder else 0.02
+                tol = np.array(RUN_IN_TOL) if rudder else 0.02
+                if len(arg) > 5 and arg[5] == "steady" and rudder:  # the run-in after a move settled as a master would
+                    tol = np.array([STEADY_DU, STEADY_V, STEADY_RL])
                 if "held" not in memo and np.all(err < tol):
                     memo["held"] = k
                 if "held" in memo and (k - memo["held"]) * self.ts >= secs:
@@ -241,7 +272,7 @@ class _Helm:
                 rl = r_lim if moving else 0.3 * r_lim
                 r_ref = _clamp(1.5 * err * rl / _DEG20, -rl, rl)
                 f = self.forces(nu, uc if moving else 0.0, 0.0, r_ref, err)
-            else:  # settle on a lattice point (``arg``: (x, y, psi) of a given one) at cruise speed
+            else:  # settle ("steady": to the ship-scaled tolerance) on a lattice point (``arg``: (x, y, psi) of a given one)
                 given = isinstance(arg, tuple)
                 # an int: the lattice heading index to settle on (a turn must not settle on the heading its overshoot nears)
                 h_to = arg if isinstance(arg, int) else nearest_heading(psi, self.table)
@@ -260,11 +291,15 @@ class _Helm:
                     L = self.p.length_m
                     # tight on yaw rate and sway: a course-unstable hull amplifies them over a long open-loop manoeuvre
                     settled = (
-                        abs(err) < _DEG02
-                        and abs(nu[2]) * L < 0.005
-                        and abs(c_err) < 0.01 * L
-                        and abs(nu[1]) < 0.01
-                        and abs(nu[0] - uc) < 0.05
+                        steady_enough(self.p, err, nu, c_err)
+                        if kind == "steady"
+                        else (
+                            abs(err) < _DEG02
+                            and abs(nu[2]) * L < 0.005
+                            and abs(c_err) < 0.01 * L
+                            and abs(nu[1]) < 0.01
+                            and abs(nu[0] - uc) < 0.05
+                        )
                     )
                 else:
                     settled = (
@@ -284,7 +319,7 @@ class _Helm:
                 if rudder:
                     los = err + float(np.arctan2(c_err, 3.0 * self.p.length_m))
                     r_ref = _clamp(1.5 * los * r_lim / _DEG20, -r_lim, r_lim)
-                    f = self.forces(nu, uc, 0.0, r_ref, los)
+                    f = self.forces(nu, uc, 0.0, r_ref, los, regain=kind == "steady")
                 else:
                     r_ref = _clamp(0.1 * err, -r_lim, r_lim)
                     v_ref = _clamp(0.12 * c_err, -0.6, 0.6)

@@ -26,7 +26,7 @@ from maps import astar
 from maps.collision import CollisionGrid, Window, quarter_turns
 from maps.forked import map_halves
 from maps.geo import MapError, SeaMap, bundled_map_path
-from maps.lattice import Move, heading_table, nearest_heading, run_in_seconds
+from maps.lattice import SETTLE_PHASES, Move, heading_table, nearest_heading, run_in_seconds
 from maps.motionset import basic_move_set, default_resolution, informative_moves, planning_window
 from maps.plan import Plan, PlanStep
 from maps.sizing import BYTES_PER_STATE, estimate_memory, needs, refuse_too_large, too_big_for_water
@@ -61,6 +61,9 @@ class PlanOptions:
     run_in_s: float | None = None  # steady run-in before each execute point (default max(60 s, 2 L / U))
     smooth: bool = True
     max_memory_gib: float = 2.0
+    # how moves settle onto the lattice: "lattice" (the autopilot's tight tolerance) or "ship" (scaled to the ship,
+    # maps.autopilot.steady_enough); the planner switches a rudder ship to "ship" where its library does not fit
+    settle: str = "lattice"
 
     def check(self) -> None:
         if self.headings not in (4, 8, 16):
@@ -71,6 +74,8 @@ class PlanOptions:
             raise MapError(f"--resolution must be > 0 m, got {self.resolution:g}")
         if self.heuristic not in ("admissible", "thesis"):
             raise MapError(f"--heuristic must be 'admissible' or 'thesis', got {self.heuristic!r}")
+        if self.settle not in SETTLE_PHASES:
+            raise MapError(f"settle must be one of {', '.join(SETTLE_PHASES)}, got {self.settle!r}")
         if self.run_in_s is not None and self.run_in_s < 0:
             raise MapError(f"--run-in must be >= 0 s, got {self.run_in_s:g}")
 
@@ -364,7 +369,7 @@ def _motion_set(
     run_in = run_in_seconds(profile, o.run_in_s)
     todo = [p for p in prims if p.name not in cache]
     # each primitive's moves on their own: some of them built in a forked child (maps.forked), same moves
-    for p, built in zip(todo, map_halves(lambda p: _informative(p, res, K, o.split, run_in), todo, min_items=2)):
+    for p, built in zip(todo, map_halves(lambda p: _informative(p, res, K, o.split, run_in, o.settle), todo, min_items=2)):
         cache[p.name] = built
     moves, names, targets, notes = [], [], {}, []
     for p in prims:
@@ -391,10 +396,10 @@ def _collision_grid(sea: SeaMap, win: Window, moves: list[Move], profile: ShipPr
     )
 
 
-def _informative(p: Primitive, res: float, K: int, split: bool, run_in: float) -> tuple:
+def _informative(p: Primitive, res: float, K: int, split: bool, run_in: float, settle: str) -> tuple:
     """:func:`maps.motionset.informative_moves` of ``p`` alone, with the swept footprints of its
     moves computed (cached on their primitives)."""
-    out = informative_moves([p], {p.name: 1}, res, K, split, run_in)
+    out = informative_moves([p], {p.name: 1}, res, K, split, run_in, settle=settle)
     for m in out[0]:  # a move's primitives share their run-in and manoeuvre: the union of those hulls formed once
         todo = [pr for pr in m.prims if "footprint" not in pr.__dict__]
         for pr, fp in zip(todo, swept_footprints([pr.track for pr in todo], p.profile.length_m, p.profile.beam_m)):
@@ -405,12 +410,12 @@ def _informative(p: Primitive, res: float, K: int, split: bool, run_in: float) -
 def _basic_moves(profile: ShipProfile, res: float, o: PlanOptions, cache: dict[str, Any]) -> list[Move]:
     """The basic (repositioning) moves for lattice spacing ``res``, from ``cache`` or built into it
     (the cache is cleared when the options it was built for changed)."""
-    key = (res, o.headings, o.split, o.run_in_s, o.basic_cost, o.spot_turns)
+    key = (res, o.headings, o.split, o.run_in_s, o.basic_cost, o.spot_turns, o.settle)
     if cache.get("key") != key:
         cache.clear()
         cache["key"] = key
     if "basic" not in cache:
-        cache["basic"] = basic_move_set(profile, res, o.headings, o.basic_cost, o.spot_turns)
+        cache["basic"] = basic_move_set(profile, res, o.headings, o.basic_cost, o.spot_turns, o.settle)
     return cache["basic"]
 
 

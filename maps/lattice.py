@@ -27,6 +27,7 @@ from primitives.simulate import simulate
 from primitives.stability import require_stable
 
 __all__ = [
+    "SETTLE_PHASES",
     "Move",
     "heading_table",
     "nearest_heading",
@@ -39,6 +40,11 @@ __all__ = [
     "place",
     "transit_mismatch",
 ]
+
+
+# how a move settles onto the lattice, as the helm's phase: "lattice", the autopilot's tight tolerance (0.2 deg,
+# 1 % of a length off the line); "ship", the tolerance scaled to the ship for confined water (maps.autopilot.steady_enough)
+SETTLE_PHASES = {"lattice": "settle", "ship": "steady"}
 
 
 @dataclass
@@ -119,14 +125,15 @@ def run_in_inputs(prim: Primitive, res: float, n_head: int, run_in_s: float) -> 
 
 
 def with_run_in(
-    prim: Primitive, res: float, n_head: int, psi0: float, run_in: np.ndarray, head_sim=None
+    prim: Primitive, res: float, n_head: int, psi0: float, run_in: np.ndarray, head_sim=None, settle: str = "settle"
 ) -> tuple[Primitive, int]:
     """Run-in + primitive + settling leg, started from transit at lattice heading ``psi0``.
 
     ``run_in`` (:func:`run_in_inputs`) brings the ship to the primitive's entry velocity and holds
     it on a steady course; the primitive's inputs then start at the execute point. Returns the
     whole move (track in the start frame) and the run-in's samples. ``head_sim``: the simulation
-    of run-in + primitive from transit (the same for every start heading), if already done."""
+    of run-in + primitive from transit (the same for every start heading), if already done.
+    ``settle``: the helm's settling phase (a value of :data:`SETTLE_PHASES`)."""
     helm = helm_for(prim.profile, res, n_head)
     nu_t = np.array([helm.uc, 0.0, 0.0])
     head = np.vstack([run_in, prim.inputs])
@@ -136,7 +143,7 @@ def with_run_in(
     # settle on the lattice heading nearest the primitive's end heading, fixed when it ends: a hull still
     # turning (a VLCC after a zig-zag) would otherwise drift onto the next heading while it settles
     h_end = nearest_heading(psi0 + p, helm.table)
-    tail = helm.run(sim.nu[0, -1], (c * x - s * y, s * x + c * y, psi0 + p), [("settle", int(h_end))])
+    tail = helm.run(sim.nu[0, -1], (c * x - s * y, s * x + c * y, psi0 + p), [(settle, int(h_end))])
     n_r = len(run_in)
     cmds = list(prim.commands) + (
         [f"then steady at {helm.uc / KNOT:.1f} kn on the nearest lattice course for {len(tail) * helm.ts:.0f} s"]
@@ -167,10 +174,13 @@ def classes(n_head: int) -> np.ndarray:
     return heading_table(n_head)[: n_head // 4]
 
 
-def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turns: bool = True) -> list[list[Primitive]]:
+def lattice_basic_moves(
+    profile: ShipProfile, res: float, n_head: int, spot_turns: bool = True, settle: str = "settle"
+) -> list[list[Primitive]]:
     """Basic moves (8.7) at cruise speed, one primitive per heading class: a straight run to the
     next lattice point ahead, turns at speed to the next lattice heading (90 deg with 4
-    headings) and, optionally, turns on the spot by 90 deg (stop, turn, speed up again)."""
+    headings) and, optionally, turns on the spot by 90 deg (stop, turn, speed up again).
+    ``settle``: the helm's settling phase that ends the turns (a value of :data:`SETTLE_PHASES`)."""
     require_stable(profile)
     helm = helm_for(profile, res, n_head)
     uc = helm.uc
@@ -195,7 +205,7 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
             h_to = (ci + sgn * step) % n_head
             target = psi0 + _wrap(float(table[h_to]) - psi0)
             dpsi = np.degrees(target - psi0)
-            phases = [("turn", target), ("settle", int(h_to))]
+            phases = [("turn", target), (settle, int(h_to))]
             if n_head == 4:  # a short straight run first makes the turn end on a lattice line
                 f0 = helm.run(nu0, (0.0, 0.0, 0.0), [("turn", target)])
                 x_end = simulate(profile, f0, nu0=nu0).eta[0, -1, 0] if len(f0) else 0.0
@@ -221,7 +231,7 @@ def lattice_basic_moves(profile: ShipProfile, res: float, n_head: int, spot_turn
             per = []
             for ci, psi0 in enumerate(cls):
                 # just short of 180 deg so that the helm turns to the side asked for
-                f = helm.run(nu0, (0.0, 0.0, psi0), [("turn", psi0 + sgn * (np.pi - 1e-6)), ("settle", int(ci + n_head // 2))])
+                f = helm.run(nu0, (0.0, 0.0, psi0), [("turn", psi0 + sgn * (np.pi - 1e-6)), (settle, int(ci + n_head // 2))])
                 per.append(
                     _assemble(
                         profile,

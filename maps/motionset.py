@@ -10,7 +10,7 @@ import numpy as np
 
 from maps.collision import Window
 from maps.geo import MapError, SeaMap
-from maps.lattice import Move, classes, lattice_basic_moves, place, run_in_inputs, transit_mismatch, with_run_in
+from maps.lattice import SETTLE_PHASES, Move, classes, lattice_basic_moves, place, run_in_inputs, transit_mismatch, with_run_in
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
 from primitives.simulate import simulate
@@ -87,10 +87,18 @@ def from_transit(prim: Primitive) -> Primitive:
 
 
 def informative_moves(
-    prims: list[Primitive], counts: dict[str, int], res: float, n_head: int, split: bool, run_in_s: float, q0: int = 0
+    prims: list[Primitive],
+    counts: dict[str, int],
+    res: float,
+    n_head: int,
+    split: bool,
+    run_in_s: float,
+    q0: int = 0,
+    settle: str = "lattice",
 ) -> tuple[list[Move], list[str], dict[str, int], list[str]]:
     """One move per informative primitive (or per piece with ``split``): run-in, primitive,
-    settling leg. Returns (moves, counter names, targets, notes); counters number from ``q0``."""
+    settling leg (``settle``: a key of :data:`maps.lattice.SETTLE_PHASES`). Returns (moves,
+    counter names, targets, notes); counters number from ``q0``."""
     moves: list[Move] = []
     names: list[str] = []
     targets: dict[str, int] = {}
@@ -105,7 +113,7 @@ def informative_moves(
                 part = from_transit(part)
             ri = run_in_inputs(part, res, n_head, run_in_s)
             head = simulate(part.profile, np.vstack([ri, part.inputs]), nu0=(part.profile.cruise_speed_mps, 0.0, 0.0))
-            built = [with_run_in(part, res, n_head, psi0, ri, head) for psi0 in classes(n_head)]
+            built = [with_run_in(part, res, n_head, psi0, ri, head, SETTLE_PHASES[settle]) for psi0 in classes(n_head)]
             per = [b[0] for b in built]
             mm = max(transit_mismatch(s) for s in per)
             if mm > 0.05:
@@ -127,6 +135,9 @@ def informative_moves(
     return moves, names, targets, notes
 
 
-def basic_move_set(profile: ShipProfile, res: float, n_head: int, basic_cost: float, spot_turns: bool) -> list[Move]:
-    """The repositioning moves (8.7), cost ``basic_cost`` each (8.8)."""
-    return [place(per, res, n_head, -1, basic_cost, per[0].name) for per in lattice_basic_moves(profile, res, n_head, spot_turns)]
+def basic_move_set(
+    profile: ShipProfile, res: float, n_head: int, basic_cost: float, spot_turns: bool, settle: str = "lattice"
+) -> list[Move]:
+    """The repositioning moves (8.7), cost ``basic_cost`` each (8.8); ``settle`` as for :func:`informative_moves`."""
+    per_class = lattice_basic_moves(profile, res, n_head, spot_turns, SETTLE_PHASES[settle])
+    return [place(per, res, n_head, -1, basic_cost, per[0].name) for per in per_class]

@@ -14,24 +14,35 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from expdesign.dopt import canonical_criterion
+from expdesign.errors import DesignError
 from expdesign.prior import ParameterPrior
 from maps.chain import LatLonHdg, PlanOptions, assemble_plan, build_lattice, prepare_basic_moves, search_plan, verify_plan
 from maps.geo import MapError, SeaMap, load_map
 from maps.motionset import default_resolution, resolve_primitives
 from maps.plan import Plan
 from maps.scenario import thesis_planning_scenario
+from maps.smooth import unsteady_executes
 from maps.trialdesign import FirstDesign, TrialDesign, TrialTooShort, design_for_map
 from primitives.library import Primitive
 from primitives.ship import ShipProfile, load_profile
 
 SCENARIOS = ("thesis-9.4",)
 MAX_EXTRA_M = 100.0
+CONFINED_LENGTHS = 1.25  # lattice spacing in confined water, ship lengths
+CONFINED_NOTE = (
+    "confined water: the ship's library does not all fit, so the lattice is {res:.0f} m and every move settles onto "
+    "it as a master would (steady within 0.5 deg, rate of turn under 0.05 m/s at the ends of the hull, sway under "
+    "0.05 m/s, speed within 0.1 m/s, regained full ahead, on the lattice line within half the beam) rather than to "
+    "the autopilot's 0.2 deg and 1 % of a length"
+)
+CONFINED_TRIED = "confined-water settling (a finer lattice, moves settled as a master would) tried and not kept"
 
 __all__ = ["PlanOptions", "plan_trial", "plan_with_design", "default_resolution", "SCENARIOS"]
 
@@ -104,12 +115,6 @@ def plan_with_design(
         prims, counts = thesis_planning_scenario(prof)
         lat = build_lattice(sea, prof, prims, counts, start=start, goal=goal, options=o, cache=cache)
     else:
-        built: dict[str, Any] = {}
-
-        def fits_nowhere(ps: list[Primitive], cs: dict[str, int]) -> dict[str, tuple[float, float]]:
-            built["lat"] = build_lattice(sea, prof, ps, cs, start=start, goal=goal, options=o, cache=cache, prefilter=True)
-            return built["lat"].fits_nowhere()
-
         first = None
         if first_design is not None:
             prepare_basic_moves(sea, prof, o, cache, start=start, goal=goal)
@@ -117,21 +122,89 @@ def plan_with_design(
                 first = first_design()
             except TrialTooShort:  # design_for_map sees whether what fits the map needs less time
                 first = None
-        td = design_for_map(
-            prof,
-            fits_nowhere,
-            primitives,
-            criterion=criterion,
-            mean_subtraction=mean_subtraction,
-            trial_length_s=trial_length_s,
-            seed=seed,
-            first=first,
-            parameter_prior=parameter_prior,
-        )
-        lat = built["lat"]
-        lat.notes[:0] = td.notes
+        dkw = dict(criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length_s, seed=seed)
+        dkw |= dict(first=first, parameter_prior=parameter_prior)
+
+        tried: dict[str, bool] = {}
+
+        def design(confined: bool) -> tuple[Any, TrialDesign, bool]:
+            return _design_on_map(sea, prof, o, cache, start, goal, primitives, dkw, tried if confined else None)
+
+        try:
+            lat, td, switched = design(True)
+        except (DesignError, MapError) as exc:  # confined-water settling found no design: today's planning decides
+            if not tried:
+                raise
+            lat, td = _fallback(design, f"{CONFINED_TRIED}: {exc}")
+            switched = False
+        if switched:
+            design_s = time.perf_counter() - t_design - lat.setup_s
+            plan = solve(lat, design=td.record, vessel_name=vessel_name, t_all=t_all, design_s=design_s)
+            if plan.feasible:
+                return plan, td
+            lat, td = _fallback(design, f"{CONFINED_TRIED}: no verified plan ({plan.stats.get('reason', '')})")
     design_s = time.perf_counter() - t_design - lat.setup_s
     return solve(lat, design=td.record if td else None, vessel_name=vessel_name, t_all=t_all, design_s=design_s), td
+
+
+def _fallback(design: Callable[[bool], tuple[Any, TrialDesign, bool]], why: str) -> tuple[Any, TrialDesign]:
+    """Today's lattice and design after the confined-water attempt failed (``why``, one line): a note
+    on the plan, or appended to the refusal when today's planning refuses too, so the user sees both."""
+    why = " ".join(why.split())  # one line, whatever the reason held
+    try:
+        lat, td, _ = design(False)
+    except (DesignError, MapError) as exc:
+        raise type(exc)(f"{exc}; {why}") from exc
+    lat.notes.append(why)
+    return lat, td
+
+
+def _design_on_map(
+    sea: SeaMap,
+    prof: ShipProfile,
+    o: PlanOptions,
+    cache: dict[str, Any],
+    start: LatLonHdg | None,
+    goal: LatLonHdg | None,
+    primitives: list[Primitive] | None,
+    dkw: dict[str, Any],
+    confined: dict[str, bool] | None,
+) -> tuple[Any, TrialDesign, bool]:
+    """(lattice, design, switched): the design of the ship's library redone without what fits nowhere
+    (:func:`maps.trialdesign.design_for_map`). ``confined`` (a dict, or None for today's lattice only): a
+    rudder ship whose library does not all fit switches to the confined-water lattice
+    (:func:`confined_options`) for the rest, and ``confined["switched"]`` is set (also when the design then fails)."""
+    built: dict[str, Any] = {"o": o, "cache": cache}
+
+    def fits_nowhere(ps: list[Primitive], cs: dict[str, int]) -> dict[str, tuple[float, float]]:
+        lo, lc = built["o"], built["cache"]
+        built["lat"] = build_lattice(sea, prof, ps, cs, start=start, goal=goal, options=lo, cache=lc, prefilter=True)
+        bad = built["lat"].fits_nowhere()
+        if bad and confined is not None and lo.settle == "lattice" and prof.actuator == "rudder_propeller":
+            # its own cache: today's lattice's moves, built already, stay for the fallback
+            built["o"], built["cache"] = confined_options(lo, prof, sea), {}
+            confined["switched"] = True
+            return fits_nowhere(ps, cs)
+        return bad
+
+    td = design_for_map(prof, fits_nowhere, primitives, **dkw)
+    lat = built["lat"]
+    lat.notes[:0] = td.notes
+    switched = built["o"].settle != o.settle
+    if switched:
+        lat.notes.append(CONFINED_NOTE.format(res=lat.res))
+    return lat, td, switched
+
+
+def confined_options(o: PlanOptions, prof: ShipProfile, sea: SeaMap) -> PlanOptions:
+    """The lattice for confined water: moves settle as a master would (:func:`maps.autopilot.steady_enough`)
+    on a lattice of about ``CONFINED_LENGTHS`` ship lengths (unless ``o`` gives a resolution): a finer lattice
+    has lattice lines and points nearer wherever a manoeuvre ends, so the settling legs are shorter."""
+    res = o.resolution
+    if res is None:
+        step = prof.cruise_speed_mps * prof.sample_time
+        res = min(default_resolution(prof, sea), max(1, round(CONFINED_LENGTHS * prof.length_m / step)) * step)
+    return replace(o, settle="ship", resolution=float(res))
 
 
 def solve(lat, *, design: dict | None = None, vessel_name: str = "", t_all: float | None = None, design_s: float = 0.0) -> Plan:
@@ -172,7 +245,13 @@ def solve(lat, *, design: dict | None = None, vessel_name: str = "", t_all: floa
         "plan_time_s": search_s,
         "heuristic": o.heuristic,
         # the options the lattice does not record, for a resumed trial (maps.resume.plan_options)
-        "options": {"run_in_s": o.run_in_s, "split": o.split, "size": list(o.size), "max_memory_gib": o.max_memory_gib},
+        "options": {
+            "run_in_s": o.run_in_s,
+            "split": o.split,
+            "size": list(o.size),
+            "max_memory_gib": o.max_memory_gib,
+            "settle": o.settle,
+        },
         "expansions_per_s": expansions / max(search_s, 1e-9),
         "setup_time_s": lat.setup_s,
         "design_time_s": design_s,
@@ -189,7 +268,7 @@ def solve(lat, *, design: dict | None = None, vessel_name: str = "", t_all: floa
         "basic_cost": o.basic_cost,
         "h_start": out.result.h_start,
         "snap_max_m": lat.snap_max,
-        "notes": lat.notes,
+        "notes": lat.notes + (unsteady_executes(real.legs) if real is not None and o.settle == "ship" else []),
         "warnings": lat.warnings,
         "start": list(lat.start_ll),
         "goal": list(lat.goal_ll),

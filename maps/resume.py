@@ -244,6 +244,8 @@ def plan_options(plan: Plan) -> PlanOptions:
         kw["size"] = tuple(int(v) for v in rec["size"])
     if rec.get("max_memory_gib"):
         kw["max_memory_gib"] = float(rec["max_memory_gib"])
+    if rec.get("settle") in ("lattice", "ship"):
+        kw["settle"] = rec["settle"]
     return PlanOptions(**kw)
 
 

@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 import shapely
 
-from maps.autopilot import helm_for
-from maps.lattice import run_in_seconds
+from maps.autopilot import RUN_IN_TOL, helm_for
+from maps.lattice import SETTLE_PHASES, run_in_seconds
 from maps.verify import hull_clearance
 from primitives.library import KNOT
 from primitives.ship import ShipProfile
@@ -47,6 +47,8 @@ class Leg:
     orders: list[dict[str, Any]] = field(default_factory=list)
     abort: list[str] = field(default_factory=list)  # the manoeuvre's own abort criteria (speed, heading, yaw rate)
     sim: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)  # (nu, eta) (N+1, 3) as sailed, if known
+    # an executed manoeuvre's (u, v, r L) at its execute point less the steady values its design assumed
+    entry_off: tuple[float, float, float] | None = None
 
     def sail(self, nu: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(nu, eta) at the end of the leg sailed from (nu, eta); the track is kept in ``sim``
@@ -119,9 +121,11 @@ class Realiser:
         n_r, core = m.run_in_samples(h), m.core_samples(h)
         src = lat.primitives.get(m.source or m.name)
         legs = []
+        entry_off = None
         if n_r:
             u0, v0, r0 = (float(x) for x in pr.nu[n_r])
-            ri = helm.run(nu, self._rel(spatial, eta), [("hold", (u0, v0, r0, self.run_in_s, float(lat.table[h])))], n_max=20000)
+            hold = (u0, v0, r0, self.run_in_s, float(lat.table[h]), SETTLE_PHASES[lat.options.settle])
+            ri = helm.run(nu, self._rel(spatial, eta), [("hold", hold)], n_max=20000)
             u = float(np.hypot(u0, v0))
             course = float(np.degrees(lat.table[h]) % 360)
             hold_s = len(ri) * pr.profile.sample_time
@@ -151,6 +155,7 @@ class Realiser:
                 )
             )
             nu, eta = legs[-1].sail(nu, eta)
+            entry_off = (float(nu[0] - u0), float(nu[1] - v0), float((nu[2] - r0) * pr.profile.length_m))
         body = pr.inputs[n_r:core]
         b_nu, b_eta = _sail(pr.profile, body, nu, eta)
         tail = helm.run(b_nu[-1], self._rel(spatial, b_eta[-1]), [("settle", goal)], n_max=20000)
@@ -183,9 +188,26 @@ class Realiser:
                 orders=orders,
                 abort=[src.abort_criteria()] if hasattr(src, "abort_criteria") else [],
                 sim=(np.vstack([b_nu[:-1], t_nu]), np.vstack([b_eta[:-1], t_eta])),
+                entry_off=entry_off if n_r else None,
             )
         )
         return legs
+
+
+def unsteady_executes(legs: list[Leg], tol: tuple[float, float, float] = RUN_IN_TOL) -> list[str]:
+    """One line per executed manoeuvre whose (u, v, r L) at the execute point is off the steady values
+    its design assumed by more than ``tol`` (the run-in's own tolerance on large water): its
+    information is not quite the design's."""
+    out = []
+    for k, leg in enumerate(legs):
+        if leg.entry_off is not None and any(abs(d) > t for d, t in zip(leg.entry_off, tol)):
+            du, dv, rl = leg.entry_off
+            out.append(
+                f"step {k + 1} ({leg.name}) is executed off the steady approach its design assumes: speed "
+                f"{du:+.3f} m/s, sway {dv:+.3f} m/s, rate of turn x length {rl:+.4f} m/s (the run-in on large water "
+                f"waits for {tol[0]:g}, {tol[1]:g}, {tol[2]:g})"
+            )
+    return out
 
 
 def _sail(profile: ShipProfile, inputs: np.ndarray, nu: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -198,9 +198,10 @@ def test_plan_options_given_with_resume_override_the_plans_others_are_restored(s
     plan = copy.deepcopy(sailed["plan"])
     assert plan_options(plan).size == (35, 44) and plan.stats["options"]["split"] is False
     plan.stats["heuristic"] = "thesis"
-    plan.stats["options"] |= {"run_in_s": 120.0, "split": True, "size": [40, 50]}
+    assert plan_options(plan).settle == "lattice"  # large water: the lattice's own settling
+    plan.stats["options"] |= {"run_in_s": 120.0, "split": True, "size": [40, 50], "settle": "ship"}
     o = plan_options(plan)
-    assert (o.heuristic, o.run_in_s, o.split, o.size) == ("thesis", 120.0, True, (40, 50))
+    assert (o.heuristic, o.run_in_s, o.split, o.size, o.settle) == ("thesis", 120.0, True, (40, 50), "ship")
     doc = json.loads((sailed["dir"] / "plan" / "plan.json").read_text())
     doc["stats"]["heuristic"], doc["margin_m"] = "thesis", 25.0  # as if planned with --heuristic thesis --margin 25
     (tmp_path / "p").mkdir()

@@ -5,6 +5,7 @@ at the profile's values; a profile's engine declaring astern power."""
 from __future__ import annotations
 
 import json
+import re
 import tomllib
 from pathlib import Path
 
@@ -21,6 +22,7 @@ from primitives.library import by_name, thesis_primitives
 from primitives.orders import inputs_from_orders
 from primitives.profile_document import profile_from_dict
 from primitives.ship import PROFILE_DIR, ProfileError, load_profile
+from primitives.simulate import simulate
 from primitives.sized import short_form_table, short_forms
 
 
@@ -114,6 +116,9 @@ def test_kvlcc2_in_an_8_by_6_km_bay_gets_a_verified_plan_with_the_held_parameter
         assert h["value"] == pytest.approx(values[name])
         assert h["identified_by"]["primitive"] in {d["primitive"] for d in rec["dropped"]}
     assert any("held at the profile's values" in n for n in plan.stats["notes"])
+    # the confined-water lattice was tried first: a 360 s trial cannot hold the turns it makes reachable
+    assert plan.stats["options"]["settle"] == "lattice"
+    assert any(n.startswith("confined-water settling") and "tried and not kept" in n for n in plan.stats["notes"])
     head, _ = design_rows(plan)  # the trial card's design section names them too
     line = next(x for x in head if x.startswith("Held at the profile's values"))
     assert all(n in line for n in held)
@@ -128,6 +133,42 @@ def test_kvlcc2_in_an_8_by_6_km_bay_gets_a_verified_plan_with_the_held_parameter
     assert max(a, c) <= 8000.0 and min(a, c) <= 6000.0  # what would identify them is not larger than the bay
     assert by["unreachable"] is True and f"{by['primitive']} (" in line and "has no reachable placement" in line
     assert f"{by['primitive']} needs" not in line
+
+
+def test_kvlcc2_in_the_bay_turns_round_on_a_confined_water_lattice_and_the_plan_is_verified(tmp_path, kvlcc2, kvlcc2_lib):
+    """With the lattice autopilot's settling no course reversal of a VLCC has a reachable placement
+    in the bay and the planner's only plan is a stop with 11 of 13 parameters held (or none, for a
+    trial that asks for two manoeuvres). Settled as a master would on a 1.25 L lattice, a 1300 s
+    trial is two 180 deg turns (the shortened form of the turning circle), verified against the
+    margin, with every parameter identified and the lattice's choice said in the notes."""
+    lib = by_name(kvlcc2_lib, ["turning_circle_35_s", "stopping"])
+    plan, td = plan_with_design(_bay(tmp_path), profile=kvlcc2, primitives=lib, trial_length_s=1300.0, headings=8)
+    assert plan.feasible and plan.min_clearance_m >= plan.margin_m
+    counts = {k: v for k, v in td.record["counts"].items() if v}
+    assert counts == {"turning_circle_35_s_180": 2}
+    assert "held_parameters" not in td.record
+    assert plan.stats["options"]["settle"] == "ship"
+    assert plan.stats["lattice"]["resolution_m"] == pytest.approx(1.25 * kvlcc2.length_m, abs=kvlcc2.cruise_speed_mps)
+    assert any(n.startswith("confined water: ") for n in plan.stats["notes"])
+    sailed = [s.primitive for s in plan.steps if s.kind == "informative"]
+    assert sorted(sailed) == ["turning_circle_35_s_180"] * 2
+    # a run-in counted from the master's tolerance: the plan names each manoeuvre executed off the steady approach
+    # its design assumed (the large-water run-in's tolerance), checked on the plan's inputs sailed again from the start
+    nu = simulate(kvlcc2, plan.inputs[:-1], nu0=(kvlcc2.cruise_speed_mps, 0.0, 0.0), eta0=plan.track[0]).nu[0]
+    prims = {p.name: p for p in td.primitives}
+    expect = {}
+    for s in plan.steps:
+        if s.execute:
+            d = nu[round(s.start_time_s / kvlcc2.sample_time)] - prims[s.primitive].nu0
+            off = (d[0], d[1], d[2] * kvlcc2.length_m)
+            assert abs(off[0]) < 0.1 and abs(off[1]) < 0.05 and abs(off[2]) < 0.05, (s.index, off)  # steady_enough's
+            if any(abs(x) > t for x, t in zip(off, (0.02, 0.01, 0.005))):
+                expect[s.index + 1] = off
+    notes = [n for n in plan.stats["notes"] if "executed off the steady approach" in n]
+    assert len(notes) == len(expect)  # measured: one, the second turn (speed -0.031 m/s, sway -0.003, r L -0.0044)
+    for n in notes:
+        got = [float(v) for v in re.findall(r"([+-]\d+\.\d+) m/s", n)]
+        assert got == pytest.approx(expect[int(n.split()[1])], abs=1e-3), n
 
 
 def test_astern_power_declared_stops_the_ship_through_the_kernel(kvlcc2):
@@ -187,3 +228,63 @@ def test_held_design_information_is_gammas_principal_submatrix_in_every_mean_sub
         whole = InfoSet.from_infos(infos).gamma(w, ms)
         part = InfoSet.from_infos(restrict(infos, keep)).gamma(w, ms)
         assert np.allclose(part, whole[np.ix_(keep, keep)], rtol=1e-12, atol=0.0), ms
+
+
+def _settled_end(prim, psi0: float, res: float, heading: float) -> tuple[float, float, np.ndarray, float]:
+    """(heading error rad, distance m to the nearest lattice point, end velocities, cross-track m to
+    the lattice line through that point) of a basic move started on a lattice point at ``psi0``."""
+    x, y, p = prim.track[-1]
+    c, s = np.cos(psi0), np.sin(psi0)
+    end = np.array([c * x - s * y, s * x + c * y])
+    point = np.round(end / res) * res
+    err = float(np.angle(np.exp(1j * (heading - psi0 - p))))
+    cross = float((end - point) @ np.array([-np.sin(heading), np.cos(heading)]))
+    return err, float(np.hypot(*(end - point))), prim.nu[-1], cross
+
+
+def test_confined_settling_shortens_a_vlccs_course_reversal_and_ends_every_turn_steady_on_a_lattice_point(kvlcc2):
+    """The lattice autopilot's settling (0.2 deg, 1 % of a length off the line, yaw rate under
+    0.005 m/s at the hull's ends) makes a VLCC's course reversal 21-22 minutes on a 1.25 L lattice;
+    settled as a master would (maps.autopilot.steady_enough: full ahead to regain speed, steady to
+    0.5 deg) it is at least 10 % shorter (measured 13 % and 29 %), a 45 deg course change at least
+    15 % (measured 21 % and 30 %), and every turn still ends steady on a lattice point of its new heading."""
+    from maps.autopilot import steady_enough
+    from maps.lattice import classes, lattice_basic_moves
+
+    step = kvlcc2.cruise_speed_mps * kvlcc2.sample_time
+    res = round(1.25 * kvlcc2.length_m / step) * step
+    tight = lattice_basic_moves(kvlcc2, res, 8, spot_turns=False, settle="settle")
+    steady = lattice_basic_moves(kvlcc2, res, 8, spot_turns=False, settle="steady")
+    turns = {"turn_s": np.pi / 4, "turn_p": -np.pi / 4, "round_turn_s": np.pi, "round_turn_p": np.pi}
+    for t_per, s_per in zip(tight[1:], steady[1:]):
+        for psi0, t, s in zip(classes(8), t_per, s_per):
+            if t.name.startswith("round_turn"):
+                assert s.duration_s < 0.9 * t.duration_s, (t.name, s.duration_s, t.duration_s)
+            else:
+                assert s.duration_s < 0.85 * t.duration_s, (t.name, s.duration_s, t.duration_s)
+            err, dist, nu, cross = _settled_end(s, float(psi0), res, float(psi0) + turns[t.name])
+            assert steady_enough(kvlcc2, err, nu, cross), (t.name, err, nu, cross)
+            assert dist <= step  # on a lattice point, to half a sample of travel either side
+
+
+def test_a_refusal_after_the_confined_attempt_says_why_that_failed_too():
+    """When the confined-water lattice gave no plan and today's planning refuses as well, the
+    one-line refusal carries both reasons (the user would otherwise see only today's); when today's
+    planning answers, the confined attempt's reason is a note of its lattice."""
+    from maps.planner import CONFINED_TRIED, _fallback
+    from maps.trialdesign import TrialTooShort
+
+    def refuses(confined: bool):
+        assert not confined
+        raise TrialTooShort("--trial-length 1800 s cannot hold ...: give --trial-length >= 5988")
+
+    why = f"{CONFINED_TRIED}: no verified plan (no sequence of moves reaches the goal)"
+    with pytest.raises(TrialTooShort) as err:
+        _fallback(refuses, why)
+    assert str(err.value) == f"--trial-length 1800 s cannot hold ...: give --trial-length >= 5988; {why}"
+
+    class Lat:
+        notes: list[str] = []
+
+    lat, td = _fallback(lambda confined: (Lat(), "design", False), why)
+    assert (lat.notes, td) == ([why], "design")
