@@ -47,6 +47,7 @@ from expdesign.estimators import OEData, output_error, output_error_unsupported
 from expdesign.ivsolve import iv_estimates
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.rounding import efficient_rounding
+from primitives import jitloop
 from primitives.information import MEAN_SUBTRACTION
 from primitives.library import Primitive, thesis_primitives
 from primitives.regressors import instruments, predictor_regressors
@@ -461,6 +462,10 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     too, as the result's ``reference``."""
     cfg = sh.config
     ids = [int(i) for i in run_ids]
+    # The compiled passes sum in another order than numpy (estimates within the tolerance of
+    # tests/test_oekernel.py): load them whatever the chunk's size, so that a run's numbers do not
+    # depend on how the runs are cut into tasks (numba's load, about 0.6 s, once per process).
+    jitloop.use(jitloop.MIN_WORK)
     layouts = [_experiment(sh, _sequence(sh, design, _run_rng(cfg.seed, i, 0))) for i in ids]
     segs = _simulate_data(sh, [lay[0] for lay in layouts], [_run_rng(cfg.seed, i, 1) for i in ids])
     theta = _estimate(sh, segs, [lay[1] for lay in layouts])
