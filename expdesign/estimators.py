@@ -303,8 +303,8 @@ def _state_jacobian(profile: ShipProfile, terms, nu: np.ndarray, psi: np.ndarray
 def _gauss_newton_moments(
     profile: ShipProfile, terms, data: Sequence[OEData], sims, theta: np.ndarray, idx: np.ndarray, w: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """H and g of :func:`_gauss_newton_moments_numpy`, in one compiled pass per run when it applies
-    (:func:`expdesign.oekernel.moments`: the same numbers but the order of the sums)."""
+    """H and g of :func:`_gauss_newton_moments_numpy`, in one compiled pass when it applies
+    (:func:`expdesign.oekernel.moments`: the same numbers but for the order of the sums)."""
     fused = oekernel.moments(profile, terms, data, sims, theta, idx, w, _FD_STEP)
     return fused if fused is not None else _gauss_newton_moments_numpy(profile, terms, data, sims, theta, idx, w)
 
