@@ -8,8 +8,9 @@ the trajectory's own increment nu(k+1) - nu(k), the output sensitivities
 S(k+1) = (I + d inc/d nu) S(k) + Phi(k) in single precision, and the sums
 H += S(k+1)^T W S(k+1), g += S(k+1)^T W (y(k+1) - nu(k+1)) in double precision. The operations on
 each number are the numpy path's (the same factors in the same order, the same float32 roundings of
-the Jacobian and of S), so S is the numpy path's to the bit; only the order of the sums over the
-samples differs (numpy's einsum pairs and vectorises them), which moves H and g by rounding (measured
+the Jacobian and of S), so S is the numpy path's to the bit (but where a term reads the speed U or a
+power other than 1, 2, -1: the C library's hypot and pow against numpy's, a last-bit difference, see
+:mod:`primitives.jitloop`); the order of the sums over the samples differs (numpy's einsum pairs and vectorises them), which moves H and g by rounding (measured
 up to 3e-13 relative for H, 1.4e-11 of the largest entry for g, near the optimum where g cancels;
 tests/test_oekernel.py checks 1e-9 against the numpy path).
 
@@ -25,10 +26,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from primitives import jitloop
-from primitives.simulate import SPEED, _time_major_forces, signals_read
+from primitives.simulate import MIN_SPEED, SPEED, _time_major_forces, signals_read
 
 _STATE_NAMES = frozenset({"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", "wx", "wy", "wn"})
-_MIN_SPEED = 1e-9  # primitives.simulate.MIN_SPEED
 _N_STATE = jitloop.N_STATE
 _HELPERS: list[str] = []  # compiled inline into the pass on first use (see _compile_helpers)
 
@@ -93,7 +93,7 @@ def _signals(sig, x, in_t, k, speed):
     if speed:
         for b in range(batch):
             h = math.hypot(x[0, b], x[1, b])
-            sig[7, b] = _MIN_SPEED if h < _MIN_SPEED else h
+            sig[7, b] = MIN_SPEED if h < MIN_SPEED else h
 
 
 @jitloop.compiled
@@ -117,24 +117,35 @@ def _accumulate(
     hl = np.zeros((p, p, batch))
     gl = np.zeros((p, batch))
     for k in range(n):
-        x[:] = nu_t[k]
-        _signals(sig, x, in_t, k, speed)
-        for t in range(p):
-            tmp[:] = 1.0
-            for f in range(t_first[t], t_first[t] + t_n[t]):
-                jitloop._times_factor(tmp, sig, f_sig[f], f_sta[f], f_mod[f], f_pow[f], batch)
-            for b in range(batch):
-                phi[t, b] = tmp[b]
-        for col in range(3):
+        # col -1: the regressors Phi(k) at nu(k); col 0-2: the increments at nu(k) + h e_col, each
+        # term c_t * f_1 * f_2 ... summed left to right per DOF as jitloop._increments does. One
+        # call site of each inlined helper: less machine code to compile on first use.
+        for col in range(-1, 3):
             x[:] = nu_t[k]
-            for b in range(batch):
-                h[b] = fd_step * (1.0 + abs(x[col, b]))
-                x[col, b] = x[col, b] + h[b]
-            _signals(sig, x, in_t, k, speed)
-            jitloop._increments(inc, tmp, sig, coef, batch, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow)
-            for i in range(3):
+            if col >= 0:
                 for b in range(batch):
-                    jac[col, i, b] = (inc[i, b] - (nu_t[k + 1, i, b] - nu_t[k, i, b])) / h[b]
+                    h[b] = fd_step * (1.0 + abs(x[col, b]))
+                    x[col, b] = x[col, b] + h[b]
+            _signals(sig, x, in_t, k, speed)
+            for i in range(3):
+                if col >= 0 and dof_n[i] == 0:
+                    inc[i, :] = 0.0
+                for t in range(dof_first[i], dof_first[i] + dof_n[i]):
+                    for b in range(batch):
+                        tmp[b] = 1.0 if col < 0 else coef[t, b]
+                    for f in range(t_first[t], t_first[t] + t_n[t]):
+                        jitloop._times_factor(tmp, sig, f_sig[f], f_sta[f], f_mod[f], f_pow[f], batch)
+                    if col < 0:
+                        for b in range(batch):
+                            phi[t, b] = tmp[b]
+                    elif t == dof_first[i]:
+                        inc[i, :] = tmp
+                    else:
+                        for b in range(batch):
+                            inc[i, b] = inc[i, b] + tmp[b]
+                if col >= 0:
+                    for b in range(batch):
+                        jac[col, i, b] = (inc[i, b] - (nu_t[k + 1, i, b] - nu_t[k, i, b])) / h[b]
         for i in range(3):
             for q in range(p):
                 mq = mask[i, q]
