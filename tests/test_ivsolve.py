@@ -7,6 +7,7 @@ takes it; otherwise it is forced by a solve that refuses stacks."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from expdesign import ivsolve
 
@@ -117,7 +118,7 @@ def test_compiled_moments_give_the_numpy_estimates(monkeypatch):
     from primitives.ship import load_profile
 
     if not jitloop.use(jitloop.MIN_WORK):
-        return  # no compiler: iv_estimates is iv_solve (the subprocess test of test_oekernel covers that path)
+        pytest.skip("no compiler: iv_estimates is iv_solve (the subprocess test of test_oekernel covers that path)")
     terms = load_profile("model-ship").predictor
     rng = np.random.default_rng(3)
     b, n, p = 5, 400, terms.n_params
