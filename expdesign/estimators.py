@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from expdesign import sensloop
+from expdesign import oekernel, sensloop
 from expdesign.errors import DesignError
 from expdesign.ivsolve import iv_solve
 from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo, information_moments
@@ -301,6 +301,15 @@ def _state_jacobian(profile: ShipProfile, terms, nu: np.ndarray, psi: np.ndarray
 
 
 def _gauss_newton_moments(
+    profile: ShipProfile, terms, data: Sequence[OEData], sims, theta: np.ndarray, idx: np.ndarray, w: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """H and g of :func:`_gauss_newton_moments_numpy`, in one compiled pass when it applies
+    (:func:`expdesign.oekernel.moments`: the same numbers but for the order of the sums)."""
+    fused = oekernel.moments(profile, terms, data, sims, theta, idx, w, _FD_STEP)
+    return fused if fused is not None else _gauss_newton_moments_numpy(profile, terms, data, sims, theta, idx, w)
+
+
+def _gauss_newton_moments_numpy(
     profile: ShipProfile, terms, data: Sequence[OEData], sims, theta: np.ndarray, idx: np.ndarray, w: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """H = sum_k S(k)^T W S(k) and g = sum_k S(k)^T W (y(k) - y_hat(k)) per run of ``idx``, with

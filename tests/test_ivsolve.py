@@ -7,6 +7,7 @@ takes it; otherwise it is forced by a solve that refuses stacks."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from expdesign import ivsolve
 
@@ -107,3 +108,33 @@ def test_every_system_failing_gives_nan_without_error():
     a[:] = 0.0
     assert np.isnan(ivsolve._solve_checked(a, rhs, row, col, fail)).all()
     assert ivsolve._solve_checked(a[:0], rhs[:0], row[:0], col[:0], fail[:0]).shape == (0, 4)
+
+
+def test_compiled_moments_give_the_numpy_estimates(monkeypatch):
+    """iv_estimates' compiled per-run moments against iv_solve: the same estimates (within 1e-12;
+    sequential sums over the samples like numpy's over that axis) and NaN for the same runs, over
+    the experiment's mean or none; batchwise stays on iv_solve."""
+    from primitives import jitloop
+    from primitives.ship import load_profile
+
+    if not jitloop.use(jitloop.MIN_WORK):
+        pytest.skip("no compiler: iv_estimates is iv_solve (the subprocess test of test_oekernel covers that path)")
+    terms = load_profile("model-ship").predictor
+    rng = np.random.default_rng(3)
+    b, n, p = 5, 400, terms.n_params
+    phi = rng.normal(size=(b, n, p))
+    z = phi + 0.3 * rng.normal(size=(b, n, p))
+    tgt = rng.normal(size=(b, n, 3))
+    z[1, :, 0] = 2.5  # a constant instrument: removed by the mean, that run's surge DOF fails
+    phi[2, :, 5] = phi[2, :, 4]  # two equal regressors: singular, that run's sway DOF fails
+    for mode in ("complete", "none"):
+        got = ivsolve.iv_estimates(terms, phi, z, tgt, mode)
+        want = ivsolve.iv_solve(terms, phi, z, tgt, mode)[0]
+        assert np.array_equal(np.isnan(got), np.isnan(want))
+        assert np.allclose(got, want, rtol=1e-12, atol=0.0, equal_nan=True)
+    assert np.isnan(ivsolve.iv_estimates(terms, phi, z, tgt, "complete")[1, terms.dof_slice(0)]).all()
+    assert np.isnan(ivsolve.iv_estimates(terms, phi, z, tgt, "complete")[2, terms.dof_slice(1)]).all()
+    monkeypatch.setattr(jitloop, "_LOADED", False)  # not loaded: the numpy path, the same numbers
+    assert np.array_equal(
+        ivsolve.iv_estimates(terms, phi, z, tgt, "complete"), ivsolve.iv_solve(terms, phi, z, tgt, "complete")[0], equal_nan=True
+    )
