@@ -149,6 +149,7 @@ def test_next_export_removes_what_a_killed_export_left_and_nothing_else(tmp_path
 
     assert _child(out, "writing").wait(60) == -9
     (killed,) = set(_staging_dirs(out)) - {run_dir}
+    time.sleep(0.05)  # the next export must start a clock tick after the kill to prove itself younger (as below)
     assert _child(out, "publishing").wait(60) == -9  # an export after the kill: it removed the first leftover
     (killed_publishing,) = set(_staging_dirs(out)) - {run_dir}
     assert killed_publishing != killed and not (out / "route.gpx").exists()  # moved aside, the new one not in
