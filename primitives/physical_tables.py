@@ -24,6 +24,8 @@ RIGID_BODY_KEYS = ("mass", "I_x", "I_z", "x_g", "z_g") + ADDED_MASS_KEYS
 POD_KEYS = ("name", "x", "y", "z")
 HELM_KEYS = ("max_rudder_deg", "rudder_rate_deg_s", "starboard_sign")
 ENGINE_KEYS = ("rps_limits", "rps_rate", "mcr_rpm", "approach_rpm", "astern_rpm")
+# The smallest astern rpm accepted, as a fraction of the ahead maximum: a plausibility gate, not a physical limit
+ASTERN_MIN_FRACTION = 0.1
 
 
 @dataclass(frozen=True)
@@ -195,8 +197,8 @@ def parse_helm_engine(
 def _astern(
     e: dict, src: str, rps: list, limits: dict, astern_thrust: Callable[[float], float] | None, err: type[UserError]
 ) -> float | None:
-    """[engine] astern_rpm, checked: above 0 and at most the ahead rpm (a fixed-pitch propeller
-    turns astern no faster than ahead), within input_limits.n, consistent with rps_limits, and
+    """[engine] astern_rpm, checked: at least :data:`ASTERN_MIN_FRACTION` of the ahead rpm and at most
+    the ahead rpm (a fixed-pitch propeller turns astern no faster than ahead), within input_limits.n, consistent with rps_limits, and
     the model's thrust reverses with the shaft (a thrust term even in n, ``n^2``, does not)."""
     value = _positive(e, "engine", "astern_rpm", src, "the most astern shaft rpm, a positive number, e.g. 60", err)
     if value is None:
@@ -204,6 +206,13 @@ def _astern(
     ahead = 60.0 * float(rps[1])
     if value > ahead + 1e-9:
         raise err(f"{src}: field 'engine.astern_rpm' = {value:g} exceeds the ahead maximum {ahead:g} rpm; give at most {ahead:g}")
+    if value < ASTERN_MIN_FRACTION * ahead:
+        # a shaft barely turning astern makes a crash stop that never stops (a typo or a unit slip, e.g. rev/s for rpm)
+        raise err(
+            f"{src}: field 'engine.astern_rpm' = {value:g} is under {ASTERN_MIN_FRACTION:.0%} of the ahead maximum "
+            f"{ahead:g} rpm, too little to stop the ship: give the engine's astern rpm in rpm "
+            f"(ships turn astern at about 50-80 % of ahead) or remove astern_rpm"
+        )
     n_lo = limits.get("n", (-np.inf, np.inf))[0]
     if -value / 60.0 < n_lo - 1e-12:
         raise err(

@@ -195,6 +195,8 @@ def test_astern_power_declared_stops_the_ship_through_the_kernel(kvlcc2):
     [
         (lambda d: d["engine"].update(astern_rpm=-5), "astern_rpm' must be a number > 0"),
         (lambda d: d["engine"].update(astern_rpm=200.0), "exceeds the ahead maximum"),
+        (lambda d: d["engine"].update(astern_rpm=1e-9), "too little to stop the ship"),
+        (lambda d: d["engine"].update(astern_rpm=1.0), "too little to stop the ship"),  # rev/s typed for rpm
         (lambda d: d["input_limits"].update(n=[-0.5, 2.0]), "needs input_limits.n down to"),
         (lambda d: d["model"].update(surge=["u_r*|u_r|", "n^2", "v_r*r"]), "do not reverse the thrust"),
         (lambda d: d["engine"].update(rps_limits=[-0.5, 2.0]), "rps_limits' starts at"),
