@@ -343,11 +343,22 @@ class DaskEngine(Engine):
             bar.close()
             return MapResult(res, done, interrupted=True, errors=errors)
         bar.close()
-        return MapResult(res, done, errors=errors)
+        return MapResult(res, done, errors=_name_the_lost_worker(errors))
 
     def close(self) -> None:
         if self._own:
             self.client.close()
+
+
+def _name_the_lost_worker(errors: dict[int, str]) -> dict[int, str]:
+    """Tasks Dask cancelled because a worker died (it may forget their futures before it reports the
+    KilledWorker on another task) say so, so that whichever failed task is listed first names the cause."""
+    killed = next((e for e in errors.values() if e.startswith("KilledWorker")), None)
+    if killed is None:
+        return errors
+    return {
+        i: (f"{killed} (this task cancelled with it: {e})" if "Cancelled" in e.split(":", 1)[0] else e) for i, e in errors.items()
+    }
 
 
 def _dask_call(item: Any, fn: Callable, shared: Any = None) -> Any:
