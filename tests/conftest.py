@@ -13,3 +13,11 @@ def damping_diagnosis():
 
     sc = scenario(("quadratic_damping",), 41)
     return sc, run(sc.diagnose, load_profile("model-ship"), validate=sc.validate)
+
+
+@pytest.fixture(scope="module")
+def kvlcc2():
+    """The bundled kvlcc2 profile, loaded once per test module (module scope: a test may edit it)."""
+    from primitives.ship import load_profile
+
+    return load_profile("kvlcc2")

@@ -21,14 +21,9 @@ from primitives import helm as hm
 from primitives.library import by_name, thesis_primitives
 from primitives.orders import inputs_from_orders
 from primitives.profile_document import profile_from_dict
-from primitives.ship import PROFILE_DIR, ProfileError, load_profile
+from primitives.ship import PROFILE_DIR, ProfileError
 from primitives.simulate import simulate
 from primitives.sized import short_form_table, short_forms
-
-
-@pytest.fixture(scope="module")
-def kvlcc2():
-    return load_profile("kvlcc2")
 
 
 @pytest.fixture(scope="module")

@@ -13,13 +13,7 @@ from maps.geo import bundled_map_path, load_map
 from maps.planner import plan_with_design
 from maps.smooth import Shortcutter
 from maps.testmaps import _feature, open_sea
-from primitives.ship import load_profile
 from tests.water_path import shortest_water_path, transit_lengths
-
-
-@pytest.fixture(scope="module")
-def kvlcc2():
-    return load_profile("kvlcc2")
 
 
 def test_a_reversal_shortcut_arrives_on_the_final_course(kvlcc2):
