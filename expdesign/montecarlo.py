@@ -44,7 +44,8 @@ import numpy as np
 
 from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
-from expdesign.ivsolve import iv_estimates
+from expdesign.ivsolve import instrument_moments, iv_estimates
+from expdesign.ivsolve import solve_moments as iv_moments_solve
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.rounding import efficient_rounding
 from primitives import jitloop
@@ -288,14 +289,14 @@ def _experiment(sh: MCShared, seq: list[tuple[str, int]]) -> tuple[list[tuple[np
 @dataclass
 class _Seg:
     """One segment position of a batch of runs: inputs (B, L, m), nu0 (B, 3), regressors and
-    target from the noisy data (B, L, p) / (B, L, 3), instruments (B, L, p), measured
-    velocities (B, L+1, 3)."""
+    target from the noisy data (B, L, p) / (B, L, 3), instruments (B, L, p; None when the fused
+    pass simulates them, :func:`_fused`), measured velocities (B, L+1, 3)."""
 
     inputs: np.ndarray
     nu0: np.ndarray
     phi: np.ndarray
     tgt: np.ndarray
-    z: np.ndarray
+    z: np.ndarray | None
     y: np.ndarray
 
 
@@ -307,35 +308,38 @@ def _noise(d: Disturbances, g: np.random.Generator, n: int, offset: np.ndarray) 
     return cur, wind, meas, head
 
 
-def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) -> list[_Seg]:
-    """Noisy data of every segment position for a batch of runs (noise drawn per run)."""
+def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fused: bool = False) -> list[_Seg]:
+    """Noisy data of every segment position for a batch of runs (noise drawn per run); without
+    the instruments (``z`` None) when ``fused``."""
     prof, d, b = sh.profile, sh.dist, len(exps)
     offsets = [g.normal(0.0, d.current_offset_std, 2) for g in gens]
     # the true system (disturbed) and the instrument model (calm) in one batch of 2B: the time
     # loop's cost is per step, not per realisation, and every operation in it is elementwise
-    theta = np.repeat(np.stack([prof.params(prof.simulation_set), prof.params(prof.instrument_set)]), b, axis=0)
+    # (with the fused pass, :func:`_fused`, the instruments are simulated with the IV moments: the true system alone)
+    sets = [prof.simulation_set] if fused else [prof.simulation_set, prof.instrument_set]
+    theta = np.repeat(np.stack([prof.params(s) for s in sets]), b, axis=0)
     out = []
     for j in range(len(exps[0])):
         inp = np.stack([e[j][0] for e in exps])
         nu0 = np.stack([e[j][1] for e in exps])
         cur, wind, meas, head = (np.stack(a) for a in zip(*(_noise(d, g, inp.shape[1], o) for g, o in zip(gens, offsets))))
-        calm = np.zeros_like(cur)
+        calm = [] if fused else [np.zeros_like(cur)]
         env = Disturbances(
-            current_ne=np.concatenate([cur, calm]), wind_ne=np.concatenate([wind, calm]), current_turning=d.current_turning
+            current_ne=np.concatenate([cur, *calm]), wind_ne=np.concatenate([wind, *calm]), current_turning=d.current_turning
         )
         with np.errstate(all="ignore"):
             res = simulate(
                 prof,
-                np.concatenate([inp, inp]),
+                np.concatenate([inp] * len(sets)),
                 theta,
-                nu0=np.concatenate([nu0, nu0]),
+                nu0=np.concatenate([nu0] * len(sets)),
                 disturbances=env,
-                batch=2 * b,
+                batch=len(sets) * b,
                 positions="psi" in signals_read(sh.predictor),
             )  # the data's heading: integrated when the dynamics need it
         y = res.nu[:b] + meas
         phi, tgt = predictor_regressors(prof, y, inp, res.eta[:b, :, 2] + head, terms=sh.predictor)
-        z, _ = predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)
+        z = None if fused else predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)[0]
         out.append(_Seg(inp, nu0, phi, tgt, z, y))
     return out
 
@@ -397,6 +401,54 @@ def _estimate(sh: MCShared, segs: list[_Seg], starts: list[list[int]]) -> np.nda
         for s, z in zip(segs, znew):
             s.z[idx] = z[sane]
         th = _solve_runs(sh, segs, idx, starts)
+        with np.errstate(all="ignore"):
+            change = np.max(np.abs(th - theta[idx]) / np.maximum(np.abs(th), 1e-12), axis=1)
+        theta[idx] = th
+        active[idx] = np.isfinite(th).all(axis=1) & (change >= 1e-3)
+    return theta
+
+
+def _fused(sh: MCShared) -> bool:
+    """Whether the runs' instruments are simulated inside the IV moments' compiled pass
+    (:func:`expdesign.ivsolve.instrument_moments`: no instrument array stored, the same numbers):
+    the continuous protocol (one experiment per run), the mean removed over it or not at all, and
+    a model the pass covers (checked on a one-sample problem; numba loaded)."""
+    cfg, prof = sh.config, sh.profile
+    if cfg.protocol != "continuous" or cfg.mean_subtraction == "batchwise" or not jitloop.loaded():
+        return False
+    probe = np.zeros((1, 1, len(prof.inputs)))
+    one = np.zeros((1, 1, sh.predictor.n_params)), np.zeros((1, 1, 3))
+    return all(
+        instrument_moments(
+            prof, t, sh.predictor, probe, np.zeros((1, 3)), np.zeros((t.n_params, 1)), np.zeros(1, np.int64), *one, "none"
+        )
+        is not None
+        for t in (prof.model, sh.predictor)
+    )
+
+
+def _estimate_fused(sh: MCShared, seg: _Seg) -> np.ndarray:
+    """:func:`_estimate` with the instruments simulated in the moments' pass: the same iterations,
+    stopping rules and numbers (the instrument model first, then each run's latest estimate)."""
+    prof, cfg, b = sh.profile, sh.config, seg.phi.shape[0]
+
+    def solve(sim_terms: TermSet, coef: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        moments, sane = instrument_moments(
+            prof, sim_terms, sh.predictor, seg.inputs, seg.nu0, coef, idx, seg.phi, seg.tgt, cfg.mean_subtraction
+        )
+        return iv_moments_solve(sh.predictor, *moments, cfg.mean_subtraction), sane
+
+    theta, _ = solve(prof.model, prof.params(prof.instrument_set)[:, None], np.arange(b))
+    active = np.isfinite(theta).all(axis=1)
+    for _ in range(cfg.iv_iterations):
+        idx = np.flatnonzero(active)
+        if not idx.size:
+            break
+        th, sane = solve(sh.predictor, theta[idx].T, idx)
+        active[idx[~sane]] = False  # its simulation diverged: keep the previous estimate
+        idx, th = idx[sane], th[sane]
+        if not idx.size:
+            break
         with np.errstate(all="ignore"):
             change = np.max(np.abs(th - theta[idx]) / np.maximum(np.abs(th), 1e-12), axis=1)
         theta[idx] = th
@@ -467,8 +519,9 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     # depend on how the runs are cut into tasks (numba's load, about 0.6 s, once per process).
     jitloop.use(jitloop.MIN_WORK)
     layouts = [_experiment(sh, _sequence(sh, design, _run_rng(cfg.seed, i, 0))) for i in ids]
-    segs = _simulate_data(sh, [lay[0] for lay in layouts], [_run_rng(cfg.seed, i, 1) for i in ids])
-    theta = _estimate(sh, segs, [lay[1] for lay in layouts])
+    fused = _fused(sh)
+    segs = _simulate_data(sh, [lay[0] for lay in layouts], [_run_rng(cfg.seed, i, 1) for i in ids], fused)
+    theta = _estimate_fused(sh, segs[0]) if fused else _estimate(sh, segs, [lay[1] for lay in layouts])
     notes = list(sh.notes.get(design, []))
     if sh.theta0 is None:
         notes.append("predictor structure differs from the true model: parameter error not defined")
