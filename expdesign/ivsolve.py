@@ -195,23 +195,25 @@ def instrument_moments(
     nu0: np.ndarray,
     coef: np.ndarray,
     runs: np.ndarray,
-    phi: np.ndarray,
-    tgt: np.ndarray,
+    y: np.ndarray,
     mean_subtraction: str,
 ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None:
-    """The instruments of the runs ``runs`` simulated and their IV moments summed in one compiled
-    pass, run by run, without storing Z: ((A, rhs, norms) as :func:`_moments_pass` gives them for
-    those runs, sane (len(runs),): every instrument finite and below ``Z_LIMIT`` in magnitude).
+    """The IV moments of the runs ``runs`` from their measured velocities, with their instruments
+    simulated, in one compiled pass run by run that stores neither the regressors nor the
+    instruments: ((A, rhs, norms) as :func:`_moments_pass` gives them, sane (len(runs),): every
+    instrument finite and below ``Z_LIMIT`` in magnitude).
 
-    Z(k) are the regressors of ``terms`` (the predictor (9.2), Ljungberg (2022)) at the noise-free
-    calm-water simulation nu(k+1) = nu(k) + Phi_sim(k)^T theta of ``sim_terms`` with ``coef``
-    (p_sim, 1 or len(runs)), from ``nu0[runs]`` driven by ``inputs[runs]`` (B or 1, N, m); ``phi``
-    (B, N, p), ``tgt`` (B, N, 3) the data's regressors and targets. The operations are those of
-    :func:`primitives.simulate.simulate` (compiled loop), of :func:`primitives.regkernel.regressor_matrix`
-    and of :func:`_moments_pass`, in their order, so the moments are the unfused path's bits (but a
-    term reading the speed U: the C library's hypot against numpy's, a last-bit difference).
-    None where the pass does not apply (no numba loaded, pods, roll, rigid body, heading or wind
-    terms, powers other than 1, 2, -1, mean removed per block): the caller takes the unfused path."""
+    Phi(k) are the regressors of ``terms`` (the predictor (9.2), Ljungberg (2022)) at the measured
+    velocities y(k) (``y`` (B, N+1, 3); the estimator knows no current: u_r = u), the target
+    y(k+1) - y(k); Z(k) the same regressors at the noise-free calm-water simulation
+    nu(k+1) = nu(k) + Phi_sim(k)^T theta of ``sim_terms`` with ``coef`` (p_sim, 1 or len(runs)),
+    from ``nu0[runs]``, driven by ``inputs`` (B or 1, N, m). The operations are those of
+    :func:`primitives.regressors.predictor_regressors`, :func:`primitives.simulate.simulate`
+    (compiled loop) and :func:`_moments_pass` in their order, so the moments are the unfused path's
+    bits (but a term reading the speed U: the C library's hypot against numpy's, a last-bit
+    difference). None where the pass does not apply (no numba loaded, pods, roll, rigid body,
+    heading or wind terms, powers other than 1, 2, -1, the mean removed per block): the caller
+    takes the unfused path."""
     if mean_subtraction == "batchwise" or profile.pods or profile.n_dof != 3 or profile.rigid_body is not None:
         return None
     if not jitloop.loaded() or regkernel._program(sim_terms.terms) is None or regkernel._program(terms.terms) is None:
@@ -236,8 +238,7 @@ def instrument_moments(
         reg[7],
         reg[6],
         speed,
-        phi,
-        tgt,
+        np.ascontiguousarray(y, float),
         _dof_of(terms),
         mean_subtraction == "complete",
         Z_LIMIT,
@@ -249,10 +250,31 @@ def instrument_moments(
     return (a, rhs, norms), sane
 
 
-# signals the calm-water instrument simulation provides (primitives.jitloop's layout): the velocities
-# relative to water and air are the velocities, U their modulus; wind terms read zeros
+# signals the calm-water pass provides (primitives.jitloop's layout): the velocities relative to
+# water and air are the velocities, U their modulus; wind terms read zeros
 _CALM_STATE = frozenset({"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", "wx", "wy", "wn"})
 Z_LIMIT = 1e6  # instruments above this come from an exploding simulation
+
+
+@jitloop.inlined
+def _regressor_row(out, k, sig, in_r, ib, u, v, r, speed, t_first, t_n, f_sig, f_mod, f_pow, f_sta):
+    """out[k, t] = 1.0 * f_1 * f_2 ... of each term t (regkernel._build's product) at the calm-water
+    signals of the velocities u, v, r and the inputs of step k; the largest magnitude of the row."""
+    for i in range(in_r.shape[2]):
+        sig[jitloop.N_STATE + i] = in_r[ib, k, i]
+    sig[0], sig[1], sig[2], sig[3], sig[4], sig[5], sig[6] = u, v, r, u, v, u, v
+    if speed:
+        h = math.hypot(u, v)
+        sig[7] = MIN_SPEED if h < MIN_SPEED else h  # NaN stays NaN, as in np.maximum
+    worst = 0.0
+    for t in range(t_first.shape[0]):
+        acc = 1.0
+        for f in range(t_first[t], t_first[t] + t_n[t]):
+            acc = acc * regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
+        out[k, t] = acc
+        if not abs(acc) <= worst:  # NaN too
+            worst = abs(acc) if acc == acc else math.inf
+    return worst
 
 
 @jitloop.compiled
@@ -276,8 +298,7 @@ def _instrument_pass(
     g_pow,
     g_sta,
     speed,
-    phi,
-    tgt,
+    y,
     dof,
     complete,
     z_limit,
@@ -286,36 +307,29 @@ def _instrument_pass(
     norms,
     sane,
 ):
-    """:func:`instrument_moments`' pass: per run j (batch member ``runs[j]``) the time loop of
-    primitives.jitloop.time_loop in calm water (each term c_t * f_1 * f_2 ... summed left to right
-    per DOF, nu(k+1) = nu(k) + inc), the regressors Z(k) at nu(k) as regkernel._build makes them
-    (1.0 * f_1 * f_2 ...), then :func:`_run_moments`."""
-    n, p = phi.shape[1], phi.shape[2]
+    """:func:`instrument_moments`' pass: per run j (batch member ``runs[j]``) Phi and the target from
+    its y, the time loop of primitives.jitloop.time_loop in calm water (each term c_t * f_1 * f_2 ...
+    summed left to right per DOF, nu(k+1) = nu(k) + inc) with Z(k) at nu(k), then :func:`_run_moments`."""
+    n, p = y.shape[1] - 1, dof.shape[0]
     sig = np.zeros(jitloop.N_STATE + in_r.shape[2])
-    z = np.empty((n, p))
+    z, phi, tgt = np.empty((n, p)), np.empty((n, p)), np.empty((n, 3))
     inc = np.zeros(3)
     zbar, zt = np.zeros(p), np.empty(p)
     for j in range(runs.shape[0]):
         b = runs[j]
         ib = b if in_r.shape[0] > 1 else 0
         cj = j if coef.shape[1] > 1 else 0
-        u, v, r = nu0[b, 0], nu0[b, 1], nu0[b, 2]
-        ok = True
         for k in range(n):
-            for i in range(in_r.shape[2]):
-                sig[jitloop.N_STATE + i] = in_r[ib, k, i]
-            sig[0], sig[1], sig[2], sig[3], sig[4], sig[5], sig[6] = u, v, r, u, v, u, v
-            if speed:
-                h = math.hypot(u, v)
-                sig[7] = MIN_SPEED if h < MIN_SPEED else h
-            for t in range(p):
-                acc = 1.0
-                for f in range(r_first[t], r_first[t] + r_n[t]):
-                    acc = acc * regkernel._factor(sig[g_sig[f]], r, g_sta[f], g_mod[f], g_pow[f])
-                z[k, t] = acc
-                if not abs(acc) < z_limit:  # NaN too
-                    ok = False
+            _regressor_row(
+                phi, k, sig, in_r, ib, y[b, k, 0], y[b, k, 1], y[b, k, 2], speed, r_first, r_n, g_sig, g_mod, g_pow, g_sta
+            )
             for i in range(3):
+                tgt[k, i] = y[b, k + 1, i] - y[b, k, i]
+        u, v, r = nu0[b, 0], nu0[b, 1], nu0[b, 2]
+        worst = 0.0
+        for k in range(n):
+            worst = max(worst, _regressor_row(z, k, sig, in_r, ib, u, v, r, speed, r_first, r_n, g_sig, g_mod, g_pow, g_sta))
+            for i in range(3):  # sig holds step k's signals from _regressor_row
                 inc[i] = 0.0
                 for t in range(dof_first[i], dof_first[i] + dof_n[i]):
                     acc = coef[t, cj]
@@ -323,5 +337,5 @@ def _instrument_pass(
                         acc = acc * regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
                     inc[i] = acc if t == dof_first[i] else inc[i] + acc
             u, v, r = u + inc[0], v + inc[1], r + inc[2]
-        sane[j] = ok
-        _run_moments(z, phi[b], tgt[b], dof, complete, a[j], rhs[j], norms, j, zbar, zt)
+        sane[j] = worst < z_limit
+        _run_moments(z, phi, tgt, dof, complete, a[j], rhs[j], norms, j, zbar, zt)

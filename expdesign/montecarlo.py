@@ -289,13 +289,14 @@ def _experiment(sh: MCShared, seq: list[tuple[str, int]]) -> tuple[list[tuple[np
 @dataclass
 class _Seg:
     """One segment position of a batch of runs: inputs (B, L, m), nu0 (B, 3), regressors and
-    target from the noisy data (B, L, p) / (B, L, 3), instruments (B, L, p; None when the fused
-    pass simulates them, :func:`_fused`), measured velocities (B, L+1, 3)."""
+    target from the noisy data (B, L, p) / (B, L, 3), instruments (B, L, p), measured velocities
+    (B, L+1, 3). With the fused pass (:func:`_fused`) the pass builds phi, target and instruments
+    itself: None here."""
 
     inputs: np.ndarray
     nu0: np.ndarray
-    phi: np.ndarray
-    tgt: np.ndarray
+    phi: np.ndarray | None
+    tgt: np.ndarray | None
     z: np.ndarray | None
     y: np.ndarray
 
@@ -338,8 +339,11 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fu
                 positions="psi" in signals_read(sh.predictor),
             )  # the data's heading: integrated when the dynamics need it
         y = res.nu[:b] + meas
+        if fused:  # the pass builds the regressors from y
+            out.append(_Seg(inp, nu0, None, None, None, y))
+            continue
         phi, tgt = predictor_regressors(prof, y, inp, res.eta[:b, :, 2] + head, terms=sh.predictor)
-        z = None if fused else predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)[0]
+        z, _ = predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)
         out.append(_Seg(inp, nu0, phi, tgt, z, y))
     return out
 
@@ -416,13 +420,10 @@ def _fused(sh: MCShared) -> bool:
     cfg, prof = sh.config, sh.profile
     if cfg.protocol != "continuous" or cfg.mean_subtraction == "batchwise" or not jitloop.loaded():
         return False
-    probe = np.zeros((1, 1, len(prof.inputs)))
-    one = np.zeros((1, 1, sh.predictor.n_params)), np.zeros((1, 1, 3))
+    inputs, nu0, y = np.zeros((1, 1, len(prof.inputs))), np.zeros((1, 3)), np.zeros((1, 2, 3))
+    one = np.zeros(1, np.int64)
     return all(
-        instrument_moments(
-            prof, t, sh.predictor, probe, np.zeros((1, 3)), np.zeros((t.n_params, 1)), np.zeros(1, np.int64), *one, "none"
-        )
-        is not None
+        instrument_moments(prof, t, sh.predictor, inputs, nu0, np.zeros((t.n_params, 1)), one, y, "none") is not None
         for t in (prof.model, sh.predictor)
     )
 
@@ -430,11 +431,11 @@ def _fused(sh: MCShared) -> bool:
 def _estimate_fused(sh: MCShared, seg: _Seg) -> np.ndarray:
     """:func:`_estimate` with the instruments simulated in the moments' pass: the same iterations,
     stopping rules and numbers (the instrument model first, then each run's latest estimate)."""
-    prof, cfg, b = sh.profile, sh.config, seg.phi.shape[0]
+    prof, cfg, b = sh.profile, sh.config, seg.y.shape[0]
 
     def solve(sim_terms: TermSet, coef: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         moments, sane = instrument_moments(
-            prof, sim_terms, sh.predictor, seg.inputs, seg.nu0, coef, idx, seg.phi, seg.tgt, cfg.mean_subtraction
+            prof, sim_terms, sh.predictor, seg.inputs, seg.nu0, coef, idx, seg.y, cfg.mean_subtraction
         )
         return iv_moments_solve(sh.predictor, *moments, cfg.mean_subtraction), sane
 
