@@ -467,12 +467,10 @@ def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         sim = simulate(sh.profile, sh.val_inputs, th, terms=sh.predictor, nu0=sh.val_nu0, batch=b, positions=False).nu
     bound = _EXPLODE * np.abs(sh.val_true).max()
     rmse = np.full((b, 3), np.inf)
-    diverged = ~finite
-    for i in range(b):
-        if diverged[i] or not np.isfinite(sim[i]).all() or np.abs(sim[i]).max() > bound:
-            diverged[i] = True
-            continue
-        rmse[i] = np.sqrt(np.mean((sim[i] - sh.val_true) ** 2, axis=0))
+    with np.errstate(invalid="ignore"):
+        diverged = ~finite | ~(np.abs(sim) <= bound).all(axis=(1, 2))  # NaN and inf too
+    good = np.flatnonzero(~diverged)
+    rmse[good] = np.sqrt(np.mean((sim[good] - sh.val_true) ** 2, axis=1))  # per run over the samples in order
     return rmse, diverged
 
 
@@ -540,6 +538,16 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     result = _scored(sh, design, ids, oe.theta, "oe", notes, (val[0][:b], val[1][:b]))
     result.reference = _scored(sh, design, ids, theta, "iv", list(notes), (val[0][b:], val[1][b:]))
     return result
+
+
+def warm_compiled(sh: MCShared) -> None:
+    """Load numba and compile (or load from its disk cache) every compiled pass a run of ``sh``
+    calls, in this process, by running run 0 of the first design and dropping its result. A
+    process pool forked after this inherits the machine code (no worker imports numba or loads
+    a cache); workers started otherwise load the cache this wrote instead of each compiling the
+    same code at once (a cold cache costs about 15 s of CPU per process)."""
+    if jitloop.AVAILABLE:
+        run_chunk(sh, next(iter(sh.designs)), [0])
 
 
 # -- entry points ---------------------------------------------------------------------------------
