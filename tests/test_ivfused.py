@@ -67,3 +67,20 @@ def test_fused_pass_flags_an_exploding_instrument_simulation(ship):
     out = instrument_moments(p, p.predictor, p.predictor, inputs, np.zeros((2, 3)), coef, np.arange(2), y, "complete")
     assert out is not None
     assert out[1].tolist() == [True, False]
+
+
+def test_local_pool_compiles_once_in_the_parent(ship, monkeypatch):
+    """A local pool's workers get the compiled passes from the parent (warmed once before the pool
+    starts), not by each loading numba and compiling or loading the same code; inline runs warm
+    nothing."""
+    from expdesign import mc_parallel
+    from expdesign.parallel import Engine, LocalEngine
+
+    p, lib = ship
+    warmed = []
+    monkeypatch.setattr(mc_parallel, "warm_compiled", lambda sh: warmed.append(sh.config.runs) or mc.warm_compiled(sh))
+    kw = dict(runs=4, seed=3, n_samples=200, primitives=lib, progress=False)
+    mc_parallel.evaluate_designs_parallel(p, DESIGNS, scheduler=Engine(), **kw)
+    assert warmed == []
+    ev = mc_parallel.evaluate_designs_parallel(p, DESIGNS, scheduler=LocalEngine(2), **kw)
+    assert warmed == [4] and ev.complete
