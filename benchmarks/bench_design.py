@@ -19,7 +19,8 @@ ratio to inline's per worker count (CPU the workers waste shows there).
 
 Then the model that reads off larger machines (goal: 70 % efficiency on 16 cores):
 - a task of n runs of design d costs F_d + n p_d CPU seconds, fitted per design from tasks of 16,
-  63, 250 and 500 runs (F is the simulation kernel's time loops, paid per batch whatever its size);
+  63, 250 and 500 runs (F is the simulation kernel's time loops, paid per batch whatever its size),
+  robustly: the least CPU of 3 repeats per size, Siegel's repeated-median line, F >= 0;
 - the pool's serial part s(W) (forking W workers holding the shared inputs, collecting, joining),
   measured with no-op tasks as the parent's CPU plus one worker's;
 - a process's first task costs more than the same task in a warm process (a new process grows its
@@ -80,9 +81,13 @@ def scaling(runs: int, workers: list[int], scheduler: str | None, repeat: int) -
     """Inline against local pools (and a cluster): same digests, speed-up per worker count.
     Returns per engine: label, worker slots, median wall and CPU seconds."""
     from expdesign.mc_parallel import evaluate_designs_parallel
+    from expdesign.montecarlo import MCConfig, prepare, warm_compiled
     from expdesign.parallel import Engine, LocalEngine, get_engine
 
     p, lib, designs = _setup()
+    # numba loaded and the passes compiled before any clock starts: inline then runs warm, as the
+    # pools' workers do (forked from this process after the engines' own warm-up)
+    warm_compiled(prepare(p, designs, MCConfig(runs=1), lib))
     engines = [("inline", Engine)] + [(f"local x{w}", lambda w=w: LocalEngine(w)) for w in workers]
     if scheduler:
         engines.append((f"dask {scheduler}", lambda: get_engine(scheduler)))
