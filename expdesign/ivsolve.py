@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from primitives import jitloop, regkernel
-from primitives.simulate import MIN_SPEED, SPEED, _time_major_forces, signals_read
+from primitives.simulate import MIN_SPEED, SPEED, signals_read
 from primitives.terms import TermSet
 
 # A DOF's system fails (NaN) when the mean removal leaves one of its instruments constant to this
@@ -191,7 +191,7 @@ def instrument_moments(
     profile,
     sim_terms: TermSet,
     terms: TermSet,
-    inputs: np.ndarray,
+    forces: np.ndarray | tuple[list[str], np.ndarray],
     nu0: np.ndarray,
     coef: np.ndarray,
     runs: np.ndarray,
@@ -207,7 +207,8 @@ def instrument_moments(
     velocities y(k) (``y`` (B, N+1, 3); the estimator knows no current: u_r = u), the target
     y(k+1) - y(k); Z(k) the same regressors at the noise-free calm-water simulation
     nu(k+1) = nu(k) + Phi_sim(k)^T theta of ``sim_terms`` with ``coef`` (p_sim, 1 or len(runs)),
-    from ``nu0[runs]``, driven by ``inputs`` (B or 1, N, m). The operations are those of
+    from ``nu0[runs]``, driven by ``forces``: the inputs (B or 1, N, m) or their :func:`run_forces`
+    (made once for several calls on the same runs). The operations are those of
     :func:`primitives.regressors.predictor_regressors`, :func:`primitives.simulate.simulate`
     (compiled loop) and :func:`_moments_pass` in their order, so the moments are the unfused path's
     bits (but a term reading the speed U: the C library's hypot against numpy's, a last-bit
@@ -218,11 +219,10 @@ def instrument_moments(
         return None
     if not jitloop.loaded() or regkernel._program(sim_terms.terms) is None or regkernel._program(terms.terms) is None:
         return None
-    names, in_t = _time_major_forces(profile, inputs)
+    names, in_r = forces if isinstance(forces, tuple) else run_forces(profile, forces)
     sim, reg = (jitloop.program(t, names, _CALM_STATE) for t in (sim_terms, terms))
     if sim is None or reg is None:
         return None
-    in_r = np.ascontiguousarray(in_t.transpose(2, 0, 1))  # (B or 1, N, signals): a run's inputs contiguous
     n_runs, p = len(runs), terms.n_params
     a, rhs, norms, sane = np.zeros((n_runs, p, p)), np.zeros((n_runs, p)), np.zeros((3, n_runs, p)), np.zeros(n_runs, np.bool_)
     speed = SPEED in signals_read(sim_terms) or SPEED in signals_read(terms)
@@ -248,6 +248,14 @@ def instrument_moments(
         sane,
     )
     return (a, rhs, norms), sane
+
+
+def run_forces(profile, inputs: np.ndarray) -> tuple[list[str], np.ndarray]:
+    """The input signals' names and values (B or 1, N, signals) of ``inputs`` (B or 1, N, m), a
+    run's contiguous (:func:`instrument_moments` reads them run by run)."""
+    forces = profile.generalized_forces(inputs)  # each (1 or B, N)
+    shape = np.broadcast_shapes(*(np.shape(v) for v in forces.values()))
+    return list(forces), np.stack([np.broadcast_to(v, shape) for v in forces.values()], axis=-1)
 
 
 # signals the calm-water pass provides (primitives.jitloop's layout): the velocities relative to

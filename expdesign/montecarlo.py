@@ -44,7 +44,7 @@ import numpy as np
 
 from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
-from expdesign.ivsolve import instrument_moments, iv_estimates
+from expdesign.ivsolve import instrument_moments, iv_estimates, run_forces
 from expdesign.ivsolve import solve_moments as iv_moments_solve
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.rounding import efficient_rounding
@@ -386,25 +386,38 @@ def _resimulated_instruments(sh: MCShared, seg: _Seg, theta: np.ndarray, idx: np
 def _estimate(sh: MCShared, segs: list[_Seg], starts: list[list[int]]) -> np.ndarray:
     """Per-run IV estimates; each run re-simulates its instruments until its own estimate
     changes by less than 1e-3 (relative) or ``iv_iterations`` re-simulations were made."""
-    b = segs[0].phi.shape[0]
-    theta = _solve_runs(sh, segs, np.arange(b), starts)
-    active = np.isfinite(theta).all(axis=1)
-    for _ in range(sh.config.iv_iterations):
-        idx = np.flatnonzero(active)
-        if not idx.size:
-            break
+
+    def resolve(idx: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         znew = [_resimulated_instruments(sh, s, theta, idx) for s in segs]
         with np.errstate(invalid="ignore"):
             sane = np.logical_and.reduce(
                 [np.isfinite(z).all(axis=(1, 2)) & (np.abs(z).max(axis=(1, 2)) < _Z_LIMIT) for z in znew]
             )
-        active[idx[~sane]] = False  # its simulation diverged: keep the previous instruments
-        idx = idx[sane]
+        for s, z in zip(segs, znew):
+            s.z[idx[sane]] = z[sane]
+        th = np.full((len(idx), theta.shape[1]), np.nan)
+        if sane.any():
+            th[sane] = _solve_runs(sh, segs, idx[sane], starts)
+        return th, sane
+
+    return _iterate(_solve_runs(sh, segs, np.arange(segs[0].phi.shape[0]), starts), sh.config.iv_iterations, resolve)
+
+
+def _iterate(theta: np.ndarray, iterations: int, resolve) -> np.ndarray:
+    """The IV iterations from the first estimates ``theta`` (B, p): ``resolve(idx, theta)`` gives
+    the runs ``idx``'s estimates from instruments re-simulated with their latest ones and whether
+    that simulation stayed sane; a run stops when it did not (it keeps its estimate), when its
+    estimate changes by less than 1e-3 (relative) or fails, or after ``iterations``."""
+    active = np.isfinite(theta).all(axis=1)
+    for _ in range(iterations):
+        idx = np.flatnonzero(active)
         if not idx.size:
             break
-        for s, z in zip(segs, znew):
-            s.z[idx] = z[sane]
-        th = _solve_runs(sh, segs, idx, starts)
+        th, sane = resolve(idx, theta)
+        active[idx[~sane]] = False  # its simulation diverged: keep the previous instruments and estimate
+        idx, th = idx[sane], th[sane]
+        if not idx.size:
+            break
         with np.errstate(all="ignore"):
             change = np.max(np.abs(th - theta[idx]) / np.maximum(np.abs(th), 1e-12), axis=1)
         theta[idx] = th
@@ -432,29 +445,14 @@ def _estimate_fused(sh: MCShared, seg: _Seg) -> np.ndarray:
     """:func:`_estimate` with the instruments simulated in the moments' pass: the same iterations,
     stopping rules and numbers (the instrument model first, then each run's latest estimate)."""
     prof, cfg, b = sh.profile, sh.config, seg.y.shape[0]
+    forces = run_forces(prof, seg.inputs)  # once for the four passes
 
     def solve(sim_terms: TermSet, coef: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        moments, sane = instrument_moments(
-            prof, sim_terms, sh.predictor, seg.inputs, seg.nu0, coef, idx, seg.y, cfg.mean_subtraction
-        )
+        moments, sane = instrument_moments(prof, sim_terms, sh.predictor, forces, seg.nu0, coef, idx, seg.y, cfg.mean_subtraction)
         return iv_moments_solve(sh.predictor, *moments, cfg.mean_subtraction), sane
 
-    theta, _ = solve(prof.model, prof.params(prof.instrument_set)[:, None], np.arange(b))
-    active = np.isfinite(theta).all(axis=1)
-    for _ in range(cfg.iv_iterations):
-        idx = np.flatnonzero(active)
-        if not idx.size:
-            break
-        th, sane = solve(sh.predictor, theta[idx].T, idx)
-        active[idx[~sane]] = False  # its simulation diverged: keep the previous estimate
-        idx, th = idx[sane], th[sane]
-        if not idx.size:
-            break
-        with np.errstate(all="ignore"):
-            change = np.max(np.abs(th - theta[idx]) / np.maximum(np.abs(th), 1e-12), axis=1)
-        theta[idx] = th
-        active[idx] = np.isfinite(th).all(axis=1) & (change >= 1e-3)
-    return theta
+    first, _ = solve(prof.model, prof.params(prof.instrument_set)[:, None], np.arange(b))
+    return _iterate(first, cfg.iv_iterations, lambda idx, theta: solve(sh.predictor, theta[idx].T, idx))
 
 
 def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
