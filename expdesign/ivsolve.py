@@ -12,6 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from primitives import jitloop, regkernel
+from primitives.ship import ShipProfile
 from primitives.simulate import MIN_SPEED, SPEED, signals_read
 from primitives.terms import TermSet
 
@@ -188,7 +189,7 @@ def _moments_pass(phi, z, tgt, dof, complete):
 
 
 def instrument_moments(
-    profile,
+    profile: ShipProfile,
     sim_terms: TermSet,
     terms: TermSet,
     forces: np.ndarray | tuple[list[str], np.ndarray],
@@ -213,8 +214,8 @@ def instrument_moments(
     (compiled loop) and :func:`_moments_pass` in their order, so the moments are the unfused path's
     bits (but a term reading the speed U: the C library's hypot against numpy's, a last-bit
     difference). None where the pass does not apply (no numba loaded, pods, roll, rigid body,
-    heading or wind terms, powers other than 1, 2, -1, the mean removed per block): the caller
-    takes the unfused path."""
+    heading terms, powers other than 1, 2, -1, the mean removed per block): the caller takes the
+    unfused path. Wind terms read calm air, as the unfused path's regressors without a wind."""
     if mean_subtraction == "batchwise" or profile.pods or profile.n_dof != 3 or profile.rigid_body is not None:
         return None
     if not jitloop.loaded() or regkernel._program(sim_terms.terms) is None or regkernel._program(terms.terms) is None:
@@ -250,7 +251,7 @@ def instrument_moments(
     return (a, rhs, norms), sane
 
 
-def run_forces(profile, inputs: np.ndarray) -> tuple[list[str], np.ndarray]:
+def run_forces(profile: ShipProfile, inputs: np.ndarray) -> tuple[list[str], np.ndarray]:
     """The input signals' names and values (B or 1, N, signals) of ``inputs`` (B or 1, N, m), a
     run's contiguous (:func:`instrument_moments` reads them run by run)."""
     forces = profile.generalized_forces(inputs)  # each (1 or B, N)

@@ -44,7 +44,7 @@ import numpy as np
 
 from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
-from expdesign.ivsolve import instrument_moments, iv_estimates, run_forces
+from expdesign.ivsolve import Z_LIMIT, instrument_moments, iv_estimates, run_forces
 from expdesign.ivsolve import solve_moments as iv_moments_solve
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.rounding import efficient_rounding
@@ -60,8 +60,8 @@ from primitives.terms import TermSet
 PROTOCOLS = ("continuous", "piecewise")
 ORDERS = ("library", "given", "random")
 ESTIMATORS = ("oe", "iv")
-MAX_CHUNK = 500  # runs per batch: bounds memory (about 40 MB per (runs, samples, params) array)
-_Z_LIMIT = 1e6  # instruments above this come from an exploding simulation: keep the previous ones
+MAX_CHUNK = 250  # runs per batch: bounds memory; 250 measured 8 % less CPU a run than 500 (cache), 125 no better
+_Z_LIMIT = Z_LIMIT  # instruments above this come from an exploding simulation: keep the previous ones
 _EXPLODE = 100.0  # a validation output this many times the true one's maximum has diverged
 # Smallest value of each integer setting of MCConfig (min_block: a sub-experiment needs two samples for one increment)
 _MINIMA = (("n_segments", 1), ("min_block", 2), ("settle", 0), ("iv_iterations", 0), ("oe_iterations", 1))
