@@ -84,3 +84,48 @@ def test_local_pool_compiles_once_in_the_parent(ship, monkeypatch):
     assert warmed == []
     ev = mc_parallel.evaluate_designs_parallel(p, DESIGNS, scheduler=LocalEngine(2), **kw)
     assert warmed == [4] and ev.complete
+
+
+def test_fused_pass_gives_the_unfused_bits_on_a_thruster_ship_with_wind_terms(monkeypatch):
+    """The full-scale profile: azimuth thrusters, air-relative terms in the true model and a
+    predictor of another structure (the instruments from the model first, then from the predictor)."""
+    p = load_profile("full-scale")
+    jitloop.use(jitloop.MIN_WORK)
+    sh = mc.prepare(p, {"random": "random"}, mc.MCConfig(runs=4, seed=3, n_samples=300, estimator="iv"))
+    real = mc._fused
+    assert real(sh)
+    out = []
+    for fused in (True, False):
+        monkeypatch.setattr(mc, "_fused", lambda sh, fused=fused: fused and real(sh))
+        out.append(mc.run_chunk(sh, "random", range(4)).digest())
+    assert out[0] == out[1]
+
+
+def test_models_the_fused_pass_cannot_hold_take_the_unfused_path(ship):
+    """Every model or protocol outside the pass (pods, roll, rigid body, a heading term, a power
+    other than 1, 2, -1, the mean removed per block, piecewise experiments) is refused: the pass
+    would give a silently wrong estimate."""
+    import dataclasses
+
+    from primitives.terms import TermSet
+
+    p, lib = ship
+    jitloop.use(jitloop.MIN_WORK)
+
+    def shared(profile=p, predictor=None, **cfg):
+        sh = mc.prepare(p, {"optimized": DESIGNS["optimized"]}, mc.MCConfig(runs=2, n_samples=200, **cfg), lib)
+        return dataclasses.replace(sh, profile=profile, predictor=predictor or sh.predictor)
+
+    assert mc._fused(shared())  # the model ship itself is held
+    assert not mc._fused(shared(mean_subtraction="batchwise"))
+    assert not mc._fused(shared(protocol="piecewise"))
+    naval = load_profile("naval-vessel")  # surge-sway-yaw-roll, two pods, rigid-body matrices
+    assert not mc._fused(shared(profile=naval))
+    assert not mc._fused(shared(profile=dataclasses.replace(p, pods=naval.pods)))
+    assert not mc._fused(shared(profile=dataclasses.replace(p, rigid_body=naval.rigid_body)))
+    terms = [list(d) for d in p.predictor.terms]
+    for extra in ("v_r*psi", "u_r^3", "|v_r|^3", "phi"):
+        more = [d + ([extra] if i == 1 else []) for i, d in enumerate(terms)]
+        assert not mc._fused(shared(predictor=TermSet(more))), extra
+        model = dataclasses.replace(p, model_terms=tuple(tuple(d) for d in more))
+        assert not mc._fused(shared(profile=model)), extra
