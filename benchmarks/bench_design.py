@@ -151,8 +151,8 @@ def fit_task_cost(sh: MCShared, sizes: tuple[int, ...] = SIZES, repeat: int = 3)
     """The line F_d + n p_d through the CPU time of tasks of ``sizes`` runs, per design (each
     repeat on other runs), over the task sizes the engines cut (16 to 500 runs), made robust to
     a loaded machine (:func:`robust_line`): per size the least CPU of the repeats (other
-    processes only ever add CPU time: cache and memory contention), relative errors weighted
-    alike, F >= 0 and p >= 0. The worst relative residual of the line is printed, so a curve
+    processes only ever add CPU time: cache and memory contention), F clipped at 0 (p is not
+    clipped). The worst relative residual of the line is printed, so a curve
     (e.g. an iteration count that grows with the batch) shows."""
     from expdesign.montecarlo import run_chunk
 
