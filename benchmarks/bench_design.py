@@ -19,7 +19,8 @@ ratio to inline's per worker count (CPU the workers waste shows there).
 
 Then the model that reads off larger machines (goal: 70 % efficiency on 16 cores):
 - a task of n runs of design d costs F_d + n p_d CPU seconds, fitted per design from tasks of 16,
-  63, 250 and 500 runs (F is the simulation kernel's time loops, paid per batch whatever its size);
+  63, 250 and 500 runs (F is the simulation kernel's time loops, paid per batch whatever its size),
+  robustly: the least CPU of 3 repeats per size, Siegel's repeated-median line, F >= 0;
 - the pool's serial part s(W) (forking W workers holding the shared inputs, collecting, joining),
   measured with no-op tasks as the parent's CPU plus one worker's;
 - a process's first task costs more than the same task in a warm process (a new process grows its
@@ -50,7 +51,7 @@ import os
 import resource
 import statistics
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -80,9 +81,13 @@ def scaling(runs: int, workers: list[int], scheduler: str | None, repeat: int) -
     """Inline against local pools (and a cluster): same digests, speed-up per worker count.
     Returns per engine: label, worker slots, median wall and CPU seconds."""
     from expdesign.mc_parallel import evaluate_designs_parallel
+    from expdesign.montecarlo import MCConfig, prepare, warm_compiled
     from expdesign.parallel import Engine, LocalEngine, get_engine
 
     p, lib, designs = _setup()
+    # numba loaded and the passes compiled before any clock starts: inline then runs warm, as the
+    # pools' workers do (forked from this process after the engines' own warm-up)
+    warm_compiled(prepare(p, designs, MCConfig(runs=1), lib))
     engines = [("inline", Engine)] + [(f"local x{w}", lambda w=w: LocalEngine(w)) for w in workers]
     if scheduler:
         engines.append((f"dask {scheduler}", lambda: get_engine(scheduler)))
@@ -143,10 +148,11 @@ class TaskCost:
 
 
 def fit_task_cost(sh: MCShared, sizes: tuple[int, ...] = SIZES, repeat: int = 3) -> TaskCost:
-    """Least-squares line through the median CPU time of tasks of ``sizes`` runs, per design
-    (each repeat on other runs), over the task sizes the engines cut (16 to 500 runs). The fixed
-    part is the simulation kernel's time loops (data, IV re-simulations, validation: 1000 steps
-    each, whatever the batch); the worst relative residual of the line is printed, so a curve
+    """The line F_d + n p_d through the CPU time of tasks of ``sizes`` runs, per design (each
+    repeat on other runs), over the task sizes the engines cut (16 to 500 runs), made robust to
+    a loaded machine (:func:`robust_line`): per size the least CPU of the repeats (other
+    processes only ever add CPU time: cache and memory contention), F clipped at 0 (p is not
+    clipped). The worst relative residual of the line is printed, so a curve
     (e.g. an iteration count that grows with the batch) shows."""
     from expdesign.montecarlo import run_chunk
 
@@ -159,14 +165,29 @@ def fit_task_cost(sh: MCShared, sizes: tuple[int, ...] = SIZES, repeat: int = 3)
                 t = time.process_time()
                 run_chunk(sh, d, range(k * n, (k + 1) * n))
                 ts.append(time.process_time() - t)
-            cost.append(statistics.median(ts))
-        per_run[d], fixed[d] = np.polyfit(sizes, cost, 1)
+            cost.append(min(ts))
+        fixed[d], per_run[d] = robust_line(sizes, cost)
         resid = max(abs(fixed[d] + n * per_run[d] - c) / c for n, c in zip(sizes, cost))
         print(
-            f"task cost {d:9s} (CPU, median of {repeat} at {'/'.join(map(str, sizes))} runs): fixed {1e3 * fixed[d]:5.0f} ms "
+            f"task cost {d:9s} (CPU, least of {repeat} at {'/'.join(map(str, sizes))} runs: "
+            f"{', '.join(f'{1e3 * c:.0f}' for c in cost)} ms): fixed {1e3 * fixed[d]:5.0f} ms "
             f"+ {1e3 * per_run[d]:5.2f} ms per run (worst residual of the line {100 * resid:.0f} %)"
         )
     return TaskCost(fixed, per_run)
+
+
+def robust_line(sizes: Sequence[int], cost: Sequence[float]) -> tuple[float, float]:
+    """(F, p) of cost = F + n p by Siegel's (1982) repeated medians: p the median over the points
+    of each point's median slope to the others, F the median of cost - n p, clipped at 0. One
+    point of four spoilt by load moves neither (half the points may be), where the
+    least-squares line fitted on times taken under load gave negative fixed costs, which the
+    makespan model cannot use."""
+    n, c = np.asarray(sizes, float), np.asarray(cost, float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        slopes = (c[None, :] - c[:, None]) / (n[None, :] - n[:, None])
+    np.fill_diagonal(slopes, np.nan)
+    p = float(np.median(np.nanmedian(slopes, axis=1)))
+    return max(0.0, float(np.median(c - n * p))), p
 
 
 def _noop(item: int, shared: MCShared) -> int:

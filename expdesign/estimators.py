@@ -257,14 +257,14 @@ def _mean_squares(data: Sequence[OEData], sims, idx: np.ndarray) -> np.ndarray:
     are per run on arrays whose shape does not depend on the batch."""
     n = sum(d.y.shape[1] - 1 for d in data)
     ms = np.zeros((len(idx), 3))
-    for a, b in enumerate(idx):
-        if not all(np.isfinite(nu[a]).all() and np.abs(nu[a]).max() < _OE_EXPLODE for nu, _ in sims):
-            ms[a] = np.inf
-            continue
-        for d, (nu, _) in zip(data, sims):
-            e = d.y[b, 1:] - nu[a, 1:]
-            ms[a] += np.sum(e * e, axis=0)
-        ms[a] /= n
+    with np.errstate(invalid="ignore", over="ignore"):
+        bad = np.logical_or.reduce([~(np.abs(nu) < _OE_EXPLODE).all(axis=(1, 2)) for nu, _ in sims])
+    good = np.flatnonzero(~bad)
+    for d, (nu, _) in zip(data, sims):
+        e = d.y[idx[good], 1:] - nu[good, 1:]
+        ms[good] += np.sum(e * e, axis=1)  # over the samples one after the other, per run and DOF
+    ms[good] /= n
+    ms[bad] = np.inf
     return ms
 
 
@@ -350,17 +350,31 @@ def _gauss_newton_moments_numpy(
     return hess, grad
 
 
-def _lm_step(hess: np.ndarray, grad: np.ndarray, lam: float) -> np.ndarray:
-    """Levenberg-Marquardt step of one run with Marquardt's diagonal scaling (the parameters
-    differ by four orders of magnitude); NaN when the system is singular."""
-    d = np.sqrt(np.diag(hess))
-    if not (np.isfinite(d).all() and (d > 0).all()):
-        return np.full(len(grad), np.nan)
-    a = hess / np.outer(d, d) + lam * np.eye(len(d))
+def _lm_steps(hess: np.ndarray, grad: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """Levenberg-Marquardt steps (b, p) of the runs' hess (b, p, p), grad (b, p), lam (b,) with
+    Marquardt's diagonal scaling (the parameters differ by four orders of magnitude); NaN for a
+    run whose system is singular. One LAPACK solve per run in a stacked call (numpy's solve
+    loops over the stack: a run's numbers do not depend on the batch); a stack LAPACK rejects
+    is redone run by run."""
+    b, p = grad.shape
+    step = np.full((b, p), np.nan)
+    with np.errstate(invalid="ignore"):
+        d = np.sqrt(np.diagonal(hess, axis1=1, axis2=2))
+        ok = np.flatnonzero(np.isfinite(d).all(axis=1) & (d > 0).all(axis=1))
+    if not ok.size:
+        return step
+    d = d[ok]
+    a = hess[ok] / (d[:, :, None] * d[:, None, :]) + lam[ok, None, None] * np.eye(p)
+    rhs = grad[ok] / d
     try:
-        return np.linalg.solve(a, grad / d) / d
+        step[ok] = np.linalg.solve(a, rhs[..., None])[..., 0] / d
     except np.linalg.LinAlgError:
-        return np.full(len(grad), np.nan)
+        for j, k in enumerate(ok):
+            try:
+                step[k] = np.linalg.solve(a[j], rhs[j]) / d[j]
+            except np.linalg.LinAlgError:
+                pass
+    return step
 
 
 def _cost(ms: np.ndarray, w: np.ndarray, valid: np.ndarray, n: int) -> np.ndarray:
@@ -446,7 +460,7 @@ def output_error(
         if fresh.size:
             hess[fresh], grad[fresh] = _gauss_newton_moments(profile, terms, data, cur, theta, fresh, w)
         idx = np.flatnonzero(active & (iters < max_iter))
-        step = np.array([_lm_step(hess[b], grad[b], lam[b]) for b in idx]).reshape(-1, p)
+        step = _lm_steps(hess[idx], grad[idx], lam[idx])
         decrement = _decrement(step, grad[idx])
         done = np.isfinite(decrement) & (decrement < tol) & (lam[idx] <= _LM_START)
         converged[idx[done]] = True

@@ -6,11 +6,14 @@ that a singular or ill-conditioned one is a failed estimate (NaN), never a numbe
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 
-from primitives import jitloop
+from primitives import jitloop, regkernel
+from primitives.ship import ShipProfile
+from primitives.simulate import MIN_SPEED, SPEED, signals_read
 from primitives.terms import TermSet
 
 # A DOF's system fails (NaN) when the mean removal leaves one of its instruments constant to this
@@ -107,24 +110,73 @@ def iv_estimates(
     its order)."""
     if mean_subtraction == "batchwise" or phi.ndim != 3 or not jitloop.loaded():
         return iv_solve(terms, phi, z, tgt, mean_subtraction, starts)[0]
-    dof = np.concatenate([np.full(terms.dof_slice(i).stop - terms.dof_slice(i).start, i) for i in range(3)])
-    a, rhs, norms = _moments_pass(
-        np.ascontiguousarray(phi), np.ascontiguousarray(z), np.ascontiguousarray(tgt), dof, mean_subtraction == "complete"
+    moments = _moments_pass(
+        np.ascontiguousarray(phi),
+        np.ascontiguousarray(z),
+        np.ascontiguousarray(tgt),
+        _dof_of(terms),
+        mean_subtraction == "complete",
     )
+    return solve_moments(terms, *moments, mean_subtraction)
+
+
+def _dof_of(terms: TermSet) -> np.ndarray:
+    """The DOF of each parameter of a block-diagonal term set (p,)."""
+    return np.concatenate([np.full(terms.dof_slice(i).stop - terms.dof_slice(i).start, i) for i in range(3)])
+
+
+def solve_moments(terms: TermSet, a: np.ndarray, rhs: np.ndarray, norms: np.ndarray, mean_subtraction: str) -> np.ndarray:
+    """theta (B, p) from the compiled passes' moments: the systems A (B, p, p), right-hand sides
+    (B, p) and squared column norms of Z~, Phi, Z (3, B, p), judged and solved as :func:`iv_solve`
+    judges and solves them."""
     zt_norm, phi_norm, z_norm = np.sqrt(norms)
     with np.errstate(invalid="ignore"):
         constant = ~(zt_norm > CONSTANT_INSTRUMENT * z_norm) if mean_subtraction != "none" else zt_norm == 0
-    theta = np.empty(phi.shape[:1] + phi.shape[-1:])
+    theta = np.empty(rhs.shape)
     for i in range(3):
         s = terms.dof_slice(i)
         theta[:, s] = _solve_checked(a[:, s, s], rhs[:, s], zt_norm[:, s], phi_norm[:, s], constant[:, s].any(axis=-1))
     return theta
 
 
+@jitloop.inlined
+def _run_moments(z, phi_b, tgt_b, dof, complete, a_b, rhs_b, norms, j, zbar, zt):
+    """One run's sums over its samples (z, phi_b (N, p), tgt_b (N, 3)) into a_b (p, p), rhs_b (p,)
+    and norms[:, j]: A[q, r] = sum_k Z~(k, q) Phi(k, r) within a DOF's block, rhs[q] =
+    sum_k Z~(k, q) tgt(k, dof q), the squared column norms of Z~, Phi and Z; Z~ = Z less its
+    mean over the samples when ``complete``."""
+    n, p = phi_b.shape
+    lo, hi = np.empty(p, np.int64), np.empty(p, np.int64)  # each parameter's DOF block [lo, hi): dof is sorted
+    for q in range(p):
+        lo[q], hi[q] = q, q + 1
+        while lo[q] > 0 and dof[lo[q] - 1] == dof[q]:
+            lo[q] -= 1
+        while hi[q] < p and dof[hi[q]] == dof[q]:
+            hi[q] += 1
+    zbar[:] = 0.0
+    if complete:
+        for k in range(n):
+            for q in range(p):
+                zbar[q] += z[k, q]
+        for q in range(p):
+            zbar[q] = zbar[q] / n
+    for k in range(n):
+        for q in range(p):
+            zq = z[k, q]
+            zt[q] = zq - zbar[q]
+            ph = phi_b[k, q]
+            norms[0, j, q] += zt[q] * zt[q]
+            norms[1, j, q] += ph * ph
+            norms[2, j, q] += zq * zq
+            rhs_b[q] += zt[q] * tgt_b[k, dof[q]]
+        for q in range(p):
+            for r in range(lo[q], hi[q]):
+                a_b[q, r] += zt[q] * phi_b[k, r]
+
+
 @jitloop.compiled
 def _moments_pass(phi, z, tgt, dof, complete):
-    """Per run b: A[b, q, r] = sum_k Z~(k, q) Phi(k, r) within a DOF's block, rhs[b, q] =
-    sum_k Z~(k, q) tgt(k, dof q), and the squared column norms of Z~, Phi and Z."""
+    """Per run b the sums of :func:`_run_moments`: (A (B, p, p), rhs (B, p), norms (3, B, p))."""
     batch, n, p = phi.shape
     a = np.zeros((batch, p, p))
     rhs = np.zeros((batch, p))
@@ -132,24 +184,167 @@ def _moments_pass(phi, z, tgt, dof, complete):
     zbar = np.zeros(p)
     zt = np.empty(p)
     for b in range(batch):
-        zbar[:] = 0.0
-        if complete:
-            for k in range(n):
-                for q in range(p):
-                    zbar[q] += z[b, k, q]
-            for q in range(p):
-                zbar[q] = zbar[q] / n
-        for k in range(n):
-            for q in range(p):
-                zq = z[b, k, q]
-                zt[q] = zq - zbar[q]
-                ph = phi[b, k, q]
-                norms[0, b, q] += zt[q] * zt[q]
-                norms[1, b, q] += ph * ph
-                norms[2, b, q] += zq * zq
-                rhs[b, q] += zt[q] * tgt[b, k, dof[q]]
-            for q in range(p):
-                for r in range(p):
-                    if dof[r] == dof[q]:
-                        a[b, q, r] += zt[q] * phi[b, k, r]
+        _run_moments(z[b], phi[b], tgt[b], dof, complete, a[b], rhs[b], norms, b, zbar, zt)
     return a, rhs, norms
+
+
+def instrument_moments(
+    profile: ShipProfile,
+    sim_terms: TermSet,
+    terms: TermSet,
+    forces: np.ndarray | tuple[list[str], np.ndarray],
+    nu0: np.ndarray,
+    coef: np.ndarray,
+    runs: np.ndarray,
+    y: np.ndarray,
+    mean_subtraction: str,
+) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None:
+    """The IV moments of the runs ``runs`` from their measured velocities, with their instruments
+    simulated, in one compiled pass run by run that stores neither the regressors nor the
+    instruments: ((A, rhs, norms) as :func:`_moments_pass` gives them, sane (len(runs),): every
+    instrument finite and below ``Z_LIMIT`` in magnitude).
+
+    Phi(k) are the regressors of ``terms`` (the predictor (9.2), Ljungberg (2022)) at the measured
+    velocities y(k) (``y`` (B, N+1, 3); the estimator knows no current: u_r = u), the target
+    y(k+1) - y(k); Z(k) the same regressors at the noise-free calm-water simulation
+    nu(k+1) = nu(k) + Phi_sim(k)^T theta of ``sim_terms`` with ``coef`` (p_sim, 1 or len(runs)),
+    from ``nu0[runs]``, driven by ``forces``: the inputs (B or 1, N, m) or their :func:`run_forces`
+    (made once for several calls on the same runs). The operations are those of
+    :func:`primitives.regressors.predictor_regressors`, :func:`primitives.simulate.simulate`
+    (compiled loop) and :func:`_moments_pass` in their order, so the moments are the unfused path's
+    bits (but a term reading the speed U: the C library's hypot against numpy's, a last-bit
+    difference). None where the pass does not apply (no numba loaded, pods, roll, rigid body,
+    heading terms, powers other than 1, 2, -1, the mean removed per block): the caller takes the
+    unfused path. Wind terms read calm air, as the unfused path's regressors without a wind."""
+    if mean_subtraction == "batchwise" or profile.pods or profile.n_dof != 3 or profile.rigid_body is not None:
+        return None
+    if not jitloop.loaded() or regkernel._program(sim_terms.terms) is None or regkernel._program(terms.terms) is None:
+        return None
+    names, in_r = forces if isinstance(forces, tuple) else run_forces(profile, forces)
+    sim, reg = (jitloop.program(t, names, _CALM_STATE) for t in (sim_terms, terms))
+    if sim is None or reg is None:
+        return None
+    n_runs, p = len(runs), terms.n_params
+    a, rhs, norms, sane = np.zeros((n_runs, p, p)), np.zeros((n_runs, p)), np.zeros((3, n_runs, p)), np.zeros(n_runs, np.bool_)
+    speed = SPEED in signals_read(sim_terms) or SPEED in signals_read(terms)
+    _instrument_pass(
+        in_r,
+        np.ascontiguousarray(nu0, float),
+        np.ascontiguousarray(coef, float),
+        np.asarray(runs, np.int64),
+        *sim[:6],
+        sim[7],
+        sim[6],
+        *reg[2:6],
+        reg[7],
+        reg[6],
+        speed,
+        np.ascontiguousarray(y, float),
+        _dof_of(terms),
+        mean_subtraction == "complete",
+        Z_LIMIT,
+        a,
+        rhs,
+        norms,
+        sane,
+    )
+    return (a, rhs, norms), sane
+
+
+def run_forces(profile: ShipProfile, inputs: np.ndarray) -> tuple[list[str], np.ndarray]:
+    """The input signals' names and values (B or 1, N, signals) of ``inputs`` (B or 1, N, m), a
+    run's contiguous (:func:`instrument_moments` reads them run by run)."""
+    forces = profile.generalized_forces(inputs)  # each (1 or B, N)
+    shape = np.broadcast_shapes(*(np.shape(v) for v in forces.values()))
+    return list(forces), np.stack([np.broadcast_to(v, shape) for v in forces.values()], axis=-1)
+
+
+# signals the calm-water pass provides (primitives.jitloop's layout): the velocities relative to
+# water and air are the velocities, U their modulus; wind terms read zeros
+_CALM_STATE = frozenset({"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", "wx", "wy", "wn"})
+Z_LIMIT = 1e6  # instruments above this come from an exploding simulation
+
+
+@jitloop.inlined
+def _regressor_row(out, k, sig, in_r, ib, u, v, r, speed, t_first, t_n, f_sig, f_mod, f_pow, f_sta):
+    """out[k, t] = 1.0 * f_1 * f_2 ... of each term t (regkernel._build's product) at the calm-water
+    signals of the velocities u, v, r and the inputs of step k; the largest magnitude of the row."""
+    for i in range(in_r.shape[2]):
+        sig[jitloop.N_STATE + i] = in_r[ib, k, i]
+    sig[0], sig[1], sig[2], sig[3], sig[4], sig[5], sig[6] = u, v, r, u, v, u, v
+    if speed:
+        h = math.hypot(u, v)
+        sig[7] = MIN_SPEED if h < MIN_SPEED else h  # NaN stays NaN, as in np.maximum
+    worst = 0.0
+    for t in range(t_first.shape[0]):
+        acc = 1.0
+        for f in range(t_first[t], t_first[t] + t_n[t]):
+            acc = acc * regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
+        out[k, t] = acc
+        if not abs(acc) <= worst:  # NaN too
+            worst = abs(acc) if acc == acc else math.inf
+    return worst
+
+
+@jitloop.compiled
+def _instrument_pass(
+    in_r,
+    nu0,
+    coef,
+    runs,
+    dof_first,
+    dof_n,
+    t_first,
+    t_n,
+    f_sig,
+    f_mod,
+    f_pow,
+    f_sta,
+    r_first,
+    r_n,
+    g_sig,
+    g_mod,
+    g_pow,
+    g_sta,
+    speed,
+    y,
+    dof,
+    complete,
+    z_limit,
+    a,
+    rhs,
+    norms,
+    sane,
+):
+    """:func:`instrument_moments`' pass: per run j (batch member ``runs[j]``) Phi and the target from
+    its y, the time loop of primitives.jitloop.time_loop in calm water (each term c_t * f_1 * f_2 ...
+    summed left to right per DOF, nu(k+1) = nu(k) + inc) with Z(k) at nu(k), then :func:`_run_moments`."""
+    n, p = y.shape[1] - 1, dof.shape[0]
+    sig = np.zeros(jitloop.N_STATE + in_r.shape[2])
+    z, phi, tgt = np.empty((n, p)), np.empty((n, p)), np.empty((n, 3))
+    inc = np.zeros(3)
+    zbar, zt = np.zeros(p), np.empty(p)
+    for j in range(runs.shape[0]):
+        b = runs[j]
+        ib = b if in_r.shape[0] > 1 else 0
+        cj = j if coef.shape[1] > 1 else 0
+        for k in range(n):
+            _regressor_row(
+                phi, k, sig, in_r, ib, y[b, k, 0], y[b, k, 1], y[b, k, 2], speed, r_first, r_n, g_sig, g_mod, g_pow, g_sta
+            )
+            for i in range(3):
+                tgt[k, i] = y[b, k + 1, i] - y[b, k, i]
+        u, v, r = nu0[b, 0], nu0[b, 1], nu0[b, 2]
+        worst = 0.0
+        for k in range(n):
+            worst = max(worst, _regressor_row(z, k, sig, in_r, ib, u, v, r, speed, r_first, r_n, g_sig, g_mod, g_pow, g_sta))
+            for i in range(3):  # sig holds step k's signals from _regressor_row
+                inc[i] = 0.0
+                for t in range(dof_first[i], dof_first[i] + dof_n[i]):
+                    acc = coef[t, cj]
+                    for f in range(t_first[t], t_first[t] + t_n[t]):
+                        acc = acc * regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
+                    inc[i] = acc if t == dof_first[i] else inc[i] + acc
+            u, v, r = u + inc[0], v + inc[1], r + inc[2]
+        sane[j] = worst < z_limit
+        _run_moments(z, phi, tgt, dof, complete, a[j], rhs[j], norms, j, zbar, zt)

@@ -16,7 +16,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from expdesign.mc_result import MCResult, merge_results
-from expdesign.montecarlo import MAX_CHUNK, MCConfig, MCShared, prepare, run_chunk
+from expdesign.montecarlo import MAX_CHUNK, MCConfig, MCShared, prepare, run_chunk, warm_compiled
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
 from primitives.simulate import Disturbances
@@ -90,7 +90,7 @@ def evaluate_designs_parallel(
     for its workers and threads and gets at least ``tasks_per_worker`` tasks per worker; the
     shared inputs are computed once here and shipped once per worker. The per-run numbers are
     bit-identical to one in-process call."""
-    from expdesign.parallel import get_engine
+    from expdesign.parallel import LocalEngine, get_engine
 
     cfg = MCConfig(runs=runs, seed=seed, **protocol)
     sh = prepare(profile, designs, cfg, primitives, disturbances)
@@ -99,6 +99,8 @@ def evaluate_designs_parallel(
     try:
         workers, threads = engine.capacity()
         tasks = cut_tasks(sh.designs, runs, plan_tasks(runs, len(sh.designs), workers * threads, tasks_per_worker, chunk_runs))
+        if isinstance(engine, LocalEngine) and min(workers, len(tasks)) > 1:
+            warm_compiled(sh)  # once here, not once per worker
         res = engine.map(
             _task, tasks, desc="Monte Carlo", progress=progress, shared=sh, weights=[b - a for _, a, b in tasks], unit="runs"
         )

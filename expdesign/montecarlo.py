@@ -44,7 +44,8 @@ import numpy as np
 
 from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
-from expdesign.ivsolve import iv_estimates
+from expdesign.ivsolve import Z_LIMIT, instrument_moments, iv_estimates, run_forces
+from expdesign.ivsolve import solve_moments as iv_moments_solve
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.rounding import efficient_rounding
 from primitives import jitloop
@@ -59,8 +60,8 @@ from primitives.terms import TermSet
 PROTOCOLS = ("continuous", "piecewise")
 ORDERS = ("library", "given", "random")
 ESTIMATORS = ("oe", "iv")
-MAX_CHUNK = 500  # runs per batch: bounds memory (about 40 MB per (runs, samples, params) array)
-_Z_LIMIT = 1e6  # instruments above this come from an exploding simulation: keep the previous ones
+MAX_CHUNK = 250  # runs per batch: bounds memory; 250 measured 8 % less CPU a run than 500 (cache), 125 no better
+_Z_LIMIT = Z_LIMIT  # instruments above this come from an exploding simulation: keep the previous ones
 _EXPLODE = 100.0  # a validation output this many times the true one's maximum has diverged
 # Smallest value of each integer setting of MCConfig (min_block: a sub-experiment needs two samples for one increment)
 _MINIMA = (("n_segments", 1), ("min_block", 2), ("settle", 0), ("iv_iterations", 0), ("oe_iterations", 1))
@@ -288,14 +289,15 @@ def _experiment(sh: MCShared, seq: list[tuple[str, int]]) -> tuple[list[tuple[np
 @dataclass
 class _Seg:
     """One segment position of a batch of runs: inputs (B, L, m), nu0 (B, 3), regressors and
-    target from the noisy data (B, L, p) / (B, L, 3), instruments (B, L, p), measured
-    velocities (B, L+1, 3)."""
+    target from the noisy data (B, L, p) / (B, L, 3), instruments (B, L, p), measured velocities
+    (B, L+1, 3). With the fused pass (:func:`_fused`) the pass builds phi, target and instruments
+    itself: None here."""
 
     inputs: np.ndarray
     nu0: np.ndarray
-    phi: np.ndarray
-    tgt: np.ndarray
-    z: np.ndarray
+    phi: np.ndarray | None
+    tgt: np.ndarray | None
+    z: np.ndarray | None
     y: np.ndarray
 
 
@@ -307,33 +309,39 @@ def _noise(d: Disturbances, g: np.random.Generator, n: int, offset: np.ndarray) 
     return cur, wind, meas, head
 
 
-def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator]) -> list[_Seg]:
-    """Noisy data of every segment position for a batch of runs (noise drawn per run)."""
+def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fused: bool = False) -> list[_Seg]:
+    """Noisy data of every segment position for a batch of runs (noise drawn per run); without
+    the instruments (``z`` None) when ``fused``."""
     prof, d, b = sh.profile, sh.dist, len(exps)
     offsets = [g.normal(0.0, d.current_offset_std, 2) for g in gens]
     # the true system (disturbed) and the instrument model (calm) in one batch of 2B: the time
     # loop's cost is per step, not per realisation, and every operation in it is elementwise
-    theta = np.repeat(np.stack([prof.params(prof.simulation_set), prof.params(prof.instrument_set)]), b, axis=0)
+    # (with the fused pass, :func:`_fused`, the instruments are simulated with the IV moments: the true system alone)
+    sets = [prof.simulation_set] if fused else [prof.simulation_set, prof.instrument_set]
+    theta = np.repeat(np.stack([prof.params(s) for s in sets]), b, axis=0)
     out = []
     for j in range(len(exps[0])):
         inp = np.stack([e[j][0] for e in exps])
         nu0 = np.stack([e[j][1] for e in exps])
         cur, wind, meas, head = (np.stack(a) for a in zip(*(_noise(d, g, inp.shape[1], o) for g, o in zip(gens, offsets))))
-        calm = np.zeros_like(cur)
+        calm = [] if fused else [np.zeros_like(cur)]
         env = Disturbances(
-            current_ne=np.concatenate([cur, calm]), wind_ne=np.concatenate([wind, calm]), current_turning=d.current_turning
+            current_ne=np.concatenate([cur, *calm]), wind_ne=np.concatenate([wind, *calm]), current_turning=d.current_turning
         )
         with np.errstate(all="ignore"):
             res = simulate(
                 prof,
-                np.concatenate([inp, inp]),
+                np.concatenate([inp] * len(sets)),
                 theta,
-                nu0=np.concatenate([nu0, nu0]),
+                nu0=np.concatenate([nu0] * len(sets)),
                 disturbances=env,
-                batch=2 * b,
+                batch=len(sets) * b,
                 positions="psi" in signals_read(sh.predictor),
             )  # the data's heading: integrated when the dynamics need it
         y = res.nu[:b] + meas
+        if fused:  # the pass builds the regressors from y
+            out.append(_Seg(inp, nu0, None, None, None, y))
+            continue
         phi, tgt = predictor_regressors(prof, y, inp, res.eta[:b, :, 2] + head, terms=sh.predictor)
         z, _ = predictor_regressors(prof, res.nu[b:], inp, res.eta[b:, :, 2], terms=sh.predictor)
         out.append(_Seg(inp, nu0, phi, tgt, z, y))
@@ -378,30 +386,73 @@ def _resimulated_instruments(sh: MCShared, seg: _Seg, theta: np.ndarray, idx: np
 def _estimate(sh: MCShared, segs: list[_Seg], starts: list[list[int]]) -> np.ndarray:
     """Per-run IV estimates; each run re-simulates its instruments until its own estimate
     changes by less than 1e-3 (relative) or ``iv_iterations`` re-simulations were made."""
-    b = segs[0].phi.shape[0]
-    theta = _solve_runs(sh, segs, np.arange(b), starts)
-    active = np.isfinite(theta).all(axis=1)
-    for _ in range(sh.config.iv_iterations):
-        idx = np.flatnonzero(active)
-        if not idx.size:
-            break
+
+    def resolve(idx: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         znew = [_resimulated_instruments(sh, s, theta, idx) for s in segs]
         with np.errstate(invalid="ignore"):
             sane = np.logical_and.reduce(
                 [np.isfinite(z).all(axis=(1, 2)) & (np.abs(z).max(axis=(1, 2)) < _Z_LIMIT) for z in znew]
             )
-        active[idx[~sane]] = False  # its simulation diverged: keep the previous instruments
-        idx = idx[sane]
+        for s, z in zip(segs, znew):
+            s.z[idx[sane]] = z[sane]
+        th = np.full((len(idx), theta.shape[1]), np.nan)
+        if sane.any():
+            th[sane] = _solve_runs(sh, segs, idx[sane], starts)
+        return th, sane
+
+    return _iterate(_solve_runs(sh, segs, np.arange(segs[0].phi.shape[0]), starts), sh.config.iv_iterations, resolve)
+
+
+def _iterate(theta: np.ndarray, iterations: int, resolve) -> np.ndarray:
+    """The IV iterations from the first estimates ``theta`` (B, p): ``resolve(idx, theta)`` gives
+    the runs ``idx``'s estimates from instruments re-simulated with their latest ones and whether
+    that simulation stayed sane; a run stops when it did not (it keeps its estimate), when its
+    estimate changes by less than 1e-3 (relative) or fails, or after ``iterations``."""
+    active = np.isfinite(theta).all(axis=1)
+    for _ in range(iterations):
+        idx = np.flatnonzero(active)
         if not idx.size:
             break
-        for s, z in zip(segs, znew):
-            s.z[idx] = z[sane]
-        th = _solve_runs(sh, segs, idx, starts)
+        th, sane = resolve(idx, theta)
+        active[idx[~sane]] = False  # its simulation diverged: keep the previous instruments and estimate
+        idx, th = idx[sane], th[sane]
+        if not idx.size:
+            break
         with np.errstate(all="ignore"):
             change = np.max(np.abs(th - theta[idx]) / np.maximum(np.abs(th), 1e-12), axis=1)
         theta[idx] = th
         active[idx] = np.isfinite(th).all(axis=1) & (change >= 1e-3)
     return theta
+
+
+def _fused(sh: MCShared) -> bool:
+    """Whether the runs' instruments are simulated inside the IV moments' compiled pass
+    (:func:`expdesign.ivsolve.instrument_moments`: no instrument array stored, the same numbers):
+    the continuous protocol (one experiment per run), the mean removed over it or not at all, and
+    a model the pass covers (checked on a one-sample problem; numba loaded)."""
+    cfg, prof = sh.config, sh.profile
+    if cfg.protocol != "continuous" or cfg.mean_subtraction == "batchwise" or not jitloop.loaded():
+        return False
+    inputs, nu0, y = np.zeros((1, 1, len(prof.inputs))), np.zeros((1, 3)), np.zeros((1, 2, 3))
+    one = np.zeros(1, np.int64)
+    return all(
+        instrument_moments(prof, t, sh.predictor, inputs, nu0, np.zeros((t.n_params, 1)), one, y, "none") is not None
+        for t in (prof.model, sh.predictor)
+    )
+
+
+def _estimate_fused(sh: MCShared, seg: _Seg) -> np.ndarray:
+    """:func:`_estimate` with the instruments simulated in the moments' pass: the same iterations,
+    stopping rules and numbers (the instrument model first, then each run's latest estimate)."""
+    prof, cfg, b = sh.profile, sh.config, seg.y.shape[0]
+    forces = run_forces(prof, seg.inputs)  # once for the four passes
+
+    def solve(sim_terms: TermSet, coef: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        moments, sane = instrument_moments(prof, sim_terms, sh.predictor, forces, seg.nu0, coef, idx, seg.y, cfg.mean_subtraction)
+        return iv_moments_solve(sh.predictor, *moments, cfg.mean_subtraction), sane
+
+    first, _ = solve(prof.model, prof.params(prof.instrument_set)[:, None], np.arange(b))
+    return _iterate(first, cfg.iv_iterations, lambda idx, theta: solve(sh.predictor, theta[idx].T, idx))
 
 
 def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -414,12 +465,10 @@ def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         sim = simulate(sh.profile, sh.val_inputs, th, terms=sh.predictor, nu0=sh.val_nu0, batch=b, positions=False).nu
     bound = _EXPLODE * np.abs(sh.val_true).max()
     rmse = np.full((b, 3), np.inf)
-    diverged = ~finite
-    for i in range(b):
-        if diverged[i] or not np.isfinite(sim[i]).all() or np.abs(sim[i]).max() > bound:
-            diverged[i] = True
-            continue
-        rmse[i] = np.sqrt(np.mean((sim[i] - sh.val_true) ** 2, axis=0))
+    with np.errstate(invalid="ignore"):
+        diverged = ~finite | ~(np.abs(sim) <= bound).all(axis=(1, 2))  # NaN and inf too
+    good = np.flatnonzero(~diverged)
+    rmse[good] = np.sqrt(np.mean((sim[good] - sh.val_true) ** 2, axis=1))  # per run over the samples in order
     return rmse, diverged
 
 
@@ -467,8 +516,9 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     # depend on how the runs are cut into tasks (numba's load, about 0.6 s, once per process).
     jitloop.use(jitloop.MIN_WORK)
     layouts = [_experiment(sh, _sequence(sh, design, _run_rng(cfg.seed, i, 0))) for i in ids]
-    segs = _simulate_data(sh, [lay[0] for lay in layouts], [_run_rng(cfg.seed, i, 1) for i in ids])
-    theta = _estimate(sh, segs, [lay[1] for lay in layouts])
+    fused = _fused(sh)
+    segs = _simulate_data(sh, [lay[0] for lay in layouts], [_run_rng(cfg.seed, i, 1) for i in ids], fused)
+    theta = _estimate_fused(sh, segs[0]) if fused else _estimate(sh, segs, [lay[1] for lay in layouts])
     notes = list(sh.notes.get(design, []))
     if sh.theta0 is None:
         notes.append("predictor structure differs from the true model: parameter error not defined")
@@ -486,6 +536,16 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     result = _scored(sh, design, ids, oe.theta, "oe", notes, (val[0][:b], val[1][:b]))
     result.reference = _scored(sh, design, ids, theta, "iv", list(notes), (val[0][b:], val[1][b:]))
     return result
+
+
+def warm_compiled(sh: MCShared) -> None:
+    """Load numba and compile (or load from its disk cache) every compiled pass a run of ``sh``
+    calls, in this process, by running run 0 of the first design and dropping its result. A
+    process pool forked after this inherits the machine code (no worker imports numba or loads
+    a cache); workers started otherwise load the cache this wrote instead of each compiling the
+    same code at once (a cold cache costs about 15 s of CPU per process)."""
+    if jitloop.AVAILABLE:
+        run_chunk(sh, next(iter(sh.designs)), [0])
 
 
 # -- entry points ---------------------------------------------------------------------------------

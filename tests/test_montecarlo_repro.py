@@ -72,10 +72,10 @@ def test_same_digest_on_a_dask_local_cluster(ship, reference):
 
 
 def test_at_least_four_tasks_per_worker_slot():
-    assert plan_tasks(2000, 2, 2) == 4  # 2 designs x 4 tasks of 500 runs: 4 per worker
+    assert plan_tasks(2000, 2, 2) == 8  # 2 designs x 8 tasks of MAX_CHUNK = 250 runs: 8 per worker
     assert plan_tasks(2000, 2, 16) == 32
     assert plan_tasks(10, 1, 8) == 10  # fewer runs than 4 per worker: one run per task
-    assert plan_tasks(5000, 1, 1) == 10  # inline: big batches, bounded memory
+    assert plan_tasks(5000, 1, 1) == 20  # inline: batches of MAX_CHUNK runs, bounded memory
     assert plan_tasks(12, 2, 4, chunk_runs=5) == 3  # an explicit chunk size alone decides
 
 
