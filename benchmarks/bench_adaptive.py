@@ -263,17 +263,19 @@ def adaptive_vs_fixed(
 
 
 def predictive_error(prof, runs, heldout: list, ms: str) -> float:
-    """The IV estimate from ``runs`` scored by prediction: the predictor simulated at the
-    estimate through the inputs of each held-out recording (a noise-free truth run, from its
-    first state) against the recorded velocities; RMS over u, v, r of the error normalised by
-    each signal's RMS, mean over the recordings. Meaningful only where the predictor simulates the
-    ship (:func:`predictive_vs_fixed` refuses the others)."""
-    from primitives.simulate import signals_read, simulate
-
+    """The IV estimate from ``runs`` scored by :func:`simulation_error` on ``heldout``."""
     est = estimate(prof, [r.segment() for r in runs], method="iv", mean_subtraction=ms)
     th = est.theta[0]
-    if not np.all(np.isfinite(th)):
-        return float("inf")
+    return simulation_error(prof, th, heldout) if np.all(np.isfinite(th)) else float("inf")
+
+
+def simulation_error(prof, th: np.ndarray, heldout: list) -> float:
+    """The predictor simulated at ``th`` through the inputs of each held-out recording (from its
+    first state) against the recorded velocities; RMS over u, v, r of the error normalised by
+    each signal's RMS, mean over the recordings; inf for a diverging prediction (the worst,
+    never a number). Meaningful only where the predictor can simulate the ship."""
+    from primitives.simulate import signals_read, simulate
+
     out = []
     for r in heldout:
         with np.errstate(all="ignore"):
@@ -281,7 +283,7 @@ def predictive_error(prof, runs, heldout: list, ms: str) -> float:
                 prof, r.inputs, th, terms=prof.predictor, nu0=r.y[0], positions="psi" in signals_read(prof.predictor)
             ).nu[0]
         if not np.all(np.isfinite(sim)):
-            return float("inf")  # a diverging prediction: the worst, never a number
+            return float("inf")
         out.append(np.sqrt(np.mean(((sim - r.y) / np.maximum(np.sqrt(np.mean(r.y**2, axis=0)), 1e-9)) ** 2)))
     return float(np.mean(out))
 
