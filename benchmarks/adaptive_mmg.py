@@ -92,13 +92,13 @@ def replay(ship, prims: list, k_n: float) -> dict[str, ad.SailedRun]:
     return runs
 
 
-def held_out(ship, prof, k_n: float) -> list[ad.SailedRun]:
+def held_out(ship, prof, k_n: float, mans: list[Manoeuvre] = HELD_OUT) -> list[ad.SailedRun]:
     """Noise-free runs of manoeuvres the library does not hold (:data:`HELD_OUT`, closed loop at
     the cruise order), as the predictor reads them: recorded rudder and order, body velocities."""
     cruise_n = max(p.inputs[0, 1] for p in ship_library(prof))
-    runs = simulate_runs(ship, HELD_OUT, cruise_n * k_n)
+    runs = simulate_runs(ship, mans, cruise_n * k_n)
     out = []
-    for m, r in zip(HELD_OUT, runs):
+    for m, r in zip(mans, runs):
         inputs = np.column_stack([r.delta[:-1], r.n[:-1] / k_n])
         out.append(ad.SailedRun(-1, m.label, inputs, np.column_stack([r.u, r.v, r.r]), r.psi, f"MMG {m.label}"))
     return out
