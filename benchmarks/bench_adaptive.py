@@ -3,10 +3,9 @@ recordings of that third (Ljungberg 2022, (7.58); :mod:`expdesign.adaptive`) aga
 plan of the same length, on simulated ships whose parameters differ from the profile's.
 
 THE TRUTH IS THE ESTIMATOR'S OWN MODEL STRUCTURE AT DRAWN PARAMETERS (each parameter within
-+-30 % of the profile's, seeded): no ship in the project has a truth of another structure whose
-parameters the predictor's can be scored against (tests/physics/mmg_kvlcc2.py is an MMG model,
-whose coefficients are not the predictor's), so this is evidence for the re-design, not for a
-real ship. Recordings: white measurement noise on u, v, r (the figures printed), common random
++-30 % of the profile's, seeded): evidence for the re-design's bookkeeping, not for a real ship;
+:mod:`benchmarks.adaptive_mmg` runs the same loop on an independent truth (the MMG KVLCC2) scored
+by held-out prediction. Recordings: white measurement noise on u, v, r (the figures printed), common random
 numbers (:func:`sail_crn`). Parameter error of a trial: sqrt(mean(((theta_hat - theta_true) /
 theta_true)^2)) over the non-zero parameters, the IV estimate (:func:`expdesign.estimators.estimate`)
 from every run sailed; per truth the median over ``--runs`` noisy runs.

@@ -32,12 +32,7 @@ from expdesign.dopt import DEDICATED, InfoSet
 from expdesign.errors import DesignError
 from expdesign.estimators import Segment, data_information, estimate
 from expdesign.rounding import round_design
-from primitives.information import (
-    PrimitiveInfo,
-    information_moments,
-    library_information,
-    same_structure,
-)
+from primitives.information import PrimitiveInfo, information_moments, library_information, same_structure
 from primitives.library import Primitive
 from primitives.regressors import block_mask, predictor_regressors
 from primitives.ship import ShipProfile
