@@ -151,7 +151,7 @@ def one_truth(prof, lib, seq, n_first, ship, k_n, seed, runs, ms) -> dict:
         res[-1].append(rd.counts)
     arr = np.array([[x for pair in r[:3] for x in pair] for r in res])  # runs x (fixed, adaptive, control) x (pred, par)
     med = np.median(arr, axis=0)
-    return {"pred": med[0::2], "par": med[1::2], "ceiling": ceiling, "rest": res[0][3], "oracle": oracle.counts}
+    return {"pred": med[0::2], "par": med[1::2], "ceiling": ceiling, "rest": res[0][3]}
 
 
 def main() -> None:
