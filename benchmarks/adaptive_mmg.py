@@ -43,9 +43,7 @@ from tests.physics.mmg_sim import Manoeuvre, simulate_runs, straight_speed
 
 # the coefficients drawn: resistance, every hull derivative (Yasukawa & Yoshimura 2015, (10)-(12))
 # and the rudder's lift slope f_alpha (27)
-DRAWN = (
-    "R_0 X_vv X_vr X_rr X_vvvv Y_v Y_r Y_vvv Y_vvr Y_vrr Y_rrr N_v N_r N_vvv N_vvr N_vrr N_rrr f_alpha".split()
-)
+DRAWN = "R_0 X_vv X_vr X_rr X_vvvv Y_v Y_r Y_vvv Y_vvr Y_vrr Y_rrr N_v N_r N_vvv N_vvr N_vrr N_rrr f_alpha".split()
 SUBSTEPS = 1  # RK4 steps per 1 s sample: the library replayed at 1 differs from 4 by 1e-6 of each signal's RMS
 HELD_OUT = [Manoeuvre("zigzag", 15, 15, s, 600) for s in (1, -1)] + [Manoeuvre("turn", 25, 0, s, 400) for s in (1, -1)]
 
