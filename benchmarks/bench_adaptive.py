@@ -3,10 +3,9 @@ recordings of that third (Ljungberg 2022, (7.58); :mod:`expdesign.adaptive`) aga
 plan of the same length, on simulated ships whose parameters differ from the profile's.
 
 THE TRUTH IS THE ESTIMATOR'S OWN MODEL STRUCTURE AT DRAWN PARAMETERS (each parameter within
-+-30 % of the profile's, seeded): no ship in the project has a truth of another structure whose
-parameters the predictor's can be scored against (tests/physics/mmg_kvlcc2.py is an MMG model,
-whose coefficients are not the predictor's), so this is evidence for the re-design, not for a
-real ship. Recordings: white measurement noise on u, v, r (the figures printed), common random
++-30 % of the profile's, seeded): evidence for the re-design's bookkeeping, not for a real ship;
+:mod:`benchmarks.adaptive_mmg` runs the same loop on an independent truth (the MMG KVLCC2) scored
+by held-out prediction. Recordings: white measurement noise on u, v, r (the figures printed), common random
 numbers (:func:`sail_crn`). Parameter error of a trial: sqrt(mean(((theta_hat - theta_true) /
 theta_true)^2)) over the non-zero parameters, the IV estimate (:func:`expdesign.estimators.estimate`)
 from every run sailed; per truth the median over ``--runs`` noisy runs.
@@ -263,17 +262,19 @@ def adaptive_vs_fixed(
 
 
 def predictive_error(prof, runs, heldout: list, ms: str) -> float:
-    """The IV estimate from ``runs`` scored by prediction: the predictor simulated at the
-    estimate through the inputs of each held-out recording (a noise-free truth run, from its
-    first state) against the recorded velocities; RMS over u, v, r of the error normalised by
-    each signal's RMS, mean over the recordings. Meaningful only where the predictor simulates the
-    ship (:func:`predictive_vs_fixed` refuses the others)."""
-    from primitives.simulate import signals_read, simulate
-
+    """The IV estimate from ``runs`` scored by :func:`simulation_error` on ``heldout``."""
     est = estimate(prof, [r.segment() for r in runs], method="iv", mean_subtraction=ms)
     th = est.theta[0]
-    if not np.all(np.isfinite(th)):
-        return float("inf")
+    return simulation_error(prof, th, heldout) if np.all(np.isfinite(th)) else float("inf")
+
+
+def simulation_error(prof, th: np.ndarray, heldout: list) -> float:
+    """The predictor simulated at ``th`` through the inputs of each held-out recording (from its
+    first state) against the recorded velocities; RMS over u, v, r of the error normalised by
+    each signal's RMS, mean over the recordings; inf for a diverging prediction (the worst,
+    never a number). Meaningful only where the predictor can simulate the ship."""
+    from primitives.simulate import signals_read, simulate
+
     out = []
     for r in heldout:
         with np.errstate(all="ignore"):
@@ -281,7 +282,7 @@ def predictive_error(prof, runs, heldout: list, ms: str) -> float:
                 prof, r.inputs, th, terms=prof.predictor, nu0=r.y[0], positions="psi" in signals_read(prof.predictor)
             ).nu[0]
         if not np.all(np.isfinite(sim)):
-            return float("inf")  # a diverging prediction: the worst, never a number
+            return float("inf")
         out.append(np.sqrt(np.mean(((sim - r.y) / np.maximum(np.sqrt(np.mean(r.y**2, axis=0)), 1e-9)) ** 2)))
     return float(np.mean(out))
 

@@ -32,7 +32,7 @@ from expdesign.dopt import DEDICATED, InfoSet
 from expdesign.errors import DesignError
 from expdesign.estimators import Segment, data_information, estimate
 from expdesign.rounding import round_design
-from primitives.information import PrimitiveInfo, information_moments, library_information
+from primitives.information import PrimitiveInfo, information_moments, library_information, same_structure
 from primitives.library import Primitive
 from primitives.regressors import block_mask, predictor_regressors
 from primitives.ship import ShipProfile
@@ -215,11 +215,6 @@ def reidentify(
     return Reidentification(theta, names, nrmse, disagree, notes)
 
 
-def same_structure(profile: ShipProfile) -> bool:
-    """The predictor is the profile's simulation model (its parameters simulate the ship)."""
-    return profile.predictor_param_names == profile.param_names and profile.predictor_terms in (None, profile.model_terms)
-
-
 def rest_information(
     profile: ShipProfile, prims: Sequence[Primitive], theta: np.ndarray
 ) -> tuple[list[PrimitiveInfo], list[str]]:
@@ -257,8 +252,8 @@ def sailed_information(
     profile: ShipProfile, runs: Sequence[SailedRun], theta: np.ndarray | None, mean_subtraction: str = "complete"
 ) -> PrimitiveInfo:
     """M_sailed: the moments of the recordings, instruments simulated by the predictor at
-    ``theta`` (None: the profile's instrument set, as M_rest at the profile's values), each run
-    its own sub-experiment as the primitives of the rest are.
+    ``theta`` (None: the design's instrument set, :func:`primitives.information.design_instrument_set`,
+    as M_rest at the profile's values), each run its own sub-experiment as the primitives of the rest are.
 
     'complete' (7.57) removes one mean over the whole trial: the runs' pooled X0, Y0, Z0 enter
     its sums T, S and Z-bar. 'batchwise' (7.53) removes each run's own mean, so the prior is

@@ -25,7 +25,7 @@ import numpy as np
 from expdesign import oekernel, sensloop
 from expdesign.errors import DesignError
 from expdesign.ivsolve import iv_solve
-from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo, information_moments
+from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo, design_instrument_set, information_moments
 from primitives.regressors import block_mask, instruments, predictor_regressors
 from primitives.ship import ShipProfile
 from primitives.simulate import SPEED, model_signals, signals_read, simulate
@@ -183,9 +183,13 @@ def data_information(
 ) -> PrimitiveInfo:
     """Moments X, Y, Z (7.50), (7.51), (7.55) of data already collected (all realisations and
     segments pooled; every segment of the same B realisations), for the prior term (7.58) of a
-    re-planned design: pass the result as ``run_design(..., prior=info, prior_samples=info.n_samples)``."""
+    re-planned design: pass the result as ``run_design(..., prior=info, prior_samples=info.n_samples)``.
+    Instruments default to the design's (:func:`primitives.information.design_instrument_set`), so
+    the prior is in the same information model as the library's moments."""
     if not segments:
         raise DesignError("no data: the experiment has no segments")
+    if instrument_set is None:
+        instrument_set = design_instrument_set(profile)
     phi = np.concatenate([_regressors(profile, s)[0] for s in segments], axis=1)
     z = np.concatenate([_sim_instruments(profile, s, instrument_set) for s in segments], axis=1)
     return information_moments(name, phi, z, block_mask(profile.predictor))

@@ -5,6 +5,13 @@ X_q = mean Phi Z^T (7.50), Y_q = mean Phi (7.51), Z_q = mean Z (7.55), and
 Gamma_q = X_q (no mean subtraction, (7.18)) or X_q - Y_q Z_q^T (batchwise, (7.53)).
 The whole-experiment subtraction (7.57) mixes the primitives' means and so is formed by the
 design (``expdesign.dopt.InfoSet.gamma``) from X, Y and Z.
+
+The instruments are those of the estimator that will be run: the project's IV iterates, re-simulating
+the predictor with its latest estimate, so once converged on a ship that is the design's parameters its
+instruments are that ship's noise-free regressors, Z = Phi-hat (7.12). The profile's
+``instrument_set`` (a crude model) only starts that iteration, so the design does not use it where
+the predictor is the simulation model; the re-design mid-trial (:mod:`expdesign.adaptive`) uses the
+same model at its re-identified parameters, so a resume that learnt nothing leaves the rest as planned.
 """
 
 from __future__ import annotations
@@ -50,6 +57,19 @@ class PrimitiveInfo:
         return self.X - np.outer(self.Y, self.Z) * self.mask
 
 
+def same_structure(profile: ShipProfile) -> bool:
+    """The predictor is the profile's simulation model (its parameters simulate the ship)."""
+    return profile.predictor_param_names == profile.param_names and profile.predictor_terms in (None, profile.model_terms)
+
+
+def design_instrument_set(profile: ShipProfile) -> str:
+    """The parameter set the design simulates its instruments with: the simulation set where the
+    predictor is the simulation model (the converged IV's instruments at the design's parameters,
+    (7.12)); else the profile's instrument set (a predictor of another structure has no parameters
+    in the profile to converge to, and the re-design then keeps the same set)."""
+    return profile.simulation_set if same_structure(profile) else profile.instrument_set
+
+
 def primitive_information(
     profile: ShipProfile,
     primitive: Primitive,
@@ -64,7 +84,8 @@ def primitive_information(
     The regressors come from simulating the primitive's inputs with the profile's simulation
     set; with ``disturbances`` (current, noise) and several realisations they are averaged over
     Monte Carlo data like the thesis's estimated matrices; without, the nominal states are used.
-    Instruments come from a noise-free simulation of ``instrument_set`` (default the profile's).
+    Instruments come from a noise-free simulation of ``instrument_set`` (default
+    :func:`design_instrument_set`: the converged IV's).
     """
     terms = profile.predictor
     if disturbances is None or (disturbances.is_calm and not any(disturbances.measurement_std)):
@@ -74,6 +95,8 @@ def primitive_information(
         res = simulate(profile, primitive.inputs, nu0=primitive.nu0, disturbances=disturbances, batch=realisations, seed=seed)
         y, psi = res.y, res.psi_meas
     phi, _ = predictor_regressors(profile, y, np.broadcast_to(primitive.inputs, (y.shape[0],) + primitive.inputs.shape), psi)
+    if instrument_set is None:
+        instrument_set = design_instrument_set(profile)
     z = instruments(profile, primitive.inputs, instrument_set, primitive.nu0)
     return information_moments(primitive.name, phi, z, block_mask(terms))
 
