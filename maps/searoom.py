@@ -25,7 +25,7 @@ import numpy as np
 
 from expdesign.dopt import ROBUST, InfoSet
 from expdesign.errors import DesignError
-from maps.sizing import water_text
+from maps.sizing import Needs, row_text
 from primitives.information import PrimitiveInfo, library_information, unidentified_parameters
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
@@ -51,11 +51,13 @@ class SeaRoom:
         return [i for i, p in enumerate(self.library) if p.name not in self.exclude]
 
 
-def with_short_forms(profile: ShipProfile, room: SeaRoom, fits_nowhere: FitsNowhere) -> bool:
-    """Add the short forms of the excluded long manoeuvres not offered yet; those that fit
-    nowhere either (checked ``CHECK_AT_ONCE`` to a lattice) join the exclusions. True if any was added."""
+def with_short_forms(profile: ShipProfile, room: SeaRoom, fits_nowhere: FitsNowhere, every: bool = False) -> bool:
+    """Add the short forms of the excluded long manoeuvres not offered yet (``every``: of every
+    long manoeuvre, as a master in confined water would sail them); those that fit nowhere either
+    (checked ``CHECK_AT_ONCE`` to a lattice) join the exclusions. True if any was added."""
     table = short_form_table(profile)
-    todo = [n for n in room.exclude if n in table and n not in room.offered]
+    names = [p.name for p in room.library] if every else list(room.exclude)
+    todo = [n for n in names if n in table and n not in room.offered]
     if not todo:
         return False
     room.offered.update(todo)
@@ -112,7 +114,7 @@ def what_identifies(profile: ShipProfile, room: SeaRoom, held: list[str], mean_s
         for h in held:
             if h not in out and h not in dead:
                 out[h] = {"primitive": name, "needs_m": [float(need[0]), float(need[1])]}
-                out[h] |= {"unreachable": True} if getattr(need, "reach", False) else {}
+                out[h] |= need.record() if isinstance(need, Needs) else {}
         if len(out) == len(held):
             break
     return out
@@ -140,7 +142,7 @@ def held_text(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         by = r.get("identified_by")
         how = (
-            f"{water_text(by['primitive'], by['needs_m'], bool(by.get('unreachable')))}; it would identify them"
+            f"{row_text(by)}; it would identify them"
             if by
             else "no manoeuvre of the library identifies them here"
         )
@@ -153,7 +155,7 @@ def dropped_text(rows: list[dict[str, Any]], show: int = 4) -> str:
     """The plan's dropped manoeuvres for the summary: '; stopping dropped (stopping needs 10.6 km x
     98 m of open water)' each, past ``show`` of them only a count."""
     parts = [
-        f"; {r['primitive']} dropped ({water_text(r['primitive'], r['needs_m'], bool(r.get('unreachable')))})"
+        f"; {r['primitive']} dropped ({row_text(r)})"
         for r in rows[:show]
     ]
     return "".join(parts) + (f"; and {len(rows) - show} more dropped" if len(rows) > show else "")

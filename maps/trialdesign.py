@@ -23,7 +23,7 @@ from expdesign.prior import ParameterPrior
 from expdesign.robust import DrawInformation, draw_information
 from expdesign.rounding import _efficiency, round_design
 from maps.searoom import SeaRoom, check_robust, held_parameters, held_records, reduced_profile, restrict, with_short_forms
-from maps.sizing import km, water_text
+from maps.sizing import Needs, km, water_text
 from primitives.information import PrimitiveInfo, library_information
 from primitives.library import Primitive, build_library, thesis_primitives
 from primitives.ship import ShipProfile
@@ -165,7 +165,7 @@ def design_counts(
         )
         dropped = [
             {"primitive": name, "needs_m": [float(need[0]), float(need[1])], "efficiency_loss": float(max(0.0, loss))}
-            | ({"unreachable": True} if getattr(need, "reach", False) else {})
+            | (need.record() if isinstance(need, Needs) else {})
             for name, need in exclude.items()
         ]
         notes.append(
@@ -387,12 +387,16 @@ def design_for_map(
     seed: int = 0,
     first: FirstDesign | None = None,
     parameter_prior: ParameterPrior | None = None,
+    every_short_form: Callable[[], bool] | None = None,
 ) -> TrialDesign:
     """Design, check the support against the map, redesign without what fits nowhere.
 
     ``fits_nowhere(primitives, counts) -> {name: (along, cross)}`` tells which of the designed
     primitives have no place on the map (e.g. ``build_lattice(...).fits_nowhere``). ``first``:
     :func:`first_design` of the same profile, library and options, computed already.
+    ``every_short_form``: when it says True (asked once something fits nowhere; the planner's
+    confined-water lattice), the short forms of every long manoeuvre are offered, not only of those
+    that fit nowhere.
     """
     criterion = canonical_criterion(criterion)
     too_short: TrialTooShort | None = None
@@ -415,7 +419,8 @@ def design_for_map(
                 raise too_short
             return td
         room.exclude.update(bad)
-        if with_short_forms(profile, room, fits_nowhere) and draws is not None:  # the draws' matrices of the new ones too
+        every = every_short_form is not None and every_short_form()
+        if with_short_forms(profile, room, fits_nowhere, every) and draws is not None:  # the draws' matrices of the new ones too
             draws = draw_information(profile, room.library, parameter_prior, mean_subtraction, held_out=True)
         for i, trial_s in enumerate(lengths):
             try:
