@@ -141,6 +141,8 @@ def plan_with_design(
                 if not tried:
                     raise
                 lat, td = _fallback(design, f"{CONFINED_TRIED}: {exc}", apart)
+                if isinstance(exc, TrialTooShort) and td is not None and td.record.get("held_parameters"):
+                    lat.notes += longer_trial_note(exc, td.record["held_parameters"])
                 break
             if not switched:
                 break
@@ -157,6 +159,24 @@ def plan_with_design(
             apart |= left_out
     design_s = time.perf_counter() - t_design - lat.setup_s
     return solve(lat, design=td.record if td else None, vessel_name=vessel_name, t_all=t_all, design_s=design_s), td
+
+
+def longer_trial_note(short: TrialTooShort, held: list[dict[str, Any]]) -> list[str]:
+    """What would identify the parameters a plan holds when the confined-water design needed a longer
+    trial (``short``): its manoeuvres, each placed in this water on the confined-water lattice, and
+    the trial length they take (whether they can be sailed together is known only once planned).
+    None (an empty list) when that design held them all too."""
+    names = [h["parameter"] for h in held]
+    still = [n for n in names if n in short.held]
+    gain = [n for n in names if n not in short.held]
+    if not short.support or not gain:
+        return []
+    what = f"{', '.join(gain)} of the held parameters" if still else "every held parameter"
+    return [
+        f"a longer trial would identify {what} in this water: {', '.join(short.support)} each have a placement on the "
+        f"confined-water lattice, and one of each takes --trial-length >= {short.need_s:.0f} s"
+        + (f" ({', '.join(still)} held still)" if still else "")
+    ]
 
 
 def _fallback(

@@ -119,6 +119,14 @@ def test_kvlcc2_in_an_8_by_6_km_bay_gets_a_verified_plan_with_the_held_parameter
     # the confined-water lattice was tried first: a 360 s trial cannot hold the turns it makes reachable
     assert plan.stats["options"]["settle"] == "lattice"
     assert any(n.startswith("confined-water settling") and "tried and not kept" in n for n in plan.stats["notes"])
+    # ... and the notes say what in this water would identify the held ones: the confined-water design's
+    # manoeuvres (each placed there) in a longer trial; before, only the coarse lattice's verdict was given
+    longer = [n for n in plan.stats["notes"] if n.startswith("a longer trial would identify every held parameter")]
+    assert len(longer) == 1, plan.stats["notes"]
+    need = float(re.search(r"--trial-length >= (\d+) s", longer[0]).group(1))
+    assert need > 360.0
+    longer_plan, longer_td = plan_with_design(_bay(tmp_path), profile=kvlcc2, primitives=lib, trial_length_s=need, headings=8)
+    assert longer_plan.feasible and "held_parameters" not in longer_td.record  # measured: the 180 deg turn and the stop
     head, _ = design_rows(plan)  # the trial card's design section names them too
     line = next(x for x in head if x.startswith("Held at the profile's values"))
     assert all(n in line for n in held)
