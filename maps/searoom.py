@@ -141,11 +141,7 @@ def held_text(rows: list[dict[str, Any]]) -> str:
     groups: dict[str, list[str]] = {}
     for r in rows:
         by = r.get("identified_by")
-        how = (
-            f"{row_text(by)}; it would identify them"
-            if by
-            else "no manoeuvre of the library identifies them here"
-        )
+        how = f"{row_text(by)}; it would identify them" if by else "no manoeuvre of the library identifies them here"
         val = f"{r['value']:.4g}" if isinstance(r.get("value"), (int, float)) else "the profile's value"
         groups.setdefault(how, []).append(f"{r['parameter']} = {val}")
     return "; ".join(f"{', '.join(names)} ({how})" for how, names in groups.items())
@@ -154,10 +150,7 @@ def held_text(rows: list[dict[str, Any]]) -> str:
 def dropped_text(rows: list[dict[str, Any]], show: int = 4) -> str:
     """The plan's dropped manoeuvres for the summary: '; stopping dropped (stopping needs 10.6 km x
     98 m of open water)' each, past ``show`` of them only a count."""
-    parts = [
-        f"; {r['primitive']} dropped ({row_text(r)})"
-        for r in rows[:show]
-    ]
+    parts = [f"; {r['primitive']} dropped ({row_text(r)})" for r in rows[:show]]
     return "".join(parts) + (f"; and {len(rows) - show} more dropped" if len(rows) > show else "")
 
 

@@ -176,8 +176,11 @@ def design_counts(
             | (need.record() if isinstance(need, Needs) else {})
             for name, need in exclude.items()
         ]
+        why = "fits nowhere on the map" + (
+            ", or not with the rest of the mix" if any(getattr(n, "apart", False) for n in exclude.values()) else ""
+        )
         notes.append(
-            f"design redone without {', '.join(exclude)} (fits nowhere on the map): {criterion}-efficiency "
+            f"design redone without {', '.join(exclude)} ({why}): {criterion}-efficiency "
             f"{100 * (1 - loss):.1f} % of the full library's optimum"
         )
     record = _record(prims, w, counts, criterion, mean_subtraction, d_eff, c_eff, dropped, trial_s)

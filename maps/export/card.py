@@ -179,7 +179,8 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
             name = str(dr.get("primitive"))
             head.append(
                 (
-                    f"Dropped (fits nowhere on the map): {row_text(dr | {'primitive': name})}"
+                    f"Dropped ({'fits alone, not with the rest' if dr.get('apart') else 'fits nowhere on the map'}): "
+                    f"{row_text(dr | {'primitive': name})}"
                     if pair
                     else f"Dropped {name}: fits nowhere on the map"
                 )
