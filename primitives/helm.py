@@ -184,13 +184,10 @@ def zigzag(
     n_switches: int = 4,
     n_rps: float | None = None,
     regain: bool = False,
-    reverse: bool = False,
 ) -> Generated:
     """Zig-zag delta/psi (IMO): rudder to one side, counter-rudder each time the heading change
     passes psi; ends at the heading after ``n_switches`` rudder reversals (``regain``: then
-    :func:`regain_speed`). ``reverse``: then full rudder the way she swings until she is on the
-    reciprocal of the initial course, and speed regained on it (:func:`regain_speed`), as a master
-    in narrow water turns back after the test; the turn is recorded with the zig-zag."""
+    :func:`regain_speed`)."""
     n, u = _approach(profile, n_rps)
     loop = HelmLoop(profile, (u, 0.0, 0.0), n)
     s = side_sign(first_side)
@@ -205,13 +202,7 @@ def zigzag(
             loop.splits.append(loop.k)
             loop.helm(s * delta_deg, at_heading=True)
         loop.step()
-    if reverse:
-        loop.helm(s * profile.helm.max_rudder_deg, "turn to the reciprocal course")
-        lead = 2.0 * profile.length_m / u
-        while loop.k < 2 * n_max and s * loop.heading_deg + lead * abs(loop.yaw_rate_deg_s) < 180.0:
-            loop.step()
-        regain_speed(loop, n, u, course=s * 180.0)
-    elif regain:
+    if regain:
         regain_speed(loop, n, u, course=None)
     return loop.generated()
 

@@ -29,9 +29,6 @@ from primitives.ship import ShipProfile
 # rudder executes of the short zig-zags (the library's own have n_switches = 4: five executes);
 # three executes give the first and second overshoot angles of the IMO test
 ZIGZAG_EXECUTES = (4, 3, 2)
-# IMO zig-zags of these executes also sailed out and back: then hard over onto the reciprocal course
-# (a master's turn back in narrow water: the move ends heading home, no course reversal needed after it)
-REVERSED_EXECUTES = (3, 2)
 # excitation zig-zags (the library's: six switches, seven executes)
 EXCITATION_EXECUTES = (5, 3, 2)
 # direct spiral: (rudder steps, ship lengths each is held); the library's is DIEUDONNE_STEPS, 5 L
@@ -70,19 +67,6 @@ def _zigzags(
             lambda e=e: hm.zigzag(profile, d, psi, first_side=side, n_rps=n, n_switches=e - 1, regain=True),
         )
         for e in executes
-    ]
-
-
-def _reversed_zigzags(profile: ShipProfile, long: str, d: float, side: str) -> list[ShortForm]:
-    """The IMO zig-zag ``long`` of each of :data:`REVERSED_EXECUTES` executes, then onto the reciprocal course."""
-    return [
-        ShortForm(
-            f"{long}_e{e}_back",
-            f"zig-zag {d:g}/{d:g}, first rudder to {side}, {e} rudder executes (IMO), then full rudder onto the "
-            "reciprocal course and full ahead to regain speed",
-            lambda e=e: hm.zigzag(profile, d, d, first_side=side, n_switches=e - 1, reverse=True),
-        )
-        for e in REVERSED_EXECUTES
     ]
 
 
@@ -164,7 +148,7 @@ def short_form_table(profile: ShipProfile) -> dict[str, list[ShortForm]]:
         name = f"zigzag_{d}_{d}_{s[0]}"
         table[name] = _zigzags(
             profile, name, d, d, ZIGZAG_EXECUTES, s, f"zig-zag {d:g}/{d:g}, first rudder to {s}, " + "{e} rudder executes (IMO)"
-        ) + _reversed_zigzags(profile, name, d, s)
+        )
     for n, pct in ((n0, 100), (n_slow, round(100 * n_slow / n0))):
         for d, psi in ((10, 5), (min(25, full), 5)):
             name = f"zz_exc_{d:g}_{psi}_{pct}"
