@@ -176,6 +176,7 @@ def longer_trial_note(short: TrialTooShort, held: list[dict[str, Any]]) -> list[
         f"a longer trial would identify {what} in this water: {', '.join(short.support)} each have a placement on the "
         f"confined-water lattice, and one of each takes --trial-length >= {short.need_s:.0f} s"
         + (f" ({', '.join(still)} held still)" if still else "")
+        + "; whether they can all be sailed together is known only once that trial is planned"
     ]
 
 

@@ -113,8 +113,9 @@ def not_sailable_together(lat: Lattice, mean_subtraction: str = "complete") -> d
     """The designed manoeuvres that the best sailable mix (:func:`best_mix`, the parameters
     identified under ``mean_subtraction`` first) sails fewer times than designed, as
     :class:`maps.sizing.Needs` (``apart``); empty when the whole mix is sailable (a failure
-    elsewhere: the verification), when nothing is or when the search is undecided."""
-    pb = lat.problem()
+    elsewhere), when nothing is or when the search is undecided. Asked of the problem searched last:
+    with the placements whose re-simulation broke the margin blocked."""
+    pb = lat.last_problem()
     mixes = sailable_mixes(pb)
     full = tuple(pb.targets)
     if not mixes or full in mixes:
