@@ -152,7 +152,7 @@ def plan_with_design(
                 return plan, td
             # the mix may not be sailable together although each manoeuvre fits: redesign without what the
             # best sailable part of it leaves out (maps.sailable)
-            left_out = not_sailable_together(lat, mean_subtraction) if attempt < MAX_REDESIGNS else {}
+            left_out = not_sailable_together(lat) if attempt < MAX_REDESIGNS else {}
             if not left_out:
                 lat, td = _fallback(design, f"{CONFINED_TRIED}: no verified plan ({plan.stats.get('reason', '')})", apart)
                 break
@@ -229,7 +229,7 @@ def _design_on_map(
             return fits_nowhere(ps, cs)
         return bad
 
-    td = design_for_map(prof, fits_nowhere, primitives, **dkw, every_short_form=lambda: built["o"].settle == "ship")
+    td = design_for_map(prof, fits_nowhere, primitives, **dkw)
     lat = built["lat"]
     lat.notes[:0] = td.notes
     switched = built["o"].settle != o.settle

@@ -5,27 +5,21 @@ reachable after it (:meth:`maps.chain.Lattice.fits_nowhere`); in confined water 
 the mix sailable: a VLCC's turn may end where no stop can follow. On the counter-augmented lattice
 (Ljungberg 2022, (8.3)-(8.5)) a breadth-first search from the start, over states from which the
 goal stays reachable (counters ignored), gives every counter vector (g_1..g_Q), g_q <= d_q, with
-which a path reaches the goal: the mixes the water holds. The planner keeps the one that identifies
-the most parameters, then sails the most of the designed time, and re-designs without the
-manoeuvres it leaves out.
+which a path reaches the goal: the mixes the water holds. The planner keeps the one that sails the
+most of the designed time and re-designs without the manoeuvres it leaves out.
 """
 
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import breadth_first_order
 
-from expdesign.dopt import InfoSet
 from maps.astar import Problem
 from maps.sizing import Needs, needs
-from primitives.information import library_information, unidentified_parameters
-from primitives.library import Primitive
-from primitives.ship import ShipProfile
 
 if TYPE_CHECKING:
     from maps.chain import Lattice
@@ -83,37 +77,16 @@ def sailable_mixes(pb: Problem, max_states: int = MAX_STATES) -> set[tuple[int, 
     return {tuple((c // stride[q]) % radix[q] for q in range(Q)) for c in out}
 
 
-def best_mix(
-    mixes: set[tuple[int, ...]], seconds: list[float], identified: Callable[[tuple[int, ...]], int] | None = None
-) -> tuple[int, ...]:
-    """The mix that identifies the most parameters (``identified(mix)``, when given; asked of the
-    mixes no other sailable mix contains), then sails the most manoeuvre time (``seconds``: each
-    counter's manoeuvre duration), then the most manoeuvres; ties by the counters' order."""
-    top = [g for g in mixes if not any(h != g and all(a <= b for a, b in zip(g, h)) for h in mixes)]
-    score = identified or (lambda g: 0)
-    return max(top, key=lambda g: (score(g), sum(n * s for n, s in zip(g, seconds)), sum(g), g))
+def best_mix(mixes: set[tuple[int, ...]], seconds: list[float]) -> tuple[int, ...]:
+    """The mix that sails the most manoeuvre time (``seconds``: each counter's manoeuvre duration),
+    then the most manoeuvres; ties by the counters' order (deterministic)."""
+    return max(mixes, key=lambda g: (sum(n * s for n, s in zip(g, seconds)), sum(g), g))
 
 
-def identified_by(profile: ShipProfile, prims: list[Primitive], mean_subtraction: str) -> Callable[[tuple[int, ...]], int]:
-    """``mix -> number of the profile's parameters`` the mix (counts of ``prims``) identifies, from
-    each primitive's information matrix (:func:`primitives.information.unidentified_parameters`)."""
-    infos = library_information(profile, prims)
-
-    def count(g: tuple[int, ...]) -> int:
-        w = np.array([n * p.n_samples for n, p in zip(g, prims)], float)
-        if w.sum() <= 0:
-            return 0
-        gamma = InfoSet.from_infos(infos).gamma(w / w.sum(), mean_subtraction)
-        return len(profile.predictor_param_names) - len(unidentified_parameters(profile, gamma))
-
-    return count
-
-
-def not_sailable_together(lat: Lattice, mean_subtraction: str = "complete") -> dict[str, Needs]:
-    """The designed manoeuvres that the best sailable mix (:func:`best_mix`, the parameters
-    identified under ``mean_subtraction`` first) sails fewer times than designed, as
-    :class:`maps.sizing.Needs` (``apart``); empty when the whole mix is sailable (a failure
-    elsewhere), when nothing is or when the search is undecided. Asked of the problem searched last:
+def not_sailable_together(lat: Lattice) -> dict[str, Needs]:
+    """The designed manoeuvres that the best sailable mix (:func:`best_mix`) sails fewer times than
+    designed, as :class:`maps.sizing.Needs` (``apart``); empty when the whole mix is sailable (a
+    failure elsewhere), when nothing is or when the search is undecided. Asked of the problem searched last:
     with the placements whose re-simulation broke the margin blocked."""
     pb = lat.last_problem()
     mixes = sailable_mixes(pb)
@@ -121,6 +94,6 @@ def not_sailable_together(lat: Lattice, mean_subtraction: str = "complete") -> d
     if not mixes or full in mixes:
         return {}
     prims = [lat.primitives[n] for n in lat.cnames]
-    best = best_mix(mixes, [p.duration_s for p in prims], identified_by(lat.profile, prims, mean_subtraction))
+    best = best_mix(mixes, [p.duration_s for p in prims])
     margin = lat.options.margin
     return {p.name: needs(p, margin, apart=True) for p, g, d in zip(prims, best, full) if g < d}

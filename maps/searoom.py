@@ -51,13 +51,11 @@ class SeaRoom:
         return [i for i, p in enumerate(self.library) if p.name not in self.exclude]
 
 
-def with_short_forms(profile: ShipProfile, room: SeaRoom, fits_nowhere: FitsNowhere, every: bool = False) -> bool:
-    """Add the short forms of the excluded long manoeuvres not offered yet (``every``: of every
-    long manoeuvre, as a master in confined water would sail them); those that fit nowhere either
-    (checked ``CHECK_AT_ONCE`` to a lattice) join the exclusions. True if any was added."""
+def with_short_forms(profile: ShipProfile, room: SeaRoom, fits_nowhere: FitsNowhere) -> bool:
+    """Add the short forms of the excluded long manoeuvres not offered yet; those that fit
+    nowhere either (checked ``CHECK_AT_ONCE`` to a lattice) join the exclusions. True if any was added."""
     table = short_form_table(profile)
-    names = [p.name for p in room.library] if every else list(room.exclude)
-    todo = [n for n in names if n in table and n not in room.offered]
+    todo = [n for n in room.exclude if n in table and n not in room.offered]
     if not todo:
         return False
     room.offered.update(todo)

@@ -398,16 +398,12 @@ def design_for_map(
     seed: int = 0,
     first: FirstDesign | None = None,
     parameter_prior: ParameterPrior | None = None,
-    every_short_form: Callable[[], bool] | None = None,
 ) -> TrialDesign:
     """Design, check the support against the map, redesign without what fits nowhere.
 
     ``fits_nowhere(primitives, counts) -> {name: (along, cross)}`` tells which of the designed
     primitives have no place on the map (e.g. ``build_lattice(...).fits_nowhere``). ``first``:
     :func:`first_design` of the same profile, library and options, computed already.
-    ``every_short_form``: when it says True (asked once something fits nowhere; the planner's
-    confined-water lattice), the short forms of every long manoeuvre are offered, not only of those
-    that fit nowhere.
     """
     criterion = canonical_criterion(criterion)
     too_short: TrialTooShort | None = None
@@ -430,8 +426,7 @@ def design_for_map(
                 raise too_short
             return td
         room.exclude.update(bad)
-        every = every_short_form is not None and every_short_form()
-        if with_short_forms(profile, room, fits_nowhere, every) and draws is not None:  # the draws' matrices of the new ones too
+        if with_short_forms(profile, room, fits_nowhere) and draws is not None:  # the draws' matrices of the new ones too
             draws = draw_information(profile, room.library, parameter_prior, mean_subtraction, held_out=True)
         for i, trial_s in enumerate(lengths):
             try:
