@@ -142,10 +142,10 @@ def km(m: float) -> str:
     return f"{m / 1000:.1f} km" if m >= 1000 else f"{m:.0f} m"
 
 
-def row_text(row: dict[str, Any], name_key: str = "primitive") -> str:
+def row_text(row: dict[str, Any]) -> str:
     """:func:`water_text` of a plan's record row ({primitive, needs_m, unreachable?, apart?})."""
     need = Needs(*row["needs_m"], bool(row.get("unreachable")), bool(row.get("apart")))
-    return water_text(row[name_key], need)
+    return water_text(row["primitive"], need)
 
 
 def water_text(name: str, need: tuple[float, float], reach: bool | None = None) -> str:
