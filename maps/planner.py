@@ -163,8 +163,9 @@ def plan_with_design(
 
 def longer_trial_note(short: TrialTooShort, held: list[dict[str, Any]]) -> list[str]:
     """What would identify the parameters a plan holds when the confined-water design needed a longer
-    trial (``short``): its manoeuvres, each placed in this water on the confined-water lattice, and
-    the trial length they take (whether they can be sailed together is known only once planned).
+    trial (``short``): its manoeuvres and the trial length they take. The design at that length may
+    name manoeuvres the map check has not placed (its check ran on the longer design's), so whether they
+    fit and can be sailed together is known only once that trial is planned.
     None (an empty list) when that design held them all too."""
     names = [h["parameter"] for h in held]
     still = [n for n in names if n in short.held]
@@ -173,10 +174,10 @@ def longer_trial_note(short: TrialTooShort, held: list[dict[str, Any]]) -> list[
         return []
     what = f"{', '.join(gain)} of the held parameters" if still else "every held parameter"
     return [
-        f"a longer trial would identify {what} in this water: {', '.join(short.support)} each have a placement on the "
-        f"confined-water lattice, and one of each takes --trial-length >= {short.need_s:.0f} s"
+        f"a longer trial would identify {what} in this water: the confined-water design needs {', '.join(short.support)}, "
+        f"one of each takes --trial-length >= {short.need_s:.0f} s"
         + (f" ({', '.join(still)} held still)" if still else "")
-        + "; whether they can all be sailed together is known only once that trial is planned"
+        + "; whether they all fit and can be sailed together is known only once that trial is planned"
     ]
 
 

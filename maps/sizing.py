@@ -110,8 +110,9 @@ class Needs(tuple):
     water's extent would hold it but no collision-free placement of its move (run-in, manoeuvre
     and the autopilot's settling leg) is reachable from the start with the goal reachable after it
     (then the pair is the move's extent, and the water it needs is more than that). ``apart`` True
-    (with ``reach``): each placement is reachable, but not after the rest of the designed mix
-    (:mod:`maps.sailable`)."""
+    (with ``reach``): the design's check found a placement (reachable by any moves, the other
+    designed manoeuvres included: :meth:`maps.chain.Lattice.fits_nowhere`), but no path start to goal
+    sails it with the rest of the designed mix (:mod:`maps.sailable`); it may not fit alone either."""
 
     reach: bool
     apart: bool

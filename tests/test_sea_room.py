@@ -120,7 +120,7 @@ def test_kvlcc2_in_an_8_by_6_km_bay_gets_a_verified_plan_with_the_held_parameter
     assert plan.stats["options"]["settle"] == "lattice"
     assert any(n.startswith("confined-water settling") and "tried and not kept" in n for n in plan.stats["notes"])
     # ... and the notes say what in this water would identify the held ones: the confined-water design's
-    # manoeuvres (each placed there) in a longer trial; before, only the coarse lattice's verdict was given
+    # manoeuvres in a longer trial; before, only the coarse lattice's verdict was given
     longer = [n for n in plan.stats["notes"] if n.startswith("a longer trial would identify every held parameter")]
     assert len(longer) == 1, plan.stats["notes"]
     need = float(re.search(r"--trial-length >= (\d+) s", longer[0]).group(1))

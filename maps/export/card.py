@@ -179,7 +179,7 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
             name = str(dr.get("primitive"))
             head.append(
                 (
-                    f"Dropped ({'fits alone, not with the rest' if dr.get('apart') else 'fits nowhere on the map'}): "
+                    f"Dropped ({'not sailable with the rest of the mix' if dr.get('apart') else 'fits nowhere on the map'}): "
                     f"{row_text(dr | {'primitive': name})}"
                     if pair
                     else f"Dropped {name}: fits nowhere on the map"
