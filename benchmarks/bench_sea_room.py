@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 from maps.planner import plan_with_design
-from maps.sizing import water_text
+from maps.sizing import row_text
 from maps.testmaps import bay
 from primitives.library import build_library, thesis_primitives
 from primitives.ship import load_profile
@@ -68,12 +68,13 @@ def main() -> None:
             f"  {name} x{n}: {lib[name].duration_s:.0f} s, {(b[2] - b[0]) / 1000:.1f} x {(b[3] - b[1]) / 1000:.1f} km  ({lib[name].description})"
         )
     print(
-        f"  plan {plan.duration_s / 60:.1f} min, {plan.length_m / 1000:.1f} km; dropped {len(td.record['dropped'])} (fit nowhere)"
+        f"  plan {plan.duration_s / 60:.1f} min, {plan.length_m / 1000:.1f} km; dropped {len(td.record['dropped'])} (fit nowhere or apart)"
     )
-    print(f"  dropped: {', '.join(d['primitive'] for d in td.record['dropped'])}")
+    print(f"  dropped: {', '.join(d['primitive'] + (' (apart)' if d.get('apart') else '') for d in td.record['dropped'])}")
+    print("  (apart: passed the per-manoeuvre map check, but no path sails it with the rest of a designed mix)")
     for h in td.record.get("held_parameters", []):
         by = h["identified_by"]
-        why = f"  (identified by {water_text(by['primitive'], by['needs_m'], bool(by.get('unreachable')))})" if by else ""
+        why = f"  (identified by {row_text(by)})" if by else ""
         print(f"  held {h['parameter']} = {h['value']:.4g}{why}")
 
 

@@ -215,6 +215,11 @@ class Lattice:
         self._problem = (key, pb)
         return pb
 
+    def last_problem(self) -> astar.Problem:
+        """The problem searched last (footprints grown, placements that broke the margin blocked by
+        the re-plans of :func:`maps.planner.solve`), else the plain one."""
+        return self._problem[1] if self._problem is not None else self.problem()
+
     def _build_problem(self, extra: float, blocked: frozenset) -> astar.Problem:
         K, nj, win = len(self.table), self.window.nj, self.window
         pen = self.options.clearance_cost * self.options.basic_cost

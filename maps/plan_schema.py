@@ -171,6 +171,7 @@ PLAN_SCHEMA: dict[str, Any] = {
                             "needs_m": {"type": "array", "minItems": 2, "maxItems": 2, "items": _num(0.0, 1e8)},
                             "efficiency_loss": {"anyOf": [{"type": "null"}, _num(-10.0, 10.0)]},
                             "unreachable": {"type": "boolean"},
+                            "apart": {"type": "boolean"},
                         },
                     },
                 },
@@ -193,6 +194,7 @@ PLAN_SCHEMA: dict[str, Any] = {
                                             "primitive": NAME,
                                             "needs_m": {"type": "array", "minItems": 2, "maxItems": 2, "items": _num(0.0, 1e8)},
                                             "unreachable": {"type": "boolean"},
+                                            "apart": {"type": "boolean"},
                                         },
                                     },
                                 ]

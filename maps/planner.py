@@ -27,7 +27,9 @@ from maps.chain import LatLonHdg, PlanOptions, assemble_plan, build_lattice, pre
 from maps.geo import MapError, SeaMap, load_map
 from maps.motionset import default_resolution, resolve_primitives
 from maps.plan import Plan
+from maps.sailable import not_sailable_together
 from maps.scenario import thesis_planning_scenario
+from maps.sizing import Needs
 from maps.smooth import unsteady_executes
 from maps.trialdesign import FirstDesign, TrialDesign, TrialTooShort, design_for_map
 from primitives.library import Primitive
@@ -42,6 +44,7 @@ CONFINED_NOTE = (
     "0.05 m/s, speed within 0.1 m/s, regained full ahead, on the lattice line within half the beam) rather than to "
     "the autopilot's 0.2 deg and 1 % of a length"
 )
+MAX_REDESIGNS = 6  # confined water: designs redone without what cannot be sailed with the rest of the mix
 CONFINED_TRIED = "confined-water settling (a finer lattice, moves settled as a master would) tried and not kept"
 
 __all__ = ["PlanOptions", "plan_trial", "plan_with_design", "default_resolution", "SCENARIOS"]
@@ -125,31 +128,67 @@ def plan_with_design(
         dkw = dict(criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length_s, seed=seed)
         dkw |= dict(first=first, parameter_prior=parameter_prior)
 
-        tried: dict[str, bool] = {}
+        tried: dict[str, Any] = {}
+        apart: dict[str, Needs] = {}  # confined water: manoeuvres the water cannot hold with the rest of the mix
 
         def design(confined: bool) -> tuple[Any, TrialDesign, bool]:
-            return _design_on_map(sea, prof, o, cache, start, goal, primitives, dkw, tried if confined else None)
+            return _design_on_map(sea, prof, o, cache, start, goal, primitives, dkw, tried if confined else None, apart)
 
-        try:
-            lat, td, switched = design(True)
-        except (DesignError, MapError) as exc:  # confined-water settling found no design: today's planning decides
-            if not tried:
-                raise
-            lat, td = _fallback(design, f"{CONFINED_TRIED}: {exc}")
-            switched = False
-        if switched:
+        for attempt in range(MAX_REDESIGNS + 1):
+            try:
+                lat, td, switched = design(True)
+            except (DesignError, MapError) as exc:  # confined-water settling found no design: today's planning decides
+                if not tried:
+                    raise
+                lat, td = _fallback(design, f"{CONFINED_TRIED}: {exc}", apart)
+                if isinstance(exc, TrialTooShort) and td is not None and td.record.get("held_parameters"):
+                    lat.notes += longer_trial_note(exc, td.record["held_parameters"])
+                break
+            if not switched:
+                break
             design_s = time.perf_counter() - t_design - lat.setup_s
             plan = solve(lat, design=td.record, vessel_name=vessel_name, t_all=t_all, design_s=design_s)
             if plan.feasible:
                 return plan, td
-            lat, td = _fallback(design, f"{CONFINED_TRIED}: no verified plan ({plan.stats.get('reason', '')})")
+            # the mix may not be sailable together although each manoeuvre fits: redesign without what the
+            # best sailable part of it leaves out (maps.sailable)
+            left_out = not_sailable_together(lat) if attempt < MAX_REDESIGNS else {}
+            if not left_out:
+                lat, td = _fallback(design, f"{CONFINED_TRIED}: no verified plan ({plan.stats.get('reason', '')})", apart)
+                break
+            apart |= left_out
     design_s = time.perf_counter() - t_design - lat.setup_s
     return solve(lat, design=td.record if td else None, vessel_name=vessel_name, t_all=t_all, design_s=design_s), td
 
 
-def _fallback(design: Callable[[bool], tuple[Any, TrialDesign, bool]], why: str) -> tuple[Any, TrialDesign]:
+def longer_trial_note(short: TrialTooShort, held: list[dict[str, Any]]) -> list[str]:
+    """What would identify the parameters a plan holds when the confined-water design needed a longer
+    trial (``short``): its manoeuvres and the trial length they take. The design at that length may
+    name manoeuvres the map check has not placed (its check ran on the longer design's), so whether they
+    fit and can be sailed together is known only once that trial is planned.
+    None (an empty list) when that design held them all too."""
+    names = [h["parameter"] for h in held]
+    still = [n for n in names if n in short.held]
+    gain = [n for n in names if n not in short.held]
+    if not short.support or not gain:
+        return []
+    what = f"{', '.join(gain)} of the held parameters" if still else "every held parameter"
+    return [
+        f"a longer trial would identify {what} in this water: the confined-water design needs {', '.join(short.support)}, "
+        f"one of each takes --trial-length >= {short.need_s:.0f} s"
+        + (f" ({', '.join(still)} held still)" if still else "")
+        + "; whether they all fit and can be sailed together is known only once that trial is planned"
+    ]
+
+
+def _fallback(
+    design: Callable[[bool], tuple[Any, TrialDesign, bool]], why: str, apart: dict[str, Needs] | None = None
+) -> tuple[Any, TrialDesign]:
     """Today's lattice and design after the confined-water attempt failed (``why``, one line): a note
-    on the plan, or appended to the refusal when today's planning refuses too, so the user sees both."""
+    on the plan, or appended to the refusal when today's planning refuses too, so the user sees both.
+    ``apart`` (the confined lattice's verdicts) is emptied: today's lattice judges for itself."""
+    if apart:
+        apart.clear()
     why = " ".join(why.split())  # one line, whatever the reason held
     try:
         lat, td, _ = design(False)
@@ -168,21 +207,25 @@ def _design_on_map(
     goal: LatLonHdg | None,
     primitives: list[Primitive] | None,
     dkw: dict[str, Any],
-    confined: dict[str, bool] | None,
+    confined: dict[str, Any] | None,
+    apart: dict[str, Needs] | None = None,
 ) -> tuple[Any, TrialDesign, bool]:
     """(lattice, design, switched): the design of the ship's library redone without what fits nowhere
     (:func:`maps.trialdesign.design_for_map`). ``confined`` (a dict, or None for today's lattice only): a
     rudder ship whose library does not all fit switches to the confined-water lattice
-    (:func:`confined_options`) for the rest, and ``confined["switched"]`` is set (also when the design then fails)."""
+    (:func:`confined_options`) for the rest, and ``confined["switched"]`` is set (also when the design then fails).
+    ``apart``: manoeuvres the confined lattice cannot sail with the rest of an earlier mix, left out there too."""
     built: dict[str, Any] = {"o": o, "cache": cache}
 
     def fits_nowhere(ps: list[Primitive], cs: dict[str, int]) -> dict[str, tuple[float, float]]:
         lo, lc = built["o"], built["cache"]
         built["lat"] = build_lattice(sea, prof, ps, cs, start=start, goal=goal, options=lo, cache=lc, prefilter=True)
         bad = built["lat"].fits_nowhere()
+        if built["o"].settle == "ship" and apart:
+            bad |= {p.name: apart[p.name] for p in ps if p.name in apart and p.name not in bad}
         if bad and confined is not None and lo.settle == "lattice" and prof.actuator == "rudder_propeller":
-            # its own cache: today's lattice's moves, built already, stay for the fallback
-            built["o"], built["cache"] = confined_options(lo, prof, sea), {}
+            # its own cache (kept for the redesigns): today's lattice's moves, built already, stay for the fallback
+            built["o"], built["cache"] = confined_options(lo, prof, sea), confined.setdefault("cache", {})
             confined["switched"] = True
             return fits_nowhere(ps, cs)
         return bad

@@ -275,7 +275,10 @@ def resume_plan(
     rd = redesign(profile, library, before + runs, time_left_s, mean_subtraction=ms, seed=seed)
     if dropped:
         rd.record["dropped"] = list((plan.design or {})["dropped"])
-        rd.notes.append(f"the rest leaves out {', '.join(sorted(dropped))}, as the first plan did (fits nowhere on the map)")
+        why = "fits nowhere on the map" + (
+            ", or not with the rest of the mix" if any(d.get("apart") for d in rd.record["dropped"]) else ""
+        )
+        rd.notes.append(f"the rest leaves out {', '.join(sorted(dropped))}, as the first plan did ({why})")
     goal = plan.stats.get("goal")
     new, _ = plan_with_design(
         sea,

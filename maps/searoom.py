@@ -25,7 +25,7 @@ import numpy as np
 
 from expdesign.dopt import ROBUST, InfoSet
 from expdesign.errors import DesignError
-from maps.sizing import water_text
+from maps.sizing import Needs, row_text
 from primitives.information import PrimitiveInfo, library_information, unidentified_parameters
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
@@ -112,7 +112,7 @@ def what_identifies(profile: ShipProfile, room: SeaRoom, held: list[str], mean_s
         for h in held:
             if h not in out and h not in dead:
                 out[h] = {"primitive": name, "needs_m": [float(need[0]), float(need[1])]}
-                out[h] |= {"unreachable": True} if getattr(need, "reach", False) else {}
+                out[h] |= need.record() if isinstance(need, Needs) else {}
         if len(out) == len(held):
             break
     return out
@@ -139,11 +139,7 @@ def held_text(rows: list[dict[str, Any]]) -> str:
     groups: dict[str, list[str]] = {}
     for r in rows:
         by = r.get("identified_by")
-        how = (
-            f"{water_text(by['primitive'], by['needs_m'], bool(by.get('unreachable')))}; it would identify them"
-            if by
-            else "no manoeuvre of the library identifies them here"
-        )
+        how = f"{row_text(by)}; it would identify them" if by else "no manoeuvre of the library identifies them here"
         val = f"{r['value']:.4g}" if isinstance(r.get("value"), (int, float)) else "the profile's value"
         groups.setdefault(how, []).append(f"{r['parameter']} = {val}")
     return "; ".join(f"{', '.join(names)} ({how})" for how, names in groups.items())
@@ -152,10 +148,7 @@ def held_text(rows: list[dict[str, Any]]) -> str:
 def dropped_text(rows: list[dict[str, Any]], show: int = 4) -> str:
     """The plan's dropped manoeuvres for the summary: '; stopping dropped (stopping needs 10.6 km x
     98 m of open water)' each, past ``show`` of them only a count."""
-    parts = [
-        f"; {r['primitive']} dropped ({water_text(r['primitive'], r['needs_m'], bool(r.get('unreachable')))})"
-        for r in rows[:show]
-    ]
+    parts = [f"; {r['primitive']} dropped ({row_text(r)})" for r in rows[:show]]
     return "".join(parts) + (f"; and {len(rows) - show} more dropped" if len(rows) > show else "")
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from decimal import Decimal
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import shapely
@@ -109,29 +109,44 @@ class Needs(tuple):
     larger than the navigable water in every heading (the water it needs at least); True when the
     water's extent would hold it but no collision-free placement of its move (run-in, manoeuvre
     and the autopilot's settling leg) is reachable from the start with the goal reachable after it
-    (then the pair is the move's extent, and the water it needs is more than that)."""
+    (then the pair is the move's extent, and the water it needs is more than that). ``apart`` True
+    (with ``reach``): the design's check found a placement (reachable by any moves, the other
+    designed manoeuvres included: :meth:`maps.chain.Lattice.fits_nowhere`), but no path start to goal
+    sails it with the rest of the designed mix (:mod:`maps.sailable`); it may not fit alone either."""
 
     reach: bool
+    apart: bool
 
-    def __new__(cls, along: float, cross: float, reach: bool = False) -> Needs:
+    def __new__(cls, along: float, cross: float, reach: bool = False, apart: bool = False) -> Needs:
         obj = super().__new__(cls, (float(along), float(cross)))
-        obj.reach = bool(reach)
+        obj.reach = bool(reach or apart)
+        obj.apart = bool(apart)
         return obj
 
-    def __getnewargs__(self) -> tuple[float, float, bool]:  # pickles with its reason
-        return (self[0], self[1], self.reach)
+    def __getnewargs__(self) -> tuple[float, float, bool, bool]:  # pickles with its reason
+        return (self[0], self[1], self.reach, self.apart)
+
+    def record(self) -> dict[str, Any]:
+        """The reason's keys in a plan's record: ``unreachable`` and ``apart`` (only when true)."""
+        return ({"unreachable": True} if self.reach else {}) | ({"apart": True} if self.apart else {})
 
 
-def needs(p: Primitive, margin: float, reach: bool = False) -> Needs:
+def needs(p: Primitive, margin: float, reach: bool = False, apart: bool = False) -> Needs:
     """(along, cross) metres of open water ``p`` takes: its footprint's extent plus ``margin`` on both
-    sides (``reach``: see :class:`Needs`)."""
+    sides (``reach``, ``apart``: see :class:`Needs`)."""
     b = p.footprint.bounds
-    return Needs(b[2] - b[0] + 2 * margin, b[3] - b[1] + 2 * margin, reach)
+    return Needs(b[2] - b[0] + 2 * margin, b[3] - b[1] + 2 * margin, reach, apart)
 
 
 def km(m: float) -> str:
     """A length for a message: '6.2 km', or '530 m' below a kilometre."""
     return f"{m / 1000:.1f} km" if m >= 1000 else f"{m:.0f} m"
+
+
+def row_text(row: dict[str, Any]) -> str:
+    """:func:`water_text` of a plan's record row ({primitive, needs_m, unreachable?, apart?})."""
+    need = Needs(*row["needs_m"], bool(row.get("unreachable")), bool(row.get("apart")))
+    return water_text(row["primitive"], need)
 
 
 def water_text(name: str, need: tuple[float, float], reach: bool | None = None) -> str:
@@ -140,6 +155,8 @@ def water_text(name: str, need: tuple[float, float], reach: bool | None = None) 
     'pull_out_20_s (6.7 km x 5.4 km with run-in and settling leg) has no reachable placement' (none
     reachable from the start with the goal reachable after it; one line with the others stays short)."""
     a, c = float(need[0]), float(need[1])
+    if getattr(need, "apart", False):
+        return f"{name} ({km(a)} x {km(c)} with run-in and settling leg) cannot be sailed after the rest of the mix"
     if reach if reach is not None else getattr(need, "reach", False):
         return f"{name} ({km(a)} x {km(c)} with run-in and settling leg) has no reachable placement"
     return f"{name} needs {km(a)} x {km(c)} of open water"

@@ -23,7 +23,7 @@ from expdesign.prior import ParameterPrior
 from expdesign.robust import DrawInformation, draw_information
 from expdesign.rounding import _efficiency, round_design
 from maps.searoom import SeaRoom, check_robust, held_parameters, held_records, reduced_profile, restrict, with_short_forms
-from maps.sizing import km, water_text
+from maps.sizing import Needs, km, water_text
 from primitives.information import PrimitiveInfo, library_information
 from primitives.library import Primitive, build_library, thesis_primitives
 from primitives.ship import ShipProfile
@@ -61,7 +61,12 @@ class NoFitError(DesignError):
 class TrialTooShort(DesignError):
     """The trial length cannot hold one of each manoeuvre the design needs, or even one
     manoeuvre (what fits a small map may need fewer or shorter: :func:`design_for_map` tries
-    that before it says so)."""
+    that before it says so). ``support``: the manoeuvres the design needs one of each, ``need_s``:
+    the trial length they take, ``held``: the parameters that design held (empty: none)."""
+
+    def __init__(self, msg: str, support: tuple[str, ...] = (), need_s: float = 0.0, held: tuple[str, ...] = ()):
+        super().__init__(msg)
+        self.support, self.need_s, self.held = tuple(support), float(need_s), tuple(held)
 
 
 def ship_library(profile: ShipProfile) -> list[Primitive]:
@@ -105,9 +110,12 @@ def _whole_manoeuvres(
     sel = weights > 1e-9
     if not np.isfinite(info.value(counts * units / max(1, counts @ units), mean_subtraction, "D")):
         need = float(units[sel].sum() * ts)
+        names = tuple(p.name for p, s in zip(prims, sel) if s)
         raise TrialTooShort(
             f"--trial-length {trial_s:g} s cannot hold one of each manoeuvre the design needs "
-            f"({', '.join(p.name for p, s in zip(prims, sel) if s)}): give --trial-length >= {need:.0f}"
+            f"({', '.join(names)}): give --trial-length >= {need:.0f}",
+            names,
+            need,
         )
     real = counts * units / (counts @ units)
     d_eff = _efficiency(info.value(real, mean_subtraction, "D"), info.value(weights, mean_subtraction, "D"), info.n_params, "D")
@@ -165,11 +173,14 @@ def design_counts(
         )
         dropped = [
             {"primitive": name, "needs_m": [float(need[0]), float(need[1])], "efficiency_loss": float(max(0.0, loss))}
-            | ({"unreachable": True} if getattr(need, "reach", False) else {})
+            | (need.record() if isinstance(need, Needs) else {})
             for name, need in exclude.items()
         ]
+        why = "fits nowhere on the map" + (
+            ", or not with the rest of the mix" if any(getattr(n, "apart", False) for n in exclude.values()) else ""
+        )
         notes.append(
-            f"design redone without {', '.join(exclude)} (fits nowhere on the map): {criterion}-efficiency "
+            f"design redone without {', '.join(exclude)} ({why}): {criterion}-efficiency "
             f"{100 * (1 - loss):.1f} % of the full library's optimum"
         )
     record = _record(prims, w, counts, criterion, mean_subtraction, d_eff, c_eff, dropped, trial_s)
@@ -459,7 +470,11 @@ def _held_design(profile: ShipProfile, room: SeaRoom, held: list[str], opts: dic
     values; its record lists them (:func:`maps.searoom.held_records`)."""
     keep = np.array([n not in held for n in profile.predictor_param_names])
     reduced = reduced_profile(profile, held)
-    td = design_counts(reduced, room.library, **opts, exclude=room.exclude, infos=restrict(room.infos, keep))
+    try:
+        td = design_counts(reduced, room.library, **opts, exclude=room.exclude, infos=restrict(room.infos, keep))
+    except TrialTooShort as exc:
+        exc.held = tuple(held)
+        raise
     rows, notes = held_records(profile, room, held, opts["mean_subtraction"])
     td.record["held_parameters"] = rows
     td.notes[1:1] = notes

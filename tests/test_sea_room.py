@@ -114,6 +114,14 @@ def test_kvlcc2_in_an_8_by_6_km_bay_gets_a_verified_plan_with_the_held_parameter
     # the confined-water lattice was tried first: a 360 s trial cannot hold the turns it makes reachable
     assert plan.stats["options"]["settle"] == "lattice"
     assert any(n.startswith("confined-water settling") and "tried and not kept" in n for n in plan.stats["notes"])
+    # ... and the notes say what in this water would identify the held ones: the confined-water design's
+    # manoeuvres in a longer trial; before, only the coarse lattice's verdict was given
+    longer = [n for n in plan.stats["notes"] if n.startswith("a longer trial would identify every held parameter")]
+    assert len(longer) == 1, plan.stats["notes"]
+    need = float(re.search(r"--trial-length >= (\d+) s", longer[0]).group(1))
+    assert need > 360.0
+    longer_plan, longer_td = plan_with_design(_bay(tmp_path), profile=kvlcc2, primitives=lib, trial_length_s=need, headings=8)
+    assert longer_plan.feasible and "held_parameters" not in longer_td.record  # measured: the 180 deg turn and the stop
     head, _ = design_rows(plan)  # the trial card's design section names them too
     line = next(x for x in head if x.startswith("Held at the profile's values"))
     assert all(n in line for n in held)
@@ -164,6 +172,30 @@ def test_kvlcc2_in_the_bay_turns_round_on_a_confined_water_lattice_and_the_plan_
     for n in notes:
         got = [float(v) for v in re.findall(r"([+-]\d+\.\d+) m/s", n)]
         assert got == pytest.approx(expect[int(n.split()[1])], abs=1e-3), n
+
+
+def test_a_mix_the_bay_cannot_hold_together_is_redesigned_without_what_cannot_follow(tmp_path, kvlcc2, kvlcc2_lib):
+    """Before: each manoeuvre of the confined-water design had a placement of its own, but the mix (a
+    stop after the turns) could not be sailed start to goal, and the fallback (six stops on the coarse
+    lattice) was refused: no plan. Now the design is redone without the stop, the manoeuvre the best
+    sailable part of the mix leaves out (maps.sailable), and the plan of shortened turns is verified;
+    the stop is listed as dropped because it cannot follow the rest, not as too large for the water."""
+    lib = by_name(kvlcc2_lib, ["turning_circle_35_p", "pull_out_20_s", "stopping"])
+    plan, td = plan_with_design(_bay(tmp_path), profile=kvlcc2, primitives=lib, trial_length_s=2124.0, headings=8)
+    assert plan.feasible and plan.min_clearance_m >= plan.margin_m
+    assert plan.stats["options"]["settle"] == "ship"
+    counts = {k: v for k, v in td.record["counts"].items() if v}
+    assert counts and all(k.startswith("turning_circle_35_p_") for k in counts)  # measured: the 180 deg turn x3
+    assert sorted(s.primitive for s in plan.steps if s.kind == "informative") == sorted(
+        k for k, v in counts.items() for _ in range(v)
+    )
+    apart = [d for d in td.record["dropped"] if d.get("apart")]
+    assert [d["primitive"] for d in apart] == ["stopping_coast_75"]
+    a, c = apart[0]["needs_m"]
+    assert max(a, c) <= 8000.0 and min(a, c) <= 6000.0  # it fits the bay alone
+    assert apart[0]["unreachable"] is True
+    head, _ = design_rows(plan)
+    assert any("stopping_coast_75 (" in x and "cannot be sailed after the rest of the mix" in x for x in head)
 
 
 def test_astern_power_declared_stops_the_ship_through_the_kernel(kvlcc2):

@@ -43,7 +43,7 @@ from maps.export.plots import PlanFigures
 from maps.export.route import build_route
 from maps.export.wording import bridge_orders, knots, manoeuvre_name, phase
 from maps.plan import Plan
-from maps.sizing import water_text
+from maps.sizing import row_text
 from primitives.io import atomic_write_bytes, atomic_write_text
 
 A4 = (8.27, 11.69)
@@ -179,7 +179,8 @@ def design_rows(plan: Plan) -> tuple[list[str], list[list[str]]]:
             name = str(dr.get("primitive"))
             head.append(
                 (
-                    f"Dropped (fits nowhere on the map): {water_text(name, need, dr.get('unreachable') is True)}"
+                    f"Dropped ({'not sailable with the rest of the mix' if dr.get('apart') else 'fits nowhere on the map'}): "
+                    f"{row_text(dr | {'primitive': name})}"
                     if pair
                     else f"Dropped {name}: fits nowhere on the map"
                 )
