@@ -93,6 +93,11 @@ MIN_ANGLE_OFFSET_DEG = 0.2  # below the reading of a rudder angle indicator
 # prediction anyone acts on. Stated relative to the run's own signal, not a sensor's accuracy
 # (a gyro's accuracy does not Froude-scale, and modern ones are far better than any floor)
 MIN_BIAS_FIT_POINTS = 1.0
+# a finding must raise some channel of some validation run by at least this many fit points:
+# a run may lose as much on a channel after the diagnosis (diagnose.perrun.GUARD_SLACK) and still
+# count as no worse, so a smaller gain is not told apart from what the baseline's own misfit moves
+# (on the MMG battery spurious terms beside a real finding raise 0.1-0.4 points, real ones 4-66)
+MIN_HELDOUT_FIT_POINTS = 1.0
 MIN_THRUST_CHANGE = 0.03  # 3 % of the thrust: within a propeller's day-to-day variation
 # at a set rpm the resistance balances the thrust: a change of it below the thrust's day-to-day
 # variation is the same unnoticeable speed change
