@@ -214,6 +214,8 @@ def interval_note(cov, key: str | None = None) -> dict:
                 " (rough with two runs: a spread with one degree of freedom, it can be several times too "
                 "large or too small; diagnose a third run to firm it up)"
             )
+    if getattr(cov, "within", None) is not None:
+        what += " and its misfit within the runs (the spread over eighths of each run)"
     tried = getattr(cov, "reference", None) is not None
     measured = tried and (key is None or key in getattr(cov, "reference_keys", frozenset()))
     if measured:
