@@ -264,6 +264,13 @@ def propagated(
     )
 
 
+def _prior_and_findings(model: AugmentedModel, free: list[int], prior_sd: np.ndarray | None) -> tuple[np.ndarray, list[int]]:
+    """The prior's Hessian diagonal over ``free`` and the positions among ``free`` of the findings'
+    (candidate slots') parameters."""
+    D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[free], len(free))
+    return D, [k for k, j in enumerate(free) if model.n_base <= j < model.n_slots_end]
+
+
 def finding_cov(
     model: AugmentedModel,
     preps: list[Prepared],
@@ -280,8 +287,7 @@ def finding_cov(
     findings' parameters (the candidate slots among ``free``) over ``preps``."""
     held = list(held or []) if held_cov is not None else []
     pairs = sensitivities(model, preps, P, list(free) + held, w)
-    D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[free], len(free))
-    cols = [k for k, j in enumerate(free) if model.n_base <= j < model.n_slots_end]
+    D, cols = _prior_and_findings(model, free, prior_sd)
     out = propagated(pairs, len(free), D, held_cov if held else None, cols)
     out.reference_runs = sum(id(p) in getattr(model, "reference_ids", ()) for p in preps)
     return out
@@ -404,7 +410,7 @@ def with_within(
     prior_sd: np.ndarray | None = None,
 ) -> FindingCov:
     """``cov`` with the misfit within the runs as its ``within`` part: the delete-a-block
-    jackknife (Kunsch 1989) over blocks of each run (:data:`BLOCKS_PER_RUN`), beyond its AR(1)
+    jackknife (Künsch 1989) over blocks of each run (:data:`BLOCKS_PER_RUN`), beyond its AR(1)
     noise expectation (:func:`jackknife`, :func:`excess`) and widened for the blocks' number
     (:func:`small_sample`), on the findings' parameters. A structural misfit that follows the
     manoeuvre within every run (a wind whose load varies with the relative angle otherwise than the
@@ -415,8 +421,7 @@ def with_within(
     if not len(cov.noise) or cov.n_runs < 2:  # one run: no between-run check either, and it says so
         return cov
     pairs = sensitivities(model, preps, P, list(free), w)
-    D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[free], len(free))
-    cols = [k for k, j in enumerate(free) if model.n_base <= j < model.n_slots_end]
+    D, cols = _prior_and_findings(model, free, prior_sd)
     cov.within = within_term(pairs, cols, cov.model, D)
     return cov
 

@@ -168,6 +168,7 @@ def simulate_runs(ship: MMGShip, mans: list[Manoeuvre], n: float, **kw) -> list[
         _SIMULATED[key] = _simulate_runs(ship, mans, n, **kw)
     return _SIMULATED[key]
 
+
 def _noise(rng: np.random.Generator, shape: tuple[int, ...], std: float, kind: str) -> np.ndarray:
     w = rng.standard_normal(shape)
     if kind != "ar1":
