@@ -96,7 +96,8 @@ MIN_BIAS_FIT_POINTS = 1.0
 # a finding must raise some channel of some validation run by at least this many fit points:
 # a run may lose as much on a channel after the diagnosis (diagnose.perrun.GUARD_SLACK) and still
 # count as no worse, so a smaller gain is not told apart from what the baseline's own misfit moves
-# (on the MMG battery spurious terms beside a real finding raise 0.1-0.4 points, real ones 4-66)
+# (on the MMG battery spurious terms beside a real finding raise 0.1-0.4 points, every real one
+# 2.8 or more, the delays least: 2.8-3.8; a chosen relevance floor, not derived from the noise)
 MIN_HELDOUT_FIT_POINTS = 1.0
 MIN_THRUST_CHANGE = 0.03  # 3 % of the thrust: within a propeller's day-to-day variation
 # at a set rpm the resistance balances the thrust: a change of it below the thrust's day-to-day
