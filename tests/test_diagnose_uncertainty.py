@@ -362,3 +362,16 @@ def test_the_within_run_term_covers_a_misfit_that_wanders_along_the_runs_and_lea
     z_runs, z_all, widen = np.array(z_runs), np.array(z_all), np.array(widen)
     assert np.mean(z_all < 1.96) >= np.mean(z_runs < 1.96) + 0.025
     assert np.median(widen) < 1.01 and np.mean(widen) < 1.1
+
+
+def test_without_fit_on_runs_the_within_run_part_keeps_the_run_to_run_column():
+    """Two diagnosed runs and no --fit-on: the interval holds the within-run part, so its noise and
+    run-to-run part is printed apart (``*_std_runs``), as the README says, and is no wider."""
+    from diagnose.api import run
+    from primitives.ship import load_profile
+    from tests.test_diagnose_heldout import _sampled_run
+
+    ship = load_profile("model-ship")
+    d = run([_sampled_run(ship, 0.3, s) for s in (1, 5)], ship, validate=[_sampled_run(ship, 0.3, 2)])
+    p = next(f for f in d.findings if f["effect"] == "actuator_delay")["parameters"]
+    assert p["delay_std"] >= p["delay_std_runs"] >= p["delay_std_noise"] > 0
