@@ -31,7 +31,7 @@ from diagnose.recording import Recording, RecordingError
 from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
 from diagnose.search import SearchResult, select
-from diagnose.uncertainty import FindingCov, finding_cov, with_reference
+from diagnose.uncertainty import FindingCov, finding_cov, with_reference, with_within
 from primitives.ship import DOFS, ShipProfile
 
 
@@ -214,6 +214,8 @@ def run(
     calm = [prepare(S.profile, r) for r in fit_on or []]
     if calm and steps and len(cov.noise):  # the model error common to every run, after the rule above
         cov = with_reference(cov, model, calm, w_fit, free, [st.candidate.key for st in steps], result.prior_std)
+    if steps and len(cov.noise):  # the misfit within the runs, after the rule above too
+        cov = with_within(cov, model, preps + S.calm_preps, w_fit, P, free, result.prior_std)
         findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
     add_wind_means(findings, model, preps, P, cov, free)
     structure = _structural(model, calm, w, P, findings)

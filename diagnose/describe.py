@@ -170,12 +170,18 @@ _BY_EFFECT = {
 STD_SUFFIXES = ("_std", "_std_deg")
 
 
+def _beyond_runs(cov) -> bool:
+    """Whether ``cov``'s total holds a part beyond noise and run-to-run misfit (the --fit-on runs'
+    or the within-run misfit), so that its noise and run-to-run part is worth its own column."""
+    return getattr(cov, "reference", None) is not None or getattr(cov, "within", None) is not None
+
+
 def with_interval(c: Candidate, model: AugmentedModel, P: np.ndarray, cov, free: list[int]) -> dict:
     """:func:`describe` with each std the total of ``cov`` (a :class:`diagnose.uncertainty.FindingCov`:
-    noise, run-to-run model misfit and the --fit-on runs' misfit), its noise part kept as
-    ``<name>_noise`` and, when the --fit-on part was measured, noise and run-to-run part as ``<name>_runs``."""
+    noise, run-to-run model misfit, the --fit-on runs' and the within-run misfit), its noise part kept as
+    ``<name>_noise`` and, when a part beyond them was measured, noise and run-to-run part as ``<name>_runs``."""
     out = describe(c, model, P, cov.total, free)
-    parts = {"noise": cov.noise} | ({"runs": cov.runs} if getattr(cov, "reference", None) is not None else {})
+    parts = {"noise": cov.noise} | ({"runs": cov.runs} if _beyond_runs(cov) else {})
     for part, C in parts.items():
         d = describe(c, model, P, C, free)
         for k in [k for k in out if k.endswith(STD_SUFFIXES)]:
@@ -193,7 +199,7 @@ def add_wind_means(findings: list[dict], model: AugmentedModel, preps: list, P: 
         idx = model.slot_of[f["key"]]
         pos = [free.index(j) for j in idx]
         ix = np.ix_(pos, pos)
-        parts = {"": cov.total, "_noise": cov.noise} | ({"_runs": cov.runs} if cov.reference is not None else {})
+        parts = {"": cov.total, "_noise": cov.noise} | ({"_runs": cov.runs} if _beyond_runs(cov) else {})
         f["parameters"].update(windload.mean_acceleration(preps, P[idx], {k: C[ix] for k, C in parts.items()}))
 
 
@@ -214,6 +220,8 @@ def interval_note(cov, key: str | None = None) -> dict:
                 " (rough with two runs: a spread with one degree of freedom, it can be several times too "
                 "large or too small; diagnose a third run to firm it up)"
             )
+    if getattr(cov, "within", None) is not None:
+        what += " and its misfit within the runs (the spread over eighths of each run)"
     tried = getattr(cov, "reference", None) is not None
     measured = tried and (key is None or key in getattr(cov, "reference_keys", frozenset()))
     if measured:

@@ -207,6 +207,13 @@ class Verdict:
             "run_rise": RUN_RISE,
         }
 
+    @property
+    def best_gain(self) -> float:
+        """Largest rise of fit (points) on any channel of any fold: what the candidate does at
+        best for a held-out run."""
+        rise = fit_pct(self.rss1, self.den) - fit_pct(self.rss0, self.den)
+        return float(np.max(rise)) if rise.size else 0.0
+
     def table(self, labels: list[str]) -> list[dict]:
         f0, f1 = fit_pct(self.rss0, self.den), fit_pct(self.rss1, self.den)
         return [

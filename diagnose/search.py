@@ -461,6 +461,11 @@ def _try(
     failed = rejection_entry(heldout, MUCH_WORSE, bool(S.val))
     if failed:
         return failed
+    if S.val and heldout.best_gain < plausible.MIN_HELDOUT_FIT_POINTS:
+        return {
+            "reason": f"too small to matter: it raises no channel of a validation run by {plausible.MIN_HELDOUT_FIT_POINTS:g} "
+            f"fit point or more (at best {heldout.best_gain:+.2f})"
+        }
     dof_gain = (r0.reshape(-1, 3) ** 2 - res1.reshape(-1, 3) ** 2).sum(axis=0)
     corr = float(np.corrcoef(r0 - res1, r0)[0, 1]) if np.std(r0 - res1) > 0 else 0.0
     step = Step(

@@ -45,7 +45,8 @@ from tests.physics.mmg_kvlcc2 import (
     wind_forces,
     with_effects,
 )
-from tests.physics.mmg_sim import Manoeuvre, Run, simulate_runs
+from tests.physics.mmg_sim import Manoeuvre, Run
+from tests.physics.mmg_sim import simulate_runs as _simulate_runs
 
 CALM = [
     Manoeuvre("turn", 35, 0, 1, 800),
@@ -153,6 +154,19 @@ def _setup(c: Case) -> tuple[MMGShip, MMGShip, Environment, dict]:
     elif c.effect == "quadratic_damping":
         eff_ship = with_effects(ship, extra_N_rr=m["N_rr"])
     return ship, eff_ship, env, act
+
+
+_SIMULATED: dict[str, list[Run]] = {}
+
+
+def simulate_runs(ship: MMGShip, mans: list[Manoeuvre], n: float, **kw) -> list[Run]:
+    """``mmg_sim.simulate_runs``, remembered per process: the runs are noise-free (the noise and
+    the anemometer are drawn afterwards, and the gusts' seed is part of ``env``), so the seeds of
+    one case share them; a battery over five seeds simulates each case once (read-only use)."""
+    key = repr((ship, mans, n, sorted(kw.items())))
+    if key not in _SIMULATED:
+        _SIMULATED[key] = _simulate_runs(ship, mans, n, **kw)
+    return _SIMULATED[key]
 
 
 def _noise(rng: np.random.Generator, shape: tuple[int, ...], std: float, kind: str) -> np.ndarray:
