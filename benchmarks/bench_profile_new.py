@@ -169,6 +169,16 @@ def print_table(rows: list[Row]) -> bool:
     return all(r[6] for r in rows)
 
 
+def timed_build(p: Particulars) -> tuple[Built, list[float]]:
+    """The default build of ``p`` and the CPU time [s] of each of 3 builds."""
+    cpu = []
+    for _ in range(3):
+        t = time.process_time()
+        built = build_profile(p)
+        cpu.append(time.process_time() - t)
+    return built, cpu
+
+
 FERRY = Particulars("ferry", 150.0, 25.0, 6.0, 0.6, 18.0)  # twin-unit proportions; no published ship behind them
 
 
@@ -182,11 +192,7 @@ def actuators_check() -> None:
     tds = {}
     for act in ("twin_screw", "azimuth"):
         p = dataclasses.replace(FERRY, actuator=act)
-        cpu = []
-        for _ in range(3):
-            t = time.process_time()
-            built = build_profile(p)
-            cpu.append(time.process_time() - t)
+        built, cpu = timed_build(p)
         fig = standard_trials(built.profile)
         mmg = mmg_turn(built, p)
         tds[act] = fig.tactical_l["starboard"]
@@ -207,11 +213,7 @@ def actuators_check() -> None:
 def main() -> int:
     actuators_check()
     ref = marin()
-    cpu = []
-    for _ in range(3):
-        t = time.process_time()
-        built = build_profile(KVLCC2)
-        cpu.append(time.process_time() - t)
+    built, cpu = timed_build(KVLCC2)
     fig = standard_trials(built.profile)
     print(f"build (default: output error, 12 prior draws): {statistics.median(cpu):.1f} s CPU, median of 3")
     print(f"approach {60 * built.approach_rps:.1f} rpm (MARIN runs: 91.4 rpm; full-scale friction, B-series P/D 0.75)")

@@ -235,7 +235,8 @@ ACTUATOR_NOTES = {
 
 PRIOR_NOTE = """Prior spread (1 sigma) of each coefficient above: the std over MMG models whose coefficients are drawn
 from their regressions' spread (linear hull: max(20 %, |Clarke - Kijima|); non-linear hull 50 %,
-interaction 20 % (eps of a fine hull: max(20 %, |eps - Kijima's|)), resistance 30 %, assumed where the
+interaction 20 % (eps of a fine hull: max(20 %, |eps - Kijima's|); t_R, a_H, x'_H, gamma_R, l'_R of
+twin rudders or pods 40 %, a pod housing's force 30 %), resistance 30 %, assumed where the
 regressions publish no scatter), each refitted by one-step
 least squares only (the coefficients above are also fitted by output error)."""
 

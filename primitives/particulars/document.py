@@ -227,7 +227,8 @@ def header(p: Particulars, ship: MMGShip, pitch: float, n0: float, power_kw: flo
         *_interaction_lines(p, ship),
         f"#   K_T = {ship.kt[0]:.4f} {ship.kt[1]:+.4f} J {ship.kt[2]:+.4f} J^2: Wageningen B-series (Oosterveld & van Oossanen"
         " 1975), quadratic fit",
-        f"#   f_alpha {ship.f_alpha:.3f}: Fujii & Tuda (1961); steering gear 35 deg, 2.32 deg/s: SOLAS II-1 reg. 29",
+        f"#   f_alpha {ship.f_alpha:.3f}: Fujii & Tuda (1961); steering gear 35 deg, 2.32 deg/s: SOLAS II-1 reg. 29"
+        + (" (taken for the pods' steering too)" if pods else ""),
         "#",
         "# [parameters.particulars]: the per-sample model ("
         + ("full-scale.toml's thruster forces, kvlcc2.toml's hull terms" if pods else "kvlcc2.toml's structure")

@@ -13,6 +13,7 @@ from primitives import helm as hm
 from primitives.library import make_primitive
 from primitives.maneuvers import MAX_RUDDER_DEG, model_step
 from primitives.particulars.document import RUDDER_RATE_DEG_S
+from primitives.particulars.mmg import fixed_helm, run, zigzag_helm
 from primitives.ship import ShipProfile
 from primitives.simulate import model_signals
 
@@ -251,8 +252,6 @@ def pod_trials(profile: ShipProfile) -> TrialFigures:
     rudder angles at the SOLAS steering rate (2.32 deg/s; IMO MSC.137(76) leaves comparative angles
     for pods to the Administration), both shafts at the rpm that holds the cruise speed; the stop
     is both shafts stopped, coasting to half speed (a built pod ship is given no astern)."""
-    from primitives.particulars.mmg import fixed_helm, run, zigzag_helm
-
     L, u0, ts = profile.length_m, profile.cruise_speed_mps, profile.sample_time
     ship = _PodHelm(profile)
     n0 = fit_steady_rps(profile)
