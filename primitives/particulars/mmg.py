@@ -67,8 +67,9 @@ class MMGShip:
         beta = -vp  # drift angle (small-angle form of atan(-v/u) the regressions use)
         xh, yh, nh = self.hull_forces(vp, rp, U)
         if self.layout == "single":
-            xp, u_p = self.propeller_force(u, float(np.mean(n)), beta, rp)
-            xr, yr, nr = self.rudder_forces(delta, float(np.mean(n)), u_p, U, beta, rp)
+            n = _one_shaft(n)
+            xp, u_p = self.propeller_force(u, n, beta, rp)
+            xr, yr, nr = self.rudder_forces(delta, n, u_p, U, beta, rp)
         else:
             xr, yr, nr = unit_forces(self, nu, delta, n, U, beta, rp)
             xp = 0.0
@@ -138,7 +139,7 @@ class MMGShip:
         (a twin-screw ship's rudders and shafts move together), (n1, alpha1, n2, alpha2) of a podded
         one (pod 1 to port; alpha + thrust to starboard, so a starboard turn is alpha = -delta)."""
         if self.layout != "pods":
-            return (delta, float(np.mean(n)))
+            return (delta, _one_shaft(n))
         n_port, n_stbd = (n, n) if np.isscalar(n) else n
         return (float(n_port), -delta, float(n_stbd), -delta)
 
@@ -149,6 +150,11 @@ class MMGShip:
         k3 = self.derivatives(nu + 0.5 * dt * k2, delta, n)
         k4 = self.derivatives(nu + dt * k3, delta, n)
         return nu + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+
+def _one_shaft(n: float | tuple[float, float]) -> float:
+    """The shaft speed of the ship's inputs: one for every shaft (a twin-screw ship's shafts turn alike)."""
+    return n if isinstance(n, float | int) else 0.5 * (n[0] + n[1])
 
 
 @dataclass
