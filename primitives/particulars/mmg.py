@@ -38,8 +38,8 @@ class MMGShip:
     x_p: float = -0.48  # propeller position x'_P (Yasukawa & Yoshimura 2015, Table 1 for KVLCC2)
     x_r: float = -0.5  # rudder position x'_R
     # "single": one screw and one rudder on the centre line; "twin": two screw-rudder units at
-    # y = -+ y_unit L (primitives.particulars.units.twin_forces); "pods": two steerable pods there
-    # (units.pod_forces), rudder_area then being the housing's lateral area per pod
+    # y = -+ y_unit L; "pods": two steerable pods there, rudder_area then being the housing's lateral
+    # area per pod (both in primitives.particulars.units.unit_forces)
     layout: str = "single"
     y_unit: float = 0.0  # y'/L of the starboard unit (the port one mirrors it)
 
