@@ -25,6 +25,7 @@ from primitives.particulars.build import Particulars, approach_rps, build_profil
 from primitives.particulars.fit import excitation_runs
 from primitives.particulars.mmg import fixed_helm, run
 from primitives.particulars.trials import standard_trials, turn_figures
+from primitives.particulars.units import unit_forces
 
 FERRY = Particulars("ferry", 150.0, 25.0, 6.0, 0.6, 18.0)  # a twin-screw ferry's proportions
 
@@ -62,13 +63,18 @@ def test_a_faster_port_shaft_turns_the_ship_to_starboard(actuator):
 
 def test_the_outer_screw_of_a_turn_runs_lighter():
     """Each screw sees the speed of its own position, u - y r: in a starboard turn (r > 0) the port
-    screw (y < 0) meets faster water and gives less thrust."""
+    screw (y < 0) meets faster water and gives less thrust, so the thrust's yaw moment -y X of the
+    two units opposes the turn (rudders made negligible so that only the screws act)."""
     p, ship, n0 = _ship("twin_screw")
-    y = ship.y_unit * p.length
+    bare = replace(ship, rudder_area=1e-9)
     r = 0.01
-    port = ship.propeller_force(p.speed + y * r, n0, 0.0, 0.0)[0]
-    stbd = ship.propeller_force(p.speed - y * r, n0, 0.0, 0.0)[0]
+    rp = r * p.length / p.speed
+    y = ship.y_unit * p.length
+    port = ship.propeller_force(p.speed + y * r, n0, 0.0, rp)[0]
+    stbd = ship.propeller_force(p.speed - y * r, n0, 0.0, rp)[0]
     assert port < stbd
+    _, _, n_turn = unit_forces(bare, np.array([p.speed, 0.0, r]), 0.0, n0, p.speed, 0.0, rp)
+    assert n_turn == pytest.approx(y * (port - stbd), rel=1e-6) and n_turn < 0
 
 
 def test_a_pod_turns_its_thrust_and_its_housing_adds_steering_force():
