@@ -273,9 +273,12 @@ def pod_trials(profile: ShipProfile) -> TrialFigures:
         initial[side] = None if it is None else it / L
         os20[side] = _nth(zigzag_overshoots(go(zigzag_helm(np.radians(20), s, n0), 10)[0][:, 2], 20), 0)
     track, r = go(fixed_helm(0.0, 0.0), 40)
-    k = int(np.argmax(r.nu[:, 0] <= 0.5 * u0)) if np.any(r.nu[:, 0] <= 0.5 * u0) else len(r.nu) - 1
-    reach = float(np.linalg.norm(track[k, :2] - track[0, :2]))
-    line = f"both shafts stopped from cruise speed, coasting to half speed (no astern given): head reach {reach / L:.1f} L ({reach:.0f} m)"
+    slow = r.nu[:, 0] <= 0.5 * u0
+    if np.any(slow):
+        reach = float(np.linalg.norm(track[int(np.argmax(slow)), :2] - track[0, :2]))
+        line = f"both shafts stopped from cruise speed, coasting to half speed (no astern given): head reach {reach / L:.1f} L ({reach:.0f} m)"
+    else:  # not a reach to half speed: say so rather than print the end of the run as one
+        line = "both shafts stopped from cruise speed (no astern given): not yet at half speed after 40 L"
     return TrialFigures(tactical, advance, os10, os20, line, None, os10b, initial)
 
 
