@@ -1,6 +1,7 @@
 """KVLCC2 rebuilt from its main particulars (`shiptrial profile new`) against MARIN's free-running
 tests: the issue-31 check; and the Mariner class cargo ship against its planar-motion-mechanism
-model (Chislett & Strom-Tejsen 1965, benchmarks/mariner_pmm.py), the second published ship.
+model (Chislett & Strom-Tejsen 1965, benchmarks/mariner_pmm.py), the second published ship; and
+the twin-screw and podded builds of one hull (no published ship: see actuators_check).
 
     python benchmarks/bench_profile_new.py
 
@@ -168,13 +169,51 @@ def print_table(rows: list[Row]) -> bool:
     return all(r[6] for r in rows)
 
 
-def main() -> int:
-    ref = marin()
+def timed_build(p: Particulars) -> tuple[Built, list[float]]:
+    """The default build of ``p`` and the CPU time [s] of each of 3 builds."""
     cpu = []
     for _ in range(3):
         t = time.process_time()
-        built = build_profile(KVLCC2)
+        built = build_profile(p)
         cpu.append(time.process_time() - t)
+    return built, cpu
+
+
+FERRY = Particulars("ferry", 150.0, 25.0, 6.0, 0.6, 18.0)  # twin-unit proportions; no published ship behind them
+
+
+def actuators_check() -> None:
+    """`--actuator twin_screw | azimuth` on the same hull: no published twin-screw or podded ship with
+    particulars and measured manoeuvres was found (README says what was searched), so this prints
+    (1) the conversion: the profile's 35 deg tactical diameter against the two-unit MMG model it was
+    fitted to, and (2) the qualitative published check: Reichel (2019, abstract) found that podded
+    and twin-rudder sister ships give different turning figures at 35 deg; ours should turn the pods
+    tighter. Neither is evidence about a real ship's figures."""
+    tds = {}
+    for act in ("twin_screw", "azimuth"):
+        p = dataclasses.replace(FERRY, actuator=act)
+        built, cpu = timed_build(p)
+        fig = standard_trials(built.profile)
+        mmg = mmg_turn(built, p)
+        tds[act] = fig.tactical_l["starboard"]
+        print(
+            f"{act}: build {statistics.median(cpu):.1f} s CPU (median of 3); approach {60 * built.approach_rps:.1f} rpm; "
+            f"tactical diameter 35 deg {fig.tactical_l['starboard']:.2f} L (its MMG model {mmg / p.length:.2f} L, "
+            f"{100 * (fig.tactical_l['starboard'] * p.length - mmg) / mmg:+.1f} %); advance {fig.advance_l['starboard']:.2f} L; "
+            f"10/10 {fig.overshoot_10['starboard']:.1f} / {fig.second_overshoot_10['starboard']:.1f} deg; "
+            f"20/20 {fig.overshoot_20['starboard']:.1f} deg; initial turning {fig.initial_turn_l['starboard']:.2f} L"
+        )
+        _say_imo(act, fig, p)
+    ratio = tds["azimuth"] / tds["twin_screw"]
+    print(
+        f"pods / twin rudders, tactical diameter at 35 deg: {ratio:.2f} ({'tighter' if ratio < 1 else 'NOT tighter'}; Reichel 2019, qualitative)"
+    )
+
+
+def main() -> int:
+    actuators_check()
+    ref = marin()
+    built, cpu = timed_build(KVLCC2)
     fig = standard_trials(built.profile)
     print(f"build (default: output error, 12 prior draws): {statistics.median(cpu):.1f} s CPU, median of 3")
     print(f"approach {60 * built.approach_rps:.1f} rpm (MARIN runs: 91.4 rpm; full-scale friction, B-series P/D 0.75)")

@@ -29,7 +29,7 @@ def register(app: typer.Typer) -> None:
         block_coefficient: float = typer.Option(..., "--block-coefficient", help="block coefficient Cb (0.35-0.9)"),
         speed: float = typer.Option(..., "--speed", help="service (approach) speed, knots"),
         rudder_area: float | None = typer.Option(
-            None, "--rudder-area", help="movable rudder area, m^2 (default: DNV rule guidance)"
+            None, "--rudder-area", help="movable rudder area, m^2, both rudders of a twin-screw ship (default: DNV rule guidance)"
         ),
         propeller_diameter: float | None = typer.Option(None, "--propeller-diameter", help="screw diameter, m (default 0.6 T)"),
         pitch_ratio: float | None = typer.Option(
@@ -37,14 +37,18 @@ def register(app: typer.Typer) -> None:
         ),
         rpm: float | None = typer.Option(None, "--rpm", help="shaft speed at the service speed, rpm (default: solved)"),
         mcr_kw: float | None = typer.Option(None, "--mcr-kw", help="engine maximum continuous rating, kW; checks the speed"),
-        actuator: str = typer.Option("rudder_propeller", "--actuator", help="rudder_propeller (single screw, one rudder)"),
+        actuator: str = typer.Option(
+            "rudder_propeller",
+            "--actuator",
+            help="rudder_propeller (single screw, one rudder), twin_screw (two screws, two rudders) or azimuth (two steerable pods)",
+        ),
         out: Path = typer.Option(..., "--out", help="profile TOML to write"),
         seed: int = typer.Option(0, "--seed", help="seed of the draws that set the prior spread"),
         prior_draws: int = typer.Option(
             12, "--prior-draws", help="MMG models drawn from the regressions' scatter for the prior spread (>= 2)"
         ),
     ) -> None:
-        """A profile for any single-screw ship from its main particulars: published regressions give
+        """A profile for a single-screw, twin-screw or podded ship from its main particulars: published regressions give
         an MMG model, its manoeuvres are fitted into the profile's per-sample form, and the new
         ship's standard manoeuvres are printed for a sanity check before planning."""
         from primitives.particulars.build import Particulars, build_profile

@@ -472,6 +472,13 @@ def search_plan(lat: Lattice, extra: float = 0.0, blocked: frozenset = frozenset
     )
 
 
+# A verified plan's re-simulated track ends within this many lattice cells (or ship lengths, the
+# larger) of the lattice's end point: legs are sailed from the ship's actual state and settle on the
+# lattice, so their drift is metres to tens of metres (tests/test_planner.py); kilometres mean the
+# profile's moves do not end where the lattice put them, and the plan searched is not the one sailed.
+MAX_DRIFT_CELLS = 3.0
+
+
 @dataclass
 class Realised:
     legs: list[Leg]
@@ -543,6 +550,7 @@ def verify_plan(lat: Lattice, out: SearchOutcome) -> Realised:
         lat.window.point(end_cell // lat.window.nj, end_cell % lat.window.nj),
         nu0=np.array([p.cruise_speed_mps, 0.0, 0.0]),
         sims=[leg.sim for leg in legs],
+        max_drift=MAX_DRIFT_CELLS * max(lat.res, p.length_m),
     )
     return Realised(legs, ver, shortcuts, replaced)
 
@@ -600,7 +608,12 @@ def assemble_plan(
         shortcuts=real.shortcuts,
         moves_straightened=real.replaced_moves,
     )
-    if not ver.ok:
+    if ver.drifted:
+        st.update(
+            reason=ver.reason,
+            help=["sail the profile's manoeuvres with `primitives` and check where they end", "use a finer --resolution"],
+        )
+    elif not ver.ok:
         st.update(reason=ver.reason, help=["increase --margin (more room for drift)", "use a finer --resolution"])
     return Plan(
         ship=p.name,

@@ -272,7 +272,7 @@ def solve(lat, *, design: dict | None = None, vessel_name: str = "", t_all: floa
         attempts.append(
             {"inflation_m": extra, "blocked": len(blocked), "min_clearance_m": ver.min_clearance_m, "search_s": r.time_s}
         )
-        if ver.ok or extra >= MAX_EXTRA_M:
+        if ver.ok or ver.drifted or extra >= MAX_EXTRA_M:  # blocking or growing footprints cannot mend a drift
             break
         leg = real.legs[int(ver.step_of_sample[ver.worst_sample])]
         if leg.move < 0:

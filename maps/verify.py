@@ -4,7 +4,9 @@ The lattice snaps end poses; reality does not. The whole sequence of inputs is s
 one go from the start pose with the first move's entry velocity (nominal calm model, no
 snapping) and the hull placed at every sample is tested against the obstacles: the smallest
 distance between hull and no-go area is the plan's clearance, which must be at least the
-safety margin.
+safety margin. The re-simulated track must also end near the lattice's end point: a track that
+ends kilometres away is not the plan the search found (its counters, goal and clearance were
+reckoned on another track), so it is not verified.
 """
 
 from __future__ import annotations
@@ -33,6 +35,12 @@ class Verification:
     drift_m: float  # distance between continuous end position and lattice end position
     ok: bool
     reason: str = ""
+    max_drift_m: float = float("inf")  # the drift beyond which the plan is not the one searched
+
+    @property
+    def drifted(self) -> bool:
+        """The re-simulated track ends farther from the lattice's end point than ``max_drift_m``."""
+        return self.drift_m > self.max_drift_m
 
 
 def hull_clearance(sea: SeaMap, length_m: float, beam_m: float, track: np.ndarray, margin: float) -> np.ndarray:
@@ -80,12 +88,15 @@ def resimulate(
     lattice_end: tuple[float, float] | None = None,
     nu0: np.ndarray | None = None,
     sims: list | None = None,
+    max_drift: float = float("inf"),
 ) -> Verification:
     """Simulate the concatenated inputs of ``prims`` (anything with ``inputs``, ``n_samples``,
     ``name``) from ``start`` and check the swept hull against the map with the margin.
 
     ``sims``: the (nu, eta) (n+1, 3) of each piece already sailed one after the other from
-    (``nu0``, ``start``): their concatenation is the continuous simulation, sample for sample."""
+    (``nu0``, ``start``): their concatenation is the continuous simulation, sample for sample.
+    ``max_drift``: the largest distance [m] between the track's end and ``lattice_end`` that
+    still verifies."""
     profile = prims[0].profile
     inputs = np.vstack([p.inputs for p in prims])
     step = np.concatenate([np.full(p.n_samples, i) for i, p in enumerate(prims)] + [[len(prims) - 1]])
@@ -100,14 +111,19 @@ def resimulate(
     worst = int(np.argmin(clear))
     mc = float(clear[worst])
     drift = float(np.hypot(*(track[-1, :2] - np.asarray(lattice_end)))) if lattice_end is not None else 0.0
-    ok = mc >= margin - 1e-6
-    reason = (
-        ""
-        if ok
-        else (
+    drifted = drift > max_drift
+    ok = mc >= margin - 1e-6 and not drifted
+    reason = ""
+    if drifted:
+        reason = (
+            f"the re-simulated track ends {drift:.0f} m from the planned end point (at most {max_drift:.0f} m verifies): "
+            "the profile's manoeuvres, sailed one after the other, do not end where the lattice placed them; "
+            "check the profile's manoeuvres or use a finer --resolution"
+        )
+    elif not ok:
+        reason = (
             f"the re-simulated track comes {mc:.1f} m from an obstacle (margin {margin:g} m) at t = {t[worst]:.0f} s "
             f"in step {int(step[worst]) + 1} ({prims[int(step[worst])].name}): increase --margin or use a finer --resolution"
         )
-    )
     ins = np.vstack([inputs, inputs[-1:]])
-    return Verification(t, track, nu, ins, step, clear, mc, worst, drift, ok, reason)
+    return Verification(t, track, nu, ins, step, clear, mc, worst, drift, ok, reason, max_drift)

@@ -113,7 +113,7 @@ def _with(**changes: str) -> list[str]:
         ({"mcr_kw": "500"}, ["--speed 13 kn", "--mcr-kw 500", "at most"]),
         ({"length": "-100"}, ["--length -100", "> 0"]),
         ({"speed": "60"}, ["--speed 60 kn", "Froude"]),
-        ({"actuator": "twin_screw"}, ["--actuator twin_screw", "rudder_propeller"]),
+        ({"actuator": "sails"}, ["--actuator 'sails'", "rudder_propeller", "twin_screw", "azimuth"]),
         ({"pitch_ratio": "2.5"}, ["--pitch-ratio 2.5", "0.5-1.4"]),
         ({"rpm": "5000"}, ["--rpm 5000", "rpm"]),
         ({"name": "two\nlines"}, ["--name 'two\\nlines'", "letters, digits"]),

@@ -125,6 +125,32 @@ def test_chain_steps_one_at_a_time(profile):
     assert [s.segment for s in plan.steps].count("run-in") == 1 and plan.vessel_name == profile.name
 
 
+def test_plan_whose_resimulated_track_ends_far_from_the_lattice_end_is_not_verified(profile, monkeypatch):
+    """A re-simulated track that ends kilometres from where the search put the ship's last move
+    (a profile whose moves do not end where the lattice expects) is not the plan searched: not
+    feasible, with the drift named. Here the lattice's end point is moved 5 km to make the drift."""
+    import maps.chain as chain
+    from maps.scenario import thesis_planning_scenario
+
+    resimulate = chain.resimulate
+
+    def far_end(sea, legs, start, margin, lattice_end, **kw):
+        return resimulate(sea, legs, start, margin, (lattice_end[0] + 5000.0, lattice_end[1]), **kw)
+
+    prims, _ = thesis_planning_scenario(profile)
+    lat = chain.build_lattice(
+        load_map(draught_m=profile.draught_m), profile, prims[:1], {prims[0].name: 1}, options=chain.PlanOptions()
+    )
+    out = chain.search_plan(lat)
+    assert chain.verify_plan(lat, out).verification.drift_m < 30.0  # the real drift verifies
+    monkeypatch.setattr(chain, "resimulate", far_end)
+    real = chain.verify_plan(lat, out)
+    plan = chain.assemble_plan(lat, out, real)
+    assert real.verification.drifted and real.verification.min_clearance_m >= lat.options.margin
+    assert not plan.feasible and not plan.optimal
+    assert re.search(r"ends \d+ m from the planned end point", plan.stats["reason"]), plan.stats["reason"]
+
+
 def _box_map(tmp_path, box, start, goal):
     """A rectangular trial area (lon0, lat0, lon1, lat1) with a start (lon, lat, heading) and a goal (lon, lat)."""
     lo0, la0, lo1, la1 = box

@@ -21,6 +21,7 @@ from primitives.particulars.fit import balance_thrust, excitation_runs, fit_prof
 from primitives.particulars.inputs import Particulars, ParticularsError, check_particulars
 from primitives.particulars.mmg import MMGShip
 from primitives.particulars.propeller import BSeries
+from primitives.particulars.units import HOUSING_AREA_D2, UNIT_OFFSET_B
 from primitives.profile_document import profile_from_dict
 from primitives.ship import ShipProfile
 
@@ -56,8 +57,20 @@ def rule_rudder_area(p: Particulars) -> float:
 def mmg_ship(p: Particulars, pitch_ratio: float) -> MMGShip:
     """The MMG model of the particulars (regressions in :mod:`primitives.particulars.regressions`)."""
     h = p.hull
+    diameter = p.prop_diameter or default_diameter(p)
     area = p.rudder_area or rule_rudder_area(p)
-    span = min(math.sqrt(RUDDER_ASPECT * area), 0.8 * p.draught)
+    inter = rg.interaction(h)
+    layout, y_unit = "single", 0.0
+    if p.actuator != "rudder_propeller":
+        layout, y_unit = ("twin" if p.actuator == "twin_screw" else "pods"), UNIT_OFFSET_B * p.beam / p.length
+        inter |= rg.twin_screw_interaction(h)
+    if p.actuator == "twin_screw":
+        area /= 2.0  # each rudder
+    if p.actuator == "azimuth":
+        area, span = HOUSING_AREA_D2 * diameter**2, diameter
+        inter["housing"] = 1.0  # scale of the housing's force (its prior spread)
+    else:
+        span = min(math.sqrt(RUDDER_ASPECT * area), 0.8 * p.draught)
     mass = rg.added_mass(h)
     linear = {k: v for k, v in rg.clarke_linear(h).items() if k in LINEAR}
     hull = {"R0": rg.resistance_nd(h, p.speed)} | rg.yoshimura_surge(h, mass["my"]) | linear | rg.kijima_nonlinear(h)
@@ -67,12 +80,14 @@ def mmg_ship(p: Particulars, pitch_ratio: float) -> MMGShip:
         volume=h.volume,
         hull=hull,
         mass=mass,
-        inter=rg.interaction(h),
-        prop_diameter=p.prop_diameter or default_diameter(p),
+        inter=inter,
+        prop_diameter=diameter,
         kt=BSeries(pitch_ratio).quadratic_fit(),
         rudder_area=area,
         rudder_span=span,
         f_alpha=rg.rudder_lift_slope(span**2 / area),
+        layout=layout,
+        y_unit=y_unit,
     )
 
 
@@ -87,16 +102,17 @@ def approach_rps(ship: MMGShip, speed: float) -> float:
     D, t, w = ship.prop_diameter, ship.inter["tP"], ship.inter["wP0"]
     k0, k1, k2 = ship.kt
     up = (1.0 - w) * speed
-    resist = 0.5 * rg.RHO * ship.length * ship.draught * speed**2 * ship.hull["R0"]
+    resist = 0.5 * rg.RHO * ship.length * ship.draught * speed**2 * ship.hull["R0"] / ship.units  # per screw
     a, b, c = k0 * D**4, k1 * up * D**3, k2 * up**2 * D**2 - resist / (rg.RHO * (1.0 - t))
     return (-b + math.sqrt(b * b - 4 * a * c)) / (2 * a)
 
 
 def delivered_power_kw(ship: MMGShip, pitch_ratio: float, speed: float, n: float) -> float:
-    """P_D = 2 pi rho n^3 D^5 K_Q(J) [kW] at the approach (B-series torque, Oosterveld & van Oossanen 1975)."""
+    """P_D = 2 pi rho n^3 D^5 K_Q(J) [kW] at the approach (B-series torque, Oosterveld & van Oossanen 1975),
+    summed over the ship's screws."""
     D = ship.prop_diameter
     j = (1.0 - ship.inter["wP0"]) * speed / (n * D)
-    return 2.0 * math.pi * rg.RHO * n**3 * D**5 * float(BSeries(pitch_ratio).kq(j)) / 1000.0
+    return ship.units * 2.0 * math.pi * rg.RHO * n**3 * D**5 * float(BSeries(pitch_ratio).kq(j)) / 1000.0
 
 
 def _pitch_for_rpm(p: Particulars) -> float:
@@ -154,6 +170,7 @@ def sample_time(p: Particulars) -> float:
 # check, the KVLCC2 model (L 7 m, 1.179 m/s) at R'_0 = 0.022 (Yasukawa & Yoshimura 2015, Table 2),
 # is 25 % above friction and form alone (wave resistance, the form factor's scale effect).
 NONLINEAR_SPREAD, INTERACTION_SPREAD, RESISTANCE_SPREAD, LINEAR_FLOOR = 0.5, 0.2, 0.3, 0.2
+HOUSING_SPREAD = 0.3  # a pod housing's force: its area and lift gradient are assumed (units.HOUSING_AREA_D2)
 
 
 def coefficient_spreads(p: Particulars) -> dict[str, float]:
@@ -164,6 +181,12 @@ def coefficient_spreads(p: Particulars) -> dict[str, float]:
     out |= {k: NONLINEAR_SPREAD for k in rg.kijima_nonlinear(h)}
     out |= {k: NONLINEAR_SPREAD for k in ("Xvv", "Xvr", "Xrr", "Xvvvv")}
     out |= {k: INTERACTION_SPREAD for k in ("tR", "aH", "xH", "gammaR", "lR", "eps", "wP0", "tP")}
+    if p.actuator != "rudder_propeller":
+        # Kijima's single-screw hull-rudder regressions applied to two off-centre rudders or pods,
+        # outside their database: twice the spread
+        out |= {k: 2 * INTERACTION_SPREAD for k in ("tR", "aH", "xH", "gammaR", "lR")}
+        out["housing"] = HOUSING_SPREAD
+        return out | {"R0": RESISTANCE_SPREAD}
     if rg.fine_for_kijima_eps(h):
         chosen = rg.eps(h)
         out["eps"] = max(INTERACTION_SPREAD, abs(chosen - rg.kijima_eps(h)) / chosen)
@@ -195,9 +218,25 @@ def prior_std(p: Particulars, ship: MMGShip, n0: float, ts: float, n_max: float,
     return np.std(np.array(thetas), axis=0, ddof=1)
 
 
+ACTUATOR_NOTES = {
+    "twin_screw": [
+        "twin screws and twin rudders: the profile's inputs are one rudder angle for both rudders and one rpm for"
+        " both shafts (trials are sailed so); the two-unit MMG model behind it has no published ship to check it"
+        " against (see the profile's header)"
+    ],
+    "azimuth": [
+        "two pods: the standard manoeuvres steer both pods to the IMO rudder angles (35, 10, 20 deg); IMO MSC.137(76)"
+        " lets an Administration set comparative angles for such ships, and Reichel (2019) found no single pod"
+        " angle equivalent to 35 deg of rudder: read the IMO lines below as indicative",
+        "the pods' per-sample model is fitted at the approach rpm and steering angles up to 35 deg (plus one run"
+        " with unequal thrust); at rest or with the pods turned further it extrapolates",
+    ],
+}
+
 PRIOR_NOTE = """Prior spread (1 sigma) of each coefficient above: the std over MMG models whose coefficients are drawn
 from their regressions' spread (linear hull: max(20 %, |Clarke - Kijima|); non-linear hull 50 %,
-interaction 20 % (eps of a fine hull: max(20 %, |eps - Kijima's|)), resistance 30 %, assumed where the
+interaction 20 % (eps of a fine hull: max(20 %, |eps - Kijima's|); t_R, a_H, x'_H, gamma_R, l'_R of
+twin rudders or pods 40 %, a pod housing's force 30 %), resistance 30 %, assumed where the
 regressions publish no scatter), each refitted by one-step
 least squares only (the coefficients above are also fitted by output error)."""
 
@@ -230,16 +269,19 @@ def build_profile(p: Particulars, *, oe_nfev: int = 15, draws: int = 12, seed: i
         "source": "regression scatter propagated through the fit",
         "draws": draws,
         "seed": seed,
-        "std": split(prior_std(p, ship, n0, ts, n_max, draws, seed)),
+        "std": split(prior_std(p, ship, n0, ts, n_max, draws, seed), p.actuator),
     }
     made_of = {
         "length_m": p.length, "beam_m": p.beam, "draught_m": p.draught, "block_coefficient": p.cb, "speed_kn": p.speed_kn,
-        "rudder_area_m2": ship.rudder_area, "propeller_diameter_m": ship.prop_diameter, "pitch_ratio": pitch, "mcr_kw": p.mcr_kw,
+        "rudder_area_m2": ship.units * ship.rudder_area if p.actuator != "azimuth" else None,
+        "housing_area_m2": ship.rudder_area if p.actuator == "azimuth" else None,
+        "propeller_diameter_m": ship.prop_diameter, "pitch_ratio": pitch, "mcr_kw": p.mcr_kw,
     }  # fmt: skip
     doc["particulars"] = {k: float(v) for k, v in made_of.items() if v is not None}
     text = header(p, ship, pitch, n0, power, fits, RUDDER_ASPECT) + toml_text(doc, {"prior": PRIOR_NOTE}) + "\n"
     profile = profile_from_dict(tomllib.loads(text), f"{p.name}.toml")
-    notes = [fine_hull_note(p)] if rg.fine_for_kijima_eps(p.hull) else []
+    notes = [fine_hull_note(p)] if rg.fine_for_kijima_eps(p.hull) and p.actuator == "rudder_propeller" else []
+    notes += ACTUATOR_NOTES.get(p.actuator, [])
     if p.rpm and p.pitch_ratio:
         notes.append(f"the screw of P/D {pitch:g} holds {p.speed_kn:g} kn at {60 * n0:.1f} rpm, not the given {p.rpm:g} rpm")
     return Built(text, profile, ship, n0, notes)

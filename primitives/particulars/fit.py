@@ -31,12 +31,17 @@ def excitation_runs(ship: MMGShip, speed: float, n0: float, ts: float) -> list[R
     def go(name: str, helm, n_lengths: float) -> Run:
         return run(ship, name, helm, speed, int(n_lengths * lengths), ts, rate, dmax)
 
-    return [
+    runs = [
         go("tc35", fixed_helm(dmax, n0), 25),
         go("zz10", zigzag_helm(math.radians(10), 1.0, n0), 14),
         go("zz20", zigzag_helm(math.radians(20), 1.0, n0), 14),
         go("engine-half", fixed_helm(math.radians(10), n0, n_after=0.5 * n0, at=int(2 * lengths)), 14),
     ]
+    if ship.layout == "pods":  # the pods' yaw moment from unequal thrust, which a rudder ship lacks (with
+        # some steering: alone, unequal thrust turns the ship so little that its 1/spread weight magnified
+        # the MMG integration's last digits and the equation-error start came out unstable)
+        runs.append(go("pods-split", fixed_helm(math.radians(10), (n0, 0.6 * n0)), 14))
+    return runs
 
 
 def one_step_ls(profile: ShipProfile, runs: list[Run]) -> np.ndarray:
@@ -55,14 +60,23 @@ def one_step_ls(profile: ShipProfile, runs: list[Run]) -> np.ndarray:
     return th
 
 
+def straight_inputs(profile: ShipProfile, n0: float) -> dict[str, np.ndarray]:
+    """The input signals of a straight course at ``n0`` [rev/s] on every shaft, rudders or pods amidships."""
+    row = np.array([n0, 0.0] * len(profile.thrusters) if profile.actuator == "azimuth" else [0.0, n0])
+    return profile.generalized_forces(row)
+
+
 def balance_thrust(profile: ShipProfile, theta: np.ndarray, speed: float, n0: float) -> np.ndarray:
-    """Xnn so that the model holds ``speed`` [m/s] straight ahead at ``n0`` [rev/s]: the surge
-    increment of every other term there, cancelled by Xnn n0^2."""
+    """The thrust coefficient (Xnn, or a podded ship's Xtau) so that the model holds ``speed``
+    [m/s] straight ahead at ``n0`` [rev/s]: the surge increment of every other term there,
+    cancelled by that term (linear in its coefficient)."""
     th = theta.copy()
-    j = profile.param_names.index("Xnn")
+    j = profile.param_names.index("Xtau" if profile.actuator == "azimuth" else "Xnn")
+    sig = model_signals(profile, np.array([speed, 0.0, 0.0]), np.array(0.0), straight_inputs(profile, n0))
     th[j] = 0.0
-    sig = model_signals(profile, np.array([speed, 0.0, 0.0]), np.array(0.0), {"delta": 0.0, "n": n0})
-    th[j] = -float(profile.model.increments(sig, th)[0]) / n0**2
+    rest = float(profile.model.increments(sig, th)[0])
+    th[j] = 1.0
+    th[j] = -rest / (float(profile.model.increments(sig, th)[0]) - rest)
     return th
 
 

@@ -10,9 +10,8 @@ from primitives.errors import UserError
 from primitives.library import KNOT
 from primitives.particulars import regressions as rg
 
-ACTUATORS = ("rudder_propeller",)
-
-PLANNED_ACTUATORS = ("twin_screw", "azimuth")
+# single screw and rudder; twin screws with a rudder behind each; two steerable pods (azimuth units)
+ACTUATORS = ("rudder_propeller", "twin_screw", "azimuth")
 
 
 class ParticularsError(UserError):
@@ -57,12 +56,16 @@ def check_particulars(p: Particulars) -> None:
     """Refuse particulars no ship has, one line naming the value and the plausible range."""
     if not NAME.fullmatch(p.name):
         raise ParticularsError(f"--name {p.name!r}: use letters, digits, '_' and '-' only (e.g. my-coaster)")
-    if p.actuator in PLANNED_ACTUATORS:
-        raise ParticularsError(
-            f"--actuator {p.actuator}: not built from particulars yet; use --actuator rudder_propeller (single screw, one rudder)"
-        )
     if p.actuator not in ACTUATORS:
-        raise ParticularsError(f"--actuator {p.actuator!r}: must be rudder_propeller")
+        raise ParticularsError(
+            f"--actuator {p.actuator!r}: must be rudder_propeller (single screw, one rudder), twin_screw (two screws,"
+            " two rudders) or azimuth (two steerable pods)"
+        )
+    if p.actuator == "azimuth" and p.rudder_area is not None:
+        raise ParticularsError(
+            f"--rudder-area {p.rudder_area:g}: an azimuth ship steers with its pods and has no rudder; leave --rudder-area"
+            " out (the pods' housings are sized from --propeller-diameter)"
+        )
     for name, val, unit in (
         ("length", p.length, "m"),
         ("beam", p.beam, "m"),
@@ -98,6 +101,11 @@ def check_particulars(p: Particulars) -> None:
         raise ParticularsError(
             f"--propeller-diameter {p.prop_diameter:g} m: {p.prop_diameter / p.draught:.2f} x the draught {p.draught:g} m; "
             f"screws are 0.4-0.8 x the draught ({0.4 * p.draught:.3g}-{0.8 * p.draught:.3g} m)"
+        )
+    if p.actuator != "rudder_propeller" and p.prop_diameter is not None and p.prop_diameter > 0.5 * p.beam:
+        raise ParticularsError(
+            f"--propeller-diameter {p.prop_diameter:g} m: two screws a quarter beam off the centre line are"
+            f" {0.5 * p.beam:.3g} m apart with the beam {p.beam:g} m; give at most {0.5 * p.beam:.3g} m"
         )
     if p.pitch_ratio is not None and not 0.5 <= p.pitch_ratio <= 1.4:
         raise ParticularsError(f"--pitch-ratio {p.pitch_ratio:g}: outside 0.5-1.4, the range of the Wageningen B-series")

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from primitives.particulars.regressions import RHO
+from primitives.particulars.units import unit_forces
 
 
 @dataclass(frozen=True)
@@ -36,9 +37,21 @@ class MMGShip:
     f_alpha: float
     x_p: float = -0.48  # propeller position x'_P (Yasukawa & Yoshimura 2015, Table 1 for KVLCC2)
     x_r: float = -0.5  # rudder position x'_R
+    # "single": one screw and one rudder on the centre line; "twin": two screw-rudder units at
+    # y = -+ y_unit L; "pods": two steerable pods there, rudder_area then being the housing's lateral
+    # area per pod (both in primitives.particulars.units.unit_forces)
+    layout: str = "single"
+    y_unit: float = 0.0  # y'/L of the starboard unit (the port one mirrors it)
 
-    def derivatives(self, nu: np.ndarray, delta: float, n: float) -> np.ndarray:
-        """(u', v', r') [m/s^2, m/s^2, rad/s^2] of eq. (4)."""
+    @property
+    def units(self) -> int:
+        """Propellers (and rudders or pods) of the ship."""
+        return 1 if self.layout == "single" else 2
+
+    def derivatives(self, nu: np.ndarray, delta: float, n: float | tuple[float, float]) -> np.ndarray:
+        """(u', v', r') [m/s^2, m/s^2, rad/s^2] of eq. (4). ``delta``: the rudder angle, or for
+        pods the steering angle both pods take (+ turns to starboard, as a rudder); ``n``: one shaft
+        speed for every propeller, or (port, starboard) [rev/s]."""
         u, v, r = nu
         L, d = self.length, self.draught
         m = RHO * self.volume
@@ -53,8 +66,13 @@ class MMGShip:
             vp, rp = v / U, r * L / U
         beta = -vp  # drift angle (small-angle form of atan(-v/u) the regressions use)
         xh, yh, nh = self.hull_forces(vp, rp, U)
-        xp, u_p = self.propeller_force(u, n, beta, rp)
-        xr, yr, nr = self.rudder_forces(delta, n, u_p, U, beta, rp)
+        if self.layout == "single":
+            n = _one_shaft(n)
+            xp, u_p = self.propeller_force(u, n, beta, rp)
+            xr, yr, nr = self.rudder_forces(delta, n, u_p, U, beta, rp)
+        else:
+            xr, yr, nr = unit_forces(self, nu, delta, n, U, beta, rp)
+            xp = 0.0
         return np.array(
             [
                 (xh + xr + xp + (m + my) * v * r) / (m + mx),
@@ -93,17 +111,21 @@ class MMGShip:
         thrust = RHO * D**4 * (k0 * n * abs(n) + k1 * n * u_p / D + k2 * u_p * abs(u_p) / D**2)
         return (1.0 - self.inter["tP"]) * thrust, u_p
 
-    def rudder_forces(self, delta: float, n: float, u_p: float, U: float, beta: float, rp: float) -> tuple[float, float, float]:
-        """X_R, Y_R, N_R [N, N, N m] of eqs. (17)-(27)."""
+    def rudder_forces(
+        self, delta: float, n: float, u_p: float, U: float, beta: float, rp: float, eps: float | None = None
+    ) -> tuple[float, float, float]:
+        """X_R, Y_R, N_R [N, N, N m] of eqs. (17)-(27) of one rudder (of area ``rudder_area``)
+        behind a propeller of inflow ``u_p``; ``eps`` overrides the ship's (a pod's housing)."""
         it, D = self.inter, self.prop_diameter
+        eps = it["eps"] if eps is None else eps
         eta = min(D / self.rudder_span, 1.0)
         if abs(n) > 1e-6 and u_p > 0:
             j = u_p / (n * D)
             kt = self.kt[0] + self.kt[1] * j + self.kt[2] * j * j
             load = max(1.0 + 8.0 * max(kt, 0.0) / (math.pi * j * j), 0.0)
-            u_r = it["eps"] * u_p * math.sqrt(eta * (1.0 + it["kappa"] * (math.sqrt(load) - 1.0)) ** 2 + (1.0 - eta))
+            u_r = eps * u_p * math.sqrt(eta * (1.0 + it["kappa"] * (math.sqrt(load) - 1.0)) ** 2 + (1.0 - eta))
         else:
-            u_r = it["eps"] * u_p
+            u_r = eps * u_p
         v_r = U * it["gammaR"] * (beta - it["lR"] * rp)
         alpha = delta - math.atan2(v_r, max(u_r, 1e-6))
         fn = 0.5 * RHO * self.rudder_area * (u_r**2 + v_r**2) * self.f_alpha * math.sin(alpha)
@@ -112,13 +134,27 @@ class MMGShip:
         nr = -(self.x_r + it["aH"] * it["xH"]) * self.length * fn * math.cos(delta)
         return xr, yr, nr
 
-    def step(self, nu: np.ndarray, delta: float, n: float, dt: float) -> np.ndarray:
+    def input_row(self, delta: float, n: float | tuple[float, float]) -> tuple[float, ...]:
+        """The profile's inputs for a steering angle and shaft speed(s): (delta, n) of a rudder ship
+        (a twin-screw ship's rudders and shafts move together), (n1, alpha1, n2, alpha2) of a podded
+        one (pod 1 to port; alpha + thrust to starboard, so a starboard turn is alpha = -delta)."""
+        if self.layout != "pods":
+            return (delta, _one_shaft(n))
+        n_port, n_stbd = (n, n) if np.isscalar(n) else n
+        return (float(n_port), -delta, float(n_stbd), -delta)
+
+    def step(self, nu: np.ndarray, delta: float, n: float | tuple[float, float], dt: float) -> np.ndarray:
         """Classical Runge-Kutta over dt with the inputs held."""
         k1 = self.derivatives(nu, delta, n)
         k2 = self.derivatives(nu + 0.5 * dt * k1, delta, n)
         k3 = self.derivatives(nu + 0.5 * dt * k2, delta, n)
         k4 = self.derivatives(nu + dt * k3, delta, n)
         return nu + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+
+def _one_shaft(n: float | tuple[float, float]) -> float:
+    """The shaft speed of the ship's inputs: one for every shaft (a twin-screw ship's shafts turn alike)."""
+    return n if isinstance(n, float | int) else 0.5 * (n[0] + n[1])
 
 
 @dataclass
@@ -156,7 +192,7 @@ def run(ship: MMGShip, name: str, helm: Helm, u0: float, steps: int, dt: float, 
         nu = new
         if not np.all(np.isfinite(nu)):
             raise FloatingPointError(f"the MMG model diverged in the {name}")
-        nus.append(nu), psis.append(psi), xys.append(pos), ins.append((delta, n))
+        nus.append(nu), psis.append(psi), xys.append(pos), ins.append(ship.input_row(delta, n))
     return Run(name, np.array(nus), np.array(psis), np.array(xys), np.array(ins))
 
 

@@ -237,3 +237,14 @@ def resistance_nd(h: Hull, speed: float, nu: float = NU_WATER) -> float:
     """Straight-ahead resistance R'_0 = (1 + k) C_F S / (L d), on 1/2 rho L d U^2 (friction and form
     only: the wave resistance of a displacement ship below Fn ~ 0.2 is a few per cent)."""
     return form_factor(h) * friction_ittc57(speed, h.length, nu) * wetted_surface(h) / (h.length * h.draught)
+
+
+def twin_screw_interaction(h: Hull) -> dict[str, float]:
+    """Wake, thrust deduction and eps of a ship with two off-centre screws (twin screws or pods):
+    Taylor's twin-screw wake w_P0 = 0.55 Cb - 0.20 (Taylor 1943, "The speed and power of ships";
+    at least 0), Schoenherr's twin-screw thrust deduction t_P = 0.7 w + 0.06 (open shafts on
+    struts; Schoenherr 1939, Principles of Naval Architecture, as quoted in textbooks: its source
+    was not available to us); eps = 1 (assumed: each rudder sits in its own screw's wake, off the
+    centre line, so w_R is taken equal to w_P)."""
+    w = max(0.55 * h.cb - 0.20, 0.0)
+    return {"wP0": w, "tP": 0.7 * w + 0.06, "eps": 1.0}

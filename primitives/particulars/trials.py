@@ -11,7 +11,11 @@ import numpy as np
 
 from primitives import helm as hm
 from primitives.library import make_primitive
+from primitives.maneuvers import MAX_RUDDER_DEG, model_step
+from primitives.particulars.document import RUDDER_RATE_DEG_S
+from primitives.particulars.mmg import fixed_helm, run, zigzag_helm
 from primitives.ship import ShipProfile
+from primitives.simulate import model_signals
 
 # what ships do (IMO MSC.137(76) asks tactical diameter <= 5 L and advance <= 4.5 L; a
 # tactical diameter under 2 L is beyond what rudder ships reach): outside, the profile is suspect
@@ -93,7 +97,10 @@ def _nth(values: list[float], k: int) -> float | None:
 
 def standard_trials(profile: ShipProfile) -> TrialFigures:
     """Turning circles (35 deg, both sides), 10/10 (two reversals) and 20/20 zig-zags and the
-    stopping manoeuvre of the profile as the planner simulates them."""
+    stopping manoeuvre of the profile as the planner simulates them (a podded ship's: both pods
+    steered as one rudder, :func:`pod_trials`)."""
+    if profile.actuator == "azimuth":
+        return pod_trials(profile)
     L = profile.length_m
     tactical, advance, os10, os20, os10b, initial = {}, {}, {}, {}, {}, {}
     for side in ("starboard", "port"):
@@ -222,3 +229,70 @@ def describe(fig: TrialFigures, length: float) -> list[str]:
     )
     lines.append(f"stopping: {fig.stopping}{no_astern}")
     return lines
+
+
+class _PodHelm:
+    """A podded profile sailed through the project's kernel as a rudder ship: both pods at the
+    steering angle (``delta`` + turns to starboard, so alpha = -delta), both shafts at ``n``; the
+    interface :func:`primitives.particulars.mmg.run` steers (``step``, ``input_row``)."""
+
+    def __init__(self, profile: ShipProfile):
+        self.profile, self.theta = profile, profile.params()
+
+    def input_row(self, delta: float, n: float) -> tuple[float, ...]:
+        return tuple(x for _ in self.profile.thrusters for x in (n, -delta))
+
+    def step(self, nu: np.ndarray, delta: float, n: float, dt: float) -> np.ndarray:
+        sig = self.profile.generalized_forces(np.array(self.input_row(delta, n)))
+        return model_step(self.profile, self.theta, nu, 0.0, {k: float(v) for k, v in sig.items()})[0]
+
+
+def pod_trials(profile: ShipProfile) -> TrialFigures:
+    """The standard manoeuvres of a podded (azimuth) profile, both pods steered together to the IMO
+    rudder angles at the SOLAS steering rate (2.32 deg/s; IMO MSC.137(76) leaves comparative angles
+    for pods to the Administration), both shafts at the rpm that holds the cruise speed; the stop
+    is both shafts stopped, coasting to half speed (a built pod ship is given no astern)."""
+    L, u0, ts = profile.length_m, profile.cruise_speed_mps, profile.sample_time
+    ship = _PodHelm(profile)
+    n0 = fit_steady_rps(profile)
+    lengths = L / u0 / ts
+    rate, dmax = np.radians(RUDDER_RATE_DEG_S), np.radians(MAX_RUDDER_DEG)
+
+    def go(helm, n_lengths: float):
+        r = run(ship, "pod trial", helm, u0, int(n_lengths * lengths), ts, rate, dmax)
+        return np.c_[r.xy, r.psi], r
+
+    tactical, advance, os10, os20, os10b, initial = {}, {}, {}, {}, {}, {}
+    for side, s in (("starboard", 1.0), ("port", -1.0)):
+        a, td = turn_figures(go(fixed_helm(s * dmax, n0), 25)[0])
+        advance[side], tactical[side] = (None if a is None else a / L), (None if td is None else td / L)
+        track = go(zigzag_helm(np.radians(10), s, n0), 14)[0]
+        ovs = zigzag_overshoots(track[:, 2], 10)
+        os10[side], os10b[side] = _nth(ovs, 0), _nth(ovs, 1)
+        it = initial_turn(track)
+        initial[side] = None if it is None else it / L
+        os20[side] = _nth(zigzag_overshoots(go(zigzag_helm(np.radians(20), s, n0), 10)[0][:, 2], 20), 0)
+    track, r = go(fixed_helm(0.0, 0.0), 40)
+    slow = r.nu[:, 0] <= 0.5 * u0
+    if np.any(slow):
+        reach = float(np.linalg.norm(track[int(np.argmax(slow)), :2] - track[0, :2]))
+        line = f"both shafts stopped from cruise speed, coasting to half speed (no astern given): head reach {reach / L:.1f} L ({reach:.0f} m)"
+    else:  # not a reach to half speed: say so rather than print the end of the run as one
+        line = "both shafts stopped from cruise speed (no astern given): not yet at half speed after 40 L"
+    return TrialFigures(tactical, advance, os10, os20, line, None, os10b, initial)
+
+
+def fit_steady_rps(profile: ShipProfile) -> float:
+    """Shaft speed [rev/s] on both pods that holds the cruise speed straight ahead (bisection on the
+    surge increment within the input limits)."""
+    th, u = profile.params(), profile.cruise_speed_mps
+    lo, hi = 0.0, profile.input_limits["n1"][1]
+
+    def surge(n: float) -> float:
+        sig = model_signals(profile, np.array([u, 0.0, 0.0]), np.array(0.0), profile.generalized_forces(np.array([n, 0.0] * 2)))
+        return float(profile.model.increments(sig, th)[0])
+
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if surge(mid) < 0 else (lo, mid)
+    return 0.5 * (lo + hi)
