@@ -23,6 +23,9 @@ simulation or a failed fit is counted and printed, never dropped silently.
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
+import pickle
 import tempfile
 import time
 import warnings
@@ -30,7 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from identify.detect.api import detect, fit_prior, load_runs
+from identify.detect.api import detect, fit_prior, load_runs, screen
+from identify.detect.verdict import verdict
 from primitives.errors import UserError
 from tests.physics.podded_truth import VARIANTS, recordings, write_csv
 
@@ -38,40 +42,79 @@ THESIS = (1.7, 3.5, 219)  # Table 5.2, full model, models 1-10 pooled: FA %, mis
 BATCH = 10
 
 
-def ship_study(variant: str, ship_seed: int, runs: int, tmp: Path) -> dict:
+def _cached(folder: Path, name: str, make) -> list[Path]:
+    """The recordings ``make()`` returns, written as CSVs ``name-<i>.csv`` in ``folder``; reused when
+    an earlier call wrote them all there (``--cache``: the truth family does not depend on the detector)."""
+    done = folder / f"{name}.done"
+    if done.exists():
+        return [folder / f"{name}-{i}.csv" for i in range(int(done.read_text()))]
+    cols = make()
+    paths = [write_csv(c, folder / f"{name}-{i}.csv") for i, c in enumerate(cols)]
+    done.write_text(str(len(paths)))
+    return paths
+
+
+def screening_key() -> str:
+    """Fingerprint of the code a screening (and the prior) depends on: every module of ``identify``,
+    ``primitives`` and ``diagnose`` but the decision stage (``identify/detect/verdict.py``), so a
+    stored screening is reused only while that code is unchanged."""
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha1()
+    for f in sorted(p for d in ("identify", "primitives", "diagnose") for p in (root / d).rglob("*.py")):
+        if f.name != "verdict.py":
+            h.update(f.read_bytes())
+    return h.hexdigest()[:12]
+
+
+def _stored(path: Path, make):
+    """``make()``, pickled to ``path`` and read back from there on later calls."""
+    if path.exists():
+        return pickle.loads(path.read_bytes())
+    out = make()
+    path.write_bytes(pickle.dumps(out))
+    return out
+
+
+def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str) -> dict:
     """One ship: its prior, then ``runs`` unchanged and ``runs`` changed recordings."""
     rng = np.random.default_rng([ship_seed, 3])
     seeds = [1000 * ship_seed + 1 + i for i in range(2 * runs)]
     changes = [None] * runs + [0.0 if i % 2 == 0 else float(rng.uniform(100, 300)) for i in range(runs)]
     out = {"unchanged": [], "changed": [], "errors": []}
     try:
-        nominal = recordings(variant, ship_seed, [1000 * ship_seed])[0]
-        p = write_csv(nominal, tmp / f"{variant}-{ship_seed}-nominal.csv")
-        prior = fit_prior([p], "full", 64, 0)
+        (p,) = _cached(folder, f"{variant}-{ship_seed}-nominal", lambda: recordings(variant, ship_seed, [1000 * ship_seed]))
+        prior = _stored(folder / f"{p.stem}-prior-{key}.pkl", lambda: fit_prior([p], "full", 64, 0))
     except (FloatingPointError, UserError) as e:
         out["errors"].append(f"ship {ship_seed} prior: {e}")
         return out
-    out["prior_I_r"] = prior.values["I_r"]
+    out["prior"] = {"I_r": prior.values["I_r"], "noise": prior.noise, "model_error": prior.model_error}
+    out["prior"] |= {"structure": prior.structure.tolist(), "sigma_w": prior.sigma_w}
     for b in range(0, 2 * runs, BATCH):
+        sl = slice(b, b + BATCH)
         try:
-            cols = recordings(variant, ship_seed, seeds[b : b + BATCH], change_at_s=changes[b : b + BATCH])
+            paths = _cached(
+                folder,
+                f"{variant}-{ship_seed}-{runs}-{b}",
+                lambda sl=sl: recordings(variant, ship_seed, seeds[sl], change_at_s=changes[sl]),
+            )
         except FloatingPointError as e:
             out["errors"].append(f"ship {ship_seed} runs {b}-{b + BATCH}: {e}")
             for c in changes[b : b + BATCH]:
                 out["unchanged" if c is None else "changed"].append({"failed": True, "change_s": c})
             continue
-        for j, (c, ch) in enumerate(zip(cols, changes[b : b + BATCH])):
-            path = write_csv(c, tmp / f"{variant}-{ship_seed}-{b + j}.csv")
+        for j, (path, ch) in enumerate(zip(paths, changes[sl])):
             try:
                 rec = load_runs([path])[0]
-                d = detect(rec, prior)
+                d = verdict(_stored(folder / f"{path.stem}-screen-{key}.pkl", lambda rec=rec: screen(rec, prior)), prior)
                 res = {
                     "alarm_s": d.alarm_s,
                     "property": d.property,
                     "change_s": ch,
                     "h": float(d.threshold[0]),
-                    "roll_max": float(np.abs(c["phi"]).max()),
+                    "roll_max": float(np.abs(rec.channels["phi"]).max()),
                     "failed": False,
+                    "evidence": d.evidence,
+                    "thresholds": d.threshold.tolist(),
                 }
             except (UserError, FloatingPointError) as e:
                 out["errors"].append(f"ship {ship_seed} run {b + j}: {e}")
@@ -145,6 +188,13 @@ def main() -> None:
     ap.add_argument("--ships", type=int, default=2, help="ships (priors) per variant")
     ap.add_argument("--runs", type=int, default=5, help="unchanged and changed runs per ship (each)")
     ap.add_argument("--variants", nargs="*", default=list(VARIANTS), choices=VARIANTS)
+    ap.add_argument(
+        "--cache",
+        type=Path,
+        help="folder keeping the truth recordings, the priors and the screenings between calls (made if missing): "
+        "a change of the decision stage alone (identify/detect/verdict.py) is then re-measured in seconds",
+    )
+    ap.add_argument("--dump", type=Path, help="write every run's verdict and evidence, and each prior's noise, as JSON")
     ap.add_argument("--timing", type=int, default=0, metavar="N", help="only time detect on N recordings of one ship")
     a = ap.parse_args()
     warnings.simplefilter("ignore", RuntimeWarning)
@@ -163,14 +213,18 @@ def main() -> None:
     t0, c0 = time.perf_counter(), time.process_time()
     everything = []
     with tempfile.TemporaryDirectory() as td:
+        folder, key = a.cache or Path(td), screening_key()
+        folder.mkdir(parents=True, exist_ok=True)
         for v in a.variants:
-            studies = [ship_study(v, 100 + k, a.runs, Path(td)) for k in range(a.ships)]
+            studies = [ship_study(v, 100 + k, a.runs, folder, key) | {"variant": v} for k in range(a.ships)]
             everything += studies
             s = summarise(studies)
             print(row(v, s), flush=True)
             for e in s["errors"][:5]:
                 print(f"    failure: {e}")
     print(row("pooled", summarise(everything)))
+    if a.dump:
+        a.dump.write_text(json.dumps(everything, default=float))
     print(f"({time.perf_counter() - t0:.0f} s wall, {time.process_time() - c0:.0f} s cpu; machine shared)")
 
 

@@ -251,7 +251,7 @@ def test_a_strongly_rolling_changed_run_is_detected_as_yaw_inertia(prior):
 
 def test_attribution_is_undecided_when_the_evidence_does_not_separate(prior):
     from identify.detect.api import signals
-    from identify.detect.glr import attribute
+    from identify.detect.verdict import attribute
     from identify.detect.yawmodel import signatures
 
     sig, _ = signals(simulated_recording(Vessel(), 200, seed=71, measured_moment=True), "full")
@@ -357,7 +357,7 @@ def test_a_moment_or_yaw_rate_of_wrong_unit_or_sign_is_refused_not_called_a_chan
 def test_the_alarm_time_is_when_the_decisions_evidence_ends(prior):
     # the decision's estimate uses up to 60 s of data after the first threshold crossing; the
     # alarm was printed at the crossing (63.9 s here), understating the delay by up to 60 s
-    from identify.detect.api import LOOK_AHEAD
+    from identify.detect.verdict import LOOK_AHEAD
 
     rec = simulated_recording(Vessel(), 300, seed=41, change_at_s=CHANGE_S, changed=Vessel(damping=1.2), measured_moment=True)
     d = detect(rec, prior)

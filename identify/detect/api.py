@@ -6,7 +6,7 @@ during operation", with the change named). A notebook calls these; the CLI
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +14,8 @@ import numpy as np
 from diagnose.recording import NUMERIC, Recording, RecordingError, load_recording, split_metadata
 from identify.detect.checks import MOMENT, check_inputs, check_moment_sign, time_derivative
 from identify.detect.cusum import calibrate_dead_zone, first_alarms
-from identify.detect.glr import SignatureCusum, attribute, calibrate, onset
+from identify.detect.glr import SignatureCusum, calibrate
+from identify.detect.verdict import N_RDOT, Detection, Screening, physical_change, verdict
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
 from identify.detect.yawmodel import (
     CANDIDATES,
@@ -218,81 +219,6 @@ def load_prior(path: Path) -> YawPrior:
     return YawPrior.from_dict(d, where=str(path))
 
 
-#: N_rdot of Appendix A (Blanke and Christensen 1993), kg m^2: I_z = I_r + N_rdot converts the lumped
-#: yaw inertia the yaw row identifies into the rigid body's (``--n-rdot`` gives the ship's own)
-N_RDOT = -28.7e6
-CHECKS = 60  # most alarm candidates (blocks over the threshold) whose estimate is checked
-LOOK_AHEAD = 600  # samples after a crossing whose data the alarm decision's estimate also uses
-
-
-@dataclass
-class Detection:
-    """One recording's verdict, the evidence, and the statistics for the plot."""
-
-    source: str
-    changed: bool
-    alarm_s: float | None
-    property: str | None
-    evidence: dict
-    dead_zone_alarm_s: float | None
-    threshold: np.ndarray  # per candidate (CANDIDATES)
-    t_blocks: np.ndarray = field(repr=False)
-    statistic: np.ndarray = field(repr=False)  # (blocks, candidates)
-    dead_zone: np.ndarray = field(repr=False)
-    dead_zone_h: float = 0.0
-    t: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
-
-    def summary(self) -> dict:
-        return {
-            "recording": self.source,
-            "changed": self.changed,
-            "alarm_s": self.alarm_s,
-            "property": self.property,
-            "onset_s": self.evidence.get("onset_s") if self.changed else None,
-            "onset_interval_s": self.evidence.get("onset_interval_s") if self.changed else None,
-            "threshold": dict(zip(CANDIDATES, map(float, self.threshold))),
-            "evidence": self.evidence,
-            "dead_zone_cusum_alarm_s": self.dead_zone_alarm_s,
-        }
-
-
-def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float | None:
-    """The relative change of the physical property: I_z = I_r + N_rdot for yaw inertia (a change
-    dI = rel I_r of the lumped inertia is dI / I_z of the rigid body's), the same for the others;
-    None when the prior's I_r is not above -N_rdot (I_z would not be positive)."""
-    if name != "yaw_inertia":
-        return rel
-    i_z = i_r + n_rdot
-    return rel * i_r / i_z if i_z > 0 else None
-
-
-def _decide(eps, S, prior, st, h, null_raw, min_change, n_rdot) -> tuple[int, dict]:
-    """First block over the threshold whose change is also worth an alarm: the leading candidate's
-    estimate (from the change point on, :func:`glr.onset`, to LOOK_AHEAD samples after the
-    crossing) at least ``min_change`` (of I_z for yaw inertia) and twice its no-change standard
-    deviation. Returns (alarm sample: the last one that estimate saw, or -1; evidence)."""
-    over = np.flatnonzero((st / h).max(axis=1) > 1.0)
-    step = max(1, len(over) // CHECKS)
-    for b in over[::step]:
-        upto = (int(b) + 1) * prior.block
-        k = int(np.argmax(st[b] / h))
-        tau, lo, hi = onset(eps, S, prior, upto, k)
-        end = min(upto + LOOK_AHEAD, len(eps))
-        ev = attribute(eps, S, prior, end, null_raw, start=tau)
-        lead = max(ev["candidates"], key=lambda c: ev["candidates"][c]["llr"])
-        c = ev["candidates"][lead]
-        size = physical_change(lead, c["relative_change"], prior.values["I_r"], n_rdot)
-        if size is None:
-            size = c["relative_change"]
-        if abs(size) >= min_change and abs(c["relative_change"]) >= 2 * c["std"]:
-            return end - 1, ev | {"onset": (tau, lo, hi)}  # the alarm time is when its evidence ends
-    tau, lo, hi = onset(eps, S, prior, len(eps), int(np.argmax((st / h).max(axis=0))))
-    return -1, attribute(eps, S, prior, len(eps), null_raw, start=0) | {
-        "onset": (tau, lo, hi),
-        "crossed_but_below_min_change": bool(len(over)),
-    }
-
-
 def detect(
     rec: Recording,
     prior: YawPrior,
@@ -303,10 +229,26 @@ def detect(
     n_rdot: float = N_RDOT,
 ) -> Detection:
     """Signature LR-CUSUM (and, for comparison, the dead-zone CUSUM of (5.1)) on one recording,
-    calibrated for ``false_alarm`` per recording length from the prior alone; an alarm also needs
-    the estimated change to reach ``min_change`` and twice its own noise (:func:`_decide`). The
-    evidence holds the change point with its 95 % interval and, for yaw inertia, the change of
-    I_z = I_r + ``n_rdot`` beside that of the lumped I_r."""
+    calibrated for ``false_alarm`` per recording length from the prior alone (:func:`screen`); an
+    alarm also needs the estimated change to reach ``min_change`` and twice its own noise
+    (:func:`identify.detect.verdict.verdict`). The evidence holds the change point with its 95 %
+    interval and, for yaw inertia, the change of I_z = I_r + ``n_rdot`` beside that of the lumped I_r."""
+    return verdict(screen(rec, prior, false_alarm, min_change, seed, null_runs, n_rdot), prior, min_change, n_rdot)
+
+
+def screen(
+    rec: Recording,
+    prior: YawPrior,
+    false_alarm: float = 0.02,
+    min_change: float = 0.05,
+    seed: int = 0,
+    null_runs: int = 400,
+    n_rdot: float = N_RDOT,
+) -> Screening:
+    """The recording's residual against the prior, the change signatures, ``null_runs`` no-change
+    records simulated from the prior alone (:func:`identify.detect.yawmodel.null_records`), and the
+    LR-CUSUM and dead-zone CUSUM statistics with thresholds calibrated on those for ``false_alarm``
+    per recording length; the LR-CUSUM looks for a change of ``min_change`` (of I_z for inertia)."""
     if abs(rec.sample_time - prior.dt) > 1e-6 * prior.dt:
         raise RecordingError(
             f"{rec.source}: sample time {rec.sample_time:g} s differs from the prior's {prior.dt:g} s; "
@@ -330,39 +272,10 @@ def detect(
     sc: SignatureCusum = calibrate(prior, S, null_blocks, theta1=theta1, false_alarm=false_alarm, seed=seed)
     dz = calibrate_dead_zone(prior.sigma, null_raw, false_alarm=false_alarm)
     st = sc.statistics(block_mean(eps, prior.block), S)
-    i, ev = _decide(eps, S, prior, st, sc.h, null_raw, min_change, n_rdot)
     g = dz.statistic(eps)
     j = int(first_alarms(g[:, None], dz.h)[0])
-    t = rec.t - rec.t[0]
-    tau, lo, hi = ev.pop("onset")
-    ev["onset_s"] = float(t[min(tau, len(t) - 1)])
-    ev["onset_interval_s"] = [float(t[min(lo, len(t) - 1)]), float(t[min(hi, len(t) - 1)])]
-    inertia = ev["candidates"]["yaw_inertia"]
-    iz = physical_change("yaw_inertia", inertia["relative_change"], prior.values["I_r"], n_rdot)
-    scale = iz / inertia["relative_change"] if iz is not None and inertia["relative_change"] else None
-    inertia |= {
-        "I_z_relative_change": iz,
-        "I_z_std": None if scale is None else abs(scale) * inertia["std"],
-        "N_rdot": n_rdot,
-        "I_r": prior.values["I_r"],
-    }
-    ev["statistic_max"] = {c: float(st[:, k].max()) for k, c in enumerate(CANDIDATES)}
-    ev["residual_rms"] = residual_rms
-    ev["prior_sigma"] = prior.sigma
-    tb = t[prior.block - 1 :: prior.block][: len(st)]
-    return Detection(
-        str(rec.source),
-        i >= 0,
-        float(t[i]) if i >= 0 else None,
-        ev["property"] if i >= 0 else None,
-        ev,
-        float(t[j]) if j >= 0 else None,
-        sc.h,
-        tb,
-        st,
-        g,
-        dz.h,
-        t,
+    return Screening(
+        str(rec.source), eps, S, st, np.asarray(sc.h), null_blocks, g, float(dz.h), j, rec.t - rec.t[0], residual_rms
     )
 
 
