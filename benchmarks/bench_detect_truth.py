@@ -23,6 +23,7 @@ simulation or a failed fit is counted and printed, never dropped silently.
 from __future__ import annotations
 
 import argparse
+import ast
 import hashlib
 import json
 import pickle
@@ -56,13 +57,23 @@ def _cached(folder: Path, name: str, make) -> list[Path]:
 
 def screening_key() -> str:
     """Fingerprint of the code a screening (and the prior) depends on: every module of ``identify``,
-    ``primitives`` and ``diagnose`` but the decision stage (``identify/detect/verdict.py``), so a
-    stored screening is reused only while that code is unchanged."""
+    ``primitives`` and ``diagnose`` but the decision stage (``identify/detect/verdict.py``, its imports
+    and ``api.detect``, the wrapper that calls it), as parsed code (comments and layout ignored), so
+    a stored screening is reused only while the code that made it is unchanged."""
     root = Path(__file__).resolve().parents[1]
     h = hashlib.sha1()
     for f in sorted(p for d in ("identify", "primitives", "diagnose") for p in (root / d).rglob("*.py")):
-        if f.name != "verdict.py":
-            h.update(f.read_bytes())
+        if f.name == "verdict.py":
+            continue
+        tree = ast.parse(f.read_text())
+        if f.relative_to(root).as_posix() == "identify/detect/api.py":
+            tree.body = [
+                n
+                for n in tree.body
+                if not (isinstance(n, ast.FunctionDef) and n.name == "detect")
+                and not (isinstance(n, ast.ImportFrom) and n.module == "identify.detect.verdict")
+            ]
+        h.update(ast.dump(tree).encode())
     return h.hexdigest()[:12]
 
 

@@ -92,6 +92,12 @@ def register(app: typer.Typer) -> None:
             help="added yaw inertia N_rdot (kg m^2, negative) that converts "
             "the identified I_r = I_z - N_rdot into I_z; default Blanke and Christensen (1993)",
         ),
+        i_z: float = typer.Option(
+            33.7e6,
+            "--i-z",
+            help="the ship's rigid-body yaw inertia I_z (kg m^2): a relative change of I_r is (I_z - N_rdot) / I_z "
+            "times that of I_z; default Blanke and Christensen (1993)",
+        ),
         seed: int = typer.Option(0, "--seed", help="seed of the threshold's no-change simulation"),
         json_out: bool = typer.Option(False, "--json", help="print the verdicts as JSON"),
     ) -> None:
@@ -102,7 +108,7 @@ def register(app: typer.Typer) -> None:
         from identify.detect.api import load_prior, load_runs
         from identify.detect.api import plot as plot_stats
 
-        validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot)
+        validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot, i_z=i_z)
         prior = load_prior(prior_file)
         notes: list[str] = []
         recs = load_runs(recordings, prior.kind, notes)
@@ -116,7 +122,7 @@ def register(app: typer.Typer) -> None:
                 "calibrated to --false-alarm: refit it with detect-prior (--bootstrap > 0)",
                 err=True,
             )
-        dets = [run_detect(r, prior, false_alarm, min_change, seed, n_rdot=n_rdot) for r in recs]
+        dets = [run_detect(r, prior, false_alarm, min_change, seed, n_rdot=n_rdot, i_z=i_z) for r in recs]
         written = plot_stats(dets, plot, PLOT_PANELS) if plot is not None else []
         if json_out:
             typer.echo(
@@ -127,6 +133,7 @@ def register(app: typer.Typer) -> None:
                         "false_alarm": false_alarm,
                         "min_change": min_change,
                         "n_rdot": n_rdot,
+                        "i_z": i_z,
                         "notes": notes,
                         "recordings": [d.summary() for d in dets],
                     }
@@ -172,13 +179,10 @@ def verdict_lines(d, min_change: float) -> list[str]:
         line = f"  {name.replace('_', ' '):12s} {100 * c['relative_change']:+6.1f} % +- {100 * c['std']:4.1f} %"
         if name == "yaw_inertia":
             line += " of I_r = I_z - N_rdot"
-            if c.get("I_z_relative_change") is not None:
-                line += (
-                    f" (I_z {100 * c['I_z_relative_change']:+.1f} % +- {100 * c['I_z_std']:.1f} % with "
-                    f"N_rdot {c['N_rdot']:.3g} kg m^2)"
-                )
-            else:
-                line += f" (I_z not positive with N_rdot {c['N_rdot']:.3g} kg m^2: check --n-rdot)"
+            line += (
+                f" (I_z {100 * c['I_z_relative_change']:+.1f} % +- {100 * c['I_z_std']:.1f} % with "
+                f"I_z {c['I_z']:.3g}, N_rdot {c['N_rdot']:.3g} kg m^2)"
+            )
         line += f", log-likelihood ratio {c['llr']:.1f}"
         if not d.changed and abs(c["relative_change"]) >= 2 * c["std"]:
             # the alarm tests only the candidate with the largest log-likelihood ratio

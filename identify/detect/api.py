@@ -15,7 +15,7 @@ from diagnose.recording import NUMERIC, Recording, RecordingError, load_recordin
 from identify.detect.checks import MOMENT, check_inputs, check_moment_sign, time_derivative
 from identify.detect.cusum import calibrate_dead_zone, first_alarms
 from identify.detect.glr import SignatureCusum, calibrate
-from identify.detect.verdict import N_RDOT, Detection, Screening, physical_change, verdict
+from identify.detect.verdict import I_Z, N_RDOT, Detection, Screening, physical_change, verdict
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
 from identify.detect.yawmodel import (
     CANDIDATES,
@@ -227,13 +227,15 @@ def detect(
     seed: int = 0,
     null_runs: int = 400,
     n_rdot: float = N_RDOT,
+    i_z: float = I_Z,
 ) -> Detection:
     """Signature LR-CUSUM (and, for comparison, the dead-zone CUSUM of (5.1)) on one recording,
     calibrated for ``false_alarm`` per recording length from the prior alone (:func:`screen`); an
     alarm also needs the estimated change to reach ``min_change`` and twice its own noise
     (:func:`identify.detect.verdict.verdict`). The evidence holds the change point with its 95 %
-    interval and, for yaw inertia, the change of I_z = I_r + ``n_rdot`` beside that of the lumped I_r."""
-    return verdict(screen(rec, prior, false_alarm, min_change, seed, null_runs, n_rdot), prior, min_change, n_rdot)
+    interval and, for yaw inertia, the change of the rigid body's ``i_z`` beside that of the lumped
+    I_r = I_z - ``n_rdot``."""
+    return verdict(screen(rec, prior, false_alarm, min_change, seed, null_runs, n_rdot), prior, min_change, n_rdot, i_z)
 
 
 def screen(

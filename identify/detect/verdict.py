@@ -14,11 +14,14 @@ import numpy as np
 
 from identify.detect.yawmodel import CANDIDATES, YawPrior, block_mean, whiten
 
-#: N_rdot of Appendix A (Blanke and Christensen 1993), kg m^2: I_z = I_r + N_rdot converts the lumped
-#: yaw inertia the yaw row identifies into the rigid body's (``--n-rdot`` gives the ship's own)
+#: N_rdot and I_z of Appendix A (Blanke and Christensen 1993), kg m^2: a relative change of the lumped
+#: yaw inertia I_r = I_z - N_rdot that the yaw row identifies is (I_z - N_rdot) / I_z times that of the
+#: rigid body's I_z (``--n-rdot`` and ``--i-z`` give the ship's own). The hull's values, not the
+#: prior's fitted I_r: that is in the recorded moment's units (a load cell that misses the hull's share
+#: of the pod force scales every fitted parameter), while the relative change is not.
 N_RDOT = -28.7e6
+I_Z = 33.7e6
 CHECKS = 60  # most alarm candidates (blocks over the threshold) whose estimate is checked
-LOOK_AHEAD = 600  # samples after a crossing whose data the alarm decision's estimate also uses
 
 
 @dataclass
@@ -75,34 +78,37 @@ class Detection:
 
 def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float | None:
     """The relative change of the physical property: I_z = I_r + N_rdot for yaw inertia (a change
-    dI = rel I_r of the lumped inertia is dI / I_z of the rigid body's), the same for the others;
-    None when the prior's I_r is not above -N_rdot (I_z would not be positive)."""
+    dI = rel I_r of the lumped inertia ``i_r`` is dI / I_z of the rigid body's), the same for the
+    others; None when ``i_r`` is not above -N_rdot (I_z would not be positive)."""
     if name != "yaw_inertia":
         return rel
     i_z = i_r + n_rdot
     return rel * i_r / i_z if i_z > 0 else None
 
 
-def _decide(eps, S, prior, st, h, null_blocks, min_change, n_rdot) -> tuple[int, dict]:
+def _decide(eps, S, prior, st, h, null_blocks, min_change, i_ref, n_rdot) -> tuple[int, dict]:
     """First block over the threshold whose change is also worth an alarm: the leading candidate's
-    estimate (from the change point on, :func:`glr.onset`, to LOOK_AHEAD samples after the
-    crossing) at least ``min_change`` (of I_z for yaw inertia) and twice its no-change standard
-    deviation. Returns (alarm sample: the last one that estimate saw, or -1; evidence)."""
+    estimate from the change point on (:func:`onset`) up to the end of that block at least
+    ``min_change`` (of I_z for yaw inertia, from the lumped ``i_ref`` = I_z - N_rdot) and twice its
+    no-change standard deviation. Returns (alarm sample: the end of that block, or -1; evidence).
+
+    The evidence (each candidate's estimate and the named property) is then taken from the change
+    point to the end of the recording: the alarm needs only the data up to it, the naming all the
+    data that bears on it (inertia and pod gain are nearly collinear at turn onsets and need more
+    data to be told apart than to be detected). ``at_alarm`` keeps what the alarm decision saw."""
     over = np.flatnonzero((st / h).max(axis=1) > 1.0)
     step = max(1, len(over) // CHECKS)
     for b in over[::step]:
         upto = (int(b) + 1) * prior.block
         k = int(np.argmax(st[b] / h))
         tau, lo, hi = onset(eps, S, prior, upto, k)
-        end = min(upto + LOOK_AHEAD, len(eps))
-        ev = attribute(eps, S, prior, end, null_blocks, start=tau)
-        lead = max(ev["candidates"], key=lambda c: ev["candidates"][c]["llr"])
-        c = ev["candidates"][lead]
-        size = physical_change(lead, c["relative_change"], prior.values["I_r"], n_rdot)
-        if size is None:
-            size = c["relative_change"]
+        seen = attribute(eps, S, prior, upto, null_blocks, start=tau)
+        lead = max(seen["candidates"], key=lambda c: seen["candidates"][c]["llr"])
+        c = seen["candidates"][lead]
+        size = physical_change(lead, c["relative_change"], i_ref, n_rdot)
         if abs(size) >= min_change and abs(c["relative_change"]) >= 2 * c["std"]:
-            return end - 1, ev | {"onset": (tau, lo, hi)}  # the alarm time is when its evidence ends
+            ev = attribute(eps, S, prior, len(eps), null_blocks, start=tau)
+            return upto - 1, ev | {"onset": (tau, lo, hi), "at_alarm": {"candidate": lead} | c}
     tau, lo, hi = onset(eps, S, prior, len(eps), int(np.argmax((st / h).max(axis=0))))
     return -1, attribute(eps, S, prior, len(eps), null_blocks, start=0) | {
         "onset": (tau, lo, hi),
@@ -110,22 +116,24 @@ def _decide(eps, S, prior, st, h, null_blocks, min_change, n_rdot) -> tuple[int,
     }
 
 
-def verdict(sc: Screening, prior: YawPrior, min_change: float = 0.05, n_rdot: float = N_RDOT) -> Detection:
+def verdict(sc: Screening, prior: YawPrior, min_change: float = 0.05, n_rdot: float = N_RDOT, i_z: float = I_Z) -> Detection:
     """The verdict on one screened recording (:func:`_decide`), with the evidence: the change point
-    with its 95 % interval, each candidate's estimate and, for yaw inertia, the change of
-    I_z = I_r + ``n_rdot`` beside that of the lumped I_r."""
-    i, ev = _decide(sc.eps, sc.S, prior, sc.st, sc.h, sc.null_blocks, min_change, n_rdot)
+    with its 95 % interval, each candidate's estimate and, for yaw inertia, the change of the rigid
+    body's ``i_z`` beside that of the lumped I_r = I_z - ``n_rdot``."""
+    i_ref = i_z - n_rdot
+    i, ev = _decide(sc.eps, sc.S, prior, sc.st, sc.h, sc.null_blocks, min_change, i_ref, n_rdot)
     t = sc.t
     tau, lo, hi = ev.pop("onset")
     ev["onset_s"] = float(t[min(tau, len(t) - 1)])
     ev["onset_interval_s"] = [float(t[min(lo, len(t) - 1)]), float(t[min(hi, len(t) - 1)])]
     inertia = ev["candidates"]["yaw_inertia"]
-    iz = physical_change("yaw_inertia", inertia["relative_change"], prior.values["I_r"], n_rdot)
+    iz = physical_change("yaw_inertia", inertia["relative_change"], i_ref, n_rdot)
     scale = iz / inertia["relative_change"] if iz is not None and inertia["relative_change"] else None
     inertia |= {
         "I_z_relative_change": iz,
         "I_z_std": None if scale is None else abs(scale) * inertia["std"],
         "N_rdot": n_rdot,
+        "I_z": i_z,
         "I_r": prior.values["I_r"],
     }
     ev["statistic_max"] = {c: float(sc.st[:, k].max()) for k, c in enumerate(CANDIDATES)}
