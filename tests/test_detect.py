@@ -264,6 +264,24 @@ def test_attribution_is_undecided_when_the_evidence_does_not_separate(prior):
     assert ev["property"] == "undecided" and set(ev["undecided_between"]) == {"yaw_inertia", "pod_gain"}
 
 
+def test_the_i_z_change_is_converted_with_the_hulls_values_not_the_priors_fitted_i_r(prior):
+    # the fitted I_r is in the recorded moment's units (0.77 of the ship's on a truth ship whose load
+    # cells miss the hull's share of the pod force): I_r + N_rdot then read a -2.9 % change of I_r
+    # as -6.7 % of I_z; the relative change converts with the hull's (I_z - N_rdot) / I_z alone
+    from dataclasses import replace as dc_replace
+
+    from identify.detect.api import screen
+    from identify.detect.verdict import verdict
+
+    rec = simulated_recording(Vessel(), 200, seed=43, change_at_s=0.0, changed=Vessel(inertia=1.1), measured_moment=True)
+    sc = screen(rec, prior)
+    scaled = dc_replace(prior, values=prior.values | {"I_r": 0.77 * prior.values["I_r"]})
+    a, b = (verdict(sc, p).evidence["candidates"]["yaw_inertia"] for p in (prior, scaled))
+    assert a["I_z_relative_change"] == b["I_z_relative_change"] == pytest.approx(a["relative_change"] * 62.4 / 33.7)
+    c = verdict(sc, prior, i_z=50e6).evidence["candidates"]["yaw_inertia"]  # a heavier hull: a smaller share
+    assert c["I_z_relative_change"] == pytest.approx(a["relative_change"] * 78.7 / 50.0) and c["I_z"] == 50e6
+
+
 def test_no_alarm_for_a_change_below_min_change(prior):
     rec = simulated_recording(Vessel(pod_gain=0.97), 300, seed=81, measured_moment=True)
     d = detect(rec, prior, min_change=0.05)
