@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from identify.detect.api import detect, fit_prior, load_runs, screen
-from identify.detect.verdict import verdict
+from identify.detect.verdict import implausible_inertia, verdict
 from primitives.errors import UserError
 from tests.physics.podded_truth import VARIANTS, recordings, write_csv
 
@@ -99,6 +99,8 @@ def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str) 
         out["errors"].append(f"ship {ship_seed} prior: {e}")
         return out
     out["prior"] = {"I_r": prior.values["I_r"], "noise": prior.noise, "model_error": prior.model_error}
+    warning = implausible_inertia(prior)
+    out["warnings"] = [f"ship {ship_seed}: {warning.split(':')[0]}"] if warning else []
     out["prior"] |= {"structure": prior.structure.tolist(), "sigma_w": prior.sigma_w}
     for b in range(0, 2 * runs, BATCH):
         sl = slice(b, b + BATCH)
@@ -233,6 +235,9 @@ def main() -> None:
             print(row(v, s), flush=True)
             for e in s["errors"][:5]:
                 print(f"    failure: {e}")
+            for st in studies:
+                for w in st.get("warnings", []):
+                    print(f"    detect warns of the prior, {w}")
     print(row("pooled", summarise(everything)))
     if a.dump:
         a.dump.write_text(json.dumps(everything, default=float))

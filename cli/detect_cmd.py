@@ -107,6 +107,7 @@ def register(app: typer.Typer) -> None:
         from identify.detect.api import detect as run_detect
         from identify.detect.api import load_prior, load_runs
         from identify.detect.api import plot as plot_stats
+        from identify.detect.verdict import implausible_inertia
 
         validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot, i_z=i_z)
         prior = load_prior(prior_file)
@@ -114,6 +115,9 @@ def register(app: typer.Typer) -> None:
         recs = load_runs(recordings, prior.kind, notes)
         for n in notes:
             typer.echo(f"note: {n}", err=True)
+        odd = implausible_inertia(prior, i_z, n_rdot)
+        if odd:
+            typer.echo(f"warning: {prior_file}: {odd}", err=True)
         if prior.model_error > 0 and not prior.structure.any():
             # Measured (benchmarks/bench_detect.py): such priors alarm far above the design rate.
             typer.echo(
