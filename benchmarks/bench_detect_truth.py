@@ -16,6 +16,9 @@ inertia, and the thesis's figures (Table 5.2, models 1-10: 1.7 % / 3.5 % / 219 s
 simulation or a failed fit is counted and printed, never dropped silently.
 
     python benchmarks/bench_detect_truth.py --ships 2 --runs 5
+    nice -n 10 python benchmarks/bench_detect_truth.py --ships 2 --runs 10 --cache /tmp/detect-cache  # 20 + 20 per variant
+        # (the first call simulates, fits and screens: ~560 s CPU; a change of the decision stage
+        #  alone, identify/detect/verdict.py, is then re-measured from the stored screenings in ~10 s)
     nice -n 10 python benchmarks/bench_detect_truth.py --ships 10 --runs 10   # 100 + 100 runs per variant
     python benchmarks/bench_detect_truth.py --timing 5 --variants strong-roll  # CPU s of detect per recording
 """
