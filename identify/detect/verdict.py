@@ -148,6 +148,8 @@ def verdict(sc: Screening, prior: YawPrior, min_change: float = 0.05, n_rdot: fl
     """The verdict on one screened recording (:func:`_decide`), with the evidence: the change point
     with its 95 % interval, each candidate's estimate and, for yaw inertia, the change of the rigid
     body's ``i_z`` beside that of the lumped I_r = I_z - ``n_rdot``."""
+    if not (i_z > 0 and n_rdot < 0):
+        raise ValueError(f"i_z {i_z:g} must be positive and n_rdot {n_rdot:g} negative (kg m^2)")
     i_ref = i_z - n_rdot
     i, ev = _decide(sc.eps, sc.S, prior, sc.st, sc.h, sc.null_blocks, min_change, i_ref, n_rdot)
     t = sc.t
