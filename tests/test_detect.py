@@ -88,7 +88,8 @@ def test_no_alarm_on_the_nominal_ship(prior):
 def test_step_change_alarms_soon_after_it_and_names_the_property(prior, changed, name):
     rec = simulated_recording(Vessel(), 300, seed=41, change_at_s=CHANGE_S, changed=changed, measured_moment=True)
     d = detect(rec, prior)
-    assert d.changed and CHANGE_S <= d.alarm_s <= CHANGE_S + 120, d.alarm_s
+    # an alarm's estimate needs MIN_WINDOW_S (120 s) of data after the change point
+    assert d.changed and CHANGE_S + 100 <= d.alarm_s <= CHANGE_S + 180, d.alarm_s
     assert d.property == name, d.evidence
     sign = -1 if name == "pod_gain" else 1
     assert sign * d.evidence["candidates"][name]["relative_change"] > 0
@@ -120,7 +121,7 @@ def test_cli_detect_json(prior, tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     v = doc["recordings"][0]
     assert doc["model"] == "full" and v["changed"] is True and v["property"] == "yaw_damping"
-    assert CHANGE_S <= v["alarm_s"] <= CHANGE_S + 120 and set(v["evidence"]["candidates"]) == {
+    assert CHANGE_S <= v["alarm_s"] <= CHANGE_S + 180 and set(v["evidence"]["candidates"]) == {
         "yaw_inertia",
         "yaw_damping",
         "pod_gain",
