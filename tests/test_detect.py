@@ -16,6 +16,8 @@ from identify.yawid.model import true_parameters
 from primitives.simulate import simulate
 
 CHANGE_S = 60.0
+#: the simulated ship's hull (its profile's [rigid_body] I_z and N_rdot), given as a user would give theirs
+HULL = dict(zip(("i_z", "n_rdot"), __import__("identify.detect.api", fromlist=["hull_inertia"]).hull_inertia("naval-vessel")))
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +89,7 @@ def test_no_alarm_on_the_nominal_ship(prior):
 )
 def test_step_change_alarms_soon_after_it_and_names_the_property(prior, changed, name):
     rec = simulated_recording(Vessel(), 300, seed=41, change_at_s=CHANGE_S, changed=changed, measured_moment=True)
-    d = detect(rec, prior)
+    d = detect(rec, prior, **HULL)
     # an alarm's estimate needs MIN_WINDOW_S (120 s) of data after the change point
     assert d.changed and CHANGE_S + 100 <= d.alarm_s <= CHANGE_S + 180, d.alarm_s
     assert d.property == name, d.evidence
@@ -137,7 +139,8 @@ def test_cli_detect_warns_when_the_prior_misfits_its_own_data(prior, tmp_path, c
     save_prior(prior, tmp_path / "ok.json")
     save_prior(replace(prior, model_error=0.002, structure=np.zeros(3)), tmp_path / "misfit.json")
     write_csv(simulated_recording(Vessel(), 300, seed=53, measured_moment=True), tmp_path / "r.csv")
-    assert _run(["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "ok.json"), "--json"]) in (0, None)
+    ok = ["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "ok.json"), "--json", "--profile", "naval-vessel"]
+    assert _run(ok) in (0, None)
     assert "warning" not in capsys.readouterr().err
     assert _run(["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "misfit.json"), "--json"]) in (0, None)
     err = capsys.readouterr().err
@@ -153,11 +156,13 @@ def test_cli_detect_warns_when_the_priors_inertia_is_not_the_hulls(prior, tmp_pa
     from identify.detect.verdict import implausible_inertia
 
     odd = replace(prior, values=prior.values | {"I_r": 18 * prior.values["I_r"]})
-    assert implausible_inertia(prior) is None and implausible_inertia(odd) is not None
-    assert implausible_inertia(odd, i_z=18 * 62.4e6 + 28.7e6) is None  # a ship that heavy: no warning
+    assert implausible_inertia(prior, **HULL) is None and implausible_inertia(odd, **HULL) is not None
+    assert implausible_inertia(odd, i_z=18 * 62.4e6 + 28.7e6, n_rdot=-28.7e6) is None  # a ship that heavy: no warning
+    assert implausible_inertia(odd, None, None) is None  # the hull not known: nothing to compare with
     save_prior(odd, tmp_path / "odd.json")
     write_csv(simulated_recording(Vessel(), 100, seed=57, measured_moment=True), tmp_path / "r.csv")
-    assert _run(["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "odd.json"), "--json"]) in (0, None)
+    args = ["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "odd.json"), "--json", "--profile", "naval-vessel"]
+    assert _run(args) in (0, None)
     err = capsys.readouterr().err
     assert "warning" in err and "odd.json" in err and "18 times the hull's" in err and "not calibrated" in err
 
@@ -258,7 +263,7 @@ def test_a_strongly_rolling_changed_run_is_detected_as_yaw_inertia(prior):
     # most on a rolling run, and blinded the others; each candidate now has its own
     rec, roll = _rolling_run()
     assert roll > np.radians(8)
-    d = detect(rec, prior)
+    d = detect(rec, prior, **HULL)
     assert d.changed and d.property == "yaw_inertia", (d.evidence["statistic_max"], d.threshold)
     c = d.evidence["candidates"]["yaw_inertia"]
     # reported as I_z with the N_rdot used, beside the lumped I_r (+10 % I_z is +5.4 % of I_r)
@@ -295,9 +300,9 @@ def test_the_i_z_change_is_converted_with_the_hulls_values_not_the_priors_fitted
     rec = simulated_recording(Vessel(), 200, seed=43, change_at_s=0.0, changed=Vessel(inertia=1.1), measured_moment=True)
     sc = screen(rec, prior)
     scaled = dc_replace(prior, values=prior.values | {"I_r": 0.77 * prior.values["I_r"]})
-    a, b = (verdict(sc, p).evidence["candidates"]["yaw_inertia"] for p in (prior, scaled))
+    a, b = (verdict(sc, p, **HULL).evidence["candidates"]["yaw_inertia"] for p in (prior, scaled))
     assert a["I_z_relative_change"] == b["I_z_relative_change"] == pytest.approx(a["relative_change"] * 62.4 / 33.7)
-    c = verdict(sc, prior, i_z=50e6).evidence["candidates"]["yaw_inertia"]  # a heavier hull: a smaller share
+    c = verdict(sc, prior, i_z=50e6, n_rdot=-28.7e6).evidence["candidates"]["yaw_inertia"]  # a heavier hull: a smaller share
     assert c["I_z_relative_change"] == pytest.approx(a["relative_change"] * 78.7 / 50.0) and c["I_z"] == 50e6
 
 
@@ -350,9 +355,11 @@ def test_cli_detect_reports_change_point_and_i_z_without_internal_words(prior, t
         simulated_recording(Vessel(), 300, seed=51, change_at_s=CHANGE_S, changed=Vessel(inertia=1.3), measured_moment=True),
         tmp_path / "r.csv",
     )
-    assert _run(["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "prior.json")]) in (0, None)
+    args = ["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "prior.json"), "--profile", "naval-vessel"]
+    assert _run(args) in (0, None)
     out = capsys.readouterr().out
     assert "change point" in out and "95 % interval" in out and "I_z" in out and "N_rdot" in out, out
+    assert "named on the data from the change point to the recording's end" in out, out
     assert _run(["detect", "--help"]) in (0, None)
     assert _run(["detect-prior", "--help"]) in (0, None)
     text = out + capsys.readouterr().out
@@ -423,7 +430,7 @@ def test_a_rejected_run_does_not_call_an_estimate_over_2_sd_not_significant(prio
 
     from cli.detect_cmd import verdict_lines
 
-    d = detect(simulated_recording(Vessel(), 200, seed=52, measured_moment=True), prior)
+    d = detect(simulated_recording(Vessel(), 200, seed=52, measured_moment=True), prior, **HULL)
     assert not d.changed
     cands = {k: dict(c) for k, c in d.evidence["candidates"].items()}
     cands["yaw_inertia"] |= {"relative_change": 0.055, "std": 0.013, "I_z_relative_change": 0.101}
@@ -483,3 +490,33 @@ def test_a_straight_run_is_refused_for_too_little_turning_not_called_a_unit_erro
     rec = simulated_recording(Vessel(), 300, seed=61, measured_moment=True)
     with pytest.raises(RecordingError, match=r"turns the ship too little"):
         detect(rec, prior)
+
+
+def test_the_hulls_inertia_comes_from_the_ships_data_and_is_never_another_ships(prior, tmp_path, capsys):
+    # --i-z defaulted to 33.7e6 (one ship's hull): any other ship's I_z change was silently wrong.
+    # The hull's I_z and N_rdot now come from the ship's profile or the options; unknown, the change
+    # is reported of I_r alone, with a warning
+    from cli.app import _run
+    from identify.detect.api import hull_inertia
+
+    assert hull_inertia("naval-vessel") == (33.7e6, -28.7e6)
+    assert hull_inertia() == (None, None)
+    assert hull_inertia("naval-vessel", i_z=50e6) == (50e6, -28.7e6)
+    save_prior(prior, tmp_path / "prior.json")
+    write_csv(
+        simulated_recording(Vessel(), 200, seed=51, change_at_s=CHANGE_S, changed=Vessel(inertia=1.3), measured_moment=True),
+        tmp_path / "r.csv",
+    )
+    base = ["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "prior.json")]
+    assert _run(base) in (0, None)
+    out, err = capsys.readouterr()
+    assert "I_z not known" in out and "warning: the hull's I_z and N_rdot are not known" in err, (out, err)
+    assert _run([*base, "--json"]) in (0, None)
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["i_z"] is None and doc["recordings"][0]["evidence"]["candidates"]["yaw_inertia"]["I_z_relative_change"] is None
+    assert _run([*base, "--i-z", "40e6"]) == 2  # half of the hull: refused, not completed with another ship's
+    assert "error: --i-z given without --n-rdot: give both" in capsys.readouterr().err
+    assert _run([*base, "--profile", "naval-vessel", "--i-z", "50e6", "--json"]) in (0, None)
+    c = json.loads(capsys.readouterr().out)["recordings"][0]["evidence"]["candidates"]["yaw_inertia"]
+    assert c["I_z"] == 50e6 and c["N_rdot"] == -28.7e6
+    assert c["I_z_relative_change"] == pytest.approx(c["relative_change"] * 78.7 / 50.0)

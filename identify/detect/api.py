@@ -15,7 +15,7 @@ from diagnose.recording import NUMERIC, Recording, RecordingError, load_recordin
 from identify.detect.checks import MOMENT, check_inputs, check_moment_sign, time_derivative
 from identify.detect.cusum import calibrate_dead_zone, first_alarms
 from identify.detect.glr import SignatureCusum, calibrate
-from identify.detect.verdict import I_Z, N_RDOT, Detection, Screening, physical_change, verdict
+from identify.detect.verdict import Detection, Screening, physical_change, verdict
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
 from identify.detect.yawmodel import (
     CANDIDATES,
@@ -31,6 +31,7 @@ from identify.detect.yawmodel import (
 from identify.yawid.experiment import pod_yaw_moment
 from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
+from primitives.ship import load_profile
 
 POD_COLUMNS = ("n1", "alpha1", "n2", "alpha2")
 SWAY_ACC = "v_dot"  # measured sway acceleration, m/s^2 (Table 4.1 of seed 000 measures it)
@@ -202,6 +203,29 @@ def fit_prior(
     return fit(kind, sig, r, rec.sample_time, source=str(rec.source), bootstrap=bootstrap, seed=seed, derive=_deriver(rec, kind))
 
 
+def hull_inertia(
+    profile: str | Path | None = None, i_z: float | None = None, n_rdot: float | None = None
+) -> tuple[float | None, float | None]:
+    """The hull's rigid-body yaw inertia I_z and added yaw inertia N_rdot (kg m^2) that convert a
+    change of the lumped I_r = I_z - N_rdot into one of I_z: the ship profile's ``[rigid_body]``
+    ``I_z`` and ``N_rdot`` (a built-in name or a TOML/JSON file), each replaced by ``i_z`` or
+    ``n_rdot`` when given. (None, None) when neither a profile nor both values are given: the
+    ship's hull is then not known, and no other ship's values stand in for it."""
+    if profile is not None:
+        rb = load_profile(profile).rigid_body
+        if n_rdot is None and "N_rdot" not in rb.added:
+            raise UserError(f"{profile}: the profile's [rigid_body] has no N_rdot; add it or give --n-rdot")
+        i_z = rb.i_z if i_z is None else i_z
+        n_rdot = rb.added["N_rdot"] if n_rdot is None else n_rdot
+    if (i_z is None) != (n_rdot is None):
+        given, other = ("--i-z", "--n-rdot") if i_z is not None else ("--n-rdot", "--i-z")
+        raise UserError(
+            f"{given} given without {other}: give both (kg m^2), or --profile with the ship's profile "
+            "(its [rigid_body] I_z and N_rdot)"
+        )
+    return i_z, n_rdot
+
+
 def save_prior(prior: YawPrior, path: Path) -> Path:
     return atomic_write_text(path, dumps(prior.to_dict()) + "\n")
 
@@ -226,15 +250,16 @@ def detect(
     min_change: float = 0.05,
     seed: int = 0,
     null_runs: int = 400,
-    n_rdot: float = N_RDOT,
-    i_z: float = I_Z,
+    n_rdot: float | None = None,
+    i_z: float | None = None,
 ) -> Detection:
     """Signature LR-CUSUM (and, for comparison, the dead-zone CUSUM of (5.1)) on one recording,
     calibrated for ``false_alarm`` per recording length from the prior alone (:func:`screen`); an
     alarm also needs the estimated change to reach ``min_change`` and twice its own noise
     (:func:`identify.detect.verdict.verdict`). The evidence holds the change point with its 95 %
     interval and, for yaw inertia, the change of the rigid body's ``i_z`` beside that of the lumped
-    I_r = I_z - ``n_rdot``."""
+    I_r = I_z - ``n_rdot`` (the hull's values, :func:`hull_inertia`; None: not known, the change
+    is of I_r and ``min_change`` applies to it)."""
     return verdict(screen(rec, prior, false_alarm, min_change, seed, null_runs, n_rdot), prior, min_change, n_rdot, i_z)
 
 
@@ -245,7 +270,7 @@ def screen(
     min_change: float = 0.05,
     seed: int = 0,
     null_runs: int = 400,
-    n_rdot: float = N_RDOT,
+    n_rdot: float | None = None,
 ) -> Screening:
     """The recording's residual against the prior, the change signatures, ``null_runs`` no-change
     records simulated from the prior alone (:func:`identify.detect.yawmodel.null_records`), and the
@@ -269,7 +294,7 @@ def screen(
     null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
     null_blocks = block_mean(null_raw, prior.block)
     # the change worth an alarm, per candidate signature: min_change of I_z is less of the lumped I_r
-    iz_per_ir = physical_change("yaw_inertia", 1.0, prior.values["I_r"], n_rdot) or 1.0
+    iz_per_ir = (physical_change("yaw_inertia", 1.0, prior.values["I_r"], n_rdot) or 1.0) if n_rdot is not None else 1.0
     theta1 = np.array([min_change / iz_per_ir, min_change, min_change])
     sc: SignatureCusum = calibrate(prior, S, null_blocks, theta1=theta1, false_alarm=false_alarm, seed=seed)
     dz = calibrate_dead_zone(prior.sigma, null_raw, false_alarm=false_alarm)

@@ -14,13 +14,12 @@ import numpy as np
 
 from identify.detect.yawmodel import CANDIDATES, YawPrior, block_mean, whiten
 
-#: N_rdot and I_z of Appendix A (Blanke and Christensen 1993), kg m^2: a relative change of the lumped
+#: the hull's yaw inertias are the ship's data (``detect --profile``, ``--i-z``, ``--n-rdot``;
+#: :func:`identify.detect.api.hull_inertia`), never a default of one ship: a relative change of the lumped
 #: yaw inertia I_r = I_z - N_rdot that the yaw row identifies is (I_z - N_rdot) / I_z times that of the
-#: rigid body's I_z (``--n-rdot`` and ``--i-z`` give the ship's own). The hull's values, not the
-#: prior's fitted I_r: that is in the recorded moment's units (a load cell that misses the hull's share
-#: of the pod force scales every fitted parameter), while the relative change is not.
-N_RDOT = -28.7e6
-I_Z = 33.7e6
+#: rigid body's I_z. The hull's values, not the prior's fitted I_r: that is in the recorded moment's units
+#: (a load cell that misses the hull's share of the pod force scales every fitted parameter), while the
+#: relative change is not. Unknown (None): the change is reported of I_r alone.
 CHECKS = 60  # most alarm candidates (blocks over the threshold) whose estimate is checked
 #: least data after the change point (s) that an alarm's estimate needs: right after an estimated change
 #: point the estimate is a few seconds of transient misfit (on the podded truth family's strong-roll
@@ -98,9 +97,12 @@ def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float |
 INERTIA_RATIO = 3.0
 
 
-def implausible_inertia(prior: YawPrior, i_z: float = I_Z, n_rdot: float = N_RDOT) -> str | None:
+def implausible_inertia(prior: YawPrior, i_z: float | None, n_rdot: float | None) -> str | None:
     """A warning when the prior's fitted I_r is more than INERTIA_RATIO times off the hull's
-    I_z - N_rdot (its alarms then say more about the prior than the ship), else None."""
+    I_z - N_rdot (its alarms then say more about the prior than the ship), else None (also when
+    the hull's values are not known)."""
+    if i_z is None or n_rdot is None:
+        return None
     ratio = prior.values["I_r"] / (i_z - n_rdot)
     if 1 / INERTIA_RATIO <= ratio <= INERTIA_RATIO:
         return None
@@ -116,7 +118,7 @@ def _decide(eps, S, prior, st, h, null_blocks, min_change, i_ref, n_rdot) -> tup
     """First block over the threshold whose change is also worth an alarm: the leading candidate's
     estimate from the change point on (:func:`onset`) up to the end of that block, or MIN_WINDOW_S
     after the change point if later, at least ``min_change`` (of I_z for yaw inertia, from the
-    lumped ``i_ref`` = I_z - N_rdot) and twice its no-change standard deviation. Returns (alarm
+    lumped ``i_ref`` = I_z - N_rdot; of I_r when that is None) and twice its no-change standard deviation. Returns (alarm
     sample: the last one that estimate saw, or -1; evidence).
 
     The evidence (each candidate's estimate and the named property) is then taken from the change
@@ -133,7 +135,7 @@ def _decide(eps, S, prior, st, h, null_blocks, min_change, i_ref, n_rdot) -> tup
         seen = attribute(eps, S, prior, end, null_blocks, start=tau)
         lead = max(seen["candidates"], key=lambda c: seen["candidates"][c]["llr"])
         c = seen["candidates"][lead]
-        size = physical_change(lead, c["relative_change"], i_ref, n_rdot)
+        size = c["relative_change"] if i_ref is None else physical_change(lead, c["relative_change"], i_ref, n_rdot)
         if abs(size) >= min_change and abs(c["relative_change"]) >= 2 * c["std"]:
             ev = attribute(eps, S, prior, len(eps), null_blocks, start=tau)
             return end - 1, ev | {"onset": (tau, lo, hi), "at_alarm": {"candidate": lead} | c}
@@ -144,20 +146,26 @@ def _decide(eps, S, prior, st, h, null_blocks, min_change, i_ref, n_rdot) -> tup
     }
 
 
-def verdict(sc: Screening, prior: YawPrior, min_change: float = 0.05, n_rdot: float = N_RDOT, i_z: float = I_Z) -> Detection:
+def verdict(
+    sc: Screening, prior: YawPrior, min_change: float = 0.05, n_rdot: float | None = None, i_z: float | None = None
+) -> Detection:
     """The verdict on one screened recording (:func:`_decide`), with the evidence: the change point
     with its 95 % interval, each candidate's estimate and, for yaw inertia, the change of the rigid
-    body's ``i_z`` beside that of the lumped I_r = I_z - ``n_rdot``."""
-    if not (i_z > 0 and n_rdot < 0):
+    body's ``i_z`` beside that of the lumped I_r = I_z - ``n_rdot`` (when both are given: the hull's
+    values; otherwise the I_z change is None and ``min_change`` applies to I_r)."""
+    known = i_z is not None and n_rdot is not None
+    if known and not (i_z > 0 and n_rdot < 0):
         raise ValueError(f"i_z {i_z:g} must be positive and n_rdot {n_rdot:g} negative (kg m^2)")
-    i_ref = i_z - n_rdot
+    i_ref = i_z - n_rdot if known else None
     i, ev = _decide(sc.eps, sc.S, prior, sc.st, sc.h, sc.null_blocks, min_change, i_ref, n_rdot)
     t = sc.t
     tau, lo, hi = ev.pop("onset")
     ev["onset_s"] = float(t[min(tau, len(t) - 1)])
     ev["onset_interval_s"] = [float(t[min(lo, len(t) - 1)]), float(t[min(hi, len(t) - 1)])]
+    if i >= 0:  # the alarm needs the data up to it, the name all the data after the change point
+        ev["named_on_s"] = [ev["onset_s"], float(t[-1])]
     inertia = ev["candidates"]["yaw_inertia"]
-    iz = physical_change("yaw_inertia", inertia["relative_change"], i_ref, n_rdot)
+    iz = physical_change("yaw_inertia", inertia["relative_change"], i_ref, n_rdot) if known else None
     scale = iz / inertia["relative_change"] if iz is not None and inertia["relative_change"] else None
     inertia |= {
         "I_z_relative_change": iz,
