@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from diagnose.recording import write_csv
-from identify.detect.api import detect, fit_prior, load_prior, save_prior, simulated_recording
+from identify.detect.api import detect, fit_prior, hull_inertia, load_prior, save_prior, simulated_recording
 from identify.detect.cusum import DeadZoneCusum, calibrate_dead_zone
 from identify.detect.vessel import Vessel, base_profile, harbour_inputs, truth
 from identify.detect.yawmodel import NOMINAL, SIGNALS, simulate_r
@@ -17,7 +17,7 @@ from primitives.simulate import simulate
 
 CHANGE_S = 60.0
 #: the simulated ship's hull (its profile's [rigid_body] I_z and N_rdot), given as a user would give theirs
-HULL = dict(zip(("i_z", "n_rdot"), __import__("identify.detect.api", fromlist=["hull_inertia"]).hull_inertia("naval-vessel")))
+HULL = dict(zip(("i_z", "n_rdot"), hull_inertia("naval-vessel")))
 
 
 @pytest.fixture(scope="module")
@@ -497,9 +497,11 @@ def test_the_hulls_inertia_comes_from_the_ships_data_and_is_never_another_ships(
     # The hull's I_z and N_rdot now come from the ship's profile or the options; unknown, the change
     # is reported of I_r alone, with a warning
     from cli.app import _run
-    from identify.detect.api import hull_inertia
+    from primitives.errors import UserError
 
     assert hull_inertia("naval-vessel") == (33.7e6, -28.7e6)
+    with pytest.raises(UserError, match="N_rdot 2.87e"):
+        hull_inertia("naval-vessel", n_rdot=28.7e6)  # a positive added inertia: refused, not a traceback
     assert hull_inertia() == (None, None)
     assert hull_inertia("naval-vessel", i_z=50e6) == (50e6, -28.7e6)
     save_prior(prior, tmp_path / "prior.json")

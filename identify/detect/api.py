@@ -223,6 +223,11 @@ def hull_inertia(
             f"{given} given without {other}: give both (kg m^2), or --profile with the ship's profile "
             "(its [rigid_body] I_z and N_rdot)"
         )
+    if i_z is not None and not (i_z > 0 and n_rdot < 0):
+        raise UserError(
+            f"{profile or '--i-z/--n-rdot'}: I_z {i_z:g} must be positive and N_rdot {n_rdot:g} negative (kg m^2, "
+            "N_rdot the added yaw inertia); correct the profile's [rigid_body] or give --i-z and --n-rdot"
+        )
     return i_z, n_rdot
 
 
