@@ -30,7 +30,8 @@ import time
 import numpy as np
 
 from identify.detect.cusum import calibrate_dead_zone, first_alarms
-from identify.detect.glr import attribute, calibrate
+from identify.detect.glr import calibrate
+from identify.detect.verdict import attribute
 from identify.detect.vessel import TABLE_4_1, Vessel, harbour_inputs, measure, truth
 from identify.detect.yawmodel import NOMINAL, PREFILTER_HZ, SIGNALS, block_mean, fit, null_records, signatures
 

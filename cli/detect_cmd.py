@@ -86,11 +86,23 @@ def register(app: typer.Typer) -> None:
         min_change: float = typer.Option(
             0.05, "--min-change", help="smallest relative change worth an alarm (0.05 = 5 %; of I_z for yaw inertia)"
         ),
-        n_rdot: float = typer.Option(
-            -28.7e6,
+        profile: str | None = typer.Option(
+            None,
+            "--profile",
+            help="the ship's profile (built-in name, e.g. naval-vessel, or a .toml/.json file) whose [rigid_body] "
+            "I_z and N_rdot convert a change of the identified I_r = I_z - N_rdot into one of I_z; without it "
+            "(or --i-z and --n-rdot) the change is reported of I_r and --min-change applies to I_r",
+        ),
+        n_rdot: float | None = typer.Option(
+            None,
             "--n-rdot",
-            help="added yaw inertia N_rdot (kg m^2, negative) that converts "
-            "the identified I_r = I_z - N_rdot into I_z; default Blanke and Christensen (1993)",
+            help="the ship's added yaw inertia N_rdot (kg m^2, negative); replaces the --profile's",
+        ),
+        i_z: float | None = typer.Option(
+            None,
+            "--i-z",
+            help="the ship's rigid-body yaw inertia I_z (kg m^2): a relative change of I_r is (I_z - N_rdot) / I_z "
+            "times that of I_z; replaces the --profile's",
         ),
         seed: int = typer.Option(0, "--seed", help="seed of the threshold's no-change simulation"),
         json_out: bool = typer.Option(False, "--json", help="print the verdicts as JSON"),
@@ -99,15 +111,27 @@ def register(app: typer.Typer) -> None:
         property (yaw inertia, yaw damping, pod gain, or undecided between them)."""
         from cli.options import validate_detect_options
         from identify.detect.api import detect as run_detect
-        from identify.detect.api import load_prior, load_runs
+        from identify.detect.api import hull_inertia, load_prior, load_runs
         from identify.detect.api import plot as plot_stats
+        from identify.detect.verdict import implausible_inertia
 
-        validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot)
+        validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot, i_z=i_z)
+        i_z, n_rdot = hull_inertia(profile, i_z, n_rdot)
         prior = load_prior(prior_file)
         notes: list[str] = []
         recs = load_runs(recordings, prior.kind, notes)
         for n in notes:
             typer.echo(f"note: {n}", err=True)
+        odd = implausible_inertia(prior, i_z, n_rdot)
+        if odd:
+            typer.echo(f"warning: {prior_file}: {odd}", err=True)
+        if i_z is None:
+            typer.echo(
+                "warning: the hull's I_z and N_rdot are not known: a yaw-inertia change is reported of the lumped "
+                "I_r = I_z - N_rdot only, and --min-change applies to I_r; give --profile (the ship's profile) or "
+                "--i-z and --n-rdot",
+                err=True,
+            )
         if prior.model_error > 0 and not prior.structure.any():
             # Measured (benchmarks/bench_detect.py): such priors alarm far above the design rate.
             typer.echo(
@@ -116,7 +140,7 @@ def register(app: typer.Typer) -> None:
                 "calibrated to --false-alarm: refit it with detect-prior (--bootstrap > 0)",
                 err=True,
             )
-        dets = [run_detect(r, prior, false_alarm, min_change, seed, n_rdot=n_rdot) for r in recs]
+        dets = [run_detect(r, prior, false_alarm, min_change, seed, n_rdot=n_rdot, i_z=i_z) for r in recs]
         written = plot_stats(dets, plot, PLOT_PANELS) if plot is not None else []
         if json_out:
             typer.echo(
@@ -127,6 +151,8 @@ def register(app: typer.Typer) -> None:
                         "false_alarm": false_alarm,
                         "min_change": min_change,
                         "n_rdot": n_rdot,
+                        "i_z": i_z,
+                        "hull_from": profile if profile is not None else ("options" if i_z is not None else None),
                         "notes": notes,
                         "recordings": [d.summary() for d in dets],
                     }
@@ -152,7 +178,10 @@ def verdict_lines(d, min_change: float) -> list[str]:
         )
         out = [
             f"{d.source}: CHANGED (alarm at {d.alarm_s:.0f} s; change point {ev['onset_s']:.0f} s, 95 % interval "
-            f"{lo:.0f}-{hi:.0f} s): {what}"
+            f"{lo:.0f}-{hi:.0f} s): {what}",
+            f"  named on the data from the change point to the recording's end ({ev['named_on_s'][0]:.0f}-"
+            f"{ev['named_on_s'][1]:.0f} s; the alarm used the data up to {d.alarm_s:.0f} s, and its lead then was "
+            f"{ev['at_alarm']['candidate'].replace('_', ' ')}): the name is for the whole recording, not known at the alarm",
         ]
     else:
         why = (
@@ -172,17 +201,18 @@ def verdict_lines(d, min_change: float) -> list[str]:
         line = f"  {name.replace('_', ' '):12s} {100 * c['relative_change']:+6.1f} % +- {100 * c['std']:4.1f} %"
         if name == "yaw_inertia":
             line += " of I_r = I_z - N_rdot"
-            if c.get("I_z_relative_change") is not None:
-                line += (
-                    f" (I_z {100 * c['I_z_relative_change']:+.1f} % +- {100 * c['I_z_std']:.1f} % with "
-                    f"N_rdot {c['N_rdot']:.3g} kg m^2)"
-                )
-            else:
-                line += f" (I_z not positive with N_rdot {c['N_rdot']:.3g} kg m^2: check --n-rdot)"
+            line += (
+                f" (I_z {100 * c['I_z_relative_change']:+.1f} % +- {100 * c['I_z_std']:.1f} % with "
+                f"I_z {c['I_z']:.3g}, N_rdot {c['N_rdot']:.3g} kg m^2)"
+                if c.get("I_z_relative_change") is not None
+                else " (I_z not known: give --profile or --i-z and --n-rdot)"
+            )
         line += f", log-likelihood ratio {c['llr']:.1f}"
         if not d.changed and abs(c["relative_change"]) >= 2 * c["std"]:
             # the alarm tests only the candidate with the largest log-likelihood ratio
-            size = c.get("I_z_relative_change") if name == "yaw_inertia" else c["relative_change"]
+            # of I_z when the hull is known, else of I_r (as the decision applied --min-change)
+            size = c.get("I_z_relative_change") if name == "yaw_inertia" else None
+            size = c["relative_change"] if size is None else size
             line += (
                 " (over 2 sd, but every statistic stayed below its threshold)"
                 if not ev.get("crossed_but_below_min_change")

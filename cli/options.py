@@ -356,10 +356,19 @@ def validate_detect_prior_options(*, out: Path, bootstrap: int, seed: int) -> No
 
 
 def validate_detect_options(
-    *, plot: Path | None, false_alarm: float, min_change: float, seed: int, n_rdot: float = -28.7e6
+    *,
+    plot: Path | None,
+    false_alarm: float,
+    min_change: float,
+    seed: int,
+    n_rdot: float | None = None,
+    i_z: float | None = None,
 ) -> None:
     check_plot_path(plot)
-    in_range(n_rdot, "--n-rdot", -1e12, -1.0, "kg m^2 (the added yaw inertia N_rdot is negative, e.g. -28.7e6)")
+    if n_rdot is not None:
+        in_range(n_rdot, "--n-rdot", -1e12, -1.0, "kg m^2 (the added yaw inertia N_rdot is negative, e.g. -28.7e6)")
+    if i_z is not None:
+        in_range(i_z, "--i-z", 1.0, 1e13, "kg m^2 (the rigid body's yaw inertia, positive, e.g. 33.7e6)")
     in_range(false_alarm, "--false-alarm", 1e-4, 0.5)  # a probability per recording
     in_range(min_change, "--min-change", 0.005, 1.0)  # relative: 0.05 = 5 %
     whole(seed, "--seed", 0, 2**63 - 1)

@@ -406,6 +406,9 @@ def _cases() -> list[tuple[str, list[str]]]:
     add([*det, "--prior", "{det_prior}"], "--min-change", [*FLOATS_BAD, "0", "5"], named=True)
     add([*det, "--prior", "{det_prior}"], "--seed", ["-1", "abc"], named=True)
     add([*det, "--prior", "{det_prior}"], "--n-rdot", ["abc", "nan", "inf", "", "0", "28.7e6", "-1e13"], named=True)
+    add([*det, "--prior", "{det_prior}"], "--i-z", ["abc", "nan", "inf", "", "0", "-33.7e6", "1e14"], named=True)
+    add([*det, "--prior", "{det_prior}"], "--profile", ship_bad)
+    add([*det, "--prior", "{det_prior}"], "--n-rdot", ["-28.7e6"], named=True)  # without --i-z or --profile
     for rec in ["{missing}", "{dir}", "{binary}", "{det_nopods}", "{det_nor}"]:
         cases.append((f"detect-prior RECORDING {rec}", ["detect-prior", rec, "--out", "{tmp}/p.json"]))
     cases.append(

@@ -6,7 +6,7 @@ during operation", with the change named). A notebook calls these; the CLI
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +14,8 @@ import numpy as np
 from diagnose.recording import NUMERIC, Recording, RecordingError, load_recording, split_metadata
 from identify.detect.checks import MOMENT, check_inputs, check_moment_sign, time_derivative
 from identify.detect.cusum import calibrate_dead_zone, first_alarms
-from identify.detect.glr import SignatureCusum, attribute, calibrate, onset
+from identify.detect.glr import SignatureCusum, calibrate
+from identify.detect.verdict import Detection, Screening, physical_change, verdict
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
 from identify.detect.yawmodel import (
     CANDIDATES,
@@ -30,6 +31,7 @@ from identify.detect.yawmodel import (
 from identify.yawid.experiment import pod_yaw_moment
 from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
+from primitives.ship import load_profile
 
 POD_COLUMNS = ("n1", "alpha1", "n2", "alpha2")
 SWAY_ACC = "v_dot"  # measured sway acceleration, m/s^2 (Table 4.1 of seed 000 measures it)
@@ -201,6 +203,34 @@ def fit_prior(
     return fit(kind, sig, r, rec.sample_time, source=str(rec.source), bootstrap=bootstrap, seed=seed, derive=_deriver(rec, kind))
 
 
+def hull_inertia(
+    profile: str | Path | None = None, i_z: float | None = None, n_rdot: float | None = None
+) -> tuple[float | None, float | None]:
+    """The hull's rigid-body yaw inertia I_z and added yaw inertia N_rdot (kg m^2) that convert a
+    change of the lumped I_r = I_z - N_rdot into one of I_z: the ship profile's ``[rigid_body]``
+    ``I_z`` and ``N_rdot`` (a built-in name or a TOML/JSON file), each replaced by ``i_z`` or
+    ``n_rdot`` when given. (None, None) when neither a profile nor both values are given: the
+    ship's hull is then not known, and no other ship's values stand in for it."""
+    if profile is not None:
+        rb = load_profile(profile).rigid_body
+        if n_rdot is None and "N_rdot" not in rb.added:
+            raise UserError(f"{profile}: the profile's [rigid_body] has no N_rdot; add it or give --n-rdot")
+        i_z = rb.i_z if i_z is None else i_z
+        n_rdot = rb.added["N_rdot"] if n_rdot is None else n_rdot
+    if (i_z is None) != (n_rdot is None):
+        given, other = ("--i-z", "--n-rdot") if i_z is not None else ("--n-rdot", "--i-z")
+        raise UserError(
+            f"{given} given without {other}: give both (kg m^2), or --profile with the ship's profile "
+            "(its [rigid_body] I_z and N_rdot)"
+        )
+    if i_z is not None and not (i_z > 0 and n_rdot < 0):
+        raise UserError(
+            f"{profile or '--i-z/--n-rdot'}: I_z {i_z:g} must be positive and N_rdot {n_rdot:g} negative (kg m^2, "
+            "N_rdot the added yaw inertia); correct the profile's [rigid_body] or give --i-z and --n-rdot"
+        )
+    return i_z, n_rdot
+
+
 def save_prior(prior: YawPrior, path: Path) -> Path:
     return atomic_write_text(path, dumps(prior.to_dict()) + "\n")
 
@@ -218,81 +248,6 @@ def load_prior(path: Path) -> YawPrior:
     return YawPrior.from_dict(d, where=str(path))
 
 
-#: N_rdot of Appendix A (Blanke and Christensen 1993), kg m^2: I_z = I_r + N_rdot converts the lumped
-#: yaw inertia the yaw row identifies into the rigid body's (``--n-rdot`` gives the ship's own)
-N_RDOT = -28.7e6
-CHECKS = 60  # most alarm candidates (blocks over the threshold) whose estimate is checked
-LOOK_AHEAD = 600  # samples after a crossing whose data the alarm decision's estimate also uses
-
-
-@dataclass
-class Detection:
-    """One recording's verdict, the evidence, and the statistics for the plot."""
-
-    source: str
-    changed: bool
-    alarm_s: float | None
-    property: str | None
-    evidence: dict
-    dead_zone_alarm_s: float | None
-    threshold: np.ndarray  # per candidate (CANDIDATES)
-    t_blocks: np.ndarray = field(repr=False)
-    statistic: np.ndarray = field(repr=False)  # (blocks, candidates)
-    dead_zone: np.ndarray = field(repr=False)
-    dead_zone_h: float = 0.0
-    t: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
-
-    def summary(self) -> dict:
-        return {
-            "recording": self.source,
-            "changed": self.changed,
-            "alarm_s": self.alarm_s,
-            "property": self.property,
-            "onset_s": self.evidence.get("onset_s") if self.changed else None,
-            "onset_interval_s": self.evidence.get("onset_interval_s") if self.changed else None,
-            "threshold": dict(zip(CANDIDATES, map(float, self.threshold))),
-            "evidence": self.evidence,
-            "dead_zone_cusum_alarm_s": self.dead_zone_alarm_s,
-        }
-
-
-def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float | None:
-    """The relative change of the physical property: I_z = I_r + N_rdot for yaw inertia (a change
-    dI = rel I_r of the lumped inertia is dI / I_z of the rigid body's), the same for the others;
-    None when the prior's I_r is not above -N_rdot (I_z would not be positive)."""
-    if name != "yaw_inertia":
-        return rel
-    i_z = i_r + n_rdot
-    return rel * i_r / i_z if i_z > 0 else None
-
-
-def _decide(eps, S, prior, st, h, null_raw, min_change, n_rdot) -> tuple[int, dict]:
-    """First block over the threshold whose change is also worth an alarm: the leading candidate's
-    estimate (from the change point on, :func:`glr.onset`, to LOOK_AHEAD samples after the
-    crossing) at least ``min_change`` (of I_z for yaw inertia) and twice its no-change standard
-    deviation. Returns (alarm sample: the last one that estimate saw, or -1; evidence)."""
-    over = np.flatnonzero((st / h).max(axis=1) > 1.0)
-    step = max(1, len(over) // CHECKS)
-    for b in over[::step]:
-        upto = (int(b) + 1) * prior.block
-        k = int(np.argmax(st[b] / h))
-        tau, lo, hi = onset(eps, S, prior, upto, k)
-        end = min(upto + LOOK_AHEAD, len(eps))
-        ev = attribute(eps, S, prior, end, null_raw, start=tau)
-        lead = max(ev["candidates"], key=lambda c: ev["candidates"][c]["llr"])
-        c = ev["candidates"][lead]
-        size = physical_change(lead, c["relative_change"], prior.values["I_r"], n_rdot)
-        if size is None:
-            size = c["relative_change"]
-        if abs(size) >= min_change and abs(c["relative_change"]) >= 2 * c["std"]:
-            return end - 1, ev | {"onset": (tau, lo, hi)}  # the alarm time is when its evidence ends
-    tau, lo, hi = onset(eps, S, prior, len(eps), int(np.argmax((st / h).max(axis=0))))
-    return -1, attribute(eps, S, prior, len(eps), null_raw, start=0) | {
-        "onset": (tau, lo, hi),
-        "crossed_but_below_min_change": bool(len(over)),
-    }
-
-
 def detect(
     rec: Recording,
     prior: YawPrior,
@@ -300,13 +255,32 @@ def detect(
     min_change: float = 0.05,
     seed: int = 0,
     null_runs: int = 400,
-    n_rdot: float = N_RDOT,
+    n_rdot: float | None = None,
+    i_z: float | None = None,
 ) -> Detection:
     """Signature LR-CUSUM (and, for comparison, the dead-zone CUSUM of (5.1)) on one recording,
-    calibrated for ``false_alarm`` per recording length from the prior alone; an alarm also needs
-    the estimated change to reach ``min_change`` and twice its own noise (:func:`_decide`). The
-    evidence holds the change point with its 95 % interval and, for yaw inertia, the change of
-    I_z = I_r + ``n_rdot`` beside that of the lumped I_r."""
+    calibrated for ``false_alarm`` per recording length from the prior alone (:func:`screen`); an
+    alarm also needs the estimated change to reach ``min_change`` and twice its own noise
+    (:func:`identify.detect.verdict.verdict`). The evidence holds the change point with its 95 %
+    interval and, for yaw inertia, the change of the rigid body's ``i_z`` beside that of the lumped
+    I_r = I_z - ``n_rdot`` (the hull's values, :func:`hull_inertia`; None: not known, the change
+    is of I_r and ``min_change`` applies to it)."""
+    return verdict(screen(rec, prior, false_alarm, min_change, seed, null_runs, n_rdot), prior, min_change, n_rdot, i_z)
+
+
+def screen(
+    rec: Recording,
+    prior: YawPrior,
+    false_alarm: float = 0.02,
+    min_change: float = 0.05,
+    seed: int = 0,
+    null_runs: int = 400,
+    n_rdot: float | None = None,
+) -> Screening:
+    """The recording's residual against the prior, the change signatures, ``null_runs`` no-change
+    records simulated from the prior alone (:func:`identify.detect.yawmodel.null_records`), and the
+    LR-CUSUM and dead-zone CUSUM statistics with thresholds calibrated on those for ``false_alarm``
+    per recording length; the LR-CUSUM looks for a change of ``min_change`` (of I_z for inertia)."""
     if abs(rec.sample_time - prior.dt) > 1e-6 * prior.dt:
         raise RecordingError(
             f"{rec.source}: sample time {rec.sample_time:g} s differs from the prior's {prior.dt:g} s; "
@@ -325,44 +299,15 @@ def detect(
     null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
     null_blocks = block_mean(null_raw, prior.block)
     # the change worth an alarm, per candidate signature: min_change of I_z is less of the lumped I_r
-    iz_per_ir = physical_change("yaw_inertia", 1.0, prior.values["I_r"], n_rdot) or 1.0
+    iz_per_ir = (physical_change("yaw_inertia", 1.0, prior.values["I_r"], n_rdot) or 1.0) if n_rdot is not None else 1.0
     theta1 = np.array([min_change / iz_per_ir, min_change, min_change])
     sc: SignatureCusum = calibrate(prior, S, null_blocks, theta1=theta1, false_alarm=false_alarm, seed=seed)
     dz = calibrate_dead_zone(prior.sigma, null_raw, false_alarm=false_alarm)
     st = sc.statistics(block_mean(eps, prior.block), S)
-    i, ev = _decide(eps, S, prior, st, sc.h, null_raw, min_change, n_rdot)
     g = dz.statistic(eps)
     j = int(first_alarms(g[:, None], dz.h)[0])
-    t = rec.t - rec.t[0]
-    tau, lo, hi = ev.pop("onset")
-    ev["onset_s"] = float(t[min(tau, len(t) - 1)])
-    ev["onset_interval_s"] = [float(t[min(lo, len(t) - 1)]), float(t[min(hi, len(t) - 1)])]
-    inertia = ev["candidates"]["yaw_inertia"]
-    iz = physical_change("yaw_inertia", inertia["relative_change"], prior.values["I_r"], n_rdot)
-    scale = iz / inertia["relative_change"] if iz is not None and inertia["relative_change"] else None
-    inertia |= {
-        "I_z_relative_change": iz,
-        "I_z_std": None if scale is None else abs(scale) * inertia["std"],
-        "N_rdot": n_rdot,
-        "I_r": prior.values["I_r"],
-    }
-    ev["statistic_max"] = {c: float(st[:, k].max()) for k, c in enumerate(CANDIDATES)}
-    ev["residual_rms"] = residual_rms
-    ev["prior_sigma"] = prior.sigma
-    tb = t[prior.block - 1 :: prior.block][: len(st)]
-    return Detection(
-        str(rec.source),
-        i >= 0,
-        float(t[i]) if i >= 0 else None,
-        ev["property"] if i >= 0 else None,
-        ev,
-        float(t[j]) if j >= 0 else None,
-        sc.h,
-        tb,
-        st,
-        g,
-        dz.h,
-        t,
+    return Screening(
+        str(rec.source), eps, S, st, np.asarray(sc.h), null_blocks, g, float(dz.h), j, rec.t - rec.t[0], residual_rms
     )
 
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from identify.detect.cusum import cusum_path, first_alarms
-from identify.detect.yawmodel import CANDIDATES, YawPrior, block_mean, whiten
+from identify.detect.yawmodel import YawPrior, block_mean, whiten
 
 
 @dataclass
@@ -92,57 +92,3 @@ def calibrate(
             hi = q
     det.h = np.maximum(np.quantile(peaks, hi, axis=0), 1e-12)
     return det
-
-
-#: log-likelihood-ratio lead (about a factor 10 in likelihood) the named property needs over every other
-SEPARATION = 2.3
-
-
-def onset(eps: np.ndarray, S: np.ndarray, prior: YawPrior, upto: int, k: int) -> tuple[int, int, int]:
-    """Change point of a step change along signature ``k`` seen up to sample ``upto``: the block
-    ``tau`` that maximises the GLR ``(sum_{t>=tau} S_k e)^2 / (2 s^2 sum_{t>=tau} S_k^2)`` (Basseville and
-    Nikiforov 1993, section 2.2.3), and the blocks whose GLR is within 1.92 of it (a 95 % profile-
-    likelihood interval). Returns (first sample of tau, of the interval's start, of its end)."""
-    nb = max(upto // prior.block, 2)
-    Sw = whiten(block_mean(S[:, k], prior.block), prior.ar)[:nb]
-    ew = whiten(block_mean(eps, prior.block), prior.ar)[:nb]
-    z = np.cumsum((Sw * ew)[::-1])[::-1]
-    d = np.maximum(np.cumsum((Sw * Sw)[::-1])[::-1], 1e-300)
-    llr = z * z / (2 * prior.sigma_w**2 * d)
-    best = int(np.argmax(llr))
-    inside = np.flatnonzero(llr >= llr[best] - 1.92)
-    return best * prior.block, int(inside[0]) * prior.block, int(inside[-1] + 1) * prior.block
-
-
-def attribute(eps: np.ndarray, S: np.ndarray, prior: YawPrior, upto: int, null: np.ndarray | None = None, start: int = 0) -> dict:
-    """Which candidate explains the residual from sample ``start`` up to ``upto``: per candidate, the
-    GLR estimate ``theta_j = sum S_j eps / sum S_j^2`` (whitened) and its log-likelihood ratio
-    ``(sum S_j eps)^2 / (2 s^2 sum S_j^2)``. A property is named only when its log-likelihood ratio
-    leads every other's by ``SEPARATION``; otherwise ``property`` is ``"undecided"`` and
-    ``undecided_between`` lists the candidates within it (at a turn onset more inertia and less
-    actuator gain look alike). ``std`` is the estimate's standard deviation under no change: from
-    the no-change records ``null`` (n, runs) when given (noise and the prior's own parameter
-    error), else from the noise alone."""
-    w = slice(start // prior.block, max(upto // prior.block, start // prior.block + 2))
-    Sw = whiten(block_mean(S, prior.block), prior.ar)[w]
-    s2 = prior.sigma_w**2
-    den = np.maximum(np.sum(Sw**2, axis=0), 1e-300)
-
-    def project(e: np.ndarray) -> np.ndarray:
-        return Sw.T @ whiten(block_mean(e, prior.block), prior.ar)[w]
-
-    num = project(eps)
-    std = np.std(project(null), axis=1) / den if null is not None else np.sqrt(s2 / den)
-    std = np.sqrt(std**2 + prior.structure**2)  # the structure's apparent change on a new manoeuvre
-    llr = num**2 / (2 * s2 * den)
-    order = np.argsort(-llr)
-    close = [CANDIDATES[int(i)] for i in order if llr[order[0]] - llr[i] < SEPARATION]
-    return {
-        "property": close[0] if len(close) == 1 else "undecided",
-        "undecided_between": close if len(close) > 1 else [],
-        "candidates": {
-            c: {"relative_change": float(num[i] / den[i]), "llr": float(llr[i]), "std": float(std[i])}
-            for i, c in enumerate(CANDIDATES)
-        },
-        "llr_margin": float(llr[order[0]] - llr[order[1]]),
-    }
