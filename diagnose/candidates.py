@@ -8,7 +8,7 @@ Every candidate adds one or more *slots* to the augmented simulator (:mod:`diagn
   coupling (v r, u r, u v, r^2), speed-dependent thrust (u tau_x, u n), wind loads (when
   wind is measured; :mod:`diagnose.windload`) and roll coupling (phi, when roll is measured);
 - ``steady_wind``: a steady wind not recorded, its air velocity (north, east) over the recording
-  set and the yaw arm of its lateral load, whose loads follow the relative wind angle as the ship turns (:mod:`diagnose.windload`);
+  set, the yaw arm of its lateral load and the scale of its surge load, whose loads follow the relative wind angle as the ship turns (:mod:`diagnose.windload`);
 - ``current``: a constant n-frame current (north, east) entering through u_r, v_r (Fossen 2021, ch. 2;
   in predictor form the cos psi / sin psi regressors of (5.67)-(5.70));
 - ``delay``: a common actuator time delay (seconds; fractional, linear interpolation);
@@ -187,10 +187,11 @@ def _environment(profile: ShipProfile, recordings: list[Recording], y: np.ndarra
                     Slot("steady_wind", "wind_n", index=0),
                     Slot("steady_wind", "wind_e", index=1),
                     Slot("steady_wind", "wind_yaw_arm", index=2),
+                    Slot("steady_wind", "wind_surge_scale", index=3),
                 ),
                 description="wind (not recorded): a steady wind of unknown speed and direction, its loads following the "
                 "relative wind angle as the ship turns (Blendermann's (1994) loaded-tanker coefficients on areas from the "
-                "main particulars, scaled by the ship's mass and added mass; the yaw arm refitted)",
+                "main particulars, scaled by the ship's mass and added mass; the yaw arm and the surge load's scale refitted)",
             )
         )
     return cands, untestable

@@ -55,8 +55,8 @@ def _current(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
 def _steady_wind(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
     """A wind not recorded: its speed and the direction it comes from (clockwise from north, as a
     recorded ``wind_dir``), from the fitted air velocity toward north/east, with delta-method stds,
-    and the yaw arm of its lateral load (s_L / L, forward of midship)."""
-    wn, we, arm = P[model.slot_of[c.key]]
+    the yaw arm of its lateral load (s_L / L, forward of midship) and the scale of its surge load."""
+    wn, we, arm, surge = P[model.slot_of[c.key]]
     spd = float(np.hypot(wn, we))
     out = {
         "speed_mps": spd,
@@ -64,7 +64,9 @@ def _steady_wind(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.nda
         "north_mps": float(wn),
         "east_mps": float(we),
         "yaw_arm_over_length": float(arm),
-        "yaw_arm_over_length_std": _sd(cov, pos[2:])[0],
+        "yaw_arm_over_length_std": _sd(cov, pos[2:3])[0],
+        "surge_scale": 1.0 + float(surge),
+        "surge_scale_std": _sd(cov, pos[3:])[0],
     }
     sub = cov[np.ix_(pos[:2], pos[:2])] if len(cov) else np.full((2, 2), np.nan)
     g_s = np.array([wn, we]) / max(spd, 1e-12)

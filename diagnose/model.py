@@ -125,7 +125,7 @@ class AugmentedModel:
         plan = {
             "terms": [],
             "cur": np.zeros((B, 2)),
-            "wind": np.zeros((B, 3)),
+            "wind": np.zeros((B, 4)),
             "delay": None,
             "offsets": [],
             "bias": np.zeros((B, 3)),
@@ -281,7 +281,7 @@ class AugmentedModel:
                 typ = 0.01
             elif s.kind == "steady_wind" and s.index < 2:  # a secant, not a tangent: at no wind its loads are only the cross term
                 typ = 0.5 * float(np.sqrt(np.mean(y[:, 0] ** 2 + y[:, 1] ** 2)))
-            elif s.kind == "steady_wind":  # the centroid's arm, a fraction of the length
+            elif s.kind == "steady_wind":  # the centroid's arm (a fraction of the length), the surge scale
                 typ = 0.01
             elif s.kind == "delay":
                 typ = 0.5 * ts

@@ -210,7 +210,7 @@ def _slot(s: dict, prof: ShipProfile, p: Path, field: str) -> Slot:
         raise RecordingError(f"{at}.kind' must be one of {list(SLOT_NEEDS)}, got {kind!r}: {MODEL_JSON_FIX}")
     if not isinstance(s.get("name"), str):
         raise RecordingError(f"{at}.name' must be the slot's name (a string), got {s.get('name')!r}: {MODEL_JSON_FIX}")
-    bound = {"current": 2, "steady_wind": 3, "offset": len(prof.inputs), "bias": 3}.get(kind, 0)
+    bound = {"current": 2, "steady_wind": 4, "offset": len(prof.inputs), "bias": 3}.get(kind, 0)
     slot = Slot(
         kind, s["name"], _index(s.get("dof"), 3, f"{at}.dof'"), s.get("term"), _index(s.get("index"), bound, f"{at}.index'")
     )

@@ -144,7 +144,8 @@ def _effect(f: dict) -> str:
                 f"a steady wind that was not recorded pushes the ship: {p['speed_mps']:.3g}{_pm(p, 'speed_std')} m/s from "
                 f"{p['from_deg']:03.0f}{_pm(p, 'from_std_deg', '.0f')} deg (Blendermann's loads on a loaded tanker's areas "
                 "from the main particulars, the ship's mass and added mass estimated from them: the speed is as good as "
-                f"those){means}"
+                f"those; surge load x {p['surge_scale']:.2f}{_pm(p, 'surge_scale_std', '.2f')}, yaw arm "
+                f"{p['yaw_arm_over_length']:+.2f}{_pm(p, 'yaw_arm_over_length_std', '.2f')} L){means}"
             )
         return (
             "the recorded wind pushes the ship (Blendermann's loads scaled per DOF by "

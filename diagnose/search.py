@@ -189,8 +189,8 @@ def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int,
     new = model.slot_of[c.key]
     if c.effect == "actuator_delay":
         return {new[0]: (-model.half_sample, 50 * model.profile.sample_time)}
-    if c.key == STEADY_WIND:  # the lateral load's centroid within the ship's length
-        return {new[2]: (-0.5, 0.5)}
+    if c.key == STEADY_WIND:  # the lateral load's centroid within the ship's length, the frontal area 0.5-4 x the box's
+        return {new[2]: (-0.5, 0.5), new[3]: (-0.5, 3.0)}
     if c.effect == "inertia_change":
         f = plausible.MAX_INERTIA_FACTOR
         return {new[0]: (1.0 / f - 1.0, f - 1.0)}
