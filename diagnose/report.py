@@ -139,7 +139,7 @@ def _effect(f: dict) -> str:
             if acc
             else ""
         )
-        if f["key"] == STEADY_WIND:
+        if f.get("key") == STEADY_WIND:
             return (
                 f"a steady wind that was not recorded pushes the ship: {p['speed_mps']:.3g}{_pm(p, 'speed_std')} m/s from "
                 f"{p['from_deg']:03.0f}{_pm(p, 'from_std_deg', '.0f')} deg (Blendermann's loads on a loaded tanker's areas "
