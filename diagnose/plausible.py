@@ -50,7 +50,10 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
     if effect == "wind" and "speed_mps" in params:  # a steady wind not recorded (its speed fitted)
         lim = MAX_WIND_REF_MPS * froude(profile)
         ok = params["speed_mps"] <= lim
-        return ok, f"wind {params['speed_mps']:.1f} m/s vs at most {lim:.1f} m/s ({MAX_WIND_REF_MPS:g} m/s Froude-scaled)"
+        return ok, (
+            f"wind {params['speed_mps']:.1f} m/s (as a loaded tanker of these main particulars would feel it) vs at most "
+            f"{lim:.1f} m/s ({MAX_WIND_REF_MPS:g} m/s Froude-scaled)"
+        )
     if effect == "actuator_delay":
         lim, why = max_delay_s(profile)
         d = params["delay_s"]

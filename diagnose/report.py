@@ -142,9 +142,12 @@ def _effect(f: dict) -> str:
         if f.get("key") == STEADY_WIND:
             return (
                 f"a steady wind that was not recorded pushes the ship: {p['speed_mps']:.3g}{_pm(p, 'speed_std')} m/s from "
-                f"{p['from_deg']:03.0f}{_pm(p, 'from_std_deg', '.0f')} deg (Blendermann's loads on a loaded tanker's areas "
-                "from the main particulars, the ship's mass and added mass estimated from them: the speed is as good as "
-                f"those; surge load x {p['surge_scale']:.2f}{_pm(p, 'surge_scale_std', '.2f')}, yaw arm "
+                f"{p['from_deg']:03.0f}{_pm(p, 'from_std_deg', '.0f')} deg, the speed a loaded tanker of these main "
+                "particulars would feel (Blendermann's loaded-tanker loads on its freeboard's areas, C_B 0.80 for its mass): "
+                "a ship with more side area above water (a superstructure, containers) or a finer hull feels a weaker wind, by "
+                "the square root of the area and mass ratios, and its load's shape over the wind angle is a "
+                "tanker's; the mean accelerations that follow rest on the shape only ("
+                f"surge load x {p['surge_scale']:.2f}{_pm(p, 'surge_scale_std', '.2f')}, yaw arm "
                 f"{p['yaw_arm_over_length']:+.2f}{_pm(p, 'yaw_arm_over_length_std', '.2f')} L){means}"
             )
         return (
