@@ -322,14 +322,20 @@ def run_case(
     ship: str = BASELINE,
     oracle: bool = False,
     seed: int | None = None,
+    no_anemometer: bool = False,
 ) -> dict:
-    """Generate, diagnose and score one case (with ``seed``: its noise drawn from that seed instead)."""
+    """Generate, diagnose and score one case (with ``seed``: its noise drawn from that seed instead;
+    with ``no_anemometer``: the wind columns left out of the recordings, the wind still blowing)."""
     t0 = time.perf_counter()
     c0 = time.process_time()
     c = case(name)
     if seed is not None:
         c = replace(c, seed=seed, name=f"{c.name}-seed{seed}")
     g = generate(c, visibility=True, oracle_calm=oracle)
+    if no_anemometer:
+        for runs in g.noisy.values():
+            for cols in runs:
+                cols.pop("wind_speed", None), cols.pop("wind_dir", None)
     paths = write_case(g, out_dir / name)
     t_gen = time.perf_counter() - t0
     t1 = time.perf_counter()
@@ -412,6 +418,11 @@ def main(argv: list[str] | None = None) -> dict:
         help="study: the --fit-on runs are the diagnosed and "
         "validation manoeuvres without the effect (isolates the search from the baseline's misfit)",
     )
+    ap.add_argument(
+        "--no-anemometer",
+        action="store_true",
+        help="the wind columns left out of every recording (the wind still blows): the steady-wind candidate's test",
+    )
     a = ap.parse_args(argv)
     names = [n.strip() for n in a.cases.split(",") if n.strip()] or [c.name for c in CASES]
     for n in names:
@@ -428,7 +439,7 @@ def main(argv: list[str] | None = None) -> dict:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
         with ProcessPoolExecutor(a.jobs) as ex:
-            futs = [ex.submit(run_case, n, out_dir, a.cli, a.joint, a.ship, a.oracle_calm, sd) for n, sd in jobs]
+            futs = [ex.submit(run_case, n, out_dir, a.cli, a.joint, a.ship, a.oracle_calm, sd, a.no_anemometer) for n, sd in jobs]
             for f in as_completed(futs):  # progress as cases finish (a long run can be followed)
                 r = f.result()
                 print(
@@ -440,7 +451,7 @@ def main(argv: list[str] | None = None) -> dict:
     else:
         rows = []
         for n, sd in jobs:
-            rows.append(run_case(n, out_dir, a.cli, a.joint, a.ship, a.oracle_calm, sd))
+            rows.append(run_case(n, out_dir, a.cli, a.joint, a.ship, a.oracle_calm, sd, a.no_anemometer))
             r = rows[-1]
             print(f"  {r['case']}: {'hit' if r['hit'] else 'MISS'} ({r['diagnose_s']:.1f} s)", file=sys.stderr, flush=True)
     print(f"{'case':22s} {'truth':44s} {'visible u/v/r':>15s}  {'claimed':48s} {'result':6s} {'time s':>7s} {'cpu s':>7s}")

@@ -7,6 +7,8 @@ Every candidate adds one or more *slots* to the augmented simulator (:mod:`diagn
   Phi^T theta`` ((3.60), (9.1)) - quadratic damping (v|v|, r|r|, r|v|, v|r|, u|u|), missing
   coupling (v r, u r, u v, r^2), speed-dependent thrust (u tau_x, u n), wind loads (when
   wind is measured; :mod:`diagnose.windload`) and roll coupling (phi, when roll is measured);
+- ``steady_wind``: a steady wind not recorded, its air velocity (north, east) over the recording
+  set, the yaw arm of its lateral load and the scale of its surge load, whose loads follow the relative wind angle as the ship turns (:mod:`diagnose.windload`);
 - ``current``: a constant n-frame current (north, east) entering through u_r, v_r (Fossen 2021, ch. 2;
   in predictor form the cos psi / sin psi regressors of (5.67)-(5.70));
 - ``delay``: a common actuator time delay (seconds; fractional, linear interpolation);
@@ -32,6 +34,7 @@ from diagnose.recording import Recording
 from primitives.ship import DOFS, ShipProfile
 
 SIGNALS = ("u", "v", "r")
+STEADY_WIND = "wind:not-recorded"  # the key of the steady-wind candidate (no wind columns)
 
 QUADRATIC = {0: ["u_r*|u_r|"], 1: ["v_r*|v_r|", "r*|v_r|", "v_r*|r|", "r*|r|"], 2: ["r*|r|", "r*|v_r|", "v_r*|r|", "v_r*|v_r|"]}
 COUPLING = {0: ["v_r*r", "r^2", "v_r^2"], 1: ["u_r*r", "u_r*v_r"], 2: ["u_r*v_r", "u_r*r"]}
@@ -39,7 +42,7 @@ COUPLING = {0: ["v_r*r", "r^2", "v_r^2"], 1: ["u_r*r", "u_r*v_r"], 2: ["u_r*v_r"
 
 @dataclass(frozen=True)
 class Slot:
-    """One augmentation parameter: kind in (term, current, delay, offset, bias, scale, thrust, thrust_share)."""
+    """One augmentation parameter: kind in (term, current, steady_wind, delay, offset, bias, scale, thrust, thrust_share)."""
 
     kind: str
     name: str
@@ -160,8 +163,37 @@ def _environment(profile: ShipProfile, recordings: list[Recording], y: np.ndarra
                 "on areas from the main particulars, the magnitude of each DOF and the yaw arm refitted",
             )
         )
+    elif any(r.wind_ne is not None for r in recordings):
+        untestable.append(
+            {
+                "effect": "wind",
+                "reason": "wind recorded in some runs only (columns wind_speed, wind_dir): record it in every run or in none",
+            }
+        )
+    elif spread < np.radians(45.0):
+        untestable.append(
+            {
+                "effect": "wind",
+                "reason": f"no measured wind (columns wind_speed, wind_dir), and the heading spans only {np.degrees(spread):.0f} deg: "
+                "a steady wind is told from a constant force only by its loads changing as the ship turns",
+            }
+        )
     else:
-        untestable.append({"effect": "wind", "reason": "no measured wind (columns wind_speed, wind_dir)"})
+        cands.append(
+            Candidate(
+                "wind",
+                STEADY_WIND,
+                (
+                    Slot("steady_wind", "wind_n", index=0),
+                    Slot("steady_wind", "wind_e", index=1),
+                    Slot("steady_wind", "wind_yaw_arm", index=2),
+                    Slot("steady_wind", "wind_surge_scale", index=3),
+                ),
+                description="wind (not recorded): a steady wind of unknown speed and direction, its loads following the "
+                "relative wind angle as the ship turns (Blendermann's (1994) loaded-tanker coefficients on areas from the "
+                "main particulars, scaled by the ship's mass and added mass; the yaw arm and the surge load's scale refitted)",
+            )
+        )
     return cands, untestable
 
 

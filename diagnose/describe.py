@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from diagnose import windload
-from diagnose.candidates import Candidate, canonical_term, thrust_signal
+from diagnose.candidates import STEADY_WIND, Candidate, canonical_term, thrust_signal
 from diagnose.model import AugmentedModel
 from primitives.ship import DOFS
 
@@ -26,7 +26,7 @@ def describe(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
     """Physical parameters of candidate ``c`` at P (keys fixed by the issue)."""
     idx = model.slot_of[c.key]
     pos = [free.index(j) for j in idx]
-    fn = _BY_EFFECT.get(c.effect)
+    fn = _steady_wind if c.key == STEADY_WIND else _BY_EFFECT.get(c.effect)
     if fn is None:
         sd = _sd(cov, pos)
         return {s.name: float(v) for s, v in zip(c.slots, P[idx])} | {f"{s.name}_std": e for s, e in zip(c.slots, sd)}
@@ -49,6 +49,31 @@ def _current(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray
         if np.all(np.isfinite(sub)):
             out["speed_std"] = float(np.sqrt(max(g_s @ sub @ g_s, 0)))
             out["toward_std_deg"] = float(np.degrees(np.sqrt(max(g_d @ sub @ g_d, 0))))
+    return out
+
+
+def _steady_wind(c: Candidate, model: AugmentedModel, P: np.ndarray, cov: np.ndarray, pos: list[int]) -> dict:
+    """A wind not recorded: its speed and the direction it comes from (clockwise from north, as a
+    recorded ``wind_dir``), from the fitted air velocity toward north/east, with delta-method stds,
+    the yaw arm of its lateral load (s_L / L, forward of midship) and the scale of its surge load."""
+    wn, we, arm, surge = P[model.slot_of[c.key]]
+    spd = float(np.hypot(wn, we))
+    out = {
+        "speed_mps": spd,
+        "from_deg": float(np.degrees(np.arctan2(-we, -wn)) % 360.0),
+        "north_mps": float(wn),
+        "east_mps": float(we),
+        "yaw_arm_over_length": float(arm),
+        "yaw_arm_over_length_std": _sd(cov, pos[2:3])[0],
+        "surge_scale": 1.0 + float(surge),
+        "surge_scale_std": _sd(cov, pos[3:])[0],
+    }
+    sub = cov[np.ix_(pos[:2], pos[:2])] if len(cov) else np.full((2, 2), np.nan)
+    g_s = np.array([wn, we]) / max(spd, 1e-12)
+    g_d = np.array([-we, wn]) / max(spd**2, 1e-12)
+    ok = bool(np.all(np.isfinite(sub)))
+    out["speed_std"] = float(np.sqrt(max(g_s @ sub @ g_s, 0))) if ok else None
+    out["from_std_deg"] = float(np.degrees(np.sqrt(max(g_d @ sub @ g_d, 0)))) if ok else None
     return out
 
 
@@ -200,7 +225,11 @@ def add_wind_means(findings: list[dict], model: AugmentedModel, preps: list, P: 
         pos = [free.index(j) for j in idx]
         ix = np.ix_(pos, pos)
         parts = {"": cov.total, "_noise": cov.noise} | ({"_runs": cov.runs} if _beyond_runs(cov) else {})
-        f["parameters"].update(windload.mean_acceleration(preps, P[idx], {k: C[ix] for k, C in parts.items()}))
+        sub = {k: C[ix] for k, C in parts.items()}
+        if f["key"] == STEADY_WIND:
+            f["parameters"].update(windload.steady_mean_acceleration(model.profile, preps, P[idx], sub))
+        else:
+            f["parameters"].update(windload.mean_acceleration(preps, P[idx], sub))
 
 
 def interval_note(cov, key: str | None = None) -> dict:

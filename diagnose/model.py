@@ -119,12 +119,13 @@ class AugmentedModel:
         return self.simulate_many([prep], P)[0]
 
     def _plan(self, P: np.ndarray) -> dict:
-        """What P switches on (the same for every recording): terms, current, delay, offsets,
-        biases, inertia scales."""
+        """What P switches on (the same for every recording): terms, current, steady wind, delay,
+        offsets, biases, inertia scales."""
         B = P.shape[0]
         plan = {
             "terms": [],
             "cur": np.zeros((B, 2)),
+            "wind": np.zeros((B, 4)),
             "delay": None,
             "offsets": [],
             "bias": np.zeros((B, 3)),
@@ -143,6 +144,8 @@ class AugmentedModel:
                 plan["terms"].append((s.dof, col, s.term, names, fn))
             elif s.kind == "current":
                 plan["cur"][:, s.index] += col
+            elif s.kind == "steady_wind":
+                plan["wind"][:, s.index] += col
             elif s.kind == "delay":
                 plan["delay"] = col
             elif s.kind == "offset":
@@ -240,6 +243,8 @@ class AugmentedModel:
         for i, coef, _term, names, fn in plan["terms"]:
             if set(names) <= set(exo):
                 pre[:, :, i] += coef[:, None] * fn(exo)
+        if np.any(plan["wind"][:, :2] != 0):  # a steady wind not recorded: its loads as the ship turns (diagnose.windload)
+            pre += windload.steady_increments(self.profile, prep.y, prep.psi, plan["wind"], prep.rec.sample_time)[:, :-1]
         nu0 = np.broadcast_to(prep.y0, (B, 3)) - plan["bias"]
         if prep.index is not None and prep.index < self.n_rec:
             k0 = self.n_slots_end + 3 * prep.index
@@ -273,6 +278,10 @@ class AugmentedModel:
                 continue
             s = self.slot(j)
             if s.kind == "current":
+                typ = 0.01
+            elif s.kind == "steady_wind" and s.index < 2:  # a secant, not a tangent: at no wind its loads are only the cross term
+                typ = 0.5 * float(np.sqrt(np.mean(y[:, 0] ** 2 + y[:, 1] ** 2)))
+            elif s.kind == "steady_wind":  # the centroid's arm (a fraction of the length), the surge scale
                 typ = 0.01
             elif s.kind == "delay":
                 typ = 0.5 * ts

@@ -149,11 +149,12 @@ def load_model(path: str | Path) -> tuple[AugmentedModel, np.ndarray]:
 CANDIDATE_KEYS = ("effect", "key", "dof", "description", "slots", "values")
 SLOT_KEYS = tuple(f.name for f in fields(Slot))
 # What a slot of each kind reads besides its name: its DOF, its term, an index below a bound
-# (the current's north/east, the input offset, the biased signal u/v/r).
+# (the current's or steady wind's north/east, the input offset, the biased signal u/v/r).
 SLOT_NEEDS: dict[str, tuple[str, ...]] = {
     "term": ("dof", "term"),
     "scale": ("dof",),
     "current": ("index",),
+    "steady_wind": ("index",),
     "offset": ("index",),
     "bias": ("index",),
     "delay": (),
@@ -209,7 +210,7 @@ def _slot(s: dict, prof: ShipProfile, p: Path, field: str) -> Slot:
         raise RecordingError(f"{at}.kind' must be one of {list(SLOT_NEEDS)}, got {kind!r}: {MODEL_JSON_FIX}")
     if not isinstance(s.get("name"), str):
         raise RecordingError(f"{at}.name' must be the slot's name (a string), got {s.get('name')!r}: {MODEL_JSON_FIX}")
-    bound = {"current": 2, "offset": len(prof.inputs), "bias": 3}.get(kind, 0)
+    bound = {"current": 2, "steady_wind": 4, "offset": len(prof.inputs), "bias": 3}.get(kind, 0)
     slot = Slot(
         kind, s["name"], _index(s.get("dof"), 3, f"{at}.dof'"), s.get("term"), _index(s.get("index"), bound, f"{at}.index'")
     )

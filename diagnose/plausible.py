@@ -47,6 +47,13 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
             ok,
             f"current {params['speed_mps']:.2f} m/s vs at most {lim:.2f} m/s ({MAX_CURRENT_FRACTION:.0%} of the cruise speed)",
         )
+    if effect == "wind" and "speed_mps" in params:  # a steady wind not recorded (its speed fitted)
+        lim = MAX_WIND_REF_MPS * froude(profile)
+        ok = params["speed_mps"] <= lim
+        return ok, (
+            f"wind {params['speed_mps']:.1f} m/s (as a loaded tanker of these main particulars would feel it) vs at most "
+            f"{lim:.1f} m/s ({MAX_WIND_REF_MPS:g} m/s Froude-scaled)"
+        )
     if effect == "actuator_delay":
         lim, why = max_delay_s(profile)
         d = params["delay_s"]
@@ -85,6 +92,10 @@ def check(effect: str, params: dict, profile: ShipProfile, inputs: np.ndarray | 
 # accepts estimates too small to matter (a 3 mm/s current, a 2e-5 rad/s gyro bias on a control).
 # Stated for the 320 m tanker and Froude-scaled like the limits above; angles and fractions as they are.
 MIN_CURRENT_REF_MPS = 0.10  # about 0.2 kn: below what a trial's speed correction would notice
+# a steady wind not recorded: above hurricane force (Beaufort 12, 32.7 m/s) no trial is run; below
+# a light breeze (Beaufort 2) its loads on the ship are within the model's own misfit
+MAX_WIND_REF_MPS = 33.0
+MIN_WIND_REF_MPS = 3.0
 MIN_DELAY_REF_S = 0.5  # steering-machine latency below half a second does not change a manoeuvre
 MIN_ANGLE_OFFSET_DEG = 0.2  # below the reading of a rudder angle indicator
 # a sensor bias b on a channel adds the constant b to its error, which moves the channel's fit
@@ -127,6 +138,11 @@ def practical(
         return False, (
             f"current {params['speed_mps']:.3f} m/s vs at least {MIN_CURRENT_REF_MPS * s:.3f} m/s "
             f"({MIN_CURRENT_REF_MPS:g} m/s Froude-scaled to {profile.length_m:g} m)"
+        )
+    if effect == "wind" and params.get("speed_mps", np.inf) < MIN_WIND_REF_MPS * s:
+        return False, (
+            f"wind {params['speed_mps']:.1f} m/s vs at least {MIN_WIND_REF_MPS * s:.1f} m/s "
+            f"({MIN_WIND_REF_MPS:g} m/s Froude-scaled to {profile.length_m:g} m)"
         )
     if effect == "actuator_delay" and params.get("delay_s", np.inf) < MIN_DELAY_REF_S * s:
         return (

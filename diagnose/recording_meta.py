@@ -88,6 +88,11 @@ def true_wind(path: Path, rec: Recording) -> Recording:
         ub, vb = rec.y[:, 0] - va * np.cos(ga), rec.y[:, 1] - va * np.sin(ga)  # true air velocity (toward), body axes
         c, s = np.cos(rec.psi), np.sin(rec.psi)
         wn, we = c * ub - s * vb, s * ub + c * vb
+        relative_in_knots(
+            path,
+            np.column_stack([wn, we]),
+            np.column_stack([c * rec.y[:, 0] - s * rec.y[:, 1], s * rec.y[:, 0] + c * rec.y[:, 1]]),
+        )
         chans["wind_speed"], chans["wind_dir"] = np.hypot(wn, we), np.arctan2(-we, -wn) % (2 * np.pi)
         notes.append("relative wind (as felt on board) converted to the true wind with the recorded u, v and heading")
     med = float(np.nanmedian(chans["wind_speed"]))
@@ -97,6 +102,41 @@ def true_wind(path: Path, rec: Recording) -> Recording:
             f"is it in knots? give m/s (knots x 0.5144: {0.5144 * med:.1f} m/s)"
         )
     return replace(rec, channels=chans, notes=notes, meta={**rec.meta, "wind_reference": "true"})
+
+
+# the unit factor a relative wind's speed is refused at: knots read as m/s give 1.944
+KNOTS_FACTOR_SEEN = 1.5
+# judged only when the ship's velocity over ground varies (std) by half its speed (about half a
+# turning circle): over a zig-zag the anemometer's flow distortion, which changes with the
+# relative wind angle, moves the factor as much as knots do (0.8-1.6 in m/s on the MMG battery's
+# zig-zags, 1.18 in m/s and 2.28 in knots on its turning circle)
+MIN_TURN_SPREAD = 0.5
+
+
+def relative_in_knots(path: Path, wind_ne: np.ndarray, ship_ne: np.ndarray) -> None:
+    """Refuse a relative wind whose speed is in knots, judged against the ship's own speed.
+
+    The true wind is the relative wind plus the ship's velocity over ground (Fossen 2021,
+    (10.8)-(10.9)); with the relative speed read f times too large the derived true wind is
+    f w - (f - 1) U, which follows the ship's velocity U as it turns. Regressing the derived
+    true wind ``wind_ne`` (N, 2) on the ship's velocity ``ship_ne`` (N, 2) gives 1 - f (gusts do
+    not follow the ship's velocity, so they do not bias it; a flow distortion of the anemometer
+    does, a little); judged only when the ship turns (its velocity's std at least
+    MIN_TURN_SPREAD of its speed)."""
+    from diagnose.recording import RecordingError
+
+    ok = np.all(np.isfinite(wind_ne), axis=1) & np.all(np.isfinite(ship_ne), axis=1)
+    w, u = wind_ne[ok] - wind_ne[ok].mean(axis=0), ship_ne[ok] - ship_ne[ok].mean(axis=0)
+    var = float(np.sum(u * u))
+    speed = float(np.mean(np.hypot(ship_ne[ok, 0], ship_ne[ok, 1]))) if ok.any() else 0.0
+    if not ok.sum() or var < (MIN_TURN_SPREAD * speed) ** 2 * ok.sum() or speed <= 0:
+        return
+    factor = 1.0 - float(np.sum(w * u)) / var
+    if factor > KNOTS_FACTOR_SEEN:
+        raise RecordingError(
+            f"{path}: column 'wind_speed' (relative): the true wind derived from it follows the ship's own velocity "
+            f"as it turns, as if the speed were {factor:.2f} times too large; is it in knots? give m/s (knots x 0.5144)"
+        )
 
 
 def yaw_rate_as_said(cols: dict[str, np.ndarray], meta: dict[str, str], option: str | None = None) -> str | None:

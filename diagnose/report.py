@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from diagnose.api import Diagnosis
+from diagnose.candidates import STEADY_WIND
 from diagnose.describe import includes_no_effect
 from diagnose.model_file import model_dict
 from diagnose.perrun import FIT_FLOOR, fit_str, short_label
@@ -82,6 +83,11 @@ def _pm(p: dict, key: str, fmt: str = ".2g", scale: float = 1.0) -> str:
     return f" +- {scale * sd:{fmt}}" if isinstance(sd, int | float) and np.isfinite(sd) else ""
 
 
+def effect_name(f: dict) -> str:
+    """The finding's name in the report: its effect, a wind that was not recorded said so."""
+    return "wind (not recorded)" if f.get("key") == STEADY_WIND else f["effect"]
+
+
 def _effect(f: dict) -> str:
     """The finding's effect in words, each figure with its +- (1 std)."""
     p, e = f["parameters"], f["effect"]
@@ -127,6 +133,23 @@ def _effect(f: dict) -> str:
         acc = [
             (k, u) for k, u in (("surge", "m/s^2"), ("sway", "m/s^2"), ("yaw", "rad/s^2")) if p.get(f"wind_accel_{k}") is not None
         ]
+        means = (
+            "; its mean acceleration of the ship over the diagnosed runs: "
+            + ", ".join(f"{k} {p[f'wind_accel_{k}']:.3g}{_pm(p, f'wind_accel_{k}_std', '.2g')} {u}" for k, u in acc)
+            if acc
+            else ""
+        )
+        if f.get("key") == STEADY_WIND:
+            return (
+                f"a steady wind that was not recorded pushes the ship: {p['speed_mps']:.3g}{_pm(p, 'speed_std')} m/s from "
+                f"{p['from_deg']:03.0f}{_pm(p, 'from_std_deg', '.0f')} deg, the speed a loaded tanker of these main "
+                "particulars would feel (Blendermann's loaded-tanker loads on its freeboard's areas, C_B 0.80 for its mass): "
+                "a ship with more side area above water (a superstructure, containers) or a finer hull feels a weaker wind, by "
+                "the square root of the area and mass ratios, and its load's shape over the wind angle is a "
+                "tanker's; the mean accelerations that follow rest on the shape only ("
+                f"surge load x {p['surge_scale']:.2f}{_pm(p, 'surge_scale_std', '.2f')}, yaw arm "
+                f"{p['yaw_arm_over_length']:+.2f}{_pm(p, 'yaw_arm_over_length_std', '.2f')} L){means}"
+            )
         return (
             "the recorded wind pushes the ship (Blendermann's loads scaled per DOF by "
             + ", ".join(
@@ -135,12 +158,7 @@ def _effect(f: dict) -> str:
                 if "_std" not in k and not k.startswith("wind_accel_")
             )
             + "; areas from the main particulars as a loaded tanker's)"
-            + (
-                "; its mean acceleration of the ship over the diagnosed runs: "
-                + ", ".join(f"{k} {p[f'wind_accel_{k}']:.3g}{_pm(p, f'wind_accel_{k}_std', '.2g')} {u}" for k, u in acc)
-                if acc
-                else ""
-            )
+            + means
         )
     if e == "roll_coupling":
         return "the roll angle phi feeds the " + " and the ".join(
@@ -258,7 +276,7 @@ def finding_lines(d: Diagnosis) -> list[str]:
     else:
         lines.append("Findings (strongest first):")
         for i, f in enumerate(d.findings, 1):
-            lines.append(f"  {i}. [{f['effect']}] {sentence(f)}")
+            lines.append(f"  {i}. [{effect_name(f)}] {sentence(f)}")
         lines += interval_lines(d.findings)
     if d.structure:
         lines.append(
@@ -266,7 +284,7 @@ def finding_lines(d: Diagnosis) -> list[str]:
             "condition of these runs; kept in the refitted model):"
         )
         for i, f in enumerate(d.structure, 1):
-            lines.append(f"  {i}. [{f['effect']}] {sentence(f)}")
+            lines.append(f"  {i}. [{effect_name(f)}] {sentence(f)}")
     for u in d.untestable:
         extra = f" ({u['dof']} {u['term']})" if "term" in u else ""
         lines.append(f"Cannot be tested: {u['effect']}{extra}: {u['reason']}.")

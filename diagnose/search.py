@@ -29,8 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from diagnose import delaycheck, plausible
-from diagnose.candidates import Candidate, canonical_term
+from diagnose import delaycheck, plausible, windstart
+from diagnose.candidates import STEADY_WIND, Candidate, canonical_term
 from diagnose.describe import describe, surge_base_index
 from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, refit_verdict, rejection_entry, verdict
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
@@ -189,6 +189,8 @@ def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int,
     new = model.slot_of[c.key]
     if c.effect == "actuator_delay":
         return {new[0]: (-model.half_sample, 50 * model.profile.sample_time)}
+    if c.key == STEADY_WIND:  # the lateral load's centroid within the ship's length, the frontal area 0.5-4 x the box's
+        return {new[2]: (-0.5, 0.5), new[3]: (-0.5, 3.0)}
     if c.effect == "inertia_change":
         f = plausible.MAX_INERTIA_FACTOR
         return {new[0]: (1.0 / f - 1.0, f - 1.0)}
@@ -434,6 +436,8 @@ def _try(
     profile = None
     if c.effect == "actuator_delay":
         start[new[0]], profile = delaycheck.grid_delay(model, S.preps, S.wr, P, new[0])
+    elif c.key == STEADY_WIND:
+        start = windstart.grid_start(model, S.preps, S.wr, start, new[:2])
     P1, cov1, rss1 = S.refit(start, free + new, slot_bounds(model, c, P))
     if not np.isfinite(rss1):
         return {"reason": "the refit diverged (non-finite or exploding simulation): not scored"}

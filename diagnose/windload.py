@@ -21,6 +21,14 @@ wind angle and the starting scale. The signals are the loads made dimensionless
 with the hull's 1/2 rho L^2 d (and L for the moment), so a coefficient is about
 T_s / (m' + m'_a), the sample time over the dimensionless mass with added mass.
 
+A wind that was not recorded (:func:`steady_increments`) is the same loads of a steady air
+velocity (north, east) over the recording set, its two components the fitted parameters: the
+magnitudes cannot all be refitted too (a stronger wind and a larger scale give the same loads),
+so each DOF's scale is the ship's own, T_s / (m' + m'_a), with the mass of a loaded tanker's
+block (C_B = 0.80) and the added masses of Clarke et al. (1983), the sway load setting the
+wind's speed; the surge load's scale (the frontal area: the box leaves out the superstructure,
+543 m^2 for KVLCC2 against about 1,130 m^2) and the yaw arm are refitted with it.
+
 The truth the battery tests this with (tests/physics) uses Isherwood's (1972) tables instead.
 """
 
@@ -29,6 +37,9 @@ from __future__ import annotations
 from typing import Protocol
 
 import numpy as np
+
+from primitives.particulars.regressions import Hull, added_mass
+from primitives.simulate import body_from_ne
 
 
 class Particulars(Protocol):
@@ -83,6 +94,37 @@ def excess_loads(profile: Particulars, y: np.ndarray, wind_body: tuple[np.ndarra
     return dict(zip(SIGNALS, np.moveaxis(ex, -1, 0)))
 
 
+# the steady (not recorded) wind's fixed scales: a loaded tanker's block coefficient, as the
+# coefficients above are a loaded tanker's, and a radius of gyration of a quarter length
+CB_TANKER = 0.80
+GYRATION_OVER_L = 0.25
+
+
+def ship_gains(profile: Particulars, sample_time: float) -> np.ndarray:
+    """(3,) increments of u, v (m/s) and r (rad/s) over one sample per unit of the X, Y, N
+    signals of :func:`_loads`: T_s / (m' + m'_x), T_s / (m' + m'_y), T_s / ((I'_z + J'_z) L),
+    with m' = 2 C_B B / L on 1/2 rho L^2 d, I'_z = m' (0.25)^2 and the added masses of Clarke,
+    Gedling & Hine (1983), eqs. (13), (16) (m'_x = 0.05 m')."""
+    h = Hull(profile.length_m, profile.beam_m, profile.draught_m, CB_TANKER)
+    a = added_mass(h)
+    m = h.mass_nd
+    iz = m * GYRATION_OVER_L**2
+    return sample_time / np.array([m + a["mx"], m + a["my"], (iz + a["Jz"]) * profile.length_m])
+
+
+def steady_increments(profile: Particulars, y: np.ndarray, psi: np.ndarray, wind: np.ndarray, sample_time: float) -> np.ndarray:
+    """(B, N+1, 3) increments of u, v, r over each sample from a steady wind, ``wind`` (B, 4) its
+    air velocity toward north and east (m/s), the lateral centroid's arm s_L/L forward of
+    midship and the surge load's scale less one, at the recorded velocities ``y`` (N+1, 3) and
+    heading ``psi``: the excess loads of :func:`excess_loads` (Blendermann 1994) in body axes as
+    the ship turns, the surge load scaled, the yaw moment about the centroid (``wind_N`` + s_L/L
+    ``wind_N_arm``), all scaled by :func:`ship_gains`."""
+    w = np.asarray(wind, float)[:, None, :]
+    ex = excess_loads(profile, y, body_from_ne(w, psi))
+    n = ex["wind_N"] + w[..., 2] * ex["wind_N_arm"]
+    return np.stack([ex["wind_X"] * (1.0 + w[..., 3]), ex["wind_Y"], n], axis=-1) * ship_gains(profile, sample_time)
+
+
 MEAN_KEYS = ("wind_accel_surge", "wind_accel_sway", "wind_accel_yaw")  # m/s^2, m/s^2, rad/s^2
 
 
@@ -107,5 +149,33 @@ def mean_acceleration(preps: list, values: np.ndarray, covs: dict[str, np.ndarra
         out[key] = float(g @ values) if n else None
         for part, C in covs.items():
             var = float(g @ C @ g)
+            out[f"{key}_std{part}"] = float(np.sqrt(var)) if n and np.isfinite(var) and var >= 0 else None
+    return out
+
+
+def steady_mean_acceleration(
+    profile: Particulars, preps: list, wind: np.ndarray, covs: dict[str, np.ndarray]
+) -> dict[str, float | None]:
+    """:func:`mean_acceleration` of a steady wind not recorded (``wind`` (4,) as in
+    :func:`steady_increments`): each DOF's increment averaged over every step of the diagnosed
+    runs ``preps`` and divided by the sample time; its stds from the covariances ``covs`` of the
+    four through the
+    central-difference gradient (the mean is not linear in the wind)."""
+    w = np.asarray(wind, float)
+    h = np.array([max(1e-3, 1e-3 * float(np.hypot(w[0], w[1])))] * 2 + [1e-3] * 2)
+    k = len(w)
+    rows = np.vstack([w, w + np.diag(h), w - np.diag(h)])  # w, w + h_k e_k, w - h_k e_k
+    sums, n = np.zeros((len(rows), 3)), 0
+    for p in preps:
+        inc = steady_increments(profile, p.y, p.psi, rows, float(p.rec.sample_time))[:, :-1]
+        sums += inc.sum(axis=1) / float(p.rec.sample_time)
+        n += inc.shape[1]
+    means = sums / max(n, 1)
+    grad = (means[1 : k + 1] - means[k + 1 :]) / (2.0 * h[:, None])  # (4 parameters, 3 DOFs)
+    out: dict[str, float | None] = {}
+    for i, key in enumerate(MEAN_KEYS):
+        out[key] = float(means[0, i]) if n else None
+        for part, C in covs.items():
+            var = float(grad[:, i] @ C @ grad[:, i])
             out[f"{key}_std{part}"] = float(np.sqrt(var)) if n and np.isfinite(var) and var >= 0 else None
     return out

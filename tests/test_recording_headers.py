@@ -161,6 +161,37 @@ def test_wind_without_its_reference_or_in_knots_refused_in_one_line(tmp_path, ca
         assert not out.exists()  # nothing written
 
 
+def test_relative_wind_in_knots_refused_against_the_ships_speed(tmp_path, capsys):
+    """A relative wind in knots whose true wind stays below the storm limit (10 m/s, gusty, from
+    300 deg): the true wind derived from it follows the ship's own velocity as it turns (factor
+    1.944), refused in one line through the CLI, nothing written; the same in m/s is read."""
+    rec = read_marin_dat(DATA / "MARIN_FREE_KVLCC2_tc_35_m.dat")
+    n = rec.n_samples
+    rng = np.random.default_rng(3)
+    gust = 1.0 + 0.15 * np.convolve(rng.standard_normal(n + 40), np.ones(40) / np.sqrt(40), "valid")[:n]
+    frm = np.radians(300.0) + 0.1 * rng.standard_normal(n)
+    wn, we = -10.0 * gust * np.cos(frm), -10.0 * gust * np.sin(frm)
+    c, s = np.cos(rec.psi), np.sin(rec.psi)
+    qa, qv = c * wn + s * we - rec.y[:, 0], -s * wn + c * we - rec.y[:, 1]  # the air relative to the ship
+    for unit, k in (("mps", 1.0), ("kn", 1.9438)):
+        rel = dataclasses.replace(
+            rec,
+            channels={**rec.channels, "wind_speed": k * np.hypot(qa, qv), "wind_dir": np.arctan2(-qv, -qa) % (2 * np.pi)},
+            meta={**rec.meta, "wind_reference": "relative"},
+        )
+        path = write_csv(rel, tmp_path / f"rel-{unit}.csv")
+        if unit == "mps":
+            assert load_recording(path)[0].wind_ne is not None
+            continue
+        with pytest.raises(RecordingError, match="follows the ship's own velocity.*knots"):
+            load_recording(path)
+        out = tmp_path / "out"
+        code = _run(["diagnose", str(path), "--ship", "kvlcc2-linear", "--out", str(out)])
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and err.startswith("error:") and len(err.splitlines()) == 1 and "knots" in err, err
+        assert not out.exists()
+
+
 def test_relative_wind_converted_to_the_true_wind(tmp_path):
     """The apparent wind on board of a ship turning through a steady true wind: read back as that
     true wind (18 m/s from 300 deg) on every sample."""
