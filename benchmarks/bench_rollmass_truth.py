@@ -112,9 +112,7 @@ def main() -> None:
     for variant in variants:
         c0 = time.process_time()
         # a variant's seed does not depend on which others are run, so runs pair across invocations
-        ship, data = bt.simulate_runs(
-            variant, a.runs, a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant), quiet=a.quiet
-        )
+        ship, data = bt.simulate_runs(variant, a.runs, a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant), quiet=a.quiet)
         c_sim += time.process_time() - c0
         jobs = [
             (variant, run, case, bt.case_recordings(ship, data, case, run), methods, not a.no_u)
