@@ -71,7 +71,10 @@ def test_base_structure_is_the_estimators_model(base_mismatch):
 def test_variant_moves_away_from_the_estimators_model(variant, base_mismatch):
     # measured worst channel: sway_roll 0.28 (a_s), restoring 0.099 (p: its non-wall-sided box and cubic
     # GZ), imu_mount 0.093 (p), speed_loss 0.54 (a_s), against 0.068 / 0.054 / 0.025 (p / a_s / r) for
-    # the base structure
+    # the base structure. imu_mount is measured against the model without the IMU mounting: the oe
+    # estimator now has the truth's x_s r' and gyro pitch e_y (the next test), so against the model it
+    # fits imu_mount differs only by the surge acceleration the yaw misalignment leaks into a_s and is
+    # no longer a structure the estimator lacks (its figures are not independent evidence)
     assert np.max(_mismatch(variant) - base_mismatch) > 0.015
 
 

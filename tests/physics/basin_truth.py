@@ -35,6 +35,13 @@ got it: Qualisys positions through a Kalman smoother; 1 % scale and 5 mm/s slow 
 the IMU's FIR). Parameters are drawn per run around nominal from the run's seed.
 
 Runs are integrated together (RK4 at 100 Hz, vectorised over runs).
+
+Changed in issue 25 (commit 0468d92): a load's added displacement acts where hydrostatics put it,
+at the centroid of the added layer half its sinkage above the waterline, in every variant (a
+wall-sided hull: (M + m) GM = M GM + m (T + dT/2 - KG_m)). Before, every variant but ``restoring``
+let it act at the roll centre as the paper's (3) does, which no floating hull does (the restoring
+of a couple does not depend on the axis the ship rolls about). Figures measured on this module
+before that commit were on the older truth and are not comparable with later ones.
 """
 
 from __future__ import annotations
