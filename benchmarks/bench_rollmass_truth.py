@@ -97,6 +97,11 @@ def main() -> None:
     ap.add_argument(
         "--no-u", action="store_true", help="write the recordings without the surge-speed column u (one speed per run)"
     )
+    ap.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no waves and no sensor noise: a variant still biased is a structural mismatch, not noise",
+    )
     a = ap.parse_args()
     variants, cases = a.variants.split(","), a.cases.split(",")
     methods = list(METHODS) if a.methods == "all" else a.methods.split(",")
@@ -107,7 +112,7 @@ def main() -> None:
     for variant in variants:
         c0 = time.process_time()
         # a variant's seed does not depend on which others are run, so runs pair across invocations
-        ship, data = bt.simulate_runs(variant, a.runs, a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant))
+        ship, data = bt.simulate_runs(variant, a.runs, a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant), quiet=a.quiet)
         c_sim += time.process_time() - c0
         jobs = [
             (variant, run, case, bt.case_recordings(ship, data, case, run), methods, not a.no_u)
@@ -127,7 +132,7 @@ def main() -> None:
                 print("  " + _summary([r for r in rows if r[0] == variant], variant, case, method), file=sys.stderr, flush=True)
     print(
         f"truth family: {len(variants)} variants x {a.runs} runs x {len(cases)} cases, seed {a.seed}, "
-        f"{'without' if a.no_u else 'with'} the u column; "
+        f"{'without' if a.no_u else 'with'} the u column{', quiet (no waves, no noise)' if a.quiet else ''}; "
         f"{time.perf_counter() - t0:.0f} s wall, simulation {c_sim:.0f} s cpu, fits {c_fit:.0f} s cpu "
         f"({c_fit / max(len(rows), 1):.2f} s per fit)\n"
     )

@@ -95,6 +95,7 @@ def test_speed_and_imu_position_come_from_the_headers(files):
         np.mean([float(m["speed_m_s"]) for m in metas])
     )  # the headers' speed, not the profile's 0.5
     assert prof.known.zbar_s == pytest.approx(np.mean([float(m["imu_z_m"]) for m in metas]))
+    assert prof.known.xbar_s == pytest.approx(np.mean([float(m["imu_x_m"]) for m in metas]))
 
 
 @pytest.mark.parametrize("col", ["r", "delta", "a_s", "p"])

@@ -70,3 +70,16 @@ def test_the_rudder_force_scales_with_the_runs_speed_squared():
     fast = model_matrices({**v, "n_v": 0.0}, kn, -0.03, Load(0.0, 0.0), U=0.55)
     assert fast[1][2, 0] / slow[1][2, 0] == pytest.approx(1.21, rel=1e-9)  # r' per rudder: n_delta U^2
     assert fast[0][2, 2] / slow[0][2, 2] == pytest.approx(1.1, rel=1e-9)  # r' per r: n_r U (n_v = 0)
+
+
+def test_the_imu_mounting_enters_the_outputs():
+    """An accelerometer 0.1 m forward of midship reads 0.1 r' more (a_s is the negated specific force,
+    so 0.1 r' less), and a gyro pitched by e_y reads p - e_y r and r + e_y p."""
+    v = start_values(PROF)
+    kn = dataclasses.replace(PROF.known, xbar_s=0.1)
+    A, B, C0, D0 = model_matrices(v, PROF.known, -0.03, Load(0.0, 0.0))
+    _, _, C1, D1 = model_matrices({**v, "e_y": 0.01}, kn, -0.03, Load(0.0, 0.0))
+    np.testing.assert_allclose(C1[1] - C0[1], -0.1 * A[2], atol=1e-12)
+    assert D1[1, 0] - D0[1, 0] == pytest.approx(-0.1 * B[2, 0], abs=1e-12)
+    np.testing.assert_allclose(C1[0] - C0[0], [0.0, 0.0, -0.01, 0.0], atol=1e-12)
+    np.testing.assert_allclose(C1[2] - C0[2], [0.0, 0.01, 0.0, 0.0], atol=1e-12)

@@ -133,7 +133,7 @@ def known_from_recordings(
     """The profile with the recordings' speed and IMU z; a given profile that contradicts them is refused."""
     notes = []
     kn = prof.known
-    for key, field, unit in (("speed_m_s", "U", "m/s"), ("imu_z_m", "zbar_s", "m")):
+    for key, field, unit in (("speed_m_s", "U", "m/s"), ("imu_z_m", "zbar_s", "m"), ("imu_x_m", "xbar_s", "m")):
         vals = [(p, v) for p, m in zip(paths, metas) if (v := _meta_float(m, key, p)) is not None]
         if not vals:
             continue

@@ -39,6 +39,8 @@ class Known:
     zbar_g: float
     zbar_s: float
     g: float = 9.81
+    # IMU x forward of midship [m]: its accelerometer then reads the yaw acceleration x_s r' as well
+    xbar_s: float = 0.0
     U: float = 0.5
     z_f_prior: float = -0.03
     z_f_prior_sd: float = 0.015

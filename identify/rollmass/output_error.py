@@ -52,7 +52,9 @@ COUPLINGS = ("Y_p", "Y_phi", "K_v", "n_p", "Y_pdot")
 # tests/test_rollmass.py) from 0.397 kg / -272 mm to 0.352 kg / -301 mm with an interval that missed
 # the truth; K_v, n_p and Y_pdot freed alone gave 0.392 kg / -274 mm. They stay 0 (the model takes them).
 FREE_COUPLINGS = ("K_v", "n_p", "Y_pdot")
-SHARED = PAPER_ROWS + FREE_COUPLINGS
+# the gyros' pitch misalignment (see :func:`model_matrices`)
+MOUNT = ("e_y",)
+SHARED = PAPER_ROWS + FREE_COUPLINGS + MOUNT
 RUDDER = ("Y_delta", "K_delta", "n_delta")  # rudder derivatives, scaling with U^2
 VELOCITY = ("Y_v", "Y_r", "n_v", "n_r", "Y_p", "K_v")  # velocity derivatives, scaling with U
 CHANNELS = ("p", "a_s", "r")
@@ -106,6 +108,7 @@ def start_values(prof: RollProfile) -> dict[str, float]:
         "K_v": 0.0,
         "n_p": 0.0,
         "Y_pdot": th.K_vdot,
+        "e_y": 0.0,
     }
 
 
@@ -141,8 +144,19 @@ def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load, U: fl
     A = np.vstack([Minv @ F, [0.0, 1.0, 0.0, 0.0]])
     B = np.vstack([Minv @ G, [[0.0]]])
     # outputs: p; a_s from the accelerations; r
-    Cm = np.vstack([[0.0, 1.0, 0.0, 0.0], z_s * A[1] - A[0] + np.array([0.0, 0.0, -U, g]), [0.0, 0.0, 1.0, 0.0]])
-    Dm = np.array([[0.0], [z_s * B[1, 0] - B[0, 0]], [0.0]])
+    # IMU mounting (rigid-body kinematics: the acceleration at r_s is v' + w' x r_s + w x (w x r_s)): an
+    # accelerometer x_s forward of midship reads the yaw acceleration x_s r' too, and a gyro pitched by e_y about the body y axis
+    # mixes roll and yaw rate (p - e_y r, r + e_y p); the lateral accelerometer's own tilt is a constant,
+    # taken by the bias column
+    e_y, x_s = v.get("e_y", 0.0), kn.xbar_s
+    Cm = np.vstack(
+        [
+            [0.0, 1.0, -e_y, 0.0],
+            z_s * A[1] - A[0] - x_s * A[2] + np.array([0.0, 0.0, -U, g]),
+            [0.0, e_y, 1.0, 0.0],
+        ]
+    )
+    Dm = np.array([[0.0], [z_s * B[1, 0] - B[0, 0] - x_s * B[2, 0]], [0.0]])
     return A, B, Cm, Dm
 
 

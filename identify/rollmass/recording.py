@@ -2,10 +2,10 @@
 
 Columns (SI, radians): ``t`` [s, uniform], ``delta`` [rad, measured rudder], ``p`` [rad/s, roll-rate
 gyro, (6a)], ``a_s`` [m/s^2, IMU lateral (tangential) accelerometer, (6b) and (7)], ``r`` [rad/s,
-yaw-rate gyro in ship sign, i.e. minus (6c)]; optional ``u`` [m/s, surge speed, positive ahead: the
-``oe`` model's velocity terms follow it sample by sample] and ``phi`` [rad] (not used). Optional metadata
+yaw-rate gyro in ship sign, i.e. minus (6c)]; optional ``u`` [m/s, surge speed, positive ahead:
+checked against ``speed_m_s``, not followed] and ``phi`` [rad] (not used). Optional metadata
 lines ``# key: value`` before the header (:data:`META_KEYS`): ``role`` (nominal, calibration,
-loaded), ``speed_m_s``, ``imu_z_m``, ``load_kg``, ``load_z_m`` (z: body frame, metres, positive
+loaded), ``speed_m_s``, ``imu_z_m``, ``imu_x_m`` (forward of midship), ``load_kg``, ``load_z_m`` (z: body frame, metres, positive
 down from the waterline; a ``load_height_m`` is refused as ambiguous), ``ship``, ``dataset``,
 ``sample_time``.
 """
@@ -42,7 +42,7 @@ ALIASES = {
     "t": ("time",),
     "u": ("speed", "surge", "surge_speed", "u_m_s", "stw", "sog", "speed_m_s"),
 }
-META_KEYS = ("role", "speed_m_s", "imu_z_m", "load_kg", "load_z_m", "ship", "dataset", "sample_time")
+META_KEYS = ("role", "speed_m_s", "imu_z_m", "imu_x_m", "load_kg", "load_z_m", "ship", "dataset", "sample_time")
 
 
 def _closest(name: str) -> str | None:

@@ -14,9 +14,10 @@ real model ship has and the paper's model (3)-(11) leaves out:
 
 ``sway_roll``   sway force from roll rate and roll angle (Y_p, Y_phi), roll moment from sway
                 velocity (K_v), yaw moment from roll rate (N_p), unequal couplings Y_pdot != K_vdot.
-``restoring``   hydrostatic restoring of the actual displacement: the load's extra buoyancy acts at
-                the metacentre and the metacentre moves with the draft (box-like hull), plus the
-                wall-sided nonlinearity GZ = sin(phi) (GM + BM/2 tan^2 phi).
+``restoring``   hydrostatic restoring of the actual displacement of a box-like hull whose KB and BM
+                do not follow a wall-sided one (the load's extra buoyancy then acts about 7 mm
+                below the waterline, not at it), plus the wall-sided nonlinearity
+                GZ = sin(phi) (GM + BM/2 tan^2 phi). Every other variant: a wall-sided hull.
 ``imu_mount``   the IMU 5-20 cm forward of midship (x_s r' in the accelerometer), misaligned by
                 about 1 deg about each axis (yaw rate leaks into the roll gyro, surge
                 acceleration into the lateral accelerometer).
@@ -34,6 +35,13 @@ got it: Qualisys positions through a Kalman smoother; 1 % scale and 5 mm/s slow 
 the IMU's FIR). Parameters are drawn per run around nominal from the run's seed.
 
 Runs are integrated together (RK4 at 100 Hz, vectorised over runs).
+
+Changed in issue 25 (commit 0468d92): a load's added displacement acts where hydrostatics put it,
+at the centroid of the added layer half its sinkage above the waterline, in every variant (a
+wall-sided hull: (M + m) GM = M GM + m (T + dT/2 - KG_m)). Before, every variant but ``restoring``
+let it act at the roll centre as the paper's (3) does, which no floating hull does (the restoring
+of a couple does not depend on the axis the ship rolls about). Figures measured on this module
+before that commit were on the older truth and are not comparable with later ones.
 """
 
 from __future__ import annotations
@@ -239,13 +247,17 @@ def _jonswap(n: int, ship: Ship, rng: np.random.Generator) -> np.ndarray:
 def _restoring(ship: Ship, m: float, zm: float, on: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
     """Roll restoring coefficient C [N m/rad] and the wall-sided cubic factor of the loaded ship.
 
-    Without the ``restoring`` effect: the paper's structure (3), a fixed hull term plus the load's
-    weight at its height. With it: (M + m) g GM of the actual draft."""
-    z_m = zm + ship.z_f
+    Without the ``restoring`` effect: a wall-sided hull, the load's weight at its height and the
+    displacement it adds at the centroid of the added layer, half its sinkage above the waterline
+    ((M + m) GM = M GM + m (T + dT/2 - KG_m); Biran 2003, Ship Hydrostatics, ch. 6). (The paper's
+    (3) lets that buoyancy act at the roll centre, m g (z_m + z_f): no hull floats that way; it
+    changes the load's restoring by m g z_f, 11 % of it for the 0.4 kg load.)
+    With it: (M + m) g GM of the actual draft of a box-like hull whose KB and BM do not follow a
+    wall-sided one (the load's buoyancy acts 6-7 mm lower), plus the wall-sided cubic."""
     C_base = M0 * G * GM0  # nominal hydrostatic restoring
     if "restoring" not in on:
-        # the paper's structure: hull term fixed, load acts through its weight only
-        return C_base + m * G * z_m, np.zeros_like(z_m)
+        sink = m / (RHO * 0.9 * LWL * BEAM)
+        return np.full_like(ship.z_f, C_base + m * G * (zm + 0.5 * sink)), np.zeros_like(ship.z_f)
     # box-like hull fitted to Table 1 (KM = KB + BM = 0.164 m at the nominal draft)
     awp = 0.9 * LWL * BEAM
     T = DRAFT + m / (RHO * awp)
@@ -384,12 +396,15 @@ class Recording:
     meta: dict[str, str]
 
 
-def simulate_runs(variant: str, runs: int, seed: int, length: float = 1.0) -> tuple[Ship, dict[str, dict[str, np.ndarray]]]:
-    """The four datasets of Table 2 for ``runs`` runs of one variant (each run its own ship)."""
+def simulate_runs(
+    variant: str, runs: int, seed: int, length: float = 1.0, quiet: bool = False
+) -> tuple[Ship, dict[str, dict[str, np.ndarray]]]:
+    """The four datasets of Table 2 for ``runs`` runs of one variant (each run its own ship);
+    ``quiet``: no waves and no sensor noise (the structure alone, see :func:`simulate`)."""
     ship = draw_ships(runs, variant, seed)
     data = {}
     for i, (name, (samples, m, zm)) in enumerate(DATASETS.items()):
-        data[name] = simulate(ship, variant, (m, zm), int(samples * length), seed * 7919 + 101 * i + 1)
+        data[name] = simulate(ship, variant, (m, zm), int(samples * length), seed * 7919 + 101 * i + 1, quiet)
     return ship, data
 
 
@@ -406,6 +421,7 @@ def case_recordings(ship: Ship, data: dict, case: str, run: int) -> list[Recordi
             "dataset": name,
             "speed_m_s": f"{d['speed'][run]:.4f}",
             "imu_z_m": f"{ship.z_imu[run]:.4f}",
+            "imu_x_m": f"{ship.x_imu[run]:.4f}",
             "sample_time": f"{DEC / FS:g}",
         }
         if role != "loaded":
