@@ -91,11 +91,7 @@ def numpy_loop(
     pre = padded([pre for _e, pre, _n in runs])
     exo = {nm: padded([np.asarray(e[nm])[..., None] for e, _x, _n in runs])[..., 0] for nm in need_in}
     env = [environment(p, cur, use_wind, B) for p in preps]
-    cb = (
-        None
-        if cur is None
-        else tuple(padded([np.broadcast_to(e[0][q].T, (B, p.n))[..., None] for e, p in zip(env, preps)])[..., 0] for q in (0, 1))
-    )
+    cb = None if cur is None else tuple(padded([e[0][q].T[..., None] for e in env])[..., 0] for q in (0, 1))
     wb = None if not use_wind else tuple(padded([e[1][q].T[..., None] for e in env])[..., 0] for q in (0, 1))
     step = VelocityStep(tset, np.tile(coef, (R, 1)))
     nu = np.concatenate([nu0 for _e, _x, nu0 in runs])

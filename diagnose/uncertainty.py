@@ -342,12 +342,12 @@ def misfit_term(pairs: list[tuple[np.ndarray, np.ndarray]], nb: int, prior_D: np
     g = sum(np.einsum("anc,nc->a", J, r) for r, J in pairs)
     k = len(g) - nb
     act = np.flatnonzero(np.diag(G) > 1e-12 * max(float(np.max(np.diag(G))), 1e-300))
-    own_act = [i for i in range(k) if nb + i in set(act.tolist())]
+    pos = np.flatnonzero(act >= nb)  # act is sorted: the finding columns moved are its entries past the baseline's
+    own_act = (act[pos] - nb).tolist()
     if not own_act:
         return None
     C, H = sandwich([(r, J[act]) for r, J in pairs], None if prior_D is None else np.asarray(prior_D)[act])
     d = -_inv(H) @ g[act]
-    pos = [int(np.flatnonzero(act == nb + i)[0]) for i in own_act]
     delta, C_d = d[pos], C[np.ix_(pos, pos)]
     if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(C_d))):
         return None

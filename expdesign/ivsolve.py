@@ -221,7 +221,7 @@ def instrument_moments(
     if not jitloop.loaded() or regkernel._program(sim_terms.terms) is None or regkernel._program(terms.terms) is None:
         return None
     names, in_r = forces if isinstance(forces, tuple) else run_forces(profile, forces)
-    sim, reg = (jitloop.program(t, names, _CALM_STATE) for t in (sim_terms, terms))
+    sim, reg = (jitloop.program(t, names, jitloop.CALM_STATE) for t in (sim_terms, terms))
     if sim is None or reg is None:
         return None
     n_runs, p = len(runs), terms.n_params
@@ -261,7 +261,6 @@ def run_forces(profile: ShipProfile, inputs: np.ndarray) -> tuple[list[str], np.
 
 # signals the calm-water pass provides (primitives.jitloop's layout): the velocities relative to
 # water and air are the velocities, U their modulus; wind terms read zeros
-_CALM_STATE = frozenset({"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", "wx", "wy", "wn"})
 Z_LIMIT = 1e6  # instruments above this come from an exploding simulation
 
 

@@ -28,7 +28,6 @@ import numpy as np
 from primitives import jitloop
 from primitives.simulate import MIN_SPEED, SPEED, _time_major_forces, signals_read
 
-_STATE_NAMES = frozenset({"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", "wx", "wy", "wn"})
 _N_STATE = jitloop.N_STATE
 _HELPERS: list[str] = []  # compiled inline into the pass on first use (see _compile_helpers)
 
@@ -51,7 +50,7 @@ def moments(profile, terms, data: Sequence, sims, theta: np.ndarray, idx: np.nda
     speed = SPEED in signals_read(terms)
     for d, (nu, _) in zip(data, sims):
         names, in_t = _time_major_forces(profile, d.inputs[idx])
-        prog = jitloop.program(terms, names, _STATE_NAMES)
+        prog = jitloop.program(terms, names, jitloop.CALM_STATE)
         if prog is None:
             return None
         nu_t = np.ascontiguousarray(nu.transpose(1, 2, 0))

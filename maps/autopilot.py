@@ -44,6 +44,7 @@ _DEG8, _DEG20, _DEG05, _DEG02, _DEG005 = (float(np.radians(a)) for a in (8.0, 20
 # 0.05 m/s, speed within 0.1 m/s, on the lattice line within half the beam (the rest is the move's snapping
 # error, added to its collision margin); the lattice's own settling asks 0.2 deg, 0.005 m/s, 0.01 m/s and 0.01 L
 STEADY_DEG, STEADY_RL, STEADY_V, STEADY_DU, STEADY_BEAMS = 0.5, 0.05, 0.05, 0.1, 0.5
+_STEADY_RAD = float(np.radians(STEADY_DEG))
 # a rudder ship's run-in counts its steady time once (u, v, r L) are this close to the execute point's (m/s)
 RUN_IN_TOL = (0.02, 0.01, 0.005)
 
@@ -52,7 +53,7 @@ def steady_enough(p: ShipProfile, err: float, nu: np.ndarray, c_err: float) -> b
     """Whether a rudder ship settling onto a lattice line (heading error ``err`` rad, velocities
     ``nu``, cross-track error ``c_err`` m) is steady to the ship-scaled tolerance above."""
     return bool(
-        abs(err) < np.radians(STEADY_DEG)
+        abs(err) < _STEADY_RAD
         and abs(nu[2]) * p.length_m < STEADY_RL
         and abs(nu[1]) < STEADY_V
         and abs(nu[0] - p.cruise_speed_mps) < STEADY_DU

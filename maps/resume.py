@@ -25,6 +25,7 @@ from diagnose.recording import Recording
 from expdesign.adaptive import Redesign, SailedRun, redesign
 from maps.chain import PlanOptions
 from maps.geo import SeaMap
+from maps.lattice import SETTLE_PHASES
 from maps.plan import Plan, PlanStep
 from maps.planner import plan_with_design
 from maps.trialdesign import ship_library
@@ -244,7 +245,7 @@ def plan_options(plan: Plan) -> PlanOptions:
         kw["size"] = tuple(int(v) for v in rec["size"])
     if rec.get("max_memory_gib"):
         kw["max_memory_gib"] = float(rec["max_memory_gib"])
-    if rec.get("settle") in ("lattice", "ship"):
+    if rec.get("settle") in SETTLE_PHASES:
         kw["settle"] = rec["settle"]
     return PlanOptions(**kw)
 

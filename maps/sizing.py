@@ -149,14 +149,14 @@ def row_text(row: dict[str, Any]) -> str:
     return water_text(row["primitive"], need)
 
 
-def water_text(name: str, need: tuple[float, float], reach: bool | None = None) -> str:
-    """What ``name`` that fits nowhere takes, truthfully for either reason (:class:`Needs`;
-    ``reach`` None: read from ``need``): 'stopping needs 10.6 km x 98 m of open water', or
+def water_text(name: str, need: tuple[float, float]) -> str:
+    """What ``name`` that fits nowhere takes, truthfully for either reason (:class:`Needs`):
+    'stopping needs 10.6 km x 98 m of open water', or
     'pull_out_20_s (6.7 km x 5.4 km with run-in and settling leg) has no reachable placement' (none
     reachable from the start with the goal reachable after it; one line with the others stays short)."""
     a, c = float(need[0]), float(need[1])
     if getattr(need, "apart", False):
         return f"{name} ({km(a)} x {km(c)} with run-in and settling leg) cannot be sailed after the rest of the mix"
-    if reach if reach is not None else getattr(need, "reach", False):
+    if getattr(need, "reach", False):
         return f"{name} ({km(a)} x {km(c)} with run-in and settling leg) has no reachable placement"
     return f"{name} needs {km(a)} x {km(c)} of open water"

@@ -100,6 +100,10 @@ def _factors(terms: tuple[tuple[str, ...], ...]) -> tuple:
     )
 
 
+# the state signals the calm-water time loop provides to a term program (:func:`program`)
+CALM_STATE = frozenset({"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", "wx", "wy", "wn"})
+
+
 def program(terms: TermSet, in_names: list[str], state_names: frozenset[str]) -> tuple[np.ndarray, ...] | None:
     """:func:`_program` of the term strings, made once per term list and signal names (a
     diagnosis simulates the same few hundred times; the loop only reads the arrays)."""
@@ -200,7 +204,7 @@ def open_loop(
     n_work = nu0.shape[0] * (forced.shape[0] if forced is not None else next(iter(exo.values())).shape[0])
     if not use(n_work) or step.rigid is not None or nu0.shape[-1] != 3:
         return None
-    prog = program(step.terms, names, frozenset({"u", "v", "r", "u_r", "v_r", "u_q", "v_q", "U", "wx", "wy", "wn"}))
+    prog = program(step.terms, names, CALM_STATE)
     if prog is None:
         return None
     batch, n_steps = nu0.shape[0], (forced.shape[0] if forced is not None else next(iter(exo.values())).shape[0])

@@ -53,9 +53,9 @@ def load_runs(paths: list[Path] | list[str], kind: str | None = None, notes: lis
         pods = [c for c in POD_COLUMNS if c not in header]
         if pods and MOMENT not in header:
             missing.append(f"{MOMENT} (measured pod yaw moment, N m) or the pod inputs {', '.join(pods)} (rev/s, rad)")
-        if kind in ("full", "full-p") and "phi" not in header:
+        if "phi" in SIGNALS.get(kind, ()) and "phi" not in header:
             missing.append("phi (roll, rad; or use --model simplified)")
-        if kind == "full-p" and "p" not in header:
+        if "p" in SIGNALS.get(kind, ()) and "p" not in header:
             missing.append(
                 "p (roll rate, rad/s: the prior's yaw row has the roll-rate term N_p p; or refit the prior "
                 "with detect-prior --no-roll-rate)"
@@ -117,7 +117,7 @@ def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarra
     motion then enters tau_r and biases the prior (+12 to +14 % on I_r in 400 s at Table 4.1 noise)."""
     u, v, r = rec.y[:, 0], rec.y[:, 1], rec.y[:, 2]
     sig = {"u": u, "v": v} | ({"tau_r": rec.channels[MOMENT]} if MOMENT in rec.channels else {})
-    if kind != "simplified":
+    if "phi" in SIGNALS[kind]:
         if "phi" not in rec.channels:
             raise RecordingError(
                 f"{rec.source}: no column 'phi' (roll, rad) that the full model (2.17) needs; "
@@ -126,7 +126,7 @@ def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarra
         sig["phi"] = rec.channels["phi"]
         if SWAY_ACC in rec.channels:
             sig["v_dot"] = rec.channels[SWAY_ACC]
-    if kind == "full-p":
+    if "p" in SIGNALS[kind]:
         if "p" not in rec.channels:
             raise RecordingError(
                 f"{rec.source}: no column 'p' (roll rate, rad/s) that the prior's yaw row needs (its "
@@ -153,7 +153,7 @@ def _deriver(rec: Recording, kind: str):
         out = dict(sig)
         v = sig["v"]
         col = (slice(None),) + (None,) * (v.ndim - 1)  # recorded channels broadcast over runs
-        if kind != "simplified" and not measured_vdot:
+        if "v_dot" in SIGNALS[kind] and not measured_vdot:
             out["v_dot"] = rate(v)
         if measured_tau:
             return {k: out[k] for k in SIGNALS[kind]}

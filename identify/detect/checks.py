@@ -59,7 +59,8 @@ def check_inputs(rec: Recording, prior: YawPrior, sig: dict[str, np.ndarray], r:
     read as a +100 % change before), or a prediction residual not finite or over MISFIT_SIGMAS
     times the prior's noise sigma. Returns the residual's rms."""
     k, c = moment_scale(prior, sig, r) if MOMENT in rec.channels else (1.0, 1.0)
-    if not 1 / MOMENT_FACTOR <= k <= MOMENT_FACTOR and abs(c) < MOMENT_CORRELATION:
+    off_unit = not 1 / MOMENT_FACTOR <= k <= MOMENT_FACTOR
+    if off_unit and abs(c) < MOMENT_CORRELATION:
         raise RecordingError(
             f"{rec.source}: the recorded '{MOMENT}' and the moment the prior needs to turn the ship as "
             f"recorded hardly correlate ({c:+.2f}): the recording turns the ship too little (a straight "
@@ -67,7 +68,7 @@ def check_inputs(rec: Recording, prior: YawPrior, sig: dict[str, np.ndarray], r:
             "manoeuvres (turns, zigzags)"
         )
     check_moment_sign(rec, sig["tau_r"], r)
-    if not 1 / MOMENT_FACTOR <= k <= MOMENT_FACTOR:
+    if off_unit:
         raise RecordingError(
             f"{rec.source}: the prior needs {k:.3g} times the recorded '{MOMENT}' to turn the ship as "
             f"recorded (more than {MOMENT_FACTOR:g}x either way is no ship change: a unit error, kN m "

@@ -13,6 +13,7 @@ from primitives import helm as hm
 from primitives.library import make_primitive
 from primitives.maneuvers import MAX_RUDDER_DEG, model_step
 from primitives.particulars.document import RUDDER_RATE_DEG_S
+from primitives.particulars.fit import straight_inputs
 from primitives.particulars.mmg import fixed_helm, run, zigzag_helm
 from primitives.ship import ShipProfile
 from primitives.simulate import model_signals
@@ -289,7 +290,7 @@ def fit_steady_rps(profile: ShipProfile) -> float:
     lo, hi = 0.0, profile.input_limits["n1"][1]
 
     def surge(n: float) -> float:
-        sig = model_signals(profile, np.array([u, 0.0, 0.0]), np.array(0.0), profile.generalized_forces(np.array([n, 0.0] * 2)))
+        sig = model_signals(profile, np.array([u, 0.0, 0.0]), np.array(0.0), straight_inputs(profile, n))
         return float(profile.model.increments(sig, th)[0])
 
     for _ in range(60):
