@@ -11,6 +11,7 @@ import numpy as np
 from maps.headings import heading_table, nearest_heading
 from maps.headings import wrap as _wrap
 from primitives import maneuvers as mv
+from primitives.maneuvers import pod_arm
 from primitives.ship import ShipProfile
 from primitives.simulate import model_signals, simulate
 from primitives.steady_forces import steady_forces
@@ -163,7 +164,10 @@ class _Helm:
         if self.rudder is not None:
             self.r_lim = self.rudder.r_lim
             return
-        self.r_lim = self.uc / (1.5 * profile.length_m)
+        self.arm = pod_arm(profile)
+        self._drift: dict[tuple[float, float], float] = {}
+        # pods aft turn the ship as a rudder does, with a drift angle: turns of radius >= 3 L, as for rudder ships
+        self.r_lim = self.uc / ((3.0 if self.arm is not None else 1.5) * profile.length_m)
         b = _gains(profile)
         self.k = 0.3 / np.where(np.abs(b) > 1e-12, b, 1e-12)
         self.fmax = np.array(
@@ -183,13 +187,52 @@ class _Helm:
             ff = self._ff[key] = np.array(steady_forces(self.p, *key))
         return ff
 
+    def drift(self, u: float, r: float) -> float:
+        """The sway speed v of a steady turn (u, r) that pods aft at lever arm ``self.arm`` can hold
+        without unequal thrust: the root of tau_n(u, v, r) - x_T tau_y(u, v, r) (steady forces, see
+        :func:`pod_arm`), by bisection on |v| <= U / 2 (0 when there is none there). The hull turns
+        with a drift angle as a rudder ship does; asking it for no sway (the fully actuated helm)
+        asks the pods for a side force they cannot give, and their least-norm allocation then turns
+        them astern."""
+        key = (round(u, 2), round(r, 4))
+        v = self._drift.get(key)
+        if v is None:
+            arm = self.arm
+
+            def g(v: float) -> float:
+                f = steady_forces(self.p, key[0], v, key[1])
+                return f[2] - arm * f[1]
+
+            lo, hi = -0.5 * max(abs(key[0]), 1.0), 0.5 * max(abs(key[0]), 1.0)
+            g_lo, g_hi = g(lo), g(hi)
+            v = 0.0
+            if key[1] != 0.0 and g_lo * g_hi < 0:
+                for _ in range(40):
+                    mid = 0.5 * (lo + hi)
+                    g_mid = g(mid)
+                    if g_mid * g_lo > 0:
+                        lo, g_lo = mid, g_mid
+                    else:
+                        hi = mid
+                v = 0.5 * (lo + hi)
+            self._drift[key] = v
+        return v
+
     def forces(
         self, nu: np.ndarray, u_ref: float, v_ref: float, r_ref: float, err: float = 0.0, regain: bool = False
     ) -> tuple[float, float, float]:
         """Generalized forces, or (rudder deg, rev/s, 0) for a rudder ship (``v_ref`` ignored;
-        ``err``: heading error, rad, that its autopilot steers out)."""
+        ``err``: heading error, rad, that its autopilot steers out). Pods aft (:func:`pod_arm`): sway
+        is not commanded (``v_ref`` ignored), the side force is the yaw moment over the lever arm."""
         if self.rudder is not None:
             return (*self.rudder.command(nu, u_ref, r_ref, err, regain), 0.0)
+        if self.arm is not None:
+            ff = self.feedforward(u_ref, self.drift(u_ref, r_ref), r_ref).tolist()
+            lim_x = max(self.fmax_f[0], 1.2 * abs(ff[0]))
+            lim_n = max(self.fmax_f[2], 1.2 * abs(ff[2]))
+            tx = min(max(ff[0] + self.k_f[0] * (u_ref - float(nu[0])), -lim_x), lim_x)
+            tn = min(max(ff[2] + self.k_f[2] * (r_ref - float(nu[2])), -lim_n), lim_n)
+            return float(tx), float(tn / self.arm), float(tn)
         ff = self.feedforward(u_ref, v_ref, r_ref).tolist()
         out = []
         # per DOF on floats (a closed-loop step's hot path): the elementwise arithmetic of
@@ -209,6 +252,7 @@ class _Helm:
         res, uc = self.res, self.uc
         r_lim = self.r_lim
         rudder = self.rudder is not None
+        aft = not rudder and self.arm is not None
 
         def policy(k, nu, psi_rel, memo):
             psi = psi0 + psi_rel
@@ -288,7 +332,7 @@ class _Helm:
                     along_line = near[np.argmin(np.abs((near - pos) @ n))]
                 c_err = float((along_line - pos) @ n)  # to starboard
                 err = _wrap(target - psi)
-                if rudder:  # no sway control: steer the cross-track error out by line of sight
+                if rudder or aft:  # no sway control: steer the cross-track error out by line of sight
                     L = self.p.length_m
                     # tight on yaw rate and sway: a course-unstable hull amplifies them over a long open-loop manoeuvre
                     settled = (
@@ -317,7 +361,7 @@ class _Helm:
                 if settled and dist <= 0.5 * uc * self.ts + 1e-6:
                     state["i"] += 1
                     return None
-                if rudder:
+                if rudder or aft:
                     los = err + float(np.arctan2(c_err, 3.0 * self.p.length_m))
                     r_ref = _clamp(1.5 * los * r_lim / _DEG20, -r_lim, r_lim)
                     f = self.forces(nu, uc, 0.0, r_ref, los, regain=kind == "steady")

@@ -225,7 +225,9 @@ def lattice_basic_moves(
                 )
             )
         out.append(per)
-    if helm.rudder is not None:  # a rudder ship cannot turn on the spot: it reverses course by a round turn at speed
+    # a rudder ship cannot turn on the spot, nor can pods aft (they push the stern aside, and a profile fitted
+    # at speed has no model at rest): it reverses course by a round turn at speed
+    if helm.rudder is not None or helm.arm is not None:
         for side, sgn in (("s", 1.0), ("p", -1.0)):
             word = "starboard" if sgn > 0 else "port"
             per = []

@@ -12,7 +12,7 @@ from maps.collision import Window
 from maps.geo import MapError, SeaMap
 from maps.lattice import SETTLE_PHASES, Move, classes, lattice_basic_moves, place, run_in_inputs, transit_mismatch, with_run_in
 from primitives.library import Primitive
-from primitives.ship import ShipProfile
+from primitives.ship import ProfileError, ShipProfile
 from primitives.simulate import simulate
 
 MIN_POINTS_ACROSS = 8  # lattice points across the narrower side of a trial area
@@ -40,7 +40,10 @@ def resolve_primitives(profile: ShipProfile, counts: dict[str, int], given: list
     pool = {p.name: p for p in (given or [])}
     missing = [n for n in counts if n not in pool]
     if missing and scenario_supports(profile):  # its force-level zig-zags need generalized-force or azimuth inputs
-        pool.update({p.name: p for p in thesis_planning_scenario(profile)[0]})
+        try:
+            pool.update({p.name: p for p in thesis_planning_scenario(profile)[0]})
+        except ProfileError:  # a ship that does not swing under the scenario's yaw moment can still name its library's
+            pass
         missing = [n for n in counts if n not in pool]
     if missing:
         from primitives.library import build_library

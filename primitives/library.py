@@ -378,7 +378,10 @@ def force_dictionary(profile: ShipProfile) -> list[Primitive]:
     u, L = profile.cruise_speed_mps, profile.length_m
     n = max(20, int(20 * L / u / profile.sample_time))
     out = []
-    for name, uu in (("sway_steps", u), ("sway_steps_rest", 0.0)):
+    # pods aft (mv.pod_arm) cannot hold a sway speed on a steady course: a side force there turns the ship, so
+    # steps of steady sway are not a manoeuvre it can sail (the planner's run-in would never reach their entry sway)
+    steps = () if mv.pod_arm(profile) is not None else (("sway_steps", u), ("sway_steps_rest", 0.0))
+    for name, uu in steps:
         v = 0.15 * u
         gen = mv.sway_steps(profile, [(v, n // 2), (-v, n - n // 2)], u=uu)
         out.append(make_primitive(profile, name, f"sway steps +-{v:.2f} m/s at {uu:.2f} m/s", gen))

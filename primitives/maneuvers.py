@@ -73,6 +73,25 @@ def closed_loop(
     return np.array(forces, float).reshape(-1, 3), np.array(psis)
 
 
+# thrusters within this fraction of a length of one another along the hull act at one lever arm: two pods aft
+# cannot push the stern sideways without turning the ship, so sway and yaw are not commanded apart
+POD_SPREAD_L = 0.1
+
+
+def pod_arm(profile: ShipProfile) -> float | None:
+    """The thrusters' common x (m) when an azimuth ship's thrusters all sit within
+    :data:`POD_SPREAD_L` of a length of one another (pods aft), else None (thrusters fore and aft:
+    sway and yaw can be commanded apart). With one lever arm x_T the side force and the yaw moment
+    are tied, tau_n = x_T tau_y + sum_i -y_i F_x,i ((3.55)); the pods give a yaw moment apart from
+    the side force only through unequal thrust, a lever of y_i (a quarter beam)."""
+    if profile.actuator != "azimuth" or not profile.thrusters:
+        return None
+    xs = [float(t.x) for t in profile.thrusters]
+    if max(xs) - min(xs) > POD_SPREAD_L * profile.length_m or abs(float(np.mean(xs))) < POD_SPREAD_L * profile.length_m:
+        return None
+    return float(np.mean(xs))
+
+
 class Actuators:
     """What the actuators give for a requested generalized force, one sample at a time: the
     scalar hot path of every closed-loop generator. The allocation matrix's pseudo-inverse is
