@@ -185,8 +185,10 @@ class Lattice:
         return out
 
     def _usable_moves(self) -> set[int]:
-        """Moves with a placement reachable from the start from which the goal stays reachable
-        (any moves, counters ignored: breadth-first search on the move graph both ways)."""
+        """Moves with a placement reachable from the start from which the goal stays reachable by
+        repositioning moves alone (breadth-first search on the basic moves' graph both ways): another
+        designed manoeuvre is no way there, since the mix may not hold it (:mod:`maps.sailable`) and
+        a manoeuvre left out by the design would leave the ship with no way back."""
         from scipy.sparse import csr_matrix
         from scipy.sparse.csgraph import breadth_first_order
 
@@ -194,7 +196,8 @@ class Lattice:
         sc = pb.succ
         e = np.column_stack([sc.sources(), sc.dst, sc.move]).astype(np.int64)
         n = len(sc)
-        g = csr_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
+        basic = np.asarray(sc.counter) < 0
+        g = csr_matrix((np.ones(int(basic.sum())), (e[basic, 0], e[basic, 1])), shape=(n, n))
         fwd = np.zeros(n, bool)
         fwd[breadth_first_order(g, pb.start_spatial, directed=True, return_predecessors=False)] = True
         back = np.zeros(n, bool)

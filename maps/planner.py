@@ -27,7 +27,8 @@ from maps.chain import LatLonHdg, PlanOptions, assemble_plan, build_lattice, pre
 from maps.geo import MapError, SeaMap, load_map
 from maps.motionset import default_resolution, resolve_primitives
 from maps.plan import Plan
-from maps.sailable import not_sailable_together
+from maps.sailable import MAX_STATES as SAILABLE_STATES
+from maps.sailable import UNDECIDED, not_sailable_together
 from maps.scenario import thesis_planning_scenario
 from maps.sizing import Needs
 from maps.smooth import unsteady_executes
@@ -154,11 +155,18 @@ def plan_with_design(
             # best sailable part of it leaves out (maps.sailable)
             left_out = not_sailable_together(lat) if attempt < MAX_REDESIGNS else {}
             if not left_out:
-                lat, td = _fallback(design, f"{CONFINED_TRIED}: no verified plan ({plan.stats.get('reason', '')})", apart)
+                lat, td = _fallback(design, no_plan_note(plan, left_out is None), apart)
                 break
             apart |= left_out
     design_s = time.perf_counter() - t_design - lat.setup_s
     return solve(lat, design=td.record if td else None, vessel_name=vessel_name, t_all=t_all, design_s=design_s), td
+
+
+def no_plan_note(plan: Plan, undecided: bool) -> str:
+    """Why the confined-water attempt ended without a plan (``plan``: its last, infeasible one), for the
+    fallback's note; ``undecided``: the search of the sailable mixes stopped at its budget (:data:`UNDECIDED`)."""
+    why = f"{CONFINED_TRIED}: no verified plan ({plan.stats.get('reason', '')})"
+    return f"{why}; {UNDECIDED.format(n=SAILABLE_STATES)}" if undecided else why
 
 
 def longer_trial_note(short: TrialTooShort, held: list[dict[str, Any]]) -> list[str]:

@@ -83,13 +83,23 @@ def best_mix(mixes: set[tuple[int, ...]], seconds: list[float]) -> tuple[int, ..
     return max(mixes, key=lambda g: (sum(n * s for n, s in zip(g, seconds)), sum(g), g))
 
 
-def not_sailable_together(lat: Lattice) -> dict[str, Needs]:
+# said in the plan's notes (or its refusal) when the search above stops at its budget: nothing was left out for it
+UNDECIDED = (
+    "which of the designed manoeuvres can be sailed together was not decided: the search of the mixes the water "
+    "holds stopped at its budget of {n:,} lattice states, so none was left out to re-design without it"
+)
+
+
+def not_sailable_together(lat: Lattice, max_states: int = MAX_STATES) -> dict[str, Needs] | None:
     """The designed manoeuvres that the best sailable mix (:func:`best_mix`) sails fewer times than
     designed, as :class:`maps.sizing.Needs` (``apart``); empty when the whole mix is sailable (a
-    failure elsewhere), when nothing is or when the search is undecided. Asked of the problem searched last:
-    with the placements whose re-simulation broke the margin blocked."""
+    failure elsewhere) or when nothing is; None when the search stopped at ``max_states`` undecided
+    (:data:`UNDECIDED` says so). Asked of the problem searched last: with the placements whose
+    re-simulation broke the margin blocked."""
     pb = lat.last_problem()
-    mixes = sailable_mixes(pb)
+    mixes = sailable_mixes(pb, max_states)
+    if mixes is None:
+        return None
     full = tuple(pb.targets)
     if not mixes or full in mixes:
         return {}

@@ -42,3 +42,32 @@ def test_every_count_up_to_the_target_is_a_mix_and_the_whole_mix_when_the_water_
 def test_a_goal_out_of_reach_leaves_no_mix():
     pb = _problem([(0, 1, 0), (2, 3, -1)], 4, [1], 3)
     assert sailable_mixes(pb) == set()
+
+
+def test_a_search_stopped_at_its_budget_is_said():
+    """Past its state budget the search of the sailable mixes decides nothing: it leaves nothing out
+    (None, not an empty verdict), and the fallback's note says the question was left undecided."""
+    from types import SimpleNamespace
+
+    from maps.planner import no_plan_note
+    from maps.sailable import not_sailable_together
+
+    pb = _problem([(0, 1, -1), (1, 2, 0), (2, 5, -1), (1, 3, 1), (3, 5, -1), (3, 4, -1)], 6, [1, 1], 5)
+    lat = SimpleNamespace(last_problem=lambda: pb)
+    assert not_sailable_together(lat, max_states=3) is None
+    note = no_plan_note(SimpleNamespace(stats={"reason": "the goal cannot be reached"}), True)
+    assert "not decided" in note and "2,000,000 lattice states" in note and "the goal cannot be reached" in note
+    assert "not decided" not in no_plan_note(SimpleNamespace(stats={"reason": "x"}), False)
+
+
+def test_a_manoeuvre_reached_only_through_another_fits_nowhere():
+    """The map check asks for each manoeuvre a placement the ship reaches, and leaves for the goal, by
+    repositioning moves alone: a stop (counter 1) placed only at the end of a turn (counter 0) is
+    not counted as fitting, since the design may drop the turn (before, the turn counted as a way there)."""
+    from types import SimpleNamespace
+
+    from maps.chain import Lattice
+
+    pb = _problem([(0, 1, -1), (1, 2, 0), (2, 3, 1), (3, 4, -1), (2, 4, -1), (1, 4, -1)], 5, [1, 1], 4)
+    used = Lattice._usable_moves(SimpleNamespace(problem=lambda: pb))
+    assert 1 in used and 2 not in used  # the turn fits, the stop (move 2) does not
