@@ -66,3 +66,22 @@ def test_pod_ship_plans_on_open_sea(pod, tmp_path):
     assert plan.feasible, plan.stats.get("reason")
     assert plan.counts == {"pull_out_20_s": 1, "stopping": 1}
     assert plan.stats["drift_m"] < 50.0
+
+
+def test_a_search_out_of_memory_points_to_the_greedy_heuristic():
+    """Long transits leave the admissible bound some moves short (the bundled full-scale ship on the open
+    sea); a search stopped at its memory budget says so and names --heuristic thesis, not the heuristic
+    it already used."""
+    from maps.astar import Problem, Successors, search
+    from maps.diagnose import explain_failure
+
+    e = np.array([(s, s + 1, -1) for s in range(9)] + [(s, s, 0) for s in range(10)], np.int64)
+    succ = Successors.from_edges(10, e[:, 0], np.arange(len(e)), e[:, 1], e[:, 2], np.where(e[:, 2] < 0, 1.0, 0.0))
+    pb = Problem(1, 10, 1, [3], succ, 0, [9])
+    res = search(pb, max_states=2)
+    assert not res.found and "memory limit" in res.reason
+    from types import SimpleNamespace
+
+    moves = [SimpleNamespace(counter=int(q), name="turn" if q >= 0 else "straight") for q in e[:, 2]]
+    reason, helps = explain_failure(pb, moves, ["turn"], res)
+    assert "memory limit" in reason and any("--heuristic thesis" in h for h in helps)
