@@ -11,7 +11,6 @@ import numpy as np
 from maps.headings import heading_table, nearest_heading
 from maps.headings import wrap as _wrap
 from primitives import maneuvers as mv
-from primitives.maneuvers import pod_arm
 from primitives.ship import ShipProfile
 from primitives.simulate import model_signals, simulate
 from primitives.steady_forces import steady_forces
@@ -164,7 +163,7 @@ class _Helm:
         if self.rudder is not None:
             self.r_lim = self.rudder.r_lim
             return
-        self.arm = pod_arm(profile)
+        self.arm = mv.pod_arm(profile)
         self._drift: dict[tuple[float, float], float] = {}
         # pods aft turn the ship as a rudder does, with a drift angle: turns of radius >= 3 L, as for rudder ships
         self.r_lim = self.uc / ((3.0 if self.arm is not None else 1.5) * profile.length_m)
@@ -190,7 +189,7 @@ class _Helm:
     def drift(self, u: float, r: float) -> float:
         """The sway speed v of a steady turn (u, r) that pods aft at lever arm ``self.arm`` can hold
         without unequal thrust: the root of tau_n(u, v, r) - x_T tau_y(u, v, r) (steady forces, see
-        :func:`pod_arm`), by bisection on |v| <= U / 2 (0 when there is none there). The hull turns
+        :func:`primitives.maneuvers.pod_arm`), by bisection on |v| <= U / 2 (0 when there is none there). The hull turns
         with a drift angle as a rudder ship does; asking it for no sway (the fully actuated helm)
         asks the pods for a side force they cannot give, and their least-norm allocation then turns
         them astern."""
@@ -222,7 +221,7 @@ class _Helm:
         self, nu: np.ndarray, u_ref: float, v_ref: float, r_ref: float, err: float = 0.0, regain: bool = False
     ) -> tuple[float, float, float]:
         """Generalized forces, or (rudder deg, rev/s, 0) for a rudder ship (``v_ref`` ignored;
-        ``err``: heading error, rad, that its autopilot steers out). Pods aft (:func:`pod_arm`): sway
+        ``err``: heading error, rad, that its autopilot steers out). Pods aft (:func:`primitives.maneuvers.pod_arm`): sway
         is not commanded (``v_ref`` ignored), the side force is the yaw moment over the lever arm."""
         if self.rudder is not None:
             return (*self.rudder.command(nu, u_ref, r_ref, err, regain), 0.0)
