@@ -183,6 +183,10 @@ def register(app: typer.Typer) -> None:
                 if paths
                 else "partial results not written (no --out)",
             )
+        from primitives.library import library_notes
+
+        for note in library_notes(profile):  # on stderr, as the design's warnings: a manoeuvre family its library lacks
+            typer.echo(f"note: {note}", err=True)
         _print_step(profile.name, d, doc, ev, paths, json_out)
 
 

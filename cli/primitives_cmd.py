@@ -107,6 +107,10 @@ def register(app: typer.Typer) -> None:
         from rich.console import Console
 
         Console().print(library_table(profile, rows))
+        from primitives.library import library_notes
+
+        for note in library_notes(profile):
+            typer.echo(f"note: {note}")
         if profile.actuator == "rudder_propeller":
             from primitives.helm import steady_rps
 

@@ -51,8 +51,12 @@ def resolve_primitives(profile: ShipProfile, counts: dict[str, int], given: list
         pool.update({p.name: p for p in build_library(profile, basic=False) if p.kind == "informative"})
         missing = [n for n in counts if n not in pool]
     if missing:
+        from primitives.library import SWAY_STEPS, library_notes
+
+        why = "; ".join(library_notes(profile)) if set(missing) & set(SWAY_STEPS) else ""
         raise MapError(
             f"--counts: unknown primitive(s) {', '.join(missing)} for {profile.name}; known: {', '.join(sorted(pool))}"
+            + (f" ({why})" if why else "")
         )
     return [pool[n] for n in counts]
 

@@ -25,7 +25,7 @@ from expdesign.rounding import _efficiency, round_design
 from maps.searoom import SeaRoom, check_robust, held_parameters, held_records, reduced_profile, restrict, with_short_forms
 from maps.sizing import Needs, km, water_text
 from primitives.information import PrimitiveInfo, library_information
-from primitives.library import Primitive, build_library, thesis_primitives
+from primitives.library import Primitive, build_library, library_notes, thesis_primitives
 from primitives.ship import ShipProfile
 
 
@@ -193,6 +193,7 @@ def design_counts(
         record["robust"] = d.robust | {"d_efficiency": eff}
     sailed = counts * np.array([p.n_samples for p in prims], float)
     notes += [f"warning: {w}" for w in mean_subtraction_warnings(profile, info, sailed / sailed.sum(), mean_subtraction)]
+    notes += library_notes(profile)  # a manoeuvre family the ship's library lacks (pods aft: no steady sway)
     notes.insert(
         0,
         f"counts from the {criterion}-optimal design ({mean_subtraction} mean subtraction) over "

@@ -370,6 +370,9 @@ def thesis_primitives(profile: ShipProfile) -> list[Primitive]:
     return []
 
 
+SWAY_STEPS = ("sway_steps", "sway_steps_rest")  # at cruise speed, at rest
+
+
 def force_dictionary(profile: ShipProfile) -> list[Primitive]:
     """Moves a generalized-force or azimuth ship can make beyond the standard trials, scaled to
     the ship as the thesis's tau13-tau16 and tau3-tau8 are: sway steps (+-0.15 u) at cruise speed
@@ -379,8 +382,9 @@ def force_dictionary(profile: ShipProfile) -> list[Primitive]:
     n = max(20, int(20 * L / u / profile.sample_time))
     out = []
     # pods aft (mv.pod_arm) cannot hold a sway speed on a steady course: a side force there turns the ship, so
-    # steps of steady sway are not a manoeuvre it can sail (the planner's run-in would never reach their entry sway)
-    steps = () if mv.pod_arm(profile) is not None else (("sway_steps", u), ("sway_steps_rest", 0.0))
+    # steps of steady sway are not a manoeuvre it can sail (the planner's run-in would never reach their entry sway);
+    # library_notes says so to the user
+    steps = () if mv.pod_arm(profile) is not None else tuple(zip(SWAY_STEPS, (u, 0.0)))
     for name, uu in steps:
         v = 0.15 * u
         gen = mv.sway_steps(profile, [(v, n // 2), (-v, n - n // 2)], u=uu)
@@ -390,6 +394,20 @@ def force_dictionary(profile: ShipProfile) -> list[Primitive]:
         gen = mv.excitation_zigzag(profile, n, uu, 0.1 * uu, uu / (2 * L), 0.25)
         out.append(make_primitive(profile, f"zz_exc_{pct}", f"excitation zig-zag at {uu:.2f} m/s", gen))
     return out
+
+
+def library_notes(profile: ShipProfile) -> list[str]:
+    """What the profile's library leaves out that other ships of its actuator have, and why, one
+    sentence each: today the steady-sway steps of :func:`force_dictionary` for pods aft
+    (:func:`primitives.maneuvers.pod_arm`); empty for a profile with a thesis dictionary."""
+    arm = mv.pod_arm(profile)
+    if arm is None or profile.library in _THESIS:
+        return []
+    return [
+        f"no steady-sway steps ({', '.join(SWAY_STEPS)}) in {profile.name}'s library: its thrusters all sit at "
+        f"x = {arm:+.1f} m (pods {'aft' if arm < 0 else 'forward'}), where a side force turns the ship, so it cannot "
+        "hold a sway speed on a steady course; sway is excited by its zig-zags and turns instead"
+    ]
 
 
 def design_dictionary(profile: ShipProfile) -> list[Primitive]:

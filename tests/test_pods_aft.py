@@ -19,7 +19,7 @@ from maps.chain import PlanOptions
 from maps.lattice import lattice_basic_moves, place
 from maps.planner import plan_trial
 from maps.testmaps import open_sea
-from primitives.library import force_dictionary
+from primitives.library import force_dictionary, library_notes
 from primitives.maneuvers import pod_arm
 from primitives.ship import load_profile
 
@@ -52,6 +52,10 @@ def test_no_steady_sway_for_pods_aft(pod):
     names = [p.name for p in force_dictionary(pod)]
     assert not any(n.startswith("sway_steps") for n in names) and "zz_exc_100" in names
     assert any(p.name == "sway_steps" for p in force_dictionary(load_profile("full-scale")))
+    # said to the user (primitives, design, the plan's notes, a --counts naming them), not dropped silently
+    (note,) = library_notes(pod)
+    assert "sway_steps" in note and "x = -72.0 m (pods aft)" in note
+    assert library_notes(load_profile("full-scale")) == [] and library_notes(load_profile("kvlcc2")) == []
 
 
 def test_pod_ship_plans_on_open_sea(pod, tmp_path):
