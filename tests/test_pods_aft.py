@@ -37,6 +37,24 @@ def test_pods_aft_share_one_lever_arm(pod):
     assert pod_arm(load_profile("full-scale")) is None  # bow and stern thrusters: sway and yaw apart
 
 
+def test_pods_aft_turn_bow_in_with_a_drift_angle(pod):
+    """A starboard turn (r > 0) is held with the bow inside the circle: sway to port at midships
+    (v < 0), a drift angle of a few degrees at radius 3 L as a rudder ship's, mirrored to port; at
+    that drift the steady yaw moment is the pods' side force times their lever arm."""
+    from maps.autopilot import _Helm
+    from primitives.steady_forces import steady_forces
+
+    helm = _Helm(pod, RES, K)
+    u, r = helm.uc, helm.r_lim
+    assert r == pytest.approx(u / (3.0 * pod.length_m))
+    v = helm.drift(u, r)
+    beta = np.degrees(np.arctan2(-v, u))
+    assert 2.0 < beta < 20.0, beta
+    assert helm.drift(u, -r) == pytest.approx(-v, rel=1e-3)
+    f = steady_forces(pod, round(u, 2), v, round(r, 4))
+    assert f[2] == pytest.approx(helm.arm * f[1], abs=1e-3 * abs(f[2]))
+
+
 def test_pod_turns_end_on_the_lattice(pod):
     per = lattice_basic_moves(pod, RES, K)
     moves = {m.name: m for m in (place(p, RES, K, -1, 1.0, p[0].name) for p in per)}
