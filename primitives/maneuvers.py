@@ -82,7 +82,7 @@ def pod_arm(profile: ShipProfile) -> float | None:
     """The thrusters' common x (m) when an azimuth ship's thrusters all sit within
     :data:`POD_SPREAD_L` of a length of one another, away from midships (pods aft), else None
     (thrusters fore and aft: sway and yaw can be commanded apart). With one lever arm x_T the side force and the yaw moment
-    are tied, tau_n = x_T tau_y + sum_i -y_i F_x,i ((3.55)); the pods give a yaw moment apart from
+    are tied, tau_n = x_T tau_y + sum_i -y_i F_x,i (Ljungberg 2022, eq. 3.55); the pods give a yaw moment apart from
     the side force only through unequal thrust, a lever of y_i (a quarter beam)."""
     if profile.actuator != "azimuth" or not profile.thrusters:
         return None
