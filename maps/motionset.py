@@ -38,12 +38,13 @@ def resolve_primitives(profile: ShipProfile, counts: dict[str, int], given: list
     from maps.scenario import scenario_supports, thesis_planning_scenario
 
     pool = {p.name: p for p in (given or [])}
+    why: list[str] = []
     missing = [n for n in counts if n not in pool]
     if missing and scenario_supports(profile):  # its force-level zig-zags need generalized-force or azimuth inputs
         try:
             pool.update({p.name: p for p in thesis_planning_scenario(profile)[0]})
-        except ProfileError:  # a ship that does not swing under the scenario's yaw moment can still name its library's
-            pass
+        except ProfileError as exc:  # a ship that does not swing under the scenario's yaw moment can still name its library's
+            why.append(f"the planning scenario's manoeuvres are not offered: {exc}")
         missing = [n for n in counts if n not in pool]
     if missing:
         from primitives.library import build_library
@@ -53,10 +54,10 @@ def resolve_primitives(profile: ShipProfile, counts: dict[str, int], given: list
     if missing:
         from primitives.library import SWAY_STEPS, library_notes
 
-        why = "; ".join(library_notes(profile)) if set(missing) & set(SWAY_STEPS) else ""
+        why += library_notes(profile) if set(missing) & set(SWAY_STEPS) else []
         raise MapError(
             f"--counts: unknown primitive(s) {', '.join(missing)} for {profile.name}; known: {', '.join(sorted(pool))}"
-            + (f" ({why})" if why else "")
+            + (f" ({'; '.join(why)})" if why else "")
         )
     return [pool[n] for n in counts]
 
