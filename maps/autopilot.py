@@ -160,10 +160,10 @@ class _Helm:
         self.ts = profile.sample_time
         self._ff: dict[tuple[float, float, float], np.ndarray] = {}
         self.rudder = _Rudder(profile) if profile.actuator == "rudder_propeller" else None
+        self.arm = mv.pod_arm(profile)  # None for a rudder ship too: every helm answers it
         if self.rudder is not None:
             self.r_lim = self.rudder.r_lim
             return
-        self.arm = mv.pod_arm(profile)
         self._drift: dict[tuple[float, float], float] = {}
         # pods aft turn the ship as a rudder does, with a drift angle: turns of radius >= 3 L, as for rudder ships
         self.r_lim = self.uc / ((3.0 if self.arm is not None else 1.5) * profile.length_m)
