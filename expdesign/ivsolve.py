@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -188,6 +189,20 @@ def _moments_pass(phi, z, tgt, dof, complete):
     return a, rhs, norms
 
 
+@dataclass
+class DataRegressors:
+    """Each run's regressors Phi (B, N, p) and targets (B, N, 3) from its measured velocities, made
+    by the first :func:`instrument_moments` pass over the run (``have`` (B,)) and read by the next."""
+
+    phi: np.ndarray
+    tgt: np.ndarray
+    have: np.ndarray
+
+    @classmethod
+    def empty(cls, runs: int, n: int, p: int) -> DataRegressors:
+        return cls(np.empty((runs, n, p)), np.empty((runs, n, 3)), np.zeros(runs, np.bool_))
+
+
 def instrument_moments(
     profile: ShipProfile,
     sim_terms: TermSet,
@@ -198,10 +213,11 @@ def instrument_moments(
     runs: np.ndarray,
     y: np.ndarray,
     mean_subtraction: str,
+    data: DataRegressors | None = None,
 ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None:
     """The IV moments of the runs ``runs`` from their measured velocities, with their instruments
-    simulated, in one compiled pass run by run that stores neither the regressors nor the
-    instruments: ((A, rhs, norms) as :func:`_moments_pass` gives them, sane (len(runs),): every
+    simulated, in one compiled pass run by run that stores no instrument array (the data's
+    regressors only, see ``data``): ((A, rhs, norms) as :func:`_moments_pass` gives them, sane (len(runs),): every
     instrument finite and below ``Z_LIMIT`` in magnitude).
 
     Phi(k) are the regressors of ``terms`` (the predictor (9.2), Ljungberg (2022)) at the measured
@@ -215,7 +231,12 @@ def instrument_moments(
     bits (but a term reading the speed U: the C library's hypot against numpy's, a last-bit
     difference). None where the pass does not apply (no numba loaded, pods, roll, rigid body,
     heading terms, powers other than 1, 2, -1, the mean removed per block): the caller takes the
-    unfused path. Wind terms read calm air, as the unfused path's regressors without a wind."""
+    unfused path. Wind terms read calm air, as the unfused path's regressors without a wind.
+
+    ``data`` (:class:`DataRegressors` of ``y``) keeps each run's Phi and target from its first
+    pass for the next passes over the same runs (the IV iterations): the same numbers, built once.
+    Where ``sim_terms`` are ``terms`` (the iterations) each factor is evaluated once a step for
+    both Z and the increments (the same values, so the same products)."""
     if mean_subtraction == "batchwise" or profile.pods or profile.n_dof != 3 or profile.rigid_body is not None:
         return None
     if not jitloop.loaded() or regkernel._program(sim_terms.terms) is None or regkernel._program(terms.terms) is None:
@@ -227,6 +248,8 @@ def instrument_moments(
     n_runs, p = len(runs), terms.n_params
     a, rhs, norms, sane = np.zeros((n_runs, p, p)), np.zeros((n_runs, p)), np.zeros((3, n_runs, p)), np.zeros(n_runs, np.bool_)
     speed = SPEED in signals_read(sim_terms) or SPEED in signals_read(terms)
+    data = data or DataRegressors.empty(y.shape[0], y.shape[1] - 1, p)
+    same = all(np.array_equal(x, g) for x, g in zip(sim[2:], reg[2:]))
     _instrument_pass(
         in_r,
         np.ascontiguousarray(nu0, float),
@@ -239,7 +262,11 @@ def instrument_moments(
         reg[7],
         reg[6],
         speed,
+        same,
         np.ascontiguousarray(y, float),
+        data.phi,
+        data.tgt,
+        data.have,
         _dof_of(terms),
         mean_subtraction == "complete",
         Z_LIMIT,
@@ -265,20 +292,28 @@ Z_LIMIT = 1e6  # instruments above this come from an exploding simulation
 
 
 @jitloop.inlined
-def _regressor_row(out, k, sig, in_r, ib, u, v, r, speed, t_first, t_n, f_sig, f_mod, f_pow, f_sta):
-    """out[k, t] = 1.0 * f_1 * f_2 ... of each term t (regkernel._build's product) at the calm-water
-    signals of the velocities u, v, r and the inputs of step k; the largest magnitude of the row."""
+def _factor_row(fv, sig, in_r, ib, k, u, v, r, speed, f_sig, f_mod, f_pow, f_sta):
+    """fv[f] = each factor f of the program at the calm-water signals of the velocities u, v, r
+    and the inputs of step k (regkernel._factor): evaluated once a step, read by every product."""
     for i in range(in_r.shape[2]):
         sig[jitloop.N_STATE + i] = in_r[ib, k, i]
     sig[0], sig[1], sig[2], sig[3], sig[4], sig[5], sig[6] = u, v, r, u, v, u, v
     if speed:
         h = math.hypot(u, v)
         sig[7] = MIN_SPEED if h < MIN_SPEED else h  # NaN stays NaN, as in np.maximum
+    for f in range(f_sig.shape[0]):
+        fv[f] = regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
+
+
+@jitloop.inlined
+def _regressor_row(out, k, fv, t_first, t_n):
+    """out[k, t] = 1.0 * f_1 * f_2 ... of each term t (regkernel._build's product) from the factor
+    values ``fv`` of step k; the largest magnitude of the row."""
     worst = 0.0
     for t in range(t_first.shape[0]):
         acc = 1.0
         for f in range(t_first[t], t_first[t] + t_n[t]):
-            acc = acc * regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
+            acc = acc * fv[f]
         out[k, t] = acc
         if not abs(acc) <= worst:  # NaN too
             worst = abs(acc) if acc == acc else math.inf
@@ -306,7 +341,11 @@ def _instrument_pass(
     g_pow,
     g_sta,
     speed,
+    same,
     y,
+    phi_all,
+    tgt_all,
+    have,
     dof,
     complete,
     z_limit,
@@ -320,29 +359,36 @@ def _instrument_pass(
     summed left to right per DOF, nu(k+1) = nu(k) + inc) with Z(k) at nu(k), then :func:`_run_moments`."""
     n, p = y.shape[1] - 1, dof.shape[0]
     sig = np.zeros(jitloop.N_STATE + in_r.shape[2])
-    z, phi, tgt = np.empty((n, p)), np.empty((n, p)), np.empty((n, 3))
+    fv, fs = np.empty(g_sig.shape[0]), np.empty(f_sig.shape[0])
+    z = np.empty((n, p))
     inc = np.zeros(3)
     zbar, zt = np.zeros(p), np.empty(p)
     for j in range(runs.shape[0]):
         b = runs[j]
         ib = b if in_r.shape[0] > 1 else 0
         cj = j if coef.shape[1] > 1 else 0
-        for k in range(n):
-            _regressor_row(
-                phi, k, sig, in_r, ib, y[b, k, 0], y[b, k, 1], y[b, k, 2], speed, r_first, r_n, g_sig, g_mod, g_pow, g_sta
-            )
-            for i in range(3):
-                tgt[k, i] = y[b, k + 1, i] - y[b, k, i]
+        phi, tgt = phi_all[b], tgt_all[b]
+        if not have[b]:  # the data's regressors and targets, once per run for all its passes
+            for k in range(n):
+                _factor_row(fv, sig, in_r, ib, k, y[b, k, 0], y[b, k, 1], y[b, k, 2], speed, g_sig, g_mod, g_pow, g_sta)
+                _regressor_row(phi, k, fv, r_first, r_n)
+                for i in range(3):
+                    tgt[k, i] = y[b, k + 1, i] - y[b, k, i]
+            have[b] = True
         u, v, r = nu0[b, 0], nu0[b, 1], nu0[b, 2]
         worst = 0.0
         for k in range(n):
-            worst = max(worst, _regressor_row(z, k, sig, in_r, ib, u, v, r, speed, r_first, r_n, g_sig, g_mod, g_pow, g_sta))
-            for i in range(3):  # sig holds step k's signals from _regressor_row
+            _factor_row(fv, sig, in_r, ib, k, u, v, r, speed, g_sig, g_mod, g_pow, g_sta)
+            worst = max(worst, _regressor_row(z, k, fv, r_first, r_n))
+            if not same:  # the simulated model's own factors at the same signals
+                for f in range(f_sig.shape[0]):
+                    fs[f] = regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
+            for i in range(3):
                 inc[i] = 0.0
                 for t in range(dof_first[i], dof_first[i] + dof_n[i]):
                     acc = coef[t, cj]
                     for f in range(t_first[t], t_first[t] + t_n[t]):
-                        acc = acc * regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
+                        acc = acc * (fv[f] if same else fs[f])
                     inc[i] = acc if t == dof_first[i] else inc[i] + acc
             u, v, r = u + inc[0], v + inc[1], r + inc[2]
         sane[j] = worst < z_limit
