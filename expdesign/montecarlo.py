@@ -42,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+from expdesign import oekernel
 from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
 from expdesign.ivsolve import Z_LIMIT, DataRegressors, instrument_moments, iv_estimates, run_forces
@@ -300,12 +301,21 @@ class _Seg:
     y: np.ndarray
 
 
-def _noise(d: Disturbances, g: np.random.Generator, n: int, offset: np.ndarray) -> tuple[np.ndarray, ...]:
-    cur = np.asarray(d.current_ne, float) + offset + g.normal(0.0, 1.0, (n, 2)) * d.current_sample_std
-    wind = np.asarray(d.wind_ne, float) + g.normal(0.0, 1.0, (n, 2)) * d.wind_sample_std
-    meas = g.normal(0.0, 1.0, (n + 1, 3)) * np.asarray(d.measurement_std, float)
-    head = g.normal(0.0, 1.0, n + 1) * d.heading_std
-    return cur, wind, meas, head
+def _noise(d: Disturbances, gens: list[np.random.Generator], n: int, offsets: list[np.ndarray]) -> tuple[np.ndarray, ...]:
+    """Each run's current (B, n, 2), wind (B, n, 2), measurement noise (B, n+1, 3) and heading noise
+    (B, n+1): per run one draw of all its standard normals from its own generator, in the order
+    current, wind, measurement, heading (the draws of four calls of that order, the same numbers),
+    then scaled for all runs at once (elementwise: each number as a run alone gives it)."""
+    sizes = np.cumsum([0, 2 * n, 2 * n, 3 * (n + 1), n + 1])
+    z = np.empty((len(gens), sizes[-1]))
+    for g, row in zip(gens, z):
+        row[:] = g.normal(0.0, 1.0, sizes[-1])
+    b = len(gens)
+    part = [z[:, sizes[i] : sizes[i + 1]] for i in range(4)]
+    cur = (np.asarray(d.current_ne, float) + np.stack(offsets))[:, None, :] + part[0].reshape(b, n, 2) * d.current_sample_std
+    wind = np.asarray(d.wind_ne, float) + part[1].reshape(b, n, 2) * d.wind_sample_std
+    meas = part[2].reshape(b, n + 1, 3) * np.asarray(d.measurement_std, float)
+    return cur, wind, meas, part[3] * d.heading_std
 
 
 def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fused: bool = False) -> list[_Seg]:
@@ -322,7 +332,7 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fu
     for j in range(len(exps[0])):
         inp = np.stack([e[j][0] for e in exps])
         nu0 = np.stack([e[j][1] for e in exps])
-        cur, wind, meas, head = (np.stack(a) for a in zip(*(_noise(d, g, inp.shape[1], o) for g, o in zip(gens, offsets))))
+        cur, wind, meas, head = _noise(d, gens, inp.shape[1], offsets)
         calm = [] if fused else [np.zeros_like(cur)]
         env = Disturbances(
             current_ne=np.concatenate([cur, *calm]), wind_ne=np.concatenate([wind, *calm]), current_turning=d.current_turning
@@ -461,10 +471,20 @@ def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     b = theta.shape[0]
     finite = np.isfinite(theta).all(axis=1)
     th = np.where(finite[:, None], theta, 0.0)
-    with np.errstate(all="ignore"):
-        sim = simulate(sh.profile, sh.val_inputs, th, terms=sh.predictor, nu0=sh.val_nu0, batch=b, positions=False).nu
     bound = _EXPLODE * np.abs(sh.val_true).max()
     rmse = np.full((b, 3), np.inf)
+    val = OEData(sh.val_inputs[None], np.broadcast_to(sh.val_nu0, (b, 3)), sh.val_true[None])
+    calm = oekernel.calm_runs(sh.profile, sh.predictor, [val])
+    if calm is not None:  # time-major, compiled: the same simulation, sums in the same order
+        sim_t = oekernel.simulate(calm, th, np.arange(b))[0]
+        with np.errstate(invalid="ignore"):
+            diverged = ~finite | ~(np.abs(sim_t) <= bound).all(axis=(0, 1))  # NaN and inf too
+        good = np.flatnonzero(~diverged)
+        sums, _ = oekernel.squared_errors(calm.y_t[0], sim_t[:, :, good], np.zeros(len(good)), 0, np.inf)
+        rmse[good] = np.sqrt(sums / sim_t.shape[0])
+        return rmse, diverged
+    with np.errstate(all="ignore"):
+        sim = simulate(sh.profile, sh.val_inputs, th, terms=sh.predictor, nu0=sh.val_nu0, batch=b, positions=False).nu
     with np.errstate(invalid="ignore"):
         diverged = ~finite | ~(np.abs(sim) <= bound).all(axis=(1, 2))  # NaN and inf too
     good = np.flatnonzero(~diverged)

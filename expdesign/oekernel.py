@@ -130,9 +130,9 @@ def mean_squares(cr: CalmRuns, sims: list[np.ndarray], idx: np.ndarray, limit: f
     n = sum(y.shape[0] - 1 for y in cr.y_t)
     sums, bad = [], np.zeros(b, np.bool_)
     for y, nu in zip(cr.y_t, sims):
-        s = np.zeros((b, 3))
-        _squares(y, nu, np.asarray(idx, np.int64), limit, s, bad)
+        s, worse = squared_errors(y, nu, idx, 1, limit)
         sums.append(s)
+        bad |= worse
     ms = np.zeros((b, 3))
     good = np.flatnonzero(~bad)
     for s in sums:
@@ -162,10 +162,19 @@ def _mask(terms, p: int) -> np.ndarray:
     return mask
 
 
+def squared_errors(y: np.ndarray, nu: np.ndarray, runs: np.ndarray, first: int, limit: float) -> tuple[np.ndarray, np.ndarray]:
+    """Sums (b, 3) over the samples k = first..N of (y[k, i, runs[b]] - nu[k, i, b])^2, added
+    sample after sample (numpy's order for a reduction over that axis: the same bits), of
+    time-major ``y`` (N+1, 3, B) and ``nu`` (N+1, 3, b); and where some |nu| is not below
+    ``limit`` (NaN too) (b,)."""
+    out, bad = np.zeros((nu.shape[2], 3)), np.zeros(nu.shape[2], np.bool_)
+    _squares(y, nu, np.asarray(runs, np.int64), first, limit, out, bad)
+    return out, bad
+
+
 @jitloop.compiled
-def _squares(y, nu, runs, limit, out, bad):
-    """out[b, i] = sum over k = 1..N of (y[k, i, runs[b]] - nu[k, i, b])^2, added sample after
-    sample; bad[b] set where some |nu[k, i, b]| is not below ``limit`` (NaN too)."""
+def _squares(y, nu, runs, first, limit, out, bad):
+    """:func:`squared_errors`' pass."""
     n1, batch = nu.shape[0], nu.shape[2]
     for k in range(n1):
         for i in range(3):
@@ -173,9 +182,9 @@ def _squares(y, nu, runs, limit, out, bad):
                 x = nu[k, i, b]
                 if not abs(x) < limit:
                     bad[b] = True
-                if k > 0:
+                if k >= first:
                     e = y[k, i, runs[b]] - x
-                    out[b, i] = e * e if k == 1 else out[b, i] + e * e
+                    out[b, i] = e * e if k == first else out[b, i] + e * e
 
 
 def _helper(fn):
