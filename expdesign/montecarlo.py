@@ -270,18 +270,28 @@ def _sequence(sh: MCShared, design: str, rng: np.random.Generator) -> list[tuple
     return [blocks[i] for i in rng.permutation(len(blocks))]
 
 
-def _experiment(sh: MCShared, seq: list[tuple[str, int]]) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int]]:
+def _experiment(
+    sh: MCShared, seq: list[tuple[str, int]], played: dict | None = None
+) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int]]:
     """Segments [(inputs (L, m), nu0 (3,))] of one run and the block start indices in the
-    concatenated data (for batchwise mean subtraction)."""
+    concatenated data (for batchwise mean subtraction). ``played`` keeps each (primitive,
+    samples) block's inputs for the next run that plays it (read only)."""
+    played = {} if played is None else played
+
+    def block(k: str, n: int) -> np.ndarray:
+        if (k, n) not in played:
+            played[k, n] = np.resize(sh.inputs[k], (n, sh.inputs[k].shape[1]))
+        return played[k, n]
+
     if sh.config.protocol == "piecewise":
-        segs = [(np.resize(sh.inputs[k], (n, sh.inputs[k].shape[1])), sh.nu0[k]) for k, n in seq]
+        segs = [(block(k, n), sh.nu0[k]) for k, n in seq]
         return segs, list(np.cumsum([0] + [n for _, n in seq[:-1]]))
     parts, starts, pos = [], [], 0
     for j, (k, n) in enumerate(seq):
         starts.append(pos)
         if j and sh.config.settle:
             parts.append(np.tile(sh.hold[k], (sh.config.settle, 1)))
-        parts.append(np.resize(sh.inputs[k], (n, sh.inputs[k].shape[1])))
+        parts.append(block(k, n))
         pos += n + (sh.config.settle if j else 0)
     return [(np.concatenate(parts), sh.nu0[seq[0][0]])], starts
 
@@ -535,7 +545,12 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     # tests/test_oekernel.py): load them whatever the chunk's size, so that a run's numbers do not
     # depend on how the runs are cut into tasks (numba's load, about 0.6 s, once per process).
     jitloop.use(jitloop.MIN_WORK)
-    layouts = [_experiment(sh, _sequence(sh, design, _run_rng(cfg.seed, i, 0))) for i in ids]
+    played, layout = {}, {}  # the blocks and whole experiments built so far (a fixed design plays one)
+    seqs = [tuple(_sequence(sh, design, _run_rng(cfg.seed, i, 0))) for i in ids]
+    for seq in seqs:
+        if seq not in layout:
+            layout[seq] = _experiment(sh, list(seq), played)
+    layouts = [layout[seq] for seq in seqs]
     fused = _fused(sh)
     segs = _simulate_data(sh, [lay[0] for lay in layouts], [_run_rng(cfg.seed, i, 1) for i in ids], fused)
     theta = _estimate_fused(sh, segs[0]) if fused else _estimate(sh, segs, [lay[1] for lay in layouts])

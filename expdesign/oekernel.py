@@ -143,15 +143,16 @@ def mean_squares(cr: CalmRuns, sims: list[np.ndarray], idx: np.ndarray, limit: f
 
 
 def moments_t(cr: CalmRuns, sims: list[np.ndarray], theta: np.ndarray, idx: np.ndarray, w: np.ndarray, fd_step: float):
-    """:func:`moments` of time-major outputs ``sims`` (N+1, 3, len(idx)) of the runs ``idx``."""
+    """(hess (b, p, p), grad (b, p)) of the runs ``idx`` from their time-major outputs ``sims``
+    (N+1, 3, b), as :func:`expdesign.estimators._gauss_newton_moments_numpy` computes them but for
+    the order of the sums (module doc)."""
     p, b = theta.shape[1], len(idx)
     hess, grad = np.zeros((b, p, p)), np.zeros((b, p))
     coef = np.ascontiguousarray(theta[idx].T)
     sw = np.ascontiguousarray(np.sqrt(w[idx]).T)
     for in_t, y, nu_t, prog in zip(cr.in_t, cr.y_t, sims, cr.prog):
-        _accumulate(
-            _runs_of(in_t, idx), nu_t, _runs_of(y, idx), coef, sw, _mask(cr.terms, p), *prog, cr.speed, fd_step, hess, grad
-        )
+        runs = np.asarray(idx, np.int64)
+        _accumulate(in_t, nu_t, y, runs, coef, sw, _mask(cr.terms, p), *prog, cr.speed, fd_step, hess, grad)
     return hess, grad
 
 
@@ -207,13 +208,13 @@ def _compile_helpers() -> None:
 
 
 @_helper
-def _signals(sig, x, in_t, k, speed):
+def _signals(sig, x, in_t, runs, k, speed):
     """The calm-water signals of the states x (3, B) at step k (primitives.simulate.relative_signals,
-    in the signal layout of primitives.jitloop)."""
+    in the signal layout of primitives.jitloop), the inputs of batch member b those of run runs[b]."""
     batch, one = x.shape[1], in_t.shape[2] == 1
     for i in range(in_t.shape[1]):
         for b in range(batch):
-            sig[_N_STATE + i, b] = in_t[k, i, 0 if one else b]
+            sig[_N_STATE + i, b] = in_t[k, i, 0 if one else runs[b]]
     for b in range(batch):
         u, v = x[0, b], x[1, b]
         sig[0, b], sig[1, b], sig[2, b], sig[3, b], sig[4, b], sig[5, b], sig[6, b] = u, v, x[2, b], u, v, u, v
@@ -225,9 +226,10 @@ def _signals(sig, x, in_t, k, speed):
 
 @jitloop.compiled
 def _accumulate(
-    in_t, nu_t, y, coef, sw, mask, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow, speed, fd_step, hess, grad
+    in_t, nu_t, y, runs, coef, sw, mask, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow, speed, fd_step, hess, grad
 ):
-    """Add each run's H and g over one experiment to ``hess`` (B, p, p), ``grad`` (B, p); the runs
+    """Add each run's H and g over one experiment to ``hess`` (b, p, p), ``grad`` (b, p), batch member b
+    reading the inputs and measurements of run ``runs[b]`` of ``in_t``, ``y``; the runs
     are the inner loop of every stage (the term program's branches once per step)."""
     n, batch, p = in_t.shape[0], nu_t.shape[2], coef.shape[0]
     sig = np.zeros((_N_STATE + in_t.shape[1], batch))
@@ -253,7 +255,7 @@ def _accumulate(
                 for b in range(batch):
                     h[b] = fd_step * (1.0 + abs(x[col, b]))
                     x[col, b] = x[col, b] + h[b]
-            _signals(sig, x, in_t, k, speed)
+            _signals(sig, x, in_t, runs, k, speed)
             for i in range(3):
                 if col >= 0 and dof_n[i] == 0:
                     inc[i, :] = 0.0
@@ -287,7 +289,7 @@ def _accumulate(
                 for b in range(batch):
                     sk[q, b] = np.float64(s_new[i, q, b]) * sw[i, b]
             for b in range(batch):
-                e[b] = (y[k + 1, i, b] - nu_t[k + 1, i, b]) * sw[i, b]
+                e[b] = (y[k + 1, i, runs[b]] - nu_t[k + 1, i, b]) * sw[i, b]
             for a in range(p):
                 for q in range(a, p):
                     for b in range(batch):
