@@ -191,8 +191,9 @@ def _moments_pass(phi, z, tgt, dof, complete):
 
 @dataclass
 class DataRegressors:
-    """Each run's regressors Phi (B, N, p) and targets (B, N, 3) from its measured velocities, made
-    by the first :func:`instrument_moments` pass over the run (``have`` (B,)) and read by the next."""
+    """Each run's regressors Phi (N, p, B) and targets (N, 3, B) from its measured velocities,
+    time-major, made by the first :func:`instrument_moments` pass over the run (``have`` (B,)) and
+    read by the next."""
 
     phi: np.ndarray
     tgt: np.ndarray
@@ -200,7 +201,7 @@ class DataRegressors:
 
     @classmethod
     def empty(cls, runs: int, n: int, p: int) -> DataRegressors:
-        return cls(np.empty((runs, n, p)), np.empty((runs, n, 3)), np.zeros(runs, np.bool_))
+        return cls(np.empty((n, p, runs)), np.empty((n, 3, runs)), np.zeros(runs, np.bool_))
 
 
 def instrument_moments(
@@ -241,7 +242,7 @@ def instrument_moments(
         return None
     if not jitloop.loaded() or regkernel._program(sim_terms.terms) is None or regkernel._program(terms.terms) is None:
         return None
-    names, in_r = forces if isinstance(forces, tuple) else run_forces(profile, forces)
+    names, in_t = forces if isinstance(forces, tuple) else run_forces(profile, forces)
     sim, reg = (jitloop.program(t, names, jitloop.CALM_STATE) for t in (sim_terms, terms))
     if sim is None or reg is None:
         return None
@@ -251,7 +252,7 @@ def instrument_moments(
     data = data or DataRegressors.empty(y.shape[0], y.shape[1] - 1, p)
     same = all(np.array_equal(x, g) for x, g in zip(sim[2:], reg[2:]))
     _instrument_pass(
-        in_r,
+        in_t,
         np.ascontiguousarray(nu0, float),
         np.ascontiguousarray(coef, float),
         np.asarray(runs, np.int64),
@@ -279,24 +280,25 @@ def instrument_moments(
 
 
 def run_forces(profile: ShipProfile, inputs: np.ndarray) -> tuple[list[str], np.ndarray]:
-    """The input signals' names and values (B or 1, N, signals) of ``inputs`` (B or 1, N, m), a
-    run's contiguous (:func:`instrument_moments` reads them run by run)."""
+    """The input signals' names and values (N, signals, B or 1) of ``inputs`` (B or 1, N, m),
+    time-major (:func:`instrument_moments` steps a tile of runs together)."""
     forces = profile.generalized_forces(inputs)  # each (1 or B, N)
     shape = np.broadcast_shapes(*(np.shape(v) for v in forces.values()))
-    return list(forces), np.stack([np.broadcast_to(v, shape) for v in forces.values()], axis=-1)
+    return list(forces), np.stack([np.broadcast_to(v, shape).T for v in forces.values()], axis=1)
 
 
 # signals the calm-water pass provides (primitives.jitloop's layout): the velocities relative to
 # water and air are the velocities, U their modulus; wind terms read zeros
 Z_LIMIT = 1e6  # instruments above this come from an exploding simulation
+TILE = 32  # runs stepped together by the fused IV pass (their instruments kept for the moments: N x p x TILE)
 
 
 @jitloop.inlined
-def _factor_row(fv, sig, in_r, ib, k, u, v, r, speed, f_sig, f_mod, f_pow, f_sta):
+def _factor_row(fv, sig, in_t, ib, k, u, v, r, speed, f_sig, f_mod, f_pow, f_sta):
     """fv[f] = each factor f of the program at the calm-water signals of the velocities u, v, r
-    and the inputs of step k (regkernel._factor): evaluated once a step, read by every product."""
-    for i in range(in_r.shape[2]):
-        sig[jitloop.N_STATE + i] = in_r[ib, k, i]
+    and the inputs of step k of batch member ``ib`` (``in_t`` (N, S, B or 1)) (regkernel._factor)."""
+    for i in range(in_t.shape[1]):
+        sig[jitloop.N_STATE + i] = in_t[k, i, ib]
     sig[0], sig[1], sig[2], sig[3], sig[4], sig[5], sig[6] = u, v, r, u, v, u, v
     if speed:
         h = math.hypot(u, v)
@@ -322,7 +324,7 @@ def _regressor_row(out, k, fv, t_first, t_n):
 
 @jitloop.compiled
 def _instrument_pass(
-    in_r,
+    in_t,
     nu0,
     coef,
     runs,
@@ -343,8 +345,8 @@ def _instrument_pass(
     speed,
     same,
     y,
-    phi_all,
-    tgt_all,
+    phi_t,
+    tgt_t,
     have,
     dof,
     complete,
@@ -354,42 +356,161 @@ def _instrument_pass(
     norms,
     sane,
 ):
-    """:func:`instrument_moments`' pass: per run j (batch member ``runs[j]``) Phi and the target from
-    its y, the time loop of primitives.jitloop.time_loop in calm water (each term c_t * f_1 * f_2 ...
-    summed left to right per DOF, nu(k+1) = nu(k) + inc) with Z(k) at nu(k), then :func:`_run_moments`."""
-    n, p = y.shape[1] - 1, dof.shape[0]
-    sig = np.zeros(jitloop.N_STATE + in_r.shape[2])
-    fv, fs = np.empty(g_sig.shape[0]), np.empty(f_sig.shape[0])
-    z = np.empty((n, p))
-    inc = np.zeros(3)
-    zbar, zt = np.zeros(p), np.empty(p)
-    for j in range(runs.shape[0]):
+    """:func:`instrument_moments`' pass over tiles of TILE runs (``runs[j]``: batch member of run j),
+    the runs the inner loop of every stage: Phi and the target from y (once per run, kept
+    time-major in ``phi_t`` (N, p, B), ``tgt_t`` (N, 3, B)); the time loop of
+    primitives.jitloop.time_loop in calm water (each term c_t * f_1 * f_2 ... summed left to right
+    per DOF, nu(k+1) = nu(k) + inc) with Z(k) at nu(k) kept for the tile; then each run's sums of
+    :func:`_run_moments`, the same operations in the same order per run (so the same bits)."""
+    n, p, nf = y.shape[1] - 1, dof.shape[0], g_sig.shape[0]
+    one_in, one_coef = in_t.shape[2] == 1, coef.shape[1] == 1
+    sig = np.zeros(jitloop.N_STATE + in_t.shape[1])
+    fv1 = np.empty(nf)
+    row = np.empty((n, p))
+    for j in range(runs.shape[0]):  # the data's regressors and targets, once per run for all its passes
         b = runs[j]
-        ib = b if in_r.shape[0] > 1 else 0
-        cj = j if coef.shape[1] > 1 else 0
-        phi, tgt = phi_all[b], tgt_all[b]
-        if not have[b]:  # the data's regressors and targets, once per run for all its passes
-            for k in range(n):
-                _factor_row(fv, sig, in_r, ib, k, y[b, k, 0], y[b, k, 1], y[b, k, 2], speed, g_sig, g_mod, g_pow, g_sta)
-                _regressor_row(phi, k, fv, r_first, r_n)
-                for i in range(3):
-                    tgt[k, i] = y[b, k + 1, i] - y[b, k, i]
-            have[b] = True
-        u, v, r = nu0[b, 0], nu0[b, 1], nu0[b, 2]
-        worst = 0.0
+        if have[b]:
+            continue
         for k in range(n):
-            _factor_row(fv, sig, in_r, ib, k, u, v, r, speed, g_sig, g_mod, g_pow, g_sta)
-            worst = max(worst, _regressor_row(z, k, fv, r_first, r_n))
-            if not same:  # the simulated model's own factors at the same signals
-                for f in range(f_sig.shape[0]):
-                    fs[f] = regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
+            _factor_row(
+                fv1, sig, in_t, 0 if one_in else b, k, y[b, k, 0], y[b, k, 1], y[b, k, 2], speed, g_sig, g_mod, g_pow, g_sta
+            )
+            _regressor_row(row, k, fv1, r_first, r_n)
+            for q in range(p):
+                phi_t[k, q, b] = row[k, q]
             for i in range(3):
-                inc[i] = 0.0
-                for t in range(dof_first[i], dof_first[i] + dof_n[i]):
-                    acc = coef[t, cj]
-                    for f in range(t_first[t], t_first[t] + t_n[t]):
-                        acc = acc * (fv[f] if same else fs[f])
-                    inc[i] = acc if t == dof_first[i] else inc[i] + acc
-            u, v, r = u + inc[0], v + inc[1], r + inc[2]
-        sane[j] = worst < z_limit
-        _run_moments(z, phi, tgt, dof, complete, a[j], rhs[j], norms, j, zbar, zt)
+                tgt_t[k, i, b] = y[b, k + 1, i] - y[b, k, i]
+        have[b] = True
+    lo, hi = np.empty(p, np.int64), np.empty(p, np.int64)  # each parameter's DOF block [lo, hi): dof is sorted
+    for q in range(p):
+        lo[q], hi[q] = q, q + 1
+        while lo[q] > 0 and dof[lo[q] - 1] == dof[q]:
+            lo[q] -= 1
+        while hi[q] < p and dof[hi[q]] == dof[q]:
+            hi[q] += 1
+    m = TILE
+    st = np.empty((jitloop.N_STATE + in_t.shape[1], m))
+    x = np.empty((3, m))
+    fv, fs = np.empty((nf, m)), np.empty((max(nf, f_sig.shape[0]), m))
+    ph_t, tg_t = np.empty((n, p, m)), np.empty((n, 3, m))  # the tile's data regressors and targets, contiguous
+    z = np.empty((n, p, m))
+    acc, inc = np.empty(m), np.empty((3, m))
+    worst, zbar, zt = np.empty(m), np.empty((p, m)), np.empty((p, m))
+    at, rt, nt = np.empty((p, p, m)), np.empty((p, m)), np.empty((3, p, m))
+    bs = np.empty(m, np.int64)
+    for j0 in range(0, runs.shape[0], m):
+        tl = min(m, runs.shape[0] - j0)
+        for t in range(tl):
+            bs[t] = runs[j0 + t]
+            for i in range(3):
+                x[i, t] = nu0[bs[t], i]
+            worst[t] = 0.0
+        for k in range(n):
+            _tile_signals(st, x, in_t, bs, one_in, k, speed, tl)
+            _tile_factors(fv, st, g_sig, g_mod, g_pow, g_sta, tl)
+            for q in range(p):
+                for t in range(tl):
+                    acc[t] = 1.0
+                for f in range(r_first[q], r_first[q] + r_n[q]):
+                    for t in range(tl):
+                        acc[t] = acc[t] * fv[f, t]
+                for t in range(tl):
+                    v = acc[t]
+                    z[k, q, t] = v
+                    if not abs(v) <= worst[t]:  # NaN too
+                        worst[t] = abs(v) if v == v else math.inf
+            if same:
+                fs[:, :tl] = fv[:, :tl]
+            else:  # the simulated model's own factors at the same signals
+                _tile_factors(fs, st, f_sig, f_mod, f_pow, f_sta, tl)
+            for i in range(3):
+                for t in range(tl):
+                    inc[i, t] = 0.0
+                for q in range(dof_first[i], dof_first[i] + dof_n[i]):
+                    for t in range(tl):
+                        acc[t] = coef[q, 0 if one_coef else j0 + t]
+                    for f in range(t_first[q], t_first[q] + t_n[q]):
+                        for t in range(tl):
+                            acc[t] = acc[t] * fs[f, t]
+                    for t in range(tl):
+                        inc[i, t] = acc[t] if q == dof_first[i] else inc[i, t] + acc[t]
+            for i in range(3):
+                for t in range(tl):
+                    x[i, t] = x[i, t] + inc[i, t]
+        for t in range(tl):
+            sane[j0 + t] = worst[t] < z_limit
+        for k in range(n):
+            for q in range(p):
+                for t in range(tl):
+                    ph_t[k, q, t] = phi_t[k, q, bs[t]]
+            for i in range(3):
+                for t in range(tl):
+                    tg_t[k, i, t] = tgt_t[k, i, bs[t]]
+        zbar[:] = 0.0
+        if complete:
+            for k in range(n):
+                for q in range(p):
+                    for t in range(tl):
+                        zbar[q, t] += z[k, q, t]
+            for q in range(p):
+                for t in range(tl):
+                    zbar[q, t] = zbar[q, t] / n
+        at[:] = 0.0
+        rt[:] = 0.0
+        nt[:] = 0.0
+        for k in range(n):
+            for q in range(p):
+                dq = dof[q]
+                for t in range(tl):
+                    zq = z[k, q, t]
+                    e = zq - zbar[q, t]
+                    zt[q, t] = e
+                    ph = ph_t[k, q, t]
+                    nt[0, q, t] += e * e
+                    nt[1, q, t] += ph * ph
+                    nt[2, q, t] += zq * zq
+                    rt[q, t] += e * tg_t[k, dq, t]
+            for q in range(p):
+                for r in range(lo[q], hi[q]):
+                    for t in range(tl):
+                        at[q, r, t] += zt[q, t] * ph_t[k, r, t]
+        for t in range(tl):
+            j = j0 + t
+            for q in range(p):
+                rhs[j, q] = rt[q, t]
+                for i in range(3):
+                    norms[i, j, q] = nt[i, q, t]
+                for r in range(p):
+                    a[j, q, r] = at[q, r, t]
+
+
+@jitloop.inlined
+def _tile_signals(st, x, in_t, bs, one_in, k, speed, tl):
+    """The calm-water signals (S, TILE) of the tile's states x (3, TILE) and inputs at step k."""
+    for i in range(in_t.shape[1]):
+        for t in range(tl):
+            st[jitloop.N_STATE + i, t] = in_t[k, i, 0 if one_in else bs[t]]
+    for t in range(tl):
+        u, v = x[0, t], x[1, t]
+        st[0, t], st[1, t], st[2, t], st[3, t], st[4, t], st[5, t], st[6, t] = u, v, x[2, t], u, v, u, v
+    if speed:
+        for t in range(tl):
+            h = math.hypot(x[0, t], x[1, t])
+            st[7, t] = MIN_SPEED if h < MIN_SPEED else h  # NaN stays NaN, as in np.maximum
+
+
+@jitloop.inlined
+def _tile_factors(fv, st, f_sig, f_mod, f_pow, f_sta, tl):
+    """fv[f, t] = regkernel._factor of each factor f of a program for the tile's members t."""
+    for f in range(f_sig.shape[0]):
+        i = f_sig[f]
+        if math.isnan(f_sta[f]) and f_pow[f] == 1:  # the common factors, as loops without branches (they vectorise)
+            if f_mod[f]:
+                for t in range(tl):
+                    fv[f, t] = abs(st[i, t])
+            else:
+                for t in range(tl):
+                    fv[f, t] = st[i, t]
+            continue
+        for t in range(tl):
+            fv[f, t] = regkernel._factor(st[i, t], st[2, t], f_sta[f], f_mod[f], f_pow[f])
