@@ -141,19 +141,27 @@ def solve_moments(terms: TermSet, a: np.ndarray, rhs: np.ndarray, norms: np.ndar
 
 
 @jitloop.inlined
-def _run_moments(z, phi_b, tgt_b, dof, complete, a_b, rhs_b, norms, j, zbar, zt):
-    """One run's sums over its samples (z, phi_b (N, p), tgt_b (N, 3)) into a_b (p, p), rhs_b (p,)
-    and norms[:, j]: A[q, r] = sum_k Z~(k, q) Phi(k, r) within a DOF's block, rhs[q] =
-    sum_k Z~(k, q) tgt(k, dof q), the squared column norms of Z~, Phi and Z; Z~ = Z less its
-    mean over the samples when ``complete``."""
-    n, p = phi_b.shape
-    lo, hi = np.empty(p, np.int64), np.empty(p, np.int64)  # each parameter's DOF block [lo, hi): dof is sorted
+def _blocks(dof):
+    """Each parameter's DOF block [lo, hi) of the sorted parameter DOFs ``dof`` (p,)."""
+    p = dof.shape[0]
+    lo, hi = np.empty(p, np.int64), np.empty(p, np.int64)
     for q in range(p):
         lo[q], hi[q] = q, q + 1
         while lo[q] > 0 and dof[lo[q] - 1] == dof[q]:
             lo[q] -= 1
         while hi[q] < p and dof[hi[q]] == dof[q]:
             hi[q] += 1
+    return lo, hi
+
+
+@jitloop.inlined
+def _run_moments(z, phi_b, tgt_b, dof, complete, a_b, rhs_b, norms, j, zbar, zt):
+    """One run's sums over its samples (z, phi_b (N, p), tgt_b (N, 3)) into a_b (p, p), rhs_b (p,)
+    and norms[:, j]: A[q, r] = sum_k Z~(k, q) Phi(k, r) within a DOF's block, rhs[q] =
+    sum_k Z~(k, q) tgt(k, dof q), the squared column norms of Z~, Phi and Z; Z~ = Z less its
+    mean over the samples when ``complete``."""
+    n, p = phi_b.shape
+    lo, hi = _blocks(dof)
     zbar[:] = 0.0
     if complete:
         for k in range(n):
@@ -381,13 +389,7 @@ def _instrument_pass(
             for i in range(3):
                 tgt_t[k, i, b] = y[b, k + 1, i] - y[b, k, i]
         have[b] = True
-    lo, hi = np.empty(p, np.int64), np.empty(p, np.int64)  # each parameter's DOF block [lo, hi): dof is sorted
-    for q in range(p):
-        lo[q], hi[q] = q, q + 1
-        while lo[q] > 0 and dof[lo[q] - 1] == dof[q]:
-            lo[q] -= 1
-        while hi[q] < p and dof[hi[q]] == dof[q]:
-            hi[q] += 1
+    lo, hi = _blocks(dof)
     m = TILE
     st = np.empty((jitloop.N_STATE + in_t.shape[1], m))
     x = np.empty((3, m))
