@@ -42,12 +42,12 @@ from typing import Any
 
 import numpy as np
 
-from expdesign import oekernel
 from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
 from expdesign.ivsolve import Z_LIMIT, DataRegressors, instrument_moments, iv_estimates, run_forces
 from expdesign.ivsolve import solve_moments as iv_moments_solve
 from expdesign.mc_result import MCResult, merge_results
+from expdesign.mc_validation import scored, validate, validation_input
 from expdesign.rounding import efficient_rounding
 from primitives import jitloop
 from primitives.information import MEAN_SUBTRACTION
@@ -62,7 +62,6 @@ PROTOCOLS = ("continuous", "piecewise")
 ORDERS = ("library", "given", "random")
 ESTIMATORS = ("oe", "iv")
 MAX_CHUNK = 250  # runs per batch: bounds memory; 250 measured 8 % less CPU a run than 500 (cache), 125 no better
-_EXPLODE = 100.0  # a validation output this many times the true one's maximum has diverged
 # Smallest value of each integer setting of MCConfig (min_block: a sub-experiment needs two samples for one increment)
 _MINIMA = (("n_segments", 1), ("min_block", 2), ("settle", 0), ("iv_iterations", 0), ("oe_iterations", 1))
 
@@ -133,34 +132,6 @@ class MCShared:
     val_true: np.ndarray
     notes: dict[str, list[str]] = field(default_factory=dict)
     oe_unsupported: str | None = None
-
-
-def validation_input(profile: ShipProfile, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Seeded cross-validation input unlike any primitive: multisine surge speed, a smoothed
-    random binary sway and a multisine yaw rate reference, turned into feed-forward forces.
-    Returns (inputs (n, m), nu0 (3,))."""
-    rng = np.random.default_rng([seed, 0x5EED])
-    t = np.arange(n) / n
-    c, L = profile.cruise_speed_mps, profile.length_m
-
-    def multisine(k: int) -> np.ndarray:
-        f = rng.choice(np.arange(2, 12), k, replace=False)
-        ph = rng.uniform(0, 2 * np.pi, k)
-        s = np.sum(np.sin(2 * np.pi * f[:, None] * t + ph[:, None]), axis=0)
-        return s / np.abs(s).max()
-
-    if profile.actuator == "rudder_propeller":  # no force allocation: the same idea in helm terms
-        from primitives.helm import validation_inputs
-
-        return validation_inputs(profile, multisine)
-
-    prbs = np.repeat(rng.choice([-1.0, 1.0], n // 50 + 1), 50)[:n]
-    prbs = np.convolve(prbs, np.ones(15) / 15, mode="same")
-    u = c * (0.7 + 0.3 * multisine(3))
-    v = 0.1 * c * prbs
-    r = 0.3 * c / L * multisine(3)
-    forces = np.array([steady_forces(profile, a, b, g) for a, b, g in zip(u, v, r)])
-    return profile.allocate(forces[:, 0], forces[:, 1], forces[:, 2]), np.array([u[0], v[0], r[0]])
 
 
 def block_lengths(weights: Mapping[str, float], n_samples: int, min_block: int) -> tuple[list[tuple[str, int]], list[str]]:
@@ -475,66 +446,6 @@ def _estimate_fused(sh: MCShared, seg: _Seg) -> np.ndarray:
     return _iterate(first, cfg.iv_iterations, lambda idx, theta: solve(sh.predictor, theta[idx].T, idx))
 
 
-def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Validation RMSE per DOF (B, 3) of the estimated models against the noise-free true
-    output, and the diverged flags (B,)."""
-    b = theta.shape[0]
-    finite = np.isfinite(theta).all(axis=1)
-    th = np.where(finite[:, None], theta, 0.0)
-    bound = _EXPLODE * np.abs(sh.val_true).max()
-    rmse = np.full((b, 3), np.inf)
-    val = OEData(sh.val_inputs[None], np.broadcast_to(sh.val_nu0, (b, 3)), sh.val_true[None])
-    calm = oekernel.calm_runs(sh.profile, sh.predictor, [val])
-    if calm is not None:  # time-major, compiled: the same simulation, sums in the same order
-        sim_t = oekernel.simulate(calm, th, np.arange(b))[0]
-        with np.errstate(invalid="ignore"):
-            diverged = ~finite | ~(np.abs(sim_t) <= bound).all(axis=(0, 1))  # NaN and inf too
-        good = np.flatnonzero(~diverged)
-        sums, _ = oekernel.squared_errors(calm.y_t[0], sim_t[:, :, good], np.zeros(len(good)), 0, np.inf)
-        rmse[good] = np.sqrt(sums / sim_t.shape[0])
-        return rmse, diverged
-    with np.errstate(all="ignore"):
-        sim = simulate(sh.profile, sh.val_inputs, th, terms=sh.predictor, nu0=sh.val_nu0, batch=b, positions=False).nu
-    with np.errstate(invalid="ignore"):
-        diverged = ~finite | ~(np.abs(sim) <= bound).all(axis=(1, 2))  # NaN and inf too
-    good = np.flatnonzero(~diverged)
-    rmse[good] = np.sqrt(np.mean((sim[good] - sh.val_true) ** 2, axis=1))  # per run over the samples in order
-    return rmse, diverged
-
-
-def _scored(
-    sh: MCShared,
-    design: str,
-    ids: list[int],
-    theta: np.ndarray,
-    estimator: str,
-    notes: list[str],
-    validation: tuple[np.ndarray, np.ndarray] | None = None,
-) -> MCResult:
-    """Validation and parameter errors of the estimates ``theta`` of runs ``ids`` (``validation``:
-    their :func:`_validate` result when already computed)."""
-    sim_rmse, diverged = _validate(sh, theta) if validation is None else validation
-    prm = np.full(len(ids), np.nan)
-    if sh.theta0 is not None:
-        for i in range(len(ids)):
-            with np.errstate(all="ignore"):
-                e = (theta[i] - sh.theta0) / np.abs(sh.theta0)
-                prm[i] = np.sqrt(np.mean(e * e)) if np.isfinite(e).all() else np.inf
-    return MCResult(
-        design,
-        np.array(ids, dtype=np.int64),
-        theta,
-        prm,
-        sim_rmse,
-        diverged,
-        sh.config.runs,
-        sh.param_names,
-        sh.theta0,
-        notes,
-        estimator,
-    )
-
-
 def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     """Runs ``run_ids`` of one design; each run's numbers depend only on (seed, run index). With
     the output-error estimator the IV estimate it starts from (the thesis's estimator) is scored
@@ -560,16 +471,16 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     if any(sh.dist.process_std):
         notes.append("process noise of the disturbances is not simulated in the Monte Carlo study")
     if cfg.estimator == "iv":
-        return _scored(sh, design, ids, theta, "iv", notes)
+        return scored(sh, design, ids, theta, "iv", notes)
     if sh.oe_unsupported:
-        return _scored(sh, design, ids, theta, "iv", notes + [f"{sh.oe_unsupported}: the IV estimate is reported unrefined"])
+        return scored(sh, design, ids, theta, "iv", notes + [f"{sh.oe_unsupported}: the IV estimate is reported unrefined"])
     oe = output_error(
         sh.profile, [OEData(s.inputs, s.nu0, s.y) for s in segs], theta, terms=sh.predictor, max_iter=cfg.oe_iterations
     )
     b = len(ids)
-    val = _validate(sh, np.concatenate([oe.theta, theta]))  # one simulation loop for both; elementwise, so no change
-    result = _scored(sh, design, ids, oe.theta, "oe", notes, (val[0][:b], val[1][:b]))
-    result.reference = _scored(sh, design, ids, theta, "iv", list(notes), (val[0][b:], val[1][b:]))
+    val = validate(sh, np.concatenate([oe.theta, theta]))  # one simulation loop for both; elementwise, so no change
+    result = scored(sh, design, ids, oe.theta, "oe", notes, (val[0][:b], val[1][:b]))
+    result.reference = scored(sh, design, ids, theta, "iv", list(notes), (val[0][b:], val[1][b:]))
     return result
 
 
