@@ -138,3 +138,7 @@ def test_a_runs_noise_is_its_own_generators_draws_in_the_documented_order(ship):
         head = g.normal(0.0, 1.0, n + 1) * d.heading_std
         for a, b in zip(got, (cur, wind, meas, head)):
             assert np.array_equal(a[j], b)
+    # the stream itself, pinned (numpy's PCG64 and ziggurat normals, today's digests): run 7's first
+    # current, last wind, first measurement and last heading sample
+    assert (got[0][1, 0, 0], got[1][1, -1, 1]) == (0.4054462279281199, 0.10364829442865264)
+    assert (got[2][1, 0, 0], got[3][1, -1]) == (0.009908271968889283, -0.0018091617912908292)
