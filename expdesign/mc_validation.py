@@ -65,7 +65,7 @@ def validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         with np.errstate(invalid="ignore"):
             diverged = ~finite | ~(np.abs(sim_t) <= bound).all(axis=(0, 1))  # NaN and inf too
         good = np.flatnonzero(~diverged)
-        sums, _ = oekernel.squared_errors(calm.y_t[0], sim_t[:, :, good], np.zeros(len(good)), 0, np.inf)
+        sums, _ = oekernel.squared_errors(calm.y_t[0], sim_t[:, :, good], np.zeros(len(good), np.int64), 0, np.inf)
         rmse[good] = np.sqrt(sums / sim_t.shape[0])
         return rmse, diverged
     with np.errstate(all="ignore"):

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from expdesign import montecarlo as mc
+from expdesign.ivsolve import TILE
 from primitives import jitloop
 from primitives.library import model_ship_thesis
 from primitives.ship import load_profile
@@ -26,7 +27,7 @@ def ship():
     return p, model_ship_thesis(p)
 
 
-def _digests(ship, monkeypatch, fused: bool, **kw) -> dict[str, str]:
+def _digests(ship, monkeypatch, fused: bool, runs: int = 12, **kw) -> dict[str, str]:
     p, lib = ship
     real = mc._fused
     calls = []
@@ -36,7 +37,7 @@ def _digests(ship, monkeypatch, fused: bool, **kw) -> dict[str, str]:
         return fused and calls[-1]
 
     monkeypatch.setattr(mc, "_fused", chosen)
-    res = mc.evaluate_designs(p, DESIGNS, runs=12, seed=3, n_samples=300, primitives=lib, **kw)
+    res = mc.evaluate_designs(p, DESIGNS, runs=runs, seed=3, n_samples=300, primitives=lib, **kw)
     monkeypatch.setattr(mc, "_fused", real)
     assert all(calls), "the model ship's Monte Carlo must take the fused pass when numba is loaded"
     out = {k: r.digest() for k, r in res.items()}
@@ -45,7 +46,14 @@ def _digests(ship, monkeypatch, fused: bool, **kw) -> dict[str, str]:
 
 
 @pytest.mark.parametrize(
-    "kw", [dict(estimator="iv"), dict(estimator="iv", mean_subtraction="none"), dict(estimator="oe")], ids=str
+    "kw",
+    [
+        dict(estimator="iv"),
+        dict(estimator="iv", mean_subtraction="none"),
+        dict(estimator="oe"),
+        dict(estimator="iv", runs=TILE + 9),  # a full tile of runs stepped together and a partial one
+    ],
+    ids=str,
 )
 def test_fused_pass_gives_the_unfused_bits(ship, monkeypatch, kw):
     jitloop.use(jitloop.MIN_WORK)
@@ -134,7 +142,7 @@ def test_models_the_fused_pass_cannot_hold_take_the_unfused_path(ship):
 def test_fused_pass_gives_each_run_its_own_numbers_across_tiles(ship):
     """Runs stepped together in tiles (ivsolve.TILE, the last one partial, a subset in any order)
     get the moments and sanity each gets alone, with the data regressors built by an earlier pass."""
-    from expdesign.ivsolve import TILE, DataRegressors, instrument_moments
+    from expdesign.ivsolve import DataRegressors, instrument_moments
 
     p, _ = ship
     jitloop.use(jitloop.MIN_WORK)
