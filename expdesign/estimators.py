@@ -304,15 +304,6 @@ def _state_jacobian(profile: ShipProfile, terms, nu: np.ndarray, psi: np.ndarray
     return jac
 
 
-def _gauss_newton_moments(
-    profile: ShipProfile, terms, data: Sequence[OEData], sims, theta: np.ndarray, idx: np.ndarray, w: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """H and g of :func:`_gauss_newton_moments_numpy`, in one compiled pass when it applies
-    (:func:`expdesign.oekernel.moments`: the same numbers but for the order of the sums)."""
-    fused = oekernel.moments(profile, terms, data, sims, theta, idx, w, _FD_STEP)
-    return fused if fused is not None else _gauss_newton_moments_numpy(profile, terms, data, sims, theta, idx, w)
-
-
 def _gauss_newton_moments_numpy(
     profile: ShipProfile, terms, data: Sequence[OEData], sims, theta: np.ndarray, idx: np.ndarray, w: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -388,21 +379,51 @@ def _cost(ms: np.ndarray, w: np.ndarray, valid: np.ndarray, n: int) -> np.ndarra
     return np.where(good, n * _weighted(np.where(good[:, None], ms, 0.0), w), np.inf)
 
 
-def _start(
-    profile: ShipProfile, terms: TermSet, data: Sequence[OEData], theta: np.ndarray, n: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
+class _Sims:
+    """The output-error iterations' simulations, their mean squares and Gauss-Newton moments:
+    on the compiled path (:func:`expdesign.oekernel.calm_runs`) time-major outputs passed between
+    compiled passes, else the numpy functions on (nu, psi) batch-major pairs; the same numbers
+    either way but for the moments' order of sums (:mod:`expdesign.oekernel`)."""
+
+    def __init__(self, profile: ShipProfile, terms: TermSet, data: Sequence[OEData], compiled: bool = True):
+        self.profile, self.terms, self.data = profile, terms, data
+        self.calm = oekernel.calm_runs(profile, terms, data) if compiled else None
+
+    def simulate(self, theta: np.ndarray, idx: np.ndarray) -> list:
+        if self.calm is not None:
+            return oekernel.simulate(self.calm, theta, idx)
+        return _simulated(self.profile, self.terms, self.data, theta, idx)
+
+    def mean_squares(self, sims: list, idx: np.ndarray) -> np.ndarray:
+        if self.calm is not None:
+            return oekernel.mean_squares(self.calm, sims, idx, _OE_EXPLODE)
+        return _mean_squares(self.data, sims, idx)
+
+    def moments(self, sims: list, theta: np.ndarray, idx: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.calm is not None:
+            return oekernel.moments_t(self.calm, sims, theta, idx, w, _FD_STEP)
+        return _gauss_newton_moments_numpy(self.profile, self.terms, self.data, sims, theta, idx, w)
+
+    def select(self, sims: list, keep: np.ndarray) -> list:
+        """The simulations of the runs where ``keep`` (over the runs simulated) is True."""
+        if self.calm is not None:
+            return [np.compress(keep, nu, axis=2) for nu in sims]
+        return [(nu[keep], psi[keep]) for nu, psi in sims]
+
+
+def _start(sim: _Sims, theta: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
     """At the start estimate: which runs simulate (ok (B,)), the fixed weights w = 1/sigma_i^2
     from their residuals (B, 3), the cost (B,) and the simulated outputs of the ok runs."""
     bsz = theta.shape[0]
     finite = np.flatnonzero(np.isfinite(theta).all(axis=1))
     ms = np.full((bsz, 3), np.inf)
-    sims = _simulated(profile, terms, data, theta, finite)
-    ms[finite] = _mean_squares(data, sims, finite)
+    sims = sim.simulate(theta, finite)
+    ms[finite] = sim.mean_squares(sims, finite)
     ok = np.isfinite(ms).all(axis=1)
     w = np.ones((bsz, 3))
     w[ok] = 1.0 / np.maximum(ms[ok], _WEIGHT_FLOOR * ms[ok].max(axis=1, keepdims=True) + 1e-300)
     cost = _cost(ms, w, ok, n)
-    return ok, w, cost, [(nu[ok[finite]], psi[ok[finite]]) for nu, psi in sims]
+    return ok, w, cost, sim.select(sims, ok[finite])
 
 
 def _decrement(step: np.ndarray, grad: np.ndarray) -> np.ndarray:
@@ -452,7 +473,8 @@ def output_error(
     theta = np.array(theta_start, float)
     bsz, p = theta.shape
     n = sum(d.y.shape[1] - 1 for d in data)
-    ok, w, cost, cur = _start(profile, terms, data, theta, n)
+    sim = _Sims(profile, terms, data)
+    ok, w, cost, cur = _start(sim, theta, n)
     cost_start = cost.copy()
     active = ok.copy()
     iters = np.zeros(bsz, dtype=np.int64)
@@ -462,7 +484,7 @@ def output_error(
     fresh = np.flatnonzero(active)  # runs whose moments need computing at their current theta
     while True:
         if fresh.size:
-            hess[fresh], grad[fresh] = _gauss_newton_moments(profile, terms, data, cur, theta, fresh, w)
+            hess[fresh], grad[fresh] = sim.moments(cur, theta, fresh, w)
         idx = np.flatnonzero(active & (iters < max_iter))
         step = _lm_steps(hess[idx], grad[idx], lam[idx])
         decrement = _decrement(step, grad[idx])
@@ -474,8 +496,8 @@ def output_error(
             break
         cand = theta.copy()
         cand[idx] += step
-        csims = _simulated(profile, terms, data, cand, idx)
-        ccost = _cost(_mean_squares(data, csims, idx), w[idx], np.isfinite(step).all(axis=1), n)
+        csims = sim.simulate(cand, idx)
+        ccost = _cost(sim.mean_squares(csims, idx), w[idx], np.isfinite(step).all(axis=1), n)
         iters[idx] += 1
         better = ccost < cost[idx]
         theta[idx[better]], cost[idx[better]] = cand[idx[better]], ccost[better]
@@ -484,5 +506,5 @@ def output_error(
         rej = idx[~better]
         lam[rej] *= _LM_FACTOR
         active[rej[lam[rej] > _LM_MAX]] = False
-        cur = [(nu[np.isin(idx, fresh)], psi[np.isin(idx, fresh)]) for nu, psi in csims]
+        cur = sim.select(csims, np.isin(idx, fresh))
     return OEResult(theta, cost_start, cost, iters, converged)

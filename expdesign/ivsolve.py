@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -140,19 +141,27 @@ def solve_moments(terms: TermSet, a: np.ndarray, rhs: np.ndarray, norms: np.ndar
 
 
 @jitloop.inlined
-def _run_moments(z, phi_b, tgt_b, dof, complete, a_b, rhs_b, norms, j, zbar, zt):
-    """One run's sums over its samples (z, phi_b (N, p), tgt_b (N, 3)) into a_b (p, p), rhs_b (p,)
-    and norms[:, j]: A[q, r] = sum_k Z~(k, q) Phi(k, r) within a DOF's block, rhs[q] =
-    sum_k Z~(k, q) tgt(k, dof q), the squared column norms of Z~, Phi and Z; Z~ = Z less its
-    mean over the samples when ``complete``."""
-    n, p = phi_b.shape
-    lo, hi = np.empty(p, np.int64), np.empty(p, np.int64)  # each parameter's DOF block [lo, hi): dof is sorted
+def _blocks(dof):
+    """Each parameter's DOF block [lo, hi) of the sorted parameter DOFs ``dof`` (p,)."""
+    p = dof.shape[0]
+    lo, hi = np.empty(p, np.int64), np.empty(p, np.int64)
     for q in range(p):
         lo[q], hi[q] = q, q + 1
         while lo[q] > 0 and dof[lo[q] - 1] == dof[q]:
             lo[q] -= 1
         while hi[q] < p and dof[hi[q]] == dof[q]:
             hi[q] += 1
+    return lo, hi
+
+
+@jitloop.inlined
+def _run_moments(z, phi_b, tgt_b, dof, complete, a_b, rhs_b, norms, j, zbar, zt):
+    """One run's sums over its samples (z, phi_b (N, p), tgt_b (N, 3)) into a_b (p, p), rhs_b (p,)
+    and norms[:, j]: A[q, r] = sum_k Z~(k, q) Phi(k, r) within a DOF's block, rhs[q] =
+    sum_k Z~(k, q) tgt(k, dof q), the squared column norms of Z~, Phi and Z; Z~ = Z less its
+    mean over the samples when ``complete``."""
+    n, p = phi_b.shape
+    lo, hi = _blocks(dof)
     zbar[:] = 0.0
     if complete:
         for k in range(n):
@@ -188,6 +197,21 @@ def _moments_pass(phi, z, tgt, dof, complete):
     return a, rhs, norms
 
 
+@dataclass
+class DataRegressors:
+    """Each run's regressors Phi (N, p, B) and targets (N, 3, B) from its measured velocities,
+    time-major, made by the first :func:`instrument_moments` pass over the run (``have`` (B,)) and
+    read by the next."""
+
+    phi: np.ndarray
+    tgt: np.ndarray
+    have: np.ndarray
+
+    @classmethod
+    def empty(cls, runs: int, n: int, p: int) -> DataRegressors:
+        return cls(np.empty((n, p, runs)), np.empty((n, 3, runs)), np.zeros(runs, np.bool_))
+
+
 def instrument_moments(
     profile: ShipProfile,
     sim_terms: TermSet,
@@ -198,10 +222,11 @@ def instrument_moments(
     runs: np.ndarray,
     y: np.ndarray,
     mean_subtraction: str,
+    data: DataRegressors | None = None,
 ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None:
     """The IV moments of the runs ``runs`` from their measured velocities, with their instruments
-    simulated, in one compiled pass run by run that stores neither the regressors nor the
-    instruments: ((A, rhs, norms) as :func:`_moments_pass` gives them, sane (len(runs),): every
+    simulated, in one compiled pass run by run that stores no instrument array (the data's
+    regressors only, see ``data``): ((A, rhs, norms) as :func:`_moments_pass` gives them, sane (len(runs),): every
     instrument finite and below ``Z_LIMIT`` in magnitude).
 
     Phi(k) are the regressors of ``terms`` (the predictor (9.2), Ljungberg (2022)) at the measured
@@ -215,20 +240,27 @@ def instrument_moments(
     bits (but a term reading the speed U: the C library's hypot against numpy's, a last-bit
     difference). None where the pass does not apply (no numba loaded, pods, roll, rigid body,
     heading terms, powers other than 1, 2, -1, the mean removed per block): the caller takes the
-    unfused path. Wind terms read calm air, as the unfused path's regressors without a wind."""
+    unfused path. Wind terms read calm air, as the unfused path's regressors without a wind.
+
+    ``data`` (:class:`DataRegressors` of ``y``) keeps each run's Phi and target from its first
+    pass for the next passes over the same runs (the IV iterations): the same numbers, built once.
+    Where ``sim_terms`` are ``terms`` (the iterations) each factor is evaluated once a step for
+    both Z and the increments (the same values, so the same products)."""
     if mean_subtraction == "batchwise" or profile.pods or profile.n_dof != 3 or profile.rigid_body is not None:
         return None
     if not jitloop.loaded() or regkernel._program(sim_terms.terms) is None or regkernel._program(terms.terms) is None:
         return None
-    names, in_r = forces if isinstance(forces, tuple) else run_forces(profile, forces)
+    names, in_t = forces if isinstance(forces, tuple) else run_forces(profile, forces)
     sim, reg = (jitloop.program(t, names, jitloop.CALM_STATE) for t in (sim_terms, terms))
     if sim is None or reg is None:
         return None
     n_runs, p = len(runs), terms.n_params
     a, rhs, norms, sane = np.zeros((n_runs, p, p)), np.zeros((n_runs, p)), np.zeros((3, n_runs, p)), np.zeros(n_runs, np.bool_)
     speed = SPEED in signals_read(sim_terms) or SPEED in signals_read(terms)
+    data = data or DataRegressors.empty(y.shape[0], y.shape[1] - 1, p)
+    same = sim_terms.terms == terms.terms  # one program (array_equal would never hold: no station is NaN)
     _instrument_pass(
-        in_r,
+        in_t,
         np.ascontiguousarray(nu0, float),
         np.ascontiguousarray(coef, float),
         np.asarray(runs, np.int64),
@@ -239,7 +271,11 @@ def instrument_moments(
         reg[7],
         reg[6],
         speed,
+        same,
         np.ascontiguousarray(y, float),
+        data.phi,
+        data.tgt,
+        data.have,
         _dof_of(terms),
         mean_subtraction == "complete",
         Z_LIMIT,
@@ -252,33 +288,42 @@ def instrument_moments(
 
 
 def run_forces(profile: ShipProfile, inputs: np.ndarray) -> tuple[list[str], np.ndarray]:
-    """The input signals' names and values (B or 1, N, signals) of ``inputs`` (B or 1, N, m), a
-    run's contiguous (:func:`instrument_moments` reads them run by run)."""
+    """The input signals' names and values (N, signals, B or 1) of ``inputs`` (B or 1, N, m),
+    time-major (:func:`instrument_moments` steps a tile of runs together)."""
     forces = profile.generalized_forces(inputs)  # each (1 or B, N)
     shape = np.broadcast_shapes(*(np.shape(v) for v in forces.values()))
-    return list(forces), np.stack([np.broadcast_to(v, shape) for v in forces.values()], axis=-1)
+    return list(forces), np.stack([np.broadcast_to(v, shape).T for v in forces.values()], axis=1)
 
 
 # signals the calm-water pass provides (primitives.jitloop's layout): the velocities relative to
 # water and air are the velocities, U their modulus; wind terms read zeros
 Z_LIMIT = 1e6  # instruments above this come from an exploding simulation
+TILE = 32  # runs stepped together by the fused IV pass (their instruments kept for the moments: N x p x TILE)
 
 
 @jitloop.inlined
-def _regressor_row(out, k, sig, in_r, ib, u, v, r, speed, t_first, t_n, f_sig, f_mod, f_pow, f_sta):
-    """out[k, t] = 1.0 * f_1 * f_2 ... of each term t (regkernel._build's product) at the calm-water
-    signals of the velocities u, v, r and the inputs of step k; the largest magnitude of the row."""
-    for i in range(in_r.shape[2]):
-        sig[jitloop.N_STATE + i] = in_r[ib, k, i]
+def _factor_row(fv, sig, in_t, ib, k, u, v, r, speed, f_sig, f_mod, f_pow, f_sta):
+    """fv[f] = each factor f of the program at the calm-water signals of the velocities u, v, r
+    and the inputs of step k of batch member ``ib`` (``in_t`` (N, S, B or 1)) (regkernel._factor)."""
+    for i in range(in_t.shape[1]):
+        sig[jitloop.N_STATE + i] = in_t[k, i, ib]
     sig[0], sig[1], sig[2], sig[3], sig[4], sig[5], sig[6] = u, v, r, u, v, u, v
     if speed:
         h = math.hypot(u, v)
         sig[7] = MIN_SPEED if h < MIN_SPEED else h  # NaN stays NaN, as in np.maximum
+    for f in range(f_sig.shape[0]):
+        fv[f] = regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
+
+
+@jitloop.inlined
+def _regressor_row(out, k, fv, t_first, t_n):
+    """out[k, t] = 1.0 * f_1 * f_2 ... of each term t (regkernel._build's product) from the factor
+    values ``fv`` of step k; the largest magnitude of the row."""
     worst = 0.0
     for t in range(t_first.shape[0]):
         acc = 1.0
         for f in range(t_first[t], t_first[t] + t_n[t]):
-            acc = acc * regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
+            acc = acc * fv[f]
         out[k, t] = acc
         if not abs(acc) <= worst:  # NaN too
             worst = abs(acc) if acc == acc else math.inf
@@ -287,7 +332,7 @@ def _regressor_row(out, k, sig, in_r, ib, u, v, r, speed, t_first, t_n, f_sig, f
 
 @jitloop.compiled
 def _instrument_pass(
-    in_r,
+    in_t,
     nu0,
     coef,
     runs,
@@ -306,7 +351,11 @@ def _instrument_pass(
     g_pow,
     g_sta,
     speed,
+    same,
     y,
+    phi_t,
+    tgt_t,
+    have,
     dof,
     complete,
     z_limit,
@@ -315,35 +364,155 @@ def _instrument_pass(
     norms,
     sane,
 ):
-    """:func:`instrument_moments`' pass: per run j (batch member ``runs[j]``) Phi and the target from
-    its y, the time loop of primitives.jitloop.time_loop in calm water (each term c_t * f_1 * f_2 ...
-    summed left to right per DOF, nu(k+1) = nu(k) + inc) with Z(k) at nu(k), then :func:`_run_moments`."""
-    n, p = y.shape[1] - 1, dof.shape[0]
-    sig = np.zeros(jitloop.N_STATE + in_r.shape[2])
-    z, phi, tgt = np.empty((n, p)), np.empty((n, p)), np.empty((n, 3))
-    inc = np.zeros(3)
-    zbar, zt = np.zeros(p), np.empty(p)
-    for j in range(runs.shape[0]):
+    """:func:`instrument_moments`' pass over tiles of TILE runs (``runs[j]``: batch member of run j),
+    the runs the inner loop of every stage: Phi and the target from y (once per run, kept
+    time-major in ``phi_t`` (N, p, B), ``tgt_t`` (N, 3, B)); the time loop of
+    primitives.jitloop.time_loop in calm water (each term c_t * f_1 * f_2 ... summed left to right
+    per DOF, nu(k+1) = nu(k) + inc) with Z(k) at nu(k) kept for the tile; then each run's sums of
+    :func:`_run_moments`, the same operations in the same order per run (so the same bits)."""
+    n, p, nf = y.shape[1] - 1, dof.shape[0], g_sig.shape[0]
+    one_in, one_coef = in_t.shape[2] == 1, coef.shape[1] == 1
+    sig = np.zeros(jitloop.N_STATE + in_t.shape[1])
+    fv1 = np.empty(nf)
+    row = np.empty((n, p))
+    for j in range(runs.shape[0]):  # the data's regressors and targets, once per run for all its passes
         b = runs[j]
-        ib = b if in_r.shape[0] > 1 else 0
-        cj = j if coef.shape[1] > 1 else 0
+        if have[b]:
+            continue
         for k in range(n):
-            _regressor_row(
-                phi, k, sig, in_r, ib, y[b, k, 0], y[b, k, 1], y[b, k, 2], speed, r_first, r_n, g_sig, g_mod, g_pow, g_sta
+            _factor_row(
+                fv1, sig, in_t, 0 if one_in else b, k, y[b, k, 0], y[b, k, 1], y[b, k, 2], speed, g_sig, g_mod, g_pow, g_sta
             )
+            _regressor_row(row, k, fv1, r_first, r_n)
+            for q in range(p):
+                phi_t[k, q, b] = row[k, q]
             for i in range(3):
-                tgt[k, i] = y[b, k + 1, i] - y[b, k, i]
-        u, v, r = nu0[b, 0], nu0[b, 1], nu0[b, 2]
-        worst = 0.0
+                tgt_t[k, i, b] = y[b, k + 1, i] - y[b, k, i]
+        have[b] = True
+    lo, hi = _blocks(dof)
+    m = TILE
+    st = np.empty((jitloop.N_STATE + in_t.shape[1], m))
+    x = np.empty((3, m))
+    fv, fs = np.empty((nf, m)), np.empty((max(nf, f_sig.shape[0]), m))
+    ph_t, tg_t = np.empty((n, p, m)), np.empty((n, 3, m))  # the tile's data regressors and targets, contiguous
+    z = np.empty((n, p, m))
+    acc, inc = np.empty(m), np.empty((3, m))
+    worst, zbar, zt = np.empty(m), np.empty((p, m)), np.empty((p, m))
+    at, rt, nt = np.empty((p, p, m)), np.empty((p, m)), np.empty((3, p, m))
+    bs = np.empty(m, np.int64)
+    for j0 in range(0, runs.shape[0], m):
+        tl = min(m, runs.shape[0] - j0)
+        for t in range(tl):
+            bs[t] = runs[j0 + t]
+            for i in range(3):
+                x[i, t] = nu0[bs[t], i]
+            worst[t] = 0.0
         for k in range(n):
-            worst = max(worst, _regressor_row(z, k, sig, in_r, ib, u, v, r, speed, r_first, r_n, g_sig, g_mod, g_pow, g_sta))
-            for i in range(3):  # sig holds step k's signals from _regressor_row
-                inc[i] = 0.0
-                for t in range(dof_first[i], dof_first[i] + dof_n[i]):
-                    acc = coef[t, cj]
-                    for f in range(t_first[t], t_first[t] + t_n[t]):
-                        acc = acc * regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
-                    inc[i] = acc if t == dof_first[i] else inc[i] + acc
-            u, v, r = u + inc[0], v + inc[1], r + inc[2]
-        sane[j] = worst < z_limit
-        _run_moments(z, phi, tgt, dof, complete, a[j], rhs[j], norms, j, zbar, zt)
+            _tile_signals(st, x, in_t, bs, one_in, k, speed, tl)
+            _tile_factors(fv, st, g_sig, g_mod, g_pow, g_sta, tl)
+            for q in range(p):
+                for t in range(tl):
+                    acc[t] = 1.0
+                for f in range(r_first[q], r_first[q] + r_n[q]):
+                    for t in range(tl):
+                        acc[t] = acc[t] * fv[f, t]
+                for t in range(tl):
+                    v = acc[t]
+                    z[k, q, t] = v
+                    if not abs(v) <= worst[t]:  # NaN too
+                        worst[t] = abs(v) if v == v else math.inf
+            if same:
+                fs[:, :tl] = fv[:, :tl]
+            else:  # the simulated model's own factors at the same signals
+                _tile_factors(fs, st, f_sig, f_mod, f_pow, f_sta, tl)
+            for i in range(3):
+                for t in range(tl):
+                    inc[i, t] = 0.0
+                for q in range(dof_first[i], dof_first[i] + dof_n[i]):
+                    for t in range(tl):
+                        acc[t] = coef[q, 0 if one_coef else j0 + t]
+                    for f in range(t_first[q], t_first[q] + t_n[q]):
+                        for t in range(tl):
+                            acc[t] = acc[t] * fs[f, t]
+                    for t in range(tl):
+                        inc[i, t] = acc[t] if q == dof_first[i] else inc[i, t] + acc[t]
+            for i in range(3):
+                for t in range(tl):
+                    x[i, t] = x[i, t] + inc[i, t]
+        for t in range(tl):
+            sane[j0 + t] = worst[t] < z_limit
+        for k in range(n):
+            for q in range(p):
+                for t in range(tl):
+                    ph_t[k, q, t] = phi_t[k, q, bs[t]]
+            for i in range(3):
+                for t in range(tl):
+                    tg_t[k, i, t] = tgt_t[k, i, bs[t]]
+        zbar[:] = 0.0
+        if complete:
+            for k in range(n):
+                for q in range(p):
+                    for t in range(tl):
+                        zbar[q, t] += z[k, q, t]
+            for q in range(p):
+                for t in range(tl):
+                    zbar[q, t] = zbar[q, t] / n
+        at[:] = 0.0
+        rt[:] = 0.0
+        nt[:] = 0.0
+        for k in range(n):
+            for q in range(p):
+                dq = dof[q]
+                for t in range(tl):
+                    zq = z[k, q, t]
+                    e = zq - zbar[q, t]
+                    zt[q, t] = e
+                    ph = ph_t[k, q, t]
+                    nt[0, q, t] += e * e
+                    nt[1, q, t] += ph * ph
+                    nt[2, q, t] += zq * zq
+                    rt[q, t] += e * tg_t[k, dq, t]
+            for q in range(p):
+                for r in range(lo[q], hi[q]):
+                    for t in range(tl):
+                        at[q, r, t] += zt[q, t] * ph_t[k, r, t]
+        for t in range(tl):
+            j = j0 + t
+            for q in range(p):
+                rhs[j, q] = rt[q, t]
+                for i in range(3):
+                    norms[i, j, q] = nt[i, q, t]
+                for r in range(p):
+                    a[j, q, r] = at[q, r, t]
+
+
+@jitloop.inlined
+def _tile_signals(st, x, in_t, bs, one_in, k, speed, tl):
+    """The calm-water signals (S, TILE) of the tile's states x (3, TILE) and inputs at step k."""
+    for i in range(in_t.shape[1]):
+        for t in range(tl):
+            st[jitloop.N_STATE + i, t] = in_t[k, i, 0 if one_in else bs[t]]
+    for t in range(tl):
+        u, v = x[0, t], x[1, t]
+        st[0, t], st[1, t], st[2, t], st[3, t], st[4, t], st[5, t], st[6, t] = u, v, x[2, t], u, v, u, v
+    if speed:
+        for t in range(tl):
+            h = math.hypot(x[0, t], x[1, t])
+            st[7, t] = MIN_SPEED if h < MIN_SPEED else h  # NaN stays NaN, as in np.maximum
+
+
+@jitloop.inlined
+def _tile_factors(fv, st, f_sig, f_mod, f_pow, f_sta, tl):
+    """fv[f, t] = regkernel._factor of each factor f of a program for the tile's members t."""
+    for f in range(f_sig.shape[0]):
+        i = f_sig[f]
+        if math.isnan(f_sta[f]) and f_pow[f] == 1:  # the common factors, as loops without branches (they vectorise)
+            if f_mod[f]:
+                for t in range(tl):
+                    fv[f, t] = abs(st[i, t])
+            else:
+                for t in range(tl):
+                    fv[f, t] = st[i, t]
+            continue
+        for t in range(tl):
+            fv[f, t] = regkernel._factor(st[i, t], st[2, t], f_sta[f], f_mod[f], f_pow[f])

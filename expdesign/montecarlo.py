@@ -44,9 +44,10 @@ import numpy as np
 
 from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
-from expdesign.ivsolve import Z_LIMIT, instrument_moments, iv_estimates, run_forces
+from expdesign.ivsolve import Z_LIMIT, DataRegressors, instrument_moments, iv_estimates, run_forces
 from expdesign.ivsolve import solve_moments as iv_moments_solve
 from expdesign.mc_result import MCResult, merge_results
+from expdesign.mc_validation import scored, validate, validation_input
 from expdesign.rounding import efficient_rounding
 from primitives import jitloop
 from primitives.information import MEAN_SUBTRACTION
@@ -61,7 +62,6 @@ PROTOCOLS = ("continuous", "piecewise")
 ORDERS = ("library", "given", "random")
 ESTIMATORS = ("oe", "iv")
 MAX_CHUNK = 250  # runs per batch: bounds memory; 250 measured 8 % less CPU a run than 500 (cache), 125 no better
-_EXPLODE = 100.0  # a validation output this many times the true one's maximum has diverged
 # Smallest value of each integer setting of MCConfig (min_block: a sub-experiment needs two samples for one increment)
 _MINIMA = (("n_segments", 1), ("min_block", 2), ("settle", 0), ("iv_iterations", 0), ("oe_iterations", 1))
 
@@ -132,34 +132,6 @@ class MCShared:
     val_true: np.ndarray
     notes: dict[str, list[str]] = field(default_factory=dict)
     oe_unsupported: str | None = None
-
-
-def validation_input(profile: ShipProfile, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Seeded cross-validation input unlike any primitive: multisine surge speed, a smoothed
-    random binary sway and a multisine yaw rate reference, turned into feed-forward forces.
-    Returns (inputs (n, m), nu0 (3,))."""
-    rng = np.random.default_rng([seed, 0x5EED])
-    t = np.arange(n) / n
-    c, L = profile.cruise_speed_mps, profile.length_m
-
-    def multisine(k: int) -> np.ndarray:
-        f = rng.choice(np.arange(2, 12), k, replace=False)
-        ph = rng.uniform(0, 2 * np.pi, k)
-        s = np.sum(np.sin(2 * np.pi * f[:, None] * t + ph[:, None]), axis=0)
-        return s / np.abs(s).max()
-
-    if profile.actuator == "rudder_propeller":  # no force allocation: the same idea in helm terms
-        from primitives.helm import validation_inputs
-
-        return validation_inputs(profile, multisine)
-
-    prbs = np.repeat(rng.choice([-1.0, 1.0], n // 50 + 1), 50)[:n]
-    prbs = np.convolve(prbs, np.ones(15) / 15, mode="same")
-    u = c * (0.7 + 0.3 * multisine(3))
-    v = 0.1 * c * prbs
-    r = 0.3 * c / L * multisine(3)
-    forces = np.array([steady_forces(profile, a, b, g) for a, b, g in zip(u, v, r)])
-    return profile.allocate(forces[:, 0], forces[:, 1], forces[:, 2]), np.array([u[0], v[0], r[0]])
 
 
 def block_lengths(weights: Mapping[str, float], n_samples: int, min_block: int) -> tuple[list[tuple[str, int]], list[str]]:
@@ -269,18 +241,28 @@ def _sequence(sh: MCShared, design: str, rng: np.random.Generator) -> list[tuple
     return [blocks[i] for i in rng.permutation(len(blocks))]
 
 
-def _experiment(sh: MCShared, seq: list[tuple[str, int]]) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int]]:
+def _experiment(
+    sh: MCShared, seq: list[tuple[str, int]], played: dict | None = None
+) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int]]:
     """Segments [(inputs (L, m), nu0 (3,))] of one run and the block start indices in the
-    concatenated data (for batchwise mean subtraction)."""
+    concatenated data (for batchwise mean subtraction). ``played`` keeps each (primitive,
+    samples) block's inputs for the next run that plays it (read only)."""
+    played = {} if played is None else played
+
+    def block(k: str, n: int) -> np.ndarray:
+        if (k, n) not in played:
+            played[k, n] = np.resize(sh.inputs[k], (n, sh.inputs[k].shape[1]))
+        return played[k, n]
+
     if sh.config.protocol == "piecewise":
-        segs = [(np.resize(sh.inputs[k], (n, sh.inputs[k].shape[1])), sh.nu0[k]) for k, n in seq]
+        segs = [(block(k, n), sh.nu0[k]) for k, n in seq]
         return segs, list(np.cumsum([0] + [n for _, n in seq[:-1]]))
     parts, starts, pos = [], [], 0
     for j, (k, n) in enumerate(seq):
         starts.append(pos)
         if j and sh.config.settle:
             parts.append(np.tile(sh.hold[k], (sh.config.settle, 1)))
-        parts.append(np.resize(sh.inputs[k], (n, sh.inputs[k].shape[1])))
+        parts.append(block(k, n))
         pos += n + (sh.config.settle if j else 0)
     return [(np.concatenate(parts), sh.nu0[seq[0][0]])], starts
 
@@ -300,12 +282,21 @@ class _Seg:
     y: np.ndarray
 
 
-def _noise(d: Disturbances, g: np.random.Generator, n: int, offset: np.ndarray) -> tuple[np.ndarray, ...]:
-    cur = np.asarray(d.current_ne, float) + offset + g.normal(0.0, 1.0, (n, 2)) * d.current_sample_std
-    wind = np.asarray(d.wind_ne, float) + g.normal(0.0, 1.0, (n, 2)) * d.wind_sample_std
-    meas = g.normal(0.0, 1.0, (n + 1, 3)) * np.asarray(d.measurement_std, float)
-    head = g.normal(0.0, 1.0, n + 1) * d.heading_std
-    return cur, wind, meas, head
+def _noise(d: Disturbances, gens: list[np.random.Generator], n: int, offsets: list[np.ndarray]) -> tuple[np.ndarray, ...]:
+    """Each run's current (B, n, 2), wind (B, n, 2), measurement noise (B, n+1, 3) and heading noise
+    (B, n+1): per run one draw of all its standard normals from its own generator, in the order
+    current, wind, measurement, heading (the draws of four calls of that order, the same numbers),
+    then scaled for all runs at once (elementwise: each number as a run alone gives it)."""
+    sizes = np.cumsum([0, 2 * n, 2 * n, 3 * (n + 1), n + 1])
+    z = np.empty((len(gens), sizes[-1]))
+    for g, row in zip(gens, z):
+        row[:] = g.normal(0.0, 1.0, sizes[-1])
+    b = len(gens)
+    part = [z[:, sizes[i] : sizes[i + 1]] for i in range(4)]
+    cur = (np.asarray(d.current_ne, float) + np.stack(offsets))[:, None, :] + part[0].reshape(b, n, 2) * d.current_sample_std
+    wind = np.asarray(d.wind_ne, float) + part[1].reshape(b, n, 2) * d.wind_sample_std
+    meas = part[2].reshape(b, n + 1, 3) * np.asarray(d.measurement_std, float)
+    return cur, wind, meas, part[3] * d.heading_std
 
 
 def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fused: bool = False) -> list[_Seg]:
@@ -322,7 +313,7 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fu
     for j in range(len(exps[0])):
         inp = np.stack([e[j][0] for e in exps])
         nu0 = np.stack([e[j][1] for e in exps])
-        cur, wind, meas, head = (np.stack(a) for a in zip(*(_noise(d, g, inp.shape[1], o) for g, o in zip(gens, offsets))))
+        cur, wind, meas, head = _noise(d, gens, inp.shape[1], offsets)
         calm = [] if fused else [np.zeros_like(cur)]
         env = Disturbances(
             current_ne=np.concatenate([cur, *calm]), wind_ne=np.concatenate([wind, *calm]), current_turning=d.current_turning
@@ -443,63 +434,16 @@ def _estimate_fused(sh: MCShared, seg: _Seg) -> np.ndarray:
     stopping rules and numbers (the instrument model first, then each run's latest estimate)."""
     prof, cfg, b = sh.profile, sh.config, seg.y.shape[0]
     forces = run_forces(prof, seg.inputs)  # once for the four passes
+    data = DataRegressors.empty(b, seg.y.shape[1] - 1, sh.predictor.n_params)  # built by the first pass, read by the next
 
     def solve(sim_terms: TermSet, coef: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        moments, sane = instrument_moments(prof, sim_terms, sh.predictor, forces, seg.nu0, coef, idx, seg.y, cfg.mean_subtraction)
+        moments, sane = instrument_moments(
+            prof, sim_terms, sh.predictor, forces, seg.nu0, coef, idx, seg.y, cfg.mean_subtraction, data
+        )
         return iv_moments_solve(sh.predictor, *moments, cfg.mean_subtraction), sane
 
     first, _ = solve(prof.model, prof.params(prof.instrument_set)[:, None], np.arange(b))
     return _iterate(first, cfg.iv_iterations, lambda idx, theta: solve(sh.predictor, theta[idx].T, idx))
-
-
-def _validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Validation RMSE per DOF (B, 3) of the estimated models against the noise-free true
-    output, and the diverged flags (B,)."""
-    b = theta.shape[0]
-    finite = np.isfinite(theta).all(axis=1)
-    th = np.where(finite[:, None], theta, 0.0)
-    with np.errstate(all="ignore"):
-        sim = simulate(sh.profile, sh.val_inputs, th, terms=sh.predictor, nu0=sh.val_nu0, batch=b, positions=False).nu
-    bound = _EXPLODE * np.abs(sh.val_true).max()
-    rmse = np.full((b, 3), np.inf)
-    with np.errstate(invalid="ignore"):
-        diverged = ~finite | ~(np.abs(sim) <= bound).all(axis=(1, 2))  # NaN and inf too
-    good = np.flatnonzero(~diverged)
-    rmse[good] = np.sqrt(np.mean((sim[good] - sh.val_true) ** 2, axis=1))  # per run over the samples in order
-    return rmse, diverged
-
-
-def _scored(
-    sh: MCShared,
-    design: str,
-    ids: list[int],
-    theta: np.ndarray,
-    estimator: str,
-    notes: list[str],
-    validation: tuple[np.ndarray, np.ndarray] | None = None,
-) -> MCResult:
-    """Validation and parameter errors of the estimates ``theta`` of runs ``ids`` (``validation``:
-    their :func:`_validate` result when already computed)."""
-    sim_rmse, diverged = _validate(sh, theta) if validation is None else validation
-    prm = np.full(len(ids), np.nan)
-    if sh.theta0 is not None:
-        for i in range(len(ids)):
-            with np.errstate(all="ignore"):
-                e = (theta[i] - sh.theta0) / np.abs(sh.theta0)
-                prm[i] = np.sqrt(np.mean(e * e)) if np.isfinite(e).all() else np.inf
-    return MCResult(
-        design,
-        np.array(ids, dtype=np.int64),
-        theta,
-        prm,
-        sim_rmse,
-        diverged,
-        sh.config.runs,
-        sh.param_names,
-        sh.theta0,
-        notes,
-        estimator,
-    )
 
 
 def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
@@ -512,7 +456,12 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     # tests/test_oekernel.py): load them whatever the chunk's size, so that a run's numbers do not
     # depend on how the runs are cut into tasks (numba's load, about 0.6 s, once per process).
     jitloop.use(jitloop.MIN_WORK)
-    layouts = [_experiment(sh, _sequence(sh, design, _run_rng(cfg.seed, i, 0))) for i in ids]
+    played, layout = {}, {}  # the blocks and whole experiments built so far (a fixed design plays one)
+    seqs = [tuple(_sequence(sh, design, _run_rng(cfg.seed, i, 0))) for i in ids]
+    for seq in seqs:
+        if seq not in layout:
+            layout[seq] = _experiment(sh, list(seq), played)
+    layouts = [layout[seq] for seq in seqs]
     fused = _fused(sh)
     segs = _simulate_data(sh, [lay[0] for lay in layouts], [_run_rng(cfg.seed, i, 1) for i in ids], fused)
     theta = _estimate_fused(sh, segs[0]) if fused else _estimate(sh, segs, [lay[1] for lay in layouts])
@@ -522,16 +471,16 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     if any(sh.dist.process_std):
         notes.append("process noise of the disturbances is not simulated in the Monte Carlo study")
     if cfg.estimator == "iv":
-        return _scored(sh, design, ids, theta, "iv", notes)
+        return scored(sh, design, ids, theta, "iv", notes)
     if sh.oe_unsupported:
-        return _scored(sh, design, ids, theta, "iv", notes + [f"{sh.oe_unsupported}: the IV estimate is reported unrefined"])
+        return scored(sh, design, ids, theta, "iv", notes + [f"{sh.oe_unsupported}: the IV estimate is reported unrefined"])
     oe = output_error(
         sh.profile, [OEData(s.inputs, s.nu0, s.y) for s in segs], theta, terms=sh.predictor, max_iter=cfg.oe_iterations
     )
     b = len(ids)
-    val = _validate(sh, np.concatenate([oe.theta, theta]))  # one simulation loop for both; elementwise, so no change
-    result = _scored(sh, design, ids, oe.theta, "oe", notes, (val[0][:b], val[1][:b]))
-    result.reference = _scored(sh, design, ids, theta, "iv", list(notes), (val[0][b:], val[1][b:]))
+    val = validate(sh, np.concatenate([oe.theta, theta]))  # one simulation loop for both; elementwise, so no change
+    result = scored(sh, design, ids, oe.theta, "oe", notes, (val[0][:b], val[1][:b]))
+    result.reference = scored(sh, design, ids, theta, "iv", list(notes), (val[0][b:], val[1][b:]))
     return result
 
 

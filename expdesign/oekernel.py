@@ -1,6 +1,8 @@
-"""The output-error estimator's Gauss-Newton moments in one compiled pass over the samples (numba,
-when :mod:`primitives.jitloop` has it loaded; the runs are the inner loop of every stage), replacing the numpy path's four array stages (state
-Jacobian, regressors, sensitivity recursion, sums) of :func:`expdesign.estimators._gauss_newton_moments`.
+"""The output-error estimator's compiled path (numba, when :mod:`primitives.jitloop` has it loaded):
+the candidate simulations, their mean squared errors and the Gauss-Newton moments, on outputs kept
+time-major (N+1, 3, runs) from one pass to the next. The moments are one pass over the samples (the
+runs are the inner loop of every stage), replacing the numpy path's four array stages (state
+Jacobian, regressors, sensitivity recursion, sums) of :func:`expdesign.estimators._gauss_newton_moments_numpy`.
 
 Per run and step k of the noise-free simulated trajectory nu(k): the regressors Phi(k) (Ljungberg
 (2022) (9.2)), the state Jacobian d inc / d nu by forward differences with the step 1e-7 (1 + |nu|) from
@@ -15,48 +17,175 @@ up to 3e-13 relative for H, 1.4e-11 of the largest entry for g, near the optimum
 tests/test_oekernel.py checks 1e-9 against the numpy path).
 
 Applies to planar models without pods, rigid body or heading terms, simulated in calm water (the
-output-error model); otherwise :func:`moments` returns None and the numpy path runs.
+output-error model); otherwise :func:`calm_runs` returns None and the numpy path runs. The
+simulations and mean squares are the numpy path's bits (the same compiled time loop as
+:func:`primitives.simulate.simulate`, sums over the samples in their order).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 from primitives import jitloop
-from primitives.simulate import MIN_SPEED, SPEED, _time_major_forces, signals_read
+from primitives.simulate import MIN_SPEED, SPEED, WIND_EXCESS, _time_major_forces, signals_read
 
 _N_STATE = jitloop.N_STATE
 _HELPERS: list[str] = []  # compiled inline into the pass on first use (see _compile_helpers)
 
 
-def moments(profile, terms, data: Sequence, sims, theta: np.ndarray, idx: np.ndarray, w: np.ndarray, fd_step: float):
-    """(hess (b, p, p), grad (b, p)) of the runs ``idx`` as
-    :func:`expdesign.estimators._gauss_newton_moments` computes them, or None when the compiled
-    pass does not apply (no compiler loaded or worth loading, pods, roll, heading terms)."""
-    b, n_work = len(idx), sum(len(idx) * d.inputs.shape[1] for d in data)
-    if profile.pods or profile.n_dof != 3 or profile.rigid_body is not None or not jitloop.use(n_work):
+@dataclass
+class CalmRuns:
+    """A batch's experiments laid out once for the compiled output-error path (:func:`calm_runs`):
+    per experiment the input signals (N, S, 1 or B), the measured velocities time-major
+    (N+1, 3, B), the start states (B, 3) and the term program; the simulated outputs it passes
+    between :func:`simulate`, :func:`mean_squares` and :func:`moments_t` stay time-major
+    (N+1, 3, b), the layout of the time loop and of the moments' pass, so no output is
+    transposed, copied or given a pose array."""
+
+    profile: object
+    terms: object
+    in_t: list[np.ndarray]
+    y_t: list[np.ndarray]
+    nu0: list[np.ndarray]
+    prog: list[tuple]
+    pods: tuple
+    rigid: tuple
+    speed: bool
+    wind_excess: bool
+
+
+def calm_runs(profile, terms, data: Sequence) -> CalmRuns | None:
+    """The batch ``data`` laid out for the compiled path, or None where the numpy path runs (no
+    compiler loaded or worth loading, pods, roll, rigid body, a signal the programs lack). The
+    simulation is :func:`primitives.simulate.simulate`'s compiled loop in calm water without a
+    pose, called with the same arrays: the outputs are its bits."""
+    work = sum(d.y.shape[0] * d.inputs.shape[1] for d in data)
+    if profile.pods or profile.n_dof != 3 or profile.rigid_body is not None or not jitloop.use(work):
         return None
     _compile_helpers()
-    p = theta.shape[1]
-    hess, grad = np.zeros((b, p, p)), np.zeros((b, p))
-    mask = np.zeros((3, p), np.float32)
-    for i in range(3):
-        mask[i, terms.dof_slice(i)] = 1.0
-    coef = np.ascontiguousarray(theta[idx].T)
-    sw = np.ascontiguousarray(np.sqrt(w[idx]).T)
-    speed = SPEED in signals_read(terms)
-    for d, (nu, _) in zip(data, sims):
-        names, in_t = _time_major_forces(profile, d.inputs[idx])
+    in_t, progs = [], []
+    for d in data:
+        names, forces = _time_major_forces(profile, d.inputs)
         prog = jitloop.program(terms, names, jitloop.CALM_STATE)
         if prog is None:
             return None
-        nu_t = np.ascontiguousarray(nu.transpose(1, 2, 0))
-        y = np.ascontiguousarray(d.y[idx].transpose(1, 2, 0))
-        _accumulate(in_t, nu_t, y, coef, sw, mask, *prog, speed, fd_step, hess, grad)
+        in_t.append(forces)
+        progs.append(prog)
+    used = signals_read(terms)
+    return CalmRuns(
+        profile,
+        terms,
+        in_t,
+        [np.ascontiguousarray(d.y.transpose(1, 2, 0), float) for d in data],
+        [np.asarray(d.nu0, float) for d in data],
+        progs,
+        jitloop.pod_arrays(profile, {}),
+        jitloop.rigid_arrays(None),
+        SPEED in used,
+        bool(used & set(WIND_EXCESS)),
+    )
+
+
+def _runs_of(a: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """The runs ``idx`` of a time-major array (..., 1 or B): one shared input stays shared."""
+    return a if a.shape[-1] == 1 else np.take(a, idx, axis=-1)
+
+
+def simulate(cr: CalmRuns, theta: np.ndarray, idx: np.ndarray) -> list[np.ndarray]:
+    """Noise-free outputs nu (N+1, 3, len(idx)) per experiment of the runs ``idx`` with their
+    ``theta`` rows (the compiled loop of :func:`primitives.simulate._compiled_loop`, the same
+    arguments as for ``simulate(..., positions=False)`` in calm water)."""
+    b = len(idx)
+    coef = np.ascontiguousarray(theta[idx].T)
+    out = []
+    for in_t, nu0, prog in zip(cr.in_t, cr.nu0, cr.prog):
+        nu_t = np.empty((in_t.shape[0] + 1, 3, b))
+        nu_t[0] = nu0[idx].T
+        eta_t = np.zeros((1, 3, b))
+        if b:
+            with np.errstate(all="ignore"):
+                jitloop.time_loop(
+                    _runs_of(in_t, idx), nu_t, eta_t, _none(b), _none(b), np.zeros((0, 3, b)), coef, *prog,
+                    *cr.pods, *cr.rigid, float(cr.profile.sample_time), False, False, False, cr.wind_excess, cr.speed,
+                    False, False,
+                )  # fmt: skip
+        out.append(nu_t)
+    return out
+
+
+def _none(b: int) -> np.ndarray:
+    """No current or wind (the compiled loop's empty array of their shape)."""
+    return np.zeros((0, 2, b))
+
+
+def mean_squares(cr: CalmRuns, sims: list[np.ndarray], idx: np.ndarray, limit: float) -> np.ndarray:
+    """:func:`expdesign.estimators._mean_squares` of time-major outputs: the sums over the samples
+    in their order per run and DOF (numpy's reduction's order, so the same bits), inf for a run
+    with an output not below ``limit`` in magnitude (NaN too)."""
+    b = len(idx)
+    n = sum(y.shape[0] - 1 for y in cr.y_t)
+    sums, bad = [], np.zeros(b, np.bool_)
+    for y, nu in zip(cr.y_t, sims):
+        s, worse = squared_errors(y, nu, idx, 1, limit)
+        sums.append(s)
+        bad |= worse
+    ms = np.zeros((b, 3))
+    good = np.flatnonzero(~bad)
+    for s in sums:
+        ms[good] += s[good]
+    ms[good] /= n
+    ms[bad] = np.inf
+    return ms
+
+
+def moments_t(cr: CalmRuns, sims: list[np.ndarray], theta: np.ndarray, idx: np.ndarray, w: np.ndarray, fd_step: float):
+    """(hess (b, p, p), grad (b, p)) of the runs ``idx`` from their time-major outputs ``sims``
+    (N+1, 3, b), as :func:`expdesign.estimators._gauss_newton_moments_numpy` computes them but for
+    the order of the sums (module doc)."""
+    p, b = theta.shape[1], len(idx)
+    hess, grad = np.zeros((b, p, p)), np.zeros((b, p))
+    coef = np.ascontiguousarray(theta[idx].T)
+    sw = np.ascontiguousarray(np.sqrt(w[idx]).T)
+    for in_t, y, nu_t, prog in zip(cr.in_t, cr.y_t, sims, cr.prog):
+        runs = np.asarray(idx, np.int64)
+        _accumulate(in_t, nu_t, y, runs, coef, sw, _mask(cr.terms, p), *prog, cr.speed, fd_step, hess, grad)
     return hess, grad
+
+
+def _mask(terms, p: int) -> np.ndarray:
+    mask = np.zeros((3, p), np.float32)
+    for i in range(3):
+        mask[i, terms.dof_slice(i)] = 1.0
+    return mask
+
+
+def squared_errors(y: np.ndarray, nu: np.ndarray, runs: np.ndarray, first: int, limit: float) -> tuple[np.ndarray, np.ndarray]:
+    """Sums (b, 3) over the samples k = first..N of (y[k, i, runs[b]] - nu[k, i, b])^2, added
+    sample after sample (numpy's order for a reduction over that axis: the same bits), of
+    time-major ``y`` (N+1, 3, B) and ``nu`` (N+1, 3, b); and where some |nu| is not below
+    ``limit`` (NaN too) (b,)."""
+    out, bad = np.zeros((nu.shape[2], 3)), np.zeros(nu.shape[2], np.bool_)
+    _squares(y, nu, np.asarray(runs, np.int64), first, limit, out, bad)
+    return out, bad
+
+
+@jitloop.compiled
+def _squares(y, nu, runs, first, limit, out, bad):
+    """:func:`squared_errors`' pass."""
+    n1, batch = nu.shape[0], nu.shape[2]
+    for k in range(n1):
+        for i in range(3):
+            for b in range(batch):
+                x = nu[k, i, b]
+                if not abs(x) < limit:
+                    bad[b] = True
+                if k >= first:
+                    e = y[k, i, runs[b]] - x
+                    out[b, i] = e * e if k == first else out[b, i] + e * e
 
 
 def _helper(fn):
@@ -79,13 +208,13 @@ def _compile_helpers() -> None:
 
 
 @_helper
-def _signals(sig, x, in_t, k, speed):
+def _signals(sig, x, in_t, runs, k, speed):
     """The calm-water signals of the states x (3, B) at step k (primitives.simulate.relative_signals,
-    in the signal layout of primitives.jitloop)."""
+    in the signal layout of primitives.jitloop), the inputs of batch member b those of run runs[b]."""
     batch, one = x.shape[1], in_t.shape[2] == 1
     for i in range(in_t.shape[1]):
         for b in range(batch):
-            sig[_N_STATE + i, b] = in_t[k, i, 0 if one else b]
+            sig[_N_STATE + i, b] = in_t[k, i, 0 if one else runs[b]]
     for b in range(batch):
         u, v = x[0, b], x[1, b]
         sig[0, b], sig[1, b], sig[2, b], sig[3, b], sig[4, b], sig[5, b], sig[6, b] = u, v, x[2, b], u, v, u, v
@@ -97,9 +226,10 @@ def _signals(sig, x, in_t, k, speed):
 
 @jitloop.compiled
 def _accumulate(
-    in_t, nu_t, y, coef, sw, mask, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow, speed, fd_step, hess, grad
+    in_t, nu_t, y, runs, coef, sw, mask, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow, speed, fd_step, hess, grad
 ):
-    """Add each run's H and g over one experiment to ``hess`` (B, p, p), ``grad`` (B, p); the runs
+    """Add each run's H and g over one experiment to ``hess`` (b, p, p), ``grad`` (b, p), batch member b
+    reading the inputs and measurements of run ``runs[b]`` of ``in_t``, ``y``; the runs
     are the inner loop of every stage (the term program's branches once per step)."""
     n, batch, p = in_t.shape[0], nu_t.shape[2], coef.shape[0]
     sig = np.zeros((_N_STATE + in_t.shape[1], batch))
@@ -125,7 +255,7 @@ def _accumulate(
                 for b in range(batch):
                     h[b] = fd_step * (1.0 + abs(x[col, b]))
                     x[col, b] = x[col, b] + h[b]
-            _signals(sig, x, in_t, k, speed)
+            _signals(sig, x, in_t, runs, k, speed)
             for i in range(3):
                 if col >= 0 and dof_n[i] == 0:
                     inc[i, :] = 0.0
@@ -159,7 +289,7 @@ def _accumulate(
                 for b in range(batch):
                     sk[q, b] = np.float64(s_new[i, q, b]) * sw[i, b]
             for b in range(batch):
-                e[b] = (y[k + 1, i, b] - nu_t[k + 1, i, b]) * sw[i, b]
+                e[b] = (y[k + 1, i, runs[b]] - nu_t[k + 1, i, b]) * sw[i, b]
             for a in range(p):
                 for q in range(a, p):
                     for b in range(batch):

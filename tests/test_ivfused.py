@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from expdesign import montecarlo as mc
+from expdesign.ivsolve import TILE
 from primitives import jitloop
 from primitives.library import model_ship_thesis
 from primitives.ship import load_profile
@@ -26,7 +27,7 @@ def ship():
     return p, model_ship_thesis(p)
 
 
-def _digests(ship, monkeypatch, fused: bool, **kw) -> dict[str, str]:
+def _digests(ship, monkeypatch, fused: bool, runs: int = 12, **kw) -> dict[str, str]:
     p, lib = ship
     real = mc._fused
     calls = []
@@ -36,7 +37,7 @@ def _digests(ship, monkeypatch, fused: bool, **kw) -> dict[str, str]:
         return fused and calls[-1]
 
     monkeypatch.setattr(mc, "_fused", chosen)
-    res = mc.evaluate_designs(p, DESIGNS, runs=12, seed=3, n_samples=300, primitives=lib, **kw)
+    res = mc.evaluate_designs(p, DESIGNS, runs=runs, seed=3, n_samples=300, primitives=lib, **kw)
     monkeypatch.setattr(mc, "_fused", real)
     assert all(calls), "the model ship's Monte Carlo must take the fused pass when numba is loaded"
     out = {k: r.digest() for k, r in res.items()}
@@ -45,7 +46,14 @@ def _digests(ship, monkeypatch, fused: bool, **kw) -> dict[str, str]:
 
 
 @pytest.mark.parametrize(
-    "kw", [dict(estimator="iv"), dict(estimator="iv", mean_subtraction="none"), dict(estimator="oe")], ids=str
+    "kw",
+    [
+        dict(estimator="iv"),
+        dict(estimator="iv", mean_subtraction="none"),
+        dict(estimator="oe"),
+        dict(estimator="iv", runs=TILE + 9),  # a full tile of runs stepped together and a partial one
+    ],
+    ids=str,
 )
 def test_fused_pass_gives_the_unfused_bits(ship, monkeypatch, kw):
     jitloop.use(jitloop.MIN_WORK)
@@ -129,3 +137,29 @@ def test_models_the_fused_pass_cannot_hold_take_the_unfused_path(ship):
         assert not mc._fused(shared(predictor=TermSet(more))), extra
         model = dataclasses.replace(p, model_terms=tuple(tuple(d) for d in more))
         assert not mc._fused(shared(profile=model)), extra
+
+
+def test_fused_pass_gives_each_run_its_own_numbers_across_tiles(ship):
+    """Runs stepped together in tiles (ivsolve.TILE, the last one partial, a subset in any order)
+    get the moments and sanity each gets alone, with the data regressors built by an earlier pass."""
+    from expdesign.ivsolve import DataRegressors, instrument_moments
+
+    p, _ = ship
+    jitloop.use(jitloop.MIN_WORK)
+    rng = np.random.default_rng(4)
+    b, n = 2 * TILE + 7, 120
+    inputs = rng.normal(size=(b, n, len(p.inputs)))
+    y = rng.normal(size=(b, n + 1, 3)) * 0.1
+    runs = rng.permutation(b)[: b - 3]
+    coef = p.params(p.instrument_set)[:, None] * (1.0 + 0.01 * rng.normal(size=(1, len(runs))))
+    data = DataRegressors.empty(b, n, p.predictor.n_params)
+    instrument_moments(p, p.model, p.predictor, inputs, np.zeros((b, 3)), coef[:, :1], np.arange(b), y, "complete", data)
+    (a, rhs, norms), sane = instrument_moments(
+        p, p.predictor, p.predictor, inputs, np.zeros((b, 3)), coef, runs, y, "complete", data
+    )
+    for j, r in enumerate(runs):
+        (a1, rhs1, norms1), sane1 = instrument_moments(
+            p, p.predictor, p.predictor, inputs, np.zeros((b, 3)), coef[:, j : j + 1], np.array([r]), y, "complete"
+        )
+        assert np.array_equal(a[j], a1[0]) and np.array_equal(rhs[j], rhs1[0])
+        assert np.array_equal(norms[:, j], norms1[:, 0]) and sane[j] == sane1[0]

@@ -117,3 +117,28 @@ def test_interrupted_evaluation_is_partial_and_keeps_finished_runs(ship, referen
     r = ev.results["optimized"]
     assert r.partial and r.summary()["runs"] == 6 and r.summary()["runs_requested"] == 12
     np.testing.assert_array_equal(r.theta, reference["optimized"].theta[:6])
+
+
+def test_a_runs_noise_is_its_own_generators_draws_in_the_documented_order(ship):
+    """Each run's current, wind, measurement and heading noise are its generator's draws in that
+    order (one call per quantity, as the study was defined), whatever the batch draws with it."""
+    from expdesign.montecarlo import _noise, _run_rng
+    from primitives.simulate import Disturbances
+
+    d = Disturbances(current_ne=(0.1, -0.2), current_sample_std=0.15, wind_ne=(3.0, 1.0), wind_sample_std=0.5,
+                     measurement_std=(0.02, 0.01, 0.005), heading_std=0.01)  # fmt: skip
+    n, runs = 40, [0, 7, 3]
+    offsets = [np.array([0.05, -0.01]) * (i + 1) for i in runs]
+    got = _noise(d, [_run_rng(2, i, 1) for i in runs], n, offsets)
+    for j, i in enumerate(runs):
+        g = _run_rng(2, i, 1)
+        cur = np.asarray(d.current_ne) + offsets[j] + g.normal(0.0, 1.0, (n, 2)) * d.current_sample_std
+        wind = np.asarray(d.wind_ne) + g.normal(0.0, 1.0, (n, 2)) * d.wind_sample_std
+        meas = g.normal(0.0, 1.0, (n + 1, 3)) * np.asarray(d.measurement_std)
+        head = g.normal(0.0, 1.0, n + 1) * d.heading_std
+        for a, b in zip(got, (cur, wind, meas, head)):
+            assert np.array_equal(a[j], b)
+    # the stream itself, pinned (numpy's PCG64 and ziggurat normals, today's digests): run 7's first
+    # current, last wind, first measurement and last heading sample
+    assert (got[0][1, 0, 0], got[1][1, -1, 1]) == (0.4054462279281199, 0.10364829442865264)
+    assert (got[2][1, 0, 0], got[3][1, -1]) == (0.009908271968889283, -0.0018091617912908292)

@@ -1,6 +1,6 @@
 """The Monte Carlo's compiled passes against the numpy path they replace: the output-error
 estimator's Gauss-Newton moments (expdesign.oekernel, sums in another order: H and g within 1e-9
-relative), and whole Monte Carlo runs with numba blocked in a subprocess (the numpy path chosen
+relative), its simulations and mean squares (the same bits), and whole Monte Carlo runs with numba blocked in a subprocess (the numpy path chosen
 automatically): the IV estimates identical, the output-error estimates within 1e-3 relative (the
 documented tolerance: discrete stop and step decisions of the iteration near its tolerance amplify
 the rounding; 2,000 x 2 runs measured at most 6.1e-4, median 1e-7)."""
@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 
 from expdesign import estimators as es
-from expdesign import oekernel
 from expdesign.ivsolve import iv_solve
 from expdesign.montecarlo import evaluate_designs
 from primitives import jitloop
@@ -67,16 +66,37 @@ def _oe_case(ship: str, exotic: bool):
 @pytest.mark.parametrize("ship, exotic", [("model-ship", False), ("kvlcc2", True)], ids=["model-ship", "kvlcc2-exotic"])
 def test_fused_moments_match_the_numpy_moments(ship, exotic):
     p, terms, data, theta = _oe_case(ship, exotic)
-    ok, w, _, sims = es._start(p, terms, data, theta, 300)
+    assert jitloop.use(jitloop.MIN_WORK)
+    compiled, numpy_path = es._Sims(p, terms, data), es._Sims(p, terms, data, compiled=False)
+    assert compiled.calm is not None  # the compiled passes run
+    ok, w, _, sims = es._start(compiled, theta, 300)
+    _, _, _, ref_sims = es._start(numpy_path, theta, 300)
     assert ok.all()
     idx = np.arange(6)
-    assert jitloop.use(jitloop.MIN_WORK)
-    fused = es._gauss_newton_moments(p, terms, data, sims, theta, idx, w)
-    ref = es._gauss_newton_moments_numpy(p, terms, data, sims, theta, idx, w)
+    fused = compiled.moments(sims, theta, idx, w)
+    ref = numpy_path.moments(ref_sims, theta, idx, w)
     assert np.allclose(fused[0], ref[0], rtol=1e-9, atol=0.0)
     scale = np.abs(ref[1]).max(axis=1, keepdims=True)
     assert (np.abs(fused[1] - ref[1]) <= 1e-9 * scale).all()
-    assert oekernel.moments(p, terms, data, sims, theta, idx, w, es._FD_STEP) is not None  # the compiled pass ran
+
+
+@needs_numba
+@pytest.mark.parametrize("ship, exotic", [("model-ship", False), ("kvlcc2", True)], ids=["model-ship", "kvlcc2-exotic"])
+def test_compiled_simulations_and_mean_squares_are_the_numpy_paths_bits(ship, exotic):
+    """The output-error path's time-major simulations and mean squares (one diverging run among
+    them) against simulate() and the numpy sums: the same bits."""
+    p, terms, data, theta = _oe_case(ship, exotic)
+    assert jitloop.use(jitloop.MIN_WORK)
+    compiled, numpy_path = es._Sims(p, terms, data), es._Sims(p, terms, data, compiled=False)
+    theta = theta.copy()
+    theta[3] *= 1e3  # explodes
+    idx = np.array([0, 2, 3, 5])
+    sims, ref = compiled.simulate(theta, idx), numpy_path.simulate(theta, idx)
+    with np.errstate(invalid="ignore"):
+        assert np.array_equal(sims[0].transpose(2, 0, 1), ref[0][0], equal_nan=True)
+    ms, ref_ms = compiled.mean_squares(sims, idx), numpy_path.mean_squares(ref, idx)
+    assert np.isinf(ms[2]).all() and np.isfinite(ms[[0, 1, 3]]).all()
+    assert np.array_equal(ms, ref_ms)
 
 
 def _numpy_path_estimates() -> dict:
