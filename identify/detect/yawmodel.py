@@ -72,7 +72,9 @@ class YawPrior:
     prefilter_hz: float = 0.0  # zero-phase low-pass of the model inputs (0: as measured)
     boot: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # (B, P) bootstrap relative errors
     noise: dict[str, float] = field(default_factory=dict)  # white measurement noise sd per signal, read from the nominal data
-    model_error: float = 0.0  # innovation sd of the block-mean fit residual beyond what that noise explains (structure)
+    #: innovation sd of the block-mean fit residual beyond what that white noise explains (misfit, and noise the
+    #: second difference misses: sensor-filtered or coloured); every record the prior simulates carries it
+    model_error: float = 0.0
     #: apparent relative change along each candidate (CANDIDATES) that the structure's misfit makes on a
     #: manoeuvre the prior was not fitted on (split-half cross-validation beyond noise; :func:`structural_spread`)
     structure: np.ndarray = field(default_factory=lambda: np.zeros(len(CANDIDATES)))
@@ -332,8 +334,8 @@ def structural_spread(
     """How far the prior's structure alone moves the detector's change estimates on a manoeuvre it
     was not fitted on: rms over the two split-half cross-validations of the nominal record
     (:func:`_split_theta`), less (in quadrature) the 95 % point of what the same two estimates give
-    on records that the prior's own structure generates with the nominal data's noise (``synthetic``
-    of them: what noise and the half fits' parameter error alone give). Zero for a structure that
+    on records that the prior's own structure generates with the nominal data's noise and model-error
+    term (``synthetic`` of them: what noise and the half fits' parameter error alone give). Zero for a structure that
     fits, and where the half fits diverged (no estimate: ``detect`` then warns that its alarms are
     not calibrated); the detector's calibration adds it as a random apparent change along each
     candidate's own signature (:func:`glr.calibrate`)."""
@@ -361,7 +363,9 @@ def model_error(prior: YawPrior, sig: dict[str, np.ndarray], r0: float, derive: 
     """Innovation sd of the part of the prior's own fit residual (whitened 1 s block means) that
     the measurement noise does not explain: ``sqrt(sigma_w^2 - s_noise^2)``, ``s_noise`` the same
     statistic of 32 no-change records simulated on the nominal data without parameter error. A
-    structure that leaves dynamics out (the simplified model (2.18)) has it; 0 when ``sigma_w``
+    structure that leaves dynamics out (the simplified model (2.18)) has it, and so has noise that
+    the white-noise reading (:func:`white_noise_sd`) sees a fraction of (a sensor's low-pass,
+    coloured noise): the records the prior simulates carry it (:func:`misfit_offsets`); 0 when ``sigma_w``
     is within two standard errors of the robust sigma (efficiency 0.37) of ``s_noise``."""
     exact = replace(prior, boot=np.zeros((0, len(prior.names))), cov=np.zeros_like(prior.cov), model_error=0.0)
     sim = whiten(block_mean(null_records(exact, sig, 32, seed, derive, r0), prior.block), prior.ar)
