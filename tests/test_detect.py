@@ -347,6 +347,22 @@ def test_the_screening_sizes_the_inertia_alarm_on_the_hulls_basis_as_the_verdict
     assert seen[0][1] == seen[0][2] == 0.05  # damping and pod gain: of themselves
 
 
+def test_a_diverging_no_change_simulation_does_not_blind_the_detector(prior):
+    # a bootstrap draw the manoeuvre cannot simulate (here a negative yaw inertia) is left out of the
+    # calibration; its NaNs made every threshold NaN, and a recording that could never alarm said
+    # "no change detected" (a steering-lag truth ship's prior: 6 of 400 draws diverged)
+    from dataclasses import replace as dc_replace
+
+    from identify.detect.api import screen
+
+    bad = np.zeros((1, prior.boot.shape[1]))
+    bad[0, 0] = 2.0  # the true I_r = x - 2 |x|: negative
+    wild = dc_replace(prior, boot=np.vstack([bad, prior.boot]))
+    rec = simulated_recording(Vessel(), 200, seed=43, change_at_s=0.0, changed=Vessel(inertia=1.3), measured_moment=True)
+    sc = screen(rec, wild, null_runs=20, **HULL)
+    assert np.all(np.isfinite(sc.h)) and np.isfinite(sc.null_blocks).all() and sc.null_blocks.shape[1] == 19
+
+
 def test_no_alarm_for_a_change_below_min_change(prior):
     rec = simulated_recording(Vessel(pod_gain=0.97), 300, seed=81, measured_moment=True)
     d = detect(rec, prior, min_change=0.05)

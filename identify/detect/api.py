@@ -300,6 +300,15 @@ def screen(
     residual_rms = check_inputs(rec, prior, sig, r, eps)
     S = signatures(prior, sig)
     null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
+    # a bootstrap draw whose ship cannot be simulated on this manoeuvre (diverged) is no no-change record:
+    # left in, its NaNs made every threshold NaN and the recording silently unable to alarm
+    kept = np.isfinite(null_raw).all(axis=0)
+    if kept.sum() < max(2, null_runs // 2):
+        raise RecordingError(
+            f"{rec.source}: {null_runs - kept.sum()} of {null_runs} no-change simulations from the prior diverged on "
+            "this manoeuvre; the prior's parameter error is too large for it: refit the prior on a longer nominal run"
+        )
+    null_raw = null_raw[:, kept]
     null_blocks = block_mean(null_raw, prior.block)
     # the change worth an alarm, per candidate signature: min_change of I_z is less of the lumped I_r, on
     # the hull's basis as the verdict's (the prior's fitted I_r is in the recorded moment's units)
