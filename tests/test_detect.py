@@ -361,6 +361,28 @@ def test_a_diverging_no_change_simulation_does_not_blind_the_detector(prior):
     rec = simulated_recording(Vessel(), 200, seed=43, change_at_s=0.0, changed=Vessel(inertia=1.3), measured_moment=True)
     sc = screen(rec, wild, null_runs=20, **HULL)
     assert np.all(np.isfinite(sc.h)) and np.isfinite(sc.null_blocks).all() and sc.null_blocks.shape[1] == 19
+    # leaving it out may lower the thresholds: the user is told how many were left out
+    from cli.detect_cmd import verdict_lines
+    from identify.detect.verdict import verdict
+
+    d = verdict(sc, wild, 0.05, **HULL)
+    assert d.evidence["null_diverged"] == {"left_out": 1, "of": 20}
+    assert any("1 of 20 no-change simulations" in line and "warning" in line for line in verdict_lines(d, 0.05))
+
+
+def test_a_recording_where_most_no_change_simulations_diverge_is_refused_in_one_line(prior):
+    from dataclasses import replace as dc_replace
+
+    from diagnose.recording import RecordingError
+    from identify.detect.api import screen
+
+    bad = np.zeros((3, prior.boot.shape[1]))
+    bad[:, 0] = 2.0  # three of every four draws: a negative yaw inertia
+    wild = dc_replace(prior, boot=np.vstack([bad, prior.boot[:1]]))
+    rec = simulated_recording(Vessel(), 200, seed=43, measured_moment=True)
+    with pytest.raises(RecordingError, match=r"15 of 20 no-change simulations from the prior diverged") as e:
+        screen(rec, wild, null_runs=20, **HULL)
+    assert "\n" not in str(e.value)
 
 
 def test_no_alarm_for_a_change_below_min_change(prior):

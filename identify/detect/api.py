@@ -299,9 +299,13 @@ def screen(
     eps = r - prior.predict(sig, r0=r0)
     residual_rms = check_inputs(rec, prior, sig, r, eps)
     S = signatures(prior, sig)
-    null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
+    if i_z is not None and n_rdot is not None and not (i_z > 0 and n_rdot < 0):
+        raise ValueError(f"i_z {i_z:g} must be positive and n_rdot {n_rdot:g} negative (kg m^2)")
+    with np.errstate(over="ignore", invalid="ignore"):  # a diverging draw is counted below, not printed as numpy's
+        null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
     # a bootstrap draw whose ship cannot be simulated on this manoeuvre (diverged) is no no-change record:
-    # left in, its NaNs made every threshold NaN and the recording silently unable to alarm
+    # left in, its NaNs made every threshold NaN and the recording silently unable to alarm. Left out, the
+    # thresholds are low if the diverging draws are the prior's largest parameter errors: detect warns
     kept = np.isfinite(null_raw).all(axis=0)
     if kept.sum() < max(2, null_runs // 2):
         raise RecordingError(
@@ -320,7 +324,18 @@ def screen(
     g = dz.statistic(eps)
     j = int(first_alarms(g[:, None], dz.h)[0])
     return Screening(
-        str(rec.source), eps, S, st, np.asarray(sc.h), null_blocks, g, float(dz.h), j, rec.t - rec.t[0], residual_rms
+        str(rec.source),
+        eps,
+        S,
+        st,
+        np.asarray(sc.h),
+        null_blocks,
+        g,
+        float(dz.h),
+        j,
+        rec.t - rec.t[0],
+        residual_rms,
+        int(null_runs - kept.sum()),
     )
 
 

@@ -34,7 +34,8 @@ class Screening:
     signatures ``S`` (n, k), the LR-CUSUM statistic per block and candidate ``st`` (nb, k) with
     its thresholds ``h`` (k,), the block means of the no-change records (nb, runs), the dead-zone
     CUSUM (5.1) with its threshold and first alarm sample (-1: none), the time from the
-    recording's start (n,) and the input checks' residual rms."""
+    recording's start (n,), the input checks' residual rms and how many no-change simulations
+    diverged and were left out of the calibration."""
 
     source: str
     eps: np.ndarray
@@ -47,6 +48,7 @@ class Screening:
     dead_zone_alarm: int
     t: np.ndarray
     residual_rms: float
+    null_diverged: int = 0
 
 
 @dataclass
@@ -181,6 +183,7 @@ def verdict(
     ev["statistic_max"] = {c: float(sc.st[:, k].max()) for k, c in enumerate(CANDIDATES)}
     ev["residual_rms"] = sc.residual_rms
     ev["prior_sigma"] = prior.sigma
+    ev["null_diverged"] = {"left_out": sc.null_diverged, "of": sc.null_diverged + sc.null_blocks.shape[1]}
     tb = t[prior.block - 1 :: prior.block][: len(sc.st)]
     j = sc.dead_zone_alarm
     return Detection(
