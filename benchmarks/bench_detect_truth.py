@@ -134,7 +134,7 @@ def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str) 
             try:
                 rec = load_runs([path])[0]
                 d = verdict(
-                    _stored(folder / f"{path.stem}-screen-{key}.pkl", lambda rec=rec: screen(rec, prior, n_rdot=HULL["n_rdot"])),
+                    _stored(folder / f"{path.stem}-screen-{key}.pkl", lambda rec=rec: screen(rec, prior, **HULL)),
                     prior,
                     **HULL,
                 )

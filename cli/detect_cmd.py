@@ -223,4 +223,11 @@ def verdict_lines(d, min_change: float) -> list[str]:
         out.append(line)
     dz = f"{d.dead_zone_alarm_s:.0f} s" if d.dead_zone_alarm_s is not None else "none"
     out.append(f"  dead-zone CUSUM (5.1) alarm: {dz}")
+    div = ev.get("null_diverged", {"left_out": 0, "of": 0})
+    if div["left_out"]:
+        out.append(
+            f"  warning: {div['left_out']} of {div['of']} no-change simulations from the prior diverged on this manoeuvre "
+            "and were left out of the calibration: if they were its largest parameter errors, the thresholds are low "
+            "and false alarms above --false-alarm"
+        )
     return out

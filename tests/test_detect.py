@@ -177,6 +177,28 @@ def test_white_noise_level_is_read_from_the_data():
         assert white_noise_sd(smooth + sd * rng.standard_normal(t.size)) == pytest.approx(sd, rel=0.05)
 
 
+def test_coloured_sensor_noise_does_not_pass_for_structure():
+    """A record that the prior's own structure generates (the kernel), measured with Table 4.1 noise
+    levels made AR(1)-coloured (1.5 s, as the podded truth family's coloured-noise variant): the
+    white-noise reading sees a fraction of that noise, so the split-half cross-validation must hold
+    its synthetic records to the nominal residual's whole level, or the noise passes for structural
+    misfit (it read 7.5 % of I_r, which the detector then added to every estimate's sd)."""
+    from scipy.signal import lfilter
+
+    from identify.detect.vessel import TABLE_4_1
+    from identify.detect.yawmodel import fit
+
+    tr = truth(harbour_inputs(4000, 0.1, seed=5))
+    rng = np.random.default_rng(7)
+    a = np.exp(-0.1 / 1.5)
+    meas = {
+        k: tr[k] + sd * lfilter([np.sqrt(1 - a * a)], [1, -a], rng.standard_normal(len(tr[k]))) for k, sd in TABLE_4_1.items()
+    }
+    p = fit("full", {k: meas[k] for k in SIGNALS["full"]}, meas["r"], 0.1, bootstrap=16, seed=1)
+    assert p.model_error > 0  # the coloured noise is more than the white-noise reading explains
+    assert np.all(p.structure < 0.01), p.structure
+
+
 def test_sway_fusion_keeps_v_and_sheds_its_noise():
     from identify.detect.vessel import TABLE_4_1, measure
     from identify.detect.yawmodel import fuse_sway
@@ -304,6 +326,63 @@ def test_the_i_z_change_is_converted_with_the_hulls_values_not_the_priors_fitted
     assert a["I_z_relative_change"] == b["I_z_relative_change"] == pytest.approx(a["relative_change"] * 62.4 / 33.7)
     c = verdict(sc, prior, i_z=50e6, n_rdot=-28.7e6).evidence["candidates"]["yaw_inertia"]  # a heavier hull: a smaller share
     assert c["I_z_relative_change"] == pytest.approx(a["relative_change"] * 78.7 / 50.0) and c["I_z"] == 50e6
+
+
+def test_the_screening_sizes_the_inertia_alarm_on_the_hulls_basis_as_the_verdict_does(prior, monkeypatch):
+    # --min-change is of I_z: the LR-CUSUM looks for min_change * I_z / (I_z - N_rdot) of I_r with the
+    # hull's values, as the verdict converts its estimate, not with the prior's fitted I_r (which is in
+    # the recorded moment's units: a load cell that misses the hull's share scales it)
+    from dataclasses import replace as dc_replace
+
+    import identify.detect.api as api
+
+    seen = []
+    real = api.calibrate
+    monkeypatch.setattr(api, "calibrate", lambda *a, **k: seen.append(k["theta1"]) or real(*a, **k))
+    rec = simulated_recording(Vessel(), 200, seed=43, measured_moment=True)
+    scaled = dc_replace(prior, values=prior.values | {"I_r": 0.77 * prior.values["I_r"]})
+    for p in (prior, scaled):
+        api.screen(rec, p, min_change=0.05, null_runs=20, **HULL)
+    assert seen[0][0] == seen[1][0] == pytest.approx(0.05 * HULL["i_z"] / (HULL["i_z"] - HULL["n_rdot"]))
+    assert seen[0][1] == seen[0][2] == 0.05  # damping and pod gain: of themselves
+
+
+def test_a_diverging_no_change_simulation_does_not_blind_the_detector(prior):
+    # a bootstrap draw the manoeuvre cannot simulate (here a negative yaw inertia) is left out of the
+    # calibration; its NaNs made every threshold NaN, and a recording that could never alarm said
+    # "no change detected" (a steering-lag truth ship's prior: 6 of 400 draws diverged)
+    from dataclasses import replace as dc_replace
+
+    from identify.detect.api import screen
+
+    bad = np.zeros((1, prior.boot.shape[1]))
+    bad[0, 0] = 2.0  # the true I_r = x - 2 |x|: negative
+    wild = dc_replace(prior, boot=np.vstack([bad, prior.boot]))
+    rec = simulated_recording(Vessel(), 200, seed=43, change_at_s=0.0, changed=Vessel(inertia=1.3), measured_moment=True)
+    sc = screen(rec, wild, null_runs=20, **HULL)
+    assert np.all(np.isfinite(sc.h)) and np.isfinite(sc.null_blocks).all() and sc.null_blocks.shape[1] == 19
+    # leaving it out may lower the thresholds: the user is told how many were left out
+    from cli.detect_cmd import verdict_lines
+    from identify.detect.verdict import verdict
+
+    d = verdict(sc, wild, 0.05, **HULL)
+    assert d.evidence["null_diverged"] == {"left_out": 1, "of": 20}
+    assert any("1 of 20 no-change simulations" in line and "warning" in line for line in verdict_lines(d, 0.05))
+
+
+def test_a_recording_where_most_no_change_simulations_diverge_is_refused_in_one_line(prior):
+    from dataclasses import replace as dc_replace
+
+    from diagnose.recording import RecordingError
+    from identify.detect.api import screen
+
+    bad = np.zeros((3, prior.boot.shape[1]))
+    bad[:, 0] = 2.0  # three of every four draws: a negative yaw inertia
+    wild = dc_replace(prior, boot=np.vstack([bad, prior.boot[:1]]))
+    rec = simulated_recording(Vessel(), 200, seed=43, measured_moment=True)
+    with pytest.raises(RecordingError, match=r"15 of 20 no-change simulations from the prior diverged") as e:
+        screen(rec, wild, null_runs=20, **HULL)
+    assert "\n" not in str(e.value)
 
 
 def test_no_alarm_for_a_change_below_min_change(prior):

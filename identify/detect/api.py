@@ -265,7 +265,7 @@ def detect(
     interval and, for yaw inertia, the change of the rigid body's ``i_z`` beside that of the lumped
     I_r = I_z - ``n_rdot`` (the hull's values, :func:`hull_inertia`; None: not known, the change
     is of I_r and ``min_change`` applies to it)."""
-    return verdict(screen(rec, prior, false_alarm, min_change, seed, null_runs, n_rdot), prior, min_change, n_rdot, i_z)
+    return verdict(screen(rec, prior, false_alarm, min_change, seed, null_runs, n_rdot, i_z), prior, min_change, n_rdot, i_z)
 
 
 def screen(
@@ -276,11 +276,14 @@ def screen(
     seed: int = 0,
     null_runs: int = 400,
     n_rdot: float | None = None,
+    i_z: float | None = None,
 ) -> Screening:
     """The recording's residual against the prior, the change signatures, ``null_runs`` no-change
     records simulated from the prior alone (:func:`identify.detect.yawmodel.null_records`), and the
     LR-CUSUM and dead-zone CUSUM statistics with thresholds calibrated on those for ``false_alarm``
-    per recording length; the LR-CUSUM looks for a change of ``min_change`` (of I_z for inertia)."""
+    per recording length; the LR-CUSUM looks for a change of ``min_change``: of I_z for inertia
+    when the hull's ``i_z`` and ``n_rdot`` are given (converted to I_r with the hull's I_z - N_rdot,
+    as :func:`identify.detect.verdict.verdict` converts the estimate), else of I_r."""
     if abs(rec.sample_time - prior.dt) > 1e-6 * prior.dt:
         raise RecordingError(
             f"{rec.source}: sample time {rec.sample_time:g} s differs from the prior's {prior.dt:g} s; "
@@ -296,10 +299,24 @@ def screen(
     eps = r - prior.predict(sig, r0=r0)
     residual_rms = check_inputs(rec, prior, sig, r, eps)
     S = signatures(prior, sig)
-    null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
+    if i_z is not None and n_rdot is not None and not (i_z > 0 and n_rdot < 0):
+        raise ValueError(f"i_z {i_z:g} must be positive and n_rdot {n_rdot:g} negative (kg m^2)")
+    with np.errstate(over="ignore", invalid="ignore"):  # a diverging draw is counted below, not printed as numpy's
+        null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
+    # a bootstrap draw whose ship cannot be simulated on this manoeuvre (diverged) is no no-change record:
+    # left in, its NaNs made every threshold NaN and the recording silently unable to alarm. Left out, the
+    # thresholds are low if the diverging draws are the prior's largest parameter errors: detect warns
+    kept = np.isfinite(null_raw).all(axis=0)
+    if kept.sum() < max(2, null_runs // 2):
+        raise RecordingError(
+            f"{rec.source}: {null_runs - kept.sum()} of {null_runs} no-change simulations from the prior diverged on "
+            "this manoeuvre; the prior's parameter error is too large for it: refit the prior on a longer nominal run"
+        )
+    null_raw = null_raw[:, kept]
     null_blocks = block_mean(null_raw, prior.block)
-    # the change worth an alarm, per candidate signature: min_change of I_z is less of the lumped I_r
-    iz_per_ir = (physical_change("yaw_inertia", 1.0, prior.values["I_r"], n_rdot) or 1.0) if n_rdot is not None else 1.0
+    # the change worth an alarm, per candidate signature: min_change of I_z is less of the lumped I_r, on
+    # the hull's basis as the verdict's (the prior's fitted I_r is in the recorded moment's units)
+    iz_per_ir = physical_change("yaw_inertia", 1.0, i_z - n_rdot, n_rdot) if i_z is not None and n_rdot is not None else 1.0
     theta1 = np.array([min_change / iz_per_ir, min_change, min_change])
     sc: SignatureCusum = calibrate(prior, S, null_blocks, theta1=theta1, false_alarm=false_alarm, seed=seed)
     dz = calibrate_dead_zone(prior.sigma, null_raw, false_alarm=false_alarm)
@@ -307,7 +324,18 @@ def screen(
     g = dz.statistic(eps)
     j = int(first_alarms(g[:, None], dz.h)[0])
     return Screening(
-        str(rec.source), eps, S, st, np.asarray(sc.h), null_blocks, g, float(dz.h), j, rec.t - rec.t[0], residual_rms
+        str(rec.source),
+        eps,
+        S,
+        st,
+        np.asarray(sc.h),
+        null_blocks,
+        g,
+        float(dz.h),
+        j,
+        rec.t - rec.t[0],
+        residual_rms,
+        int(null_runs - kept.sum()),
     )
 
 

@@ -34,7 +34,8 @@ class Screening:
     signatures ``S`` (n, k), the LR-CUSUM statistic per block and candidate ``st`` (nb, k) with
     its thresholds ``h`` (k,), the block means of the no-change records (nb, runs), the dead-zone
     CUSUM (5.1) with its threshold and first alarm sample (-1: none), the time from the
-    recording's start (n,) and the input checks' residual rms."""
+    recording's start (n,), the input checks' residual rms and how many no-change simulations
+    diverged and were left out of the calibration."""
 
     source: str
     eps: np.ndarray
@@ -47,6 +48,7 @@ class Screening:
     dead_zone_alarm: int
     t: np.ndarray
     residual_rms: float
+    null_diverged: int = 0
 
 
 @dataclass
@@ -124,23 +126,27 @@ def _decide(eps, S, prior, st, h, null_blocks, min_change, i_ref, n_rdot) -> tup
     The evidence (each candidate's estimate and the named property) is then taken from the change
     point to the end of the recording: the alarm needs only the data up to it, the naming all the
     data that bears on it (inertia and pod gain are nearly collinear at turn onsets and need more
-    data to be told apart than to be detected). ``at_alarm`` keeps what the alarm decision saw."""
+    data to be told apart than to be detected). ``at_alarm`` keeps what the alarm decision saw.
+    Residual, signatures and no-change records are whitened once (:class:`Whitened`): every
+    candidate block reads windows of the same whitened arrays."""
+    wd = Whitened.of(eps, S, prior, null_blocks)
+    n = len(eps)
     over = np.flatnonzero((st / h).max(axis=1) > 1.0)
     step = max(1, len(over) // CHECKS)
     for b in over[::step]:
         upto = (int(b) + 1) * prior.block
         k = int(np.argmax(st[b] / h))
-        tau, lo, hi = onset(eps, S, prior, upto, k)
-        end = min(max(upto, tau + int(round(MIN_WINDOW_S / prior.dt))), len(eps))
-        seen = attribute(eps, S, prior, end, null_blocks, start=tau)
+        tau, lo, hi = wd.onset(upto, k)
+        end = min(max(upto, tau + int(round(MIN_WINDOW_S / prior.dt))), n)
+        seen = wd.attribute(end, start=tau)
         lead = max(seen["candidates"], key=lambda c: seen["candidates"][c]["llr"])
         c = seen["candidates"][lead]
         size = c["relative_change"] if i_ref is None else physical_change(lead, c["relative_change"], i_ref, n_rdot)
         if abs(size) >= min_change and abs(c["relative_change"]) >= 2 * c["std"]:
-            ev = attribute(eps, S, prior, len(eps), null_blocks, start=tau)
+            ev = wd.attribute(n, start=tau)
             return end - 1, ev | {"onset": (tau, lo, hi), "at_alarm": {"candidate": lead} | c}
-    tau, lo, hi = onset(eps, S, prior, len(eps), int(np.argmax((st / h).max(axis=0))))
-    return -1, attribute(eps, S, prior, len(eps), null_blocks, start=0) | {
+    tau, lo, hi = wd.onset(n, int(np.argmax((st / h).max(axis=0))))
+    return -1, wd.attribute(n, start=0) | {
         "onset": (tau, lo, hi),
         "crossed_but_below_min_change": bool(len(over)),
     }
@@ -177,6 +183,7 @@ def verdict(
     ev["statistic_max"] = {c: float(sc.st[:, k].max()) for k, c in enumerate(CANDIDATES)}
     ev["residual_rms"] = sc.residual_rms
     ev["prior_sigma"] = prior.sigma
+    ev["null_diverged"] = {"left_out": sc.null_diverged, "of": sc.null_diverged + sc.null_blocks.shape[1]}
     tb = t[prior.block - 1 :: prior.block][: len(sc.st)]
     j = sc.dead_zone_alarm
     return Detection(
@@ -204,15 +211,7 @@ def onset(eps: np.ndarray, S: np.ndarray, prior: YawPrior, upto: int, k: int) ->
     ``tau`` that maximises the GLR ``(sum_{t>=tau} S_k e)^2 / (2 s^2 sum_{t>=tau} S_k^2)`` (Basseville and
     Nikiforov 1993, section 2.2.3), and the blocks whose GLR is within 1.92 of it (a 95 % profile-
     likelihood interval). Returns (first sample of tau, of the interval's start, of its end)."""
-    nb = max(upto // prior.block, 2)
-    Sw = whiten(block_mean(S[:, k], prior.block), prior.ar)[:nb]
-    ew = whiten(block_mean(eps, prior.block), prior.ar)[:nb]
-    z = np.cumsum((Sw * ew)[::-1])[::-1]
-    d = np.maximum(np.cumsum((Sw * Sw)[::-1])[::-1], 1e-300)
-    llr = z * z / (2 * prior.sigma_w**2 * d)
-    best = int(np.argmax(llr))
-    inside = np.flatnonzero(llr >= llr[best] - 1.92)
-    return best * prior.block, int(inside[0]) * prior.block, int(inside[-1] + 1) * prior.block
+    return Whitened.of(eps, S, prior).onset(upto, k)
 
 
 def attribute(
@@ -226,26 +225,58 @@ def attribute(
     actuator gain look alike). ``std`` is the estimate's standard deviation under no change: from
     the no-change records' block means ``null_blocks`` (blocks, runs) when given (noise and the
     prior's own parameter error), else from the noise alone."""
-    w = slice(start // prior.block, max(upto // prior.block, start // prior.block + 2))
-    Sw = whiten(block_mean(S, prior.block), prior.ar)[w]
-    s2 = prior.sigma_w**2
-    den = np.maximum(np.sum(Sw**2, axis=0), 1e-300)
+    return Whitened.of(eps, S, prior, null_blocks).attribute(upto, start)
 
-    def project(e_blocks: np.ndarray) -> np.ndarray:
-        return Sw.T @ whiten(e_blocks, prior.ar)[w]
 
-    num = project(block_mean(eps, prior.block))
-    std = np.std(project(null_blocks), axis=1) / den if null_blocks is not None else np.sqrt(s2 / den)
-    std = np.sqrt(std**2 + prior.structure**2)  # the structure's apparent change on a new manoeuvre
-    llr = num**2 / (2 * s2 * den)
-    order = np.argsort(-llr)
-    close = [CANDIDATES[int(i)] for i in order if llr[order[0]] - llr[i] < SEPARATION]
-    return {
-        "property": close[0] if len(close) == 1 else "undecided",
-        "undecided_between": close if len(close) > 1 else [],
-        "candidates": {
-            c: {"relative_change": float(num[i] / den[i]), "llr": float(llr[i]), "std": float(std[i])}
-            for i, c in enumerate(CANDIDATES)
-        },
-        "llr_margin": float(llr[order[0]] - llr[order[1]]),
-    }
+@dataclass
+class Whitened:
+    """One recording's whitened 1 s block means (the prior's AR innovation filter along time): the
+    signatures ``Sw`` (nb, k), the residual ``ew`` (nb,) and the no-change records ``nw`` (nb, runs)
+    or None. The filter runs along time from the recording's start, so a window of these is the
+    same as whitening the whole block array and then cutting the window, as :func:`onset` and
+    :func:`attribute` do; made once per recording, the decision's many windows only slice."""
+
+    prior: YawPrior
+    Sw: np.ndarray
+    ew: np.ndarray
+    nw: np.ndarray | None
+
+    @classmethod
+    def of(cls, eps: np.ndarray, S: np.ndarray, prior: YawPrior, null_blocks: np.ndarray | None = None) -> Whitened:
+        nw = None if null_blocks is None else whiten(null_blocks, prior.ar)
+        return cls(prior, whiten(block_mean(S, prior.block), prior.ar), whiten(block_mean(eps, prior.block), prior.ar), nw)
+
+    def onset(self, upto: int, k: int) -> tuple[int, int, int]:
+        """:func:`onset` on these arrays."""
+        p = self.prior
+        nb = max(upto // p.block, 2)
+        Sw, ew = self.Sw[:nb, k], self.ew[:nb]
+        z = np.cumsum((Sw * ew)[::-1])[::-1]
+        d = np.maximum(np.cumsum((Sw * Sw)[::-1])[::-1], 1e-300)
+        llr = z * z / (2 * p.sigma_w**2 * d)
+        best = int(np.argmax(llr))
+        inside = np.flatnonzero(llr >= llr[best] - 1.92)
+        return best * p.block, int(inside[0]) * p.block, int(inside[-1] + 1) * p.block
+
+    def attribute(self, upto: int, start: int = 0) -> dict:
+        """:func:`attribute` on these arrays."""
+        p = self.prior
+        w = slice(start // p.block, max(upto // p.block, start // p.block + 2))
+        Sw = self.Sw[w]
+        s2 = p.sigma_w**2
+        den = np.maximum(np.sum(Sw**2, axis=0), 1e-300)
+        num = Sw.T @ self.ew[w]
+        std = np.std(Sw.T @ self.nw[w], axis=1) / den if self.nw is not None else np.sqrt(s2 / den)
+        std = np.sqrt(std**2 + p.structure**2)  # the structure's apparent change on a new manoeuvre
+        llr = num**2 / (2 * s2 * den)
+        order = np.argsort(-llr)
+        close = [CANDIDATES[int(i)] for i in order if llr[order[0]] - llr[i] < SEPARATION]
+        return {
+            "property": close[0] if len(close) == 1 else "undecided",
+            "undecided_between": close if len(close) > 1 else [],
+            "candidates": {
+                c: {"relative_change": float(num[i] / den[i]), "llr": float(llr[i]), "std": float(std[i])}
+                for i, c in enumerate(CANDIDATES)
+            },
+            "llr_margin": float(llr[order[0]] - llr[order[1]]),
+        }

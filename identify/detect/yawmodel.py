@@ -72,7 +72,9 @@ class YawPrior:
     prefilter_hz: float = 0.0  # zero-phase low-pass of the model inputs (0: as measured)
     boot: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # (B, P) bootstrap relative errors
     noise: dict[str, float] = field(default_factory=dict)  # white measurement noise sd per signal, read from the nominal data
-    model_error: float = 0.0  # innovation sd of the block-mean fit residual beyond what that noise explains (structure)
+    #: innovation sd of the block-mean fit residual beyond what that white noise explains (misfit, and noise the
+    #: second difference misses: sensor-filtered or coloured); every record the prior simulates carries it
+    model_error: float = 0.0
     #: apparent relative change along each candidate (CANDIDATES) that the structure's misfit makes on a
     #: manoeuvre the prior was not fitted on (split-half cross-validation beyond noise; :func:`structural_spread`)
     structure: np.ndarray = field(default_factory=lambda: np.zeros(len(CANDIDATES)))
@@ -275,18 +277,20 @@ def fit(
     e_blocks = block_mean(e, block)
     ar = ar_fit(e_blocks)
     sigma_w = robust_sigma(whiten(e_blocks, ar))
-    boot = np.zeros((0, p))
-    if not estimate:
-        cov = np.zeros((p, p))
-    elif bootstrap > 0:
-        boot = bootstrap_deviations(kind, raw, r_meas, dt, x, bootstrap, seed, derive, prefilter_hz)
-        cov = boot.T @ boot / len(boot)
-    else:
-        cov = _covariance(kind, sig, dt, x, r0, block, ar, sigma_w)
     values = {k: float(NOMINAL[k] * xi) for k, xi in zip(PARAMS[kind], x)}
     noise = {k: white_noise_sd(v) for k, v in raw.items()} | {"r": white_noise_sd(r_meas)}
-    prior = YawPrior(kind, values, robust_sigma(e), cov, ar, sigma_w, block, dt, source, prefilter_hz, boot, noise)
+    prior = YawPrior(
+        kind, values, robust_sigma(e), np.zeros((p, p)), ar, sigma_w, block, dt, source, prefilter_hz, np.zeros((0, p)), noise
+    )
     prior.model_error = model_error(prior, raw, r0, derive, seed)
+    if estimate and bootstrap > 0:
+        # the refits see the nominal residual's whole level: white noise at the levels read, plus what
+        # those levels do not explain (coloured or sensor-filtered noise, misfit), as the null records do
+        offsets = misfit_offsets(prior, len(r_meas), bootstrap, np.random.default_rng([seed, 7])).T
+        prior.boot = bootstrap_deviations(kind, raw, r_meas, dt, x, bootstrap, seed, derive, prefilter_hz, offsets)
+        prior.cov = prior.boot.T @ prior.boot / len(prior.boot)
+    elif estimate:
+        prior.cov = _covariance(kind, sig, dt, x, r0, block, ar, sigma_w)
     if estimate and bootstrap > 0:
         prior.structure = structural_spread(prior, raw, r_meas, x, derive, seed)
     return prior
@@ -330,8 +334,8 @@ def structural_spread(
     """How far the prior's structure alone moves the detector's change estimates on a manoeuvre it
     was not fitted on: rms over the two split-half cross-validations of the nominal record
     (:func:`_split_theta`), less (in quadrature) the 95 % point of what the same two estimates give
-    on records that the prior's own structure generates with the nominal data's noise (``synthetic``
-    of them: what noise and the half fits' parameter error alone give). Zero for a structure that
+    on records that the prior's own structure generates with the nominal data's noise and model-error
+    term (``synthetic`` of them: what noise and the half fits' parameter error alone give). Zero for a structure that
     fits, and where the half fits diverged (no estimate: ``detect`` then warns that its alarms are
     not calibrated); the detector's calibration adds it as a random apparent change along each
     candidate's own signature (:func:`glr.calibrate`)."""
@@ -340,7 +344,9 @@ def structural_spread(
     n = len(r_meas)
     rng = np.random.default_rng([seed, 5])
     r_true = simulate_r(prior.kind, x, prior.inputs(clean), prior.dt, r0=float(np.mean(r_meas[:10])))
-    r_b = r_true + prior.noise.get("r", 0.0) * rng.standard_normal((synthetic, n))
+    # the same residual the no-change records carry (noise, and what the nominal residual has beyond it):
+    # without the latter, coloured sensor noise that the white-noise reading misses passed for structure
+    r_b = r_true + prior.noise.get("r", 0.0) * rng.standard_normal((synthetic, n)) + misfit_offsets(prior, n, synthetic, rng).T
     s_b = {k: clean[k] + prior.noise.get(k, 0.0) * rng.standard_normal((synthetic, n)) for k in sig}
     if derive is not None:
         rows = [derive({k: s_b[k][i] for k in sig}, r_b[i]) for i in range(synthetic)]
@@ -357,7 +363,9 @@ def model_error(prior: YawPrior, sig: dict[str, np.ndarray], r0: float, derive: 
     """Innovation sd of the part of the prior's own fit residual (whitened 1 s block means) that
     the measurement noise does not explain: ``sqrt(sigma_w^2 - s_noise^2)``, ``s_noise`` the same
     statistic of 32 no-change records simulated on the nominal data without parameter error. A
-    structure that leaves dynamics out (the simplified model (2.18)) has it; 0 when ``sigma_w``
+    structure that leaves dynamics out (the simplified model (2.18)) has it, and so has noise that
+    the white-noise reading (:func:`white_noise_sd`) sees a fraction of (a sensor's low-pass,
+    coloured noise): the records the prior simulates carry it (:func:`misfit_offsets`); 0 when ``sigma_w``
     is within two standard errors of the robust sigma (efficiency 0.37) of ``s_noise``."""
     exact = replace(prior, boot=np.zeros((0, len(prior.names))), cov=np.zeros_like(prior.cov), model_error=0.0)
     sim = whiten(block_mean(null_records(exact, sig, 32, seed, derive, r0), prior.block), prior.ar)
@@ -406,6 +414,7 @@ def bootstrap_deviations(
     seed: int = 0,
     derive: Derive | None = None,
     prefilter_hz: float = PREFILTER_HZ,
+    offsets: np.ndarray | None = None,
 ) -> np.ndarray:
     """Relative parameter errors ``(x_b - x) / |x|`` (runs, P) of ``runs`` parametric-bootstrap
     refits, errors in variables included (the Jacobian covariance knows only the noise on r).
@@ -416,13 +425,15 @@ def bootstrap_deviations(
     (:func:`white_noise_sd`), refitted from ``x`` exactly as the prior was (uncentred: the
     estimator's bias is part of the error). With ``derive(sig_b, r_b) -> sig_b`` derived inputs
     (v' from v, tau_r from the motion) are recomputed from the noisy synthetic signals, as they
-    were from the measured ones. Only nominal data enter."""
+    were from the measured ones. ``offsets`` (runs, n), when given, are added to the synthetic yaw
+    rates (:func:`misfit_offsets`: the residual the white-noise levels do not explain). Only nominal
+    data enter."""
     clean = smooth(sig, dt)
     sd = {k: white_noise_sd(s) for k, s in sig.items()}
     n = len(r_meas)
     r_true = simulate_r(kind, x, model_inputs(clean, dt, prefilter_hz), dt, r0=float(np.mean(r_meas[:10])))
     rng = np.random.default_rng(seed)
-    r_b = r_true + white_noise_sd(r_meas) * rng.standard_normal((runs, n))
+    r_b = r_true + white_noise_sd(r_meas) * rng.standard_normal((runs, n)) + (0.0 if offsets is None else offsets)
     s_b = {k: clean[k] + sd[k] * rng.standard_normal((runs, n)) for k in sig}
     if derive is not None:
         rows = [derive({k: s_b[k][i] for k in sig}, r_b[i]) for i in range(runs)]
@@ -474,12 +485,19 @@ def null_records(
     noisy = {k: s[:, None] + prior.noise.get(k, 0.0) * rng.standard_normal((n, runs)) for k, s in clean.items()}
     if derive is not None:
         noisy = derive(noisy, r_meas)
-    eps = r_meas - prior.predict(noisy, r0=r0)
-    if prior.model_error > 0:  # the structure's own misfit, as AR-coloured block offsets
+    return r_meas - prior.predict(noisy, r0=r0) + misfit_offsets(prior, n, runs, rng)
+
+
+def misfit_offsets(prior: YawPrior, n: int, runs: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, runs) residual the white noise at ``prior.noise`` does not explain (``prior.model_error``):
+    1 s block offsets coloured by the prior's AR filter (its innovation sd ``model_error``), so a
+    simulated record's whitened block residual has the nominal fit's level; zeros without it."""
+    out = np.zeros((n, runs))
+    if prior.model_error > 0:
         nb = n // prior.block
         w = lfilter([1.0], np.r_[1.0, -prior.ar], prior.model_error * rng.standard_normal((nb, runs)), axis=0)
-        eps[: nb * prior.block] += np.repeat(w, prior.block, axis=0)
-    return eps
+        out[: nb * prior.block] = np.repeat(w, prior.block, axis=0)
+    return out
 
 
 def robust_sigma(e: np.ndarray) -> float:
