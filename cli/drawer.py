@@ -278,10 +278,16 @@ class Drawer:
 
     ``send(job)`` hands it the plan once planned; ``wait()`` waits for the figures (raising the
     first writer's error as an ExportError); ``cancel()`` ends it without drawing (nothing
-    planned, or the command failed). Without ``fork`` nothing is started and ``send`` draws in
-    the calling process."""
+    planned, or the command failed). ``ahead`` draws ahead from ``early``'s result, or from
+    ``given`` (known already, e.g. a cached plan's design) when there is no ``early``. Without
+    ``fork`` nothing is started and ``send`` draws in the calling process."""
 
-    def __init__(self, early: Callable[[], object] | None = None, ahead: Callable[[Any], dict[str, Any]] | None = None) -> None:
+    def __init__(
+        self,
+        early: Callable[[], object] | None = None,
+        ahead: Callable[[Any], dict[str, Any]] | None = None,
+        given: object | None = None,
+    ) -> None:
         self.pid, self._early = 0, -1
         if not CAN_FORK:
             return
@@ -299,7 +305,7 @@ class Drawer:
                 if early is not None:
                     os.close(self._early)
                     _child(report_w, lambda: self._serve(job_r, early, early_w, ahead))
-                _child(report_w, lambda: self._serve(job_r))
+                _child(report_w, lambda: self._serve(job_r, ahead=ahead, given=given))
             finally:
                 os._exit(1)
         os.close(job_r)
@@ -314,8 +320,9 @@ class Drawer:
         early: Callable[[], object] | None = None,
         early_w: int = -1,
         ahead: Callable[[Any], dict[str, Any]] | None = None,
+        given: object | None = None,
     ) -> None:
-        result = _compute_early(early, early_w) if early is not None else None
+        result = _compute_early(early, early_w) if early is not None else given
         _warm()
         prepared = _prepare(ahead, result)  # while the parent still plans
         from maps.export.cardpdf import prepare_document

@@ -3,6 +3,13 @@
 import pytest
 
 
+@pytest.fixture(autouse=True)
+def _no_plan_cache(monkeypatch):
+    """No test reads or writes the user's plan cache (maps.plancache): a plan read from it would
+    skip the code the test exercises. The cache's own tests set a directory of their own."""
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", "")
+
+
 @pytest.fixture(scope="session")
 def damping_diagnosis():
     """(scenario, diagnosis): the model-ship's quadratic yaw damping case diagnosed with its
