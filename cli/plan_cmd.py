@@ -339,10 +339,11 @@ def plan_and_write(
     """Plan (``design``: criterion, mean_subtraction, trial_length_s, seed) and write every
     output into ``out``; returns the files (paths in ``out``), the plan and whether the design
     and plan were read from the plan cache (:mod:`maps.plancache`; ``cache=False``: neither read
-    nor written). The figures are drawn by a :class:`cli.drawer.Drawer` started first (on a
-    cache miss it designs and imports the drawing modules on the other core while this process
-    plans); a NoFitError is the command's exit 1."""
-    from cli.drawer import Drawer
+    nor written). The figures are drawn by a :class:`cli.drawer.Drawer`, the one ``plan-trial``
+    forked before parsing its options (:func:`cli.drawer.start_early`) or one started here: it
+    imports the drawing modules and, on a cache miss, designs on the other core while this process
+    reads the cache or plans; a NoFitError is the command's exit 1."""
+    from cli.drawer import Drawer, take_early
     from maps import plancache
     from maps.export._common import iso, resolve_start
     from maps.geo import load_map
@@ -356,13 +357,18 @@ def plan_and_write(
     cache_dir = plancache.default_dir() if cache else None
     key = _cache_key(prof, map_path, inputs) if cache_dir is not None else None
     hit = plancache.load(cache_dir, key) if key is not None else None
-    early = given = None
-    if hit is not None:  # the drawer draws the design's ratios while this process prepares the exports
-        given = hit["design"].design if hit["design"] is not None else None
-    elif counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
+    early = None
+    if hit is None and counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
         early = partial(_first_design, ship, **design)
-    ahead = _ratios_ahead if early is not None else _ratios_of if given is not None else None
-    drawer = None if no_export else Drawer(early, ahead=ahead, given=given)
+    ahead = _ratios_ahead if early is not None else None
+    drawer = take_early()  # started with the command (plan-trial): the drawing modules imported already, or importing
+    if drawer is not None and no_export:
+        drawer.cancel()
+        drawer = None
+    elif drawer is not None:
+        drawer.begin(early, ahead)
+    elif not no_export:
+        drawer = Drawer(early, ahead=ahead)
     try:
         if hit is not None:
             result, td, sea, chart = (hit[k] for k in ("plan", "design", "sea", "chart"))
@@ -430,14 +436,9 @@ def _first_design(ship: str, **design: Any) -> FirstDesign:
 def _ratios_ahead(first: FirstDesign) -> dict[str, Any]:
     """The design ratios figure of the early design, drawn in the drawer while this process plans
     (used when the plan's design is that one: nothing was dropped for the map)."""
-    return _ratios_of(first.design.design)
-
-
-def _ratios_of(design: Any) -> dict[str, Any]:
-    """The design ratios figure of ``design`` (a cached plan's), drawn in the drawer ahead of the plan."""
     from expdesign.report import ratios_png
 
-    return {"ratios": (design, ratios_png(design))}
+    return {"ratios": (first.design.design, ratios_png(first.design.design))}
 
 
 def export_chart(result: Plan, sea: SeaMap) -> Any:
