@@ -2,10 +2,10 @@
 recomputed when the same command is run again.
 
 The key is a SHA-256 digest of everything the plan is computed from: the loaded ship profile, the
-map file's bytes, the lattice options, the design options (criterion, mean subtraction, trial
+map file's resolved path and bytes, the lattice options, the design options (criterion, mean subtraction, trial
 length, seed, parameter prior), counts, scenario, start, goal, vessel name, and the code version
-(:func:`code_version`: every source and data file of the project's packages, the Python, numpy,
-scipy, shapely, pyproj and numba versions, ``SHIPTRIAL_KERNEL``). A change to any of them is
+(:func:`code_version`: every source and data file of the project's packages, the versions of
+Python and of the numerical libraries (:data:`LIBRARIES`), ``SHIPTRIAL_KERNEL``). A change to any of them is
 another key, so a stale entry is never read; entries beyond :data:`KEEP` are removed, oldest first.
 
 An entry is one pickled dict: ``plan`` and ``design`` as :func:`maps.planner.plan_with_design`
@@ -24,6 +24,7 @@ import hashlib
 import os
 import pickle
 import sys
+import time
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -32,9 +33,12 @@ ENV_DIR = "SHIPTRIAL_CACHE_DIR"  # the cache directory; set to "" to use no cach
 MAGIC = b"shiptrial-plan-cache 1\n"
 KEEP = 32  # entries kept (about 0.5 MB each for the bundled example)
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("primitives", "expdesign", "maps", "identify", "diagnose")
+# cli too: the entry holds the export chart built by cli.plan_cmd.export_chart, and the command's glue decides the inputs
+PACKAGES = ("primitives", "expdesign", "maps", "identify", "diagnose", "cli")
 SUFFIXES = (".py", ".toml", ".geojson", ".json")
-LIBRARIES = ("numpy", "scipy", "shapely", "pyproj", "numba")
+# the numerical libraries a plan is computed with: the design's conic solvers too (cvxpy, Clarabel and SCS solve
+# the E, robust and constrained designs, expdesign.dopt)
+LIBRARIES = ("numpy", "scipy", "shapely", "pyproj", "numba", "cvxpy", "clarabel", "scs")
 
 
 def default_dir() -> Path | None:
@@ -68,12 +72,14 @@ def code_version() -> str:
 
 
 def plan_key(profile: Any, map_file: Path, **inputs: Any) -> str:
-    """The cache key of a plan: ``profile`` (the loaded ShipProfile), the map file's bytes and
-    every other input of :func:`maps.planner.plan_with_design` by name (options, design options,
+    """The cache key of a plan: ``profile`` (the loaded ShipProfile), the map file's resolved path
+    and bytes (the path too: the planner's defaults depend on whether the map is the bundled
+    example, and the plan's messages and the export chart name and read the file) and every other input of :func:`maps.planner.plan_with_design` by name (options, design options,
     counts, scenario, start, goal, vessel name). Two calls give the same key only for equal inputs
     (pickle writes each value's content); unequal objects of equal content may give two keys,
     which only costs a recomputation."""
     h = hashlib.sha256(code_version().encode())
+    h.update(str(Path(map_file).resolve()).encode() + b"\0")
     h.update(hashlib.sha256(Path(map_file).read_bytes()).digest())
     h.update(pickle.dumps((profile, sorted(inputs.items())), protocol=pickle.HIGHEST_PROTOCOL))
     return h.hexdigest()
@@ -113,11 +119,14 @@ def load(directory: Path | None, key: str) -> dict[str, Any] | None:
 
 def store(directory: Path | None, key: str, entry: dict[str, Any]) -> None:
     """Write ``entry`` (a dict holding ``plan``) under ``key`` (temporary file and rename: a reader never sees half an
-    entry) and remove the oldest entries beyond :data:`KEEP`. A cache that cannot be written
-    (read-only, full disk) is skipped without a word: the command's outputs do not depend on it."""
+    entry) and remove the oldest entries beyond :data:`KEEP`. An entry that cannot be pickled, or a
+    cache that cannot be written (read-only, full disk), is skipped without a word: the command's outputs do not depend on it."""
     if directory is None:
         return
-    payload = pickle.dumps(entry, protocol=pickle.HIGHEST_PROTOCOL)
+    try:
+        payload = pickle.dumps(entry, protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception:  # noqa: BLE001 - a plan holding something pickle cannot write (a local function) is not kept
+        return
     try:
         from primitives.io import atomic_write_bytes
 
@@ -131,3 +140,8 @@ def _prune(directory: Path) -> None:
     entries = sorted(directory.glob("*.plan"), key=lambda p: p.stat().st_mtime_ns, reverse=True)
     for old in entries[KEEP:]:
         old.unlink(missing_ok=True)
+    # a writer killed outright (SIGKILL, power loss) leaves its temporary file (atomic_write_bytes: .KEY.plan.XXXX);
+    # one an hour old is no write in progress
+    for tmp in directory.glob(".*.plan.*"):
+        if time.time() - tmp.stat().st_mtime > 3600:
+            tmp.unlink(missing_ok=True)

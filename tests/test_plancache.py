@@ -68,10 +68,13 @@ def test_key_changes_with_profile_map_and_every_option(tmp_path):
     prof = load_profile("full-scale")
     edited = tmp_path / "helsinki-edited.geojson"
     edited.write_bytes(bundled_map_path().read_bytes().replace(b"}", b"} ", 1))  # one byte more, the same map
+    copied = tmp_path / "helsinki.geojson"
+    copied.write_bytes(bundled_map_path().read_bytes())  # the same bytes elsewhere: not the bundled example to the planner
     others = {
         "profile": _key(profile=replace(prof, draught_m=prof.draught_m + 0.1)),
         "ship": _key(profile=load_profile("kvlcc2")),
         "map": _key(map_file=edited),
+        "map path": _key(map_file=copied),
         "margin": _key(options=PlanOptions(margin=25.0)),
         "headings": _key(options=PlanOptions(headings=8)),
         "seed": _key(seed=1),
@@ -156,6 +159,23 @@ def test_damaged_entry_is_planned_again_without_traceback(first, tmp_path, cache
     assert json.loads(b)["counts"] == json.loads(first[1])["counts"]
 
 
+def test_copy_of_the_bundled_map_is_not_read_from_its_entry(tmp_path, cache_dir, capsys):
+    """The bundled Helsinki map's start and goal are the planner's defaults; a copy of its bytes
+    elsewhere has none, so the same command on the copy is refused rather than given the cached
+    plan (the key holds the map's path, not only its bytes)."""
+    copied = tmp_path / "helsinki.geojson"
+    copied.write_bytes(bundled_map_path().read_bytes())
+    rc = _run([*ARGS, "--out", str(tmp_path / "b"), "--map", str(copied)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "no start point" in err, err
+    assert len(list(cache_dir.glob("*.plan"))) == 1
+
+
+def test_entry_pickle_cannot_write_is_skipped(tmp_path):
+    plancache.store(tmp_path / "cache", "k", {"plan": lambda: None})  # no error: the plan is simply not kept
+    assert not (tmp_path / "cache").exists()
+
+
 def test_unwritable_cache_is_skipped(first, tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("not a directory")
@@ -177,5 +197,9 @@ def test_old_entries_are_pruned(tmp_path, monkeypatch):
     for i in range(4):
         (tmp_path / f"{i}.plan").write_bytes(b"x")
         os.utime(tmp_path / f"{i}.plan", ns=(i * 10**9, i * 10**9))
+    (tmp_path / ".3.plan.killed").write_bytes(b"x")  # the temporary file of a writer killed an hour ago
+    os.utime(tmp_path / ".3.plan.killed", ns=(0, 0))
+    (tmp_path / ".2.plan.writing").write_bytes(b"x")  # one being written now
     plancache._prune(tmp_path)
     assert sorted(p.name for p in tmp_path.glob("*.plan")) == ["2.plan", "3.plan"]
+    assert sorted(p.name for p in tmp_path.glob(".*")) == [".2.plan.writing"]
