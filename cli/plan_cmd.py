@@ -357,19 +357,22 @@ def plan_and_write(
     cache_dir = plancache.default_dir() if cache else None
     key = _cache_key(prof, map_path, inputs) if cache_dir is not None else None
     hit = plancache.load(cache_dir, key) if key is not None else None
+    if hit is not None and not {"design", "sea", "chart"} <= hit.keys():  # not an entry this command wrote
+        hit = None
     early = None
     if hit is None and counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
         early = partial(_first_design, ship, **design)
     ahead = _ratios_ahead if early is not None else None
-    drawer = take_early()  # started with the command (plan-trial): the drawing modules imported already, or importing
-    if drawer is not None and no_export:
-        drawer.cancel()
-        drawer = None
-    elif drawer is not None:
-        drawer.begin(early, ahead)
-    elif not no_export:
-        drawer = Drawer(early, ahead=ahead)
-    try:
+    drawer = None
+    try:  # the drawer is ended in `finally` whatever is raised from here on (a Ctrl-C in begin() included)
+        drawer = take_early()  # started with the command (plan-trial): the drawing modules imported already, or importing
+        if drawer is not None and no_export:
+            drawer.cancel()
+            drawer = None
+        elif drawer is not None:
+            drawer.begin(early, ahead)
+        elif not no_export:
+            drawer = Drawer(early, ahead=ahead)
         if hit is not None:
             result, td, sea, chart = (hit[k] for k in ("plan", "design", "sea", "chart"))
         else:

@@ -64,7 +64,9 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
     t.add_row("smallest clearance", f"{clear} (margin {result.margin_m:g} m)")
     t.add_row(
         "search",
-        f"{st.get('expansions')} expansions, {st.get('states_visited')} states, {st.get('plan_time_s', 0):.3f} s, "
+        f"{st.get('expansions')} expansions, {st.get('states_visited')} states, {st.get('plan_time_s', 0):.3f} s"
+        + (" (in the run that filled the plan cache)" if summary.get("from_cache") else "")
+        + ", "
         f"{'certified optimal' if result.optimal else 'not certified optimal'}",
     )
     con.print(t)
