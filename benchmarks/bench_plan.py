@@ -316,7 +316,9 @@ def main() -> None:
         help="cli_default only: also time this other checkout's plan-trial (e.g. /work/main), alternating runs",
     )
     ap.add_argument(
-        "--cold", action="store_true", help="cli_default only: every run as the first after install (empty plan and matplotlib caches)"
+        "--cold",
+        action="store_true",
+        help="cli_default only: every run as the first after install (empty plan and matplotlib caches)",
     )
     ap.add_argument("--case", help=argparse.SUPPRESS)
     args = ap.parse_args()

@@ -139,7 +139,9 @@ def report(result: Plan, files: dict[str, Path], heuristic: str, json_out: bool,
         print(dumps(summary))
     else:
         if cached:
-            print("note: design and plan read from the plan cache (same inputs and code as a run before; --no-cache plans afresh)")
+            print(
+                "note: design and plan read from the plan cache (same inputs and code as a run before; --no-cache plans afresh)"
+            )
         print_summary(result, summary, files)
     if not result.feasible:
         print(f"no feasible plan: {st.get('reason')}", file=sys.stderr)

@@ -43,8 +43,6 @@ __all__ = [
 ]
 
 
-
-
 @dataclass
 class Move:
     """A primitive placed on the lattice. ``dcell[h]``: (di north, dj east) cells when started at

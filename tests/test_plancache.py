@@ -54,8 +54,17 @@ def cache_dir(first, tmp_path, monkeypatch, capsys):
 
 def _key(**change):
     inputs = dict(
-        counts=None, start=None, goal=None, scenario=None, criterion="D", mean_subtraction="complete",
-        trial_length_s=None, seed=0, parameter_prior=None, vessel_name="", options=PlanOptions(),
+        counts=None,
+        start=None,
+        goal=None,
+        scenario=None,
+        criterion="D",
+        mean_subtraction="complete",
+        trial_length_s=None,
+        seed=0,
+        parameter_prior=None,
+        vessel_name="",
+        options=PlanOptions(),
     )
     profile = change.pop("profile", load_profile("full-scale"))
     map_file = change.pop("map_file", bundled_map_path())
