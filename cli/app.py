@@ -98,8 +98,24 @@ def _split_json(text: str) -> tuple[str, str]:
 
 
 def _run(argv: list[str] | None = None) -> int:
-    with _pure_json_stdout(sys.argv[1:] if argv is None else list(argv)):
-        return _run_app(argv)
+    args = sys.argv[1:] if argv is None else list(argv)
+    if _draws(args):  # the figures' drawer starts now: it imports matplotlib and fpdf while the options are parsed
+        from cli.drawer import start_early
+
+        start_early()
+    try:
+        with _pure_json_stdout(args):
+            return _run_app(argv)
+    finally:
+        from cli.drawer import drop_early
+
+        drop_early()
+
+
+def _draws(args: list[str]) -> bool:
+    """``shiptrial plan`` that will write the figures (a plan with exports, not a resume, not help)."""
+    skip = {"--no-export", "--resume", "--help", "-h"}
+    return bool(args) and args[0] == "plan" and not skip.intersection(args)
 
 
 def _run_app(argv: list[str] | None) -> int:

@@ -12,6 +12,10 @@ it in two processes (itself and one forked child) while the parent writes the te
 figures and bytes are those of one process. A drawer cancelled before it was sent a plan (the
 command refused) is ended at once (SIGTERM, on which it unwinds: see :class:`_Cancelled`).
 
+``plan-trial`` forks its drawer before it parses its options (:func:`start_early`, deferred: the
+drawing modules imported first, the early function given later by :meth:`Drawer.begin`), so that
+a run whose plan is read from the plan cache does not wait for those imports.
+
 On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`).
 """
 
@@ -273,6 +277,29 @@ def _design_ratios(design: Any, out: Path) -> Path:
     return out / "design-ratios.png"
 
 
+_STARTED: list[Drawer] = []  # the drawer started with the command (start_early), until taken
+
+
+def start_early() -> None:
+    """Fork a drawer now, before the command's options are parsed (``plan-trial``): it imports the
+    drawing modules (0.6-0.9 s of CPU, measured under load) while this process parses, reads the plan cache or plans.
+    The command takes it (:func:`take_early`) and gives it its early function (:meth:`Drawer.begin`);
+    :func:`drop_early` ends one left untaken (the command refused, or writes no figures)."""
+    if CAN_FORK and not _STARTED:
+        _STARTED.append(Drawer(deferred=True))
+
+
+def take_early() -> Drawer | None:
+    """The drawer :func:`start_early` started (None if none); the caller now ends it."""
+    return _STARTED.pop() if _STARTED else None
+
+
+def drop_early() -> None:
+    """End a drawer started early and never taken."""
+    while _STARTED:
+        _STARTED.pop().cancel()
+
+
 class Drawer:
     """A forked process that imports the drawing modules now and draws a plan later.
 
@@ -281,14 +308,21 @@ class Drawer:
     planned, or the command failed). Without ``fork`` nothing is started and ``send`` draws in
     the calling process."""
 
-    def __init__(self, early: Callable[[], object] | None = None, ahead: Callable[[Any], dict[str, Any]] | None = None) -> None:
-        self.pid, self._early = 0, -1
+    def __init__(
+        self,
+        early: Callable[[], object] | None = None,
+        ahead: Callable[[Any], dict[str, Any]] | None = None,
+        deferred: bool = False,
+    ) -> None:
+        self.pid, self._early, self._spec = 0, -1, -1
         if not CAN_FORK:
             return
         job_r, self._job_w = os.pipe()
         self._report, report_w = os.pipe()
-        if early is not None:
+        if early is not None or deferred:
             self._early, early_w = os.pipe()
+        if deferred:
+            spec_r, self._spec = os.pipe()
         pid = os.fork()
         if pid == 0:
             try:  # the child never returns into the caller's code, whatever is raised before _child's own guard
@@ -296,6 +330,10 @@ class Drawer:
                 gc.freeze()  # the parent's objects out of the collector's sight: collections would copy the shared heap
                 os.close(self._job_w)
                 os.close(self._report)
+                if deferred:
+                    os.close(self._early)
+                    os.close(self._spec)
+                    _child(report_w, lambda: self._serve_deferred(job_r, spec_r, early_w))
                 if early is not None:
                     os.close(self._early)
                     _child(report_w, lambda: self._serve(job_r, early, early_w, ahead))
@@ -304,9 +342,48 @@ class Drawer:
                 os._exit(1)
         os.close(job_r)
         os.close(report_w)
-        if early is not None:
+        if early is not None or deferred:
             os.close(early_w)
+        if deferred:
+            os.close(spec_r)
         self.pid, self._sender = pid, None
+
+    def begin(self, early: Callable[[], object] | None = None, ahead: Callable[[Any], dict[str, Any]] | None = None) -> None:
+        """Give a drawer started ``deferred`` (before the command knew its options) its ``early``
+        function and ``ahead`` (as the constructor's; pickled, so module-level functions and
+        partials of them). Without a call it computes nothing early."""
+        fd, self._spec = self._spec, -1
+        if fd < 0:
+            return
+        spec = b""
+        for what in ((early, ahead), (early, None)) if early is not None else ():
+            try:
+                spec = pickle.dumps(what, protocol=pickle.HIGHEST_PROTOCOL)
+                break
+            except (pickle.PicklingError, AttributeError, TypeError):  # a local function: not drawn ahead, or designed here
+                continue
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(spec)
+        except OSError:  # the drawer died: wait() reports it
+            pass
+
+    @staticmethod
+    def _serve_deferred(job_r: int, spec_r: int, early_w: int) -> None:
+        """A drawer started before the command knew its options: the drawing modules imported at
+        once, then the early function, if :meth:`begin` gave one, then the plan drawn."""
+        _warm()
+        with os.fdopen(spec_r, "rb") as fh:
+            spec = fh.read()
+        try:
+            early, ahead = pickle.loads(spec) if spec else (None, None)
+        except Exception:  # noqa: BLE001 - not readable here: the parent designs itself
+            early, ahead = None, None
+        if early is None:
+            os.close(early_w)  # early() reads nothing: the parent designs itself
+            Drawer._serve(job_r)
+        else:
+            Drawer._serve(job_r, early, early_w, ahead)
 
     @staticmethod
     def _serve(
@@ -376,6 +453,9 @@ class Drawer:
         if self._early >= 0:  # never read: the drawer's write fails instead of blocking
             os.close(self._early)
             self._early = -1
+        if self._spec >= 0:  # deferred and never begun: it computes nothing early
+            os.close(self._spec)
+            self._spec = -1
         cancelled = self._job_w >= 0
         if cancelled:  # never sent
             os.close(self._job_w)

@@ -18,9 +18,10 @@ from primitives.errors import UserError
 if TYPE_CHECKING:  # annotations only: the command imports the library when it runs
     from cli.drawer import Drawer
     from expdesign.prior import ParameterPrior
-    from maps.chain import LatLonHdg, PlanOptions
+    from maps.chain import LatLonHdg
     from maps.geo import SeaMap
     from maps.plan import Plan
+    from maps.planoptions import PlanOptions
     from maps.trialdesign import FirstDesign, TrialDesign
 
 
@@ -143,6 +144,12 @@ def register(app: typer.Typer) -> None:
             help="UTC start of the trial for the schedule, e.g. 2026-06-01T08:00Z (default: the next full hour)",
         ),
         no_export: bool = typer.Option(False, "--no-export", help="write only plan.json, trajectory.geojson and plan.png"),
+        no_cache: bool = typer.Option(
+            False,
+            "--no-cache",
+            help="design and plan afresh, neither reading nor writing the plan cache "
+            "($SHIPTRIAL_CACHE_DIR, default ~/.cache/shiptrial/plans)",
+        ),
         json_out: bool = typer.Option(False, "--json", help="print one JSON summary"),
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
         resume: Path | None = typer.Option(
@@ -164,7 +171,7 @@ def register(app: typer.Typer) -> None:
         from cli.options import duration_s, validate_plan_options
         from cli.resume_cmd import resume_conflict, run_resume
         from expdesign.dopt import canonical_criterion
-        from maps.chain import PlanOptions
+        from maps.planoptions import PlanOptions
 
         resume_conflict(
             resume,
@@ -276,7 +283,7 @@ def register(app: typer.Typer) -> None:
             "seed": seed,
             "parameter_prior": _prior(ship, criterion, prior_spread, prior_file, prior_draws, seed),
         }
-        files, result = plan_and_write(
+        files, result, cached = plan_and_write(
             ship,
             map_path,
             opts,
@@ -290,9 +297,10 @@ def register(app: typer.Typer) -> None:
             start_time=start_time,
             no_export=no_export,
             json_out=json_out,
+            cache=not no_cache,
         )
         _skip_final_collection()
-        report(result, files, heuristic, json_out)
+        report(result, files, heuristic, json_out, cached=cached)
 
 
 def _prior(
@@ -326,52 +334,85 @@ def plan_and_write(
     start_time: str | None,
     no_export: bool,
     json_out: bool,
-) -> tuple[dict[str, Path], Plan]:
+    cache: bool = True,
+) -> tuple[dict[str, Path], Plan, bool]:
     """Plan (``design``: criterion, mean_subtraction, trial_length_s, seed) and write every
-    output into ``out``; returns the files (paths in ``out``) and the plan. The figures are drawn
-    by a :class:`cli.drawer.Drawer` started first (it designs and imports the drawing modules on
-    the other core while this process plans); a NoFitError is the command's exit 1."""
-    from cli.drawer import Drawer
+    output into ``out``; returns the files (paths in ``out``), the plan and whether the design
+    and plan were read from the plan cache (:mod:`maps.plancache`; ``cache=False``: neither read
+    nor written). The figures are drawn by a :class:`cli.drawer.Drawer`, the one ``plan-trial``
+    forked before parsing its options (:func:`cli.drawer.start_early`) or one started here: it
+    imports the drawing modules and, on a cache miss, designs on the other core while this process
+    reads the cache or plans; a NoFitError is the command's exit 1."""
+    from cli.drawer import Drawer, take_early
+    from maps import plancache
     from maps.export._common import iso, resolve_start
     from maps.geo import load_map
-    from maps.planner import plan_with_design
     from maps.trialdesign import NoFitError
     from primitives.io import atomic_output_dir
     from primitives.ship import load_profile
 
+    prof = load_profile(ship)
+    prof.require_planar("shiptrial plan")
+    inputs = dict(counts=counts, start=start, goal=goal, scenario=scenario, **design, vessel_name=vessel_name or "", options=opts)
+    cache_dir = plancache.default_dir() if cache else None
+    key = _cache_key(prof, map_path, inputs) if cache_dir is not None else None
+    hit = plancache.load(cache_dir, key) if key is not None else None
+    if hit is not None and not {"design", "sea", "chart"} <= hit.keys():  # not an entry this command wrote
+        hit = None
     early = None
-    if counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
+    if hit is None and counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
         early = partial(_first_design, ship, **design)
-    drawer = None if no_export else Drawer(early, ahead=_ratios_ahead if early is not None else None)
-    try:
-        prof = load_profile(ship)
-        prof.require_planar("shiptrial plan")
-        sea = load_map(map_path, draught_m=prof.draught_m)
-        try:
-            with stage("designing the manoeuvre mix and planning on the lattice (A*) ...", json_out):
-                result, td = plan_with_design(
-                    sea,
-                    profile=prof,
-                    counts=counts,
-                    start=start,
-                    goal=goal,
-                    scenario=scenario,
-                    **design,
-                    vessel_name=vessel_name or "",
-                    options=opts,
-                    first_design=drawer.early if drawer is not None else None,
-                )
-        except NoFitError as exc:
-            print(f"error: {str(exc).splitlines()[0]}", file=sys.stderr)
-            raise typer.Exit(1) from None
+    ahead = _ratios_ahead if early is not None else None
+    drawer = None
+    try:  # the drawer is ended in `finally` whatever is raised from here on (a Ctrl-C in begin() included)
+        drawer = take_early()  # started with the command (plan-trial): the drawing modules imported already, or importing
+        if drawer is not None and no_export:
+            drawer.cancel()
+            drawer = None
+        elif drawer is not None:
+            drawer.begin(early, ahead)
+        elif not no_export:
+            drawer = Drawer(early, ahead=ahead)
+        if hit is not None:
+            result, td, sea, chart = (hit[k] for k in ("plan", "design", "sea", "chart"))
+        else:
+            sea = load_map(map_path, draught_m=prof.draught_m)
+            result, td = _plan(sea, prof, inputs, drawer, json_out)
+            # the export chart, route and sea room now, before the start time is set: kept with the plan in the cache
+            chart = export_chart(result, sea) if result.feasible and not no_export else None
+            if key is not None:
+                plancache.store(cache_dir, key, {"plan": result, "design": td, "sea": sea, "chart": chart})
         t0 = resolve_start(result, start_time)
         result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
         with atomic_output_dir(out) as tmp:
-            files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer)
+            files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer, chart)
+    except NoFitError as exc:
+        print(f"error: {str(exc).splitlines()[0]}", file=sys.stderr)
+        raise typer.Exit(1) from None
     finally:
         if drawer is not None:
             drawer.cancel()  # a no-op once it has drawn; ends it at once when the command failed before
-    return {k: out / Path(v).relative_to(tmp) for k, v in files.items()}, result
+    return {k: out / Path(v).relative_to(tmp) for k, v in files.items()}, result, hit is not None
+
+
+def _cache_key(prof: Any, map_path: Path | None, inputs: dict[str, Any]) -> str | None:
+    """The plan cache's key of these inputs; None when the map file cannot be read (load_map then
+    reports it in its own words)."""
+    from maps import plancache
+    from maps.geo import map_source
+
+    try:
+        return plancache.plan_key(prof, map_source(map_path), **inputs)
+    except OSError:
+        return None
+
+
+def _plan(sea: SeaMap, prof: Any, inputs: dict[str, Any], drawer: Drawer | None, quiet: bool) -> tuple[Plan, TrialDesign | None]:
+    """Design and plan (:func:`maps.planner.plan_with_design`), the first design taken from the drawer."""
+    from maps.planner import plan_with_design
+
+    with stage("designing the manoeuvre mix and planning on the lattice (A*) ...", quiet):
+        return plan_with_design(sea, profile=prof, **inputs, first_design=drawer.early if drawer is not None else None)
 
 
 def _skip_final_collection() -> None:
@@ -403,6 +444,21 @@ def _ratios_ahead(first: FirstDesign) -> dict[str, Any]:
     return {"ratios": (first.design.design, ratios_png(first.design.design))}
 
 
+def export_chart(result: Plan, sea: SeaMap) -> Any:
+    """The one chart every export of ``result`` uses, with the route and sea room they share built
+    and kept on the plan (sent to the drawer with it)."""
+    from maps.export._common import check_plan
+    from maps.export.chart import plan_chart
+    from maps.export.geojson import sea_room_lonlat
+    from maps.export.route import build_route
+
+    check_plan(result)
+    chart = plan_chart(result, sea)
+    build_route(result, chart)
+    sea_room_lonlat(result)
+    return chart
+
+
 def write_outputs_all(
     result: Plan,
     sea: SeaMap,
@@ -412,16 +468,13 @@ def write_outputs_all(
     no_export: bool,
     quiet: bool,
     drawer: Drawer | None = None,
+    chart: Any = None,
 ) -> dict[str, Path]:
     """Every output into the (temporary) directory ``tmp``. The figures (PDF and HTML trial card,
     their PNGs, the plan picture, the design ratios) are drawn by ``drawer`` (a
     :class:`cli.drawer.Drawer` started with the command) while this process writes the plan and
-    the text exports."""
+    the text exports. ``chart``: :func:`export_chart` of the plan, when computed already."""
     from maps.export import _write, default_path
-    from maps.export._common import check_plan
-    from maps.export.chart import plan_chart
-    from maps.export.geojson import sea_room_lonlat
-    from maps.export.route import build_route
     from maps.output import write_outputs
 
     exports = result.feasible and not no_export
@@ -434,10 +487,8 @@ def write_outputs_all(
 
             files["design_ratios_png"] = _design_ratios(td.design, tmp)
         return files
-    check_plan(result)
-    chart = plan_chart(result, sea)  # one chart for every export
-    build_route(result, chart)  # one route and sea room for every export: kept on the plan, sent to the drawer with it
-    sea_room_lonlat(result)
+    if chart is None:
+        chart = export_chart(result, sea)
     if drawer is None:
         from cli.drawer import Drawer
 

@@ -64,7 +64,9 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
     t.add_row("smallest clearance", f"{clear} (margin {result.margin_m:g} m)")
     t.add_row(
         "search",
-        f"{st.get('expansions')} expansions, {st.get('states_visited')} states, {st.get('plan_time_s', 0):.3f} s, "
+        f"{st.get('expansions')} expansions, {st.get('states_visited')} states, {st.get('plan_time_s', 0):.3f} s"
+        + (" (in the run that filled the plan cache)" if summary.get("from_cache") else "")
+        + ", "
         f"{'certified optimal' if result.optimal else 'not certified optimal'}",
     )
     con.print(t)
@@ -99,8 +101,10 @@ def print_summary(result: Plan, summary: dict[str, Any], files: dict[str, Path])
         con.print(f"wrote {key:18s} {path}", markup=False)
 
 
-def report(result: Plan, files: dict[str, Path], heuristic: str, json_out: bool) -> None:
-    """Print the summary (table or one JSON object); exit 1 when no feasible plan was found."""
+def report(result: Plan, files: dict[str, Path], heuristic: str, json_out: bool, cached: bool = False) -> None:
+    """Print the summary (table or one JSON object); exit 1 when no feasible plan was found.
+    ``cached``: the design and plan were read from the plan cache (said in a note and in the JSON
+    object's ``from_cache``; the plan's timing fields are those of the run that computed it)."""
     st = result.stats
     summary = {
         "feasible": result.feasible,
@@ -127,12 +131,17 @@ def report(result: Plan, files: dict[str, Path], heuristic: str, json_out: bool)
         "plan_json": str(files["plan_json"]),
         "plot": str(files["plot"]),
         "files": {k: str(v) for k, v in files.items()},
+        "from_cache": cached,
     }
     for w in st.get("warnings", []):
         print(f"warning: {w}", file=sys.stderr)
     if json_out:
         print(dumps(summary))
     else:
+        if cached:
+            print(
+                "note: design and plan read from the plan cache (same inputs and code as a run before; --no-cache plans afresh)"
+            )
         print_summary(result, summary, files)
     if not result.feasible:
         print(f"no feasible plan: {st.get('reason')}", file=sys.stderr)

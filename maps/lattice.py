@@ -19,6 +19,7 @@ import numpy as np
 from maps.autopilot import helm_for
 from maps.headings import heading_table, nearest_heading
 from maps.headings import wrap as _wrap
+from maps.planoptions import SETTLE_PHASES
 from primitives import maneuvers as mv
 from primitives.helm import straight as helm_straight
 from primitives.library import KNOT, Primitive
@@ -40,11 +41,6 @@ __all__ = [
     "place",
     "transit_mismatch",
 ]
-
-
-# how a move settles onto the lattice, as the helm's phase: "lattice", the autopilot's tight tolerance (0.2 deg,
-# 1 % of a length off the line); "ship", the tolerance scaled to the ship for confined water (maps.autopilot.steady_enough)
-SETTLE_PHASES = {"lattice": "settle", "ship": "steady"}
 
 
 @dataclass

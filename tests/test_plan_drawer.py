@@ -207,33 +207,104 @@ def test_cancel_lets_the_drawer_remove_the_lock_file_it_holds(tmp_path):
     assert not lock.exists() and children() <= before
 
 
+def _doctored(d):
+    import dataclasses
+
+    return dataclasses.replace(d, weights={k: (1.0 if i == 0 else 0.0) for i, k in enumerate(d.weights)})
+
+
+def _wrong_ratios(first):
+    """A doctored figure drawn ahead (module level: the drawer started early receives it pickled)."""
+    from expdesign.report import ratios_png
+
+    other = _doctored(first.design.design)
+    return {"ratios": (other, ratios_png(other))}
+
+
 def test_ratios_drawn_ahead_only_for_the_design_planned(tmp_path, monkeypatch, capsys):
     """The drawer draws the design ratios of its early design while the parent plans; when the
     plan's design is another (a manoeuvre dropped for the map, here: a doctored early figure),
     the figure is drawn from the plan's design: the file is that of the plan's design."""
-    import dataclasses
     import pickle
 
     import cli.plan_cmd as plan_cmd
-    from expdesign.report import ratios_png
     from maps.trialdesign import first_design
     from primitives.ship import load_profile
 
-    def doctored(d):
-        return dataclasses.replace(d, weights={k: (1.0 if i == 0 else 0.0) for i, k in enumerate(d.weights)})
-
     design = first_design(load_profile("full-scale")).design.design
-    assert drawer._same(design, pickle.loads(pickle.dumps(design))) and not drawer._same(design, doctored(design))
+    assert drawer._same(design, pickle.loads(pickle.dumps(design))) and not drawer._same(design, _doctored(design))
 
-    def wrong(first):
-        other = doctored(first.design.design)
-        return {"ratios": (other, ratios_png(other))}
+    drawn = []
+    real = drawer._prepare
 
-    monkeypatch.setattr(plan_cmd, "_ratios_ahead", wrong)
+    def spy(ahead, result):  # runs in the drawer: what it drew ahead is reported through a file
+        out = real(ahead, result)
+        (tmp_path / "ahead").write_text(str(sorted(out)))
+        return out
+
+    monkeypatch.setattr(drawer, "_prepare", spy)
+    monkeypatch.setattr(plan_cmd, "_ratios_ahead", _wrong_ratios)
     out = tmp_path / "doctored"
     assert _run(["plan", "--out", str(out), "--start-time", START]) == 0
+    drawn.append((tmp_path / "ahead").read_text())
+    assert drawn == ["['ratios']"]  # the doctored figure was drawn ahead, and not used
     here = tmp_path / "here"
     monkeypatch.setattr(drawer, "CAN_FORK", False)
     assert _run(["plan", "--out", str(here), "--start-time", START]) == 0
     assert (out / "design-ratios.png").read_bytes() == (here / "design-ratios.png").read_bytes()
     capsys.readouterr()
+
+
+def _pid_and_payload():
+    """An early function the deferred drawer receives pickled (a module-level function)."""
+    return os.getpid(), b"x" * 300_000
+
+
+def test_drawer_started_before_the_options_computes_what_begin_gives_it():
+    """plan-trial forks its drawer before parsing (start_early): begin() later hands it the early
+    function, whose result early() returns from the drawer process; without begin() it computes
+    nothing and early() is None (the command designs itself)."""
+    before = children()
+    d = drawer.Drawer(deferred=True)
+    d.begin(_pid_and_payload)
+    pid, payload = d.early()
+    assert pid == d.pid and payload == b"x" * 300_000
+    d.cancel()
+    idle = drawer.Drawer(deferred=True)
+    idle.begin(None)
+    assert idle.early() is None
+    idle.cancel()
+    local = drawer.Drawer(deferred=True)  # a function pickle cannot send: nothing early, the command designs itself
+    local.begin(lambda: 1)
+    assert local.early() is None
+    local.cancel()
+    never = drawer.Drawer(deferred=True)  # refused before begin(): ended and reaped
+    never.cancel()
+    assert children() <= before
+
+
+@pytest.mark.parametrize(
+    "args, draws",
+    [
+        (["plan", "--out", "x"], True),
+        (["plan", "--no-export"], False),
+        (["plan", "--resume", "p.json"], False),
+        (["plan", "--help"], False),
+        (["design", "--ship", "model-ship"], False),
+        ([], False),
+    ],
+)
+def test_drawer_starts_early_only_for_a_plan_with_figures(args, draws):
+    from cli.app import _draws
+
+    assert _draws(args) is draws
+
+
+def test_refused_options_end_the_early_drawer(tmp_path, capsys):
+    """An option refused while parsing (after the drawer was forked): the one-line error, nothing
+    written, no process left."""
+    before = children()
+    out = tmp_path / "bad"
+    assert _run(["plan", "--headings", "5", "--out", str(out), "--start-time", START]) == 2
+    assert capsys.readouterr().err.startswith("error: --headings")
+    assert not out.exists() and children() <= before and drawer._STARTED == []

@@ -1,0 +1,214 @@
+"""The plan cache (maps.plancache): a second `plan` with the same inputs reads the design and plan
+back and writes the same files; any change of the profile, map or an option is another key; an
+entry that cannot be read is ignored, with no traceback, and the plan computed again."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+from dataclasses import replace
+
+import pytest
+
+from cli.app import _run
+from maps import plancache
+from maps.geo import bundled_map_path
+from maps.planoptions import PlanOptions
+from primitives.ship import load_profile
+
+START = "2026-06-01T08:00Z"
+ARGS = ["plan", "--counts", "steep_zigzag_surge=1", "--json", "--start-time", START]
+QUICK = "--no-export"  # plan.json, trajectory and plan.png only
+
+
+def _plan_cli(out, capsys, *extra):
+    rc = _run([*ARGS, "--out", str(out), *extra])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    return json.loads(cap.out), (out / "plan.json").read_bytes()
+
+
+@pytest.fixture(scope="module")
+def first(tmp_path_factory):
+    """One planned run with every export into a cache of its own: (cache directory, plan.json bytes,
+    every output file's bytes by name)."""
+    root = tmp_path_factory.mktemp("plancache")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("SHIPTRIAL_CACHE_DIR", str(root / "cache"))
+        assert _run([*ARGS, "--out", str(root / "out")]) == 0
+    out = root / "out"
+    return root / "cache", (out / "plan.json").read_bytes(), {p.name: p.read_bytes() for p in out.iterdir()}
+
+
+@pytest.fixture
+def cache_dir(first, tmp_path, monkeypatch, capsys):
+    """A copy of the first run's cache, used by this test's commands."""
+    capsys.readouterr()
+    d = tmp_path / "cache"
+    shutil.copytree(first[0], d)
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(d))
+    return d
+
+
+def _key(**change):
+    inputs = dict(
+        counts=None,
+        start=None,
+        goal=None,
+        scenario=None,
+        criterion="D",
+        mean_subtraction="complete",
+        trial_length_s=None,
+        seed=0,
+        parameter_prior=None,
+        vessel_name="",
+        options=PlanOptions(),
+    )
+    profile = change.pop("profile", load_profile("full-scale"))
+    map_file = change.pop("map_file", bundled_map_path())
+    return plancache.plan_key(profile, map_file, **(inputs | change))
+
+
+def test_key_changes_with_profile_map_and_every_option(tmp_path):
+    base = _key()
+    assert _key() == base  # the same inputs, the same key
+    prof = load_profile("full-scale")
+    edited = tmp_path / "helsinki-edited.geojson"
+    edited.write_bytes(bundled_map_path().read_bytes().replace(b"}", b"} ", 1))  # one byte more, the same map
+    copied = tmp_path / "helsinki.geojson"
+    copied.write_bytes(bundled_map_path().read_bytes())  # the same bytes elsewhere: not the bundled example to the planner
+    others = {
+        "profile": _key(profile=replace(prof, draught_m=prof.draught_m + 0.1)),
+        "ship": _key(profile=load_profile("kvlcc2")),
+        "map": _key(map_file=edited),
+        "map path": _key(map_file=copied),
+        "margin": _key(options=PlanOptions(margin=25.0)),
+        "headings": _key(options=PlanOptions(headings=8)),
+        "seed": _key(seed=1),
+        "criterion": _key(criterion="A"),
+        "trial length": _key(trial_length_s=1200.0),
+        "counts": _key(counts={"steep_zigzag_surge": 1}),
+        "start": _key(start=(60.1, 24.9, 180.0)),
+        "vessel": _key(vessel_name="Aurora"),
+    }
+    assert base not in others.values() and len(set(others.values())) == len(others)
+
+
+def test_code_version_changes_with_the_kernel_choice(monkeypatch):
+    plancache.code_version.cache_clear()
+    monkeypatch.setenv("SHIPTRIAL_KERNEL", "numpy")
+    numpy_kernel = plancache.code_version()
+    plancache.code_version.cache_clear()
+    monkeypatch.delenv("SHIPTRIAL_KERNEL")
+    try:
+        assert plancache.code_version() != numpy_kernel
+    finally:
+        plancache.code_version.cache_clear()
+
+
+def test_second_run_reads_the_cache_and_writes_the_same_bytes(first, tmp_path, cache_dir, capsys, monkeypatch):
+    assert len(list(cache_dir.glob("*.plan"))) == 1
+    import maps.planner
+
+    def no_planning(*args, **kw):
+        raise AssertionError("planned although the cache holds the plan")
+
+    with monkeypatch.context() as mp:
+        mp.setattr(maps.planner, "plan_with_design", no_planning)
+        second, b = _plan_cli(tmp_path / "b", capsys)
+    assert second["from_cache"] is True and b == first[1]  # plan.json byte for byte, timings those of the first run
+    again = {p.name: p.read_bytes() for p in (tmp_path / "b").iterdir()}
+    assert again.keys() == first[2].keys() and len(again) >= 12  # every export: card PDF and HTML, PNGs, GPX, RTZ, ...
+    assert [k for k in again if again[k] != first[2][k]] == []
+    fresh, c = _plan_cli(tmp_path / "c", capsys, "--no-cache", QUICK)  # computed again: the same plan but its timings
+    assert fresh["from_cache"] is False and len(list(cache_dir.glob("*.plan"))) == 1  # --no-cache writes nothing
+    timing = ("time_s", "expansions_per_s", "search_s")
+
+    def untimed(doc):
+        if isinstance(doc, dict):
+            return {k: untimed(v) for k, v in doc.items() if not k.endswith(timing)}
+        return [untimed(v) for v in doc] if isinstance(doc, list) else doc
+
+    assert untimed(json.loads(c)) == untimed(json.loads(first[1]))
+
+
+def test_changed_option_is_a_miss(tmp_path, cache_dir, capsys):
+    other, _ = _plan_cli(tmp_path / "b", capsys, "--margin", "25", QUICK)
+    assert other["from_cache"] is False and len(list(cache_dir.glob("*.plan"))) == 2
+
+
+def _damaged(data: bytes, damage: str) -> bytes:
+    if damage == "truncate":
+        return data[: len(data) // 2]
+    if damage == "flip":
+        return data[:-10] + bytes([data[-10] ^ 0xFF]) + data[-9:]
+    if damage == "garbage":
+        return b"\x00\xff" * 1000
+    if damage == "empty":
+        return b""
+    payload = b"not a pickle"  # a well-formed header over a payload that is no pickle: what a checksum cannot catch
+    return plancache.MAGIC + hashlib.sha256(payload).hexdigest().encode() + payload
+
+
+@pytest.mark.parametrize("damage", ["truncate", "flip", "garbage", "empty", "unpicklable"])
+def test_damaged_entry_reads_as_none(cache_dir, damage):
+    (entry,) = cache_dir.glob("*.plan")
+    assert plancache.load(cache_dir, entry.stem) is not None
+    entry.write_bytes(_damaged(entry.read_bytes(), damage))
+    assert plancache.load(cache_dir, entry.stem) is None
+
+
+def test_damaged_entry_is_planned_again_without_traceback(first, tmp_path, cache_dir, capsys):
+    (entry,) = cache_dir.glob("*.plan")
+    entry.write_bytes(_damaged(entry.read_bytes(), "flip"))
+    again, b = _plan_cli(tmp_path / "b", capsys, QUICK)
+    assert again["from_cache"] is False and plancache.load(cache_dir, entry.stem) is not None  # rewritten
+    assert json.loads(b)["counts"] == json.loads(first[1])["counts"]
+
+
+def test_copy_of_the_bundled_map_is_not_read_from_its_entry(tmp_path, cache_dir, capsys):
+    """The bundled Helsinki map's start and goal are the planner's defaults; a copy of its bytes
+    elsewhere has none, so the same command on the copy is refused rather than given the cached
+    plan (the key holds the map's path, not only its bytes)."""
+    copied = tmp_path / "helsinki.geojson"
+    copied.write_bytes(bundled_map_path().read_bytes())
+    rc = _run([*ARGS, "--out", str(tmp_path / "b"), "--map", str(copied)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "no start point" in err, err
+    assert len(list(cache_dir.glob("*.plan"))) == 1
+
+
+def test_entry_pickle_cannot_write_is_skipped(tmp_path):
+    plancache.store(tmp_path / "cache", "k", {"plan": lambda: None})  # no error: the plan is simply not kept
+    assert not (tmp_path / "cache").exists()
+
+
+def test_unwritable_cache_is_skipped(first, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    entry = plancache.load(first[0], next(first[0].glob("*.plan")).stem)
+    plancache.store(blocker / "cache", "k", entry)  # no error: the command's outputs do not depend on it
+    assert not (blocker / "cache").exists()
+
+
+def test_empty_variable_means_no_cache(monkeypatch):
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", "")
+    assert plancache.default_dir() is None
+    monkeypatch.delenv("SHIPTRIAL_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", "/somewhere")
+    assert str(plancache.default_dir()) == "/somewhere/shiptrial/plans"
+
+
+def test_old_entries_are_pruned(tmp_path, monkeypatch):
+    monkeypatch.setattr(plancache, "KEEP", 2)
+    for i in range(4):
+        (tmp_path / f"{i}.plan").write_bytes(b"x")
+        os.utime(tmp_path / f"{i}.plan", ns=(i * 10**9, i * 10**9))
+    (tmp_path / ".3.plan.killed").write_bytes(b"x")  # the temporary file of a writer killed an hour ago
+    os.utime(tmp_path / ".3.plan.killed", ns=(0, 0))
+    (tmp_path / ".2.plan.writing").write_bytes(b"x")  # one being written now
+    plancache._prune(tmp_path)
+    assert sorted(p.name for p in tmp_path.glob("*.plan")) == ["2.plan", "3.plan"]
+    assert sorted(p.name for p in tmp_path.glob(".*")) == [".2.plan.writing"]
