@@ -47,7 +47,12 @@ def default_dir() -> Path | None:
     given = os.environ.get(ENV_DIR)
     if given is not None:
         return Path(given).expanduser() if given.strip() else None
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    base = os.environ.get("XDG_CACHE_HOME")
+    if not base:
+        home = os.path.expanduser("~")
+        if home == "~":  # no HOME and no password entry: no user cache rather than a './~' directory
+            return None
+        base = os.path.join(home, ".cache")
     return Path(base) / "shiptrial" / "plans"
 
 

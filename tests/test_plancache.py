@@ -212,3 +212,11 @@ def test_old_entries_are_pruned(tmp_path, monkeypatch):
     plancache._prune(tmp_path)
     assert sorted(p.name for p in tmp_path.glob("*.plan")) == ["2.plan", "3.plan"]
     assert sorted(p.name for p in tmp_path.glob(".*")) == [".2.plan.writing"]
+
+
+def test_no_home_means_no_cache_not_a_tilde_directory(monkeypatch):
+    # without HOME (and no password entry) expanduser leaves "~": the cache must not land in "./~/.cache"
+    monkeypatch.delenv(plancache.ENV_DIR, raising=False)
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    monkeypatch.setattr(plancache.os.path, "expanduser", lambda p: p)
+    assert plancache.default_dir() is None
