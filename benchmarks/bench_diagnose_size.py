@@ -32,8 +32,7 @@ TARGET_S = 10.0  # issue 26: a case under 10 s on 2 cores
 PRE_S = 30.0  # the battery's recordings start 30 s before the manoeuvre (mmg_sim.simulate_runs)
 # The issue's ten kinds (eight concealed effects and two controls, white and coloured noise)
 DEFAULT = (
-    "control,control-ar1,current-0.7,current-0.5-ar1,delay-4,offset-1.5,thrust-loss-20,wind-18-gusty,"
-    "delay-3-two-runs,gyro-bias"
+    "control,control-ar1,current-0.7,current-0.5-ar1,delay-4,offset-1.5,thrust-loss-20,wind-18-gusty,delay-3-two-runs,gyro-bias"
 )
 
 
@@ -98,7 +97,9 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--validate", type=int, default=1, help="held-out validation runs diagnosed with (1 as in the issue, or 2)")
     ap.add_argument("--repeat", type=int, default=1, help="times each case is diagnosed (its median is printed)")
     ap.add_argument("--json", default="", help="write per-case figures and findings here")
-    ap.add_argument("--data", default="", help="keep the generated recordings here and reuse them (default: a temporary directory)")
+    ap.add_argument(
+        "--data", default="", help="keep the generated recordings here and reuse them (default: a temporary directory)"
+    )
     a = ap.parse_args(argv)
     names = [n for n in a.cases.split(",") if n]
     unknown = sorted(set(names) - {c.name for c in CASES})
@@ -107,12 +108,17 @@ def main(argv: list[str] | None = None) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
         built = {n: build(n, a.seed, a.samples, Path(a.data or tmp)) for n in names}
-        print(f"generated or read {len(names)} cases at {a.samples} samples a run in {time.perf_counter() - t0:.0f} s (not timed)")
+        print(
+            f"generated or read {len(names)} cases at {a.samples} samples a run in {time.perf_counter() - t0:.0f} s (not timed)"
+        )
         time_case(built[names[0]], a.validate)  # warm-up: loads the compiled kernels
         rows = {}
         for n in names:
             runs = [time_case(built[n], a.validate) for _ in range(a.repeat)]
-            r = runs[-1] | {"wall_s": statistics.median(x["wall_s"] for x in runs), "cpu_s": statistics.median(x["cpu_s"] for x in runs)}
+            r = runs[-1] | {
+                "wall_s": statistics.median(x["wall_s"] for x in runs),
+                "cpu_s": statistics.median(x["cpu_s"] for x in runs),
+            }
             rows[n] = r
             s = r["samples"]
             print(
@@ -129,7 +135,14 @@ def main(argv: list[str] | None = None) -> dict:
         f"({'met' if wall < TARGET_S else 'not met'} in wall, {'met' if cpu < TARGET_S else 'not met'} in CPU); "
         f"max wall {max(r['wall_s'] for r in rows.values()):.2f} s; load average {load[0]:.1f} {load[1]:.1f} {load[2]:.1f}"
     )
-    out = {"samples": a.samples, "validate": a.validate, "seed": a.seed, "median_wall_s": wall, "median_cpu_s": cpu, "cases": rows}
+    out = {
+        "samples": a.samples,
+        "validate": a.validate,
+        "seed": a.seed,
+        "median_wall_s": wall,
+        "median_cpu_s": cpu,
+        "cases": rows,
+    }
     if a.json:
         Path(a.json).write_text(json.dumps(out, indent=1, default=float), encoding="utf-8")
     return out
