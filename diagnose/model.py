@@ -233,6 +233,8 @@ class AugmentedModel:
         outs = compiled_loop(preps, runs, VelocityStep(tset, coef), need_in, cur if has_cur else None, use_wind)
         if outs is None:  # the numpy loop (no compiler): the same steps
             outs = numpy_loop(preps, runs, tset, coef, need_in, cur if has_cur else None, use_wind)
+        if not np.any(bias):  # no sensor bias: the outputs as simulated (adding zeros copies each)
+            return outs
         return [o + bias[:, None, :] for o in outs]
 
     def _run_inputs(self, prep: Prepared, plan: dict, P: np.ndarray) -> tuple[dict, np.ndarray, np.ndarray]:
@@ -360,9 +362,15 @@ def noise_std_coloured(y: np.ndarray, max_lag: int = 6) -> np.ndarray:
 
 def residuals(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
     """Open-loop residuals y - y_hat per recording, each (B, N+1, 3)."""
+    out = []
     with np.errstate(all="ignore"):
-        out = [p.y[None] - yh for p, yh in zip(preps, model.simulate_many(preps, P))]
-    return [np.where(np.isfinite(r), np.clip(r, -1e6, 1e6), 1e6) for r in out]
+        for p, yh in zip(preps, model.simulate_many(preps, P)):
+            r = np.subtract(p.y[None], yh, out=yh if yh.flags.writeable else None)  # the simulation is not used again
+            bad = ~np.isfinite(r)
+            np.clip(r, -1e6, 1e6, out=r)
+            r[bad] = 1e6  # a non-finite residual counts as a large one, either sign
+            out.append(r)
+    return out
 
 
 def stack(res: list[np.ndarray], w: np.ndarray | list[np.ndarray], masks: list[np.ndarray] | None = None) -> np.ndarray:
@@ -386,14 +394,34 @@ def jacobian(
     masks: list[np.ndarray] | None = None,
     h: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(r0 (M,), J (M, len(free))) of the weighted residual; one batched simulation."""
+    """(r0 (M,), J (M, len(free))) of the weighted residual by forward differences, one batched
+    simulation per recording. A recording's initial-state parameters move that recording alone:
+    they are stepped on it only, their columns zero on the others (the zeros the differences of
+    two equal simulations give, without simulating them: a quarter to a half of the members of a
+    diagnosis's refits, whose free parameters are mostly initial states)."""
     h = model.steps(preps, P) if h is None else h
-    Pb = np.repeat(P[None], len(free) + 1, axis=0)
-    for k, j in enumerate(free):
-        Pb[k + 1, j] += h[j]
-    R = stack(residuals(model, preps, Pb), w, masks)
-    J = (R[1:] - R[0]).T / h[free]
-    return R[0], J
+    owner = _initial_state_owner(model, preps, free)
+    shared = [k for k, o in enumerate(owner) if o == -1]
+    r0, J = [], []
+    for i, p in enumerate(preps):
+        cols = shared + [k for k, o in enumerate(owner) if o == i]
+        js = [free[k] for k in cols]
+        Pb = np.repeat(P[None], len(cols) + 1, axis=0)
+        Pb[np.arange(1, len(cols) + 1), js] += h[js]
+        R = stack(residuals(model, [p], Pb), [w[i] if isinstance(w, list) else w], None if masks is None else [masks[i]])
+        Ji = np.zeros((R.shape[1], len(free)))
+        Ji[:, cols] = (R[1:] - R[0]).T / h[js]
+        r0.append(R[0])
+        J.append(Ji)
+    return np.concatenate(r0), np.concatenate(J)
+
+
+def _initial_state_owner(model: AugmentedModel, preps: list[Prepared], free: list[int]) -> list[int]:
+    """Per free parameter, the position in ``preps`` of the one recording whose initial state it
+    is, -1 for a parameter that may move every recording, -2 for another recording's initial state
+    (one not among ``preps``: it moves none of them)."""
+    pos = {p.index: i for i, p in enumerate(preps) if p.index is not None and p.index < model.n_rec}
+    return [-1 if j < model.n_slots_end else pos.get((j - model.n_slots_end) // 3, -2) for j in free]
 
 
 def _prior_rows(P: np.ndarray, free: list[int], prior: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
