@@ -46,7 +46,7 @@ def test_compiled_per_recording_loop_matches_padded_numpy_loop(monkeypatch):
     kinds = {model.slot(j).kind for j in range(model.n_base, model.n_slots_end)}
     assert {"current", "delay", "offset", "bias", "term"} <= kinds
     monkeypatch.setattr(jitloop, "MIN_WORK", 0)
-    monkeypatch.setenv("SHIPTRIAL_THREADS", "1")
+    monkeypatch.delenv("SHIPTRIAL_THREADS", raising=False)  # the default: one thread
     ran, open_loop = [], jitloop.open_loop
     monkeypatch.setattr(jitloop, "open_loop", lambda *a: ran.append(open_loop(*a)) or ran[-1])
     compiled = model.simulate_many(preps, P)
