@@ -60,7 +60,7 @@ def threads() -> int:
     return max(1, int(env)) if env.isdigit() else 1
 
 
-MIN_SPLIT = 8  # members from which a batch is split over threads (a smaller one's loop costs less than a thread's start)
+MIN_SPLIT = 8  # members a thread's part holds at least (a smaller one's loop costs less than a thread's start)
 _POOLS: dict[int, ThreadPoolExecutor] = {}
 _POOL_LOCK = threading.Lock()
 
@@ -85,8 +85,8 @@ def compiled_loop(
     """nu (B, N_i+1, 3) per recording from the compiled loop, one call per recording (its own
     length, its inputs once for every member when they are the same); None when the compiled
     loop does not apply. Whether it is worth loading is judged on the whole call's work, as for
-    one padded call. A batch of :data:`MIN_SPLIT` members or more is split into :func:`threads`
-    contiguous parts stepped at once in threads (the compiled loop releases the GIL; every member
+    one padded call. The batch is split into up to :func:`threads` contiguous parts of at least
+    :data:`MIN_SPLIT` members each, stepped at once in threads (the compiled loop releases the GIL; every member
     is stepped alone, so the parts give the bits of one call)."""
     B = coef.shape[0]
     if not jitloop.use(B * sum(p.n for p in preps)):
