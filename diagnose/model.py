@@ -393,22 +393,28 @@ def jacobian(
     w: np.ndarray,
     masks: list[np.ndarray] | None = None,
     h: np.ndarray | None = None,
+    at_P: list[np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(r0 (M,), J (M, len(free))) of the weighted residual by forward differences, one batched
     simulation per recording. A recording's initial-state parameters move that recording alone:
     they are stepped on it only, their columns zero on the others (the zeros the differences of
     two equal simulations give, without simulating them: a quarter to a half of the members of a
-    diagnosis's refits, whose free parameters are mostly initial states)."""
+    diagnosis's refits, whose free parameters are mostly initial states). ``at_P``: the
+    residuals (1, N_i+1, 3) per recording at P when already simulated (not simulated again)."""
     h = model.steps(preps, P) if h is None else h
     owner = _initial_state_owner(model, preps, free)
     shared = [k for k, o in enumerate(owner) if o == -1]
+    first = 0 if at_P is None else 1  # row 0 of the batch is P itself unless given
     r0, J = [], []
     for i, p in enumerate(preps):
         cols = shared + [k for k, o in enumerate(owner) if o == i]
         js = [free[k] for k in cols]
-        Pb = np.repeat(P[None], len(cols) + 1, axis=0)
-        Pb[np.arange(1, len(cols) + 1), js] += h[js]
-        R = stack(residuals(model, [p], Pb), [w[i] if isinstance(w, list) else w], None if masks is None else [masks[i]])
+        Pb = np.repeat(P[None], len(cols) + 1 - first, axis=0)
+        Pb[np.arange(1 - first, len(cols) + 1 - first), js] += h[js]
+        res = residuals(model, [p], Pb)[0]
+        if at_P is not None:
+            res = np.concatenate([at_P[i], res])
+        R = stack([res], [w[i] if isinstance(w, list) else w], None if masks is None else [masks[i]])
         Ji = np.zeros((R.shape[1], len(free)))
         Ji[:, cols] = (R[1:] - R[0]).T / h[js]
         r0.append(R[0])
@@ -463,8 +469,11 @@ def fit(
     bounds = bounds or {}
     h = model.steps(preps, P)
 
+    trial: list[list[np.ndarray]] = []  # the last trial's residuals per recording, for the next Jacobian
+
     def total(Pb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        R = stack(residuals(model, preps, Pb), w, masks)
+        trial[:] = [residuals(model, preps, Pb)]
+        R = stack(trial[0], w, masks)
         data = np.einsum("ij,ij->i", R, R)
         pri = np.array([float(np.sum(_prior_rows(p, free, prior)[0] ** 2)) for p in Pb])
         return data, data + pri
@@ -506,7 +515,7 @@ def fit(
         short = short + 1 if rel < tol else 0
         if short >= patience:
             break
-        r, J = jacobian(model, preps, P, free, w, masks, h)
+        r, J = jacobian(model, preps, P, free, w, masks, h, at_P=[q[k : k + 1] for q in trial[0]])
         rp, Jp = _prior_rows(P, free, prior)
     dof = max(len(r) - len(free), 1)
     Ja = np.vstack([J, Jp])

@@ -59,3 +59,17 @@ def test_initial_states_are_simulated_on_their_own_recording_only(monkeypatch):
     dm.jacobian(model, preps, P, free, np.ones(3))
     shared = 1 + 4  # the point and the four parameters that move both recordings
     assert sum(members) == 2 * (shared + 3)  # not 2 * (1 + len(free)) = 22: each initial state on one recording
+
+
+def test_residuals_at_the_point_given_are_not_simulated_again(monkeypatch):
+    """A refit's accepted trial was simulated already: given, the Jacobian reuses it (the same bits)."""
+    model, preps, P, free = _setup()
+    w = np.ones(3)
+    r_ref, J_ref = _one_batch(model, preps, P, free, w)
+    at_P = residuals(model, preps, P[None])
+    members = []
+    sim = model.simulate_many
+    monkeypatch.setattr(model, "simulate_many", lambda ps, Pb: members.append(len(ps) * len(Pb)) or sim(ps, Pb))
+    r, J = dm.jacobian(model, preps, P, free, w, at_P=at_P)
+    assert np.array_equal(r, r_ref) and np.array_equal(J, J_ref)
+    assert sum(members) == 2 * (4 + 3)  # the point itself not simulated
