@@ -22,7 +22,7 @@ from diagnose.openloop import compiled_loop, current_turning, numpy_loop
 from diagnose.recording import Recording
 from primitives.goodness import fit_percent  # noqa: F401  (diagnose.model.fit_percent, as before)
 from primitives.ship import ShipProfile
-from primitives.simulate import WIND_EXCESS, body_from_ne, relative_signals
+from primitives.simulate import WIND_EXCESS, VelocityStep, body_from_ne, relative_signals
 from primitives.terms import TermSet, compile_term, signals_used
 
 
@@ -230,7 +230,7 @@ class AugmentedModel:
         need_in = sorted(need & set(runs[0][0]))
         has_cur = bool(np.any(cur != 0))
         use_wind = bool(need & {*WIND_EXCESS, "u_q", "v_q"}) and any(p.wind_body is not None for p in preps)
-        outs = compiled_loop(preps, runs, tset, coef, need_in, cur if has_cur else None, use_wind)
+        outs = compiled_loop(preps, runs, VelocityStep(tset, coef), need_in, cur if has_cur else None, use_wind)
         if outs is None:  # the numpy loop (no compiler): the same steps
             outs = numpy_loop(preps, runs, tset, coef, need_in, cur if has_cur else None, use_wind)
         if not np.any(bias):  # no sensor bias: the outputs as simulated (adding zeros copies each)

@@ -9,9 +9,6 @@ same inputs in the same order: the same bits (``tests/test_diagnose_simulate.py`
 
 from __future__ import annotations
 
-import os
-import threading
-from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -52,69 +49,24 @@ def environment(prep: Prepared, cur: np.ndarray | None, use_wind: bool, B: int) 
     return cb, wb
 
 
-def threads() -> int:
-    """Threads the compiled loop splits a simulation's batch members over: ``SHIPTRIAL_THREADS``,
-    one when unset. Two threads cost about 10 % more CPU (three issue-size cases on a loaded
-    machine) for a wall time that only idle cores shorten: opt-in, not the default."""
-    env = os.environ.get("SHIPTRIAL_THREADS", "").strip()
-    return max(1, int(env)) if env.isdigit() else 1
-
-
-MIN_SPLIT = 8  # members a thread's part holds at least (a smaller one's loop costs less than a thread's start)
-_POOLS: dict[int, ThreadPoolExecutor] = {}
-_POOL_LOCK = threading.Lock()
-
-
-def _pool(n: int) -> ThreadPoolExecutor:
-    """The process's pool of ``n`` threads for the loop's parts (made on first use, kept)."""
-    with _POOL_LOCK:
-        if n not in _POOLS:
-            _POOLS[n] = ThreadPoolExecutor(max_workers=n, thread_name_prefix="openloop")
-        return _POOLS[n]
-
-
 def compiled_loop(
-    preps: list[Prepared],
-    runs: list[RunInputs],
-    tset: TermSet,
-    coef: np.ndarray,
-    need_in: list[str],
-    cur: np.ndarray | None,
-    use_wind: bool,
+    preps: list[Prepared], runs: list[RunInputs], step: VelocityStep, need_in: list[str], cur: np.ndarray | None, use_wind: bool
 ) -> list[np.ndarray] | None:
     """nu (B, N_i+1, 3) per recording from the compiled loop, one call per recording (its own
     length, its inputs once for every member when they are the same); None when the compiled
     loop does not apply. Whether it is worth loading is judged on the whole call's work, as for
-    one padded call. The batch is split into up to :func:`threads` contiguous parts of at least
-    :data:`MIN_SPLIT` members each, stepped at once in threads (the compiled loop releases the GIL; every member
-    is stepped alone, so the parts give the bits of one call)."""
-    B = coef.shape[0]
-    if not jitloop.use(B * sum(p.n for p in preps)):
+    one padded call."""
+    if not jitloop.use(runs[0][2].shape[0] * sum(p.n for p in preps)):
         return None
-    n_th = min(threads(), B // MIN_SPLIT) if B >= MIN_SPLIT else 1
-    bounds = np.linspace(0, B, n_th + 1).astype(int)
-    parts = [(lo, hi, VelocityStep(tset, coef[lo:hi])) for lo, hi in zip(bounds[:-1], bounds[1:])]
     outs = []
     for prep, (exo, pre, nu0) in zip(preps, runs):
-
-        def part(lo: int, hi: int, step: VelocityStep, prep=prep, exo=exo, pre=pre, nu0=nu0) -> np.ndarray | None:
-            ex = {nm: _members(np.asarray(exo[nm]).T, lo, hi) for nm in need_in}
-            env = environment(prep, None if cur is None else cur[lo:hi], use_wind, hi - lo)
-            return jitloop.open_loop(step, need_in, ex, np.array(nu0[lo:hi]), *env, pre[lo:hi].swapaxes(0, 1))
-
-        if len(parts) == 1:
-            got = [part(*parts[0])]
-        else:
-            got = list(_pool(len(parts)).map(lambda a: part(*a), parts))
-        if any(g is None for g in got):
+        B = nu0.shape[0]
+        ex = {nm: np.asarray(exo[nm]).T for nm in need_in}
+        out = jitloop.open_loop(step, need_in, ex, np.array(nu0), *environment(prep, cur, use_wind, B), pre.swapaxes(0, 1))
+        if out is None:
             return None
-        outs.append(got[0] if len(got) == 1 else np.concatenate(got))
+        outs.append(out)
     return outs
-
-
-def _members(x: np.ndarray, lo: int, hi: int) -> np.ndarray:
-    """Members lo..hi of an (N, B) signal; an (N, 1) one, the same for every member, as it is."""
-    return x if x.shape[1] == 1 else x[:, lo:hi]
 
 
 def numpy_loop(

@@ -9,7 +9,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from diagnose import openloop
 from diagnose.battery import scenario
 from diagnose.candidates import build_library
 from diagnose.model import AugmentedModel, prepare
@@ -46,19 +45,10 @@ def test_compiled_per_recording_loop_matches_padded_numpy_loop(monkeypatch):
     kinds = {model.slot(j).kind for j in range(model.n_base, model.n_slots_end)}
     assert {"current", "delay", "offset", "bias", "term"} <= kinds
     monkeypatch.setattr(jitloop, "MIN_WORK", 0)
-    monkeypatch.delenv("SHIPTRIAL_THREADS", raising=False)  # the default: one thread
     ran, open_loop = [], jitloop.open_loop
     monkeypatch.setattr(jitloop, "open_loop", lambda *a: ran.append(open_loop(*a)) or ran[-1])
     compiled = model.simulate_many(preps, P)
     assert len(ran) == 2 and all(r is not None for r in ran)  # compiled, one call per recording
-    # the members split over threads: each part stepped alone, the same bits
-    monkeypatch.setenv("SHIPTRIAL_THREADS", "3")
-    monkeypatch.setattr(openloop, "MIN_SPLIT", 4)
-    ran.clear()
-    threaded = model.simulate_many(preps, P)
-    assert len(ran) == 2 * 3 and sorted(r.shape[0] for r in ran[:3]) == [len(P) // 3] * 3
-    assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(threaded, compiled))
-    monkeypatch.setenv("SHIPTRIAL_THREADS", "1")
     monkeypatch.setattr(jitloop, "AVAILABLE", False)
     numpy_loop = model.simulate_many(preps, P)
     for a, b, p in zip(compiled, numpy_loop, preps):
