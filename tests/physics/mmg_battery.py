@@ -364,7 +364,7 @@ def generate(c: Case, *, visibility: bool = False, oracle_calm: bool = False, du
         truth["visibility_rms_over_noise"] = _visibility(c, ship, n, diag, Ts, diag_m)
     if not oracle_calm:
         return Generated(c, calm, diag, val, noisy, truth, Ts)
-    mans = oracle_manoeuvres()
+    mans = lasting(oracle_manoeuvres(), duration_s)
     calm = simulate_runs(ship, mans, n, sample_time=Ts, lead_in_s=LEAD_IN_S)
     rng_o = np.random.default_rng([c.seed, 1])  # its own stream: the other runs' noise is unchanged
     noisy["calm"] = [_measure(r, ship, rng_o, c.noise, None, None) for r in calm]
