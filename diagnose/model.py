@@ -425,9 +425,11 @@ def jacobian(
 def _initial_state_owner(model: AugmentedModel, preps: list[Prepared], free: list[int]) -> list[int]:
     """Per free parameter, the position in ``preps`` of the one recording whose initial state it
     is, -1 for a parameter that may move every recording, -2 for another recording's initial state
-    (one not among ``preps``: it moves none of them)."""
-    pos = {p.index: i for i, p in enumerate(preps) if p.index is not None and p.index < model.n_rec}
-    return [-1 if j < model.n_slots_end else pos.get((j - model.n_slots_end) // 3, -2) for j in free]
+    (one not among ``preps``: it moves none of them). An index two recordings share moves both: -1."""
+    idx = [p.index for p in preps if p.index is not None and p.index < model.n_rec]
+    pos = {p.index: i for i, p in enumerate(preps) if p.index in idx}
+    own = {i: (pos[i] if idx.count(i) == 1 else -1) for i in pos}
+    return [-1 if j < model.n_slots_end else own.get((j - model.n_slots_end) // 3, -2) for j in free]
 
 
 def _prior_rows(P: np.ndarray, free: list[int], prior: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:

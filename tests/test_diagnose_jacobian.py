@@ -73,3 +73,14 @@ def test_residuals_at_the_point_given_are_not_simulated_again(monkeypatch):
     r, J = dm.jacobian(model, preps, P, free, w, at_P=at_P)
     assert np.array_equal(r, r_ref) and np.array_equal(J, J_ref)
     assert sum(members) == 2 * (4 + 3)  # the point itself not simulated
+
+
+def test_an_initial_state_two_recordings_share_is_stepped_on_both():
+    """Two recordings prepared with one index (a run given twice) both move with its initial state."""
+    model, preps, P, free = _setup()
+    twice = [preps[0], prepare(model.profile, preps[1].rec, 0)]
+    w = np.ones(3)
+    r_ref, J_ref = _one_batch(model, twice, P, free, w)
+    r, J = dm.jacobian(model, twice, P, free, w)
+    assert np.array_equal(r, r_ref) and np.array_equal(J, J_ref)
+    assert np.any(J[preps[0].n * 3 :, free.index(model.x0_params()[0])])
