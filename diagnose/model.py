@@ -233,6 +233,8 @@ class AugmentedModel:
         outs = compiled_loop(preps, runs, VelocityStep(tset, coef), need_in, cur if has_cur else None, use_wind)
         if outs is None:  # the numpy loop (no compiler): the same steps
             outs = numpy_loop(preps, runs, tset, coef, need_in, cur if has_cur else None, use_wind)
+        if not np.any(bias):  # no sensor bias: the outputs as simulated (adding zeros copies each)
+            return outs
         return [o + bias[:, None, :] for o in outs]
 
     def _run_inputs(self, prep: Prepared, plan: dict, P: np.ndarray) -> tuple[dict, np.ndarray, np.ndarray]:
@@ -360,9 +362,15 @@ def noise_std_coloured(y: np.ndarray, max_lag: int = 6) -> np.ndarray:
 
 def residuals(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
     """Open-loop residuals y - y_hat per recording, each (B, N+1, 3)."""
+    out = []
     with np.errstate(all="ignore"):
-        out = [p.y[None] - yh for p, yh in zip(preps, model.simulate_many(preps, P))]
-    return [np.where(np.isfinite(r), np.clip(r, -1e6, 1e6), 1e6) for r in out]
+        for p, yh in zip(preps, model.simulate_many(preps, P)):
+            r = np.subtract(p.y[None], yh, out=yh if yh.flags.writeable else None)  # the simulation is not used again
+            bad = ~np.isfinite(r)
+            np.clip(r, -1e6, 1e6, out=r)
+            r[bad] = 1e6  # a non-finite residual counts as a large one, either sign
+            out.append(r)
+    return out
 
 
 def stack(res: list[np.ndarray], w: np.ndarray | list[np.ndarray], masks: list[np.ndarray] | None = None) -> np.ndarray:
@@ -385,15 +393,43 @@ def jacobian(
     w: np.ndarray,
     masks: list[np.ndarray] | None = None,
     h: np.ndarray | None = None,
+    at_P: list[np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(r0 (M,), J (M, len(free))) of the weighted residual; one batched simulation."""
+    """(r0 (M,), J (M, len(free))) of the weighted residual by forward differences, one batched
+    simulation per recording. A recording's initial-state parameters move that recording alone:
+    they are stepped on it only, their columns zero on the others (the zeros the differences of
+    two equal simulations give, without simulating them: a quarter to a half of the members of a
+    diagnosis's refits, whose free parameters are mostly initial states). ``at_P``: the
+    residuals (1, N_i+1, 3) per recording at P when already simulated (not simulated again)."""
     h = model.steps(preps, P) if h is None else h
-    Pb = np.repeat(P[None], len(free) + 1, axis=0)
-    for k, j in enumerate(free):
-        Pb[k + 1, j] += h[j]
-    R = stack(residuals(model, preps, Pb), w, masks)
-    J = (R[1:] - R[0]).T / h[free]
-    return R[0], J
+    owner = _initial_state_owner(model, preps, free)
+    shared = [k for k, o in enumerate(owner) if o == -1]
+    first = 0 if at_P is None else 1  # row 0 of the batch is P itself unless given
+    r0, J = [], []
+    for i, p in enumerate(preps):
+        cols = shared + [k for k, o in enumerate(owner) if o == i]
+        js = [free[k] for k in cols]
+        Pb = np.repeat(P[None], len(cols) + 1 - first, axis=0)
+        Pb[np.arange(1 - first, len(cols) + 1 - first), js] += h[js]
+        res = residuals(model, [p], Pb)[0]
+        if at_P is not None:
+            res = np.concatenate([at_P[i], res])
+        R = stack([res], [w[i] if isinstance(w, list) else w], None if masks is None else [masks[i]])
+        Ji = np.zeros((R.shape[1], len(free)))
+        Ji[:, cols] = (R[1:] - R[0]).T / h[js]
+        r0.append(R[0])
+        J.append(Ji)
+    return np.concatenate(r0), np.concatenate(J)
+
+
+def _initial_state_owner(model: AugmentedModel, preps: list[Prepared], free: list[int]) -> list[int]:
+    """Per free parameter, the position in ``preps`` of the one recording whose initial state it
+    is, -1 for a parameter that may move every recording, -2 for another recording's initial state
+    (one not among ``preps``: it moves none of them). An index two recordings share moves both: -1."""
+    idx = [p.index for p in preps if p.index is not None and p.index < model.n_rec]
+    pos = {p.index: i for i, p in enumerate(preps) if p.index in idx}
+    own = {i: (pos[i] if idx.count(i) == 1 else -1) for i in pos}
+    return [-1 if j < model.n_slots_end else own.get((j - model.n_slots_end) // 3, -2) for j in free]
 
 
 def _prior_rows(P: np.ndarray, free: list[int], prior: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
@@ -435,8 +471,11 @@ def fit(
     bounds = bounds or {}
     h = model.steps(preps, P)
 
+    trial: list[list[np.ndarray]] = []  # the last trial's residuals per recording, for the next Jacobian
+
     def total(Pb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        R = stack(residuals(model, preps, Pb), w, masks)
+        trial[:] = [residuals(model, preps, Pb)]
+        R = stack(trial[0], w, masks)
         data = np.einsum("ij,ij->i", R, R)
         pri = np.array([float(np.sum(_prior_rows(p, free, prior)[0] ** 2)) for p in Pb])
         return data, data + pri
@@ -478,7 +517,7 @@ def fit(
         short = short + 1 if rel < tol else 0
         if short >= patience:
             break
-        r, J = jacobian(model, preps, P, free, w, masks, h)
+        r, J = jacobian(model, preps, P, free, w, masks, h, at_P=[q[k : k + 1] for q in trial[0]])
         rp, Jp = _prior_rows(P, free, prior)
     dof = max(len(r) - len(free), 1)
     Ja = np.vstack([J, Jp])

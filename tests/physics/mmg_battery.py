@@ -30,7 +30,7 @@ Isherwood's (1972) (``tests.physics.isherwood``), with speed and direction gusts
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -304,10 +304,10 @@ def truth_of(c: Case, ship: MMGShip, runs: list[Run], env: Environment, Ts: floa
     return base | {"effects": [c.effect], "checks": {c.effect: chk}}
 
 
-def _visibility(c: Case, ship: MMGShip, n: float, runs: list[Run], Ts: float) -> dict[str, float]:
+def _visibility(c: Case, ship: MMGShip, n: float, runs: list[Run], Ts: float, mans: list[Manoeuvre]) -> dict[str, float]:
     """How visible the effect is: RMS over the diagnosed runs of (run with the effect - the same
     manoeuvre without it) per channel, in units of the measurement noise (noise-free runs)."""
-    calm = simulate_runs(ship, DIAGNOSE[: len(runs)], n, sample_time=Ts, lead_in_s=LEAD_IN_S)
+    calm = simulate_runs(ship, mans[: len(runs)], n, sample_time=Ts, lead_in_s=LEAD_IN_S)
     bias = c.magnitude["bias"] / Ts if c.effect == "sensor_bias" else 0.0
     sig = {"u": NOISE_FULL["u"] * Ts, "v": NOISE_FULL["v"] * Ts, "r": NOISE_FULL["r"] / Ts}
     out = {}
@@ -328,9 +328,16 @@ def oracle_manoeuvres() -> list[Manoeuvre]:
     return DIAGNOSE + VALIDATE
 
 
-def generate(c: Case, *, visibility: bool = False, oracle_calm: bool = False) -> Generated:
+def lasting(mans: list[Manoeuvre], duration_s: float | None) -> list[Manoeuvre]:
+    """``mans`` each lasting ``duration_s`` (full-scale s; None: as they are)."""
+    return list(mans) if duration_s is None else [replace(m, duration_s=duration_s) for m in mans]
+
+
+def generate(c: Case, *, visibility: bool = False, oracle_calm: bool = False, duration_s: float | None = None) -> Generated:
     """Simulate every run of the case (seeded) and its ground truth (with ``visibility``: also
-    how far the effect moves the diagnosed runs, in noise units).
+    how far the effect moves the diagnosed runs, in noise units). With ``duration_s`` every
+    manoeuvre lasts that long instead (full-scale s; the recording starts 30 s before it): the
+    size of the issue's battery (benchmarks/bench_diagnose_size.py).
 
     With ``oracle_calm`` the calm (--fit-on) runs are instead the diagnosed and validation
     manoeuvres without the effect (:func:`oracle_manoeuvres`, noise from their own seeded
@@ -339,9 +346,10 @@ def generate(c: Case, *, visibility: bool = False, oracle_calm: bool = False) ->
     ship, eff_ship, env, act = _setup(c)
     Ts = ship.time_scale  # 1 s at full scale, Froude-scaled for a model
     n = self_propulsion_rps(kvlcc2(c.scale))  # the approach rpm the crew sets, for every run
-    calm = simulate_runs(ship, CALM, n, sample_time=Ts, lead_in_s=LEAD_IN_S)
-    runs = simulate_runs(eff_ship, DIAGNOSE + VALIDATE, n, env=env, sample_time=Ts, lead_in_s=LEAD_IN_S, **act)
-    diag, val = runs[: c.n_diagnose], runs[len(DIAGNOSE) :]
+    calm_m, diag_m, val_m = (lasting(m, duration_s) for m in (CALM, DIAGNOSE, VALIDATE))
+    calm = simulate_runs(ship, calm_m, n, sample_time=Ts, lead_in_s=LEAD_IN_S)
+    runs = simulate_runs(eff_ship, diag_m + val_m, n, env=env, sample_time=Ts, lead_in_s=LEAD_IN_S, **act)
+    diag, val = runs[: c.n_diagnose], runs[len(diag_m) :]
     rng = np.random.default_rng(c.seed)
     bias = {"signal": c.magnitude["signal"], "value": c.magnitude["bias"] / Ts} if c.effect == "sensor_bias" else None
     rel = c.magnitude.get("reference") == "relative"
@@ -353,10 +361,10 @@ def generate(c: Case, *, visibility: bool = False, oracle_calm: bool = False) ->
     }
     truth = truth_of(c, eff_ship, diag, env, Ts)
     if visibility:
-        truth["visibility_rms_over_noise"] = _visibility(c, ship, n, diag, Ts)
+        truth["visibility_rms_over_noise"] = _visibility(c, ship, n, diag, Ts, diag_m)
     if not oracle_calm:
         return Generated(c, calm, diag, val, noisy, truth, Ts)
-    mans = oracle_manoeuvres()
+    mans = lasting(oracle_manoeuvres(), duration_s)
     calm = simulate_runs(ship, mans, n, sample_time=Ts, lead_in_s=LEAD_IN_S)
     rng_o = np.random.default_rng([c.seed, 1])  # its own stream: the other runs' noise is unchanged
     noisy["calm"] = [_measure(r, ship, rng_o, c.noise, None, None) for r in calm]
