@@ -109,8 +109,8 @@ def per_run_fits(
     free: list[int],
     w_fit: np.ndarray | None = None,
 ) -> tuple[list[dict], str]:
-    """Fit before/after per run and channel. With validation runs: by simulation from each run's
-    fitted initial state (:func:`start_fitted`), before and after alike. Otherwise each
+    """Fit before/after per run and channel. With validation runs: by simulation, each channel
+    from its own fitted initial state (:func:`channel_fits`), before and after alike. Otherwise each
     diagnosed run is held out in turn: the model refitted without it (a Gauss-Newton step of the
     free parameters from the final fit, weighted by ``w_fit``, the weights P was fitted with,
     default ``w``) is simulated on it (leave one run out, linearised). The weighted misfit of

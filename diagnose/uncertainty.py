@@ -448,8 +448,8 @@ def within_term(
 def half_width_95(noise: float, model: float = 0.0, within: float = 0.0, reference: float = 0.0, n_runs: int = 0) -> float:
     """Half-width of an estimate's 95 % interval from the stds of its parts (:class:`FindingCov`):
     the Student-t quantile at the Welch-Satterthwaite effective degrees of freedom of their sum
-    (Satterthwaite 1946, "An approximate distribution of estimates of variance components"), each part's variance as measured, before the widening
-    :func:`small_sample` gives a one-std interval.
+    (Satterthwaite 1946, "An approximate distribution of estimates of variance components"), each
+    part's variance as measured, before the widening :func:`small_sample` gives a one-std interval.
 
     The noise part (an AR(1) sandwich over thousands of samples) has as many degrees of freedom as
     the data; the run-to-run misfit ``n_runs - 1``; the misfit within the runs (the excess of the
