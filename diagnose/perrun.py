@@ -55,48 +55,37 @@ def _den(preps: list[Prepared], w: np.ndarray) -> np.ndarray:
     return np.array([np.sum(((p.y - p.y.mean(axis=0)) * w) ** 2, axis=0) for p in preps])
 
 
-START_ITERATIONS = 2  # Gauss-Newton steps of the initial state: the response to it is nearly linear
-
-
-def start_fitted(model: AugmentedModel, prep: Prepared, P: np.ndarray, w: np.ndarray, channel: int | None = None) -> np.ndarray:
-    """Outputs (N+1, 3) of ``prep`` simulated at ``P`` from the initial state that fits it best:
-    noise-weighted (``w``) least squares over the three numbers of nu(0), on one output
-    ``channel`` or on all, with the recorded start y0 as a prior of one noise scale (1 / ``w``)
-    a state; a few Gauss-Newton steps.
+def channel_fits(model: AugmentedModel, prep: Prepared, P: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Fit (per cent) of each output channel of ``prep`` simulated at ``P`` from the initial state
+    that fits that channel best: noise-weighted (``w``) least squares over the three numbers of
+    nu(0) with the recorded start y0 as a prior of one noise scale (1 / ``w``) a state, one
+    Gauss-Newton step from y0 (the response to the start is nearly linear), the channel then
+    simulated from it.
 
     A validation run's initial state is a nuisance, not a property of the model compared (Ljung
     1999, System Identification, 2nd ed.: a model is validated by simulation from an estimated
     initial state, as ``compare`` of the System Identification Toolbox does by default). Started
-    from its first samples instead, the measurement noise there sends a transient through every
-    channel whose size depends on the model simulated."""
+    from its first samples instead, their noise sends a transient through every channel whose
+    size depends on the model simulated. Each channel its own start: a channel's fit then changes
+    with a finding only as far as the finding changes that channel's response to the inputs,
+    never through the start the channels share. A gyro bias leaves the dynamics as they are and
+    moves only the start (nu(0) = y(0) - bias); from the recorded start it cost a zig-zag 1.19
+    points of held-out surge fit, 0.90 from one start fitted to all channels, none from each
+    channel's own (MMG battery, gyro-bias seed 3)."""
     w = np.asarray(w, float)
     h = 0.01 / np.maximum(w, 1e-300)  # a hundredth of each state's noise scale
-    wr = w if channel is None else w * np.eye(3)[channel]
-    d = np.zeros(3)
-    for _ in range(START_ITERATIONS):
-        trial = [replace(prep, y0=prep.y0 + d + h * e) for e in np.vstack([np.zeros(3), np.eye(3)])]
-        s = np.array([o[0] for o in model.simulate_many(trial, P[None])])  # (4, N+1, 3)
-        r = ((prep.y - s[0]) * wr).ravel()
-        J = (((s[1:] - s[0]) * wr).reshape(3, -1) / h[:, None]).T
-        # the recorded start as a prior of one noise std a state: a direction the channel does not inform stays there
-        step = np.linalg.lstsq(np.vstack([J, np.diag(w)]), np.concatenate([r, -w * d]), rcond=None)[0]
-        if not np.all(np.isfinite(step)):
-            break
-        d = d + step
-    return model.simulate(replace(prep, y0=prep.y0 + d), P)[0]
-
-
-def channel_fits(model: AugmentedModel, prep: Prepared, P: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Fit (per cent) of each output channel of ``prep`` simulated at ``P`` from the initial state
-    that fits that channel best (:func:`start_fitted` on the channel alone).
-
-    Each channel its own start: a channel's fit then changes with a finding only as far as the
-    finding changes that channel's response to the inputs, never through the start the channels
-    share. A gyro bias leaves the dynamics as they are and moves only the start (nu(0) = y(0) -
-    bias); from one start fitted to all channels it traded a point of a zig-zag's held-out surge
-    fit for its yaw gain (MMG battery, gyro-bias seed 3: surge -1.19 points from the recorded
-    start, -0.90 from one fitted start, 0.00 from each channel's own)."""
-    return np.array([fit_percent(prep.y, start_fitted(model, prep, P, w, c))[c] for c in range(3)])
+    trial = [replace(prep, y0=prep.y0 + h * e) for e in np.vstack([np.zeros(3), np.eye(3)])]
+    s = np.array([o[0] for o in model.simulate_many(trial, P[None])])  # (4, N+1, 3)
+    J = (s[1:] - s[0]) / h[:, None, None]  # (state, N+1, channel)
+    starts = []
+    for c in range(3):
+        # the prior's rows keep a direction the channel does not inform at the recorded start
+        A = np.vstack([J[:, :, c].T * w[c], np.diag(w)])
+        b = np.concatenate([(prep.y[:, c] - s[0, :, c]) * w[c], np.zeros(3)])
+        d = np.linalg.lstsq(A, b, rcond=None)[0]
+        starts.append(prep.y0 + (d if np.all(np.isfinite(d)) else 0.0))
+    sims = model.simulate_many([replace(prep, y0=y0) for y0 in starts], P[None])
+    return np.array([fit_percent(prep.y, o[0])[c] for c, o in enumerate(sims)])
 
 
 def per_run_fits(
