@@ -46,7 +46,8 @@ def _score(est: float | None, sd: float | None, true: float, deg: bool = False, 
         return "no estimate"
     if not sd or not math.isfinite(sd):
         return "no std"
-    width = half if half is not None and math.isfinite(half) else Z95 * sd
+    # the tool's half-width is never below Z95 printed stds (files written before it said so: the same rule here)
+    width = max(half, Z95 * sd) if half is not None and math.isfinite(half) else Z95 * sd
     return "in" if abs(est - true) < (math.degrees(width) if deg else width) else "out"
 
 
@@ -126,7 +127,7 @@ def half_widths(row: dict) -> list[float]:
         p = (f or {}).get("parameters") or {}
         for key, true in _magnitudes(chk):
             sd, half = _std_of(p, key), _half_of(p, key)
-            width = half if half is not None else (Z95 * sd if sd else None)
+            width = max(half, Z95 * sd) if half is not None and sd else (Z95 * sd if sd else None)
             if width is not None and true:
                 out.append(100.0 * (math.degrees(width) if key == "offset_deg" else width) / abs(true))
     return out

@@ -457,7 +457,8 @@ def half_width_95(noise: float, model: float = 0.0, within: float = 0.0, referen
     ``BLOCKS_PER_RUN * n_runs - 1`` where it is larger; the --fit-on runs' misfit on the finding is
     one draw, ``delta``: one degree of freedom. A model-error part measured over three runs makes a
     95 % interval 4.30 of its stds wide, not the 1.96 of a normal law: the tails of a spread
-    measured over few units are heavy."""
+    measured over few units are heavy. Never narrower than 1.96 of the std the finding prints
+    (whose parts :func:`small_sample` widened for a one-std interval)."""
     comps = [(noise**2, np.inf)]
     blocks = BLOCKS_PER_RUN * n_runs
     if within > 0 and blocks >= 2:
@@ -469,4 +470,7 @@ def half_width_95(noise: float, model: float = 0.0, within: float = 0.0, referen
     var = sum(v for v, _nu in comps)
     den = sum(v**2 / nu for v, nu in comps if np.isfinite(nu))
     nu = var**2 / den if den > 0 else np.inf
-    return float(stats.t.ppf(0.975, nu) * np.sqrt(var)) if var > 0 else 0.0
+    t_half = float(stats.t.ppf(0.975, nu) * np.sqrt(var)) if var > 0 else 0.0
+    # never narrower than 1.96 of the std printed beside it (widened for a one-std interval): the two
+    # intervals a report states must not contradict each other
+    return max(t_half, float(stats.norm.ppf(0.975)) * float(np.sqrt(noise**2 + model**2 + within**2 + reference**2)))

@@ -68,3 +68,9 @@ def test_95_interval_between_the_normal_and_the_parts_own():
     h = half_width_95(1.0, np.sqrt(small_sample(3)), n_runs=3)
     assert 1.96 * np.sqrt(2.0) < h < stats.t.ppf(0.975, 2) * np.sqrt(2.0) and h < 1.96 * total * 2
     assert half_width_95(0.0, reference=1.0) == pytest.approx(stats.t.ppf(0.975, 1), rel=1e-6)
+
+
+def test_95_interval_never_narrower_than_the_printed_std_allows():
+    """Noise and a small within-run part over 24 blocks (its widening for a one-std interval, x1.04,
+    taken out for the t quantile: 2.187): the half-width stays at 1.96 of the std printed beside it."""
+    assert half_width_95(1.0, 0.0, 0.5, n_runs=3) == pytest.approx(1.96 * np.sqrt(1.25), rel=1e-4)
