@@ -1,6 +1,8 @@
 """The MMG battery over noise seeds as one table (issue 26): per case x seed right/wrong, the
-coverage of the findings' 95 % intervals (estimate +- 1.96 reported std holding the battery's
-true value; a concealed magnitude that is not estimated, has no std or sits in an ERROR row counts
+coverage of the findings' 95 % intervals (estimate +- the reported half-width ``<std>_95``, a
+Student-t quantile at the interval parts' degrees of freedom, or +- 1.96 reported std in files
+without it, holding the battery's true value; their median half-width in per cent of the true value
+is shown per case; a concealed magnitude that is not estimated, has no std or sits in an ERROR row counts
 as not covered, and every magnitude of a finding that was not concealed is scored against a true
 value of 0) and the diagnosis wall and CPU time per case, from the ``--json`` files of
 ``benchmarks.bench_diagnose_mmg --seeds ...`` runs (one or several, e.g. chunks of cases).
@@ -37,12 +39,22 @@ NOT_COVERED = ("out", "no estimate", "no std", "error", "spurious out")
 APART = {"wind_accel_yaw": "a mean near zero by cancellation over the headings, not counted in the figures above"}
 
 
-def _score(est: float | None, sd: float | None, true: float, deg: bool = False) -> str:
+def _score(est: float | None, sd: float | None, true: float, deg: bool = False, half: float | None = None) -> str:
+    """In or out of the 95 % interval: the reported half-width ``half`` (``<std>_95``, Student-t at
+    the interval parts' degrees of freedom) when given, else ``Z95`` stds."""
     if est is None:
         return "no estimate"
     if not sd or not math.isfinite(sd):
         return "no std"
-    return "in" if abs(est - true) < Z95 * (math.degrees(sd) if deg else sd) else "out"
+    # the tool's half-width is never below Z95 printed stds (files written before it said so: the same rule here)
+    width = max(half, Z95 * sd) if half is not None and math.isfinite(half) else Z95 * sd
+    return "in" if abs(est - true) < (math.degrees(width) if deg else width) else "out"
+
+
+def _half_of(p: dict, key: str, part: str = "") -> float | None:
+    """The reported 95 % half-width of ``key`` (whole interval only; None for a part or when absent)."""
+    name = f"{key}_std" if key.startswith("wind_") else STD_KEY.get(key, f"{key}_std")
+    return _num(p.get(name + "_95")) if part == "" else None
 
 
 def _matches(f: dict, checks: dict) -> bool:
@@ -86,7 +98,7 @@ def coverage(row: dict, part: str = "") -> Counter:
         if i is not None:
             used.add(i)
         for key, true in _magnitudes(chk):
-            out[_score(_num(p.get(key)), _std_of(p, key, part), true, key == "offset_deg")] += 1
+            out[_score(_num(p.get(key)), _std_of(p, key, part), true, key == "offset_deg", _half_of(p, key, part))] += 1
     for i, f in enumerate(row["findings"]):
         if i in used:
             continue
@@ -97,8 +109,27 @@ def coverage(row: dict, part: str = "") -> Counter:
             if (k in STD_KEY or k.startswith("wind_accel_") and "_std" not in k) and k not in APART and _num(p[k]) is not None
         ]
         for key in keys or ["-"]:
-            s = "no std" if key == "-" else _score(_num(p.get(key)), _std_of(p, key, part), 0.0, key == "offset_deg")
+            s = (
+                "no std"
+                if key == "-"
+                else _score(_num(p.get(key)), _std_of(p, key, part), 0.0, key == "offset_deg", _half_of(p, key, part))
+            )
             out[s if s == "no std" else f"spurious {s}"] += 1
+    return out
+
+
+def half_widths(row: dict) -> list[float]:
+    """The 95 % half-width of each concealed magnitude the row estimated, in per cent of its true value."""
+    checks = {e: c for e, c in full_scale_truth(row["truth"])["checks"].items() if e != "weights"}
+    out = []
+    for eff, chk in checks.items():
+        f = next((f for f in row.get("findings") or [] if f.get("effect") == eff and _matches(f, chk)), None)
+        p = (f or {}).get("parameters") or {}
+        for key, true in _magnitudes(chk):
+            sd, half = _std_of(p, key), _half_of(p, key)
+            width = max(half, Z95 * sd) if half is not None and sd else (Z95 * sd if sd else None)
+            if width is not None and true:
+                out.append(100.0 * (math.degrees(width) if key == "offset_deg" else width) / abs(true))
     return out
 
 
@@ -115,7 +146,7 @@ def wind_by_dof(rows: list[dict]) -> str:
         p = (f or {}).get("parameters") or {}
         for key, true in chk[0].items():
             n[key] += 1
-            hit[key] += _score(_num(p.get(key)), _std_of(p, key), true) == "in"
+            hit[key] += _score(_num(p.get(key)), _std_of(p, key), true, half=_half_of(p, key)) == "in"
     return ", ".join(f"{k.removeprefix('wind_accel_')} {hit[k]}/{n[k]}" + (f" ({APART[k]})" if k in APART else "") for k in n)
 
 
@@ -136,7 +167,7 @@ def table(rows: list[dict]) -> str:
     head = (
         f"{'case':24s} "
         + " ".join(f"{'s' + str(s):>5s}" for s in seeds)
-        + "   right  in 95 %  held-out fit change surge/sway/yaw (points)  wall s (median)  CPU s (median)"
+        + "   right  in 95 %  width %  held-out fit change surge/sway/yaw (points)  wall s (median)  CPU s (median)"
     )
     lines = [head]
     groups = {g: {part: Counter() for part in PARTS} for g in ("all", "wind", "rest")}
@@ -152,6 +183,8 @@ def table(rows: list[dict]) -> str:
         flips += [f"{r['case']} {f['effect']}" for r in runs.values() for f in r.get("findings") or [] if includes_no_effect(f)]
         n = sum(c.values())
         cov = f"{c['in'] + c['spurious in']}/{n}" if n else "-"
+        hw = [h for r in runs.values() for h in half_widths(r)]
+        width = f"{np.median(hw):.1f}" if hw else "-"
         w = [r["diagnose_s"] for r in runs.values()]
         cpu = [r["cpu_s"] for r in runs.values()]
         walls += w
@@ -159,7 +192,7 @@ def table(rows: list[dict]) -> str:
         hits = sum(r["hit"] for r in runs.values())
         ho = _heldout_change(list(runs.values()))
         lines.append(
-            f"{name:24s} {cells}   {hits}/{len(runs):<4d} {cov:>7s}  {ho:>43s}  {np.median(w):14.1f}  {np.median(cpu):14.1f}"
+            f"{name:24s} {cells}   {hits}/{len(runs):<4d} {cov:>7s}  {width:>7s}  {ho:>43s}  {np.median(w):14.1f}  {np.median(cpu):14.1f}"
         )
     hits = sum(r["hit"] for r in rows)
     lines.append(f"right {hits}/{len(rows)} ({100 * hits / max(len(rows), 1):.0f} %)")

@@ -7,6 +7,7 @@ import numpy as np
 from diagnose import windload
 from diagnose.candidates import STEADY_WIND, Candidate, canonical_term, thrust_signal
 from diagnose.model import AugmentedModel
+from diagnose.uncertainty import half_width_95
 from primitives.ship import DOFS
 
 
@@ -201,16 +202,36 @@ def _beyond_runs(cov) -> bool:
     return getattr(cov, "reference", None) is not None or getattr(cov, "within", None) is not None
 
 
+# the parts of a FindingCov whose stds set the 95 % interval's degrees of freedom (uncertainty.half_width_95)
+_T_PARTS = ("noise", "model", "within", "reference")
+
+
+def _part_covs(cov) -> dict[str, np.ndarray]:
+    """The parts of ``cov`` by name (a part not measured: zero)."""
+    return {part: C if (C := getattr(cov, part, None)) is not None else np.zeros_like(cov.noise) for part in _T_PARTS}
+
+
+def _add_95(out: dict, by_part: dict[str, dict], n_runs: int) -> None:
+    """``<name>_95`` beside each std ``<name>`` of ``out``: the half-width of its 95 % interval
+    (:func:`diagnose.uncertainty.half_width_95`) from the same std of each part (``by_part``)."""
+    for k in [k for k in out if k.endswith(STD_SUFFIXES) and isinstance(out[k], float)]:
+        sds = [by_part[part].get(k) for part in _T_PARTS]
+        if all(isinstance(v, float) and np.isfinite(v) for v in sds):
+            out[f"{k}_95"] = half_width_95(*sds, n_runs=n_runs)
+
+
 def with_interval(c: Candidate, model: AugmentedModel, P: np.ndarray, cov, free: list[int]) -> dict:
     """:func:`describe` with each std the total of ``cov`` (a :class:`diagnose.uncertainty.FindingCov`:
     noise, run-to-run model misfit, the --fit-on runs' and the within-run misfit), its noise part kept as
-    ``<name>_noise`` and, when a part beyond them was measured, noise and run-to-run part as ``<name>_runs``."""
+    ``<name>_noise``, when a part beyond them was measured, noise and run-to-run part as ``<name>_runs``,
+    and the half-width of its 95 % interval as ``<name>_95`` (Student-t at the parts' degrees of freedom)."""
     out = describe(c, model, P, cov.total, free)
     parts = {"noise": cov.noise} | ({"runs": cov.runs} if _beyond_runs(cov) else {})
     for part, C in parts.items():
         d = describe(c, model, P, C, free)
         for k in [k for k in out if k.endswith(STD_SUFFIXES)]:
             out[f"{k}_{part}"] = d.get(k)
+    _add_95(out, {part: describe(c, model, P, C, free) for part, C in _part_covs(cov).items()}, cov.n_runs)
     return out
 
 
@@ -225,11 +246,18 @@ def add_wind_means(findings: list[dict], model: AugmentedModel, preps: list, P: 
         pos = [free.index(j) for j in idx]
         ix = np.ix_(pos, pos)
         parts = {"": cov.total, "_noise": cov.noise} | ({"_runs": cov.runs} if _beyond_runs(cov) else {})
+        parts |= {f"_part_{part}": C for part, C in _part_covs(cov).items()}
         sub = {k: C[ix] for k, C in parts.items()}
         if f["key"] == STEADY_WIND:
-            f["parameters"].update(windload.steady_mean_acceleration(model.profile, preps, P[idx], sub))
+            means = windload.steady_mean_acceleration(model.profile, preps, P[idx], sub)
         else:
-            f["parameters"].update(windload.mean_acceleration(preps, P[idx], sub))
+            means = windload.mean_acceleration(preps, P[idx], sub)
+        by_part = {
+            part: {k.removesuffix(f"_part_{part}"): means.pop(k) for k in list(means) if k.endswith(f"_part_{part}")}
+            for part in _T_PARTS
+        }
+        _add_95(means, by_part, cov.n_runs)
+        f["parameters"].update(means)
 
 
 def interval_note(cov, key: str | None = None) -> dict:
