@@ -73,7 +73,8 @@ SANDWICH_LAG_S = 5.0
 # Newton decrement below which the fit is stationary (a further step < 0.1 standard error), and the
 # Gauss-Newton steps allowed to get there after LM, whose step-size test can stop it well short
 STATIONARY = 0.01
-FINISH_STEPS = 6
+FINISH_STEPS = 10
+LM_NFEV = 200
 
 
 @dataclass
@@ -289,7 +290,10 @@ class _Problem:
 
 
 def _lm(prob: _Problem, x0: np.ndarray, tol: float) -> OptimizeResult:
-    return least_squares(prob.residual, x0, x_scale="jac", method="lm", xtol=tol, ftol=tol, gtol=tol, max_nfev=2000)
+    """Levenberg-Marquardt, capped at :data:`LM_NFEV` evaluations: along the mass-height ridge it can
+    creep (597 evaluations, 39 s cpu on ``mass-sim --case case1 --seed 3`` at 0.3 length) where the
+    Gauss-Newton finish of :func:`fit_output_error` converges in a few steps."""
+    return least_squares(prob.residual, x0, x_scale="jac", method="lm", xtol=tol, ftol=tol, gtol=tol, max_nfev=LM_NFEV)
 
 
 def _best_start(
@@ -440,7 +444,8 @@ def fit_output_error(
             sd = np.array([[lfilter(ar[i][j], [1.0], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
             w = 1.0 / np.maximum(sd, 1e-12)
     J, dec, cov_load = res.jac, float("nan"), np.full((2, 2), np.nan)
-    ok = bool(res.success) and bool(np.all(np.isfinite(x))) and float(res.cost) < 1e5
+    # an LM stopped by its evaluation cap is judged by the stationarity check below (with_cov), not by its flag
+    ok = (bool(res.success) or (with_cov and res.status == 0)) and bool(np.all(np.isfinite(x))) and float(res.cost) < 1e5
     message = str(res.message)
     if with_cov and ok:
         x, J, dec = _gauss_newton(prob, x, FINISH_STEPS)
