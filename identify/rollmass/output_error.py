@@ -348,10 +348,14 @@ def load_decrement(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) 
     errors reported with it. With white, unit-variance residuals and every parameter counted it is the
     Newton decrement (Boyd & Vandenberghe 2004, sec. 9.5.1), the step in ``(J^T J)^-1``; that metric
     is not the interval's when the residual is structure rather than noise, and on a noise-free basin
-    run (base, case 1) it stayed at 0.02-0.9 while the load's step was 0.004 of its reported sd."""
+    run (base, case 1) it was 0.13 where the load's step was 0.03 of its reported sd. NaN when the
+    covariance is singular (then not stationary)."""
     dx = -np.linalg.lstsq(J, f, rcond=None)[0]
     d = dx[-2:]
-    return float(d @ np.linalg.solve(sandwich_cov(J, f, lengths, lags)[-2:, -2:], d))
+    try:
+        return float(d @ np.linalg.solve(sandwich_cov(J, f, lengths, lags)[-2:, -2:], d))
+    except np.linalg.LinAlgError:  # a singular J^T J or load covariance: no interval to measure in
+        return float("nan")
 
 
 def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple[np.ndarray, np.ndarray, float]:
@@ -463,9 +467,10 @@ def fit_output_error(
         x, J, dec = _gauss_newton(prob, x, FINISH_STEPS, lags)
         if not dec < STATIONARY:
             ok = False
-            message = (
-                f"{message}; not at a stationary point after {FINISH_STEPS} Gauss-Newton steps "
+            message = f"{message}; not at a stationary point after {FINISH_STEPS} Gauss-Newton steps " + (
                 f"(a further step would move the load by {np.sqrt(dec):.2g} of its standard errors)"
+                if np.isfinite(dec)
+                else "(the load's covariance is singular there)"
             )
         try:
             cov_load = sandwich_cov(J, prob.residual(x), [d.n for d in datasets], lags)[-2:, -2:]
