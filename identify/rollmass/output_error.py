@@ -348,7 +348,7 @@ def load_decrement(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) 
     errors reported with it. With white, unit-variance residuals and every parameter counted it is the
     Newton decrement (Boyd & Vandenberghe 2004, sec. 9.5.1), the step in ``(J^T J)^-1``; that metric
     is not the interval's when the residual is structure rather than noise, and on a noise-free basin
-    run (base, case 1) it was 0.13 where the load's step was 0.03 of its reported sd. NaN when the
+    run (base, case 1) it was 0.13 where the load's step was 0.055 of its reported sd. NaN when the
     covariance is singular (then not stationary)."""
     dx = -np.linalg.lstsq(J, f, rcond=None)[0]
     d = dx[-2:]
