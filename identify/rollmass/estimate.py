@@ -12,7 +12,7 @@ Methods:
               do), identity weighting, all 9 parameters free from the start values (33).
 ``oe``        ours, the default: joint output-error / maximum-likelihood fit of the sway-roll-yaw
               model to all three IMU channels of all three datasets (``a_s`` an output, not a
-              noisy regressor), ``z_f`` fixed at its prior; see :mod:`identify.rollmass.output_error`.
+              noisy regressor), ``z_f`` fitted under its prior; see :mod:`identify.rollmass.output_error`.
 ``improved``  our first attempt, kept for comparison: (i) the exact flat direction (scale of (11) vs ``z_f``) removed by fixing
               ``z_f`` at a prior whose uncertainty is propagated into the confidence intervals;
               (ii) the load enters through its two moments ``m z_m`` and ``m z_m (zbar_m - zbar_s)``,
@@ -50,7 +50,7 @@ from identify.rollmass.model import (
     load_from_moments,
     load_moments,
 )
-from identify.rollmass.output_error import SHARED, fit_output_error
+from identify.rollmass.output_error import fit_output_error
 from identify.rollmass.simulate import RollRecording
 
 PARAMS = SHIP_PARAMS + ("m", "zbar_m")
@@ -334,29 +334,26 @@ def _improved(
 
 
 def _oe(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, z_f: float, start: dict[str, float]) -> MassEstimate:
-    """Output-error fit; with ``with_ci`` its sandwich covariance plus the ``z_f`` prior variance
-    propagated through the optimum's sensitivity to ``z_f`` (:func:`output_error.z_f_sensitivity`)."""
+    """Output-error fit with ``z_f`` under its prior ``N(z_f, z_f_prior_sd^2)``; with ``with_ci`` the
+    sandwich covariance of every free parameter, ``z_f`` included (:func:`output_error.fit_output_error`)."""
     f = fit_output_error(datasets, kn, cal, z_f, start, with_cov=with_ci)
     # K_r of (11) from the fitted K_ur, so the shared parameters read as in the paper's Table 3
     K_r = (f.values["K_ur"] - f.values["K_vdot"]) * kn.U
-    params = {**f.values, "K_r": K_r, "z_f": z_f}
+    params = {**f.values, "K_r": K_r, "z_f": f.z_f}
     est = MassEstimate(
         method="oe",
         params=params,
         m=f.m,
         zbar_m=f.zbar_m,
         converged=f.converged,
-        free=SHARED + ("m", "zbar_m"),
+        free=tuple(f.values),
         rel_singular=f.rel_singular,
     )
     if not f.converged:
         est.warnings.append(f"oe: the fit did not converge ({f.message})")
-    if with_ci and f.converged and np.all(np.isfinite(f.cov_load)) and np.all(np.isfinite(f.load_dzf)):
-        # delta method: z_f ~ N(prior, sd^2) moves the optimum by load_dzf per metre
-        dv = f.load_dzf
-        cov = f.cov_load + np.outer(dv, dv) * kn.z_f_prior_sd**2
-        est.m_sd, est.zbar_m_sd = float(np.sqrt(cov[0, 0])), float(np.sqrt(cov[1, 1]))
-        est.corr = float(cov[0, 1] / (est.m_sd * est.zbar_m_sd))
+    if with_ci and np.all(np.isfinite(f.cov_load)):
+        est.m_sd, est.zbar_m_sd = float(np.sqrt(f.cov_load[0, 0])), float(np.sqrt(f.cov_load[1, 1]))
+        est.corr = float(f.cov_load[0, 1] / (est.m_sd * est.zbar_m_sd))
     _warn(est)
     return est
 

@@ -15,15 +15,22 @@ carries the load (section 3 of the paper) is then modelled, not measured through
 The price: the wave disturbance acts on the states, not on a measured input, so it reaches the
 outputs as coloured noise; each channel is whitened by an AR filter fitted to its residual.
 
-Parameters: the shared ship parameters ``SHARED`` and the loaded dataset's ``m, zbar_m``; the
-calibration load is known. Per dataset and channel a constant (sensor bias) and the free response
-(initial state) are projected out exactly (variable projection). Channels are whitened and
-weighted by the inverse of their innovation sd, re-estimated twice (iterated ML for a diagonal,
-coloured noise model). The centre-of-rotation offset ``z_f`` is fixed at the profile's prior (the flat
-direction of :func:`identify.rollmass.model.flat_direction`) and its prior uncertainty is
-propagated into the confidence intervals through the implicit-function sensitivity of the optimum,
-``d theta / d z_f = -(J^T J)^-1 J^T dr/dz_f`` (the delta method on the estimating equations
-``J^T r = 0``, Gauss-Newton Hessian; e.g. Seber & Wild 1989, Nonlinear Regression, sec. 2.1).
+Parameters: the shared ship parameters ``SHARED``, the centre-of-rotation offset ``z_f`` and the
+loaded dataset's ``m, zbar_m``; the calibration load is known. Per dataset and channel a constant
+(sensor bias) and the free response (initial state) are projected out exactly (variable projection).
+Channels are whitened and weighted by the inverse of their innovation sd, re-estimated twice
+(iterated ML for a diagonal, coloured noise model).
+
+``z_f`` is estimated under the profile's Gaussian prior (one more standardised residual, so the fit
+is a posterior mode). In the paper's model it is not identifiable (the flat direction of
+:func:`identify.rollmass.model.flat_direction`); with a load's added buoyancy at the waterline
+(``Known.zbar_b``) the calibration load's restoring fixes the scale and the data inform ``z_f``
+too, so holding it at the prior would put the prior's error into the load. Its uncertainty reaches the interval through the sandwich covariance of all free parameters
+(the prior row adds its information ``1/sd^2``), like every other nuisance parameter's.
+
+The fit ends at a stationary point or says it did not: LM is finished by Gauss-Newton steps until
+a further step would move the load by less than ``sqrt(STATIONARY)`` of the standard errors it
+reports (:func:`load_decrement`), else ``converged`` is false with the reason.
 """
 
 from __future__ import annotations
@@ -32,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
-from scipy.signal import lfilter, ss2tf
+from scipy.signal import lfilter
 
 from identify.rollmass.model import Known, Load, RollProfile, load_restoring
 from identify.rollmass.simulate import RollRecording
@@ -64,9 +71,11 @@ NOISE_AR = 6  # order of each channel's whitening filter
 # the length of a joystick turn, over which unmodelled dynamics leave structure in the residuals
 # (turn entries, Linder et al. 2015 Fig. 5)
 SANDWICH_LAG_S = 5.0
-# central-difference step of the residual in z_f [m]: the residual is smooth in z_f (a simulation),
-# so a step far below the prior sd (15 mm) gives the derivative, not a secant over the prior
-Z_F_STEP = 1e-4
+# load decrement below which the fit is stationary (a further step < 0.1 reported standard error), and the
+# Gauss-Newton steps allowed to get there after LM, whose step-size test can stop it well short
+STATIONARY = 0.01
+FINISH_STEPS = 10
+LM_NFEV = 200
 
 
 @dataclass
@@ -76,13 +85,14 @@ class OEFit:
     values: dict[str, float]
     m: float
     zbar_m: float
-    cov_load: np.ndarray  # 2x2 covariance of (m, zbar_m), z_f fixed
-    load_dzf: np.ndarray  # d(m, zbar_m)/d z_f of the optimum [kg/m, m/m]; NaN when not computable
+    z_f: float  # the fitted (or, with a zero prior sd, fixed) roll-centre offset [m]
+    cov_load: np.ndarray  # 2x2 sandwich covariance of (m, zbar_m), every free parameter (z_f too) marginalised
     converged: bool
     message: str
+    decrement: float  # load decrement at the end (NaN when not checked): < STATIONARY is stationary
     rel_singular: float
     noise_sd: np.ndarray  # (3 datasets, 3 channels) residual standard deviations
-    noise: tuple  # (weights, whitening filters) the fit ended with: the noise model of a refit at another z_f
+    noise: tuple  # (weights, whitening filters) the fit ended with
 
 
 def start_values(prof: RollProfile) -> dict[str, float]:
@@ -170,17 +180,33 @@ def _bilinear(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, T: flo
 def _simulate(v: dict[str, float], kn: Known, z_f: float, load: Load, rec: RollRecording) -> tuple[np.ndarray, np.ndarray]:
     """Rudder-driven outputs (n, 3) and the free-response + bias basis (n, N_FREE + 1).
 
-    Bilinear (Tustin) discretisation, as the paper's (13)-(15): the filtered rudder is smooth.
+    Bilinear (Tustin) discretisation, as the paper's (13)-(15): the filtered rudder is smooth. The
+    recursion runs in the discrete model's modal coordinates, one first-order filter a mode, and the
+    free response is spanned by the modes' powers ``lambda^k`` (real and imaginary parts of a complex
+    pair). Why not the transfer function (``ss2tf`` then one order-4 ``lfilter`` a channel): its
+    direct-form coefficients carry poles close to 1 (the sway and yaw modes at 50 Hz) with a relative
+    error near 1e-8, enough that central differences of the residual at steps of 1e-6 and 1e-8 differed
+    by 10-800 % (every parameter, basin truth ``base``, run 0, case 2): the fit's Jacobian was noise.
     """
     Ad, Bd, Cd, Dd = _bilinear(*model_matrices(v, kn, z_f, load, rec.U), rec.T)
-    num, den = ss2tf(Ad, Bd, Cd, Dd)
-    if not np.all(np.isfinite(den)) or np.any(np.abs(np.roots(den)) >= 1.0):
+    lam, V = np.linalg.eig(Ad)
+    if not np.all(np.isfinite(lam)) or np.any(np.abs(lam) >= 1.0):
         raise FloatingPointError("unstable model")
-    out = np.column_stack([lfilter(num[j], den, rec.delta) for j in range(3)])
-    imp = np.zeros(rec.n)
-    imp[0] = 1.0
-    h = lfilter([1.0], den, imp)
-    basis = np.column_stack([np.r_[np.zeros(j), h[: rec.n - j]] for j in range(N_FREE)] + [np.ones(rec.n)])
+    if np.linalg.cond(V) > 1e8:  # (nearly) repeated modes: no well-conditioned modal form
+        raise np.linalg.LinAlgError("defective model")
+    b = np.linalg.solve(V, Bd[:, 0])
+    c = Cd @ V
+    modes = np.column_stack([lfilter([0.0, bi], [1.0, -li], rec.delta.astype(complex)) for bi, li in zip(b, lam)])
+    out = (modes @ c.T).real + rec.delta[:, None] * Dd[:, 0]
+    k = np.arange(rec.n)
+    cols = []
+    for li in lam:
+        if li.imag == 0.0:
+            cols.append(li.real**k)
+        elif li.imag > 0.0:  # one of each conjugate pair spans both
+            pk = li**k
+            cols += [pk.real, pk.imag]
+    basis = np.column_stack(cols + [np.ones(rec.n)])
     return out, basis
 
 
@@ -214,8 +240,11 @@ class _Problem:
         free: tuple[str, ...],
         weights: np.ndarray,
         ar: list[list[np.ndarray]] | None = None,
+        z_f_sd: float = 0.0,
     ):
         self.datasets, self.kn, self.cal, self.z_f, self.free, self.w = datasets, kn, cal, z_f, free, weights
+        # z_f in ``free``: ``z_f`` is its prior mean and ``z_f_sd`` its prior sd (one more residual)
+        self.z_f_sd = z_f_sd
         self.ar = ar if ar is not None else [[np.ones(1)] * 3 for _ in datasets]
         self.Y = [_measured(d) for d in datasets]
 
@@ -229,9 +258,10 @@ class _Problem:
     def errors(self, x: np.ndarray) -> list[np.ndarray]:
         """Per dataset (n, 3) output errors, each channel whitened by its AR filter, nuisance projected out."""
         v = self.values(x)
+        z_f = v.get("z_f", self.z_f)
         out = []
         for i, (rec, Y, load) in enumerate(zip(self.datasets, self.Y, self.loads(v))):
-            yhat, basis = _simulate(v, self.kn, self.z_f, load, rec)
+            yhat, basis = _simulate(v, self.kn, z_f, load, rec)
             e = Y - yhat
             cols = []
             for j in range(3):
@@ -242,16 +272,33 @@ class _Problem:
             out.append(np.column_stack(cols))
         return out
 
+    def prior(self, x: np.ndarray) -> np.ndarray:
+        """The prior's residual ``(z_f - prior) / sd`` when ``z_f`` is free (a Gaussian prior as one
+        more standardised observation: the cost is then the negative log posterior)."""
+        if "z_f" not in self.free:
+            return np.zeros(0)
+        return np.array([(x[self.free.index("z_f")] - self.z_f) / self.z_f_sd])
+
+    def weighted(self, x: np.ndarray) -> np.ndarray:
+        """Whitened, weighted output errors and the prior row; raises when the model is unstable."""
+        return np.concatenate([(e * w).ravel() for e, w in zip(self.errors(x), self.w)] + [self.prior(x)])
+
     def residual(self, x: np.ndarray) -> np.ndarray:
         try:
-            errs = self.errors(x)
+            return self.weighted(x)
         except (FloatingPointError, np.linalg.LinAlgError):
-            return np.full(sum(d.n for d in self.datasets) * 3, 1e3)
-        return np.concatenate([(e * w).ravel() for e, w in zip(errs, self.w)])
+            return np.full(sum(d.n for d in self.datasets) * 3 + len(self.prior(x)), 1e3)
+
+
+def _lm(prob: _Problem, x0: np.ndarray, tol: float) -> OptimizeResult:
+    """Levenberg-Marquardt, capped at :data:`LM_NFEV` evaluations: along the mass-height ridge it can
+    creep (597 evaluations, 39 s cpu on ``mass-sim --case case1 --seed 3`` at 0.3 length) where the
+    Gauss-Newton finish of :func:`fit_output_error` converges in a few steps."""
+    return least_squares(prob.residual, x0, x_scale="jac", method="lm", xtol=tol, ftol=tol, gtol=tol, max_nfev=LM_NFEV)
 
 
 def _best_start(
-    datasets: list[RollRecording], kn: Known, cal: Load, z_f: float, start: dict[str, float], w: np.ndarray
+    datasets: list[RollRecording], kn: Known, cal: Load, z_f: float, z_f_sd: float, start: dict[str, float], w: np.ndarray
 ) -> OptimizeResult:
     """Two starts for the joint fit, the one with the lower unweighted cost kept: ``start`` itself,
     and the ship parameters fitted to the two runs whose loads are known (nominal, calibration).
@@ -266,54 +313,24 @@ def _best_start(
             "the start values give an unstable ship with the known loads (roll restoring "
             "k + M g z_g + m g z_m <= 0?); check the profile's GM_T, [roll] and [sway_yaw]"
         ) from None
-    known = _Problem(datasets[:2], kn, cal, z_f, SHARED, w[:2])
-    fitted = least_squares(
-        known.residual, [start[k] for k in SHARED], x_scale="jac", method="lm", xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=2000
-    ).x
-    prob = _Problem(datasets, kn, cal, z_f, SHARED + ("m", "zbar_m"), w)
+    ship = SHARED + (("z_f",) if z_f_sd > 0 else ())
+    x_ship = np.array([start[k] for k in SHARED] + ([z_f] if z_f_sd > 0 else []))
+    fitted = _lm(_Problem(datasets[:2], kn, cal, z_f, ship, w[:2], z_f_sd=z_f_sd), x_ship, 1e-8).x
+    prob = _Problem(datasets, kn, cal, z_f, ship + ("m", "zbar_m"), w, z_f_sd=z_f_sd)
     best = None
-    for ship in (np.array([start[k] for k in SHARED]), fitted):
-        res = least_squares(
-            prob.residual,
-            np.r_[ship, cal.m, cal.zbar],
-            x_scale="jac",
-            method="lm",
-            xtol=1e-8,
-            ftol=1e-8,
-            gtol=1e-8,
-            max_nfev=2000,
-        )
+    for x in (x_ship, fitted):
+        res = _lm(prob, np.r_[x, cal.m, cal.zbar], 1e-8)
         if best is None or res.cost < best.cost:
             best = res
     return best
 
 
-def z_f_sensitivity(prob: _Problem, x: np.ndarray, J: np.ndarray, step: float = Z_F_STEP) -> np.ndarray:
-    """Sensitivity ``d x / d z_f = -(J^T J)^-1 J^T dr/dz_f`` of the least-squares optimum ``x`` of ``prob``.
-
-    Implicit-function theorem on the normal equations ``J^T r = 0`` (Gauss-Newton Hessian): ``dr/dz_f``
-    is one central difference of the residual at fixed ``x`` and the fit's final noise weights and
-    whitening filters, ``J`` the residual Jacobian at ``x``. NaN when the residual cannot be evaluated.
-    It assumes ``x`` stationary; the oe fit's stopping point is not always so along the mass-height
-    ridge, and there the sensitivity can be far off (see tests/test_rollmass_zf_sensitivity.py).
-    """
-    shifted = (_Problem(prob.datasets, prob.kn, prob.cal, prob.z_f + s * step, prob.free, prob.w, prob.ar) for s in (-1.0, 1.0))
-    try:
-        # errors(), not residual(): the latter hides a failed simulation behind a constant
-        lo, hi = (np.concatenate([(e * w).ravel() for e, w in zip(p.errors(x), p.w)]) for p in shifted)
-        dr = (hi - lo) / (2 * step)
-        return -np.linalg.solve(J.T @ J, J.T @ dr)
-    except (FloatingPointError, np.linalg.LinAlgError):
-        return np.full(len(x), np.nan)
-
-
 def central_jacobian(fun, x: np.ndarray) -> np.ndarray:
     """Central-difference Jacobian of ``fun`` at ``x``, step ``eps^(1/3) max(1, |x_j|)``.
 
-    The covariance and the ``z_f`` sensitivity need it along the ill-conditioned mass-height ridge:
+    The covariance and the stationarity check need it along the ill-conditioned mass-height ridge:
     on ``mass-sim --case case1 --seed 3`` the fit's own forward-difference Jacobian (step
-    ``sqrt(eps)``) gave dm/dz_f = -14.7 kg/m, this one -0.66, and at z_f -+ 1 mm the cost at the
-    optimum this one predicts was below the cost at trust-region refits' stopping points.
+    ``sqrt(eps)``) gave a sensitivity of the load to z_f of -14.7 kg/m where this one gave -0.66.
     """
     steps = np.finfo(float).eps ** (1 / 3) * np.maximum(1.0, np.abs(x))
     cols = []
@@ -324,15 +341,54 @@ def central_jacobian(fun, x: np.ndarray) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
-    """Sandwich (Huber-White, Newey-West) covariance ``A^-1 S A^-1`` of a least-squares fit, ``A = J^T J``.
+def load_decrement(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> float:
+    """Squared length ``d^T C^-1 d`` of the load part ``d = dx[-2:]`` (``m``, ``zbar_m``, the last two
+    parameters) of the Gauss-Newton step ``dx = -(J^T J)^-1 J^T f``, in the load's sandwich covariance
+    ``C`` (:func:`sandwich_cov`): how far a further step would move the reported load, in the standard
+    errors reported with it. With white, unit-variance residuals and every parameter counted it is the
+    Newton decrement (Boyd & Vandenberghe 2004, sec. 9.5.1), the step in ``(J^T J)^-1``; that metric
+    is not the interval's when the residual is structure rather than noise, and on a noise-free basin
+    run (base, case 1) it was 0.13 where the load's step was 0.055 of its reported sd. NaN when the
+    covariance is singular (then not stationary)."""
+    dx = -np.linalg.lstsq(J, f, rcond=None)[0]
+    d = dx[-2:]
+    try:
+        return float(d @ np.linalg.solve(sandwich_cov(J, f, lengths, lags)[-2:, -2:], d))
+    except np.linalg.LinAlgError:  # a singular J^T J or load covariance: no interval to measure in
+        return float("nan")
 
-    ``S`` sums each dataset's per-sample scores ``h_t = sum_channels J_t f_t`` with Bartlett weights
-    over ``lags`` samples (datasets independent). Unlike ``s^2 A^-1`` it allows for residuals that
-    stay correlated after the whitening (unmodelled dynamics); it does not allow for a bias.
-    """
-    Ainv = np.linalg.inv(J.T @ J)
-    S = np.zeros_like(Ainv)
+
+def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """Finish a fit with up to ``steps`` Gauss-Newton steps (central Jacobian, step halving) until
+    the load's step in its sandwich standard errors (:func:`load_decrement`) is below
+    :data:`STATIONARY`; returns ``x``, its Jacobian and that decrement."""
+    lengths = [d.n for d in prob.datasets]
+    f = prob.residual(x)
+    J = central_jacobian(prob.residual, x)
+    dec = load_decrement(J, f, lengths, lags)
+    for _ in range(steps):
+        if dec < STATIONARY:
+            break
+        dx = -np.linalg.lstsq(J, f, rcond=None)[0]
+        cost = f @ f
+        for _ in range(12):
+            f_new = prob.residual(x + dx)
+            if f_new @ f_new < cost:
+                break
+            dx *= 0.5
+        else:
+            break  # no descent along the Gauss-Newton direction: leave it to the decrement to say so
+        x, f = x + dx, f_new
+        J = central_jacobian(prob.residual, x)
+        dec = load_decrement(J, f, lengths, lags)
+    return x, J, dec
+
+
+def _meat(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
+    """The sandwich's ``S``: each dataset's per-sample scores ``h_t = sum_channels J_t f_t`` with
+    Bartlett weights over ``lags`` samples (Newey & West 1987, eq. 2; datasets independent); rows
+    after the datasets' (a Gaussian prior, as a standardised observation) add ``J_p^T J_p``."""
+    S = np.zeros((J.shape[1], J.shape[1]))
     i = 0
     for n in lengths:
         rows = slice(i, i + 3 * n)
@@ -342,7 +398,17 @@ def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) ->
             G = h[lag:].T @ h[:-lag]
             S += (1 - lag / (lags + 1)) * (G + G.T)
         i += 3 * n
-    return Ainv @ S @ Ainv
+    return S + J[i:].T @ J[i:]
+
+
+def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
+    """Sandwich (Huber-White, Newey-West) covariance ``A^-1 S A^-1`` of a least-squares fit, ``A = J^T J``,
+    ``S`` from :func:`_meat` (a prior row adds its information ``1/sd^2``). Unlike ``s^2 A^-1`` it
+    allows for residuals that stay correlated after the whitening (unmodelled dynamics); it does not
+    allow for a bias.
+    """
+    Ainv = np.linalg.inv(J.T @ J)
+    return Ainv @ _meat(J, f, lengths, lags) @ Ainv
 
 
 def fit_output_error(
@@ -354,26 +420,29 @@ def fit_output_error(
     n_reweight: int = 2,
     ar_order: int = NOISE_AR,
     with_cov: bool = True,
+    z_f_sd: float | None = None,
 ) -> OEFit:
-    """Fit :data:`SHARED` and the loaded ``m, zbar_m`` by output error on ``p, a_s, r`` of all datasets.
+    """Fit :data:`SHARED`, ``z_f`` and the loaded ``m, zbar_m`` by output error on ``p, a_s, r`` of all datasets.
 
     ``start`` holds start values of :data:`SHARED`; ``m, zbar_m`` start at the calibration load.
-    Weights: 1/sd of each dataset's channel residual, re-estimated ``n_reweight`` times. Without
-    ``with_cov`` the sandwich covariance and the ``z_f`` sensitivity are left NaN.
+    ``z_f`` has the Gaussian prior ``N(z_f, z_f_sd^2)`` (``z_f_sd`` defaults to the profile's
+    ``z_f_prior_sd``; 0 holds ``z_f`` fixed): the fit maximises the posterior. Weights: 1/sd of each
+    dataset's channel residual, re-estimated ``n_reweight`` times. The last fit is finished by
+    Gauss-Newton steps to a stationary point (:func:`load_decrement`); ``converged`` is false when
+    it is not reached. Without ``with_cov`` the sandwich covariance is left NaN and no finishing
+    steps are taken.
     """
-    free = SHARED + ("m", "zbar_m")
+    z_f_sd = kn.z_f_prior_sd if z_f_sd is None else z_f_sd
+    free = SHARED + (("z_f",) if z_f_sd > 0 else ()) + ("m", "zbar_m")
     w = np.array([1.0 / np.maximum(_measured(d).std(axis=0), 1e-12) for d in datasets])
     ar = None
-    first = _best_start(datasets, kn, cal, z_f, start, w)
+    first = _best_start(datasets, kn, cal, z_f, z_f_sd, start, w)
     x = first.x
     for it in range(n_reweight + 1):
-        prob = _Problem(datasets, kn, cal, z_f, free, w, ar)
-        if it == 0 and n_reweight > 0:
-            # _best_start has just solved this problem (same weights, no whitening); its optimum only
-            # seeds the reweighted fits, which run to the tight tolerance below
-            res = first
-        else:
-            res = least_squares(prob.residual, x, x_scale="jac", method="lm", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=2000)
+        prob = _Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd)
+        # _best_start has just solved the first problem (same weights, no whitening); its optimum only
+        # seeds the reweighted fits, which run to the tight tolerance below
+        res = first if it == 0 and n_reweight > 0 else _lm(prob, x, 1e-10)
         x = res.x
         errs = prob.errors(x)
         sd = np.array([e.std(axis=0) for e in errs])
@@ -389,29 +458,36 @@ def fit_output_error(
             ]
             sd = np.array([[lfilter(ar[i][j], [1.0], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
             w = 1.0 / np.maximum(sd, 1e-12)
-    v = prob.values(x)
-    J = res.jac
-    JtJ = J.T @ J
-    scale = np.sqrt(np.maximum(np.diag(JtJ), 1e-300))
-    sv = np.linalg.svd(J / scale, compute_uv=False)
-    cov_load, load_dzf = np.full((2, 2), np.nan), np.full(2, np.nan)
-    if with_cov:
-        J = central_jacobian(prob.residual, x)
+    J, dec, cov_load = res.jac, float("nan"), np.full((2, 2), np.nan)
+    # an LM stopped by its evaluation cap is judged by the stationarity check below (with_cov), not by its flag
+    ok = (bool(res.success) or (with_cov and res.status == 0)) and bool(np.all(np.isfinite(x))) and float(res.cost) < 1e5
+    message = str(res.message)
+    lags = max(1, round(SANDWICH_LAG_S / datasets[0].T))
+    if with_cov and ok:
+        x, J, dec = _gauss_newton(prob, x, FINISH_STEPS, lags)
+        if not dec < STATIONARY:
+            ok = False
+            message = f"{message}; not at a stationary point after {FINISH_STEPS} Gauss-Newton steps " + (
+                f"(a further step would move the load by {np.sqrt(dec):.2g} of its standard errors)"
+                if np.isfinite(dec)
+                else "(the load's covariance is singular there)"
+            )
         try:
-            lags = max(1, round(SANDWICH_LAG_S / datasets[0].T))
-            cov_load = sandwich_cov(J, res.fun, [d.n for d in datasets], lags)[-2:, -2:]
+            cov_load = sandwich_cov(J, prob.residual(x), [d.n for d in datasets], lags)[-2:, -2:]
         except np.linalg.LinAlgError:
             pass
-        load_dzf = z_f_sensitivity(prob, x, J)[-2:]
-    ok = bool(res.success) and bool(np.all(np.isfinite(x))) and float(res.cost) < 1e5
+    v = prob.values(x)
+    scale = np.sqrt(np.maximum(np.einsum("ij,ij->j", J, J), 1e-300))
+    sv = np.linalg.svd(J / scale, compute_uv=False)
     return OEFit(
         values=v,
         m=v["m"],
         zbar_m=v["zbar_m"],
+        z_f=v.get("z_f", z_f),
         cov_load=cov_load,
-        load_dzf=load_dzf,
         converged=ok,
-        message=str(res.message),
+        message=message,
+        decrement=dec,
         rel_singular=float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
         noise_sd=sd,
         noise=(w, ar),

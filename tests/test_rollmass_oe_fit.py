@@ -1,0 +1,124 @@
+"""The oe fit as a numerical procedure: a residual smooth enough to differentiate, a stop short of
+the optimum said (never a silent "converged"), and the roll-centre prior's uncertainty in the interval."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import OptimizeResult
+from scipy.signal import lfilter, ss2tf
+
+from identify.rollmass import output_error as oe
+from identify.rollmass.estimate import estimate
+from identify.rollmass.model import Load, load_profile
+from identify.rollmass.simulate import Noise, simulate_case
+
+PROF = load_profile()
+CAL = Load(0.2, -0.256)
+
+
+@pytest.fixture(scope="module")
+def case2():
+    return simulate_case(PROF, "case2", Noise.from_profile(PROF, 0.05), seed=3, length_factor=0.3)
+
+
+def _problem(datasets) -> tuple[oe._Problem, np.ndarray]:
+    kn = PROF.known
+    free = oe.SHARED + ("z_f", "m", "zbar_m")
+    w = np.array([1.0 / oe._measured(d).std(axis=0) for d in datasets])
+    start = oe.start_values(PROF)
+    x = np.array([start[k] for k in oe.SHARED] + [kn.z_f_prior, 0.4, -0.268])
+    return oe._Problem(datasets, kn, CAL, kn.z_f_prior, free, w, None, kn.z_f_prior_sd), x
+
+
+@pytest.mark.parametrize("name", ["Y_r", "Y_pdot", "K_vdot", "X_v", "zbar_m"])
+def test_the_residual_is_smooth_enough_for_finite_differences(case2, name):
+    """Central differences at steps 1e-6 and 1e-8 agree: the fit's Jacobian is a derivative, not
+    rounding noise. Through the transfer function (ss2tf + order-4 lfilter) they differed by 10-800 %
+    and LM stopped on xtol far from the optimum (basin truth base, case 2: 0.347 kg for 0.400)."""
+    prob, x = _problem(case2)
+    j = prob.free.index(name)
+    d = []
+    for h in (1e-6, 1e-8):
+        e = np.zeros_like(x)
+        e[j] = h * max(1.0, abs(x[j]))
+        d.append((prob.residual(x + e) - prob.residual(x - e)) / (2 * e[j]))
+    assert np.linalg.norm(d[0] - d[1]) < 1e-3 * np.linalg.norm(d[0])
+
+
+def test_a_fit_stopped_short_of_a_stationary_point_is_said(case2, monkeypatch):
+    """An optimiser that stops where it started (as LM's xtol test did on the ridge) with
+    ``success`` set must not yield a silent "converged": the Newton decrement check says it."""
+
+    def stuck(prob, x0, tol):
+        f = prob.residual(x0)
+        jac = oe.central_jacobian(prob.residual, x0)
+        return OptimizeResult(
+            x=x0, fun=f, cost=0.5 * f @ f, jac=jac, success=True, message="`xtol` termination condition is satisfied."
+        )
+
+    monkeypatch.setattr(oe, "_lm", stuck)
+    monkeypatch.setattr(oe, "FINISH_STEPS", 0)
+    e = estimate(case2, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
+    assert not e.converged
+    assert any("not at a stationary point" in w for w in e.warnings)
+
+
+def test_the_sandwich_carries_a_priors_uncertainty():
+    """Two parameters the data see only as their sum, the second with a prior of sd 1: the
+    covariance of the second is the prior's (1), not the near-zero the data rows alone give."""
+    rng = np.random.default_rng(0)
+    n = 400
+    col = rng.standard_normal(3 * n)
+    J = np.vstack([np.column_stack([col, col]), [[0.0, 1.0]]])
+    f = np.r_[rng.standard_normal(3 * n), 0.0]
+    cov = oe.sandwich_cov(J, f, [n], lags=0)
+    assert cov[1, 1] == pytest.approx(1.0, rel=0.05)
+    assert cov[0, 0] + cov[1, 1] + 2 * cov[0, 1] == pytest.approx(1 / (col @ col), rel=0.2)
+
+
+def test_the_modal_simulation_is_the_state_space_model(case2):
+    """The modal recursion gives the Tustin model's rudder response to rounding (against the plain
+    state recursion), the old transfer-function route (``ss2tf`` + ``lfilter``) to within its own
+    rounding (about 1e-9 of the signal), and its free-response basis spans every initial state's response."""
+    kn = PROF.known
+    v = {**oe.start_values(PROF), "m": 0.4, "zbar_m": -0.268}
+    for rec in case2:
+        load = rec.load if rec.load is not None else Load(0.4, -0.268)
+        out, basis = oe._simulate(v, kn, kn.z_f_prior, load, rec)
+        Ad, Bd, Cd, Dd = oe._bilinear(*oe.model_matrices(v, kn, kn.z_f_prior, load, rec.U), rec.T)
+        x, ref = np.zeros(len(Ad)), np.empty((rec.n, 3))
+        for k, u in enumerate(rec.delta):
+            ref[k] = Cd @ x + Dd[:, 0] * u
+            x = Ad @ x + Bd[:, 0] * u
+        scale = np.abs(ref).max(axis=0)
+        assert np.all(np.abs(out - ref).max(axis=0) < 1e-11 * scale)
+        num, den = ss2tf(Ad, Bd, Cd, Dd)
+        old = np.column_stack([lfilter(num[j], den, rec.delta) for j in range(3)])
+        assert np.all(np.abs(out - old).max(axis=0) < 1e-7 * scale)
+        x = np.random.default_rng(0).standard_normal(len(Ad))
+        free = np.empty((rec.n, 3))
+        for k in range(rec.n):
+            free[k], x = Cd @ x, Ad @ x
+        left = free - basis @ np.linalg.lstsq(basis, free, rcond=None)[0]
+        assert np.all(np.abs(left).max(axis=0) < 1e-11 * np.abs(free).max(axis=0))
+
+
+def test_stationarity_is_judged_in_the_reported_standard_errors():
+    """A linear fit with slow regressors and residuals (AR(1), 0.95), stopped 0.05 of the mass's
+    reported (sandwich) sd from its optimum, is stationary; stopped 1 sd away, it is not. The Newton
+    decrement, which measures the step in ``(J^T J)^-1``, flags the first too (the correlation makes
+    the naive sd about four times too small)."""
+    rng = np.random.default_rng(1)
+    n, lags = 3000, 250
+    # per sample (n, 3 channels), regressors and residual both low-passed, as slow signals are
+    J = lfilter([1.0], [1.0, -0.95], rng.standard_normal((n, 3, 4)), axis=0).reshape(3 * n, 4)
+    y = lfilter([np.sqrt(1 - 0.95**2)], [1.0, -0.95], rng.standard_normal((n, 3)), axis=0).ravel()  # unit variance
+    x_opt = np.linalg.lstsq(J, y, rcond=None)[0]
+    sd_m = np.sqrt(oe.sandwich_cov(J, J @ x_opt - y, [n], lags)[-2, -2])
+    for t, stationary in ((0.05, True), (1.0, False)):
+        x = x_opt + np.r_[0.0, 0.0, t * sd_m, 0.0]
+        f = J @ x - y
+        assert (oe.load_decrement(J, f, [n], lags) < oe.STATIONARY) is stationary
+    g = J.T @ (J @ (x_opt + np.r_[0.0, 0.0, 0.05 * sd_m, 0.0]) - y)
+    assert g @ np.linalg.solve(J.T @ J, g) > oe.STATIONARY
