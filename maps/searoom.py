@@ -23,8 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from expdesign.dopt import ROBUST, InfoSet
-from expdesign.errors import DesignError
+from expdesign.dopt import InfoSet
 from maps.sizing import Needs, row_text
 from primitives.information import PrimitiveInfo, library_information, unidentified_parameters
 from primitives.library import Primitive
@@ -159,12 +158,3 @@ def _predictor_values(profile: ShipProfile) -> list[float | None]:
         return [float(x) for x in profile.params()]
     sim = dict(zip(profile.param_names, profile.params()))
     return [float(sim[n]) if n in sim else None for n in profile.predictor_param_names]
-
-
-def check_robust(criterion: str) -> None:
-    """A robust criterion's draws are over every parameter: holding some is not built for them."""
-    if criterion in ROBUST:
-        raise DesignError(
-            f"--criterion {criterion}: the manoeuvres that fit this map cannot identify every parameter, and holding "
-            "parameters is built for the local criteria only: use --criterion D on this map, or a map with more open water"
-        )
