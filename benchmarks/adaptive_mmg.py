@@ -26,8 +26,11 @@ seconds: FIXED (the plan's own rest), ADAPTIVE (re-designed from the first third
 re-identified, (7.58)), CONTROL (re-designed from the same recordings at the profile's values: what
 counting the sailed information alone gains), ORACLE (re-designed at the pseudo-true parameters: the
 best a re-design aiming at D can do, what a perfect re-identification would give), and NOISE ALONE
-(the fixed rest again on a fresh noise stream: how far a ratio moves by chance). Each arm's count
-of truths below the fixed plan is printed with a fair coin's tail probability of that count.
+(the fixed rest again on a fresh noise stream: how far a ratio moves by chance when none of the
+rest's noise is shared; the other arms share the noise of the manoeuvres they have in common with
+the fixed rest, so this spread is an upper reference). Each arm's count of truths below the fixed
+plan is printed with a fair coin's tail probability of that count over the truths that are not ties
+(a one-sided sign test: a tie is the fixed plan's own rest, no comparison).
 
     PYTHONPATH=. nice -n 10 python benchmarks/adaptive_mmg.py [--trials 20] [--seed 0] [--runs 1]
 """
@@ -144,6 +147,9 @@ def one_truth(prof, lib, seq, n_first, ship, k_n, seed, runs, ms) -> dict:
     first = [replace(clean[p.name], step=i) for i, p in enumerate(seq[:n_first])]
     reid = ad.Reidentification(pseudo, prof.predictor_param_names, {})
     oracle = ad.redesign(prof, lib, first, left, mean_subtraction=ms, reid=reid)
+    fallback = [n for n in oracle.notes if n.startswith("the rest's information is at the profile's values")]
+    if fallback:  # its rest designed at the profile's values would be the control, not the oracle
+        raise SystemExit(f"truth {seed}: the oracle is not re-designed at the pseudo-true parameters: {fallback[0]}")
     fixed_rest = Counter(p.name for p in seq[n_first:])
     ceiling = ad.rest_efficiency(prof, lib, first, pseudo, fixed_rest, left, oracle.logdet_continuous, ms)
     nominal = ad.Reidentification(ad.profile_predictor(prof, lib), prof.predictor_param_names, {})
@@ -189,8 +195,9 @@ def main() -> None:
     print("par: rms relative error against the pseudo-true parameters (the IV fit to every library manoeuvre, noise-free)")
     print("ratios over the fixed plan: ad = adaptive (re-identified from the first third), ctl = CONTROL (re-designed from")
     print("the same recordings at the profile's values), orc = ORACLE (re-designed at the pseudo-true parameters: the best a")
-    print("re-design can aim for), nse = NOISE ALONE (the same fixed rest on a fresh noise stream; its spread is what a")
-    print("ratio means by chance); ceiling (model-based, at the pseudo-true parameters): the fixed rest's D-efficiency\n")
+    print("re-design can aim for), nse = NOISE ALONE (the same fixed rest on a fresh noise stream, none of the rest's noise")
+    print("shared: an upper reference for chance); ceiling (model-based, at the pseudo-true parameters): the fixed rest's")
+    print("D-efficiency\n")
     print(
         f"{'truth':>5} {'pred fix':>8} {'ad':>6} {'ctl':>6} {'orc':>6} {'nse':>6} {'par fix':>8} {'ad':>6} {'ctl':>6} "
         f"{'orc':>6} {'nse':>6} {'ceiling':>7}  re-designed rest (first run) | oracle rest"
@@ -209,7 +216,8 @@ def main() -> None:
 
 
 def coin_tail(k: int, n: int) -> float:
-    """P(at least k of n) for a fair coin: how often chance alone wins k of n comparisons."""
+    """P(at least k of n) for a fair coin: how often chance alone wins k of n comparisons (the
+    one-sided sign test; ``n`` counts the comparisons that are not ties)."""
     return sum(math.comb(n, i) for i in range(k, n + 1)) / 2**n
 
 
@@ -223,12 +231,13 @@ def summary(x: np.ndarray) -> None:
         print(f"\nMMG truth, {score} (lower than the fixed plan, of {n}; Done-when: >= {need}):")
         for a, arm in enumerate(arms):
             c = x[:, s * len(arms) + a]
-            k = int((c < 1).sum())
+            k, ties = int((c < 1).sum()), int((c == 1).sum())
             with np.errstate(invalid="ignore"):
                 lo, hi = np.nanpercentile(c, [10, 90])
+            # a sign test: a tie (the same rest as the fixed plan's, so the same score) is no comparison
             print(
-                f"  {arm:<17} lower in {k:2d} (equal {int((c == 1).sum())}), median ratio {np.nanmedian(c):.3f}, "
-                f"10-90 % {lo:.3f}-{hi:.3f}; P(>= {k} of {n} | coin) {coin_tail(k, n):.3f}"
+                f"  {arm:<17} lower in {k:2d} (equal {ties}), median ratio {np.nanmedian(c):.3f}, "
+                f"10-90 % {lo:.3f}-{hi:.3f}; P(>= {k} of {n - ties} untied | coin) {coin_tail(k, n - ties):.3f}"
             )
     ad = x[:, 0:4]
     print(
