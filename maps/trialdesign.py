@@ -22,9 +22,9 @@ from expdesign.errors import DesignError
 from expdesign.prior import ParameterPrior
 from expdesign.robust import DrawInformation, draw_information
 from expdesign.rounding import _efficiency, round_design
-from maps.searoom import SeaRoom, held_parameters, held_records, reduced_profile, restrict, with_short_forms
+from maps.searoom import SeaRoom, held_parameters, held_records, with_short_forms
 from maps.sizing import Needs, km, water_text
-from primitives.information import PrimitiveInfo, library_information
+from primitives.information import PrimitiveInfo, library_information, reduced_profile, restrict
 from primitives.library import Primitive, build_library, thesis_primitives
 from primitives.ship import ShipProfile
 
