@@ -23,6 +23,7 @@ import numpy as np
 
 from diagnose.recording import Recording
 from expdesign.adaptive import Redesign, SailedRun, redesign
+from expdesign.dopt import ROBUST
 from maps.chain import PlanOptions
 from maps.geo import SeaMap
 from maps.lattice import SETTLE_PHASES
@@ -58,14 +59,15 @@ class Position:
 
 def plan_library(plan: Plan, profile: ShipProfile) -> list[Primitive]:
     """The manoeuvres the plan's design chose from and can still choose from: its ``design``
-    record's ``weights`` and ``not_used`` (the library it ran on, the dropped ones not in them),
+    record's ``weights``, ``counts`` and ``not_used`` (the library it ran on, the dropped ones not in them),
     each from the ship's library or its short forms (:mod:`primitives.sized`, a plan for confined
-    water). A plan whose record lists neither: the ship's library without what it dropped."""
+    water). A plan whose record lists neither (counts given, no design): the ship's library without what it dropped."""
     design = plan.design or {}
     dropped = {d["primitive"] for d in design.get("dropped") or []}
-    names = list(design.get("weights") or {}) + list(design.get("not_used") or [])
+    listed = [*(design.get("weights") or {}), *(design.get("counts") or {}), *(design.get("not_used") or [])]
+    names = [n for n in dict.fromkeys(listed) if n not in dropped]
     lib = ship_library(profile)
-    if not names:
+    if not (design.get("weights") or design.get("not_used")):  # no design ran (counts given): the whole library
         return [p for p in lib if p.name not in dropped]
     by = {p.name: p for p in lib}
     short = named_short_forms(profile, [n for n in names if n not in by])
@@ -166,7 +168,8 @@ def match_recordings(
     ``library``: :func:`plan_library` of the plan, made already."""
     runs: dict[int, SailedRun] = {}
     matched: list[tuple[Recording, PlanStep]] = []
-    durations = {p.name: p.duration_s for p in (library if library is not None else plan_library(plan, profile))}
+    lib = library if library is not None else plan_library(plan, profile)
+    durations = {p.name: p.duration_s for p in [*ship_library(profile), *lib]}  # short forms too
     numbered = sorted(recordings, key=lambda r: ("step" not in r.meta, float(r.t[0])))  # named steps first
     for rec in numbered:
         ship = _header(rec, "ship")
@@ -281,18 +284,20 @@ def plan_options(plan: Plan) -> PlanOptions:
 
 def _resume_notes(design: dict[str, Any], held_rows: list[dict[str, Any]]) -> list[str]:
     """What the resumed plan's notes say it kept of the plan resumed: the parameters held, and a
-    robust criterion replaced by D at the re-identified parameters."""
+    criterion other than D replaced by D (a robust one: at the re-identified parameters)."""
     notes = []
     if held_rows:
         notes.append(
             f"the rest holds {len(held_rows)} parameter(s) at the profile's values, as the plan resumed did: {held_text(held_rows)}"
         )
     crit = design.get("criterion", "D")
-    if crit != "D":
+    if crit in ROBUST:
         notes.append(
             f"the plan resumed was designed {crit} over its prior; the rest is re-designed D-optimal at the re-identified "
             "parameters, the recordings sailed standing in for the prior"
         )
+    elif crit != "D":
+        notes.append(f"the plan resumed was designed {crit}-optimal; the rest is re-designed D-optimal (7.58)")
     return notes
 
 
