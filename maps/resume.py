@@ -24,12 +24,13 @@ import numpy as np
 from diagnose.recording import Recording
 from expdesign.adaptive import Redesign, SailedRun, redesign
 from expdesign.dopt import ROBUST
-from maps.chain import PlanOptions
+from maps.chain import PlanOptions, build_lattice
 from maps.geo import SeaMap
 from maps.lattice import SETTLE_PHASES
 from maps.plan import Plan, PlanStep
 from maps.planner import plan_with_design
 from maps.searoom import held_text
+from maps.sizing import Needs, water_text
 from maps.trialdesign import ship_library
 from primitives.errors import UserError
 from primitives.library import Primitive
@@ -301,6 +302,42 @@ def _resume_notes(design: dict[str, Any], held_rows: list[dict[str, Any]]) -> li
     return notes
 
 
+def _fit_from_here(
+    rd: Redesign,
+    library: list[Primitive],
+    runs: list[SailedRun],
+    time_left_s: float,
+    sea: SeaMap,
+    profile: ShipProfile,
+    o: PlanOptions,
+    start: tuple[float, float, float],
+    goal: tuple[Any, ...] | None,
+    ms: str,
+    seed: int,
+    held: list[str],
+) -> tuple[Redesign, list[Primitive], dict[str, tuple[float, float]]]:
+    """The re-design redone without what its mix needs but fits nowhere reachable from the ship's
+    position (a manoeuvre the first design did not choose was never checked against the map, as
+    :func:`maps.trialdesign.design_for_map` checks only the support), the re-identification kept."""
+    cache: dict[str, Any] = {}
+    nowhere: dict[str, tuple[float, float]] = {}
+    while True:
+        support = [p for p in library if rd.counts.get(p.name)]
+        lat = build_lattice(sea, profile, support, rd.counts, start=start, goal=goal, options=o, cache=cache, prefilter=True)
+        bad = lat.fits_nowhere()
+        if not bad:
+            return rd, library, nowhere
+        nowhere |= bad
+        library = [p for p in library if p.name not in bad]
+        if not library:
+            raise ResumeError(
+                f"--from: none of the plan's manoeuvres has a placement in the water reachable from there: "
+                f"{'; '.join(water_text(n, v) for n, v in nowhere.items())}; the rest cannot be sailed from that position "
+                "(sail to more open water first, or end the trial)"
+            )
+        rd = redesign(profile, library, runs, time_left_s, mean_subtraction=ms, seed=seed, reid=rd.reid, held=held)
+
+
 def resume_plan(
     plan: Plan,
     runs: list[SailedRun],
@@ -332,7 +369,15 @@ def resume_plan(
     before = earlier_runs(plan)
     held = [h["parameter"] for h in held_rows]
     rd = redesign(profile, library, before + runs, time_left_s, mean_subtraction=ms, seed=seed, held=held)
+    goal = plan.stats.get("goal")
+    start, goal = (position.lat, position.lon, position.heading_deg), tuple(goal) if goal else None
+    rd, library, nowhere = _fit_from_here(rd, library, before + runs, time_left_s, sea, profile, o, start, goal, ms, seed, held)
     rd.notes += _resume_notes(design, held_rows)
+    if nowhere:
+        rd.notes.append(
+            f"the rest also leaves out {', '.join(nowhere)}, which the first design did not choose and which fits nowhere "
+            f"reachable from the ship's position: {'; '.join(water_text(n, v) for n, v in nowhere.items())}"
+        )
     if held_rows:
         rd.record["held_parameters"] = held_rows
     if design.get("criterion", "D") != "D":
@@ -343,14 +388,18 @@ def resume_plan(
             ", or not with the rest of the mix" if any(d.get("apart") for d in rd.record["dropped"]) else ""
         )
         rd.notes.append(f"the rest leaves out {', '.join(sorted(dropped))}, as the first plan did ({why})")
-    goal = plan.stats.get("goal")
+    # a next resume leaves these out too
+    rd.record["dropped"] = list(rd.record.get("dropped") or []) + [
+        {"primitive": n, "needs_m": [float(v[0]), float(v[1])]} | (v.record() if isinstance(v, Needs) else {})
+        for n, v in nowhere.items()
+    ]
     new, _ = plan_with_design(
         sea,
         profile=profile,
         counts=rd.counts,
         primitives=library,  # the short forms among them
-        start=(position.lat, position.lon, position.heading_deg),
-        goal=tuple(goal) if goal else None,
+        start=start,
+        goal=goal,
         options=o,
         vessel_name=vessel_name or plan.vessel_name,
     )

@@ -14,6 +14,7 @@ import pytest
 
 from cli.app import _run
 from maps.export.card import design_rows
+from maps.plan import Plan
 from maps.planner import plan_with_design
 from maps.testmaps import bay
 from maps.trialdesign import design_for_map, first_design
@@ -172,6 +173,22 @@ def test_a_bay_plan_resumes_over_its_short_forms_holding_what_it_held(tmp_path, 
     values = dict(zip(kvlcc2.param_names, kvlcc2.params()))
     assert all(doc["design"]["reidentified"]["parameters"][n] == pytest.approx(values[n]) for n in held)
     assert any(n.startswith(f"the rest holds {len(held)} parameter(s) at the profile's values") for n in doc["stats"]["notes"])
+    # a manoeuvre the first design had but did not choose was never checked against the map: when the
+    # re-design chooses it (here the long stop, 10 km) and it fits nowhere, the rest is re-designed without it
+    # (before: the plan was refused for it, 'deceleration fits nowhere', on the whole library's bay plan)
+    import maps.resume as mr
+    from diagnose.recording import load_recording
+    from maps.geo import load_map
+
+    first = Plan.load(path)
+    first.design["dropped"] = [d for d in first.design["dropped"] if d["primitive"] != "stopping"]
+    first.design["not_used"] = ["stopping"]
+    runs = mr.match_recordings(first, [load_recording(rec)[0]], kvlcc2)
+    sea = load_map(str(bay_map), draught_m=kvlcc2.draught_m)
+    rest, rd = mr.resume_plan(first, runs, mr.Position(lat, lon, 0.0), 600.0, sea, kvlcc2)
+    assert rest.feasible and rd.counts == {"stopping_coast_75": 1}
+    assert "stopping" in {d["primitive"] for d in rd.record["dropped"]}  # a next resume leaves it out too
+    assert any(n.startswith("the rest also leaves out stopping") for n in rest.stats["notes"])
 
 
 def test_kvlcc2_in_the_bay_turns_round_on_a_confined_water_lattice_and_the_plan_is_verified(tmp_path, kvlcc2, kvlcc2_lib):
