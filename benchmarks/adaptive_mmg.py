@@ -21,12 +21,24 @@ replayed open loop (rudder angle and order held over each 1 s sample), each run 
 steady straight run at its first order; measurement noise as :mod:`benchmarks.bench_adaptive`'s
 kvlcc2 recordings, common random numbers.
 
+Arms, each the same first third (same recordings) and a rest of the fixed plan's remaining
+seconds: FIXED (the plan's own rest), ADAPTIVE (re-designed from the first third's recordings,
+re-identified, (7.58)), CONTROL (re-designed from the same recordings at the profile's values: what
+counting the sailed information alone gains), ORACLE (re-designed at the pseudo-true parameters: the
+best a re-design aiming at D can do, what a perfect re-identification would give), and NOISE ALONE
+(the fixed rest again on a fresh noise stream: how far a ratio moves by chance when none of the
+rest's noise is shared; the other arms share the noise of the manoeuvres they have in common with
+the fixed rest, so this spread is an upper reference). Each arm's count of truths below the fixed
+plan is printed with a fair coin's tail probability of that count over the truths that are not ties
+(a one-sided sign test: a tie is the fixed plan's own rest, no comparison).
+
     PYTHONPATH=. nice -n 10 python benchmarks/adaptive_mmg.py [--trials 20] [--seed 0] [--runs 1]
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import zlib
 from collections import Counter
 from dataclasses import replace
@@ -45,6 +57,7 @@ from tests.physics.mmg_sim import Manoeuvre, simulate_runs, straight_speed
 # and the rudder's lift slope f_alpha (27)
 DRAWN = "R_0 X_vv X_vr X_rr X_vvvv Y_v Y_r Y_vvv Y_vvr Y_vrr Y_rrr N_v N_r N_vvv N_vvr N_vrr N_rrr f_alpha".split()
 SUBSTEPS = 1  # RK4 steps per 1 s sample: the library replayed at 1 differs from 4 by 1e-6 of each signal's RMS
+ARMS = ("fixed", "adaptive", "control", "oracle", "fixed, new noise")
 HELD_OUT = [Manoeuvre("zigzag", 15, 15, s, 600) for s in (1, -1)] + [Manoeuvre("turn", 25, 0, s, 400) for s in (1, -1)]
 
 
@@ -134,6 +147,9 @@ def one_truth(prof, lib, seq, n_first, ship, k_n, seed, runs, ms) -> dict:
     first = [replace(clean[p.name], step=i) for i, p in enumerate(seq[:n_first])]
     reid = ad.Reidentification(pseudo, prof.predictor_param_names, {})
     oracle = ad.redesign(prof, lib, first, left, mean_subtraction=ms, reid=reid)
+    fallback = [n for n in oracle.notes if n.startswith("the rest's information is at the profile's values")]
+    if fallback:  # its rest designed at the profile's values would be the control, not the oracle
+        raise SystemExit(f"truth {seed}: the oracle is not re-designed at the pseudo-true parameters: {fallback[0]}")
     fixed_rest = Counter(p.name for p in seq[n_first:])
     ceiling = ad.rest_efficiency(prof, lib, first, pseudo, fixed_rest, left, oracle.logdet_continuous, ms)
     nominal = ad.Reidentification(ad.profile_predictor(prof, lib), prof.predictor_param_names, {})
@@ -144,12 +160,15 @@ def one_truth(prof, lib, seq, n_first, ship, k_n, seed, runs, ms) -> dict:
         sailed = noisy(clean, seq[:n_first], noise, (*seed, j), seen)
         rd = ad.redesign(prof, lib, sailed, left, mean_subtraction=ms)
         ctrl = ad.redesign(prof, lib, sailed, left, mean_subtraction=ms, reid=nominal)
-        rests = [list(seq[n_first:]), interleave(rd.counts, lib), interleave(ctrl.counts, lib)]
+        rests = [seq[n_first:], interleave(rd.counts, lib), interleave(ctrl.counts, lib), interleave(oracle.counts, lib)]
         res.append([scores(prof, sailed + noisy(clean, r, noise, (*seed, j), seen.copy()), heldout, pseudo, ms) for r in rests])
+        # noise alone: the same fixed rest sailed again on a fresh noise stream (the first third shared)
+        res[-1].append(scores(prof, sailed + noisy(clean, seq[n_first:], noise, (*seed, j, 1), seen.copy()), heldout, pseudo, ms))
         res[-1].append(rd.counts)
-    arr = np.array([[x for pair in r[:3] for x in pair] for r in res])  # runs x (fixed, adaptive, control) x (pred, par)
+    # runs x (fixed, adaptive, control, oracle, fixed re-noised) x (pred, par)
+    arr = np.array([[x for pair in r[: len(ARMS)] for x in pair] for r in res])
     med = np.median(arr, axis=0)
-    return {"pred": med[0::2], "par": med[1::2], "ceiling": ceiling, "rest": res[0][3]}
+    return {"pred": med[0::2], "par": med[1::2], "ceiling": ceiling, "rest": res[0][-1], "oracle": oracle.counts}
 
 
 def main() -> None:
@@ -174,36 +193,59 @@ def main() -> None:
     )
     print("pred: held-out prediction error (normalised RMS, mean over 15/15 zig-zags and 25 deg turns, both sides)")
     print("par: rms relative error against the pseudo-true parameters (the IV fit to every library manoeuvre, noise-free)")
-    print("ceiling (model-based, at the pseudo-true parameters): the fixed rest's D-efficiency against the best rest\n")
+    print("ratios over the fixed plan: ad = adaptive (re-identified from the first third), ctl = CONTROL (re-designed from")
+    print("the same recordings at the profile's values), orc = ORACLE (re-designed at the pseudo-true parameters: the best a")
+    print("re-design can aim for), nse = NOISE ALONE (the same fixed rest on a fresh noise stream, none of the rest's noise")
+    print("shared: an upper reference for chance); ceiling (model-based, at the pseudo-true parameters): the fixed rest's")
+    print("D-efficiency\n")
     print(
-        f"{'truth':>5} {'pred fix':>8} {'pred ad':>8} {'ratio':>6} {'ctrl':>6} {'par fix':>8} {'par ad':>8} {'ratio':>6} "
-        f"{'ceiling':>7}  re-designed rest (first run)"
+        f"{'truth':>5} {'pred fix':>8} {'ad':>6} {'ctl':>6} {'orc':>6} {'nse':>6} {'par fix':>8} {'ad':>6} {'ctl':>6} "
+        f"{'orc':>6} {'nse':>6} {'ceiling':>7}  re-designed rest (first run) | oracle rest"
     )
     rng = np.random.default_rng(np.random.SeedSequence(a.seed, spawn_key=(28, 7)))
     rows = []
     for t in range(a.trials):
         r = one_truth(prof, lib, seq, n_first, truth_ship(rng), k_n, (a.seed, t), a.runs, ms)
-        pf, pa, pc = r["pred"]
-        qf, qa, _ = r["par"]
-        row = (pa / pf, pc / pf, qa / qf, r["ceiling"])
-        rows.append(row)
+        ratios = [r[k][1:] / r[k][0] for k in ("pred", "par")]
+        rows.append((*ratios[0], *ratios[1], r["ceiling"]))
         print(
-            f"{t:5d} {pf:8.4f} {pa:8.4f} {row[0]:6.3f} {row[1]:6.3f} {qf:8.4f} {qa:8.4f} {row[2]:6.3f} {row[3]:7.4f}  "
-            f"{dict(r['rest'])}"
+            f"{t:5d} {r['pred'][0]:8.4f} {' '.join(f'{x:6.3f}' for x in ratios[0])} {r['par'][0]:8.4f} "
+            f"{' '.join(f'{x:6.3f}' for x in ratios[1])} {r['ceiling']:7.4f}  {dict(r['rest'])} | {dict(r['oracle'])}"
         )
-    x = np.array(rows)
+    summary(np.array(rows))
+
+
+def coin_tail(k: int, n: int) -> float:
+    """P(at least k of n) for a fair coin: how often chance alone wins k of n comparisons (the
+    one-sided sign test; ``n`` counts the comparisons that are not ties)."""
+    return sum(math.comb(n, i) for i in range(k, n + 1)) / 2**n
+
+
+def summary(x: np.ndarray) -> None:
+    """The counts and median ratios of each arm over the fixed plan, for both scores, with the
+    chance level (noise alone, and a fair coin's tail probability) beside them."""
     n = len(x)
-    with np.errstate(invalid="ignore"):
-        print(
-            f"\nMMG truth, held-out prediction: adaptive lower in {int((x[:, 0] < 1).sum())} of {n} "
-            f"(Done-when >= 75 %), equal in {int((x[:, 0] == 1).sum())}, median ratio {np.nanmedian(x[:, 0]):.3f}; "
-            f"control (re-designed at the profile's values) lower in {int((x[:, 1] < 1).sum())}, median {np.nanmedian(x[:, 1]):.3f}"
-        )
-        print(
-            f"MMG truth, pseudo-true parameters: adaptive lower in {int((x[:, 2] < 1).sum())} of {n}, median ratio "
-            f"{np.nanmedian(x[:, 2]):.3f}; CEILING min {x[:, 3].min():.4f} median {np.median(x[:, 3]):.4f}, under 0.99 in "
-            f"{int((x[:, 3] < 0.99).sum())} of {n}"
-        )
+    need = math.ceil(0.75 * n)
+    arms = ARMS[1:]
+    for s, score in enumerate(("held-out prediction", "pseudo-true parameters")):
+        print(f"\nMMG truth, {score} (lower than the fixed plan, of {n}; Done-when: >= {need}):")
+        for a, arm in enumerate(arms):
+            c = x[:, s * len(arms) + a]
+            k, ties = int((c < 1).sum()), int((c == 1).sum())
+            with np.errstate(invalid="ignore"):
+                lo, hi = np.nanpercentile(c, [10, 90])
+            # a sign test: a tie (the same rest as the fixed plan's, so the same score) is no comparison
+            print(
+                f"  {arm:<17} lower in {k:2d} (equal {ties}), median ratio {np.nanmedian(c):.3f}, "
+                f"10-90 % {lo:.3f}-{hi:.3f}; P(>= {k} of {n - ties} untied | coin) {coin_tail(k, n - ties):.3f}"
+            )
+    ad = x[:, 0:4]
+    print(
+        f"adaptive lower than the control in {int((ad[:, 0] < ad[:, 1]).sum())} of {n}, than the oracle in "
+        f"{int((ad[:, 0] < ad[:, 2]).sum())} of {n} (held-out prediction)"
+    )
+    c = x[:, -1]
+    print(f"CEILING (model-based): min {c.min():.4f} median {np.median(c):.4f}, under 0.99 in {int((c < 0.99).sum())} of {n}")
 
 
 if __name__ == "__main__":

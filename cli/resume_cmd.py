@@ -102,7 +102,7 @@ def run_resume(
     from maps.export._common import iso, resolve_start
     from maps.geo import bundled_map_names, load_map
     from maps.plan import Plan
-    from maps.resume import match_recordings, plan_options, resume_plan
+    from maps.resume import match_recordings, plan_library, plan_options, resume_plan
     from primitives.io import atomic_output_dir, check_replaceable_dir
     from primitives.ship import load_profile
 
@@ -131,7 +131,8 @@ def run_resume(
         if len(pieces) != 1:
             raise UserError(f"{f}: the recording is split by a long gap; give one gap-free recording per manoeuvre")
         recs.append(pieces[0])
-    runs = match_recordings(plan, recs, prof)
+    library = plan_library(plan, prof)  # its short forms simulated once
+    runs = match_recordings(plan, recs, prof, library)
     opts = replace(plan_options(plan), **(overrides or {}))
     opts.check()
     if map_path is None:
@@ -140,7 +141,9 @@ def run_resume(
         map_path = plan.map_name
     sea = load_map(map_path, draught_m=prof.draught_m)
     with stage("re-identifying, re-designing the rest and planning it (A*) ...", json_out):
-        result, _ = resume_plan(plan, runs, pos, time_left, sea, prof, options=opts, seed=seed, vessel_name=vessel_name)
+        result, _ = resume_plan(
+            plan, runs, pos, time_left, sea, prof, options=opts, seed=seed, vessel_name=vessel_name, library=library
+        )
     if start_time is None and plan.stats.get("start_utc"):  # the rest starts when the last recording ended, not next hour
         start_time = iso(resolve_start(plan, None) + timedelta(seconds=max(float(r.t[-1]) for r in recs)))
     t0 = resolve_start(result, start_time)

@@ -32,7 +32,14 @@ from expdesign.dopt import DEDICATED, InfoSet
 from expdesign.errors import DesignError
 from expdesign.estimators import Segment, data_information, estimate
 from expdesign.rounding import round_design
-from primitives.information import PrimitiveInfo, information_moments, library_information, same_structure
+from primitives.information import (
+    PrimitiveInfo,
+    information_moments,
+    library_information,
+    reduced_profile,
+    restrict,
+    same_structure,
+)
 from primitives.library import Primitive
 from primitives.regressors import block_mask, predictor_regressors
 from primitives.ship import ShipProfile
@@ -282,10 +289,13 @@ def redesign(
     mean_subtraction: str = "complete",
     seed: int = 0,
     reid: Reidentification | None = None,
+    held: Sequence[str] = (),
 ) -> Redesign:
     """The D-optimal rest of the trial given the runs sailed (7.58): re-identify (unless
     ``reid``), M_sailed and M_rest at the estimate, design with M_sailed as the prior term over
-    ``time_left_s`` seconds of manoeuvres, round to whole manoeuvres."""
+    ``time_left_s`` seconds of manoeuvres, round to whole manoeuvres. ``held``: parameters held
+    at the profile's values (a plan for confined water, :mod:`maps.searoom`): set to them after
+    the re-identification, and the design is over the others' information (:func:`restrict`)."""
     lib = [p for p in library if p.kind == "informative"]
     shortest = min(lib, key=lambda p: p.duration_s)
     if not time_left_s >= shortest.duration_s:
@@ -293,10 +303,19 @@ def redesign(
             f"--time-left {time_left_s:g} s holds no manoeuvre: the shortest, {shortest.name}, lasts "
             f"{shortest.duration_s:.0f} s; give --time-left >= {shortest.duration_s:.0f} or end the trial"
         )
-    reid = reid if reid is not None else reidentify(profile, runs, profile_predictor(profile, lib))
+    reference = profile_predictor(profile, lib)
+    reid = reid if reid is not None else reidentify(profile, runs, reference)
+    if held:
+        hold_parameters(reid, reference, held)
     infos, sailed, info, info_notes = rest_problem(profile, lib, runs, reid.theta, time_left_s, mean_subtraction)
+    design_profile = profile
+    if held:
+        keep = np.array([n not in held for n in reid.names])
+        infos, sailed = restrict(infos, keep), restrict([sailed], keep)[0]
+        info = InfoSet.from_infos(infos, sailed, sailed.n_samples * profile.sample_time / time_left_s)
+        design_profile = reduced_profile(profile, list(held))
     d = run_design(
-        profile,
+        design_profile,
         lib,
         criterion="D",
         mean_subtraction=mean_subtraction,
@@ -336,6 +355,18 @@ def redesign(
     ]
     notes += reid.notes + info_notes + [f"warning: {x}" for x in reid.disagrees]
     return Redesign(counts, record["weights"], float(time_left_s), planned, ld_sailed, ld_total, reid, record, notes, d.logdet)
+
+
+def hold_parameters(reid: Reidentification, reference: np.ndarray, held: Sequence[str]) -> None:
+    """Set the ``held`` parameters of ``reid`` to their ``reference`` values (the profile's), in
+    place: the first plan held them because the water cannot identify them, and the recordings
+    sailed in that water cannot either (their estimates would be noise). The others keep the
+    joint estimate: the IV is not re-solved with the held ones on its left-hand side."""
+    unknown = sorted(set(held) - set(reid.names))
+    if unknown:
+        raise DesignError(f"held parameter(s) {', '.join(unknown)} are not parameters of the ship's predictor")
+    idx = [reid.names.index(n) for n in held]
+    reid.theta[idx] = reference[idx]
 
 
 def sail(

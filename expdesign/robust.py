@@ -121,6 +121,19 @@ class DrawInformation:
             None if self.held_out is None else self.held_out.subset(keep),
         )
 
+    def restrict(self, keep: np.ndarray) -> DrawInformation:
+        """The same draws and primitives for the parameters ``keep`` (a boolean mask) only, the
+        others held at known values: each matrix's principal submatrix (the held regressors move to
+        the left-hand side, no Schur complement), each draw's own optimum found again over those."""
+        ix = np.flatnonzero(keep)
+        sub = np.ix_(ix, ix)
+        m = np.ascontiguousarray(self.M[:, :, sub[0], sub[1]])
+        opt_w, bound = draw_optima(m)
+        optimum = np.linalg.slogdet(np.einsum("kq,kqij->kij", opt_w, m))[1]
+        held_out = None if self.held_out is None else self.held_out.restrict(keep)
+        centre = self.centre[:, sub[0], sub[1]]
+        return DrawInformation(list(self.names), centre, m, optimum, bound, list(self.dropped), held_out)
+
     def summary(self, w: np.ndarray) -> dict[str, float]:
         """Median, 10th percentile and minimum of the D-efficiency over the draws."""
         e = self.efficiencies(w)

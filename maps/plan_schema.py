@@ -157,6 +157,8 @@ PLAN_SCHEMA: dict[str, Any] = {
             "type": ["object", "null"],
             "properties": {
                 "criterion": {"anyOf": [{"type": "null"}, NAME]},
+                # a resumed plan: the criterion of the plan it resumed, when not D (the rest is re-designed D)
+                "first_criterion": NAME,
                 "mean_subtraction": {"anyOf": [{"type": ["null", "boolean"]}, NAME]},
                 "weights": {"type": "object", "additionalProperties": _num(0.0, 1.0)},
                 "counts": {"type": "object", "additionalProperties": COUNT},

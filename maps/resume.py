@@ -23,14 +23,19 @@ import numpy as np
 
 from diagnose.recording import Recording
 from expdesign.adaptive import Redesign, SailedRun, redesign
-from maps.chain import PlanOptions
+from expdesign.dopt import ROBUST
+from maps.chain import PlanOptions, build_lattice
 from maps.geo import SeaMap
 from maps.lattice import SETTLE_PHASES
 from maps.plan import Plan, PlanStep
 from maps.planner import plan_with_design
+from maps.searoom import held_text
+from maps.sizing import Needs, water_text
 from maps.trialdesign import ship_library
 from primitives.errors import UserError
+from primitives.library import Primitive
 from primitives.ship import ShipProfile
+from primitives.sized import named_short_forms
 
 # A crew runs late or early by more with every hour, not by a quarter of an hour from one
 # manoeuvre to the next: a recording without '# step:' starts within this many seconds of its
@@ -51,6 +56,30 @@ class Position:
     lat: float
     lon: float
     heading_deg: float
+
+
+def plan_library(plan: Plan, profile: ShipProfile) -> list[Primitive]:
+    """The manoeuvres the plan's design chose from and can still choose from: its ``design``
+    record's ``weights``, ``counts`` and ``not_used`` (the library it ran on, the dropped ones not in them),
+    each from the ship's library or its short forms (:mod:`primitives.sized`, a plan for confined
+    water). A plan whose record lists neither (counts given, no design): the ship's library without what it dropped."""
+    design = plan.design or {}
+    dropped = {d["primitive"] for d in design.get("dropped") or []}
+    listed = [*(design.get("weights") or {}), *(design.get("counts") or {}), *(design.get("not_used") or [])]
+    names = [n for n in dict.fromkeys(listed) if n not in dropped]
+    lib = ship_library(profile)
+    if not (design.get("weights") or design.get("not_used")):  # no design ran (counts given): the whole library
+        return [p for p in lib if p.name not in dropped]
+    by = {p.name: p for p in lib}
+    short = named_short_forms(profile, [n for n in names if n not in by])
+    by |= {p.name: p for p in short}
+    missing = [n for n in names if n not in by]
+    if missing:
+        raise ResumeError(
+            f"the plan's design lists {', '.join(missing)}, no manoeuvre of {profile.name}'s library or its short forms: "
+            "resume a plan made for this ship's profile (its design field 'weights'/'not_used')"
+        )
+    return [by[n] for n in names]
 
 
 def _header(rec: Recording, key: str) -> str:
@@ -128,16 +157,20 @@ def _check_times(plan: Plan, matched: list[tuple[Recording, PlanStep]]) -> None:
         late, prev = t0 - step.start_time_s, (rec, step)
 
 
-def match_recordings(plan: Plan, recordings: list[Recording], profile: ShipProfile) -> list[SailedRun]:
+def match_recordings(
+    plan: Plan, recordings: list[Recording], profile: ShipProfile, library: list[Primitive] | None = None
+) -> list[SailedRun]:
     """Each recording as the :class:`SailedRun` of its plan step, in sailing order: the step its
     ``# step: N`` names, else (in time order) the next step of its manoeuvre without a recording.
     Refused in one line: another ship, a manoeuvre the plan does not sail (there), recordings out
     of the plan's order or overlapping, a start without ``# step:`` off its step's time by more
     than :data:`TIME_TOLERANCE_S` beyond the schedule's slip so far, a recording shorter than
-    :data:`MIN_COVER` or longer than :data:`MAX_COVER` of its step, two recordings of one step."""
+    :data:`MIN_COVER` or longer than :data:`MAX_COVER` of its step, two recordings of one step.
+    ``library``: :func:`plan_library` of the plan, made already."""
     runs: dict[int, SailedRun] = {}
     matched: list[tuple[Recording, PlanStep]] = []
-    durations = {p.name: p.duration_s for p in ship_library(profile)}
+    lib = library if library is not None else plan_library(plan, profile)
+    durations = {p.name: p.duration_s for p in [*ship_library(profile), *lib]}  # short forms too
     numbered = sorted(recordings, key=lambda r: ("step" not in r.meta, float(r.t[0])))  # named steps first
     for rec in numbered:
         ship = _header(rec, "ship")
@@ -250,6 +283,61 @@ def plan_options(plan: Plan) -> PlanOptions:
     return PlanOptions(**kw)
 
 
+def _resume_notes(design: dict[str, Any], held_rows: list[dict[str, Any]]) -> list[str]:
+    """What the resumed plan's notes say it kept of the plan resumed: the parameters held, and a
+    criterion other than D replaced by D (a robust one: at the re-identified parameters)."""
+    notes = []
+    if held_rows:
+        notes.append(
+            f"the rest holds {len(held_rows)} parameter(s) at the profile's values, as the plan resumed did: {held_text(held_rows)}"
+        )
+    crit = design.get("criterion", "D")
+    if crit in ROBUST:
+        notes.append(
+            f"the plan resumed was designed {crit} over its prior; the rest is re-designed D-optimal at the re-identified "
+            "parameters, the recordings sailed standing in for the prior"
+        )
+    elif crit != "D":
+        notes.append(f"the plan resumed was designed {crit}-optimal; the rest is re-designed D-optimal (7.58)")
+    return notes
+
+
+def _fit_from_here(
+    rd: Redesign,
+    library: list[Primitive],
+    runs: list[SailedRun],
+    time_left_s: float,
+    sea: SeaMap,
+    profile: ShipProfile,
+    o: PlanOptions,
+    start: tuple[float, float, float],
+    goal: tuple[Any, ...] | None,
+    ms: str,
+    seed: int,
+    held: list[str],
+) -> tuple[Redesign, list[Primitive], dict[str, tuple[float, float]]]:
+    """The re-design redone without what its mix needs but fits nowhere reachable from the ship's
+    position (a manoeuvre the first design did not choose was never checked against the map, as
+    :func:`maps.trialdesign.design_for_map` checks only the support), the re-identification kept."""
+    cache: dict[str, Any] = {}
+    nowhere: dict[str, tuple[float, float]] = {}
+    while True:
+        support = [p for p in library if rd.counts.get(p.name)]
+        lat = build_lattice(sea, profile, support, rd.counts, start=start, goal=goal, options=o, cache=cache, prefilter=True)
+        bad = lat.fits_nowhere()
+        if not bad:
+            return rd, library, nowhere
+        nowhere |= bad
+        library = [p for p in library if p.name not in bad]
+        if not library:
+            raise ResumeError(
+                f"--from: none of the plan's manoeuvres has a placement in the water reachable from there: "
+                f"{'; '.join(water_text(n, v) for n, v in nowhere.items())}; the rest cannot be sailed from that position "
+                "(sail to more open water first, or end the trial)"
+            )
+        rd = redesign(profile, library, runs, time_left_s, mean_subtraction=ms, seed=seed, reid=rd.reid, held=held)
+
+
 def resume_plan(
     plan: Plan,
     runs: list[SailedRun],
@@ -262,31 +350,56 @@ def resume_plan(
     mean_subtraction: str | None = None,
     seed: int = 0,
     vessel_name: str | None = None,
+    library: list[Primitive] | None = None,
 ) -> tuple[Plan, Redesign]:
     """Re-identify from ``runs``, re-design the rest for ``time_left_s`` seconds of manoeuvres
     counting what was sailed (7.58), plan it from ``position`` to the plan's goal; the new plan
-    carries the sailed part (:func:`sailed_part`) and the re-identification in ``stats['resume']``."""
+    carries the sailed part (:func:`sailed_part`) and the re-identification in ``stats['resume']``.
+    The rest is designed over the plan's own library (:func:`plan_library`, made already when
+    ``library`` is given: its short forms in confined water) with the parameters it held held."""
     o = options or plan_options(plan)
     check_position(sea, position, o.margin)
     ms = mean_subtraction or (plan.design or {}).get("mean_subtraction") or "complete"
-    # what the first plan dropped for fitting nowhere on this map fits nowhere now either
-    dropped = {d["primitive"] for d in (plan.design or {}).get("dropped") or []}
-    library = [p for p in ship_library(profile) if p.name not in dropped]
+    design = plan.design or {}
+    # what the first plan dropped for fitting nowhere on this map fits nowhere now either; what it
+    # held, the water cannot identify now either
+    dropped = {d["primitive"] for d in design.get("dropped") or []}
+    library = library if library is not None else plan_library(plan, profile)
+    held_rows = list(design.get("held_parameters") or [])
     before = earlier_runs(plan)
-    rd = redesign(profile, library, before + runs, time_left_s, mean_subtraction=ms, seed=seed)
+    held = [h["parameter"] for h in held_rows]
+    rd = redesign(profile, library, before + runs, time_left_s, mean_subtraction=ms, seed=seed, held=held)
+    goal = plan.stats.get("goal")
+    start, goal = (position.lat, position.lon, position.heading_deg), tuple(goal) if goal else None
+    rd, library, nowhere = _fit_from_here(rd, library, before + runs, time_left_s, sea, profile, o, start, goal, ms, seed, held)
+    rd.notes += _resume_notes(design, held_rows)
+    if nowhere:
+        rd.notes.append(
+            f"the rest also leaves out {', '.join(nowhere)}, which the first design did not choose and which fits nowhere "
+            f"reachable from the ship's position: {'; '.join(water_text(n, v) for n, v in nowhere.items())}"
+        )
+    if held_rows:
+        rd.record["held_parameters"] = held_rows
+    if design.get("criterion", "D") != "D":
+        rd.record["first_criterion"] = design["criterion"]
     if dropped:
         rd.record["dropped"] = list((plan.design or {})["dropped"])
         why = "fits nowhere on the map" + (
             ", or not with the rest of the mix" if any(d.get("apart") for d in rd.record["dropped"]) else ""
         )
         rd.notes.append(f"the rest leaves out {', '.join(sorted(dropped))}, as the first plan did ({why})")
-    goal = plan.stats.get("goal")
+    # a next resume leaves these out too
+    rd.record["dropped"] = list(rd.record.get("dropped") or []) + [
+        {"primitive": n, "needs_m": [float(v[0]), float(v[1])]} | (v.record() if isinstance(v, Needs) else {})
+        for n, v in nowhere.items()
+    ]
     new, _ = plan_with_design(
         sea,
         profile=profile,
         counts=rd.counts,
-        start=(position.lat, position.lon, position.heading_deg),
-        goal=tuple(goal) if goal else None,
+        primitives=library,  # the short forms among them
+        start=start,
+        goal=goal,
         options=o,
         vessel_name=vessel_name or plan.vessel_name,
     )
@@ -320,7 +433,7 @@ def simulated_recordings(
     with :func:`diagnose.recording.write_csv`)."""
     from primitives.simulate import simulate
 
-    lib = {p.name: p for p in ship_library(profile)}
+    lib = {p.name: p for p in plan_library(plan, profile)}
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(28, 7)))
     out = []
     for s in steps:

@@ -18,13 +18,12 @@ water would hold it but its move has no placement reachable from the start, that
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from expdesign.dopt import ROBUST, InfoSet
-from expdesign.errors import DesignError
+from expdesign.dopt import InfoSet
 from maps.sizing import Needs, row_text
 from primitives.information import PrimitiveInfo, library_information, unidentified_parameters
 from primitives.library import Primitive
@@ -79,22 +78,6 @@ def held_parameters(profile: ShipProfile, room: SeaRoom, mean_subtraction: str) 
         return list(profile.predictor_param_names)
     info = InfoSet.from_infos([room.infos[i] for i in keep])
     return unidentified_parameters(profile, info.gamma(np.full(len(keep), 1.0 / len(keep)), mean_subtraction))
-
-
-def reduced_profile(profile: ShipProfile, held: list[str]) -> ShipProfile:
-    """The profile's view for a design of the parameters not ``held``: the predictor's terms and
-    names without the held ones (what the design reads the parameters' names and terms from)."""
-    names = profile.predictor_names or profile.parameter_names
-    terms = profile.predictor.terms
-    kept_terms = tuple(tuple(t for t, n in zip(ts, ns) if n not in held) for ts, ns in zip(terms, names))
-    kept_names = tuple(tuple(n for n in ns if n not in held) for ns in names)
-    return replace(profile, predictor_terms=kept_terms, predictor_names=kept_names)
-
-
-def restrict(infos: list[PrimitiveInfo], keep: np.ndarray) -> list[PrimitiveInfo]:
-    """Each primitive's moments restricted to the parameters ``keep`` (a boolean mask)."""
-    ix = np.ix_(keep, keep)
-    return [PrimitiveInfo(q.name, q.n_samples, q.X[ix], q.Y[keep], q.Z[keep], q.mask[ix]) for q in infos]
 
 
 def what_identifies(profile: ShipProfile, room: SeaRoom, held: list[str], mean_subtraction: str) -> dict[str, dict[str, Any]]:
@@ -159,12 +142,3 @@ def _predictor_values(profile: ShipProfile) -> list[float | None]:
         return [float(x) for x in profile.params()]
     sim = dict(zip(profile.param_names, profile.params()))
     return [float(sim[n]) if n in sim else None for n in profile.predictor_param_names]
-
-
-def check_robust(criterion: str) -> None:
-    """A robust criterion's draws are over every parameter: holding some is not built for them."""
-    if criterion in ROBUST:
-        raise DesignError(
-            f"--criterion {criterion}: the manoeuvres that fit this map cannot identify every parameter, and holding "
-            "parameters is built for the local criteria only: use --criterion D on this map, or a map with more open water"
-        )

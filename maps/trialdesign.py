@@ -22,9 +22,9 @@ from expdesign.errors import DesignError
 from expdesign.prior import ParameterPrior
 from expdesign.robust import DrawInformation, draw_information
 from expdesign.rounding import _efficiency, round_design
-from maps.searoom import SeaRoom, check_robust, held_parameters, held_records, reduced_profile, restrict, with_short_forms
+from maps.searoom import SeaRoom, held_parameters, held_records, with_short_forms
 from maps.sizing import Needs, km, water_text
-from primitives.information import PrimitiveInfo, library_information
+from primitives.information import PrimitiveInfo, library_information, reduced_profile, restrict
 from primitives.library import Primitive, build_library, library_notes, thesis_primitives
 from primitives.ship import ShipProfile
 
@@ -462,17 +462,28 @@ def _redesign(
         held = held_parameters(profile, room, mean_subtraction)
         if not room.fitting or not held:
             raise
-        check_robust(criterion)
-        return _held_design(profile, room, held, opts)
+        if criterion in ROBUST and draws is None:  # the draws' matrices over every parameter, restricted below
+            draws = draw_information(profile, room.library, parameter_prior, mean_subtraction, held_out=True)
+        return _held_design(profile, room, held, opts, parameter_prior, draws)
 
 
-def _held_design(profile: ShipProfile, room: SeaRoom, held: list[str], opts: dict[str, Any]) -> TrialDesign:
+def _held_design(
+    profile: ShipProfile,
+    room: SeaRoom,
+    held: list[str],
+    opts: dict[str, Any],
+    parameter_prior: ParameterPrior | None = None,
+    draws: DrawInformation | None = None,
+) -> TrialDesign:
     """The design over the parameters what fits can identify, the others held at the profile's
-    values; its record lists them (:func:`maps.searoom.held_records`)."""
+    values; its record lists them (:func:`maps.searoom.held_records`). A robust criterion's draws
+    keep varying the held parameters (the ship is not the profile there either), and each draw's
+    information is restricted to the parameters estimated (:meth:`DrawInformation.restrict`)."""
     keep = np.array([n not in held for n in profile.predictor_param_names])
     reduced = reduced_profile(profile, held)
+    robust = {} if draws is None else dict(parameter_prior=parameter_prior, draws=draws.restrict(keep))
     try:
-        td = design_counts(reduced, room.library, **opts, exclude=room.exclude, infos=restrict(room.infos, keep))
+        td = design_counts(reduced, room.library, **opts, exclude=room.exclude, infos=restrict(room.infos, keep), **robust)
     except TrialTooShort as exc:
         exc.held = tuple(held)
         raise

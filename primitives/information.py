@@ -16,7 +16,7 @@ same model at its re-identified parameters, so a resume that learnt nothing leav
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -160,3 +160,21 @@ def excitation_hint(profile: ShipProfile, names: list[str]) -> str:
                 hint = f"a manoeuvre that varies {t} ({dofs[n]} motion)"
         parts.append(f"{n} (term {t}): {hint}")
     return "; ".join(parts)
+
+
+def reduced_profile(profile: ShipProfile, held: list[str]) -> ShipProfile:
+    """The profile's view for a design of the parameters not ``held``: the predictor's terms and
+    names without the held ones (what the design reads the parameters' names and terms from)."""
+    names = profile.predictor_names or profile.parameter_names
+    terms = profile.predictor.terms
+    kept_terms = tuple(tuple(t for t, n in zip(ts, ns) if n not in held) for ts, ns in zip(terms, names))
+    kept_names = tuple(tuple(n for n in ns if n not in held) for ns in names)
+    return replace(profile, predictor_terms=kept_terms, predictor_names=kept_names)
+
+
+def restrict(infos: list[PrimitiveInfo], keep: np.ndarray) -> list[PrimitiveInfo]:
+    """Each primitive's moments restricted to the parameters ``keep`` (a boolean mask): the
+    information of the others when the rest are held known (their regressors' part on the left of
+    the IV normal equations, Ljungberg 2022 (7.50)-(7.53); nothing estimated for them, so no Schur complement)."""
+    ix = np.ix_(keep, keep)
+    return [PrimitiveInfo(q.name, q.n_samples, q.X[ix], q.Y[keep], q.Z[keep], q.mask[ix]) for q in infos]

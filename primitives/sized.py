@@ -167,3 +167,11 @@ def short_forms(profile: ShipProfile, names: list[str], table: dict[str, list[Sh
     """The shorter forms of the named long manoeuvres (those that have some), simulated."""
     table = short_form_table(profile) if table is None else table
     return [make_primitive(profile, f.name, f.description, f.make()) for n in names for f in table.get(n, [])]
+
+
+def named_short_forms(profile: ShipProfile, names: list[str]) -> list[Primitive]:
+    """The short forms called ``names`` (as :func:`short_forms` names them, e.g. a plan's
+    ``stopping_coast_75``), simulated; names that are no short form are skipped."""
+    want = set(names)
+    forms = [f for fs in short_form_table(profile).values() for f in fs if f.name in want]
+    return [make_primitive(profile, f.name, f.description, f.make()) for f in forms]

@@ -41,3 +41,19 @@ def test_the_order_scaling_makes_the_paper_ship_sail_the_profile_cruise_speed():
     k_n = order_scale(prof)
     assert abs(straight_speed(kvlcc2(), cruise_order * k_n) / prof.cruise_speed_mps - 1) < 1e-3
     assert abs(straight_speed(kvlcc2(), cruise_order) / prof.cruise_speed_mps - 1) > 0.1
+
+
+def test_the_coin_is_a_sign_test_over_the_truths_that_are_not_ties(capsys):
+    """A tie (the re-design kept the fixed plan's rest, so the same score) is no comparison: 10
+    lower of 13 untied is P = 378/8192, not P(>= 10 of 20) = 0.588 as if the ties were losses."""
+    from benchmarks.adaptive_mmg import ARMS, coin_tail, summary
+
+    assert coin_tail(10, 13) == 378 / 8192 and coin_tail(0, 0) == 1.0 and coin_tail(20, 20) == 0.5**20
+    arms = len(ARMS) - 1
+    x = np.full((20, 2 * arms + 1), 1.1)
+    x[:, -1] = 0.99  # the ceiling column
+    x[:10, 1] = 0.9  # control: lower in 10, equal in 7, higher in 3
+    x[10:17, 1] = 1.0
+    summary(x)
+    line = next(s for s in capsys.readouterr().out.splitlines() if s.strip().startswith("control"))
+    assert "lower in 10 (equal 7)" in line and f"P(>= 10 of 13 untied | coin) {378 / 8192:.3f}" in line

@@ -382,6 +382,25 @@ def test_the_rest_leaves_out_what_the_first_plan_dropped_for_sea_room(sailed, mo
     assert "tau12" not in seen["names"] and "tau16" in seen["names"]
 
 
+def test_a_robust_plan_resumed_says_the_rest_is_designed_d_optimal(sailed):
+    """Before, a plan designed bayes-D was resumed with D without a word (the record's criterion "D")."""
+    import copy
+
+    import maps.resume as mr
+    from diagnose.recording import load_recording
+    from maps.geo import load_map
+
+    plan = copy.deepcopy(sailed["plan"])
+    prof = load_profile(plan.ship)
+    plan.design = {**(plan.design or {}), "criterion": "bayes-D"}
+    runs = mr.match_recordings(plan, [load_recording(f)[0] for f in sorted((sailed["dir"] / "rec").glob("*.csv"))], prof)
+    lat, lon, hdg = (float(v) for v in sailed["from"].split(","))
+    new, rd = mr.resume_plan(plan, runs, mr.Position(lat, lon, hdg), 600.0, load_map("helsinki", draught_m=prof.draught_m), prof)
+    assert rd.record["criterion"] == "D" and rd.record["first_criterion"] == "bayes-D"
+    said = [n for n in new.stats["notes"] if "designed bayes-D" in n]
+    assert len(said) == 1 and "re-designed D-optimal" in said[0]
+
+
 def test_rest_efficiency_bounds_what_a_redesign_can_gain(model_ship):
     """The D-efficiency at the true parameters of a rest of the trial against the best rest there
     (both counting the sailed runs, (7.58)): the re-design at the truth scores its own rounding

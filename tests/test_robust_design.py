@@ -164,6 +164,55 @@ def test_planner_design_step_keeps_the_robust_criterion_when_a_manoeuvre_fits_no
     assert td.record["dropped"][0]["primitive"] == big and 0 < td.record["dropped"][0]["efficiency_loss"] < 1
 
 
+def test_draws_restricted_to_the_parameters_estimated_are_principal_submatrices_with_their_own_optima(model_ship):
+    """Parameters held at known values: each draw's information for the rest is its matrix's
+    principal submatrix, and each draw's optimum is found again over those (a mix's efficiency
+    against the whole model's optimum would be meaningless); the robust mixes keep their promise."""
+    p, lib, dinfo = model_ship
+    keep = np.ones(dinfo.n_params, bool)
+    keep[[0, 4, 9]] = False
+    sub = dinfo.restrict(keep)
+    assert sub.n_draws == dinfo.n_draws and sub.n_params == keep.sum() and sub.names == dinfo.names
+    assert np.array_equal(sub.M, dinfo.M[:, :, keep][:, :, :, keep])
+    assert np.array_equal(sub.centre, dinfo.centre[:, keep][:, :, keep])
+    assert sub.optimum_bound >= 1 - 1e-4
+    w = np.random.default_rng(2).dirichlet(np.ones(len(lib)), 20)
+    eff = np.array([sub.efficiencies(x) for x in w])
+    assert np.all(eff <= 1 + 1e-9) and not np.allclose(eff, [dinfo.efficiencies(x) for x in w])
+    cons = Constraints.simplex(len(lib))
+    start = np.full(len(lib), 1.0 / len(lib))
+    bayes, maximin = (solve_robust(sub, c, cons, start).weights for c in ("bayes-D", "maximin-D"))
+    assert np.log(sub.efficiencies(bayes)).mean() >= np.log(sub.efficiencies(start)).mean()
+    assert sub.efficiencies(maximin).min() >= sub.efficiencies(bayes).min() - 1e-9
+
+
+@pytest.mark.parametrize("criterion", ["bayes-D", "maximin-D"])
+def test_robust_criteria_design_what_fits_with_the_parameters_it_cannot_identify_held(criterion):
+    """Water that holds only the speed changes: before, a robust criterion was refused there
+    ('holding parameters is built for the local criteria only'); now it designs the parameters
+    what fits can identify over the draws, the same parameters held as --criterion D holds."""
+    from maps.trialdesign import design_for_map, ship_library
+    from primitives.library import by_name
+
+    p = load_profile("kvlcc2")
+    names = ["zigzag_10_10_s", "turning_circle_35_s", "pull_out_20_s", "stopping", "acceleration", "deceleration"]
+    lib = by_name(ship_library(p), names)
+
+    def fits_nowhere(prims, counts):  # every turning manoeuvre and its short forms
+        return {q.name: (20000.0, 3000.0) for q in prims if q.name.startswith(("zigzag", "turning", "pull"))}
+
+    local = design_for_map(p, fits_nowhere, lib)
+    td = design_for_map(p, fits_nowhere, lib, criterion=criterion, parameter_prior=spread_prior(p, 0.3, 20, seed=0))
+    held = [h["parameter"] for h in td.record["held_parameters"]]
+    assert held == [h["parameter"] for h in local.record["held_parameters"]] and 0 < len(held) < len(p.predictor_param_names)
+    assert td.counts and set(td.counts) <= {"stopping", "acceleration", "deceleration"}
+    r = td.record["robust"]
+    assert r["criterion"] == criterion and r["draws_used"] == 20
+    for s in r["d_efficiency"].values():  # against each draw's optimum over the parameters estimated
+        assert 0 < s["min"] <= s["p10"] <= s["median"] <= 1 + 1e-9
+    assert any("held at the profile's values" in n for n in td.notes)
+
+
 def test_local_d_alias_is_d_in_the_map_design_and_unknown_criteria_raise():
     """'local-D' names the D design everywhere (the map's whole-manoeuvre design scored it as A
     and its efficiency as E before); a criterion no design knows is refused, never scored as another."""
