@@ -3,7 +3,6 @@ drops findings a held-out run does not support (issue 13)."""
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -55,39 +54,6 @@ def _den(preps: list[Prepared], w: np.ndarray) -> np.ndarray:
     return np.array([np.sum(((p.y - p.y.mean(axis=0)) * w) ** 2, axis=0) for p in preps])
 
 
-def channel_fits(model: AugmentedModel, prep: Prepared, P: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Fit (per cent) of each output channel of ``prep`` simulated at ``P`` from the initial state
-    that fits that channel best: noise-weighted (``w``) least squares over the three numbers of
-    nu(0) with the recorded start y0 as a prior of one noise scale (1 / ``w``) a state, one
-    Gauss-Newton step from y0 (the response to the start is nearly linear), the channel then
-    simulated from it.
-
-    A validation run's initial state is a nuisance, not a property of the model compared (Ljung
-    1999, System Identification, 2nd ed.: a model is validated by simulation from an estimated
-    initial state, as ``compare`` of the System Identification Toolbox does by default). Started
-    from its first samples instead, their noise sends a transient through every channel whose
-    size depends on the model simulated. Each channel its own start: a channel's fit then changes
-    with a finding only as far as the finding changes that channel's response to the inputs,
-    never through the start the channels share. A gyro bias leaves the dynamics as they are and
-    moves only the start (nu(0) = y(0) - bias); from the recorded start it cost a zig-zag 1.19
-    points of held-out surge fit, 0.90 from one start fitted to all channels, none from each
-    channel's own (MMG battery, gyro-bias seed 3)."""
-    w = np.asarray(w, float)
-    h = 0.01 / np.maximum(w, 1e-300)  # a hundredth of each state's noise scale
-    trial = [replace(prep, y0=prep.y0 + h * e) for e in np.vstack([np.zeros(3), np.eye(3)])]
-    s = np.array([o[0] for o in model.simulate_many(trial, P[None])])  # (4, N+1, 3)
-    J = (s[1:] - s[0]) / h[:, None, None]  # (state, N+1, channel)
-    starts = []
-    for c in range(3):
-        # the prior's rows keep a direction the channel does not inform at the recorded start
-        A = np.vstack([J[:, :, c].T * w[c], np.diag(w)])
-        b = np.concatenate([(prep.y[:, c] - s[0, :, c]) * w[c], np.zeros(3)])
-        d = np.linalg.lstsq(A, b, rcond=None)[0]
-        starts.append(prep.y0 + (d if np.all(np.isfinite(d)) else 0.0))
-    sims = model.simulate_many([replace(prep, y0=y0) for y0 in starts], P[None])
-    return np.array([fit_percent(prep.y, o[0])[c] for c, o in enumerate(sims)])
-
-
 def per_run_fits(
     model: AugmentedModel,
     preps: list[Prepared],
@@ -98,17 +64,17 @@ def per_run_fits(
     free: list[int],
     w_fit: np.ndarray | None = None,
 ) -> tuple[list[dict], str]:
-    """Fit before/after per run and channel. With validation runs: by simulation, each channel
-    from its own fitted initial state (:func:`channel_fits`), before and after alike. Otherwise each
+    """Fit before/after per run and channel. With validation runs: by simulation. Otherwise each
     diagnosed run is held out in turn: the model refitted without it (a Gauss-Newton step of the
     free parameters from the final fit, weighted by ``w_fit``, the weights P was fitted with,
     default ``w``) is simulated on it (leave one run out, linearised). The weighted misfit of
     the table always weighs by ``w`` (the noise scale), so before and after compare."""
     if val_preps:
-        f0, f1 = (np.array([channel_fits(model, p, Pk, w) for p in val_preps]) for Pk in (P0, P))
+        f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in val_preps])
+        f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in val_preps])
         return (
             _table([p.rec.source for p in val_preps], ["validation"] * len(val_preps), f0, f1, _den(val_preps, w)),
-            "validation runs, simulated from each channel's fitted start",
+            "validation runs, simulated",
         )
     f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in preps])
     cols = [j for j in free if j < model.n_slots_end]

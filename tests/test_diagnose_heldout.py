@@ -12,11 +12,10 @@ import numpy as np
 import pytest
 
 from cli.app import _run
-from diagnose.api import noise_scale, run
+from diagnose.api import run
 from diagnose.battery import scenario
-from diagnose.model import noise_std, noise_std_coloured, prepare
+from diagnose.model import fit_percent, noise_std, noise_std_coloured, prepare
 from diagnose.model_file import load_model
-from diagnose.perrun import channel_fits
 from diagnose.recording import read_marin_dat, write_csv
 from diagnose.report import to_text
 from primitives.ship import DOFS, load_profile
@@ -41,7 +40,7 @@ def test_per_run_table_in_text_and_json_and_no_nan(damping_case, tmp_path, capsy
     row = d.per_run[0]
     assert row["after"]["yaw"] > row["before"]["yaw"] + 5
     text = to_text(d)
-    assert "Per run (validation runs, simulated from each channel's fitted start)" in text and "Pooled" in text
+    assert "Per run (validation runs, simulated)" in text and "Pooled" in text
     assert "nan" not in text.lower()
     assert d.findings[0]["heldout_per_run"] and d.findings[0]["plausibility"]
     rec = write_csv(sc.diagnose[0], tmp_path / "run.csv")
@@ -61,9 +60,8 @@ def test_exported_model_reproduces_the_reported_fit(damping_case, tmp_path):
     _sc, d = damping_case
     paths = write_all(d, tmp_path)
     model, P = load_model(paths["model"])
-    w = 1.0 / noise_scale(np.concatenate([p.rec.y for p in d.preps]))  # the noise scale the diagnosis weighed by
-    for row, p in zip(d.per_run, d.val_preps):  # each channel simulated from its own fitted start, as the table says
-        fit = channel_fits(model, prepare(model.profile, p.rec), P, w)
+    for row, p in zip(d.per_run, d.val_preps):
+        fit = fit_percent(p.y, model.simulate(prepare(model.profile, p.rec), P)[0])
         np.testing.assert_allclose(fit, [row["after"][k] for k in DOFS], atol=1e-6)
     assert load_profile(paths["model"]).model_terms[2][-1] == "r*|r|"  # still a loadable profile
 

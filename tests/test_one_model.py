@@ -8,12 +8,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from diagnose.api import noise_scale, run
+from diagnose.api import run
 from diagnose.battery import scenario
 from diagnose.candidates import Candidate, Slot, build_library
-from diagnose.model import AugmentedModel, prepare
+from diagnose.model import AugmentedModel, fit_percent, prepare
 from diagnose.model_file import load_model
-from diagnose.perrun import channel_fits
 from diagnose.recording import Recording
 from diagnose.report import write_all
 from primitives.profile_document import profile_from_dict
@@ -100,9 +99,8 @@ def test_exported_model_with_refit_baseline_and_delay_current_reproduces_per_run
     model, P = load_model(paths["model"])
     np.testing.assert_array_equal(P[: model.n_base], d.P[: d.model.n_base])  # the scored baseline, refit included
     assert d.per_run and all(row["role"] == "validation" for row in d.per_run)
-    w = 1.0 / noise_scale(np.concatenate([r.y for r in sc.diagnose]))  # the noise scale the diagnosis weighed by
-    for row, p in zip(d.per_run, d.val_preps):  # each channel simulated from its own fitted start, as the table is
-        fit = channel_fits(model, prepare(model.profile, p.rec), P, w)
+    for row, p in zip(d.per_run, d.val_preps):
+        fit = fit_percent(p.y, model.simulate(prepare(model.profile, p.rec), P)[0])
         np.testing.assert_allclose(fit, [row["after"][k] for k in DOFS], atol=1e-6)
 
 
