@@ -318,16 +318,12 @@ def _factor_row(fv, sig, in_t, ib, k, u, v, r, speed, f_sig, f_mod, f_pow, f_sta
 @jitloop.inlined
 def _regressor_row(out, k, fv, t_first, t_n):
     """out[k, t] = 1.0 * f_1 * f_2 ... of each term t (regkernel._build's product) from the factor
-    values ``fv`` of step k; the largest magnitude of the row."""
-    worst = 0.0
+    values ``fv`` of step k."""
     for t in range(t_first.shape[0]):
         acc = 1.0
         for f in range(t_first[t], t_first[t] + t_n[t]):
             acc = acc * fv[f]
         out[k, t] = acc
-        if not abs(acc) <= worst:  # NaN too
-            worst = abs(acc) if acc == acc else math.inf
-    return worst
 
 
 @jitloop.compiled

@@ -150,9 +150,9 @@ def moments_t(cr: CalmRuns, sims: list[np.ndarray], theta: np.ndarray, idx: np.n
     hess, grad = np.zeros((b, p, p)), np.zeros((b, p))
     coef = np.ascontiguousarray(theta[idx].T)
     sw = np.ascontiguousarray(np.sqrt(w[idx]).T)
+    runs, mask = np.asarray(idx, np.int64), _mask(cr.terms, p)  # the same for every experiment
     for in_t, y, nu_t, prog in zip(cr.in_t, cr.y_t, sims, cr.prog):
-        runs = np.asarray(idx, np.int64)
-        _accumulate(in_t, nu_t, y, runs, coef, sw, _mask(cr.terms, p), *prog, cr.speed, fd_step, hess, grad)
+        _accumulate(in_t, nu_t, y, runs, coef, sw, mask, *prog, cr.speed, fd_step, hess, grad)
     return hess, grad
 
 

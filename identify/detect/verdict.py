@@ -118,7 +118,7 @@ def implausible_inertia(prior: YawPrior, i_z: float | None, n_rdot: float | None
 
 def _decide(eps, S, prior, st, h, null_blocks, min_change, i_ref, n_rdot) -> tuple[int, dict]:
     """First block over the threshold whose change is also worth an alarm: the leading candidate's
-    estimate from the change point on (:func:`onset`) up to the end of that block, or MIN_WINDOW_S
+    estimate from the change point on (:meth:`Whitened.onset`) up to the end of that block, or MIN_WINDOW_S
     after the change point if later, at least ``min_change`` (of I_z for yaw inertia, from the
     lumped ``i_ref`` = I_z - N_rdot; of I_r when that is None) and twice its no-change standard deviation. Returns (alarm
     sample: the last one that estimate saw, or -1; evidence).
@@ -206,14 +206,6 @@ def verdict(
 SEPARATION = 2.3
 
 
-def onset(eps: np.ndarray, S: np.ndarray, prior: YawPrior, upto: int, k: int) -> tuple[int, int, int]:
-    """Change point of a step change along signature ``k`` seen up to sample ``upto``: the block
-    ``tau`` that maximises the GLR ``(sum_{t>=tau} S_k e)^2 / (2 s^2 sum_{t>=tau} S_k^2)`` (Basseville and
-    Nikiforov 1993, section 2.2.3), and the blocks whose GLR is within 1.92 of it (a 95 % profile-
-    likelihood interval). Returns (first sample of tau, of the interval's start, of its end)."""
-    return Whitened.of(eps, S, prior).onset(upto, k)
-
-
 def attribute(
     eps: np.ndarray, S: np.ndarray, prior: YawPrior, upto: int, null_blocks: np.ndarray | None = None, start: int = 0
 ) -> dict:
@@ -233,7 +225,7 @@ class Whitened:
     """One recording's whitened 1 s block means (the prior's AR innovation filter along time): the
     signatures ``Sw`` (nb, k), the residual ``ew`` (nb,) and the no-change records ``nw`` (nb, runs)
     or None. The filter runs along time from the recording's start, so a window of these is the
-    same as whitening the whole block array and then cutting the window, as :func:`onset` and
+    same as whitening the whole block array and then cutting the window, as :meth:`Whitened.onset` and
     :func:`attribute` do; made once per recording, the decision's many windows only slice."""
 
     prior: YawPrior
@@ -247,7 +239,10 @@ class Whitened:
         return cls(prior, whiten(block_mean(S, prior.block), prior.ar), whiten(block_mean(eps, prior.block), prior.ar), nw)
 
     def onset(self, upto: int, k: int) -> tuple[int, int, int]:
-        """:func:`onset` on these arrays."""
+        """Change point of a step change along signature ``k`` seen up to sample ``upto``: the block
+        ``tau`` that maximises the GLR ``(sum_{t>=tau} S_k e)^2 / (2 s^2 sum_{t>=tau} S_k^2)`` (Basseville and
+        Nikiforov 1993, section 2.2.3), and the blocks whose GLR is within 1.92 of it (a 95 % profile-
+        likelihood interval). Returns (first sample of tau, of the interval's start, of its end)."""
         p = self.prior
         nb = max(upto // p.block, 2)
         Sw, ew = self.Sw[:nb, k], self.ew[:nb]
