@@ -118,11 +118,15 @@ def rest_problem(
     theta: np.ndarray,
     time_left_s: float,
     mean_subtraction: str,
+    keep: np.ndarray | None = None,
 ) -> tuple[list[PrimitiveInfo], PrimitiveInfo, InfoSet, list[str]]:
     """M_rest and M_sailed at ``theta`` and their (7.58) sum's InfoSet, the sailed term weighted
-    by its samples against the time left's."""
+    by its samples against the time left's; ``keep``: the parameters estimated (a boolean mask),
+    the others held, their rows and columns left out."""
     infos, notes = rest_information(profile, lib, theta)
     sailed = sailed_information(profile, runs, None if notes else theta, mean_subtraction)
+    if keep is not None:
+        infos, sailed = restrict(infos, keep), restrict([sailed], keep)[0]
     info = InfoSet.from_infos(infos, sailed, sailed.n_samples * profile.sample_time / time_left_s)
     return infos, sailed, info, notes
 
@@ -307,13 +311,9 @@ def redesign(
     reid = reid if reid is not None else reidentify(profile, runs, reference)
     if held:
         hold_parameters(reid, reference, held)
-    infos, sailed, info, info_notes = rest_problem(profile, lib, runs, reid.theta, time_left_s, mean_subtraction)
-    design_profile = profile
-    if held:
-        keep = np.array([n not in held for n in reid.names])
-        infos, sailed = restrict(infos, keep), restrict([sailed], keep)[0]
-        info = InfoSet.from_infos(infos, sailed, sailed.n_samples * profile.sample_time / time_left_s)
-        design_profile = reduced_profile(profile, list(held))
+    keep = np.array([n not in held for n in reid.names]) if held else None
+    infos, sailed, info, info_notes = rest_problem(profile, lib, runs, reid.theta, time_left_s, mean_subtraction, keep)
+    design_profile = reduced_profile(profile, list(held)) if held else profile
     d = run_design(
         design_profile,
         lib,

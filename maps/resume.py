@@ -382,14 +382,14 @@ def resume_plan(
         rd.record["held_parameters"] = held_rows
     if design.get("criterion", "D") != "D":
         rd.record["first_criterion"] = design["criterion"]
+    first_dropped = list(design["dropped"]) if dropped else []
     if dropped:
-        rd.record["dropped"] = list((plan.design or {})["dropped"])
         why = "fits nowhere on the map" + (
-            ", or not with the rest of the mix" if any(d.get("apart") for d in rd.record["dropped"]) else ""
+            ", or not with the rest of the mix" if any(d.get("apart") for d in first_dropped) else ""
         )
         rd.notes.append(f"the rest leaves out {', '.join(sorted(dropped))}, as the first plan did ({why})")
     # a next resume leaves these out too
-    rd.record["dropped"] = list(rd.record.get("dropped") or []) + [
+    rd.record["dropped"] = first_dropped + [
         {"primitive": n, "needs_m": [float(v[0]), float(v[1])]} | (v.record() if isinstance(v, Needs) else {})
         for n, v in nowhere.items()
     ]

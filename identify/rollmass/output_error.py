@@ -358,10 +358,10 @@ def load_decrement(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) 
         return float("nan")
 
 
-def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple[np.ndarray, np.ndarray, float]:
+def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
     """Finish a fit with up to ``steps`` Gauss-Newton steps (central Jacobian, step halving) until
     the load's step in its sandwich standard errors (:func:`load_decrement`) is below
-    :data:`STATIONARY`; returns ``x``, its Jacobian and that decrement."""
+    :data:`STATIONARY`; returns ``x``, its Jacobian, that decrement and the residual at ``x``."""
     lengths = [d.n for d in prob.datasets]
     f = prob.residual(x)
     J = central_jacobian(prob.residual, x)
@@ -381,7 +381,7 @@ def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple
         x, f = x + dx, f_new
         J = central_jacobian(prob.residual, x)
         dec = load_decrement(J, f, lengths, lags)
-    return x, J, dec
+    return x, J, dec, f
 
 
 def _meat(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
@@ -464,7 +464,7 @@ def fit_output_error(
     message = str(res.message)
     lags = max(1, round(SANDWICH_LAG_S / datasets[0].T))
     if with_cov and ok:
-        x, J, dec = _gauss_newton(prob, x, FINISH_STEPS, lags)
+        x, J, dec, f = _gauss_newton(prob, x, FINISH_STEPS, lags)
         if not dec < STATIONARY:
             ok = False
             message = f"{message}; not at a stationary point after {FINISH_STEPS} Gauss-Newton steps " + (
@@ -473,7 +473,7 @@ def fit_output_error(
                 else "(the load's covariance is singular there)"
             )
         try:
-            cov_load = sandwich_cov(J, prob.residual(x), [d.n for d in datasets], lags)[-2:, -2:]
+            cov_load = sandwich_cov(J, f, [d.n for d in datasets], lags)[-2:, -2:]  # f: the residual at x
         except np.linalg.LinAlgError:
             pass
     v = prob.values(x)
