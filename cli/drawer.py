@@ -128,11 +128,14 @@ def _child(report: int, work: Callable[[], None]) -> None:
         os._exit(code)
 
 
-def _end(pid: int, report: int, grace_s: float = 1.0) -> None:
+def _end(pid: int, report: int, grace_s: float = 5.0) -> None:
     """End the unreaped child ``pid`` whose ``report`` pipe is still open: SIGTERM, and SIGKILL
     when it has not exited within ``grace_s`` (a Python handler runs only between bytecodes: a
     child stuck in C code, e.g. on a lock another thread of the parent held when it forked, never
-    runs it). The pid cannot be reused before it is reaped, so the second signal is safe."""
+    runs it). The pid cannot be reused before it is reaped, so the second signal is safe. 5 s, not
+    1 s: on a loaded machine a child that unwinds at once may not be scheduled within a second, and
+    killed it leaves matplotlib's lock file behind (seen twice in full-suite runs at load 15-20);
+    the wait is paid only by a child that does not exit."""
     try:
         os.kill(pid, signal.SIGTERM)
         if not select.select([report], [], [], grace_s)[0]:  # readable at its exit: the pipe's end closes
