@@ -239,8 +239,8 @@ def _accumulate(
     s_old = np.zeros((3, p, batch), np.float32)
     s_new = np.empty((3, p, batch), np.float32)
     jac = np.empty((3, 3, batch), np.float32)
-    sk = np.empty((p, batch))
-    e = np.empty(batch)
+    sk = np.empty((3, p, batch))
+    e = np.empty((3, batch))
     x = np.empty((3, batch))
     h = np.empty(batch)
     hl = np.zeros((p, p, batch))
@@ -287,15 +287,21 @@ def _accumulate(
         for i in range(3):
             for q in range(p):
                 for b in range(batch):
-                    sk[q, b] = np.float64(s_new[i, q, b]) * sw[i, b]
+                    sk[i, q, b] = np.float64(s_new[i, q, b]) * sw[i, b]
             for b in range(batch):
-                e[b] = (y[k + 1, i, runs[b]] - nu_t[k + 1, i, b]) * sw[i, b]
-            for a in range(p):
-                for q in range(a, p):
-                    for b in range(batch):
-                        hl[a, q, b] += sk[a, b] * sk[q, b]
+                e[i, b] = (y[k + 1, i, runs[b]] - nu_t[k + 1, i, b]) * sw[i, b]
+        # the three DOFs' products added one after the other to each sum (the order of adding them
+        # DOF by DOF, so the same roundings), each sum read and written once a step, not three times
+        for a in range(p):
+            for q in range(a, p):
                 for b in range(batch):
-                    gl[a, b] += sk[a, b] * e[b]
+                    v = hl[a, q, b] + sk[0, a, b] * sk[0, q, b]
+                    v = v + sk[1, a, b] * sk[1, q, b]
+                    hl[a, q, b] = v + sk[2, a, b] * sk[2, q, b]
+            for b in range(batch):
+                v = gl[a, b] + sk[0, a, b] * e[0, b]
+                v = v + sk[1, a, b] * e[1, b]
+                gl[a, b] = v + sk[2, a, b] * e[2, b]
         s_old[:] = s_new
     for b in range(batch):
         for a in range(p):
