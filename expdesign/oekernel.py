@@ -18,8 +18,9 @@ tests/test_oekernel.py checks 1e-9 against the numpy path).
 
 Applies to planar models without pods, rigid body or heading terms, simulated in calm water (the
 output-error model); otherwise :func:`calm_runs` returns None and the numpy path runs. The
-simulations and mean squares are the numpy path's bits (the same compiled time loop as
-:func:`primitives.simulate.simulate`, sums over the samples in their order).
+simulations and mean squares are the numpy path's bits (the operations of the compiled time loop
+of :func:`primitives.simulate.simulate` in calm water, in :func:`_calm_loop`; sums over the samples
+in their order).
 """
 
 from __future__ import annotations
