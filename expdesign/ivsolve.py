@@ -389,7 +389,7 @@ def _instrument_pass(
     m = TILE
     st = np.empty((jitloop.N_STATE + in_t.shape[1], m))
     x = np.empty((3, m))
-    fv, fs = np.empty((nf, m)), np.empty((max(nf, f_sig.shape[0]), m))
+    fv, fs = np.empty((nf, m)), np.empty((f_sig.shape[0], m))
     ph_t, tg_t = np.empty((n, p, m)), np.empty((n, 3, m))  # the tile's data regressors and targets, contiguous
     z = np.empty((n, p, m))
     acc, inc = np.empty(m), np.empty((3, m))
@@ -417,10 +417,10 @@ def _instrument_pass(
                     z[k, q, t] = v
                     if not abs(v) <= worst[t]:  # NaN too
                         worst[t] = abs(v) if v == v else math.inf
-            if same:
-                fs[:, :tl] = fv[:, :tl]
-            else:  # the simulated model's own factors at the same signals
+            src = fv  # the predictor's factors are the simulated model's: read them, no copy
+            if not same:  # the simulated model's own factors at the same signals
                 _tile_factors(fs, st, f_sig, f_mod, f_pow, f_sta, tl)
+                src = fs
             for i in range(3):
                 for t in range(tl):
                     inc[i, t] = 0.0
@@ -429,7 +429,7 @@ def _instrument_pass(
                         acc[t] = coef[q, 0 if one_coef else j0 + t]
                     for f in range(t_first[q], t_first[q] + t_n[q]):
                         for t in range(tl):
-                            acc[t] = acc[t] * fs[f, t]
+                            acc[t] = acc[t] * src[f, t]
                     for t in range(tl):
                         inc[i, t] = acc[t] if q == dof_first[i] else inc[i, t] + acc[t]
             for i in range(3):

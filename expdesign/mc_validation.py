@@ -14,7 +14,7 @@ from expdesign.estimators import OEData
 from expdesign.mc_result import MCResult
 from primitives.ship import ShipProfile
 from primitives.simulate import simulate
-from primitives.steady_forces import steady_forces
+from primitives.steady_forces import steady_forces_many
 
 if TYPE_CHECKING:
     from expdesign.montecarlo import MCShared
@@ -46,7 +46,7 @@ def validation_input(profile: ShipProfile, n: int, seed: int = 0) -> tuple[np.nd
     u = c * (0.7 + 0.3 * multisine(3))
     v = 0.1 * c * prbs
     r = 0.3 * c / L * multisine(3)
-    forces = np.array([steady_forces(profile, a, b, g) for a, b, g in zip(u, v, r)])
+    forces = steady_forces_many(profile, u, v, r)  # each sample's steady_forces, in one batch
     return profile.allocate(forces[:, 0], forces[:, 1], forces[:, 2]), np.array([u[0], v[0], r[0]])
 
 

@@ -282,21 +282,30 @@ class _Seg:
     y: np.ndarray
 
 
-def _noise(d: Disturbances, gens: list[np.random.Generator], n: int, offsets: list[np.ndarray]) -> tuple[np.ndarray, ...]:
+def _noise(
+    d: Disturbances, gens: list[np.random.Generator], n: int, offsets: list[np.ndarray], heading: bool = True
+) -> tuple[np.ndarray, ...]:
     """Each run's current (B, n, 2), wind (B, n, 2), measurement noise (B, n+1, 3) and heading noise
     (B, n+1): per run one draw of all its standard normals from its own generator, in the order
     current, wind, measurement, heading (the draws of four calls of that order, the same numbers),
-    then scaled for all runs at once (elementwise: each number as a run alone gives it)."""
+    then scaled for all runs at once (elementwise: each number as a run alone gives it). Without
+    ``heading`` (a caller that reads no heading noise and draws nothing after it) the heading's
+    normals, the last, are not drawn and its noise is None. A wind without a random part is its
+    mean, read-only, for every run and sample (mean + 0 * draw is the mean: no (B, n, 2) array)."""
     sizes = np.cumsum([0, 2 * n, 2 * n, 3 * (n + 1), n + 1])
-    z = np.empty((len(gens), sizes[-1]))
+    z = np.empty((len(gens), sizes[4 if heading else 3]))
     for g, row in zip(gens, z):
-        row[:] = g.normal(0.0, 1.0, sizes[-1])
+        g.standard_normal(out=row)  # normal(0, 1) is 0 + 1 * these: the same numbers
     b = len(gens)
     part = [z[:, sizes[i] : sizes[i + 1]] for i in range(4)]
     cur = (np.asarray(d.current_ne, float) + np.stack(offsets))[:, None, :] + part[0].reshape(b, n, 2) * d.current_sample_std
-    wind = np.asarray(d.wind_ne, float) + part[1].reshape(b, n, 2) * d.wind_sample_std
+    wind_ne = np.asarray(d.wind_ne, float)
+    if d.wind_sample_std == 0 and not np.signbit(wind_ne).any():  # (-0.0 + 0.0 would be +0.0)
+        wind = np.broadcast_to(wind_ne, (b, n, 2))
+    else:
+        wind = wind_ne + part[1].reshape(b, n, 2) * d.wind_sample_std
     meas = part[2].reshape(b, n + 1, 3) * np.asarray(d.measurement_std, float)
-    return cur, wind, meas, part[3] * d.heading_std
+    return cur, wind, meas, part[3] * d.heading_std if heading else None
 
 
 def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fused: bool = False) -> list[_Seg]:
@@ -313,11 +322,12 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fu
     for j in range(len(exps[0])):
         inp = np.stack([e[j][0] for e in exps])
         nu0 = np.stack([e[j][1] for e in exps])
-        cur, wind, meas, head = _noise(d, gens, inp.shape[1], offsets)
-        calm = [] if fused else [np.zeros_like(cur)]
-        env = Disturbances(
-            current_ne=np.concatenate([cur, *calm]), wind_ne=np.concatenate([wind, *calm]), current_turning=d.current_turning
-        )
+        # the heading noise is read by the unfused path's regressors only (and nothing is drawn after
+        # it when one experiment is the whole run, as with the fused pass)
+        cur, wind, meas, head = _noise(d, gens, inp.shape[1], offsets, heading=not fused)
+        if not fused:  # the calm instrument model after the true system
+            cur, wind = (np.concatenate([a, np.zeros_like(cur)]) for a in (cur, wind))
+        env = Disturbances(current_ne=cur, wind_ne=wind, current_turning=d.current_turning)
         with np.errstate(all="ignore"):
             res = simulate(
                 prof,

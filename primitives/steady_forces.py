@@ -38,17 +38,34 @@ def steady_forces(
     Solves Phi(u, v, r, tau)^T theta = 0 for tau, using that the model is affine in each of
     tau_x, tau_y, tau_n (true for (3.60) and (9.1)).
     """
+    tau = steady_forces_many(profile, np.array([u], float), np.array([v], float), np.array([r], float), theta)[0]
+    return float(tau[0]), float(tau[1]), float(tau[2])
+
+
+def steady_forces_many(
+    profile: ShipProfile, u: np.ndarray, v: np.ndarray, r: np.ndarray, theta: np.ndarray | str | None = None
+) -> np.ndarray:
+    """:func:`steady_forces` of each state (u[k], v[k], r[k]): (n, 3), in one batched evaluation
+    of the increments and one stacked solve (elementwise and per system: each row the numbers
+    of a call for that state alone)."""
     require_steady_forces(profile)
     terms = profile.model
     theta = profile.params(theta)
-    # one batched evaluation at tau = 0 and at the three unit forces
-    taus = np.vstack([np.zeros(3), np.eye(3)])
-    nu = np.tile([u, v, r], (4, 1)).astype(float)
-    sig = model_signals(profile, nu, np.zeros(4), {"tau_x": taus[:, 0], "tau_y": taus[:, 1], "tau_n": taus[:, 2]})
-    f = np.array(terms.increments(sig, theta))  # (3 DOFs, 4 settings)
-    jac = f[:, 1:] - f[:, :1]
+    n = len(u)
+    # the increments at tau = 0 and at the three unit forces, setting after setting
+    taus = np.repeat(np.vstack([np.zeros(3), np.eye(3)]), n, axis=0)
+    nu = np.tile(np.column_stack([u, v, r]).astype(float), (4, 1))
+    sig = model_signals(profile, nu, np.zeros(4 * n), {"tau_x": taus[:, 0], "tau_y": taus[:, 1], "tau_n": taus[:, 2]})
+    f = np.array(terms.increments(sig, theta)).reshape(3, 4, n)  # (3 DOFs, 4 settings, n)
+    jac = (f[:, 1:] - f[:, :1]).transpose(2, 0, 1)  # (n, DOF, force)
+    rhs = -f[:, 0].T
     try:
-        tau = np.linalg.solve(jac, -f[:, 0])
-    except np.linalg.LinAlgError:
-        tau, *_ = np.linalg.lstsq(jac, -f[:, 0], rcond=None)
-    return float(tau[0]), float(tau[1]), float(tau[2])
+        return np.linalg.solve(jac, rhs[..., None])[..., 0]
+    except np.linalg.LinAlgError:  # a singular state: each on its own, least squares where singular
+        out = np.empty((n, 3))
+        for k in range(n):
+            try:
+                out[k] = np.linalg.solve(jac[k], rhs[k])
+            except np.linalg.LinAlgError:
+                out[k] = np.linalg.lstsq(jac[k], rhs[k], rcond=None)[0]
+        return out

@@ -142,3 +142,25 @@ def test_a_runs_noise_is_its_own_generators_draws_in_the_documented_order(ship):
     # current, last wind, first measurement and last heading sample
     assert (got[0][1, 0, 0], got[1][1, -1, 1]) == (0.4054462279281199, 0.10364829442865264)
     assert (got[2][1, 0, 0], got[3][1, -1]) == (0.009908271968889283, -0.0018091617912908292)
+
+
+def test_noise_without_heading_or_wind_spread_gives_the_same_numbers_and_no_arrays_for_them():
+    """The fused pass reads no heading noise: it is not drawn (the last draws), the rest unchanged;
+    a wind without random part is its mean for every run and sample, not a (B, n, 2) array."""
+    from expdesign.montecarlo import _noise, _run_rng
+    from primitives.simulate import Disturbances
+
+    d = Disturbances(current_ne=(0.1, -0.2), current_sample_std=0.15, wind_ne=(3.0, 0.0),
+                     measurement_std=(0.02, 0.01, 0.005), heading_std=0.01)  # fmt: skip
+    n, runs = 40, [0, 7, 3]
+    offsets = [np.array([0.05, -0.01]) * (i + 1) for i in runs]
+    full = _noise(d, [_run_rng(2, i, 1) for i in runs], n, offsets)
+    part = _noise(d, [_run_rng(2, i, 1) for i in runs], n, offsets, heading=False)
+    assert part[3] is None
+    for a, b in zip(full[:3], part[:3]):
+        assert np.array_equal(a, b)
+    for j, i in enumerate(runs):  # the wind's normals are still drawn: the measurement noise follows them
+        g = _run_rng(2, i, 1)
+        g.normal(0.0, 1.0, (2, n, 2))
+        assert np.array_equal(part[2][j], g.normal(0.0, 1.0, (n + 1, 3)) * np.asarray(d.measurement_std))
+    assert np.array_equal(part[1], np.broadcast_to([3.0, 0.0], (3, n, 2))) and not any(part[1].strides[:2])

@@ -9,7 +9,7 @@ from primitives.profile_document import profile_from_dict
 from primitives.regressors import instruments, predictor_regressors
 from primitives.ship import PROFILE_DIR, ProfileError, builtin_profiles, load_profile
 from primitives.simulate import Disturbances, simulate
-from primitives.steady_forces import steady_forces
+from primitives.steady_forces import steady_forces, steady_forces_many
 
 
 @pytest.fixture(scope="module")
@@ -234,3 +234,19 @@ def test_an_empty_foreign_table_is_no_error(ms):
     """An empty table says nothing a model could ignore: a JSON profile with "thrusters": [] loads."""
     again = profile_from_dict(ms.to_dict() | {"thrusters": [], "helm": {}}, "ship.json")
     assert again.actuator == "generalized" and again.thrusters == ()
+
+
+@pytest.mark.parametrize("name", ["model-ship", "full-scale"])
+def test_steady_forces_of_many_states_are_each_states_own(name):
+    """The batched solve (the Monte Carlo's validation input: a thousand states) gives every state
+    the numbers of a call for it alone, and those forces hold it steady."""
+    p = load_profile(name)
+    rng = np.random.default_rng(3)
+    c = p.cruise_speed_mps
+    u, v, r = c * rng.uniform(0.3, 1.2, 50), 0.1 * c * rng.normal(size=50), 0.3 * c / p.length_m * rng.normal(size=50)
+    many = steady_forces_many(p, u, v, r)
+    assert np.array_equal(many, [steady_forces(p, *s) for s in zip(u, v, r)])
+    inputs = p.allocate(many[:, 0], many[:, 1], many[:, 2])
+    nu = np.column_stack([u, v, r])
+    sim = simulate(p, inputs[:, None, :], nu0=nu, batch=50)
+    assert np.allclose(sim.nu[:, 1], nu, rtol=1e-9, atol=1e-12)
