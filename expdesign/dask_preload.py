@@ -7,7 +7,8 @@ workers, forked from a parent that loaded them once (:func:`expdesign.montecarlo
 pay nothing. Preloaded, each worker does this while it starts, before any command:
 
 - one BLAS / OpenMP thread (:func:`expdesign.parallel.one_thread_per_worker`) set before the
-  package loads its numerical libraries;
+  package loads its numerical libraries, and freed memory kept for the next batch
+  (:func:`expdesign.parallel.keep_freed_memory`: the nanny's MALLOC_TRIM_THRESHOLD_ undone);
 - the package imported and the compiled passes of one Monte Carlo run of the model-ship profile
   loaded (run 0 of a random design, its result dropped; the same passes serve every planar
   profile's runs, other structures load theirs at their first task).
@@ -23,9 +24,10 @@ import time
 
 def warm() -> float:
     """Load what a Monte Carlo task needs in this process; CPU seconds it took."""
-    from expdesign.parallel import one_thread_per_worker
+    from expdesign.parallel import keep_freed_memory, one_thread_per_worker
 
     one_thread_per_worker()
+    keep_freed_memory()
     t = time.process_time()
     from expdesign.montecarlo import MCConfig, prepare, warm_compiled
     from primitives.ship import load_profile

@@ -214,18 +214,20 @@ def test_design_says_when_dask_workers_run_several_threads(capsys):
         assert "--nthreads" not in capsys.readouterr().err
 
 
-def _worker_state() -> tuple[bool, bool, int]:
+def _worker_state() -> tuple[bool, bool, int, bool]:
     import sys
 
+    from expdesign import parallel
     from primitives import jitloop
 
-    return "expdesign.montecarlo" in sys.modules, jitloop.loaded(), _blas_threads(None)
+    return "expdesign.montecarlo" in sys.modules, jitloop.loaded(), _blas_threads(None), parallel._MALLOC_SET
 
 
 def test_dask_preload_warms_a_worker_before_any_task():
     """A worker started with ``--preload expdesign.dask_preload`` has the Monte Carlo imported, the
-    compiled passes loaded and one BLAS thread before the first command sends it a task (without it,
-    each new worker pays that in its first task: the first run's wall on a fresh cluster)."""
+    compiled passes loaded, one BLAS thread and the nanny's MALLOC_TRIM_THRESHOLD_ undone (freed
+    memory kept for the next batch) before the first command sends it a task (without it, each new
+    worker pays that in its first task: the first run's wall on a fresh cluster)."""
     distributed = pytest.importorskip("distributed")
     from primitives import jitloop
 
@@ -235,4 +237,4 @@ def test_dask_preload_warms_a_worker_before_any_task():
         distributed.Client(warm, set_as_default=False) as client,
     ):
         (state,) = client.run(_worker_state).values()
-    assert state == (True, jitloop.AVAILABLE, 1)  # a plain worker: (False, False, the library's default)
+    assert state == (True, jitloop.AVAILABLE, 1, True)  # a plain worker: (False, False, the library's default, False)
