@@ -52,9 +52,9 @@ def _task(item: tuple[str, int, int], shared: MCShared) -> MCResult:
 
 
 # Fewest runs in a task cut for load balance: a task costs a fixed part F (the batch's setup and the
-# kernel's time loops, paid whatever its size) plus p a run; measured F 13-35 ms, p 1.65 ms
-# (`python benchmarks/bench_design.py --scaling`), so a 100-run task spends at most about 15 % of
-# its CPU on F where a 32-run one spent up to 40 %.
+# kernel's time loops, paid whatever its size) plus p a run; measured F 8-39 ms, p 1.6-1.8 ms
+# (`python benchmarks/bench_design.py --scaling`, 2 loaded cores), so a 100-run task spends at most
+# about a fifth of its CPU on F where a 32-run one spent up to two fifths.
 MIN_TASK_RUNS = 100
 
 
@@ -66,7 +66,7 @@ def plan_tasks(runs: int, n_designs: int, slots: int, tasks_per_worker: int = 4,
     Not more: a task's cost is a fixed part (paid once per batch whatever its size) plus a part per
     run, so every extra task adds the fixed part to the total; with the faster kernel the fixed part
     weighs more: 4 tasks per slot of a small study (500 runs x 4 designs on 16 workers: 32-run
-    tasks) spent a fifth to two fifths of their CPU on it. ``python benchmarks/bench_design.py --scaling`` measures
+    tasks) spent up to two fifths of their CPU on it. ``python benchmarks/bench_design.py --scaling`` measures
     both parts and predicts the efficiency per worker count."""
     cap = max(1, min(chunk_runs or MAX_CHUNK, MAX_CHUNK))
     n = -(-runs // cap)
