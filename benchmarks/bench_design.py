@@ -2,6 +2,7 @@
 
     python benchmarks/bench_design.py [--runs 5] [--mc-runs 500]
     python benchmarks/bench_design.py --scaling [--mc-runs 2000] [--workers 2 3] [--scheduler tcp://...] [--runs 3] [--model-only]
+        [--dask-local 2 4 [--no-preload]]
     python benchmarks/bench_design.py --threads
     python benchmarks/bench_design.py --profile-task
 
@@ -9,7 +10,8 @@ convex (7.18)/(7.53) solve for the 11 model-ship primitives: < 0.5 s; non-convex
 solve: < 1 s; Monte Carlo of one design with 500 runs of 1000 samples: < 20 s (2 cores).
 
 ``--scaling`` (issue 14): the optimized and the random design, ``--mc-runs`` runs each, inline and on
-local pools of each ``--workers`` count (and a Dask scheduler if given): median wall time, the
+local pools of each ``--workers`` count (and a Dask scheduler if given, and local Dask clusters of
+each ``--dask-local`` count: :mod:`benchmarks.scaling_dask`, modelled apart): median wall time, the
 SHA-256 digests of all per-run results (must equal inline's), tasks per worker, runs/s, speed-up
 against inline and parallel efficiency (speed-up / workers). Target: >= 1.8x on 2 workers.
 The wall-clock speed-up needs an otherwise idle machine (the load average is printed); the CPU
