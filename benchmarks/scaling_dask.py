@@ -8,7 +8,7 @@ on a local Dask cluster of single-thread worker processes, timed and costed as t
   runs warm). CPU: this process (client and scheduler) plus every worker's ``time.process_time``
   read before and after by ``Client.run`` (the nannies' own CPU is left out).
 - ``dask_overhead``: what Dask adds per task and per run, with no-op tasks: the shared inputs
-  scattered to every worker, ``4 W`` no-op tasks, results gathered. The parent's CPU (client and
+  scattered to every worker, W and 5 W no-op tasks, results gathered. The parent's CPU (client and
   scheduler: serial) plus one worker's share, fitted as ``a + b W`` over the measured W so that
   16 workers can be read off, and the CPU per task on top of the task's own work.
 """

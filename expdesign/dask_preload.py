@@ -10,8 +10,8 @@ pay nothing. Preloaded, each worker does this while it starts, before any comman
   package loads its numerical libraries, and freed memory kept for the next batch
   (:func:`expdesign.parallel.keep_freed_memory`: the nanny's MALLOC_TRIM_THRESHOLD_ undone);
 - the package imported and the compiled passes of one Monte Carlo run of the model-ship profile
-  loaded (run 0 of a random design, its result dropped; the same passes serve every planar
-  profile's runs, other structures load theirs at their first task).
+  loaded (run 0 of a random design, its result dropped; a profile whose runs take other passes
+  loads those at its first task).
 
 A failure here (no numba, an unwritable cache) is printed and the worker starts anyway: its
 tasks then load what they need as they would without the preload.
