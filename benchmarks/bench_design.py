@@ -2,6 +2,7 @@
 
     python benchmarks/bench_design.py [--runs 5] [--mc-runs 500]
     python benchmarks/bench_design.py --scaling [--mc-runs 2000] [--workers 2 3] [--scheduler tcp://...] [--runs 3] [--model-only]
+        [--dask-local 2 4 [--no-preload]]
     python benchmarks/bench_design.py --threads
     python benchmarks/bench_design.py --profile-task
 
@@ -9,7 +10,8 @@ convex (7.18)/(7.53) solve for the 11 model-ship primitives: < 0.5 s; non-convex
 solve: < 1 s; Monte Carlo of one design with 500 runs of 1000 samples: < 20 s (2 cores).
 
 ``--scaling`` (issue 14): the optimized and the random design, ``--mc-runs`` runs each, inline and on
-local pools of each ``--workers`` count (and a Dask scheduler if given): median wall time, the
+local pools of each ``--workers`` count (and a Dask scheduler if given, and local Dask clusters of
+each ``--dask-local`` count: :mod:`benchmarks.scaling_dask`, modelled apart): median wall time, the
 SHA-256 digests of all per-run results (must equal inline's), tasks per worker, runs/s, speed-up
 against inline and parallel efficiency (speed-up / workers). Target: >= 1.8x on 2 workers.
 The wall-clock speed-up needs an otherwise idle machine (the load average is printed); the CPU
@@ -56,6 +58,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+if __package__ in (None, ""):  # run as a script: its sibling modules, as benchmarks/run.py finds them
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
 from expdesign.dopt import InfoSet, solve_convex
 from expdesign.montecarlo import MCShared, evaluate_designs
 from expdesign.nonconvex import solve_nonconvex
@@ -77,9 +85,12 @@ def bench(name: str, fn, target: float, runs: int) -> float:
     return med
 
 
-def scaling(runs: int, workers: list[int], scheduler: str | None, repeat: int) -> list[dict]:
-    """Inline against local pools (and a cluster): same digests, speed-up per worker count.
-    Returns per engine: label, worker slots, median wall and CPU seconds."""
+def scaling(
+    runs: int, workers: list[int], scheduler: str | None, repeat: int, dask_local: Sequence[int] = (), preload: bool = True
+) -> list[dict]:
+    """Inline against local pools (and a cluster, and local Dask clusters of ``dask_local`` workers):
+    same digests, speed-up per worker count. Returns per engine: label, worker slots, median wall
+    and CPU seconds."""
     from expdesign.mc_parallel import evaluate_designs_parallel
     from expdesign.montecarlo import MCConfig, prepare, warm_compiled
     from expdesign.parallel import Engine, LocalEngine, get_engine
@@ -118,11 +129,32 @@ def scaling(runs: int, workers: list[int], scheduler: str | None, repeat: int) -
             f"{base / med / slots:5.2f}  {e['tasks']:3d} tasks ({e['tasks_per_worker']:.1f} per worker, {e['runs_per_task']} runs each)  "
             f"digests {'same as inline' if dig == ref else 'DIFFER from inline'}"
         )
-        print(
-            f"{'':14s} CPU {cpu:7.2f} s (this process and its workers), {1e3 * cpu / (2 * runs):5.2f} ms per run, "
-            f"{cpu / base_cpu:4.2f} x inline's: CPU-bound speed-up {slots * base_cpu / cpu:5.2f} on an idle machine"
-        )
+        _cpu_line(cpu, runs, base_cpu, slots)
+    if dask_local:
+        from benchmarks.scaling_dask import dask_runs
+
+        def run(client):
+            ev = evaluate_designs_parallel(p, designs, runs=runs, seed=0, scheduler=client, primitives=lib, progress=False)
+            return ev, {k: r.digest() for k, r in ev.results.items()}
+
+        for row in dask_runs(run, dask_local, repeat, preload):
+            e, med = row["engine"], row["wall"]
+            rows.append(row)
+            print(
+                f"{row['label']:14s} {med:7.2f} s  {2 * runs / med:6.0f} runs/s  speed-up {base / med:5.2f}  efficiency "
+                f"{base / med / row['slots']:5.2f}  {e['tasks']:3d} tasks ({e['tasks_per_worker']:.1f} per worker, "
+                f"{e['runs_per_task']} runs each)  digests {'same as inline' if row['digests'] == ref else 'DIFFER from inline'}; "
+                f"first run on the new workers {row['first_wall']:.2f} s, CPU {row['first_cpu']:.2f} s"
+            )
+            _cpu_line(row["cpu"], runs, base_cpu, row["slots"], "this process, its scheduler and the workers")
     return rows
+
+
+def _cpu_line(cpu: float, runs: int, base_cpu: float, slots: int, who: str = "this process and its workers") -> None:
+    print(
+        f"{'':14s} CPU {cpu:7.2f} s ({who}), {1e3 * cpu / (2 * runs):5.2f} ms per run, "
+        f"{cpu / base_cpu:4.2f} x inline's: CPU-bound speed-up {slots * base_cpu / cpu:5.2f} on an idle machine"
+    )
 
 
 def _setup() -> tuple[ShipProfile, list[Primitive], dict[str, object]]:
@@ -258,16 +290,18 @@ def predict(
     tasks_per_worker: int = 4,
     first_extra: Callable[[int], float] = lambda n: 0.0,
     inflation: float = 1.0,
+    per_task: float = 0.0,
 ) -> dict:
     """Predicted wall time on ``w`` otherwise idle cores: the parent's serial time (pool start and
     stop, Amdahl) plus the makespan of the tasks cut as the engines cut them, in fresh processes
     (as a command runs: inline pays ``first_extra`` once, each worker once). ``inflation``: the
     measured CPU of W processes over what the model counts (shared caches, memory bandwidth,
-    threads: CPU the workers burn that a warm single process does not), multiplying every task."""
+    threads: CPU the workers burn that a warm single process does not), multiplying every task;
+    ``per_task``: the engine's own CPU seconds per task (Dask's), added to every task."""
     from expdesign.mc_parallel import cut_tasks, plan_tasks
 
     tasks = cut_tasks(designs, runs, plan_tasks(runs, len(designs), w, tasks_per_worker))
-    costs = [c * inflation for c in cost.of(tasks)]
+    costs = [c * inflation + per_task for c in cost.of(tasks)]
     chunk = max(b - a for _, a, b in tasks)
     extra = first_extra(chunk) * inflation
     compute = makespan(costs, w, extra)
@@ -310,6 +344,9 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
         )
     infl = _inflation(modelled)
     _predicted(cost, names, runs, serial, f"{runs} runs x {len(names)} designs", warm, infl)
+    dask_rows = [r for r in measured if r["label"].startswith("dask x")]
+    if dask_rows:
+        _dask_model(cost, names, runs, sh, prep, dask_rows, modelled.get(1, 1.0), warm)
     # `shiptrial design --monte-carlo 500` evaluates 4 designs; uniform and thesis cost as the optimized one (fixed shares)
     cost.fixed |= {k: cost.fixed["optimized"] for k in ("uniform", "thesis")}
     cost.per_run |= {k: cost.per_run["optimized"] for k in ("uniform", "thesis")}
@@ -321,6 +358,49 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
         "shiptrial design --monte-carlo 500 (4 designs)",
         warm,
         infl,
+    )
+
+
+def _dask_model(
+    cost: TaskCost, names: list[str], runs: int, sh: MCShared, prep: float, rows: list[dict], base: float, warm: float
+) -> None:
+    """The same model for the local Dask clusters measured (warm workers): Dask's serial part a + b W and
+    CPU per task (:func:`benchmarks.scaling_dask.dask_overhead`), its CPU inflation relative to inline's,
+    the 16-worker prediction; and with new workers that were not preloaded, each worker's first-run
+    cost (the measured first run's extra CPU per worker) on top."""
+    from benchmarks.scaling_dask import dask_overhead, print_overhead
+
+    ov = dask_overhead(sh, sorted({r["slots"] for r in rows}))
+    print_overhead(ov)
+    serial = {w: ov["a"] + ov["b"] * w for w in (1, 2, 3, 4, 8, 16)}
+    modelled = {1: base}
+    for row in rows:
+        w = row["slots"]
+        pr = predict(cost, names, runs, w, serial[w], per_task=ov["per_task"])
+        cpu = pr["cpu"] + prep + serial[w]
+        modelled[w] = row["cpu"] / cpu
+        cold = (row["first_cpu"] - row["cpu"]) / w
+        print(
+            f"  model vs measured {row['label']:12s}: CPU {cpu:6.2f} s vs {row['cpu']:6.2f} s (inflation {row['cpu'] / cpu:4.2f}); "
+            f"wall {pr['wall']:6.2f} s vs {row['wall']:6.2f} s; a new worker's first run: {cold:.2f} s CPU more per worker"
+        )
+    infl = _inflation(modelled)
+    _predicted(
+        cost,
+        names,
+        runs,
+        serial,
+        f"Dask, warm single-thread workers, {runs} runs x {len(names)} designs",
+        warm,
+        infl,
+        ov["per_task"],
+    )
+    cold = max(0.0, statistics.median((r["first_cpu"] - r["cpu"]) / r["slots"] for r in rows))
+    inline = predict(cost, names, runs, 1, 0.0, first_extra=lambda n: n * warm)["wall"]
+    pr = predict(cost, names, runs, 16, serial[16] + cold, per_task=ov["per_task"], inflation=infl(16))
+    print(
+        f"  16 new workers, not preloaded (each first loads the package and numba, {cold:.2f} s CPU): efficiency "
+        f"{inline / pr['wall'] / 16:4.2f}"
     )
 
 
@@ -348,6 +428,7 @@ def _predicted(
     what: str,
     warm: float,
     inflation: Callable[[int], float] = lambda w: 1.0,
+    per_task: float = 0.0,
 ) -> None:
     """Predicted wall, speed-up and efficiency per worker count in ``serial``, and at the most workers by tasks per
     worker; ``warm``: extra CPU seconds per run of a worker's first task; ``inflation``: the measured CPU inflation
@@ -356,8 +437,8 @@ def _predicted(
     inline = predict(cost, names, runs, 1, 0.0, **extra)["wall"]
     print(f"predicted on an idle machine with >= W cores, {what} (inline {inline:.2f} s):")
     for w in serial:
-        pr = predict(cost, names, runs, w, serial[w], inflation=inflation(w), **extra)
-        pr0 = predict(cost, names, runs, w, serial[w], **extra)
+        pr = predict(cost, names, runs, w, serial[w], inflation=inflation(w), per_task=per_task, **extra)
+        pr0 = predict(cost, names, runs, w, serial[w], per_task=per_task, **extra)
         print(
             f"  {w:2d} workers: {pr['tasks']:3d} tasks of <= {pr['chunk']:3d} runs ({pr['tasks'] / w:4.1f} per worker)  wall {pr['wall']:6.2f} s  "
             f"speed-up {inline / pr['wall']:5.2f}  efficiency {inline / pr['wall'] / w:4.2f} with CPU inflation {inflation(w):4.2f} "
@@ -365,7 +446,7 @@ def _predicted(
         )
     w = max(serial)
     alt = ", ".join(
-        f"{k}: {inline / predict(cost, names, runs, w, serial[w], k, inflation=inflation(w), **extra)['wall'] / w:4.2f}"
+        f"{k}: {inline / predict(cost, names, runs, w, serial[w], k, inflation=inflation(w), per_task=per_task, **extra)['wall'] / w:4.2f}"
         for k in (1, 2, 3, 4, 8)
     )
     print(f"  {w} workers, efficiency by tasks per worker (the issue asks for >= 4): {alt}")
@@ -456,6 +537,10 @@ def main() -> None:
     ap.add_argument("--scaling", action="store_true", help="Monte Carlo inline vs worker counts (issue 14)")
     ap.add_argument("--workers", type=int, nargs="*", default=[2])
     ap.add_argument("--scheduler", default=None, help="also time this Dask scheduler address")
+    ap.add_argument(
+        "--dask-local", type=int, nargs="*", default=[], help="with --scaling: also local Dask clusters of these worker counts"
+    )
+    ap.add_argument("--no-preload", action="store_true", help="Dask workers without expdesign.dask_preload")
     ap.add_argument("--model-only", action="store_true", help="with --scaling: only the task-cost model (about a minute)")
     ap.add_argument(
         "--threads", action="store_true", help="Monte Carlo tasks in threads of one process (Dask workers with --nthreads > 1)"
@@ -469,7 +554,7 @@ def main() -> None:
         threads_check()
         return
     if a.scaling:
-        rows = [] if a.model_only else scaling(a.mc_runs, a.workers, a.scheduler, a.runs)
+        rows = [] if a.model_only else scaling(a.mc_runs, a.workers, a.scheduler, a.runs, a.dask_local, not a.no_preload)
         task_cost(a.mc_runs, a.workers, rows)
         return
     p = load_profile("model-ship")

@@ -1,8 +1,9 @@
 """The Monte Carlo of :mod:`expdesign.montecarlo` cut into (design, runs) tasks and run on an engine
 of :mod:`expdesign.parallel` (inline, a local process pool or a Dask cluster).
 
-The engine is asked for its workers and threads and gets at least ``tasks_per_worker`` tasks per
-worker slot, in near-equal run ranges; the shared inputs (:class:`expdesign.montecarlo.MCShared`)
+The engine is asked for its workers and threads and gets ``tasks_per_worker`` tasks per worker
+slot where each holds at least MIN_TASK_RUNS runs (fewer, larger tasks otherwise), in near-equal
+run ranges; the shared inputs (:class:`expdesign.montecarlo.MCShared`)
 are computed once in the caller and shipped once per worker. A task's result depends only on
 (seed, run index), so the merged per-run results are bit-identical to one in-process call
 (:func:`expdesign.montecarlo.evaluate_designs`) whatever the engine or the cut.
@@ -50,18 +51,29 @@ def _task(item: tuple[str, int, int], shared: MCShared) -> MCResult:
     return run_chunk(shared, design, range(a, b))
 
 
-def plan_tasks(runs: int, n_designs: int, slots: int, tasks_per_worker: int = 4, chunk_runs: int | None = None) -> int:
-    """Tasks per design: together at least ``tasks_per_worker`` per worker slot (load balance and
-    progress), each of at most MAX_CHUNK runs (or ``chunk_runs``, which then alone decides).
+# Fewest runs in a task cut for load balance: a task costs a fixed part F (the batch's setup and the
+# kernel's time loops, paid whatever its size) plus p a run; measured F 8-39 ms, p 1.6-1.8 ms
+# (`python benchmarks/bench_design.py --scaling`, 2 loaded cores), so a 100-run task spends at most
+# about a fifth of its CPU on F where a 32-run one spent up to two fifths.
+MIN_TASK_RUNS = 100
 
-    Not more: a task's cost is a fixed part (the simulation kernel's time loops, paid once per
-    batch whatever its size) plus a part per run, so every extra task adds the fixed part to the
-    total; ``python benchmarks/bench_design.py --scaling`` measures both and predicts the
-    efficiency per worker count."""
+
+def plan_tasks(runs: int, n_designs: int, slots: int, tasks_per_worker: int = 4, chunk_runs: int | None = None) -> int:
+    """Tasks per design, each of at most MAX_CHUNK runs (or ``chunk_runs``, which then alone decides);
+    on several worker slots, ``tasks_per_worker`` per slot together (load balance and progress) when
+    they hold at least MIN_TASK_RUNS runs each, else fewer, larger tasks, down to one per slot.
+
+    Not more: a task's cost is a fixed part (paid once per batch whatever its size) plus a part per
+    run, so every extra task adds the fixed part to the total; with the faster kernel the fixed part
+    weighs more: 4 tasks per slot of a small study (500 runs x 4 designs on 16 workers: 32-run
+    tasks) spent up to two fifths of their CPU on it. ``python benchmarks/bench_design.py --scaling`` measures
+    both parts and predicts the efficiency per worker count."""
     cap = max(1, min(chunk_runs or MAX_CHUNK, MAX_CHUNK))
     n = -(-runs // cap)
     if slots > 1 and not chunk_runs:
-        n = max(n, -(-tasks_per_worker * slots // n_designs))
+        per_slot = runs * n_designs // slots
+        k = max(1, min(tasks_per_worker, per_slot // MIN_TASK_RUNS))
+        n = max(n, -(-k * slots // n_designs))
     return max(1, min(runs, n))
 
 
@@ -87,7 +99,7 @@ def evaluate_designs_parallel(
 ) -> MCEvaluation:
     """:func:`expdesign.montecarlo.evaluate_designs` cut into (design, runs) tasks on an engine of ``expdesign.parallel``
     (all local cores by default, "inline", or a Dask scheduler / cluster). The engine is asked
-    for its workers and threads and gets at least ``tasks_per_worker`` tasks per worker; the
+    for its workers and threads and gets up to ``tasks_per_worker`` tasks per worker (:func:`plan_tasks`); the
     shared inputs are computed once here and shipped once per worker. The per-run numbers are
     bit-identical to one in-process call."""
     from expdesign.parallel import LocalEngine, get_engine

@@ -174,6 +174,36 @@ def one_thread_per_worker() -> None:
     _ONE_THREAD = True
 
 
+# glibc's mallopt parameters: M_TRIM_THRESHOLD, M_MMAP_THRESHOLD
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+KEEP_FREED_BYTES = 256 << 20  # freed heap a worker keeps for its next batch instead of returning it
+MMAP_FROM_BYTES = 64 << 20  # arrays below this come from the heap (reused), not from fresh mappings
+_MALLOC_SET = False
+
+
+def keep_freed_memory() -> bool:
+    """Let this worker reuse the memory its last batch freed. Dask's nanny starts workers with
+    MALLOC_TRIM_THRESHOLD_=65536, which makes glibc return freed memory to the system at once and
+    also turns off its adaptive mmap threshold: every array over 128 kB of every batch is then a
+    fresh mapping, faulted in and zeroed page by page. Measured on a local Dask cluster of 2 workers
+    (300 runs x 2, load 20): workers' CPU 1.97 s -> 1.48 s. Set with mallopt (glibc only; elsewhere
+    nothing is done and False returned); once per process, only where that variable is set."""
+    global _MALLOC_SET
+    if _MALLOC_SET or "MALLOC_TRIM_THRESHOLD_" not in os.environ:
+        return _MALLOC_SET
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        _MALLOC_SET = bool(libc.mallopt(_M_MMAP_THRESHOLD, MMAP_FROM_BYTES)) and bool(
+            libc.mallopt(_M_TRIM_THRESHOLD, KEEP_FREED_BYTES)
+        )
+    except (OSError, AttributeError):  # not glibc
+        _MALLOC_SET = False
+    return _MALLOC_SET
+
+
 def _init_worker(shared: Any) -> None:
     """Process-pool initializer: keep the shared inputs; one BLAS/OpenMP thread
     (:func:`one_thread_per_worker`); leave Ctrl-C to the parent, which cancels and terminates the
@@ -364,6 +394,7 @@ def _name_the_lost_worker(errors: dict[int, str]) -> dict[int, str]:
 def _dask_call(item: Any, fn: Callable, shared: Any = None) -> Any:
     if os.getpid() not in _CALLER_PIDS:  # a worker process (an in-process cluster leaves the caller's libraries alone)
         one_thread_per_worker()  # a Dask worker's threads each run a task: no BLAS threads on top
+        keep_freed_memory()
     return _call(fn, item, shared)
 
 

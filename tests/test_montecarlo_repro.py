@@ -1,13 +1,13 @@
 """A Monte Carlo run's result depends on (seed, run index) only: SHA-256 digests of every
 per-run array are identical in process (three chunk sizes), on local pools of 1, 2 and 3
-workers and on a distributed.LocalCluster; interrupted or failed evaluations are partial."""
+workers with the engine's cut and a finer one, and on a distributed.LocalCluster; interrupted or failed evaluations are partial."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from expdesign.mc_parallel import cut_tasks, evaluate_designs_parallel, plan_tasks
+from expdesign.mc_parallel import MIN_TASK_RUNS, cut_tasks, evaluate_designs_parallel, plan_tasks
 from expdesign.montecarlo import MAX_CHUNK, evaluate_designs
 from expdesign.parallel import Engine, LocalEngine
 from primitives.library import model_ship_thesis
@@ -54,12 +54,18 @@ def test_same_digest_for_run_slices(ship, reference):
 
 
 @pytest.mark.parametrize("workers", [1, 2, 3])
-def test_same_digest_on_local_pools(ship, reference, workers):
+@pytest.mark.parametrize("chunk_runs", [None, 2])
+def test_same_digest_on_local_pools_however_the_runs_are_cut(ship, reference, workers, chunk_runs):
+    # None: the engine's own cut (12 runs are too few for 100-run tasks: one task per worker slot);
+    # 2: six tasks per design, so the same runs meet other batches in other processes
     p, lib = ship
-    ev = evaluate_designs_parallel(p, DESIGNS, scheduler=LocalEngine(workers), progress=False, primitives=lib, **KW)
+    ev = evaluate_designs_parallel(
+        p, DESIGNS, scheduler=LocalEngine(workers), chunk_runs=chunk_runs, progress=False, primitives=lib, **KW
+    )
     assert ev.complete and _digests(ev.results) == _digests(reference)
+    assert ev.engine["tasks"] == (12 if chunk_runs else max(2, workers + workers % 2))
     if workers > 1:
-        assert ev.engine["tasks"] >= 4 * workers and ev.engine["workers"] == workers
+        assert ev.engine["workers"] == workers
 
 
 def test_same_digest_on_a_dask_local_cluster(ship, reference):
@@ -67,14 +73,17 @@ def test_same_digest_on_a_dask_local_cluster(ship, reference):
     p, lib = ship
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         ev = evaluate_designs_parallel(p, DESIGNS, scheduler=cluster.scheduler_address, progress=False, primitives=lib, **KW)
-    assert ev.engine["name"] == "dask" and ev.engine["workers"] == 2 and ev.engine["tasks"] >= 8
+    assert ev.engine["name"] == "dask" and ev.engine["workers"] == 2 and ev.engine["tasks"] == 2
     assert ev.complete and _digests(ev.results) == _digests(reference)
 
 
-def test_at_least_four_tasks_per_worker_slot():
+def test_tasks_sized_to_the_machine():
     assert plan_tasks(2000, 2, 2) == 8  # 2 designs x 8 tasks of MAX_CHUNK = 250 runs: 8 per worker
-    assert plan_tasks(2000, 2, 16) == 32
-    assert plan_tasks(10, 1, 8) == 10  # fewer runs than 4 per worker: one run per task
+    assert plan_tasks(2000, 2, 8) == 16  # 4 per worker slot, 125 runs each
+    # 4 per slot would be 63-run tasks: 2 per slot of 125 runs (the fixed cost per task weighs less)
+    assert plan_tasks(2000, 2, 16) == 16
+    assert plan_tasks(500, 4, 16) == 4  # 125 runs a slot: one task each, not four of 32 runs
+    assert plan_tasks(10, 1, 8) == 8  # fewer runs than 100 per slot: one task per slot
     assert plan_tasks(5000, 1, 1) == 20  # inline: batches of MAX_CHUNK runs, bounded memory
     assert plan_tasks(12, 2, 4, chunk_runs=5) == 3  # an explicit chunk size alone decides
 
@@ -83,8 +92,8 @@ def test_at_least_four_tasks_per_worker_slot():
 def test_tasks_cover_every_run_once_in_near_equal_ranges(runs, designs, slots):
     names = [f"d{i}" for i in range(designs)]
     tasks = cut_tasks(names, runs, plan_tasks(runs, designs, slots))
-    if slots > 1:  # at least 4 per worker slot, unless there are fewer runs than that
-        assert len(tasks) >= min(4 * slots, designs * runs)
+    if slots > 1:  # at least one per worker slot, 4 when they hold MIN_TASK_RUNS runs each
+        assert len(tasks) >= min(min(4, max(1, runs * designs // slots // MIN_TASK_RUNS)) * slots, designs * runs)
     for d in names:
         ranges = [(a, b) for n, a, b in tasks if n == d]
         assert [a for a, _ in ranges] == [0] + [b for _, b in ranges[:-1]] and ranges[-1][1] == runs

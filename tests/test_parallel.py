@@ -212,3 +212,29 @@ def test_design_says_when_dask_workers_run_several_threads(capsys):
     for quiet in (ev("dask", 1), ev("local", 1)):
         _echo_speed(quiet)
         assert "--nthreads" not in capsys.readouterr().err
+
+
+def _worker_state() -> tuple[bool, bool, int, bool]:
+    import sys
+
+    from expdesign import parallel
+    from primitives import jitloop
+
+    return "expdesign.montecarlo" in sys.modules, jitloop.loaded(), _blas_threads(None), parallel._MALLOC_SET
+
+
+def test_dask_preload_warms_a_worker_before_any_task():
+    """A worker started with ``--preload expdesign.dask_preload`` has the Monte Carlo imported, the
+    compiled passes loaded, one BLAS thread and the nanny's MALLOC_TRIM_THRESHOLD_ undone (freed
+    memory kept for the next batch) before the first command sends it a task (without it, each new
+    worker pays that in its first task: the first run's wall on a fresh cluster)."""
+    distributed = pytest.importorskip("distributed")
+    from primitives import jitloop
+
+    kw = dict(threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40)
+    with (
+        distributed.LocalCluster(n_workers=1, preload=["expdesign.dask_preload"], **kw) as warm,
+        distributed.Client(warm, set_as_default=False) as client,
+    ):
+        (state,) = client.run(_worker_state).values()
+    assert state == (True, jitloop.AVAILABLE, 1, True)  # a plain worker: (False, False, the library's default, False)

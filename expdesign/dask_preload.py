@@ -1,0 +1,46 @@
+"""Dask worker preload: ``dask worker tcp://HOST:8786 --nthreads 1 --preload expdesign.dask_preload``.
+
+A Monte Carlo task on a new Dask worker first pays the worker's own start: importing the package
+and numba, loading the compiled passes from numba's disk cache (about a second of CPU a process,
+16 times over on 16 workers, all inside the first command's wall time) — where a local pool's
+workers, forked from a parent that loaded them once (:func:`expdesign.montecarlo.warm_compiled`),
+pay nothing. Preloaded, each worker does this while it starts, before any command:
+
+- one BLAS / OpenMP thread (:func:`expdesign.parallel.one_thread_per_worker`) set before the
+  package loads its numerical libraries, and freed memory kept for the next batch
+  (:func:`expdesign.parallel.keep_freed_memory`: the nanny's MALLOC_TRIM_THRESHOLD_ undone);
+- the package imported and the compiled passes of one Monte Carlo run of the model-ship profile
+  loaded (run 0 of a random design, its result dropped; a profile whose runs take other passes
+  loads those at its first task).
+
+A failure here (no numba, an unwritable cache) is printed and the worker starts anyway: its
+tasks then load what they need as they would without the preload.
+"""
+
+from __future__ import annotations
+
+import time
+
+
+def warm() -> float:
+    """Load what a Monte Carlo task needs in this process; CPU seconds it took."""
+    from expdesign.parallel import keep_freed_memory, one_thread_per_worker
+
+    one_thread_per_worker()
+    keep_freed_memory()
+    t = time.process_time()
+    from expdesign.montecarlo import MCConfig, prepare, warm_compiled
+    from primitives.ship import load_profile
+
+    warm_compiled(prepare(load_profile("model-ship"), {"random": "random"}, MCConfig(runs=1)))
+    return time.process_time() - t
+
+
+def dask_setup(worker: object = None) -> None:
+    """Dask's preload hook (called once as the worker starts)."""
+    try:
+        cpu = warm()
+    except Exception as e:  # noqa: BLE001 - the worker still serves tasks, which load what they need
+        print(f"expdesign.dask_preload: not warmed ({type(e).__name__}: {e})", flush=True)
+        return
+    print(f"expdesign.dask_preload: Monte Carlo passes loaded ({cpu:.1f} s CPU)", flush=True)
