@@ -344,6 +344,7 @@ def plan_and_write(
     imports the drawing modules and, on a cache miss, designs on the other core while this process
     reads the cache or plans; a NoFitError is the command's exit 1."""
     from cli.drawer import Drawer, take_early
+    from cli.plan_cache import keep_outputs, restore_outputs, saved_outputs
     from maps import plancache
     from maps.export._common import iso, resolve_start
     from maps.geo import load_map
@@ -373,19 +374,30 @@ def plan_and_write(
             drawer.begin(early, ahead)
         elif not no_export:
             drawer = Drawer(early, ahead=ahead)
+        digest = None
         if hit is not None:
-            result, td, sea, chart = (hit[k] for k in ("plan", "design", "sea", "chart"))
+            result, td, sea, chart, digest = (hit[k] for k in ("plan", "design", "sea", "chart", "digest"))
         else:
             sea = load_map(map_path, draught_m=prof.draught_m)
             result, td = _plan(sea, prof, inputs, drawer, json_out)
             # the export chart, route and sea room now, before the start time is set: kept with the plan in the cache
             chart = export_chart(result, sea) if result.feasible and not no_export else None
             if key is not None:
-                plancache.store(cache_dir, key, {"plan": result, "design": td, "sea": sea, "chart": chart})
+                digest = plancache.store(cache_dir, key, {"plan": result, "design": td, "sea": sea, "chart": chart})
         t0 = resolve_start(result, start_time)
-        result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
+        start_utc = result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
+        exports = result.feasible and not no_export
+        saved = saved_outputs(cache_dir, key, digest, start_utc) if hit is not None and exports else None
+        if saved is not None and drawer is not None:  # the files are kept: nothing to draw
+            drawer.cancel()
+            drawer = None
         with atomic_output_dir(out) as tmp:
-            files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer, chart)
+            if saved is not None:
+                files = restore_outputs(saved, tmp)
+            else:
+                files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer, chart)
+                if exports:
+                    keep_outputs(cache_dir, key, digest, start_utc, files, tmp)
     except NoFitError as exc:
         print(f"error: {str(exc).splitlines()[0]}", file=sys.stderr)
         raise typer.Exit(1) from None

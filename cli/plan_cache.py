@@ -1,0 +1,59 @@
+"""``shiptrial plan``'s use of the plan cache for its output files: a run whose plan was read from the
+cache (:mod:`maps.plancache`) and whose files were written before for the same start time copies
+those files' bytes instead of drawing and exporting again (the figures' drawer, the crew exports:
+two thirds of a cached run's CPU). The files are functions of the cached plan, its start time, the
+code and the drawing libraries and configuration (:func:`maps.plancache.outputs_key`), so the copy
+is byte for byte what exporting would write."""
+
+from __future__ import annotations
+
+from pathlib import Path, PurePosixPath
+from typing import Any
+
+
+def saved_outputs(cache_dir: Path | None, plan_key: str | None, digest: str | None, start_utc: str) -> dict[str, Any] | None:
+    """The output set kept for the plan entry of ``digest`` under ``plan_key`` starting at ``start_utc``; None when
+    there is none."""
+    from maps import plancache
+
+    if cache_dir is None or plan_key is None or not digest:
+        return None
+    key = plancache.outputs_key(plan_key, digest, start_utc)
+    saved = plancache.load_outputs(cache_dir, key) if key is not None else None
+    if saved is None or not all(map(_plain, saved["bytes"])) or not set(saved["files"].values()) <= saved["bytes"].keys():
+        return None
+    return saved
+
+
+def restore_outputs(saved: dict[str, Any], out: Path) -> dict[str, Path]:
+    """Write the saved set's files into the (temporary) output directory ``out``; returns its files by name."""
+    for rel, data in saved["bytes"].items():
+        (out / rel).write_bytes(data)
+    return {name: out / rel for name, rel in saved["files"].items()}
+
+
+def keep_outputs(
+    cache_dir: Path | None, plan_key: str | None, digest: str | None, start_utc: str, files: dict[str, Path], out: Path
+) -> None:
+    """Keep the files just written into ``out`` (every one but the output directory's marker) for the next run
+    of the plan entry of ``digest`` under ``plan_key`` with the same start time (skipped when the figures'
+    configuration cannot be keyed)."""
+    from maps import plancache
+    from primitives.io import OUTPUT_MARKER
+
+    if cache_dir is None or plan_key is None or not digest:
+        return
+    key = plancache.outputs_key(plan_key, digest, start_utc)  # now: a first run's drawer has just built matplotlib's font list
+    if key is None:
+        return
+    written = [p for p in sorted(out.iterdir()) if p.name != OUTPUT_MARKER]
+    names = {name: Path(p).name for name, p in files.items()}
+    if all(p.is_file() and _plain(p.name) for p in written):  # flat, as every output set is today
+        data = {p.name: p.read_bytes() for p in written}
+        if set(names.values()) <= data.keys():
+            plancache.store_outputs(cache_dir, key, names, data)
+
+
+def _plain(rel: object) -> bool:
+    """A file name directly in the output directory (no directory part, nothing hidden)."""
+    return isinstance(rel, str) and PurePosixPath(rel).name == rel and rel not in ("", ".", "..") and not rel.startswith(".")
