@@ -9,6 +9,7 @@ import json
 import os
 import shutil
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
@@ -220,3 +221,89 @@ def test_no_home_means_no_cache_not_a_tilde_directory(monkeypatch):
     monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
     monkeypatch.setattr(plancache.os.path, "expanduser", lambda p: p)
     assert plancache.default_dir() is None
+
+
+# the output files kept with the plan (cli/plan_cache.py): a second run copies them instead of drawing and exporting
+
+
+def _files(out):
+    return {p.name: p.read_bytes() for p in out.iterdir()}
+
+
+def test_second_run_copies_the_kept_files_without_exporting(first, tmp_path, cache_dir, capsys, monkeypatch):
+    import cli.plan_cmd
+
+    assert len(list(cache_dir.glob("*.out"))) == 1
+
+    def no_export(*args, **kw):
+        raise AssertionError("exported although the cache holds the files")
+
+    with monkeypatch.context() as mp:
+        mp.setattr(cli.plan_cmd, "write_outputs_all", no_export)
+        second, _ = _plan_cli(tmp_path / "b", capsys)
+    again = _files(tmp_path / "b")
+    assert second["from_cache"] is True and again == first[2]  # all 13 files, byte for byte
+    assert sorted(Path(v).name for v in second["files"].values()) == sorted(k for k in again if not k.startswith("."))
+
+
+def test_other_start_time_exports_afresh_as_an_uncached_run(first, tmp_path, cache_dir, capsys):
+    later = ("--start-time", "2026-06-01T09:00Z")
+    cached, _ = _plan_cli(tmp_path / "b", capsys, *later)
+    assert cached["from_cache"] is True and len(list(cache_dir.glob("*.out"))) == 2  # a second output set kept
+    _plan_cli(tmp_path / "c", capsys, *later, "--no-cache")
+    b, c = _files(tmp_path / "b"), _files(tmp_path / "c")
+    assert b.keys() == c.keys() and [k for k in b if b[k] != c[k]] == ["plan.json"]  # its timing fields only
+    assert b["full-scale-trial.gpx"] != first[2]["full-scale-trial.gpx"]  # the schedule moved: not the first run's files
+
+
+@pytest.mark.parametrize("damage", ["truncate", "flip", "unpicklable"])
+def test_damaged_output_set_is_exported_again(first, tmp_path, cache_dir, capsys, damage):
+    (entry,) = cache_dir.glob("*.out")
+    entry.write_bytes(_damaged(entry.read_bytes(), damage))
+    assert plancache.load_outputs(cache_dir, entry.stem) is None
+    again, _ = _plan_cli(tmp_path / "b", capsys)
+    assert again["from_cache"] is True and _files(tmp_path / "b") == first[2]
+    assert plancache.load_outputs(cache_dir, entry.stem) is not None  # written again
+
+
+def test_files_are_not_served_with_a_plan_computed_again(tmp_path, cache_dir, capsys):
+    """A plan entry computed again (its timings differ) gets its own files: never the old run's plan.json."""
+    (entry,) = cache_dir.glob("*.plan")
+    entry.write_bytes(_damaged(entry.read_bytes(), "flip"))
+    replanned, _ = _plan_cli(tmp_path / "b", capsys)
+    assert replanned["from_cache"] is False and len(list(cache_dir.glob("*.out"))) == 2
+    hit, _ = _plan_cli(tmp_path / "c", capsys)
+    assert hit["from_cache"] is True and _files(tmp_path / "c") == _files(tmp_path / "b")
+
+
+def test_outputs_key_changes_with_start_entry_and_drawing_configuration(tmp_path, monkeypatch):
+    monkeypatch.setenv("MPLCONFIGDIR", str(tmp_path / "mpl"))
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MATPLOTLIBRC", raising=False)
+    assert plancache.outputs_key("k", "d", START) is None  # no font list to key the figures' fonts on
+    (tmp_path / "mpl").mkdir()
+    (tmp_path / "mpl" / "fontlist-v390.json").write_text("{}")
+    base = plancache.outputs_key("k", "d", START)
+    assert plancache.outputs_key("k", "d", START) == base
+    others = {"plan": plancache.outputs_key("k2", "d", START), "entry": plancache.outputs_key("k", "d2", START)}
+    others["start"] = plancache.outputs_key("k", "d", "2026-06-01T09:00Z")
+    (tmp_path / "mpl" / "fontlist-v390.json").write_text('{"fonts": 1}')
+    others["font list"] = plancache.outputs_key("k", "d", START)
+    (tmp_path / "mpl" / "matplotlibrc").write_text("lines.linewidth: 3\n")
+    others["rc in config"] = plancache.outputs_key("k", "d", START)
+    (tmp_path / "matplotlibrc").write_text("lines.linewidth: 3\n")
+    others["rc here"] = plancache.outputs_key("k", "d", START)
+    monkeypatch.setattr(plancache, "DRAWING", ("matplotlib", "a-library-not-installed"))
+    others["libraries"] = plancache.outputs_key("k", "d", START)
+    assert base not in others.values() and len(set(others.values())) == len(others)
+
+
+def test_old_output_sets_are_pruned(tmp_path, monkeypatch):
+    monkeypatch.setattr(plancache, "KEEP_OUTPUTS", 1)
+    for i in range(3):
+        (tmp_path / f"{i}.out").write_bytes(b"x")
+        os.utime(tmp_path / f"{i}.out", ns=(i * 10**9, i * 10**9))
+    (tmp_path / "0.plan").write_bytes(b"x")
+    os.utime(tmp_path / "0.plan", ns=(0, 0))
+    plancache._prune(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["0.plan", "2.out"]
