@@ -7,8 +7,53 @@ is byte for byte what exporting would write."""
 
 from __future__ import annotations
 
+import hashlib
+import os
+import time
+from datetime import datetime
 from pathlib import Path, PurePosixPath
 from typing import Any
+
+_HINT: list[Path] = []  # this command line's hint file (expect_kept_files), until note_kept updates it
+
+
+def expect_kept_files(args: list[str]) -> bool:
+    """Whether the last run of this command line (``args`` with ``--out`` left out, in this directory) found or
+    kept its output files, for a start time that still holds: ``plan-trial`` then forks no drawer before parsing
+    (:func:`cli.drawer.start_early`), whose imports (about 0.5 s of CPU) a run that copies its files throws away.
+    Only a guess: a run that finds no files draws them all the same (its drawer started later)."""
+    from maps.plancache import default_dir
+
+    _HINT.clear()
+    directory = default_dir()
+    if directory is None:
+        return False
+    words, skip = [], False
+    for a in args:
+        if not skip and a != "--out" and not a.startswith("--out="):
+            words.append(a)
+        skip = a == "--out" and not skip
+    path = directory / (hashlib.sha256("\0".join([os.getcwd(), *words]).encode()).hexdigest()[:32] + ".hint")
+    _HINT.append(path)
+    try:
+        return time.time() < float(path.read_text())
+    except (OSError, ValueError):
+        return False
+
+
+def note_kept(cache_dir: Path | None, kept: bool, default_start: datetime | None) -> None:
+    """Record for :func:`expect_kept_files` whether this command line's files are kept, until ``default_start``
+    when the start time was the default one (the next full hour: the next run's files differ from then on)."""
+    if not _HINT:
+        return
+    path = _HINT.pop()
+    try:
+        if kept and cache_dir is not None and path.parent == Path(cache_dir):
+            path.write_text(repr(default_start.timestamp()) if default_start is not None else "inf")
+        else:
+            path.unlink(missing_ok=True)
+    except OSError:  # a cache that cannot be written: the next run forks its drawer early
+        pass
 
 
 def saved_outputs(cache_dir: Path | None, plan_key: str | None, digest: str | None, start_utc: str) -> dict[str, Any] | None:
@@ -34,24 +79,25 @@ def restore_outputs(saved: dict[str, Any], out: Path) -> dict[str, Path]:
 
 def keep_outputs(
     cache_dir: Path | None, plan_key: str | None, digest: str | None, start_utc: str, files: dict[str, Path], out: Path
-) -> None:
+) -> bool:
     """Keep the files just written into ``out`` (every one but the output directory's marker) for the next run
     of the plan entry of ``digest`` under ``plan_key`` with the same start time (skipped when the figures'
-    configuration cannot be keyed)."""
+    configuration cannot be keyed); True when kept."""
     from maps import plancache
     from primitives.io import OUTPUT_MARKER
 
     if cache_dir is None or plan_key is None or not digest:
-        return
+        return False
     key = plancache.outputs_key(plan_key, digest, start_utc)  # now: a first run's drawer has just built matplotlib's font list
     if key is None:
-        return
+        return False
     written = [p for p in sorted(out.iterdir()) if p.name != OUTPUT_MARKER]
     names = {name: Path(p).name for name, p in files.items()}
     if all(p.is_file() and _plain(p.name) for p in written):  # flat, as every output set is today
         data = {p.name: p.read_bytes() for p in written}
         if set(names.values()) <= data.keys():
-            plancache.store_outputs(cache_dir, key, names, data)
+            return plancache.store_outputs(cache_dir, key, names, data) is not None
+    return False
 
 
 def _plain(rel: object) -> bool:

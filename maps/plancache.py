@@ -151,10 +151,10 @@ def load_outputs(directory: Path | None, key: str) -> dict[str, Any] | None:
     return entry if ok else None
 
 
-def store_outputs(directory: Path | None, key: str, files: dict[str, str], data: dict[str, bytes]) -> None:
+def store_outputs(directory: Path | None, key: str, files: dict[str, str], data: dict[str, bytes]) -> str | None:
     """Keep the output set ``files`` (name -> path relative to the output directory) with every file's ``data``
-    under ``key``; skipped without a word as :func:`store`."""
-    _write(directory, f"{key}.out", {"files": files, "bytes": data})
+    under ``key``; skipped without a word as :func:`store` (None returned)."""
+    return _write(directory, f"{key}.out", {"files": files, "bytes": data})
 
 
 def _entry(directory: Path, key: str) -> Path:
@@ -227,7 +227,7 @@ def store(directory: Path | None, key: str, entry: dict[str, Any]) -> str | None
 
 
 def _prune(directory: Path) -> None:
-    for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS)):
+    for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS), (".hint", KEEP)):  # .hint: cli.plan_cache's
         entries = sorted(directory.glob(f"*{suffix}"), key=lambda p: p.stat().st_mtime_ns, reverse=True)
         for old in entries[keep:]:
             old.unlink(missing_ok=True)

@@ -307,3 +307,44 @@ def test_old_output_sets_are_pruned(tmp_path, monkeypatch):
     os.utime(tmp_path / "0.plan", ns=(0, 0))
     plancache._prune(tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["0.plan", "2.out"]
+
+
+def _early_forks(monkeypatch):
+    import cli.drawer
+
+    calls = []
+    real = cli.drawer.start_early
+    monkeypatch.setattr(cli.drawer, "start_early", lambda: (calls.append(1), real()))
+    return calls
+
+
+def test_command_whose_files_are_kept_forks_no_early_drawer(first, tmp_path, cache_dir, capsys, monkeypatch):
+    """The drawer forked before parsing only to be cancelled costs a cached run about 0.5 s of CPU: a command line
+    (its --out aside) whose last run kept its files starts none; another one still does."""
+    calls = _early_forks(monkeypatch)
+    _plan_cli(tmp_path / "b", capsys)
+    assert calls == [] and _files(tmp_path / "b") == first[2]
+    (kept,) = cache_dir.glob("*.out")
+    kept.unlink()  # the guess now wrong: the files are drawn all the same (the drawer started after parsing)
+    _plan_cli(tmp_path / "c", capsys)
+    assert calls == [] and _files(tmp_path / "c") == first[2]
+    _plan_cli(tmp_path / "d", capsys, "--start-time", "2026-06-01T09:00Z")  # a command line never run: forked early
+    assert calls == [1]
+
+
+def test_hint_holds_until_the_default_start_time_moves(tmp_path, monkeypatch):
+    from cli import plan_cache
+
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    args = ["plan", "--out", "x"]
+    assert plan_cache.expect_kept_files(args) is False  # never run
+    (hint,) = plan_cache._HINT
+    for text, expected in (("inf", True), ("1e12", True), ("1000", False), ("garbage", False)):
+        hint.write_text(text)  # 1000: a default start time (the next full hour) long past
+        assert plan_cache.expect_kept_files(args) is expected
+    hint.write_text("inf")
+    assert plan_cache.expect_kept_files(["plan", "--out", "y"]) and plan_cache.expect_kept_files(["plan", "--out=z"])
+    assert not plan_cache.expect_kept_files(["plan", "--out", "y", "--seed", "1"])  # --out aside, every word counts
+    plan_cache.expect_kept_files(args)
+    plan_cache.note_kept(tmp_path, False, None)
+    assert not hint.exists()  # files not kept: the next run forks its drawer early again
