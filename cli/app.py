@@ -110,10 +110,10 @@ def _run(argv: list[str] | None = None) -> int:
             return _run_app(argv)
     finally:
         from cli.drawer import drop_early
-        from cli.plan_cache import _HINT
+        from cli.plan_cache import forget_command
 
         drop_early()
-        _HINT.clear()
+        forget_command()
 
 
 def _draws(args: list[str]) -> bool:

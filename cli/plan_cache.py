@@ -41,6 +41,11 @@ def expect_kept_files(args: list[str]) -> bool:
         return False
 
 
+def forget_command() -> None:
+    """Forget this command line's hint file (the command has ended; a later one in this process has its own)."""
+    _HINT.clear()
+
+
 def note_kept(cache_dir: Path | None, kept: bool, default_start: datetime | None) -> None:
     """Record for :func:`expect_kept_files` whether this command line's files are kept, until ``default_start``
     when the start time was the default one (the next full hour: the next run's files differ from then on)."""
