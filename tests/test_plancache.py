@@ -53,6 +53,15 @@ def cache_dir(first, tmp_path, monkeypatch, capsys):
     return d
 
 
+def _forbid(mp, module, name, why):
+    """Make ``module.name`` fail the test when called."""
+
+    def called(*args, **kw):
+        raise AssertionError(why)
+
+    mp.setattr(module, name, called)
+
+
 def _key(**change):
     inputs = dict(
         counts=None,
@@ -113,11 +122,8 @@ def test_second_run_reads_the_cache_and_writes_the_same_bytes(first, tmp_path, c
     assert len(list(cache_dir.glob("*.plan"))) == 1
     import maps.planner
 
-    def no_planning(*args, **kw):
-        raise AssertionError("planned although the cache holds the plan")
-
     with monkeypatch.context() as mp:
-        mp.setattr(maps.planner, "plan_with_design", no_planning)
+        _forbid(mp, maps.planner, "plan_with_design", "planned although the cache holds the plan")
         second, b = _plan_cli(tmp_path / "b", capsys)
     assert second["from_cache"] is True and b == first[1]  # plan.json byte for byte, timings those of the first run
     again = {p.name: p.read_bytes() for p in (tmp_path / "b").iterdir()}
@@ -235,11 +241,8 @@ def test_second_run_copies_the_kept_files_without_exporting(first, tmp_path, cac
 
     assert len(list(cache_dir.glob("*.out"))) == 1
 
-    def no_export(*args, **kw):
-        raise AssertionError("exported although the cache holds the files")
-
     with monkeypatch.context() as mp:
-        mp.setattr(cli.plan_cmd, "write_outputs_all", no_export)
+        _forbid(mp, cli.plan_cmd, "write_outputs_all", "exported although the cache holds the files")
         second, _ = _plan_cli(tmp_path / "b", capsys)
     again = _files(tmp_path / "b")
     assert second["from_cache"] is True and again == first[2]  # all 13 files, byte for byte
