@@ -33,11 +33,11 @@ def expect_kept_files(args: list[str]) -> bool:
         if not skip and a != "--out" and not a.startswith("--out="):
             words.append(a)
         skip = a == "--out" and not skip
-    path = directory / (hashlib.sha256("\0".join([os.getcwd(), *words]).encode()).hexdigest()[:32] + ".hint")
-    _HINT.append(path)
     try:
+        path = directory / (hashlib.sha256("\0".join([os.getcwd(), *words]).encode()).hexdigest()[:32] + ".hint")
+        _HINT.append(path)
         return time.time() < float(path.read_text())
-    except (OSError, ValueError):
+    except (OSError, ValueError):  # no hint, a damaged one, or a working directory removed: the drawer forks early
         return False
 
 
@@ -68,9 +68,15 @@ def saved_outputs(cache_dir: Path | None, plan_key: str | None, digest: str | No
 
     if cache_dir is None or plan_key is None or not digest:
         return None
-    key = plancache.outputs_key(plan_key, digest, start_utc)
+    try:
+        key = plancache.outputs_key(plan_key, digest, start_utc)
+    except Exception:  # noqa: BLE001 - a cache that cannot be keyed is no cache: the files are drawn as without one
+        return None
     saved = plancache.load_outputs(cache_dir, key) if key is not None else None
-    if saved is None or not all(map(_plain, saved["bytes"])) or not set(saved["files"].values()) <= saved["bytes"].keys():
+    if saved is None or not all(_plain(k) and isinstance(v, bytes) for k, v in saved["bytes"].items()):
+        return None
+    names = saved["files"]
+    if not all(isinstance(v, str) for v in names.values()) or not set(names.values()) <= saved["bytes"].keys():
         return None
     return saved
 
@@ -79,6 +85,7 @@ def restore_outputs(saved: dict[str, Any], out: Path) -> dict[str, Path]:
     """Write the saved set's files into the (temporary) output directory ``out``; returns its files by name."""
     for rel, data in saved["bytes"].items():
         (out / rel).write_bytes(data)
+        os.chmod(out / rel, 0o644)  # as the exporters leave them (primitives.io.atomic_write_bytes), whatever the umask
     return {name: out / rel for name, rel in saved["files"].items()}
 
 
@@ -93,15 +100,19 @@ def keep_outputs(
 
     if cache_dir is None or plan_key is None or not digest:
         return False
-    key = plancache.outputs_key(plan_key, digest, start_utc)  # now: a first run's drawer has just built matplotlib's font list
-    if key is None:
-        return False
-    written = [p for p in sorted(out.iterdir()) if p.name != OUTPUT_MARKER]
-    names = {name: Path(p).name for name, p in files.items()}
-    if all(p.is_file() and _plain(p.name) for p in written):  # flat, as every output set is today
-        data = {p.name: p.read_bytes() for p in written}
-        if set(names.values()) <= data.keys():
-            return plancache.store_outputs(cache_dir, key, names, data) is not None
+    try:  # a cache that cannot be keyed or read back is skipped: the run's own files are written all the same
+        # keyed now: a first run's drawer has just built matplotlib's font list
+        key = plancache.outputs_key(plan_key, digest, start_utc)
+        if key is None:
+            return False
+        written = [p for p in sorted(out.iterdir()) if p.name != OUTPUT_MARKER]
+        names = {name: Path(p).name for name, p in files.items()}
+        if all(p.is_file() and _plain(p.name) for p in written):  # flat, as every output set is today
+            data = {p.name: p.read_bytes() for p in written}
+            if set(names.values()) <= data.keys():
+                return plancache.store_outputs(cache_dir, key, names, data) is not None
+    except Exception:  # noqa: BLE001 - never a failed run for a cache
+        pass
     return False
 
 

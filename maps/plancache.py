@@ -51,7 +51,10 @@ def default_dir() -> Path | None:
     ``$XDG_CACHE_HOME/shiptrial/plans`` (``~/.cache/shiptrial/plans`` by default)."""
     given = os.environ.get(ENV_DIR)
     if given is not None:
-        return Path(given).expanduser() if given.strip() else None
+        try:
+            return Path(given).expanduser() if given.strip() else None
+        except RuntimeError:  # "~user/..." naming no user, or "~" with no home: no cache rather than a traceback
+            return None
     base = os.environ.get("XDG_CACHE_HOME")
     if not base:
         home = os.path.expanduser("~")
@@ -118,14 +121,19 @@ def drawing_version() -> str | None:
     every matplotlibrc matplotlib would read (``./matplotlibrc``, ``$MATPLOTLIBRC``, its configuration
     directory's) and the font list it picks fonts from (its cache's ``fontlist-*.json``). None when
     that font list does not exist (matplotlib then lists the fonts installed at that moment): nothing
-    to key the figures' fonts on."""
-    fontlists = sorted(_matplotlib_dir("XDG_CACHE_HOME", ".cache").glob("fontlist-*.json"))
+    to key the figures' fonts on; None too when the working directory or the home directory cannot be found."""
+    try:
+        fontlists = sorted(_matplotlib_dir("XDG_CACHE_HOME", ".cache").glob("fontlist-*.json"))
+        rc = os.environ.get("MATPLOTLIBRC", "")
+        here = Path.cwd() / "matplotlibrc"
+        config = _matplotlib_dir("XDG_CONFIG_HOME", ".config") / "matplotlibrc"
+    except (OSError, RuntimeError):  # no working directory (removed) or no home: what matplotlib reads is unknown
+        return None
     if not fontlists:
         return None
     h = hashlib.sha256(_versions(DRAWING))
-    rc = os.environ.get("MATPLOTLIBRC", "")
-    candidates = [Path.cwd() / "matplotlibrc", Path(rc), Path(rc) / "matplotlibrc"] if rc else [Path.cwd() / "matplotlibrc"]
-    candidates += [_matplotlib_dir("XDG_CONFIG_HOME", ".config") / "matplotlibrc", *fontlists]
+    candidates = [here, Path(rc), Path(rc) / "matplotlibrc"] if rc else [here]
+    candidates += [config, *fontlists]
     for p in candidates:
         try:
             h.update(str(p).encode() + b"\0" + p.read_bytes() + b"\0")

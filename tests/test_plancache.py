@@ -351,3 +351,29 @@ def test_hint_holds_until_the_default_start_time_moves(tmp_path, monkeypatch):
     plan_cache.expect_kept_files(args)
     plan_cache.note_kept(tmp_path, False, None)
     assert not hint.exists()  # files not kept: the next run forks its drawer early again
+
+
+def test_unknown_user_in_cache_variable_means_no_cache(monkeypatch):
+    monkeypatch.setenv(plancache.ENV_DIR, "~no-such-user-here/plans")  # expanduser raises RuntimeError
+    assert plancache.default_dir() is None
+
+
+def test_removed_working_directory_still_writes_the_files(first, tmp_path, cache_dir, capsys, monkeypatch):
+    """The hint's and the drawing key's working directory gone: the run draws and exports as without a cache."""
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    monkeypatch.chdir(gone)
+    gone.rmdir()
+    assert plancache.drawing_version() is None
+    _plan_cli(tmp_path / "b", capsys)
+    assert _files(tmp_path / "b") == first[2]
+
+
+def test_copied_files_are_readable_by_others_whatever_the_umask(first, tmp_path, cache_dir, capsys):
+    old = os.umask(0o077)
+    try:
+        _plan_cli(tmp_path / "b", capsys)
+    finally:
+        os.umask(old)
+    modes = {p.name: p.stat().st_mode & 0o777 for p in (tmp_path / "b").iterdir() if not p.name.startswith(".")}
+    assert set(modes.values()) == {0o644}, modes  # as the exporters write them (crews and colleagues read them)
