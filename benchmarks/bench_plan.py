@@ -14,6 +14,9 @@ runs share one plan cache (``SHIPTRIAL_CACHE_DIR``, a temporary directory: the u
 touched), which the untimed run fills: the timed runs are warm, as a user's second run. With
 ``--cold`` every run starts as the first run after install: an empty plan cache and an empty
 matplotlib configuration and font cache (``MPLCONFIGDIR``), no untimed run (issue 30: under 5 s).
+``--bytecode``: the runs read compiled bytecode as after ``pip install`` (in a directory of the benchmark's
+own, filled by an untimed run; with ``PYTHONDONTWRITEBYTECODE`` set and no ``__pycache__`` in a checkout,
+every run compiles that checkout's modules, which a user's installed copy never does).
 
 Every other case runs in a fresh subprocess (its own peak resident memory, from getrusage) and is
 timed as the median of ``--repeat`` runs after one warm-up in that process (wall clock, and
@@ -256,17 +259,20 @@ def _cli_run(root: Path, out: Path, env_extra: dict[str, str] | None = None) -> 
     }
 
 
-def cli_default(repeat: int, against: Path | None = None, cold: bool = False) -> dict:
+def cli_default(repeat: int, against: Path | None = None, cold: bool = False, bytecode: bool = False) -> dict:
     """The whole ``plan-trial --out DIR`` process, ``repeat`` times after one untimed run (``cold``:
     without it, each run with an empty plan cache and matplotlib cache); with ``against`` (another
     checkout, e.g. main's) that checkout's command run alternately with this one's, paired on the
-    same machine state, under ``against_*`` keys."""
+    same machine state, under ``against_*`` keys. ``bytecode``: every run reads compiled bytecode as
+    after ``pip install`` (which compiles it), kept in a directory of the benchmark's own
+    (``PYTHONPYCACHEPREFIX``: nothing written into the checkouts) and filled by an untimed run,
+    whatever ``PYTHONDONTWRITEBYTECODE`` says; without it, the environment decides."""
     import tempfile
 
     rows: list[dict] = []
     other: list[dict] = []
     with tempfile.TemporaryDirectory(prefix="bench-plan-") as tmp:
-        for k in range(repeat + (0 if cold else 1)):
+        for k in range(-1 if cold and bytecode else 0, repeat + (0 if cold else 1)):
             for root, into in ((ROOT, rows), (against, other)):
                 if root is None:
                     continue
@@ -275,11 +281,13 @@ def cli_default(repeat: int, against: Path | None = None, cold: bool = False) ->
                 env = {"SHIPTRIAL_CACHE_DIR": str(caches / "plans"), "MPLCONFIGDIR": str(caches / f"mpl-{name}")}
                 if not cold:  # warm: the plan cache shared by the runs, matplotlib's the user's
                     env.pop("MPLCONFIGDIR")
+                if bytecode:
+                    env |= {"PYTHONPYCACHEPREFIX": str(Path(tmp) / "pycache"), "PYTHONDONTWRITEBYTECODE": ""}
                 r = _cli_run(root, Path(tmp) / name, env)
-                if k or cold:  # warm: the first run fills the caches
+                if k > 0 or (cold and k == 0):  # k == -1 (cold) or 0 (warm): untimed, fills the caches
                     into.append(r)
     target = TARGETS["cli_cold" if cold else "cli_default"]
-    out = _cli_summary(rows, target) | {"cold": cold}
+    out = _cli_summary(rows, target) | {"cold": cold, "bytecode": bytecode}
     if against is not None:
         base = _cli_summary(other, target)
         out.update({f"against_{k}": v for k, v in base.items() if k in ("median_s", "median_cpu_s", "runs_s", "cpu_runs_s")})
@@ -320,6 +328,11 @@ def main() -> None:
         action="store_true",
         help="cli_default only: every run as the first after install (empty plan and matplotlib caches)",
     )
+    ap.add_argument(
+        "--bytecode",
+        action="store_true",
+        help="cli_default only: runs read compiled bytecode (as after pip install), kept in a directory of the benchmark's own",
+    )
     ap.add_argument("--case", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.case:
@@ -327,9 +340,9 @@ def main() -> None:
         return
     for name in args.cases.split(","):
         if name == "cli_default":
-            r = cli_default(args.repeat, args.against, args.cold)
+            r = cli_default(args.repeat, args.against, args.cold, args.bytecode)
             print(
-                f"{name + (' cold' if args.cold else ''):18s} median {r['median_s']:8.3f} s  target {r['target_s']:5.1f} s  ratio {r['ratio_to_target']:.3f}  "
+                f"{name + (' cold' if args.cold else '') + (' pyc' if args.bytecode else ''):18s} median {r['median_s']:8.3f} s  target {r['target_s']:5.1f} s  ratio {r['ratio_to_target']:.3f}  "
                 f"peak {r['peak_rss_gib']:.2f} GiB  (cpu median {r['median_cpu_s']:.3f} s, cpu ratio {r['cpu_ratio_to_target']:.3f}, "
                 f"wall runs {r['runs_s']}, cpu runs {r['cpu_runs_s']}, {r['files_written']} files, "
                 f"load average {r['load_average_1min']:.1f} when done)"

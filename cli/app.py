@@ -101,15 +101,19 @@ def _run(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else list(argv)
     if _draws(args):  # the figures' drawer starts now: it imports matplotlib and fpdf while the options are parsed
         from cli.drawer import start_early
+        from cli.plan_cache import expect_kept_files
 
-        start_early()
+        if not expect_kept_files(args):  # unless the last such run's files are kept: nothing to draw then
+            start_early()
     try:
         with _pure_json_stdout(args):
             return _run_app(argv)
     finally:
         from cli.drawer import drop_early
+        from cli.plan_cache import forget_command
 
         drop_early()
+        forget_command()
 
 
 def _draws(args: list[str]) -> bool:

@@ -344,6 +344,7 @@ def plan_and_write(
     imports the drawing modules and, on a cache miss, designs on the other core while this process
     reads the cache or plans; a NoFitError is the command's exit 1."""
     from cli.drawer import Drawer, take_early
+    from cli.plan_cache import keep_outputs, note_kept, restore_outputs, saved_outputs
     from maps import plancache
     from maps.export._common import iso, resolve_start
     from maps.geo import load_map
@@ -359,6 +360,12 @@ def plan_and_write(
     hit = plancache.load(cache_dir, key) if key is not None else None
     if hit is not None and not {"design", "sea", "chart"} <= hit.keys():  # not an entry this command wrote
         hit = None
+    saved = digest = t0 = None
+    if hit is not None:
+        result, td, sea, chart, digest = (hit[k] for k in ("plan", "design", "sea", "chart", "digest"))
+        t0 = resolve_start(result, start_time)
+        if result.feasible and not no_export:  # the files this plan and start time gave, when kept: nothing to draw
+            saved = saved_outputs(cache_dir, key, digest, iso(t0))
     early = None
     if hit is None and counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
         early = partial(_first_design, ship, **design)
@@ -366,26 +373,29 @@ def plan_and_write(
     drawer = None
     try:  # the drawer is ended in `finally` whatever is raised from here on (a Ctrl-C in begin() included)
         drawer = take_early()  # started with the command (plan-trial): the drawing modules imported already, or importing
-        if drawer is not None and no_export:
+        if drawer is not None and (no_export or saved is not None):
             drawer.cancel()
             drawer = None
         elif drawer is not None:
             drawer.begin(early, ahead)
-        elif not no_export:
+        elif not no_export and saved is None:
             drawer = Drawer(early, ahead=ahead)
-        if hit is not None:
-            result, td, sea, chart = (hit[k] for k in ("plan", "design", "sea", "chart"))
-        else:
+        if hit is None:
             sea = load_map(map_path, draught_m=prof.draught_m)
             result, td = _plan(sea, prof, inputs, drawer, json_out)
             # the export chart, route and sea room now, before the start time is set: kept with the plan in the cache
             chart = export_chart(result, sea) if result.feasible and not no_export else None
             if key is not None:
-                plancache.store(cache_dir, key, {"plan": result, "design": td, "sea": sea, "chart": chart})
-        t0 = resolve_start(result, start_time)
-        result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
+                digest = plancache.store(cache_dir, key, {"plan": result, "design": td, "sea": sea, "chart": chart})
+            t0 = resolve_start(result, start_time)
+        start_utc = result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
         with atomic_output_dir(out) as tmp:
-            files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer, chart)
+            if saved is not None:
+                files, kept = restore_outputs(saved, tmp), True
+            else:
+                files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer, chart)
+                kept = result.feasible and not no_export and keep_outputs(cache_dir, key, digest, start_utc, files, tmp)
+        note_kept(cache_dir, kept, None if start_time else t0)
     except NoFitError as exc:
         print(f"error: {str(exc).splitlines()[0]}", file=sys.stderr)
         raise typer.Exit(1) from None

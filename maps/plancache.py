@@ -16,6 +16,11 @@ the payload's digest: a truncated, corrupted or unreadable
 entry is ignored (the plan is computed again) and never raises. The entries are the user's own
 files in the user's cache directory (:func:`default_dir`), read by the user's own commands, as
 numba's and matplotlib's caches are.
+
+Beside the plans, the files a command wrote from a plan can be kept (:func:`outputs_key`,
+:func:`store_outputs`, :func:`load_outputs`: one entry per plan entry and start time, the same header,
+:data:`KEEP_OUTPUTS` kept), keyed on the plan's key, the plan entry's digest, the start time and
+:func:`drawing_version`.
 """
 
 from __future__ import annotations
@@ -46,7 +51,10 @@ def default_dir() -> Path | None:
     ``$XDG_CACHE_HOME/shiptrial/plans`` (``~/.cache/shiptrial/plans`` by default)."""
     given = os.environ.get(ENV_DIR)
     if given is not None:
-        return Path(given).expanduser() if given.strip() else None
+        try:
+            return Path(given).expanduser() if given.strip() else None
+        except RuntimeError:  # "~user/..." naming no user, or "~" with no home: no cache rather than a traceback
+            return None
     base = os.environ.get("XDG_CACHE_HOME")
     if not base:
         home = os.path.expanduser("~")
@@ -60,18 +68,12 @@ def default_dir() -> Path | None:
 def code_version() -> str:
     """Digest of the code a plan is computed with: the project's source and data files (path and
     bytes), the versions of Python and of the numerical libraries, and the kernel choice."""
-    from importlib.metadata import PackageNotFoundError, version
-
     h = hashlib.sha256(sys.version.encode())
     for pkg in PACKAGES:
         for p in sorted((ROOT / pkg).rglob("*")):
             if p.suffix in SUFFIXES and "__pycache__" not in p.parts:
                 h.update(str(p.relative_to(ROOT)).encode() + b"\0" + p.read_bytes() + b"\0")
-    for lib in LIBRARIES:
-        try:
-            h.update(f"{lib}={version(lib)}\0".encode())
-        except PackageNotFoundError:
-            h.update(f"{lib}=none\0".encode())
+    h.update(_versions(LIBRARIES))
     h.update(os.environ.get("SHIPTRIAL_KERNEL", "").encode())
     return h.hexdigest()
 
@@ -90,63 +92,160 @@ def plan_key(profile: Any, map_file: Path, **inputs: Any) -> str:
     return h.hexdigest()
 
 
+# the libraries the exports and figures are written with (drawing, fonts, PDF, images, XML)
+DRAWING = ("matplotlib", "fpdf2", "pillow", "fonttools", "contourpy", "kiwisolver", "pyparsing", "cycler", "lxml", "defusedxml")
+KEEP_OUTPUTS = 8  # output sets kept (about 2.8 MB each for the bundled example)
+
+
+def _versions(libraries: tuple[str, ...]) -> bytes:
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = []
+    for lib in libraries:
+        try:
+            out.append(f"{lib}={version(lib)}\0")
+        except PackageNotFoundError:
+            out.append(f"{lib}=none\0")
+    return "".join(out).encode()
+
+
+def _matplotlib_dir(env: str, default: str) -> Path:
+    """matplotlib's configuration or cache directory as matplotlib finds it (``$MPLCONFIGDIR``, else the XDG one)."""
+    if os.environ.get("MPLCONFIGDIR"):
+        return Path(os.environ["MPLCONFIGDIR"]).expanduser()
+    return Path(os.environ.get(env) or Path("~", default).expanduser()) / "matplotlib"
+
+
+def drawing_version() -> str | None:
+    """Digest of what the figures depend on beyond the plan and the code: the drawing libraries' versions,
+    every matplotlibrc matplotlib would read (``./matplotlibrc``, ``$MATPLOTLIBRC``, its configuration
+    directory's) and the font list it picks fonts from (its cache's ``fontlist-*.json``). None when
+    that font list does not exist (matplotlib then lists the fonts installed at that moment): nothing
+    to key the figures' fonts on; None too when the working directory or the home directory cannot be found."""
+    try:
+        fontlists = sorted(_matplotlib_dir("XDG_CACHE_HOME", ".cache").glob("fontlist-*.json"))
+        rc = os.environ.get("MATPLOTLIBRC", "")
+        here = Path.cwd() / "matplotlibrc"
+        config = _matplotlib_dir("XDG_CONFIG_HOME", ".config") / "matplotlibrc"
+    except (OSError, RuntimeError):  # no working directory (removed) or no home: what matplotlib reads is unknown
+        return None
+    if not fontlists:
+        return None
+    h = hashlib.sha256(_versions(DRAWING))
+    candidates = [here, Path(rc), Path(rc) / "matplotlibrc"] if rc else [here]
+    candidates += [config, *fontlists]
+    for p in candidates:
+        try:
+            h.update(str(p).encode() + b"\0" + p.read_bytes() + b"\0")
+        except OSError:  # absent (or a directory): read by neither
+            h.update(str(p).encode() + b"\0-\0")
+    return h.hexdigest()
+
+
+def outputs_key(plan_key: str, entry_digest: str, start_utc: str) -> str | None:
+    """The key of the files the command writes for the plan entry of digest ``entry_digest`` under ``plan_key``
+    with the trial starting at ``start_utc`` (every export and figure: functions of that entry's plan, its start
+    time, the code (in the plan's key) and :func:`drawing_version`; the entry's digest too, so that files are
+    never served with a plan computed again, whose plan.json timings differ); None when the figures' fonts cannot
+    be keyed."""
+    drawing = drawing_version()
+    if drawing is None:
+        return None
+    return hashlib.sha256(f"outputs\0{plan_key}\0{entry_digest}\0{start_utc}\0{drawing}".encode()).hexdigest()
+
+
+def load_outputs(directory: Path | None, key: str) -> dict[str, Any] | None:
+    """The output set under ``key``: ``{"files": {name: relative path}, "bytes": {relative path: bytes}}``; None when
+    there is none or it cannot be read."""
+    if directory is None:
+        return None
+    entry, _ = _read(Path(directory) / f"{key}.out")
+    ok = isinstance(entry, dict) and isinstance(entry.get("files"), dict) and isinstance(entry.get("bytes"), dict)
+    return entry if ok else None
+
+
+def store_outputs(directory: Path | None, key: str, files: dict[str, str], data: dict[str, bytes]) -> str | None:
+    """Keep the output set ``files`` (name -> path relative to the output directory) with every file's ``data``
+    under ``key``; skipped without a word as :func:`store` (None returned)."""
+    return _write(directory, f"{key}.out", {"files": files, "bytes": data})
+
+
 def _entry(directory: Path, key: str) -> Path:
     return Path(directory) / f"{key}.plan"
 
 
-def load(directory: Path | None, key: str) -> dict[str, Any] | None:
-    """The entry under ``key`` (a dict with at least ``plan``, a Plan); None when there is none or it
-    cannot be read (missing, truncated, corrupted, written by other code): the caller plans afresh."""
-    if directory is None:
-        return None
-    path = _entry(directory, key)
+def _read(path: Path) -> tuple[Any, str]:
+    """The object pickled in the entry file ``path`` and its payload's digest; (None, "") when missing, truncated,
+    corrupted or unreadable."""
     try:
         data = path.read_bytes()
     except OSError:
-        return None
+        return None, ""
     head = len(MAGIC) + 64
-    if not data.startswith(MAGIC) or hashlib.sha256(data[head:]).hexdigest().encode() != data[len(MAGIC) : head]:
-        return None
+    digest = hashlib.sha256(data[head:]).hexdigest()
+    if not data.startswith(MAGIC) or digest.encode() != data[len(MAGIC) : head]:
+        return None, ""
     try:
         entry = pickle.loads(data[head:])
     except Exception:  # noqa: BLE001 - an entry this code cannot read is no entry
-        return None
-    from maps.plan import Plan
-
-    if not isinstance(entry, dict) or not isinstance(entry.get("plan"), Plan):
-        return None
+        return None, ""
     try:
         os.utime(path)  # recently used: pruned last
     except OSError:
         pass
-    return entry
+    return entry, digest
 
 
-def store(directory: Path | None, key: str, entry: dict[str, Any]) -> None:
-    """Write ``entry`` (a dict holding ``plan``) under ``key`` (temporary file and rename: a reader never sees half an
-    entry) and remove the oldest entries beyond :data:`KEEP`. An entry that cannot be pickled, or a
-    cache that cannot be written (read-only, full disk), is skipped without a word: the command's outputs do not depend on it."""
+def _write(directory: Path | None, name: str, entry: Any) -> str | None:
+    """Pickle ``entry`` into ``directory/name`` behind its digest (temporary file and rename: a reader never sees
+    half an entry) and prune; returns the digest, None when skipped (an entry pickle cannot write, a cache that
+    cannot be written)."""
     if directory is None:
-        return
+        return None
     try:
         payload = pickle.dumps(entry, protocol=pickle.HIGHEST_PROTOCOL)
     except Exception:  # noqa: BLE001 - a plan holding something pickle cannot write (a local function) is not kept
-        return
+        return None
+    digest = hashlib.sha256(payload).hexdigest()
     try:
         from primitives.io import atomic_write_bytes
 
-        atomic_write_bytes(_entry(directory, key), MAGIC + hashlib.sha256(payload).hexdigest().encode() + payload)
+        atomic_write_bytes(Path(directory) / name, MAGIC + digest.encode() + payload)
         _prune(Path(directory))
     except OSError:
-        pass
+        return None
+    return digest
+
+
+def load(directory: Path | None, key: str) -> dict[str, Any] | None:
+    """The entry under ``key`` (a dict with at least ``plan``, a Plan), with the digest of its bytes under
+    ``digest`` (what :func:`store` returned); None when there is none or it cannot be read (missing, truncated,
+    corrupted, written by other code): the caller plans afresh."""
+    if directory is None:
+        return None
+    entry, digest = _read(_entry(directory, key))
+    from maps.plan import Plan
+
+    if not isinstance(entry, dict) or not isinstance(entry.get("plan"), Plan):
+        return None
+    return entry | {"digest": digest}
+
+
+def store(directory: Path | None, key: str, entry: dict[str, Any]) -> str | None:
+    """Write ``entry`` (a dict holding ``plan``) under ``key`` (temporary file and rename: a reader never sees half an
+    entry) and remove the oldest entries beyond :data:`KEEP`. An entry that cannot be pickled, or a
+    cache that cannot be written (read-only, full disk), is skipped without a word: the command's outputs do not depend on it.
+    Returns the digest of the entry's bytes (None when skipped)."""
+    return _write(directory, f"{key}.plan", entry)
 
 
 def _prune(directory: Path) -> None:
-    entries = sorted(directory.glob("*.plan"), key=lambda p: p.stat().st_mtime_ns, reverse=True)
-    for old in entries[KEEP:]:
-        old.unlink(missing_ok=True)
+    for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS), (".hint", KEEP)):  # .hint: cli.plan_cache's
+        entries = sorted(directory.glob(f"*{suffix}"), key=lambda p: p.stat().st_mtime_ns, reverse=True)
+        for old in entries[keep:]:
+            old.unlink(missing_ok=True)
     # a writer killed outright (SIGKILL, power loss) leaves its temporary file (atomic_write_bytes: .KEY.plan.XXXX);
     # one an hour old is no write in progress
-    for tmp in directory.glob(".*.plan.*"):
+    for tmp in [*directory.glob(".*.plan.*"), *directory.glob(".*.out.*")]:
         if time.time() - tmp.stat().st_mtime > 3600:
             tmp.unlink(missing_ok=True)

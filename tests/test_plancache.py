@@ -9,6 +9,7 @@ import json
 import os
 import shutil
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
@@ -50,6 +51,15 @@ def cache_dir(first, tmp_path, monkeypatch, capsys):
     shutil.copytree(first[0], d)
     monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(d))
     return d
+
+
+def _forbid(mp, module, name, why):
+    """Make ``module.name`` fail the test when called."""
+
+    def called(*args, **kw):
+        raise AssertionError(why)
+
+    mp.setattr(module, name, called)
 
 
 def _key(**change):
@@ -112,11 +122,8 @@ def test_second_run_reads_the_cache_and_writes_the_same_bytes(first, tmp_path, c
     assert len(list(cache_dir.glob("*.plan"))) == 1
     import maps.planner
 
-    def no_planning(*args, **kw):
-        raise AssertionError("planned although the cache holds the plan")
-
     with monkeypatch.context() as mp:
-        mp.setattr(maps.planner, "plan_with_design", no_planning)
+        _forbid(mp, maps.planner, "plan_with_design", "planned although the cache holds the plan")
         second, b = _plan_cli(tmp_path / "b", capsys)
     assert second["from_cache"] is True and b == first[1]  # plan.json byte for byte, timings those of the first run
     again = {p.name: p.read_bytes() for p in (tmp_path / "b").iterdir()}
@@ -220,3 +227,153 @@ def test_no_home_means_no_cache_not_a_tilde_directory(monkeypatch):
     monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
     monkeypatch.setattr(plancache.os.path, "expanduser", lambda p: p)
     assert plancache.default_dir() is None
+
+
+# the output files kept with the plan (cli/plan_cache.py): a second run copies them instead of drawing and exporting
+
+
+def _files(out):
+    return {p.name: p.read_bytes() for p in out.iterdir()}
+
+
+def test_second_run_copies_the_kept_files_without_exporting(first, tmp_path, cache_dir, capsys, monkeypatch):
+    import cli.plan_cmd
+
+    assert len(list(cache_dir.glob("*.out"))) == 1
+
+    with monkeypatch.context() as mp:
+        _forbid(mp, cli.plan_cmd, "write_outputs_all", "exported although the cache holds the files")
+        second, _ = _plan_cli(tmp_path / "b", capsys)
+    again = _files(tmp_path / "b")
+    assert second["from_cache"] is True and again == first[2]  # all 13 files, byte for byte
+    assert sorted(Path(v).name for v in second["files"].values()) == sorted(k for k in again if not k.startswith("."))
+
+
+def test_other_start_time_exports_afresh_as_an_uncached_run(first, tmp_path, cache_dir, capsys):
+    later = ("--start-time", "2026-06-01T09:00Z")
+    cached, _ = _plan_cli(tmp_path / "b", capsys, *later)
+    assert cached["from_cache"] is True and len(list(cache_dir.glob("*.out"))) == 2  # a second output set kept
+    _plan_cli(tmp_path / "c", capsys, *later, "--no-cache")
+    b, c = _files(tmp_path / "b"), _files(tmp_path / "c")
+    assert b.keys() == c.keys() and [k for k in b if b[k] != c[k]] == ["plan.json"]  # its timing fields only
+    assert b["full-scale-trial.gpx"] != first[2]["full-scale-trial.gpx"]  # the schedule moved: not the first run's files
+
+
+@pytest.mark.parametrize("damage", ["truncate", "flip", "unpicklable"])
+def test_damaged_output_set_is_exported_again(first, tmp_path, cache_dir, capsys, damage):
+    (entry,) = cache_dir.glob("*.out")
+    entry.write_bytes(_damaged(entry.read_bytes(), damage))
+    assert plancache.load_outputs(cache_dir, entry.stem) is None
+    again, _ = _plan_cli(tmp_path / "b", capsys)
+    assert again["from_cache"] is True and _files(tmp_path / "b") == first[2]
+    assert plancache.load_outputs(cache_dir, entry.stem) is not None  # written again
+
+
+def test_files_are_not_served_with_a_plan_computed_again(tmp_path, cache_dir, capsys):
+    """A plan entry computed again (its timings differ) gets its own files: never the old run's plan.json."""
+    (entry,) = cache_dir.glob("*.plan")
+    entry.write_bytes(_damaged(entry.read_bytes(), "flip"))
+    replanned, _ = _plan_cli(tmp_path / "b", capsys)
+    assert replanned["from_cache"] is False and len(list(cache_dir.glob("*.out"))) == 2
+    hit, _ = _plan_cli(tmp_path / "c", capsys)
+    assert hit["from_cache"] is True and _files(tmp_path / "c") == _files(tmp_path / "b")
+
+
+def test_outputs_key_changes_with_start_entry_and_drawing_configuration(tmp_path, monkeypatch):
+    monkeypatch.setenv("MPLCONFIGDIR", str(tmp_path / "mpl"))
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MATPLOTLIBRC", raising=False)
+    assert plancache.outputs_key("k", "d", START) is None  # no font list to key the figures' fonts on
+    (tmp_path / "mpl").mkdir()
+    (tmp_path / "mpl" / "fontlist-v390.json").write_text("{}")
+    base = plancache.outputs_key("k", "d", START)
+    assert plancache.outputs_key("k", "d", START) == base
+    others = {"plan": plancache.outputs_key("k2", "d", START), "entry": plancache.outputs_key("k", "d2", START)}
+    others["start"] = plancache.outputs_key("k", "d", "2026-06-01T09:00Z")
+    (tmp_path / "mpl" / "fontlist-v390.json").write_text('{"fonts": 1}')
+    others["font list"] = plancache.outputs_key("k", "d", START)
+    (tmp_path / "mpl" / "matplotlibrc").write_text("lines.linewidth: 3\n")
+    others["rc in config"] = plancache.outputs_key("k", "d", START)
+    (tmp_path / "matplotlibrc").write_text("lines.linewidth: 3\n")
+    others["rc here"] = plancache.outputs_key("k", "d", START)
+    monkeypatch.setattr(plancache, "DRAWING", ("matplotlib", "a-library-not-installed"))
+    others["libraries"] = plancache.outputs_key("k", "d", START)
+    assert base not in others.values() and len(set(others.values())) == len(others)
+
+
+def test_old_output_sets_are_pruned(tmp_path, monkeypatch):
+    monkeypatch.setattr(plancache, "KEEP_OUTPUTS", 1)
+    for i in range(3):
+        (tmp_path / f"{i}.out").write_bytes(b"x")
+        os.utime(tmp_path / f"{i}.out", ns=(i * 10**9, i * 10**9))
+    (tmp_path / "0.plan").write_bytes(b"x")
+    os.utime(tmp_path / "0.plan", ns=(0, 0))
+    plancache._prune(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["0.plan", "2.out"]
+
+
+def _early_forks(monkeypatch):
+    import cli.drawer
+
+    calls = []
+    real = cli.drawer.start_early
+    monkeypatch.setattr(cli.drawer, "start_early", lambda: (calls.append(1), real()))
+    return calls
+
+
+def test_command_whose_files_are_kept_forks_no_early_drawer(first, tmp_path, cache_dir, capsys, monkeypatch):
+    """The drawer forked before parsing only to be cancelled costs a cached run about 0.5 s of CPU: a command line
+    (its --out aside) whose last run kept its files starts none; another one still does."""
+    calls = _early_forks(monkeypatch)
+    _plan_cli(tmp_path / "b", capsys)
+    assert calls == [] and _files(tmp_path / "b") == first[2]
+    (kept,) = cache_dir.glob("*.out")
+    kept.unlink()  # the guess now wrong: the files are drawn all the same (the drawer started after parsing)
+    _plan_cli(tmp_path / "c", capsys)
+    assert calls == [] and _files(tmp_path / "c") == first[2]
+    _plan_cli(tmp_path / "d", capsys, "--start-time", "2026-06-01T09:00Z")  # a command line never run: forked early
+    assert calls == [1]
+
+
+def test_hint_holds_until_the_default_start_time_moves(tmp_path, monkeypatch):
+    from cli import plan_cache
+
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    args = ["plan", "--out", "x"]
+    assert plan_cache.expect_kept_files(args) is False  # never run
+    (hint,) = plan_cache._HINT
+    for text, expected in (("inf", True), ("1e12", True), ("1000", False), ("garbage", False)):
+        hint.write_text(text)  # 1000: a default start time (the next full hour) long past
+        assert plan_cache.expect_kept_files(args) is expected
+    hint.write_text("inf")
+    assert plan_cache.expect_kept_files(["plan", "--out", "y"]) and plan_cache.expect_kept_files(["plan", "--out=z"])
+    assert not plan_cache.expect_kept_files(["plan", "--out", "y", "--seed", "1"])  # --out aside, every word counts
+    plan_cache.expect_kept_files(args)
+    plan_cache.note_kept(tmp_path, False, None)
+    assert not hint.exists()  # files not kept: the next run forks its drawer early again
+
+
+def test_unknown_user_in_cache_variable_means_no_cache(monkeypatch):
+    monkeypatch.setenv(plancache.ENV_DIR, "~no-such-user-here/plans")  # expanduser raises RuntimeError
+    assert plancache.default_dir() is None
+
+
+def test_removed_working_directory_still_writes_the_files(first, tmp_path, cache_dir, capsys, monkeypatch):
+    """The hint's and the drawing key's working directory gone: the run draws and exports as without a cache."""
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    monkeypatch.chdir(gone)
+    gone.rmdir()
+    assert plancache.drawing_version() is None
+    _plan_cli(tmp_path / "b", capsys)
+    assert _files(tmp_path / "b") == first[2]
+
+
+def test_copied_files_are_readable_by_others_whatever_the_umask(first, tmp_path, cache_dir, capsys):
+    old = os.umask(0o077)
+    try:
+        _plan_cli(tmp_path / "b", capsys)
+    finally:
+        os.umask(old)
+    modes = {p.name: p.stat().st_mode & 0o777 for p in (tmp_path / "b").iterdir() if not p.name.startswith(".")}
+    assert set(modes.values()) == {0o644}, modes  # as the exporters write them (crews and colleagues read them)

@@ -1,0 +1,121 @@
+"""``shiptrial plan``'s use of the plan cache for its output files: a run whose plan was read from the
+cache (:mod:`maps.plancache`) and whose files were written before for the same start time copies
+those files' bytes instead of drawing and exporting again (the figures' drawer, the crew exports:
+about 2.6 s of a cached run's 3.2 s of CPU before). The files are functions of the cached plan, its start time, the
+code and the drawing libraries and configuration (:func:`maps.plancache.outputs_key`), so the copy
+is byte for byte what exporting would write."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import time
+from datetime import datetime
+from pathlib import Path, PurePosixPath
+from typing import Any
+
+_HINT: list[Path] = []  # this command line's hint file (expect_kept_files), until note_kept updates it
+
+
+def expect_kept_files(args: list[str]) -> bool:
+    """Whether the last run of this command line (``args`` with ``--out`` left out, in this directory) found or
+    kept its output files, for a start time that still holds: ``plan-trial`` then forks no drawer before parsing
+    (:func:`cli.drawer.start_early`), whose imports (about 0.5 s of CPU) a run that copies its files throws away.
+    Only a guess: a run that finds no files draws them all the same (its drawer started later)."""
+    from maps.plancache import default_dir
+
+    _HINT.clear()
+    directory = default_dir()
+    if directory is None:
+        return False
+    words, skip = [], False
+    for a in args:
+        if not skip and a != "--out" and not a.startswith("--out="):
+            words.append(a)
+        skip = a == "--out" and not skip
+    try:
+        path = directory / (hashlib.sha256("\0".join([os.getcwd(), *words]).encode()).hexdigest()[:32] + ".hint")
+        _HINT.append(path)
+        return time.time() < float(path.read_text())
+    except (OSError, ValueError):  # no hint, a damaged one, or a working directory removed: the drawer forks early
+        return False
+
+
+def forget_command() -> None:
+    """Forget this command line's hint file (the command has ended; a later one in this process has its own)."""
+    _HINT.clear()
+
+
+def note_kept(cache_dir: Path | None, kept: bool, default_start: datetime | None) -> None:
+    """Record for :func:`expect_kept_files` whether this command line's files are kept, until ``default_start``
+    when the start time was the default one (the next full hour: the next run's files differ from then on)."""
+    if not _HINT:
+        return
+    path = _HINT.pop()
+    try:
+        if kept and cache_dir is not None and path.parent == Path(cache_dir):
+            path.write_text(repr(default_start.timestamp()) if default_start is not None else "inf")
+        else:
+            path.unlink(missing_ok=True)
+    except OSError:  # a cache that cannot be written: the next run forks its drawer early
+        pass
+
+
+def saved_outputs(cache_dir: Path | None, plan_key: str | None, digest: str | None, start_utc: str) -> dict[str, Any] | None:
+    """The output set kept for the plan entry of ``digest`` under ``plan_key`` starting at ``start_utc``; None when
+    there is none."""
+    from maps import plancache
+
+    if cache_dir is None or plan_key is None or not digest:
+        return None
+    try:
+        key = plancache.outputs_key(plan_key, digest, start_utc)
+    except Exception:  # noqa: BLE001 - a cache that cannot be keyed is no cache: the files are drawn as without one
+        return None
+    saved = plancache.load_outputs(cache_dir, key) if key is not None else None
+    if saved is None or not all(_plain(k) and isinstance(v, bytes) for k, v in saved["bytes"].items()):
+        return None
+    names = saved["files"]
+    if not all(isinstance(v, str) for v in names.values()) or not set(names.values()) <= saved["bytes"].keys():
+        return None
+    return saved
+
+
+def restore_outputs(saved: dict[str, Any], out: Path) -> dict[str, Path]:
+    """Write the saved set's files into the (temporary) output directory ``out``; returns its files by name."""
+    for rel, data in saved["bytes"].items():
+        (out / rel).write_bytes(data)
+        os.chmod(out / rel, 0o644)  # as the exporters leave them (primitives.io.atomic_write_bytes), whatever the umask
+    return {name: out / rel for name, rel in saved["files"].items()}
+
+
+def keep_outputs(
+    cache_dir: Path | None, plan_key: str | None, digest: str | None, start_utc: str, files: dict[str, Path], out: Path
+) -> bool:
+    """Keep the files just written into ``out`` (every one but the output directory's marker) for the next run
+    of the plan entry of ``digest`` under ``plan_key`` with the same start time (skipped when the figures'
+    configuration cannot be keyed); True when kept."""
+    from maps import plancache
+    from primitives.io import OUTPUT_MARKER
+
+    if cache_dir is None or plan_key is None or not digest:
+        return False
+    try:  # a cache that cannot be keyed or read back is skipped: the run's own files are written all the same
+        # keyed now: a first run's drawer has just built matplotlib's font list
+        key = plancache.outputs_key(plan_key, digest, start_utc)
+        if key is None:
+            return False
+        written = [p for p in sorted(out.iterdir()) if p.name != OUTPUT_MARKER]
+        names = {name: Path(p).name for name, p in files.items()}
+        if all(p.is_file() and _plain(p.name) for p in written):  # flat, as every output set is today
+            data = {p.name: p.read_bytes() for p in written}
+            if set(names.values()) <= data.keys():
+                return plancache.store_outputs(cache_dir, key, names, data) is not None
+    except Exception:  # noqa: BLE001 - never a failed run for a cache
+        pass
+    return False
+
+
+def _plain(rel: object) -> bool:
+    """A file name directly in the output directory (no directory part, nothing hidden)."""
+    return isinstance(rel, str) and PurePosixPath(rel).name == rel and rel not in ("", ".", "..") and not rel.startswith(".")
