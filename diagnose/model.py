@@ -553,8 +553,8 @@ def fit(
 def diverges(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> bool:
     """True when the simulation at P is non-finite or leaves the recorded range by far
     (an unstable refit: positive damping, a blown-up inertia)."""
-    with np.errstate(all="ignore"):
-        return any(escaped(p, model.simulate(p, P)[0]) for p in preps)
+    with np.errstate(all="ignore"):  # every recording in one simulation
+        return any(escaped(p, y[0]) for p, y in zip(preps, model.simulate_many(preps, np.atleast_2d(P))))
 
 
 def escaped(p: Prepared, yh: np.ndarray) -> bool:
