@@ -1,7 +1,8 @@
 """The time loops of the augmented model's open-loop simulation (:meth:`diagnose.model.
-AugmentedModel.simulate_many`): the compiled loop recording by recording, the numpy loop over
-every recording at once (padded to the longest), and the environment both read, the current and
-the air velocity turned into body axes by the measured heading (not a simulated one).
+AugmentedModel.simulate_many`): the compiled loop over recordings of similar length side by side
+(their members in one call), the numpy loop over every recording at once (padded to the longest),
+and the environment both read, the current and the air velocity turned into body axes by the
+measured heading (not a simulated one).
 
 Both loops step the primitives' time step (:class:`primitives.simulate.VelocityStep`) with the
 same inputs in the same order: the same bits (``tests/test_diagnose_simulate.py``).
