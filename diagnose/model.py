@@ -336,8 +336,8 @@ def plan_rows(plan: dict, rows: slice) -> dict:
 # -- residuals and fitting ----------------------------------------------------------------------------
 
 
-def residuals(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
-    """Open-loop residuals y - y_hat per recording, each (B, N+1, 3)."""
+def residuals(model: AugmentedModel, preps: list[Prepared], P: np.ndarray | list[np.ndarray]) -> list[np.ndarray]:
+    """Open-loop residuals y - y_hat per recording, each (B, N+1, 3) (``P`` as :meth:`AugmentedModel.simulate_many`)."""
     out = []
     with np.errstate(all="ignore"):
         for p, yh in zip(preps, model.simulate_many(preps, P)):

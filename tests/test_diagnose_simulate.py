@@ -126,3 +126,5 @@ def test_recordings_stepped_side_by_side_give_each_ones_bits(monkeypatch):
     # a batch per recording simulates as the same members given to each recording on its own
     for p, q, got in zip(preps, batches, together[1]):
         assert np.array_equal(model.simulate_many([p], q)[0], got, equal_nan=True)
+    monkeypatch.setattr(jitloop, "AVAILABLE", False)  # the numpy loop, recording by recording: the same bits
+    assert all(np.array_equal(x, y, equal_nan=True) for x, y in zip(model.simulate_many(preps, batches), together[1]))
