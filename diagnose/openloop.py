@@ -127,13 +127,8 @@ def _merged(
     cut = np.cumsum([0] + [len(c) for c in coefs])
     n_max = max(p.n for p in preps)
 
-    def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (n_max, sum B_i, ...) from per-run (B_i or 1, n_i, ...)
-        out = np.empty((n_max, cut[-1]) + arrs[0].shape[2:])
-        for r, a in enumerate(arrs):
-            a = a.swapaxes(0, 1)
-            out[: len(a), cut[r] : cut[r + 1]] = a
-            out[len(a) :, cut[r] : cut[r + 1]] = a[-1:]
-        return out
+    def padded(arrs: list[np.ndarray]) -> np.ndarray:
+        return _padded(arrs, n_max, cut)
 
     ex = {nm: padded([np.asarray(e[nm])[..., None] for e, _x, _n in runs])[..., 0] for nm in need_in}
     env = [environment(p, c, use_wind, len(k)) for p, c, k in zip(preps, curs, coefs)]
@@ -146,6 +141,18 @@ def _merged(
     if out is None:
         return None
     return [out[cut[r] : cut[r + 1], : p.n + 1] for r, p in enumerate(preps)]
+
+
+def _padded(arrs: list[np.ndarray], n_max: int, cut: np.ndarray) -> np.ndarray:
+    """(n_max, cut[-1], ...) time-major (one contiguous row per step) from per-recording arrays
+    (B_r or 1, n_r, ...), recording r in the columns cut[r]:cut[r+1], a shorter one padded with its
+    last step (the padding's steps are cut off the outputs; each member is stepped on its own)."""
+    out = np.empty((n_max, cut[-1]) + arrs[0].shape[2:])
+    for r, a in enumerate(arrs):
+        a = a.swapaxes(0, 1)
+        out[: len(a), cut[r] : cut[r + 1]] = a
+        out[len(a) :, cut[r] : cut[r + 1]] = a[-1:]
+    return out
 
 
 def numpy_loop(
@@ -161,11 +168,8 @@ def numpy_loop(
     (padded to the longest; the padding's steps are cut off)."""
     B, R, n_max = coef.shape[0], len(preps), max(p.n for p in preps)
 
-    def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (n_max, R*B, ...) from per-run (B or 1, n_i, ...)
-        out = np.zeros((n_max, R * B) + arrs[0].shape[2:])  # time-major: one contiguous row per step
-        for r, a in enumerate(arrs):
-            out[: a.shape[1], r * B : (r + 1) * B] = a.swapaxes(0, 1)
-        return out
+    def padded(arrs: list[np.ndarray]) -> np.ndarray:
+        return _padded(arrs, n_max, np.arange(R + 1) * B)
 
     pre = padded([pre for _e, pre, _n in runs])
     exo = {nm: padded([np.asarray(e[nm])[..., None] for e, _x, _n in runs])[..., 0] for nm in need_in}
