@@ -24,7 +24,13 @@ from primitives.simulate import relative_signals
 # the Jacobians saved were about 40 % of a diagnosis's CPU. Two short steps, not one: a single one
 # can be a dip between longer steps (1e-5 then 5e-5 to 1e-4 for 20 more steps on model-control)
 # or the first step after the damping was raised, and stopping there is stopping mid-descent.
-BASELINE_TOL = 1e-4
+# 5e-4, not 1e-4 (issue 26's 10 s a case): past two steps under 5e-4 the declared structure's fit
+# crawled on, 2-4e-4 a step, for six more Jacobians of 60 columns on four runs of 3,500 samples
+# (0.15 % of its objective; 9-34 % of a case's CPU with the own structure's fit stopping earlier
+# too); on the ten kinds of case of benchmarks/bench_diagnose_size.py the same effects are named
+# and the findings' values move by at most 0.4 % (wind's yaw term; a delay 3.9989 -> 4.0015 s, an
+# offset 1.4918 -> 1.4925 deg).
+BASELINE_TOL = 5e-4
 BASELINE_PATIENCE = 2
 
 

@@ -18,11 +18,12 @@ import numpy as np
 
 from diagnose import windload
 from diagnose.candidates import Candidate, Slot
+from diagnose.noise import noise_std, noise_std_coloured  # noqa: F401  (diagnose.model's names, as before)
 from diagnose.openloop import compiled_loop, current_turning, numpy_loop
 from diagnose.recording import Recording
 from primitives.goodness import fit_percent  # noqa: F401  (diagnose.model.fit_percent, as before)
 from primitives.ship import ShipProfile
-from primitives.simulate import WIND_EXCESS, VelocityStep, body_from_ne, relative_signals
+from primitives.simulate import WIND_EXCESS, body_from_ne, relative_signals
 from primitives.terms import TermSet, compile_term, signals_used
 
 
@@ -204,11 +205,12 @@ class AugmentedModel:
             exo[k] = np.broadcast_to(v[:-1], (B, n))
         return exo
 
-    def simulate_many(self, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
-        """Open-loop outputs, one (B, N_i+1, 3) per recording, for parameter vectors P (B, n_params).
+    def simulate_many(self, preps: list[Prepared], P: np.ndarray | list[np.ndarray]) -> list[np.ndarray]:
+        """Open-loop outputs, one (B_i, N_i+1, 3) per recording, for parameter vectors P (B, n_params)
+        on every recording, or one batch P[i] (B_i, n_params) per recording (a Jacobian's columns).
 
         One simulation with the primitives' time step (``primitives.simulate.VelocityStep``) over
-        every batch member, recording by recording in the compiled loop (the recordings padded to
+        every batch member, recordings side by side in the compiled loop (the recordings padded to
         the longest and stepped at once in the numpy loop; :mod:`diagnose.openloop`). The
         candidate slots enter around it:
         extra terms and inertia scales in the step's terms, a current rotated by the measured
@@ -216,26 +218,34 @@ class AugmentedModel:
         corrections in nu(0). Input-only terms are summed before the loop and enter the step as
         its ``forced`` increments.
         """
-        P = np.atleast_2d(np.asarray(P, float))
-        B = P.shape[0]
-        plan = self._plan(P)
+        Ps = [np.atleast_2d(np.asarray(q, float)) for q in P] if isinstance(P, list) else None
+        Pall = np.atleast_2d(np.asarray(P, float)) if Ps is None else np.concatenate(Ps)
+        B = Pall.shape[0]
+        plan = self._plan(Pall)
         scale, bias, cur = plan["scale"], plan["bias"], plan["cur"]
         loop: list[list[tuple[str, np.ndarray]]] = [[], [], []]
         for i, coef, term, names, _fn in plan["terms"]:
             if not set(names) <= {"psi", "phi", *self.profile.inputs, "tau_x", "tau_y", "tau_n", *windload.SIGNALS}:
                 loop[i].append((term, coef))
-        runs = [self._run_inputs(prep, plan, P) for prep in preps]
+        cuts = np.cumsum([0] + [len(q) for q in Ps]) if Ps is not None else None
+        rows = [slice(None)] * len(preps) if cuts is None else [slice(a, b) for a, b in zip(cuts[:-1], cuts[1:])]
+        runs = [self._run_inputs(prep, plan_rows(plan, sl), Pall[sl]) for prep, sl in zip(preps, rows)]
         tset, need = self._termset(tuple(tuple(t for t, _c in dof) for dof in loop))
         coef = np.column_stack([c * scale[:, i] for i, dof in enumerate(loop) for _t, c in dof] or [np.zeros((B, 0))])
         need_in = sorted(need & set(runs[0][0]))
-        has_cur = bool(np.any(cur != 0))
+        curs = [cur[sl] for sl in rows] if np.any(cur != 0) else None
         use_wind = bool(need & {*WIND_EXCESS, "u_q", "v_q"}) and any(p.wind_body is not None for p in preps)
-        outs = compiled_loop(preps, runs, VelocityStep(tset, coef), need_in, cur if has_cur else None, use_wind)
-        if outs is None:  # the numpy loop (no compiler): the same steps
-            outs = numpy_loop(preps, runs, tset, coef, need_in, cur if has_cur else None, use_wind)
+        outs = compiled_loop(preps, runs, tset, [coef[sl] for sl in rows], need_in, curs, use_wind)
+        if outs is None and Ps is None:  # the numpy loop (no compiler): the same steps
+            outs = numpy_loop(preps, runs, tset, coef, need_in, None if curs is None else cur, use_wind)
+        elif outs is None:  # a batch per recording: recording by recording
+            outs = [
+                numpy_loop([p], [run], tset, coef[sl], need_in, None if curs is None else cur[sl], use_wind)[0]
+                for p, run, sl in zip(preps, runs, rows)
+            ]
         if not np.any(bias):  # no sensor bias: the outputs as simulated (adding zeros copies each)
             return outs
-        return [o + bias[:, None, :] for o in outs]
+        return [o + bias[sl][:, None, :] for o, sl in zip(outs, rows)]
 
     def _run_inputs(self, prep: Prepared, plan: dict, P: np.ndarray) -> tuple[dict, np.ndarray, np.ndarray]:
         """(exogenous signals, input-only increments (B, N, 3), nu(0) (B, 3)) of one recording."""
@@ -315,53 +325,19 @@ class AugmentedModel:
         return float(np.sqrt(np.mean(np.concatenate(vals) ** 2))) if vals else 0.0
 
 
+def plan_rows(plan: dict, rows: slice) -> dict:
+    """The members ``rows`` of a plan (:meth:`AugmentedModel._plan`)."""
+    cut = {k: v[rows] for k, v in plan.items() if isinstance(v, np.ndarray)}
+    terms = [(i, c[rows], *rest) for i, c, *rest in plan["terms"]]
+    delay = None if plan["delay"] is None else plan["delay"][rows]
+    return plan | cut | {"terms": terms, "offsets": [(i, c[rows]) for i, c in plan["offsets"]], "delay": delay}
+
+
 # -- residuals and fitting ----------------------------------------------------------------------------
 
 
-def noise_std(y: np.ndarray) -> np.ndarray:
-    """Measurement-noise std per output from second differences (robust: median absolute)."""
-    d2 = y[2:] - 2 * y[1:-1] + y[:-2]
-    mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0) * 1.4826 / np.sqrt(6.0)
-    floor = 1e-3 * (np.std(y, axis=0) + 1e-12)
-    return np.maximum(mad, floor)
-
-
-def noise_std_coloured(y: np.ndarray, max_lag: int = 6) -> np.ndarray:
-    """Measurement-noise std per output, robust to coloured (AR(1)) noise.
-
-    The robust variance of the lag-L second difference y(k+L) - 2 y(k) + y(k-L) is modelled as
-    c L^4 (a smooth motion) + s^2 (6 - 8 rho^L + 2 rho^2L) (AR(1) noise of std s and lag-one
-    correlation rho) over L = 1..max_lag; (c, s^2) by non-negative least squares on the relative
-    error for each rho of a grid. White noise is rho = 0 (the plain second-difference estimate);
-    coloured noise hides from the lag-one difference, which underestimates it several times.
-    """
-    from scipy.optimize import nnls
-
-    n = len(y)
-    lags = np.arange(1, max_lag + 1)
-    lags = lags[2 * lags < n - 2]
-    out = noise_std(y)
-    if len(lags) < 3:
-        return out
-    for i in range(y.shape[1]):
-        v = np.empty(len(lags))
-        for q, L in enumerate(lags):
-            d2 = y[2 * L :, i] - 2 * y[L:-L, i] + y[: -2 * L, i]
-            v[q] = (1.4826 * np.median(np.abs(d2 - np.median(d2)))) ** 2
-        if not np.all(v > 0):
-            continue
-        best = (np.inf, out[i] ** 2)
-        for rho in np.linspace(0.0, 0.9, 19):
-            A = np.column_stack([lags.astype(float) ** 4, 6 - 8 * rho**lags + 2 * rho ** (2 * lags)]) / v[:, None]
-            coef, res = nnls(A, np.ones(len(lags)))
-            if res < best[0] - 1e-9:
-                best = (res, coef[1])
-        out[i] = max(np.sqrt(best[1]), out[i])
-    return out
-
-
-def residuals(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
-    """Open-loop residuals y - y_hat per recording, each (B, N+1, 3)."""
+def residuals(model: AugmentedModel, preps: list[Prepared], P: np.ndarray | list[np.ndarray]) -> list[np.ndarray]:
+    """Open-loop residuals y - y_hat per recording, each (B, N+1, 3) (``P`` as :meth:`AugmentedModel.simulate_many`)."""
     out = []
     with np.errstate(all="ignore"):
         for p, yh in zip(preps, model.simulate_many(preps, P)):
@@ -396,7 +372,7 @@ def jacobian(
     at_P: list[np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(r0 (M,), J (M, len(free))) of the weighted residual by forward differences, one batched
-    simulation per recording. A recording's initial-state parameters move that recording alone:
+    simulation, a batch per recording. A recording's initial-state parameters move that recording alone:
     they are stepped on it only, their columns zero on the others (the zeros the differences of
     two equal simulations give, without simulating them: a quarter to a half of the members of a
     diagnosis's refits, whose free parameters are mostly initial states). ``at_P``: the
@@ -405,13 +381,16 @@ def jacobian(
     owner = _initial_state_owner(model, preps, free)
     shared = [k for k, o in enumerate(owner) if o == -1]
     first = 0 if at_P is None else 1  # row 0 of the batch is P itself unless given
-    r0, J = [], []
-    for i, p in enumerate(preps):
+    r0, J, batches, own = [], [], [], []
+    for i in range(len(preps)):
         cols = shared + [k for k, o in enumerate(owner) if o == i]
         js = [free[k] for k in cols]
         Pb = np.repeat(P[None], len(cols) + 1 - first, axis=0)
         Pb[np.arange(1 - first, len(cols) + 1 - first), js] += h[js]
-        res = residuals(model, [p], Pb)[0]
+        batches.append(Pb)
+        own.append((cols, js))
+    for i, res in enumerate(residuals(model, preps, batches)):  # every recording's batch in one simulation
+        cols, js = own[i]
         if at_P is not None:
             res = np.concatenate([at_P[i], res])
         R = stack([res], [w[i] if isinstance(w, list) else w], None if masks is None else [masks[i]])
@@ -533,8 +512,8 @@ def fit(
 def diverges(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> bool:
     """True when the simulation at P is non-finite or leaves the recorded range by far
     (an unstable refit: positive damping, a blown-up inertia)."""
-    with np.errstate(all="ignore"):
-        return any(escaped(p, model.simulate(p, P)[0]) for p in preps)
+    with np.errstate(all="ignore"):  # every recording in one simulation
+        return any(escaped(p, y[0]) for p, y in zip(preps, model.simulate_many(preps, np.atleast_2d(P))))
 
 
 def escaped(p: Prepared, yh: np.ndarray) -> bool:

@@ -1,7 +1,8 @@
 """The time loops of the augmented model's open-loop simulation (:meth:`diagnose.model.
-AugmentedModel.simulate_many`): the compiled loop recording by recording, the numpy loop over
-every recording at once (padded to the longest), and the environment both read, the current and
-the air velocity turned into body axes by the measured heading (not a simulated one).
+AugmentedModel.simulate_many`): the compiled loop over recordings of similar length side by side
+(their members in one call), the numpy loop over every recording at once (padded to the longest),
+and the environment both read, the current and the air velocity turned into body axes by the
+measured heading (not a simulated one).
 
 Both loops step the primitives' time step (:class:`primitives.simulate.VelocityStep`) with the
 same inputs in the same order: the same bits (``tests/test_diagnose_simulate.py``).
@@ -50,23 +51,108 @@ def environment(prep: Prepared, cur: np.ndarray | None, use_wind: bool, B: int) 
 
 
 def compiled_loop(
-    preps: list[Prepared], runs: list[RunInputs], step: VelocityStep, need_in: list[str], cur: np.ndarray | None, use_wind: bool
+    preps: list[Prepared],
+    runs: list[RunInputs],
+    tset: TermSet,
+    coefs: list[np.ndarray],
+    need_in: list[str],
+    curs: list[np.ndarray] | None,
+    use_wind: bool,
 ) -> list[np.ndarray] | None:
-    """nu (B, N_i+1, 3) per recording from the compiled loop, one call per recording (its own
-    length, its inputs once for every member when they are the same); None when the compiled
-    loop does not apply. Whether it is worth loading is judged on the whole call's work, as for
-    one padded call."""
-    if not jitloop.use(runs[0][2].shape[0] * sum(p.n for p in preps)):
+    """nu (B_i, N_i+1, 3) per recording from the compiled loop (recording i's members with the
+    term coefficients ``coefs[i]`` (B_i, p) and the current ``curs[i]`` (B_i, 2)); None when the
+    compiled loop does not apply. Whether it is worth loading is judged on the whole call's work.
+    Recordings are stepped side by side in one call (:func:`_groups`, :func:`_merged`); a recording
+    stepped alone reads its inputs once for every member when they are the same. Each member is
+    stepped on its own in the loop: the same bits however the recordings are grouped."""
+    if not jitloop.use(sum(len(c) * p.n for c, p in zip(coefs, preps))):
         return None
-    outs = []
-    for prep, (exo, pre, nu0) in zip(preps, runs):
-        B = nu0.shape[0]
-        ex = {nm: np.asarray(exo[nm]).T for nm in need_in}
-        out = jitloop.open_loop(step, need_in, ex, np.array(nu0), *environment(prep, cur, use_wind, B), pre.swapaxes(0, 1))
-        if out is None:
+    outs: list[np.ndarray] = []
+    for group in _groups([p.n for p in preps], [len(c) for c in coefs]):
+        if len(group) == 1:
+            i = group[0]
+            (exo, pre, nu0), prep, B = runs[i], preps[i], len(coefs[i])
+            if B == 0:  # nothing to step on this recording (a Jacobian's recording with no column)
+                outs.append(np.empty((0, prep.n + 1, 3)))
+                continue
+            ex = {nm: np.asarray(exo[nm]).T for nm in need_in}
+            env = environment(prep, None if curs is None else curs[i], use_wind, B)
+            out = jitloop.open_loop(VelocityStep(tset, coefs[i]), need_in, ex, np.array(nu0), *env, pre.swapaxes(0, 1))
+            part = None if out is None else [out]
+        else:
+            sub = [None if curs is None else curs[i] for i in group]
+            part = _merged(
+                [preps[i] for i in group], [runs[i] for i in group], tset, [coefs[i] for i in group], need_in, sub, use_wind
+            )
+        if part is None:
             return None
-        outs.append(out)
+        outs += part
     return outs
+
+
+# Members of one compiled call when recordings are stepped side by side: the loop's cost is mostly
+# fixed per step (about 1 us a step for one member of the kvlcc2 model, 0.1-0.2 us for each
+# further one), so the few members of a refit's trials or Jacobian on several recordings cost
+# about what one recording alone costs; past some tens of members the members themselves dominate.
+MERGE_MEMBERS = 48
+MERGE_LENGTH = 0.8  # a recording is padded to the group's longest by at most 20 % of that (steps lost)
+
+
+def _groups(lengths: list[int], members: list[int]) -> list[list[int]]:
+    """Consecutive recordings stepped in one call: at most :data:`MERGE_MEMBERS` members together,
+    none shorter than :data:`MERGE_LENGTH` of the group's longest."""
+    out: list[list[int]] = []
+    for i, (n, b) in enumerate(zip(lengths, members)):
+        g = out[-1] if out else []
+        ns = [lengths[j] for j in g] + [n]
+        if g and sum(members[j] for j in g) + b <= MERGE_MEMBERS and min(ns) >= MERGE_LENGTH * max(ns):
+            g.append(i)
+        else:
+            out.append([i])
+    return out
+
+
+def _merged(
+    preps: list[Prepared],
+    runs: list[RunInputs],
+    tset: TermSet,
+    coefs: list[np.ndarray],
+    need_in: list[str],
+    curs: list[np.ndarray | None],
+    use_wind: bool,
+) -> list[np.ndarray] | None:
+    """nu (B_i, N_i+1, 3) per recording from one compiled call over every member of every recording
+    side by side, the shorter ones padded to the longest with their last inputs (the padding's steps
+    are cut off)."""
+    cut = np.cumsum([0] + [len(c) for c in coefs])
+    n_max = max(p.n for p in preps)
+
+    def padded(arrs: list[np.ndarray]) -> np.ndarray:
+        return _padded(arrs, n_max, cut)
+
+    ex = {nm: padded([np.asarray(e[nm])[..., None] for e, _x, _n in runs])[..., 0] for nm in need_in}
+    env = [environment(p, c, use_wind, len(k)) for p, c, k in zip(preps, curs, coefs)]
+    cb = None if curs[0] is None else tuple(padded([e[0][q].T[..., None] for e in env])[..., 0] for q in (0, 1))
+    wb = None if not use_wind else tuple(padded([e[1][q].T[..., None] for e in env])[..., 0] for q in (0, 1))
+    nu0 = np.concatenate([np.array(n0) for _e, _x, n0 in runs])
+    out = jitloop.open_loop(
+        VelocityStep(tset, np.concatenate(coefs)), need_in, ex, nu0, cb, wb, padded([x for _e, x, _n in runs])
+    )
+    if out is None:
+        return None
+    return [out[cut[r] : cut[r + 1], : p.n + 1] for r, p in enumerate(preps)]
+
+
+def _padded(arrs: list[np.ndarray], n_max: int, cut: np.ndarray) -> np.ndarray:
+    """(n_max, cut[-1], ...) time-major (one contiguous row per step) from per-recording arrays
+    (B_r or 1, n_r, ...), recording r in the columns cut[r]:cut[r+1], a shorter one padded with its
+    last step (the padding's steps are cut off the outputs; each member is stepped on its own)."""
+    out = np.empty((n_max, cut[-1]) + arrs[0].shape[2:])
+    for r, a in enumerate(arrs):
+        a = a.swapaxes(0, 1)
+        out[: len(a), cut[r] : cut[r + 1]] = a
+        out[len(a) :, cut[r] : cut[r + 1]] = a[-1:]
+    return out
 
 
 def numpy_loop(
@@ -82,11 +168,8 @@ def numpy_loop(
     (padded to the longest; the padding's steps are cut off)."""
     B, R, n_max = coef.shape[0], len(preps), max(p.n for p in preps)
 
-    def padded(arrs: list[np.ndarray]) -> np.ndarray:  # (n_max, R*B, ...) from per-run (B or 1, n_i, ...)
-        out = np.zeros((n_max, R * B) + arrs[0].shape[2:])  # time-major: one contiguous row per step
-        for r, a in enumerate(arrs):
-            out[: a.shape[1], r * B : (r + 1) * B] = a.swapaxes(0, 1)
-        return out
+    def padded(arrs: list[np.ndarray]) -> np.ndarray:
+        return _padded(arrs, n_max, np.arange(R + 1) * B)
 
     pre = padded([pre for _e, pre, _n in runs])
     exo = {nm: padded([np.asarray(e[nm])[..., None] for e, _x, _n in runs])[..., 0] for nm in need_in}

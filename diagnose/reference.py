@@ -104,18 +104,12 @@ class ReferencedModel(AugmentedModel):
         super().__init__(profile, theta0, candidates, n_rec)
         self.reference_ids = {id(p) for p in reference or []}
 
-    def simulate_many(self, preps: list[Prepared], P: np.ndarray) -> list[np.ndarray]:
-        ref = [k for k, p in enumerate(preps) if id(p) in self.reference_ids]
-        if not ref:
+    def simulate_many(self, preps: list[Prepared], P: np.ndarray | list[np.ndarray]) -> list[np.ndarray]:
+        if not any(id(p) in self.reference_ids for p in preps):
             return super().simulate_many(preps, P)
-        other = [k for k in range(len(preps)) if k not in ref]
-        P = np.atleast_2d(np.asarray(P, float))
-        Pr = P.copy()
-        Pr[:, self.n_base : self.n_slots_end] = 0.0  # the reference runs are without the condition
-        out: list[np.ndarray | None] = [None] * len(preps)
-        for k, y in zip(ref, super().simulate_many([preps[k] for k in ref], Pr)):
-            out[k] = y
-        if other:
-            for k, y in zip(other, super().simulate_many([preps[k] for k in other], P)):
-                out[k] = y
-        return out  # type: ignore[return-value]
+        Ps = [np.atleast_2d(np.asarray(q, float)) for q in (P if isinstance(P, list) else [P] * len(preps))]
+        for k, p in enumerate(preps):
+            if id(p) in self.reference_ids:
+                Ps[k] = Ps[k].copy()
+                Ps[k][:, self.n_base : self.n_slots_end] = 0.0  # the reference runs are without the condition
+        return super().simulate_many(preps, Ps)

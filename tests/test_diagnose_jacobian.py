@@ -37,6 +37,11 @@ def _setup():
     return model, preps, P, free
 
 
+def _members(ps, Pb) -> int:
+    """Members simulated by one simulate_many call (one batch for every recording, or one each)."""
+    return sum(len(q) for q in Pb) if isinstance(Pb, list) else len(ps) * len(Pb)
+
+
 def test_split_jacobian_is_the_one_batch_forward_difference():
     model, preps, P, free = _setup()
     w = np.array([10.0, 20.0, 300.0])
@@ -55,10 +60,11 @@ def test_initial_states_are_simulated_on_their_own_recording_only(monkeypatch):
     model, preps, P, free = _setup()
     members = []
     sim = model.simulate_many
-    monkeypatch.setattr(model, "simulate_many", lambda ps, Pb: members.append(len(ps) * len(Pb)) or sim(ps, Pb))
+    monkeypatch.setattr(model, "simulate_many", lambda ps, Pb: members.append(_members(ps, Pb)) or sim(ps, Pb))
     dm.jacobian(model, preps, P, free, np.ones(3))
     shared = 1 + 4  # the point and the four parameters that move both recordings
     assert sum(members) == 2 * (shared + 3)  # not 2 * (1 + len(free)) = 22: each initial state on one recording
+    assert len(members) == 1  # every recording's batch in one simulation (the compiled loop steps them side by side)
 
 
 def test_residuals_at_the_point_given_are_not_simulated_again(monkeypatch):
@@ -69,7 +75,7 @@ def test_residuals_at_the_point_given_are_not_simulated_again(monkeypatch):
     at_P = residuals(model, preps, P[None])
     members = []
     sim = model.simulate_many
-    monkeypatch.setattr(model, "simulate_many", lambda ps, Pb: members.append(len(ps) * len(Pb)) or sim(ps, Pb))
+    monkeypatch.setattr(model, "simulate_many", lambda ps, Pb: members.append(_members(ps, Pb)) or sim(ps, Pb))
     r, J = dm.jacobian(model, preps, P, free, w, at_P=at_P)
     assert np.array_equal(r, r_ref) and np.array_equal(J, J_ref)
     assert sum(members) == 2 * (4 + 3)  # the point itself not simulated

@@ -97,3 +97,34 @@ def test_compiled_loop_chosen_on_the_whole_calls_work(monkeypatch):
     monkeypatch.setattr(jitloop, "open_loop", lambda *a: ran.append(open_loop(*a)) or ran[-1])
     model.simulate_many(preps, P)
     assert len(ran) == 2 and all(r is not None for r in ran)
+
+
+@needs_numba
+def test_recordings_stepped_side_by_side_give_each_ones_bits(monkeypatch):
+    """Recordings of similar length are stepped in one compiled call (their members side by side,
+    the shorter padded): the bits of each recording stepped alone, for one batch on every recording
+    and for a batch of its own per recording (a Jacobian's), every kind of slot switched on."""
+    from diagnose import openloop
+
+    prof = load_profile("model-ship")
+    sc = scenario(("current",), 5, profile=prof)
+    recs = [sc.diagnose[0].window(0, 500), sc.validate[0].window(0, 450), sc.diagnose[0].window(100, 520)]
+    model = AugmentedModel(prof, prof.params(), build_library(prof, recs)[0], n_rec=3)
+    preps = [prepare(prof, r, i) for i, r in enumerate(recs)]
+    P = _members(model)
+    assert openloop._groups([p.n for p in preps], [len(P)] * 3) == [[0, 1, 2]] or len(P) * 3 > openloop.MERGE_MEMBERS
+    batches = [P[: len(P) // 2], P[1:4], P[len(P) // 2 :]]
+    calls, open_loop = [], jitloop.open_loop
+    monkeypatch.setattr(jitloop, "open_loop", lambda *a: calls.append(a[3].shape[0]) or open_loop(*a))
+    together = [model.simulate_many(preps, P[:10]), model.simulate_many(preps, batches)]
+    assert calls == [30, sum(len(b) for b in batches)]  # one call each: every member of every recording
+    monkeypatch.setattr(openloop, "MERGE_MEMBERS", 1)  # each recording alone
+    alone = [model.simulate_many(preps, P[:10]), model.simulate_many(preps, batches)]
+    assert len(calls) == 2 + 6
+    for a, b in zip(together, alone):
+        assert all(x.shape == y.shape and np.array_equal(x, y, equal_nan=True) for x, y in zip(a, b))
+    # a batch per recording simulates as the same members given to each recording on its own
+    for p, q, got in zip(preps, batches, together[1]):
+        assert np.array_equal(model.simulate_many([p], q)[0], got, equal_nan=True)
+    monkeypatch.setattr(jitloop, "AVAILABLE", False)  # the numpy loop, recording by recording: the same bits
+    assert all(np.array_equal(x, y, equal_nan=True) for x, y in zip(model.simulate_many(preps, batches), together[1]))
