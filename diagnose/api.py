@@ -63,6 +63,8 @@ class Diagnosis:
     structure: list[dict] = field(default_factory=list)  # findings the --fit-on reference runs show too
     # the findings' magnitudes are the maximum-likelihood refit's (diagnose.magnitude), not the search's
     magnitudes_refitted: bool = False
+    # why no effect is named whatever the data show (the --fit-on runs do not pin the baseline on the diagnosed runs)
+    cannot_tell: str = ""
 
     @property
     def explained(self) -> bool:
@@ -109,6 +111,7 @@ class _Setup:
     preps: list[Prepared]
     val_preps: list[Prepared]
     calm_preps: list[Prepared]  # the --fit-on runs inside a joint fit
+    unpinned: list[tuple[str, float]] = field(default_factory=list)  # diagnosed runs the --fit-on runs do not pin
 
 
 def _setup(
@@ -120,9 +123,9 @@ def _setup(
     joint_reference: bool,
 ) -> _Setup:
     """Fit the baseline (with --fit-on), build the candidates and the augmented model."""
-    source, notes, own = "profile", [], None
+    source, notes, own, unpinned = "profile", [], None, []
     if fit_on:
-        profile, theta0, source, notes, own = fit_reference(profile, theta0, fit_on, list(recordings), joint_reference)
+        profile, theta0, source, notes, own, unpinned = fit_reference(profile, theta0, fit_on, list(recordings), joint_reference)
     cands, untestable = build_library(profile, recordings)
     preps = [prepare(profile, r, i) for i, r in enumerate(recordings)]
     val_preps = [prepare(profile, r) for r in validate] if validate else []
@@ -138,7 +141,21 @@ def _setup(
     if not fit_on and any(str(r.meta.get("input_hold", "sampled")).lower() != "zoh" for r in recordings):
         model.half_sample = 0.5 * profile.sample_time
     check_simulable(model, preps + val_preps, "fitted" if fit_on else "given")
-    return _Setup(profile, theta0, source, notes, own, model, untestable, preps, val_preps, calm_preps)
+    return _Setup(profile, theta0, source, notes, own, model, untestable, preps, val_preps, calm_preps, unpinned)
+
+
+def cannot_tell(unpinned: list[tuple[str, float]], fit_on: list[Recording]) -> str:
+    """Why no effect is named when the --fit-on runs do not pin the baseline on the diagnosed
+    runs (:func:`diagnose.baseline.unpinned_runs`), and what to add."""
+    runs = ", ".join(f"{src} ({sd:.3g})" for src, sd in unpinned)
+    return (
+        f"cannot tell: the --fit-on run(s) {', '.join(r.source for r in fit_on)} do not pin the baseline on the "
+        f"diagnosed run(s) {runs}: the profile's [diagnosis] structure fitted there simulates them with a std above "
+        f"the noise (in noise units, RMS), and the profile's own structure does not carry calm runs to other "
+        f"manoeuvres, so an effect cannot be told from the baseline's error and none is named. Add calm "
+        f"--fit-on runs of the diagnosed runs' kinds of manoeuvre (the delivery trials: 35 deg turning circles to "
+        f"both sides, a 10/10 and a 20/20 zig-zag)"
+    )
 
 
 # BLAS runs on one thread during a diagnosis: the refits' products of a tall Jacobian (136,500 x 40
@@ -179,6 +196,8 @@ def run(
     _check_sample_times(profile, list(recordings) + list(fit_on or []) + list(validate or []))
     given = (profile, profile.params(theta if theta is not None else None))
     S = _setup(recordings, *given, fit_on, validate, joint_reference)
+    why_not = cannot_tell(S.unpinned, fit_on or []) if S.unpinned else ""
+    max_rounds = 0 if why_not else max_rounds  # no candidate is tried: nothing could be named
     model, preps, val_preps = S.model, S.preps, S.val_preps
     y_all = np.concatenate([r.y for r in recordings])
     sigma = noise_std_coloured(y_all)
@@ -253,6 +272,7 @@ def run(
     )
     d.structure = structure
     d.magnitudes_refitted = refitted
+    d.cannot_tell = why_not
     d.elapsed_s = time.perf_counter() - t0
     return d
 
