@@ -264,11 +264,6 @@ def test_fit_stops_only_after_patience_short_steps_in_a_row(monkeypatch):
     assert baseline.BASELINE_PATIENCE >= 2
 
 
-def _starboard_positive(recs: list[Recording]) -> list[Recording]:
-    """The fixture's runs carry MMG's rudder (starboard-positive): say so, as the battery's headers do."""
-    return [dataclasses.replace(r, meta={**r.meta, "rudder_sign": "starboard-positive"}) for r in recs]
-
-
 def test_one_calm_turning_circle_cannot_tell_effects_on_zigzags(mmg_runs):
     """Issue 26's user with one calm run: a 35 deg turning circle pins neither structure on
     zig-zags (the own misses them by tens of noise units, the declared one is unconstrained
@@ -277,7 +272,7 @@ def test_one_calm_turning_circle_cannot_tell_effects_on_zigzags(mmg_runs):
     on the MMG battery's control case at 3,500 samples)."""
     calm, held, _ = mmg_runs
     prof = load_profile("kvlcc2")
-    d = api.run(_starboard_positive(held), prof, fit_on=_starboard_positive(calm[:1]))
+    d = api.run(held, prof, fit_on=calm[:1])
     assert not d.findings and not d.structure
     assert d.cannot_tell.startswith("cannot tell") and "tc35" in d.cannot_tell and "zz10-10" in d.cannot_tell
     from diagnose.report import to_json, to_text
@@ -286,16 +281,16 @@ def test_one_calm_turning_circle_cannot_tell_effects_on_zigzags(mmg_runs):
     assert to_json(d, None)["cannot_tell"] == d.cannot_tell
 
 
-def test_a_turning_circle_and_a_zigzag_pin_the_declared_structure_on_other_zigzags(mmg_runs):
-    """The other side of the rule: a 35 deg turning circle and a 10/10 zig-zag pin the declared
-    structure on a 10/10 zig-zag to the other side and a 15/15 (its simulation's std from the
-    fit below the noise), while the turning circle alone does not."""
+def test_calm_runs_of_the_diagnosed_kinds_pin_the_declared_structure_where_one_turn_does_not(mmg_runs):
+    """The other side of the rule: a 35 deg turning circle with a 10/10 and a 20/20 zig-zag pin
+    the declared structure on a 10/10 zig-zag to the other side and a 15/15 (its simulation's std
+    from the fit 0.10 and 0.10 noise units), the turning circle alone does not (221 and 70)."""
     calm, held, _ = mmg_runs
     prof = load_profile("kvlcc2")
-    sds = {}
-    for fit_on in ([calm[0]], [calm[0], calm[2]]):
+    got = {}
+    for fit_on in ([calm[0]], [calm[0], calm[2], calm[3]]):
         ext, th, note, _added = baseline.fit_declared(prof, prof.params(), fit_on)
         assert not note
-        sds[len(fit_on)] = baseline.unpinned_runs((prof, prof.params()), fit_on, (ext, th), held)
-    assert [s for s, _sd in sds[1]] == [r.source for r in held] and min(sd for _s, sd in sds[1]) > 3 * baseline.PINNED_SD
-    assert sds[2] == [], sds[2]
+        got[len(fit_on)] = baseline.unpinned_runs((prof, prof.params()), fit_on, (ext, th), held)
+    assert [s for s, _sd in got[1]] == [r.source for r in held] and min(sd for _s, sd in got[1]) > 10 * baseline.PINNED_SD
+    assert got[3] == [], got[3]
