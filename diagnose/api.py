@@ -125,7 +125,9 @@ def _setup(
     """Fit the baseline (with --fit-on), build the candidates and the augmented model."""
     source, notes, own, unpinned = "profile", [], None, []
     if fit_on:
-        profile, theta0, source, notes, own, unpinned = fit_reference(profile, theta0, fit_on, list(recordings), joint_reference)
+        profile, theta0, source, notes, own, unpinned = fit_reference(
+            profile, theta0, fit_on, list(recordings), joint_reference, validate
+        )
     cands, untestable = build_library(profile, recordings)
     preps = [prepare(profile, r, i) for i, r in enumerate(recordings)]
     val_preps = [prepare(profile, r) for r in validate] if validate else []
@@ -144,17 +146,19 @@ def _setup(
     return _Setup(profile, theta0, source, notes, own, model, untestable, preps, val_preps, calm_preps, unpinned)
 
 
-def cannot_tell(unpinned: list[tuple[str, float]], fit_on: list[Recording]) -> str:
-    """Why no effect is named when the --fit-on runs do not pin the baseline on the diagnosed
-    runs (:func:`diagnose.baseline.unpinned_runs`), and what to add."""
+def cannot_tell(unpinned: list[tuple[str, float]], fit_on: list[Recording], recordings: list[Recording]) -> str:
+    """Why no effect is named when the --fit-on runs do not pin the baseline on the diagnosed or
+    validation runs (:func:`diagnose.baseline.unpinned_runs`), and what to add."""
     runs = ", ".join(f"{src} ({sd:.3g})" for src, sd in unpinned)
+    pinned = [r.source for r in recordings if r.source not in {src for src, _sd in unpinned}]
     return (
-        f"cannot tell: the --fit-on run(s) {', '.join(r.source for r in fit_on)} do not pin the baseline on the "
-        f"diagnosed run(s) {runs}: the profile's [diagnosis] structure fitted there simulates them with a std above "
-        f"the noise (in noise units, RMS), and the profile's own structure does not carry calm runs to other "
-        f"manoeuvres, so an effect cannot be told from the baseline's error and none is named. Add calm "
-        f"--fit-on runs of the diagnosed runs' kinds of manoeuvre (the delivery trials: 35 deg turning circles to "
-        f"both sides, a 10/10 and a 20/20 zig-zag)"
+        f"cannot tell: the --fit-on run(s) {', '.join(r.source for r in fit_on)} do not pin the baseline on "
+        f"{runs}: the profile's [diagnosis] structure fitted there simulates them with a std above the noise (in "
+        f"noise units, RMS), and the profile's own structure does not carry calm runs to other manoeuvres, so an "
+        f"effect cannot be told from the baseline's error and none is named"
+        + (f" (of the diagnosed runs it pins {', '.join(pinned)})" if pinned else "")
+        + ". Add calm --fit-on runs of those runs' kinds of manoeuvre (the delivery trials: 35 deg turning circles "
+        "to both sides, a 10/10 and a 20/20 zig-zag)"
     )
 
 
@@ -196,7 +200,7 @@ def run(
     _check_sample_times(profile, list(recordings) + list(fit_on or []) + list(validate or []))
     given = (profile, profile.params(theta if theta is not None else None))
     S = _setup(recordings, *given, fit_on, validate, joint_reference)
-    why_not = cannot_tell(S.unpinned, fit_on or []) if S.unpinned else ""
+    why_not = cannot_tell(S.unpinned, fit_on or [], recordings) if S.unpinned else ""
     max_rounds = 0 if why_not else max_rounds  # no candidate is tried: nothing could be named
     model, preps, val_preps = S.model, S.preps, S.val_preps
     y_all = np.concatenate([r.y for r in recordings])

@@ -298,14 +298,20 @@ def _own(profile: ShipProfile, ext: ShipProfile) -> list[int]:
 
 
 def fit_reference(
-    profile: ShipProfile, theta0: np.ndarray, fit_on: list[Recording], recordings: list[Recording], joint_reference: bool
+    profile: ShipProfile,
+    theta0: np.ndarray,
+    fit_on: list[Recording],
+    recordings: list[Recording],
+    joint_reference: bool,
+    held_out: list[Recording] | None = None,
 ) -> tuple[ShipProfile, np.ndarray, str, list[str], list[int] | None, list[tuple[str, float]]]:
     """The baseline fitted on the --fit-on runs (jointly with the diagnosed runs with
     ``joint_reference``): (profile, theta, source, notes, own, unpinned), ``own`` the indices of
     the profile's own parameters in a structure-extended model (None after a joint fit),
-    ``unpinned`` the diagnosed runs the --fit-on runs do not pin the baseline on
-    (:func:`unpinned_runs`; checked when the profile declares a structure and it was not shown
-    to carry on --fit-on runs left out in turn)."""
+    ``unpinned`` the diagnosed and ``held_out`` (validation) runs the --fit-on runs do not pin
+    the baseline on (:func:`unpinned_runs`; checked when the profile declares a structure and it
+    was not shown to carry on --fit-on runs left out in turn: a held-out run the baseline is not
+    pinned on judges a candidate by the baseline's error there)."""
     check_simulable(AugmentedModel(profile, theta0, []), [prepare(profile, r) for r in fit_on], "given")
     own: list[int] | None = None
     unpinned: list[tuple[str, float]] = []
@@ -322,7 +328,7 @@ def fit_reference(
         given = (profile, theta0)
         (profile, theta0, source, fit_notes, rejected), declared = _structure(profile, theta0, fit_on, recordings)
         own = [j for i in range(3) for j in range(profile.model.offsets[i], profile.model.offsets[i] + n_own[i])]
-        unpinned = unpinned_runs(given, fit_on, declared, recordings) if declared is not None else []
+        unpinned = unpinned_runs(given, fit_on, declared, recordings + list(held_out or [])) if declared is not None else []
     source += " (rejected)" if rejected else ""
     return profile, theta0, source, fit_notes, own, unpinned
 
