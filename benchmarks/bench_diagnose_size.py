@@ -138,7 +138,7 @@ def main(argv: list[str] | None = None) -> dict:
             print(
                 f"{n:24s} diagnosed {'+'.join(map(str, s['diagnose']))}, fit-on {'+'.join(map(str, s['calm']))}, "
                 f"validate {'+'.join(map(str, s['validate']))} samples: wall {r['wall_s']:6.2f} s, CPU {r['cpu_s']:6.2f} s, "
-                f"named {', '.join(r['named']) or 'nothing'}{'' if r['right_names'] else (' (cannot tell)' if r['cannot_tell'] else ' (not the truth)')}",
+                f"named {', '.join(r['named']) or 'nothing'}{' (cannot tell)' if r['cannot_tell'] else ('' if r['right_names'] else ' (not the truth)')}",
                 flush=True,
             )
     wall = statistics.median(r["wall_s"] for r in rows.values())
