@@ -68,8 +68,14 @@ class Diagnosis:
 
     @property
     def explained(self) -> bool:
-        """No finding and residuals at the (coloured-noise robust) noise level."""
-        return not self.findings and not self.structure and max(self.location["rms_over_noise"].values()) < 2.0
+        """No finding, residuals at the (coloured-noise robust) noise level and a baseline the
+        --fit-on runs pin (no ``cannot_tell``)."""
+        return (
+            not self.cannot_tell
+            and not self.findings
+            and not self.structure
+            and max(self.location["rms_over_noise"].values()) < 2.0
+        )
 
     @property
     def unexplained_dofs(self) -> list[str]:
@@ -189,6 +195,8 @@ def run(
     diagnosed runs only. ``environment`` and ``rudder_sign`` stand for every recording's
     ``# environment:`` and ``# rudder_sign:`` header lines; a rudder in the other convention is
     converted to the profile's (or refused when it turns the ship the other way), as the CLI does.
+    When the ``fit_on`` runs do not pin the baseline on a diagnosed or validation run
+    (:func:`diagnose.baseline.unpinned_runs`) no candidate is tried and ``cannot_tell`` says why.
     BLAS runs on one thread meanwhile, for the whole process (see the comment above)."""
     t0 = time.perf_counter()
     if not recordings:
