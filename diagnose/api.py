@@ -63,7 +63,7 @@ class Diagnosis:
     structure: list[dict] = field(default_factory=list)  # findings the --fit-on reference runs show too
     # the findings' magnitudes are the maximum-likelihood refit's (diagnose.magnitude), not the search's
     magnitudes_refitted: bool = False
-    # why no effect is named whatever the data show (the --fit-on runs do not pin the baseline on the diagnosed runs)
+    # why no effect is named whatever the data show (the --fit-on runs do not pin the baseline on some run)
     cannot_tell: str = ""
 
     @property
@@ -117,7 +117,7 @@ class _Setup:
     preps: list[Prepared]
     val_preps: list[Prepared]
     calm_preps: list[Prepared]  # the --fit-on runs inside a joint fit
-    unpinned: list[tuple[str, float]] = field(default_factory=list)  # diagnosed runs the --fit-on runs do not pin
+    unpinned: list[tuple[str, float]] = field(default_factory=list)  # diagnosed/validation runs the --fit-on runs do not pin
 
 
 def _setup(

@@ -28,10 +28,10 @@ BASELINE_TOL = 1e-4
 BASELINE_PATIENCE = 2
 # A diagnosed run on which the baseline's simulation is uncertain by more than the noise (RMS,
 # in noise units, from the --fit-on fit's covariance) holds no effect the diagnosis could tell
-# from that uncertainty. MMG KVLCC2 at 3,500 samples (control case): the declared structure fitted
-# on one 35 deg turning circle is uncertain by 14-92 noise units on 10/10 and 20/20 zig-zags
-# (0.08 on a turning circle); on a turning circle and a 10/10 zig-zag by at most 0.44; on the
-# four calm runs by at most 0.04.
+# from that uncertainty. MMG KVLCC2 (tests/physics), the declared structure fitted on one 35 deg
+# turning circle: 41-50 on the 10/10 and 20/20 zig-zags at 3,500 samples (control case); at the
+# battery's length 68-221 on zig-zags, 0.14 on the turn itself; fitted on a turn and the 10/10
+# and 20/20 zig-zags at most 0.57 on the others, on all four calm runs at most 0.095 (README).
 PINNED_SD = 1.0
 
 
