@@ -10,6 +10,7 @@ from threadpoolctl import threadpool_limits
 
 from diagnose import plausible
 from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_structure, loo_misfit, term_scales: the library API)
+    PINNED_SD,
     check_simulable,
     fit_baseline,
     fit_declared,
@@ -65,6 +66,8 @@ class Diagnosis:
     magnitudes_refitted: bool = False
     # why no effect is named whatever the data show (the --fit-on runs do not pin the baseline on some run)
     cannot_tell: str = ""
+    # (run, first-order std of the baseline's simulation there in noise units) behind cannot_tell
+    unpinned: list[tuple[str, float]] = field(default_factory=list)
 
     @property
     def explained(self) -> bool:
@@ -152,19 +155,29 @@ def _setup(
     return _Setup(profile, theta0, source, notes, own, model, untestable, preps, val_preps, calm_preps, unpinned)
 
 
-def cannot_tell(unpinned: list[tuple[str, float]], fit_on: list[Recording], recordings: list[Recording]) -> str:
+def cannot_tell(
+    unpinned: list[tuple[str, float]], fit_on: list[Recording], recordings: list[Recording], validate: list[Recording]
+) -> str:
     """Why no effect is named when the --fit-on runs do not pin the baseline on the diagnosed or
-    validation runs (:func:`diagnose.baseline.unpinned_runs`), and what to add."""
+    validation runs (:func:`diagnose.baseline.unpinned_runs`), and what to add: calm runs of the
+    unpinned runs' manoeuvres, named by their ``# manoeuvre:`` header lines where they have one."""
     runs = ", ".join(f"{src} ({sd:.3g})" for src, sd in unpinned)
-    pinned = [r.source for r in recordings if r.source not in {src for src, _sd in unpinned}]
+    bad = {src for src, _sd in unpinned}
+    pinned = [r.source for r in recordings if r.source not in bad]
+    kinds = sorted(
+        {str(r.meta["manoeuvre"]) for r in list(recordings) + list(validate) if r.source in bad and r.meta.get("manoeuvre")}
+    )
     return (
         f"cannot tell: the --fit-on run(s) {', '.join(r.source for r in fit_on)} do not pin the baseline on "
-        f"{runs}: the profile's [diagnosis] structure fitted there simulates them with a std above the noise (in "
-        f"noise units, RMS), and the profile's own structure does not carry calm runs to other manoeuvres, so an "
-        f"effect cannot be told from the baseline's error and none is named"
+        f"{runs}: the std of the profile's [diagnosis] structure's simulation there, as fitted on the --fit-on "
+        f"run(s) (first order, RMS over the run, in noise units), is above {PINNED_SD:g}, and the profile's own "
+        f"structure does not carry calm runs to other manoeuvres, so an effect cannot be told from the baseline's "
+        f"error and none is named"
         + (f" (of the diagnosed runs it pins {', '.join(pinned)})" if pinned else "")
-        + ". Add calm --fit-on runs of those runs' kinds of manoeuvre (the delivery trials: 35 deg turning circles "
-        "to both sides, a 10/10 and a 20/20 zig-zag)"
+        + ". Add calm --fit-on runs of the same manoeuvres as those runs"
+        + (f" ({', '.join(kinds)})" if kinds else "")
+        + " and diagnose again (a full set: the delivery trials, 35 deg turning circles to both sides, a 10/10 and "
+        "a 20/20 zig-zag)"
     )
 
 
@@ -208,7 +221,7 @@ def run(
     _check_sample_times(profile, list(recordings) + list(fit_on or []) + list(validate or []))
     given = (profile, profile.params(theta if theta is not None else None))
     S = _setup(recordings, *given, fit_on, validate, joint_reference)
-    why_not = cannot_tell(S.unpinned, fit_on or [], recordings) if S.unpinned else ""
+    why_not = cannot_tell(S.unpinned, fit_on or [], recordings, validate or []) if S.unpinned else ""
     max_rounds = 0 if why_not else max_rounds  # no candidate is tried: nothing could be named
     model, preps, val_preps = S.model, S.preps, S.val_preps
     y_all = np.concatenate([r.y for r in recordings])
@@ -284,7 +297,7 @@ def run(
     )
     d.structure = structure
     d.magnitudes_refitted = refitted
-    d.cannot_tell = why_not
+    d.cannot_tell, d.unpinned = why_not, S.unpinned
     d.elapsed_s = time.perf_counter() - t0
     return d
 

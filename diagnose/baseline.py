@@ -332,8 +332,24 @@ def fit_reference(
         (profile, theta0, source, fit_notes, rejected), declared = _structure(profile, theta0, fit_on, recordings)
         own = [j for i in range(3) for j in range(profile.model.offsets[i], profile.model.offsets[i] + n_own[i])]
         unpinned = unpinned_runs(given, fit_on, declared, recordings + list(held_out or [])) if declared is not None else []
+        if declared is None and not rejected and "structure extended" not in source:
+            fit_notes.append(_unchecked_note(given[0]))
     source += " (rejected)" if rejected else ""
     return profile, theta0, source, fit_notes, own, unpinned
+
+
+def _unchecked_note(profile: ShipProfile) -> str:
+    """Says the pinning check (:func:`unpinned_runs`) did not run, and why: it propagates the
+    declared structure's fit, which the profile lacks or which could not be fitted."""
+    why = (
+        "the profile declares no [diagnosis] structure"
+        if not profile.structure_terms
+        else "the profile's [diagnosis] structure was not fitted on them: it diverged or adds no term"
+    )
+    return (
+        f"whether the --fit-on runs pin the baseline on the diagnosed and validation runs was not checked ({why}): "
+        "a finding on a kind of manoeuvre the --fit-on runs lack may be the baseline's error there"
+    )
 
 
 def check_simulable(model: AugmentedModel, preps: list[Prepared], what: str) -> None:

@@ -272,13 +272,29 @@ def test_one_calm_turning_circle_cannot_tell_effects_on_zigzags(mmg_runs):
     on the MMG battery's control case at 3,500 samples)."""
     calm, held, _ = mmg_runs
     prof = load_profile("kvlcc2")
+    # the '# manoeuvre:' header line names what to add
+    held = [dataclasses.replace(r, meta={"manoeuvre": f"kind-{i}"}) for i, r in enumerate(held)]
     d = api.run(held, prof, fit_on=calm[:1])
     assert not d.findings and not d.structure
     assert d.cannot_tell.startswith("cannot tell") and "tc35" in d.cannot_tell and "zz10-10" in d.cannot_tell
+    assert "Add calm --fit-on runs of the same manoeuvres as those runs (kind-0, kind-1)" in d.cannot_tell
     from diagnose.report import to_json, to_text
 
     assert "Findings: none named; cannot tell" in to_text(d)
-    assert to_json(d, None)["cannot_tell"] == d.cannot_tell
+    doc = to_json(d, None)
+    assert doc["cannot_tell"] == d.cannot_tell
+    assert [u["run"] for u in doc["unpinned_runs"]] == [r.source for r in held]
+    assert all(u["sd_noise_units"] > baseline.PINNED_SD for u in doc["unpinned_runs"])
+
+
+def test_a_profile_without_a_declared_structure_says_the_pinning_was_not_checked(mmg_runs):
+    """The check propagates the declared structure's fit; without one the user is told it did not
+    run rather than left to read the findings as pinned (before: nothing said)."""
+    calm, held, _ = mmg_runs
+    prof = dataclasses.replace(load_profile("kvlcc2"), structure_terms=None)
+    *_rest, notes, _own, unpinned = baseline.fit_reference(prof, prof.params(), calm[:1], held, False)
+    assert unpinned == []
+    assert any("was not checked (the profile declares no [diagnosis] structure)" in n for n in notes), notes
 
 
 def test_calm_runs_of_the_diagnosed_kinds_pin_the_declared_structure_where_one_turn_does_not(mmg_runs):
