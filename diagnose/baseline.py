@@ -32,6 +32,8 @@ BASELINE_PATIENCE = 2
 # turning circle: 41-50 on the 10/10 and 20/20 zig-zags at 3,500 samples (control case); at the
 # battery's length 68-221 on zig-zags, 0.14 on the turn itself; fitted on a turn and the 10/10
 # and 20/20 zig-zags at most 0.57 on the others, on all four calm runs at most 0.095 (README).
+# A rule (the noise), not a calibrated test: the search sums the error over thousands of samples,
+# and three calm runs leaving 0.42 on the 20/20 zig-zags still gave wrong findings (README).
 PINNED_SD = 1.0
 
 
@@ -275,7 +277,8 @@ def unpinned_runs(
     (``declared``: extended profile and theta; ``given`` the profile and parameters it started
     from), is not pinned by them: (source, sd) where sd, the RMS over the run of the std of its
     simulation from that fit's covariance (:func:`fit_on_cov`, first order), largest channel, in
-    the runs' noise units, exceeds PINNED_SD (or is not finite). A profile declares a structure
+    the runs' noise units (:func:`noise_scale`, the fit's weights: floored at 2 % of the spread),
+    exceeds PINNED_SD (or is not finite). The std is taken on the recorded runs, effect and all. A profile declares a structure
     because its own cannot carry the --fit-on runs' dynamics to other manoeuvres (MMG KVLCC2: its
     own structure fitted on four calm runs misses the zig-zags by 6-9 noise units RMS); where the
     declared one is not pinned either, neither baseline can tell an effect from its own error."""
