@@ -10,6 +10,7 @@ from threadpoolctl import threadpool_limits
 
 from diagnose import plausible
 from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_structure, loo_misfit, term_scales: the library API)
+    PINNED_SD,
     check_simulable,
     fit_baseline,
     fit_declared,
@@ -63,11 +64,21 @@ class Diagnosis:
     structure: list[dict] = field(default_factory=list)  # findings the --fit-on reference runs show too
     # the findings' magnitudes are the maximum-likelihood refit's (diagnose.magnitude), not the search's
     magnitudes_refitted: bool = False
+    # why no effect is named whatever the data show (the --fit-on runs do not pin the baseline on some run)
+    cannot_tell: str = ""
+    # (run, first-order std of the baseline's simulation there in noise units) behind cannot_tell
+    unpinned: list[tuple[str, float]] = field(default_factory=list)
 
     @property
     def explained(self) -> bool:
-        """No finding and residuals at the (coloured-noise robust) noise level."""
-        return not self.findings and not self.structure and max(self.location["rms_over_noise"].values()) < 2.0
+        """No finding, residuals at the (coloured-noise robust) noise level and a baseline the
+        --fit-on runs pin (no ``cannot_tell``)."""
+        return (
+            not self.cannot_tell
+            and not self.findings
+            and not self.structure
+            and max(self.location["rms_over_noise"].values()) < 2.0
+        )
 
     @property
     def unexplained_dofs(self) -> list[str]:
@@ -109,6 +120,7 @@ class _Setup:
     preps: list[Prepared]
     val_preps: list[Prepared]
     calm_preps: list[Prepared]  # the --fit-on runs inside a joint fit
+    unpinned: list[tuple[str, float]] = field(default_factory=list)  # diagnosed/validation runs the --fit-on runs do not pin
 
 
 def _setup(
@@ -120,9 +132,11 @@ def _setup(
     joint_reference: bool,
 ) -> _Setup:
     """Fit the baseline (with --fit-on), build the candidates and the augmented model."""
-    source, notes, own = "profile", [], None
+    source, notes, own, unpinned = "profile", [], None, []
     if fit_on:
-        profile, theta0, source, notes, own = fit_reference(profile, theta0, fit_on, list(recordings), joint_reference)
+        profile, theta0, source, notes, own, unpinned = fit_reference(
+            profile, theta0, fit_on, list(recordings), joint_reference, validate
+        )
     cands, untestable = build_library(profile, recordings)
     preps = [prepare(profile, r, i) for i, r in enumerate(recordings)]
     val_preps = [prepare(profile, r) for r in validate] if validate else []
@@ -138,7 +152,33 @@ def _setup(
     if not fit_on and any(str(r.meta.get("input_hold", "sampled")).lower() != "zoh" for r in recordings):
         model.half_sample = 0.5 * profile.sample_time
     check_simulable(model, preps + val_preps, "fitted" if fit_on else "given")
-    return _Setup(profile, theta0, source, notes, own, model, untestable, preps, val_preps, calm_preps)
+    return _Setup(profile, theta0, source, notes, own, model, untestable, preps, val_preps, calm_preps, unpinned)
+
+
+def cannot_tell(
+    unpinned: list[tuple[str, float]], fit_on: list[Recording], recordings: list[Recording], validate: list[Recording]
+) -> str:
+    """Why no effect is named when the --fit-on runs do not pin the baseline on the diagnosed or
+    validation runs (:func:`diagnose.baseline.unpinned_runs`), and what to add: calm runs of the
+    unpinned runs' manoeuvres, named by their ``# manoeuvre:`` header lines where they have one."""
+    runs = ", ".join(f"{src} ({sd:.3g})" for src, sd in unpinned)
+    bad = {src for src, _sd in unpinned}
+    pinned = [r.source for r in recordings if r.source not in bad]
+    kinds = sorted(
+        {str(r.meta["manoeuvre"]) for r in list(recordings) + list(validate) if r.source in bad and r.meta.get("manoeuvre")}
+    )
+    return (
+        f"cannot tell: the --fit-on run(s) {', '.join(r.source for r in fit_on)} do not pin the baseline on "
+        f"{runs}: the std of the profile's [diagnosis] structure's simulation there, as fitted on the --fit-on "
+        f"run(s) (first order, RMS over the run, in noise units), is above {PINNED_SD:g}, and the profile's own "
+        f"structure does not carry calm runs to other manoeuvres, so an effect cannot be told from the baseline's "
+        f"error and none is named"
+        + (f" (of the diagnosed runs it pins {', '.join(pinned)})" if pinned else "")
+        + ". Add calm --fit-on runs of the same manoeuvres as those runs"
+        + (f" ({', '.join(kinds)})" if kinds else "")
+        + " and diagnose again (a full set: the delivery trials, 35 deg turning circles to both sides, a 10/10 and "
+        "a 20/20 zig-zag)"
+    )
 
 
 # BLAS runs on one thread during a diagnosis: the refits' products of a tall Jacobian (136,500 x 40
@@ -168,6 +208,8 @@ def run(
     diagnosed runs only. ``environment`` and ``rudder_sign`` stand for every recording's
     ``# environment:`` and ``# rudder_sign:`` header lines; a rudder in the other convention is
     converted to the profile's (or refused when it turns the ship the other way), as the CLI does.
+    When the ``fit_on`` runs do not pin the baseline on a diagnosed or validation run
+    (:func:`diagnose.baseline.unpinned_runs`) no candidate is tried and ``cannot_tell`` says why.
     BLAS runs on one thread meanwhile, for the whole process (see the comment above)."""
     t0 = time.perf_counter()
     if not recordings:
@@ -179,6 +221,8 @@ def run(
     _check_sample_times(profile, list(recordings) + list(fit_on or []) + list(validate or []))
     given = (profile, profile.params(theta if theta is not None else None))
     S = _setup(recordings, *given, fit_on, validate, joint_reference)
+    why_not = cannot_tell(S.unpinned, fit_on or [], recordings, validate or []) if S.unpinned else ""
+    max_rounds = 0 if why_not else max_rounds  # no candidate is tried: nothing could be named
     model, preps, val_preps = S.model, S.preps, S.val_preps
     y_all = np.concatenate([r.y for r in recordings])
     sigma = noise_std_coloured(y_all)
@@ -253,6 +297,7 @@ def run(
     )
     d.structure = structure
     d.magnitudes_refitted = refitted
+    d.cannot_tell, d.unpinned = why_not, S.unpinned
     d.elapsed_s = time.perf_counter() - t0
     return d
 

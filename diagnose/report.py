@@ -259,7 +259,9 @@ def location_lines(d: Diagnosis) -> list[str]:
 def finding_lines(d: Diagnosis) -> list[str]:
     """The findings, the baseline structure and what could not be tested."""
     lines = []
-    if d.explained:
+    if d.cannot_tell:
+        lines.append(f"Findings: none named; {d.cannot_tell}.")
+    elif d.explained:
         lines.append(
             "Findings: none. The model explains the data: no candidate physics improves the fit "
             "significantly and on held-out data."
@@ -361,6 +363,8 @@ def to_json(d: Diagnosis, model_path: str | None) -> dict:
                 for p in ps
             ],
             "explained": d.explained,
+            "cannot_tell": d.cannot_tell,
+            "unpinned_runs": [{"run": src, "sd_noise_units": sd} for src, sd in d.unpinned],
             "still_unexplained_dofs": d.unexplained_dofs,
             "findings": d.findings,
             "structure": d.structure,
