@@ -27,7 +27,12 @@ from diagnose.describe import includes_no_effect
 Z95 = 1.96
 # the parts of the reported std scored: the total, noise with run-to-run misfit (the interval
 # before the --fit-on misfit term was added), the noise alone
-PARTS = {"": "whole interval", "_runs": "noise and run-to-run part", "_noise": "noise part"}
+PARTS = {
+    "": "whole interval",
+    "_before": "whole interval without the held-out runs' part",
+    "_runs": "noise and run-to-run part",
+    "_noise": "noise part",
+}
 OUTCOMES = ("in", "out", "no estimate", "no std", "error", "spurious in", "spurious out")
 NOT_COVERED = ("out", "no estimate", "no std", "error", "spurious out")
 # magnitudes shown apart, never counted in a coverage figure: the wind's mean yaw acceleration is
@@ -52,8 +57,12 @@ def _score(est: float | None, sd: float | None, true: float, deg: bool = False, 
 
 
 def _half_of(p: dict, key: str, part: str = "") -> float | None:
-    """The reported 95 % half-width of ``key`` (whole interval only; None for a part or when absent)."""
+    """The reported 95 % half-width of ``key`` (the whole interval, or without the held-out runs'
+    part for ``part`` "_before", then the whole one when that part was not measured; None for the
+    other parts or when absent)."""
     name = f"{key}_std" if key.startswith("wind_") else STD_KEY.get(key, f"{key}_std")
+    if part == "_before":
+        return _num(p.get(name + "_95" + part, p.get(name + "_95")))
     return _num(p.get(name + "_95")) if part == "" else None
 
 
@@ -80,7 +89,7 @@ def _std_of(p: dict, key: str, part: str = "") -> float | None:
     interval before the --fit-on misfit term; the total when that term was not measured),
     "_noise": its noise part."""
     name = f"{key}_std" if key.startswith("wind_") else STD_KEY[key]
-    return _num(p.get(name + part, p.get(name) if part == "_runs" else None))
+    return _num(p.get(name + part, p.get(name) if part in ("_runs", "_before") else None))
 
 
 def coverage(row: dict, part: str = "") -> Counter:

@@ -31,7 +31,7 @@ from diagnose.recording import Recording, RecordingError
 from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
 from diagnose.search import SearchResult, select
-from diagnose.uncertainty import FindingCov, finding_cov, with_reference, with_within
+from diagnose.uncertainty import FindingCov, finding_cov, with_heldout, with_reference, with_within
 from primitives.ship import DOFS, ShipProfile
 
 
@@ -216,6 +216,8 @@ def run(
         cov = with_reference(cov, model, calm, w_fit, free, [st.candidate.key for st in steps], result.prior_std)
     if steps and len(cov.noise):  # the misfit within the runs, after the rule above too
         cov = with_within(cov, model, preps + S.calm_preps, w_fit, P, free, result.prior_std)
+        if val_preps:  # the model error the held-out runs show: a bias common to the diagnosed runs too
+            cov = with_heldout(cov, model, val_preps, w_fit, P, free, [st.candidate.key for st in steps], result.prior_std)
         findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
     add_wind_means(findings, model, preps, P, cov, free)
     structure = _structural(model, calm, w, P, findings)
