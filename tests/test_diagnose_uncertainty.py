@@ -199,7 +199,9 @@ def test_two_recordings_add_the_run_to_run_misfit_and_say_so():
     assert iv["between_runs"] is True and iv["diagnosed_runs"] == 2
     assert "noise (of the --fit-on runs too) and the model's run-to-run misfit over the 2 diagnosed runs" in iv["covers"]
     assert "rough with two runs" in iv["covers"]
-    assert "Not covered: a model error common to every run that the --fit-on runs and the held-out runs do not show" in iv["covers"]
+    assert (
+        "Not covered: a model error common to every run that the --fit-on runs and the held-out runs do not show" in iv["covers"]
+    )
     assert p["delay_std"] >= p["delay_std_noise"] > 0
 
 
