@@ -197,8 +197,8 @@ STD_SUFFIXES = ("_std", "_std_deg")
 
 
 def _beyond_runs(cov) -> bool:
-    """Whether ``cov``'s total holds a part beyond noise and run-to-run misfit (the --fit-on runs'
-    or the within-run misfit), so that its noise and run-to-run part is worth its own column."""
+    """Whether ``cov``'s total holds a part beyond noise and run-to-run misfit (the --fit-on runs',
+    the within-run or the held-out runs' misfit), so that its noise and run-to-run part is worth its own column."""
     return any(getattr(cov, part, None) is not None for part in ("reference", "within", "heldout"))
 
 

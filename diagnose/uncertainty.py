@@ -213,7 +213,7 @@ class FindingCov:
     reference_keys: frozenset[str] = frozenset()  # findings (candidate keys) that misfit was measured for
     within: np.ndarray | None = None  # misfit within the runs beyond the run-to-run part (:func:`with_within`)
     heldout: np.ndarray | None = None  # held-out runs' misfit beyond the parts above (:func:`with_heldout`)
-    heldout_runs: int = 0  # held-out runs that misfit was measured over (its degrees of freedom)
+    heldout_runs: int = 0  # held-out runs given for that misfit (its degrees of freedom)
 
     @property
     def runs(self) -> np.ndarray:
@@ -496,11 +496,12 @@ def heldout_term(
     sensitivity to the finding's parameters) pairs at the diagnosis's estimate (``prior_D`` the
     prior's Hessian diagonal), one draw a run: on each run alone, the Gauss-Newton step
     ``delta_v = -H_v^-1 J_v^T r_v`` is where that run alone would put the finding, the baseline
-    held as diagnosed (the run's misfit projected on the finding's direction). Were the model right, ``delta_v``
-    would be noise: its run's AR(1) sandwich ``C_v`` plus the estimate's own noise covariance
-    ``claimed`` (independent runs). The term is the excess of the mean ``delta_v delta_v^T`` over
-    the mean of that expectation (:func:`excess`). None when no run moves every finding column or
-    a step is not finite."""
+    held as diagnosed (the run's misfit projected on the finding's direction). Were the model
+    right, ``delta_v`` would be noise: its run's AR(1) sandwich ``C_v`` plus the estimate's own
+    noise covariance ``claimed`` (independent runs; the noise of the other fitted parameters is
+    left out, so on a right model the term can come out larger than a noise draw's). The term is
+    the excess of the mean ``delta_v delta_v^T`` over the mean of that expectation
+    (:func:`excess`). None when no run moves every finding column or a step is not finite."""
     S, E, n = 0.0, 0.0, 0
     for pairs in runs:
         G = sum(np.einsum("anc,bnc->ab", J, J) for _r, J in pairs)
@@ -528,8 +529,9 @@ def with_heldout(
 ) -> FindingCov:
     """``cov`` with the model error the held-out (--validate) runs ``val`` show on each finding
     ``keys`` (:func:`heldout_term`, each finding refitted alone on each run, the rest of ``P``
-    held; prior std ``prior_sd`` per parameter) as its ``heldout`` part: only its excess over the model-error parts already in the
-    interval (run-to-run, within-run, --fit-on), so the interval holds the largest of them.
+    held; prior std ``prior_sd`` per parameter) as its ``heldout`` part: only its excess over the
+    model-error parts already in the interval (run-to-run, within-run, --fit-on), so the interval
+    holds the largest of them. ``heldout_runs``: the held-out runs given.
 
     Why: a model error common to every diagnosed run is a bias no spread over those runs can see
     (the MMG battery's model-scale current: 0.5966-0.5973 m/s for 0.6 on every noise seed, its
