@@ -465,21 +465,25 @@ def half_width_95(
     the data; the run-to-run misfit ``n_runs - 1``; the misfit within the runs (the excess of the
     spread over eighths of each run, :func:`with_within`, over the run-to-run part) replaces it by
     ``BLOCKS_PER_RUN * n_runs - 1`` where it is larger; the --fit-on runs' misfit on the finding is
-    one draw, ``delta``: one degree of freedom; the held-out runs' misfit (:func:`with_heldout`) one
-    draw a held-out run, ``n_heldout``. A model-error part measured over three runs makes a
+    one draw, ``delta``: one degree of freedom. Where the held-out runs' misfit (:func:`with_heldout`)
+    tops those parts up, the model error as a whole (all four, as printed) is what the held-out runs
+    measured: one draw a held-out run, ``n_heldout`` degrees of freedom (counted as a fifth
+    independent part instead, it would add degrees of freedom and narrow the interval it widens). A model-error part measured over three runs makes a
     95 % interval 4.30 of its stds wide, not the 1.96 of a normal law: the tails of a spread
     measured over few units are heavy. Never narrower than 1.96 of the std the finding prints
     (whose parts :func:`small_sample` widened for a one-std interval)."""
     comps = [(noise**2, np.inf)]
     blocks = BLOCKS_PER_RUN * n_runs
-    if within > 0 and blocks >= 2:
+    if heldout > 0 and n_heldout >= 1:
+        # the held-out part tops the other model-error parts up to what the held-out runs show
+        # (with_heldout): the model error as a whole is then that measure, of their degrees of freedom
+        comps.append((model**2 + within**2 + reference**2 + heldout**2, n_heldout))
+    elif within > 0 and blocks >= 2:
         comps.append(((model**2 + within**2) / small_sample(blocks), blocks - 1))
     elif model > 0 and n_runs >= 2:
         comps.append((model**2 / small_sample(n_runs), n_runs - 1))
-    if reference > 0:
+    if reference > 0 and not (heldout > 0 and n_heldout >= 1):
         comps.append((reference**2, 1))
-    if heldout > 0 and n_heldout >= 1:
-        comps.append((heldout**2, n_heldout))
     var = sum(v for v, _nu in comps)
     den = sum(v**2 / nu for v, nu in comps if np.isfinite(nu))
     nu = var**2 / den if den > 0 else np.inf
