@@ -185,7 +185,7 @@ def score(truth: dict, out: dict) -> tuple[bool, list[str]]:
     return not why, why
 
 
-BEFORE = "_before"  # suffix of a std or 95 % half-width without the held-out runs' part (diagnose.uncertainty.with_heldout)
+BEFORE = "_before"  # suffix of a std or 95 % half-width without the held-out runs' part (diagnose.heldout_interval.with_heldout)
 
 
 def _recording_before(with_interval, add_wind_means):

@@ -23,6 +23,7 @@ from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_
 from diagnose.candidates import build_library
 from diagnose.describe import add_wind_means, includes_no_effect, interval_note, with_interval, z_score
 from diagnose.heldout import Parts, grams, insample_rss
+from diagnose.heldout_interval import with_heldout
 from diagnose.locate import locate
 from diagnose.magnitude import heldout_worse, implausible, ml_refit
 from diagnose.model import AugmentedModel, Prepared, fit, fit_percent, noise_std_coloured, prepare
@@ -31,7 +32,7 @@ from diagnose.recording import Recording, RecordingError
 from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
 from diagnose.search import SearchResult, select
-from diagnose.uncertainty import FindingCov, finding_cov, with_heldout, with_reference, with_within
+from diagnose.uncertainty import FindingCov, finding_cov, with_reference, with_within
 from primitives.ship import DOFS, ShipProfile
 
 

@@ -404,13 +404,14 @@ def test_the_held_out_term_covers_a_bias_common_to_the_diagnosed_runs():
     """A quadratic term the model lacks biases the finding on every diagnosed run alike (amplitudes 1
     and 1.5: b about 0.25 too high), a bias neither the noise nor the run-to-run spread sees. Two
     held-out runs of other sizes (0.5 and 2) alone would put the finding elsewhere: their excess
-    over noise (diagnose.uncertainty.heldout_term) is a measure of the structural misfit, and the
+    over noise (diagnose.heldout_interval.heldout_term) is a measure of the structural misfit, and the
     95 % interval with it (t at two degrees of freedom) holds the true b in 85 % of 200 seeds, the
     one without it in 40.5 % (measured). On a right model the term is the positive part of noise:
     the median interval does not widen; its expectation leaves out the noise of the other fitted
     parameter (x's, which the small held-out run's z does not separate from), so 36.5 % widen, a
     quarter by more than 1.55 (measured)."""
-    from diagnose.uncertainty import half_width_95, heldout_term
+    from diagnose.heldout_interval import heldout_term
+    from diagnose.uncertainty import half_width_95
 
     hit_before, hit_after, widen = [], [], []
     for seed in range(200):
@@ -432,7 +433,7 @@ def test_the_held_out_term_covers_a_bias_common_to_the_diagnosed_runs():
 
 
 def test_the_held_out_term_is_none_when_no_run_moves_the_finding():
-    from diagnose.uncertainty import heldout_term
+    from diagnose.heldout_interval import heldout_term
 
     r, J = np.ones((50, 1)), np.zeros((1, 50, 1))
     assert heldout_term([[(r, J)]], None, np.eye(1)) is None
