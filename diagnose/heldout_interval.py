@@ -20,7 +20,7 @@ from diagnose.uncertainty import FindingCov, _finite, _inv, _prior_D, excess, po
 
 def heldout_term(
     runs: list[list[tuple[np.ndarray, np.ndarray]]], prior_D: np.ndarray | None, claimed: np.ndarray
-) -> np.ndarray | None:
+) -> tuple[np.ndarray, int] | None:
     """The model error held-out runs show on one finding's parameters, from each run's (residual,
     sensitivity to the finding's parameters) pairs at the diagnosis's estimate (``prior_D`` the
     prior's Hessian diagonal), one draw a run: on each run alone, the Gauss-Newton step
@@ -30,7 +30,8 @@ def heldout_term(
     noise covariance ``claimed`` (independent runs; the noise of the other fitted parameters is
     left out, so on a right model the term can come out larger than a noise draw's). The term is
     the excess of the mean ``delta_v delta_v^T`` over the mean of that expectation
-    (:func:`excess`). None when no run moves every finding column or a step is not finite."""
+    (:func:`excess`), and the runs it was measured over (a run that does not move every finding
+    column is left out). None when no run moves every finding column or a step is not finite."""
     S, E, n = 0.0, 0.0, 0
     for pairs in runs:
         G = sum(np.einsum("anc,bnc->ab", J, J) for _r, J in pairs)
@@ -43,7 +44,7 @@ def heldout_term(
         S, E, n = S + np.outer(delta, delta), E + C_d + claimed, n + 1
     if not n or np.shape(claimed) != np.shape(C_d):
         return None
-    return excess(S / n, E / n)
+    return excess(S / n, E / n), n
 
 
 def with_heldout(
@@ -60,7 +61,8 @@ def with_heldout(
     ``keys`` (:func:`heldout_term`, each finding refitted alone on each run, the rest of ``P``
     held; prior std ``prior_sd`` per parameter) as its ``heldout`` part: only its excess over the
     model-error parts already in the interval (run-to-run, within-run, --fit-on), so the interval
-    holds the largest of them. ``heldout_runs``: the held-out runs given.
+    holds the largest of them. ``heldout_runs``: the fewest held-out runs a finding's part was
+    measured over (its degrees of freedom).
 
     Why: a model error common to every diagnosed run is a bias no spread over those runs can see
     (the MMG battery's model-scale current: 0.5966-0.5973 m/s for 0.6 on every noise seed, its
@@ -71,16 +73,17 @@ def with_heldout(
     (:func:`half_width_95`)."""
     if not val or not len(cov.noise):
         return cov
-    X = np.zeros_like(cov.noise)
+    X, runs = np.zeros_like(cov.noise), []
     done = cov.model + sum((Y for Y in (cov.within, cov.reference) if Y is not None), np.zeros_like(cov.noise))
     for key in keys:
         own = list(model.slot_of[key])
         pos = [free.index(j) for j in own]
         ix = np.ix_(pos, pos)
         D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[own], len(own))
-        term = heldout_term([sensitivities(model, [v], P, own, w) for v in val], D, cov.noise[ix])
-        if term is not None:
-            X[ix] = positive_part(term - done[ix])
+        got = heldout_term([sensitivities(model, [v], P, own, w) for v in val], D, cov.noise[ix])
+        if got is not None:
+            X[ix] = positive_part(got[0] - done[ix])
+            runs.append(got[1])
     cov.heldout = _finite(X)
-    cov.heldout_runs = len(val)
+    cov.heldout_runs = min(runs, default=0)
     return cov

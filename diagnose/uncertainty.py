@@ -215,7 +215,7 @@ class FindingCov:
     heldout: np.ndarray | None = (
         None  # held-out runs' misfit beyond the parts above (:func:`diagnose.heldout_interval.with_heldout`)
     )
-    heldout_runs: int = 0  # held-out runs given for that misfit (its degrees of freedom)
+    heldout_runs: int = 0  # fewest held-out runs a finding's misfit was measured over (its degrees of freedom)
 
     @property
     def runs(self) -> np.ndarray:
