@@ -185,7 +185,45 @@ def score(truth: dict, out: dict) -> tuple[bool, list[str]]:
     return not why, why
 
 
+BEFORE = "_before"  # suffix of a std or 95 % half-width without the held-out runs' part (diagnose.heldout_interval.with_heldout)
+
+
+def _recording_before(with_interval, add_wind_means):
+    """diagnose.api's ``with_interval`` and ``add_wind_means`` that also record each std and 95 %
+    half-width of a finding without the held-out runs' part of its interval, as ``<name>_before``:
+    the coverage before and after that part from one diagnosis (it changes no decision: the part
+    is added after the rules that read a std)."""
+    from dataclasses import replace as dc_replace
+
+    def without(cov):
+        return dc_replace(cov, heldout=None, heldout_runs=0)
+
+    def keep(out: dict, before: dict, prefix: str = "") -> None:
+        for k, v in before.items():
+            if k.startswith(prefix) and ("_std" in k) and not k.endswith(("_noise", "_runs")):
+                out[k + BEFORE] = v
+
+    def interval(c, model, P, cov, free):
+        out = with_interval(c, model, P, cov, free)
+        if getattr(cov, "heldout", None) is not None:
+            keep(out, with_interval(c, model, P, without(cov), free))
+        return out
+
+    def wind_means(findings, model, preps, P, cov, free):
+        if getattr(cov, "heldout", None) is not None:
+            before = [{**f, "parameters": dict(f["parameters"])} for f in findings]
+            add_wind_means(before, model, preps, P, without(cov), free)
+            for f, b in zip(findings, before):
+                keep(f["parameters"], b["parameters"], "wind_accel_")
+        add_wind_means(findings, model, preps, P, cov, free)
+
+    return interval, wind_means
+
+
 def _api(paths: dict[str, list[Path]], joint: bool = False, ship: str = BASELINE) -> dict:
+    from unittest import mock
+
+    import diagnose.api as api
     from diagnose.api import run
     from diagnose.recording import load_recording
     from diagnose.recording_checks import conform
@@ -196,7 +234,11 @@ def _api(paths: dict[str, list[Path]], joint: bool = False, ship: str = BASELINE
     def load(ps):  # as the CLI does: Froude-scaled to the ship when the header says model scale
         return conform([r for p in ps for r in load_recording(p)], prof)
 
-    d = run(load(paths["diagnose"]), prof, fit_on=load(paths["calm"]), validate=load(paths["validate"]), joint_reference=joint)
+    interval, wind_means = _recording_before(api.with_interval, api.add_wind_means)
+    with mock.patch.object(api, "with_interval", interval), mock.patch.object(api, "add_wind_means", wind_means):
+        d = run(
+            load(paths["diagnose"]), prof, fit_on=load(paths["calm"]), validate=load(paths["validate"]), joint_reference=joint
+        )
     names = [n for dof in prof.parameter_names for n in dof]
     extra = {"u0": prof.cruise_speed_mps}
     if "Xnn" in names:

@@ -27,7 +27,12 @@ from diagnose.describe import includes_no_effect
 Z95 = 1.96
 # the parts of the reported std scored: the total, noise with run-to-run misfit (the interval
 # before the --fit-on misfit term was added), the noise alone
-PARTS = {"": "whole interval", "_runs": "noise and run-to-run part", "_noise": "noise part"}
+PARTS = {
+    "": "whole interval",
+    "_before": "whole interval without the held-out runs' part",
+    "_runs": "noise and run-to-run part",
+    "_noise": "noise part",
+}
 OUTCOMES = ("in", "out", "no estimate", "no std", "error", "spurious in", "spurious out")
 NOT_COVERED = ("out", "no estimate", "no std", "error", "spurious out")
 # magnitudes shown apart, never counted in a coverage figure: the wind's mean yaw acceleration is
@@ -52,8 +57,12 @@ def _score(est: float | None, sd: float | None, true: float, deg: bool = False, 
 
 
 def _half_of(p: dict, key: str, part: str = "") -> float | None:
-    """The reported 95 % half-width of ``key`` (whole interval only; None for a part or when absent)."""
+    """The reported 95 % half-width of ``key`` (the whole interval, or without the held-out runs'
+    part for ``part`` "_before", then the whole one when that part was not measured; None for the
+    other parts or when absent)."""
     name = f"{key}_std" if key.startswith("wind_") else STD_KEY.get(key, f"{key}_std")
+    if part == "_before":
+        return _num(p.get(name + "_95" + part, p.get(name + "_95")))
     return _num(p.get(name + "_95")) if part == "" else None
 
 
@@ -80,7 +89,7 @@ def _std_of(p: dict, key: str, part: str = "") -> float | None:
     interval before the --fit-on misfit term; the total when that term was not measured),
     "_noise": its noise part."""
     name = f"{key}_std" if key.startswith("wind_") else STD_KEY[key]
-    return _num(p.get(name + part, p.get(name) if part == "_runs" else None))
+    return _num(p.get(name + part, p.get(name) if part in ("_runs", "_before") else None))
 
 
 def coverage(row: dict, part: str = "") -> Counter:
@@ -118,15 +127,16 @@ def coverage(row: dict, part: str = "") -> Counter:
     return out
 
 
-def half_widths(row: dict) -> list[float]:
-    """The 95 % half-width of each concealed magnitude the row estimated, in per cent of its true value."""
+def half_widths(row: dict, part: str = "") -> list[float]:
+    """The 95 % half-width of each concealed magnitude the row estimated, in per cent of its true
+    value (``part`` "_before": without the held-out runs' part)."""
     checks = {e: c for e, c in full_scale_truth(row["truth"])["checks"].items() if e != "weights"}
     out = []
     for eff, chk in checks.items():
         f = next((f for f in row.get("findings") or [] if f.get("effect") == eff and _matches(f, chk)), None)
         p = (f or {}).get("parameters") or {}
         for key, true in _magnitudes(chk):
-            sd, half = _std_of(p, key), _half_of(p, key)
+            sd, half = _std_of(p, key, part), _half_of(p, key, part)
             width = max(half, Z95 * sd) if half is not None and sd else (Z95 * sd if sd else None)
             if width is not None and true:
                 out.append(100.0 * (math.degrees(width) if key == "offset_deg" else width) / abs(true))
@@ -167,7 +177,7 @@ def table(rows: list[dict]) -> str:
     head = (
         f"{'case':24s} "
         + " ".join(f"{'s' + str(s):>5s}" for s in seeds)
-        + "   right  in 95 %  width %  held-out fit change surge/sway/yaw (points)  wall s (median)  CPU s (median)"
+        + "   right  in 95 % (before)  width % (before)  held-out fit change surge/sway/yaw (points)  wall s (median)  CPU s (median)"
     )
     lines = [head]
     groups = {g: {part: Counter() for part in PARTS} for g in ("all", "wind", "rest")}
@@ -183,8 +193,10 @@ def table(rows: list[dict]) -> str:
         flips += [f"{r['case']} {f['effect']}" for r in runs.values() for f in r.get("findings") or [] if includes_no_effect(f)]
         n = sum(c.values())
         cov = f"{c['in'] + c['spurious in']}/{n}" if n else "-"
-        hw = [h for r in runs.values() for h in half_widths(r)]
-        width = f"{np.median(hw):.1f}" if hw else "-"
+        hw, hb = ([h for r in runs.values() for h in half_widths(r, part)] for part in ("", "_before"))
+        width = f"{np.median(hw):.1f} ({np.median(hb):.1f})" if hw else "-"
+        c0 = sum((coverage(r, "_before") for r in runs.values()), Counter())
+        cov += f" ({c0['in'] + c0['spurious in']})" if n else ""
         w = [r["diagnose_s"] for r in runs.values()]
         cpu = [r["cpu_s"] for r in runs.values()]
         walls += w
@@ -192,7 +204,7 @@ def table(rows: list[dict]) -> str:
         hits = sum(r["hit"] for r in runs.values())
         ho = _heldout_change(list(runs.values()))
         lines.append(
-            f"{name:24s} {cells}   {hits}/{len(runs):<4d} {cov:>7s}  {width:>7s}  {ho:>43s}  {np.median(w):14.1f}  {np.median(cpu):14.1f}"
+            f"{name:24s} {cells}   {hits}/{len(runs):<4d} {cov:>15s}  {width:>16s}  {ho:>43s}  {np.median(w):14.1f}  {np.median(cpu):14.1f}"
         )
     hits = sum(r["hit"] for r in rows)
     lines.append(f"right {hits}/{len(rows)} ({100 * hits / max(len(rows), 1):.0f} %)")

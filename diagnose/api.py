@@ -24,6 +24,7 @@ from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_
 from diagnose.candidates import build_library
 from diagnose.describe import add_wind_means, includes_no_effect, interval_note, with_interval, z_score
 from diagnose.heldout import Parts, grams, insample_rss
+from diagnose.heldout_interval import with_heldout
 from diagnose.locate import locate
 from diagnose.magnitude import heldout_worse, implausible, ml_refit
 from diagnose.model import AugmentedModel, Prepared, fit, fit_percent, noise_std_coloured, prepare
@@ -260,6 +261,8 @@ def run(
         cov = with_reference(cov, model, calm, w_fit, free, [st.candidate.key for st in steps], result.prior_std)
     if steps and len(cov.noise):  # the misfit within the runs, after the rule above too
         cov = with_within(cov, model, preps + S.calm_preps, w_fit, P, free, result.prior_std)
+        if val_preps:  # the model error the held-out runs show: a bias common to the diagnosed runs too
+            cov = with_heldout(cov, model, val_preps, w_fit, P, free, [st.candidate.key for st in steps], result.prior_std)
         findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
     add_wind_means(findings, model, preps, P, cov, free)
     structure = _structural(model, calm, w, P, findings)

@@ -197,13 +197,13 @@ STD_SUFFIXES = ("_std", "_std_deg")
 
 
 def _beyond_runs(cov) -> bool:
-    """Whether ``cov``'s total holds a part beyond noise and run-to-run misfit (the --fit-on runs'
-    or the within-run misfit), so that its noise and run-to-run part is worth its own column."""
-    return getattr(cov, "reference", None) is not None or getattr(cov, "within", None) is not None
+    """Whether ``cov``'s total holds a part beyond noise and run-to-run misfit (the --fit-on runs',
+    the within-run or the held-out runs' misfit), so that its noise and run-to-run part is worth its own column."""
+    return any(getattr(cov, part, None) is not None for part in ("reference", "within", "heldout"))
 
 
 # the parts of a FindingCov whose stds set the 95 % interval's degrees of freedom (uncertainty.half_width_95)
-_T_PARTS = ("noise", "model", "within", "reference")
+_T_PARTS = ("noise", "model", "within", "reference", "heldout")
 
 
 def _part_covs(cov) -> dict[str, np.ndarray]:
@@ -211,13 +211,13 @@ def _part_covs(cov) -> dict[str, np.ndarray]:
     return {part: C if (C := getattr(cov, part, None)) is not None else np.zeros_like(cov.noise) for part in _T_PARTS}
 
 
-def _add_95(out: dict, by_part: dict[str, dict], n_runs: int) -> None:
+def _add_95(out: dict, by_part: dict[str, dict], cov) -> None:
     """``<name>_95`` beside each std ``<name>`` of ``out``: the half-width of its 95 % interval
     (:func:`diagnose.uncertainty.half_width_95`) from the same std of each part (``by_part``)."""
     for k in [k for k in out if k.endswith(STD_SUFFIXES) and isinstance(out[k], float)]:
         sds = [by_part[part].get(k) for part in _T_PARTS]
         if all(isinstance(v, float) and np.isfinite(v) for v in sds):
-            out[f"{k}_95"] = half_width_95(*sds, n_runs=n_runs)
+            out[f"{k}_95"] = half_width_95(*sds, n_runs=cov.n_runs, n_heldout=getattr(cov, "heldout_runs", 0))
 
 
 def with_interval(c: Candidate, model: AugmentedModel, P: np.ndarray, cov, free: list[int]) -> dict:
@@ -231,7 +231,7 @@ def with_interval(c: Candidate, model: AugmentedModel, P: np.ndarray, cov, free:
         d = describe(c, model, P, C, free)
         for k in [k for k in out if k.endswith(STD_SUFFIXES)]:
             out[f"{k}_{part}"] = d.get(k)
-    _add_95(out, {part: describe(c, model, P, C, free) for part, C in _part_covs(cov).items()}, cov.n_runs)
+    _add_95(out, {part: describe(c, model, P, C, free) for part, C in _part_covs(cov).items()}, cov)
     return out
 
 
@@ -256,7 +256,7 @@ def add_wind_means(findings: list[dict], model: AugmentedModel, preps: list, P: 
             part: {k.removesuffix(f"_part_{part}"): means.pop(k) for k in list(means) if k.endswith(f"_part_{part}")}
             for part in _T_PARTS
         }
-        _add_95(means, by_part, cov.n_runs)
+        _add_95(means, by_part, cov)
         f["parameters"].update(means)
 
 
@@ -291,6 +291,10 @@ def interval_note(cov, key: str | None = None) -> dict:
         )
     else:
         missing = "a model error common to every run (give --fit-on runs to measure it)"
+    if getattr(cov, "heldout_runs", 0):
+        n = cov.heldout_runs
+        what += f" and the misfit the {n} held-out (--validate) run{'s' if n > 1 else ''} show{'' if n > 1 else 's'} on it"
+        missing = missing.replace("do not show", "and the held-out runs do not show")
     if getattr(cov, "misfit_failed", False):
         missing = (
             "the model's run-to-run misfit (its leave-one-run-out spread was not finite: a run's fit diverges "

@@ -212,6 +212,10 @@ class FindingCov:
     reference: np.ndarray | None = None  # --fit-on runs' misfit on the findings (module docstring)
     reference_keys: frozenset[str] = frozenset()  # findings (candidate keys) that misfit was measured for
     within: np.ndarray | None = None  # misfit within the runs beyond the run-to-run part (:func:`with_within`)
+    heldout: np.ndarray | None = (
+        None  # held-out runs' misfit beyond the parts above (:func:`diagnose.heldout_interval.with_heldout`)
+    )
+    heldout_runs: int = 0  # fewest held-out runs a finding's misfit was measured over (its degrees of freedom)
 
     @property
     def runs(self) -> np.ndarray:
@@ -220,7 +224,7 @@ class FindingCov:
 
     @property
     def total(self) -> np.ndarray:
-        extra = [X for X in (self.reference, self.within) if X is not None]
+        extra = [X for X in (self.reference, self.within, self.heldout) if X is not None]
         return self.runs + sum(extra, np.zeros_like(self.noise))
 
 
@@ -445,7 +449,15 @@ def within_term(
     return _finite(positive_part(B - run_part))
 
 
-def half_width_95(noise: float, model: float = 0.0, within: float = 0.0, reference: float = 0.0, n_runs: int = 0) -> float:
+def half_width_95(
+    noise: float,
+    model: float = 0.0,
+    within: float = 0.0,
+    reference: float = 0.0,
+    heldout: float = 0.0,
+    n_runs: int = 0,
+    n_heldout: int = 0,
+) -> float:
     """Half-width of an estimate's 95 % interval from the stds of its parts (:class:`FindingCov`):
     the Student-t quantile at the Welch-Satterthwaite effective degrees of freedom of their sum
     (Satterthwaite 1946, "An approximate distribution of estimates of variance components"), each
@@ -455,17 +467,24 @@ def half_width_95(noise: float, model: float = 0.0, within: float = 0.0, referen
     the data; the run-to-run misfit ``n_runs - 1``; the misfit within the runs (the excess of the
     spread over eighths of each run, :func:`with_within`, over the run-to-run part) replaces it by
     ``BLOCKS_PER_RUN * n_runs - 1`` where it is larger; the --fit-on runs' misfit on the finding is
-    one draw, ``delta``: one degree of freedom. A model-error part measured over three runs makes a
+    one draw, ``delta``: one degree of freedom. Where the held-out runs' misfit (:func:`diagnose.heldout_interval.with_heldout`)
+    tops those parts up, the model error as a whole (all four, as printed) is what the held-out runs
+    measured: one draw a held-out run, ``n_heldout`` degrees of freedom (counted as a fifth
+    independent part instead, it would add degrees of freedom and narrow the interval it widens). A model-error part measured over three runs makes a
     95 % interval 4.30 of its stds wide, not the 1.96 of a normal law: the tails of a spread
     measured over few units are heavy. Never narrower than 1.96 of the std the finding prints
     (whose parts :func:`small_sample` widened for a one-std interval)."""
     comps = [(noise**2, np.inf)]
     blocks = BLOCKS_PER_RUN * n_runs
-    if within > 0 and blocks >= 2:
+    if heldout > 0 and n_heldout >= 1:
+        # the held-out part tops the other model-error parts up to what the held-out runs show
+        # (with_heldout): the model error as a whole is then that measure, of their degrees of freedom
+        comps.append((model**2 + within**2 + reference**2 + heldout**2, n_heldout))
+    elif within > 0 and blocks >= 2:
         comps.append(((model**2 + within**2) / small_sample(blocks), blocks - 1))
     elif model > 0 and n_runs >= 2:
         comps.append((model**2 / small_sample(n_runs), n_runs - 1))
-    if reference > 0:
+    if reference > 0 and not (heldout > 0 and n_heldout >= 1):
         comps.append((reference**2, 1))
     var = sum(v for v, _nu in comps)
     den = sum(v**2 / nu for v, nu in comps if np.isfinite(nu))
@@ -473,4 +492,4 @@ def half_width_95(noise: float, model: float = 0.0, within: float = 0.0, referen
     t_half = float(stats.t.ppf(0.975, nu) * np.sqrt(var)) if var > 0 else 0.0
     # never narrower than 1.96 of the std printed beside it (widened for a one-std interval): the two
     # intervals a report states must not contradict each other
-    return max(t_half, float(stats.norm.ppf(0.975)) * float(np.sqrt(noise**2 + model**2 + within**2 + reference**2)))
+    return max(t_half, float(stats.norm.ppf(0.975)) * float(np.sqrt(noise**2 + model**2 + within**2 + reference**2 + heldout**2)))
