@@ -219,6 +219,8 @@ class AugmentedModel:
         its ``forced`` increments.
         """
         Ps = [np.atleast_2d(np.asarray(q, float)) for q in P] if isinstance(P, list) else None
+        if Ps is not None and len(Ps) != len(preps):  # zip below would drop recordings silently
+            raise ValueError(f"simulate_many: {len(Ps)} batches for {len(preps)} recordings (one batch per recording)")
         Pall = np.atleast_2d(np.asarray(P, float)) if Ps is None else np.concatenate(Ps)
         B = Pall.shape[0]
         plan = self._plan(Pall)

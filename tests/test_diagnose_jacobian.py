@@ -5,6 +5,7 @@ bits of forward differences over one batch of every member on every recording.""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from diagnose import model as dm
 from diagnose.battery import scenario
@@ -90,3 +91,11 @@ def test_an_initial_state_two_recordings_share_is_stepped_on_both():
     r, J = dm.jacobian(model, twice, P, free, w)
     assert np.array_equal(r, r_ref) and np.array_equal(J, J_ref)
     assert np.any(J[preps[0].n * 3 :, free.index(model.x0_params()[0])])
+
+
+def test_a_batch_list_must_have_one_batch_per_recording():
+    """simulate_many's list of batches is one per recording: a list of another length is refused,
+    not zipped short (a recording's outputs silently missing)."""
+    model, preps, P, _free = _setup()
+    with pytest.raises(ValueError, match="one batch per recording"):
+        model.simulate_many(preps, [P[None]])
