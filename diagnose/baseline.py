@@ -276,14 +276,15 @@ def unpinned_runs(
     """The ``runs`` on which the profile's declared structure, as fitted on the --fit-on runs
     (``declared``: extended profile and theta; ``given`` the profile and parameters it started
     from), is not pinned by them: (source, sd) where sd, the RMS over the run of the std of its
-    simulation from that fit's covariance (:func:`fit_on_cov`, first order), largest channel, in
+    simulation from that fit's mean square error (:func:`fit_on_cov`, first order), largest channel, in
     the runs' noise units (:func:`noise_scale`, the fit's weights: floored at 2 % of the spread),
     exceeds PINNED_SD (or is not finite). The std is taken on the recorded runs, effect and all. A profile declares a structure
     because its own cannot carry the --fit-on runs' dynamics to other manoeuvres (MMG KVLCC2: its
     own structure fitted on four calm runs misses the zig-zags by 6-9 noise units RMS); where the
     declared one is not pinned either, neither baseline can tell an effect from its own error."""
     ext, theta = declared
-    cov = fit_on_cov(given, fit_on, ext, theta, _own(given[0], ext))
+    # the mean square error, not the sandwich: what the calm runs leave to the prior is what is not pinned
+    cov = fit_on_cov(given, fit_on, ext, theta, _own(given[0], ext), mse=True)
     idx = np.flatnonzero(np.diag(cov) > 0).tolist()
     model = AugmentedModel(ext, theta, [])
     w = 1.0 / noise_scale(np.concatenate([r.y for r in runs]))
@@ -366,12 +367,18 @@ def check_simulable(model: AugmentedModel, preps: list[Prepared], what: str) -> 
 
 
 def fit_on_cov(
-    given: tuple[ShipProfile, np.ndarray], fit_on: list[Recording], profile: ShipProfile, theta: np.ndarray, own: list[int]
+    given: tuple[ShipProfile, np.ndarray],
+    fit_on: list[Recording],
+    profile: ShipProfile,
+    theta: np.ndarray,
+    own: list[int],
+    mse: bool = False,
 ) -> np.ndarray:
     """Covariance (n_base x n_base) of the baseline ``theta`` as :func:`fit_baseline` fitted it
     on the --fit-on runs (its prior and weights; ``given`` the profile and parameters it started
     from, ``own`` their indices in ``profile``, which may be extended by its declared structure);
-    zero for a parameter that fit did not move (a term zero throughout the runs)."""
+    zero for a parameter that fit did not move (a term zero throughout the runs); with ``mse``
+    the ridge estimate's mean square error, its prior's expected bias included (:func:`baseline_cov`)."""
     prof0, theta_given = given
     extended = len(own) < len(theta)
     ref = padded_params(prof0, theta_given, profile.model_terms) if extended else theta_given
@@ -382,5 +389,5 @@ def fit_on_cov(
         AugmentedModel(profile, ref, [], n_rec=len(preps)), preps, w, fit_on, new, prof0.structure_prior
     )
     out = np.zeros((len(theta), len(theta)))
-    out[np.ix_(idx, idx)] = baseline_cov(AugmentedModel(profile, theta, [], n_rec=len(preps)), preps, w, idx, sd)
+    out[np.ix_(idx, idx)] = baseline_cov(AugmentedModel(profile, theta, [], n_rec=len(preps)), preps, w, idx, sd, mse)
     return out
