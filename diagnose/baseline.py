@@ -27,13 +27,13 @@ from primitives.simulate import relative_signals
 BASELINE_TOL = 1e-4
 BASELINE_PATIENCE = 2
 # A diagnosed run on which the baseline's simulation is uncertain by more than the noise (RMS,
-# in noise units, from the --fit-on fit's covariance) holds no effect the diagnosis could tell
-# from that uncertainty. MMG KVLCC2 (tests/physics), the declared structure fitted on one 35 deg
-# turning circle: 41-50 on the 10/10 and 20/20 zig-zags at 3,500 samples (control case); at the
-# battery's length 68-221 on zig-zags, 0.14 on the turn itself; fitted on a turn and the 10/10
-# and 20/20 zig-zags at most 0.57 on the others, on all four calm runs at most 0.095 (README).
-# A rule (the noise), not a calibrated test: the search sums the error over thousands of samples,
-# and three calm runs leaving 0.42 on the 20/20 zig-zags still gave wrong findings (README).
+# in noise units, from the --fit-on fit's mean square error) holds no effect the diagnosis could
+# tell from that uncertainty. MMG KVLCC2 (tests/physics), the declared structure fitted on one
+# 35 deg turning circle: at the battery's length 133-1548 on zig-zags, 0.21 on the turn itself;
+# fitted on a turn and the 10/10 and 20/20 zig-zags at most 0.59 on the others, on all four calm
+# runs at most 0.096 (README). A rule (the noise), not a calibrated test: the search sums the
+# error over thousands of samples, and three calm runs leaving 0.53 on the 20/20 zig-zags still
+# gave wrong findings (README).
 PINNED_SD = 1.0
 
 
