@@ -10,7 +10,7 @@ from threadpoolctl import threadpool_limits
 
 from diagnose import plausible
 from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_structure, loo_misfit, term_scales: the library API)
-    PINNED_SD,
+    cannot_tell,
     check_simulable,
     fit_baseline,
     fit_declared,
@@ -154,32 +154,6 @@ def _setup(
         model.half_sample = 0.5 * profile.sample_time
     check_simulable(model, preps + val_preps, "fitted" if fit_on else "given")
     return _Setup(profile, theta0, source, notes, own, model, untestable, preps, val_preps, calm_preps, unpinned)
-
-
-def cannot_tell(
-    unpinned: list[tuple[str, float]], fit_on: list[Recording], recordings: list[Recording], validate: list[Recording]
-) -> str:
-    """Why no effect is named when the --fit-on runs do not pin the baseline on the diagnosed or
-    validation runs (:func:`diagnose.baseline.unpinned_runs`), and what to add: calm runs of the
-    unpinned runs' manoeuvres, named by their ``# manoeuvre:`` header lines where they have one."""
-    runs = ", ".join(f"{src} ({sd:.3g})" for src, sd in unpinned)
-    bad = {src for src, _sd in unpinned}
-    pinned = [r.source for r in recordings if r.source not in bad]
-    kinds = sorted(
-        {str(r.meta["manoeuvre"]) for r in list(recordings) + list(validate) if r.source in bad and r.meta.get("manoeuvre")}
-    )
-    return (
-        f"cannot tell: the --fit-on run(s) {', '.join(r.source for r in fit_on)} do not pin the baseline on "
-        f"{runs}: the std of the profile's [diagnosis] structure's simulation there, as fitted on the --fit-on "
-        f"run(s) (first order, RMS over the run, in noise units), is above {PINNED_SD:g}, and the profile's own "
-        f"structure does not carry calm runs to other manoeuvres, so an effect cannot be told from the baseline's "
-        f"error and none is named"
-        + (f" (of the diagnosed runs it pins {', '.join(pinned)})" if pinned else "")
-        + ". Add calm --fit-on runs of the same manoeuvres as those runs"
-        + (f" ({', '.join(kinds)})" if kinds else "")
-        + " and diagnose again (a full set: the delivery trials, 35 deg turning circles to both sides, a 10/10 and "
-        "a 20/20 zig-zag)"
-    )
 
 
 # BLAS runs on one thread during a diagnosis: the refits' products of a tall Jacobian (136,500 x 40

@@ -33,13 +33,13 @@ from primitives.simulate import relative_signals
 BASELINE_TOL = 5e-4
 BASELINE_PATIENCE = 2
 # A diagnosed run on which the baseline's simulation is uncertain by more than the noise (RMS,
-# in noise units, from the --fit-on fit's covariance) holds no effect the diagnosis could tell
-# from that uncertainty. MMG KVLCC2 (tests/physics), the declared structure fitted on one 35 deg
-# turning circle: 41-50 on the 10/10 and 20/20 zig-zags at 3,500 samples (control case); at the
-# battery's length 68-221 on zig-zags, 0.14 on the turn itself; fitted on a turn and the 10/10
-# and 20/20 zig-zags at most 0.57 on the others, on all four calm runs at most 0.095 (README).
-# A rule (the noise), not a calibrated test: the search sums the error over thousands of samples,
-# and three calm runs leaving 0.42 on the 20/20 zig-zags still gave wrong findings (README).
+# in noise units, from the --fit-on fit's mean square error) holds no effect the diagnosis could
+# tell from that uncertainty. MMG KVLCC2 (tests/physics), the declared structure fitted on one
+# 35 deg turning circle: at the battery's length 133-1548 on zig-zags, 0.21 on the turn itself;
+# fitted on a turn and the 10/10 and 20/20 zig-zags at most 0.59 on the others, on all four calm
+# runs at most 0.096 (README). A rule (the noise), not a calibrated test: the search sums the
+# error over thousands of samples, and three calm runs leaving 0.53 on the 20/20 zig-zags still
+# gave wrong findings (README).
 PINNED_SD = 1.0
 
 
@@ -282,14 +282,15 @@ def unpinned_runs(
     """The ``runs`` on which the profile's declared structure, as fitted on the --fit-on runs
     (``declared``: extended profile and theta; ``given`` the profile and parameters it started
     from), is not pinned by them: (source, sd) where sd, the RMS over the run of the std of its
-    simulation from that fit's covariance (:func:`fit_on_cov`, first order), largest channel, in
+    simulation from that fit's mean square error (:func:`fit_on_cov`, first order), largest channel, in
     the runs' noise units (:func:`noise_scale`, the fit's weights: floored at 2 % of the spread),
     exceeds PINNED_SD (or is not finite). The std is taken on the recorded runs, effect and all. A profile declares a structure
     because its own cannot carry the --fit-on runs' dynamics to other manoeuvres (MMG KVLCC2: its
     own structure fitted on four calm runs misses the zig-zags by 6-9 noise units RMS); where the
     declared one is not pinned either, neither baseline can tell an effect from its own error."""
     ext, theta = declared
-    cov = fit_on_cov(given, fit_on, ext, theta, _own(given[0], ext))
+    # the mean square error, not the sandwich: what the calm runs leave to the prior is what is not pinned
+    cov = fit_on_cov(given, fit_on, ext, theta, _own(given[0], ext), mse=True)
     idx = np.flatnonzero(np.diag(cov) > 0).tolist()
     model = AugmentedModel(ext, theta, [])
     w = 1.0 / noise_scale(np.concatenate([r.y for r in runs]))
@@ -302,6 +303,32 @@ def unpinned_runs(
             if not sd <= PINNED_SD:
                 out.append((r.source, sd))
     return out
+
+
+def cannot_tell(
+    unpinned: list[tuple[str, float]], fit_on: list[Recording], recordings: list[Recording], validate: list[Recording]
+) -> str:
+    """Why no effect is named when the --fit-on runs do not pin the baseline on the diagnosed or
+    validation runs (:func:`unpinned_runs`), and what to add: calm runs of the
+    unpinned runs' manoeuvres, named by their ``# manoeuvre:`` header lines where they have one."""
+    runs = ", ".join(f"{src} ({sd:.3g})" for src, sd in unpinned)
+    bad = {src for src, _sd in unpinned}
+    pinned = [r.source for r in recordings if r.source not in bad]
+    kinds = sorted(
+        {str(r.meta["manoeuvre"]) for r in list(recordings) + list(validate) if r.source in bad and r.meta.get("manoeuvre")}
+    )
+    return (
+        f"cannot tell: the --fit-on run(s) {', '.join(r.source for r in fit_on)} do not pin the baseline on "
+        f"{runs}: the std of the profile's [diagnosis] structure's simulation there, as fitted on the --fit-on "
+        f"run(s) (first order, RMS over the run, in noise units), is above {PINNED_SD:g}, and the profile's own "
+        f"structure does not carry calm runs to other manoeuvres, so an effect cannot be told from the baseline's "
+        f"error and none is named"
+        + (f" (of the diagnosed runs it pins {', '.join(pinned)})" if pinned else "")
+        + ". Add calm --fit-on runs of the same manoeuvres as those runs"
+        + (f" ({', '.join(kinds)})" if kinds else "")
+        + " and diagnose again (a full set: the delivery trials, 35 deg turning circles to both sides, a 10/10 and "
+        "a 20/20 zig-zag)"
+    )
 
 
 def _own(profile: ShipProfile, ext: ShipProfile) -> list[int]:
@@ -372,12 +399,18 @@ def check_simulable(model: AugmentedModel, preps: list[Prepared], what: str) -> 
 
 
 def fit_on_cov(
-    given: tuple[ShipProfile, np.ndarray], fit_on: list[Recording], profile: ShipProfile, theta: np.ndarray, own: list[int]
+    given: tuple[ShipProfile, np.ndarray],
+    fit_on: list[Recording],
+    profile: ShipProfile,
+    theta: np.ndarray,
+    own: list[int],
+    mse: bool = False,
 ) -> np.ndarray:
     """Covariance (n_base x n_base) of the baseline ``theta`` as :func:`fit_baseline` fitted it
     on the --fit-on runs (its prior and weights; ``given`` the profile and parameters it started
     from, ``own`` their indices in ``profile``, which may be extended by its declared structure);
-    zero for a parameter that fit did not move (a term zero throughout the runs)."""
+    zero for a parameter that fit did not move (a term zero throughout the runs); with ``mse``
+    the ridge estimate's mean square error, its prior's expected bias included (:func:`baseline_cov`)."""
     prof0, theta_given = given
     extended = len(own) < len(theta)
     ref = padded_params(prof0, theta_given, profile.model_terms) if extended else theta_given
@@ -388,5 +421,5 @@ def fit_on_cov(
         AugmentedModel(profile, ref, [], n_rec=len(preps)), preps, w, fit_on, new, prof0.structure_prior
     )
     out = np.zeros((len(theta), len(theta)))
-    out[np.ix_(idx, idx)] = baseline_cov(AugmentedModel(profile, theta, [], n_rec=len(preps)), preps, w, idx, sd)
+    out[np.ix_(idx, idx)] = baseline_cov(AugmentedModel(profile, theta, [], n_rec=len(preps)), preps, w, idx, sd, mse)
     return out

@@ -297,20 +297,27 @@ def finding_cov(
     return out
 
 
-def baseline_cov(model: AugmentedModel, preps: list[Prepared], w: np.ndarray, idx: list[int], sd: np.ndarray) -> np.ndarray:
+def baseline_cov(
+    model: AugmentedModel, preps: list[Prepared], w: np.ndarray, idx: list[int], sd: np.ndarray, mse: bool = False
+) -> np.ndarray:
     """Covariance (len(idx) x len(idx)) of the baseline parameters ``idx`` as fitted on the
     --fit-on runs ``preps`` (``model`` at their fitted values, one initial-state correction
     per run, refitted here; prior std ``sd`` per parameter, inf for none): the sandwich of
     that penalised fit, the initial states as nuisance parameters. (Its jackknife over those
     runs, carried into the finding, was tried as a measure of the baseline's misfit: linearised
     over a many-parameter fit that loses a whole manoeuvre type per fold, it put 5-18 s on a
-    delay of the MMG battery; not used.)"""
+    delay of the MMG battery; not used.) With ``mse`` the prior's expected bias is added, as the
+    mean square error of a ridge estimate (Hoerl & Kennard 1970) with the true parameters drawn
+    from the prior: ``H^-1 (J^T Sigma J + D) H^-1`` (D the prior's Hessian; ``H^-1`` for white
+    noise): the sandwich alone gives a direction the data leave to the prior a variance near zero."""
     x0 = model.x0_params()
     P, _cov, _rss = fit(model, preps, model.p0(), x0, w, max_iter=5)
     pairs = sensitivities(model, preps, P, list(idx) + x0, w)
-    cov, _H = sandwich(
-        pairs, _prior_D(np.concatenate([np.asarray(sd, float)[idx], np.full(len(x0), np.inf)]), len(idx) + len(x0))
-    )
+    D = _prior_D(np.concatenate([np.asarray(sd, float)[idx], np.full(len(x0), np.inf)]), len(idx) + len(x0))
+    cov, H = sandwich(pairs, D)
+    if mse:
+        Hi = _inv(H)
+        cov = cov + Hi @ np.diag(D) @ Hi
     return cov[: len(idx), : len(idx)]
 
 

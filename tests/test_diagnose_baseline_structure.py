@@ -300,7 +300,7 @@ def test_a_profile_without_a_declared_structure_says_the_pinning_was_not_checked
 def test_calm_runs_of_the_diagnosed_kinds_pin_the_declared_structure_where_one_turn_does_not(mmg_runs):
     """The other side of the rule: a 35 deg turning circle with a 10/10 and a 20/20 zig-zag pin
     the declared structure on a 10/10 zig-zag to the other side and a 15/15 (its simulation's std
-    from the fit 0.10 and 0.10 noise units), the turning circle alone does not (221 and 70)."""
+    from the fit 0.10 and 0.11 noise units), the turning circle alone does not (1548 and 139)."""
     calm, held, _ = mmg_runs
     prof = load_profile("kvlcc2")
     got = {}
@@ -310,3 +310,15 @@ def test_calm_runs_of_the_diagnosed_kinds_pin_the_declared_structure_where_one_t
         got[len(fit_on)] = baseline.unpinned_runs((prof, prof.params()), fit_on, (ext, th), held)
     assert [s for s, _sd in got[1]] == [r.source for r in held] and min(sd for _s, sd in got[1]) > 10 * baseline.PINNED_SD
     assert got[3] == [], got[3]
+
+
+def test_what_one_turn_leaves_to_the_prior_counts_as_not_pinned(mmg_runs):
+    """The std is the calm fit's mean square error, not its sandwich alone: the sandwich of a
+    ridge fit gives a direction the data leave to the prior a variance near zero. One 35 deg turn
+    to starboard on the turn to port: 207 noise units (the sandwich alone gave 12)."""
+    calm, _held, _ = mmg_runs
+    prof = load_profile("kvlcc2")
+    ext, th, note, _added = baseline.fit_declared(prof, prof.params(), calm[:1])
+    assert not note
+    ((src, sd),) = baseline.unpinned_runs((prof, prof.params()), calm[:1], (ext, th), calm[1:2])
+    assert src == calm[1].source and sd > 100 * baseline.PINNED_SD, sd
