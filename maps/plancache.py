@@ -119,7 +119,8 @@ def _matplotlib_dir(env: str, default: str) -> Path:
 def drawing_version() -> str | None:
     """Digest of what the figures depend on beyond the plan and the code: the drawing libraries' versions,
     every matplotlibrc matplotlib would read (``./matplotlibrc``, ``$MATPLOTLIBRC``, its configuration
-    directory's) and the font list it picks fonts from (its cache's ``fontlist-*.json``). None when
+    directory's), the font list it picks fonts from (its cache's ``fontlist-*.json``) and the size and time of
+    the font files it names (:func:`_font_files`). None when
     that font list does not exist (matplotlib then lists the fonts installed at that moment): nothing
     to key the figures' fonts on; None too when the working directory or the home directory cannot be found."""
     try:
@@ -139,7 +140,32 @@ def drawing_version() -> str | None:
             h.update(str(p).encode() + b"\0" + p.read_bytes() + b"\0")
         except OSError:  # absent (or a directory): read by neither
             h.update(str(p).encode() + b"\0-\0")
+    h.update(_font_files(fontlists))
     return h.hexdigest()
+
+
+def _font_files(fontlists: list[Path]) -> bytes:
+    """Size and modification time of every font file outside matplotlib's own (whose fonts change with its version)
+    that the font lists name: a system font updated in place (a font package upgrade) leaves the list as it was
+    but changes the glyphs drawn and embedded."""
+    import json
+
+    out = []
+    for fontlist in fontlists:
+        try:
+            listed = json.loads(fontlist.read_bytes())
+            names = sorted({f["fname"] for kind in ("ttflist", "afmlist") for f in listed.get(kind, [])})
+        except (OSError, ValueError, TypeError, KeyError, AttributeError):  # unreadable: its bytes are in the key already
+            continue
+        for name in names:
+            if not isinstance(name, str) or not os.path.isabs(name):
+                continue
+            try:
+                st = os.stat(name)
+                out.append(f"{name}\0{st.st_size}\0{st.st_mtime_ns}\0")
+            except OSError:
+                out.append(f"{name}\0-\0")
+    return "".join(out).encode()
 
 
 def outputs_key(plan_key: str, entry_digest: str, start_utc: str) -> str | None:

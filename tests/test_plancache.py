@@ -377,3 +377,18 @@ def test_copied_files_are_readable_by_others_whatever_the_umask(first, tmp_path,
         os.umask(old)
     modes = {p.name: p.stat().st_mode & 0o777 for p in (tmp_path / "b").iterdir() if not p.name.startswith(".")}
     assert set(modes.values()) == {0o644}, modes  # as the exporters write them (crews and colleagues read them)
+
+
+def test_outputs_key_changes_with_a_listed_font_file_updated_in_place(tmp_path, monkeypatch):
+    """A system font upgraded at the same path leaves matplotlib's font list as it was but changes the glyphs."""
+    monkeypatch.setenv("MPLCONFIGDIR", str(tmp_path / "mpl"))
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mpl").mkdir()
+    font = tmp_path / "DejaVuSans.ttf"
+    font.write_bytes(b"old glyphs")
+    os.utime(font, ns=(10**18, 10**18))
+    (tmp_path / "mpl" / "fontlist-v390.json").write_text(json.dumps({"ttflist": [{"fname": str(font)}], "afmlist": []}))
+    before = plancache.outputs_key("k", "d", START)
+    font.write_bytes(b"new glyphs")
+    os.utime(font, ns=(2 * 10**18, 2 * 10**18))
+    assert plancache.outputs_key("k", "d", START) not in (None, before)
