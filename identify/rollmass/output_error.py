@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
-from scipy.signal import lfilter
+from scipy.signal import fftconvolve, lfilter
 
 from identify.rollmass.model import Known, Load, RollProfile, load_restoring
 from identify.rollmass.simulate import RollRecording
@@ -242,6 +242,15 @@ def _whitener(e: np.ndarray, order: int) -> np.ndarray:
     return np.real(np.poly(roots))
 
 
+def _fir(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``lfilter(a, [1.0], x, axis=0)`` (zero initial conditions) as a sum of shifted copies: scipy
+    filters a 2-D array by an FIR one column at a time (``apply_along_axis``), a fifth of a fit's time."""
+    y = a[0] * x
+    for k in range(1, min(len(a), len(x))):
+        y[k:] += a[k] * x[:-k]
+    return y
+
+
 def _measured(rec: RollRecording) -> np.ndarray:
     return np.column_stack([rec.p, rec.a_s, rec.r])
 
@@ -285,7 +294,7 @@ class _Problem:
             cols = []
             for j in range(3):
                 a = self.ar[i][j]
-                ej, Bj = lfilter(a, [1.0], e[:, j]), lfilter(a, [1.0], basis, axis=0)
+                ej, Bj = _fir(a, e[:, j]), _fir(a, basis)
                 Q, _ = np.linalg.qr(Bj)
                 cols.append(ej - Q @ (Q.T @ ej))
             out.append(np.column_stack(cols))
@@ -406,16 +415,18 @@ def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple
 def _meat(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
     """The sandwich's ``S``: each dataset's per-sample scores ``h_t = sum_channels J_t f_t`` with
     Bartlett weights over ``lags`` samples (Newey & West 1987, eq. 2; datasets independent); rows
-    after the datasets' (a Gaussian prior, as a standardised observation) add ``J_p^T J_p``."""
+    after the datasets' (a Gaussian prior, as a standardised observation) add ``J_p^T J_p``.
+    Summed over every lag at once: ``S = h^T (K h)``, ``K_ts = w_|t-s|`` the Bartlett band, ``K h``
+    a convolution of each score column with the kernel (one FFT, not a product per lag)."""
     S = np.zeros((J.shape[1], J.shape[1]))
+    kernel = 1.0 - np.abs(np.arange(-lags, lags + 1)) / (lags + 1)
     i = 0
     for n in lengths:
         rows = slice(i, i + 3 * n)
         h = (J[rows] * f[rows, None]).reshape(n, 3, -1).sum(axis=1)
-        S += h.T @ h
-        for lag in range(1, min(lags, n - 1) + 1):
-            G = h[lag:].T @ h[:-lag]
-            S += (1 - lag / (lags + 1)) * (G + G.T)
+        L = min(lags, n - 1)
+        Kh = fftconvolve(h, kernel[lags - L : lags + L + 1, None], mode="same", axes=0)
+        S += 0.5 * (h.T @ Kh + Kh.T @ h)
         i += 3 * n
     return S + J[i:].T @ J[i:]
 
