@@ -244,7 +244,7 @@ def _whitener(e: np.ndarray, order: int) -> np.ndarray:
 
 def _fir(a: np.ndarray, x: np.ndarray) -> np.ndarray:
     """``lfilter(a, [1.0], x, axis=0)`` (zero initial conditions) as a sum of shifted copies: scipy
-    filters a 2-D array by an FIR one column at a time (``apply_along_axis``), a fifth of a fit's time."""
+    filters a 2-D array by an FIR one column at a time (``apply_along_axis``): 13 % of a profiled fit."""
     y = a[0] * x
     for k in range(1, min(len(a), len(x))):
         y[k:] += a[k] * x[:-k]
