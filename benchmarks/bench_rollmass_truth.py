@@ -103,7 +103,7 @@ def main() -> None:
         action="store_true",
         help="no waves and no sensor noise: a variant still biased is a structural mismatch, not noise",
     )
-    ap.add_argument("--dump", help="append every fit's row to this file (JSON lines) as it finishes")
+    ap.add_argument("--dump", help="write every fit's row to this file (JSON lines, emptied first) as it finishes")
     ap.add_argument("--from-dump", help="print the tables from a --dump file (also an interrupted run's) and fit nothing")
     a = ap.parse_args()
     variants, cases = a.variants.split(","), a.cases.split(",")
@@ -118,6 +118,8 @@ def main() -> None:
         c_fit = sum(r[6] for r in rows)
         fails = [f"{r[0]} {r[1]} {r[2]} run {r[3]}: {r[5]}" for r in rows if r[4] is None]
     else:
+        if a.dump:  # a dump holds one invocation's rows: appending to an old one would mix runs of two families
+            Path(a.dump).write_text("")
         jobs = []
         for variant in variants:
             c0 = time.process_time()
