@@ -17,6 +17,7 @@ the paper's Table 3 (one real dataset per case).
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import tempfile
 import time
@@ -102,6 +103,8 @@ def main() -> None:
         action="store_true",
         help="no waves and no sensor noise: a variant still biased is a structural mismatch, not noise",
     )
+    ap.add_argument("--dump", help="write every fit's row to this file (JSON lines, emptied first) as it finishes")
+    ap.add_argument("--from-dump", help="print the tables from a --dump file (also an interrupted run's) and fit nothing")
     a = ap.parse_args()
     variants, cases = a.variants.split(","), a.cases.split(",")
     methods = list(METHODS) if a.methods == "all" else a.methods.split(",")
@@ -109,29 +112,40 @@ def main() -> None:
         ap.error("unknown method, variant or case")
     t0, c_sim, c_fit = time.perf_counter(), 0.0, 0.0
     rows, fails = [], []
-    for variant in variants:
-        c0 = time.process_time()
-        # a variant's seed does not depend on which others are run, so runs pair across invocations
-        ship, data = bt.simulate_runs(variant, a.runs, a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant), quiet=a.quiet)
-        c_sim += time.process_time() - c0
-        jobs = [
-            (variant, run, case, bt.case_recordings(ship, data, case, run), methods, not a.no_u)
-            for run in range(a.runs)
-            for case in cases
-        ]
+    if a.from_dump:  # a (possibly interrupted) run's rows, summarised
+        rows = [tuple(r) for r in map(json.loads, Path(a.from_dump).read_text().splitlines())]
+        variants = list(dict.fromkeys(r[0] for r in rows))
+        c_fit = sum(r[6] for r in rows)
+        fails = [f"{r[0]} {r[1]} {r[2]} run {r[3]}: {r[5]}" for r in rows if r[4] is None]
+    else:
+        if a.dump:  # a dump holds one invocation's rows: appending to an old one would mix runs of two families
+            Path(a.dump).write_text("")
+        jobs = []
+        for variant in variants:
+            c0 = time.process_time()
+            # a variant's seed does not depend on which others are run, so runs pair across invocations
+            seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant)
+            ship, data = bt.simulate_runs(variant, a.runs, seed, quiet=a.quiet)
+            c_sim += time.process_time() - c0
+            jobs += [
+                (run, variant, case, bt.case_recordings(ship, data, case, run), methods, not a.no_u)
+                for run in range(a.runs)
+                for case in cases
+            ]
+        # run-major: an interrupted run (its --dump) has about as many runs of every variant
+        jobs = [(v, run, c, recs, m, u) for run, v, c, recs, m, u in sorted(jobs, key=lambda j: j[0])]
         with Pool(a.workers) as pool:
-            for part in pool.imap_unordered(_one, jobs):
+            for part in pool.imap(_one, jobs):
                 for r in part:
                     rows.append(r)
                     c_fit += r[6]
                     if r[4] is None:
                         fails.append(f"{r[0]} {r[1]} {r[2]} run {r[3]}: {r[5]}")
-        print(f"[{variant} done, {time.perf_counter() - t0:.0f} s wall]", file=sys.stderr, flush=True)
-        for method in methods:
-            for case in cases:
-                print("  " + _summary([r for r in rows if r[0] == variant], variant, case, method), file=sys.stderr, flush=True)
+                    if a.dump:
+                        with open(a.dump, "a") as fh:
+                            fh.write(json.dumps(r, default=bool) + "\n")
     print(
-        f"truth family: {len(variants)} variants x {a.runs} runs x {len(cases)} cases, seed {a.seed}, "
+        f"truth family: {len(variants)} variants x {'the dump' if a.from_dump else a.runs} runs x {len(cases)} cases, seed {a.seed}, "
         f"{'without' if a.no_u else 'with'} the u column{', quiet (no waves, no noise)' if a.quiet else ''}; "
         f"{time.perf_counter() - t0:.0f} s wall, simulation {c_sim:.0f} s cpu, fits {c_fit:.0f} s cpu "
         f"({c_fit / max(len(rows), 1):.2f} s per fit)\n"

@@ -42,6 +42,7 @@ from scipy.optimize import OptimizeResult, least_squares
 from scipy.signal import lfilter
 
 from identify.rollmass.model import Known, Load, RollProfile, load_restoring
+from identify.rollmass.sandwich import central_jacobian, load_decrement, sandwich_cov
 from identify.rollmass.simulate import RollRecording
 
 # Shared parameters: sway (minus added mass, damping, yaw coupling, rudder), roll (3)-(5), yaw
@@ -59,8 +60,9 @@ COUPLINGS = ("Y_p", "Y_phi", "K_v", "n_p", "Y_pdot")
 # tests/test_rollmass.py) from 0.397 kg / -272 mm to 0.352 kg / -301 mm with an interval that missed
 # the truth; K_v, n_p and Y_pdot freed alone gave 0.392 kg / -274 mm. They stay 0 (the model takes them).
 FREE_COUPLINGS = ("K_v", "n_p", "Y_pdot")
-# the gyros' pitch misalignment (see :func:`model_matrices`)
-MOUNT = ("e_y",)
+# the gyros' pitch misalignment (see :func:`model_matrices`) and the IMU's lag behind the rudder
+# encoder (see :func:`delayed`)
+MOUNT = ("e_y", "t_imu")
 SHARED = PAPER_ROWS + FREE_COUPLINGS + MOUNT
 RUDDER = ("Y_delta", "K_delta", "n_delta")  # rudder derivatives, scaling with U^2
 VELOCITY = ("Y_v", "Y_r", "n_v", "n_r", "Y_p", "K_v")  # velocity derivatives, scaling with U
@@ -119,6 +121,7 @@ def start_values(prof: RollProfile) -> dict[str, float]:
         "n_p": 0.0,
         "Y_pdot": th.K_vdot,
         "e_y": 0.0,
+        "t_imu": 0.0,
     }
 
 
@@ -177,6 +180,22 @@ def _bilinear(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, T: flo
     return inv @ (np.eye(len(A)) + 0.5 * T * A), Bd, C @ inv, D + 0.5 * C @ Bd
 
 
+def delayed(x: np.ndarray, lag: float, T: float) -> np.ndarray:
+    """``x(t - lag)`` of a smooth signal sampled at ``T``, to second order in ``lag``:
+    ``x - lag x' + lag^2 x'' / 2`` (central differences; smooth in ``lag``, so finite-difference
+    Jacobians see no kinks at whole samples, as interpolation would give).
+
+    Why the IMU needs it: an IMU's own low-pass delays its channels against the rudder encoder
+    (the Xsens MTi-G's filter, a few ms). On the independent basin truth (``base``, noise-free,
+    run 0) its 30 Hz low-pass alone moved the load from +0.3 % / +0.6 mm to +5.3 % / +10.7 mm (case 1)
+    and +1.3 % / +3.1 mm to +5.4 % / +10.2 mm (case 3): the roll resonance's phase then reads as a
+    heavier, higher load. Below ~5 Hz (the paper's FIR) a low-pass is its group delay."""
+    if lag == 0.0:
+        return x
+    d1 = np.gradient(x, T)
+    return x - lag * d1 + 0.5 * lag * lag * np.gradient(d1, T)
+
+
 def _simulate(v: dict[str, float], kn: Known, z_f: float, load: Load, rec: RollRecording) -> tuple[np.ndarray, np.ndarray]:
     """Rudder-driven outputs (n, 3) and the free-response + bias basis (n, N_FREE + 1).
 
@@ -196,8 +215,9 @@ def _simulate(v: dict[str, float], kn: Known, z_f: float, load: Load, rec: RollR
         raise np.linalg.LinAlgError("defective model")
     b = np.linalg.solve(V, Bd[:, 0])
     c = Cd @ V
-    modes = np.column_stack([lfilter([0.0, bi], [1.0, -li], rec.delta.astype(complex)) for bi, li in zip(b, lam)])
-    out = (modes @ c.T).real + rec.delta[:, None] * Dd[:, 0]
+    delta = delayed(rec.delta, v.get("t_imu", 0.0), rec.T)  # the rudder as the lagging IMU channels see it
+    modes = np.column_stack([lfilter([0.0, bi], [1.0, -li], delta.astype(complex)) for bi, li in zip(b, lam)])
+    out = (modes @ c.T).real + delta[:, None] * Dd[:, 0]
     k = np.arange(rec.n)
     cols = []
     for li in lam:
@@ -221,6 +241,15 @@ def _whitener(e: np.ndarray, order: int) -> np.ndarray:
     if big.any():  # keep the whitener's inverse stable
         roots[big] *= 0.98 / np.abs(roots[big])
     return np.real(np.poly(roots))
+
+
+def _fir(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``lfilter(a, [1.0], x, axis=0)`` (zero initial conditions) as a sum of shifted copies: scipy
+    filters a 2-D array by an FIR one column at a time (``apply_along_axis``): 13 % of a profiled fit."""
+    y = a[0] * x
+    for k in range(1, min(len(a), len(x))):
+        y[k:] += a[k] * x[:-k]
+    return y
 
 
 def _measured(rec: RollRecording) -> np.ndarray:
@@ -266,7 +295,7 @@ class _Problem:
             cols = []
             for j in range(3):
                 a = self.ar[i][j]
-                ej, Bj = lfilter(a, [1.0], e[:, j]), lfilter(a, [1.0], basis, axis=0)
+                ej, Bj = _fir(a, e[:, j]), _fir(a, basis)
                 Q, _ = np.linalg.qr(Bj)
                 cols.append(ej - Q @ (Q.T @ ej))
             out.append(np.column_stack(cols))
@@ -325,39 +354,6 @@ def _best_start(
     return best
 
 
-def central_jacobian(fun, x: np.ndarray) -> np.ndarray:
-    """Central-difference Jacobian of ``fun`` at ``x``, step ``eps^(1/3) max(1, |x_j|)``.
-
-    The covariance and the stationarity check need it along the ill-conditioned mass-height ridge:
-    on ``mass-sim --case case1 --seed 3`` the fit's own forward-difference Jacobian (step
-    ``sqrt(eps)``) gave a sensitivity of the load to z_f of -14.7 kg/m where this one gave -0.66.
-    """
-    steps = np.finfo(float).eps ** (1 / 3) * np.maximum(1.0, np.abs(x))
-    cols = []
-    for j, hj in enumerate(steps):
-        e = np.zeros_like(x)
-        e[j] = hj
-        cols.append((fun(x + e) - fun(x - e)) / (2 * hj))
-    return np.column_stack(cols)
-
-
-def load_decrement(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> float:
-    """Squared length ``d^T C^-1 d`` of the load part ``d = dx[-2:]`` (``m``, ``zbar_m``, the last two
-    parameters) of the Gauss-Newton step ``dx = -(J^T J)^-1 J^T f``, in the load's sandwich covariance
-    ``C`` (:func:`sandwich_cov`): how far a further step would move the reported load, in the standard
-    errors reported with it. With white, unit-variance residuals and every parameter counted it is the
-    Newton decrement (Boyd & Vandenberghe 2004, sec. 9.5.1), the step in ``(J^T J)^-1``; that metric
-    is not the interval's when the residual is structure rather than noise, and on a noise-free basin
-    run (base, case 1) it was 0.13 where the load's step was 0.055 of its reported sd. NaN when the
-    covariance is singular (then not stationary)."""
-    dx = -np.linalg.lstsq(J, f, rcond=None)[0]
-    d = dx[-2:]
-    try:
-        return float(d @ np.linalg.solve(sandwich_cov(J, f, lengths, lags)[-2:, -2:], d))
-    except np.linalg.LinAlgError:  # a singular J^T J or load covariance: no interval to measure in
-        return float("nan")
-
-
 def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
     """Finish a fit with up to ``steps`` Gauss-Newton steps (central Jacobian, step halving) until
     the load's step in its sandwich standard errors (:func:`load_decrement`) is below
@@ -382,33 +378,6 @@ def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple
         J = central_jacobian(prob.residual, x)
         dec = load_decrement(J, f, lengths, lags)
     return x, J, dec, f
-
-
-def _meat(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
-    """The sandwich's ``S``: each dataset's per-sample scores ``h_t = sum_channels J_t f_t`` with
-    Bartlett weights over ``lags`` samples (Newey & West 1987, eq. 2; datasets independent); rows
-    after the datasets' (a Gaussian prior, as a standardised observation) add ``J_p^T J_p``."""
-    S = np.zeros((J.shape[1], J.shape[1]))
-    i = 0
-    for n in lengths:
-        rows = slice(i, i + 3 * n)
-        h = (J[rows] * f[rows, None]).reshape(n, 3, -1).sum(axis=1)
-        S += h.T @ h
-        for lag in range(1, min(lags, n - 1) + 1):
-            G = h[lag:].T @ h[:-lag]
-            S += (1 - lag / (lags + 1)) * (G + G.T)
-        i += 3 * n
-    return S + J[i:].T @ J[i:]
-
-
-def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
-    """Sandwich (Huber-White, Newey-West) covariance ``A^-1 S A^-1`` of a least-squares fit, ``A = J^T J``,
-    ``S`` from :func:`_meat` (a prior row adds its information ``1/sd^2``). Unlike ``s^2 A^-1`` it
-    allows for residuals that stay correlated after the whitening (unmodelled dynamics); it does not
-    allow for a bias.
-    """
-    Ainv = np.linalg.inv(J.T @ J)
-    return Ainv @ _meat(J, f, lengths, lags) @ Ainv
 
 
 def fit_output_error(
