@@ -322,9 +322,10 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fu
     for j in range(len(exps[0])):
         inp = np.stack([e[j][0] for e in exps])
         nu0 = np.stack([e[j][1] for e in exps])
-        # the heading noise is read by the unfused path's regressors only (and nothing is drawn after
-        # it when one experiment is the whole run, as with the fused pass)
-        cur, wind, meas, head = _noise(d, gens, inp.shape[1], offsets, heading=not fused)
+        # the heading noise is read by the unfused path's regressors only; it is drawn all the same
+        # before another experiment of the run, whose draws follow it
+        last = j == len(exps[0]) - 1
+        cur, wind, meas, head = _noise(d, gens, inp.shape[1], offsets, heading=not (fused and last))
         if not fused:  # the calm instrument model after the true system
             cur, wind = (np.concatenate([a, np.zeros_like(cur)]) for a in (cur, wind))
         env = Disturbances(current_ne=cur, wind_ne=wind, current_turning=d.current_turning)

@@ -61,7 +61,7 @@ def calm_runs(profile, terms, data: Sequence) -> CalmRuns | None:
     simulation (:func:`simulate`) gives the bits of :func:`primitives.simulate.simulate`'s
     compiled loop in calm water without a pose."""
     work = sum(d.y.shape[0] * d.inputs.shape[1] for d in data)
-    if profile.pods or profile.n_dof != 3 or profile.rigid_body is not None or not jitloop.use(work):
+    if profile.pods or profile.n_dof != 3 or terms.n_dof != 3 or profile.rigid_body is not None or not jitloop.use(work):
         return None
     _compile_helpers()
     in_t, progs = [], []

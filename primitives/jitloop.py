@@ -269,6 +269,30 @@ class compiled:
             self.jit = njit(cache=True, nogil=True, error_model="numpy")(self.fn)
         except RuntimeError:  # no writable cache directory (read-only install, no home): compile in memory
             self.jit = njit(nogil=True, error_model="numpy")(self.fn)
+            return
+        _stamp_shared_helpers(self.jit)
+
+
+# The files whose inlined helpers are compiled into other files' functions (expdesign.oekernel
+# inlines _increments and _times_factor, expdesign.ivsolve regkernel._factor).
+SHARED_HELPER_FILES = (__file__, os.path.join(os.path.dirname(__file__), "regkernel.py"))
+
+
+def _stamp_shared_helpers(jit) -> None:
+    """Make ``jit``'s disk cache stale when a file of :data:`SHARED_HELPER_FILES` changes, not only
+    its own file. numba keeps a cached function while its own source file's modification time and
+    size are those recorded in the cache index (numba.core.caching.IndexDataCacheFile): a changed
+    helper inlined from another file would otherwise leave the old machine code in use. The
+    helpers' files' (mtime, size) are added to the stamp the index is checked against (a private
+    numba attribute: where it is missing, only the function's own file is checked, as before)."""
+    cache_file = getattr(getattr(jit, "_cache", None), "_cache_file", None)
+    if cache_file is None or not hasattr(cache_file, "_source_stamp"):
+        return
+    try:
+        shared = tuple((st.st_mtime, st.st_size) for st in map(os.stat, SHARED_HELPER_FILES))
+    except OSError:
+        return
+    cache_file._source_stamp = (cache_file._source_stamp, shared)
 
 
 def _load() -> None:
@@ -291,9 +315,10 @@ def _load() -> None:
 
 
 def inlined(fn):
-    """Mark the module-level helper ``fn`` to be compiled into the :class:`compiled` functions of its
-    own module that call it (kept in the caller's file: numba's disk cache is invalidated by that
-    file's changes only). Compiled at once when numba is loaded already."""
+    """Mark the module-level helper ``fn`` to be compiled into the :class:`compiled` functions that
+    call it. numba's disk cache sees a change to the caller's own file only: a helper called from
+    another file must be in a file of :data:`SHARED_HELPER_FILES`. Compiled at once when numba is
+    loaded already."""
     if _LOADED:
         from numba import njit
 

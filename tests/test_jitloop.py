@@ -197,3 +197,32 @@ def test_a_numba_that_cannot_load_falls_back_to_the_numpy_loop(tmp_path):
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["False", "True"]
     assert "compiled simulation kernel unavailable" in out.stderr and "Traceback" not in out.stderr
+
+
+@needs_numba
+def test_a_changed_helper_file_recompiles_the_cached_functions_that_inline_it(tmp_path):
+    """numba's disk cache checks a function's own file only; a helper inlined from another file
+    (expdesign.oekernel's passes inline primitives.jitloop._increments) that changes must not leave
+    the old machine code in use. Each call is a fresh process reading the cache the last one wrote."""
+    helper, user = tmp_path / "helper_mod.py", tmp_path / "user_mod.py"
+    helper.write_text("from primitives import jitloop\n\n\n@jitloop.inlined\ndef h(x):\n    return x + 1.0\n")
+    user.write_text(
+        "import helper_mod\nfrom primitives import jitloop\n\n\n@jitloop.compiled\ndef g(x):\n    return helper_mod.h(x)\n"
+    )
+    code = (
+        f"from primitives import jitloop; jitloop.SHARED_HELPER_FILES = ({str(helper)!r},); import user_mod; "
+        "jitloop.use(jitloop.MIN_WORK); print(user_mod.g(1.0), len(user_mod.g.jit.stats.cache_hits))"
+    )
+    root = Path(__file__).resolve().parent.parent
+    env = {k: v for k, v in os.environ.items() if k not in ("SHIPTRIAL_KERNEL", "NUMBA_CACHE_DIR", "NUMBA_DISABLE_JIT")}
+    env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), str(root)])
+
+    def run() -> list[str]:
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root, timeout=120)
+        assert out.returncode == 0, out.stderr
+        return out.stdout.split()
+
+    assert run() == ["2.0", "0"]  # compiled and written to the cache
+    assert run() == ["2.0", "1"]  # loaded from it
+    helper.write_text(helper.read_text().replace("x + 1.0", "x + 20.0"))
+    assert run() == ["21.0", "0"]  # the helper's change seen: compiled again, not the cached 2.0

@@ -99,6 +99,18 @@ def test_compiled_simulations_and_mean_squares_are_the_numpy_paths_bits(ship, ex
     assert np.array_equal(ms, ref_ms)
 
 
+@needs_numba
+def test_a_roll_term_list_on_a_planar_ship_takes_the_numpy_path():
+    """The compiled calm loop and moments' pass step three DOFs: a fourth (roll) list is the numpy
+    path's, never written past the loop's three-DOF arrays."""
+    from expdesign import oekernel
+
+    p, terms, data, _ = _oe_case("model-ship", False)
+    assert jitloop.use(jitloop.MIN_WORK)
+    assert oekernel.calm_runs(p, terms, data) is not None
+    assert oekernel.calm_runs(p, TermSet((*terms.terms, ("v_r",))), data) is None
+
+
 def _numpy_path_estimates() -> dict:
     """The same Monte Carlo in a process where numba cannot be imported."""
     code = (
