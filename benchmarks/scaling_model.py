@@ -281,7 +281,9 @@ def _dask_model(
     )
     cold = max(0.0, statistics.median((r["first_cpu"] - r["cpu"]) / r["slots"] for r in rows))
     inline = predict(cost, names, runs, 1, 0.0, first_extra=lambda n: n * warm)["wall"]
-    pr = predict(cost, names, runs, 16, serial[16] + cold, per_task=ov["per_task"], inflation=infl(16))
+    pr = predict(
+        cost, names, runs, 16, serial[16] + cold, per_task=ov["per_task"], inflation=infl(16), first_extra=lambda n: n * warm
+    )
     how = "not preloaded" if any("no preload" in r["label"] for r in rows) else "preloaded"
     print(
         f"  16 new workers, {how} as measured (a worker's first run cost {cold:.2f} s CPU more than a warm one's): "
