@@ -1,4 +1,4 @@
-"""The Monte Carlo benchmark's task-cost line (benchmarks/bench_design.robust_line): one task time
+"""The Monte Carlo benchmark's task-cost line (benchmarks/scaling_model.robust_line): one task time
 spoilt by a loaded machine moves neither the fixed cost nor the cost per run much, and the fixed
 cost is never negative (the least-squares line fitted under load gave negative fixed costs, which
 left the 16-worker prediction without meaning)."""
@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.bench_design import robust_line
+from benchmarks.scaling_model import robust_line
 
 SIZES = (16, 63, 250, 500)
 

@@ -1,4 +1,4 @@
-"""The Dask engine's capacity (issue 14): the Monte Carlo cuts at least 4 tasks per worker, so the
+"""The Dask engine's capacity (issue 14): the Monte Carlo cuts its tasks per worker slot, so the
 engine must count the workers the cluster will have, not only those connected at the instant it
 asks (workers still starting, or restarting under their nanny after a loss)."""
 

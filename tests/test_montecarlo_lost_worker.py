@@ -91,7 +91,9 @@ def test_keep_partial_after_a_lost_worker_claims_only_finished_runs(tmp_path, ca
     st = doc["monte_carlo_status"]
     assert st["partial"] and not st["complete"] and not st["interrupted"] and "KilledWorker" in st["errors"][0]
     done = st["runs_finished"]
-    assert done["random"] <= 4 and sum(done.values()) < 4 * 8  # the lost chunk's runs are not claimed
+    # the lost chunk's runs are not claimed; a design none of whose runs finished is left out (8 runs x 4
+    # designs on 2 workers is one task per design since the tasks are sized to the machine: random has none)
+    assert done.get("random", 0) <= 4 and sum(done.values()) < 4 * 8
     for name, n in done.items():
         assert doc["monte_carlo"][name]["runs"] == n and doc["monte_carlo"][name]["runs_requested"] == 8
         assert doc["monte_carlo"][name]["partial"] == (n < 8)

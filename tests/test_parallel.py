@@ -1,5 +1,11 @@
 """Engines: the same seed gives the same numbers inline, on local cores and on a Dask cluster."""
 
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -215,8 +221,6 @@ def test_design_says_when_dask_workers_run_several_threads(capsys):
 
 
 def _worker_state() -> tuple[bool, bool, int, bool]:
-    import sys
-
     from expdesign import parallel
     from primitives import jitloop
 
@@ -237,4 +241,19 @@ def test_dask_preload_warms_a_worker_before_any_task():
         distributed.Client(warm, set_as_default=False) as client,
     ):
         (state,) = client.run(_worker_state).values()
-    assert state == (True, jitloop.AVAILABLE, 1, True)  # a plain worker: (False, False, the library's default, False)
+    # a plain worker: (False, False, the library's default, False); mallopt only on glibc
+    assert state == (True, jitloop.AVAILABLE, 1, platform.libc_ver()[0] == "glibc")
+
+
+@pytest.mark.parametrize("value,kept", [("65536", True), ("1000000", False), (None, False)])
+def test_only_dasks_default_trim_threshold_is_undone(value, kept):
+    """keep_freed_memory undoes Dask's MALLOC_TRIM_THRESHOLD_=65536 (glibc only); a value the user
+    chose, or none, is left alone. In a fresh process: mallopt is process-wide."""
+    env = {k: v for k, v in os.environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
+    if value is not None:
+        env["MALLOC_TRIM_THRESHOLD_"] = value
+    code = "from expdesign.parallel import keep_freed_memory as k; print(k(), k())"
+    root = Path(__file__).resolve().parent.parent  # this checkout's package, not an installed one
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=root, capture_output=True, text=True, check=True).stdout
+    expected = kept and platform.libc_ver()[0] == "glibc"
+    assert out.split() == [str(expected)] * 2

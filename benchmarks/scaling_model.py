@@ -1,0 +1,351 @@
+"""The task-cost model of ``python benchmarks/bench_design.py --scaling`` (issue 14, issue 30).
+
+- a task of n runs of design d costs F_d + n p_d CPU seconds, fitted per design from tasks of 16,
+  63, 250 and 500 runs (F is the simulation kernel's time loops, paid per batch whatever its size),
+  robustly: the least CPU of 3 repeats per size, Siegel's repeated-median line, F >= 0;
+- the pool's serial part s(W) (forking W workers holding the shared inputs, collecting, joining),
+  measured with no-op tasks as the parent's CPU plus one worker's;
+- a process's first task costs more than the same task in a warm process (a new process grows its
+  heap to the task's working set: page faults), measured at 250 runs and scaled per run; as in a
+  command, inline pays it once and every worker once (in parallel);
+- predicted wall(W) = s(W) + the finish time of the engines' own task list (same cut as
+  ``evaluate_designs_parallel``) taken in order by the first free of W workers; inline = the sum
+  of the inline tasks; speed-up = inline / wall(W), efficiency = speed-up / W, also without s(W).
+- CPU inflation per worker count: the measured CPU over the model's CPU, relative to inline's, applied
+  to the workers' tasks (a worker count not measured takes the largest measured one's figure).
+The model is checked against the measured engines: its CPU (tasks + prepare + pool) beside the
+measured CPU for any worker count (local x3 and x4 on a 2-core machine check the fixed-cost term),
+its wall beside the measured wall where the machine has the cores. It leaves out what a 16-core
+machine adds (shared caches and memory bandwidth, a lower all-core clock), so it is an upper bound.
+"""
+
+from __future__ import annotations
+
+import heapq
+import os
+import resource
+import statistics
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from expdesign.montecarlo import MCShared
+from primitives.library import Primitive, model_ship_thesis
+from primitives.ship import ShipProfile, load_profile
+
+
+def setup() -> tuple[ShipProfile, list[Primitive], dict[str, object]]:
+    """The model ship, its primitive library and the two designs the scaling benchmark times."""
+    from expdesign.api import run_design
+
+    p = load_profile("model-ship")
+    lib = model_ship_thesis(p)
+    return p, lib, {"optimized": run_design(p, lib).weights, "random": "random"}
+
+
+SIZES = (16, 63, 250, 500)  # runs per task of the cost fit
+
+
+@dataclass
+class TaskCost:
+    """CPU seconds of one task of ``n`` runs of a design: ``fixed[d] + n * per_run[d]``."""
+
+    fixed: dict[str, float]
+    per_run: dict[str, float]
+
+    def of(self, tasks: list[tuple[str, int, int]]) -> list[float]:
+        return [self.fixed[d] + (b - a) * self.per_run[d] for d, a, b in tasks]
+
+
+def fit_task_cost(sh: MCShared, sizes: tuple[int, ...] = SIZES, repeat: int = 3) -> TaskCost:
+    """The line F_d + n p_d through the CPU time of tasks of ``sizes`` runs, per design (each
+    repeat on other runs), over the task sizes the engines cut (16 to 500 runs), made robust to
+    a loaded machine (:func:`robust_line`): per size the least CPU of the repeats (other
+    processes only ever add CPU time: cache and memory contention), F clipped at 0 (p is not
+    clipped). The worst relative residual of the line is printed, so a curve
+    (e.g. an iteration count that grows with the batch) shows."""
+    from expdesign.montecarlo import run_chunk
+
+    fixed, per_run = {}, {}
+    for d in sh.designs:
+        cost = []
+        for n in sizes:
+            ts = []
+            for k in range(repeat):
+                t = time.process_time()
+                run_chunk(sh, d, range(k * n, (k + 1) * n))
+                ts.append(time.process_time() - t)
+            cost.append(min(ts))
+        fixed[d], per_run[d] = robust_line(sizes, cost)
+        resid = max(abs(fixed[d] + n * per_run[d] - c) / c for n, c in zip(sizes, cost))
+        print(
+            f"task cost {d:9s} (CPU, least of {repeat} at {'/'.join(map(str, sizes))} runs: "
+            f"{', '.join(f'{1e3 * c:.0f}' for c in cost)} ms): fixed {1e3 * fixed[d]:5.0f} ms "
+            f"+ {1e3 * per_run[d]:5.2f} ms per run (worst residual of the line {100 * resid:.0f} %)"
+        )
+    return TaskCost(fixed, per_run)
+
+
+def robust_line(sizes: Sequence[int], cost: Sequence[float]) -> tuple[float, float]:
+    """(F, p) of cost = F + n p by Siegel's (1982) repeated medians: p the median over the points
+    of each point's median slope to the others, F the median of cost - n p, clipped at 0. One
+    point of four spoilt by load moves neither (half the points may be), where the
+    least-squares line fitted on times taken under load gave negative fixed costs, which the
+    makespan model cannot use."""
+    n, c = np.asarray(sizes, float), np.asarray(cost, float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        slopes = (c[None, :] - c[:, None]) / (n[None, :] - n[:, None])
+    np.fill_diagonal(slopes, np.nan)
+    p = float(np.median(np.nanmedian(slopes, axis=1)))
+    return max(0.0, float(np.median(c - n * p))), p
+
+
+def _noop(item: int, shared: MCShared) -> int:
+    return item
+
+
+def pool_overhead(sh: MCShared, w: int, repeat: int = 5) -> dict[str, float]:
+    """The pool machinery alone: fork ``w`` workers that hold the shared inputs, one no-op task
+    each, collect, shut down (medians of ``repeat``). Seconds: ``wall`` on this machine, ``cpu``
+    of the parent and the workers, and ``serial``, the wall on an idle machine with >= w cores:
+    the parent's CPU (the forks are made one after the other before any task starts, then the
+    results and the joins) plus one worker's CPU (its start and exit, in parallel with the
+    others'). The wall on a machine with fewer cores than workers also counts the workers
+    queueing for a core."""
+    from expdesign.parallel import LocalEngine
+
+    runs = []
+    for _ in range(repeat):
+        t, c, k = time.perf_counter(), time.process_time(), children_cpu_s()
+        with LocalEngine(w) as eng:
+            eng.map(_noop, list(range(w)), progress=False, shared=sh)
+        parent, kids = time.process_time() - c, children_cpu_s() - k
+        runs.append({"wall": time.perf_counter() - t, "cpu": parent + kids, "serial": parent + kids / w})
+    return {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+
+
+def _timed_task(item: tuple[str, int, int], shared: MCShared) -> float:
+    from expdesign.montecarlo import run_chunk
+
+    t = time.process_time()
+    run_chunk(shared, item[0], range(item[1], item[2]))
+    return time.process_time() - t
+
+
+def first_task_extra(sh: MCShared, n: int, repeat: int = 2) -> float:
+    """Extra CPU seconds of a fresh worker's first task of ``n`` runs over the same task in this
+    warm process: a new process grows its heap to the task's working set (page faults), once."""
+    from expdesign.parallel import LocalEngine
+
+    items = [("random", k * n, (k + 1) * n) for k in range(2)]
+    warm = [_timed_task(it, sh) for it in items * repeat][len(items) :]
+    cold = []
+    for _ in range(repeat):
+        with LocalEngine(2) as eng:
+            cold += eng.map(_timed_task, items, progress=False, shared=sh).results
+    return max(0.0, statistics.median(cold) - statistics.median(warm))
+
+
+def makespan(costs: list[float], w: int, first_extra: float = 0.0) -> float:
+    """Finish time of ``costs`` taken in submission order by whichever of ``w`` workers is free
+    first (what the process pool and Dask's scheduler do with equal-priority tasks); each
+    worker's first task costs ``first_extra`` more."""
+    free = [(0.0, i) for i in range(w)]
+    started = set()
+    for c in costs:
+        t, i = free[0]
+        heapq.heapreplace(free, (t + c + (first_extra if i not in started else 0.0), i))
+        started.add(i)
+    return max(t for t, _ in free)
+
+
+def predict(
+    cost: TaskCost,
+    designs: list[str],
+    runs: int,
+    w: int,
+    serial: float,
+    tasks_per_worker: int | None = None,
+    first_extra: Callable[[int], float] = lambda n: 0.0,
+    inflation: float = 1.0,
+    per_task: float = 0.0,
+) -> dict:
+    """Predicted wall time on ``w`` otherwise idle cores: the parent's serial time (pool start and
+    stop, Amdahl) plus the makespan of the tasks cut as the engines cut them, in fresh processes
+    (as a command runs: inline pays ``first_extra`` once, each worker once). ``inflation``: the
+    measured CPU of W processes over what the model counts (shared caches, memory bandwidth,
+    threads: CPU the workers burn that a warm single process does not), multiplying every task;
+    ``per_task``: the engine's own CPU seconds per task (Dask's), added to every task;
+    ``tasks_per_worker``: that many tasks per worker whatever their size, instead of the engine's
+    cut (:func:`expdesign.mc_parallel.plan_tasks`, which takes fewer when they would be small)."""
+    from expdesign.mc_parallel import cut_tasks, plan_tasks
+
+    nd = len(designs)
+    chunk_runs = -(-runs * nd // (tasks_per_worker * w)) if tasks_per_worker else None
+    tasks = cut_tasks(designs, runs, plan_tasks(runs, nd, w, chunk_runs=chunk_runs))
+    costs = [c * inflation + per_task for c in cost.of(tasks)]
+    chunk = max(b - a for _, a, b in tasks)
+    extra = first_extra(chunk) * inflation
+    compute = makespan(costs, w, extra)
+    return {"tasks": len(tasks), "chunk": chunk, "cpu": sum(costs) + w * extra, "compute": compute, "wall": serial + compute}
+
+
+def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
+    """The task-cost model, checked against the measured engines, and the speed-up and
+    efficiency it predicts per worker count up to 16 (goal there: 70 %) on an idle machine."""
+    from expdesign.montecarlo import MCConfig, prepare
+
+    p, lib, designs = setup()
+    t = time.process_time()
+    sh = prepare(p, designs, MCConfig(runs=max(runs, 3 * max(SIZES))), lib)
+    prep = time.process_time() - t
+    cost = fit_task_cost(sh)
+    names = list(sh.designs)
+    counts = sorted({1, 2, 3, 4, 8, 16, *workers})
+    pool = {w: pool_overhead(sh, w) for w in counts if w > 1}
+    serial = {1: 0.0} | {w: v["serial"] for w, v in pool.items()}
+    warm = first_task_extra(sh, 250) / 250
+    print(
+        f"a worker's first task costs {1e3 * warm:.2f} ms per run more than in a warm process (heap growth, measured at 250 runs)"
+    )
+    print(
+        f"serial in the parent: shared inputs {1e3 * prep:.0f} ms CPU (prepare(), before the clock starts, the same for every "
+        "engine); pool start + stop with W workers, serial part on an idle machine (wall here): "
+        + ", ".join(f"{w}: {1e3 * v['serial']:.0f} ms ({1e3 * v['wall']:.0f})" for w, v in pool.items())
+    )
+    modelled = {}
+    for row in (r for r in measured if not r["label"].startswith("dask")):  # CPU on any machine, wall up to the core count
+        fresh = row["slots"] > 1  # the pools' workers are new processes, the inline runs reuse this warm one
+        pr = predict(cost, names, runs, row["slots"], serial.get(row["slots"], 0.0), first_extra=lambda n, f=fresh: n * warm * f)
+        cpu = pr["cpu"] + prep + (pool[row["slots"]]["cpu"] if row["slots"] > 1 else 0.0)
+        modelled[row["slots"]] = row["cpu"] / cpu
+        print(
+            f"  model vs measured {row['label']:12s}: CPU {cpu:6.2f} s vs {row['cpu']:6.2f} s (inflation {row['cpu'] / cpu:4.2f}); "
+            f"wall {pr['wall']:6.2f} s vs "
+            f"{row['wall']:6.2f} s{'' if row['slots'] <= (os.cpu_count() or 1) else ' (more workers than CPUs: wall not comparable)'}"
+        )
+    infl = _inflation(modelled)
+    _predicted(cost, names, runs, serial, f"{runs} runs x {len(names)} designs", warm, infl)
+    dask_rows = [r for r in measured if r["label"].startswith("dask x")]
+    if dask_rows:
+        _dask_model(cost, names, runs, sh, prep, dask_rows, modelled.get(1, 1.0), warm)
+    # `shiptrial design --monte-carlo 500` evaluates 4 designs; uniform and thesis cost as the optimized one (fixed shares)
+    cost.fixed |= {k: cost.fixed["optimized"] for k in ("uniform", "thesis")}
+    cost.per_run |= {k: cost.per_run["optimized"] for k in ("uniform", "thesis")}
+    _predicted(
+        cost,
+        ["optimized", "random", "uniform", "thesis"],
+        500,
+        serial,
+        "shiptrial design --monte-carlo 500 (4 designs)",
+        warm,
+        infl,
+    )
+
+
+def _dask_model(
+    cost: TaskCost, names: list[str], runs: int, sh: MCShared, prep: float, rows: list[dict], base: float, warm: float
+) -> None:
+    """The same model for the local Dask clusters measured (warm workers): Dask's serial part a + b W and
+    CPU per task (:func:`benchmarks.scaling_dask.dask_overhead`), its CPU inflation relative to inline's,
+    the 16-worker prediction; and with new workers that were not preloaded, each worker's first-run
+    cost (the measured first run's extra CPU per worker) on top."""
+    from benchmarks.scaling_dask import dask_overhead, print_overhead
+
+    ov = dask_overhead(sh, sorted({r["slots"] for r in rows}))
+    print_overhead(ov)
+    serial = {w: ov["a"] + ov["b"] * w for w in (1, 2, 3, 4, 8, 16)}
+    modelled = {1: base}
+    for row in rows:
+        w = row["slots"]
+        pr = predict(cost, names, runs, w, serial[w], per_task=ov["per_task"])
+        cpu = pr["cpu"] + prep + serial[w]
+        modelled[w] = row["cpu"] / cpu
+        cold = (row["first_cpu"] - row["cpu"]) / w
+        print(
+            f"  model vs measured {row['label']:12s}: CPU {cpu:6.2f} s vs {row['cpu']:6.2f} s (inflation {row['cpu'] / cpu:4.2f}); "
+            f"wall {pr['wall']:6.2f} s vs {row['wall']:6.2f} s; a new worker's first run: {cold:.2f} s CPU more per worker"
+        )
+    infl = _inflation(modelled)
+    _predicted(
+        cost,
+        names,
+        runs,
+        serial,
+        f"Dask, warm single-thread workers, {runs} runs x {len(names)} designs",
+        warm,
+        infl,
+        ov["per_task"],
+    )
+    cold = max(0.0, statistics.median((r["first_cpu"] - r["cpu"]) / r["slots"] for r in rows))
+    inline = predict(cost, names, runs, 1, 0.0, first_extra=lambda n: n * warm)["wall"]
+    pr = predict(
+        cost, names, runs, 16, serial[16] + cold, per_task=ov["per_task"], inflation=infl(16), first_extra=lambda n: n * warm
+    )
+    how = "not preloaded" if any("no preload" in r["label"] for r in rows) else "preloaded"
+    print(
+        f"  16 new workers, {how} as measured (a worker's first run cost {cold:.2f} s CPU more than a warm one's): "
+        f"efficiency {inline / pr['wall'] / 16:4.2f}"
+    )
+
+
+def _inflation(measured: dict[int, float]) -> Callable[[int], float]:
+    """CPU inflation per worker count W: measured CPU over the model's CPU, relative to inline's
+    (so inline is 1). A W that was not measured takes the largest measured W's inflation at or
+    below it (on a 2-core machine, the 4-process figure stands for 16: an assumption the output
+    says; shared caches and memory bandwidth of a real many-core machine may add more)."""
+    base = measured.get(1, 1.0)
+    rel = {w: max(1.0, v / base) for w, v in measured.items()}
+    if rel:
+        print(
+            "CPU inflation (measured CPU / modelled CPU, relative to inline): "
+            + ", ".join(f"{w} workers {v:4.2f}" for w, v in sorted(rel.items()))
+            + f"; more workers than measured take the {max(rel)}-worker figure"
+        )
+    return lambda w: rel.get(w) or next((rel[k] for k in sorted(rel, reverse=True) if k <= w), 1.0)
+
+
+def _predicted(
+    cost: TaskCost,
+    names: list[str],
+    runs: int,
+    serial: dict[int, float],
+    what: str,
+    warm: float,
+    inflation: Callable[[int], float] = lambda w: 1.0,
+    per_task: float = 0.0,
+) -> None:
+    """Predicted wall, speed-up and efficiency per worker count in ``serial``, and at the most workers by tasks per
+    worker; ``warm``: extra CPU seconds per run of a worker's first task; ``inflation``: the measured CPU inflation
+    per worker count (:func:`_inflation`), applied to the workers' tasks."""
+    extra = {"first_extra": lambda n: n * warm}
+    inline = predict(cost, names, runs, 1, 0.0, **extra)["wall"]
+    print(f"predicted on an idle machine with >= W cores, {what} (inline {inline:.2f} s):")
+    for w in serial:
+        pr = predict(cost, names, runs, w, serial[w], inflation=inflation(w), per_task=per_task, **extra)
+        pr0 = predict(cost, names, runs, w, serial[w], per_task=per_task, **extra)
+        print(
+            f"  {w:2d} workers: {pr['tasks']:3d} tasks of <= {pr['chunk']:3d} runs ({pr['tasks'] / w:4.1f} per worker)  wall {pr['wall']:6.2f} s  "
+            f"speed-up {inline / pr['wall']:5.2f}  efficiency {inline / pr['wall'] / w:4.2f} with CPU inflation {inflation(w):4.2f} "
+            f"({inline / pr0['wall'] / w:4.2f} without it; without the serial part {inline / pr['compute'] / w:4.2f})"
+        )
+    w = max(serial)
+    alt = ", ".join(
+        f"{k}: {inline / predict(cost, names, runs, w, serial[w], k, inflation=inflation(w), per_task=per_task, **extra)['wall'] / w:4.2f}"
+        for k in (1, 2, 3, 4, 8)
+    )
+    print(f"  {w} workers, efficiency by tasks per worker whatever their size (the engine's cut above): {alt}")
+
+
+def cpu_s() -> float:
+    """CPU seconds of this process and of its children that have exited (pool workers)."""
+    me = resource.getrusage(resource.RUSAGE_SELF)
+    return me.ru_utime + me.ru_stime + children_cpu_s()
+
+
+def children_cpu_s() -> float:
+    """CPU seconds of this process's children that have exited."""
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return kids.ru_utime + kids.ru_stime
