@@ -110,13 +110,11 @@ def main() -> None:
     methods = list(METHODS) if a.methods == "all" else a.methods.split(",")
     if not set(methods) <= set(METHODS) or not set(variants) <= set(bt.VARIANTS + ("base",)) or not set(cases) <= set(bt.CASES):
         ap.error("unknown method, variant or case")
-    t0, c_sim, c_fit = time.perf_counter(), 0.0, 0.0
-    rows, fails = [], []
+    t0, c_sim = time.perf_counter(), 0.0
+    rows = []
     if a.from_dump:  # a (possibly interrupted) run's rows, summarised
         rows = [tuple(r) for r in map(json.loads, Path(a.from_dump).read_text().splitlines())]
         variants = list(dict.fromkeys(r[0] for r in rows))
-        c_fit = sum(r[6] for r in rows)
-        fails = [f"{r[0]} {r[1]} {r[2]} run {r[3]}: {r[5]}" for r in rows if r[4] is None]
     else:
         if a.dump:  # a dump holds one invocation's rows: appending to an old one would mix runs of two families
             Path(a.dump).write_text("")
@@ -128,22 +126,21 @@ def main() -> None:
             ship, data = bt.simulate_runs(variant, a.runs, seed, quiet=a.quiet)
             c_sim += time.process_time() - c0
             jobs += [
-                (run, variant, case, bt.case_recordings(ship, data, case, run), methods, not a.no_u)
+                (variant, run, case, bt.case_recordings(ship, data, case, run), methods, not a.no_u)
                 for run in range(a.runs)
                 for case in cases
             ]
-        # run-major: an interrupted run (its --dump) has about as many runs of every variant
-        jobs = [(v, run, c, recs, m, u) for run, v, c, recs, m, u in sorted(jobs, key=lambda j: j[0])]
+        # run-major (a stable sort): an interrupted run (its --dump) has about as many runs of every variant
+        jobs.sort(key=lambda j: j[1])
         with Pool(a.workers) as pool:
             for part in pool.imap(_one, jobs):
                 for r in part:
                     rows.append(r)
-                    c_fit += r[6]
-                    if r[4] is None:
-                        fails.append(f"{r[0]} {r[1]} {r[2]} run {r[3]}: {r[5]}")
                     if a.dump:
                         with open(a.dump, "a") as fh:
                             fh.write(json.dumps(r, default=bool) + "\n")
+    c_fit = sum(r[6] for r in rows)
+    fails = [f"{r[0]} {r[1]} {r[2]} run {r[3]}: {r[5]}" for r in rows if r[4] is None]
     print(
         f"truth family: {len(variants)} variants x {'the dump' if a.from_dump else a.runs} runs x {len(cases)} cases, seed {a.seed}, "
         f"{'without' if a.no_u else 'with'} the u column{', quiet (no waves, no noise)' if a.quiet else ''}; "

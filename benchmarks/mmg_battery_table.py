@@ -185,17 +185,16 @@ def table(rows: list[dict]) -> str:
     for name, runs in by_case.items():
         cells = " ".join(f"{('hit' if runs[s]['hit'] else 'MISS') if s in runs else '-':>5s}" for s in seeds)
         # recomputed from each row's truth and findings; misses, errors and spurious findings count
+        per = {part: sum((coverage(r, part) for r in runs.values()), Counter()) for part in PARTS}
         for part in PARTS:
-            cp = sum((coverage(r, part) for r in runs.values()), Counter())
-            groups["all"][part] += cp
-            groups["wind" if name.startswith(("wind", "model-wind")) else "rest"][part] += cp
-        c = sum((coverage(r) for r in runs.values()), Counter())
+            groups["all"][part] += per[part]
+            groups["wind" if name.startswith(("wind", "model-wind")) else "rest"][part] += per[part]
+        c, c0 = per[""], per["_before"]
         flips += [f"{r['case']} {f['effect']}" for r in runs.values() for f in r.get("findings") or [] if includes_no_effect(f)]
         n = sum(c.values())
         cov = f"{c['in'] + c['spurious in']}/{n}" if n else "-"
         hw, hb = ([h for r in runs.values() for h in half_widths(r, part)] for part in ("", "_before"))
         width = f"{np.median(hw):.1f} ({np.median(hb):.1f})" if hw else "-"
-        c0 = sum((coverage(r, "_before") for r in runs.values()), Counter())
         cov += f" ({c0['in'] + c0['spurious in']})" if n else ""
         w = [r["diagnose_s"] for r in runs.values()]
         cpu = [r["cpu_s"] for r in runs.values()]

@@ -281,9 +281,14 @@ def interval_note(cov, key: str | None = None) -> dict:
         what += " and its misfit within the runs (the spread over eighths of each run)"
     tried = getattr(cov, "reference", None) is not None
     measured = tried and (key is None or key in getattr(cov, "reference_keys", frozenset()))
+    n_heldout = getattr(cov, "heldout_runs", 0)
     if measured:
         what += " and the misfit the --fit-on runs (which hold no such effect) put on the finding"
-        missing = "a model error common to every run that the --fit-on runs do not show"
+        missing = (
+            "a model error common to every run that the --fit-on runs "
+            + ("and the held-out runs " if n_heldout else "")
+            + "do not show"
+        )
     elif tried:
         missing = (
             "a model error common to every run (the --fit-on runs do not move this finding's parameters, "
@@ -291,10 +296,9 @@ def interval_note(cov, key: str | None = None) -> dict:
         )
     else:
         missing = "a model error common to every run (give --fit-on runs to measure it)"
-    if getattr(cov, "heldout_runs", 0):
-        n = cov.heldout_runs
+    if n_heldout:
+        n = n_heldout
         what += f" and the misfit the {n} held-out (--validate) run{'s' if n > 1 else ''} show{'' if n > 1 else 's'} on it"
-        missing = missing.replace("do not show", "and the held-out runs do not show")
     if getattr(cov, "misfit_failed", False):
         missing = (
             "the model's run-to-run misfit (its leave-one-run-out spread was not finite: a run's fit diverges "

@@ -331,8 +331,7 @@ def plan_rows(plan: dict, rows: slice) -> dict:
     """The members ``rows`` of a plan (:meth:`AugmentedModel._plan`)."""
     cut = {k: v[rows] for k, v in plan.items() if isinstance(v, np.ndarray)}
     terms = [(i, c[rows], *rest) for i, c, *rest in plan["terms"]]
-    delay = None if plan["delay"] is None else plan["delay"][rows]
-    return plan | cut | {"terms": terms, "offsets": [(i, c[rows]) for i, c in plan["offsets"]], "delay": delay}
+    return plan | cut | {"terms": terms, "offsets": [(i, c[rows]) for i, c in plan["offsets"]]}
 
 
 # -- residuals and fitting ----------------------------------------------------------------------------

@@ -483,7 +483,8 @@ def half_width_95(
     (whose parts :func:`small_sample` widened for a one-std interval)."""
     comps = [(noise**2, np.inf)]
     blocks = BLOCKS_PER_RUN * n_runs
-    if heldout > 0 and n_heldout >= 1:
+    by_heldout = heldout > 0 and n_heldout >= 1
+    if by_heldout:
         # the held-out part tops the other model-error parts up to what the held-out runs show
         # (with_heldout): the model error as a whole is then that measure, of their degrees of freedom
         comps.append((model**2 + within**2 + reference**2 + heldout**2, n_heldout))
@@ -491,7 +492,7 @@ def half_width_95(
         comps.append(((model**2 + within**2) / small_sample(blocks), blocks - 1))
     elif model > 0 and n_runs >= 2:
         comps.append((model**2 / small_sample(n_runs), n_runs - 1))
-    if reference > 0 and not (heldout > 0 and n_heldout >= 1):
+    if reference > 0 and not by_heldout:
         comps.append((reference**2, 1))
     var = sum(v for v, _nu in comps)
     den = sum(v**2 / nu for v, nu in comps if np.isfinite(nu))
