@@ -107,7 +107,7 @@ def check_frame(src: str, t: np.ndarray, pos: np.ndarray, psi: np.ndarray, u: np
         if moving.sum() < 10:
             return
         speed2 = float(np.nanmean(sog[moving] ** 2)) - noise
-        if speed2 >= NOISE_MARGIN * noise:
+        if speed2 > 0 and speed2 >= NOISE_MARGIN * noise:  # > 0: a track standing still, noise-free, has no speed to compare
             break
     else:
         return  # the motion is within the track's noise at every window (station keeping): no verdict

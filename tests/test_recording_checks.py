@@ -74,6 +74,20 @@ def test_all_zeros_recording_is_one_clear_line(tmp_path):
         read_csv(p)
 
 
+def test_a_track_standing_still_beside_a_moving_u_loads_without_a_traceback(tmp_path):
+    """A position that never changes (a constant lat/lon, no noise) while u says 1 m/s: the frame
+    check has no track speed to compare with and gives no verdict; it divided by the zero track
+    speed (ZeroDivisionError, found by the loaders' fuzz test)."""
+    t = np.arange(50) * 0.5
+    lines = ["t,x,psi,u,lat,lon,v"] + [f"{a},{a + 0.5},{0.01 * i},1.0,1.0,1.0,0.0" for i, a in enumerate(t)]
+    p = tmp_path / "still.csv"
+    p.write_text("\n".join(lines) + "\n")
+    try:
+        read_csv(p)
+    except RecordingError:
+        pass
+
+
 def test_absurd_speed_is_refused_not_hung(run, tmp_path):
     u = run.y[:, 0].copy()
     u[10] = 1e308
