@@ -151,7 +151,7 @@ def register(app: typer.Typer) -> None:
             paths = {k: out / v.relative_to(tmp) for k, v in written.items()}
         # without --out nothing is written (no scratch directory left behind in /tmp)
         if json_out:
-            typer.echo(dumps(report.to_json(d, str(paths["model"]) if paths else None)))
+            typer.echo(dumps(report.to_json(d, str(paths["model"]) if "model" in paths else None)))
             return
         typer.echo(report.to_text(d))
         if paths:

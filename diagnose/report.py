@@ -260,7 +260,7 @@ def finding_lines(d: Diagnosis) -> list[str]:
     """The findings, the baseline structure and what could not be tested."""
     lines = []
     if d.cannot_tell:
-        lines.append(f"Findings: none named; {d.cannot_tell}.")
+        lines.append(f"Findings: none named; {d.cannot_tell}. No model.json written: no diagnosed model to give.")
     elif d.explained:
         lines.append(
             "Findings: none. The model explains the data: no candidate physics improves the fit "
@@ -443,10 +443,12 @@ def write_all(d: Diagnosis, out: str | Path, final_dir: str | Path | None = None
     """Every output into ``out``; ``final_dir`` is where ``out`` will be moved (diagnosis.json
     names the model file at its final place when ``out`` is a temporary directory)."""
     out = Path(out)
-    model_path = write_model(d, out / "model.json")
-    paths = {"model": model_path}
+    # no model.json after "cannot tell": it would be the calm runs' baseline, unpinned on the
+    # diagnosed runs, under a "-diagnosed" name a later command would take for a diagnosed model
+    paths = {} if d.cannot_tell else {"model": write_model(d, out / "model.json")}
+    model_path = None if d.cannot_tell else str(Path(final_dir or out) / "model.json")
     atomic_write_text(out / "report.txt", to_text(d) + "\n")
-    atomic_write_text(out / "diagnosis.json", json.dumps(to_json(d, str(Path(final_dir or out) / "model.json")), indent=2))
+    atomic_write_text(out / "diagnosis.json", json.dumps(to_json(d, model_path), indent=2))
     paths["report"] = out / "report.txt"
     paths["json"] = out / "diagnosis.json"
     for i, p in enumerate(write_plots(d, out)):

@@ -7,6 +7,7 @@ manoeuvres of the MMG KVLCC2 to the noise level where the profile's own structur
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -264,7 +265,7 @@ def test_fit_stops_only_after_patience_short_steps_in_a_row(monkeypatch):
     assert baseline.BASELINE_PATIENCE >= 2
 
 
-def test_one_calm_turning_circle_cannot_tell_effects_on_zigzags(mmg_runs):
+def test_one_calm_turning_circle_cannot_tell_effects_on_zigzags(mmg_runs, tmp_path):
     """Issue 26's user with one calm run: a 35 deg turning circle pins neither structure on
     zig-zags (the own misses them by tens of noise units, the declared one is unconstrained
     there), so the diagnosis names nothing and says why and what to add. Before, the search
@@ -285,6 +286,13 @@ def test_one_calm_turning_circle_cannot_tell_effects_on_zigzags(mmg_runs):
     assert doc["cannot_tell"] == d.cannot_tell
     assert [u["run"] for u in doc["unpinned_runs"]] == [r.source for r in held]
     assert all(u["sd_noise_units"] > baseline.PINNED_SD for u in doc["unpinned_runs"])
+    # no model.json: the calm runs' unpinned baseline is no diagnosed model for a later command
+    from diagnose.report import write_all
+
+    paths = write_all(d, tmp_path)
+    assert "model" not in paths and not (tmp_path / "model.json").exists()
+    assert json.loads((tmp_path / "diagnosis.json").read_text())["model"] is None
+    assert "No model.json written" in (tmp_path / "report.txt").read_text()
 
 
 def test_a_profile_without_a_declared_structure_says_the_pinning_was_not_checked(mmg_runs):
