@@ -40,10 +40,13 @@ class MCEvaluation:
     profile: str = ""
     disturbances: dict[str, Any] = field(default_factory=dict)
     library: str = ""  # the profile's built-in manoeuvre dictionary (primitives.library), "" if none
+    designs: tuple[str, ...] = ()  # every design evaluated, in order, also those without a finished run
 
     @property
     def runs_finished(self) -> dict[str, int]:
-        return {k: len(r.runs) for k, r in self.results.items()}
+        """Runs finished per design, 0 for a design none of whose tasks finished (a partial result)."""
+        done = {k: len(r.runs) for k, r in self.results.items()}
+        return {k: done.get(k, 0) for k in self.designs} | done
 
 
 def _task(item: tuple[str, int, int], shared: MCShared) -> MCResult:
@@ -143,4 +146,5 @@ def evaluate_designs_parallel(
         profile.name,
         asdict(sh.dist),
         profile.library,
+        tuple(sh.designs),
     )

@@ -29,7 +29,7 @@ def test_ctrl_c_exits_130_and_writes_nothing(tmp_path, capsys, ctrl_c_in_random)
     out = tmp_path / "rep"
     assert _run([*ARGS, "--out", str(out)]) == 130
     err = capsys.readouterr().err
-    assert "interrupted" in err and "optimized 6" in err and "--keep-partial" in err
+    assert "interrupted" in err and "optimized 6, random 0" in err and "--keep-partial" in err
     assert not (out / "design.json").exists()
 
 
@@ -38,10 +38,11 @@ def test_keep_partial_writes_a_report_marked_partial(tmp_path, capsys, ctrl_c_in
     assert _run([*ARGS, "--out", str(out), "--keep-partial"]) == 130
     doc = json.loads((out / "design.json").read_text())
     st = doc["monte_carlo_status"]
-    assert st["partial"] and st["interrupted"] and st["runs_finished"] == {"optimized": 6}
+    assert st["partial"] and st["interrupted"] and st["runs_finished"] == {"optimized": 6, "random": 0, "uniform": 0, "thesis": 0}
     assert set(doc["monte_carlo"]) == {"optimized"}  # never claims runs that did not finish
     assert doc["monte_carlo"]["optimized"]["runs"] == 6 and "runs" not in doc["monte_carlo_config"]
-    assert "PARTIAL RESULT (interrupted)" in (out / "report.md").read_text()
+    md = (out / "report.md").read_text()
+    assert "PARTIAL RESULT (interrupted)" in md and "random 0 of 6" in md  # the design with no finished run is said
 
 
 def test_complete_report_states_protocol_thesis_numbers_and_open_choices(tmp_path, capsys):
