@@ -130,9 +130,10 @@ def test_plan_whose_resimulated_track_ends_far_from_the_lattice_end_is_not_verif
     (a profile whose moves do not end where the lattice expects) is not the plan searched: not
     feasible, with the drift named. Here the lattice's end point is moved 5 km to make the drift."""
     import maps.chain as chain
+    import maps.sailplan as sailplan
     from maps.scenario import thesis_planning_scenario
 
-    resimulate = chain.resimulate
+    resimulate = sailplan.resimulate
 
     def far_end(sea, legs, start, margin, lattice_end, **kw):
         return resimulate(sea, legs, start, margin, (lattice_end[0] + 5000.0, lattice_end[1]), **kw)
@@ -143,7 +144,7 @@ def test_plan_whose_resimulated_track_ends_far_from_the_lattice_end_is_not_verif
     )
     out = chain.search_plan(lat)
     assert chain.verify_plan(lat, out).verification.drift_m < 30.0  # the real drift verifies
-    monkeypatch.setattr(chain, "resimulate", far_end)
+    monkeypatch.setattr(sailplan, "resimulate", far_end)
     real = chain.verify_plan(lat, out)
     plan = chain.assemble_plan(lat, out, real)
     assert real.verification.drifted and real.verification.min_clearance_m >= lat.options.margin
