@@ -96,7 +96,8 @@ def run_resume(
     are the plan's (:func:`maps.resume.plan_options`) but for those given (``overrides``,
     :class:`maps.chain.PlanOptions` fields)."""
     from cli.options import duration_s
-    from cli.plan_cmd import _skip_final_collection, stage, write_outputs_all
+    from cli.plan_cmd import _skip_final_collection
+    from cli.plan_outputs import stage, write_outputs_all
     from cli.plan_summary import report
     from diagnose.recording import load_recording
     from maps.export._common import iso, resolve_start

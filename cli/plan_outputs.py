@@ -1,0 +1,112 @@
+"""plan-trial's and resume's outputs: the export chart every crew file shares, every file written into
+a temporary directory (the figures drawn by the drawer process meanwhile), and the spinner shown
+for a long step."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from datetime import datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # annotations only: the command imports the library when it runs
+    from cli.drawer import Drawer
+    from maps.geo import SeaMap
+    from maps.plan import Plan
+    from maps.trialdesign import TrialDesign
+
+
+@contextmanager
+def stage(text: str, quiet: bool) -> Iterator[None]:
+    """A spinner on stderr for a long step (only on a terminal, never in --json output)."""
+    if quiet or not sys.stderr.isatty():
+        yield
+        return
+    from rich.console import Console
+
+    with Console(stderr=True).status(text):
+        yield
+
+
+def export_chart(result: Plan, sea: SeaMap) -> Any:
+    """The one chart every export of ``result`` uses, with the route and sea room they share built
+    and kept on the plan (sent to the drawer with it)."""
+    from maps.export._common import check_plan
+    from maps.export.chart import plan_chart
+    from maps.export.geojson import sea_room_lonlat
+    from maps.export.route import build_route
+
+    check_plan(result)
+    chart = plan_chart(result, sea)
+    build_route(result, chart)
+    sea_room_lonlat(result)
+    return chart
+
+
+def write_outputs_all(
+    result: Plan,
+    sea: SeaMap,
+    tmp: Path,
+    td: TrialDesign | None,
+    t0: datetime,
+    no_export: bool,
+    quiet: bool,
+    drawer: Drawer | None = None,
+    chart: Any = None,
+) -> dict[str, Path]:
+    """Every output into the (temporary) directory ``tmp``. The figures (PDF and HTML trial card,
+    their PNGs, the plan picture, the design ratios) are drawn by ``drawer`` (a
+    :class:`cli.drawer.Drawer` started with the command) while this process writes the plan and
+    the text exports. ``chart``: :func:`export_chart` of the plan, when computed already."""
+    from maps.export import _write, default_path
+    from maps.output import write_outputs
+
+    exports = result.feasible and not no_export
+    if not exports:
+        if drawer is not None:
+            drawer.cancel()
+        files = write_outputs(result, sea, tmp, plot=True)
+        if td is not None:
+            from cli.drawer import _design_ratios
+
+            files["design_ratios_png"] = _design_ratios(td.design, tmp)
+        return files
+    if chart is None:
+        chart = export_chart(result, sea)
+    if drawer is None:
+        from cli.drawer import Drawer
+
+        drawer = Drawer()
+    drawer.send(
+        {"plan": result, "sea": sea, "chart": chart, "design": td.design if td is not None else None, "t0": t0, "dir": tmp}
+    )  # pickled now: the figures are drawn with the chart given, not the one plan.json stores
+    try:
+        files = write_outputs(result, sea, tmp, plot=False, chart=chart)
+        with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
+            crew = {
+                fmt: _write(
+                    result, fmt, default_path(result, fmt, tmp), sea_map=chart, start=t0, vessel=None, pdf=False, figures=None
+                )[0]
+                for fmt in ("geojson", "gpx", "rtz", "csv")
+            }
+    except BaseException:
+        drawer.wait(quiet=True)  # no child outlives the command; the first error is the one to report
+        raise
+    if not quiet:  # the summary's printer, imported while this process would only wait for the drawer
+        import rich.console  # noqa: F401
+        import rich.table  # noqa: F401
+    drawer.wait()
+    card = default_path(result, "card", tmp)
+    stem = default_path(result, "csv", tmp).with_suffix("")
+    return {
+        **files,
+        "plot": tmp / "plan.png",
+        **({"design_ratios_png": tmp / "design-ratios.png"} if td is not None else {}),
+        **crew,
+        "card": card,
+        "card_pdf": card.with_suffix(".pdf"),
+        "track_png": Path(f"{stem}-track.png"),
+        "states_png": Path(f"{stem}-states.png"),
+    }
