@@ -1,5 +1,6 @@
 """Engines: the same seed gives the same numbers inline, on local cores and on a Dask cluster."""
 
+import multiprocessing
 import os
 import platform
 import subprocess
@@ -39,6 +40,25 @@ def test_workers_run_one_blas_thread(monkeypatch):
         assert _blas_threads(None) == 2
         res = LocalEngine(2).map(_blas_threads, [0, 1, 2], progress=False)
     assert res.complete and res.results == [1, 1, 1]
+
+
+@pytest.mark.skipif(multiprocessing.get_start_method() != "fork", reason="workers inherit the limit only when forked")
+def test_forked_workers_inherit_one_blas_thread_from_the_parent(monkeypatch):
+    """Forked workers find one BLAS thread already set (the parent holds its libraries at one thread
+    while it forks, then restores them) instead of each finding and limiting the libraries itself,
+    about 25 ms of CPU per worker before its first task: a worker that still calls threadpool_limits
+    fails here (the parent's patched function is what a forked worker sees)."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+
+    def refuse(*_a, **_k):
+        raise AssertionError("a forked worker limited its BLAS threads itself")
+
+    with threadpoolctl.threadpool_limits(2):
+        monkeypatch.setattr(threadpoolctl, "threadpool_limits", refuse)
+        res = LocalEngine(2).map(_blas_threads, [0, 1, 2], progress=False)
+        monkeypatch.undo()
+        assert _blas_threads(None) == 2  # the parent's own setting is back
+    assert res.complete and res.results == [1, 1, 1], res.errors
 
 
 def test_task_seeds_are_stable_and_distinct():
