@@ -240,18 +240,20 @@ def test_design_says_when_dask_workers_run_several_threads(capsys):
         assert "--nthreads" not in capsys.readouterr().err
 
 
-def _worker_state() -> tuple[bool, bool, int, bool]:
+def _worker_state(dask_worker) -> tuple[bool, bool, int, bool, bool]:
     from expdesign import parallel
     from primitives import jitloop
 
-    return "expdesign.montecarlo" in sys.modules, jitloop.loaded(), _blas_threads(None), parallel._MALLOC_SET
+    profiling = any(k in dask_worker.periodic_callbacks for k in ("profile", "profile-cycle"))
+    return "expdesign.montecarlo" in sys.modules, jitloop.loaded(), _blas_threads(None), parallel._MALLOC_SET, profiling
 
 
 def test_dask_preload_warms_a_worker_before_any_task():
     """A worker started with ``--preload expdesign.dask_preload`` has the Monte Carlo imported, the
     compiled passes loaded, one BLAS thread and the nanny's MALLOC_TRIM_THRESHOLD_ undone (freed
     memory kept for the next batch) before the first command sends it a task (without it, each new
-    worker pays that in its first task: the first run's wall on a fresh cluster)."""
+    worker pays that in its first task: the first run's wall on a fresh cluster), and no
+    statistical profiler sampling its stacks while the tasks run."""
     distributed = pytest.importorskip("distributed")
     from primitives import jitloop
 
@@ -261,8 +263,8 @@ def test_dask_preload_warms_a_worker_before_any_task():
         distributed.Client(warm, set_as_default=False) as client,
     ):
         (state,) = client.run(_worker_state).values()
-    # a plain worker: (False, False, the library's default, False); mallopt only on glibc
-    assert state == (True, jitloop.AVAILABLE, 1, platform.libc_ver()[0] == "glibc")
+    # a plain worker: (False, False, the library's default, False, True); mallopt only on glibc
+    assert state == (True, jitloop.AVAILABLE, 1, platform.libc_ver()[0] == "glibc", False)
 
 
 @pytest.mark.parametrize("value,kept", [("65536", True), ("1000000", False), (None, False)])
