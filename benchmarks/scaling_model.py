@@ -6,8 +6,10 @@
 - the pool's serial part s(W) (forking W workers holding the shared inputs, collecting, joining),
   measured with no-op tasks as the parent's CPU plus one worker's;
 - a process's first task costs more than the same task in a warm process (a new process grows its
-  heap to the task's working set: page faults), measured at 250 runs and scaled per run; as in a
-  command, inline pays it once and every worker once (in parallel);
+  heap to the task's working set: page faults), measured at the two task sizes the engines cut for
+  2,000 x 2 runs (125 and 250 runs; interpolated between them, held beyond: it is not proportional
+  to the runs, 1-run tasks already pay part of it); as in a command, inline pays it once and every
+  worker once (in parallel);
 - predicted wall(W) = s(W) + the finish time of the engines' own task list (same cut as
   ``evaluate_designs_parallel``) taken in order by the first free of W workers; inline = the sum
   of the inline tasks; speed-up = inline / wall(W), efficiency = speed-up / W, also without s(W).
@@ -148,6 +150,20 @@ def first_task_extra(sh: MCShared, n: int, repeat: int = 2) -> float:
     return max(0.0, statistics.median(cold) - statistics.median(warm))
 
 
+EXTRA_SIZES = (125, 250)  # runs per task at which a fresh worker's first task is measured
+
+
+def first_extra_curve(sh: MCShared, sizes: tuple[int, ...] = EXTRA_SIZES) -> Callable[[int], float]:
+    """A fresh worker's first-task extra CPU seconds against the task's runs: measured at ``sizes``
+    (:func:`first_task_extra`), linear between them and held beyond."""
+    extra = [first_task_extra(sh, n) for n in sizes]
+    print(
+        "a worker's first task costs more than in a warm process (heap growth: page faults): "
+        + ", ".join(f"{1e3 * e:.0f} ms at {n} runs" for n, e in zip(sizes, extra))
+    )
+    return lambda n: float(np.interp(n, sizes, extra))
+
+
 def makespan(costs: list[float], w: int, first_extra: float = 0.0) -> float:
     """Finish time of ``costs`` taken in submission order by whichever of ``w`` workers is free
     first (what the process pool and Dask's scheduler do with equal-priority tasks); each
@@ -206,10 +222,7 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
     counts = sorted({1, 2, 3, 4, 8, 16, *workers})
     pool = {w: pool_overhead(sh, w) for w in counts if w > 1}
     serial = {1: 0.0} | {w: v["serial"] for w, v in pool.items()}
-    warm = first_task_extra(sh, 250) / 250
-    print(
-        f"a worker's first task costs {1e3 * warm:.2f} ms per run more than in a warm process (heap growth, measured at 250 runs)"
-    )
+    first = first_extra_curve(sh)
     print(
         f"serial in the parent: shared inputs {1e3 * prep:.0f} ms CPU (prepare(), before the clock starts, the same for every "
         "engine); pool start + stop with W workers, serial part on an idle machine (wall here): "
@@ -218,7 +231,7 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
     modelled = {}
     for row in (r for r in measured if not r["label"].startswith("dask")):  # CPU on any machine, wall up to the core count
         fresh = row["slots"] > 1  # the pools' workers are new processes, the inline runs reuse this warm one
-        pr = predict(cost, names, runs, row["slots"], serial.get(row["slots"], 0.0), first_extra=lambda n, f=fresh: n * warm * f)
+        pr = predict(cost, names, runs, row["slots"], serial.get(row["slots"], 0.0), first_extra=lambda n, f=fresh: first(n) * f)
         cpu = pr["cpu"] + prep + (pool[row["slots"]]["cpu"] if row["slots"] > 1 else 0.0)
         modelled[row["slots"]] = row["cpu"] / cpu
         print(
@@ -227,10 +240,10 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
             f"{row['wall']:6.2f} s{'' if row['slots'] <= (os.cpu_count() or 1) else ' (more workers than CPUs: wall not comparable)'}"
         )
     infl = _inflation(modelled)
-    _predicted(cost, names, runs, serial, f"{runs} runs x {len(names)} designs", warm, infl)
+    _predicted(cost, names, runs, serial, f"{runs} runs x {len(names)} designs", first, infl)
     dask_rows = [r for r in measured if r["label"].startswith("dask x")]
     if dask_rows:
-        _dask_model(cost, names, runs, sh, prep, dask_rows, modelled.get(1, 1.0), warm)
+        _dask_model(cost, names, runs, sh, prep, dask_rows, modelled.get(1, 1.0), first)
     # `shiptrial design --monte-carlo 500` evaluates 4 designs; uniform and thesis cost as the optimized one (fixed shares)
     cost.fixed |= {k: cost.fixed["optimized"] for k in ("uniform", "thesis")}
     cost.per_run |= {k: cost.per_run["optimized"] for k in ("uniform", "thesis")}
@@ -240,13 +253,20 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
         500,
         serial,
         "shiptrial design --monte-carlo 500 (4 designs)",
-        warm,
+        first,
         infl,
     )
 
 
 def _dask_model(
-    cost: TaskCost, names: list[str], runs: int, sh: MCShared, prep: float, rows: list[dict], base: float, warm: float
+    cost: TaskCost,
+    names: list[str],
+    runs: int,
+    sh: MCShared,
+    prep: float,
+    rows: list[dict],
+    base: float,
+    first: Callable[[int], float],
 ) -> None:
     """The same model for the local Dask clusters measured (warm workers): Dask's serial part a + b W and
     CPU per task (:func:`benchmarks.scaling_dask.dask_overhead`), its CPU inflation relative to inline's,
@@ -275,15 +295,13 @@ def _dask_model(
         runs,
         serial,
         f"Dask, warm single-thread workers, {runs} runs x {len(names)} designs",
-        warm,
+        first,
         infl,
         ov["per_task"],
     )
     cold = max(0.0, statistics.median((r["first_cpu"] - r["cpu"]) / r["slots"] for r in rows))
-    inline = predict(cost, names, runs, 1, 0.0, first_extra=lambda n: n * warm)["wall"]
-    pr = predict(
-        cost, names, runs, 16, serial[16] + cold, per_task=ov["per_task"], inflation=infl(16), first_extra=lambda n: n * warm
-    )
+    inline = predict(cost, names, runs, 1, 0.0, first_extra=first)["wall"]
+    pr = predict(cost, names, runs, 16, serial[16] + cold, per_task=ov["per_task"], inflation=infl(16), first_extra=first)
     how = "not preloaded" if any("no preload" in r["label"] for r in rows) else "preloaded"
     print(
         f"  16 new workers, {how} as measured (a worker's first run cost {cold:.2f} s CPU more than a warm one's): "
@@ -313,14 +331,14 @@ def _predicted(
     runs: int,
     serial: dict[int, float],
     what: str,
-    warm: float,
+    first: Callable[[int], float],
     inflation: Callable[[int], float] = lambda w: 1.0,
     per_task: float = 0.0,
 ) -> None:
     """Predicted wall, speed-up and efficiency per worker count in ``serial``, and at the most workers by tasks per
-    worker; ``warm``: extra CPU seconds per run of a worker's first task; ``inflation``: the measured CPU inflation
+    worker; ``first``: a worker's first task's extra CPU seconds by its runs (:func:`first_extra_curve`); ``inflation``: the measured CPU inflation
     per worker count (:func:`_inflation`), applied to the workers' tasks."""
-    extra = {"first_extra": lambda n: n * warm}
+    extra = {"first_extra": first}
     inline = predict(cost, names, runs, 1, 0.0, **extra)["wall"]
     print(f"predicted on an idle machine with >= W cores, {what} (inline {inline:.2f} s):")
     for w in serial:
