@@ -271,7 +271,15 @@ def _dask_model(
     """The same model for the local Dask clusters measured (warm workers): Dask's serial part a + b W and
     CPU per task (:func:`benchmarks.scaling_dask.dask_overhead`), its CPU inflation relative to inline's,
     the 16-worker prediction; and with new workers that were not preloaded, each worker's first-run
-    cost (the measured first run's extra CPU per worker) on top."""
+    cost (the measured first run's extra CPU per worker) on top.
+
+    Dask's housekeeping (heartbeats, the event loops, the scheduler's periodic work) costs CPU per
+    second of wall, whatever the tasks: on a loaded machine, where a run's wall is many times its
+    CPU, it would read as CPU inflation of the tasks. It is measured on the idle cluster
+    (:func:`benchmarks.scaling_dask.idle_rates`), taken out of each measured run's CPU at its wall
+    before the inflation is computed, and put back where it acts on W cores: each worker's own
+    share slows its tasks by 1 / (1 - its rate); the client's and scheduler's run on the parent's
+    core, beside the tasks."""
     from benchmarks.scaling_dask import dask_overhead, print_overhead
 
     ov = dask_overhead(sh, sorted({r["slots"] for r in rows}))
@@ -282,13 +290,21 @@ def _dask_model(
         w = row["slots"]
         pr = predict(cost, names, runs, w, serial[w], per_task=ov["per_task"])
         cpu = pr["cpu"] + prep + serial[w]
-        modelled[w] = row["cpu"] / cpu
+        house = (row["idle_parent"] + w * row["idle_worker"]) * row["wall"]
+        modelled[w] = (row["cpu"] - house) / cpu
         cold = (row["first_cpu"] - row["cpu"]) / w
         print(
-            f"  model vs measured {row['label']:12s}: CPU {cpu:6.2f} s vs {row['cpu']:6.2f} s (inflation {row['cpu'] / cpu:4.2f}); "
+            f"  model vs measured {row['label']:12s}: CPU {cpu:6.2f} s vs {row['cpu']:6.2f} s, of which housekeeping "
+            f"{house:5.2f} s (idle cluster: {1e3 * row['idle_parent']:.0f} ms a second in this process, "
+            f"{1e3 * row['idle_worker']:.0f} in each worker; inflation {modelled[w]:4.2f} without it, {row['cpu'] / cpu:4.2f} with); "
             f"wall {pr['wall']:6.2f} s vs {row['wall']:6.2f} s; a new worker's first run: {cold:.2f} s CPU more per worker"
         )
-    infl = _inflation(modelled)
+    rate = statistics.median(r["idle_worker"] for r in rows)
+    measured = _inflation(modelled)
+
+    def infl(w: int) -> float:
+        return measured(w) / (1.0 - rate)  # a worker's housekeeping takes that share of its core
+
     _predicted(
         cost,
         names,
