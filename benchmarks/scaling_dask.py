@@ -11,7 +11,8 @@ on a local Dask cluster of single-thread worker processes, timed and costed as t
   scheduler's periodic work), in this process and per worker, measured after the runs on each
   cluster: under load a run's wall is many times its CPU, and this part grows with the wall.
 - ``dask_overhead``: what Dask adds per task and per run, with no-op tasks: the shared inputs
-  scattered to every worker, W and 5 W no-op tasks, results gathered. The parent's CPU (client and
+  scattered to every worker, W and 5 W no-op tasks, results gathered; the idle cluster's
+  housekeeping over each map's wall taken out (under load a no-op map's wall is long). The parent's CPU (client and
   scheduler: serial) plus one worker's share, fitted as ``a + b W`` over the measured W so that
   16 workers can be read off, and the CPU per task on top of the task's own work.
 """
@@ -104,12 +105,16 @@ def dask_overhead(sh: Any, workers: list[int], repeat: int = 3) -> dict[str, flo
             client.wait_for_workers(w, timeout=120)
             eng = DaskEngine(client)
             eng.map(_noop, list(range(w)), progress=False, shared=sh)  # connections and imports, not timed
+            rate_parent, rate_worker = idle_rates(client, w)
             rows = []
             for _ in range(repeat):
                 for n in (w, 5 * w):
-                    c0, k0 = time.process_time(), _worker_cpu(client)
+                    c0, k0, t0 = time.process_time(), _worker_cpu(client), time.perf_counter()
                     eng.map(_noop, list(range(n)), progress=False, shared=sh)
-                    rows.append((n, time.process_time() - c0, _worker_cpu(client) - k0))
+                    wall = time.perf_counter() - t0  # housekeeping over the map's wall taken out (idle_rates)
+                    rows.append(
+                        (n, time.process_time() - c0 - rate_parent * wall, _worker_cpu(client) - k0 - w * rate_worker * wall)
+                    )
         small = [(p + k / w) for n, p, k in rows if n == w]
         big = [(p + k) for n, p, k in rows if n == 5 * w]
         whole = [(p + k) for n, p, k in rows if n == w]
