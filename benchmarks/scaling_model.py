@@ -256,7 +256,7 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
     _predicted(cost, names, runs, serial, f"{runs} runs x {len(names)} designs", first, infl)
     dask_rows = [r for r in measured if r["label"].startswith("dask x")]
     if dask_rows:
-        _dask_model(cost, names, runs, sh, prep, dask_rows, modelled.get(1, 1.0), first)
+        _dask_model(cost, names, runs, sh, prep, dask_rows, modelled.get(1, 1.0), first, infl)
     # `shiptrial design --monte-carlo 500` evaluates 4 designs; uniform and thesis cost as the optimized one (fixed shares)
     cost.fixed |= {k: cost.fixed["optimized"] for k in ("uniform", "thesis")}
     cost.per_run |= {k: cost.per_run["optimized"] for k in ("uniform", "thesis")}
@@ -280,6 +280,7 @@ def _dask_model(
     rows: list[dict],
     base: float,
     first: Callable[[int], float],
+    pool_inflation: Callable[[int], float],
 ) -> None:
     """The same model for the local Dask clusters measured (warm workers): Dask's serial part a + b W and
     CPU per task (:func:`benchmarks.scaling_dask.dask_overhead`), its CPU inflation relative to inline's,
@@ -292,7 +293,10 @@ def _dask_model(
     (:func:`benchmarks.scaling_dask.idle_rates`), taken out of each measured run's CPU at its wall
     before the inflation is computed, and put back where it acts on W cores: each worker's own
     share slows its tasks by 1 / (1 - its rate); the client's and scheduler's run on the parent's
-    core, beside the tasks."""
+    core, beside the tasks. The inflation is taken no lower than the local pool's
+    (``pool_inflation``): the same tasks in single-thread processes on the same cores; a lower
+    figure means the housekeeping taken out was over-counted (under load it can be 40 % of the
+    measured CPU, so a small error in its rate moves the inflation by several per cent)."""
     from benchmarks.scaling_dask import dask_overhead, print_overhead
 
     ov = dask_overhead(sh, sorted({r["slots"] for r in rows}))
@@ -314,9 +318,13 @@ def _dask_model(
         )
     rate = statistics.median(r["idle_worker"] for r in rows)
     measured = _inflation(modelled)
-
-    def infl(w: int) -> float:
-        return measured(w) / (1.0 - rate)  # a worker's housekeeping takes that share of its core
+    floored = sorted(w for w in modelled if measured(w) < pool_inflation(w))
+    if floored:
+        print(
+            "  Dask's inflation taken at the local pool's where it measured lower (housekeeping over-counted): "
+            + ", ".join(f"{w} workers {modelled[w] / base:4.2f} -> {pool_inflation(w):4.2f}" for w in floored)
+        )
+    infl = dask_inflation(measured, pool_inflation, rate)
 
     _predicted(
         cost,
@@ -336,6 +344,13 @@ def _dask_model(
         f"  16 new workers, {how} as measured (a worker's first run cost {cold:.2f} s CPU more than a warm one's): "
         f"efficiency {inline / pr['wall'] / 16:4.2f}"
     )
+
+
+def dask_inflation(dask: Callable[[int], float], pool: Callable[[int], float], rate: float) -> Callable[[int], float]:
+    """Dask's CPU inflation per worker count for the prediction: its own (housekeeping taken out),
+    no lower than the local pool's (the same tasks in single-thread processes on the same cores),
+    times 1 / (1 - ``rate``), the share of its core a worker's housekeeping takes."""
+    return lambda w: max(dask(w), pool(w)) / (1.0 - rate)
 
 
 def _inflation(measured: dict[int, float]) -> Callable[[int], float]:
