@@ -45,8 +45,8 @@ def quiet_profiler(worker: object) -> list[str]:
     """Drop the worker's statistical profiler (the callbacks start after the preloads, so they never
     run); the names dropped. Measured, a local cluster of 2 preloaded workers, 500 runs x 2 designs,
     3 pairs alternated at load 11-17: the workers' CPU 2.44 / 2.49 / 2.72 -> 2.40 / 2.17 / 2.66 ms a
-    run (3 of 3 lower, median -3.5 %). The dashboard's profile page stays empty; a worker started
-    without this preload keeps its profiler."""
+    run (3 of 3 lower, the pairs' median change -2.2 %: within the noise of that load). The
+    dashboard's profile page stays empty; a worker started without this preload keeps its profiler."""
     callbacks = getattr(worker, "periodic_callbacks", None)
     if not isinstance(callbacks, dict):
         return []
