@@ -106,12 +106,7 @@ def scaling(
         e = ev.engine
         slots = e["workers"] * e["threads_per_worker"]
         rows.append({"label": label, "slots": slots, "wall": med, "cpu": cpu})
-        print(
-            f"{label:14s} {med:7.2f} s  {2 * runs / med:6.0f} runs/s  speed-up {base / med:5.2f}  efficiency "
-            f"{base / med / slots:5.2f}  {e['tasks']:3d} tasks ({e['tasks_per_worker']:.1f} per worker, {e['runs_per_task']} runs each)  "
-            f"digests {'same as inline' if dig == ref else 'DIFFER from inline'}"
-        )
-        _cpu_line(cpu, runs, base_cpu, slots)
+        _result_lines(label, med, cpu, runs, base, base_cpu, slots, e, dig == ref)
     if dask_local:
         from benchmarks.scaling_dask import dask_runs
 
@@ -120,19 +115,43 @@ def scaling(
             return ev, {k: r.digest() for k, r in ev.results.items()}
 
         for row in dask_runs(run, dask_local, repeat, preload):
-            e, med = row["engine"], row["wall"]
             rows.append(row)
-            print(
-                f"{row['label']:14s} {med:7.2f} s  {2 * runs / med:6.0f} runs/s  speed-up {base / med:5.2f}  efficiency "
-                f"{base / med / row['slots']:5.2f}  {e['tasks']:3d} tasks ({e['tasks_per_worker']:.1f} per worker, "
-                f"{e['runs_per_task']} runs each)  digests {'same as inline' if row['digests'] == ref else 'DIFFER from inline'}; "
-                f"first run on the new workers {row['first_wall']:.2f} s, CPU {row['first_cpu']:.2f} s"
+            _result_lines(
+                row["label"],
+                row["wall"],
+                row["cpu"],
+                runs,
+                base,
+                base_cpu,
+                row["slots"],
+                row["engine"],
+                row["digests"] == ref,
+                f"; first run on the new workers {row['first_wall']:.2f} s, CPU {row['first_cpu']:.2f} s",
+                "this process, its scheduler and the workers",
             )
-            _cpu_line(row["cpu"], runs, base_cpu, row["slots"], "this process, its scheduler and the workers")
     return rows
 
 
-def _cpu_line(cpu: float, runs: int, base_cpu: float, slots: int, who: str = "this process and its workers") -> None:
+def _result_lines(
+    label: str,
+    wall: float,
+    cpu: float,
+    runs: int,
+    base: float,
+    base_cpu: float,
+    slots: int,
+    engine: dict,
+    same: bool,
+    note: str = "",
+    who: str = "this process and its workers",
+) -> None:
+    """An engine's two lines: wall, speed-up, efficiency, the cut and the digests' check; then its
+    CPU (``who`` says whose), per run and against inline's (``base``, ``base_cpu``: inline's wall and CPU)."""
+    print(
+        f"{label:14s} {wall:7.2f} s  {2 * runs / wall:6.0f} runs/s  speed-up {base / wall:5.2f}  efficiency "
+        f"{base / wall / slots:5.2f}  {engine['tasks']:3d} tasks ({engine['tasks_per_worker']:.1f} per worker, "
+        f"{engine['runs_per_task']} runs each)  digests {'same as inline' if same else 'DIFFER from inline'}{note}"
+    )
     print(
         f"{'':14s} CPU {cpu:7.2f} s ({who}), {1e3 * cpu / (2 * runs):5.2f} ms per run, "
         f"{cpu / base_cpu:4.2f} x inline's: CPU-bound speed-up {slots * base_cpu / cpu:5.2f} on an idle machine"

@@ -7,8 +7,12 @@ on a local Dask cluster of single-thread worker processes, timed and costed as t
   others (a cluster that outlives one command, or one started with ``--preload expdesign.dask_preload``,
   runs warm). CPU: this process (client and scheduler) plus every worker's ``time.process_time``
   read before and after by ``Client.run`` (the nannies' own CPU is left out).
+- ``idle_rates``: the CPU a second of wall the idle cluster burns (heartbeats, event loops, the
+  scheduler's periodic work), in this process and per worker, measured after the runs on each
+  cluster: under load a run's wall is many times its CPU, and this part grows with the wall.
 - ``dask_overhead``: what Dask adds per task and per run, with no-op tasks: the shared inputs
-  scattered to every worker, W and 5 W no-op tasks, results gathered. The parent's CPU (client and
+  scattered to every worker, W and 5 W no-op tasks, results gathered; the idle cluster's
+  housekeeping over each map's wall taken out (under load a no-op map's wall is long). The parent's CPU (client and
   scheduler: serial) plus one worker's share, fitted as ``a + b W`` over the measured W so that
   16 workers can be read off, and the CPU per task on top of the task's own work.
 """
@@ -31,6 +35,17 @@ def _worker_cpu(client: Any) -> float:
     return float(sum(client.run(time.process_time).values()))
 
 
+IDLE_S = 5.0  # seconds the idle cluster is watched
+
+
+def idle_rates(client: Any, w: int, seconds: float = IDLE_S) -> tuple[float, float]:
+    """CPU seconds per wall second of the idle cluster: (this process: client and scheduler, one worker)."""
+    c, k, t = time.process_time(), _worker_cpu(client), time.perf_counter()
+    time.sleep(seconds)
+    wall = time.perf_counter() - t
+    return (time.process_time() - c) / wall, (_worker_cpu(client) - k) / wall / w
+
+
 def local_cluster(w: int, preload: bool = True) -> Any:
     """A LocalCluster of ``w`` single-thread worker processes (the scheduler in this process), each
     started with ``expdesign.dask_preload`` unless ``preload`` is False."""
@@ -44,7 +59,8 @@ def local_cluster(w: int, preload: bool = True) -> Any:
 
 def dask_runs(run, workers: list[int], repeat: int, preload: bool = True) -> list[dict]:
     """``run(scheduler)`` -> (evaluation, digests) on a new local cluster per worker count. Rows as the
-    pools': label, slots, median wall and CPU of the runs after the first, and the first's."""
+    pools': label, slots, median wall and CPU of the runs after the first, and the first's; the idle
+    cluster's CPU a second (:func:`idle_rates`)."""
     from distributed import Client
 
     rows = []
@@ -57,6 +73,7 @@ def dask_runs(run, workers: list[int], repeat: int, preload: bool = True) -> lis
                 ev, dig = run(client)
                 cpus.append(time.process_time() - c0 + _worker_cpu(client) - k0)
                 walls.append(ev.elapsed_s)
+            idle = idle_rates(client, w)
         rows.append(
             {
                 "label": f"dask x{w}{'' if preload else ' (no preload)'}",
@@ -65,6 +82,8 @@ def dask_runs(run, workers: list[int], repeat: int, preload: bool = True) -> lis
                 "cpu": statistics.median(cpus[1:]),
                 "first_wall": walls[0],
                 "first_cpu": cpus[0],
+                "idle_parent": idle[0],
+                "idle_worker": idle[1],
                 "engine": ev.engine,
                 "digests": dig,
             }
@@ -86,12 +105,16 @@ def dask_overhead(sh: Any, workers: list[int], repeat: int = 3) -> dict[str, flo
             client.wait_for_workers(w, timeout=120)
             eng = DaskEngine(client)
             eng.map(_noop, list(range(w)), progress=False, shared=sh)  # connections and imports, not timed
+            rate_parent, rate_worker = idle_rates(client, w)
             rows = []
             for _ in range(repeat):
                 for n in (w, 5 * w):
-                    c0, k0 = time.process_time(), _worker_cpu(client)
+                    c0, k0, t0 = time.process_time(), _worker_cpu(client), time.perf_counter()
                     eng.map(_noop, list(range(n)), progress=False, shared=sh)
-                    rows.append((n, time.process_time() - c0, _worker_cpu(client) - k0))
+                    wall = time.perf_counter() - t0  # housekeeping over the map's wall taken out (idle_rates)
+                    rows.append(
+                        (n, time.process_time() - c0 - rate_parent * wall, _worker_cpu(client) - k0 - w * rate_worker * wall)
+                    )
         small = [(p + k / w) for n, p, k in rows if n == w]
         big = [(p + k) for n, p, k in rows if n == 5 * w]
         whole = [(p + k) for n, p, k in rows if n == w]

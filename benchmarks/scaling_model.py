@@ -6,8 +6,10 @@
 - the pool's serial part s(W) (forking W workers holding the shared inputs, collecting, joining),
   measured with no-op tasks as the parent's CPU plus one worker's;
 - a process's first task costs more than the same task in a warm process (a new process grows its
-  heap to the task's working set: page faults), measured at 250 runs and scaled per run; as in a
-  command, inline pays it once and every worker once (in parallel);
+  heap to the task's working set: page faults), measured at the two task sizes the engines cut for
+  2,000 x 2 runs (125 and 250 runs; interpolated between them, held beyond: it is not proportional
+  to the runs, 1-run tasks already pay part of it); as in a command, inline pays it once and every
+  worker once (in parallel);
 - predicted wall(W) = s(W) + the finish time of the engines' own task list (same cut as
   ``evaluate_designs_parallel``) taken in order by the first free of W workers; inline = the sum
   of the inline tasks; speed-up = inline / wall(W), efficiency = speed-up / W, also without s(W).
@@ -134,18 +136,45 @@ def _timed_task(item: tuple[str, int, int], shared: MCShared) -> float:
     return time.process_time() - t
 
 
+_TASKS_RUN = 0  # tasks this process has run through _first_and_second
+
+
+def _first_and_second(items: list[tuple[str, int, int]], shared: MCShared) -> tuple[int, float, float]:
+    """Two tasks one after the other in this process: (tasks it ran before, CPU of each)."""
+    global _TASKS_RUN
+    before, _TASKS_RUN = _TASKS_RUN, _TASKS_RUN + 1
+    return before, _timed_task(items[0], shared), _timed_task(items[1], shared)
+
+
 def first_task_extra(sh: MCShared, n: int, repeat: int = 2) -> float:
-    """Extra CPU seconds of a fresh worker's first task of ``n`` runs over the same task in this
-    warm process: a new process grows its heap to the task's working set (page faults), once."""
+    """Extra CPU seconds of a fresh worker's first task of ``n`` runs over its second (other runs of
+    the same design and size, in the same worker): a new process grows its heap to the task's
+    working set (page faults), once. Both tasks run beside the pool's other worker, so the CPU
+    inflation of processes running at once (measured apart, :func:`_inflation`) is not counted here
+    as well."""
     from expdesign.parallel import LocalEngine
 
-    items = [("random", k * n, (k + 1) * n) for k in range(2)]
-    warm = [_timed_task(it, sh) for it in items * repeat][len(items) :]
-    cold = []
+    pairs = [[("random", (2 * k + j) * n, (2 * k + j + 1) * n) for j in range(2)] for k in range(2)]
+    extra = []
     for _ in range(repeat):
         with LocalEngine(2) as eng:
-            cold += eng.map(_timed_task, items, progress=False, shared=sh).results
-    return max(0.0, statistics.median(cold) - statistics.median(warm))
+            res = eng.map(_first_and_second, pairs, progress=False, shared=sh).results
+        extra += [first - second for before, first, second in res if before == 0]  # a worker's own first task
+    return max(0.0, statistics.median(extra))
+
+
+EXTRA_SIZES = (125, 250)  # runs per task at which a fresh worker's first task is measured
+
+
+def first_extra_curve(sh: MCShared, sizes: tuple[int, ...] = EXTRA_SIZES) -> Callable[[int], float]:
+    """A fresh worker's first-task extra CPU seconds against the task's runs: measured at ``sizes``
+    (:func:`first_task_extra`), linear between them and held beyond."""
+    extra = [first_task_extra(sh, n) for n in sizes]
+    print(
+        "a worker's first task costs more than in a warm process (heap growth: page faults): "
+        + ", ".join(f"{1e3 * e:.0f} ms at {n} runs" for n, e in zip(sizes, extra))
+    )
+    return lambda n: float(np.interp(n, sizes, extra))
 
 
 def makespan(costs: list[float], w: int, first_extra: float = 0.0) -> float:
@@ -206,10 +235,7 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
     counts = sorted({1, 2, 3, 4, 8, 16, *workers})
     pool = {w: pool_overhead(sh, w) for w in counts if w > 1}
     serial = {1: 0.0} | {w: v["serial"] for w, v in pool.items()}
-    warm = first_task_extra(sh, 250) / 250
-    print(
-        f"a worker's first task costs {1e3 * warm:.2f} ms per run more than in a warm process (heap growth, measured at 250 runs)"
-    )
+    first = first_extra_curve(sh)
     print(
         f"serial in the parent: shared inputs {1e3 * prep:.0f} ms CPU (prepare(), before the clock starts, the same for every "
         "engine); pool start + stop with W workers, serial part on an idle machine (wall here): "
@@ -218,7 +244,7 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
     modelled = {}
     for row in (r for r in measured if not r["label"].startswith("dask")):  # CPU on any machine, wall up to the core count
         fresh = row["slots"] > 1  # the pools' workers are new processes, the inline runs reuse this warm one
-        pr = predict(cost, names, runs, row["slots"], serial.get(row["slots"], 0.0), first_extra=lambda n, f=fresh: n * warm * f)
+        pr = predict(cost, names, runs, row["slots"], serial.get(row["slots"], 0.0), first_extra=lambda n, f=fresh: first(n) * f)
         cpu = pr["cpu"] + prep + (pool[row["slots"]]["cpu"] if row["slots"] > 1 else 0.0)
         modelled[row["slots"]] = row["cpu"] / cpu
         print(
@@ -227,10 +253,10 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
             f"{row['wall']:6.2f} s{'' if row['slots'] <= (os.cpu_count() or 1) else ' (more workers than CPUs: wall not comparable)'}"
         )
     infl = _inflation(modelled)
-    _predicted(cost, names, runs, serial, f"{runs} runs x {len(names)} designs", warm, infl)
+    _predicted(cost, names, runs, serial, f"{runs} runs x {len(names)} designs", first, infl)
     dask_rows = [r for r in measured if r["label"].startswith("dask x")]
     if dask_rows:
-        _dask_model(cost, names, runs, sh, prep, dask_rows, modelled.get(1, 1.0), warm)
+        _dask_model(cost, names, runs, sh, prep, dask_rows, modelled.get(1, 1.0), first, infl)
     # `shiptrial design --monte-carlo 500` evaluates 4 designs; uniform and thesis cost as the optimized one (fixed shares)
     cost.fixed |= {k: cost.fixed["optimized"] for k in ("uniform", "thesis")}
     cost.per_run |= {k: cost.per_run["optimized"] for k in ("uniform", "thesis")}
@@ -240,18 +266,37 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
         500,
         serial,
         "shiptrial design --monte-carlo 500 (4 designs)",
-        warm,
+        first,
         infl,
     )
 
 
 def _dask_model(
-    cost: TaskCost, names: list[str], runs: int, sh: MCShared, prep: float, rows: list[dict], base: float, warm: float
+    cost: TaskCost,
+    names: list[str],
+    runs: int,
+    sh: MCShared,
+    prep: float,
+    rows: list[dict],
+    base: float,
+    first: Callable[[int], float],
+    pool_inflation: Callable[[int], float],
 ) -> None:
     """The same model for the local Dask clusters measured (warm workers): Dask's serial part a + b W and
     CPU per task (:func:`benchmarks.scaling_dask.dask_overhead`), its CPU inflation relative to inline's,
     the 16-worker prediction; and with new workers that were not preloaded, each worker's first-run
-    cost (the measured first run's extra CPU per worker) on top."""
+    cost (the measured first run's extra CPU per worker) on top.
+
+    Dask's housekeeping (heartbeats, the event loops, the scheduler's periodic work) costs CPU per
+    second of wall, whatever the tasks: on a loaded machine, where a run's wall is many times its
+    CPU, it would read as CPU inflation of the tasks. It is measured on the idle cluster
+    (:func:`benchmarks.scaling_dask.idle_rates`), taken out of each measured run's CPU at its wall
+    before the inflation is computed, and put back where it acts on W cores: each worker's own
+    share slows its tasks by 1 / (1 - its rate); the client's and scheduler's run on the parent's
+    core, beside the tasks. The inflation is taken no lower than the local pool's
+    (``pool_inflation``): the same tasks in single-thread processes on the same cores; a lower
+    figure means the housekeeping taken out was over-counted (under load it can be 40 % of the
+    measured CPU, so a small error in its rate moves the inflation by several per cent)."""
     from benchmarks.scaling_dask import dask_overhead, print_overhead
 
     ov = dask_overhead(sh, sorted({r["slots"] for r in rows}))
@@ -262,33 +307,50 @@ def _dask_model(
         w = row["slots"]
         pr = predict(cost, names, runs, w, serial[w], per_task=ov["per_task"])
         cpu = pr["cpu"] + prep + serial[w]
-        modelled[w] = row["cpu"] / cpu
+        house = (row["idle_parent"] + w * row["idle_worker"]) * row["wall"]
+        modelled[w] = (row["cpu"] - house) / cpu
         cold = (row["first_cpu"] - row["cpu"]) / w
         print(
-            f"  model vs measured {row['label']:12s}: CPU {cpu:6.2f} s vs {row['cpu']:6.2f} s (inflation {row['cpu'] / cpu:4.2f}); "
+            f"  model vs measured {row['label']:12s}: CPU {cpu:6.2f} s vs {row['cpu']:6.2f} s, of which housekeeping "
+            f"{house:5.2f} s (idle cluster: {1e3 * row['idle_parent']:.0f} ms a second in this process, "
+            f"{1e3 * row['idle_worker']:.0f} in each worker; inflation {modelled[w]:4.2f} without it, {row['cpu'] / cpu:4.2f} with); "
             f"wall {pr['wall']:6.2f} s vs {row['wall']:6.2f} s; a new worker's first run: {cold:.2f} s CPU more per worker"
         )
-    infl = _inflation(modelled)
+    rate = statistics.median(r["idle_worker"] for r in rows)
+    measured = _inflation(modelled)
+    floored = sorted(w for w in modelled if measured(w) < pool_inflation(w))
+    if floored:
+        print(
+            "  Dask's inflation taken at the local pool's where it measured lower (housekeeping over-counted): "
+            + ", ".join(f"{w} workers {modelled[w] / base:4.2f} -> {pool_inflation(w):4.2f}" for w in floored)
+        )
+    infl = dask_inflation(measured, pool_inflation, rate)
+
     _predicted(
         cost,
         names,
         runs,
         serial,
         f"Dask, warm single-thread workers, {runs} runs x {len(names)} designs",
-        warm,
+        first,
         infl,
         ov["per_task"],
     )
     cold = max(0.0, statistics.median((r["first_cpu"] - r["cpu"]) / r["slots"] for r in rows))
-    inline = predict(cost, names, runs, 1, 0.0, first_extra=lambda n: n * warm)["wall"]
-    pr = predict(
-        cost, names, runs, 16, serial[16] + cold, per_task=ov["per_task"], inflation=infl(16), first_extra=lambda n: n * warm
-    )
+    inline = predict(cost, names, runs, 1, 0.0, first_extra=first)["wall"]
+    pr = predict(cost, names, runs, 16, serial[16] + cold, per_task=ov["per_task"], inflation=infl(16), first_extra=first)
     how = "not preloaded" if any("no preload" in r["label"] for r in rows) else "preloaded"
     print(
         f"  16 new workers, {how} as measured (a worker's first run cost {cold:.2f} s CPU more than a warm one's): "
         f"efficiency {inline / pr['wall'] / 16:4.2f}"
     )
+
+
+def dask_inflation(dask: Callable[[int], float], pool: Callable[[int], float], rate: float) -> Callable[[int], float]:
+    """Dask's CPU inflation per worker count for the prediction: its own (housekeeping taken out),
+    no lower than the local pool's (the same tasks in single-thread processes on the same cores),
+    times 1 / (1 - ``rate``), the share of its core a worker's housekeeping takes."""
+    return lambda w: max(dask(w), pool(w)) / (1.0 - rate)
 
 
 def _inflation(measured: dict[int, float]) -> Callable[[int], float]:
@@ -313,14 +375,14 @@ def _predicted(
     runs: int,
     serial: dict[int, float],
     what: str,
-    warm: float,
+    first: Callable[[int], float],
     inflation: Callable[[int], float] = lambda w: 1.0,
     per_task: float = 0.0,
 ) -> None:
     """Predicted wall, speed-up and efficiency per worker count in ``serial``, and at the most workers by tasks per
-    worker; ``warm``: extra CPU seconds per run of a worker's first task; ``inflation``: the measured CPU inflation
+    worker; ``first``: a worker's first task's extra CPU seconds by its runs (:func:`first_extra_curve`); ``inflation``: the measured CPU inflation
     per worker count (:func:`_inflation`), applied to the workers' tasks."""
-    extra = {"first_extra": lambda n: n * warm}
+    extra = {"first_extra": first}
     inline = predict(cost, names, runs, 1, 0.0, **extra)["wall"]
     print(f"predicted on an idle machine with >= W cores, {what} (inline {inline:.2f} s):")
     for w in serial:

@@ -20,8 +20,11 @@ results kept (``MapResult.interrupted``); a task that fails or a lost worker is 
 
 from __future__ import annotations
 
+import contextlib
+import multiprocessing
 import os
 import signal
+import sys
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -155,11 +158,13 @@ THREAD_VARS = (
 _ONE_THREAD = False
 
 
-def one_thread_per_worker() -> None:
+def one_thread_per_worker(inherited: bool = False) -> None:
     """One BLAS / OpenMP thread in this worker process: the engines run one task per core, so a
     library's own threads would only compete with the other workers for the same cores (CPU
     spent spinning and switching, not computing). The libraries already loaded are limited with
-    threadpoolctl, those loaded later by the environment variables; once per process."""
+    threadpoolctl (unless ``inherited``: a worker forked while the parent held them at one thread,
+    :func:`_one_thread_while_forking`), those loaded later by the environment variables; once per
+    process."""
     global _ONE_THREAD
     if _ONE_THREAD:
         return
@@ -170,8 +175,29 @@ def one_thread_per_worker() -> None:
     except ImportError:  # pragma: no cover - a dependency; without it only later-loaded libraries are limited
         pass
     else:
-        threadpool_limits(1)
+        if not inherited:
+            threadpool_limits(1)
     _ONE_THREAD = True
+
+
+_CONTROLLER: tuple[int, Any] | None = None  # (modules loaded when made, threadpoolctl controller)
+
+
+def _one_thread_while_forking() -> contextlib.AbstractContextManager:
+    """The parent's BLAS / OpenMP libraries held at one thread while it forks the pool's workers,
+    then restored: each worker inherits the limit instead of finding and limiting the libraries
+    itself. Measured with 16 workers forked from the benchmark's parent (2 loaded cores, no-op
+    tasks, median of 5): a worker's CPU before its first task 25-27 -> 3 ms, the parent's +4-8 ms
+    (limit and restore), once per command +10 ms (finding the libraries: the controller is kept,
+    and made again when modules were imported since, which may have loaded another library)."""
+    global _CONTROLLER
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pragma: no cover - a dependency; the workers then limit what they can
+        return contextlib.nullcontext()
+    if _CONTROLLER is None or _CONTROLLER[0] != len(sys.modules):
+        _CONTROLLER = (len(sys.modules), ThreadpoolController())
+    return _CONTROLLER[1].limit(limits=1)
 
 
 # glibc's mallopt parameters: M_TRIM_THRESHOLD, M_MMAP_THRESHOLD
@@ -215,13 +241,13 @@ def keep_freed_memory() -> bool:
     return _MALLOC_SET
 
 
-def _init_worker(shared: Any) -> None:
+def _init_worker(shared: Any, forked: bool = False) -> None:
     """Process-pool initializer: keep the shared inputs; one BLAS/OpenMP thread
-    (:func:`one_thread_per_worker`); leave Ctrl-C to the parent, which cancels and terminates the
-    pool (workers would otherwise each print a traceback)."""
+    (:func:`one_thread_per_worker`; ``forked``: inherited from the parent); leave Ctrl-C to the
+    parent, which cancels and terminates the pool (workers would otherwise each print a traceback)."""
     global _SHARED
     _SHARED = shared
-    one_thread_per_worker()
+    one_thread_per_worker(inherited=forked)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
@@ -254,8 +280,14 @@ class LocalEngine(Engine):
             return super().map(fn, items, desc, progress, shared, weights, unit)
         res, done, errors = [None] * len(items), [False] * len(items), {}
         bar = _Progress(weights or [1] * len(items), desc, progress, unit)
-        pool = ProcessPoolExecutor(max_workers=min(self.workers, len(items)), initializer=_init_worker, initargs=(shared,))
-        futures = {pool.submit(_pool_call, fn, it, shared is not None): i for i, it in enumerate(items)}
+        ctx = multiprocessing.get_context()
+        forked = ctx.get_start_method() == "fork"
+        with _one_thread_while_forking() if forked else contextlib.nullcontext():
+            pool = ProcessPoolExecutor(
+                max_workers=min(self.workers, len(items)), mp_context=ctx, initializer=_init_worker, initargs=(shared, forked)
+            )
+            # with fork, the first submit forks every worker (concurrent.futures.process, cpython#90622)
+            futures = {pool.submit(_pool_call, fn, it, shared is not None): i for i, it in enumerate(items)}
         pending = set(futures)
         try:
             while pending:

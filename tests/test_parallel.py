@@ -1,5 +1,6 @@
 """Engines: the same seed gives the same numbers inline, on local cores and on a Dask cluster."""
 
+import multiprocessing
 import os
 import platform
 import subprocess
@@ -39,6 +40,25 @@ def test_workers_run_one_blas_thread(monkeypatch):
         assert _blas_threads(None) == 2
         res = LocalEngine(2).map(_blas_threads, [0, 1, 2], progress=False)
     assert res.complete and res.results == [1, 1, 1]
+
+
+@pytest.mark.skipif(multiprocessing.get_start_method() != "fork", reason="workers inherit the limit only when forked")
+def test_forked_workers_inherit_one_blas_thread_from_the_parent(monkeypatch):
+    """Forked workers find one BLAS thread already set (the parent holds its libraries at one thread
+    while it forks, then restores them) instead of each finding and limiting the libraries itself,
+    about 25 ms of CPU per worker before its first task: a worker that still calls threadpool_limits
+    fails here (the parent's patched function is what a forked worker sees)."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+
+    def refuse(*_a, **_k):
+        raise AssertionError("a forked worker limited its BLAS threads itself")
+
+    with threadpoolctl.threadpool_limits(2):
+        monkeypatch.setattr(threadpoolctl, "threadpool_limits", refuse)
+        res = LocalEngine(2).map(_blas_threads, [0, 1, 2], progress=False)
+        monkeypatch.undo()
+        assert _blas_threads(None) == 2  # the parent's own setting is back
+    assert res.complete and res.results == [1, 1, 1], res.errors
 
 
 def test_task_seeds_are_stable_and_distinct():
@@ -220,18 +240,20 @@ def test_design_says_when_dask_workers_run_several_threads(capsys):
         assert "--nthreads" not in capsys.readouterr().err
 
 
-def _worker_state() -> tuple[bool, bool, int, bool]:
+def _worker_state(dask_worker) -> tuple[bool, bool, int, bool, bool]:
     from expdesign import parallel
     from primitives import jitloop
 
-    return "expdesign.montecarlo" in sys.modules, jitloop.loaded(), _blas_threads(None), parallel._MALLOC_SET
+    profiling = any(k in dask_worker.periodic_callbacks for k in ("profile", "profile-cycle"))
+    return "expdesign.montecarlo" in sys.modules, jitloop.loaded(), _blas_threads(None), parallel._MALLOC_SET, profiling
 
 
 def test_dask_preload_warms_a_worker_before_any_task():
     """A worker started with ``--preload expdesign.dask_preload`` has the Monte Carlo imported, the
     compiled passes loaded, one BLAS thread and the nanny's MALLOC_TRIM_THRESHOLD_ undone (freed
     memory kept for the next batch) before the first command sends it a task (without it, each new
-    worker pays that in its first task: the first run's wall on a fresh cluster)."""
+    worker pays that in its first task: the first run's wall on a fresh cluster), and no
+    statistical profiler sampling its stacks while the tasks run."""
     distributed = pytest.importorskip("distributed")
     from primitives import jitloop
 
@@ -241,8 +263,8 @@ def test_dask_preload_warms_a_worker_before_any_task():
         distributed.Client(warm, set_as_default=False) as client,
     ):
         (state,) = client.run(_worker_state).values()
-    # a plain worker: (False, False, the library's default, False); mallopt only on glibc
-    assert state == (True, jitloop.AVAILABLE, 1, platform.libc_ver()[0] == "glibc")
+    # a plain worker: (False, False, the library's default, False, True); mallopt only on glibc
+    assert state == (True, jitloop.AVAILABLE, 1, platform.libc_ver()[0] == "glibc", False)
 
 
 @pytest.mark.parametrize("value,kept", [("65536", True), ("1000000", False), (None, False)])
