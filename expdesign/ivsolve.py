@@ -301,31 +301,6 @@ Z_LIMIT = 1e6  # instruments above this come from an exploding simulation
 TILE = 32  # runs stepped together by the fused IV pass (their instruments kept for the moments: N x p x TILE)
 
 
-@jitloop.inlined
-def _factor_row(fv, sig, in_t, ib, k, u, v, r, speed, f_sig, f_mod, f_pow, f_sta):
-    """fv[f] = each factor f of the program at the calm-water signals of the velocities u, v, r
-    and the inputs of step k of batch member ``ib`` (``in_t`` (N, S, B or 1)) (regkernel._factor)."""
-    for i in range(in_t.shape[1]):
-        sig[jitloop.N_STATE + i] = in_t[k, i, ib]
-    sig[0], sig[1], sig[2], sig[3], sig[4], sig[5], sig[6] = u, v, r, u, v, u, v
-    if speed:
-        h = math.hypot(u, v)
-        sig[7] = MIN_SPEED if h < MIN_SPEED else h  # NaN stays NaN, as in np.maximum
-    for f in range(f_sig.shape[0]):
-        fv[f] = regkernel._factor(sig[f_sig[f]], r, f_sta[f], f_mod[f], f_pow[f])
-
-
-@jitloop.inlined
-def _regressor_row(out, k, fv, t_first, t_n):
-    """out[k, t] = 1.0 * f_1 * f_2 ... of each term t (regkernel._build's product) from the factor
-    values ``fv`` of step k."""
-    for t in range(t_first.shape[0]):
-        acc = 1.0
-        for f in range(t_first[t], t_first[t] + t_n[t]):
-            acc = acc * fv[f]
-        out[k, t] = acc
-
-
 @jitloop.compiled
 def _instrument_pass(
     in_t,
@@ -361,30 +336,13 @@ def _instrument_pass(
     sane,
 ):
     """:func:`instrument_moments`' pass over tiles of TILE runs (``runs[j]``: batch member of run j),
-    the runs the inner loop of every stage: Phi and the target from y (once per run, kept
-    time-major in ``phi_t`` (N, p, B), ``tgt_t`` (N, 3, B)); the time loop of
-    primitives.jitloop.time_loop in calm water (each term c_t * f_1 * f_2 ... summed left to right
-    per DOF, nu(k+1) = nu(k) + inc) with Z(k) at nu(k) kept for the tile; then each run's sums of
-    :func:`_run_moments`, the same operations in the same order per run (so the same bits)."""
+    the runs the inner loop of every stage: the time loop of primitives.jitloop.time_loop in calm
+    water (each term c_t * f_1 * f_2 ... summed left to right per DOF, nu(k+1) = nu(k) + inc) with
+    Z(k) at nu(k) kept for the tile; Phi and the target from y (:func:`_tile_data`: built for a tile
+    on its first pass, kept time-major in ``phi_t`` (N, p, B), ``tgt_t`` (N, 3, B)); then each run's
+    sums of :func:`_run_moments`, the same operations in the same order per run (so the same bits)."""
     n, p, nf = y.shape[1] - 1, dof.shape[0], g_sig.shape[0]
     one_in, one_coef = in_t.shape[2] == 1, coef.shape[1] == 1
-    sig = np.zeros(jitloop.N_STATE + in_t.shape[1])
-    fv1 = np.empty(nf)
-    row = np.empty((n, p))
-    for j in range(runs.shape[0]):  # the data's regressors and targets, once per run for all its passes
-        b = runs[j]
-        if have[b]:
-            continue
-        for k in range(n):
-            _factor_row(
-                fv1, sig, in_t, 0 if one_in else b, k, y[b, k, 0], y[b, k, 1], y[b, k, 2], speed, g_sig, g_mod, g_pow, g_sta
-            )
-            _regressor_row(row, k, fv1, r_first, r_n)
-            for q in range(p):
-                phi_t[k, q, b] = row[k, q]
-            for i in range(3):
-                tgt_t[k, i, b] = y[b, k + 1, i] - y[b, k, i]
-        have[b] = True
     lo, hi = _blocks(dof)
     m = TILE
     st = np.empty((jitloop.N_STATE + in_t.shape[1], m))
@@ -437,13 +395,30 @@ def _instrument_pass(
                     x[i, t] = x[i, t] + inc[i, t]
         for t in range(tl):
             sane[j0 + t] = worst[t] < z_limit
-        for k in range(n):
-            for q in range(p):
-                for t in range(tl):
-                    ph_t[k, q, t] = phi_t[k, q, bs[t]]
-            for i in range(3):
-                for t in range(tl):
-                    tg_t[k, i, t] = tgt_t[k, i, bs[t]]
+        # the time loop's signal, state and factor scratch (st, x, fv) is free for the data's regressors
+        _tile_data(
+            ph_t,
+            tg_t,
+            phi_t,
+            tgt_t,
+            have,
+            y,
+            in_t,
+            bs,
+            one_in,
+            speed,
+            st,
+            x,
+            fv,
+            g_sig,
+            g_mod,
+            g_pow,
+            g_sta,
+            r_first,
+            r_n,
+            acc,
+            tl,
+        )
         zbar[:] = 0.0
         if complete:
             for k in range(n):
@@ -512,3 +487,51 @@ def _tile_factors(fv, st, f_sig, f_mod, f_pow, f_sta, tl):
             continue
         for t in range(tl):
             fv[f, t] = regkernel._factor(st[i, t], st[2, t], f_sta[f], f_mod[f], f_pow[f])
+
+
+@jitloop.inlined
+def _tile_data(
+    ph_t, tg_t, phi_t, tgt_t, have, y, in_t, bs, one_in, speed, st, x, fv, g_sig, g_mod, g_pow, g_sta, r_first, r_n, acc, tl
+):
+    """The tile's data regressors Phi(k) at the measured velocities y(k) and targets
+    y(k+1) - y(k) into ``ph_t`` (N, p, TILE), ``tg_t`` (N, 3, TILE): read from ``phi_t``,
+    ``tgt_t`` (N, p or 3, B) where every member has them (``have``), else built for the whole
+    tile (the signals, factors and products of :func:`_tile_signals`, :func:`_tile_factors` and
+    the instruments' products, the same operations on the same numbers) and kept there."""
+    n, p = ph_t.shape[0], ph_t.shape[1]
+    built = True
+    for t in range(tl):
+        built = built and have[bs[t]]
+    if built:
+        for k in range(n):
+            for q in range(p):
+                for t in range(tl):
+                    ph_t[k, q, t] = phi_t[k, q, bs[t]]
+            for i in range(3):
+                for t in range(tl):
+                    tg_t[k, i, t] = tgt_t[k, i, bs[t]]
+        return
+    for k in range(n):
+        for i in range(3):
+            for t in range(tl):
+                x[i, t] = y[bs[t], k, i]
+                tg_t[k, i, t] = y[bs[t], k + 1, i] - x[i, t]
+        _tile_signals(st, x, in_t, bs, one_in, k, speed, tl)
+        _tile_factors(fv, st, g_sig, g_mod, g_pow, g_sta, tl)
+        for q in range(p):
+            for t in range(tl):
+                acc[t] = 1.0
+            for f in range(r_first[q], r_first[q] + r_n[q]):
+                for t in range(tl):
+                    acc[t] = acc[t] * fv[f, t]
+            for t in range(tl):
+                ph_t[k, q, t] = acc[t]
+    for k in range(n):
+        for q in range(p):
+            for t in range(tl):
+                phi_t[k, q, bs[t]] = ph_t[k, q, t]
+        for i in range(3):
+            for t in range(tl):
+                tgt_t[k, i, bs[t]] = tg_t[k, i, t]
+    for t in range(tl):
+        have[bs[t]] = True
