@@ -44,7 +44,7 @@ import numpy as np
 
 from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
-from expdesign.ivsolve import Z_LIMIT, DataRegressors, instrument_moments, iv_estimates, run_forces
+from expdesign.ivsolve import Z_LIMIT, instrument_moments, iv_estimates, run_forces
 from expdesign.ivsolve import solve_moments as iv_moments_solve
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.mc_validation import scored, validate, validation_input
@@ -445,12 +445,9 @@ def _estimate_fused(sh: MCShared, seg: _Seg) -> np.ndarray:
     stopping rules and numbers (the instrument model first, then each run's latest estimate)."""
     prof, cfg, b = sh.profile, sh.config, seg.y.shape[0]
     forces = run_forces(prof, seg.inputs)  # once for the four passes
-    data = DataRegressors.empty(b, seg.y.shape[1] - 1, sh.predictor.n_params)  # built by the first pass, read by the next
 
     def solve(sim_terms: TermSet, coef: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        moments, sane = instrument_moments(
-            prof, sim_terms, sh.predictor, forces, seg.nu0, coef, idx, seg.y, cfg.mean_subtraction, data
-        )
+        moments, sane = instrument_moments(prof, sim_terms, sh.predictor, forces, seg.nu0, coef, idx, seg.y, cfg.mean_subtraction)
         return iv_moments_solve(sh.predictor, *moments, cfg.mean_subtraction), sane
 
     first, _ = solve(prof.model, prof.params(prof.instrument_set)[:, None], np.arange(b))
