@@ -221,12 +221,13 @@ def _run_rng(seed: int, run: int, stream: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(run, stream)))
 
 
-def _sequence(sh: MCShared, design: str, rng: np.random.Generator) -> list[tuple[str, int]]:
-    """The run's (primitive, samples) blocks in the order they are played."""
+def _sequence(sh: MCShared, design: str, run: int) -> list[tuple[str, int]]:
+    """Run ``run``'s (primitive, samples) blocks in the order they are played; its generator of
+    stream 0 made only where it is read (a fixed design in a fixed order reads none)."""
     cfg, spec = sh.config, sh.designs[design]
     if isinstance(spec, str):
         seg = cfg.n_samples // cfg.n_segments
-        return [(sh.names[i], seg) for i in rng.integers(0, len(sh.names), cfg.n_segments)]
+        return [(sh.names[i], seg) for i in _run_rng(cfg.seed, run, 0).integers(0, len(sh.names), cfg.n_segments)]
     blocks = sh.blocks[design]
     if cfg.protocol == "piecewise":
         # each block restarts from the nominal state: the order does not matter, long blocks are
@@ -238,7 +239,7 @@ def _sequence(sh: MCShared, design: str, rng: np.random.Generator) -> list[tuple
         return out
     if cfg.order != "random":
         return list(blocks)
-    return [blocks[i] for i in rng.permutation(len(blocks))]
+    return [blocks[i] for i in _run_rng(cfg.seed, run, 0).permutation(len(blocks))]
 
 
 def _experiment(
@@ -465,7 +466,7 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     # depend on how the runs are cut into tasks (numba's load, about 0.6 s, once per process).
     jitloop.use(jitloop.MIN_WORK)
     played, layout = {}, {}  # the blocks and whole experiments built so far (a fixed design plays one)
-    seqs = [tuple(_sequence(sh, design, _run_rng(cfg.seed, i, 0))) for i in ids]
+    seqs = [tuple(_sequence(sh, design, i)) for i in ids]
     for seq in seqs:
         if seq not in layout:
             layout[seq] = _experiment(sh, list(seq), played)
