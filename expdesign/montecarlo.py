@@ -299,13 +299,17 @@ def _noise(
         g.standard_normal(out=row)  # normal(0, 1) is 0 + 1 * these: the same numbers
     b = len(gens)
     part = [z[:, sizes[i] : sizes[i + 1]] for i in range(4)]
-    cur = (np.asarray(d.current_ne, float) + np.stack(offsets))[:, None, :] + part[0].reshape(b, n, 2) * d.current_sample_std
+    # scaled in place, in the draws' own array (a * s + m is m + a * s: addition commutes, the same bits)
+    cur = part[0].reshape(b, n, 2)
+    cur *= d.current_sample_std
+    cur += (np.asarray(d.current_ne, float) + np.stack(offsets))[:, None, :]
     wind_ne = np.asarray(d.wind_ne, float)
     if d.wind_sample_std == 0 and not np.signbit(wind_ne).any():  # (-0.0 + 0.0 would be +0.0)
         wind = np.broadcast_to(wind_ne, (b, n, 2))
     else:
         wind = wind_ne + part[1].reshape(b, n, 2) * d.wind_sample_std
-    meas = part[2].reshape(b, n + 1, 3) * np.asarray(d.measurement_std, float)
+    meas = part[2].reshape(b, n + 1, 3)
+    meas *= np.asarray(d.measurement_std, float)
     return cur, wind, meas, part[3] * d.heading_std if heading else None
 
 
