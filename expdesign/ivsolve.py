@@ -342,11 +342,7 @@ def _instrument_pass(
             _tile_signals(st, x, in_t, bs, one_in, k, speed, tl)
             _tile_factors(fv, st, g_sig, g_mod, g_pow, g_sta, tl)
             for q in range(p):
-                for t in range(tl):
-                    acc[t] = 1.0
-                for f in range(r_first[q], r_first[q] + r_n[q]):
-                    for t in range(tl):
-                        acc[t] = acc[t] * fv[f, t]
+                _term_product(acc, fv, r_first[q], r_n[q], tl)
                 for t in range(tl):
                     v = acc[t]
                     z[k, q, t] = v
@@ -454,10 +450,17 @@ def _data_row(ph, tg, y, in_t, bs, one_in, k, speed, st, x, fv, g_sig, g_mod, g_
     _tile_signals(st, x, in_t, bs, one_in, k, speed, tl)
     _tile_factors(fv, st, g_sig, g_mod, g_pow, g_sta, tl)
     for q in range(ph.shape[0]):
-        for t in range(tl):
-            acc[t] = 1.0
-        for f in range(r_first[q], r_first[q] + r_n[q]):
-            for t in range(tl):
-                acc[t] = acc[t] * fv[f, t]
+        _term_product(acc, fv, r_first[q], r_n[q], tl)
         for t in range(tl):
             ph[q, t] = acc[t]
+
+
+@jitloop.inlined
+def _term_product(acc, fv, first, count, tl):
+    """acc[t] = 1.0 * f_1 * f_2 ... of one term's factor values fv[first:first + count, t], left
+    to right (regkernel._build's product)."""
+    for t in range(tl):
+        acc[t] = 1.0
+    for f in range(first, first + count):
+        for t in range(tl):
+            acc[t] = acc[t] * fv[f, t]

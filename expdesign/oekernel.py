@@ -20,7 +20,7 @@ Applies to planar models without pods, rigid body or heading terms, simulated in
 output-error model); otherwise :func:`calm_runs` returns None and the numpy path runs. The
 simulations and mean squares are the numpy path's bits (the operations of the compiled time loop
 of :func:`primitives.simulate.simulate` in calm water, in :func:`_calm_loop`; sums over the samples
-in their order).
+in their order, added as the loop makes each step).
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ class CalmRuns:
     """A batch's experiments laid out once for the compiled output-error path (:func:`calm_runs`):
     per experiment the input signals (N, S, 1 or B), the measured velocities time-major
     (N+1, 3, B), the start states (B, 3) and the term program; the simulated outputs it passes
-    between :func:`simulate`, :func:`mean_squares` and :func:`moments_t` stay time-major
+    from :func:`simulate` (which scores them as it makes them) to :func:`moments_t` stay time-major
     (N+1, 3, b), the layout of the time loop and of the moments' pass, so no output is
     transposed, copied or given a pose array."""
 
