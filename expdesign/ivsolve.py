@@ -229,6 +229,8 @@ def instrument_moments(
     both Z and the increments (the same values, so the same products)."""
     if mean_subtraction == "batchwise" or profile.pods or profile.n_dof != 3 or profile.rigid_body is not None:
         return None
+    if sim_terms.n_dof != 3 or terms.n_dof != 3:  # the pass steps and sums three DOFs: a roll list is the unfused path's
+        return None
     if not jitloop.loaded() or regkernel._program(sim_terms.terms) is None or regkernel._program(terms.terms) is None:
         return None
     names, in_t = forces if isinstance(forces, tuple) else run_forces(profile, forces)

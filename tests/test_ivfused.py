@@ -137,6 +137,9 @@ def test_models_the_fused_pass_cannot_hold_take_the_unfused_path(ship):
         assert not mc._fused(shared(predictor=TermSet(more))), extra
         model = dataclasses.replace(p, model_terms=tuple(tuple(d) for d in more))
         assert not mc._fused(shared(profile=model)), extra
+    roll = TermSet([*terms, ["v_r"]])  # a fourth (roll) list on a planar ship: the pass sums three DOFs
+    assert not mc._fused(shared(predictor=roll))
+    assert not mc._fused(shared(profile=dataclasses.replace(p, model_terms=roll.terms)))
 
 
 def test_fused_pass_gives_each_run_its_own_numbers_across_tiles(ship):
