@@ -389,15 +389,12 @@ class _Sims:
         self.profile, self.terms, self.data = profile, terms, data
         self.calm = oekernel.calm_runs(profile, terms, data) if compiled else None
 
-    def simulate(self, theta: np.ndarray, idx: np.ndarray) -> list:
+    def simulate(self, theta: np.ndarray, idx: np.ndarray) -> tuple[list, np.ndarray]:
+        """The runs ``idx``'s simulations and their mean squared errors (:func:`_mean_squares`)."""
         if self.calm is not None:
-            return oekernel.simulate(self.calm, theta, idx)
-        return _simulated(self.profile, self.terms, self.data, theta, idx)
-
-    def mean_squares(self, sims: list, idx: np.ndarray) -> np.ndarray:
-        if self.calm is not None:
-            return oekernel.mean_squares(self.calm, sims, idx, _OE_EXPLODE)
-        return _mean_squares(self.data, sims, idx)
+            return oekernel.simulate(self.calm, theta, idx, _OE_EXPLODE)
+        sims = _simulated(self.profile, self.terms, self.data, theta, idx)
+        return sims, _mean_squares(self.data, sims, idx)
 
     def moments(self, sims: list, theta: np.ndarray, idx: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.calm is not None:
@@ -417,8 +414,7 @@ def _start(sim: _Sims, theta: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarra
     bsz = theta.shape[0]
     finite = np.flatnonzero(np.isfinite(theta).all(axis=1))
     ms = np.full((bsz, 3), np.inf)
-    sims = sim.simulate(theta, finite)
-    ms[finite] = sim.mean_squares(sims, finite)
+    sims, ms[finite] = sim.simulate(theta, finite)
     ok = np.isfinite(ms).all(axis=1)
     w = np.ones((bsz, 3))
     w[ok] = 1.0 / np.maximum(ms[ok], _WEIGHT_FLOOR * ms[ok].max(axis=1, keepdims=True) + 1e-300)
@@ -496,8 +492,8 @@ def output_error(
             break
         cand = theta.copy()
         cand[idx] += step
-        csims = sim.simulate(cand, idx)
-        ccost = _cost(sim.mean_squares(csims, idx), w[idx], np.isfinite(step).all(axis=1), n)
+        csims, cms = sim.simulate(cand, idx)
+        ccost = _cost(cms, w[idx], np.isfinite(step).all(axis=1), n)
         iters[idx] += 1
         better = ccost < cost[idx]
         theta[idx[better]], cost[idx[better]] = cand[idx[better]], ccost[better]

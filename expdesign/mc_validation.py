@@ -60,13 +60,24 @@ def validate(sh: MCShared, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rmse = np.full((b, 3), np.inf)
     val = OEData(sh.val_inputs[None], np.broadcast_to(sh.val_nu0, (b, 3)), sh.val_true[None])
     calm = oekernel.calm_runs(sh.profile, sh.predictor, [val])
-    if calm is not None:  # time-major, compiled: the same simulation, sums in the same order
-        sim_t = oekernel.simulate(calm, th, np.arange(b))[0]
-        with np.errstate(invalid="ignore"):
-            diverged = ~finite | ~(np.abs(sim_t) <= bound).all(axis=(0, 1))  # NaN and inf too
+    if calm is not None:  # time-major, compiled: the same simulation, sums in the same order, made as it steps
+        over = np.zeros(b, np.bool_)  # |x| <= bound is |x| < the next double above it (NaN and inf fail both)
+        coef = np.ascontiguousarray(th.T)
+        sim_t, sums = oekernel.run_scored(
+            calm.in_t[0],
+            calm.y_t[0],
+            calm.nu0[0],
+            np.zeros(b, np.int64),
+            coef,
+            calm.prog[0],
+            calm.speed,
+            0,
+            np.nextafter(bound, np.inf),
+            over,
+        )
+        diverged = ~finite | over
         good = np.flatnonzero(~diverged)
-        sums, _ = oekernel.squared_errors(calm.y_t[0], sim_t[:, :, good], np.zeros(len(good), np.int64), 0, np.inf)
-        rmse[good] = np.sqrt(sums / sim_t.shape[0])
+        rmse[good] = np.sqrt(sums[good] / sim_t.shape[0])
         return rmse, diverged
     with np.errstate(all="ignore"):
         sim = simulate(sh.profile, sh.val_inputs, th, terms=sh.predictor, nu0=sh.val_nu0, batch=b, positions=False).nu
@@ -91,10 +102,9 @@ def scored(
     sim_rmse, diverged = validate(sh, theta) if validation is None else validation
     prm = np.full(len(ids), np.nan)
     if sh.theta0 is not None:
-        for i in range(len(ids)):
-            with np.errstate(all="ignore"):
-                e = (theta[i] - sh.theta0) / np.abs(sh.theta0)
-                prm[i] = np.sqrt(np.mean(e * e)) if np.isfinite(e).all() else np.inf
+        with np.errstate(all="ignore"):  # per run: a mean over a row's contiguous parameters, numpy's sum of each row
+            e = (theta - sh.theta0) / np.abs(sh.theta0)
+            prm[:] = np.where(np.isfinite(e).all(axis=1), np.sqrt(np.mean(e * e, axis=1)), np.inf)
     return MCResult(
         design,
         np.array(ids, dtype=np.int64),

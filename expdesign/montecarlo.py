@@ -44,7 +44,7 @@ import numpy as np
 
 from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
-from expdesign.ivsolve import Z_LIMIT, DataRegressors, instrument_moments, iv_estimates, run_forces
+from expdesign.ivsolve import Z_LIMIT, instrument_moments, iv_estimates, run_forces
 from expdesign.ivsolve import solve_moments as iv_moments_solve
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.mc_validation import scored, validate, validation_input
@@ -221,12 +221,13 @@ def _run_rng(seed: int, run: int, stream: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(run, stream)))
 
 
-def _sequence(sh: MCShared, design: str, rng: np.random.Generator) -> list[tuple[str, int]]:
-    """The run's (primitive, samples) blocks in the order they are played."""
+def _sequence(sh: MCShared, design: str, run: int) -> list[tuple[str, int]]:
+    """Run ``run``'s (primitive, samples) blocks in the order they are played; its generator of
+    stream 0 made only where it is read (a fixed design in a fixed order reads none)."""
     cfg, spec = sh.config, sh.designs[design]
     if isinstance(spec, str):
         seg = cfg.n_samples // cfg.n_segments
-        return [(sh.names[i], seg) for i in rng.integers(0, len(sh.names), cfg.n_segments)]
+        return [(sh.names[i], seg) for i in _run_rng(cfg.seed, run, 0).integers(0, len(sh.names), cfg.n_segments)]
     blocks = sh.blocks[design]
     if cfg.protocol == "piecewise":
         # each block restarts from the nominal state: the order does not matter, long blocks are
@@ -238,7 +239,7 @@ def _sequence(sh: MCShared, design: str, rng: np.random.Generator) -> list[tuple
         return out
     if cfg.order != "random":
         return list(blocks)
-    return [blocks[i] for i in rng.permutation(len(blocks))]
+    return [blocks[i] for i in _run_rng(cfg.seed, run, 0).permutation(len(blocks))]
 
 
 def _experiment(
@@ -298,13 +299,17 @@ def _noise(
         g.standard_normal(out=row)  # normal(0, 1) is 0 + 1 * these: the same numbers
     b = len(gens)
     part = [z[:, sizes[i] : sizes[i + 1]] for i in range(4)]
-    cur = (np.asarray(d.current_ne, float) + np.stack(offsets))[:, None, :] + part[0].reshape(b, n, 2) * d.current_sample_std
+    # scaled in place, in the draws' own array (a * s + m is m + a * s: addition commutes, the same bits)
+    cur = part[0].reshape(b, n, 2)
+    cur *= d.current_sample_std
+    cur += (np.asarray(d.current_ne, float) + np.stack(offsets))[:, None, :]
     wind_ne = np.asarray(d.wind_ne, float)
     if d.wind_sample_std == 0 and not np.signbit(wind_ne).any():  # (-0.0 + 0.0 would be +0.0)
         wind = np.broadcast_to(wind_ne, (b, n, 2))
     else:
         wind = wind_ne + part[1].reshape(b, n, 2) * d.wind_sample_std
-    meas = part[2].reshape(b, n + 1, 3) * np.asarray(d.measurement_std, float)
+    meas = part[2].reshape(b, n + 1, 3)
+    meas *= np.asarray(d.measurement_std, float)
     return cur, wind, meas, part[3] * d.heading_std if heading else None
 
 
@@ -445,12 +450,9 @@ def _estimate_fused(sh: MCShared, seg: _Seg) -> np.ndarray:
     stopping rules and numbers (the instrument model first, then each run's latest estimate)."""
     prof, cfg, b = sh.profile, sh.config, seg.y.shape[0]
     forces = run_forces(prof, seg.inputs)  # once for the four passes
-    data = DataRegressors.empty(b, seg.y.shape[1] - 1, sh.predictor.n_params)  # built by the first pass, read by the next
 
     def solve(sim_terms: TermSet, coef: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        moments, sane = instrument_moments(
-            prof, sim_terms, sh.predictor, forces, seg.nu0, coef, idx, seg.y, cfg.mean_subtraction, data
-        )
+        moments, sane = instrument_moments(prof, sim_terms, sh.predictor, forces, seg.nu0, coef, idx, seg.y, cfg.mean_subtraction)
         return iv_moments_solve(sh.predictor, *moments, cfg.mean_subtraction), sane
 
     first, _ = solve(prof.model, prof.params(prof.instrument_set)[:, None], np.arange(b))
@@ -468,7 +470,7 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     # depend on how the runs are cut into tasks (numba's load, about 0.6 s, once per process).
     jitloop.use(jitloop.MIN_WORK)
     played, layout = {}, {}  # the blocks and whole experiments built so far (a fixed design plays one)
-    seqs = [tuple(_sequence(sh, design, _run_rng(cfg.seed, i, 0))) for i in ids]
+    seqs = [tuple(_sequence(sh, design, i)) for i in ids]
     for seq in seqs:
         if seq not in layout:
             layout[seq] = _experiment(sh, list(seq), played)

@@ -20,7 +20,7 @@ Applies to planar models without pods, rigid body or heading terms, simulated in
 output-error model); otherwise :func:`calm_runs` returns None and the numpy path runs. The
 simulations and mean squares are the numpy path's bits (the operations of the compiled time loop
 of :func:`primitives.simulate.simulate` in calm water, in :func:`_calm_loop`; sums over the samples
-in their order).
+in their order, added as the loop makes each step).
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ class CalmRuns:
     """A batch's experiments laid out once for the compiled output-error path (:func:`calm_runs`):
     per experiment the input signals (N, S, 1 or B), the measured velocities time-major
     (N+1, 3, B), the start states (B, 3) and the term program; the simulated outputs it passes
-    between :func:`simulate`, :func:`mean_squares` and :func:`moments_t` stay time-major
+    from :func:`simulate` (which scores them as it makes them) to :func:`moments_t` stay time-major
     (N+1, 3, b), the layout of the time loop and of the moments' pass, so no output is
     transposed, copied or given a pose array."""
 
@@ -82,61 +82,80 @@ def calm_runs(profile, terms, data: Sequence) -> CalmRuns | None:
     )
 
 
-def simulate(cr: CalmRuns, theta: np.ndarray, idx: np.ndarray) -> list[np.ndarray]:
+def simulate(cr: CalmRuns, theta: np.ndarray, idx: np.ndarray, limit: float) -> tuple[list[np.ndarray], np.ndarray]:
     """Noise-free outputs nu (N+1, 3, len(idx)) per experiment of the runs ``idx`` with their
-    ``theta`` rows: :func:`_calm_loop`, the operations of the compiled loop of
-    :func:`primitives.simulate._compiled_loop` for ``simulate(..., positions=False)`` in calm water
-    (the same bits), the runs' inputs read through their indices."""
+    ``theta`` rows, and their :func:`expdesign.estimators._mean_squares` (b, 3) (inf for a run
+    with an output not below ``limit`` in magnitude, NaN too). The simulation is :func:`_calm_loop`,
+    the operations of the compiled loop of :func:`primitives.simulate._compiled_loop` for
+    ``simulate(..., positions=False)`` in calm water (the same bits), the runs' inputs read
+    through their indices; the squared errors are summed as each step is made, sample after sample
+    per run and DOF (numpy's reduction's order, so the same bits), no second pass over the outputs."""
     b = len(idx)
     coef = np.ascontiguousarray(theta[idx].T)
     runs = np.asarray(idx, np.int64)
-    out = []
-    for in_t, nu0, prog in zip(cr.in_t, cr.nu0, cr.prog):
-        nu_t = np.empty((in_t.shape[0] + 1, 3, b))
-        nu_t[0] = nu0[idx].T
-        if b:
-            _calm_loop(in_t, nu_t, runs, coef, *prog, cr.speed)
-        out.append(nu_t)
-    return out
-
-
-@jitloop.compiled
-def _calm_loop(in_t, nu_t, runs, coef, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow, speed):
-    """nu_t (N+1, 3, B), row 0 set, stepped nu(k+1) = nu(k) + Phi(k)^T theta in calm water, batch
-    member b driven by the inputs of run ``runs[b]`` of ``in_t`` (N, S, 1 or R): the signals of
-    :func:`_signals` and primitives.jitloop's increments and sums in their order, i.e.
-    primitives.jitloop.time_loop without current, wind, pose or forcing and none of its per-member
-    branches for them (2.3 times faster on the Monte Carlo's candidate simulations, same bits)."""
-    n, batch = in_t.shape[0], nu_t.shape[2]
-    sig = np.zeros((_N_STATE + in_t.shape[1], batch))  # the wind-excess signals stay 0: calm air
-    inc = np.zeros((3, batch))
-    tmp = np.empty(batch)
-    for k in range(n):
-        _signals(sig, nu_t[k], in_t, runs, k, speed)
-        jitloop._increments(inc, tmp, sig, coef, batch, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow)
-        for i in range(3):
-            for b in range(batch):
-                nu_t[k + 1, i, b] = nu_t[k, i, b] + inc[i, b]
-
-
-def mean_squares(cr: CalmRuns, sims: list[np.ndarray], idx: np.ndarray, limit: float) -> np.ndarray:
-    """:func:`expdesign.estimators._mean_squares` of time-major outputs: the sums over the samples
-    in their order per run and DOF (numpy's reduction's order, so the same bits), inf for a run
-    with an output not below ``limit`` in magnitude (NaN too)."""
-    b = len(idx)
     n = sum(y.shape[0] - 1 for y in cr.y_t)
-    sums, bad = [], np.zeros(b, np.bool_)
-    for y, nu in zip(cr.y_t, sims):
-        s, worse = squared_errors(y, nu, idx, 1, limit)
+    out, sums, bad = [], [], np.zeros(b, np.bool_)
+    for in_t, y, nu0, prog in zip(cr.in_t, cr.y_t, cr.nu0, cr.prog):
+        nu_t, s = run_scored(in_t, y, nu0[idx], runs, coef, prog, cr.speed, 1, limit, bad)
+        out.append(nu_t)
         sums.append(s)
-        bad |= worse
     ms = np.zeros((b, 3))
     good = np.flatnonzero(~bad)
     for s in sums:
         ms[good] += s[good]
     ms[good] /= n
     ms[bad] = np.inf
-    return ms
+    return out, ms
+
+
+def run_scored(
+    in_t: np.ndarray,
+    y: np.ndarray,
+    nu0: np.ndarray,
+    runs: np.ndarray,
+    coef: np.ndarray,
+    prog: tuple,
+    speed: bool,
+    first: int,
+    limit: float,
+    bad: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """One experiment's :func:`_calm_loop` from the start states ``nu0`` (b, 3), batch member b
+    driven by the inputs of run ``runs[b]`` of ``in_t`` and measured by ``y`` (N+1, 3, B)
+    time-major: the outputs nu (N+1, 3, b) and the sums (b, 3) over the samples k = first..N of
+    (y[k, i, runs[b]] - nu[k, i, b])^2, added sample after sample; ``bad`` (b,) set where some
+    |nu| is not below ``limit`` (NaN too)."""
+    b = len(runs)
+    nu_t = np.empty((in_t.shape[0] + 1, 3, b))
+    nu_t[0] = nu0.T
+    sq = np.zeros((3, b))
+    if b:
+        _calm_loop(in_t, nu_t, runs, coef, *prog, speed, y, first, limit, sq, bad)
+    return nu_t, sq.T
+
+
+@jitloop.compiled
+def _calm_loop(
+    in_t, nu_t, runs, coef, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow, speed, y, first, limit, sq, bad
+):
+    """nu_t (N+1, 3, B), row 0 set, stepped nu(k+1) = nu(k) + Phi(k)^T theta in calm water, batch
+    member b driven by the inputs of run ``runs[b]`` of ``in_t`` (N, S, 1 or R): the signals of
+    :func:`_signals` and primitives.jitloop's increments and sums in their order, i.e.
+    primitives.jitloop.time_loop without current, wind, pose or forcing and none of its per-member
+    branches for them (2.3 times faster on the Monte Carlo's candidate simulations, same bits);
+    each row scored as it is made (:func:`run_scored`)."""
+    n, batch = in_t.shape[0], nu_t.shape[2]
+    sig = np.zeros((_N_STATE + in_t.shape[1], batch))  # the wind-excess signals stay 0: calm air
+    inc = np.zeros((3, batch))
+    tmp = np.empty(batch)
+    _score_row(nu_t, y, runs, 0, first, limit, sq, bad, batch)
+    for k in range(n):
+        _signals(sig, nu_t[k], in_t, runs, k, speed)
+        jitloop._increments(inc, tmp, sig, coef, batch, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow)
+        for i in range(3):
+            for b in range(batch):
+                nu_t[k + 1, i, b] = nu_t[k, i, b] + inc[i, b]
+        _score_row(nu_t, y, runs, k + 1, first, limit, sq, bad, batch)
 
 
 def moments_t(cr: CalmRuns, sims: list[np.ndarray], theta: np.ndarray, idx: np.ndarray, w: np.ndarray, fd_step: float):
@@ -160,31 +179,6 @@ def _mask(terms, p: int) -> np.ndarray:
     return mask
 
 
-def squared_errors(y: np.ndarray, nu: np.ndarray, runs: np.ndarray, first: int, limit: float) -> tuple[np.ndarray, np.ndarray]:
-    """Sums (b, 3) over the samples k = first..N of (y[k, i, runs[b]] - nu[k, i, b])^2, added
-    sample after sample (numpy's order for a reduction over that axis: the same bits), of
-    time-major ``y`` (N+1, 3, B) and ``nu`` (N+1, 3, b); and where some |nu| is not below
-    ``limit`` (NaN too) (b,)."""
-    out, bad = np.zeros((nu.shape[2], 3)), np.zeros(nu.shape[2], np.bool_)
-    _squares(y, nu, np.asarray(runs, np.int64), first, limit, out, bad)
-    return out, bad
-
-
-@jitloop.compiled
-def _squares(y, nu, runs, first, limit, out, bad):
-    """:func:`squared_errors`' pass."""
-    n1, batch = nu.shape[0], nu.shape[2]
-    for k in range(n1):
-        for i in range(3):
-            for b in range(batch):
-                x = nu[k, i, b]
-                if not abs(x) < limit:
-                    bad[b] = True
-                if k >= first:
-                    e = y[k, i, runs[b]] - x
-                    out[b, i] = e * e if k == first else out[b, i] + e * e
-
-
 def _helper(fn):
     _HELPERS.append(fn.__name__)
     return fn
@@ -202,6 +196,20 @@ def _compile_helpers() -> None:
         for n in _HELPERS:
             if not hasattr(g[n], "py_func"):
                 g[n] = njit(inline="always", error_model="numpy")(g[n])
+
+
+@_helper
+def _score_row(nu_t, y, runs, k, first, limit, sq, bad, batch):
+    """Row k of the outputs checked against ``limit`` and, from sample ``first`` on, its squared
+    errors added to ``sq`` (3, B) (:func:`run_scored`)."""
+    for i in range(3):
+        for b in range(batch):
+            x = nu_t[k, i, b]
+            if not abs(x) < limit:
+                bad[b] = True
+            if k >= first:
+                e = y[k, i, runs[b]] - x
+                sq[i, b] = e * e if k == first else sq[i, b] + e * e
 
 
 @_helper

@@ -137,12 +137,15 @@ def test_models_the_fused_pass_cannot_hold_take_the_unfused_path(ship):
         assert not mc._fused(shared(predictor=TermSet(more))), extra
         model = dataclasses.replace(p, model_terms=tuple(tuple(d) for d in more))
         assert not mc._fused(shared(profile=model)), extra
+    roll = TermSet([*terms, ["v_r"]])  # a fourth (roll) list on a planar ship: the pass sums three DOFs
+    assert not mc._fused(shared(predictor=roll))
+    assert not mc._fused(shared(profile=dataclasses.replace(p, model_terms=roll.terms)))
 
 
 def test_fused_pass_gives_each_run_its_own_numbers_across_tiles(ship):
     """Runs stepped together in tiles (ivsolve.TILE, the last one partial, a subset in any order)
-    get the moments and sanity each gets alone, with the data regressors built by an earlier pass."""
-    from expdesign.ivsolve import DataRegressors, instrument_moments
+    get the moments and sanity each gets alone."""
+    from expdesign.ivsolve import instrument_moments
 
     p, _ = ship
     jitloop.use(jitloop.MIN_WORK)
@@ -152,11 +155,7 @@ def test_fused_pass_gives_each_run_its_own_numbers_across_tiles(ship):
     y = rng.normal(size=(b, n + 1, 3)) * 0.1
     runs = rng.permutation(b)[: b - 3]
     coef = p.params(p.instrument_set)[:, None] * (1.0 + 0.01 * rng.normal(size=(1, len(runs))))
-    data = DataRegressors.empty(b, n, p.predictor.n_params)
-    instrument_moments(p, p.model, p.predictor, inputs, np.zeros((b, 3)), coef[:, :1], np.arange(b), y, "complete", data)
-    (a, rhs, norms), sane = instrument_moments(
-        p, p.predictor, p.predictor, inputs, np.zeros((b, 3)), coef, runs, y, "complete", data
-    )
+    (a, rhs, norms), sane = instrument_moments(p, p.predictor, p.predictor, inputs, np.zeros((b, 3)), coef, runs, y, "complete")
     for j, r in enumerate(runs):
         (a1, rhs1, norms1), sane1 = instrument_moments(
             p, p.predictor, p.predictor, inputs, np.zeros((b, 3)), coef[:, j : j + 1], np.array([r]), y, "complete"

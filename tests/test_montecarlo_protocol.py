@@ -12,7 +12,7 @@ import pytest
 
 from expdesign.errors import DesignError
 from expdesign.mc_result import MCResult, merge_results
-from expdesign.montecarlo import MCConfig, _experiment, _run_rng, _sequence, block_lengths, prepare
+from expdesign.montecarlo import MCConfig, _experiment, _sequence, block_lengths, prepare
 from primitives.library import model_ship_thesis
 from primitives.ship import load_profile
 
@@ -26,7 +26,7 @@ def ship():
 
 
 def _layout(sh, design, run):
-    seq = _sequence(sh, design, _run_rng(sh.config.seed, run, 0))
+    seq = _sequence(sh, design, run)
     return seq, _experiment(sh, seq)
 
 

@@ -91,10 +91,9 @@ def test_compiled_simulations_and_mean_squares_are_the_numpy_paths_bits(ship, ex
     theta = theta.copy()
     theta[3] *= 1e3  # explodes
     idx = np.array([0, 2, 3, 5])
-    sims, ref = compiled.simulate(theta, idx), numpy_path.simulate(theta, idx)
+    (sims, ms), (ref, ref_ms) = compiled.simulate(theta, idx), numpy_path.simulate(theta, idx)
     with np.errstate(invalid="ignore"):
         assert np.array_equal(sims[0].transpose(2, 0, 1), ref[0][0], equal_nan=True)
-    ms, ref_ms = compiled.mean_squares(sims, idx), numpy_path.mean_squares(ref, idx)
     assert np.isinf(ms[2]).all() and np.isfinite(ms[[0, 1, 3]]).all()
     assert np.array_equal(ms, ref_ms)
 
@@ -138,3 +137,35 @@ def test_monte_carlo_without_numba_matches_the_compiled_path():
         assert np.array_equal(r.reference.theta, iv, equal_nan=True)  # the IV estimates: same bits
         assert np.isfinite(oe).all() and np.isfinite(r.theta).all()
         assert np.max(np.abs(r.theta - oe) / np.abs(oe)) < 1e-3
+
+
+@needs_numba
+def test_compiled_validation_gives_the_numpy_paths_rmse_and_divergence(monkeypatch):
+    """The Monte Carlo's validation, compiled (outputs scored and checked against the bound as they
+    are made) and numpy, give the same RMSE bits and diverged flags: a run whose largest output is
+    the bound itself is kept (|x| <= bound), one a double above it diverged, a NaN parameter or an
+    exploding simulation (inf, NaN outputs) diverged."""
+    import dataclasses
+
+    from expdesign import mc_validation, oekernel
+    from expdesign.montecarlo import MCConfig, prepare
+
+    p = load_profile("model-ship")
+    sh = prepare(p, {"opt": DESIGNS["optimized"]}, MCConfig(runs=2, n_samples=200), model_ship_thesis(p))
+    jitloop.use(jitloop.MIN_WORK)
+    t0 = sh.theta0
+    theta = np.stack([t0, t0 * 1.05, t0 * -3.0, np.where(np.arange(len(t0)) == 0, np.nan, t0), t0 * 1e200])
+    top = np.abs(simulate(p, sh.val_inputs, theta[1:2], terms=sh.predictor, nu0=sh.val_nu0, batch=1, positions=False).nu).max()
+    assert top > np.abs(sh.val_true).max()
+    monkeypatch.setattr(mc_validation, "EXPLODE", 1.0)  # the bound is the true output's largest magnitude
+    calm_runs = oekernel.calm_runs
+    for largest, kept in ((top, True), (np.nextafter(top, 0.0), False)):
+        val_true = sh.val_true.copy()
+        val_true[-1, 0] = largest  # above every other true output: the bound, to the bit
+        case = dataclasses.replace(sh, val_true=val_true)
+        monkeypatch.setattr(oekernel, "calm_runs", calm_runs)
+        rmse, diverged = mc_validation.validate(case, theta)
+        monkeypatch.setattr(oekernel, "calm_runs", lambda *a: None)
+        ref_rmse, ref_diverged = mc_validation.validate(case, theta)
+        assert np.array_equal(diverged, ref_diverged) and np.array_equal(rmse, ref_rmse)
+        assert diverged.tolist() == [False, not kept, True, True, True]
