@@ -5,9 +5,9 @@ recording's roll level: the roll-coupling terms of (2.17) are linear in phi and 
 ship's roll-yaw coupling is not (and the sensors' lags matter most at the roll frequency). On a
 recording that rolls more or less than the nominal one the misfit shows in the roll band, where
 the yaw response is inertia-dominated, as an apparent change of yaw inertia: on the podded truth
-family's strong-roll variant (tests/physics/podded_truth.py) the inertia estimate of unchanged runs
-moved by about 5 % of I_r per unit of the run's roll rms over the nominal's, and a +10 % I_z change
-on a run rolling twice the nominal's showed as +0.1 % of I_r.
+family's strong-roll variant (tests/physics/podded_truth.py) a +10 % I_z change (+5.4 % of I_r) on
+the two runs rolling 2.1 and 2.3 times the nominal run's roll rms read +0.1 and -0.5 % of I_r over
+the whole record, and +6.4 and +4.1 % with the roll band left out.
 
 The decision therefore reads the residual and the change signatures through a band-stop filter
 around the recording's roll frequency, after the prior's whitening filter: the same linear
