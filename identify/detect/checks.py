@@ -8,7 +8,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from diagnose.recording import Recording, RecordingError
-from identify.detect.yawmodel import YAW_MODELS, YawPrior, _prior_name, model_inputs
+from identify.detect.yawmodel import YAW_MODELS, YawPrior, model_inputs, prior_name
 from identify.yawid.model import INPUT_TERMS, STATE_TERMS
 
 MOMENT = "tau_n"  # measured pod yaw moment, N m (the recording format's actuator yaw moment)
@@ -99,7 +99,7 @@ def moment_scale(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray) -> 
     rest = np.zeros_like(rl)
     for name in YAW_MODELS[prior.kind].params[1:]:  # after I_r
         reg = STATE_TERMS[name][0](rl, w) if name in STATE_TERMS else INPUT_TERMS[name](w)
-        rest = rest + prior.values[_prior_name(name)] * reg
+        rest = rest + prior.values[prior_name(name)] * reg
     win = 2 * int(1.0 / prior.dt) + 1
     need = prior.values["I_r"] * savgol_filter(rl, win, 2, deriv=1, delta=prior.dt) - rest
     tau = w["tau_r"]

@@ -29,7 +29,7 @@ from identify.yawid.model import FULL, FULL_P, MODELS, true_parameters
 from primitives.errors import UserError
 
 
-def _prior_name(name: str) -> str:
+def prior_name(name: str) -> str:
     """The prior's name of a yawid parameter: N_phiu|r|, N_phiu|u|, N_phi|uv| are N_fur, N_fuu, N_fuv."""
     return name.replace("N_phi", "N_f")
 
@@ -41,8 +41,8 @@ YAW_MODELS = MODELS | {FULL_P.name: FULL_P}
 #: the order of a 50 m hull's (Blanke and Christensen 1993 give K_p ~ -0.5e6 N m s), not a value
 N_P_SCALE = -1.0e6
 #: (2.19) of the profile, in the order of the full model (2.17), then the roll-rate term's scale
-NOMINAL = {_prior_name(k): _TRUE[k] for k in FULL.params} | {"N_p": N_P_SCALE}
-PARAMS = {kind: tuple(map(_prior_name, m.params)) for kind, m in YAW_MODELS.items()}
+NOMINAL = {prior_name(k): _TRUE[k] for k in FULL.params} | {"N_p": N_P_SCALE}
+PARAMS = {kind: tuple(map(prior_name, m.params)) for kind, m in YAW_MODELS.items()}
 DAMPING = ("A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")
 SIGNALS = {
     "full": ("u", "v", "v_dot", "phi", "tau_r"),
@@ -218,7 +218,7 @@ def simulate_r(
     """
     th = _theta(kind, theta)
     model = YAW_MODELS[kind]
-    names = tuple(map(_prior_name, model.params))
+    names = tuple(map(prior_name, model.params))
     tau = np.asarray(gain) * sig["tau_r"]
     shape = np.broadcast_shapes(tau.shape, *(np.shape(sig[k]) for k in model.signals), *(np.shape(th[k]) for k in names))
     cols = shape[1] if len(shape) == 2 else 1
@@ -385,7 +385,7 @@ def _fit_scales(
     through :func:`model_inputs`, as the prediction does) by :func:`identify.yawid.estimate.fit_yaw`
     from the scales ``x0``; NaN rows did not converge."""
     model = YAW_MODELS[kind]
-    scale = np.array([NOMINAL[_prior_name(n)] for n in model.params])
+    scale = np.array([NOMINAL[prior_name(n)] for n in model.params])
     w = model_inputs({k: sig[k].T for k in ("tau_r", *model.signals)}, dt, prefilter_hz)  # time on axis 0 there
     data = YawData(np.arange(r_meas.shape[-1]) * dt, {"r": r_meas, **{k: x.T for k, x in w.items()}})
     f = fit_yaw(data, model, dict(zip(model.params, x0 * scale)))
