@@ -290,7 +290,8 @@ def screen(
     ``leave_out_roll_band`` reads the residual and the signatures outside the recording's roll band
     (:mod:`identify.detect.rollband`), here and in the verdict. Off by default: on the podded truth
     family (50 + 50 runs) it halved the false alarms (20 -> 10 %) but missed more (38 -> 48 %) and
-    detected 64 s later (benchmarks/bench_detect_truth.py --roll-band; README, stop 39)."""
+    detected 64 s later (the stored screenings of benchmarks/bench_detect_truth.py re-decided with the
+    band out; README, stop 39; ``--roll-band`` there screens with it)."""
     if abs(rec.sample_time - prior.dt) > 1e-6 * prior.dt:
         raise RecordingError(
             f"{rec.source}: sample time {rec.sample_time:g} s differs from the prior's {prior.dt:g} s; "
