@@ -258,6 +258,8 @@ def main() -> None:
         f"{'variant':16s} {'runs':>9s} {'FA %':>6s} {'miss%':>6s} {'early':>5s} {'delay s':>7s} {'named Iz%':>8s} {'lead@al%':>8s} "
         f"{'undec':>5s} {'fail':>5s}  {'threshold h':>13s} {'rho(h,roll)':>6s}  thesis FA/miss/t"
     )
+    if a.roll_band:
+        print("the roll band left out of the LR-CUSUM and the decision (--roll-band; off in detect)")
     t0, c0 = time.perf_counter(), time.process_time()
     everything = []
     with tempfile.TemporaryDirectory() as td:
