@@ -615,3 +615,19 @@ def test_the_no_change_records_and_thresholds_are_reproducible_for_a_seed(prior)
     assert not np.allclose(a.null_blocks, c.null_blocks)
     # each run's measurement noise is its own: no two no-change records alike
     assert np.corrcoef(a.null_blocks.T)[np.triu_indices(a.null_blocks.shape[1], 1)].max() < 0.99
+
+
+def test_the_opt_in_roll_band_recalibrates_on_the_same_no_change_records(prior):
+    """screen(leave_out_roll_band=True) keeps the residual and the no-change records, recalibrates the
+    thresholds outside the recording's roll band, and the verdict says which band it left out;
+    ``detect`` leaves it off."""
+    from identify.detect.api import screen
+    from identify.detect.verdict import verdict
+
+    rec = simulated_recording(Vessel(), 200, seed=43, measured_moment=True)
+    full, out = (screen(rec, prior, seed=5, null_runs=40, leave_out_roll_band=b) for b in (False, True))
+    assert full.roll_band is None and out.roll_band is not None
+    np.testing.assert_array_equal(full.null_blocks, out.null_blocks)
+    assert not np.allclose(full.h, out.h)
+    assert verdict(out, prior, **HULL).evidence["roll_band_left_out_hz"] == [out.roll_band.lo_hz, out.roll_band.hi_hz]
+    assert detect(rec, prior, null_runs=40, **HULL).evidence["roll_band_left_out_hz"] is None
