@@ -20,6 +20,7 @@ simulation or a failed fit is counted and printed, never dropped silently.
         # (the first call simulates, fits and screens: ~560 s CPU; a change of the decision stage
         #  alone, identify/detect/verdict.py, is then re-measured from the stored screenings in ~10 s)
     nice -n 10 python benchmarks/bench_detect_truth.py --ships 10 --runs 10   # 100 + 100 runs per variant
+    nice -n 10 python benchmarks/bench_detect_truth.py --ships 2 --runs 5 --roll-band  # the roll band left out
     python benchmarks/bench_detect_truth.py --timing 5 --variants strong-roll  # CPU s of detect per recording
 """
 
@@ -101,7 +102,7 @@ def _stored(path: Path, make):
     return out
 
 
-def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str) -> dict:
+def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str, roll_band: bool = False) -> dict:
     """One ship: its prior, then ``runs`` unchanged and ``runs`` changed recordings."""
     rng = np.random.default_rng([ship_seed, 3])
     seeds = [1000 * ship_seed + 1 + i for i in range(2 * runs)]
@@ -134,7 +135,10 @@ def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str) 
             try:
                 rec = load_runs([path])[0]
                 d = verdict(
-                    _stored(folder / f"{path.stem}-screen-{key}.pkl", lambda rec=rec: screen(rec, prior, **HULL)),
+                    _stored(
+                        folder / f"{path.stem}-screen{'-rb' if roll_band else ''}-{key}.pkl",
+                        lambda rec=rec: screen(rec, prior, **HULL, leave_out_roll_band=roll_band),
+                    ),
                     prior,
                     **HULL,
                 )
@@ -229,6 +233,11 @@ def main() -> None:
         "a change of the decision stage alone (identify/detect/verdict.py) is then re-measured in seconds",
     )
     ap.add_argument("--dump", type=Path, help="write every run's verdict and evidence, and each prior's noise, as JSON")
+    ap.add_argument(
+        "--roll-band",
+        action="store_true",
+        help="screen and decide outside each recording's roll band (screen(leave_out_roll_band=True), off in detect)",
+    )
     ap.add_argument("--timing", type=int, default=0, metavar="N", help="only time detect on N recordings of one ship")
     a = ap.parse_args()
     warnings.simplefilter("ignore", RuntimeWarning)
@@ -249,13 +258,15 @@ def main() -> None:
         f"{'variant':16s} {'runs':>9s} {'FA %':>6s} {'miss%':>6s} {'early':>5s} {'delay s':>7s} {'named Iz%':>8s} {'lead@al%':>8s} "
         f"{'undec':>5s} {'fail':>5s}  {'threshold h':>13s} {'rho(h,roll)':>6s}  thesis FA/miss/t"
     )
+    if a.roll_band:
+        print("the roll band left out of the LR-CUSUM and the decision (--roll-band; off in detect)")
     t0, c0 = time.perf_counter(), time.process_time()
     everything = []
     with tempfile.TemporaryDirectory() as td:
         folder, key = a.cache or Path(td), screening_key()
         folder.mkdir(parents=True, exist_ok=True)
         for v in a.variants:
-            studies = [ship_study(v, 100 + k, a.runs, folder, key) | {"variant": v} for k in range(a.ships)]
+            studies = [ship_study(v, 100 + k, a.runs, folder, key, a.roll_band) | {"variant": v} for k in range(a.ships)]
             everything += studies
             s = summarise(studies)
             print(row(v, s), flush=True)

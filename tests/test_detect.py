@@ -601,3 +601,33 @@ def test_the_hulls_inertia_comes_from_the_ships_data_and_is_never_another_ships(
     c = json.loads(capsys.readouterr().out)["recordings"][0]["evidence"]["candidates"]["yaw_inertia"]
     assert c["I_z"] == 50e6 and c["N_rdot"] == -28.7e6
     assert c["I_z_relative_change"] == pytest.approx(c["relative_change"] * 78.7 / 50.0)
+
+
+def test_the_no_change_records_and_thresholds_are_reproducible_for_a_seed(prior):
+    """The same recording screened twice with one seed gives the same no-change records and
+    thresholds bit for bit; another seed other draws (the records are noise, not a fixed table)."""
+    from identify.detect.api import screen
+
+    rec = simulated_recording(Vessel(), 200, seed=43, measured_moment=True)
+    a, b, c = (screen(rec, prior, seed=s, null_runs=40) for s in (5, 5, 6))
+    np.testing.assert_array_equal(a.null_blocks, b.null_blocks)
+    np.testing.assert_array_equal(a.h, b.h)
+    assert not np.allclose(a.null_blocks, c.null_blocks)
+    # each run's measurement noise is its own: no two no-change records alike
+    assert np.corrcoef(a.null_blocks.T)[np.triu_indices(a.null_blocks.shape[1], 1)].max() < 0.99
+
+
+def test_the_opt_in_roll_band_recalibrates_on_the_same_no_change_records(prior):
+    """screen(leave_out_roll_band=True) keeps the residual and the no-change records, recalibrates the
+    thresholds outside the recording's roll band, and the verdict says which band it left out;
+    ``detect`` leaves it off."""
+    from identify.detect.api import screen
+    from identify.detect.verdict import verdict
+
+    rec = simulated_recording(Vessel(), 200, seed=43, measured_moment=True)
+    full, out = (screen(rec, prior, seed=5, null_runs=40, leave_out_roll_band=b) for b in (False, True))
+    assert full.roll_band is None and out.roll_band is not None
+    np.testing.assert_array_equal(full.null_blocks, out.null_blocks)
+    assert not np.allclose(full.h, out.h)
+    assert verdict(out, prior, **HULL).evidence["roll_band_left_out_hz"] == [out.roll_band.lo_hz, out.roll_band.hi_hz]
+    assert detect(rec, prior, null_runs=40, **HULL).evidence["roll_band_left_out_hz"] is None

@@ -8,7 +8,8 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from diagnose.recording import Recording, RecordingError
-from identify.detect.yawmodel import YawPrior, moment_scale
+from identify.detect.yawmodel import YAW_MODELS, YawPrior, model_inputs, prior_name
+from identify.yawid.model import INPUT_TERMS, STATE_TERMS
 
 MOMENT = "tau_n"  # measured pod yaw moment, N m (the recording format's actuator yaw moment)
 #: the prior's prediction may miss a recording by this many times its noise sigma before the
@@ -17,7 +18,7 @@ MOMENT = "tau_n"  # measured pod yaw moment, N m (the recording format's actuato
 #: tau_n or r of the wrong sign ~18-24x (the sign check below catches these too)
 MISFIT_SIGMAS = 20.0
 #: the recorded tau_n may be off the moment the prior needs by this factor before the recording is
-#: refused (:func:`identify.detect.yawmodel.moment_scale`): measured 0.90-1.00 on our own kernel's
+#: refused (:func:`moment_scale`): measured 0.90-1.00 on our own kernel's
 #: runs (0.90 for a -10 % pod gain), 0.70-0.99 on the podded truth family's (steering lag lowest);
 #: a moment in kN m gives ~1000
 MOMENT_FACTOR = 4.0
@@ -54,7 +55,7 @@ def check_inputs(rec: Recording, prior: YawPrior, sig: dict[str, np.ndarray], r:
     """Refuse a recording the prior cannot describe at all (an input error, not a change): a
     measured pod yaw moment of the wrong sign (:func:`check_moment_sign`) or off the moment the
     prior needs to turn the ship as recorded by more than MOMENT_FACTOR (tau_n in kN m, x1000:
-    :func:`identify.detect.yawmodel.moment_scale`), a recording that turns the ship too little for
+    :func:`moment_scale`), a recording that turns the ship too little for
     either check (the two moments correlate less than MOMENT_CORRELATION: a straight run, which
     read as a +100 % change before), or a prediction residual not finite or over MISFIT_SIGMAS
     times the prior's noise sigma. Returns the residual's rms."""
@@ -83,3 +84,25 @@ def check_inputs(rec: Recording, prior: YawPrior, sig: dict[str, np.ndarray], r:
             f"change: an input error); {UNITS_FIX}"
         )
     return rms
+
+
+def moment_scale(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray) -> tuple[float, float]:
+    """How many times the yaw moment the prior's row needs to turn the ship as recorded is the
+    recorded actuator moment: the least-squares slope of ``I_r r' - sum_j theta_j phi_j(r, w)``
+    ((2.17)/(2.18) solved for tau_r, with the measured r low-passed like the inputs and r' its
+    Savitzky-Golay rate) on ``tau_r``. About 1 for a recording of the ship in the units the prior
+    was fitted in (within the change of its properties); 1000 for a moment given in kN m as N m.
+    Returns the slope and the correlation of the two moments (near 0 when the recording hardly
+    turns the ship: the slope is then noise, not a unit)."""
+    w = prior.inputs(sig)
+    rl = model_inputs({"r": r}, prior.dt, prior.prefilter_hz)["r"]
+    rest = np.zeros_like(rl)
+    for name in YAW_MODELS[prior.kind].params[1:]:  # after I_r
+        reg = STATE_TERMS[name][0](rl, w) if name in STATE_TERMS else INPUT_TERMS[name](w)
+        rest = rest + prior.values[prior_name(name)] * reg
+    win = 2 * int(1.0 / prior.dt) + 1
+    need = prior.values["I_r"] * savgol_filter(rl, win, 2, deriv=1, delta=prior.dt) - rest
+    tau = w["tau_r"]
+    k = float(np.dot(need, tau) / max(float(np.dot(tau, tau)), 1e-300))
+    c = float(np.corrcoef(need, tau)[0, 1]) if np.ptp(need) > 0 and np.ptp(tau) > 0 else 0.0
+    return k, c

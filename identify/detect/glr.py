@@ -27,24 +27,27 @@ from dataclasses import dataclass
 import numpy as np
 
 from identify.detect.cusum import cusum_path, first_alarms
-from identify.detect.yawmodel import YawPrior, block_mean, whiten
+from identify.detect.rollband import RollBand, decision_whiten
+from identify.detect.yawmodel import YawPrior, block_mean
 
 
 @dataclass
 class SignatureCusum:
     """Two-sided LR-CUSUM along each candidate signature for a relative change of size ``theta1``
-    (a scalar, or one per candidate: the signatures are per relative change of I_r, damping, gain)."""
+    (a scalar, or one per candidate: the signatures are per relative change of I_r, damping, gain),
+    read outside the recording's roll ``band`` when given (:mod:`identify.detect.rollband`)."""
 
     prior: YawPrior
     theta1: float | np.ndarray = 0.05
     h: np.ndarray | float = np.inf  # threshold per candidate (k,)
+    band: RollBand | None = None
 
     def statistics(self, eps_blocks: np.ndarray, S: np.ndarray) -> np.ndarray:
         """Statistic per 1 s block, (nb, k) or (nb, runs, k), for block-mean residuals (nb,) or
         (nb, runs) and per-sample signatures ``S`` (n, k): max of the up and down CUSUMs."""
         p = self.prior
-        ew = whiten(np.asarray(eps_blocks, float), p.ar)
-        m = self.theta1 * whiten(block_mean(S, p.block), p.ar)[: len(ew)]
+        ew = decision_whiten(np.asarray(eps_blocks, float), p, self.band)
+        m = self.theta1 * decision_whiten(block_mean(S, p.block), p, self.band)[: len(ew)]
         if ew.ndim == 2:
             m = m[:, None, :]
         e = ew[..., None]
@@ -60,7 +63,13 @@ class SignatureCusum:
 
 
 def calibrate(
-    prior: YawPrior, S: np.ndarray, null: np.ndarray, theta1: float | np.ndarray = 0.05, false_alarm: float = 0.02, seed: int = 0
+    prior: YawPrior,
+    S: np.ndarray,
+    null: np.ndarray,
+    theta1: float | np.ndarray = 0.05,
+    false_alarm: float = 0.02,
+    seed: int = 0,
+    band: RollBand | None = None,
 ) -> SignatureCusum:
     """Thresholds, one per candidate: the same quantile ``q`` of each candidate's statistic maximum
     over ``null`` (nb, runs) no-change block residuals (:func:`yawmodel.null_records`), ``q`` chosen
@@ -71,7 +80,7 @@ def calibrate(
     One threshold for all candidates (the maximum over them) would let the candidate whose
     no-change statistic spreads most (damping, when the prior's roll terms are uncertain on a
     strongly rolling run) blind the others."""
-    det = SignatureCusum(prior, theta1)
+    det = SignatureCusum(prior, theta1, band=band)
     peaks = det.statistics(null, S).max(axis=0)  # (runs, k)
     if np.any(prior.structure > 0):
         # the structure's misfit on a new manoeuvre: an apparent change of sd structure_k along S_k,

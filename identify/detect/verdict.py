@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from identify.detect.yawmodel import CANDIDATES, YawPrior, block_mean, whiten
+from identify.detect.rollband import RollBand, decision_whiten
+from identify.detect.yawmodel import CANDIDATES, YawPrior, block_mean
 
 #: the hull's yaw inertias are the ship's data (``detect --profile``, ``--i-z``, ``--n-rdot``;
 #: :func:`identify.detect.api.hull_inertia`), never a default of one ship: a relative change of the lumped
@@ -34,8 +35,9 @@ class Screening:
     signatures ``S`` (n, k), the LR-CUSUM statistic per block and candidate ``st`` (nb, k) with
     its thresholds ``h`` (k,), the block means of the no-change records (nb, runs), the dead-zone
     CUSUM (5.1) with its threshold and first alarm sample (-1: none), the time from the
-    recording's start (n,), the input checks' residual rms and how many no-change simulations
-    diverged and were left out of the calibration."""
+    recording's start (n,), the input checks' residual rms, how many no-change simulations
+    diverged and were left out of the calibration, and the roll band the LR-CUSUM and the decision
+    leave out (None: none)."""
 
     source: str
     eps: np.ndarray
@@ -49,6 +51,7 @@ class Screening:
     t: np.ndarray
     residual_rms: float
     null_diverged: int = 0
+    roll_band: RollBand | None = None
 
 
 @dataclass
@@ -116,7 +119,7 @@ def implausible_inertia(prior: YawPrior, i_z: float | None, n_rdot: float | None
     )
 
 
-def _decide(eps, S, prior, st, h, null_blocks, min_change, i_ref, n_rdot) -> tuple[int, dict]:
+def _decide(eps, S, prior, st, h, null_blocks, min_change, i_ref, n_rdot, band=None) -> tuple[int, dict]:
     """First block over the threshold whose change is also worth an alarm: the leading candidate's
     estimate from the change point on (:meth:`Whitened.onset`) up to the end of that block, or MIN_WINDOW_S
     after the change point if later, at least ``min_change`` (of I_z for yaw inertia, from the
@@ -129,7 +132,7 @@ def _decide(eps, S, prior, st, h, null_blocks, min_change, i_ref, n_rdot) -> tup
     data to be told apart than to be detected). ``at_alarm`` keeps what the alarm decision saw.
     Residual, signatures and no-change records are whitened once (:class:`Whitened`): every
     candidate block reads windows of the same whitened arrays."""
-    wd = Whitened.of(eps, S, prior, null_blocks)
+    wd = Whitened.of(eps, S, prior, null_blocks, band)
     n = len(eps)
     over = np.flatnonzero((st / h).max(axis=1) > 1.0)
     step = max(1, len(over) // CHECKS)
@@ -163,7 +166,8 @@ def verdict(
     if known and not (i_z > 0 and n_rdot < 0):
         raise ValueError(f"i_z {i_z:g} must be positive and n_rdot {n_rdot:g} negative (kg m^2)")
     i_ref = i_z - n_rdot if known else None
-    i, ev = _decide(sc.eps, sc.S, prior, sc.st, sc.h, sc.null_blocks, min_change, i_ref, n_rdot)
+    band = getattr(sc, "roll_band", None)  # screenings stored before the roll band have none
+    i, ev = _decide(sc.eps, sc.S, prior, sc.st, sc.h, sc.null_blocks, min_change, i_ref, n_rdot, band)
     t = sc.t
     tau, lo, hi = ev.pop("onset")
     ev["onset_s"] = float(t[min(tau, len(t) - 1)])
@@ -182,6 +186,7 @@ def verdict(
     }
     ev["statistic_max"] = {c: float(sc.st[:, k].max()) for k, c in enumerate(CANDIDATES)}
     ev["residual_rms"] = sc.residual_rms
+    ev["roll_band_left_out_hz"] = None if band is None else [band.lo_hz, band.hi_hz]
     ev["prior_sigma"] = prior.sigma
     ev["null_diverged"] = {"left_out": sc.null_diverged, "of": sc.null_diverged + sc.null_blocks.shape[1]}
     tb = t[prior.block - 1 :: prior.block][: len(sc.st)]
@@ -234,9 +239,13 @@ class Whitened:
     nw: np.ndarray | None
 
     @classmethod
-    def of(cls, eps: np.ndarray, S: np.ndarray, prior: YawPrior, null_blocks: np.ndarray | None = None) -> Whitened:
-        nw = None if null_blocks is None else whiten(null_blocks, prior.ar)
-        return cls(prior, whiten(block_mean(S, prior.block), prior.ar), whiten(block_mean(eps, prior.block), prior.ar), nw)
+    def of(
+        cls, eps: np.ndarray, S: np.ndarray, prior: YawPrior, null_blocks: np.ndarray | None = None, band: RollBand | None = None
+    ) -> Whitened:
+        """Whitened with the prior's AR filter, and outside the roll ``band`` when given."""
+        nw = None if null_blocks is None else decision_whiten(null_blocks, prior, band)
+        Sw = decision_whiten(block_mean(S, prior.block), prior, band)
+        return cls(prior, Sw, decision_whiten(block_mean(eps, prior.block), prior, band), nw)
 
     def onset(self, upto: int, k: int) -> tuple[int, int, int]:
         """Change point of a step change along signature ``k`` seen up to sample ``upto``: the block
