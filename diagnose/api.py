@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cache, partial
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -220,13 +222,14 @@ def run(
         inputs=inputs,
         calm_preps=held_by,
     )
+    held_fit = cache(partial(fit_on_cov, given, fit_on, S.profile, S.theta0, S.own))  # the same on every pass
     for _pass in range(len(result.steps) + 1):  # one finding dropped a pass at most
         P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(
             model, preps + S.calm_preps, val_preps, result, w, P0, inputs
         )
         cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0)
         if steps:  # the per-run guard's set too: its findings get an interval and face the rule below
-            cov = _cov(S, given, fit_on, w_fit, P, free, result.prior_std)
+            cov = _cov(S, held_fit, fit_on, w_fit, P, free, result.prior_std)
         findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
         if not _drop_indistinct(model, preps + S.calm_preps, result, steps, findings, cov, w):
             break
@@ -387,7 +390,7 @@ def _drop_implausible(
 
 def _cov(
     S: _Setup,
-    given: tuple[ShipProfile, np.ndarray],
+    held_fit: Callable[[], np.ndarray],
     fit_on: list[Recording] | None,
     w: np.ndarray,
     P: np.ndarray,
@@ -400,7 +403,7 @@ def _cov(
     model = S.model
     fitted = bool(fit_on) and S.own is not None and not S.source.endswith("(rejected)")
     held = [j for j in range(model.n_base) if j not in free] if fitted else []
-    held_cov = fit_on_cov(given, fit_on, S.profile, S.theta0, S.own)[np.ix_(held, held)] if held else None
+    held_cov = held_fit()[np.ix_(held, held)] if held else None
     return finding_cov(model, S.preps + S.calm_preps, w, P, free, prior_std, held, held_cov)
 
 
