@@ -104,7 +104,7 @@ def lag_derivative(x: np.ndarray, lag: float, T: float) -> np.ndarray:
 def _output_sensitivities(
     lam: np.ndarray, V: np.ndarray, mats: Matrices, dmats: list[Matrices], u: np.ndarray, du: np.ndarray | None, lag_col: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The rudder response ``y`` (n, 3), every parameter's ``dy`` (n, 3, P) and ``E = V^-1 dAd V``
+    """The rudder response ``y`` (n, 3), every parameter's ``dy`` (3 channels, n, P) and ``E = V^-1 dAd V``
     (P, modes, modes). ``du``: the input's derivative by the parameter ``lag_col`` (None: none)."""
     _, Bd, Cd, Dd = mats
     Vi = np.linalg.inv(V)
@@ -124,11 +124,16 @@ def _output_sensitivities(
     np.fill_diagonal(inv, 0.0)
     on_g = np.einsum("pcij,ij->pci", k + k.transpose(0, 1, 3, 2), inv) + c[None] * f[:, None, :] + dc * b[None, None, :]
     on_h = np.einsum("pcii->pci", k)
-    n, P = len(u), len(dmats)
-    dy = (g @ on_g.transpose(2, 1, 0).reshape(len(lam), -1) + h @ on_h.transpose(2, 1, 0).reshape(len(lam), -1)).real
-    dy = dy.reshape(n, 3, P) + u[:, None, None] * dD.T[None]
+    # Re(z w) = Re z Re w - Im z Im w: one real product a channel, (n, 17) x (17, P), channel-major
+    sig = np.column_stack([g.real, g.imag, h.real, h.imag, u])
+    dy = np.stack(
+        [
+            sig @ np.vstack([on_g[:, ch].T.real, -on_g[:, ch].T.imag, on_h[:, ch].T.real, -on_h[:, ch].T.imag, dD[:, ch]])
+            for ch in range(3)
+        ]
+    )
     if du is not None:
-        dy[:, :, lag_col] += (mode_filter(lam, du) @ cb.T).real + du[:, None] * D
+        dy[:, :, lag_col] += ((mode_filter(lam, du) @ cb.T).real + du[:, None] * D).T
     return y, dy, E
 
 
@@ -180,6 +185,6 @@ def dataset_jacobian(
             if not is_real:
                 dBt_r[j + 1] = s[m].imag
             j += 1 if is_real else 2
-        X = fir(a, dy[:, ch, :]) + dB_beta
+        X = fir(a, dy[ch]) + dB_beta
         J[:, ch, :] = -w[ch] * (X - Q @ (Q.T @ X) + Q @ solve_triangular(R, dBt_r, trans="T"))
     return J.reshape(3 * n, P)
