@@ -318,13 +318,8 @@ class _Problem:
             blocks = []
             for i, (rec, Y) in enumerate(zip(self.datasets, self.Y)):
                 mats = self.discrete(x, i)
-                zero = tuple(np.zeros_like(a) for a in mats)
                 dmats = []
-                for j, (name, h) in enumerate(zip(self.free, steps)):
-                    # the lag moves the input only; the loaded run's load only the loaded run's matrices
-                    if name == "t_imu" or (name in ("m", "zbar_m") and i < 2):
-                        dmats.append(zero)
-                        continue
+                for j, h in enumerate(steps):
                     e = np.zeros_like(x)
                     e[j] = h
                     hi, lo = self.discrete(x + e, i), self.discrete(x - e, i)

@@ -24,9 +24,14 @@ and ``dB`` is the whitened ``k lambda_i^(k-1) dlambda_i``, ``dlambda_i = E_ii``.
 
 Only ``(Ad, Bd, Cd, Dd)``'s derivatives are finite differences (central, of 4x4 matrices: smooth,
 about 1e-10 relative); the model equations stay where they are (``output_error.model_matrices``)
-and this module never sees them. Against central differences of the whole residual
-(tests/test_rollmass_oe_fit.py): agreement to about 1e-6 of each column, and about 20 times less
-CPU a Jacobian than the forward differences the fit took before.
+and this module never sees them: a change of the equations or a new parameter that enters them
+needs nothing here. What is mirrored here, and must change with ``output_error`` if it changes:
+the rudder as the one input, delayed by ``t_imu`` (``output_error.delayed``, whose derivative is
+:func:`lag_derivative`), the simulation from rest in modal form, the free-response basis
+(:func:`free_basis`), and the residual's per-channel whitening, projection and weights
+(``_Problem.errors``, ``weighted``). tests/test_rollmass_oe_jacobian.py checks every column against
+central differences of the whole residual (agreement to about 1e-6 of a column), so a change on one
+side only fails there.
 """
 
 from __future__ import annotations
