@@ -25,10 +25,10 @@ def case2():
 def _problem(datasets) -> tuple[oe._Problem, np.ndarray]:
     kn = PROF.known
     free = oe.SHARED + ("z_f", "m", "zbar_m")
-    noise = [(np.eye(3)[None], np.diag(1.0 / oe._measured(d).std(axis=0))) for d in datasets]
+    w = np.array([1.0 / oe._measured(d).std(axis=0) for d in datasets])
     start = oe.start_values(PROF)
     x = np.array([start[k] for k in oe.SHARED] + [kn.z_f_prior, 0.4, -0.268])
-    return oe._Problem(datasets, kn, CAL, kn.z_f_prior, free, noise, kn.z_f_prior_sd), x
+    return oe._Problem(datasets, kn, CAL, kn.z_f_prior, free, w, None, kn.z_f_prior_sd), x
 
 
 @pytest.mark.parametrize("name", ["Y_r", "Y_pdot", "K_vdot", "X_v", "zbar_m"])
