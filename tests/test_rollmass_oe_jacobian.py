@@ -42,10 +42,13 @@ def _problem(datasets) -> tuple[oe._Problem, np.ndarray]:
     return oe._Problem(datasets, kn, CAL, kn.z_f_prior, free, w, ar, kn.z_f_prior_sd), x
 
 
-def test_the_sensitivity_jacobian_is_the_residuals_derivative(case2):
+@pytest.mark.parametrize("t_imu", [0.003, -0.002, 0.015])
+def test_the_sensitivity_jacobian_is_the_residuals_derivative(case2, t_imu):
     """Every column against central differences of the whole residual (variable projection,
-    whitening, weights, the IMU's lag and the z_f prior included): within 1e-5 of the column."""
+    whitening, weights, the IMU's lag, the z_f prior and the lag's wall included): within 1e-5 of
+    the column, with the lag inside its physical range (no wall) and below and above it (wall)."""
     prob, x = _problem(case2)
+    x[oe.SHARED.index("t_imu")] = t_imu
     J, ref = prob.jacobian(x), central_jacobian(prob.residual, x)
     assert J.shape == ref.shape
     err = np.linalg.norm(J - ref, axis=0) / np.linalg.norm(ref, axis=0)

@@ -75,6 +75,13 @@ NOISE_AR = 6  # order of each channel's whitening filter
 # the length of a joystick turn, over which unmodelled dynamics leave structure in the residuals
 # (turn entries, Linder et al. 2015 Fig. 5)
 SANDWICH_LAG_S = 5.0
+# physical range of the IMU's lag behind the rudder encoder, in sample times: a sensor's filter
+# delays, it does not lead (>= 0), and its group delay is a few ms (the MTi-G's 30 Hz low-pass: 5.1 ms),
+# well within half a sample at the recordings' 50 Hz, where the second-order shift of :func:`delayed`
+# still holds; a longer lag is the logger's timing, to be fixed in the data. Outside it a wall
+# residual ``(distance outside) / T_IMU_WALL`` (zero inside, so no information there) holds the fit in.
+T_IMU_RANGE = (0.0, 0.5)
+T_IMU_WALL = 1e-4  # s
 # load decrement below which the fit is stationary (a further step < 0.1 reported standard error), and the
 # Gauss-Newton steps allowed to get there after LM, whose step-size test can stop it well short
 STATIONARY = 0.01
@@ -283,10 +290,20 @@ class _Problem:
 
     def prior(self, x: np.ndarray) -> np.ndarray:
         """The prior's residual ``(z_f - prior) / sd`` when ``z_f`` is free (a Gaussian prior as one
-        more standardised observation: the cost is then the negative log posterior)."""
-        if "z_f" not in self.free:
-            return np.zeros(0)
-        return np.array([(x[self.free.index("z_f")] - self.z_f) / self.z_f_sd])
+        more standardised observation: the cost is then the negative log posterior), and the wall
+        residual of :data:`T_IMU_RANGE` when ``t_imu`` is free."""
+        rows = []
+        if "z_f" in self.free:
+            rows.append((x[self.free.index("z_f")] - self.z_f) / self.z_f_sd)
+        if "t_imu" in self.free:
+            t, (lo, hi) = x[self.free.index("t_imu")], self.lag_range()
+            rows.append((min(t - lo, 0.0) + max(t - hi, 0.0)) / T_IMU_WALL)
+        return np.array(rows)
+
+    def lag_range(self) -> tuple[float, float]:
+        """:data:`T_IMU_RANGE` in seconds, at the shortest sample time of the datasets."""
+        T = min(d.T for d in self.datasets)
+        return T_IMU_RANGE[0] * T, T_IMU_RANGE[1] * T
 
     def weighted(self, x: np.ndarray) -> np.ndarray:
         """Whitened, weighted output errors and the prior row; raises when the model is unstable."""
@@ -329,10 +346,19 @@ class _Problem:
                 blocks.append(dataset_jacobian(mats, dmats, u, du, lag_col, Y, self.ar[i], self.w[i]))
         except (FloatingPointError, np.linalg.LinAlgError):
             return central_jacobian(self.residual, x)
-        prior = np.zeros((len(self.prior(x)), len(x)))
-        if len(prior):
-            prior[0, self.free.index("z_f")] = 1.0 / self.z_f_sd
-        return np.vstack(blocks + [prior])
+        return np.vstack(blocks + [self.prior_jacobian(x)])
+
+    def prior_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """The rows of :meth:`prior` differentiated, in its order: ``1/sd`` for the ``z_f`` prior, and
+        ``1/T_IMU_WALL`` for the ``t_imu`` wall outside :data:`T_IMU_RANGE` (zero inside)."""
+        rows = []
+        if "z_f" in self.free:
+            rows.append(np.eye(len(x))[self.free.index("z_f")] / self.z_f_sd)
+        if "t_imu" in self.free:
+            i, (lo, hi) = self.free.index("t_imu"), self.lag_range()
+            outside = not lo <= x[i] <= hi
+            rows.append(np.eye(len(x))[i] * (outside / T_IMU_WALL))
+        return np.array(rows).reshape(len(rows), len(x))
 
 
 def _lm(prob: _Problem, x0: np.ndarray, tol: float) -> OptimizeResult:
