@@ -399,7 +399,7 @@ def _best_start(
 
 
 def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
-    """Finish a fit with up to ``steps`` Gauss-Newton steps (central Jacobian, step halving) until
+    """Finish a fit with up to ``steps`` Gauss-Newton steps (the sensitivity Jacobian, step halving) until
     the load's step in its sandwich standard errors (:func:`load_decrement`) is below
     :data:`STATIONARY`; returns ``x``, its Jacobian, that decrement and the residual at ``x``."""
     lengths = [d.n for d in prob.datasets]
