@@ -10,20 +10,35 @@ seeds, and how many fits failed.
     python benchmarks/bench_rollmass.py --seeds 10 --methods oe --length 3 --cases case1   # 3x longer runs
     python benchmarks/bench_rollmass.py --seeds 50 --waves 10   # rough-water stress case
     python benchmarks/bench_rollmass.py --seeds 50 --noise 0.3  # a 3x better IMU
+    python benchmarks/bench_rollmass.py --cpu 3   # CPU of one fit and of the `mass` command, the bundled example
+
+``--cpu N`` times the default fit (oe) on the bundled example (``shiptrial mass-sim DIR --case case1
+--seed 3``): N fits in this process (CPU each, ``time.process_time``) and N runs of the whole
+``mass`` command in a fresh interpreter (its CPU, user + system, imports included), medians printed.
 """
 
 from __future__ import annotations
 
 import argparse
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
 import time
 from multiprocessing import Pool
+from pathlib import Path
 
 import numpy as np
 
-from identify.rollmass.estimate import METHODS, estimate
-from identify.rollmass.model import load_profile
-from identify.rollmass.output_error import start_values
-from identify.rollmass.simulate import Noise, simulate_case
+ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT) not in sys.path:  # run as a script from a checkout: its own code, not an installed one
+    sys.path.insert(0, str(ROOT))
+
+from identify.rollmass.estimate import METHODS, estimate  # noqa: E402
+from identify.rollmass.model import load_profile  # noqa: E402
+from identify.rollmass.output_error import start_values  # noqa: E402
+from identify.rollmass.simulate import Noise, simulate_case  # noqa: E402
 
 # Table 3 (IV) and Table 4 (LS) of the paper: relative errors of m and zbar_m, in %.
 PAPER = {
@@ -71,6 +86,31 @@ def _one(job: tuple) -> list[tuple]:
     return out
 
 
+def cpu_example(repeats: int) -> None:
+    """Median CPU of the default fit and of the whole ``mass`` command on the bundled example."""
+    cli = [sys.executable, "-c", "from cli.app import main; main()"]
+    with tempfile.TemporaryDirectory() as d:
+        subprocess.run([*cli, "mass-sim", d, "--case", "case1", "--seed", "3"], check=True, capture_output=True, cwd=ROOT)
+        files = [f"{d}/{r}.csv" for r in ("nominal", "calibration", "loaded")]
+        fits = []
+        from identify.rollmass.api import estimate_from_files
+
+        for _ in range(repeats):
+            c0 = time.process_time()
+            e = estimate_from_files(*files, known_load="0.2@-0.256")
+            fits.append(time.process_time() - c0)
+        cmd = [*cli, "mass", *files, "--known-load", "0.2@-0.256"]
+        runs = []
+        for _ in range(repeats):
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            subprocess.run(cmd, check=True, capture_output=True, cwd=ROOT)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            runs.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+    print(f"bundled example (mass-sim case1 seed 3), oe: m {e.m:.4f} kg, z {e.zbar_m:+.4f} m")
+    print(f"fit (estimate_from_files): median {statistics.median(fits):.2f} s cpu of {', '.join(f'{t:.2f}' for t in fits)}")
+    print(f"`mass` command, whole process: median {statistics.median(runs):.2f} s cpu of {', '.join(f'{t:.2f}' for t in runs)}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=50)
@@ -82,7 +122,13 @@ def main() -> None:
     ap.add_argument("--cases", default="case1,case2,case3", help="comma-separated Table 2 cases")
     ap.add_argument("--start-pert", type=float, default=0.2, help="relative random error of the oe start values")
     ap.add_argument("--progress", action="store_true", help="print a line per finished case-seed")
+    ap.add_argument(
+        "--cpu", type=int, default=0, metavar="N", help="time N fits and N mass commands on the bundled example, nothing else"
+    )
     a = ap.parse_args()
+    if a.cpu:
+        cpu_example(a.cpu)
+        return
     prof = load_profile()
     imu = prof.raw["imu"]
     print(

@@ -122,3 +122,21 @@ def test_stationarity_is_judged_in_the_reported_standard_errors():
         assert (oe.load_decrement(J, f, [n], lags) < oe.STATIONARY) is stationary
     g = J.T @ (J @ (x_opt + np.r_[0.0, 0.0, 0.05 * sd_m, 0.0]) - y)
     assert g @ np.linalg.solve(J.T @ J, g) > oe.STATIONARY
+
+
+def test_the_imu_lag_is_held_within_its_physical_range(case2):
+    """``t_imu`` is a sensor filter's delay: not negative, and within half a sample (10 ms at 50 Hz).
+    Inside that range the fit sees no wall (no information added); outside it a wall residual
+    grows with the distance, so a fit cannot wander to a lag no IMU has."""
+    prob, x = _problem(case2)
+    i, T = oe.SHARED.index("t_imu"), case2[0].T
+
+    def wall(t: float) -> float:
+        y = x.copy()
+        y[i] = t
+        return float(prob.prior(y)[-1])
+
+    assert wall(0.0) == wall(0.005) == wall(0.5 * T) == 0.0
+    assert wall(-0.001) == pytest.approx(-0.001 / oe.T_IMU_WALL)
+    assert wall(0.5 * T + 0.002) == pytest.approx(0.002 / oe.T_IMU_WALL)
+    assert len(prob.residual(x)) == 3 * sum(d.n for d in case2) + 2  # the z_f prior and the wall

@@ -40,9 +40,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
 from scipy.signal import lfilter
+from threadpoolctl import threadpool_limits
 
 from identify.rollmass.model import Known, Load, RollProfile, load_restoring
 from identify.rollmass.sandwich import central_jacobian, load_decrement, sandwich_cov
+from identify.rollmass.sensitivity import dataset_jacobian, fir, free_basis, lag_derivative, modal
 from identify.rollmass.simulate import RollRecording
 
 # Shared parameters: sway (minus added mass, damping, yaw coupling, rudder), roll (3)-(5), yaw
@@ -73,6 +75,13 @@ NOISE_AR = 6  # order of each channel's whitening filter
 # the length of a joystick turn, over which unmodelled dynamics leave structure in the residuals
 # (turn entries, Linder et al. 2015 Fig. 5)
 SANDWICH_LAG_S = 5.0
+# physical range of the IMU's lag behind the rudder encoder, in sample times: a sensor's filter
+# delays, it does not lead (>= 0), and its group delay is a few ms (the MTi-G's 30 Hz low-pass: 5.1 ms),
+# well within half a sample at the recordings' 50 Hz, where the second-order shift of :func:`delayed`
+# still holds; a longer lag is the logger's timing, to be fixed in the data. Outside it a wall
+# residual ``(distance outside) / T_IMU_WALL`` (zero inside, so no information there) holds the fit in.
+T_IMU_RANGE = (0.0, 0.5)
+T_IMU_WALL = 1e-4  # s
 # load decrement below which the fit is stationary (a further step < 0.1 reported standard error), and the
 # Gauss-Newton steps allowed to get there after LM, whose step-size test can stop it well short
 STATIONARY = 0.01
@@ -208,26 +217,13 @@ def _simulate(v: dict[str, float], kn: Known, z_f: float, load: Load, rec: RollR
     by 10-800 % (every parameter, basin truth ``base``, run 0, case 2): the fit's Jacobian was noise.
     """
     Ad, Bd, Cd, Dd = _bilinear(*model_matrices(v, kn, z_f, load, rec.U), rec.T)
-    lam, V = np.linalg.eig(Ad)
-    if not np.all(np.isfinite(lam)) or np.any(np.abs(lam) >= 1.0):
-        raise FloatingPointError("unstable model")
-    if np.linalg.cond(V) > 1e8:  # (nearly) repeated modes: no well-conditioned modal form
-        raise np.linalg.LinAlgError("defective model")
+    lam, V = modal(Ad)
     b = np.linalg.solve(V, Bd[:, 0])
     c = Cd @ V
     delta = delayed(rec.delta, v.get("t_imu", 0.0), rec.T)  # the rudder as the lagging IMU channels see it
     modes = np.column_stack([lfilter([0.0, bi], [1.0, -li], delta.astype(complex)) for bi, li in zip(b, lam)])
     out = (modes @ c.T).real + delta[:, None] * Dd[:, 0]
-    k = np.arange(rec.n)
-    cols = []
-    for li in lam:
-        if li.imag == 0.0:
-            cols.append(li.real**k)
-        elif li.imag > 0.0:  # one of each conjugate pair spans both
-            pk = li**k
-            cols += [pk.real, pk.imag]
-    basis = np.column_stack(cols + [np.ones(rec.n)])
-    return out, basis
+    return out, free_basis(lam, rec.n)
 
 
 def _whitener(e: np.ndarray, order: int) -> np.ndarray:
@@ -241,15 +237,6 @@ def _whitener(e: np.ndarray, order: int) -> np.ndarray:
     if big.any():  # keep the whitener's inverse stable
         roots[big] *= 0.98 / np.abs(roots[big])
     return np.real(np.poly(roots))
-
-
-def _fir(a: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``lfilter(a, [1.0], x, axis=0)`` (zero initial conditions) as a sum of shifted copies: scipy
-    filters a 2-D array by an FIR one column at a time (``apply_along_axis``): 13 % of a profiled fit."""
-    y = a[0] * x
-    for k in range(1, min(len(a), len(x))):
-        y[k:] += a[k] * x[:-k]
-    return y
 
 
 def _measured(rec: RollRecording) -> np.ndarray:
@@ -295,7 +282,7 @@ class _Problem:
             cols = []
             for j in range(3):
                 a = self.ar[i][j]
-                ej, Bj = _fir(a, e[:, j]), _fir(a, basis)
+                ej, Bj = fir(a, e[:, j]), fir(a, basis)
                 Q, _ = np.linalg.qr(Bj)
                 cols.append(ej - Q @ (Q.T @ ej))
             out.append(np.column_stack(cols))
@@ -303,10 +290,20 @@ class _Problem:
 
     def prior(self, x: np.ndarray) -> np.ndarray:
         """The prior's residual ``(z_f - prior) / sd`` when ``z_f`` is free (a Gaussian prior as one
-        more standardised observation: the cost is then the negative log posterior)."""
-        if "z_f" not in self.free:
-            return np.zeros(0)
-        return np.array([(x[self.free.index("z_f")] - self.z_f) / self.z_f_sd])
+        more standardised observation: the cost is then the negative log posterior), and the wall
+        residual of :data:`T_IMU_RANGE` when ``t_imu`` is free."""
+        rows = []
+        if "z_f" in self.free:
+            rows.append((x[self.free.index("z_f")] - self.z_f) / self.z_f_sd)
+        if "t_imu" in self.free:
+            t, (lo, hi) = x[self.free.index("t_imu")], self.lag_range()
+            rows.append((min(t - lo, 0.0) + max(t - hi, 0.0)) / T_IMU_WALL)
+        return np.array(rows)
+
+    def lag_range(self) -> tuple[float, float]:
+        """:data:`T_IMU_RANGE` in seconds, at the shortest sample time of the datasets."""
+        T = min(d.T for d in self.datasets)
+        return T_IMU_RANGE[0] * T, T_IMU_RANGE[1] * T
 
     def weighted(self, x: np.ndarray) -> np.ndarray:
         """Whitened, weighted output errors and the prior row; raises when the model is unstable."""
@@ -318,11 +315,58 @@ class _Problem:
         except (FloatingPointError, np.linalg.LinAlgError):
             return np.full(sum(d.n for d in self.datasets) * 3 + len(self.prior(x)), 1e3)
 
+    def discrete(self, x: np.ndarray, i: int) -> tuple[np.ndarray, ...]:
+        """Dataset ``i``'s discrete ``(Ad, Bd, Cd, Dd)`` at ``x`` (as :func:`_simulate` makes them)."""
+        v = self.values(x)
+        rec = self.datasets[i]
+        return _bilinear(*model_matrices(v, self.kn, v.get("z_f", self.z_f), self.loads(v)[i], rec.U), rec.T)
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """The Jacobian of :meth:`residual` from the sensitivity equations
+        (:mod:`identify.rollmass.sensitivity`); the discrete matrices' derivatives by central
+        differences of :meth:`discrete` (smooth 4x4 functions; forward ones were off by up to 4e-5
+        of a column against 3e-7). Where the modal form fails (an unstable or
+        defective model, the residual's penalty region) the residual's central differences instead."""
+        steps = np.finfo(float).eps ** (1 / 3) * np.maximum(1.0, np.abs(x))
+        v = self.values(x)
+        lag = v.get("t_imu", 0.0)
+        lag_col = self.free.index("t_imu") if "t_imu" in self.free else -1
+        try:
+            blocks = []
+            for i, (rec, Y) in enumerate(zip(self.datasets, self.Y)):
+                mats = self.discrete(x, i)
+                dmats = []
+                for j, h in enumerate(steps):
+                    e = np.zeros_like(x)
+                    e[j] = h
+                    hi, lo = self.discrete(x + e, i), self.discrete(x - e, i)
+                    dmats.append(tuple((a - b) / (2 * h) for a, b in zip(hi, lo)))
+                u = delayed(rec.delta, lag, rec.T)
+                du = lag_derivative(rec.delta, lag, rec.T) if lag_col >= 0 else None
+                blocks.append(dataset_jacobian(mats, dmats, u, du, lag_col, Y, self.ar[i], self.w[i]))
+        except (FloatingPointError, np.linalg.LinAlgError):
+            return central_jacobian(self.residual, x)
+        return np.vstack(blocks + [self.prior_jacobian(x)])
+
+    def prior_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """The rows of :meth:`prior` differentiated, in its order: ``1/sd`` for the ``z_f`` prior, and
+        ``1/T_IMU_WALL`` for the ``t_imu`` wall outside :data:`T_IMU_RANGE` (zero inside)."""
+        rows = []
+        if "z_f" in self.free:
+            rows.append(np.eye(len(x))[self.free.index("z_f")] / self.z_f_sd)
+        if "t_imu" in self.free:
+            i, (lo, hi) = self.free.index("t_imu"), self.lag_range()
+            outside = not lo <= x[i] <= hi
+            rows.append(np.eye(len(x))[i] * (outside / T_IMU_WALL))
+        return np.array(rows).reshape(len(rows), len(x))
+
 
 def _lm(prob: _Problem, x0: np.ndarray, tol: float) -> OptimizeResult:
     """Levenberg-Marquardt, capped at :data:`LM_NFEV` evaluations: along the mass-height ridge it can
     creep (597 evaluations, 39 s cpu on ``mass-sim --case case1 --seed 3`` at 0.3 length) where the
     Gauss-Newton finish of :func:`fit_output_error` converges in a few steps."""
+    # LM keeps its forward differences: with the sensitivity Jacobian it ran into LM_NFEV short of the
+    # optimum on tests/test_rollmass.py's short low-noise case 1 (0.151 kg, not stationary, against 0.167)
     return least_squares(prob.residual, x0, x_scale="jac", method="lm", xtol=tol, ftol=tol, gtol=tol, max_nfev=LM_NFEV)
 
 
@@ -355,12 +399,12 @@ def _best_start(
 
 
 def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
-    """Finish a fit with up to ``steps`` Gauss-Newton steps (central Jacobian, step halving) until
+    """Finish a fit with up to ``steps`` Gauss-Newton steps (the sensitivity Jacobian, step halving) until
     the load's step in its sandwich standard errors (:func:`load_decrement`) is below
     :data:`STATIONARY`; returns ``x``, its Jacobian, that decrement and the residual at ``x``."""
     lengths = [d.n for d in prob.datasets]
     f = prob.residual(x)
-    J = central_jacobian(prob.residual, x)
+    J = prob.jacobian(x)
     dec = load_decrement(J, f, lengths, lags)
     for _ in range(steps):
         if dec < STATIONARY:
@@ -375,11 +419,14 @@ def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple
         else:
             break  # no descent along the Gauss-Newton direction: leave it to the decrement to say so
         x, f = x + dx, f_new
-        J = central_jacobian(prob.residual, x)
+        J = prob.jacobian(x)
         dec = load_decrement(J, f, lengths, lags)
     return x, J, dec, f
 
 
+# one BLAS thread: the fit's products are tall and thin ((3 n, 21) at most), and on the 2-core machine
+# under load OpenBLAS's threads made a Jacobian 5 times slower (0.30 s against 0.057 s)
+@threadpool_limits.wrap(limits=1)
 def fit_output_error(
     datasets: list[RollRecording],
     kn: Known,

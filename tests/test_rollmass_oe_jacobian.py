@@ -1,0 +1,95 @@
+"""The oe fit's Jacobian from the sensitivity equations (identify/rollmass/sensitivity.py): the
+residual's derivative (central differences where the modal form fails), and fits that give the
+estimates and intervals the finite-difference Jacobians gave, within 0.02 of their standard errors
+and 0.5 % of each standard error."""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from identify.rollmass import output_error as oe
+from identify.rollmass import sensitivity
+from identify.rollmass.api import estimate_from_files
+from identify.rollmass.estimate import estimate
+from identify.rollmass.model import Load, load_profile
+from identify.rollmass.sandwich import central_jacobian
+from identify.rollmass.simulate import Noise, simulate_case
+from tests.physics import basin_truth as bt
+
+PROF = load_profile()
+CAL = Load(0.2, -0.256)
+
+
+@pytest.fixture(scope="module")
+def case2():
+    return simulate_case(PROF, "case2", Noise.from_profile(PROF), seed=3, length_factor=0.3)
+
+
+def _problem(datasets) -> tuple[oe._Problem, np.ndarray]:
+    """A whitened, weighted problem away from the start values' special zeros (couplings, IMU
+    pitch and lag all non-zero), so every term of the sensitivity equations is exercised."""
+    kn = PROF.known
+    free = oe.SHARED + ("z_f", "m", "zbar_m")
+    w = np.array([1.0 / oe._measured(d).std(axis=0) for d in datasets])
+    v = {**oe.start_values(PROF), "K_v": 0.1, "n_p": 0.01, "e_y": 0.01, "t_imu": 0.003}
+    x = np.array([v[k] for k in oe.SHARED] + [kn.z_f_prior, 0.4, -0.268])
+    rng = np.random.default_rng(0)
+    ar = [[np.r_[1.0, 0.1 * rng.standard_normal(12)] for _ in range(3)] for _ in datasets]
+    return oe._Problem(datasets, kn, CAL, kn.z_f_prior, free, w, ar, kn.z_f_prior_sd), x
+
+
+@pytest.mark.parametrize("t_imu", [0.003, -0.002, 0.015])
+def test_the_sensitivity_jacobian_is_the_residuals_derivative(case2, t_imu):
+    """Every column against central differences of the whole residual (variable projection,
+    whitening, weights, the IMU's lag, the z_f prior and the lag's wall included): within 1e-5 of
+    the column, with the lag inside its physical range (no wall) and below and above it (wall)."""
+    prob, x = _problem(case2)
+    x[oe.SHARED.index("t_imu")] = t_imu
+    J, ref = prob.jacobian(x), central_jacobian(prob.residual, x)
+    assert J.shape == ref.shape
+    err = np.linalg.norm(J - ref, axis=0) / np.linalg.norm(ref, axis=0)
+    assert np.all(err < 1e-5), dict(zip(prob.free, err))
+
+
+def test_where_the_modal_form_fails_the_jacobian_is_central_differences(case2, monkeypatch):
+    prob, x = _problem(case2)
+
+    def defective(Ad):
+        raise np.linalg.LinAlgError("defective model")
+
+    monkeypatch.setattr(sensitivity, "modal", defective)
+    np.testing.assert_array_equal(prob.jacobian(x), central_jacobian(prob.residual, x))
+
+
+def _agree(got: list[float], ref: list[float]) -> None:
+    m, z, m_sd, z_sd = got
+    assert abs(m - ref[0]) < 0.02 * ref[2] and abs(z - ref[1]) < 0.02 * ref[3], (got, ref)
+    assert m_sd == pytest.approx(ref[2], rel=5e-3) and z_sd == pytest.approx(ref[3], rel=5e-3), (got, ref)
+
+
+# The code before the sensitivity Jacobian (main at ef95549: forward differences in LM, central
+# ones in the Gauss-Newton finish and the covariance) on the same data: m, zbar_m, their sds.
+BEFORE_EXAMPLE = [0.17999160644210108, -0.28149884810799936, 0.008191997893487492, 0.010798401830811238]
+BEFORE_TRUTH = [0.44351980069455044, -0.24288140666725155, 0.04216600989615809, 0.021380717330489237]
+
+
+def test_the_bundled_example_gives_the_estimates_and_intervals_it_gave():
+    """``mass-sim --case case1 --seed 3``'s data (full length, MTi-G noise)."""
+    ds = simulate_case(PROF, "case1", Noise.from_profile(PROF), seed=3)
+    e = estimate(ds, PROF.known, ds[1].load, "oe", with_ci=True, start=oe.start_values(PROF))
+    assert e.converged
+    _agree([e.m, e.zbar_m, e.m_sd, e.zbar_m_sd], BEFORE_EXAMPLE)
+
+
+def test_a_basin_truth_recording_gives_the_estimates_and_intervals_it_gave():
+    """The independent basin truth (``base``, seed 2015, case 2, half length) through the files."""
+    ship, data = bt.simulate_runs("base", 1, 2015, length=0.5)
+    with tempfile.TemporaryDirectory() as d:
+        paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in bt.case_recordings(ship, data, "case2", 0)]
+        e = estimate_from_files(*paths)
+    assert e.converged
+    _agree([e.m, e.zbar_m, e.m_sd, e.zbar_m_sd], BEFORE_TRUTH)
