@@ -265,12 +265,12 @@ def add_wind_means(findings: list[dict], model: AugmentedModel, preps: list, P: 
 # and its slope with speed but not how much of it is thrust and how much resistance, and every run at
 # that speed, held-out ones too, sees only the product of the fraction and that thrust. On the MMG
 # battery the calm fit's thrust terms are 13-18 % above the truth's propeller thrust at the lossy
-# run's speed (seeds 1, 3; their net force within 0.00032 m/s per second of the truth's), and a 20 % loss
-# reads 17.7-17.9 % on every seed. Runs at a second propeller speed separate n^2 from u^2 (not measured).
+# run's speed (model scale, seeds 1, 3; their net force within 0.00032 m/s per second of the truth's), and a
+# 20 % loss reads 17.3-18.4 % on every seed at both scales. Runs at a second propeller speed separate n^2 from u^2 (not measured).
 THRUST_SPLIT = (
     "the baseline's split of the surge force between thrust and resistance when every run is at one propeller "
     "speed (the loss is a fraction of the thrust the baseline holds, which such runs do not pin: on the MMG "
-    "battery a 20 % loss reads 17.7-17.9 %); calm runs at a second propeller speed separate the two"
+    "battery a 20 % loss reads 17.3-18.4 %); calm runs at a second propeller speed separate the two"
 )
 
 
