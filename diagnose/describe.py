@@ -277,7 +277,7 @@ THRUST_SPLIT = (
 def interval_note(cov, key: str | None = None) -> dict:
     """What a finding's +- std covers (JSON ``interval``; the text report prints ``covers``), in
     words a trials engineer can act on; ``key``: the finding's candidate key (whether the --fit-on
-    runs' misfit was measured for it). ``diagnosed_runs``: the diagnosed recordings given;
+    runs' misfit was measured for it; a thrust loss's also names :data:`THRUST_SPLIT`). ``diagnosed_runs``: the diagnosed recordings given;
     ``between_run_runs``: the runs the run-to-run misfit was measured over (0: none)."""
     runs, ref = cov.n_runs, getattr(cov, "reference_runs", 0)
     given = max(getattr(cov, "runs_given", 0) or runs, 1)
