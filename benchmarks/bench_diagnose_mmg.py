@@ -220,10 +220,32 @@ def _recording_before(with_interval, add_wind_means):
     return interval, wind_means
 
 
+PARTS = "_parts"  # suffix of a std's record of its interval's parts (_recording_parts)
+
+
+def _recording_parts(add_95):
+    """diagnose.describe's ``_add_95`` that also records, beside each std ``<name>``, the std of
+    each part of its interval and the runs they were measured over as ``<name>_parts`` (noise,
+    model, within, reference, heldout, n_runs, n_heldout): the arguments of
+    ``diagnose.uncertainty.half_width_95``, so ``benchmarks.mmg_battery_table --rescore``
+    recomputes a 95 % half-width exactly from a stored diagnosis under another quantile rule."""
+    from diagnose.describe import _T_PARTS, STD_SUFFIXES
+
+    def add(out: dict, by_part: dict[str, dict], cov) -> None:
+        add_95(out, by_part, cov)
+        for k in [k for k in out if k.endswith(STD_SUFFIXES) and isinstance(out[k], float)]:
+            sds = {part: by_part[part].get(k) for part in _T_PARTS}
+            if all(isinstance(v, float) and np.isfinite(v) for v in sds.values()):
+                out[k + PARTS] = sds | {"n_runs": cov.n_runs, "n_heldout": getattr(cov, "heldout_runs", 0)}
+
+    return add
+
+
 def _api(paths: dict[str, list[Path]], joint: bool = False, ship: str = BASELINE) -> dict:
     from unittest import mock
 
     import diagnose.api as api
+    import diagnose.describe as describe
     from diagnose.api import run
     from diagnose.recording import load_recording
     from diagnose.recording_checks import conform
@@ -235,7 +257,11 @@ def _api(paths: dict[str, list[Path]], joint: bool = False, ship: str = BASELINE
         return conform([r for p in ps for r in load_recording(p)], prof)
 
     interval, wind_means = _recording_before(api.with_interval, api.add_wind_means)
-    with mock.patch.object(api, "with_interval", interval), mock.patch.object(api, "add_wind_means", wind_means):
+    with (
+        mock.patch.object(api, "with_interval", interval),
+        mock.patch.object(api, "add_wind_means", wind_means),
+        mock.patch.object(describe, "_add_95", _recording_parts(describe._add_95)),
+    ):
         d = run(
             load(paths["diagnose"]), prof, fit_on=load(paths["calm"]), validate=load(paths["validate"]), joint_reference=joint
         )

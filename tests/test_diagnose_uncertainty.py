@@ -405,14 +405,15 @@ def test_the_held_out_term_covers_a_bias_common_to_the_diagnosed_runs():
     and 1.5: b about 0.25 too high), a bias neither the noise nor the run-to-run spread sees. Two
     held-out runs of other sizes (0.5 and 2) alone would put the finding elsewhere: their excess
     over noise (diagnose.heldout_interval.heldout_term) is a measure of the structural misfit, and the
-    95 % interval with it (t at two degrees of freedom) holds the true b in 89.5 % of 200 seeds, the
-    one without it in 40.5 % (measured). On a right model the term is the positive part of noise:
+    95 % interval with it holds the true b in 88 % of 200 seeds (its degrees of freedom moving from the
+    run-to-run part's one towards the held-out runs' two with the top-up's share), the one without it
+    in 40.5 % (measured). On a right model the term is the positive part of noise:
     the median interval does not widen; its expectation leaves out the noise of the other fitted
     parameter (x's, which the small held-out run's z does not separate from), so 36.5 % of the stds
-    widen, a quarter by more than 1.55 (measured). The 95 % half-width widens more, the whole model
-    error taking the held-out runs' two degrees of freedom (t 4.30) however small the top-up: on a
-    right model 27.5 % of half-widths more than double, a tenth by 4.6 or more (measured), the price
-    of this term on a model that needs none."""
+    widen, a quarter by more than 1.55 (measured). The 95 % half-width widens more, the model error
+    taking the held-out runs' two degrees of freedom (t 4.30) as the top-up carries it: on a right
+    model 27 % of half-widths more than double, a tenth by 4.6 or more (measured), the price of this
+    term on a model that needs none."""
     from diagnose.heldout_interval import heldout_term
     from diagnose.uncertainty import half_width_95
 

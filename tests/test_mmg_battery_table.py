@@ -32,3 +32,19 @@ def test_the_table_prints_the_counts_next_to_the_ratio():
     rows = [_row("a-seed1", [_loss(19.0, 1.0)]), _row("a-seed2", None, error="boom"), _row("a-seed3", [])]
     text = table(rows)
     assert "1/3 (33 %; in 1, no estimate 1, error 1)" in text
+
+
+def test_rescore_recomputes_each_half_width_from_its_recorded_parts():
+    """A stored row's half-width, run under another quantile rule, is replaced by this code's from
+    the parts bench_diagnose_mmg recorded beside it; a finding without parts is counted and left."""
+    from benchmarks.mmg_battery_table import rescore
+    from diagnose.uncertainty import half_width_95
+
+    parts = {"noise": 1.0, "model": 0.0, "within": 2.0, "reference": 0.0, "heldout": 0.1, "n_runs": 3, "n_heldout": 2}
+    f = _loss(19.0, 2.3)
+    f["parameters"] |= {"loss_percent_std_95": 9.9, "loss_percent_std_parts": parts}
+    old = _loss(19.0, 2.3)
+    old["parameters"]["loss_percent_std_95"] = 9.9
+    assert rescore([_row("a-seed1", [f, old])]) == 1
+    assert f["parameters"]["loss_percent_std_95"] == half_width_95(**parts) != 9.9
+    assert old["parameters"]["loss_percent_std_95"] == 9.9
