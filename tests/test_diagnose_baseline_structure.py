@@ -316,7 +316,7 @@ def test_calm_runs_of_the_diagnosed_kinds_pin_the_declared_structure_where_one_t
         ext, th, note, _added = baseline.fit_declared(prof, prof.params(), fit_on)
         assert not note
         got[len(fit_on)] = baseline.unpinned_runs((prof, prof.params()), fit_on, (ext, th), held)
-    assert [s for s, _sd in got[1]] == [r.source for r in held] and min(sd for _s, sd in got[1]) > 10 * baseline.PINNED_SD
+    assert [s for s, _sd, _lim in got[1]] == [r.source for r in held] and min(sd for _s, sd, _lim in got[1]) > 10 * baseline.PINNED_SD
     assert got[3] == [], got[3]
 
 
@@ -328,5 +328,5 @@ def test_what_one_turn_leaves_to_the_prior_counts_as_not_pinned(mmg_runs):
     prof = load_profile("kvlcc2")
     ext, th, note, _added = baseline.fit_declared(prof, prof.params(), calm[:1])
     assert not note
-    ((src, sd),) = baseline.unpinned_runs((prof, prof.params()), calm[:1], (ext, th), calm[1:2])
+    ((src, sd, _lim),) = baseline.unpinned_runs((prof, prof.params()), calm[:1], (ext, th), calm[1:2])
     assert src == calm[1].source and sd > 100 * baseline.PINNED_SD, sd
