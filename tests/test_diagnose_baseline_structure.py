@@ -14,6 +14,7 @@ import pytest
 
 import diagnose.api as api
 import diagnose.baseline as baseline
+import diagnose.plausible as plausible
 from diagnose.model import AugmentedModel, prepare
 from diagnose.recording import Recording
 from primitives.profile_document import profile_from_dict
@@ -316,7 +317,9 @@ def test_calm_runs_of_the_diagnosed_kinds_pin_the_declared_structure_where_one_t
         ext, th, note, _added = baseline.fit_declared(prof, prof.params(), fit_on)
         assert not note
         got[len(fit_on)] = baseline.unpinned_runs((prof, prof.params()), fit_on, (ext, th), held)
-    assert [s for s, _sd, _lim in got[1]] == [r.source for r in held] and min(sd for _s, sd, _lim in got[1]) > 10 * baseline.PINNED_SD
+    assert [s for s, _sd, _lim in got[1]] == [r.source for r in held] and min(
+        sd for _s, sd, _lim in got[1]
+    ) > 10 * baseline.PINNED_SD
     assert got[3] == [], got[3]
 
 
@@ -330,3 +333,19 @@ def test_what_one_turn_leaves_to_the_prior_counts_as_not_pinned(mmg_runs):
     assert not note
     ((src, sd, _lim),) = baseline.unpinned_runs((prof, prof.params()), calm[:1], (ext, th), calm[1:2])
     assert src == calm[1].source and sd > 100 * baseline.PINNED_SD, sd
+
+
+def test_three_calm_runs_leave_zigzags_to_the_prior_beyond_what_the_search_tells_from_an_effect(mmg_runs):
+    """Issue 26's three calm runs (35 deg turns both sides, a 10/10 zig-zag): the declared
+    structure's simulation is uncertain by 0.96 noise units on the 20/20, 0.21 on the 10/10 to
+    port and 0.48 on a 15/15 (seed 11), under the noise (the former limit, which passed them and
+    the battery's control then named quadratic damping) but above the smallest misfit the search
+    would name there (a fifth of the noise at these lengths): not pinned."""
+    calm, held, _ = mmg_runs
+    prof = load_profile("kvlcc2")
+    ext, th, note, _added = baseline.fit_declared(prof, prof.params(), calm[:3])
+    assert not note
+    got = baseline.unpinned_runs((prof, prof.params()), calm[:3], (ext, th), [calm[3]] + held)
+    assert [s for s, _sd, _lim in got] == [r.source for r in [calm[3]] + held]
+    assert all(lim == plausible.MIN_VISIBLE < sd for _s, sd, lim in got)
+    assert dict((s, sd) for s, sd, _lim in got)[held[1].source] < 0.6 * baseline.PINNED_SD
