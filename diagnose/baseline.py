@@ -42,8 +42,8 @@ BASELINE_PATIENCE = 2
 # (:func:`diagnose.significance.smallest_significant_rms`, at its loosest level) and large enough to
 # name (plausible.MIN_VISIBLE), and never more than the noise itself (PINNED_SD, the former rule:
 # MMG KVLCC2, the declared structure fitted on one 35 deg turning circle, 133-1548 on zig-zags;
-# fitted on both turns and the 10/10 zig-zag 0.53 on the 20/20, which passed it and gave wrong
-# findings, README).
+# fitted on both turns and the 10/10 zig-zag 0.84-1.08 on the 20/20 at the battery's length, 0.53 at 3,500
+# samples, which mostly passed it and gave wrong findings; at this limit, 0.2 there, 'cannot tell', README).
 PINNED_SD = 1.0
 
 
