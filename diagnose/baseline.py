@@ -340,12 +340,18 @@ def cannot_tell(
     """Why no effect is named when the --fit-on runs do not pin the baseline on the diagnosed or
     validation runs (:func:`unpinned_runs`), and what to add: calm runs of the
     unpinned runs' manoeuvres, named by their ``# manoeuvre:`` header lines where they have one."""
-    runs = ", ".join(f"{src} ({sd:.3g} vs at most {lim:.2g})" for src, sd, lim in unpinned)
+    runs = ", ".join(f"{src} ({sd:.3g}, limit {lim:.2g})" for src, sd, lim in unpinned)
     bad = {src for src, _sd, _lim in unpinned}
     pinned = [r.source for r in recordings if r.source not in bad]
     kinds = sorted(
         {str(r.meta["manoeuvre"]) for r in list(recordings) + list(validate) if r.source in bad and r.meta.get("manoeuvre")}
     )
+    # a manoeuvre the --fit-on runs already hold is not what to add first (MMG battery, three calm
+    # runs: the current's diagnosed 35 deg turn and 10/10 zig-zag are flagged beside the 20/20 the calm runs lack)
+    held = {str(r.meta.get("manoeuvre")) for r in fit_on if r.meta.get("manoeuvre")}
+    missing, present = [k for k in kinds if k not in held], [k for k in kinds if k in held]
+    parts = [", ".join(missing) + (": not among the --fit-on runs" if held else "")] if missing else []
+    what = "; ".join(parts + ([f"{', '.join(present)}: already among them"] if present else []))
     return (
         f"cannot tell: the --fit-on run(s) {', '.join(r.source for r in fit_on)} do not pin the baseline on "
         f"{runs}: the std of the profile's [diagnosis] structure's simulation there, as fitted on the --fit-on "
@@ -355,7 +361,7 @@ def cannot_tell(
         f"error and none is named"
         + (f" (of the diagnosed runs it pins {', '.join(pinned)})" if pinned else "")
         + ". Add calm --fit-on runs of the same manoeuvres as those runs"
-        + (f" ({', '.join(kinds)})" if kinds else "")
+        + (f" ({what})" if kinds else "")
         + " and diagnose again (a full set: the delivery trials, 35 deg turning circles to both sides, a 10/10 and "
         "a 20/20 zig-zag)"
     )

@@ -349,3 +349,20 @@ def test_three_calm_runs_leave_zigzags_to_the_prior_beyond_what_the_search_tells
     assert [s for s, _sd, _lim in got] == [r.source for r in [calm[3]] + held]
     assert all(lim == plausible.MIN_VISIBLE < sd for _s, sd, lim in got)
     assert dict((s, sd) for s, sd, _lim in got)[held[1].source] < 0.6 * baseline.PINNED_SD
+
+
+def test_cannot_tell_names_first_the_manoeuvres_the_fit_on_runs_lack():
+    """MMG battery, three calm runs (both turns, a 10/10 to starboard), a current: the diagnosed
+    turn and 10/10 zig-zag are flagged beside the 20/20s; what to add is the 20/20s and the 10/10
+    to port, not a manoeuvre the user already gave as --fit-on."""
+    from types import SimpleNamespace
+
+    def rec(src, kind):
+        return SimpleNamespace(source=src, meta={"manoeuvre": kind})
+
+    fit_on = [rec("c1", "tc35-stbd"), rec("c2", "tc35-port"), rec("c3", "zz10-10-stbd")]
+    diag = [rec("d1", "zz10-10-stbd"), rec("d2", "zz20-20-port"), rec("d3", "tc35-stbd")]
+    val = [rec("v1", "zz10-10-port")]
+    text = baseline.cannot_tell([("d1", 0.36, 0.2), ("d2", 0.72, 0.2), ("d3", 0.22, 0.2), ("v1", 0.39, 0.2)], fit_on, diag, val)
+    assert "(zz10-10-port, zz20-20-port: not among the --fit-on runs; tc35-stbd, zz10-10-stbd: already among them)" in text
+    assert "d2 (0.72, limit 0.2)" in text
