@@ -93,11 +93,14 @@ GUARD_SLACK = 1.0  # fit points a validation run may lose on one channel after t
 def channel_slack(row: dict) -> dict[str, float]:
     """Fit points each channel of a validation run (a :func:`per_run_fits` row) may lose and count
     as no worse: GUARD_SLACK, or the points a rise of its residual by a fifth of the noise (RMS,
-    plausible.MIN_VISIBLE: a change no simulated output shows) is worth there, whichever is larger.
+    plausible.MIN_VISIBLE, the size the diagnosis calls visible) is worth there, whichever is larger.
     A fit is 100 (1 - |e| / |y - mean y|), so a residual rising by d noise units (RMS) costs
     100 d / s points on a channel whose spread is s noise units: on a channel spread over few
     noise units a point is less than the noise (MMG battery, gyro-bias: surge on a 10/10 zig-zag
-    spreads over 8.3 noise units, where the bias's 0.09 of the noise cost 1.2 points)."""
+    spreads over 8.3 noise units, where the bias's 0.09 of the noise cost 1.2 points). A relevance
+    tolerance, not a test: the output change behind such a rise is at least d (|rms e1 - rms e0| <=
+    rms(y1 - y0)) and, beside a residual near the noise, up to about three times d; the run's
+    noise-weighted misfit over its channels still may not rise (:func:`guard`)."""
     spread = row.get("noise_spread") or {}
     return {
         k: max(GUARD_SLACK, 100.0 * MIN_VISIBLE / s) if s and s > 0 else GUARD_SLACK
