@@ -497,6 +497,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument(
         "--calm-runs",
         type=int,
+        choices=range(1, 5),
         default=None,
         help="--fit-on only the first N of the four calm runs (35 deg turns to starboard and port, 10/10, 20/20 zig-zags)",
     )
