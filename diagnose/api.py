@@ -69,8 +69,8 @@ class Diagnosis:
     magnitudes_refitted: bool = False
     # why no effect is named whatever the data show (the --fit-on runs do not pin the baseline on some run)
     cannot_tell: str = ""
-    # (run, first-order std of the baseline's simulation there in noise units) behind cannot_tell
-    unpinned: list[tuple[str, float]] = field(default_factory=list)
+    # (run, first-order std of the baseline's simulation there, the most the search tells from an effect; noise units) behind cannot_tell
+    unpinned: list[tuple[str, float, float]] = field(default_factory=list)
 
     @property
     def explained(self) -> bool:
@@ -123,7 +123,8 @@ class _Setup:
     preps: list[Prepared]
     val_preps: list[Prepared]
     calm_preps: list[Prepared]  # the --fit-on runs inside a joint fit
-    unpinned: list[tuple[str, float]] = field(default_factory=list)  # diagnosed/validation runs the --fit-on runs do not pin
+    # diagnosed/validation runs the --fit-on runs do not pin
+    unpinned: list[tuple[str, float, float]] = field(default_factory=list)
 
 
 def _setup(

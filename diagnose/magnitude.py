@@ -95,7 +95,7 @@ def heldout_worse(
     not beyond what noise explains. Held-out runs: the validation runs (simulated), otherwise
     each diagnosed run left out in turn (linearised refit, each estimate stepped with the
     weights it was made with). The test is per run and channel, in fit points, which no
-    weighting enters: no channel may lose more than GUARD_SLACK points, the slack the per-run
+    weighting enters: no channel may lose more than GUARD_SLACK points, the least slack the per-run
     guard (:func:`diagnose.perrun.guard`) gives a validation channel against the baseline. A
     misfit weighted by the search's ``w`` would not do: the ML estimate departs from the
     w-optimum on purpose, and on the MMG battery's model-delay-3 it rose 2-6 % on validation runs

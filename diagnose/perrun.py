@@ -9,6 +9,7 @@ import numpy as np
 
 from diagnose.heldout import RUN_RISE, fit_pct, grams, heldout_rss, make_parts
 from diagnose.model import AugmentedModel, Prepared, fit, fit_percent
+from diagnose.plausible import MIN_VISIBLE
 from diagnose.search import MUCH_WORSE
 from primitives.ship import DOFS
 
@@ -31,27 +32,27 @@ def short_label(label: str) -> str:
     return Path(src).name + sep + rest
 
 
-def _table(labels: list[str], roles: list[str], f0: np.ndarray, f1: np.ndarray, den: np.ndarray) -> list[dict]:
-    """Rows of the per-run table; ``den`` (runs, 3) the noise-weighted spread of each output,
-    from which the fit gives the run's weighted misfit (summed over the channels)."""
+def _table(preps: list[Prepared], role: str, f0: np.ndarray, f1: np.ndarray, w: np.ndarray) -> list[dict]:
+    """Rows of the per-run table; each run's noise-weighted spread of each output (``w`` the
+    inverse noise scale) gives its weighted misfit (summed over the channels) from the fit, and
+    its RMS about the mean in noise units (``noise_spread``) what a fit point is worth in noise
+    (:func:`channel_slack`)."""
     rows = []
-    for lab, role, a, b, dn in zip(labels, roles, f0, f1, den):
+    for p, a, b in zip(preps, f0, f1):
+        dn = np.sum(((p.y - p.y.mean(axis=0)) * w) ** 2, axis=0)
         w0, w1 = (float(np.sum((1 - f / 100.0) ** 2 * dn)) for f in (a, b))
         rows.append(
             {
-                "run": lab,
+                "run": p.rec.source,
                 "role": role,
                 "before": dict(zip(DOFS, a.tolist())),
                 "after": dict(zip(DOFS, b.tolist())),
                 "weighted_misfit_before": w0,
                 "weighted_misfit_after": w1,
+                "noise_spread": dict(zip(DOFS, np.sqrt(dn / max(len(p.y), 1)).tolist())),
             }
         )
     return rows
-
-
-def _den(preps: list[Prepared], w: np.ndarray) -> np.ndarray:
-    return np.array([np.sum(((p.y - p.y.mean(axis=0)) * w) ** 2, axis=0) for p in preps])
 
 
 def per_run_fits(
@@ -72,28 +73,39 @@ def per_run_fits(
     if val_preps:
         f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in val_preps])
         f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in val_preps])
-        return (
-            _table([p.rec.source for p in val_preps], ["validation"] * len(val_preps), f0, f1, _den(val_preps, w)),
-            "validation runs, simulated",
-        )
+        return _table(val_preps, "validation", f0, f1, w), "validation runs, simulated"
     f0 = np.array([fit_percent(p.y, model.simulate(p, P0)[0]) for p in preps])
     cols = [j for j in free if j < model.n_slots_end]
     if len(preps) < 2 or not cols:
         f1 = np.array([fit_percent(p.y, model.simulate(p, P)[0]) for p in preps])
-        return _table(
-            [p.rec.source for p in preps], ["diagnosed"] * len(preps), f0, f1, _den(preps, w)
-        ), "diagnosed runs, in-sample"
+        return _table(preps, "diagnosed", f0, f1, w), "diagnosed runs, in-sample"
     parts = make_parts(preps, [])
     # the step from P's own optimum: with other weights it would also move P towards their optimum
     g = grams(model, preps, parts, P, cols, w if w_fit is None else w_fit, model.steps(preps, P))
     rss = heldout_rss(g, parts, list(range(len(cols))), np.zeros(len(cols)), np.zeros(len(cols)))
     f1 = fit_pct(rss, g.den)
-    return _table(
-        [p.rec.source for p in preps], ["left out"] * len(preps), f0, f1, _den(preps, w)
-    ), "leave one run out (linearised refit)"
+    return _table(preps, "left out", f0, f1, w), "leave one run out (linearised refit)"
 
 
-GUARD_SLACK = 1.0  # fit points a validation run may lose on one channel after the diagnosis
+GUARD_SLACK = 1.0  # fit points a validation run may lose on one channel after the diagnosis, at least (channel_slack)
+
+
+def channel_slack(row: dict) -> dict[str, float]:
+    """Fit points each channel of a validation run (a :func:`per_run_fits` row) may lose and count
+    as no worse: GUARD_SLACK, or the points a rise of its residual by a fifth of the noise (RMS,
+    plausible.MIN_VISIBLE, the size the diagnosis calls visible) is worth there, whichever is larger.
+    A fit is 100 (1 - |e| / |y - mean y|), so a residual rising by d noise units (RMS) costs
+    100 d / s points on a channel whose spread is s noise units: on a channel spread over few
+    noise units a point is less than the noise (MMG battery, gyro-bias: surge on a 10/10 zig-zag
+    spreads over 8.3 noise units, where the bias's 0.09 of the noise cost 1.2 points). A relevance
+    tolerance, not a test: the output change behind such a rise is at least d (|rms e1 - rms e0| <=
+    rms(y1 - y0)) and, beside a residual near the noise, up to about three times d; the run's
+    noise-weighted misfit over its channels still may not rise (:func:`guard`)."""
+    spread = row.get("noise_spread") or {}
+    return {
+        k: max(GUARD_SLACK, 100.0 * MIN_VISIBLE / s) if s and s > 0 else GUARD_SLACK
+        for k, s in ((k, spread.get(k)) for k in DOFS)
+    }
 
 
 def without(model: AugmentedModel, P: np.ndarray, free: list[int], key: str) -> tuple[np.ndarray, list[int]]:
@@ -118,7 +130,7 @@ def guard(
     w_fit: np.ndarray | None = None,
 ):
     """Per-run acceptance: no validation run may fit worse overall (noise-weighted misfit) nor
-    lose more than GUARD_SLACK points on a channel; no left-out run may get more than RUN_RISE
+    lose more than its slack on a channel (:func:`channel_slack`); no left-out run may get more than RUN_RISE
     worse overall or MUCH_WORSE points on a channel. Findings are dropped, last kept first,
     until that holds. No finding left: the model is the baseline as given (no refit).
     ``w_fit``: the channel weights P was estimated with (default ``w``), those of the
@@ -133,7 +145,9 @@ def guard(
         table, method = per_run_fits(model, preps, val_preps, w, P0, P, free, wf)
         worst = min(row["after"][k] - row["before"][k] for row in table for k in DOFS)
         worse_run = max(row["weighted_misfit_after"] / max(row["weighted_misfit_before"], 1e-300) - 1.0 for row in table)
-        if worst >= -(GUARD_SLACK if val_preps else MUCH_WORSE) and worse_run <= rise:
+        slack = [channel_slack(row) if val_preps else dict.fromkeys(DOFS, MUCH_WORSE) for row in table]
+        within = all(row["after"][k] - row["before"][k] >= -sl[k] for row, sl in zip(table, slack) for k in DOFS)
+        if within and worse_run <= rise:
             return P, free, steps, table, method, dropped
         st = steps.pop()  # the last kept is the weakest
         P, free = without(model, P, free, st.candidate.key)

@@ -364,7 +364,7 @@ def to_json(d: Diagnosis, model_path: str | None) -> dict:
             ],
             "explained": d.explained,
             "cannot_tell": d.cannot_tell,
-            "unpinned_runs": [{"run": src, "sd_noise_units": sd} for src, sd in d.unpinned],
+            "unpinned_runs": [{"run": src, "sd_noise_units": sd, "limit_noise_units": lim} for src, sd, lim in d.unpinned],
             "still_unexplained_dofs": d.unexplained_dofs,
             "findings": d.findings,
             "structure": d.structure,

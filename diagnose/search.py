@@ -35,26 +35,13 @@ from diagnose.describe import describe, surge_base_index
 from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, refit_verdict, rejection_entry, verdict
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
 from diagnose.reference import ReferencedModel
+from diagnose.significance import ALPHA, independent_heldout, inflation, lr_stats, passes
 
-ALPHA = 1e-6  # family-wise significance per round (Bonferroni over candidates)
-MIN_GAIN = 0.002  # held-out weighted RSS must drop by at least 0.2 % ...
-STRONG_GAIN = 0.10  # ... or by 10 %, which then needs only p < 0.01 on the estimation data
-ALPHA_STRONG = 1e-2
-ALPHA_INDEPENDENT = 0.05
 MUCH_WORSE = 15.0  # percentage points of fit a finding may cost one channel of a held-out run
 MAX_TRIES = 8  # nonlinear refits per round (in order of held-out AIC)
 MAX_PASSED = 3  # refitted candidates that pass, compared by held-out AIC before one is kept
 PRIOR_REL = 0.3  # prior std of a baseline parameter, relative to its profile value
 OWN_DAMPING = {(0, "u_r*|u_r|"), (1, "v_r*|v_r|"), (2, "r*|r|")}
-
-
-def _passes(p_value: float, gain: float, n_cand: int, alpha: float = ALPHA, independent: bool = False) -> bool:
-    """Significant on the estimation data AND better on held-out data. When the held-out data
-    are whole runs the fit never saw (validation runs, or leave one run out), they are the
-    guard against chance: the estimation data need only ordinary significance (5 %)."""
-    if independent and gain > MIN_GAIN and p_value < ALPHA_INDEPENDENT:
-        return True
-    return (p_value < alpha / n_cand and gain > MIN_GAIN) or (p_value < ALPHA_STRONG / n_cand and gain > STRONG_GAIN)
 
 
 @dataclass
@@ -83,27 +70,6 @@ class SearchResult:
     notes: list[str] = field(default_factory=list)
     base_free: list[int] = field(default_factory=list)
     prior_std: np.ndarray | None = None  # the refit's prior std per parameter (None: no prior)
-
-
-def inflation(res: np.ndarray, n_dof: int = 3, max_lag: int = 30) -> float:
-    """Variance inflation of coloured residuals (largest over the DOFs): the larger of the
-    Bartlett sum 1 + 2 sum (1 - k/K) rho_k and, near the noise level, the AR(1) value."""
-    r = res.reshape(-1, n_dof)
-    taus = []
-    for i in range(n_dof):
-        x = r[:, i] - r[:, i].mean()
-        den = float(x @ x)
-        if den <= 0 or len(x) < 3 * max_lag:
-            taus.append(1.0)
-            continue
-        K = max_lag
-        rho = np.array([x[:-k] @ x[k:] / den for k in range(1, K + 1)])
-        tau = 1.0 + 2.0 * np.sum((1 - np.arange(1, K + 1) / K) * rho)
-        if np.sqrt(np.mean(r[:, i] ** 2)) < 3.0:
-            r1 = float(np.clip(rho[0], -0.99, 0.995))
-            tau = max(tau, (1 + r1) / (1 - r1))
-        taus.append(tau)
-    return float(np.clip(np.max(taus), 1.0, 400.0))
 
 
 def base_bounds(ref: np.ndarray, idx: list[int], model: AugmentedModel | None = None) -> dict[int, tuple[float, float]]:
@@ -238,9 +204,7 @@ class _Search:
         self.prior = (self.ref, self.sd) if self.base_free else None
         self.bounds = base_bounds(self.ref, self.base_free, model)
         self.n_cand = max(len(model.candidates), 1)
-        # two or more whole held-out runs (validation runs, or leave one run out) are evidence
-        # enough to relax the in-sample test; a single held-out run is not
-        self.independent = len(self.val) >= 2 or (not self.val and len(preps) >= 2)
+        self.independent = independent_heldout(len(self.val), len(preps))
 
     def prior_terms(self, P: np.ndarray, cols: list[int]) -> tuple[np.ndarray, np.ndarray]:
         D = np.zeros(len(cols))
@@ -394,7 +358,7 @@ def _round(
         # them, so is the candidate best by held-out AIC: a 4 s delay's Gauss-Newton step from zero
         # made a left-out run 80 % worse, its refit every run better (its refit is judged again)
         screen_ok = (v.delta_aic < 0 and v.gain > 0) if S.val or c is best else v.accepted(MUCH_WORSE)
-        if not (screen_ok and _passes(p_val, v.gain, S.n_cand, S.alpha, S.independent)):
+        if not (screen_ok and passes(p_val, v.gain, S.n_cand, S.alpha, S.independent)):
             continue
         if tries >= MAX_TRIES:
             break
@@ -456,7 +420,7 @@ def _try(
                 "reason": "a sensor bias as large as the signal trades off against the initial state (Källström 1977: the initial state estimated with the parameters)"
             }
     f_nl, p_nl, res1 = _lr_test(S, P1, rss0, rss1, len(new), M)
-    if not _passes(p_nl, v.gain, S.n_cand, S.alpha, S.independent):
+    if not passes(p_nl, v.gain, S.n_cand, S.alpha, S.independent):
         return {"reason": f"the nonlinear refit is not significant (F = {f_nl:.1f}, p = {p_nl:.2g})"}
     if S.val:
         heldout = verdict(S.val_rss(P), S.val_rss(P1), v.den, _val_rows(S), len(new), S.tau)
@@ -533,8 +497,8 @@ def _backtrack(S: _Search, P: np.ndarray, free: list[int], cov: np.ndarray, out:
         P2, cov2, rss_wo = S.refit(P_wo, rest, {}, max_iter=4)
         if not np.isfinite(rss_wo):
             continue
-        _f, p_b = _lr_stats(r_with, rss_wo, float(r_with @ r_with), len(own), len(r_with))
-        drop = not _passes(p_b, st.cv_gain, S.n_cand, S.alpha, S.independent)
+        _f, p_b = lr_stats(r_with, rss_wo, float(r_with @ r_with), len(own), len(r_with))
+        drop = not passes(p_b, st.cv_gain, S.n_cand, S.alpha, S.independent)
         if not drop and S.val:
             v = verdict(S.val_rss(P2), S.val_rss(P), np.ones((len(S.val), 3)), _val_rows(S), len(own), S.tau)
             drop = v.delta_aic >= 0
@@ -556,17 +520,8 @@ def _backtrack(S: _Search, P: np.ndarray, free: list[int], cov: np.ndarray, out:
 def _lr_test(S: _Search, P1: np.ndarray, rss0: float, rss1: float, q: int, M: int) -> tuple[float, float, np.ndarray]:
     """Likelihood-ratio F test of q added parameters at P1, and P1's weighted residual."""
     res1 = stack(residuals(S.model, S.preps, P1[None]), S.wr)[0]
-    f, p = _lr_stats(res1, rss0, rss1, q, M)
+    f, p = lr_stats(res1, rss0, rss1, q, M)
     return f, p, res1
-
-
-def _lr_stats(res1: np.ndarray, rss0: float, rss1: float, q: int, M: int) -> tuple[float, float]:
-    """(F, p) of q added parameters, effective sample count from the colour of ``res1``."""
-    tau = inflation(res1)
-    n_eff = M / tau
-    f = ((rss0 - rss1) / q) / (rss1 / max(M - q, 1)) / tau
-    p = float(stats.f.sf(f, q, max(n_eff - q, 1))) if f > 0 else 1.0
-    return float(f), p
 
 
 def _line_start(S: _Search, P: np.ndarray, new: list[int], beta: np.ndarray) -> np.ndarray:
