@@ -46,7 +46,7 @@ class MCEvaluation:
     def runs_finished(self) -> dict[str, int]:
         """Runs finished per design, 0 for a design none of whose tasks finished (a partial result)."""
         done = {k: len(r.runs) for k, r in self.results.items()}
-        return {k: done.get(k, 0) for k in self.designs} | done
+        return dict.fromkeys(self.designs, 0) | done
 
 
 def _task(item: tuple[str, int, int], shared: MCShared) -> MCResult:

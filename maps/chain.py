@@ -29,7 +29,7 @@ from maps.geo import MapError, SeaMap, bundled_map_path
 from maps.lattice import Move, heading_table, nearest_heading, run_in_seconds
 from maps.motionset import basic_move_set, default_resolution, informative_moves, planning_window
 from maps.planoptions import PlanOptions
-from maps.sailplan import Realised, assemble_plan, verify_plan  # noqa: F401 - the chain's steps, importable in one place
+from maps.sailplan import assemble_plan, verify_plan  # noqa: F401 - the chain's steps, importable in one place
 from maps.sizing import BYTES_PER_STATE, estimate_memory, needs, refuse_too_large, too_big_for_water
 from primitives.footprint import swept_footprints
 from primitives.library import Primitive

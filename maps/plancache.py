@@ -38,7 +38,7 @@ ENV_DIR = "SHIPTRIAL_CACHE_DIR"  # the cache directory; set to "" to use no cach
 MAGIC = b"shiptrial-plan-cache 1\n"
 KEEP = 32  # entries kept (about 0.5 MB each for the bundled example)
 ROOT = Path(__file__).resolve().parent.parent
-# cli too: the entry holds the export chart built by cli.plan_cmd.export_chart, and the command's glue decides the inputs
+# cli too: the entry holds the export chart built by cli.plan_outputs.export_chart, and the command's glue decides the inputs
 PACKAGES = ("primitives", "expdesign", "maps", "identify", "diagnose", "cli")
 SUFFIXES = (".py", ".toml", ".geojson", ".json")
 # the numerical libraries a plan is computed with: the design's conic solvers too (cvxpy, Clarabel and SCS solve

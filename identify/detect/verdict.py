@@ -166,7 +166,7 @@ def verdict(
     if known and not (i_z > 0 and n_rdot < 0):
         raise ValueError(f"i_z {i_z:g} must be positive and n_rdot {n_rdot:g} negative (kg m^2)")
     i_ref = i_z - n_rdot if known else None
-    band = getattr(sc, "roll_band", None)  # screenings stored before the roll band have none
+    band = sc.roll_band  # screenings stored before the roll band have none
     i, ev = _decide(sc.eps, sc.S, prior, sc.st, sc.h, sc.null_blocks, min_change, i_ref, n_rdot, band)
     t = sc.t
     tau, lo, hi = ev.pop("onset")

@@ -74,11 +74,12 @@ def mode_powers(lam: np.ndarray, n: int) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def free_basis(lam: np.ndarray, n: int) -> np.ndarray:
+def free_basis(lam: np.ndarray, n: int, pw: np.ndarray | None = None) -> np.ndarray:
     """The free response's span, ``lambda_i^k`` (real and imaginary parts of one of each conjugate
-    pair), and a constant (the sensor's bias): (n, 5) for four modes."""
+    pair), and a constant (the sensor's bias): (n, 5) for four modes. ``pw``: ``mode_powers(lam, n)``
+    when the caller has it already."""
     cols = []
-    for i, pk in zip(basis_modes(lam), mode_powers(lam, n).T):
+    for i, pk in zip(basis_modes(lam), (mode_powers(lam, n) if pw is None else pw).T):
         cols += [pk.real] if lam[i].imag == 0.0 else [pk.real, pk.imag]
     return np.column_stack(cols + [np.ones(n)])
 
@@ -161,9 +162,9 @@ def dataset_jacobian(
     n, P = len(u), len(dmats)
     e = Y - y
     modes = basis_modes(lam)
-    basis = free_basis(lam, n)
-    # d lambda^k / d lambda = k lambda^(k-1): the basis's own derivative, per basis mode
     pw = mode_powers(lam, n)
+    basis = free_basis(lam, n, pw)
+    # d lambda^k / d lambda = k lambda^(k-1): the basis's own derivative, per basis mode
     kpow = np.arange(n)[:, None] * np.vstack([np.zeros((1, len(modes))), pw[:-1]])
     dlam = np.array([E[:, i, i] for i in modes])  # (basis modes, P)
     real = np.array([lam[i].imag == 0.0 for i in modes])
