@@ -50,8 +50,8 @@ def test_a_small_held_out_top_up_leaves_the_95_interval_as_it_was():
     """A within-run part over 24 blocks (23 degrees of freedom) topped up by the held-out runs by 5 %
     of its std: the half-width grows by under 1 %, as the variance does (0.12 %), not by the switch of
     the whole model error to the held-out runs' two degrees of freedom (t 4.30 for 2.07: 2.1 times, the
-    rule before; on the MMG battery 42 of 218 intervals topped up by under 5 % of their std grew
-    1.07-2.15 times)."""
+    rule before; on the MMG battery the 44 of 194 topped-up intervals topped up by under 5 % of their
+    std grew 1.07-2.15 times)."""
     before = half_width_95(0.1, 0.0, 1.0, n_runs=3)
     for top_up in (1e-4, 0.01, 0.05):
         after = half_width_95(0.1, 0.0, 1.0, heldout=top_up, n_runs=3, n_heldout=2)
