@@ -250,14 +250,13 @@ def _recording_parts(add_95):
     model, within, reference, heldout, n_runs, n_heldout): the arguments of
     ``diagnose.uncertainty.half_width_95``, so ``benchmarks.mmg_battery_table --rescore``
     recomputes a 95 % half-width exactly from a stored diagnosis under another quantile rule."""
-    from diagnose.describe import _T_PARTS, STD_SUFFIXES
+    from diagnose.describe import STD_SUFFIXES, args_95
 
     def add(out: dict, by_part: dict[str, dict], cov) -> None:
         add_95(out, by_part, cov)
         for k in [k for k in out if k.endswith(STD_SUFFIXES) and isinstance(out[k], float)]:
-            sds = {part: by_part[part].get(k) for part in _T_PARTS}
-            if all(isinstance(v, float) and np.isfinite(v) for v in sds.values()):
-                out[k + PARTS] = sds | {"n_runs": cov.n_runs, "n_heldout": getattr(cov, "heldout_runs", 0)}
+            if (a := args_95(by_part, k, cov)) is not None:
+                out[k + PARTS] = a
 
     return add
 

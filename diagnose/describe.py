@@ -211,13 +211,21 @@ def _part_covs(cov) -> dict[str, np.ndarray]:
     return {part: C if (C := getattr(cov, part, None)) is not None else np.zeros_like(cov.noise) for part in _T_PARTS}
 
 
+def args_95(by_part: dict[str, dict], k: str, cov) -> dict | None:
+    """The arguments of :func:`diagnose.uncertainty.half_width_95` for the std ``k``: its std in each
+    part (``by_part``) and the runs they were measured over; None when a part is not a finite number."""
+    sds = {part: by_part[part].get(k) for part in _T_PARTS}
+    if not all(isinstance(v, float) and np.isfinite(v) for v in sds.values()):
+        return None
+    return sds | {"n_runs": cov.n_runs, "n_heldout": getattr(cov, "heldout_runs", 0)}
+
+
 def _add_95(out: dict, by_part: dict[str, dict], cov) -> None:
     """``<name>_95`` beside each std ``<name>`` of ``out``: the half-width of its 95 % interval
     (:func:`diagnose.uncertainty.half_width_95`) from the same std of each part (``by_part``)."""
     for k in [k for k in out if k.endswith(STD_SUFFIXES) and isinstance(out[k], float)]:
-        sds = [by_part[part].get(k) for part in _T_PARTS]
-        if all(isinstance(v, float) and np.isfinite(v) for v in sds):
-            out[f"{k}_95"] = half_width_95(*sds, n_runs=cov.n_runs, n_heldout=getattr(cov, "heldout_runs", 0))
+        if (a := args_95(by_part, k, cov)) is not None:
+            out[f"{k}_95"] = half_width_95(**a)
 
 
 def with_interval(c: Candidate, model: AugmentedModel, P: np.ndarray, cov, free: list[int]) -> dict:

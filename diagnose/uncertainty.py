@@ -465,13 +465,18 @@ def within_term(
     return _finite(positive_part(B - run_part))
 
 
+def _var_den(comps: list[tuple[float, float]]) -> tuple[float, float]:
+    """The total variance of independent parts ``(variance, degrees of freedom)`` and the
+    Welch-Satterthwaite denominator ``sum v_i^2 / nu_i`` (parts of infinite degrees of freedom add none)."""
+    return sum(v for v, _nu in comps), sum(v**2 / nu for v, nu in comps if np.isfinite(nu))
+
+
 def _t_half(comps: list[tuple[float, float]]) -> float:
     """Half-width of a 95 % interval of a sum of independent parts ``(variance, degrees of freedom)``:
     the Student-t quantile at the Welch-Satterthwaite effective degrees of freedom
     ``nu = (sum v_i)^2 / sum (v_i^2 / nu_i)`` (Satterthwaite 1946; Welch 1947) times the
     total std."""
-    var = sum(v for v, _nu in comps)
-    den = sum(v**2 / nu for v, nu in comps if np.isfinite(nu))
+    var, den = _var_den(comps)
     nu = var**2 / den if den > 0 else np.inf
     return float(stats.t.ppf(0.975, nu) * np.sqrt(var)) if var > 0 else 0.0
 
@@ -494,8 +499,7 @@ def _topped_up(parts: list[tuple[float, float]], top_up: float, n_heldout: int) 
     measured plus the top-up: below the held-out measure itself by the parts' small-sample
     widening (the top-up is its excess over the widened parts), so it is continuous at a zero
     top-up; :func:`half_width_95`'s floor of 1.96 printed stds still holds the held-out measure."""
-    var = sum(v for v, _nu in parts)
-    den = sum(v**2 / nu for v, nu in parts if np.isfinite(nu))
+    var, den = _var_den(parts)
     total = var + top_up
     inv = (var / total) * (den / var**2 if var > 0 else 0.0) + (top_up / total) / n_heldout
     return total, (1.0 / inv if inv > 0 else np.inf)
