@@ -306,7 +306,7 @@ def unpinned_runs(
     out = []
     with np.errstate(all="ignore"):
         for r in runs:
-            ((_r, J),) = sensitivities(model, [prepare(ext, r)], model.p0(), idx, w)
+            ((_r, J),) = sensitivities(model, [prepare(ext, r)], model.p0(), idx, w, analytic=True)
             sd = float(np.sqrt(np.mean(np.einsum("inc,ij,jnc->nc", J, C, J), axis=0)).max())
             lim = pinned_limit(len(r.y), n_total, level, tau, alpha)
             if not sd <= lim:

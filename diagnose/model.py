@@ -21,6 +21,7 @@ from diagnose.candidates import Candidate, Slot
 from diagnose.noise import noise_std, noise_std_coloured  # noqa: F401  (diagnose.model's names, as before)
 from diagnose.openloop import compiled_loop, current_turning, numpy_loop
 from diagnose.recording import Recording
+from diagnose.sensitivity import residual_jacobian
 from primitives.goodness import fit_percent  # noqa: F401  (diagnose.model.fit_percent, as before)
 from primitives.ship import ShipProfile
 from primitives.simulate import WIND_EXCESS, body_from_ne, relative_signals
@@ -227,7 +228,7 @@ class AugmentedModel:
         scale, bias, cur = plan["scale"], plan["bias"], plan["cur"]
         loop: list[list[tuple[str, np.ndarray]]] = [[], [], []]
         for i, coef, term, names, _fn in plan["terms"]:
-            if not set(names) <= {"psi", "phi", *self.profile.inputs, "tau_x", "tau_y", "tau_n", *windload.SIGNALS}:
+            if not self.input_only(names):
                 loop[i].append((term, coef))
         cuts = np.cumsum([0] + [len(q) for q in Ps]) if Ps is not None else None
         rows = [slice(None)] * len(preps) if cuts is None else [slice(a, b) for a, b in zip(cuts[:-1], cuts[1:])]
@@ -248,6 +249,10 @@ class AugmentedModel:
         if not np.any(bias):  # no sensor bias: the outputs as simulated (adding zeros copies each)
             return outs
         return [o + bias[sl][:, None, :] for o, sl in zip(outs, rows)]
+
+    def input_only(self, names: tuple[str, ...]) -> bool:
+        """Whether a term reading ``names`` reads no state: summed before the time loop."""
+        return set(names) <= {"psi", "phi", *self.profile.inputs, "tau_x", "tau_y", "tau_n", *windload.SIGNALS}
 
     def _run_inputs(self, prep: Prepared, plan: dict, P: np.ndarray) -> tuple[dict, np.ndarray, np.ndarray]:
         """(exogenous signals, input-only increments (B, N, 3), nu(0) (B, 3)) of one recording."""
@@ -371,13 +376,20 @@ def jacobian(
     masks: list[np.ndarray] | None = None,
     h: np.ndarray | None = None,
     at_P: list[np.ndarray] | None = None,
+    analytic: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(r0 (M,), J (M, len(free))) of the weighted residual by forward differences, one batched
+    """(r0 (M,), J (M, len(free))) of the weighted residual; with ``analytic``, by forward
+    sensitivities (:mod:`diagnose.sensitivity`) where they apply. Else by forward differences, one batched
     simulation, a batch per recording. A recording's initial-state parameters move that recording alone:
     they are stepped on it only, their columns zero on the others (the zeros the differences of
     two equal simulations give, without simulating them: a quarter to a half of the members of a
     diagnosis's refits, whose free parameters are mostly initial states). ``at_P``: the
     residuals (1, N_i+1, 3) per recording at P when already simulated (not simulated again)."""
+    if analytic:
+        res = at_P if at_P is not None else residuals(model, preps, P[None])
+        got = residual_jacobian(model, preps, P, free, w, [q[0] for q in res], masks)
+        if got is not None:
+            return np.concatenate([R.ravel() for R, _J in got]), np.concatenate([J.reshape(-1, len(free)) for _R, J in got])
     h = model.steps(preps, P) if h is None else h
     owner = _initial_state_owner(model, preps, free)
     shared = [k for k, o in enumerate(owner) if o == -1]
@@ -438,6 +450,7 @@ def fit(
     tol: float = 1e-5,
     prior: tuple[np.ndarray, np.ndarray] | None = None,
     patience: int = 1,
+    analytic: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Output-error Levenberg-Marquardt over the ``free`` parameters within ``bounds``, with an
     optional Gaussian ``prior`` (ref, sd) per parameter. Returns (P, cov, rss); rss is the data
@@ -445,7 +458,8 @@ def fit(
     It stops after ``patience`` accepted steps in a row that each lower the objective by less
     than ``tol`` of it (one short step may be a dip, or a step the damping just raised held back).
 
-    Each iteration tries four damping values in one batched simulation.
+    Each iteration tries four damping values in one batched simulation. ``analytic``: the
+    Jacobians by forward sensitivities where they apply (:func:`jacobian`).
     """
     P = np.asarray(P, float).copy()
     bounds = bounds or {}
@@ -460,7 +474,7 @@ def fit(
         pri = np.array([float(np.sum(_prior_rows(p, free, prior)[0] ** 2)) for p in Pb])
         return data, data + pri
 
-    r, J = jacobian(model, preps, P, free, w, masks, h)
+    r, J = jacobian(model, preps, P, free, w, masks, h, analytic=analytic)
     rp, Jp = _prior_rows(P, free, prior)
     rss = float(r @ r)
     obj = rss + float(rp @ rp)
@@ -497,7 +511,7 @@ def fit(
         short = short + 1 if rel < tol else 0
         if short >= patience:
             break
-        r, J = jacobian(model, preps, P, free, w, masks, h, at_P=[q[k : k + 1] for q in trial[0]])
+        r, J = jacobian(model, preps, P, free, w, masks, h, at_P=[q[k : k + 1] for q in trial[0]], analytic=analytic)
         rp, Jp = _prior_rows(P, free, prior)
     dof = max(len(r) - len(free), 1)
     Ja = np.vstack([J, Jp])

@@ -37,13 +37,19 @@ from scipy import stats
 from scipy.signal import lfilter
 
 from diagnose.model import AugmentedModel, Prepared, fit, residuals
+from diagnose.sensitivity import residual_jacobian
 
 
 def sensitivities(
-    model: AugmentedModel, preps: list[Prepared], P: np.ndarray, cols: list[int], w: np.ndarray
+    model: AugmentedModel, preps: list[Prepared], P: np.ndarray, cols: list[int], w: np.ndarray, analytic: bool = False
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per recording (weighted residual (N, 3), its sensitivity to ``cols`` (c, N, 3)) at P,
-    from one batched simulation (forward differences, the fit's steps)."""
+    from one batched simulation (forward differences, the fit's steps); with ``analytic``, by
+    forward sensitivities where they apply (:mod:`diagnose.sensitivity`)."""
+    if analytic:
+        got = residual_jacobian(model, preps, P, cols, w, [q[0] for q in residuals(model, preps, P[None])])
+        if got is not None:
+            return [(R, np.moveaxis(J, 2, 0)) for R, J in got]
     h = model.steps(preps, P)
     Pb = np.repeat(P[None], len(cols) + 1, axis=0)
     for k, j in enumerate(cols):
@@ -320,8 +326,8 @@ def baseline_cov(
     from the prior: ``H^-1 (J^T Sigma J + D) H^-1`` (D the prior's Hessian; ``H^-1`` for white
     noise): the sandwich alone gives a direction the data leave to the prior a variance near zero."""
     x0 = model.x0_params()
-    P, _cov, _rss = fit(model, preps, model.p0(), x0, w, max_iter=5)
-    pairs = sensitivities(model, preps, P, list(idx) + x0, w)
+    P, _cov, _rss = fit(model, preps, model.p0(), x0, w, max_iter=5, analytic=True)
+    pairs = sensitivities(model, preps, P, list(idx) + x0, w, analytic=True)
     D = _prior_D(np.concatenate([np.asarray(sd, float)[idx], np.full(len(x0), np.inf)]), len(idx) + len(x0))
     cov, H = sandwich(pairs, D)
     if mse:
