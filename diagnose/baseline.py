@@ -8,7 +8,7 @@ import numpy as np
 
 from diagnose import plausible
 from diagnose.candidates import build_library
-from diagnose.heldout import gauss_newton_step, grams, make_parts
+from diagnose.heldout import Grams, Parts, gauss_newton_step, make_parts
 from diagnose.model import AugmentedModel, Prepared, diverges, escaped, fit, noise_std, prepare
 from diagnose.recording import Recording, RecordingError
 from diagnose.reference import extend, padded_params
@@ -140,7 +140,7 @@ def loo_misfit(
         if any(escaped(p, model.simulate(p, P)[0]) for p in preps):
             return float("inf")
         parts = make_parts(preps, [])
-        g = grams(model, preps, parts, P, idx, w, model.steps(preps, P))
+        g = _grams(model, preps, parts, P, idx, w)
         fin = np.isfinite(sd[idx])
         D = np.where(fin, 1.0 / np.where(fin, sd[idx], 1.0) ** 2, 0.0)
         pg = D * (P[idx] - model.p0()[idx])
@@ -153,6 +153,21 @@ def loo_misfit(
                 return float("inf")
             total += float(np.sum(((preps[t].y[1:] - yh[1:]) * w) ** 2))
     return total / max(3 * g.n_rows.sum(), 1) if np.isfinite(total) else float("inf")
+
+
+def _grams(model: AugmentedModel, preps: list[Prepared], parts: Parts, P: np.ndarray, idx: list[int], w: np.ndarray) -> Grams:
+    """:func:`diagnose.heldout.grams` from forward sensitivities where they apply
+    (:func:`diagnose.uncertainty.sensitivities`: one pass a run instead of a simulated member a column)."""
+    pairs = sensitivities(model, preps, P, idx, w, analytic=True)
+    G, hv, rr, den = [], [], [], []
+    for i, m in zip(parts.prep, parts.mask):
+        r0, J = pairs[i][0][m], pairs[i][1][:, m]  # (n, 3), (c, n, 3)
+        y = preps[i].y[1:][m] * w
+        G.append(np.einsum("cnk,dnk->kcd", J, J))
+        hv.append(np.einsum("cnk,nk->kc", J, r0))
+        rr.append(np.sum(r0**2, axis=0))
+        den.append(np.sum((y - y.mean(axis=0)) ** 2, axis=0))
+    return Grams(np.array(G), np.array(hv), np.array(rr), np.array(den), list(idx), np.array([int(m.sum()) for m in parts.mask]))
 
 
 def term_scales(profile: ShipProfile, recs: list[Recording]) -> np.ndarray:

@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from diagnose.baseline import _extended
+from diagnose.baseline import _extended, _grams
 from diagnose.candidates import build_library
+from diagnose.heldout import grams, make_parts
 from diagnose.model import AugmentedModel, jacobian, prepare, residuals
 from diagnose.recording import read_marin_dat
 from diagnose.sensitivity import applies
@@ -139,3 +140,19 @@ def test_candidate_slots_are_left_to_finite_differences():
     a = jacobian(model, preps, P, base, w, analytic=True)
     b = jacobian(model, preps, P, base, w)
     assert np.array_equal(a[1], b[1])
+
+
+@needs_numba
+def test_left_out_grams_match_finite_differences():
+    """loo_misfit's Gram matrices (diagnose.baseline._grams) against diagnose.heldout.grams."""
+    prof = load_profile("kvlcc2")
+    recs = [_marin("zz_10").window(0, 400), _marin("zz_20").window(0, 300)]
+    model = AugmentedModel(prof, prof.params(), [])
+    preps = [prepare(prof, r) for r in recs]
+    P, idx, w = model.p0(), list(range(model.n_base)), 1.0 / np.array([0.01, 0.01, 0.001])
+    parts = make_parts(preps, [])
+    a = _grams(model, preps, parts, P, idx, w)
+    b = grams(model, preps, parts, P, idx, w, model.steps(preps, P))
+    assert np.allclose(a.rr, b.rr, rtol=1e-12) and np.allclose(a.den, b.den, rtol=1e-12) and np.array_equal(a.n_rows, b.n_rows)
+    assert np.allclose(a.G, b.G, rtol=1e-3, atol=1e-3 * np.abs(b.G).max())
+    assert np.allclose(a.h, b.h, rtol=1e-3, atol=1e-3 * np.abs(b.h).max())
