@@ -1,8 +1,11 @@
 """The output-error Jacobian of the augmented model's baseline by forward sensitivities
 (:mod:`primitives.jitsens`) instead of finite differences: one pass beside the simulated
 trajectory for every column, where finite differences step one perturbed member per column
-(the --fit-on baseline fit: about 60 coefficients and 3 initial states a run, Levenberg-Marquardt
-Jacobians on four runs of 3,500 samples).
+(the --fit-on baseline's covariance and left-out refits: about 60 coefficients and 3 initial
+states a run on four runs of 3,500 samples). The baseline's Levenberg-Marquardt fit keeps its
+finite differences: exact Jacobians change the path of that ill-conditioned fit, which stops while
+it still creeps, and on the MMG battery's thrust-loss-20 it ends in another valley (a worse
+objective) where the diagnosis names a wind too.
 
 It applies to the baseline's own parameters (its term coefficients and the runs' initial states)
 at a point where no candidate slot is switched on (the --fit-on fit and its covariance): a
