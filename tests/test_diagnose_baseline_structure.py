@@ -231,15 +231,22 @@ def test_leave_one_out_misfit_is_the_refitted_model_simulated_on_the_run_left_ou
     P = model.p0()
     P[: model.n_base] = theta
     parts = make_parts(preps, [])
-    g = grams(model, preps, parts, P, idx, w, model.steps(preps, P))
     D = 1.0 / sd[idx] ** 2
-    sq = []
-    for t, fit_parts in zip(parts.test, parts.fit_of):
-        Pf = P.copy()
-        Pf[idx] += gauss_newton_step(g, fit_parts, list(range(len(idx))), D, D * (P[idx] - model.p0()[idx]))
-        sq.append(np.sum(((preps[t].y[1:] - model.simulate(preps[t], Pf)[0][1:]) * w) ** 2))
-    expected = sum(sq) / (3 * sum(p.n for p in preps))
-    assert baseline.loo_misfit(prof, prof.params(), theta, calm) == pytest.approx(expected, rel=1e-9)
+    expected = {}
+    # the Gram matrices by forward sensitivities (as loo_misfit forms them) and by finite differences
+    for how, g in (
+        ("sens", baseline._grams(model, preps, parts, P, idx, w)),
+        ("fd", grams(model, preps, parts, P, idx, w, model.steps(preps, P))),
+    ):
+        sq = []
+        for t, fit_parts in zip(parts.test, parts.fit_of):
+            Pf = P.copy()
+            Pf[idx] += gauss_newton_step(g, fit_parts, list(range(len(idx))), D, D * (P[idx] - model.p0()[idx]))
+            sq.append(np.sum(((preps[t].y[1:] - model.simulate(preps[t], Pf)[0][1:]) * w) ** 2))
+        expected[how] = sum(sq) / (3 * sum(p.n for p in preps))
+    got = baseline.loo_misfit(prof, prof.params(), theta, calm)
+    assert got == pytest.approx(expected["sens"], rel=1e-9)
+    assert got == pytest.approx(expected["fd"], rel=1e-3)
 
 
 def test_fit_stops_only_after_patience_short_steps_in_a_row(monkeypatch):
