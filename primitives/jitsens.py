@@ -86,8 +86,11 @@ def _sens_loop(
     sig = np.zeros(N_STATE + n_in)
     dsig = np.zeros((N_STATE + n_in, 3))  # d signal / d (u, v, r); exogenous rows stay zero
     A = np.zeros((3, 3))
-    fv = np.zeros(8)
-    fg = np.zeros((8, 3))
+    n_fac = 1  # the most factors a term has (the program's terms are not bounded in length)
+    for t in range(t_n.shape[0]):
+        n_fac = max(n_fac, t_n[t])
+    fv = np.zeros(n_fac)
+    fg = np.zeros((n_fac, 3))
     grad = np.zeros(3)
     has_wind = wind.shape[0] > 0
     for k in range(n_steps):
@@ -121,7 +124,8 @@ def _sens_loop(
             for j in range(3):
                 A[i, j] = 0.0
         for i in range(3):
-            S[k + 1, i] = S[k, i]
+            for c in range(m):
+                S[k + 1, i, c] = S[k, i, c]
         for i in range(dof_first.shape[0]):
             for t in range(dof_first[i], dof_first[i] + dof_n[i]):
                 nf = t_n[t]
