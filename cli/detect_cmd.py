@@ -114,6 +114,7 @@ def register(app: typer.Typer) -> None:
         from identify.detect.api import hull_inertia, load_prior, load_runs
         from identify.detect.api import plot as plot_stats
         from identify.detect.verdict import implausible_inertia
+        from primitives.errors import UserError
 
         validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot, i_z=i_z)
         i_z, n_rdot = hull_inertia(profile, i_z, n_rdot)
@@ -124,7 +125,7 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"note: {n}", err=True)
         odd = implausible_inertia(prior, i_z, n_rdot)
         if odd:
-            typer.echo(f"warning: {prior_file}: {odd}", err=True)
+            raise UserError(f"{prior_file}: {odd}")
         if i_z is None:
             typer.echo(
                 "warning: the hull's I_z and N_rdot are not known: a yaw-inertia change is reported of the lumped "

@@ -147,24 +147,32 @@ def test_cli_detect_warns_when_the_prior_misfits_its_own_data(prior, tmp_path, c
     assert "warning" in err and "misfit.json" in err and "not calibrated" in err
 
 
-def test_cli_detect_warns_when_the_priors_inertia_is_not_the_hulls(prior, tmp_path, capsys):
+def test_detect_refuses_a_prior_whose_inertia_is_not_the_hulls(prior, tmp_path, capsys):
     # the podded truth family's steering-lag priors (a logged set-point moment, the gear lagging it)
-    # fit I_r 18-31 times the hull's I_z - N_rdot, and 50-75 % of their no-change runs alarmed, silently
+    # fit I_r 18-31 times the hull's I_z - N_rdot; with a warning only, 50-100 % of their no-change
+    # runs alarmed and 20-100 % of their changed runs were missed
     from dataclasses import replace
 
     from cli.app import _run
+    from identify.detect.api import load_runs
     from identify.detect.verdict import implausible_inertia
+    from primitives.errors import UserError
 
     odd = replace(prior, values=prior.values | {"I_r": 18 * prior.values["I_r"]})
     assert implausible_inertia(prior, **HULL) is None and implausible_inertia(odd, **HULL) is not None
-    assert implausible_inertia(odd, i_z=18 * 62.4e6 + 28.7e6, n_rdot=-28.7e6) is None  # a ship that heavy: no warning
+    assert implausible_inertia(odd, i_z=18 * 62.4e6 + 28.7e6, n_rdot=-28.7e6) is None  # a ship that heavy: accepted
     assert implausible_inertia(odd, None, None) is None  # the hull not known: nothing to compare with
     save_prior(odd, tmp_path / "odd.json")
     write_csv(simulated_recording(Vessel(), 100, seed=57, measured_moment=True), tmp_path / "r.csv")
-    args = ["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "odd.json"), "--json", "--profile", "naval-vessel"]
-    assert _run(args) in (0, None)
+    with pytest.raises(UserError, match="18 times the hull's"):
+        detect(load_runs([tmp_path / "r.csv"], odd.kind)[0], odd, **HULL)
+    plot = tmp_path / "p.png"
+    args = ["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "odd.json"), "--profile", "naval-vessel"]
+    assert _run([*args, "--plot", str(plot)]) == 2
     err = capsys.readouterr().err
-    assert "warning" in err and "odd.json" in err and "18 times the hull's" in err and "not calibrated" in err
+    assert err.startswith("error: ") and "odd.json" in err and "18 times the hull's" in err and "refit" in err
+    assert len(err.strip().splitlines()) == 1 and not plot.exists()
+    assert _run(args[:4]) in (0, None)  # without the hull's values: nothing to compare with, tested
 
 
 def test_white_noise_level_is_read_from_the_data():
