@@ -176,7 +176,7 @@ def test_detect_refuses_a_prior_whose_inertia_is_not_the_hulls(prior, tmp_path, 
 
 
 def test_white_noise_level_is_read_from_the_data():
-    from identify.detect.yawmodel import white_noise_sd
+    from identify.detect.priorfit import white_noise_sd
 
     t = np.arange(5000) * 0.1
     smooth = 1.3 * np.sin(2 * np.pi * t / 60) + 0.5 * np.sin(2 * np.pi * t / 17)
@@ -193,8 +193,8 @@ def test_coloured_sensor_noise_does_not_pass_for_structure():
     misfit (it read 7.5 % of I_r, which the detector then added to every estimate's sd)."""
     from scipy.signal import lfilter
 
+    from identify.detect.priorfit import fit
     from identify.detect.vessel import TABLE_4_1
-    from identify.detect.yawmodel import fit
 
     tr = truth(harbour_inputs(4000, 0.1, seed=5))
     rng = np.random.default_rng(7)
@@ -224,8 +224,8 @@ def test_bootstrap_prior_spread_matches_the_monte_carlo_spread():
     # The bootstrap sees only the nominal record; its I_r error (second moment: spread and bias)
     # must match that of priors fitted to independent noise realisations (Table 4.1 noise on every
     # input, 400 s) within a factor 2 (12 fits estimate an rms to about +-25 %)
+    from identify.detect.priorfit import fit
     from identify.detect.vessel import TABLE_4_1, measure
-    from identify.detect.yawmodel import fit
 
     tr = truth(harbour_inputs(4000, 0.1, seed=5))
     errs = []
