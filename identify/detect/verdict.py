@@ -98,8 +98,8 @@ def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float |
 #: fitted I_r over the hull's I_z - N_rdot beyond which the prior is not that ship's yaw row: measured
 #: 0.77-0.82 on the podded truth family's nominal-mmg and strong-roll priors (a load cell that misses
 #: the hull's share of the pod force), 18 and 31 on its steering-lag priors (a logged set-point moment
-#: while the steering gear lags it; their no-change runs alarmed in 50-100 %, their changed runs were
-#: missed in 20-100 %: ``detect`` refuses such a prior, :func:`implausible_inertia`)
+#: while the steering gear lags it; with a warning only, one ship alarmed on 5 of 5 no-change runs and
+#: the other missed 5 of 5 changed runs: ``detect`` refuses such a prior, :func:`implausible_inertia`)
 INERTIA_RATIO = 3.0
 
 
@@ -109,11 +109,11 @@ def implausible_inertia(prior: YawPrior, i_z: float | None, n_rdot: float | None
 
     Such a prior is not this ship's yaw row, and no calibration of its alarms holds: on the podded
     truth family's steering-lag ships (the drive logs the moment of its azimuth set-point while the
-    gear lags it by a 2 s lag and a 3.5 deg/s rate limit) every parameter of the fit grows 18-31
-    times together, i.e. the fit all but ignores the recorded moment and turns the ship with the
-    measured sway instead; the same ships' priors fitted on the acting moment have I_r 0.75-0.79
-    times the hull's. A first-order lag (0.5-8 s) on the recorded moment, or the set-point angle
-    passed through the true gear, does not bring it back (benchmarks/bench_detect_truth.py, README)."""
+    gear lags it by a 2 s lag and a 3.5 deg/s rate limit) I_r and the damping terms grow 18-31 times
+    together, i.e. the fit all but ignores the recorded moment and turns the ship with the measured
+    sway instead; the same ships' priors fitted on the acting moment have I_r 0.75-0.79 times the
+    hull's. A first-order lag (0.5-8 s) on the recorded moment, or the set-point angle passed through
+    the true gear, did not bring it back (measured by scripts outside the repository; README, stop 40)."""
     if i_z is None or n_rdot is None:
         return None
     ratio = prior.values["I_r"] / (i_z - n_rdot)
