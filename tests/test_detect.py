@@ -175,6 +175,24 @@ def test_detect_refuses_a_prior_whose_inertia_is_not_the_hulls(prior, tmp_path, 
     assert _run(args[:4]) in (0, None)  # without the hull's values: nothing to compare with, tested
 
 
+def test_detect_prior_refuses_with_the_hull_what_detect_would_refuse(tmp_path, capsys):
+    # the same check (verdict.implausible_inertia) before the prior is written: a moment logged a tenth
+    # too small (e.g. in other units) fits I_r 0.10 times the hull's; without the hull it is written
+    from dataclasses import replace
+
+    from cli.app import _run
+
+    rec = simulated_recording(Vessel(), 400, seed=21, measured_moment=True)
+    write_csv(replace(rec, channels=rec.channels | {"tau_n": rec.channels["tau_n"] / 10}), tmp_path / "nom.csv")
+    out = tmp_path / "p.json"
+    args = ["detect-prior", str(tmp_path / "nom.csv"), "--out", str(out), "--bootstrap", "0"]
+    assert _run([*args, "--profile", "naval-vessel"]) == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error: ")]
+    assert len(err) == 1 and "nom.csv" in err[0] and "0.1 times the hull's" in err[0] and "leave out --profile" in err[0]
+    assert not out.exists()
+    assert _run(args) in (0, None) and out.exists()
+
+
 def test_white_noise_level_is_read_from_the_data():
     from identify.detect.priorfit import white_noise_sd
 

@@ -125,7 +125,8 @@ def implausible_inertia(prior: YawPrior, i_z: float | None, n_rdot: float | None
         "alarm of this prior is calibrated; if the drive logs the moment (or pod angles) of its set-points while "
         "the steering gear lags them, record the acting ones and refit with detect-prior; if the moment is in "
         "other units, convert it to N m; if the hull's values are not this ship's, correct --profile or --i-z "
-        "and --n-rdot"
+        "and --n-rdot; to use this prior anyway, at your own risk, leave out --profile, --i-z and --n-rdot (a "
+        "yaw-inertia change is then reported of I_r only)"
     )
 
 
