@@ -96,10 +96,13 @@ def physical_change(name: str, rel: float, i_r: float, n_rdot: float) -> float |
 
 
 #: fitted I_r over the hull's I_z - N_rdot beyond which the prior is not that ship's yaw row: measured
-#: 0.77-0.82 on the podded truth family's nominal-mmg and strong-roll priors (a load cell that misses
-#: the hull's share of the pod force), 18 and 31 on its steering-lag priors (a logged set-point moment
-#: while the steering gear lags it; with a warning only, one ship alarmed on 5 of 5 no-change runs and
-#: the other missed 5 of 5 changed runs: ``detect`` refuses such a prior, :func:`implausible_inertia`)
+#: 0.66-0.89 on the podded truth family's healthy priors (pod-interaction, nominal-mmg, strong-roll,
+#: coloured-noise, ships 100 and 101; below 1 as the load cells miss the hull's share of the pod
+#: force), 18 and 31 on its steering-lag priors (a logged set-point moment while the gear lags it; with
+#: a warning only, one ship alarmed on 5 of 5 no-change runs and the other missed 5 of 5 changed runs:
+#: ``detect`` refuses such a prior, :func:`implausible_inertia`). Any bound from about 1.5 to 15
+#: separates these; 3 leaves room for hull values (I_z from a radius of gyration, N_rdot from empirical
+#: formulas) known only to tens of percent
 INERTIA_RATIO = 3.0
 
 
