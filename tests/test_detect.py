@@ -178,6 +178,7 @@ def test_detect_refuses_a_prior_whose_inertia_is_not_the_hulls(prior, tmp_path, 
 def test_detect_prior_refuses_with_the_hull_what_detect_would_refuse(tmp_path, capsys):
     # the same check (verdict.implausible_inertia) before the prior is written: a moment logged a tenth
     # too small (e.g. in other units) fits I_r 0.10 times the hull's; without the hull it is written
+    import warnings
     from dataclasses import replace
 
     from cli.app import _run
@@ -186,8 +187,11 @@ def test_detect_prior_refuses_with_the_hull_what_detect_would_refuse(tmp_path, c
     write_csv(replace(rec, channels=rec.channels | {"tau_n": rec.channels["tau_n"] / 10}), tmp_path / "nom.csv")
     out = tmp_path / "p.json"
     args = ["detect-prior", str(tmp_path / "nom.csv"), "--out", str(out), "--bootstrap", "0"]
-    assert _run([*args, "--profile", "naval-vessel"]) == 2
-    err = capsys.readouterr().err.strip().splitlines()  # one line: no fit warning above it
+    with warnings.catch_warnings(record=True) as caught:  # a user sees any warning as a line above the error
+        warnings.simplefilter("always")
+        assert _run([*args, "--profile", "naval-vessel"]) == 2
+    assert not caught, [str(c.message) for c in caught]
+    err = capsys.readouterr().err.strip().splitlines()
     assert (
         len(err) == 1
         and err[0].startswith("error: ")
