@@ -31,9 +31,11 @@ import numpy as np
 
 from identify.detect.cusum import calibrate_dead_zone, first_alarms
 from identify.detect.glr import calibrate
+from identify.detect.nullsim import null_records
+from identify.detect.priorfit import fit
 from identify.detect.verdict import attribute
 from identify.detect.vessel import TABLE_4_1, Vessel, harbour_inputs, measure, truth
-from identify.detect.yawmodel import NOMINAL, PREFILTER_HZ, SIGNALS, block_mean, fit, null_records, signatures
+from identify.detect.yawmodel import NOMINAL, PREFILTER_HZ, SIGNALS, block_mean, signatures
 
 DT, N = 0.1, 5000
 #: seed 000 Tables 5.2/5.3 aggregated over models 1-10 (false alarm %, miss %, mean time s), and model 0

@@ -10,6 +10,11 @@ import typer
 from primitives.io import dumps
 
 PLOT_PANELS = 4  # recordings in one figure; beyond, one file per recording
+N_RDOT_HELP = "the ship's added yaw inertia N_rdot (kg m^2, negative); replaces the --profile's"
+I_Z_HELP = (
+    "the ship's rigid-body yaw inertia I_z (kg m^2): a relative change of I_r is (I_z - N_rdot) / I_z "
+    "times that of I_z; replaces the --profile's"
+)
 
 
 def register(app: typer.Typer) -> None:
@@ -38,17 +43,31 @@ def register(app: typer.Typer) -> None:
             help="with the full model and a roll-rate column p, add the yaw moment N_p p of the roll "
             "rate to the yaw row (the recordings tested then need p too)",
         ),
+        profile: str | None = typer.Option(
+            None,
+            "--profile",
+            help="the ship's profile (built-in name or a .toml/.json file): a prior whose I_r is more than 3 times "
+            "off its [rigid_body] I_z - N_rdot is refused here, as detect would refuse it, and not written",
+        ),
+        n_rdot: float | None = typer.Option(None, "--n-rdot", help=N_RDOT_HELP),
+        i_z: float | None = typer.Option(None, "--i-z", help=I_Z_HELP),
     ) -> None:
         """Fit the yaw-row prior (2.17)/(2.18) of "Estimating a ship's dynamics during operation" on a nominal recording, for `detect`."""
         from cli.options import validate_detect_prior_options
-        from identify.detect.api import fit_prior, save_prior
+        from identify.detect.api import fit_prior, hull_inertia, save_prior
+        from identify.detect.verdict import implausible_inertia
         from identify.detect.yawmodel import CANDIDATES
+        from primitives.errors import UserError
 
-        validate_detect_prior_options(out=out, bootstrap=bootstrap, seed=seed)
+        validate_detect_prior_options(out=out, bootstrap=bootstrap, seed=seed, n_rdot=n_rdot, i_z=i_z)
+        i_z, n_rdot = hull_inertia(profile, i_z, n_rdot)
         notes: list[str] = []
         prior = fit_prior(nominal, model, bootstrap, seed, notes, roll_rate=roll_rate)
         for n in notes:
             typer.echo(f"note: {n}", err=True)
+        odd = implausible_inertia(prior, i_z, n_rdot)
+        if odd:
+            raise UserError(f"{prior.source}: {odd} (nothing written to {out})")
         save_prior(prior, out)
         typer.echo(
             f"wrote {out}: {prior.kind} yaw row, I_r {prior.values['I_r']:.4g} kg m^2, residual sigma {prior.sigma:.2g} rad/s"
@@ -93,17 +112,8 @@ def register(app: typer.Typer) -> None:
             "I_z and N_rdot convert a change of the identified I_r = I_z - N_rdot into one of I_z; without it "
             "(or --i-z and --n-rdot) the change is reported of I_r and --min-change applies to I_r",
         ),
-        n_rdot: float | None = typer.Option(
-            None,
-            "--n-rdot",
-            help="the ship's added yaw inertia N_rdot (kg m^2, negative); replaces the --profile's",
-        ),
-        i_z: float | None = typer.Option(
-            None,
-            "--i-z",
-            help="the ship's rigid-body yaw inertia I_z (kg m^2): a relative change of I_r is (I_z - N_rdot) / I_z "
-            "times that of I_z; replaces the --profile's",
-        ),
+        n_rdot: float | None = typer.Option(None, "--n-rdot", help=N_RDOT_HELP),
+        i_z: float | None = typer.Option(None, "--i-z", help=I_Z_HELP),
         seed: int = typer.Option(0, "--seed", help="seed of the threshold's no-change simulation"),
         json_out: bool = typer.Option(False, "--json", help="print the verdicts as JSON"),
     ) -> None:
@@ -114,6 +124,7 @@ def register(app: typer.Typer) -> None:
         from identify.detect.api import hull_inertia, load_prior, load_runs
         from identify.detect.api import plot as plot_stats
         from identify.detect.verdict import implausible_inertia
+        from primitives.errors import UserError
 
         validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot, i_z=i_z)
         i_z, n_rdot = hull_inertia(profile, i_z, n_rdot)
@@ -124,7 +135,7 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"note: {n}", err=True)
         odd = implausible_inertia(prior, i_z, n_rdot)
         if odd:
-            typer.echo(f"warning: {prior_file}: {odd}", err=True)
+            raise UserError(f"{prior_file}: {odd}")
         if i_z is None:
             typer.echo(
                 "warning: the hull's I_z and N_rdot are not known: a yaw-inertia change is reported of the lumped "

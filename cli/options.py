@@ -348,11 +348,22 @@ def validate_plan_options(
     check_out_path(out)
 
 
-def validate_detect_prior_options(*, out: Path, bootstrap: int, seed: int) -> None:
+def validate_detect_prior_options(
+    *, out: Path, bootstrap: int, seed: int, n_rdot: float | None = None, i_z: float | None = None
+) -> None:
     check_out_file(out, (".json",), "--out", "prior")  # also refuses a directory
     if bootstrap != 0:  # 0: no bootstrap; one refit is no spread
         whole(bootstrap, "--bootstrap", 2, 256, "refits (or 0: no bootstrap)")
     whole(seed, "--seed", 0, 2**63 - 1)
+    _validate_hull_inertia(n_rdot, i_z)
+
+
+def _validate_hull_inertia(n_rdot: float | None, i_z: float | None) -> None:
+    """``--n-rdot`` and ``--i-z`` of detect-prior and detect."""
+    if n_rdot is not None:
+        in_range(n_rdot, "--n-rdot", -1e12, -1.0, "kg m^2 (the added yaw inertia N_rdot is negative, e.g. -28.7e6)")
+    if i_z is not None:
+        in_range(i_z, "--i-z", 1.0, 1e13, "kg m^2 (the rigid body's yaw inertia, positive, e.g. 33.7e6)")
 
 
 def validate_detect_options(
@@ -365,10 +376,7 @@ def validate_detect_options(
     i_z: float | None = None,
 ) -> None:
     check_plot_path(plot)
-    if n_rdot is not None:
-        in_range(n_rdot, "--n-rdot", -1e12, -1.0, "kg m^2 (the added yaw inertia N_rdot is negative, e.g. -28.7e6)")
-    if i_z is not None:
-        in_range(i_z, "--i-z", 1.0, 1e13, "kg m^2 (the rigid body's yaw inertia, positive, e.g. 33.7e6)")
+    _validate_hull_inertia(n_rdot, i_z)
     in_range(false_alarm, "--false-alarm", 1e-4, 0.5)  # a probability per recording
     in_range(min_change, "--min-change", 0.005, 1.0)  # relative: 0.05 = 5 %
     whole(seed, "--seed", 0, 2**63 - 1)

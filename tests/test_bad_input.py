@@ -418,6 +418,9 @@ def _cases() -> list[tuple[str, list[str]]]:
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--model", ["fancy", ""])
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--bootstrap", ["-1", "1001", "1.5", "abc"], named=True)
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--seed", ["-1", "abc", "1.5"], named=True)
+    add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--n-rdot", ["abc", "nan", "0", "28.7e6"], named=True)
+    add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--i-z", ["abc", "inf", "0", "-33.7e6"], named=True)
+    add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--profile", ship_bad)
     # steering (Källström 1977): records without rudder or heading, time not increasing, degrees for radians
     for rec in ["{missing}", "{dir}", "{binary}", "{latin1}", "{plan}", "{steer_nodelta}", "{steer_noheading}", "{steer_tback}"]:
         cases.append((f"steering RECORDING {rec}", ["steering", rec, "--ship", "kvlcc2"]))

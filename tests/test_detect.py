@@ -147,28 +147,64 @@ def test_cli_detect_warns_when_the_prior_misfits_its_own_data(prior, tmp_path, c
     assert "warning" in err and "misfit.json" in err and "not calibrated" in err
 
 
-def test_cli_detect_warns_when_the_priors_inertia_is_not_the_hulls(prior, tmp_path, capsys):
+def test_detect_refuses_a_prior_whose_inertia_is_not_the_hulls(prior, tmp_path, capsys):
     # the podded truth family's steering-lag priors (a logged set-point moment, the gear lagging it)
-    # fit I_r 18-31 times the hull's I_z - N_rdot, and 50-75 % of their no-change runs alarmed, silently
+    # fit I_r 18-31 times the hull's I_z - N_rdot; with a warning only, 50-100 % of their no-change
+    # runs alarmed and 20-100 % of their changed runs were missed
     from dataclasses import replace
 
     from cli.app import _run
+    from identify.detect.api import load_runs
     from identify.detect.verdict import implausible_inertia
+    from primitives.errors import UserError
 
     odd = replace(prior, values=prior.values | {"I_r": 18 * prior.values["I_r"]})
     assert implausible_inertia(prior, **HULL) is None and implausible_inertia(odd, **HULL) is not None
-    assert implausible_inertia(odd, i_z=18 * 62.4e6 + 28.7e6, n_rdot=-28.7e6) is None  # a ship that heavy: no warning
+    assert implausible_inertia(odd, i_z=18 * 62.4e6 + 28.7e6, n_rdot=-28.7e6) is None  # a ship that heavy: accepted
     assert implausible_inertia(odd, None, None) is None  # the hull not known: nothing to compare with
     save_prior(odd, tmp_path / "odd.json")
     write_csv(simulated_recording(Vessel(), 100, seed=57, measured_moment=True), tmp_path / "r.csv")
-    args = ["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "odd.json"), "--json", "--profile", "naval-vessel"]
-    assert _run(args) in (0, None)
+    with pytest.raises(UserError, match="18 times the hull's"):
+        detect(load_runs([tmp_path / "r.csv"], odd.kind)[0], odd, **HULL)
+    plot = tmp_path / "p.png"
+    args = ["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "odd.json"), "--profile", "naval-vessel"]
+    assert _run([*args, "--plot", str(plot)]) == 2
     err = capsys.readouterr().err
-    assert "warning" in err and "odd.json" in err and "18 times the hull's" in err and "not calibrated" in err
+    assert err.startswith("error: ") and "odd.json" in err and "18 times the hull's" in err and "refit" in err
+    assert len(err.strip().splitlines()) == 1 and not plot.exists()
+    assert _run(args[:4]) in (0, None)  # without the hull's values: nothing to compare with, tested
+
+
+def test_detect_prior_refuses_with_the_hull_what_detect_would_refuse(tmp_path, capsys):
+    # the same check (verdict.implausible_inertia) before the prior is written: a moment logged a tenth
+    # too small (e.g. in other units) fits I_r 0.10 times the hull's; without the hull it is written
+    import warnings
+    from dataclasses import replace
+
+    from cli.app import _run
+
+    rec = simulated_recording(Vessel(), 400, seed=21, measured_moment=True)
+    write_csv(replace(rec, channels=rec.channels | {"tau_n": rec.channels["tau_n"] / 10}), tmp_path / "nom.csv")
+    out = tmp_path / "p.json"
+    args = ["detect-prior", str(tmp_path / "nom.csv"), "--out", str(out), "--bootstrap", "0"]
+    with warnings.catch_warnings(record=True) as caught:  # a user sees any warning as a line above the error
+        warnings.simplefilter("always")
+        assert _run([*args, "--profile", "naval-vessel"]) == 2
+    assert not caught, [str(c.message) for c in caught]
+    err = capsys.readouterr().err.strip().splitlines()
+    assert (
+        len(err) == 1
+        and err[0].startswith("error: ")
+        and "nom.csv" in err[0]
+        and "0.1 times the hull's" in err[0]
+        and "leave out --profile" in err[0]
+    )
+    assert not out.exists()
+    assert _run(args) in (0, None) and out.exists()
 
 
 def test_white_noise_level_is_read_from_the_data():
-    from identify.detect.yawmodel import white_noise_sd
+    from identify.detect.priorfit import white_noise_sd
 
     t = np.arange(5000) * 0.1
     smooth = 1.3 * np.sin(2 * np.pi * t / 60) + 0.5 * np.sin(2 * np.pi * t / 17)
@@ -185,8 +221,8 @@ def test_coloured_sensor_noise_does_not_pass_for_structure():
     misfit (it read 7.5 % of I_r, which the detector then added to every estimate's sd)."""
     from scipy.signal import lfilter
 
+    from identify.detect.priorfit import fit
     from identify.detect.vessel import TABLE_4_1
-    from identify.detect.yawmodel import fit
 
     tr = truth(harbour_inputs(4000, 0.1, seed=5))
     rng = np.random.default_rng(7)
@@ -216,8 +252,8 @@ def test_bootstrap_prior_spread_matches_the_monte_carlo_spread():
     # The bootstrap sees only the nominal record; its I_r error (second moment: spread and bias)
     # must match that of priors fitted to independent noise realisations (Table 4.1 noise on every
     # input, 400 s) within a factor 2 (12 fits estimate an rms to about +-25 %)
+    from identify.detect.priorfit import fit
     from identify.detect.vessel import TABLE_4_1, measure
-    from identify.detect.yawmodel import fit
 
     tr = truth(harbour_inputs(4000, 0.1, seed=5))
     errs = []

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from identify.detect.yawmodel import fit
+from identify.detect.priorfit import fit
 from tests.physics.podded_truth import VARIANTS, draw_ship, nominal_ship, recordings
 
 DUR, LEAD = 100.0, 30.0

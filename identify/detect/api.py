@@ -15,8 +15,10 @@ from diagnose.recording import NUMERIC, Recording, RecordingError, load_recordin
 from identify.detect.checks import MOMENT, check_inputs, check_moment_sign, time_derivative
 from identify.detect.cusum import calibrate_dead_zone, first_alarms
 from identify.detect.glr import SignatureCusum, calibrate
+from identify.detect.nullsim import null_records
+from identify.detect.priorfit import fit
 from identify.detect.rollband import roll_band
-from identify.detect.verdict import Detection, Screening, physical_change, verdict
+from identify.detect.verdict import Detection, Screening, implausible_inertia, physical_change, verdict
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
 from identify.detect.yawmodel import (
     CANDIDATES,
@@ -24,9 +26,7 @@ from identify.detect.yawmodel import (
     SIGNALS,
     YawPrior,
     block_mean,
-    fit,
     model_inputs,
-    null_records,
     signatures,
 )
 from identify.yawid.experiment import pod_yaw_moment
@@ -265,7 +265,11 @@ def detect(
     (:func:`identify.detect.verdict.verdict`). The evidence holds the change point with its 95 %
     interval and, for yaw inertia, the change of the rigid body's ``i_z`` beside that of the lumped
     I_r = I_z - ``n_rdot`` (the hull's values, :func:`hull_inertia`; None: not known, the change
-    is of I_r and ``min_change`` applies to it)."""
+    is of I_r and ``min_change`` applies to it). A prior whose I_r is far off the hull's is refused
+    (:func:`identify.detect.verdict.implausible_inertia`): a UserError, before any screening."""
+    odd = implausible_inertia(prior, i_z, n_rdot)
+    if odd:
+        raise UserError(f"prior fitted on {prior.source or 'its nominal recording'}: {odd}")
     return verdict(screen(rec, prior, false_alarm, min_change, seed, null_runs, n_rdot, i_z), prior, min_change, n_rdot, i_z)
 
 
@@ -281,7 +285,7 @@ def screen(
     leave_out_roll_band: bool = False,
 ) -> Screening:
     """The recording's residual against the prior, the change signatures, ``null_runs`` no-change
-    records simulated from the prior alone (:func:`identify.detect.yawmodel.null_records`), and the
+    records simulated from the prior alone (:func:`identify.detect.nullsim.null_records`), and the
     LR-CUSUM and dead-zone CUSUM statistics with thresholds calibrated on those for ``false_alarm``
     per recording length; the LR-CUSUM looks for a change of ``min_change``: of I_z for inertia
     when the hull's ``i_z`` and ``n_rdot`` are given (converted to I_r with the hull's I_z - N_rdot,

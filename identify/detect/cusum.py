@@ -53,7 +53,7 @@ def calibrate_dead_zone(sigma: float, null: np.ndarray, false_alarm: float = 0.0
     ``d = d_sigma * sigma`` (``sigma`` the robust sigma of the prior's fit residual); ``l`` makes
     the expected increment under white Gaussian noise equal to minus the mean excess above d (so
     the statistic drifts down); ``h`` is the (1 - false_alarm) quantile of the statistic's maximum
-    over ``null``, no-change residual records (n, runs) simulated from the prior (yawmodel.null_records).
+    over ``null``, no-change residual records (n, runs) simulated from the prior (nullsim.null_records).
     """
     d = d_sigma * sigma
     # closed forms for |N(0, sigma^2)|: E[(|e| - d)+] and P(|e| < d)

@@ -11,7 +11,7 @@ log-likelihood ratio of "changed by +-theta1 along S_j" against "no change" accu
 two-sided CUSUM per signature (Basseville and Nikiforov 1993, section 2.2).
 
 The thresholds come from no-change records simulated from the prior alone
-(``yawmodel.null_records``: its bootstrap parameter errors, the nominal data's noise levels on
+(``nullsim.null_records``: its bootstrap parameter errors, the nominal data's noise levels on
 every signal, this recording's smoothed inputs): a 500 s prior's I_r is only known to about 2 %
 (the Cramer-Rao bound of the nine-parameter fit), and that error moves r_hat along the very
 signatures tested; input noise passing through the yaw dynamics is slow, coloured noise on r_hat.
@@ -72,10 +72,10 @@ def calibrate(
     band: RollBand | None = None,
 ) -> SignatureCusum:
     """Thresholds, one per candidate: the same quantile ``q`` of each candidate's statistic maximum
-    over ``null`` (nb, runs) no-change block residuals (:func:`yawmodel.null_records`), ``q`` chosen
+    over ``null`` (nb, runs) no-change block residuals (:func:`nullsim.null_records`), ``q`` chosen
     so that a fraction ``false_alarm`` of the no-change records alarms on any candidate. Candidate
     ``k``'s records carry the apparent change of sd ``prior.structure[k]`` that the prior's
-    structure made along ``S_k`` on held-out nominal data (:func:`yawmodel.structural_spread`).
+    structure made along ``S_k`` on held-out nominal data (:func:`priorfit.structural_spread`).
 
     One threshold for all candidates (the maximum over them) would let the candidate whose
     no-change statistic spreads most (damping, when the prior's roll terms are uncertain on a

@@ -164,8 +164,9 @@ def fit_yaw(
             r_hat, sens = simulate_yaw(model, xx * scale, w, r0, ts)
             e = y - r_hat
             cost = np.mean(e * e, axis=1)
+            sens = sens * scale  # a diverging trial step overflows here too; its cost is inf and it is rejected
         cost = np.where(np.isfinite(cost), cost, np.inf)
-        return e, sens * scale, cost
+        return e, sens, cost
 
     negative = np.array([p in NEGATIVE for p in model.params])
     e, jac, cost = evaluate(x)

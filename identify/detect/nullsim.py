@@ -1,0 +1,74 @@
+"""No-change records simulated from a yaw prior alone (a parametric bootstrap of the detection):
+the ship as the prior with one of its parameter errors undone, measured with the nominal data's
+noise levels and the prior's misfit beyond them (:func:`null_records`); the detector's
+thresholds are quantiles over them (:func:`identify.detect.glr.calibrate`)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import lfilter, savgol_filter
+
+from identify.detect.yawmodel import NOMINAL, Derive, YawPrior, simulate_r
+
+
+def parameter_draws(prior: YawPrior, runs: int, seed: int = 0) -> np.ndarray:
+    """(runs, P) relative parameter errors of the prior: its bootstrap refits cycled, or Gaussian
+    draws from ``cov`` when it has none."""
+    if len(prior.boot):
+        return prior.boot[np.arange(runs) % len(prior.boot)]
+    return np.random.default_rng(seed).multivariate_normal(np.zeros(len(prior.cov)), prior.cov, size=runs, method="eigh")
+
+
+def smooth(sig: dict[str, np.ndarray], dt: float) -> dict[str, np.ndarray]:
+    """Savitzky-Golay smoothing (2 s, quadratic) along time: the bootstraps' stand-in for the true inputs."""
+    win = 2 * int(1.0 / dt) + 1
+    return {k: savgol_filter(s, win, 2, axis=0) if len(s) > win else s for k, s in sig.items()}
+
+
+def null_records(
+    prior: YawPrior, sig: dict[str, np.ndarray], runs: int, seed: int = 0, derive: Derive | None = None, r0: float = 0.0
+) -> np.ndarray:
+    """No-change residuals ``r - r_hat`` (n, runs) on the manoeuvre ``sig`` (a parametric bootstrap
+    of the detection, from the prior's own data only).
+
+    In each run the ship is the prior's model with one of its bootstrap parameter errors undone
+    (``x - delta_b``: what the true ship may be, given the prior's estimate), driven by the
+    smoothed measured inputs; its yaw rate and inputs are then measured with white noise at the
+    levels read from the nominal data (``prior.noise``), ``derive`` recomputes derived inputs as
+    for the recording, and the prior predicts r from them as it does on the recording. So noise
+    on every input, its path through the yaw dynamics and the prior's parameter error are all in;
+    the structure's own misfit is added as AR-coloured 1 s block offsets (``prior.model_error``);
+    its apparent change along each candidate (``prior.structure``) is added per candidate by
+    :func:`identify.detect.glr.calibrate`."""
+    x = np.array([prior.values[k] / NOMINAL[k] for k in prior.names])
+    truth_x = x[:, None] - (parameter_draws(prior, runs, seed) * np.maximum(np.abs(x), 1e-6)).T
+    clean = smooth(sig, prior.dt)
+    n = len(sig["u"])
+    r_true = simulate_r(prior.kind, truth_x, {k: s[:, None] for k, s in prior.inputs(clean).items()}, prior.dt, r0=r0)
+    rng = np.random.default_rng([seed, 1])
+    r_meas = _measured(r_true, prior.noise.get("r", 0.0), rng, runs)
+    noisy = {k: _measured(s[:, None], prior.noise.get(k, 0.0), rng, runs) for k, s in clean.items()}
+    if derive is not None:
+        noisy = derive(noisy, r_meas)
+    return r_meas - prior.predict(noisy, r0=r0) + misfit_offsets(prior, n, runs, rng)
+
+
+def _measured(x: np.ndarray, sd: float, rng: np.random.Generator, runs: int) -> np.ndarray:
+    """``x`` ((n, runs), or (n, 1) broadcast over ``runs``) plus white noise of ``sd``, (n, runs) with
+    time along the contiguous axis: the no-change records' filters then run along contiguous memory."""
+    z = rng.standard_normal((runs, len(x))).T
+    z *= sd
+    z += x
+    return z
+
+
+def misfit_offsets(prior: YawPrior, n: int, runs: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, runs) residual the white noise at ``prior.noise`` does not explain (``prior.model_error``):
+    1 s block offsets coloured by the prior's AR filter (its innovation sd ``model_error``), so a
+    simulated record's whitened block residual has the nominal fit's level; zeros without it."""
+    out = np.zeros((n, runs))
+    if prior.model_error > 0:
+        nb = n // prior.block
+        w = lfilter([1.0], np.r_[1.0, -prior.ar], prior.model_error * rng.standard_normal((nb, runs)), axis=0)
+        out[: nb * prior.block] = np.repeat(w, prior.block, axis=0)
+    return out
