@@ -28,7 +28,7 @@ import select
 import signal
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -283,12 +283,17 @@ def _design_ratios(design: Any, out: Path) -> Path:
 _STARTED: list[Drawer] = []  # the drawer started with the command (start_early), until taken
 
 
-def start_early() -> None:
+def start_early(args: Sequence[str] = ()) -> None:
     """Fork a drawer now, before the command's options are parsed (``plan-trial``): it imports the
     drawing modules (0.6-0.9 s of CPU, measured under load) while this process parses, reads the plan cache or plans.
     The command takes it (:func:`take_early`) and gives it its early function (:meth:`Drawer.begin`);
-    :func:`drop_early` ends one left untaken (the command refused, or writes no figures)."""
-    if CAN_FORK and not _STARTED:
+    :func:`drop_early` ends one left untaken (the command refused, or writes no figures).
+
+    Not with ``--no-cache`` among ``args`` (the command line's words): that command plans here for sure, and its
+    drawer is forked later (:func:`cli.plan_cmd.plan_and_write`), once this process has imported the planner,
+    so that the two share those imports (numpy, scipy, shapely, pyproj, the project's modules: about 0.3 s of the
+    drawer's CPU) rather than each paying for them; the drawer has time to spare before the plan is made."""
+    if CAN_FORK and not _STARTED and "--no-cache" not in args:
         _STARTED.append(Drawer(deferred=True))
 
 
