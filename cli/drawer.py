@@ -14,7 +14,8 @@ command refused) is ended at once (SIGTERM, on which it unwinds: see :class:`_Ca
 
 ``plan-trial`` forks its drawer before it parses its options (:func:`start_early`, deferred: the
 drawing modules imported first, the early function given later by :meth:`Drawer.begin`), so that
-a run whose plan is read from the plan cache does not wait for those imports.
+a run whose plan is read from the plan cache does not wait for those imports. With ``--no-cache`` the plan is made
+for sure and the drawer is forked later, once the parent has imported the planner: the two share those imports.
 
 On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`).
 """
@@ -294,6 +295,11 @@ def start_early(args: Sequence[str] = ()) -> None:
     so that the two share those imports (numpy, scipy, shapely, pyproj, the project's modules: about 0.3 s of the
     drawer's CPU) rather than each paying for them; the drawer has time to spare before the plan is made."""
     if CAN_FORK and not _STARTED and "--no-cache" not in args:
+        # what both processes import in every such command (the plan's and the map's modules: shapely, pyproj),
+        # imported once before the fork (about 0.09 s of CPU the drawer would repeat)
+        import maps.export._common  # noqa: F401
+        import maps.geo  # noqa: F401
+
         _STARTED.append(Drawer(deferred=True))
 
 
