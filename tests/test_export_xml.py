@@ -22,7 +22,8 @@ def test_xml_document_is_what_elementtree_writes():
 
 def test_thruster_names_follow_the_profile_file(tmp_path, monkeypatch):
     """The crew files name the azimuth thrusters from the built-in profile of the plan's ship, read once per
-    version of its file: an edited file is read again, never a stale name."""
+    content of its file: an edited file is read again, never a stale name, even when the edit keeps the file's
+    length and modification time (an mtime-and-size key answered the old names)."""
     import os
     from types import SimpleNamespace
 
@@ -35,6 +36,10 @@ def test_thruster_names_follow_the_profile_file(tmp_path, monkeypatch):
     monkeypatch.setattr(ship, "PROFILE_DIR", tmp_path)
     plan = SimpleNamespace(ship="full-scale", input_names=["n1", "alpha1", "n2", "alpha2"])
     assert _thruster_labels(plan) == ["bow thruster", "stern thruster"]
+    st = path.stat()
+    path.write_text(text.replace('name = "bow"', 'name = "fwd"'))  # same length
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns))  # same time, as an edit within the clock's granularity
+    assert path.stat().st_size == st.st_size
+    assert _thruster_labels(plan) == ["fwd thruster", "stern thruster"]
     path.write_text(text.replace('name = "bow"', 'name = "fore"'))
-    os.utime(path, ns=(path.stat().st_mtime_ns + 10**9,) * 2)
     assert _thruster_labels(plan) == ["fore thruster", "stern thruster"]
