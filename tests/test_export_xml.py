@@ -16,6 +16,7 @@ def test_xml_document_is_what_elementtree_writes():
     for k in range(3):
         p = ET.SubElement(trk, "trkpt", lat=f"{60.1 + k:.7f}", lon="24.9", note='a < b & c > "d"\n')
         ET.SubElement(p, "time").text = f"2026-06-01T08:00:0{k}Z"
+    ET.SubElement(trk, "desc").text = "vessel \udcff"  # a non-UTF-8 byte of a command line, as Python decodes argv
     ET.indent(root, space=" ")
     assert xml_document(root) == ET.tostring(root, encoding="utf-8", xml_declaration=True)
 

@@ -390,4 +390,7 @@ def xml_document(root: Any) -> bytes:
     track's GPX through an encoder of its own (0.05 s of a plan's exports)."""
     import xml.etree.ElementTree as ET
 
-    return b"<?xml version='1.0' encoding='utf-8'?>\n" + ET.tostring(root, encoding="unicode").encode("utf-8")
+    # xmlcharrefreplace as ElementTree's own writer: a lone surrogate (a command-line word that was not UTF-8, as
+    # Python decodes argv) becomes a character reference, not a UnicodeEncodeError
+    text = ET.tostring(root, encoding="unicode")
+    return b"<?xml version='1.0' encoding='utf-8'?>\n" + text.encode("utf-8", "xmlcharrefreplace")
