@@ -345,7 +345,8 @@ def main() -> None:
         type=Path,
         help="cli_default only: also time this other checkout's plan-trial (e.g. /work/main), alternating runs",
     )
-    ap.add_argument(
+    mode = ap.add_mutually_exclusive_group()  # one kind of run a call: the printed label names one
+    mode.add_argument(
         "--cold",
         action="store_true",
         help="cli_default only: every run as the first after install (empty plan and matplotlib caches)",
@@ -355,10 +356,10 @@ def main() -> None:
         action="store_true",
         help="cli_default only: runs read compiled bytecode (as after pip install), kept in a directory of the benchmark's own",
     )
-    ap.add_argument(
+    mode.add_argument(
         "--no-cache", action="store_true", help="cli_default only: every run plans afresh (plan-trial --no-cache), caches warm"
     )
-    ap.add_argument(
+    mode.add_argument(
         "--new-start",
         action="store_true",
         help="cli_default only: every timed run with a start time of its own (the plan read from the plan cache, every file exported)",
