@@ -1,6 +1,7 @@
 """Benchmarks of the sea maps and the planning chain (issues 4 and 12).
 
-    python benchmarks/bench_plan.py [--repeat 3] [--cases cli_default,default,kvlcc2_fjord,...] [--against /work/main] [--cold]
+    python benchmarks/bench_plan.py [--repeat 3] [--cases cli_default,default,kvlcc2_fjord,...] [--against /work/main]
+        [--cold | --no-cache | --new-start] [--bytecode]
 
 ``cli_default`` times the command a user runs, ``plan-trial --out DIR`` for the default ship on
 the bundled map with every default export (plan JSON, GeoJSON, GPX, RTZ, CSV, HTML and PDF trial
@@ -14,6 +15,9 @@ runs share one plan cache (``SHIPTRIAL_CACHE_DIR``, a temporary directory: the u
 touched), which the untimed run fills: the timed runs are warm, as a user's second run. With
 ``--cold`` every run starts as the first run after install: an empty plan cache and an empty
 matplotlib configuration and font cache (``MPLCONFIGDIR``), no untimed run (issue 30: under 5 s).
+``--no-cache``: every run plans afresh (``plan-trial --no-cache``: the design, the lattice, the search and every
+export computed, the compiled kernels and bytecode warm, as a user who changed an option); ``--new-start``: every
+timed run has a start time of its own (the plan read from the plan cache, every file exported and drawn again).
 ``--bytecode``: the runs read compiled bytecode as after ``pip install`` (in a directory of the benchmark's
 own, filled by an untimed run; with ``PYTHONDONTWRITEBYTECODE`` set and no ``__pycache__`` in a checkout,
 every run compiles that checkout's modules, which a user's installed copy never does).
@@ -230,17 +234,19 @@ def child(case: str, repeat: int) -> dict:
     return out
 
 
-def _cli_run(root: Path, out: Path, env_extra: dict[str, str] | None = None) -> dict:
+def _cli_run(root: Path, out: Path, env_extra: dict[str, str] | None = None, args: tuple[str, ...] = (), start: str = "") -> dict:
     """One ``plan-trial --out OUT`` process run from the checkout ``root``: wall, CPU (user + system
     of it and every child it reaped: the drawer, the lattice's forked helper), peak memory.
-    ``env_extra``: environment variables set for it (the plan cache, matplotlib's cache)."""
+    ``env_extra``: environment variables set for it (the plan cache, matplotlib's cache); ``args``: more options
+    (``--no-cache``); ``start``: its ``--start-time``."""
     import os
 
     code = "from cli.app import plan_main; plan_main()"
     env = dict(os.environ, PYTHONPATH=str(root), **(env_extra or {}))  # the checkout's code, not an installed copy
+    start = start or _start_time(0)
     t0 = time.perf_counter()
     proc = subprocess.Popen(
-        [sys.executable, "-c", code, "--out", str(out), "--start-time", "2026-06-01T08:00Z"],
+        [sys.executable, "-c", code, "--out", str(out), "--start-time", start, *args],
         cwd=root,
         env=env,
         stdout=subprocess.DEVNULL,
@@ -259,14 +265,22 @@ def _cli_run(root: Path, out: Path, env_extra: dict[str, str] | None = None) -> 
     }
 
 
-def cli_default(repeat: int, against: Path | None = None, cold: bool = False, bytecode: bool = False) -> dict:
+def cli_default(
+    repeat: int,
+    against: Path | None = None,
+    cold: bool = False,
+    bytecode: bool = False,
+    no_cache: bool = False,
+    new_start: bool = False,
+) -> dict:
     """The whole ``plan-trial --out DIR`` process, ``repeat`` times after one untimed run (``cold``:
     without it, each run with an empty plan cache and matplotlib cache); with ``against`` (another
     checkout, e.g. main's) that checkout's command run alternately with this one's, paired on the
     same machine state, under ``against_*`` keys. ``bytecode``: every run reads compiled bytecode as
     after ``pip install`` (which compiles it), kept in a directory of the benchmark's own
     (``PYTHONPYCACHEPREFIX``: nothing written into the checkouts) and filled by an untimed run,
-    whatever ``PYTHONDONTWRITEBYTECODE`` says; without it, the environment decides."""
+    whatever ``PYTHONDONTWRITEBYTECODE`` says; without it, the environment decides. ``no_cache``: every run
+    with ``--no-cache``; ``new_start``: every run with a start time of its own (the pair of a round the same one)."""
     import tempfile
 
     rows: list[dict] = []
@@ -283,16 +297,24 @@ def cli_default(repeat: int, against: Path | None = None, cold: bool = False, by
                     env.pop("MPLCONFIGDIR")
                 if bytecode:
                     env |= {"PYTHONPYCACHEPREFIX": str(Path(tmp) / "pycache"), "PYTHONDONTWRITEBYTECODE": ""}
-                r = _cli_run(root, Path(tmp) / name, env)
+                start = _start_time(k if new_start else 0)
+                r = _cli_run(root, Path(tmp) / name, env, ("--no-cache",) if no_cache else (), start)
                 if k > 0 or (cold and k == 0):  # k == -1 (cold) or 0 (warm): untimed, fills the caches
                     into.append(r)
     target = TARGETS["cli_cold" if cold else "cli_default"]
-    out = _cli_summary(rows, target) | {"cold": cold, "bytecode": bytecode}
+    out = _cli_summary(rows, target) | {"cold": cold, "bytecode": bytecode, "no_cache": no_cache, "new_start": new_start}
     if against is not None:
         base = _cli_summary(other, target)
         out.update({f"against_{k}": v for k, v in base.items() if k in ("median_s", "median_cpu_s", "runs_s", "cpu_runs_s")})
         out["against"] = str(against)
     return out
+
+
+def _start_time(k: int) -> str:
+    """The ``k``-th full hour after 2026-06-01 08:00 UTC, as ``--start-time`` takes it."""
+    from datetime import UTC, datetime, timedelta
+
+    return (datetime(2026, 6, 1, 8, tzinfo=UTC) + timedelta(hours=k)).strftime("%Y-%m-%dT%H:%MZ")
 
 
 def _cli_summary(rows: list[dict], target: float) -> dict:
@@ -323,7 +345,8 @@ def main() -> None:
         type=Path,
         help="cli_default only: also time this other checkout's plan-trial (e.g. /work/main), alternating runs",
     )
-    ap.add_argument(
+    mode = ap.add_mutually_exclusive_group()  # one kind of run a call: the printed label names one
+    mode.add_argument(
         "--cold",
         action="store_true",
         help="cli_default only: every run as the first after install (empty plan and matplotlib caches)",
@@ -333,6 +356,14 @@ def main() -> None:
         action="store_true",
         help="cli_default only: runs read compiled bytecode (as after pip install), kept in a directory of the benchmark's own",
     )
+    mode.add_argument(
+        "--no-cache", action="store_true", help="cli_default only: every run plans afresh (plan-trial --no-cache), caches warm"
+    )
+    mode.add_argument(
+        "--new-start",
+        action="store_true",
+        help="cli_default only: every timed run with a start time of its own (the plan read from the plan cache, every file exported)",
+    )
     ap.add_argument("--case", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.case:
@@ -340,9 +371,10 @@ def main() -> None:
         return
     for name in args.cases.split(","):
         if name == "cli_default":
-            r = cli_default(args.repeat, args.against, args.cold, args.bytecode)
+            r = cli_default(args.repeat, args.against, args.cold, args.bytecode, args.no_cache, args.new_start)
+            mode = " cold" if args.cold else " no-cache" if args.no_cache else " new-start" if args.new_start else ""
             print(
-                f"{name + (' cold' if args.cold else '') + (' pyc' if args.bytecode else ''):18s} median {r['median_s']:8.3f} s  target {r['target_s']:5.1f} s  ratio {r['ratio_to_target']:.3f}  "
+                f"{name + mode + (' pyc' if args.bytecode else ''):18s} median {r['median_s']:8.3f} s  target {r['target_s']:5.1f} s  ratio {r['ratio_to_target']:.3f}  "
                 f"peak {r['peak_rss_gib']:.2f} GiB  (cpu median {r['median_cpu_s']:.3f} s, cpu ratio {r['cpu_ratio_to_target']:.3f}, "
                 f"wall runs {r['runs_s']}, cpu runs {r['cpu_runs_s']}, {r['files_written']} files, "
                 f"load average {r['load_average_1min']:.1f} when done)"

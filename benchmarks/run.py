@@ -144,6 +144,29 @@ def _plan_design():
     return _planner(None)  # plan-trial's default: design of the library, 16 headings, run-ins, shortcuts
 
 
+def _plan_cli_no_cache():
+    """``plan-trial --out DIR --no-cache`` for the default ship as a whole process (interpreter, imports, design,
+    planning, every export and figure), warm: bytecode read as after ``pip install`` (a directory of the case's own,
+    filled by the warm-up run), no plan read from or written to a cache. The case's time is the process's wall
+    clock; ``process_cpu_s`` is its CPU with its drawer's and helpers' (this runner's own CPU is near 0)."""
+    import atexit
+    import shutil
+    import tempfile
+
+    from benchmarks.bench_plan import _cli_run
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench-plan-cli-"))
+    atexit.register(shutil.rmtree, tmp, True)  # this case's child process ends after its runs
+    env = {"SHIPTRIAL_CACHE_DIR": str(tmp / "cache"), "PYTHONPYCACHEPREFIX": str(tmp / "pyc"), "PYTHONDONTWRITEBYTECODE": ""}
+
+    def go():
+        shutil.rmtree(tmp / "out", ignore_errors=True)
+        r = _cli_run(ROOT, tmp / "out", env, ("--no-cache",))
+        return {"process_cpu_s": r["cpu_s"], "files": r["files"]}
+
+    return go
+
+
 def _diagnose_2000():
     from diagnose.api import run
     from diagnose.battery import scenario
@@ -225,6 +248,12 @@ CASES = {
         2.0,
         None,
         "issue 12: whole plan_trial, design included (more in benchmarks/bench_plan.py)",
+    ),
+    "plan_trial_cli_no_cache": (
+        _plan_cli_no_cache,
+        2.0,
+        None,
+        "issue 30: the whole plan-trial --out DIR --no-cache process under 2 s warm (more in benchmarks/bench_plan.py)",
     ),
     "diagnose_2000": (_diagnose_2000, 2.0, None, "issue 13: under 2 s"),
     "diagnose_13x3500": (_diagnose_13x3500, 10.0, None, "issue 13: 13-run model test, 3,500 samples per run, under 10 s"),

@@ -14,7 +14,8 @@ command refused) is ended at once (SIGTERM, on which it unwinds: see :class:`_Ca
 
 ``plan-trial`` forks its drawer before it parses its options (:func:`start_early`, deferred: the
 drawing modules imported first, the early function given later by :meth:`Drawer.begin`), so that
-a run whose plan is read from the plan cache does not wait for those imports.
+a run whose plan is read from the plan cache does not wait for those imports. With ``--no-cache`` the plan is made
+for sure and the drawer is forked later, once the parent has imported the planner: the two share those imports.
 
 On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`).
 """
@@ -28,7 +29,7 @@ import select
 import signal
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -283,12 +284,22 @@ def _design_ratios(design: Any, out: Path) -> Path:
 _STARTED: list[Drawer] = []  # the drawer started with the command (start_early), until taken
 
 
-def start_early() -> None:
+def start_early(args: Sequence[str] = ()) -> None:
     """Fork a drawer now, before the command's options are parsed (``plan-trial``): it imports the
     drawing modules (0.6-0.9 s of CPU, measured under load) while this process parses, reads the plan cache or plans.
     The command takes it (:func:`take_early`) and gives it its early function (:meth:`Drawer.begin`);
-    :func:`drop_early` ends one left untaken (the command refused, or writes no figures)."""
-    if CAN_FORK and not _STARTED:
+    :func:`drop_early` ends one left untaken (the command refused, or writes no figures).
+
+    Not with ``--no-cache`` among ``args`` (the command line's words): that command plans here for sure, and its
+    drawer is forked later (:func:`cli.plan_cmd.plan_and_write`), once this process has imported the planner,
+    so that the two share those imports (numpy, scipy, shapely, pyproj, the project's modules: about 0.3 s of the
+    drawer's CPU) rather than each paying for them; the drawer has time to spare before the plan is made."""
+    if CAN_FORK and not _STARTED and "--no-cache" not in args:
+        # what both processes import in every such command (the plan's and the map's modules: shapely, pyproj),
+        # imported once before the fork (about 0.09 s of CPU the drawer would repeat)
+        import maps.export._common  # noqa: F401
+        import maps.geo  # noqa: F401
+
         _STARTED.append(Drawer(deferred=True))
 
 

@@ -365,6 +365,8 @@ def plan_and_write(
         elif drawer is not None:
             drawer.begin(early, ahead)
         elif not no_export and saved is None:
+            if hit is None:  # planned here: the drawer forked after the planner's imports shares them (start_early)
+                import maps.planner  # noqa: F401
             drawer = Drawer(early, ahead=ahead)
         if hit is None:
             sea = load_map(map_path, draught_m=prof.draught_m)

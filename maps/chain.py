@@ -373,6 +373,11 @@ def _informative(p: Primitive, res: float, K: int, split: bool, run_in: float, s
     return out
 
 
+def _footprint(pr: Primitive) -> Any:
+    """The primitive's swept footprint (its cached property)."""
+    return pr.footprint
+
+
 def _basic_moves(profile: ShipProfile, res: float, o: PlanOptions, cache: dict[str, Any]) -> list[Move]:
     """The basic (repositioning) moves for lattice spacing ``res``, from ``cache`` or built into it
     (the cache is cleared when the options it was built for changed)."""
@@ -398,9 +403,10 @@ def prepare_basic_moves(
     ``cache`` for :func:`build_lattice`: work that needs no design, done while a design is
     computed elsewhere."""
     res = float(options.resolution) if options.resolution else default_resolution(profile, sea)
-    for m in _basic_moves(profile, res, options, cache):
-        for pr in m.prims:
-            pr.footprint  # noqa: B018 - a cached property: computed now, read by build_lattice
+    todo = [pr for m in _basic_moves(profile, res, options, cache) for pr in m.prims if "footprint" not in pr.__dict__]
+    # the swept footprints, read by build_lattice: half of them formed in a forked child (maps.forked), the same polygons
+    for pr, fp in zip(todo, map_halves(_footprint, todo)):
+        pr.__dict__["footprint"] = fp  # the cached property's value
     try:
         cache["endpoints"] = (sea, (start, goal, options.margin), _endpoints(sea, start, goal, options.margin))
     except MapError:  # said by build_lattice, where it would be said without this step (after the design)

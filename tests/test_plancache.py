@@ -317,7 +317,7 @@ def _early_forks(monkeypatch):
 
     calls = []
     real = cli.drawer.start_early
-    monkeypatch.setattr(cli.drawer, "start_early", lambda: (calls.append(1), real()))
+    monkeypatch.setattr(cli.drawer, "start_early", lambda *a: (calls.append(1), real(*a)))
     return calls
 
 

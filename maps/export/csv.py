@@ -61,31 +61,39 @@ def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1)
         first_of.setdefault(int(plan.step_of_sample[k]), k)
     starts = set(first_of.values())
     n_in = plan.inputs.shape[1] if plan.inputs.ndim == 2 else 0
+    # every column's values as Python floats at once (the same elementwise arithmetic as sample by sample)
+    t_rel = (plan.t - plan.t[0]).tolist()
+    lat, lon = plan.lonlat[:, 1].tolist(), plan.lonlat[:, 0].tolist()
+    x, y = plan.track[:, 0].tolist(), plan.track[:, 1].tolist()
+    hdg = (np.degrees(plan.track[:, 2]) % 360.0).tolist()
+    spd, kn = plan.speed.tolist(), (plan.speed * KN_PER_MPS).tolist()
+    step_of = plan.step_of_sample.tolist()
+    inputs = plan.inputs.tolist() if n_in else []
     for k in range(k_total):
         if k % max(every, 1) and k not in starts and k != k_total - 1:
             continue
-        ts = float(plan.t[k] - plan.t[0])
-        si = int(plan.step_of_sample[k])
+        ts = t_rel[k]
+        si = int(step_of[k])
         st = by_index.get(si)
         orders = " | ".join(step_orders(plan, st)) if (st is not None and k == first_of[si]) else ""
         row: list[Any] = [
             f"{ts:.3f}",
             clock(ts),
             iso(t0 + timedelta(seconds=ts)),
-            f"{plan.lonlat[k, 1]:.7f}",
-            f"{plan.lonlat[k, 0]:.7f}",
-            f"{plan.track[k, 0]:.2f}",
-            f"{plan.track[k, 1]:.2f}",
-            f"{np.degrees(plan.track[k, 2]) % 360.0:.1f}",
-            f"{plan.speed[k]:.3f}",
-            f"{plan.speed[k] * KN_PER_MPS:.2f}",
+            f"{lat[k]:.7f}",
+            f"{lon[k]:.7f}",
+            f"{x[k]:.2f}",
+            f"{y[k]:.2f}",
+            f"{hdg[k]:.1f}",
+            f"{spd[k]:.3f}",
+            f"{kn[k]:.2f}",
             si + 1,
             st.segment if st else "",
             st.primitive if st else "",
             orders,
         ]
         for j, (_, is_angle) in enumerate(cols):
-            v = float(plan.inputs[min(k, len(plan.inputs) - 1), j]) if n_in else float("nan")
+            v = inputs[min(k, len(inputs) - 1)][j] if n_in else float("nan")
             row.append(f"{np.degrees(v):.2f}" if is_angle else f"{v:.4g}")
         w.writerow(row)
     return buf.getvalue()

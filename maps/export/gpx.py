@@ -24,6 +24,7 @@ from maps.export._common import (
     iso,
     resolve_start,
     vessel_name,
+    xml_document,
 )
 from maps.export.wording import manoeuvre_name, phase, step_orders
 from maps.plan import Plan
@@ -133,7 +134,7 @@ def plan_gpx(
             p = _sub(seg, "trkpt", lat=f"{lat[k]:.7f}", lon=f"{lon[k]:.7f}")
             _sub(p, "time", iso(t0 + timedelta(seconds=float(plan.t[k] - plan.t[0]))))
     ET.indent(root, space=" ")
-    return ET.tostring(root, encoding="utf-8", xml_declaration=True)
+    return xml_document(root)
 
 
 def write_gpx(plan: Plan, path: str | Path, **kw: Any) -> Path:

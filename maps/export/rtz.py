@@ -34,6 +34,7 @@ from maps.export._common import (
     resolve_start,
     step_abort,
     vessel_name,
+    xml_document,
 )
 from maps.export.chart import plan_chart
 from maps.export.route import Route, build_route, leg_length_m
@@ -222,7 +223,7 @@ def plan_rtz(
     _waypoints(root, plan, route)
     _schedule(root, route, t0)
     ET.indent(root, space=" ")
-    return ET.tostring(root, encoding="utf-8", xml_declaration=True)
+    return xml_document(root)
 
 
 def write_rtz(plan: Plan, path: str | Path, **kw: Any) -> Path:
