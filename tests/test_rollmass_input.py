@@ -98,7 +98,7 @@ def test_speed_and_imu_position_come_from_the_headers(files):
     assert prof.known.xbar_s == pytest.approx(np.mean([float(m["imu_x_m"]) for m in metas]))
 
 
-@pytest.mark.parametrize("col", ["r", "delta", "a_s", "p"])
+@pytest.mark.parametrize("col", ["r", "delta", "a_s", "p", "phi"])
 def test_a_negated_column_is_named(files, capsys, tmp_path, col):
     nom, cal, loaded = files
     bad = _edit(loaded, tmp_path / "loaded.csv", _negate(col))
@@ -201,3 +201,10 @@ def test_a_speed_column_is_said_to_be_unused(files, tmp_path):
     assert recs[0].u is not None and np.mean(recs[0].u) == pytest.approx(recs[0].U, rel=0.05)
     notes = speed_notes(recs, paths)
     assert len(notes) == 1 and "nominal.csv: column 'u'" in notes[0] and "not used" in notes[0]
+
+
+def test_a_roll_angle_in_degrees_is_refused(files, capsys, tmp_path):
+    """The phi column carries the wall-sided restoring: in degrees it would be refused, not cubed."""
+    nom, cal, loaded = files
+    msg = _error(capsys, [nom, _edit(cal, tmp_path / "calibration.csv", _scale("phi", 180 / np.pi)), loaded])
+    assert "'phi'" in msg and "radians" in msg

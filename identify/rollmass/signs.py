@@ -10,7 +10,8 @@ Three relations any rolling, turning ship obeys give three votes:
 
 A vote counts only when the correlation is clear (``|rho| >= MIN_RHO``). From the votes the flipped
 column is named: ``p`` (first fails, second holds), ``a_s`` (first and second fail), ``r`` (first
-holds, second fails), ``delta`` (first two hold, third fails).
+holds, second fails), ``delta`` (first two hold, third fails). With all three holding, a ``phi`` column
+(which carries the wall-sided restoring) is checked against the integrated roll rate in the roll band.
 """
 
 from __future__ import annotations
@@ -37,10 +38,15 @@ def _rho(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.mean(a * b) / (sa * sb)) if sa > 0 and sb > 0 else 0.0
 
 
+def _roll_angle(rec: RollRecording) -> np.ndarray:
+    """The roll rate integrated (its mean, mostly gyro bias, removed first)."""
+    return np.cumsum(rec.p - rec.p.mean()) * rec.T
+
+
 def relations(rec: RollRecording) -> tuple[float, float, float]:
     """Correlations ``(a_s ~ int p, a_s ~ r, r ~ lagged delta)`` of one recording."""
     T = rec.T
-    phi = np.cumsum(rec.p - rec.p.mean()) * T
+    phi = _roll_angle(rec)
     cut = 20 * max(int(1 / T), 1)  # the filters' edges
     s = slice(cut, -cut) if rec.n > 4 * cut else slice(None)
     r1 = _rho(_band(rec.a_s, T, 0.1, 0.45)[s], _band(phi, T, 0.1, 0.45)[s])
@@ -56,7 +62,7 @@ def expected_signs(values: dict[str, float], kn: Known, z_f: float, load: Load) 
     from identify.rollmass.output_error import model_matrices
 
     A, B, C, D = model_matrices(values, kn, z_f, load)
-    dc = (D - C @ np.linalg.solve(A, B)).ravel()  # steady outputs [p, a_s, r] per unit rudder
+    dc = D[:, 0] - C @ np.linalg.solve(A, B[:, 0])  # steady outputs [p, a_s, r] per unit rudder
     return float(np.sign(dc[1] * dc[2])), float(np.sign(dc[2]))
 
 
@@ -73,9 +79,16 @@ def check_signs(rec: RollRecording, expect: tuple[float, float]) -> str | None:
             col = "delta"
     elif clear[0] and not ok1:
         col = "p or a_s"
+    if (
+        col is None
+        and rec.phi is not None
+        and _rho(_band(rec.phi, rec.T, 0.1, 0.45), _band(_roll_angle(rec), rec.T, 0.1, 0.45)) < -MIN_RHO
+    ):
+        col = "phi"
     if col is None:
         return None
     what = {
+        "phi": "the roll angle is opposite to the integrated roll rate",
         "p": "the roll rate integrates to a roll angle opposite to the accelerometer's heel",
         "a_s": "the accelerometer's heel is opposite to both the roll rate and the turn",
         "r": "the yaw rate turns the ship against its heel",
