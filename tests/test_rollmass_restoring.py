@@ -42,3 +42,17 @@ def test_bm_comes_from_the_profile_or_from_table_1_hydrostatics(tmp_path):
     bad.write_text(DEFAULT_PROFILE.read_text().replace("GM_T = 0.018", "GM_T = 0.018\nBM_T = 92.0"))
     with pytest.raises(ProfileError, match="BM_T"):
         load_profile(bad)
+
+
+def test_the_truths_wall_sided_hull_no_longer_reads_as_load():
+    """Noise-free independent basin truth, ``restoring`` variant (a box-like hull with the cubic restoring
+    ``C phi (1 + BM/(2 GM) phi^2)``), half length, case 2 (0.4 kg at z = -0.268 m), through the files as
+    ``shiptrial mass`` reads them. Without the heel term (main at 8b60977) the load came out +5.2 % /
+    +4.8 mm; with it +0.22 % / +0.2 mm (fitted kappa)."""
+    ship, data = bt.simulate_runs("restoring", 1, 3015, length=0.5, quiet=True)
+    m_true, z_true = bt.truth_load("case2")
+    with tempfile.TemporaryDirectory() as d:
+        paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in bt.case_recordings(ship, data, "case2", 0)]
+        e = estimate_from_files(*paths)
+    assert e.converged
+    assert abs(e.m / m_true - 1) < 0.02 and abs(e.zbar_m - z_true) < 0.003, (e.m, e.zbar_m)

@@ -5,8 +5,9 @@ Xsens MTi-G's accelerometer noise that is an errors-in-variables problem: the ac
 noise passes through the lightly damped roll resonance and, in a Monte Carlo of the basin
 experiment, sets the mass error. Here ``a_s`` is an *output*: the linearised sway-roll-yaw
 model (1)-(8) (surge decoupled, roll row (3) plus the sway-roll couplings :data:`FREE_COUPLINGS`, the
-load's added buoyancy at ``Known.zbar_b``, each run at its own speed) is driven by the measured
-rudder alone and fitted to the three IMU channels ``p``, ``a_s``, ``r`` of all three datasets at once.
+load's added buoyancy at ``Known.zbar_b``, each run at its own speed, the wall-sided restoring beyond
+the linear term as a known roll moment from the measured roll angle, :mod:`identify.rollmass.restoring`,
+its gain ``kappa`` fitted) is driven by the measured rudder and fitted to the three IMU channels ``p``, ``a_s``, ``r`` of all three datasets at once.
 
 Why (measured, case 1, 4 seeds, waves off): the roll-only model (11) fitted by output error with
 the measured ``a_s`` as input has a median error of 16 % / 47 mm at the MTi-G noise, and 0.8 % /
@@ -70,6 +71,7 @@ SHARED = PAPER_ROWS + FREE_COUPLINGS + MOUNT
 RUDDER = ("Y_delta", "K_delta", "n_delta")  # rudder derivatives, scaling with U^2
 VELOCITY = ("Y_v", "Y_r", "n_v", "n_r", "Y_p", "K_v")  # velocity derivatives, scaling with U
 CHANNELS = ("p", "a_s", "r")
+# fit the wall-sided heel gain kappa (identify.rollmass.restoring) rather than hold it at the hull's value
 FIT_KAPPA = True
 N_FREE = 4  # free-response columns per dataset and channel (4 states)
 NOISE_AR = 6  # order of each channel's whitening filter
