@@ -16,6 +16,7 @@ from identify.rollmass import sensitivity
 from identify.rollmass.api import estimate_from_files
 from identify.rollmass.estimate import estimate
 from identify.rollmass.model import Load, load_profile
+from identify.rollmass.restoring import heel_gain
 from identify.rollmass.sandwich import central_jacobian
 from identify.rollmass.simulate import Noise, simulate_case
 from tests.physics import basin_truth as bt
@@ -31,12 +32,12 @@ def case2():
 
 def _problem(datasets) -> tuple[oe._Problem, np.ndarray]:
     """A whitened, weighted problem away from the start values' special zeros (couplings, IMU
-    pitch and lag all non-zero), so every term of the sensitivity equations is exercised."""
+    pitch and lag all non-zero; the wall-sided heel gain free, its input from the recordings' phi), so every term of the sensitivity equations is exercised."""
     kn = PROF.known
-    free = oe.SHARED + ("z_f", "m", "zbar_m")
+    free = oe.SHARED + ("kappa", "z_f", "m", "zbar_m")
     w = np.array([1.0 / oe._measured(d).std(axis=0) for d in datasets])
     v = {**oe.start_values(PROF), "K_v": 0.1, "n_p": 0.01, "e_y": 0.01, "t_imu": 0.003}
-    x = np.array([v[k] for k in oe.SHARED] + [kn.z_f_prior, 0.4, -0.268])
+    x = np.array([v[k] for k in oe.SHARED] + [1.2 * heel_gain(kn), kn.z_f_prior, 0.4, -0.268])
     rng = np.random.default_rng(0)
     ar = [[np.r_[1.0, 0.1 * rng.standard_normal(12)] for _ in range(3)] for _ in datasets]
     return oe._Problem(datasets, kn, CAL, kn.z_f_prior, free, w, ar, kn.z_f_prior_sd), x
