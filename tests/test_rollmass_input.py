@@ -203,8 +203,15 @@ def test_a_speed_column_is_said_to_be_unused(files, tmp_path):
     assert len(notes) == 1 and "nominal.csv: column 'u'" in notes[0] and "not used" in notes[0]
 
 
-def test_a_roll_angle_in_degrees_is_refused(files, capsys, tmp_path):
-    """The phi column carries the wall-sided restoring: in degrees it would be refused, not cubed."""
+@pytest.mark.parametrize("heel", ["large", "small"])
+def test_a_roll_angle_in_degrees_is_refused(files, capsys, tmp_path, heel):
+    """The phi column carries the wall-sided restoring: in degrees it is refused, not cubed, also when
+    its peak stays under the reader's 1 rad bound (a run heeling under 57 deg: here scaled to 0.9)."""
     nom, cal, loaded = files
-    msg = _error(capsys, [nom, _edit(cal, tmp_path / "calibration.csv", _scale("phi", 180 / np.pi)), loaded])
+    k = 180 / np.pi
+    if heel == "small":
+        peak = max(abs(float(ln.split(",")[5])) for ln in cal.read_text().splitlines() if ln[:1].isdigit())
+        k = min(k, 0.9 / peak)
+        assert k > 10  # still far from radians (refused above 5 times the integrated roll rate)
+    msg = _error(capsys, [nom, _edit(cal, tmp_path / "calibration.csv", _scale("phi", k)), loaded])
     assert "'phi'" in msg and "radians" in msg

@@ -11,7 +11,8 @@ Three relations any rolling, turning ship obeys give three votes:
 A vote counts only when the correlation is clear (``|rho| >= MIN_RHO``). From the votes the flipped
 column is named: ``p`` (first fails, second holds), ``a_s`` (first and second fail), ``r`` (first
 holds, second fails), ``delta`` (first two hold, third fails). With all three holding, a ``phi`` column
-(which carries the wall-sided restoring) is checked against the integrated roll rate in the roll band.
+(which carries the wall-sided restoring) is checked against the integrated roll rate in the roll band: its
+sign, and its scale (degrees give 57 times the amplitude).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from scipy.signal import butter, filtfilt, lfilter
 from identify.rollmass.model import Known, Load
 from identify.rollmass.simulate import RollRecording
 
+PHI_SCALE = 5.0  # phi / integrated p amplitude above which phi is in another unit (degrees: 57)
 MIN_RHO = 0.4  # |correlation| below which a relation is not judged (weak excitation, noise)
 SHIP_SIGN = "ship sign: roll positive starboard down, yaw positive to starboard, a_s as eq. (7)"
 
@@ -79,12 +81,17 @@ def check_signs(rec: RollRecording, expect: tuple[float, float]) -> str | None:
             col = "delta"
     elif clear[0] and not ok1:
         col = "p or a_s"
-    if (
-        col is None
-        and rec.phi is not None
-        and _rho(_band(rec.phi, rec.T, 0.1, 0.45), _band(_roll_angle(rec), rec.T, 0.1, 0.45)) < -MIN_RHO
-    ):
-        col = "phi"
+    if col is None and rec.phi is not None:
+        phi_b, int_p = _band(rec.phi, rec.T, 0.1, 0.45), _band(_roll_angle(rec), rec.T, 0.1, 0.45)
+        if _rho(phi_b, int_p) < -MIN_RHO:
+            col = "phi"
+        elif int_p.std() > 0 and phi_b.std() > PHI_SCALE * int_p.std():
+            # a roll angle in degrees whose peak stays under the reader's 1 rad bound (under 57 deg of heel)
+            ratio = phi_b.std() / int_p.std()
+            return (
+                f"{rec.name}: column 'phi' is {ratio:.0f} times the integrated roll rate in the roll band "
+                f"(57 for degrees): give the roll angle in radians"
+            )
     if col is None:
         return None
     what = {
