@@ -209,7 +209,8 @@ def load_profile(path: str | Path | None = None) -> RollProfile:
         kn = Known(M=float(ship["M"]), **hull, **{k: float(v) for k, v in kn_t.items()})
         if not (0.0 <= kn.BM < 10.0 * ship["B"]):
             raise ValueError(
-                f"[ship] BM_T = {kn.BM:g} m: give the transverse metacentric radius I_T / V in metres (0: linear restoring)"
+                f"[ship] BM_T = {kn.BM:g} m ({'given' if 'BM_T' in ship else 'KG + GM_T - KB'}): give the transverse "
+                "metacentric radius I_T / V in metres (0: linear restoring)"
             )
         I_x = kn.M * (ship["kxx_over_B"] * ship["B"]) ** 2
         z_g = kn.zbar_g + roll["z_f"]

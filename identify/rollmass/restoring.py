@@ -8,8 +8,8 @@ The linear model's restoring is ``C phi`` (Linder et al. 2015, eq. (3) with (5a)
 so its restoring moment is ``Delta g GZ`` with ``Delta = rho V``. The ``BM`` part is
 ``rho g I_T / 2 sin(phi) tan^2(phi)``: the waterplane's inertia ``I_T`` does not change as a
 wall-sided hull sinks, so that term is the same for every load (a load changes V and BM = I_T / V
-together). On the 1:24 Our Lass II (BM 0.092 m, GM 0.018 m) it is 0.6 % of the linear restoring at
-3 deg of heel and 2.6 % at 6 deg; the load's own restoring is about 25 % of it for 0.4 kg, so an
+together). On the 1:24 Our Lass II (BM 0.083 m from Table 1, :func:`~identify.rollmass.model.metacentric_radius`; GM 0.018 m) it is 0.6 % of the linear restoring at
+3 deg of heel and 2.5 % at 6 deg; the load's own restoring is about 25 % of it for 0.4 kg, so an
 amplitude-dependent restoring left out reads as part of the load.
 
 The roll angle is measured (an AHRS's roll output, the recording's ``phi`` column), so the moment
