@@ -98,7 +98,7 @@ def test_speed_and_imu_position_come_from_the_headers(files):
     assert prof.known.xbar_s == pytest.approx(np.mean([float(m["imu_x_m"]) for m in metas]))
 
 
-@pytest.mark.parametrize("col", ["r", "delta", "a_s", "p"])
+@pytest.mark.parametrize("col", ["r", "delta", "a_s", "p", "phi"])
 def test_a_negated_column_is_named(files, capsys, tmp_path, col):
     nom, cal, loaded = files
     bad = _edit(loaded, tmp_path / "loaded.csv", _negate(col))
@@ -201,3 +201,17 @@ def test_a_speed_column_is_said_to_be_unused(files, tmp_path):
     assert recs[0].u is not None and np.mean(recs[0].u) == pytest.approx(recs[0].U, rel=0.05)
     notes = speed_notes(recs, paths)
     assert len(notes) == 1 and "nominal.csv: column 'u'" in notes[0] and "not used" in notes[0]
+
+
+@pytest.mark.parametrize("heel", ["large", "small"])
+def test_a_roll_angle_in_degrees_is_refused(files, capsys, tmp_path, heel):
+    """The phi column carries the wall-sided restoring: in degrees it is refused, not cubed, also when
+    its peak stays under the reader's 1 rad bound (a run heeling under 57 deg: here scaled to 0.9)."""
+    nom, cal, loaded = files
+    k = 180 / np.pi
+    if heel == "small":
+        peak = max(abs(float(ln.split(",")[5])) for ln in cal.read_text().splitlines() if ln[:1].isdigit())
+        k = min(k, 0.9 / peak)
+        assert k > 10  # still far from radians (refused above 5 times the integrated roll rate)
+    msg = _error(capsys, [nom, _edit(cal, tmp_path / "calibration.csv", _scale("phi", k)), loaded])
+    assert "'phi'" in msg and "radians" in msg

@@ -78,23 +78,29 @@ def test_the_sandwich_carries_a_priors_uncertainty():
 
 
 def test_the_modal_simulation_is_the_state_space_model(case2):
-    """The modal recursion gives the Tustin model's rudder response to rounding (against the plain
-    state recursion), the old transfer-function route (``ss2tf`` + ``lfilter``) to within its own
-    rounding (about 1e-9 of the signal), and its free-response basis spans every initial state's response."""
+    """The modal recursion gives the Tustin model's response to its inputs (the rudder and the heel signal
+    of the recording's roll angle) to rounding (against the plain state recursion), the old
+    transfer-function route (``ss2tf`` + ``lfilter``, one input at a time) to within its own rounding
+    (about 1e-9 of the signal), and its free-response basis spans every initial state's response."""
     kn = PROF.known
     v = {**oe.start_values(PROF), "m": 0.4, "zbar_m": -0.268}
     for rec in case2:
         load = rec.load if rec.load is not None else Load(0.4, -0.268)
         out, basis = oe._simulate(v, kn, kn.z_f_prior, load, rec)
         Ad, Bd, Cd, Dd = oe._bilinear(*oe.model_matrices(v, kn, kn.z_f_prior, load, rec.U), rec.T)
+        inputs = oe.model_inputs(v, kn, rec)
+        assert [j for j, _ in inputs] == [0, 1]  # the case has phi, the profile a BM
+        U = np.column_stack([u for _, u in inputs])
         x, ref = np.zeros(len(Ad)), np.empty((rec.n, 3))
-        for k, u in enumerate(rec.delta):
-            ref[k] = Cd @ x + Dd[:, 0] * u
-            x = Ad @ x + Bd[:, 0] * u
+        for k, u in enumerate(U):
+            ref[k] = Cd @ x + Dd @ u
+            x = Ad @ x + Bd @ u
         scale = np.abs(ref).max(axis=0)
         assert np.all(np.abs(out - ref).max(axis=0) < 1e-11 * scale)
-        num, den = ss2tf(Ad, Bd, Cd, Dd)
-        old = np.column_stack([lfilter(num[j], den, rec.delta) for j in range(3)])
+        old = 0.0
+        for j in range(2):
+            num, den = ss2tf(Ad, Bd, Cd, Dd, input=j)
+            old = old + np.column_stack([lfilter(num[i], den, U[:, j]) for i in range(3)])
         assert np.all(np.abs(out - old).max(axis=0) < 1e-7 * scale)
         x = np.random.default_rng(0).standard_normal(len(Ad))
         free = np.empty((rec.n, 3))

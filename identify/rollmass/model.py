@@ -25,6 +25,7 @@ import numpy as np
 from primitives.io import read_input_text
 from primitives.ship import ProfileError
 
+RHO_WATER = 1000.0  # kg/m^3, the basin's fresh water
 DEFAULT_PROFILE = Path(__file__).with_name("our_lass_ii.toml")
 
 # Shared physical parameters of (20) that are estimated, in the order of the paper's Table 3.
@@ -52,6 +53,11 @@ class Known:
     # paper's (3) lets it act at the roll centre, zbar_b = -z_f (the load's restoring m g z_m about the CR).
     # A flared hull (A_wp and its inertia growing with draft) moves it further; nothing here models that.
     zbar_b: float = 0.0
+    # the hull's transverse metacentric radius BM = I_T / V [m] at displacement M (profile [ship] BM_T) and
+    # the nominal GM [m] (GM_T): the wall-sided restoring beyond the linear term (identify.rollmass.restoring);
+    # BM = 0 keeps the restoring linear in phi
+    BM: float = 0.0
+    GM: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -173,6 +179,23 @@ def flat_direction(p: RollParams, kn: Known, cal: Load) -> np.ndarray:
     return np.array([dk, dA_x, p.d, p.K_r, dKv, p.K_delta, dzf])
 
 
+def metacentric_radius(ship: dict) -> float:
+    """The hull's transverse metacentric radius ``BM = I_T / V`` [m] at the displacement ``M``: the
+    profile's ``[ship] BM_T`` when given (0: restoring linear in roll), else (when the profile has ``draft``, ``L_w`` and ``KG``; otherwise 0) ``KM - KB`` from Table 1's
+    ``KG + GM_T`` with the centre of buoyancy by Morrish's formula ``KB = T/3 (5/2 - C_B / C_wp)``, the
+    block coefficient ``C_B = (M / rho) / (L_w B T)`` and the waterplane coefficient
+    ``C_wp = (1 + 2 C_B) / 3`` (Schneekluth & Bertram 1998, Ship Design for Efficiency and Economy,
+    ch. 2). Our Lass II: C_B 0.60, KB 0.081 m, BM 0.083 m (0.092 m for a box, KB = T/2)."""
+    if "BM_T" in ship:
+        return float(ship["BM_T"])
+    if not all(k in ship for k in ("draft", "L_w", "KG")):
+        return 0.0
+    T = float(ship["draft"])
+    c_b = float(ship["M"]) / RHO_WATER / (float(ship["L_w"]) * float(ship["B"]) * T)
+    kb = T / 3.0 * (2.5 - c_b / ((1.0 + 2.0 * c_b) / 3.0))
+    return float(ship["KG"]) + float(ship["GM_T"]) - kb
+
+
 def load_profile(path: str | Path | None = None) -> RollProfile:
     """Read a roll profile TOML (default: Our Lass II). k follows from Table 1's GM_T."""
     path = Path(path) if path is not None else DEFAULT_PROFILE
@@ -182,7 +205,13 @@ def load_profile(path: str | Path | None = None) -> RollProfile:
         raise ProfileError(f"{path}: not valid TOML ({exc})") from exc
     try:
         ship, kn_t, roll = raw["ship"], raw["known"], raw["roll"]
-        kn = Known(M=float(ship["M"]), **{k: float(v) for k, v in kn_t.items()})
+        hull = {"BM": metacentric_radius(ship), "GM": float(ship["GM_T"])}
+        kn = Known(M=float(ship["M"]), **hull, **{k: float(v) for k, v in kn_t.items()})
+        if not (0.0 <= kn.BM < 10.0 * ship["B"]):
+            raise ValueError(
+                f"[ship] BM_T = {kn.BM:g} m ({'given' if 'BM_T' in ship else 'KG + GM_T - KB'}): give the transverse "
+                "metacentric radius I_T / V in metres (0: linear restoring)"
+            )
         I_x = kn.M * (ship["kxx_over_B"] * ship["B"]) ** 2
         z_g = kn.zbar_g + roll["z_f"]
         k = kn.M * kn.g * ship["GM_T"] - kn.M * kn.g * z_g

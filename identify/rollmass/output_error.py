@@ -5,8 +5,9 @@ Xsens MTi-G's accelerometer noise that is an errors-in-variables problem: the ac
 noise passes through the lightly damped roll resonance and, in a Monte Carlo of the basin
 experiment, sets the mass error. Here ``a_s`` is an *output*: the linearised sway-roll-yaw
 model (1)-(8) (surge decoupled, roll row (3) plus the sway-roll couplings :data:`FREE_COUPLINGS`, the
-load's added buoyancy at ``Known.zbar_b``, each run at its own speed) is driven by the measured
-rudder alone and fitted to the three IMU channels ``p``, ``a_s``, ``r`` of all three datasets at once.
+load's added buoyancy at ``Known.zbar_b``, each run at its own speed, the wall-sided restoring beyond
+the linear term as a known roll moment from the measured roll angle, :mod:`identify.rollmass.restoring`,
+its gain ``kappa`` fitted) is driven by the measured rudder and fitted to the three IMU channels ``p``, ``a_s``, ``r`` of all three datasets at once.
 
 Why (measured, case 1, 4 seeds, waves off): the roll-only model (11) fitted by output error with
 the measured ``a_s`` as input has a median error of 16 % / 47 mm at the MTi-G noise, and 0.8 % /
@@ -43,6 +44,7 @@ from scipy.signal import lfilter
 from threadpoolctl import threadpool_limits
 
 from identify.rollmass.model import Known, Load, RollProfile, load_restoring
+from identify.rollmass.restoring import gravity_excess, heel_gain, heel_signal
 from identify.rollmass.sandwich import central_jacobian, load_decrement, sandwich_cov
 from identify.rollmass.sensitivity import dataset_jacobian, fir, free_basis, lag_derivative, modal
 from identify.rollmass.simulate import RollRecording
@@ -69,6 +71,8 @@ SHARED = PAPER_ROWS + FREE_COUPLINGS + MOUNT
 RUDDER = ("Y_delta", "K_delta", "n_delta")  # rudder derivatives, scaling with U^2
 VELOCITY = ("Y_v", "Y_r", "n_v", "n_r", "Y_p", "K_v")  # velocity derivatives, scaling with U
 CHANNELS = ("p", "a_s", "r")
+# fit the wall-sided heel gain kappa (identify.rollmass.restoring) rather than hold it at the hull's value
+FIT_KAPPA = True
 N_FREE = 4  # free-response columns per dataset and channel (4 states)
 NOISE_AR = 6  # order of each channel's whitening filter
 # Newey-West lag window of the sandwich covariance, in seconds (samples = this / the sample time):
@@ -135,7 +139,8 @@ def start_values(prof: RollProfile) -> dict[str, float]:
 
 
 def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load, U: float | None = None) -> tuple[np.ndarray, ...]:
-    """Continuous ``(A, B, C, D)`` for ``x = [v, p, r, phi]``, input rudder, outputs ``[p, a_s, r]``.
+    """Continuous ``(A, B, C, D)`` for ``x = [v, p, r, phi]``, inputs ``[delta, w]`` (the rudder and the
+    wall-sided heel signal of :func:`identify.rollmass.restoring.heel_signal`), outputs ``[p, a_s, r]``.
 
     Roll row (3)-(5); sway row with the rigid-body and added-mass couplings of the same ``c``;
     ``a_s = z_s p' + g phi - (v' + U r)`` (7)-(8). ``U`` is this run's speed; the hydrodynamic
@@ -161,10 +166,11 @@ def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load, U: fl
             [v["n_v"], cp["n_p"], v["n_r"], 0.0],
         ]
     )
-    G = np.array([[v["Y_delta"]], [v["K_delta"]], [v["n_delta"]]])
+    # inputs: the rudder, and the wall-sided heel signal w(t) of identify.rollmass.restoring (a roll moment -kappa w)
+    G = np.array([[v["Y_delta"], 0.0], [v["K_delta"], -v.get("kappa", heel_gain(kn))], [v["n_delta"], 0.0]])
     Minv = np.linalg.inv(Mm)
     A = np.vstack([Minv @ F, [0.0, 1.0, 0.0, 0.0]])
-    B = np.vstack([Minv @ G, [[0.0]]])
+    B = np.vstack([Minv @ G, [[0.0, 0.0]]])
     # outputs: p; a_s from the accelerations; r
     # IMU mounting (rigid-body kinematics: the acceleration at r_s is v' + w' x r_s + w x (w x r_s)): an
     # accelerometer x_s forward of midship reads the yaw acceleration x_s r' too, and a gyro pitched by e_y about the body y axis
@@ -178,8 +184,15 @@ def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load, U: fl
             [0.0, e_y, 1.0, 0.0],
         ]
     )
-    Dm = np.array([[0.0], [z_s * B[1, 0] - B[0, 0] - x_s * B[2, 0]], [0.0]])
+    Dm = np.vstack([np.zeros(2), z_s * B[1] - B[0] - x_s * B[2], np.zeros(2)])
     return A, B, Cm, Dm
+
+
+def shared_parameters(datasets: list[RollRecording], kn: Known) -> tuple[str, ...]:
+    """:data:`SHARED`, and the wall-sided heel gain ``kappa`` (start: the hull's, :func:`heel_gain`) when
+    :data:`FIT_KAPPA` and a recording has the roll angle and the profile a BM."""
+    heel = FIT_KAPPA and kn.BM > 0.0 and any(d.phi is not None for d in datasets)
+    return SHARED + (("kappa",) if heel else ())
 
 
 def _bilinear(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, T: float) -> tuple[np.ndarray, ...]:
@@ -218,12 +231,24 @@ def _simulate(v: dict[str, float], kn: Known, z_f: float, load: Load, rec: RollR
     """
     Ad, Bd, Cd, Dd = _bilinear(*model_matrices(v, kn, z_f, load, rec.U), rec.T)
     lam, V = modal(Ad)
-    b = np.linalg.solve(V, Bd[:, 0])
     c = Cd @ V
-    delta = delayed(rec.delta, v.get("t_imu", 0.0), rec.T)  # the rudder as the lagging IMU channels see it
-    modes = np.column_stack([lfilter([0.0, bi], [1.0, -li], delta.astype(complex)) for bi, li in zip(b, lam)])
-    out = (modes @ c.T).real + delta[:, None] * Dd[:, 0]
+    out = np.zeros((rec.n, 3))
+    for j, u in model_inputs(v, kn, rec):
+        b = np.linalg.solve(V, Bd[:, j])
+        modes = np.column_stack([lfilter([0.0, bi], [1.0, -li], u.astype(complex)) for bi, li in zip(b, lam)])
+        out += (modes @ c.T).real + u[:, None] * Dd[:, j]
     return out, free_basis(lam, rec.n)
+
+
+def model_inputs(v: dict[str, float], kn: Known, rec: RollRecording) -> list[tuple[int, np.ndarray]]:
+    """The model's inputs that are not zero, as ``(column of B, signal)``: the rudder as the lagging IMU
+    channels see it (:func:`delayed`), and the wall-sided heel signal from the recording's measured roll
+    angle when it has one and the profile gives the hull's BM (the AHRS's roll angle comes with the
+    other IMU channels, so it is not delayed)."""
+    out = [(0, delayed(rec.delta, v.get("t_imu", 0.0), rec.T))]
+    if rec.phi is not None and kn.BM > 0.0:
+        out.append((1, heel_signal(rec.phi, kn)))
+    return out
 
 
 def _whitener(e: np.ndarray, order: int) -> np.ndarray:
@@ -239,8 +264,11 @@ def _whitener(e: np.ndarray, order: int) -> np.ndarray:
     return np.real(np.poly(roots))
 
 
-def _measured(rec: RollRecording) -> np.ndarray:
-    return np.column_stack([rec.p, rec.a_s, rec.r])
+def _measured(rec: RollRecording, g: float = 9.81) -> np.ndarray:
+    """``p, a_s, r``; ``a_s`` less the gravity the linear model's ``g phi`` leaves out, ``g (sin phi - phi)``,
+    when the recording has the roll angle."""
+    a_s = rec.a_s if rec.phi is None else rec.a_s - gravity_excess(rec.phi, g)
+    return np.column_stack([rec.p, a_s, rec.r])
 
 
 class _Problem:
@@ -262,7 +290,7 @@ class _Problem:
         # z_f in ``free``: ``z_f`` is its prior mean and ``z_f_sd`` its prior sd (one more residual)
         self.z_f_sd = z_f_sd
         self.ar = ar if ar is not None else [[np.ones(1)] * 3 for _ in datasets]
-        self.Y = [_measured(d) for d in datasets]
+        self.Y = [_measured(d, kn.g) for d in datasets]
 
     def values(self, x: np.ndarray) -> dict[str, float]:
         return dict(zip(self.free, map(float, x)))
@@ -341,9 +369,9 @@ class _Problem:
                     e[j] = h
                     hi, lo = self.discrete(x + e, i), self.discrete(x - e, i)
                     dmats.append(tuple((a - b) / (2 * h) for a, b in zip(hi, lo)))
-                u = delayed(rec.delta, lag, rec.T)
                 du = lag_derivative(rec.delta, lag, rec.T) if lag_col >= 0 else None
-                blocks.append(dataset_jacobian(mats, dmats, u, du, lag_col, Y, self.ar[i], self.w[i]))
+                inputs = model_inputs(v, self.kn, rec)
+                blocks.append(dataset_jacobian(mats, dmats, inputs, du, lag_col, Y, self.ar[i], self.w[i]))
         except (FloatingPointError, np.linalg.LinAlgError):
             return central_jacobian(self.residual, x)
         return np.vstack(blocks + [self.prior_jacobian(x)])
@@ -386,8 +414,9 @@ def _best_start(
             "the start values give an unstable ship with the known loads (roll restoring "
             "k + M g z_g + m g z_m <= 0?); check the profile's GM_T, [roll] and [sway_yaw]"
         ) from None
-    ship = SHARED + (("z_f",) if z_f_sd > 0 else ())
-    x_ship = np.array([start[k] for k in SHARED] + ([z_f] if z_f_sd > 0 else []))
+    shared = shared_parameters(datasets, kn)
+    ship = shared + (("z_f",) if z_f_sd > 0 else ())
+    x_ship = np.array([start.get(k, heel_gain(kn)) for k in shared] + ([z_f] if z_f_sd > 0 else []))
     fitted = _lm(_Problem(datasets[:2], kn, cal, z_f, ship, w[:2], z_f_sd=z_f_sd), x_ship, 1e-8).x
     prob = _Problem(datasets, kn, cal, z_f, ship + ("m", "zbar_m"), w, z_f_sd=z_f_sd)
     best = None
@@ -449,7 +478,7 @@ def fit_output_error(
     steps are taken.
     """
     z_f_sd = kn.z_f_prior_sd if z_f_sd is None else z_f_sd
-    free = SHARED + (("z_f",) if z_f_sd > 0 else ()) + ("m", "zbar_m")
+    free = shared_parameters(datasets, kn) + (("z_f",) if z_f_sd > 0 else ()) + ("m", "zbar_m")
     w = np.array([1.0 / np.maximum(_measured(d).std(axis=0), 1e-12) for d in datasets])
     ar = None
     first = _best_start(datasets, kn, cal, z_f, z_f_sd, start, w)

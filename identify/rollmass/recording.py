@@ -3,7 +3,8 @@
 Columns (SI, radians): ``t`` [s, uniform], ``delta`` [rad, measured rudder], ``p`` [rad/s, roll-rate
 gyro, (6a)], ``a_s`` [m/s^2, IMU lateral (tangential) accelerometer, (6b) and (7)], ``r`` [rad/s,
 yaw-rate gyro in ship sign, i.e. minus (6c)]; optional ``u`` [m/s, surge speed, positive ahead:
-checked against ``speed_m_s``, not followed] and ``phi`` [rad] (not used). Optional metadata
+checked against ``speed_m_s``, not followed] and ``phi`` [rad, roll angle, positive starboard down: an AHRS's
+roll output; with the hull's BM it gives the wall-sided restoring, :mod:`identify.rollmass.restoring`]. Optional metadata
 lines ``# key: value`` before the header (:data:`META_KEYS`): ``role`` (nominal, calibration,
 loaded), ``speed_m_s``, ``imu_z_m``, ``imu_x_m`` (forward of midship), ``load_kg``, ``load_z_m`` (z: body frame, metres, positive
 down from the waterline; a ``load_height_m`` is refused as ambiguous), ``ship``, ``dataset``,
@@ -32,6 +33,7 @@ WHAT = {
     "delta": "rudder angle, rad",
     "t": "time, s",
     "u": "surge speed, m/s, positive ahead",
+    "phi": "roll angle, rad, positive starboard down",
 }
 # names other loggers use for our columns; a file with one of them is told which to rename
 ALIASES = {
@@ -42,6 +44,7 @@ ALIASES = {
     "t": ("time",),
     "u": ("speed", "surge", "surge_speed", "u_m_s", "stw", "sog", "speed_m_s"),
 }
+MAX_PHI = 1.0  # rad: a roll angle column beyond it is in degrees (or the ship capsized)
 META_KEYS = ("role", "speed_m_s", "imu_z_m", "imu_x_m", "load_kg", "load_z_m", "ship", "dataset", "sample_time")
 
 
@@ -117,6 +120,12 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
         raise RecordingError(f"{path}: column 't' is not uniformly sampled (steps {dt.min():g}..{dt.max():g} s); resample it")
     if np.std(col["p"]) < 1e-6:
         raise RecordingError(f"{path}: column 'p' is constant: the recording has no roll motion")
+    phi = col.get("phi")
+    if phi is not None and not (np.all(np.isfinite(phi)) and np.max(np.abs(phi)) < MAX_PHI):
+        raise RecordingError(
+            f"{path}: column 'phi' (roll angle, rad) must be finite and under {MAX_PHI:g} rad; it reaches "
+            f"{np.nanmax(np.abs(phi)):g}: give it in radians, fill gaps, or drop the column"
+        )
     u = col.get("u")
     if u is not None and not (np.all(np.isfinite(u)) and np.min(u) > 0):
         raise RecordingError(
@@ -124,6 +133,6 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
             f"it has {np.nanmin(u):g}..{np.nanmax(u):g}: fill gaps, check its sign, or drop the column"
         )
     rec = RollRecording(
-        name=path.name, T=T, delta=col["delta"], p=col["p"], a_s=col["a_s"], r=col["r"], phi=col.get("phi"), notes=notes, u=u
+        name=path.name, T=T, delta=col["delta"], p=col["p"], a_s=col["a_s"], r=col["r"], phi=phi, notes=notes, u=u
     )
     return rec, meta

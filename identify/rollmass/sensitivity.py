@@ -1,7 +1,7 @@
 """The output-error fit's Jacobian from the sensitivity equations, in the modal coordinates the
 simulation runs in (used by :mod:`identify.rollmass.output_error`).
 
-A dataset's rudder response is the discrete model ``x(k+1) = Ad x(k) + Bd u(k)``,
+A dataset's response to each input (the rudder; a known heel signal; they add) is the discrete model ``x(k+1) = Ad x(k) + Bd u(k)``,
 ``y = Cd x + Dd u``; in the modal coordinates ``z = V^-1 x`` (``Ad V = V Lambda``) each mode is the
 first-order filter ``F_i = 1 / (q - lambda_i)``, ``z_i = b_i F_i u`` with ``b = V^-1 Bd``. A parameter
 ``theta`` moves ``(Ad, Bd, Cd, Dd)``; the state's sensitivity obeys the forward sensitivity equation
@@ -26,8 +26,8 @@ Only ``(Ad, Bd, Cd, Dd)``'s derivatives are finite differences (central, of 4x4 
 about 1e-10 relative); the model equations stay where they are (``output_error.model_matrices``)
 and this module never sees them: a change of the equations or a new parameter that enters them
 needs nothing here. What is mirrored here, and must change with ``output_error`` if it changes:
-the rudder as the one input, delayed by ``t_imu`` (``output_error.delayed``, whose derivative is
-:func:`lag_derivative`), the simulation from rest in modal form, the free-response basis
+the inputs (``output_error.model_inputs``: the rudder delayed by ``t_imu``, ``output_error.delayed``, whose
+derivative is :func:`lag_derivative`, and a known heel signal, each through its column of ``Bd``), the simulation from rest in modal form, the free-response basis
 (:func:`free_basis`), and the residual's per-channel whitening, projection and weights
 (``_Problem.errors``, ``weighted``). tests/test_rollmass_oe_jacobian.py checks every column against
 central differences of the whole residual (agreement to about 1e-6 of a column), so a change on one
@@ -41,6 +41,7 @@ from scipy.linalg import solve_triangular
 from scipy.signal import lfilter
 
 Matrices = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+Inputs = list[tuple[int, np.ndarray]]  # (column of Bd and Dd, input signal)
 
 
 def fir(a: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -108,19 +109,41 @@ def lag_derivative(x: np.ndarray, lag: float, T: float) -> np.ndarray:
 
 
 def _output_sensitivities(
-    lam: np.ndarray, V: np.ndarray, mats: Matrices, dmats: list[Matrices], u: np.ndarray, du: np.ndarray | None, lag_col: int
+    lam: np.ndarray, V: np.ndarray, mats: Matrices, dmats: list[Matrices], inputs: Inputs, du: np.ndarray | None, lag_col: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The rudder response ``y`` (n, 3), every parameter's ``dy`` (3 channels, n, P) and ``E = V^-1 dAd V``
-    (P, modes, modes). ``du``: the input's derivative by the parameter ``lag_col`` (None: none)."""
-    _, Bd, Cd, Dd = mats
+    """The forced response ``y`` (n, 3), every parameter's ``dy`` (3 channels, n, P) and ``E = V^-1 dAd V``
+    (P, modes, modes), summed over the ``inputs`` (``(column of Bd, signal)``; a linear model's responses
+    add). ``du``: the first input's derivative by the parameter ``lag_col`` (None: none)."""
     Vi = np.linalg.inv(V)
-    b, c, D = Vi @ Bd[:, 0], Cd @ V, Dd[:, 0]
+    E = np.einsum("ab,pbc,cd->pad", Vi, np.array([d[0] for d in dmats]), V)
+    y, dy = 0.0, 0.0
+    for i, (col, u) in enumerate(inputs):
+        yi, dyi = _input_sensitivities(lam, V, Vi, E, mats, dmats, col, u, du if i == 0 else None, lag_col)
+        y, dy = y + yi, dy + dyi
+    return y, dy, E
+
+
+def _input_sensitivities(
+    lam: np.ndarray,
+    V: np.ndarray,
+    Vi: np.ndarray,
+    E: np.ndarray,
+    mats: Matrices,
+    dmats: list[Matrices],
+    col: int,
+    u: np.ndarray,
+    du: np.ndarray | None,
+    lag_col: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """One input's share of :func:`_output_sensitivities`: ``y`` and ``dy`` of the input signal ``u``
+    entering through column ``col`` of ``Bd`` and ``Dd``."""
+    _, Bd, Cd, Dd = mats
+    b, c, D = Vi @ Bd[:, col], Cd @ V, Dd[:, col]
     g = mode_filter(lam, u)
     h = np.column_stack([lfilter([0.0, 1.0], [1.0, -li], g[:, i]) for i, li in enumerate(lam)])  # F_i F_i u
-    E = np.einsum("ab,pbc,cd->pad", Vi, np.array([d[0] for d in dmats]), V)
-    f = np.einsum("ab,pb->pa", Vi, np.array([d[1][:, 0] for d in dmats]))
+    f = np.einsum("ab,pb->pa", Vi, np.array([d[1][:, col] for d in dmats]))
     dc = np.einsum("pcb,bi->pci", np.array([d[2] for d in dmats]), V)
-    dD = np.array([d[3][:, 0] for d in dmats])  # (P, 3)
+    dD = np.array([d[3][:, col] for d in dmats])  # (P, 3)
     cb = c * b  # (3, modes): each mode's residue per channel
     y = (g @ cb.T).real + u[:, None] * D
     # sum_ij F_i F_j u * k_ij, k_ij = c_i E_ij b_j: the diagonal on F_i F_i u, and off it, by partial
@@ -140,13 +163,13 @@ def _output_sensitivities(
     )
     if du is not None:
         dy[:, :, lag_col] += ((mode_filter(lam, du) @ cb.T).real + du[:, None] * D).T
-    return y, dy, E
+    return y, dy
 
 
 def dataset_jacobian(
     mats: Matrices,
     dmats: list[Matrices],
-    u: np.ndarray,
+    inputs: Inputs,
     du: np.ndarray | None,
     lag_col: int,
     Y: np.ndarray,
@@ -156,10 +179,11 @@ def dataset_jacobian(
     """One dataset's rows of the fit's Jacobian, (3 n, P) in the residual's order (sample-major,
     channels ``p, a_s, r``): the whitened (``ar``), weighted (``w``) output error with its free
     response and bias projected out per channel, differentiated by every parameter whose discrete
-    matrices move by ``dmats`` (and the lag parameter ``lag_col`` by ``du``)."""
+    matrices move by ``dmats`` (and the lag parameter ``lag_col`` by ``du``, the first input's derivative);
+    ``inputs`` as ``output_error.model_inputs`` gives them."""
     lam, V = modal(mats[0])
-    y, dy, E = _output_sensitivities(lam, V, mats, dmats, u, du, lag_col)
-    n, P = len(u), len(dmats)
+    y, dy, E = _output_sensitivities(lam, V, mats, dmats, inputs, du, lag_col)
+    n, P = len(Y), len(dmats)
     e = Y - y
     modes = basis_modes(lam)
     pw = mode_powers(lam, n)

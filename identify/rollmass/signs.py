@@ -10,7 +10,9 @@ Three relations any rolling, turning ship obeys give three votes:
 
 A vote counts only when the correlation is clear (``|rho| >= MIN_RHO``). From the votes the flipped
 column is named: ``p`` (first fails, second holds), ``a_s`` (first and second fail), ``r`` (first
-holds, second fails), ``delta`` (first two hold, third fails).
+holds, second fails), ``delta`` (first two hold, third fails). With all three holding, a ``phi`` column
+(which carries the wall-sided restoring) is checked against the integrated roll rate in the roll band: its
+sign, and its scale (degrees give 57 times the amplitude).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from scipy.signal import butter, filtfilt, lfilter
 from identify.rollmass.model import Known, Load
 from identify.rollmass.simulate import RollRecording
 
+PHI_SCALE = 5.0  # phi / integrated p amplitude above which phi is in another unit (degrees: 57)
 MIN_RHO = 0.4  # |correlation| below which a relation is not judged (weak excitation, noise)
 SHIP_SIGN = "ship sign: roll positive starboard down, yaw positive to starboard, a_s as eq. (7)"
 
@@ -37,10 +40,15 @@ def _rho(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.mean(a * b) / (sa * sb)) if sa > 0 and sb > 0 else 0.0
 
 
+def _roll_angle(rec: RollRecording) -> np.ndarray:
+    """The roll rate integrated (its mean, mostly gyro bias, removed first)."""
+    return np.cumsum(rec.p - rec.p.mean()) * rec.T
+
+
 def relations(rec: RollRecording) -> tuple[float, float, float]:
     """Correlations ``(a_s ~ int p, a_s ~ r, r ~ lagged delta)`` of one recording."""
     T = rec.T
-    phi = np.cumsum(rec.p - rec.p.mean()) * T
+    phi = _roll_angle(rec)
     cut = 20 * max(int(1 / T), 1)  # the filters' edges
     s = slice(cut, -cut) if rec.n > 4 * cut else slice(None)
     r1 = _rho(_band(rec.a_s, T, 0.1, 0.45)[s], _band(phi, T, 0.1, 0.45)[s])
@@ -56,7 +64,7 @@ def expected_signs(values: dict[str, float], kn: Known, z_f: float, load: Load) 
     from identify.rollmass.output_error import model_matrices
 
     A, B, C, D = model_matrices(values, kn, z_f, load)
-    dc = (D - C @ np.linalg.solve(A, B)).ravel()  # steady outputs [p, a_s, r] per unit rudder
+    dc = D[:, 0] - C @ np.linalg.solve(A, B[:, 0])  # steady outputs [p, a_s, r] per unit rudder
     return float(np.sign(dc[1] * dc[2])), float(np.sign(dc[2]))
 
 
@@ -73,9 +81,21 @@ def check_signs(rec: RollRecording, expect: tuple[float, float]) -> str | None:
             col = "delta"
     elif clear[0] and not ok1:
         col = "p or a_s"
+    if col is None and rec.phi is not None:
+        phi_b, int_p = _band(rec.phi, rec.T, 0.1, 0.45), _band(_roll_angle(rec), rec.T, 0.1, 0.45)
+        if _rho(phi_b, int_p) < -MIN_RHO:
+            col = "phi"
+        elif int_p.std() > 0 and phi_b.std() > PHI_SCALE * int_p.std():
+            # a roll angle in degrees whose peak stays under the reader's 1 rad bound (under 57 deg of heel)
+            ratio = phi_b.std() / int_p.std()
+            return (
+                f"{rec.name}: column 'phi' is {ratio:.0f} times the integrated roll rate in the roll band "
+                f"(57 for degrees): give the roll angle in radians"
+            )
     if col is None:
         return None
     what = {
+        "phi": "the roll angle is opposite to the integrated roll rate",
         "p": "the roll rate integrates to a roll angle opposite to the accelerometer's heel",
         "a_s": "the accelerometer's heel is opposite to both the roll rate and the turn",
         "r": "the yaw rate turns the ship against its heel",

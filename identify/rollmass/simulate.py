@@ -1,6 +1,7 @@
 """Simulated basin experiment of Linder et al. (2015) section 4-5 with the 1:24 Our Lass II model.
 
-Truth is a linear surge-decoupled sway-roll-yaw model whose roll row is eq. (3) with the load's
+Truth is a surge-decoupled sway-roll-yaw model, linear but for the wall-sided restoring of
+:mod:`identify.rollmass.restoring` and the accelerometer's ``g sin phi``, whose roll row is eq. (3) with the load's
 added buoyancy at ``Known.zbar_b`` (the waterline, :func:`model.load_restoring`; the paper puts it
 at the roll centre, so ``ls``, ``paper-iv`` and ``improved``, which keep (3)-(12), are off by
 ``m g z_f`` in the restoring here) and whose mass matrix is symmetric (``Y_pdot = K_vdot``), driven by a joystick-like rudder and a wave-like
@@ -19,6 +20,7 @@ from scipy.linalg import expm
 from scipy.signal import lfilter, remez
 
 from identify.rollmass.model import Load, RollProfile, load_restoring
+from identify.rollmass.restoring import heel_gain, heel_signal
 
 
 @dataclass
@@ -152,14 +154,18 @@ def simulate_dataset(
     delta[:warm] *= np.linspace(0, 1, warm)
     u = np.column_stack([delta, wave_disturbance(n, fs, exp, rng)])
     x = np.zeros((n, 4))
+    kn = prof.known
+    kappa = heel_gain(kn)
     for k in range(n - 1):
+        # the wall-sided restoring beyond C phi (identify.rollmass.restoring), a roll moment held over the step
+        u[k, 2] -= kappa * heel_signal(x[k, 3], kn)
         x[k + 1] = Phi @ x[k] + Gam @ u[k]
+    u[-1, 2] -= kappa * heel_signal(x[-1, 3], kn)
     xdot = x @ A.T + u @ B.T
     v_dot, p_dot = xdot[:, 0], xdot[:, 1]
     _, p, r, phi = x.T
-    kn = prof.known
     z_s = kn.zbar_s + prof.truth.z_f
-    a_s = z_s * p_dot + kn.g * phi - (v_dot + kn.U * r)  # (7)-(8)
+    a_s = z_s * p_dot + kn.g * np.sin(phi) - (v_dot + kn.U * r)  # (7)-(8), gravity's component not linearised
     sq = np.sqrt(fs)  # white noise of density q sampled at fs has sigma q sqrt(fs/2)... per channel
     sig_g, sig_a = noise.gyro_density * sq / np.sqrt(2), noise.acc_density * sq / np.sqrt(2)
     meas = np.column_stack(

@@ -32,7 +32,13 @@ bias plus an in-run bias random walk), the sensor's own 2nd-order low-pass, the 
 the order-20 equiripple FIR at 0.5 Hz and the decimation to 50 Hz of section 5, and a quantised
 rudder encoder, and the surge speed ``u`` from the basin's positioning system (as the paper's Fig. 6
 got it: Qualisys positions through a Kalman smoother; 1 % scale and 5 mm/s slow error; not through
-the IMU's FIR). Parameters are drawn per run around nominal from the run's seed.
+the IMU's FIR). The FIR is the paper's post-processing, applied alike to every recorded channel
+(``delta``, ``p``, ``a_s``, ``r``, ``phi``), not a sensor's filter: an equiripple design of that order
+and transition band (0.5-5 Hz) has a passband ripple of 6.5 %, so its gain is 0.935 at 0 Hz and
+0.92-0.93 in the roll band, kept unnormalised on purpose (the paper gives no normalisation; a linear
+model sees the gain cancel between input and outputs, a model nonlinear in the recorded ``phi`` does
+not). The ``phi`` column is the true roll angle through that FIR, without an AHRS's noise or bias.
+Parameters are drawn per run around nominal from the run's seed.
 
 Runs are integrated together (RK4 at 100 Hz, vectorised over runs).
 

@@ -1,0 +1,57 @@
+"""Wall-sided roll restoring beyond the linear term, as a known roll moment from the measured roll angle.
+
+The linear model's restoring is ``C phi`` (Linder et al. 2015, eq. (3) with (5a)). A wall-sided hull
+(sides vertical over the heeled range) has the righting arm of the wall-sided formula (e.g. Biran 2003, Ship Hydrostatics and Stability)
+
+    GZ(phi) = sin(phi) (GM + BM/2 tan^2 phi),    BM = I_T / V,
+
+so its restoring moment is ``Delta g GZ`` with ``Delta = rho V``. The ``BM`` part is
+``rho g I_T / 2 sin(phi) tan^2(phi)``: the waterplane's inertia ``I_T`` does not change as a
+wall-sided hull sinks, so that term is the same for every load (a load changes V and BM = I_T / V
+together). On the 1:24 Our Lass II (BM 0.083 m from Table 1, :func:`~identify.rollmass.model.metacentric_radius`; GM 0.018 m) it is 0.6 % of the linear restoring at
+3 deg of heel and 2.5 % at 6 deg; the load's own restoring is about 25 % of it for 0.4 kg, so an
+amplitude-dependent restoring left out reads as part of the load.
+
+The roll angle is measured (an AHRS's roll output, the recording's ``phi`` column), so the moment
+beyond ``C phi`` is a known input computed once per recording, and the model stays linear in its
+states (its rudder response, free response and Jacobian unchanged in form):
+
+    tau_heel(t) = -kappa w(t),   kappa = M g BM / 2,
+    w(t) = sin(phi) tan^2(phi) + (2 GM / BM) (sin(phi) - phi),
+
+with the nominal ship's ``M``, ``GM`` and ``BM`` (:class:`~identify.rollmass.model.Known`). The second
+term of ``w`` is ``GM``'s share, ``-GM phi^3 / 6`` to third order: 6.5 % of the moment on Our Lass II,
+taken at the nominal GM for every load (a load's change of GM moves it by under 2 % of itself).
+
+The oe fit frees ``kappa`` from the hull's value (``output_error.FIT_KAPPA``): the recording's roll
+angle has been through the same filters as the other channels, and a filter whose gain is not one
+(the paper's order-20 FIR has 0.935 at 0 Hz) scales ``phi^3`` by its cube but the moment only once, so
+the hull's ``kappa`` is not the one the filtered data obey. Measured, noise-free independent basin truth
+(``restoring``, ``simulate_runs("restoring", 2, 3015)`` run 0, case 2): ``kappa`` held at the hull's
+9.0 N m gave -40.5 % / -105 mm, fitted (12.3 N m) +0.24 % / +0.2 mm; without the term +23.8 % / +33 mm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from identify.rollmass.model import Known
+
+
+def heel_signal(phi: np.ndarray, kn: Known) -> np.ndarray:
+    """``w(t)`` of the module docstring (dimensionless); zero when the profile gives no ``BM``."""
+    if kn.BM <= 0.0:
+        return np.zeros_like(phi)
+    s = np.sin(phi)
+    return s * np.tan(phi) ** 2 + (2.0 * kn.GM / kn.BM) * (s - phi)
+
+
+def heel_gain(kn: Known) -> float:
+    """``kappa = M g BM / 2`` [N m]: ``rho g I_T / 2`` of the module docstring."""
+    return 0.5 * kn.M * kn.g * kn.BM
+
+
+def gravity_excess(phi: np.ndarray, g: float) -> np.ndarray:
+    """``g (sin phi - phi)`` [m/s^2]: what the lateral accelerometer reads of gravity beyond the linear
+    model's ``g phi`` (its specific force has ``g sin phi``, Linder et al. 2015, eq. (7) before linearising)."""
+    return g * (np.sin(phi) - phi)

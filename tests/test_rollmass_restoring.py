@@ -1,0 +1,58 @@
+"""The wall-sided roll restoring of the mass / CoG estimator (identify/rollmass/restoring.py): the
+righting arm it adds, the hull's BM from the profile, and the load it gives on the independent basin
+truth's ``restoring`` variant (tests/physics/basin_truth.py), whose hull has that nonlinearity."""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from identify.rollmass.api import estimate_from_files
+from identify.rollmass.model import DEFAULT_PROFILE, load_profile, metacentric_radius
+from identify.rollmass.restoring import heel_gain, heel_signal
+from primitives.ship import ProfileError
+from tests.physics import basin_truth as bt
+
+PROF = load_profile()
+
+
+def test_the_linear_restoring_plus_the_heel_moment_is_the_wall_sided_righting_moment():
+    """``C phi + kappa w(phi)`` with ``C = M g GM`` is ``M g sin(phi) (GM + BM/2 tan^2 phi)`` at every
+    heel, and nothing is added without a BM."""
+    kn = PROF.known
+    phi = np.linspace(-0.4, 0.4, 17)
+    got = kn.M * kn.g * kn.GM * phi + heel_gain(kn) * heel_signal(phi, kn)
+    want = kn.M * kn.g * np.sin(phi) * (kn.GM + kn.BM / 2 * np.tan(phi) ** 2)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
+    assert not np.any(heel_signal(phi, dataclasses.replace(kn, BM=0.0)))
+
+
+def test_bm_comes_from_the_profile_or_from_table_1_hydrostatics(tmp_path):
+    """Our Lass II: KG + GM_T - KB with Morrish's KB at C_B 0.60 (0.083 m; a box's KB = T/2 would give
+    0.092 m); a given BM_T is taken as it is; one in the wrong unit is refused."""
+    ship = PROF.raw["ship"]
+    assert PROF.known.BM == pytest.approx(0.0833, abs=5e-4)
+    assert metacentric_radius({**ship, "BM_T": 0.05}) == 0.05
+    assert metacentric_radius({k: v for k, v in ship.items() if k != "KG"}) == 0.0
+    bad = tmp_path / "ship.toml"
+    bad.write_text(DEFAULT_PROFILE.read_text().replace("GM_T = 0.018", "GM_T = 0.018\nBM_T = 92.0"))
+    with pytest.raises(ProfileError, match="BM_T"):
+        load_profile(bad)
+
+
+def test_the_truths_wall_sided_hull_no_longer_reads_as_load():
+    """Noise-free independent basin truth, ``restoring`` variant (a box-like hull with the cubic restoring
+    ``C phi (1 + BM/(2 GM) phi^2)``), half length, case 2 (0.4 kg at z = -0.268 m), through the files as
+    ``shiptrial mass`` reads them. Without the heel term (main at 8b60977) the load came out +5.2 % /
+    +4.8 mm; with it +0.22 % / +0.2 mm (fitted kappa)."""
+    ship, data = bt.simulate_runs("restoring", 1, 3015, length=0.5, quiet=True)
+    m_true, z_true = bt.truth_load("case2")
+    with tempfile.TemporaryDirectory() as d:
+        paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in bt.case_recordings(ship, data, "case2", 0)]
+        e = estimate_from_files(*paths)
+    assert e.converged
+    assert abs(e.m / m_true - 1) < 0.02 and abs(e.zbar_m - z_true) < 0.003, (e.m, e.zbar_m)
