@@ -11,9 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from identify.rollmass.api import estimate_from_files
+from identify.rollmass.api import estimate_from_files, heel_notes
 from identify.rollmass.model import DEFAULT_PROFILE, load_profile, metacentric_radius
 from identify.rollmass.restoring import heel_gain, heel_signal
+from identify.rollmass.simulate import RollRecording
 from primitives.ship import ProfileError
 from tests.physics import basin_truth as bt
 
@@ -56,3 +57,15 @@ def test_the_truths_wall_sided_hull_no_longer_reads_as_load():
         e = estimate_from_files(*paths)
     assert e.converged
     assert abs(e.m / m_true - 1) < 0.02 and abs(e.zbar_m - z_true) < 0.003, (e.m, e.zbar_m)
+
+
+def test_a_roll_angle_in_some_runs_only_is_dropped_from_all_and_said():
+    """The heel moment in one run and not the others would read as load: phi is used in all three or none."""
+    z = np.zeros(10)
+    recs = [RollRecording(f"r{i}", 0.01, z, z, z, z, phi=z if i != 1 else None) for i in range(3)]
+    paths = [Path(f"run{i}.csv") for i in range(3)]
+    out, notes = heel_notes(recs, paths)
+    assert all(r.phi is None for r in out)
+    assert len(notes) == 1 and "run0.csv, run2.csv only" in notes[0]
+    same, none = heel_notes([dataclasses.replace(r, phi=z) for r in recs], paths)
+    assert none == [] and all(r.phi is not None for r in same)

@@ -176,6 +176,20 @@ def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
     return notes
 
 
+def heel_notes(recs: list[RollRecording], paths: list[Path]) -> tuple[list[RollRecording], list[str]]:
+    """The wall-sided restoring (``output_error.heel_signal``) is a moment in the runs that carry ``phi``
+    only: with ``phi`` in some files and not the others that moment would differ between the runs and
+    be read as load, so ``phi`` is then dropped from all three and a note says so."""
+    have = [p.name for r, p in zip(recs, paths) if r.phi is not None]
+    if not have or len(have) == len(recs):
+        return recs, []
+    note = (
+        f"column 'phi' (roll angle) is in {', '.join(have)} only: the wall-sided restoring is left out of "
+        "all three runs (in some runs only it would read as load); give phi in every file to use it"
+    )
+    return [replace(r, phi=None) for r in recs], [note]
+
+
 def usability_warnings(e: MassEstimate, prof: RollProfile) -> list[str]:
     """Warnings for an interval that cannot be used: zero or negative mass, more than the ship can
     carry, a load position outside the hull."""
@@ -234,6 +248,8 @@ def estimate_from_files(
     recs = [replace(r, U=_meta_float(m, "speed_m_s", p)) for r, m, p in zip(recs, metas, paths)]
     notes += speed_notes(recs, paths)
     recs = [replace(r, u=None) for r in recs]
+    recs, heel = heel_notes(recs, paths)
+    notes += heel
     expect = expected_signs(start_values(prof), prof.known, prof.known.z_f_prior, Load(0.0, 0.0))
     for rec in recs:
         msg = check_signs(rec, expect)

@@ -34,7 +34,7 @@ class RollRecording:
     a_s: np.ndarray  # m/s^2, tangential accelerometer y2 (6b), (7)
     r: np.ndarray  # rad/s, yaw-rate gyro -y3 (6c), ship sign
     load: Load | None = None  # known load (nominal, calibration) or None (loaded, unknown)
-    phi: np.ndarray | None = None  # rad, true roll (simulation only; not used by the estimator)
+    phi: np.ndarray | None = None  # rad, roll angle (column phi); oe's wall-sided restoring input when every run has it
     notes: list[str] = field(default_factory=list)  # what the reader noticed (unknown columns)
     U: float | None = None  # m/s, this run's forward speed (header speed_m_s); None: the profile's
     u: np.ndarray | None = None  # m/s, measured surge speed per sample (column u); None: U held through the run
