@@ -278,16 +278,15 @@ class LocalEngine(Engine):
     ) -> MapResult:
         if self.workers <= 1 or len(items) <= 1:
             return super().map(fn, items, desc, progress, shared, weights, unit)
+        ctx = multiprocessing.get_context()
+        if ctx.get_start_method() == "fork":
+            return self._fork_map(fn, items, desc, progress, shared, weights, unit)
         res, done, errors = [None] * len(items), [False] * len(items), {}
         bar = _Progress(weights or [1] * len(items), desc, progress, unit)
-        ctx = multiprocessing.get_context()
-        forked = ctx.get_start_method() == "fork"
-        with _one_thread_while_forking() if forked else contextlib.nullcontext():
-            pool = ProcessPoolExecutor(
-                max_workers=min(self.workers, len(items)), mp_context=ctx, initializer=_init_worker, initargs=(shared, forked)
-            )
-            # with fork, the first submit forks every worker (concurrent.futures.process, cpython#90622)
-            futures = {pool.submit(_pool_call, fn, it, shared is not None): i for i, it in enumerate(items)}
+        pool = ProcessPoolExecutor(
+            max_workers=min(self.workers, len(items)), mp_context=ctx, initializer=_init_worker, initargs=(shared, False)
+        )
+        futures = {pool.submit(_pool_call, fn, it, shared is not None): i for i, it in enumerate(items)}
         pending = set(futures)
         try:
             while pending:
@@ -310,6 +309,39 @@ class LocalEngine(Engine):
             return MapResult(res, done, interrupted=True, errors=errors)
         bar.close()
         pool.shutdown()
+        return MapResult(res, done, errors=errors)
+
+    def _fork_map(
+        self,
+        fn: Callable[..., Any],
+        items: Sequence[Any],
+        desc: str,
+        progress: bool,
+        shared: Any,
+        weights: Sequence[float] | None,
+        unit: str,
+    ) -> MapResult:
+        """:func:`expdesign.forkpool.fork_map`: each worker fed as soon as it is forked, inheriting one
+        BLAS thread (:func:`_one_thread_while_forking`, held while the workers are forked)."""
+        from expdesign.forkpool import PoolTimes, fork_map
+
+        res, done, errors = [None] * len(items), [False] * len(items), {}
+        bar = _Progress(weights or [1] * len(items), desc, progress, unit)
+
+        def on_result(i: int, ok: bool, out: Any) -> None:
+            if ok:
+                res[i], done[i] = out, True
+                bar.advance(i)
+            else:
+                errors[i] = out
+
+        self.times = PoolTimes()
+        try:
+            fork_map(fn, items, min(self.workers, len(items)), shared, on_result, self.times, _one_thread_while_forking())
+        except KeyboardInterrupt:
+            return MapResult(res, done, interrupted=True, errors=errors)
+        finally:
+            bar.close()
         return MapResult(res, done, errors=errors)
 
 
