@@ -94,16 +94,22 @@ def dask_runs(run, workers: list[int], repeat: int, preload: bool = True) -> lis
 def dask_overhead(sh: Any, workers: list[int], repeat: int = 3) -> dict[str, float]:
     """Dask's own cost with no-op tasks on warm clusters of each W in ``workers``: ``serial`` (a, b) of
     a + b W seconds (the parent's CPU, client and scheduler, plus one worker's share: the scatter of
-    the shared inputs and the round trips) and ``per_task`` CPU seconds (parent and workers) per task."""
+    the shared inputs and the round trips) and ``per_task`` CPU seconds (parent and workers) per task;
+    ``first_extra``, a preloaded worker's first task of MAX_CHUNK runs over its second (CPU seconds,
+    median over every worker of the new clusters, clipped at 0; ``first_raw`` each), the first
+    thing each cluster runs."""
     from distributed import Client
 
+    from benchmarks.scaling_model import first_extras
+    from expdesign.montecarlo import MAX_CHUNK
     from expdesign.parallel import DaskEngine
 
-    serial, per_task = {}, []
+    serial, per_task, first = {}, [], []
     for w in workers:
         with local_cluster(w) as cluster, Client(cluster, set_as_default=False) as client:
             client.wait_for_workers(w, timeout=120)
             eng = DaskEngine(client)
+            first += first_extras(eng, sh, MAX_CHUNK, w)  # the workers' first tasks, right after the preload
             eng.map(_noop, list(range(w)), progress=False, shared=sh)  # connections and imports, not timed
             rate_parent, rate_worker = idle_rates(client, w)
             rows = []
@@ -130,6 +136,8 @@ def dask_overhead(sh: Any, workers: list[int], repeat: int = 3) -> dict[str, flo
         "b": max(0.0, float(b)),
         "per_task": max(0.0, statistics.median(per_task)),
         "measured": serial,
+        "first_extra": max(0.0, statistics.median(first)) if first else None,
+        "first_raw": first,
     }
 
 
@@ -137,6 +145,8 @@ def print_overhead(ov: dict) -> None:
     print(
         "Dask's own cost (no-op tasks, warm workers): serial part "
         + ", ".join(f"{w}: {1e3 * s:.0f} ms" for w, s in sorted(ov["measured"].items()))
-        + f" -> {1e3 * ov['a']:.0f} + {1e3 * ov['b']:.1f} W ms; {1e3 * ov['per_task']:.1f} ms CPU per task "
-        f"(load average {os.getloadavg()[0]:.1f})"
+        + f" -> {1e3 * ov['a']:.0f} + {1e3 * ov['b']:.1f} W ms; {1e3 * ov['per_task']:.1f} ms CPU per task; "
+        "a Dask worker's first task (MAX_CHUNK runs, right after the preload) over its second: "
+        + ", ".join(f"{1e3 * e:.0f}" for e in ov["first_raw"])
+        + f" ms (load average {os.getloadavg()[0]:.1f})"
     )

@@ -169,13 +169,19 @@ def first_task_extra(sh: MCShared, n: int, repeat: int = 2) -> float:
     as well."""
     from expdesign.parallel import LocalEngine
 
-    pairs = [[("random", (2 * k + j) * n, (2 * k + j + 1) * n) for j in range(2)] for k in range(2)]
     extra = []
     for _ in range(repeat):
         with LocalEngine(2) as eng:
-            res = eng.map(_first_and_second, pairs, progress=False, shared=sh).results
-        extra += [first - second for before, first, second in res if before == 0]  # a worker's own first task
+            extra += first_extras(eng, sh, n, 2)
     return max(0.0, statistics.median(extra))
+
+
+def first_extras(engine: object, sh: MCShared, n: int, w: int) -> list[float]:
+    """``w`` pairs of tasks of ``n`` runs on ``engine``: the extra CPU seconds of each worker's first
+    such task over its second (workers that got two pairs count once)."""
+    pairs = [[("random", (2 * k + j) * n, (2 * k + j + 1) * n) for j in range(2)] for k in range(w)]
+    res = engine.map(_first_and_second, pairs, progress=False, shared=sh).results
+    return [first - second for before, first, second in res if before == 0]  # a worker's own first task
 
 
 EXTRA_SIZES = (125, 250)  # runs per task at which a fresh worker's first task is measured
@@ -359,7 +365,10 @@ def _dask_model(
             + ", ".join(f"{w} workers {modelled[w] / base:4.2f} -> {pool_inflation(w):4.2f}" for w in floored)
         )
     infl = dask_inflation(measured, pool_inflation, rate)
-
+    how = "not preloaded" if any("no preload" in r["label"] for r in rows) else "preloaded"
+    # a preloaded worker's heap is grown before its first task (expdesign.dask_preload.grow_heap): its
+    # first task's extra is measured on Dask's own new workers; without the preload, the local pool's
+    worker_first = first if how == "not preloaded" or ov["first_extra"] is None else (lambda n: ov["first_extra"])
     _predicted(
         cost,
         names,
@@ -369,11 +378,11 @@ def _dask_model(
         first,
         infl,
         ov["per_task"],
+        worker_first=worker_first,
     )
     cold = max(0.0, statistics.median((r["first_cpu"] - r["cpu"]) / r["slots"] for r in rows))
     inline = predict(cost, names, runs, 1, 0.0, first_extra=first)["wall"]
-    pr = predict(cost, names, runs, 16, serial[16] + cold, per_task=ov["per_task"], inflation=infl(16), first_extra=first)
-    how = "not preloaded" if any("no preload" in r["label"] for r in rows) else "preloaded"
+    pr = predict(cost, names, runs, 16, serial[16] + cold, per_task=ov["per_task"], inflation=infl(16), first_extra=worker_first)
     print(
         f"  16 new workers, {how} as measured (a worker's first run cost {cold:.2f} s CPU more than a warm one's): "
         f"efficiency {inline / pr['wall'] / 16:4.2f}"
@@ -413,15 +422,17 @@ def _predicted(
     inflation: Callable[[int], float] = lambda w: 1.0,
     per_task: float = 0.0,
     starts: dict[int, list[float]] | None = None,
+    worker_first: Callable[[int], float] | None = None,
 ) -> None:
     """Predicted wall, speed-up and efficiency per worker count in ``serial``, and at the most workers by tasks per
     worker; ``first``: a worker's first task's extra CPU seconds by its runs (:func:`first_extra_curve`); ``inflation``: the measured CPU inflation
     per worker count (:func:`_inflation`), applied to the workers' tasks; ``starts``: per worker count, when each
-    worker can take its first task (:func:`pool_starts`; the local pool's)."""
+    worker can take its first task (:func:`pool_starts`; the local pool's); ``worker_first``: a worker's first-task
+    extra where it differs from inline's ``first`` (Dask's preloaded workers)."""
     inline = predict(cost, names, runs, 1, 0.0, first_extra=first)["wall"]
     print(f"predicted on an idle machine with >= W cores, {what} (inline {inline:.2f} s):")
     for w in serial:
-        extra = {"first_extra": first, "starts": (starts or {}).get(w, ())}
+        extra = {"first_extra": worker_first or first, "starts": (starts or {}).get(w, ())}
         pr = predict(cost, names, runs, w, serial[w], inflation=inflation(w), per_task=per_task, **extra)
         pr0 = predict(cost, names, runs, w, serial[w], per_task=per_task, **extra)
         print(
@@ -430,7 +441,7 @@ def _predicted(
             f"({inline / pr0['wall'] / w:4.2f} without it; without the serial part {inline / pr['compute'] / w:4.2f})"
         )
     w = max(serial)
-    extra = {"first_extra": first, "starts": (starts or {}).get(w, ())}
+    extra = {"first_extra": worker_first or first, "starts": (starts or {}).get(w, ())}
     alt = ", ".join(
         f"{k}: {inline / predict(cost, names, runs, w, serial[w], k, inflation=inflation(w), per_task=per_task, **extra)['wall'] / w:4.2f}"
         for k in (1, 2, 3, 4, 8)

@@ -262,6 +262,7 @@ class LocalEngine(Engine):
 
     def __init__(self, workers: int | None = None):
         self.workers = workers or os.cpu_count() or 1
+        self.times = None  # the last forked map's expdesign.forkpool.PoolTimes (benchmarks/scaling_model.py)
 
     def capacity(self) -> tuple[int, int]:
         return self.workers, 1
