@@ -30,12 +30,10 @@ from typing import Any
 
 @dataclass
 class PoolTimes:
-    """Where the parent's time went in one map (for ``benchmarks/scaling_model.py``): the CPU
-    seconds each fork took in the parent (worker k starts its first task after k + 1 of them), and
-    the parent's CPU from the last result to the workers' exit (stop, join)."""
+    """The CPU seconds each fork took in the parent in one map: worker k starts its first task
+    after k + 1 of them (read by ``benchmarks/scaling_model.py``)."""
 
     forks: list[float] = field(default_factory=list)
-    stop: float = 0.0
 
 
 def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Sequence[Any], shared: Any, use: bool) -> None:
@@ -78,7 +76,7 @@ def fork_map(
     """Run ``fn(item[, shared])`` for every item on ``workers`` forked processes, calling
     ``on_result(index, ok, result or error text)`` in the parent as each finishes; tasks are handed
     out in order, one at a time per worker. A KeyboardInterrupt in the parent stops the workers at
-    once and propagates. ``times`` receives the parent's fork and stop CPU (:class:`PoolTimes`);
+    once and propagates. ``times`` receives the parent's CPU per fork (:class:`PoolTimes`);
     ``forking`` is held from the first fork to the last (the parent's state the workers inherit)."""
     ctx = multiprocessing.get_context("fork")
     times = times if times is not None else PoolTimes()
@@ -111,9 +109,7 @@ def fork_map(
         _collect(held, procs, feed, on_result)
         for i in range(nxt, len(items)):  # never handed out: every worker was lost
             on_result(i, False, "not run: every worker of the pool was lost")
-        c = time.process_time()
         _stop(procs, held)
-        times.stop = time.process_time() - c
     except BaseException:
         for p in procs.values():
             p.terminate()

@@ -256,7 +256,9 @@ def _pool_call(fn: Callable, item: Any, use_shared: bool) -> Any:
 
 
 class LocalEngine(Engine):
-    """A process pool over the machine's cores (no server to start)."""
+    """A process pool over the machine's cores (no server to start): where processes fork,
+    :mod:`expdesign.forkpool` (each worker fed as soon as it is forked; a lost worker costs only its
+    own task), elsewhere Python's ``ProcessPoolExecutor``."""
 
     name = "local"
 
