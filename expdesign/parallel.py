@@ -241,13 +241,13 @@ def keep_freed_memory() -> bool:
     return _MALLOC_SET
 
 
-def _init_worker(shared: Any, forked: bool = False) -> None:
-    """Process-pool initializer: keep the shared inputs; one BLAS/OpenMP thread
-    (:func:`one_thread_per_worker`; ``forked``: inherited from the parent); leave Ctrl-C to the
-    parent, which cancels and terminates the pool (workers would otherwise each print a traceback)."""
+def _init_worker(shared: Any) -> None:
+    """Process-pool initializer (start methods other than fork): keep the shared inputs; one
+    BLAS/OpenMP thread (:func:`one_thread_per_worker`); leave Ctrl-C to the parent, which cancels
+    and terminates the pool (workers would otherwise each print a traceback)."""
     global _SHARED
     _SHARED = shared
-    one_thread_per_worker(inherited=forked)
+    one_thread_per_worker()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
@@ -287,7 +287,7 @@ class LocalEngine(Engine):
         res, done, errors = [None] * len(items), [False] * len(items), {}
         bar = _Progress(weights or [1] * len(items), desc, progress, unit)
         pool = ProcessPoolExecutor(
-            max_workers=min(self.workers, len(items)), mp_context=ctx, initializer=_init_worker, initargs=(shared, False)
+            max_workers=min(self.workers, len(items)), mp_context=ctx, initializer=_init_worker, initargs=(shared,)
         )
         futures = {pool.submit(_pool_call, fn, it, shared is not None): i for i, it in enumerate(items)}
         pending = set(futures)
