@@ -42,7 +42,7 @@ def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Seq
     from expdesign.parallel import _call, one_thread_per_worker
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    for c in others:  # the parent's ends of the workers forked before: their EOF must not wait for this process
+    for c in others:  # the parent's ends of its pipe and of earlier workers': EOFs must not wait for this process
         c.close()
     one_thread_per_worker(inherited=True)
     while True:
@@ -100,7 +100,7 @@ def fork_map(
             for _ in range(min(workers, len(items))):
                 c = time.process_time()
                 mine, theirs = ctx.Pipe(duplex=True)
-                p = ctx.Process(target=_worker, args=(theirs, list(procs), fn, items, shared, shared is not None))
+                p = ctx.Process(target=_worker, args=(theirs, [*procs, mine], fn, items, shared, shared is not None))
                 p.start()
                 theirs.close()
                 times.forks.append(time.process_time() - c)
