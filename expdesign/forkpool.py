@@ -38,10 +38,12 @@ class PoolTimes:
 
 def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Sequence[Any], shared: Any, use: bool) -> None:
     """A forked worker: run the task whose index the parent sends, send back (index, ok, result or
-    error text), until the parent sends None or goes away. Ctrl-C is the parent's to handle."""
+    error text), until the parent sends None or goes away. Ctrl-C is the parent's to handle; SIGTERM
+    (the parent's :meth:`terminate`) kills, whatever handler the parent had installed."""
     from expdesign.parallel import _call, one_thread_per_worker
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     for c in others:  # the parent's ends of its pipe and of earlier workers': EOFs must not wait for this process
         c.close()
     one_thread_per_worker(inherited=True)
@@ -101,21 +103,39 @@ def fork_map(
                 c = time.process_time()
                 mine, theirs = ctx.Pipe(duplex=True)
                 p = ctx.Process(target=_worker, args=(theirs, [*procs, mine], fn, items, shared, shared is not None))
-                p.start()
+                try:
+                    p.start()
+                except OSError:  # no fork (out of memory, process limit): run on the workers already made
+                    mine.close()
+                    theirs.close()
+                    if not procs:
+                        raise
+                    break
+                procs[mine] = p
                 theirs.close()
                 times.forks.append(time.process_time() - c)
-                procs[mine] = p
                 feed(mine)
         _collect(held, procs, feed, on_result)
         for i in range(nxt, len(items)):  # never handed out: every worker was lost
             on_result(i, False, "not run: every worker of the pool was lost")
         _stop(procs, held)
     except BaseException:
-        for p in procs.values():
-            p.terminate()
-        for p in procs.values():
-            p.join(timeout=5)
+        _kill(procs)
         raise
+
+
+def _kill(procs: dict) -> None:
+    """Stop every worker now and reap it: SIGTERM, then SIGKILL for one still alive after a grace
+    period (no zombie, no orphan left computing)."""
+    for p in procs.values():
+        p.terminate()
+    for p in procs.values():
+        p.join(timeout=2)
+        if p.exitcode is None:
+            p.kill()
+            p.join()
+    for conn in procs:
+        conn.close()
 
 
 def _collect(
@@ -135,6 +155,8 @@ def _collect(
                 p.join(timeout=5)
                 on_result(held.pop(conn), False, f"worker lost: exit code {p.exitcode}")
                 continue
+            except Exception as e:  # noqa: BLE001 - a result read whole that does not unpickle here
+                i, ok, out = held[conn], False, f"result not received: {type(e).__name__}: {e}"
             on_result(i, ok, out)
             feed(conn)
 

@@ -26,7 +26,7 @@ import os
 import signal
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
@@ -325,26 +325,37 @@ class LocalEngine(Engine):
         unit: str,
     ) -> MapResult:
         """:func:`expdesign.forkpool.fork_map`: each worker fed as soon as it is forked, inheriting one
-        BLAS thread (:func:`_one_thread_while_forking`, held while the workers are forked)."""
+        BLAS thread (:func:`_one_thread_while_forking`, held while the workers are forked). The progress
+        bar (whose refresh thread could hold the terminal's lock at a fork, and the child would then
+        hang at its first write to stderr) starts after the last fork."""
         from expdesign.forkpool import PoolTimes, fork_map
 
         res, done, errors = [None] * len(items), [False] * len(items), {}
-        bar = _Progress(weights or [1] * len(items), desc, progress, unit)
+        bars: list[_Progress] = []
 
-        def on_result(i: int, ok: bool, out: Any) -> None:
+        @contextlib.contextmanager
+        def forking() -> Iterator[None]:
+            t0 = time.perf_counter()
+            with _one_thread_while_forking():
+                yield
+            bars.append(_Progress(weights or [1] * len(items), desc, progress, unit))
+            bars[0].t0 = t0
+
+        def on_result(i: int, ok: bool, out: Any) -> None:  # called only once every worker is forked
             if ok:
                 res[i], done[i] = out, True
-                bar.advance(i)
+                bars[0].advance(i)
             else:
                 errors[i] = out
 
         self.times = PoolTimes()
         try:
-            fork_map(fn, items, min(self.workers, len(items)), shared, on_result, self.times, _one_thread_while_forking())
+            fork_map(fn, items, min(self.workers, len(items)), shared, on_result, self.times, forking())
         except KeyboardInterrupt:
             return MapResult(res, done, interrupted=True, errors=errors)
         finally:
-            bar.close()
+            for bar in bars:
+                bar.close()
         return MapResult(res, done, errors=errors)
 
 
