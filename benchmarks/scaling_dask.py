@@ -31,6 +31,12 @@ def _noop(item: int, shared: Any) -> int:
     return item
 
 
+def _preload_cpu() -> float | None:
+    from expdesign import dask_preload
+
+    return dask_preload.WARM_CPU
+
+
 def _worker_cpu(client: Any) -> float:
     return float(sum(client.run(time.process_time).values()))
 
@@ -60,13 +66,15 @@ def local_cluster(w: int, preload: bool = True) -> Any:
 def dask_runs(run, workers: list[int], repeat: int, preload: bool = True) -> list[dict]:
     """``run(scheduler)`` -> (evaluation, digests) on a new local cluster per worker count. Rows as the
     pools': label, slots, median wall and CPU of the runs after the first, and the first's; the idle
-    cluster's CPU a second (:func:`idle_rates`)."""
+    cluster's CPU a second (:func:`idle_rates`); ``preload_cpu``, a worker's preload (median, 0 without
+    one: paid as the worker starts, before it serves, so in no run's CPU here)."""
     from distributed import Client
 
     rows = []
     for w in workers:
         with local_cluster(w, preload) as cluster, Client(cluster, set_as_default=False) as client:
             client.wait_for_workers(w, timeout=120)
+            warm = [c for c in client.run(_preload_cpu).values() if c is not None]
             walls, cpus = [], []
             for _ in range(repeat + 1):
                 c0, k0 = time.process_time(), _worker_cpu(client)
@@ -82,6 +90,7 @@ def dask_runs(run, workers: list[int], repeat: int, preload: bool = True) -> lis
                 "cpu": statistics.median(cpus[1:]),
                 "first_wall": walls[0],
                 "first_cpu": cpus[0],
+                "preload_cpu": statistics.median(warm) if warm else 0.0,
                 "idle_parent": idle[0],
                 "idle_worker": idle[1],
                 "engine": ev.engine,

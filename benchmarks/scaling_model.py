@@ -387,6 +387,22 @@ def _dask_model(
         f"  16 new workers, {how} as measured (a worker's first run cost {cold:.2f} s CPU more than a warm one's): "
         f"efficiency {inline / pr['wall'] / 16:4.2f}"
     )
+    preload = statistics.median(r.get("preload_cpu", 0.0) for r in rows)
+    if preload > 0:  # the workers preload in parallel as they start: a command that starts them waits that long
+        pr = predict(
+            cost,
+            names,
+            runs,
+            16,
+            serial[16] + cold + preload,
+            per_task=ov["per_task"],
+            inflation=infl(16),
+            first_extra=worker_first,
+        )
+        print(
+            f"  16 workers started for the command, counting their preload ({preload:.2f} s CPU each, measured, in parallel): "
+            f"efficiency {inline / pr['wall'] / 16:4.2f}"
+        )
 
 
 def dask_inflation(dask: Callable[[int], float], pool: Callable[[int], float], rate: float) -> Callable[[int], float]:

@@ -58,6 +58,8 @@ def grow_heap(sh: object) -> None:
     run_chunk(sh, "random", range(MAX_CHUNK))
 
 
+WARM_CPU: float | None = None  # CPU seconds this worker's preload took (read by benchmarks/scaling_dask.py)
+
 PROFILER_CALLBACKS = ("profile", "profile-cycle")  # distributed.Worker's periodic callbacks of its profiler
 
 
@@ -81,6 +83,8 @@ def dask_setup(worker: object = None) -> None:
     except Exception as e:  # noqa: BLE001 - the worker still serves tasks, which load what they need
         print(f"expdesign.dask_preload: not warmed ({type(e).__name__}: {e})", flush=True)
         return
+    global WARM_CPU
+    WARM_CPU = cpu
     print(f"expdesign.dask_preload: Monte Carlo passes loaded ({cpu:.1f} s CPU)", flush=True)
 
 
