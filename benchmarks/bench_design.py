@@ -162,6 +162,7 @@ def profile_task(sizes: tuple[int, ...] = (1, 63), repeat: int = 3) -> None:
     """What a task's CPU time is made of: the simulation kernel's time loops (every call of
     ``simulate`` made by the Monte Carlo and its estimators: count and CPU) against the rest."""
     import expdesign.estimators as est
+    import expdesign.mc_data as data
     import expdesign.montecarlo as mc
 
     p, lib, designs = setup()
@@ -175,7 +176,7 @@ def profile_task(sizes: tuple[int, ...] = (1, 63), repeat: int = 3) -> None:
         calls.append(time.process_time() - t)
         return out
 
-    mods = [m for m in (mc, est) if getattr(m, "simulate", None) is kernel]
+    mods = [m for m in (mc, data, est) if getattr(m, "simulate", None) is kernel]
     for m in mods:
         m.simulate = timed
     try:

@@ -31,6 +31,12 @@ def _noop(item: int, shared: Any) -> int:
     return item
 
 
+def _preload_cpu() -> float | None:
+    from expdesign import dask_preload
+
+    return dask_preload.WARM_CPU
+
+
 def _worker_cpu(client: Any) -> float:
     return float(sum(client.run(time.process_time).values()))
 
@@ -60,13 +66,15 @@ def local_cluster(w: int, preload: bool = True) -> Any:
 def dask_runs(run, workers: list[int], repeat: int, preload: bool = True) -> list[dict]:
     """``run(scheduler)`` -> (evaluation, digests) on a new local cluster per worker count. Rows as the
     pools': label, slots, median wall and CPU of the runs after the first, and the first's; the idle
-    cluster's CPU a second (:func:`idle_rates`)."""
+    cluster's CPU a second (:func:`idle_rates`); ``preload_cpu``, a worker's preload (median, 0 without
+    one: paid as the worker starts, before it serves, so in no run's CPU here)."""
     from distributed import Client
 
     rows = []
     for w in workers:
         with local_cluster(w, preload) as cluster, Client(cluster, set_as_default=False) as client:
             client.wait_for_workers(w, timeout=120)
+            warm = [c for c in client.run(_preload_cpu).values() if c is not None]
             walls, cpus = [], []
             for _ in range(repeat + 1):
                 c0, k0 = time.process_time(), _worker_cpu(client)
@@ -82,6 +90,7 @@ def dask_runs(run, workers: list[int], repeat: int, preload: bool = True) -> lis
                 "cpu": statistics.median(cpus[1:]),
                 "first_wall": walls[0],
                 "first_cpu": cpus[0],
+                "preload_cpu": statistics.median(warm) if warm else 0.0,
                 "idle_parent": idle[0],
                 "idle_worker": idle[1],
                 "engine": ev.engine,
@@ -94,16 +103,22 @@ def dask_runs(run, workers: list[int], repeat: int, preload: bool = True) -> lis
 def dask_overhead(sh: Any, workers: list[int], repeat: int = 3) -> dict[str, float]:
     """Dask's own cost with no-op tasks on warm clusters of each W in ``workers``: ``serial`` (a, b) of
     a + b W seconds (the parent's CPU, client and scheduler, plus one worker's share: the scatter of
-    the shared inputs and the round trips) and ``per_task`` CPU seconds (parent and workers) per task."""
+    the shared inputs and the round trips) and ``per_task`` CPU seconds (parent and workers) per task;
+    ``first_extra``, a preloaded worker's first task of MAX_CHUNK runs over its second (CPU seconds,
+    median over every worker of the new clusters, clipped at 0; ``first_raw`` each), the first
+    thing each cluster runs."""
     from distributed import Client
 
+    from benchmarks.scaling_model import first_extras
+    from expdesign.montecarlo import MAX_CHUNK
     from expdesign.parallel import DaskEngine
 
-    serial, per_task = {}, []
+    serial, per_task, first = {}, [], []
     for w in workers:
         with local_cluster(w) as cluster, Client(cluster, set_as_default=False) as client:
             client.wait_for_workers(w, timeout=120)
             eng = DaskEngine(client)
+            first += first_extras(eng, sh, MAX_CHUNK, w)  # the workers' first tasks, right after the preload
             eng.map(_noop, list(range(w)), progress=False, shared=sh)  # connections and imports, not timed
             rate_parent, rate_worker = idle_rates(client, w)
             rows = []
@@ -130,6 +145,8 @@ def dask_overhead(sh: Any, workers: list[int], repeat: int = 3) -> dict[str, flo
         "b": max(0.0, float(b)),
         "per_task": max(0.0, statistics.median(per_task)),
         "measured": serial,
+        "first_extra": max(0.0, statistics.median(first)) if first else None,
+        "first_raw": first,
     }
 
 
@@ -137,6 +154,8 @@ def print_overhead(ov: dict) -> None:
     print(
         "Dask's own cost (no-op tasks, warm workers): serial part "
         + ", ".join(f"{w}: {1e3 * s:.0f} ms" for w, s in sorted(ov["measured"].items()))
-        + f" -> {1e3 * ov['a']:.0f} + {1e3 * ov['b']:.1f} W ms; {1e3 * ov['per_task']:.1f} ms CPU per task "
-        f"(load average {os.getloadavg()[0]:.1f})"
+        + f" -> {1e3 * ov['a']:.0f} + {1e3 * ov['b']:.1f} W ms; {1e3 * ov['per_task']:.1f} ms CPU per task; "
+        "a Dask worker's first task (MAX_CHUNK runs, right after the preload) over its second: "
+        + ", ".join(f"{1e3 * e:.0f}" for e in ov["first_raw"])
+        + f" ms (load average {os.getloadavg()[0]:.1f})"
     )

@@ -111,11 +111,12 @@ def _noop(item: int, shared: MCShared) -> int:
 def pool_overhead(sh: MCShared, w: int, repeat: int = 5) -> dict[str, float]:
     """The pool machinery alone: fork ``w`` workers that hold the shared inputs, one no-op task
     each, collect, shut down (medians of ``repeat``). Seconds: ``wall`` on this machine, ``cpu``
-    of the parent and the workers, and ``serial``, the wall on an idle machine with >= w cores:
-    the parent's CPU (the forks are made one after the other before any task starts, then the
-    results and the joins) plus one worker's CPU (its start and exit, in parallel with the
-    others'). The wall on a machine with fewer cores than workers also counts the workers
-    queueing for a core."""
+    of the parent and the workers; ``fork``, the parent's CPU per fork, and ``child``, one worker's
+    CPU (its start and exit): the pool feeds each worker as soon as it is forked
+    (:mod:`expdesign.forkpool`), so worker k starts its first task (k + 1) forks + one child's start
+    after the pool does (:func:`pool_starts`), while the others already compute; ``serial``, the
+    rest of the parent's CPU, which no worker overlaps (stopping and joining the workers, setting
+    up the pool and its progress)."""
     from expdesign.parallel import LocalEngine
 
     runs = []
@@ -124,8 +125,22 @@ def pool_overhead(sh: MCShared, w: int, repeat: int = 5) -> dict[str, float]:
         with LocalEngine(w) as eng:
             eng.map(_noop, list(range(w)), progress=False, shared=sh)
         parent, kids = time.process_time() - c, children_cpu_s() - k
-        runs.append({"wall": time.perf_counter() - t, "cpu": parent + kids, "serial": parent + kids / w})
+        forks = eng.times.forks
+        runs.append(
+            {
+                "wall": time.perf_counter() - t,
+                "cpu": parent + kids,
+                "fork": statistics.median(forks),
+                "child": kids / w,
+                "serial": parent - sum(forks),
+            }
+        )
     return {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+
+
+def pool_starts(pool: dict[str, float], w: int) -> list[float]:
+    """When each of ``w`` workers of the local pool can start its first task (:func:`pool_overhead`)."""
+    return [(k + 1) * pool["fork"] + pool["child"] for k in range(w)]
 
 
 def _timed_task(item: tuple[str, int, int], shared: MCShared) -> float:
@@ -154,13 +169,19 @@ def first_task_extra(sh: MCShared, n: int, repeat: int = 2) -> float:
     as well."""
     from expdesign.parallel import LocalEngine
 
-    pairs = [[("random", (2 * k + j) * n, (2 * k + j + 1) * n) for j in range(2)] for k in range(2)]
     extra = []
     for _ in range(repeat):
         with LocalEngine(2) as eng:
-            res = eng.map(_first_and_second, pairs, progress=False, shared=sh).results
-        extra += [first - second for before, first, second in res if before == 0]  # a worker's own first task
+            extra += first_extras(eng, sh, n, 2)
     return max(0.0, statistics.median(extra))
+
+
+def first_extras(engine: object, sh: MCShared, n: int, w: int) -> list[float]:
+    """``w`` pairs of tasks of ``n`` runs on ``engine``: the extra CPU seconds of each worker's first
+    such task over its second (workers that got two pairs count once)."""
+    pairs = [[("random", (2 * k + j) * n, (2 * k + j + 1) * n) for j in range(2)] for k in range(w)]
+    res = engine.map(_first_and_second, pairs, progress=False, shared=sh).results
+    return [first - second for before, first, second in res if before == 0]  # a worker's own first task
 
 
 EXTRA_SIZES = (125, 250)  # runs per task at which a fresh worker's first task is measured
@@ -177,11 +198,11 @@ def first_extra_curve(sh: MCShared, sizes: tuple[int, ...] = EXTRA_SIZES) -> Cal
     return lambda n: float(np.interp(n, sizes, extra))
 
 
-def makespan(costs: list[float], w: int, first_extra: float = 0.0) -> float:
+def makespan(costs: list[float], w: int, first_extra: float = 0.0, starts: Sequence[float] = ()) -> float:
     """Finish time of ``costs`` taken in submission order by whichever of ``w`` workers is free
     first (what the process pool and Dask's scheduler do with equal-priority tasks); each
-    worker's first task costs ``first_extra`` more."""
-    free = [(0.0, i) for i in range(w)]
+    worker's first task costs ``first_extra`` more; worker i is free from ``starts[i]`` (0 if not given)."""
+    free = sorted((starts[i] if i < len(starts) else 0.0, i) for i in range(w))
     started = set()
     for c in costs:
         t, i = free[0]
@@ -200,13 +221,15 @@ def predict(
     first_extra: Callable[[int], float] = lambda n: 0.0,
     inflation: float = 1.0,
     per_task: float = 0.0,
+    starts: Sequence[float] = (),
 ) -> dict:
     """Predicted wall time on ``w`` otherwise idle cores: the parent's serial time (pool start and
     stop, Amdahl) plus the makespan of the tasks cut as the engines cut them, in fresh processes
     (as a command runs: inline pays ``first_extra`` once, each worker once). ``inflation``: the
     measured CPU of W processes over what the model counts (shared caches, memory bandwidth,
     threads: CPU the workers burn that a warm single process does not), multiplying every task;
-    ``per_task``: the engine's own CPU seconds per task (Dask's), added to every task;
+    ``per_task``: the engine's own CPU seconds per task (Dask's), added to every task; ``starts``:
+    when each worker can take its first task (:func:`pool_starts`; 0 if not given);
     ``tasks_per_worker``: that many tasks per worker whatever their size, instead of the engine's
     cut (:func:`expdesign.mc_parallel.plan_tasks`, which takes fewer when they would be small)."""
     from expdesign.mc_parallel import cut_tasks, plan_tasks
@@ -217,7 +240,7 @@ def predict(
     costs = [c * inflation + per_task for c in cost.of(tasks)]
     chunk = max(b - a for _, a, b in tasks)
     extra = first_extra(chunk) * inflation
-    compute = makespan(costs, w, extra)
+    compute = makespan(costs, w, extra, starts)
     return {"tasks": len(tasks), "chunk": chunk, "cpu": sum(costs) + w * extra, "compute": compute, "wall": serial + compute}
 
 
@@ -235,16 +258,32 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
     counts = sorted({1, 2, 3, 4, 8, 16, *workers})
     pool = {w: pool_overhead(sh, w) for w in counts if w > 1}
     serial = {1: 0.0} | {w: v["serial"] for w, v in pool.items()}
+    starts = {w: pool_starts(v, w) for w, v in pool.items()}
     first = first_extra_curve(sh)
     print(
         f"serial in the parent: shared inputs {1e3 * prep:.0f} ms CPU (prepare(), before the clock starts, the same for every "
-        "engine); pool start + stop with W workers, serial part on an idle machine (wall here): "
-        + ", ".join(f"{w}: {1e3 * v['serial']:.0f} ms ({1e3 * v['wall']:.0f})" for w, v in pool.items())
+        "engine); the pool with W workers (no-op tasks; wall here in brackets): the parent's CPU per fork, a worker's start "
+        "and exit, and the parent's serial rest (stop, join): "
+        + ", ".join(
+            f"{w}: {1e3 * v['fork']:.1f} + {1e3 * v['child']:.1f} + {1e3 * v['serial']:.0f} ms ({1e3 * v['wall']:.0f})"
+            for w, v in pool.items()
+        )
+        + "; the last worker starts its first task "
+        + ", ".join(f"{w}: {1e3 * s[-1]:.0f} ms" for w, s in starts.items())
+        + " after the pool does"
     )
     modelled = {}
     for row in (r for r in measured if not r["label"].startswith("dask")):  # CPU on any machine, wall up to the core count
         fresh = row["slots"] > 1  # the pools' workers are new processes, the inline runs reuse this warm one
-        pr = predict(cost, names, runs, row["slots"], serial.get(row["slots"], 0.0), first_extra=lambda n, f=fresh: first(n) * f)
+        pr = predict(
+            cost,
+            names,
+            runs,
+            row["slots"],
+            serial.get(row["slots"], 0.0),
+            first_extra=lambda n, f=fresh: first(n) * f,
+            starts=starts.get(row["slots"], ()),
+        )
         cpu = pr["cpu"] + prep + (pool[row["slots"]]["cpu"] if row["slots"] > 1 else 0.0)
         modelled[row["slots"]] = row["cpu"] / cpu
         print(
@@ -253,7 +292,7 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
             f"{row['wall']:6.2f} s{'' if row['slots'] <= (os.cpu_count() or 1) else ' (more workers than CPUs: wall not comparable)'}"
         )
     infl = _inflation(modelled)
-    _predicted(cost, names, runs, serial, f"{runs} runs x {len(names)} designs", first, infl)
+    _predicted(cost, names, runs, serial, f"{runs} runs x {len(names)} designs", first, infl, starts=starts)
     dask_rows = [r for r in measured if r["label"].startswith("dask x")]
     if dask_rows:
         _dask_model(cost, names, runs, sh, prep, dask_rows, modelled.get(1, 1.0), first, infl)
@@ -268,6 +307,7 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
         "shiptrial design --monte-carlo 500 (4 designs)",
         first,
         infl,
+        starts=starts,
     )
 
 
@@ -325,7 +365,10 @@ def _dask_model(
             + ", ".join(f"{w} workers {modelled[w] / base:4.2f} -> {pool_inflation(w):4.2f}" for w in floored)
         )
     infl = dask_inflation(measured, pool_inflation, rate)
-
+    how = "not preloaded" if any("no preload" in r["label"] for r in rows) else "preloaded"
+    # a preloaded worker's heap is grown before its first task (expdesign.dask_preload.grow_heap): its
+    # first task's extra is measured on Dask's own new workers; without the preload, the local pool's
+    worker_first = first if how == "not preloaded" or ov["first_extra"] is None else (lambda n: ov["first_extra"])
     _predicted(
         cost,
         names,
@@ -335,15 +378,31 @@ def _dask_model(
         first,
         infl,
         ov["per_task"],
+        worker_first=worker_first,
     )
     cold = max(0.0, statistics.median((r["first_cpu"] - r["cpu"]) / r["slots"] for r in rows))
     inline = predict(cost, names, runs, 1, 0.0, first_extra=first)["wall"]
-    pr = predict(cost, names, runs, 16, serial[16] + cold, per_task=ov["per_task"], inflation=infl(16), first_extra=first)
-    how = "not preloaded" if any("no preload" in r["label"] for r in rows) else "preloaded"
+    pr = predict(cost, names, runs, 16, serial[16] + cold, per_task=ov["per_task"], inflation=infl(16), first_extra=worker_first)
     print(
         f"  16 new workers, {how} as measured (a worker's first run cost {cold:.2f} s CPU more than a warm one's): "
         f"efficiency {inline / pr['wall'] / 16:4.2f}"
     )
+    preload = statistics.median(r.get("preload_cpu", 0.0) for r in rows)
+    if preload > 0:  # the workers preload in parallel as they start: a command that starts them waits that long
+        pr = predict(
+            cost,
+            names,
+            runs,
+            16,
+            serial[16] + cold + preload,
+            per_task=ov["per_task"],
+            inflation=infl(16),
+            first_extra=worker_first,
+        )
+        print(
+            f"  16 workers started for the command, counting their preload ({preload:.2f} s CPU each, measured, in parallel): "
+            f"efficiency {inline / pr['wall'] / 16:4.2f}"
+        )
 
 
 def dask_inflation(dask: Callable[[int], float], pool: Callable[[int], float], rate: float) -> Callable[[int], float]:
@@ -378,14 +437,18 @@ def _predicted(
     first: Callable[[int], float],
     inflation: Callable[[int], float] = lambda w: 1.0,
     per_task: float = 0.0,
+    starts: dict[int, list[float]] | None = None,
+    worker_first: Callable[[int], float] | None = None,
 ) -> None:
     """Predicted wall, speed-up and efficiency per worker count in ``serial``, and at the most workers by tasks per
     worker; ``first``: a worker's first task's extra CPU seconds by its runs (:func:`first_extra_curve`); ``inflation``: the measured CPU inflation
-    per worker count (:func:`_inflation`), applied to the workers' tasks."""
-    extra = {"first_extra": first}
-    inline = predict(cost, names, runs, 1, 0.0, **extra)["wall"]
+    per worker count (:func:`_inflation`), applied to the workers' tasks; ``starts``: per worker count, when each
+    worker can take its first task (:func:`pool_starts`; the local pool's); ``worker_first``: a worker's first-task
+    extra where it differs from inline's ``first`` (Dask's preloaded workers)."""
+    inline = predict(cost, names, runs, 1, 0.0, first_extra=first)["wall"]
     print(f"predicted on an idle machine with >= W cores, {what} (inline {inline:.2f} s):")
     for w in serial:
+        extra = {"first_extra": worker_first or first, "starts": (starts or {}).get(w, ())}
         pr = predict(cost, names, runs, w, serial[w], inflation=inflation(w), per_task=per_task, **extra)
         pr0 = predict(cost, names, runs, w, serial[w], per_task=per_task, **extra)
         print(
@@ -394,6 +457,7 @@ def _predicted(
             f"({inline / pr0['wall'] / w:4.2f} without it; without the serial part {inline / pr['compute'] / w:4.2f})"
         )
     w = max(serial)
+    extra = {"first_extra": worker_first or first, "starts": (starts or {}).get(w, ())}
     alt = ", ".join(
         f"{k}: {inline / predict(cost, names, runs, w, serial[w], k, inflation=inflation(w), per_task=per_task, **extra)['wall'] / w:4.2f}"
         for k in (1, 2, 3, 4, 8)

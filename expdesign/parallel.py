@@ -26,7 +26,7 @@ import os
 import signal
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
@@ -241,13 +241,13 @@ def keep_freed_memory() -> bool:
     return _MALLOC_SET
 
 
-def _init_worker(shared: Any, forked: bool = False) -> None:
-    """Process-pool initializer: keep the shared inputs; one BLAS/OpenMP thread
-    (:func:`one_thread_per_worker`; ``forked``: inherited from the parent); leave Ctrl-C to the
-    parent, which cancels and terminates the pool (workers would otherwise each print a traceback)."""
+def _init_worker(shared: Any) -> None:
+    """Process-pool initializer (start methods other than fork): keep the shared inputs; one
+    BLAS/OpenMP thread (:func:`one_thread_per_worker`); leave Ctrl-C to the parent, which cancels
+    and terminates the pool (workers would otherwise each print a traceback)."""
     global _SHARED
     _SHARED = shared
-    one_thread_per_worker(inherited=forked)
+    one_thread_per_worker()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
@@ -256,12 +256,15 @@ def _pool_call(fn: Callable, item: Any, use_shared: bool) -> Any:
 
 
 class LocalEngine(Engine):
-    """A process pool over the machine's cores (no server to start)."""
+    """A process pool over the machine's cores (no server to start): where processes fork,
+    :mod:`expdesign.forkpool` (each worker fed as soon as it is forked; a lost worker costs only its
+    own task), elsewhere Python's ``ProcessPoolExecutor``."""
 
     name = "local"
 
     def __init__(self, workers: int | None = None):
         self.workers = workers or os.cpu_count() or 1
+        self.times = None  # the last forked map's expdesign.forkpool.PoolTimes (benchmarks/scaling_model.py)
 
     def capacity(self) -> tuple[int, int]:
         return self.workers, 1
@@ -278,16 +281,15 @@ class LocalEngine(Engine):
     ) -> MapResult:
         if self.workers <= 1 or len(items) <= 1:
             return super().map(fn, items, desc, progress, shared, weights, unit)
+        ctx = multiprocessing.get_context()
+        if ctx.get_start_method() == "fork":
+            return self._fork_map(fn, items, desc, progress, shared, weights, unit)
         res, done, errors = [None] * len(items), [False] * len(items), {}
         bar = _Progress(weights or [1] * len(items), desc, progress, unit)
-        ctx = multiprocessing.get_context()
-        forked = ctx.get_start_method() == "fork"
-        with _one_thread_while_forking() if forked else contextlib.nullcontext():
-            pool = ProcessPoolExecutor(
-                max_workers=min(self.workers, len(items)), mp_context=ctx, initializer=_init_worker, initargs=(shared, forked)
-            )
-            # with fork, the first submit forks every worker (concurrent.futures.process, cpython#90622)
-            futures = {pool.submit(_pool_call, fn, it, shared is not None): i for i, it in enumerate(items)}
+        pool = ProcessPoolExecutor(
+            max_workers=min(self.workers, len(items)), mp_context=ctx, initializer=_init_worker, initargs=(shared,)
+        )
+        futures = {pool.submit(_pool_call, fn, it, shared is not None): i for i, it in enumerate(items)}
         pending = set(futures)
         try:
             while pending:
@@ -310,6 +312,50 @@ class LocalEngine(Engine):
             return MapResult(res, done, interrupted=True, errors=errors)
         bar.close()
         pool.shutdown()
+        return MapResult(res, done, errors=errors)
+
+    def _fork_map(
+        self,
+        fn: Callable[..., Any],
+        items: Sequence[Any],
+        desc: str,
+        progress: bool,
+        shared: Any,
+        weights: Sequence[float] | None,
+        unit: str,
+    ) -> MapResult:
+        """:func:`expdesign.forkpool.fork_map`: each worker fed as soon as it is forked, inheriting one
+        BLAS thread (:func:`_one_thread_while_forking`, held while the workers are forked). The progress
+        bar (whose refresh thread could hold the terminal's lock at a fork, and the child would then
+        hang at its first write to stderr) starts after the last fork."""
+        from expdesign.forkpool import PoolTimes, fork_map
+
+        res, done, errors = [None] * len(items), [False] * len(items), {}
+        bars: list[_Progress] = []
+
+        @contextlib.contextmanager
+        def forking() -> Iterator[None]:
+            t0 = time.perf_counter()
+            with _one_thread_while_forking():
+                yield
+            bars.append(_Progress(weights or [1] * len(items), desc, progress, unit))
+            bars[0].t0 = t0
+
+        def on_result(i: int, ok: bool, out: Any) -> None:  # called only once every worker is forked
+            if ok:
+                res[i], done[i] = out, True
+                bars[0].advance(i)
+            else:
+                errors[i] = out
+
+        self.times = PoolTimes()
+        try:
+            fork_map(fn, items, min(self.workers, len(items)), shared, on_result, self.times, forking())
+        except KeyboardInterrupt:
+            return MapResult(res, done, interrupted=True, errors=errors)
+        finally:
+            for bar in bars:
+                bar.close()
         return MapResult(res, done, errors=errors)
 
 

@@ -1,0 +1,173 @@
+"""A process pool that feeds each worker as soon as it is forked (the local engine on platforms
+that fork: :class:`expdesign.parallel.LocalEngine`).
+
+``concurrent.futures.ProcessPoolExecutor`` forks every worker before any starts a task (its first
+submit starts them all, cpython#90622), and each fork of a large parent costs the parent a few
+milliseconds (copying its page tables): 16 workers forked from the benchmark's ~250 MB parent
+waited ~50 ms for the last fork, and the pool's machinery (a call queue with a feeder thread, a
+manager thread, every result passed through both) added its own CPU in the parent. Here worker k
+gets its first task the moment it exists and computes while the parent forks worker k + 1, so the
+forks overlap the work; each worker has one duplex pipe to the parent, which sends it a task index
+whenever it returns a result (no queue of tasks sits in a busy worker while another idles at the
+end). The function, the items and the shared inputs are inherited through the fork, never pickled;
+only task indices and results cross the pipes.
+
+A worker that dies (killed, out of memory) loses only the task it held: that task is recorded as an
+error and the others still run on the remaining workers.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import signal
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from multiprocessing.connection import Connection, wait
+from typing import Any
+
+
+@dataclass
+class PoolTimes:
+    """The CPU seconds each fork took in the parent in one map: worker k starts its first task
+    after k + 1 of them (read by ``benchmarks/scaling_model.py``)."""
+
+    forks: list[float] = field(default_factory=list)
+
+
+def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Sequence[Any], shared: Any, use: bool) -> None:
+    """A forked worker: run the task whose index the parent sends, send back (index, ok, result or
+    error text), until the parent sends None or goes away. Ctrl-C is the parent's to handle; SIGTERM
+    (the parent's :meth:`terminate`) kills, whatever handler the parent had installed."""
+    from expdesign.parallel import _call, one_thread_per_worker
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    for c in others:  # the parent's ends of its pipe and of earlier workers': EOFs must not wait for this process
+        c.close()
+    one_thread_per_worker(inherited=True)
+    while True:
+        try:
+            i = conn.recv()
+        except (EOFError, OSError):
+            return
+        if i is None:
+            return
+        try:
+            out = (i, True, _call(fn, items[i], shared if use else None))
+        except Exception as e:  # noqa: BLE001 - recorded per task, the worker takes the next
+            out = (i, False, f"{type(e).__name__}: {e}")
+        try:
+            conn.send(out)
+        except (EOFError, OSError):  # the parent is gone
+            return
+        except Exception as e:  # noqa: BLE001 - a result that cannot be pickled
+            conn.send((i, False, f"result not sent: {type(e).__name__}: {e}"))
+
+
+def fork_map(
+    fn: Callable,
+    items: Sequence[Any],
+    workers: int,
+    shared: Any,
+    on_result: Callable[[int, bool, Any], None],
+    times: PoolTimes | None = None,
+    forking: contextlib.AbstractContextManager | None = None,
+) -> None:
+    """Run ``fn(item[, shared])`` for every item on ``workers`` forked processes, calling
+    ``on_result(index, ok, result or error text)`` in the parent as each finishes; tasks are handed
+    out in order, one at a time per worker. A KeyboardInterrupt in the parent stops the workers at
+    once and propagates. ``times`` receives the parent's CPU per fork (:class:`PoolTimes`);
+    ``forking`` is held from the first fork to the last (the parent's state the workers inherit)."""
+    ctx = multiprocessing.get_context("fork")
+    times = times if times is not None else PoolTimes()
+    nxt = 0
+    held: dict[Connection, int | None] = {}  # a worker's pipe -> the task it is running
+    procs: dict[Connection, multiprocessing.process.BaseProcess] = {}
+
+    def feed(conn: Connection) -> None:
+        nonlocal nxt
+        if nxt < len(items):
+            held[conn], nxt = nxt, nxt + 1
+            try:
+                conn.send(held[conn])
+            except OSError:  # the worker died: its pipe's EOF makes the task an error (_collect)
+                pass
+        else:
+            held[conn] = None
+
+    try:
+        with forking or contextlib.nullcontext():
+            for _ in range(min(workers, len(items))):
+                c = time.process_time()
+                mine, theirs = ctx.Pipe(duplex=True)
+                p = ctx.Process(target=_worker, args=(theirs, [*procs, mine], fn, items, shared, shared is not None))
+                try:
+                    p.start()
+                except OSError:  # no fork (out of memory, process limit): run on the workers already made
+                    mine.close()
+                    theirs.close()
+                    if not procs:
+                        raise
+                    break
+                procs[mine] = p
+                theirs.close()
+                times.forks.append(time.process_time() - c)
+                feed(mine)
+        _collect(held, procs, feed, on_result)
+        for i in range(nxt, len(items)):  # never handed out: every worker was lost
+            on_result(i, False, "not run: every worker of the pool was lost")
+        _stop(procs, held)
+    except BaseException:
+        _kill(procs)
+        raise
+
+
+def _kill(procs: dict) -> None:
+    """Stop every worker now and reap it: SIGTERM, then SIGKILL for one still alive after a grace
+    period (no zombie, no orphan left computing)."""
+    for p in procs.values():
+        p.terminate()
+    for p in procs.values():
+        p.join(timeout=2)
+        if p.exitcode is None:
+            p.kill()
+            p.join()
+    for conn in procs:
+        conn.close()
+
+
+def _collect(
+    held: dict[Connection, int | None],
+    procs: dict,
+    feed: Callable[[Connection], None],
+    on_result: Callable[[int, bool, Any], None],
+) -> None:
+    """Results as they come, each worker fed its next task; a lost worker's task is an error and
+    the worker is dropped. Returns when no worker holds a task."""
+    while any(i is not None for i in held.values()):
+        for conn in wait([c for c, i in held.items() if i is not None]):
+            try:
+                i, ok, out = conn.recv()
+            except (EOFError, OSError):  # the worker died
+                p = procs[conn]
+                p.join(timeout=5)
+                on_result(held.pop(conn), False, f"worker lost: exit code {p.exitcode}")
+                continue
+            except Exception as e:  # noqa: BLE001 - a result read whole that does not unpickle here
+                i, ok, out = held[conn], False, f"result not received: {type(e).__name__}: {e}"
+            on_result(i, ok, out)
+            feed(conn)
+
+
+def _stop(procs: dict, held: dict) -> None:
+    for conn in procs:
+        if conn in held:
+            try:
+                conn.send(None)
+            except OSError:
+                pass
+        conn.close()
+    for p in procs.values():
+        p.join()

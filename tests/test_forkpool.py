@@ -1,0 +1,197 @@
+"""The fork pool (expdesign/forkpool.py) as a concurrency library: lost and failing tasks, large and
+unpicklable results, Ctrl-C in the parent, inherited signal handlers, threads and pipes, and the same
+results however the tasks land on the workers."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from expdesign.forkpool import PoolTimes, fork_map
+from expdesign.parallel import LocalEngine
+
+pytestmark = pytest.mark.skipif(
+    multiprocessing.get_start_method() != "fork" or not os.path.isdir("/proc/self/fd"), reason="the fork pool, Linux"
+)
+
+
+def _collect(fn, items, workers, shared=None):
+    out = {}
+    fork_map(fn, items, workers, shared, lambda i, ok, r: out.__setitem__(i, (ok, r)))
+    return out
+
+
+def _raise_on_odd(i: int) -> int:
+    if i % 2:
+        raise ValueError(f"odd {i}")
+    return i
+
+
+def test_a_task_that_raises_is_its_own_error_and_the_worker_goes_on():
+    out = _collect(_raise_on_odd, list(range(6)), 2)
+    assert [out[i] for i in (0, 2, 4)] == [(True, 0), (True, 2), (True, 4)]
+    assert [out[i] for i in (1, 3, 5)] == [
+        (False, "ValueError: odd 1"),
+        (False, "ValueError: odd 3"),
+        (False, "ValueError: odd 5"),
+    ]
+
+
+def _big(i: int) -> np.ndarray:
+    return np.full(3_000_000, i, dtype=np.float64)  # 24 MB: many pipe writes and partial reads
+
+
+def test_results_larger_than_a_pipe_arrive_whole():
+    out = _collect(_big, [0, 1, 2, 3], 2)
+    for i in range(4):
+        ok, r = out[i]
+        assert ok and r.shape == (3_000_000,) and (r == i).all()
+
+
+class _Unpicklable:
+    def __reduce__(self):
+        raise TypeError("cannot pickle this")
+
+
+class _Unloadable:
+    def __reduce__(self):
+        return (_fail_to_load, ())
+
+
+def _fail_to_load():
+    raise RuntimeError("cannot load this")
+
+
+def _odd_things(i: int):
+    return {1: _Unpicklable(), 2: _Unloadable()}.get(i, i)
+
+
+def test_a_result_that_cannot_cross_the_pipe_costs_only_its_task():
+    out = _collect(_odd_things, [0, 1, 2, 3, 4], 2)
+    assert out[0] == (True, 0) and out[3] == (True, 3) and out[4] == (True, 4)
+    assert not out[1][0] and "cannot pickle this" in out[1][1]
+    assert not out[2][0] and "cannot load this" in out[2][1]
+
+
+def _pid_then_sleep(i: int) -> int:
+    if i > 0:
+        time.sleep(60)
+    return os.getpid()
+
+
+def _forked_pids(monkeypatch) -> list[int]:
+    from multiprocessing import context
+
+    pids, start = [], context.ForkProcess.start
+
+    def recording(self):
+        start(self)
+        pids.append(self.pid)
+
+    monkeypatch.setattr(context.ForkProcess, "start", recording)
+    return pids
+
+
+def _gone(pid: int) -> bool:
+    """Neither running nor a zombie waiting to be reaped."""
+    return not os.path.exists(f"/proc/{pid}")
+
+
+def test_ctrl_c_keeps_finished_results_and_reaps_every_worker(monkeypatch):
+    import expdesign.parallel as par
+
+    pids = _forked_pids(monkeypatch)
+    advance = par._Progress.advance
+
+    def interrupt_after_first(self, i):
+        advance(self, i)
+        raise KeyboardInterrupt  # as Ctrl-C arriving while the others still compute
+
+    monkeypatch.setattr(par._Progress, "advance", interrupt_after_first)
+    t = time.perf_counter()
+    res = LocalEngine(3).map(_pid_then_sleep, [0, 1, 2], progress=False)
+    assert res.interrupted and res.done == [True, False, False] and res.results[0] in pids
+    assert time.perf_counter() - t < 30  # stopped, not waited for
+    assert len(pids) == 3 and all(_gone(p) for p in pids)
+
+
+def test_workers_die_on_terminate_whatever_sigterm_handler_the_parent_has(monkeypatch):
+    """A parent that handles SIGTERM (as the map drawer's child does) must not give its workers a
+    handler that survives the pool's terminate: they would be left running, orphaned."""
+    pids = _forked_pids(monkeypatch)
+    old = signal.signal(signal.SIGTERM, lambda *_: None)
+    try:
+        seen = []
+
+        def stop(i, ok, r):
+            seen.append(time.perf_counter())
+            raise KeyboardInterrupt
+
+        with pytest.raises(KeyboardInterrupt):
+            fork_map(_pid_then_sleep, [0, 1, 2], 3, None, stop)
+    finally:
+        signal.signal(signal.SIGTERM, old)
+    assert len(seen) == 1 and len(pids) == 3 and all(_gone(p) for p in pids)
+    assert time.perf_counter() - seen[0] < 1.5  # killed by SIGTERM, not by a SIGKILL after the grace period
+
+
+def _sockets(i: int) -> int:
+    """Sockets this process holds (the pool's pipes are socket pairs)."""
+    n = 0
+    for fd in os.listdir("/proc/self/fd"):
+        try:
+            n += os.readlink(f"/proc/self/fd/{fd}").startswith("socket:")
+        except OSError:
+            pass
+    return n
+
+
+def test_each_worker_holds_only_its_own_end_of_its_own_pipe():
+    """A worker holding the parent's end of its pipe, or of another worker's, keeps that worker from
+    seeing EOF when the parent goes away."""
+    before = _sockets(0)
+    out = _collect(_sockets, [0, 1, 2], 3)  # one task per worker: each is fed one at its fork
+    assert [out[i] for i in range(3)] == [(True, before + 1)] * 3
+
+
+def _stderr_write(i: int) -> int:
+    sys.stderr.write("")
+    sys.stderr.flush()
+    return i
+
+
+def test_no_progress_thread_runs_while_the_workers_are_forked(monkeypatch):
+    """A thread running at a fork may hold a lock (the terminal's, stderr's) that the child then waits
+    for forever: the progress bar's refresh thread starts after the last fork."""
+    from multiprocessing import context
+
+    counts, start = [], context.ForkProcess.start
+    monkeypatch.setattr(context.ForkProcess, "start", lambda self: (counts.append(threading.active_count()), start(self))[1])
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    base = threading.active_count()
+    res = LocalEngine(3).map(_stderr_write, [0, 1, 2, 3], progress=True)
+    assert res.results == [0, 1, 2, 3]
+    assert counts == [base] * 3
+
+
+def _seeded(i: int, shared: dict) -> bytes:
+    if i % 3 == 0:
+        time.sleep(0.02 * (i % 4))  # tasks finish out of order and land on different workers
+    return np.random.default_rng([shared["seed"], i]).standard_normal(50).tobytes()
+
+
+def test_results_are_in_task_order_however_the_tasks_land():
+    items = list(range(12))
+    inline = [_seeded(i, {"seed": 7}) for i in items]
+    for w in (2, 3, 5):
+        times = PoolTimes()
+        out: dict[int, bytes] = {}
+        fork_map(_seeded, items, w, {"seed": 7}, lambda i, ok, r, o=out: o.__setitem__(i, r), times)
+        assert [out[i] for i in items] == inline and len(times.forks) == w
