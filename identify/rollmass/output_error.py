@@ -35,6 +35,7 @@ reports (:func:`load_decrement`), else ``converged`` is false with the reason.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -372,6 +373,10 @@ def _lm(prob: _Problem, x0: np.ndarray, tol: float) -> OptimizeResult:
     return least_squares(prob.residual, x0, x_scale="jac", method="lm", xtol=tol, ftol=tol, gtol=tol, max_nfev=LM_NFEV)
 
 
+# an LM of the fit: (problem, start, tolerance) -> scipy's result; :func:`_lm_exact` or :func:`_lm`
+_LM = Callable[[_Problem, np.ndarray, float], OptimizeResult]
+
+
 class _Creeping(Exception):
     """The exact-Jacobian LM reached :data:`LM_NFEV_EXACT`: see :func:`fit_output_error`."""
 
@@ -395,7 +400,7 @@ def _best_start(
     z_f_sd: float,
     start: dict[str, float],
     w: np.ndarray,
-    lm=_lm,
+    lm: _LM,
 ) -> OptimizeResult:
     """Two starts for the joint fit, the one with the lower unweighted cost kept: ``start`` itself,
     and the ship parameters fitted to the two runs whose loads are known (nominal, calibration).
@@ -476,7 +481,8 @@ def fit_output_error(
     the whole fit is redone on forward differences (:func:`_lm`), the path the fit took before the exact
     Jacobian, so the answer there is that path's. Why: on short low-noise data
     (tests/test_rollmass.py's 0.3-length case 1) the cost is flat along a nuisance ridge (the sway row's
-    added mass X_v and the roll row's couplings grow together: X_v 20 -> 40,000 at equal cost), the
+    coefficients and the roll row's sway couplings grow together: the first joint fit ends at X_v 1,020 on
+    forward differences and at 40,000 on the exact Jacobian, truth 20, at the same cost), the
     exact-Jacobian LM walks along it and the reweighted fits creep from there (0.150 kg, not
     stationary), while the forward-difference path stops near the start and comes back (0.167 kg,
     stationary). On the bundled example's three cases the exact path gives the same optimum (load within
@@ -502,7 +508,7 @@ def _fit(
     ar_order: int,
     with_cov: bool,
     z_f_sd: float | None,
-    lm,
+    lm: _LM,
 ) -> OEFit:
     """:func:`fit_output_error` along one LM (``_lm_exact`` or ``_lm``)."""
     z_f_sd = kn.z_f_prior_sd if z_f_sd is None else z_f_sd
