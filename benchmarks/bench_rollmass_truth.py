@@ -18,13 +18,21 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import tempfile
 import time
 from multiprocessing import Pool
 from pathlib import Path
 
-import numpy as np
+# One BLAS thread in this process and the workers it forks, set before numpy is imported (OpenBLAS
+# reads it once): the fits' products are tall and thin, and on the shared 2-core machine under load
+# a multi-threaded 9000 x 15 QR was about 30 times slower than a single-threaded one. Two workers
+# already keep both cores busy.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
+import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 

@@ -48,20 +48,71 @@ def test_the_residual_is_smooth_enough_for_finite_differences(case2, name):
 
 def test_a_fit_stopped_short_of_a_stationary_point_is_said(case2, monkeypatch):
     """An optimiser that stops where it started (as LM's xtol test did on the ridge) with
-    ``success`` set must not yield a silent "converged": the Newton decrement check says it."""
+    ``success`` set must not yield a silent "converged": the Newton decrement check says it. The
+    exact-Jacobian path ending so is redone on forward differences, and when that path ends short
+    too the user is told (the fallback hides no failure)."""
+    calls = []
 
-    def stuck(prob, x0, tol):
-        f = prob.residual(x0)
-        jac = oe.central_jacobian(prob.residual, x0)
-        return OptimizeResult(
-            x=x0, fun=f, cost=0.5 * f @ f, jac=jac, success=True, message="`xtol` termination condition is satisfied."
-        )
+    def stuck_as(name):
+        def stuck(prob, x0, tol):
+            calls.append(name)
+            f = prob.residual(x0)
+            jac = oe.central_jacobian(prob.residual, x0)
+            return OptimizeResult(
+                x=x0, fun=f, cost=0.5 * f @ f, jac=jac, success=True, message="`xtol` termination condition is satisfied."
+            )
 
-    monkeypatch.setattr(oe, "_lm", stuck)
+        return stuck
+
+    monkeypatch.setattr(oe, "_lm", stuck_as("fd"))
+    monkeypatch.setattr(oe, "_lm_exact", stuck_as("exact"))
     monkeypatch.setattr(oe, "FINISH_STEPS", 0)
     e = estimate(case2, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
     assert not e.converged
     assert any("not at a stationary point" in w for w in e.warnings)
+    assert calls == ["exact"] * 5 + ["fd"] * 5  # the whole fit on each path: ship start, two joint starts, two reweights
+
+
+def _spy(monkeypatch, name: str) -> list:
+    """Record the evaluation counts of every call of ``oe.<name>`` (an LM)."""
+    calls, real = [], getattr(oe, name)
+
+    def spy(prob, x0, tol):
+        res = real(prob, x0, tol)
+        calls.append(res.nfev)
+        return res
+
+    monkeypatch.setattr(oe, name, spy)
+    return calls
+
+
+def test_lm_runs_on_the_exact_jacobian(monkeypatch):
+    """On the bundled example (``mass-sim --case case1 --seed 3``, full length, MTi-G noise) every LM
+    of the fit (ship start, two joint starts, two reweighted fits) runs on the sensitivity Jacobian,
+    none on forward differences, and the fit ends at a stationary point."""
+    ds = simulate_case(PROF, "case1", Noise.from_profile(PROF), seed=3)
+    exact, fd = _spy(monkeypatch, "_lm_exact"), _spy(monkeypatch, "_lm")
+    e = estimate(ds, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
+    assert e.converged and len(exact) == 5 and not fd
+
+
+def test_a_creeping_exact_lm_is_redone_on_forward_differences(case2, monkeypatch):
+    """An exact-Jacobian LM that reaches its evaluation cap (as it does along the nuisance ridge of
+    short low-noise data such as this) does not end the fit there: the whole fit is redone on forward
+    differences (here a stub that stays where it starts), and that path's answer is the one returned."""
+    monkeypatch.setattr(oe, "LM_NFEV_EXACT", 2)
+    monkeypatch.setattr(oe, "FINISH_STEPS", 0)
+    starts = []
+
+    def stays(prob, x0, tol):
+        starts.append(x0)
+        f = prob.residual(x0)
+        return OptimizeResult(x=x0, fun=f, cost=0.5 * f @ f, jac=prob.jacobian(x0), success=True, status=2, message="stub")
+
+    monkeypatch.setattr(oe, "_lm", stays)
+    e = estimate(case2, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
+    assert len(starts) == 5  # ship start, two joint starts, two reweighted fits
+    assert (e.m, e.zbar_m) == (CAL.m, CAL.zbar)  # the stub's: where the joint fits start
 
 
 def test_the_sandwich_carries_a_priors_uncertainty():
