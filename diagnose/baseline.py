@@ -8,7 +8,7 @@ import numpy as np
 
 from diagnose import plausible
 from diagnose.candidates import build_library
-from diagnose.heldout import Grams, Parts, gauss_newton_step, make_parts
+from diagnose.heldout import Grams, Parts, gauss_newton_step, gram_sums, make_parts
 from diagnose.model import AugmentedModel, Prepared, diverges, escaped, fit, noise_std, prepare
 from diagnose.recording import Recording, RecordingError
 from diagnose.reference import extend, padded_params
@@ -158,16 +158,7 @@ def loo_misfit(
 def _grams(model: AugmentedModel, preps: list[Prepared], parts: Parts, P: np.ndarray, idx: list[int], w: np.ndarray) -> Grams:
     """:func:`diagnose.heldout.grams` from forward sensitivities where they apply
     (:func:`diagnose.uncertainty.sensitivities`: one pass a run instead of a simulated member a column)."""
-    pairs = sensitivities(model, preps, P, idx, w, analytic=True)
-    G, hv, rr, den = [], [], [], []
-    for i, m in zip(parts.prep, parts.mask):
-        r0, J = pairs[i][0][m], pairs[i][1][:, m]  # (n, 3), (c, n, 3)
-        y = preps[i].y[1:][m] * w
-        G.append(np.einsum("cnk,dnk->kcd", J, J))
-        hv.append(np.einsum("cnk,nk->kc", J, r0))
-        rr.append(np.sum(r0**2, axis=0))
-        den.append(np.sum((y - y.mean(axis=0)) ** 2, axis=0))
-    return Grams(np.array(G), np.array(hv), np.array(rr), np.array(den), list(idx), np.array([int(m.sum()) for m in parts.mask]))
+    return gram_sums(sensitivities(model, preps, P, idx, w, analytic=True), preps, parts, idx, w)
 
 
 def term_scales(profile: ShipProfile, recs: list[Recording]) -> np.ndarray:

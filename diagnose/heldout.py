@@ -88,6 +88,19 @@ def grams(
     for i, res in zip(runs, residuals(model, [all_preps[i] for i in runs], Pb)):  # one batched simulation
         R = res[:, 1:] * (w[i] if isinstance(w, list) else w)  # (c+1, N, 3)
         per_run[i] = (R[0], (R[1:] - R[0]) / h_step[cols][:, None, None])
+    return gram_sums(per_run, all_preps, parts, cols, w)
+
+
+def gram_sums(
+    per_run: dict[int, tuple[np.ndarray, np.ndarray]] | list[tuple[np.ndarray, np.ndarray]],
+    all_preps: list[Prepared],
+    parts: Parts,
+    cols: list[int],
+    w: np.ndarray | list[np.ndarray],
+) -> Grams:
+    """The parts' Gram sums from each run's weighted residual (N, 3) and its sensitivity (c, N, 3) to
+    ``cols`` (finite differences in :func:`grams`, forward sensitivities in ``baseline``)."""
+    c = len(cols)
     n_p = len(parts.prep)
     G = np.zeros((n_p, 3, c, c))
     hv = np.zeros((n_p, 3, c))

@@ -36,7 +36,7 @@ class PoolTimes:
     forks: list[float] = field(default_factory=list)
 
 
-def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Sequence[Any], shared: Any, use: bool) -> None:
+def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Sequence[Any], shared: Any) -> None:
     """A forked worker: run the task whose index the parent sends, send back (index, ok, result or
     error text), until the parent sends None or goes away. Ctrl-C is the parent's to handle; SIGTERM
     (the parent's :meth:`terminate`) kills, whatever handler the parent had installed."""
@@ -55,7 +55,7 @@ def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Seq
         if i is None:
             return
         try:
-            out = (i, True, _call(fn, items[i], shared if use else None))
+            out = (i, True, _call(fn, items[i], shared))
         except Exception as e:  # noqa: BLE001 - recorded per task, the worker takes the next
             out = (i, False, f"{type(e).__name__}: {e}")
         try:
@@ -102,7 +102,7 @@ def fork_map(
             for _ in range(min(workers, len(items))):
                 c = time.process_time()
                 mine, theirs = ctx.Pipe(duplex=True)
-                p = ctx.Process(target=_worker, args=(theirs, [*procs, mine], fn, items, shared, shared is not None))
+                p = ctx.Process(target=_worker, args=(theirs, [*procs, mine], fn, items, shared))
                 try:
                     p.start()
                 except OSError:  # no fork (out of memory, process limit): run on the workers already made
@@ -124,13 +124,16 @@ def fork_map(
         raise
 
 
+KILL_GRACE_S = 2.0  # a worker SIGTERM has not stopped by then is killed
+
+
 def _kill(procs: dict) -> None:
     """Stop every worker now and reap it: SIGTERM, then SIGKILL for one still alive after a grace
     period (no zombie, no orphan left computing)."""
     for p in procs.values():
         p.terminate()
     for p in procs.values():
-        p.join(timeout=2)
+        p.join(timeout=KILL_GRACE_S)
         if p.exitcode is None:
             p.kill()
             p.join()

@@ -350,7 +350,7 @@ class LocalEngine(Engine):
 
         self.times = PoolTimes()
         try:
-            fork_map(fn, items, min(self.workers, len(items)), shared, on_result, self.times, forking())
+            fork_map(fn, items, self.workers, shared, on_result, self.times, forking())
         except KeyboardInterrupt:
             return MapResult(res, done, interrupted=True, errors=errors)
         finally:

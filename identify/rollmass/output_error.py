@@ -445,7 +445,7 @@ def _best_start(
         ) from None
     shared = shared_parameters(datasets, kn)
     ship = shared + (("z_f",) if z_f_sd > 0 else ())
-    x_ship = np.array([start.get(k, heel_gain(kn)) for k in shared] + ([z_f] if z_f_sd > 0 else []))
+    x_ship = np.array([start[k] if k != "kappa" else start.get(k, heel_gain(kn)) for k in shared] + ([z_f] if z_f_sd > 0 else []))
     fitted = lm(_Problem(datasets[:2], kn, cal, z_f, ship, w[:2], z_f_sd=z_f_sd), x_ship, 1e-8).x
     prob = _Problem(datasets, kn, cal, z_f, ship + ("m", "zbar_m"), w, z_f_sd=z_f_sd)
     best = None
@@ -542,7 +542,7 @@ def _fit(
     """:func:`fit_output_error` along one LM (``_lm_exact`` or ``_lm``)."""
     z_f_sd = kn.z_f_prior_sd if z_f_sd is None else z_f_sd
     free = shared_parameters(datasets, kn) + (("z_f",) if z_f_sd > 0 else ()) + ("m", "zbar_m")
-    w = np.array([1.0 / np.maximum(_measured(d).std(axis=0), 1e-12) for d in datasets])
+    w = np.array([1.0 / np.maximum(_measured(d, kn.g).std(axis=0), 1e-12) for d in datasets])
     ar = None
     first = _best_start(datasets, kn, cal, z_f, z_f_sd, start, w, lm)
     x = first.x

@@ -56,9 +56,10 @@ def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1)
         + [c for c, _ in cols]
     )
     k_total = len(plan.t)
+    step_of = plan.step_of_sample.tolist()
     first_of = {}
     for k in range(k_total):
-        first_of.setdefault(int(plan.step_of_sample[k]), k)
+        first_of.setdefault(int(step_of[k]), k)
     starts = set(first_of.values())
     n_in = plan.inputs.shape[1] if plan.inputs.ndim == 2 else 0
     # every column's values as Python floats at once (the same elementwise arithmetic as sample by sample)
@@ -67,7 +68,6 @@ def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1)
     x, y = plan.track[:, 0].tolist(), plan.track[:, 1].tolist()
     hdg = (np.degrees(plan.track[:, 2]) % 360.0).tolist()
     spd, kn = plan.speed.tolist(), (plan.speed * KN_PER_MPS).tolist()
-    step_of = plan.step_of_sample.tolist()
     inputs = plan.inputs.tolist() if n_in else []
     for k in range(k_total):
         if k % max(every, 1) and k not in starts and k != k_total - 1:
