@@ -8,6 +8,7 @@ import pytest
 from scipy.optimize import OptimizeResult
 from scipy.signal import lfilter, ss2tf
 
+from identify.rollmass import oe_fit as fit
 from identify.rollmass import output_error as oe
 from identify.rollmass.estimate import estimate
 from identify.rollmass.model import Load, load_profile
@@ -64,9 +65,9 @@ def test_a_fit_stopped_short_of_a_stationary_point_is_said(case2, monkeypatch):
 
         return stuck
 
-    monkeypatch.setattr(oe, "_lm", stuck_as("fd"))
-    monkeypatch.setattr(oe, "_lm_exact", stuck_as("exact"))
-    monkeypatch.setattr(oe, "FINISH_STEPS", 0)
+    monkeypatch.setattr(fit, "_lm", stuck_as("fd"))
+    monkeypatch.setattr(fit, "_lm_exact", stuck_as("exact"))
+    monkeypatch.setattr(fit, "FINISH_STEPS", 0)
     e = estimate(case2, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
     assert not e.converged
     assert any("not at a stationary point" in w for w in e.warnings)
@@ -74,15 +75,15 @@ def test_a_fit_stopped_short_of_a_stationary_point_is_said(case2, monkeypatch):
 
 
 def _spy(monkeypatch, name: str) -> list:
-    """Record the evaluation counts of every call of ``oe.<name>`` (an LM)."""
-    calls, real = [], getattr(oe, name)
+    """Record the evaluation counts of every call of ``oe_fit.<name>`` (an LM)."""
+    calls, real = [], getattr(fit, name)
 
     def spy(prob, x0, tol):
         res = real(prob, x0, tol)
         calls.append(res.nfev)
         return res
 
-    monkeypatch.setattr(oe, name, spy)
+    monkeypatch.setattr(fit, name, spy)
     return calls
 
 
@@ -100,8 +101,8 @@ def test_a_creeping_exact_lm_is_redone_on_forward_differences(case2, monkeypatch
     """An exact-Jacobian LM that reaches its evaluation cap (as it does along the nuisance ridge of
     short low-noise data such as this) does not end the fit there: the whole fit is redone on forward
     differences (here a stub that stays where it starts), and that path's answer is the one returned."""
-    monkeypatch.setattr(oe, "LM_NFEV_EXACT", 2)
-    monkeypatch.setattr(oe, "FINISH_STEPS", 0)
+    monkeypatch.setattr(fit, "LM_NFEV_EXACT", 2)
+    monkeypatch.setattr(fit, "FINISH_STEPS", 0)
     starts = []
 
     def stays(prob, x0, tol):
@@ -109,7 +110,7 @@ def test_a_creeping_exact_lm_is_redone_on_forward_differences(case2, monkeypatch
         f = prob.residual(x0)
         return OptimizeResult(x=x0, fun=f, cost=0.5 * f @ f, jac=prob.jacobian(x0), success=True, status=2, message="stub")
 
-    monkeypatch.setattr(oe, "_lm", stays)
+    monkeypatch.setattr(fit, "_lm", stays)
     e = estimate(case2, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
     assert len(starts) == 5  # ship start, two joint starts, two reweighted fits
     assert (e.m, e.zbar_m) == (CAL.m, CAL.zbar)  # the stub's: where the joint fits start
@@ -123,7 +124,7 @@ def test_the_sandwich_carries_a_priors_uncertainty():
     col = rng.standard_normal(3 * n)
     J = np.vstack([np.column_stack([col, col]), [[0.0, 1.0]]])
     f = np.r_[rng.standard_normal(3 * n), 0.0]
-    cov = oe.sandwich_cov(J, f, [n], lags=0)
+    cov = fit.sandwich_cov(J, f, [n], lags=0)
     assert cov[1, 1] == pytest.approx(1.0, rel=0.05)
     assert cov[0, 0] + cov[1, 1] + 2 * cov[0, 1] == pytest.approx(1 / (col @ col), rel=0.2)
 
@@ -172,13 +173,13 @@ def test_stationarity_is_judged_in_the_reported_standard_errors():
     J = lfilter([1.0], [1.0, -0.95], rng.standard_normal((n, 3, 4)), axis=0).reshape(3 * n, 4)
     y = lfilter([np.sqrt(1 - 0.95**2)], [1.0, -0.95], rng.standard_normal((n, 3)), axis=0).ravel()  # unit variance
     x_opt = np.linalg.lstsq(J, y, rcond=None)[0]
-    sd_m = np.sqrt(oe.sandwich_cov(J, J @ x_opt - y, [n], lags)[-2, -2])
+    sd_m = np.sqrt(fit.sandwich_cov(J, J @ x_opt - y, [n], lags)[-2, -2])
     for t, stationary in ((0.05, True), (1.0, False)):
         x = x_opt + np.r_[0.0, 0.0, t * sd_m, 0.0]
         f = J @ x - y
-        assert (oe.load_decrement(J, f, [n], lags) < oe.STATIONARY) is stationary
+        assert (fit.load_decrement(J, f, [n], lags) < fit.STATIONARY) is stationary
     g = J.T @ (J @ (x_opt + np.r_[0.0, 0.0, 0.05 * sd_m, 0.0]) - y)
-    assert g @ np.linalg.solve(J.T @ J, g) > oe.STATIONARY
+    assert g @ np.linalg.solve(J.T @ J, g) > fit.STATIONARY
 
 
 def test_the_imu_lag_is_held_within_its_physical_range(case2):

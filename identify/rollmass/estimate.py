@@ -50,7 +50,7 @@ from identify.rollmass.model import (
     load_from_moments,
     load_moments,
 )
-from identify.rollmass.output_error import fit_output_error
+from identify.rollmass.oe_fit import fit_output_error
 from identify.rollmass.simulate import RollRecording
 
 PARAMS = SHIP_PARAMS + ("m", "zbar_m")
@@ -335,7 +335,7 @@ def _improved(
 
 def _oe(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, z_f: float, start: dict[str, float]) -> MassEstimate:
     """Output-error fit with ``z_f`` under its prior ``N(z_f, z_f_prior_sd^2)``; with ``with_ci`` the
-    sandwich covariance of every free parameter, ``z_f`` included (:func:`output_error.fit_output_error`)."""
+    sandwich covariance of every free parameter, ``z_f`` included (:func:`oe_fit.fit_output_error`)."""
     f = fit_output_error(datasets, kn, cal, z_f, start, with_cov=with_ci)
     # K_r of (11) from the fitted K_ur, so the shared parameters read as in the paper's Table 3
     K_r = (f.values["K_ur"] - f.values["K_vdot"]) * kn.U

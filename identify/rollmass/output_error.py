@@ -31,22 +31,21 @@ too, so holding it at the prior would put the prior's error into the load. Its u
 
 The fit ends at a stationary point or says it did not: LM is finished by Gauss-Newton steps until
 a further step would move the load by less than ``sqrt(STATIONARY)`` of the standard errors it
-reports (:func:`load_decrement`), else ``converged`` is false with the reason.
+reports (:func:`load_decrement`), else ``converged`` is false with the reason. The fit's driver
+(LM, the finish, the reweighting, the covariance) is :mod:`identify.rollmass.oe_fit`; this module
+holds the model and its residual.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import OptimizeResult, least_squares
 from scipy.signal import lfilter
-from threadpoolctl import threadpool_limits
 
 from identify.rollmass.model import Known, Load, RollProfile, load_restoring
 from identify.rollmass.restoring import gravity_excess, heel_gain, heel_signal
-from identify.rollmass.sandwich import central_jacobian, load_decrement, sandwich_cov
+from identify.rollmass.sandwich import central_jacobian
 from identify.rollmass.sensitivity import dataset_jacobian, fir, free_basis, lag_derivative, modal
 from identify.rollmass.simulate import RollRecording
 
@@ -87,19 +86,11 @@ SANDWICH_LAG_S = 5.0
 # residual ``(distance outside) / T_IMU_WALL`` (zero inside, so no information there) holds the fit in.
 T_IMU_RANGE = (0.0, 0.5)
 T_IMU_WALL = 1e-4  # s
-# load decrement below which the fit is stationary (a further step < 0.1 reported standard error), and the
-# Gauss-Newton steps allowed to get there after LM, whose step-size test can stop it well short
-STATIONARY = 0.01
-FINISH_STEPS = 10
-LM_NFEV = 200
-# evaluation cap of the exact-Jacobian LM (:func:`_lm_exact`): on the three Table 3 cases of the bundled
-# example it needed 4-26 evaluations a call; reaching the cap means it is creeping along a nuisance ridge
-LM_NFEV_EXACT = 60
 
 
 @dataclass
 class OEFit:
-    """Result of :func:`fit_output_error`: all parameter values, the load, their covariance."""
+    """Result of :func:`identify.rollmass.oe_fit.fit_output_error`: all parameter values, the load, their covariance."""
 
     values: dict[str, float]
     m: float
@@ -391,212 +382,3 @@ class _Problem:
             outside = not lo <= x[i] <= hi
             rows.append(np.eye(len(x))[i] * (outside / T_IMU_WALL))
         return np.array(rows).reshape(len(rows), len(x))
-
-
-def _lm(prob: _Problem, x0: np.ndarray, tol: float) -> OptimizeResult:
-    """Levenberg-Marquardt on forward differences, capped at :data:`LM_NFEV` evaluations: along the
-    mass-height ridge it can creep (597 evaluations, 39 s cpu on ``mass-sim --case case1 --seed 3`` at
-    0.3 length) where the Gauss-Newton finish of :func:`fit_output_error` converges in a few steps.
-    The fallback path of :func:`fit_output_error`."""
-    return least_squares(prob.residual, x0, x_scale="jac", method="lm", xtol=tol, ftol=tol, gtol=tol, max_nfev=LM_NFEV)
-
-
-# an LM of the fit: (problem, start, tolerance) -> scipy's result; :func:`_lm_exact` or :func:`_lm`
-_LM = Callable[[_Problem, np.ndarray, float], OptimizeResult]
-
-
-class _Creeping(Exception):
-    """The exact-Jacobian LM reached :data:`LM_NFEV_EXACT`: see :func:`fit_output_error`."""
-
-
-def _lm_exact(prob: _Problem, x0: np.ndarray, tol: float) -> OptimizeResult:
-    """Levenberg-Marquardt on the sensitivity Jacobian (:meth:`_Problem.jacobian`, a third of the cost
-    of forward differences and exact); raises :class:`_Creeping` at :data:`LM_NFEV_EXACT` evaluations."""
-    res = least_squares(
-        prob.residual, x0, jac=prob.jacobian, x_scale="jac", method="lm", xtol=tol, ftol=tol, gtol=tol, max_nfev=LM_NFEV_EXACT
-    )
-    if res.status == 0:
-        raise _Creeping(res.message)
-    return res
-
-
-def _best_start(
-    datasets: list[RollRecording],
-    kn: Known,
-    cal: Load,
-    z_f: float,
-    z_f_sd: float,
-    start: dict[str, float],
-    w: np.ndarray,
-    lm: _LM,
-) -> OptimizeResult:
-    """Two starts for the joint fit, the one with the lower unweighted cost kept: ``start`` itself,
-    and the ship parameters fitted to the two runs whose loads are known (nominal, calibration).
-    From a poor start the joint fit can otherwise settle in a local minimum (a wrong sway row with
-    a negative or huge load), as a few per cent of the fits from start values 20 % off did.
-    Returns the kept joint fit (unwhitened, on the weights ``w``)."""
-    try:
-        for load, rec in zip((Load(0.0, 0.0), cal), datasets):
-            _simulate(start, kn, z_f, load, rec)
-    except FloatingPointError:
-        raise ValueError(
-            "the start values give an unstable ship with the known loads (roll restoring "
-            "k + M g z_g + m g z_m <= 0?); check the profile's GM_T, [roll] and [sway_yaw]"
-        ) from None
-    shared = shared_parameters(datasets, kn)
-    ship = shared + (("z_f",) if z_f_sd > 0 else ())
-    x_ship = np.array([start[k] if k != "kappa" else start.get(k, heel_gain(kn)) for k in shared] + ([z_f] if z_f_sd > 0 else []))
-    fitted = lm(_Problem(datasets[:2], kn, cal, z_f, ship, w[:2], z_f_sd=z_f_sd), x_ship, 1e-8).x
-    prob = _Problem(datasets, kn, cal, z_f, ship + ("m", "zbar_m"), w, z_f_sd=z_f_sd)
-    best = None
-    for x in (x_ship, fitted):
-        res = lm(prob, np.r_[x, cal.m, cal.zbar], 1e-8)
-        if best is None or res.cost < best.cost:
-            best = res
-    return best
-
-
-def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
-    """Finish a fit with up to ``steps`` Gauss-Newton steps (the sensitivity Jacobian, step halving) until
-    the load's step in its sandwich standard errors (:func:`load_decrement`) is below
-    :data:`STATIONARY`; returns ``x``, its Jacobian, that decrement and the residual at ``x``."""
-    lengths = [d.n for d in prob.datasets]
-    f = prob.residual(x)
-    J = prob.jacobian(x)
-    dec = load_decrement(J, f, lengths, lags)
-    for _ in range(steps):
-        if dec < STATIONARY:
-            break
-        dx = -np.linalg.lstsq(J, f, rcond=None)[0]
-        cost = f @ f
-        for _ in range(12):
-            f_new = prob.residual(x + dx)
-            if f_new @ f_new < cost:
-                break
-            dx *= 0.5
-        else:
-            break  # no descent along the Gauss-Newton direction: leave it to the decrement to say so
-        x, f = x + dx, f_new
-        J = prob.jacobian(x)
-        dec = load_decrement(J, f, lengths, lags)
-    return x, J, dec, f
-
-
-# one BLAS thread: the fit's products are tall and thin ((3 n, 21) at most), and on the 2-core machine
-# under load OpenBLAS's threads made a Jacobian 5 times slower (0.30 s against 0.057 s)
-@threadpool_limits.wrap(limits=1)
-def fit_output_error(
-    datasets: list[RollRecording],
-    kn: Known,
-    cal: Load,
-    z_f: float,
-    start: dict[str, float],
-    n_reweight: int = 2,
-    ar_order: int = NOISE_AR,
-    with_cov: bool = True,
-    z_f_sd: float | None = None,
-) -> OEFit:
-    """Fit :data:`SHARED`, ``z_f`` and the loaded ``m, zbar_m`` by output error on ``p, a_s, r`` of all datasets.
-
-    ``start`` holds start values of :data:`SHARED`; ``m, zbar_m`` start at the calibration load.
-    ``z_f`` has the Gaussian prior ``N(z_f, z_f_sd^2)`` (``z_f_sd`` defaults to the profile's
-    ``z_f_prior_sd``; 0 holds ``z_f`` fixed): the fit maximises the posterior. Weights: 1/sd of each
-    dataset's channel residual, re-estimated ``n_reweight`` times. The last fit is finished by
-    Gauss-Newton steps to a stationary point (:func:`load_decrement`); ``converged`` is false when
-    it is not reached. Without ``with_cov`` the sandwich covariance is left NaN and no finishing
-    steps are taken.
-
-    LM runs on the sensitivity Jacobian (:func:`_lm_exact`). Where that path creeps or ends unconverged,
-    the whole fit is redone on forward differences (:func:`_lm`), the path the fit took before the exact
-    Jacobian, so the answer there is that path's. Why: on short low-noise data
-    (tests/test_rollmass.py's 0.3-length case 1) the cost is flat along a nuisance ridge (the sway row's
-    coefficients and the roll row's sway couplings grow together: the first joint fit ends at X_v 1,020 on
-    forward differences and at 40,000 on the exact Jacobian, truth 20, at the same cost), the
-    exact-Jacobian LM walks along it and the reweighted fits creep from there (0.150 kg, not
-    stationary), while the forward-difference path stops near the start and comes back (0.167 kg,
-    stationary). On the bundled example's three cases the exact path gives the same optimum (load within
-    3e-5 kg and 3e-5 m) at a third of the cpu.
-    """
-    args = (datasets, kn, cal, z_f, start, n_reweight, ar_order, with_cov, z_f_sd)
-    try:
-        fit = _fit(*args, lm=_lm_exact)
-        if fit.converged:
-            return fit
-    except _Creeping:
-        pass
-    return _fit(*args, lm=_lm)
-
-
-def _fit(
-    datasets: list[RollRecording],
-    kn: Known,
-    cal: Load,
-    z_f: float,
-    start: dict[str, float],
-    n_reweight: int,
-    ar_order: int,
-    with_cov: bool,
-    z_f_sd: float | None,
-    lm: _LM,
-) -> OEFit:
-    """:func:`fit_output_error` along one LM (``_lm_exact`` or ``_lm``)."""
-    z_f_sd = kn.z_f_prior_sd if z_f_sd is None else z_f_sd
-    free = shared_parameters(datasets, kn) + (("z_f",) if z_f_sd > 0 else ()) + ("m", "zbar_m")
-    w = np.array([1.0 / np.maximum(_measured(d, kn.g).std(axis=0), 1e-12) for d in datasets])
-    ar = None
-    first = _best_start(datasets, kn, cal, z_f, z_f_sd, start, w, lm)
-    x = first.x
-    for it in range(n_reweight + 1):
-        prob = _Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd)
-        # _best_start has just solved the first problem (same weights, no whitening); its optimum only
-        # seeds the reweighted fits, which run to the tight tolerance below
-        res = first if it == 0 and n_reweight > 0 else lm(prob, x, 1e-10)
-        x = res.x
-        errs = prob.errors(x)
-        sd = np.array([e.std(axis=0) for e in errs])
-        if it < n_reweight:
-            # iterated ML: whiten each channel's output error (waves are narrow-band process noise
-            # that reaches the outputs coloured), then weight it by its innovation sd
-            ar = [
-                [
-                    _whitener(e[:, j], ar_order) if ar is None else np.convolve(_whitener(e[:, j], ar_order), ar[i][j])
-                    for j in range(3)
-                ]
-                for i, e in enumerate(errs)
-            ]
-            sd = np.array([[lfilter(ar[i][j], [1.0], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
-            w = 1.0 / np.maximum(sd, 1e-12)
-    J, dec, cov_load = res.jac, float("nan"), np.full((2, 2), np.nan)
-    # an LM stopped by its evaluation cap is judged by the stationarity check below (with_cov), not by its flag
-    ok = (bool(res.success) or (with_cov and res.status == 0)) and bool(np.all(np.isfinite(x))) and float(res.cost) < 1e5
-    message = str(res.message)
-    lags = max(1, round(SANDWICH_LAG_S / datasets[0].T))
-    if with_cov and ok:
-        x, J, dec, f = _gauss_newton(prob, x, FINISH_STEPS, lags)
-        if not dec < STATIONARY:
-            ok = False
-            message = f"{message}; not at a stationary point after {FINISH_STEPS} Gauss-Newton steps " + (
-                f"(a further step would move the load by {np.sqrt(dec):.2g} of its standard errors)"
-                if np.isfinite(dec)
-                else "(the load's covariance is singular there)"
-            )
-        try:
-            cov_load = sandwich_cov(J, f, [d.n for d in datasets], lags)[-2:, -2:]  # f: the residual at x
-        except np.linalg.LinAlgError:
-            pass
-    v = prob.values(x)
-    scale = np.sqrt(np.maximum(np.einsum("ij,ij->j", J, J), 1e-300))
-    sv = np.linalg.svd(J / scale, compute_uv=False)
-    return OEFit(
-        values=v,
-        m=v["m"],
-        zbar_m=v["zbar_m"],
-        z_f=v.get("z_f", z_f),
-        cov_load=cov_load,
-        converged=ok,
-        message=message,
-        decrement=dec,
-        rel_singular=float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
-        noise_sd=sd,
-        noise=(w, ar),
-    )
