@@ -116,18 +116,24 @@ def _output_sensitivities(
     add). ``du``: the first input's derivative by the parameter ``lag_col`` (None: none)."""
     Vi = np.linalg.inv(V)
     E = np.einsum("ab,pbc,cd->pad", Vi, np.array([d[0] for d in dmats]), V)
+    # what does not depend on the input, once: the output map in modal coordinates, its derivatives,
+    # and the partial-fraction weights 1 / (lambda_i - lambda_j) (zero on the diagonal)
+    modal_out = (mats[2] @ V, np.einsum("pcb,bi->pci", np.array([d[2] for d in dmats]), V))
+    inv = 1.0 / (lam[:, None] - lam[None, :] + np.eye(len(lam)))
+    np.fill_diagonal(inv, 0.0)
     y, dy = 0.0, 0.0
     for i, (col, u) in enumerate(inputs):
-        yi, dyi = _input_sensitivities(lam, V, Vi, E, mats, dmats, col, u, du if i == 0 else None, lag_col)
+        yi, dyi = _input_sensitivities(lam, inv, Vi, E, modal_out, mats, dmats, col, u, du if i == 0 else None, lag_col)
         y, dy = y + yi, dy + dyi
     return y, dy, E
 
 
 def _input_sensitivities(
     lam: np.ndarray,
-    V: np.ndarray,
+    inv: np.ndarray,
     Vi: np.ndarray,
     E: np.ndarray,
+    modal_out: tuple[np.ndarray, np.ndarray],
     mats: Matrices,
     dmats: list[Matrices],
     col: int,
@@ -136,21 +142,19 @@ def _input_sensitivities(
     lag_col: int,
 ) -> tuple[np.ndarray, np.ndarray]:
     """One input's share of :func:`_output_sensitivities`: ``y`` and ``dy`` of the input signal ``u``
-    entering through column ``col`` of ``Bd`` and ``Dd``."""
-    _, Bd, Cd, Dd = mats
-    b, c, D = Vi @ Bd[:, col], Cd @ V, Dd[:, col]
+    entering through column ``col`` of ``Bd`` and ``Dd``; ``modal_out`` is ``(Cd V, dCd V)`` and ``inv`` the
+    partial-fraction weights, both the same for every input."""
+    _, Bd, _, Dd = mats
+    (c, dc), b, D = modal_out, Vi @ Bd[:, col], Dd[:, col]
     g = mode_filter(lam, u)
     h = np.column_stack([lfilter([0.0, 1.0], [1.0, -li], g[:, i]) for i, li in enumerate(lam)])  # F_i F_i u
     f = np.einsum("ab,pb->pa", Vi, np.array([d[1][:, col] for d in dmats]))
-    dc = np.einsum("pcb,bi->pci", np.array([d[2] for d in dmats]), V)
     dD = np.array([d[3][:, col] for d in dmats])  # (P, 3)
     cb = c * b  # (3, modes): each mode's residue per channel
     y = (g @ cb.T).real + u[:, None] * D
     # sum_ij F_i F_j u * k_ij, k_ij = c_i E_ij b_j: the diagonal on F_i F_i u, and off it, by partial
     # fractions, sum_i F_i u * sum_j (k_ij + k_ji) / (lambda_i - lambda_j)
     k = np.einsum("ci,pij,j->pcij", c, E, b)
-    inv = 1.0 / (lam[:, None] - lam[None, :] + np.eye(len(lam)))
-    np.fill_diagonal(inv, 0.0)
     on_g = np.einsum("pcij,ij->pci", k + k.transpose(0, 1, 3, 2), inv) + c[None] * f[:, None, :] + dc * b[None, None, :]
     on_h = np.einsum("pcii->pci", k)
     # Re(z w) = Re z Re w - Im z Im w: one real product a channel, (n, 17) x (17, P), channel-major
