@@ -338,8 +338,8 @@ def _drop_indistinct(
     w: np.ndarray,
 ) -> bool:
     """Drop the one finding with the smallest |estimate / std| when its interval (noise and the
-    run-to-run misfit, measured over two or more runs) includes no effect: |estimate| < 1 std
-    (:func:`diagnose.describe.includes_no_effect`). Such a term improves the fit by no more than
+    run-to-run misfit, measured over two or more runs) includes no effect: |estimate| < 1.96 std
+    (:func:`diagnose.describe.includes_no_effect`: its 95 % interval includes zero). Such a term improves the fit by no more than
     the model's misfit moves it from run to run: with few runs, a damping term beside a delay that
     absorbs what the baseline lacks (issue 26). One at a time: a delay and a damping term competing
     for the same misfit both get wide intervals while both are in; without the weaker, the other's
@@ -366,7 +366,7 @@ def _drop_indistinct(
         {
             "key": f["key"],
             "effect": f["effect"],
-            "reason": f"its interval ({covers}, 1 std) includes no effect (|estimate/std| = {z_score(f):.2f}): "
+            "reason": f"its 95 % interval ({covers}, 1.96 std) includes no effect (|estimate/std| = {z_score(f):.2f}): "
             + ("not told apart from the model's misfit" if misfit else "not told apart from the noise"),
         }
     )
