@@ -40,6 +40,7 @@ def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Seq
     """A forked worker: run the task whose index the parent sends, send back (index, ok, result or
     error text), until the parent sends None or goes away. Ctrl-C is the parent's to handle; SIGTERM
     (the parent's :meth:`terminate`) kills, whatever handler the parent had installed."""
+    from expdesign.heap import keep_freed_memory
     from expdesign.parallel import _call, one_thread_per_worker
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -47,6 +48,7 @@ def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Seq
     for c in others:  # the parent's ends of its pipe and of earlier workers': EOFs must not wait for this process
         c.close()
     one_thread_per_worker(inherited=True)
+    keep_freed_memory(always=True)  # each task reuses the heap the last one grew (expdesign.heap)
     while True:
         try:
             i = conn.recv()

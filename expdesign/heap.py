@@ -1,0 +1,60 @@
+"""How a process that runs Monte Carlo batches keeps the memory one batch freed for the next (glibc).
+
+glibc hands freed memory at the top of the heap back to the system once it exceeds a trim
+threshold, and a process grows its heap again in its next batch: every page of it faulted in and
+zeroed anew. A Monte Carlo batch frees its whole working set at its end, so with glibc's defaults
+each batch of a long-lived process paid those faults again. Measured (`python
+benchmarks/heap_faults.py`, 125-run batches of the random design, model ship, forked children,
+load 30): 6,600 page faults on every batch after the first with glibc's defaults, 30-60 with freed
+memory kept; inline Monte Carlo of 2,000 runs 61,100 faults -> 8,700 and 1.75 -> 1.56 ms CPU a run
+(3 pairs alternated with main, load 29-32). The first batch of a new process still faults its
+working set in (about 10,000 faults a forked worker; a parent's gc.freeze before the fork does
+not change it, its malloc_trim takes 2,000 off): the first-task extra of ``benchmarks/scaling_model.py``.
+"""
+
+from __future__ import annotations
+
+import os
+
+# glibc's mallopt parameters: M_TRIM_THRESHOLD, M_MMAP_THRESHOLD
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+KEEP_FREED_BYTES = 256 << 20  # freed heap a process keeps for its next batch instead of returning it
+# arrays below this come from the heap (reused), not from fresh mappings: glibc's own adaptive
+# ceiling on 64-bit (DEFAULT_MMAP_THRESHOLD_MAX) and the largest value older glibc accepts (its
+# mallopt refuses a threshold over HEAP_MAX_SIZE / 2; 2.36 here takes 64 MB, with the same effect)
+MMAP_FROM_BYTES = 32 << 20
+DASK_TRIM_THRESHOLD = "65536"  # Dask's default distributed.nanny.pre-spawn-environ value
+_MALLOC_SET = False
+
+
+def keep_freed_memory(always: bool = False) -> bool:
+    """Let this process reuse the memory its last batch freed; True when done. Dask's nanny starts
+    workers with MALLOC_TRIM_THRESHOLD_=65536, which makes glibc return freed memory to the system
+    at once and also turns off its adaptive mmap threshold: every array over 128 kB of every batch
+    is then a fresh mapping, faulted in and zeroed page by page. Measured in one process with that
+    variable (125-run batches of the random design, load 18): 2.8-3.1 ms CPU and ~240 page faults
+    a run, 2.1-2.3 ms and none once set; the same peak memory. glibc's own defaults still trim
+    between batches (module docstring: 40-50 faults a run). Cost: up to KEEP_FREED_BYTES of freed
+    memory stays with the process between batches.
+
+    Set with mallopt, on glibc only (elsewhere nothing is done), once per process: where
+    MALLOC_TRIM_THRESHOLD_ holds Dask's default, or (``always``: the engines' own processes, inline
+    and the local pools' workers) where it is not set; another value is the user's choice and is kept."""
+    global _MALLOC_SET
+    env = os.environ.get("MALLOC_TRIM_THRESHOLD_")
+    if _MALLOC_SET or not (env == DASK_TRIM_THRESHOLD or (always and env is None)):
+        return _MALLOC_SET
+    import platform
+
+    if platform.libc_ver()[0] != "glibc":
+        return False
+    import ctypes
+
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        mmap_ok = libc.mallopt(_M_MMAP_THRESHOLD, MMAP_FROM_BYTES) == 1
+        trim_ok = libc.mallopt(_M_TRIM_THRESHOLD, KEEP_FREED_BYTES) == 1
+    except (OSError, AttributeError):  # a glibc without the usual soname or mallopt
+        return False
+    _MALLOC_SET = mmap_ok and trim_ok
+    return _MALLOC_SET
