@@ -45,6 +45,7 @@ def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Seq
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})  # blocked from the fork (_fork): one sent since kills now
     for c in others:  # the parent's ends of its pipe and of earlier workers': EOFs must not wait for this process
         c.close()
     one_thread_per_worker(inherited=True)
@@ -106,7 +107,7 @@ def fork_map(
                 mine, theirs = ctx.Pipe(duplex=True)
                 p = ctx.Process(target=_worker, args=(theirs, [*procs, mine], fn, items, shared))
                 try:
-                    p.start()
+                    _fork(p)
                 except OSError:  # no fork (out of memory, process limit): run on the workers already made
                     mine.close()
                     theirs.close()
@@ -124,6 +125,19 @@ def fork_map(
     except BaseException:
         _kill(procs)
         raise
+
+
+def _fork(p: multiprocessing.process.BaseProcess) -> None:
+    """Start worker ``p`` with SIGTERM blocked from the fork until the worker has put back the default
+    action (:func:`_worker`): a SIGTERM that came before would otherwise run the handler the parent
+    had installed (as the map drawer's child has), and the worker would live on, orphaned, computing.
+    Seen under load (30 on 2 cores): the pool's terminate reached a worker just forked, which then
+    held the pool for its SIGKILL grace. The parent's own SIGTERM waits for the fork, no longer."""
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    try:
+        p.start()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
 
 
 KILL_GRACE_S = 2.0  # a worker SIGTERM has not stopped by then is killed

@@ -144,6 +144,27 @@ def test_workers_die_on_terminate_whatever_sigterm_handler_the_parent_has(monkey
     assert time.perf_counter() - seen[0] < 60  # killed by SIGTERM, not by a SIGKILL after the grace period
 
 
+def test_a_sigterm_that_reaches_a_worker_before_it_resets_its_handler_still_kills_it(monkeypatch):
+    """The pool's terminate can reach a worker in its first moments, before it has put back SIGTERM's
+    default action, while the handler inherited from the parent is still installed: that worker must
+    die all the same, not live on orphaned (seen under load 30: it held the pool for the SIGKILL grace).
+    Here each worker is sent SIGTERM before its handler is reset."""
+    real = forkpool._worker
+
+    def early_sigterm(*args):
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.2)  # a handler, had it run, has run
+        real(*args)
+
+    monkeypatch.setattr(forkpool, "_worker", early_sigterm)
+    old = signal.signal(signal.SIGTERM, lambda *_: None)
+    try:
+        out = _collect(_raise_on_odd, [0, 2], 2)
+    finally:
+        signal.signal(signal.SIGTERM, old)
+    assert {r for _, r in out.values()} == {f"worker lost: exit code {-signal.SIGTERM}"}, out
+
+
 def _sockets(i: int) -> int:
     """Sockets this process holds (the pool's pipes are socket pairs)."""
     n = 0
