@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any
 
+from expdesign.heap import release_freed_memory
+
 
 @dataclass
 class PoolTimes:
@@ -100,6 +102,7 @@ def fork_map(
         else:
             held[conn] = None
 
+    release_freed_memory()  # fewer pages to copy at each fork (expdesign.heap)
     try:
         with forking or contextlib.nullcontext():
             for _ in range(min(workers, len(items))):
