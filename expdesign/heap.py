@@ -6,15 +6,24 @@ zeroed anew. A Monte Carlo batch frees its whole working set at its end, so with
 each batch of a long-lived process paid those faults again. Measured (`python
 benchmarks/heap_faults.py`, 125-run batches of the random design, model ship, forked children,
 load 30): 6,600 page faults on every batch after the first with glibc's defaults, 30-60 with freed
-memory kept; inline Monte Carlo of 2,000 runs 61,100 faults -> 8,700 and 1.75 -> 1.56 ms CPU a run
-(3 pairs alternated with main, load 29-32). The first batch of a new process still faults its
-working set in (about 10,000 faults a forked worker; a parent's gc.freeze before the fork does
-not change it, its malloc_trim takes 2,000 off): the first-task extra of ``benchmarks/scaling_model.py``.
+memory kept. The first batch of a new process still faults its working set in (about 10,000
+faults a forked worker; a parent's gc.freeze before the fork does not change it, its malloc_trim
+takes 2,000 off): the first-task extra of ``benchmarks/scaling_model.py``.
+
+Only the engines' own processes keep freed memory (the fork and spawn pools' workers, Dask's),
+never the caller's: mallopt is process-wide and cannot be undone (setting the trim threshold
+turns glibc's adaptive threshold off for good), and a library caller would keep up to
+KEEP_FREED_BYTES of every later job's freed memory too. Measured in a notebook-like process
+(one inline Monte Carlo of 2,000 runs, then a numpy job of its own that allocates and frees
+200 MB; load 15): RSS 195 MB after both with glibc's defaults, 384 MB with freed memory kept
+(205 MB of it free heap), for 3.75 -> 3.39 s CPU on the inline call.
 """
 
 from __future__ import annotations
 
+import ctypes
 import os
+import platform
 
 # glibc's mallopt parameters: M_TRIM_THRESHOLD, M_MMAP_THRESHOLD
 _M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
@@ -38,23 +47,20 @@ def keep_freed_memory(always: bool = False) -> bool:
     memory stays with the process between batches.
 
     Set with mallopt, on glibc only (elsewhere nothing is done), once per process: where
-    MALLOC_TRIM_THRESHOLD_ holds Dask's default, or (``always``: the engines' own processes, inline
-    and the local pools' workers) where it is not set; another value is the user's choice and is kept."""
+    MALLOC_TRIM_THRESHOLD_ holds Dask's default, or (``always``: the local pools' workers, processes
+    the engine owns; never a caller's process, module docstring) where it is not set; another value
+    is the user's choice and is kept."""
     global _MALLOC_SET
     env = os.environ.get("MALLOC_TRIM_THRESHOLD_")
     if _MALLOC_SET or not (env == DASK_TRIM_THRESHOLD or (always and env is None)):
         return _MALLOC_SET
-    import platform
-
-    if platform.libc_ver()[0] != "glibc":
+    libc = _glibc()
+    if libc is None:
         return False
-    import ctypes
-
     try:
-        libc = ctypes.CDLL("libc.so.6")
         mmap_ok = libc.mallopt(_M_MMAP_THRESHOLD, MMAP_FROM_BYTES) == 1
         trim_ok = libc.mallopt(_M_TRIM_THRESHOLD, KEEP_FREED_BYTES) == 1
-    except (OSError, AttributeError):  # a glibc without the usual soname or mallopt
+    except AttributeError:  # a glibc without mallopt
         return False
     _MALLOC_SET = mmap_ok and trim_ok
     return _MALLOC_SET
@@ -63,18 +69,23 @@ def keep_freed_memory(always: bool = False) -> bool:
 def release_freed_memory() -> bool:
     """Hand this process's free heap pages back to the system now (glibc's malloc_trim(0)); True when
     called. The fork pool's parent does this before it forks: a fork copies the page tables of every
-    page the parent holds, kept free memory included (parent CPU per fork 7.3-7.8 ms on main, 8.3-9.3 ms
-    once the parent kept its freed heap, 3 runs each at load 15-30), and a worker's first batch then
-    faults fresh pages instead of copying the parent's (about 2,000 of 10,000 faults fewer, measured).
-    The parent's next batch faults its working set in once again."""
-    import platform
-
-    if platform.libc_ver()[0] != "glibc":
-        return False
-    import ctypes
-
+    page the parent holds, kept free memory included (parent CPU per fork 7.3-7.8 ms on main,
+    8.3-9.3 ms once the parent kept its freed heap, as the scaling benchmark's process does; 3 runs
+    each at load 15-30), and a worker's first batch then faults fresh pages instead of copying the
+    parent's (about 2,000 of 10,000 faults fewer, measured). The parent's next batch faults its
+    working set in once again."""
+    libc = _glibc()
     try:
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):
+        return libc is not None and libc.malloc_trim(0) in (0, 1)
+    except AttributeError:  # a glibc without malloc_trim
         return False
-    return True
+
+
+def _glibc() -> ctypes.CDLL | None:
+    """This process's C library where it is glibc (its malloc is the one tuned here), else None."""
+    if platform.libc_ver()[0] != "glibc":
+        return None
+    try:
+        return ctypes.CDLL("libc.so.6")
+    except OSError:  # a glibc without the usual soname
+        return None

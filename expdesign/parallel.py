@@ -125,7 +125,6 @@ class Engine:
     ) -> MapResult:
         res, done = [None] * len(items), [False] * len(items)
         bar = _Progress(weights or [1] * len(items), desc, progress, unit)
-        keep_freed_memory(always=True)  # as the pools' workers do: the same CPU per task in every engine
         try:
             for i, it in enumerate(items):
                 res[i] = _call(fn, it, shared)
@@ -209,7 +208,7 @@ def _init_worker(shared: Any) -> None:
     global _SHARED
     _SHARED = shared
     one_thread_per_worker()
-    keep_freed_memory(always=True)
+    keep_freed_memory(always=True)  # this process is the pool's own (expdesign.heap)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 

@@ -325,3 +325,14 @@ def test_only_dasks_default_trim_threshold_is_undone(value, always, kept):
     out = subprocess.run([sys.executable, "-c", code], env=env, cwd=root, capture_output=True, text=True, check=True).stdout
     expected = kept and platform.libc_ver()[0] == "glibc"
     assert out.split() == [str(expected)] * 2
+
+
+def test_the_inline_engine_leaves_the_callers_malloc_alone():
+    """The inline engine runs in the caller's process (a notebook, a script): it must not set glibc's
+    trim threshold there (process-wide and permanent: the caller would keep up to 256 MB of every
+    later job's freed memory; expdesign.heap). In a fresh process without MALLOC_TRIM_THRESHOLD_."""
+    env = {k: v for k, v in os.environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
+    code = "from expdesign import heap, parallel; parallel.Engine().map(abs, [-1, 2], progress=False); print(heap._MALLOC_SET)"
+    root = Path(__file__).resolve().parent.parent
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=root, capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False"]
