@@ -45,9 +45,9 @@ def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Seq
     from expdesign.heap import keep_freed_memory
     from expdesign.parallel import _call, one_thread_per_worker
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C pending since the fork is discarded here
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})  # blocked from the fork (_fork): one sent since kills now
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)  # blocked from the fork (_fork): a SIGTERM sent since kills now
     for c in others:  # the parent's ends of its pipe and of earlier workers': EOFs must not wait for this process
         c.close()
     one_thread_per_worker(inherited=True)
@@ -130,13 +130,19 @@ def fork_map(
         raise
 
 
+_HELD = {signal.SIGTERM, signal.SIGINT}  # blocked in a new worker until it has its own handlers
+
+
 def _fork(p: multiprocessing.process.BaseProcess) -> None:
-    """Start worker ``p`` with SIGTERM blocked from the fork until the worker has put back the default
-    action (:func:`_worker`): a SIGTERM that came before would otherwise run the handler the parent
-    had installed (as the map drawer's child has), and the worker would live on, orphaned, computing.
-    Seen under load (30 on 2 cores): the pool's terminate reached a worker just forked, which then
-    held the pool for its SIGKILL grace. The parent's own SIGTERM waits for the fork, no longer."""
-    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    """Start worker ``p`` with SIGTERM and SIGINT blocked from the fork until the worker has put in
+    its own actions (:func:`_worker`; the mask is inherited by the fork, and only this thread's is
+    changed). A SIGTERM that came before would otherwise run the handler the parent had installed
+    (as the map drawer's child has), and the worker would live on, orphaned, computing: seen under
+    load (30 on 2 cores), the pool's terminate reached a worker just forked, which then held the
+    pool for its SIGKILL grace. A Ctrl-C (sent to the whole foreground process group) would raise
+    KeyboardInterrupt in the worker and print its traceback. The parent's own signals wait for the
+    fork, no longer: its mask is put back as it was."""
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
     try:
         p.start()
     finally:

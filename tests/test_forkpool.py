@@ -144,25 +144,48 @@ def test_workers_die_on_terminate_whatever_sigterm_handler_the_parent_has(monkey
     assert time.perf_counter() - seen[0] < 60  # killed by SIGTERM, not by a SIGKILL after the grace period
 
 
-def test_a_sigterm_that_reaches_a_worker_before_it_resets_its_handler_still_kills_it(monkeypatch):
-    """The pool's terminate can reach a worker in its first moments, before it has put back SIGTERM's
-    default action, while the handler inherited from the parent is still installed: that worker must
-    die all the same, not live on orphaned (seen under load 30: it held the pool for the SIGKILL grace).
-    Here each worker is sent SIGTERM before its handler is reset."""
+@pytest.mark.parametrize(
+    "sig,expected",
+    [
+        (signal.SIGTERM, {(False, f"worker lost: exit code {-signal.SIGTERM}")}),  # killed, as terminate means
+        (signal.SIGINT, {(True, 0), (True, 2)}),  # Ctrl-C is the parent's: the worker goes on, no traceback
+    ],
+)
+def test_a_signal_that_reaches_a_worker_before_it_sets_its_handlers_does_what_the_workers_handler_says(
+    monkeypatch, capfd, sig, expected
+):
+    """The pool's terminate, or a Ctrl-C sent to the whole process group, can reach a worker in its
+    first moments, while the handlers inherited from the parent are still installed: SIGTERM must
+    kill it all the same (not leave it orphaned: seen under load 30, it held the pool for the SIGKILL
+    grace), SIGINT must not raise KeyboardInterrupt in it. Here each worker is sent the signal
+    before its handlers are set. The parent's signal mask is the same after the map."""
     real = forkpool._worker
 
-    def early_sigterm(*args):
-        os.kill(os.getpid(), signal.SIGTERM)
+    def early_signal(*args):
+        os.kill(os.getpid(), sig)
         time.sleep(0.2)  # a handler, had it run, has run
         real(*args)
 
-    monkeypatch.setattr(forkpool, "_worker", early_sigterm)
+    monkeypatch.setattr(forkpool, "_worker", early_signal)
     old = signal.signal(signal.SIGTERM, lambda *_: None)
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, [])
     try:
         out = _collect(_raise_on_odd, [0, 2], 2)
     finally:
         signal.signal(signal.SIGTERM, old)
-    assert {r for _, r in out.values()} == {f"worker lost: exit code {-signal.SIGTERM}"}, out
+    assert set(out.values()) == expected, out
+    assert "KeyboardInterrupt" not in capfd.readouterr().err
+    assert signal.pthread_sigmask(signal.SIG_BLOCK, []) == mask
+
+
+def test_a_parent_that_blocks_sigterm_keeps_it_blocked():
+    """The pool puts back the parent's own mask after each fork, not an unblocked one."""
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    try:
+        assert set(_collect(_raise_on_odd, [0, 2], 2).values()) == {(True, 0), (True, 2)}
+        assert signal.SIGTERM in signal.pthread_sigmask(signal.SIG_BLOCK, [])
+    finally:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
 
 
 def _sockets(i: int) -> int:
