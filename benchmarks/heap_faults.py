@@ -39,8 +39,8 @@ def child(sh: object, keep: bool, first: int, n: int, batches: int) -> list[tupl
     """In a forked child: batches one after the other, with freed memory kept or glibc's defaults."""
     from expdesign.heap import keep_freed_memory
 
-    if keep and not keep_freed_memory(always=True):
-        raise SystemExit("freed memory could not be kept (not glibc, or MALLOC_TRIM_THRESHOLD_ set)")
+    if keep:
+        keep_freed_memory(always=True)
     return [batch(sh, first + k, n) for k in range(batches)]
 
 
@@ -50,6 +50,10 @@ def main() -> None:
     ap.add_argument("--batches", type=int, default=3)
     ap.add_argument("--repeat", type=int, default=3)
     a = ap.parse_args()
+    import platform
+
+    if platform.libc_ver()[0] != "glibc" or "MALLOC_TRIM_THRESHOLD_" in os.environ:  # before any fork: a child cannot say it
+        raise SystemExit("heap_faults: needs glibc and no MALLOC_TRIM_THRESHOLD_ (freed memory could not be kept)")
     from expdesign.montecarlo import MCConfig, prepare, warm_compiled
     from primitives.library import model_ship_thesis
     from primitives.ship import load_profile
