@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any
 
+from expdesign.heap import release_freed_memory
+
 
 @dataclass
 class PoolTimes:
@@ -40,13 +42,16 @@ def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Seq
     """A forked worker: run the task whose index the parent sends, send back (index, ok, result or
     error text), until the parent sends None or goes away. Ctrl-C is the parent's to handle; SIGTERM
     (the parent's :meth:`terminate`) kills, whatever handler the parent had installed."""
+    from expdesign.heap import keep_freed_memory
     from expdesign.parallel import _call, one_thread_per_worker
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C pending since the fork is discarded here
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)  # blocked from the fork (_fork): a SIGTERM sent since kills now
     for c in others:  # the parent's ends of its pipe and of earlier workers': EOFs must not wait for this process
         c.close()
     one_thread_per_worker(inherited=True)
+    keep_freed_memory(always=True)  # each task reuses the heap the last one grew (expdesign.heap)
     while True:
         try:
             i = conn.recv()
@@ -97,6 +102,7 @@ def fork_map(
         else:
             held[conn] = None
 
+    release_freed_memory()  # fewer pages to copy at each fork (expdesign.heap)
     try:
         with forking or contextlib.nullcontext():
             for _ in range(min(workers, len(items))):
@@ -104,7 +110,7 @@ def fork_map(
                 mine, theirs = ctx.Pipe(duplex=True)
                 p = ctx.Process(target=_worker, args=(theirs, [*procs, mine], fn, items, shared))
                 try:
-                    p.start()
+                    _fork(p)
                 except OSError:  # no fork (out of memory, process limit): run on the workers already made
                     mine.close()
                     theirs.close()
@@ -122,6 +128,25 @@ def fork_map(
     except BaseException:
         _kill(procs)
         raise
+
+
+_HELD = {signal.SIGTERM, signal.SIGINT}  # blocked in a new worker until it has its own handlers
+
+
+def _fork(p: multiprocessing.process.BaseProcess) -> None:
+    """Start worker ``p`` with SIGTERM and SIGINT blocked from the fork until the worker has put in
+    its own actions (:func:`_worker`; the mask is inherited by the fork, and only this thread's is
+    changed). A SIGTERM that came before would otherwise run the handler the parent had installed
+    (as the map drawer's child has), and the worker would live on, orphaned, computing: seen under
+    load (30 on 2 cores), the pool's terminate reached a worker just forked, which then held the
+    pool for its SIGKILL grace. A Ctrl-C (sent to the whole foreground process group) would raise
+    KeyboardInterrupt in the worker and print its traceback. The parent's own signals wait for the
+    fork, no longer: its mask is put back as it was."""
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
+    try:
+        p.start()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
 
 
 KILL_GRACE_S = 2.0  # a worker SIGTERM has not stopped by then is killed

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from expdesign.heap import keep_freed_memory
 from primitives.errors import UserError
 
 ENV_SCHEDULER = "SHIPTRIAL_SCHEDULER"
@@ -200,47 +201,6 @@ def _one_thread_while_forking() -> contextlib.AbstractContextManager:
     return _CONTROLLER[1].limit(limits=1)
 
 
-# glibc's mallopt parameters: M_TRIM_THRESHOLD, M_MMAP_THRESHOLD
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
-KEEP_FREED_BYTES = 256 << 20  # freed heap a worker keeps for its next batch instead of returning it
-# arrays below this come from the heap (reused), not from fresh mappings: glibc's own adaptive
-# ceiling on 64-bit (DEFAULT_MMAP_THRESHOLD_MAX) and the largest value older glibc accepts (its
-# mallopt refuses a threshold over HEAP_MAX_SIZE / 2; 2.36 here takes 64 MB, with the same effect)
-MMAP_FROM_BYTES = 32 << 20
-DASK_TRIM_THRESHOLD = "65536"  # Dask's default distributed.nanny.pre-spawn-environ value
-_MALLOC_SET = False
-
-
-def keep_freed_memory() -> bool:
-    """Let this worker reuse the memory its last batch freed; True when done. Dask's nanny starts
-    workers with MALLOC_TRIM_THRESHOLD_=65536, which makes glibc return freed memory to the system
-    at once and also turns off its adaptive mmap threshold: every array over 128 kB of every batch
-    is then a fresh mapping, faulted in and zeroed page by page. Measured in one process with that
-    variable (125-run batches of the random design, load 18): 2.8-3.1 ms CPU and ~240 page faults
-    a run, 2.1-2.3 ms and none once set, as without the variable; the same peak memory. Cost: up
-    to KEEP_FREED_BYTES of freed memory stays with each worker between batches.
-
-    Set with mallopt, on glibc only (elsewhere nothing is done), once per process, and only where
-    the variable holds Dask's default: another value is the user's own choice and is kept."""
-    global _MALLOC_SET
-    if _MALLOC_SET or os.environ.get("MALLOC_TRIM_THRESHOLD_") != DASK_TRIM_THRESHOLD:
-        return _MALLOC_SET
-    import platform
-
-    if platform.libc_ver()[0] != "glibc":
-        return False
-    import ctypes
-
-    try:
-        libc = ctypes.CDLL("libc.so.6")
-        mmap_ok = libc.mallopt(_M_MMAP_THRESHOLD, MMAP_FROM_BYTES) == 1
-        trim_ok = libc.mallopt(_M_TRIM_THRESHOLD, KEEP_FREED_BYTES) == 1
-    except (OSError, AttributeError):  # a glibc without the usual soname or mallopt
-        return False
-    _MALLOC_SET = mmap_ok and trim_ok
-    return _MALLOC_SET
-
-
 def _init_worker(shared: Any) -> None:
     """Process-pool initializer (start methods other than fork): keep the shared inputs; one
     BLAS/OpenMP thread (:func:`one_thread_per_worker`); leave Ctrl-C to the parent, which cancels
@@ -248,6 +208,7 @@ def _init_worker(shared: Any) -> None:
     global _SHARED
     _SHARED = shared
     one_thread_per_worker()
+    keep_freed_memory(always=True)  # this process is the pool's own (expdesign.heap)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
