@@ -70,7 +70,7 @@ def test_only_the_weakest_is_dropped_and_the_text_says_noise_without_a_misfit_te
     assert "noise; the run-to-run misfit came out zero" in reason and "|estimate/std| = 0.50" in reason, reason
     cov = FindingCov(np.zeros((2, 2)), np.eye(2) * 1e-8, n_runs=2)
     assert _drop_indistinct(model, preps, result, list(result.steps), findings[1:], cov, w)
-    assert "noise and run-to-run model misfit" in result.rejected[1]["reason"]
+    assert "noise and model misfit" in result.rejected[1]["reason"]
 
 
 def test_a_delay_beside_a_weaker_damping_term_stays_named():
