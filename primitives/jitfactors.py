@@ -42,7 +42,10 @@ def _factor_table(n_sig, f_sig, f_mod, f_sta, f_pow):
             continue
         found = -1
         for d in range(n_der):
-            same_sta = d_sta[d] == f_sta[f] or (math.isnan(d_sta[d]) and math.isnan(f_sta[f]))
+            # the same station bit for bit: 0.0 and -0.0 compare equal but can give s + station * r zeros of either sign
+            same_sta = (d_sta[d] == f_sta[f] and math.copysign(1.0, d_sta[d]) == math.copysign(1.0, f_sta[f])) or (
+                math.isnan(d_sta[d]) and math.isnan(f_sta[f])
+            )
             if d_sig[d] == f_sig[f] and d_mod[d] == f_mod[f] and d_pow[d] == f_pow[f] and same_sta:
                 found = d
                 break

@@ -6,6 +6,8 @@ missing or SHIPTRIAL_KERNEL=numpy is set; these tests run it in the default suit
 
 from __future__ import annotations
 
+import importlib
+import inspect
 import math
 import os
 import subprocess
@@ -290,3 +292,39 @@ def test_shared_factors_and_long_terms_give_the_term_by_term_bits():
     got = jitloop.open_loop(VelocityStep(terms, coef), ["tau_x"], exo, nu0, None, None, forced)
     assert got is not None
     assert np.array_equal(got, _reference_open_loop(terms, coef, exo, nu0, forced))
+
+
+def _inlined_files_called(fn, helpers: dict, seen: set) -> set[str]:
+    """The files of the :func:`jitloop.inlined` helpers ``fn`` calls (by name or as a module's
+    attribute), and of the helpers they call in turn."""
+    py = getattr(fn, "py_func", fn)
+    names, files = py.__code__.co_names, set()
+    for name in names:
+        obj = py.__globals__.get(name)
+        for cand in [obj] + ([getattr(obj, a, None) for a in names] if inspect.ismodule(obj) else []):
+            if id(cand) in helpers and id(cand) not in seen:
+                seen.add(id(cand))
+                files.add(os.path.realpath(helpers[id(cand)]))
+                files |= _inlined_files_called(cand, helpers, seen)
+    return files
+
+
+def test_every_helper_file_compiled_into_another_files_function_is_in_the_cache_stamp():
+    """numba's disk cache checks a compiled function's own file only, so every file whose inlined
+    helpers (or the constant N_STATE) another file's compiled function reads must be in
+    SHARED_HELPER_FILES, or editing it leaves stale machine code in a warm process (the time loop
+    inlines jitfactors' helpers and reads jitprogram's N_STATE since the loop left jitloop.py)."""
+    import primitives.jitprogram
+
+    for mod in ("expdesign.ivsolve", "expdesign.oekernel", "expdesign.robust", "expdesign.sensloop", "identify.steering.kalman"):
+        importlib.import_module(mod)  # their compiled functions register in jitloop._COMPILED
+    for mod in ("primitives.jitsens", "primitives.jittime", "primitives.regkernel"):
+        importlib.import_module(mod)
+
+    stamped = {os.path.realpath(f) for f in jitloop.SHARED_HELPER_FILES}
+    helpers = {id(g[n]): g["__file__"] for g, n in jitloop._INLINED}
+    for c in jitloop._COMPILED:
+        own = os.path.realpath(c.fn.__globals__["__file__"])
+        foreign = _inlined_files_called(c.fn, helpers, set()) - {own}
+        assert foreign <= stamped, f"{c.__name__} inlines helpers of {sorted(foreign - stamped)}, not stamped"
+    assert os.path.realpath(primitives.jitprogram.__file__) in stamped  # N_STATE, frozen into the loops
