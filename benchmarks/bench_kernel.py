@@ -60,8 +60,10 @@ def record(case: str, data: str, out: str) -> None:
         importlib.import_module("primitives.jittime").time_loop = loop
     jitsens._sens_loop = keeping("sens", jitsens._sens_loop)
     d, _ = diagnose(build(case, None, 3500, Path(data)), 1, 4)
-    with open(out, "wb") as f:
+    tmp = f"{out}.part"  # a recording cut short (disk full, interrupted) never stands as a whole one
+    with open(tmp, "wb") as f:
         pickle.dump(calls, f, protocol=5)
+    os.replace(tmp, out)
     print(f"{case}: named {sorted(x['effect'] for x in d.findings)}; {len(calls)} kernel calls written to {out}")
 
 
