@@ -6,6 +6,9 @@ missing or SHIPTRIAL_KERNEL=numpy is set; these tests run it in the default suit
 
 from __future__ import annotations
 
+import importlib
+import inspect
+import math
 import os
 import subprocess
 import sys
@@ -226,3 +229,102 @@ def test_a_changed_helper_file_recompiles_the_cached_functions_that_inline_it(tm
     assert run() == ["2.0", "1"]  # loaded from it
     helper.write_text(helper.read_text().replace("x + 1.0", "x + 20.0"))
     assert run() == ["21.0", "0"]  # the helper's change seen: compiled again, not the cached 2.0
+
+
+def _reference_open_loop(terms, coef, exo, nu0, forced):
+    """open_loop in calm water (no current, no wind) in plain Python floats, member by member and
+    term by term: each term ((c * f_1) * f_2) ..., a factor |s + station r|^power by the C
+    library's pow for powers other than 1, 2 and -1 (the compiled loop's call), the terms of a DOF
+    summed left to right, the input-only increment added first."""
+    from primitives.terms import parse_factor
+
+    batch, n = nu0.shape[0], forced.shape[0]
+    out = np.empty((batch, n + 1, 3))
+    for b in range(batch):
+        u, v, r = (float(x) for x in nu0[b])
+        out[b, 0] = u, v, r
+        for k in range(n):
+            h = math.hypot(u, v)
+            sig = {"u": u, "v": v, "r": r, "u_r": u, "v_r": v, "u_q": u, "v_q": v, "U": 1e-9 if h < 1e-9 else h}
+            sig.update({name: float(x[k, b]) for name, x in exo.items()})
+            nxt = []
+            for i, dof in enumerate(terms.terms):
+                acc = 0.0
+                for j, term in enumerate(dof):
+                    x_t = float(coef[b, terms.dof_slice(i)][j])
+                    for f in (parse_factor(s) for s in term.split("*")):
+                        x = sig[f.name] if f.station is None else sig[f.name] + f.station * r
+                        x = abs(x) if f.modulus else x
+                        if f.power == 2:
+                            x = x * x
+                        elif f.power == -1:
+                            x = 1.0 / x
+                        elif f.power != 1:
+                            x = math.pow(x, float(f.power))
+                        x_t = x_t * x
+                    acc = x_t if j == 0 else acc + x_t
+                nxt.append(acc)
+            u, v, r = ((q + float(forced[k, b, i])) + nxt[i] for i, q in enumerate((u, v, r)))
+            out[b, k + 1] = u, v, r
+    return out
+
+
+@needs_numba
+def test_shared_factors_and_long_terms_give_the_term_by_term_bits():
+    """The compiled loop evaluates each distinct factor once a step (jitfactors' factor table) and a
+    term of up to three factors in one pass: the bits of forming every term factor by factor, on a
+    program whose stations, moduli, squares, reciprocals and pow() powers repeat across terms and
+    DOFs, with terms of one to five factors and a coefficient per member."""
+
+    rng = np.random.default_rng(7)
+    terms = TermSet(
+        [
+            ["u_r", "u_r*|u_r|", "v_r^3*U^-1", "|v_r@-2.5|*r*u_r*tau_x", "|v_r@-2.5|*r", "v_r^3*r*r*U^-1*tau_x"],
+            ["v_r", "|v_r@-2.5|*r", "u_r*r", "v_r^3*U^-1", "U^-2*v_r", "|v_r@1.5|^2", "|v_r@1.5|*r"],
+            ["r", "|v_r@-2.5|*r", "|v_r@-2.5|", "r^3", "U^-1*r", "u_r*v_r*r*tau_x*|u_r|"],
+        ]
+    )
+    batch, n = 4, 60
+    coef = rng.normal(0, 1e-3, (batch, terms.n_params))
+    exo = {"tau_x": rng.normal(0, 0.1, (n, batch))}
+    forced = rng.normal(0, 1e-4, (n, batch, 3))
+    nu0 = np.column_stack([rng.normal(1.0, 0.1, batch), rng.normal(0.05, 0.02, batch), rng.normal(0.01, 0.005, batch)])
+    got = jitloop.open_loop(VelocityStep(terms, coef), ["tau_x"], exo, nu0, None, None, forced)
+    assert got is not None
+    assert np.array_equal(got, _reference_open_loop(terms, coef, exo, nu0, forced))
+
+
+def _inlined_files_called(fn, helpers: dict, seen: set) -> set[str]:
+    """The files of the :func:`jitloop.inlined` helpers ``fn`` calls (by name or as a module's
+    attribute), and of the helpers they call in turn."""
+    py = getattr(fn, "py_func", fn)
+    names, files = py.__code__.co_names, set()
+    for name in names:
+        obj = py.__globals__.get(name)
+        for cand in [obj] + ([getattr(obj, a, None) for a in names] if inspect.ismodule(obj) else []):
+            if id(cand) in helpers and id(cand) not in seen:
+                seen.add(id(cand))
+                files.add(os.path.realpath(helpers[id(cand)]))
+                files |= _inlined_files_called(cand, helpers, seen)
+    return files
+
+
+def test_every_helper_file_compiled_into_another_files_function_is_in_the_cache_stamp():
+    """numba's disk cache checks a compiled function's own file only, so every file whose inlined
+    helpers (or the constant N_STATE) another file's compiled function reads must be in
+    SHARED_HELPER_FILES, or editing it leaves stale machine code in a warm process (the time loop
+    inlines jitfactors' helpers and reads jitprogram's N_STATE since the loop left jitloop.py)."""
+    import primitives.jitprogram
+
+    for mod in ("expdesign.ivsolve", "expdesign.oekernel", "expdesign.robust", "expdesign.sensloop", "identify.steering.kalman"):
+        importlib.import_module(mod)  # their compiled functions register in jitloop._COMPILED
+    for mod in ("primitives.jitsens", "primitives.jittime", "primitives.regkernel"):
+        importlib.import_module(mod)
+
+    stamped = {os.path.realpath(f) for f in jitloop.SHARED_HELPER_FILES}
+    helpers = {id(g[n]): g["__file__"] for g, n in jitloop._INLINED}
+    for c in jitloop._COMPILED:
+        own = os.path.realpath(c.fn.__globals__["__file__"])
+        foreign = _inlined_files_called(c.fn, helpers, set()) - {own}
+        assert foreign <= stamped, f"{c.__name__} inlines helpers of {sorted(foreign - stamped)}, not stamped"
+    assert os.path.realpath(primitives.jitprogram.__file__) in stamped  # N_STATE, frozen into the loops

@@ -1,0 +1,125 @@
+"""The term increments of :func:`primitives.jittime.time_loop` from a factor table: every distinct
+factor of the term program that is not a signal itself (a station, a modulus or a power other than
+1) is evaluated once a step into its own row beside the signals, and each term then multiplies its
+coefficient by its factors' rows in one pass over the batch.
+
+The regression model's increment is Phi(k)^T theta (seed 001 (3.60)), each term c_j * f_1 * f_2 ...
+formed and summed exactly as :func:`primitives.jitloop._increments` forms them (the generated
+increment function of :meth:`primitives.terms.TermSet.increment_function`): ((c_j * f_1) * f_2) ...,
+the terms of a DOF added left to right, each factor |s + station * r|^power by the same IEEE
+operations. A factor shared by several terms has the same value in each, so reading it from a
+shared row gives the same bits; what is saved is its recomputation (a ``pow`` call for v_r^3, a
+division for U^-1) and the passes over the batch of a factor-by-factor product.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from primitives.jitloop import inlined
+
+
+@inlined
+def _factor_table(n_sig, f_sig, f_mod, f_sta, f_pow):
+    """The distinct factors of a term program that are not a signal itself (a station, a modulus or
+    a power other than 1), each evaluated once a step into its own row after the ``n_sig`` signal
+    rows: (row of every factor, and per derived row its signal, modulus, station, power). Two
+    factors with the same signal, modulus, station and power have the same value, so a term reading
+    the shared row multiplies the bits it would have formed itself."""
+    nf = f_sig.shape[0]
+    row = np.empty(nf, np.int64)
+    d_sig = np.empty(nf, np.int64)
+    d_mod = np.empty(nf, np.int64)
+    d_sta = np.empty(nf)
+    d_pow = np.empty(nf, np.int64)
+    n_der = 0
+    for f in range(nf):
+        plain = math.isnan(f_sta[f]) and f_mod[f] == 0 and f_pow[f] == 1
+        if plain:
+            row[f] = f_sig[f]
+            continue
+        found = -1
+        for d in range(n_der):
+            # the same station bit for bit: 0.0 and -0.0 compare equal but can give s + station * r zeros of either sign
+            same_sta = (d_sta[d] == f_sta[f] and math.copysign(1.0, d_sta[d]) == math.copysign(1.0, f_sta[f])) or (
+                math.isnan(d_sta[d]) and math.isnan(f_sta[f])
+            )
+            if d_sig[d] == f_sig[f] and d_mod[d] == f_mod[f] and d_pow[d] == f_pow[f] and same_sta:
+                found = d
+                break
+        if found < 0:
+            found = n_der
+            d_sig[n_der], d_mod[n_der], d_sta[n_der], d_pow[n_der] = f_sig[f], f_mod[f], f_sta[f], f_pow[f]
+            n_der += 1
+        row[f] = n_sig + found
+    return row, d_sig[:n_der], d_mod[:n_der], d_sta[:n_der], d_pow[:n_der]
+
+
+@inlined
+def _derived_rows(sig, n_sig, d_sig, d_mod, d_sta, d_pow, batch):
+    """Each derived factor |s + station * r|^power into its row of ``sig``: the operations of
+    :func:`_times_factor` in its order, one loop over the batch per operation (they vectorise)."""
+    for d in range(d_sig.shape[0]):
+        o, s = n_sig + d, d_sig[d]
+        st = d_sta[d]
+        if math.isnan(st):
+            for b in range(batch):
+                sig[o, b] = sig[s, b]
+        else:
+            for b in range(batch):
+                sig[o, b] = sig[s, b] + st * sig[2, b]
+        if d_mod[d]:
+            for b in range(batch):
+                sig[o, b] = abs(sig[o, b])
+        pw = d_pow[d]
+        if pw == 2:
+            for b in range(batch):
+                sig[o, b] = sig[o, b] * sig[o, b]
+        elif pw == -1:
+            for b in range(batch):
+                sig[o, b] = 1.0 / sig[o, b]
+        elif pw != 1:
+            fp = float(pw)
+            for b in range(batch):
+                sig[o, b] = math.pow(sig[o, b], fp)
+
+
+@inlined
+def _table_increments(inc, tmp, sig, coef, batch, dof_first, dof_n, t_first, t_n, row):
+    """inc[i, b] = Phi_i^T theta per DOF i as :func:`_increments` forms it (each term
+    ((c_j * f_1) * f_2) ..., the terms summed left to right), its factors read from their rows
+    (:func:`_factor_table`); a term of up to three factors in one pass over the batch."""
+    for i in range(dof_first.shape[0]):
+        if dof_n[i] == 0:
+            for b in range(batch):
+                inc[i, b] = 0.0
+            continue
+        for t in range(dof_first[i], dof_first[i] + dof_n[i]):
+            f0, nf, first = t_first[t], t_n[t], t == dof_first[i]
+            if nf == 1:
+                r1 = row[f0]
+                for b in range(batch):
+                    tmp[b] = coef[t, b] * sig[r1, b]
+            elif nf == 2:
+                r1, r2 = row[f0], row[f0 + 1]
+                for b in range(batch):
+                    tmp[b] = coef[t, b] * sig[r1, b] * sig[r2, b]
+            elif nf == 3:
+                r1, r2, r3 = row[f0], row[f0 + 1], row[f0 + 2]
+                for b in range(batch):
+                    tmp[b] = coef[t, b] * sig[r1, b] * sig[r2, b] * sig[r3, b]
+            else:
+                for b in range(batch):
+                    tmp[b] = coef[t, b]
+                for f in range(f0, f0 + nf):
+                    r1 = row[f]
+                    for b in range(batch):
+                        tmp[b] = tmp[b] * sig[r1, b]
+            if first:
+                for b in range(batch):
+                    inc[i, b] = tmp[b]
+            else:
+                for b in range(batch):
+                    inc[i, b] = inc[i, b] + tmp[b]
