@@ -64,7 +64,7 @@ def simulate_yaw(
     i_r = theta[:, col["I_r"]]
     # regressor of every non-I_r parameter at each sample: the input terms' now, the state terms' in the loop
     reg = _input_regressors(model, w, col) if sensitivities else None
-    if not sensitivities and yawloop.usable(model, b, n):  # the same bits, compiled (identify.yawid.yawloop)
+    if not sensitivities and yawloop.usable(model, w, b, n):  # the same bits, compiled (identify.yawid.yawloop)
         return yawloop.simulate(model, theta, col, w, r0, ts), None
     forcing = _input_forcing(model, theta, w, col, reg)
     r_hat = np.empty((b, n))

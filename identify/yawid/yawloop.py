@@ -65,11 +65,13 @@ def _loop(tau, u, v, vd, phi, p, in_codes, th_in, st_codes, th_st, i_r, r0, ts, 
     return out
 
 
-def usable(model: YawModel, b: int, n: int) -> bool:
+def usable(model: YawModel, w: dict[str, np.ndarray], b: int, n: int) -> bool:
     """Whether :func:`simulate` runs ``b`` members of ``n`` steps compiled: numba there and the
-    work worth loading it (:func:`primitives.jitloop.use`), every term of the model known to the loop."""
+    work worth loading it (:func:`primitives.jitloop.use`), every term of the model known to the loop
+    and every signal it reads given (the compiled loop does not check its indices: a missing signal
+    must fail in the numpy loop with its KeyError, not read out of bounds)."""
     known = all(t in INPUT_CODES for t in model.input_terms) and all(t in STATE_CODES for t in model.state_terms)
-    return known and jitloop.use(b * n)
+    return known and set(model.signals) <= set(w) and "tau_r" in w and jitloop.use(b * n)
 
 
 def simulate(model: YawModel, theta: np.ndarray, col: dict[str, int], w: dict[str, np.ndarray], r0, ts: float) -> np.ndarray:
