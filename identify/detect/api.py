@@ -31,7 +31,6 @@ from identify.detect.yawmodel import (
 )
 from identify.yawid.experiment import pod_yaw_moment
 from primitives.errors import UserError
-from primitives.heap import keep_freed_memory
 from primitives.io import atomic_write_text, dumps, read_input_text
 from primitives.ship import load_profile
 
@@ -307,7 +306,6 @@ def screen(
             f"{rec.source}: {rec.duration_s:.0f} s is too short to detect a change; give at least "
             f"{20 * prior.block * prior.dt:.0f} s"
         )
-    keep_freed_memory()  # the no-change records' 16 MB arrays reused, not page-faulted in afresh (primitives.heap)
     sig, r = signals(rec, prior.kind)
     r0 = float(np.mean(r[:5]))
     eps = r - prior.predict(sig, r0=r0)
