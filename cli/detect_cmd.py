@@ -125,6 +125,7 @@ def register(app: typer.Typer) -> None:
         from identify.detect.api import plot as plot_stats
         from identify.detect.verdict import implausible_inertia
         from primitives.errors import UserError
+        from primitives.heap import DETECT_KEEP_BYTES, keep_freed_memory
 
         validate_detect_options(plot=plot, false_alarm=false_alarm, min_change=min_change, seed=seed, n_rdot=n_rdot, i_z=i_z)
         i_z, n_rdot = hull_inertia(profile, i_z, n_rdot)
@@ -151,6 +152,8 @@ def register(app: typer.Typer) -> None:
                 "calibrated to --false-alarm: refit it with detect-prior (--bootstrap > 0)",
                 err=True,
             )
+        # this process is the command's own: the no-change records' 16 MB arrays reused, not faulted in afresh
+        keep_freed_memory(always=True, keep_bytes=DETECT_KEEP_BYTES)  # (primitives.heap: the figures)
         dets = [run_detect(r, prior, false_alarm, min_change, seed, n_rdot=n_rdot, i_z=i_z) for r in recs]
         written = plot_stats(dets, plot, PLOT_PANELS) if plot is not None else []
         if json_out:

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from primitives import jitloop
+
 
 @dataclass(frozen=True)
 class DeadZoneCusum:
@@ -32,13 +34,29 @@ class DeadZoneCusum:
 
 
 def cusum_path(inc: np.ndarray) -> np.ndarray:
-    """``g_t = max(0, g_{t-1} + inc_t)`` along axis 0, vectorised over the other axes."""
+    """``g_t = max(0, g_{t-1} + inc_t)`` along axis 0, vectorised over the other axes; compiled for
+    a large float array (:func:`_path`: the same bits, a NaN carried on as numpy's maximum does)."""
+    if inc.dtype == np.float64 and inc.size and jitloop.use(inc.size):
+        flat = np.ascontiguousarray(inc).reshape(inc.shape[0], -1)
+        return _path(flat, np.empty_like(flat)).reshape(inc.shape)
     g = np.empty_like(inc)
     acc = np.zeros(inc.shape[1:])
     for i in range(inc.shape[0]):
         acc = np.maximum(0.0, acc + inc[i])
         g[i] = acc
     return g
+
+
+@jitloop.compiled
+def _path(inc, out):  # pragma: no cover - compiled
+    n, m = inc.shape
+    acc = np.zeros(m)
+    for i in range(n):
+        for j in range(m):
+            s = acc[j] + inc[i, j]
+            acc[j] = 0.0 if s <= 0.0 else s  # NaN stays NaN, as np.maximum(0, NaN)
+            out[i, j] = acc[j]
+    return out
 
 
 def first_alarms(stat: np.ndarray, h: float) -> np.ndarray:

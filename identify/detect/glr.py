@@ -42,12 +42,15 @@ class SignatureCusum:
     h: np.ndarray | float = np.inf  # threshold per candidate (k,)
     band: RollBand | None = None
 
-    def statistics(self, eps_blocks: np.ndarray, S: np.ndarray) -> np.ndarray:
+    def statistics(self, eps_blocks: np.ndarray, S: np.ndarray, only: int | None = None) -> np.ndarray:
         """Statistic per 1 s block, (nb, k) or (nb, runs, k), for block-mean residuals (nb,) or
-        (nb, runs) and per-sample signatures ``S`` (n, k): max of the up and down CUSUMs."""
+        (nb, runs) and per-sample signatures ``S`` (n, k): max of the up and down CUSUMs; with
+        ``only``, of that candidate alone (k = 1; the same numbers as its column of all)."""
         p = self.prior
         ew = decision_whiten(np.asarray(eps_blocks, float), p, self.band)
         m = self.theta1 * decision_whiten(block_mean(S, p.block), p, self.band)[: len(ew)]
+        if only is not None:
+            m = m[:, only : only + 1]
         if ew.ndim == 2:
             m = m[:, None, :]
         e = ew[..., None]
@@ -90,7 +93,7 @@ def calibrate(
         Sb = block_mean(S, prior.block)[: len(null)]
         for k, sd in enumerate(prior.structure):
             if sd > 0:
-                peaks[:, k] = det.statistics(null + sd * xi[k][None, :] * Sb[:, k : k + 1], S)[..., k].max(axis=0)
+                peaks[:, k] = det.statistics(null + sd * xi[k][None, :] * Sb[:, k : k + 1], S, only=k)[..., 0].max(axis=0)
     lo, hi = 1 - false_alarm, 1.0
     for _ in range(30):  # bisection on the common quantile level
         q = 0.5 * (lo + hi)

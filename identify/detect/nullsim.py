@@ -41,10 +41,15 @@ def null_records(
     its apparent change along each candidate (``prior.structure``) is added per candidate by
     :func:`identify.detect.glr.calibrate`."""
     x = np.array([prior.values[k] / NOMINAL[k] for k in prior.names])
-    truth_x = x[:, None] - (parameter_draws(prior, runs, seed) * np.maximum(np.abs(x), 1e-6)).T
+    draws = parameter_draws(prior, runs, seed)
+    # the bootstrap's B refits are cycled over the runs: B distinct ships, each simulated once (a column's
+    # simulation does not depend on the others: the same bits as simulating all ``runs``)
+    ships = min(runs, len(prior.boot)) if len(prior.boot) else runs
+    truth_x = x[:, None] - (draws[:ships] * np.maximum(np.abs(x), 1e-6)).T
     clean = smooth(sig, prior.dt)
     n = len(sig["u"])
     r_true = simulate_r(prior.kind, truth_x, {k: s[:, None] for k, s in prior.inputs(clean).items()}, prior.dt, r0=r0)
+    r_true = r_true[:, np.arange(runs) % ships]
     rng = np.random.default_rng([seed, 1])
     r_meas = _measured(r_true, prior.noise.get("r", 0.0), rng, runs)
     noisy = {k: _measured(s[:, None], prior.noise.get(k, 0.0), rng, runs) for k, s in clean.items()}

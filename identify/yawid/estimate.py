@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import butter, filtfilt
 
+from identify.yawid import yawloop
 from identify.yawid.experiment import YawData
 from identify.yawid.model import INPUT_TERMS, NEGATIVE, STATE_TERMS, YawModel
 
@@ -54,7 +55,8 @@ def simulate_yaw(
     The one yaw-row simulator of the project: the change detector's prior
     (``identify.detect.yawmodel.simulate_r``) is this function on its column layout. Without
     sensitivities it needs memory of the order of the inputs only (a detector's 400 no-change
-    records of a long recording)."""
+    records of a long recording); compiled when numba is there and the batch is large
+    (:mod:`identify.yawid.yawloop`, the same bits)."""
     b, n = w["u"].shape
     p = len(model.params)
     col = {name: j for j, name in enumerate(model.params)}
@@ -62,6 +64,8 @@ def simulate_yaw(
     i_r = theta[:, col["I_r"]]
     # regressor of every non-I_r parameter at each sample: the input terms' now, the state terms' in the loop
     reg = _input_regressors(model, w, col) if sensitivities else None
+    if not sensitivities and yawloop.usable(model, w, b, n):  # the same bits, compiled (identify.yawid.yawloop)
+        return yawloop.simulate(model, theta, col, w, r0, ts), None
     forcing = _input_forcing(model, theta, w, col, reg)
     r_hat = np.empty((b, n))
     sens = np.zeros((b, n, p)) if sensitivities else None

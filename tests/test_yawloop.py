@@ -1,0 +1,72 @@
+"""The compiled yaw-row loop (identify.yawid.yawloop) gives the numpy loop's bits: the change
+detector's no-change records and predictions do not depend on whether numba is installed."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from identify.detect.vessel import base_profile
+from identify.yawid import yawloop
+from identify.yawid.estimate import simulate_yaw
+from identify.yawid.model import FULL_P, MODELS, true_parameters
+from identify.yawid.yawloop import INPUT_CODES, STATE_CODES
+from primitives import jitloop
+
+ALL = {**MODELS, FULL_P.name: FULL_P}  # (2.17), (2.18) and (2.17) with the roll-rate term N_p p
+needs_numba = pytest.mark.skipif(not jitloop.AVAILABLE, reason="numba not installed or SHIPTRIAL_KERNEL=numpy")
+
+
+def _inputs(b: int, n: int, seed: int) -> dict[str, np.ndarray]:
+    """(b, n) measured inputs of a turning podded ship, noisy, batch-first as simulate_yaw reads them."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.1
+    w = {
+        "u": 5.0 + 0.3 * np.sin(0.02 * t) + 0.02 * rng.standard_normal((b, n)),
+        "v": 0.4 * np.sin(0.05 * t) + 0.02 * rng.standard_normal((b, n)),
+        "v_dot": 0.02 * np.cos(0.05 * t) + 0.003 * rng.standard_normal((b, n)),
+        "phi": 0.05 * np.sin(0.8 * t) + 0.007 * rng.standard_normal((b, n)),
+        "p": 0.04 * np.cos(0.8 * t) + 0.003 * rng.standard_normal((b, n)),
+        "tau_r": 2e6 * np.sign(np.sin(0.03 * t)) + 6e3 * rng.standard_normal((b, n)),
+    }
+    return {k: np.ascontiguousarray(x.T).T for k, x in w.items()}  # time-major memory, as the detector's
+
+
+@needs_numba
+@pytest.mark.parametrize("name", sorted(ALL))
+def test_compiled_loop_gives_the_numpy_loops_bits(name: str, monkeypatch) -> None:
+    model = ALL[name]
+    truth = true_parameters(base_profile())
+    b, n = 40, 1200
+    rng = np.random.default_rng(3)
+    scale = np.array([truth.get(k, -1e6) for k in model.params])  # N_p: -1e6 N m s
+    theta = scale * (1 + 0.1 * rng.standard_normal((b, len(model.params))))
+    w = _inputs(b, n, 5)
+    r0 = 0.01 * rng.standard_normal(b)
+    assert yawloop.usable(model, w, b, n)  # every term of the model is one the loop knows
+    fast, _ = simulate_yaw(model, theta, w, r0, 0.1, sensitivities=False)
+    monkeypatch.setattr(yawloop, "usable", lambda *a: False)
+    slow, _ = simulate_yaw(model, theta, w, r0, 0.1, sensitivities=False)
+    assert np.abs(slow).max() > 1e-3  # the ship turns: a loop that returned r0 would not pass
+    assert np.array_equal(fast, slow)
+
+
+def test_the_loop_knows_every_term_of_the_yaw_models() -> None:
+    for model in ALL.values():
+        assert set(model.input_terms) <= set(INPUT_CODES)
+        assert set(model.state_terms) <= set(STATE_CODES)
+
+
+@needs_numba
+def test_compiled_cusum_path_gives_numpys_bits(monkeypatch) -> None:
+    """detect's CUSUM recursion (identify.detect.cusum.cusum_path) compiled and in numpy: the same
+    statistic, a NaN carried on in both (a diverged record must not look like a quiet one)."""
+    from identify.detect import cusum
+
+    inc = np.random.default_rng(1).standard_normal((600, 50, 3)) - 0.3
+    inc[100, 7, 1] = np.nan
+    fast = cusum.cusum_path(inc)
+    monkeypatch.setattr(jitloop, "AVAILABLE", False)
+    slow = cusum.cusum_path(inc)
+    assert np.isnan(slow[100:, 7, 1]).all() and np.nanmax(fast) > 1.0
+    assert fast.tobytes() == slow.tobytes()
