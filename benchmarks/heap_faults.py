@@ -1,5 +1,5 @@
 """Page faults and CPU of consecutive Monte Carlo batches in forked processes, glibc's default
-malloc trimming against freed memory kept (:func:`expdesign.heap.keep_freed_memory`):
+malloc trimming against freed memory kept (:func:`primitives.heap.keep_freed_memory`):
 
     python benchmarks/heap_faults.py [--runs 125] [--batches 3] [--repeat 3]
 
@@ -37,7 +37,7 @@ def batch(sh: object, i: int, n: int) -> tuple[float, int]:
 
 def child(sh: object, keep: bool, first: int, n: int, batches: int) -> list[tuple[float, int]]:
     """In a forked child: batches one after the other, with freed memory kept or glibc's defaults."""
-    from expdesign.heap import keep_freed_memory
+    from primitives.heap import keep_freed_memory
 
     if keep:
         keep_freed_memory(always=True)

@@ -41,9 +41,9 @@ from primitives.ship import ShipProfile, load_profile
 def setup() -> tuple[ShipProfile, list[Primitive], dict[str, object]]:
     """The model ship, its primitive library and the two designs the scaling benchmark times."""
     from expdesign.api import run_design
-    from expdesign.heap import keep_freed_memory
+    from primitives.heap import keep_freed_memory
 
-    # the task cost fitted as the pools' workers run it (freed memory kept, expdesign.heap); the inline
+    # the task cost fitted as the pools' workers run it (freed memory kept, primitives.heap); the inline
     # rows measured in this process run so too, a little faster than a library caller's inline engine,
     # so an efficiency against them is the stricter one
     keep_freed_memory(always=True)

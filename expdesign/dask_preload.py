@@ -8,12 +8,12 @@ pay nothing. Preloaded, each worker does this while it starts, before any comman
 
 - one BLAS / OpenMP thread (:func:`expdesign.parallel.one_thread_per_worker`) set before the
   package loads its numerical libraries, and freed memory kept for the next batch
-  (:func:`expdesign.heap.keep_freed_memory`: the nanny's MALLOC_TRIM_THRESHOLD_ undone);
+  (:func:`primitives.heap.keep_freed_memory`: the nanny's MALLOC_TRIM_THRESHOLD_ undone);
 - the package imported and the compiled passes of one Monte Carlo run of the model-ship profile
   loaded (run 0 of a random design, its result dropped; a profile whose runs take other passes
   loads those at its first task);
 - the heap grown to a full task's working set (:func:`grow_heap`: a batch of MAX_CHUNK runs, kept
-  by :func:`expdesign.heap.keep_freed_memory`), so that the worker's first task does not pay
+  by :func:`primitives.heap.keep_freed_memory`), so that the worker's first task does not pay
   the page faults a new process's first large batch pays (measured by ``python
   benchmarks/bench_design.py --scaling --dask-local 2 4``: "a Dask worker's first task");
 - the worker's statistical profiler off (:func:`quiet_profiler`): it samples every thread's stack
@@ -33,8 +33,8 @@ def warm(run_in: Callable[[Callable[[], None]], None] = lambda f: f()) -> float:
     """Load what a Monte Carlo task needs in this process and, where freed memory is kept, grow its
     heap to a task's working set (:func:`grow_heap`, called through ``run_in``: in the thread the
     tasks will run in); CPU seconds it took."""
-    from expdesign.heap import keep_freed_memory
     from expdesign.parallel import one_thread_per_worker
+    from primitives.heap import keep_freed_memory
 
     one_thread_per_worker()
     grow = keep_freed_memory()
@@ -51,7 +51,7 @@ def warm(run_in: Callable[[Callable[[], None]], None] = lambda f: f()) -> float:
 
 def grow_heap(sh: object) -> None:
     """One batch of MAX_CHUNK runs (the largest task the engines cut), its result dropped: the
-    memory it freed stays with this process (:func:`expdesign.heap.keep_freed_memory`, which
+    memory it freed stays with this process (:func:`primitives.heap.keep_freed_memory`, which
     must be in effect; a Dask nanny's default would hand it back to the system), so tasks after
     it reuse pages already faulted in. Costs about MAX_CHUNK runs' CPU once, as the worker starts."""
     from expdesign.montecarlo import MAX_CHUNK, run_chunk

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any
 
-from expdesign.heap import release_freed_memory
+from primitives.heap import release_freed_memory
 
 
 @dataclass
@@ -42,8 +42,8 @@ def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Seq
     """A forked worker: run the task whose index the parent sends, send back (index, ok, result or
     error text), until the parent sends None or goes away. Ctrl-C is the parent's to handle; SIGTERM
     (the parent's :meth:`terminate`) kills, whatever handler the parent had installed."""
-    from expdesign.heap import keep_freed_memory
     from expdesign.parallel import _call, one_thread_per_worker
+    from primitives.heap import keep_freed_memory
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C pending since the fork is discarded here
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
@@ -51,7 +51,7 @@ def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Seq
     for c in others:  # the parent's ends of its pipe and of earlier workers': EOFs must not wait for this process
         c.close()
     one_thread_per_worker(inherited=True)
-    keep_freed_memory(always=True)  # each task reuses the heap the last one grew (expdesign.heap)
+    keep_freed_memory(always=True)  # each task reuses the heap the last one grew (primitives.heap)
     while True:
         try:
             i = conn.recv()
@@ -102,7 +102,7 @@ def fork_map(
         else:
             held[conn] = None
 
-    release_freed_memory()  # fewer pages to copy at each fork (expdesign.heap)
+    release_freed_memory()  # fewer pages to copy at each fork (primitives.heap)
     try:
         with forking or contextlib.nullcontext():
             for _ in range(min(workers, len(items))):

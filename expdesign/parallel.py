@@ -34,8 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from expdesign.heap import keep_freed_memory
 from primitives.errors import UserError
+from primitives.heap import keep_freed_memory
 
 ENV_SCHEDULER = "SHIPTRIAL_SCHEDULER"
 
@@ -208,7 +208,7 @@ def _init_worker(shared: Any) -> None:
     global _SHARED
     _SHARED = shared
     one_thread_per_worker()
-    keep_freed_memory(always=True)  # this process is the pool's own (expdesign.heap)
+    keep_freed_memory(always=True)  # this process is the pool's own (primitives.heap)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 

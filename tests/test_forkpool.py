@@ -258,7 +258,7 @@ def _heap_faults(i: int) -> int:
 @pytest.mark.skipif("MALLOC_TRIM_THRESHOLD_" in os.environ, reason="the user's own trim threshold is kept")
 def test_a_worker_reuses_the_heap_its_last_task_grew():
     """A worker's later tasks reuse the memory its first one freed instead of faulting it in again
-    (expdesign.heap.keep_freed_memory): a Monte Carlo batch of 125 runs paid ~4,800 faults again on
+    (primitives.heap.keep_freed_memory): a Monte Carlo batch of 125 runs paid ~4,800 faults again on
     every task after the first in a worker with glibc's defaults."""
     out = _collect(_heap_faults, [0, 1, 2], 1)
     assert all(ok for ok, _ in out.values())

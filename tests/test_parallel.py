@@ -267,8 +267,7 @@ def test_design_says_when_dask_workers_run_several_threads(capsys):
 
 
 def _worker_state(dask_worker) -> tuple[bool, bool, int, bool, bool]:
-    from expdesign import heap
-    from primitives import jitloop
+    from primitives import heap, jitloop
 
     profiling = any(k in dask_worker.periodic_callbacks for k in ("profile", "profile-cycle"))
     return "expdesign.montecarlo" in sys.modules, jitloop.loaded(), _blas_threads(None), heap._MALLOC_SET, profiling
@@ -309,30 +308,12 @@ def _first_task_faults() -> int:
     return resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
 
 
-@pytest.mark.parametrize(
-    "value,always,kept",
-    [("65536", False, True), ("1000000", False, False), (None, False, False), (None, True, True), ("1000000", True, False)],
-)
-def test_only_dasks_default_trim_threshold_is_undone(value, always, kept):
-    """keep_freed_memory undoes Dask's MALLOC_TRIM_THRESHOLD_=65536 (glibc only); a value the user
-    chose is left alone, and so is none unless ``always`` (the engines' own processes). In a fresh
-    process: mallopt is process-wide."""
-    env = {k: v for k, v in os.environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
-    if value is not None:
-        env["MALLOC_TRIM_THRESHOLD_"] = value
-    code = f"from expdesign.heap import keep_freed_memory as k; print(k({always}), k({always}))"
-    root = Path(__file__).resolve().parent.parent  # this checkout's package, not an installed one
-    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=root, capture_output=True, text=True, check=True).stdout
-    expected = kept and platform.libc_ver()[0] == "glibc"
-    assert out.split() == [str(expected)] * 2
-
-
 def test_the_inline_engine_leaves_the_callers_malloc_alone():
     """The inline engine runs in the caller's process (a notebook, a script): it must not set glibc's
     trim threshold there (process-wide and permanent: the caller would keep up to 256 MB of every
-    later job's freed memory; expdesign.heap). In a fresh process without MALLOC_TRIM_THRESHOLD_."""
+    later job's freed memory; primitives.heap). In a fresh process without MALLOC_TRIM_THRESHOLD_."""
     env = {k: v for k, v in os.environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
-    code = "from expdesign import heap, parallel; parallel.Engine().map(abs, [-1, 2], progress=False); print(heap._MALLOC_SET)"
+    code = "from primitives import heap; from expdesign import parallel; parallel.Engine().map(abs, [-1, 2], progress=False); print(heap._MALLOC_SET)"
     root = Path(__file__).resolve().parent.parent
     out = subprocess.run([sys.executable, "-c", code], env=env, cwd=root, capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False"]
