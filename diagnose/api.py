@@ -35,7 +35,7 @@ from diagnose.recording import Recording, RecordingError
 from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
 from diagnose.search import SearchResult, select
-from diagnose.uncertainty import FindingCov, finding_cov, with_reference, with_within
+from diagnose.uncertainty import FindingCov, finding_cov, finding_pairs, with_reference, with_within
 from primitives.ship import DOFS, ShipProfile
 
 
@@ -228,9 +228,9 @@ def run(
         P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(
             model, preps + S.calm_preps, val_preps, result, w, P0, inputs
         )
-        cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0)
+        cov, pairs = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0), None
         if steps:  # the per-run guard's set too: its findings get an interval and face the rule below
-            cov = _cov(S, held_fit, fit_on, w_fit, P, free, result.prior_std)
+            cov, pairs = _cov(S, held_fit, fit_on, w_fit, P, free, result.prior_std)
         findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
         if not _drop_indistinct(model, preps + S.calm_preps, result, steps, findings, cov, w):
             break
@@ -238,7 +238,8 @@ def run(
     if calm and steps and len(cov.noise):  # the model error common to every run, after the rule above
         cov = with_reference(cov, model, calm, w_fit, free, [st.candidate.key for st in steps], result.prior_std)
     if steps and len(cov.noise):  # the misfit within the runs, after the rule above too
-        cov = with_within(cov, model, preps + S.calm_preps, w_fit, P, free, result.prior_std)
+        # the covariance's sensitivities at the same P and weights: its first columns are free's
+        cov = with_within(cov, model, preps + S.calm_preps, w_fit, P, free, result.prior_std, pairs)
         if val_preps:  # the model error the held-out runs show: a bias common to the diagnosed runs too
             cov = with_heldout(cov, model, val_preps, w_fit, P, free, [st.candidate.key for st in steps], result.prior_std)
         findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
@@ -397,15 +398,17 @@ def _cov(
     P: np.ndarray,
     free: list[int],
     prior_std: np.ndarray | None,
-) -> FindingCov:
+) -> tuple[FindingCov, list[tuple[np.ndarray, np.ndarray]]]:
     """Covariance of the free parameters at P (:func:`diagnose.uncertainty.finding_cov`); with a
     baseline fitted on --fit-on runs alone, the covariance of that fit carried in as well; and
-    the findings' run-to-run misfit over the diagnosed runs."""
+    the findings' run-to-run misfit over the diagnosed runs. Also the runs' sensitivities it was
+    computed from (:func:`diagnose.uncertainty.finding_pairs`: ``free``'s columns first)."""
     model = S.model
     fitted = bool(fit_on) and S.own is not None and not S.source.endswith("(rejected)")
     held = [j for j in range(model.n_base) if j not in free] if fitted else []
     held_cov = held_fit()[np.ix_(held, held)] if held else None
-    return finding_cov(model, S.preps + S.calm_preps, w, P, free, prior_std, held, held_cov)
+    pairs = finding_pairs(model, S.preps + S.calm_preps, w, P, free, held, held_cov)
+    return finding_cov(model, S.preps + S.calm_preps, w, P, free, prior_std, held, held_cov, pairs), pairs
 
 
 def _finding(st, model: AugmentedModel, P: np.ndarray, cov: FindingCov, free: list[int], inputs: np.ndarray) -> dict:

@@ -258,17 +258,29 @@ class AugmentedModel:
         """(exogenous signals, input-only increments (B, N, 3), nu(0) (B, 3)) of one recording."""
         B = P.shape[0]
         exo = self._exogenous(prep, plan, B)
-        pre = np.zeros((B, prep.n, 3))
+        # each DOF's input-only terms summed in a contiguous (B, N) array, in the terms' order from
+        # zero as they were into pre's strided column: the same sums, without the strided passes
+        acc: dict[int, np.ndarray] = {}
+        have = set(exo)
         for i, coef, _term, names, fn in plan["terms"]:
-            if set(names) <= set(exo):
-                pre[:, :, i] += coef[:, None] * fn(exo)
+            if set(names) <= have:
+                t = coef[:, None] * fn(exo)
+                if i in acc:
+                    acc[i] += t
+                else:
+                    acc[i] = np.zeros((B, prep.n))
+                    acc[i] += t
+        pre = np.zeros((B, prep.n, 3))
+        for i, a in acc.items():
+            pre[:, :, i] = a
         if np.any(plan["wind"][:, :2] != 0):  # a steady wind not recorded: its loads as the ship turns (diagnose.windload)
             pre += windload.steady_increments(self.profile, prep.y, prep.psi, plan["wind"], prep.rec.sample_time)[:, :-1]
         nu0 = np.broadcast_to(prep.y0, (B, 3)) - plan["bias"]
         if prep.index is not None and prep.index < self.n_rec:
             k0 = self.n_slots_end + 3 * prep.index
             nu0 = nu0 + P[:, k0 : k0 + 3]
-        pre = pre * plan["scale"][:, None, :]
+        if np.any(plan["scale"] != 1.0):  # times 1.0 is the same number: no copy without an inertia scale
+            pre = pre * plan["scale"][:, None, :]
         if np.any(plan["cur"] != 0):  # the kernel's current_turning (primitives.simulate), on the measured heading
             pre[:, :, :2] += current_turning(plan["cur"], prep.psi)
         return exo, pre, nu0
@@ -342,11 +354,17 @@ def plan_rows(plan: dict, rows: slice) -> dict:
 # -- residuals and fitting ----------------------------------------------------------------------------
 
 
-def residuals(model: AugmentedModel, preps: list[Prepared], P: np.ndarray | list[np.ndarray]) -> list[np.ndarray]:
-    """Open-loop residuals y - y_hat per recording, each (B, N+1, 3) (``P`` as :meth:`AugmentedModel.simulate_many`)."""
+def residuals(
+    model: AugmentedModel, preps: list[Prepared], P: np.ndarray | list[np.ndarray], escapes: list[np.ndarray] | None = None
+) -> list[np.ndarray]:
+    """Open-loop residuals y - y_hat per recording, each (B, N+1, 3) (``P`` as :meth:`AugmentedModel.simulate_many`).
+    ``escapes``: a list that receives, per recording, whether each member's simulation left it
+    (:func:`escaped`, (B,) bools), judged before the simulation becomes the residual."""
     out = []
     with np.errstate(all="ignore"):
         for p, yh in zip(preps, model.simulate_many(preps, P)):
+            if escapes is not None:
+                escapes.append(escaped_members(p, yh))
             r = np.subtract(p.y[None], yh, out=yh if yh.flags.writeable else None)  # the simulation is not used again
             bad = ~np.isfinite(r)
             np.clip(r, -1e6, 1e6, out=r)
@@ -394,7 +412,7 @@ def jacobian(
     owner = _initial_state_owner(model, preps, free)
     shared = [k for k, o in enumerate(owner) if o == -1]
     first = 0 if at_P is None else 1  # row 0 of the batch is P itself unless given
-    r0, J, batches, own = [], [], [], []
+    batches, own = [], []
     for i in range(len(preps)):
         cols = shared + [k for k, o in enumerate(owner) if o == i]
         js = [free[k] for k in cols]
@@ -402,16 +420,20 @@ def jacobian(
         Pb[np.arange(1 - first, len(cols) + 1 - first), js] += h[js]
         batches.append(Pb)
         own.append((cols, js))
+    rows = [3 * (p.n if masks is None else int(np.count_nonzero(masks[i][1:]))) for i, p in enumerate(preps)]
+    at = np.cumsum([0] + rows)
+    r0, J = np.empty(at[-1]), np.zeros((at[-1], len(free)))  # each recording's rows written in place
     for i, res in enumerate(residuals(model, preps, batches)):  # every recording's batch in one simulation
         cols, js = own[i]
-        if at_P is not None:
-            res = np.concatenate([at_P[i], res])
-        R = stack([res], [w[i] if isinstance(w, list) else w], None if masks is None else [masks[i]])
-        Ji = np.zeros((R.shape[1], len(free)))
-        Ji[:, cols] = (R[1:] - R[0]).T / h[js]
-        r0.append(R[0])
-        J.append(Ji)
-    return np.concatenate(r0), np.concatenate(J)
+        wi, mi = [w[i] if isinstance(w, list) else w], None if masks is None else [masks[i]]
+        if at_P is not None:  # P's residual stacked apart: the same rows as stacked with the batch
+            R0, Rb = stack([at_P[i]], wi, mi)[0], stack([res], wi, mi)
+        else:
+            R = stack([res], wi, mi)
+            R0, Rb = R[0], R[1:]
+        r0[at[i] : at[i + 1]] = R0
+        J[at[i] : at[i + 1], cols] = (Rb - R0).T / h[js]
+    return r0, J
 
 
 def _initial_state_owner(model: AugmentedModel, preps: list[Prepared], free: list[int]) -> list[int]:
@@ -466,9 +488,12 @@ def fit(
     h = model.steps(preps, P)
 
     trial: list[list[np.ndarray]] = []  # the last trial's residuals per recording, for the next Jacobian
+    esc: list[np.ndarray] = []  # whether each trial member's simulation left a recording (escaped_members)
+    left = None  # whether the accepted P's simulation left a recording (None: P not simulated in a trial)
 
     def total(Pb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        trial[:] = [residuals(model, preps, Pb)]
+        esc.clear()
+        trial[:] = [residuals(model, preps, Pb, esc)]
         R = stack(trial[0], w, masks)
         data = np.einsum("ij,ij->i", R, R)
         pri = np.array([float(np.sum(_prior_rows(p, free, prior)[0] ** 2)) for p in Pb])
@@ -507,6 +532,7 @@ def fit(
             continue
         rel = (obj - obj_c[k]) / max(obj, 1e-300)
         P, rss, obj = cand[k], float(data_c[k]), float(obj_c[k])
+        left = bool(any(e[k] for e in esc))
         lam = max(lam * lams[k] / 10, 1e-9)
         short = short + 1 if rel < tol else 0
         if short >= patience:
@@ -519,7 +545,8 @@ def fit(
         cov = np.linalg.pinv(Ja.T @ Ja) * (rss / dof)
     except (np.linalg.LinAlgError, ValueError):
         cov = np.full((len(free), len(free)), np.nan)
-    if not np.all(np.isfinite(P)) or diverges(model, preps, P):
+    # the accepted trial's simulation says whether P diverges (the same test, not simulated again)
+    if not np.all(np.isfinite(P)) or (diverges(model, preps, P) if left is None else left):
         return P, cov, float("inf")
     return P, cov, rss
 
@@ -534,5 +561,11 @@ def diverges(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> boo
 def escaped(p: Prepared, yh: np.ndarray) -> bool:
     """True when the simulated outputs ``yh`` of recording ``p`` are non-finite or leave its
     recorded range by far (the test of :func:`diverges`, for a simulation already made)."""
+    return bool(escaped_members(p, yh[None])[0])
+
+
+def escaped_members(p: Prepared, yh: np.ndarray) -> np.ndarray:
+    """:func:`escaped` of each member of a batch ``yh`` (B, N+1, 3): (B,) bools, the same test."""
     span = np.max(np.abs(p.y), axis=0) + 3.0 * np.std(p.y, axis=0) + 1e-9
-    return bool(not np.all(np.isfinite(yh)) or np.any(np.max(np.abs(yh), axis=0) > 20.0 * span))
+    a = np.abs(yh)
+    return ~np.all(np.isfinite(yh), axis=(1, 2)) | np.any(np.max(a, axis=1) > 20.0 * span, axis=1)

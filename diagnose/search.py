@@ -350,6 +350,7 @@ def _round(
     out.screened.append(_screened(rnd, ranked))
     tries = 0
     passed = []
+    val0: list[np.ndarray] = []  # the validation runs' RSS at the round's P, once simulated (every try reads it)
     best = ranked[0][1] if ranked else None
     # try first those the linearised held-out test already accepts on every count, then the rest
     for _aic, c, v, p_val, _f, beta in sorted(ranked, key=lambda x: (not x[2].accepted(MUCH_WORSE), x[0])):
@@ -363,7 +364,7 @@ def _round(
         if tries >= MAX_TRIES:
             break
         tries += 1
-        res = _try(S, P, r_cur, free, c, beta, rss0_in, v, M, inputs)
+        res = _try(S, P, r_cur, free, c, beta, rss0_in, v, M, inputs, val0)
         if isinstance(res, dict):
             out.rejected.append({"round": rnd + 1, "key": c.key, "effect": c.effect, **res})
             continue
@@ -390,10 +391,12 @@ def _try(
     v: Verdict,
     M: int,
     inputs: np.ndarray | None,
+    val0: list[np.ndarray] | None = None,
 ):
     """Nonlinear refit of one candidate from P (weighted residual ``r0``): (candidate, its slots,
     P1, cov1, :class:`Step`, the delay grid's :class:`delaycheck.Profile` or None); a rejection
-    entry (``reason``, and the held-out criterion that failed as ``failed``) when it is rejected."""
+    entry (``reason``, and the held-out criterion that failed as ``failed``) when it is rejected.
+    ``val0``: holds the validation runs' RSS at P once a try of the round has simulated it."""
     model = S.model
     new = model.slot_of[c.key]
     start = _line_start(S, P, new, beta)
@@ -423,7 +426,10 @@ def _try(
     if not passes(p_nl, v.gain, S.n_cand, S.alpha, S.independent):
         return {"reason": f"the nonlinear refit is not significant (F = {f_nl:.1f}, p = {p_nl:.2g})"}
     if S.val:
-        heldout = verdict(S.val_rss(P), S.val_rss(P1), v.den, _val_rows(S), len(new), S.tau)
+        val0 = [] if val0 is None else val0
+        if not val0:
+            val0.append(S.val_rss(P))
+        heldout = verdict(val0[0], S.val_rss(P1), v.den, _val_rows(S), len(new), S.tau)
     else:
         heldout = refit_verdict(model, S.all, S.parts, P1, free + new, S.wr, S.prior_terms, v, len(new), S.tau)
     failed = rejection_entry(heldout, MUCH_WORSE, bool(S.val))

@@ -299,17 +299,36 @@ def finding_cov(
     prior_sd: np.ndarray | None = None,
     held: list[int] | None = None,
     held_cov: np.ndarray | None = None,
+    pairs: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> FindingCov:
     """Covariance of the ``free`` parameters at P (coloured residuals; the fit's prior std
     ``prior_sd`` per parameter), plus the propagated covariance ``held_cov`` of the parameters
     ``held`` (fixed at P, estimated on other runs), and the run-to-run model misfit of the
-    findings' parameters (the candidate slots among ``free``) over ``preps``."""
+    findings' parameters (the candidate slots among ``free``) over ``preps``. ``pairs``: the
+    runs' :func:`sensitivities` to ``free`` and then ``held`` at P when already computed
+    (:func:`finding_pairs`)."""
     held = list(held or []) if held_cov is not None else []
-    pairs = sensitivities(model, preps, P, list(free) + held, w)
+    pairs = sensitivities(model, preps, P, list(free) + held, w) if pairs is None else pairs
     D, cols = _prior_and_findings(model, free, prior_sd)
     out = propagated(pairs, len(free), D, held_cov if held else None, cols)
     out.reference_runs = sum(id(p) in getattr(model, "reference_ids", ()) for p in preps)
     return out
+
+
+def finding_pairs(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    w: np.ndarray,
+    P: np.ndarray,
+    free: list[int],
+    held: list[int] | None = None,
+    held_cov: np.ndarray | None = None,
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The runs' :func:`sensitivities` :func:`finding_cov` reads (to ``free``, then to ``held`` when
+    ``held_cov`` is given); their first ``len(free)`` columns are those :func:`with_within` reads
+    at the same P and weights (each batch member is simulated on its own: the same bits)."""
+    held = list(held or []) if held_cov is not None else []
+    return sensitivities(model, preps, P, list(free) + held, w)
 
 
 def baseline_cov(
@@ -434,6 +453,7 @@ def with_within(
     P: np.ndarray,
     free: list[int],
     prior_sd: np.ndarray | None = None,
+    pairs: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> FindingCov:
     """``cov`` with the misfit within the runs as its ``within`` part: the delete-a-block
     jackknife (Künsch 1989) over blocks of each run (:data:`BLOCKS_PER_RUN`), beyond its AR(1)
@@ -443,10 +463,15 @@ def with_within(
     model's coefficients say) moves a finding from block to block where the runs, each holding the
     whole manoeuvre, agree. Only its excess over the run-to-run part is added (the positive part of
     the difference), so the interval holds the larger of the two and never shrinks (White 1982:
-    the sandwich's meat from the scores, not from a noise model)."""
+    the sandwich's meat from the scores, not from a noise model). ``pairs``: the runs'
+    :func:`sensitivities` at P whose first ``len(free)`` columns are those to ``free``, when already
+    computed (:func:`finding_pairs`)."""
     if not len(cov.noise) or cov.n_runs < 2:  # one run: no between-run check either, and it says so
         return cov
-    pairs = sensitivities(model, preps, P, list(free), w)
+    if pairs is None:
+        pairs = sensitivities(model, preps, P, list(free), w)
+    else:
+        pairs = [(r, J[: len(free)]) for r, J in pairs]
     D, cols = _prior_and_findings(model, free, prior_sd)
     cov.within = within_term(pairs, cols, cov.model, D)
     return cov
