@@ -25,7 +25,7 @@ from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_
 )
 from diagnose.candidates import build_library
 from diagnose.describe import add_wind_means, includes_no_effect, interval_note, with_interval, z_score
-from diagnose.heldout import Parts, grams, insample_rss
+from diagnose.heldout import Parts, gram_sums, insample_rss
 from diagnose.heldout_interval import with_heldout
 from diagnose.locate import locate
 from diagnose.magnitude import heldout_worse, implausible, ml_refit
@@ -35,7 +35,7 @@ from diagnose.recording import Recording, RecordingError
 from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
 from diagnose.search import SearchResult, select
-from diagnose.uncertainty import FindingCov, finding_cov, finding_pairs, with_reference, with_within
+from diagnose.uncertainty import FindingCov, finding_cov, finding_pairs, sensitivities, with_reference, with_within
 from primitives.ship import DOFS, ShipProfile
 
 
@@ -441,17 +441,23 @@ def _structural(model: AugmentedModel, calm: list[Prepared], w: np.ndarray, P: n
     candidate on the reference runs (linearised, from the baseline as fitted there) lowers their
     residual by more than 1 % with a coefficient of the same sign and at least half the size.
     They are a deficiency of the baseline's structure, not a condition of the diagnosed runs
-    (a current, a fault), and are reported apart; they stay in the model."""
+    (a current, a fault), and are reported apart; they stay in the model. The baseline's columns
+    by forward sensitivities (P0 switches no candidate on: one pass a run, once for every finding,
+    instead of a simulated member a coefficient a finding), the finding's by finite differences
+    with the steps at P, as before."""
     if not calm or not findings:
         return []
     base = list(range(model.n_base))
     P0 = model.p0()
     fit_parts = list(range(len(calm)))
     parts = Parts(fit_parts, [np.ones(p.n, bool) for p in calm], [p.rec.source for p in calm], [], [])
+    h = model.steps(calm, P)
+    at_base = sensitivities(model, calm, P0, base, w, analytic=True)
     out = []
     for f in findings:
         own = model.slot_of[f["key"]]
-        g = grams(model, calm, parts, P0, base + own, w, model.steps(calm, P))
+        fd = sensitivities(model, calm, P0, own, w, h=h)
+        g = gram_sums([(R, np.concatenate([J, J_own])) for (R, J), (_R, J_own) in zip(at_base, fd)], calm, parts, base + own, w)
         zero = np.zeros(len(base) + len(own))
         rss0, _ = insample_rss(g, parts, list(range(len(base))), zero, zero, fit_parts)
         rss1, step = insample_rss(g, parts, list(range(len(base) + len(own))), zero, zero, fit_parts)

@@ -567,5 +567,5 @@ def escaped(p: Prepared, yh: np.ndarray) -> bool:
 def escaped_members(p: Prepared, yh: np.ndarray) -> np.ndarray:
     """:func:`escaped` of each member of a batch ``yh`` (B, N+1, 3): (B,) bools, the same test."""
     span = np.max(np.abs(p.y), axis=0) + 3.0 * np.std(p.y, axis=0) + 1e-9
-    a = np.abs(yh)
-    return ~np.all(np.isfinite(yh), axis=(1, 2)) | np.any(np.max(a, axis=1) > 20.0 * span, axis=1)
+    top = np.max(np.abs(yh), axis=1)  # (B, 3): NaN where a channel holds a NaN, inf where an inf (max propagates both)
+    return ~np.all(np.isfinite(top), axis=1) | np.any(top > 20.0 * span, axis=1)

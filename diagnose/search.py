@@ -32,10 +32,22 @@ from scipy import stats
 from diagnose import delaycheck, plausible, windstart
 from diagnose.candidates import STEADY_WIND, Candidate, canonical_term
 from diagnose.describe import describe, surge_base_index
-from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, refit_verdict, rejection_entry, verdict
+from diagnose.heldout import (
+    Parts,
+    Verdict,
+    gram_sums,
+    grams,
+    heldout_rss,
+    insample_rss,
+    make_parts,
+    refit_verdict,
+    rejection_entry,
+    verdict,
+)
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
 from diagnose.reference import ReferencedModel
 from diagnose.significance import ALPHA, independent_heldout, inflation, lr_stats, passes
+from diagnose.uncertainty import sensitivities
 
 MUCH_WORSE = 15.0  # percentage points of fit a finding may cost one channel of a held-out run
 MAX_TRIES = 8  # nonlinear refits per round (in order of held-out AIC)
@@ -102,10 +114,14 @@ def _marginal_var(
 ) -> np.ndarray | None:
     """Marginal variance of the parameters ``idx`` fitted on ``preps`` alone (Gauss-Newton about
     ``ref``, the noise-weighted Gram matrix scaled by the residual level and colour as an
-    output-error covariance, Källström (1977)); None when the runs cannot be simulated there."""
+    output-error covariance, Källström (1977)); None when the runs cannot be simulated there.
+    The Gram matrix by forward sensitivities where they apply (``ref`` is the baseline, no
+    candidate on: one pass a run instead of a simulated member a column; within 1e-3 of the
+    finite differences' variances, ``tests/test_diagnose_reuse.py``: their truncation error)."""
     parts = Parts(list(range(len(preps))), [np.ones(p.n, bool) for p in preps], [p.rec.source for p in preps], [], [])
-    g = grams(model, preps, parts, ref, idx, w, model.steps(preps, ref))
-    r = np.concatenate([res[0, 1:] * w for res in residuals(model, preps, ref[None])])
+    pairs = sensitivities(model, preps, ref, idx, w, analytic=True)
+    g = gram_sums(pairs, preps, parts, idx, w)
+    r = np.concatenate([R for R, _J in pairs])  # the weighted residual at ref, sample 0 left out
     if not (np.all(np.isfinite(g.G)) and np.all(np.isfinite(r))):
         return None
     scale = float(np.mean(r**2)) * inflation(r.ravel())  # residual variance per sample, colour-corrected

@@ -41,16 +41,34 @@ from diagnose.sensitivity import residual_jacobian
 
 
 def sensitivities(
-    model: AugmentedModel, preps: list[Prepared], P: np.ndarray, cols: list[int], w: np.ndarray, analytic: bool = False
+    model: AugmentedModel,
+    preps: list[Prepared],
+    P: np.ndarray,
+    cols: list[int],
+    w: np.ndarray,
+    analytic: bool = False,
+    h: np.ndarray | None = None,
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per recording (weighted residual (N, 3), its sensitivity to ``cols`` (c, N, 3)) at P,
     from one batched simulation (forward differences, the fit's steps); with ``analytic``, by
-    forward sensitivities where they apply (:mod:`diagnose.sensitivity`)."""
+    forward sensitivities where they apply (:mod:`diagnose.sensitivity`: the baseline's
+    coefficients and initial states where no candidate is switched on), the other columns (a
+    candidate's slots) by forward differences as before. ``h``: the differences' steps (default
+    the fit's at P, :meth:`AugmentedModel.steps`)."""
     if analytic:
-        got = residual_jacobian(model, preps, P, cols, w, [q[0] for q in residuals(model, preps, P[None])])
+        exact = [k for k, j in enumerate(cols) if j < model.n_base or j >= model.n_slots_end]
+        rest = [k for k in range(len(cols)) if k not in exact]
+        got = residual_jacobian(model, preps, P, [cols[k] for k in exact], w, [q[0] for q in residuals(model, preps, P[None])])
         if got is not None:
-            return [(R, np.moveaxis(J, 2, 0)) for R, J in got]
-    h = model.steps(preps, P)
+            fd = sensitivities(model, preps, P, [cols[k] for k in rest], w, h=h) if rest else None
+            out = []
+            for i, (R, J) in enumerate(got):
+                Js = np.moveaxis(J, 2, 0)
+                if fd is not None:  # the columns in their order: exact ones and differenced ones
+                    Js = np.concatenate([Js, fd[i][1]])[np.argsort(exact + rest, kind="stable")]
+                out.append((R, Js))
+            return out
+    h = model.steps(preps, P) if h is None else h
     Pb = np.repeat(P[None], len(cols) + 1, axis=0)
     for k, j in enumerate(cols):
         Pb[k + 1, j] += h[j]
@@ -374,7 +392,8 @@ def reference_misfit(
     refit is not finite."""
     cols = list(base_free) + list(own)
     D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[cols], len(cols))
-    return misfit_term(sensitivities(model, calm, P0, cols, w), len(base_free), D)
+    # the baseline's columns by forward sensitivities (P0 switches no candidate on), the finding's differenced
+    return misfit_term(sensitivities(model, calm, P0, cols, w, analytic=True), len(base_free), D)
 
 
 def misfit_term(pairs: list[tuple[np.ndarray, np.ndarray]], nb: int, prior_D: np.ndarray | None = None) -> np.ndarray | None:

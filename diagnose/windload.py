@@ -120,7 +120,11 @@ def steady_increments(profile: Particulars, y: np.ndarray, psi: np.ndarray, wind
     the ship turns, the surge load scaled, the yaw moment about the centroid (``wind_N`` + s_L/L
     ``wind_N_arm``), all scaled by :func:`ship_gains`."""
     w = np.asarray(wind, float)[:, None, :]
-    ex = excess_loads(profile, y, body_from_ne(w, psi))
+    # the loads of each distinct air velocity once (a Jacobian's members share one but for the wind's
+    # own columns): the loads are elementwise in the members, the same numbers as computed for each
+    uniq, back = np.unique(w[:, 0, :2], axis=0, return_inverse=True)
+    ex = excess_loads(profile, y, body_from_ne(uniq[:, None, :], psi))
+    ex = {k: v[back.ravel()] for k, v in ex.items()}
     n = ex["wind_N"] + w[..., 2] * ex["wind_N_arm"]
     return np.stack([ex["wind_X"] * (1.0 + w[..., 3]), ex["wind_Y"], n], axis=-1) * ship_gains(profile, sample_time)
 
