@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from diagnose import model as dm
+from diagnose import fitting as dm
 from diagnose import recording, search
 from diagnose.battery import scenario
 from diagnose.candidates import build_library
