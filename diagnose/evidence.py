@@ -29,7 +29,7 @@ def structural(model: AugmentedModel, calm: list[Prepared], w: np.ndarray, P: np
     fit_parts = list(range(len(calm)))
     parts = Parts(fit_parts, [np.ones(p.n, bool) for p in calm], [p.rec.source for p in calm], [], [])
     h = model.steps(calm, P)
-    at_base = sensitivities(model, calm, P0, base, w, analytic=True)
+    at_base = sensitivities(model, calm, P0, base, w, analytic=True, h=h)  # h: the steps as before where differenced
     out = []
     for f in findings:
         own = model.slot_of[f["key"]]

@@ -153,3 +153,18 @@ def test_csv_columns_read_at_once_are_the_cells_read_one_by_one(tmp_path, monkey
     assert np.isnan(b["delta"][10])
     with pytest.raises(RecordingError, match=r"row 12, column 'delta': '0.1o' is not a number"):
         read_csv(bad)
+
+
+def test_without_the_compiler_the_marginal_variances_are_the_differences(monkeypatch):
+    """No numba (or SHIPTRIAL_KERNEL=numpy): held_by_fit_on's variances come from the finite
+    differences they came from before, bit for bit (the numpy path CI runs without the compiler)."""
+    monkeypatch.setattr(jitloop, "AVAILABLE", False)
+    model, preps, _cur = _setup()
+    w = np.array([10.0, 20.0, 300.0])
+    ref, idx = model.p0(), list(range(model.n_base))
+    parts = Parts(list(range(len(preps))), [np.ones(p.n, bool) for p in preps], [p.rec.source for p in preps], [], [])
+    g = grams(model, preps, parts, ref, idx, w, model.steps(preps, ref))
+    r = np.concatenate([res[0, 1:] * w for res in residuals(model, preps, ref[None])])
+    scale = float(np.mean(r**2)) * search.inflation(r.ravel())
+    var = np.diag(np.linalg.pinv(g.G.sum(axis=(0, 1)))) * scale
+    assert np.array_equal(search._marginal_var(model, preps, w, ref, idx), np.where(np.isfinite(var) & (var > 0), var, np.inf))
