@@ -168,3 +168,22 @@ def test_without_the_compiler_the_marginal_variances_are_the_differences(monkeyp
     scale = float(np.mean(r**2)) * search.inflation(r.ravel())
     var = np.diag(np.linalg.pinv(g.G.sum(axis=(0, 1)))) * scale
     assert np.array_equal(search._marginal_var(model, preps, w, ref, idx), np.where(np.isfinite(var) & (var > 0), var, np.inf))
+
+
+def test_steady_wind_loads_of_a_batch_are_each_members_bit_for_bit():
+    """The unrecorded wind's loads, computed once per distinct air velocity of a batch, are each
+    member's own to the bit: a member whose wind is -0.0 where another's is 0.0 keeps its own
+    (arctan2 puts a following wind at -pi or pi by the sign of zero; np.unique would merge them)."""
+    from diagnose import windload
+
+    prof = load_profile("kvlcc2")
+    rng = np.random.default_rng(1)
+    y = np.column_stack([rng.normal(7.0, 1.0, 51), rng.normal(0.0, 0.1, 51), rng.normal(0.0, 0.01, 51)])
+    y[::3, 1], y[1::3, 1], y[::5, 0] = -0.0, 0.0, 0.0  # the ship at rest, no sway: the wind's own sign of zero decides
+    psi = np.where(np.arange(51) % 2, 0.0, np.pi)
+    wind = np.array(
+        [[3.0, 0.0, 0.1, 0.0], [3.0, -0.0, 0.1, 0.0], [0.0, 3.0, 0.1, 0.0], [-0.0, 3.0, 0.1, 0.0], [0.0, 3.0, 0.3, 0.2]]
+    )
+    got = windload.steady_increments(prof, y, psi, wind, 1.0)
+    each = np.concatenate([windload.steady_increments(prof, y, psi, wind[k : k + 1], 1.0) for k in range(len(wind))])
+    assert np.array_equal(got.view(np.uint64), each.view(np.uint64))
