@@ -18,7 +18,7 @@ import numpy as np
 
 from diagnose import windload
 from diagnose.candidates import Candidate, Slot
-from diagnose.fitting import diverges, escaped, escaped_members, fit, jacobian, residuals, stack  # noqa: F401  (moved; diagnose.model's names, as before)
+from diagnose.fitting import diverges, escaped, fit, jacobian, residuals, stack  # noqa: F401  (moved; diagnose.model's names, as before)
 from diagnose.noise import noise_std, noise_std_coloured  # noqa: F401  (diagnose.model's names, as before)
 from diagnose.openloop import compiled_loop, current_turning, numpy_loop
 from diagnose.recording import Recording

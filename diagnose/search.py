@@ -45,10 +45,7 @@ from diagnose.heldout import (
 )
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
 from diagnose.reference import ReferencedModel
-from diagnose.search_limits import (  # noqa: F401  (moved: diagnose.search's names, as before)
-    OWN_DAMPING,
-    PRIOR_REL,
-    _marginal_var,
+from diagnose.search_limits import (  # noqa: F401  (moved: the names other modules and tests read from diagnose.search)
     base_bounds,
     base_term_index,
     held_by_fit_on,
