@@ -25,17 +25,17 @@ from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_
 )
 from diagnose.candidates import build_library
 from diagnose.describe import add_wind_means, includes_no_effect, interval_note, with_interval, z_score
-from diagnose.heldout import Parts, grams, insample_rss
+from diagnose.evidence import evidence, structural
 from diagnose.heldout_interval import with_heldout
 from diagnose.locate import locate
 from diagnose.magnitude import heldout_worse, implausible, ml_refit
 from diagnose.model import AugmentedModel, Prepared, fit, fit_percent, noise_std_coloured, prepare
-from diagnose.perrun import fit_str, guard, short_label, without
+from diagnose.perrun import guard, without
 from diagnose.recording import Recording, RecordingError
 from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
 from diagnose.search import SearchResult, select
-from diagnose.uncertainty import FindingCov, finding_cov, with_reference, with_within
+from diagnose.uncertainty import FindingCov, finding_cov, finding_pairs, with_reference, with_within
 from primitives.ship import DOFS, ShipProfile
 
 
@@ -229,21 +229,21 @@ def run(
         P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(
             model, preps + S.calm_preps, val_preps, result, w, P0, inputs
         )
-        cov = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0)
+        cov, pairs = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0), None
         if steps:  # the per-run guard's set too: its findings get an interval and face the rule below
-            cov = _cov(S, held_fit, fit_on, w_fit, P, free, result.prior_std)
-            cov = _model_error(cov, model, calm, preps + S.calm_preps, val_preps, w_fit, P, free, steps, result.prior_std)
+            cov, pairs = _cov(S, held_fit, fit_on, w_fit, P, free, result.prior_std)
+            cov = _model_error(cov, model, calm, preps + S.calm_preps, val_preps, w_fit, P, free, steps, result.prior_std, pairs)
         findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
         if not _drop_indistinct(model, preps + S.calm_preps, result, steps, findings, cov, w):
             break
     add_wind_means(findings, model, preps, P, cov, free)
-    structure = _structural(model, calm, w, P, findings)
+    structure = structural(model, calm, w, P, findings)
     findings = [f for f in findings if f not in structure]
     fit_on_name = "validation" if val_preps else "diagnosed"
     fbd, fad = _fits(model, preps, P0x), _fits(model, preps, P)
     fb, fa = (_fits(model, val_preps, P0x), _fits(model, val_preps, P)) if val_preps else (dict(fbd), dict(fad))
     for f in findings + structure:
-        f["evidence"] = _evidence(f, location, fb, fa, fit_on_name)
+        f["evidence"] = evidence(f, location, fb, fa, fit_on_name)
     names = [n for dof in S.profile.parameter_names for n in dof]
     d = Diagnosis(
         S.profile,
@@ -288,6 +288,7 @@ def _model_error(
     free: list[int],
     steps: list,
     prior_std,
+    pairs,
 ) -> FindingCov:
     """The findings' covariance ``cov`` (noise and run-to-run misfit) with the model-error parts the
     reported interval holds (:mod:`diagnose.uncertainty`): the error common to every run that the
@@ -298,7 +299,8 @@ def _model_error(
     keys = [st.candidate.key for st in steps]
     if calm:
         cov = with_reference(cov, model, calm, w_fit, free, keys, prior_std)
-    cov = with_within(cov, model, preps, w_fit, P, free, prior_std)
+    # the covariance's sensitivities at the same P and weights (``pairs``): its first columns are free's
+    cov = with_within(cov, model, preps, w_fit, P, free, prior_std, pairs)
     if val_preps:  # a bias common to the diagnosed runs too
         cov = with_heldout(cov, model, val_preps, w_fit, P, free, keys, prior_std)
     return cov
@@ -419,15 +421,17 @@ def _cov(
     P: np.ndarray,
     free: list[int],
     prior_std: np.ndarray | None,
-) -> FindingCov:
+) -> tuple[FindingCov, list[tuple[np.ndarray, np.ndarray]]]:
     """Covariance of the free parameters at P (:func:`diagnose.uncertainty.finding_cov`); with a
     baseline fitted on --fit-on runs alone, the covariance of that fit carried in as well; and
-    the findings' run-to-run misfit over the diagnosed runs."""
+    the findings' run-to-run misfit over the diagnosed runs. Also the runs' sensitivities it was
+    computed from (:func:`diagnose.uncertainty.finding_pairs`: ``free``'s columns first)."""
     model = S.model
     fitted = bool(fit_on) and S.own is not None and not S.source.endswith("(rejected)")
     held = [j for j in range(model.n_base) if j not in free] if fitted else []
     held_cov = held_fit()[np.ix_(held, held)] if held else None
-    return finding_cov(model, S.preps + S.calm_preps, w, P, free, prior_std, held, held_cov)
+    pairs = finding_pairs(model, S.preps + S.calm_preps, w, P, free, held, held_cov)
+    return finding_cov(model, S.preps + S.calm_preps, w, P, free, prior_std, held, held_cov, pairs), pairs
 
 
 def _finding(st, model: AugmentedModel, P: np.ndarray, cov: FindingCov, free: list[int], inputs: np.ndarray) -> dict:
@@ -453,95 +457,3 @@ def _finding(st, model: AugmentedModel, P: np.ndarray, cov: FindingCov, free: li
         "heldout_per_run": st.heldout,
         "interval": interval_note(cov, c.key) if len(cov.noise) else None,
     }
-
-
-def _structural(model: AugmentedModel, calm: list[Prepared], w: np.ndarray, P: np.ndarray, findings: list[dict]) -> list[dict]:
-    """Findings the --fit-on (reference) runs show too: refitting the baseline with the
-    candidate on the reference runs (linearised, from the baseline as fitted there) lowers their
-    residual by more than 1 % with a coefficient of the same sign and at least half the size.
-    They are a deficiency of the baseline's structure, not a condition of the diagnosed runs
-    (a current, a fault), and are reported apart; they stay in the model."""
-    if not calm or not findings:
-        return []
-    base = list(range(model.n_base))
-    P0 = model.p0()
-    fit_parts = list(range(len(calm)))
-    parts = Parts(fit_parts, [np.ones(p.n, bool) for p in calm], [p.rec.source for p in calm], [], [])
-    out = []
-    for f in findings:
-        own = model.slot_of[f["key"]]
-        g = grams(model, calm, parts, P0, base + own, w, model.steps(calm, P))
-        zero = np.zeros(len(base) + len(own))
-        rss0, _ = insample_rss(g, parts, list(range(len(base))), zero, zero, fit_parts)
-        rss1, step = insample_rss(g, parts, list(range(len(base) + len(own))), zero, zero, fit_parts)
-        est, val = step[len(base) :], P[own]
-        same = float(est @ val) > 0 and np.linalg.norm(est) >= 0.5 * np.linalg.norm(val)
-        if rss1 < 0.99 * rss0 and same:
-            f["reference_fit_gain"] = float(1.0 - rss1 / max(rss0, 1e-300))
-            out.append(f)
-    return out
-
-
-SHARE_SHOWN = 5.0  # fit points: another channel a finding moves this much is named with its own share
-SIGNATURE = {
-    "current": ["cos psi", "sin psi"],
-    "wind": ["wind along", "wind across"],
-    "actuator_delay": ["change of"],
-    "input_offset": ["sign", ""],
-    "thrust_loss": ["speed u"],
-    "quadratic_damping": ["|v|", "|r|", "v|v|", "r|r|"],
-    "missing_coupling": ["|r|", "speed u", "|v|"],
-    "sensor_bias": [""],
-    "inertia_change": ["change of"],
-}
-
-
-def _evidence(f: dict, location: dict, fb: dict, fa: dict, where: str) -> str:
-    dof = f["dof"]
-    conds = location["conditions"].get(dof, [])
-    keys = SIGNATURE.get(f["effect"], [])
-    hit = next((c for c in conds if any(k and k in c["signal"] for k in keys)), None)
-    parts = []
-    if hit:
-        parts.append(f"the {dof} residual follows {hit['signal']} (correlation {hit['correlation']:+.2f})")
-    parts.append(
-        f"adding it explains {100 * f['rss_drop']:.0f} % of the weighted residual (F = {f['f_statistic']:.1f}, "
-        f"p = {f['p_value']:.2g}) and lowers the held-out residual by {100 * f['cv_gain']:.0f} %"
-    )
-    parts.append(
-        _own_share(f, dof, where)
-        or f"{dof} fit on the {where} run(s) {fit_str(fb[dof])} -> {fit_str(fa[dof])} "
-        "(the whole model's, the baseline refit included)"
-    )
-    return "; ".join(parts)
-
-
-def _own_share(f: dict, dof: str, where: str) -> str | None:
-    """The finding's own share of the held-out fit, as the search recorded it when the finding
-    was added: the model with the findings kept before it (and the baseline refit) against the
-    same with it added (``Step.heldout``), per held-out run; another channel it moves by
-    SHARE_SHOWN points or more is named too (a surge term can cost the sway fit)."""
-    rows = f.get("heldout_per_run") or []
-    if not rows:
-        return None
-
-    def moved(r: dict) -> str:
-        return ", ".join(
-            f"{k} {fit_str(r['before'][k])} -> {fit_str(r['after'][k])}"
-            for k in DOFS
-            if k != dof and abs(r["after"][k] - r["before"][k]) >= SHARE_SHOWN
-        )
-
-    cells = []
-    for r in rows:
-        other = moved(r)
-        cell = f"{fit_str(r['before'][dof])} -> {fit_str(r['after'][dof])}"
-        label = short_label(r["run"]) if len(rows) > 1 else ""
-        inner = "; ".join(x for x in (label, other) if x)
-        cells.append(cell + (f" ({inner})" if inner else ""))
-    how = "simulated" if where == "validation" else "linearised refit without it"
-    name = f" {short_label(rows[0]['run'])}" if len(rows) == 1 else "s"
-    return (
-        f"its own share: {dof} fit on the held-out run{name} ({how}) {', '.join(cells)} "
-        "(with the findings before it, then with it added)"
-    )

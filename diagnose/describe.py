@@ -6,8 +6,8 @@ import numpy as np
 
 from diagnose import windload
 from diagnose.candidates import STEADY_WIND, Candidate, canonical_term, thrust_signal
+from diagnose.interval95 import half_width_95
 from diagnose.model import AugmentedModel
-from diagnose.uncertainty import half_width_95
 from primitives.ship import DOFS
 
 

@@ -18,10 +18,10 @@ import numpy as np
 
 from diagnose import windload
 from diagnose.candidates import Candidate, Slot
+from diagnose.fitting import diverges, escaped, fit, jacobian, residuals, stack  # noqa: F401  (moved; diagnose.model's names, as before)
 from diagnose.noise import noise_std, noise_std_coloured  # noqa: F401  (diagnose.model's names, as before)
 from diagnose.openloop import compiled_loop, current_turning, numpy_loop
 from diagnose.recording import Recording
-from diagnose.sensitivity import residual_jacobian
 from primitives.goodness import fit_percent  # noqa: F401  (diagnose.model.fit_percent, as before)
 from primitives.ship import ShipProfile
 from primitives.simulate import WIND_EXCESS, body_from_ne, relative_signals
@@ -258,17 +258,29 @@ class AugmentedModel:
         """(exogenous signals, input-only increments (B, N, 3), nu(0) (B, 3)) of one recording."""
         B = P.shape[0]
         exo = self._exogenous(prep, plan, B)
-        pre = np.zeros((B, prep.n, 3))
+        # each DOF's input-only terms summed in a contiguous (B, N) array, in the terms' order from
+        # zero as they were into pre's strided column: the same sums, without the strided passes
+        acc: dict[int, np.ndarray] = {}
+        have = set(exo)
         for i, coef, _term, names, fn in plan["terms"]:
-            if set(names) <= set(exo):
-                pre[:, :, i] += coef[:, None] * fn(exo)
+            if set(names) <= have:
+                t = coef[:, None] * fn(exo)
+                if i in acc:
+                    acc[i] += t
+                else:
+                    acc[i] = np.zeros((B, prep.n))
+                    acc[i] += t
+        pre = np.zeros((B, prep.n, 3))
+        for i, a in acc.items():
+            pre[:, :, i] = a
         if np.any(plan["wind"][:, :2] != 0):  # a steady wind not recorded: its loads as the ship turns (diagnose.windload)
             pre += windload.steady_increments(self.profile, prep.y, prep.psi, plan["wind"], prep.rec.sample_time)[:, :-1]
         nu0 = np.broadcast_to(prep.y0, (B, 3)) - plan["bias"]
         if prep.index is not None and prep.index < self.n_rec:
             k0 = self.n_slots_end + 3 * prep.index
             nu0 = nu0 + P[:, k0 : k0 + 3]
-        pre = pre * plan["scale"][:, None, :]
+        if np.any(plan["scale"] != 1.0):  # times 1.0 is the same number: no copy without an inertia scale
+            pre = pre * plan["scale"][:, None, :]
         if np.any(plan["cur"] != 0):  # the kernel's current_turning (primitives.simulate), on the measured heading
             pre[:, :, :2] += current_turning(plan["cur"], prep.psi)
         return exo, pre, nu0
@@ -337,202 +349,3 @@ def plan_rows(plan: dict, rows: slice) -> dict:
     cut = {k: v[rows] for k, v in plan.items() if isinstance(v, np.ndarray)}
     terms = [(i, c[rows], *rest) for i, c, *rest in plan["terms"]]
     return plan | cut | {"terms": terms, "offsets": [(i, c[rows]) for i, c in plan["offsets"]]}
-
-
-# -- residuals and fitting ----------------------------------------------------------------------------
-
-
-def residuals(model: AugmentedModel, preps: list[Prepared], P: np.ndarray | list[np.ndarray]) -> list[np.ndarray]:
-    """Open-loop residuals y - y_hat per recording, each (B, N+1, 3) (``P`` as :meth:`AugmentedModel.simulate_many`)."""
-    out = []
-    with np.errstate(all="ignore"):
-        for p, yh in zip(preps, model.simulate_many(preps, P)):
-            r = np.subtract(p.y[None], yh, out=yh if yh.flags.writeable else None)  # the simulation is not used again
-            bad = ~np.isfinite(r)
-            np.clip(r, -1e6, 1e6, out=r)
-            r[bad] = 1e6  # a non-finite residual counts as a large one, either sign
-            out.append(r)
-    return out
-
-
-def stack(res: list[np.ndarray], w: np.ndarray | list[np.ndarray], masks: list[np.ndarray] | None = None) -> np.ndarray:
-    """Weighted residuals flattened to (B, M) (samples of each mask only); ``w`` one weight per
-    output, or a list of them, one per recording."""
-    parts = []
-    for i, r in enumerate(res):
-        rr = r[:, 1:] * (w[i] if isinstance(w, list) else w)  # sample 0 is the initial state
-        if masks is not None:
-            rr = rr[:, masks[i][1:]]
-        parts.append(rr.reshape(r.shape[0], -1))
-    return np.concatenate(parts, axis=1)
-
-
-def jacobian(
-    model: AugmentedModel,
-    preps: list[Prepared],
-    P: np.ndarray,
-    free: list[int],
-    w: np.ndarray,
-    masks: list[np.ndarray] | None = None,
-    h: np.ndarray | None = None,
-    at_P: list[np.ndarray] | None = None,
-    analytic: bool = False,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(r0 (M,), J (M, len(free))) of the weighted residual; with ``analytic``, by forward
-    sensitivities (:mod:`diagnose.sensitivity`) where they apply. Else by forward differences, one batched
-    simulation, a batch per recording. A recording's initial-state parameters move that recording alone:
-    they are stepped on it only, their columns zero on the others (the zeros the differences of
-    two equal simulations give, without simulating them: a quarter to a half of the members of a
-    diagnosis's refits, whose free parameters are mostly initial states). ``at_P``: the
-    residuals (1, N_i+1, 3) per recording at P when already simulated (not simulated again)."""
-    if analytic:
-        res = at_P if at_P is not None else residuals(model, preps, P[None])
-        got = residual_jacobian(model, preps, P, free, w, [q[0] for q in res], masks)
-        if got is not None:
-            return np.concatenate([R.ravel() for R, _J in got]), np.concatenate([J.reshape(-1, len(free)) for _R, J in got])
-    h = model.steps(preps, P) if h is None else h
-    owner = _initial_state_owner(model, preps, free)
-    shared = [k for k, o in enumerate(owner) if o == -1]
-    first = 0 if at_P is None else 1  # row 0 of the batch is P itself unless given
-    r0, J, batches, own = [], [], [], []
-    for i in range(len(preps)):
-        cols = shared + [k for k, o in enumerate(owner) if o == i]
-        js = [free[k] for k in cols]
-        Pb = np.repeat(P[None], len(cols) + 1 - first, axis=0)
-        Pb[np.arange(1 - first, len(cols) + 1 - first), js] += h[js]
-        batches.append(Pb)
-        own.append((cols, js))
-    for i, res in enumerate(residuals(model, preps, batches)):  # every recording's batch in one simulation
-        cols, js = own[i]
-        if at_P is not None:
-            res = np.concatenate([at_P[i], res])
-        R = stack([res], [w[i] if isinstance(w, list) else w], None if masks is None else [masks[i]])
-        Ji = np.zeros((R.shape[1], len(free)))
-        Ji[:, cols] = (R[1:] - R[0]).T / h[js]
-        r0.append(R[0])
-        J.append(Ji)
-    return np.concatenate(r0), np.concatenate(J)
-
-
-def _initial_state_owner(model: AugmentedModel, preps: list[Prepared], free: list[int]) -> list[int]:
-    """Per free parameter, the position in ``preps`` of the one recording whose initial state it
-    is, -1 for a parameter that may move every recording, -2 for another recording's initial state
-    (one not among ``preps``: it moves none of them). An index two recordings share moves both: -1."""
-    idx = [p.index for p in preps if p.index is not None and p.index < model.n_rec]
-    pos = {p.index: i for i, p in enumerate(preps) if p.index in idx}
-    own = {i: (pos[i] if idx.count(i) == 1 else -1) for i in pos}
-    return [-1 if j < model.n_slots_end else own.get((j - model.n_slots_end) // 3, -2) for j in free]
-
-
-def _prior_rows(P: np.ndarray, free: list[int], prior: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
-    """Regularisation towards the profile (a Gaussian prior, Källström 1977: parameters held near model-test values): residual rows
-    (P_j - ref_j) / sd_j for the free parameters with a finite sd, and their Jacobian."""
-    if prior is None:
-        return np.zeros(0), np.zeros((0, len(free)))
-    ref, sd = prior
-    rows = [k for k, j in enumerate(free) if np.isfinite(sd[j]) and sd[j] > 0]
-    J = np.zeros((len(rows), len(free)))
-    for n, k in enumerate(rows):
-        J[n, k] = 1.0 / sd[free[k]]
-    r = np.array([(P[free[k]] - ref[free[k]]) / sd[free[k]] for k in rows])
-    return r, J
-
-
-def fit(
-    model: AugmentedModel,
-    preps: list[Prepared],
-    P: np.ndarray,
-    free: list[int],
-    w: np.ndarray,
-    masks: list[np.ndarray] | None = None,
-    max_iter: int = 10,
-    bounds: dict[int, tuple[float, float]] | None = None,
-    tol: float = 1e-5,
-    prior: tuple[np.ndarray, np.ndarray] | None = None,
-    patience: int = 1,
-    analytic: bool = False,
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """Output-error Levenberg-Marquardt over the ``free`` parameters within ``bounds``, with an
-    optional Gaussian ``prior`` (ref, sd) per parameter. Returns (P, cov, rss); rss is the data
-    part only, and ``inf`` when the refit diverged (a non-finite or exploding simulation).
-    It stops after ``patience`` accepted steps in a row that each lower the objective by less
-    than ``tol`` of it (one short step may be a dip, or a step the damping just raised held back).
-
-    Each iteration tries four damping values in one batched simulation. ``analytic``: the
-    Jacobians by forward sensitivities where they apply (:func:`jacobian`).
-    """
-    P = np.asarray(P, float).copy()
-    bounds = bounds or {}
-    h = model.steps(preps, P)
-
-    trial: list[list[np.ndarray]] = []  # the last trial's residuals per recording, for the next Jacobian
-
-    def total(Pb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        trial[:] = [residuals(model, preps, Pb)]
-        R = stack(trial[0], w, masks)
-        data = np.einsum("ij,ij->i", R, R)
-        pri = np.array([float(np.sum(_prior_rows(p, free, prior)[0] ** 2)) for p in Pb])
-        return data, data + pri
-
-    r, J = jacobian(model, preps, P, free, w, masks, h, analytic=analytic)
-    rp, Jp = _prior_rows(P, free, prior)
-    rss = float(r @ r)
-    obj = rss + float(rp @ rp)
-    lam = 1e-3
-    lams = np.array([0.1, 1.0, 10.0, 1000.0])
-    short = 0  # accepted steps in a row under tol
-    for _ in range(max_iter):
-        if not np.all(np.isfinite(J)):
-            break
-        Ja, ra = np.vstack([J, Jp]), np.concatenate([r, rp])
-        g = Ja.T @ ra
-        A = Ja.T @ Ja
-        d = np.sqrt(np.diag(A))
-        d = np.where(d > 1e-150, d, 1.0)  # a parameter the data do not see (zero column) is held by the damping alone
-        An = A / np.outer(d, d)
-        cand = np.repeat(P[None], len(lams), axis=0)
-        for k, lk in enumerate(lams * lam):
-            try:
-                cand[k, free] += -np.linalg.lstsq(An + lk * np.eye(len(free)), g / d, rcond=None)[0] / d
-            except np.linalg.LinAlgError:
-                cand[k] = P
-        for j, (lo, hi) in bounds.items():
-            cand[:, j] = np.clip(cand[:, j], lo, hi)
-        data_c, obj_c = total(cand)
-        k = int(np.argmin(obj_c))
-        if not obj_c[k] < obj:
-            lam *= 1e4
-            if lam > 1e8:
-                break
-            continue
-        rel = (obj - obj_c[k]) / max(obj, 1e-300)
-        P, rss, obj = cand[k], float(data_c[k]), float(obj_c[k])
-        lam = max(lam * lams[k] / 10, 1e-9)
-        short = short + 1 if rel < tol else 0
-        if short >= patience:
-            break
-        r, J = jacobian(model, preps, P, free, w, masks, h, at_P=[q[k : k + 1] for q in trial[0]], analytic=analytic)
-        rp, Jp = _prior_rows(P, free, prior)
-    dof = max(len(r) - len(free), 1)
-    Ja = np.vstack([J, Jp])
-    try:
-        cov = np.linalg.pinv(Ja.T @ Ja) * (rss / dof)
-    except (np.linalg.LinAlgError, ValueError):
-        cov = np.full((len(free), len(free)), np.nan)
-    if not np.all(np.isfinite(P)) or diverges(model, preps, P):
-        return P, cov, float("inf")
-    return P, cov, rss
-
-
-def diverges(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> bool:
-    """True when the simulation at P is non-finite or leaves the recorded range by far
-    (an unstable refit: positive damping, a blown-up inertia)."""
-    with np.errstate(all="ignore"):  # every recording in one simulation
-        return any(escaped(p, y[0]) for p, y in zip(preps, model.simulate_many(preps, np.atleast_2d(P))))
-
-
-def escaped(p: Prepared, yh: np.ndarray) -> bool:
-    """True when the simulated outputs ``yh`` of recording ``p`` are non-finite or leave its
-    recorded range by far (the test of :func:`diverges`, for a simulation already made)."""
-    span = np.max(np.abs(p.y), axis=0) + 3.0 * np.std(p.y, axis=0) + 1e-9
-    return bool(not np.all(np.isfinite(yh)) or np.any(np.max(np.abs(yh), axis=0) > 20.0 * span))

@@ -256,7 +256,8 @@ def read_csv(
     rows = list(reader)
     if not rows:
         raise RecordingError(f"{path}: header but no data rows")
-    for i, row in enumerate(rows):
+    lengths = set(map(len, rows))
+    for i, row in enumerate(rows if max(lengths) > len(header) else ()):
         if len(row) > len(header) and any(c.strip() for c in row[len(header) :]):
             raise RecordingError(
                 f"{path}: row {i + 2} has {len(row)} fields but the header names {len(header)} columns; "
@@ -264,7 +265,15 @@ def read_csv(
             )
     cols: dict[str, np.ndarray] = {}
     segments = None
+    # every row as long as the header: its columns at once (a shorter row's missing cells read as empty below)
+    whole = list(zip(*rows)) if lengths == {len(header)} else None
     for j, name in enumerate(header):
+        if whole is not None and name in NUMERIC:
+            try:  # numpy reads each cell with Python's float (the same numbers); an empty cell fails here
+                cols[name] = np.array(whole[j], dtype=float)
+                continue
+            except ValueError:
+                pass  # an empty or bad cell: read cell by cell below (empty is NaN, a bad one is said)
         raw = [row[j].strip() if j < len(row) else "" for row in rows]
         if name == "segment":
             segments = raw

@@ -30,18 +30,34 @@ import numpy as np
 from scipy import stats
 
 from diagnose import delaycheck, plausible, windstart
-from diagnose.candidates import STEADY_WIND, Candidate, canonical_term
-from diagnose.describe import describe, surge_base_index
-from diagnose.heldout import Parts, Verdict, grams, heldout_rss, insample_rss, make_parts, refit_verdict, rejection_entry, verdict
+from diagnose.candidates import STEADY_WIND, Candidate
+from diagnose.describe import describe
+from diagnose.heldout import (
+    Parts,
+    Verdict,
+    grams,
+    heldout_rss,
+    insample_rss,
+    make_parts,
+    refit_verdict,
+    rejection_entry,
+    verdict,
+)
 from diagnose.model import AugmentedModel, Prepared, fit, residuals, stack
 from diagnose.reference import ReferencedModel
+from diagnose.search_limits import (  # noqa: F401  (moved: the names other modules and tests read from diagnose.search)
+    base_bounds,
+    base_term_index,
+    held_by_fit_on,
+    prior_sd,
+    refitted_alias,
+    slot_bounds,
+)
 from diagnose.significance import ALPHA, independent_heldout, inflation, lr_stats, passes
 
 MUCH_WORSE = 15.0  # percentage points of fit a finding may cost one channel of a held-out run
 MAX_TRIES = 8  # nonlinear refits per round (in order of held-out AIC)
 MAX_PASSED = 3  # refitted candidates that pass, compared by held-out AIC before one is kept
-PRIOR_REL = 0.3  # prior std of a baseline parameter, relative to its profile value
-OWN_DAMPING = {(0, "u_r*|u_r|"), (1, "v_r*|v_r|"), (2, "r*|r|")}
 
 
 @dataclass
@@ -70,108 +86,6 @@ class SearchResult:
     notes: list[str] = field(default_factory=list)
     base_free: list[int] = field(default_factory=list)
     prior_std: np.ndarray | None = None  # the refit's prior std per parameter (None: no prior)
-
-
-def base_bounds(ref: np.ndarray, idx: list[int], model: AugmentedModel | None = None) -> dict[int, tuple[float, float]]:
-    """Baseline parameters keep their sign and stay within a factor 2 of the profile (damping
-    stays dissipative, inertia within a factor 2); a structure term the profile lacks (value 0)
-    is free, except a DOF's own quadratic damping, which stays dissipative (<= 0)."""
-    out = {}
-    for j in idx:
-        a, b = 0.5 * ref[j], 2.0 * ref[j]
-        if ref[j] != 0:
-            out[j] = (min(a, b), max(a, b))
-        elif model is not None and j < model.n_base and tuple(model.base[j][:2]) in OWN_DAMPING:
-            out[j] = (-np.inf, 0.0)
-    return out
-
-
-def prior_sd(ref: np.ndarray, idx: list[int], level: float, n_params: int) -> np.ndarray:
-    """Prior std per parameter (inf = no prior): PRIOR_REL of the profile value, in units of the
-    data's effective residual level so that the prior weighs like PRIOR_REL on one effective
-    sample block of the data."""
-    sd = np.full(n_params, np.inf)
-    for j in idx:
-        if ref[j] != 0:
-            sd[j] = PRIOR_REL * abs(ref[j]) / max(level, 1e-12)
-    return sd
-
-
-def _marginal_var(
-    model: AugmentedModel, preps: list[Prepared], w: np.ndarray, ref: np.ndarray, idx: list[int]
-) -> np.ndarray | None:
-    """Marginal variance of the parameters ``idx`` fitted on ``preps`` alone (Gauss-Newton about
-    ``ref``, the noise-weighted Gram matrix scaled by the residual level and colour as an
-    output-error covariance, Källström (1977)); None when the runs cannot be simulated there."""
-    parts = Parts(list(range(len(preps))), [np.ones(p.n, bool) for p in preps], [p.rec.source for p in preps], [], [])
-    g = grams(model, preps, parts, ref, idx, w, model.steps(preps, ref))
-    r = np.concatenate([res[0, 1:] * w for res in residuals(model, preps, ref[None])])
-    if not (np.all(np.isfinite(g.G)) and np.all(np.isfinite(r))):
-        return None
-    scale = float(np.mean(r**2)) * inflation(r.ravel())  # residual variance per sample, colour-corrected
-    var = np.diag(np.linalg.pinv(g.G.sum(axis=(0, 1)))) * scale
-    return np.where(np.isfinite(var) & (var > 0), var, np.inf)
-
-
-def held_by_fit_on(
-    model: AugmentedModel, calm: list[Prepared], diag: list[Prepared], w: np.ndarray, ref: np.ndarray, idx: list[int]
-) -> list[int]:
-    """The baseline parameters the --fit-on runs determine at least as well as the diagnosed
-    runs do (marginal variances of a fit on each alone, :func:`_marginal_var`). They are held as
-    fitted on the --fit-on runs: refitted on the diagnosed runs they would absorb the effect
-    there (a thrust loss into the thrust coefficient, a delay into the rudder derivatives) and
-    leave the candidate nothing to explain. The others, which only the diagnosed runs excite
-    (say the turning circle's), are refitted as before."""
-    if not calm or not idx:
-        return []
-    v_calm, v_diag = _marginal_var(model, calm, w, ref, idx), _marginal_var(model, diag, w, ref, idx)
-    if v_calm is None or v_diag is None:
-        return []
-    return [j for j, a, b in zip(idx, v_calm, v_diag) if a <= b]
-
-
-def base_term_index(model: AugmentedModel, dof: int | None, term: str | None) -> int | None:
-    """Position in P of the baseline parameter of ``term`` in ``dof`` (None when the model has none)."""
-    if term is None:
-        return None
-    key = canonical_term(term)
-    return next((j for j, (i, t, *_r) in enumerate(model.base) if i == dof and canonical_term(t) == key), None)
-
-
-def refitted_alias(model: AugmentedModel, base_free: list[int]) -> set[str]:
-    """Keys of the candidates that only add a term the baseline refits: the same regressor as a
-    free baseline parameter, told apart from it by nothing but the prior, so the refit already
-    takes such a change (a candidate changing a term is a finding against a baseline that holds it)."""
-    free = set(base_free)
-    return {
-        c.key
-        for c in model.candidates
-        if len(c.slots) == 1 and c.slots[0].kind == "term" and base_term_index(model, c.slots[0].dof, c.slots[0].term) in free
-    }
-
-
-def slot_bounds(model: AugmentedModel, c: Candidate, P: np.ndarray) -> dict[int, tuple[float, float]]:
-    """Physical bounds of a candidate's parameters."""
-    new = model.slot_of[c.key]
-    if c.effect == "actuator_delay":
-        return {new[0]: (-model.half_sample, 50 * model.profile.sample_time)}
-    if c.key == STEADY_WIND:  # the lateral load's centroid within the ship's length, the frontal area 0.5-4 x the box's
-        return {new[2]: (-0.5, 0.5), new[3]: (-0.5, 3.0)}
-    if c.effect == "inertia_change":
-        f = plausible.MAX_INERTIA_FACTOR
-        return {new[0]: (1.0 / f - 1.0, f - 1.0)}
-    if c.slots[0].kind == "thrust":  # a thrust change beyond the plausible limit stays visible at the bound
-        return {new[0]: (-1.0, 0.95)}
-    if c.key.startswith("resistance_change:"):
-        term = c.slots[0].term
-        j = surge_base_index(model, term)
-        if j is not None and P[j] != 0:
-            lo, hi = sorted((-0.5 * P[j], 1.0 * P[j]))
-            return {new[0]: (lo, hi)}
-    if c.effect == "quadratic_damping" and (c.dof, c.slots[0].term) in OWN_DAMPING:
-        j = base_term_index(model, c.dof, c.slots[0].term)  # a change of the model's own: the sum stays dissipative
-        return {new[0]: (-np.inf, -min(P[j], 0.0) if j is not None else 0.0)}
-    return {}
 
 
 class _Search:
@@ -350,6 +264,7 @@ def _round(
     out.screened.append(_screened(rnd, ranked))
     tries = 0
     passed = []
+    val0: list[np.ndarray] = []  # the validation runs' RSS at the round's P, once simulated (every try reads it)
     best = ranked[0][1] if ranked else None
     # try first those the linearised held-out test already accepts on every count, then the rest
     for _aic, c, v, p_val, _f, beta in sorted(ranked, key=lambda x: (not x[2].accepted(MUCH_WORSE), x[0])):
@@ -363,7 +278,7 @@ def _round(
         if tries >= MAX_TRIES:
             break
         tries += 1
-        res = _try(S, P, r_cur, free, c, beta, rss0_in, v, M, inputs)
+        res = _try(S, P, r_cur, free, c, beta, rss0_in, v, M, inputs, val0)
         if isinstance(res, dict):
             out.rejected.append({"round": rnd + 1, "key": c.key, "effect": c.effect, **res})
             continue
@@ -390,10 +305,12 @@ def _try(
     v: Verdict,
     M: int,
     inputs: np.ndarray | None,
+    val0: list[np.ndarray] | None = None,
 ):
     """Nonlinear refit of one candidate from P (weighted residual ``r0``): (candidate, its slots,
     P1, cov1, :class:`Step`, the delay grid's :class:`delaycheck.Profile` or None); a rejection
-    entry (``reason``, and the held-out criterion that failed as ``failed``) when it is rejected."""
+    entry (``reason``, and the held-out criterion that failed as ``failed``) when it is rejected.
+    ``val0``: holds the validation runs' RSS at P once a try of the round has simulated it."""
     model = S.model
     new = model.slot_of[c.key]
     start = _line_start(S, P, new, beta)
@@ -423,7 +340,10 @@ def _try(
     if not passes(p_nl, v.gain, S.n_cand, S.alpha, S.independent):
         return {"reason": f"the nonlinear refit is not significant (F = {f_nl:.1f}, p = {p_nl:.2g})"}
     if S.val:
-        heldout = verdict(S.val_rss(P), S.val_rss(P1), v.den, _val_rows(S), len(new), S.tau)
+        val0 = [] if val0 is None else val0
+        if not val0:
+            val0.append(S.val_rss(P))
+        heldout = verdict(val0[0], S.val_rss(P1), v.den, _val_rows(S), len(new), S.tau)
     else:
         heldout = refit_verdict(model, S.all, S.parts, P1, free + new, S.wr, S.prior_terms, v, len(new), S.tau)
     failed = rejection_entry(heldout, MUCH_WORSE, bool(S.val))

@@ -33,24 +33,42 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 from scipy.signal import lfilter
 
+from diagnose.interval95 import BLOCKS_PER_RUN, half_width_95, small_sample  # noqa: F401  (half_width_95: diagnose.uncertainty's, as before)
 from diagnose.model import AugmentedModel, Prepared, fit, residuals
 from diagnose.sensitivity import residual_jacobian
 
 
 def sensitivities(
-    model: AugmentedModel, preps: list[Prepared], P: np.ndarray, cols: list[int], w: np.ndarray, analytic: bool = False
+    model: AugmentedModel,
+    preps: list[Prepared],
+    P: np.ndarray,
+    cols: list[int],
+    w: np.ndarray,
+    analytic: bool = False,
+    h: np.ndarray | None = None,
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per recording (weighted residual (N, 3), its sensitivity to ``cols`` (c, N, 3)) at P,
     from one batched simulation (forward differences, the fit's steps); with ``analytic``, by
-    forward sensitivities where they apply (:mod:`diagnose.sensitivity`)."""
+    forward sensitivities where they apply (:mod:`diagnose.sensitivity`: the baseline's
+    coefficients and initial states where no candidate is switched on), the other columns (a
+    candidate's slots) by forward differences as before. ``h``: the differences' steps (default
+    the fit's at P, :meth:`AugmentedModel.steps`)."""
     if analytic:
-        got = residual_jacobian(model, preps, P, cols, w, [q[0] for q in residuals(model, preps, P[None])])
+        exact = [k for k, j in enumerate(cols) if j < model.n_base or j >= model.n_slots_end]
+        rest = [k for k in range(len(cols)) if k not in exact]
+        got = residual_jacobian(model, preps, P, [cols[k] for k in exact], w, [q[0] for q in residuals(model, preps, P[None])])
         if got is not None:
-            return [(R, np.moveaxis(J, 2, 0)) for R, J in got]
-    h = model.steps(preps, P)
+            fd = sensitivities(model, preps, P, [cols[k] for k in rest], w, h=h) if rest else None
+            out = []
+            for i, (R, J) in enumerate(got):
+                Js = np.moveaxis(J, 2, 0)
+                if fd is not None:  # the columns in their order: exact ones and differenced ones
+                    Js = np.concatenate([Js, fd[i][1]])[np.argsort(exact + rest, kind="stable")]
+                out.append((R, Js))
+            return out
+    h = model.steps(preps, P) if h is None else h
     Pb = np.repeat(P[None], len(cols) + 1, axis=0)
     for k, j in enumerate(cols):
         Pb[k + 1, j] += h[j]
@@ -190,12 +208,6 @@ def _noise_spread(A: np.ndarray, AH: np.ndarray, M: np.ndarray) -> np.ndarray:
     return (K @ M.sum(axis=0) @ KT).sum(axis=0) + (1.0 + 1.0 / n) * (AM @ A.transpose(0, 2, 1)).sum(axis=0) + X + X.T
 
 
-def small_sample(n: int) -> float:
-    """Variance factor of a spread measured over ``n`` runs (n - 1 degrees of freedom): the
-    Student-t quantile of a one-std (68 %) interval, squared (2 runs: 3.38, 3 runs: 1.746, 10 runs: 1.12)."""
-    return float(stats.t.ppf(stats.norm.cdf(1.0), n - 1) ** 2) if n >= 2 else 0.0
-
-
 def excess(V: np.ndarray | None, C: np.ndarray) -> np.ndarray:
     """The part of the between-run covariance ``V`` the noise covariance ``C`` does not explain
     (zero when the runs agree within their noise): ``V - C`` where positive, in the coordinates
@@ -299,17 +311,36 @@ def finding_cov(
     prior_sd: np.ndarray | None = None,
     held: list[int] | None = None,
     held_cov: np.ndarray | None = None,
+    pairs: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> FindingCov:
     """Covariance of the ``free`` parameters at P (coloured residuals; the fit's prior std
     ``prior_sd`` per parameter), plus the propagated covariance ``held_cov`` of the parameters
     ``held`` (fixed at P, estimated on other runs), and the run-to-run model misfit of the
-    findings' parameters (the candidate slots among ``free``) over ``preps``."""
+    findings' parameters (the candidate slots among ``free``) over ``preps``. ``pairs``: the
+    runs' :func:`sensitivities` to ``free`` and then ``held`` at P when already computed
+    (:func:`finding_pairs`)."""
     held = list(held or []) if held_cov is not None else []
-    pairs = sensitivities(model, preps, P, list(free) + held, w)
+    pairs = sensitivities(model, preps, P, list(free) + held, w) if pairs is None else pairs
     D, cols = _prior_and_findings(model, free, prior_sd)
     out = propagated(pairs, len(free), D, held_cov if held else None, cols)
     out.reference_runs = sum(id(p) in getattr(model, "reference_ids", ()) for p in preps)
     return out
+
+
+def finding_pairs(
+    model: AugmentedModel,
+    preps: list[Prepared],
+    w: np.ndarray,
+    P: np.ndarray,
+    free: list[int],
+    held: list[int] | None = None,
+    held_cov: np.ndarray | None = None,
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The runs' :func:`sensitivities` :func:`finding_cov` reads (to ``free``, then to ``held`` when
+    ``held_cov`` is given); their first ``len(free)`` columns are those :func:`with_within` reads
+    at the same P and weights (each batch member is simulated on its own: the same bits)."""
+    held = list(held or []) if held_cov is not None else []
+    return sensitivities(model, preps, P, list(free) + held, w)
 
 
 def baseline_cov(
@@ -355,7 +386,8 @@ def reference_misfit(
     refit is not finite."""
     cols = list(base_free) + list(own)
     D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[cols], len(cols))
-    return misfit_term(sensitivities(model, calm, P0, cols, w), len(base_free), D)
+    # the baseline's columns by forward sensitivities (P0 switches no candidate on), the finding's differenced
+    return misfit_term(sensitivities(model, calm, P0, cols, w, analytic=True), len(base_free), D)
 
 
 def misfit_term(pairs: list[tuple[np.ndarray, np.ndarray]], nb: int, prior_D: np.ndarray | None = None) -> np.ndarray | None:
@@ -412,9 +444,6 @@ def with_reference(
     return cov
 
 
-BLOCKS_PER_RUN = 8  # an eighth of a run: a zig-zag's cycle or two, long against the residuals' AR(1) correlation
-
-
 def positive_part(A: np.ndarray) -> np.ndarray:
     """The positive semi-definite part of a symmetric matrix (its negative eigenvalues set to 0)."""
     lam, U = np.linalg.eigh(0.5 * (A + A.T))
@@ -434,6 +463,7 @@ def with_within(
     P: np.ndarray,
     free: list[int],
     prior_sd: np.ndarray | None = None,
+    pairs: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> FindingCov:
     """``cov`` with the misfit within the runs as its ``within`` part: the delete-a-block
     jackknife (Künsch 1989) over blocks of each run (:data:`BLOCKS_PER_RUN`), beyond its AR(1)
@@ -443,10 +473,15 @@ def with_within(
     model's coefficients say) moves a finding from block to block where the runs, each holding the
     whole manoeuvre, agree. Only its excess over the run-to-run part is added (the positive part of
     the difference), so the interval holds the larger of the two and never shrinks (White 1982:
-    the sandwich's meat from the scores, not from a noise model)."""
+    the sandwich's meat from the scores, not from a noise model). ``pairs``: the runs'
+    :func:`sensitivities` at P whose first ``len(free)`` columns are those to ``free``, when already
+    computed (:func:`finding_pairs`)."""
     if not len(cov.noise) or cov.n_runs < 2:  # one run: no between-run check either, and it says so
         return cov
-    pairs = sensitivities(model, preps, P, list(free), w)
+    if pairs is None:
+        pairs = sensitivities(model, preps, P, list(free), w)
+    else:
+        pairs = [(r, J[: len(free)]) for r, J in pairs]
     D, cols = _prior_and_findings(model, free, prior_sd)
     cov.within = within_term(pairs, cols, cov.model, D)
     return cov
@@ -469,90 +504,3 @@ def within_term(
     B = np.zeros_like(run_part)
     B[ix] = small_sample(len(blocks)) * excess(VE[0][ix], VE[1][ix])
     return _finite(positive_part(B - run_part))
-
-
-def _var_den(comps: list[tuple[float, float]]) -> tuple[float, float]:
-    """The total variance of independent parts ``(variance, degrees of freedom)`` and the
-    Welch-Satterthwaite denominator ``sum v_i^2 / nu_i`` (parts of infinite degrees of freedom add none)."""
-    return sum(v for v, _nu in comps), sum(v**2 / nu for v, nu in comps if np.isfinite(nu))
-
-
-def _t_half(comps: list[tuple[float, float]]) -> float:
-    """Half-width of a 95 % interval of a sum of independent parts ``(variance, degrees of freedom)``:
-    the Student-t quantile at the Welch-Satterthwaite effective degrees of freedom
-    ``nu = (sum v_i)^2 / sum (v_i^2 / nu_i)`` (Satterthwaite 1946; Welch 1947) times the
-    total std."""
-    var, den = _var_den(comps)
-    nu = var**2 / den if den > 0 else np.inf
-    return float(stats.t.ppf(0.975, nu) * np.sqrt(var)) if var > 0 else 0.0
-
-
-def _topped_up(parts: list[tuple[float, float]], top_up: float, n_heldout: int) -> tuple[float, float]:
-    """The model error as one part ``(variance, degrees of freedom)`` once the held-out runs' top-up
-    ``top_up`` (a variance) is added to the model-error ``parts``: its degrees of freedom
-    interpolated harmonically in the top-up's share ``s`` of the variance,
-    ``1/nu = (1 - s)/nu_parts + s/n_heldout`` (``nu_parts`` the Welch-Satterthwaite degrees of
-    freedom of the parts). This interpolation is argued here, not a published rule. What holds:
-    it is continuous in ``s``, between ``nu_parts`` and ``n_heldout``, and never above the
-    Satterthwaite degrees of freedom of the sum whatever the correlation of the two estimates
-    (their variances ``2 v^2/nu`` add to at most ``(sigma_1 + sigma_2)^2``, and
-    ``((1 - s) a + s b)^2 <= (1 - s) a^2 + s b^2``), so its t quantile is at least theirs. Not
-    Welch-Satterthwaite over the top-up as one more independent part: the top-up is the excess of
-    the held-out runs' measure over the parts (with_heldout), not an independent estimate, and as
-    one it would lend the sum more degrees of freedom than either measure has (on
-    tests/test_diagnose_uncertainty.py's quadratic misfit 85 % coverage over 200 seeds, 88 % with
-    this rule, 89.5 % with the whole model error at ``n_heldout``). The variance is the parts as
-    measured plus the top-up: below the held-out measure itself by the parts' small-sample
-    widening (the top-up is its excess over the widened parts), so it is continuous at a zero
-    top-up; :func:`half_width_95`'s floor of 1.96 printed stds still holds the held-out measure."""
-    var, den = _var_den(parts)
-    total = var + top_up
-    inv = (var / total) * (den / var**2 if var > 0 else 0.0) + (top_up / total) / n_heldout
-    return total, (1.0 / inv if inv > 0 else np.inf)
-
-
-def half_width_95(
-    noise: float,
-    model: float = 0.0,
-    within: float = 0.0,
-    reference: float = 0.0,
-    heldout: float = 0.0,
-    n_runs: int = 0,
-    n_heldout: int = 0,
-) -> float:
-    """Half-width of an estimate's 95 % interval from the stds of its parts (:class:`FindingCov`):
-    the Student-t quantile at the Welch-Satterthwaite effective degrees of freedom of their sum
-    (Satterthwaite 1946, "An approximate distribution of estimates of variance components"), each
-    part's variance as measured, before the widening :func:`small_sample` gives a one-std interval.
-
-    The noise part (an AR(1) sandwich over thousands of samples) has as many degrees of freedom as
-    the data; the run-to-run misfit ``n_runs - 1``; the misfit within the runs (the excess of the
-    spread over eighths of each run, :func:`with_within`, over the run-to-run part) replaces it by
-    ``BLOCKS_PER_RUN * n_runs - 1`` where it is larger; the --fit-on runs' misfit on the finding is
-    one draw, ``delta``: one degree of freedom; the held-out runs' top-up
-    (:func:`diagnose.heldout_interval.with_heldout`: their misfit's excess over the parts before it)
-    one draw a held-out run, ``n_heldout``: the model error's degrees of freedom move smoothly with
-    the top-up's share of it (:func:`_topped_up`): a top-up of a few per cent of the variance leaves
-    the interval as it was, one that carries the model error takes the held-out runs' few degrees of
-    freedom (t 4.30 with two). (Switching the whole model error to ``n_heldout`` however small the
-    top-up widened the 44 of the MMG battery's 194 topped-up intervals topped up by less than 5 % of
-    their std 1.07-2.15 times; this rule 1.000-1.110 times.) Where the held-out runs have more degrees of freedom than the parts (a --fit-on
-    part's single one) that could narrow the interval, so the half-width is at least the one without
-    the top-up. A model-error part measured over three runs makes a 95 % interval 4.30 of its stds
-    wide, not the 1.96 of a normal law: the tails of a spread measured over few units are heavy.
-    Never narrower than 1.96 of the std the finding prints (whose parts :func:`small_sample`
-    widened for a one-std interval)."""
-    comps = [(noise**2, np.inf)]
-    blocks = BLOCKS_PER_RUN * n_runs
-    if within > 0 and blocks >= 2:
-        comps.append(((model**2 + within**2) / small_sample(blocks), blocks - 1))
-    elif model > 0 and n_runs >= 2:
-        comps.append((model**2 / small_sample(n_runs), n_runs - 1))
-    if reference > 0:
-        comps.append((reference**2, 1))
-    half = _t_half(comps)
-    if heldout > 0 and n_heldout >= 1:
-        half = max(half, _t_half([comps[0], _topped_up(comps[1:], heldout**2, n_heldout)]))
-    # never narrower than 1.96 of the std printed beside it (widened for a one-std interval): the two
-    # intervals a report states must not contradict each other
-    return max(half, float(stats.norm.ppf(0.975)) * float(np.sqrt(noise**2 + model**2 + within**2 + reference**2 + heldout**2)))

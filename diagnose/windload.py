@@ -120,7 +120,14 @@ def steady_increments(profile: Particulars, y: np.ndarray, psi: np.ndarray, wind
     the ship turns, the surge load scaled, the yaw moment about the centroid (``wind_N`` + s_L/L
     ``wind_N_arm``), all scaled by :func:`ship_gains`."""
     w = np.asarray(wind, float)[:, None, :]
-    ex = excess_loads(profile, y, body_from_ne(w, psi))
+    # the loads of each distinct air velocity once (a Jacobian's members share one but for the wind's
+    # own columns): the loads are elementwise in the members, the same numbers as computed for each.
+    # Distinct by their bits: np.unique on floats takes -0.0 for 0.0, whose relative wind angle can
+    # differ by 2 pi (arctan2's sign of zero) and so its loads in the last bits
+    air = np.ascontiguousarray(w[:, 0, :2])
+    _bits, first, back = np.unique(air.view(np.uint64), axis=0, return_index=True, return_inverse=True)
+    ex = excess_loads(profile, y, body_from_ne(air[first][:, None, :], psi))
+    ex = {k: v[back.ravel()] for k, v in ex.items()}
     n = ex["wind_N"] + w[..., 2] * ex["wind_N_arm"]
     return np.stack([ex["wind_X"] * (1.0 + w[..., 3]), ex["wind_Y"], n], axis=-1) * ship_gains(profile, sample_time)
 

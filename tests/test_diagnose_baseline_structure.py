@@ -256,7 +256,7 @@ def test_fit_stops_only_after_patience_short_steps_in_a_row(monkeypatch):
     """The --fit-on refit's stopping rule (diagnose.baseline.BASELINE_PATIENCE): with patience 2 the
     fit goes on past its first step under ``tol`` and ends no worse than where one short step
     stopped it."""
-    import diagnose.model as dm
+    import diagnose.fitting as dm
     from diagnose.battery import scenario
 
     prof = load_profile("model-ship")

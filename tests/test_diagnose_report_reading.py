@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from diagnose import plausible, report
-from diagnose.api import _evidence
+from diagnose.evidence import evidence as _evidence
 from diagnose.heldout import rejection_entry, verdict
 from diagnose.locate import locate
 from diagnose.report import per_run_lines, sentence, to_text
