@@ -23,8 +23,8 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from maps.sparse import csr_matrix, dijkstra
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
 
 EPS = 1e-9  # weight standing in for a zero-cost edge (csgraph drops explicit zeros)
 

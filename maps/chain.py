@@ -147,7 +147,8 @@ class Lattice:
         repositioning moves alone (breadth-first search on the basic moves' graph both ways): another
         designed manoeuvre is no way there, since the mix may not hold it (:mod:`maps.sailable`) and
         a manoeuvre left out by the design would leave the ship with no way back."""
-        from maps.sparse import breadth_first_order, csr_matrix
+        from scipy.sparse import csr_matrix
+        from scipy.sparse.csgraph import breadth_first_order
 
         pb = self.problem()
         sc = pb.succ

@@ -15,10 +15,11 @@ from collections import deque
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import breadth_first_order
 
 from maps.astar import Problem
 from maps.sizing import Needs, needs
-from maps.sparse import breadth_first_order, csr_matrix
 
 if TYPE_CHECKING:
     from maps.chain import Lattice
