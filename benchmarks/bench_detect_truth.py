@@ -34,6 +34,7 @@ import argparse
 import ast
 import hashlib
 import json
+import os
 import pickle
 import tempfile
 import time
@@ -116,11 +117,14 @@ def screening_key() -> str:
 
 
 def _stored(path: Path, make):
-    """``make()``, pickled to ``path`` and read back from there on later calls."""
+    """``make()``, pickled to ``path`` and read back from there on later calls (written to a temporary
+    file and renamed: a call stopped while writing, or two calls sharing a cache, leave no half pickle)."""
     if path.exists():
         return pickle.loads(path.read_bytes())
     out = make()
-    path.write_bytes(pickle.dumps(out))
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_bytes(pickle.dumps(out))
+    os.replace(tmp, path)
     return out
 
 
