@@ -63,13 +63,18 @@ LOGGING = {"steering-lag-acting": ("steering-lag", {"tau_from_setpoint": False})
 ALL_VARIANTS = (*VARIANTS, *LOGGING)
 
 
-def variant_recordings(variant: str, ship_seed: int, run_seeds: list[int], **kw) -> list[dict]:
-    """``podded_truth.recordings`` of a family variant or of a logging variant (LOGGING)."""
+def variant_ship(variant: str, ship_seed: int) -> Ship:
+    """``podded_truth.draw_ship`` of a family variant or of a logging variant (LOGGING)."""
     if variant in LOGGING:
         base, logged = LOGGING[variant]
-        kw["ship"] = replace(draw_ship(base, ship_seed), **logged)
-        variant = base
-    return recordings(variant, ship_seed, run_seeds, **kw)
+        return replace(draw_ship(base, ship_seed), **logged)
+    return draw_ship(variant, ship_seed)
+
+
+def variant_recordings(variant: str, ship_seed: int, run_seeds: list[int], **kw) -> list[dict]:
+    """``podded_truth.recordings`` of a family variant or of a logging variant (LOGGING)."""
+    base = LOGGING[variant][0] if variant in LOGGING else variant
+    return recordings(base, ship_seed, run_seeds, ship=variant_ship(variant, ship_seed), **kw)
 
 
 def _cached(folder: Path, name: str, make) -> list[Path]:
