@@ -26,7 +26,8 @@ Printed per variant: the mean oracle power at 3 % false alarms on the recording'
 the change time (``r`` alone: ``detect``'s output channel; all channels: u, v, r, phi,
 p, v_dot, tau_n), the share of runs where it is below 95 %, and the oracle delay: the data after the
 change a known-time test needs for 95 % power at 3 % false alarms (``d >= z_0.97 + z_0.95 = 3.53``),
-a lower bound on any detector's delay.
+averaged over the runs that reach it within the recording (the others are left out, so on variants
+where few reach it the mean is of the easy runs).
 
     nice -n 10 python benchmarks/bench_detect_oracle.py --ships 2 --runs 10
 """
