@@ -136,7 +136,8 @@ def implausible_inertia(prior: YawPrior, i_z: float | None, n_rdot: float | None
 def _decide(eps, S, prior, st, h, null_blocks, min_change, i_ref, n_rdot, band=None) -> tuple[int, dict]:
     """First block over the threshold whose change is also worth an alarm: the leading candidate's
     estimate from the change point on (:meth:`Whitened.onset`) up to the end of that block, or MIN_WINDOW_S
-    after the change point if later, at least ``min_change`` (of I_z for yaw inertia, from the
+    after the change point if later, clipped at the recording's end (so near the end an alarm can stand
+    on less than MIN_WINDOW_S), at least ``min_change`` (of I_z for yaw inertia, from the
     lumped ``i_ref`` = I_z - N_rdot; of I_r when that is None) and twice its no-change standard deviation. Returns (alarm
     sample: the last one that estimate saw, or -1; evidence).
 
