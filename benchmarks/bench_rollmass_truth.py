@@ -36,6 +36,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from identify.rollmass import restoring as rm_restoring  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
 from identify.rollmass.estimate import METHODS  # noqa: E402
 from primitives.errors import UserError  # noqa: E402
@@ -111,9 +112,16 @@ def main() -> None:
         action="store_true",
         help="no waves and no sensor noise: a variant still biased is a structural mismatch, not noise",
     )
+    ap.add_argument(
+        "--heel-ref",
+        choices=rm_restoring.HEEL_REFERENCES,
+        default=rm_restoring.HEEL_REFERENCE,
+        help="how oe references the AHRS roll angle (identify.rollmass.restoring.referenced_heel); for comparisons",
+    )
     ap.add_argument("--dump", help="write every fit's row to this file (JSON lines, emptied first) as it finishes")
     ap.add_argument("--from-dump", help="print the tables from a --dump file (also an interrupted run's) and fit nothing")
     a = ap.parse_args()
+    rm_restoring.HEEL_REFERENCE = a.heel_ref  # set before the workers fork
     variants, cases = a.variants.split(","), a.cases.split(",")
     methods = list(METHODS) if a.methods == "all" else a.methods.split(",")
     if not set(methods) <= set(METHODS) or not set(variants) <= set(bt.VARIANTS + ("base",)) or not set(cases) <= set(bt.CASES):
@@ -151,7 +159,7 @@ def main() -> None:
     fails = [f"{r[0]} {r[1]} {r[2]} run {r[3]}: {r[5]}" for r in rows if r[4] is None]
     print(
         f"truth family: {len(variants)} variants x {'the dump' if a.from_dump else a.runs} runs x {len(cases)} cases, seed {a.seed}, "
-        f"{'without' if a.no_u else 'with'} the u column{', quiet (no waves, no noise)' if a.quiet else ''}; "
+        f"{'without' if a.no_u else 'with'} the u column{', quiet (no waves, no noise)' if a.quiet else ''}, heel reference {a.heel_ref}; "
         f"{time.perf_counter() - t0:.0f} s wall, simulation {c_sim:.0f} s cpu, fits {c_fit:.0f} s cpu "
         f"({c_fit / max(len(rows), 1):.2f} s per fit)\n"
     )
