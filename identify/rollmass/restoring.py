@@ -29,6 +29,13 @@ angle has been through the same filters as the other channels, and a filter whos
 the hull's ``kappa`` is not the one the filtered data obey. Measured, noise-free independent basin truth
 (``restoring``, ``simulate_runs("restoring", 2, 3015)`` run 0, case 2): ``kappa`` held at the hull's
 9.0 N m gave -40.5 % / -105 mm, fitted (12.3 N m) +0.24 % / +0.2 mm; without the term +23.8 % / +33 mm.
+
+The AHRS's roll angle has its own error (an MTi-G: 0.5 deg static), and through the cubic a bias ``b``
+adds a moment ``3 kappa b phi^2`` that reads as load, so the angle is re-referenced to the heel the
+accelerometer reads (:func:`referenced_heel`). Measured on the basin truth with an AHRS error
+(benchmarks/bench_heel_reference.py, ``restoring``, 4 runs): median |mean error| 0.356 deg as recorded,
+0.043 deg referenced; on the noise-free half-length ``restoring`` case 2 with 0.5 deg added, -9.65 % /
+-13.8 mm as recorded, +0.44 % / +0.5 mm referenced (tests/test_rollmass_restoring.py).
 """
 
 from __future__ import annotations
