@@ -152,3 +152,24 @@ def test_runs_are_reproducible_and_differ_between_runs():
     b = bt.simulate_runs("restoring", 2, 3, length=0.1)[1]["nominal-1"]["p"]
     np.testing.assert_array_equal(a, b)
     assert not np.allclose(a[0], a[1])
+
+
+def test_the_ahrs_roll_angle_carries_an_mti_g_level_error_and_nothing_else_changes(monkeypatch):
+    """The recorded ``phi`` is the AHRS's: the true heel plus a per-recording error at the MTi-G's
+    level (static 0.5 deg, so a constant of a few tenths of a degree and a slower drift), drawn from a stream of
+    its own (every other channel bit for bit as without it); none with ``quiet``."""
+    ship, with_err = bt.simulate_runs("base", 6, 11, length=0.5)
+    monkeypatch.setattr(bt, "_ahrs_error", lambda R, n, s: np.zeros((R, n)))
+    _, without = bt.simulate_runs("base", 6, 11, length=0.5)
+    offsets = []
+    for name in bt.DATASETS:
+        for k in ("delta", "p", "a_s", "r", "u"):
+            np.testing.assert_array_equal(with_err[name][k], without[name][k])
+        e = np.rad2deg(with_err[name]["phi"] - without[name]["phi"])
+        offsets += list(e.mean(axis=1))
+        assert np.all(e.std(axis=1) < 0.5) and np.all(e.std(axis=1) > 0.005)
+    assert 0.15 < np.std(offsets) < 0.8 and len(set(np.round(offsets, 6))) == len(offsets)
+    _, q1 = bt.simulate_runs("base", 2, 11, length=0.2, quiet=True)
+    monkeypatch.undo()
+    _, q2 = bt.simulate_runs("base", 2, 11, length=0.2, quiet=True)
+    np.testing.assert_array_equal(q1["nominal-1"]["phi"], q2["nominal-1"]["phi"])

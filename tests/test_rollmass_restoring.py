@@ -13,7 +13,8 @@ import pytest
 
 from identify.rollmass.api import estimate_from_files, heel_notes
 from identify.rollmass.model import DEFAULT_PROFILE, load_profile, metacentric_radius
-from identify.rollmass.restoring import heel_gain, heel_signal
+from identify.rollmass.recording import read_roll_csv
+from identify.rollmass.restoring import heel_gain, heel_signal, referenced_heel
 from identify.rollmass.simulate import RollRecording
 from primitives.ship import ProfileError
 from tests.physics import basin_truth as bt
@@ -69,3 +70,55 @@ def test_a_roll_angle_in_some_runs_only_is_dropped_from_all_and_said():
     assert len(notes) == 1 and "run0.csv, run2.csv only" in notes[0]
     same, none = heel_notes([dataclasses.replace(r, phi=z) for r in recs], paths)
     assert none == [] and all(r.phi is not None for r in same)
+
+
+def _truth_recordings(d: str, variant: str, seed: int, length: float, quiet: bool, case: str = "case2") -> list[Path]:
+    ship, data = bt.simulate_runs(variant, 1, seed, length=length, quiet=quiet)
+    return [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in bt.case_recordings(ship, data, case, 0)]
+
+
+def test_the_accelerometer_reference_takes_the_ahrs_roll_error_out(monkeypatch, tmp_path):
+    """Independent basin truth with sensor noise (``base``, 4 runs, 16 recordings): the recorded roll angle
+    is off the true heel by the AHRS's error (here |mean| median 0.15 deg, up to 0.55 deg); referenced to
+    the accelerometer's heel its mean error is at the accelerometer bias's level (median 0.08 deg, at most
+    0.29 deg), and a further 0.5 deg added to ``phi`` changes nothing but through that constant's sine
+    nonlinearity. (Each recording's mean taken out instead: median 0.50 deg, up to 2.5 deg, the true mean
+    heel of its turns.)"""
+    ship, data = bt.simulate_runs("base", 4, 21, length=0.6)
+    monkeypatch.setattr(bt, "_ahrs_error", lambda R, n, s: np.zeros((R, n)))
+    _, true = bt.simulate_runs("base", 4, 21, length=0.6)
+    kn = PROF.known
+    raw, ref = [], []  # |mean error| [deg] of the recorded and the referenced roll angle
+    for name in bt.DATASETS:
+        for run in range(4):
+            cols = {k: data[name][k][run] for k in ("delta", "p", "a_s", "r", "phi", "u")}
+            rec, _ = read_roll_csv(bt.write_csv(bt.Recording("nominal", name, 0.02, cols, {}), tmp_path / "x.csv"))
+            t = true[name]["phi"][run]
+            got = referenced_heel(rec, kn.g, float(rec.u.mean()))
+            raw.append(np.rad2deg(abs((rec.phi - t).mean())))
+            ref.append(np.rad2deg(abs((got - t).mean())))
+            biased = referenced_heel(dataclasses.replace(rec, phi=rec.phi + np.deg2rad(0.5)), kn.g, float(rec.u.mean()))
+            assert np.max(np.abs(biased - got)) < np.deg2rad(0.01)
+            assert np.max(np.abs(referenced_heel(rec, kn.g, 0.5, "raw") - rec.phi)) == 0.0
+    # what is left is the accelerometer's own bias (0.02 m/s^2 sd in the truth: 0.12 deg) and u times the yaw gyro's
+    assert np.median(ref) < 0.1 and max(ref) < 0.35, (raw, ref)
+
+
+def test_a_roll_angle_bias_does_not_read_as_load():
+    """Noise-free ``restoring`` truth (half length, case 2) with the AHRS's roll angle 0.5 deg off in every
+    run (the MTi-G's static accuracy): used as recorded (main at fad4f0a) the load moved from +0.18 % /
+    +0.1 mm to -9.65 % / -13.8 mm; re-referenced to the accelerometer's heel it is +0.44 % / +0.5 mm with
+    the bias and without it."""
+    m_true, z_true = bt.truth_load("case2")
+    with tempfile.TemporaryDirectory() as d:
+        paths = _truth_recordings(d, "restoring", 3015, 0.5, True)
+        for p in paths:  # the AHRS's roll angle 0.5 deg off, every other column as written
+            lines = p.read_text().splitlines()
+            k = next(i for i, ln in enumerate(lines) if not ln.startswith("#"))
+            arr = np.loadtxt(lines[k + 1 :], delimiter=",")
+            arr[:, lines[k].split(",").index("phi")] += np.deg2rad(0.5)
+            rows = [",".join(f"{x:.9g}" for x in row) for row in arr]
+            p.write_text("\n".join(lines[: k + 1] + rows) + "\n")
+        e = estimate_from_files(*paths)
+    assert e.converged
+    assert abs(e.m / m_true - 1) < 0.01 and abs(e.zbar_m - z_true) < 0.002, (e.m, e.zbar_m)

@@ -26,7 +26,7 @@ Methods:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -51,6 +51,7 @@ from identify.rollmass.model import (
     load_moments,
 )
 from identify.rollmass.oe_fit import fit_output_error
+from identify.rollmass.restoring import referenced_heel
 from identify.rollmass.simulate import RollRecording
 
 PARAMS = SHIP_PARAMS + ("m", "zbar_m")
@@ -335,7 +336,10 @@ def _improved(
 
 def _oe(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, z_f: float, start: dict[str, float]) -> MassEstimate:
     """Output-error fit with ``z_f`` under its prior ``N(z_f, z_f_prior_sd^2)``; with ``with_ci`` the
-    sandwich covariance of every free parameter, ``z_f`` included (:func:`oe_fit.fit_output_error`)."""
+    sandwich covariance of every free parameter, ``z_f`` included (:func:`oe_fit.fit_output_error`).
+    The recordings' roll angles are first re-referenced to the accelerometer's heel
+    (:func:`restoring.referenced_heel`): the AHRS's roll error would read as load through the heel moment."""
+    datasets = [replace(d, phi=referenced_heel(d, kn.g, kn.U if d.U is None else d.U)) for d in datasets]
     f = fit_output_error(datasets, kn, cal, z_f, start, with_cov=with_ci)
     # K_r of (11) from the fitted K_ur, so the shared parameters read as in the paper's Table 3
     K_r = (f.values["K_ur"] - f.values["K_vdot"]) * kn.U

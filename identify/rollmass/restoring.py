@@ -29,13 +29,33 @@ angle has been through the same filters as the other channels, and a filter whos
 the hull's ``kappa`` is not the one the filtered data obey. Measured, noise-free independent basin truth
 (``restoring``, ``simulate_runs("restoring", 2, 3015)`` run 0, case 2): ``kappa`` held at the hull's
 9.0 N m gave -40.5 % / -105 mm, fitted (12.3 N m) +0.24 % / +0.2 mm; without the term +23.8 % / +33 mm.
+
+The AHRS's roll angle has its own error (an MTi-G: 0.5 deg static), and through the cubic a bias ``b``
+adds a moment ``3 kappa b phi^2`` that reads as load, so the angle is re-referenced to the heel the
+accelerometer reads (:func:`referenced_heel`). Measured on the basin truth with an AHRS error
+(benchmarks/bench_heel_reference.py, ``restoring``, 4 runs): median |mean error| 0.356 deg as recorded,
+0.043 deg referenced; on the noise-free half-length ``restoring`` case 2 with 0.5 deg added, -9.65 % /
+-13.8 mm as recorded, +0.44 % / +0.5 mm referenced (tests/test_rollmass_restoring.py).
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from scipy.signal import butter, filtfilt
 
 from identify.rollmass.model import Known
+
+if TYPE_CHECKING:  # simulate imports this module
+    from identify.rollmass.simulate import RollRecording
+
+# How the AHRS roll angle is referenced before it enters the heel signal (see :func:`referenced_heel`):
+# "raw" as recorded, "mean" each recording's mean taken out, "acc" its mean re-referenced to the
+# accelerometer's heel, "acc-lp" its slow part (below ACC_LP_HZ) re-referenced to the accelerometer's heel.
+HEEL_REFERENCES = ("raw", "mean", "acc", "acc-lp")
+HEEL_REFERENCE = "acc-lp"
+ACC_LP_HZ = 0.05  # 20 s: longer than a joystick turn (1-6 s), shorter than an AHRS's gravity-correction drift
 
 
 def heel_signal(phi: np.ndarray, kn: Known) -> np.ndarray:
@@ -55,3 +75,40 @@ def gravity_excess(phi: np.ndarray, g: float) -> np.ndarray:
     """``g (sin phi - phi)`` [m/s^2]: what the lateral accelerometer reads of gravity beyond the linear
     model's ``g phi`` (its specific force has ``g sin phi``, Linder et al. 2015, eq. (7) before linearising)."""
     return g * (np.sin(phi) - phi)
+
+
+def accelerometer_heel_offset(rec: RollRecording, g: float, U: float) -> np.ndarray:
+    """``sin(phi) - (a_s + u r) / g`` per sample: the AHRS roll angle's offset from the heel the lateral
+    accelerometer reads. ``a_s = g sin(phi) - v' - u r - x_s r' + z_s p'`` (Linder et al. 2015, eq. (7)
+    before linearising, with the centripetal ``u r``), and ``v'``, ``r'`` and ``p'`` average out over
+    longer than a turn, so the slow part of this offset is the AHRS's roll error (bias and drift),
+    left with the accelerometer's own bias (MTi-G: 0.02 m/s^2, 0.12 deg) and ``u`` times the yaw gyro's.
+    ``u`` is the recording's surge speed when it has one, else ``U``."""
+    u = rec.u if rec.u is not None else U
+    return np.sin(rec.phi) - (rec.a_s + u * rec.r) / g
+
+
+def referenced_heel(rec: RollRecording, g: float, U: float, how: str | None = None) -> np.ndarray | None:
+    """The recording's roll angle with its AHRS error estimated and taken out (``how``: one of
+    :data:`HEEL_REFERENCES`, default :data:`HEEL_REFERENCE`); ``None`` without a ``phi`` column.
+
+    Why: the heel moment ``-kappa w(phi)`` is cubic, so a roll bias ``b`` adds ``3 b phi^2``, a moment
+    even in the heel that reads as load (measured: 0.5 deg moved the noise-free basin truth ``restoring``
+    case 2 from +0.24 % to -5.1 %). Taking each recording's mean out removes the bias but also the true
+    mean heel of its turns; the accelerometer's heel does not have that trade (see
+    :func:`accelerometer_heel_offset`)."""
+    if rec.phi is None:
+        return None
+    how = HEEL_REFERENCE if how is None else how
+    if how not in HEEL_REFERENCES:
+        raise ValueError(f"heel reference must be one of {HEEL_REFERENCES}")
+    if how == "raw":
+        return rec.phi
+    if how == "mean":
+        return rec.phi - rec.phi.mean()
+    d = accelerometer_heel_offset(rec, g, U)
+    c = np.cos(rec.phi)
+    if how == "acc" or ACC_LP_HZ * rec.n * rec.T < 2.0:  # a recording shorter than two filter periods: its mean
+        return rec.phi - d.mean() / c.mean()
+    b, a = butter(1, ACC_LP_HZ, fs=1.0 / rec.T)
+    return rec.phi - filtfilt(b, a, d, padtype="even") / c

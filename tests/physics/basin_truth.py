@@ -37,7 +37,9 @@ the IMU's FIR). The FIR is the paper's post-processing, applied alike to every r
 and transition band (0.5-5 Hz) has a passband ripple of 6.5 %, so its gain is 0.935 at 0 Hz and
 0.92-0.93 in the roll band, kept unnormalised on purpose (the paper gives no normalisation; a linear
 model sees the gain cancel between input and outputs, a model nonlinear in the recorded ``phi`` does
-not). The ``phi`` column is the true roll angle through that FIR, without an AHRS's noise or bias.
+not). The ``phi`` column is the AHRS's roll angle through that FIR: the true heel plus the IMU's
+misalignment about x (``imu_mount``) and an AHRS error at the MTi-G's level (a constant per recording,
+a slow drift, white noise; :func:`_ahrs_error`; none with ``quiet``).
 Parameters are drawn per run around nominal from the run's seed.
 
 Runs are integrated together (RK4 at 100 Hz, vectorised over runs).
@@ -339,14 +341,51 @@ def simulate(
         x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     v, p, r, phi, u = (X[:, i, :].T for i in range(5))
     vd, pd, rd, _, ud = (XD[:, i, :].T for i in range(5))
-    return _measure(ship, rng, delta, v, p, r, phi, u, vd, pd, rd, ud, warm, n_out, 0.0 if quiet else 1.0)
+    return _measure(ship, rng, delta, v, p, r, phi, u, vd, pd, rd, ud, warm, n_out, 0.0 if quiet else 1.0, seed)
+
+
+# The AHRS's roll error (Xsens MTi-G data sheet: static roll accuracy 0.5 deg, dynamic 1 deg RMS):
+# per recording a constant (its attitude filter's gravity reference, sd 0.4 deg) and a slow drift
+# (first-order Gauss-Markov, sd 0.25 deg, 20 s correlation time: the filter's slow gravity correction
+# in a basin without GNSS aiding), plus its output noise (0.02 deg white). Drawn from a stream of its
+# own, so every other channel stays the same as before the AHRS error was added.
+AHRS_BIAS_SD = np.deg2rad(0.4)
+AHRS_DRIFT_SD, AHRS_DRIFT_TAU = np.deg2rad(0.25), 20.0
+AHRS_NOISE_SD = np.deg2rad(0.02)
+
+
+def _ahrs_error(R: int, n: int, seed: int) -> np.ndarray:
+    """The AHRS roll angle's error (runs, n) at 100 Hz [rad], from ``seed`` (the recording's own)."""
+    rng = np.random.default_rng([seed, 0xA425])
+    a = math.exp(-1 / (AHRS_DRIFT_TAU * FS))
+    e = rng.standard_normal((R, n))
+    e[:, 0] /= math.sqrt(1 - a * a)  # stationary from the first sample
+    drift = lfilter([AHRS_DRIFT_SD * math.sqrt(1 - a * a)], [1, -a], e, axis=1)
+    return rng.normal(0, AHRS_BIAS_SD, (R, 1)) + drift + AHRS_NOISE_SD * rng.standard_normal((R, n))
 
 
 def _measure(
-    ship: Ship, rng: np.random.Generator, delta, v, p, r, phi, u, vd, pd, rd, ud, warm: int, n_out: int, noise: float
+    ship: Ship,
+    rng: np.random.Generator,
+    delta,
+    v,
+    p,
+    r,
+    phi,
+    u,
+    vd,
+    pd,
+    rd,
+    ud,
+    warm: int,
+    n_out: int,
+    noise: float,
+    seed: int = 0,
 ) -> dict[str, np.ndarray]:
     """The Xsens MTi-G at the IMU's true position and orientation, its noise and filters, the FIR
-    of section 5 and the decimation."""
+    of section 5 and the decimation. Its roll angle ``phi`` is the AHRS's: the true heel, the IMU's
+    misalignment about x (a roll angle of the sensor's frame, not the hull's) and the AHRS error of
+    :func:`_ahrs_error` (drawn from ``seed``)."""
     R = len(ship.U0)
     zs = (ship.z_imu + ship.z_f)[:, None]
     xs = ship.x_imu[:, None]
@@ -381,8 +420,9 @@ def _measure(
     slow = lfilter([math.sqrt(1 - ar1 * ar1)], [1, -ar1], rng.standard_normal((R, n)), axis=1)
     u_meas = u * (1 + noise * rng.normal(0, 0.01, (R, 1))) + noise * 0.005 * slow
     fir = remez(21, [0, 0.5, 5.0, FS / 2], [1, 0], fs=FS)
+    phi_ahrs = phi + ship.eps[:, :1] + noise * _ahrs_error(R, n, seed)
     out = {}
-    for name, s in (("delta", enc), ("p", gyro_p), ("a_s", acc), ("r", gyro_r), ("phi", phi)):
+    for name, s in (("delta", enc), ("p", gyro_p), ("a_s", acc), ("r", gyro_r), ("phi", phi_ahrs)):
         out[name] = lfilter(fir, 1.0, s, axis=1)[:, warm::DEC][:, :n_out]
     # the speed comes from the positioning's own smoother, not through the IMU's FIR (whose DC gain,
     # 0.935, cancels between the IMU channels and the rudder but would scale a speed)
