@@ -224,7 +224,6 @@ def run(
         calm_preps=held_by,
     )
     held_fit = cache(partial(fit_on_cov, given, fit_on, S.profile, S.theta0, S.own))  # the same on every pass
-    calm = [prepare(S.profile, r) for r in fit_on or []]
     for _pass in range(len(result.steps) + 1):  # one finding dropped a pass at most
         P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(
             model, preps + S.calm_preps, val_preps, result, w, P0, inputs
@@ -232,10 +231,18 @@ def run(
         cov, pairs = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0), None
         if steps:  # the per-run guard's set too: its findings get an interval and face the rule below
             cov, pairs = _cov(S, held_fit, fit_on, w_fit, P, free, result.prior_std)
-            cov = _model_error(cov, model, calm, preps + S.calm_preps, val_preps, w_fit, P, free, steps, result.prior_std, pairs)
         findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
         if not _drop_indistinct(model, preps + S.calm_preps, result, steps, findings, cov, w):
             break
+    calm = [prepare(S.profile, r) for r in fit_on or []]
+    if calm and steps and len(cov.noise):  # the model error common to every run, after the rule above
+        cov = with_reference(cov, model, calm, w_fit, free, [st.candidate.key for st in steps], result.prior_std)
+    if steps and len(cov.noise):  # the misfit within the runs, after the rule above too
+        # the covariance's sensitivities at the same P and weights: its first columns are free's
+        cov = with_within(cov, model, preps + S.calm_preps, w_fit, P, free, result.prior_std, pairs)
+        if val_preps:  # the model error the held-out runs show: a bias common to the diagnosed runs too
+            cov = with_heldout(cov, model, val_preps, w_fit, P, free, [st.candidate.key for st in steps], result.prior_std)
+        findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
     add_wind_means(findings, model, preps, P, cov, free)
     structure = structural(model, calm, w, P, findings)
     findings = [f for f in findings if f not in structure]
@@ -275,35 +282,6 @@ def run(
     d.cannot_tell, d.unpinned = why_not, S.unpinned
     d.elapsed_s = time.perf_counter() - t0
     return d
-
-
-def _model_error(
-    cov: FindingCov,
-    model: AugmentedModel,
-    calm: list[Prepared],
-    preps: list[Prepared],
-    val_preps: list[Prepared],
-    w_fit: np.ndarray,
-    P: np.ndarray,
-    free: list[int],
-    steps: list,
-    prior_std,
-    pairs,
-) -> FindingCov:
-    """The findings' covariance ``cov`` (noise and run-to-run misfit) with the model-error parts the
-    reported interval holds (:mod:`diagnose.uncertainty`): the error common to every run that the
-    ``--fit-on`` runs show, the misfit within the runs, and the error the held-out runs show. The
-    rule on indistinct findings judges this whole interval, the one the report prints."""
-    if not len(cov.noise):
-        return cov
-    keys = [st.candidate.key for st in steps]
-    if calm:
-        cov = with_reference(cov, model, calm, w_fit, free, keys, prior_std)
-    # the covariance's sensitivities at the same P and weights (``pairs``): its first columns are free's
-    cov = with_within(cov, model, preps, w_fit, P, free, prior_std, pairs)
-    if val_preps:  # a bias common to the diagnosed runs too
-        cov = with_heldout(cov, model, val_preps, w_fit, P, free, keys, prior_std)
-    return cov
 
 
 def _magnitudes(
@@ -360,10 +338,9 @@ def _drop_indistinct(
     cov: FindingCov,
     w: np.ndarray,
 ) -> bool:
-    """Drop the one finding with the smallest |estimate / std| when its interval (the reported one:
-    noise, the run-to-run misfit measured over two or more runs, and the model-error parts of
-    :func:`_model_error`) includes no effect: |estimate| < 1.96 std
-    (:func:`diagnose.describe.includes_no_effect`: its 95 % interval includes zero). Such a term improves the fit by no more than
+    """Drop the one finding with the smallest |estimate / std| when its interval (noise and the
+    run-to-run misfit, measured over two or more runs) includes no effect: |estimate| < 1 std
+    (:func:`diagnose.describe.includes_no_effect`). Such a term improves the fit by no more than
     the model's misfit moves it from run to run: with few runs, a damping term beside a delay that
     absorbs what the baseline lacks (issue 26). One at a time: a delay and a damping term competing
     for the same misfit both get wide intervals while both are in; without the weaker, the other's
@@ -385,12 +362,12 @@ def _drop_indistinct(
     if refit:
         result.P, _c, _rss = fit(model, preps, result.P, refit, w, max_iter=6)
     misfit = not cov.misfit_failed and bool(np.any(np.asarray(cov.model) != 0.0))
-    covers = "noise and model misfit" if misfit else "noise; the run-to-run misfit came out zero"
+    covers = "noise and run-to-run model misfit" if misfit else "noise; the run-to-run misfit came out zero"
     result.rejected.append(
         {
             "key": f["key"],
             "effect": f["effect"],
-            "reason": f"its 95 % interval ({covers}, 1.96 std) includes no effect (|estimate/std| = {z_score(f):.2f}): "
+            "reason": f"its interval ({covers}, 1 std) includes no effect (|estimate/std| = {z_score(f):.2f}): "
             + ("not told apart from the model's misfit" if misfit else "not told apart from the noise"),
         }
     )

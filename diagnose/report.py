@@ -172,10 +172,10 @@ def _effect(f: dict) -> str:
 
 
 def sentence(f: dict) -> str:
-    """One plain-language sentence per finding; an effect whose 95 % interval includes none is said to be."""
+    """One plain-language sentence per finding; an effect within 1 std of none is said to be."""
     what = _effect(f)
     if includes_no_effect(f):
-        what += " (the 95 % interval includes no effect: within 1.96 std of none)"
+        what += " (the interval includes no effect: within 1 std of none)"
     plaus = f" Plausible for this ship: {f['plausibility']}." if f.get("plausibility") else ""
     return f"{what}: {f['evidence']}.{plaus}"
 
