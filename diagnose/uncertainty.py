@@ -320,7 +320,7 @@ def finding_cov(
     runs' :func:`sensitivities` to ``free`` and then ``held`` at P when already computed
     (:func:`finding_pairs`)."""
     held = list(held or []) if held_cov is not None else []
-    pairs = sensitivities(model, preps, P, list(free) + held, w) if pairs is None else pairs
+    pairs = finding_pairs(model, preps, w, P, free, held, held_cov) if pairs is None else pairs
     D, cols = _prior_and_findings(model, free, prior_sd)
     out = propagated(pairs, len(free), D, held_cov if held else None, cols)
     out.reference_runs = sum(id(p) in getattr(model, "reference_ids", ()) for p in preps)
