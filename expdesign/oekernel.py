@@ -229,6 +229,19 @@ def _signals(sig, x, in_t, runs, k, speed):
             sig[7, b] = MIN_SPEED if h < MIN_SPEED else h
 
 
+@_helper
+def _state_signals(sig, x, speed, batch):
+    """The state rows of :func:`_signals` (u, v, r, the relative velocities in calm water and,
+    where read, the speed U) of the states x (3, B); the input rows are left as they are."""
+    for b in range(batch):
+        u, v = x[0, b], x[1, b]
+        sig[0, b], sig[1, b], sig[2, b], sig[3, b], sig[4, b], sig[5, b], sig[6, b] = u, v, x[2, b], u, v, u, v
+    if speed:
+        for b in range(batch):
+            h = math.hypot(x[0, b], x[1, b])
+            sig[7, b] = MIN_SPEED if h < MIN_SPEED else h
+
+
 @jitloop.compiled
 def _accumulate(
     in_t, nu_t, y, runs, coef, sw, mask, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow, speed, fd_step, hess, grad
@@ -237,6 +250,7 @@ def _accumulate(
     reading the inputs and measurements of run ``runs[b]`` of ``in_t``, ``y``; the runs
     are the inner loop of every stage (the term program's branches once per step)."""
     n, batch, p = in_t.shape[0], nu_t.shape[2], coef.shape[0]
+    one = in_t.shape[2] == 1
     sig = np.zeros((_N_STATE + in_t.shape[1], batch))
     phi = np.empty((p, batch), np.float32)
     tmp = np.empty(batch)
@@ -251,6 +265,9 @@ def _accumulate(
     hl = np.zeros((p, p, batch))
     gl = np.zeros((p, batch))
     for k in range(n):
+        for i in range(in_t.shape[1]):  # the inputs at step k, read once for the four evaluations
+            for b in range(batch):
+                sig[_N_STATE + i, b] = in_t[k, i, 0 if one else runs[b]]
         # col -1: the regressors Phi(k) at nu(k); col 0-2: the increments at nu(k) + h e_col, each
         # term c_t * f_1 * f_2 ... summed left to right per DOF as jitloop._increments does. One
         # call site of each inlined helper: less machine code to compile on first use.
@@ -260,7 +277,7 @@ def _accumulate(
                 for b in range(batch):
                     h[b] = fd_step * (1.0 + abs(x[col, b]))
                     x[col, b] = x[col, b] + h[b]
-            _signals(sig, x, in_t, runs, k, speed)
+            _state_signals(sig, x, speed, batch)
             for i in range(3):
                 if col >= 0 and dof_n[i] == 0:
                     inc[i, :] = 0.0
@@ -280,6 +297,7 @@ def _accumulate(
                 if col >= 0:
                     for b in range(batch):
                         jac[col, i, b] = (inc[i, b] - (nu_t[k + 1, i, b] - nu_t[k, i, b])) / h[b]
+        # S(k+1) and its weighted double-precision copy in one pass (no second read of S)
         for i in range(3):
             for q in range(p):
                 mq = mask[i, q]
@@ -289,10 +307,7 @@ def _accumulate(
                     v = v + jac[1, i, b] * s_old[1, q, b]
                     v = v + jac[2, i, b] * s_old[2, q, b]
                     s_new[i, q, b] = v
-        for i in range(3):
-            for q in range(p):
-                for b in range(batch):
-                    sk[i, q, b] = np.float64(s_new[i, q, b]) * sw[i, b]
+                    sk[i, q, b] = np.float64(v) * sw[i, b]
             for b in range(batch):
                 e[i, b] = (y[k + 1, i, runs[b]] - nu_t[k + 1, i, b]) * sw[i, b]
         # the three DOFs' products added one after the other to each sum (the order of adding them
@@ -307,7 +322,7 @@ def _accumulate(
                 v = gl[a, b] + sk[0, a, b] * e[0, b]
                 v = v + sk[1, a, b] * e[1, b]
                 gl[a, b] = v + sk[2, a, b] * e[2, b]
-        s_old[:] = s_new
+        s_old, s_new = s_new, s_old  # S(k+1) is the next step's S(k): no copy
     for b in range(batch):
         for a in range(p):
             grad[b, a] += gl[a, b]
