@@ -168,8 +168,27 @@ def moments_t(cr: CalmRuns, sims: list[np.ndarray], theta: np.ndarray, idx: np.n
     sw = np.ascontiguousarray(np.sqrt(w[idx]).T)
     runs, mask = np.asarray(idx, np.int64), _mask(cr.terms, p)  # the same for every experiment
     for in_t, y, nu_t, prog in zip(cr.in_t, cr.y_t, sims, cr.prog):
-        _accumulate(in_t, nu_t, y, runs, coef, sw, mask, *prog, cr.speed, fd_step, hess, grad)
+        reads = _reads_state(prog, p)
+        _accumulate(in_t, nu_t, y, runs, coef, sw, mask, reads, ~reads.all(axis=0), *prog, cr.speed, fd_step, hess, grad)
     return hess, grad
+
+
+# the signals of the calm-water layout (primitives.jitprogram._STATE, set by _signals) that move with
+# u, v and r: u, u_r, u_q, U; v, v_r, v_q, U; r (and a factor with a station, x + station * r)
+_MOVED_BY = ((0, 3, 5, 7), (1, 4, 6, 7), (2,))
+
+
+def _reads_state(prog: tuple, p: int) -> np.ndarray:
+    """(3, p) bool: whether term t of the program ``prog`` reads a signal that moves with state
+    u, v or r (:data:`_MOVED_BY`); a term that does not has the same value at nu(k) + h e_col
+    as at nu(k)."""
+    t_first, t_n, f_sig, f_sta = prog[2], prog[3], prog[4], prog[6]
+    reads = np.zeros((3, p), np.bool_)
+    for t in range(p):
+        for f in range(t_first[t], t_first[t] + t_n[t]):
+            for col, moved in enumerate(_MOVED_BY):
+                reads[col, t] |= int(f_sig[f]) in moved or (col == 2 and not np.isnan(f_sta[f]))
+    return reads
 
 
 def _mask(terms, p: int) -> np.ndarray:
@@ -244,13 +263,36 @@ def _state_signals(sig, x, speed, batch):
 
 @jitloop.compiled
 def _accumulate(
-    in_t, nu_t, y, runs, coef, sw, mask, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow, speed, fd_step, hess, grad
+    in_t,
+    nu_t,
+    y,
+    runs,
+    coef,
+    sw,
+    mask,
+    reads,
+    reused,
+    dof_first,
+    dof_n,
+    t_first,
+    t_n,
+    f_sig,
+    f_mod,
+    f_sta,
+    f_pow,
+    speed,
+    fd_step,
+    hess,
+    grad,
 ):
     """Add each run's H and g over one experiment to ``hess`` (b, p, p), ``grad`` (b, p), batch member b
     reading the inputs and measurements of run ``runs[b]`` of ``in_t``, ``y``; the runs
-    are the inner loop of every stage (the term program's branches once per step)."""
+    are the inner loop of every stage (the term program's branches once per step). ``reads``
+    (3, p) says which terms read a signal of state u, v, r (:func:`_reads_state`), ``reused``
+    (p,) which terms some perturbation leaves alone."""
     n, batch, p = in_t.shape[0], nu_t.shape[2], coef.shape[0]
     one = in_t.shape[2] == 1
+    tv = np.empty((p, batch))
     sig = np.zeros((_N_STATE + in_t.shape[1], batch))
     phi = np.empty((p, batch), np.float32)
     tmp = np.empty(batch)
@@ -268,25 +310,37 @@ def _accumulate(
         for i in range(in_t.shape[1]):  # the inputs at step k, read once for the four evaluations
             for b in range(batch):
                 sig[_N_STATE + i, b] = in_t[k, i, 0 if one else runs[b]]
-        # col -1: the regressors Phi(k) at nu(k); col 0-2: the increments at nu(k) + h e_col, each
-        # term c_t * f_1 * f_2 ... summed left to right per DOF as jitloop._increments does. One
-        # call site of each inlined helper: less machine code to compile on first use.
-        for col in range(-1, 3):
-            x[:] = nu_t[k]
-            if col >= 0:
-                for b in range(batch):
-                    h[b] = fd_step * (1.0 + abs(x[col, b]))
-                    x[col, b] = x[col, b] + h[b]
-            _state_signals(sig, x, speed, batch)
+        # col -2: the terms' values c_t * f_1 * f_2 ... at nu(k) (those some perturbation leaves
+        # alone); col -1: the regressors Phi(k) at nu(k); col 0-2: the increments at nu(k) + h e_col,
+        # the terms summed left to right per DOF as jitloop._increments does, a term that reads no
+        # signal of state col taken from col -2 (the same operations on the same numbers, so the same
+        # bits). One call site of each inlined helper: less machine code to compile on first use.
+        for col in range(-2, 3):
+            if col != -1:  # col -1 reads col -2's signals
+                x[:] = nu_t[k]
+                if col >= 0:
+                    for b in range(batch):
+                        h[b] = fd_step * (1.0 + abs(x[col, b]))
+                        x[col, b] = x[col, b] + h[b]
+                _state_signals(sig, x, speed, batch)
             for i in range(3):
                 if col >= 0 and dof_n[i] == 0:
                     inc[i, :] = 0.0
                 for t in range(dof_first[i], dof_first[i] + dof_n[i]):
-                    for b in range(batch):
-                        tmp[b] = 1.0 if col < 0 else coef[t, b]
-                    for f in range(t_first[t], t_first[t] + t_n[t]):
-                        jitloop._times_factor(tmp, sig, f_sig[f], f_sta[f], f_mod[f], f_pow[f], batch)
-                    if col < 0:
+                    if col == -2 and not reused[t]:
+                        continue
+                    if col >= 0 and not reads[col, t]:
+                        for b in range(batch):
+                            tmp[b] = tv[t, b]
+                    else:
+                        for b in range(batch):
+                            tmp[b] = 1.0 if col == -1 else coef[t, b]
+                        for f in range(t_first[t], t_first[t] + t_n[t]):
+                            jitloop._times_factor(tmp, sig, f_sig[f], f_sta[f], f_mod[f], f_pow[f], batch)
+                    if col == -2:
+                        for b in range(batch):
+                            tv[t, b] = tmp[b]
+                    elif col == -1:
                         for b in range(batch):
                             phi[t, b] = tmp[b]
                     elif t == dof_first[i]:

@@ -110,6 +110,26 @@ def test_a_roll_term_list_on_a_planar_ship_takes_the_numpy_path():
     assert oekernel.calm_runs(p, TermSet((*terms.terms, ("v_r",))), data) is None
 
 
+@needs_numba
+def test_the_moments_pass_re_evaluates_exactly_the_terms_a_perturbed_state_moves():
+    """The moments' pass takes a term that reads no signal of the perturbed state from its value
+    at nu(k) (expdesign.oekernel._reads_state): a term reading u_r, U or a station (which reads r)
+    must be re-evaluated for that state, a term of the inputs alone for none."""
+    from expdesign import oekernel
+
+    p, terms, data, _ = _oe_case("kvlcc2", True)
+    assert jitloop.use(jitloop.MIN_WORK)
+    cr = oekernel.calm_runs(p, terms, data)
+    names = [name for dof in EXOTIC for name in dof]
+    reads = {n: tuple(bool(x) for x in col) for n, col in zip(names, oekernel._reads_state(cr.prog[0], terms.n_params).T)}
+    assert reads["n^2"] == reads["delta*n^2"] == (False, False, False)
+    assert reads["u*U^-1"] == (True, True, False)  # U moves with u and v
+    assert reads["v_r*|v_r@-30|"] == (False, True, True)  # the station reads r
+    assert reads["u_r*|v_r@40|"] == (True, True, True)
+    assert reads["r*|r|"] == (False, False, True)
+    assert reads["delta*u_r^2"] == (True, False, False)
+
+
 def _numpy_path_estimates() -> dict:
     """The same Monte Carlo in a process where numba cannot be imported."""
     code = (
