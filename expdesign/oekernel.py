@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from primitives import jitloop
+from primitives.jitprogram import _IDX
 from primitives.simulate import MIN_SPEED, SPEED, _time_major_forces, signals_read
 
 _N_STATE = jitloop.N_STATE
@@ -53,6 +54,7 @@ class CalmRuns:
     nu0: list[np.ndarray]
     prog: list[tuple]
     speed: bool
+    reads: list[np.ndarray]
 
 
 def calm_runs(profile, terms, data: Sequence) -> CalmRuns | None:
@@ -79,6 +81,7 @@ def calm_runs(profile, terms, data: Sequence) -> CalmRuns | None:
         [np.asarray(d.nu0, float) for d in data],
         progs,
         SPEED in signals_read(terms),
+        [_reads_state(prog, terms.n_params) for prog in progs],
     )
 
 
@@ -167,15 +170,16 @@ def moments_t(cr: CalmRuns, sims: list[np.ndarray], theta: np.ndarray, idx: np.n
     coef = np.ascontiguousarray(theta[idx].T)
     sw = np.ascontiguousarray(np.sqrt(w[idx]).T)
     runs, mask = np.asarray(idx, np.int64), _mask(cr.terms, p)  # the same for every experiment
-    for in_t, y, nu_t, prog in zip(cr.in_t, cr.y_t, sims, cr.prog):
-        reads = _reads_state(prog, p)
+    for in_t, y, nu_t, prog, reads in zip(cr.in_t, cr.y_t, sims, cr.prog, cr.reads):
         _accumulate(in_t, nu_t, y, runs, coef, sw, mask, reads, ~reads.all(axis=0), *prog, cr.speed, fd_step, hess, grad)
     return hess, grad
 
 
-# the signals of the calm-water layout (primitives.jitprogram._STATE, set by _signals) that move with
-# u, v and r: u, u_r, u_q, U; v, v_r, v_q, U; r (and a factor with a station, x + station * r)
-_MOVED_BY = ((0, 3, 5, 7), (1, 4, 6, 7), (2,))
+# the signals of the calm-water layout (set by _state_signals) that move with u, v and r: in calm
+# water u_r = u_q = u and v_r = v_q = v, U = hypot(u, v); r also moves a factor with a station,
+# x + station * r. Looked up by name so that a change of primitives.jitprogram's layout cannot
+# silently reuse a term that moves.
+_MOVED_BY = tuple(tuple(_IDX[n] for n in names) for names in (("u", "u_r", "u_q", "U"), ("v", "v_r", "v_q", "U"), ("r",)))
 
 
 def _reads_state(prog: tuple, p: int) -> np.ndarray:
@@ -239,13 +243,7 @@ def _signals(sig, x, in_t, runs, k, speed):
     for i in range(in_t.shape[1]):
         for b in range(batch):
             sig[_N_STATE + i, b] = in_t[k, i, 0 if one else runs[b]]
-    for b in range(batch):
-        u, v = x[0, b], x[1, b]
-        sig[0, b], sig[1, b], sig[2, b], sig[3, b], sig[4, b], sig[5, b], sig[6, b] = u, v, x[2, b], u, v, u, v
-    if speed:
-        for b in range(batch):
-            h = math.hypot(x[0, b], x[1, b])
-            sig[7, b] = MIN_SPEED if h < MIN_SPEED else h
+    _state_signals(sig, x, speed, batch)
 
 
 @_helper
