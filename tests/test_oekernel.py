@@ -130,6 +130,26 @@ def test_the_moments_pass_re_evaluates_exactly_the_terms_a_perturbed_state_moves
     assert reads["delta*u_r^2"] == (True, False, False)
 
 
+@needs_numba
+@pytest.mark.parametrize("ship, exotic", [("model-ship", False), ("kvlcc2", True)], ids=["model-ship", "kvlcc2-exotic"])
+def test_reusing_the_terms_a_perturbation_leaves_alone_keeps_the_moments_bits(ship, exotic):
+    """The moments with the terms that read no perturbed state taken from their value at nu(k) are
+    the moments with every term re-evaluated at every perturbed state (the pass before the reuse),
+    to the bit: a term put in the wrong class would move its Jacobian column."""
+    import dataclasses
+
+    p, terms, data, theta = _oe_case(ship, exotic)
+    assert jitloop.use(jitloop.MIN_WORK)
+    sims = es._Sims(p, terms, data)
+    ok, w, _, out = es._start(sims, theta, 300)
+    assert ok.all() and not all(r.all() for r in sims.calm.reads)  # some term is reused
+    idx = np.arange(6)
+    reused = sims.moments(out, theta, idx, w)
+    sims.calm = dataclasses.replace(sims.calm, reads=[np.ones_like(r) for r in sims.calm.reads])
+    every = sims.moments(out, theta, idx, w)
+    assert np.array_equal(reused[0], every[0]) and np.array_equal(reused[1], every[1])
+
+
 def _numpy_path_estimates() -> dict:
     """The same Monte Carlo in a process where numba cannot be imported."""
     code = (
