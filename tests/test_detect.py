@@ -667,3 +667,31 @@ def test_the_opt_in_roll_band_recalibrates_on_the_same_no_change_records(prior):
     assert not np.allclose(full.h, out.h)
     assert verdict(out, prior, **HULL).evidence["roll_band_left_out_hz"] == [out.roll_band.lo_hz, out.roll_band.hi_hz]
     assert detect(rec, prior, null_runs=40, **HULL).evidence["roll_band_left_out_hz"] is None
+
+
+def test_detect_on_one_recording_does_not_load_numba_and_gives_the_compiled_jobs_numbers(prior, tmp_path):
+    """``detect_all`` on one recording (``shiptrial detect`` on one file) is a job too small to pay
+    for numba's load: it runs the numpy loops and never imports numba; the same recording in a job
+    declared large enough loads the compiled loops and gives the same statistics to the bit."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    save_prior(prior, tmp_path / "prior.json")
+    write_csv(simulated_recording(Vessel(), 300, seed=52, measured_moment=True), tmp_path / "r.csv")
+    code = (
+        "import sys, numpy as np; from primitives import jitloop; "
+        "from identify.detect.api import detect_all, job_work, load_prior, load_runs; "
+        f"p = load_prior({str(tmp_path / 'prior.json')!r}); recs = load_runs([{str(tmp_path / 'r.csv')!r}], p.kind); "
+        "a = detect_all(recs, p)[0]; small = 'numba' in sys.modules; "
+        "jitloop.JOB_MIN_WORK = job_work(recs); b = detect_all(recs, p)[0]; "
+        "same = all(np.array_equal(getattr(a, k), getattr(b, k), equal_nan=True) for k in ('statistic', 'dead_zone', 'threshold')); "
+        "print(small, jitloop.loaded() == jitloop.AVAILABLE, same, a.changed == b.changed, a.alarm_s == b.alarm_s)"
+    )
+    root = Path(__file__).resolve().parent.parent
+    env = dict(os.environ, PYTHONPATH=str(root))
+    env.pop("SHIPTRIAL_KERNEL", None)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["False", "True", "True", "True", "True"]
