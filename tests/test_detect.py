@@ -695,3 +695,24 @@ def test_detect_on_one_recording_does_not_load_numba_and_gives_the_compiled_jobs
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root, timeout=300)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["False", "True", "True", "True", "True"]
+
+
+def test_the_no_change_noise_is_drawn_once_per_job_and_gives_each_recordings_own_numbers(prior):
+    """``detect_all`` keeps the no-change records' noise draws for the next recording of the same
+    length (the generator is seeded alike for each): every recording's statistics, thresholds and
+    verdict are those ``detect`` gives it alone, to the bit; a recording of another length draws anew."""
+    from identify.detect.api import detect_all
+    from identify.detect.nullsim import normals
+
+    rng = np.random.default_rng([3, 1])
+    want = [rng.standard_normal((4, 50)) for _ in range(3)] + [rng.standard_normal((5, 4))]
+    draws: dict = {}
+    z = normals(3, 4, 50, 2, 5, draws)
+    assert all(np.array_equal(a, b) for a, b in zip(z, want, strict=True))
+    assert normals(3, 4, 50, 2, 5, draws) is z and normals(3, 4, 60, 2, 5, draws) is not z
+    recs = [simulated_recording(Vessel(), 300, seed=s, measured_moment=True) for s in (52, 53)]
+    recs.append(simulated_recording(Vessel(), 250, seed=54, measured_moment=True))
+    for a, b in zip(detect_all(recs, prior, **HULL), [detect(r, prior, **HULL) for r in recs], strict=True):
+        for k in ("statistic", "dead_zone", "threshold"):
+            assert np.array_equal(getattr(a, k), getattr(b, k), equal_nan=True), k
+        assert (a.changed, a.alarm_s, a.property, a.dead_zone_h) == (b.changed, b.alarm_s, b.property, b.dead_zone_h)
