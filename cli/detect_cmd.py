@@ -120,8 +120,9 @@ def register(app: typer.Typer) -> None:
         """Say whether the ship changed, when it changed (a change point with its 95 % interval) and which
         property (yaw inertia, yaw damping, pod gain, or undecided between them)."""
         from cli.options import validate_detect_options
-        from identify.detect.api import detect_all, hull_inertia, load_prior, load_runs
+        from identify.detect.api import hull_inertia, load_prior, load_runs
         from identify.detect.api import plot as plot_stats
+        from identify.detect.batch import detect_all
         from identify.detect.verdict import implausible_inertia
         from primitives.errors import UserError
         from primitives.heap import DETECT_KEEP_BYTES, keep_freed_memory

@@ -682,7 +682,7 @@ def test_detect_on_one_recording_does_not_load_numba_and_gives_the_compiled_jobs
     write_csv(simulated_recording(Vessel(), 300, seed=52, measured_moment=True), tmp_path / "r.csv")
     code = (
         "import sys, numpy as np; from primitives import jitloop; "
-        "from identify.detect.api import detect_all, job_work, load_prior, load_runs; "
+        "from identify.detect.api import load_prior, load_runs; from identify.detect.batch import detect_all, job_work; "
         f"p = load_prior({str(tmp_path / 'prior.json')!r}); recs = load_runs([{str(tmp_path / 'r.csv')!r}], p.kind); "
         "a = detect_all(recs, p)[0]; small = 'numba' in sys.modules; "
         "jitloop.JOB_MIN_WORK = job_work(recs); b = detect_all(recs, p)[0]; "
@@ -701,7 +701,7 @@ def test_the_no_change_noise_is_drawn_once_per_job_and_gives_each_recordings_own
     """``detect_all`` keeps the no-change records' noise draws for the next recording of the same
     length (the generator is seeded alike for each): every recording's statistics, thresholds and
     verdict are those ``detect`` gives it alone, to the bit; a recording of another length draws anew."""
-    from identify.detect.api import detect_all
+    from identify.detect.batch import detect_all
     from identify.detect.nullsim import normals
 
     rng = np.random.default_rng([3, 1])
@@ -710,8 +710,10 @@ def test_the_no_change_noise_is_drawn_once_per_job_and_gives_each_recordings_own
     z = normals(3, 4, 50, 2, 5, draws)
     assert all(np.array_equal(a, b) for a, b in zip(z, want, strict=True))
     assert normals(3, 4, 50, 2, 5, draws) is z and normals(3, 4, 60, 2, 5, draws) is not z
-    recs = [simulated_recording(Vessel(), 300, seed=s, measured_moment=True) for s in (52, 53)]
-    recs.append(simulated_recording(Vessel(), 250, seed=54, measured_moment=True))
+    assert not any(a.flags.writeable for a in z)  # shared by later recordings: no in-place change
+    assert all(a.flags.writeable for a in normals(3, 4, 50, 2, 5))  # drawn for one: scaled in place
+    # two of one length around one of another: the first's draws kept over the second, which draws its own
+    recs = [simulated_recording(Vessel(), d, seed=s, measured_moment=True) for d, s in ((300, 52), (250, 54), (300, 53))]
     for a, b in zip(detect_all(recs, prior, **HULL), [detect(r, prior, **HULL) for r in recs], strict=True):
         for k in ("statistic", "dead_zone", "threshold"):
             assert np.array_equal(getattr(a, k), getattr(b, k), equal_nan=True), k

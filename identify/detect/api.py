@@ -30,7 +30,6 @@ from identify.detect.yawmodel import (
     signatures,
 )
 from identify.yawid.experiment import pod_yaw_moment
-from primitives import jitloop
 from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
 from primitives.ship import load_profile
@@ -274,33 +273,6 @@ def detect(
         raise UserError(f"prior fitted on {prior.source or 'its nominal recording'}: {odd}")
     sc = screen(rec, prior, false_alarm, min_change, seed, null_runs, n_rdot, i_z, draws=draws)
     return verdict(sc, prior, min_change, n_rdot, i_z)
-
-
-def detect_all(
-    recs: list[Recording],
-    prior: YawPrior,
-    false_alarm: float = 0.02,
-    min_change: float = 0.05,
-    seed: int = 0,
-    null_runs: int = 400,
-    n_rdot: float | None = None,
-    i_z: float | None = None,
-) -> list[Detection]:
-    """:func:`detect` on each recording, as one job for the compiled loops (:func:`job_work`): a job of
-    one or two recordings runs the numpy loops and does not pay numba's load, a larger one loads it
-    at its first recording (:func:`primitives.jitloop.job`; the same numbers either way). The
-    no-change records' noise draws are the same for recordings of the same length: drawn once
-    (:func:`identify.detect.nullsim.normals`)."""
-    draws: dict = {}
-    with jitloop.job(job_work(recs, null_runs)):
-        return [detect(r, prior, false_alarm, min_change, seed, null_runs, n_rdot, i_z, draws) for r in recs]
-
-
-def job_work(recs: list[Recording], null_runs: int = 400) -> int:
-    """Batch members x steps that :func:`detect` runs through the compiled loops on ``recs``: the
-    ``null_runs`` no-change records of each recording (their prediction and CUSUM; the bootstrap
-    ships' simulation is a sixth of it), the size :func:`primitives.jitloop.job` weighs."""
-    return int(sum(null_runs * r.n_samples for r in recs))
 
 
 def screen(

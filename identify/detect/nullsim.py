@@ -49,7 +49,7 @@ def null_records(
 
     The records' noise is the same for every recording of the same length given the same
     ``seed`` (:func:`normals`): ``draws``, a dict a caller keeps over a job of many recordings
-    (:func:`identify.detect.api.detect_all`), holds the last recording's draws for the next."""
+    (:func:`identify.detect.batch.detect_all`), holds the last recording's draws for the next."""
     x = np.array([prior.values[k] / NOMINAL[k] for k in prior.names])
     deltas = parameter_draws(prior, runs, seed)
     # the bootstrap's B refits are cycled over the runs: B distinct ships, each simulated once (a column's
@@ -77,14 +77,17 @@ def normals(seed: int, runs: int, n: int, signals: int, blocks: int, draws: dict
     call with the same arguments: the same numbers, drawn once (a quarter of a 500 s recording's CPU
     in ``detect``; 16 MB each for 400 records of 5,000 samples, the last arguments' only)."""
     key = (seed, runs, n, signals, blocks)
-    if draws is not None and draws.get("key") == key:
-        return draws["normals"]
+    if draws is not None:
+        if draws.get("key") == key:
+            return draws["normals"]
+        draws.clear()  # before drawing: another length's 7 x 16 MB are not held beside this one's
     rng = np.random.default_rng([seed, 1])
     z = [rng.standard_normal((runs, n)) for _ in range(1 + signals)]
     if blocks:
         z.append(rng.standard_normal((blocks, runs)))
     if draws is not None:
-        draws.clear()
+        for a in z:  # shared with the next recordings: an in-place change would alter their records
+            a.flags.writeable = False
         draws.update(key=key, normals=z)
     return z
 
@@ -92,8 +95,9 @@ def normals(seed: int, runs: int, n: int, signals: int, blocks: int, draws: dict
 def _measured(x: np.ndarray, sd: float, z: np.ndarray) -> np.ndarray:
     """``x`` ((n, runs), or (n, 1) broadcast over ``runs``) plus white noise of ``sd`` from the
     standard normals ``z`` (runs, n), (n, runs) with time along the contiguous axis: the no-change
-    records' filters then run along contiguous memory."""
-    out = np.multiply(z, sd).T
+    records' filters then run along contiguous memory. ``z`` is scaled in place unless it is kept
+    for other recordings (read-only, :func:`normals`): a recording alone needs no second copy."""
+    out = np.multiply(z, sd, out=z if z.flags.writeable else None).T
     out += x
     return out
 
