@@ -17,7 +17,8 @@ drawing modules imported first, the early function given later by :meth:`Drawer.
 a run whose plan is read from the plan cache does not wait for those imports. With ``--no-cache`` the plan is made
 for sure and the drawer is forked later, once the parent has imported the planner: the two share those imports.
 
-On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`).
+On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`). The forked
+processes' plumbing (their guarded life, cancellation, reaping, errors named by file) is :mod:`cli.forkjobs`.
 """
 
 from __future__ import annotations
@@ -32,6 +33,8 @@ import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
+
+from cli.forkjobs import _child, _end, _Failed, _on_sigterm, _reap, _run_jobs
 
 CAN_FORK = sys.platform.startswith("linux")
 
@@ -75,82 +78,6 @@ def beside(jobs: list[tuple[Path, str, Callable[[], object]]]) -> Callable[..., 
         return paths
 
     return wait
-
-
-def _run_jobs(jobs: list[tuple[Path, str, Callable[[], object]]]) -> None:
-    for path, what, job in jobs:
-        try:
-            job()
-        except _Failed:  # a nested writer's, worded already
-            raise
-        except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent, naming the file
-            raise _Failed(f"{path.name}: writing {what} failed: {type(exc).__name__}: {exc}") from exc
-
-
-class _Failed(Exception):
-    """A writer's error, already worded for the parent."""
-
-
-class _Cancelled(BaseException):
-    """Raised in the drawer by SIGTERM (the parent cancelled it). It unwinds rather than dies:
-    ``finally`` blocks and context managers run on the way out, so a drawer ended while importing
-    matplotlib on a machine without its font cache removes the cache's lock file (killed, it left
-    the lock behind and every later import waited 5 s for it, then did without the cache; the
-    half-written cache is rebuilt by the next import). A BaseException: no ``except Exception``
-    of a writer or library swallows it."""
-
-
-def _on_sigterm(signum: int, frame: Any) -> None:
-    raise _Cancelled
-
-
-def _child(report: int, work: Callable[[], None]) -> None:
-    """Run ``work`` in a forked child and exit (never return): status 0, or 1 with the error
-    written to the ``report`` pipe."""
-    code = 1
-    try:
-        # never write to a stream another thread of the parent may hold a lock on; the old streams
-        # are never flushed here (os._exit): what they buffered is the parent's to write
-        sys.stdout = sys.stderr = open(os.devnull, "w")
-        work()
-        code = 0
-    except _Cancelled:  # the parent asked for it and reads no report
-        pass
-    except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent
-        from maps.export import ExportError
-
-        worded = isinstance(exc, (_Failed, ExportError))  # ExportError: a grandchild's (beside), already worded
-        msg = str(exc) if worded else f"drawing the figures failed: {type(exc).__name__}: {exc}"
-        try:
-            os.write(report, msg.encode(errors="replace")[:4000])
-        except OSError:
-            pass
-    finally:
-        os._exit(code)
-
-
-def _end(pid: int, report: int, grace_s: float = 5.0) -> None:
-    """End the unreaped child ``pid`` whose ``report`` pipe is still open: SIGTERM, and SIGKILL
-    when it has not exited within ``grace_s`` (a Python handler runs only between bytecodes: a
-    child stuck in C code, e.g. on a lock another thread of the parent held when it forked, never
-    runs it). The pid cannot be reused before it is reaped, so the second signal is safe. 5 s, not
-    1 s: on a loaded machine a child that unwinds at once may not be scheduled within a second, and
-    killed it leaves matplotlib's lock file behind (seen twice in full-suite runs at load 15-20);
-    the wait is paid only by a child that does not exit."""
-    try:
-        os.kill(pid, signal.SIGTERM)
-        if not select.select([report], [], [], grace_s)[0]:  # readable at its exit: the pipe's end closes
-            os.kill(pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-
-
-def _reap(pid: int, report: int) -> str | None:
-    """Wait for child ``pid``: None when it succeeded, else its error message ('' if none)."""
-    with os.fdopen(report, "rb") as fh:
-        msg = fh.read().decode(errors="replace")
-    _, status = os.waitpid(pid, 0)
-    return None if os.waitstatus_to_exitcode(status) == 0 else msg
 
 
 def _compute_early(early: Callable[[], object], fd: int) -> object | None:
@@ -199,16 +126,27 @@ def _same(a: object, b: object) -> bool:
         return False
 
 
-def _warm() -> None:
-    """Import what drawing needs (the child's work while the parent plans), the modules the
-    writers import when first called included (fpdf, matplotlib's Agg backend)."""
-    import fpdf  # noqa: F401
-    import matplotlib.backends.backend_agg  # noqa: F401
+# what drawing needs, the modules the writers import when first called included (fpdf, matplotlib's Agg
+# backend), in the order the deferred drawer imports them (:meth:`Drawer._serve_deferred`)
+_DRAWING_MODULES = (
+    "matplotlib.backends.backend_agg",
+    "fpdf",
+    "expdesign.report",
+    "maps.export.card",
+    "maps.export.cardpdf",
+    "maps.output",
+)
 
-    import expdesign.report  # noqa: F401
-    import maps.export.card  # noqa: F401
-    import maps.export.cardpdf  # noqa: F401
-    import maps.output  # noqa: F401
+
+def _warm(until: int = -1) -> None:
+    """Import what drawing needs (the child's work while the parent plans), one module after the other; with
+    ``until`` (a pipe's read end), stop before the next module once that pipe is readable (written or closed)."""
+    import importlib
+
+    for name in _DRAWING_MODULES:
+        if until >= 0 and select.select([until], [], [], 0)[0]:
+            return
+        importlib.import_module(name)
 
 
 def _warm_frozen() -> None:
@@ -397,9 +335,16 @@ class Drawer:
 
     @staticmethod
     def _serve_deferred(job_r: int, spec_r: int, early_w: int) -> None:
-        """A drawer started before the command knew its options: the drawing modules imported at
-        once, then the early function, if :meth:`begin` gave one, then the plan drawn."""
-        _warm()
+        """A drawer started before the command knew its options: the drawing modules imported until
+        :meth:`begin` gives the early function, which is then computed at once (the parent waits for it
+        after loading its map and basic moves; imported first, the design waited for all of them, 1.1 s of
+        CPU measured at load 8), then the rest of the modules, then the plan drawn. No full collection while importing (as
+        :func:`_warm_frozen`)."""
+        gc.disable()
+        try:
+            _warm(until=spec_r)
+        finally:
+            gc.enable()
         with os.fdopen(spec_r, "rb") as fh:
             spec = fh.read()
         try:
