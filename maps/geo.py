@@ -34,9 +34,12 @@ KINDS = ("land", "depth_area", "obstacle", "restricted", "trial_area", "start", 
 POLYGONAL = ("Polygon", "MultiPolygon")
 
 
-# the map's projection as :func:`load_map` writes it (and plan.json keeps it)
+# the map's projection exactly as :func:`load_map` writes it (and plan.json keeps it: centre to 9 decimals);
+# any other string (a hand-edited plan.json's "lat_0=1.2.3" that CRS() refuses but PROJ's pipeline parser
+# would read as 1.2) goes through ``from_crs`` and its errors
 _TMERC = re.compile(
-    r"\+proj=tmerc \+lat_0=(-?[0-9.]+) \+lon_0=(-?[0-9.]+) \+k=1 \+x_0=0 \+y_0=0 \+ellps=WGS84 \+units=m \+no_defs"
+    r"\+proj=tmerc \+lat_0=(-?[0-9]+\.[0-9]{9}) \+lon_0=(-?[0-9]+\.[0-9]{9}) "
+    r"\+k=1 \+x_0=0 \+y_0=0 \+ellps=WGS84 \+units=m \+no_defs"
 )
 _DEG_RAD = "+proj=unitconvert +xy_in=deg +xy_out=rad"
 

@@ -166,5 +166,9 @@ def test_map_transformers_give_from_crs_numbers_bit_for_bit(lat0, lon0):
         assert all(np.array_equal(g, w) for g, w in zip(got, want))
     assert all(np.array_equal(g, w) for g, w in zip(pickle.loads(pickle.dumps(inv)).transform(e, n), ref_inv.transform(e, n)))
     assert transformer("EPSG:4326", proj4) is fwd  # built once per pair
+    from pyproj.exceptions import CRSError
+
+    with pytest.raises(CRSError):  # not load_map's form: from_crs's refusal, not PROJ's pipeline reading it as 1.2
+        transformer("EPSG:4326", proj4.replace(f"+lat_0={lat0:.9f}", "+lat_0=1.2.3"))
     other = transformer("EPSG:4326", "EPSG:3857")
     assert other.definition == Transformer.from_crs("EPSG:4326", "EPSG:3857", always_xy=True).definition
