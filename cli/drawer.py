@@ -10,7 +10,7 @@ ratios of its design, the PDF card's empty document with its fonts read), then r
 finished plan (pickled through a pipe, with the route and sea room every export shares) and draws
 it in two processes (itself and one forked child) while the parent writes the text exports. The
 figures and bytes are those of one process. A drawer cancelled before it was sent a plan (the
-command refused) is ended at once (SIGTERM, on which it unwinds: see :class:`_Cancelled`).
+command refused) is ended at once (SIGTERM, on which it unwinds: see :class:`Cancelled`).
 
 ``plan-trial`` forks its drawer before it parses its options (:func:`start_early`, deferred: the
 drawing modules imported first, the early function given later by :meth:`Drawer.begin`), so that
@@ -34,7 +34,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from cli.forkjobs import _child, _end, _Failed, _on_sigterm, _reap, _run_jobs
+from cli.forkjobs import Failed, end_child, on_sigterm, reap_child, run_child, run_jobs
 
 CAN_FORK = sys.platform.startswith("linux")
 
@@ -52,16 +52,16 @@ def beside(jobs: list[tuple[Path, str, Callable[[], object]]]) -> Callable[..., 
     paths = [p for p, _, _ in jobs]
     if not CAN_FORK:
         try:
-            _run_jobs(jobs)
-        except _Failed as exc:
+            run_jobs(jobs)
+        except Failed as exc:
             raise ExportError(str(exc)) from None
         return lambda quiet=False: paths
     read, write = os.pipe()
     pid = os.fork()
     if pid == 0:  # the child: write the files, report an error through the pipe, never return
-        try:  # whatever is raised before _child's own guard (a Ctrl-C, the drawer's SIGTERM handler)
+        try:  # whatever is raised before run_child's own guard (a Ctrl-C, the drawer's SIGTERM handler)
             os.close(read)
-            _child(write, lambda: _run_jobs(jobs))
+            run_child(write, lambda: run_jobs(jobs))
         finally:
             os._exit(1)
     os.close(write)
@@ -69,7 +69,7 @@ def beside(jobs: list[tuple[Path, str, Callable[[], object]]]) -> Callable[..., 
 
     def wait(quiet: bool = False) -> list[Path]:
         if "msg" not in state:  # reaped once; a second call (after the first raised) reports nothing new
-            state["msg"] = _reap(pid, read)
+            state["msg"] = reap_child(pid, read)
         elif quiet:
             return paths
         msg = state["msg"]
@@ -180,7 +180,7 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
     track, states = Path(f"{stem}-track.png"), Path(f"{stem}-states.png")
 
     def card_pdf() -> None:  # the PDF draws its own map and states page: no figure shared with the PNGs
-        _run_jobs(
+        run_jobs(
             [
                 (
                     html.with_suffix(".pdf"),
@@ -206,12 +206,12 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
                 )
             else:
                 jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(design, tmp)))
-        _run_jobs(jobs)
+        run_jobs(jobs)
         with PlanFigures(plan, chart) as figs:  # the card's images are the PNG exports
-            _run_jobs([(track, "the track figure", lambda: plot_track(plan, track, chart, figures=figs))])
+            run_jobs([(track, "the track figure", lambda: plot_track(plan, track, chart, figures=figs))])
             wait()
             figs.adopt_png("states", states.read_bytes())
-            _run_jobs(
+            run_jobs(
                 [
                     (
                         html,
@@ -290,19 +290,19 @@ class Drawer:
             spec_r, self._spec = os.pipe()
         pid = os.fork()
         if pid == 0:
-            try:  # the child never returns into the caller's code, whatever is raised before _child's own guard
-                signal.signal(signal.SIGTERM, _on_sigterm)  # before it starts anything: cancel() unwinds it
+            try:  # the child never returns into the caller's code, whatever is raised before run_child's own guard
+                signal.signal(signal.SIGTERM, on_sigterm)  # before it starts anything: cancel() unwinds it
                 gc.freeze()  # the parent's objects out of the collector's sight: collections would copy the shared heap
                 os.close(self._job_w)
                 os.close(self._report)
                 if deferred:
                     os.close(self._early)
                     os.close(self._spec)
-                    _child(report_w, lambda: self._serve_deferred(job_r, spec_r, early_w))
+                    run_child(report_w, lambda: self._serve_deferred(job_r, spec_r, early_w))
                 if early is not None:
                     os.close(self._early)
-                    _child(report_w, lambda: self._serve(job_r, early, early_w, ahead))
-                _child(report_w, lambda: self._serve(job_r))
+                    run_child(report_w, lambda: self._serve(job_r, early, early_w, ahead))
+                run_child(report_w, lambda: self._serve(job_r))
             finally:
                 os._exit(1)
         os.close(job_r)
@@ -399,7 +399,7 @@ class Drawer:
         if not self.pid:
             try:
                 draw_here(job)
-            except _Failed as exc:
+            except Failed as exc:
                 from maps.export import ExportError
 
                 raise ExportError(str(exc)) from None
@@ -434,11 +434,11 @@ class Drawer:
             self._job_w = -1
             # nothing to draw: end it now rather than let it finish its design and imports (CPU and wall
             # time of a refused run). SIGTERM first: it may be writing matplotlib's font cache under its
-            # lock file, which _Cancelled removes on the way out; it has started no process
-            _end(pid, self._report)
+            # lock file, which Cancelled removes on the way out; it has started no process
+            end_child(pid, self._report)
         if self._sender is not None:
             self._sender.join()
-        msg = _reap(pid, self._report)
+        msg = reap_child(pid, self._report)
         if msg is not None and not quiet and not cancelled:
             from maps.export import ExportError
 

@@ -1,8 +1,8 @@
 """The plumbing of the processes ``shiptrial plan`` forks to draw its figures (:mod:`cli.drawer`): a
-forked child's guarded life (:func:`_child`: its work, then ``os._exit`` with the error worded for the
-parent through a pipe), its end when cancelled (:func:`_end`: SIGTERM, which :func:`_on_sigterm` turns into
-an unwinding :class:`_Cancelled`; SIGKILL after a grace) and its reaping (:func:`_reap`), and the writers
-run in order with their errors named by file (:func:`_run_jobs`). No drawing here."""
+forked child's guarded life (:func:`run_child`: its work, then ``os._exit`` with the error worded for the
+parent through a pipe), its end when cancelled (:func:`end_child`: SIGTERM, which :func:`on_sigterm` turns into
+an unwinding :class:`Cancelled`; SIGKILL after a grace) and its reaping (:func:`reap_child`), and the writers
+run in order with their errors named by file (:func:`run_jobs`). No drawing here."""
 
 from __future__ import annotations
 
@@ -15,21 +15,21 @@ from pathlib import Path
 from typing import Any
 
 
-def _run_jobs(jobs: list[tuple[Path, str, Callable[[], object]]]) -> None:
+def run_jobs(jobs: list[tuple[Path, str, Callable[[], object]]]) -> None:
     for path, what, job in jobs:
         try:
             job()
-        except _Failed:  # a nested writer's, worded already
+        except Failed:  # a nested writer's, worded already
             raise
         except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent, naming the file
-            raise _Failed(f"{path.name}: writing {what} failed: {type(exc).__name__}: {exc}") from exc
+            raise Failed(f"{path.name}: writing {what} failed: {type(exc).__name__}: {exc}") from exc
 
 
-class _Failed(Exception):
+class Failed(Exception):
     """A writer's error, already worded for the parent."""
 
 
-class _Cancelled(BaseException):
+class Cancelled(BaseException):
     """Raised in the drawer by SIGTERM (the parent cancelled it). It unwinds rather than dies:
     ``finally`` blocks and context managers run on the way out, so a drawer ended while importing
     matplotlib on a machine without its font cache removes the cache's lock file (killed, it left
@@ -38,11 +38,11 @@ class _Cancelled(BaseException):
     of a writer or library swallows it."""
 
 
-def _on_sigterm(signum: int, frame: Any) -> None:
-    raise _Cancelled
+def on_sigterm(signum: int, frame: Any) -> None:
+    raise Cancelled
 
 
-def _child(report: int, work: Callable[[], None]) -> None:
+def run_child(report: int, work: Callable[[], None]) -> None:
     """Run ``work`` in a forked child and exit (never return): status 0, or 1 with the error
     written to the ``report`` pipe."""
     code = 1
@@ -52,12 +52,12 @@ def _child(report: int, work: Callable[[], None]) -> None:
         sys.stdout = sys.stderr = open(os.devnull, "w")
         work()
         code = 0
-    except _Cancelled:  # the parent asked for it and reads no report
+    except Cancelled:  # the parent asked for it and reads no report
         pass
     except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent
         from maps.export import ExportError
 
-        worded = isinstance(exc, (_Failed, ExportError))  # ExportError: a grandchild's (beside), already worded
+        worded = isinstance(exc, (Failed, ExportError))  # ExportError: a grandchild's (beside), already worded
         msg = str(exc) if worded else f"drawing the figures failed: {type(exc).__name__}: {exc}"
         try:
             os.write(report, msg.encode(errors="replace")[:4000])
@@ -67,7 +67,7 @@ def _child(report: int, work: Callable[[], None]) -> None:
         os._exit(code)
 
 
-def _end(pid: int, report: int, grace_s: float = 5.0) -> None:
+def end_child(pid: int, report: int, grace_s: float = 5.0) -> None:
     """End the unreaped child ``pid`` whose ``report`` pipe is still open: SIGTERM, and SIGKILL
     when it has not exited within ``grace_s`` (a Python handler runs only between bytecodes: a
     child stuck in C code, e.g. on a lock another thread of the parent held when it forked, never
@@ -83,7 +83,7 @@ def _end(pid: int, report: int, grace_s: float = 5.0) -> None:
         pass
 
 
-def _reap(pid: int, report: int) -> str | None:
+def reap_child(pid: int, report: int) -> str | None:
     """Wait for child ``pid``: None when it succeeded, else its error message ('' if none)."""
     with os.fdopen(report, "rb") as fh:
         msg = fh.read().decode(errors="replace")
