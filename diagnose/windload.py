@@ -146,24 +146,32 @@ def steady_increments(
     # at pi or -pi (arctan2's sign of zero), and so its loads differ in the last bits
     air = memo.setdefault("air", {})
     keys = [row.tobytes() for row in np.ascontiguousarray(w[:, :2])]
-    new = [k for k in dict.fromkeys(keys) if k not in air]
+    # this call's loads read from a local dict, never from the memo after it is extended: another
+    # caller's eviction (two threads on one recording) cannot take an entry between insert and read
+    got = {k: air.get(k) for k in dict.fromkeys(keys)}
+    new = [k for k, v in got.items() if v is None]
     if new:
         a = np.frombuffer(b"".join(new), dtype=float).reshape(len(new), 1, 2)
-        air.update(zip(new, _excess(profile, y, body_from_ne(a, psi), memo["still"])))  # each (N+1, 4)
+        got.update(zip(new, _excess(profile, y, body_from_ne(a, psi), memo["still"])))  # each (N+1, 4)
+        air.update((k, got[k]) for k in new)
+        keep = max(1, min(MEMO_AIR, MEMO_BYTES // max(got[new[0]].nbytes, 1)))  # a long recording keeps fewer
+        for k in list(air)[: max(len(air) - keep, 0)]:  # the oldest first (dicts keep insertion order)
+            air.pop(k, None)
     rows = [row.tobytes() for row in np.ascontiguousarray(w)]
     at = {k: i for i, k in reversed(list(enumerate(rows)))}  # each distinct row's first member
     first = np.array(sorted(at.values()), dtype=int)
     back = np.searchsorted(first, [at[k] for k in rows])
-    ex = np.stack([air[keys[i]] for i in first])  # (distinct rows, N+1, 4)
+    ex = np.stack([got[keys[i]] for i in first])  # (distinct rows, N+1, 4)
     wd = w[first][:, None, :]
     n = ex[..., 2] + wd[..., 2] * ex[..., 3]
     inc = np.stack([ex[..., 0] * (1.0 + wd[..., 3]), ex[..., 1], n], axis=-1) * ship_gains(profile, sample_time)
-    while len(air) > MEMO_AIR:  # the oldest first (dicts keep insertion order)
-        air.pop(next(iter(air)))
     return inc if len(first) == len(w) else inc[back]
 
 
 MEMO_AIR = 16  # air velocities a recording's memo keeps (a refit's trials and Jacobian need fewer than 8)
+# and at most this many bytes of them: 16 of a 3,500-sample run are 1.8 MB, of a 100,000-sample
+# run 51 MB a recording (twenty such recordings would hold 1 GB until the diagnosis ends)
+MEMO_BYTES = 8 << 20
 
 
 MEAN_KEYS = ("wind_accel_surge", "wind_accel_sway", "wind_accel_yaw")  # m/s^2, m/s^2, rad/s^2

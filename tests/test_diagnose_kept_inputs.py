@@ -155,3 +155,38 @@ def test_structural_by_sensitivities_within_tolerance_of_differences(monkeypatch
     assert shown  # the current is shown on the runs that hold it
     for s in shown:
         assert abs(gains["sensitivities", s] - gains["differences", s]) <= 1e-3 * gains["differences", s]
+
+
+def test_a_recordings_kept_loads_follow_the_model_that_simulates_it():
+    """One prepared recording simulated with a steady wind by a model of the ship, then by a model
+    of a broader one (other wind loads): the second reads its own loads, not the first's kept ones."""
+    import dataclasses
+
+    model, recs = _model()
+    broad = dataclasses.replace(model.profile, beam_m=2.0 * model.profile.beam_m)
+    other = AugmentedModel(broad, model.theta0, model.candidates, n_rec=len(recs))
+    P = model.p0()[None].copy()
+    P[0, model.slot_of["wind:not-recorded"][0]] = 3.0
+    kept = [prepare(model.profile, r, i) for i, r in enumerate(recs)]
+    first = model.simulate_many(kept, P)
+    second = other.simulate_many(kept, P)
+    fresh = other.simulate_many([prepare(broad, r, i) for i, r in enumerate(recs)], P)
+    assert not np.array_equal(first[0], second[0])  # the broader ship's loads do move it otherwise
+    for a, b in zip(second, fresh):
+        assert np.array_equal(_bits(a), _bits(b))
+
+
+def test_steady_wind_memo_of_a_long_recording_keeps_fewer_loads(monkeypatch):
+    """The memo holds at most MEMO_BYTES of loads a recording (a long run keeps fewer air
+    velocities), and what it dropped is computed again to the same bits."""
+    prof = load_profile("kvlcc2")
+    n = 50
+    y = np.column_stack([np.full(n, 7.0), np.linspace(-0.1, 0.1, n), np.zeros(n)])
+    psi = np.linspace(0.0, 3.0, n)
+    monkeypatch.setattr(windload, "MEMO_BYTES", 3 * n * 4 * 8)  # three air velocities' loads
+    memo: dict = {}
+    winds = [np.array([[2.0 + k, 1.0, 0.1, 0.0]]) for k in range(6)]
+    for wind in winds + winds[:2]:
+        got = windload.steady_increments(prof, y, psi, wind, 1.0, memo)
+        assert len(memo["air"]) <= 3
+        assert np.array_equal(_bits(got), _bits(windload.steady_increments(prof, y, psi, wind, 1.0)))
