@@ -135,9 +135,10 @@ def _merged(
     cb = None if curs[0] is None else tuple(padded([e[0][q].T[..., None] for e in env])[..., 0] for q in (0, 1))
     wb = None if not use_wind else tuple(padded([e[1][q].T[..., None] for e in env])[..., 0] for q in (0, 1))
     nu0 = np.concatenate([np.array(n0) for _e, _x, n0 in runs])
-    out = jitloop.open_loop(
-        VelocityStep(tset, np.concatenate(coefs)), need_in, ex, nu0, cb, wb, padded([x for _e, x, _n in runs])
-    )
+    # the increments padded straight into the loop's (N, 3, B) layout, passed as its (N, B, 3)
+    # view: the loop's own contiguous copy of that view is then no copy
+    forced = _padded_increments([x for _e, x, _n in runs], n_max, cut).transpose(0, 2, 1)
+    out = jitloop.open_loop(VelocityStep(tset, np.concatenate(coefs)), need_in, ex, nu0, cb, wb, forced)
     if out is None:
         return None
     return [out[cut[r] : cut[r + 1], : p.n + 1] for r, p in enumerate(preps)]
@@ -152,6 +153,16 @@ def _padded(arrs: list[np.ndarray], n_max: int, cut: np.ndarray) -> np.ndarray:
         a = a.swapaxes(0, 1)
         out[: len(a), cut[r] : cut[r + 1]] = a
         out[len(a) :, cut[r] : cut[r + 1]] = a[-1:]
+    return out
+
+
+def _padded_increments(arrs: list[np.ndarray], n_max: int, cut: np.ndarray) -> np.ndarray:
+    """:func:`_padded` of increments (B_r, n_r, 3) into the loop's layout (n_max, 3, cut[-1])."""
+    out = np.empty((n_max, 3, cut[-1]))
+    for r, a in enumerate(arrs):
+        a = a.transpose(1, 2, 0)
+        out[: len(a), :, cut[r] : cut[r + 1]] = a
+        out[len(a) :, :, cut[r] : cut[r + 1]] = a[-1:]
     return out
 
 
