@@ -16,6 +16,7 @@ from identify.rollmass.model import DEFAULT_PROFILE, load_profile, metacentric_r
 from identify.rollmass.recording import read_roll_csv
 from identify.rollmass.restoring import heel_gain, heel_signal, referenced_heel
 from identify.rollmass.simulate import RollRecording
+from primitives.errors import UserError
 from primitives.ship import ProfileError
 from tests.physics import basin_truth as bt
 
@@ -141,3 +142,26 @@ def test_the_heel_reference_divides_by_cos_phi_before_its_low_pass():
     rec = RollRecording("turns", T, np.zeros(n), np.gradient(phi, T), g * np.sin(phi) - U * r, r, phi=phi + b, U=U)
     err = (referenced_heel(rec, g, U) - phi) / b
     assert np.max(np.abs(err)) < 0.005, np.max(np.abs(err))
+
+
+def test_the_file_reader_passes_its_heel_reference_to_the_fit_and_refuses_an_unknown_one(monkeypatch, tmp_path):
+    """``estimate_from_files(..., heel_reference=)`` reaches the oe fit (the truth bench's ``--heel-ref`` goes
+    through it to every job), and a name outside ``HEEL_REFERENCES`` is a one-line user error."""
+    from identify.rollmass import api
+
+    seen = {}
+
+    class Reached(Exception):
+        pass
+
+    def fake_estimate(*a, **k):
+        seen.update(k)
+        raise Reached
+
+    paths = _truth_recordings(str(tmp_path), "base", 2015, 0.3, True)
+    monkeypatch.setattr(api, "estimate", fake_estimate)
+    with pytest.raises(Reached):
+        api.estimate_from_files(*paths, heel_reference="raw")
+    assert seen["heel_reference"] == "raw"
+    with pytest.raises(UserError, match="heel reference 'level': choose one of raw, mean, acc, acc-lp"):
+        api.estimate_from_files(*paths, heel_reference="level")
