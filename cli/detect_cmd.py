@@ -154,7 +154,7 @@ def register(app: typer.Typer) -> None:
             )
         # this process is the command's own: the no-change records' 16 MB arrays reused, not faulted in afresh
         keep_freed_memory(always=True, keep_bytes=DETECT_KEEP_BYTES)  # (primitives.heap: the figures)
-        # one job: one or two recordings run the numpy loops, more load the compiled ones (primitives.jitloop.job)
+        # one job: under 12,500 samples in all (two 500 s recordings) the numpy loops, more the compiled ones (jitloop.job)
         dets = detect_all(recs, prior, false_alarm, min_change, seed, n_rdot=n_rdot, i_z=i_z)
         written = plot_stats(dets, plot, PLOT_PANELS) if plot is not None else []
         if json_out:

@@ -80,7 +80,7 @@ def job(work: int) -> Iterator[None]:
     """Within the block, the caller's whole job is ``work`` batch members x steps (the sum over the
     calls it will make): :func:`use` loads the compiled code only if that reaches
     :data:`JOB_MIN_WORK`, whatever the size of one call. A job of many similar calls (detect on
-    40 recordings) loads it at its first call; a job of one or two (detect on one recording) runs
+    40 recordings) loads it at its first call; a smaller one (detect on one or two 500 s recordings) runs
     the numpy loop throughout and does not pay numba's load (about 1.3 s CPU). Code loaded already
     is used either way. The hint is per thread and per asyncio task (a context variable); a job
     inside a job replaces the outer hint for its block."""
