@@ -309,8 +309,9 @@ def load_map(path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: f
         raise MapError(f"{src}: the map's features cover no area: add land polygons or a trial_area polygon")
     if lo1 - lo0 > 180.0:  # the centre of such an extent is on the far side of the globe from the map
         raise MapError(
-            f"{src}: the map's longitudes run from {lo0:g} to {lo1:g}, so it crosses the 180th meridian, which the "
-            "map's projection (centred on its extent) cannot take: split the map at 180 degrees and plan on one side"
+            f"{src}: the map's longitudes run from {lo0:g} to {lo1:g}, more than 180 degrees (a map across the 180th "
+            "meridian reads so), which the map's projection (centred on its extent) cannot take: split the map at 180 "
+            "degrees, or crop it to the trial's sea area, and plan on one side"
         )
     lon0, lat0 = 0.5 * (lo0 + lo1), 0.5 * (la0 + la1)
     proj4 = f"+proj=tmerc +lat_0={lat0:.9f} +lon_0={lon0:.9f} +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m +no_defs"
