@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -237,6 +238,51 @@ def load_map(path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: f
     """
     path = map_source(path)
     src = str(path)
+    doc = _read_collection(path, src)
+    warnings: list[str] = []
+    groups: dict[str, list[tuple[int, BaseGeometry, dict]]] = {k: [] for k in KINDS}
+    for i, f in enumerate(doc["features"]):
+        kind, geom, props = _feature(src, i, f, repair, warnings)
+        groups[kind].append((i, geom, props))
+    _check_groups(src, groups)
+    lo0, la0, lo1, la1 = _lonlat_extent(src, groups)
+    lon0, lat0 = 0.5 * (lo0 + lo1), 0.5 * (la0 + la1)
+    # projection: transverse Mercator centred on the map's extent
+    proj4 = f"+proj=tmerc +lat_0={lat0:.9f} +lon_0={lon0:.9f} +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m +no_defs"
+    fwd = transformer("EPSG:4326", proj4)
+    inv = transformer(proj4, "EPSG:4326")
+
+    def project(arr: np.ndarray) -> np.ndarray:
+        e, n = fwd.transform(arr[:, 0], arr[:, 1])
+        return np.column_stack([n, e])
+
+    land, obstacles, trial, n_shallow = _combine(src, groups, project, draught_m + ukc_m)
+    ex = project(np.array([[lo0, la0], [lo1, la1], [lo0, la1], [lo1, la0]]))
+    extent = (float(ex[:, 0].min()), float(ex[:, 1].min()), float(ex[:, 0].max()), float(ex[:, 1].max()))
+    sm = SeaMap(
+        name=str(doc.get("name") or path.stem),
+        source=src,
+        lon0=float(lon0),
+        lat0=float(lat0),
+        proj4=proj4,
+        land=land,
+        obstacles=obstacles,
+        trial_area=trial,
+        extent=extent,
+        lonlat_extent=(float(lo0), float(la0), float(lo1), float(la1)),
+        draught_m=draught_m,
+        ukc_m=ukc_m,
+        n_shallow=n_shallow,
+        warnings=warnings,
+        _fwd=fwd,
+        _inv=inv,
+    )
+    _set_endpoints(sm, src, groups)
+    return sm
+
+
+def _read_collection(path: Path, src: str) -> dict:
+    """The file's GeoJSON FeatureCollection, with at least one feature (MapError otherwise)."""
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
@@ -253,44 +299,49 @@ def load_map(path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: f
     feats = doc.get("features")
     if not isinstance(feats, list) or not feats:
         raise MapError(f"{src}: the map has no features: add land/depth_area polygons (properties.kind) or a trial_area")
-    warnings: list[str] = []
-    groups: dict[str, list[tuple[int, BaseGeometry, dict]]] = {k: [] for k in KINDS}
-    for i, f in enumerate(feats):
-        if not isinstance(f, dict) or f.get("type") != "Feature" or not isinstance(f.get("geometry"), dict):
-            raise _fail(src, i, "not a GeoJSON Feature with a geometry")
-        props = f.get("properties") or {}
-        if not isinstance(props, dict):
-            raise _fail(src, i, 'properties must be an object (e.g. {"kind": "land"})')
-        kind = props.get("kind", "land")
-        if kind not in KINDS:
-            raise _fail(src, i, f"properties.kind {kind!r} unknown; use one of {', '.join(KINDS)}")
-        try:
-            geom = shape(f["geometry"])
-        except Exception as exc:  # shapely raises several types for malformed coordinates
-            raise _fail(src, i, f"malformed geometry ({exc})") from None
-        _check_coords(src, i, geom)
-        gt = geom.geom_type
-        if kind in ("land", "depth_area", "restricted", "trial_area") and gt not in POLYGONAL:
-            raise _fail(src, i, f"kind {kind!r} must be a Polygon or MultiPolygon, got {gt}")
-        if kind == "obstacle" and gt not in POLYGONAL + ("Point",):
-            raise _fail(src, i, f"kind 'obstacle' must be a Point (with radius_m) or a Polygon, got {gt}")
-        if kind in ("start", "goal") and gt != "Point":
-            raise _fail(src, i, f"kind {kind!r} must be a Point, got {gt}")
-        if gt in POLYGONAL and not geom.is_valid:
-            reason = shapely.is_valid_reason(geom)
-            if not repair:
-                raise _fail(src, i, f"invalid polygon ({reason})")
-            geom = _polygonal(shapely.make_valid(geom))
-            warnings.append(f"feature {i} ({kind}): invalid polygon ({reason}) repaired with make_valid")
-        if kind == "depth_area":
-            d = props.get("min_depth_m")
-            if not _finite_number(d):
-                raise _fail(src, i, "depth_area needs a numeric properties.min_depth_m (S-57 DRVAL1, metres)")
-        if kind == "obstacle" and gt == "Point":
-            r = props.get("radius_m", 0.0)
-            if not _finite_number(r) or not 0 <= r <= 1e5:
-                raise _fail(src, i, "obstacle point needs properties.radius_m, 0..100000 metres")
-        groups[kind].append((i, geom, props))
+    return doc
+
+
+def _feature(src: str, i: int, f: object, repair: bool, warnings: list[str]) -> tuple[str, BaseGeometry, dict]:
+    """Feature ``i``'s kind, geometry (in degrees; an invalid polygon repaired and said in
+    ``warnings`` when ``repair``) and properties, checked for what its kind needs."""
+    if not isinstance(f, dict) or f.get("type") != "Feature" or not isinstance(f.get("geometry"), dict):
+        raise _fail(src, i, "not a GeoJSON Feature with a geometry")
+    props = f.get("properties") or {}
+    if not isinstance(props, dict):
+        raise _fail(src, i, 'properties must be an object (e.g. {"kind": "land"})')
+    kind = props.get("kind", "land")
+    if kind not in KINDS:
+        raise _fail(src, i, f"properties.kind {kind!r} unknown; use one of {', '.join(KINDS)}")
+    try:
+        geom = shape(f["geometry"])
+    except Exception as exc:  # shapely raises several types for malformed coordinates
+        raise _fail(src, i, f"malformed geometry ({exc})") from None
+    _check_coords(src, i, geom)
+    gt = geom.geom_type
+    if kind in ("land", "depth_area", "restricted", "trial_area") and gt not in POLYGONAL:
+        raise _fail(src, i, f"kind {kind!r} must be a Polygon or MultiPolygon, got {gt}")
+    if kind == "obstacle" and gt not in POLYGONAL + ("Point",):
+        raise _fail(src, i, f"kind 'obstacle' must be a Point (with radius_m) or a Polygon, got {gt}")
+    if kind in ("start", "goal") and gt != "Point":
+        raise _fail(src, i, f"kind {kind!r} must be a Point, got {gt}")
+    if gt in POLYGONAL and not geom.is_valid:
+        reason = shapely.is_valid_reason(geom)
+        if not repair:
+            raise _fail(src, i, f"invalid polygon ({reason})")
+        geom = _polygonal(shapely.make_valid(geom))
+        warnings.append(f"feature {i} ({kind}): invalid polygon ({reason}) repaired with make_valid")
+    if kind == "depth_area" and not _finite_number(props.get("min_depth_m")):
+        raise _fail(src, i, "depth_area needs a numeric properties.min_depth_m (S-57 DRVAL1, metres)")
+    if kind == "obstacle" and gt == "Point":
+        r = props.get("radius_m", 0.0)
+        if not _finite_number(r) or not 0 <= r <= 1e5:
+            raise _fail(src, i, "obstacle point needs properties.radius_m, 0..100000 metres")
+    return kind, geom, props
+
+
+def _check_groups(src: str, groups: dict[str, list[tuple[int, BaseGeometry, dict]]]) -> None:
+    """At most one start and one goal, and at least one polygon saying where the water ends."""
     for k in ("start", "goal"):
         if len(groups[k]) > 1:
             raise MapError(f"{src}: {len(groups[k])} features of kind {k!r}; give at most one")
@@ -301,7 +352,10 @@ def load_map(path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: f
             "trial_area polygon around the open water to plan in"
         )
 
-    # projection: transverse Mercator centred on the map's extent
+
+def _lonlat_extent(src: str, groups: dict[str, list[tuple[int, BaseGeometry, dict]]]) -> tuple[float, float, float, float]:
+    """(lon min, lat min, lon max, lat max) of every feature; refused when it covers no area or
+    more than 180 degrees of longitude."""
     allxy = np.vstack([shapely.get_coordinates(g) for grp in groups.values() for _, g, _ in grp])
     lo0, la0 = allxy.min(axis=0)
     lo1, la1 = allxy.max(axis=0)
@@ -313,14 +367,18 @@ def load_map(path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: f
             "meridian reads so), which the map's projection (centred on its extent) cannot take: split the map at 180 "
             "degrees, or crop it to the trial's sea area, and plan on one side"
         )
-    lon0, lat0 = 0.5 * (lo0 + lo1), 0.5 * (la0 + la1)
-    proj4 = f"+proj=tmerc +lat_0={lat0:.9f} +lon_0={lon0:.9f} +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m +no_defs"
-    fwd = transformer("EPSG:4326", proj4)
-    inv = transformer(proj4, "EPSG:4326")
+    return lo0, la0, lo1, la1
 
-    def project(arr: np.ndarray) -> np.ndarray:
-        e, n = fwd.transform(arr[:, 0], arr[:, 1])
-        return np.column_stack([n, e])
+
+def _combine(
+    src: str,
+    groups: dict[str, list[tuple[int, BaseGeometry, dict]]],
+    project: Callable[[np.ndarray], np.ndarray],
+    draft_need: float,
+) -> tuple[BaseGeometry, BaseGeometry, BaseGeometry | None, int]:
+    """Projected land, every obstacle (land, depth areas shallower than ``draft_need``, obstacles,
+    restricted areas) as one prepared geometry, the trial area (None without one) and the
+    number of shallow depth areas."""
 
     def proj_geoms(kind: str) -> list[BaseGeometry]:
         """The kind's geometries in metres; a polygon the projection leaves self-touching (vertices
@@ -331,7 +389,6 @@ def load_map(path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: f
 
     try:
         land = shapely.union_all(proj_geoms("land")) if groups["land"] else shapely.Polygon()
-        draft_need = draught_m + ukc_m
         shallow = [
             g for (_, _, pr), g in zip(groups["depth_area"], proj_geoms("depth_area")) if float(pr["min_depth_m"]) < draft_need
         ]
@@ -348,26 +405,11 @@ def load_map(path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: f
         ) from None
     shapely.prepare(land)
     shapely.prepare(obstacles)
-    ex = project(np.array([[lo0, la0], [lo1, la1], [lo0, la1], [lo1, la0]]))
-    extent = (float(ex[:, 0].min()), float(ex[:, 1].min()), float(ex[:, 0].max()), float(ex[:, 1].max()))
-    sm = SeaMap(
-        name=str(doc.get("name") or path.stem),
-        source=src,
-        lon0=float(lon0),
-        lat0=float(lat0),
-        proj4=proj4,
-        land=land,
-        obstacles=obstacles,
-        trial_area=trial,
-        extent=extent,
-        lonlat_extent=(float(lo0), float(la0), float(lo1), float(la1)),
-        draught_m=draught_m,
-        ukc_m=ukc_m,
-        n_shallow=len(shallow),
-        warnings=warnings,
-        _fwd=fwd,
-        _inv=inv,
-    )
+    return land, obstacles, trial, len(shallow)
+
+
+def _set_endpoints(sm: SeaMap, src: str, groups: dict[str, list[tuple[int, BaseGeometry, dict]]]) -> None:
+    """The map's start and goal points (local metres, heading from north in radians), if given."""
     for k in ("start", "goal"):
         if groups[k]:
             i, g, pr = groups[k][0]
@@ -376,4 +418,3 @@ def load_map(path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: f
                 raise _fail(src, i, "properties.heading_deg must be a number of degrees from north, clockwise, within -360..360")
             x, y = (float(v) for v in sm.to_local(g.x, g.y))
             setattr(sm, k, MapPoint(x, y, None if hd is None else float(np.radians(float(hd))), float(g.x), float(g.y)))
-    return sm
