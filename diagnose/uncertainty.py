@@ -30,7 +30,7 @@ term in the sense of White (1982), measured on the one set of runs known to hold
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.signal import lfilter
@@ -243,6 +243,7 @@ class FindingCov:
         None  # held-out runs' misfit beyond the parts above (:func:`diagnose.heldout_interval.with_heldout`)
     )
     heldout_runs: int = 0  # fewest held-out runs a finding's misfit was measured over (its degrees of freedom)
+    heldout_along: dict = field(default_factory=dict)  # key -> each held-out run's own estimate / the diagnosis's
 
     @property
     def runs(self) -> np.ndarray:
