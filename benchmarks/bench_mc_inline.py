@@ -3,13 +3,17 @@
 ``evaluate_designs`` after a 20-run warm-up (numba loaded and the passes compiled), the digest
 (the first 8 hex digits of each design's SHA-256, as ``benchmarks/run.py`` prints it) and the
 parameter-error percentiles. Run it alternately from two checkouts for paired figures.
+``--stages`` adds the CPU of each stage of the timed call (data simulation, IV estimate, the
+output-error fit's candidate simulations, Gauss-Newton moments and Levenberg-Marquardt steps,
+validation, scoring; timers wrapped around the module functions, a few microseconds a call).
 
-    python benchmarks/bench_mc_inline.py [--runs 2000] [--profile]
+    python benchmarks/bench_mc_inline.py [--runs 2000] [--profile] [--stages]
 """
 
 from __future__ import annotations
 
 import argparse
+import collections
 import cProfile
 import os
 import pstats
@@ -20,18 +24,52 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.run import _design_setup  # noqa: E402
+from expdesign import estimators, montecarlo, oekernel  # noqa: E402
 from expdesign.api import run_design  # noqa: E402
 from expdesign.montecarlo import evaluate_designs  # noqa: E402
+
+# (module, function, label) of each stage --stages times; indented labels are parts of the one above
+STAGES = (
+    (montecarlo, "_simulate_data", "data simulation (noise, true system)"),
+    (montecarlo, "_estimate_fused", "IV estimate (fused instrument pass)"),
+    (montecarlo, "_estimate", "IV estimate (unfused)"),
+    (montecarlo, "output_error", "output-error fit"),
+    (oekernel, "simulate", "  candidate simulations + mean squares"),
+    (oekernel, "moments_t", "  Gauss-Newton moments (sensitivities, H, g)"),
+    (estimators, "_lm_steps", "  Levenberg-Marquardt steps"),
+    (montecarlo, "validate", "validation simulation"),
+    (montecarlo, "scored", "scoring"),
+)
+
+
+def _time_stages(cpu: dict[str, float]) -> None:
+    """Wrap each function of STAGES to add its CPU seconds to ``cpu`` under its label."""
+    for mod, name, label in STAGES:
+        fn = getattr(mod, name)
+
+        def timed(*a, _fn=fn, _label=label, **k):
+            t = time.process_time()
+            try:
+                return _fn(*a, **k)
+            finally:
+                cpu[_label] += time.process_time() - t
+
+        setattr(mod, name, timed)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=2000)
     ap.add_argument("--profile", action="store_true", help="cProfile (CPU timer) of the timed call, by own time")
+    ap.add_argument("--stages", action="store_true", help="CPU of each stage of the timed call")
     args = ap.parse_args()
+    cpu_stage: dict[str, float] = collections.defaultdict(float)
+    if args.stages:
+        _time_stages(cpu_stage)
     prof, prims, _ = _design_setup()
     designs = {"optimized": run_design(prof, prims).weights, "random": "random"}
     evaluate_designs(prof, designs, runs=20, seed=0, primitives=prims)  # warm-up
+    cpu_stage.clear()
     pr = cProfile.Profile(time.process_time) if args.profile else None
     c0, w0 = time.process_time(), time.perf_counter()
     if pr:
@@ -47,6 +85,9 @@ def main() -> None:
         f"Monte Carlo {args.runs} x {len(designs)} inline, output error: CPU {cpu:.2f} s, wall {wall:.2f} s, "
         f"{1e3 * cpu / (len(designs) * args.runs):.3f} ms CPU per run, digest {digest}, load {os.getloadavg()[0]:.1f}"
     )
+    for _, _, label in STAGES:
+        if label in cpu_stage:
+            print(f"  {label:46s} {cpu_stage[label]:7.3f} s CPU  {100 * cpu_stage[label] / cpu:5.1f} %")
     for name, r in res.items():
         s = r.summary()
         print(f"  {name}: parameter RMSE p50 {s['param_rmse_p50']:.4f} p90 {s['param_rmse_p90']:.4f}, diverged {s['diverged']}")

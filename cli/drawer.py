@@ -10,14 +10,15 @@ ratios of its design, the PDF card's empty document with its fonts read), then r
 finished plan (pickled through a pipe, with the route and sea room every export shares) and draws
 it in two processes (itself and one forked child) while the parent writes the text exports. The
 figures and bytes are those of one process. A drawer cancelled before it was sent a plan (the
-command refused) is ended at once (SIGTERM, on which it unwinds: see :class:`_Cancelled`).
+command refused) is ended at once (SIGTERM, on which it unwinds: see :class:`Cancelled`).
 
 ``plan-trial`` forks its drawer before it parses its options (:func:`start_early`, deferred: the
 drawing modules imported first, the early function given later by :meth:`Drawer.begin`), so that
 a run whose plan is read from the plan cache does not wait for those imports. With ``--no-cache`` the plan is made
 for sure and the drawer is forked later, once the parent has imported the planner: the two share those imports.
 
-On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`).
+On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`). The forked
+processes' plumbing (their guarded life, cancellation, reaping, errors named by file) is :mod:`cli.forkjobs`.
 """
 
 from __future__ import annotations
@@ -32,6 +33,8 @@ import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
+
+from cli.forkjobs import Failed, end_child, on_sigterm, reap_child, run_child, run_jobs
 
 CAN_FORK = sys.platform.startswith("linux")
 
@@ -49,16 +52,16 @@ def beside(jobs: list[tuple[Path, str, Callable[[], object]]]) -> Callable[..., 
     paths = [p for p, _, _ in jobs]
     if not CAN_FORK:
         try:
-            _run_jobs(jobs)
-        except _Failed as exc:
+            run_jobs(jobs)
+        except Failed as exc:
             raise ExportError(str(exc)) from None
         return lambda quiet=False: paths
     read, write = os.pipe()
     pid = os.fork()
     if pid == 0:  # the child: write the files, report an error through the pipe, never return
-        try:  # whatever is raised before _child's own guard (a Ctrl-C, the drawer's SIGTERM handler)
+        try:  # whatever is raised before run_child's own guard (a Ctrl-C, the drawer's SIGTERM handler)
             os.close(read)
-            _child(write, lambda: _run_jobs(jobs))
+            run_child(write, lambda: run_jobs(jobs))
         finally:
             os._exit(1)
     os.close(write)
@@ -66,7 +69,7 @@ def beside(jobs: list[tuple[Path, str, Callable[[], object]]]) -> Callable[..., 
 
     def wait(quiet: bool = False) -> list[Path]:
         if "msg" not in state:  # reaped once; a second call (after the first raised) reports nothing new
-            state["msg"] = _reap(pid, read)
+            state["msg"] = reap_child(pid, read)
         elif quiet:
             return paths
         msg = state["msg"]
@@ -75,82 +78,6 @@ def beside(jobs: list[tuple[Path, str, Callable[[], object]]]) -> Callable[..., 
         return paths
 
     return wait
-
-
-def _run_jobs(jobs: list[tuple[Path, str, Callable[[], object]]]) -> None:
-    for path, what, job in jobs:
-        try:
-            job()
-        except _Failed:  # a nested writer's, worded already
-            raise
-        except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent, naming the file
-            raise _Failed(f"{path.name}: writing {what} failed: {type(exc).__name__}: {exc}") from exc
-
-
-class _Failed(Exception):
-    """A writer's error, already worded for the parent."""
-
-
-class _Cancelled(BaseException):
-    """Raised in the drawer by SIGTERM (the parent cancelled it). It unwinds rather than dies:
-    ``finally`` blocks and context managers run on the way out, so a drawer ended while importing
-    matplotlib on a machine without its font cache removes the cache's lock file (killed, it left
-    the lock behind and every later import waited 5 s for it, then did without the cache; the
-    half-written cache is rebuilt by the next import). A BaseException: no ``except Exception``
-    of a writer or library swallows it."""
-
-
-def _on_sigterm(signum: int, frame: Any) -> None:
-    raise _Cancelled
-
-
-def _child(report: int, work: Callable[[], None]) -> None:
-    """Run ``work`` in a forked child and exit (never return): status 0, or 1 with the error
-    written to the ``report`` pipe."""
-    code = 1
-    try:
-        # never write to a stream another thread of the parent may hold a lock on; the old streams
-        # are never flushed here (os._exit): what they buffered is the parent's to write
-        sys.stdout = sys.stderr = open(os.devnull, "w")
-        work()
-        code = 0
-    except _Cancelled:  # the parent asked for it and reads no report
-        pass
-    except BaseException as exc:  # noqa: BLE001 - everything goes back to the parent
-        from maps.export import ExportError
-
-        worded = isinstance(exc, (_Failed, ExportError))  # ExportError: a grandchild's (beside), already worded
-        msg = str(exc) if worded else f"drawing the figures failed: {type(exc).__name__}: {exc}"
-        try:
-            os.write(report, msg.encode(errors="replace")[:4000])
-        except OSError:
-            pass
-    finally:
-        os._exit(code)
-
-
-def _end(pid: int, report: int, grace_s: float = 5.0) -> None:
-    """End the unreaped child ``pid`` whose ``report`` pipe is still open: SIGTERM, and SIGKILL
-    when it has not exited within ``grace_s`` (a Python handler runs only between bytecodes: a
-    child stuck in C code, e.g. on a lock another thread of the parent held when it forked, never
-    runs it). The pid cannot be reused before it is reaped, so the second signal is safe. 5 s, not
-    1 s: on a loaded machine a child that unwinds at once may not be scheduled within a second, and
-    killed it leaves matplotlib's lock file behind (seen twice in full-suite runs at load 15-20);
-    the wait is paid only by a child that does not exit."""
-    try:
-        os.kill(pid, signal.SIGTERM)
-        if not select.select([report], [], [], grace_s)[0]:  # readable at its exit: the pipe's end closes
-            os.kill(pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-
-
-def _reap(pid: int, report: int) -> str | None:
-    """Wait for child ``pid``: None when it succeeded, else its error message ('' if none)."""
-    with os.fdopen(report, "rb") as fh:
-        msg = fh.read().decode(errors="replace")
-    _, status = os.waitpid(pid, 0)
-    return None if os.waitstatus_to_exitcode(status) == 0 else msg
 
 
 def _compute_early(early: Callable[[], object], fd: int) -> object | None:
@@ -199,16 +126,27 @@ def _same(a: object, b: object) -> bool:
         return False
 
 
-def _warm() -> None:
-    """Import what drawing needs (the child's work while the parent plans), the modules the
-    writers import when first called included (fpdf, matplotlib's Agg backend)."""
-    import fpdf  # noqa: F401
-    import matplotlib.backends.backend_agg  # noqa: F401
+# what drawing needs, the modules the writers import when first called included (fpdf, matplotlib's Agg
+# backend), in the order the deferred drawer imports them (:meth:`Drawer._serve_deferred`)
+_DRAWING_MODULES = (
+    "matplotlib.backends.backend_agg",
+    "fpdf",
+    "expdesign.report",
+    "maps.export.card",
+    "maps.export.cardpdf",
+    "maps.output",
+)
 
-    import expdesign.report  # noqa: F401
-    import maps.export.card  # noqa: F401
-    import maps.export.cardpdf  # noqa: F401
-    import maps.output  # noqa: F401
+
+def _warm(until: int = -1) -> None:
+    """Import what drawing needs (the child's work while the parent plans), one module after the other; with
+    ``until`` (a pipe's read end), stop before the next module once that pipe is readable (written or closed)."""
+    import importlib
+
+    for name in _DRAWING_MODULES:
+        if until >= 0 and select.select([until], [], [], 0)[0]:
+            return
+        importlib.import_module(name)
 
 
 def _warm_frozen() -> None:
@@ -242,7 +180,7 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
     track, states = Path(f"{stem}-track.png"), Path(f"{stem}-states.png")
 
     def card_pdf() -> None:  # the PDF draws its own map and states page: no figure shared with the PNGs
-        _run_jobs(
+        run_jobs(
             [
                 (
                     html.with_suffix(".pdf"),
@@ -268,12 +206,12 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
                 )
             else:
                 jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(design, tmp)))
-        _run_jobs(jobs)
+        run_jobs(jobs)
         with PlanFigures(plan, chart) as figs:  # the card's images are the PNG exports
-            _run_jobs([(track, "the track figure", lambda: plot_track(plan, track, chart, figures=figs))])
+            run_jobs([(track, "the track figure", lambda: plot_track(plan, track, chart, figures=figs))])
             wait()
             figs.adopt_png("states", states.read_bytes())
-            _run_jobs(
+            run_jobs(
                 [
                     (
                         html,
@@ -352,19 +290,19 @@ class Drawer:
             spec_r, self._spec = os.pipe()
         pid = os.fork()
         if pid == 0:
-            try:  # the child never returns into the caller's code, whatever is raised before _child's own guard
-                signal.signal(signal.SIGTERM, _on_sigterm)  # before it starts anything: cancel() unwinds it
+            try:  # the child never returns into the caller's code, whatever is raised before run_child's own guard
+                signal.signal(signal.SIGTERM, on_sigterm)  # before it starts anything: cancel() unwinds it
                 gc.freeze()  # the parent's objects out of the collector's sight: collections would copy the shared heap
                 os.close(self._job_w)
                 os.close(self._report)
                 if deferred:
                     os.close(self._early)
                     os.close(self._spec)
-                    _child(report_w, lambda: self._serve_deferred(job_r, spec_r, early_w))
+                    run_child(report_w, lambda: self._serve_deferred(job_r, spec_r, early_w))
                 if early is not None:
                     os.close(self._early)
-                    _child(report_w, lambda: self._serve(job_r, early, early_w, ahead))
-                _child(report_w, lambda: self._serve(job_r))
+                    run_child(report_w, lambda: self._serve(job_r, early, early_w, ahead))
+                run_child(report_w, lambda: self._serve(job_r))
             finally:
                 os._exit(1)
         os.close(job_r)
@@ -397,9 +335,16 @@ class Drawer:
 
     @staticmethod
     def _serve_deferred(job_r: int, spec_r: int, early_w: int) -> None:
-        """A drawer started before the command knew its options: the drawing modules imported at
-        once, then the early function, if :meth:`begin` gave one, then the plan drawn."""
-        _warm()
+        """A drawer started before the command knew its options: the drawing modules imported until
+        :meth:`begin` gives the early function, which is then computed at once (the parent waits for it
+        after loading its map and basic moves; imported first, the design waited for all of them, 1.1 s of
+        CPU measured at load 8), then the rest of the modules, then the plan drawn. No full collection while importing (as
+        :func:`_warm_frozen`)."""
+        gc.disable()
+        try:
+            _warm(until=spec_r)
+        finally:
+            gc.enable()
         with os.fdopen(spec_r, "rb") as fh:
             spec = fh.read()
         try:
@@ -454,7 +399,7 @@ class Drawer:
         if not self.pid:
             try:
                 draw_here(job)
-            except _Failed as exc:
+            except Failed as exc:
                 from maps.export import ExportError
 
                 raise ExportError(str(exc)) from None
@@ -489,11 +434,11 @@ class Drawer:
             self._job_w = -1
             # nothing to draw: end it now rather than let it finish its design and imports (CPU and wall
             # time of a refused run). SIGTERM first: it may be writing matplotlib's font cache under its
-            # lock file, which _Cancelled removes on the way out; it has started no process
-            _end(pid, self._report)
+            # lock file, which Cancelled removes on the way out; it has started no process
+            end_child(pid, self._report)
         if self._sender is not None:
             self._sender.join()
-        msg = _reap(pid, self._report)
+        msg = reap_child(pid, self._report)
         if msg is not None and not quiet and not cancelled:
             from maps.export import ExportError
 

@@ -24,12 +24,15 @@ def residuals(
     out = []
     with np.errstate(all="ignore"):
         for p, yh in zip(preps, model.simulate_many(preps, P)):
+            top = _top(yh)
             if escapes is not None:
-                escapes.append(escaped_members(p, yh))
+                escapes.append(_escaped_top(p, top))
             r = np.subtract(p.y[None], yh, out=yh if yh.flags.writeable else None)  # the simulation is not used again
-            bad = ~np.isfinite(r)
-            np.clip(r, -1e6, 1e6, out=r)
-            r[bad] = 1e6  # a non-finite residual counts as a large one, either sign
+            # |y - y_hat| <= max|y| + max|y_hat|: below the clip's 1e6 (and finite) the clip changes nothing
+            if not np.max(top, initial=0.0) + _span(p)[1] < 0.5e6:  # a NaN fails the test too
+                bad = ~np.isfinite(r)
+                np.clip(r, -1e6, 1e6, out=r)
+                r[bad] = 1e6  # a non-finite residual counts as a large one, either sign
             out.append(r)
     return out
 
@@ -43,7 +46,7 @@ def stack(res: list[np.ndarray], w: np.ndarray | list[np.ndarray], masks: list[n
         if masks is not None:
             rr = rr[:, masks[i][1:]]
         parts.append(rr.reshape(r.shape[0], -1))
-    return np.concatenate(parts, axis=1)
+    return parts[0] if len(parts) == 1 else np.concatenate(parts, axis=1)  # one part: already a new array
 
 
 def jacobian(
@@ -170,7 +173,7 @@ def fit(
     for _ in range(max_iter):
         if not np.all(np.isfinite(J)):
             break
-        Ja, ra = np.vstack([J, Jp]), np.concatenate([r, rp])
+        Ja, ra = (np.vstack([J, Jp]), np.concatenate([r, rp])) if len(rp) else (J, r)  # no prior: no copy
         g = Ja.T @ ra
         A = Ja.T @ Ja
         d = np.sqrt(np.diag(A))
@@ -227,6 +230,25 @@ def escaped(p: Prepared, yh: np.ndarray) -> bool:
 
 def escaped_members(p: Prepared, yh: np.ndarray) -> np.ndarray:
     """:func:`escaped` of each member of a batch ``yh`` (B, N+1, 3): (B,) bools, the same test."""
-    span = np.max(np.abs(p.y), axis=0) + 3.0 * np.std(p.y, axis=0) + 1e-9
-    top = np.max(np.abs(yh), axis=1)  # (B, 3): NaN where a channel holds a NaN, inf where an inf (max propagates both)
-    return ~np.all(np.isfinite(top), axis=1) | np.any(top > 20.0 * span, axis=1)
+    return _escaped_top(p, _top(yh))
+
+
+def _top(yh: np.ndarray) -> np.ndarray:
+    """(B, 3) largest |y_hat| of each member and channel: NaN where a channel holds a NaN, inf
+    where an inf (max propagates both)."""
+    return np.max(np.abs(yh), axis=1)
+
+
+def _escaped_top(p: Prepared, top: np.ndarray) -> np.ndarray:
+    """:func:`escaped_members` from each member's :func:`_top`."""
+    return ~np.all(np.isfinite(top), axis=1) | np.any(top > 20.0 * _span(p)[0], axis=1)
+
+
+def _span(p: Prepared) -> tuple[np.ndarray, float]:
+    """(the recorded range per channel that a simulation escapes at 20 times, the largest |y|),
+    once per recording."""
+
+    def make() -> tuple[np.ndarray, float]:
+        return np.max(np.abs(p.y), axis=0) + 3.0 * np.std(p.y, axis=0) + 1e-9, float(np.max(np.abs(p.y), initial=0.0))
+
+    return p.cached("span", None, make)

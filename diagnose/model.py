@@ -12,7 +12,9 @@ one-step predictor, section 4).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -26,6 +28,8 @@ from primitives.goodness import fit_percent  # noqa: F401  (diagnose.model.fit_p
 from primitives.ship import ShipProfile
 from primitives.simulate import WIND_EXCESS, body_from_ne, relative_signals
 from primitives.terms import TermSet, compile_term, signals_used
+
+T = TypeVar("T")
 
 
 @dataclass
@@ -45,6 +49,16 @@ class Prepared:
     @property
     def n(self) -> int:
         return len(self.y) - 1
+
+    def cached(self, key: str, owner: object, make: Callable[[], T]) -> T:
+        """``make()`` computed once from this recording (whose arrays no one changes) and
+        ``owner``, the other thing it depends on (a profile, compared by identity), then kept:
+        a refit simulates the same recording hundreds of times with the same inputs."""
+        store = self.__dict__.setdefault("_cache", {})
+        hit = store.get(key)
+        if hit is None or hit[0] is not owner:
+            hit = store[key] = (owner, make())
+        return hit[1]
 
 
 def initial_state(y: np.ndarray, m: int = 8) -> np.ndarray:
@@ -133,13 +147,12 @@ class AugmentedModel:
             "bias": np.zeros((B, 3)),
             "scale": np.ones((B, 3)),
         }
-        for j, (i, t, names, fn) in enumerate(self.base):
-            if np.any(P[:, j] != 0):
-                plan["terms"].append((i, P[:, j], t, names, fn))
-        for j in range(self.n_base, self.n_slots_end):
+        on = np.any(P[:, : self.n_slots_end] != 0, axis=0)  # the columns any member switches on, in one pass
+        for j in np.flatnonzero(on[: self.n_base]):
+            i, t, names, fn = self.base[j]
+            plan["terms"].append((i, P[:, j], t, names, fn))
+        for j in np.flatnonzero(on[self.n_base :]) + self.n_base:
             col = P[:, j]
-            if not np.any(col != 0):
-                continue
             s = self.slot(j)
             if s.kind == "term":
                 names, fn = self._slot_fn[j]
@@ -180,14 +193,14 @@ class AugmentedModel:
 
     def _exogenous(self, prep: Prepared, plan: dict, B: int) -> dict[str, np.ndarray]:
         """Input-driven signals (B, N) of one recording: delayed, offset inputs and heading; (1, N),
-        the same for every member, when no member delays or offsets the inputs (computed once and
-        broadcast: the same numbers)."""
+        the same for every member, when no member delays or offsets the inputs (computed once per
+        recording and profile, :meth:`Prepared.cached`, and broadcast: the same numbers)."""
         n, ts = prep.n, prep.rec.sample_time
         delay = plan["delay"]
         if delay is not None and not np.any(delay != 0):
             delay = None
-        if delay is None and not plan["offsets"]:
-            B = 1
+        if delay is None and not plan["offsets"]:  # a new dict of the kept read-only views: a caller may add to it
+            return dict(prep.cached("exogenous", self.profile, lambda: self._signals(prep, prep.inputs[:-1][None].copy())))
         x = np.broadcast_to(prep.inputs[:-1], (B, n, prep.inputs.shape[1])).copy()
         if delay is not None:
             kk = np.arange(n, dtype=float)
@@ -198,6 +211,11 @@ class AugmentedModel:
                     x[b] = np.stack([np.interp(src, kk, base_x[:, m]) for m in range(base_x.shape[1])], axis=-1)
         for idx, col in plan["offsets"]:
             x[:, :, idx] -= col[:, None]
+        return self._signals(prep, x)
+
+    def _signals(self, prep: Prepared, x: np.ndarray) -> dict[str, np.ndarray]:
+        """The exogenous signals (B, N) of ``prep`` from its inputs ``x`` (B, N, m) as the members see them."""
+        B, n = x.shape[0], prep.n
         exo = {k: np.broadcast_to(v, (B, n)) for k, v in self.profile.generalized_forces(x).items()}
         exo["psi"] = np.broadcast_to(prep.psi[:-1], (B, n))
         if prep.phi is not None:
@@ -274,7 +292,8 @@ class AugmentedModel:
         for i, a in acc.items():
             pre[:, :, i] = a
         if np.any(plan["wind"][:, :2] != 0):  # a steady wind not recorded: its loads as the ship turns (diagnose.windload)
-            pre += windload.steady_increments(self.profile, prep.y, prep.psi, plan["wind"], prep.rec.sample_time)[:, :-1]
+            memo = prep.cached("steady_wind", self.profile, dict)  # its still-air and recent air velocities' loads
+            pre += windload.steady_increments(self.profile, prep.y, prep.psi, plan["wind"], prep.rec.sample_time, memo)[:, :-1]
         nu0 = np.broadcast_to(prep.y0, (B, 3)) - plan["bias"]
         if prep.index is not None and prep.index < self.n_rec:
             k0 = self.n_slots_end + 3 * prep.index

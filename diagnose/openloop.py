@@ -135,9 +135,11 @@ def _merged(
     cb = None if curs[0] is None else tuple(padded([e[0][q].T[..., None] for e in env])[..., 0] for q in (0, 1))
     wb = None if not use_wind else tuple(padded([e[1][q].T[..., None] for e in env])[..., 0] for q in (0, 1))
     nu0 = np.concatenate([np.array(n0) for _e, _x, n0 in runs])
-    out = jitloop.open_loop(
-        VelocityStep(tset, np.concatenate(coefs)), need_in, ex, nu0, cb, wb, padded([x for _e, x, _n in runs])
-    )
+    # the increments padded straight into the loop's (N, 3, B) layout, passed as its (N, B, 3)
+    # view: the loop's own contiguous copy of that view is then no copy
+    forced = np.empty((n_max, 3, cut[-1])).transpose(0, 2, 1)
+    _fill(forced, [x for _e, x, _n in runs], cut)
+    out = jitloop.open_loop(VelocityStep(tset, np.concatenate(coefs)), need_in, ex, nu0, cb, wb, forced)
     if out is None:
         return None
     return [out[cut[r] : cut[r + 1], : p.n + 1] for r, p in enumerate(preps)]
@@ -148,11 +150,16 @@ def _padded(arrs: list[np.ndarray], n_max: int, cut: np.ndarray) -> np.ndarray:
     (B_r or 1, n_r, ...), recording r in the columns cut[r]:cut[r+1], a shorter one padded with its
     last step (the padding's steps are cut off the outputs; each member is stepped on its own)."""
     out = np.empty((n_max, cut[-1]) + arrs[0].shape[2:])
+    _fill(out, arrs, cut)
+    return out
+
+
+def _fill(out: np.ndarray, arrs: list[np.ndarray], cut: np.ndarray) -> None:
+    """:func:`_padded` into ``out`` (n_max, cut[-1], ...), which may be a view of another layout."""
     for r, a in enumerate(arrs):
         a = a.swapaxes(0, 1)
         out[: len(a), cut[r] : cut[r + 1]] = a
         out[len(a) :, cut[r] : cut[r + 1]] = a[-1:]
-    return out
 
 
 def numpy_loop(

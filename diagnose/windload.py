@@ -89,9 +89,18 @@ def excess_loads(profile: Particulars, y: np.ndarray, wind_body: tuple[np.ndarra
     r). The baseline fitted on calm runs holds the still-air drag of the ship's own motion; the
     excess is zero in still air. Recorded, not simulated, velocities: the relative wind is what
     the anemometer measures, and the ship's speed changes its load by little against an 18 m/s wind."""
-    u, v = y[..., 0], y[..., 1]
-    ex = _loads(profile, u - wind_body[0], v - wind_body[1]) - _loads(profile, u, v)
-    return dict(zip(SIGNALS, np.moveaxis(ex, -1, 0)))
+    return dict(zip(SIGNALS, np.moveaxis(_excess(profile, y, wind_body, still_loads(profile, y)), -1, 0)))
+
+
+def still_loads(profile: Particulars, y: np.ndarray) -> np.ndarray:
+    """(..., 4) loads of still air at the recorded velocities ``y`` (what :func:`excess_loads` subtracts)."""
+    return _loads(profile, y[..., 0], y[..., 1])
+
+
+def _excess(profile: Particulars, y: np.ndarray, wind_body: tuple[np.ndarray, np.ndarray], still: np.ndarray) -> np.ndarray:
+    """(..., 4) loads of the air velocity ``wind_body`` less those of still air ``still``
+    (:func:`still_loads` of ``y``): elementwise, so each air velocity's the same bits alone or in a batch."""
+    return _loads(profile, y[..., 0] - wind_body[0], y[..., 1] - wind_body[1]) - still
 
 
 # the steady (not recorded) wind's fixed scales: a loaded tanker's block coefficient, as the
@@ -112,24 +121,57 @@ def ship_gains(profile: Particulars, sample_time: float) -> np.ndarray:
     return sample_time / np.array([m + a["mx"], m + a["my"], (iz + a["Jz"]) * profile.length_m])
 
 
-def steady_increments(profile: Particulars, y: np.ndarray, psi: np.ndarray, wind: np.ndarray, sample_time: float) -> np.ndarray:
+def steady_increments(
+    profile: Particulars, y: np.ndarray, psi: np.ndarray, wind: np.ndarray, sample_time: float, memo: dict | None = None
+) -> np.ndarray:
     """(B, N+1, 3) increments of u, v, r over each sample from a steady wind, ``wind`` (B, 4) its
     air velocity toward north and east (m/s), the lateral centroid's arm s_L/L forward of
     midship and the surge load's scale less one, at the recorded velocities ``y`` (N+1, 3) and
     heading ``psi``: the excess loads of :func:`excess_loads` (Blendermann 1994) in body axes as
     the ship turns, the surge load scaled, the yaw moment about the centroid (``wind_N`` + s_L/L
-    ``wind_N_arm``), all scaled by :func:`ship_gains`."""
-    w = np.asarray(wind, float)[:, None, :]
+    ``wind_N_arm``), all scaled by :func:`ship_gains`.
+
+    ``memo``: a dict kept by the caller for one recording (``y``, ``psi``) and one profile, read
+    and extended: its still-air loads and the excess loads of the last :data:`MEMO_AIR` distinct
+    air velocities, so that a refit's Jacobian at an accepted trial (the same air) and every
+    call after the first compute no still-air loads again. The same numbers as without it."""
+    w = np.asarray(wind, float)
+    memo = {} if memo is None else memo
+    if "still" not in memo:
+        memo["still"] = still_loads(profile, y)
     # the loads of each distinct air velocity once (a Jacobian's members share one but for the wind's
-    # own columns): the loads are elementwise in the members, the same numbers as computed for each.
-    # Distinct by their bits: np.unique on floats takes -0.0 for 0.0, whose relative wind angle can
-    # differ by 2 pi (arctan2's sign of zero) and so its loads in the last bits
-    air = np.ascontiguousarray(w[:, 0, :2])
-    _bits, first, back = np.unique(air.view(np.uint64), axis=0, return_index=True, return_inverse=True)
-    ex = excess_loads(profile, y, body_from_ne(air[first][:, None, :], psi))
-    ex = {k: v[back.ravel()] for k, v in ex.items()}
-    n = ex["wind_N"] + w[..., 2] * ex["wind_N_arm"]
-    return np.stack([ex["wind_X"] * (1.0 + w[..., 3]), ex["wind_Y"], n], axis=-1) * ship_gains(profile, sample_time)
+    # own columns), and the increments of each distinct row of ``wind`` once (all its members but
+    # the wind's own columns): elementwise in the members, the same numbers as computed for each.
+    # Distinct by their bits: 0.0 and -0.0 (equal as floats) put a following wind's relative angle
+    # at pi or -pi (arctan2's sign of zero), and so its loads differ in the last bits
+    air = memo.setdefault("air", {})
+    keys = [row.tobytes() for row in np.ascontiguousarray(w[:, :2])]
+    # this call's loads read from a local dict, never from the memo after it is extended: another
+    # caller's eviction (two threads on one recording) cannot take an entry between insert and read
+    got = {k: air.get(k) for k in dict.fromkeys(keys)}
+    new = [k for k, v in got.items() if v is None]
+    if new:
+        a = np.frombuffer(b"".join(new), dtype=float).reshape(len(new), 1, 2)
+        got.update(zip(new, _excess(profile, y, body_from_ne(a, psi), memo["still"])))  # each (N+1, 4)
+        air.update((k, got[k]) for k in new)
+        keep = max(1, min(MEMO_AIR, MEMO_BYTES // max(got[new[0]].nbytes, 1)))  # a long recording keeps fewer
+        for k in list(air)[: max(len(air) - keep, 0)]:  # the oldest first (dicts keep insertion order)
+            air.pop(k, None)
+    rows = [row.tobytes() for row in np.ascontiguousarray(w)]
+    at = {k: i for i, k in reversed(list(enumerate(rows)))}  # each distinct row's first member
+    first = np.array(sorted(at.values()), dtype=int)
+    back = np.searchsorted(first, [at[k] for k in rows])
+    ex = np.stack([got[keys[i]] for i in first])  # (distinct rows, N+1, 4)
+    wd = w[first][:, None, :]
+    n = ex[..., 2] + wd[..., 2] * ex[..., 3]
+    inc = np.stack([ex[..., 0] * (1.0 + wd[..., 3]), ex[..., 1], n], axis=-1) * ship_gains(profile, sample_time)
+    return inc if len(first) == len(w) else inc[back]
+
+
+MEMO_AIR = 16  # air velocities a recording's memo keeps (a refit's trials and Jacobian need fewer than 8)
+# and at most this many bytes of them: 16 of a 3,500-sample run are 1.8 MB, of a 100,000-sample
+# run 51 MB a recording (twenty such recordings would hold 1 GB until the diagnosis ends)
+MEMO_BYTES = 8 << 20
 
 
 MEAN_KEYS = ("wind_accel_surge", "wind_accel_sway", "wind_accel_yaw")  # m/s^2, m/s^2, rad/s^2

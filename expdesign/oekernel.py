@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from primitives import jitloop
+from primitives.jitprogram import _IDX
 from primitives.simulate import MIN_SPEED, SPEED, _time_major_forces, signals_read
 
 _N_STATE = jitloop.N_STATE
@@ -53,6 +54,7 @@ class CalmRuns:
     nu0: list[np.ndarray]
     prog: list[tuple]
     speed: bool
+    reads: list[np.ndarray]
 
 
 def calm_runs(profile, terms, data: Sequence) -> CalmRuns | None:
@@ -79,6 +81,7 @@ def calm_runs(profile, terms, data: Sequence) -> CalmRuns | None:
         [np.asarray(d.nu0, float) for d in data],
         progs,
         SPEED in signals_read(terms),
+        [_reads_state(prog, terms.n_params) for prog in progs],
     )
 
 
@@ -167,9 +170,29 @@ def moments_t(cr: CalmRuns, sims: list[np.ndarray], theta: np.ndarray, idx: np.n
     coef = np.ascontiguousarray(theta[idx].T)
     sw = np.ascontiguousarray(np.sqrt(w[idx]).T)
     runs, mask = np.asarray(idx, np.int64), _mask(cr.terms, p)  # the same for every experiment
-    for in_t, y, nu_t, prog in zip(cr.in_t, cr.y_t, sims, cr.prog):
-        _accumulate(in_t, nu_t, y, runs, coef, sw, mask, *prog, cr.speed, fd_step, hess, grad)
+    for in_t, y, nu_t, prog, reads in zip(cr.in_t, cr.y_t, sims, cr.prog, cr.reads):
+        _accumulate(in_t, nu_t, y, runs, coef, sw, mask, reads, ~reads.all(axis=0), *prog, cr.speed, fd_step, hess, grad)
     return hess, grad
+
+
+# the signals of the calm-water layout (set by _state_signals) that move with u, v and r: in calm
+# water u_r = u_q = u and v_r = v_q = v, U = hypot(u, v); r also moves a factor with a station,
+# x + station * r. Looked up by name so that a change of primitives.jitprogram's layout cannot
+# silently reuse a term that moves.
+_MOVED_BY = tuple(tuple(_IDX[n] for n in names) for names in (("u", "u_r", "u_q", "U"), ("v", "v_r", "v_q", "U"), ("r",)))
+
+
+def _reads_state(prog: tuple, p: int) -> np.ndarray:
+    """(3, p) bool: whether term t of the program ``prog`` reads a signal that moves with state
+    u, v or r (:data:`_MOVED_BY`); a term that does not has the same value at nu(k) + h e_col
+    as at nu(k)."""
+    t_first, t_n, f_sig, f_sta = prog[2], prog[3], prog[4], prog[6]
+    reads = np.zeros((3, p), np.bool_)
+    for t in range(p):
+        for f in range(t_first[t], t_first[t] + t_n[t]):
+            for col, moved in enumerate(_MOVED_BY):
+                reads[col, t] |= int(f_sig[f]) in moved or (col == 2 and not np.isnan(f_sta[f]))
+    return reads
 
 
 def _mask(terms, p: int) -> np.ndarray:
@@ -220,6 +243,13 @@ def _signals(sig, x, in_t, runs, k, speed):
     for i in range(in_t.shape[1]):
         for b in range(batch):
             sig[_N_STATE + i, b] = in_t[k, i, 0 if one else runs[b]]
+    _state_signals(sig, x, speed, batch)
+
+
+@_helper
+def _state_signals(sig, x, speed, batch):
+    """The state rows of :func:`_signals` (u, v, r, the relative velocities in calm water and,
+    where read, the speed U) of the states x (3, B); the input rows are left as they are."""
     for b in range(batch):
         u, v = x[0, b], x[1, b]
         sig[0, b], sig[1, b], sig[2, b], sig[3, b], sig[4, b], sig[5, b], sig[6, b] = u, v, x[2, b], u, v, u, v
@@ -231,12 +261,36 @@ def _signals(sig, x, in_t, runs, k, speed):
 
 @jitloop.compiled
 def _accumulate(
-    in_t, nu_t, y, runs, coef, sw, mask, dof_first, dof_n, t_first, t_n, f_sig, f_mod, f_sta, f_pow, speed, fd_step, hess, grad
+    in_t,
+    nu_t,
+    y,
+    runs,
+    coef,
+    sw,
+    mask,
+    reads,
+    reused,
+    dof_first,
+    dof_n,
+    t_first,
+    t_n,
+    f_sig,
+    f_mod,
+    f_sta,
+    f_pow,
+    speed,
+    fd_step,
+    hess,
+    grad,
 ):
     """Add each run's H and g over one experiment to ``hess`` (b, p, p), ``grad`` (b, p), batch member b
     reading the inputs and measurements of run ``runs[b]`` of ``in_t``, ``y``; the runs
-    are the inner loop of every stage (the term program's branches once per step)."""
+    are the inner loop of every stage (the term program's branches once per step). ``reads``
+    (3, p) says which terms read a signal of state u, v, r (:func:`_reads_state`), ``reused``
+    (p,) which terms some perturbation leaves alone."""
     n, batch, p = in_t.shape[0], nu_t.shape[2], coef.shape[0]
+    one = in_t.shape[2] == 1
+    tv = np.empty((p, batch))
     sig = np.zeros((_N_STATE + in_t.shape[1], batch))
     phi = np.empty((p, batch), np.float32)
     tmp = np.empty(batch)
@@ -251,25 +305,40 @@ def _accumulate(
     hl = np.zeros((p, p, batch))
     gl = np.zeros((p, batch))
     for k in range(n):
-        # col -1: the regressors Phi(k) at nu(k); col 0-2: the increments at nu(k) + h e_col, each
-        # term c_t * f_1 * f_2 ... summed left to right per DOF as jitloop._increments does. One
-        # call site of each inlined helper: less machine code to compile on first use.
-        for col in range(-1, 3):
-            x[:] = nu_t[k]
-            if col >= 0:
-                for b in range(batch):
-                    h[b] = fd_step * (1.0 + abs(x[col, b]))
-                    x[col, b] = x[col, b] + h[b]
-            _signals(sig, x, in_t, runs, k, speed)
+        for i in range(in_t.shape[1]):  # the inputs at step k, read once for the four evaluations
+            for b in range(batch):
+                sig[_N_STATE + i, b] = in_t[k, i, 0 if one else runs[b]]
+        # col -2: the terms' values c_t * f_1 * f_2 ... at nu(k) (those some perturbation leaves
+        # alone); col -1: the regressors Phi(k) at nu(k); col 0-2: the increments at nu(k) + h e_col,
+        # the terms summed left to right per DOF as jitloop._increments does, a term that reads no
+        # signal of state col taken from col -2 (the same operations on the same numbers, so the same
+        # bits). One call site of each inlined helper: less machine code to compile on first use.
+        for col in range(-2, 3):
+            if col != -1:  # col -1 reads col -2's signals
+                x[:] = nu_t[k]
+                if col >= 0:
+                    for b in range(batch):
+                        h[b] = fd_step * (1.0 + abs(x[col, b]))
+                        x[col, b] = x[col, b] + h[b]
+                _state_signals(sig, x, speed, batch)
             for i in range(3):
                 if col >= 0 and dof_n[i] == 0:
                     inc[i, :] = 0.0
                 for t in range(dof_first[i], dof_first[i] + dof_n[i]):
-                    for b in range(batch):
-                        tmp[b] = 1.0 if col < 0 else coef[t, b]
-                    for f in range(t_first[t], t_first[t] + t_n[t]):
-                        jitloop._times_factor(tmp, sig, f_sig[f], f_sta[f], f_mod[f], f_pow[f], batch)
-                    if col < 0:
+                    if col == -2 and not reused[t]:
+                        continue
+                    if col >= 0 and not reads[col, t]:
+                        for b in range(batch):
+                            tmp[b] = tv[t, b]
+                    else:
+                        for b in range(batch):
+                            tmp[b] = 1.0 if col == -1 else coef[t, b]
+                        for f in range(t_first[t], t_first[t] + t_n[t]):
+                            jitloop._times_factor(tmp, sig, f_sig[f], f_sta[f], f_mod[f], f_pow[f], batch)
+                    if col == -2:
+                        for b in range(batch):
+                            tv[t, b] = tmp[b]
+                    elif col == -1:
                         for b in range(batch):
                             phi[t, b] = tmp[b]
                     elif t == dof_first[i]:
@@ -280,6 +349,7 @@ def _accumulate(
                 if col >= 0:
                     for b in range(batch):
                         jac[col, i, b] = (inc[i, b] - (nu_t[k + 1, i, b] - nu_t[k, i, b])) / h[b]
+        # S(k+1) and its weighted double-precision copy in one pass (no second read of S)
         for i in range(3):
             for q in range(p):
                 mq = mask[i, q]
@@ -289,10 +359,7 @@ def _accumulate(
                     v = v + jac[1, i, b] * s_old[1, q, b]
                     v = v + jac[2, i, b] * s_old[2, q, b]
                     s_new[i, q, b] = v
-        for i in range(3):
-            for q in range(p):
-                for b in range(batch):
-                    sk[i, q, b] = np.float64(s_new[i, q, b]) * sw[i, b]
+                    sk[i, q, b] = np.float64(v) * sw[i, b]
             for b in range(batch):
                 e[i, b] = (y[k + 1, i, runs[b]] - nu_t[k + 1, i, b]) * sw[i, b]
         # the three DOFs' products added one after the other to each sum (the order of adding them
@@ -307,7 +374,7 @@ def _accumulate(
                 v = gl[a, b] + sk[0, a, b] * e[0, b]
                 v = v + sk[1, a, b] * e[1, b]
                 gl[a, b] = v + sk[2, a, b] * e[2, b]
-        s_old[:] = s_new
+        s_old, s_new = s_new, s_old  # S(k+1) is the next step's S(k): no copy
     for b in range(batch):
         for a in range(p):
             grad[b, a] += gl[a, b]

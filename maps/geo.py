@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +32,37 @@ from primitives.errors import UserError
 
 KINDS = ("land", "depth_area", "obstacle", "restricted", "trial_area", "start", "goal")
 POLYGONAL = ("Polygon", "MultiPolygon")
+
+
+# the map's projection exactly as :func:`load_map` writes it (and plan.json keeps it: centre to 9 decimals);
+# any other string (a hand-edited plan.json's "lat_0=1.2.3" that CRS() refuses but PROJ's pipeline parser
+# would read as 1.2) goes through ``from_crs`` and its errors
+_TMERC = re.compile(
+    r"\+proj=tmerc \+lat_0=(-?[0-9]+\.[0-9]{9}) \+lon_0=(-?[0-9]+\.[0-9]{9}) "
+    r"\+k=1 \+x_0=0 \+y_0=0 \+ellps=WGS84 \+units=m \+no_defs"
+)
+_DEG_RAD = "+proj=unitconvert +xy_in=deg +xy_out=rad"
+
+
+@lru_cache(maxsize=16)
+def transformer(src: str, dst: str) -> Transformer:
+    """``Transformer.from_crs(src, dst, always_xy=True)``, built once per pair of CRS strings (a plan's map
+    projection, export chart, sea room and corridors each need the map's transverse Mercator one way or
+    the other; pyproj >= 3.1 Transformers are safe to share between threads).
+
+    Between lon/lat (EPSG:4326) and the map's own transverse Mercator (:data:`_TMERC`) it is built from
+    the PROJ pipeline that ``from_crs`` resolves that pair to (``Transformer.definition``: degrees to
+    radians, then tmerc; the inverse the other way): the same operations and the same numbers (a test
+    compares them bit for bit with ``from_crs``), without the search of PROJ's database (30 ms of CPU a
+    transformer, paid again whenever a pickled :class:`SeaMap` is loaded: the drawer's, the plan cache's)."""
+    fwd, inv = _TMERC.fullmatch(dst) if src == "EPSG:4326" else None, _TMERC.fullmatch(src) if dst == "EPSG:4326" else None
+    tm = fwd or inv
+    if tm is None:
+        return Transformer.from_crs(src, dst, always_xy=True)
+    step = f"+proj=tmerc +lat_0={tm[1]} +lon_0={tm[2]} +k=1 +x_0=0 +y_0=0 +ellps=WGS84"
+    if fwd is not None:
+        return Transformer.from_pipeline(f"+proj=pipeline +step {_DEG_RAD} +step {step}")
+    return Transformer.from_pipeline(f"+proj=pipeline +step +inv {step} +step +inv {_DEG_RAD}")
 
 
 class MapError(UserError):
@@ -274,10 +307,16 @@ def load_map(path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: f
     lo1, la1 = allxy.max(axis=0)
     if lo1 - lo0 <= 0 or la1 - la0 <= 0:
         raise MapError(f"{src}: the map's features cover no area: add land polygons or a trial_area polygon")
+    if lo1 - lo0 > 180.0:  # the centre of such an extent is on the far side of the globe from the map
+        raise MapError(
+            f"{src}: the map's longitudes run from {lo0:g} to {lo1:g}, more than 180 degrees (a map across the 180th "
+            "meridian reads so), which the map's projection (centred on its extent) cannot take: split the map at 180 "
+            "degrees, or crop it to the trial's sea area, and plan on one side"
+        )
     lon0, lat0 = 0.5 * (lo0 + lo1), 0.5 * (la0 + la1)
     proj4 = f"+proj=tmerc +lat_0={lat0:.9f} +lon_0={lon0:.9f} +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m +no_defs"
-    fwd = Transformer.from_crs("EPSG:4326", proj4, always_xy=True)
-    inv = Transformer.from_crs(proj4, "EPSG:4326", always_xy=True)
+    fwd = transformer("EPSG:4326", proj4)
+    inv = transformer(proj4, "EPSG:4326")
 
     def project(arr: np.ndarray) -> np.ndarray:
         e, n = fwd.transform(arr[:, 0], arr[:, 1])

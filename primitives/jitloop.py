@@ -16,17 +16,21 @@ of a step and stay within the tolerance tests/test_jitloop.py checks.
 
 The pure-numpy loop is kept: it is used when numba cannot be imported or when the environment
 sets ``SHIPTRIAL_KERNEL=numpy``, and for small calls in a process that has not loaded the
-compiled code (:func:`use`). Compiled code is cached on disk (``cache=True``) so that a warm
+compiled code, or for every call of a job its caller declared too small to pay for loading it
+(:func:`use`, :func:`job`). Compiled code is cached on disk (``cache=True``) so that a warm
 process loads it instead of compiling it again.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import importlib.util
 import math
 import os
 import threading
 import warnings
+from collections.abc import Iterator
 
 from primitives.jitprogram import (  # noqa: F401  (the term program's names, read through this module)
     _IDX,
@@ -50,6 +54,12 @@ AVAILABLE = os.environ.get("SHIPTRIAL_KERNEL", "").strip().lower() != "numpy" an
 # Work (batch members x steps) of one call from which the compiled loop is loaded: a 20-member
 # batch of 1000 steps costs about 20 ms in the numpy loop, 1 ms compiled.
 MIN_WORK = 20_000
+# Work of a whole job (the sum of its calls' batch members x steps, :func:`job`) from which loading
+# pays: ``shiptrial detect`` (CPU, load 8, stop 42) on one 500 s recording (2.0M member-steps of
+# no-change records) 4.4 s numpy against 5.8-6.7 s compiled; two 6.0-6.1 against 5.5-6.2; three
+# 6.8-8.0 against 7.1-7.4. The break-even lies between two and three such recordings.
+JOB_MIN_WORK = 5_000_000
+_JOB: contextvars.ContextVar[int | None] = contextvars.ContextVar("jitloop_job", default=None)
 _LOADED = False
 _LOCK = threading.RLock()  # two threads of a Dask worker must not load (and jit-decorate) twice
 
@@ -65,15 +75,35 @@ def loaded() -> bool:
     return AVAILABLE and _LOADED
 
 
+@contextlib.contextmanager
+def job(work: int) -> Iterator[None]:
+    """Within the block, the caller's whole job is ``work`` batch members x steps (the sum over the
+    calls it will make): :func:`use` loads the compiled code only if that reaches
+    :data:`JOB_MIN_WORK`, whatever the size of one call. A job of many similar calls (detect on
+    40 recordings) loads it at its first call; a smaller one (detect on one or two 500 s recordings) runs
+    the numpy loop throughout and does not pay numba's load (about 1.3 s CPU). Code loaded already
+    is used either way. The hint is per thread and per asyncio task (a context variable); a job
+    inside a job replaces the outer hint for its block."""
+    token = _JOB.set(int(work))
+    try:
+        yield
+    finally:
+        _JOB.reset(token)
+
+
 def use(work: int) -> bool:
     """Whether a call of ``work`` batch members x steps runs compiled: when numba is available and
-    either the compiled code is loaded already or the call is large enough to pay for loading it
-    (:data:`MIN_WORK`). Both loops give the same numbers to the tolerance tests/test_jitloop.py
+    either the compiled code is loaded already or loading it pays: inside a :func:`job`, when the
+    job's work reaches :data:`JOB_MIN_WORK`; outside one, when the call alone reaches
+    :data:`MIN_WORK`. Both loops give the same numbers to the tolerance tests/test_jitloop.py
     states, so which one a small call takes may depend on what the process ran before (last-bit
     differences only). A numba that is installed but cannot be loaded (built for another numpy,
     no writable cache) is said once in a warning and the numpy loop runs."""
     global AVAILABLE
-    if not AVAILABLE or not (_LOADED or work >= MIN_WORK):
+    if not AVAILABLE:
+        return False
+    hint = _JOB.get()
+    if not _LOADED and (work < MIN_WORK if hint is None else hint < JOB_MIN_WORK):
         return False
     with _LOCK:
         if not _LOADED:

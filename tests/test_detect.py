@@ -667,3 +667,54 @@ def test_the_opt_in_roll_band_recalibrates_on_the_same_no_change_records(prior):
     assert not np.allclose(full.h, out.h)
     assert verdict(out, prior, **HULL).evidence["roll_band_left_out_hz"] == [out.roll_band.lo_hz, out.roll_band.hi_hz]
     assert detect(rec, prior, null_runs=40, **HULL).evidence["roll_band_left_out_hz"] is None
+
+
+def test_detect_on_one_recording_does_not_load_numba_and_gives_the_compiled_jobs_numbers(prior, tmp_path):
+    """``detect_all`` on one recording (``shiptrial detect`` on one file) is a job too small to pay
+    for numba's load: it runs the numpy loops and never imports numba; the same recording in a job
+    declared large enough loads the compiled loops and gives the same statistics to the bit."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    save_prior(prior, tmp_path / "prior.json")
+    write_csv(simulated_recording(Vessel(), 300, seed=52, measured_moment=True), tmp_path / "r.csv")
+    code = (
+        "import sys, numpy as np; from primitives import jitloop; "
+        "from identify.detect.api import load_prior, load_runs; from identify.detect.batch import detect_all, job_work; "
+        f"p = load_prior({str(tmp_path / 'prior.json')!r}); recs = load_runs([{str(tmp_path / 'r.csv')!r}], p.kind); "
+        "a = detect_all(recs, p)[0]; small = 'numba' in sys.modules; "
+        "jitloop.JOB_MIN_WORK = job_work(recs); b = detect_all(recs, p)[0]; "
+        "same = all(np.array_equal(getattr(a, k), getattr(b, k), equal_nan=True) for k in ('statistic', 'dead_zone', 'threshold')); "
+        "print(small, jitloop.loaded() == jitloop.AVAILABLE, same, a.changed == b.changed, a.alarm_s == b.alarm_s)"
+    )
+    root = Path(__file__).resolve().parent.parent
+    env = dict(os.environ, PYTHONPATH=str(root))
+    env.pop("SHIPTRIAL_KERNEL", None)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["False", "True", "True", "True", "True"]
+
+
+def test_the_no_change_noise_is_drawn_once_per_job_and_gives_each_recordings_own_numbers(prior):
+    """``detect_all`` keeps the no-change records' noise draws for the next recording of the same
+    length (the generator is seeded alike for each): every recording's statistics, thresholds and
+    verdict are those ``detect`` gives it alone, to the bit; a recording of another length draws anew."""
+    from identify.detect.batch import detect_all
+    from identify.detect.nullsim import normals
+
+    rng = np.random.default_rng([3, 1])
+    want = [rng.standard_normal((4, 50)) for _ in range(3)] + [rng.standard_normal((5, 4))]
+    draws: dict = {}
+    z = normals(3, 4, 50, 2, 5, draws)
+    assert all(np.array_equal(a, b) for a, b in zip(z, want, strict=True))
+    assert normals(3, 4, 50, 2, 5, draws) is z and normals(3, 4, 60, 2, 5, draws) is not z
+    assert not any(a.flags.writeable for a in z)  # shared by later recordings: no in-place change
+    assert all(a.flags.writeable for a in normals(3, 4, 50, 2, 5))  # drawn for one: scaled in place
+    # two of one length around one of another: the first's draws kept over the second, which draws its own
+    recs = [simulated_recording(Vessel(), d, seed=s, measured_moment=True) for d, s in ((300, 52), (250, 54), (300, 53))]
+    for a, b in zip(detect_all(recs, prior, **HULL), [detect(r, prior, **HULL) for r in recs], strict=True):
+        for k in ("statistic", "dead_zone", "threshold"):
+            assert np.array_equal(getattr(a, k), getattr(b, k), equal_nan=True), k
+        assert (a.changed, a.alarm_s, a.property, a.dead_zone_h) == (b.changed, b.alarm_s, b.property, b.dead_zone_h)

@@ -146,6 +146,25 @@ def test_small_calls_do_not_load_the_compiler(monkeypatch):
     assert jitloop.use(1) == jitloop.AVAILABLE
 
 
+def test_a_job_too_small_to_pay_for_the_load_keeps_the_numpy_loop(monkeypatch):
+    """A job declared below JOB_MIN_WORK (detect on one recording) runs every call in numpy, a
+    large call included; a large job loads the compiled code at its first call, a small one
+    included; outside a job, the call's own size decides as before; loaded code is used by all."""
+    monkeypatch.setattr(jitloop, "MIN_WORK", 20_000)
+    monkeypatch.setattr(jitloop, "JOB_MIN_WORK", 1_000_000)
+    monkeypatch.setattr(jitloop, "_LOADED", False)
+    with jitloop.job(999_999):
+        assert not jitloop.use(10**9)
+        with jitloop.job(1_000_000):  # a job inside a job decides for its own block
+            assert jitloop._JOB.get() == 1_000_000
+        assert jitloop._JOB.get() == 999_999 and not jitloop._LOADED
+    assert jitloop._JOB.get() is None and not jitloop.use(19_999)
+    with jitloop.job(1_000_000):
+        assert jitloop.use(1) == jitloop.AVAILABLE
+    with jitloop.job(0):
+        assert jitloop.use(1) == jitloop.AVAILABLE  # loaded: used whatever the job
+
+
 def test_environment_selects_numpy_loop():
     """SHIPTRIAL_KERNEL=numpy (or no numba) runs the numpy loop, and a simulation still runs."""
     code = (

@@ -107,3 +107,23 @@ def test_a_topology_geos_cannot_overlay_is_a_map_error(tmp_path, monkeypatch):
     monkeypatch.setattr(shapely, "union_all", boom)
     with pytest.raises(MapError, match=r"polygons cannot be combined \(TopologyException.*Fix geometries"):
         load_map(p)
+
+
+def test_a_map_across_the_180th_meridian_is_refused_not_projected_from_the_far_side(tmp_path):
+    """Features on both sides of 180 degrees put the map's centre (and its projection's meridian) at
+    0 degrees: every distance would come out wrong without a word. Refused, naming the file and the fix."""
+    import json
+
+    land = [[[179.9, -17.0], [179.99, -17.0], [179.99, -16.9], [179.9, -16.9], [179.9, -17.0]]]
+    east = [[[-179.99, -17.0], [-179.9, -17.0], [-179.9, -16.9], [-179.99, -16.9], [-179.99, -17.0]]]
+    doc = {
+        "type": "FeatureCollection",
+        "features": [
+            {"type": "Feature", "properties": {"kind": "land"}, "geometry": {"type": "Polygon", "coordinates": ring}}
+            for ring in (land, east)
+        ],
+    }
+    path = tmp_path / "fiji.geojson"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(MapError, match=r"fiji.geojson: .* more than 180 degrees .* split the map at 180 degrees"):
+        load_map(path)

@@ -142,3 +142,33 @@ def test_locate_checks_land_outside_and_swapped():
 
 def test_bundled_map_is_packaged():
     assert bundled_map_path().is_file()
+
+
+@pytest.mark.parametrize("lat0, lon0", [(60.17, 24.95), (-33.85, 151.21), (0.0, -179.9), (71.3, -8.25)])
+def test_map_transformers_give_from_crs_numbers_bit_for_bit(lat0, lon0):
+    """The map's transverse Mercator both ways (built from PROJ's pipeline, not searched in its database)
+    gives exactly what ``Transformer.from_crs`` gives, and survives a pickle (the drawer's and the plan
+    cache's copy of a SeaMap); other pairs are ``from_crs``'s own."""
+    import pickle
+
+    from pyproj import Transformer
+
+    from maps.geo import transformer
+
+    proj4 = f"+proj=tmerc +lat_0={lat0:.9f} +lon_0={lon0:.9f} +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m +no_defs"
+    rng = np.random.default_rng(7)
+    lon, lat = lon0 + rng.uniform(-0.5, 0.5, 5000), lat0 + rng.uniform(-0.3, 0.3, 5000)
+    fwd, inv = transformer("EPSG:4326", proj4), transformer(proj4, "EPSG:4326")
+    ref_fwd = Transformer.from_crs("EPSG:4326", proj4, always_xy=True)
+    ref_inv = Transformer.from_crs(proj4, "EPSG:4326", always_xy=True)
+    e, n = ref_fwd.transform(lon, lat)
+    for got, want in ((fwd.transform(lon, lat), (e, n)), (inv.transform(e, n), ref_inv.transform(e, n))):
+        assert all(np.array_equal(g, w) for g, w in zip(got, want))
+    assert all(np.array_equal(g, w) for g, w in zip(pickle.loads(pickle.dumps(inv)).transform(e, n), ref_inv.transform(e, n)))
+    assert transformer("EPSG:4326", proj4) is fwd  # built once per pair
+    from pyproj.exceptions import CRSError
+
+    with pytest.raises(CRSError):  # not load_map's form: from_crs's refusal, not PROJ's pipeline reading it as 1.2
+        transformer("EPSG:4326", proj4.replace(f"+lat_0={lat0:.9f}", "+lat_0=1.2.3"))
+    other = transformer("EPSG:4326", "EPSG:3857")
+    assert other.definition == Transformer.from_crs("EPSG:4326", "EPSG:3857", always_xy=True).definition

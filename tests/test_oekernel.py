@@ -110,6 +110,46 @@ def test_a_roll_term_list_on_a_planar_ship_takes_the_numpy_path():
     assert oekernel.calm_runs(p, TermSet((*terms.terms, ("v_r",))), data) is None
 
 
+@needs_numba
+def test_the_moments_pass_re_evaluates_exactly_the_terms_a_perturbed_state_moves():
+    """The moments' pass takes a term that reads no signal of the perturbed state from its value
+    at nu(k) (expdesign.oekernel._reads_state): a term reading u_r, U or a station (which reads r)
+    must be re-evaluated for that state, a term of the inputs alone for none."""
+    from expdesign import oekernel
+
+    p, terms, data, _ = _oe_case("kvlcc2", True)
+    assert jitloop.use(jitloop.MIN_WORK)
+    cr = oekernel.calm_runs(p, terms, data)
+    names = [name for dof in EXOTIC for name in dof]
+    reads = {n: tuple(bool(x) for x in col) for n, col in zip(names, oekernel._reads_state(cr.prog[0], terms.n_params).T)}
+    assert reads["n^2"] == reads["delta*n^2"] == (False, False, False)
+    assert reads["u*U^-1"] == (True, True, False)  # U moves with u and v
+    assert reads["v_r*|v_r@-30|"] == (False, True, True)  # the station reads r
+    assert reads["u_r*|v_r@40|"] == (True, True, True)
+    assert reads["r*|r|"] == (False, False, True)
+    assert reads["delta*u_r^2"] == (True, False, False)
+
+
+@needs_numba
+@pytest.mark.parametrize("ship, exotic", [("model-ship", False), ("kvlcc2", True)], ids=["model-ship", "kvlcc2-exotic"])
+def test_reusing_the_terms_a_perturbation_leaves_alone_keeps_the_moments_bits(ship, exotic):
+    """The moments with the terms that read no perturbed state taken from their value at nu(k) are
+    the moments with every term re-evaluated at every perturbed state (the pass before the reuse),
+    to the bit: a term put in the wrong class would move its Jacobian column."""
+    import dataclasses
+
+    p, terms, data, theta = _oe_case(ship, exotic)
+    assert jitloop.use(jitloop.MIN_WORK)
+    sims = es._Sims(p, terms, data)
+    ok, w, _, out = es._start(sims, theta, 300)
+    assert ok.all() and not all(r.all() for r in sims.calm.reads)  # some term is reused
+    idx = np.arange(6)
+    reused = sims.moments(out, theta, idx, w)
+    sims.calm = dataclasses.replace(sims.calm, reads=[np.ones_like(r) for r in sims.calm.reads])
+    every = sims.moments(out, theta, idx, w)
+    assert np.array_equal(reused[0], every[0]) and np.array_equal(reused[1], every[1])
+
+
 def _numpy_path_estimates() -> dict:
     """The same Monte Carlo in a process where numba cannot be imported."""
     code = (

@@ -258,6 +258,7 @@ def detect(
     null_runs: int = 400,
     n_rdot: float | None = None,
     i_z: float | None = None,
+    draws: dict | None = None,
 ) -> Detection:
     """Signature LR-CUSUM (and, for comparison, the dead-zone CUSUM of (5.1)) on one recording,
     calibrated for ``false_alarm`` per recording length from the prior alone (:func:`screen`); an
@@ -270,7 +271,8 @@ def detect(
     odd = implausible_inertia(prior, i_z, n_rdot)
     if odd:
         raise UserError(f"prior fitted on {prior.source or 'its nominal recording'}: {odd}")
-    return verdict(screen(rec, prior, false_alarm, min_change, seed, null_runs, n_rdot, i_z), prior, min_change, n_rdot, i_z)
+    sc = screen(rec, prior, false_alarm, min_change, seed, null_runs, n_rdot, i_z, draws=draws)
+    return verdict(sc, prior, min_change, n_rdot, i_z)
 
 
 def screen(
@@ -283,6 +285,7 @@ def screen(
     n_rdot: float | None = None,
     i_z: float | None = None,
     leave_out_roll_band: bool = False,
+    draws: dict | None = None,
 ) -> Screening:
     """The recording's residual against the prior, the change signatures, ``null_runs`` no-change
     records simulated from the prior alone (:func:`identify.detect.nullsim.null_records`), and the
@@ -295,7 +298,8 @@ def screen(
     (:mod:`identify.detect.rollband`), here and in the verdict. Off by default: on the podded truth
     family (50 + 50 runs) it halved the false alarms (20 -> 10 %) but missed more (38 -> 48 %) and
     detected 64 s later (the stored screenings of benchmarks/bench_detect_truth.py re-decided with the
-    band out; README, stop 39; ``--roll-band`` there screens with it)."""
+    band out; README, stop 39; ``--roll-band`` there screens with it). ``draws``: the no-change
+    records' noise kept over a job (:func:`identify.detect.nullsim.normals`)."""
     if abs(rec.sample_time - prior.dt) > 1e-6 * prior.dt:
         raise RecordingError(
             f"{rec.source}: sample time {rec.sample_time:g} s differs from the prior's {prior.dt:g} s; "
@@ -314,7 +318,7 @@ def screen(
     if i_z is not None and n_rdot is not None and not (i_z > 0 and n_rdot < 0):
         raise ValueError(f"i_z {i_z:g} must be positive and n_rdot {n_rdot:g} negative (kg m^2)")
     with np.errstate(over="ignore", invalid="ignore"):  # a diverging draw is counted below, not printed as numpy's
-        null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0)
+        null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0, draws=draws)
     # a bootstrap draw whose ship cannot be simulated on this manoeuvre (diverged) is no no-change record:
     # left in, its NaNs made every threshold NaN and the recording silently unable to alarm. Left out, the
     # thresholds are low if the diverging draws are the prior's largest parameter errors: detect warns

@@ -26,7 +26,13 @@ def smooth(sig: dict[str, np.ndarray], dt: float) -> dict[str, np.ndarray]:
 
 
 def null_records(
-    prior: YawPrior, sig: dict[str, np.ndarray], runs: int, seed: int = 0, derive: Derive | None = None, r0: float = 0.0
+    prior: YawPrior,
+    sig: dict[str, np.ndarray],
+    runs: int,
+    seed: int = 0,
+    derive: Derive | None = None,
+    r0: float = 0.0,
+    draws: dict | None = None,
 ) -> np.ndarray:
     """No-change residuals ``r - r_hat`` (n, runs) on the manoeuvre ``sig`` (a parametric bootstrap
     of the detection, from the prior's own data only).
@@ -39,41 +45,75 @@ def null_records(
     on every input, its path through the yaw dynamics and the prior's parameter error are all in;
     the structure's own misfit is added as AR-coloured 1 s block offsets (``prior.model_error``);
     its apparent change along each candidate (``prior.structure``) is added per candidate by
-    :func:`identify.detect.glr.calibrate`."""
+    :func:`identify.detect.glr.calibrate`.
+
+    The records' noise is the same for every recording of the same length given the same
+    ``seed`` (:func:`normals`): ``draws``, a dict a caller keeps over a job of many recordings
+    (:func:`identify.detect.batch.detect_all`), holds the last recording's draws for the next."""
     x = np.array([prior.values[k] / NOMINAL[k] for k in prior.names])
-    draws = parameter_draws(prior, runs, seed)
+    deltas = parameter_draws(prior, runs, seed)
     # the bootstrap's B refits are cycled over the runs: B distinct ships, each simulated once (a column's
     # simulation does not depend on the others: the same bits as simulating all ``runs``)
     ships = min(runs, len(prior.boot)) if len(prior.boot) else runs
-    truth_x = x[:, None] - (draws[:ships] * np.maximum(np.abs(x), 1e-6)).T
+    truth_x = x[:, None] - (deltas[:ships] * np.maximum(np.abs(x), 1e-6)).T
     clean = smooth(sig, prior.dt)
     n = len(sig["u"])
     r_true = simulate_r(prior.kind, truth_x, {k: s[:, None] for k, s in prior.inputs(clean).items()}, prior.dt, r0=r0)
     r_true = r_true[:, np.arange(runs) % ships]
-    rng = np.random.default_rng([seed, 1])
-    r_meas = _measured(r_true, prior.noise.get("r", 0.0), rng, runs)
-    noisy = {k: _measured(s[:, None], prior.noise.get(k, 0.0), rng, runs) for k, s in clean.items()}
+    blocks = n // prior.block if prior.model_error > 0 else 0
+    z = normals(seed, runs, n, len(clean), blocks, draws)
+    r_meas = _measured(r_true, prior.noise.get("r", 0.0), z[0])
+    noisy = {k: _measured(s[:, None], prior.noise.get(k, 0.0), zk) for (k, s), zk in zip(clean.items(), z[1:])}
     if derive is not None:
         noisy = derive(noisy, r_meas)
-    return r_meas - prior.predict(noisy, r0=r0) + misfit_offsets(prior, n, runs, rng)
+    offsets = misfit_offsets(prior, n, runs, None, z[-1] if blocks else np.zeros((0, runs)))
+    return r_meas - prior.predict(noisy, r0=r0) + offsets
 
 
-def _measured(x: np.ndarray, sd: float, rng: np.random.Generator, runs: int) -> np.ndarray:
-    """``x`` ((n, runs), or (n, 1) broadcast over ``runs``) plus white noise of ``sd``, (n, runs) with
-    time along the contiguous axis: the no-change records' filters then run along contiguous memory."""
-    z = rng.standard_normal((runs, len(x))).T
-    z *= sd
-    z += x
+def normals(seed: int, runs: int, n: int, signals: int, blocks: int, draws: dict | None = None) -> list[np.ndarray]:
+    """The standard normal draws of :func:`null_records`, in the order it uses them: (runs, n) for the
+    yaw rate and each of ``signals`` inputs, then (``blocks``, runs) for :func:`misfit_offsets` (none
+    when 0), from the generator seeded ``[seed, 1]``. Kept in ``draws`` (when given) for the next
+    call with the same arguments: the same numbers, drawn once (a quarter of a 500 s recording's CPU
+    in ``detect``; 16 MB each for 400 records of 5,000 samples, the last arguments' only)."""
+    key = (seed, runs, n, signals, blocks)
+    if draws is not None:
+        if draws.get("key") == key:
+            return draws["normals"]
+        draws.clear()  # before drawing: another length's 7 x 16 MB are not held beside this one's
+    rng = np.random.default_rng([seed, 1])
+    z = [rng.standard_normal((runs, n)) for _ in range(1 + signals)]
+    if blocks:
+        z.append(rng.standard_normal((blocks, runs)))
+    if draws is not None:
+        for a in z:  # shared with the next recordings: an in-place change would alter their records
+            a.flags.writeable = False
+        draws.update(key=key, normals=z)
     return z
 
 
-def misfit_offsets(prior: YawPrior, n: int, runs: int, rng: np.random.Generator) -> np.ndarray:
+def _measured(x: np.ndarray, sd: float, z: np.ndarray) -> np.ndarray:
+    """``x`` ((n, runs), or (n, 1) broadcast over ``runs``) plus white noise of ``sd`` from the
+    standard normals ``z`` (runs, n), (n, runs) with time along the contiguous axis: the no-change
+    records' filters then run along contiguous memory. ``z`` is scaled in place unless it is kept
+    for other recordings (read-only, :func:`normals`): a recording alone needs no second copy."""
+    out = np.multiply(z, sd, out=z if z.flags.writeable else None).T
+    out += x
+    return out
+
+
+def misfit_offsets(
+    prior: YawPrior, n: int, runs: int, rng: np.random.Generator | None, z: np.ndarray | None = None
+) -> np.ndarray:
     """(n, runs) residual the white noise at ``prior.noise`` does not explain (``prior.model_error``):
     1 s block offsets coloured by the prior's AR filter (its innovation sd ``model_error``), so a
-    simulated record's whitened block residual has the nominal fit's level; zeros without it."""
+    simulated record's whitened block residual has the nominal fit's level; zeros without it. The
+    innovations are ``z`` (n // block, runs) standard normals when given, else drawn from ``rng``."""
     out = np.zeros((n, runs))
     if prior.model_error > 0:
         nb = n // prior.block
-        w = lfilter([1.0], np.r_[1.0, -prior.ar], prior.model_error * rng.standard_normal((nb, runs)), axis=0)
+        w = lfilter(
+            [1.0], np.r_[1.0, -prior.ar], prior.model_error * (rng.standard_normal((nb, runs)) if z is None else z), axis=0
+        )
         out[: nb * prior.block] = np.repeat(w, prior.block, axis=0)
     return out

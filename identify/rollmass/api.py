@@ -15,6 +15,7 @@ from identify.rollmass.estimate import DEFAULT_METHOD, METHODS, MassEstimate, es
 from identify.rollmass.model import Load, RollProfile, load_profile
 from identify.rollmass.output_error import start_values
 from identify.rollmass.recording import read_roll_csv
+from identify.rollmass.restoring import DEFAULT_HEEL_REFERENCE, HEEL_REFERENCES
 from identify.rollmass.signs import check_signs, expected_signs
 from identify.rollmass.simulate import RollRecording
 from primitives.errors import UserError
@@ -222,15 +223,19 @@ def estimate_from_files(
     profile: str | Path | None = None,
     method: str | None = None,
     z_f: float | None = None,
+    heel_reference: str = DEFAULT_HEEL_REFERENCE,
 ) -> MassEstimate:
     """Read three recordings and estimate the loaded run's mass change and the load's z with 95 % intervals.
 
     The headers' role, speed, IMU z and known load are checked against the file order, the
     profile and ``known_load`` (which may be omitted when the calibration file's header gives it).
+    ``heel_reference`` (oe): how the roll angle is referenced, :func:`restoring.referenced_heel`.
     """
     method = DEFAULT_METHOD if method is None else method
     if method not in METHODS:
         raise UserError(f"--method {method!r}: choose one of {', '.join(METHODS)}")
+    if heel_reference not in HEEL_REFERENCES:
+        raise UserError(f"heel reference {heel_reference!r}: choose one of {', '.join(HEEL_REFERENCES)}")
     paths = [Path(p) for p in (nominal, calibration, loaded)]
     prof = load_profile(profile)
     read = [read_roll_csv(p) for p in paths]
@@ -256,7 +261,9 @@ def estimate_from_files(
         if msg:
             raise UserError(msg)
     try:
-        e = estimate(recs, prof.known, cal, method, with_ci=True, z_f=z_f, start=start_values(prof))
+        e = estimate(
+            recs, prof.known, cal, method, with_ci=True, z_f=z_f, start=start_values(prof), heel_reference=heel_reference
+        )
     except (
         ValueError,
         FloatingPointError,

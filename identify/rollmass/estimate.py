@@ -51,7 +51,7 @@ from identify.rollmass.model import (
     load_moments,
 )
 from identify.rollmass.oe_fit import fit_output_error
-from identify.rollmass.restoring import referenced_heel
+from identify.rollmass.restoring import DEFAULT_HEEL_REFERENCE, referenced_heel
 from identify.rollmass.simulate import RollRecording
 
 PARAMS = SHIP_PARAMS + ("m", "zbar_m")
@@ -187,12 +187,15 @@ def estimate(
     max_iter: int = 8,
     fix: dict[str, float] | None = None,
     start: dict[str, float] | None = None,
+    heel_reference: str = DEFAULT_HEEL_REFERENCE,
 ) -> MassEstimate:
     """Estimate the loaded dataset's ``m``, ``zbar_m`` from ``[nominal, calibration, loaded]``.
 
     ``cal`` is the known calibration load. ``z_f`` (improved, oe) overrides the profile prior.
     ``start`` (oe only, required) holds start values of the ship parameters, e.g.
-    :func:`identify.rollmass.output_error.start_values` of the profile.
+    :func:`identify.rollmass.output_error.start_values` of the profile. ``heel_reference`` (oe only):
+    how the roll angle is referenced, one of :data:`restoring.HEEL_REFERENCES`
+    (:func:`restoring.referenced_heel`).
     """
     _check(datasets)
     if method not in METHODS:
@@ -200,7 +203,7 @@ def estimate(
     if method == "oe":
         if start is None:
             raise ValueError("the oe method needs start values (output_error.start_values(profile))")
-        return _oe(datasets, kn, cal, with_ci, kn.z_f_prior if z_f is None else z_f, start)
+        return _oe(datasets, kn, cal, with_ci, kn.z_f_prior if z_f is None else z_f, start, heel_reference)
     if method == "improved":
         fixed = {"z_f": kn.z_f_prior if z_f is None else z_f}
         if fix is not None:
@@ -334,12 +337,20 @@ def _improved(
     return est
 
 
-def _oe(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool, z_f: float, start: dict[str, float]) -> MassEstimate:
+def _oe(
+    datasets: list[RollRecording],
+    kn: Known,
+    cal: Load,
+    with_ci: bool,
+    z_f: float,
+    start: dict[str, float],
+    heel_reference: str = DEFAULT_HEEL_REFERENCE,
+) -> MassEstimate:
     """Output-error fit with ``z_f`` under its prior ``N(z_f, z_f_prior_sd^2)``; with ``with_ci`` the
     sandwich covariance of every free parameter, ``z_f`` included (:func:`oe_fit.fit_output_error`).
     The recordings' roll angles are first re-referenced to the accelerometer's heel
     (:func:`restoring.referenced_heel`): the AHRS's roll error would read as load through the heel moment."""
-    datasets = [replace(d, phi=referenced_heel(d, kn.g, kn.U if d.U is None else d.U)) for d in datasets]
+    datasets = [replace(d, phi=referenced_heel(d, kn.g, kn.U if d.U is None else d.U, heel_reference)) for d in datasets]
     f = fit_output_error(datasets, kn, cal, z_f, start, with_cov=with_ci)
     # K_r of (11) from the fitted K_ur, so the shared parameters read as in the paper's Table 3
     K_r = (f.values["K_ur"] - f.values["K_vdot"]) * kn.U

@@ -53,8 +53,10 @@ if TYPE_CHECKING:  # simulate imports this module
 # How the AHRS roll angle is referenced before it enters the heel signal (see :func:`referenced_heel`):
 # "raw" as recorded, "mean" each recording's mean taken out, "acc" its mean re-referenced to the
 # accelerometer's heel, "acc-lp" its slow part (below ACC_LP_HZ) re-referenced to the accelerometer's heel.
+# The choice is a parameter of the estimator (``estimate(..., heel_reference=...)``), not a module
+# setting: a setting made in one process is not seen by workers it spawns.
 HEEL_REFERENCES = ("raw", "mean", "acc", "acc-lp")
-HEEL_REFERENCE = "acc-lp"
+DEFAULT_HEEL_REFERENCE = "acc-lp"
 ACC_LP_HZ = 0.05  # 20 s: longer than a joystick turn (1-6 s), shorter than an AHRS's gravity-correction drift
 
 
@@ -88,27 +90,32 @@ def accelerometer_heel_offset(rec: RollRecording, g: float, U: float) -> np.ndar
     return np.sin(rec.phi) - (rec.a_s + u * rec.r) / g
 
 
-def referenced_heel(rec: RollRecording, g: float, U: float, how: str | None = None) -> np.ndarray | None:
+def referenced_heel(rec: RollRecording, g: float, U: float, how: str = DEFAULT_HEEL_REFERENCE) -> np.ndarray | None:
     """The recording's roll angle with its AHRS error estimated and taken out (``how``: one of
-    :data:`HEEL_REFERENCES`, default :data:`HEEL_REFERENCE`); ``None`` without a ``phi`` column.
+    :data:`HEEL_REFERENCES`); ``None`` without a ``phi`` column.
 
     Why: the heel moment ``-kappa w(phi)`` is cubic, so a roll bias ``b`` adds ``3 b phi^2``, a moment
     even in the heel that reads as load (measured: 0.5 deg moved the noise-free basin truth ``restoring``
     case 2 from +0.24 % to -5.1 %). Taking each recording's mean out removes the bias but also the true
     mean heel of its turns; the accelerometer's heel does not have that trade (see
-    :func:`accelerometer_heel_offset`)."""
+    :func:`accelerometer_heel_offset`).
+
+    The offset ``d = sin(phi) - (a_s + u r)/g`` is ``cos(phi) b`` to first order in the bias ``b``, so
+    ``d / cos(phi)`` is divided sample by sample *before* the low-pass: dividing the low-passed ``d`` by
+    the instantaneous ``cos(phi)`` would put the turns' heel back into the slow part (a 20 deg turn:
+    1 / cos 20 deg, 6 % of the bias). Without a ``u`` column the centripetal ``u r`` is taken at the
+    run's ``U`` (a ship that slows in a turn then leaves ``(U - u) r / g`` in the offset: ``mass``
+    holds each run's header speed and does not follow a recorded ``u`` yet, NOTE41)."""
     if rec.phi is None:
         return None
-    how = HEEL_REFERENCE if how is None else how
     if how not in HEEL_REFERENCES:
         raise ValueError(f"heel reference must be one of {HEEL_REFERENCES}")
     if how == "raw":
         return rec.phi
     if how == "mean":
         return rec.phi - rec.phi.mean()
-    d = accelerometer_heel_offset(rec, g, U)
-    c = np.cos(rec.phi)
+    bias = accelerometer_heel_offset(rec, g, U) / np.cos(rec.phi)
     if how == "acc" or ACC_LP_HZ * rec.n * rec.T < 2.0:  # a recording shorter than two filter periods: its mean
-        return rec.phi - d.mean() / c.mean()
+        return rec.phi - bias.mean()
     b, a = butter(1, ACC_LP_HZ, fs=1.0 / rec.T)
-    return rec.phi - filtfilt(b, a, d, padtype="even") / c
+    return rec.phi - filtfilt(b, a, bias, padtype="even")

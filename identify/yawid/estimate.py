@@ -14,11 +14,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, filtfilt
+from scipy.signal import butter
 
 from identify.yawid import yawloop
 from identify.yawid.experiment import YawData
 from identify.yawid.model import INPUT_TERMS, NEGATIVE, STATE_TERMS, YawModel
+from primitives.zerophase import filtfilt
 
 
 @dataclass
@@ -137,7 +138,8 @@ def prefilter(w: dict[str, np.ndarray], ts: float, cutoff_hz: float, axis: int =
     """Zero-phase 4th-order Butterworth low-pass of the measured inputs (not of r) along ``axis``
     (time): ours, not the thesis's. The inputs enter the predictor as if exact (errors in
     variables, L1882-1884), so their white noise above the manoeuvre's bandwidth only biases the
-    estimates (through |v|, |uv|: E|v + e| > |v|) and adds noise to the prediction."""
+    estimates (through |v|, |uv|: E|v + e| > |v|) and adds noise to the prediction. scipy's
+    filtfilt, compiled for many rows (:func:`primitives.zerophase.filtfilt`, the same bits)."""
     b, a = butter(4, cutoff_hz, fs=1.0 / ts)
     return {k: filtfilt(b, a, v, axis=axis) for k, v in w.items()}
 

@@ -64,9 +64,9 @@ class Chart:
         return self._local[proj4]
 
     def _project(self, proj4: str) -> BaseGeometry:
-        from pyproj import Transformer
+        from maps.geo import transformer
 
-        tr = Transformer.from_crs("EPSG:4326", proj4, always_xy=True)
+        tr = transformer("EPSG:4326", proj4)
 
         def fwd(c: np.ndarray) -> np.ndarray:
             e, n = tr.transform(c[:, 0], c[:, 1])

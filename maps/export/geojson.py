@@ -63,15 +63,16 @@ def _sea_room(plan: Plan) -> Any:
     if not proj4:
         return None
     import shapely
-    from pyproj import Transformer
     from shapely.geometry import LineString
     from shapely.geometry.polygon import orient
+
+    from maps.geo import transformer
 
     half = 0.5 * float(plan.hull[1] or 0.0) + float(plan.margin_m or 0.0)
     half = max(half, 0.5 * float(plan.hull[0] or 0.0), 1.0)
     line = LineString(np.column_stack([plan.track[:, 1], plan.track[:, 0]]))  # (east, north)
     area = line.buffer(half, quad_segs=8).simplify(0.05 * half)
-    tr = Transformer.from_crs(proj4, "EPSG:4326", always_xy=True)
+    tr = transformer(proj4, "EPSG:4326")
     ll = shapely.transform(area, lambda c: np.column_stack(tr.transform(c[:, 0], c[:, 1])))
     if ll.geom_type != "Polygon" or ll.is_empty:
         return None
@@ -179,13 +180,12 @@ def _start_features(plan: Plan) -> list[dict[str, Any]]:
 
 
 def _corridor_features(plan: Plan, sea_map: Any) -> list[dict[str, Any]]:
-    from pyproj import Transformer
-
     from maps.export.chart import plan_chart
     from maps.export.route import build_route, corridor_polygons
+    from maps.geo import transformer
 
     route = build_route(plan, plan_chart(plan, sea_map))
-    tr = Transformer.from_crs(plan.projection["proj4"], "EPSG:4326", always_xy=True)  # one for every corridor (~9 ms each)
+    tr = transformer(plan.projection["proj4"], "EPSG:4326")  # one for every corridor
     feats = []
     for i, poly in enumerate(corridor_polygons(route, plan)):
         if poly is None or poly.is_empty:
