@@ -43,7 +43,8 @@ from diagnose.recording import Recording, RecordingError
 from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
 from diagnose.search import SearchResult, select
-from diagnose.uncertainty import FindingCov, finding_cov, finding_pairs, with_reference, with_within
+from diagnose.uncertainty import FindingCov, finding_cov, finding_pairs, with_reference
+from diagnose.within_interval import with_within
 from primitives.ship import DOFS, ShipProfile
 
 
