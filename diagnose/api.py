@@ -38,7 +38,7 @@ from diagnose.heldout_interval import with_heldout
 from diagnose.locate import locate
 from diagnose.magnitude import heldout_worse, implausible, ml_refit
 from diagnose.model import AugmentedModel, Prepared, fit, fit_percent, noise_std_coloured, prepare
-from diagnose.perrun import guard, without
+from diagnose.perrun import guard, noise_spread, without
 from diagnose.recording import Recording, RecordingError
 from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
@@ -232,9 +232,7 @@ def run(
         inputs=inputs,
         calm_preps=held_by,
     )
-    spread = {
-        p.rec.source: dict(zip(DOFS, np.sqrt(np.mean(((p.y - p.y.mean(axis=0)) * w) ** 2, axis=0)).tolist())) for p in val_preps
-    }
+    spread = {p.rec.source: noise_spread(p, w) for p in val_preps}  # what a held-out fit point is worth in noise
     held_fit = cache(partial(fit_on_cov, given, fit_on, S.profile, S.theta0, S.own))  # the same on every pass
     calm = [prepare(S.profile, r) for r in fit_on or []]
     for _pass in range(len(result.steps) + 1):  # one finding dropped a pass at most

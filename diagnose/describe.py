@@ -383,7 +383,7 @@ CONFIRM_NOISE = 1.0
 
 def confirmed_by_heldout(f: dict, spread: dict[str, dict[str, float]]) -> bool:
     """Whether a held-out run confirms the finding ``f`` (:data:`CONFIRM_NOISE`); ``spread``: each
-    held-out run's noise spread per channel (:func:`diagnose.perrun.per_run_fits`' ``noise_spread``)."""
+    held-out run's noise spread per channel (:func:`diagnose.perrun.noise_spread`)."""
     for row in f.get("heldout_per_run") or []:
         s = spread.get(str(row.get("run"))) or {}
         for k, b in (row.get("before") or {}).items():

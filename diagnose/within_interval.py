@@ -61,7 +61,12 @@ def block_sandwich(
     sum, so ``E[g_b g_b^T] = M_b - H_b H^-1 M_b - M_b H^-1 H_b + H_b H^-1 M H^-1 H_b`` exactly
     (``M = sum M_b``): the residuals' leverage, which makes the plain sandwich read low over few
     blocks, is in the expectation. Noise in neighbouring blocks is taken as independent (blocks
-    long against the AR(1) correlation), in ``V`` as in its expectation. None with fewer than two blocks."""
+    long against the AR(1) correlation), in ``V`` as in its expectation, and each block's noise as
+    starting from rest (:func:`diagnose.uncertainty.run_grams`): measured against the mean of ``V``
+    over 300 AR(1) draws of one 2,000-3,500-sample run, the expectation is 1-7 % low at rho 0.9 and
+    5-17 % low at 0.99 (:func:`diagnose.uncertainty.ar1`'s limit; 15-33 % with rho estimated), so
+    under strongly coloured noise alone the excess comes out a little positive: the interval widens,
+    never narrows. None with fewer than two blocks."""
     if len(blocks) < 2:
         return None
     per = run_grams(blocks, *(noise if noise is not None else ar1(blocks)))
