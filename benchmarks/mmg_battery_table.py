@@ -219,8 +219,8 @@ def table(rows: list[dict]) -> str:
     if any(r["truth"].get("concealed") == "wind" for r in rows):
         lines.append(f"the wind's mean acceleration inside its 95 % interval, per DOF: {wind_by_dof(rows)}")
     lines.append(
-        "named findings whose reported interval includes no effect (|estimate| < 1 std, which the diagnosis "
-        f"drops when judged on noise and run-to-run misfit): {len(flips)}" + (f" ({', '.join(flips)})" if flips else "")
+        "named findings whose reported 95 % interval includes no effect (named because a held-out run confirms "
+        f"them; their size not resolved): {len(flips)}" + (f" ({', '.join(flips)})" if flips else "")
     )
     lines.append(
         "(magnitudes scored: delay, current speed, offset, thrust loss, bias, damping value, wind's mean acceleration in "

@@ -24,18 +24,27 @@ from diagnose.baseline import (  # noqa: F401  (fit_baseline, fit_declared, fit_
     term_scales,
 )
 from diagnose.candidates import build_library
-from diagnose.describe import add_wind_means, includes_no_effect, interval_note, with_interval, z_score
+from diagnose.describe import (
+    add_wind_means,
+    confirmed_by_heldout,
+    includes_no_effect,
+    indistinct,
+    interval_note,
+    with_interval,
+    z_score,
+)
 from diagnose.evidence import evidence, structural
 from diagnose.heldout_interval import with_heldout
 from diagnose.locate import locate
 from diagnose.magnitude import heldout_worse, implausible, ml_refit
 from diagnose.model import AugmentedModel, Prepared, fit, fit_percent, noise_std_coloured, prepare
-from diagnose.perrun import guard, without
+from diagnose.perrun import guard, noise_spread, without
 from diagnose.recording import Recording, RecordingError
 from diagnose.recording_checks import rudder_in_profile_sign, with_conventions
 from diagnose.reference import ReferencedModel
 from diagnose.search import SearchResult, select
-from diagnose.uncertainty import FindingCov, finding_cov, finding_pairs, with_reference, with_within
+from diagnose.uncertainty import FindingCov, finding_cov, finding_pairs, with_reference
+from diagnose.within_interval import with_within
 from primitives.ship import DOFS, ShipProfile
 
 
@@ -223,7 +232,9 @@ def run(
         inputs=inputs,
         calm_preps=held_by,
     )
+    spread = {p.rec.source: noise_spread(p, w) for p in val_preps}  # what a held-out fit point is worth in noise
     held_fit = cache(partial(fit_on_cov, given, fit_on, S.profile, S.theta0, S.own))  # the same on every pass
+    calm = [prepare(S.profile, r) for r in fit_on or []]
     for _pass in range(len(result.steps) + 1):  # one finding dropped a pass at most
         P, P0x, free, steps, per_run, method, w_fit, refitted = _magnitudes(
             model, preps + S.calm_preps, val_preps, result, w, P0, inputs
@@ -231,18 +242,12 @@ def run(
         cov, pairs = FindingCov(np.zeros((0, 0)), np.zeros((0, 0)), 0), None
         if steps:  # the per-run guard's set too: its findings get an interval and face the rule below
             cov, pairs = _cov(S, held_fit, fit_on, w_fit, P, free, result.prior_std)
+            cov = _model_error(cov, model, calm, preps + S.calm_preps, val_preps, w_fit, P, free, steps, result.prior_std, pairs)
         findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
+        for f in findings:
+            f["heldout_confirmed"] = confirmed_by_heldout(f, spread)
         if not _drop_indistinct(model, preps + S.calm_preps, result, steps, findings, cov, w):
             break
-    calm = [prepare(S.profile, r) for r in fit_on or []]
-    if calm and steps and len(cov.noise):  # the model error common to every run, after the rule above
-        cov = with_reference(cov, model, calm, w_fit, free, [st.candidate.key for st in steps], result.prior_std)
-    if steps and len(cov.noise):  # the misfit within the runs, after the rule above too
-        # the covariance's sensitivities at the same P and weights: its first columns are free's
-        cov = with_within(cov, model, preps + S.calm_preps, w_fit, P, free, result.prior_std, pairs)
-        if val_preps:  # the model error the held-out runs show: a bias common to the diagnosed runs too
-            cov = with_heldout(cov, model, val_preps, w_fit, P, free, [st.candidate.key for st in steps], result.prior_std)
-        findings = [_finding(st, model, P, cov, free, inputs) for st in steps]
     add_wind_means(findings, model, preps, P, cov, free)
     structure = structural(model, calm, w, P, findings)
     findings = [f for f in findings if f not in structure]
@@ -282,6 +287,35 @@ def run(
     d.cannot_tell, d.unpinned = why_not, S.unpinned
     d.elapsed_s = time.perf_counter() - t0
     return d
+
+
+def _model_error(
+    cov: FindingCov,
+    model: AugmentedModel,
+    calm: list[Prepared],
+    preps: list[Prepared],
+    val_preps: list[Prepared],
+    w_fit: np.ndarray,
+    P: np.ndarray,
+    free: list[int],
+    steps: list,
+    prior_std,
+    pairs,
+) -> FindingCov:
+    """The findings' covariance ``cov`` (noise and run-to-run misfit) with the model-error parts the
+    reported interval holds (:mod:`diagnose.uncertainty`): the error common to every run that the
+    ``--fit-on`` runs show, the misfit within the runs, and the error the held-out runs show. The
+    rule on indistinct findings judges this whole interval, the one the report prints."""
+    if not len(cov.noise):
+        return cov
+    keys = [st.candidate.key for st in steps]
+    if calm:
+        cov = with_reference(cov, model, calm, w_fit, free, keys, prior_std)
+    # the covariance's sensitivities at the same P and weights (``pairs``): its first columns are free's
+    cov = with_within(cov, model, preps, w_fit, P, free, prior_std, pairs)
+    if val_preps:  # a bias common to the diagnosed runs too
+        cov = with_heldout(cov, model, val_preps, w_fit, P, free, keys, prior_std)
+    return cov
 
 
 def _magnitudes(
@@ -338,9 +372,11 @@ def _drop_indistinct(
     cov: FindingCov,
     w: np.ndarray,
 ) -> bool:
-    """Drop the one finding with the smallest |estimate / std| when its interval (noise and the
-    run-to-run misfit, measured over two or more runs) includes no effect: |estimate| < 1 std
-    (:func:`diagnose.describe.includes_no_effect`). Such a term improves the fit by no more than
+    """Drop the one finding with the smallest |estimate / std| when it is not told apart from no
+    effect (:func:`diagnose.describe.indistinct`): the 95 % interval of its noise and run-to-run
+    misfit (two or more runs) includes zero, or its whole reported interval (those and the
+    model-error parts of :func:`_model_error`, Student-t at their degrees of freedom) does and no
+    held-out run confirms it. Such a term improves the fit by no more than
     the model's misfit moves it from run to run: with few runs, a damping term beside a delay that
     absorbs what the baseline lacks (issue 26). One at a time: a delay and a damping term competing
     for the same misfit both get wide intervals while both are in; without the weaker, the other's
@@ -349,7 +385,7 @@ def _drop_indistinct(
     per-run guard (``result.steps`` may hold more)."""
     if cov.n_runs < 2:
         return False  # one run: the +- holds noise only, no model-error term to judge by
-    weak = [f for f in findings if includes_no_effect(f)]
+    weak = [f for f in findings if indistinct(f)]
     if not weak:
         return False
     f = min(weak, key=z_score)
@@ -367,11 +403,18 @@ def _drop_indistinct(
         {
             "key": f["key"],
             "effect": f["effect"],
-            "reason": f"its interval ({covers}, 1 std) includes no effect (|estimate/std| = {z_score(f):.2f}): "
+            "reason": f"its 95 % interval ({_judged(f, covers)}) includes no effect (|estimate/std| = {z_score(f):.2f}): "
             + ("not told apart from the model's misfit" if misfit else "not told apart from the noise"),
         }
     )
     return True
+
+
+def _judged(f: dict, covers: str) -> str:
+    """Which interval of ``f`` :func:`_drop_indistinct` found to include no effect, in words."""
+    if includes_no_effect(f) and not f.get("heldout_confirmed"):
+        return f"{covers} and the model-error parts; no held-out run confirms it"
+    return covers
 
 
 def _drop_implausible(
@@ -432,5 +475,7 @@ def _finding(st, model: AugmentedModel, P: np.ndarray, cov: FindingCov, free: li
         "description": c.description,
         "plausibility": why or "no ship-scaled limit applies",
         "heldout_per_run": st.heldout,
+        # each held-out run's own estimate as a multiple of this one (diagnose.heldout_interval.with_heldout)
+        "heldout_along": getattr(cov, "heldout_along", {}).get(c.key),
         "interval": interval_note(cov, c.key) if len(cov.noise) else None,
     }

@@ -18,21 +18,18 @@ from diagnose.model import AugmentedModel, Prepared
 from diagnose.uncertainty import FindingCov, _finite, _inv, _prior_D, excess, positive_part, sandwich, sensitivities
 
 
-def heldout_term(
+def heldout_moves(
     runs: list[list[tuple[np.ndarray, np.ndarray]]], prior_D: np.ndarray | None, claimed: np.ndarray
-) -> tuple[np.ndarray, int] | None:
-    """The model error held-out runs show on one finding's parameters, from each run's (residual,
-    sensitivity to the finding's parameters) pairs at the diagnosis's estimate (``prior_D`` the
-    prior's Hessian diagonal), one draw a run: on each run alone, the Gauss-Newton step
-    ``delta_v = -H_v^-1 J_v^T r_v`` is where that run alone would put the finding, the baseline
-    held as diagnosed (the run's misfit projected on the finding's direction). Were the model
-    right, ``delta_v`` would be noise: its run's AR(1) sandwich ``C_v`` plus the estimate's own
-    noise covariance ``claimed`` (independent runs; the noise of the other fitted parameters is
-    left out, so on a right model the term can come out larger than a noise draw's). The term is
-    the excess of the mean ``delta_v delta_v^T`` over the mean of that expectation
-    (:func:`excess`), and the runs it was measured over (a run that does not move every finding
-    column is left out). None when no run moves every finding column or a step is not finite."""
-    S, E, n = 0.0, 0.0, 0
+) -> list[tuple[np.ndarray, np.ndarray]] | None:
+    """Where each held-out run alone would move one finding from the diagnosis's estimate, from
+    each run's (residual, sensitivity to the finding's parameters) pairs at that estimate
+    (``prior_D`` the prior's Hessian diagonal): the Gauss-Newton step ``delta_v = -H_v^-1 J_v^T r_v``
+    (the baseline held as diagnosed: the run's misfit projected on the finding's direction), with
+    what noise alone would give it, its run's AR(1) sandwich ``C_v`` plus the estimate's own noise
+    covariance ``claimed`` (independent runs; the noise of the other fitted parameters is left out,
+    so on a right model a move can come out larger than a noise draw's). A run that does not move
+    every finding column is left out; None when a step is not finite."""
+    moves = []
     for pairs in runs:
         G = sum(np.einsum("anc,bnc->ab", J, J) for _r, J in pairs)
         if not np.all(np.diag(G) > 0):
@@ -41,10 +38,27 @@ def heldout_term(
         delta = -_inv(H) @ sum(np.einsum("anc,nc->a", J, r) for r, J in pairs)
         if not (np.all(np.isfinite(delta)) and np.all(np.isfinite(C_d))):
             return None
-        S, E, n = S + np.outer(delta, delta), E + C_d + claimed, n + 1
-    if not n:
+        moves.append((delta, C_d + claimed))
+    return moves
+
+
+def heldout_term(
+    runs: list[list[tuple[np.ndarray, np.ndarray]]], prior_D: np.ndarray | None, claimed: np.ndarray
+) -> tuple[np.ndarray, int] | None:
+    """The model error held-out runs show on one finding's parameters (:func:`heldout_moves`, one
+    draw a run; ``claimed`` the estimate's own noise covariance): the excess of the mean
+    ``delta_v delta_v^T`` over the mean of what noise would give (:func:`excess`), and the runs it
+    was measured over. None when no run moves every finding column or a step is not finite."""
+    moves = heldout_moves(runs, prior_D, claimed)
+    if not moves:
         return None
-    return excess(S / n, E / n), n
+    return _excess_of(moves), len(moves)
+
+
+def _excess_of(moves: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    """The excess of the moves' mean outer product over the mean of their noise expectations."""
+    S = sum(np.outer(d, d) for d, _E in moves) / len(moves)
+    return excess(S, sum(E for _d, E in moves) / len(moves))
 
 
 def with_heldout(
@@ -73,17 +87,26 @@ def with_heldout(
     (:func:`half_width_95`)."""
     if not val or not len(cov.noise):
         return cov
-    X, runs = np.zeros_like(cov.noise), []
+    X, runs, along = np.zeros_like(cov.noise), [], {}
     done = cov.model + sum((Y for Y in (cov.within, cov.reference) if Y is not None), np.zeros_like(cov.noise))
     for key in keys:
         own = list(model.slot_of[key])
         pos = [free.index(j) for j in own]
         ix = np.ix_(pos, pos)
         D = _prior_D(None if prior_sd is None else np.asarray(prior_sd, float)[own], len(own))
-        got = heldout_term([sensitivities(model, [v], P, own, w) for v in val], D, cov.noise[ix])
-        if got is not None:
-            X[ix] = positive_part(got[0] - done[ix])
-            runs.append(got[1])
+        moves = heldout_moves([sensitivities(model, [v], P, own, w) for v in val], D, cov.noise[ix])
+        if moves:
+            X[ix] = positive_part(_excess_of(moves) - done[ix])
+            along[key] = [1.0 + _along(d, E, P[own]) for d, E in moves]
+            runs.append(len(moves))
     cov.heldout = _finite(X)
     cov.heldout_runs = min(runs, default=0)
+    cov.heldout_along = along
     return cov
+
+
+def _along(d: np.ndarray, E: np.ndarray, est: np.ndarray) -> float:
+    """The move ``d``'s component along ``est`` as a multiple of it (metric: ``E``'s inverse)."""
+    Ei = _inv(E)
+    den = float(est @ Ei @ est)
+    return float(est @ Ei @ d) / den if den > 0 else 0.0

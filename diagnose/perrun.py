@@ -32,6 +32,17 @@ def short_label(label: str) -> str:
     return Path(src).name + sep + rest
 
 
+def _spread_sq(p: Prepared, w: np.ndarray) -> np.ndarray:
+    """Each output's noise-weighted sum of squares about its mean (``w`` the inverse noise scale)."""
+    return np.sum(((p.y - p.y.mean(axis=0)) * w) ** 2, axis=0)
+
+
+def noise_spread(p: Prepared, w: np.ndarray) -> dict[str, float]:
+    """Each output's RMS about its mean in noise units (``w`` the inverse noise scale): a fit point
+    is worth ``noise_spread / 100`` noise stds (RMS) there, as ``fit = 100 (1 - |e| / |y - mean y|)``."""
+    return dict(zip(DOFS, np.sqrt(_spread_sq(p, w) / max(len(p.y), 1)).tolist()))
+
+
 def _table(preps: list[Prepared], role: str, f0: np.ndarray, f1: np.ndarray, w: np.ndarray) -> list[dict]:
     """Rows of the per-run table; each run's noise-weighted spread of each output (``w`` the
     inverse noise scale) gives its weighted misfit (summed over the channels) from the fit, and
@@ -39,7 +50,7 @@ def _table(preps: list[Prepared], role: str, f0: np.ndarray, f1: np.ndarray, w: 
     (:func:`channel_slack`)."""
     rows = []
     for p, a, b in zip(preps, f0, f1):
-        dn = np.sum(((p.y - p.y.mean(axis=0)) * w) ** 2, axis=0)
+        dn = _spread_sq(p, w)
         w0, w1 = (float(np.sum((1 - f / 100.0) ** 2 * dn)) for f in (a, b))
         rows.append(
             {
@@ -49,7 +60,7 @@ def _table(preps: list[Prepared], role: str, f0: np.ndarray, f1: np.ndarray, w: 
                 "after": dict(zip(DOFS, b.tolist())),
                 "weighted_misfit_before": w0,
                 "weighted_misfit_after": w1,
-                "noise_spread": dict(zip(DOFS, np.sqrt(dn / max(len(p.y), 1)).tolist())),
+                "noise_spread": noise_spread(p, w),
             }
         )
     return rows

@@ -172,10 +172,17 @@ def _effect(f: dict) -> str:
 
 
 def sentence(f: dict) -> str:
-    """One plain-language sentence per finding; an effect within 1 std of none is said to be."""
+    """One plain-language sentence per finding; an effect whose 95 % interval includes none is said
+    to be, and when a held-out run confirms it anyway (:func:`diagnose.describe.indistinct`), that
+    its size is not resolved."""
     what = _effect(f)
-    if includes_no_effect(f):
-        what += " (the interval includes no effect: within 1 std of none)"
+    if includes_no_effect(f) and f.get("heldout_confirmed"):
+        what += (
+            " (its size is not resolved: the 95 % interval, model error included, holds no effect too; named because a "
+            "held-out run confirms it, its residual falling by more than the noise with it added)"
+        )
+    elif includes_no_effect(f):
+        what += " (the 95 % interval includes no effect)"
     plaus = f" Plausible for this ship: {f['plausibility']}." if f.get("plausibility") else ""
     return f"{what}: {f['evidence']}.{plaus}"
 

@@ -30,7 +30,7 @@ term in the sense of White (1982), measured on the one set of runs known to hold
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.signal import lfilter
@@ -243,6 +243,7 @@ class FindingCov:
         None  # held-out runs' misfit beyond the parts above (:func:`diagnose.heldout_interval.with_heldout`)
     )
     heldout_runs: int = 0  # fewest held-out runs a finding's misfit was measured over (its degrees of freedom)
+    heldout_along: dict = field(default_factory=dict)  # key -> each held-out run's own estimate / the diagnosis's
 
     @property
     def runs(self) -> np.ndarray:
@@ -448,59 +449,3 @@ def positive_part(A: np.ndarray) -> np.ndarray:
     """The positive semi-definite part of a symmetric matrix (its negative eigenvalues set to 0)."""
     lam, U = np.linalg.eigh(0.5 * (A + A.T))
     return (U * np.maximum(lam, 0.0)) @ U.T
-
-
-def block_pairs(pairs: list[tuple[np.ndarray, np.ndarray]], k: int = BLOCKS_PER_RUN) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Each run's (residual, sensitivity) pair cut into ``k`` contiguous blocks."""
-    return [(r[ix], J[:, ix]) for r, J in pairs for ix in np.array_split(np.arange(len(r)), k) if len(ix)]
-
-
-def with_within(
-    cov: FindingCov,
-    model: AugmentedModel,
-    preps: list[Prepared],
-    w: np.ndarray,
-    P: np.ndarray,
-    free: list[int],
-    prior_sd: np.ndarray | None = None,
-    pairs: list[tuple[np.ndarray, np.ndarray]] | None = None,
-) -> FindingCov:
-    """``cov`` with the misfit within the runs as its ``within`` part: the delete-a-block
-    jackknife (Künsch 1989) over blocks of each run (:data:`BLOCKS_PER_RUN`), beyond its AR(1)
-    noise expectation (:func:`jackknife`, :func:`excess`) and widened for the blocks' number
-    (:func:`small_sample`), on the findings' parameters. A structural misfit that follows the
-    manoeuvre within every run (a wind whose load varies with the relative angle otherwise than the
-    model's coefficients say) moves a finding from block to block where the runs, each holding the
-    whole manoeuvre, agree. Only its excess over the run-to-run part is added (the positive part of
-    the difference), so the interval holds the larger of the two and never shrinks (White 1982:
-    the sandwich's meat from the scores, not from a noise model). ``pairs``: the runs'
-    :func:`sensitivities` at P whose first ``len(free)`` columns are those to ``free``, when already
-    computed (:func:`finding_pairs`)."""
-    if not len(cov.noise) or cov.n_runs < 2:  # one run: no between-run check either, and it says so
-        return cov
-    if pairs is None:
-        pairs = sensitivities(model, preps, P, list(free), w)
-    else:
-        pairs = [(r, J[: len(free)]) for r, J in pairs]
-    D, cols = _prior_and_findings(model, free, prior_sd)
-    cov.within = within_term(pairs, cols, cov.model, D)
-    return cov
-
-
-def within_term(
-    pairs: list[tuple[np.ndarray, np.ndarray]], cols: list[int], run_part: np.ndarray, prior_D: np.ndarray | None = None
-) -> np.ndarray | None:
-    """The ``within`` part of :func:`with_within` from the runs' (residual, sensitivity) pairs
-    at the fit (every sensitivity column fitted; ``cols`` the findings' columns) and the
-    run-to-run part ``run_part`` already in the interval. None when not measurable (no column,
-    fewer than two blocks, or a non-finite spread)."""
-    blocks = block_pairs(pairs)
-    VE = jackknife(blocks, pairs[0][1].shape[0], prior_D) if cols else None
-    if VE is None:
-        return None
-    ix = np.ix_(cols, cols)
-    if not (np.all(np.isfinite(VE[0][ix])) and np.all(np.isfinite(VE[1][ix]))):
-        return None
-    B = np.zeros_like(run_part)
-    B[ix] = small_sample(len(blocks)) * excess(VE[0][ix], VE[1][ix])
-    return _finite(positive_part(B - run_part))

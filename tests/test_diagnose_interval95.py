@@ -37,6 +37,19 @@ def test_95_interval_never_narrower_than_the_printed_std_allows():
     assert half_width_95(1.0, 0.0, 0.5, n_runs=3) == pytest.approx(1.96 * np.sqrt(1.25), rel=1e-4)
 
 
+def test_95_interval_moves_continuously_with_a_small_within_run_part():
+    """A within-run part of 1 % of the run-to-run std (the MMG battery's current-0.7 seed 1 speed:
+    1.9e-5 beside 2.0e-3 over three runs) leaves the interval as the run-to-run part's two degrees of
+    freedom make it; it took the blocks' 23 before and came out narrower than the noise-and-run-to-run
+    interval (0.0042 against 0.0056 there). A dominant within-run part still takes the blocks' degrees of freedom."""
+    runs = half_width_95(5.8e-4, 2.0e-3, n_runs=3)
+    assert half_width_95(5.8e-4, 2.0e-3, 2.0e-5, n_runs=3) == pytest.approx(runs, rel=1e-3)
+    for within in (1e-4, 1e-3, 4e-3, 1e-2):  # not narrower than without it (measured: at least 0.99997 of it)
+        assert half_width_95(5.8e-4, 2.0e-3, within, n_runs=3) >= 0.999 * runs
+    big = half_width_95(0.0, 1e-6, 1.0, n_runs=3)
+    assert big == pytest.approx(stats.t.ppf(0.975, 23) / np.sqrt(small_sample(24)), rel=1e-3)
+
+
 def test_95_interval_of_the_held_out_runs_part_has_a_degree_of_freedom_a_run():
     """Two held-out runs' misfit alone: t(2) of its std; one run: t(1). A top-up that carries the
     model error takes the held-out runs' degrees of freedom: t(2) of the total."""

@@ -15,7 +15,8 @@ from diagnose.heldout import Parts, grams
 from diagnose.model import AugmentedModel, prepare, residuals
 from diagnose.recording import RecordingError, read_csv
 from diagnose.sensitivity import residual_jacobian
-from diagnose.uncertainty import FindingCov, finding_cov, finding_pairs, sensitivities, with_within
+from diagnose.uncertainty import FindingCov, finding_cov, finding_pairs, sensitivities
+from diagnose.within_interval import with_within
 from primitives import jitloop
 from primitives.ship import load_profile
 
