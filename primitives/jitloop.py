@@ -131,19 +131,23 @@ class compiled:
     when :func:`use` first loads numba, so a compiler that cannot work is found there, before a
     caller has chosen the compiled path. Called only when :func:`use` says so."""
 
-    def __init__(self, fn):
-        self.fn, self.jit = fn, None
+    def __init__(self, fn, signature: str | None = None):
+        self.fn, self.jit, self.signature, self.typed = fn, None, signature, signature is None
         self.__doc__, self.__name__ = fn.__doc__, fn.__name__
         _COMPILED.append(self)
 
     def __call__(self, *args):
-        if self.jit is None:
+        if self.jit is None or not self.typed:
             with _LOCK:
                 _load()
                 if self.jit is None:  # a function defined after numba was loaded
                     from numba import njit
 
                     self._dispatch(njit)
+                if not self.typed:  # compiled (or loaded from the disk cache) at its first call, not at numba's load
+                    self.jit.compile(self.signature)
+                    self.jit.disable_compile()
+                    self.typed = True
         return self.jit(*args)
 
     def _dispatch(self, njit) -> None:
@@ -154,6 +158,13 @@ class compiled:
             self.jit = njit(nogil=True, error_model="numpy")(self.fn)
             return
         _stamp_shared_helpers(self.jit)
+
+
+def typed(signature: str):
+    """:class:`compiled` with one signature (numba's type expression, e.g. ``"void(Array(float64, 2, 'A',
+    readonly=True))"``): every call converts its arguments to it instead of compiling a variant per
+    memory layout, so a loop can read strided views (transposed, reversed, broadcast) without copies."""
+    return lambda fn: compiled(fn, signature)
 
 
 # The files whose inlined helpers are compiled into other files' functions (expdesign.oekernel
