@@ -71,6 +71,25 @@ def test_compiled_loop_gives_the_numpy_loops_bits(name: str, layout: str, monkey
     assert np.array_equal(fast, slow)
 
 
+@needs_numba
+@pytest.mark.parametrize("dtype", [np.float32, np.int64, ">f8"])
+def test_inputs_other_than_float64_give_the_numpy_loops_bits(dtype, monkeypatch) -> None:
+    """The compiled loop has one float64 signature: float32 or integer inputs would be converted to
+    doubles there while the numpy loop multiplies them in their own type (float32 products rounded to
+    float32), so they run the numpy loop, whatever the work; a simulation's bits do not depend on
+    whether numba is installed."""
+    model = FULL_P
+    truth = true_parameters(base_profile())
+    b, n = 30, 1000
+    theta = np.array([truth.get(k, -1e6) for k in model.params]) * np.ones((b, 1))
+    w = {k: (np.rint(x) if dtype is np.int64 else x).astype(dtype) for k, x in _inputs(b, n, 5).items()}
+    assert jitloop.use(b * n) and not yawloop.usable(model, w, b, n)
+    chosen, _ = simulate_yaw(model, theta, w, np.zeros(b), 0.1, sensitivities=False)
+    monkeypatch.setattr(yawloop, "usable", lambda *a: False)
+    slow, _ = simulate_yaw(model, theta, w, np.zeros(b), 0.1, sensitivities=False)
+    assert np.abs(slow).max() > 1e-3 and chosen.tobytes() == slow.tobytes()
+
+
 def test_the_loop_knows_every_term_of_the_yaw_models() -> None:
     for model in ALL.values():
         assert set(model.input_terms) <= set(INPUT_CODES)

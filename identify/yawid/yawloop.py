@@ -74,9 +74,13 @@ def usable(model: YawModel, w: dict[str, np.ndarray], b: int, n: int) -> bool:
     """Whether :func:`simulate` runs ``b`` members of ``n`` steps compiled: numba there and the
     work worth loading it (:func:`primitives.jitloop.use`), every term of the model known to the loop
     and every signal it reads given (the compiled loop does not check its indices: a missing signal
-    must fail in the numpy loop with its KeyError, not read out of bounds)."""
+    must fail in the numpy loop with its KeyError, not read out of bounds). The loop's one signature
+    reads native float64: other inputs (float32, integers, another byte order) run the numpy loop, whose
+    arithmetic in their own type the float64 loop would not repeat bit for bit."""
     known = all(t in INPUT_CODES for t in model.input_terms) and all(t in STATE_CODES for t in model.state_terms)
-    return known and set(model.signals) <= set(w) and "tau_r" in w and jitloop.use(b * n)
+    given = set(model.signals) <= set(w) and "tau_r" in w
+    doubles = given and all(np.asarray(w[k]).dtype == np.float64 for k in SIGNALS if k in w)
+    return known and doubles and jitloop.use(b * n)
 
 
 def simulate(model: YawModel, theta: np.ndarray, col: dict[str, int], w: dict[str, np.ndarray], r0, ts: float) -> np.ndarray:
@@ -85,7 +89,7 @@ def simulate(model: YawModel, theta: np.ndarray, col: dict[str, int], w: dict[st
     b, n = w["u"].shape
     theta = np.broadcast_to(theta, (b, theta.shape[1]))  # the loop reads one parameter set per member
     dummy = np.zeros((1, 1))
-    sig = [np.broadcast_to(np.asarray(w[k], float), (b, n)) if k in w else dummy for k in SIGNALS]
+    sig = [np.broadcast_to(w[k], (b, n)) if k in w else dummy for k in SIGNALS]  # float64 (usable)
 
     def coded(names: tuple[str, ...], codes: dict[str, int]) -> tuple[np.ndarray, np.ndarray]:
         th = np.stack([theta[:, col[t]] for t in names]) if names else np.zeros((0, b))
