@@ -129,21 +129,29 @@ class compiled:
     """``fn`` compiled by numba (cached on disk: a warm process loads the machine code instead of
     compiling it), with the helpers marked :func:`inlined` compiled into it. Its dispatcher is made
     when :func:`use` first loads numba, so a compiler that cannot work is found there, before a
-    caller has chosen the compiled path. Called only when :func:`use` says so."""
+    caller has chosen the compiled path. Called only when :func:`use` says so. With ``signature``
+    (:func:`typed`) that one signature is compiled (or loaded from the disk cache) at the first call
+    and no other: arguments are converted to it where numba converts safely (C or F layout to 'A',
+    writable to read-only), and a call it cannot convert (float32 for float64) raises TypeError."""
 
-    def __init__(self, fn):
-        self.fn, self.jit = fn, None
+    def __init__(self, fn, signature: str | None = None):
+        self.fn, self.jit, self.signature = fn, None, signature
+        self.pending = signature is not None  # a signature to compile at the first call
         self.__doc__, self.__name__ = fn.__doc__, fn.__name__
         _COMPILED.append(self)
 
     def __call__(self, *args):
-        if self.jit is None:
+        if self.jit is None or self.pending:
             with _LOCK:
                 _load()
                 if self.jit is None:  # a function defined after numba was loaded
                     from numba import njit
 
                     self._dispatch(njit)
+                if self.pending:  # compiled (or loaded from the disk cache) at its first call, not at numba's load
+                    self.jit.compile(self.signature)
+                    self.jit.disable_compile()
+                    self.pending = False
         return self.jit(*args)
 
     def _dispatch(self, njit) -> None:
@@ -154,6 +162,13 @@ class compiled:
             self.jit = njit(nogil=True, error_model="numpy")(self.fn)
             return
         _stamp_shared_helpers(self.jit)
+
+
+def typed(signature: str):
+    """:class:`compiled` with one signature (numba's type expression, e.g. ``"void(Array(float64, 2, 'A',
+    readonly=True))"``): every call converts its arguments to it instead of compiling a variant per
+    memory layout, so a loop can read strided views (transposed, reversed, broadcast) without copies."""
+    return lambda fn: compiled(fn, signature)
 
 
 # The files whose inlined helpers are compiled into other files' functions (expdesign.oekernel

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 
 import numpy as np
@@ -669,10 +670,15 @@ def test_the_opt_in_roll_band_recalibrates_on_the_same_no_change_records(prior):
     assert detect(rec, prior, null_runs=40, **HULL).evidence["roll_band_left_out_hz"] is None
 
 
+@pytest.mark.skipif(
+    importlib.util.find_spec("numba") is None,
+    reason="numba not installed: every job runs the numpy loops, so there is no load to avoid and no compiled path to compare",
+)
 def test_detect_on_one_recording_does_not_load_numba_and_gives_the_compiled_jobs_numbers(prior, tmp_path):
     """``detect_all`` on one recording (``shiptrial detect`` on one file) is a job too small to pay
     for numba's load: it runs the numpy loops and never imports numba; the same recording in a job
-    declared large enough loads the compiled loops and gives the same statistics to the bit."""
+    declared large enough loads the compiled loops (numba imported and loaded: the second job really
+    ran compiled) and gives the same statistics to the bit."""
     import os
     import subprocess
     import sys
@@ -687,7 +693,7 @@ def test_detect_on_one_recording_does_not_load_numba_and_gives_the_compiled_jobs
         "a = detect_all(recs, p)[0]; small = 'numba' in sys.modules; "
         "jitloop.JOB_MIN_WORK = job_work(recs); b = detect_all(recs, p)[0]; "
         "same = all(np.array_equal(getattr(a, k), getattr(b, k), equal_nan=True) for k in ('statistic', 'dead_zone', 'threshold')); "
-        "print(small, jitloop.loaded() == jitloop.AVAILABLE, same, a.changed == b.changed, a.alarm_s == b.alarm_s)"
+        "print(small, 'numba' in sys.modules and jitloop.loaded(), same, a.changed == b.changed, a.alarm_s == b.alarm_s)"
     )
     root = Path(__file__).resolve().parent.parent
     env = dict(os.environ, PYTHONPATH=str(root))
@@ -712,6 +718,11 @@ def test_the_no_change_noise_is_drawn_once_per_job_and_gives_each_recordings_own
     assert normals(3, 4, 50, 2, 5, draws) is z and normals(3, 4, 60, 2, 5, draws) is not z
     assert not any(a.flags.writeable for a in z)  # shared by later recordings: no in-place change
     assert all(a.flags.writeable for a in normals(3, 4, 50, 2, 5))  # drawn for one: scaled in place
+    # the measurement noise itself (each draw times its sd) kept too: z * sd to the bit, another sd drawn anew
+    sds = (2.0, 0.5, 0.0)
+    zs = normals(3, 4, 50, 2, 5, draws, scale=sds)
+    assert all(np.array_equal(a, b * sd) for a, b, sd in zip(zs, want, sds)) and np.array_equal(zs[-1], want[-1])
+    assert normals(3, 4, 50, 2, 5, draws, scale=sds) is zs and normals(3, 4, 50, 2, 5, draws, scale=(1.0, 0.5, 0.0)) is not zs
     # two of one length around one of another: the first's draws kept over the second, which draws its own
     recs = [simulated_recording(Vessel(), d, seed=s, measured_moment=True) for d, s in ((300, 52), (250, 54), (300, 53))]
     for a, b in zip(detect_all(recs, prior, **HULL), [detect(r, prior, **HULL) for r in recs], strict=True):

@@ -32,16 +32,36 @@ def _inputs(b: int, n: int, seed: int) -> dict[str, np.ndarray]:
     return {k: np.ascontiguousarray(x.T).T for k, x in w.items()}  # time-major memory, as the detector's
 
 
+def _laid_out(w: dict[str, np.ndarray], layout: str) -> dict[str, np.ndarray]:
+    """The same (b, n) values in the memory layouts the detector hands the loop, which reads them where
+    they lie: time-major (a transposed view), member-major (C), time-reversed rows of a wider buffer
+    (the zero-phase filter's output), one member's row broadcast over the batch (stride 0)."""
+    if layout == "time-major":
+        return w
+    if layout == "member-major":
+        return {k: np.ascontiguousarray(x) for k, x in w.items()}
+    if layout == "reversed":
+        out = {}
+        for k, x in w.items():
+            buf = np.zeros((x.shape[0], x.shape[1] + 7))
+            buf[:, 3:-4] = x[:, ::-1]
+            out[k] = buf[:, ::-1][:, 4:-3]
+        return out
+    return {k: np.broadcast_to(x[:1], x.shape) for k, x in w.items()}
+
+
 @needs_numba
+@pytest.mark.parametrize("layout", ["time-major", "member-major", "reversed", "broadcast"])
 @pytest.mark.parametrize("name", sorted(ALL))
-def test_compiled_loop_gives_the_numpy_loops_bits(name: str, monkeypatch) -> None:
+def test_compiled_loop_gives_the_numpy_loops_bits(name: str, layout: str, monkeypatch) -> None:
     model = ALL[name]
     truth = true_parameters(base_profile())
     b, n = 40, 1200
     rng = np.random.default_rng(3)
     scale = np.array([truth.get(k, -1e6) for k in model.params])  # N_p: -1e6 N m s
     theta = scale * (1 + 0.1 * rng.standard_normal((b, len(model.params))))
-    w = _inputs(b, n, 5)
+    w = _laid_out(_inputs(b, n, 5), layout)
+    assert all(np.array_equal(x, y) for x, y in zip(w.values(), _inputs(b, n, 5).values())) or layout == "broadcast"
     r0 = 0.01 * rng.standard_normal(b)
     assert yawloop.usable(model, w, b, n)  # every term of the model is one the loop knows
     fast, _ = simulate_yaw(model, theta, w, r0, 0.1, sensitivities=False)
@@ -49,6 +69,25 @@ def test_compiled_loop_gives_the_numpy_loops_bits(name: str, monkeypatch) -> Non
     slow, _ = simulate_yaw(model, theta, w, r0, 0.1, sensitivities=False)
     assert np.abs(slow).max() > 1e-3  # the ship turns: a loop that returned r0 would not pass
     assert np.array_equal(fast, slow)
+
+
+@needs_numba
+@pytest.mark.parametrize("dtype", [np.float32, np.int64, ">f8"])
+def test_inputs_other_than_float64_give_the_numpy_loops_bits(dtype, monkeypatch) -> None:
+    """The compiled loop has one float64 signature: float32 or integer inputs would be converted to
+    doubles there while the numpy loop multiplies them in their own type (float32 products rounded to
+    float32), so they run the numpy loop, whatever the work; a simulation's bits do not depend on
+    whether numba is installed."""
+    model = FULL_P
+    truth = true_parameters(base_profile())
+    b, n = 30, 1000
+    theta = np.array([truth.get(k, -1e6) for k in model.params]) * np.ones((b, 1))
+    w = {k: (np.rint(x) if dtype is np.int64 else x).astype(dtype) for k, x in _inputs(b, n, 5).items()}
+    assert jitloop.use(b * n) and not yawloop.usable(model, w, b, n)
+    chosen, _ = simulate_yaw(model, theta, w, np.zeros(b), 0.1, sensitivities=False)
+    monkeypatch.setattr(yawloop, "usable", lambda *a: False)
+    slow, _ = simulate_yaw(model, theta, w, np.zeros(b), 0.1, sensitivities=False)
+    assert np.abs(slow).max() > 1e-3 and chosen.tobytes() == slow.tobytes()
 
 
 def test_the_loop_knows_every_term_of_the_yaw_models() -> None:

@@ -61,28 +61,42 @@ def null_records(
     r_true = simulate_r(prior.kind, truth_x, {k: s[:, None] for k, s in prior.inputs(clean).items()}, prior.dt, r0=r0)
     r_true = r_true[:, np.arange(runs) % ships]
     blocks = n // prior.block if prior.model_error > 0 else 0
-    z = normals(seed, runs, n, len(clean), blocks, draws)
-    r_meas = _measured(r_true, prior.noise.get("r", 0.0), z[0])
-    noisy = {k: _measured(s[:, None], prior.noise.get(k, 0.0), zk) for (k, s), zk in zip(clean.items(), z[1:])}
+    sds = (prior.noise.get("r", 0.0), *(prior.noise.get(k, 0.0) for k in clean))
+    z = normals(seed, runs, n, len(clean), blocks, draws, scale=sds)  # the noise itself: scaled once per job
+    r_meas = _measured(r_true, z[0])
+    noisy = {k: _measured(s[:, None], zk) for (k, s), zk in zip(clean.items(), z[1:])}
     if derive is not None:
         noisy = derive(noisy, r_meas)
     offsets = misfit_offsets(prior, n, runs, None, z[-1] if blocks else np.zeros((0, runs)))
     return r_meas - prior.predict(noisy, r0=r0) + offsets
 
 
-def normals(seed: int, runs: int, n: int, signals: int, blocks: int, draws: dict | None = None) -> list[np.ndarray]:
+def normals(
+    seed: int,
+    runs: int,
+    n: int,
+    signals: int,
+    blocks: int,
+    draws: dict | None = None,
+    scale: tuple[float, ...] | None = None,
+) -> list[np.ndarray]:
     """The standard normal draws of :func:`null_records`, in the order it uses them: (runs, n) for the
     yaw rate and each of ``signals`` inputs, then (``blocks``, runs) for :func:`misfit_offsets` (none
-    when 0), from the generator seeded ``[seed, 1]``. Kept in ``draws`` (when given) for the next
-    call with the same arguments: the same numbers, drawn once (a quarter of a 500 s recording's CPU
-    in ``detect``; 16 MB each for 400 records of 5,000 samples, the last arguments' only)."""
-    key = (seed, runs, n, signals, blocks)
+    when 0), from the generator seeded ``[seed, 1]``; with ``scale`` (one sd per (runs, n) draw) those
+    are multiplied by their sd (in place: the same bits as ``z * sd``), the measurement noise itself.
+    Kept in ``draws`` (when given) for the next call with the same arguments: the same numbers, drawn
+    and scaled once (a quarter of a 500 s recording's CPU in ``detect``; 16 MB each for 400 records of
+    5,000 samples, the last arguments' only)."""
+    key = (seed, runs, n, signals, blocks, None if scale is None else tuple(map(float, scale)))
     if draws is not None:
         if draws.get("key") == key:
             return draws["normals"]
         draws.clear()  # before drawing: another length's 7 x 16 MB are not held beside this one's
     rng = np.random.default_rng([seed, 1])
     z = [rng.standard_normal((runs, n)) for _ in range(1 + signals)]
+    if scale is not None:
+        for a, sd in zip(z, scale, strict=True):
+            np.multiply(a, sd, out=a)
     if blocks:
         z.append(rng.standard_normal((blocks, runs)))
     if draws is not None:
@@ -92,14 +106,17 @@ def normals(seed: int, runs: int, n: int, signals: int, blocks: int, draws: dict
     return z
 
 
-def _measured(x: np.ndarray, sd: float, z: np.ndarray) -> np.ndarray:
-    """``x`` ((n, runs), or (n, 1) broadcast over ``runs``) plus white noise of ``sd`` from the
-    standard normals ``z`` (runs, n), (n, runs) with time along the contiguous axis: the no-change
-    records' filters then run along contiguous memory. ``z`` is scaled in place unless it is kept
-    for other recordings (read-only, :func:`normals`): a recording alone needs no second copy."""
-    out = np.multiply(z, sd, out=z if z.flags.writeable else None).T
-    out += x
-    return out
+def _measured(x: np.ndarray, noise: np.ndarray) -> np.ndarray:
+    """``x`` ((n, runs), or (n, 1) broadcast over ``runs``) plus the white noise ``noise`` (runs, n)
+    (scaled normals, :func:`normals`), (n, runs) with time along the contiguous axis: the no-change
+    records' filters then run along contiguous memory. The sum is written over ``noise`` unless it is
+    kept for other recordings (read-only): a recording alone needs no second copy."""
+    if noise.flags.writeable:
+        out = noise.T
+        out += x
+        return out
+    out = np.empty(noise.shape).T
+    return np.add(noise.T, x, out=out)
 
 
 def misfit_offsets(

@@ -27,75 +27,76 @@ STATE_CODES = {"A": 0, "N_rr": 1, "N_rv": 2, "N_phiur": 3}
 SIGNALS = ("tau_r", "u", "v", "v_dot", "phi", "p")
 
 
-@jitloop.compiled
+_R = "Array(float64, 2, 'A', readonly=True)"  # any strides: transposed, time-reversed or broadcast views, no copies
+_V, _I = "Array(float64, 1, 'A', readonly=True)", "Array(int64, 1, 'A', readonly=True)"  # writable or not
+_SIGNATURE = f"void({', '.join([_R] * 6)}, {_I}, {_R}, {_I}, {_R}, {_V}, {_V}, float64, float64[:, :])"
+
+
+@jitloop.typed(_SIGNATURE)
 def _loop(tau, u, v, vd, phi, p, in_codes, th_in, st_codes, th_st, i_r, r0, ts, out):  # pragma: no cover - compiled
-    n, b = tau.shape
-    r = r0.copy()
-    for k in range(n):
-        for i in range(b):
-            ri = r[i]
-            out[k, i] = ri
-            f = tau[k, i]
+    # member by member along time: the inputs are (B, N) views of time-contiguous rows (the zero-phase
+    # filter's output), read along their rows; each member's steps are the same operations in the same order
+    b, n = tau.shape
+    for i in range(b):
+        ri = r0[i]
+        for k in range(n):
+            out[i, k] = ri
+            f = tau[i, k]
             for t in range(in_codes.shape[0]):
                 c = in_codes[t]
                 if c == 0:
-                    x = -vd[k, i]
+                    x = -vd[i, k]
                 elif c == 1:
-                    x = abs(u[k, i]) * v[k, i]
+                    x = abs(u[i, k]) * v[i, k]
                 elif c == 2:
-                    x = phi[k, i] * abs(u[k, i] * v[k, i])
+                    x = phi[i, k] * abs(u[i, k] * v[i, k])
                 elif c == 3:
-                    x = phi[k, i] * u[k, i] * abs(u[k, i])
+                    x = phi[i, k] * u[i, k] * abs(u[i, k])
                 else:
-                    x = p[k, i]
+                    x = p[i, k]
                 f = f + th_in[t, i] * x
             for t in range(st_codes.shape[0]):
                 c = st_codes[t]
                 if c == 0:
-                    x = u[k, i] * ri
+                    x = u[i, k] * ri
                 elif c == 1:
                     x = ri * abs(ri)
                 elif c == 2:
-                    x = ri * abs(v[k, i])
+                    x = ri * abs(v[i, k])
                 else:
-                    x = phi[k, i] * u[k, i] * abs(ri)
+                    x = phi[i, k] * u[i, k] * abs(ri)
                 f = f + th_st[t, i] * x
             f = f / i_r[i]
-            r[i] = ri + ts * f
-    return out
+            ri = ri + ts * f
 
 
 def usable(model: YawModel, w: dict[str, np.ndarray], b: int, n: int) -> bool:
     """Whether :func:`simulate` runs ``b`` members of ``n`` steps compiled: numba there and the
     work worth loading it (:func:`primitives.jitloop.use`), every term of the model known to the loop
     and every signal it reads given (the compiled loop does not check its indices: a missing signal
-    must fail in the numpy loop with its KeyError, not read out of bounds)."""
+    must fail in the numpy loop with its KeyError, not read out of bounds). The loop's one signature
+    reads native float64: other inputs (float32, integers, another byte order) run the numpy loop, whose
+    arithmetic in their own type the float64 loop would not repeat bit for bit."""
     known = all(t in INPUT_CODES for t in model.input_terms) and all(t in STATE_CODES for t in model.state_terms)
-    return known and set(model.signals) <= set(w) and "tau_r" in w and jitloop.use(b * n)
+    given = set(model.signals) <= set(w) and "tau_r" in w
+    doubles = given and all(np.asarray(w[k]).dtype == np.float64 for k in SIGNALS if k in w)
+    return known and doubles and jitloop.use(b * n)
 
 
 def simulate(model: YawModel, theta: np.ndarray, col: dict[str, int], w: dict[str, np.ndarray], r0, ts: float) -> np.ndarray:
-    """Predicted yaw rate (B, N), a view of time-major memory, from the measured inputs ``w`` (B, N)
-    each, ``theta`` (B, p) in ``col``'s order and ``r0`` (B,)."""
+    """Predicted yaw rate (B, N), a view of time-major memory, from the measured inputs ``w`` (B, N) each (any strides:
+    read where they lie, not copied), ``theta`` (B, p) in ``col``'s order and ``r0`` (B,)."""
     b, n = w["u"].shape
     theta = np.broadcast_to(theta, (b, theta.shape[1]))  # the loop reads one parameter set per member
     dummy = np.zeros((1, 1))
-    sig = [_readonly(np.broadcast_to(w[k], (b, n)).T) if k in w else _readonly(dummy) for k in SIGNALS]
+    sig = [np.broadcast_to(w[k], (b, n)) if k in w else dummy for k in SIGNALS]  # float64 (usable)
 
     def coded(names: tuple[str, ...], codes: dict[str, int]) -> tuple[np.ndarray, np.ndarray]:
         th = np.stack([theta[:, col[t]] for t in names]) if names else np.zeros((0, b))
-        return _readonly(np.array([codes[t] for t in names], np.int64)), _readonly(th)
+        return np.array([codes[t] for t in names], np.int64), np.asarray(th, float)
 
     ins, sts = coded(model.input_terms, INPUT_CODES), coded(model.state_terms, STATE_CODES)
     r0 = np.array(np.broadcast_to(np.asarray(r0, float), (b,)))
-    out = np.empty((n, b))
-    _loop(*sig, *ins, *sts, _readonly(theta[:, col["I_r"]]), r0, float(ts), out)
-    return out.T
-
-
-def _readonly(x: np.ndarray) -> np.ndarray:
-    """``x`` C-contiguous and read-only: numba compiles read-only and writable arrays as different
-    types, and the inputs come either way (broadcast views, copies); one type, one compiled loop."""
-    x = np.ascontiguousarray(x).view()
-    x.flags.writeable = False
-    return x
+    out = np.empty((n, b)).T  # written time-major: the (N, B) layout the detector's callers read (no copy there)
+    _loop(*sig, *ins, *sts, np.asarray(theta[:, col["I_r"]], float), r0, float(ts), out)
+    return out
