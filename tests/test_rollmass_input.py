@@ -189,8 +189,8 @@ def test_a_speed_column_in_the_wrong_unit_or_sign_is_refused(files, capsys, tmp_
     assert "'u'" in msg and words in msg
 
 
-def test_a_speed_column_is_said_to_be_unused(files, tmp_path):
-    """A u column is checked and the user told it is not followed; a file without one gets no note."""
+def test_a_recording_without_a_speed_column_is_said_to_hold_its_speed(files, tmp_path):
+    """A u column is checked and followed (no note); a file without one gets a note that its speed is held."""
     from identify.rollmass.api import speed_notes
 
     paths = [files[0], _edit(files[1], tmp_path / "calibration.csv", _drop("u"))]
@@ -200,7 +200,7 @@ def test_a_speed_column_is_said_to_be_unused(files, tmp_path):
         recs.append(rec.__class__(**{**rec.__dict__, "U": float(meta["speed_m_s"])}))
     assert recs[0].u is not None and np.mean(recs[0].u) == pytest.approx(recs[0].U, rel=0.05)
     notes = speed_notes(recs, paths)
-    assert len(notes) == 1 and "nominal.csv: column 'u'" in notes[0] and "not used" in notes[0]
+    assert len(notes) == 1 and "calibration.csv: no column 'u'" in notes[0] and "held" in notes[0], notes
 
 
 @pytest.mark.parametrize("heel", ["large", "small"])

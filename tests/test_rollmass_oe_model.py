@@ -95,3 +95,56 @@ def test_the_imu_lag_delays_the_rudder_as_the_imu_sees_it():
     got = delayed(np.sin(w * t), 0.01, T)
     assert np.max(np.abs(got - np.sin(w * (t - 0.01)))[2:-2]) < 1e-3
     np.testing.assert_array_equal(delayed(np.sin(w * t), 0.0, T), np.sin(w * t))
+
+
+def _ltv_outputs(v: dict, kn: Known, load: Load, delta: np.ndarray, u: np.ndarray, T: float) -> np.ndarray:
+    """``[p, a_s, r]`` of the model with every coefficient at the speed of the moment, ``u(t)`` (the
+    model's matrices re-made each step; RK4 at a quarter of ``T``, rudder and speed linear in between):
+    the time-varying ship the constant-speed model with the speed inputs approximates."""
+    x, out, sub = np.zeros(4), np.zeros((len(delta), 3)), 4
+
+    def f(x, d, uu):
+        A, B, _, _ = model_matrices(v, kn, -0.03, load, U=uu)
+        return A @ x + B[:, 0] * d
+
+    for k in range(len(delta)):
+        A, B, C, D = model_matrices(v, kn, -0.03, load, U=u[k])
+        out[k] = C @ x + D[:, 0] * delta[k]
+        if k + 1 == len(delta):
+            break
+        h = T / sub
+        for j in range(sub):
+            a, b = j / sub, (j + 0.5) / sub
+            d0, dm, d1 = (delta[k] + s * (delta[k + 1] - delta[k]) for s in (a, b, a + 1 / sub))
+            u0, um, u1 = (u[k] + s * (u[k + 1] - u[k]) for s in (a, b, a + 1 / sub))
+            k1 = f(x, d0, u0)
+            k2 = f(x + 0.5 * h * k1, dm, um)
+            k3 = f(x + 0.5 * h * k2, dm, um)
+            x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + f(x + h * k3, d1, u1))
+    return out
+
+
+def test_a_run_that_slows_in_its_turns_is_followed_through_the_speed_inputs():
+    """A ship slowing by up to 20 % in its turns (rudder forces with u^2, yaw-rate terms and the
+    centripetal u r with u): the constant-speed model driven by the speed inputs (``speed_inputs``:
+    ``delta (u/U)^2`` and ``(u/U - 1) r``) follows the time-varying model to within a quarter of
+    the error of holding U (only the sway velocity's ``(u/U - 1) Y_v v`` is left out). Without a ``u``
+    column the inputs are the rudder alone."""
+    from identify.rollmass.output_error import _simulate, speed_inputs
+    from identify.rollmass.simulate import RollRecording
+
+    T, n = 0.02, 1500
+    t = np.arange(n) * T
+    delta = np.deg2rad(20.0) * np.sin(2 * np.pi * t / 8.0) * np.clip(t / 2.0, 0.0, 1.0)
+    u = 0.5 * (1.0 - 0.2 * (np.sin(2 * np.pi * t / 8.0) ** 2) * np.clip(t / 2.0, 0.0, 1.0))
+    v = {**start_values(PROF), "kappa": 0.0}
+    kn, load = PROF.known, Load(0.2, -0.256)
+    truth = _ltv_outputs(v, kn, load, delta, u, T)
+    rec = RollRecording("slows", T, delta, truth[:, 0], truth[:, 1], truth[:, 2], U=float(np.mean(u)), u=u)
+    held = _simulate(v, kn, -0.03, load, dataclasses.replace(rec, u=None))[0]
+    followed = _simulate(v, kn, -0.03, load, rec)[0]
+    for ch in range(3):
+        err_held, err_followed = (np.sqrt(np.mean((y[:, ch] - truth[:, ch]) ** 2)) for y in (held, followed))
+        assert err_followed < 0.25 * err_held, (ch, err_followed, err_held)
+    assert speed_inputs(dataclasses.replace(rec, u=None))[1] is None
+    np.testing.assert_array_equal(speed_inputs(dataclasses.replace(rec, u=None))[0], delta)

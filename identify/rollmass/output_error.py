@@ -86,6 +86,13 @@ SANDWICH_LAG_S = 5.0
 # residual ``(distance outside) / T_IMU_WALL`` (zero inside, so no information there) holds the fit in.
 T_IMU_RANGE = (0.0, 0.5)
 T_IMU_WALL = 1e-4  # s
+# The wall-sided heel gain kappa = rho g I_T / 2 (identify.rollmass.restoring) is not negative: a
+# waterplane's inertia I_T is not, and the recordings' filters scale the heel moment by a positive gain
+# (the paper's FIR: 0.935 at 0 Hz), never flip it. Freed without a bound it took the wrong sign on the
+# basin truth's speed_loss variant (stop 41: -4 to -9 N m against the hull's +9), the cubic standing in
+# for the turns' speed loss; a wall residual ``min(kappa, 0) / KAPPA_WALL`` (zero above, so no
+# information there) holds it at or above zero, as T_IMU_WALL does the lag.
+KAPPA_WALL = 1e-4  # N m
 
 
 @dataclass
@@ -161,11 +168,13 @@ def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load, U: fl
             [v["n_v"], cp["n_p"], v["n_r"], 0.0],
         ]
     )
-    # inputs: the rudder, and the wall-sided heel signal w(t) of identify.rollmass.restoring (a roll moment -kappa w)
-    G = np.array([[v["Y_delta"], 0.0], [v["K_delta"], -v.get("kappa", heel_gain(kn))], [v["n_delta"], 0.0]])
+    # inputs 0 and 1: the rudder and the wall-sided heel signal w(t) of identify.rollmass.restoring (a roll
+    # moment -kappa w); input 2: the yaw rate's share of the speed's variation, (u(t)/U - 1) r(t)
+    # (:func:`speed_inputs`), which every term of F's r column carries, as they are all linear in u
+    G = np.column_stack([[v["Y_delta"], v["K_delta"], v["n_delta"]], [0.0, -v.get("kappa", heel_gain(kn)), 0.0], F[:, 2]])
     Minv = np.linalg.inv(Mm)
     A = np.vstack([Minv @ F, [0.0, 1.0, 0.0, 0.0]])
-    B = np.vstack([Minv @ G, [[0.0, 0.0]]])
+    B = np.vstack([Minv @ G, np.zeros((1, G.shape[1]))])
     # outputs: p; a_s from the accelerations; r
     # IMU mounting (rigid-body kinematics: the acceleration at r_s is v' + w' x r_s + w x (w x r_s)): an
     # accelerometer x_s forward of midship reads the yaw acceleration x_s r' too, and a gyro pitched by e_y about the body y axis
@@ -179,7 +188,8 @@ def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load, U: fl
             [0.0, e_y, 1.0, 0.0],
         ]
     )
-    Dm = np.vstack([np.zeros(2), z_s * B[1] - B[0] - x_s * B[2], np.zeros(2)])
+    # input 2 also enters a_s directly: its centripetal term is u r = U r + U (u/U - 1) r
+    Dm = np.vstack([np.zeros(3), z_s * B[1] - B[0] - x_s * B[2] - np.array([0.0, 0.0, U]), np.zeros(3)])
     return A, B, Cm, Dm
 
 
@@ -240,10 +250,36 @@ def model_inputs(v: dict[str, float], kn: Known, rec: RollRecording) -> list[tup
     channels see it (:func:`delayed`), and the wall-sided heel signal from the recording's measured roll
     angle when it has one and the profile gives the hull's BM (the AHRS's roll angle comes with the
     other IMU channels, so it is not delayed)."""
-    out = [(0, delayed(rec.delta, v.get("t_imu", 0.0), rec.T))]
+    rudder, turn = speed_inputs(rec)
+    out = [(0, delayed(rudder, v.get("t_imu", 0.0), rec.T))]
     if rec.phi is not None and kn.BM > 0.0:
         out.append((1, heel_signal(rec.phi, kn)))
+    if turn is not None:
+        out.append((2, turn))
     return out
+
+
+def speed_inputs(rec: RollRecording) -> tuple[np.ndarray, np.ndarray | None]:
+    """The rudder input ``delta (u/U)^2`` and the turn input ``(u/U - 1) (r - mean r)`` of a recording with
+    a measured surge speed ``u`` (``delta`` and ``None`` without one); ``U`` is the run's speed, at which
+    the model's derivatives hold.
+
+    Why: a ship slows in its turns (rudder drag, the ``v r`` term of the surge equation; by 10-25 % on
+    the basin truth's ``speed_loss`` variant), and the model's forces scale with the speed (Fossen 2011,
+    ch. 6.4: rudder forces with ``u^2``, the yaw-rate terms ``Y_r u``, ``K_r u`` and the Coriolis
+    ``(M + m) u r``, ``m z u r`` with ``u``; the accelerometer's centripetal ``u r``). With ``U`` held the
+    rudder's force is too large in every turn and the yaw rate's too small, an error even in the rudder
+    that the roll row absorbs as load. The terms in the speed's variation whose other factor is measured
+    (the rudder, the yaw rate) are known inputs, so the model stays linear and time-invariant in its
+    states; the one left out is the sway velocity's, ``(u/U - 1) Y_v v``, second order in small terms.
+    The speed's level comes from the run's ``U`` and only its variation ``u / mean(u)`` from the column,
+    so a positioning system's scale error does not move the level; the yaw-rate gyro's bias is taken
+    out with the recording's mean (a bias times the speed's variation is not a constant the fit's
+    bias columns would take)."""
+    if rec.u is None:
+        return rec.delta, None
+    s = rec.u / np.mean(rec.u)
+    return rec.delta * s * s, (s - 1.0) * (rec.r - np.mean(rec.r))
 
 
 def _whitener(e: np.ndarray, order: int) -> np.ndarray:
@@ -314,13 +350,15 @@ class _Problem:
     def prior(self, x: np.ndarray) -> np.ndarray:
         """The prior's residual ``(z_f - prior) / sd`` when ``z_f`` is free (a Gaussian prior as one
         more standardised observation: the cost is then the negative log posterior), and the wall
-        residual of :data:`T_IMU_RANGE` when ``t_imu`` is free."""
+        residual of :data:`T_IMU_RANGE` when ``t_imu`` is free, and of :data:`KAPPA_WALL` when ``kappa`` is."""
         rows = []
         if "z_f" in self.free:
             rows.append((x[self.free.index("z_f")] - self.z_f) / self.z_f_sd)
         if "t_imu" in self.free:
             t, (lo, hi) = x[self.free.index("t_imu")], self.lag_range()
             rows.append((min(t - lo, 0.0) + max(t - hi, 0.0)) / T_IMU_WALL)
+        if "kappa" in self.free:
+            rows.append(min(x[self.free.index("kappa")], 0.0) / KAPPA_WALL)
         return np.array(rows)
 
     def lag_range(self) -> tuple[float, float]:
@@ -364,7 +402,7 @@ class _Problem:
                     e[j] = h
                     hi, lo = self.discrete(x + e, i), self.discrete(x - e, i)
                     dmats.append(tuple((a - b) / (2 * h) for a, b in zip(hi, lo)))
-                du = lag_derivative(rec.delta, lag, rec.T) if lag_col >= 0 else None
+                du = lag_derivative(speed_inputs(rec)[0], lag, rec.T) if lag_col >= 0 else None
                 inputs = model_inputs(v, self.kn, rec)
                 blocks.append(dataset_jacobian(mats, dmats, inputs, du, lag_col, Y, self.ar[i], self.w[i]))
         except (FloatingPointError, np.linalg.LinAlgError):
@@ -381,4 +419,7 @@ class _Problem:
             i, (lo, hi) = self.free.index("t_imu"), self.lag_range()
             outside = not lo <= x[i] <= hi
             rows.append(np.eye(len(x))[i] * (outside / T_IMU_WALL))
+        if "kappa" in self.free:
+            i = self.free.index("kappa")
+            rows.append(np.eye(len(x))[i] * ((x[i] < 0.0) / KAPPA_WALL))
         return np.array(rows).reshape(len(rows), len(x))
