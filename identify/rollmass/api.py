@@ -13,7 +13,14 @@ import numpy as np
 
 from identify.rollmass.estimate import DEFAULT_METHOD, METHODS, MassEstimate, estimate
 from identify.rollmass.model import Load, RollProfile, load_profile
-from identify.rollmass.output_error import start_values
+from identify.rollmass.output_error import (
+    SPEED_LP_HZ,
+    SPEED_NOISE_RATIO,
+    SPEED_VAR_MIN,
+    followed_speed,
+    speed_variation,
+    start_values,
+)
 from identify.rollmass.recording import read_roll_csv
 from identify.rollmass.restoring import DEFAULT_HEEL_REFERENCE, HEEL_REFERENCES
 from identify.rollmass.signs import check_signs, expected_signs
@@ -159,7 +166,8 @@ def known_from_recordings(
 
 
 def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
-    """Check each recording's measured speed ``u`` against its header speed; a recording without one
+    """Check each recording's measured speed ``u`` against its header speed; a recording without one, or
+    whose speed's variation is within the positioning's error (:func:`output_error.followed_speed`),
     gets a note that its speed is held through the run (``oe`` then neither follows a ship that slows
     in its turns, :func:`output_error.speed_inputs`, nor takes the heel reference's centripetal
     ``u r`` at the speed of the moment, :func:`restoring.referenced_heel`)."""
@@ -169,6 +177,16 @@ def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
             raise UserError(
                 f"{path}: column 'u' has a mean of {np.mean(rec.u):g} m/s but the header says speed_m_s {rec.U:g}; "
                 "give u in m/s (surge speed, positive ahead) or correct the header"
+            )
+        if rec.u is not None and followed_speed(rec) is None:
+            slow, fast = speed_variation(rec)
+            notes.append(
+                f"{path.name}: column 'u' (surge speed) is held at the run's speed, not followed: its variation "
+                f"below {SPEED_LP_HZ:g} Hz ({100 * slow:.1f} %) is not {SPEED_NOISE_RATIO:g} times the positioning's "
+                f"error above it ({100 * fast:.1f} %) or not over {100 * SPEED_VAR_MIN:g} %"
+                if np.isfinite(slow)
+                else f"{path.name}: column 'u' (surge speed) is held at the run's speed, not followed: the recording is "
+                f"shorter than two periods of its {SPEED_LP_HZ:g} Hz low-pass"
             )
         if rec.u is None:
             notes.append(
@@ -255,6 +273,9 @@ def estimate_from_files(
     # else the profile's U; a u column (checked by speed_notes) gives the speed's variation within the run
     recs = [replace(r, U=_meta_float(m, "speed_m_s", p)) for r, m, p in zip(recs, metas, paths)]
     notes += speed_notes(recs, paths)
+    # a speed held (followed_speed: its variation within the positioning's error) is held everywhere, the heel
+    # reference's centripetal u r included: the column's error would otherwise reach the fit there
+    recs = [r if followed_speed(r) is not None else replace(r, u=None) for r in recs]
     recs, heel = heel_notes(recs, paths)
     notes += heel
     expect = expected_signs(start_values(prof), prof.known, prof.known.z_f_prior, Load(0.0, 0.0))
