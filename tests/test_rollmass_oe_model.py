@@ -161,3 +161,35 @@ def test_a_run_that_slows_in_its_turns_is_followed_through_the_speed_inputs(monk
         assert err_followed < 0.25 * err_held, (ch, err_followed, err_held)
     assert speed_inputs(dataclasses.replace(rec, u=None))[1] is None
     np.testing.assert_array_equal(speed_inputs(dataclasses.replace(rec, u=None))[0], delta)
+
+
+def test_the_speed_is_followed_only_where_it_varies_above_the_positioning_noise():
+    """A constant-speed run whose u carries a positioning system's error (1 % scale, 5 mm/s with ~1 s
+    correlation, as the basin truth's Qualisys smoother) is held at U: its error, fed through the speed
+    inputs, broke the base variant (stop 42: -15 % -> -34 %); a run slowing by 15 % in 30 s turns (its speed varying at 0.07 Hz, under the surge time constant) with
+    the same error is followed, its low-passed variation within 20 % (rms) of the true one: the positioning error below the
+    low-pass stays in it."""
+    from scipy.signal import lfilter
+
+    from identify.rollmass.output_error import followed_speed, speed_inputs, speed_variation
+    from identify.rollmass.simulate import RollRecording
+
+    T, n = 0.02, 9000
+    t = np.arange(n) * T
+    rng = np.random.default_rng(7)
+    a = np.exp(-T / 1.0)
+    err = 0.005 * lfilter([np.sqrt(1 - a * a)], [1, -a], rng.standard_normal(n))
+    r = 0.2 * np.sin(2 * np.pi * t / 30.0)
+    base = RollRecording("x", T, np.zeros(n), np.zeros(n), np.zeros(n), r, U=0.45)
+    steady = dataclasses.replace(base, u=0.45 * 1.01 + err)
+    true_u = 0.45 * (1.0 - 0.15 * np.sin(2 * np.pi * t / 30.0) ** 2)
+    slowing = dataclasses.replace(base, u=true_u * 1.01 + err)
+    assert followed_speed(steady) is None and speed_inputs(steady)[1] is None
+    slow_sd, fast_sd = speed_variation(steady)
+    assert slow_sd < 3.0 * fast_sd, (slow_sd, fast_sd)
+    got = followed_speed(slowing)
+    assert got is not None and speed_inputs(slowing)[1] is not None
+    want = true_u / np.mean(true_u)
+    mid = slice(500, -500)
+    assert np.std(got[mid] - want[mid]) < 0.2 * np.std(want[mid])  # the error below 0.2 Hz stays in it (16 % here)
+    assert followed_speed(dataclasses.replace(base, u=None)) is None
