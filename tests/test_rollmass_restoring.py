@@ -129,8 +129,9 @@ def test_the_heel_reference_divides_by_cos_phi_before_its_low_pass():
     """A roll angle 0.5 deg off through 20 deg turns to both sides and straight stretches, the
     accelerometer reading the true heel: the offset ``sin(phi) - (a_s + u r)/g`` is ``cos(phi)`` times
     the bias, so it is divided by ``cos(phi)`` before the low-pass. The reference then recovers the
-    true heel to 0.08 % of the bias at worst; the low-passed offset divided by the instantaneous
-    ``cos(phi)`` (stop 41's order) was off by up to 4.5 % of it, the turns' heel leaking into the slow part."""
+    true heel to 0.084 % of the bias at worst (asserted under 0.15 %); the low-passed offset divided by
+    the instantaneous ``cos(phi)`` (stop 41's order) was off by up to 4.5 % of it, the turns' heel
+    leaking into the slow part (both re-measured on this construction at stop 43)."""
     from scipy.signal import butter, filtfilt
 
     T, n, g, U = 0.02, 6000, 9.81, 0.5
@@ -141,7 +142,7 @@ def test_the_heel_reference_divides_by_cos_phi_before_its_low_pass():
     b = np.deg2rad(0.5)
     rec = RollRecording("turns", T, np.zeros(n), np.gradient(phi, T), g * np.sin(phi) - U * r, r, phi=phi + b, U=U)
     err = (referenced_heel(rec, g, U) - phi) / b
-    assert np.max(np.abs(err)) < 0.005, np.max(np.abs(err))
+    assert np.max(np.abs(err)) < 0.0015, np.max(np.abs(err))
 
 
 def test_the_file_reader_passes_its_heel_reference_to_the_fit_and_refuses_an_unknown_one(monkeypatch, tmp_path):
