@@ -57,7 +57,7 @@ def test_the_sensitivity_jacobian_is_the_residuals_derivative(case2, t_imu):
 
 
 def test_the_jacobian_holds_with_a_speed_column_and_a_negative_heel_gain(case2):
-    """With a measured surge speed that drops 10-20 % in the turns (the speed inputs of
+    """With a measured surge speed that drops 10-20 % (the speed inputs of
     ``output_error.speed_inputs``: the rudder by (u/U)^2 and the turn input through Bd's third column) and
     the heel gain below zero (as the fit takes it on the basin truth's sway_roll variant): every column
     within 1e-5 of central differences."""
@@ -65,7 +65,8 @@ def test_the_jacobian_holds_with_a_speed_column_and_a_negative_heel_gain(case2):
 
     slowed = []
     for i, d in enumerate(case2):
-        u = 0.5 * (1.0 - (0.1 + 0.05 * i) * (d.delta / np.max(np.abs(d.delta))) ** 2)
+        t = np.arange(d.n) * d.T  # a slow drop (20 s period), followed by output_error.followed_speed
+        u = 0.5 * (1.0 - (0.1 + 0.05 * i) * np.sin(2 * np.pi * t / 40.0) ** 2)
         slowed.append(dataclasses.replace(d, u=u, U=float(np.mean(u))))
     prob, x = _problem(slowed)
     x[prob.free.index("kappa")] = -0.5
