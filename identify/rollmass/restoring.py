@@ -107,8 +107,10 @@ def referenced_heel(rec: RollRecording, g: float, U: float, how: str = DEFAULT_H
     ``d / cos(phi)`` is divided sample by sample *before* the low-pass: dividing the low-passed ``d`` by
     the instantaneous ``cos(phi)`` would put the turns' heel back into the slow part (a 20 deg turn:
     1 / cos 20 deg, 6 % of the bias). Without a ``u`` column the centripetal ``u r`` is taken at the
-    run's ``U`` (a ship that slows in a turn then leaves ``(U - u) r / g`` in the offset: ``mass``
-    holds each run's header speed and does not follow a recorded ``u`` yet, NOTE41)."""
+    run's ``U`` (a ship that slows in a turn then leaves ``(U - u) r / g`` in the offset); ``mass``
+    (:func:`identify.rollmass.api.estimate_from_files`) drops a ``u`` whose variation is within the
+    positioning's error (:func:`identify.rollmass.output_error.followed_speed`), so it is used here only
+    where the model follows it too."""
     if rec.phi is None:
         return None
     if how not in HEEL_REFERENCES:
