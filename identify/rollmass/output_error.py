@@ -315,7 +315,8 @@ def followed_speed(rec: RollRecording) -> np.ndarray | None:
     its turns with the surge time constant (~5 s on the model ship), so above the low-pass the column
     holds the positioning's error alone, and an error with ~1 s correlation has about as much variance
     below 0.2 Hz as above. Measured on the family's recordings as ``estimate_from_files`` reads them
-    (seeds of ``bench_rollmass_truth``, 4 runs x 4 datasets a variant): the constant-speed variants
+    (``python benchmarks/bench_speed_follow.py --runs 4``: seeds of ``bench_rollmass_truth``, 4 runs x 4
+    datasets a variant): the constant-speed variants
     (``base``, ``sway_roll``, ``restoring``, ``imu_mount``, ``waves``) low/high sd ratio 0.67-1.52,
     low-passed sd 0.38-1.02 %, none followed; ``speed_loss`` and ``combined`` (slowing 10-25 % in
     turns) ratio 3.67-21.9, low-passed sd 3.2-15.0 %, all followed.
