@@ -270,12 +270,10 @@ def estimate_from_files(
     cal = _calibration_load(known_load, loads[1], paths[1])
     prof, notes = known_from_recordings(prof, paths, metas, explicit=profile is not None)
     # each run at its own speed (the runs differ): the oe model's U r terms use the run's header speed,
-    # else the profile's U; a u column (checked by speed_notes) gives the speed's variation within the run
+    # else the profile's U; a u column (checked by speed_notes) gives the speed's variation within the run where
+    # output_error.followed_speed follows it (estimate drops a held one, the heel reference's u r included)
     recs = [replace(r, U=_meta_float(m, "speed_m_s", p)) for r, m, p in zip(recs, metas, paths)]
     notes += speed_notes(recs, paths)
-    # a speed held (followed_speed: its variation within the positioning's error) is held everywhere, the heel
-    # reference's centripetal u r included: the column's error would otherwise reach the fit there
-    recs = [r if followed_speed(r) is not None else replace(r, u=None) for r in recs]
     recs, heel = heel_notes(recs, paths)
     notes += heel
     expect = expected_signs(start_values(prof), prof.known, prof.known.z_f_prior, Load(0.0, 0.0))

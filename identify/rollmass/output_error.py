@@ -276,7 +276,8 @@ def speed_inputs(rec: RollRecording) -> tuple[np.ndarray, np.ndarray | None]:
     rudder's force is too large in every turn and the yaw rate's too small, an error even in the rudder
     that the roll row absorbs as load. The terms in the speed's variation whose other factor is measured
     (the rudder, the yaw rate) are known inputs, so the model stays linear and time-invariant in its
-    states; the one left out is the sway velocity's, ``(u/U - 1) Y_v v``, second order in small terms.
+    states; left out are the terms of the sway velocity and the roll rate whose derivatives scale with
+    ``u`` too (``(u/U - 1)`` times ``Y_v v``, ``n_v v``, ``K_v v``, ``Y_p p``), second order in small terms.
     The speed's level comes from the run's ``U`` and only its variation ``u / mean(u)`` from the column,
     so a positioning system's scale error does not move the level; the yaw-rate gyro's bias is taken
     out with the recording's mean (a bias times the speed's variation is not a constant the fit's
@@ -294,8 +295,9 @@ def speed_inputs(rec: RollRecording) -> tuple[np.ndarray, np.ndarray | None]:
 def speed_variation(rec: RollRecording) -> tuple[float, float]:
     """The sd of the recording's ``u / mean(u)`` below and above :data:`SPEED_LP_HZ` (2nd-order Butterworth,
     zero phase); ``(nan, nan)`` without ``u`` or for a recording shorter than two filter periods (the
-    split is then not made)."""
-    if rec.u is None or SPEED_LP_HZ * rec.n * rec.T < 2.0:
+    split is then not made) and for a ``u`` not finite and positive (a ship going astern is not this model;
+    ``shiptrial mass`` refuses such a column, :func:`identify.rollmass.recording.read_roll_csv`)."""
+    if rec.u is None or SPEED_LP_HZ * rec.n * rec.T < 2.0 or not np.all(np.isfinite(rec.u) & (rec.u > 0.0)):
         return float("nan"), float("nan")
     s = rec.u / np.mean(rec.u)
     slow = filtfilt(*butter(2, SPEED_LP_HZ, fs=1.0 / rec.T), s, padtype="even")
@@ -399,7 +401,7 @@ class _Problem:
     def prior(self, x: np.ndarray) -> np.ndarray:
         """The prior's residual ``(z_f - prior) / sd`` when ``z_f`` is free (a Gaussian prior as one
         more standardised observation: the cost is then the negative log posterior), and the wall
-        residual of :data:`T_IMU_RANGE` when ``t_imu`` is free,."""
+        residual of :data:`T_IMU_RANGE` when ``t_imu`` is free."""
         rows = []
         if "z_f" in self.free:
             rows.append((x[self.free.index("z_f")] - self.z_f) / self.z_f_sd)
