@@ -193,3 +193,16 @@ def test_the_speed_is_followed_only_where_it_varies_above_the_positioning_noise(
     mid = slice(500, -500)
     assert np.std(got[mid] - want[mid]) < 0.2 * np.std(want[mid])  # the error below 0.2 Hz stays in it (16 % here)
     assert followed_speed(dataclasses.replace(base, u=None)) is None
+
+
+def test_a_speed_too_short_or_too_coarse_to_split_is_held():
+    """Under two periods of the 0.2 Hz low-pass (10 s), or sampled at 0.4 Hz or slower (the filter
+    cannot be made: scipy raised instead), the speed is held, never followed or an error."""
+    from identify.rollmass.output_error import followed_speed, speed_variation
+    from identify.rollmass.simulate import RollRecording
+
+    for T, n in ((0.02, 400), (3.0, 200)):
+        t = np.arange(n) * T
+        u = 0.5 * (1.0 - 0.2 * np.sin(2 * np.pi * t / 60.0) ** 2)
+        rec = RollRecording("x", T, np.ones(n), np.zeros(n), np.zeros(n), np.zeros(n), U=0.5, u=u)
+        assert np.isnan(speed_variation(rec)[0]) and followed_speed(rec) is None

@@ -294,10 +294,13 @@ def speed_inputs(rec: RollRecording) -> tuple[np.ndarray, np.ndarray | None]:
 
 def speed_variation(rec: RollRecording) -> tuple[float, float]:
     """The sd of the recording's ``u / mean(u)`` below and above :data:`SPEED_LP_HZ` (2nd-order Butterworth,
-    zero phase); ``(nan, nan)`` without ``u`` or for a recording shorter than two filter periods (the
-    split is then not made) and for a ``u`` not finite and positive (a ship going astern is not this model;
-    ``shiptrial mass`` refuses such a column, :func:`identify.rollmass.recording.read_roll_csv`)."""
-    if rec.u is None or SPEED_LP_HZ * rec.n * rec.T < 2.0 or not np.all(np.isfinite(rec.u) & (rec.u > 0.0)):
+    zero phase); ``(nan, nan)`` without ``u``, for a recording shorter than two filter periods or sampled
+    at under twice the filter's frequency (the split is then not made), and for a ``u`` not finite and
+    positive (a ship going astern is not this model; ``shiptrial mass`` refuses such a column,
+    :func:`identify.rollmass.recording.read_roll_csv`)."""
+    if rec.u is None or SPEED_LP_HZ * rec.n * rec.T < 2.0 or SPEED_LP_HZ * rec.T >= 0.5:
+        return float("nan"), float("nan")
+    if not np.all(np.isfinite(rec.u) & (rec.u > 0.0)):
         return float("nan"), float("nan")
     s = rec.u / np.mean(rec.u)
     slow = filtfilt(*butter(2, SPEED_LP_HZ, fs=1.0 / rec.T), s, padtype="even")
