@@ -6,10 +6,14 @@ positive down (a load on deck has a negative z)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
 from primitives.io import dumps
+
+if TYPE_CHECKING:
+    from identify.rollmass.estimate import MassEstimate
 
 
 def register(app: typer.Typer) -> None:
@@ -50,6 +54,8 @@ def register(app: typer.Typer) -> None:
 
         validate_mass_options(z_f=z_f)
         e = estimate_from_files(nominal, calibration, loaded, known_load, profile, method, z_f)
+        if not e.converged:
+            _no_estimate(e, json_out)
         (mlo, mhi), (zlo, zhi) = e.ci()
         if json_out:
             typer.echo(
@@ -79,8 +85,6 @@ def register(app: typer.Typer) -> None:
             )
             for w in e.warnings:
                 typer.echo(f"warning: {w}")
-        if not e.converged:
-            raise typer.Exit(1)
 
     @app.command("mass-sim")
     def mass_sim(
@@ -114,3 +118,18 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"wrote {out / f'{role}.csv'}")
         c = truth[recs[1].name]
         typer.echo(f"calibration load: --known-load {c['load_kg']:g}@{c['load_height']:g}")
+
+
+def _no_estimate(e: MassEstimate, json_out: bool) -> None:
+    """A fit that did not converge is a failure, never a number: its notes and warnings, no mass or z,
+    exit 1 (the project's rule; the numbers of a stopped fit look like an answer)."""
+    msg = f"the {e.method} fit did not converge: no estimate is given"
+    if json_out:
+        typer.echo(dumps({"method": e.method, "converged": False, "error": msg, "warnings": e.warnings, "notes": e.notes}))
+    else:
+        for n in e.notes:
+            typer.echo(f"note: {n}")
+        for w in e.warnings:
+            typer.echo(f"warning: {w}")
+        typer.echo(f"error: {msg}", err=True)
+    raise typer.Exit(1)

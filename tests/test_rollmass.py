@@ -193,3 +193,26 @@ def test_cli_prints_the_warning_and_intervals(csvs, capsys, monkeypatch):
     assert _run(["mass", str(p[0]), str(p[1]), str(p[2]), "--known-load", "0.2@-0.256"]) == 0
     out = capsys.readouterr().out
     assert "95 % CI 0.0432 .. 0.3568" in out and "warning: the data cannot separate" in out
+
+
+@pytest.mark.parametrize("json_out", [False, True])
+def test_cli_gives_no_number_for_a_fit_that_did_not_converge(monkeypatch, capsys, tmp_path, json_out):
+    """A fit that stopped without converging is a failure: exit 1, its warning, and no mass or z in
+    text or JSON (before the review of stop 43 the stopped fit's numbers were printed as the estimate)."""
+    import json
+
+    from identify.rollmass import api
+    from identify.rollmass.estimate import MassEstimate
+
+    stopped = MassEstimate("oe", {"kappa": -2.6}, 0.5321, -0.1234, 0.01, 0.01, converged=False)
+    stopped.warnings.append("oe: the fit did not converge (the maximum number of iterations)")
+    monkeypatch.setattr(api, "estimate_from_files", lambda *a, **k: stopped)
+    paths = [str(tmp_path / f) for f in ("n.csv", "c.csv", "l.csv")]
+    assert _run(["mass", *paths, "--known-load", "0.2@-0.256"] + (["--json"] if json_out else [])) == 1
+    out = capsys.readouterr()
+    assert "0.532" not in out.out + out.err and "0.123" not in out.out + out.err
+    if json_out:
+        got = json.loads(out.out)
+        assert got["converged"] is False and "m" not in got and "did not converge" in got["error"]
+    else:
+        assert "warning: oe: the fit did not converge" in out.out and "no estimate is given" in out.err

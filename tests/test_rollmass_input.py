@@ -189,18 +189,32 @@ def test_a_speed_column_in_the_wrong_unit_or_sign_is_refused(files, capsys, tmp_
     assert "'u'" in msg and words in msg
 
 
-def test_a_speed_column_is_said_to_be_unused(files, tmp_path):
-    """A u column is checked and the user told it is not followed; a file without one gets no note."""
+def test_a_recording_without_a_speed_column_is_said_to_hold_its_speed(files, tmp_path):
+    """A file without a u column gets a note that its speed is held; so does one whose u varies no more
+    than its positioning error (the basin truth's base ship keeps its speed: output_error.followed_speed),
+    with the two figures the test compared; a ship slowing in its turns (speed_loss) is followed, no note."""
     from identify.rollmass.api import speed_notes
 
+    def read(paths):
+        recs = []
+        for p in paths:
+            rec, meta = read_roll_csv(p)
+            recs.append(rec.__class__(**{**rec.__dict__, "U": float(meta["speed_m_s"])}))
+        return recs
+
     paths = [files[0], _edit(files[1], tmp_path / "calibration.csv", _drop("u"))]
-    recs = []
-    for p in paths:
-        rec, meta = read_roll_csv(p)
-        recs.append(rec.__class__(**{**rec.__dict__, "U": float(meta["speed_m_s"])}))
+    recs = read(paths)
     assert recs[0].u is not None and np.mean(recs[0].u) == pytest.approx(recs[0].U, rel=0.05)
     notes = speed_notes(recs, paths)
-    assert len(notes) == 1 and "nominal.csv: column 'u'" in notes[0] and "not used" in notes[0]
+    assert len(notes) == 2, notes
+    assert "nominal.csv: column 'u'" in notes[0] and "not followed" in notes[0] and "Hz (" in notes[0], notes
+    assert "calibration.csv: no column 'u'" in notes[1] and "held" in notes[1], notes
+    ship, data = bt.simulate_runs("speed_loss", 1, 4, length=0.35)
+    slowing = [bt.write_csv(r, tmp_path / f"slow_{r.role}.csv") for r in bt.case_recordings(ship, data, "case1", 0)]
+    # this draw's nominal and loaded runs slow by 7-9 % (low-passed sd) and are followed; its calibration
+    # run turned gently, 1.0 % against 0.7 % above the low-pass, and is held
+    notes = speed_notes(read(slowing), slowing)
+    assert len(notes) == 1 and notes[0].startswith("slow_calibration.csv: column 'u'") and "(1.0 %)" in notes[0], notes
 
 
 @pytest.mark.parametrize("heel", ["large", "small"])

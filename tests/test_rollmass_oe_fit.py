@@ -141,18 +141,20 @@ def test_the_modal_simulation_is_the_state_space_model(case2):
         out, basis = oe._simulate(v, kn, kn.z_f_prior, load, rec)
         Ad, Bd, Cd, Dd = oe._bilinear(*oe.model_matrices(v, kn, kn.z_f_prior, load, rec.U), rec.T)
         inputs = oe.model_inputs(v, kn, rec)
-        assert [j for j, _ in inputs] == [0, 1]  # the case has phi, the profile a BM
+        cols = [j for j, _ in inputs]
+        # the case has phi, the profile a BM; with a u column also the turn input (output_error.speed_inputs)
+        assert cols == ([0, 1, 2] if rec.u is not None else [0, 1])
         U = np.column_stack([u for _, u in inputs])
         x, ref = np.zeros(len(Ad)), np.empty((rec.n, 3))
         for k, u in enumerate(U):
-            ref[k] = Cd @ x + Dd @ u
-            x = Ad @ x + Bd @ u
+            ref[k] = Cd @ x + Dd[:, cols] @ u
+            x = Ad @ x + Bd[:, cols] @ u
         scale = np.abs(ref).max(axis=0)
         assert np.all(np.abs(out - ref).max(axis=0) < 1e-11 * scale)
         old = 0.0
-        for j in range(2):
+        for c, j in enumerate(cols):
             num, den = ss2tf(Ad, Bd, Cd, Dd, input=j)
-            old = old + np.column_stack([lfilter(num[i], den, U[:, j]) for i in range(3)])
+            old = old + np.column_stack([lfilter(num[i], den, U[:, c]) for i in range(3)])
         assert np.all(np.abs(out - old).max(axis=0) < 1e-7 * scale)
         x = np.random.default_rng(0).standard_normal(len(Ad))
         free = np.empty((rec.n, 3))

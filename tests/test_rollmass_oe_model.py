@@ -95,3 +95,114 @@ def test_the_imu_lag_delays_the_rudder_as_the_imu_sees_it():
     got = delayed(np.sin(w * t), 0.01, T)
     assert np.max(np.abs(got - np.sin(w * (t - 0.01)))[2:-2]) < 1e-3
     np.testing.assert_array_equal(delayed(np.sin(w * t), 0.0, T), np.sin(w * t))
+
+
+def _ltv_outputs(v: dict, kn: Known, load: Load, delta: np.ndarray, u: np.ndarray, T: float) -> np.ndarray:
+    """``[p, a_s, r]`` of the model with every coefficient at the speed of the moment, ``u(t)`` (the
+    model's matrices re-made each step; RK4 at a quarter of ``T``, rudder and speed linear in between):
+    the time-varying ship the constant-speed model with the speed inputs approximates."""
+    x, out, sub = np.zeros(4), np.zeros((len(delta), 3)), 4
+
+    def f(x, d, uu):
+        A, B, _, _ = model_matrices(v, kn, -0.03, load, U=uu)
+        return A @ x + B[:, 0] * d
+
+    for k in range(len(delta)):
+        A, B, C, D = model_matrices(v, kn, -0.03, load, U=u[k])
+        out[k] = C @ x + D[:, 0] * delta[k]
+        if k + 1 == len(delta):
+            break
+        h = T / sub
+        for j in range(sub):
+            a, b = j / sub, (j + 0.5) / sub
+            d0, dm, d1 = (delta[k] + s * (delta[k + 1] - delta[k]) for s in (a, b, a + 1 / sub))
+            u0, um, u1 = (u[k] + s * (u[k + 1] - u[k]) for s in (a, b, a + 1 / sub))
+            k1 = f(x, d0, u0)
+            k2 = f(x + 0.5 * h * k1, dm, um)
+            k3 = f(x + 0.5 * h * k2, dm, um)
+            x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + f(x + h * k3, d1, u1))
+    return out
+
+
+def test_a_run_that_slows_in_its_turns_is_followed_through_the_speed_inputs(monkeypatch):
+    """A ship slowing by up to 20 % in its turns (rudder forces with u^2, yaw-rate terms and the
+    centripetal u r with u): the constant-speed model driven by the speed inputs (``speed_inputs``:
+    ``delta (u/U)^2`` and ``(u/U - 1) r``) follows the time-varying model to within a quarter of
+    the error of holding U (only the sway velocity's ``(u/U - 1) Y_v v`` is left out). Without a ``u``
+    column the inputs are the rudder alone. The structure is checked with the speed's low-pass off (this
+    speed varies at 0.25 Hz, above it); the low-pass keeps a speed varying over 30 s within 1 % and
+    takes a 1 Hz ripple (a positioning system's error) down to under 2 % of itself."""
+    from identify.rollmass import output_error
+    from identify.rollmass.output_error import _simulate, speed_inputs
+    from identify.rollmass.simulate import RollRecording
+
+    slow = RollRecording("lp", 0.02, np.ones(3000), np.zeros(3000), np.zeros(3000), np.zeros(3000))
+    tt = np.arange(3000) * 0.02
+    for f, keep in ((1 / 30.0, True), (1.0, False)):
+        u = 0.5 * (1.0 + 0.1 * np.sin(2 * np.pi * f * tt))
+        got = speed_inputs(dataclasses.replace(slow, u=u, U=0.5))[0] ** 0.5 - 1.0  # (u/U) - 1 as the inputs see it
+        want = u / np.mean(u) - 1.0
+        ratio = np.std(got[500:-500]) / np.std(want[500:-500])
+        assert (abs(ratio - 1.0) < 0.01) if keep else (ratio < 0.02), (f, ratio)
+    monkeypatch.setattr(output_error, "SPEED_LP_HZ", 0.0)
+
+    T, n = 0.02, 1500
+    t = np.arange(n) * T
+    delta = np.deg2rad(20.0) * np.sin(2 * np.pi * t / 8.0) * np.clip(t / 2.0, 0.0, 1.0)
+    u = 0.5 * (1.0 - 0.2 * (np.sin(2 * np.pi * t / 8.0) ** 2) * np.clip(t / 2.0, 0.0, 1.0))
+    v = {**start_values(PROF), "kappa": 0.0}
+    kn, load = PROF.known, Load(0.2, -0.256)
+    truth = _ltv_outputs(v, kn, load, delta, u, T)
+    rec = RollRecording("slows", T, delta, truth[:, 0], truth[:, 1], truth[:, 2], U=float(np.mean(u)), u=u)
+    held = _simulate(v, kn, -0.03, load, dataclasses.replace(rec, u=None))[0]
+    followed = _simulate(v, kn, -0.03, load, rec)[0]
+    for ch in range(3):
+        err_held, err_followed = (np.sqrt(np.mean((y[:, ch] - truth[:, ch]) ** 2)) for y in (held, followed))
+        assert err_followed < 0.25 * err_held, (ch, err_followed, err_held)
+    assert speed_inputs(dataclasses.replace(rec, u=None))[1] is None
+    np.testing.assert_array_equal(speed_inputs(dataclasses.replace(rec, u=None))[0], delta)
+
+
+def test_the_speed_is_followed_only_where_it_varies_above_the_positioning_noise():
+    """A constant-speed run whose u carries a positioning system's error (1 % scale, 5 mm/s with ~1 s
+    correlation, as the basin truth's Qualisys smoother) is held at U: its error, fed through the speed
+    inputs, broke the base variant (stop 42: -15 % -> -34 %); a run slowing by 15 % in 30 s turns (its speed varying at 0.07 Hz, under the surge time constant) with
+    the same error is followed, its low-passed variation within 20 % (rms) of the true one: the positioning error below the
+    low-pass stays in it."""
+    from scipy.signal import lfilter
+
+    from identify.rollmass.output_error import followed_speed, speed_inputs, speed_variation
+    from identify.rollmass.simulate import RollRecording
+
+    T, n = 0.02, 9000
+    t = np.arange(n) * T
+    rng = np.random.default_rng(7)
+    a = np.exp(-T / 1.0)
+    err = 0.005 * lfilter([np.sqrt(1 - a * a)], [1, -a], rng.standard_normal(n))
+    r = 0.2 * np.sin(2 * np.pi * t / 30.0)
+    base = RollRecording("x", T, np.zeros(n), np.zeros(n), np.zeros(n), r, U=0.45)
+    steady = dataclasses.replace(base, u=0.45 * 1.01 + err)
+    true_u = 0.45 * (1.0 - 0.15 * np.sin(2 * np.pi * t / 30.0) ** 2)
+    slowing = dataclasses.replace(base, u=true_u * 1.01 + err)
+    assert followed_speed(steady) is None and speed_inputs(steady)[1] is None
+    slow_sd, fast_sd = speed_variation(steady)
+    assert slow_sd < 3.0 * fast_sd, (slow_sd, fast_sd)
+    got = followed_speed(slowing)
+    assert got is not None and speed_inputs(slowing)[1] is not None
+    want = true_u / np.mean(true_u)
+    mid = slice(500, -500)
+    assert np.std(got[mid] - want[mid]) < 0.2 * np.std(want[mid])  # the error below 0.2 Hz stays in it (16 % here)
+    assert followed_speed(dataclasses.replace(base, u=None)) is None
+
+
+def test_a_speed_too_short_or_too_coarse_to_split_is_held():
+    """Under two periods of the 0.2 Hz low-pass (10 s), or sampled at 0.4 Hz or slower (the filter
+    cannot be made: scipy raised instead), the speed is held, never followed or an error."""
+    from identify.rollmass.output_error import followed_speed, speed_variation
+    from identify.rollmass.simulate import RollRecording
+
+    for T, n in ((0.02, 400), (3.0, 200)):
+        t = np.arange(n) * T
+        u = 0.5 * (1.0 - 0.2 * np.sin(2 * np.pi * t / 60.0) ** 2)
+        rec = RollRecording("x", T, np.ones(n), np.zeros(n), np.zeros(n), np.zeros(n), U=0.5, u=u)
+        assert np.isnan(speed_variation(rec)[0]) and followed_speed(rec) is None

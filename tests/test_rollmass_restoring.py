@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from identify.rollmass.api import estimate_from_files, heel_notes
-from identify.rollmass.model import DEFAULT_PROFILE, load_profile, metacentric_radius
+from identify.rollmass.model import DEFAULT_PROFILE, Load, load_profile, metacentric_radius
 from identify.rollmass.recording import read_roll_csv
 from identify.rollmass.restoring import heel_gain, heel_signal, referenced_heel
 from identify.rollmass.simulate import RollRecording
@@ -129,8 +129,9 @@ def test_the_heel_reference_divides_by_cos_phi_before_its_low_pass():
     """A roll angle 0.5 deg off through 20 deg turns to both sides and straight stretches, the
     accelerometer reading the true heel: the offset ``sin(phi) - (a_s + u r)/g`` is ``cos(phi)`` times
     the bias, so it is divided by ``cos(phi)`` before the low-pass. The reference then recovers the
-    true heel to 0.08 % of the bias at worst; the low-passed offset divided by the instantaneous
-    ``cos(phi)`` (stop 41's order) was off by up to 4.5 % of it, the turns' heel leaking into the slow part."""
+    true heel to 0.084 % of the bias at worst (asserted under 0.15 %); the low-passed offset divided by
+    the instantaneous ``cos(phi)`` (stop 41's order) was off by up to 4.5 % of it, the turns' heel
+    leaking into the slow part (both re-measured on this construction at stop 43)."""
     from scipy.signal import butter, filtfilt
 
     T, n, g, U = 0.02, 6000, 9.81, 0.5
@@ -141,7 +142,7 @@ def test_the_heel_reference_divides_by_cos_phi_before_its_low_pass():
     b = np.deg2rad(0.5)
     rec = RollRecording("turns", T, np.zeros(n), np.gradient(phi, T), g * np.sin(phi) - U * r, r, phi=phi + b, U=U)
     err = (referenced_heel(rec, g, U) - phi) / b
-    assert np.max(np.abs(err)) < 0.005, np.max(np.abs(err))
+    assert np.max(np.abs(err)) < 0.0015, np.max(np.abs(err))
 
 
 def test_the_file_reader_passes_its_heel_reference_to_the_fit_and_refuses_an_unknown_one(monkeypatch, tmp_path):
@@ -165,3 +166,33 @@ def test_the_file_reader_passes_its_heel_reference_to_the_fit_and_refuses_an_unk
     assert seen["heel_reference"] == "raw"
     with pytest.raises(UserError, match="heel reference 'level': choose one of raw, mean, acc, acc-lp"):
         api.estimate_from_files(*paths, heel_reference="level")
+
+
+@pytest.mark.parametrize("bad", ["noise", "nan", "astern"])
+def test_estimate_called_directly_holds_a_held_speed_in_the_heel_reference_too(monkeypatch, bad):
+    """``estimate`` (not through the files) with a ``u`` the model holds (a constant speed with a positioning
+    error, a NaN, a negative speed: ``output_error.followed_speed`` is None) references the roll angle with
+    the run's ``U`` in the centripetal ``u r``, as ``estimate_from_files`` does: the fit sees no trace of the
+    column (before the review of stop 43 the raw ``u`` reached the heel reference here)."""
+    from identify.rollmass import estimate as est_mod
+
+    T, n, g, U = 0.02, 6000, PROF.known.g, 0.5
+    t = np.arange(n) * T
+    rng = np.random.default_rng(3)
+    r = 0.3 * np.sin(2 * np.pi * t / 10.0)
+    phi = np.deg2rad(5.0) * np.sin(2 * np.pi * t / 10.0)
+    u = {"noise": U + 0.01 * rng.standard_normal(n), "nan": np.full(n, U), "astern": np.full(n, -U)}[bad]
+    if bad == "nan":
+        u[100] = np.nan
+    rec = RollRecording("x", T, 0.1 * np.sin(t), np.gradient(phi, T), g * np.sin(phi) - U * r, r, phi=phi, U=U, u=u)
+    seen = []
+
+    def capture(datasets, *args, **kwargs):
+        seen.extend(datasets)
+        raise RuntimeError("captured")
+
+    monkeypatch.setattr(est_mod, "fit_output_error", capture)
+    with pytest.raises(RuntimeError, match="captured"):
+        est_mod.estimate([rec] * 3, PROF.known, Load(0.2, -0.25), "oe", start={})
+    want = referenced_heel(dataclasses.replace(rec, u=None), g, U)
+    assert all(d.u is None and np.array_equal(d.phi, want) for d in seen)

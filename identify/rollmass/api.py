@@ -13,7 +13,14 @@ import numpy as np
 
 from identify.rollmass.estimate import DEFAULT_METHOD, METHODS, MassEstimate, estimate
 from identify.rollmass.model import Load, RollProfile, load_profile
-from identify.rollmass.output_error import start_values
+from identify.rollmass.output_error import (
+    SPEED_LP_HZ,
+    SPEED_NOISE_RATIO,
+    SPEED_VAR_MIN,
+    followed_speed,
+    speed_variation,
+    start_values,
+)
 from identify.rollmass.recording import read_roll_csv
 from identify.rollmass.restoring import DEFAULT_HEEL_REFERENCE, HEEL_REFERENCES
 from identify.rollmass.signs import check_signs, expected_signs
@@ -159,9 +166,11 @@ def known_from_recordings(
 
 
 def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
-    """Check each recording's measured speed ``u`` against its header speed, and say it is not used:
-    an oe model that followed it sample by sample made the load worse on every variant of the
-    independent basin truth family measured (README), so one speed per run is held."""
+    """Check each recording's measured speed ``u`` against its header speed; a recording without one, or
+    whose speed's variation is within the positioning's error (:func:`output_error.followed_speed`),
+    gets a note that its speed is held through the run (``oe`` then neither follows a ship that slows
+    in its turns, :func:`output_error.speed_inputs`, nor takes the heel reference's centripetal
+    ``u r`` at the speed of the moment, :func:`restoring.referenced_heel`)."""
     notes = []
     for rec, path in zip(recs, paths):
         if rec.u is not None and rec.U is not None and abs(np.mean(rec.u) / rec.U - 1) > SPEED_TOL:
@@ -169,10 +178,21 @@ def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
                 f"{path}: column 'u' has a mean of {np.mean(rec.u):g} m/s but the header says speed_m_s {rec.U:g}; "
                 "give u in m/s (surge speed, positive ahead) or correct the header"
             )
-        if rec.u is not None:
+        if rec.u is not None and followed_speed(rec) is None:
+            slow, fast = speed_variation(rec)
             notes.append(
-                f"{path.name}: column 'u' (surge speed) is checked but not used: following it made the oe "
-                "estimate worse on an independent basin truth (README); one speed per run is held"
+                f"{path.name}: column 'u' (surge speed) is held at the run's speed, not followed: its variation "
+                f"below {SPEED_LP_HZ:g} Hz ({100 * slow:.1f} %) is not {SPEED_NOISE_RATIO:g} times the positioning's "
+                f"error above it ({100 * fast:.1f} %) or not over {100 * SPEED_VAR_MIN:g} %"
+                if np.isfinite(slow)
+                else f"{path.name}: column 'u' (surge speed) is held at the run's speed, not followed: the recording is "
+                f"shorter than two periods of its {SPEED_LP_HZ:g} Hz low-pass"
+            )
+        if rec.u is None:
+            notes.append(
+                f"{path.name}: no column 'u' (surge speed): the speed is held at the run's "
+                f"{'speed_m_s' if rec.U is not None else 'profile speed'} throughout; a ship that slows in "
+                "its turns is not followed (give u to follow it)"
             )
     return notes
 
@@ -226,6 +246,7 @@ def estimate_from_files(
     heel_reference: str = DEFAULT_HEEL_REFERENCE,
 ) -> MassEstimate:
     """Read three recordings and estimate the loaded run's mass change and the load's z with 95 % intervals.
+    ``heel_reference``: how ``oe`` references the roll angle (:func:`restoring.referenced_heel`).
 
     The headers' role, speed, IMU z and known load are checked against the file order, the
     profile and ``known_load`` (which may be omitted when the calibration file's header gives it).
@@ -248,11 +269,11 @@ def estimate_from_files(
             check_load_in_hull(load, prof, what)
     cal = _calibration_load(known_load, loads[1], paths[1])
     prof, notes = known_from_recordings(prof, paths, metas, explicit=profile is not None)
-    # each run at its own speed (turns slow a run, and the runs differ): the oe model's U r terms
-    # use the run's header speed, else the profile's U (a u column is checked, not followed: speed_notes)
+    # each run at its own speed (the runs differ): the oe model's U r terms use the run's header speed,
+    # else the profile's U; a u column (checked by speed_notes) gives the speed's variation within the run where
+    # output_error.followed_speed follows it (estimate drops a held one, the heel reference's u r included)
     recs = [replace(r, U=_meta_float(m, "speed_m_s", p)) for r, m, p in zip(recs, metas, paths)]
     notes += speed_notes(recs, paths)
-    recs = [replace(r, u=None) for r in recs]
     recs, heel = heel_notes(recs, paths)
     notes += heel
     expect = expected_signs(start_values(prof), prof.known, prof.known.z_f_prior, Load(0.0, 0.0))

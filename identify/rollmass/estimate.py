@@ -51,6 +51,7 @@ from identify.rollmass.model import (
     load_moments,
 )
 from identify.rollmass.oe_fit import fit_output_error
+from identify.rollmass.output_error import followed_speed
 from identify.rollmass.restoring import DEFAULT_HEEL_REFERENCE, referenced_heel
 from identify.rollmass.simulate import RollRecording
 
@@ -349,7 +350,11 @@ def _oe(
     """Output-error fit with ``z_f`` under its prior ``N(z_f, z_f_prior_sd^2)``; with ``with_ci`` the
     sandwich covariance of every free parameter, ``z_f`` included (:func:`oe_fit.fit_output_error`).
     The recordings' roll angles are first re-referenced to the accelerometer's heel
-    (:func:`restoring.referenced_heel`): the AHRS's roll error would read as load through the heel moment."""
+    (:func:`restoring.referenced_heel`): the AHRS's roll error would read as load through the heel moment.
+    A ``u`` the model holds (:func:`output_error.followed_speed`: its variation within the positioning's
+    error, or not finite) is dropped first, so the heel reference's centripetal ``u r`` takes ``U`` too:
+    the column's error would otherwise reach the fit through the roll angle."""
+    datasets = [d if d.u is None or followed_speed(d) is not None else replace(d, u=None) for d in datasets]
     datasets = [replace(d, phi=referenced_heel(d, kn.g, kn.U if d.U is None else d.U, heel_reference)) for d in datasets]
     f = fit_output_error(datasets, kn, cal, z_f, start, with_cov=with_ci)
     # K_r of (11) from the fitted K_ur, so the shared parameters read as in the paper's Table 3

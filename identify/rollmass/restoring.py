@@ -33,9 +33,12 @@ the hull's ``kappa`` is not the one the filtered data obey. Measured, noise-free
 The AHRS's roll angle has its own error (an MTi-G: 0.5 deg static), and through the cubic a bias ``b``
 adds a moment ``3 kappa b phi^2`` that reads as load, so the angle is re-referenced to the heel the
 accelerometer reads (:func:`referenced_heel`). Measured on the basin truth with an AHRS error
-(benchmarks/bench_heel_reference.py, ``restoring``, 4 runs): median |mean error| 0.356 deg as recorded,
-0.043 deg referenced; on the noise-free half-length ``restoring`` case 2 with 0.5 deg added, -9.65 % /
--13.8 mm as recorded, +0.44 % / +0.5 mm referenced (tests/test_rollmass_restoring.py).
+(``python benchmarks/bench_heel_reference.py --runs 4 --variants restoring``): median |mean error|
+0.356 deg as recorded, 0.043 deg referenced; on the noise-free half-length ``restoring`` case 2 with
+0.5 deg added (tests/test_rollmass_restoring.py, ``test_a_roll_angle_bias_does_not_read_as_load``),
+-9.65 % / -13.8 mm as recorded (``heel_reference="raw"``), +0.44 % / +0.5 mm referenced, with the bias
+and without it. Re-measured at stop 43 with the offset divided by ``cos(phi)`` before the low-pass
+(stop 42's order; the figures were first taken with the division after it): the same to the digits shown.
 """
 
 from __future__ import annotations
@@ -104,8 +107,10 @@ def referenced_heel(rec: RollRecording, g: float, U: float, how: str = DEFAULT_H
     ``d / cos(phi)`` is divided sample by sample *before* the low-pass: dividing the low-passed ``d`` by
     the instantaneous ``cos(phi)`` would put the turns' heel back into the slow part (a 20 deg turn:
     1 / cos 20 deg, 6 % of the bias). Without a ``u`` column the centripetal ``u r`` is taken at the
-    run's ``U`` (a ship that slows in a turn then leaves ``(U - u) r / g`` in the offset: ``mass``
-    holds each run's header speed and does not follow a recorded ``u`` yet, NOTE41)."""
+    run's ``U`` (a ship that slows in a turn then leaves ``(U - u) r / g`` in the offset); ``mass``
+    (:func:`identify.rollmass.api.estimate_from_files`) drops a ``u`` whose variation is within the
+    positioning's error (:func:`identify.rollmass.output_error.followed_speed`), so it is used here only
+    where the model follows it too."""
     if rec.phi is None:
         return None
     if how not in HEEL_REFERENCES:
