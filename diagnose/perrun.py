@@ -40,7 +40,12 @@ def _spread_sq(p: Prepared, w: np.ndarray) -> np.ndarray:
 def noise_spread(p: Prepared, w: np.ndarray) -> dict[str, float]:
     """Each output's RMS about its mean in noise units (``w`` the inverse noise scale): a fit point
     is worth ``noise_spread / 100`` noise stds (RMS) there, as ``fit = 100 (1 - |e| / |y - mean y|)``."""
-    return dict(zip(DOFS, np.sqrt(_spread_sq(p, w) / max(len(p.y), 1)).tolist()))
+    return _per_dof_rms(_spread_sq(p, w), len(p.y))
+
+
+def _per_dof_rms(sq: np.ndarray, n: int) -> dict[str, float]:
+    """Each output's RMS from its sum of squares ``sq`` over ``n`` samples."""
+    return dict(zip(DOFS, np.sqrt(sq / max(n, 1)).tolist()))
 
 
 def _table(preps: list[Prepared], role: str, f0: np.ndarray, f1: np.ndarray, w: np.ndarray) -> list[dict]:
@@ -60,7 +65,7 @@ def _table(preps: list[Prepared], role: str, f0: np.ndarray, f1: np.ndarray, w: 
                 "after": dict(zip(DOFS, b.tolist())),
                 "weighted_misfit_before": w0,
                 "weighted_misfit_after": w1,
-                "noise_spread": noise_spread(p, w),
+                "noise_spread": _per_dof_rms(dn, len(p.y)),  # dn: the same sums, made above
             }
         )
     return rows
