@@ -52,7 +52,7 @@ from expdesign.mc_data import _experiment, _noise, _run_rng, _Seg, _sequence, _s
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.mc_validation import scored, validate, validation_input
 from expdesign.rounding import efficient_rounding
-from primitives import jitloop
+from primitives import jitloop, threads
 from primitives.information import MEAN_SUBTRACTION
 from primitives.library import Primitive, thesis_primitives
 from primitives.regressors import instruments
@@ -388,7 +388,9 @@ def evaluate_designs(
     chunk_size: int = MAX_CHUNK,
     **protocol: Any,
 ) -> dict[str, MCResult]:
-    """Monte Carlo results of several designs in this process (section 9.1.2).
+    """Monte Carlo results of several designs in this process (section 9.1.2): chunks of at most
+    ``chunk_size`` runs (MAX_CHUNK at most), run on :func:`primitives.threads.count` threads
+    (``OMP_NUM_THREADS``, else the cores, at most four; one in a pool or Dask worker).
 
     ``designs`` maps a label to fractions {primitive: w}, to an object with ``.weights``, or to
     "random". ``protocol`` takes the other :class:`MCConfig` fields (n_samples, n_segments,
@@ -402,4 +404,8 @@ def evaluate_designs(
     if not 0 <= a < z <= runs:
         raise DesignError(f"run_slice {run_slice} must lie within 0..{runs}")
     step = max(1, min(chunk_size, MAX_CHUNK))
-    return merge_results([{d: run_chunk(sh, d, range(c, min(z, c + step)))} for d in sh.designs for c in range(a, z, step)])
+    chunks = [(d, c, min(z, c + step)) for d in sh.designs for c in range(a, z, step)]
+    # the chunks on this process's threads (primitives.threads): a run's numbers depend on (seed,
+    # run index) alone, so on neither the thread that runs its chunk nor what runs beside it
+    parts = threads.map_in_threads(lambda ch: {ch[0]: run_chunk(sh, ch[0], range(ch[1], ch[2]))}, chunks)
+    return merge_results(parts)

@@ -45,6 +45,32 @@ def test_same_digest_for_every_chunk_size(ship, reference, chunk):
     assert _digests(evaluate_designs(p, DESIGNS, primitives=lib, chunk_size=chunk, **KW)) == _digests(reference)
 
 
+@pytest.mark.parametrize("count", ["1", "3"])
+def test_same_digest_on_one_thread_and_on_three(ship, reference, monkeypatch, count):
+    """evaluate_designs runs its chunks on primitives.threads.count() threads (OMP_NUM_THREADS):
+    the digests are those of one thread, with chunks really run at once (the first two meet at a
+    barrier, which a single thread would never pass)."""
+    import threading
+
+    from expdesign import montecarlo
+
+    run_chunk, seen, calls = montecarlo.run_chunk, set(), []
+    barrier = threading.Barrier(2, timeout=20)
+
+    def spy(*a, **k):
+        calls.append(1)
+        seen.add(threading.get_ident())
+        if count != "1" and len(calls) <= 2:
+            barrier.wait()
+        return run_chunk(*a, **k)
+
+    monkeypatch.setattr(montecarlo, "run_chunk", spy)
+    monkeypatch.setenv("OMP_NUM_THREADS", count)
+    p, lib = ship
+    assert _digests(evaluate_designs(p, DESIGNS, primitives=lib, chunk_size=2, **KW)) == _digests(reference)
+    assert len(calls) == 12 and (len(seen) == 1 if count == "1" else len(seen) >= 2)
+
+
 def test_same_digest_for_run_slices(ship, reference):
     from expdesign.mc_result import merge_results
 

@@ -30,6 +30,12 @@ def _blas_threads(_item) -> int:
     return max((lib["num_threads"] for lib in threadpool_info()), default=1)
 
 
+def _own_threads(_item) -> int:
+    from primitives.threads import count
+
+    return count()
+
+
 def test_workers_run_one_blas_thread(monkeypatch):
     """A pool worker limits BLAS/OpenMP to one thread (the parent may use several): W workers on W
     cores, each with the library's own threads on top, would burn CPU competing for the cores."""
@@ -40,6 +46,11 @@ def test_workers_run_one_blas_thread(monkeypatch):
         assert _blas_threads(None) == 2
         res = LocalEngine(2).map(_blas_threads, [0, 1, 2], progress=False)
     assert res.complete and res.results == [1, 1, 1]
+    # nor threads of the project's own (primitives.threads: the inline Monte Carlo's chunks)
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    assert _own_threads(None) == 2
+    own = LocalEngine(2).map(_own_threads, [0, 1, 2], progress=False)
+    assert own.complete and own.results == [1, 1, 1]
 
 
 @pytest.mark.skipif(multiprocessing.get_start_method() != "fork", reason="workers inherit the limit only when forked")
@@ -93,8 +104,10 @@ def test_dask_local_cluster_agrees_with_local():
             assert isinstance(eng, DaskEngine)
             remote = eng.map(_noisy_sim, seeds, progress=False)
             threads = eng.map(_blas_threads, [0, 1], progress=False)
+            own = eng.map(_own_threads, [0, 1], progress=False)
     assert remote.complete
     assert threads.results == [1, 1]  # Dask workers too run one BLAS thread each
+    assert own.results == [1, 1]  # and start no threads of the project's own (primitives.threads)
     for x, y in zip(local.results, remote.results):
         np.testing.assert_array_equal(x, y)
 
