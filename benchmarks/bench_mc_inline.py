@@ -6,6 +6,9 @@ parameter-error percentiles. Run it alternately from two checkouts for paired fi
 ``--stages`` adds the CPU of each stage of the timed call (data simulation, IV estimate, the
 output-error fit's candidate simulations, Gauss-Newton moments and Levenberg-Marquardt steps,
 validation, scoring; timers wrapped around the module functions, a few microseconds a call).
+The chunks run on ``primitives.threads.count()`` threads (``OMP_NUM_THREADS``, else the cores; set
+``OMP_NUM_THREADS=1`` for one): the line after the figures gives each thread's CPU in its chunks
+(``time.thread_time``), the largest of which bounds the wall from below on idle cores.
 
     python benchmarks/bench_mc_inline.py [--runs 2000] [--profile] [--stages]
 """
@@ -18,6 +21,7 @@ import cProfile
 import os
 import pstats
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -27,6 +31,7 @@ from benchmarks.run import _design_setup  # noqa: E402
 from expdesign import estimators, montecarlo, oekernel  # noqa: E402
 from expdesign.api import run_design  # noqa: E402
 from expdesign.montecarlo import evaluate_designs  # noqa: E402
+from primitives import threads  # noqa: E402
 
 # (module, function, label) of each stage --stages times; indented labels are parts of the one above
 STAGES = (
@@ -57,6 +62,20 @@ def _time_stages(cpu: dict[str, float]) -> None:
         setattr(mod, name, timed)
 
 
+def _time_threads(cpu: dict[int, float]) -> None:
+    """Wrap montecarlo.run_chunk to add each thread's CPU seconds in its chunks to ``cpu``."""
+    fn = montecarlo.run_chunk
+
+    def timed(*a, **k):
+        t = time.thread_time()
+        try:
+            return fn(*a, **k)
+        finally:
+            cpu[threading.get_ident()] += time.thread_time() - t
+
+    montecarlo.run_chunk = timed
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=2000)
@@ -68,8 +87,11 @@ def main() -> None:
         _time_stages(cpu_stage)
     prof, prims, _ = _design_setup()
     designs = {"optimized": run_design(prof, prims).weights, "random": "random"}
+    cpu_thread: dict[int, float] = collections.defaultdict(float)
+    _time_threads(cpu_thread)
     evaluate_designs(prof, designs, runs=20, seed=0, primitives=prims)  # warm-up
     cpu_stage.clear()
+    cpu_thread.clear()
     pr = cProfile.Profile(time.process_time) if args.profile else None
     c0, w0 = time.process_time(), time.perf_counter()
     if pr:
@@ -84,6 +106,10 @@ def main() -> None:
     print(
         f"Monte Carlo {args.runs} x {len(designs)} inline, output error: CPU {cpu:.2f} s, wall {wall:.2f} s, "
         f"{1e3 * cpu / (len(designs) * args.runs):.3f} ms CPU per run, digest {digest}, load {os.getloadavg()[0]:.1f}"
+    )
+    per = sorted(cpu_thread.values(), reverse=True)
+    print(
+        f"  {threads.count()} threads; CPU in chunks per thread: {' / '.join(f'{c:.2f}' for c in per)} s (largest {per[0]:.2f} s)"
     )
     for _, _, label in STAGES:
         if label in cpu_stage:
