@@ -1,11 +1,13 @@
-"""A Monte Carlo run's generator, ``default_rng(SeedSequence(seed, spawn_key=(run, stream)))``, made
-without numpy's SeedSequence object: its hash (O'Neill's seed_seq_fe, as numpy's SeedSequence
-implements it: the pool mixed from the entropy, then the words drawn from the pool) in plain Python
-integers for the four uint64 words PCG64 seeds itself with. The same generator, the same draws
-(tests/test_runseeds.py checks the words against numpy's for seeds and runs of every size); about
-a third of the CPU: numpy builds and hashes in numpy scalars, 70 us a generator (stop 44), four
-to six thousand generators in a 2,000 x 2 Monte Carlo, all of it holding the GIL that the chunks'
-threads share (:mod:`primitives.threads`).
+"""The generators of a chunk's Monte Carlo runs, ``default_rng(SeedSequence(seed, spawn_key=(run,
+stream)))`` for each run, made for all the runs at once. The hash is O'Neill's seed_seq_fe, as numpy's
+SeedSequence implements it: the pool mixed from the entropy, then the words drawn from the pool. Here it
+runs in uint32 arrays over the runs, and gives the four uint64 words that PCG64 seeds itself with. The
+generators, and so their draws, are the same (tests/test_runseeds.py checks the words and states against
+numpy's for seeds of one to seven 32-bit words).
+
+Numpy's objects cost about 70-96 us a generator (stop 44, timeit, load 3-5), for 4,000-6,000 generators in
+a 2,000 x 2 Monte Carlo, all of it holding the GIL that the chunks' threads share
+(:mod:`primitives.threads`). Here: about 6 us a generator for a 250-run chunk.
 """
 
 from __future__ import annotations
