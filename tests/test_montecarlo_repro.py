@@ -67,8 +67,10 @@ def test_same_digest_on_one_thread_and_on_three(ship, reference, monkeypatch, co
     monkeypatch.setattr(montecarlo, "run_chunk", spy)
     monkeypatch.setenv("OMP_NUM_THREADS", count)
     p, lib = ship
+    before = threading.active_count()
     assert _digests(evaluate_designs(p, DESIGNS, primitives=lib, chunk_size=2, **KW)) == _digests(reference)
     assert len(calls) == 12 and (len(seen) == 1 if count == "1" else len(seen) >= 2)
+    assert threading.active_count() == before  # no thread left running: maps.forked still forks after a Monte Carlo
 
 
 def test_same_digest_for_run_slices(ship, reference):
