@@ -34,9 +34,11 @@ def count() -> int:
     positive integer (its first entry: OpenMP allows a list for nested levels), else the CPUs this
     process may run on; at most :data:`MAX_THREADS`. A value that is not a positive integer is
     ignored, as OpenMP ignores it."""
-    value = os.environ.get(SETTING, "").split(",")[0].strip()
-    n = int(value) if value.isdigit() and int(value) > 0 else _cpus()
-    return max(1, min(n, MAX_THREADS))
+    try:
+        n = int(os.environ.get(SETTING, "").split(",")[0])
+    except ValueError:  # unset, empty or not a number ("²" passes str.isdigit but not int)
+        n = 0
+    return max(1, min(n if n > 0 else _cpus(), MAX_THREADS))
 
 
 def _cpus() -> int:

@@ -24,7 +24,7 @@ def test_the_count_follows_omp_num_threads(monkeypatch, value, expected):
     assert threads.count() == expected
 
 
-@pytest.mark.parametrize("value", [None, "0", "-2", "abc", ""])
+@pytest.mark.parametrize("value", [None, "0", "-2", "abc", "", "²"])  # "²": str.isdigit, not int
 def test_without_a_usable_setting_the_count_is_the_cpus_this_process_may_use(monkeypatch, value):
     monkeypatch.setattr(threads, "_cpus", lambda: 3)
     if value is None:
