@@ -5,9 +5,14 @@ runs in uint32 arrays over the runs, and gives the four uint64 words that PCG64 
 generators, and so their draws, are the same (tests/test_runseeds.py checks the words and states against
 numpy's for seeds of one to seven 32-bit words).
 
-Numpy's objects cost about 70-96 us a generator (stop 44, timeit, load 3-5), for 4,000-6,000 generators in
-a 2,000 x 2 Monte Carlo, all of it holding the GIL that the chunks' threads share
-(:mod:`primitives.threads`). Here: about 6 us a generator for a 250-run chunk.
+Why: a 2,000 x 2 Monte Carlo makes 6,000 generators, all while holding the GIL that the chunks'
+threads share (:mod:`primitives.threads`). Measured inside that run (one thread, ``time.thread_time``
+around the chunk's generator calls, 3 alternated pairs, load 2-3, stop 44 review): numpy's objects
+0.15-0.21 s (25-35 us a generator), these 0.034-0.046 s (6-8 us): 0.12-0.17 s of the run's ~7 s CPU
+(about 2 %). Outside a run (timeit, 250 runs, min of 7): 19 against 3.5 us.
+
+The generators' ``seed_seq`` is the words, not a SeedSequence, so ``Generator.spawn`` refuses them
+(TypeError); nothing in the Monte Carlo spawns from a run's generator.
 """
 
 from __future__ import annotations
