@@ -26,22 +26,13 @@ def _run_rng(seed: int, run: int, stream: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(run, stream)))
 
 
-def reads_order_stream(sh: MCShared, design: str) -> bool:
-    """Whether :func:`_sequence` draws from a run's generator of stream 0 for ``design``: the random
-    design's segments, or the order of a fixed design's blocks drawn anew each run."""
-    return isinstance(sh.designs[design], str) or (sh.config.protocol != "piecewise" and sh.config.order == "random")
-
-
-def _sequence(sh: MCShared, design: str, run: int, rng: np.random.Generator | None = None) -> list[tuple[str, int]]:
+def _sequence(sh: MCShared, design: str, run: int) -> list[tuple[str, int]]:
     """Run ``run``'s (primitive, samples) blocks in the order they are played; its generator of
-    stream 0 (``rng`` when the caller made it, :func:`expdesign.runseeds.run_rngs`) made only where
-    it is read (:func:`reads_order_stream`: a fixed design in a fixed order reads none)."""
+    stream 0 made only where it is read (a fixed design in a fixed order reads none)."""
     cfg, spec = sh.config, sh.designs[design]
-    if reads_order_stream(sh, design) and rng is None:
-        rng = _run_rng(cfg.seed, run, 0)
     if isinstance(spec, str):
         seg = cfg.n_samples // cfg.n_segments
-        return [(sh.names[i], seg) for i in rng.integers(0, len(sh.names), cfg.n_segments)]
+        return [(sh.names[i], seg) for i in _run_rng(cfg.seed, run, 0).integers(0, len(sh.names), cfg.n_segments)]
     blocks = sh.blocks[design]
     if cfg.protocol == "piecewise":
         # each block restarts from the nominal state: the order does not matter, long blocks are
@@ -53,7 +44,7 @@ def _sequence(sh: MCShared, design: str, run: int, rng: np.random.Generator | No
         return out
     if cfg.order != "random":
         return list(blocks)
-    return [blocks[i] for i in rng.permutation(len(blocks))]
+    return [blocks[i] for i in _run_rng(cfg.seed, run, 0).permutation(len(blocks))]
 
 
 def _experiment(

@@ -48,11 +48,10 @@ from expdesign.errors import DesignError
 from expdesign.estimators import OEData, output_error, output_error_unsupported
 from expdesign.ivsolve import Z_LIMIT, instrument_moments, iv_estimates, run_forces
 from expdesign.ivsolve import solve_moments as iv_moments_solve
-from expdesign.mc_data import _experiment, _noise, _run_rng, _Seg, _sequence, _simulate_data, reads_order_stream  # noqa: F401 - _noise, _run_rng: tests
+from expdesign.mc_data import _experiment, _noise, _run_rng, _Seg, _sequence, _simulate_data  # noqa: F401 - _noise: tests
 from expdesign.mc_result import MCResult, merge_results
 from expdesign.mc_validation import scored, validate, validation_input
 from expdesign.rounding import efficient_rounding
-from expdesign.runseeds import run_rngs
 from primitives import jitloop, threads
 from primitives.information import MEAN_SUBTRACTION
 from primitives.library import Primitive, thesis_primitives
@@ -337,15 +336,13 @@ def run_chunk(sh: MCShared, design: str, run_ids: Sequence[int]) -> MCResult:
     # depend on how the runs are cut into tasks (numba's load, about 0.6 s, once per process).
     jitloop.use(jitloop.MIN_WORK)
     played, layout = {}, {}  # the blocks and whole experiments built so far (a fixed design plays one)
-    # each run's generators made for the chunk at once (the same generators as one by one, runseeds)
-    order_rngs = run_rngs(cfg.seed, ids, 0) if reads_order_stream(sh, design) else [None] * len(ids)
-    seqs = [tuple(_sequence(sh, design, i, g)) for i, g in zip(ids, order_rngs)]
+    seqs = [tuple(_sequence(sh, design, i)) for i in ids]
     for seq in seqs:
         if seq not in layout:
             layout[seq] = _experiment(sh, list(seq), played)
     layouts = [layout[seq] for seq in seqs]
     fused = _fused(sh)
-    segs = _simulate_data(sh, [lay[0] for lay in layouts], run_rngs(cfg.seed, ids, 1), fused)
+    segs = _simulate_data(sh, [lay[0] for lay in layouts], [_run_rng(cfg.seed, i, 1) for i in ids], fused)
     theta = _estimate_fused(sh, segs[0]) if fused else _estimate(sh, segs, [lay[1] for lay in layouts])
     notes = list(sh.notes.get(design, []))
     if sh.theta0 is None:
