@@ -146,7 +146,9 @@ def _cells(n: int = 200) -> list[list[str]]:
     """Cells of a turning circle written at 17 significant digits and in other plain spellings."""
     t, x, y, psi = _circle(n)
     spell = [repr, lambda v: f"{v:.17g}", lambda v: f"{v:.6e}", lambda v: f" {v!r} "]
-    return [[spell[(i + j) % 4](float(v)) for j, v in enumerate((t[i], x[i], y[i], psi[i], 2.0, -0.0, 0.05, 100.0))] for i in range(n)]
+    return [
+        [spell[(i + j) % 4](float(v)) for j, v in enumerate((t[i], x[i], y[i], psi[i], 2.0, -0.0, 0.05, 100.0))] for i in range(n)
+    ]
 
 
 def test_plain_number_cells_are_read_as_pythons_float_reads_them(tmp_path):
@@ -160,7 +162,7 @@ def test_plain_number_cells_are_read_as_pythons_float_reads_them(tmp_path):
     rec = read_csv(p)[0]
     body = p.read_text(encoding="utf-8").splitlines()[1:]
     assert _plain_numbers(header.split(","), body) is not None  # the whole-table reader read it
-    for j, name in enumerate(("u", "v", "r")):
+    for j in range(3):  # u, v, r
         want = np.array([float(r[4 + j]) for r in cells])
         assert np.array_equal(rec.y[:, j], want) and np.array_equal(np.signbit(rec.y[:, j]), np.signbit(want))
     assert np.array_equal(rec.psi, np.array([float(r[3]) for r in cells]))
