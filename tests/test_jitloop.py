@@ -263,9 +263,11 @@ def test_a_changed_helper_file_recompiles_the_cached_functions_that_inline_it(tm
 
 def _reference_open_loop(terms, coef, exo, nu0, forced):
     """open_loop in calm water (no current, no wind) in plain Python floats, member by member and
-    term by term: each term ((c * f_1) * f_2) ..., a factor |s + station r|^power by the C
-    library's pow for powers other than 1, 2 and -1 (the compiled loop's call), the terms of a DOF
-    summed left to right, the input-only increment added first."""
+    term by term: each term ((c * f_1) * f_2) ..., a factor |s + station r|^power as
+    primitives.powers.int_power forms it (products; the C library's pow for other powers), the
+    terms of a DOF summed left to right, the input-only increment added first. (stop 44: integer
+    powers as products)"""
+    from primitives.powers import int_power
     from primitives.terms import parse_factor
 
     batch, n = nu0.shape[0], forced.shape[0]
@@ -285,13 +287,7 @@ def _reference_open_loop(terms, coef, exo, nu0, forced):
                     for f in (parse_factor(s) for s in term.split("*")):
                         x = sig[f.name] if f.station is None else sig[f.name] + f.station * r
                         x = abs(x) if f.modulus else x
-                        if f.power == 2:
-                            x = x * x
-                        elif f.power == -1:
-                            x = 1.0 / x
-                        elif f.power != 1:
-                            x = math.pow(x, float(f.power))
-                        x_t = x_t * x
+                        x_t = x_t * int_power(x, f.power)
                     acc = x_t if j == 0 else acc + x_t
                 nxt.append(acc)
             u, v, r = ((q + float(forced[k, b, i])) + nxt[i] for i, q in enumerate((u, v, r)))
