@@ -80,14 +80,36 @@ def _derived_rows(sig, n_sig, d_sig, d_mod, d_sta, d_pow, batch, shared_from):
         if d_mod[d]:
             for b in range(nb):
                 sig[o, b] = abs(sig[o, b])
-        pw = d_pow[d]
-        if pw != 1:
-            for b in range(nb):
-                sig[o, b] = jitloop.int_power(sig[o, b], pw)
+        _power_row(sig, o, nb, d_pow[d])
         if nb < batch:
             x = sig[o, 0]
             for b in range(1, batch):
                 sig[o, b] = x
+
+
+@inlined
+def _power_row(sig, o, nb, pw):
+    """sig[o, :nb] = jitloop.int_power(sig[o, :nb], pw), one loop per power with the power a
+    constant: int_power's branches fold away and the loop vectorises (a loop testing ``pw`` per
+    element took 8.3 against 4.2 ms on a search trial's 12-member time loop, min of 21, load 5)."""
+    if pw == 2:
+        for b in range(nb):
+            sig[o, b] = jitloop.int_power(sig[o, b], 2)
+    elif pw == 3:
+        for b in range(nb):
+            sig[o, b] = jitloop.int_power(sig[o, b], 3)
+    elif pw == 4:
+        for b in range(nb):
+            sig[o, b] = jitloop.int_power(sig[o, b], 4)
+    elif pw == -1:
+        for b in range(nb):
+            sig[o, b] = jitloop.int_power(sig[o, b], -1)
+    elif pw == -2:
+        for b in range(nb):
+            sig[o, b] = jitloop.int_power(sig[o, b], -2)
+    elif pw != 1:
+        for b in range(nb):
+            sig[o, b] = jitloop.int_power(sig[o, b], pw)
 
 
 @inlined
