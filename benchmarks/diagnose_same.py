@@ -6,7 +6,8 @@ whole answer a user gets (``diagnose.report.to_json`` without its elapsed time, 
 parameter vector ``P`` and the baseline ``theta``) and the case's CPU time (``time.process_time``,
 one warm process, an untimed warm-up case first). ``--against OTHER.json`` compares with another
 tree's file (run this script with that tree first on ``PYTHONPATH``): every string and flag equal,
-every number within ``--rtol`` (relative, with ``--atol`` for numbers near zero; 0: bit for bit).
+every number within ``--rtol`` (relative, with ``--atol`` for numbers near zero; 0: bit for bit), every
+line of the printed report (``shiptrial diagnose``'s text) equal as a string.
 Prints the largest difference per case and exits 1 when any case differs beyond the tolerance.
 
     PYTHONPATH=/work/wt/main-ref python -m benchmarks.diagnose_same --data DIR --out main.json
@@ -26,13 +27,15 @@ from benchmarks.bench_diagnose_size import DEFAULT, build, diagnose
 
 
 def answer(d) -> dict:
-    """The diagnosis as the command's JSON report gives it, with P and theta, without timings."""
-    from diagnose.report import to_json
+    """The diagnosis as the command's JSON report gives it, with P and theta, without timings, and
+    its printed report line by line (``text``: compared as strings, so a tolerance on the numbers
+    still says whether any printed digit moved)."""
+    from diagnose.report import to_json, to_text
     from primitives.io import to_jsonable
 
     out = to_json(d, None)
     out.pop("elapsed_s", None)
-    return out | to_jsonable({"P": d.P, "theta": d.theta})
+    return out | to_jsonable({"P": d.P, "theta": d.theta}) | {"text": to_text(d).splitlines()}
 
 
 def differences(a, b, rtol: float, atol: float, where: str = "") -> tuple[list[str], float]:

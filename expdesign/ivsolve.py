@@ -222,7 +222,7 @@ def instrument_moments(
     (compiled loop) and :func:`_moments_pass` in their order, so the moments are the unfused path's
     bits (but a term reading the speed U: the C library's hypot against numpy's, a last-bit
     difference). None where the pass does not apply (no numba loaded, pods, roll, rigid body,
-    heading terms, powers other than 1, 2, -1, the mean removed per block): the caller takes the
+    heading terms, powers outside primitives.powers.PRODUCT_POWERS, the mean removed per block): the caller takes the
     unfused path. Wind terms read calm air, as the unfused path's regressors without a wind.
 
     Where ``sim_terms`` are ``terms`` (the iterations) each factor is evaluated once a step for

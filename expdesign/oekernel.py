@@ -11,8 +11,8 @@ S(k+1) = (I + d inc/d nu) S(k) + Phi(k) in single precision, and the sums
 H += S(k+1)^T W S(k+1), g += S(k+1)^T W (y(k+1) - nu(k+1)) in double precision. The operations on
 each number are the numpy path's (the same factors in the same order, the same float32 roundings of
 the Jacobian and of S), so S is the numpy path's to the bit (but where a term reads the speed U or a
-power other than 1, 2, -1: the C library's hypot and pow against numpy's, a last-bit difference, see
-:mod:`primitives.jitloop`); the order of the sums over the samples differs (numpy's einsum pairs and vectorises them), which moves H and g by rounding (measured
+power outside :data:`primitives.powers.PRODUCT_POWERS`: the C library's hypot and pow against numpy's,
+a last-bit difference, see :mod:`primitives.jitloop`); the order of the sums over the samples differs (numpy's einsum pairs and vectorises them), which moves H and g by rounding (measured
 up to 3e-13 relative for H, 1.4e-11 of the largest entry for g, near the optimum where g cancels;
 tests/test_oekernel.py checks 1e-9 against the numpy path).
 

@@ -9,8 +9,9 @@ reached through this module.
 Every compiled operation is the numpy path's, in the same order, on the same IEEE doubles (no
 fast-math, so no fused multiply-add): the same bits, except where numpy's own vectorised routines
 may round differently from the C library the compiled code calls, namely ``hypot`` (the speed U,
-the wind terms, pods), ``arctan2`` (pods), powers other than 1, 2 and -1 (``v_r^3``, ``phi^3``:
-numpy's vectorised power against the C library's pow, which differ on some CPUs) and the 4x4
+the wind terms, pods), ``arctan2`` (pods), powers outside :data:`primitives.powers.PRODUCT_POWERS`
+(numpy's vectorised power against the C library's pow, which differ on some CPUs; the powers of
+the project's structures, v_r^3, U^-2, are products on both paths, :func:`primitives.powers.int_power`) and the 4x4
 product by M^-1 of rigid-body profiles (BLAS's order of summation). Those differ in the last bit
 of a step and stay within the tolerance tests/test_jitloop.py checks.
 
@@ -32,6 +33,7 @@ import threading
 import warnings
 from collections.abc import Iterator
 
+from primitives import powers
 from primitives.jitprogram import (  # noqa: F401  (the term program's names, read through this module)
     _IDX,
     _STATE,
@@ -123,6 +125,10 @@ def use(work: int) -> bool:
 
 _INLINED: list[tuple[dict, str]] = []  # (the helper's module globals, its name)
 _COMPILED: list = []  # every compiled function, given its dispatcher by _load
+# The compiled code's form of primitives.powers.int_power (compiled loops call jitloop.int_power;
+# the numpy path calls the powers module's own, which stays a Python function).
+int_power = powers.int_power
+_INLINED.append((globals(), "int_power"))
 
 
 class compiled:
@@ -176,7 +182,8 @@ def typed(signature: str):
 # primitives.jittime inlines jitfactors' helpers and reads jitprogram's N_STATE, a constant frozen
 # into the machine code.
 SHARED_HELPER_FILES = tuple(
-    os.path.join(os.path.dirname(__file__), f) for f in ("jitloop.py", "regkernel.py", "jitfactors.py", "jitprogram.py")
+    os.path.join(os.path.dirname(__file__), f)
+    for f in ("jitloop.py", "regkernel.py", "jitfactors.py", "jitprogram.py", "powers.py")
 )
 
 
@@ -232,7 +239,7 @@ def inlined(fn):
 @inlined
 def _times_factor(acc, sig, idx, station, modulus, power, batch):
     """acc[b] *= |sig[idx, b] + station * r|^power over the batch: one factor of a term (the
-    numpy expression of primitives.terms.Factor.code: x**2 a square, x**-1 a reciprocal)."""
+    numpy expression of primitives.terms.Factor.code, the power by primitives.powers.int_power)."""
     has_station = not math.isnan(station)
     if not has_station and power == 1:  # the common factors, as loops without branches (they vectorise)
         if modulus:
@@ -248,13 +255,7 @@ def _times_factor(acc, sig, idx, station, modulus, power, batch):
             x = x + station * sig[2, b]
         if modulus:
             x = abs(x)
-        if power == 2:
-            x = x * x
-        elif power == -1:
-            x = 1.0 / x
-        elif power != 1:
-            x = math.pow(x, float(power))
-        acc[b] = acc[b] * x
+        acc[b] = acc[b] * int_power(x, power)
 
 
 @inlined

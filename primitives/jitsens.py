@@ -143,12 +143,8 @@ def _sens_loop(
                     pw = f_pow[f]
                     if pw == 1:
                         val, dv = x, 1.0
-                    elif pw == 2:
-                        val, dv = x * x, 2.0 * x
-                    elif pw == -1:
-                        val, dv = 1.0 / x, -1.0 / (x * x)
-                    else:
-                        val, dv = math.pow(x, float(pw)), pw * math.pow(x, float(pw - 1))
+                    else:  # -1 * (1 / (x x)) and 2 * x: the bits of -1 / (x x) and 2.0 x
+                        val, dv = jitloop.int_power(x, pw), pw * jitloop.int_power(x, pw - 1)
                     fv[a] = val
                     fg[a, 0], fg[a, 1], fg[a, 2] = dv * gx0, dv * gx1, dv * gx2
                 phi = 1.0

@@ -270,6 +270,7 @@ def time_loop(
     inc = np.zeros((4, batch))
     tmp = np.empty(batch)
     cub, cvb = np.zeros(batch), np.zeros(batch)
+    shared_from = N_STATE if in_t.shape[2] == 1 else n_sig  # one input column: every member reads the same inputs
     n_inc = 4 if minv.shape[0] > 0 else dof_first.shape[0]
     cf = np.empty((coef.shape[0], batch))  # every member's coefficients (one column shared: copied to all)
     for t in range(coef.shape[0]):
@@ -279,6 +280,6 @@ def time_loop(
         _state_signals(
             sig, cub, cvb, k, nu_t, eta_t, in_t, cur_t, wind_t, pod_pos, pod_sig, pod_coef, heading, wind_excess, speed, env_body
         )
-        jitfactors._derived_rows(sig, n_sig, d_sig, d_mod, d_sta, d_pow, batch)
+        jitfactors._derived_rows(sig, n_sig, d_sig, d_mod, d_sta, d_pow, batch, shared_from)
         jitfactors._table_increments(inc, tmp, sig, cf, batch, dof_first, dof_n, t_first, t_n, row)
         _advance(k, nu_t, eta_t, inc, n_inc, w_t, cur_t, cub, cvb, minv, rb, ts, heading, positions, turning, forced_first)

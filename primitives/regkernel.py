@@ -5,11 +5,11 @@ Phi(k) holds one column per term of the block-diagonal predictor (seed 001 (3.60
 term the product of its factors ``|x@s|^k`` left to right (:meth:`primitives.terms.Factor.value`).
 The numpy build makes a temporary array per factor and per term and then stacks and concatenates
 them; this pass reads each sample's signals once and writes its row of Phi. The operations are
-numpy's, in numpy's order, on the same doubles: x + s r for a station, abs, a square as x * x
-(numpy squares an array), a reciprocal as 1 / x (numpy's power -1), the factors multiplied left to
-right (the first times 1.0, exact). So the bits are the numpy build's; a term with another power
-(numpy's vectorised pow against the C library's, see :mod:`primitives.jitloop`) keeps the numpy
-build (tests/test_regkernel.py compares the two).
+numpy's, in numpy's order, on the same doubles: x + s r for a station, abs, the power by
+:func:`primitives.powers.int_power` (the products both builds use), the factors multiplied left to
+right (the first times 1.0, exact). So the bits are the numpy build's; a term with a power pow()
+forms (outside :data:`primitives.powers.PRODUCT_POWERS`: numpy's vectorised pow against the C
+library's, see :mod:`primitives.jitloop`) keeps the numpy build (tests/test_regkernel.py compares the two).
 """
 
 from __future__ import annotations
@@ -20,9 +20,8 @@ from functools import lru_cache
 import numpy as np
 
 from primitives import jitloop
+from primitives.powers import PRODUCT_POWERS
 from primitives.terms import TermSet
-
-_EXACT_POWERS = (1, 2, -1)
 
 
 @lru_cache(maxsize=64)
@@ -42,7 +41,7 @@ def _program(terms: tuple[tuple[str, ...], ...]) -> tuple | None:
             t_first.append(len(f_sig))
             t_n.append(len(term))
             for name, modulus, station, power in term:
-                if power not in _EXACT_POWERS:
+                if power not in PRODUCT_POWERS:
                     return None
                 f_sig.append(index(name))
                 f_mod.append(int(modulus))
@@ -55,7 +54,7 @@ def _program(terms: tuple[tuple[str, ...], ...]) -> tuple | None:
 
 def regressor_matrix(terms: TermSet, sig: dict[str, np.ndarray], shape: tuple[int, ...]) -> np.ndarray | None:
     """Phi (*shape, p) from the signals ``sig`` (each broadcastable to ``shape``) in one compiled
-    pass, or None when the numpy build is to be used: a power other than 1, 2, -1, no terms or no
+    pass, or None when the numpy build is to be used: a power outside PRODUCT_POWERS, no terms or no
     samples, or the compiled code not loaded in this process (no compiler, ``SHIPTRIAL_KERNEL=numpy``,
     or no simulation large enough to load it has run yet).
 
@@ -80,18 +79,14 @@ def regressor_matrix(terms: TermSet, sig: dict[str, np.ndarray], shape: tuple[in
 @jitloop.inlined
 def _factor(x, r, station, modulus, power):
     """|x + station r|^power, one factor of a term as numpy evaluates it (module doc): the station
-    term when ``station`` is not NaN, the modulus, a square as x * x, a reciprocal as 1 / x. Shared
+    term when ``station`` is not NaN, the modulus, the power by :func:`primitives.powers.int_power`. Shared
     by :func:`_build` and :func:`_moments`; :func:`primitives.jitloop._times_factor` does the same
     arithmetic over the simulation kernel's batch layout (r at a fixed row, any power)."""
     if not math.isnan(station):
         x = x + station * r
     if modulus:
         x = abs(x)
-    if power == 2:
-        x = x * x
-    elif power == -1:
-        x = 1.0 / x
-    return x
+    return jitloop.int_power(x, power)
 
 
 @jitloop.compiled

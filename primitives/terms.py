@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from primitives.errors import UserError
+from primitives.powers import PRODUCT_POWERS, int_power
 
 Signals = Mapping[str, np.ndarray]
 
@@ -59,24 +60,23 @@ class Factor:
         x = sig[self.name] if self.station is None else sig[self.name] + self.station * sig["r"]
         if self.modulus:
             x = np.abs(x)
-        return x if self.power == 1 else x**self.power
+        return int_power(x, self.power)
 
-    def code(self, floats: bool = False) -> str:
-        """The factor as a Python expression of the s_<name> locals of the increment function.
-        ``floats``: for Python floats, a square as a product, the bits numpy gives for an array
-        (it squares an array; ``x**2`` on a float or a numpy scalar calls pow())."""
+    def code(self) -> str:
+        """The factor as a Python expression of the s_<name> locals of the increment function (the
+        power by :func:`primitives.powers.int_power`, ``_pow`` in its scope), for arrays and Python
+        floats alike."""
         expr = f"s_{self.name}" if self.station is None else f"(s_{self.name} + {self.station!r}*s_r)"
         if self.modulus:
             expr = f"abs({expr})"
-        if floats and self.power == 2:
-            return f"({expr}*{expr})"
-        return expr if self.power == 1 else f"{expr}**{self.power}"
+        return expr if self.power == 1 else f"_pow({expr}, {self.power})"
 
     @property
     def scalar_exact(self) -> bool:
         """Whether :meth:`code` on Python floats gives the bits it gives on arrays: +, *, abs and
-        squares are one IEEE operation either way; other powers call pow() on a float."""
-        return self.power in (1, 2)
+        the powers formed as products are IEEE operations either way; other powers call pow()
+        (the C library's on a float, numpy's on an array)."""
+        return self.power in PRODUCT_POWERS
 
 
 def parse_factor(factor: str) -> Factor:
@@ -161,7 +161,7 @@ class TermSet:
 
         ``floats``: the variant for signals that are Python floats (one ship stepped alone),
         which gives the bits the array function gives for one-element arrays when
-        :attr:`scalar_exact` (squares written as products, see :meth:`Factor.code`)."""
+        :attr:`scalar_exact` (powers as products, see :mod:`primitives.powers`); the same code."""
         attr = "_inc_float_fn" if floats else "_inc_fn"
         fn = getattr(self, attr, None)
         if fn is not None:
@@ -173,13 +173,13 @@ class TermSet:
         for i, dof in enumerate(self.terms):
             parts = []
             for t in dof:
-                factors = [parse_factor(f).code(floats) for f in t.split("*")]
+                factors = [parse_factor(f).code() for f in t.split("*")]
                 parts.append(f"c[{j}]*" + "*".join(factors))
                 j += 1
             lines.append(f"    d{i} = " + (" + ".join(parts) if parts else "0.0"))
         lines.append("    return [" + ", ".join(f"d{i}" for i in range(len(self.terms))) + "]")
         scope: dict = {}
-        exec("\n".join(lines), {}, scope)  # noqa: S102 - source built from validated term strings
+        exec("\n".join(lines), {"_pow": int_power}, scope)  # noqa: S102 - source built from validated term strings
         setattr(self, attr, scope["_inc"])
         return scope["_inc"]
 

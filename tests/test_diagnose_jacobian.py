@@ -99,3 +99,25 @@ def test_a_batch_list_must_have_one_batch_per_recording():
     model, preps, P, _free = _setup()
     with pytest.raises(ValueError, match="one batch per recording"):
         model.simulate_many(preps, [P[None]])
+
+
+def test_rows_given_below_are_stacked_under_the_same_bits():
+    """A fit's prior rows (``tail``) come back below the Jacobian in one array (no vstack of J a
+    step), the Jacobian's rows the bits of forward differences, by runs of adjacent columns when the
+    free parameters are not in order either."""
+    model, preps, P, free = _setup()
+    w = np.array([10.0, 20.0, 300.0])
+    shuffled = [free[2], free[0], *free[3:], free[1]]  # the columns' runs broken up
+    tail = np.arange(2.0 * len(shuffled)).reshape(2, -1)
+    for cols in (free, shuffled):
+        r_ref, J_ref = _one_batch(model, preps, P, cols, w)
+        r, J = dm.jacobian(model, preps, P, cols, w, tail=tail)
+        assert np.array_equal(r, r_ref) and J.flags.c_contiguous
+        assert np.array_equal(J, np.vstack([J_ref, tail]))
+
+
+def test_column_runs():
+    from diagnose.fitting import _column_runs
+
+    assert _column_runs([0, 1, 2, 7, 8, 4]) == [(0, 0, 3), (3, 7, 2), (5, 4, 1)]
+    assert _column_runs([]) == []

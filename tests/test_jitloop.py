@@ -263,9 +263,11 @@ def test_a_changed_helper_file_recompiles_the_cached_functions_that_inline_it(tm
 
 def _reference_open_loop(terms, coef, exo, nu0, forced):
     """open_loop in calm water (no current, no wind) in plain Python floats, member by member and
-    term by term: each term ((c * f_1) * f_2) ..., a factor |s + station r|^power by the C
-    library's pow for powers other than 1, 2 and -1 (the compiled loop's call), the terms of a DOF
-    summed left to right, the input-only increment added first."""
+    term by term: each term ((c * f_1) * f_2) ..., a factor |s + station r|^power as
+    primitives.powers.int_power forms it (products; the C library's pow for other powers), the
+    terms of a DOF summed left to right, the input-only increment added first. (stop 44: integer
+    powers as products)"""
+    from primitives.powers import int_power
     from primitives.terms import parse_factor
 
     batch, n = nu0.shape[0], forced.shape[0]
@@ -285,13 +287,7 @@ def _reference_open_loop(terms, coef, exo, nu0, forced):
                     for f in (parse_factor(s) for s in term.split("*")):
                         x = sig[f.name] if f.station is None else sig[f.name] + f.station * r
                         x = abs(x) if f.modulus else x
-                        if f.power == 2:
-                            x = x * x
-                        elif f.power == -1:
-                            x = 1.0 / x
-                        elif f.power != 1:
-                            x = math.pow(x, float(f.power))
-                        x_t = x_t * x
+                        x_t = x_t * int_power(x, f.power)
                     acc = x_t if j == 0 else acc + x_t
                 nxt.append(acc)
             u, v, r = ((q + float(forced[k, b, i])) + nxt[i] for i, q in enumerate((u, v, r)))
@@ -322,6 +318,31 @@ def test_shared_factors_and_long_terms_give_the_term_by_term_bits():
     got = jitloop.open_loop(VelocityStep(terms, coef), ["tau_x"], exo, nu0, None, None, forced)
     assert got is not None
     assert np.array_equal(got, _reference_open_loop(terms, coef, exo, nu0, forced))
+
+
+@needs_numba
+def test_factors_of_inputs_every_member_shares_give_the_term_by_term_bits():
+    """Inputs the same for every member (one column): a factor of them alone (tau_x^3, |tau_y|^3,
+    tau_x^2) is formed once a step and copied to the members, a factor with a station (it reads r)
+    per member: the bits of forming every term factor by factor for each member."""
+    rng = np.random.default_rng(11)
+    terms = TermSet(
+        [
+            ["u_r", "tau_x^3*u_r", "|tau_x|*v_r^3*U^-1", "tau_x^2"],
+            ["v_r", "tau_x^3*r", "|v_r@-2.5|*tau_x", "|tau_y|^3*v_r"],
+            ["r", "tau_x^3", "|tau_x|*r", "tau_y^2"],
+        ]
+    )
+    batch, n = 5, 60
+    coef = rng.normal(0, 1e-3, (batch, terms.n_params))
+    shared = {"tau_x": rng.normal(0, 0.3, (n, 1)), "tau_y": rng.uniform(2.0, 3.0, (n, 1))}
+    forced = rng.normal(0, 1e-4, (n, batch, 3))
+    nu0 = np.column_stack([rng.normal(1.0, 0.1, batch), rng.normal(0.05, 0.02, batch), rng.normal(0.01, 0.005, batch)])
+    got = jitloop.open_loop(VelocityStep(terms, coef), ["tau_x", "tau_y"], shared, nu0, None, None, forced)
+    assert got is not None
+    each = {k: np.repeat(v, batch, axis=1) for k, v in shared.items()}
+    assert np.array_equal(got, _reference_open_loop(terms, coef, each, nu0, forced))
+    assert np.array_equal(got, jitloop.open_loop(VelocityStep(terms, coef), ["tau_x", "tau_y"], each, nu0, None, None, forced))
 
 
 def _inlined_files_called(fn, helpers: dict, seen: set) -> set[str]:

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from diagnose.recording import RecordingError, load_recording, read_csv, read_marin_dat, write_csv
+from diagnose.recording import RecordingError, _plain_numbers, load_recording, read_csv, read_marin_dat, write_csv
 
 DATA = Path(__file__).resolve().parents[1] / "diagnose" / "data"
 
@@ -140,3 +140,40 @@ def test_kvlcc2_turning_circle_velocities_rotated_into_body_frame():
     assert rec.y[:, 0].min() > 2.0  # body surge stays positive all round the circle
     assert np.ptp(rec.psi) > 2 * np.pi  # more than a full turn kept before the 10 s stamps
     assert rec.duration_s <= 1000.0
+
+
+def _cells(n: int = 200) -> list[list[str]]:
+    """Cells of a turning circle written at 17 significant digits and in other plain spellings."""
+    t, x, y, psi = _circle(n)
+    spell = [repr, lambda v: f"{v:.17g}", lambda v: f"{v:.6e}", lambda v: f" {v!r} "]
+    return [
+        [spell[(i + j) % 4](float(v)) for j, v in enumerate((t[i], x[i], y[i], psi[i], 2.0, -0.0, 0.05, 100.0))] for i in range(n)
+    ]
+
+
+def test_plain_number_cells_are_read_as_pythons_float_reads_them(tmp_path):
+    """The whole-table reader (every cell a plain number) gives each cell's float() bits, as the
+    cell-by-cell reader does; a cell it cannot take (empty, a comment sign, quoted) goes to that
+    reader, which reads an empty cell as NaN and names a bad one."""
+    cells = _cells()
+    header = "t,x,y,psi,u,v,r,tau_x"
+    p = tmp_path / "plain.csv"
+    p.write_text("# sample_time: 0.5\n" + header + "\n" + "\n".join(",".join(r) for r in cells) + "\n", encoding="utf-8")
+    rec = read_csv(p)[0]
+    body = p.read_text(encoding="utf-8").splitlines()[1:]
+    assert _plain_numbers(header.split(","), body) is not None  # the whole-table reader read it
+    for j in range(3):  # u, v, r
+        want = np.array([float(r[4 + j]) for r in cells])
+        assert np.array_equal(rec.y[:, j], want) and np.array_equal(np.signbit(rec.y[:, j]), np.signbit(want))
+    assert np.array_equal(rec.psi, np.array([float(r[3]) for r in cells]))
+    quoted = [list(r) for r in cells]
+    quoted[5][7] = '"100.0"'  # csv unquotes it: the same recording
+    q = tmp_path / "quoted.csv"
+    q.write_text(header + "\n" + "\n".join(",".join(r) for r in quoted) + "\n", encoding="utf-8")
+    assert np.array_equal(read_csv(q, sample_time=0.5)[0].inputs_for(["tau_x"]), rec.inputs_for(["tau_x"]))
+    bad = [list(r) for r in cells]
+    bad[7][4] = "2.0 # note"  # not a comment: a bad cell, said
+    b = tmp_path / "bad.csv"
+    b.write_text(header + "\n" + "\n".join(",".join(r) for r in bad) + "\n", encoding="utf-8")
+    with pytest.raises(RecordingError, match=r"row 9, column 'u'"):
+        read_csv(b, sample_time=0.5)

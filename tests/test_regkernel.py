@@ -1,6 +1,6 @@
 """The compiled regressor build (primitives.regkernel) against the numpy build it replaces: the same
-bits for every built-in profile's predictor and for terms with stations, moduli, squares and
-reciprocals; a term set with another power keeps the numpy build; the build never loads numba. The numpy build runs whenever
+bits for every built-in profile's predictor and for terms with stations, moduli and the powers
+formed as products (primitives.powers); a term set with another power keeps the numpy build; the build never loads numba. The numpy build runs whenever
 numba is missing or SHIPTRIAL_KERNEL=numpy is set (tests/test_jitloop.py checks the selection)."""
 
 from __future__ import annotations
@@ -70,10 +70,23 @@ def test_stations_moduli_squares_and_reciprocals(monkeypatch):
     assert np.array_equal(compiled, numpy_phi, equal_nan=True)
 
 
+@needs_numba
+def test_cubes_fourth_powers_and_inverse_squares_are_built_compiled_with_the_numpy_bits(monkeypatch):
+    """v_r^3, |v_r@1.3|^4, U^-2 (the MMG structure's powers) are products on both builds (stop 44:
+    integer powers as products), so the compiled build covers them with the numpy build's bits."""
+    assert jitloop.use(jitloop.MIN_WORK)
+    profile = load_profile("model-ship")
+    terms = TermSet([["u_r", "v_r^4*U^-2", "tau_x"], ["v_r^3", "|v_r@1.3|^4*r^3", "tau_y"], ["r^3*U^-2", "U^-1*v_r^3", "tau_n"]])
+    y, inputs, psi = _data(profile, seed=5)
+    assert regkernel._program(terms.terms) is not None
+    compiled = predictor_regressors(profile, y, inputs, psi, terms=terms)[0]
+    assert np.array_equal(compiled, _numpy_build(monkeypatch, profile, y, inputs, psi, terms=terms))
+
+
 def test_other_powers_keep_the_numpy_build():
-    """v_r^3: numpy's vectorised power and the C library's pow may differ in the last bit."""
+    """v_r^5: numpy's vectorised power and the C library's pow may differ in the last bit."""
     jitloop.use(jitloop.MIN_WORK)
-    terms = TermSet([["u_r"], ["v_r^3", "tau_y"], ["r"]])
+    terms = TermSet([["u_r"], ["v_r^5", "tau_y"], ["r"]])
     assert regkernel._program(terms.terms) is None
     assert regkernel.regressor_matrix(terms, {"u_r": np.ones(3)}, (3,)) is None
 

@@ -71,11 +71,12 @@ def test_fused_moments_fall_back_without_the_compiler(monkeypatch):
 
 @needs_numba
 def test_fused_moments_fall_back_for_a_term_set_the_pass_does_not_build(monkeypatch):
-    """A power other than 1, 2, -1 (v_r^3): the compiled pass is not used, the moments are those of Phi exactly."""
+    """A power pow() forms (v_r^5; stop 44: integer powers as products, v_r^3 is built): the compiled pass is not
+    used, the moments are those of Phi exactly."""
     assert jitloop.use(jitloop.MIN_WORK)
     profile, runs = _draw_states("model-ship", n_draws=4, n_prims=1)
     t = profile.predictor.terms
-    profile = dataclasses.replace(profile, predictor_terms=(t[0], t[1] + ("v_r^3",), t[2]))
+    profile = dataclasses.replace(profile, predictor_terms=(t[0], t[1] + ("v_r^5",), t[2]))
     nu, inputs, psi = runs[0]
     blocks = [profile.predictor.dof_slice(i) for i in range(3)]
     monkeypatch.setattr(regkernel, "_moments", lambda *a: pytest.fail("the compiled pass ran"))
