@@ -63,12 +63,51 @@ def null_records(
     blocks = n // prior.block if prior.model_error > 0 else 0
     sds = (prior.noise.get("r", 0.0), *(prior.noise.get(k, 0.0) for k in clean))
     z = normals(seed, runs, n, len(clean), blocks, draws, scale=sds)  # the noise itself: scaled once per job
+    offsets = misfit_offsets(prior, n, runs, None, z[-1] if blocks else np.zeros((0, runs)))
+    if derive is None or getattr(derive, "linear", False):  # a Derive without ``linear``: not known to be linear
+        # before _measured: it may write the yaw rate's noise over z[0]
+        inputs = _linear_inputs(prior, clean, r_true, z, derive, draws)
+        return _measured(r_true, z[0]) - simulate_r(prior.kind, prior.values, inputs, prior.dt, r0=r0) + offsets
     r_meas = _measured(r_true, z[0])
     noisy = {k: _measured(s[:, None], zk) for (k, s), zk in zip(clean.items(), z[1:])}
-    if derive is not None:
-        noisy = derive(noisy, r_meas)
-    offsets = misfit_offsets(prior, n, runs, None, z[-1] if blocks else np.zeros((0, runs)))
-    return r_meas - prior.predict(noisy, r0=r0) + offsets
+    return r_meas - prior.predict(derive(noisy, r_meas), r0=r0) + offsets
+
+
+def _linear_inputs(
+    prior: YawPrior,
+    clean: dict[str, np.ndarray],
+    r_true: np.ndarray,
+    z: list[np.ndarray],
+    derive: Derive | None,
+    draws: dict | None,
+) -> dict[str, np.ndarray]:
+    """The prior's inputs (n, runs) of the no-change records measured with the noise ``z`` (scaled,
+    :func:`normals`), as the inputs of the clean signals plus those of the noise alone.
+
+    The records' inputs are ``F(D(s + e, r + e_r))``: D the derivation (``derive``, identity when
+    None) and F the prior's input filter (:meth:`YawPrior.inputs`: the complementary sway filter
+    and the zero-phase 4th-order Butterworth low-pass, :func:`identify.detect.yawmodel.model_inputs`),
+    linear recursions. When D is linear too (``derive.linear``: the pod yaw moment measured, not
+    computed from the motion by the pods' model (2.12)), ``F(D(s + e)) = F(D(s)) + F(D(e))``: the
+    noise's share is the same for every recording of one length and derivation (the same draws),
+    filtered once per job and kept in ``draws``; only the clean signals' one column is filtered per
+    recording. The yaw row (2.17) is nonlinear in its inputs, so the sum is taken before it, never
+    after. The two sums differ by rounding only: thresholds within 1e-11 relative of filtering
+    ``s + e`` (tests/test_detect.py)."""
+    names = tuple(clean)
+    form = (names, prior.dt, prior.prefilter_hz, None if derive is None else derive.form)
+    if draws is not None and draws.get("inputs_form") == form:
+        noise = draws["inputs"]
+    else:
+        e = {k: zk.T for k, zk in zip(names, z[1:])}
+        noise = prior.inputs(e if derive is None else derive(e, z[0].T))
+        if draws is not None:
+            for a in noise.values():  # shared with the next recordings of this length
+                a.flags.writeable = False
+            draws.update(inputs_form=form, inputs=noise)
+    cols = {k: s[:, None] for k, s in clean.items()}
+    signal = prior.inputs(cols if derive is None else derive(cols, r_true))
+    return {k: signal[k] + noise[k] for k in signal}
 
 
 def normals(
