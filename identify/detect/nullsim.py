@@ -49,7 +49,12 @@ def null_records(
 
     The records' noise is the same for every recording of the same length given the same
     ``seed`` (:func:`normals`): ``draws``, a dict a caller keeps over a job of many recordings
-    (:func:`identify.detect.batch.detect_all`), holds the last recording's draws for the next."""
+    (:func:`identify.detect.batch.detect_all`), holds the last recording's draws for the next.
+
+    When ``derive`` is linear in the signals (``derive.linear``: the recording measures the pod yaw
+    moment; or no ``derive``) the noise's share of the prior's inputs is filtered apart from the
+    signals', once per job (:func:`_linear_inputs`; the same records to rounding); else signal and
+    noise are filtered together, as measured. A ``derive`` without ``linear`` is taken as nonlinear."""
     x = np.array([prior.values[k] / NOMINAL[k] for k in prior.names])
     deltas = parameter_draws(prior, runs, seed)
     # the bootstrap's B refits are cycled over the runs: B distinct ships, each simulated once (a column's
@@ -64,7 +69,7 @@ def null_records(
     sds = (prior.noise.get("r", 0.0), *(prior.noise.get(k, 0.0) for k in clean))
     z = normals(seed, runs, n, len(clean), blocks, draws, scale=sds)  # the noise itself: scaled once per job
     offsets = misfit_offsets(prior, n, runs, None, z[-1] if blocks else np.zeros((0, runs)))
-    if derive is None or getattr(derive, "linear", False):  # a Derive without ``linear``: not known to be linear
+    if derive is None or getattr(derive, "linear", False):
         # before _measured: it may write the yaw rate's noise over z[0]
         inputs = _linear_inputs(prior, clean, r_true, z, derive, draws)
         return _measured(r_true, z[0]) - simulate_r(prior.kind, prior.values, inputs, prior.dt, r0=r0) + offsets
