@@ -112,7 +112,8 @@ def _linear_inputs(
             draws.update(inputs_form=form, inputs=noise)
     cols = {k: s[:, None] for k, s in clean.items()}
     signal = prior.inputs(cols if derive is None else derive(cols, r_true))
-    return {k: signal[k] + noise[k] for k in signal}
+    # a recording alone (nothing kept): the sum written over its own noise's share, no second copy
+    return {k: np.add(noise[k], signal[k], out=noise[k]) if noise[k].flags.writeable else signal[k] + noise[k] for k in signal}
 
 
 def normals(
