@@ -75,8 +75,8 @@ class Deriver:
         derive(s + e, r + e_r) = derive(s, r) + derive(e, e_r) (to rounding).
 
         True exactly when the recording measures the pod yaw moment: tau_r is then the measured
-        tau_n, and the only derived input is v' = dv/dt (a Savitzky-Golay derivative, linear), or
-        the measured v'. From the pod inputs, tau_r is the pods' moment tau_n of (2.12) (the
+        tau_n, and the only derived input is v' = dv/dt (a Savitzky-Golay derivative: a convolution
+        and least-squares fits at the edges, both linear), or the measured v'. From the pod inputs, tau_r is the pods' moment tau_n of (2.12) (the
         thesis's pod forces), nonlinear in the motion (the drift angle atan(v/u), the inflow speed
         squared) and a function of r: False."""
         return self.pods is None
