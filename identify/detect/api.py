@@ -12,9 +12,10 @@ from pathlib import Path
 import numpy as np
 
 from diagnose.recording import NUMERIC, Recording, RecordingError, load_recording, split_metadata
-from identify.detect.checks import MOMENT, check_inputs, check_moment_sign, time_derivative
+from identify.detect.checks import MOMENT, check_inputs, check_moment_sign
 from identify.detect.cusum import calibrate_dead_zone, first_alarms
 from identify.detect.glr import SignatureCusum, calibrate
+from identify.detect.inputs import POD_COLUMNS, SWAY_ACC, Deriver, signals
 from identify.detect.nullsim import null_records
 from identify.detect.priorfit import fit
 from identify.detect.rollband import roll_band
@@ -22,21 +23,15 @@ from identify.detect.verdict import Detection, Screening, implausible_inertia, p
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
 from identify.detect.yawmodel import (
     CANDIDATES,
-    PREFILTER_HZ,
     SIGNALS,
     YawPrior,
     block_mean,
-    model_inputs,
     signatures,
+    simulate_r,
 )
-from identify.yawid.experiment import pod_yaw_moment
 from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
 from primitives.ship import load_profile
-
-POD_COLUMNS = ("n1", "alpha1", "n2", "alpha2")
-SWAY_ACC = "v_dot"  # measured sway acceleration, m/s^2 (Table 4.1 of seed 000 measures it)
-
 
 #: columns ``detect`` and ``detect-prior`` read (besides the recording format's t, x, y or lat, lon, psi, u, v)
 KNOWN_COLUMNS = ("t", "x", "y", "lat", "lon", "psi", "u", "v", "r", "phi", "p", MOMENT, SWAY_ACC, *POD_COLUMNS, "segment")
@@ -107,77 +102,6 @@ def _header(path: Path) -> list[str]:
     return [h.strip() for h in body[0].split(",")] if body else []
 
 
-def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """The yaw row's measured inputs and the measured yaw rate of one recording.
-
-    v' is the recording's ``v_dot`` column (measured sway acceleration, m/s^2) when it has one,
-    else a Savitzky-Golay derivative of v (2 s window; a smoothed v' that biases the prior's
-    I_r); tau_r is the recording's ``tau_n`` column (measured pod yaw moment, N m) when it has
-    one, else the pods' yaw moment from the pod inputs and the low-passed measured motion (u,
-    v fused with v', r, and the roll rate: column ``p``, else the rate of phi) -- noise on the
-    motion then enters tau_r and biases the prior (+12 to +14 % on I_r in 400 s at Table 4.1 noise)."""
-    u, v, r = rec.y[:, 0], rec.y[:, 1], rec.y[:, 2]
-    sig = {"u": u, "v": v} | ({"tau_r": rec.channels[MOMENT]} if MOMENT in rec.channels else {})
-    if "phi" in SIGNALS[kind]:
-        if "phi" not in rec.channels:
-            raise RecordingError(
-                f"{rec.source}: no column 'phi' (roll, rad) that the full model (2.17) needs; "
-                "add it or use the simplified model (--model simplified)"
-            )
-        sig["phi"] = rec.channels["phi"]
-        if SWAY_ACC in rec.channels:
-            sig["v_dot"] = rec.channels[SWAY_ACC]
-    if "p" in SIGNALS[kind]:
-        if "p" not in rec.channels:
-            raise RecordingError(
-                f"{rec.source}: no column 'p' (roll rate, rad/s) that the prior's yaw row needs (its "
-                "roll-rate term N_p p); add it, or refit the prior with detect-prior --no-roll-rate"
-            )
-        sig["p"] = rec.channels["p"]
-    return _deriver(rec, kind)(sig, r), r
-
-
-def _deriver(rec: Recording, kind: str):
-    """``derive(sig, r) -> sig``: the model inputs SIGNALS[kind] from measured u, v (, phi, v_dot)
-    and r, each (n,) or (n, runs) (the no-change simulation derives them as for the recording)."""
-    dt = rec.sample_time
-    measured_tau = MOMENT in rec.channels
-    # the recording's pod angles alpha_i are the profile's inputs delta_i
-    pods = {} if measured_tau else {c.replace("alpha", "delta"): rec.channels[c] for c in POD_COLUMNS}
-    p_rec = rec.channels.get("p")
-    measured_vdot = SWAY_ACC in rec.channels
-
-    def rate(x: np.ndarray) -> np.ndarray:
-        return time_derivative(x, dt)
-
-    def derive(sig: dict[str, np.ndarray], r: np.ndarray) -> dict[str, np.ndarray]:
-        out = dict(sig)
-        v = sig["v"]
-        col = (slice(None),) + (None,) * (v.ndim - 1)  # recorded channels broadcast over runs
-        if "v_dot" in SIGNALS[kind] and not measured_vdot:
-            out["v_dot"] = rate(v)
-        if measured_tau:
-            return {k: out[k] for k in SIGNALS[kind]}
-        # roll rate moves the pods sideways (z_pod p): measured p, else the rate of the measured roll
-        if "p" in sig:  # the prior's own roll-rate input (noisy in the no-change records)
-            p = sig["p"]
-        elif p_rec is not None:
-            p = np.broadcast_to(p_rec[col], v.shape)
-        else:
-            p = rate(sig["phi"]) if "phi" in sig else np.zeros_like(v)
-        # the pod model is nonlinear in the motion (drift angle, speed squared): feed it the
-        # low-passed motion (v fused with v'), as the prior's inputs are, so noise does not bias tau_r
-        motion = model_inputs(
-            {"u": sig["u"], "v": v, "r": r, "p": p} | ({"v_dot": out["v_dot"]} if "v_dot" in out else {}), dt, PREFILTER_HZ
-        )
-        out["tau_r"] = pod_yaw_moment(
-            base_profile(), {k: x[col] for k, x in pods.items()}, **{k: motion[k] for k in ("u", "v", "r", "p")}
-        )
-        return {k: out[k] for k in SIGNALS[kind]}
-
-    return derive
-
-
 def fit_prior(
     paths: list[Path] | list[str],
     kind: str = "full",
@@ -201,7 +125,9 @@ def fit_prior(
     if np.ptp(r) < 1e-3:
         raise RecordingError(f"{rec.source}: the yaw rate hardly moves (range {np.ptp(r):.1e} rad/s); a prior needs turning")
     check_moment_sign(rec, sig["tau_r"], r)
-    return fit(kind, sig, r, rec.sample_time, source=str(rec.source), bootstrap=bootstrap, seed=seed, derive=_deriver(rec, kind))
+    return fit(
+        kind, sig, r, rec.sample_time, source=str(rec.source), bootstrap=bootstrap, seed=seed, derive=Deriver.of(rec, kind)
+    )
 
 
 def hull_inertia(
@@ -312,13 +238,14 @@ def screen(
         )
     sig, r = signals(rec, prior.kind)
     r0 = float(np.mean(r[:5]))
-    eps = r - prior.predict(sig, r0=r0)
-    residual_rms = check_inputs(rec, prior, sig, r, eps)
-    S = signatures(prior, sig)
+    w = prior.inputs(sig)  # filtered once for the prediction, the input checks and the signatures
+    eps = r - simulate_r(prior.kind, prior.values, w, prior.dt, r0=r0)
+    residual_rms = check_inputs(rec, prior, sig, r, eps, w)
+    S = signatures(prior, sig, inputs=w)
     if i_z is not None and n_rdot is not None and not (i_z > 0 and n_rdot < 0):
         raise ValueError(f"i_z {i_z:g} must be positive and n_rdot {n_rdot:g} negative (kg m^2)")
     with np.errstate(over="ignore", invalid="ignore"):  # a diverging draw is counted below, not printed as numpy's
-        null_raw = null_records(prior, sig, null_runs, seed, derive=_deriver(rec, prior.kind), r0=r0, draws=draws)
+        null_raw = null_records(prior, sig, null_runs, seed, derive=Deriver.of(rec, prior.kind), r0=r0, draws=draws)
     # a bootstrap draw whose ship cannot be simulated on this manoeuvre (diverged) is no no-change record:
     # left in, its NaNs made every threshold NaN and the recording silently unable to alarm. Left out, the
     # thresholds are low if the diverging draws are the prior's largest parameter errors: detect warns

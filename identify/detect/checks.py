@@ -51,15 +51,23 @@ def check_moment_sign(rec: Recording, tau_r: np.ndarray, r: np.ndarray) -> None:
             )
 
 
-def check_inputs(rec: Recording, prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray, eps: np.ndarray) -> float:
+def check_inputs(
+    rec: Recording,
+    prior: YawPrior,
+    sig: dict[str, np.ndarray],
+    r: np.ndarray,
+    eps: np.ndarray,
+    inputs: dict[str, np.ndarray] | None = None,
+) -> float:
     """Refuse a recording the prior cannot describe at all (an input error, not a change): a
     measured pod yaw moment of the wrong sign (:func:`check_moment_sign`) or off the moment the
     prior needs to turn the ship as recorded by more than MOMENT_FACTOR (tau_n in kN m, x1000:
     :func:`moment_scale`), a recording that turns the ship too little for
     either check (the two moments correlate less than MOMENT_CORRELATION: a straight run, which
     read as a +100 % change before), or a prediction residual not finite or over MISFIT_SIGMAS
-    times the prior's noise sigma. Returns the residual's rms."""
-    k, c = moment_scale(prior, sig, r) if MOMENT in rec.channels else (1.0, 1.0)
+    times the prior's noise sigma. Returns the residual's rms. ``inputs``: ``prior.inputs(sig)``
+    when the caller has it already."""
+    k, c = moment_scale(prior, sig, r, inputs) if MOMENT in rec.channels else (1.0, 1.0)
     off_unit = not 1 / MOMENT_FACTOR <= k <= MOMENT_FACTOR
     if off_unit and abs(c) < MOMENT_CORRELATION:
         raise RecordingError(
@@ -86,15 +94,18 @@ def check_inputs(rec: Recording, prior: YawPrior, sig: dict[str, np.ndarray], r:
     return rms
 
 
-def moment_scale(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray) -> tuple[float, float]:
+def moment_scale(
+    prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray, inputs: dict[str, np.ndarray] | None = None
+) -> tuple[float, float]:
     """How many times the yaw moment the prior's row needs to turn the ship as recorded is the
     recorded actuator moment: the least-squares slope of ``I_r r' - sum_j theta_j phi_j(r, w)``
     ((2.17)/(2.18) solved for tau_r, with the measured r low-passed like the inputs and r' its
     Savitzky-Golay rate) on ``tau_r``. About 1 for a recording of the ship in the units the prior
     was fitted in (within the change of its properties); 1000 for a moment given in kN m as N m.
     Returns the slope and the correlation of the two moments (near 0 when the recording hardly
-    turns the ship: the slope is then noise, not a unit)."""
-    w = prior.inputs(sig)
+    turns the ship: the slope is then noise, not a unit). ``inputs``: ``prior.inputs(sig)`` when
+    the caller has it already."""
+    w = prior.inputs(sig) if inputs is None else inputs
     rl = model_inputs({"r": r}, prior.dt, prior.prefilter_hz)["r"]
     rest = np.zeros_like(rl)
     for name in YAW_MODELS[prior.kind].params[1:]:  # after I_r

@@ -184,13 +184,11 @@ def fuse_sway(v: np.ndarray, v_dot: np.ndarray, dt: float, crossover_hz: float =
     v enters the yaw row through |v| and the pods' drift angle, nonlinearly, so its noise biases
     (errors in variables); at Table 4.1 noise (v 0.15 m/s, v' 0.015 m/s^2, 10 Hz) the fused v
     errs by about 0.016 m/s rms against 0.045 m/s for v low-passed at 0.5 Hz. Time along ``axis``."""
-    from scipy.signal import butter
-
-    from primitives.zerophase import filtfilt  # scipy's, compiled for the no-change records' rows (the same bits)
+    from primitives.zerophase import filtfilt, lowpass  # scipy's, compiled for the no-change records' rows (the same bits)
 
     iv = np.cumsum(v_dot, axis=axis) - v_dot  # the integral up to the sample before
     iv *= dt
-    b, a = butter(2, crossover_hz, fs=1.0 / dt)
+    b, a = lowpass(2, crossover_hz, 1.0 / dt)
     return filtfilt(b, a, v, axis=axis) + iv - filtfilt(b, a, iv, axis=axis)
 
 
@@ -267,14 +265,18 @@ def whiten(x: np.ndarray, ar: np.ndarray) -> np.ndarray:
     return out
 
 
-def signatures(prior: YawPrior, sig: dict[str, np.ndarray], rel: float = 0.05) -> np.ndarray:
+def signatures(
+    prior: YawPrior, sig: dict[str, np.ndarray], rel: float = 0.05, inputs: dict[str, np.ndarray] | None = None
+) -> np.ndarray:
     """``S`` (n, 3): the change of r_hat per unit relative change of each candidate in CANDIDATES
-    (yaw inertia, all damping terms together, actuator gain) on the manoeuvre ``sig``."""
+    (yaw inertia, all damping terms together, actuator gain) on the manoeuvre ``sig`` (``inputs``:
+    ``prior.inputs(sig)`` when the caller has it already)."""
     names = prior.names
     base = np.array([prior.values[k] / NOMINAL[k] for k in names])
     cols = np.repeat(base[:, None], 4, axis=1)
     cols[names.index("I_r"), 1] *= 1 + rel
     cols[[names.index(k) for k in DAMPING if k in names], 2] *= 1 + rel
     gain = np.array([1.0, 1.0, 1.0, 1 + rel])
-    r = simulate_r(prior.kind, cols, {k: s[:, None] for k, s in prior.inputs(sig).items()}, prior.dt, gain=gain)
+    w = prior.inputs(sig) if inputs is None else inputs
+    r = simulate_r(prior.kind, cols, {k: s[:, None] for k, s in w.items()}, prior.dt, gain=gain)
     return (r[:, 1:] - r[:, :1]) / rel

@@ -14,12 +14,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter
 
 from identify.yawid import yawloop
 from identify.yawid.experiment import YawData
 from identify.yawid.model import INPUT_TERMS, NEGATIVE, STATE_TERMS, YawModel
-from primitives.zerophase import filtfilt
+from primitives.zerophase import filtfilt, lowpass
 
 
 @dataclass
@@ -140,7 +139,7 @@ def prefilter(w: dict[str, np.ndarray], ts: float, cutoff_hz: float, axis: int =
     variables, L1882-1884), so their white noise above the manoeuvre's bandwidth only biases the
     estimates (through |v|, |uv|: E|v + e| > |v|) and adds noise to the prediction. scipy's
     filtfilt, compiled for many rows (:func:`primitives.zerophase.filtfilt`, the same bits)."""
-    b, a = butter(4, cutoff_hz, fs=1.0 / ts)
+    b, a = lowpass(4, cutoff_hz, 1.0 / ts)
     return {k: filtfilt(b, a, v, axis=axis) for k, v in w.items()}
 
 
