@@ -237,7 +237,7 @@ class VelocityStep:
         # one ship in calm water and air stepped on Python floats (:meth:`next_one`): the same
         # increment function and coefficients, about a sixth of the time of a batch of one
         self.scalar = rigid is None and not self.wind_excess and not self.speed and theta.ndim == 1 and terms.scalar_exact
-        self.inc_floats = terms.increment_function(floats=True) if self.scalar else None
+        self.inc_floats = self.inc if self.scalar else None
 
     def increments(
         self,

@@ -155,15 +155,14 @@ class TermSet:
         """Regressor block of DOF i: array of shape (..., n_terms_i)."""
         return np.stack([fn(sig) for fn in self._fns[i]], axis=-1)
 
-    def increment_function(self, floats: bool = False) -> Callable[[Signals, Sequence], list[np.ndarray]]:
+    def increment_function(self) -> Callable[[Signals, Sequence], list[np.ndarray]]:
         """Increment function generated once from the term strings: one Python expression per
         DOF instead of a loop over factor closures (this is the simulators' inner loop).
 
-        ``floats``: the variant for signals that are Python floats (one ship stepped alone),
-        which gives the bits the array function gives for one-element arrays when
-        :attr:`scalar_exact` (powers as products, see :mod:`primitives.powers`); the same code."""
-        attr = "_inc_float_fn" if floats else "_inc_fn"
-        fn = getattr(self, attr, None)
+        The same function serves arrays and Python floats (one ship stepped alone): on floats it
+        gives the bits it gives for one-element arrays when :attr:`scalar_exact` (powers as
+        products, :mod:`primitives.powers`)."""
+        fn = getattr(self, "_inc_fn", None)
         if fn is not None:
             return fn
         names = sorted(signals_used(self.terms))
@@ -180,7 +179,7 @@ class TermSet:
         lines.append("    return [" + ", ".join(f"d{i}" for i in range(len(self.terms))) + "]")
         scope: dict = {}
         exec("\n".join(lines), {"_pow": int_power}, scope)  # noqa: S102 - source built from validated term strings
-        setattr(self, attr, scope["_inc"])
+        self._inc_fn = scope["_inc"]
         return scope["_inc"]
 
     @property

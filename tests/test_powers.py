@@ -38,5 +38,5 @@ def test_the_generated_increment_function_gives_the_factor_values():
     got = terms.increment_function()(sig, [1.0, 1.0, 1.0])
     for i in range(terms.n_dof):
         assert np.array_equal(got[i], 1.0 * terms.evaluate_dof(i, sig)[..., 0])
-    one = terms.increment_function(floats=True)({k: float(v[7]) for k, v in sig.items()}, [1.0, 1.0, 1.0])
+    one = terms.increment_function()({k: float(v[7]) for k, v in sig.items()}, [1.0, 1.0, 1.0])
     assert one == [float(g[7]) for g in got]

@@ -31,22 +31,26 @@ def signals(rec: Recording, kind: str) -> tuple[dict[str, np.ndarray], np.ndarra
     u, v, r = rec.y[:, 0], rec.y[:, 1], rec.y[:, 2]
     sig = {"u": u, "v": v} | ({"tau_r": rec.channels[MOMENT]} if MOMENT in rec.channels else {})
     if "phi" in SIGNALS[kind]:
-        if "phi" not in rec.channels:
-            raise RecordingError(
-                f"{rec.source}: no column 'phi' (roll, rad) that the full model (2.17) needs; "
-                "add it or use the simplified model (--model simplified)"
-            )
-        sig["phi"] = rec.channels["phi"]
+        sig["phi"] = _column(
+            rec, "phi", "(roll, rad) that the full model (2.17) needs; add it or use the simplified model (--model simplified)"
+        )
         if SWAY_ACC in rec.channels:
             sig["v_dot"] = rec.channels[SWAY_ACC]
     if "p" in SIGNALS[kind]:
-        if "p" not in rec.channels:
-            raise RecordingError(
-                f"{rec.source}: no column 'p' (roll rate, rad/s) that the prior's yaw row needs (its "
-                "roll-rate term N_p p); add it, or refit the prior with detect-prior --no-roll-rate"
-            )
-        sig["p"] = rec.channels["p"]
+        sig["p"] = _column(
+            rec,
+            "p",
+            "(roll rate, rad/s) that the prior's yaw row needs (its roll-rate term N_p p); add it, or refit the "
+            "prior with detect-prior --no-roll-rate",
+        )
     return Deriver.of(rec, kind)(sig, r), r
+
+
+def _column(rec: Recording, name: str, why: str) -> np.ndarray:
+    """The recording's column ``name``; without it, a RecordingError saying ``why`` it is needed."""
+    if name not in rec.channels:
+        raise RecordingError(f"{rec.source}: no column '{name}' {why}")
+    return rec.channels[name]
 
 
 @dataclass(frozen=True, eq=False)

@@ -41,13 +41,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, filtfilt, lfilter
+from scipy.signal import filtfilt, lfilter
 
 from identify.rollmass.model import Known, Load, RollProfile, load_restoring
 from identify.rollmass.restoring import gravity_excess, heel_gain, heel_signal
 from identify.rollmass.sandwich import central_jacobian
 from identify.rollmass.sensitivity import dataset_jacobian, fir, free_basis, lag_derivative, modal
 from identify.rollmass.simulate import RollRecording
+from primitives.zerophase import lowpass
 
 # Shared parameters: sway (minus added mass, damping, yaw coupling, rudder), roll (3)-(5), yaw
 # row divided by its inertia (its scale is not identifiable from the rudder alone).
@@ -298,13 +299,22 @@ def speed_variation(rec: RollRecording) -> tuple[float, float]:
     at under twice the filter's frequency (the split is then not made), and for a ``u`` not finite and
     positive (a ship going astern is not this model; ``shiptrial mass`` refuses such a column,
     :func:`identify.rollmass.recording.read_roll_csv`)."""
-    if rec.u is None or SPEED_LP_HZ * rec.n * rec.T < 2.0 or SPEED_LP_HZ * rec.T >= 0.5:
+    split = _speed_split(rec)
+    if split is None:
         return float("nan"), float("nan")
-    if not np.all(np.isfinite(rec.u) & (rec.u > 0.0)):
-        return float("nan"), float("nan")
-    s = rec.u / np.mean(rec.u)
-    slow = filtfilt(*butter(2, SPEED_LP_HZ, fs=1.0 / rec.T), s, padtype="even")
+    s, slow = split
     return float(np.std(slow)), float(np.std(s - slow))
+
+
+def _speed_split(rec: RollRecording) -> tuple[np.ndarray, np.ndarray] | None:
+    """``u / mean(u)`` and its part below :data:`SPEED_LP_HZ`, or None where :func:`speed_variation`
+    makes no split."""
+    if rec.u is None or SPEED_LP_HZ * rec.n * rec.T < 2.0 or SPEED_LP_HZ * rec.T >= 0.5:
+        return None
+    if not np.all(np.isfinite(rec.u) & (rec.u > 0.0)):
+        return None
+    s = rec.u / np.mean(rec.u)
+    return s, filtfilt(*lowpass(2, SPEED_LP_HZ, 1.0 / rec.T), s, padtype="even")
 
 
 def followed_speed(rec: RollRecording) -> np.ndarray | None:
@@ -329,11 +339,12 @@ def followed_speed(rec: RollRecording) -> np.ndarray | None:
     one at 1.52)."""
     if SPEED_LP_HZ <= 0.0 and rec.u is not None:  # no low-pass (a test's switch): the variation as given
         return rec.u / np.mean(rec.u)
-    slow_sd, fast_sd = speed_variation(rec)
-    if not (slow_sd >= SPEED_NOISE_RATIO * fast_sd and slow_sd >= SPEED_VAR_MIN):  # NaN: held
+    split = _speed_split(rec)
+    if split is None:
         return None
-    s = rec.u / np.mean(rec.u)
-    return filtfilt(*butter(2, SPEED_LP_HZ, fs=1.0 / rec.T), s, padtype="even")
+    s, slow = split
+    slow_sd, fast_sd = np.std(slow), np.std(s - slow)
+    return slow if slow_sd >= SPEED_NOISE_RATIO * fast_sd and slow_sd >= SPEED_VAR_MIN else None
 
 
 def _whitener(e: np.ndarray, order: int) -> np.ndarray:
