@@ -12,7 +12,7 @@ from expdesign.estimators import OE_TOL
 from expdesign.mc_parallel import MCEvaluation
 from expdesign.mc_result import PARAM_THRESHOLD, SIM_THRESHOLD, THESIS_FRACTIONS, MCResult
 from expdesign.robust_report import robust_markdown
-from primitives.io import atomic_savefig, atomic_write_bytes, atomic_write_text, dumps
+from primitives.io import atomic_savefig, atomic_write_bytes, atomic_write_text, dumps, figure_png
 
 
 def _certificate_line(doc: dict[str, Any], cert: dict[str, Any]) -> str:
@@ -188,9 +188,7 @@ def _plt():
 
 def ratios_png(design: Design, thesis: dict[str, float] | None = None) -> bytes:
     """Bar chart: optimized, convex-relaxation and rounded shares per primitive (+ thesis), as
-    PNG bytes (110 dpi)."""
-    import io
-
+    PNG bytes (110 dpi, :func:`primitives.io.figure_png`)."""
     plt = _plt()
     names = list(design.weights)
     x = np.arange(len(names))
@@ -207,12 +205,10 @@ def ratios_png(design: Design, thesis: dict[str, float] | None = None) -> bytes:
     ax.legend(fontsize=8)
     # fixed margins (0.75 in left, 0.15 right, 0.4 top, 0.45 bottom): tight_layout measured every label again
     fig.subplots_adjust(left=0.75 / 9, right=1 - 0.15 / 9, top=1 - 0.4 / 3.6, bottom=0.45 / 3.6)
-    buf = io.BytesIO()
     try:
-        fig.savefig(buf, format="png", dpi=110)
+        return figure_png(fig, 110)
     finally:
         plt.close(fig)
-    return buf.getvalue()
 
 
 def plot_ratios(design: Design, path: Path, thesis: dict[str, float] | None = None) -> None:

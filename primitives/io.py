@@ -68,6 +68,41 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
+PNG_LEVEL = 1  # zlib level of figure_png: as RGB, about the size of matplotlib's RGBA at its level 6
+
+
+def figure_png(fig: Any, dpi: float) -> bytes:
+    """``fig`` as PNG bytes at ``dpi``: drawn by matplotlib's ``savefig`` (as raw RGBA, the pixels
+    its PNG would hold), encoded here as RGB when every pixel is opaque (a figure on its white
+    background: the same picture without an alpha channel to compress) at zlib level
+    :data:`PNG_LEVEL`, with the text and resolution matplotlib writes (Software, dpi). Encoding
+    matplotlib's RGBA at level 6 was 10-26 % of each of ``plan-trial``'s figures' CPU (py-spy);
+    this halves it, the four PNGs 446 kB before, 451 kB after. A figure with a transparent pixel,
+    or whose raw size is not its size in inches times ``dpi``, is written by matplotlib as before."""
+    import io
+
+    import matplotlib
+    import numpy as np
+    from PIL import Image, PngImagePlugin
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="rgba", dpi=dpi)
+    w_in, h_in = fig.get_size_inches()
+    w, h = int(w_in * dpi), int(h_in * dpi)  # the Agg canvas's size (FigureCanvasAgg.get_width_height)
+    rgba = np.frombuffer(buf.getbuffer(), np.uint8)
+    if rgba.size != w * h * 4 or rgba[3::4].min() < 255:
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=dpi)
+        return buf.getvalue()
+    info = PngImagePlugin.PngInfo()
+    info.add_text("Software", f"Matplotlib version{matplotlib.__version__}, https://matplotlib.org/")
+    out = io.BytesIO()
+    Image.frombuffer("RGBA", (w, h), rgba, "raw", "RGBA", 0, 1).convert("RGB").save(
+        out, format="png", pnginfo=info, dpi=(dpi, dpi), compress_level=PNG_LEVEL
+    )
+    return out.getvalue()
+
+
 def atomic_savefig(fig: Any, path: str | Path, **kw: Any) -> Path:
     """Save a matplotlib figure atomically (format from the suffix)."""
     import io

@@ -19,7 +19,7 @@ import numpy as np  # noqa: E402
 from maps.export._common import KN_PER_MPS, step_slice  # noqa: E402
 from maps.export.mapplot import annotate_steps, draw_map, lon_ticks, primitive_colours, step_colour  # noqa: E402
 from maps.plan import Plan  # noqa: E402
-from primitives.io import atomic_savefig  # noqa: E402
+from primitives.io import atomic_savefig, figure_png  # noqa: E402
 
 
 def state_series(plan: Plan) -> list[tuple[str, np.ndarray]]:
@@ -281,11 +281,14 @@ class PlanFigures:
         """The figure as PNG bytes, rendered once per dpi (the map cropped to what is drawn)."""
         key = (name, dpi or _SAVE[name][0])
         if key not in self._png:
-            import io
+            if _SAVE[name][1] is None:  # the figure's own size: encoded by figure_png
+                self._png[key] = figure_png(self.figure(name), key[1])
+            else:
+                import io
 
-            buf = io.BytesIO()
-            self.figure(name).savefig(buf, format="png", dpi=key[1], bbox_inches=_SAVE[name][1])
-            self._png[key] = buf.getvalue()
+                buf = io.BytesIO()
+                self.figure(name).savefig(buf, format="png", dpi=key[1], bbox_inches=_SAVE[name][1])
+                self._png[key] = buf.getvalue()
         return self._png[key]
 
     def adopt_png(self, name: str, data: bytes, dpi: int | None = None) -> None:
