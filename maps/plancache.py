@@ -95,6 +95,7 @@ def plan_key(profile: Any, map_file: Path, **inputs: Any) -> str:
 # the libraries the exports and figures are written with (drawing, fonts, PDF, images, XML)
 DRAWING = ("matplotlib", "fpdf2", "pillow", "fonttools", "contourpy", "kiwisolver", "pyparsing", "cycler", "lxml", "defusedxml")
 KEEP_OUTPUTS = 8  # output sets kept (about 2.8 MB each for the bundled example)
+KEEP_MOVES = 64  # lattice move sets kept (maps.movecache: one per ship, options and basic set or informative primitive)
 
 
 def _versions(libraries: tuple[str, ...]) -> bytes:
@@ -196,6 +197,16 @@ def store_outputs(directory: Path | None, key: str, files: dict[str, str], data:
     return _write(directory, f"{key}.out", {"files": files, "bytes": data})
 
 
+def load_blob(directory: Path, name: str) -> Any:
+    """The object kept in ``directory/name`` by :func:`store_blob` (None when missing or unreadable)."""
+    return _read(Path(directory) / name)[0]
+
+
+def store_blob(directory: Path, name: str, entry: Any) -> str | None:
+    """Keep ``entry`` in ``directory/name`` in the checked format of the plan entries (skipped as :func:`store`)."""
+    return _write(directory, name, entry)
+
+
 def _entry(directory: Path, key: str) -> Path:
     return Path(directory) / f"{key}.plan"
 
@@ -266,12 +277,13 @@ def store(directory: Path | None, key: str, entry: dict[str, Any]) -> str | None
 
 
 def _prune(directory: Path) -> None:
-    for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS), (".hint", KEEP)):  # .hint: cli.plan_cache's
+    # .hint: cli.plan_cache's; .moves: maps.movecache's
+    for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS), (".hint", KEEP), (".moves", KEEP_MOVES)):
         entries = sorted(directory.glob(f"*{suffix}"), key=lambda p: p.stat().st_mtime_ns, reverse=True)
         for old in entries[keep:]:
             old.unlink(missing_ok=True)
     # a writer killed outright (SIGKILL, power loss) leaves its temporary file (atomic_write_bytes: .KEY.plan.XXXX);
     # one an hour old is no write in progress
-    for tmp in [*directory.glob(".*.plan.*"), *directory.glob(".*.out.*")]:
+    for tmp in [*directory.glob(".*.plan.*"), *directory.glob(".*.out.*"), *directory.glob(".*.moves.*")]:
         if time.time() - tmp.stat().st_mtime > 3600:
             tmp.unlink(missing_ok=True)
