@@ -95,7 +95,7 @@ def plan_key(profile: Any, map_file: Path, **inputs: Any) -> str:
 # the libraries the exports and figures are written with (drawing, fonts, PDF, images, XML)
 DRAWING = ("matplotlib", "fpdf2", "pillow", "fonttools", "contourpy", "kiwisolver", "pyparsing", "cycler", "lxml", "defusedxml")
 KEEP_OUTPUTS = 8  # output sets kept (about 2.8 MB each for the bundled example)
-KEEP_MOVES = 64  # lattice move sets kept (maps.movecache: one per ship, options and basic set or informative primitive)
+KEEP_MOVES = 128  # lattice move sets kept (maps.movecache: one per ship, options and basic set or primitive; 0.1-2 MB each)
 
 
 def _versions(libraries: tuple[str, ...]) -> bytes:
