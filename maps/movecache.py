@@ -4,12 +4,17 @@ ship, the lattice options and the code, not on the map, start or goal, so a seco
 ship on another map, or from another start, reads them instead of running the helm again.
 
 The key is a SHA-256 digest of :func:`maps.plancache.code_version` (every source and data file of the
-project, Python's and the numerical libraries' versions, the kernel choice), the pickled profile,
-the options the moves are built with and, for an informative move, the pickled primitive. The entries
-live beside the plan cache's (:func:`maps.plancache.default_dir`, ``*.moves``, :data:`maps.plancache.KEEP_MOVES`
-kept) in its checked format: a missing, truncated or unreadable entry is built again, never an error.
-``SHIPTRIAL_CACHE_DIR=""`` keeps no cache (the tests' setting). ``plan-trial --no-cache`` still reads
-them: it plans afresh (design, search, verification), and the moves read are the bits it would build.
+project, Python's and the numerical libraries' versions, ``SHIPTRIAL_KERNEL``), the machine (:func:`_machine`:
+numpy's vectorised routines dispatch on the CPU's features and may round differently on another CPU, so a
+cache directory shared between machines keeps one entry per kind of CPU), whether this process has the
+compiled loop loaded (:func:`primitives.jitloop.loaded`: a small simulation runs the numpy loop until it is,
+and the two may differ in the last bit for pods and rigid-body profiles), the profile's fields, the
+options the moves are built with and, for an informative move, the primitive's fields. The entries
+live beside the plan cache's (:func:`maps.plancache.default_dir`, ``*.moves``, at most
+:data:`maps.plancache.MOVES_BYTES` bytes of them, least recently used removed first) in its checked format,
+the key inside the payload: a missing, truncated, unreadable or misnamed entry is built again, never an error.
+``SHIPTRIAL_CACHE_DIR=""`` keeps no cache (the tests' setting). ``plan-trial --no-cache`` still reads and
+writes them: it plans afresh (design, search, verification), and the moves read are the bits it would build.
 
 The moves' primitives hold the caller's profile: the profile is pickled by reference (a persistent
 id) and the loaded moves point at the profile object of the command that reads them.
@@ -20,10 +25,13 @@ from __future__ import annotations
 import hashlib
 import io
 import pickle
+import platform
 from dataclasses import fields
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+from primitives import jitloop
 from primitives.ship import ShipProfile
 
 PROFILE = "profile"  # the persistent id of the caller's profile inside an entry
@@ -80,6 +88,17 @@ def _fields(obj: Any) -> list[tuple[str, Any]]:
     return [(f.name, getattr(obj, f.name)) for f in fields(obj)]
 
 
+@lru_cache(maxsize=1)
+def _machine() -> str:
+    """The CPU architecture and the features numpy dispatches its vectorised routines on (empty when
+    this numpy does not say)."""
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__ as features
+    except ImportError:  # another numpy layout: the architecture alone
+        features = {}
+    return platform.machine() + ":" + ",".join(sorted(k for k, on in features.items() if on))
+
+
 def key(profile: ShipProfile, what: str, options: tuple, primitive: Any = None) -> str | None:
     """The entry's key: the code, the profile, ``what`` ("basic" or "informative"), the ``options``
     the moves are built with (a tuple of plain values) and the ``primitive`` (its content; the profile
@@ -88,7 +107,8 @@ def key(profile: ShipProfile, what: str, options: tuple, primitive: Any = None) 
 
     if plancache.default_dir() is None:
         return None
-    h = hashlib.sha256(f"moves\0{plancache.code_version()}\0{what}\0{options!r}\0".encode())
+    kernel = "compiled" if jitloop.loaded() else "numpy-until-loaded"
+    h = hashlib.sha256(f"moves\0{plancache.code_version()}\0{_machine()}\0{kernel}\0{what}\0{options!r}\0".encode())
     h.update(_profile_digest(profile))
     if primitive is not None:  # the profile is in the key already
         content = [kv for kv in _fields(primitive) if kv[0] != "profile"]
@@ -103,9 +123,11 @@ def load(k: str | None, profile: ShipProfile) -> Any:
     directory = plancache.default_dir()
     if k is None or directory is None:
         return None
-    data = plancache.load_blob(Path(directory), f"{k}.moves")
-    if not isinstance(data, bytes):
+    entry = plancache.load_blob(Path(directory), f"{k}.moves")
+    # the key inside the entry: a file copied or renamed onto another key's name is no entry
+    if not (isinstance(entry, tuple) and len(entry) == 2 and entry[0] == k and isinstance(entry[1], bytes)):
         return None
+    data = entry[1]
     try:
         return loads(data, profile)
     except Exception:  # noqa: BLE001 - an entry this code cannot read is no entry: the moves are built
@@ -123,4 +145,4 @@ def store(k: str | None, value: Any, profile: ShipProfile) -> None:
         data = dumps(value, profile)
     except Exception:  # noqa: BLE001 - moves holding something pickle cannot write are simply not kept
         return
-    plancache.store_blob(Path(directory), f"{k}.moves", data)
+    plancache.store_blob(Path(directory), f"{k}.moves", (k, data))

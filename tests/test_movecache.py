@@ -5,6 +5,7 @@ again; the moves read hold the caller's profile."""
 
 from __future__ import annotations
 
+import os
 import pickle
 from dataclasses import replace
 
@@ -13,6 +14,7 @@ import pytest
 
 from maps import chain, lattice, motionset, movecache, plancache
 from maps.planner import plan_trial
+from primitives import jitloop
 from primitives.ship import load_profile
 
 COUNTS = {"steep_zigzag_surge": 1}
@@ -94,14 +96,44 @@ def test_key_follows_profile_options_and_code(profile, tmp_path, monkeypatch):
     assert k != movecache.key(profile, "basic", opts)
 
 
-def test_no_cache_directory_keeps_nothing(profile, monkeypatch):
+def test_key_follows_the_kernel_state(profile, tmp_path, monkeypatch):
+    """A small simulation runs the numpy loop until the compiled one is loaded (last-bit differences for
+    pods and rigid-body ships): moves built in either state are two entries."""
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(jitloop, "loaded", lambda: False)
+    k = movecache.key(profile, "basic", ())
+    monkeypatch.setattr(jitloop, "loaded", lambda: True)
+    assert k != movecache.key(profile, "basic", ())
+
+
+def test_no_cache_directory_keeps_nothing(profile, tmp_path, monkeypatch):
     monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", "")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.setenv("HOME", str(tmp_path))
     assert movecache.key(profile, "basic", ()) is None
     assert movecache.load(None, profile) is None
     movecache.store(None, [1], profile)  # no error, nothing written
+    chain._basic_moves(profile, 400.0, chain.PlanOptions(**OPTS), {})
+    assert not list(tmp_path.rglob("*"))
 
 
-@pytest.mark.parametrize("damage", ["truncate", "garbage", "foreign"])
+def test_moves_kept_within_their_byte_budget(profile, tmp_path, monkeypatch):
+    """The most recently used entries within MOVES_BYTES stay, the newest whatever its size; plans are not counted."""
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    plancache.store_blob(tmp_path, "p.plan", b"x" * 50_000)
+    for i in range(4):
+        movecache.store(f"k{i}", b"x" * 10_000, profile)
+        os.utime(tmp_path / f"k{i}.moves", ns=(i * 10**9, i * 10**9))  # k3 the newest
+    monkeypatch.setattr(plancache, "MOVES_BYTES", 25_000)
+    assert movecache.load("k1", profile) == b"x" * 10_000  # read: used most recently
+    movecache.store("k4", b"x" * 10_000, profile)
+    assert sorted(p.name for p in tmp_path.glob("*.moves")) == ["k1.moves", "k4.moves"]
+    assert (tmp_path / "p.plan").exists()
+    movecache.store("big", b"x" * 40_000, profile)
+    assert sorted(p.name for p in tmp_path.glob("*.moves")) == ["big.moves"]
+
+
+@pytest.mark.parametrize("damage", ["truncate", "garbage", "foreign", "misnamed"])
 def test_unreadable_entry_is_built_again(profile, tmp_path, monkeypatch, damage):
     monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
     o = chain.PlanOptions(**OPTS)
@@ -112,8 +144,12 @@ def test_unreadable_entry_is_built_again(profile, tmp_path, monkeypatch, damage)
         entry.write_bytes(data[: len(data) // 2])
     elif damage == "garbage":
         entry.write_bytes(b"\0" * 100)
-    else:  # a well-formed entry whose payload this code cannot read: built again
-        plancache.store_blob(tmp_path, entry.name, b"not a pickle")
+    elif damage == "foreign":  # a well-formed entry whose payload this code cannot read: built again
+        plancache.store_blob(tmp_path, entry.name, (entry.stem, b"not a pickle"))
+    else:  # another key's well-formed entry under this key's name (copied, renamed): not read
+        other = movecache.key(profile, "basic", ("other options",))
+        movecache.store(other, [], profile)
+        (tmp_path / f"{other}.moves").replace(entry)
     again = chain._basic_moves(profile, 400.0, o, {})
     assert [m.name for m in again] == [m.name for m in built]
     for a, b in zip(built, again):
