@@ -31,6 +31,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+from maps import plancache
 from primitives import jitloop
 from primitives.ship import ShipProfile
 
@@ -100,11 +101,9 @@ def _machine() -> str:
 
 
 def key(profile: ShipProfile, what: str, options: tuple, primitive: Any = None) -> str | None:
-    """The entry's key: the code, the profile, ``what`` ("basic" or "informative"), the ``options``
-    the moves are built with (a tuple of plain values) and the ``primitive`` (its content; the profile
-    by reference). None when the cache is off."""
-    from maps import plancache
-
+    """The entry's key: the code, the machine, whether the compiled loop is loaded, the profile, ``what``
+    ("basic" or "informative"), the ``options`` the moves are built with (a tuple of plain values) and the
+    ``primitive`` (its content; the profile by reference). None when the cache is off."""
     if plancache.default_dir() is None:
         return None
     kernel = "compiled" if jitloop.loaded() else "numpy-until-loaded"
@@ -118,8 +117,6 @@ def key(profile: ShipProfile, what: str, options: tuple, primitive: Any = None) 
 
 def load(k: str | None, profile: ShipProfile) -> Any:
     """The value stored under key ``k`` (None when there is none, it cannot be read or the cache is off)."""
-    from maps import plancache
-
     directory = plancache.default_dir()
     if k is None or directory is None:
         return None
@@ -136,8 +133,6 @@ def load(k: str | None, profile: ShipProfile) -> Any:
 
 def store(k: str | None, value: Any, profile: ShipProfile) -> None:
     """Keep ``value`` under key ``k`` (skipped without a word when the cache is off or cannot be written)."""
-    from maps import plancache
-
     directory = plancache.default_dir()
     if k is None or directory is None:
         return
