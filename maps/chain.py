@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from maps import astar
+from maps import astar, movecache
 from maps.collision import CollisionGrid, Window, quarter_turns
 from maps.forked import map_halves
 from maps.geo import MapError, SeaMap, bundled_map_path
@@ -333,10 +333,21 @@ def _motion_set(
     K = o.headings
     _basic_moves(profile, res, o, cache)
     run_in = run_in_seconds(profile, o.run_in_s)
-    todo = [p for p in prims if p.name not in cache]
-    # each primitive's moves on their own: some of them built in a forked child (maps.forked), same moves
-    for p, built in zip(todo, map_halves(lambda p: _informative(p, res, K, o.split, run_in, o.settle), todo, min_items=2)):
+    # each primitive's moves on their own: kept on disk between commands (maps.movecache), else built,
+    # some of them in a forked child (maps.forked), same moves
+    built_with = (res, K, o.split, run_in, o.settle)
+    todo = []
+    for p in prims:
+        if p.name not in cache:
+            k = movecache.key(profile, "informative", built_with, p)
+            kept = movecache.load(k, profile)
+            if kept is not None:
+                cache[p.name] = kept
+            else:
+                todo.append((p, k))
+    for (p, k), built in zip(todo, map_halves(lambda pk: _informative(pk[0], *built_with), todo, min_items=2)):
         cache[p.name] = built
+        movecache.store(k, built, profile)
     moves, names, targets, notes = [], [], {}, []
     for p in prims:
         mv_, nm_, _, nt_ = cache[p.name]
@@ -386,7 +397,11 @@ def _basic_moves(profile: ShipProfile, res: float, o: PlanOptions, cache: dict[s
         cache.clear()
         cache["key"] = key
     if "basic" not in cache:
-        cache["basic"] = basic_move_set(profile, res, o.headings, o.basic_cost, o.spot_turns, o.settle)
+        cache["basic_key"] = movecache.key(profile, "basic", key)
+        cache["basic"] = movecache.load(cache["basic_key"], profile)
+        if cache["basic"] is None:
+            cache["basic"] = basic_move_set(profile, res, o.headings, o.basic_cost, o.spot_turns, o.settle)
+            movecache.store(cache["basic_key"], cache["basic"], profile)
     return cache["basic"]
 
 
@@ -407,6 +422,8 @@ def prepare_basic_moves(
     # the swept footprints, read by build_lattice: half of them formed in a forked child (maps.forked), the same polygons
     for pr, fp in zip(todo, map_halves(_footprint, todo)):
         pr.__dict__["footprint"] = fp  # the cached property's value
+    if todo:  # kept again with their footprints
+        movecache.store(cache["basic_key"], cache["basic"], profile)
     try:
         cache["endpoints"] = (sea, (start, goal, options.margin), _endpoints(sea, start, goal, options.margin))
     except MapError:  # said by build_lattice, where it would be said without this step (after the design)

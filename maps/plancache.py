@@ -95,6 +95,10 @@ def plan_key(profile: Any, map_file: Path, **inputs: Any) -> str:
 # the libraries the exports and figures are written with (drawing, fonts, PDF, images, XML)
 DRAWING = ("matplotlib", "fpdf2", "pillow", "fonttools", "contourpy", "kiwisolver", "pyparsing", "cycler", "lxml", "defusedxml")
 KEEP_OUTPUTS = 8  # output sets kept (about 2.8 MB each for the bundled example)
+# bytes of lattice move sets kept (maps.movecache: one per ship, options, kernel state and basic set or primitive,
+# 0.1-2 MB each: the default ship's plan writes 6, 1.1 MB; kvlcc2 on the open sea 5, 4.4 MB). A byte budget, not a
+# count: a ship that redesigns many times writes many entries, and their size grows with the ship and the resolution
+MOVES_BYTES = 64 * 2**20
 
 
 def _versions(libraries: tuple[str, ...]) -> bytes:
@@ -196,6 +200,16 @@ def store_outputs(directory: Path | None, key: str, files: dict[str, str], data:
     return _write(directory, f"{key}.out", {"files": files, "bytes": data})
 
 
+def load_blob(directory: Path, name: str) -> Any:
+    """The object kept in ``directory/name`` by :func:`store_blob` (None when missing or unreadable)."""
+    return _read(Path(directory) / name)[0]
+
+
+def store_blob(directory: Path, name: str, entry: Any) -> str | None:
+    """Keep ``entry`` in ``directory/name`` in the checked format of the plan entries (skipped as :func:`store`)."""
+    return _write(directory, name, entry)
+
+
 def _entry(directory: Path, key: str) -> Path:
     return Path(directory) / f"{key}.plan"
 
@@ -265,13 +279,31 @@ def store(directory: Path | None, key: str, entry: dict[str, Any]) -> str | None
     return _write(directory, f"{key}.plan", entry)
 
 
+def _newest_first(directory: Path, suffix: str) -> list[tuple[Path, os.stat_result]]:
+    """The entries ending in ``suffix`` with their stat, most recently used (written or read) first; one removed by
+    another process meanwhile is left out."""
+    out = []
+    for p in directory.glob(f"*{suffix}"):
+        try:
+            out.append((p, p.stat()))
+        except FileNotFoundError:
+            continue
+    return sorted(out, key=lambda ps: ps[1].st_mtime_ns, reverse=True)
+
+
 def _prune(directory: Path) -> None:
-    for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS), (".hint", KEEP)):  # .hint: cli.plan_cache's
-        entries = sorted(directory.glob(f"*{suffix}"), key=lambda p: p.stat().st_mtime_ns, reverse=True)
-        for old in entries[keep:]:
+    # .hint: cli.plan_cache's
+    for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS), (".hint", KEEP)):
+        for old, _ in _newest_first(directory, suffix)[keep:]:
             old.unlink(missing_ok=True)
+    # maps.movecache's: the most recently used within MOVES_BYTES (the newest kept whatever its size)
+    total = 0
+    for i, (p, st) in enumerate(_newest_first(directory, ".moves")):
+        total += st.st_size
+        if i and total > MOVES_BYTES:
+            p.unlink(missing_ok=True)
     # a writer killed outright (SIGKILL, power loss) leaves its temporary file (atomic_write_bytes: .KEY.plan.XXXX);
     # one an hour old is no write in progress
-    for tmp in [*directory.glob(".*.plan.*"), *directory.glob(".*.out.*")]:
+    for tmp in [*directory.glob(".*.plan.*"), *directory.glob(".*.out.*"), *directory.glob(".*.moves.*")]:
         if time.time() - tmp.stat().st_mtime > 3600:
             tmp.unlink(missing_ok=True)
