@@ -43,6 +43,8 @@ N_P_SCALE = -1.0e6
 NOMINAL = {prior_name(k): _TRUE[k] for k in FULL.params} | {"N_p": N_P_SCALE}
 PARAMS = {kind: tuple(map(prior_name, m.params)) for kind, m in YAW_MODELS.items()}
 DAMPING = ("A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")
+#: the yaw row's roll terms (roll rate and roll angle), a tested run's nuisance along inertia (:func:`signatures`)
+ROLL_TERMS = ("N_p", "N_fur", "N_fuu", "N_fuv")
 SIGNALS = {
     "full": ("u", "v", "v_dot", "phi", "tau_r"),
     "full-p": ("u", "v", "v_dot", "phi", "p", "tau_r"),
@@ -77,6 +79,9 @@ class YawPrior:
     #: apparent relative change along each candidate (CANDIDATES) that the structure's misfit makes on a
     #: manoeuvre the prior was not fitted on (split-half cross-validation beyond noise; :func:`identify.detect.priorfit.structural_spread`)
     structure: np.ndarray = field(default_factory=lambda: np.zeros(len(CANDIDATES)))
+    #: time (s) the measured moment is advanced by against the measured yaw rate (:func:`shift_moment`): the
+    #: sensors' different lags (load cell against gyro) fitted on the nominal run (:func:`identify.detect.api.fit_prior`)
+    moment_shift_s: float = 0.0
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -107,6 +112,7 @@ class YawPrior:
             "noise": self.noise,
             "model_error": self.model_error,
             "structure": self.structure.tolist(),
+            "moment_shift_s": self.moment_shift_s,
         }
 
     @classmethod
@@ -133,6 +139,7 @@ class YawPrior:
                 {str(k): float(v) for k, v in d.get("noise", {}).items()},
                 float(d.get("model_error", 0.0)),
                 np.asarray(d.get("structure", [0.0] * len(CANDIDATES)), float).reshape(len(CANDIDATES)),
+                float(d.get("moment_shift_s", 0.0)),
             )
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             raise UserError(
@@ -161,6 +168,19 @@ class YawPrior:
                 "prefilter_hz below Nyquist); refit it"
             )
         return p
+
+
+def shift_moment(sig: dict[str, np.ndarray], shift_s: float, dt: float) -> dict[str, np.ndarray]:
+    """``sig`` with the moment ``tau_r`` advanced by ``shift_s`` seconds (linear interpolation along axis 0,
+    the last value held): a load cell that lags the gyro by ``shift_s`` puts the yaw row's inertia
+    balance out of phase at the roll frequency, so a run's inertia reading follows its roll level."""
+    if shift_s == 0.0:
+        return sig
+    tau = np.asarray(sig["tau_r"], float)
+    t = np.arange(len(tau)) * dt
+    cols = tau.reshape(len(tau), -1)
+    out = np.column_stack([np.interp(t + shift_s, t, c) for c in cols.T]).reshape(tau.shape)
+    return sig | {"tau_r": out}
 
 
 def model_inputs(sig: dict[str, np.ndarray], dt: float, prefilter_hz: float) -> dict[str, np.ndarray]:
@@ -266,17 +286,38 @@ def whiten(x: np.ndarray, ar: np.ndarray) -> np.ndarray:
 
 
 def signatures(
-    prior: YawPrior, sig: dict[str, np.ndarray], rel: float = 0.05, inputs: dict[str, np.ndarray] | None = None
+    prior: YawPrior,
+    sig: dict[str, np.ndarray],
+    rel: float = 0.05,
+    inputs: dict[str, np.ndarray] | None = None,
+    roll_nuisance: bool = False,
 ) -> np.ndarray:
     """``S`` (n, 3): the change of r_hat per unit relative change of each candidate in CANDIDATES
     (yaw inertia, all damping terms together, actuator gain) on the manoeuvre ``sig`` (``inputs``:
-    ``prior.inputs(sig)`` when the caller has it already)."""
+    ``prior.inputs(sig)`` when the caller has it already).
+
+    ``roll_nuisance``: every column is made orthogonal (whitened 1 s block means, the space the
+    detector reads in) to the signatures of the yaw row's roll terms (ROLL_TERMS: ``N_p p`` and the
+    ``phi`` terms of (2.17)), so a candidate's reading is the joint least-squares estimate with those
+    terms free on the tested run (Frisch-Waugh), and the candidates' likelihood ratios compare what
+    each explains beyond them. The prior identifies them from one nominal run at one
+    roll level; on the podded truth family's strong-roll variant an unchanged run's inertia reading
+    otherwise fell by 0.65 % of I_r per degree of roll sd above the nominal run's (ship 100)."""
     names = prior.names
     base = np.array([prior.values[k] / NOMINAL[k] for k in names])
-    cols = np.repeat(base[:, None], 4, axis=1)
+    roll = [names.index(k) for k in ROLL_TERMS if k in names] if roll_nuisance else []
+    cols = np.repeat(base[:, None], 4 + len(roll), axis=1)
     cols[names.index("I_r"), 1] *= 1 + rel
     cols[[names.index(k) for k in DAMPING if k in names], 2] *= 1 + rel
-    gain = np.array([1.0, 1.0, 1.0, 1 + rel])
+    for j, i in enumerate(roll):
+        cols[i, 4 + j] *= 1 + rel
+    gain = np.ones(4 + len(roll))
+    gain[3] = 1 + rel
     w = prior.inputs(sig) if inputs is None else inputs
     r = simulate_r(prior.kind, cols, {k: s[:, None] for k, s in w.items()}, prior.dt, gain=gain)
-    return (r[:, 1:] - r[:, :1]) / rel
+    S = (r[:, 1:] - r[:, :1]) / rel
+    if not roll:
+        return S
+    S, N = S[:, :3], S[:, 3:]
+    Sw, Nw = (whiten(block_mean(x, prior.block), prior.ar) for x in (S, N))
+    return S - N @ np.linalg.lstsq(Nw, Sw, rcond=None)[0]
