@@ -151,9 +151,11 @@ MOMENT_SHIFT_GAIN = 0.01
 
 def moment_shift(kind: str, sig: dict[str, np.ndarray], r: np.ndarray, dt: float) -> float:
     """The advance of the measured moment (MOMENT_SHIFTS) whose output-error fit leaves the smallest
-    robust residual on the nominal run, when it beats none by MOMENT_SHIFT_GAIN. On the podded truth family (strong-roll, ships 100 and 101) 0.2 s
-    on both: the load cell lags the gyro, and with the shift the unchanged runs' inertia reading no longer
-    falls with their roll level (ship 100: -0.65 -> -0.10 % of I_r per degree of roll sd)."""
+    robust residual on the nominal run, when it beats none by MOMENT_SHIFT_GAIN. On the podded truth
+    family: 0.2 s on strong-roll ships 100 and 101, 0.1 s on nominal-mmg's; the family's load cell lags the
+    gyro (0.5 s against 0.3 s), and with the shift strong-roll's unchanged runs' inertia reading no longer
+    falls with their roll level (ship 100: -0.65 -> -0.10 % of I_r per degree of roll sd). The shift is
+    chosen on 2 + 2 ships and a 0.1 s grid; I_r moves about 0.9 % per 10 ms of it (not a fine estimate)."""
     sd = np.array([fit(kind, shift_moment(sig, d, dt), r, dt, bootstrap=0).sigma for d in MOMENT_SHIFTS])
     best = int(np.argmin(sd))
     # the shift trades against I_r (+0.9 % of I_r per 10 ms on the kernel's own nominal run, where the residual
@@ -262,7 +264,7 @@ def screen(
     ``roll_nuisance`` (off; a study option): the decision (estimates, change point, naming) reads the
     signatures with the yaw row's roll terms as nuisance (:func:`identify.detect.yawmodel.signatures`);
     the LR-CUSUM and its thresholds are unchanged. On the podded truth family's strong-roll variant
-    (ships 100-101, 20 + 20 runs) it took the unchanged runs' inertia reading's slope against roll sd from
+    (ships 100-101, 20 + 20 runs; measured with an unshifted prior, before :func:`moment_shift`) it took the unchanged runs' inertia reading's slope against roll sd from
     -0.65 to -0.29 %/deg (ship 100) but left the false alarms at 25 % (named damping instead) and named
     yaw inertia in 33 % of detections against 93 %: the roll terms' signatures take most of the inertia
     signature's information on rolling runs (benchmarks/bench_detect_truth.py --roll-nuisance)."""
