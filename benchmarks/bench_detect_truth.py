@@ -133,9 +133,7 @@ def _stored(path: Path, make):
     return out
 
 
-def ship_study(
-    variant: str, ship_seed: int, runs: int, folder: Path, key: str, roll_band: bool = False, roll_nuisance: bool = False
-) -> dict:
+def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str, roll_band: bool = False) -> dict:
     """One ship: its prior, then ``runs`` unchanged and ``runs`` changed recordings."""
     rng = np.random.default_rng([ship_seed, 3])
     seeds = [1000 * ship_seed + 1 + i for i in range(2 * runs)]
@@ -173,8 +171,8 @@ def ship_study(
                 rec = load_runs([path])[0]
                 d = verdict(
                     _stored(
-                        folder / f"{path.stem}-screen{'-rb' if roll_band else ''}{'-rn' if roll_nuisance else ''}-{key}.pkl",
-                        lambda rec=rec: screen(rec, prior, **HULL, leave_out_roll_band=roll_band, roll_nuisance=roll_nuisance),
+                        folder / f"{path.stem}-screen{'-rb' if roll_band else ''}-{key}.pkl",
+                        lambda rec=rec: screen(rec, prior, **HULL, leave_out_roll_band=roll_band),
                     ),
                     prior,
                     **HULL,
@@ -281,11 +279,6 @@ def main() -> None:
         action="store_true",
         help="screen and decide outside each recording's roll band (screen(leave_out_roll_band=True), off in detect)",
     )
-    ap.add_argument(
-        "--roll-nuisance",
-        action="store_true",
-        help="decide with the yaw row's roll terms as nuisance (screen(roll_nuisance=True), off in detect; a study)",
-    )
     ap.add_argument("--timing", type=int, default=0, metavar="N", help="only time detect on N recordings of one ship")
     a = ap.parse_args()
     warnings.simplefilter("ignore", RuntimeWarning)
@@ -314,9 +307,7 @@ def main() -> None:
         folder, key = a.cache or Path(td), screening_key()
         folder.mkdir(parents=True, exist_ok=True)
         for v in a.variants:
-            studies = [
-                ship_study(v, 100 + k, a.runs, folder, key, a.roll_band, a.roll_nuisance) | {"variant": v} for k in range(a.ships)
-            ]
+            studies = [ship_study(v, 100 + k, a.runs, folder, key, a.roll_band) | {"variant": v} for k in range(a.ships)]
             everything += studies
             s = summarise(studies)
             print(row(v, s), flush=True)

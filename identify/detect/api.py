@@ -116,7 +116,9 @@ def fit_prior(
     its parameter error described by ``bootstrap`` parametric-bootstrap refits of the nominal
     data (errors in variables: noisy u, v, phi and the v', tau_r derived from them). The full
     model gets the roll-rate term ``N_p p`` (kind ``full-p``) when that recording has the roll
-    rate ``p`` and ``roll_rate`` is on; the recordings tested with the prior then need ``p`` too."""
+    rate ``p`` and ``roll_rate`` is on; the recordings tested with the prior then need ``p`` too.
+    ``moment_lag``: with a measured moment, its advance against the yaw rate is fitted
+    (:func:`moment_shift`, said in ``notes``) and kept with the prior."""
     if kind not in ("full", "simplified"):
         raise UserError(f"--model {kind!r}: choose full (2.17) or simplified (2.18)")
     recs = load_runs(paths, kind, notes)
@@ -139,6 +141,11 @@ def fit_prior(
         derive=Deriver.of(rec, kind),
     )
     prior.moment_shift_s = shift
+    if shift and notes is not None:
+        notes.append(
+            f"{rec.source}: the measured moment {MOMENT} is read {shift:+.1f} s ahead of the yaw rate (its sensor "
+            "lags the gyro by that much more; fitted on this run, applied to every recording screened with this prior)"
+        )
     return prior
 
 
@@ -245,7 +252,6 @@ def screen(
     i_z: float | None = None,
     leave_out_roll_band: bool = False,
     draws: dict | None = None,
-    roll_nuisance: bool = False,
 ) -> Screening:
     """The recording's residual against the prior, the change signatures, ``null_runs`` no-change
     records simulated from the prior alone (:func:`identify.detect.nullsim.null_records`), and the
@@ -259,15 +265,7 @@ def screen(
     family (50 + 50 runs) it halved the false alarms (20 -> 10 %) but missed more (38 -> 48 %) and
     detected 64 s later (the stored screenings of benchmarks/bench_detect_truth.py re-decided with the
     band out; README, stop 39; ``--roll-band`` there screens with it). ``draws``: the no-change
-    records' noise kept over a job (:func:`identify.detect.nullsim.normals`).
-
-    ``roll_nuisance`` (off; a study option): the decision (estimates, change point, naming) reads the
-    signatures with the yaw row's roll terms as nuisance (:func:`identify.detect.yawmodel.signatures`);
-    the LR-CUSUM and its thresholds are unchanged. On the podded truth family's strong-roll variant
-    (ships 100-101, 20 + 20 runs; measured with an unshifted prior, before :func:`moment_shift`) it took the unchanged runs' inertia reading's slope against roll sd from
-    -0.65 to -0.29 %/deg (ship 100) but left the false alarms at 25 % (named damping instead) and named
-    yaw inertia in 33 % of detections against 93 %: the roll terms' signatures take most of the inertia
-    signature's information on rolling runs (benchmarks/bench_detect_truth.py --roll-nuisance)."""
+    records' noise kept over a job (:func:`identify.detect.nullsim.normals`)."""
     if abs(rec.sample_time - prior.dt) > 1e-6 * prior.dt:
         raise RecordingError(
             f"{rec.source}: sample time {rec.sample_time:g} s differs from the prior's {prior.dt:g} s; "
@@ -285,7 +283,6 @@ def screen(
     eps = r - simulate_r(prior.kind, prior.values, w, prior.dt, r0=r0)
     residual_rms = check_inputs(rec, prior, sig, r, eps, w)
     S = signatures(prior, sig, inputs=w)
-    S_decide = signatures(prior, sig, inputs=w, roll_nuisance=True) if roll_nuisance else None
     if i_z is not None and n_rdot is not None and not (i_z > 0 and n_rdot < 0):
         raise ValueError(f"i_z {i_z:g} must be positive and n_rdot {n_rdot:g} negative (kg m^2)")
     with np.errstate(over="ignore", invalid="ignore"):  # a diverging draw is counted below, not printed as numpy's
@@ -326,7 +323,6 @@ def screen(
         residual_rms,
         int(null_runs - kept.sum()),
         band,
-        S_decide,
     )
 
 

@@ -52,9 +52,6 @@ class Screening:
     residual_rms: float
     null_diverged: int = 0
     roll_band: RollBand | None = None
-    #: the signatures the decision reads (estimates, change point, naming): ``S`` with the yaw row's roll
-    #: terms as nuisance (:func:`identify.detect.yawmodel.signatures`); None: ``S`` (screenings stored before)
-    S_decide: np.ndarray | None = None
 
 
 @dataclass
@@ -185,8 +182,7 @@ def verdict(
         raise ValueError(f"i_z {i_z:g} must be positive and n_rdot {n_rdot:g} negative (kg m^2)")
     i_ref = i_z - n_rdot if known else None
     band = sc.roll_band  # screenings stored before the roll band have none
-    S = sc.S if getattr(sc, "S_decide", None) is None else sc.S_decide
-    i, ev = _decide(sc.eps, S, prior, sc.st, sc.h, sc.null_blocks, min_change, i_ref, n_rdot, band)
+    i, ev = _decide(sc.eps, sc.S, prior, sc.st, sc.h, sc.null_blocks, min_change, i_ref, n_rdot, band)
     t = sc.t
     tau, lo, hi = ev.pop("onset")
     ev["onset_s"] = float(t[min(tau, len(t) - 1)])

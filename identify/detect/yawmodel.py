@@ -43,8 +43,6 @@ N_P_SCALE = -1.0e6
 NOMINAL = {prior_name(k): _TRUE[k] for k in FULL.params} | {"N_p": N_P_SCALE}
 PARAMS = {kind: tuple(map(prior_name, m.params)) for kind, m in YAW_MODELS.items()}
 DAMPING = ("A", "N_rr", "N_rv", "N_fur", "N_uv", "N_fuu", "N_fuv")
-#: the yaw row's roll terms (roll rate and roll angle), a tested run's nuisance along inertia (:func:`signatures`)
-ROLL_TERMS = ("N_p", "N_fur", "N_fuu", "N_fuv")
 SIGNALS = {
     "full": ("u", "v", "v_dot", "phi", "tau_r"),
     "full-p": ("u", "v", "v_dot", "phi", "p", "tau_r"),
@@ -286,38 +284,17 @@ def whiten(x: np.ndarray, ar: np.ndarray) -> np.ndarray:
 
 
 def signatures(
-    prior: YawPrior,
-    sig: dict[str, np.ndarray],
-    rel: float = 0.05,
-    inputs: dict[str, np.ndarray] | None = None,
-    roll_nuisance: bool = False,
+    prior: YawPrior, sig: dict[str, np.ndarray], rel: float = 0.05, inputs: dict[str, np.ndarray] | None = None
 ) -> np.ndarray:
     """``S`` (n, 3): the change of r_hat per unit relative change of each candidate in CANDIDATES
     (yaw inertia, all damping terms together, actuator gain) on the manoeuvre ``sig`` (``inputs``:
-    ``prior.inputs(sig)`` when the caller has it already).
-
-    ``roll_nuisance``: every column is made orthogonal (whitened 1 s block means, the space the
-    detector reads in) to the signatures of the yaw row's roll terms (ROLL_TERMS: ``N_p p`` and the
-    ``phi`` terms of (2.17)), so a candidate's reading is the joint least-squares estimate with those
-    terms free on the tested run (Frisch-Waugh), and the candidates' likelihood ratios compare what
-    each explains beyond them. The prior identifies them from one nominal run at one
-    roll level; on the podded truth family's strong-roll variant an unchanged run's inertia reading
-    otherwise fell by 0.65 % of I_r per degree of roll sd above the nominal run's (ship 100)."""
+    ``prior.inputs(sig)`` when the caller has it already)."""
     names = prior.names
     base = np.array([prior.values[k] / NOMINAL[k] for k in names])
-    roll = [names.index(k) for k in ROLL_TERMS if k in names] if roll_nuisance else []
-    cols = np.repeat(base[:, None], 4 + len(roll), axis=1)
+    cols = np.repeat(base[:, None], 4, axis=1)
     cols[names.index("I_r"), 1] *= 1 + rel
     cols[[names.index(k) for k in DAMPING if k in names], 2] *= 1 + rel
-    for j, i in enumerate(roll):
-        cols[i, 4 + j] *= 1 + rel
-    gain = np.ones(4 + len(roll))
-    gain[3] = 1 + rel
+    gain = np.array([1.0, 1.0, 1.0, 1 + rel])
     w = prior.inputs(sig) if inputs is None else inputs
     r = simulate_r(prior.kind, cols, {k: s[:, None] for k, s in w.items()}, prior.dt, gain=gain)
-    S = (r[:, 1:] - r[:, :1]) / rel
-    if not roll:
-        return S
-    S, N = S[:, :3], S[:, 3:]
-    Sw, Nw = (whiten(block_mean(x, prior.block), prior.ar) for x in (S, N))
-    return S - N @ np.linalg.lstsq(Nw, Sw, rcond=None)[0]
+    return (r[:, 1:] - r[:, :1]) / rel
