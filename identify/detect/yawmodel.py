@@ -77,6 +77,9 @@ class YawPrior:
     #: apparent relative change along each candidate (CANDIDATES) that the structure's misfit makes on a
     #: manoeuvre the prior was not fitted on (split-half cross-validation beyond noise; :func:`identify.detect.priorfit.structural_spread`)
     structure: np.ndarray = field(default_factory=lambda: np.zeros(len(CANDIDATES)))
+    #: time (s) the measured moment is advanced by against the measured yaw rate (:func:`shift_moment`): the
+    #: sensors' different lags (load cell against gyro) fitted on the nominal run (:func:`identify.detect.api.fit_prior`)
+    moment_shift_s: float = 0.0
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -107,6 +110,7 @@ class YawPrior:
             "noise": self.noise,
             "model_error": self.model_error,
             "structure": self.structure.tolist(),
+            "moment_shift_s": self.moment_shift_s,
         }
 
     @classmethod
@@ -133,6 +137,7 @@ class YawPrior:
                 {str(k): float(v) for k, v in d.get("noise", {}).items()},
                 float(d.get("model_error", 0.0)),
                 np.asarray(d.get("structure", [0.0] * len(CANDIDATES)), float).reshape(len(CANDIDATES)),
+                float(d.get("moment_shift_s", 0.0)),
             )
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             raise UserError(
@@ -161,6 +166,19 @@ class YawPrior:
                 "prefilter_hz below Nyquist); refit it"
             )
         return p
+
+
+def shift_moment(sig: dict[str, np.ndarray], shift_s: float, dt: float) -> dict[str, np.ndarray]:
+    """``sig`` with the moment ``tau_r`` advanced by ``shift_s`` seconds (linear interpolation along axis 0,
+    the last value held): a load cell that lags the gyro by ``shift_s`` puts the yaw row's inertia
+    balance out of phase at the roll frequency, so a run's inertia reading follows its roll level."""
+    if shift_s == 0.0:
+        return sig
+    tau = np.asarray(sig["tau_r"], float)
+    t = np.arange(len(tau)) * dt
+    cols = tau.reshape(len(tau), -1)
+    out = np.column_stack([np.interp(t + shift_s, t, c) for c in cols.T]).reshape(tau.shape)
+    return sig | {"tau_r": out}
 
 
 def model_inputs(sig: dict[str, np.ndarray], dt: float, prefilter_hz: float) -> dict[str, np.ndarray]:
