@@ -17,7 +17,7 @@ from identify.detect.cusum import calibrate_dead_zone, first_alarms
 from identify.detect.glr import SignatureCusum, calibrate
 from identify.detect.inputs import POD_COLUMNS, SWAY_ACC, Deriver, signals
 from identify.detect.nullsim import null_records
-from identify.detect.priorfit import fit
+from identify.detect.priorfit import batch_fits, fit
 from identify.detect.rollband import roll_band
 from identify.detect.verdict import Detection, Screening, implausible_inertia, physical_change, verdict
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
@@ -129,7 +129,7 @@ def fit_prior(
     if np.ptp(r) < 1e-3:
         raise RecordingError(f"{rec.source}: the yaw rate hardly moves (range {np.ptp(r):.1e} rad/s); a prior needs turning")
     check_moment_sign(rec, sig["tau_r"], r)
-    shift = moment_shift(kind, sig, r, rec.sample_time) if MOMENT in rec.channels and moment_lag else 0.0
+    shift, scales = moment_shift(kind, sig, r, rec.sample_time) if MOMENT in rec.channels and moment_lag else (0.0, None)
     prior = fit(
         kind,
         shift_moment(sig, shift, rec.sample_time),
@@ -139,6 +139,7 @@ def fit_prior(
         bootstrap=bootstrap,
         seed=seed,
         derive=Deriver.of(rec, kind),
+        scales=scales,
     )
     prior.moment_shift_s = shift
     if shift and notes is not None:
@@ -156,18 +157,20 @@ MOMENT_SHIFTS = (-0.2, -0.1, 0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
 MOMENT_SHIFT_GAIN = 0.01
 
 
-def moment_shift(kind: str, sig: dict[str, np.ndarray], r: np.ndarray, dt: float) -> float:
+def moment_shift(kind: str, sig: dict[str, np.ndarray], r: np.ndarray, dt: float) -> tuple[float, np.ndarray | None]:
     """The advance of the measured moment (MOMENT_SHIFTS) whose output-error fit leaves the smallest
     robust residual on the nominal run, when it beats none by MOMENT_SHIFT_GAIN. On the podded truth
     family: 0.2 s on strong-roll ships 100 and 101, 0.1 s on nominal-mmg's; the family's load cell lags the
     gyro (0.5 s against 0.3 s), and with the shift strong-roll's unchanged runs' inertia reading no longer
     falls with their roll level (ship 100: -0.65 -> -0.10 % of I_r per degree of roll sd). The shift is
-    chosen on 2 + 2 ships and a 0.1 s grid; I_r moves about 0.9 % per 10 ms of it (not a fine estimate)."""
-    sd = np.array([fit(kind, shift_moment(sig, d, dt), r, dt, bootstrap=0).sigma for d in MOMENT_SHIFTS])
-    best = int(np.argmin(sd))
+    chosen on 2 + 2 ships and a 0.1 s grid; I_r moves about 0.9 % per 10 ms of it (not a fine estimate).
+    Returns the shift and the fit's scales at it (None when no fit converged), fitted in one batch."""
+    x, sd = batch_fits(kind, [shift_moment(sig, d, dt) for d in MOMENT_SHIFTS], r, dt)
+    best, none = int(np.argmin(sd)), MOMENT_SHIFTS.index(0.0)
     # the shift trades against I_r (+0.9 % of I_r per 10 ms on the kernel's own nominal run, where the residual
     # is flat within 0.1 % from -0.1 to +0.1 s): a shift must earn MOMENT_SHIFT_GAIN of the residual, else none
-    return float(MOMENT_SHIFTS[best]) if sd[best] < (1 - MOMENT_SHIFT_GAIN) * sd[MOMENT_SHIFTS.index(0.0)] else 0.0
+    chosen = best if sd[best] < (1 - MOMENT_SHIFT_GAIN) * sd[none] else none
+    return float(MOMENT_SHIFTS[chosen]), (x[chosen] if np.isfinite(sd[chosen]) else None)
 
 
 def hull_inertia(

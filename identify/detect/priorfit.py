@@ -53,6 +53,7 @@ def fit(
     seed: int = 0,
     derive: Derive | None = None,
     prefilter_hz: float = PREFILTER_HZ,
+    scales: np.ndarray | None = None,
 ) -> YawPrior:
     """Output-error fit of (2.17)/(2.18) (ch. 4, eq. 4.1-4.4; yawid's batched Levenberg-Marquardt
     from the nominal values, with section 4.3's sign constraints) on the inputs low-passed at
@@ -64,14 +65,16 @@ def fit(
     (:func:`bootstrap_deviations`: noise on every input, so the errors-in-variables part is in)
     kept as they are (``YawPrior.boot``, for the detector's no-change simulation) and as their
     second moment (``cov``); ``bootstrap=0`` gives only the fit's Jacobian covariance, which
-    knows the noise on r alone."""
+    knows the noise on r alone. ``scales``: the fit's scales already found on this data (:func:`batch_fits`),
+    so the fit is not repeated."""
     raw, sig = sig, model_inputs(sig, dt, prefilter_hz)
     p = len(PARAMS[kind])
-    x = (
-        _fit_scales(kind, {k: v[None] for k, v in raw.items()}, r_meas[None], dt, np.ones(p), prefilter_hz)[0]
-        if estimate
-        else np.ones(p)
-    )
+    if scales is not None:
+        x = np.asarray(scales, float)
+    elif estimate:
+        x = _fit_scales(kind, {k: v[None] for k, v in raw.items()}, r_meas[None], dt, np.ones(p), prefilter_hz)[0]
+    else:
+        x = np.ones(p)
     block = max(1, int(round(1.0 / dt)))
     r0 = float(np.mean(r_meas[:block]))
     e = simulate_r(kind, x, sig, dt, r0=r0) - r_meas if np.all(np.isfinite(x)) else np.full(len(r_meas), np.nan)
@@ -190,6 +193,24 @@ def _fit_scales(
     data = YawData(np.arange(r_meas.shape[-1]) * dt, {"r": r_meas, **{k: x.T for k, x in w.items()}})
     f = fit_yaw(data, model, dict(zip(model.params, x0 * scale)))
     return np.where(f.ok[:, None], f.theta / scale, np.nan)
+
+
+def batch_fits(
+    kind: str, sigs: list[dict[str, np.ndarray]], r_meas: np.ndarray, dt: float, prefilter_hz: float = PREFILTER_HZ
+) -> tuple[np.ndarray, np.ndarray]:
+    """Output-error fits of one yaw-rate record ``r_meas`` (n,) on B versions of its inputs ``sigs``
+    (each as :func:`fit` takes it), in one batch of :func:`_fit_scales` (each record's LM runs on its own,
+    so a row is the fit :func:`fit` would make): the scales (B, P) and each fit's robust residual sigma
+    (B,; inf where the fit diverged)."""
+    batch = {k: np.stack([np.asarray(s[k], float) for s in sigs]) for k in sigs[0]}
+    x = _fit_scales(kind, batch, np.broadcast_to(r_meas, (len(sigs), len(r_meas))), dt, np.ones(len(PARAMS[kind])), prefilter_hz)
+    r0 = float(np.mean(r_meas[: max(1, int(round(1.0 / dt)))]))
+    sd = np.full(len(sigs), np.inf)
+    for i, (xi, s) in enumerate(zip(x, sigs)):
+        if np.all(np.isfinite(xi)):
+            e = simulate_r(kind, xi, model_inputs(s, dt, prefilter_hz), dt, r0=r0) - r_meas
+            sd[i] = robust_sigma(e) if np.all(np.isfinite(e)) else np.inf
+    return x, sd
 
 
 def _covariance(
