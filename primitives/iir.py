@@ -169,31 +169,33 @@ def _rows(b: np.ndarray, a: np.ndarray, x: np.ndarray, z0: np.ndarray | None) ->
     """The normalised filter along the last axis of ``x`` (m, n) from the states ``z0`` (m, order)
     (zero when None)."""
     m, n = x.shape
-    order = len(a) - 1
-    if order == 0:
+    if len(a) == 1:
         return b[0] * x
-    nb = -(-n // BLOCK)
+    buf = np.zeros((m, -(-n // BLOCK) * BLOCK))
+    buf[:, :n] = x
+    return _padded(b, a, buf, z0)[:, :n]
+
+
+def _padded(b: np.ndarray, a: np.ndarray, buf: np.ndarray, z0: np.ndarray | None) -> np.ndarray:
+    """The filter over ``buf`` (m, a multiple of BLOCK: the signal, then zeros), whole blocks."""
     toeplitz, obs, ctrl, power = _blocks(b.tobytes(), a.tobytes(), BLOCK)
     with _one_blas_thread():
-        return _block_products(x, order, nb, toeplitz, obs, ctrl, power, z0)
+        return _block_products(buf, len(a) - 1, toeplitz, obs, ctrl, power, z0)
 
 
 def _block_products(
-    x: np.ndarray,
+    buf: np.ndarray,
     order: int,
-    nb: int,
     toeplitz: np.ndarray,
     obs: np.ndarray,
     ctrl: np.ndarray,
     power: np.ndarray,
     z0: np.ndarray | None,
 ) -> np.ndarray:
-    """:func:`_rows`' products: the blocks' forced responses, their end states from block to block,
-    and each block's response to its start state."""
-    m, n = x.shape
-    xb = np.zeros((m, nb * BLOCK))
-    xb[:, :n] = x
-    xb = xb.reshape(m * nb, BLOCK)
+    """:func:`_padded`'s products: the blocks' forced responses, their end states from block to
+    block, and each block's response to its start state."""
+    m, nb = buf.shape[0], buf.shape[1] // BLOCK
+    xb = buf.reshape(m * nb, BLOCK)
     y = (xb @ toeplitz.T).reshape(m, nb, BLOCK)
     u = (xb @ ctrl.T).reshape(m, nb, order)  # each block's inputs carried to its end state
     s = np.empty((m, nb, order))
@@ -204,7 +206,7 @@ def _block_products(
         cur = cur @ step
         cur += u[:, k]
     y += (s.reshape(m * nb, order) @ obs.T).reshape(m, nb, BLOCK)
-    return y.reshape(m, nb * BLOCK)[:, :n]
+    return y.reshape(m, nb * BLOCK)
 
 
 def lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1, zi: np.ndarray | None = None) -> np.ndarray:
@@ -236,8 +238,15 @@ def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1) -> np.
         raise ValueError(f"filtfilt: the signal's length along axis {axis} must exceed {edge} samples")
     lead = moved.shape[:-1]
     rows = moved.reshape(-1, n)
-    ext = np.concatenate((2 * rows[:, :1] - rows[:, edge:0:-1], rows, 2 * rows[:, -1:] - rows[:, -2 : -edge - 2 : -1]), axis=1)
+    total = n + 2 * edge
     zi = lfilter_zi(b, a)
-    y = _rows(b, a, ext, zi[None, :] * ext[:, :1])
-    y = _rows(b, a, y[:, ::-1], zi[None, :] * y[:, -1:])[:, ::-1]
-    return np.moveaxis(y[:, edge:-edge].reshape(*lead, n), -1, axis)
+    # the odd extension written straight into the first pass's block buffer (zeros after it)
+    buf = np.zeros((rows.shape[0], -(-total // BLOCK) * BLOCK))
+    buf[:, :edge] = 2 * rows[:, :1] - rows[:, edge:0:-1]
+    buf[:, edge : edge + n] = rows
+    buf[:, edge + n : total] = 2 * rows[:, -1:] - rows[:, -2 : -edge - 2 : -1]
+    y = _padded(b, a, buf, zi[None, :] * buf[:, :1])
+    back = np.zeros(buf.shape)  # the forward output reversed, for the backward pass
+    back[:, :total] = y[:, total - 1 :: -1]
+    y = _padded(b, a, back, zi[None, :] * back[:, :1])
+    return np.moveaxis(y[:, total - 1 - edge : edge - 1 : -1].reshape(*lead, n), -1, axis)
