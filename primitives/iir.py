@@ -17,8 +17,12 @@ a ``shiptrial detect`` on one recording, which needs a handful of its functions 
   s' = A^L s + G x_block. All rows and blocks go through a few matrix products, so a long chain of
   dependent operations per row becomes a short loop over blocks. Not the same bits as scipy's
   sample-by-sample loop: tests/test_iir.py bounds the difference against scipy.signal.lfilter on
-  random inputs (relative to the output's largest value: 1e-9 for the detector's narrowest
-  low-pass, a 0.05 Hz 2nd-order Butterworth at 10 Hz; 1e-12 for the others).
+  random inputs (relative to the output's largest value: 1e-11 for the detector's narrowest
+  low-pass, a 0.05 Hz 2nd-order Butterworth at 10 Hz; 1e-12 for the others). A design whose
+  clustered poles the blocks cannot carry (a high order or a low cutoff: the companion form's A^L
+  then rounds into growth; a 4th-order low-pass at 1 % of Nyquist was 3e-4 off, a 6th-order one
+  overflowed) is found once per design on a probe (:func:`_blockable`) and filtered sample by
+  sample in scipy's order of operations instead: scipy's bits, slower.
 - :func:`filtfilt`: forward-backward filtering with scipy's default odd padding of
   3 max(len(a), len(b)) samples and initial state ``zi x_0`` for each pass.
 """
@@ -123,6 +127,13 @@ def _normalized(b: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate((b, np.zeros(n - len(b)))), np.concatenate((a, np.zeros(n - len(a))))
 
 
+def _refuse_leading_zero(a: np.ndarray) -> None:
+    """scipy's lfilter refuses a[0] == 0 (no causal filter); :func:`_normalized` would drop it, as
+    lfilter_zi does, and shift the filter by a sample."""
+    if np.atleast_1d(np.asarray(a, dtype=np.float64))[0] == 0.0:
+        raise ValueError("the filter's first denominator coefficient a[0] must not be 0")
+
+
 def lfilter_zi(b: np.ndarray, a: np.ndarray) -> np.ndarray:
     """``scipy.signal.lfilter_zi(b, a)``: the initial state of the step response's steady state,
     ``(I - A) zi = B`` with A = companion(a)^T, B = b[1:] - a[1:] b0 (the same bits)."""
@@ -177,10 +188,58 @@ def _rows(b: np.ndarray, a: np.ndarray, x: np.ndarray, z0: np.ndarray | None) ->
 
 
 def _padded(b: np.ndarray, a: np.ndarray, buf: np.ndarray, z0: np.ndarray | None) -> np.ndarray:
-    """The filter over ``buf`` (m, a multiple of BLOCK: the signal, then zeros), whole blocks."""
+    """The filter over ``buf`` (m, a multiple of BLOCK: the signal, then zeros), whole blocks; sample
+    by sample (:func:`_stepwise`, scipy's bits) for a design the blocks cannot carry (:func:`_blockable`)."""
+    if not _blockable(b.tobytes(), a.tobytes()):
+        z = np.zeros((buf.shape[0], len(a) - 1)) if z0 is None else np.broadcast_to(z0, (buf.shape[0], len(a) - 1))
+        if buf.shape[0] == 1:  # one row: Python floats, ten times faster than one-element arrays
+            return np.array([_stepwise(b.tolist(), a.tolist(), buf[0].tolist(), z[0].tolist())])
+        return np.stack(_stepwise(b.tolist(), a.tolist(), buf.T, [z[:, i].copy() for i in range(len(a) - 1)]), axis=1)
     toeplitz, obs, ctrl, power = _blocks(b.tobytes(), a.tobytes(), BLOCK)
     with _one_blas_thread():
         return _block_products(buf, len(a) - 1, toeplitz, obs, ctrl, power, z0)
+
+
+def _stepwise(b: list[float], a: list[float], xs, z: list) -> list:
+    """scipy's transposed direct form II loop (``_linear_filter``: y = z_0 + b_0 x; z_i = z_(i+1) +
+    x b_(i+1) - y a_(i+1); the last z = x b_n - y a_n), in its order of operations, so its bits, over
+    ``xs`` (one value per step: floats, or arrays of the rows' samples) from the states ``z`` (updated);
+    the outputs, one per step."""
+    order = len(a) - 1
+    out = []
+    for x in xs:
+        y = z[0] + b[0] * x
+        for i in range(order - 1):
+            z[i] = z[i + 1] + x * b[i + 1] - y * a[i + 1]
+        z[order - 1] = x * b[order] - y * a[order]
+        out.append(y)
+    return out
+
+
+#: the block products must equal the sample-by-sample filter on a probe to this share of its peak
+#: (the detector's designs: 5e-15 to 5e-13); a high order or a low cutoff (a 4th-order low-pass at
+#: 1 % of Nyquist: 3e-4; 6th order at 1 %: overflow) puts clustered poles into the companion form's
+#: A^L, whose rounding then grows from block to block
+BLOCKABLE_TOLERANCE = 1e-11
+
+
+@lru_cache(maxsize=64)
+def _blockable(b_bytes: bytes, a_bytes: bytes) -> bool:
+    """Whether the block products of a normalised design are accurate: A^L's spectral radius below 1,
+    and the blocks equal :func:`_stepwise` to :data:`BLOCKABLE_TOLERANCE` of the peak on a fixed
+    random walk of 16 blocks from a random state (a few ms in Python floats, once per design)."""
+    b, a = np.frombuffer(b_bytes), np.frombuffer(a_bytes)
+    order = len(a) - 1
+    toeplitz, obs, ctrl, power = _blocks(b_bytes, a_bytes, BLOCK)
+    if not np.all(np.isfinite(power)) or np.max(np.abs(np.linalg.eigvals(power))) >= 1.0:
+        return False
+    rng = np.random.default_rng(0)
+    probe = rng.standard_normal(16 * BLOCK).cumsum()
+    z0 = rng.standard_normal(order)
+    want = np.array(_stepwise(b.tolist(), a.tolist(), probe.tolist(), z0.tolist()))
+    with _one_blas_thread():
+        got = _block_products(probe[None, :], order, toeplitz, obs, ctrl, power, z0[None, :])[0]
+    return bool(np.max(np.abs(got - want)) <= BLOCKABLE_TOLERANCE * np.max(np.abs(want)))
 
 
 def _block_products(
@@ -212,6 +271,7 @@ def _block_products(
 def lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1, zi: np.ndarray | None = None) -> np.ndarray:
     """``scipy.signal.lfilter(b, a, x, axis, zi)``'s output (without the final state) to rounding
     (module docstring); ``zi`` is (order,) or x's shape with ``axis`` of length order."""
+    _refuse_leading_zero(a)
     b, a = _normalized(b, a)
     x = np.asarray(x, dtype=np.float64)
     order = len(a) - 1
@@ -231,6 +291,7 @@ def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1) -> np.
     pass from ``lfilter_zi x_0``) to rounding (module docstring)."""
     x = np.asarray(x, dtype=np.float64)
     edge = 3 * max(len(np.atleast_1d(a)), len(np.atleast_1d(b)))
+    _refuse_leading_zero(a)
     b, a = _normalized(b, a)
     moved = np.moveaxis(x, axis, -1)
     n = moved.shape[-1]

@@ -5,7 +5,7 @@
 window w_k = 0.5 - 0.5 cos(2 pi k / N), segments of N samples overlapping by N // 2, each's mean
 removed, one-sided density |FFT(w x)|^2 / (fs sum w^2) doubled but at 0 and Nyquist, averaged over
 the segments (Welch 1967, IEEE Trans. Audio Electroacoust. 15(2), eq. 3-4). Equal to scipy's to
-rounding (tests/test_spectrum.py).
+rounding (tests/test_savgol.py).
 """
 
 from __future__ import annotations

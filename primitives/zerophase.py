@@ -15,7 +15,8 @@ z = x b_n - y a_n) -- the same bits (tests/test_zerophase.py).
 Without the compiled loop (numba not installed or not loaded, a small call, a 3-D array) the
 filter is :func:`primitives.iir.filtfilt`, not scipy's: ``import scipy.signal`` costs about 2 s of
 CPU, half of a ``shiptrial detect`` on one recording. That path equals scipy's to rounding (1e-12
-of the output's largest value for these low-passes, tests/test_iir.py); the design
+of the output's largest value for the detector's low-passes, tests/test_iir.py; scipy's bits for a
+high order or a low cutoff, which it filters sample by sample); the design
 (:func:`lowpass`) and the initial state are scipy's bits either way (:mod:`primitives.iir`).
 """
 
