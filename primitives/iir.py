@@ -30,6 +30,8 @@ a ``shiptrial detect`` on one recording, which needs a handful of its functions 
 from __future__ import annotations
 
 import contextlib
+import threading
+from collections.abc import Iterator
 from functools import lru_cache
 
 import numpy as np
@@ -39,20 +41,44 @@ import numpy as np
 #: block-to-block steps, 30 times less rounding on a 4th-order 0.5 Hz low-pass at 10 Hz
 BLOCK = 64
 _BLAS: list = []  # the process's threadpoolctl controller, made on first use
+#: callers inside :func:`_one_blas_thread` and the limiter that restores BLAS's own thread count when
+#: the last leaves: the limit is process-wide, so threads filtering at once share one limiter (each
+#: its own would record another's limit of 1 as the original and leave BLAS at one thread for good)
+_HELD: list = [0, None]
+_HELD_LOCK = threading.Lock()
 
 
-def _one_blas_thread() -> contextlib.AbstractContextManager:
+@contextlib.contextmanager
+def _one_blas_thread() -> Iterator[None]:
     """BLAS limited to one thread: the block products are narrow (at most 64 + 4 columns), and a
     second OpenBLAS thread spent more CPU than it saved (400 rows x 5,090 samples, 4th order: 0.08 s
-    CPU a pass with two threads, 0.03 s with one; scipy's loop 0.016 s)."""
+    CPU a pass with two threads, 0.03 s with one; scipy's loop 0.016 s). The count is restored when
+    the last caller leaves; meanwhile the process's other BLAS calls run on one thread too."""
+    with _HELD_LOCK:
+        if _HELD[0] == 0:
+            _HELD[1] = _limit_blas()
+        _HELD[0] += 1
+    try:
+        yield
+    finally:
+        with _HELD_LOCK:
+            _HELD[0] -= 1
+            if _HELD[0] == 0 and _HELD[1] is not None:
+                _HELD[1].restore_original_limits()
+                _HELD[1] = None
+
+
+def _limit_blas():
+    """threadpoolctl's limiter of BLAS to one thread (it restores the count it found), None when
+    threadpoolctl cannot read this BLAS: the products then run as they are."""
     try:
         if not _BLAS:
             from threadpoolctl import ThreadpoolController
 
             _BLAS.append(ThreadpoolController())
         return _BLAS[0].limit(limits=1, user_api="blas")
-    except Exception:  # noqa: BLE001 - threadpoolctl cannot read this BLAS: the products run as they are
-        return contextlib.nullcontext()
+    except Exception:  # noqa: BLE001 - any failure to read or set the BLAS only costs speed
+        return None
 
 
 def _poly(roots: np.ndarray) -> np.ndarray:

@@ -112,3 +112,65 @@ def test_a_leading_zero_denominator_is_refused_as_scipy_does() -> None:
         iir.lfilter([1.0], [0.0, 1.0, 0.5], np.ones(10))
     with pytest.raises(ValueError, match="a\\[0\\]"):
         iir.filtfilt([1.0, 0.0], [0.0, 1.0, 0.5], np.ones(30))
+
+
+#: two threads filter at once: the second enters while the first holds BLAS to one thread and leaves
+#: after it; then the process's BLAS thread count (OPENBLAS_NUM_THREADS=2 for this run) is printed
+_TWO_THREADS = """
+import json, threading
+import numpy as np
+from threadpoolctl import threadpool_info
+from primitives import iir
+
+def blas():
+    return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+b, a = iir.butter(4, 0.5, fs=10.0)
+x = np.ones(200)
+iir.lfilter(b, a, x)  # the design's probe (_blockable) run before the products are held
+before = blas()
+both_inside, first_left = threading.Barrier(2), threading.Event()
+products = iir._block_products
+
+def held(*args):
+    both_inside.wait(timeout=30)
+    if threading.current_thread().name == "second":
+        first_left.wait(timeout=30)
+    return products(*args)
+
+iir._block_products = held
+done = []
+
+def first():
+    done.append(iir.lfilter(b, a, x))
+    first_left.set()
+
+threads = [threading.Thread(target=first), threading.Thread(target=lambda: done.append(iir.lfilter(b, a, x)), name="second")]
+for t in threads:
+    t.start()
+for t in threads:
+    t.join()
+print(json.dumps([before, blas(), len(done)]))
+"""
+
+
+def test_blas_thread_count_is_restored_after_filters_on_two_threads() -> None:
+    """The filter holds BLAS to one thread (a process-wide setting) and gives the count back when the
+    last of several threads filtering at once leaves: with one limiter each, the thread that entered
+    while the other held the limit recorded 1 as the original and, leaving last, left BLAS at one
+    thread for the rest of the process."""
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    pytest.importorskip("threadpoolctl")
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=str(root), OPENBLAS_NUM_THREADS="2")
+    out = subprocess.run([sys.executable, "-c", _TWO_THREADS], cwd=root, env=env, capture_output=True, text=True, check=True)
+    before, after, done = json.loads(out.stdout)
+    assert done == 2, out.stdout  # both threads filtered (no barrier broken)
+    if not before:
+        pytest.skip("threadpoolctl finds no BLAS")
+    assert after == before, out.stdout
