@@ -22,7 +22,9 @@ a ``shiptrial detect`` on one recording, which needs a handful of its functions 
   clustered poles the blocks cannot carry (a high order or a low cutoff: the companion form's A^L
   then rounds into growth; a 4th-order low-pass at 1 % of Nyquist was 3e-4 off, a 6th-order one
   overflowed) is found once per design on a probe (:func:`_blockable`) and filtered sample by
-  sample in scipy's order of operations instead: scipy's bits, slower.
+  sample in scipy's order of operations instead: scipy's bits, slower. A NaN or inf input makes
+  its row NaN from the start of its 64-sample block on (scipy's: from that sample on; the
+  forward-backward filter is all NaN either way): rows stay apart.
 - :func:`filtfilt`: forward-backward filtering with scipy's default odd padding of
   3 max(len(a), len(b)) samples and initial state ``zi x_0`` for each pass.
 """
