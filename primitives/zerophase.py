@@ -11,6 +11,13 @@ no fused multiply-add): the odd extension ``2 x_0 - x_i``, the initial state ``z
 :func:`scipy.signal.lfilter_zi`, and the transposed direct form II step of scipy's
 ``_linear_filter`` (y = z_0 + b_0 x; z_i = z_(i+1) + x b_(i+1) - y a_(i+1); the last
 z = x b_n - y a_n) -- the same bits (tests/test_zerophase.py).
+
+Without the compiled loop (numba not installed or not loaded, a small call, a 3-D array) the
+filter is :func:`primitives.iir.filtfilt`, not scipy's: ``import scipy.signal`` costs about 2 s of
+CPU, half of a ``shiptrial detect`` on one recording. That path equals scipy's to rounding (1e-12
+of the output's largest value for the detector's low-passes, tests/test_iir.py; scipy's bits for a
+high order or a low cutoff, which it filters sample by sample); the design
+(:func:`lowpass`) and the initial state are scipy's bits either way (:mod:`primitives.iir`).
 """
 
 from __future__ import annotations
@@ -18,10 +25,8 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from scipy.signal import butter, lfilter_zi
-from scipy.signal import filtfilt as scipy_filtfilt
 
-from primitives import jitloop
+from primitives import iir, jitloop
 
 #: rows filtered side by side in the compiled loop: enough independent chains to hide the latency
 #: of one step's dependent multiply-adds, few enough that their padded rows stay in cache
@@ -32,9 +37,9 @@ def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1) -> np.
     """``scipy.signal.filtfilt(b, a, x, axis=axis)`` (odd padding of 3 max(len(a), len(b))
     samples), to the bit and in scipy's memory layout (the reversed view of a padded buffer, so a
     reduction over the result sums in the same order); compiled for a large float64 array of one or
-    two dimensions when :func:`primitives.jitloop.use` says so, scipy's otherwise (a denominator
-    not starting with 1, b and a of different lengths, too short a signal: scipy's, with its
-    checks and messages)."""
+    two dimensions when :func:`primitives.jitloop.use` says so, :func:`primitives.iir.filtfilt`
+    otherwise (scipy's to rounding; also for a denominator not starting with 1, b and a of
+    different lengths, too short a signal, with its checks and messages)."""
     b, a, x = np.asarray(b), np.asarray(a), np.asarray(x)
     edge = 3 * max(len(a), len(b))
     ok = (
@@ -47,7 +52,7 @@ def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1) -> np.
         and x.shape[axis] > edge
     )
     if not (ok and jitloop.use(x.size)):
-        return scipy_filtfilt(b, a, x, axis=axis)
+        return iir.filtfilt(b, a, x, axis=axis)
     ax = axis % x.ndim
     shape = list(x.shape)
     shape[ax] += 2 * edge
@@ -58,7 +63,7 @@ def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1) -> np.
 
 
 def lowpass(order: int, cutoff_hz: float, fs: float) -> tuple[np.ndarray, np.ndarray]:
-    """``scipy.signal.butter(order, cutoff_hz, fs=fs)`` (b, a), designed once per arguments and kept
+    """``scipy.signal.butter(order, cutoff_hz, fs=fs)`` (b, a; :func:`primitives.iir.butter`, the same bits), designed once per arguments and kept
     read-only: a change detector designs the same few low-passes for every recording and every
     prediction (about 11 a recording, a tenth of its CPU in scipy's design code)."""
     return _designed(int(order), float(cutoff_hz), float(fs))
@@ -66,7 +71,7 @@ def lowpass(order: int, cutoff_hz: float, fs: float) -> tuple[np.ndarray, np.nda
 
 @lru_cache(maxsize=32)
 def _designed(order: int, cutoff_hz: float, fs: float) -> tuple[np.ndarray, np.ndarray]:
-    b, a = butter(order, cutoff_hz, fs=fs)
+    b, a = iir.butter(order, cutoff_hz, fs=fs)
     b.flags.writeable = False
     a.flags.writeable = False
     return b, a
@@ -76,7 +81,7 @@ def _designed(order: int, cutoff_hz: float, fs: float) -> tuple[np.ndarray, np.n
 def _initial_state(b: bytes, a: bytes) -> np.ndarray:
     """``lfilter_zi(b, a)`` of float64 coefficients given as bytes (C-contiguous, read-only): the same
     bits as computing it per call, which costs as much as filtering a 5,000-sample row."""
-    zi = np.ascontiguousarray(lfilter_zi(np.frombuffer(b), np.frombuffer(a)))
+    zi = np.ascontiguousarray(iir.lfilter_zi(np.frombuffer(b), np.frombuffer(a)))
     zi.flags.writeable = False
     return zi
 

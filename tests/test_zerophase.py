@@ -42,11 +42,24 @@ def test_compiled_filter_gives_scipys_bits_and_layout(order: int, cutoff_hz: flo
         assert got.shape == want.shape and got.strides == want.strides, (order, i)
 
 
-def test_what_the_loop_does_not_cover_is_scipys_with_its_messages(monkeypatch) -> None:
+def test_what_the_loop_does_not_cover_is_scipys_to_rounding_with_a_message(monkeypatch) -> None:
+    """Outside the compiled loop the filter is primitives.iir's (no scipy.signal import): scipy's
+    to rounding (tests/test_iir.py), with a message for too short a signal."""
     monkeypatch.setattr(jitloop, "MIN_WORK", 0)
     b, a = butter(4, 0.5, fs=10.0)
     x = np.random.default_rng(1).standard_normal((2, 3, 100))
-    assert np.array_equal(zerophase.filtfilt(b, a, x, axis=1 + 1), scipy_filtfilt(b, a, x, axis=2))  # 3-D
-    assert np.array_equal(zerophase.filtfilt(b, 2 * a, x[0], axis=1), scipy_filtfilt(b, 2 * a, x[0], axis=1))  # a[0] != 1
-    with pytest.raises(ValueError, match="padlen"):  # too short: scipy's own message
+    for got, want in [
+        (zerophase.filtfilt(b, a, x, axis=1 + 1), scipy_filtfilt(b, a, x, axis=2)),  # 3-D
+        (zerophase.filtfilt(b, 2 * a, x[0], axis=1), scipy_filtfilt(b, 2 * a, x[0], axis=1)),  # a[0] != 1
+    ]:
+        assert got.shape == want.shape
+        assert np.max(np.abs(got - want)) <= 1e-12 * np.max(np.abs(want))
+    with pytest.raises(ValueError, match="must exceed 15 samples"):  # too short
         zerophase.filtfilt(b, a, x[0, :, :15], axis=-1)
+
+
+def test_designed_lowpass_is_scipys_bits() -> None:
+    for order, cutoff in [(1, 0.3), (2, 0.05), (4, 0.5)]:
+        b, a = zerophase.lowpass(order, cutoff, 10.0)
+        b0, a0 = butter(order, cutoff, fs=10.0)
+        assert np.array_equal(b, b0) and np.array_equal(a, a0)

@@ -5,11 +5,11 @@ is an input error, refused in one line, not a change."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from diagnose.recording import Recording, RecordingError
 from identify.detect.yawmodel import YAW_MODELS, YawPrior, model_inputs, prior_name
 from identify.yawid.model import INPUT_TERMS, STATE_TERMS
+from primitives.savgol import savgol_filter  # scipy.signal's, without its 2 s import
 
 MOMENT = "tau_n"  # measured pod yaw moment, N m (the recording format's actuator yaw moment)
 #: the prior's prediction may miss a recording by this many times its noise sigma before the

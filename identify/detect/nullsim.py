@@ -6,9 +6,10 @@ thresholds are quantiles over them (:func:`identify.detect.glr.calibrate`)."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import lfilter, savgol_filter
 
 from identify.detect.yawmodel import NOMINAL, Derive, YawPrior, simulate_r
+from primitives.iir import lfilter  # scipy.signal's, without its 2 s import
+from primitives.savgol import savgol_filter
 
 
 def parameter_draws(prior: YawPrior, runs: int, seed: int = 0) -> np.ndarray:

@@ -35,9 +35,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, lfilter, welch
 
 from identify.detect.yawmodel import YawPrior, whiten
+from primitives.iir import butter, lfilter  # scipy.signal's, without its 2 s import
+from primitives.spectrum import welch
 
 #: the band left out, relative to the roll's spectral peak: about half an octave around it (chosen on
 #: the podded truth family's runs, in-sample: their roll peaks lie at 0.11-0.13 Hz)

@@ -138,7 +138,8 @@ def prefilter(w: dict[str, np.ndarray], ts: float, cutoff_hz: float, axis: int =
     (time): ours, not the thesis's. The inputs enter the predictor as if exact (errors in
     variables, L1882-1884), so their white noise above the manoeuvre's bandwidth only biases the
     estimates (through |v|, |uv|: E|v + e| > |v|) and adds noise to the prediction. scipy's
-    filtfilt, compiled for many rows (:func:`primitives.zerophase.filtfilt`, the same bits)."""
+    filtfilt, compiled for many rows (:func:`primitives.zerophase.filtfilt`, the same bits); on few
+    rows :func:`primitives.iir.filtfilt` (scipy's to rounding; its bits for a low ``cutoff_hz``)."""
     b, a = lowpass(4, cutoff_hz, 1.0 / ts)
     return {k: filtfilt(b, a, v, axis=axis) for k, v in w.items()}
 

@@ -23,7 +23,6 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
-from scipy.signal import lfilter
 
 from identify.yawid.model import forward_only
 from primitives.errors import UserError
@@ -35,6 +34,8 @@ POD_FILTER_S = 5.0
 
 def pods_inputs(n: np.ndarray, delta: np.ndarray, ts: float, tau_s: float = POD_FILTER_S) -> np.ndarray:
     """Inputs (N, 4) with both pods alike; the commanded pod angle through a first-order lag."""
+    from scipy.signal import lfilter  # here: the simulations need it, a detect run on a recording does not (its 2 s import)
+
     a = np.exp(-ts / tau_s)
     d = lfilter([1 - a], [1, -a], delta)
     return np.stack([n, d, n, d], axis=-1)

@@ -1,0 +1,341 @@
+"""IIR filters without :mod:`scipy.signal`: the Butterworth design (lowpass, bandstop), its
+transposed-direct-form-II initial state, and the filter itself, for the change detector's path.
+
+``import scipy.signal`` costs about 2 s of CPU on the project's VM (it imports scipy.stats), half of
+a ``shiptrial detect`` on one recording, which needs a handful of its functions only.
+
+- :func:`butter`: scipy's ``butter(order, wn, btype, fs=fs)`` (Butterworth analog prototype poles
+  ``-exp(j pi m / 2N)``, m = -N+1, -N+3, ..., N-1; frequency pre-warping ``4 tan(pi Wn / 2)``;
+  lowpass or bandstop transform; bilinear transform ``(4 + s) / (4 - s)``; Oppenheim & Schafer,
+  *Discrete-Time Signal Processing*, 3rd ed., 7.1.2), in scipy's order of operations: the same bits.
+- :func:`lfilter_zi`: the steady state ``(I - A) z = B`` of the transposed direct form II
+  (A = companion(a)^T, B = b[1:] - a[1:] b0), solved as scipy solves it: the same bits.
+- :func:`lfilter`: y[k] = sum b_j x[k-j] - sum a_j y[k-j] from the state ``zi``, computed block by
+  block from the filter's state-space form (z' = A z + B x, y = z_0 + b_0 x): within a block of L
+  samples the output is the impulse response's lower-triangular Toeplitz matrix times the block's
+  inputs plus C A^j times the state at its start, and the states from block to block are
+  s' = A^L s + G x_block. All rows and blocks go through a few matrix products, so a long chain of
+  dependent operations per row becomes a short loop over blocks. Not the same bits as scipy's
+  sample-by-sample loop: tests/test_iir.py bounds the difference against scipy.signal.lfilter on
+  random inputs (relative to the output's largest value: 1e-11 for the detector's narrowest
+  low-pass, a 0.05 Hz 2nd-order Butterworth at 10 Hz; 1e-12 for the others). A design whose
+  clustered poles the blocks cannot carry (a high order or a low cutoff: the companion form's A^L
+  then rounds into growth; a 4th-order low-pass at 1 % of Nyquist was 3e-4 off, a 6th-order one
+  overflowed) is found once per design on a probe (:func:`_blockable`) and filtered sample by
+  sample in scipy's order of operations instead: scipy's bits, slower. A NaN or inf input makes
+  its row NaN from the start of its 64-sample block on (scipy's: from that sample on; the
+  forward-backward filter is all NaN either way): rows stay apart.
+- :func:`filtfilt`: forward-backward filtering with scipy's default odd padding of
+  3 max(len(a), len(b)) samples and initial state ``zi x_0`` for each pass.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+from collections.abc import Iterator
+from functools import lru_cache
+
+import numpy as np
+
+#: samples per block of :func:`lfilter`: the Toeplitz product costs L multiply-adds a sample, the
+#: loop over blocks n / L steps of a few small products; 64 rather than 32 (about as fast): fewer
+#: block-to-block steps, 30 times less rounding on a 4th-order 0.5 Hz low-pass at 10 Hz
+BLOCK = 64
+_BLAS: list = []  # the process's threadpoolctl controller, made on first use
+#: callers inside :func:`_one_blas_thread` and the limiter that restores BLAS's own thread count when
+#: the last leaves: the limit is process-wide, so threads filtering at once share one limiter (each
+#: its own would record another's limit of 1 as the original and leave BLAS at one thread for good)
+_HELD: list = [0, None]
+_HELD_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _one_blas_thread() -> Iterator[None]:
+    """BLAS limited to one thread: the block products are narrow (at most 64 + 4 columns), and a
+    second OpenBLAS thread spent more CPU than it saved (400 rows x 5,090 samples, 4th order: 0.08 s
+    CPU a pass with two threads, 0.03 s with one; scipy's loop 0.016 s). The count is restored when
+    the last caller leaves; meanwhile the process's other BLAS calls run on one thread too."""
+    with _HELD_LOCK:
+        if _HELD[0] == 0:
+            _HELD[1] = _limit_blas()
+        _HELD[0] += 1
+    try:
+        yield
+    finally:
+        with _HELD_LOCK:
+            _HELD[0] -= 1
+            if _HELD[0] == 0 and _HELD[1] is not None:
+                _HELD[1].restore_original_limits()
+                _HELD[1] = None
+
+
+def _limit_blas():
+    """threadpoolctl's limiter of BLAS to one thread (it restores the count it found), None when
+    threadpoolctl cannot read this BLAS: the products then run as they are."""
+    try:
+        if not _BLAS:
+            from threadpoolctl import ThreadpoolController
+
+            _BLAS.append(ThreadpoolController())
+        return _BLAS[0].limit(limits=1, user_api="blas")
+    except Exception:  # noqa: BLE001 - any failure to read or set the BLAS only costs speed
+        return None
+
+
+def _poly(roots: np.ndarray) -> np.ndarray:
+    """scipy.signal._polyutils.poly (1-D np.poly by repeated convolution; real when the roots are
+    conjugate pairs)."""
+    a = np.ones((1,), dtype=roots.dtype)
+    one = np.ones_like(roots[0])
+    for zero in roots:
+        a = np.convolve(a, np.stack((one, -zero)), mode="full")
+    if np.iscomplexobj(a):
+        r = np.asarray(roots, dtype=np.complex128)
+        if np.all(np.sort(np.imag(r)) == np.sort(np.imag(np.conj(r)))):
+            a = np.real(a).copy()
+    return a
+
+
+def butter(order: int, wn: float | tuple[float, float], btype: str = "lowpass", fs: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+    """(b, a) of the digital Butterworth filter: ``scipy.signal.butter(order, wn, btype, fs=fs)`` for
+    btype 'lowpass' ('low') or 'bandstop' ('stop'), the same bits (module docstring)."""
+    kind = {"low": "lowpass", "lowpass": "lowpass", "stop": "bandstop", "bandstop": "bandstop"}.get(btype)
+    if kind is None:
+        raise ValueError(f"butter: btype {btype!r} not implemented (lowpass or bandstop)")
+    n = int(order)
+    if n < 1 or n != order:
+        raise ValueError("butter: the order must be a positive integer")
+    w = np.asarray(wn, dtype=np.float64) / (fs / 2)
+    if np.any(w <= 0) or np.any(w >= 1):
+        raise ValueError(f"butter: critical frequencies must be 0 < Wn < fs/2 (fs={fs})")
+    m = np.arange(-n + 1, n, 2, dtype=np.float64)
+    p = -np.exp(1j * np.pi * m / (2 * n))  # the analog prototype's poles (no zeros, gain 1)
+    z = np.asarray([], dtype=np.float64)
+    k = 1.0
+    warped = 2 * 2.0 * np.tan(np.pi * w / 2.0)
+    if kind == "lowpass":
+        if w.size != 1:
+            raise ValueError("butter: a lowpass takes one critical frequency")
+        wo = float(warped)
+        z, p, k = wo * z, wo * p, k * wo ** (len(p) - len(z))
+    else:
+        if w.size != 2 or not w[0] < w[1]:
+            raise ValueError("butter: a bandstop takes two increasing critical frequencies")
+        bw, wo = float(warped[1] - warped[0]), float(np.sqrt(warped[0] * warped[1]))
+        degree = len(p) - len(z)
+        z_hp = ((bw / 2) / z).astype(np.complex128)
+        p_hp = ((bw / 2) / p).astype(np.complex128)
+        z_bs = np.concatenate((z_hp + np.sqrt(z_hp**2 - wo**2), z_hp - np.sqrt(z_hp**2 - wo**2)))
+        p_bs = np.concatenate((p_hp + np.sqrt(p_hp**2 - wo**2), p_hp - np.sqrt(p_hp**2 - wo**2)))
+        z_bs = np.concatenate((z_bs, np.full(degree, +1j * wo), np.full(degree, -1j * wo)))
+        k = k * np.real(np.prod(-z) / np.prod(-p))
+        z, p = z_bs, p_bs
+    degree = len(p) - len(z)  # the bilinear transform (fs 2: 2 fs = 4)
+    z_z = np.concatenate(((4.0 + z) / (4.0 - z), -np.ones(degree)))
+    p_z = (4.0 + p) / (4.0 - p)
+    k_z = k * np.real(np.prod(4.0 - z) / np.prod(4.0 - p))
+    k_z = np.atleast_1d(np.asarray(k_z, dtype=np.result_type(np.real(z_z), np.real(p_z), k_z)))
+    return np.multiply(k_z, _poly(z_z)), np.atleast_1d(_poly(p_z))
+
+
+def _normalized(b: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """b and a divided by a[0] (leading zeros of a dropped) and zero-padded to one length."""
+    b = np.atleast_1d(np.asarray(b, dtype=np.float64))
+    a = np.atleast_1d(np.asarray(a, dtype=np.float64))
+    if b.ndim != 1 or a.ndim != 1:
+        raise ValueError("b and a must be 1-D")
+    while len(a) > 1 and a[0] == 0.0:
+        a = a[1:]
+    if len(a) < 1 or a[0] == 0.0:
+        raise ValueError("there must be at least one nonzero a coefficient")
+    if a[0] != 1.0:
+        b, a = b / a[0], a / a[0]
+    n = max(len(a), len(b))
+    return np.concatenate((b, np.zeros(n - len(b)))), np.concatenate((a, np.zeros(n - len(a))))
+
+
+def _refuse_leading_zero(a: np.ndarray) -> None:
+    """scipy's lfilter refuses a[0] == 0 (no causal filter); :func:`_normalized` would drop it, as
+    lfilter_zi does, and shift the filter by a sample."""
+    if np.atleast_1d(np.asarray(a, dtype=np.float64))[0] == 0.0:
+        raise ValueError("the filter's first denominator coefficient a[0] must not be 0")
+
+
+def lfilter_zi(b: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """``scipy.signal.lfilter_zi(b, a)``: the initial state of the step response's steady state,
+    ``(I - A) zi = B`` with A = companion(a)^T, B = b[1:] - a[1:] b0 (the same bits)."""
+    b, a = _normalized(b, a)
+    n = len(a)
+    companion = np.zeros((n - 1, n - 1))
+    companion[0] = -a[1:] / a[0]
+    companion[np.arange(1, n - 1), np.arange(0, n - 2)] = 1.0
+    return np.linalg.solve(np.eye(n - 1) - companion.T, b[1:] - a[1:] * b[0])
+
+
+@lru_cache(maxsize=64)
+def _blocks(b_bytes: bytes, a_bytes: bytes, length: int) -> tuple[np.ndarray, ...]:
+    """The block matrices of a normalised filter: T (L, L) lower-triangular Toeplitz of the impulse
+    response h_0 = b_0, h_j = C A^(j-1) B; O (L, n) rows C A^j; G (n, L) columns A^(L-1-m) B; A^L."""
+    b, a = np.frombuffer(b_bytes), np.frombuffer(a_bytes)
+    order = len(a) - 1
+    A = np.zeros((order, order))
+    A[:, 0] = -a[1:]
+    A[np.arange(order - 1), np.arange(1, order)] = 1.0
+    B = b[1:] - a[1:] * b[0]
+    h = np.empty(length)
+    obs = np.empty((length, order))
+    ctrl = np.empty((order, length))
+    row = np.zeros(order)
+    row[0] = 1.0  # C A^j, j = 0, 1, ...
+    col = B.copy()  # A^j B
+    h[0] = b[0]
+    for j in range(length):
+        obs[j] = row
+        ctrl[:, length - 1 - j] = col
+        if j + 1 < length:
+            h[j + 1] = row @ B
+        row = row @ A
+        col = A @ col
+    toeplitz = np.zeros((length, length))
+    for j in range(length):
+        toeplitz[j:, j] = h[: length - j]
+    power = np.linalg.matrix_power(A, length)
+    return tuple(np.ascontiguousarray(m) for m in (toeplitz, obs, ctrl, power))
+
+
+def _rows(b: np.ndarray, a: np.ndarray, x: np.ndarray, z0: np.ndarray | None) -> np.ndarray:
+    """The normalised filter along the last axis of ``x`` (m, n) from the states ``z0`` (m, order)
+    (zero when None)."""
+    m, n = x.shape
+    if len(a) == 1:
+        return b[0] * x
+    buf = np.zeros((m, -(-n // BLOCK) * BLOCK))
+    buf[:, :n] = x
+    return _padded(b, a, buf, z0)[:, :n]
+
+
+def _padded(b: np.ndarray, a: np.ndarray, buf: np.ndarray, z0: np.ndarray | None) -> np.ndarray:
+    """The filter over ``buf`` (m, a multiple of BLOCK: the signal, then zeros), whole blocks; sample
+    by sample (:func:`_stepwise`, scipy's bits) for a design the blocks cannot carry (:func:`_blockable`)."""
+    if not _blockable(b.tobytes(), a.tobytes()):
+        z = np.zeros((buf.shape[0], len(a) - 1)) if z0 is None else np.broadcast_to(z0, (buf.shape[0], len(a) - 1))
+        if buf.shape[0] == 1:  # one row: Python floats, ten times faster than one-element arrays
+            return np.array([_stepwise(b.tolist(), a.tolist(), buf[0].tolist(), z[0].tolist())])
+        return np.stack(_stepwise(b.tolist(), a.tolist(), buf.T, [z[:, i].copy() for i in range(len(a) - 1)]), axis=1)
+    toeplitz, obs, ctrl, power = _blocks(b.tobytes(), a.tobytes(), BLOCK)
+    with _one_blas_thread():
+        return _block_products(buf, len(a) - 1, toeplitz, obs, ctrl, power, z0)
+
+
+def _stepwise(b: list[float], a: list[float], xs, z: list) -> list:
+    """scipy's transposed direct form II loop (``_linear_filter``: y = z_0 + b_0 x; z_i = z_(i+1) +
+    x b_(i+1) - y a_(i+1); the last z = x b_n - y a_n), in its order of operations, so its bits, over
+    ``xs`` (one value per step: floats, or arrays of the rows' samples) from the states ``z`` (updated);
+    the outputs, one per step."""
+    order = len(a) - 1
+    out = []
+    for x in xs:
+        y = z[0] + b[0] * x
+        for i in range(order - 1):
+            z[i] = z[i + 1] + x * b[i + 1] - y * a[i + 1]
+        z[order - 1] = x * b[order] - y * a[order]
+        out.append(y)
+    return out
+
+
+#: the block products must equal the sample-by-sample filter on a probe to this share of its peak
+#: (the detector's designs: 5e-15 to 5e-13); a high order or a low cutoff (a 4th-order low-pass at
+#: 1 % of Nyquist: 3e-4; 6th order at 1 %: overflow) puts clustered poles into the companion form's
+#: A^L, whose rounding then grows from block to block
+BLOCKABLE_TOLERANCE = 1e-11
+
+
+@lru_cache(maxsize=64)
+def _blockable(b_bytes: bytes, a_bytes: bytes) -> bool:
+    """Whether the block products of a normalised design are accurate: A^L's spectral radius below 1,
+    and the blocks equal :func:`_stepwise` to :data:`BLOCKABLE_TOLERANCE` of the peak on a fixed
+    random walk of 16 blocks from a random state (a few ms in Python floats, once per design)."""
+    b, a = np.frombuffer(b_bytes), np.frombuffer(a_bytes)
+    order = len(a) - 1
+    toeplitz, obs, ctrl, power = _blocks(b_bytes, a_bytes, BLOCK)
+    if not np.all(np.isfinite(power)) or np.max(np.abs(np.linalg.eigvals(power))) >= 1.0:
+        return False
+    rng = np.random.default_rng(0)
+    probe = rng.standard_normal(16 * BLOCK).cumsum()
+    z0 = rng.standard_normal(order)
+    want = np.array(_stepwise(b.tolist(), a.tolist(), probe.tolist(), z0.tolist()))
+    with _one_blas_thread():
+        got = _block_products(probe[None, :], order, toeplitz, obs, ctrl, power, z0[None, :])[0]
+    return bool(np.max(np.abs(got - want)) <= BLOCKABLE_TOLERANCE * np.max(np.abs(want)))
+
+
+def _block_products(
+    buf: np.ndarray,
+    order: int,
+    toeplitz: np.ndarray,
+    obs: np.ndarray,
+    ctrl: np.ndarray,
+    power: np.ndarray,
+    z0: np.ndarray | None,
+) -> np.ndarray:
+    """:func:`_padded`'s products: the blocks' forced responses, their end states from block to
+    block, and each block's response to its start state."""
+    m, nb = buf.shape[0], buf.shape[1] // BLOCK
+    xb = buf.reshape(m * nb, BLOCK)
+    y = (xb @ toeplitz.T).reshape(m, nb, BLOCK)
+    u = (xb @ ctrl.T).reshape(m, nb, order)  # each block's inputs carried to its end state
+    s = np.empty((m, nb, order))
+    cur = np.zeros((m, order)) if z0 is None else np.broadcast_to(z0, (m, order)).astype(np.float64)
+    step = np.ascontiguousarray(power.T)
+    for k in range(nb):
+        s[:, k] = cur
+        cur = cur @ step
+        cur += u[:, k]
+    y += (s.reshape(m * nb, order) @ obs.T).reshape(m, nb, BLOCK)
+    return y.reshape(m, nb * BLOCK)
+
+
+def lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1, zi: np.ndarray | None = None) -> np.ndarray:
+    """``scipy.signal.lfilter(b, a, x, axis, zi)``'s output (without the final state) to rounding
+    (module docstring); ``zi`` is (order,) or x's shape with ``axis`` of length order."""
+    _refuse_leading_zero(a)
+    b, a = _normalized(b, a)
+    x = np.asarray(x, dtype=np.float64)
+    order = len(a) - 1
+    moved = np.moveaxis(x, axis, -1)
+    lead = moved.shape[:-1]
+    rows = moved.reshape(-1, moved.shape[-1])
+    z0 = None
+    if zi is not None and order:
+        zi = np.asarray(zi, dtype=np.float64)
+        z0 = zi if zi.ndim == 1 else np.moveaxis(zi, axis, -1).reshape(-1, order)
+    y = _rows(b, a, rows, z0).reshape(*lead, moved.shape[-1])
+    return np.moveaxis(y, -1, axis)
+
+
+def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1) -> np.ndarray:
+    """``scipy.signal.filtfilt(b, a, x, axis)`` (odd padding of 3 max(len(a), len(b)) samples, each
+    pass from ``lfilter_zi x_0``) to rounding (module docstring)."""
+    x = np.asarray(x, dtype=np.float64)
+    edge = 3 * max(len(np.atleast_1d(a)), len(np.atleast_1d(b)))
+    _refuse_leading_zero(a)
+    b, a = _normalized(b, a)
+    moved = np.moveaxis(x, axis, -1)
+    n = moved.shape[-1]
+    if n <= edge:
+        raise ValueError(f"filtfilt: the signal's length along axis {axis} must exceed {edge} samples")
+    lead = moved.shape[:-1]
+    rows = moved.reshape(-1, n)
+    total = n + 2 * edge
+    zi = lfilter_zi(b, a)
+    # the odd extension written straight into the first pass's block buffer (zeros after it)
+    buf = np.zeros((rows.shape[0], -(-total // BLOCK) * BLOCK))
+    buf[:, :edge] = 2 * rows[:, :1] - rows[:, edge:0:-1]
+    buf[:, edge : edge + n] = rows
+    buf[:, edge + n : total] = 2 * rows[:, -1:] - rows[:, -2 : -edge - 2 : -1]
+    y = _padded(b, a, buf, zi[None, :] * buf[:, :1])
+    back = np.zeros(buf.shape)  # the forward output reversed, for the backward pass
+    back[:, :total] = y[:, total - 1 :: -1]
+    y = _padded(b, a, back, zi[None, :] * back[:, :1])
+    return np.moveaxis(y[:, total - 1 - edge : edge - 1 : -1].reshape(*lead, n), -1, axis)
