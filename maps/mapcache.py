@@ -1,7 +1,7 @@
 """The projected sea map kept on disk between commands, as the ship's lattice moves are
 (:mod:`maps.movecache`): :func:`maps.geo.load_map` reads the GeoJSON, repairs and projects every
-feature and unites the land, the shallow water and the obstacles (0.2-0.27 s of CPU for the bundled
-Helsinki map, measured at load 9), while the map it makes depends only on the file's bytes, the
+feature and unites the land, the shallow water and the obstacles (0.22-0.27 s of CPU for the bundled
+Helsinki map, measured at load 10-14), while the map it makes depends only on the file's bytes, the
 draught and under-keel clearance, and the code. :func:`load_map_kept` reads it back in 2 ms.
 
 The key is a SHA-256 digest of :func:`maps.plancache.code_version` (the project's sources and the
