@@ -11,7 +11,7 @@ numerical libraries' versions: shapely's GEOS and pyproj's PROJ make the geometr
 (``*.map``, at most :data:`maps.plancache.KEEP` of them, the least recently used removed first) in
 its checked format, the key inside the payload: a missing, truncated, unreadable or misnamed entry
 is loaded again, never an error; a map that cannot be loaded is never kept (the load reports it in
-its own words). ``SHIPTRIAL_CACHE_DIR=""`` keeps no cache; ``plan-trial --no-cache`` still reads and
+its own words), nor one whose file changed between its key and its load. ``SHIPTRIAL_CACHE_DIR=""`` keeps no cache; ``plan-trial --no-cache`` still reads and
 writes it, as it does the moves: it plans afresh on the map the file gives, bit for bit.
 """
 
@@ -52,6 +52,8 @@ def load_map_kept(path: str | Path | None = None, *, draught_m: float = 0.0, ukc
         if isinstance(entry, tuple) and len(entry) == 2 and entry[0] == k and isinstance(entry[1], SeaMap):
             return entry[1]
     sea = load_map(path, draught_m=draught_m, ukc_m=ukc_m, repair=repair)
-    if k is not None and directory is not None:
+    # kept only when the file still holds the bytes keyed: one edited while it loaded would otherwise leave
+    # the edited file's map under the earlier bytes' key, read for those bytes when the edit is undone
+    if k is not None and directory is not None and key(path, draught_m=draught_m, ukc_m=ukc_m, repair=repair) == k:
         plancache.store_blob(Path(directory), f"{k}.map", (k, sea))
     return sea

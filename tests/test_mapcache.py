@@ -100,3 +100,34 @@ def test_bad_map_is_refused_as_loading_refuses_it_and_not_kept(cache, tmp_path):
     with pytest.raises(MapError):
         mapcache.load_map_kept(missing)
     assert not list(cache.glob("*.map"))
+
+
+def test_file_edited_while_loading_is_not_kept_under_its_old_bytes(cache, map_file, monkeypatch):
+    original = map_file.read_bytes()
+    doc = archipelago()
+    doc["features"] = doc["features"][:-1]
+
+    def edit_then_load(*a, **k):  # the user saves another version of the file after its bytes were keyed
+        map_file.write_text(json.dumps(doc))
+        return load_map(*a, **k)
+
+    monkeypatch.setattr(mapcache, "load_map", edit_then_load)
+    mapcache.load_map_kept(map_file, draught_m=6.0)
+    monkeypatch.setattr(mapcache, "load_map", load_map)
+    edited = mapcache.load_map_kept(map_file, draught_m=6.0)  # loaded from the edited file, kept under its bytes
+    map_file.write_bytes(original)  # the edit undone
+    assert _same(mapcache.load_map_kept(map_file, draught_m=6.0), load_map(map_file, draught_m=6.0))
+    assert not _same(edited, load_map(map_file, draught_m=6.0))
+
+
+def test_file_edited_in_place_with_the_same_size_and_time_is_loaded_again(cache, map_file):
+    import os
+
+    a = mapcache.load_map_kept(map_file, draught_m=6.0)
+    text, st = map_file.read_text(), map_file.stat()
+    i = next(i for i, ch in enumerate(text) if ch in "12345678" and text[i - 1] in "0123456789.")
+    map_file.write_text(text[:i] + str(int(text[i]) + 1) + text[i + 1 :])  # one digit of one coordinate
+    os.utime(map_file, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert map_file.stat().st_size == st.st_size and map_file.stat().st_mtime_ns == st.st_mtime_ns
+    b = mapcache.load_map_kept(map_file, draught_m=6.0)
+    assert _same(b, load_map(map_file, draught_m=6.0)) and not _same(a, b)
