@@ -305,5 +305,9 @@ def _prune(directory: Path) -> None:
     # a writer killed outright (SIGKILL, power loss) leaves its temporary file (atomic_write_bytes: .KEY.plan.XXXX);
     # one an hour old is no write in progress
     for tmp in [t for suffix in (".plan", ".out", ".moves", ".map") for t in directory.glob(f".*{suffix}.*")]:
-        if time.time() - tmp.stat().st_mtime > 3600:
+        try:
+            stale = time.time() - tmp.stat().st_mtime > 3600
+        except FileNotFoundError:  # renamed into place by its writer since the glob (another plan-trial, the drawer)
+            continue
+        if stale:
             tmp.unlink(missing_ok=True)
