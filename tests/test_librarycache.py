@@ -4,6 +4,7 @@ design made from the kept library is the design made from a fresh one, bit for b
 from __future__ import annotations
 
 import struct
+from dataclasses import replace
 
 import numpy as np
 
@@ -67,3 +68,17 @@ def test_damaged_entry_is_computed_again(tmp_path, monkeypatch):
     lib2, infos2 = librarycache.kept_library(profile)
     assert [p.name for p in lib2] == [p.name for p in lib]
     assert _canon(infos2, profile) == _canon(infos, profile)
+
+
+def test_changed_profile_is_not_served_the_kept_library(tmp_path, monkeypatch):
+    # a user's ship file edited (one particular changed) reads no entry of the ship it was
+    full = load_profile("full-scale")
+    true = full.parameter_sets[full.simulation_set]
+    changed = replace(full, parameter_sets=full.parameter_sets | {full.simulation_set: true * 1.1})
+    _, fresh = librarycache.kept_library(changed)  # no cache (the tests' setting)
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    _, kept_full = librarycache.kept_library(full)
+    _, read = librarycache.kept_library(changed)
+    assert _canon(read, changed) == _canon(fresh, changed)
+    assert _canon(read, changed) != _canon(kept_full, full)
+    assert len(list(tmp_path.glob("*.moves"))) == 2
