@@ -2,7 +2,7 @@
 (:mod:`maps.movecache`): :func:`maps.geo.load_map` reads the GeoJSON, repairs and projects every
 feature and unites the land, the shallow water and the obstacles (0.22-0.27 s of CPU for the bundled
 Helsinki map, measured at load 10-14), while the map it makes depends only on the file's bytes, the
-draught and under-keel clearance, and the code. :func:`load_map_kept` reads it back in 2 ms.
+draught and under-keel clearance, and the code. :func:`load_map_kept` reads it back in about 3 ms (CPU, key included, load 2.7).
 
 The key is a SHA-256 digest of :func:`maps.plancache.code_version` (the project's sources and the
 numerical libraries' versions: shapely's GEOS and pyproj's PROJ make the geometry), the machine
