@@ -136,8 +136,8 @@ def register(app: typer.Typer) -> None:
             False,
             "--no-cache",
             help="design and plan afresh, neither reading nor writing the plan cache "
-            "($SHIPTRIAL_CACHE_DIR, default ~/.cache/shiptrial/plans); the ship's lattice moves kept there "
-            "are still read and written, as compiled code is (SHIPTRIAL_CACHE_DIR='' for no cache at all)",
+            "($SHIPTRIAL_CACHE_DIR, default ~/.cache/shiptrial/plans); the ship's lattice moves, its simulated library and the "
+            "projected map kept there are still read and written, as compiled code is (SHIPTRIAL_CACHE_DIR='' for no cache at all)",
         ),
         json_out: bool = typer.Option(False, "--json", help="print one JSON summary"),
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
@@ -358,7 +358,7 @@ def plan_and_write(
     from cli.plan_cache import keep_outputs, note_kept, restore_outputs, saved_outputs
     from maps import plancache
     from maps.export._common import iso, resolve_start
-    from maps.geo import load_map
+    from maps.mapcache import load_map_kept
     from maps.trialdesign import NoFitError
     from primitives.io import atomic_output_dir
     from primitives.ship import load_profile
@@ -394,7 +394,7 @@ def plan_and_write(
                 import maps.planner  # noqa: F401
             drawer = Drawer(early, ahead=ahead)
         if hit is None:
-            sea = load_map(map_path, draught_m=prof.draught_m)
+            sea = load_map_kept(map_path, draught_m=prof.draught_m)  # the projected map kept as the moves are
             result, td = _plan(sea, prof, inputs, drawer, json_out)
             # the export chart, route and sea room now, before the start time is set: kept with the plan in the cache
             chart = export_chart(result, sea) if result.feasible and not no_export else None

@@ -4,7 +4,7 @@ ship, the lattice options and the code, not on the map, start or goal, so a seco
 ship on another map, or from another start, reads them instead of running the helm again.
 
 The key is a SHA-256 digest of :func:`maps.plancache.code_version` (every source and data file of the
-project, Python's and the numerical libraries' versions, ``SHIPTRIAL_KERNEL``), the machine (:func:`_machine`:
+project, Python's and the numerical libraries' versions, ``SHIPTRIAL_KERNEL``), the machine (:func:`machine`:
 numpy's vectorised routines dispatch on the CPU's features and may round differently on another CPU, so a
 cache directory shared between machines keeps one entry per kind of CPU), whether this process has the
 compiled loop loaded (:func:`primitives.jitloop.loaded`: a small simulation runs the numpy loop until it is,
@@ -90,7 +90,7 @@ def _fields(obj: Any) -> list[tuple[str, Any]]:
 
 
 @lru_cache(maxsize=1)
-def _machine() -> str:
+def machine() -> str:
     """The CPU architecture and the features numpy dispatches its vectorised routines on (empty when
     this numpy does not say)."""
     try:
@@ -107,7 +107,7 @@ def key(profile: ShipProfile, what: str, options: tuple, primitive: Any = None) 
     if plancache.default_dir() is None:
         return None
     kernel = "compiled" if jitloop.loaded() else "numpy-until-loaded"
-    h = hashlib.sha256(f"moves\0{plancache.code_version()}\0{_machine()}\0{kernel}\0{what}\0{options!r}\0".encode())
+    h = hashlib.sha256(f"moves\0{plancache.code_version()}\0{machine()}\0{kernel}\0{what}\0{options!r}\0".encode())
     h.update(_profile_digest(profile))
     if primitive is not None:  # the profile is in the key already
         content = [kv for kv in _fields(primitive) if kv[0] != "profile"]

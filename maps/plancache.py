@@ -292,8 +292,8 @@ def _newest_first(directory: Path, suffix: str) -> list[tuple[Path, os.stat_resu
 
 
 def _prune(directory: Path) -> None:
-    # .hint: cli.plan_cache's
-    for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS), (".hint", KEEP)):
+    # .hint: cli.plan_cache's; .map: maps.mapcache's
+    for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS), (".hint", KEEP), (".map", KEEP)):
         for old, _ in _newest_first(directory, suffix)[keep:]:
             old.unlink(missing_ok=True)
     # maps.movecache's: the most recently used within MOVES_BYTES (the newest kept whatever its size)
@@ -304,6 +304,10 @@ def _prune(directory: Path) -> None:
             p.unlink(missing_ok=True)
     # a writer killed outright (SIGKILL, power loss) leaves its temporary file (atomic_write_bytes: .KEY.plan.XXXX);
     # one an hour old is no write in progress
-    for tmp in [*directory.glob(".*.plan.*"), *directory.glob(".*.out.*"), *directory.glob(".*.moves.*")]:
-        if time.time() - tmp.stat().st_mtime > 3600:
+    for tmp in [t for suffix in (".plan", ".out", ".moves", ".map") for t in directory.glob(f".*{suffix}.*")]:
+        try:
+            stale = time.time() - tmp.stat().st_mtime > 3600
+        except FileNotFoundError:  # renamed into place by its writer since the glob (another plan-trial, the drawer)
+            continue
+        if stale:
             tmp.unlink(missing_ok=True)

@@ -365,8 +365,13 @@ def first_design(
     """Design ``library`` (default :func:`ship_library`) and round it to whole manoeuvres
     (``parameter_prior``: the draws of a robust criterion)."""
     criterion = canonical_criterion(criterion)
-    lib = [p for p in (library if library is not None else ship_library(profile)) if p.kind == "informative"]
-    infos = library_information(profile, lib)
+    if library is None:  # the ship's own library: kept between commands (maps.librarycache)
+        from maps.librarycache import kept_library
+
+        lib, infos = kept_library(profile)
+    else:
+        lib = [p for p in library if p.kind == "informative"]
+        infos = library_information(profile, lib)
     draws = (
         draw_information(profile, lib, parameter_prior, mean_subtraction, held_out=True)
         if criterion in ROBUST and parameter_prior

@@ -221,6 +221,21 @@ def test_old_entries_are_pruned(tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.glob(".*")) == [".2.plan.writing"]
 
 
+def test_temporary_file_renamed_meanwhile_is_no_failed_write(tmp_path, monkeypatch):
+    # another process's temporary file, listed by the sweep of killed writers and renamed into place before its stat
+    (tmp_path / ".k.map.abcd").write_bytes(b"x")
+    real = Path.stat
+
+    def stat(self, *a, **k):
+        if self.name.startswith(".k.map."):
+            raise FileNotFoundError(self)
+        return real(self, *a, **k)
+
+    monkeypatch.setattr(Path, "stat", stat)
+    assert plancache.store_blob(tmp_path, "other.map", (1, 2)) is not None
+    assert plancache.load_blob(tmp_path, "other.map") == (1, 2)
+
+
 def test_no_home_means_no_cache_not_a_tilde_directory(monkeypatch):
     # without HOME (and no password entry) expanduser leaves "~": the cache must not land in "./~/.cache"
     monkeypatch.delenv(plancache.ENV_DIR, raising=False)

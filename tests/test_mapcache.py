@@ -1,0 +1,133 @@
+"""The projected sea map kept between commands (maps.mapcache): the same map as loading the file,
+read back instead of loaded, never stale, never an error."""
+
+from __future__ import annotations
+
+import json
+import pickle
+
+import pytest
+
+import maps.mapcache as mapcache
+from maps.geo import MapError, load_map
+from maps.testmaps import archipelago
+
+
+def _same(a, b) -> bool:
+    """Two SeaMaps hold the same values, geometries bit for bit (their WKB)."""
+    va, vb = vars(a), vars(b)
+    if va.keys() != vb.keys():
+        return False
+    for k in va:
+        if k in ("_fwd", "_inv"):  # pyproj transformers: compared by what they compute
+            continue
+        x, y = va[k], vb[k]
+        if hasattr(x, "wkb"):
+            if x.wkb != y.wkb:
+                return False
+        elif pickle.dumps(x) != pickle.dumps(y):
+            return False
+    return a.to_lonlat(1234.5, -678.9) == b.to_lonlat(1234.5, -678.9)
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    d = tmp_path / "cache"
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(d))
+    return d
+
+
+@pytest.fixture
+def map_file(tmp_path):
+    p = tmp_path / "arch.geojson"
+    p.write_text(json.dumps(archipelago()))
+    return p
+
+
+def test_second_load_reads_the_same_map(cache, map_file, monkeypatch):
+    first = mapcache.load_map_kept(map_file, draught_m=6.0)
+    assert len(list(cache.glob("*.map"))) == 1
+    assert _same(first, load_map(map_file, draught_m=6.0))
+
+    def refuse(*a, **k):
+        raise AssertionError("loaded again")
+
+    monkeypatch.setattr(mapcache, "load_map", refuse)
+    again = mapcache.load_map_kept(map_file, draught_m=6.0)
+    assert again is not first and _same(again, first)
+
+
+def test_changed_file_or_draught_is_loaded_again(cache, map_file):
+    a = mapcache.load_map_kept(map_file, draught_m=6.0)
+    b = mapcache.load_map_kept(map_file, draught_m=40.0)  # deeper: more shallow water is an obstacle
+    assert _same(b, load_map(map_file, draught_m=40.0)) and not _same(a, b)
+    doc = archipelago()
+    doc["features"] = doc["features"][:-1]
+    map_file.write_text(json.dumps(doc))
+    c = mapcache.load_map_kept(map_file, draught_m=6.0)
+    assert _same(c, load_map(map_file, draught_m=6.0)) and not _same(a, c)
+    assert len(list(cache.glob("*.map"))) == 3
+
+
+def test_damaged_or_misnamed_entry_is_no_entry(cache, map_file):
+    good = mapcache.load_map_kept(map_file, draught_m=6.0)
+    (entry,) = cache.glob("*.map")
+    entry.write_bytes(entry.read_bytes()[:-10])  # truncated
+    assert _same(mapcache.load_map_kept(map_file, draught_m=6.0), good)
+    # another key's entry copied onto this key's name
+    other_key = mapcache.key(map_file, draught_m=40.0, ukc_m=0.5, repair=True)
+    mapcache.load_map_kept(map_file, draught_m=40.0)
+    (cache / f"{other_key}.map").replace(entry)
+    assert _same(mapcache.load_map_kept(map_file, draught_m=6.0), good)
+
+
+def test_no_cache_directory_keeps_nothing(tmp_path, map_file, monkeypatch):
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", "")
+    assert mapcache.key(map_file, draught_m=6.0, ukc_m=0.5, repair=True) is None
+    assert _same(mapcache.load_map_kept(map_file, draught_m=6.0), load_map(map_file, draught_m=6.0))
+    assert not list(tmp_path.rglob("*.map"))
+
+
+def test_bad_map_is_refused_as_loading_refuses_it_and_not_kept(cache, tmp_path):
+    bad = tmp_path / "bad.geojson"
+    bad.write_text('{"type": "FeatureCollection", "features": [{"type": "Feature"}]}')
+    with pytest.raises(MapError) as kept:
+        mapcache.load_map_kept(bad)
+    with pytest.raises(MapError) as direct:
+        load_map(bad)
+    assert str(kept.value) == str(direct.value)
+    missing = tmp_path / "missing.geojson"
+    with pytest.raises(MapError):
+        mapcache.load_map_kept(missing)
+    assert not list(cache.glob("*.map"))
+
+
+def test_file_edited_while_loading_is_not_kept_under_its_old_bytes(cache, map_file, monkeypatch):
+    original = map_file.read_bytes()
+    doc = archipelago()
+    doc["features"] = doc["features"][:-1]
+
+    def edit_then_load(*a, **k):  # the user saves another version of the file after its bytes were keyed
+        map_file.write_text(json.dumps(doc))
+        return load_map(*a, **k)
+
+    monkeypatch.setattr(mapcache, "load_map", edit_then_load)
+    mapcache.load_map_kept(map_file, draught_m=6.0)
+    monkeypatch.setattr(mapcache, "load_map", load_map)
+    edited = mapcache.load_map_kept(map_file, draught_m=6.0)  # loaded from the edited file, kept under its bytes
+    map_file.write_bytes(original)  # the edit undone
+    assert _same(mapcache.load_map_kept(map_file, draught_m=6.0), load_map(map_file, draught_m=6.0))
+    assert not _same(edited, load_map(map_file, draught_m=6.0))
+
+
+def test_file_edited_in_place_with_the_same_size_and_time_is_loaded_again(cache, map_file):
+    import os
+
+    a = mapcache.load_map_kept(map_file, draught_m=6.0)
+    text, st = map_file.read_text(), map_file.stat()
+    i = next(i for i, ch in enumerate(text) if ch in "12345678" and text[i - 1] in "0123456789.")
+    map_file.write_text(text[:i] + str(int(text[i]) + 1) + text[i + 1 :])  # one digit of one coordinate
+    os.utime(map_file, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert map_file.stat().st_size == st.st_size and map_file.stat().st_mtime_ns == st.st_mtime_ns
+    b = mapcache.load_map_kept(map_file, draught_m=6.0)
+    assert _same(b, load_map(map_file, draught_m=6.0)) and not _same(a, b)
