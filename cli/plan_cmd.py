@@ -367,6 +367,7 @@ def plan_and_write(
     prof.require_planar("shiptrial plan")
     inputs = dict(counts=counts, start=start, goal=goal, scenario=scenario, **design, vessel_name=vessel_name or "", options=opts)
     cache_dir = plancache.default_dir() if cache else None
+    keyed_map = _map_bytes(map_path) if cache_dir is not None else None
     key = _cache_key(prof, map_path, inputs) if cache_dir is not None else None
     hit = plancache.load(cache_dir, key) if key is not None else None
     if hit is not None and not {"design", "sea", "chart"} <= hit.keys():  # not an entry this command wrote
@@ -398,7 +399,9 @@ def plan_and_write(
             result, td = _plan(sea, prof, inputs, drawer, json_out)
             # the export chart, route and sea room now, before the start time is set: kept with the plan in the cache
             chart = export_chart(result, sea) if result.feasible and not no_export else None
-            if key is not None:
+            # kept only when the map file still holds the bytes keyed (read again: about 1 ms): one saved while this
+            # run loaded it would leave the saved file's plan under the earlier bytes' key (as maps.mapcache does)
+            if key is not None and _map_bytes(map_path) == keyed_map:
                 digest = plancache.store(cache_dir, key, {"plan": result, "design": td, "sea": sea, "chart": chart})
             t0 = resolve_start(result, start_time)
         start_utc = result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
@@ -426,6 +429,18 @@ def _cache_key(prof: Any, map_path: Path | None, inputs: dict[str, Any]) -> str 
 
     try:
         return plancache.plan_key(prof, map_source(map_path), **inputs)
+    except OSError:
+        return None
+
+
+def _map_bytes(map_path: Path | None) -> bytes | None:
+    """The SHA-256 of the map file the plan cache keys (None when it cannot be read)."""
+    import hashlib
+
+    from maps.geo import map_source
+
+    try:
+        return hashlib.sha256(map_source(map_path).read_bytes()).digest()
     except OSError:
         return None
 

@@ -407,3 +407,26 @@ def test_outputs_key_changes_with_a_listed_font_file_updated_in_place(tmp_path, 
     font.write_bytes(b"new glyphs")
     os.utime(font, ns=(2 * 10**18, 2 * 10**18))
     assert plancache.outputs_key("k", "d", START) not in (None, before)
+
+
+def test_plan_of_a_map_saved_while_it_loaded_is_not_kept(tmp_path, cache_dir, capsys, monkeypatch):
+    """A map file saved between its key and its load (an editor writing while the command runs):
+    the plan is of the saved map, so it is not kept under the earlier bytes' key, which would serve
+    it for those bytes once the edit is undone."""
+    import maps.geo
+    import maps.mapcache
+
+    keyed = tmp_path / "keyed.geojson"  # the file the key reads (the load reads the bundled map, as before)
+    keyed.write_bytes(bundled_map_path().read_bytes())
+    monkeypatch.setattr(maps.geo, "map_source", lambda path: keyed)
+    load = maps.mapcache.load_map_kept
+
+    def load_then_save(*args, **kw):
+        sea = load(*args, **kw)
+        keyed.write_bytes(keyed.read_bytes() + b"\n")  # saved after the key was made
+        return sea
+
+    monkeypatch.setattr(maps.mapcache, "load_map_kept", load_then_save)
+    before = set(cache_dir.glob("*.plan"))
+    again, _ = _plan_cli(tmp_path / "b", capsys, QUICK)
+    assert again["from_cache"] is False and set(cache_dir.glob("*.plan")) == before
