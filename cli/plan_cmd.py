@@ -435,12 +435,11 @@ def _cache_key(prof: Any, map_path: Path | None, inputs: dict[str, Any]) -> str 
 
 def _map_bytes(map_path: Path | None) -> bytes | None:
     """The SHA-256 of the map file the plan cache keys (None when it cannot be read)."""
-    import hashlib
-
+    from maps import plancache
     from maps.geo import map_source
 
     try:
-        return hashlib.sha256(map_source(map_path).read_bytes()).digest()
+        return plancache.map_digest(map_source(map_path))
     except OSError:
         return None
 

@@ -33,11 +33,11 @@ def key(path: str | Path | None, *, draught_m: float, ukc_m: float, repair: bool
         return None
     src = map_source(path)
     try:
-        data = src.read_bytes()
+        digest = plancache.map_digest(src)
     except OSError:
         return None
     h = hashlib.sha256(f"map\0{plancache.code_version()}\0{machine()}\0{src}\0{draught_m!r}\0{ukc_m!r}\0{repair!r}\0".encode())
-    h.update(hashlib.sha256(data).digest())
+    h.update(digest)
     return h.hexdigest()
 
 

@@ -87,9 +87,14 @@ def plan_key(profile: Any, map_file: Path, **inputs: Any) -> str:
     which only costs a recomputation."""
     h = hashlib.sha256(code_version().encode())
     h.update(str(Path(map_file).resolve()).encode() + b"\0")
-    h.update(hashlib.sha256(Path(map_file).read_bytes()).digest())
+    h.update(map_digest(map_file))
     h.update(pickle.dumps((profile, sorted(inputs.items())), protocol=pickle.HIGHEST_PROTOCOL))
     return h.hexdigest()
+
+
+def map_digest(map_file: Path) -> bytes:
+    """SHA-256 of the map file's bytes, as the plan and map caches key them (OSError when it cannot be read)."""
+    return hashlib.sha256(Path(map_file).read_bytes()).digest()
 
 
 # the libraries the exports and figures are written with (drawing, fonts, PDF, images, XML)
