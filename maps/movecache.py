@@ -26,7 +26,6 @@ import hashlib
 import io
 import pickle
 import platform
-from dataclasses import fields
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -79,14 +78,9 @@ def _profile_digest(profile: ShipProfile) -> bytes:
         if len(_PROFILE_DIGESTS) > 16:
             _PROFILE_DIGESTS.clear()
         # its fields: the pickle of the object also holds what its cached properties computed so far
-        digest = hashlib.sha256(pickle.dumps(_fields(profile), protocol=pickle.HIGHEST_PROTOCOL)).digest()
+        digest = hashlib.sha256(pickle.dumps(plancache.fields_of(profile), protocol=pickle.HIGHEST_PROTOCOL)).digest()
         hit = _PROFILE_DIGESTS[id(profile)] = (profile, digest)
     return hit[1]
-
-
-def _fields(obj: Any) -> list[tuple[str, Any]]:
-    """A dataclass's fields by name (not what its cached properties hold: they depend on what ran before)."""
-    return [(f.name, getattr(obj, f.name)) for f in fields(obj)]
 
 
 @lru_cache(maxsize=1)
@@ -110,7 +104,7 @@ def key(profile: ShipProfile, what: str, options: tuple, primitive: Any = None) 
     h = hashlib.sha256(f"moves\0{plancache.code_version()}\0{machine()}\0{kernel}\0{what}\0{options!r}\0".encode())
     h.update(_profile_digest(profile))
     if primitive is not None:  # the profile is in the key already
-        content = [kv for kv in _fields(primitive) if kv[0] != "profile"]
+        content = [kv for kv in plancache.fields_of(primitive) if kv[0] != "profile"]
         h.update(hashlib.sha256(dumps(content, profile)).digest())
     return h.hexdigest()
 

@@ -30,6 +30,7 @@ import os
 import pickle
 import sys
 import time
+from dataclasses import fields
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -88,8 +89,14 @@ def plan_key(profile: Any, map_file: Path, **inputs: Any) -> str:
     h = hashlib.sha256(code_version().encode())
     h.update(str(Path(map_file).resolve()).encode() + b"\0")
     h.update(map_digest(map_file))
-    h.update(pickle.dumps((profile, sorted(inputs.items())), protocol=pickle.HIGHEST_PROTOCOL))
+    # the profile's fields, not the object: its cached properties (the compiled model) fill in as it plans
+    h.update(pickle.dumps((fields_of(profile), sorted(inputs.items())), protocol=pickle.HIGHEST_PROTOCOL))
     return h.hexdigest()
+
+
+def fields_of(obj: Any) -> list[tuple[str, Any]]:
+    """A dataclass's fields by name (not what its cached properties hold: they depend on what ran before)."""
+    return [(f.name, getattr(obj, f.name)) for f in fields(obj)]
 
 
 def map_digest(map_file: Path) -> bytes:

@@ -430,3 +430,12 @@ def test_plan_of_a_map_saved_while_it_loaded_is_not_kept(tmp_path, cache_dir, ca
     before = set(cache_dir.glob("*.plan"))
     again, _ = _plan_cli(tmp_path / "b", capsys, QUICK)
     assert again["from_cache"] is False and set(cache_dir.glob("*.plan")) == before
+
+
+def test_key_does_not_change_as_the_profile_compiles_its_model():
+    # planning fills the profile's cached properties (the compiled model); a key taken after a plan
+    # must find the plan stored under the key taken before it
+    fresh = replace(load_profile("full-scale"))
+    before = _key(profile=fresh)
+    assert fresh.model.n_params > 0 and fresh.predictor is not None
+    assert _key(profile=fresh) == before
