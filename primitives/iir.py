@@ -217,15 +217,31 @@ def _rows(b: np.ndarray, a: np.ndarray, x: np.ndarray, z0: np.ndarray | None) ->
 
 def _padded(b: np.ndarray, a: np.ndarray, buf: np.ndarray, z0: np.ndarray | None) -> np.ndarray:
     """The filter over ``buf`` (m, a multiple of BLOCK: the signal, then zeros), whole blocks; sample
-    by sample (:func:`_stepwise`, scipy's bits) for a design the blocks cannot carry (:func:`_blockable`)."""
+    by sample (:func:`_stepwise`, scipy's bits) for a design the blocks cannot carry (:func:`_blockable`) and
+    for the rows that hold a NaN or inf."""
+    z = None if z0 is None else np.broadcast_to(z0, (buf.shape[0], len(a) - 1))
     if not _blockable(b.tobytes(), a.tobytes()):
-        z = np.zeros((buf.shape[0], len(a) - 1)) if z0 is None else np.broadcast_to(z0, (buf.shape[0], len(a) - 1))
-        if buf.shape[0] == 1:  # one row: Python floats, ten times faster than one-element arrays
-            return np.array([_stepwise(b.tolist(), a.tolist(), buf[0].tolist(), z[0].tolist())])
-        return np.stack(_stepwise(b.tolist(), a.tolist(), buf.T, [z[:, i].copy() for i in range(len(a) - 1)]), axis=1)
+        return _stepwise_rows(b, a, buf, z)
+    finite = np.isfinite(buf).all(axis=1)
+    if not finite.all():
+        # a NaN or inf spoils its whole block in the products (0 x NaN is NaN), scipy's output only from
+        # that sample on: those rows sample by sample
+        out = np.empty_like(buf)
+        out[~finite] = _stepwise_rows(b, a, buf[~finite], None if z is None else z[~finite])
+        if finite.any():
+            out[finite] = _padded(b, a, buf[finite], None if z is None else z[finite])
+        return out
     toeplitz, obs, ctrl, power = _blocks(b.tobytes(), a.tobytes(), BLOCK)
     with _one_blas_thread():
         return _block_products(buf, len(a) - 1, toeplitz, obs, ctrl, power, z0)
+
+
+def _stepwise_rows(b: np.ndarray, a: np.ndarray, buf: np.ndarray, z0: np.ndarray | None) -> np.ndarray:
+    """:func:`_stepwise` over each row of ``buf`` (m, n) from the states ``z0`` (m, order; zero when None)."""
+    z = np.zeros((buf.shape[0], len(a) - 1)) if z0 is None else z0
+    if buf.shape[0] == 1:  # one row: Python floats, ten times faster than one-element arrays
+        return np.array([_stepwise(b.tolist(), a.tolist(), buf[0].tolist(), z[0].tolist())])
+    return np.stack(_stepwise(b.tolist(), a.tolist(), buf.T, [z[:, i].copy() for i in range(len(a) - 1)]), axis=1)
 
 
 def _stepwise(b: list[float], a: list[float], xs, z: list) -> list:

@@ -100,6 +100,23 @@ def test_designs_the_blocks_cannot_carry_are_scipys_bits(order: int, cutoff_hz: 
     assert np.array_equal(iir.lfilter(b, a, x[1], zi=zi), ss.lfilter(b, a, x[1], zi=zi)[0])
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_a_nan_or_inf_spoils_the_output_from_its_sample_on_as_scipys(bad: float) -> None:
+    """A row with a NaN (or inf) at sample k is finite before k, as scipy's (the block products turned
+    the whole 64-sample block holding it NaN); the other rows keep the block products' values."""
+    b, a = ss.butter(4, 0.5, fs=10.0)
+    x = np.random.default_rng(3).standard_normal((3, 500))
+    x[1, 100] = bad
+    zi = np.outer(x[:, 0], ss.lfilter_zi(b, a))
+    forward = [(iir.lfilter(b, a, x), ss.lfilter(b, a, x)), (iir.lfilter(b, a, x, zi=zi), ss.lfilter(b, a, x, zi=zi)[0])]
+    for got, _ in forward:
+        assert np.isfinite(got[1, :100]).all() and not np.isfinite(got[1, 100:]).any()
+    for got, want in [*forward, (iir.filtfilt(b, a, x), ss.filtfilt(b, a, x))]:  # the backward pass: the whole row
+        assert np.array_equal(np.isfinite(got), np.isfinite(want))
+        ok = np.isfinite(want)
+        assert np.max(np.abs(got[ok] - want[ok])) <= 1e-12 * np.max(np.abs(want[ok]))
+
+
 def test_the_detectors_designs_take_the_block_products() -> None:
     """The detector's input low-pass and sway crossover stay on the fast path (its speed, issue 25)."""
     for order, cutoff_hz in [(4, 0.5), (2, 0.05)]:
