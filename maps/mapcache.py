@@ -8,7 +8,7 @@ The key is a SHA-256 digest of :func:`maps.plancache.code_version` (the project'
 numerical libraries' versions: shapely's GEOS and pyproj's PROJ make the geometry), the machine
 (:func:`maps.movecache.machine`, as for the moves), the path as given (the map keeps it as its
 ``source``), the file's bytes and the load's options. The entries live beside the plan cache's
-(``*.map``, at most :data:`maps.plancache.KEEP` of them, the least recently used removed first) in
+(``*.map``, at most :data:`maps.plancache.MAPS_BYTES` bytes of them, the least recently used removed first) in
 its checked format, the key inside the payload: a missing, truncated, unreadable or misnamed entry
 is loaded again, never an error; a map that cannot be loaded is never kept (the load reports it in
 its own words), nor one whose file changed between its key and its load. ``SHIPTRIAL_CACHE_DIR=""`` keeps no cache; ``plan-trial --no-cache`` still reads and

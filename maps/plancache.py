@@ -111,6 +111,9 @@ KEEP_OUTPUTS = 8  # output sets kept (about 2.8 MB each for the bundled example)
 # 0.1-2 MB each: the default ship's plan writes 6, 1.1 MB; kvlcc2 on the open sea 5, 4.4 MB). A byte budget, not a
 # count: a ship that redesigns many times writes many entries, and their size grows with the ship and the resolution
 MOVES_BYTES = 64 * 2**20
+#: bytes of projected sea maps kept (maps.mapcache: 0.16 MB for the bundled example; a chart's size grows with its
+#: coastline, so a count would not bound the disk a few national charts take)
+MAPS_BYTES = 64 * 2**20
 
 
 def _versions(libraries: tuple[str, ...]) -> bytes:
@@ -305,15 +308,17 @@ def _newest_first(directory: Path, suffix: str) -> list[tuple[Path, os.stat_resu
 
 def _prune(directory: Path) -> None:
     # .hint: cli.plan_cache's; .map: maps.mapcache's
-    for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS), (".hint", KEEP), (".map", KEEP)):
+    for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS), (".hint", KEEP)):
         for old, _ in _newest_first(directory, suffix)[keep:]:
             old.unlink(missing_ok=True)
-    # maps.movecache's: the most recently used within MOVES_BYTES (the newest kept whatever its size)
-    total = 0
-    for i, (p, st) in enumerate(_newest_first(directory, ".moves")):
-        total += st.st_size
-        if i and total > MOVES_BYTES:
-            p.unlink(missing_ok=True)
+    # maps.movecache's and maps.mapcache's: the most recently used within a byte budget (the newest kept whatever
+    # its size)
+    for suffix, budget in ((".moves", MOVES_BYTES), (".map", MAPS_BYTES)):
+        total = 0
+        for i, (p, st) in enumerate(_newest_first(directory, suffix)):
+            total += st.st_size
+            if i and total > budget:
+                p.unlink(missing_ok=True)
     # a writer killed outright (SIGKILL, power loss) leaves its temporary file (atomic_write_bytes: .KEY.plan.XXXX);
     # one an hour old is no write in progress
     for tmp in [t for suffix in (".plan", ".out", ".moves", ".map") for t in directory.glob(f".*{suffix}.*")]:

@@ -439,3 +439,16 @@ def test_key_does_not_change_as_the_profile_compiles_its_model():
     before = _key(profile=fresh)
     assert fresh.model.n_params > 0 and fresh.predictor is not None
     assert _key(profile=fresh) == before
+
+
+def test_sea_maps_kept_within_their_byte_budget(tmp_path, monkeypatch):
+    """Projected maps are kept by bytes, not by count: many small charts stay, a few large ones are bounded."""
+    for i in range(plancache.KEEP + 8):
+        plancache.store_blob(tmp_path, f"m{i}.map", b"x" * 1_000)
+        os.utime(tmp_path / f"m{i}.map", ns=(i * 10**9, i * 10**9))
+    assert len(list(tmp_path.glob("*.map"))) == plancache.KEEP + 8
+    monkeypatch.setattr(plancache, "MAPS_BYTES", 25_000)
+    plancache.store_blob(tmp_path, "big.map", b"x" * 20_000)
+    kept = {p.name for p in tmp_path.glob("*.map")}
+    assert "big.map" in kept and f"m{plancache.KEEP + 7}.map" in kept and "m0.map" not in kept
+    assert sum(p.stat().st_size for p in tmp_path.glob("*.map")) <= 25_000
