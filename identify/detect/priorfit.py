@@ -6,7 +6,6 @@ data (split-half cross-validation). The prior itself, its predictor and the sign
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -103,102 +102,30 @@ def fit(
     return prior
 
 
-#: the cross-validation's fitting windows, fractions (start, end) of the nominal record: each window's
-#: fit predicts the rest of the record (one or two pieces). The two halves (stop 46's split, two
-#: estimates: on ship 103 steering-lag-acting's nominal record the spread read 2.3 % or 0 of I_r with
-#: two draws of the 8 synthetic records) and three halves shifted by an eighth (the same record:
-#: 2.1-2.2 % on the windows with either draw)
-CV_WINDOWS = ((0.0, 0.5), (0.5, 1.0), (0.25, 0.75), (0.125, 0.625), (0.375, 0.875))
-#: nominal level of the test "the nominal record's cross-validated change estimates exceed what noise and
-#: the fits' parameter error give" (per candidate): with the null's mean and degrees of freedom read from 8
-#: synthetic records, structure-free records pass it about 5 % of the time (0.05 gave 9 %;
-#: tests/test_detect_structure.py's Monte Carlo)
-STRUCTURE_LEVEL = 0.02
-
-
-def _cv_theta(
-    prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray, x0: np.ndarray, windows: tuple = CV_WINDOWS
-) -> np.ndarray:
-    """Cross-validated apparent changes (windows, B, 3): the yaw row fitted on one window of each of
-    the B records (signals (B, n), as measured) predicts the rest of the record (each remaining piece
-    from its own measured start); the residual's GLR estimate along each candidate signature there
-    (whitened 1 s block means, pooled over the pieces) is what a detector would read as a change of a
-    ship that did not change. NaN where a fit diverged."""
+def _split_theta(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray, x0: np.ndarray) -> np.ndarray:
+    """Cross-validated apparent changes (halves, B, 3): the yaw row fitted on one half of each of
+    the B records (signals (B, n), as measured) predicts the other half; the residual's GLR
+    estimate along each candidate signature there (whitened 1 s block means) is what a detector
+    would read as a change of a ship that did not change. NaN where a fit diverged."""
     n = r.shape[1]
+    h = n // 2
     out = []
-    for f0, f1 in windows:
-        a, b = int(round(f0 * n)), int(round(f1 * n))
-        pieces = [sl for sl in (slice(0, a), slice(b, n)) if sl.stop - sl.start >= 2 * prior.block]
-        xs = _fit_scales(prior.kind, {k: v[:, a:b] for k, v in sig.items()}, r[:, a:b], prior.dt, x0, prior.prefilter_hz)
+    for a, b in ((slice(0, h), slice(h, n)), (slice(h, n), slice(0, h))):
+        xs = _fit_scales(prior.kind, {k: v[:, a] for k, v in sig.items()}, r[:, a], prior.dt, x0, prior.prefilter_hz)
         rows = []
         for i, x in enumerate(xs):
             if not np.all(np.isfinite(x)):
                 rows.append(np.full(len(CANDIDATES), np.nan))
                 continue
-            fitted = replace(prior, values={k: float(NOMINAL[k] * xi) for k, xi in zip(prior.names, x)})
-            num = den = 0.0
-            for sl in pieces:
-                test = {k: v[i, sl] for k, v in sig.items()}
-                rt = r[i, sl]
-                eps = rt - fitted.predict(test, r0=float(np.mean(rt[: prior.block])))
-                Sw = whiten(block_mean(signatures(fitted, test), prior.block), prior.ar)
-                ew = whiten(block_mean(eps, prior.block), prior.ar)
-                num = num + Sw.T @ ew
-                den = den + np.sum(Sw**2, axis=0)
-            rows.append(num / np.maximum(den, 1e-300))
+            half = replace(prior, values={k: float(NOMINAL[k] * xi) for k, xi in zip(prior.names, x)})
+            test = {k: v[i, b] for k, v in sig.items()}
+            rt = r[i, b]
+            eps = rt - half.predict(test, r0=float(np.mean(rt[: prior.block])))
+            Sw = whiten(block_mean(signatures(half, test), prior.block), prior.ar)
+            ew = whiten(block_mean(eps, prior.block), prior.ar)
+            rows.append(Sw.T @ ew / np.maximum(np.sum(Sw**2, axis=0), 1e-300))
         out.append(rows)
     return np.asarray(out)
-
-
-def chi2_quantile(q: float, dof: float) -> float:
-    """Quantile ``q`` of the chi-square distribution with ``dof`` (real, > 0) degrees of freedom: bisection
-    on its distribution function, the regularised lower incomplete gamma ``P(dof/2, x/2)`` by its power
-    series (Abramowitz and Stegun 6.5.29); scipy.stats stays off the detect path (tests/test_detect_imports.py)."""
-    import math
-
-    a = 0.5 * dof
-
-    def cdf(x: float) -> float:
-        y = 0.5 * x
-        term = total = 1.0 / a
-        k = 0
-        while term > 1e-15 * total and k < 10_000:
-            k += 1
-            term *= y / (a + k)
-            total += term
-        return math.exp(a * math.log(y) - y - math.lgamma(a)) * total
-
-    lo, hi = 0.0, max(2.0 * dof, 1.0)
-    while cdf(hi) < q:
-        hi *= 2.0
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if cdf(mid) < q else (lo, mid)
-    return 0.5 * (lo + hi)
-
-
-def spread_beyond_noise(ms_real: np.ndarray, ms_null: np.ndarray, max_dof: float, level: float = STRUCTURE_LEVEL) -> np.ndarray:
-    """The structure's sd per candidate from the nominal record's mean square of held-out change
-    estimates ``ms_real`` (k,) and the same statistic on records without structure ``ms_null`` (M, k).
-
-    The null statistic is taken as a scaled chi-square ``m0 chi2(nu) / nu`` with its mean ``m0`` and
-    the degrees of freedom ``nu = 2 m0^2 / var`` matched to the M null records' moments (overlapping
-    windows are correlated, so nu is read from the records, not counted; kept within 1 .. ``max_dof``,
-    the number of estimates in the mean square). Structure is read only where ``ms_real``
-    exceeds that distribution's ``1 - level`` point (the test "real > noise"), and then as
-    ``sqrt(ms_real - m0)``: the excess over the noise's mean, an unbiased estimate of the structure's
-    variance. Stop 46's rule, ``sqrt(ms_real - 3 ms_noise)`` on two estimates, tested at a fixed
-    chi2(2) 95 % point and read whatever a 2-degree-of-freedom mean square scattered above it.
-    NaN statistics (diverged fits) give 0."""
-    ms_null = np.asarray(ms_null, float)
-    with warnings.catch_warnings():  # a candidate whose every fit diverged: NaN, read as no structure below
-        warnings.simplefilter("ignore", RuntimeWarning)
-        m0 = np.nanmean(ms_null, axis=0)
-        var = np.nanvar(ms_null, axis=0, ddof=1)
-    nu = np.clip(2.0 * m0**2 / np.maximum(var, 1e-300), 1.0, max_dof)
-    thr = m0 * np.array([chi2_quantile(1.0 - level, v) for v in np.atleast_1d(nu)]) / nu
-    excess = np.where(np.asarray(ms_real) > thr, np.asarray(ms_real) - m0, 0.0)
-    return np.nan_to_num(np.sqrt(np.maximum(excess, 0.0)), nan=0.0)
 
 
 def structural_spread(
@@ -209,19 +136,16 @@ def structural_spread(
     derive: Derive | None = None,
     seed: int = 0,
     synthetic: int = 8,
-    windows: tuple = CV_WINDOWS,
-    level: float = STRUCTURE_LEVEL,
 ) -> np.ndarray:
     """How far the prior's structure alone moves the detector's change estimates on a manoeuvre it
-    was not fitted on: the mean square of the nominal record's cross-validated change estimates
-    (:func:`_cv_theta`, one per fitting window) beyond the same statistic on ``synthetic`` records that
-    the prior's own structure generates with the nominal data's noise and model-error term (what noise
-    and the window fits' parameter error alone give), tested and read by :func:`spread_beyond_noise`.
-    Zero for a structure that fits, and where the window fits diverged (no estimate: ``detect`` then
-    warns that its alarms are not calibrated); the detector's calibration adds it as a random apparent
-    change along each candidate's own signature (:func:`glr.calibrate`). The spread read on the held-out
-    pieces is scaled to a recording of the nominal record's length by ``sqrt(held-out fraction)``."""
-    real = _cv_theta(prior, {k: v[None] for k, v in sig.items()}, r_meas[None], x, windows)
+    was not fitted on: rms over the two split-half cross-validations of the nominal record
+    (:func:`_split_theta`), less (in quadrature) the 95 % point of what the same two estimates give
+    on records that the prior's own structure generates with the nominal data's noise and model-error
+    term (``synthetic`` of them: what noise and the half fits' parameter error alone give). Zero for a structure that
+    fits, and where the half fits diverged (no estimate: ``detect`` then warns that its alarms are
+    not calibrated); the detector's calibration adds it as a random apparent change along each
+    candidate's own signature (:func:`glr.calibrate`)."""
+    real = _split_theta(prior, {k: v[None] for k, v in sig.items()}, r_meas[None], x)
     clean = smooth(sig, prior.dt)
     n = len(r_meas)
     rng = np.random.default_rng([seed, 5])
@@ -233,14 +157,12 @@ def structural_spread(
     if derive is not None:
         rows = [derive({k: s_b[k][i] for k in sig}, r_b[i]) for i in range(synthetic)]
         s_b = {k: np.stack([row[k] for row in rows]) for k in rows[0]}
-    noise = _cv_theta(prior, s_b, r_b, x, windows)
-    ms_real = np.nanmean(real[:, 0] ** 2, axis=0)
-    ms_null = np.nanmean(noise**2, axis=0)  # (synthetic, k): each record's own statistic
-    # read on held-out pieces of a fraction of the record: a recording of the nominal one's length averages
-    # the misfit over more turns (taken to shrink as noise does; ship 103 steering-lag-acting: 2.15 % on the
-    # half-record windows, 1.14 % excess of I_r on 50 held-out 500 s runs, so the scaling is on the safe side)
-    held = float(np.mean([1.0 - (f1 - f0) for f0, f1 in windows]))
-    return np.sqrt(held) * spread_beyond_noise(ms_real, ms_null, len(windows), level)
+    noise = _split_theta(prior, s_b, r_b, x)
+    ms_real = np.nanmean(real**2, axis=(0, 1))
+    ms_noise = np.nanmean(noise**2, axis=(0, 1))
+    # two held-out estimates give a mean square that is ms_noise * chi2(2)/2 for a structure that
+    # fits: count only what exceeds its 95 % point (3.0 ms_noise), so noise does not pass for misfit
+    return np.nan_to_num(np.sqrt(np.maximum(ms_real - 3.0 * ms_noise, 0.0)), nan=0.0)
 
 
 def model_error(prior: YawPrior, sig: dict[str, np.ndarray], r0: float, derive: Derive | None = None, seed: int = 0) -> float:
