@@ -15,7 +15,7 @@ bench is re-decided here in well under a second, the prior's structure set as as
 spread) or three percentages of I_r, damping, pod gain (``1.0,0,0``). Printed per variant and setting:
 the truth bench's row (false alarms, misses, delay, named) and the priors' structure. Ship 103
 steering-lag-acting, stop 47: stored 2.33 / 0 / 0.51 % -> 0 / 60 / 263 s pooled with ship 102; zero ->
-5 / 15 / 198 s (main 52b12ef's screenings, /work/wt/detect-cache-46)."""
+5 / 15 / 198 s (main 52b12ef's screenings)."""
 
 from __future__ import annotations
 
