@@ -307,7 +307,7 @@ def _newest_first(directory: Path, suffix: str) -> list[tuple[Path, os.stat_resu
 
 
 def _prune(directory: Path) -> None:
-    # .hint: cli.plan_cache's; .map: maps.mapcache's
+    # .hint: cli.plan_cache's
     for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS), (".hint", KEEP)):
         for old, _ in _newest_first(directory, suffix)[keep:]:
             old.unlink(missing_ok=True)
