@@ -1,0 +1,161 @@
+"""maps.graphsearch against scipy.sparse.csgraph, which the planner used before: the same distances
+bit for bit (so the same A* heuristic table and the same plans) and the same reachable states, on
+the bundled map's lattice and on random graphs whose weights tie; and the planner no longer
+imports scipy to get them."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import breadth_first_order, dijkstra
+
+from maps import astar
+from maps.graphsearch import Rows, distances, reached
+from maps.sailable import goal_reachable
+
+# weights that tie (1.0, 1.5, EPS) and ones whose sums round (0.1, 0.2, 0.3, 0.7)
+WEIGHTS = np.array([astar.EPS, 1.0, 1.5, 0.1, 0.2, 0.3, 0.7])
+
+
+def _scipy_relaxed_table(pb: astar.Problem) -> np.ndarray:
+    """maps.astar.relaxed_table as it was: one Dijkstra over the whole (state, r) graph, reversed."""
+    ns = pb.ni * pb.nj * pb.n_head
+    D = int(sum(pb.targets))
+    src, dst, qq, cost = astar.edges(pb)
+    w0 = np.where(cost > 0, cost, astar.EPS)
+    r = np.arange(D + 1)
+    basic, info = qq < 0, qq >= 0
+    rows = np.concatenate([(src[basic, None] * (D + 1) + r).ravel(), (src[info, None] * (D + 1) + r[1:]).ravel()])
+    cols = np.concatenate([(dst[basic, None] * (D + 1) + r).ravel(), (dst[info, None] * (D + 1) + r[1:] - 1).ravel()])
+    w = np.concatenate([np.repeat(w0[basic], D + 1), np.repeat(w0[info], D)])
+    n = ns * (D + 1)
+    order = np.lexsort((w, rows, cols))  # duplicate edges would be summed by csr_matrix: keep the cheapest
+    keep = np.ones(len(w), bool)
+    keep[1:] = (np.diff(cols[order]) != 0) | (np.diff(rows[order]) != 0)
+    sel = order[keep]
+    g = csr_matrix((w[sel], (cols[sel], rows[sel])), shape=(n, n))
+    dist = dijkstra(g, directed=True, indices=[s * (D + 1) for s in pb.goal_spatial], min_only=True)
+    return dist.reshape(ns, D + 1)
+
+
+def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.shape == b.shape and bool((a.view(np.int64) == b.view(np.int64)).all())
+
+
+def _random_graph(rng: np.random.Generator, n: int, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """m edges among n states, no self-loops, no repeated (from, to) pair (csr_matrix would sum them)."""
+    frm, to = rng.integers(0, n, m), rng.integers(0, n, m)
+    pairs = np.unique(np.stack([frm, to], 1)[frm != to], axis=0)
+    pairs = pairs[rng.permutation(len(pairs))]
+    return pairs[:, 0], pairs[:, 1], rng.choice(WEIGHTS, len(pairs))
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_distances_are_dijkstras_bit_for_bit_on_random_graphs_with_ties(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(50, 400))
+    frm, to, w = _random_graph(rng, n, int(rng.integers(n, 6 * n)))
+    sources = rng.choice(n, int(rng.integers(1, 5)), replace=False)
+    n += 10  # ten states no edge touches: out of reach (inf)
+    d = np.full(n, np.inf)
+    d[sources] = 0.0
+    ours = distances(Rows(n, frm, to, w), d)
+    ref = dijkstra(csr_matrix((w, (frm, to)), shape=(n, n)), directed=True, indices=sources, min_only=True)
+    assert np.isinf(ours[-10:]).all() and np.isfinite(ours).sum() > 10
+    assert _same_bits(ours, ref)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_distances_from_starting_costs_are_those_through_a_source_before_them(seed):
+    """Started from a cost per state (as each layer of the relaxed table is): the values of Dijkstra
+    from one extra source with an edge of that cost to each of them."""
+    rng = np.random.default_rng(100 + seed)
+    n = 300
+    frm, to, w = _random_graph(rng, n, 900)
+    starts = rng.choice(n, 20, replace=False)
+    cost0 = rng.choice(WEIGHTS, 20) * rng.integers(1, 9, 20)
+    d = np.full(n, np.inf)
+    d[starts] = cost0
+    ours = distances(Rows(n, frm, to, w), d)
+    g = csr_matrix((np.r_[w, cost0], (np.r_[frm, np.full(20, n)], np.r_[to, starts])), shape=(n + 1, n + 1))
+    ref = dijkstra(g, directed=True, indices=n)[:n]
+    assert _same_bits(ours, ref)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_reached_is_the_union_of_breadth_first_searches(seed):
+    rng = np.random.default_rng(200 + seed)
+    n = 500
+    frm, to, _ = _random_graph(rng, n, 700)
+    sources = rng.choice(n, 3, replace=False)
+    g = csr_matrix((np.ones(len(frm)), (frm, to)), shape=(n, n))
+    ref = np.zeros(n, bool)
+    for s in sources:
+        ref[breadth_first_order(g, s, directed=True, return_predecessors=False)] = True
+    got = reached(Rows(n, frm, to), sources)
+    assert 0 < got.sum() < n and np.array_equal(got, ref)
+
+
+def _random_problem(rng: np.random.Generator) -> astar.Problem:
+    """A small counter-augmented lattice problem with tied costs (1, 1.5, 0 for the informative moves)."""
+    ni, nj, K = 6, 7, 4
+    ns = ni * nj * K
+    succ: list[list[tuple[int, int, int, float]]] = [[] for _ in range(ns)]
+    for s in range(ns):
+        for mi in range(int(rng.integers(0, 5))):
+            q = int(rng.integers(-1, 3))
+            succ[s].append((mi, int(rng.integers(0, ns)), q, 0.0 if q >= 0 else float(rng.choice([1.0, 1.5]))))
+    goals = [int(g) for g in rng.choice(ns, 3, replace=False)]
+    return astar.Problem(ni, nj, K, [2, 1, 1], succ, int(rng.integers(0, ns)), goals)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_relaxed_table_and_plan_as_with_scipy_on_random_lattices(seed):
+    pb = _random_problem(np.random.default_rng(300 + seed))
+    ours, ref = astar.relaxed_table(pb), _scipy_relaxed_table(pb)
+    assert np.isfinite(ours).any() and np.isinf(ours).any()
+    assert _same_bits(ours, ref)
+    a, b = astar.search(pb, table=ours), astar.search(pb, table=ref)
+    assert (a.found, a.moves, a.spatial, a.cost) == (b.found, b.moves, b.spatial, b.cost)
+
+
+@pytest.fixture(scope="module")
+def bundled_problem() -> astar.Problem:
+    from maps.chain import PlanOptions, build_lattice
+    from maps.geo import load_map
+    from maps.motionset import resolve_primitives
+    from primitives.ship import load_profile
+
+    prof = load_profile("full-scale")
+    counts = {"steep_zigzag_surge": 2, "wide_zigzag_surge": 2, "wide_zigzag_sway": 1}
+    sea = load_map(None, draught_m=prof.draught_m)
+    lat = build_lattice(sea, prof, resolve_primitives(prof, counts, None), counts, options=PlanOptions())
+    return lat.problem()
+
+
+def test_relaxed_table_reachability_and_plan_as_with_scipy_on_the_bundled_map(bundled_problem):
+    pb = bundled_problem
+    ours, ref = astar.relaxed_table(pb), _scipy_relaxed_table(pb)
+    assert len(pb.succ) > 10_000 and np.isfinite(ours).sum() > 10_000
+    assert _same_bits(ours, ref)
+    a, b = astar.search(pb, table=ours), astar.search(pb, table=ref)
+    assert a.found and (a.moves, a.spatial, a.cost) == (b.moves, b.spatial, b.cost)
+
+    sc = pb.succ
+    n = len(sc)
+    gt = csr_matrix((np.ones(len(sc.dst)), (np.asarray(sc.dst), sc.sources())), shape=(n, n))
+    back = np.zeros(n, bool)
+    for goal in pb.goal_spatial:
+        back[breadth_first_order(gt, goal, directed=True, return_predecessors=False)] = True
+    assert np.array_equal(goal_reachable(pb), back)
+
+
+def test_the_planner_imports_no_scipy():
+    """scipy's sparse base cost 0.39-0.45 s of CPU in every plan-trial for these searches alone."""
+    code = "import sys, maps.planner, maps.sailable, maps.chain; print(sorted(m for m in sys.modules if m.startswith('scipy')))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
