@@ -10,9 +10,6 @@ from contextlib import contextmanager
 import typer
 
 from cli.errors import user_error_types
-from cli.optionvalues import install
-
-install()  # plain option values converted without pydantic (0.4 s of every command's start): see cli.optionvalues
 
 app = typer.Typer(
     add_completion=False,
