@@ -12,11 +12,24 @@ monotone in ``a``, so the distance reached is the minimum over paths of the path
 sum taken from the source outwards, as in Dijkstra's algorithm: the values are scipy's bit for
 bit, whatever order the states are settled in (tests/test_graphsearch.py checks this against
 scipy on the bundled map and on random graphs with tied weights).
+
+A label-correcting search is O(V E) at worst (Bellman-Ford's bound: a state can fall once per
+sweep, and there can be a sweep per hop), against Dijkstra's O(E log V): a chain of 20,000 states
+with a costly shortcut to each took 41 s here against scipy's 0.007 s (stop 47's review). On the
+planner's lattices it relaxes 1.1-2.7 times the edges in 7-47 sweeps, so :func:`distances` counts
+its work and, past ``WORK_LIMIT`` times the graph's size, finishes with a heap-ordered Dijkstra
+(:func:`_dijkstra_from`) from the labels it has: the same values, since every label is a path's
+floating-point sum and the same monotonicity holds.
 """
 
 from __future__ import annotations
 
+import heapq
+
 import numpy as np
+
+WORK_LIMIT = 10  # edges relaxed (and SWEEP_COST per sweep) per edge and state before the heap takes over
+SWEEP_COST = 1000  # one sweep's numpy calls (about 40 us) in edges relaxed (about 40 ns each)
 
 
 class Rows:
@@ -66,12 +79,36 @@ def distances(g: Rows, dist: np.ndarray) -> np.ndarray:
     Dijkstra's bit for bit."""
     assert g.w is not None
     front = np.flatnonzero(np.isfinite(dist))
+    budget = WORK_LIMIT * (g.to.size + g.n)
     while front.size:
         idx, cnt = g.out_of(front)
+        budget -= idx.size + SWEEP_COST
+        if budget < 0:  # many states falling many times (see the module doc): finish in Dijkstra's order
+            return _dijkstra_from(g, dist)
         cand = np.repeat(dist[front], cnt) + g.w[idx]
         tgt = g.to[idx]
         fell = cand < dist[tgt]
         tgt, cand = tgt[fell], cand[fell]
         np.minimum.at(dist, tgt, cand)
         front = np.unique(tgt)
+    return dist
+
+
+def _dijkstra_from(g: Rows, dist: np.ndarray) -> np.ndarray:
+    """Dijkstra's search (a binary heap, O(E log V)) from every state with a finite ``dist`` at
+    that starting value, as :func:`distances` (in place). Python floats are IEEE doubles: the sums
+    are numpy's bit for bit."""
+    ptr, to, w, d = g.ptr.tolist(), g.to.tolist(), g.w.tolist(), dist.tolist()
+    heap = [(d[s], s) for s in np.flatnonzero(np.isfinite(dist)).tolist()]
+    heapq.heapify(heap)
+    while heap:
+        du, u = heapq.heappop(heap)
+        if du > d[u]:  # a stale entry: u fell again after this was pushed
+            continue
+        for k in range(ptr[u], ptr[u + 1]):
+            c = du + w[k]
+            if c < d[to[k]]:
+                d[to[k]] = c
+                heapq.heappush(heap, (c, to[k]))
+    dist[:] = d
     return dist
