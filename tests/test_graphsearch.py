@@ -118,6 +118,20 @@ def test_zero_weights_and_repeated_edges_keep_the_cheapest(limit, monkeypatch):
     assert _same_bits(distances(Rows(n, frm, to, w), d), dijkstra(g, directed=True, indices=[0, 1], min_only=True))
 
 
+def test_graphs_of_more_states_than_16_bits_hold():
+    """Rows sorts the states' numbers as 16-bit integers (radix) only while they fit: the open sea at
+    800 m has 90,000 states. Edges given ungrouped, reaching states past 65,535."""
+    rng = np.random.default_rng(11)
+    n = 70_000
+    frm, to, w = _random_graph(rng, n, 4 * n)
+    d = np.full(n, np.inf)
+    d[[0, n - 1]] = 0.0
+    ref = dijkstra(csr_matrix((w, (frm, to)), shape=(n, n)), directed=True, indices=[0, n - 1], min_only=True)
+    assert np.isfinite(ref[1 << 16 :]).sum() > 1000
+    assert _same_bits(distances(Rows(n, frm, to, w), d), ref)
+    assert np.array_equal(reached(Rows(n, frm, to), [0, n - 1]), np.isfinite(ref))
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_distances_from_starting_costs_are_those_through_a_source_before_them(seed):
     """Started from a cost per state (as each layer of the relaxed table is): the values of Dijkstra
