@@ -217,6 +217,35 @@ def test_relaxed_table_reachability_and_plan_as_with_scipy_on_the_bundled_map(bu
     assert np.array_equal(goal_reachable(pb), back)
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_usable_moves_as_with_scipy_on_random_lattices(seed):
+    """Lattice._usable_moves (the map check's moves with a placement reached from the start and
+    leaving for a goal by basic moves) against main's two scipy breadth-first searches, on lattices
+    where some moves are usable and some not (on the bundled map every move is)."""
+    from types import SimpleNamespace
+
+    from maps.chain import Lattice
+
+    rng = np.random.default_rng(400 + seed)
+    n, m = 150, 600  # moves mostly forward along a row of states: those before the start or past the goals unusable
+    src = rng.integers(0, n, m)
+    dst = np.clip(src + rng.integers(-2, 8, m), 0, n - 1)
+    q = np.where(rng.random(m) < 0.3, rng.integers(0, 2, m), -1)
+    sc = astar.Successors.from_edges(n, src, np.arange(m), dst, q, np.where(q < 0, 1.0, 0.0))
+    pb = astar.Problem(1, n, 1, [1, 1], sc, int(rng.integers(20, 40)), [int(g) for g in rng.integers(100, 130, 2)])
+    e = np.column_stack([sc.sources(), sc.dst, sc.move]).astype(np.int64)
+    basic = np.asarray(sc.counter) < 0
+    g = csr_matrix((np.ones(int(basic.sum())), (e[basic, 0], e[basic, 1])), shape=(n, n))
+    fwd = np.zeros(n, bool)
+    fwd[breadth_first_order(g, pb.start_spatial, directed=True, return_predecessors=False)] = True
+    back = np.zeros(n, bool)
+    for goal in pb.goal_spatial:
+        back[breadth_first_order(g.T.tocsr(), goal, directed=True, return_predecessors=False)] = True
+    ok = fwd[e[:, 0]] & back[e[:, 1]]
+    assert ok.any() and not ok.all()
+    assert Lattice._usable_moves(SimpleNamespace(problem=lambda: pb)) == set(np.unique(e[ok, 2]).tolist())
+
+
 def test_the_planner_imports_no_scipy():
     """scipy's sparse base cost 0.39-0.45 s of CPU in every plan-trial for these searches alone."""
     code = "import sys, maps.planner, maps.sailable, maps.chain; print(sorted(m for m in sys.modules if m.startswith('scipy')))"
