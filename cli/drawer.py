@@ -243,8 +243,11 @@ def start_early(args: Sequence[str] = ()) -> None:
 
     Not with ``--no-cache`` among ``args`` (the command line's words): that command plans here for sure, and its
     drawer is forked later (:func:`cli.plan_cmd.plan_and_write`), once this process has imported the planner,
-    so that the two share those imports (numpy, scipy, shapely, pyproj, the project's modules: about 0.3 s of the
-    drawer's CPU) rather than each paying for them; the drawer has time to spare before the plan is made."""
+    so that the two share those imports (numpy, shapely, pyproj, the project's modules: about 0.3 s of the
+    drawer's CPU) rather than each paying for them. Since the planner imports no scipy (stop 47), the drawer's early
+    design imports scipy.optimize itself (0.78-0.88 s of its CPU from the fork to the design, 0.44-0.50 s before,
+    load 11), and the parent asks for the design 0.13-0.21 s of CPU after the fork: on idle cores that is what the
+    parent waits for."""
     if CAN_FORK and not _STARTED and "--no-cache" not in args:
         # what both processes import in every such command (the plan's and the map's modules: shapely, pyproj),
         # imported once before the fork (about 0.09 s of CPU the drawer would repeat)

@@ -6,8 +6,8 @@ mixed-radix number of (g_1..g_Q) with radices d_q + 1. Costs (8.8): informative 
 basic moves L-bar.
 
 Heuristics:
-* ``"admissible"``: cost-to-go table of a relaxed problem, computed once by Dijkstra
-  (``scipy.sparse.csgraph``) on the reversed graph over (i, j, heading, r) where r is the
+* ``"admissible"``: cost-to-go table of a relaxed problem, computed once by a shortest-path search
+  (:func:`maps.graphsearch.distances`, Dijkstra's values bit for bit) on the reversed graph over (i, j, heading, r) where r is the
   number of informative uses still to make, any primitive allowed for any remaining use.
   Every lattice path maps to a relaxed path of the same cost, so the table is admissible and
   consistent (Knepper & Kelly 2006; Ljungberg (2022) section 8.2.2) and the returned plan is optimal
@@ -23,10 +23,10 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import dijkstra
 
-EPS = 1e-9  # weight standing in for a zero-cost edge (csgraph drops explicit zeros)
+from maps.graphsearch import Rows, distances
+
+EPS = 1e-9  # weight standing in for a zero-cost edge (as scipy's csgraph had it: it drops explicit zeros)
 
 
 class Successors:
@@ -119,28 +119,30 @@ def edges(pb: Problem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 
 
 def relaxed_table(pb: Problem) -> np.ndarray:
-    """Cost-to-go h[spatial, r] of the relaxed problem (see module doc); inf if unreachable."""
+    """Cost-to-go h[spatial, r] of the relaxed problem (see module doc); inf if unreachable.
+
+    Layer by layer: a state's cost with r informative uses left is reached by basic moves within
+    layer r, or by an informative move into layer r - 1; so layer 0 is the search from the goals
+    over the basic moves, and layer r the same search started from the cost of each informative
+    move's arrival in layer r - 1 (the values of one search over the whole (state, r) graph)."""
     ns = pb.ni * pb.nj * pb.n_head
     D = int(sum(pb.targets))
     src, dst, qq, cost = edges(pb)
     w0 = np.where(cost > 0, cost, EPS)
-    r = np.arange(D + 1)
-    basic, info = qq < 0, qq >= 0
-    rows = np.concatenate([(src[basic, None] * (D + 1) + r).ravel(), (src[info, None] * (D + 1) + r[1:]).ravel()])
-    cols = np.concatenate([(dst[basic, None] * (D + 1) + r).ravel(), (dst[info, None] * (D + 1) + r[1:] - 1).ravel()])
-    w = np.concatenate([np.repeat(w0[basic], D + 1), np.repeat(w0[info], D)])
-    n = ns * (D + 1)
-    # reversed graph: edge v -> u for every forward edge u -> v; duplicates keep the minimum
-    g = csr_matrix((w, (cols, rows)), shape=(n, n))  # duplicate edges would be summed: keep the cheapest
-    if g.nnz != len(w):
-        order = np.lexsort((w, rows, cols))
-        keep = np.ones(len(w), bool)
-        keep[1:] = (np.diff(cols[order]) != 0) | (np.diff(rows[order]) != 0)
-        sel = order[keep]
-        g = csr_matrix((w[sel], (cols[sel], rows[sel])), shape=(n, n))
-    goals = [s * (D + 1) for s in pb.goal_spatial]
-    dist = dijkstra(g, directed=True, indices=goals, min_only=True)
-    return dist.reshape(ns, D + 1)
+    basic = qq < 0
+    back = Rows(ns, dst[basic], src[basic], w0[basic])  # reversed graph: edge v -> u for every basic move u -> v
+    isrc, idst, iw = src[~basic], dst[~basic], w0[~basic]
+    out = np.empty((ns, D + 1))
+    for r in range(D + 1):
+        d = np.full(ns, np.inf)
+        if r == 0:
+            d[pb.goal_spatial] = 0.0
+        else:
+            arrive = out[idst, r - 1] + iw
+            ok = np.isfinite(arrive)
+            np.minimum.at(d, isrc[ok], arrive[ok])
+        out[:, r] = distances(back, d)
+    return out
 
 
 class _Rows(dict):

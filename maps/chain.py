@@ -26,6 +26,7 @@ from maps import astar, movecache
 from maps.collision import CollisionGrid, Window, quarter_turns
 from maps.forked import map_halves
 from maps.geo import MapError, SeaMap, bundled_map_path
+from maps.graphsearch import Rows, reached
 from maps.lattice import Move, heading_table, nearest_heading, run_in_seconds
 from maps.motionset import basic_move_set, default_resolution, informative_moves, planning_window
 from maps.planoptions import PlanOptions
@@ -147,22 +148,13 @@ class Lattice:
         repositioning moves alone (breadth-first search on the basic moves' graph both ways): another
         designed manoeuvre is no way there, since the mix may not hold it (:mod:`maps.sailable`) and
         a manoeuvre left out by the design would leave the ship with no way back."""
-        from scipy.sparse import csr_matrix
-        from scipy.sparse.csgraph import breadth_first_order
-
         pb = self.problem()
         sc = pb.succ
         e = np.column_stack([sc.sources(), sc.dst, sc.move]).astype(np.int64)
         n = len(sc)
         basic = np.asarray(sc.counter) < 0
-        g = csr_matrix((np.ones(int(basic.sum())), (e[basic, 0], e[basic, 1])), shape=(n, n))
-        fwd = np.zeros(n, bool)
-        fwd[breadth_first_order(g, pb.start_spatial, directed=True, return_predecessors=False)] = True
-        back = np.zeros(n, bool)
-        gt = g.T.tocsr()
-        for goal in pb.goal_spatial:
-            if not back[goal]:
-                back[breadth_first_order(gt, goal, directed=True, return_predecessors=False)] = True
+        fwd = reached(Rows(n, e[basic, 0], e[basic, 1]), [pb.start_spatial])
+        back = reached(Rows(n, e[basic, 1], e[basic, 0]), pb.goal_spatial)
         ok = fwd[e[:, 0]] & back[e[:, 1]]
         return set(np.unique(e[ok, 2]).tolist())
 

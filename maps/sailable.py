@@ -15,10 +15,9 @@ from collections import deque
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import breadth_first_order
 
 from maps.astar import Problem
+from maps.graphsearch import Rows, reached
 from maps.sizing import Needs, needs
 
 if TYPE_CHECKING:
@@ -30,14 +29,7 @@ MAX_STATES = 2_000_000  # counter-augmented states the search may visit (the lat
 def goal_reachable(pb: Problem) -> np.ndarray:
     """Per spatial state: whether some sequence of moves (counters ignored) reaches a goal state."""
     sc = pb.succ
-    n = len(sc)
-    src, dst = sc.sources(), np.asarray(sc.dst, np.int64)
-    gt = csr_matrix((np.ones(len(src)), (dst, src)), shape=(n, n))
-    back = np.zeros(n, bool)
-    for goal in pb.goal_spatial:
-        if not back[goal]:
-            back[breadth_first_order(gt, goal, directed=True, return_predecessors=False)] = True
-    return back
+    return reached(Rows(len(sc), np.asarray(sc.dst, np.int64), sc.sources()), pb.goal_spatial)
 
 
 def sailable_mixes(pb: Problem, max_states: int = MAX_STATES) -> set[tuple[int, ...]] | None:
