@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.bench_detect_truth import HULL, row, screening_key, summarise
+from benchmarks.bench_detect_truth import BATCH, HULL, change_times, row, screening_key, summarise
 from identify.detect.glr import calibrate
 from identify.detect.verdict import implausible_inertia, physical_change, verdict
 
@@ -62,14 +62,13 @@ def ship_study(folder: Path, variant: str, ship: int, runs: int, key: str, setti
     """bench_detect_truth.ship_study's result for one ship, from its stored prior and screenings."""
     prior = pickle.loads(_one(folder, f"{variant}-{ship}-nominal-*-0-prior-{key}.pkl").read_bytes())
     prior = with_structure(prior, setting)
-    rng = np.random.default_rng([ship, 3])  # the truth bench's change times
-    changes = [None] * runs + [0.0 if i % 2 == 0 else float(rng.uniform(100, 300)) for i in range(runs)]
+    changes = change_times(ship, runs)
     out = {"unchanged": [], "changed": [], "errors": [], "structure": prior.structure.tolist()}
     if implausible_inertia(prior, **HULL):
         out["refused"] = f"ship {ship}"
         return out
     for i, ch in enumerate(changes):
-        b, j = 10 * (i // 10), i % 10  # the truth bench's batches of 10
+        b, j = BATCH * (i // BATCH), i % BATCH  # the truth bench's batches
         sc = pickle.loads(_one(folder, f"{variant}-{ship}-{runs}-{b}-*-{j}-screen-{key}.pkl").read_bytes())
         d = redecide(sc, prior)
         res = {"alarm_s": d.alarm_s, "property": d.property, "change_s": ch, "h": float(d.threshold[0])}

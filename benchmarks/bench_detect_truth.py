@@ -134,11 +134,17 @@ def _stored(path: Path, make):
     return out
 
 
+def change_times(ship_seed: int, runs: int) -> list[float | None]:
+    """Per recording of a ship: None for the ``runs`` unchanged, then the changed runs' change times (s):
+    every other one from the start, the rest drawn in 100-300 s."""
+    rng = np.random.default_rng([ship_seed, 3])
+    return [None] * runs + [0.0 if i % 2 == 0 else float(rng.uniform(100, 300)) for i in range(runs)]
+
+
 def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str, roll_band: bool = False) -> dict:
     """One ship: its prior, then ``runs`` unchanged and ``runs`` changed recordings."""
-    rng = np.random.default_rng([ship_seed, 3])
     seeds = [1000 * ship_seed + 1 + i for i in range(2 * runs)]
-    changes = [None] * runs + [0.0 if i % 2 == 0 else float(rng.uniform(100, 300)) for i in range(runs)]
+    changes = change_times(ship_seed, runs)
     out = {"unchanged": [], "changed": [], "errors": []}
     try:
         (p,) = _cached(
