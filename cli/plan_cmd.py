@@ -367,7 +367,7 @@ def plan_and_write(
     prof.require_planar("shiptrial plan")
     inputs = dict(counts=counts, start=start, goal=goal, scenario=scenario, **design, vessel_name=vessel_name or "", options=opts)
     cache_dir = plancache.default_dir() if cache else None
-    keyed_map = _map_bytes(map_path) if cache_dir is not None else None
+    keyed_digest = _map_digest(map_path) if cache_dir is not None else None
     key = _cache_key(prof, map_path, inputs) if cache_dir is not None else None
     hit = plancache.load(cache_dir, key) if key is not None else None
     if hit is not None and not {"design", "sea", "chart"} <= hit.keys():  # not an entry this command wrote
@@ -401,7 +401,7 @@ def plan_and_write(
             chart = export_chart(result, sea) if result.feasible and not no_export else None
             # kept only when the map file still holds the bytes keyed (read again: about 1 ms): one saved while this
             # run loaded it would leave the saved file's plan under the earlier bytes' key (as maps.mapcache does)
-            if key is not None and _map_bytes(map_path) == keyed_map:
+            if key is not None and _map_digest(map_path) == keyed_digest:
                 digest = plancache.store(cache_dir, key, {"plan": result, "design": td, "sea": sea, "chart": chart})
             t0 = resolve_start(result, start_time)
         start_utc = result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
@@ -433,7 +433,7 @@ def _cache_key(prof: Any, map_path: Path | None, inputs: dict[str, Any]) -> str 
         return None
 
 
-def _map_bytes(map_path: Path | None) -> bytes | None:
+def _map_digest(map_path: Path | None) -> bytes | None:
     """The SHA-256 of the map file the plan cache keys (None when it cannot be read)."""
     from maps import plancache
     from maps.geo import map_source
