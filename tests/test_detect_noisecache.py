@@ -89,6 +89,24 @@ def test_the_entry_is_keyed_on_what_the_noise_depends_on(prior, rec, cache, monk
     _same(other, detect(rec, prior, null_runs=60, seed=1, **HULL))
 
 
+def test_an_entry_filtered_by_the_compiled_loop_is_not_read_by_the_numpy_one(prior, rec, cache, monkeypatch):
+    """The noise's input filters run compiled (scipy's bits) in a large job and in numpy (scipy's to rounding,
+    primitives.zerophase) in a one-recording command: an entry written by ``shiptrial detect`` on 40 recordings
+    is not the noise of a later call on one of them (its thresholds would differ in the last digits from
+    those without a cache), and the other way round."""
+    from primitives import jitloop
+
+    if not jitloop.AVAILABLE:
+        pytest.skip("numba is not installed: one loop only")
+    with jitloop.job(10 * jitloop.JOB_MIN_WORK):  # compiled, as a call on many recordings
+        detect(rec, prior, null_runs=60, **HULL)
+    monkeypatch.setattr(jitloop, "AVAILABLE", False)  # the numpy loops, as a call on one recording
+    read = detect(rec, prior, null_runs=60, **HULL)
+    monkeypatch.setenv(noisecache.ENV_DIR, "")
+    _same(read, detect(rec, prior, null_runs=60, **HULL))
+    assert len(list(cache.iterdir())) == 2
+
+
 @pytest.mark.parametrize("damage", ["truncated", "one byte changed"])
 def test_an_entry_that_is_not_whole_is_computed_again(prior, rec, uncached, cache, monkeypatch, damage):
     """A truncated noise file (a disk filled mid-write) or one with a byte changed in its numbers (a bad

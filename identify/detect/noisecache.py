@@ -10,7 +10,8 @@ only, not on the recording. Drawing and filtering them was 1.0 s of a 500 s reco
 the library call (s48-i25-detectspeed's report); read back memory-mapped they cost the digest check.
 
 An entry is one file named by the SHA-256 of its key (:func:`key`: every number the arrays are
-computed from and the code that computes them, :func:`code_version`), ``KEY.noise``: the magic line,
+computed from, the code that computes them (:func:`code_version`) and which loop filtered them (compiled
+or numpy, :mod:`primitives.zerophase`: equal to rounding only)), ``KEY.noise``: the magic line,
 the SHA-256 of the payload, a header line (the inputs' names and the arrays' shapes) and the arrays'
 float64 bytes: the yaw rate's noise (runs, n), each input's share stored (runs, n), the block
 innovations (blocks, runs). It is written whole or not at all (temporary file and rename) and read
@@ -89,6 +90,12 @@ def default_dir() -> Path | None:
 
 def _dir() -> Path | None:
     return default_dir() if _USED.get() else None
+
+
+def active() -> bool:
+    """Whether :func:`load` and :func:`store` read and write here (inside :func:`used`, a directory set):
+    a library call outside computes no key (the code's digest reads every source file once)."""
+    return _dir() is not None
 
 
 @lru_cache(maxsize=1)

@@ -9,6 +9,7 @@ import numpy as np
 
 from identify.detect import noisecache
 from identify.detect.yawmodel import NOMINAL, Derive, YawPrior, simulate_r
+from primitives import jitloop
 from primitives.iir import lfilter  # scipy.signal's, without its 2 s import
 from primitives.savgol import savgol_filter
 
@@ -97,7 +98,7 @@ def _linear_noise(
     (runs, n), the misfit's block innovations (``blocks``, runs; (0, runs) without) and the prior's
     inputs of the noise alone (n, runs) per input (:func:`_linear_inputs`), from the scaled draws of
     :func:`normals`. They depend on the seed, ``runs``, the length ``n``, the noise levels ``sds``, the
-    prior's sample time and input filter and the derivation's form only: kept in ``draws`` over a job
+    prior's sample time and input filter, the derivation's form and which loop filters (compiled or numpy) only: kept in ``draws`` over a job
     and, inside ``shiptrial detect``, on disk over commands (:mod:`identify.detect.noisecache`, read
     back memory-mapped and read-only: the numbers drawing and filtering them again gives, to the bit)."""
     form = (names, prior.dt, prior.prefilter_hz, None if derive is None else derive.form)
@@ -106,7 +107,9 @@ def _linear_noise(
         return draws["linear"]
     if draws is not None:
         draws.clear()  # another length's arrays are not held beside this one's
-    name = noisecache.key(*full) if noisecache.default_dir() is not None else ""
+    # the input filters' compiled loop gives scipy's bits, the numpy one scipy's to rounding (primitives.zerophase),
+    # and which runs follows the job's size: an entry of a 40-recording call is not a one-recording call's noise
+    name = noisecache.key(*full, jitloop.use(runs * n)) if noisecache.active() else ""
     hit = noisecache.load(name, runs, n, blocks) if name else None
     if hit is not None:
         r_noise, noise, innovations = hit
