@@ -129,11 +129,16 @@ def _entry(value: float) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]
     return np.full((3, 20), value), {"x": np.full((20, 3), -value)}, np.zeros((2, 3))
 
 
-def test_the_cache_keeps_a_bounded_number_of_entries(cache, monkeypatch):
-    """Beyond KEEP entries the least recently used are removed; a read marks an entry used."""
-    monkeypatch.setattr(noisecache, "KEEP", 2)
+def test_the_cache_keeps_the_most_recently_used_within_its_byte_budget(cache, monkeypatch):
+    """Beyond the byte budget (``SHIPTRIAL_DETECT_CACHE_MB``; 256 MB by default: two 500 s entries) the least
+    recently used are removed; a read marks an entry used; the newest is kept whatever its size."""
+    assert noisecache.budget() == noisecache.BUDGET_BYTES == 256 * 2**20
+    noisecache.store("a", *_entry(0.0))
+    size = (cache / "a.noise").stat().st_size
+    monkeypatch.setenv(noisecache.ENV_MB, str(2.5 * size / 2**20))  # room for two entries, not three
+    assert noisecache.budget() == int(2.5 * size)
+    noisecache.store("b", *_entry(1.0))
     for t, name in enumerate(("a", "b")):
-        noisecache.store(name, *_entry(t))
         os.utime(cache / f"{name}.noise", (1000 + t, 1000 + t))
     assert noisecache.load("a", 3, 20, 2) is not None  # "a" used now: "b" is the oldest
     noisecache.store("c", *_entry(2.0))
@@ -142,6 +147,12 @@ def test_the_cache_keeps_a_bounded_number_of_entries(cache, monkeypatch):
     assert np.array_equal(r_noise, _entry(2.0)[0]) and list(inputs) == ["x"] and np.array_equal(inputs["x"], _entry(2.0)[1]["x"])
     assert not r_noise.flags.writeable and not inputs["x"].flags.writeable and not blocks.flags.writeable
     assert noisecache.load("c", 4, 20, 2) is None  # another shape: not this entry
+    monkeypatch.setenv(noisecache.ENV_MB, "0")
+    noisecache.store("d", *_entry(3.0))
+    assert [p.name for p in cache.iterdir()] == ["d.noise"]
+    for bad in ("lots", "-1", "nan"):
+        monkeypatch.setenv(noisecache.ENV_MB, bad)
+        assert noisecache.budget() == noisecache.BUDGET_BYTES
 
 
 def test_the_cache_is_off_where_the_user_turned_it_off(monkeypatch, tmp_path):

@@ -16,7 +16,8 @@ the SHA-256 of the payload, a header line (the inputs' names and the arrays' sha
 float64 bytes: the yaw rate's noise (runs, n), each input's share stored (runs, n), the block
 innovations (blocks, runs). It is written whole or not at all (temporary file and rename) and read
 back memory-mapped and only when its digest matches, so a damaged entry is computed again, never read
-and never an error, as :mod:`maps.plancache`'s plans are; the :data:`KEEP` most recently used are kept.
+and never an error, as :mod:`maps.plancache`'s plans are; the most recently used are kept within a byte
+budget (:func:`budget`: 256 MB, two entries of a 500 s recording; the newest whatever its size).
 Only ``shiptrial detect`` uses it (:func:`used`): a library call outside that block touches no disk.
 The entries are the user's own files in the user's cache directory (:func:`default_dir`), as numba's
 and the planner's caches are.
@@ -40,8 +41,11 @@ import numpy as np
 
 ENV_DIR = "SHIPTRIAL_DETECT_CACHE_DIR"  # this cache's directory; "" for none
 ENV_ALL = "SHIPTRIAL_CACHE_DIR"  # the planner's cache directory (maps.plancache); "" turns this cache off too
-#: entries kept: 96 MB each for 400 records of a 500 s recording at 10 Hz with five inputs
-KEEP = 4
+ENV_MB = "SHIPTRIAL_DETECT_CACHE_MB"  # the byte budget in MB (a number >= 0), instead of BUDGET_BYTES
+#: bytes of entries kept, the most recently used first (the newest whatever its size): an entry is 96 MB for 400
+#: records of a 500 s recording at 10 Hz with five inputs, 114 MB with the roll rate: two kept (a user's second
+#: prior or length), not the 460 MB in the user's home that four would be, for about a second of CPU each
+BUDGET_BYTES = 256 * 2**20
 MAGIC = b"shiptrial-detect-noise 1\n"
 SUFFIX = ".noise"
 DIGEST = 64  # hex digits of a SHA-256
@@ -143,16 +147,17 @@ def load(name: str, runs: int, n: int, blocks: int) -> tuple[np.ndarray, dict[st
             return None
         offsets = end + 8 * np.cumsum([0, *sizes])
         arrays = [np.frombuffer(payload, "<f8", m, int(o)).reshape(s) for m, o, s in zip(sizes, offsets, shapes)]
-        os.utime(path)  # recently used: pruned last
     except (OSError, ValueError, KeyError, TypeError):  # ValueError: an empty file cannot be mapped
         return None
+    with contextlib.suppress(OSError):  # another detect pruned it meanwhile: the mapped bytes are still whole
+        os.utime(path)  # recently used: pruned last
     return arrays[0], {k: a.T for k, a in zip(names, arrays[1:-1])}, arrays[-1]
 
 
 def store(name: str, r_noise: np.ndarray, inputs: dict[str, np.ndarray], blocks: np.ndarray) -> None:
     """Keep the yaw rate's noise ``r_noise`` (runs, n), each input's share of ``inputs`` (n, runs) and the
     innovations ``blocks`` under ``name``, whole or not at all (a full disk or an unwritable directory only
-    means no cache), then remove the entries beyond :data:`KEEP`; nothing outside :func:`used`."""
+    means no cache), then keep the most recently used within :func:`budget` (:func:`prune`); nothing outside :func:`used`."""
     d = _dir()
     if d is None:
         return
@@ -172,15 +177,30 @@ def store(name: str, r_noise: np.ndarray, inputs: dict[str, np.ndarray], blocks:
         pass
 
 
+def budget() -> int:
+    """Bytes of entries kept: ``$SHIPTRIAL_DETECT_CACHE_MB`` megabytes (2^20 bytes) when it is a number
+    >= 0, else :data:`BUDGET_BYTES`."""
+    try:
+        mb = float(os.environ.get(ENV_MB, ""))
+    except ValueError:
+        return BUDGET_BYTES
+    return int(mb * 2**20) if 0 <= mb < float("inf") else BUDGET_BYTES
+
+
 def prune(directory: Path) -> None:
-    """Remove the entries beyond the :data:`KEEP` most recently used, and temporary files a writer killed
-    outright left over an hour ago; a file another process removed meanwhile is skipped."""
+    """Keep the most recently used entries within :func:`budget` bytes (the newest whatever its size: the
+    entry just written), and remove temporary files a writer killed outright left over an hour ago; a file
+    another process removed meanwhile is skipped."""
     entries = []
     for p in directory.glob(f"*{SUFFIX}"):
         with contextlib.suppress(OSError):
-            entries.append((p.stat().st_mtime_ns, p))
-    for _, old in sorted(entries, reverse=True)[KEEP:]:
-        old.unlink(missing_ok=True)
+            st = p.stat()
+            entries.append((st.st_mtime_ns, st.st_size, p))
+    total, limit = 0, budget()
+    for i, (_, size, old) in enumerate(sorted(entries, reverse=True)):
+        total += size
+        if i and total > limit:
+            old.unlink(missing_ok=True)
     for tmp in directory.glob(f".*{SUFFIX}.*"):
         with contextlib.suppress(OSError):
             if time.time() - tmp.stat().st_mtime > STALE_S:
