@@ -6,6 +6,7 @@ bounded, and off where the user turned it off."""
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -78,15 +79,26 @@ def test_a_second_detect_reads_the_noise_and_gives_the_same_bits(prior, rec, unc
 
 
 def test_the_entry_is_keyed_on_what_the_noise_depends_on(prior, rec, cache, monkeypatch):
-    """Another seed, number of records or recording length is another entry (drawn afresh), never the
-    first one's noise."""
+    """Another seed, number of records, recording length, noise level of the prior, input filter or code is
+    another entry (drawn afresh), never the first one's noise (whose answer would differ); the answer read from
+    an entry is the cache-less one (test_a_second_detect_reads_the_noise_and_gives_the_same_bits)."""
     calls = _count_draws(monkeypatch)
     detect(rec, prior, null_runs=60, **HULL)
-    other = detect(rec, prior, null_runs=60, seed=1, **HULL)
-    assert calls == [1, 1]
-    assert len(list(cache.iterdir())) == 2
-    monkeypatch.setenv(noisecache.ENV_DIR, "")
-    _same(other, detect(rec, prior, null_runs=60, seed=1, **HULL))
+    first = next(iter(prior.noise))
+    noisier = replace(prior, noise={**prior.noise, first: 1.5 * prior.noise[first]})
+    shorter = simulated_recording(Vessel(), 200, seed=61, measured_moment=True)
+    cases = [
+        (rec, prior, {"seed": 1}),
+        (rec, prior, {"null_runs": 50}),
+        (shorter, prior, {}),
+        (rec, noisier, {}),
+        (rec, replace(prior, prefilter_hz=0.8 * prior.prefilter_hz), {}),
+    ]
+    for r, p, kw in cases:
+        detect(r, p, **({"null_runs": 60} | kw), **HULL)
+    monkeypatch.setattr(noisecache, "code_version", lambda: "another version of identify/ or primitives/")
+    detect(rec, prior, null_runs=60, **HULL)
+    assert calls == [1] * 7 and len(list(cache.iterdir())) == 7
 
 
 def test_an_entry_filtered_by_the_compiled_loop_is_not_read_by_the_numpy_one(prior, rec, cache, monkeypatch):
