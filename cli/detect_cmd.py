@@ -120,6 +120,7 @@ def register(app: typer.Typer) -> None:
         """Say whether the ship changed, when it changed (a change point with its 95 % interval) and which
         property (yaw inertia, yaw damping, pod gain, or undecided between them)."""
         from cli.options import validate_detect_options
+        from identify.detect import noisecache
         from identify.detect.api import hull_inertia, load_prior, load_runs
         from identify.detect.api import plot as plot_stats
         from identify.detect.batch import detect_all
@@ -155,7 +156,9 @@ def register(app: typer.Typer) -> None:
         # this process is the command's own: the no-change records' 16 MB arrays reused, not faulted in afresh
         keep_freed_memory(always=True, keep_bytes=DETECT_KEEP_BYTES)  # (primitives.heap: the figures)
         # one job: under 12,500 samples in all (two 500 s recordings) the numpy loops, more the compiled ones (jitloop.job)
-        dets = detect_all(recs, prior, false_alarm, min_change, seed, n_rdot=n_rdot, i_z=i_z)
+        # the no-change records' noise of this prior and length read from the user's cache after the first run
+        with noisecache.used():  # (identify.detect.noisecache: the same bits; ~96 MB an entry, 256 MB kept)
+            dets = detect_all(recs, prior, false_alarm, min_change, seed, n_rdot=n_rdot, i_z=i_z)
         written = plot_stats(dets, plot, PLOT_PANELS) if plot is not None else []
         if json_out:
             typer.echo(

@@ -6,7 +6,7 @@ import json
 import math
 import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -47,14 +47,16 @@ def dumps(obj: Any) -> str:
     return json.dumps(to_jsonable(obj), indent=2)
 
 
-def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
-    """Write to a temporary file beside ``path`` and rename: never a half-written file."""
+def atomic_write_bytes(path: str | Path, data: bytes | Sequence[bytes | memoryview]) -> Path:
+    """Write to a temporary file beside ``path`` and rename: never a half-written file. ``data`` may be a
+    sequence of buffers, written one after another (a large cache entry is not joined in memory first)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
+            for part in [data] if isinstance(data, (bytes, bytearray, memoryview)) else data:
+                fh.write(part)
         os.chmod(tmp, 0o644)  # mkstemp makes 0600; outputs are handed to crews and colleagues
         os.replace(tmp, path)
     except BaseException:

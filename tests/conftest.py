@@ -5,8 +5,9 @@ import pytest
 
 @pytest.fixture(autouse=True, scope="session")
 def _no_plan_cache():
-    """No test reads or writes the user's plan cache (maps.plancache): a plan read from it would
-    skip the code the test exercises. Session scope: set before any module or session fixture
+    """No test reads or writes the user's plan cache (maps.plancache) or detect's noise cache
+    (identify.detect.noisecache, off too when SHIPTRIAL_CACHE_DIR is empty): an entry read from
+    either would skip the code the test exercises. Session scope: set before any module or session fixture
     runs a command. The cache's own tests set a directory of their own."""
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("SHIPTRIAL_CACHE_DIR", "")

@@ -347,6 +347,22 @@ def test_attribution_is_undecided_when_the_evidence_does_not_separate(prior):
     assert ev["property"] == "undecided" and set(ev["undecided_between"]) == {"yaw_inertia", "pod_gain"}
 
 
+def test_the_prediction_and_signatures_in_one_simulation_are_those_of_two(prior):
+    """screen's one five-column simulation (identify.detect.yawmodel.predict_with_signatures) gives the
+    prior's prediction from the recording's r0 and the three change signatures (from r0 = 0) of the two
+    separate simulations it replaces, to the bit."""
+    from identify.detect.api import signals
+    from identify.detect.yawmodel import predict_with_signatures, signatures
+
+    sig, r = signals(simulated_recording(Vessel(), 200, seed=72, measured_moment=True), "full")
+    w = prior.inputs(sig)
+    r0 = float(np.mean(r[:5]))
+    assert r0 != 0.0
+    r_hat, S = predict_with_signatures(prior, w, r0)
+    assert np.array_equal(r_hat, simulate_r(prior.kind, prior.values, w, prior.dt, r0=r0))
+    assert np.array_equal(S, signatures(prior, sig, inputs=w))
+
+
 def test_the_i_z_change_is_converted_with_the_hulls_values_not_the_priors_fitted_i_r(prior):
     # the fitted I_r is in the recorded moment's units (0.77 of the ship's on a truth ship whose load
     # cells miss the hull's share of the pod force): I_r + N_rdot then read a -2.9 % change of I_r

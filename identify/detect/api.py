@@ -26,9 +26,8 @@ from identify.detect.yawmodel import (
     SIGNALS,
     YawPrior,
     block_mean,
+    predict_with_signatures,
     shift_moment,
-    signatures,
-    simulate_r,
 )
 from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
@@ -283,9 +282,9 @@ def screen(
     sig = shift_moment(sig, prior.moment_shift_s, prior.dt) if MOMENT in rec.channels else sig
     r0 = float(np.mean(r[:5]))
     w = prior.inputs(sig)  # filtered once for the prediction, the input checks and the signatures
-    eps = r - simulate_r(prior.kind, prior.values, w, prior.dt, r0=r0)
+    r_hat, S = predict_with_signatures(prior, w, r0)  # the prediction and the change signatures in one simulation
+    eps = r - r_hat
     residual_rms = check_inputs(rec, prior, sig, r, eps, w)
-    S = signatures(prior, sig, inputs=w)
     if i_z is not None and n_rdot is not None and not (i_z > 0 and n_rdot < 0):
         raise ValueError(f"i_z {i_z:g} must be positive and n_rdot {n_rdot:g} negative (kg m^2)")
     with np.errstate(over="ignore", invalid="ignore"):  # a diverging draw is counted below, not printed as numpy's

@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from identify.detect import noisecache
 from identify.detect.yawmodel import NOMINAL, Derive, YawPrior, simulate_r
+from primitives import jitloop
 from primitives.iir import lfilter  # scipy.signal's, without its 2 s import
 from primitives.savgol import savgol_filter
 
@@ -68,27 +70,72 @@ def null_records(
     r_true = r_true[:, np.arange(runs) % ships]
     blocks = n // prior.block if prior.model_error > 0 else 0
     sds = (prior.noise.get("r", 0.0), *(prior.noise.get(k, 0.0) for k in clean))
+    if derive is None or getattr(derive, "linear", False):
+        r_noise, innovations, noise = _linear_noise(prior, tuple(clean), n, runs, seed, blocks, sds, derive, draws)
+        offsets = misfit_offsets(prior, n, runs, None, innovations)
+        # before _measured: it may write the yaw rate's noise over r_noise
+        inputs = _linear_inputs(prior, clean, r_true, noise, derive)
+        return _measured(r_true, r_noise) - simulate_r(prior.kind, prior.values, inputs, prior.dt, r0=r0) + offsets
     z = normals(seed, runs, n, len(clean), blocks, draws, scale=sds)  # the noise itself: scaled once per job
     offsets = misfit_offsets(prior, n, runs, None, z[-1] if blocks else np.zeros((0, runs)))
-    if derive is None or getattr(derive, "linear", False):
-        # before _measured: it may write the yaw rate's noise over z[0]
-        inputs = _linear_inputs(prior, clean, r_true, z, derive, draws)
-        return _measured(r_true, z[0]) - simulate_r(prior.kind, prior.values, inputs, prior.dt, r0=r0) + offsets
     r_meas = _measured(r_true, z[0])
     noisy = {k: _measured(s[:, None], zk) for (k, s), zk in zip(clean.items(), z[1:])}
     return r_meas - prior.predict(derive(noisy, r_meas), r0=r0) + offsets
+
+
+def _linear_noise(
+    prior: YawPrior,
+    names: tuple[str, ...],
+    n: int,
+    runs: int,
+    seed: int,
+    blocks: int,
+    sds: tuple[float, ...],
+    derive: Derive | None,
+    draws: dict | None,
+) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """The recording-independent part of the linear path's no-change records: the yaw rate's noise
+    (runs, n), the misfit's block innovations (``blocks``, runs; (0, runs) without) and the prior's
+    inputs of the noise alone (n, runs) per input (:func:`_linear_inputs`), from the scaled draws of
+    :func:`normals`. They depend on the seed, ``runs``, the length ``n``, the noise levels ``sds``, the
+    prior's sample time and input filter, the derivation's form and which loop filters (compiled or numpy) only: kept in ``draws`` over a job
+    and, inside ``shiptrial detect``, on disk over commands (:mod:`identify.detect.noisecache`, read
+    back memory-mapped and read-only: the numbers drawing and filtering them again gives, to the bit)."""
+    form = (names, prior.dt, prior.prefilter_hz, None if derive is None else derive.form)
+    full = (seed, runs, n, blocks, tuple(map(float, sds)), form)
+    if draws is not None and draws.get("linear_key") == full:
+        return draws["linear"]
+    if draws is not None:
+        draws.clear()  # another length's arrays are not held beside this one's
+    # the input filters' compiled loop gives scipy's bits, the numpy one scipy's to rounding (primitives.zerophase),
+    # and which runs follows the job's size: an entry of a 40-recording call is not a one-recording call's noise
+    name = noisecache.key(*full, jitloop.use(runs * n)) if noisecache.active() else ""
+    hit = noisecache.load(name, runs, n, blocks) if name else None
+    if hit is not None:
+        r_noise, noise, innovations = hit
+    else:
+        z = normals(seed, runs, n, len(names), blocks, draws, scale=sds)
+        e = {k: zk.T for k, zk in zip(names, z[1:])}
+        noise = prior.inputs(e if derive is None else derive(e, z[0].T))
+        r_noise, innovations = z[0], z[-1] if blocks else np.zeros((0, runs))
+        if name:
+            noisecache.store(name, r_noise, noise, innovations)
+    if draws is not None:
+        for a in noise.values():  # shared with the next recordings of this length
+            a.flags.writeable = False
+        draws.update(linear_key=full, linear=(r_noise, innovations, noise))
+    return r_noise, innovations, noise
 
 
 def _linear_inputs(
     prior: YawPrior,
     clean: dict[str, np.ndarray],
     r_true: np.ndarray,
-    z: list[np.ndarray],
+    noise: dict[str, np.ndarray],
     derive: Derive | None,
-    draws: dict | None,
 ) -> dict[str, np.ndarray]:
-    """The prior's inputs (n, runs) of the no-change records measured with the noise ``z`` (scaled,
-    :func:`normals`), as the inputs of the clean signals plus those of the noise alone.
+    """The prior's inputs (n, runs) of the no-change records, as the inputs of the clean signals plus
+    ``noise``, those of the noise alone (:func:`_linear_noise`).
 
     The records' inputs are ``F(D(s + e, r + e_r))``: D the derivation (``derive``, identity when
     None) and F the prior's input filter (:meth:`YawPrior.inputs`: the complementary sway filter
@@ -98,22 +145,11 @@ def _linear_inputs(
     too (``derive.linear``: the pod yaw moment measured, not computed from the motion by the pods'
     model (2.12)), ``F(D(s + e)) = F(D(s)) + F(D(e))``: the
     noise's share is the same for every recording of one length and derivation (the same draws),
-    filtered once per job and kept in ``draws``; only the clean signals' one column is filtered per
-    recording. The yaw row (2.17) is nonlinear in its inputs, so the sum is taken before it, never
+    filtered once per job (and kept on disk by the command: :func:`_linear_noise`); only the clean
+    signals' one column is filtered per recording. The yaw row (2.17) is nonlinear in its inputs, so the sum is taken before it, never
     after. The two sums differ by rounding only: records within 1e-10 of their rms and thresholds
     within 1e-10 relative of filtering ``s + e`` (tests/test_detect_nullsim.py; 8.7e-13 on 40
     strong-roll recordings)."""
-    names = tuple(clean)
-    form = (names, prior.dt, prior.prefilter_hz, None if derive is None else derive.form)
-    if draws is not None and draws.get("inputs_form") == form:
-        noise = draws["inputs"]
-    else:
-        e = {k: zk.T for k, zk in zip(names, z[1:])}
-        noise = prior.inputs(e if derive is None else derive(e, z[0].T))
-        if draws is not None:
-            for a in noise.values():  # shared with the next recordings of this length
-                a.flags.writeable = False
-            draws.update(inputs_form=form, inputs=noise)
     cols = {k: s[:, None] for k, s in clean.items()}
     signal = prior.inputs(cols if derive is None else derive(cols, r_true))
     # a recording alone (nothing kept): the sum written over its own noise's share, no second copy

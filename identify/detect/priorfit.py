@@ -22,9 +22,9 @@ from identify.detect.yawmodel import (
     ar_fit,
     block_mean,
     model_inputs,
+    predict_with_signatures,
     prior_name,
     robust_sigma,
-    signatures,
     simulate_r,
     whiten,
 )
@@ -120,8 +120,10 @@ def _split_theta(prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray, x0:
             half = replace(prior, values={k: float(NOMINAL[k] * xi) for k, xi in zip(prior.names, x)})
             test = {k: v[i, b] for k, v in sig.items()}
             rt = r[i, b]
-            eps = rt - half.predict(test, r0=float(np.mean(rt[: prior.block])))
-            Sw = whiten(block_mean(signatures(half, test), prior.block), prior.ar)
+            # the prediction and the signatures in one simulation, as screen's (the same bits as two)
+            r_hat, S = predict_with_signatures(half, half.inputs(test), float(np.mean(rt[: prior.block])))
+            eps = rt - r_hat
+            Sw = whiten(block_mean(S, prior.block), prior.ar)
             ew = whiten(block_mean(eps, prior.block), prior.ar)
             rows.append(Sw.T @ ew / np.maximum(np.sum(Sw**2, axis=0), 1e-300))
         out.append(rows)

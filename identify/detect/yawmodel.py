@@ -221,7 +221,12 @@ def _theta(kind: str, x: np.ndarray | dict) -> dict[str, np.ndarray]:
 
 
 def simulate_r(
-    kind: str, theta: dict | np.ndarray, sig: dict[str, np.ndarray], dt: float, gain: float | np.ndarray = 1.0, r0: float = 0.0
+    kind: str,
+    theta: dict | np.ndarray,
+    sig: dict[str, np.ndarray],
+    dt: float,
+    gain: float | np.ndarray = 1.0,
+    r0: float | np.ndarray = 0.0,
 ) -> np.ndarray:
     """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig``, from ``r0``.
 
@@ -231,7 +236,7 @@ def simulate_r(
     kernel's own v' and tau_r it reproduces the kernel's yaw rate to rounding.
 
     Signals are (n,) or (n, cols) (time on axis 0); parameter values (and the actuator ``gain``,
-    which scales tau_r) scalars or (cols,): one simulated column per parameter set.
+    which scales tau_r) scalars or (cols,): one simulated column per parameter set; ``r0`` a scalar or (cols,).
     """
     th = _theta(kind, theta)
     model = YAW_MODELS[kind]
@@ -246,7 +251,8 @@ def simulate_r(
 
     w = {k: batch(sig[k]) for k in model.signals} | {"tau_r": batch(tau)}
     theta_b = np.stack([np.broadcast_to(np.asarray(th[k], float), (cols,)) for k in names], axis=1)
-    r_hat, _ = simulate_yaw(model, theta_b, w, np.full(cols, float(r0)), dt, sensitivities=False)
+    r0s = np.full(cols, float(r0)) if np.ndim(r0) == 0 else np.array(r0, dtype=float).reshape(cols)
+    r_hat, _ = simulate_yaw(model, theta_b, w, r0s, dt, sensitivities=False)
     return np.ascontiguousarray(r_hat.T) if len(shape) == 2 else r_hat[0]
 
 
@@ -289,12 +295,33 @@ def signatures(
     """``S`` (n, 3): the change of r_hat per unit relative change of each candidate in CANDIDATES
     (yaw inertia, all damping terms together, actuator gain) on the manoeuvre ``sig`` (``inputs``:
     ``prior.inputs(sig)`` when the caller has it already)."""
+    cols, gain = _signature_columns(prior, rel)
+    w = prior.inputs(sig) if inputs is None else inputs
+    r = simulate_r(prior.kind, cols, {k: s[:, None] for k, s in w.items()}, prior.dt, gain=gain)
+    return (r[:, 1:] - r[:, :1]) / rel
+
+
+def predict_with_signatures(
+    prior: YawPrior, inputs: dict[str, np.ndarray], r0: float = 0.0, rel: float = 0.05
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(r_hat, S)``: ``simulate_r(prior.kind, prior.values, inputs, prior.dt, r0=r0)`` (the prior's
+    prediction of a recording from its filtered ``inputs``) and :func:`signatures` on those inputs, in one
+    simulation of five columns instead of two of one and four: each column's arithmetic is its own, so
+    the same bits, and one time loop less (about 0.1 s CPU of a 500 s recording in numpy's loop)."""
+    cols, gain = _signature_columns(prior, rel)
+    sig_th, own = _theta(prior.kind, cols), _theta(prior.kind, prior.values)
+    theta = {k: np.r_[own[k], np.broadcast_to(sig_th[k], (cols.shape[1],))] for k in NOMINAL}
+    w = {k: s[:, None] for k, s in inputs.items()}
+    r = simulate_r(prior.kind, theta, w, prior.dt, gain=np.r_[1.0, gain], r0=np.r_[float(r0), np.zeros(cols.shape[1])])
+    return r[:, 0], (r[:, 2:] - r[:, 1:2]) / rel
+
+
+def _signature_columns(prior: YawPrior, rel: float) -> tuple[np.ndarray, np.ndarray]:
+    """The scaled parameters (P, 4) and actuator gains (4,) of :func:`signatures`' columns: the prior, then
+    yaw inertia, the damping terms together and the gain each up by ``rel``."""
     names = prior.names
     base = np.array([prior.values[k] / NOMINAL[k] for k in names])
     cols = np.repeat(base[:, None], 4, axis=1)
     cols[names.index("I_r"), 1] *= 1 + rel
     cols[[names.index(k) for k in DAMPING if k in names], 2] *= 1 + rel
-    gain = np.array([1.0, 1.0, 1.0, 1 + rel])
-    w = prior.inputs(sig) if inputs is None else inputs
-    r = simulate_r(prior.kind, cols, {k: s[:, None] for k, s in w.items()}, prior.dt, gain=gain)
-    return (r[:, 1:] - r[:, :1]) / rel
+    return cols, np.array([1.0, 1.0, 1.0, 1 + rel])
