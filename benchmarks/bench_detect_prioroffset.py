@@ -12,9 +12,10 @@ podded truth family's ships (tests/physics/podded_truth.py), the prior's output-
 Printed per recording: I_r (1e7 kg m^2) at each shift, the shift whose robust residual is smallest,
 and that residual relative to the unshifted fit's. Stop 48 (noise-free): ship 109's runs read I_r
 5.05-5.13 at 0.2 s, its nominal manoeuvre 5.07 (ship 103: 5.18-5.27 against 5.18), so the manoeuvre
-moves I_r by under 1 %; the noise on one 500 s nominal recording moves it by about 2 % (ship 108:
-5.02-5.37 at 0.1 s over four noise draws, noise-free 4.91), the size of the prior's bootstrap sd; the roll
-channels' noise alone (phi, p) raised it by +4.8 % and +4.9 % at 0.1 s in two draws."""
+moves I_r by under 1 %; the noise on one 500 s nominal recording scatters it by about 3 %, the size of
+the prior's bootstrap sd (ship 108: 5.02-5.37 at 0.1 s over four noise draws), and puts it about 5 % above
+the noise-free 4.91, a bias runs at the same noise level share; the roll channels' noise alone (phi, p)
+raised it by +4.8 % and +4.9 % at 0.1 s in two draws."""
 
 from __future__ import annotations
 
