@@ -30,15 +30,20 @@ from __future__ import annotations
 import argparse
 import pickle
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from benchmarks.bench_detect_structure import _one, redecide, with_structure
 from benchmarks.bench_detect_truth import BATCH, HULL, change_times, row, summarise
+from identify.detect.api import load_runs
+from identify.detect.checks import MOMENT
 from identify.detect.glr import SignatureCusum, exceedance_level, null_peaks
+from identify.detect.inputs import Deriver, signals
+from identify.detect.priorfit import structural_spread
 from identify.detect.verdict import Whitened, implausible_inertia, physical_change, verdict
-from identify.detect.yawmodel import CANDIDATES, block_mean
+from identify.detect.yawmodel import CANDIDATES, NOMINAL, block_mean, shift_moment
 
 #: the stored screenings of ships 100-107 (folder:key:first ship:ships), read only
 CACHES = (
@@ -49,6 +54,27 @@ CACHES = (
 )
 VARIANTS = ("nominal-mmg", "strong-roll", "pod-interaction", "steering-lag-acting", "coloured-noise")
 CUTS = (0.02, 0.05, 0.10, 0.25, 0.50)
+
+
+_PRIORS: dict = {}
+
+
+def load_prior(folder: Path, key: str, variant: str, ship: int, setting: str = "stored"):
+    """The stored prior of a ship, its structure as ``setting`` says: bench_detect_structure's settings, or
+    ``gate=G``: recomputed from the cached nominal recording by ``priorfit.structural_spread(gate=G)``
+    (the prior's fit, bootstrap and everything else as stored; about 6 s CPU a prior)."""
+    prior = pickle.loads(_one(folder, f"{variant}-{ship}-nominal-*-0-prior-{key}.pkl").read_bytes())
+    if not setting.startswith("gate="):
+        return with_structure(prior, setting)
+    k = (str(folder), key, variant, ship, setting)
+    if k not in _PRIORS:
+        rec = load_runs([_one(folder, f"{variant}-{ship}-nominal-*-0.csv")])[0]
+        sig, r = signals(rec, prior.kind)  # as fit_prior hands them to priorfit.fit: the moment shifted
+        sig = shift_moment(sig, prior.moment_shift_s, prior.dt) if MOMENT in rec.channels else sig
+        x = np.array([prior.values[n] / NOMINAL[n] for n in prior.names])
+        s = structural_spread(prior, sig, r, x, Deriver.of(rec, prior.kind), 0, gate=float(setting[5:]))
+        _PRIORS[k] = replace(prior, structure=s)
+    return _PRIORS[k]
 
 
 def theta1(min_change: float = 0.05) -> np.ndarray:
@@ -115,9 +141,7 @@ def collect(caches: list[str], variants: tuple[str, ...], runs: int = 10, settin
         folder, key, first, ships = spec.split(":")
         for v in variants:
             for ship in range(int(first), int(first) + int(ships)):
-                prior = with_structure(
-                    pickle.loads(_one(Path(folder), f"{v}-{ship}-nominal-*-0-prior-{key}.pkl").read_bytes()), setting
-                )
+                prior = load_prior(Path(folder), key, v, ship, setting)
                 if implausible_inertia(prior, **HULL):
                     out.append({"variant": v, "ship": ship, "refused": True})
                     continue
@@ -205,7 +229,9 @@ def report(rows: list[dict]) -> None:
     )
 
 
-def design_rows(caches: list[str], variants: tuple[str, ...], rates: list[float], runs: int = 10) -> None:
+def design_rows(
+    caches: list[str], variants: tuple[str, ...], rates: list[float], runs: int = 10, setting: str = "stored"
+) -> None:
     """bench_detect_truth's row per variant with every stored screening (unchanged and changed runs)
     re-decided at each design false-alarm rate (``glr.calibrate``'s ``false_alarm``; ``detect``'s default 0.02)."""
     print(f"\nre-decided at design rates {rates} (bench_detect_truth's columns; roll correlation not available here)")
@@ -215,7 +241,7 @@ def design_rows(caches: list[str], variants: tuple[str, ...], rates: list[float]
             for spec in caches:
                 folder, key, first, ships = spec.split(":")
                 for ship in range(int(first), int(first) + int(ships)):
-                    prior = pickle.loads(_one(Path(folder), f"{v}-{ship}-nominal-*-0-prior-{key}.pkl").read_bytes())
+                    prior = load_prior(Path(folder), key, v, ship, setting)
                     out = {"unchanged": [], "changed": [], "errors": []}
                     if implausible_inertia(prior, **HULL):
                         studies.append(out | {"refused": f"ship {ship}"})
@@ -236,12 +262,16 @@ def main() -> None:
     ap.add_argument("--cache", nargs="*", default=list(CACHES), help="folder:key:first ship:ships, one per stored cache")
     ap.add_argument("--variants", nargs="*", default=list(VARIANTS))
     ap.add_argument("--runs", type=int, default=10)
-    ap.add_argument("--structure", default="stored", help="as bench_detect_structure's --structure")
+    ap.add_argument(
+        "--structure",
+        default="stored",
+        help="as bench_detect_structure's --structure, or gate=G (structure recomputed, priorfit.structural_spread(gate=G))",
+    )
     ap.add_argument("--design", nargs="*", type=float, help="only re-decide every run at these design false-alarm rates")
     a = ap.parse_args()
     warnings.simplefilter("ignore", RuntimeWarning)
     if a.design:
-        design_rows(a.cache, tuple(a.variants), a.design, a.runs)
+        design_rows(a.cache, tuple(a.variants), a.design, a.runs, a.structure)
         return
     report(collect(a.cache, tuple(a.variants), a.runs, a.structure))
 
