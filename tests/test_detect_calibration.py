@@ -59,3 +59,28 @@ def test_the_records_calibrate_alarms_on_are_those_with_a_level_below_the_design
     # null_peaks is what calibrate takes its quantiles of: its thresholds are one common quantile of these peaks
     below = [np.mean(peaks[:, k] <= det.h[k]) for k in range(3)]
     assert max(below) - min(below) <= 1.0 / len(peaks) and min(below) >= 0.95
+
+
+def test_a_recordings_level_is_the_smallest_design_rate_at_which_calibrate_alarms_on_it(screened):
+    """The level is the probability integral transform of the CUSUM stage's decision: at calibrate's
+    thresholds for ``false_alarm = a`` a recording's peaks cross some threshold exactly when its level
+    is at most ``a`` (recordings between two null records' peaks included)."""
+    prior, sc = screened
+    theta1 = np.array([0.09, 0.05, 0.05])
+    det = calibrate(prior, sc.S, sc.null_blocks, theta1=theta1, false_alarm=0.05, seed=0)
+    peaks = null_peaks(det, sc.S, sc.null_blocks, seed=0)
+    srt = np.sort(peaks, axis=0)
+    rng = np.random.default_rng(5)
+    # peaks between two of the top 30 null records' on a random candidate, the others low
+    stats = []
+    for i in rng.choice(np.arange(len(peaks) - 30, len(peaks) - 1), 6, replace=False):
+        k = rng.integers(3)
+        x = srt[len(peaks) // 2].copy()
+        x[k] = srt[i, k] + rng.uniform(0.05, 0.95) * (srt[i + 1, k] - srt[i, k])
+        stats.append(x)
+    for x in stats:
+        lv = float(exceedance_level(peaks, x))
+        assert 0 < lv < 0.5
+        for a, alarm in ((lv - 1e-9, False), (lv + 1e-9, True)):
+            h = calibrate(prior, sc.S, sc.null_blocks, theta1=theta1, false_alarm=a, seed=0).h
+            assert bool((x > h).any()) is alarm, (lv, a)

@@ -120,11 +120,17 @@ def exceedance_level(peaks: np.ndarray, stat: np.ndarray) -> np.ndarray:
     (runs, k) (:func:`null_peaks`), the candidates combined as :func:`calibrate` combines them: with
     ``u_k(x)`` the fraction of candidate ``k``'s null peaks at or above ``x``, a record's score is
     ``min_k u_k`` ("any candidate over the same quantile"), and the level is the fraction of null
-    records whose score is at most that of ``stat``. A recording alarms at :func:`calibrate`'s
-    thresholds for ``false_alarm`` about when its level is below ``false_alarm``; for recordings that
-    the no-change records describe, the levels are uniform on (0, 1) (a probability integral
-    transform), so their distribution over unchanged recordings measures the calibration far more
-    finely than a false-alarm count (benchmarks/bench_detect_calibration.py)."""
+    records whose score is at most that of ``stat``. The level is the smallest design rate at which
+    the LR-CUSUM stage alarms: the bisection of :func:`calibrate` ends with each ``h_k`` just above
+    the highest null peak of the last records kept quiet, so the recording's peaks cross some ``h_k``
+    at ``false_alarm = a`` exactly when its level is at most ``a`` (to the bisection's resolution;
+    tests/test_detect_calibration.py).
+    For a recording exchangeable with the ``m`` no-change records (one candidate: ``m * level`` is the
+    number of records above it, uniform on 0..m), ``P(level < a) = ceil(a m) / (m + 1)`` and
+    ``P(level <= a)`` one record more: uniform on (0, 1) to within ``1 / m`` (a probability integral
+    transform), so the levels of unchanged recordings measure the calibration far
+    more finely than a false-alarm count (benchmarks/bench_detect_calibration.py). The verdict's
+    later tests (size and 2 sd, :mod:`identify.detect.verdict`) only drop alarms."""
     srt = np.sort(peaks, axis=0)
     m = len(peaks)
 
