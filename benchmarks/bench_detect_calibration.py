@@ -7,9 +7,10 @@ builds them) whose largest LR-CUSUM statistic is at least the run's, combined ov
 the way ``calibrate`` combines them ("any candidate over the same quantile"): with ``u_k(x)`` the
 fraction of candidate ``k``'s null peaks at or above ``x``, a record's score is ``min_k u_k``, and the
 run's level is the fraction of null records whose score is at most the run's. For a calibrated
-detector the levels of unchanged runs are uniform on (0, 1), and the CUSUM stage alarms on a run
-exactly when its level is below the design rate (the verdict's ``--min-change`` and 2-sd tests then
-drop some of those: the false-alarm rate is at most P(level < design)). The fraction below 2, 5, 10,
+detector the levels of unchanged runs are uniform on (0, 1) (to within one record in 400), and the
+LR-CUSUM stage alarms on a run exactly when its level is at most the design rate (the verdict's
+``--min-change`` and 2-sd tests then drop some of those, a separate filter: the false-alarm rate is at
+most P(level <= design)). The fraction below 2, 5, 10,
 25 and 50 % (95 % Clopper-Pearson intervals) and a Kolmogorov-Smirnov test against uniform are
 printed per variant, pooled, and per ship (prior): far more sensitive than the false-alarm count.
 
@@ -108,7 +109,8 @@ def run_record(sc, prior, seed: int = 0) -> dict:
         means = np.array([null_est[:, g == b].mean(axis=1) for b in range(B)])
         sd_noise = np.sqrt(within)
         sd_par = np.sqrt(np.maximum(means.var(axis=0, ddof=1) - within / (null_est.shape[1] / B), 0.0))
-    return {"level": lv, "est": est, "sd_null": sd_null, "sd_verdict": sd_verdict, "sd_noise": sd_noise, "sd_par": sd_par}
+    out = {"level": lv, "est": est, "sd_null": sd_null, "sd_verdict": sd_verdict, "sd_noise": sd_noise, "sd_par": sd_par}
+    return out | {"structure": np.asarray(prior.structure, float)}
 
 
 def clopper(k: int, n: int) -> tuple[float, float]:
@@ -148,13 +150,14 @@ def collect(caches: list[str], variants: tuple[str, ...], runs: int = 10, settin
                 for i, ch in enumerate(change_times(ship, runs)):
                     if ch is not None:
                         continue
-                    sc = pickle.loads(_one(Path(folder), f"{v}-{ship}-{runs}-0-*-{i}-screen-{key}.pkl").read_bytes())
+                    b, j = BATCH * (i // BATCH), i % BATCH  # the truth bench's batches
+                    sc = pickle.loads(_one(Path(folder), f"{v}-{ship}-{runs}-{b}-*-{j}-screen-{key}.pkl").read_bytes())
                     rec = run_record(sc, prior)
 
                     d = redecide(sc, prior)
                     stored = verdict(sc, prior, **HULL)  # the stored thresholds
                     rec |= {"variant": v, "ship": ship, "run": i, "alarm": d.changed, "alarm_stored": stored.changed}
-                    rec |= {"h_same": bool(np.allclose(d.threshold, sc.h, rtol=1e-9, atol=0))}
+                    rec |= {"h_same": bool(np.array_equal(d.threshold, sc.h))}  # bit for bit: the same code
                     out.append(rec)
     return out
 
@@ -170,7 +173,7 @@ def report(rows: list[dict]) -> None:
             print(table_row(v, sel))
     print(table_row("pooled", [r["level"] for r in runs]))
     print(f"refused priors (runs not tested): {refused}")
-    print("\nper ship (prior): levels, and verdict alarms (re-decided; stored thresholds)")
+    print("\nper ship (prior): levels, and verdict alarms (re-decided; stored thresholds; h reproduced: bit for bit)")
     for v in VARIANTS:
         for ship in sorted({r["ship"] for r in runs if r["variant"] == v}):
             sel = [r for r in runs if r["variant"] == v and r["ship"] == ship]
@@ -196,36 +199,68 @@ def report(rows: list[dict]) -> None:
                 f"z_null mean {np.array2string(zn.mean(0), precision=2)} sd {np.array2string(zn.std(0, ddof=1), precision=2)}; "
                 f"z_v mean {np.array2string(zv.mean(0), precision=2)}"
             )
+    noise_parameter_split(runs)
+
+
+def rms(x) -> np.ndarray:
+    return np.sqrt(np.nanmean(np.square(x), 0))
+
+
+def fmt(x) -> str:
+    return np.array2string(np.asarray(x), precision=2)
+
+
+def noise_parameter_split(runs: list[dict]) -> None:
+    """The runs' whole-record change estimates against the null records' model of them, per variant (rms over
+    its priors). Per run the null model is ``est = p + s + n``: ``p`` the prior's parameter error (sd
+    ``sd_par``; one value shared by all runs of a prior, drawn afresh per record in the null), ``s`` the
+    structural apparent change (sd ``prior.structure``, drawn per record by ``glr.null_peaks``) and ``n`` the
+    noise (sd ``sd_noise``). So over the ``n_p`` runs of one prior, the spread about their mean has sd
+    sqrt(sd_noise^2 + structure^2), and the mean's square has expectation
+    sd_par^2 + mean(sd_noise^2 + structure^2) / n_p: the ratios printed are 1 and about 1.05-1.2 if the
+    model holds. For z = est / sd_null (sd_null^2 = sd_noise^2 + sd_par^2; structure left out) the model
+    predicts a variance within a prior of sd_noise^2 / sd_null^2 and of the priors' means of
+    sd_par^2 / sd_null^2 + that / n_p (printed beside the measured ones)."""
+    groups: dict = {}
+    for r in runs:
+        groups.setdefault((r["variant"], r["ship"]), []).append(r)
     print("\nthe null records' spread of that estimate split into noise (within one bootstrap error) and parameter error")
-    print("(between them); the runs': spread about their prior's mean over the noise sd (1 if the noise part is right),")
-    print("and the prior's mean (its own parameter error, shared by its runs) over the parameter sd; rms over a variant's priors")
+    print("(between them); the runs': spread about their prior's mean over the noise sd and over sqrt(noise^2 + structure^2)")
+    print("(1 if the null describes the runs), and the prior's mean (its own parameter error, shared by its runs) over the")
+    print("parameter sd (expected value printed beside it); rms over a variant's priors")
     for v in VARIANTS:
-        pri = sorted({r["ship"] for r in runs if r["variant"] == v})
-        w, o = [], []
-        for ship in pri:
-            sel = [r for r in runs if r["variant"] == v and r["ship"] == ship]
+        w, ws, o, oref = [], [], [], []
+        for (gv, _), sel in groups.items():
+            if gv != v:
+                continue
             est = np.array([r["est"] for r in sel])
-            w.append(((est - est.mean(0)) / np.array([r["sd_noise"] for r in sel])).std(0, ddof=1))
-            o.append(est.mean(0) / np.mean([r["sd_par"] for r in sel], axis=0))
-        if pri:
-            rw, ro = np.sqrt(np.nanmean(np.square(w), 0)), np.sqrt(np.nanmean(np.square(o), 0))
+            sn = np.array([r["sd_noise"] for r in sel])
+            rest = sn**2 + np.array([r["structure"] for r in sel]) ** 2
+            sp = np.mean([r["sd_par"] for r in sel], axis=0)
+            w.append(((est - est.mean(0)) / sn).std(0, ddof=1))
+            ws.append(((est - est.mean(0)) / np.sqrt(rest)).std(0, ddof=1))
+            o.append(est.mean(0) / sp)
+            oref.append(1 + rest.mean(0) / (len(sel) * sp**2))
+        if w:
             print(
-                f"  {v:20s} runs' spread / noise sd {np.array2string(rw, precision=2)}   prior's offset / parameter sd {np.array2string(ro, precision=2)}"
+                f"  {v:20s} runs' spread / noise sd {fmt(rms(w))}, / sqrt(noise^2 + structure^2) {fmt(rms(ws))}   "
+                f"prior's offset / parameter sd {fmt(rms(o))} (expected {fmt(np.sqrt(np.nanmean(oref, 0)))})"
             )
     allz = np.array([r["est"] / r["sd_null"] for r in runs])
     print(
-        f"\nall runs: z_null mean {np.array2string(allz.mean(0), precision=2)}, sd {np.array2string(allz.std(0, ddof=1), precision=2)}, "
-        f"rms {np.array2string(np.sqrt((allz**2).mean(0)), precision=2)} ({' / '.join(CANDIDATES)})"
+        f"\nall runs: z_null mean {fmt(allz.mean(0))}, sd {fmt(allz.std(0, ddof=1))}, "
+        f"rms {fmt(np.sqrt((allz**2).mean(0)))} ({' / '.join(CANDIDATES)})"
     )
-    # how much of z's spread is per prior (shared by its runs) and how much per run
-    groups = {}
-    for r in runs:
-        groups.setdefault((r["variant"], r["ship"]), []).append(r["est"] / r["sd_null"])
-    within = np.mean([np.var(np.array(g), axis=0, ddof=1) for g in groups.values()], axis=0)
-    between = np.var([np.mean(np.array(g), axis=0) for g in groups.values()], axis=0, ddof=1)
+    # how much of z's spread is per prior (shared by its runs) and how much per run, against the null model's
+    z = [np.array([r["est"] / r["sd_null"] for r in g]) for g in groups.values()]
+    within = np.mean([np.var(g, axis=0, ddof=1) for g in z], axis=0)
+    between = np.var([np.mean(g, axis=0) for g in z], axis=0, ddof=1)
+    ew = np.nanmean([np.mean([r["sd_noise"] ** 2 / r["sd_null"] ** 2 for r in g], 0) for g in groups.values()], axis=0)
+    ep = np.nanmean([np.mean([r["sd_par"] ** 2 / r["sd_null"] ** 2 for r in g], 0) for g in groups.values()], axis=0)
+    n_p = np.mean([len(g) for g in z])
     print(
-        f"z_null variance within a prior {np.array2string(within, precision=2)}, of the priors' means {np.array2string(between, precision=2)} "
-        f"(independent per run: within 1, means 1/{len(next(iter(groups.values())))})"
+        f"z_null variance within a prior {fmt(within)} (null model {fmt(ew)}), "
+        f"of the priors' means {fmt(between)} (null model {fmt(ep + ew / n_p)})"
     )
 
 
