@@ -138,6 +138,7 @@ def structural_spread(
     derive: Derive | None = None,
     seed: int = 0,
     synthetic: int = 8,
+    gate: float = 3.0,
 ) -> np.ndarray:
     """How far the prior's structure alone moves the detector's change estimates on a manoeuvre it
     was not fitted on: rms over the two split-half cross-validations of the nominal record
@@ -164,7 +165,7 @@ def structural_spread(
     ms_noise = np.nanmean(noise**2, axis=(0, 1))
     # two held-out estimates give a mean square that is ms_noise * chi2(2)/2 for a structure that
     # fits: count only what exceeds its 95 % point (3.0 ms_noise), so noise does not pass for misfit
-    return np.nan_to_num(np.sqrt(np.maximum(ms_real - 3.0 * ms_noise, 0.0)), nan=0.0)
+    return np.nan_to_num(np.sqrt(np.maximum(ms_real - gate * ms_noise, 0.0)), nan=0.0)
 
 
 def model_error(prior: YawPrior, sig: dict[str, np.ndarray], r0: float, derive: Derive | None = None, seed: int = 0) -> float:
