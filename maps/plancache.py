@@ -35,6 +35,8 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+from primitives.io import user_cache_dir
+
 ENV_DIR = "SHIPTRIAL_CACHE_DIR"  # the cache directory; set to "" to use no cache
 MAGIC = b"shiptrial-plan-cache 1\n"
 KEEP = 32  # entries kept (about 0.5 MB each for the bundled example)
@@ -50,19 +52,7 @@ LIBRARIES = ("numpy", "scipy", "shapely", "pyproj", "numba", "cvxpy", "clarabel"
 def default_dir() -> Path | None:
     """``$SHIPTRIAL_CACHE_DIR`` (None when set to an empty string: no cache), else
     ``$XDG_CACHE_HOME/shiptrial/plans`` (``~/.cache/shiptrial/plans`` by default)."""
-    given = os.environ.get(ENV_DIR)
-    if given is not None:
-        try:
-            return Path(given).expanduser() if given.strip() else None
-        except RuntimeError:  # "~user/..." naming no user, or "~" with no home: no cache rather than a traceback
-            return None
-    base = os.environ.get("XDG_CACHE_HOME")
-    if not base:
-        home = os.path.expanduser("~")
-        if home == "~":  # no HOME and no password entry: no user cache rather than a './~' directory
-            return None
-        base = os.path.join(home, ".cache")
-    return Path(base) / "shiptrial" / "plans"
+    return user_cache_dir(ENV_DIR, "plans")
 
 
 @lru_cache(maxsize=1)

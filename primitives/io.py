@@ -47,6 +47,25 @@ def dumps(obj: Any) -> str:
     return json.dumps(to_jsonable(obj), indent=2)
 
 
+def user_cache_dir(env_var: str, leaf: str) -> Path | None:
+    """A cache directory of shiptrial's: ``$<env_var>`` if set (None when set to an empty string: no
+    cache), else ``$XDG_CACHE_HOME/shiptrial/<leaf>`` (``~/.cache/shiptrial/<leaf>``); None when no home
+    directory is known (no cache rather than a ``./~`` directory or a traceback)."""
+    given = os.environ.get(env_var)
+    if given is not None:
+        try:
+            return Path(given).expanduser() if given.strip() else None
+        except RuntimeError:  # "~user/..." naming no user, or "~" with no home
+            return None
+    base = os.environ.get("XDG_CACHE_HOME")
+    if not base:
+        home = os.path.expanduser("~")
+        if home == "~":
+            return None
+        base = os.path.join(home, ".cache")
+    return Path(base) / "shiptrial" / leaf
+
+
 def atomic_write_bytes(path: str | Path, data: bytes | Sequence[bytes | memoryview]) -> Path:
     """Write to a temporary file beside ``path`` and rename: never a half-written file. ``data`` may be a
     sequence of buffers, written one after another (a large cache entry is not joined in memory first)."""

@@ -39,6 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
+from primitives.io import user_cache_dir
+
 ENV_DIR = "SHIPTRIAL_DETECT_CACHE_DIR"  # this cache's directory; "" for none
 ENV_ALL = "SHIPTRIAL_CACHE_DIR"  # the planner's cache directory (maps.plancache); "" turns this cache off too
 ENV_MB = "SHIPTRIAL_DETECT_CACHE_MB"  # the byte budget in MB (a number >= 0), instead of BUDGET_BYTES
@@ -75,21 +77,9 @@ def default_dir() -> Path | None:
     ``$XDG_CACHE_HOME/shiptrial/detect`` (``~/.cache/shiptrial/detect``); None too when
     ``$SHIPTRIAL_CACHE_DIR`` (the planner's) is set to an empty string and this one is not set, or
     no home directory is known."""
-    given = os.environ.get(ENV_DIR)
-    if given is None and os.environ.get(ENV_ALL) == "":
+    if os.environ.get(ENV_DIR) is None and os.environ.get(ENV_ALL) == "":
         return None
-    if given is not None:
-        try:
-            return Path(given).expanduser() if given.strip() else None
-        except RuntimeError:  # "~user/..." naming no user: no cache rather than a traceback
-            return None
-    base = os.environ.get("XDG_CACHE_HOME")
-    if not base:
-        home = os.path.expanduser("~")
-        if home == "~":
-            return None
-        base = os.path.join(home, ".cache")
-    return Path(base) / "shiptrial" / "detect"
+    return user_cache_dir(ENV_DIR, "detect")
 
 
 def _dir() -> Path | None:
