@@ -229,7 +229,9 @@ def delayed(x: np.ndarray, lag: float, T: float) -> np.ndarray:
     return x - lag * d1 + 0.5 * lag * lag * np.gradient(d1, T)
 
 
-def _simulate(v: dict[str, float], kn: Known, z_f: float, load: Load, rec: RollRecording) -> tuple[np.ndarray, np.ndarray]:
+def _simulate(
+    v: dict[str, float], kn: Known, z_f: float, load: Load, rec: RollRecording, r_bias: float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Rudder-driven outputs (n, 3) and the free-response + bias basis (n, N_FREE + 1).
 
     Bilinear (Tustin) discretisation, as the paper's (13)-(15): the filtered rudder is smooth. The
@@ -244,19 +246,19 @@ def _simulate(v: dict[str, float], kn: Known, z_f: float, load: Load, rec: RollR
     lam, V = modal(Ad)
     c = Cd @ V
     out = np.zeros((rec.n, 3))
-    for j, u in model_inputs(v, kn, rec):
+    for j, u in model_inputs(v, kn, rec, r_bias):
         b = np.linalg.solve(V, Bd[:, j])
         modes = np.column_stack([lfilter([0.0, bi], [1.0, -li], u.astype(complex)) for bi, li in zip(b, lam)])
         out += (modes @ c.T).real + u[:, None] * Dd[:, j]
     return out, free_basis(lam, rec.n)
 
 
-def model_inputs(v: dict[str, float], kn: Known, rec: RollRecording) -> list[tuple[int, np.ndarray]]:
+def model_inputs(v: dict[str, float], kn: Known, rec: RollRecording, r_bias: float | None = None) -> list[tuple[int, np.ndarray]]:
     """The model's inputs that are not zero, as ``(column of B, signal)``: the rudder as the lagging IMU
     channels see it (:func:`delayed`), and the wall-sided heel signal from the recording's measured roll
     angle when it has one and the profile gives the hull's BM (the AHRS's roll angle comes with the
-    other IMU channels, so it is not delayed)."""
-    rudder, turn = speed_inputs(rec)
+    other IMU channels, so it is not delayed); ``r_bias`` as :func:`speed_inputs` takes it."""
+    rudder, turn = speed_inputs(rec, r_bias)
     out = [(0, delayed(rudder, v.get("t_imu", 0.0), rec.T))]
     if rec.phi is not None and kn.BM > 0.0:
         out.append((1, heel_signal(rec.phi, kn)))
@@ -265,10 +267,10 @@ def model_inputs(v: dict[str, float], kn: Known, rec: RollRecording) -> list[tup
     return out
 
 
-def speed_inputs(rec: RollRecording) -> tuple[np.ndarray, np.ndarray | None]:
-    """The rudder input ``delta (u/U)^2`` and the turn input ``(u/U - 1) (r - mean r)`` of a recording with
+def speed_inputs(rec: RollRecording, r_bias: float | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """The rudder input ``delta (u/U)^2`` and the turn input ``(u/U - 1) (r - b)`` of a recording with
     a measured surge speed ``u`` (``delta`` and ``None`` without one); ``U`` is the run's speed, at which
-    the model's derivatives hold.
+    the model's derivatives hold; ``b`` the yaw-rate gyro's bias ``r_bias``, or ``mean r`` when it is None.
 
     Why: a ship slows in its turns (rudder drag, the ``v r`` term of the surge equation; by 10-25 % on
     the basin truth's ``speed_loss`` variant), and the model's forces scale with the speed (Fossen 2011,
@@ -280,9 +282,10 @@ def speed_inputs(rec: RollRecording) -> tuple[np.ndarray, np.ndarray | None]:
     states; left out are the terms of the sway velocity and the roll rate whose derivatives scale with
     ``u`` too (``(u/U - 1)`` times ``Y_v v``, ``n_v v``, ``K_v v``, ``Y_p p``), second order in small terms.
     The speed's level comes from the run's ``U`` and only its variation ``u / mean(u)`` from the column,
-    so a positioning system's scale error does not move the level; the yaw-rate gyro's bias is taken
-    out with the recording's mean (a bias times the speed's variation is not a constant the fit's
-    bias columns would take). The speed is low-passed at :data:`SPEED_LP_HZ` first: a ship's speed
+    so a positioning system's scale error does not move the level. The yaw-rate gyro's bias must come out of
+    ``r`` (a bias times the speed's variation is not a constant the fit's bias columns would take); ``mean r``
+    takes the ship's own mean turning with it, so the fit passes its estimate
+    (:func:`identify.rollmass.gyro_bias.gyro_biases`). The speed is low-passed at :data:`SPEED_LP_HZ` first: a ship's speed
     follows its turns with the surge time constant (about 5 s on the model ship, 0.03 Hz), so what a
     positioning system gives above that is its own error, and through ``delta (u/U)^2`` that error
     would be a rudder input in the roll band (measured: basin truth ``speed_loss``, 4-run seed, run 0,
@@ -290,7 +293,7 @@ def speed_inputs(rec: RollRecording) -> tuple[np.ndarray, np.ndarray | None]:
     s = followed_speed(rec)
     if s is None:
         return rec.delta, None
-    return rec.delta * s * s, (s - 1.0) * (rec.r - np.mean(rec.r))
+    return rec.delta * s * s, (s - 1.0) * (rec.r - (np.mean(rec.r) if r_bias is None else r_bias))
 
 
 def speed_variation(rec: RollRecording) -> tuple[float, float]:
@@ -381,8 +384,11 @@ class _Problem:
         weights: np.ndarray,
         ar: list[list[np.ndarray]] | None = None,
         z_f_sd: float = 0.0,
+        r_bias: list[float | None] | None = None,
     ):
         self.datasets, self.kn, self.cal, self.z_f, self.free, self.w = datasets, kn, cal, z_f, free, weights
+        # each dataset's yaw-rate gyro bias in the turn input (:func:`speed_inputs`; None: the recording's mean r)
+        self.r_bias = list(r_bias) if r_bias is not None else [None] * len(datasets)
         # z_f in ``free``: ``z_f`` is its prior mean and ``z_f_sd`` its prior sd (one more residual)
         self.z_f_sd = z_f_sd
         self.ar = ar if ar is not None else [[np.ones(1)] * 3 for _ in datasets]
@@ -401,7 +407,7 @@ class _Problem:
         z_f = v.get("z_f", self.z_f)
         out = []
         for i, (rec, Y, load) in enumerate(zip(self.datasets, self.Y, self.loads(v))):
-            yhat, basis = _simulate(v, self.kn, z_f, load, rec)
+            yhat, basis = _simulate(v, self.kn, z_f, load, rec, self.r_bias[i])
             e = Y - yhat
             cols = []
             for j in range(3):
@@ -466,7 +472,7 @@ class _Problem:
                     hi, lo = self.discrete(x + e, i), self.discrete(x - e, i)
                     dmats.append(tuple((a - b) / (2 * h) for a, b in zip(hi, lo)))
                 du = lag_derivative(speed_inputs(rec)[0], lag, rec.T) if lag_col >= 0 else None
-                inputs = model_inputs(v, self.kn, rec)
+                inputs = model_inputs(v, self.kn, rec, self.r_bias[i])
                 blocks.append(dataset_jacobian(mats, dmats, inputs, du, lag_col, Y, self.ar[i], self.w[i]))
         except (FloatingPointError, np.linalg.LinAlgError):
             return central_jacobian(self.residual, x)
