@@ -251,15 +251,22 @@ def _simulate(
     error near 1e-8, enough that central differences of the residual at steps of 1e-6 and 1e-8 differed
     by 10-800 % (every parameter, basin truth ``base``, run 0, case 2): the fit's Jacobian was noise.
     """
-    Ad, Bd, Cd, Dd = _bilinear(*model_matrices(v, kn, z_f, load, rec.U), rec.T)
+    out, lam = _respond(*model_matrices(v, kn, z_f, load, rec.U), rec.T, model_inputs(v, kn, rec, r_bias, sway), rec.n)
+    return out, free_basis(lam, rec.n)
+
+
+def _respond(A, B, C, D, T: float, inputs: list[tuple[int, np.ndarray]], n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Response from rest (n, outputs) of continuous ``(A, B, C, D)`` to ``inputs`` (:func:`model_inputs`' pairs),
+    Tustin and modal as :func:`_simulate` says why, and the discrete modes ``lambda``."""
+    Ad, Bd, Cd, Dd = _bilinear(A, B, C, D, T)
     lam, V = modal(Ad)
     c = Cd @ V
-    out = np.zeros((rec.n, 3))
-    for j, u in model_inputs(v, kn, rec, r_bias, sway):
+    out = np.zeros((n, C.shape[0]))
+    for j, u in inputs:
         b = np.linalg.solve(V, Bd[:, j])
         modes = np.column_stack([lfilter([0.0, bi], [1.0, -li], u.astype(complex)) for bi, li in zip(b, lam)])
         out += (modes @ c.T).real + u[:, None] * Dd[:, j]
-    return out, free_basis(lam, rec.n)
+    return out, lam
 
 
 def model_inputs(
