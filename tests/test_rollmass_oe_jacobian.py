@@ -76,6 +76,27 @@ def test_the_jacobian_holds_with_a_speed_column_and_a_negative_heel_gain(case2):
     assert np.all(err < 1e-5), dict(zip(prob.free, err))
 
 
+def test_the_jacobian_holds_with_a_gyro_bias_and_the_sway_velocitys_speed_term(case2):
+    """With the turn input's gyro bias given (``r_bias``) and the sway velocity's speed term through Bd's fourth
+    column (``sway``, identify.rollmass.gyro_bias; both held within a stage of the fit): every column within
+    1e-5 of central differences."""
+    import dataclasses
+
+    slowed = []
+    for i, d in enumerate(case2):
+        t = np.arange(d.n) * d.T
+        u = 0.5 * (1.0 - (0.1 + 0.05 * i) * np.sin(2 * np.pi * t / 40.0) ** 2)
+        slowed.append(dataclasses.replace(d, u=u, U=float(np.mean(u))))
+    prob, x = _problem(slowed)
+    prob.r_bias = [0.01, -0.005, 0.002]
+    prob.sway = [0.02 * np.sin(2 * np.pi * np.arange(d.n) * d.T / 15.0) for d in slowed]
+    v = prob.values(x)
+    assert [j for j, _ in oe.model_inputs(v, PROF.known, slowed[0], prob.r_bias[0], prob.sway[0])] == [0, 1, 2, 3]
+    J, ref = prob.jacobian(x), central_jacobian(prob.residual, x)
+    err = np.linalg.norm(J - ref, axis=0) / np.linalg.norm(ref, axis=0)
+    assert np.all(err < 1e-5), dict(zip(prob.free, err))
+
+
 def test_where_the_modal_form_fails_the_jacobian_is_central_differences(case2, monkeypatch):
     prob, x = _problem(case2)
 

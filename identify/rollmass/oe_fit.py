@@ -11,6 +11,7 @@ from scipy.optimize import OptimizeResult, least_squares
 from scipy.signal import lfilter
 from threadpoolctl import threadpool_limits
 
+from identify.rollmass.gyro_bias import gyro_biases, sway_velocities
 from identify.rollmass.model import Known, Load
 from identify.rollmass.output_error import (
     NOISE_AR,
@@ -19,7 +20,6 @@ from identify.rollmass.output_error import (
     _measured,
     _Problem,
     _simulate,
-    _whitener,
     shared_parameters,
 )
 from identify.rollmass.restoring import heel_gain
@@ -34,6 +34,25 @@ LM_NFEV = 200
 # evaluation cap of the exact-Jacobian LM (:func:`_lm_exact`): on the three Table 3 cases of the bundled
 # example it needed 4-26 evaluations a call; reaching the cap means it is creeping along a nuisance ridge
 LM_NFEV_EXACT = 60
+# estimate each recording's yaw-rate gyro bias for the turn input (identify.rollmass.gyro_bias) from the
+# second stage on, rather than take the recording's mean yaw rate (the first stage's)
+GYRO_BIAS = True
+# follow the speed's variation in the sway velocity's terms too, (u/U - 1)(Y_v, K_v, n_v) v with v the model's own
+# sway velocity at the last stage's parameters (identify.rollmass.gyro_bias.sway_velocity); needs GYRO_BIAS
+SWAY_TERM = True
+
+
+def _whitener(e: np.ndarray, order: int) -> np.ndarray:
+    """Stable AR(order) whitening polynomial of one residual channel (least squares)."""
+    if order == 0:
+        return np.ones(1)
+    X = np.column_stack([np.r_[np.zeros(j), e[:-j]] for j in range(1, order + 1)])[order:]
+    a, *_ = np.linalg.lstsq(X, e[order:], rcond=None)
+    roots = np.roots(np.r_[1.0, -a])
+    big = np.abs(roots) >= 0.98
+    if big.any():  # keep the whitener's inverse stable
+        roots[big] *= 0.98 / np.abs(roots[big])
+    return np.real(np.poly(roots))
 
 
 def _lm(prob: _Problem, x0: np.ndarray, tol: float) -> OptimizeResult:
@@ -189,12 +208,23 @@ def _fit(
     ar = None
     first = _best_start(datasets, kn, cal, z_f, z_f_sd, start, w, lm)
     x = first.x
+    r_bias: list[float | None] = [None] * len(datasets)
+    sway: list[np.ndarray | None] = [None] * len(datasets)
     for it in range(n_reweight + 1):
-        prob = _Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd)
+        prob = _Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd, r_bias, sway)
         # _best_start has just solved the first problem (same weights, no whitening); its optimum only
         # seeds the reweighted fits, which run to the tight tolerance below
         res = first if it == 0 and n_reweight > 0 else lm(prob, x, 1e-10)
         x = res.x
+        if it < n_reweight and GYRO_BIAS:
+            # the gyro's bias at this stage's parameters (identify.rollmass.gyro_bias), before the whiteners
+            # are fitted, so that they are fitted to the residual without the mean turning's structure
+            v = prob.values(x)
+            loads, zf = prob.loads(v), v.get("z_f", z_f)
+            r_bias = gyro_biases(v, kn, zf, loads, datasets, r_bias, sway)
+            if SWAY_TERM:
+                sway = sway_velocities(v, kn, zf, loads, datasets, r_bias, sway)
+            prob = _Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd, r_bias, sway)
         errs = prob.errors(x)
         sd = np.array([e.std(axis=0) for e in errs])
         if it < n_reweight:

@@ -176,8 +176,11 @@ def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load, U: fl
     )
     # inputs 0 and 1: the rudder and the wall-sided heel signal w(t) of identify.rollmass.restoring (a roll
     # moment -kappa w); input 2: the yaw rate's share of the speed's variation, (u(t)/U - 1) r(t)
-    # (:func:`speed_inputs`), which every term of F's r column carries, as they are all linear in u
-    G = np.column_stack([[v["Y_delta"], v["K_delta"], v["n_delta"]], [0.0, -v.get("kappa", heel_gain(kn)), 0.0], F[:, 2]])
+    # (:func:`speed_inputs`), which every term of F's r column carries, as they are all linear in u; input 3:
+    # the sway velocity's share, (u/U - 1) v(t) with v the model's own (identify.rollmass.gyro_bias), through F's v column
+    G = np.column_stack(
+        [[v["Y_delta"], v["K_delta"], v["n_delta"]], [0.0, -v.get("kappa", heel_gain(kn)), 0.0], F[:, 2], F[:, 0]]
+    )
     Minv = np.linalg.inv(Mm)
     A = np.vstack([Minv @ F, [0.0, 1.0, 0.0, 0.0]])
     B = np.vstack([Minv @ G, np.zeros((1, G.shape[1]))])
@@ -195,7 +198,7 @@ def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load, U: fl
         ]
     )
     # input 2 also enters a_s directly: its centripetal term is u r = U r + U (u/U - 1) r
-    Dm = np.vstack([np.zeros(3), z_s * B[1] - B[0] - x_s * B[2] - np.array([0.0, 0.0, U]), np.zeros(3)])
+    Dm = np.vstack([np.zeros(4), z_s * B[1] - B[0] - x_s * B[2] - np.array([0.0, 0.0, U, 0.0]), np.zeros(4)])
     return A, B, Cm, Dm
 
 
@@ -229,7 +232,15 @@ def delayed(x: np.ndarray, lag: float, T: float) -> np.ndarray:
     return x - lag * d1 + 0.5 * lag * lag * np.gradient(d1, T)
 
 
-def _simulate(v: dict[str, float], kn: Known, z_f: float, load: Load, rec: RollRecording) -> tuple[np.ndarray, np.ndarray]:
+def _simulate(
+    v: dict[str, float],
+    kn: Known,
+    z_f: float,
+    load: Load,
+    rec: RollRecording,
+    r_bias: float | None = None,
+    sway: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Rudder-driven outputs (n, 3) and the free-response + bias basis (n, N_FREE + 1).
 
     Bilinear (Tustin) discretisation, as the paper's (13)-(15): the filtered rudder is smooth. The
@@ -240,35 +251,46 @@ def _simulate(v: dict[str, float], kn: Known, z_f: float, load: Load, rec: RollR
     error near 1e-8, enough that central differences of the residual at steps of 1e-6 and 1e-8 differed
     by 10-800 % (every parameter, basin truth ``base``, run 0, case 2): the fit's Jacobian was noise.
     """
-    Ad, Bd, Cd, Dd = _bilinear(*model_matrices(v, kn, z_f, load, rec.U), rec.T)
-    lam, V = modal(Ad)
-    c = Cd @ V
-    out = np.zeros((rec.n, 3))
-    for j, u in model_inputs(v, kn, rec):
-        b = np.linalg.solve(V, Bd[:, j])
-        modes = np.column_stack([lfilter([0.0, bi], [1.0, -li], u.astype(complex)) for bi, li in zip(b, lam)])
-        out += (modes @ c.T).real + u[:, None] * Dd[:, j]
+    out, lam = _respond(*model_matrices(v, kn, z_f, load, rec.U), rec.T, model_inputs(v, kn, rec, r_bias, sway), rec.n)
     return out, free_basis(lam, rec.n)
 
 
-def model_inputs(v: dict[str, float], kn: Known, rec: RollRecording) -> list[tuple[int, np.ndarray]]:
+def _respond(A, B, C, D, T: float, inputs: list[tuple[int, np.ndarray]], n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Response from rest (n, outputs) of continuous ``(A, B, C, D)`` to ``inputs`` (:func:`model_inputs`' pairs),
+    Tustin and modal as :func:`_simulate` says why, and the discrete modes ``lambda``."""
+    Ad, Bd, Cd, Dd = _bilinear(A, B, C, D, T)
+    lam, V = modal(Ad)
+    c = Cd @ V
+    out = np.zeros((n, C.shape[0]))
+    for j, u in inputs:
+        b = np.linalg.solve(V, Bd[:, j])
+        modes = np.column_stack([lfilter([0.0, bi], [1.0, -li], u.astype(complex)) for bi, li in zip(b, lam)])
+        out += (modes @ c.T).real + u[:, None] * Dd[:, j]
+    return out, lam
+
+
+def model_inputs(
+    v: dict[str, float], kn: Known, rec: RollRecording, r_bias: float | None = None, sway: np.ndarray | None = None
+) -> list[tuple[int, np.ndarray]]:
     """The model's inputs that are not zero, as ``(column of B, signal)``: the rudder as the lagging IMU
     channels see it (:func:`delayed`), and the wall-sided heel signal from the recording's measured roll
     angle when it has one and the profile gives the hull's BM (the AHRS's roll angle comes with the
-    other IMU channels, so it is not delayed)."""
-    rudder, turn = speed_inputs(rec)
+    other IMU channels, so it is not delayed); ``r_bias`` as :func:`speed_inputs` takes it."""
+    rudder, turn = speed_inputs(rec, r_bias)
     out = [(0, delayed(rudder, v.get("t_imu", 0.0), rec.T))]
     if rec.phi is not None and kn.BM > 0.0:
         out.append((1, heel_signal(rec.phi, kn)))
     if turn is not None:
         out.append((2, turn))
+        if sway is not None:
+            out.append((3, (followed_speed(rec) - 1.0) * sway))
     return out
 
 
-def speed_inputs(rec: RollRecording) -> tuple[np.ndarray, np.ndarray | None]:
-    """The rudder input ``delta (u/U)^2`` and the turn input ``(u/U - 1) (r - mean r)`` of a recording with
+def speed_inputs(rec: RollRecording, r_bias: float | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """The rudder input ``delta (u/U)^2`` and the turn input ``(u/U - 1) (r - b)`` of a recording with
     a measured surge speed ``u`` (``delta`` and ``None`` without one); ``U`` is the run's speed, at which
-    the model's derivatives hold.
+    the model's derivatives hold; ``b`` the yaw-rate gyro's bias ``r_bias``, or ``mean r`` when it is None.
 
     Why: a ship slows in its turns (rudder drag, the ``v r`` term of the surge equation; by 10-25 % on
     the basin truth's ``speed_loss`` variant), and the model's forces scale with the speed (Fossen 2011,
@@ -277,12 +299,13 @@ def speed_inputs(rec: RollRecording) -> tuple[np.ndarray, np.ndarray | None]:
     rudder's force is too large in every turn and the yaw rate's too small, an error even in the rudder
     that the roll row absorbs as load. The terms in the speed's variation whose other factor is measured
     (the rudder, the yaw rate) are known inputs, so the model stays linear and time-invariant in its
-    states; left out are the terms of the sway velocity and the roll rate whose derivatives scale with
-    ``u`` too (``(u/U - 1)`` times ``Y_v v``, ``n_v v``, ``K_v v``, ``Y_p p``), second order in small terms.
+    states; the sway velocity's ``(u/U - 1)`` times ``Y_v v``, ``n_v v``, ``K_v v`` is a fourth input when the
+    fit gives the model's own ``v`` (:func:`model_inputs`' ``sway``), and ``Y_p p`` is left out (``Y_p`` is held at 0).
     The speed's level comes from the run's ``U`` and only its variation ``u / mean(u)`` from the column,
-    so a positioning system's scale error does not move the level; the yaw-rate gyro's bias is taken
-    out with the recording's mean (a bias times the speed's variation is not a constant the fit's
-    bias columns would take). The speed is low-passed at :data:`SPEED_LP_HZ` first: a ship's speed
+    so a positioning system's scale error does not move the level. The yaw-rate gyro's bias must come out of
+    ``r`` (a bias times the speed's variation is not a constant the fit's bias columns would take); ``mean r``
+    takes the ship's own mean turning with it, so the fit passes its estimate
+    (:func:`identify.rollmass.gyro_bias.gyro_biases`). The speed is low-passed at :data:`SPEED_LP_HZ` first: a ship's speed
     follows its turns with the surge time constant (about 5 s on the model ship, 0.03 Hz), so what a
     positioning system gives above that is its own error, and through ``delta (u/U)^2`` that error
     would be a rudder input in the roll band (measured: basin truth ``speed_loss``, 4-run seed, run 0,
@@ -290,7 +313,7 @@ def speed_inputs(rec: RollRecording) -> tuple[np.ndarray, np.ndarray | None]:
     s = followed_speed(rec)
     if s is None:
         return rec.delta, None
-    return rec.delta * s * s, (s - 1.0) * (rec.r - np.mean(rec.r))
+    return rec.delta * s * s, (s - 1.0) * (rec.r - (np.mean(rec.r) if r_bias is None else r_bias))
 
 
 def speed_variation(rec: RollRecording) -> tuple[float, float]:
@@ -347,19 +370,6 @@ def followed_speed(rec: RollRecording) -> np.ndarray | None:
     return slow if slow_sd >= SPEED_NOISE_RATIO * fast_sd and slow_sd >= SPEED_VAR_MIN else None
 
 
-def _whitener(e: np.ndarray, order: int) -> np.ndarray:
-    """Stable AR(order) whitening polynomial of one residual channel (least squares)."""
-    if order == 0:
-        return np.ones(1)
-    X = np.column_stack([np.r_[np.zeros(j), e[:-j]] for j in range(1, order + 1)])[order:]
-    a, *_ = np.linalg.lstsq(X, e[order:], rcond=None)
-    roots = np.roots(np.r_[1.0, -a])
-    big = np.abs(roots) >= 0.98
-    if big.any():  # keep the whitener's inverse stable
-        roots[big] *= 0.98 / np.abs(roots[big])
-    return np.real(np.poly(roots))
-
-
 def _measured(rec: RollRecording, g: float = 9.81) -> np.ndarray:
     """``p, a_s, r``; ``a_s`` less the gravity the linear model's ``g phi`` leaves out, ``g (sin phi - phi)``,
     when the recording has the roll angle."""
@@ -381,8 +391,13 @@ class _Problem:
         weights: np.ndarray,
         ar: list[list[np.ndarray]] | None = None,
         z_f_sd: float = 0.0,
+        r_bias: list[float | None] | None = None,
+        sway: list[np.ndarray | None] | None = None,
     ):
         self.datasets, self.kn, self.cal, self.z_f, self.free, self.w = datasets, kn, cal, z_f, free, weights
+        # each dataset's yaw-rate gyro bias in the turn input (:func:`speed_inputs`; None: the recording's mean r)
+        self.r_bias = list(r_bias) if r_bias is not None else [None] * len(datasets)
+        self.sway = list(sway) if sway is not None else [None] * len(datasets)
         # z_f in ``free``: ``z_f`` is its prior mean and ``z_f_sd`` its prior sd (one more residual)
         self.z_f_sd = z_f_sd
         self.ar = ar if ar is not None else [[np.ones(1)] * 3 for _ in datasets]
@@ -401,7 +416,7 @@ class _Problem:
         z_f = v.get("z_f", self.z_f)
         out = []
         for i, (rec, Y, load) in enumerate(zip(self.datasets, self.Y, self.loads(v))):
-            yhat, basis = _simulate(v, self.kn, z_f, load, rec)
+            yhat, basis = _simulate(v, self.kn, z_f, load, rec, self.r_bias[i], self.sway[i])
             e = Y - yhat
             cols = []
             for j in range(3):
@@ -466,7 +481,7 @@ class _Problem:
                     hi, lo = self.discrete(x + e, i), self.discrete(x - e, i)
                     dmats.append(tuple((a - b) / (2 * h) for a, b in zip(hi, lo)))
                 du = lag_derivative(speed_inputs(rec)[0], lag, rec.T) if lag_col >= 0 else None
-                inputs = model_inputs(v, self.kn, rec)
+                inputs = model_inputs(v, self.kn, rec, self.r_bias[i], self.sway[i])
                 blocks.append(dataset_jacobian(mats, dmats, inputs, du, lag_col, Y, self.ar[i], self.w[i]))
         except (FloatingPointError, np.linalg.LinAlgError):
             return central_jacobian(self.residual, x)

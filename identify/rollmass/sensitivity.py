@@ -27,7 +27,8 @@ about 1e-10 relative); the model equations stay where they are (``output_error.m
 and this module never sees them: a change of the equations or a new parameter that enters them
 needs nothing here. What is mirrored here, and must change with ``output_error`` if it changes:
 the inputs (``output_error.model_inputs``: the rudder delayed by ``t_imu``, ``output_error.delayed``, whose
-derivative is :func:`lag_derivative`, and a known heel signal, each through its column of ``Bd``), the simulation from rest in modal form, the free-response basis
+derivative is :func:`lag_derivative`, a known heel signal, and the speed's turn and sway inputs, signals held fixed
+within a fit's stage, each through its column of ``Bd``), the simulation from rest in modal form, the free-response basis
 (:func:`free_basis`), and the residual's per-channel whitening, projection and weights
 (``_Problem.errors``, ``weighted``). tests/test_rollmass_oe_jacobian.py checks every column against
 central differences of the whole residual (agreement to about 1e-6 of a column), so a change on one
