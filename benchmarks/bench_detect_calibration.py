@@ -36,14 +36,14 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.bench_detect_structure import _one, redecide, with_structure
+from benchmarks.bench_detect_structure import _one, redecide, theta1, with_structure
 from benchmarks.bench_detect_truth import BATCH, HULL, change_times, row, summarise
 from identify.detect.api import load_runs
 from identify.detect.checks import MOMENT
 from identify.detect.glr import SignatureCusum, exceedance_level, null_peaks
 from identify.detect.inputs import Deriver, signals
 from identify.detect.priorfit import structural_spread
-from identify.detect.verdict import Whitened, implausible_inertia, physical_change, verdict
+from identify.detect.verdict import Whitened, implausible_inertia, verdict
 from identify.detect.yawmodel import CANDIDATES, NOMINAL, block_mean, shift_moment
 
 #: the stored screenings of ships 100-107 (folder:key:first ship:ships), read only
@@ -76,12 +76,6 @@ def load_prior(folder: Path, key: str, variant: str, ship: int, setting: str = "
         s = structural_spread(prior, sig, r, x, Deriver.of(rec, prior.kind), 0, gate=float(setting[5:]))
         _PRIORS[k] = replace(prior, structure=s)
     return _PRIORS[k]
-
-
-def theta1(min_change: float = 0.05) -> np.ndarray:
-    """The LR-CUSUM's change sizes per candidate as ``api.screen`` makes them for the truth family's hull."""
-    k = physical_change("yaw_inertia", 1.0, HULL["i_z"] - HULL["n_rdot"], HULL["n_rdot"])
-    return np.array([min_change / k, min_change, min_change])
 
 
 def run_record(sc, prior, seed: int = 0) -> dict:
@@ -217,8 +211,8 @@ def noise_parameter_split(runs: list[dict]) -> None:
     structural apparent change (sd ``prior.structure``, drawn per record by ``glr.null_peaks``) and ``n`` the
     noise (sd ``sd_noise``). So over the ``n_p`` runs of one prior, the spread about their mean has sd
     sqrt(sd_noise^2 + structure^2), and the mean's square has expectation
-    sd_par^2 + mean(sd_noise^2 + structure^2) / n_p: the ratios printed are 1 and about 1.05-1.2 if the
-    model holds. For z = est / sd_null (sd_null^2 = sd_noise^2 + sd_par^2; structure left out) the model
+    sd_par^2 + mean(sd_noise^2 + structure^2) / n_p: the ratios printed are 1 and about 1.04-1.27 (printed beside
+    them) if the model holds. For z = est / sd_null (sd_null^2 = sd_noise^2 + sd_par^2; structure left out) the model
     predicts a variance within a prior of sd_noise^2 / sd_null^2 and of the priors' means of
     sd_par^2 / sd_null^2 + that / n_p (printed beside the measured ones)."""
     groups: dict = {}

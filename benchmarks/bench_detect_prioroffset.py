@@ -66,7 +66,7 @@ def main() -> None:
     ap.add_argument("--variant", default="nominal-mmg")
     ap.add_argument("--what", choices=("nominal", "runs", "noise-seeds", "channels"), default="nominal")
     ap.add_argument("--runs", type=int, default=10, help="unchanged runs (--what runs): the truth bench's first seeds")
-    ap.add_argument("--seeds", type=int, nargs="*", default=[1, 2, 3], help="noise seeds (--what noise-seeds)")
+    ap.add_argument("--seeds", type=int, nargs="*", default=[1, 2, 3], help="noise seeds (--what noise-seeds and channels)")
     a = ap.parse_args()
     warnings.simplefilter("ignore", RuntimeWarning)
     ship = variant_ship(a.variant, a.ship)

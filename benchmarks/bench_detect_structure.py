@@ -50,11 +50,15 @@ def with_structure(prior, setting: str):
     return replace(prior, structure=float(setting) * prior.structure)
 
 
+def theta1(min_change: float = 0.05) -> np.ndarray:
+    """The LR-CUSUM's change sizes per candidate as ``api.screen`` makes them for the truth family's hull."""
+    k = physical_change("yaw_inertia", 1.0, HULL["i_z"] - HULL["n_rdot"], HULL["n_rdot"])
+    return np.array([min_change / k, min_change, min_change])
+
+
 def redecide(sc, prior, min_change: float = 0.05, false_alarm: float = 0.02):
     """The verdict on a stored screening with thresholds recalibrated for ``prior`` (as api.screen makes them)."""
-    k = physical_change("yaw_inertia", 1.0, HULL["i_z"] - HULL["n_rdot"], HULL["n_rdot"])
-    theta1 = np.array([min_change / k, min_change, min_change])
-    det = calibrate(prior, sc.S, sc.null_blocks, theta1=theta1, false_alarm=false_alarm, seed=0, band=sc.roll_band)
+    det = calibrate(prior, sc.S, sc.null_blocks, theta1=theta1(min_change), false_alarm=false_alarm, seed=0, band=sc.roll_band)
     return verdict(replace(sc, h=np.asarray(det.h)), prior, **HULL)
 
 

@@ -157,7 +157,7 @@ def register(app: typer.Typer) -> None:
         keep_freed_memory(always=True, keep_bytes=DETECT_KEEP_BYTES)  # (primitives.heap: the figures)
         # one job: under 12,500 samples in all (two 500 s recordings) the numpy loops, more the compiled ones (jitloop.job)
         # the no-change records' noise of this prior and length read from the user's cache after the first run
-        with noisecache.used():  # (identify.detect.noisecache: the same bits; ~96 MB an entry, 256 MB kept)
+        with noisecache.used():  # (identify.detect.noisecache: the same bits; ~96 MB an entry, 256 MiB kept)
             dets = detect_all(recs, prior, false_alarm, min_change, seed, n_rdot=n_rdot, i_z=i_z)
         written = plot_stats(dets, plot, PLOT_PANELS) if plot is not None else []
         if json_out:

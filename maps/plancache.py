@@ -51,7 +51,7 @@ LIBRARIES = ("numpy", "scipy", "shapely", "pyproj", "numba", "cvxpy", "clarabel"
 
 def default_dir() -> Path | None:
     """``$SHIPTRIAL_CACHE_DIR`` (None when set to an empty string: no cache), else
-    ``$XDG_CACHE_HOME/shiptrial/plans`` (``~/.cache/shiptrial/plans`` by default)."""
+    ``$XDG_CACHE_HOME/shiptrial/plans`` (``~/.cache/shiptrial/plans`` by default); None without a home directory."""
     return user_cache_dir(ENV_DIR, "plans")
 
 

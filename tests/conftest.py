@@ -4,13 +4,15 @@ import pytest
 
 
 @pytest.fixture(autouse=True, scope="session")
-def _no_plan_cache():
+def _no_user_caches():
     """No test reads or writes the user's plan cache (maps.plancache) or detect's noise cache
-    (identify.detect.noisecache, off too when SHIPTRIAL_CACHE_DIR is empty): an entry read from
-    either would skip the code the test exercises. Session scope: set before any module or session fixture
-    runs a command. The cache's own tests set a directory of their own."""
+    (identify.detect.noisecache; its own variable too, which a user may have set and which would
+    otherwise win over the planner's): an entry read from either would skip the code the test
+    exercises. Session scope: set before any module or session fixture runs a command. The caches'
+    own tests set a directory of their own."""
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("SHIPTRIAL_CACHE_DIR", "")
+        mp.setenv("SHIPTRIAL_DETECT_CACHE_DIR", "")
         yield
 
 

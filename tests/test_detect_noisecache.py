@@ -172,9 +172,9 @@ def test_the_cache_is_off_where_the_user_turned_it_off(monkeypatch, tmp_path):
     not a traceback); the planner's ``SHIPTRIAL_CACHE_DIR`` set empty turns this cache off too; by default
     it is under ``$XDG_CACHE_HOME/shiptrial/detect``."""
     monkeypatch.delenv(noisecache.ENV_DIR, raising=False)
-    monkeypatch.setenv(noisecache.ENV_ALL, "")
+    monkeypatch.setenv(noisecache.ENV_PLANNER, "")
     assert noisecache.default_dir() is None
-    monkeypatch.delenv(noisecache.ENV_ALL)
+    monkeypatch.delenv(noisecache.ENV_PLANNER)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     assert noisecache.default_dir() == tmp_path / "shiptrial" / "detect"
     monkeypatch.setenv(noisecache.ENV_DIR, "~no-such-user-shiptrial/cache")

@@ -35,11 +35,11 @@ def _turning_recording(bias: float) -> tuple[RollRecording, np.ndarray, dict, Lo
 
 
 def test_the_turn_input_takes_out_the_gyros_bias_not_the_ships_mean_turn():
-    """A run that turns more one way than the other has a mean yaw rate of its own. main took ``mean r`` as
-    the gyro's bias, so its turn input lost ``(u/U - 1) mean(r_ship)``: the structure that cost the basin
+    """A run that turns more one way than the other has a mean yaw rate of its own. Taking ``mean r`` as
+    the gyro's bias (the fit before stop 48), the turn input lost ``(u/U - 1) mean(r_ship)``: the structure that cost the basin
     truth's ``speed_loss`` fits their information on the load (stop 47). The estimate from the model's
     own yaw rate recovers a 0.01 rad/s bias to within 5 % where ``mean r`` is off by more than the bias
-    itself, and the turn input built with it is the true ``(u/U - 1) r`` to within a tenth of main's error."""
+    itself, and the turn input built with it is the true ``(u/U - 1) r`` to within a tenth of ``mean r``'s error."""
     bias = 0.01
     rec, r_true, v, load = _turning_recording(bias)
     assert followed_speed(rec) is not None  # the case has a turn input
@@ -47,9 +47,9 @@ def test_the_turn_input_takes_out_the_gyros_bias_not_the_ships_mean_turn():
     got = gyro_biases(v, PROF.known, -0.03, [load], [rec], [None])[0]
     assert abs(got - bias) < 0.05 * bias, got
     want = (followed_speed(rec) - 1.0) * r_true
-    err_main = np.sqrt(np.mean((speed_inputs(rec)[1] - want) ** 2))
+    err_mean_r = np.sqrt(np.mean((speed_inputs(rec)[1] - want) ** 2))
     err_est = np.sqrt(np.mean((speed_inputs(rec, got)[1] - want) ** 2))
-    assert err_est < 0.1 * err_main, (err_est, err_main)
+    assert err_est < 0.1 * err_mean_r, (err_est, err_mean_r)
 
 
 def test_a_recording_without_a_followed_speed_has_no_bias_to_estimate():
@@ -66,7 +66,7 @@ def test_the_sway_velocitys_speed_term_follows_the_slowing_ship():
     constant-speed model follows the time-varying ship of ``_ltv_outputs`` (gyro biased by 0.01 rad/s, its
     estimate in the turn input) to within a third of the error without it, on every channel (measured:
     p 0.00017 against 0.00065, a_s 0.0019 against 0.0099 m/s^2, r 0.00027 against 0.0014 rad/s rms; with
-    ``mean r`` as main has it 0.0011, 0.0136, 0.0017)."""
+    with ``mean r`` as the bias 0.0011, 0.0136, 0.0017)."""
     from identify.rollmass.gyro_bias import sway_velocities
     from identify.rollmass.output_error import _simulate
 

@@ -127,7 +127,7 @@ def exceedance_level(peaks: np.ndarray, stat: np.ndarray) -> np.ndarray:
     tests/test_detect_calibration.py).
     For a recording exchangeable with the ``m`` no-change records (one candidate: ``m * level`` is the
     number of records above it, uniform on 0..m), ``P(level < a) = ceil(a m) / (m + 1)`` and
-    ``P(level <= a)`` one record more: uniform on (0, 1) to within ``1 / m`` (a probability integral
+    ``P(level <= a) = (floor(a m) + 1) / (m + 1)``: uniform on (0, 1) to within ``1 / m`` (a probability integral
     transform), so the levels of unchanged recordings measure the calibration far
     more finely than a false-alarm count (benchmarks/bench_detect_calibration.py). The verdict's
     later tests (size and 2 sd, :mod:`identify.detect.verdict`) only drop alarms."""

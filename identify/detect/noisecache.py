@@ -17,7 +17,7 @@ float64 bytes: the yaw rate's noise (runs, n), each input's share stored (runs, 
 innovations (blocks, runs). It is written whole or not at all (temporary file and rename) and read
 back memory-mapped and only when its digest matches, so a damaged entry is computed again, never read
 and never an error, as :mod:`maps.plancache`'s plans are; the most recently used are kept within a byte
-budget (:func:`budget`: 256 MB, two entries of a 500 s recording; the newest whatever its size).
+budget (:func:`budget`: 256 MiB, two entries of a 500 s recording; the newest whatever its size).
 Only ``shiptrial detect`` uses it (:func:`used`): a library call outside that block touches no disk.
 The entries are the user's own files in the user's cache directory (:func:`default_dir`), as numba's
 and the planner's caches are.
@@ -39,14 +39,14 @@ from pathlib import Path
 
 import numpy as np
 
-from primitives.io import user_cache_dir
+from primitives.io import atomic_write_bytes, user_cache_dir
 
 ENV_DIR = "SHIPTRIAL_DETECT_CACHE_DIR"  # this cache's directory; "" for none
-ENV_ALL = "SHIPTRIAL_CACHE_DIR"  # the planner's cache directory (maps.plancache); "" turns this cache off too
+ENV_PLANNER = "SHIPTRIAL_CACHE_DIR"  # the planner's cache directory (maps.plancache); "" turns this cache off too
 ENV_MB = "SHIPTRIAL_DETECT_CACHE_MB"  # the byte budget in MB (a number >= 0), instead of BUDGET_BYTES
-#: bytes of entries kept, the most recently used first (the newest whatever its size): an entry is 96 MB for 400
-#: records of a 500 s recording at 10 Hz with five inputs, 114 MB with the roll rate: two kept (a user's second
-#: prior or length), not the 460 MB in the user's home that four would be, for about a second of CPU each
+#: bytes of entries kept, the most recently used first (the newest whatever its size): an entry is 96.0 MB (91.6 MiB)
+#: for 400 records of a 500 s recording at 10 Hz with five inputs, 113.6 MB (108.3 MiB) with the roll rate: two kept
+#: (a user's second prior or length), not the 454 MB in the user's home that four would be, for about a second of CPU each
 BUDGET_BYTES = 256 * 2**20
 MAGIC = b"shiptrial-detect-noise 1\n"
 SUFFIX = ".noise"
@@ -77,7 +77,7 @@ def default_dir() -> Path | None:
     ``$XDG_CACHE_HOME/shiptrial/detect`` (``~/.cache/shiptrial/detect``); None too when
     ``$SHIPTRIAL_CACHE_DIR`` (the planner's) is set to an empty string and this one is not set, or
     no home directory is known."""
-    if os.environ.get(ENV_DIR) is None and os.environ.get(ENV_ALL) == "":
+    if os.environ.get(ENV_DIR) is None and os.environ.get(ENV_PLANNER) == "":
         return None
     return user_cache_dir(ENV_DIR, "detect")
 
@@ -151,8 +151,6 @@ def store(name: str, r_noise: np.ndarray, inputs: dict[str, np.ndarray], blocks:
     d = _dir()
     if d is None:
         return
-    from primitives.io import atomic_write_bytes
-
     arrays = [r_noise, *(a.T for a in inputs.values()), blocks]  # a.T: the filters' (n, runs) F-order output, no copy
     line = json.dumps({"inputs": list(inputs), "shapes": [list(a.shape) for a in arrays]}).encode()
     line += b" " * (-(len(MAGIC) + DIGEST + len(line) + 1) % _ALIGN) + b"\n"

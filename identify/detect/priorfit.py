@@ -147,7 +147,10 @@ def structural_spread(
     term (``synthetic`` of them: what noise and the half fits' parameter error alone give). Zero for a structure that
     fits, and where the half fits diverged (no estimate: ``detect`` then warns that its alarms are
     not calibrated); the detector's calibration adds it as a random apparent change along each
-    candidate's own signature (:func:`glr.calibrate`)."""
+    candidate's own signature (:func:`glr.calibrate`). ``gate`` is the multiple of the synthetic
+    records' mean square taken off: 3.0, the 95 % point of the two estimates' ``chi2(2)/2`` for a
+    structure that fits; 1.0 makes it a moment estimate (``benchmarks/bench_detect_calibration.py
+    --structure gate=1``, stop 48: better calibrated levels, more misses; not the default)."""
     real = _split_theta(prior, {k: v[None] for k, v in sig.items()}, r_meas[None], x)
     clean = smooth(sig, prior.dt)
     n = len(r_meas)
@@ -164,7 +167,7 @@ def structural_spread(
     ms_real = np.nanmean(real**2, axis=(0, 1))
     ms_noise = np.nanmean(noise**2, axis=(0, 1))
     # two held-out estimates give a mean square that is ms_noise * chi2(2)/2 for a structure that
-    # fits: count only what exceeds its 95 % point (3.0 ms_noise), so noise does not pass for misfit
+    # fits: count only what exceeds its 95 % point (gate 3.0: 3.0 ms_noise), so noise does not pass for misfit
     return np.nan_to_num(np.sqrt(np.maximum(ms_real - gate * ms_noise, 0.0)), nan=0.0)
 
 

@@ -21,10 +21,12 @@ degree on the model ship at 0.5 m/s), and a yaw gain off by a fraction puts that
 ``mean r`` puts the whole mean turn in. So this is the better estimate while the model predicts the mean turn
 better than zero does; the basin truth's rudder zero is off by 0.05 deg sd and its hull symmetric, so a larger
 offset is not measured there. The fit's covariance holds the estimate (and the sway velocity) fixed: on the case
-below a bias error of 0.001 rad/s moves the load by 0.6-4 g at the final stage (linearised, its whitening),
-against the load's Gauss-Newton sd of 156 g there, so the intervals do not need its uncertainty. The turn input enters the mean of ``r`` only through ``(u/U - 1)``, whose mean is about zero, so the
-estimate depends only a little on the bias the input was built with: :func:`gyro_biases` iterates
-:data:`PASSES` times from it (measured on ``speed_loss`` seed 5015 run 0 case 1 at the fit's optimum, true biases
+below a bias error of 0.001 rad/s moves the load by 0.6-4 g at this code's final stage (linearised, its
+whitening), against the load's sd of 156 g that the fit reports there (its sandwich interval), so the intervals
+do not need its uncertainty. The turn input enters the mean of ``r`` only through ``(u/U - 1)``, whose mean is
+about zero, so the estimate depends only a little on the bias the input was built with: :func:`gyro_biases`
+iterates :data:`PASSES` times from it (measured on ``speed_loss`` seed 5015 run 0 case 1 at the optimum of the
+fit before this module (stop 47's, which took ``mean r``), true biases
 -0.0109 / -0.0035 / -0.0033 rad/s: one pass from ``mean r`` gave -0.0109 / -0.0047 / -0.0031, two -0.0110 /
 -0.0034 / -0.0033), and the fit re-estimates it at each reweighting
 (:func:`identify.rollmass.oe_fit.fit_output_error`).
@@ -40,13 +42,15 @@ model's time-varying twin (tests/test_rollmass_gyro_bias.py) it takes the consta
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from identify.rollmass.model import Known, Load
-from identify.rollmass.output_error import _respond, _simulate, followed_speed, model_inputs, model_matrices
+from identify.rollmass.output_error import _simulate, followed_speed, model_inputs, model_matrices, respond
 from identify.rollmass.simulate import RollRecording
 
-PASSES = 3  # fixed-point passes of gyro_biases (each one simulation a dataset)
+PASSES = 3  # fixed-point passes of gyro_biases and sway_velocities (each one simulation a dataset)
 
 
 def gyro_bias(
@@ -76,14 +80,8 @@ def gyro_biases(
 ) -> list[float | None]:
     """:func:`gyro_bias` of every dataset that has a turn input (a followed speed), :data:`PASSES` fixed-point
     passes from ``r_bias`` (None: ``mean r``); None for the others (their model has no turn input to correct)."""
-    out, sway = list(r_bias), sway if sway is not None else [None] * len(datasets)
-    for i, (rec, load) in enumerate(zip(datasets, loads)):
-        if followed_speed(rec) is None:
-            out[i] = None
-            continue
-        for _ in range(PASSES):
-            out[i] = gyro_bias(v, kn, z_f, load, rec, out[i], sway[i])
-    return out
+    sway = sway if sway is not None else [None] * len(datasets)
+    return _fixed_point(datasets, r_bias, lambda i, b: gyro_bias(v, kn, z_f, loads[i], datasets[i], b, sway[i]))
 
 
 def sway_velocity(
@@ -93,18 +91,47 @@ def sway_velocity(
     gives it (:func:`identify.rollmass.output_error.model_inputs`, with ``r_bias`` and ``sway``)."""
     A, B, _, _ = model_matrices(v, kn, z_f, load, rec.U)
     inputs = model_inputs(v, kn, rec, r_bias, sway)
-    return _respond(A, B, np.eye(4)[:1], np.zeros((1, B.shape[1])), rec.T, inputs, rec.n)[0][:, 0]
+    return respond(A, B, np.eye(4)[:1], np.zeros((1, B.shape[1])), rec.T, inputs, rec.n)[0][:, 0]
 
 
 def sway_velocities(
-    v: dict[str, float], kn: Known, z_f: float, loads: list[Load], datasets: list[RollRecording], r_bias: list, sway: list
+    v: dict[str, float],
+    kn: Known,
+    z_f: float,
+    loads: list[Load],
+    datasets: list[RollRecording],
+    r_bias: list[float | None],
+    sway: list[np.ndarray | None],
 ) -> list[np.ndarray | None]:
     """:func:`sway_velocity` of every dataset with a followed speed, :data:`PASSES` fixed-point passes."""
-    out = list(sway)
-    for i, (rec, load) in enumerate(zip(datasets, loads)):
-        if followed_speed(rec) is None:
-            out[i] = None
-            continue
-        for _ in range(PASSES):
-            out[i] = sway_velocity(v, kn, z_f, load, rec, r_bias[i], out[i])
+    return _fixed_point(datasets, sway, lambda i, s: sway_velocity(v, kn, z_f, loads[i], datasets[i], r_bias[i], s))
+
+
+def speed_terms(
+    v: dict[str, float],
+    kn: Known,
+    z_f: float,
+    loads: list[Load],
+    datasets: list[RollRecording],
+    r_bias: list[float | None],
+    sway: list[np.ndarray | None],
+    with_sway: bool = True,
+) -> tuple[list[float | None], list[np.ndarray | None]]:
+    """The speed inputs' gyro biases and (``with_sway``) sway velocities at parameters ``v``, each from the
+    last stage's: what :func:`identify.rollmass.oe_fit.fit_output_error` passes the next stage's model."""
+    r_bias = gyro_biases(v, kn, z_f, loads, datasets, r_bias, sway)
+    return r_bias, sway_velocities(v, kn, z_f, loads, datasets, r_bias, sway) if with_sway else sway
+
+
+def _fixed_point(datasets: list[RollRecording], start: list, step: Callable[[int, object], object]) -> list:
+    """``step(i, x)`` iterated :data:`PASSES` times from ``start[i]`` for each dataset with a followed speed;
+    None for the others."""
+    out = list(start)
+    for i, rec in enumerate(datasets):
+        out[i] = None
+        if followed_speed(rec) is not None:
+            x = start[i]
+            for _ in range(PASSES):
+                x = step(i, x)
+            out[i] = x
     return out

@@ -11,7 +11,7 @@ from scipy.optimize import OptimizeResult, least_squares
 from scipy.signal import lfilter
 from threadpoolctl import threadpool_limits
 
-from identify.rollmass.gyro_bias import gyro_biases, sway_velocities
+from identify.rollmass.gyro_bias import speed_terms
 from identify.rollmass.model import Known, Load
 from identify.rollmass.output_error import (
     NOISE_AR,
@@ -220,10 +220,7 @@ def _fit(
             # the gyro's bias at this stage's parameters (identify.rollmass.gyro_bias), before the whiteners
             # are fitted, so that they are fitted to the residual without the mean turning's structure
             v = prob.values(x)
-            loads, zf = prob.loads(v), v.get("z_f", z_f)
-            r_bias = gyro_biases(v, kn, zf, loads, datasets, r_bias, sway)
-            if SWAY_TERM:
-                sway = sway_velocities(v, kn, zf, loads, datasets, r_bias, sway)
+            r_bias, sway = speed_terms(v, kn, v.get("z_f", z_f), prob.loads(v), datasets, r_bias, sway, SWAY_TERM)
             prob = _Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd, r_bias, sway)
         errs = prob.errors(x)
         sd = np.array([e.std(axis=0) for e in errs])

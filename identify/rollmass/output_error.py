@@ -241,7 +241,9 @@ def _simulate(
     r_bias: float | None = None,
     sway: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Rudder-driven outputs (n, 3) and the free-response + bias basis (n, N_FREE + 1).
+    """Rudder-driven outputs (n, 3) and the free-response + bias basis (n, N_FREE + 1); ``r_bias`` and ``sway``
+    as :func:`model_inputs` takes them (a recording with a followed speed: the gyro's bias in its turn input
+    and the model's own sway velocity, :mod:`identify.rollmass.gyro_bias`).
 
     Bilinear (Tustin) discretisation, as the paper's (13)-(15): the filtered rudder is smooth. The
     recursion runs in the discrete model's modal coordinates, one first-order filter a mode, and the
@@ -251,11 +253,13 @@ def _simulate(
     error near 1e-8, enough that central differences of the residual at steps of 1e-6 and 1e-8 differed
     by 10-800 % (every parameter, basin truth ``base``, run 0, case 2): the fit's Jacobian was noise.
     """
-    out, lam = _respond(*model_matrices(v, kn, z_f, load, rec.U), rec.T, model_inputs(v, kn, rec, r_bias, sway), rec.n)
+    out, lam = respond(*model_matrices(v, kn, z_f, load, rec.U), rec.T, model_inputs(v, kn, rec, r_bias, sway), rec.n)
     return out, free_basis(lam, rec.n)
 
 
-def _respond(A, B, C, D, T: float, inputs: list[tuple[int, np.ndarray]], n: int) -> tuple[np.ndarray, np.ndarray]:
+def respond(
+    A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, T: float, inputs: list[tuple[int, np.ndarray]], n: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Response from rest (n, outputs) of continuous ``(A, B, C, D)`` to ``inputs`` (:func:`model_inputs`' pairs),
     Tustin and modal as :func:`_simulate` says why, and the discrete modes ``lambda``."""
     Ad, Bd, Cd, Dd = _bilinear(A, B, C, D, T)
@@ -275,7 +279,9 @@ def model_inputs(
     """The model's inputs that are not zero, as ``(column of B, signal)``: the rudder as the lagging IMU
     channels see it (:func:`delayed`), and the wall-sided heel signal from the recording's measured roll
     angle when it has one and the profile gives the hull's BM (the AHRS's roll angle comes with the
-    other IMU channels, so it is not delayed); ``r_bias`` as :func:`speed_inputs` takes it."""
+    other IMU channels, so it is not delayed); with a followed speed the turn input (column 2,
+    :func:`speed_inputs` with the gyro's bias ``r_bias``) and, given the model's sway velocity ``sway``, its
+    speed share ``(u/U - 1) v`` (column 3, through the sway derivatives: :func:`model_matrices`)."""
     rudder, turn = speed_inputs(rec, r_bias)
     out = [(0, delayed(rudder, v.get("t_imu", 0.0), rec.T))]
     if rec.phi is not None and kn.BM > 0.0:
