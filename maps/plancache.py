@@ -29,13 +29,12 @@ import hashlib
 import os
 import pickle
 import sys
-import time
 from dataclasses import fields
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from primitives.io import user_cache_dir
+from primitives.io import newest_first, prune_to_budget, remove_stale_temporaries, user_cache_dir
 
 ENV_DIR = "SHIPTRIAL_CACHE_DIR"  # the cache directory; set to "" to use no cache
 MAGIC = b"shiptrial-plan-cache 1\n"
@@ -284,37 +283,12 @@ def store(directory: Path | None, key: str, entry: dict[str, Any]) -> str | None
     return _write(directory, f"{key}.plan", entry)
 
 
-def _newest_first(directory: Path, suffix: str) -> list[tuple[Path, os.stat_result]]:
-    """The entries ending in ``suffix`` with their stat, most recently used (written or read) first; one removed by
-    another process meanwhile is left out."""
-    out = []
-    for p in directory.glob(f"*{suffix}"):
-        try:
-            out.append((p, p.stat()))
-        except FileNotFoundError:
-            continue
-    return sorted(out, key=lambda ps: ps[1].st_mtime_ns, reverse=True)
-
-
 def _prune(directory: Path) -> None:
     # .hint: cli.plan_cache's
     for suffix, keep in ((".plan", KEEP), (".out", KEEP_OUTPUTS), (".hint", KEEP)):
-        for old, _ in _newest_first(directory, suffix)[keep:]:
+        for old, _ in newest_first(directory, suffix)[keep:]:
             old.unlink(missing_ok=True)
-    # maps.movecache's and maps.mapcache's: the most recently used within a byte budget (the newest kept whatever
-    # its size)
+    # maps.movecache's and maps.mapcache's: the most recently used within a byte budget
     for suffix, budget in ((".moves", MOVES_BYTES), (".map", MAPS_BYTES)):
-        total = 0
-        for i, (p, st) in enumerate(_newest_first(directory, suffix)):
-            total += st.st_size
-            if i and total > budget:
-                p.unlink(missing_ok=True)
-    # a writer killed outright (SIGKILL, power loss) leaves its temporary file (atomic_write_bytes: .KEY.plan.XXXX);
-    # one an hour old is no write in progress
-    for tmp in [t for suffix in (".plan", ".out", ".moves", ".map") for t in directory.glob(f".*{suffix}.*")]:
-        try:
-            stale = time.time() - tmp.stat().st_mtime > 3600
-        except FileNotFoundError:  # renamed into place by its writer since the glob (another plan-trial, the drawer)
-            continue
-        if stale:
-            tmp.unlink(missing_ok=True)
+        prune_to_budget(directory, suffix, budget)
+    remove_stale_temporaries(directory, (".plan", ".out", ".moves", ".map"))

@@ -6,6 +6,7 @@ import json
 import math
 import os
 import tempfile
+import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -64,6 +65,41 @@ def user_cache_dir(env_var: str, leaf: str) -> Path | None:
             return None
         base = os.path.join(home, ".cache")
     return Path(base) / "shiptrial" / leaf
+
+
+def newest_first(directory: Path, suffix: str) -> list[tuple[Path, os.stat_result]]:
+    """A cache's entries ending in ``suffix`` with their stat, most recently used (written or read) first; one
+    removed by another process meanwhile is left out."""
+    out = []
+    for p in directory.glob(f"*{suffix}"):
+        try:
+            out.append((p, p.stat()))
+        except FileNotFoundError:
+            continue
+    return sorted(out, key=lambda ps: ps[1].st_mtime_ns, reverse=True)
+
+
+def prune_to_budget(directory: Path, suffix: str, budget: int) -> None:
+    """Keep a cache's most recently used ``*suffix`` entries within ``budget`` bytes, the newest whatever its
+    size (the entry just written)."""
+    total = 0
+    for i, (p, st) in enumerate(newest_first(directory, suffix)):
+        total += st.st_size
+        if i and total > budget:
+            p.unlink(missing_ok=True)
+
+
+def remove_stale_temporaries(directory: Path, suffixes: tuple[str, ...], age_s: float = 3600.0) -> None:
+    """Remove the temporary files :func:`atomic_write_bytes` left for entries ending in ``suffixes``
+    (``.NAME.XXXX``) when a writer was killed outright (SIGKILL, power loss): one ``age_s`` old (an hour) is no
+    write in progress; one renamed into place meanwhile by its writer is skipped."""
+    for tmp in [t for suffix in suffixes for t in directory.glob(f".*{suffix}.*")]:
+        try:
+            stale = time.time() - tmp.stat().st_mtime > age_s
+        except FileNotFoundError:
+            continue
+        if stale:
+            tmp.unlink(missing_ok=True)
 
 
 def atomic_write_bytes(path: str | Path, data: bytes | Sequence[bytes | memoryview]) -> Path:

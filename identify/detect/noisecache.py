@@ -32,14 +32,13 @@ import json
 import mmap
 import os
 import sys
-import time
 from collections.abc import Iterator
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
-from primitives.io import atomic_write_bytes, user_cache_dir
+from primitives.io import atomic_write_bytes, prune_to_budget, remove_stale_temporaries, user_cache_dir
 
 ENV_DIR = "SHIPTRIAL_DETECT_CACHE_DIR"  # this cache's directory; "" for none
 ENV_PLANNER = "SHIPTRIAL_CACHE_DIR"  # the planner's cache directory (maps.plancache); "" turns this cache off too
@@ -179,17 +178,5 @@ def prune(directory: Path) -> None:
     """Keep the most recently used entries within :func:`budget` bytes (the newest whatever its size: the
     entry just written), and remove temporary files a writer killed outright left over an hour ago; a file
     another process removed meanwhile is skipped."""
-    entries = []
-    for p in directory.glob(f"*{SUFFIX}"):
-        with contextlib.suppress(OSError):
-            st = p.stat()
-            entries.append((st.st_mtime_ns, st.st_size, p))
-    total, limit = 0, budget()
-    for i, (_, size, old) in enumerate(sorted(entries, reverse=True)):
-        total += size
-        if i and total > limit:
-            old.unlink(missing_ok=True)
-    for tmp in directory.glob(f".*{SUFFIX}.*"):
-        with contextlib.suppress(OSError):
-            if time.time() - tmp.stat().st_mtime > STALE_S:
-                tmp.unlink(missing_ok=True)
+    prune_to_budget(directory, SUFFIX, budget())
+    remove_stale_temporaries(directory, (SUFFIX,), STALE_S)
