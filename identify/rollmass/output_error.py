@@ -282,14 +282,15 @@ def model_inputs(
     other IMU channels, so it is not delayed); with a followed speed the turn input (column 2,
     :func:`speed_inputs` with the gyro's bias ``r_bias``) and, given the model's sway velocity ``sway``, its
     speed share ``(u/U - 1) v`` (column 3, through the sway derivatives: :func:`model_matrices`)."""
-    rudder, turn = speed_inputs(rec, r_bias)
+    s = followed_speed(rec)  # once: a zero-phase filter of the whole run, on every residual evaluation
+    rudder, turn = _speed_inputs(rec, s, r_bias)
     out = [(0, delayed(rudder, v.get("t_imu", 0.0), rec.T))]
     if rec.phi is not None and kn.BM > 0.0:
         out.append((1, heel_signal(rec.phi, kn)))
     if turn is not None:
         out.append((2, turn))
         if sway is not None:
-            out.append((3, (followed_speed(rec) - 1.0) * sway))
+            out.append((3, (s - 1.0) * sway))
     return out
 
 
@@ -316,7 +317,11 @@ def speed_inputs(rec: RollRecording, r_bias: float | None = None) -> tuple[np.nd
     positioning system gives above that is its own error, and through ``delta (u/U)^2`` that error
     would be a rudder input in the roll band (measured: basin truth ``speed_loss``, 4-run seed, run 0,
     case 2, +36.1 % / +53 mm unfiltered, +6.3 % / +5.4 mm at 0.2 Hz)."""
-    s = followed_speed(rec)
+    return _speed_inputs(rec, followed_speed(rec), r_bias)
+
+
+def _speed_inputs(rec: RollRecording, s: np.ndarray | None, r_bias: float | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`speed_inputs` at the followed speed ``s`` (:func:`followed_speed`; None: held)."""
     if s is None:
         return rec.delta, None
     return rec.delta * s * s, (s - 1.0) * (rec.r - (np.mean(rec.r) if r_bias is None else r_bias))
