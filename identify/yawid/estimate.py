@@ -67,6 +67,8 @@ def simulate_yaw(
     if not sensitivities and yawloop.usable(model, w, b, n):  # the same bits, compiled (identify.yawid.yawloop)
         return yawloop.simulate(model, theta, col, w, r0, ts), None
     forcing = _input_forcing(model, theta, w, col, reg)
+    if not sensitivities and yawloop.stepped(model, w):  # the same bits, without per-term calls (yawloop)
+        return yawloop.simulate_numpy(model, theta, col, forcing, w, r0, ts), None
     r_hat = np.empty((b, n))
     sens = np.zeros((b, n, p)) if sensitivities else None
     r = np.asarray(r0, float).copy()
