@@ -250,6 +250,52 @@ def _mass_example():
     return go
 
 
+_DETECT_FILES = """
+import sys
+from pathlib import Path
+from cli.app import _run
+from diagnose.recording import write_csv
+from identify.detect.api import simulated_recording
+from identify.detect.vessel import Vessel
+d = Path(sys.argv[1])
+write_csv(simulated_recording(Vessel(), 500, seed=1, measured_moment=True), d / "nominal.csv")
+run = simulated_recording(Vessel(), 500, seed=2, change_at_s=150, changed=Vessel(inertia=1.1), measured_moment=True)
+write_csv(run, d / "run.csv")
+sys.exit(_run(["detect-prior", str(d / "nominal.csv"), "--out", str(d / "prior.json")]))
+"""
+
+
+def _detect_one():
+    """Issue 25's ``detect`` figure: one 500 s recording (a 10 % yaw-inertia change at 150 s, seed 2)
+    against the prior of a nominal run (seed 1), both with the measured pod moment, as README's
+    example; the command's library call (:func:`identify.detect.api.detect` in the command's job: one
+    recording runs the numpy loops), warm: the no-change records' noise drawn in the warm-up and kept
+    (as the command reads it from its cache); start-up, imports, option parsing and printing not timed."""
+    import tempfile
+
+    from identify.detect.api import detect, hull_inertia, load_prior, load_runs
+    from identify.detect.batch import job_work
+    from primitives import jitloop
+
+    tmp = tempfile.TemporaryDirectory(prefix="bench_detect_")  # removed when the child exits
+    d = Path(tmp.name)
+    # written by another process: detect-prior's bootstrap loads numba, which a `detect` process has not loaded
+    subprocess.run([sys.executable, "-c", _DETECT_FILES, str(d)], cwd=ROOT, check=True, capture_output=True)
+    prior = load_prior(d / "prior.json")
+    recs = load_runs([d / "run.csv"], prior.kind, [])
+    i_z, n_rdot = hull_inertia("naval-vessel", None, None)
+    draws: dict = {}
+
+    def go(_keep=tmp):
+        with jitloop.job(job_work(recs)):  # the command's job: numba not loaded for one recording
+            det = detect(recs[0], prior, 0.02, 0.05, 0, n_rdot=n_rdot, i_z=i_z, draws=draws)
+        if not det.changed or det.property != "yaw_inertia":
+            raise RuntimeError(f"detect missed the example's yaw-inertia change: {det.property}, changed {det.changed}")
+        return {"alarm_s": det.alarm_s, "numba_loaded": "numba" in sys.modules}
+
+    return go
+
+
 CASES = {
     "library_build": (_library_build, 2.0, None, ""),
     "monte_carlo_sim_500x1000": (_mc_sim, 2.0, None, ""),
@@ -289,6 +335,13 @@ CASES = {
         10.0,
         None,
         "issues 26/30: one MMG battery case (wind-18-gusty), 3 runs + --fit-on (4 calm runs) + 1 validation run, under 10 s",
+    ),
+    "detect_one_recording": (
+        _detect_one,
+        1.0,
+        None,
+        "issue 25: `detect` on one 500 s recording once the prior exists, under 1 s for the whole process; "
+        "its library call detect, warm (noise kept): start-up, imports, option parsing and printing not timed",
     ),
     "mass_3_datasets": (
         _mass_example,

@@ -55,8 +55,8 @@ def simulate_yaw(
     The one yaw-row simulator of the project: the change detector's prior
     (``identify.detect.yawmodel.simulate_r``) is this function on its column layout. Without
     sensitivities it needs memory of the order of the inputs only (a detector's 400 no-change
-    records of a long recording); compiled when numba is there and the batch is large
-    (:mod:`identify.yawid.yawloop`, the same bits)."""
+    records of a long recording); compiled when numba is there and the batch is large, else for
+    float64 inputs numpy's loop without per-term calls (:mod:`identify.yawid.yawloop`; both the same bits)."""
     b, n = w["u"].shape
     p = len(model.params)
     col = {name: j for j, name in enumerate(model.params)}
@@ -67,6 +67,8 @@ def simulate_yaw(
     if not sensitivities and yawloop.usable(model, w, b, n):  # the same bits, compiled (identify.yawid.yawloop)
         return yawloop.simulate(model, theta, col, w, r0, ts), None
     forcing = _input_forcing(model, theta, w, col, reg)
+    if not sensitivities and yawloop.stepped(model, w):  # the same bits, without per-term calls (yawloop)
+        return yawloop.simulate_numpy(model, theta, col, forcing, w, r0, ts), None
     r_hat = np.empty((b, n))
     sens = np.zeros((b, n, p)) if sensitivities else None
     r = np.asarray(r0, float).copy()

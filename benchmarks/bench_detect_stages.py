@@ -1,0 +1,90 @@
+"""CPU of each stage of one ``shiptrial detect`` process, without a profiler (stop 49).
+
+    cd RECORDINGS && PYTHONPATH=REPO nice -n 10 python REPO/benchmarks/bench_detect_stages.py \
+        detect run.csv --prior prior.json --profile naval-vessel
+
+Prints the CPU (``time.process_time``) of importing numpy, typer, the app (every command's module)
+and detect's own modules, then of the command, with the library stages inside it (each wrapped
+function's own total). Python's start-up before this script is what ``python -c pass`` takes. The
+command's stdout is discarded; its noise cache is the user's unless ``SHIPTRIAL_DETECT_CACHE_DIR``
+says otherwise (a first call writes the entry: time a second one). PYTHONPATH names the tree timed
+(the installed package otherwise).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import sys
+import time
+
+t0 = time.process_time()
+import numpy  # noqa: E402,F401
+
+t_numpy = time.process_time()
+import typer  # noqa: E402,F401
+
+t_typer = time.process_time()
+import cli.app  # noqa: E402
+
+t_app = time.process_time()
+import cli.options  # noqa: E402,F401
+import identify.detect.verdict  # noqa: E402,F401
+import primitives.heap  # noqa: E402,F401
+from identify.detect import api, batch, noisecache, nullsim  # noqa: E402
+
+t_detect = time.process_time()
+spent: dict[str, float] = {}
+
+
+def _timed(module: object, name: str, label: str | None = None) -> None:
+    """Replace ``module.name`` by a wrapper adding its CPU to ``spent[label]``."""
+    f = getattr(module, name)
+
+    @functools.wraps(f)
+    def wrapper(*args, **kwargs):
+        t = time.process_time()
+        try:
+            return f(*args, **kwargs)
+        finally:
+            key = label or name
+            spent[key] = spent.get(key, 0.0) + time.process_time() - t
+
+    setattr(module, name, wrapper)
+
+
+def main() -> None:
+    for module, name, label in [
+        (api, "load_prior", None),
+        (api, "load_runs", None),
+        (batch, "detect", "detect (library, per recording)"),
+        (api, "predict_with_signatures", "  recording's prediction and signatures"),
+        (api, "null_records", "  no-change records"),
+        (nullsim, "simulate_r", "    their two yaw-row simulations"),
+        (noisecache, "load", "    noise read from the cache"),
+        (nullsim, "_linear_inputs", "    their inputs (signal + noise)"),
+        (api, "calibrate", "  LR-CUSUM calibration"),
+        (api, "calibrate_dead_zone", "  dead-zone calibration"),
+    ]:
+        _timed(module, name, label)
+    sys.argv = ["shiptrial", *sys.argv[1:]]
+    saved = sys.stdout
+    sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - the command's report is not the figure
+    try:
+        cli.app.main()
+    except SystemExit:
+        pass
+    finally:
+        sys.stdout.close()
+        sys.stdout = saved
+    t_end = time.process_time()
+    print(
+        f"CPU s: import numpy {t_numpy - t0:.3f}; typer {t_typer - t_numpy:.3f}; cli.app (every command) "
+        f"{t_app - t_typer:.3f}; detect's modules {t_detect - t_app:.3f}; the command {t_end - t_detect:.3f}"
+    )
+    for k, v in spent.items():
+        print(f"  {k}: {v:.3f}")
+
+
+if __name__ == "__main__":
+    main()
