@@ -10,9 +10,6 @@ from contextlib import contextmanager
 import typer
 
 from cli.errors import user_error_types
-from cli.plainparams import install as _plain_params
-
-_plain_params()  # plain option values converted without pydantic (cli.plainparams: 0.35 s of every command)
 
 app = typer.Typer(
     add_completion=False,
