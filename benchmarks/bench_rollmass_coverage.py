@@ -29,6 +29,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"  # one BLAS thread, see bench_rollmass_truth.py
 
 import numpy as np  # noqa: E402
+from scipy.signal import lfilter  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -246,7 +247,27 @@ def _waves_off() -> None:
         setattr(bt, name, lambda *args, _draw=draw: 0.0 * _draw(*args))  # drawn, so the rng stream is unchanged
 
 
+def _sea_without_common() -> None:
+    """The truth's base disturbance (:func:`basin_truth._narrowband`, its draws unchanged) without the component
+    it shares across sway, roll and yaw: each degree of freedom only its own resonance, same sd."""
+
+    def own(n: int, rng: np.random.Generator, runs: int) -> np.ndarray:
+        out = np.empty((runs, n, 3))
+        for j in range(runs):
+            f0, zeta = rng.uniform(1.0, 1.4), rng.uniform(0.15, 0.35)
+            w0, T = 2 * np.pi * f0, 1 / bt.FS
+            r = np.exp(-zeta * w0 * T)
+            a = [1.0, -2 * r * np.cos(w0 * T * np.sqrt(1 - zeta**2)), r * r]
+            x = lfilter([1.0, -1.0], a, rng.standard_normal((n + 400, 4)), axis=0)[400:, 1:]
+            out[j] = x / x.std(axis=0)
+        return out * np.array([0.015, 0.002, 0.002])
+
+    bt._narrowband = own
+
+
 def fit(a: argparse.Namespace) -> None:
+    if a.own_sea:
+        _sea_without_common()
     if a.no_sensor_noise:
         _sensor_noise_off()
     if a.no_waves:
@@ -309,6 +330,7 @@ def main() -> None:
     f.add_argument("--seed", type=int, default=2015)
     f.add_argument("--like", help="fit only the (variant, case, run) stored in this directory (pair a --quiet run)")
     f.add_argument("--no-sensor-noise", action="store_true", help="the waves kept, the IMU noise and bias off")
+    f.add_argument("--own-sea", action="store_true", help="the base disturbance without its component common to the DOFs")
     f.add_argument("--no-waves", action="store_true", help="the IMU noise and bias kept, the waves off")
     f.add_argument("--quiet", action="store_true", help="no waves, no sensor noise (the same ships): the structure's bias")
     g = sub.add_parser("analyse", help="z-scores and coverage of covariance estimators on stored fits")
