@@ -265,7 +265,16 @@ def _sea_without_common() -> None:
     bt._narrowband = own
 
 
+def _sea_scaled(k: float) -> None:
+    """The truth's sea (JONSWAP or base disturbance, draws unchanged) times ``k``."""
+    for name in ("_jonswap", "_narrowband"):
+        draw = getattr(bt, name)
+        setattr(bt, name, lambda *args, _draw=draw: k * _draw(*args))
+
+
 def fit(a: argparse.Namespace) -> None:
+    if a.sea_scale != 1.0:
+        _sea_scaled(a.sea_scale)
     if a.own_sea:
         _sea_without_common()
     if a.no_sensor_noise:
@@ -330,6 +339,7 @@ def main() -> None:
     f.add_argument("--seed", type=int, default=2015)
     f.add_argument("--like", help="fit only the (variant, case, run) stored in this directory (pair a --quiet run)")
     f.add_argument("--no-sensor-noise", action="store_true", help="the waves kept, the IMU noise and bias off")
+    f.add_argument("--sea-scale", type=float, default=1.0, help="the sea's forces times this")
     f.add_argument("--own-sea", action="store_true", help="the base disturbance without its component common to the DOFs")
     f.add_argument("--no-waves", action="store_true", help="the IMU noise and bias kept, the waves off")
     f.add_argument("--quiet", action="store_true", help="no waves, no sensor noise (the same ships): the structure's bias")
