@@ -129,6 +129,21 @@ def test_the_sandwich_carries_a_priors_uncertainty():
     assert cov[0, 0] + cov[1, 1] + 2 * cov[0, 1] == pytest.approx(1 / (col @ col), rel=0.2)
 
 
+def test_the_bartlett_meat_is_the_newey_west_sum_over_lags():
+    """:func:`sandwich.bartlett_meat` (one FFT convolution) is Newey-West's ``G_0 + sum_k w_k (G_k + G_k^T)``
+    with ``G_k = sum_t h_t h_{t-k}^T`` and ``w_k = 1 - k/(L+1)`` (1987, eq. 2), a window beyond the data
+    cut at ``n - 1`` lags with its weights kept."""
+    from identify.rollmass.sandwich import bartlett_meat
+
+    h = np.random.default_rng(1).standard_normal((60, 3)).cumsum(axis=0)  # correlated scores
+    for lags, n in ((0, 60), (7, 60), (100, 60)):
+        S = h.T @ h
+        for k in range(1, min(lags, n - 1) + 1):
+            G = h[k:].T @ h[:-k]
+            S += (1 - k / (lags + 1)) * (G + G.T)
+        assert np.allclose(bartlett_meat(h, lags), S, rtol=1e-10, atol=1e-9)
+
+
 def test_the_modal_simulation_is_the_state_space_model(case2):
     """The modal recursion gives the Tustin model's response to its inputs (the rudder and the heel signal
     of the recording's roll angle) to rounding (against the plain state recursion), the old

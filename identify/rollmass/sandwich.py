@@ -41,21 +41,26 @@ def load_decrement(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) 
         return float("nan")
 
 
+def bartlett_meat(h: np.ndarray, lags: int) -> np.ndarray:
+    """Long-run ``sum_|k|<=L w_k sum_t h_t h_{t+k}^T`` of one dataset's scores ``h`` (n x p), Bartlett
+    weights ``w_k = 1 - |k|/(lags+1)`` over ``|k| <= min(lags, n-1)`` samples (Newey & West 1987, eq. 2).
+    Summed over every lag at once: ``h^T (K h)``, ``K_ts = w_|t-s|`` the Bartlett band, ``K h`` a
+    convolution of each score column with the kernel (one FFT, not a product per lag)."""
+    L = min(lags, len(h) - 1)
+    kernel = 1.0 - np.abs(np.arange(-L, L + 1)) / (lags + 1)  # a window beyond the data: cut, not rescaled
+    Kh = fftconvolve(h, kernel[:, None], mode="same", axes=0)
+    return 0.5 * (h.T @ Kh + Kh.T @ h)
+
+
 def _meat(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
-    """The sandwich's ``S``: each dataset's per-sample scores ``h_t = sum_channels J_t f_t`` with
-    Bartlett weights over ``lags`` samples (Newey & West 1987, eq. 2; datasets independent); rows
-    after the datasets' (a Gaussian prior, as a standardised observation) add ``J_p^T J_p``.
-    Summed over every lag at once: ``S = h^T (K h)``, ``K_ts = w_|t-s|`` the Bartlett band, ``K h``
-    a convolution of each score column with the kernel (one FFT, not a product per lag)."""
+    """The sandwich's ``S``: each dataset's per-sample scores ``h_t = sum_channels J_t f_t`` in
+    :func:`bartlett_meat` (datasets independent); rows after the datasets' (a Gaussian prior, as a
+    standardised observation) add ``J_p^T J_p``."""
     S = np.zeros((J.shape[1], J.shape[1]))
-    kernel = 1.0 - np.abs(np.arange(-lags, lags + 1)) / (lags + 1)
     i = 0
     for n in lengths:
         rows = slice(i, i + 3 * n)
-        h = (J[rows] * f[rows, None]).reshape(n, 3, -1).sum(axis=1)
-        L = min(lags, n - 1)
-        Kh = fftconvolve(h, kernel[lags - L : lags + L + 1, None], mode="same", axes=0)
-        S += 0.5 * (h.T @ Kh + Kh.T @ h)
+        S += bartlett_meat((J[rows] * f[rows, None]).reshape(n, 3, -1).sum(axis=1), lags)
         i += 3 * n
     return S + J[i:].T @ J[i:]
 

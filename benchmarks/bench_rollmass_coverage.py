@@ -1,0 +1,355 @@
+"""Coverage of `shiptrial mass` (oe) intervals on the basin truth, measurable without refitting.
+
+``fit`` runs the oe fits of :mod:`benchmarks.bench_rollmass_truth` (same seeds, so runs pair with it)
+one process, one fit at a time, and stores per fit what the sandwich covariance needs: each dataset's
+per-sample scores ``h_t = sum_channels J_t f_t`` (n x p), the residual per channel (n x 3), ``A = J^T J``,
+the prior rows of ``J``, the estimate, its reported sd and the truth (one ``.npz`` per fit, so an
+interrupted run keeps what it fitted). ``analyse`` re-evaluates covariance estimators on the stored fits
+and prints per variant and case the z-scores ``(estimate - truth) / sd`` of mass and height, their
+spread, and the 95 % coverage, for each estimator (:mod:`identify.rollmass.sandwich`).
+
+    python benchmarks/bench_rollmass_coverage.py fit /tmp/cov --runs 4                      # stop 49: stopped after runs 0-1
+    python benchmarks/bench_rollmass_coverage.py fit /tmp/quiet --runs 4 --quiet --like /tmp/cov   # the same fits, no noise
+    python benchmarks/bench_rollmass_coverage.py analyse /tmp/cov --quiet-dir /tmp/quiet
+
+The ships of a run depend on ``--runs`` (the family is drawn at once), so a directory is resumed (fits already
+stored are skipped) and paired only with the same ``--runs``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"  # one BLAS thread, see bench_rollmass_truth.py
+
+import numpy as np  # noqa: E402
+from scipy.signal import lfilter  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from identify.rollmass import oe_fit  # noqa: E402
+from identify.rollmass import sandwich as sw  # noqa: E402
+from identify.rollmass.api import estimate_from_files  # noqa: E402
+from primitives.errors import UserError  # noqa: E402
+from tests.physics import basin_truth as bt  # noqa: E402
+
+CONSTANT_SPEED = ("base", "sway_roll", "restoring", "imu_mount", "waves")
+
+
+def _capture() -> dict:
+    """Wrap oe_fit's covariance call (the fit's last, at its final point) to keep its arguments."""
+    seen: dict = {}
+    orig = oe_fit.sandwich_cov
+
+    def wrapped(J, f, lengths, lags):
+        seen.update(J=J, f=f, lengths=list(lengths), lags=lags)
+        return orig(J, f, lengths, lags)
+
+    oe_fit.sandwich_cov = wrapped
+    return seen
+
+
+def _store(seen: dict, path: Path, **extra) -> None:
+    """The scores, residuals and products of one fit (see the module docstring) in ``path``."""
+    J, f, lengths = seen["J"], seen["f"], seen["lengths"]
+    out, i = {}, 0
+    for k, n in enumerate(lengths):
+        rows = slice(i, i + 3 * n)
+        out[f"h{k}"] = (J[rows] * f[rows, None]).reshape(n, 3, -1).sum(axis=1)
+        out[f"f{k}"] = f[rows].reshape(n, 3)
+        i += 3 * n
+    out.update(A=J.T @ J, Jp=J[i:], fp=f[i:], lengths=np.array(lengths), lags=seen["lags"])
+    tmp = path.with_suffix(".tmp.npz")
+    np.savez_compressed(tmp, **out, **{k: np.asarray(v) for k, v in extra.items()})
+    tmp.replace(path)
+
+
+def _load(d: Path) -> list[tuple[str, str, int, dict]]:
+    """The stored fits of ``d``: (variant, case, run, arrays)."""
+    out = []
+    for p in sorted(d.glob("*_case?_run?.npz")) + sorted(d.glob("*_case?_run??.npz")):  # not a killed write's .tmp
+        variant, case, run = p.stem.rsplit("_", 2)
+        z = dict(np.load(p))
+        k = len(z["lengths"])
+        z["h"] = [z[f"h{i}"] for i in range(k)]
+        z["f"] = [z[f"f{i}"] for i in range(k)]
+        out.append((variant, case, int(run[3:]), z))
+    return out
+
+
+def _cov(z: dict, lags: list[int] | int) -> np.ndarray:
+    """The load's sandwich covariance from a stored fit, Bartlett window ``lags`` (one per dataset or all)."""
+    Ainv = np.linalg.inv(z["A"])
+    lags = lags if isinstance(lags, list) else [lags] * len(z["h"])
+    S = z["Jp"].T @ z["Jp"]
+    for h, L in zip(z["h"], lags):
+        S += sw.bartlett_meat(h, L)
+    return (Ainv @ S @ Ainv)[-2:, -2:]
+
+
+def andrews_lags(g: np.ndarray) -> int:
+    """Andrews' (1991, eq. 6.2-6.4) data-driven Bartlett window for the series ``g`` (n x k): an AR(1)
+    ``rho_a`` per (standardised) column, ``alpha(1) = sum 4 rho^2 s^4 / ((1-rho)^6 (1+rho)^2) /
+    sum s^4 / (1-rho)^4`` with ``s^2 = 1 - rho^2`` the innovation variance, window
+    ``1.1447 (alpha(1) n)^(1/3)`` samples."""
+    x = (g - g.mean(axis=0)) / np.maximum(g.std(axis=0), 1e-300)
+    rho = np.clip(np.einsum("ij,ij->j", x[1:], x[:-1]) / np.einsum("ij,ij->j", x[:-1], x[:-1]), -0.99, 0.99)
+    s4 = (1 - rho**2) ** 2
+    alpha = np.sum(4 * rho**2 * s4 / ((1 - rho) ** 6 * (1 + rho) ** 2)) / np.sum(s4 / (1 - rho) ** 4)
+    return max(1, round(1.1447 * (alpha * len(g)) ** (1 / 3)))
+
+
+def _influence(z: dict) -> list[np.ndarray]:
+    """Each dataset's load influence series ``g_t = (A^-1 h_t)[load]`` (n x 2)."""
+    Ainv = np.linalg.inv(z["A"])
+    return [h @ Ainv[:, -2:] for h in z["h"]]
+
+
+def _tau(g: np.ndarray, T: float, max_s: float = 20.0) -> float:
+    """Integrated autocorrelation time [s] of the load influence (mass column), lags up to ``max_s``:
+    ``T (1 + 2 sum rho_k)`` truncated at the first negative rho (a rough long-correlation figure)."""
+    x = g[:, 0] - g[:, 0].mean()
+    n = len(x)
+    c = np.correlate(x, x, "full")[n - 1 : n - 1 + int(max_s / T)] / (x @ x)
+    neg = np.flatnonzero(c < 0)
+    k = neg[0] if len(neg) else len(c)
+    return T * (1 + 2 * c[1:k].sum())
+
+
+def _rows(fits: list, name: str, cov_fn, cv_fn=lambda z: 1.96) -> list[tuple]:
+    rows = []
+    for variant, case, run, z in fits:
+        C = cov_fn(z)
+        sd = np.sqrt(np.diag(C))
+        zs = np.array([(z["m"] - z["m_true"]) / sd[0], (z["z"] - z["z_true"]) / sd[1]])
+        rows.append((name, variant, case, run, zs, cv_fn(z), sd))
+    return rows
+
+
+def _table(rows: list[tuple], by_case: bool) -> None:
+    keys = dict.fromkeys((r[0], r[1], r[2] if by_case else "all") for r in rows)
+    print(
+        f"{'estimator':18} {'variant':10} {'case':5} {'n':>3} | {'z_m mean':>8} {'sd':>5} {'cov m%':>6} | "
+        f"{'z_z mean':>8} {'sd':>5} {'cov z%':>6} | {'both%':>5} | {'med sd m':>8} {'med sd z':>8}"
+    )
+    for est, variant, case in keys:
+        sel = [r for r in rows if r[0] == est and r[1] == variant and (not by_case or r[2] == case)]
+        zs = np.array([r[4] for r in sel])
+        cv = np.array([r[5] for r in sel])
+        inside = np.abs(zs) <= cv[:, None]
+        sds = np.array([r[6] for r in sel])
+        print(
+            f"{est:18} {variant:10} {case:5} {len(sel):3d} | {zs[:, 0].mean():+8.2f} {zs[:, 0].std(ddof=1) if len(sel) > 1 else np.nan:5.2f} "
+            f"{100 * inside[:, 0].mean():6.0f} | {zs[:, 1].mean():+8.2f} {zs[:, 1].std(ddof=1) if len(sel) > 1 else np.nan:5.2f} "
+            f"{100 * inside[:, 1].mean():6.0f} | {100 * inside.all(axis=1).mean():5.0f} | "
+            f"{1000 * np.median(sds[:, 0]):7.1f}g {1000 * np.median(sds[:, 1]):7.1f}mm"
+        )
+
+
+def analyse(a: argparse.Namespace) -> None:
+    fits = _load(Path(a.dir))
+    T = 5.0 / float(fits[0][3]["lags"])  # the fits' window is SANDWICH_LAG_S = 5 s
+    print(f"{len(fits)} stored fits; sample time {T:g} s\n")
+    print(
+        "reported sd reproduced from the stored scores (max relative difference): "
+        + f"{max(abs(np.sqrt(_cov(z, int(z['lags']))[0, 0]) / z['m_sd'] - 1) for *_, z in fits):.1e}\n"
+    )
+    print("integrated autocorrelation time of the mass influence, per dataset [s] (nominal, calibration, loaded):")
+    for variant, case, run, z in fits:
+        taus = [_tau(g, T) for g in _influence(z)]
+        print(f"  {variant:10} {case} run {run}: " + " ".join(f"{t:5.2f}" for t in taus))
+    rows = []
+    for L_s in (1.0, 5.0, 10.0, 20.0):
+        rows += _rows(fits, f"NW {L_s:g} s", lambda z, L=round(L_s / T): _cov(z, L))
+    rows += _rows(fits, "NW auto (A91)", lambda z: _cov(z, [andrews_lags(g) for g in _influence(z)]))
+    print()
+    _table(rows, by_case=False)
+    print()
+    _table([r for r in rows if r[0] == "NW 5 s"], by_case=True)
+    if a.quiet_dir:
+        quiet = {(v, c, r): z for v, c, r, z in _load(Path(a.quiet_dir))}
+        _split(fits, quiet)
+        for spec in a.part or []:
+            _part(spec, quiet)
+
+
+def _part(spec: str, quiet: dict) -> None:
+    """Fits with one noise source (``NAME=DIR``, e.g. ``waves=`` a ``fit --no-sensor-noise``): does their own
+    sandwich cover what that source moves the load by (the fit minus the quiet fit, in its reported sd)?"""
+    name, d = spec.split("=", 1)
+    rows = [
+        (v, np.array([(z["m"] - quiet[v, c, r]["m"]) / z["m_sd"], (z["z"] - quiet[v, c, r]["z"]) / z["z_sd"]]))
+        for v, c, r, z in _load(Path(d))
+        if (v, c, r) in quiet
+    ]
+    print(f"\n{name} alone: (fit - quiet fit) / the fit's own sd, mass, height")
+    for v in [*dict.fromkeys(r[0] for r in rows), "pooled"]:
+        e = np.array([r[1] for r in rows if v in ("pooled", r[0])])
+        print(
+            f"  {v:10} n {len(e):2d} | mean {e.mean(axis=0).round(2)} sd {e.std(axis=0, ddof=1).round(2)} "
+            f"| |z| <= 1.96: {(100 * (np.abs(e) <= 1.96).mean(axis=0)).round(0)} %"
+        )
+
+
+def _split(fits: list, quiet: dict) -> None:
+    """Each error in the reported sd (NW 5 s) split into the structure's bias (the quiet fit's error, the
+    same ship without waves and noise) and the noise's part (the noisy fit minus the quiet one)."""
+    print("\nerror / reported sd = bias (quiet fit - truth) + noise (noisy - quiet fit); mass, then height")
+    rows = []
+    for v, c, r, z in fits:
+        q = quiet.get((v, c, r))
+        if q is None:
+            continue
+        sd = np.array([z["m_sd"], z["z_sd"]])
+        est, tru, qe = np.array([z["m"], z["z"]]), np.array([z["m_true"], z["z_true"]]), np.array([q["m"], q["z"]])
+        rows.append((v, c, (qe - tru) / sd, (est - qe) / sd))
+    print(
+        f"{'variant':10} {'case':5} {'n':>3} | {'bias m':>6} {'noise m mean':>12} {'sd':>5} | {'bias z':>6} {'noise z mean':>12} {'sd':>5}"
+    )
+    for v, c in dict.fromkeys((r[0], r[1]) for r in rows):
+        b = np.array([r[2] for r in rows if r[0] == v and r[1] == c])
+        e = np.array([r[3] for r in rows if r[0] == v and r[1] == c])
+        sd = e.std(axis=0, ddof=1) if len(e) > 1 else np.full(2, np.nan)
+        print(
+            f"{v:10} {c:5} {len(b):3d} | {b[:, 0].mean():+6.2f} {e[:, 0].mean():+12.2f} {sd[0]:5.2f} | "
+            f"{b[:, 1].mean():+6.2f} {e[:, 1].mean():+12.2f} {sd[1]:5.2f}"
+        )
+    for v in dict.fromkeys(r[0] for r in rows):
+        e = np.array([r[3] for r in rows if r[0] == v])
+        b = np.array([r[2] for r in rows if r[0] == v])
+        print(
+            f"{v:10} all   {len(e):3d} | rms bias {np.sqrt((b**2).mean(axis=0))} | noise sd {e.std(axis=0, ddof=1)} "
+            f"| noise |z|<=1.96: {100 * (np.abs(e) <= 1.96).mean(axis=0)} %"
+        )
+
+
+def _sensor_noise_off() -> None:
+    """The truth's waves kept and its IMU noise and bias switched off (its ``_measure``'s noise scale 0; the
+    filters stay): with the ``quiet`` and the full fits it splits the noise's part into waves and sensor."""
+    measure = bt._measure
+
+    def quiet_sensor(*args):
+        return measure(*args[:14], 0.0, *args[15:])
+
+    bt._measure = quiet_sensor
+
+
+def _waves_off() -> None:
+    """The truth's IMU noise kept and its sea (JONSWAP or narrow-band disturbance) switched off."""
+    for name in ("_jonswap", "_narrowband"):
+        draw = getattr(bt, name)
+        setattr(bt, name, lambda *args, _draw=draw: 0.0 * _draw(*args))  # drawn, so the rng stream is unchanged
+
+
+def _sea_without_common() -> None:
+    """The truth's base disturbance (:func:`basin_truth._narrowband`, its draws unchanged) without the component
+    it shares across sway, roll and yaw: each degree of freedom only its own resonance, same sd."""
+
+    def own(n: int, rng: np.random.Generator, runs: int) -> np.ndarray:
+        out = np.empty((runs, n, 3))
+        for j in range(runs):
+            f0, zeta = rng.uniform(1.0, 1.4), rng.uniform(0.15, 0.35)
+            w0, T = 2 * np.pi * f0, 1 / bt.FS
+            r = np.exp(-zeta * w0 * T)
+            a = [1.0, -2 * r * np.cos(w0 * T * np.sqrt(1 - zeta**2)), r * r]
+            x = lfilter([1.0, -1.0], a, rng.standard_normal((n + 400, 4)), axis=0)[400:, 1:]
+            out[j] = x / x.std(axis=0)
+        return out * np.array([0.015, 0.002, 0.002])
+
+    bt._narrowband = own
+
+
+def _sea_scaled(k: float) -> None:
+    """The truth's sea (JONSWAP or base disturbance, draws unchanged) times ``k``."""
+    for name in ("_jonswap", "_narrowband"):
+        draw = getattr(bt, name)
+        setattr(bt, name, lambda *args, _draw=draw: k * _draw(*args))
+
+
+def fit(a: argparse.Namespace) -> None:
+    if a.sea_scale != 1.0:
+        _sea_scaled(a.sea_scale)
+    if a.own_sea:
+        _sea_without_common()
+    if a.no_sensor_noise:
+        _sensor_noise_off()
+    if a.no_waves:
+        _waves_off()
+    outdir = Path(a.dir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    seen = _capture()
+    sims = {}
+    for variant in a.variants.split(","):
+        seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant)  # as bench_rollmass_truth.py
+        sims[variant] = bt.simulate_runs(variant, a.runs, seed, quiet=a.quiet)
+    for run in range(a.runs):  # run-major: an interrupted run has about as many runs of every variant
+        for variant, (ship, data) in sims.items():
+            for case in a.cases.split(","):
+                path = outdir / f"{variant}_{case}_run{run}.npz"
+                if path.exists() or (a.like and not (Path(a.like) / path.name).exists()):
+                    continue
+                m_true, z_true = bt.truth_load(case)
+                seen.clear()
+                c0 = time.process_time()
+                with tempfile.TemporaryDirectory() as d:
+                    recs = bt.case_recordings(ship, data, case, run)
+                    paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in recs]
+                    try:
+                        e = estimate_from_files(*paths, method="oe")
+                    except UserError as exc:
+                        print(f"{path.name}: refused: {exc}", flush=True)
+                        continue
+                cpu = time.process_time() - c0
+                if "J" not in seen:
+                    print(f"{path.name}: no covariance ({'; '.join(e.warnings)[:80]})", flush=True)
+                    continue
+                _store(
+                    seen,
+                    path,
+                    m=e.m,
+                    z=e.zbar_m,
+                    m_sd=e.m_sd,
+                    z_sd=e.zbar_m_sd,
+                    m_true=m_true,
+                    z_true=z_true,
+                    converged=e.converged,
+                    cpu=cpu,
+                )
+                print(
+                    f"{path.name}: m {e.m:.4f} ({m_true}) sd {e.m_sd:.4f}, z {e.zbar_m:.4f} ({z_true}) sd {e.zbar_m_sd:.4f}, "
+                    f"conv {e.converged}, {cpu:.1f} s cpu",
+                    flush=True,
+                )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    f = sub.add_parser("fit", help="run the fits and store what the covariance needs")
+    f.add_argument("dir")
+    f.add_argument("--runs", type=int, default=3, help="runs drawn per variant (fitted run-major; the ships depend on it)")
+    f.add_argument("--variants", default=",".join(CONSTANT_SPEED))
+    f.add_argument("--cases", default="case1,case2,case3")
+    f.add_argument("--seed", type=int, default=2015)
+    f.add_argument("--like", help="fit only the (variant, case, run) stored in this directory (pair a --quiet run)")
+    f.add_argument("--no-sensor-noise", action="store_true", help="the waves kept, the IMU noise and bias off")
+    f.add_argument("--sea-scale", type=float, default=1.0, help="the sea's forces times this")
+    f.add_argument("--own-sea", action="store_true", help="the base disturbance without its component common to the DOFs")
+    f.add_argument("--no-waves", action="store_true", help="the IMU noise and bias kept, the waves off")
+    f.add_argument("--quiet", action="store_true", help="no waves, no sensor noise (the same ships): the structure's bias")
+    g = sub.add_parser("analyse", help="z-scores and coverage of covariance estimators on stored fits")
+    g.add_argument("dir")
+    g.add_argument("--quiet-dir", help="a `fit --quiet` of the same runs: split each error into bias and noise")
+    g.add_argument("--part", action="append", help="NAME=DIR: fits with one noise source, against --quiet-dir")
+    a = ap.parse_args()
+    fit(a) if a.cmd == "fit" else analyse(a)
+
+
+if __name__ == "__main__":
+    main()
