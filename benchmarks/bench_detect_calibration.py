@@ -24,6 +24,7 @@ the runs of every prior; a prior's own parameter error is one fixed offset share
     python benchmarks/bench_detect_calibration.py            # ships 100-107 (the four stored caches)
     python benchmarks/bench_detect_calibration.py --cache /work/wt/detect-cache-48:ef8f31a30e7e:108:2   # a hold-out
     python benchmarks/bench_detect_calibration.py --design 0.005 0.01 0.02   # every run re-decided at these rates
+    python benchmarks/bench_detect_calibration.py --cache DIR:KEY:102:2 --own-misfit robust   # stop 49: the run's own misfit
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ import numpy as np
 
 from benchmarks.bench_detect_structure import _one, redecide, theta1, with_structure
 from benchmarks.bench_detect_truth import BATCH, HULL, change_times, row, summarise
+from benchmarks.detect_ownmisfit import OWN, levels, with_own
 from identify.detect.api import load_runs
 from identify.detect.checks import MOMENT
 from identify.detect.glr import SignatureCusum, exceedance_level, null_peaks
@@ -131,7 +133,9 @@ def table_row(label: str, lv: list[float]) -> str:
     return f"{label:28s} {n:4d}  " + "  ".join(cells) + f"   KS D {ks.statistic:.3f} p {ks.pvalue:.3g}"
 
 
-def collect(caches: list[str], variants: tuple[str, ...], runs: int = 10, setting: str = "stored") -> list[dict]:
+def collect(
+    caches: list[str], variants: tuple[str, ...], runs: int = 10, setting: str = "stored", own: str = "stored"
+) -> list[dict]:
     out = []
     for spec in caches:
         folder, key, first, ships = spec.split(":")
@@ -146,12 +150,15 @@ def collect(caches: list[str], variants: tuple[str, ...], runs: int = 10, settin
                         continue
                     b, j = BATCH * (i // BATCH), i % BATCH  # the truth bench's batches
                     sc = pickle.loads(_one(Path(folder), f"{v}-{ship}-{runs}-{b}-*-{j}-screen-{key}.pkl").read_bytes())
+                    sc, extra = with_own(sc, prior, own)
                     rec = run_record(sc, prior)
 
                     d = redecide(sc, prior)
                     stored = verdict(sc, prior, **HULL)  # the stored thresholds
                     rec |= {"variant": v, "ship": ship, "run": i, "alarm": d.changed, "alarm_stored": stored.changed}
                     rec |= {"h_same": bool(np.array_equal(d.threshold, sc.h))}  # bit for bit: the same code
+                    s_run, s_null = levels(prior, sc.eps, sc.S, sc.null_blocks)
+                    rec |= {"own_misfit": extra, "sigma_w": prior.sigma_w, "own_ratio": s_run / s_null}
                     out.append(rec)
     return out
 
@@ -166,6 +173,16 @@ def report(rows: list[dict]) -> None:
         if sel:
             print(table_row(v, sel))
     print(table_row("pooled", [r["level"] for r in runs]))
+    if runs:
+        from scipy.stats import spearmanr
+
+        ratio = np.array([r["own_ratio"] for r in runs])
+        rho = spearmanr(ratio, [r["level"] for r in runs])
+        print(
+            f"run's own misfit level / its records' (stop 49; after the best change-point fit): median {np.median(ratio):.2f}, "
+            f"range {ratio.min():.2f}-{ratio.max():.2f}, over 1.1 on {np.sum(ratio > 1.1)} of {len(ratio)}; "
+            f"Spearman with the level {rho.statistic:+.2f} (p {rho.pvalue:.2g})"
+        )
     print(f"refused priors (runs not tested): {refused}")
     print("\nper ship (prior): levels, and verdict alarms (re-decided; stored thresholds; h reproduced: bit for bit)")
     for v in VARIANTS:
@@ -178,6 +195,11 @@ def report(rows: list[dict]) -> None:
                 f"  {v[:15]:15s} {ship}: FA {fa}/{len(sel)} (stored h {fs}), h reproduced {all(r['h_same'] for r in sel)}; "
                 f"levels {' '.join(f'{x:.3f}' for x in lv)}"
             )
+            ratios = " ".join(f"{r['own_ratio']:.2f}" for r in sel)
+            print(f"    own misfit level / its records' (stop 49): {ratios}")
+            own = np.array([r["own_misfit"] / r["sigma_w"] for r in sel])
+            if np.any(own > 0):
+                print(f"    own misfit added on {np.sum(own > 0)} runs, / sigma_w: {' '.join(f'{x:.2f}' for x in own)}")
     print("\nz = whole-record change estimate / sd over the run's null records (z_null) and / the verdict's sd (z_v);")
     print("per prior: mean and sd over its unchanged runs, per candidate (I_r, damping, pod gain)")
     for v in VARIANTS:
@@ -259,7 +281,7 @@ def noise_parameter_split(runs: list[dict]) -> None:
 
 
 def design_rows(
-    caches: list[str], variants: tuple[str, ...], rates: list[float], runs: int = 10, setting: str = "stored"
+    caches: list[str], variants: tuple[str, ...], rates: list[float], runs: int = 10, setting: str = "stored", own: str = "stored"
 ) -> None:
     """bench_detect_truth's row per variant with every stored screening (unchanged and changed runs)
     re-decided at each design false-alarm rate (``glr.calibrate``'s ``false_alarm``; ``detect``'s default 0.02)."""
@@ -278,7 +300,7 @@ def design_rows(
                     for i, ch in enumerate(change_times(ship, runs)):
                         b, j = BATCH * (i // BATCH), i % BATCH
                         sc = pickle.loads(_one(Path(folder), f"{v}-{ship}-{runs}-{b}-*-{j}-screen-{key}.pkl").read_bytes())
-                        d = redecide(sc, prior, false_alarm=rate)
+                        d = redecide(with_own(sc, prior, own)[0], prior, false_alarm=rate)
                         res = {"alarm_s": d.alarm_s, "property": d.property, "change_s": ch, "h": float(d.threshold[0])}
                         res |= {"roll_max": float("nan"), "failed": False, "evidence": d.evidence}
                         out["unchanged" if ch is None else "changed"].append(res)
@@ -297,12 +319,17 @@ def main() -> None:
         help="as bench_detect_structure's --structure, or gate=G (structure recomputed, priorfit.structural_spread(gate=G))",
     )
     ap.add_argument("--design", nargs="*", type=float, help="only re-decide every run at these design false-alarm rates")
+    ap.add_argument(
+        "--own-misfit",
+        default="stored",
+        help=f"the run's own misfit in stored screenings' records (screened before stop 49): {', '.join(OWN)}, or bootL",
+    )
     a = ap.parse_args()
     warnings.simplefilter("ignore", RuntimeWarning)
     if a.design:
-        design_rows(a.cache, tuple(a.variants), a.design, a.runs, a.structure)
+        design_rows(a.cache, tuple(a.variants), a.design, a.runs, a.structure, a.own_misfit)
         return
-    report(collect(a.cache, tuple(a.variants), a.runs, a.structure))
+    report(collect(a.cache, tuple(a.variants), a.runs, a.structure, a.own_misfit))
 
 
 if __name__ == "__main__":

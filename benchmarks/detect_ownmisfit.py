@@ -1,0 +1,154 @@
+"""The recording's own misfit in its no-change records, tried and not kept (issue 25, stop 49; docs/detect-accuracy.md):
+settings of ``benchmarks/bench_detect_calibration.py --own-misfit`` that re-decide the truth bench's stored
+screenings with the records' misfit term made from the run being tested.
+
+The no-change records (:func:`identify.detect.nullsim.null_records`) carry the prior's misfit as
+AR-coloured 1 s block offsets at the level the NOMINAL recording showed (``prior.model_error``). The
+hypothesis: the structure the estimator leaves out misfits by how much each run excites it (roll, speed,
+manoeuvre), so a run that excites it more scatters more than its records. Two ways of giving the records
+the run's own misfit, each after the best single change-point fit along one candidate is taken out (a
+changed run's own change must not raise its threshold):
+
+* level (:func:`own_misfit`): the run's misfit level read with the estimator of
+  :func:`identify.detect.priorfit.model_error` (robust sigma of the whitened 1 s block means; the
+  records' own value of it the reference; the same two-standard-error gate), what the run has beyond
+  its records added as a further independent AR-coloured term: the records' innovation sd becomes
+  ``max(model_error, run's own)``. The offsets are constant over a 1 s block, so adding their block
+  means to a stored screening's records gives the block means screening with them gives (to rounding).
+* bootstrap (:func:`own_bootstrap`): the records' AR term (regenerated: :func:`stored_offsets`)
+  replaced by a circular block bootstrap of the run's own post-fit block residual.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from identify.detect.nullsim import misfit_offsets, normals
+from identify.detect.yawmodel import YawPrior, block_mean, whiten
+
+#: the change-point fit leaves at least this many 1 s blocks after the change (a fit to the last few
+#: blocks would take out the largest residuals rather than a change)
+MIN_AFTER = 30
+
+
+def change_fits(ew: np.ndarray, Sw: np.ndarray, min_after: int = MIN_AFTER) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each column's best single change-point fit along one whitened signature: for block residuals
+    ``ew`` (nb, m) and signatures ``Sw`` (nb, k), over change blocks ``tau`` (at most ``nb - min_after``)
+    and candidates ``k`` the fit ``theta = sum_{t>=tau} S_k e / sum_{t>=tau} S_k^2`` (the GLR estimate
+    of a step change of ``theta`` from ``tau``, Basseville and Nikiforov 1993, section 2.2) that lowers
+    the residual sum of squares most, ``(sum S_k e)^2 / sum S_k^2``: (tau, k, theta), each (m,)."""
+    nb = len(ew)
+    last = max(1, nb - min_after + 1)
+    # suffix sums over t >= tau, (tau, m, k) and (tau, k): the fit from every change block at once
+    num = np.cumsum((Sw[:, None, :] * ew[:, :, None])[::-1], axis=0)[::-1][:last]
+    den = np.maximum(np.cumsum((Sw**2)[::-1], axis=0)[::-1][:last], 1e-300)
+    m, k = ew.shape[1], Sw.shape[1]
+    best = (num**2 / den[:, None, :]).transpose(1, 0, 2).reshape(m, last * k).argmax(axis=1)
+    tau, cand = np.divmod(best, k)
+    return tau, cand, num[tau, np.arange(m), cand] / den[tau, cand]
+
+
+def change_removed(ew: np.ndarray, Sw: np.ndarray, min_after: int = MIN_AFTER) -> np.ndarray:
+    """Block residuals ``ew`` (nb, m) less each column's best change-point fit (:func:`change_fits`)."""
+    tau, cand, theta = change_fits(ew, Sw, min_after)
+    step = (np.arange(len(ew))[:, None] >= tau[None, :]) * Sw[:, cand]  # (nb, m): candidate cand from tau
+    return ew - theta[None, :] * step
+
+
+def robust_sigmas(x: np.ndarray) -> np.ndarray:
+    """1.4826 median absolute deviation of each column of ``x`` (nb, m) (``yawmodel.robust_sigma`` per column)."""
+    return 1.4826 * np.median(np.abs(x - np.median(x, axis=0)), axis=0)
+
+
+def levels(prior: YawPrior, eps: np.ndarray, S: np.ndarray, null_blocks: np.ndarray, level=robust_sigmas) -> tuple[float, float]:
+    """``s_run``, the robust sigma (or ``level``) of the recording's whitened 1 s block residual (``eps``
+    (n,)), and ``s_null``, the root mean square of the same over its records' block means ``null_blocks``
+    (nb, runs), each after its best change-point fit (:func:`change_removed`, signatures ``S`` (n, k))."""
+    Sw = whiten(block_mean(S, prior.block), prior.ar)
+    nb = min(len(Sw), len(null_blocks))
+    e = np.column_stack([block_mean(eps, prior.block)[:nb], null_blocks[:nb]])
+    s = level(change_removed(whiten(e, prior.ar), Sw[:nb]))
+    return float(s[0]), float(np.sqrt(np.mean(s[1:] ** 2)))
+
+
+def own_misfit(
+    prior: YawPrior, eps: np.ndarray, S: np.ndarray, null_blocks: np.ndarray, gate: float = 2.0, level=robust_sigmas
+) -> float:
+    """Innovation sd of the recording's misfit beyond its no-change records: ``sqrt(s_run^2 - s_null^2)``
+    (:func:`levels`); 0 when ``s_run`` is within ``gate`` standard errors of ``s_null`` (as
+    :func:`identify.detect.priorfit.model_error`: the robust sigma's efficiency 0.37). The records
+    already carry ``prior.model_error``, so adding this much more makes their level the larger of the
+    nominal's and the run's. ``level``: the scale estimate per column (:data:`OWN`)."""
+    s_run, s_null = levels(prior, eps, S, null_blocks, level)
+    nb = min(len(eps) // prior.block, len(null_blocks))
+    if not np.isfinite(s_run) or s_run <= s_null * (1 + gate / np.sqrt(0.74 * nb)):
+        return 0.0
+    return float(np.sqrt(s_run**2 - s_null**2))
+
+
+def extra_offsets(prior: YawPrior, extra: float, n: int, runs: int, seed: int = 0) -> np.ndarray:
+    """(n, runs) AR-coloured 1 s block offsets of innovation sd ``extra`` (:func:`identify.detect.nullsim.misfit_offsets`),
+    independent of the records' own (innovations seeded ``[seed, 11]``); zeros for ``extra`` 0."""
+    return misfit_offsets(replace(prior, model_error=max(extra, 0.0)), n, runs, np.random.default_rng([seed, 11]))
+
+
+#: --own-misfit settings: the run's own misfit level (:func:`own_misfit`) added to a stored
+#: screening's records at block level (its offsets are constant over a block: the same block means as
+#: screening with it, to rounding), as (gate in standard errors, scale estimate); "stored": as screened
+OWN = {
+    "robust": (2.0, robust_sigmas),
+    "robust-gate0": (0.0, robust_sigmas),
+    "rms": (2.0, lambda x: np.sqrt(np.mean(x**2, axis=0))),
+}
+
+
+_INNOVATIONS: dict = {}
+
+
+def stored_offsets(prior: YawPrior, n: int, runs: int) -> np.ndarray:
+    """Block means (nb, runs) of the misfit offsets ``nullsim.null_records`` added to a stored screening's
+    records (seed 0: the generator's draws regenerated, the prior's signals one yaw-rate noise each)."""
+    nb = n // prior.block
+    if prior.model_error <= 0:
+        return np.zeros((nb, runs))
+    k = (n, runs, len(prior.noise) - 1)
+    if k not in _INNOVATIONS:
+        _INNOVATIONS.clear()
+        _INNOVATIONS[k] = normals(0, runs, n, len(prior.noise) - 1, nb)[-1]
+    return block_mean(misfit_offsets(prior, n, runs, None, _INNOVATIONS[k]), prior.block)
+
+
+def own_bootstrap(sc, prior: YawPrior, length: int, seed: int = 0):
+    """``sc`` with its records' AR misfit term (:func:`stored_offsets`) replaced by a circular block
+    bootstrap (blocks of ``length`` 1 s blocks) of the run's own block residual, centred, after its best
+    change-point fit (:func:`change_fits`): the run's own misfit, in its own spectrum."""
+    nb, runs = sc.null_blocks.shape
+    base = sc.null_blocks - stored_offsets(prior, len(sc.eps), runs)[:nb]
+    Sb = block_mean(sc.S, prior.block)[:nb]
+    eb = block_mean(sc.eps, prior.block)[:nb]
+    tau, k, theta = (x[0] for x in change_fits(whiten(eb, prior.ar)[:, None], whiten(Sb, prior.ar)))
+    res = eb.copy()
+    res[tau:] -= theta * Sb[tau:, k]
+    res -= res.mean()
+    starts = np.random.default_rng([seed, 13]).integers(0, nb, size=(runs, -(-nb // length)))
+    idx = (starts[:, :, None] + np.arange(length)).reshape(runs, -1)[:, :nb] % nb
+    return replace(sc, null_blocks=base + res[idx].T)
+
+
+def with_own(sc, prior: YawPrior, setting: str = "stored") -> tuple:
+    """The stored screening ``sc`` with its records' misfit as ``setting`` says (:data:`OWN`, or
+    ``bootL``: :func:`own_bootstrap` with blocks of L s), and the innovation sd a level setting added
+    (0 else); the dead-zone CUSUM's threshold stays as stored (it only drops alarms)."""
+    if setting == "stored":
+        return sc, 0.0
+    if setting.startswith("boot"):
+        return own_bootstrap(sc, prior, int(setting[4:])), 0.0
+    gate, level = OWN[setting]
+    extra = own_misfit(prior, sc.eps, sc.S, sc.null_blocks, gate=gate, level=level)
+    if extra <= 0:
+        return sc, 0.0
+    nb, runs = sc.null_blocks.shape
+    off = block_mean(extra_offsets(prior, extra, nb * prior.block, runs, 0), prior.block)
+    return replace(sc, null_blocks=sc.null_blocks + off), extra

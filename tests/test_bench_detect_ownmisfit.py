@@ -1,0 +1,69 @@
+"""The run's own misfit in its no-change records (benchmarks/detect_ownmisfit.py, issue 25, stop 49; tried,
+not kept in ``detect``): the change-point fit takes a change out, a recording that misfits the prior
+more than the nominal did gets records at its own level (higher thresholds), one that does not, and a
+changed one whose change the fit explains, keep the nominal's level."""
+
+from __future__ import annotations
+
+from copy import deepcopy
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from benchmarks.bench_detect_structure import redecide
+from benchmarks.detect_ownmisfit import change_removed, own_misfit, robust_sigmas, with_own
+from diagnose.recording import write_csv
+from identify.detect.api import fit_prior, hull_inertia, screen, simulated_recording
+from identify.detect.nullsim import misfit_offsets
+from identify.detect.vessel import Vessel
+from identify.detect.yawmodel import block_mean, robust_sigma, whiten
+
+HULL = dict(zip(("i_z", "n_rdot"), hull_inertia("naval-vessel")))
+
+
+def test_a_step_change_along_a_signature_is_taken_out():
+    rng = np.random.default_rng(5)
+    nb = 300
+    Sw = rng.standard_normal((nb, 3)).cumsum(axis=0) / 10
+    noise = 0.1 * rng.standard_normal((nb, 4))
+    ew = noise.copy()
+    ew[120:, 1] += 2.0 * Sw[120:, 2]  # a change along candidate 2 from block 120
+    ew[:, 2] += 2.0 * Sw[:, 0]  # along candidate 0 from the start
+    s = robust_sigmas(change_removed(ew, Sw))
+    assert robust_sigmas(ew)[1] > 3 * s[1]  # the change dominated the column's level
+    np.testing.assert_allclose(s, robust_sigmas(noise), rtol=0.1)
+    assert robust_sigmas(ew[:, :1])[0] == pytest.approx(robust_sigma(ew[:, 0]))
+
+
+@pytest.fixture(scope="module")
+def setup(tmp_path_factory):
+    path = tmp_path_factory.mktemp("own") / "nominal.csv"
+    write_csv(simulated_recording(Vessel(), 400, seed=31, measured_moment=True), path)
+    prior = fit_prior([path], "full", bootstrap=16)
+    rec = simulated_recording(Vessel(), 300, seed=32, measured_moment=True)
+    return prior, rec, screen(rec, prior, null_runs=200, **HULL)
+
+
+def test_a_recording_that_misfits_more_than_the_nominal_gets_higher_thresholds(setup):
+    prior, rec, base = setup
+    assert with_own(base, prior, "robust")[1] == 0.0  # the prior's own model: nothing beyond the nominal's level
+    extra = 2.0 * prior.sigma_w  # structural misfit the nominal did not show, AR-coloured 1 s blocks
+    worse = deepcopy(rec)
+    worse.y[:, 2] += misfit_offsets(replace(prior, model_error=extra), len(rec.t), 1, np.random.default_rng(8))[:, 0]
+    sc = screen(worse, prior, null_runs=200, **HULL)
+    own, got = with_own(sc, prior, "robust")
+    assert got == pytest.approx(extra, rel=0.25)
+    assert np.all(redecide(own, prior).threshold > 1.5 * base.h)
+
+
+def test_a_changed_recording_does_not_raise_its_own_threshold(setup):
+    prior = setup[0]
+    rec = simulated_recording(Vessel(), 300, seed=32, change_at_s=100, changed=Vessel(damping=1.3), measured_moment=True)
+    sc = screen(rec, prior, null_runs=200, **HULL)
+    Sw = whiten(block_mean(sc.S, prior.block), prior.ar)
+    ew = whiten(block_mean(sc.eps, prior.block)[: len(Sw), None], prior.ar)
+    # the change raises the residual's level well over the gate; with its fit taken out it is the nominal's
+    assert robust_sigmas(ew)[0] > 1.2 * robust_sigmas(change_removed(ew, Sw))[0]
+    assert own_misfit(prior, sc.eps, sc.S, sc.null_blocks) == 0.0
+    assert (sc.st / sc.h).max() > 1.0  # and it alarms
