@@ -34,7 +34,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from primitives.io import newest_first, prune_to_budget, remove_stale_temporaries, user_cache_dir
+from primitives.io import hash_sources, newest_first, prune_to_budget, remove_stale_temporaries, user_cache_dir
 
 ENV_DIR = "SHIPTRIAL_CACHE_DIR"  # the cache directory; set to "" to use no cache
 MAGIC = b"shiptrial-plan-cache 1\n"
@@ -58,11 +58,7 @@ def default_dir() -> Path | None:
 def code_version() -> str:
     """Digest of the code a plan is computed with: the project's source and data files (path and
     bytes), the versions of Python and of the numerical libraries, and the kernel choice."""
-    h = hashlib.sha256(sys.version.encode())
-    for pkg in PACKAGES:
-        for p in sorted((ROOT / pkg).rglob("*")):
-            if p.suffix in SUFFIXES and "__pycache__" not in p.parts:
-                h.update(str(p.relative_to(ROOT)).encode() + b"\0" + p.read_bytes() + b"\0")
+    h = hash_sources(hashlib.sha256(sys.version.encode()), ROOT, PACKAGES, SUFFIXES)
     h.update(_versions(LIBRARIES))
     h.update(os.environ.get("SHIPTRIAL_KERNEL", "").encode())
     return h.hexdigest()

@@ -102,6 +102,17 @@ def remove_stale_temporaries(directory: Path, suffixes: tuple[str, ...], age_s: 
             tmp.unlink(missing_ok=True)
 
 
+def hash_sources(h: Any, root: Path, packages: Sequence[str], suffixes: Sequence[str] = (".py",)) -> Any:
+    """``h`` (a hashlib object) updated with every file of ``packages`` under ``root`` whose suffix is in
+    ``suffixes``, path and bytes, in sorted order, ``__pycache__`` left out: a cache's digest of the code
+    its entries were computed with."""
+    for pkg in packages:
+        for p in sorted((root / pkg).rglob("*")):
+            if p.suffix in suffixes and "__pycache__" not in p.parts and p.is_file():
+                h.update(str(p.relative_to(root)).encode() + b"\0" + p.read_bytes() + b"\0")
+    return h
+
+
 def atomic_write_bytes(path: str | Path, data: bytes | Sequence[bytes | memoryview]) -> Path:
     """Write to a temporary file beside ``path`` and rename: never a half-written file. ``data`` may be a
     sequence of buffers, written one after another (a large cache entry is not joined in memory first)."""

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from primitives.io import atomic_write_bytes, prune_to_budget, remove_stale_temporaries, user_cache_dir
+from primitives.io import atomic_write_bytes, hash_sources, prune_to_budget, remove_stale_temporaries, user_cache_dir
 
 ENV_DIR = "SHIPTRIAL_DETECT_CACHE_DIR"  # this cache's directory; "" for none
 ENV_PLANNER = "SHIPTRIAL_CACHE_DIR"  # the planner's cache directory (maps.plancache); "" turns this cache off too
@@ -95,12 +95,7 @@ def active() -> bool:
 def code_version() -> str:
     """Digest of the code an entry is computed with: Python's and numpy's versions (the generator's
     draws) and every source of :data:`PACKAGES` (path and bytes)."""
-    h = hashlib.sha256(f"{sys.version}\0numpy={np.__version__}\0".encode())
-    for pkg in PACKAGES:
-        for p in sorted((ROOT / pkg).rglob("*.py")):
-            if "__pycache__" not in p.parts:
-                h.update(str(p.relative_to(ROOT)).encode() + b"\0" + p.read_bytes() + b"\0")
-    return h.hexdigest()
+    return hash_sources(hashlib.sha256(f"{sys.version}\0numpy={np.__version__}\0".encode()), ROOT, PACKAGES).hexdigest()
 
 
 def key(*parts: object) -> str:
