@@ -16,7 +16,9 @@ changed run's own change must not raise its threshold):
   ``max(model_error, run's own)``. The offsets are constant over a 1 s block, so adding their block
   means to a stored screening's records gives the block means screening with them gives (to rounding).
 * bootstrap (:func:`own_bootstrap`): the records' AR term (regenerated: :func:`stored_offsets`)
-  replaced by a circular block bootstrap of the run's own post-fit block residual.
+  replaced by a circular block bootstrap of the run's own post-fit block residual; ``bootpL`` (stop 49,
+  continued): only its part orthogonal to the signatures and the fitted step (:func:`projected`). Neither
+  wins the hold-out's power back (docs/detect-accuracy.md; ``benchmarks/detect_ownboot_diag.py``).
 """
 
 from __future__ import annotations
@@ -120,17 +122,29 @@ def stored_offsets(prior: YawPrior, n: int, runs: int) -> np.ndarray:
     return block_mean(misfit_offsets(prior, n, runs, None, _INNOVATIONS[k]), prior.block)
 
 
-def own_bootstrap(sc, prior: YawPrior, length: int, seed: int = 0):
+def projected(res: np.ndarray, Sb: np.ndarray, step: np.ndarray | None = None) -> np.ndarray:
+    """Block residual ``res`` (nb,) less its least-squares fit on a constant, the signatures ``Sb`` (nb, k)
+    and, if given, the change-point fit's step column ``step`` (nb,): ``(I - X (X'X)^+ X') res``, the
+    part orthogonal to every column of ``X`` (stop 49, continued: a change's own signal, whole-record
+    or from ``tau``, cannot then enter the records and raise its own threshold)."""
+    cols = [np.ones(len(res)), *np.asarray(Sb, float).T] + ([] if step is None else [step])
+    X = np.column_stack(cols)
+    coef = np.linalg.lstsq(X, res, rcond=None)[0]
+    return res - X @ coef
+
+
+def own_bootstrap(sc, prior: YawPrior, length: int, seed: int = 0, project: bool = False):
     """``sc`` with its records' AR misfit term (:func:`stored_offsets`) replaced by a circular block
     bootstrap (blocks of ``length`` 1 s blocks) of the run's own block residual, centred, after its best
-    change-point fit (:func:`change_fits`): the run's own misfit, in its own spectrum."""
+    change-point fit (:func:`change_fits`): the run's own misfit, in its own spectrum. ``project``: only
+    the part orthogonal to the signatures and the fitted step is resampled (:func:`projected`)."""
     nb, runs = sc.null_blocks.shape
     base = sc.null_blocks - stored_offsets(prior, len(sc.eps), runs)[:nb]
     Sb = block_mean(sc.S, prior.block)[:nb]
     eb = block_mean(sc.eps, prior.block)[:nb]
     tau, k, theta = (x[0] for x in change_fits(whiten(eb, prior.ar)[:, None], whiten(Sb, prior.ar)))
-    res = eb.copy()
-    res[tau:] -= theta * Sb[tau:, k]
+    step = np.where(np.arange(nb) >= tau, Sb[:, k], 0.0)
+    res = projected(eb, Sb, step) if project else eb - theta * step
     res -= res.mean()
     starts = np.random.default_rng([seed, 13]).integers(0, nb, size=(runs, -(-nb // length)))
     idx = (starts[:, :, None] + np.arange(length)).reshape(runs, -1)[:, :nb] % nb
@@ -139,10 +153,13 @@ def own_bootstrap(sc, prior: YawPrior, length: int, seed: int = 0):
 
 def with_own(sc, prior: YawPrior, setting: str = "stored") -> tuple:
     """The stored screening ``sc`` with its records' misfit as ``setting`` says (:data:`OWN`, or
-    ``bootL``: :func:`own_bootstrap` with blocks of L s), and the innovation sd a level setting added
+    ``bootL``: :func:`own_bootstrap` with blocks of L s; ``bootpL``: the same of the part orthogonal to
+    the signatures, :func:`projected`), and the innovation sd a level setting added
     (0 else); the dead-zone CUSUM's threshold stays as stored (it only drops alarms)."""
     if setting == "stored":
         return sc, 0.0
+    if setting.startswith("bootp"):
+        return own_bootstrap(sc, prior, int(setting[5:]), project=True), 0.0
     if setting.startswith("boot"):
         return own_bootstrap(sc, prior, int(setting[4:])), 0.0
     gate, level = OWN[setting]

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from benchmarks.bench_detect_structure import redecide
-from benchmarks.detect_ownmisfit import change_removed, own_misfit, robust_sigmas, with_own
+from benchmarks.detect_ownmisfit import change_removed, own_misfit, projected, robust_sigmas, with_own
 from diagnose.recording import write_csv
 from identify.detect.api import fit_prior, hull_inertia, screen, simulated_recording
 from identify.detect.nullsim import misfit_offsets
@@ -57,13 +57,40 @@ def test_a_recording_that_misfits_more_than_the_nominal_gets_higher_thresholds(s
     assert np.all(redecide(own, prior).threshold > 1.5 * base.h)
 
 
-def test_a_changed_recording_does_not_raise_its_own_threshold(setup):
+@pytest.fixture(scope="module")
+def changed(setup):
     prior = setup[0]
     rec = simulated_recording(Vessel(), 300, seed=32, change_at_s=100, changed=Vessel(damping=1.3), measured_moment=True)
-    sc = screen(rec, prior, null_runs=200, **HULL)
+    return screen(rec, prior, null_runs=200, **HULL)
+
+
+def test_a_changed_recording_does_not_raise_its_own_threshold(setup, changed):
+    prior, sc = setup[0], changed
     Sw = whiten(block_mean(sc.S, prior.block), prior.ar)
     ew = whiten(block_mean(sc.eps, prior.block)[: len(Sw), None], prior.ar)
     # the change raises the residual's level well over the gate; with its fit taken out it is the nominal's
     assert robust_sigmas(ew)[0] > 1.2 * robust_sigmas(change_removed(ew, Sw))[0]
     assert own_misfit(prior, sc.eps, sc.S, sc.null_blocks) == 0.0
     assert (sc.st / sc.h).max() > 1.0  # and it alarms
+
+
+def test_the_projected_residual_is_orthogonal_to_the_signatures_and_the_step():
+    rng = np.random.default_rng(7)
+    nb = 300
+    Sb = rng.standard_normal((nb, 3)).cumsum(axis=0) / 10
+    step = np.where(np.arange(nb) >= 120, Sb[:, 1], 0.0)
+    noise = 0.1 * rng.standard_normal(nb)
+    res = noise + 3.0 + 2.0 * Sb[:, 0] - Sb[:, 2] + 1.5 * step  # offset, whole-record and step changes
+    p = projected(res, Sb, step)
+    X = np.column_stack([np.ones(nb), Sb, step])
+    np.testing.assert_allclose(X.T @ p, 0.0, atol=1e-9 * np.abs(X.T @ res).max())
+    np.testing.assert_allclose(p, projected(noise, Sb, step), atol=1e-12)  # the changes leave no trace
+    assert np.linalg.norm(p) <= np.linalg.norm(noise - noise.mean())  # a projection only ever shrinks it
+    assert np.linalg.norm(p) > 0.9 * np.linalg.norm(noise - noise.mean())  # 5 of 300 dimensions taken out
+
+
+def test_the_projected_bootstrap_keeps_a_change_alarming(setup, changed):
+    prior, sc = setup[0], changed
+    own = with_own(sc, prior, "bootp30")[0]
+    assert own.null_blocks.shape == sc.null_blocks.shape and not np.allclose(own.null_blocks, sc.null_blocks)
+    assert redecide(own, prior).changed  # the +30 % damping change's own signal did not mask it

@@ -1,0 +1,79 @@
+"""Why the run's own-residual bootstrap loses power (issue 25, stop 49 continued; docs/detect-accuracy.md):
+per variant of a stored cache, on the changed runs, the detected share with the stored records and with
+``--own-misfit`` settings, the re-decided thresholds over the stored ones, the resampled residual's variance
+over the stored AR term's, and the share of it that is noise the records already carry.
+
+    python benchmarks/detect_ownboot_diag.py --cache /work/wt/dcache-main-108:8667c7204102:108:2
+"""
+
+from __future__ import annotations
+
+import argparse
+import pickle
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.bench_detect_calibration import VARIANTS
+from benchmarks.bench_detect_structure import _one, redecide
+from benchmarks.bench_detect_truth import BATCH, HULL, change_times
+from benchmarks.detect_ownmisfit import change_fits, projected, stored_offsets, with_own
+from identify.detect.verdict import implausible_inertia
+from identify.detect.yawmodel import block_mean, whiten
+
+
+def variances(sc, prior) -> tuple[float, float, float]:
+    """(records' own noise, the projected residual ``bootpL`` resamples, the stored AR term): variances of
+    the block means; the records' noise is the stored records less the regenerated term (``stored_offsets``)."""
+    nb, runs = sc.null_blocks.shape
+    so = stored_offsets(prior, len(sc.eps), runs)[:nb]
+    base = sc.null_blocks - so
+    Sb, eb = block_mean(sc.S, prior.block)[:nb], block_mean(sc.eps, prior.block)[:nb]
+    tau, k, _ = (x[0] for x in change_fits(whiten(eb, prior.ar)[:, None], whiten(Sb, prior.ar)))
+    res = projected(eb, Sb, np.where(np.arange(nb) >= tau, Sb[:, k], 0.0))
+    return float(np.var(base - base.mean(axis=0))), float(np.var(res)), float(np.var(so))
+
+
+def variant_rows(spec: str, variant: str, settings: tuple[str, ...]) -> dict:
+    """Per changed run: detected (stored and each setting), median threshold ratio per setting, variances."""
+    folder, key, first, ships = spec.split(":")
+    out: dict = {"detected": {s: [] for s in ("stored", *settings)}, "h": {s: [] for s in settings}, "var": []}
+    for ship in range(int(first), int(first) + int(ships)):
+        prior = pickle.loads(_one(Path(folder), f"{variant}-{ship}-nominal-*-0-prior-{key}.pkl").read_bytes())
+        if implausible_inertia(prior, **HULL):
+            continue
+        for i, ch in enumerate(change_times(ship, 10)):
+            if ch is None:
+                continue
+            b, j = BATCH * (i // BATCH), i % BATCH  # the truth bench's batches
+            sc = pickle.loads(_one(Path(folder), f"{variant}-{ship}-10-{b}-*-{j}-screen-{key}.pkl").read_bytes())
+            d0 = redecide(sc, prior)
+            out["detected"]["stored"].append(d0.alarm_s is not None)
+            for s in settings:
+                d = redecide(with_own(sc, prior, s)[0], prior)
+                out["detected"][s].append(d.alarm_s is not None)
+                out["h"][s].append(float(np.median(d.threshold / d0.threshold)))
+            out["var"].append(variances(sc, prior))
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cache", required=True, help="folder:key:first ship:ships (read only)")
+    ap.add_argument("--settings", nargs="*", default=["boot30", "bootp30", "bootp100"])
+    a = ap.parse_args()
+    warnings.simplefilter("ignore", RuntimeWarning)
+    for v in VARIANTS:
+        r = variant_rows(a.cache, v, tuple(a.settings))
+        det = " ".join(f"{s} {100 * np.mean(x):.0f}" for s, x in r["detected"].items())
+        h = " ".join(f"{s} {np.median(x):.2f}" for s, x in r["h"].items())
+        noise, res, term = np.array(r["var"]).T
+        print(f"{v:20s} changed runs detected %: {det}; median h / stored h: {h}")
+        print(
+            f"{'':20s} resampled var / stored term var {np.median(res / term):.2f}; noise counted twice {np.median(noise / res):.3f}"
+        )
+
+
+if __name__ == "__main__":
+    main()
