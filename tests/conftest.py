@@ -34,3 +34,20 @@ def kvlcc2():
     from primitives.ship import load_profile
 
     return load_profile("kvlcc2")
+
+
+@pytest.fixture(scope="session")
+def detect_screening(tmp_path_factory):
+    """(prior, recording, screening): a full-model prior fitted on a 400 s simulated nominal run (16
+    bootstrap refits) and an unchanged 300 s run screened against it with 200 no-change records; read,
+    never changed, by the detector's calibration tests."""
+    from diagnose.recording import write_csv
+    from identify.detect.api import fit_prior, hull_inertia, screen, simulated_recording
+    from identify.detect.vessel import Vessel
+
+    path = tmp_path_factory.mktemp("detect") / "nominal.csv"
+    write_csv(simulated_recording(Vessel(), 400, seed=31, measured_moment=True), path)
+    prior = fit_prior([path], "full", bootstrap=16)
+    rec = simulated_recording(Vessel(), 300, seed=32, measured_moment=True)
+    hull = dict(zip(("i_z", "n_rdot"), hull_inertia("naval-vessel")))
+    return prior, rec, screen(rec, prior, null_runs=200, **hull)

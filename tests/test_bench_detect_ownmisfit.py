@@ -13,8 +13,7 @@ import pytest
 
 from benchmarks.bench_detect_structure import redecide
 from benchmarks.detect_ownmisfit import change_removed, own_misfit, projected, robust_sigmas, with_own
-from diagnose.recording import write_csv
-from identify.detect.api import fit_prior, hull_inertia, screen, simulated_recording
+from identify.detect.api import hull_inertia, screen, simulated_recording
 from identify.detect.nullsim import misfit_offsets
 from identify.detect.vessel import Vessel
 from identify.detect.yawmodel import block_mean, robust_sigma, whiten
@@ -37,12 +36,8 @@ def test_a_step_change_along_a_signature_is_taken_out():
 
 
 @pytest.fixture(scope="module")
-def setup(tmp_path_factory):
-    path = tmp_path_factory.mktemp("own") / "nominal.csv"
-    write_csv(simulated_recording(Vessel(), 400, seed=31, measured_moment=True), path)
-    prior = fit_prior([path], "full", bootstrap=16)
-    rec = simulated_recording(Vessel(), 300, seed=32, measured_moment=True)
-    return prior, rec, screen(rec, prior, null_runs=200, **HULL)
+def setup(detect_screening):
+    return detect_screening
 
 
 def test_a_recording_that_misfits_more_than_the_nominal_gets_higher_thresholds(setup):

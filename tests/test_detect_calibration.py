@@ -7,12 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from diagnose.recording import write_csv
-from identify.detect.api import fit_prior, hull_inertia, screen, simulated_recording
 from identify.detect.glr import calibrate, exceedance_level, null_peaks
-from identify.detect.vessel import Vessel
-
-HULL = dict(zip(("i_z", "n_rdot"), hull_inertia("naval-vessel")))
 
 
 def _peaks(rng, m, scale=1.0):
@@ -37,12 +32,9 @@ def test_levels_of_recordings_that_spread_more_than_the_null_are_low():
 
 
 @pytest.fixture(scope="module")
-def screened(tmp_path_factory):
-    path = tmp_path_factory.mktemp("calib") / "nominal.csv"
-    write_csv(simulated_recording(Vessel(), 400, seed=31, measured_moment=True), path)
-    prior = fit_prior([path], "full", bootstrap=16)
-    rec = simulated_recording(Vessel(), 300, seed=32, measured_moment=True)
-    return prior, screen(rec, prior, null_runs=200, **HULL)
+def screened(detect_screening):
+    prior, _, sc = detect_screening
+    return prior, sc
 
 
 def test_the_records_calibrate_alarms_on_are_those_with_a_level_below_the_design_rate(screened):
