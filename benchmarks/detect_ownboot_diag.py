@@ -18,20 +18,18 @@ import numpy as np
 from benchmarks.bench_detect_calibration import VARIANTS
 from benchmarks.bench_detect_structure import _one, redecide
 from benchmarks.bench_detect_truth import BATCH, HULL, change_times
-from benchmarks.detect_ownmisfit import change_fits, projected, stored_offsets, with_own
-from identify.detect.verdict import implausible_inertia
-from identify.detect.yawmodel import block_mean, whiten
+from benchmarks.detect_ownmisfit import post_fit_residual, stored_offsets, with_own
+from identify.detect.verdict import Screening, implausible_inertia
+from identify.detect.yawmodel import YawPrior
 
 
-def variances(sc, prior) -> tuple[float, float, float]:
+def variances(sc: Screening, prior: YawPrior) -> tuple[float, float, float]:
     """(records' own noise, the projected residual ``bootpL`` resamples, the stored AR term): variances of
     the block means; the records' noise is the stored records less the regenerated term (``stored_offsets``)."""
     nb, runs = sc.null_blocks.shape
     so = stored_offsets(prior, len(sc.eps), runs)[:nb]
     base = sc.null_blocks - so
-    Sb, eb = block_mean(sc.S, prior.block)[:nb], block_mean(sc.eps, prior.block)[:nb]
-    tau, k, _ = (x[0] for x in change_fits(whiten(eb, prior.ar)[:, None], whiten(Sb, prior.ar)))
-    res = projected(eb, Sb, np.where(np.arange(nb) >= tau, Sb[:, k], 0.0))
+    res = post_fit_residual(sc, prior, project=True)
     return float(np.var(base - base.mean(axis=0))), float(np.var(res)), float(np.var(so))
 
 

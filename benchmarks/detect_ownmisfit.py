@@ -28,6 +28,7 @@ from dataclasses import replace
 import numpy as np
 
 from identify.detect.nullsim import misfit_offsets, normals
+from identify.detect.verdict import Screening
 from identify.detect.yawmodel import YawPrior, block_mean, whiten
 
 #: the change-point fit leaves at least this many 1 s blocks after the change (a fit to the last few
@@ -133,25 +134,31 @@ def projected(res: np.ndarray, Sb: np.ndarray, step: np.ndarray | None = None) -
     return res - X @ coef
 
 
-def own_bootstrap(sc, prior: YawPrior, length: int, seed: int = 0, project: bool = False):
+def post_fit_residual(sc: Screening, prior: YawPrior, project: bool = False) -> np.ndarray:
+    """The run's block residual (nb,) after its best change-point fit (:func:`change_fits` on the whitened
+    series), or with ``project`` its part orthogonal to the signatures and that fit's step (:func:`projected`)."""
+    nb = sc.null_blocks.shape[0]
+    Sb, eb = block_mean(sc.S, prior.block)[:nb], block_mean(sc.eps, prior.block)[:nb]
+    tau, k, theta = (x[0] for x in change_fits(whiten(eb, prior.ar)[:, None], whiten(Sb, prior.ar)))
+    step = np.where(np.arange(nb) >= tau, Sb[:, k], 0.0)
+    return projected(eb, Sb, step) if project else eb - theta * step
+
+
+def own_bootstrap(sc: Screening, prior: YawPrior, length: int, seed: int = 0, project: bool = False) -> Screening:
     """``sc`` with its records' AR misfit term (:func:`stored_offsets`) replaced by a circular block
     bootstrap (blocks of ``length`` 1 s blocks) of the run's own block residual, centred, after its best
     change-point fit (:func:`change_fits`): the run's own misfit, in its own spectrum. ``project``: only
     the part orthogonal to the signatures and the fitted step is resampled (:func:`projected`)."""
     nb, runs = sc.null_blocks.shape
     base = sc.null_blocks - stored_offsets(prior, len(sc.eps), runs)[:nb]
-    Sb = block_mean(sc.S, prior.block)[:nb]
-    eb = block_mean(sc.eps, prior.block)[:nb]
-    tau, k, theta = (x[0] for x in change_fits(whiten(eb, prior.ar)[:, None], whiten(Sb, prior.ar)))
-    step = np.where(np.arange(nb) >= tau, Sb[:, k], 0.0)
-    res = projected(eb, Sb, step) if project else eb - theta * step
+    res = post_fit_residual(sc, prior, project)
     res -= res.mean()
     starts = np.random.default_rng([seed, 13]).integers(0, nb, size=(runs, -(-nb // length)))
     idx = (starts[:, :, None] + np.arange(length)).reshape(runs, -1)[:, :nb] % nb
     return replace(sc, null_blocks=base + res[idx].T)
 
 
-def with_own(sc, prior: YawPrior, setting: str = "stored") -> tuple:
+def with_own(sc: Screening, prior: YawPrior, setting: str = "stored") -> tuple[Screening, float]:
     """The stored screening ``sc`` with its records' misfit as ``setting`` says (:data:`OWN`, or
     ``bootL``: :func:`own_bootstrap` with blocks of L s; ``bootpL``: the same of the part orthogonal to
     the signatures, :func:`projected`), and the innovation sd a level setting added

@@ -43,7 +43,7 @@ BASELINE_PATIENCE = 2
 # name (plausible.MIN_VISIBLE), and never more than the noise itself (PINNED_SD, the former rule:
 # MMG KVLCC2, the declared structure fitted on one 35 deg turning circle, 133-1548 on zig-zags;
 # fitted on both turns and the 10/10 zig-zag 0.84-1.08 on the 20/20 at the battery's length, 0.53 at 3,500
-# samples, which mostly passed it and gave wrong findings; at this limit, 0.2 there, 'cannot tell', README).
+# samples, which mostly passed it and gave wrong findings; at this limit, 0.2 there, 'cannot tell', docs/diagnose-method.md).
 PINNED_SD = 1.0
 
 

@@ -105,7 +105,8 @@ def remove_stale_temporaries(directory: Path, suffixes: tuple[str, ...], age_s: 
 def hash_sources(h: Any, root: Path, packages: Sequence[str], suffixes: Sequence[str] = (".py",)) -> Any:
     """``h`` (a hashlib object) updated with every file of ``packages`` under ``root`` whose suffix is in
     ``suffixes``, path and bytes, in sorted order, ``__pycache__`` left out: a cache's digest of the code
-    its entries were computed with."""
+    its entries were computed with. Only regular files count (a directory or a dangling link whose name ends
+    in a listed suffix is passed over, not read)."""
     for pkg in packages:
         for p in sorted((root / pkg).rglob("*")):
             if p.suffix in suffixes and "__pycache__" not in p.parts and p.is_file():

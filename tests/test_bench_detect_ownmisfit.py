@@ -35,13 +35,9 @@ def test_a_step_change_along_a_signature_is_taken_out():
     assert robust_sigmas(ew[:, :1])[0] == pytest.approx(robust_sigma(ew[:, 0]))
 
 
-@pytest.fixture(scope="module")
-def setup(detect_screening):
-    return detect_screening
-
-
-def test_a_recording_that_misfits_more_than_the_nominal_gets_higher_thresholds(setup):
-    prior, rec, base = setup
+@pytest.mark.slow  # two 300 s screenings of 200 records: benchmark code of an experiment not kept (stop 49)
+def test_a_recording_that_misfits_more_than_the_nominal_gets_higher_thresholds(detect_screening):
+    prior, rec, base = detect_screening
     assert with_own(base, prior, "robust")[1] == 0.0  # the prior's own model: nothing beyond the nominal's level
     extra = 2.0 * prior.sigma_w  # structural misfit the nominal did not show, AR-coloured 1 s blocks
     worse = deepcopy(rec)
@@ -53,14 +49,15 @@ def test_a_recording_that_misfits_more_than_the_nominal_gets_higher_thresholds(s
 
 
 @pytest.fixture(scope="module")
-def changed(setup):
-    prior = setup[0]
+def changed(detect_screening):
+    prior = detect_screening[0]
     rec = simulated_recording(Vessel(), 300, seed=32, change_at_s=100, changed=Vessel(damping=1.3), measured_moment=True)
     return screen(rec, prior, null_runs=200, **HULL)
 
 
-def test_a_changed_recording_does_not_raise_its_own_threshold(setup, changed):
-    prior, sc = setup[0], changed
+@pytest.mark.slow
+def test_a_changed_recording_does_not_raise_its_own_threshold(detect_screening, changed):
+    prior, sc = detect_screening[0], changed
     Sw = whiten(block_mean(sc.S, prior.block), prior.ar)
     ew = whiten(block_mean(sc.eps, prior.block)[: len(Sw), None], prior.ar)
     # the change raises the residual's level well over the gate; with its fit taken out it is the nominal's
@@ -84,8 +81,9 @@ def test_the_projected_residual_is_orthogonal_to_the_signatures_and_the_step():
     assert np.linalg.norm(p) > 0.9 * np.linalg.norm(noise - noise.mean())  # 5 of 300 dimensions taken out
 
 
-def test_the_projected_bootstrap_keeps_a_change_alarming(setup, changed):
-    prior, sc = setup[0], changed
+@pytest.mark.slow
+def test_the_projected_bootstrap_keeps_a_change_alarming(detect_screening, changed):
+    prior, sc = detect_screening[0], changed
     own = with_own(sc, prior, "bootp30")[0]
     assert own.null_blocks.shape == sc.null_blocks.shape and not np.allclose(own.null_blocks, sc.null_blocks)
     assert redecide(own, prior).changed  # the +30 % damping change's own signal did not mask it

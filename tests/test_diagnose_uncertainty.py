@@ -371,7 +371,7 @@ def test_the_within_run_term_covers_a_misfit_that_wanders_along_the_runs_and_lea
 
 def test_without_fit_on_runs_the_within_run_part_keeps_the_run_to_run_column():
     """Two diagnosed runs and no --fit-on: the interval holds the within-run part, so its noise and
-    run-to-run part is printed apart (``*_std_runs``), as the README says, and is no wider."""
+    run-to-run part is printed apart (``*_std_runs``), as docs/diagnose-method.md says, and is no wider."""
     from diagnose.api import run
     from primitives.ship import load_profile
     from tests.test_diagnose_heldout import _sampled_run

@@ -185,3 +185,35 @@ def test_to_jsonable_arrays_give_plain_numbers_and_none_for_non_finite():
     kinds = {type(v) for v in (out["f"][0][0], out["f32"][0], out["i"][0], out["b"][0], out["f0"])}
     assert kinds == {float, int, bool}
     json.dumps(out, allow_nan=False)
+
+
+def test_a_caches_source_digest_changes_with_any_source_file_and_nothing_else(tmp_path):
+    """``hash_sources`` (the plan cache's and detect's noise cache's code version): every file of the
+    packages with a listed suffix, path and bytes, in sorted order; compiled bytecode and other files
+    left out, so an edit, a rename or a new module gives another key and a run that only writes
+    ``__pycache__`` does not."""
+    import hashlib
+
+    from primitives.io import hash_sources
+
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "a.py").write_text("x = 1\n")
+    (pkg / "sub" / "b.py").write_text("y = 2\n")
+    (pkg / "data.toml").write_text("k = 3\n")
+
+    def digest(suffixes=(".py",)):
+        return hash_sources(hashlib.sha256(b"v"), tmp_path, ("pkg",), suffixes).hexdigest()
+
+    want = hashlib.sha256(b"v")
+    for rel in ("pkg/a.py", "pkg/sub/b.py"):  # sorted paths, each "path\0bytes\0"
+        want.update(rel.encode() + b"\0" + (tmp_path / rel).read_bytes() + b"\0")
+    before = digest()
+    assert before == want.hexdigest()
+    (pkg / "__pycache__").mkdir()
+    (pkg / "__pycache__" / "a.cpython-311.py").write_text("compiled")
+    (pkg / "notes.txt").write_text("not a source")
+    assert digest() == before
+    assert digest((".py", ".toml")) != before  # data files where the cache lists them
+    (pkg / "sub" / "b.py").write_text("y = 3\n")
+    assert digest() != before

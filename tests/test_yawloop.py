@@ -66,6 +66,7 @@ def test_compiled_loop_gives_the_numpy_loops_bits(name: str, layout: str, monkey
     assert yawloop.usable(model, w, b, n)  # every term of the model is one the loop knows
     fast, _ = simulate_yaw(model, theta, w, r0, 0.1, sensitivities=False)
     monkeypatch.setattr(yawloop, "usable", lambda *a: False)
+    monkeypatch.setattr(yawloop, "stepped", lambda *a: False)  # against the generic loop, not simulate_numpy
     slow, _ = simulate_yaw(model, theta, w, r0, 0.1, sensitivities=False)
     assert np.abs(slow).max() > 1e-3  # the ship turns: a loop that returned r0 would not pass
     assert np.array_equal(fast, slow)
@@ -110,6 +111,14 @@ def test_stepped_numpy_loop_gives_the_generic_loops_bits(name: str, layout: str,
     slow, _ = simulate_yaw(model, theta, w, r0, 0.1, sensitivities=False)
     assert np.abs(slow).max() > 1e-3 and np.isfinite(slow).all()  # the ship turns, nothing diverged
     assert fast.shape == slow.shape and fast.tobytes() == np.ascontiguousarray(slow).tobytes()
+
+
+def test_the_stepped_loop_takes_only_float64_signals() -> None:
+    """Without numba too: float32 or integer signals run the generic loop in their own arithmetic."""
+    w = _inputs(3, 50, 1)
+    assert yawloop.stepped(FULL_P, w)
+    for dtype in (np.float32, np.int64):
+        assert not yawloop.stepped(FULL_P, {**w, "u": w["u"].astype(dtype)})
 
 
 def test_the_loop_knows_every_term_of_the_yaw_models() -> None:

@@ -1,6 +1,7 @@
-"""The yaw row's time loop without sensitivities, compiled with numba (:mod:`primitives.jitloop`):
-the explicit Euler step of (2.17)/(2.18) of :func:`identify.yawid.estimate.simulate_yaw` over every
-step and batch member in machine code.
+"""The yaw row's time loop without sensitivities: the explicit Euler step of (2.17)/(2.18) of
+:func:`identify.yawid.estimate.simulate_yaw` over every step and batch member, compiled with numba
+(:mod:`primitives.jitloop`; :func:`simulate`) for large batches, and in numpy without the generic loop's
+per-term calls (:func:`simulate_numpy`) otherwise: both the generic loop's bits.
 
 A change detector simulates 400 no-change records of a 500 s recording twice per recording
 (:mod:`identify.detect.nullsim`); in numpy each of the 5,000 steps made about twenty array
@@ -25,6 +26,9 @@ INPUT_CODES = {"M_v": 0, "N_uv": 1, "N_phiuv": 2, "N_phiuu": 3, "N_p": 4}
 STATE_CODES = {"A": 0, "N_rr": 1, "N_rv": 2, "N_phiur": 3}
 #: the measured signals the loop reads, in its argument order
 SIGNALS = ("tau_r", "u", "v", "v_dot", "phi", "p")
+#: :func:`simulate_numpy`'s state terms: how each multiplies the yaw rate (0 ``r |r|``, 1 ``x |r|``, 2 ``x r``)
+#: and the signals its factor ``x`` is made of (``u``; none; ``|v|``; ``phi u``)
+STEPPED = {"A": (2, ("u",)), "N_rr": (0, ()), "N_rv": (2, ("v",)), "N_phiur": (1, ("phi", "u"))}
 
 
 _R = "Array(float64, 2, 'A', readonly=True)"  # any strides: transposed, time-reversed or broadcast views, no copies
@@ -104,20 +108,21 @@ def simulate(model: YawModel, theta: np.ndarray, col: dict[str, int], w: dict[st
 
 def stepped(model: YawModel, w: dict[str, np.ndarray]) -> bool:
     """Whether :func:`simulate_numpy` runs this model on ``w``: every state term known to it and the
-    signals it reads native float64 (other types run the generic loop, in their own arithmetic)."""
-    if not all(t in STATE_CODES for t in model.state_terms) or "tau_r" not in w:
+    signals those terms read native float64 (other types run the generic loop, in their own arithmetic)."""
+    if not all(t in STEPPED for t in model.state_terms):
         return False
-    return all(k in w and np.asarray(w[k]).dtype == np.float64 for k in ("u", "v", "phi") if _reads(model, k))
-
-
-def _reads(model: YawModel, key: str) -> bool:
-    """Whether the state terms of ``model`` read the signal ``key`` in the time loop."""
-    need = {"A": {"u"}, "N_rr": set(), "N_rv": {"v"}, "N_phiur": {"phi", "u"}}
-    return any(key in need[t] for t in model.state_terms)
+    read = {k for t in model.state_terms for k in STEPPED[t][1]}
+    return all(k in w and np.asarray(w[k]).dtype == np.float64 for k in read)
 
 
 def simulate_numpy(
-    model: YawModel, theta: np.ndarray, col: dict[str, int], forcing: np.ndarray, w: dict[str, np.ndarray], r0, ts: float
+    model: YawModel,
+    theta: np.ndarray,
+    col: dict[str, int],
+    forcing: np.ndarray,
+    w: dict[str, np.ndarray],
+    r0: float | np.ndarray,
+    ts: float,
 ) -> np.ndarray:
     """:func:`simulate` in numpy: the explicit Euler step of (2.17)/(2.18) over the batch, one sample at a time.
 
@@ -126,27 +131,20 @@ def simulate_numpy(
     element in the same order, so the same bits: ``f = forcing + th * term`` for each state term in the
     model's order, ``r + Ts (f / I_r)``. Only what does not depend on r is taken out of the loop and done
     once over all samples (``|v|``, ``phi u``: each element the same product), and every step writes
-    into buffers: about 16 array operations a step without Python's per-term calls and dicts (a 500 s
-    recording's three yaw-row simulations in ``detect`` spent 0.6 s CPU in the generic loop)."""
+    into buffers: about 16 array operations a step without Python's per-term calls and dicts (stop 49,
+    docs/detect-accuracy.md: 5,000 steps of 64 columns 0.085-0.150 -> 0.075-0.079 s CPU)."""
     b, n = forcing.shape
     theta = np.ascontiguousarray(theta, dtype=float)
     i_r = np.ascontiguousarray(theta[:, col["I_r"]])
-    # time-major (N, B) of what each state term multiplies r or |r| by, so that step k reads one row:
-    # code 0 r |r| (N_rr), 1 x |r| (N_phiur, x = phi u), 2 x r (A, x = u; N_rv, x = |v|)
-    rows = {
-        "A": (2, lambda: np.broadcast_to(w["u"], (b, n)).T),
-        "N_rr": (0, lambda: None),
-        "N_rv": (2, lambda: np.abs(np.broadcast_to(w["v"], (b, n)).T)),
-        "N_phiur": (1, lambda: np.multiply(np.broadcast_to(w["phi"], (b, n)).T, np.broadcast_to(w["u"], (b, n)).T)),
-    }
-    plan = [(np.ascontiguousarray(theta[:, col[t]]), rows[t][0], rows[t][1]()) for t in model.state_terms]
+    # each state term's parameters, how it multiplies r (STEPPED) and its factor, time-major: step k reads one row
+    plan = [(np.ascontiguousarray(theta[:, col[t]]), STEPPED[t][0], _factor(t, w, b, n)) for t in model.state_terms]
     out = np.empty((n, b))
     if n == 0:
         return out.T
     out[0] = np.broadcast_to(np.asarray(r0, float), (b,))
     fk = np.ascontiguousarray(forcing.T)  # time-major: one contiguous row per step
     acc, tmp, ar = np.empty(b), np.empty(b), np.empty(b)
-    mul, add, absolute = np.multiply, np.add, np.abs
+    mul, add, absolute = np.multiply, np.add, np.abs  # local names: no attribute lookups in the 5,000-step loop
     need_abs = any(code < 2 for _, code, _ in plan)
     for k in range(n - 1):
         r = out[k]
@@ -166,3 +164,13 @@ def simulate_numpy(
         mul(acc, ts, out=acc)
         add(r, acc, out=out[k + 1])
     return out.T
+
+
+def _factor(term: str, w: dict[str, np.ndarray], b: int, n: int) -> np.ndarray | None:
+    """Time-major (N, B) factor ``x`` of a state term (:data:`STEPPED`), formed once over all samples."""
+    sig = {k: np.broadcast_to(w[k], (b, n)).T for k in STEPPED[term][1]}
+    if term == "N_rv":
+        return np.abs(sig["v"])
+    if term == "N_phiur":
+        return np.multiply(sig["phi"], sig["u"])
+    return sig.get("u")  # A: u; N_rr: none
