@@ -13,10 +13,11 @@ says otherwise (a first call writes the entry: time a second one). PYTHONPATH na
 
 from __future__ import annotations
 
-import functools
 import os
 import sys
 import time
+
+from benchmarks.stagetimer import time_stages
 
 t0 = time.process_time()
 import numpy  # noqa: E402,F401
@@ -37,26 +38,10 @@ t_detect = time.process_time()
 spent: dict[str, float] = {}
 
 
-def _timed(module: object, name: str, label: str | None = None) -> None:
-    """Replace ``module.name`` by a wrapper adding its CPU to ``spent[label]``."""
-    f = getattr(module, name)
-
-    @functools.wraps(f)
-    def wrapper(*args, **kwargs):
-        t = time.process_time()
-        try:
-            return f(*args, **kwargs)
-        finally:
-            key = label or name
-            spent[key] = spent.get(key, 0.0) + time.process_time() - t
-
-    setattr(module, name, wrapper)
-
-
 def main() -> None:
-    for module, name, label in [
-        (api, "load_prior", None),
-        (api, "load_runs", None),
+    stages = [
+        (api, "load_prior", "load_prior"),
+        (api, "load_runs", "load_runs"),
         (batch, "detect", "detect (library, per recording)"),
         (api, "predict_with_signatures", "  recording's prediction and signatures"),
         (api, "null_records", "  no-change records"),
@@ -65,8 +50,8 @@ def main() -> None:
         (nullsim, "_linear_inputs", "    their inputs (signal + noise)"),
         (api, "calibrate", "  LR-CUSUM calibration"),
         (api, "calibrate_dead_zone", "  dead-zone calibration"),
-    ]:
-        _timed(module, name, label)
+    ]
+    time_stages(stages, spent, time.process_time)  # the process's: numpy's BLAS threads in
     sys.argv = ["shiptrial", *sys.argv[1:]]
     saved = sys.stdout
     sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - the command's report is not the figure

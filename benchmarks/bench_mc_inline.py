@@ -28,6 +28,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.run import _design_setup  # noqa: E402
+from benchmarks.stagetimer import time_stages  # noqa: E402
 from expdesign import estimators, montecarlo, oekernel  # noqa: E402
 from expdesign.api import run_design  # noqa: E402
 from expdesign.montecarlo import evaluate_designs  # noqa: E402
@@ -45,26 +46,6 @@ STAGES = (
     (montecarlo, "validate", "validation simulation"),
     (montecarlo, "scored", "scoring"),
 )
-
-
-_STAGE_LOCK = threading.Lock()
-
-
-def _time_stages(cpu: dict[str, float]) -> None:
-    """Wrap each function of STAGES to add the CPU seconds of the thread that ran it to ``cpu``
-    under its label."""
-    for mod, name, label in STAGES:
-        fn = getattr(mod, name)
-
-        def timed(*a, _fn=fn, _label=label, **k):
-            t = time.thread_time()  # not process_time: the chunks' threads run the same stage at once
-            try:
-                return _fn(*a, **k)
-            finally:
-                with _STAGE_LOCK:  # two threads' += on one label would lose one of them
-                    cpu[_label] += time.thread_time() - t
-
-        setattr(mod, name, timed)
 
 
 def _time_threads(cpu: dict[int, float]) -> None:
@@ -89,7 +70,7 @@ def main() -> None:
     args = ap.parse_args()
     cpu_stage: dict[str, float] = collections.defaultdict(float)
     if args.stages:
-        _time_stages(cpu_stage)
+        time_stages(STAGES, cpu_stage)  # thread_time: the chunks' threads run the same stage at once
     prof, prims, _ = _design_setup()
     designs = {"optimized": run_design(prof, prims).weights, "random": "random"}
     cpu_thread: dict[int, float] = collections.defaultdict(float)

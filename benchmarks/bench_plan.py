@@ -54,6 +54,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
@@ -244,24 +245,29 @@ def _cli_run(root: Path, out: Path, env_extra: dict[str, str] | None = None, arg
     code = "from cli.app import plan_main; plan_main()"
     env = dict(os.environ, PYTHONPATH=str(root), **(env_extra or {}))  # the checkout's code, not an installed copy
     start = start or _start_time(0)
+    cmd = [sys.executable, "-c", code, "--out", str(out), "--start-time", start, *args]
+    r = timed_process(cmd, root, env, subprocess.DEVNULL)
+    if r["exit"] != 0:
+        raise RuntimeError(f"plan-trial failed: {r['stderr'].strip().splitlines()[-1] if r['stderr'].strip() else r['exit']}")
+    return {k: r[k] for k in ("wall_s", "cpu_s", "rss_gib")} | {"files": len(list(out.iterdir()))}
+
+
+def timed_process(cmd: list[str], cwd: Path, env: dict[str, str], stdout: Any) -> dict:
+    """Run ``cmd`` as one process and reap it: its wall clock, CPU (user + system of it and every child it
+    reaped), peak memory, exit code and standard error (``stdout`` where its output goes)."""
+    import os
+
     t0 = time.perf_counter()
-    proc = subprocess.Popen(
-        [sys.executable, "-c", code, "--out", str(out), "--start-time", start, *args],
-        cwd=root,
-        env=env,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
-    _, status, ru = os.wait4(proc.pid, 0)
+    proc = subprocess.Popen(cmd, cwd=cwd, env=env, stdout=stdout, stderr=subprocess.PIPE)
+    _, status, ru = os.wait4(proc.pid, 0)  # the rusage of it and its reaped children, which Popen.wait does not give
     wall = time.perf_counter() - t0
     err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
-    if os.waitstatus_to_exitcode(status) != 0:
-        raise RuntimeError(f"plan-trial failed: {err.strip().splitlines()[-1] if err.strip() else status}")
     return {
         "wall_s": wall,
         "cpu_s": ru.ru_utime + ru.ru_stime,
         "rss_gib": ru.ru_maxrss / 1024**2,
-        "files": len(list(out.iterdir())),
+        "exit": os.waitstatus_to_exitcode(status),
+        "stderr": err,
     }
 
 

@@ -277,6 +277,8 @@ def _detect_one():
     import shutil
     import tempfile
 
+    from benchmarks.bench_plan import timed_process
+
     tmp = Path(tempfile.mkdtemp(prefix="bench-detect-"))
     atexit.register(shutil.rmtree, tmp, True)  # this case's child process ends after its runs
     env = dict(os.environ, PYTHONPATH=str(ROOT), SHIPTRIAL_DETECT_CACHE_DIR=str(tmp / "cache"))
@@ -288,12 +290,11 @@ def _detect_one():
 
     def go():
         with open(tmp / "out.txt", "wb") as out:
-            proc = subprocess.Popen(cmd, cwd=tmp, env=env, stdout=out, stderr=subprocess.DEVNULL)
-            _, status, ru = os.wait4(proc.pid, 0)
+            r = timed_process(cmd, tmp, env, out)
         text = (tmp / "out.txt").read_text(errors="replace")
-        if os.waitstatus_to_exitcode(status) != 0 or "CHANGED" not in text:
-            raise RuntimeError(f"detect failed or missed the example's change: {text[-200:]}")
-        return {"process_cpu_s": ru.ru_utime + ru.ru_stime}
+        if r["exit"] != 0 or "CHANGED" not in text:
+            raise RuntimeError(f"detect failed or missed the example's change: {(text + r['stderr'])[-200:]}")
+        return {"process_cpu_s": r["cpu_s"]}
 
     return go
 
