@@ -156,7 +156,12 @@ def register(app: typer.Typer) -> None:
                 mc_estimator,
             )
             if not ev.complete and not (keep_partial and ev.results):
-                _fail(ev, "nothing written (--keep-partial writes the finished runs, marked partial)")
+                _fail(
+                    ev,
+                    "no run finished, nothing to keep: nothing written"
+                    if keep_partial
+                    else "nothing written (--keep-partial writes the finished runs, marked partial)",
+                )
         sens = _sensitivity_step(profile, seed) if sensitivity else None
         from expdesign.report import report_dict
 

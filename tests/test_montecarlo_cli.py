@@ -45,6 +45,18 @@ def test_keep_partial_writes_a_report_marked_partial(tmp_path, capsys, ctrl_c_in
     assert "PARTIAL RESULT (interrupted)" in md and "random 0 of 6" in md  # the design with no finished run is said
 
 
+def test_keep_partial_with_no_finished_run_says_there_is_nothing_to_keep(tmp_path, capsys, monkeypatch):
+    def interrupted(shared, design, run_ids):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(mc, "run_chunk", interrupted)
+    out = tmp_path / "rep"
+    assert _run([*ARGS, "--out", str(out), "--keep-partial"]) == 130
+    err = capsys.readouterr().err
+    assert "optimized 0, random 0, uniform 0, thesis 0" in err and "no run finished, nothing to keep: nothing written" in err
+    assert not out.exists()
+
+
 def test_complete_report_states_protocol_thesis_numbers_and_open_choices(tmp_path, capsys):
     out = tmp_path / "rep"
     assert _run([*ARGS, "--out", str(out), "--mc-settle", "4", "--json"]) == 0

@@ -51,13 +51,17 @@ def cluster_no_retry():
             yield c
 
 
+def _both_workers_up(cluster) -> None:
+    with distributed.Client(cluster, set_as_default=False) as client:
+        client.wait_for_workers(2, timeout=120)
+
+
 @pytest.fixture
 def cluster(cluster_no_retry):
     """The module's cluster with both workers up: a worker killed by an earlier test restarts under
     its nanny, and an engine asking for the capacity before it is back sees one worker (and cuts
     the runs for one: a flaky 'exits 0' seen on a loaded machine)."""
-    with distributed.Client(cluster_no_retry, set_as_default=False) as client:
-        client.wait_for_workers(2, timeout=120)
+    _both_workers_up(cluster_no_retry)
     return cluster_no_retry
 
 
@@ -85,8 +89,18 @@ def test_design_exits_1_and_writes_nothing_after_a_lost_worker(tmp_path, capsys,
 
 
 def test_keep_partial_after_a_lost_worker_claims_only_finished_runs(tmp_path, capsys, cluster, dying_task):
-    out = tmp_path / "rep"
-    assert _run([*ARGS, "--scheduler", cluster.scheduler_address, "--out", str(out), "--keep-partial"]) == 1
+    # Dask may queue every task on the worker that dies (seen once in CI on a loaded machine: all four
+    # tasks lost with it in 0.4 s): then no run finished and there is nothing to keep, which is said and
+    # written nowhere. The partial file is checked on the first attempt where the other worker finished one.
+    for attempt in range(4):
+        out = tmp_path / f"rep{attempt}"
+        assert _run([*ARGS, "--scheduler", cluster.scheduler_address, "--out", str(out), "--keep-partial"]) == 1
+        if out.exists():
+            break
+        assert "no run finished, nothing to keep: nothing written" in capsys.readouterr().err
+        _both_workers_up(cluster)
+    else:
+        pytest.fail("in 4 attempts every task was lost with the dying worker: the partial result was never written")
     doc = json.loads((out / "design.json").read_text())
     st = doc["monte_carlo_status"]
     assert st["partial"] and not st["complete"] and not st["interrupted"] and "KilledWorker" in st["errors"][0]
