@@ -11,6 +11,7 @@ spread, and the 95 % coverage, for each estimator (:mod:`identify.rollmass.sandw
     python benchmarks/bench_rollmass_coverage.py fit /tmp/cov --runs 4                      # stop 49: stopped after runs 0-1
     python benchmarks/bench_rollmass_coverage.py fit /tmp/quiet --runs 4 --quiet --like /tmp/cov   # the same fits, no noise
     python benchmarks/bench_rollmass_coverage.py analyse /tmp/cov --quiet-dir /tmp/quiet
+    python benchmarks/bench_rollmass_coverage.py repeat --variant imu_mount --run 1 --case case2 --no-sensor-noise  # stop 50
 
 The ships of a run depend on ``--runs`` (the family is drawn at once), so a directory is resumed (fits already
 stored are skipped) and paired only with the same ``--runs``.
@@ -272,6 +273,17 @@ def _sea_scaled(k: float) -> None:
         setattr(bt, name, lambda *args, _draw=draw: k * _draw(*args))
 
 
+def _drop_column(path: Path, name: str) -> Path:
+    """Rewrite a recording written by :func:`basin_truth.write_csv` without its column ``name`` (its
+    ``# key: value`` lines and the other columns' text unchanged)."""
+    lines = path.read_text().splitlines()
+    head = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    j = lines[head].split(",").index(name)
+    keep = lines[:head] + [",".join(c for k, c in enumerate(line.split(",")) if k != j) for line in lines[head:]]
+    path.write_text("\n".join(keep) + "\n")
+    return path
+
+
 def fit(a: argparse.Namespace) -> None:
     if a.sea_scale != 1.0:
         _sea_scaled(a.sea_scale)
@@ -300,6 +312,8 @@ def fit(a: argparse.Namespace) -> None:
                 with tempfile.TemporaryDirectory() as d:
                     recs = bt.case_recordings(ship, data, case, run)
                     paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in recs]
+                    if a.no_phi:  # no roll angle: no wall-sided heel input from the measured (sea-driven) roll
+                        paths = [_drop_column(p, "phi") for p in paths]
                     try:
                         e = estimate_from_files(*paths, method="oe")
                     except UserError as exc:
@@ -328,6 +342,62 @@ def fit(a: argparse.Namespace) -> None:
                 )
 
 
+def _fresh_sea(scale: float, key: list[int]) -> None:
+    """The truth's sea (JONSWAP or base disturbance) drawn from a stream of its own, ``key`` + a call
+    counter, times ``scale``; the truth's own draw is made and dropped, so the run's stream goes on as
+    before (the ship, the steering and the sensor noise stay the draws of the truth's seed)."""
+    calls = [0]
+
+    def fresh(draw, *args):
+        draw(*args)  # consumes the run's stream
+        own = np.random.default_rng([*key, calls[0]])
+        calls[0] += 1
+        return scale * draw(*[own if isinstance(x, np.random.Generator) else x for x in args])
+
+    for name in ("_jonswap", "_narrowband"):
+        draw = _TRUTH_SEA.setdefault(name, getattr(bt, name))  # the truth's own, not an earlier call's wrapper
+        setattr(bt, name, lambda *args, _draw=draw: fresh(_draw, *args))
+
+
+_TRUTH_SEA: dict = {}
+
+
+def repeat(a: argparse.Namespace) -> None:
+    """One ship, case and steering of the family (``--variant``, ``--run``, ``--case``: the truth bench's
+    draws), fitted on ``--realizations`` fresh seas (:func:`_fresh_sea`): the load's spread over the seas
+    against the mean sd the fits report, and the z-scores ``(estimate - truth) / reported sd``. Unlike the
+    pooled fits of ``fit`` (ships and cases differ, and a run's cases share datasets) this measures the
+    interval of one ship: its sandwich's error, not the spread of the family's biases."""
+    if a.no_sensor_noise:
+        _sensor_noise_off()
+    seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(a.variant)  # as bench_rollmass_truth.py
+    m_true, z_true = bt.truth_load(a.case)
+    rows = []
+    for k in range(a.realizations):
+        _fresh_sea(a.sea_scale, [a.sea_seed, k])
+        ship, data = bt.simulate_runs(a.variant, a.runs, seed)
+        with tempfile.TemporaryDirectory() as d:
+            recs = bt.case_recordings(ship, data, a.case, a.run)
+            paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in recs]
+            c0 = time.process_time()
+            e = estimate_from_files(*paths, method="oe")
+        rows.append((e.m, e.m_sd, e.zbar_m, e.zbar_m_sd))
+        print(
+            f"sea {k:2d}: m {e.m:.4f} sd {e.m_sd:.4f}, z {e.zbar_m:.4f} sd {e.zbar_m_sd:.4f}, converged {e.converged}, "
+            f"{time.process_time() - c0:.1f} s cpu",
+            flush=True,
+        )
+    x = np.array(rows)
+    zs = np.column_stack([(x[:, 0] - m_true) / x[:, 1], (x[:, 2] - z_true) / x[:, 3]])
+    inside = int(np.all(np.abs(zs) <= 1.96, axis=1).sum())
+    print(
+        f"{a.variant} run {a.run} {a.case}, sea x{a.sea_scale:g}, {len(x)} seas: spread / mean reported sd "
+        f"{x[:, 0].std(ddof=1) / x[:, 1].mean():.2f} (mass) {x[:, 2].std(ddof=1) / x[:, 3].mean():.2f} (height); "
+        f"z sd {zs[:, 0].std(ddof=1):.2f} / {zs[:, 1].std(ddof=1):.2f}, mean {zs[:, 0].mean():+.2f} / {zs[:, 1].mean():+.2f}; "
+        f"both inside {inside} of {len(x)}"
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -342,13 +412,24 @@ def main() -> None:
     f.add_argument("--sea-scale", type=float, default=1.0, help="the sea's forces times this")
     f.add_argument("--own-sea", action="store_true", help="the base disturbance without its component common to the DOFs")
     f.add_argument("--no-waves", action="store_true", help="the IMU noise and bias kept, the waves off")
+    f.add_argument("--no-phi", action="store_true", help="the recordings without their roll angle column")
     f.add_argument("--quiet", action="store_true", help="no waves, no sensor noise (the same ships): the structure's bias")
+    r = sub.add_parser("repeat", help="one ship and case on fresh seas: the interval's own calibration")
+    r.add_argument("--variant", default="base")
+    r.add_argument("--run", type=int, default=0)
+    r.add_argument("--case", default="case1")
+    r.add_argument("--realizations", type=int, default=16)
+    r.add_argument("--runs", type=int, default=4, help="runs drawn per variant (the ships depend on it, as in `fit`)")
+    r.add_argument("--seed", type=int, default=2015)
+    r.add_argument("--sea-seed", type=int, default=777)
+    r.add_argument("--sea-scale", type=float, default=1.0)
+    r.add_argument("--no-sensor-noise", action="store_true", help="the sea alone")
     g = sub.add_parser("analyse", help="z-scores and coverage of covariance estimators on stored fits")
     g.add_argument("dir")
     g.add_argument("--quiet-dir", help="a `fit --quiet` of the same runs: split each error into bias and noise")
     g.add_argument("--part", action="append", help="NAME=DIR: fits with one noise source, against --quiet-dir")
     a = ap.parse_args()
-    fit(a) if a.cmd == "fit" else analyse(a)
+    {"fit": fit, "repeat": repeat, "analyse": analyse}[a.cmd](a)
 
 
 if __name__ == "__main__":
