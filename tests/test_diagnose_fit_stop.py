@@ -74,8 +74,8 @@ def test_bounds_never_reached_give_the_unconstrained_fit_bit_for_bit():
 
 def test_a_parameter_pushed_past_its_bound_stays_there_and_the_rest_converge(monkeypatch):
     """The current's first component bounded below its fitted value: the projected fit ends at the
-    bound with the other parameters at their optimum given it (no lower objective from the clipped
-    unconstrained steps, and in no more iterations)."""
+    bound with the other parameters at their optimum given it: a lower objective than the clipped
+    unconstrained steps reach, in fewer Jacobians (3 against 7 when written; the clipped steps crawl)."""
     model, preps, free = _setup()
     w = np.array([10.0, 20.0, 300.0])
     P_free, _c, _r = fitting.fit(model, preps, model.p0(), free, w, max_iter=20)
@@ -88,4 +88,4 @@ def test_a_parameter_pushed_past_its_bound_stays_there_and_the_rest_converge(mon
     calls[0] = 0
     P_off, _c, rss_off = fitting.fit(model, preps, model.p0(), free, w, max_iter=20, bounds=bounds, project=False)
     assert P_on[j] == cap and P_off[j] == cap
-    assert rss_on <= rss_off * (1 + 1e-9) and n_on <= calls[0]
+    assert rss_on < rss_off and n_on < calls[0]
