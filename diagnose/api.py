@@ -396,7 +396,7 @@ def _drop_indistinct(
     result.steps = [st for st in steps if st.candidate.key in kept]
     refit = [j for j in result.free if j not in result.base_free]
     if refit:
-        result.P, _c, _rss = fit(model, preps, result.P, refit, w, max_iter=6)
+        result.P, _c, _rss = fit(model, preps, result.P, refit, w, max_iter=6, need_cov=False)
     misfit = not cov.misfit_failed and bool(np.any(np.asarray(cov.model) != 0.0))
     covers = "noise and run-to-run model misfit" if misfit else "noise; the run-to-run misfit came out zero"
     result.rejected.append(
@@ -429,7 +429,9 @@ def _drop_implausible(
         result.P, result.free = without(model, result.P, result.free, c.key)
         result.rejected.append({"key": c.key, "effect": c.effect, "reason": f"implausible estimate: {why}"})
     if len(steps) < len(result.steps) and steps:
-        result.P, _c, _rss = fit(model, preps, result.P, [j for j in result.free if j not in result.base_free], w, max_iter=6)
+        result.P, _c, _rss = fit(
+            model, preps, result.P, [j for j in result.free if j not in result.base_free], w, max_iter=6, need_cov=False
+        )
     return steps
 
 

@@ -160,6 +160,8 @@ def fit(
     prior: tuple[np.ndarray, np.ndarray] | None = None,
     patience: int = 1,
     analytic: bool = False,
+    need_cov: bool = True,
+    project: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Output-error Levenberg-Marquardt over the ``free`` parameters within ``bounds``, with an
     optional Gaussian ``prior`` (ref, sd) per parameter. Returns (P, cov, rss); rss is the data
@@ -168,7 +170,11 @@ def fit(
     than ``tol`` of it (one short step may be a dip, or a step the damping just raised held back).
 
     Each iteration tries four damping values in one batched simulation. ``analytic``: the
-    Jacobians by forward sensitivities where they apply (:func:`jacobian`).
+    Jacobians by forward sensitivities where they apply (:func:`jacobian`). Without ``need_cov``
+    the returned cov is NaN: a fit that ends at ``max_iter`` then skips the Jacobian at its final P,
+    which only the covariance reads (P and rss are the same bits). ``project``: a parameter at a
+    bound the descent pushes it past stays there while the others step (:func:`_trials`); without
+    it every step is solved unbounded and clipped, as before issue 30's stop 50.
     """
     P = np.asarray(P, float).copy()
     bounds = bounds or {}
@@ -193,23 +199,14 @@ def fit(
     lam = 1e-3
     lams = np.array([0.1, 1.0, 10.0, 1000.0])
     short = 0  # accepted steps in a row under tol
-    for _ in range(max_iter):
+    for it in range(max_iter):
         if not np.all(np.isfinite(Ja[: len(r)])):
             break
         ra = np.concatenate([r, rp]) if len(rp) else r
         g = Ja.T @ ra
-        A = Ja.T @ Ja
-        d = np.sqrt(np.diag(A))
-        d = np.where(d > 1e-150, d, 1.0)  # a parameter the data do not see (zero column) is held by the damping alone
-        An = A / np.outer(d, d)
-        cand = np.repeat(P[None], len(lams), axis=0)
-        for k, lk in enumerate(lams * lam):
-            try:
-                cand[k, free] += -np.linalg.lstsq(An + lk * np.eye(len(free)), g / d, rcond=None)[0] / d
-            except np.linalg.LinAlgError:
-                cand[k] = P
-        for j, (lo, hi) in bounds.items():
-            cand[:, j] = np.clip(cand[:, j], lo, hi)
+        cand = _trials(P, free, Ja.T @ Ja, g, lams * lam, bounds if project else {}, bounds)
+        if cand is None:
+            break  # every parameter at a bound the descent pushes it past: nothing left to move
         data_c, obj_c = total(cand)
         k = int(np.argmin(obj_c))
         if not obj_c[k] < obj:
@@ -222,19 +219,67 @@ def fit(
         left = bool(any(e[k] for e in esc))
         lam = max(lam * lams[k] / 10, 1e-9)
         short = short + 1 if rel < tol else 0
-        if short >= patience:
-            break
+        if short >= patience or (not need_cov and it == max_iter - 1):
+            break  # (the last iteration's Jacobian would serve the covariance alone)
         rp = _prior_rows(P, free, prior)[0]
         r, Ja = jacobian(model, preps, P, free, w, masks, h, at_P=[q[k : k + 1] for q in trial[0]], analytic=analytic, tail=Jp)
     dof = max(len(r) - len(free), 1)
     try:
-        cov = np.linalg.pinv(Ja.T @ Ja) * (rss / dof)
+        cov = np.linalg.pinv(Ja.T @ Ja) * (rss / dof) if need_cov else np.full((len(free), len(free)), np.nan)
     except (np.linalg.LinAlgError, ValueError):
         cov = np.full((len(free), len(free)), np.nan)
     # the accepted trial's simulation says whether P diverges (the same test, not simulated again)
     if not np.all(np.isfinite(P)) or (diverges(model, preps, P) if left is None else left):
         return P, cov, float("inf")
     return P, cov, rss
+
+
+def _trials(
+    P: np.ndarray,
+    free: list[int],
+    A: np.ndarray,
+    g: np.ndarray,
+    lams: np.ndarray,
+    hold: dict[int, tuple[float, float]],
+    bounds: dict[int, tuple[float, float]],
+) -> np.ndarray | None:
+    """The Levenberg-Marquardt trial points (len(lams), n_params) from P: the damped Gauss-Newton steps
+    of the normal equations (A = J^T J, gradient ``g``), scaled to A's diagonal (Marquardt 1963), one per
+    damping of ``lams``, clipped into ``bounds``. A parameter at a bound of ``hold`` the descent pushes it past
+    (:func:`_held_at_bound`) stays there and the others' step is solved without it (projected
+    Levenberg-Marquardt): solved with it, their step assumed it moved and the clip then undid that,
+    which left the fit crawling along the bound. None when every free parameter is so held."""
+    d = np.sqrt(np.diag(A))
+    d = np.where(d > 1e-150, d, 1.0)  # a parameter the data do not see (zero column) is held by the damping alone
+    An = A / np.outer(d, d)
+    held = _held_at_bound(P, free, hold, g)
+    if held.size and held.all():
+        return None
+    cand = np.repeat(P[None], len(lams), axis=0)
+    fo, An_o, gd_o, d_o = free, An, g / d, d  # no parameter held: the unconstrained step, clipped
+    if held.any():
+        on = np.flatnonzero(~held)
+        fo, An_o, gd_o, d_o = [free[i] for i in on], An[np.ix_(on, on)], gd_o[on], d[on]
+    for k, lk in enumerate(lams):
+        try:
+            cand[k, fo] += -np.linalg.lstsq(An_o + lk * np.eye(len(fo)), gd_o, rcond=None)[0] / d_o
+        except np.linalg.LinAlgError:
+            cand[k] = P
+    for j, (lo, hi) in bounds.items():
+        cand[:, j] = np.clip(cand[:, j], lo, hi)
+    return cand
+
+
+def _held_at_bound(P: np.ndarray, free: list[int], bounds: dict[int, tuple[float, float]], g: np.ndarray) -> np.ndarray:
+    """Per free parameter, whether it sits at a bound of ``bounds`` that the steepest descent (-``g``,
+    the objective's gradient over ``free``) pushes it past: the active set of a bound-constrained
+    least-squares step (Kanzow, Yamashita & Fukushima 2004, projected Levenberg-Marquardt)."""
+    out = np.zeros(len(free), bool)
+    for k, j in enumerate(free):
+        if j in bounds:
+            lo, hi = bounds[j]
+            out[k] = (P[j] <= lo and g[k] > 0) or (P[j] >= hi and g[k] < 0)
+    return out
 
 
 def diverges(model: AugmentedModel, preps: list[Prepared], P: np.ndarray) -> bool:

@@ -69,7 +69,7 @@ def ml_refit(
         if prior_std is not None and base_free:
             r_new = stack(res, wk)[0]
             prior = (model.p0(), prior_std * np.sqrt(float(r_old @ r_old) / max(float(r_new @ r_new), 1e-300)))
-        Pk, _cov, rss = fit(model, preps, Pn, free, wk, max_iter=15, tol=1e-7, bounds=bounds, prior=prior)
+        Pk, _cov, rss = fit(model, preps, Pn, free, wk, max_iter=15, tol=1e-7, bounds=bounds, prior=prior, need_cov=False)
         if not np.isfinite(rss):
             return (
                 P,

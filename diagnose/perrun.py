@@ -168,7 +168,7 @@ def guard(
         st = steps.pop()  # the last kept is the weakest
         P, free = without(model, P, free, st.candidate.key)
         # the baseline keeps the values fitted with the finding (a refit without its prior could diverge)
-        P, _cov, rss = fit(model, preps, P, [j for j in free if j not in base_free], wf, max_iter=6)
+        P, _cov, rss = fit(model, preps, P, [j for j in free if j not in base_free], wf, max_iter=6, need_cov=False)
         dropped.append(
             {
                 "key": st.candidate.key,

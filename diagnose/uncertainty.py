@@ -358,7 +358,7 @@ def baseline_cov(
     from the prior: ``H^-1 (J^T Sigma J + D) H^-1`` (D the prior's Hessian; ``H^-1`` for white
     noise): the sandwich alone gives a direction the data leave to the prior a variance near zero."""
     x0 = model.x0_params()
-    P, _cov, _rss = fit(model, preps, model.p0(), x0, w, max_iter=5, analytic=True)
+    P, _cov, _rss = fit(model, preps, model.p0(), x0, w, max_iter=5, analytic=True, need_cov=False)
     pairs = sensitivities(model, preps, P, list(idx) + x0, w, analytic=True)
     D = _prior_D(np.concatenate([np.asarray(sd, float)[idx], np.full(len(x0), np.inf)]), len(idx) + len(x0))
     cov, H = sandwich(pairs, D)
