@@ -97,6 +97,24 @@ def test_the_jacobian_holds_with_a_gyro_bias_and_the_sway_velocitys_speed_term(c
     assert np.all(err < 1e-5), dict(zip(prob.free, err))
 
 
+def test_the_sway_mass_prior_row_and_its_derivative(case2):
+    """The sway mass's prior (``_Problem.xv_prior``, fits of a ship whose speed is followed): one more residual
+    ``log((M + X_v) / (M + X_v0)) / sd`` after the z_f prior, its column within 1e-5 of central differences,
+    and the penalty region beyond a zero sway mass."""
+    prob, x = _problem(case2)
+    x0, sd = oe.start_values(PROF)["X_v"], oe.SWAY_MASS_PRIOR_SD
+    i = prob.free.index("X_v")
+    x[i] = 3.0 * (PROF.known.M + x0) - PROF.known.M  # a sway mass three times the profile's: one sd
+    with_prior = oe._Problem(prob.datasets, prob.kn, CAL, prob.z_f, prob.free, prob.w, prob.ar, prob.z_f_sd, xv_prior=(x0, sd))
+    rows = with_prior.prior(x)
+    assert sd > 0 and len(rows) == len(prob.prior(x)) + 1 and rows[-1] == pytest.approx(np.log(3.0) / sd)
+    J, ref = with_prior.jacobian(x), central_jacobian(with_prior.residual, x)
+    err = np.linalg.norm(J - ref, axis=0) / np.linalg.norm(ref, axis=0)
+    assert np.all(err < 1e-5), dict(zip(prob.free, err))
+    x[i] = -PROF.known.M - 1.0  # a negative sway mass: the prior's wall
+    assert with_prior.prior(x)[-1] == 1e3
+
+
 def test_where_the_modal_form_fails_the_jacobian_is_central_differences(case2, monkeypatch):
     prob, x = _problem(case2)
 

@@ -197,6 +197,34 @@ def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
     return notes
 
 
+def slowing_warning(recs: list[RollRecording], paths: list[Path], method: str) -> list[str]:
+    """One warning when a recording's speed varies with its turns (:func:`output_error.followed_speed`:
+    above the positioning's error), with each such file's measured variation: the sd of its low-passed
+    ``u / mean(u)`` and how far that falls below the mean. Why: on the independent basin truth's ships
+    that slow in their turns (variants ``speed_loss`` and ``combined``) the oe fit, which follows the
+    speed (:func:`output_error.speed_inputs`), was biased by tens of per cent with intervals that miss
+    the truth (docs/mass-accuracy.md, stops 47-50); ``ls``, ``paper-iv`` and ``improved`` do not read
+    ``u`` at all. The figures belong in the docs, the warning points there."""
+    slowing = []
+    for rec, path in zip(recs, paths):
+        s = followed_speed(rec)
+        if s is not None:
+            slowing.append(f"{path.name} sd {100 * np.std(s):.1f} %, down to {100 * (1 - np.min(s)):.0f} % below its mean")
+    if not slowing:
+        return []
+    how = (
+        "oe follows it (output_error.speed_inputs)"
+        if method == "oe"
+        else f"method {method} holds the speed at the run's (it does not read u)"
+    )
+    return [
+        f"the ship's speed varies with its turns ({'; '.join(slowing)}; column 'u' low-passed at {SPEED_LP_HZ:g} Hz): "
+        f"{how}, but on the independent basin truth's ships that slow in their turns the estimate was biased "
+        "beyond its 95 % interval: treat the mass and z as indicative, not measured "
+        "(docs/mass-accuracy.md, variants speed_loss and combined)"
+    ]
+
+
 def heel_notes(recs: list[RollRecording], paths: list[Path]) -> tuple[list[RollRecording], list[str]]:
     """The wall-sided restoring (``output_error.heel_signal``) is a moment in the runs that carry ``phi``
     only: with ``phi`` in some files and not the others that moment would differ between the runs and
@@ -213,8 +241,12 @@ def heel_notes(recs: list[RollRecording], paths: list[Path]) -> tuple[list[RollR
 
 def usability_warnings(e: MassEstimate, prof: RollProfile) -> list[str]:
     """Warnings for an interval that cannot be used: zero or negative mass, more than the ship can
-    carry, a load position outside the hull."""
+    carry, a load position outside the hull. None for a fit that did not converge: ``shiptrial mass``
+    prints no number or interval for it (``cli.mass_cmd._no_estimate``), so a warning about "the 95 %
+    interval" would speak of one the user was not shown."""
     out = []
+    if not e.converged:
+        return out
     if not (np.isfinite(e.m_sd) and np.isfinite(e.zbar_m_sd)):
         return ["no confidence interval could be computed: the estimate is unusable"]
     (mlo, mhi), (zlo, zhi) = e.ci()
@@ -295,5 +327,5 @@ def estimate_from_files(
             "check --z-f, --known-load and that the three runs come from one ship"
         ) from None
     e.notes = notes + [n for r in recs for n in r.notes]
-    e.warnings += usability_warnings(e, prof)
+    e.warnings += usability_warnings(e, prof) + slowing_warning(recs, paths, method)
     return e

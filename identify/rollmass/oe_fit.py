@@ -16,10 +16,12 @@ from identify.rollmass.model import Known, Load
 from identify.rollmass.output_error import (
     NOISE_AR,
     SANDWICH_LAG_S,
+    SWAY_MASS_PRIOR_SD,
     OEFit,
     _measured,
     _Problem,
     _simulate,
+    followed_speed,
     shared_parameters,
 )
 from identify.rollmass.restoring import heel_gain
@@ -91,6 +93,7 @@ def _best_start(
     start: dict[str, float],
     w: np.ndarray,
     lm: _LM,
+    xv_prior: tuple[float, float] | None = None,
 ) -> OptimizeResult:
     """Two starts for the joint fit, the one with the lower unweighted cost kept: ``start`` itself,
     and the ship parameters fitted to the two runs whose loads are known (nominal, calibration).
@@ -108,8 +111,8 @@ def _best_start(
     shared = shared_parameters(datasets, kn)
     ship = shared + (("z_f",) if z_f_sd > 0 else ())
     x_ship = np.array([start[k] if k != "kappa" else start.get(k, heel_gain(kn)) for k in shared] + ([z_f] if z_f_sd > 0 else []))
-    fitted = lm(_Problem(datasets[:2], kn, cal, z_f, ship, w[:2], z_f_sd=z_f_sd), x_ship, 1e-8).x
-    prob = _Problem(datasets, kn, cal, z_f, ship + ("m", "zbar_m"), w, z_f_sd=z_f_sd)
+    fitted = lm(_Problem(datasets[:2], kn, cal, z_f, ship, w[:2], z_f_sd=z_f_sd, xv_prior=xv_prior), x_ship, 1e-8).x
+    prob = _Problem(datasets, kn, cal, z_f, ship + ("m", "zbar_m"), w, z_f_sd=z_f_sd, xv_prior=xv_prior)
     best = None
     for x in (x_ship, fitted):
         res = lm(prob, np.r_[x, cal.m, cal.zbar], 1e-8)
@@ -165,7 +168,8 @@ def fit_output_error(
     ``z_f_prior_sd``; 0 holds ``z_f`` fixed): the fit maximises the posterior. Weights: 1/sd of each
     dataset's channel residual, re-estimated ``n_reweight`` times. The last fit is finished by
     Gauss-Newton steps to a stationary point (:func:`load_decrement`); ``converged`` is false when
-    it is not reached. Without ``with_cov`` the sandwich covariance is left NaN and no finishing
+    it is not reached. Where a recording's speed is followed (``output_error.followed_speed``) the sway
+    mass has a prior too (``output_error.SWAY_MASS_PRIOR_SD``). Without ``with_cov`` the sandwich covariance is left NaN and no finishing
     steps are taken.
 
     LM runs on the sensitivity Jacobian (:func:`_lm_exact`). Where that path creeps or ends unconverged,
@@ -206,12 +210,16 @@ def _fit(
     free = shared_parameters(datasets, kn) + (("z_f",) if z_f_sd > 0 else ()) + ("m", "zbar_m")
     w = np.array([1.0 / np.maximum(_measured(d, kn.g).std(axis=0), 1e-12) for d in datasets])
     ar = None
-    first = _best_start(datasets, kn, cal, z_f, z_f_sd, start, w, lm)
+    # the sway mass's prior (output_error.SWAY_MASS_PRIOR_SD) where a speed is followed: there the sway row walked its
+    # nearly free scale without converging (stop 50); a run at constant speed keeps main's fit bit for bit
+    followed = any(followed_speed(d) is not None for d in datasets)
+    xv_prior = (start["X_v"], SWAY_MASS_PRIOR_SD) if followed and SWAY_MASS_PRIOR_SD > 0 else None
+    first = _best_start(datasets, kn, cal, z_f, z_f_sd, start, w, lm, xv_prior)
     x = first.x
     r_bias: list[float | None] = [None] * len(datasets)
     sway: list[np.ndarray | None] = [None] * len(datasets)
     for it in range(n_reweight + 1):
-        prob = _Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd, r_bias, sway)
+        prob = _Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd, r_bias, sway, xv_prior)
         # _best_start has just solved the first problem (same weights, no whitening); its optimum only
         # seeds the reweighted fits, which run to the tight tolerance below
         res = first if it == 0 and n_reweight > 0 else lm(prob, x, 1e-10)
@@ -221,7 +229,7 @@ def _fit(
             # are fitted, so that they are fitted to the residual without the mean turning's structure
             v = prob.values(x)
             r_bias, sway = speed_terms(v, kn, v.get("z_f", z_f), prob.loads(v), datasets, r_bias, sway, SWAY_TERM)
-            prob = _Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd, r_bias, sway)
+            prob = _Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd, r_bias, sway, xv_prior)
         errs = prob.errors(x)
         sd = np.array([e.std(axis=0) for e in errs])
         if it < n_reweight:

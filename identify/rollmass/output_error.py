@@ -90,6 +90,14 @@ SANDWICH_LAG_S = 5.0
 # residual ``(distance outside) / T_IMU_WALL`` (zero inside, so no information there) holds the fit in.
 T_IMU_RANGE = (0.0, 0.5)
 T_IMU_WALL = 1e-4  # s
+# sd of the log sway mass ``log(M + X_v)`` about the profile's ``M - Y_vdot`` (a factor 3 either way is one sd: the
+# added mass of a hull is known from slender-body estimates to tens of per cent), a prior in the fits of a ship
+# whose speed is followed (:func:`followed_speed`; ``identify.rollmass.oe_fit._fit``). Why: the sway row's scale
+# (X_v, Y_v, Y_r, Y_delta, Y_pdot together; M + m and the Coriolis terms are all that fix it) is nearly free, and
+# on the basin truth's slowing ships the fit walked it (combined run 1 case 1: X_v 1,856 -> 24,440, then the roll
+# row's K_vdot and A_x along a second ridge) with Gauss-Newton steps that needed 5-10 halvings: not converged
+# after 80 steps (docs/mass-accuracy.md, stop 50). 0 switches the prior off.
+SWAY_MASS_PRIOR_SD = float(np.log(3.0))
 # low-pass of the measured speed before it enters the inputs (:func:`speed_inputs`): above the surge's
 # own bandwidth (time constant (m - X_udot)/|X_u|, ~5 s on the model ship) and below the roll band (0.5-1.5 Hz)
 SPEED_LP_HZ = 0.2
@@ -404,6 +412,7 @@ class _Problem:
         z_f_sd: float = 0.0,
         r_bias: list[float | None] | None = None,
         sway: list[np.ndarray | None] | None = None,
+        xv_prior: tuple[float, float] | None = None,
     ):
         self.datasets, self.kn, self.cal, self.z_f, self.free, self.w = datasets, kn, cal, z_f, free, weights
         # each dataset's yaw-rate gyro bias in the turn input (:func:`speed_inputs`; None: the recording's mean r)
@@ -411,6 +420,8 @@ class _Problem:
         self.sway = list(sway) if sway is not None else [None] * len(datasets)
         # z_f in ``free``: ``z_f`` is its prior mean and ``z_f_sd`` its prior sd (one more residual)
         self.z_f_sd = z_f_sd
+        # (centre X_v, sd of log(M + X_v)) of the sway mass's prior, or None (no prior row)
+        self.xv_prior = xv_prior if xv_prior is not None and "X_v" in free else None
         self.ar = ar if ar is not None else [[np.ones(1)] * 3 for _ in datasets]
         self.Y = [_measured(d, kn.g) for d in datasets]
 
@@ -440,14 +451,19 @@ class _Problem:
 
     def prior(self, x: np.ndarray) -> np.ndarray:
         """The prior's residual ``(z_f - prior) / sd`` when ``z_f`` is free (a Gaussian prior as one
-        more standardised observation: the cost is then the negative log posterior), and the wall
-        residual of :data:`T_IMU_RANGE` when ``t_imu`` is free."""
+        more standardised observation: the cost is then the negative log posterior), the wall
+        residual of :data:`T_IMU_RANGE` when ``t_imu`` is free, and with ``xv_prior`` the sway mass's
+        ``log((M + X_v) / (M + X_v0)) / sd`` (:data:`SWAY_MASS_PRIOR_SD`; a zero or negative sway mass is
+        the penalty region's 1e3)."""
         rows = []
         if "z_f" in self.free:
             rows.append((x[self.free.index("z_f")] - self.z_f) / self.z_f_sd)
         if "t_imu" in self.free:
             t, (lo, hi) = x[self.free.index("t_imu")], self.lag_range()
             rows.append((min(t - lo, 0.0) + max(t - hi, 0.0)) / T_IMU_WALL)
+        if self.xv_prior is not None:
+            mu, (x0, sd) = self.kn.M + x[self.free.index("X_v")], self.xv_prior
+            rows.append(np.log(mu / (self.kn.M + x0)) / sd if mu > 0.0 else 1e3)
         return np.array(rows)
 
     def lag_range(self) -> tuple[float, float]:
@@ -500,7 +516,8 @@ class _Problem:
 
     def prior_jacobian(self, x: np.ndarray) -> np.ndarray:
         """The rows of :meth:`prior` differentiated, in its order: ``1/sd`` for the ``z_f`` prior, and
-        ``1/T_IMU_WALL`` for the ``t_imu`` wall outside :data:`T_IMU_RANGE` (zero inside)."""
+        ``1/T_IMU_WALL`` for the ``t_imu`` wall outside :data:`T_IMU_RANGE` (zero inside), and
+        ``1/((M + X_v) sd)`` for the sway mass's prior."""
         rows = []
         if "z_f" in self.free:
             rows.append(np.eye(len(x))[self.free.index("z_f")] / self.z_f_sd)
@@ -508,4 +525,8 @@ class _Problem:
             i, (lo, hi) = self.free.index("t_imu"), self.lag_range()
             outside = not lo <= x[i] <= hi
             rows.append(np.eye(len(x))[i] * (outside / T_IMU_WALL))
+        if self.xv_prior is not None:
+            i = self.free.index("X_v")
+            mu = self.kn.M + x[i]
+            rows.append(np.eye(len(x))[i] * (1.0 / (mu * self.xv_prior[1]) if mu > 0.0 else 0.0))
         return np.array(rows).reshape(len(rows), len(x))
