@@ -133,11 +133,18 @@ def register(app: typer.Typer) -> None:
         prior = load_prior(prior_file)
         notes: list[str] = []
         recs = load_runs(recordings, prior.kind, notes)
-        for n in notes:
-            typer.echo(f"note: {n}", err=True)
         odd = implausible_inertia(prior, i_z, n_rdot)
         if odd:
             raise UserError(f"{prior_file}: {odd}")
+        # this process is the command's own: the no-change records' 16 MB arrays reused, not faulted in afresh
+        keep_freed_memory(always=True, keep_bytes=DETECT_KEEP_BYTES)  # (primitives.heap: the figures)
+        # one job: under 12,500 samples in all (two 500 s recordings) the numpy loops, more the compiled ones (jitloop.job)
+        # the no-change records' noise of this prior and length read from the user's cache after the first run
+        with noisecache.used():  # (identify.detect.noisecache: the same bits; ~96 MB an entry, 256 MiB kept)
+            dets = detect_all(recs, prior, false_alarm, min_change, seed, n_rdot=n_rdot, i_z=i_z)
+        # notes and warnings after the recordings passed their checks: a refused input is one line
+        for n in notes:
+            typer.echo(f"note: {n}", err=True)
         if i_z is None:
             typer.echo(
                 "warning: the hull's I_z and N_rdot are not known: a yaw-inertia change is reported of the lumped "
@@ -153,12 +160,6 @@ def register(app: typer.Typer) -> None:
                 "calibrated to --false-alarm: refit it with detect-prior (--bootstrap > 0)",
                 err=True,
             )
-        # this process is the command's own: the no-change records' 16 MB arrays reused, not faulted in afresh
-        keep_freed_memory(always=True, keep_bytes=DETECT_KEEP_BYTES)  # (primitives.heap: the figures)
-        # one job: under 12,500 samples in all (two 500 s recordings) the numpy loops, more the compiled ones (jitloop.job)
-        # the no-change records' noise of this prior and length read from the user's cache after the first run
-        with noisecache.used():  # (identify.detect.noisecache: the same bits; ~96 MB an entry, 256 MiB kept)
-            dets = detect_all(recs, prior, false_alarm, min_change, seed, n_rdot=n_rdot, i_z=i_z)
         written = plot_stats(dets, plot, PLOT_PANELS) if plot is not None else []
         if json_out:
             typer.echo(

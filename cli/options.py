@@ -390,5 +390,5 @@ def validate_mass_options(*, z_f: float | None) -> None:
 
 def validate_mass_sim_options(*, out: Path, seed: int) -> None:
     whole(seed, "--seed", 0, 2**63 - 1)
-    check_out_path(out)
-    check_replaceable_dir(out)
+    check_out_path(out, option="OUT")  # mass-sim's output directory is its argument, not an --out option
+    check_replaceable_dir(out, option="OUT")

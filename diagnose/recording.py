@@ -258,7 +258,7 @@ def read_csv(
         return _built(path, meta, cols, None, sample_time, inputs, yaw_rate_sign)
     rows = list(reader)
     if not rows:
-        raise RecordingError(f"{path}: header but no data rows")
+        raise RecordingError(f"{path}: header but no data rows; give the recording with its samples, one row each")
     lengths = set(map(len, rows))
     for i, row in enumerate(rows if max(lengths) > len(header) else ()):
         if len(row) > len(header) and any(c.strip() for c in row[len(header) :]):
@@ -289,7 +289,9 @@ def read_csv(
                 try:
                     vals[i] = float(s)
                 except ValueError:
-                    raise RecordingError(f"{path}: row {i + 2}, column '{name}': {s!r} is not a number") from None
+                    raise RecordingError(
+                        f"{path}: row {i + 2}, column '{name}': {s!r} is not a number; correct the cell or cut the row (an empty cell is a gap)"
+                    ) from None
         cols[name] = vals
     return _built(path, meta, cols, segments, sample_time, inputs, yaw_rate_sign)
 

@@ -228,6 +228,8 @@ def check_out_file(path: str | Path, suffixes: tuple[str, ...], option: str, wha
     from primitives.errors import UserError
 
     path = Path(path)
+    if path.is_dir():  # said as such, not as a missing extension
+        raise UserError(f"{option} {path}: is a directory; give a file path ending {' or '.join(suffixes)}")
     if path.suffix.lower() not in suffixes:
         raise UserError(f"{option} {path}: the extension must name the {what} format: {' or '.join(suffixes)}")
     return check_out_path(path, kind="file", option=option)

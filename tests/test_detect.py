@@ -445,6 +445,90 @@ def test_no_alarm_for_a_change_below_min_change(prior):
     assert abs(d.evidence["candidates"]["pod_gain"]["relative_change"]) < 0.05
 
 
+def test_a_negated_roll_angle_is_refused_not_read_as_a_change(prior):
+    # stop 50's sweep: phi negated in a changed run stayed within 20x the prior's noise (2.8x) and
+    # alarmed "CHANGED: yaw damping"; the same run as recorded is tested as before
+    from dataclasses import replace
+
+    from diagnose.recording import RecordingError
+
+    rec = simulated_recording(Vessel(), 300, seed=51, measured_moment=True)
+    flipped = replace(rec, channels=rec.channels | {"phi": -rec.channels["phi"]})
+    with pytest.raises(RecordingError, match="column 'phi' looks negated against the prior"):
+        detect(flipped, prior)
+    assert not detect(rec, prior).changed
+
+
+def test_a_negated_sway_acceleration_is_refused(tmp_path):
+    # stop 50's sweep: v_dot negated moved the prior's I_r +7.6 % (exit 0) and alarmed "pod gain" in detect
+    from diagnose.recording import RecordingError
+    from identify.detect.api import load_runs
+
+    path = _csv(tmp_path / "r.csv")
+    lines = path.read_text().splitlines()
+    i = next(k for k, line in enumerate(lines) if not line.startswith("#"))
+    j = lines[i].split(",").index("v_dot")
+    load_runs([path], "full")  # as recorded: read
+    rows = [",".join(c if k != j else repr(-float(c)) for k, c in enumerate(ln.split(","))) for ln in lines[i + 1 :]]
+    path.write_text("\n".join(lines[: i + 1] + rows) + "\n")
+    with pytest.raises(RecordingError, match="column 'v_dot' correlates -"):
+        load_runs([path], "full")
+
+
+def test_the_loaders_repairs_are_noted(tmp_path):
+    # stop 50's sweep: a NaN yaw rate, a 2 s gap and a repeated time stamp were bridged without a word
+    from identify.detect.api import load_runs
+
+    path = _csv(tmp_path / "r.csv")
+    lines = path.read_text().splitlines()
+    i = next(k for k, line in enumerate(lines) if not line.startswith("#"))
+    j = lines[i].split(",").index("r")
+    cells = lines[i + 50].split(",")
+    lines[i + 50] = ",".join(c if k != j else "nan" for k, c in enumerate(cells))
+    path.write_text("\n".join(lines) + "\n")
+    notes: list[str] = []
+    load_runs([path], "full", notes)
+    assert any("missing r" in n and "interpolation" in n for n in notes), notes
+
+
+def test_a_cell_that_is_not_a_number_is_named_with_the_fix(tmp_path):
+    # stop 50's sweep: the message named row and column but no fix
+    from diagnose.recording import RecordingError
+    from identify.detect.api import load_runs
+
+    path = _csv(tmp_path / "r.csv")
+    path.write_text(path.read_text().replace("\n0.1,", "\nabc,", 1))
+    with pytest.raises(RecordingError, match="'abc' is not a number; correct the cell or cut the row"):
+        load_runs([path], "full")
+
+
+def test_an_empty_file_is_said_to_be_empty(tmp_path):
+    # stop 50's sweep: an empty file was told it missed every column
+    from diagnose.recording import RecordingError
+    from identify.detect.api import load_runs
+
+    (tmp_path / "r.csv").write_text("")
+    with pytest.raises(RecordingError, match="no header row"):
+        load_runs([tmp_path / "r.csv"], "full")
+    (tmp_path / "r.csv").write_text("t,x,y,psi,u,v,r,phi,tau_n\n")
+    with pytest.raises(RecordingError, match="no data rows; give the recording with its samples"):
+        load_runs([tmp_path / "r.csv"], "full")
+
+
+def test_a_recording_at_another_rate_than_its_header_is_refused(tmp_path):
+    # stop 50's sweep: a run logged at 0.2 s under '# sample_time: 0.1' was interpolated to 0.1 s and
+    # tested against a 0.1 s prior: exit 0, "CHANGED"
+    from diagnose.recording import RecordingError
+    from identify.detect.api import load_runs
+
+    path = _csv(tmp_path / "r.csv")
+    lines = path.read_text().splitlines()
+    i = next(k for k, line in enumerate(lines) if not line.startswith("#"))
+    path.write_text("\n".join(lines[: i + 1] + lines[i + 1 :: 2]) + "\n")
+    with pytest.raises(RecordingError, match="column 't' steps 0.2 s .median. but '# sample_time:' says 0.1 s"):
+        load_runs([path], "full")
+
+
 def _csv(path, drop=(), rename=None):
     rec = simulated_recording(Vessel(), 60, seed=91, measured_moment=True)
     write_csv(rec, path)
@@ -463,9 +547,51 @@ def _csv(path, drop=(), rename=None):
 def test_an_unknown_column_is_named_with_the_closest_known_name(tmp_path):
     from identify.detect.api import load_runs
 
+    # an unread column whose known name the file lacks is refused (stop 50); one it is not is noted
     notes: list[str] = []
-    load_runs([_csv(tmp_path / "r.csv", rename={"v_dot": "vdot"})], "full", notes)
-    assert any("'vdot'" in n and "'v_dot'" in n for n in notes), notes
+    load_runs([_csv(tmp_path / "r.csv", rename={"n1": "n_1"}, drop=("n2",))], "full", notes)
+    assert any("'n_1'" in n and "'n1'" in n for n in notes), notes
+
+
+@pytest.mark.parametrize(
+    ("old", "new"), [("v_dot", "vdot"), ("tau_n", "tau_r"), ("r", "yaw_rate"), ("r", "R"), ("phi", "roll"), ("tau_n", "N")]
+)
+def test_a_column_under_another_name_is_refused_with_the_name_to_give(tmp_path, old, new):
+    # stop 50's sweep: 'vdot' and 'tau_r' were only noted (the prior's I_r moved +10 % and +5 %: v' was
+    # differentiated from v, tau_n computed from the pods), 'yaw_rate', 'R' and 'roll' were said missing
+    # without the file's column, and 'N' was told to be named 'n' (shaft speed)
+    from diagnose.recording import RecordingError
+    from identify.detect.api import load_runs
+
+    with pytest.raises(RecordingError) as e:
+        load_runs([_csv(tmp_path / "r.csv", rename={old: new})], "full")
+    assert f"column '{new}' looks like '{old}'" in str(e.value) and f"rename it '{old}'" in str(e.value), str(e.value)
+
+
+def test_an_accelerometer_column_is_not_taken_for_a_position(tmp_path):
+    # stop 50's sweep: 'ay' (with v_dot left out) was noted "did you mean 'y'?", a column the file has
+    from identify.detect.api import load_runs
+
+    notes: list[str] = []
+    load_runs([_csv(tmp_path / "r.csv", rename={"v_dot": "ay"})], "full", notes)
+    (note,) = [n for n in notes if "'ay'" in n]
+    assert "'y'" not in note and "not the sway acceleration 'v_dot'" in note, note
+
+
+def test_a_negated_yaw_rate_names_the_header_not_an_option_detect_lacks(tmp_path):
+    # stop 50's sweep: the fix said "(or --yaw-rate-sign)", an option of diagnose only
+    from diagnose.recording import RecordingError
+    from identify.detect.api import load_runs
+
+    path = _csv(tmp_path / "r.csv")
+    lines = path.read_text().splitlines()
+    i = next(k for k, line in enumerate(lines) if not line.startswith("#"))
+    j = lines[i].split(",").index("r")
+    rows = [",".join(c if k != j else repr(-float(c)) for k, c in enumerate(ln.split(","))) for ln in lines[i + 1 :]]
+    path.write_text("\n".join(lines[: i + 1] + rows) + "\n")
+    with pytest.raises(RecordingError) as e:
+        load_runs([path], "full")
+    assert "# yaw_rate_sign: port-positive" in str(e.value) and "--yaw-rate-sign" not in str(e.value)
 
 
 def test_every_missing_column_in_one_message(tmp_path):

@@ -6,16 +6,18 @@ during operation", with the change named). A notebook calls these; the CLI
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from diagnose.recording import NUMERIC, Recording, RecordingError, load_recording, split_metadata
-from identify.detect.checks import MOMENT, check_inputs, check_moment_sign
+from diagnose.recording import Recording, RecordingError, load_recording, split_metadata
+from identify.detect.checks import MOMENT, check_inputs, check_moment_sign, check_sway_acceleration
+from identify.detect.columns import missing_columns, renamed_columns, unknown_column_notes
 from identify.detect.cusum import calibrate_dead_zone, first_alarms
 from identify.detect.glr import SignatureCusum, calibrate
-from identify.detect.inputs import POD_COLUMNS, SWAY_ACC, Deriver, signals
+from identify.detect.inputs import SWAY_ACC, Deriver, signals
 from identify.detect.nullsim import null_records
 from identify.detect.priorfit import batch_fits, fit
 from identify.detect.rollband import roll_band
@@ -23,7 +25,6 @@ from identify.detect.verdict import Detection, Screening, implausible_inertia, p
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
 from identify.detect.yawmodel import (
     CANDIDATES,
-    SIGNALS,
     YawPrior,
     block_mean,
     predict_with_signatures,
@@ -33,41 +34,42 @@ from primitives.errors import UserError
 from primitives.io import atomic_write_text, dumps, read_input_text
 from primitives.ship import load_profile
 
-#: columns ``detect`` and ``detect-prior`` read (besides the recording format's t, x, y or lat, lon, psi, u, v)
-KNOWN_COLUMNS = ("t", "x", "y", "lat", "lon", "psi", "u", "v", "r", "phi", "p", MOMENT, SWAY_ACC, *POD_COLUMNS, "segment")
-
 
 def load_runs(paths: list[Path] | list[str], kind: str | None = None, notes: list[str] | None = None) -> list[Recording]:
     """Recordings that carry what the yaw row needs (measured r; the pod inputs or the measured pod
     yaw moment ``tau_n``; ``phi`` for the full model when ``kind`` says so; optionally the measured
     sway acceleration ``v_dot``), one sample time. Every missing column of a file is named in one
-    message; a column detect does not read is named in ``notes`` with the closest known name."""
+    message, with every column that looks renamed (:func:`renamed_columns`: ``vdot`` for an absent
+    ``v_dot`` moved the prior's I_r by 10 % in stop 50's sweep, a note was all it got); any other column
+    detect does not read is named in ``notes`` with the closest known name."""
     recs = []
     for p in paths:
         header = _header(Path(p))
-        missing = [] if "r" in header else ["r (measured yaw rate, rad/s; not one derived from heading)"]
-        pods = [c for c in POD_COLUMNS if c not in header]
-        if pods and MOMENT not in header:
-            missing.append(f"{MOMENT} (measured pod yaw moment, N m) or the pod inputs {', '.join(pods)} (rev/s, rad)")
-        if "phi" in SIGNALS.get(kind, ()) and "phi" not in header:
-            missing.append("phi (roll, rad; or use --model simplified)")
-        if "p" in SIGNALS.get(kind, ()) and "p" not in header:
-            missing.append(
-                "p (roll rate, rad/s: the prior's yaw row has the roll-rate term N_p p; or refit the prior "
-                "with detect-prior --no-roll-rate)"
-            )
-        if not ({"x", "y"} <= set(header) or {"lat", "lon"} <= set(header)):
-            missing.insert(0, "x, y (north, east, m) or lat, lon (deg)")
-        missing[:0] = [f"{c} ({what})" for c, what in (("t", "time, s"), ("psi", "heading, rad")) if c not in header]
-        if missing:
+        if not header:
             raise RecordingError(
-                f"{p}: missing column(s): {'; '.join(missing)}; add them (README: 'Recordings for detect and detect-prior')"
+                f"{p}: no header row (an empty file?); give a recording CSV (README: 'Recordings for detect and detect-prior')"
+            )
+        problems = [f"missing column(s): {'; '.join(m)}"] if (m := missing_columns(header, kind)) else []
+        renamed = renamed_columns(header)
+        problems += [f"column '{h}' looks like '{c}' ({what}), which the file lacks: rename it '{c}'" for h, c, what in renamed]
+        if problems:
+            raise RecordingError(
+                f"{p}: {'; '.join(problems)} (README: 'Recordings for detect and detect-prior')"
+                + (" or leave it out if it is another quantity" if renamed else "")
             )
         if notes is not None:
             notes.extend(unknown_column_notes(p, header))
-        runs = load_recording(p)
+        try:
+            runs = load_recording(p)
+        except RecordingError as e:  # the loader's fix names diagnose's option; detect reads the header only
+            raise RecordingError(str(e).replace(" (or --yaw-rate-sign)", "")) from None
         if SWAY_ACC in header and any(SWAY_ACC not in r.channels for r in runs):
             raise RecordingError(f"{p}: column '{SWAY_ACC}' holds no finite values; fill it or leave the column out")
+        for r in runs:
+            check_sway_acceleration(r)
+            check_declared_rate(p, r)
+            if notes is not None:  # the loader's repairs (gaps bridged, repeated stamps averaged): said, not silent
+                notes.extend(f"{p}: {n}" for n in r.notes)
         recs.extend(runs)
     dts = {round(r.sample_time, 9) for r in recs}
     if len(dts) > 1:
@@ -78,19 +80,19 @@ def load_runs(paths: list[Path] | list[str], kind: str | None = None, notes: lis
     return recs
 
 
-def unknown_column_notes(path: Path | str, header: list[str]) -> list[str]:
-    """One note per column that detect does not read, with the closest known name (a renamed
-    ``vdot`` would otherwise be ignored and v' differentiated from v instead)."""
-    import difflib
-
-    out = []
-    for h in header:
-        if h in KNOWN_COLUMNS or h in NUMERIC:
-            continue
-        close = difflib.get_close_matches(h.lower(), KNOWN_COLUMNS, n=1, cutoff=0.5)
-        hint = f"; did you mean '{close[0]}'? rename it if so" if close else ""
-        out.append(f"{path}: column '{h}' is not one detect reads and is ignored{hint}")
-    return out
+def check_declared_rate(path: Path | str, rec: Recording) -> None:
+    """Refuse a recording whose time stamps step at another rate than its ``# sample_time:`` (median
+    step more than 10 % off): the loader resamples irregular stamps onto the declared grid (diagnose's
+    rule, for jittery loggers), which for a run logged at 0.2 s under a 0.1 s header interpolated every
+    other sample and passed it to a 0.1 s prior (exit 0, "CHANGED", in stop 50's sweep). The median
+    step is the loader's own note's (diagnose.recording_table.uniform_axis)."""
+    for n in rec.notes:
+        m = re.match(r"time stamps irregular \(median step ([0-9.eE+-]+) s\)", n)
+        if m and abs(float(m.group(1)) / rec.sample_time - 1) > 0.1:
+            raise RecordingError(
+                f"{path}: column 't' steps {float(m.group(1)):g} s (median) but '# sample_time:' says "
+                f"{rec.sample_time:g} s; correct the header (the prior needs recordings at its own sample time)"
+            )
 
 
 def _header(path: Path) -> list[str]:

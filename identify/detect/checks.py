@@ -26,6 +26,12 @@ MOMENT_FACTOR = 4.0
 #: slope 0.17, measured on a podded-truth ship; harbour manoeuvres 0.97-1.00, steering lag 0.66)
 MOMENT_CORRELATION = 0.3
 
+#: refuse a recording whose ``phi`` negated fits the prior's yaw rate this much better (rms ratio): on the
+#: podded truth family's ships 108-109 (240 runs, 12 priors) a correct phi fitted 1.05-11.3 times better
+#: than it negated; negated, it fitted 0.41-0.95 times as well (coloured-noise highest, not all caught)
+#: and 0.35 on our own kernel's run (stop 50, /tmp/bi/phiflip_truth.py in the report)
+ROLL_FLIP = 0.9
+
 UNITS_FIX = (
     f"check the units and signs: {MOMENT} in N m, > 0 turning the ship to starboard, and r in rad/s, "
     "> 0 turning to starboard (README: 'Recordings for detect and detect-prior')"
@@ -37,6 +43,26 @@ def time_derivative(x: np.ndarray, dt: float) -> np.ndarray:
     shorter than that window)."""
     win = max(5, 2 * int(1.0 / dt) + 1)
     return savgol_filter(x, win, 2, deriv=1, delta=dt, axis=0) if len(x) > win else np.gradient(x, dt, axis=0)
+
+
+def check_sway_acceleration(rec: Recording) -> None:
+    """Refuse a measured sway acceleration ``v_dot`` that runs against the rate of the recorded ``v``
+    (their correlation, both smoothed over about 2 s, is negative): a flipped ``v_dot`` biased the prior's
+    I_r by +7.6 % and read as a "pod gain" change in stop 50's sweep. Measured 0.80-0.85 on our own
+    kernel's runs, 0.40-0.96 on the podded truth family's ships 108-109 (210 runs, coloured noise lowest);
+    -0.81 negated."""
+    if "v_dot" not in rec.channels or rec.n_samples < 10:
+        return
+    dt = rec.sample_time
+    win = max(5, 2 * int(1.0 / dt) + 1)
+    smooth = savgol_filter(rec.channels["v_dot"], win, 2) if rec.n_samples > win else rec.channels["v_dot"]
+    rate = time_derivative(rec.y[:, 1], dt)
+    c = float(np.corrcoef(smooth, rate)[0, 1]) if np.ptp(smooth) > 0 and np.ptp(rate) > 0 else 1.0
+    if c < 0:
+        raise RecordingError(
+            f"{rec.source}: column 'v_dot' correlates {c:+.2f} with the rate of v (a measured sway acceleration "
+            "follows it: expected > 0); negate v_dot (m/s^2, > 0 accelerating to starboard) or leave it out"
+        )
 
 
 def check_moment_sign(rec: Recording, tau_r: np.ndarray, r: np.ndarray) -> None:
@@ -91,7 +117,24 @@ def check_inputs(
             f"{rms / sigma:.0f}x its noise {sigma:.2g} rad/s (over {MISFIT_SIGMAS:g}x is no ship "
             f"change: an input error); {UNITS_FIX}"
         )
+    check_roll_sign(rec, prior, sig, r, rms)
     return rms
+
+
+def check_roll_sign(rec: Recording, prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray, rms: float) -> None:
+    """Refuse a roll angle whose sign is flipped against the prior's: the prior's yaw rate fits the
+    recording better with ``-phi`` than with ``phi`` by more than ROLL_FLIP (the roll terms of (2.17)
+    act the other way round). A flipped ``phi`` stayed within MISFIT_SIGMAS (2.8x) and alarmed as
+    "yaw damping" in stop 50's sweep."""
+    if "phi" not in sig or not np.ptp(sig["phi"]) > 0:
+        return
+    flipped = float(np.sqrt(np.mean((r - prior.predict(sig | {"phi": -sig["phi"]}, float(np.mean(r[:5])))) ** 2)))
+    if flipped < ROLL_FLIP * rms:
+        raise RecordingError(
+            f"{rec.source}: column 'phi' looks negated against the prior: its yaw rate fits the recording with -phi "
+            f"({flipped:.2g} rad/s rms) better than with phi ({rms:.2g}); phi is > 0 starboard side down, in the "
+            "recording and in the prior's nominal run (README: 'Recordings for detect and detect-prior')"
+        )
 
 
 def moment_scale(

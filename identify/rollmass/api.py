@@ -23,7 +23,7 @@ from identify.rollmass.output_error import (
 )
 from identify.rollmass.recording import read_roll_csv
 from identify.rollmass.restoring import DEFAULT_HEEL_REFERENCE, HEEL_REFERENCES
-from identify.rollmass.signs import check_signs, expected_signs
+from identify.rollmass.signs import check_signs, expected_signs, rudder_scale_message, steady_gains
 from identify.rollmass.simulate import RollRecording
 from primitives.errors import UserError
 
@@ -55,8 +55,15 @@ def hull_limits(prof: RollProfile) -> tuple[float, float]:
 
 
 def check_load_in_hull(load: Load, prof: RollProfile, what: str) -> None:
-    """Refuse a load position below the keel or above the highest place a load can sit."""
+    """Refuse a load position below the keel or above the highest place a load can sit, and a load
+    heavier than the ship can carry (``max_load_kg``: a mass in grams read as kg lands there)."""
     top, keel = hull_limits(prof)
+    cap = float(prof.raw["ship"].get("max_load_kg", np.inf))
+    if load.m > cap:
+        raise UserError(
+            f"{what}: {load.m:g} kg is more than the ship can carry (max_load_kg {cap:g} in the profile); "
+            "give the load in kg (not g)"
+        )
     if load.zbar > keel:
         raise UserError(
             f"{what}: z = {load.zbar:+g} m is {load.zbar - keel:.3f} m below the keel (draft {keel:g} m); "
@@ -66,6 +73,20 @@ def check_load_in_hull(load: Load, prof: RollProfile, what: str) -> None:
         raise UserError(
             f"{what}: z = {load.zbar:+g} m is above the highest place a load can sit in the profile "
             f"(load_z_top = {top:g} m; {Z_WORDS})"
+        )
+
+
+def check_imu_in_hull(key: str, val: float, prof: RollProfile, paths: list[Path]) -> None:
+    """Refuse an IMU position (header ``imu_z_m`` or ``imu_x_m``) outside the hull: z between the
+    profile's ``load_z_top`` and the keel, x within half the length between perpendiculars of
+    midship (a position in mm, or a height given positive up from the deck, lands outside)."""
+    top, keel = hull_limits(prof)
+    half = 0.5 * float(prof.raw["ship"].get("L_pp", np.inf))
+    lo, hi, what = (top, keel, Z_WORDS) if key == "imu_z_m" else (-half, half, "x in metres, positive forward of midship")
+    if not lo <= val <= hi:
+        raise UserError(
+            f"{', '.join(p.name for p in paths)}: header '# {key}: {val:g}' puts the IMU outside the hull "
+            f"({lo:+g} .. {hi:+g} m in the profile; {what}); correct the header"
         )
 
 
@@ -154,6 +175,8 @@ def known_from_recordings(
                 f"the three runs must be at one speed with the IMU in one place"
             )
         val, have = float(np.mean(arr)), getattr(kn, field)
+        if not speed:
+            check_imu_in_hull(key, val, prof, [p for p, _ in vals])
         if explicit and (abs(val - have) / abs(have) if speed else abs(val - have)) > lim:
             raise UserError(
                 f"the profile's [known] {field} = {have:g} {unit} contradicts the recordings' {key} "
@@ -239,6 +262,40 @@ def heel_notes(recs: list[RollRecording], paths: list[Path]) -> tuple[list[RollR
     return [replace(r, phi=None) for r in recs], [note]
 
 
+def one_rate(recs: list[RollRecording], paths: list[Path]) -> None:
+    """Refuse recordings at different sample times (the model is discretised once, at one rate)."""
+    if any(abs(r.T - recs[0].T) > 1e-9 * recs[0].T for r in recs):  # as estimate.estimate checks
+        raise UserError(
+            f"the recordings' sample times differ ({', '.join(f'{p.name} {r.T:g} s' for r, p in zip(recs, paths))}); "
+            "resample all three to one rate"
+        )
+
+
+def check_recorded_signs(recs: list[RollRecording], prof: RollProfile, given: RollProfile) -> None:
+    """Refuse a recording whose column signs contradict the profile's ship at the recordings' speed
+    (:func:`signs.check_signs`). The expected signs of ``a_s`` against ``r`` and of ``r`` against the
+    rudder are the model's steady gains, which change with the speed (7)-(8): when the columns fit the
+    ``given`` profile's own speed but not the headers' ``speed_m_s``, the header is named, not a column
+    (a speed in knots or a typo read as a flipped rudder in stop 50's sweep)."""
+    nominal = (prof.known.z_f_prior, Load(0.0, 0.0))
+    expect, gain = (
+        expected_signs(start_values(prof), prof.known, *nominal),
+        steady_gains(start_values(prof), prof.known, *nominal)[2],
+    )
+    U, U0 = prof.known.U, given.known.U
+    for rec in recs:
+        msg = check_signs(rec, expect)
+        if msg and abs(U - U0) > 1e-9 and check_signs(rec, expected_signs(start_values(given), given.known, *nominal)) is None:
+            raise UserError(
+                f"{rec.name}: the recordings' header speed_m_s {U:g} m/s contradicts their motion: the signs of "
+                f"a_s, r and delta fit the profile's ship at its U = {U0:g} m/s, not at {U:g} m/s; correct the "
+                "header '# speed_m_s:' (the mean speed in m/s; knots read 1.94 times too high) or the profile"
+            )
+        msg = msg or rudder_scale_message(rec, float(gain))
+        if msg:
+            raise UserError(msg)
+
+
 def usability_warnings(e: MassEstimate, prof: RollProfile) -> list[str]:
     """Warnings for an interval that cannot be used: zero or negative mass, more than the ship can
     carry, a load position outside the hull. None for a fit that did not converge: ``shiptrial mass``
@@ -291,9 +348,11 @@ def estimate_from_files(
         raise UserError(f"heel reference {heel_reference!r}: choose one of {', '.join(HEEL_REFERENCES)}")
     paths = [Path(p) for p in (nominal, calibration, loaded)]
     prof = load_profile(profile)
+    given = prof  # before the headers' speed and IMU position replace its own
     read = [read_roll_csv(p) for p in paths]
     recs, metas = [r for r, _ in read], [m for _, m in read]
     loads = check_roles(paths, metas)
+    one_rate(recs, paths)
     if isinstance(known_load, str):
         known_load = parse_known_load(known_load)
     for load, what in ((known_load, "--known-load"), (loads[1], str(paths[1]))):
@@ -308,11 +367,7 @@ def estimate_from_files(
     notes += speed_notes(recs, paths)
     recs, heel = heel_notes(recs, paths)
     notes += heel
-    expect = expected_signs(start_values(prof), prof.known, prof.known.z_f_prior, Load(0.0, 0.0))
-    for rec in recs:
-        msg = check_signs(rec, expect)
-        if msg:
-            raise UserError(msg)
+    check_recorded_signs(recs, prof, given)
     try:
         e = estimate(
             recs, prof.known, cal, method, with_ci=True, z_f=z_f, start=start_values(prof), heel_reference=heel_reference
@@ -328,4 +383,18 @@ def estimate_from_files(
         ) from None
     e.notes = notes + [n for r in recs for n in r.notes]
     e.warnings += usability_warnings(e, prof) + slowing_warning(recs, paths, method)
+    e.warnings += default_speed_warnings(given, prof, profile is None)
     return e
+
+
+def default_speed_warnings(given: RollProfile, prof: RollProfile, default: bool) -> list[str]:
+    """A warning when the recordings' header speed is more than SPEED_TOL off the speed of the
+    default profile's ship (a given profile that far off is refused by :func:`known_from_recordings`):
+    its hydrodynamic start values are that ship's at that speed, and knots read 1.94 times m/s."""
+    U, U0 = prof.known.U, given.known.U
+    if not default or abs(U / U0 - 1) <= SPEED_TOL:
+        return []
+    return [
+        f"the recordings' speed_m_s {U:g} m/s is {100 * abs(U / U0 - 1):.0f} % off the default profile's U = {U0:g} m/s "
+        "(Our Lass II at its basin speed): check the header '# speed_m_s:' (m/s, not knots) or give the ship's --profile"
+    ]

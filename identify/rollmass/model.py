@@ -202,7 +202,7 @@ def load_profile(path: str | Path | None = None) -> RollProfile:
     try:
         raw = tomllib.loads(read_input_text(path, ProfileError, f"a roll profile TOML like {DEFAULT_PROFILE.name}"))
     except tomllib.TOMLDecodeError as exc:
-        raise ProfileError(f"{path}: not valid TOML ({exc})") from exc
+        raise ProfileError(f"{path}: not valid TOML ({exc}); give a roll profile TOML like {DEFAULT_PROFILE.name}") from exc
     try:
         ship, kn_t, roll = raw["ship"], raw["known"], raw["roll"]
         hull = {"BM": metacentric_radius(ship), "GM": float(ship["GM_T"])}

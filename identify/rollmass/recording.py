@@ -43,31 +43,42 @@ ALIASES = {
     "delta": ("rudder", "rudder_angle"),
     "t": ("time",),
     "u": ("speed", "surge", "surge_speed", "u_m_s", "stw", "sog", "speed_m_s"),
+    "phi": ("roll", "roll_angle", "heel", "heel_angle"),
 }
 MAX_PHI = 1.0  # rad: a roll angle column beyond it is in degrees (or the ship capsized)
+MAX_T = 0.5  # s: the sign checks' roll band reaches 0.45 Hz, under the Nyquist frequency 1 / (2 MAX_T)
+MIN_ROWS = 100
 META_KEYS = ("role", "speed_m_s", "imu_z_m", "imu_x_m", "load_kg", "load_z_m", "ship", "dataset", "sample_time")
 
 
 def _closest(name: str) -> str | None:
-    """The known column an unknown one most likely means (alias table, then spelling)."""
-    low = name.lower()
+    """The known column an unknown one most likely means (alias table, then spelling; case is
+    ignored: a logger's ``R`` or ``A_S`` is our ``r`` or ``a_s``)."""
+    low = name.strip().lower()
+    if low in REQUIRED + OPTIONAL:
+        return low
     for col, names in ALIASES.items():
         if low in names:
             return col
-    hit = difflib.get_close_matches(name, REQUIRED + OPTIONAL, n=1, cutoff=0.6)
+    hit = difflib.get_close_matches(low, REQUIRED + OPTIONAL, n=1, cutoff=0.6)
     return hit[0] if hit else None
 
 
 def _missing_message(path: Path, header: list[str], missing: list[str]) -> str:
-    parts = []
+    """Every missing column in one line, each with the file's column that most likely is it; the
+    file's other unread columns are listed too (a name no table knows, say ``acc``, may be it)."""
+    parts, named = [], set()
     for c in missing:
         cand = [h for h in header if h not in REQUIRED + OPTIONAL and _closest(h) == c]
+        named.update(cand[:1])
         hint = f" (the file has '{cand[0]}': if that is it, rename it '{c}' and check its sign)" if cand else ""
         parts.append(f"'{c}' ({WHAT[c]}){hint}")
+    rest = [h for h in header if h not in REQUIRED + OPTIONAL and h not in named]
+    unread = f"; the file's unread column{'s' if len(rest) > 1 else ''} {', '.join(repr(h) for h in rest)}" if rest else ""
     return (
         f"{path}: missing column{'s' if len(missing) > 1 else ''} "
         + ", ".join(parts)
-        + f"; columns must include {','.join(REQUIRED)}"
+        + f"; columns must include {','.join(REQUIRED)}{unread}"
     )
 
 
@@ -88,14 +99,18 @@ def write_roll_csv(rec: RollRecording, path: str | Path, meta: dict[str, str] | 
 def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
     """Read and check one dataset; any problem is a one-line :class:`RecordingError`."""
     path = Path(path)
-    meta, body = split_metadata(read_input_text(path, RecordingError, "a roll recording CSV (t, delta, p, a_s, r)").splitlines())
+    lines = read_input_text(path, RecordingError, "a roll recording CSV (t, delta, p, a_s, r)").splitlines()
+    meta, body = split_metadata(lines)
     if not body:
         raise RecordingError(f"{path}: no header row; expected columns {','.join(REQUIRED)}")
     rows = list(csv.reader(body))
     header = [h.strip() for h in rows[0]]
+    if len(header) == 1 and (sep := next((c for c in ";\t " if c in header[0]), None)):
+        raise RecordingError(f"{path}: the header row is one column separated by {sep!r}; separate the columns with commas")
     missing = [c for c in REQUIRED if c not in header]
     if missing:
         raise RecordingError(_missing_message(path, header, missing))
+    _refuse_renamed_optional(path, header)
     notes = []
     for h in header:
         if h not in REQUIRED + OPTIONAL:
@@ -104,27 +119,23 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
                 f"{path.name}: column '{h}' is not read"
                 + (f" (did you mean '{near}'?)" if near else f" (known columns: {','.join(REQUIRED + OPTIONAL)})")
             )
-    try:
-        arr = np.array([[float(x) for x in r] for r in rows[1:]], dtype=float)
-    except ValueError as exc:
-        raise RecordingError(f"{path}: non-numeric value ({exc})") from exc
-    if arr.ndim != 2 or arr.shape[0] < 100 or arr.shape[1] != len(header):
-        raise RecordingError(f"{path}: need at least 100 complete rows of {len(header)} values")
+    arr = _numbers(path, header, rows[1:], len(lines) - len(body) + 2)
     col = {h: arr[:, i] for i, h in enumerate(header)}
     for c in REQUIRED:
         if not np.all(np.isfinite(col[c])):
             raise RecordingError(f"{path}: column '{c}' has empty or non-finite values; fill or cut them")
-    dt = np.diff(col["t"])
-    T = float(np.median(dt))
-    if T <= 0 or np.max(np.abs(dt - T)) > 1e-3 * T:
-        raise RecordingError(f"{path}: column 't' is not uniformly sampled (steps {dt.min():g}..{dt.max():g} s); resample it")
+    T = _sample_time(path, col["t"], meta)
     if np.std(col["p"]) < 1e-6:
         raise RecordingError(f"{path}: column 'p' is constant: the recording has no roll motion")
     phi = col.get("phi")
-    if phi is not None and not (np.all(np.isfinite(phi)) and np.max(np.abs(phi)) < MAX_PHI):
+    if phi is not None and not np.all(np.isfinite(phi)):
         raise RecordingError(
-            f"{path}: column 'phi' (roll angle, rad) must be finite and under {MAX_PHI:g} rad; it reaches "
-            f"{np.nanmax(np.abs(phi)):g}: give it in radians, fill gaps, or drop the column"
+            f"{path}: column 'phi' (roll angle, rad) has empty or non-finite values; fill or cut them, or drop the column"
+        )
+    if phi is not None and np.max(np.abs(phi)) >= MAX_PHI:
+        raise RecordingError(
+            f"{path}: column 'phi' (roll angle, rad) must be under {MAX_PHI:g} rad; it reaches "
+            f"{np.max(np.abs(phi)):g}: give it in radians, or drop the column"
         )
     u = col.get("u")
     if u is not None and not (np.all(np.isfinite(u)) and np.min(u) > 0):
@@ -136,3 +147,69 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
         name=path.name, T=T, delta=col["delta"], p=col["p"], a_s=col["a_s"], r=col["r"], phi=phi, notes=notes, u=u
     )
     return rec, meta
+
+
+def _refuse_renamed_optional(path: Path, header: list[str]) -> None:
+    """Refuse a column that is an optional one under another name (``roll`` for ``phi``, ``speed`` for
+    ``u``) while the file lacks that one: read as it is it would be ignored and the answer change
+    (``roll``: the wall-sided restoring left out of all three runs, the load -2 % in stop 50's sweep)."""
+    for h in header:
+        near = _closest(h) if h not in REQUIRED + OPTIONAL else None
+        if near in OPTIONAL and near not in header:
+            raise RecordingError(
+                f"{path}: column '{h}' looks like '{near}' ({WHAT[near]}), which the file lacks: rename it "
+                f"'{near}', or leave it out if it is another quantity"
+            )
+
+
+def _numbers(path: Path, header: list[str], rows: list[list[str]], first_line: int) -> np.ndarray:
+    """The data rows as floats; the first cell that is not a number is named by line and column
+    (``first_line``: the file's line of the first data row)."""
+    for i, row in enumerate(rows):
+        if len(row) != len(header):
+            raise RecordingError(
+                f"{path}: line {first_line + i} has {len(row)} values for the {len(header)} columns; complete or cut it"
+            )
+        for name, x in zip(header, row):
+            try:
+                float(x)
+            except ValueError:
+                raise RecordingError(
+                    f"{path}: line {first_line + i}, column '{name.strip()}': {x!r} is not a number; "
+                    "fill or cut the row (empty cells too; NaN only where a gap is meant)"
+                ) from None
+    arr = np.array(rows, dtype=float).reshape(len(rows), len(header))
+    if arr.shape[0] < MIN_ROWS:
+        raise RecordingError(f"{path}: {arr.shape[0]} data rows; need at least {MIN_ROWS} (a roll recording of minutes)")
+    return arr
+
+
+def _sample_time(path: Path, t: np.ndarray, meta: dict[str, str]) -> float:
+    """The uniform sample time of column ``t``: increasing, without repeats or gaps, fast enough for
+    the roll band (the sign checks' 0.45 Hz band needs under MAX_T; a ``t`` in milliseconds reads
+    1000 times slower), and as the header's ``sample_time`` says when it has one."""
+    dt = np.diff(t)
+    T = float(np.median(dt))
+    if T <= 0 or np.any(dt <= 0):
+        k = int(np.argmax(dt <= 0))
+        raise RecordingError(
+            f"{path}: column 't' does not increase (t = {t[k]:g} s then {t[k + 1]:g} s); sort the rows and remove repeated times"
+        )
+    if np.max(np.abs(dt - T)) > 1e-3 * T:
+        raise RecordingError(f"{path}: column 't' is not uniformly sampled (steps {dt.min():g}..{dt.max():g} s); resample it")
+    said = meta.get("sample_time")
+    try:
+        said_T = float(said) if said is not None else None
+    except ValueError:
+        raise RecordingError(f"{path}: header '# sample_time: {said}' is not a number; write it in s, e.g. 0.02") from None
+    if said_T is not None and abs(said_T - T) > 0.01 * T:
+        raise RecordingError(
+            f"{path}: header '# sample_time: {said}' contradicts column 't' (steps of {T:g} s); "
+            "correct the header or give t in seconds"
+        )
+    if T > MAX_T:
+        raise RecordingError(
+            f"{path}: column 't' steps {T:g} s: the roll model needs samples under {MAX_T:g} s apart; give t in seconds "
+            "(not ms) or record faster"
+        )
+    return T

@@ -25,6 +25,9 @@ from identify.rollmass.simulate import RollRecording
 
 PHI_SCALE = 5.0  # phi / integrated p amplitude above which phi is in another unit (degrees: 57)
 MIN_RHO = 0.4  # |correlation| below which a relation is not judged (weak excitation, noise)
+HEEL_RATIO = 3.0  # heel_ratio outside 1/3 .. 3 is a unit error, not a ship (measured 0.975-1.136)
+RUDDER_SCALE = 10.0  # rudder_scale_message's factor: a unit error, not a ship (measured 0.41-1.19)
+G = 9.81  # m/s^2 (the profile's g is 9.81 too; the check's bound is a factor 3)
 SHIP_SIGN = "ship sign: roll positive starboard down, yaw positive to starboard, a_s as eq. (7)"
 
 
@@ -53,19 +56,74 @@ def relations(rec: RollRecording) -> tuple[float, float, float]:
     s = slice(cut, -cut) if rec.n > 4 * cut else slice(None)
     r1 = _rho(_band(rec.a_s, T, 0.1, 0.45)[s], _band(phi, T, 0.1, 0.45)[s])
     r2 = _rho(_band(rec.a_s, T, None, 0.15)[s], _band(rec.r, T, None, 0.15)[s])
-    a = float(np.exp(-T / 1.0))
-    lag = lfilter([1 - a], [1, -a], rec.delta - rec.delta.mean())
-    r3 = _rho(_band(rec.r, T, None, 0.3)[s], _band(lag, T, None, 0.3)[s])
+    r3 = _rho(_band(rec.r, T, None, 0.3)[s], _band(_lagged_rudder(rec), T, None, 0.3)[s])
     return r1, r2, r3
+
+
+def steady_gains(values: dict[str, float], kn: Known, z_f: float, load: Load) -> np.ndarray:
+    """Steady outputs ``[p, a_s, r]`` per unit rudder of the profile's sway-roll-yaw model."""
+    from identify.rollmass.output_error import model_matrices
+
+    A, B, C, D = model_matrices(values, kn, z_f, load)
+    return D[:, 0] - C @ np.linalg.solve(A, B[:, 0])
 
 
 def expected_signs(values: dict[str, float], kn: Known, z_f: float, load: Load) -> tuple[float, float]:
     """Signs of the steady ``a_s / r`` and ``r / delta`` gains of the profile's sway-roll-yaw model."""
-    from identify.rollmass.output_error import model_matrices
-
-    A, B, C, D = model_matrices(values, kn, z_f, load)
-    dc = D[:, 0] - C @ np.linalg.solve(A, B[:, 0])  # steady outputs [p, a_s, r] per unit rudder
+    dc = steady_gains(values, kn, z_f, load)
     return float(np.sign(dc[1] * dc[2])), float(np.sign(dc[2]))
+
+
+def _lagged_rudder(rec: RollRecording) -> np.ndarray:
+    """The rudder through a 1 s first-order lag (the turn's answer to it), mean removed."""
+    a = float(np.exp(-rec.T / 1.0))
+    return lfilter([1 - a], [1, -a], rec.delta - rec.delta.mean())
+
+
+def rudder_scale_message(rec: RollRecording, gain: float) -> str | None:
+    """``None`` or a one-line message when the yaw rate answers the rudder RUDDER_SCALE times more
+    weakly (or strongly) than the profile's steady turning gain ``gain`` (rad/s per rad) says: a rudder
+    angle in degrees. The regression slope of r on the lagged rudder below 0.3 Hz over ``gain`` measured
+    0.65-0.72 on the own simulator's case-1 runs and 0.41-1.19 on 189 basin-truth recordings (7 variants
+    x 3 runs x 3 cases, stop 50); ``delta`` in degrees gives 0.012."""
+    T = rec.T
+    cut = 20 * max(int(1 / T), 1)
+    s = slice(cut, -cut) if rec.n > 4 * cut else slice(None)
+    r, d = _band(rec.r, T, None, 0.3)[s], _band(_lagged_rudder(rec), T, None, 0.3)[s]
+    if not (np.dot(d, d) > 0 and gain != 0 and abs(_rho(r, d)) >= MIN_RHO):
+        return None
+    k = float(np.dot(r, d) / np.dot(d, d)) / gain
+    if 1 / RUDDER_SCALE <= abs(k) <= RUDDER_SCALE:
+        return None
+    return (
+        f"{rec.name}: column 'delta' is {abs(k):.3g} times the rudder angle the profile's ship turns with as recorded "
+        f"(0.4-1.2 on ships like it; degrees give 0.017): give delta in radians"
+    )
+
+
+def heel_ratio(rec: RollRecording) -> float:
+    """The accelerometer's heel against the integrated roll rate's, in the roll band (0.1-0.45 Hz):
+    std(a_s) / (g std(int p)), about 1 by (7) (``a_s ~ g phi``, the ``z_s p'`` term adds a few per
+    cent). Measured 1.10 on the own simulator's case-1 runs and 0.975-1.136 on 189 recordings of the
+    basin truth family (7 variants x 3 runs x 3 cases, stop 50); ``p`` in deg/s gives 0.019."""
+    T = rec.T
+    cut = 20 * max(int(1 / T), 1)
+    s = slice(cut, -cut) if rec.n > 4 * cut else slice(None)
+    a, phi = _band(rec.a_s, T, 0.1, 0.45)[s], _band(_roll_angle(rec), T, 0.1, 0.45)[s]
+    return float(a.std() / (G * phi.std())) if phi.std() > 0 else float("nan")
+
+
+def scale_message(rec: RollRecording) -> str | None:
+    """``None`` or a one-line message when ``p`` and ``a_s`` disagree in scale by more than HEEL_RATIO
+    (a roll rate in deg/s, an accelerometer in g)."""
+    k = heel_ratio(rec)
+    if not np.isfinite(k) or 1 / HEEL_RATIO <= k <= HEEL_RATIO:
+        return None
+    return (
+        f"{rec.name}: columns 'p' and 'a_s' disagree in scale: in the roll band the accelerometer's heel is {k:.3g} "
+        "times g times the integrated roll rate (about 1 by eq. (7); p in deg/s gives 0.017, a_s in g 0.10): give p in "
+        "rad/s and a_s in m/s^2"
+    )
 
 
 def check_signs(rec: RollRecording, expect: tuple[float, float]) -> str | None:
@@ -93,7 +151,7 @@ def check_signs(rec: RollRecording, expect: tuple[float, float]) -> str | None:
                 f"(57 for degrees): give the roll angle in radians"
             )
     if col is None:
-        return None
+        return scale_message(rec) if clear[0] else None
     what = {
         "phi": "the roll angle is opposite to the integrated roll rate",
         "p": "the roll rate integrates to a roll angle opposite to the accelerometer's heel",
