@@ -380,18 +380,26 @@ def repeat(a: argparse.Namespace) -> None:
             recs = bt.case_recordings(ship, data, a.case, a.run)
             paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in recs]
             c0 = time.process_time()
-            e = estimate_from_files(*paths, method="oe")
-        rows.append((e.m, e.m_sd, e.zbar_m, e.zbar_m_sd))
+            try:
+                e = estimate_from_files(*paths, method="oe")
+            except UserError as exc:
+                print(f"sea {k:2d}: refused: {exc}", flush=True)
+                continue
+        if e.converged and np.isfinite(e.m_sd) and np.isfinite(e.zbar_m_sd):  # a failed fit is said, not averaged
+            rows.append((e.m, e.m_sd, e.zbar_m, e.zbar_m_sd))
         print(
             f"sea {k:2d}: m {e.m:.4f} sd {e.m_sd:.4f}, z {e.zbar_m:.4f} sd {e.zbar_m_sd:.4f}, converged {e.converged}, "
             f"{time.process_time() - c0:.1f} s cpu",
             flush=True,
         )
+    if len(rows) < 2:
+        print(f"{len(rows)} of {a.realizations} fits converged: no spread to compare")
+        return
     x = np.array(rows)
     zs = np.column_stack([(x[:, 0] - m_true) / x[:, 1], (x[:, 2] - z_true) / x[:, 3]])
     inside = int(np.all(np.abs(zs) <= 1.96, axis=1).sum())
     print(
-        f"{a.variant} run {a.run} {a.case}, sea x{a.sea_scale:g}, {len(x)} seas: spread / mean reported sd "
+        f"{a.variant} run {a.run} {a.case}, sea x{a.sea_scale:g}, {len(x)} of {a.realizations} seas converged: spread / mean reported sd "
         f"{x[:, 0].std(ddof=1) / x[:, 1].mean():.2f} (mass) {x[:, 2].std(ddof=1) / x[:, 3].mean():.2f} (height); "
         f"z sd {zs[:, 0].std(ddof=1):.2f} / {zs[:, 1].std(ddof=1):.2f}, mean {zs[:, 0].mean():+.2f} / {zs[:, 1].mean():+.2f}; "
         f"both inside {inside} of {len(x)}"

@@ -475,6 +475,22 @@ def test_a_negated_sway_acceleration_is_refused(tmp_path):
         load_runs([path], "full")
 
 
+def test_a_straight_run_is_not_told_to_negate_its_sway_acceleration():
+    # review of stop 50: on a run with no sway both v_dot and the rate of v are noise, their correlation a
+    # coin toss near 0 (-0.01 to -0.09 on 6 of 10 straight runs): the flipped-v_dot check must not judge it
+    from dataclasses import replace
+
+    from identify.detect.checks import check_sway_acceleration
+
+    rec = simulated_recording(Vessel(), 100, seed=1, measured_moment=True)
+    n = rec.y.shape[0]
+    for seed in range(10):
+        rng = np.random.default_rng(seed)
+        y = rec.y.copy()
+        y[:, 1] = 1e-3 * rng.standard_normal(n)
+        check_sway_acceleration(replace(rec, y=y, channels=rec.channels | {"v_dot": 1e-3 * rng.standard_normal(n)}))
+
+
 def test_the_loaders_repairs_are_noted(tmp_path):
     # stop 50's sweep: a NaN yaw rate, a 2 s gap and a repeated time stamp were bridged without a word
     from identify.detect.api import load_runs
@@ -566,6 +582,17 @@ def test_a_column_under_another_name_is_refused_with_the_name_to_give(tmp_path, 
     with pytest.raises(RecordingError) as e:
         load_runs([_csv(tmp_path / "r.csv", rename={old: new})], "full")
     assert f"column '{new}' looks like '{old}'" in str(e.value) and f"rename it '{old}'" in str(e.value), str(e.value)
+
+
+@pytest.mark.parametrize(("old", "new"), [("v_dot", "p_dot"), ("tau_n", "tau_n1")])
+def test_a_column_only_spelled_like_an_optional_one_is_read_with_a_note(tmp_path, old, new):
+    # review of stop 50: 'p_dot' (a roll acceleration) and 'tau_n1' were refused as renamed v_dot / tau_n
+    # (spelling matches); the recording has the pods, so tau_n is not needed
+    from identify.detect.api import load_runs
+
+    notes: list[str] = []
+    load_runs([_csv(tmp_path / "r.csv", rename={old: new})], "full", notes)
+    assert any(f"'{new}'" in n for n in notes), notes
 
 
 def test_an_accelerometer_column_is_not_taken_for_a_position(tmp_path):

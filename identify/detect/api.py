@@ -51,12 +51,13 @@ def load_runs(paths: list[Path] | list[str], kind: str | None = None, notes: lis
             )
         problems = [f"missing column(s): {'; '.join(m)}"] if (m := missing_columns(header, kind)) else []
         renamed = renamed_columns(header)
-        problems += [f"column '{h}' looks like '{c}' ({what}), which the file lacks: rename it '{c}'" for h, c, what in renamed]
+        problems += [
+            f"column '{h}' looks like '{c}' ({what}), which the file lacks: rename it '{c}', or leave it out if it is "
+            "another quantity"
+            for h, c, what in renamed
+        ]
         if problems:
-            raise RecordingError(
-                f"{p}: {'; '.join(problems)} (README: 'Recordings for detect and detect-prior')"
-                + (" or leave it out if it is another quantity" if renamed else "")
-            )
+            raise RecordingError(f"{p}: {'; '.join(problems)} (README: 'Recordings for detect and detect-prior')")
         if notes is not None:
             notes.extend(unknown_column_notes(p, header))
         try:

@@ -25,11 +25,13 @@ MOMENT_FACTOR = 4.0
 #: below this correlation of the two moments the slope is noise, not a unit (a straight run: 0.06,
 #: slope 0.17, measured on a podded-truth ship; harbour manoeuvres 0.97-1.00, steering lag 0.66)
 MOMENT_CORRELATION = 0.3
+#: a v_dot correlating with dv/dt below minus this is flipped (:func:`check_sway_acceleration`)
+VDOT_CORRELATION = 0.3
 
 #: refuse a recording whose ``phi`` negated fits the prior's yaw rate this much better (rms ratio): on the
 #: podded truth family's ships 108-109 (240 runs, 12 priors) a correct phi fitted 1.05-11.3 times better
 #: than it negated; negated, it fitted 0.41-0.95 times as well (coloured-noise highest, not all caught)
-#: and 0.35 on our own kernel's run (stop 50, /tmp/bi/phiflip_truth.py in the report)
+#: and 0.35 on our own kernel's run (stop 50, docs/bad-input-sweep.md)
 ROLL_FLIP = 0.9
 
 UNITS_FIX = (
@@ -47,10 +49,11 @@ def time_derivative(x: np.ndarray, dt: float) -> np.ndarray:
 
 def check_sway_acceleration(rec: Recording) -> None:
     """Refuse a measured sway acceleration ``v_dot`` that runs against the rate of the recorded ``v``
-    (their correlation, both smoothed over about 2 s, is negative): a flipped ``v_dot`` biased the prior's
-    I_r by +7.6 % and read as a "pod gain" change in stop 50's sweep. Measured 0.80-0.85 on our own
-    kernel's runs, 0.40-0.96 on the podded truth family's ships 108-109 (210 runs, coloured noise lowest);
-    -0.81 negated."""
+    (their correlation, both smoothed over about 2 s, below -:data:`VDOT_CORRELATION`): a flipped ``v_dot``
+    biased the prior's I_r by +7.6 % and read as a "pod gain" change in stop 50's sweep. Measured 0.80-0.85 on
+    our own kernel's runs, 0.40-0.96 on the podded truth family's ships 108-109 (210 runs, coloured noise
+    lowest); -0.81 negated. A run with little sway (a straight run) has both signals at their noise and a
+    correlation near 0 of either sign: not judged (6 of 10 straight runs read -0.01 to -0.09 in review)."""
     if "v_dot" not in rec.channels or rec.n_samples < 10:
         return
     dt = rec.sample_time
@@ -58,7 +61,7 @@ def check_sway_acceleration(rec: Recording) -> None:
     smooth = savgol_filter(rec.channels["v_dot"], win, 2) if rec.n_samples > win else rec.channels["v_dot"]
     rate = time_derivative(rec.y[:, 1], dt)
     c = float(np.corrcoef(smooth, rate)[0, 1]) if np.ptp(smooth) > 0 and np.ptp(rate) > 0 else 1.0
-    if c < 0:
+    if c < -VDOT_CORRELATION:
         raise RecordingError(
             f"{rec.source}: column 'v_dot' correlates {c:+.2f} with the rate of v (a measured sway acceleration "
             "follows it: expected > 0); negate v_dot (m/s^2, > 0 accelerating to starboard) or leave it out"

@@ -64,25 +64,26 @@ MEANING = {
 ACCELEROMETER = ("ay", "a_y", "acc_y", "accy", "a_s", "f_y", "fy")  # an IMU's lateral channel
 
 
-def _closest_known(h: str, cutoff: float) -> str | None:
-    """The column detect reads that ``h`` most likely is: an alias (another logger's name) or a
-    spelling within ``cutoff`` (difflib's ratio; case ignored)."""
+def _closest_known(h: str, cutoff: float | None) -> str | None:
+    """The column detect reads that ``h`` most likely is: the same name in another case, an alias (another
+    logger's name) or, with a ``cutoff``, a spelling within it (difflib's ratio; case ignored)."""
     low = h.strip().lower()
-    alias = [c for c, names in ALIASES.items() if low in names]
-    close = alias or difflib.get_close_matches(low, KNOWN_COLUMNS, n=1, cutoff=cutoff)
+    alias = [c for c in KNOWN_COLUMNS if c == low] or [c for c, names in ALIASES.items() if low in names]
+    close = alias or (difflib.get_close_matches(low, KNOWN_COLUMNS, n=1, cutoff=cutoff) if cutoff else [])
     return close[0] if close else None
 
 
 def renamed_columns(header: list[str]) -> list[tuple[str, str, str]]:
     """``(column, known name, meaning)`` for each column detect does not read that is clearly a
-    column it reads under another name (an alias, a case or a spelling within 0.75: ``vdot``,
-    ``R``, ``tau_r``) while the file lacks that column: read as it is, the column would be ignored
-    and the quantity derived or left out instead (v' differentiated from v, tau_n from the pods)."""
+    column it reads under another name (another case or an alias: ``R``, ``vdot``, ``tau_r``) while the
+    file lacks that column: read as it is, the column would be ignored and the quantity derived or left
+    out instead (v' differentiated from v, tau_n from the pods). A spelling match alone is a note
+    (:func:`unknown_column_notes`): ``p_dot`` (roll acceleration) is not ``v_dot``, ``tau_n1`` not ``tau_n``."""
     out = []
     for h in header:
         if h in KNOWN_COLUMNS or h in NUMERIC:
             continue
-        c = _closest_known(h, 0.75)
+        c = _closest_known(h, None)
         if c is not None and c not in header and c in MEANING:
             out.append((h, c, MEANING[c]))
     return out

@@ -77,16 +77,21 @@ def check_load_in_hull(load: Load, prof: RollProfile, what: str) -> None:
 
 
 def check_imu_in_hull(key: str, val: float, prof: RollProfile, paths: list[Path]) -> None:
-    """Refuse an IMU position (header ``imu_z_m`` or ``imu_x_m``) outside the hull: z between the
-    profile's ``load_z_top`` and the keel, x within half the length between perpendiculars of
-    midship (a position in mm, or a height given positive up from the deck, lands outside)."""
-    top, keel = hull_limits(prof)
-    half = 0.5 * float(prof.raw["ship"].get("L_pp", np.inf))
-    lo, hi, what = (top, keel, Z_WORDS) if key == "imu_z_m" else (-half, half, "x in metres, positive forward of midship")
+    """Refuse an IMU position (header ``imu_z_m`` or ``imu_x_m``) no ship carries it at: z below the keel
+    or higher above the waterline than the ship is long (an IMU may sit on a mast or the bridge, above any
+    load), x beyond half the length between perpendiculars of midship (a position in mm, or a height given
+    positive up, lands outside)."""
+    keel, length = hull_limits(prof)[1], float(prof.raw["ship"].get("L_pp", np.inf))
+    lo, hi, what = (
+        (-length, keel, Z_WORDS)
+        if key == "imu_z_m"
+        else (-0.5 * length, 0.5 * length, "x in metres, positive forward of midship")
+    )
     if not lo <= val <= hi:
         raise UserError(
-            f"{', '.join(p.name for p in paths)}: header '# {key}: {val:g}' puts the IMU outside the hull "
-            f"({lo:+g} .. {hi:+g} m in the profile; {what}); correct the header"
+            f"{', '.join(p.name for p in paths)}: header '# {key}: {val:g}' puts the IMU where the ship cannot carry it "
+            f"({lo:+g} .. {hi:+g} m for this profile: below the keel, higher than L_pp above the waterline, or beyond "
+            f"the perpendiculars; {what}); correct the header"
         )
 
 
@@ -225,8 +230,8 @@ def slowing_warning(recs: list[RollRecording], paths: list[Path], method: str) -
     above the positioning's error), with each such file's measured variation: the sd of its low-passed
     ``u / mean(u)`` and how far that falls below the mean. Why: on the independent basin truth's ships
     that slow in their turns (variants ``speed_loss`` and ``combined``) the oe fit, which follows the
-    speed (:func:`output_error.speed_inputs`), was biased by tens of per cent with intervals that miss
-    the truth (docs/mass-accuracy.md, stops 47-50); ``ls``, ``paper-iv`` and ``improved`` do not read
+    speed (:func:`output_error.speed_inputs`), was off by tens of per cent, its intervals holding the truth
+    in 10 of 12 fits at stop 50 (docs/mass-accuracy.md, stops 47-50); ``ls``, ``paper-iv`` and ``improved`` do not read
     ``u`` at all. The figures belong in the docs, the warning points there."""
     slowing = []
     for rec, path in zip(recs, paths):
@@ -242,9 +247,9 @@ def slowing_warning(recs: list[RollRecording], paths: list[Path], method: str) -
     )
     return [
         f"the ship's speed varies with its turns ({'; '.join(slowing)}; column 'u' low-passed at {SPEED_LP_HZ:g} Hz): "
-        f"{how}, but on the independent basin truth's ships that slow in their turns the estimate was biased "
-        "beyond its 95 % interval: treat the mass and z as indicative, not measured "
-        "(docs/mass-accuracy.md, variants speed_loss and combined)"
+        f"{how}, but on the independent basin truth's ships that slow in their turns the estimate was off by tens "
+        "of per cent: treat the mass and z as indicative, not measured (docs/mass-accuracy.md, variants speed_loss and "
+        "combined)"
     ]
 
 

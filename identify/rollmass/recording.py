@@ -46,21 +46,21 @@ ALIASES = {
     "phi": ("roll", "roll_angle", "heel", "heel_angle"),
 }
 MAX_PHI = 1.0  # rad: a roll angle column beyond it is in degrees (or the ship capsized)
-MAX_T = 0.5  # s: the sign checks' roll band reaches 0.45 Hz, under the Nyquist frequency 1 / (2 MAX_T)
+MAX_T = 1.0  # s: the sign checks' roll band reaches 0.45 Hz, under the Nyquist frequency 1 / (2 T) for T < 1.11 s
 MIN_ROWS = 100
 META_KEYS = ("role", "speed_m_s", "imu_z_m", "imu_x_m", "load_kg", "load_z_m", "ship", "dataset", "sample_time")
 
 
-def _closest(name: str) -> str | None:
-    """The known column an unknown one most likely means (alias table, then spelling; case is
-    ignored: a logger's ``R`` or ``A_S`` is our ``r`` or ``a_s``)."""
+def _closest(name: str, spelling: bool = True) -> str | None:
+    """The known column an unknown one most likely means (alias table, then, with ``spelling``, the
+    nearest spelling; case is ignored: a logger's ``R`` or ``A_S`` is our ``r`` or ``a_s``)."""
     low = name.strip().lower()
     if low in REQUIRED + OPTIONAL:
         return low
     for col, names in ALIASES.items():
         if low in names:
             return col
-    hit = difflib.get_close_matches(low, REQUIRED + OPTIONAL, n=1, cutoff=0.6)
+    hit = difflib.get_close_matches(low, REQUIRED + OPTIONAL, n=1, cutoff=0.6) if spelling else []
     return hit[0] if hit else None
 
 
@@ -152,9 +152,11 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
 def _refuse_renamed_optional(path: Path, header: list[str]) -> None:
     """Refuse a column that is an optional one under another name (``roll`` for ``phi``, ``speed`` for
     ``u``) while the file lacks that one: read as it is it would be ignored and the answer change
-    (``roll``: the wall-sided restoring left out of all three runs, the load -2 % in stop 50's sweep)."""
+    (``roll``: the wall-sided restoring left out of all three runs, the load -2 % in stop 50's sweep). Only
+    the same name in other case or a name of the alias table: a spelling match is another quantity as
+    often as not (a heading ``psi`` is not the roll angle ``phi``), so it stays a note."""
     for h in header:
-        near = _closest(h) if h not in REQUIRED + OPTIONAL else None
+        near = _closest(h, spelling=False) if h not in REQUIRED + OPTIONAL else None
         if near in OPTIONAL and near not in header:
             raise RecordingError(
                 f"{path}: column '{h}' looks like '{near}' ({WHAT[near]}), which the file lacks: rename it "

@@ -27,6 +27,10 @@ PHI_SCALE = 5.0  # phi / integrated p amplitude above which phi is in another un
 MIN_RHO = 0.4  # |correlation| below which a relation is not judged (weak excitation, noise)
 HEEL_RATIO = 3.0  # heel_ratio outside 1/3 .. 3 is a unit error, not a ship (measured 0.975-1.136)
 RUDDER_SCALE = 10.0  # rudder_scale_message's factor: a unit error, not a ship (measured 0.41-1.19)
+# the scale checks judge recordings of at least a period of the roll band's lower edge (0.1 Hz): on 2-3 s
+# cut from the bundled example the rudder's ratio read 36-427 with delta in radians (review of stop 50); 6 s
+# and more read as the whole file
+MIN_SCALE_S = 10.0
 G = 9.81  # m/s^2 (the profile's g is 9.81 too; the check's bound is a factor 3)
 SHIP_SIGN = "ship sign: roll positive starboard down, yaw positive to starboard, a_s as eq. (7)"
 
@@ -36,6 +40,13 @@ def _band(x: np.ndarray, T: float, lo: float | None, hi: float) -> np.ndarray:
     b, a = butter(2, [lo, hi] if lo else hi, btype="bandpass" if lo else "lowpass", fs=fs)
     y = filtfilt(b, a, x - x.mean())
     return y - y.mean()
+
+
+def _trimmed(rec: RollRecording) -> slice:
+    """The samples the relations are judged on: without 20 s at each end (the filters' edges) when the
+    recording is over four times that long, else all of it."""
+    cut = 20 * max(int(1 / rec.T), 1)
+    return slice(cut, -cut) if rec.n > 4 * cut else slice(None)
 
 
 def _rho(a: np.ndarray, b: np.ndarray) -> float:
@@ -52,8 +63,7 @@ def relations(rec: RollRecording) -> tuple[float, float, float]:
     """Correlations ``(a_s ~ int p, a_s ~ r, r ~ lagged delta)`` of one recording."""
     T = rec.T
     phi = _roll_angle(rec)
-    cut = 20 * max(int(1 / T), 1)  # the filters' edges
-    s = slice(cut, -cut) if rec.n > 4 * cut else slice(None)
+    s = _trimmed(rec)
     r1 = _rho(_band(rec.a_s, T, 0.1, 0.45)[s], _band(phi, T, 0.1, 0.45)[s])
     r2 = _rho(_band(rec.a_s, T, None, 0.15)[s], _band(rec.r, T, None, 0.15)[s])
     r3 = _rho(_band(rec.r, T, None, 0.3)[s], _band(_lagged_rudder(rec), T, None, 0.3)[s])
@@ -87,8 +97,9 @@ def rudder_scale_message(rec: RollRecording, gain: float) -> str | None:
     0.65-0.72 on the own simulator's case-1 runs and 0.41-1.19 on 189 basin-truth recordings (7 variants
     x 3 runs x 3 cases, stop 50); ``delta`` in degrees gives 0.012."""
     T = rec.T
-    cut = 20 * max(int(1 / T), 1)
-    s = slice(cut, -cut) if rec.n > 4 * cut else slice(None)
+    if rec.n * T < MIN_SCALE_S:
+        return None
+    s = _trimmed(rec)
     r, d = _band(rec.r, T, None, 0.3)[s], _band(_lagged_rudder(rec), T, None, 0.3)[s]
     if not (np.dot(d, d) > 0 and gain != 0 and abs(_rho(r, d)) >= MIN_RHO):
         return None
@@ -97,7 +108,7 @@ def rudder_scale_message(rec: RollRecording, gain: float) -> str | None:
         return None
     return (
         f"{rec.name}: column 'delta' is {abs(k):.3g} times the rudder angle the profile's ship turns with as recorded "
-        f"(0.4-1.2 on ships like it; degrees give 0.017): give delta in radians"
+        f"(0.4-1.2 on ships like it; degrees give about 0.012): give delta in radians"
     )
 
 
@@ -107,8 +118,9 @@ def heel_ratio(rec: RollRecording) -> float:
     cent). Measured 1.10 on the own simulator's case-1 runs and 0.975-1.136 on 189 recordings of the
     basin truth family (7 variants x 3 runs x 3 cases, stop 50); ``p`` in deg/s gives 0.019."""
     T = rec.T
-    cut = 20 * max(int(1 / T), 1)
-    s = slice(cut, -cut) if rec.n > 4 * cut else slice(None)
+    if rec.n * T < MIN_SCALE_S:
+        return float("nan")
+    s = _trimmed(rec)
     a, phi = _band(rec.a_s, T, 0.1, 0.45)[s], _band(_roll_angle(rec), T, 0.1, 0.45)[s]
     return float(a.std() / (G * phi.std())) if phi.std() > 0 else float("nan")
 
@@ -121,7 +133,7 @@ def scale_message(rec: RollRecording) -> str | None:
         return None
     return (
         f"{rec.name}: columns 'p' and 'a_s' disagree in scale: in the roll band the accelerometer's heel is {k:.3g} "
-        "times g times the integrated roll rate (about 1 by eq. (7); p in deg/s gives 0.017, a_s in g 0.10): give p in "
+        "times g times the integrated roll rate (about 1 by eq. (7); p in deg/s gives about 0.019, a_s in g 0.10): give p in "
         "rad/s and a_s in m/s^2"
     )
 
