@@ -23,7 +23,7 @@ from identify.rollmass.output_error import (
 )
 from identify.rollmass.recording import read_roll_csv
 from identify.rollmass.restoring import DEFAULT_HEEL_REFERENCE, HEEL_REFERENCES
-from identify.rollmass.signs import check_signs, expected_signs, rudder_scale_message, steady_gains
+from identify.rollmass.signs import check_signs, expected_signs, gain_signs, rudder_scale_message, steady_gains
 from identify.rollmass.simulate import RollRecording
 from primitives.errors import UserError
 
@@ -283,14 +283,13 @@ def check_recorded_signs(recs: list[RollRecording], prof: RollProfile, given: Ro
     ``given`` profile's own speed but not the headers' ``speed_m_s``, the header is named, not a column
     (a speed in knots or a typo read as a flipped rudder in stop 50's sweep)."""
     nominal = (prof.known.z_f_prior, Load(0.0, 0.0))
-    expect, gain = (
-        expected_signs(start_values(prof), prof.known, *nominal),
-        steady_gains(start_values(prof), prof.known, *nominal)[2],
-    )
+    dc = steady_gains(start_values(prof), prof.known, *nominal)  # once: the signs and the turning gain
+    expect, gain = gain_signs(dc), dc[2]
     U, U0 = prof.known.U, given.known.U
+    own = expected_signs(start_values(given), given.known, *nominal) if abs(U - U0) > 1e-9 else None
     for rec in recs:
         msg = check_signs(rec, expect)
-        if msg and abs(U - U0) > 1e-9 and check_signs(rec, expected_signs(start_values(given), given.known, *nominal)) is None:
+        if msg and own is not None and check_signs(rec, own) is None:
             raise UserError(
                 f"{rec.name}: the recordings' header speed_m_s {U:g} m/s contradicts their motion: the signs of "
                 f"a_s, r and delta fit the profile's ship at its U = {U0:g} m/s, not at {U:g} m/s; correct the "

@@ -80,7 +80,11 @@ def steady_gains(values: dict[str, float], kn: Known, z_f: float, load: Load) ->
 
 def expected_signs(values: dict[str, float], kn: Known, z_f: float, load: Load) -> tuple[float, float]:
     """Signs of the steady ``a_s / r`` and ``r / delta`` gains of the profile's sway-roll-yaw model."""
-    dc = steady_gains(values, kn, z_f, load)
+    return gain_signs(steady_gains(values, kn, z_f, load))
+
+
+def gain_signs(dc: np.ndarray) -> tuple[float, float]:
+    """The signs :func:`expected_signs` checks, from the steady gains ``dc`` (:func:`steady_gains`)."""
     return float(np.sign(dc[1] * dc[2])), float(np.sign(dc[2]))
 
 
