@@ -388,6 +388,25 @@ def test_a_broken_table_is_refused_naming_line_column_and_fix(files, capsys, tmp
     assert said in msg and "loaded.csv" in msg and "Traceback" not in msg
 
 
+def test_a_bad_cell_is_named_by_its_line_in_the_file_blank_lines_included(files, tmp_path):
+    # stop 50 noticed: blank lines (trailing or within) shifted the line the message named
+    lines = files[2].read_text().splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("t,")) + 40  # a data row, 0-based
+    lines[k] = "x" + lines[k][lines[k].index(",") :]
+    lines[k - 20 : k - 20] = [""]  # a blank line before the bad row ...
+    path = tmp_path / "blank.csv"
+    path.write_text("\n".join(lines) + "\n\n\n")  # ... and trailing blank lines
+    with pytest.raises(UserError, match=rf"line {k + 2}, column 't': 'x' is not a number"):
+        read_roll_csv(path)
+
+
+def test_a_trailing_comma_is_named_as_such(files, tmp_path):
+    # stop 50 noticed: a trailing comma on every line said "column '': '' is not a number"
+    path = _edit(files[2], tmp_path / "comma.csv", lambda h, rows: (h + [""], [r + [""] for r in rows]))
+    with pytest.raises(UserError, match=r"column \d+ has no name \(a trailing or doubled comma\?\); remove the extra commas"):
+        read_roll_csv(path)
+
+
 def test_a_time_in_milliseconds_without_a_sample_time_header_is_refused(files, capsys, tmp_path):
     nom, cal, loaded = files
     ms = _with_header(_edit(loaded, tmp_path / "loaded.csv", _scale_time(1000.0)), tmp_path, "sample_time", None)

@@ -107,6 +107,11 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
     header = [h.strip() for h in rows[0]]
     if len(header) == 1 and (sep := next((c for c in ";\t " if c in header[0]), None)):
         raise RecordingError(f"{path}: the header row is one column separated by {sep!r}; separate the columns with commas")
+    if "" in header:
+        raise RecordingError(
+            f"{path}: the header's column {header.index('') + 1} has no name (a trailing or doubled comma?); "
+            "remove the extra commas or name the column"
+        )
     missing = [c for c in REQUIRED if c not in header]
     if missing:
         raise RecordingError(_missing_message(path, header, missing))
@@ -119,7 +124,9 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
                 f"{path.name}: column '{h}' is not read"
                 + (f" (did you mean '{near}'?)" if near else f" (known columns: {','.join(REQUIRED + OPTIONAL)})")
             )
-    arr = _numbers(path, header, rows[1:], len(lines) - len(body) + 2)
+    # the file's line of each data row: comment and blank lines are not in ``body`` but count in the file
+    line_numbers = [k + 1 for k, line in enumerate(lines) if line.strip() and not line.startswith("#")][1:]
+    arr = _numbers(path, header, rows[1:], line_numbers)
     col = {h: arr[:, i] for i, h in enumerate(header)}
     for c in REQUIRED:
         if not np.all(np.isfinite(col[c])):
@@ -164,20 +171,18 @@ def _refuse_renamed_optional(path: Path, header: list[str]) -> None:
             )
 
 
-def _numbers(path: Path, header: list[str], rows: list[list[str]], first_line: int) -> np.ndarray:
+def _numbers(path: Path, header: list[str], rows: list[list[str]], line_numbers: list[int]) -> np.ndarray:
     """The data rows as floats; the first cell that is not a number is named by line and column
-    (``first_line``: the file's line of the first data row)."""
-    for i, row in enumerate(rows):
+    (``line_numbers``: the file's line of each data row)."""
+    for row, line in zip(rows, line_numbers):
         if len(row) != len(header):
-            raise RecordingError(
-                f"{path}: line {first_line + i} has {len(row)} values for the {len(header)} columns; complete or cut it"
-            )
+            raise RecordingError(f"{path}: line {line} has {len(row)} values for the {len(header)} columns; complete or cut it")
         for name, x in zip(header, row):
             try:
                 float(x)
             except ValueError:
                 raise RecordingError(
-                    f"{path}: line {first_line + i}, column '{name.strip()}': {x!r} is not a number; "
+                    f"{path}: line {line}, column '{name.strip()}': {x!r} is not a number; "
                     "fill or cut the row (empty cells too; NaN only where a gap is meant)"
                 ) from None
     arr = np.array(rows, dtype=float).reshape(len(rows), len(header))
