@@ -115,6 +115,34 @@ def test_the_sway_mass_prior_row_and_its_derivative(case2):
     assert with_prior.prior(x)[-1] == 1e3
 
 
+def test_the_sway_mass_prior_is_used_only_where_a_speed_is_followed(case2, monkeypatch):
+    """The prior changes only fits of a ship whose speed varies (stop 50); a constant-speed run (no ``u``
+    column, or one that does not vary) keeps the fit it had. The fit is stopped where its first problem is
+    built: only the prior it was given is looked at."""
+    import dataclasses
+
+    from identify.rollmass import oe_fit
+
+    class Built(Exception):
+        pass
+
+    given = []
+
+    def capture(*args):
+        given.append(args[-1])
+        raise Built
+
+    monkeypatch.setattr(oe_fit, "_best_start", capture)
+    t = [np.arange(d.n) * d.T for d in case2]
+    held = [dataclasses.replace(d, u=np.full(d.n, 0.5)) for d in case2]
+    slowed = [dataclasses.replace(d, u=0.5 * (1.0 - 0.15 * np.sin(2 * np.pi * ti / 40.0) ** 2)) for d, ti in zip(case2, t)]
+    for datasets in (case2, held, slowed):
+        with pytest.raises(Built):
+            oe_fit.fit_output_error(datasets, PROF.known, CAL, PROF.known.z_f_prior, oe.start_values(PROF))
+    assert given[:2] == [None, None]
+    assert given[2] == (oe.start_values(PROF)["X_v"], oe.SWAY_MASS_PRIOR_SD)
+
+
 def test_where_the_modal_form_fails_the_jacobian_is_central_differences(case2, monkeypatch):
     prob, x = _problem(case2)
 
