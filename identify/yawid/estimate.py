@@ -66,9 +66,11 @@ def simulate_yaw(
     reg = _input_regressors(model, w, col) if sensitivities else None
     if not sensitivities and yawloop.usable(model, w, b, n):  # the same bits, compiled (identify.yawid.yawloop)
         return yawloop.simulate(model, theta, col, w, r0, ts), None
+    if not sensitivities and yawloop.stepped(model, w):  # to rounding, without per-term calls (yawloop), by blocks
+        return yawloop.simulate_numpy(
+            model, theta, col, lambda sl: _input_forcing(model, theta, _cut(w, sl), col), w, r0, ts
+        ), None
     forcing = _input_forcing(model, theta, w, col, reg)
-    if not sensitivities and yawloop.stepped(model, w):  # the same bits, without per-term calls (yawloop)
-        return yawloop.simulate_numpy(model, theta, col, forcing, w, r0, ts), None
     r_hat = np.empty((b, n))
     sens = np.zeros((b, n, p)) if sensitivities else None
     r = np.asarray(r0, float).copy()
@@ -94,6 +96,11 @@ def simulate_yaw(
             s = s + ts * (dfdr[:, None] / i_r[:, None] * s + dfdth)
         r = r + ts * f
     return r_hat, sens
+
+
+def _cut(w: dict[str, np.ndarray], sl: slice) -> dict[str, np.ndarray]:
+    """The inputs (B, N) of the samples ``sl`` (views)."""
+    return {k: x[:, sl] for k, x in w.items()}
 
 
 def _input_regressors(model: YawModel, w: dict[str, np.ndarray], col: dict[str, int]) -> np.ndarray:

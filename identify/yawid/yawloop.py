@@ -15,6 +15,8 @@ parameter, divided by I_r, then ``r + Ts f`` -- the same bits (tests/test_yawloo
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from identify.yawid.model import YawModel
@@ -28,6 +30,11 @@ STATE_CODES = {"A": 0, "N_rr": 1, "N_rv": 2, "N_phiur": 3}
 SIGNALS = ("tau_r", "u", "v", "v_dot", "phi", "p")
 #: :func:`simulate_numpy`'s state terms: how each multiplies the yaw rate (0 ``r |r|``, 1 ``x |r|``, 2 ``x r``)
 #: and the signals its factor ``x`` is made of (``u``; none; ``|v|``; ``phi u``)
+#: elements (members x samples) of one block of :func:`simulate_numpy`'s coefficients: 256 KB an array, in the cache
+BLOCK = 2**15
+#: batches of up to this many members are stepped member by member on Python floats (about 1.3 ms a member
+#: for 5,000 steps, against 25-40 ms for any batch of under 20 in array operations)
+FLOATS = 16
 STEPPED = {"A": (2, ("u",)), "N_rr": (0, ()), "N_rv": (2, ("v",)), "N_phiur": (1, ("phi", "u"))}
 
 
@@ -119,58 +126,124 @@ def simulate_numpy(
     model: YawModel,
     theta: np.ndarray,
     col: dict[str, int],
-    forcing: np.ndarray,
+    forcing: Callable[[slice], np.ndarray],
     w: dict[str, np.ndarray],
     r0: float | np.ndarray,
     ts: float,
 ) -> np.ndarray:
-    """:func:`simulate` in numpy: the explicit Euler step of (2.17)/(2.18) over the batch, one sample at a time.
+    """:func:`simulate` in numpy: the explicit Euler step of (2.17)/(2.18) over the batch, one sample at a time,
+    with the step's terms grouped by how they hold r (stop 51):
 
-    ``forcing`` (B, N) is the input terms plus tau_r (:func:`identify.yawid.estimate._input_forcing`).
-    The operations are the generic loop's (:func:`identify.yawid.estimate.simulate_yaw`), element by
-    element in the same order, so the same bits: ``f = forcing + th * term`` for each state term in the
-    model's order, ``r + Ts (f / I_r)``. Only what does not depend on r is taken out of the loop and done
-    once over all samples (``|v|``, ``phi u``: each element the same product), and every step writes
-    into buffers: about 16 array operations a step without Python's per-term calls and dicts (stop 49,
-    docs/detect-accuracy.md: 5,000 steps of 64 columns 0.085-0.150 -> 0.075-0.079 s CPU)."""
-    b, n = forcing.shape
+        r[k+1] = r[k] a[k] + |r[k]| (b[k] + g r[k]) + c[k]
+
+    ``a = 1 + (Ts / I_r) sum th x`` over the ``x r`` terms (``A u r``, ``N_rv |v| r``), ``b = (Ts / I_r) sum th x``
+    over the ``x |r|`` terms (``N_phiur phi u |r|``), ``g = (Ts / I_r) N_rr`` and ``c = (Ts / I_r) f``, ``f`` the
+    input terms plus tau_r of the samples ``forcing(slice)`` gives, (B, len) (:func:`identify.yawid.estimate._input_forcing`
+    on those samples). Everything but r is formed outside the step, a block of samples at a time (:func:`_coefficients`:
+    its arrays stay in the cache, not 16 MB temporaries), so a step is 7 array operations, not the generic loop's 17
+    (the Python call per operation, not the arithmetic, is the cost at 400 members). The generic loop's sum
+    (:func:`identify.yawid.estimate.simulate_yaw`) in another order: equal to rounding, not to the bit
+    (tests/test_yawloop.py: within 1e-13 of the yaw rate's scale on random inputs). One member is stepped on Python
+    floats (:func:`_one`), the same IEEE operations in the same order: this loop's bits."""
+    b, n = w["u"].shape
     theta = np.ascontiguousarray(theta, dtype=float)
-    i_r = np.ascontiguousarray(theta[:, col["I_r"]])
-    # each state term's parameters, how it multiplies r (STEPPED) and its factor, time-major: step k reads one row
-    plan = [(np.ascontiguousarray(theta[:, col[t]]), STEPPED[t][0], _factor(t, w, b, n)) for t in model.state_terms]
     out = np.empty((n, b))
     if n == 0:
         return out.T
     out[0] = np.broadcast_to(np.asarray(r0, float), (b,))
-    fk = np.ascontiguousarray(forcing.T)  # time-major: one contiguous row per step
-    acc, tmp, ar = np.empty(b), np.empty(b), np.empty(b)
-    mul, add, absolute = np.multiply, np.add, np.abs  # local names: no attribute lookups in the 5,000-step loop
-    need_abs = any(code < 2 for _, code, _ in plan)
-    for k in range(n - 1):
-        r = out[k]
-        if need_abs:
-            absolute(r, out=ar)
-        acc[:] = fk[k]
-        for th, code, x in plan:
-            if code == 0:
-                mul(r, ar, out=tmp)
-            elif code == 1:
-                mul(x[k], ar, out=tmp)
-            else:
-                mul(x[k], r, out=tmp)
-            mul(th, tmp, out=tmp)
-            add(acc, tmp, out=acc)
-        np.divide(acc, i_r, out=acc)
-        mul(acc, ts, out=acc)
-        add(r, acc, out=out[k + 1])
+    scale = ts / theta[:, col["I_r"]]  # (B,): Ts / I_r once per member
+    g = theta[:, col["N_rr"]] * scale if "N_rr" in model.state_terms else None
+    step = n if b <= FLOATS else max(16, BLOCK // b)
+    bufs = (np.empty(b), np.empty(b), np.empty(b))
+    w = {k: np.broadcast_to(w[k], (b, n)) for t in model.state_terms for k in STEPPED[t][1]}  # once, not per block
+    for k0 in range(0, n - 1, step):
+        sl = slice(k0, min(k0 + step, n - 1))
+        a, bk, c = _coefficients(model, theta, col, forcing(sl), w, sl, scale)
+        if b <= FLOATS:
+            for i in range(b):
+                coef = (a[:, i], None if bk is None else bk[:, i], None if g is None else float(g[i]), c[:, i])
+                out[sl.start + 1 : sl.stop + 1, i] = _one(float(out[sl.start, i]), *coef)
+        else:
+            _steps(out[sl.start : sl.stop + 1], a, bk, g, c, bufs)
     return out.T
 
 
-def _factor(term: str, w: dict[str, np.ndarray], b: int, n: int) -> np.ndarray | None:
-    """Time-major (N, B) factor ``x`` of a state term (:data:`STEPPED`), formed once over all samples."""
-    sig = {k: np.broadcast_to(w[k], (b, n)).T for k in STEPPED[term][1]}
-    if term == "N_rv":
-        return np.abs(sig["v"])
-    if term == "N_phiur":
-        return np.multiply(sig["phi"], sig["u"])
-    return sig.get("u")  # A: u; N_rr: none
+def _steps(out: np.ndarray, a: np.ndarray, bk: np.ndarray | None, g: np.ndarray | None, c: np.ndarray, bufs) -> None:
+    """``out[j + 1]`` from ``out[j]`` for each row j of the block's (len, B) coefficients (:func:`simulate_numpy`)."""
+    ar, t, s = bufs
+    mul, add, absolute = np.multiply, np.add, np.abs  # local names: no attribute lookups in the steps' loop
+    for k in range(len(a)):
+        r = out[k]
+        mul(r, a[k], out=s)
+        if g is not None or bk is not None:
+            absolute(r, out=ar)
+            if g is None:
+                mul(bk[k], ar, out=t)
+            else:
+                mul(g, r, out=t)
+                if bk is not None:
+                    add(t, bk[k], out=t)
+                mul(t, ar, out=t)
+            add(s, t, out=s)
+        add(s, c[k], out=out[k + 1])
+
+
+def _coefficients(
+    model: YawModel,
+    theta: np.ndarray,
+    col: dict[str, int],
+    f: np.ndarray,
+    w: dict[str, np.ndarray],
+    sl: slice,
+    scale: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """:func:`simulate_numpy`'s ``a``, ``b`` (None without an ``x |r|`` term) and ``c`` of the samples ``sl``,
+    time-major (len, B): step k reads one contiguous row of each. ``f`` is their forcing (B, len), ``w`` the
+    state terms' signals (B, N)."""
+    b = f.shape[0]
+    m = sl.stop - sl.start
+    c = np.multiply(f.T, scale, out=np.empty((m, b)))
+    lin, absr, tmp = np.zeros((m, b)), None, np.empty((m, b))
+    for term in model.state_terms:
+        code, names = STEPPED[term]
+        if code == 0:  # r |r|: its g is a member's constant
+            continue
+        x = [w[k][:, sl].T for k in names]
+        if term == "N_rv":
+            np.abs(x[0], out=tmp)
+        elif len(x) == 2:
+            np.multiply(x[0], x[1], out=tmp)
+        else:
+            tmp[:] = x[0]
+        tmp *= theta[:, col[term]]
+        if code == 2:
+            lin += tmp
+        elif absr is None:
+            absr, tmp = tmp, np.empty((m, b))
+        else:
+            absr += tmp
+    lin *= scale
+    lin += 1.0
+    if absr is not None:
+        absr *= scale
+    return lin, absr, c
+
+
+def _one(r: float, a: np.ndarray, bk: np.ndarray | None, g: float | None, c: np.ndarray) -> list[float]:
+    """:func:`_steps` for one member on Python floats (no array call per operation): the same IEEE double
+    operations in the same order, so its bits. The yaw rates after ``r``, one per coefficient."""
+    av, cv = a.tolist(), c.tolist()
+    bv = None if bk is None else bk.tolist()
+    rs = []
+    for k in range(len(av)):
+        if g is not None:
+            t = g * r
+            if bv is not None:
+                t = t + bv[k]
+            r = r * av[k] + t * abs(r) + cv[k]
+        elif bv is not None:
+            r = r * av[k] + bv[k] * abs(r) + cv[k]
+        else:
+            r = r * av[k] + cv[k]
+        rs.append(r)
+    return rs
