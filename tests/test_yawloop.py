@@ -179,9 +179,10 @@ def test_the_loop_knows_every_term_of_the_yaw_models() -> None:
 
 
 @needs_numba
-def test_compiled_cusum_path_gives_numpys_bits(monkeypatch) -> None:
-    """detect's CUSUM recursion (identify.detect.cusum.cusum_path) compiled and in numpy: the same
-    statistic, a NaN carried on in both (a diverged record must not look like a quiet one)."""
+def test_compiled_cusum_path_agrees_with_numpys(monkeypatch) -> None:
+    """detect's CUSUM recursion (identify.detect.cusum.cusum_path) compiled (the recursion step by step) and
+    in numpy (its closed form by blocks, stop 51): the same statistic to rounding, a NaN carried on in both
+    from the same sample (a diverged record must not look like a quiet one)."""
     from identify.detect import cusum
 
     inc = np.random.default_rng(1).standard_normal((600, 50, 3)) - 0.3
@@ -190,4 +191,6 @@ def test_compiled_cusum_path_gives_numpys_bits(monkeypatch) -> None:
     monkeypatch.setattr(jitloop, "AVAILABLE", False)
     slow = cusum.cusum_path(inc)
     assert np.isnan(slow[100:, 7, 1]).all() and np.nanmax(fast) > 1.0
-    assert fast.tobytes() == slow.tobytes()
+    assert (np.isnan(fast) == np.isnan(slow)).all()
+    ok = ~np.isnan(fast)
+    assert np.abs(fast[ok] - slow[ok]).max() <= 1e-12 * np.abs(fast[ok]).max()

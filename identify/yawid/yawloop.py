@@ -126,7 +126,7 @@ def simulate_numpy(
     model: YawModel,
     theta: np.ndarray,
     col: dict[str, int],
-    forcing: Callable[[slice], np.ndarray],
+    forcing: Callable[[dict[str, np.ndarray]], np.ndarray],
     w: dict[str, np.ndarray],
     r0: float | np.ndarray,
     ts: float,
@@ -138,13 +138,14 @@ def simulate_numpy(
 
     ``a = 1 + (Ts / I_r) sum th x`` over the ``x r`` terms (``A u r``, ``N_rv |v| r``), ``b = (Ts / I_r) sum th x``
     over the ``x |r|`` terms (``N_phiur phi u |r|``), ``g = (Ts / I_r) N_rr`` and ``c = (Ts / I_r) f``, ``f`` the
-    input terms plus tau_r of the samples ``forcing(slice)`` gives, (B, len) (:func:`identify.yawid.estimate._input_forcing`
-    on those samples). Everything but r is formed outside the step, a block of samples at a time (:func:`_coefficients`:
-    its arrays stay in the cache, not 16 MB temporaries), so a step is 7 array operations, not the generic loop's 17
+    input terms plus tau_r, (B, len) from ``forcing`` of the inputs of a block of samples
+    (:func:`identify.yawid.estimate._input_forcing`). Everything but r is formed outside the step, a block of samples
+    at a time (:func:`_coefficients`: its arrays stay in the cache, not 16 MB temporaries; an input the same for
+    every member, a broadcast row, is read as one row), so a step is 7 array operations, not the generic loop's 17
     (the Python call per operation, not the arithmetic, is the cost at 400 members). The generic loop's sum
     (:func:`identify.yawid.estimate.simulate_yaw`) in another order: equal to rounding, not to the bit
-    (tests/test_yawloop.py: within 1e-13 of the yaw rate's scale on random inputs). One member is stepped on Python
-    floats (:func:`_one`), the same IEEE operations in the same order: this loop's bits."""
+    (tests/test_yawloop.py: within 1e-13 of the yaw rate's scale on random inputs). Up to :data:`FLOATS` members
+    are stepped on Python floats (:func:`_one`), the same IEEE operations in the same order: this loop's bits."""
     b, n = w["u"].shape
     theta = np.ascontiguousarray(theta, dtype=float)
     out = np.empty((n, b))
@@ -155,10 +156,11 @@ def simulate_numpy(
     g = theta[:, col["N_rr"]] * scale if "N_rr" in model.state_terms else None
     step = n if b <= FLOATS else max(16, BLOCK // b)
     bufs = (np.empty(b), np.empty(b), np.empty(b))
-    w = {k: np.broadcast_to(w[k], (b, n)) for t in model.state_terms for k in STEPPED[t][1]}  # once, not per block
+    w = {k: x[:1] if x.shape[0] > 1 and x.strides[0] == 0 else x for k, x in w.items()}  # a broadcast row: one row
     for k0 in range(0, n - 1, step):
         sl = slice(k0, min(k0 + step, n - 1))
-        a, bk, c = _coefficients(model, theta, col, forcing(sl), w, sl, scale)
+        part = {k: x[:, sl] for k, x in w.items()}
+        a, bk, c = _coefficients(model, theta, col, forcing(part), part, scale)
         if b <= FLOATS:
             for i in range(b):
                 coef = (a[:, i], None if bk is None else bk[:, i], None if g is None else float(g[i]), c[:, i])
@@ -189,44 +191,31 @@ def _steps(out: np.ndarray, a: np.ndarray, bk: np.ndarray | None, g: np.ndarray 
 
 
 def _coefficients(
-    model: YawModel,
-    theta: np.ndarray,
-    col: dict[str, int],
-    f: np.ndarray,
-    w: dict[str, np.ndarray],
-    sl: slice,
-    scale: np.ndarray,
+    model: YawModel, theta: np.ndarray, col: dict[str, int], f: np.ndarray, w: dict[str, np.ndarray], scale: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
-    """:func:`simulate_numpy`'s ``a``, ``b`` (None without an ``x |r|`` term) and ``c`` of the samples ``sl``,
-    time-major (len, B): step k reads one contiguous row of each. ``f`` is their forcing (B, len), ``w`` the
-    state terms' signals (B, N)."""
-    b = f.shape[0]
-    m = sl.stop - sl.start
-    c = np.multiply(f.T, scale, out=np.empty((m, b)))
-    lin, absr, tmp = np.zeros((m, b)), None, np.empty((m, b))
+    """:func:`simulate_numpy`'s ``a``, ``b`` (None without an ``x |r|`` term) and ``c`` of a block of samples,
+    time-major (len, B): step k reads one contiguous row of each. ``f`` is the block's forcing (B, len), ``w`` its
+    inputs (B or 1, len); formed member-major, as the inputs lie, and transposed once at the end."""
+    th = theta[:, None, :]
+    sc = scale[:, None]
+    lin, absr = None, None
     for term in model.state_terms:
         code, names = STEPPED[term]
         if code == 0:  # r |r|: its g is a member's constant
             continue
-        x = [w[k][:, sl].T for k in names]
-        if term == "N_rv":
-            np.abs(x[0], out=tmp)
-        elif len(x) == 2:
-            np.multiply(x[0], x[1], out=tmp)
-        else:
-            tmp[:] = x[0]
-        tmp *= theta[:, col[term]]
+        x = w[names[0]]
+        x = np.abs(x) if term == "N_rv" else x * w[names[1]] if len(names) == 2 else x  # the factor: once per row
+        x = th[:, :, col[term]] * x
         if code == 2:
-            lin += tmp
-        elif absr is None:
-            absr, tmp = tmp, np.empty((m, b))
+            lin = x if lin is None else np.add(lin, x, out=lin)
         else:
-            absr += tmp
-    lin *= scale
-    lin += 1.0
-    if absr is not None:
-        absr *= scale
-    return lin, absr, c
+            absr = x if absr is None else np.add(absr, x, out=absr)
+    b, m = f.shape
+    lin = np.zeros((b, m)) if lin is None else np.broadcast_to(lin, (b, m))
+    a = np.multiply(lin.T, sc.T, out=np.empty((m, b)))
+    a += 1.0
+    bk = None if absr is None else np.multiply(np.broadcast_to(absr, (b, m)).T, sc.T, out=np.empty((m, b)))
+    return a, bk, np.multiply(f.T, sc.T, out=np.empty((m, b)))
 
 
 def _one(r: float, a: np.ndarray, bk: np.ndarray | None, g: float | None, c: np.ndarray) -> list[float]:
