@@ -56,7 +56,8 @@ def simulate_yaw(
     (``identify.detect.yawmodel.simulate_r``) is this function on its column layout. Without
     sensitivities it needs memory of the order of the inputs only (a detector's 400 no-change
     records of a long recording); compiled when numba is there and the batch is large, else for
-    float64 inputs numpy's loop without per-term calls (:mod:`identify.yawid.yawloop`; both the same bits)."""
+    float64 inputs numpy's loop without per-term calls (:mod:`identify.yawid.yawloop`: the compiled one this loop's
+    bits, the numpy one to rounding)."""
     b, n = w["u"].shape
     p = len(model.params)
     col = {name: j for j, name in enumerate(model.params)}
