@@ -1,5 +1,6 @@
-"""The CUSUM recursion's numpy form (identify.detect.cusum.cusum_path, stop 51: Lindley's closed form by
-blocks) against the plain recursion g_t = max(0, g_{t-1} + inc_t) on random increments."""
+"""The CUSUM recursion's numpy forms (identify.detect.cusum.cusum_path, stop 51: Lindley's closed form by
+blocks for a few columns, stepped for many) against the plain recursion g_t = max(0, g_{t-1} + inc_t) on random
+increments."""
 
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ def _plain(inc: np.ndarray) -> np.ndarray:
     return out.reshape(inc.shape)
 
 
-@pytest.mark.parametrize("shape", [(1,), (700,), (1300, 9), (600, 5, 3), (256, 4), (257, 2)])
+@pytest.mark.parametrize("shape", [(1,), (700,), (1300, 9), (600, 5, 3), (256, 4), (257, 2), (300, 70), (200, 30, 3)])
 @pytest.mark.parametrize("drift", [-0.3, 0.0, 0.05])
 def test_the_numpy_cusum_agrees_with_the_plain_recursion(shape, drift, monkeypatch) -> None:
     monkeypatch.setattr(jitloop, "AVAILABLE", False)  # the numpy form whatever is installed
