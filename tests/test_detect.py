@@ -459,6 +459,21 @@ def test_a_negated_roll_angle_is_refused_not_read_as_a_change(prior):
     assert not detect(rec, prior).changed
 
 
+def test_the_roll_check_reads_the_filtered_inputs_negated_to_the_bit(prior):
+    """check_roll_sign negates the recording's filtered phi instead of filtering -phi again (stop 51): the
+    input filter is linear and IEEE rounding symmetric in sign, so the two are the same bits."""
+    from identify.detect.api import signals
+
+    rec = simulated_recording(Vessel(), 300, seed=52, measured_moment=True)
+    sig, _ = signals(rec, prior.kind)
+    w = prior.inputs(sig)
+    again = prior.inputs(sig | {"phi": -sig["phi"]})
+    assert np.abs(w["phi"]).max() > 0 and again["phi"].tobytes() == (-w["phi"]).tobytes()
+    assert all(again[k].tobytes() == w[k].tobytes() for k in w if k != "phi")
+    x = np.random.default_rng(3).standard_normal((3000, 4)) * 0.05
+    assert prior.inputs({"phi": -x})["phi"].tobytes() == (-prior.inputs({"phi": x})["phi"]).tobytes()
+
+
 def test_a_negated_sway_acceleration_is_refused(tmp_path):
     # stop 50's sweep: v_dot negated moved the prior's I_r +7.6 % (exit 0) and alarmed "pod gain" in detect
     from diagnose.recording import RecordingError

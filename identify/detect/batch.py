@@ -27,7 +27,7 @@ def detect_all(
 ) -> list[Detection]:
     """:func:`detect` on each recording, as one job for the compiled loops (:func:`job_work`): a job of
     under 12,500 samples in all (400 no-change records each: up to two 500 s recordings at 10 Hz) runs
-    the numpy loops and does not pay numba's load, a larger one loads it at its first recording (:func:`primitives.jitloop.job`; the same numbers either way). The
+    the numpy loops and does not pay numba's load, a larger one loads it at its first recording (:func:`primitives.jitloop.job`; the same numbers to rounding either way). The
     no-change records' noise draws are the same for recordings of the same length: drawn once
     (:func:`identify.detect.nullsim.normals`)."""
     draws: dict = {}

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from diagnose.recording import Recording, RecordingError
-from identify.detect.yawmodel import YAW_MODELS, YawPrior, model_inputs, prior_name
+from identify.detect.yawmodel import YAW_MODELS, YawPrior, model_inputs, prior_name, simulate_r
 from identify.yawid.model import INPUT_TERMS, STATE_TERMS
 from primitives.savgol import savgol_filter  # scipy.signal's, without its 2 s import
 
@@ -120,18 +120,33 @@ def check_inputs(
             f"{rms / sigma:.0f}x its noise {sigma:.2g} rad/s (over {MISFIT_SIGMAS:g}x is no ship "
             f"change: an input error); {UNITS_FIX}"
         )
-    check_roll_sign(rec, prior, sig, r, rms)
+    check_roll_sign(rec, prior, sig, r, rms, inputs)
     return rms
 
 
-def check_roll_sign(rec: Recording, prior: YawPrior, sig: dict[str, np.ndarray], r: np.ndarray, rms: float) -> None:
+def check_roll_sign(
+    rec: Recording,
+    prior: YawPrior,
+    sig: dict[str, np.ndarray],
+    r: np.ndarray,
+    rms: float,
+    inputs: dict[str, np.ndarray] | None = None,
+) -> None:
     """Refuse a roll angle whose sign is flipped against the prior's: the prior's yaw rate fits the
     recording better with ``-phi`` than with ``phi`` by more than ROLL_FLIP (the roll terms of (2.17)
     act the other way round). A flipped ``phi`` stayed within MISFIT_SIGMAS (2.8x) and alarmed as
-    "yaw damping" in stop 50's sweep."""
+    "yaw damping" in stop 50's sweep. ``inputs``: ``prior.inputs(sig)`` when the caller has it: phi's
+    input filter is linear and alone (:func:`identify.detect.yawmodel.model_inputs`), and IEEE rounding
+    is symmetric in sign, so ``-inputs["phi"]`` is the filtered ``-phi`` to the bit (tests/test_detect.py),
+    not filtered again."""
     if "phi" not in sig or not np.ptp(sig["phi"]) > 0:
         return
-    flipped = float(np.sqrt(np.mean((r - prior.predict(sig | {"phi": -sig["phi"]}, float(np.mean(r[:5])))) ** 2)))
+    r0 = float(np.mean(r[:5]))
+    if inputs is None:
+        r_flip = prior.predict(sig | {"phi": -sig["phi"]}, r0)
+    else:
+        r_flip = simulate_r(prior.kind, prior.values, inputs | {"phi": -inputs["phi"]}, prior.dt, r0=r0)
+    flipped = float(np.sqrt(np.mean((r - r_flip) ** 2)))
     if flipped < ROLL_FLIP * rms:
         raise RecordingError(
             f"{rec.source}: column 'phi' looks negated against the prior: its yaw rate fits the recording with -phi "

@@ -34,12 +34,44 @@ class DeadZoneCusum:
         return int(hit[0]) if hit.size else None
 
 
+#: samples of one block of :func:`cusum_path`'s closed form: its sums' rounding grows with the block, not the record
+BLOCK = 256
+#: columns up to which the numpy form is the closed form; wider arrays step the recursion, 3 array calls a sample
+#: (numpy's running sums along axis 0 cost more than that there: 5,000 x 400 24 ms against 15 ms stepped, 5,000 x 1
+#: 0.4 ms against 18 ms; the crossover lies near 150 columns)
+CLOSED_MAX = 64
+
+
 def cusum_path(inc: np.ndarray) -> np.ndarray:
-    """``g_t = max(0, g_{t-1} + inc_t)`` along axis 0, vectorised over the other axes; compiled for
-    a large float array (:func:`_path`: the same bits, a NaN carried on as numpy's maximum does)."""
+    """``g_t = max(0, g_{t-1} + inc_t)``, ``g_{-1} = 0``, along axis 0, vectorised over the other axes; compiled
+    for a large float array (:func:`_path`, a NaN carried on as numpy's maximum does). In numpy, stepped sample by
+    sample for many columns (the no-change records': the compiled loop's bits), and for up to :data:`CLOSED_MAX`
+    (a recording's own statistics) in the recursion's closed form (Lindley's; stop 51), by blocks of :data:`BLOCK`
+    samples: with ``S_t`` the sum of the block's increments up to t and ``g0`` the value before the block,
+
+        g_t = S_t - min(-g0, min_{s <= t} S_s)
+
+    a cumulative sum and a running minimum, not 15,000 array calls for 5,000 samples. The same recursion in
+    another order of rounding: within 1e-12 of the statistic's scale (tests/test_detect_cusum.py), a NaN carried
+    on the same way."""
     if inc.dtype == np.float64 and inc.size and jitloop.use(inc.size):
         flat = np.ascontiguousarray(inc).reshape(inc.shape[0], -1)
         return _path(flat, np.empty_like(flat)).reshape(inc.shape)
+    if inc.size > CLOSED_MAX * max(inc.shape[0], 1):
+        return _stepped(inc)
+    g = np.empty(inc.shape)  # doubles, as the recursion's running sum
+    low = np.zeros(inc.shape[1:])  # -g0: g before the first block is 0
+    for i in range(0, inc.shape[0], BLOCK):
+        blk = g[i : i + BLOCK]
+        np.cumsum(inc[i : i + BLOCK], axis=0, out=blk)  # the block's own sums: rounding of their scale only
+        run = np.minimum.accumulate(np.minimum(blk, low), axis=0)
+        np.subtract(blk, run, out=blk)
+        np.negative(blk[-1], out=low)
+    return g if g.dtype == inc.dtype else g.astype(inc.dtype)
+
+
+def _stepped(inc: np.ndarray) -> np.ndarray:
+    """:func:`cusum_path` one sample at a time over all columns at once."""
     g = np.empty_like(inc)
     acc = np.zeros(inc.shape[1:])
     for i in range(inc.shape[0]):

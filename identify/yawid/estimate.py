@@ -56,7 +56,8 @@ def simulate_yaw(
     (``identify.detect.yawmodel.simulate_r``) is this function on its column layout. Without
     sensitivities it needs memory of the order of the inputs only (a detector's 400 no-change
     records of a long recording); compiled when numba is there and the batch is large, else for
-    float64 inputs numpy's loop without per-term calls (:mod:`identify.yawid.yawloop`; both the same bits)."""
+    float64 inputs numpy's loop without per-term calls (:mod:`identify.yawid.yawloop`: the compiled one this loop's
+    bits, the numpy one to rounding)."""
     b, n = w["u"].shape
     p = len(model.params)
     col = {name: j for j, name in enumerate(model.params)}
@@ -66,9 +67,10 @@ def simulate_yaw(
     reg = _input_regressors(model, w, col) if sensitivities else None
     if not sensitivities and yawloop.usable(model, w, b, n):  # the same bits, compiled (identify.yawid.yawloop)
         return yawloop.simulate(model, theta, col, w, r0, ts), None
-    forcing = _input_forcing(model, theta, w, col, reg)
-    if not sensitivities and yawloop.stepped(model, w):  # the same bits, without per-term calls (yawloop)
+    if not sensitivities and yawloop.stepped(model, w):  # to rounding, without per-term calls (yawloop), by blocks
+        forcing = lambda part: _input_forcing(model, theta, part, col, time_major=False)  # noqa: E731
         return yawloop.simulate_numpy(model, theta, col, forcing, w, r0, ts), None
+    forcing = _input_forcing(model, theta, w, col, reg)
     r_hat = np.empty((b, n))
     sens = np.zeros((b, n, p)) if sensitivities else None
     r = np.asarray(r0, float).copy()
@@ -106,13 +108,21 @@ def _input_regressors(model: YawModel, w: dict[str, np.ndarray], col: dict[str, 
 
 
 def _input_forcing(
-    model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], col: dict[str, int], reg: np.ndarray | None = None
+    model: YawModel,
+    theta: np.ndarray,
+    w: dict[str, np.ndarray],
+    col: dict[str, int],
+    reg: np.ndarray | None = None,
+    time_major: bool = True,
 ) -> np.ndarray:
     """The terms of (2.17)/(2.18) that do not involve r, plus tau_r: (B, N), summed once outside the
     time loop: from the input regressors ``reg`` of :func:`_input_regressors` when the caller has them,
-    else term by term."""
-    b, n = w["u"].shape
-    out = np.empty((n, b)).T  # time-major in memory: the time loop reads one sample of every run at a time
+    else term by term. B is theta's (B, p): an input of one row (1, N) serves every member, its terms
+    formed once (the same numbers as the row repeated). Time-major memory, or member-major (C) without
+    ``time_major``."""
+    b, n = theta.shape[0], w["u"].shape[-1]
+    # time-major: the generic time loop reads one sample of every run at a time
+    out = np.empty((n, b)).T if time_major else np.empty((b, n))
     if reg is None:
         # without sensitivities no regressor array is needed: each term straight into the sum (a detector's
         # 400 no-change records of a 500 s recording spent a third of their simulation building that array)

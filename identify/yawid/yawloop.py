@@ -1,19 +1,25 @@
 """The yaw row's time loop without sensitivities: the explicit Euler step of (2.17)/(2.18) of
 :func:`identify.yawid.estimate.simulate_yaw` over every step and batch member, compiled with numba
-(:mod:`primitives.jitloop`; :func:`simulate`) for large batches, and in numpy without the generic loop's
-per-term calls (:func:`simulate_numpy`) otherwise: both the generic loop's bits.
+(:mod:`primitives.jitloop`; :func:`simulate`: the generic loop's bits) for large batches, and in numpy
+without the generic loop's per-term calls (:func:`simulate_numpy`: the generic loop's sum in another
+order, equal to rounding) otherwise.
 
 A change detector simulates 400 no-change records of a 500 s recording twice per recording
 (:mod:`identify.detect.nullsim`); in numpy each of the 5,000 steps made about twenty array
 operations on 400 members and the input forcing a dozen 16 MB temporaries, 0.2-0.3 s CPU a
-simulation. The operations here are numpy's, in the same order, on the same IEEE doubles (no
-fast-math, so no fused multiply-add): the input forcing ``tau_r`` plus each input term of the model
-in its order (:data:`identify.yawid.model.INPUT_TERMS`), then each state term's value ``u r``,
-``r |r|``, ``r |v|``, ``(phi u) |r|`` (:data:`identify.yawid.model.STATE_TERMS`) times its
-parameter, divided by I_r, then ``r + Ts f`` -- the same bits (tests/test_yawloop.py).
+simulation. The compiled loop's operations are numpy's generic loop's, in the same order, on the same
+IEEE doubles (no fast-math, so no fused multiply-add): the input forcing ``tau_r`` plus each input term
+of the model in its order (:data:`identify.yawid.model.INPUT_TERMS`), then each state term's value
+``u r``, ``r |r|``, ``r |v|``, ``(phi u) |r|`` (:data:`identify.yawid.model.STATE_TERMS`) times its
+parameter, divided by I_r, then ``r + Ts f`` -- the same bits (tests/test_yawloop.py). The numpy loop
+(stop 51) groups the step's terms by how they hold r, ``r a + |r| (b + g r) + c``, so that a step is 7
+array operations: a last-bit difference per step, within 1e-13 of the yaw rate over 900 steps
+(tests/test_yawloop.py against a plain reference), 1e-13 relative in ``detect``'s thresholds and statistics.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 
@@ -28,6 +34,11 @@ STATE_CODES = {"A": 0, "N_rr": 1, "N_rv": 2, "N_phiur": 3}
 SIGNALS = ("tau_r", "u", "v", "v_dot", "phi", "p")
 #: :func:`simulate_numpy`'s state terms: how each multiplies the yaw rate (0 ``r |r|``, 1 ``x |r|``, 2 ``x r``)
 #: and the signals its factor ``x`` is made of (``u``; none; ``|v|``; ``phi u``)
+#: elements (members x samples) of one block of :func:`simulate_numpy`'s coefficients: 256 KB an array, in the cache
+BLOCK = 2**15
+#: batches of up to this many members are stepped member by member on Python floats (about 1.3 ms a member
+#: for 5,000 steps, against 25-40 ms for any batch of under 20 in array operations)
+FLOATS = 16
 STEPPED = {"A": (2, ("u",)), "N_rr": (0, ()), "N_rv": (2, ("v",)), "N_phiur": (1, ("phi", "u"))}
 
 
@@ -119,58 +130,113 @@ def simulate_numpy(
     model: YawModel,
     theta: np.ndarray,
     col: dict[str, int],
-    forcing: np.ndarray,
+    forcing: Callable[[dict[str, np.ndarray]], np.ndarray],
     w: dict[str, np.ndarray],
     r0: float | np.ndarray,
     ts: float,
 ) -> np.ndarray:
-    """:func:`simulate` in numpy: the explicit Euler step of (2.17)/(2.18) over the batch, one sample at a time.
+    """:func:`simulate` in numpy: the explicit Euler step of (2.17)/(2.18) over the batch, one sample at a time,
+    with the step's terms grouped by how they hold r (stop 51):
 
-    ``forcing`` (B, N) is the input terms plus tau_r (:func:`identify.yawid.estimate._input_forcing`).
-    The operations are the generic loop's (:func:`identify.yawid.estimate.simulate_yaw`), element by
-    element in the same order, so the same bits: ``f = forcing + th * term`` for each state term in the
-    model's order, ``r + Ts (f / I_r)``. Only what does not depend on r is taken out of the loop and done
-    once over all samples (``|v|``, ``phi u``: each element the same product), and every step writes
-    into buffers: about 16 array operations a step without Python's per-term calls and dicts (stop 49,
-    docs/detect-accuracy.md: 5,000 steps of 64 columns 0.085-0.150 -> 0.075-0.079 s CPU)."""
-    b, n = forcing.shape
+        r[k+1] = r[k] a[k] + |r[k]| (b[k] + g r[k]) + c[k]
+
+    ``a = 1 + (Ts / I_r) sum th x`` over the ``x r`` terms (``A u r``, ``N_rv |v| r``), ``b = (Ts / I_r) sum th x``
+    over the ``x |r|`` terms (``N_phiur phi u |r|``), ``g = (Ts / I_r) N_rr`` and ``c = (Ts / I_r) f``, ``f`` the
+    input terms plus tau_r, (B, len) from ``forcing`` of the inputs of a block of samples
+    (:func:`identify.yawid.estimate._input_forcing`). Everything but r is formed outside the step, a block of samples
+    at a time (:func:`_coefficients`: its arrays stay in the cache, not 16 MB temporaries; an input the same for
+    every member, a broadcast row, is read as one row), so a step is 7 array operations, not the generic loop's 17
+    (the Python call per operation, not the arithmetic, is the cost at 400 members). The generic loop's sum
+    (:func:`identify.yawid.estimate.simulate_yaw`) in another order: equal to rounding, not to the bit
+    (tests/test_yawloop.py: within 1e-13 of the yaw rate's scale on random inputs). Up to :data:`FLOATS` members
+    are stepped on Python floats (:func:`_one`), the same IEEE operations in the same order: this loop's bits."""
+    b, n = w["u"].shape
     theta = np.ascontiguousarray(theta, dtype=float)
-    i_r = np.ascontiguousarray(theta[:, col["I_r"]])
-    # each state term's parameters, how it multiplies r (STEPPED) and its factor, time-major: step k reads one row
-    plan = [(np.ascontiguousarray(theta[:, col[t]]), STEPPED[t][0], _factor(t, w, b, n)) for t in model.state_terms]
     out = np.empty((n, b))
     if n == 0:
         return out.T
     out[0] = np.broadcast_to(np.asarray(r0, float), (b,))
-    fk = np.ascontiguousarray(forcing.T)  # time-major: one contiguous row per step
-    acc, tmp, ar = np.empty(b), np.empty(b), np.empty(b)
-    mul, add, absolute = np.multiply, np.add, np.abs  # local names: no attribute lookups in the 5,000-step loop
-    need_abs = any(code < 2 for _, code, _ in plan)
-    for k in range(n - 1):
-        r = out[k]
-        if need_abs:
-            absolute(r, out=ar)
-        acc[:] = fk[k]
-        for th, code, x in plan:
-            if code == 0:
-                mul(r, ar, out=tmp)
-            elif code == 1:
-                mul(x[k], ar, out=tmp)
-            else:
-                mul(x[k], r, out=tmp)
-            mul(th, tmp, out=tmp)
-            add(acc, tmp, out=acc)
-        np.divide(acc, i_r, out=acc)
-        mul(acc, ts, out=acc)
-        add(r, acc, out=out[k + 1])
+    scale = ts / theta[:, col["I_r"]]  # (B,): Ts / I_r once per member
+    g = theta[:, col["N_rr"]] * scale if "N_rr" in model.state_terms else None
+    step = n if b <= FLOATS else max(16, BLOCK // b)
+    bufs = (np.empty(b), np.empty(b), np.empty(b))
+    w = {k: x[:1] if x.shape[0] > 1 and x.strides[0] == 0 else x for k, x in w.items()}  # a broadcast row: one row
+    for k0 in range(0, n - 1, step):
+        sl = slice(k0, min(k0 + step, n - 1))
+        part = {k: x[:, sl] for k, x in w.items()}
+        a, bk, c = _coefficients(model, theta, col, forcing(part), part, scale)
+        if b <= FLOATS:
+            for i in range(b):
+                coef = (a[:, i], None if bk is None else bk[:, i], None if g is None else float(g[i]), c[:, i])
+                out[sl.start + 1 : sl.stop + 1, i] = _one(float(out[sl.start, i]), *coef)
+        else:
+            _steps(out[sl.start : sl.stop + 1], a, bk, g, c, bufs)
     return out.T
 
 
-def _factor(term: str, w: dict[str, np.ndarray], b: int, n: int) -> np.ndarray | None:
-    """Time-major (N, B) factor ``x`` of a state term (:data:`STEPPED`), formed once over all samples."""
-    sig = {k: np.broadcast_to(w[k], (b, n)).T for k in STEPPED[term][1]}
-    if term == "N_rv":
-        return np.abs(sig["v"])
-    if term == "N_phiur":
-        return np.multiply(sig["phi"], sig["u"])
-    return sig.get("u")  # A: u; N_rr: none
+def _steps(out: np.ndarray, a: np.ndarray, bk: np.ndarray | None, g: np.ndarray | None, c: np.ndarray, bufs) -> None:
+    """``out[j + 1]`` from ``out[j]`` for each row j of the block's (len, B) coefficients (:func:`simulate_numpy`)."""
+    ar, t, s = bufs
+    mul, add, absolute = np.multiply, np.add, np.abs  # local names: no attribute lookups in the steps' loop
+    for k in range(len(a)):
+        r = out[k]
+        mul(r, a[k], out=s)
+        if g is not None or bk is not None:
+            absolute(r, out=ar)
+            if g is None:
+                mul(bk[k], ar, out=t)
+            else:
+                mul(g, r, out=t)
+                if bk is not None:
+                    add(t, bk[k], out=t)
+                mul(t, ar, out=t)
+            add(s, t, out=s)
+        add(s, c[k], out=out[k + 1])
+
+
+def _coefficients(
+    model: YawModel, theta: np.ndarray, col: dict[str, int], f: np.ndarray, w: dict[str, np.ndarray], scale: np.ndarray
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """:func:`simulate_numpy`'s ``a``, ``b`` (None without an ``x |r|`` term) and ``c`` of a block of samples,
+    time-major (len, B): step k reads one contiguous row of each. ``f`` is the block's forcing (B, len), ``w`` its
+    inputs (B or 1, len); formed member-major, as the inputs lie, and transposed once at the end."""
+    th = theta[:, None, :]
+    sc = scale[:, None]
+    lin, absr = None, None
+    for term in model.state_terms:
+        code, names = STEPPED[term]
+        if code == 0:  # r |r|: its g is a member's constant
+            continue
+        x = w[names[0]]
+        x = np.abs(x) if term == "N_rv" else x * w[names[1]] if len(names) == 2 else x  # the factor: once per row
+        x = th[:, :, col[term]] * x
+        if code == 2:
+            lin = x if lin is None else np.add(lin, x, out=lin)
+        else:
+            absr = x if absr is None else np.add(absr, x, out=absr)
+    b, m = f.shape
+    lin = np.zeros((b, m)) if lin is None else np.broadcast_to(lin, (b, m))
+    a = np.multiply(lin.T, sc.T, out=np.empty((m, b)))
+    a += 1.0
+    bk = None if absr is None else np.multiply(np.broadcast_to(absr, (b, m)).T, sc.T, out=np.empty((m, b)))
+    return a, bk, np.multiply(f.T, sc.T, out=np.empty((m, b)))
+
+
+def _one(r: float, a: np.ndarray, bk: np.ndarray | None, g: float | None, c: np.ndarray) -> list[float]:
+    """:func:`_steps` for one member on Python floats (no array call per operation): the same IEEE double
+    operations in the same order, so its bits. The yaw rates after ``r``, one per coefficient."""
+    av, cv = a.tolist(), c.tolist()
+    bv = None if bk is None else bk.tolist()
+    rs = []
+    for k in range(len(av)):
+        if g is not None:
+            t = g * r
+            if bv is not None:
+                t = t + bv[k]
+            r = r * av[k] + t * abs(r) + cv[k]
+        elif bv is not None:
+            r = r * av[k] + bv[k] * abs(r) + cv[k]
+        else:
+            r = r * av[k] + cv[k]
+        rs.append(r)
+    return rs
