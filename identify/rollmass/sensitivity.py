@@ -216,10 +216,19 @@ def _output_sensitivities(
     modal_out = (mats[2] @ V, np.einsum("pcb,bi->pci", np.array([d[2] for d in dmats]), V))
     inv = 1.0 / (lam[:, None] - lam[None, :] + np.eye(len(lam)))
     np.fill_diagonal(inv, 0.0)
-    y, dy = 0.0, 0.0
+    y, sigs, weights, lag = 0.0, [], [], None
     for i, (col, u) in enumerate(inputs):
-        yi, dyi = _input_sensitivities(lam, inv, Vi, E, modal_out, mats, dmats, col, u, du if i == 0 else None, lag_col)
-        y, dy = y + yi, dy + dyi
+        yi, sig, weight, lag_i = _input_sensitivities(lam, inv, Vi, E, modal_out, mats, dmats, col, u, du if i == 0 else None)
+        y, lag = y + yi, lag_i if lag_i is not None else lag
+        sigs.append(sig)
+        weights.append(weight)
+    # every input's signals side by side: one real product a channel, (n, 17 inputs) x (17 inputs, P)
+    sig, weight = np.hstack(sigs), np.concatenate(weights, axis=1)
+    dy = np.empty((3, len(sig), len(dmats)))
+    for ch in range(3):
+        np.matmul(sig, weight[ch], out=dy[ch])
+    if lag is not None:
+        dy[:, :, lag_col] += lag
     return y, dy, E
 
 
@@ -234,11 +243,11 @@ def _input_sensitivities(
     col: int,
     u: np.ndarray,
     du: np.ndarray | None,
-    lag_col: int,
-) -> tuple[np.ndarray, np.ndarray]:
-    """One input's share of :func:`_output_sensitivities`: ``y`` and ``dy`` of the input signal ``u``
-    entering through column ``col`` of ``Bd`` and ``Dd``; ``modal_out`` is ``(Cd V, dCd V)`` and ``inv`` the
-    partial-fraction weights, both the same for every input."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """One input's share of :func:`_output_sensitivities`: ``y`` of the input signal ``u`` entering through
+    column ``col`` of ``Bd`` and ``Dd``, its ``dy`` as signals (n, 17) and their weights (3 channels, 17, P)
+    (``dy[ch] = signals @ weights[ch]``), and with ``du`` the lag parameter's share (3, n); ``modal_out`` is
+    ``(Cd V, dCd V)`` and ``inv`` the partial-fraction weights, both the same for every input."""
     _, Bd, _, Dd = mats
     (c, dc), b, D = modal_out, Vi @ Bd[:, col], Dd[:, col]
     g = mode_filter(lam, u)
@@ -252,17 +261,12 @@ def _input_sensitivities(
     k = np.einsum("ci,pij,j->pcij", c, E, b)
     on_g = np.einsum("pcij,ij->pci", k + k.transpose(0, 1, 3, 2), inv) + c[None] * f[:, None, :] + dc * b[None, None, :]
     on_h = np.einsum("pcii->pci", k)
-    # Re(z w) = Re z Re w - Im z Im w: one real product a channel, (n, 17) x (17, P), channel-major
+    # Re(z w) = Re z Re w - Im z Im w: real signals and their weights, (P, 3, modes) -> (3, modes, P)
     sig = np.column_stack([g.real, g.imag, h.real, h.imag, u])
-    dy = np.stack(
-        [
-            sig @ np.vstack([on_g[:, ch].T.real, -on_g[:, ch].T.imag, on_h[:, ch].T.real, -on_h[:, ch].T.imag, dD[:, ch]])
-            for ch in range(3)
-        ]
-    )
-    if du is not None:
-        dy[:, :, lag_col] += ((mode_filter(lam, du) @ cb.T).real + du[:, None] * D).T
-    return y, dy
+    on_g, on_h = on_g.transpose(1, 2, 0), on_h.transpose(1, 2, 0)
+    weight = np.concatenate([on_g.real, -on_g.imag, on_h.real, -on_h.imag, dD.T[:, None, :]], axis=1)
+    lag = None if du is None else ((mode_filter(lam, du) @ cb.T).real + du[:, None] * D).T
+    return y, sig, weight, lag
 
 
 def dataset_jacobian(
