@@ -30,7 +30,7 @@ import cli.app  # noqa: E402
 
 t_app = time.process_time()
 import cli.options  # noqa: E402,F401
-from identify.rollmass import api, estimate, oe_fit, output_error, sensitivity  # noqa: E402
+from identify.rollmass import api, estimate, output_error, sensitivity  # noqa: E402
 
 t_mass = time.process_time()
 spent: dict[str, float] = {}
@@ -42,7 +42,7 @@ def main() -> None:
         (api, "read_roll_csv", "  reading the three files"),
         (api, "check_recorded_signs", "  sign and scale checks"),
         (estimate, "referenced_heel", "  heel reference"),
-        (oe_fit, "fit_output_error", "  the oe fit"),
+        (estimate, "fit_output_error", "  the oe fit"),
         (output_error._Problem, "residual", "    residuals"),
         (output_error._Problem, "jacobian", "    Jacobians"),
         (output_error._Problem, "discrete", "      their model matrices (finite differences)"),
