@@ -163,6 +163,8 @@ def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load, U: fl
     derivatives in ``v`` hold at ``kn.U`` and scale as forces do, ``rho U^2 L^2`` (Fossen 2011, ch.
     6.4): velocity derivatives with ``U``, rudder ones with ``U^2``. The paper keeps U constant and
     names the speed dependence of k, d and K_r as the cause of its turn-entry misfit (its Fig. 6).
+    Values (and ``z_f``, the load) may be arrays of one shape: a batch of models, each matrix with that leading
+    shape and each model's bits as its own call gives them (:meth:`_Problem.jacobian`'s steps).
     """
     m, U, g = load.m, kn.U if U is None else U, kn.g
     s = U / kn.U
