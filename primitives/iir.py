@@ -1,12 +1,13 @@
-"""IIR filters without :mod:`scipy.signal`: the Butterworth design (lowpass, bandstop), its
-transposed-direct-form-II initial state, and the filter itself, for the change detector's path.
+"""IIR filters without :mod:`scipy.signal`: the Butterworth design (lowpass, bandpass, bandstop), its
+transposed-direct-form-II initial state, and the filter itself, for the change detector's path and
+``shiptrial mass``'s (its sign and heel-reference filters, stop 51).
 
 ``import scipy.signal`` costs about 2 s of CPU on the project's VM (it imports scipy.stats), half of
 a ``shiptrial detect`` on one recording, which needs a handful of its functions only.
 
 - :func:`butter`: scipy's ``butter(order, wn, btype, fs=fs)`` (Butterworth analog prototype poles
   ``-exp(j pi m / 2N)``, m = -N+1, -N+3, ..., N-1; frequency pre-warping ``4 tan(pi Wn / 2)``;
-  lowpass or bandstop transform; bilinear transform ``(4 + s) / (4 - s)``; Oppenheim & Schafer,
+  lowpass, bandpass or bandstop transform; bilinear transform ``(4 + s) / (4 - s)``; Oppenheim & Schafer,
   *Discrete-Time Signal Processing*, 3rd ed., 7.1.2), in scipy's order of operations: the same bits.
 - :func:`lfilter_zi`: the steady state ``(I - A) z = B`` of the transposed direct form II
   (A = companion(a)^T, B = b[1:] - a[1:] b0), solved as scipy solves it: the same bits.
@@ -25,7 +26,7 @@ a ``shiptrial detect`` on one recording, which needs a handful of its functions 
   sample in scipy's order of operations instead: scipy's bits, slower. A NaN or inf input makes
   its row NaN from the start of its 64-sample block on (scipy's: from that sample on; the
   forward-backward filter is all NaN either way): rows stay apart.
-- :func:`filtfilt`: forward-backward filtering with scipy's default odd padding of
+- :func:`filtfilt`: forward-backward filtering with scipy's odd (default) or even padding of
   3 max(len(a), len(b)) samples and initial state ``zi x_0`` for each pass.
 """
 
@@ -99,10 +100,12 @@ def _poly(roots: np.ndarray) -> np.ndarray:
 
 def butter(order: int, wn: float | tuple[float, float], btype: str = "lowpass", fs: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
     """(b, a) of the digital Butterworth filter: ``scipy.signal.butter(order, wn, btype, fs=fs)`` for
-    btype 'lowpass' ('low') or 'bandstop' ('stop'), the same bits (module docstring)."""
-    kind = {"low": "lowpass", "lowpass": "lowpass", "stop": "bandstop", "bandstop": "bandstop"}.get(btype)
+    btype 'lowpass' ('low'), 'bandpass' ('band', 'pass') or 'bandstop' ('stop'), the same bits (module
+    docstring; scipy's lp2lp_zpk, lp2bp_zpk, lp2bs_zpk and bilinear_zpk in their order of operations)."""
+    kinds = {"low": "lowpass", "lowpass": "lowpass", "band": "bandpass", "pass": "bandpass", "bandpass": "bandpass"}
+    kind = {**kinds, "stop": "bandstop", "bandstop": "bandstop"}.get(btype)
     if kind is None:
-        raise ValueError(f"butter: btype {btype!r} not implemented (lowpass or bandstop)")
+        raise ValueError(f"butter: btype {btype!r} not implemented (lowpass, bandpass or bandstop)")
     n = int(order)
     if n < 1 or n != order:
         raise ValueError("butter: the order must be a positive integer")
@@ -121,9 +124,16 @@ def butter(order: int, wn: float | tuple[float, float], btype: str = "lowpass", 
         z, p, k = wo * z, wo * p, k * wo ** (len(p) - len(z))
     else:
         if w.size != 2 or not w[0] < w[1]:
-            raise ValueError("butter: a bandstop takes two increasing critical frequencies")
+            raise ValueError(f"butter: a {kind} takes two increasing critical frequencies")
         bw, wo = float(warped[1] - warped[0]), float(np.sqrt(warped[0] * warped[1]))
         degree = len(p) - len(z)
+    if kind == "bandpass":
+        z_lp = (z * bw / 2).astype(np.complex128)
+        p_lp = (p * bw / 2).astype(np.complex128)
+        z_bp = np.concatenate((z_lp + np.sqrt(z_lp**2 - wo**2), z_lp - np.sqrt(z_lp**2 - wo**2)))
+        p_bp = np.concatenate((p_lp + np.sqrt(p_lp**2 - wo**2), p_lp - np.sqrt(p_lp**2 - wo**2)))
+        z, p, k = np.concatenate((z_bp, np.zeros(degree))), p_bp, k * bw**degree
+    elif kind == "bandstop":
         z_hp = ((bw / 2) / z).astype(np.complex128)
         p_hp = ((bw / 2) / p).astype(np.complex128)
         z_bs = np.concatenate((z_hp + np.sqrt(z_hp**2 - wo**2), z_hp - np.sqrt(z_hp**2 - wo**2)))
@@ -330,9 +340,11 @@ def lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1, zi: np.
     return np.moveaxis(y, -1, axis)
 
 
-def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1) -> np.ndarray:
-    """``scipy.signal.filtfilt(b, a, x, axis)`` (odd padding of 3 max(len(a), len(b)) samples, each
-    pass from ``lfilter_zi x_0``) to rounding (module docstring)."""
+def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1, padtype: str = "odd") -> np.ndarray:
+    """``scipy.signal.filtfilt(b, a, x, axis, padtype)`` (odd or even padding of 3 max(len(a), len(b))
+    samples, each pass from ``lfilter_zi x_0``) to rounding (module docstring)."""
+    if padtype not in ("odd", "even"):
+        raise ValueError(f"filtfilt: padtype must be 'odd' or 'even', not {padtype!r}")
     x = np.asarray(x, dtype=np.float64)
     edge = 3 * max(len(np.atleast_1d(a)), len(np.atleast_1d(b)))
     _refuse_leading_zero(a)
@@ -345,11 +357,14 @@ def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1) -> np.
     rows = moved.reshape(-1, n)
     total = n + 2 * edge
     zi = lfilter_zi(b, a)
-    # the odd extension written straight into the first pass's block buffer (zeros after it)
+    # the extension written straight into the first pass's block buffer (zeros after it): scipy's odd_ext
+    # (2 x_0 - x_i) or even_ext (x_i), mirrored about the end samples
     buf = np.zeros((rows.shape[0], -(-total // BLOCK) * BLOCK))
-    buf[:, :edge] = 2 * rows[:, :1] - rows[:, edge:0:-1]
+    left, right = rows[:, edge:0:-1], rows[:, -2 : -edge - 2 : -1]
+    odd = padtype == "odd"
+    buf[:, :edge] = 2 * rows[:, :1] - left if odd else left
     buf[:, edge : edge + n] = rows
-    buf[:, edge + n : total] = 2 * rows[:, -1:] - rows[:, -2 : -edge - 2 : -1]
+    buf[:, edge + n : total] = 2 * rows[:, -1:] - right if odd else right
     y = _padded(b, a, buf, zi[None, :] * buf[:, :1])
     back = np.zeros(buf.shape)  # the forward output reversed, for the backward pass
     back[:, :total] = y[:, total - 1 :: -1]

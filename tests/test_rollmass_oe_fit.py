@@ -234,3 +234,22 @@ def test_a_slowing_ship_whose_sway_row_walked_now_converges(tmp_path):
     (mlo, mhi), (zlo, zhi) = e.ci()
     assert mlo <= 0.2 <= mhi and zlo <= -0.256 <= zhi, (e.m, e.zbar_m, e.ci())
     assert 10.0 < e.params["X_v"] + PROF.known.M < 400.0, e.params["X_v"]  # a sway mass near the profile's 42 kg
+
+
+def test_the_same_convolution_is_scipys_fftconvolve():
+    """:func:`sandwich.same_convolution` (numpy's FFT, without scipy.signal's import) is
+    ``scipy.signal.fftconvolve(h, kernel[:, None], mode="same", axes=0)`` to 1e-13 of its largest value,
+    on the Bartlett kernels the sandwich uses (a window shorter and longer than the data)."""
+    from scipy.signal import fftconvolve
+
+    from identify.rollmass.sandwich import same_convolution
+
+    rng = np.random.default_rng(2)
+    for n, lags in ((3286, 250), (1936, 250), (60, 7), (61, 100)):
+        h = rng.standard_normal((n, 21)).cumsum(axis=0)
+        L = min(lags, n - 1)
+        kernel = 1.0 - np.abs(np.arange(-L, L + 1)) / (lags + 1)
+        want = fftconvolve(h, kernel[:, None], mode="same", axes=0)
+        got = same_convolution(h, kernel)
+        assert got.shape == want.shape
+        assert np.max(np.abs(got - want)) <= 1e-13 * np.max(np.abs(want)), (n, lags)

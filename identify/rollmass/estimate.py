@@ -30,7 +30,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import lfilter
 
 from identify.rollmass.instruments import (
     N_LAGS,
@@ -247,6 +246,8 @@ def _paper_iv(datasets: list[RollRecording], kn: Known, cal: Load, with_ci: bool
 
 
 def _prefilter(x: np.ndarray, filt: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    from scipy.signal import lfilter  # here: for the IV methods only (its import: 2 s of CPU)
+
     return lfilter(filt[0], filt[1], x, axis=0)
 
 
@@ -283,6 +284,8 @@ def _improved(
 ) -> MassEstimate:
     """Our estimator: z_f fixed, refined IV (noise-model prefilter, model-simulated instruments that
     carry v' through the black-box accelerometer), two-step optimal weighting of the moments."""
+    from scipy.signal import lfilter  # here: for the IV methods only (its import: 2 s of CPU)
+
     free = tuple(k for k in SHIP_PARAMS + MOMENTS if k not in fixed)
     bb = [black_box_instruments(d) for d in datasets]
     sims = bb

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import lfilter
 
 from identify.rollmass.model import Known, Load, RollParams
 from identify.rollmass.simulate import RollRecording
@@ -39,6 +38,8 @@ def black_box_sim(u: np.ndarray, y: np.ndarray, na: int = 4, nb: int = 10) -> np
 
     Unstable fitted poles are reflected into the unit circle so the simulation stays bounded.
     """
+    from scipy.signal import lfilter  # here: for the IV methods only (its import: 2 s of CPU)
+
     n0 = max(na, nb)
     X = np.column_stack([-lagged(y, na + 1)[:, 1:], lagged(u, nb), np.ones(len(y))])[n0:]
     coef, *_ = np.linalg.lstsq(X, y[n0:], rcond=None)
@@ -61,6 +62,8 @@ def paper_model_sim(
     sway acceleration left out: ``A1 phi'' + d phi' + C phi = (K_ur + M z_g + m z_m) U r + K_delta delta``
     and ``a_s = z_s phi'' + g phi - U r``. Returns ``(p_hat, a_s_hat)``.
     """
+    from scipy.signal import lfilter  # here: for the IV methods only (its import: 2 s of CPU)
+
     z_g, z_s, z_m = kn.zbar_g + p.z_f, kn.zbar_s + p.z_f, load.zbar + p.z_f
     A1 = p.A_x + kn.M * z_g**2 + load.m * z_m**2
     C = p.k + kn.M * kn.g * z_g + load.m * kn.g * z_m

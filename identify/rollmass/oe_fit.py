@@ -8,7 +8,6 @@ from collections.abc import Callable
 
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
-from scipy.signal import lfilter
 from threadpoolctl import threadpool_limits
 
 from identify.rollmass.gyro_bias import speed_terms
@@ -26,6 +25,7 @@ from identify.rollmass.output_error import (
 )
 from identify.rollmass.restoring import heel_gain
 from identify.rollmass.sandwich import load_decrement, sandwich_cov
+from identify.rollmass.sensitivity import fir
 from identify.rollmass.simulate import RollRecording
 
 # load decrement below which the fit is stationary (a further step < 0.1 reported standard error), and the
@@ -242,7 +242,7 @@ def _fit(
                 ]
                 for i, e in enumerate(errs)
             ]
-            sd = np.array([[lfilter(ar[i][j], [1.0], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
+            sd = np.array([[fir(ar[i][j], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
             w = 1.0 / np.maximum(sd, 1e-12)
     J, dec, cov_load = res.jac, float("nan"), np.full((2, 2), np.nan)
     # an LM stopped by its evaluation cap is judged by the stationarity check below (with_cov), not by its flag

@@ -41,13 +41,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import filtfilt, lfilter
 
 from identify.rollmass.model import Known, Load, RollProfile, load_restoring
 from identify.rollmass.restoring import gravity_excess, heel_gain, heel_signal
 from identify.rollmass.sandwich import central_jacobian
-from identify.rollmass.sensitivity import dataset_jacobian, fir, free_basis, lag_derivative, modal
+from identify.rollmass.sensitivity import dataset_jacobian, fir, free_basis, lag_derivative, modal, mode_filter
 from identify.rollmass.simulate import RollRecording
+from primitives.iir import filtfilt
 from primitives.zerophase import lowpass
 
 # Shared parameters: sway (minus added mass, damping, yaw coupling, rudder), roll (3)-(5), yaw
@@ -163,51 +163,68 @@ def model_matrices(v: dict[str, float], kn: Known, z_f: float, load: Load, U: fl
     derivatives in ``v`` hold at ``kn.U`` and scale as forces do, ``rho U^2 L^2`` (Fossen 2011, ch.
     6.4): velocity derivatives with ``U``, rudder ones with ``U^2``. The paper keeps U constant and
     names the speed dependence of k, d and K_r as the cause of its turn-entry misfit (its Fig. 6).
+    Values (and ``z_f``, the load) may be arrays of one shape: a batch of models, each matrix with that leading
+    shape and each model's bits as its own call gives them (:meth:`_Problem.jacobian`'s steps).
     """
     m, U, g = load.m, kn.U if U is None else U, kn.g
     s = U / kn.U
     v = {**v, **{k: v[k] * s for k in VELOCITY if k in v}, **{k: v[k] * s * s for k in RUDDER}}
+    # a batch of models (:meth:`_Problem.jacobian`'s steps) when the values are arrays: every matrix (batch, r, c)
+    batch = np.broadcast_shapes(*(np.shape(a) for a in [*v.values(), z_f, load.m, load.zbar] if not isinstance(a, float)))
     z_g, z_m, z_s = kn.zbar_g + z_f, load.zbar + z_f, kn.zbar_s + z_f
     mz = kn.M * z_g + m * z_m
     c = v["K_vdot"] + mz
     c_sway = v.get("Y_pdot", v["K_vdot"]) + mz
     A1 = v["A_x"] + kn.M * z_g**2 + m * z_m**2  # (4)
     C = v["k"] + kn.M * g * z_g + load_restoring(kn, load)  # (3) with (5a), the load's buoyancy at zbar_b
-    Mm = np.array([[kn.M + m + v["X_v"], -c_sway, 0.0], [-c, A1, 0.0], [0.0, 0.0, 1.0]])
+    Mm = _matrix([[kn.M + m + v["X_v"], -c_sway, 0.0], [-c, A1, 0.0], [0.0, 0.0, 1.0]], batch)
     cp = {k: v.get(k, 0.0) for k in COUPLINGS[:4]}
-    F = np.array(
+    F = _matrix(
         [
             [v["Y_v"], cp["Y_p"], v["Y_r"] - (kn.M + m) * U, cp["Y_phi"]],
             [cp["K_v"], -v["d"], (v["K_ur"] + mz) * U, -C],
             [v["n_v"], cp["n_p"], v["n_r"], 0.0],
-        ]
+        ],
+        batch,
     )
     # inputs 0 and 1: the rudder and the wall-sided heel signal w(t) of identify.rollmass.restoring (a roll
     # moment -kappa w); input 2: the yaw rate's share of the speed's variation, (u(t)/U - 1) r(t)
     # (:func:`speed_inputs`), which every term of F's r column carries, as they are all linear in u; input 3:
     # the sway velocity's share, (u/U - 1) v(t) with v the model's own (identify.rollmass.gyro_bias), through F's v column
-    G = np.column_stack(
-        [[v["Y_delta"], v["K_delta"], v["n_delta"]], [0.0, -v.get("kappa", heel_gain(kn)), 0.0], F[:, 2], F[:, 0]]
+    kappa = v.get("kappa", heel_gain(kn))
+    G = np.concatenate(
+        [_matrix([[v["Y_delta"], 0.0], [v["K_delta"], -kappa], [v["n_delta"], 0.0]], batch), F[..., [2, 0]]], axis=-1
     )
     Minv = np.linalg.inv(Mm)
-    A = np.vstack([Minv @ F, [0.0, 1.0, 0.0, 0.0]])
-    B = np.vstack([Minv @ G, np.zeros((1, G.shape[1]))])
+    A = _rows(Minv @ F, np.array([[0.0, 1.0, 0.0, 0.0]]))
+    B = _rows(Minv @ G, np.zeros((1, G.shape[-1])))
     # outputs: p; a_s from the accelerations; r
     # IMU mounting (rigid-body kinematics: the acceleration at r_s is v' + w' x r_s + w x (w x r_s)): an
     # accelerometer x_s forward of midship reads the yaw acceleration x_s r' too, and a gyro pitched by e_y about the body y axis
     # mixes roll and yaw rate (p - e_y r, r + e_y p); the lateral accelerometer's own tilt is a constant,
     # taken by the bias column
-    e_y, x_s = v.get("e_y", 0.0), kn.xbar_s
-    Cm = np.vstack(
-        [
-            [0.0, 1.0, -e_y, 0.0],
-            z_s * A[1] - A[0] - x_s * A[2] + np.array([0.0, 0.0, -U, g]),
-            [0.0, e_y, 1.0, 0.0],
-        ]
-    )
+    e_y, x_s, z_s = v.get("e_y", 0.0), kn.xbar_s, np.asarray(z_s)[..., None]
+    gyros = _matrix([[0.0, 1.0, -e_y, 0.0], [0.0, e_y, 1.0, 0.0]], batch)
+    acc = z_s * A[..., 1, :] - A[..., 0, :] - x_s * A[..., 2, :] + np.array([0.0, 0.0, -U, g])
+    Cm = _rows(gyros[..., :1, :], acc[..., None, :], gyros[..., 1:, :])
     # input 2 also enters a_s directly: its centripetal term is u r = U r + U (u/U - 1) r
-    Dm = np.vstack([np.zeros(4), z_s * B[1] - B[0] - x_s * B[2] - np.array([0.0, 0.0, U, 0.0]), np.zeros(4)])
+    a_s = z_s * B[..., 1, :] - B[..., 0, :] - x_s * B[..., 2, :] - np.array([0.0, 0.0, U, 0.0])
+    Dm = _rows(np.zeros_like(a_s)[..., None, :], a_s[..., None, :], np.zeros_like(a_s)[..., None, :])
     return A, B, Cm, Dm
+
+
+def _matrix(rows: list[list], batch: tuple[int, ...]) -> np.ndarray:
+    """A matrix (rows, columns) of numbers, or (*batch, rows, columns) of numbers and arrays of shape ``batch``."""
+    if not batch:
+        return np.array(rows, dtype=float)
+    entries = [np.broadcast_to(np.asarray(e, dtype=float), batch) for row in rows for e in row]
+    return np.stack(entries, axis=-1).reshape(*batch, len(rows), len(rows[0]))
+
+
+def _rows(*parts: np.ndarray) -> np.ndarray:
+    """The row blocks ``parts`` (..., r_i, c) one under another, each broadcast to the first's batch."""
+    batch = parts[0].shape[:-2]
+    return np.concatenate([p if p.shape[:-2] == batch else np.broadcast_to(p, (*batch, *p.shape[-2:])) for p in parts], axis=-2)
 
 
 def shared_parameters(datasets: list[RollRecording], kn: Known) -> tuple[str, ...]:
@@ -218,10 +235,12 @@ def shared_parameters(datasets: list[RollRecording], kn: Known) -> tuple[str, ..
 
 
 def _bilinear(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, T: float) -> tuple[np.ndarray, ...]:
-    """Tustin discretisation of ``(A, B, C, D)`` (one small inverse; scipy's is slow here)."""
-    inv = np.linalg.inv(np.eye(len(A)) - 0.5 * T * A)
+    """Tustin discretisation of ``(A, B, C, D)`` (one small inverse; scipy's is slow here), of one model
+    or a batch (leading axis)."""
+    eye = np.eye(A.shape[-1])
+    inv = np.linalg.inv(eye - 0.5 * T * A)
     Bd = inv @ B * T
-    return inv @ (np.eye(len(A)) + 0.5 * T * A), Bd, C @ inv, D + 0.5 * C @ Bd
+    return inv @ (eye + 0.5 * T * A), Bd, C @ inv, D + 0.5 * C @ Bd
 
 
 def delayed(x: np.ndarray, lag: float, T: float) -> np.ndarray:
@@ -276,8 +295,7 @@ def respond(
     out = np.zeros((n, C.shape[0]))
     for j, u in inputs:
         b = np.linalg.solve(V, Bd[:, j])
-        modes = np.column_stack([lfilter([0.0, bi], [1.0, -li], u.astype(complex)) for bi, li in zip(b, lam)])
-        out += (modes @ c.T).real + u[:, None] * Dd[:, j]
+        out += ((mode_filter(lam, u) * b) @ c.T).real + u[:, None] * Dd[:, j]
     return out, lam
 
 
@@ -482,8 +500,9 @@ class _Problem:
             return np.full(sum(d.n for d in self.datasets) * 3 + len(self.prior(x)), 1e3)
 
     def discrete(self, x: np.ndarray, i: int) -> tuple[np.ndarray, ...]:
-        """Dataset ``i``'s discrete ``(Ad, Bd, Cd, Dd)`` at ``x`` (as :func:`_simulate` makes them)."""
-        v = self.values(x)
+        """Dataset ``i``'s discrete ``(Ad, Bd, Cd, Dd)`` at ``x`` (as :func:`_simulate` makes them); ``x`` may
+        be a batch of parameter vectors (k, P), each matrix then (k, ...)."""
+        v = dict(zip(self.free, np.asarray(x, dtype=float).T)) if np.ndim(x) == 2 else self.values(x)
         rec = self.datasets[i]
         return _bilinear(*model_matrices(v, self.kn, v.get("z_f", self.z_f), self.loads(v)[i], rec.U), rec.T)
 
@@ -497,16 +516,16 @@ class _Problem:
         v = self.values(x)
         lag = v.get("t_imu", 0.0)
         lag_col = self.free.index("t_imu") if "t_imu" in self.free else -1
+        P = len(x)
+        # x, then x + h_j e_j and x - h_j e_j for every j: one batch of model matrices a dataset (5,000 calls of
+        # model_matrices a fit, a quarter of its CPU, before stop 51)
+        batch = np.vstack([x, x + np.diag(steps), x - np.diag(steps)])
         try:
             blocks = []
             for i, (rec, Y) in enumerate(zip(self.datasets, self.Y)):
-                mats = self.discrete(x, i)
-                dmats = []
-                for j, h in enumerate(steps):
-                    e = np.zeros_like(x)
-                    e[j] = h
-                    hi, lo = self.discrete(x + e, i), self.discrete(x - e, i)
-                    dmats.append(tuple((a - b) / (2 * h) for a, b in zip(hi, lo)))
+                stacked = self.discrete(batch, i)
+                mats = tuple(a[0] for a in stacked)
+                dmats = [tuple((a[1 + j] - a[1 + P + j]) / (2 * h) for a in stacked) for j, h in enumerate(steps)]
                 du = lag_derivative(speed_inputs(rec)[0], lag, rec.T) if lag_col >= 0 else None
                 inputs = model_inputs(v, self.kn, rec, self.r_bias[i], self.sway[i])
                 blocks.append(dataset_jacobian(mats, dmats, inputs, du, lag_col, Y, self.ar[i], self.w[i]))

@@ -5,7 +5,6 @@ Newey-West sandwich covariance of a least-squares fit and the load's Gauss-Newto
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import fftconvolve
 
 
 def central_jacobian(fun, x: np.ndarray) -> np.ndarray:
@@ -48,8 +47,20 @@ def bartlett_meat(h: np.ndarray, lags: int) -> np.ndarray:
     convolution of each score column with the kernel (one FFT, not a product per lag)."""
     L = min(lags, len(h) - 1)
     kernel = 1.0 - np.abs(np.arange(-L, L + 1)) / (lags + 1)  # a window beyond the data: cut, not rescaled
-    Kh = fftconvolve(h, kernel[:, None], mode="same", axes=0)
+    Kh = same_convolution(h, kernel)
     return 0.5 * (h.T @ Kh + Kh.T @ h)
+
+
+def same_convolution(h: np.ndarray, kernel: np.ndarray) -> np.ndarray:
+    """Each column of ``h`` (n, p) convolved with ``kernel`` (odd length), the ``n`` central samples:
+    ``scipy.signal.fftconvolve(h, kernel[:, None], mode="same", axes=0)`` by numpy's real FFT, to rounding
+    (1e-15 of the largest value, tests/test_rollmass_oe_fit.py), without scipy.signal's import (2 s of CPU)."""
+    n, k = len(h), len(kernel)
+    size = n + k - 1
+    nfft = 1 << (size - 1).bit_length()  # a power of two: numpy's FFT has no fast-length helper
+    full = np.fft.irfft(np.fft.rfft(h, nfft, axis=0) * np.fft.rfft(kernel, nfft)[:, None], nfft, axis=0)
+    start = (k - 1) // 2
+    return full[start : start + n]
 
 
 def _meat(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:

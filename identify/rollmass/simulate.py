@@ -17,7 +17,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.linalg import expm
-from scipy.signal import lfilter, remez
 
 from identify.rollmass.model import Load, RollProfile, load_restoring
 from identify.rollmass.restoring import heel_gain, heel_signal
@@ -120,6 +119,8 @@ def joystick_rudder(n: int, fs: float, exp: dict, rng: np.random.Generator) -> n
 
 def wave_disturbance(n: int, fs: float, exp: dict, rng: np.random.Generator) -> np.ndarray:
     """Narrow-band 'reflected bow wave' forces [tau_v, tau_p, tau_r], coherent across the DOFs, (n, 3)."""
+    from scipy.signal import lfilter  # here: for mass-sim only (its import: 2 s of CPU)
+
     w0, z = 2 * np.pi * exp["wave_freq_hz"], exp["wave_damping"]
     T = 1 / fs
     # Tustin-discretised 2nd-order band-pass s / (s^2 + 2 z w0 s + w0^2)
@@ -134,6 +135,8 @@ def wave_disturbance(n: int, fs: float, exp: dict, rng: np.random.Generator) -> 
 
 def fir_lowpass(exp: dict) -> np.ndarray:
     """Equiripple FIR of section 5 (order 20, passband 0.5 Hz at 100 Hz)."""
+    from scipy.signal import remez  # here: for mass-sim only (its import: 2 s of CPU)
+
     return remez(exp["fir_order"] + 1, [0, exp["fir_cutoff"], exp["fir_stop"], exp["fs_raw"] / 2], [1, 0], fs=exp["fs_raw"])
 
 
@@ -141,6 +144,8 @@ def simulate_dataset(
     prof: RollProfile, load: Load, samples: int, noise: Noise, seed: int, name: str = "", known_load: bool = True
 ) -> RollRecording:
     """One free-running basin run with ``samples`` samples after decimation (seeded, reproducible)."""
+    from scipy.signal import lfilter  # here: for mass-sim only (its import: 2 s of CPU)
+
     exp = prof.raw["experiment"]
     rng = np.random.default_rng(seed)
     fs, dec = exp["fs_raw"], int(exp["decimate"])

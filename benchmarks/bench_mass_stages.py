@@ -1,0 +1,74 @@
+"""CPU of each stage of one ``shiptrial mass`` process, without a profiler (stop 51).
+
+    cd EXAMPLE && PYTHONPATH=REPO nice -n 10 python REPO/benchmarks/bench_mass_stages.py \
+        mass nominal.csv calibration.csv loaded.csv
+
+(``EXAMPLE`` from ``shiptrial mass-sim EXAMPLE --case case1 --seed 3``: the bundled example.) Prints the
+CPU (``time.process_time``) of importing numpy, typer, the app (every command's module) and mass's own
+modules (scipy.optimize among them), then of the command, with the library stages inside it (each wrapped
+function's own total; nested stages count in both). Python's start-up before this script is what
+``python -c pass`` takes. The command's stdout is discarded. PYTHONPATH names the tree timed (the
+installed package otherwise); the same script times main's tree and a branch's.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+
+from benchmarks.stagetimer import time_stages
+
+t0 = time.process_time()
+import numpy  # noqa: E402,F401
+
+t_numpy = time.process_time()
+import typer  # noqa: E402,F401
+
+t_typer = time.process_time()
+import cli.app  # noqa: E402
+
+t_app = time.process_time()
+import cli.options  # noqa: E402,F401
+from identify.rollmass import api, estimate, output_error, sensitivity  # noqa: E402
+
+t_mass = time.process_time()
+spent: dict[str, float] = {}
+
+
+def main() -> None:
+    stages = [
+        (api, "estimate_from_files", "estimate_from_files (library)"),
+        (api, "read_roll_csv", "  reading the three files"),
+        (api, "check_recorded_signs", "  sign and scale checks"),
+        (estimate, "referenced_heel", "  heel reference"),
+        (estimate, "fit_output_error", "  the oe fit"),
+        (output_error._Problem, "residual", "    residuals"),
+        (output_error._Problem, "jacobian", "    Jacobians"),
+        (output_error._Problem, "discrete", "      their model matrices (finite differences)"),
+        (output_error, "dataset_jacobian", "      their sensitivity equations"),
+        (sensitivity, "_output_sensitivities", "        forced responses and dy (mode filters in)"),
+    ]
+    time_stages(stages, spent, time.process_time)
+    sys.argv = ["shiptrial", *sys.argv[1:]]
+    saved = sys.stdout
+    sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - the command's report is not the figure
+    try:
+        cli.app.main()
+    except SystemExit:
+        pass
+    finally:
+        sys.stdout.close()
+        sys.stdout = saved
+    t_end = time.process_time()
+    print(
+        f"CPU s: import numpy {t_numpy - t0:.3f}; typer {t_typer - t_numpy:.3f}; cli.app (every command) "
+        f"{t_app - t_typer:.3f}; mass's modules {t_mass - t_app:.3f}; the command {t_end - t_mass:.3f}; "
+        f"all {t_end - t0:.3f}"
+    )
+    for k, v in spent.items():
+        print(f"  {k}: {v:.3f}")
+
+
+if __name__ == "__main__":
+    main()
