@@ -528,6 +528,30 @@ def sea_analyse(a: argparse.Namespace) -> None:
         _true_disturbance(fits, emp)
 
 
+def _dataset_sums(fits: list[dict]) -> None:
+    """Each dataset's share of the true response's map to the mass, ``a^T J_d^T e_d`` (``a`` the mass column of
+    ``(J^T J)^-1``): its sd over the seas against the root of its mean lag-0 meat, and the datasets' correlation
+    over the seas (independent records: near 0 unless something couples them)."""
+    S, Q = [], []
+    for z in fits:
+        J, a = z["J"], np.linalg.inv(z["J"].T @ z["J"])[:, -2]
+        s, q, i = [], [], 0
+        for n in z["lengths"]:
+            g = (J[i : i + 3 * n] * z["e_q"][i : i + 3 * n, None]).reshape(n, 3, -1).sum(axis=1) @ a
+            s.append(g.sum())
+            q.append(g @ g)
+            i += 3 * n
+        S.append(s)
+        Q.append(q)
+    S, Q = np.array(S), np.array(Q)
+    c = np.corrcoef(S.T)[np.triu_indices(S.shape[1], 1)]
+    print(
+        f"  per dataset (mass): sd over the seas {np.round(S.std(axis=0, ddof=1) * 1000, 2)} g, lag-0 meat "
+        f"{np.round(np.sqrt(Q.mean(axis=0)) * 1000, 2)} g; correlation over the seas (0-1, 0-2, 1-2) {c.round(2)}; "
+        f"sd of the sum {S.sum(axis=1).std(ddof=1) * 1000:.2f} g, of independent ones {np.sqrt(S.var(axis=0, ddof=1).sum()) * 1000:.2f} g"
+    )
+
+
 def _true_disturbance(fits: list[dict], emp: np.ndarray) -> None:
     """With the quiet reference (``repeat --store``): (iii) the sandwich whose meat is the sea's own response in the
     residual at the quiet point, ``e = f(x_q; sea) - f(x_q; quiet)``; the linear map of that response to the load,
@@ -546,6 +570,7 @@ def _true_disturbance(fits: list[dict], emp: np.ndarray) -> None:
         f"  true disturbance (iii): rms sd mass {np.sqrt(c[0, 0]) * 1000:.2f} g, height {np.sqrt(c[1, 1]) * 1000:.2f} mm; "
         f"spread / sd {np.sqrt(emp[0, 0] / c[0, 0]):.2f} / {np.sqrt(emp[1, 1] / c[1, 1]):.2f}"
     )
+    _dataset_sums(fits)
     lin, pred, err = np.array(lin), np.array(pred), np.array(err)
     sd_lin = lin.std(axis=0, ddof=1)
     print(
