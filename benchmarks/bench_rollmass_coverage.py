@@ -12,6 +12,13 @@ spread, and the 95 % coverage, for each estimator (:mod:`identify.rollmass.sandw
     python benchmarks/bench_rollmass_coverage.py fit /tmp/quiet --runs 4 --quiet --like /tmp/cov   # the same fits, no noise
     python benchmarks/bench_rollmass_coverage.py analyse /tmp/cov --quiet-dir /tmp/quiet
     python benchmarks/bench_rollmass_coverage.py repeat --variant imu_mount --run 1 --case case2 --no-sensor-noise  # stop 50
+    python benchmarks/bench_rollmass_coverage.py repeat --variant imu_mount --run 1 --case case2 --no-sensor-noise --store /tmp/s51/imu
+    python benchmarks/bench_rollmass_coverage.py sea_analyse /tmp/s51/imu   # stop 51: the spread against the meats
+
+``repeat --store`` keeps each converged sea's Jacobian, residual and final point and the sea's own response in the
+residual at the quiet fit's point; ``sea_analyse`` compares the load's spread over the seas with the sandwich from
+the fitted residual, the leverage-corrected one the fit reports (:func:`identify.rollmass.sandwich.load_cov`) and
+the one from that true response.
 
 The ships of a run depend on ``--runs`` (the family is drawn at once), so a directory is resumed (fits already
 stored are skipped) and paired only with the same ``--runs``.
@@ -20,6 +27,7 @@ stored are skipped) and paired only with the same ``--runs``.
 from __future__ import annotations
 
 import argparse
+import copy
 import os
 import sys
 import tempfile
@@ -34,6 +42,7 @@ from scipy.signal import lfilter  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from benchmarks.rollmass_sea_analysis import _leveraged, sea_analyse  # noqa: E402
 from identify.rollmass import oe_fit  # noqa: E402
 from identify.rollmass import sandwich as sw  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
@@ -46,13 +55,21 @@ CONSTANT_SPEED = ("base", "sway_roll", "restoring", "imu_mount", "waves")
 def _capture() -> dict:
     """Wrap oe_fit's covariance call (the fit's last, at its final point) to keep its arguments."""
     seen: dict = {}
-    orig = oe_fit.sandwich_cov
+    orig = oe_fit.load_cov
 
     def wrapped(J, f, lengths, lags):
-        seen.update(J=J, f=f, lengths=list(lengths), lags=lags)
+        seen.update(J=J, f=f, lengths=list(lengths), lags=lags, rho=sw.leverage_factors(J, list(lengths), lags))
         return orig(J, f, lengths, lags)
 
-    oe_fit.sandwich_cov = wrapped
+    oe_fit.load_cov = wrapped
+    finish = oe_fit._gauss_newton
+
+    def finished(prob, x, steps, lags):
+        out = finish(prob, x, steps, lags)
+        seen.update(x=out[0], free=prob.free, prob=prob)  # the final point (the last _fit's, as the covariance's)
+        return out
+
+    oe_fit._gauss_newton = finished
     return seen
 
 
@@ -92,6 +109,12 @@ def _cov(z: dict, lags: list[int] | int) -> np.ndarray:
     for h, L in zip(z["h"], lags):
         S += sw.bartlett_meat(h, L)
     return (Ainv @ S @ Ainv)[-2:, -2:]
+
+
+def _reported(z: dict) -> np.ndarray:
+    """The covariance the fit reported: the plain 5 s sandwich, leverage-corrected where the fit stored ``rho``."""
+    C = _cov(z, int(z["lags"]))
+    return _leveraged(z, C) if "rho" in z else C
 
 
 def andrews_lags(g: np.ndarray) -> int:
@@ -159,7 +182,7 @@ def analyse(a: argparse.Namespace) -> None:
     print(f"{len(fits)} stored fits; sample time {T:g} s\n")
     print(
         "reported sd reproduced from the stored scores (max relative difference): "
-        + f"{max(abs(np.sqrt(_cov(z, int(z['lags']))[0, 0]) / z['m_sd'] - 1) for *_, z in fits):.1e}\n"
+        + f"{max(abs(np.sqrt(_reported(z)[0, 0]) / z['m_sd'] - 1) for *_, z in fits):.1e}\n"
     )
     print("integrated autocorrelation time of the mass influence, per dataset [s] (nominal, calibration, loaded):")
     for variant, case, run, z in fits:
@@ -169,10 +192,12 @@ def analyse(a: argparse.Namespace) -> None:
     for L_s in (1.0, 5.0, 10.0, 20.0):
         rows += _rows(fits, f"NW {L_s:g} s", lambda z, L=round(L_s / T): _cov(z, L))
     rows += _rows(fits, "NW auto (A91)", lambda z: _cov(z, [andrews_lags(g) for g in _influence(z)]))
+    if all("rho" in z for *_, z in fits):
+        rows += _rows(fits, "NW 5 s leverage", lambda z: _leveraged(z, _cov(z, int(z["lags"]))))
     print()
     _table(rows, by_case=False)
     print()
-    _table([r for r in rows if r[0] == "NW 5 s"], by_case=True)
+    _table([r for r in rows if r[0] in ("NW 5 s", "NW 5 s leverage")], by_case=True)
     if a.quiet_dir:
         quiet = {(v, c, r): z for v, c, r, z in _load(Path(a.quiet_dir))}
         _split(fits, quiet)
@@ -334,6 +359,7 @@ def fit(a: argparse.Namespace) -> None:
                     z_true=z_true,
                     converged=e.converged,
                     cpu=cpu,
+                    rho=seen["rho"],
                 )
                 print(
                     f"{path.name}: m {e.m:.4f} ({m_true}) sd {e.m_sd:.4f}, z {e.zbar_m:.4f} ({z_true}) sd {e.zbar_m_sd:.4f}, "
@@ -362,6 +388,31 @@ def _fresh_sea(scale: float, key: list[int]) -> None:
 _TRUTH_SEA: dict = {}
 
 
+def _quiet_reference(a: argparse.Namespace, seed: int, seen: dict) -> dict:
+    """The same ship, case and steering without the sea (and, with ``--no-sensor-noise``, without the sensor's noise):
+    its fit's final point ``x_q`` (the ship's pseudo-true parameters in the oe model) and its datasets as the
+    fit read them (for :func:`_disturbance`)."""
+    _fresh_sea(0.0, [a.sea_seed, 10**6])
+    ship, data = bt.simulate_runs(a.variant, a.runs, seed)
+    seen.clear()
+    with tempfile.TemporaryDirectory() as d:
+        recs = bt.case_recordings(ship, data, a.case, a.run)
+        e = estimate_from_files(*[bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in recs], method="oe")
+    print(f"quiet: m {e.m:.4f}, z {e.zbar_m:.4f}, converged {e.converged}", flush=True)
+    return {"x": seen["x"], "datasets": seen["prob"].datasets}
+
+
+def _disturbance(prob, quiet: dict) -> dict:
+    """The residual of one sea's fit at the quiet fit's point ``x_q``, on its own data and on the quiet data with the
+    same whiteners, weights and turn inputs: ``e = f(x_q; sea) - f(x_q; quiet)`` is the sea's response in the
+    residual at fixed parameters (the true disturbance the fit sees, not projected)."""
+    q = copy.copy(prob)
+    q.datasets = quiet["datasets"]
+    q.Y = [oe_fit._measured(d, prob.kn.g) for d in q.datasets]
+    f_sea, f_quiet = prob.residual(quiet["x"]), q.residual(quiet["x"])
+    return {"x_q": quiet["x"], "f_sea_q": f_sea, "e_q": f_sea - f_quiet}
+
+
 def repeat(a: argparse.Namespace) -> None:
     """One ship, case and steering of the family (``--variant``, ``--run``, ``--case``: the truth bench's
     draws), fitted on ``--realizations`` fresh seas (:func:`_fresh_sea`): the load's spread over the seas
@@ -372,8 +423,13 @@ def repeat(a: argparse.Namespace) -> None:
         _sensor_noise_off()
     seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(a.variant)  # as bench_rollmass_truth.py
     m_true, z_true = bt.truth_load(a.case)
+    seen = _capture()
+    if a.store:
+        Path(a.store).mkdir(parents=True, exist_ok=True)
+    quiet = _quiet_reference(a, seed, seen) if a.store else None
     rows = []
     for k in range(a.realizations):
+        seen.clear()
         _fresh_sea(a.sea_scale, [a.sea_seed, k])
         ship, data = bt.simulate_runs(a.variant, a.runs, seed)
         with tempfile.TemporaryDirectory() as d:
@@ -387,6 +443,24 @@ def repeat(a: argparse.Namespace) -> None:
                 continue
         if e.converged and np.isfinite(e.m_sd) and np.isfinite(e.zbar_m_sd):  # a failed fit is said, not averaged
             rows.append((e.m, e.m_sd, e.zbar_m, e.zbar_m_sd))
+            if a.store and "J" in seen:  # the whole Jacobian and the final point: see `sea_analyse`
+                out = Path(a.store) / f"sea{k:02d}.npz"
+                np.savez_compressed(
+                    out,
+                    J=seen["J"],
+                    f=seen["f"],
+                    x=seen["x"],
+                    free=np.array(seen["free"]),
+                    lengths=seen["lengths"],
+                    lags=seen["lags"],
+                    m=e.m,
+                    z=e.zbar_m,
+                    m_sd=e.m_sd,
+                    z_sd=e.zbar_m_sd,
+                    m_true=m_true,
+                    z_true=z_true,
+                    **_disturbance(seen["prob"], quiet),
+                )
         print(
             f"sea {k:2d}: m {e.m:.4f} sd {e.m_sd:.4f}, z {e.zbar_m:.4f} sd {e.zbar_m_sd:.4f}, converged {e.converged}, "
             f"{time.process_time() - c0:.1f} s cpu",
@@ -432,12 +506,15 @@ def main() -> None:
     r.add_argument("--sea-seed", type=int, default=777)
     r.add_argument("--sea-scale", type=float, default=1.0)
     r.add_argument("--no-sensor-noise", action="store_true", help="the sea alone")
+    r.add_argument("--store", help="keep each converged fit's Jacobian, residual and final point in this directory")
     g = sub.add_parser("analyse", help="z-scores and coverage of covariance estimators on stored fits")
     g.add_argument("dir")
     g.add_argument("--quiet-dir", help="a `fit --quiet` of the same runs: split each error into bias and noise")
     g.add_argument("--part", action="append", help="NAME=DIR: fits with one noise source, against --quiet-dir")
+    s = sub.add_parser("sea_analyse", help="a `repeat --store` directory: the spread against the sandwich's meats")
+    s.add_argument("dir", help="a `repeat --store` directory, or several (comma-separated) of the same ship")
     a = ap.parse_args()
-    {"fit": fit, "repeat": repeat, "analyse": analyse}[a.cmd](a)
+    {"fit": fit, "repeat": repeat, "analyse": analyse, "sea_analyse": sea_analyse}[a.cmd](a)
 
 
 if __name__ == "__main__":

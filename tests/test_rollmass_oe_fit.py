@@ -10,6 +10,7 @@ from scipy.signal import lfilter, ss2tf
 
 from identify.rollmass import oe_fit as fit
 from identify.rollmass import output_error as oe
+from identify.rollmass import sandwich
 from identify.rollmass.estimate import estimate
 from identify.rollmass.model import Load, load_profile
 from identify.rollmass.simulate import Noise, simulate_case
@@ -124,7 +125,7 @@ def test_the_sandwich_carries_a_priors_uncertainty():
     col = rng.standard_normal(3 * n)
     J = np.vstack([np.column_stack([col, col]), [[0.0, 1.0]]])
     f = np.r_[rng.standard_normal(3 * n), 0.0]
-    cov = fit.sandwich_cov(J, f, [n], lags=0)
+    cov = sandwich.sandwich_cov(J, f, [n], lags=0)
     assert cov[1, 1] == pytest.approx(1.0, rel=0.05)
     assert cov[0, 0] + cov[1, 1] + 2 * cov[0, 1] == pytest.approx(1 / (col @ col), rel=0.2)
 
@@ -190,7 +191,7 @@ def test_stationarity_is_judged_in_the_reported_standard_errors():
     J = lfilter([1.0], [1.0, -0.95], rng.standard_normal((n, 3, 4)), axis=0).reshape(3 * n, 4)
     y = lfilter([np.sqrt(1 - 0.95**2)], [1.0, -0.95], rng.standard_normal((n, 3)), axis=0).ravel()  # unit variance
     x_opt = np.linalg.lstsq(J, y, rcond=None)[0]
-    sd_m = np.sqrt(fit.sandwich_cov(J, J @ x_opt - y, [n], lags)[-2, -2])
+    sd_m = np.sqrt(sandwich.sandwich_cov(J, J @ x_opt - y, [n], lags)[-2, -2])
     for t, stationary in ((0.05, True), (1.0, False)):
         x = x_opt + np.r_[0.0, 0.0, t * sd_m, 0.0]
         f = J @ x - y

@@ -1,6 +1,6 @@
 """The output-error fit's driver: Levenberg-Marquardt on the exact sensitivity Jacobian with a
 forward-difference fallback, the Gauss-Newton finish to a stationary point, the AR reweighting and
-the sandwich covariance (the model and its residual are in :mod:`identify.rollmass.output_error`)."""
+the load's leverage-corrected sandwich covariance (the model and its residual are in :mod:`identify.rollmass.output_error`)."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ from identify.rollmass.output_error import (
     shared_parameters,
 )
 from identify.rollmass.restoring import heel_gain
-from identify.rollmass.sandwich import load_decrement, sandwich_cov
+from identify.rollmass.sandwich import load_cov, load_decrement
 from identify.rollmass.sensitivity import fir
 from identify.rollmass.simulate import RollRecording
 
@@ -259,7 +259,7 @@ def _fit(
                 else "(the load's covariance is singular there)"
             )
         try:
-            cov_load = sandwich_cov(J, f, [d.n for d in datasets], lags)[-2:, -2:]  # f: the residual at x
+            cov_load = load_cov(J, f, [d.n for d in datasets], lags)  # f: the residual at x; leverage-corrected
         except np.linalg.LinAlgError:
             pass
     v = prob.values(x)
