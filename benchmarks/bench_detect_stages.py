@@ -13,11 +13,10 @@ says otherwise (a first call writes the entry: time a second one). PYTHONPATH na
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 
-from benchmarks.stagetimer import time_stages
+from benchmarks.stagetimer import print_stages, run_command_quietly, time_stages
 
 t0 = time.process_time()
 import numpy  # noqa: E402,F401
@@ -52,23 +51,12 @@ def main() -> None:
         (api, "calibrate_dead_zone", "  dead-zone calibration"),
     ]
     time_stages(stages, spent, time.process_time)  # the process's: numpy's BLAS threads in
-    sys.argv = ["shiptrial", *sys.argv[1:]]
-    saved = sys.stdout
-    sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - the command's report is not the figure
-    try:
-        cli.app.main()
-    except SystemExit:
-        pass
-    finally:
-        sys.stdout.close()
-        sys.stdout = saved
-    t_end = time.process_time()
-    print(
-        f"CPU s: import numpy {t_numpy - t0:.3f}; typer {t_typer - t_numpy:.3f}; cli.app (every command) "
-        f"{t_app - t_typer:.3f}; detect's modules {t_detect - t_app:.3f}; the command {t_end - t_detect:.3f}"
+    t_end = run_command_quietly(cli.app.main, sys.argv[1:])
+    print_stages(
+        f"import numpy {t_numpy - t0:.3f}; typer {t_typer - t_numpy:.3f}; cli.app (every command) "
+        f"{t_app - t_typer:.3f}; detect's modules {t_detect - t_app:.3f}; the command {t_end - t_detect:.3f}",
+        spent,
     )
-    for k, v in spent.items():
-        print(f"  {k}: {v:.3f}")
 
 
 if __name__ == "__main__":

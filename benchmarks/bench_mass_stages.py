@@ -13,11 +13,10 @@ installed package otherwise); the same script times main's tree and a branch's.
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 
-from benchmarks.stagetimer import time_stages
+from benchmarks.stagetimer import print_stages, run_command_quietly, time_stages
 
 t0 = time.process_time()
 import numpy  # noqa: E402,F401
@@ -50,24 +49,13 @@ def main() -> None:
         (sensitivity, "_output_sensitivities", "        forced responses and dy (mode filters in)"),
     ]
     time_stages(stages, spent, time.process_time)
-    sys.argv = ["shiptrial", *sys.argv[1:]]
-    saved = sys.stdout
-    sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - the command's report is not the figure
-    try:
-        cli.app.main()
-    except SystemExit:
-        pass
-    finally:
-        sys.stdout.close()
-        sys.stdout = saved
-    t_end = time.process_time()
-    print(
-        f"CPU s: import numpy {t_numpy - t0:.3f}; typer {t_typer - t_numpy:.3f}; cli.app (every command) "
+    t_end = run_command_quietly(cli.app.main, sys.argv[1:])
+    print_stages(
+        f"import numpy {t_numpy - t0:.3f}; typer {t_typer - t_numpy:.3f}; cli.app (every command) "
         f"{t_app - t_typer:.3f}; mass's modules {t_mass - t_app:.3f}; the command {t_end - t_mass:.3f}; "
-        f"all {t_end - t0:.3f}"
+        f"all {t_end - t0:.3f}",
+        spent,
     )
-    for k, v in spent.items():
-        print(f"  {k}: {v:.3f}")
 
 
 if __name__ == "__main__":

@@ -348,19 +348,7 @@ def fit(a: argparse.Namespace) -> None:
                 if "J" not in seen:
                     print(f"{path.name}: no covariance ({'; '.join(e.warnings)[:80]})", flush=True)
                     continue
-                _store(
-                    seen,
-                    path,
-                    m=e.m,
-                    z=e.zbar_m,
-                    m_sd=e.m_sd,
-                    z_sd=e.zbar_m_sd,
-                    m_true=m_true,
-                    z_true=z_true,
-                    converged=e.converged,
-                    cpu=cpu,
-                    rho=seen["rho"],
-                )
+                _store(seen, path, **_load_fields(e, m_true, z_true), converged=e.converged, cpu=cpu, rho=seen["rho"])
                 print(
                     f"{path.name}: m {e.m:.4f} ({m_true}) sd {e.m_sd:.4f}, z {e.zbar_m:.4f} ({z_true}) sd {e.zbar_m_sd:.4f}, "
                     f"conv {e.converged}, {cpu:.1f} s cpu",
@@ -413,6 +401,17 @@ def _disturbance(prob, quiet: dict) -> dict:
     return {"x_q": quiet["x"], "f_sea_q": f_sea, "e_q": f_sea - f_quiet}
 
 
+def _load_fields(e, m_true: float, z_true: float) -> dict[str, float]:
+    """A fit's load, its reported sds and the truth's, as the stored files name them."""
+    return {"m": e.m, "z": e.zbar_m, "m_sd": e.m_sd, "z_sd": e.zbar_m_sd, "m_true": m_true, "z_true": z_true}
+
+
+def _store_sea(out: Path, seen: dict, quiet: dict, fields: dict[str, float]) -> None:
+    """One sea's whole Jacobian, residual and final point with the sea's own response (see `sea_analyse`)."""
+    keep = {k: seen[k] for k in ("J", "f", "x", "lengths", "lags")}
+    np.savez_compressed(out, **keep, free=np.array(seen["free"]), **fields, **_disturbance(seen["prob"], quiet))
+
+
 def repeat(a: argparse.Namespace) -> None:
     """One ship, case and steering of the family (``--variant``, ``--run``, ``--case``: the truth bench's
     draws), fitted on ``--realizations`` fresh seas (:func:`_fresh_sea`): the load's spread over the seas
@@ -443,24 +442,8 @@ def repeat(a: argparse.Namespace) -> None:
                 continue
         if e.converged and np.isfinite(e.m_sd) and np.isfinite(e.zbar_m_sd):  # a failed fit is said, not averaged
             rows.append((e.m, e.m_sd, e.zbar_m, e.zbar_m_sd))
-            if a.store and "J" in seen:  # the whole Jacobian and the final point: see `sea_analyse`
-                out = Path(a.store) / f"sea{k:02d}.npz"
-                np.savez_compressed(
-                    out,
-                    J=seen["J"],
-                    f=seen["f"],
-                    x=seen["x"],
-                    free=np.array(seen["free"]),
-                    lengths=seen["lengths"],
-                    lags=seen["lags"],
-                    m=e.m,
-                    z=e.zbar_m,
-                    m_sd=e.m_sd,
-                    z_sd=e.zbar_m_sd,
-                    m_true=m_true,
-                    z_true=z_true,
-                    **_disturbance(seen["prob"], quiet),
-                )
+            if a.store and "J" in seen:
+                _store_sea(Path(a.store) / f"sea{k:02d}.npz", seen, quiet, _load_fields(e, m_true, z_true))
         print(
             f"sea {k:2d}: m {e.m:.4f} sd {e.m_sd:.4f}, z {e.zbar_m:.4f} sd {e.zbar_m_sd:.4f}, converged {e.converged}, "
             f"{time.process_time() - c0:.1f} s cpu",

@@ -69,6 +69,16 @@ def sea_analyse(a: argparse.Namespace) -> None:
         _true_disturbance(fits, emp)
 
 
+def score_sums(J: np.ndarray, e: np.ndarray, lengths, a: np.ndarray) -> list[float]:
+    """Each dataset's share ``a^T J_d^T e_d`` of the linear map from a residual ``e`` to one load parameter
+    (``a`` its column of ``(J^T J)^-1``; datasets stacked as the fit stacks them, 3 channels a sample)."""
+    out, i = [], 0
+    for n in lengths:
+        out.append(float((J[i : i + 3 * n].T @ e[i : i + 3 * n]) @ a))
+        i += 3 * n
+    return out
+
+
 def _dataset_sums(fits: list[dict]) -> None:
     """Each dataset's share of the true response's map to the mass, ``a^T J_d^T e_d`` (``a`` the mass column of
     ``(J^T J)^-1``): its sd over the seas against the root of its mean lag-0 meat, and the datasets' correlation

@@ -33,3 +33,29 @@ def time_stages(
                     cpu[_label] = cpu.get(_label, 0.0) + clock() - t
 
         setattr(module, name, timed)
+
+
+def run_command_quietly(main: Callable[[], object], argv: list[str]) -> float:
+    """Run a CLI entry point ``main`` on ``argv`` (``sys.argv[1:]``'s form) with its stdout discarded (the
+    command's report is not the figure); the process CPU seconds when it ends."""
+    import os
+    import sys
+
+    sys.argv = ["shiptrial", *argv]
+    saved = sys.stdout
+    sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - closed below
+    try:
+        main()
+    except SystemExit:
+        pass
+    finally:
+        sys.stdout.close()
+        sys.stdout = saved
+    return time.process_time()
+
+
+def print_stages(imports: str, cpu: MutableMapping[str, float]) -> None:
+    """The import line, then each stage's CPU seconds."""
+    print(f"CPU s: {imports}")
+    for k, v in cpu.items():
+        print(f"  {k}: {v:.3f}")

@@ -54,3 +54,13 @@ def test_the_numpy_cusum_carries_a_nan_on_and_tracks_large_sums(monkeypatch) -> 
 def test_the_numpy_cusum_of_an_empty_record_is_empty(monkeypatch) -> None:
     monkeypatch.setattr(jitloop, "AVAILABLE", False)
     assert cusum.cusum_path(np.zeros((0, 4))).shape == (0, 4)
+
+
+def test_a_minus_infinite_increment_resets_the_statistic_as_the_recursion_does(monkeypatch) -> None:
+    """max(0, g - inf) = 0: the closed form's S_t - min S_s would be NaN from there on (review of stop 51)."""
+    monkeypatch.setattr(jitloop, "AVAILABLE", False)
+    inc = np.random.default_rng(3).standard_normal((300, 2)) + 0.1
+    inc[10, 0] = -np.inf
+    got, ref = cusum.cusum_path(inc), _plain(inc)
+    assert not np.isnan(got).any() and got[10, 0] == 0.0
+    assert np.abs(got - ref).max() <= 1e-12 * np.abs(ref).max()

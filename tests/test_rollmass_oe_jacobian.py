@@ -17,7 +17,7 @@ from identify.rollmass.api import estimate_from_files
 from identify.rollmass.estimate import estimate
 from identify.rollmass.model import Load, load_profile
 from identify.rollmass.restoring import heel_gain
-from identify.rollmass.sandwich import central_jacobian, sandwich_cov
+from identify.rollmass.sandwich import central_jacobian, leverage_factors, sandwich_cov
 from identify.rollmass.simulate import Noise, simulate_case
 from tests.physics import basin_truth as bt
 
@@ -174,29 +174,46 @@ BEFORE_TRUTH = [0.4407802008663312, -0.2441087658291535, 0.042373000088818516, 0
 
 
 @pytest.fixture
-def plain_sandwich(monkeypatch):
-    """The load's plain sandwich covariance, as the references above were made (stop 51 scales the reported one by
-    its leverage factors, ``sandwich.load_cov``: 1.086 / 1.163 on the mass sd of the two fits below; the estimates
-    are unchanged)."""
-    monkeypatch.setattr(oe_fit, "load_cov", lambda J, f, lengths, lags: sandwich_cov(J, f, lengths, lags)[-2:, -2:])
+def load_covs(monkeypatch) -> dict:
+    """The fit's plain sandwich of the load and its leverage factors, recorded where the fit asks for the
+    reported (leverage-corrected, stop 51) covariance: the references above were made with the plain one."""
+    seen: dict = {}
+    corrected = oe_fit.load_cov
+
+    def recording(J, f, lengths, lags):
+        seen["plain"] = sandwich_cov(J, f, lengths, lags)[-2:, -2:]
+        seen["rho"] = leverage_factors(J, lengths, lags)
+        return corrected(J, f, lengths, lags)
+
+    monkeypatch.setattr(oe_fit, "load_cov", recording)
+    return seen
 
 
-def test_the_bundled_example_gives_the_estimates_and_intervals_it_gave(plain_sandwich):
+def _agree_reported(e, seen: dict, ref: list[float]) -> None:
+    """The estimates and the plain sds as ``ref``; the reported sds the plain ones over sqrt(rho), 3-25 % wider."""
+    plain = np.sqrt(np.diag(seen["plain"]))
+    _agree([e.m, e.zbar_m, *plain], ref)
+    reported = np.array([e.m_sd, e.zbar_m_sd])
+    np.testing.assert_allclose(reported, plain / np.sqrt(seen["rho"]), rtol=1e-9)
+    assert np.all((reported > 1.03 * plain) & (reported < 1.25 * plain)), (reported, plain)
+
+
+def test_the_bundled_example_gives_the_estimates_and_intervals_it_gave(load_covs):
     """``mass-sim --case case1 --seed 3``'s data (full length, MTi-G noise)."""
     ds = simulate_case(PROF, "case1", Noise.from_profile(PROF), seed=3)
     e = estimate(ds, PROF.known, ds[1].load, "oe", with_ci=True, start=oe.start_values(PROF))
     assert e.converged
-    _agree([e.m, e.zbar_m, e.m_sd, e.zbar_m_sd], BEFORE_EXAMPLE)
+    _agree_reported(e, load_covs, BEFORE_EXAMPLE)
 
 
-def test_a_basin_truth_recording_gives_the_estimates_and_intervals_it_gave(plain_sandwich):
+def test_a_basin_truth_recording_gives_the_estimates_and_intervals_it_gave(load_covs):
     """The independent basin truth (``base``, seed 2015, case 2, half length) through the files."""
     ship, data = bt.simulate_runs("base", 1, 2015, length=0.5)
     with tempfile.TemporaryDirectory() as d:
         paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv") for r in bt.case_recordings(ship, data, "case2", 0)]
         e = estimate_from_files(*paths)
     assert e.converged
-    _agree([e.m, e.zbar_m, e.m_sd, e.zbar_m_sd], BEFORE_TRUTH)
+    _agree_reported(e, load_covs, BEFORE_TRUTH)
 
 
 def _scipy_modes(lam: np.ndarray, x: np.ndarray) -> np.ndarray:

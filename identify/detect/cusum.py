@@ -57,7 +57,8 @@ def cusum_path(inc: np.ndarray) -> np.ndarray:
     if inc.dtype == np.float64 and inc.size and jitloop.use(inc.size):
         flat = np.ascontiguousarray(inc).reshape(inc.shape[0], -1)
         return _path(flat, np.empty_like(flat)).reshape(inc.shape)
-    if inc.size > CLOSED_MAX * max(inc.shape[0], 1):
+    # a -inf increment resets the recursion to 0 but makes the closed form's S_t - min S_s NaN
+    if inc.size > CLOSED_MAX * max(inc.shape[0], 1) or np.isneginf(inc).any():
         return _stepped(inc)
     g = np.empty(inc.shape)  # doubles, as the recursion's running sum
     low = np.zeros(inc.shape[1:])  # -g0: g before the first block is 0

@@ -28,7 +28,8 @@ from identify.rollmass.sandwich import load_cov, load_decrement
 from identify.rollmass.sensitivity import fir
 from identify.rollmass.simulate import RollRecording
 
-# load decrement below which the fit is stationary (a further step < 0.1 reported standard error), and the
+# load decrement below which the fit is stationary (a further step < 0.1 of the plain sandwich's standard error; the
+# reported one is leverage-corrected, stop 51, about 1.1 times larger), and the
 # Gauss-Newton steps allowed to get there after LM, whose step-size test can stop it well short
 STATIONARY = 0.01
 FINISH_STEPS = 10

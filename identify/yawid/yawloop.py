@@ -32,13 +32,13 @@ INPUT_CODES = {"M_v": 0, "N_uv": 1, "N_phiuv": 2, "N_phiuu": 3, "N_p": 4}
 STATE_CODES = {"A": 0, "N_rr": 1, "N_rv": 2, "N_phiur": 3}
 #: the measured signals the loop reads, in its argument order
 SIGNALS = ("tau_r", "u", "v", "v_dot", "phi", "p")
-#: :func:`simulate_numpy`'s state terms: how each multiplies the yaw rate (0 ``r |r|``, 1 ``x |r|``, 2 ``x r``)
-#: and the signals its factor ``x`` is made of (``u``; none; ``|v|``; ``phi u``)
 #: elements (members x samples) of one block of :func:`simulate_numpy`'s coefficients: 256 KB an array, in the cache
 BLOCK = 2**15
 #: batches of up to this many members are stepped member by member on Python floats (about 1.3 ms a member
 #: for 5,000 steps, against 25-40 ms for any batch of under 20 in array operations)
 FLOATS = 16
+#: :func:`simulate_numpy`'s state terms: how each multiplies the yaw rate (0 ``r |r|``, 1 ``x |r|``, 2 ``x r``)
+#: and the signals its factor ``x`` is made of (``u``; none; ``|v|``; ``phi u``)
 STEPPED = {"A": (2, ("u",)), "N_rr": (0, ()), "N_rv": (2, ("v",)), "N_phiur": (1, ("phi", "u"))}
 
 
