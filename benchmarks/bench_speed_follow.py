@@ -1,9 +1,9 @@
 """Which recordings of the basin truth family ``mass`` follows the speed of (no fits: seconds a variant).
 
 For every run and dataset (the seeds of bench_rollmass_truth.py) the recording is written and read as
-``shiptrial mass`` reads it, and :func:`identify.rollmass.output_error.speed_variation` splits its
+``shiptrial mass`` reads it, and :func:`identify.rollmass.speed.speed_variation` splits its
 ``u / mean(u)`` at the low-pass; prints per variant the range of the low/high sd ratio, of the low-passed
-sd, and how many recordings :func:`~identify.rollmass.output_error.followed_speed` follows.
+sd, and how many recordings :func:`~identify.rollmass.speed.followed_speed` follows.
 
     python benchmarks/bench_speed_follow.py --runs 4
 """
@@ -17,8 +17,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from identify.rollmass.output_error import followed_speed, speed_variation  # noqa: E402
 from identify.rollmass.recording import read_roll_csv  # noqa: E402
+from identify.rollmass.speed import followed_speed, speed_variation  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
 
 

@@ -9,8 +9,9 @@ import numpy as np
 
 from identify.rollmass.gyro_bias import gyro_biases
 from identify.rollmass.model import Load, load_profile
-from identify.rollmass.output_error import followed_speed, speed_inputs, start_values
+from identify.rollmass.output_error import start_values
 from identify.rollmass.simulate import RollRecording
+from identify.rollmass.speed import followed_speed, speed_inputs
 from tests.test_rollmass_oe_model import _ltv_outputs
 
 PROF = load_profile()

@@ -280,7 +280,7 @@ def test_a_speed_column_in_the_wrong_unit_or_sign_is_refused(files, capsys, tmp_
 
 def test_a_recording_without_a_speed_column_is_said_to_hold_its_speed(files, tmp_path):
     """A file without a u column gets a note that its speed is held; so does one whose u varies no more
-    than its positioning error (the basin truth's base ship keeps its speed: output_error.followed_speed),
+    than its positioning error (the basin truth's base ship keeps its speed: speed.followed_speed),
     with the two figures the test compared; a ship slowing in its turns (speed_loss) is followed, no note."""
     from identify.rollmass.api import speed_notes
 
@@ -321,7 +321,7 @@ def test_a_roll_angle_in_degrees_is_refused(files, capsys, tmp_path, heel):
 
 
 def test_a_ship_slowing_in_its_turns_is_warned_with_its_measured_variation(files, tmp_path):
-    """A run whose speed is followed (it slows in its turns: output_error.followed_speed) is not an answer
+    """A run whose speed is followed (it slows in its turns: speed.followed_speed) is not an answer
     to trust as measured: on the basin truth's slowing ships oe was biased by tens of per cent beyond its
     intervals (docs/mass-accuracy.md), and the other methods do not read u. The estimate carries a
     warning with each slowing file's variation and the docs' pointer; a ship keeping its speed has none."""

@@ -158,7 +158,7 @@ def test_the_modal_simulation_is_the_state_space_model(case2):
         Ad, Bd, Cd, Dd = oe._bilinear(*oe.model_matrices(v, kn, kn.z_f_prior, load, rec.U), rec.T)
         inputs = oe.model_inputs(v, kn, rec)
         cols = [j for j, _ in inputs]
-        # the case has phi, the profile a BM; with a u column also the turn input (output_error.speed_inputs)
+        # the case has phi, the profile a BM; with a u column also the turn input (speed.speed_inputs)
         assert cols == ([0, 1, 2] if rec.u is not None else [0, 1])
         U = np.column_stack([u for _, u in inputs])
         x, ref = np.zeros(len(Ad)), np.empty((rec.n, 3))

@@ -58,14 +58,14 @@ def test_the_sensitivity_jacobian_is_the_residuals_derivative(case2, t_imu):
 
 def test_the_jacobian_holds_with_a_speed_column_and_a_negative_heel_gain(case2):
     """With a measured surge speed that drops 10-20 % (the speed inputs of
-    ``output_error.speed_inputs``: the rudder by (u/U)^2 and the turn input through Bd's third column) and
+    ``speed.speed_inputs``: the rudder by (u/U)^2 and the turn input through Bd's third column) and
     the heel gain below zero (as the fit takes it on the basin truth's sway_roll variant): every column
     within 1e-5 of central differences."""
     import dataclasses
 
     slowed = []
     for i, d in enumerate(case2):
-        t = np.arange(d.n) * d.T  # a slow drop (20 s period), followed by output_error.followed_speed
+        t = np.arange(d.n) * d.T  # a slow drop (20 s period), followed by speed.followed_speed
         u = 0.5 * (1.0 - (0.1 + 0.05 * i) * np.sin(2 * np.pi * t / 40.0) ** 2)
         slowed.append(dataclasses.replace(d, u=u, U=float(np.mean(u))))
     prob, x = _problem(slowed)
@@ -168,7 +168,7 @@ def _agree(got: list[float], ref: list[float]) -> None:
 BEFORE_EXAMPLE = [0.18297257612546583, -0.2787792921913929, 0.008421715590739958, 0.011016786953582894]
 # BEFORE_TRUTH: main's at stop 42 again. Stop 42's speed inputs with a kappa wall moved it to 0.35542 / -0.29326 m
 # (sds 0.0710 / 0.0459); at stop 43 the base variant's u (a constant speed with its positioning error) is held
-# (output_error.followed_speed) and the wall is gone (it pinned kappa at 0 on sway_roll: run 0 +8.4 / -6.5 / +4.8 %
+# (speed.followed_speed) and the wall is gone (it pinned kappa at 0 on sway_roll: run 0 +8.4 / -6.5 / +4.8 %
 # against main's -0.2 / -0.8 / -0.7 %), so this run is fitted as on main.
 BEFORE_TRUTH = [0.4407802008663312, -0.2441087658291535, 0.042373000088818516, 0.02149352801640111]
 

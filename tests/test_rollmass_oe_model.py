@@ -132,9 +132,10 @@ def test_a_run_that_slows_in_its_turns_is_followed_through_the_speed_inputs(monk
     column the inputs are the rudder alone. The structure is checked with the speed's low-pass off (this
     speed varies at 0.25 Hz, above it); the low-pass keeps a speed varying over 30 s within 1 % and
     takes a 1 Hz ripple (a positioning system's error) down to under 2 % of itself."""
-    from identify.rollmass import output_error
-    from identify.rollmass.output_error import _simulate, speed_inputs
+    from identify.rollmass import speed
+    from identify.rollmass.output_error import _simulate
     from identify.rollmass.simulate import RollRecording
+    from identify.rollmass.speed import speed_inputs
 
     slow = RollRecording("lp", 0.02, np.ones(3000), np.zeros(3000), np.zeros(3000), np.zeros(3000))
     tt = np.arange(3000) * 0.02
@@ -144,7 +145,7 @@ def test_a_run_that_slows_in_its_turns_is_followed_through_the_speed_inputs(monk
         want = u / np.mean(u) - 1.0
         ratio = np.std(got[500:-500]) / np.std(want[500:-500])
         assert (abs(ratio - 1.0) < 0.01) if keep else (ratio < 0.02), (f, ratio)
-    monkeypatch.setattr(output_error, "SPEED_LP_HZ", 0.0)
+    monkeypatch.setattr(speed, "SPEED_LP_HZ", 0.0)
 
     T, n = 0.02, 1500
     t = np.arange(n) * T
@@ -171,8 +172,8 @@ def test_the_speed_is_followed_only_where_it_varies_above_the_positioning_noise(
     low-pass stays in it."""
     from scipy.signal import lfilter
 
-    from identify.rollmass.output_error import followed_speed, speed_inputs, speed_variation
     from identify.rollmass.simulate import RollRecording
+    from identify.rollmass.speed import followed_speed, speed_inputs, speed_variation
 
     T, n = 0.02, 9000
     t = np.arange(n) * T
@@ -198,8 +199,8 @@ def test_the_speed_is_followed_only_where_it_varies_above_the_positioning_noise(
 def test_a_speed_too_short_or_too_coarse_to_split_is_held():
     """Under two periods of the 0.2 Hz low-pass (10 s), or sampled at 0.4 Hz or slower (the filter
     cannot be made: scipy raised instead), the speed is held, never followed or an error."""
-    from identify.rollmass.output_error import followed_speed, speed_variation
     from identify.rollmass.simulate import RollRecording
+    from identify.rollmass.speed import followed_speed, speed_variation
 
     for T, n in ((0.02, 400), (3.0, 200)):
         t = np.arange(n) * T

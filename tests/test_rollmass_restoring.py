@@ -171,7 +171,7 @@ def test_the_file_reader_passes_its_heel_reference_to_the_fit_and_refuses_an_unk
 @pytest.mark.parametrize("bad", ["noise", "nan", "astern"])
 def test_estimate_called_directly_holds_a_held_speed_in_the_heel_reference_too(monkeypatch, bad):
     """``estimate`` (not through the files) with a ``u`` the model holds (a constant speed with a positioning
-    error, a NaN, a negative speed: ``output_error.followed_speed`` is None) references the roll angle with
+    error, a NaN, a negative speed: ``speed.followed_speed`` is None) references the roll angle with
     the run's ``U`` in the centripetal ``u r``, as ``estimate_from_files`` does: the fit sees no trace of the
     column (before the review of stop 43 the raw ``u`` reached the heel reference here)."""
     from identify.rollmass import estimate as est_mod

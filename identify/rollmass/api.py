@@ -13,18 +13,12 @@ import numpy as np
 
 from identify.rollmass.estimate import DEFAULT_METHOD, METHODS, MassEstimate, estimate
 from identify.rollmass.model import Load, RollProfile, load_profile
-from identify.rollmass.output_error import (
-    SPEED_LP_HZ,
-    SPEED_NOISE_RATIO,
-    SPEED_VAR_MIN,
-    followed_speed,
-    speed_variation,
-    start_values,
-)
+from identify.rollmass.output_error import start_values
 from identify.rollmass.recording import read_roll_csv
 from identify.rollmass.restoring import DEFAULT_HEEL_REFERENCE, HEEL_REFERENCES
 from identify.rollmass.signs import check_signs, expected_signs, gain_signs, rudder_scale_message, steady_gains
 from identify.rollmass.simulate import RollRecording
+from identify.rollmass.speed import SPEED_LP_HZ, SPEED_NOISE_RATIO, SPEED_VAR_MIN, followed_speed, speed_variation
 from primitives.errors import UserError
 
 ROLES = ("nominal", "calibration", "loaded")
@@ -195,9 +189,9 @@ def known_from_recordings(
 
 def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
     """Check each recording's measured speed ``u`` against its header speed; a recording without one, or
-    whose speed's variation is within the positioning's error (:func:`output_error.followed_speed`),
+    whose speed's variation is within the positioning's error (:func:`speed.followed_speed`),
     gets a note that its speed is held through the run (``oe`` then neither follows a ship that slows
-    in its turns, :func:`output_error.speed_inputs`, nor takes the heel reference's centripetal
+    in its turns, :func:`speed.speed_inputs`, nor takes the heel reference's centripetal
     ``u r`` at the speed of the moment, :func:`restoring.referenced_heel`)."""
     notes = []
     for rec, path in zip(recs, paths):
@@ -226,11 +220,11 @@ def speed_notes(recs: list[RollRecording], paths: list[Path]) -> list[str]:
 
 
 def slowing_warning(recs: list[RollRecording], paths: list[Path], method: str) -> list[str]:
-    """One warning when a recording's speed varies with its turns (:func:`output_error.followed_speed`:
+    """One warning when a recording's speed varies with its turns (:func:`speed.followed_speed`:
     above the positioning's error), with each such file's measured variation: the sd of its low-passed
     ``u / mean(u)`` and how far that falls below the mean. Why: on the independent basin truth's ships
     that slow in their turns (variants ``speed_loss`` and ``combined``) the oe fit, which follows the
-    speed (:func:`output_error.speed_inputs`), was off by tens of per cent, its intervals holding the truth
+    speed (:func:`speed.speed_inputs`), was off by tens of per cent, its intervals holding the truth
     in 10 of 12 fits at stop 50 (docs/mass-accuracy.md, stops 47-50); ``ls``, ``paper-iv`` and ``improved`` do not read
     ``u`` at all. The figures belong in the docs, the warning points there."""
     slowing = []
@@ -241,7 +235,7 @@ def slowing_warning(recs: list[RollRecording], paths: list[Path], method: str) -
     if not slowing:
         return []
     how = (
-        "oe follows it (output_error.speed_inputs)"
+        "oe follows it (identify/rollmass/speed.py)"
         if method == "oe"
         else f"method {method} holds the speed at the run's (it does not read u)"
     )
@@ -366,7 +360,7 @@ def estimate_from_files(
     prof, notes = known_from_recordings(prof, paths, metas, explicit=profile is not None)
     # each run at its own speed (the runs differ): the oe model's U r terms use the run's header speed,
     # else the profile's U; a u column (checked by speed_notes) gives the speed's variation within the run where
-    # output_error.followed_speed follows it (estimate drops a held one, the heel reference's u r included)
+    # speed.followed_speed follows it (estimate drops a held one, the heel reference's u r included)
     recs = [replace(r, U=_meta_float(m, "speed_m_s", p)) for r, m, p in zip(recs, metas, paths)]
     notes += speed_notes(recs, paths)
     recs, heel = heel_notes(recs, paths)

@@ -50,9 +50,9 @@ from identify.rollmass.model import (
     load_moments,
 )
 from identify.rollmass.oe_fit import fit_output_error
-from identify.rollmass.output_error import followed_speed
 from identify.rollmass.restoring import DEFAULT_HEEL_REFERENCE, referenced_heel
 from identify.rollmass.simulate import RollRecording
+from identify.rollmass.speed import followed_speed
 
 PARAMS = SHIP_PARAMS + ("m", "zbar_m")
 # the improved estimator fits the loaded dataset's moments (linear in (10) and c), not (m, zbar_m)
@@ -354,7 +354,7 @@ def _oe(
     sandwich covariance of every free parameter, ``z_f`` included (:func:`oe_fit.fit_output_error`).
     The recordings' roll angles are first re-referenced to the accelerometer's heel
     (:func:`restoring.referenced_heel`): the AHRS's roll error would read as load through the heel moment.
-    A ``u`` the model holds (:func:`output_error.followed_speed`: its variation within the positioning's
+    A ``u`` the model holds (:func:`speed.followed_speed`: its variation within the positioning's
     error, or not finite) is dropped first, so the heel reference's centripetal ``u r`` takes ``U`` too:
     the column's error would otherwise reach the fit through the roll angle."""
     datasets = [d if d.u is None or followed_speed(d) is not None else replace(d, u=None) for d in datasets]

@@ -1,6 +1,6 @@
 """The yaw-rate gyro's bias and the sway velocity of each recording, as the output-error fit's speed inputs need them.
 
-The turn input ``(u/U - 1) (r - b)`` (:func:`identify.rollmass.output_error.speed_inputs`) must have the
+The turn input ``(u/U - 1) (r - b)`` (:func:`identify.rollmass.speed.speed_inputs`) must have the
 gyro's bias ``b`` out of the measured ``r``: a bias times the speed's variation is not a constant the fit's
 bias columns take. Taking ``b`` as the recording's ``mean r`` also takes out the ship's own mean turning
 (0.022-0.032 rad/s on the basin truth's ``speed_loss`` recordings against gyro biases of 0.003-0.011 rad/s),
@@ -47,8 +47,9 @@ from collections.abc import Callable
 import numpy as np
 
 from identify.rollmass.model import Known, Load
-from identify.rollmass.output_error import _simulate, followed_speed, model_inputs, model_matrices, respond
+from identify.rollmass.output_error import _simulate, model_inputs, model_matrices, respond
 from identify.rollmass.simulate import RollRecording
+from identify.rollmass.speed import followed_speed
 
 PASSES = 3  # fixed-point passes of gyro_biases and sway_velocities (each one simulation a dataset)
 

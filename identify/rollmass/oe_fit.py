@@ -20,13 +20,13 @@ from identify.rollmass.output_error import (
     _measured,
     _Problem,
     _simulate,
-    followed_speed,
     shared_parameters,
 )
 from identify.rollmass.restoring import heel_gain
 from identify.rollmass.sandwich import load_cov, load_decrement
 from identify.rollmass.sensitivity import fir
 from identify.rollmass.simulate import RollRecording
+from identify.rollmass.speed import followed_speed
 
 # load decrement below which the fit is stationary (a further step < 0.1 of the plain sandwich's standard error; the
 # reported one is leverage-corrected, stop 51, about 1.1 times larger), and the
@@ -169,7 +169,7 @@ def fit_output_error(
     ``z_f_prior_sd``; 0 holds ``z_f`` fixed): the fit maximises the posterior. Weights: 1/sd of each
     dataset's channel residual, re-estimated ``n_reweight`` times. The last fit is finished by
     Gauss-Newton steps to a stationary point (:func:`load_decrement`); ``converged`` is false when
-    it is not reached. Where a recording's speed is followed (``output_error.followed_speed``) the sway
+    it is not reached. Where a recording's speed is followed (``speed.followed_speed``) the sway
     mass has a prior too (``output_error.SWAY_MASS_PRIOR_SD``). Without ``with_cov`` the sandwich covariance is left NaN and no finishing
     steps are taken.
 

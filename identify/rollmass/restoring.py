@@ -109,7 +109,7 @@ def referenced_heel(rec: RollRecording, g: float, U: float, how: str = DEFAULT_H
     1 / cos 20 deg, 6 % of the bias). Without a ``u`` column the centripetal ``u r`` is taken at the
     run's ``U`` (a ship that slows in a turn then leaves ``(U - u) r / g`` in the offset); ``mass``
     (:func:`identify.rollmass.api.estimate_from_files`) drops a ``u`` whose variation is within the
-    positioning's error (:func:`identify.rollmass.output_error.followed_speed`), so it is used here only
+    positioning's error (:func:`identify.rollmass.speed.followed_speed`), so it is used here only
     where the model follows it too."""
     if rec.phi is None:
         return None
