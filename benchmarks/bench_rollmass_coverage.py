@@ -204,6 +204,8 @@ def analyse(a: argparse.Namespace) -> None:
         )
     print()
     _table(rows, by_case=False)
+    if all("nu" in z for *_, z in fits):
+        _dof_table(fits)
     print()
     _table([r for r in rows if r[0] in ("NW 5 s", "NW 5 s leverage", "NW 5 s lev t_nu")], by_case=True)
     if a.quiet_dir:
@@ -211,6 +213,21 @@ def analyse(a: argparse.Namespace) -> None:
         _split(fits, quiet)
         for spec in a.part or []:
             _part(spec, quiet)
+
+
+def _dof_table(fits: list) -> None:
+    """Per fit the Satterthwaite ``nu`` (:func:`sandwich.load_dof`), its ``t_{0.975, nu}`` and the leverage-corrected
+    z-scores: does the interval hold the truth with 1.96, with ``t``? (mass / height)"""
+    print("\nper fit: nu (m / z), t_0.975 (m / z), |z| leverage-corrected (m / z), holds with 1.96 -> with t")
+    for variant, case, run, z in fits:
+        sd = np.sqrt(np.diag(_leveraged(z, _cov(z, int(z["lags"])))))
+        a = np.abs([(z["m"] - z["m_true"]) / sd[0], (z["z"] - z["z_true"]) / sd[1]])
+        t = stdtrit(z["nu"], 0.975)
+        print(
+            f"  {variant:10} {case} run {run}: nu {z['nu'][0]:5.1f} / {z['nu'][1]:5.1f}, t {t[0]:.3f} / {t[1]:.3f}, "
+            f"|z| {a[0]:.2f} / {a[1]:.2f}, holds {''.join('y' if v else 'n' for v in a <= 1.96)} -> "
+            f"{''.join('y' if v else 'n' for v in a <= t)}"
+        )
 
 
 def _part(spec: str, quiet: dict) -> None:
@@ -369,6 +386,7 @@ def fit(a: argparse.Namespace) -> None:
                     cpu=cpu,
                     rho=seen["rho"],
                     nu=seen["nu"],
+                    **({"J": seen["J"]} if a.keep_jacobian else {}),
                 )
                 print(
                     f"{path.name}: m {e.m:.4f} ({m_true}) sd {e.m_sd:.4f}, z {e.zbar_m:.4f} ({z_true}) sd {e.zbar_m_sd:.4f}, "
@@ -505,6 +523,7 @@ def main() -> None:
     f.add_argument("--no-waves", action="store_true", help="the IMU noise and bias kept, the waves off")
     f.add_argument("--no-phi", action="store_true", help="the recordings without their roll angle column")
     f.add_argument("--quiet", action="store_true", help="no waves, no sensor noise (the same ships): the structure's bias")
+    f.add_argument("--keep-jacobian", action="store_true", help="store the fit's whole Jacobian J too (about 4 MB a fit)")
     r = sub.add_parser("repeat", help="one ship and case on fresh seas: the interval's own calibration")
     r.add_argument("--variant", default="base")
     r.add_argument("--run", type=int, default=0)
