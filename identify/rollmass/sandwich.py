@@ -140,11 +140,12 @@ def leverage_factors(J: np.ndarray, lengths: list[int], lags: int) -> np.ndarray
 def load_dof(J: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
     """Satterthwaite degrees of freedom ``nu_j = 2 E[V_j]^2 / Var[V_j] = E[V_j]^2 / tr((W_j (I-H))^2)`` of the
     load's meat ``V_j`` (``m``, ``zbar_m``; :func:`load_moments`), Gaussian working error (``Var[f^T W f] =
-    2 tr((W Sigma)^2)``): the second half of Bell & McCaffrey (2002, sec. 3.3), whose interval takes
+    2 tr((W Sigma)^2)``): the second half of Bell & McCaffrey (2002), whose interval takes
     ``t_{0.975, nu}`` for 1.96. Few effective windows in the record (a long Bartlett window, a load driven by a few
     slow components) give a small ``nu``, a meat that varies from sea to sea, and a wider interval."""
     ev, t2, _ = load_moments(J, lengths, lags)
-    return np.where(t2 > 0, ev * ev / np.where(t2 > 0, t2, 1.0), np.inf)
+    # nu >= 1 for a PSD W ((tr B)^2 >= tr B^2): below it is rounding, not information
+    return np.where(t2 > 0, np.maximum(ev * ev / np.where(t2 > 0, t2, 1.0), 1.0), np.inf)
 
 
 def load_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
