@@ -39,6 +39,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 from scipy.signal import lfilter  # noqa: E402
+from scipy.special import stdtrit  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -58,7 +59,10 @@ def _capture() -> dict:
     orig = oe_fit.load_cov
 
     def wrapped(J, f, lengths, lags):
-        seen.update(J=J, f=f, lengths=list(lengths), lags=lags, rho=sw.leverage_factors(J, list(lengths), lags))
+        lengths = list(lengths)
+        seen.update(
+            J=J, f=f, lengths=lengths, lags=lags, rho=sw.leverage_factors(J, lengths, lags), nu=sw.load_dof(J, lengths, lags)
+        )
         return orig(J, f, lengths, lags)
 
     oe_fit.load_cov = wrapped
@@ -166,7 +170,7 @@ def _table(rows: list[tuple], by_case: bool) -> None:
         sel = [r for r in rows if r[0] == est and r[1] == variant and (not by_case or r[2] == case)]
         zs = np.array([r[4] for r in sel])
         cv = np.array([r[5] for r in sel])
-        inside = np.abs(zs) <= cv[:, None]
+        inside = np.abs(zs) <= (cv if cv.ndim == 2 else cv[:, None])  # one critical value per fit, or per parameter
         sds = np.array([r[6] for r in sel])
         print(
             f"{est:18} {variant:10} {case:5} {len(sel):3d} | {zs[:, 0].mean():+8.2f} {zs[:, 0].std(ddof=1) if len(sel) > 1 else np.nan:5.2f} "
@@ -194,15 +198,36 @@ def analyse(a: argparse.Namespace) -> None:
     rows += _rows(fits, "NW auto (A91)", lambda z: _cov(z, [andrews_lags(g) for g in _influence(z)]))
     if all("rho" in z for *_, z in fits):
         rows += _rows(fits, "NW 5 s leverage", lambda z: _leveraged(z, _cov(z, int(z["lags"]))))
+    if all("nu" in z for *_, z in fits):  # Bell & McCaffrey's t_{0.975, nu} for 1.96 (sandwich.load_dof)
+        rows += _rows(
+            fits, "NW 5 s lev t_nu", lambda z: _leveraged(z, _cov(z, int(z["lags"]))), lambda z: stdtrit(z["nu"], 0.975)
+        )
     print()
     _table(rows, by_case=False)
+    if all("nu" in z for *_, z in fits):
+        _dof_table(fits)
     print()
-    _table([r for r in rows if r[0] in ("NW 5 s", "NW 5 s leverage")], by_case=True)
+    _table([r for r in rows if r[0] in ("NW 5 s", "NW 5 s leverage", "NW 5 s lev t_nu")], by_case=True)
     if a.quiet_dir:
         quiet = {(v, c, r): z for v, c, r, z in _load(Path(a.quiet_dir))}
         _split(fits, quiet)
         for spec in a.part or []:
             _part(spec, quiet)
+
+
+def _dof_table(fits: list) -> None:
+    """Per fit the Satterthwaite ``nu`` (:func:`sandwich.load_dof`), its ``t_{0.975, nu}`` and the leverage-corrected
+    z-scores: does the interval hold the truth with 1.96, with ``t``? (mass / height)"""
+    print("\nper fit: nu (m / z), t_0.975 (m / z), |z| leverage-corrected (m / z), holds with 1.96 -> with t")
+    for variant, case, run, z in fits:
+        sd = np.sqrt(np.diag(_leveraged(z, _cov(z, int(z["lags"])))))
+        a = np.abs([(z["m"] - z["m_true"]) / sd[0], (z["z"] - z["z_true"]) / sd[1]])
+        t = stdtrit(z["nu"], 0.975)
+        print(
+            f"  {variant:10} {case} run {run}: nu {z['nu'][0]:5.1f} / {z['nu'][1]:5.1f}, t {t[0]:.3f} / {t[1]:.3f}, "
+            f"|z| {a[0]:.2f} / {a[1]:.2f}, holds {''.join('y' if v else 'n' for v in a <= 1.96)} -> "
+            f"{''.join('y' if v else 'n' for v in a <= t)}"
+        )
 
 
 def _part(spec: str, quiet: dict) -> None:
@@ -348,7 +373,17 @@ def fit(a: argparse.Namespace) -> None:
                 if "J" not in seen:
                     print(f"{path.name}: no covariance ({'; '.join(e.warnings)[:80]})", flush=True)
                     continue
-                _store(seen, path, **_load_fields(e, m_true, z_true), converged=e.converged, cpu=cpu, rho=seen["rho"])
+                keep = {"J": seen["J"]} if a.keep_jacobian else {}
+                _store(
+                    seen,
+                    path,
+                    **_load_fields(e, m_true, z_true),
+                    converged=e.converged,
+                    cpu=cpu,
+                    rho=seen["rho"],
+                    nu=seen["nu"],
+                    **keep,
+                )
                 print(
                     f"{path.name}: m {e.m:.4f} ({m_true}) sd {e.m_sd:.4f}, z {e.zbar_m:.4f} ({z_true}) sd {e.zbar_m_sd:.4f}, "
                     f"conv {e.converged}, {cpu:.1f} s cpu",
@@ -479,6 +514,7 @@ def main() -> None:
     f.add_argument("--no-waves", action="store_true", help="the IMU noise and bias kept, the waves off")
     f.add_argument("--no-phi", action="store_true", help="the recordings without their roll angle column")
     f.add_argument("--quiet", action="store_true", help="no waves, no sensor noise (the same ships): the structure's bias")
+    f.add_argument("--keep-jacobian", action="store_true", help="store the fit's whole Jacobian J too (about 4 MB a fit)")
     r = sub.add_parser("repeat", help="one ship and case on fresh seas: the interval's own calibration")
     r.add_argument("--variant", default="base")
     r.add_argument("--run", type=int, default=0)

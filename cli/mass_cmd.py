@@ -66,6 +66,9 @@ def register(app: typer.Typer) -> None:
                         "m_ci95": [mlo, mhi],
                         "z_m": e.zbar_m,
                         "z_m_ci95": [zlo, zhi],
+                        # the intervals' Satterthwaite degrees of freedom (t_{0.975, nu} standard errors); null: 1.96
+                        "m_dof": e.m_dof,
+                        "z_m_dof": e.zbar_m_dof,
                         "z_convention": "body frame, m, positive down from the waterline",
                         "corr": e.corr,
                         "params": e.params,

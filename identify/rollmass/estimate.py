@@ -30,6 +30,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares
+from scipy.special import stdtrit  # scipy.optimize imports scipy.special already; scipy.stats would cost ~1 s
 
 from identify.rollmass.instruments import (
     N_LAGS,
@@ -82,11 +83,20 @@ class MassEstimate:
     rel_singular: float = float("nan")  # smallest / largest singular value of the scaled Jacobian
     warnings: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    m_dof: float = float("inf")  # degrees of freedom of m_sd^2 (oe: sandwich.load_dof); inf: a normal interval
+    zbar_m_dof: float = float("inf")
 
-    def ci(self, level_z: float = 1.96) -> tuple[tuple[float, float], tuple[float, float]]:
+    def critical(self) -> tuple[float, float]:
+        """The 95 % interval's critical values of ``m`` and ``zbar_m``: Student's ``t_{0.975, nu}`` with the
+        Satterthwaite ``nu`` of each variance (Bell & McCaffrey 2002), 1.96 where no ``nu`` is known."""
+        return tuple(float(stdtrit(d, 0.975)) if np.isfinite(d) else 1.96 for d in (self.m_dof, self.zbar_m_dof))
+
+    def ci(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """The 95 % intervals of ``m`` and ``zbar_m`` (:meth:`critical` standard errors either side)."""
+        cm, cz = self.critical()
         return (
-            (self.m - level_z * self.m_sd, self.m + level_z * self.m_sd),
-            (self.zbar_m - level_z * self.zbar_m_sd, self.zbar_m + level_z * self.zbar_m_sd),
+            (self.m - cm * self.m_sd, self.m + cm * self.m_sd),
+            (self.zbar_m - cz * self.zbar_m_sd, self.zbar_m + cz * self.zbar_m_sd),
         )
 
 
@@ -377,6 +387,7 @@ def _oe(
     if with_ci and np.all(np.isfinite(f.cov_load)):
         est.m_sd, est.zbar_m_sd = float(np.sqrt(f.cov_load[0, 0])), float(np.sqrt(f.cov_load[1, 1]))
         est.corr = float(f.cov_load[0, 1] / (est.m_sd * est.zbar_m_sd))
+        est.m_dof, est.zbar_m_dof = (float(d) for d in f.dof)
     _warn(est)
     return est
 

@@ -23,7 +23,7 @@ from identify.rollmass.output_error import (
     shared_parameters,
 )
 from identify.rollmass.restoring import heel_gain
-from identify.rollmass.sandwich import load_cov, load_decrement
+from identify.rollmass.sandwich import load_cov, load_decrement, load_dof
 from identify.rollmass.sensitivity import fir
 from identify.rollmass.simulate import RollRecording
 from identify.rollmass.speed import followed_speed
@@ -245,7 +245,7 @@ def _fit(
             ]
             sd = np.array([[fir(ar[i][j], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
             w = 1.0 / np.maximum(sd, 1e-12)
-    J, dec, cov_load = res.jac, float("nan"), np.full((2, 2), np.nan)
+    J, dec, cov_load, dof = res.jac, float("nan"), np.full((2, 2), np.nan), np.full(2, np.inf)
     # an LM stopped by its evaluation cap is judged by the stationarity check below (with_cov), not by its flag
     ok = (bool(res.success) or (with_cov and res.status == 0)) and bool(np.all(np.isfinite(x))) and float(res.cost) < 1e5
     message = str(res.message)
@@ -261,6 +261,7 @@ def _fit(
             )
         try:
             cov_load = load_cov(J, f, [d.n for d in datasets], lags)  # f: the residual at x; leverage-corrected
+            dof = load_dof(J, [d.n for d in datasets], lags)  # the interval's t_{0.975, nu} (Bell & McCaffrey 2002)
         except np.linalg.LinAlgError:
             pass
     v = prob.values(x)
@@ -278,4 +279,5 @@ def _fit(
         rel_singular=float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
         noise_sd=sd,
         noise=(w, ar),
+        dof=dof,
     )

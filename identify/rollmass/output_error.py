@@ -38,7 +38,7 @@ holds the model and its residual.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -114,6 +114,8 @@ class OEFit:
     rel_singular: float
     noise_sd: np.ndarray  # (3 datasets, 3 channels) residual standard deviations
     noise: tuple  # (weights, whitening filters) the fit ended with
+    # Satterthwaite degrees of freedom of (m, zbar_m)'s variances (sandwich.load_dof); inf: none computed (1.96)
+    dof: np.ndarray = field(default_factory=lambda: np.full(2, np.inf))
 
 
 def start_values(prof: RollProfile) -> dict[str, float]:

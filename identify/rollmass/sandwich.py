@@ -86,6 +86,38 @@ def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) ->
     return Ainv @ _meat(J, f, lengths, lags) @ Ainv
 
 
+def load_moments(J: np.ndarray, lengths: list[int], lags: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For the load parameters ``j`` = ``m``, ``zbar_m`` (the last two; ``a = A^-1 e_j``, ``u = J a``): ``E[V]``,
+    ``tr((W (I-H))^2)`` and ``Var = (A^-1)_jj``, ``V = a^T S a = f^T W f + u_p^T u_p`` the meat under the working
+    model ``E[f f^T] = I - H`` (white unit error), ``W_(tc),(sd) = u_tc w_|t-s| u_sd`` per dataset (channels ``c``,
+    ``d``; the Bartlett band ``K``), ``u_p`` the prior rows (constant: exact, no variance).
+
+    In an orthonormal basis of the Jacobian's columns (``J = Q R``, ``H = Q Q^T``; no ``A^-1`` of an ill-conditioned
+    ``A``: its cancellations cost a waves fit ``nu`` < 1, impossible for a PSD ``W``): ``u = Q R^-T e_j``, ``q_t =
+    sum_c Q_tc u_tc``, ``U_t = sum_c u_tc^2``, ``M = sum_ts w q_t q_s^T = Q^T W Q``; then ``E[V] = u^T u - tr(M)``,
+    ``tr(W W) = U^T K^(2) U`` (squared weights), ``tr(W H W) = tr((K q)^T diag(U) (K q))``, ``tr(W H W H) = |M|_F^2``:
+    no n x n matrix, one convolution per dataset (tests/test_rollmass_sandwich_dof.py checks the dense one)."""
+    Q, R = np.linalg.qr(J)
+    ev, t2, var = np.empty(2), np.empty(2), np.empty(2)
+    for k, col in enumerate((-2, -1)):
+        r = np.linalg.solve(R.T, np.eye(len(R))[:, col])
+        u, var[k] = Q @ r, r @ r
+        M, trG, ww, i = np.zeros((len(R), len(R))), 0.0, 0.0, 0
+        for n in lengths:
+            rows = slice(i, i + 3 * n)
+            q = (Q[rows] * u[rows, None]).reshape(n, 3, -1).sum(axis=1)
+            U = (u[rows] ** 2).reshape(n, 3).sum(axis=1)
+            L = min(lags, n - 1)
+            kernel = 1.0 - np.abs(np.arange(-L, L + 1)) / (lags + 1)  # as bartlett_meat's
+            Kq = same_convolution(q, kernel)
+            M += 0.5 * (q.T @ Kq + Kq.T @ q)
+            trG += float(np.einsum("ti,t,ti->", Kq, U, Kq))
+            ww += float(U @ same_convolution(U[:, None], kernel**2)[:, 0])
+            i += 3 * n
+        ev[k], t2[k] = u @ u - np.trace(M), ww - 2.0 * trG + float(np.sum(M * M))
+    return ev, t2, var
+
+
 def leverage_factors(J: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
     """How much of the load's Newey-West meat the fitted residual keeps, ``rho_j = E[a_j^T S a_j] / Var`` for
     ``j`` = ``m``, ``zbar_m`` (the last two parameters), under a white, unit-variance working error.
@@ -101,17 +133,19 @@ def leverage_factors(J: np.ndarray, lengths: list[int], lags: int) -> np.ndarray
     factor on the load's variance. On one basin-truth ship fitted on 16 seas (docs/mass-accuracy.md, stop 51) it
     was 0.85 and 0.81 where the meat from the fitted residual over the meat from the sea's own response at
     fixed parameters was 0.86-0.88 and 0.81-0.83."""
-    Ainv = np.linalg.inv(J.T @ J)
-    rho = np.empty(2)
-    for k, col in enumerate((-2, -1)):
-        u = J @ Ainv[:, col]
-        M, i = np.zeros_like(Ainv), 0
-        for n in lengths:
-            rows = slice(i, i + 3 * n)
-            M += bartlett_meat((J[rows] * u[rows, None]).reshape(n, 3, -1).sum(axis=1), lags)
-            i += 3 * n
-        rho[k] = 1.0 - np.trace(Ainv @ M) / Ainv[col, col]
-    return rho
+    ev, _, var = load_moments(J, lengths, lags)
+    return ev / var
+
+
+def load_dof(J: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
+    """Satterthwaite degrees of freedom ``nu_j = 2 E[V_j]^2 / Var[V_j] = E[V_j]^2 / tr((W_j (I-H))^2)`` of the
+    load's meat ``V_j`` (``m``, ``zbar_m``; :func:`load_moments`), Gaussian working error (``Var[f^T W f] =
+    2 tr((W Sigma)^2)``): the second half of Bell & McCaffrey (2002), whose interval takes
+    ``t_{0.975, nu}`` for 1.96. Few effective windows in the record (a long Bartlett window, a load driven by a few
+    slow components) give a small ``nu``, a meat that varies from sea to sea, and a wider interval."""
+    ev, t2, _ = load_moments(J, lengths, lags)
+    # nu >= 1 for a PSD W ((tr B)^2 >= tr B^2): below it is rounding, not information
+    return np.where(t2 > 0, np.maximum(ev * ev / np.where(t2 > 0, t2, 1.0), 1.0), np.inf)
 
 
 def load_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:

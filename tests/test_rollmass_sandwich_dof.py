@@ -1,0 +1,94 @@
+"""The load's Satterthwaite degrees of freedom (:func:`identify.rollmass.sandwich.load_dof`, Bell & McCaffrey 2002)
+against the dense ``n x n`` computation, the interval's Student critical value against scipy.stats, and the
+`mass` path's imports (docs/mass-accuracy.md, stop 51 continued). Its coverage on the linear model with AR(1)
+errors is in tests/test_rollmass_sandwich_leverage.py (the same 1,500 fits)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from identify.rollmass import sandwich as sw
+from identify.rollmass.estimate import MassEstimate
+
+LENGTHS, LAGS = [40, 30, 5], 6  # the last dataset shorter than the window: the kernel is cut, as bartlett_meat's
+
+
+def _jacobian() -> np.ndarray:
+    """Three channels per sample of each dataset, then two prior rows (a standardised observation each)."""
+    rng = np.random.default_rng(0)
+    n = 3 * sum(LENGTHS)
+    J = rng.standard_normal((n + 2, 7))
+    J[:n] += np.repeat(np.cos(np.arange(n // 3) / 7.0), 3)[:, None]  # a slow common part: a real leverage loss
+    return J
+
+
+def _dense(J: np.ndarray, col: int) -> tuple[float, float]:
+    """``E[V]`` and ``tr((W Sigma)^2)`` by the n x n matrices: ``W`` the Bartlett-weighted outer product of ``u``
+    per dataset, ``Sigma = (I - H)`` on the data rows, the prior rows' ``u_p^T u_p`` added to ``E[V]``."""
+    Ainv = np.linalg.inv(J.T @ J)
+    nd = 3 * sum(LENGTHS)
+    Sigma = np.eye(nd) - J[:nd] @ Ainv @ J[:nd].T
+    u = J @ Ainv[:, col]
+    W, i = np.zeros((nd, nd)), 0
+    for n in LENGTHS:
+        t = np.repeat(np.arange(n), 3)
+        w = np.clip(1 - np.abs(t[:, None] - t[None, :]) / (LAGS + 1), 0.0, None)
+        W[i : i + 3 * n, i : i + 3 * n] = np.outer(u[i : i + 3 * n], u[i : i + 3 * n]) * w
+        i += 3 * n
+    WS = W @ Sigma
+    return float(np.trace(WS) + u[nd:] @ u[nd:]), float(np.trace(WS @ WS))
+
+
+def test_the_band_and_low_rank_terms_are_the_dense_ones():
+    J = _jacobian()
+    Ainv = np.linalg.inv(J.T @ J)
+    for k, col in enumerate((-2, -1)):
+        ev, t2 = _dense(J, col)
+        ev_k, t2_k, var_k = (x[k] for x in sw.load_moments(J, LENGTHS, LAGS))
+        assert np.allclose((ev_k, t2_k, var_k), (ev, t2, Ainv[col, col]), rtol=1e-10)
+        assert sw.load_dof(J, LENGTHS, LAGS)[k] == pytest.approx(ev * ev / t2, rel=1e-10)
+        assert sw.leverage_factors(J, LENGTHS, LAGS)[k] == pytest.approx(ev / Ainv[col, col], rel=1e-10)
+
+
+def test_the_dof_is_the_meats_own_under_gaussian_residuals():
+    """The meat ``a^T S a`` of 4,000 fitted residuals ``(I - H) e`` (white Gaussian ``e``): its ``2 mean^2 / var``
+    is the Satterthwaite ``nu`` to its sampling error (about 2.3 % on the variance)."""
+    J = _jacobian()
+    Ainv = np.linalg.inv(J.T @ J)
+    rng = np.random.default_rng(5)
+    V = []
+    for _ in range(4000):
+        e = rng.standard_normal(len(J))
+        f = e - J @ (Ainv @ (J.T @ e))
+        V.append(np.diag(Ainv @ sw._meat(J, f, LENGTHS, LAGS) @ Ainv)[-2:])
+    V = np.array(V)
+    assert np.all(np.abs(2 * V.mean(axis=0) ** 2 / V.var(axis=0) / sw.load_dof(J, LENGTHS, LAGS) - 1) < 0.08)
+
+
+def test_the_critical_value_is_students_and_196_without_dof():
+    nu = np.array([2.5, 4.0, 9.3, 17.0, 27.6, 120.0, 1e4])
+    e = MassEstimate("oe", {}, 0.2, -0.256, m_sd=0.01, zbar_m_sd=0.005)
+    assert e.critical() == (1.96, 1.96)  # the other methods, and an oe fit without a covariance
+    for d in nu:
+        e.m_dof, e.zbar_m_dof = d, 2 * d
+        assert np.allclose(e.critical(), stats.t.ppf(0.975, [d, 2 * d]), rtol=1e-12)
+    e.m_dof, e.zbar_m_dof = 20.0, 40.0
+    (mlo, mhi), (zlo, zhi) = e.ci()
+    assert (mhi - 0.2) / 0.01 == pytest.approx(stats.t.ppf(0.975, 20.0)) and (zhi + 0.256) / 0.005 == pytest.approx(
+        stats.t.ppf(0.975, 40.0)
+    )
+
+
+def test_the_mass_path_does_not_import_scipy_stats():
+    """scipy.stats costs about 1 s of start-up (removed from `mass` at stop 51); the t quantile is scipy.special's."""
+    code = (
+        "import sys, cli.mass_cmd, identify.rollmass.api, identify.rollmass.estimate, identify.rollmass.oe_fit\n"
+        "print(sorted(m for m in sys.modules if m.startswith('scipy.stats')))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
