@@ -15,7 +15,7 @@ from identify.rollmass import sandwich as sw
 
 def _leveraged(z: dict, C: np.ndarray) -> np.ndarray:
     """``C`` (the load's 2x2) with the fit's stored leverage factors (:func:`sandwich.load_cov`'s scaling)."""
-    s = 1.0 / np.sqrt(np.clip(z["rho"], 0.05, 1.0))
+    s = sw.leverage_scale(z["rho"])
     return C * np.outer(s, s)
 
 

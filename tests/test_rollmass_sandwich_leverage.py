@@ -44,6 +44,28 @@ def test_the_load_cov_is_the_sandwich_scaled_by_the_leverage_factors():
     assert np.allclose(sw.load_cov(X, f, [N], LAGS), sw.sandwich_cov(X, f, [N], LAGS)[-2:, -2:] * np.outer(s, s), rtol=1e-12)
 
 
+def test_the_leverage_factor_is_exact_over_datasets_and_prior_rows():
+    """The fit's layout: two datasets (the meat's windows do not cross them) and two prior rows (exact, no
+    variance). ``E[a^T S a]`` summed over the unit vectors of a white error, ``S`` the library's meat of ``(I - H)
+    e``, over ``(A^-1)_jj`` is ``rho`` to rounding (review of stop 51)."""
+    rng = np.random.default_rng(0)
+    lengths, lags, P = [30, 25], 4, 5
+    n = 3 * sum(lengths)
+    J = np.vstack(
+        [np.cumsum(rng.standard_normal((n, P)), axis=0) * 0.1 + rng.standard_normal((n, P)), np.eye(P)[[2]], 0.7 * np.eye(P)[[4]]]
+    )
+    Ainv = np.linalg.inv(J.T @ J)
+    fitted = np.eye(len(J)) - J @ Ainv @ J.T
+    prior = Ainv[:, -2:].T @ (J[n:].T @ J[n:]) @ Ainv[:, -2:]
+    meats = [Ainv[:, -2:].T @ sw._meat(J, fitted[:, k], lengths, lags) @ Ainv[:, -2:] - prior for k in range(len(J))]
+    expected = np.diag(sum(meats) + prior) / np.diag(Ainv)[-2:]
+    np.testing.assert_allclose(sw.leverage_factors(J, lengths, lags), expected, rtol=1e-10)
+
+
+def test_a_leverage_factor_near_zero_scales_by_the_clip():
+    assert np.allclose(sw.leverage_scale(np.array([0.01, 0.25, 1.2])), [1 / np.sqrt(sw.LEVERAGE_MIN), 2.0, 1.0])
+
+
 def test_the_leverage_factor_is_the_fitted_residuals_loss_of_meat():
     """White unit errors: the load's variance is ``(X^T X)^-1`` exactly; the plain meat's mean over 1,500 seeds
     falls short of it by the factor ``rho`` (0.85-0.88 here), the corrected one is within its 3 % sampling error; the

@@ -154,5 +154,15 @@ def load_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.
     positive semi-definite). Only the reported interval uses it; the stationarity check
     (:func:`load_decrement`) keeps the plain sandwich, so the fit stops where it did."""
     c = sandwich_cov(J, f, lengths, lags)[-2:, -2:]
-    s = 1.0 / np.sqrt(np.clip(leverage_factors(J, lengths, lags), 0.05, 1.0))  # a factor near 0: no meat left to scale
+    s = leverage_scale(leverage_factors(J, lengths, lags))
     return c * np.outer(s, s)
+
+
+# the smallest leverage factor :func:`leverage_scale` divides by: below it almost no meat is left to scale
+LEVERAGE_MIN = 0.05
+
+
+def leverage_scale(rho: np.ndarray) -> np.ndarray:
+    """The factor on each load sd, ``1 / sqrt(rho)`` with ``rho`` (:func:`leverage_factors`) clipped to
+    [:data:`LEVERAGE_MIN`, 1] (``rho`` <= 1 for a PSD meat; the upper clip guards rounding)."""
+    return 1.0 / np.sqrt(np.clip(rho, LEVERAGE_MIN, 1.0))
