@@ -80,11 +80,11 @@ def register(app: typer.Typer) -> None:
         else:
             for n in e.notes:
                 typer.echo(f"note: {n}")
-            typer.echo(f"method {e.method}: mass change {e.m:.4f} kg (95 % CI {mlo:.4f} .. {mhi:.4f})")
+            typer.echo(f"method {e.method}: mass change {e.m:.4f} kg (95 % CI {mlo:.4f} .. {mhi:.4f}{_by(e.m_dof)})")
             where = "above" if e.zbar_m < 0 else "below"
             typer.echo(
                 f"load z {e.zbar_m:+.4f} m, i.e. {abs(e.zbar_m):.3f} m {where} the waterline (z positive down; "
-                f"95 % CI {zlo:+.4f} .. {zhi:+.4f}); correlation {e.corr:+.2f}"
+                f"95 % CI {zlo:+.4f} .. {zhi:+.4f}{_by(e.zbar_m_dof)}); correlation {e.corr:+.2f}"
             )
             for w in e.warnings:
                 typer.echo(f"warning: {w}")
@@ -136,3 +136,9 @@ def _no_estimate(e: MassEstimate, json_out: bool) -> None:
             typer.echo(f"warning: {w}")
         typer.echo(f"error: {msg}", err=True)
     raise typer.Exit(1)
+
+
+def _by(dof: float) -> str:
+    """How the interval was made, where it is not 1.96 standard errors: Student's t with the meat's
+    Satterthwaite degrees of freedom (oe, ``sandwich.load_dof``)."""
+    return f", Student's t with {dof:.0f} degrees of freedom" if dof < float("inf") else ""

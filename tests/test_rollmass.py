@@ -195,6 +195,25 @@ def test_cli_prints_the_warning_and_intervals(csvs, capsys, monkeypatch):
     assert "95 % CI 0.0432 .. 0.3568" in out and "warning: the data cannot separate" in out
 
 
+def test_cli_says_an_interval_is_students_t_with_its_degrees_of_freedom(csvs, capsys, monkeypatch):
+    """oe's interval takes t_{0.975, nu} (sandwich.load_dof): the line says so, with nu; 1.96 says nothing more."""
+    from identify.rollmass import api
+    from identify.rollmass.estimate import MassEstimate
+
+    def fake(*args, **kwargs):
+        return MassEstimate("oe", {}, 0.2, -0.256, m_sd=0.01, zbar_m_sd=0.005, corr=0.5, m_dof=24.6, zbar_m_dof=30.2)
+
+    monkeypatch.setattr(api, "estimate_from_files", fake)
+    _, p, _ = csvs
+    assert _run(["mass", str(p[0]), str(p[1]), str(p[2]), "--known-load", "0.2@-0.256"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    t25, t30 = 2.0612, 2.0417  # t_{0.975} at 24.6 and 30.2 degrees of freedom (scipy.stats.t.ppf)
+    assert f"(95 % CI {0.2 - t25 * 0.01:.4f} .. {0.2 + t25 * 0.01:.4f}, Student's t with 25 degrees of freedom)" in out[-2]
+    assert (
+        f"95 % CI {-0.256 - t30 * 0.005:+.4f} .. {-0.256 + t30 * 0.005:+.4f}, Student's t with 30 degrees of freedom)" in out[-1]
+    )
+
+
 @pytest.mark.parametrize("json_out", [False, True])
 def test_cli_gives_no_number_for_a_fit_that_did_not_converge(monkeypatch, capsys, tmp_path, json_out):
     """A fit that stopped without converging is a failure: exit 1, its warning, and no mass or z in
