@@ -24,7 +24,10 @@ def test_heap_frozen_while_planning_and_given_back_after():
     assert gc.get_freeze_count() == 0
 
 
-def test_a_callers_own_frozen_objects_stay_frozen():
+def test_a_callers_own_frozen_objects_stay_frozen(monkeypatch):
+    """Neither frozen again nor given back. Asserted on the calls, not on the frozen count: a frozen object
+    another thread lets go of leaves the permanent generation (CI saw the count fall by 2 within the test)."""
+
     @_heap_frozen
     def work() -> int:
         return gc.get_freeze_count()
@@ -32,10 +35,13 @@ def test_a_callers_own_frozen_objects_stay_frozen():
     gc.unfreeze()
     gc.freeze()
     try:
-        before = gc.get_freeze_count()
-        assert work() == before
-        assert gc.get_freeze_count() == before
+        calls: list[str] = []
+        monkeypatch.setattr(gc, "freeze", lambda: calls.append("freeze"))
+        monkeypatch.setattr(gc, "unfreeze", lambda: calls.append("unfreeze"))
+        assert work() > 0
+        assert calls == [] and gc.get_freeze_count() > 0
     finally:
+        monkeypatch.undo()
         gc.unfreeze()
 
 
