@@ -83,7 +83,7 @@ class MassEstimate:
     rel_singular: float = float("nan")  # smallest / largest singular value of the scaled Jacobian
     warnings: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
-    m_dof: float = float("inf")  # degrees of freedom of m_sd^2 (oe: sandwich.load_dof); inf: a normal interval
+    m_dof: float = float("inf")  # degrees of freedom of m_sd^2 (oe: sandwich.LoadMoments.dof); inf: a normal interval
     zbar_m_dof: float = float("inf")
 
     def critical(self) -> tuple[float, float]:
