@@ -29,7 +29,7 @@ import cli.app  # noqa: E402
 
 t_app = time.process_time()
 import cli.options  # noqa: E402,F401
-from identify.rollmass import api, estimate, output_error, sensitivity  # noqa: E402
+from identify.rollmass import api, estimate, oe_fit, output_error, sensitivity  # noqa: E402
 
 t_mass = time.process_time()
 spent: dict[str, float] = {}
@@ -48,6 +48,10 @@ def main() -> None:
         (output_error, "dataset_jacobian", "      their sensitivity equations"),
         (sensitivity, "_output_sensitivities", "        forced responses and dy (mode filters in)"),
     ]
+    # the load's stationarity check and interval, main's names and stop 52's (the fit calls them from oe_fit)
+    for name in ("load_basis", "load_decrement", "load_cov", "load_dof", "load_interval"):
+        if hasattr(oe_fit, name):
+            stages.append((oe_fit, name, f"    {name}"))
     time_stages(stages, spent, time.process_time)
     t_end = run_command_quietly(cli.app.main, sys.argv[1:])
     print_stages(

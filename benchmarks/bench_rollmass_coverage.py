@@ -54,18 +54,17 @@ CONSTANT_SPEED = ("base", "sway_roll", "restoring", "imu_mount", "waves")
 
 
 def _capture() -> dict:
-    """Wrap oe_fit's covariance call (the fit's last, at its final point) to keep its arguments."""
+    """Wrap oe_fit's covariance call (the fit's last, at its final point) to keep its arguments and result."""
     seen: dict = {}
-    orig = oe_fit.load_cov
+    orig = oe_fit.load_interval
 
-    def wrapped(J, f, lengths, lags):
+    def wrapped(basis, f, lengths, lags):
         lengths = list(lengths)
-        seen.update(
-            J=J, f=f, lengths=lengths, lags=lags, rho=sw.leverage_factors(J, lengths, lags), nu=sw.load_dof(J, lengths, lags)
-        )
-        return orig(J, f, lengths, lags)
+        out = orig(basis, f, lengths, lags)
+        seen.update(J=basis.J, f=f, lengths=lengths, lags=lags, rho=out.rho, nu=out.dof)
+        return out
 
-    oe_fit.load_cov = wrapped
+    oe_fit.load_interval = wrapped
     finish = oe_fit._gauss_newton
 
     def finished(prob, x, steps, lags):

@@ -30,10 +30,10 @@ def one_dir(d: Path) -> None:
     for p in sorted(d.glob("sea*.npz")):
         z = dict(np.load(p))
         lengths, lags = [int(x) for x in z["lengths"]], int(z["lags"])
-        sd = np.sqrt(np.diag(sw.load_cov(z["J"], z["f"], lengths, lags)))
         c0 = time.process_time()
-        nu = sw.load_dof(z["J"], lengths, lags)
+        interval = sw.load_interval(sw.load_basis(z["J"]), z["f"], lengths, lags)  # as the fit: one QR
         cpu += time.process_time() - c0
+        sd, nu = np.sqrt(np.diag(interval.cov)), interval.dof
         nus.append(nu)
         ts.append(stdtrit(nu, 0.975))
         zs.append(np.abs([(z["m"] - z["m_true"]) / sd[0], (z["z"] - z["z_true"]) / sd[1]]))
@@ -44,7 +44,7 @@ def one_dir(d: Path) -> None:
         f"{d.name:14} n {len(a):2d} | nu m {np.median(nu[:, 0]):5.1f} ({nu[:, 0].min():.1f}-{nu[:, 0].max():.1f}) "
         f"z {np.median(nu[:, 1]):5.1f} | t {np.median(t, axis=0).round(3)} | holds m/z/both with 1.96 "
         f"{(a <= 1.96).sum(axis=0)} {(a <= 1.96).all(axis=1).sum()}, with t {(a <= t).sum(axis=0)} "
-        f"{(a <= t).all(axis=1).sum()} | load_dof {cpu / len(a):.3f} s CPU a fit"
+        f"{(a <= t).all(axis=1).sum()} | load_interval {cpu / len(a):.3f} s CPU a fit"
     )
 
 

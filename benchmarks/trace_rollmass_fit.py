@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from identify.rollmass import oe_fit  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
-from identify.rollmass.sandwich import load_decrement  # noqa: E402
+from identify.rollmass.sandwich import load_basis, load_decrement  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
 
 SHOWN = ("m", "zbar_m", "X_v", "Y_pdot", "K_vdot", "A_x", "K_ur", "kappa")
@@ -60,7 +60,7 @@ def _traced_gauss_newton(prob, x, steps, lags):
     """:func:`oe_fit._gauss_newton`, step for step, printing each step."""
     lengths = [d.n for d in prob.datasets]
     f, J = prob.residual(x), prob.jacobian(x)
-    dec = load_decrement(J, f, lengths, lags)
+    dec = load_decrement(load_basis(J), f, lengths, lags)
     print(f"GN start decrement {dec:.4f} cost {f @ f / 2:.4f} {_shown(prob.free, x)}")
     for i in range(steps):
         if dec < oe_fit.STATIONARY:
@@ -76,7 +76,7 @@ def _traced_gauss_newton(prob, x, steps, lags):
             break
         x, f = x + dx, f_new
         J = prob.jacobian(x)
-        dec = load_decrement(J, f, lengths, lags)
+        dec = load_decrement(load_basis(J), f, lengths, lags)
         rel = dx / np.maximum(np.abs(x), 1e-9)
         big = ", ".join(f"{prob.free[j]} {rel[j]:+.3f}" for j in np.argsort(-np.abs(rel))[:3])
         print(

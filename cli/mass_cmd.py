@@ -140,5 +140,5 @@ def _no_estimate(e: MassEstimate, json_out: bool) -> None:
 
 def _by(dof: float) -> str:
     """How the interval was made, where it is not 1.96 standard errors: Student's t with the meat's
-    Satterthwaite degrees of freedom (oe, ``sandwich.load_dof``)."""
+    Satterthwaite degrees of freedom (oe, ``sandwich.LoadMoments.dof``)."""
     return f", Student's t with {dof:.0f} degrees of freedom" if dof < float("inf") else ""

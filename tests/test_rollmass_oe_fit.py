@@ -195,7 +195,7 @@ def test_stationarity_is_judged_in_the_reported_standard_errors():
     for t, stationary in ((0.05, True), (1.0, False)):
         x = x_opt + np.r_[0.0, 0.0, t * sd_m, 0.0]
         f = J @ x - y
-        assert (fit.load_decrement(J, f, [n], lags) < fit.STATIONARY) is stationary
+        assert (fit.load_decrement(sandwich.load_basis(J), f, [n], lags) < fit.STATIONARY) is stationary
     g = J.T @ (J @ (x_opt + np.r_[0.0, 0.0, 0.05 * sd_m, 0.0]) - y)
     assert g @ np.linalg.solve(J.T @ J, g) > fit.STATIONARY
 

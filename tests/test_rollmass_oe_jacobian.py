@@ -178,14 +178,15 @@ def load_covs(monkeypatch) -> dict:
     """The fit's plain sandwich of the load and its leverage factors, recorded where the fit asks for the
     reported (leverage-corrected, stop 51) covariance: the references above were made with the plain one."""
     seen: dict = {}
-    corrected = oe_fit.load_cov
+    interval = oe_fit.load_interval
 
-    def recording(J, f, lengths, lags):
-        seen["plain"] = sandwich_cov(J, f, lengths, lags)[-2:, -2:]
-        seen["rho"] = leverage_factors(J, lengths, lags)
-        return corrected(J, f, lengths, lags)
+    def recording(basis, f, lengths, lags):
+        # from the Jacobian afresh (the full sandwich, its own QR), not from what load_interval returns
+        seen["plain"] = sandwich_cov(basis.J, f, lengths, lags)[-2:, -2:]
+        seen["rho"] = leverage_factors(basis.J, lengths, lags)
+        return interval(basis, f, lengths, lags)
 
-    monkeypatch.setattr(oe_fit, "load_cov", recording)
+    monkeypatch.setattr(oe_fit, "load_interval", recording)
     return seen
 
 

@@ -83,7 +83,7 @@ class MassEstimate:
     rel_singular: float = float("nan")  # smallest / largest singular value of the scaled Jacobian
     warnings: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
-    m_dof: float = float("inf")  # degrees of freedom of m_sd^2 (oe: sandwich.load_dof); inf: a normal interval
+    m_dof: float = float("inf")  # degrees of freedom of m_sd^2 (oe: sandwich.LoadMoments.dof); inf: a normal interval
     zbar_m_dof: float = float("inf")
 
     def critical(self) -> tuple[float, float]:
@@ -429,13 +429,14 @@ def _finish(method: str, prob: _Problem, x0: np.ndarray, with_ci: bool) -> MassE
     if not est.converged:
         est.warnings.append(f"{method}: the fit did not converge ({res.message})")
     if with_ci:
-        Jf = res.jac
+        # (J^T J)^-1 J^T = R^-1 Q^T (J = Q R): the sandwich without forming J^T J, whose condition is cond(J)^2
+        Q, R = np.linalg.qr(res.jac)
         try:
-            A = np.linalg.inv(Jf.T @ Jf)
+            B = np.linalg.solve(R, Q.T)  # upper triangular: back substitution
         except np.linalg.LinAlgError:
             est.warnings.append(f"{method}: singular Jacobian, no confidence intervals")
             return est
-        cov = A @ Jf.T @ prob.moment_cov(res.x) @ Jf @ A
+        cov = B @ prob.moment_cov(res.x) @ B.T
         if "mz" in vals:
             cov = _moments_to_load_cov(prob, vals, cov)
         else:

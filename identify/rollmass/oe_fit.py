@@ -23,7 +23,7 @@ from identify.rollmass.output_error import (
     shared_parameters,
 )
 from identify.rollmass.restoring import heel_gain
-from identify.rollmass.sandwich import load_cov, load_decrement, load_dof
+from identify.rollmass.sandwich import LoadBasis, UnresolvedLoad, load_basis, load_decrement, load_interval
 from identify.rollmass.sensitivity import fir
 from identify.rollmass.simulate import RollRecording
 from identify.rollmass.speed import followed_speed
@@ -122,14 +122,16 @@ def _best_start(
     return best
 
 
-def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple[np.ndarray, LoadBasis, float, np.ndarray]:
     """Finish a fit with up to ``steps`` Gauss-Newton steps (the sensitivity Jacobian, step halving) until
     the load's step in its sandwich standard errors (:func:`load_decrement`) is below
-    :data:`STATIONARY`; returns ``x``, its Jacobian, that decrement and the residual at ``x``."""
+    :data:`STATIONARY`; returns ``x``, its Jacobian's QR (:class:`LoadBasis`, which the interval reuses),
+    that decrement and the residual at ``x``."""
     lengths = [d.n for d in prob.datasets]
     f = prob.residual(x)
     J = prob.jacobian(x)
-    dec = load_decrement(J, f, lengths, lags)
+    basis = load_basis(J)
+    dec = load_decrement(basis, f, lengths, lags)
     for _ in range(steps):
         if dec < STATIONARY:
             break
@@ -144,8 +146,9 @@ def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple
             break  # no descent along the Gauss-Newton direction: leave it to the decrement to say so
         x, f = x + dx, f_new
         J = prob.jacobian(x)
-        dec = load_decrement(J, f, lengths, lags)
-    return x, J, dec, f
+        basis = load_basis(J)
+        dec = load_decrement(basis, f, lengths, lags)
+    return x, basis, dec, f
 
 
 # one BLAS thread: the fit's products are tall and thin ((3 n, 21) at most), and on the 2-core machine
@@ -251,7 +254,8 @@ def _fit(
     message = str(res.message)
     lags = max(1, round(SANDWICH_LAG_S / datasets[0].T))
     if with_cov and ok:
-        x, J, dec, f = _gauss_newton(prob, x, FINISH_STEPS, lags)
+        x, basis, dec, f = _gauss_newton(prob, x, FINISH_STEPS, lags)
+        J = basis.J
         if not dec < STATIONARY:
             ok = False
             message = f"{message}; not at a stationary point after {FINISH_STEPS} Gauss-Newton steps " + (
@@ -260,8 +264,12 @@ def _fit(
                 else "(the load's covariance is singular there)"
             )
         try:
-            cov_load = load_cov(J, f, [d.n for d in datasets], lags)  # f: the residual at x; leverage-corrected
-            dof = load_dof(J, [d.n for d in datasets], lags)  # the interval's t_{0.975, nu} (Bell & McCaffrey 2002)
+            # f: the residual at x; the leverage-corrected covariance and the interval's t_{0.975, nu} (Bell &
+            # McCaffrey 2002) from the decrement's QR of this J: one factorisation of the final Jacobian
+            interval = load_interval(basis, f, [d.n for d in datasets], lags)
+            cov_load, dof = interval.cov, interval.dof
+        except UnresolvedLoad as err:  # an interval rounding would decide: none, and the fit says why
+            ok, message = False, f"{message}; {err}"
         except np.linalg.LinAlgError:
             pass
     v = prob.values(x)

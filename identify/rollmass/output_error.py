@@ -114,7 +114,7 @@ class OEFit:
     rel_singular: float
     noise_sd: np.ndarray  # (3 datasets, 3 channels) residual standard deviations
     noise: tuple  # (weights, whitening filters) the fit ended with
-    # Satterthwaite degrees of freedom of (m, zbar_m)'s variances (sandwich.load_dof); inf: none computed (1.96)
+    # Satterthwaite degrees of freedom of (m, zbar_m)'s variances (sandwich.LoadMoments.dof); inf: none computed (1.96)
     dof: np.ndarray = field(default_factory=lambda: np.full(2, np.inf))
 
 

@@ -1,8 +1,12 @@
 """The output-error fit's covariance and stationarity check: a central-difference Jacobian, the
-Newey-West sandwich covariance of a least-squares fit, its leverage correction for the load, and the
-load's Gauss-Newton decrement in it (used by :mod:`identify.rollmass.output_error`)."""
+Newey-West sandwich covariance of a least-squares fit, its leverage correction and degrees of freedom for
+the load, and the load's Gauss-Newton decrement in it (used by :mod:`identify.rollmass.oe_fit`). All from
+one QR of the Jacobian a fit (:class:`LoadBasis`), never from ``(J^T J)^-1``."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -21,23 +25,6 @@ def central_jacobian(fun, x: np.ndarray) -> np.ndarray:
         e[j] = hj
         cols.append((fun(x + e) - fun(x - e)) / (2 * hj))
     return np.column_stack(cols)
-
-
-def load_decrement(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> float:
-    """Squared length ``d^T C^-1 d`` of the load part ``d = dx[-2:]`` (``m``, ``zbar_m``, the last two
-    parameters) of the Gauss-Newton step ``dx = -(J^T J)^-1 J^T f``, in the load's sandwich covariance
-    ``C`` (:func:`sandwich_cov`): how far a further step would move the reported load, in the standard
-    errors reported with it. With white, unit-variance residuals and every parameter counted it is the
-    Newton decrement (Boyd & Vandenberghe 2004, sec. 9.5.1), the step in ``(J^T J)^-1``; that metric
-    is not the interval's when the residual is structure rather than noise, and on a noise-free basin
-    run (base, case 1) it was 0.13 where the load's step was 0.055 of its reported sd. NaN when the
-    covariance is singular (then not stationary)."""
-    dx = -np.linalg.lstsq(J, f, rcond=None)[0]
-    d = dx[-2:]
-    try:
-        return float(d @ np.linalg.solve(sandwich_cov(J, f, lengths, lags)[-2:, -2:], d))
-    except np.linalg.LinAlgError:  # a singular J^T J or load covariance: no interval to measure in
-        return float("nan")
 
 
 def bartlett_meat(h: np.ndarray, lags: int) -> np.ndarray:
@@ -76,33 +63,152 @@ def _meat(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.nda
     return S + J[i:].T @ J[i:]
 
 
+# the largest 1/sin of the angle between a load column of the Jacobian and the span of the columns before it
+# (LoadBasis.kappa) for which a variance is computed: Householder QR is column-wise backward stable (Higham 2002,
+# thm. 19.4), so rounding moves the load's variance by about eps * kappa relative, 2e-7 here; beyond it the data
+# do not resolve the load from the other parameters to rounding (UnresolvedLoad)
+LOAD_KAPPA_MAX = 1e9
+
+
+class UnresolvedLoad(np.linalg.LinAlgError):
+    """The load's Jacobian columns are numerically dependent on the others (:data:`LOAD_KAPPA_MAX`): no variance.
+    A ``LinAlgError``, as a singular ``J^T J`` was, so that callers catching that catch this."""
+
+
+@dataclass(frozen=True)
+class LoadBasis:
+    """A fit's Jacobian ``J`` (rows: each dataset's samples x 3 channels, then prior rows; the load ``m``,
+    ``zbar_m`` its last two columns) with its QR factors ``J = Q R`` (Golub & Van Loan 2013, sec. 5.2.2): what the
+    load's interval and stationarity check need, without ``A^-1 = (J^T J)^-1``, whose condition number is
+    ``cond(J)^2`` (1.2e19 on a basin-truth waves fit, stop 51). Made once per Jacobian by :func:`load_basis`."""
+
+    J: np.ndarray
+    Q: np.ndarray  # (rows, p), orthonormal columns spanning J's
+    R: np.ndarray  # (p, p), upper triangular
+
+    @property
+    def kappa(self) -> np.ndarray:
+        """``|J_j| / |R_jj|`` of the load's two columns: ``1 / sin`` of each one's angle to the span of the columns
+        before it, by which rounding in ``J`` is magnified in the load's variance (inf: a column in that span)."""
+        d = np.abs(np.diag(self.R)[-2:])
+        return np.divide(np.linalg.norm(self.J[:, -2:], axis=0), d, out=np.full(2, np.inf), where=d > 0)
+
+    @cached_property
+    def u(self) -> np.ndarray:
+        """``u_j = J a_j`` (rows, 2), ``a_j = A^-1 e_j`` for the load's columns ``j``: ``a_j = R^-1 R^-T e_j`` and
+        the last two rows of ``R^-1`` are ``[0, R_ll^-1]`` (``R_ll`` the trailing 2 x 2 block), so ``u = Q_l
+        R_ll^-T``, ``Q_l`` the last two columns of ``Q``. Raises :class:`UnresolvedLoad` past :data:`LOAD_KAPPA_MAX`."""
+        kappa = self.kappa
+        if not np.all(kappa <= LOAD_KAPPA_MAX):
+            raise UnresolvedLoad(
+                f"the data do not resolve the load from the other parameters (its Jacobian columns m, zbar_m lie "
+                f"within {1 / np.max(kappa):.1e} rad of the others' span, 1/sin {np.max(kappa):.2g} > "
+                f"{LOAD_KAPPA_MAX:.0e}): no interval"
+            )
+        return np.linalg.solve(self.R[-2:, -2:], self.Q[:, -2:].T).T
+
+    @property
+    def var(self) -> np.ndarray:
+        """``(A^-1)_jj`` of the load, ``|R_ll^-T e_j|^2``."""
+        return np.sum(np.linalg.inv(self.R[-2:, -2:]) ** 2, axis=1)
+
+
+def load_basis(J: np.ndarray) -> LoadBasis:
+    """The Jacobian's :class:`LoadBasis` (one QR, numpy's reduced ``qr``: Householder, LAPACK ``dgeqrf``)."""
+    Q, R = np.linalg.qr(J)
+    return LoadBasis(J, Q, R)
+
+
 def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
     """Sandwich (Huber-White, Newey-West) covariance ``A^-1 S A^-1`` of a least-squares fit, ``A = J^T J``,
     ``S`` from :func:`_meat` (a prior row adds its information ``1/sd^2``). Unlike ``s^2 A^-1`` it
     allows for residuals that stay correlated after the whitening (unmodelled dynamics); it does not
-    allow for a bias.
+    allow for a bias. Formed as ``R^-1 S_Q R^-T`` (``J = Q R``, ``S_Q`` the meat of ``Q``: ``_meat`` is
+    bilinear in the columns and ``J R^-1 = Q``), never ``A^-1``: the error is ``eps cond(J)``, not ``eps cond(J)^2``.
     """
-    Ainv = np.linalg.inv(J.T @ J)
-    return Ainv @ _meat(J, f, lengths, lags) @ Ainv
+    Q, R = np.linalg.qr(J)
+    Rinv = np.linalg.solve(R, np.eye(len(R)))  # upper triangular: back substitution, no pivoting
+    return Rinv @ _meat(Q, f, lengths, lags) @ Rinv.T
 
 
-def load_moments(J: np.ndarray, lengths: list[int], lags: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """For the load parameters ``j`` = ``m``, ``zbar_m`` (the last two; ``a = A^-1 e_j``, ``u = J a``): ``E[V]``,
+def load_decrement(basis: LoadBasis, f: np.ndarray, lengths: list[int], lags: int) -> float:
+    """Squared length ``d^T C^-1 d`` of the load part ``d = dx[-2:]`` (``m``, ``zbar_m``, the last two
+    parameters) of the Gauss-Newton step ``dx = -(J^T J)^-1 J^T f``, in the load's sandwich covariance
+    ``C`` (:func:`sandwich_cov`): how far a further step would move the reported load, in the standard
+    errors reported with it. With white, unit-variance residuals and every parameter counted it is the
+    Newton decrement (Boyd & Vandenberghe 2004, sec. 9.5.1), the step in ``(J^T J)^-1``; that metric
+    is not the interval's when the residual is structure rather than noise, and on a noise-free basin
+    run (base, case 1) it was 0.13 where the load's step was 0.055 of its reported sd. NaN when the
+    covariance is singular (then not stationary).
+
+    ``d`` is the load's part of the step the fit's finisher takes (``lstsq``'s, whose SVD cut drops directions with
+    singular values under ``eps * rows`` of the largest); ``C^-1 = R_ll^T S_l^-1 R_ll`` (:class:`LoadBasis`: ``C =
+    R_ll^-1 S_l R_ll^-T``, ``S_l`` the meat of ``Q_l``, :func:`_meat` being bilinear in the columns), so the
+    decrement is ``y^T S_l^-1 y``, ``y = R_ll d``: no inverse of ``R`` or ``A``. The exact step's ``d = -R_ll^-1
+    Q_l^T f`` would give ``g^T S_l^-1 g``, ``g = Q_l^T f``; at a basin-truth waves fit's end (cond(A) 1.2e19) the cut step's
+    decrement is 1.5e-4 where the exact one is 0.0119, along a nuisance ridge that 10 exact steps do not finish
+    (docs/mass-accuracy.md, stop 52): kept as main's, the fit's verdict unchanged."""
+    d = -np.linalg.lstsq(basis.J, f, rcond=None)[0][-2:]
+    y = basis.R[-2:, -2:] @ d
+    try:
+        return float(y @ np.linalg.solve(_meat(basis.Q[:, -2:], f, lengths, lags), y))
+    except np.linalg.LinAlgError:  # a singular meat: no interval to measure in
+        return float("nan")
+
+
+@dataclass(frozen=True)
+class LoadMoments:
+    """The load's (``m``, ``zbar_m``) meat moments under the white working error (:func:`load_moments`)."""
+
+    ev: np.ndarray  # E[V_j]
+    t2: np.ndarray  # tr((W_j (I - H))^2)
+    var: np.ndarray  # (A^-1)_jj
+
+    @property
+    def rho(self) -> np.ndarray:
+        """How much of the load's Newey-West meat the fitted residual keeps, ``rho_j = E[a_j^T S a_j] / Var``,
+        under a white, unit-variance working error.
+
+        The meat is built from the fitted residual ``f = (I - H) e``, ``H = J A^-1 J^T``: the share of the
+        disturbance in the span of the Jacobian (every nuisance parameter's column) is gone from it, and the
+        Bartlett window's cross-products lose it with it (Kiefer & Vogelsang 2005 give the location model's
+        ``1 - b + b^2/3``, ``b`` = window / record). With ``E[f f^T] = I - H``, ``u = J a_j`` and ``K`` the Bartlett
+        band over time (channels summed, as :func:`_meat`): ``E[a_j^T S a_j] = u^T u - tr(A^-1 M_j)`` with ``M_j =
+        sum_ts w_|t-s| q_t q_s^T``, ``q_t = sum_channels J_t u_t``, and ``Var = (A^-1)_jj``; the prior rows are exact
+        and cancel. The HAC analogue of MacKinnon & White's (1985) HC2 and of Bell & McCaffrey's (2002)
+        bias-reduced cluster meat, as a factor on the load's variance. On one basin-truth ship fitted on 16 seas
+        (docs/mass-accuracy.md, stop 51) it was 0.85 and 0.81 where the meat from the fitted residual over the meat
+        from the sea's own response at fixed parameters was 0.86-0.88 and 0.81-0.83."""
+        return self.ev / self.var
+
+    @property
+    def dof(self) -> np.ndarray:
+        """Satterthwaite degrees of freedom ``nu_j = 2 E[V_j]^2 / Var[V_j] = E[V_j]^2 / tr((W_j (I-H))^2)`` of the
+        load's meat ``V_j``, Gaussian working error (``Var[f^T W f] = 2 tr((W Sigma)^2)``): the second half of Bell &
+        McCaffrey (2002), whose interval takes ``t_{0.975, nu}`` for 1.96. Few effective windows in the record (a
+        long Bartlett window, a load driven by a few slow components) give a small ``nu``, a meat that varies from
+        sea to sea, and a wider interval."""
+        t2 = self.t2
+        # nu >= 1 for a PSD W ((tr B)^2 >= tr B^2): below it is rounding, not information
+        return np.where(t2 > 0, np.maximum(self.ev * self.ev / np.where(t2 > 0, t2, 1.0), 1.0), np.inf)
+
+
+def load_moments(basis: LoadBasis, lengths: list[int], lags: int) -> LoadMoments:
+    """For the load parameters ``j`` = ``m``, ``zbar_m`` (``u = J a_j``, :attr:`LoadBasis.u`): ``E[V]``,
     ``tr((W (I-H))^2)`` and ``Var = (A^-1)_jj``, ``V = a^T S a = f^T W f + u_p^T u_p`` the meat under the working
     model ``E[f f^T] = I - H`` (white unit error), ``W_(tc),(sd) = u_tc w_|t-s| u_sd`` per dataset (channels ``c``,
     ``d``; the Bartlett band ``K``), ``u_p`` the prior rows (constant: exact, no variance).
 
-    In an orthonormal basis of the Jacobian's columns (``J = Q R``, ``H = Q Q^T``; no ``A^-1`` of an ill-conditioned
-    ``A``: its cancellations cost a waves fit ``nu`` < 1, impossible for a PSD ``W``): ``u = Q R^-T e_j``, ``q_t =
-    sum_c Q_tc u_tc``, ``U_t = sum_c u_tc^2``, ``M = sum_ts w q_t q_s^T = Q^T W Q``; then ``E[V] = u^T u - tr(M)``,
-    ``tr(W W) = U^T K^(2) U`` (squared weights), ``tr(W H W) = tr((K q)^T diag(U) (K q))``, ``tr(W H W H) = |M|_F^2``:
-    no n x n matrix, one convolution per dataset (tests/test_rollmass_sandwich_dof.py checks the dense one)."""
-    Q, R = np.linalg.qr(J)
-    ev, t2, var = np.empty(2), np.empty(2), np.empty(2)
-    for k, col in enumerate((-2, -1)):
-        r = np.linalg.solve(R.T, np.eye(len(R))[:, col])
-        u, var[k] = Q @ r, r @ r
-        M, trG, ww, i = np.zeros((len(R), len(R))), 0.0, 0.0, 0
+    In the orthonormal basis ``Q`` (``H = Q Q^T``; no ``A^-1`` of an ill-conditioned ``A``: its cancellations cost
+    a waves fit ``nu`` < 1, impossible for a PSD ``W``): ``q_t = sum_c Q_tc u_tc``, ``U_t = sum_c u_tc^2``, ``M =
+    sum_ts w q_t q_s^T = Q^T W Q``; then ``E[V] = u^T u - tr(M)``, ``tr(W W) = U^T K^(2) U`` (squared weights),
+    ``tr(W H W) = tr((K q)^T diag(U) (K q))``, ``tr(W H W H) = |M|_F^2``: no n x n matrix, one convolution per
+    dataset (tests/test_rollmass_sandwich_dof.py checks the dense one)."""
+    Q, p = basis.Q, basis.Q.shape[1]
+    ev, t2 = np.empty(2), np.empty(2)
+    for k in range(2):
+        u = basis.u[:, k]
+        M, trG, ww, i = np.zeros((p, p)), 0.0, 0.0, 0
         for n in lengths:
             rows = slice(i, i + 3 * n)
             q = (Q[rows] * u[rows, None]).reshape(n, 3, -1).sum(axis=1)
@@ -115,47 +221,45 @@ def load_moments(J: np.ndarray, lengths: list[int], lags: int) -> tuple[np.ndarr
             ww += float(U @ same_convolution(U[:, None], kernel**2)[:, 0])
             i += 3 * n
         ev[k], t2[k] = u @ u - np.trace(M), ww - 2.0 * trG + float(np.sum(M * M))
-    return ev, t2, var
+    return LoadMoments(ev, t2, basis.var)
 
 
-def leverage_factors(J: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
-    """How much of the load's Newey-West meat the fitted residual keeps, ``rho_j = E[a_j^T S a_j] / Var`` for
-    ``j`` = ``m``, ``zbar_m`` (the last two parameters), under a white, unit-variance working error.
+@dataclass(frozen=True)
+class LoadInterval:
+    """What the fit reports of the load's (``m``, ``zbar_m``) uncertainty, from one :class:`LoadBasis`."""
 
-    The meat is built from the fitted residual ``f = (I - H) e``, ``H = J A^-1 J^T``: the share of the
-    disturbance in the span of the Jacobian (every nuisance parameter's column) is gone from it, and the Bartlett
-    window's cross-products lose it with it (Kiefer & Vogelsang 2005 give the location model's
-    ``1 - b + b^2/3``, ``b`` = window / record). With ``E[f f^T] = I - H``, ``u = J a_j`` (``a_j`` column ``j`` of
-    ``A^-1``) and ``K`` the Bartlett band over time (channels summed, as :func:`_meat`):
-    ``E[a_j^T S a_j] = u^T u - tr(A^-1 M_j)`` with ``M_j = sum_ts w_|t-s| q_t q_s^T``, ``q_t = sum_channels J_t u_t``
-    (:func:`bartlett_meat` of ``q``), and ``Var = (A^-1)_jj``; the prior rows are exact and cancel. The HAC
-    analogue of MacKinnon & White's (1985) HC2 and of Bell & McCaffrey's (2002) bias-reduced cluster meat, as a
-    factor on the load's variance. On one basin-truth ship fitted on 16 seas (docs/mass-accuracy.md, stop 51) it
-    was 0.85 and 0.81 where the meat from the fitted residual over the meat from the sea's own response at
-    fixed parameters was 0.86-0.88 and 0.81-0.83."""
-    ev, _, var = load_moments(J, lengths, lags)
-    return ev / var
+    plain: np.ndarray  # (2, 2) the sandwich's load block (sandwich_cov's)
+    cov: np.ndarray  # (2, 2) the reported one: plain, each sd over sqrt(rho)
+    rho: np.ndarray  # (2,) the leverage factors (LoadMoments.rho)
+    dof: np.ndarray  # (2,) the Satterthwaite degrees of freedom (LoadMoments.dof)
 
 
-def load_dof(J: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
-    """Satterthwaite degrees of freedom ``nu_j = 2 E[V_j]^2 / Var[V_j] = E[V_j]^2 / tr((W_j (I-H))^2)`` of the
-    load's meat ``V_j`` (``m``, ``zbar_m``; :func:`load_moments`), Gaussian working error (``Var[f^T W f] =
-    2 tr((W Sigma)^2)``): the second half of Bell & McCaffrey (2002), whose interval takes
-    ``t_{0.975, nu}`` for 1.96. Few effective windows in the record (a long Bartlett window, a load driven by a few
-    slow components) give a small ``nu``, a meat that varies from sea to sea, and a wider interval."""
-    ev, t2, _ = load_moments(J, lengths, lags)
-    # nu >= 1 for a PSD W ((tr B)^2 >= tr B^2): below it is rounding, not information
-    return np.where(t2 > 0, np.maximum(ev * ev / np.where(t2 > 0, t2, 1.0), 1.0), np.inf)
+def load_interval(basis: LoadBasis, f: np.ndarray, lengths: list[int], lags: int) -> LoadInterval:
+    """The load's covariance and degrees of freedom from one QR of the Jacobian. The plain sandwich's load block is
+    ``a_j^T S a_k`` = the meat of ``u`` (:func:`_meat` of the two columns ``u = J a``, :attr:`LoadBasis.u`); the
+    reported one divides each sd by ``sqrt(rho)`` (:attr:`LoadMoments.rho`, :func:`leverage_scale`), the
+    correlation kept (a symmetric scaling: it stays positive semi-definite). Only the reported interval uses it;
+    the stationarity check (:func:`load_decrement`) keeps the plain sandwich, so the fit stops where it did.
+    Raises :class:`UnresolvedLoad` when the data do not resolve the load to rounding."""
+    plain = _meat(basis.u, f, lengths, lags)
+    moments = load_moments(basis, lengths, lags)
+    s = leverage_scale(moments.rho)
+    return LoadInterval(plain, plain * np.outer(s, s), moments.rho, moments.dof)
 
 
 def load_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
-    """The load's (``m``, ``zbar_m``) 2x2 covariance: :func:`sandwich_cov`'s, each sd divided by
-    ``sqrt(rho)`` (:func:`leverage_factors`), the correlation kept (a symmetric scaling, so it stays
-    positive semi-definite). Only the reported interval uses it; the stationarity check
-    (:func:`load_decrement`) keeps the plain sandwich, so the fit stops where it did."""
-    c = sandwich_cov(J, f, lengths, lags)[-2:, -2:]
-    s = leverage_scale(leverage_factors(J, lengths, lags))
-    return c * np.outer(s, s)
+    """:attr:`LoadInterval.cov` of ``J`` (one QR; the fit calls :func:`load_interval` on the basis it has)."""
+    return load_interval(load_basis(J), f, lengths, lags).cov
+
+
+def leverage_factors(J: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
+    """:attr:`LoadMoments.rho` of ``J`` (one QR)."""
+    return load_moments(load_basis(J), lengths, lags).rho
+
+
+def load_dof(J: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
+    """:attr:`LoadMoments.dof` of ``J`` (one QR)."""
+    return load_moments(load_basis(J), lengths, lags).dof
 
 
 # the smallest leverage factor :func:`leverage_scale` divides by: below it almost no meat is left to scale
@@ -163,6 +267,6 @@ LEVERAGE_MIN = 0.05
 
 
 def leverage_scale(rho: np.ndarray) -> np.ndarray:
-    """The factor on each load sd, ``1 / sqrt(rho)`` with ``rho`` (:func:`leverage_factors`) clipped to
+    """The factor on each load sd, ``1 / sqrt(rho)`` with ``rho`` (:attr:`LoadMoments.rho`) clipped to
     [:data:`LEVERAGE_MIN`, 1] (``rho`` <= 1 for a PSD meat; the upper clip guards rounding)."""
     return 1.0 / np.sqrt(np.clip(rho, LEVERAGE_MIN, 1.0))
