@@ -466,11 +466,12 @@ def _skip_final_collection() -> None:
 
 
 def _first_design(ship: str, **design: Any) -> FirstDesign:
-    """The design of ``ship``'s library before the map is consulted (run in the drawer process)."""
-    from maps.trialdesign import first_design
+    """The design of ``ship``'s library before the map is consulted (run in the drawer process), read from
+    the move cache when it was made before (:func:`maps.librarycache.kept_first_design`)."""
+    from maps.librarycache import kept_first_design
     from primitives.ship import load_profile
 
-    return first_design(load_profile(ship), **design)
+    return kept_first_design(load_profile(ship), **design)
 
 
 def _ratios_ahead(first: FirstDesign) -> dict[str, Any]:
