@@ -3,22 +3,25 @@
     python benchmarks/bench_plan_trial_stages.py [--repeat 3] [--root CHECKOUT] [--top 25]
         [-- PLAN-TRIAL ARGS ...]   (default: --no-cache, the default ship on the bundled map)
 
-Runs ``plan-trial --out TMP ARGS`` ``--repeat`` times as a user does (a fresh interpreter each time, the
-checkout's code on ``PYTHONPATH``, the plan, move, library and map caches as the user's), with a CPU-time
-sampler installed in it and in every process it forks (the drawer, the drawer's PDF child, the planner's
-forked helper): a ``SIGPROF`` timer every 5 ms of the process's CPU; at each tick every thread's CPU since its
-last tick (its own CPU clock, ``pthread_getcpuclockid``) is added to the stage of that thread's current
-Python stack. A tick that arrives while C code runs (PNG encoding, a long numpy call) is handled when it
-returns, so its CPU still goes to the Python frame that called it. The stage of a stack is the innermost
-frame that matches :data:`STAGES` (an import in progress counts as "import" whatever imports it), else
-"other". A process's figure is its own user + system time (``getrusage`` at its exit: ``os._exit`` and
-interpreter exit are both caught); what the sampler did not see (the interpreter's start before it was
-installed, and the sampler itself: about 1-2 % at this rate) is "unsampled". The whole command's CPU
-(``wait4``: every process it reaped) is printed beside the sum of the processes'.
+Runs ``plan-trial --out TMP ARGS`` ``--repeat`` times after one untimed run, as a user does (a fresh interpreter
+each time, the checkout's code on ``PYTHONPATH``, compiled bytecode read from a directory of the benchmark's own,
+the plan, move, library, design and map caches as the user's), with a CPU-time sampler installed in it and in
+every process it forks (the drawer, the drawer's PDF child, the planner's forked helper): a ``SIGPROF`` timer
+every 5 ms of the process's CPU; at each tick every thread's CPU since its last tick (its own CPU clock,
+``pthread_getcpuclockid``) is added to the stage of that thread's current Python stack. A tick that arrives while
+C code runs (PNG encoding, a long numpy call) is handled when it returns, so its CPU still goes to the Python
+frame that called it. A stack's stage is "import: PACKAGE" while a module is being imported (PACKAGE the
+outermost module being imported, whatever imports it), else the first rule of :data:`STAGES` that matches any of
+its frames, else "other". A process's figure is its own user + system time (``getrusage`` at its exit:
+``os._exit`` and interpreter exit are both caught); what the sampler did not see (the interpreter's start before
+it was installed) is "unsampled". The sampler's own cost is in the figures: compare the whole command's CPU,
+printed last (``wait4``: every process it reaped), with an unsampled run's (``benchmarks/bench_plan.py --cases
+cli_default``) for its size.
 
 Printed: per process role, the CPU per stage, the least over the runs (the steadiest figure on a shared
 machine) and the median; then the whole command's CPU and wall (medians), with the load average.
-``--top N`` also prints the N Python functions with the most CPU (innermost frame, summed over processes).
+``--timeline``: the last run's stages per process in wall-clock order (first and last tick); ``--top N``: the N
+Python functions with the most CPU (innermost frame, summed over processes); ``--json F``: every run's rows.
 """
 
 from __future__ import annotations
@@ -182,14 +185,18 @@ _BOOT = (
 )
 
 
-def run_once(root: Path, args: list[str]) -> dict:
-    """One sampled run of ``plan-trial ARGS`` in ``root``: per process rows, the whole CPU and wall."""
+def run_once(root: Path, args: list[str], pycache: str) -> dict:
+    """One sampled run of ``plan-trial ARGS`` in ``root``: per process rows, the whole CPU and wall. ``pycache``:
+    where compiled bytecode is read and written (``PYTHONPYCACHEPREFIX``), whatever ``PYTHONDONTWRITEBYTECODE``
+    says: every module read compiled, as after ``pip install``, and neither checkout favoured by what its own
+    ``__pycache__`` happens to hold."""
     with tempfile.TemporaryDirectory(prefix="bench-pts-") as tmp:
         samples = Path(tmp, "samples")
         samples.mkdir()
         argv = ["--out", str(Path(tmp, "out")), *args]
         code = _BOOT.format(bench=str(Path(__file__).resolve().parent), out=str(samples), args=argv)
         env = dict(os.environ, PYTHONPATH=str(root), BENCH_PTS_T0=repr(time.time()))
+        env |= {"PYTHONPYCACHEPREFIX": pycache, "PYTHONDONTWRITEBYTECODE": ""}
         t = time.perf_counter()
         proc = subprocess.Popen([sys.executable, "-c", code], cwd=root, env=env, stdout=subprocess.DEVNULL)
         _, status, ru = os.wait4(proc.pid, 0)
@@ -259,9 +266,10 @@ def main() -> None:
     ap.add_argument("args", nargs="*", default=None, help="plan-trial arguments after -- (default: --no-cache)")
     ns = ap.parse_args()
     args = ns.args or ["--no-cache"]
-    run_once(ns.root, args)  # untimed: caches and page cache warm
-    load0 = os.getloadavg()[0]
-    runs = [run_once(ns.root, args) for _ in range(ns.repeat)]
+    with tempfile.TemporaryDirectory(prefix="bench-pts-pyc-") as pycache:
+        run_once(ns.root, args, pycache)  # untimed: bytecode, caches and page cache warm
+        load0 = os.getloadavg()[0]
+        runs = [run_once(ns.root, args, pycache) for _ in range(ns.repeat)]
     print(f"plan-trial --out TMP {' '.join(args)} in {ns.root}, {ns.repeat} runs, load {load0:.2f} -> {os.getloadavg()[0]:.2f}")
     summarise(runs, ns.top, ns.timeline)
     if ns.json is not None:

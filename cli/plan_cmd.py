@@ -135,9 +135,10 @@ def register(app: typer.Typer) -> None:
         no_cache: bool = typer.Option(
             False,
             "--no-cache",
-            help="design and plan afresh, neither reading nor writing the plan cache "
-            "($SHIPTRIAL_CACHE_DIR, default ~/.cache/shiptrial/plans); the ship's lattice moves, its simulated library and the "
-            "projected map kept there are still read and written, as compiled code is (SHIPTRIAL_CACHE_DIR='' for no cache at all)",
+            help="plan afresh, neither reading nor writing the plan cache "
+            "($SHIPTRIAL_CACHE_DIR, default ~/.cache/shiptrial/plans); the ship's lattice moves, its simulated library, its "
+            "first design (keyed by the design options) and the projected map kept there are still read and written, as "
+            "compiled code is (SHIPTRIAL_CACHE_DIR='' for no cache at all)",
         ),
         json_out: bool = typer.Option(False, "--json", help="print one JSON summary"),
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
