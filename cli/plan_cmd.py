@@ -135,9 +135,10 @@ def register(app: typer.Typer) -> None:
         no_cache: bool = typer.Option(
             False,
             "--no-cache",
-            help="design and plan afresh, neither reading nor writing the plan cache "
-            "($SHIPTRIAL_CACHE_DIR, default ~/.cache/shiptrial/plans); the ship's lattice moves, its simulated library and the "
-            "projected map kept there are still read and written, as compiled code is (SHIPTRIAL_CACHE_DIR='' for no cache at all)",
+            help="plan afresh, neither reading nor writing the plan cache "
+            "($SHIPTRIAL_CACHE_DIR, default ~/.cache/shiptrial/plans); the ship's lattice moves, its simulated library, its "
+            "first design (keyed by the design options) and the projected map kept there are still read and written, as "
+            "compiled code is (SHIPTRIAL_CACHE_DIR='' for no cache at all)",
         ),
         json_out: bool = typer.Option(False, "--json", help="print one JSON summary"),
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
@@ -466,11 +467,12 @@ def _skip_final_collection() -> None:
 
 
 def _first_design(ship: str, **design: Any) -> FirstDesign:
-    """The design of ``ship``'s library before the map is consulted (run in the drawer process)."""
-    from maps.trialdesign import first_design
+    """The design of ``ship``'s library before the map is consulted (run in the drawer process), read from
+    the move cache when it was made before (:func:`maps.librarycache.kept_first_design`)."""
+    from maps.librarycache import kept_first_design
     from primitives.ship import load_profile
 
-    return first_design(load_profile(ship), **design)
+    return kept_first_design(load_profile(ship), **design)
 
 
 def _ratios_ahead(first: FirstDesign) -> dict[str, Any]:

@@ -34,12 +34,12 @@ def export_chart(result: Plan, sea: SeaMap) -> Any:
     """The one chart every export of ``result`` uses, with the route and sea room they share built
     and kept on the plan (sent to the drawer with it)."""
     from maps.export._common import check_plan
-    from maps.export.chart import plan_chart
     from maps.export.geojson import sea_room_lonlat
     from maps.export.route import build_route
+    from maps.mapcache import kept_chart
 
     check_plan(result)
-    chart = plan_chart(result, sea)
+    chart = kept_chart(sea)  # plan_chart(result, sea), kept with the projected map
     build_route(result, chart)
     sea_room_lonlat(result)
     return chart

@@ -103,6 +103,12 @@ class MapPoint:
     lat: float
 
 
+#: :meth:`SeaMap.no_go`'s geometries, keyed by the ids of the obstacles and trial area (held beside the result, and
+#: checked by identity), the extent and the margin; at most _NO_GO_KEPT of them
+_NO_GO: dict[tuple[int, int, tuple[float, ...], float], tuple[BaseGeometry, BaseGeometry | None, BaseGeometry]] = {}
+_NO_GO_KEPT = 16
+
+
 @dataclass
 class SeaMap:
     """A projected sea map. Geometries are (x north, y east) in metres.
@@ -148,12 +154,21 @@ class SeaMap:
 
     # -- queries ------------------------------------------------------------------------------
     def no_go(self, margin: float = 0.0) -> BaseGeometry:
-        """Obstacles buffered by ``margin``, plus everything outside the trial area."""
+        """Obstacles buffered by ``margin``, plus everything outside the trial area. Made once per
+        obstacles, trial area, extent and margin (:data:`_NO_GO`): a plan asks for it 7 times (the start and
+        goal checks, the lattice, sizing, smoothing, verification), each a buffer or union of the whole map."""
+        key = (id(self.obstacles), id(self.trial_area), tuple(self.extent), float(margin))
+        kept = _NO_GO.get(key)
+        if kept is not None and kept[0] is self.obstacles and kept[1] is self.trial_area:
+            return kept[2]  # shapely geometries are immutable: the same object serves every caller
         geom = self.obstacles.buffer(margin) if margin > 0 else self.obstacles
         if self.trial_area is not None:
             xmin, ymin, xmax, ymax = self.extent
             big = shapely.box(xmin - 1e5, ymin - 1e5, xmax + 1e5, ymax + 1e5)
             geom = shapely.union(geom, big.difference(self.trial_area))
+        if len(_NO_GO) >= _NO_GO_KEPT:
+            _NO_GO.clear()
+        _NO_GO[key] = (self.obstacles, self.trial_area, geom)  # the inputs held: their ids stay theirs while kept
         return geom
 
     def clearance(self, geom: BaseGeometry) -> float:

@@ -2,12 +2,18 @@
 moves are (:mod:`maps.movecache`, whose key and entries it uses): simulating the library's primitives
 and their sensitivities is half of the first design (:func:`maps.trialdesign.first_design`), which
 ``plan-trial``'s parent waits for while its drawer computes it, and depends only on the profile, the
-code and the machine, not on the map or the design options."""
+code and the machine, not on the map or the design options. The first design itself is kept too
+(:func:`kept_first_design`): the other half is the design's solve, whose import of ``scipy.optimize``
+alone costs 0.5-0.7 s of CPU in a fresh process; it depends on the design options as well, which its
+key adds."""
 
 from __future__ import annotations
 
+import hashlib
+from typing import Any
+
 from maps import movecache
-from maps.trialdesign import ship_library
+from maps.trialdesign import FirstDesign, first_design, ship_library
 from primitives.information import PrimitiveInfo, library_information
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
@@ -26,3 +32,27 @@ def kept_library(profile: ShipProfile) -> tuple[list[Primitive], list[PrimitiveI
     infos = library_information(profile, lib)
     movecache.store(k, (lib, infos), profile)
     return lib, infos
+
+
+def kept_first_design(profile: ShipProfile, parameter_prior: Any = None, **options: Any) -> FirstDesign:
+    """:func:`maps.trialdesign.first_design` of the ship's own library with the design ``options``
+    (criterion, mean_subtraction, trial_length_s, seed: plain values) and ``parameter_prior`` (None, or a
+    robust criterion's prior, keyed by the digest of its pickle): read from the move cache when it holds
+    it (the key as :func:`kept_library`'s, the options and the prior added: the same bits), else made
+    (from :func:`kept_library`) and kept there. A design that raises (a trial too short for any manoeuvre)
+    is never kept: the next command meets the same error."""
+
+    def make() -> FirstDesign:
+        return first_design(profile, parameter_prior=parameter_prior, **options)
+
+    try:
+        prior = None if parameter_prior is None else hashlib.sha256(movecache.dumps(parameter_prior, profile)).hexdigest()
+    except Exception:  # noqa: BLE001 - a prior pickle cannot write is not keyed: designed every time
+        return make()
+    k = movecache.key(profile, "first-design", tuple(sorted(options.items())) + (("prior", prior),))
+    kept = movecache.load(k, profile)
+    if isinstance(kept, FirstDesign):
+        return kept
+    first = make()
+    movecache.store(k, first, profile)
+    return first

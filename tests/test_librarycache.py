@@ -82,3 +82,76 @@ def test_changed_profile_is_not_served_the_kept_library(tmp_path, monkeypatch):
     assert _canon(read, changed) == _canon(fresh, changed)
     assert _canon(read, changed) != _canon(kept_full, full)
     assert len(list(tmp_path.glob("*.moves"))) == 2
+
+
+def test_kept_first_design_is_the_design_made(tmp_path, monkeypatch):
+    # plan-trial's drawer reads the first design instead of importing scipy.optimize and solving (stop 52): the
+    # same bits as a design made afresh, and never made again while the entry is there
+    import maps.trialdesign as trialdesign
+
+    profile = load_profile("full-scale")
+    fresh = first_design(profile, trial_length_s=1800.0)  # no cache (the tests' setting)
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    made = librarycache.kept_first_design(profile, trial_length_s=1800.0)
+    assert len(list(tmp_path.glob("*.moves"))) == 2  # the library and the design
+
+    def refuse(*a, **k):
+        raise AssertionError("designed again")
+
+    monkeypatch.setattr(librarycache, "first_design", refuse)
+    monkeypatch.setattr(trialdesign, "design_counts", refuse)
+    read = librarycache.kept_first_design(profile, trial_length_s=1800.0)
+    assert _bits(fresh, profile) == _bits(made, profile) == _bits(read, profile)
+    assert read.design.counts == fresh.design.counts
+    assert all(p.profile is profile for p in read.library)  # the caller's profile, not a copy
+
+
+def test_kept_first_design_is_keyed_by_every_design_option(tmp_path, monkeypatch):
+    from expdesign.prior import make_prior
+
+    profile = load_profile("full-scale")
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    base = dict(criterion="D", mean_subtraction="complete", trial_length_s=1800.0, seed=0)
+    librarycache.kept_first_design(profile, **base)
+    variants = [
+        base | {"trial_length_s": 2400.0},
+        base | {"mean_subtraction": "batchwise"},
+        base | {"seed": 1},
+        base | {"criterion": "A"},
+    ]
+    for opts in variants:  # each designed afresh (no entry of another option served), equal to first_design's
+        kept = librarycache.kept_first_design(profile, **opts)
+        assert _bits(kept, profile) == _bits(first_design(profile, **opts), profile)
+    assert len(list(tmp_path.glob("*.moves"))) == 2 + len(variants)
+    # a --prior-spread prior holds its sampler (a local function): not picklable, so not keyed: designed every
+    # time, nothing kept, the design first_design makes
+    prior = make_prior(profile, 0.2, None, 20, 0)
+    robust = base | {"criterion": "bayes-D"}
+    a = librarycache.kept_first_design(profile, parameter_prior=prior, **robust)
+    assert len(list(tmp_path.glob("*.moves"))) == 2 + len(variants)
+    assert _bits(a, profile) == _bits(first_design(profile, parameter_prior=prior, **robust), profile)
+
+
+def test_a_design_that_fails_is_not_kept(tmp_path, monkeypatch):
+    import pytest
+
+    from primitives.errors import UserError
+
+    profile = load_profile("full-scale")
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    for _ in range(2):  # the same error both times: nothing kept in between
+        with pytest.raises(UserError):
+            librarycache.kept_first_design(profile, trial_length_s=1.0)
+    assert len(list(tmp_path.glob("*.moves"))) == 1  # the library alone
+
+
+def test_damaged_design_entry_is_designed_again(tmp_path, monkeypatch):
+    profile = load_profile("full-scale")
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    librarycache.kept_library(profile)
+    (lib_entry,) = tmp_path.glob("*.moves")
+    made = librarycache.kept_first_design(profile, trial_length_s=1800.0)
+    (entry,) = set(tmp_path.glob("*.moves")) - {lib_entry}
+    entry.write_bytes(entry.read_bytes()[:100])
+    again = librarycache.kept_first_design(profile, trial_length_s=1800.0)
+    assert _bits(again, profile) == _bits(made, profile)

@@ -131,3 +131,30 @@ def test_file_edited_in_place_with_the_same_size_and_time_is_loaded_again(cache,
     assert map_file.stat().st_size == st.st_size and map_file.stat().st_mtime_ns == st.st_mtime_ns
     b = mapcache.load_map_kept(map_file, draught_m=6.0)
     assert _same(b, load_map(map_file, draught_m=6.0)) and not _same(a, b)
+
+
+def _chart_bits(c):
+    """A chart's values, geometries as WKB (the depth areas' too)."""
+    return (c.name, c.land.wkb, c.no_go.wkb, [(g.wkb, d) for g, d in c.depth_areas], c.extent)
+
+
+def test_kept_chart_is_the_chart_of_the_map(cache, monkeypatch):
+    # stop 52: the export chart is made once with the map and read with it; another map object is charted afresh
+    import maps.export.chart as chart_mod
+    from maps.geo import bundled_map_path
+
+    path = bundled_map_path("helsinki")
+    fresh = chart_mod.chart_of(load_map(path, draught_m=6.0))
+    made = mapcache.load_map_kept(path, draught_m=6.0)
+    assert _chart_bits(mapcache.kept_chart(made)) == _chart_bits(fresh)
+
+    def refuse(*a, **k):
+        raise AssertionError("charted again")
+
+    monkeypatch.setattr(chart_mod, "chart_of", refuse)
+    read = mapcache.load_map_kept(path, draught_m=6.0)
+    assert read is not made and _chart_bits(mapcache.kept_chart(read)) == _chart_bits(fresh)
+    monkeypatch.undo()
+    other = load_map(path, draught_m=6.0)  # not the map the cache returned: charted now, the same bits
+    assert mapcache.kept_chart(other) is not mapcache.kept_chart(read)
+    assert _chart_bits(mapcache.kept_chart(other)) == _chart_bits(fresh)

@@ -172,3 +172,26 @@ def test_map_transformers_give_from_crs_numbers_bit_for_bit(lat0, lon0):
         transformer("EPSG:4326", proj4.replace(f"+lat_0={lat0:.9f}", "+lat_0=1.2.3"))
     other = transformer("EPSG:4326", "EPSG:3857")
     assert other.definition == Transformer.from_crs("EPSG:4326", "EPSG:3857", always_xy=True).definition
+
+
+def test_no_go_is_made_once_and_is_what_it_was(tmp_path):
+    # stop 52: SeaMap.no_go kept per obstacles, trial area, extent and margin; the same bits as made afresh, and a
+    # map with other obstacles or another trial area is never served another's
+    from dataclasses import replace
+
+    import maps.geo as geo
+
+    doc = fc(feat(square(25.0, 60.0, 0.01, 0.01), kind="land"), feat(square(24.98, 59.98, 0.06, 0.04), kind="trial_area"))
+    sea = load_map(write(tmp_path, doc))
+    assert sea.trial_area is not None
+    geo._NO_GO.clear()
+    made = {m: sea.no_go(m) for m in (0.0, 20.0)}
+    assert sea.no_go(0.0) is made[0.0] and sea.no_go(20) is made[20.0]
+    geo._NO_GO.clear()
+    for m, g in made.items():
+        assert shapely.to_wkb(sea.no_go(m)) == shapely.to_wkb(g)
+    smaller = replace(sea, obstacles=sea.obstacles.buffer(-1.0))
+    assert shapely.to_wkb(smaller.no_go(20.0)) != shapely.to_wkb(made[20.0])
+    open_water = replace(sea, trial_area=None)
+    assert open_water.no_go(0.0) is sea.obstacles  # nothing outside a trial area added
+    assert shapely.to_wkb(sea.no_go(0.0)) != shapely.to_wkb(open_water.no_go(0.0))
