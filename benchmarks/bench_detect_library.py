@@ -46,7 +46,7 @@ def main() -> None:
     print(
         f"library detect on {len(recs)} recording(s), CPU s: median {statistics.median(spent):.3f} "
         f"(min {min(spent):.3f}, max {max(spent):.3f}, {a.repeat} runs); wall s: median {statistics.median(wall):.3f} "
-        f"(min {min(wall):.3f}; the cache's digest runs beside the ships' simulation on a second core: stop 52)"
+        f"(min {min(wall):.3f})"
     )
 
 
