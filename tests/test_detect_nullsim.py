@@ -104,27 +104,3 @@ def test_a_job_keeps_the_filtered_noise_per_derivation(prior):
     ):
         for k in ("statistic", "dead_zone", "threshold"):
             assert np.array_equal(getattr(a, k), getattr(b, k), equal_nan=True), k
-
-
-def test_the_noise_share_is_read_beside_the_ships_simulation_with_the_same_records(prior, monkeypatch):
-    """With two threads allowed the noise's share (the cache's read and digest, or its drawing and filtering) and the
-    bootstrap ships' simulation run on two threads at once (stop 52: wall time only), and the records are those of
-    one thread, to the bit; with ``OMP_NUM_THREADS=1`` both run on the caller's thread."""
-    import threading
-
-    rec = simulated_recording(Vessel(), 200, seed=44, measured_moment=True)
-    d = Deriver.of(rec, prior.kind)
-    noise_at: list[int] = []
-    sim_at: list[int] = []  # the ships', then the records' simulation
-    share, sim = nullsim._linear_noise, nullsim.simulate_r
-    monkeypatch.setattr(nullsim, "_linear_noise", lambda *a: noise_at.append(threading.get_ident()) or share(*a))
-    monkeypatch.setattr(nullsim, "simulate_r", lambda *a, **k: sim_at.append(threading.get_ident()) or sim(*a, **k))
-    monkeypatch.setenv("OMP_NUM_THREADS", "1")
-    one = _records(prior, rec, d)
-    assert noise_at == [threading.get_ident()] and sim_at == [threading.get_ident()] * 2
-    noise_at.clear(), sim_at.clear()
-    monkeypatch.setenv("OMP_NUM_THREADS", "2")
-    two = _records(prior, rec, d)
-    assert noise_at[0] != sim_at[0] and threading.get_ident() in (noise_at[0], sim_at[0])
-    assert sim_at[1] == threading.get_ident()
-    assert one.tobytes() == two.tobytes()

@@ -12,7 +12,6 @@ from identify.detect.yawmodel import NOMINAL, Derive, YawPrior, simulate_r
 from primitives import jitloop
 from primitives.iir import lfilter  # scipy.signal's, without its 2 s import
 from primitives.savgol import savgol_filter
-from primitives.threads import map_in_threads
 
 
 def parameter_draws(prior: YawPrior, runs: int, seed: int = 0) -> np.ndarray:
@@ -58,34 +57,25 @@ def null_records(
     When ``derive`` is linear in the signals (``derive.linear``: the recording measures the pod yaw
     moment; or no ``derive``) the noise's share of the prior's inputs is filtered apart from the
     signals', once per job (:func:`_linear_inputs`; the same records to rounding); else signal and
-    noise are filtered together, as measured. A ``derive`` without ``linear`` is taken as nonlinear. On the linear
-    path the noise's share and the bootstrap ships' simulation do not read each other: they run on two threads at
-    once where two are allowed (:func:`primitives.threads.map_in_threads`), with the numbers of one thread."""
+    noise are filtered together, as measured. A ``derive`` without ``linear`` is taken as nonlinear."""
     x = np.array([prior.values[k] / NOMINAL[k] for k in prior.names])
     deltas = parameter_draws(prior, runs, seed)
     # the bootstrap's B refits are cycled over the runs: B distinct ships, each simulated once (a column's
     # simulation does not depend on the others: the same bits as simulating all ``runs``)
-    ships_n = min(runs, len(prior.boot)) if len(prior.boot) else runs
-    truth_x = x[:, None] - (deltas[:ships_n] * np.maximum(np.abs(x), 1e-6)).T
+    ships = min(runs, len(prior.boot)) if len(prior.boot) else runs
+    truth_x = x[:, None] - (deltas[:ships] * np.maximum(np.abs(x), 1e-6)).T
     clean = smooth(sig, prior.dt)
     n = len(sig["u"])
+    r_true = simulate_r(prior.kind, truth_x, {k: s[:, None] for k, s in prior.inputs(clean).items()}, prior.dt, r0=r0)
+    r_true = r_true[:, np.arange(runs) % ships]
     blocks = n // prior.block if prior.model_error > 0 else 0
     sds = (prior.noise.get("r", 0.0), *(prior.noise.get(k, 0.0) for k in clean))
-
-    def ships() -> np.ndarray:
-        return simulate_r(prior.kind, truth_x, {k: s[:, None] for k, s in prior.inputs(clean).items()}, prior.dt, r0=r0)
-
     if derive is None or getattr(derive, "linear", False):
-        # the noise's share (read from the cache: its SHA-256 releases the GIL) beside the ships' simulation, on a
-        # second core when there is one: the same numbers, the wall time of the longer of the two only (stop 52)
-        noise_share = lambda: _linear_noise(prior, tuple(clean), n, runs, seed, blocks, sds, derive, draws)  # noqa: E731
-        r_true, (r_noise, innovations, noise) = map_in_threads(lambda job: job(), [ships, noise_share])
-        r_true = r_true[:, np.arange(runs) % ships_n]
+        r_noise, innovations, noise = _linear_noise(prior, tuple(clean), n, runs, seed, blocks, sds, derive, draws)
         offsets = misfit_offsets(prior, n, runs, None, innovations)
         # before _measured: it may write the yaw rate's noise over r_noise
         inputs = _linear_inputs(prior, clean, r_true, noise, derive)
         return _measured(r_true, r_noise) - simulate_r(prior.kind, prior.values, inputs, prior.dt, r0=r0) + offsets
-    r_true = ships()[:, np.arange(runs) % ships_n]
     z = normals(seed, runs, n, len(clean), blocks, draws, scale=sds)  # the noise itself: scaled once per job
     offsets = misfit_offsets(prior, n, runs, None, z[-1] if blocks else np.zeros((0, runs)))
     r_meas = _measured(r_true, z[0])
