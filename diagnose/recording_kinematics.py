@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from primitives.errors import UserError
+from primitives.orderstats import median  # numpy's numbers without its import of numpy.ma (stop 52)
 
 
 def _error() -> type[UserError]:
@@ -32,7 +33,7 @@ def _track_velocity(t: np.ndarray, pos: np.ndarray, psi: np.ndarray, smooth_s: f
 
 
 def _half_window(t: np.ndarray, smooth_s: float) -> int:
-    ts = float(np.median(np.diff(t)))
+    ts = float(median(np.diff(t)))
     k = max(1, int(round(smooth_s / ts / 2)))
     return 1 if len(t) <= 2 * k + 2 else k
 
@@ -75,7 +76,7 @@ def _track_noise_var(t: np.ndarray, pos: np.ndarray, k: int) -> float:
     d2 = d2[np.all(np.isfinite(d2), axis=1)]
     if len(d2) == 0:
         return 0.0
-    s2 = float(np.median(d2**2)) / (0.455 * 6.0)
+    s2 = float(median(d2**2)) / (0.455 * 6.0)
     span = float(t[2 * k] - t[0]) if len(t) > 2 * k else float(t[-1] - t[0])
     return 2.0 * s2 / max(span, 1e-12) ** 2
 

@@ -16,6 +16,7 @@ import numpy as np
 from diagnose.recording_checks import check_grid, check_values
 from diagnose.recording_kinematics import check_frame, check_rate
 from primitives.errors import UserError
+from primitives.orderstats import median  # numpy's numbers without its import of numpy.ma (stop 52)
 
 MAX_BRIDGE_S = 5.0  # longest gap bridged by linear interpolation; longer gaps split the run
 INPUTS = ("tau_x", "tau_y", "tau_n", "delta", "n", "n1", "alpha1", "n2", "alpha2")  # never bridged over a long gap
@@ -75,7 +76,7 @@ def check_units(src: str, cols: dict[str, np.ndarray], t: np.ndarray) -> None:
         rate = np.abs(dpsi / dt)
         ok = (np.abs(dpsi) < 3.0) & (np.abs(cols["r"][:-1]) > 1e-3)
         if ok.sum() > 10:
-            ratio = np.median(rate[ok]) / max(np.median(np.abs(cols["r"][:-1][ok])), 1e-12)
+            ratio = median(rate[ok]) / max(median(np.abs(cols["r"][:-1][ok])), 1e-12)
             if 20.0 < ratio < 150.0:
                 raise _error()(
                     f"{src}: column 'psi' looks like degrees (its rate is {ratio:.0f} x column 'r'); convert heading to radians"
@@ -248,7 +249,7 @@ def uniform_axis(
         raise _error()(f"{src}: only {len(t)} distinct time stamps; a recording needs at least {min_samples}")
     check_values(src, cols)
     check_units(src, cols, t)
-    dt_med = float(np.median(np.diff(t)))
+    dt_med = float(median(np.diff(t)))
     ts = float(sample_time or dt_med)
     if not (math.isfinite(ts) and ts > 0):
         raise _error()(f"{src}: sample time {ts} is not a positive number of seconds; fix '# sample_time:'")
