@@ -144,3 +144,18 @@ def test_a_ship_header_the_profile_contradicts_is_refused(bare, capsys, tmp_path
     files += bare[len(files) :]
     msg = _error(capsys, [*files, "--known-load", CAL])
     assert "seed003_basin" in msg and ("--profile" in msg if which == "all" else "one ship" in msg)
+
+
+def test_a_yaw_rate_in_degrees_is_named_not_the_rudder(bare, capsys, tmp_path):
+    # stop 52's sweep: r in deg/s was refused as "column 'delta' is 41 times the rudder angle ...: give delta in radians"
+    files = []
+    for p in bare:
+        lines = p.read_text().splitlines()
+        k = next(i for i, ln in enumerate(lines) if not ln.startswith("#"))
+        j = lines[k].split(",").index("r")
+        rows = [ln.split(",") for ln in lines[k + 1 :]]
+        body = [",".join(r[:j] + [repr(57.2958 * float(r[j]))] + r[j + 1 :]) for r in rows]
+        (tmp_path / p.name).write_text("\n".join(lines[: k + 1] + body) + "\n")
+        files.append(tmp_path / p.name)
+    msg = _error(capsys, [*files, "--known-load", CAL])
+    assert "column 'r'" in msg and "rad/s" in msg and "column 'delta'" not in msg

@@ -17,7 +17,14 @@ from identify.rollmass.output_error import start_values
 from identify.rollmass.recording import read_roll_csv
 from identify.rollmass.restoring import DEFAULT_HEEL_REFERENCE, HEEL_REFERENCES
 from identify.rollmass.roles import loaded_message, measure_roles, role_message, role_verdict
-from identify.rollmass.signs import check_signs, expected_signs, gain_signs, rudder_scale_message, steady_gains
+from identify.rollmass.signs import (
+    check_signs,
+    expected_signs,
+    gain_signs,
+    rudder_scale_message,
+    steady_gains,
+    yaw_scale_message,
+)
 from identify.rollmass.simulate import RollRecording
 from identify.rollmass.speed import SPEED_LP_HZ, SPEED_NOISE_RATIO, SPEED_VAR_MIN, followed_speed, speed_variation
 from primitives.errors import UserError
@@ -309,7 +316,8 @@ def check_recorded_signs(recs: list[RollRecording], prof: RollProfile, given: Ro
                 f"a_s, r and delta fit the profile's ship at its U = {U0:g} m/s, not at {U:g} m/s; correct the "
                 "header '# speed_m_s:' (the mean speed in m/s; knots read 1.94 times too high) or the profile"
             )
-        msg = msg or rudder_scale_message(rec, float(gain))
+        if msg is None and (rudder := rudder_scale_message(rec, float(gain))):
+            msg = yaw_scale_message(rec, dc) or rudder  # the turning gain fails for r in deg/s as for delta in degrees
         if msg:
             raise UserError(msg)
 
