@@ -113,7 +113,13 @@ def register(app: typer.Typer) -> None:
         with atomic_output_dir(out) as tmp:  # the three datasets appear together or not at all
             for role, rec in zip(("nominal", "calibration", "loaded"), recs):
                 d = truth[rec.name]
-                meta = {"role": role, "dataset": rec.name, "speed_m_s": f"{prof.known.U:g}", "imu_z_m": f"{prof.known.zbar_s:g}"}
+                meta = {
+                    "ship": prof.name,
+                    "role": role,
+                    "dataset": rec.name,
+                    "speed_m_s": f"{prof.known.U:g}",
+                    "imu_z_m": f"{prof.known.zbar_s:g}",
+                }
                 if role != "loaded":
                     meta.update({"load_kg": f"{d['load_kg']:g}", "load_z_m": f"{d['load_height']:g}"})
                 write_roll_csv(rec, tmp / f"{role}.csv", meta)

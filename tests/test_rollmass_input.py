@@ -339,20 +339,6 @@ def test_a_ship_slowing_in_its_turns_is_warned_with_its_measured_variation(files
     assert not [w for w in estimate_from_files(*files, method="ls").warnings if "speed varies" in w]
 
 
-def test_a_header_speed_far_from_the_default_profile_is_warned():
-    # stop 50's sweep: '# speed_m_s: 0.97' (0.5 m/s in knots) replaced the default profile's 0.5 with a note only
-    from dataclasses import replace
-
-    from identify.rollmass.api import default_speed_warnings
-
-    prof = load_profile()
-    fast = replace(prof, known=replace(prof.known, U=0.97))
-    (w,) = default_speed_warnings(prof, fast, default=True)
-    assert "speed_m_s 0.97" in w and "94 % off" in w and "knots" in w
-    assert default_speed_warnings(prof, replace(prof, known=replace(prof.known, U=0.55)), default=True) == []
-    assert default_speed_warnings(prof, fast, default=False) == []  # a given profile is refused earlier
-
-
 def _set_cell(row: int, col: str, text: str):
     def fn(header, rows):
         i = header.index(col)

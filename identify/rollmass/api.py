@@ -16,7 +16,15 @@ from identify.rollmass.model import Load, RollProfile, load_profile
 from identify.rollmass.output_error import start_values
 from identify.rollmass.recording import read_roll_csv
 from identify.rollmass.restoring import DEFAULT_HEEL_REFERENCE, HEEL_REFERENCES
-from identify.rollmass.signs import check_signs, expected_signs, gain_signs, rudder_scale_message, steady_gains
+from identify.rollmass.roles import loaded_message, measure_roles, role_message, role_verdict
+from identify.rollmass.signs import (
+    check_signs,
+    expected_signs,
+    gain_signs,
+    rudder_scale_message,
+    steady_gains,
+    yaw_scale_message,
+)
 from identify.rollmass.simulate import RollRecording
 from identify.rollmass.speed import SPEED_LP_HZ, SPEED_NOISE_RATIO, SPEED_VAR_MIN, followed_speed, speed_variation
 from primitives.errors import UserError
@@ -25,6 +33,7 @@ ROLES = ("nominal", "calibration", "loaded")
 SPEED_TOL = 0.25  # relative: recordings' speed vs the profile's, and between the three runs (turns slow a run)
 IMU_TOL = 0.005  # m
 LOAD_TOL = (0.001, 0.005)  # kg, m: --known-load vs the calibration file's header
+KNOT = 1852.0 / 3600.0  # m/s
 Z_WORDS = "z in metres, positive down from the waterline amidships (a load on deck is negative)"
 
 
@@ -138,6 +147,24 @@ def check_roles(paths: list[Path], metas: list[dict[str, str]]) -> list[Load | N
                 f"give the files in the order NOMINAL CALIBRATION LOADED"
             )
     return loads
+
+
+def check_ship(prof: RollProfile, paths: list[Path], metas: list[dict[str, str]], explicit: bool) -> None:
+    """Refuse recordings whose '# ship:' headers differ between the runs or name another ship than the
+    profile's (``[ship] name``): the fit would take the profile's hull, inertia and hydrodynamics for
+    another ship's (stop 52's sweep: '# ship: seed003_basin' with the default profile was read without a word)."""
+    said = [(p, m["ship"].strip()) for p, m in zip(paths, metas) if m.get("ship", "").strip()]
+    if len({s.lower() for _, s in said}) > 1:
+        raise UserError(
+            f"the recordings' '# ship:' headers differ ({', '.join(f'{p.name} {s}' for p, s in said)}); "
+            "the three runs must come from one ship"
+        )
+    if said and said[0][1].lower() != prof.name.lower():
+        fix = "correct the header or the profile's [ship] name" if explicit else "give that ship's roll profile with --profile"
+        raise UserError(
+            f"{said[0][0]}: header '# ship: {said[0][1]}' but the profile is {prof.name}'s "
+            f"({'--profile' if explicit else 'the default profile'}); {fix}"
+        )
 
 
 def _calibration_load(opt: Load | None, header: Load | None, path: Path) -> Load:
@@ -289,7 +316,8 @@ def check_recorded_signs(recs: list[RollRecording], prof: RollProfile, given: Ro
                 f"a_s, r and delta fit the profile's ship at its U = {U0:g} m/s, not at {U:g} m/s; correct the "
                 "header '# speed_m_s:' (the mean speed in m/s; knots read 1.94 times too high) or the profile"
             )
-        msg = msg or rudder_scale_message(rec, float(gain))
+        if msg is None and (rudder := rudder_scale_message(rec, float(gain))):
+            msg = yaw_scale_message(rec, dc) or rudder  # the turning gain fails for r in deg/s as for delta in degrees
         if msg:
             raise UserError(msg)
 
@@ -350,6 +378,7 @@ def estimate_from_files(
     read = [read_roll_csv(p) for p in paths]
     recs, metas = [r for r, _ in read], [m for _, m in read]
     loads = check_roles(paths, metas)
+    check_ship(prof, paths, metas, explicit=profile is not None)
     one_rate(recs, paths)
     if isinstance(known_load, str):
         known_load = parse_known_load(known_load)
@@ -365,7 +394,9 @@ def estimate_from_files(
     notes += speed_notes(recs, paths)
     recs, heel = heel_notes(recs, paths)
     notes += heel
+    before = default_speed_warnings(given, prof, profile is None, paths, metas)
     check_recorded_signs(recs, prof, given)
+    before += order_warnings(recs, paths, metas, prof, cal)
     try:
         e = estimate(
             recs, prof.known, cal, method, with_ci=True, z_f=z_f, start=start_values(prof), heel_reference=heel_reference
@@ -380,18 +411,49 @@ def estimate_from_files(
             "check --z-f, --known-load and that the three runs come from one ship"
         ) from None
     e.notes = notes + [n for r in recs for n in r.notes]
-    e.warnings += usability_warnings(e, prof) + slowing_warning(recs, paths, method)
-    e.warnings += default_speed_warnings(given, prof, profile is None)
+    e.warnings += usability_warnings(e, prof) + slowing_warning(recs, paths, method) + before
     return e
 
 
-def default_speed_warnings(given: RollProfile, prof: RollProfile, default: bool) -> list[str]:
-    """A warning when the recordings' header speed is more than SPEED_TOL off the speed of the
-    default profile's ship (a given profile that far off is refused by :func:`known_from_recordings`):
-    its hydrodynamic start values are that ship's at that speed, and knots read 1.94 times m/s."""
+def order_warnings(
+    recs: list[RollRecording], paths: list[Path], metas: list[dict[str, str]], prof: RollProfile, cal: Load
+) -> list[str]:
+    """Before the fit: do the runs' roll frequencies fit the roles their order gives them
+    (:mod:`identify.rollmass.roles`)? Files without '# role:' headers whose nominal-to-calibration change
+    contradicts the known load are refused (given in the wrong order they fit to half the load, a negative
+    one, or for minutes to no answer: stop 52), warned where the contradiction is in the band between the
+    right orders' tail and the refusal (:func:`roles.role_verdict`); with all three headers confirming the
+    order it is a warning naming the known load and the profile. A loaded run that rolls clearly faster than
+    the nominal is warned."""
+    rc = measure_roles(recs, prof, cal)
+    headed = all(m.get("role") for m in metas)
+    msg = role_message(rc, paths, cal, headed)
+    if msg and not headed and role_verdict(rc) == "refuse":
+        raise UserError(msg)
+    if msg:
+        return [msg]
+    loaded = None if headed else loaded_message(rc, paths)
+    return [loaded] if loaded else []
+
+
+def default_speed_warnings(
+    given: RollProfile, prof: RollProfile, default: bool, paths: list[Path], metas: list[dict[str, str]]
+) -> list[str]:
+    """Before the fit, the recordings' header speed against the default profile's ship (a given profile
+    that far off is refused by :func:`known_from_recordings`): refused when it is more than SPEED_TOL off
+    in m/s but within it read as knots (1 kn = KNOT m/s: the unit slip, whose fit otherwise ran at twice the
+    ship's speed and was warned only after it), warned when it is that far off otherwise (the profile's
+    hydrodynamic start values are its ship's at its speed)."""
     U, U0 = prof.known.U, given.known.U
     if not default or abs(U / U0 - 1) <= SPEED_TOL:
         return []
+    said = [(p, m["speed_m_s"]) for p, m in zip(paths, metas) if "speed_m_s" in m]
+    if abs(U * KNOT / U0 - 1) <= SPEED_TOL:
+        raise UserError(
+            f"{said[0][0]}: header '# speed_m_s: {said[0][1]}' is {100 * (U / U0 - 1):+.0f} % off the default profile's "
+            f"U = {U0:g} m/s and reads as knots ({U:g} kn = {U * KNOT:.3g} m/s): give the speed in m/s in the "
+            "'# speed_m_s:' header of every file, or give the ship's --profile"
+        )
     return [
         f"the recordings' speed_m_s {U:g} m/s is {100 * abs(U / U0 - 1):.0f} % off the default profile's U = {U0:g} m/s "
         "(Our Lass II at its basin speed): check the header '# speed_m_s:' (m/s, not knots) or give the ship's --profile"

@@ -49,6 +49,17 @@ MAX_PHI = 1.0  # rad: a roll angle column beyond it is in degrees (or the ship c
 MAX_T = 1.0  # s: the sign checks' roll band reaches 0.45 Hz, under the Nyquist frequency 1 / (2 T) for T < 1.11 s
 MIN_ROWS = 100
 META_KEYS = ("role", "speed_m_s", "imu_z_m", "imu_x_m", "load_kg", "load_z_m", "ship", "dataset", "sample_time")
+META_WHAT = {
+    "role": "nominal, calibration or loaded",
+    "speed_m_s": "mean speed, m/s",
+    "imu_z_m": "IMU z, m, positive down",
+    "imu_x_m": "IMU x, m, forward of midship",
+    "load_kg": "load, kg",
+    "load_z_m": "load z, m, positive down",
+    "ship": "the profile's ship name",
+    "dataset": "a name",
+    "sample_time": "s",
+}
 
 
 def _closest(name: str, spelling: bool = True) -> str | None:
@@ -101,6 +112,7 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
     path = Path(path)
     lines = read_input_text(path, RecordingError, "a roll recording CSV (t, delta, p, a_s, r)").splitlines()
     meta, body = split_metadata(lines)
+    header_notes = _header_keys(path, meta)
     if not body:
         raise RecordingError(f"{path}: no header row; expected columns {','.join(REQUIRED)}")
     rows = list(csv.reader(body))
@@ -116,7 +128,7 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
     if missing:
         raise RecordingError(_missing_message(path, header, missing))
     _refuse_renamed_optional(path, header)
-    notes = []
+    notes = header_notes
     for h in header:
         if h not in REQUIRED + OPTIONAL:
             near = _closest(h)
@@ -154,6 +166,25 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
         name=path.name, T=T, delta=col["delta"], p=col["p"], a_s=col["a_s"], r=col["r"], phi=phi, notes=notes, u=u
     )
     return rec, meta
+
+
+def _header_keys(path: Path, meta: dict[str, str]) -> list[str]:
+    """Refuse a header key that is one of :data:`META_KEYS` misspelt or in another case (``imu_z``,
+    ``speed``, ``Speed_m_s``) while the file lacks that key: it was ignored and the profile's value used
+    instead (stop 52's sweep: '# imu_z: -0.05' left the IMU at the profile's -0.09 m without a word); any
+    other key is named in a note. ``load_height_m`` is refused as ambiguous by the mass API."""
+    notes = []
+    for key, value in meta.items():
+        if key in META_KEYS or key == "load_height_m":
+            continue
+        near = difflib.get_close_matches(key.lower(), META_KEYS, n=1, cutoff=0.7)
+        if near and near[0] not in meta:
+            raise RecordingError(
+                f"{path}: header '# {key}: {value}' is not a key mass reads; did you mean '# {near[0]}:' "
+                f"({META_WHAT[near[0]]})? rename it (known keys: {', '.join(META_KEYS)})"
+            )
+        notes.append(f"{path.name}: header '# {key}:' is not read (known keys: {', '.join(META_KEYS)})")
+    return notes
 
 
 def _refuse_renamed_optional(path: Path, header: list[str]) -> None:

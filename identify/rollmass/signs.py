@@ -31,6 +31,9 @@ RUDDER_SCALE = 10.0  # rudder_scale_message's factor: a unit error, not a ship (
 # cut from the bundled example the rudder's ratio read 36-427 with delta in radians (review of stop 50); 6 s
 # and more read as the whole file
 MIN_SCALE_S = 10.0
+# the low-band a_s / r slope over the profile's steady a_s / r gain, below which r is in deg/s, not a ship: 0.148-2.02
+# on 560 basin-truth recordings (7 variants x 20 runs x 4 datasets, stop 52); r in deg/s divides it by 57 (<= 0.035)
+YAW_SCALE_MIN = 0.05
 G = 9.81  # m/s^2 (the profile's g is 9.81 too; the check's bound is a factor 3)
 SHIP_SIGN = "ship sign: roll positive starboard down, yaw positive to starboard, a_s as eq. (7)"
 
@@ -113,6 +116,25 @@ def rudder_scale_message(rec: RollRecording, gain: float) -> str | None:
     return (
         f"{rec.name}: column 'delta' is {abs(k):.3g} times the rudder angle the profile's ship turns with as recorded "
         f"(0.4-1.2 on ships like it; degrees give about 0.012): give delta in radians"
+    )
+
+
+def yaw_scale_message(rec: RollRecording, dc: np.ndarray) -> str | None:
+    """``None`` or a one-line message when the accelerometer's turn answers ``r`` under YAW_SCALE_MIN times as
+    strongly as the profile's steady gains ``dc`` (:func:`steady_gains`) say: a yaw rate in deg/s. Asked
+    where the rudder's scale check fails, which cannot tell an ``r`` in deg/s from a ``delta`` in degrees
+    (stop 52's sweep: ``r`` in deg/s was refused as "column 'delta' is 41 times ...")."""
+    T = rec.T
+    s = _trimmed(rec)
+    a, r = _band(rec.a_s, T, None, 0.15)[s], _band(rec.r, T, None, 0.15)[s]
+    if not (np.dot(r, r) > 0 and dc[2] != 0 and dc[1] != 0):
+        return None
+    k = float(np.dot(a, r) / np.dot(r, r)) / float(dc[1] / dc[2])
+    if abs(k) >= YAW_SCALE_MIN:
+        return None
+    return (
+        f"{rec.name}: column 'r' is {1 / abs(k):.3g} times the yaw rate the accelerometer's turns say (0.5-7 on ships "
+        "like it; deg/s give about 57 more): give r in rad/s"
     )
 
 

@@ -1,0 +1,157 @@
+"""Do the three recordings play the roles their order gives them? A check before the fit.
+
+A load changes the ship's roll: its weight at ``zbar_m`` changes the restoring ``C`` by
+``m g (zbar_m - zbar_b)`` and its inertia ``A1`` by ``m z_m^2`` (Linder et al. 2015, (3)-(4)), so
+the roll mode's squared natural frequency ``w^2 ~ C / A1`` falls for a load above the roll centre
+and rises for one below it. The known load of the calibration run is known, so the profile predicts
+how much ``w^2`` changes from the nominal run to the calibration run (the roll mode of the ``oe``
+model, :func:`predicted_change`); each recording gives its own ``w^2`` (:func:`roll_stiffness`).
+A change of the wrong sign or about twice the size predicted is what files given in the wrong order
+look like (the loaded run as the nominal, or the 0.4 kg run as the 0.2 kg one).
+
+Measured on the independent basin truth (``benchmarks/bench_rollmass_roles.py``, docs/mass-accuracy.md,
+stop 52): the measured-to-predicted ratio of correctly ordered files and of every permutation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from identify.rollmass.model import Load, RollProfile
+from identify.rollmass.output_error import model_matrices, start_values
+from identify.rollmass.simulate import RollRecording
+from primitives.iir import butter, filtfilt  # scipy.signal's, without its import
+
+BAND_HZ = (0.1, 2.0)  # the roll band: the roll mode (0.45-0.65 Hz on Our Lass II, loaded or not) with room either side
+EDGE_S = 10.0  # s cut at each end: the zero-phase filter's edges
+INSTRUMENT_LAGS_S = (0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0)  # rudder lags: the roll's response to it within a period or two
+# the measured / predicted change of log w^2 from the nominal to the calibration run: outside REFUSE_RANGE the
+# files are in the wrong roles (refused), outside WARN_RANGE they may be (warned). Bounds from the basin truth
+# (docs/mass-accuracy.md, stop 52; 100 runs x 7 variants x 3 cases): right orders 0.50-1.71 (0.1 % quantiles
+# 0.54, 1.62), the 0.4 kg run given as the 0.2 kg one 1.48-2.36 (1 % quantile 1.77), orders with the nominal run
+# not first -0.76-0.41 where the calibration check judges them
+REFUSE_RANGE = (0.4, 1.8)
+WARN_RANGE = (0.5, 1.6)
+MIN_PREDICTED = 0.05  # |log w^2 change| the known load must cause to be judged (the measured change's sd: 0.01-0.03)
+MIN_LOADED_RISE = 0.08  # log w^2 rise of the loaded run over the nominal that is judged (0.4 kg lowered it 0.44)
+
+
+@dataclass(frozen=True)
+class RoleCheck:
+    """The measured and predicted changes of ``log w^2`` from the nominal run (slot 1)."""
+
+    w2: tuple[float, float, float]  # [rad^2/s^2] of the three recordings, in the order given
+    predicted: float  # log(w2_cal / w2_nom) the known load should cause (profile's oe model)
+
+    @property
+    def measured(self) -> float:
+        return float(np.log(self.w2[1] / self.w2[0]))
+
+    @property
+    def loaded(self) -> float:
+        return float(np.log(self.w2[2] / self.w2[0]))
+
+    @property
+    def ratio(self) -> float:
+        return self.measured / self.predicted
+
+
+def _band(x: np.ndarray, T: float) -> np.ndarray:
+    b, a = butter(2, list(BAND_HZ), btype="bandpass", fs=1.0 / T)
+    return filtfilt(b, a, x - x.mean())
+
+
+def _lag(x: np.ndarray, k: int) -> np.ndarray:
+    return np.r_[np.zeros(k), x[: len(x) - k]]
+
+
+def roll_stiffness(rec: RollRecording) -> float:
+    """The roll mode's squared natural frequency ``w^2`` [rad^2/s^2] of one recording: ``p' = -w^2 phi
+    - 2 zeta w p + b_r r + b_delta delta`` in the roll band (``phi`` the integrated ``p``, ``p'`` by central
+    differences; a linear filter commutes with the linear equation), fitted by two-stage least squares with the
+    rudder's lags and ``r`` as instruments: least squares is biased by the unmeasured wave moment, which
+    drives ``phi`` and ``p`` near the roll mode (the basin truth's `combined` variant: a nominal run's ``w^2``
+    14 % low)."""
+    T = rec.T
+    phi = np.cumsum(rec.p - rec.p.mean()) * T
+    f = {k: _band(x, T) for k, x in (("phi", phi), ("p", rec.p), ("r", rec.r), ("delta", rec.delta))}
+    cut = int(EDGE_S / T)
+    s = slice(cut, -cut) if rec.n > 4 * cut else slice(None)
+    y = np.gradient(f["p"], T)[s]
+    X = np.column_stack([f["phi"], f["p"], f["r"], f["delta"]])[s]
+    Z = np.column_stack([_lag(f["delta"], int(round(lag / T))) for lag in INSTRUMENT_LAGS_S] + [f["r"]])[s]
+    X_hat = Z @ np.linalg.lstsq(Z, X, rcond=None)[0]
+    return float(-np.linalg.lstsq(X_hat, y, rcond=None)[0][0])
+
+
+def predicted_change(prof: RollProfile, cal: Load) -> float:
+    """``log(w2_cal / w2_nom)``: the known load's change of the roll mode's squared natural frequency, the
+    complex pair's ``|lambda|^2`` of the ``oe`` model (:func:`output_error.model_matrices`) at the
+    profile's start values and ``z_f`` prior."""
+    v, kn = start_values(prof), prof.known
+
+    def w2(load: Load) -> float:
+        ev = np.linalg.eigvals(model_matrices(v, kn, kn.z_f_prior, load)[0])
+        return float(np.max(np.abs(ev[np.abs(ev.imag) > 0]) ** 2))
+
+    return float(np.log(w2(cal) / w2(Load(0.0, 0.0))))
+
+
+def measure_roles(recs: list[RollRecording], prof: RollProfile, cal: Load) -> RoleCheck:
+    """The three recordings' ``w^2`` and the change the known load predicts."""
+    return RoleCheck(tuple(roll_stiffness(r) for r in recs), predicted_change(prof, cal))
+
+
+def role_verdict(rc: RoleCheck) -> str | None:
+    """``"refuse"`` when the nominal-to-calibration change is outside :data:`REFUSE_RANGE` of the predicted one,
+    ``"warn"`` outside :data:`WARN_RANGE`, None when it fits or the known load is too small to judge."""
+    if not np.all(np.isfinite(rc.w2)) or min(rc.w2) <= 0 or abs(rc.predicted) < MIN_PREDICTED:
+        return None
+    if not REFUSE_RANGE[0] <= rc.ratio <= REFUSE_RANGE[1]:
+        return "refuse"
+    return None if WARN_RANGE[0] <= rc.ratio <= WARN_RANGE[1] else "warn"
+
+
+def role_message(rc: RoleCheck, paths: list[Path], cal: Load, headed: bool = False) -> str | None:
+    """One line when the nominal-to-calibration change contradicts the known load: of the wrong sign, far
+    too small or about twice the size (:func:`role_verdict`). ``headed``: all three files' ``# role:`` headers
+    confirm the order, so the known load or the profile is named instead of the order."""
+    verdict = role_verdict(rc)
+    if verdict is None:
+        return None
+    said = (
+        f"the roll's natural frequency squared changes by {_pct(rc.measured)} from {paths[0].name} (the nominal run) "
+        f"to {paths[1].name} (the calibration run), but the known load {cal.m:g} kg at z {cal.zbar:+g} m should "
+        f"change it by {_pct(rc.predicted)} (the profile's ship)"
+    )
+    if headed:
+        return f"{said}: check the known load (--known-load or the calibration header) and the profile"
+    if verdict == "warn":
+        return (
+            f"{said}: the files may be given in the wrong roles (the order must be NOMINAL CALIBRATION LOADED) or the "
+            "known load is off; the answer assumes this order (add '# role:' header lines to say it is right)"
+        )
+    return (
+        f"{paths[1]}: {said}: the files look given in the wrong roles; give them in the order NOMINAL CALIBRATION "
+        "LOADED (or correct the known load), or add '# role:' header lines if this order is right"
+    )
+
+
+def loaded_message(rc: RoleCheck, paths: list[Path]) -> str | None:
+    """A warning when the loaded run rolls clearly faster than the nominal run while the calibration check
+    holds: only a load below the roll centre does that; the calibration and loaded runs given as the
+    nominal and calibration ones (the nominal run last) read so, and fit to a negative mass."""
+    if not np.all(np.isfinite(rc.w2)) or min(rc.w2) <= 0 or rc.loaded < MIN_LOADED_RISE:
+        return None
+    return (
+        f"{paths[2].name} (the loaded run) rolls faster than {paths[0].name} (the nominal run): its natural "
+        f"frequency squared is {_pct(rc.loaded)} higher, which only a load below the roll centre gives; if the load "
+        "is not that low, the files are in the wrong roles: give them in the order NOMINAL CALIBRATION LOADED"
+    )
+
+
+def _pct(log_change: float) -> str:
+    return f"{100 * np.expm1(log_change):+.0f} %"
