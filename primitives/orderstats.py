@@ -6,7 +6,9 @@
 thresholds' quantiles). These follow numpy 2's ``_median`` and ``_quantile`` (method "linear", Hyndman and Fan's 7th)
 step by step: the same partition, order statistics and interpolation ``_lerp``, so the same bits
 (tests/test_orderstats.py against numpy on odd and even sizes, ties, signed zeros, infinities and NaN). Anything else
-(another dtype, an array subclass, a 0-d or empty array, an array of quantiles) is numpy's own call.
+(another dtype, an array subclass, a 0-d or empty array, an array of quantiles) is numpy's own call, and so is
+every call under a numpy older than the one whose steps these follow (:data:`FOLLOWS_NUMPY`): ``_lerp``'s ``out=...``
+is numpy >= 2.3's, and the bits were checked against numpy 2.4.
 """
 
 from __future__ import annotations
@@ -14,8 +16,12 @@ from __future__ import annotations
 import numpy as np
 
 
+# the numpy whose _median / _quantile steps these repeat (checked to the bit on 2.4.6); older ones get their own call
+FOLLOWS_NUMPY = np.lib.NumpyVersion(np.__version__) >= "2.4.0"
+
+
 def _plain(a: np.ndarray) -> bool:
-    return type(a) is np.ndarray and a.ndim > 0 and a.size > 0 and a.dtype.kind == "f"
+    return FOLLOWS_NUMPY and type(a) is np.ndarray and a.ndim > 0 and a.size > 0 and a.dtype.kind == "f"
 
 
 def median(x: np.ndarray) -> np.floating:

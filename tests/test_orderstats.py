@@ -66,6 +66,20 @@ def test_other_inputs_are_numpys_own_call():
         assert np.isnan(median(np.array([])))
 
 
+def test_an_older_numpy_gets_its_own_call(monkeypatch):
+    """Under a numpy older than the steps followed (orderstats.FOLLOWS_NUMPY false: numpy 2.2's ufuncs have no
+    ``out=...``), every call is numpy's own, not a TypeError."""
+    import primitives.orderstats as orderstats
+
+    calls = []
+    monkeypatch.setattr(orderstats, "FOLLOWS_NUMPY", False)
+    monkeypatch.setattr(orderstats.np, "quantile", lambda *a, **k: calls.append("quantile") or np.float64(7.0))
+    monkeypatch.setattr(orderstats.np, "median", lambda *a, **k: calls.append("median") or np.float64(8.0))
+    x = np.arange(50.0).reshape(25, 2)
+    assert quantile(x, 0.9, axis=0) == 7.0 and median(x) == 8.0
+    assert calls == ["quantile", "median"]
+
+
 def test_a_detect_run_does_not_import_numpy_ma(tmp_path):
     """Loading a recording and the thresholds' quantiles no longer import numpy.ma (15-22 ms of a detect process):
     a ``shiptrial detect`` process on a recording has not imported it when it ends."""
