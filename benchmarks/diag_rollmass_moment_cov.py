@@ -16,32 +16,33 @@ import numpy as np
 from identify.rollmass import estimate as est
 from identify.rollmass.api import estimate_from_files
 
-seen = {}
-orig_qr = np.linalg.qr
+
+def main(example: str, methods: list[str]) -> None:
+    """Per method: the sandwich's worst error over ``sd_i sd_j`` through ``inv(J^T J)`` and through the QR."""
+    from unittest import mock
+
+    seen: dict[str, np.ndarray] = {}
+    orig_qr, mc = np.linalg.qr, est._Problem.moment_cov
+
+    def qr(a, *k, **kw):  # the Jacobian the moment method factors
+        seen["J"] = np.array(a)
+        return orig_qr(a, *k, **kw)
+
+    def moment_cov(self, x):
+        seen["S"] = mc(self, x)
+        return seen["S"]
+
+    E = example.rstrip("/") + "/"
+    with mock.patch.object(est.np.linalg, "qr", qr), mock.patch.object(est._Problem, "moment_cov", moment_cov):
+        for method in methods:
+            estimate_from_files(E + "nominal.csv", E + "calibration.csv", E + "loaded.csv", method=method)
+            print(_errors(method, seen["J"], seen["S"]))
 
 
-def qr(a, *k, **kw):
-    seen["J"] = np.array(a)
-    return orig_qr(a, *k, **kw)
-
-
-est.np.linalg.qr = qr
-mc = est._Problem.moment_cov
-
-
-def moment_cov(self, x):
-    seen["S"] = mc(self, x)
-    return seen["S"]
-
-
-est._Problem.moment_cov = moment_cov
-E = sys.argv[1].rstrip("/") + "/"
-for method in sys.argv[2:]:
-    estimate_from_files(E + "nominal.csv", E + "calibration.csv", E + "loaded.csv", method=method)
-    J, S = seen["J"], seen["S"]
+def _errors(method: str, J: np.ndarray, S: np.ndarray) -> str:
     A = np.linalg.inv(J.T @ J)
     old = A @ J.T @ S @ J @ A
-    Q, R = orig_qr(J)
+    Q, R = np.linalg.qr(J)
     B = np.linalg.solve(R, Q.T)
     new = B @ S @ B.T
     mp.mp.dps = 50
@@ -49,6 +50,11 @@ for method in sys.argv[2:]:
     Bm = (Jm.T * Jm) ** -1 * Jm.T
     ref = np.array((Bm * Sm * Bm.T).tolist(), dtype=float)
     d = np.sqrt(np.diag(ref))
-    print(
-        f"{method}: J {J.shape}, cond(J^T J) {np.linalg.cond(J.T @ J):.2g}; max |error| / (sd_i sd_j): inv {np.max(np.abs(old - ref) / np.outer(d, d)):.2g}, QR {np.max(np.abs(new - ref) / np.outer(d, d)):.2g}"
+    return (
+        f"{method}: J {J.shape}, cond(J^T J) {np.linalg.cond(J.T @ J):.2g}; max |error| / (sd_i sd_j): "
+        f"inv {np.max(np.abs(old - ref) / np.outer(d, d)):.2g}, QR {np.max(np.abs(new - ref) / np.outer(d, d)):.2g}"
     )
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2:])

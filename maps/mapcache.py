@@ -62,7 +62,10 @@ def load_map_kept(path: str | Path | None = None, *, draught_m: float = 0.0, ukc
     if k is not None and directory is not None and key(path, draught_m=draught_m, ukc_m=ukc_m, repair=repair) == k:
         from maps.export.chart import chart_of
 
-        chart = chart_of(sea)
+        try:
+            chart = chart_of(sea)
+        except Exception:  # noqa: BLE001 - the chart is the exports': their own call makes it, or says what fails
+            chart = None
         plancache.store_blob(Path(directory), f"{k}.map", (k, sea, chart))
         _CHARTS.clear()
         _CHARTS[id(sea)] = (sea, chart)
@@ -80,6 +83,6 @@ def kept_chart(sea: SeaMap) -> Any:
     from maps.export.chart import chart_of
 
     kept = _CHARTS.get(id(sea))
-    if kept is not None and kept[0] is sea:
+    if kept is not None and kept[0] is sea and kept[1] is not None:
         return kept[1]
     return chart_of(sea)

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import numpy as np
 
-
 # the numpy whose _median / _quantile steps these repeat (checked to the bit on 2.4.6); older ones get their own call
 FOLLOWS_NUMPY = np.lib.NumpyVersion(np.__version__) >= "2.4.0"
 

@@ -158,3 +158,36 @@ def test_kept_chart_is_the_chart_of_the_map(cache, monkeypatch):
     other = load_map(path, draught_m=6.0)  # not the map the cache returned: charted now, the same bits
     assert mapcache.kept_chart(other) is not mapcache.kept_chart(read)
     assert _chart_bits(mapcache.kept_chart(other)) == _chart_bits(fresh)
+
+
+def test_a_chart_that_fails_does_not_fail_the_map(cache, monkeypatch):
+    # review of stop 52: the chart is the exports'; a map is kept and planned on even when charting it raises, and
+    # the exports' own call makes it (here: raises again, where the export reports it)
+    import maps.export.chart as chart_mod
+    from maps.geo import bundled_map_path
+
+    def broken(*a, **k):
+        raise ValueError("no chart")
+
+    monkeypatch.setattr(chart_mod, "chart_of", broken)
+    path = bundled_map_path("helsinki")
+    sea = mapcache.load_map_kept(path, draught_m=6.0)
+    assert mapcache.load_map_kept(path, draught_m=6.0) is not sea  # kept: read back from its entry
+    with pytest.raises(ValueError, match="no chart"):
+        mapcache.kept_chart(sea)
+    monkeypatch.undo()
+    assert _chart_bits(mapcache.kept_chart(sea)) == _chart_bits(chart_mod.chart_of(load_map(path, draught_m=6.0)))
+
+
+def test_an_entry_of_the_code_before_is_loaded_again(cache):
+    # review of stop 52: an entry written before the chart was kept with the map (key, map) is no entry: loaded and
+    # rewritten with its chart, no error
+    from maps import plancache
+    from maps.geo import bundled_map_path
+
+    path = bundled_map_path("helsinki")
+    k = mapcache.key(path, draught_m=6.0, ukc_m=0.5, repair=True)
+    directory = plancache.default_dir()
+    plancache.store_blob(directory, f"{k}.map", (k, load_map(path, draught_m=6.0)))
+    sea = mapcache.load_map_kept(path, draught_m=6.0)
+    assert len(plancache.load_blob(directory, f"{k}.map")) == 3 and mapcache.kept_chart(sea) is not None

@@ -89,8 +89,9 @@ def test_a_load_the_data_do_not_resolve_gives_a_reason_not_a_number():
 
 
 def test_the_fit_says_when_its_load_is_unresolved(monkeypatch):
-    """In the fit: not converged, the reason in its message, no interval (here by a resolution bound no Jacobian
-    meets; each LM a stub that stays at its start, as tests/test_rollmass_oe_fit.py's)."""
+    """In the fit: still converged (stationarity alone decides that, so the exact-Jacobian fit is kept, not redone on
+    forward differences), no interval, and a warning saying why (here by a resolution bound no Jacobian meets; each
+    LM a stub that stays at its start, as tests/test_rollmass_oe_fit.py's)."""
     prof = load_profile()
     data = simulate_case(prof, "case2", Noise.from_profile(prof, 0.05), seed=3, length_factor=0.3)
 
@@ -98,13 +99,24 @@ def test_the_fit_says_when_its_load_is_unresolved(monkeypatch):
         f = prob.residual(x0)
         return OptimizeResult(x=x0, fun=f, cost=0.5 * f @ f, jac=prob.jacobian(x0), success=True, status=2, message="stub")
 
+    def no_redo(prob, x0, tol):
+        raise AssertionError("a converged fit was redone on forward differences")
+
     monkeypatch.setattr(fit, "_lm_exact", stays)
-    monkeypatch.setattr(fit, "_lm", stays)  # the redo on forward differences an unconverged fit asks for
+    monkeypatch.setattr(fit, "_lm", no_redo)
     monkeypatch.setattr(fit, "FINISH_STEPS", 0)
+    monkeypatch.setattr(fit, "STATIONARY", np.inf)  # the stub's point counts as stationary
     monkeypatch.setattr(sw, "LOAD_KAPPA_MAX", 0.5)  # kappa >= 1 always
     e = estimate(data, prof.known, Load(0.2, -0.256), "oe", with_ci=True, start=oe.start_values(prof))
-    assert not e.converged and np.isnan(e.m_sd)
-    assert any("do not resolve the load" in w for w in e.warnings), e.warnings
+    assert e.converged and np.isnan(e.m_sd)
+    assert not any("did not converge" in w for w in e.warnings), e.warnings
+    assert any(w.startswith("oe: the data do not resolve the load") and "no interval" in w for w in e.warnings), e.warnings
+
+
+def test_a_wide_jacobian_is_unresolved():
+    """Fewer residuals than parameters: refused, never the reduced R's wrong trailing block."""
+    with pytest.raises(sw.UnresolvedLoad, match="4 residuals for 6 parameters"):
+        sw.load_basis(np.random.default_rng(0).standard_normal((4, 6)))
 
 
 # main's (d64035a) `shiptrial mass` on `mass-sim --case case1 --seed 3`: the two printed lines and --json's

@@ -384,6 +384,8 @@ def _oe(
     )
     if not f.converged:
         est.warnings.append(f"oe: the fit did not converge ({f.message})")
+    if with_ci and f.no_interval:
+        est.warnings.append(f"oe: {f.no_interval}")
     if with_ci and np.all(np.isfinite(f.cov_load)):
         est.m_sd, est.zbar_m_sd = float(np.sqrt(f.cov_load[0, 0])), float(np.sqrt(f.cov_load[1, 1]))
         est.corr = float(f.cov_load[0, 1] / (est.m_sd * est.zbar_m_sd))
@@ -432,7 +434,7 @@ def _finish(method: str, prob: _Problem, x0: np.ndarray, with_ci: bool) -> MassE
         # (J^T J)^-1 J^T = R^-1 Q^T (J = Q R): the sandwich without forming J^T J, whose condition is cond(J)^2
         Q, R = np.linalg.qr(res.jac)
         try:
-            B = np.linalg.solve(R, Q.T)  # upper triangular: back substitution
+            B = np.linalg.solve(R, Q.T)  # LU of a triangular R: back substitution in effect
         except np.linalg.LinAlgError:
             est.warnings.append(f"{method}: singular Jacobian, no confidence intervals")
             return est

@@ -248,7 +248,7 @@ def _fit(
             ]
             sd = np.array([[fir(ar[i][j], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
             w = 1.0 / np.maximum(sd, 1e-12)
-    J, dec, cov_load, dof = res.jac, float("nan"), np.full((2, 2), np.nan), np.full(2, np.inf)
+    J, dec, cov_load, dof, no_interval = res.jac, float("nan"), np.full((2, 2), np.nan), np.full(2, np.inf), ""
     # an LM stopped by its evaluation cap is judged by the stationarity check below (with_cov), not by its flag
     ok = (bool(res.success) or (with_cov and res.status == 0)) and bool(np.all(np.isfinite(x))) and float(res.cost) < 1e5
     message = str(res.message)
@@ -268,8 +268,8 @@ def _fit(
             # McCaffrey 2002) from the decrement's QR of this J: one factorisation of the final Jacobian
             interval = load_interval(basis, f, [d.n for d in datasets], lags)
             cov_load, dof = interval.cov, interval.dof
-        except UnresolvedLoad as err:  # an interval rounding would decide: none, and the fit says why
-            ok, message = False, f"{message}; {err}"
+        except UnresolvedLoad as err:  # an interval rounding would decide: none, and the estimate says why; the
+            no_interval = str(err)  # point stays this fit's (converged is stationarity's alone: no redo)
         except np.linalg.LinAlgError:
             pass
     v = prob.values(x)
@@ -288,4 +288,5 @@ def _fit(
         noise_sd=sd,
         noise=(w, ar),
         dof=dof,
+        no_interval=no_interval,
     )

@@ -116,6 +116,7 @@ class OEFit:
     noise: tuple  # (weights, whitening filters) the fit ended with
     # Satterthwaite degrees of freedom of (m, zbar_m)'s variances (sandwich.LoadMoments.dof); inf: none computed (1.96)
     dof: np.ndarray = field(default_factory=lambda: np.full(2, np.inf))
+    no_interval: str = ""  # why a converged fit has no interval (sandwich.UnresolvedLoad), else empty
 
 
 def start_values(prof: RollProfile) -> dict[str, float]:

@@ -75,7 +75,7 @@ class UnresolvedLoad(np.linalg.LinAlgError):
     A ``LinAlgError``, as a singular ``J^T J`` was, so that callers catching that catch this."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # numpy arrays: no == or hash
 class LoadBasis:
     """A fit's Jacobian ``J`` (rows: each dataset's samples x 3 channels, then prior rows; the load ``m``,
     ``zbar_m`` its last two columns) with its QR factors ``J = Q R`` (Golub & Van Loan 2013, sec. 5.2.2): what the
@@ -99,11 +99,12 @@ class LoadBasis:
         the last two rows of ``R^-1`` are ``[0, R_ll^-1]`` (``R_ll`` the trailing 2 x 2 block), so ``u = Q_l
         R_ll^-T``, ``Q_l`` the last two columns of ``Q``. Raises :class:`UnresolvedLoad` past :data:`LOAD_KAPPA_MAX`."""
         kappa = self.kappa
-        if not np.all(kappa <= LOAD_KAPPA_MAX):
+        bad = [name for name, k in zip(("m", "zbar_m"), kappa) if not k <= LOAD_KAPPA_MAX]
+        if bad:
             raise UnresolvedLoad(
-                f"the data do not resolve the load from the other parameters (its Jacobian columns m, zbar_m lie "
-                f"within {1 / np.max(kappa):.1e} rad of the others' span, 1/sin {np.max(kappa):.2g} > "
-                f"{LOAD_KAPPA_MAX:.0e}): no interval"
+                f"the data do not resolve the load from the other parameters (the Jacobian column of "
+                f"{' and '.join(bad)} is within sin {1 / np.max(kappa):.1e} of the span of the columns before it, "
+                f"1/sin {np.max(kappa):.2g} > {LOAD_KAPPA_MAX:.0e}): no interval"
             )
         return np.linalg.solve(self.R[-2:, -2:], self.Q[:, -2:].T).T
 
@@ -115,6 +116,8 @@ class LoadBasis:
 
 def load_basis(J: np.ndarray) -> LoadBasis:
     """The Jacobian's :class:`LoadBasis` (one QR, numpy's reduced ``qr``: Householder, LAPACK ``dgeqrf``)."""
+    if J.shape[0] < J.shape[1]:  # a wide J's reduced R is not square: its trailing block is not the load's
+        raise UnresolvedLoad(f"{J.shape[0]} residuals for {J.shape[1]} parameters: the load is not resolved, no interval")
     Q, R = np.linalg.qr(J)
     return LoadBasis(J, Q, R)
 
@@ -127,7 +130,7 @@ def sandwich_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) ->
     bilinear in the columns and ``J R^-1 = Q``), never ``A^-1``: the error is ``eps cond(J)``, not ``eps cond(J)^2``.
     """
     Q, R = np.linalg.qr(J)
-    Rinv = np.linalg.solve(R, np.eye(len(R)))  # upper triangular: back substitution, no pivoting
+    Rinv = np.linalg.solve(R, np.eye(len(R)))  # LU of a triangular R: no row swaps, back substitution in effect
     return Rinv @ _meat(Q, f, lengths, lags) @ Rinv.T
 
 
@@ -156,7 +159,7 @@ def load_decrement(basis: LoadBasis, f: np.ndarray, lengths: list[int], lags: in
         return float("nan")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # numpy arrays: no == or hash
 class LoadMoments:
     """The load's (``m``, ``zbar_m``) meat moments under the white working error (:func:`load_moments`)."""
 
@@ -224,7 +227,7 @@ def load_moments(basis: LoadBasis, lengths: list[int], lags: int) -> LoadMoments
     return LoadMoments(ev, t2, basis.var)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # numpy arrays: no == or hash
 class LoadInterval:
     """What the fit reports of the load's (``m``, ``zbar_m``) uncertainty, from one :class:`LoadBasis`."""
 
@@ -248,17 +251,18 @@ def load_interval(basis: LoadBasis, f: np.ndarray, lengths: list[int], lags: int
 
 
 def load_cov(J: np.ndarray, f: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
-    """:attr:`LoadInterval.cov` of ``J`` (one QR; the fit calls :func:`load_interval` on the basis it has)."""
+    """:attr:`LoadInterval.cov` of ``J`` (one QR; the fit calls :func:`load_interval` on the basis it has: this one
+    is for the tests' and benchmarks' wrappers, which take a Jacobian)."""
     return load_interval(load_basis(J), f, lengths, lags).cov
 
 
 def leverage_factors(J: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
-    """:attr:`LoadMoments.rho` of ``J`` (one QR)."""
+    """:attr:`LoadMoments.rho` of ``J`` (one QR; for tests and benchmarks)."""
     return load_moments(load_basis(J), lengths, lags).rho
 
 
 def load_dof(J: np.ndarray, lengths: list[int], lags: int) -> np.ndarray:
-    """:attr:`LoadMoments.dof` of ``J`` (one QR)."""
+    """:attr:`LoadMoments.dof` of ``J`` (one QR; for tests and benchmarks)."""
     return load_moments(load_basis(J), lengths, lags).dof
 
 
