@@ -132,6 +132,32 @@ def test_kept_first_design_is_keyed_by_every_design_option(tmp_path, monkeypatch
     assert _bits(a, profile) == _bits(first_design(profile, parameter_prior=prior, **robust), profile)
 
 
+def test_kept_first_design_is_keyed_by_a_file_priors_draws(tmp_path, monkeypatch):
+    # review of stop 52: a --prior-file prior (fixed draws, no sampler) is keyed by its pickle's digest: two priors
+    # that differ only in their draws get two entries, each first_design's bits; the same draws read again are served
+    from expdesign.prior import ParameterPrior, make_prior
+
+    profile = load_profile("full-scale")
+    spread = make_prior(profile, 0.2, None, 12, 0)
+    a = ParameterPrior(spread.centre, spread.draws, "file a.json")
+    b = ParameterPrior(spread.centre, spread.draws * (1 + 1e-3), "file a.json")
+    robust = dict(criterion="bayes-D", mean_subtraction="complete", trial_length_s=1800.0, seed=0)
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    for prior in (a, b):
+        kept = librarycache.kept_first_design(profile, parameter_prior=prior, **robust)
+        assert _bits(kept, profile) == _bits(first_design(profile, parameter_prior=prior, **robust), profile)
+    assert len(list(tmp_path.glob("*.moves"))) == 3  # the library and one design a prior
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("designed again")
+
+    monkeypatch.setattr(librarycache, "first_design", refuse)
+    again = ParameterPrior(spread.centre.copy(), spread.draws.copy(), "file a.json")
+    assert _bits(librarycache.kept_first_design(profile, parameter_prior=again, **robust), profile) == _bits(
+        first_design(profile, parameter_prior=a, **robust), profile
+    )
+
+
 def test_a_design_that_fails_is_not_kept(tmp_path, monkeypatch):
     import pytest
 
