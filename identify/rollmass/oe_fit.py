@@ -5,6 +5,7 @@ the load's leverage-corrected sandwich covariance (the model and its residual ar
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
@@ -120,6 +121,46 @@ def _best_start(
         if best is None or res.cost < best.cost:
             best = res
     return best
+
+
+@dataclass
+class _Finish:
+    """What a fit ends with: its Jacobian, its verdict and message, the load's decrement, covariance and dof, and why
+    it has no interval (empty when it has one or none was asked for)."""
+
+    J: np.ndarray
+    ok: bool
+    message: str
+    dec: float = float("nan")
+    cov_load: np.ndarray = field(default_factory=lambda: np.full((2, 2), np.nan))
+    dof: np.ndarray = field(default_factory=lambda: np.full(2, np.inf))
+    no_interval: str = ""
+
+
+def _finish(prob: _Problem, x: np.ndarray, fin: _Finish) -> tuple[np.ndarray, _Finish]:
+    """The Gauss-Newton finish (:func:`_gauss_newton`), its stationarity verdict and the load's interval from the
+    final Jacobian's one QR."""
+    datasets = prob.datasets
+    lags = max(1, round(SANDWICH_LAG_S / datasets[0].T))
+    x, basis, fin.dec, f = _gauss_newton(prob, x, FINISH_STEPS, lags)
+    fin.J = basis.J
+    if not fin.dec < STATIONARY:
+        fin.ok = False
+        fin.message = f"{fin.message}; not at a stationary point after {FINISH_STEPS} Gauss-Newton steps " + (
+            f"(a further step would move the load by {np.sqrt(fin.dec):.2g} of its standard errors)"
+            if np.isfinite(fin.dec)
+            else "(the load's covariance is singular there)"
+        )
+    try:
+        # f: the residual at x; the leverage-corrected covariance and the interval's t_{0.975, nu} (Bell &
+        # McCaffrey 2002) from the decrement's QR of this J: one factorisation of the final Jacobian
+        interval = load_interval(basis, f, [d.n for d in datasets], lags)
+        fin.cov_load, fin.dof = interval.cov, interval.dof
+    except UnresolvedLoad as err:  # an interval rounding would decide: none, and the estimate says why; the
+        fin.no_interval = str(err)  # point stays this fit's (converged is stationarity's alone: no redo)
+    except np.linalg.LinAlgError:
+        pass
+    return x, fin
 
 
 def _gauss_newton(prob: _Problem, x: np.ndarray, steps: int, lags: int) -> tuple[np.ndarray, LoadBasis, float, np.ndarray]:
@@ -248,30 +289,12 @@ def _fit(
             ]
             sd = np.array([[fir(ar[i][j], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
             w = 1.0 / np.maximum(sd, 1e-12)
-    J, dec, cov_load, dof, no_interval = res.jac, float("nan"), np.full((2, 2), np.nan), np.full(2, np.inf), ""
     # an LM stopped by its evaluation cap is judged by the stationarity check below (with_cov), not by its flag
     ok = (bool(res.success) or (with_cov and res.status == 0)) and bool(np.all(np.isfinite(x))) and float(res.cost) < 1e5
-    message = str(res.message)
-    lags = max(1, round(SANDWICH_LAG_S / datasets[0].T))
+    fin = _Finish(res.jac, ok, str(res.message))
     if with_cov and ok:
-        x, basis, dec, f = _gauss_newton(prob, x, FINISH_STEPS, lags)
-        J = basis.J
-        if not dec < STATIONARY:
-            ok = False
-            message = f"{message}; not at a stationary point after {FINISH_STEPS} Gauss-Newton steps " + (
-                f"(a further step would move the load by {np.sqrt(dec):.2g} of its standard errors)"
-                if np.isfinite(dec)
-                else "(the load's covariance is singular there)"
-            )
-        try:
-            # f: the residual at x; the leverage-corrected covariance and the interval's t_{0.975, nu} (Bell &
-            # McCaffrey 2002) from the decrement's QR of this J: one factorisation of the final Jacobian
-            interval = load_interval(basis, f, [d.n for d in datasets], lags)
-            cov_load, dof = interval.cov, interval.dof
-        except UnresolvedLoad as err:  # an interval rounding would decide: none, and the estimate says why; the
-            no_interval = str(err)  # point stays this fit's (converged is stationarity's alone: no redo)
-        except np.linalg.LinAlgError:
-            pass
+        x, fin = _finish(prob, x, fin)
+    J = fin.J
     v = prob.values(x)
     scale = np.sqrt(np.maximum(np.einsum("ij,ij->j", J, J), 1e-300))
     sv = np.linalg.svd(J / scale, compute_uv=False)
@@ -280,13 +303,13 @@ def _fit(
         m=v["m"],
         zbar_m=v["zbar_m"],
         z_f=v.get("z_f", z_f),
-        cov_load=cov_load,
-        converged=ok,
-        message=message,
-        decrement=dec,
+        cov_load=fin.cov_load,
+        converged=fin.ok,
+        message=fin.message,
+        decrement=fin.dec,
         rel_singular=float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
         noise_sd=sd,
         noise=(w, ar),
-        dof=dof,
-        no_interval=no_interval,
+        dof=fin.dof,
+        no_interval=fin.no_interval,
     )
