@@ -250,3 +250,19 @@ def test_only_a_change_of_the_opposite_sign_beyond_its_noise_is_refused():
     assert roles.role_verdict(wrong) == "refuse"
     assert roles.role_verdict(roles.RoleCheck((w, w, w), float("nan"))) is None
     assert roles.role_verdict(roles.RoleCheck((1.0, -1.0, 2.0), -0.2)) is None
+
+
+def test_a_short_recording_or_a_constant_rudder_is_not_judged(bare):
+    # stop 52's review, 8: 150 rows raised from np.column_stack; a constant rudder gave a minimum-norm w^2
+    rec = read_roll_csv(bare[0])[0]
+    short = replace(rec, delta=rec.delta[:150], p=rec.p[:150], a_s=rec.a_s[:150], r=rec.r[:150], phi=None, u=None)
+    assert all(np.isnan(roles.roll_stiffness(short)))
+    held = replace(rec, delta=np.full_like(rec.delta, 0.1))
+    assert all(np.isnan(roles.roll_stiffness(held)))
+
+
+def test_the_prediction_uses_the_users_z_f():
+    # stop 52's review, 6: the check used the profile's z_f prior whatever --z-f said
+    prof, cal = load_profile(), Load(0.2, -0.256)
+    assert roles.predicted_change(prof, cal, prof.known.z_f_prior) == roles.predicted_change(prof, cal)
+    assert roles.predicted_change(prof, cal, -0.015) > roles.predicted_change(prof, cal) + 0.05

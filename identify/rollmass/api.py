@@ -404,7 +404,7 @@ def estimate_from_files(
     notes += heel
     before = ship + default_speed_warnings(given, prof, profile is None, paths, metas)
     check_recorded_signs(recs, prof, given)
-    before += order_warnings(recs, paths, metas, prof, cal)
+    before += order_warnings(recs, paths, metas, prof, cal, z_f)
     try:
         e = estimate(
             recs, prof.known, cal, method, with_ci=True, z_f=z_f, start=start_values(prof), heel_reference=heel_reference
@@ -424,7 +424,12 @@ def estimate_from_files(
 
 
 def order_warnings(
-    recs: list[RollRecording], paths: list[Path], metas: list[dict[str, str]], prof: RollProfile, cal: Load
+    recs: list[RollRecording],
+    paths: list[Path],
+    metas: list[dict[str, str]],
+    prof: RollProfile,
+    cal: Load,
+    z_f: float | None = None,
 ) -> list[str]:
     """Before the fit: do the runs' roll frequencies fit the roles their order gives them
     (:mod:`identify.rollmass.roles`)? Raises UserError for files without '# role:' headers whose
@@ -433,7 +438,7 @@ def order_warnings(
     change is otherwise far from the prediction (:func:`roles.role_verdict`; with all three headers confirming
     the order it names the known load and the profile), or where the loaded run rolls clearly faster than the
     nominal."""
-    rc = measure_roles(recs, prof, cal)
+    rc = measure_roles(recs, prof, cal, z_f)
     headed = all(m.get("role") for m in metas)
     msg = role_message(rc, paths, cal, headed)
     if msg and not headed and role_verdict(rc) == "refuse":

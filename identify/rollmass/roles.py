@@ -115,16 +115,17 @@ def _log_se(e: np.ndarray, X_hat: np.ndarray, w2: float, T: float) -> float:
     return float(np.sqrt(cov[0, 0] * n / n_eff) / w2)
 
 
-def predicted_change(prof: RollProfile, cal: Load) -> float:
+def predicted_change(prof: RollProfile, cal: Load, z_f: float | None = None) -> float:
     """``log(w2_cal / w2_nom)``: the known load's change of the roll mode's squared natural frequency, the
     roll pair's ``|lambda|^2`` of the ``oe`` model (:func:`output_error.model_matrices`) at the profile's
-    start values and ``z_f`` prior. The unloaded roll pair is the fastest oscillating one; the loaded one is
-    the oscillating pair nearest it. nan (not judged) when either model has no oscillating mode or is
-    unstable: the estimate's own refusal then speaks (stop 52's review, 2)."""
+    start values and ``z_f`` (the user's ``--z-f``, else the profile's prior). The unloaded roll pair is the
+    fastest oscillating one; the loaded one is the oscillating pair nearest it. nan (not judged) when either
+    model has no oscillating mode or is unstable: the estimate's own refusal then speaks (stop 52's review, 2)."""
     v, kn = start_values(prof), prof.known
+    z_f = kn.z_f_prior if z_f is None else z_f
 
     def modes(load: Load) -> np.ndarray:
-        ev = np.linalg.eigvals(model_matrices(v, kn, kn.z_f_prior, load)[0])
+        ev = np.linalg.eigvals(model_matrices(v, kn, z_f, load)[0])
         if np.any(ev.real >= 0):
             return np.array([])
         return np.abs(ev[np.abs(ev.imag) > 0]) ** 2
@@ -137,10 +138,10 @@ def predicted_change(prof: RollProfile, cal: Load) -> float:
     return float(np.log(w2_cal / w2_nom))
 
 
-def measure_roles(recs: list[RollRecording], prof: RollProfile, cal: Load) -> RoleCheck:
+def measure_roles(recs: list[RollRecording], prof: RollProfile, cal: Load, z_f: float | None = None) -> RoleCheck:
     """The three recordings' ``w^2`` and the change the known load predicts."""
     w2, se = zip(*(roll_stiffness(r) for r in recs))
-    return RoleCheck(tuple(w2), predicted_change(prof, cal), tuple(se))
+    return RoleCheck(tuple(w2), predicted_change(prof, cal, z_f), tuple(se))
 
 
 def role_verdict(rc: RoleCheck) -> str | None:
