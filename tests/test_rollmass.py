@@ -88,7 +88,8 @@ def csvs(tmp_path_factory):
 def test_csv_round_trip(csvs):
     _, paths, recs = csvs
     rec, meta = read_roll_csv(paths[0])
-    assert rec.T == pytest.approx(recs[0].T) and meta["ship"] == "our_lass_ii"
+    # no ship the caller did not name (stop 52's review, 4: it wrote our_lass_ii whatever the ship)
+    assert rec.T == pytest.approx(recs[0].T) and "ship" not in meta
     np.testing.assert_allclose(rec.p, recs[0].p, rtol=1e-8)
 
 

@@ -6,6 +6,7 @@ load on deck 0.256 m above the waterline is ``z = -0.256``; the keel is at ``z =
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -149,22 +150,29 @@ def check_roles(paths: list[Path], metas: list[dict[str, str]]) -> list[Load | N
     return loads
 
 
-def check_ship(prof: RollProfile, paths: list[Path], metas: list[dict[str, str]], explicit: bool) -> None:
-    """Refuse recordings whose '# ship:' headers differ between the runs or name another ship than the
-    profile's (``[ship] name``): the fit would take the profile's hull, inertia and hydrodynamics for
-    another ship's (stop 52's sweep: '# ship: seed003_basin' with the default profile was read without a word)."""
+def _ship_name(name: str) -> str:
+    """A ship name without case and separators: 'Our Lass II' is 'our_lass_ii'."""
+    return re.sub(r"[^0-9a-z]+", "_", name.strip().lower()).strip("_")
+
+
+def check_ship(prof: RollProfile, paths: list[Path], metas: list[dict[str, str]], explicit: bool) -> list[str]:
+    """Refuse recordings whose '# ship:' headers differ between the runs, or name another ship than the
+    default profile's (``[ship] name``): the fit would take the profile's hull, inertia and hydrodynamics for
+    another ship's (stop 52's sweep: '# ship: seed003_basin' with the default profile was read without a
+    word). With a ``--profile`` the user chose, a header naming another ship is a warning: it may be a
+    stale default (main's mass-sim wrote 'our_lass_ii' whatever the profile; stop 52's review, 4)."""
     said = [(p, m["ship"].strip()) for p, m in zip(paths, metas) if m.get("ship", "").strip()]
-    if len({s.lower() for _, s in said}) > 1:
+    if len({_ship_name(s) for _, s in said}) > 1:
         raise UserError(
             f"the recordings' '# ship:' headers differ ({', '.join(f'{p.name} {s}' for p, s in said)}); "
             "the three runs must come from one ship"
         )
-    if said and said[0][1].lower() != prof.name.lower():
-        fix = "correct the header or the profile's [ship] name" if explicit else "give that ship's roll profile with --profile"
-        raise UserError(
-            f"{said[0][0]}: header '# ship: {said[0][1]}' but the profile is {prof.name}'s "
-            f"({'--profile' if explicit else 'the default profile'}); {fix}"
-        )
+    if not said or _ship_name(said[0][1]) == _ship_name(prof.name):
+        return []
+    msg = f"{said[0][0]}: header '# ship: {said[0][1]}' but the profile is {prof.name}'s"
+    if explicit:
+        return [f"{msg} (--profile): the profile given is used; correct the header if the profile is right"]
+    raise UserError(f"{msg} (the default profile); give that ship's roll profile with --profile")
 
 
 def _calibration_load(opt: Load | None, header: Load | None, path: Path) -> Load:
@@ -378,7 +386,7 @@ def estimate_from_files(
     read = [read_roll_csv(p) for p in paths]
     recs, metas = [r for r, _ in read], [m for _, m in read]
     loads = check_roles(paths, metas)
-    check_ship(prof, paths, metas, explicit=profile is not None)
+    ship = check_ship(prof, paths, metas, explicit=profile is not None)
     one_rate(recs, paths)
     if isinstance(known_load, str):
         known_load = parse_known_load(known_load)
@@ -394,9 +402,9 @@ def estimate_from_files(
     notes += speed_notes(recs, paths)
     recs, heel = heel_notes(recs, paths)
     notes += heel
-    before = default_speed_warnings(given, prof, profile is None, paths, metas)
+    before = ship + default_speed_warnings(given, prof, profile is None, paths, metas)
     check_recorded_signs(recs, prof, given)
-    before += order_warnings(recs, paths, metas, prof, cal)
+    before += order_warnings(recs, paths, metas, prof, cal, z_f)
     try:
         e = estimate(
             recs, prof.known, cal, method, with_ci=True, z_f=z_f, start=start_values(prof), heel_reference=heel_reference
@@ -416,16 +424,21 @@ def estimate_from_files(
 
 
 def order_warnings(
-    recs: list[RollRecording], paths: list[Path], metas: list[dict[str, str]], prof: RollProfile, cal: Load
+    recs: list[RollRecording],
+    paths: list[Path],
+    metas: list[dict[str, str]],
+    prof: RollProfile,
+    cal: Load,
+    z_f: float | None = None,
 ) -> list[str]:
     """Before the fit: do the runs' roll frequencies fit the roles their order gives them
-    (:mod:`identify.rollmass.roles`)? Files without '# role:' headers whose nominal-to-calibration change
-    contradicts the known load are refused (given in the wrong order they fit to half the load, a negative
-    one, or for minutes to no answer: stop 52), warned where the contradiction is in the band between the
-    right orders' tail and the refusal (:func:`roles.role_verdict`); with all three headers confirming the
-    order it is a warning naming the known load and the profile. A loaded run that rolls clearly faster than
-    the nominal is warned."""
-    rc = measure_roles(recs, prof, cal)
+    (:mod:`identify.rollmass.roles`)? Raises UserError for files without '# role:' headers whose
+    nominal-to-calibration change has the opposite sign of the known load's, beyond its noise (given in the
+    wrong order they fit to a negative load, or for minutes to no answer: stop 52); returns a warning where the
+    change is otherwise far from the prediction (:func:`roles.role_verdict`; with all three headers confirming
+    the order it names the known load and the profile), or where the loaded run rolls clearly faster than the
+    nominal."""
+    rc = measure_roles(recs, prof, cal, z_f)
     headed = all(m.get("role") for m in metas)
     msg = role_message(rc, paths, cal, headed)
     if msg and not headed and role_verdict(rc) == "refuse":

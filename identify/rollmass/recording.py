@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import difflib
 import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -96,7 +97,7 @@ def _missing_message(path: Path, header: list[str], missing: list[str]) -> str:
 def write_roll_csv(rec: RollRecording, path: str | Path, meta: dict[str, str] | None = None) -> Path:
     """Write one dataset atomically; ``u`` and ``phi`` are written when present."""
     buf = io.StringIO()
-    for k, v in {"ship": "our_lass_ii", "sample_time": f"{rec.T:g}", **(meta or {})}.items():
+    for k, v in {"sample_time": f"{rec.T:g}", **(meta or {})}.items():  # no ship the caller did not name
         buf.write(f"# {k}: {v}\n")
     extra = {k: x for k, x in (("u", rec.u), ("phi", rec.phi)) if x is not None}
     cols = list(REQUIRED) + list(extra)
@@ -168,20 +169,34 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
     return rec, meta
 
 
+UNIT_WORDS = ("m", "s", "kg", "g", "cm", "mm", "kn", "kt", "knots", "ms", "mps")  # unit suffixes a key may carry
+
+
+def _stem(key: str) -> str:
+    """A header key without case, separators ('-', ' ', '_') and trailing unit words: ``IMU-z-m`` and ``imu_z``
+    give ``imuz``, ``Speed_kn`` gives ``speed``; ``imu_y_m`` stays ``imuy`` (another axis is another key)."""
+    words = [w for w in re.split(r"[-_ ]+", key.strip().lower()) if w]
+    while len(words) > 1 and words[-1] in UNIT_WORDS:
+        words.pop()
+    return "".join(words)
+
+
 def _header_keys(path: Path, meta: dict[str, str]) -> list[str]:
-    """Refuse a header key that is one of :data:`META_KEYS` misspelt or in another case (``imu_z``,
-    ``speed``, ``Speed_m_s``) while the file lacks that key: it was ignored and the profile's value used
-    instead (stop 52's sweep: '# imu_z: -0.05' left the IMU at the profile's -0.09 m without a word); any
-    other key is named in a note. ``load_height_m`` is refused as ambiguous by the mass API."""
-    notes = []
+    """Refuse a header key that is one of :data:`META_KEYS` in another case, with other separators or another
+    unit suffix (``imu_z``, ``IMU-z-m``, ``speed_kn``, ``Speed_m_s``) while the file lacks that key: it was
+    ignored and the profile's value used instead (stop 52's sweep: '# imu_z: -0.05' left the IMU at the
+    profile's -0.09 m without a word). Any other key is named in a note: a spelling match (``imu_y_m``,
+    ``sample_rate``, ``date``) is another quantity as often as not (stop 52's review, 3). ``load_height_m``
+    is refused as ambiguous by the mass API."""
+    notes, stems = [], {_stem(k): k for k in META_KEYS}
     for key, value in meta.items():
         if key in META_KEYS or key == "load_height_m":
             continue
-        near = difflib.get_close_matches(key.lower(), META_KEYS, n=1, cutoff=0.7)
-        if near and near[0] not in meta:
+        near = stems.get(_stem(key))
+        if near and near not in meta:
             raise RecordingError(
-                f"{path}: header '# {key}: {value}' is not a key mass reads; did you mean '# {near[0]}:' "
-                f"({META_WHAT[near[0]]})? rename it (known keys: {', '.join(META_KEYS)})"
+                f"{path}: header '# {key}: {value}' is not a key mass reads; did you mean '# {near}:' "
+                f"({META_WHAT[near]})? rename it (known keys: {', '.join(META_KEYS)})"
             )
         notes.append(f"{path.name}: header '# {key}:' is not read (known keys: {', '.join(META_KEYS)})")
     return notes
