@@ -4,6 +4,7 @@ basin truth (tests/physics/basin_truth.py); the refusals come before the fit, so
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -48,6 +49,7 @@ def test_files_in_the_wrong_order_without_role_headers_are_refused(bare, capsys,
     files = [bare[i] for i in order]
     msg = _error(capsys, [*files, "--known-load", CAL])
     assert "wrong roles" in msg and "NOMINAL CALIBRATION LOADED" in msg and str(files[1]) in msg
+    assert re.search(r"beyond its noise \(\+-\d+ %\)", msg), msg
 
 
 def test_the_loaded_run_given_as_the_calibration_run_is_warned(bare):

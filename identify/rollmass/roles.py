@@ -179,7 +179,7 @@ def role_message(rc: RoleCheck, paths: list[Path], cal: Load, headed: bool = Fal
             "known load is off; the answer assumes this order: check the order and the known load"
         )
     return (
-        f"{paths[1]}: {said}: of the opposite sign, beyond its noise (+-{_pct(rc.measured_se)}): the files look "
+        f"{paths[1]}: {said}: of the opposite sign, beyond its noise (+-{100 * np.expm1(rc.measured_se):.0f} %): the files look "
         "given in the wrong roles; give them in the order NOMINAL CALIBRATION "
         "LOADED (or correct the known load), or add '# role:' header lines if this order is right"
     )
