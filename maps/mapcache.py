@@ -53,9 +53,7 @@ def load_map_kept(path: str | Path | None = None, *, draught_m: float = 0.0, ukc
         entry = plancache.load_blob(Path(directory), f"{k}.map")
         # the key inside the entry: a file copied or renamed onto another key's name is no entry
         if isinstance(entry, tuple) and len(entry) == 3 and entry[0] == k and isinstance(entry[1], SeaMap):
-            _CHARTS.clear()
-            _CHARTS[id(entry[1])] = (entry[1], entry[2])
-            return entry[1]
+            return _keep_chart(entry[1], entry[2])
     sea = load_map(path, draught_m=draught_m, ukc_m=ukc_m, repair=repair)
     # kept only when the file still holds the bytes keyed: one edited while it loaded would otherwise leave
     # the edited file's map under the earlier bytes' key, read for those bytes when the edit is undone
@@ -67,8 +65,14 @@ def load_map_kept(path: str | Path | None = None, *, draught_m: float = 0.0, ukc
         except Exception:  # noqa: BLE001 - the chart is the exports': their own call makes it, or says what fails
             chart = None
         plancache.store_blob(Path(directory), f"{k}.map", (k, sea, chart))
-        _CHARTS.clear()
-        _CHARTS[id(sea)] = (sea, chart)
+        _keep_chart(sea, chart)
+    return sea
+
+
+def _keep_chart(sea: SeaMap, chart: Any) -> SeaMap:
+    """Hold ``chart`` as the chart of ``sea``, the map :func:`load_map_kept` returns (one at a time)."""
+    _CHARTS.clear()
+    _CHARTS[id(sea)] = (sea, chart)
     return sea
 
 

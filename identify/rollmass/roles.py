@@ -68,9 +68,8 @@ class RoleCheck:
         return self.measured / self.predicted
 
 
-def _band(x: np.ndarray, T: float) -> np.ndarray:
-    b, a = butter(2, list(BAND_HZ), btype="bandpass", fs=1.0 / T)
-    return filtfilt(b, a, x - x.mean())
+def _band(x: np.ndarray, ba: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    return filtfilt(*ba, x - x.mean())
 
 
 def _lag(x: np.ndarray, k: int) -> np.ndarray:
@@ -92,7 +91,8 @@ def roll_stiffness(rec: RollRecording) -> tuple[float, float]:
     if BAND_HZ[1] >= NYQUIST_SHARE * 0.5 / T or max(lags) >= rec.n // 2:
         return nan  # slow sampling (T >= 0.225 s) or a short recording: no judgment (stop 52's review, 1 and 8)
     phi = np.cumsum(rec.p - rec.p.mean()) * T
-    f = {k: _band(x, T) for k, x in (("phi", phi), ("p", rec.p), ("r", rec.r), ("delta", rec.delta))}
+    ba = butter(2, list(BAND_HZ), btype="bandpass", fs=1.0 / T)  # one design for the four signals
+    f = {k: _band(x, ba) for k, x in (("phi", phi), ("p", rec.p), ("r", rec.r), ("delta", rec.delta))}
     y = np.gradient(f["p"], T)[s]
     X = np.column_stack([f["phi"], f["p"], f["r"], f["delta"]])[s]
     Z = np.column_stack([_lag(f["delta"], k) for k in lags] + [f["r"]])[s]
