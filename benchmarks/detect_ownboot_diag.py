@@ -1,7 +1,11 @@
 """Why the run's own-residual bootstrap loses power (issue 25, stop 49 continued; docs/detect-accuracy.md):
 per variant of a stored cache, on the changed runs, the detected share with the stored records and with
 ``--own-misfit`` settings, the re-decided thresholds over the stored ones, the resampled residual's variance
-over the stored AR term's, and the share of it that is noise the records already carry.
+over the stored AR term's, and the share of it that is noise the records already carry. Stop 53: the
+same threshold ratio on the unchanged runs, and on the changed runs whose change is mid-record (100-300 s)
+the resampled residual's variance before and after the true change time (over the stored term's): if a
+change's own signal raised its thresholds, the changed runs' ratio would exceed the unchanged runs' and
+the part after the change would carry more than the part before.
 
     python benchmarks/detect_ownboot_diag.py --cache /work/wt/dcache-main-108:8667c7204102:108:2
 """
@@ -33,20 +37,36 @@ def variances(sc: Screening, prior: YawPrior) -> tuple[float, float, float]:
     return float(np.var(base - base.mean(axis=0))), float(np.var(res)), float(np.var(so))
 
 
+def split_variances(sc: Screening, prior: YawPrior, change_block: int) -> tuple[float, float]:
+    """The projected residual ``bootpL`` resamples, its variance before and after the true change block,
+    each over the stored AR term's variance (:func:`stored_offsets`)."""
+    nb, runs = sc.null_blocks.shape
+    term = np.var(stored_offsets(prior, len(sc.eps), runs)[:nb])
+    res = post_fit_residual(sc, prior, project=True)
+    return float(np.var(res[:change_block]) / term), float(np.var(res[change_block:]) / term)
+
+
 def variant_rows(spec: str, variant: str, settings: tuple[str, ...]) -> dict:
     """Per changed run: detected (stored and each setting), median threshold ratio per setting, variances."""
     folder, key, first, ships = spec.split(":")
     out: dict = {"detected": {s: [] for s in ("stored", *settings)}, "h": {s: [] for s in settings}, "var": []}
+    out |= {"h_unchanged": {s: [] for s in settings}, "split": []}
     for ship in range(int(first), int(first) + int(ships)):
         prior = pickle.loads(_one(Path(folder), f"{variant}-{ship}-nominal-*-0-prior-{key}.pkl").read_bytes())
         if implausible_inertia(prior, **HULL):
             continue
         for i, ch in enumerate(change_times(ship, 10)):
-            if ch is None:
-                continue
             b, j = BATCH * (i // BATCH), i % BATCH  # the truth bench's batches
             sc = pickle.loads(_one(Path(folder), f"{variant}-{ship}-10-{b}-*-{j}-screen-{key}.pkl").read_bytes())
             d0 = redecide(sc, prior)
+            if ch is None:
+                for s in settings:
+                    out["h_unchanged"][s].append(
+                        float(np.median(redecide(with_own(sc, prior, s)[0], prior).threshold / d0.threshold))
+                    )
+                continue
+            if ch > 0:
+                out["split"].append(split_variances(sc, prior, int(ch / (prior.block * prior.dt))))
             out["detected"]["stored"].append(d0.alarm_s is not None)
             for s in settings:
                 d = redecide(with_own(sc, prior, s)[0], prior)
@@ -70,6 +90,11 @@ def main() -> None:
         print(f"{v:20s} changed runs detected %: {det}; median h / stored h: {h}")
         print(
             f"{'':20s} resampled var / stored term var {np.median(res / term):.2f}; noise counted twice {np.median(noise / res):.3f}"
+        )
+        hu = " ".join(f"{s} {np.median(x):.2f}" for s, x in r["h_unchanged"].items())
+        pre, post = np.array(r["split"]).T
+        print(
+            f"{'':20s} unchanged runs: median h / stored h: {hu}; changed mid-record: resampled var / term before the change {np.median(pre):.2f}, after {np.median(post):.2f}"
         )
 
 

@@ -19,6 +19,11 @@ changed run's own change must not raise its threshold):
   replaced by a circular block bootstrap of the run's own post-fit block residual; ``bootpL`` (stop 49,
   continued): only its part orthogonal to the signatures and the fitted step (:func:`projected`). Neither
   wins the hold-out's power back (docs/detect-accuracy.md; ``benchmarks/detect_ownboot_diag.py``).
+
+Stop 53 (calibrate without raising a changed run's thresholds; none qualifies, docs/detect-accuracy.md):
+``lowbL`` (:func:`low_band_bootstrap`: only the part below the signatures' band from the run), ``scale``,
+``scaleb``, ``scalei`` (:func:`scaled_term`: one bounded, shrunk scale of the AR term per run, read from
+the run's unchanged part, above or inside the signatures' band) and ``mixW`` (:func:`mixed_bootstrap`).
 """
 
 from __future__ import annotations
@@ -152,10 +157,111 @@ def own_bootstrap(sc: Screening, prior: YawPrior, length: int, seed: int = 0, pr
     nb, runs = sc.null_blocks.shape
     base = sc.null_blocks - stored_offsets(prior, len(sc.eps), runs)[:nb]
     res = post_fit_residual(sc, prior, project)
-    res -= res.mean()
+    return replace(sc, null_blocks=base + circular_blocks(res - res.mean(), runs, length, seed))
+
+
+#: stop 53: the fraction of the signatures' block-mean power below the band edge of :func:`signature_edge`
+EDGE_POWER = 0.05
+#: stop 53: the scale of the records' AR term (``scale``): shrunk toward 1 with this many 1 s blocks' weight,
+#: and bounded, so a run's unchanged part can move its thresholds only so far
+SCALE_PRIOR_BLOCKS = 100
+SCALE_BOUNDS = (0.67, 1.5)
+#: stop 53: the fitted change leaves at least this many 1 s blocks before it for ``scale`` to read only them
+MIN_BEFORE = 60
+
+
+def band_split(x: np.ndarray, edge: float) -> tuple[np.ndarray, np.ndarray]:
+    """``x`` (nb, ...) split along axis 0 at ``edge`` cycles a block (Hz for 1 s blocks) by a zero-phase
+    brick-wall mask of its discrete Fourier transform: (below, at and above), summing to ``x``."""
+    f = np.fft.rfftfreq(len(x))
+    X = np.fft.rfft(x, axis=0)
+    low = np.fft.irfft(np.where((f < edge).reshape(-1, *[1] * (x.ndim - 1)), X, 0), n=len(x), axis=0)
+    return low, x - low
+
+
+def signature_edge(Sb: np.ndarray, power: float = EDGE_POWER) -> float:
+    """The lower edge of the signatures' band: the frequency (cycles a block) below which a fraction
+    ``power`` of the block-mean signatures' power lies (each column centred and scaled to unit power,
+    the periodograms summed; the zero frequency left out)."""
+    S = np.asarray(Sb, float) - np.mean(Sb, axis=0)
+    P = np.abs(np.fft.rfft(S / np.maximum(S.std(axis=0), 1e-300), axis=0)) ** 2
+    c = np.cumsum(P[1:].sum(axis=1))
+    f = np.fft.rfftfreq(len(S))[1:]
+    return float(f[np.searchsorted(c, power * c[-1])])
+
+
+def circular_blocks(x: np.ndarray, runs: int, length: int, seed: int = 0) -> np.ndarray:
+    """(nb, runs) circular block bootstrap of ``x`` (nb,): blocks of ``length`` (Politis and Romano 1992)."""
+    nb = len(x)
     starts = np.random.default_rng([seed, 13]).integers(0, nb, size=(runs, -(-nb // length)))
-    idx = (starts[:, :, None] + np.arange(length)).reshape(runs, -1)[:, :nb] % nb
-    return replace(sc, null_blocks=base + res[idx].T)
+    return x[((starts[:, :, None] + np.arange(length)).reshape(runs, -1)[:, :nb] % nb)].T
+
+
+def low_band_bootstrap(sc: Screening, prior: YawPrior, length: int, seed: int = 0) -> Screening:
+    """Stop 53 (a): ``sc`` with the records' AR term below the signatures' band (:func:`signature_edge`)
+    replaced by a block bootstrap of the run's projected residual's part there (:func:`projected`), less
+    the share of it the records' own white noise already gives (its variance times ``2 edge``); the
+    term's part in and above the band stays the nominal's. The change's own signal is in the band (and
+    projected out): only the run's slow misfit can move its thresholds."""
+    nb, runs = sc.null_blocks.shape
+    so = stored_offsets(prior, len(sc.eps), runs)[:nb]
+    base = sc.null_blocks - so
+    edge = signature_edge(block_mean(sc.S, prior.block)[:nb])
+    low = band_split(post_fit_residual(sc, prior, project=True), edge)[0]
+    v = np.var(low)
+    keep = np.sqrt(max(v - 2 * edge * np.mean(np.var(base, axis=0)), 0.0) / v) if v > 0 else 0.0
+    return replace(sc, null_blocks=base + band_split(so, edge)[1] + keep * circular_blocks(low - low.mean(), runs, length, seed))
+
+
+def term_scale(sc: Screening, prior: YawPrior, band: str = "all") -> float:
+    """Stop 53 (b): the records' AR term's variance scale from the run's unchanged part: the projected
+    residual (:func:`projected`) before the fitted change block (the whole when that leaves fewer than
+    :data:`MIN_BEFORE` blocks), less the records' own white noise, over the term's variance; shrunk
+    toward 1 with the weight of :data:`SCALE_PRIOR_BLOCKS` blocks and bounded (:data:`SCALE_BOUNDS`).
+    ``band`` "above": both read only above the signatures' band (above the frequency below which
+    ``1 - EDGE_POWER`` of their power lies, :func:`signature_edge`), where a change has no signal, the
+    noise's share there ``1 - 2 edge`` of its variance; "in": only in it (from the edge of ``EDGE_POWER``
+    to that one), where the CUSUM looks; the whole residual then, not the part before the fit."""
+    nb, runs = sc.null_blocks.shape
+    so = stored_offsets(prior, len(sc.eps), runs)[:nb]
+    if not np.any(so):
+        return 1.0
+    Sb, eb = block_mean(sc.S, prior.block)[:nb], block_mean(sc.eps, prior.block)[:nb]
+    tau, k, _ = (x[0] for x in change_fits(whiten(eb, prior.ar)[:, None], whiten(Sb, prior.ar)))
+    res = projected(eb, Sb, np.where(np.arange(nb) >= tau, Sb[:, k], 0.0))
+    noise = np.mean(np.var(sc.null_blocks - so, axis=0))
+    if band != "all":
+        lo, hi = signature_edge(Sb, EDGE_POWER), signature_edge(Sb, 1 - EDGE_POWER)
+        keep = (lambda x: band_split(x, hi)[1]) if band == "above" else (lambda x: band_split(band_split(x, hi)[0], lo)[1])
+        share = 1 - 2 * hi if band == "above" else 2 * (hi - lo)
+        part, so, noise = keep(res), keep(so), noise * share
+    else:
+        part = res[:tau] if tau >= MIN_BEFORE else res
+    raw = max(np.var(part) - noise, 0.0) / np.var(so)
+    w = len(part) / (len(part) + SCALE_PRIOR_BLOCKS)
+    return float(np.clip(1 + w * (raw - 1), *SCALE_BOUNDS))
+
+
+def scaled_term(sc: Screening, prior: YawPrior, band: str = "all") -> tuple[Screening, float]:
+    """``sc`` with its records' AR term scaled in sd by ``sqrt(term_scale)`` (:func:`term_scale`), and that scale."""
+    c = term_scale(sc, prior, band)
+    so = stored_offsets(prior, len(sc.eps), sc.null_blocks.shape[1])[: len(sc.null_blocks)]
+    return replace(sc, null_blocks=sc.null_blocks + (np.sqrt(c) - 1) * so), c
+
+
+def mixed_bootstrap(sc: Screening, prior: YawPrior, weight: float, length: int = 30, seed: int = 0) -> Screening:
+    """Stop 53 (c): the records' AR term (:func:`stored_offsets`) and the projected own-residual bootstrap
+    (``bootp30``, :func:`own_bootstrap`) mixed in variance, ``sqrt(1 - weight)`` of the one plus
+    ``sqrt(weight)`` of the other (independent): between main (``weight`` 0) and ``bootp30`` (1), the
+    trade of calibration against the changed runs' thresholds."""
+    nb, runs = sc.null_blocks.shape
+    so = stored_offsets(prior, len(sc.eps), runs)[:nb]
+    boot = own_bootstrap(sc, prior, length, seed, project=True).null_blocks - (sc.null_blocks - so)
+    return replace(sc, null_blocks=sc.null_blocks + (np.sqrt(1 - weight) - 1) * so + np.sqrt(weight) * boot)
+
+
+#: stop 53 --own-misfit settings of the records' AR term scaled (:func:`term_scale`), and the band read
+SCALE_BANDS = {"scale": "all", "scaleb": "above", "scalei": "in"}
 
 
 def with_own(sc: Screening, prior: YawPrior, setting: str = "stored") -> tuple[Screening, float]:
@@ -165,6 +271,12 @@ def with_own(sc: Screening, prior: YawPrior, setting: str = "stored") -> tuple[S
     (0 else); the dead-zone CUSUM's threshold stays as stored (it only drops alarms)."""
     if setting == "stored":
         return sc, 0.0
+    if setting in SCALE_BANDS:
+        return scaled_term(sc, prior, SCALE_BANDS[setting])[0], 0.0
+    if setting.startswith("mix"):
+        return mixed_bootstrap(sc, prior, int(setting[3:]) / 100), 0.0
+    if setting.startswith("lowb"):
+        return low_band_bootstrap(sc, prior, int(setting[4:])), 0.0
     if setting.startswith("bootp"):
         return own_bootstrap(sc, prior, int(setting[5:]), project=True), 0.0
     if setting.startswith("boot"):

@@ -12,7 +12,18 @@ import numpy as np
 import pytest
 
 from benchmarks.bench_detect_structure import redecide
-from benchmarks.detect_ownmisfit import change_removed, own_misfit, projected, robust_sigmas, with_own
+from benchmarks.detect_ownmisfit import (
+    band_split,
+    change_removed,
+    circular_blocks,
+    own_misfit,
+    projected,
+    robust_sigmas,
+    signature_edge,
+    stored_offsets,
+    term_scale,
+    with_own,
+)
 from identify.detect.api import hull_inertia, screen, simulated_recording
 from identify.detect.nullsim import misfit_offsets
 from identify.detect.vessel import Vessel
@@ -87,3 +98,49 @@ def test_the_projected_bootstrap_keeps_a_change_alarming(detect_screening, chang
     own = with_own(sc, prior, "bootp30")[0]
     assert own.null_blocks.shape == sc.null_blocks.shape and not np.allclose(own.null_blocks, sc.null_blocks)
     assert redecide(own, prior).changed  # the +30 % damping change's own signal did not mask it
+
+
+def test_the_band_split_sums_to_the_series_and_parts_at_the_edge():
+    nb = 512
+    t = np.arange(nb)
+    slow, fast = np.sin(2 * np.pi * 4 * t / nb), np.cos(2 * np.pi * 60 * t / nb)  # 0.0078 and 0.117 cycles a block
+    low, high = band_split(np.column_stack([slow + fast, fast]), 0.05)
+    np.testing.assert_allclose(low[:, 0], slow, atol=1e-12)
+    np.testing.assert_allclose(high[:, 0], fast, atol=1e-12)
+    np.testing.assert_allclose(low[:, 1], 0.0, atol=1e-12)
+
+
+def test_the_signatures_band_edge_is_where_their_power_lies():
+    nb = 500
+    t = np.arange(nb)
+    Sb = np.column_stack([np.sin(2 * np.pi * 0.02 * t), 5 * np.sin(2 * np.pi * 0.1 * t + 1)])  # each scaled to unit power
+    assert signature_edge(Sb, 0.05) == pytest.approx(0.02, abs=0.003)
+    assert signature_edge(Sb, 0.95) == pytest.approx(0.1, abs=0.003)
+
+
+def test_the_circular_block_bootstrap_draws_whole_blocks_of_the_series():
+    x = np.arange(100.0)
+    b = circular_blocks(x, 7, 30, seed=2)
+    assert b.shape == (100, 7)
+    d = np.diff(b, axis=0) % 100  # within a block the next value is the next one, circularly
+    assert np.all(d[:29] == 1) and np.all(d[30:59] == 1)
+    np.testing.assert_array_equal(b, circular_blocks(x, 7, 30, seed=2))  # same seed, same draws
+
+
+@pytest.mark.slow  # a 300 s screening of 200 records (the module's fixture)
+def test_the_term_scale_follows_the_runs_unchanged_misfit_and_is_bounded(detect_screening):
+    prior, _, base = detect_screening
+    prior = replace(prior, model_error=prior.sigma_w)  # records carrying an AR term the size of the noise's
+    n, (nb, runs) = len(base.eps), base.null_blocks.shape
+    records = base.null_blocks + stored_offsets(prior, n, runs)[:nb]
+    rng = np.random.default_rng(8)
+
+    def run(sd: float):  # the run carrying an independent AR term of innovation sd ``sd`` against those records
+        extra = misfit_offsets(replace(prior, model_error=sd), n, 1, rng)[:, 0] if sd > 0 else 0.0
+        return replace(base, eps=base.eps + extra, null_blocks=records)
+
+    for band in ("all", "above", "in"):
+        assert term_scale(run(prior.sigma_w), prior, band) == pytest.approx(1.0, abs=0.25)  # the records' own level
+        assert term_scale(run(3 * prior.sigma_w), prior, band) == pytest.approx(1.5)  # 9 times, shrunk and bounded
+        assert term_scale(run(0.0), prior, band) < 0.9  # none of it: lower, down to the bound
+    assert term_scale(base, replace(prior, model_error=0.0)) == 1.0  # no term to scale
