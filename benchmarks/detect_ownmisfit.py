@@ -23,7 +23,8 @@ changed run's own change must not raise its threshold):
 Stop 53 (calibrate without raising a changed run's thresholds; none qualifies, docs/detect-accuracy.md):
 ``lowbL`` (:func:`low_band_bootstrap`: only the part below the signatures' band from the run), ``scale``,
 ``scaleb``, ``scalei`` (:func:`scaled_term`: one bounded, shrunk scale of the AR term per run, read from
-the run's unchanged part, above or inside the signatures' band) and ``mixW`` (:func:`mixed_bootstrap`).
+the run's unchanged part, above or inside the signatures' band), ``mixW`` (:func:`mixed_bootstrap`) and ``bootnL``
+(``bootpL`` less the white noise its records carry already, :func:`own_bootstrap`).
 """
 
 from __future__ import annotations
@@ -149,15 +150,21 @@ def post_fit_residual(sc: Screening, prior: YawPrior, project: bool = False) -> 
     return projected(eb, Sb, step) if project else eb - theta * step
 
 
-def own_bootstrap(sc: Screening, prior: YawPrior, length: int, seed: int = 0, project: bool = False) -> Screening:
+def own_bootstrap(
+    sc: Screening, prior: YawPrior, length: int, seed: int = 0, project: bool = False, denoise: bool = False
+) -> Screening:
     """``sc`` with its records' AR misfit term (:func:`stored_offsets`) replaced by a circular block
     bootstrap (blocks of ``length`` 1 s blocks) of the run's own block residual, centred, after its best
     change-point fit (:func:`change_fits`): the run's own misfit, in its own spectrum. ``project``: only
-    the part orthogonal to the signatures and the fitted step is resampled (:func:`projected`)."""
+    the part orthogonal to the signatures and the fitted step is resampled (:func:`projected`). ``denoise``
+    (stop 53): scaled in sd by ``sqrt(1 - noise / var)``, the records' own white noise (the stored records less
+    the term) not counted twice."""
     nb, runs = sc.null_blocks.shape
     base = sc.null_blocks - stored_offsets(prior, len(sc.eps), runs)[:nb]
     res = post_fit_residual(sc, prior, project)
-    return replace(sc, null_blocks=base + circular_blocks(res - res.mean(), runs, length, seed))
+    v = np.var(res)
+    keep = np.sqrt(max(1 - np.mean(np.var(base, axis=0)) / v, 0.0)) if denoise and v > 0 else 1.0
+    return replace(sc, null_blocks=base + keep * circular_blocks(res - res.mean(), runs, length, seed))
 
 
 #: stop 53: the fraction of the signatures' block-mean power below the band edge of :func:`signature_edge`
@@ -277,6 +284,8 @@ def with_own(sc: Screening, prior: YawPrior, setting: str = "stored") -> tuple[S
         return mixed_bootstrap(sc, prior, int(setting[3:]) / 100), 0.0
     if setting.startswith("lowb"):
         return low_band_bootstrap(sc, prior, int(setting[4:])), 0.0
+    if setting.startswith("bootn"):
+        return own_bootstrap(sc, prior, int(setting[5:]), project=True, denoise=True), 0.0
     if setting.startswith("bootp"):
         return own_bootstrap(sc, prior, int(setting[5:]), project=True), 0.0
     if setting.startswith("boot"):

@@ -98,6 +98,11 @@ def test_the_projected_bootstrap_keeps_a_change_alarming(detect_screening, chang
     own = with_own(sc, prior, "bootp30")[0]
     assert own.null_blocks.shape == sc.null_blocks.shape and not np.allclose(own.null_blocks, sc.null_blocks)
     assert redecide(own, prior).changed  # the +30 % damping change's own signal did not mask it
+    less = with_own(sc, prior, "bootn30")[0]  # stop 53: the same draws less the noise the records carry already
+    base = sc.null_blocks - stored_offsets(prior, len(sc.eps), sc.null_blocks.shape[1])[: len(sc.null_blocks)]
+    ratio = np.std(less.null_blocks - base) / np.std(own.null_blocks - base)
+    # smaller (here zero: this run's residual is no more than the white noise its records carry), still alarming
+    assert 0.0 <= ratio < 1.0 and redecide(less, prior).changed
 
 
 def test_the_band_split_sums_to_the_series_and_parts_at_the_edge():
