@@ -407,7 +407,10 @@ class _Sims:
         return _gauss_newton_moments_numpy(self.profile, self.terms, self.data, sims, theta, idx, w)
 
     def select(self, sims: list, keep: np.ndarray) -> list:
-        """The simulations of the runs where ``keep`` (over the runs simulated) is True."""
+        """The simulations of the runs where ``keep`` (over the runs simulated) is True (the same
+        arrays when it is True for every run: read only, no copy)."""
+        if keep.all():
+            return sims
         if self.calm is not None:
             return [np.compress(keep, nu, axis=2) for nu in sims]
         return [(nu[keep], psi[keep]) for nu, psi in sims]
