@@ -208,12 +208,17 @@ _WEIGHT_FLOOR = 1e-12  # a DOF's mean square is floored at this fraction of the 
 
 @dataclass
 class OEData:
-    """One experiment (or sub-experiment) of a batch of B runs: inputs (B, N, m), the known
-    start state nu0 (B, 3) and the measured velocities y (B, N+1, 3)."""
+    """One experiment (or sub-experiment) of a batch of B runs: inputs (B, N, m), or (1, N, m)
+    where every run plays the same ones, the known start state nu0 (B, 3) and the measured
+    velocities y (B, N+1, 3)."""
 
     inputs: np.ndarray
     nu0: np.ndarray
     y: np.ndarray
+
+    def inputs_of(self, idx: np.ndarray) -> np.ndarray:
+        """The inputs (len(idx), N, m) of the runs ``idx``."""
+        return np.broadcast_to(self.inputs, (self.y.shape[0],) + self.inputs.shape[1:])[idx]
 
 
 @dataclass
@@ -250,7 +255,7 @@ def _simulated(profile: ShipProfile, terms, data: Sequence[OEData], theta: np.nd
     out = []
     with np.errstate(all="ignore"):
         for d in data:
-            res = simulate(profile, d.inputs[idx], theta[idx], terms=terms, nu0=d.nu0[idx], batch=len(idx), positions=False)
+            res = simulate(profile, d.inputs_of(idx), theta[idx], terms=terms, nu0=d.nu0[idx], batch=len(idx), positions=False)
             out.append((res.nu, res.eta[..., 2]))
     return out
 
@@ -317,7 +322,7 @@ def _gauss_newton_moments_numpy(
     grad = np.zeros((b, p))
     mask = block_mask(terms)[[terms.offsets[i] for i in range(3)]].astype(np.float32)  # (3, p): DOF i's columns
     for d, (nu, psi) in zip(data, sims):
-        inputs = d.inputs[idx]
+        inputs = d.inputs_of(idx)
         n = inputs.shape[1]
         in_sig = {k: np.broadcast_to(v, (b, n)) for k, v in profile.generalized_forces(inputs).items()}
         with np.errstate(all="ignore"):
@@ -402,7 +407,10 @@ class _Sims:
         return _gauss_newton_moments_numpy(self.profile, self.terms, self.data, sims, theta, idx, w)
 
     def select(self, sims: list, keep: np.ndarray) -> list:
-        """The simulations of the runs where ``keep`` (over the runs simulated) is True."""
+        """The simulations of the runs where ``keep`` (over the runs simulated) is True (the same
+        arrays when it is True for every run: read only, no copy)."""
+        if keep.all():
+            return sims
         if self.calm is not None:
             return [np.compress(keep, nu, axis=2) for nu in sims]
         return [(nu[keep], psi[keep]) for nu, psi in sims]

@@ -92,30 +92,49 @@ def _noise(
     d: Disturbances, gens: list[np.random.Generator], n: int, offsets: list[np.ndarray], heading: bool = True
 ) -> tuple[np.ndarray, ...]:
     """Each run's current (B, n, 2), wind (B, n, 2), measurement noise (B, n+1, 3) and heading noise
-    (B, n+1): per run one draw of all its standard normals from its own generator, in the order
-    current, wind, measurement, heading (the draws of four calls of that order, the same numbers),
-    then scaled for all runs at once (elementwise: each number as a run alone gives it). Without
-    ``heading`` (a caller that reads no heading noise and draws nothing after it) the heading's
-    normals, the last, are not drawn and its noise is None. A wind without a random part is its
-    mean, read-only, for every run and sample (mean + 0 * draw is the mean: no (B, n, 2) array)."""
-    sizes = np.cumsum([0, 2 * n, 2 * n, 3 * (n + 1), n + 1])
-    z = np.empty((len(gens), sizes[4 if heading else 3]))
-    for g, row in zip(gens, z):
-        g.standard_normal(out=row)  # normal(0, 1) is 0 + 1 * these: the same numbers
+    (B, n+1): per run its standard normals from its own generator, in the order current, wind,
+    measurement, heading (consecutive calls give the numbers of one call of their total size), each
+    drawn straight into its own contiguous array, then scaled for all runs at once (elementwise:
+    each number as a run alone gives it). Without ``heading`` (a caller that reads no heading noise
+    and draws nothing after it) the heading's normals, the last, are not drawn and its noise is
+    None. A wind without a random part is its mean, read-only, for every run and sample (mean + 0 *
+    draw is the mean: no (B, n, 2) array); its normals are still drawn, into one scratch row that
+    the next run overwrites, since the measurement's follow them in the run's stream."""
     b = len(gens)
-    part = [z[:, sizes[i] : sizes[i + 1]] for i in range(4)]
-    # scaled in place, in the draws' own array (a * s + m is m + a * s: addition commutes, the same bits)
-    cur = part[0].reshape(b, n, 2)
+    cur = np.empty((b, n, 2))
+    wind_ne = np.asarray(d.wind_ne, float)
+    calm_wind = d.wind_sample_std == 0 and not np.signbit(wind_ne).any()  # (-0.0 + 0.0 would be +0.0)
+    wind_z = np.empty((1 if calm_wind else b, n, 2))
+    meas = np.empty((b, n + 1, 3))
+    head = np.empty((b, n + 1)) if heading else None
+    for j, g in enumerate(gens):  # standard_normal is normal(0, 1)'s numbers: 0 + 1 * these
+        g.standard_normal(out=cur[j])
+        g.standard_normal(out=wind_z[0 if calm_wind else j])
+        g.standard_normal(out=meas[j])
+        if head is not None:
+            g.standard_normal(out=head[j])
+    # scaled in place (a * s + m is m + a * s: addition commutes, the same bits)
     cur *= d.current_sample_std
     cur += (np.asarray(d.current_ne, float) + np.stack(offsets))[:, None, :]
-    wind_ne = np.asarray(d.wind_ne, float)
-    if d.wind_sample_std == 0 and not np.signbit(wind_ne).any():  # (-0.0 + 0.0 would be +0.0)
+    if calm_wind:
         wind = np.broadcast_to(wind_ne, (b, n, 2))
     else:
-        wind = wind_ne + part[1].reshape(b, n, 2) * d.wind_sample_std
-    meas = part[2].reshape(b, n + 1, 3)
+        wind = wind_ne + wind_z * d.wind_sample_std
     meas *= np.asarray(d.measurement_std, float)
-    return cur, wind, meas, part[3] * d.heading_std if heading else None
+    if head is not None:
+        head *= d.heading_std
+    return cur, wind, meas, head
+
+
+def _batch_inputs(runs: list[np.ndarray], shared: bool) -> np.ndarray:
+    """The inputs (B, L, m) of a batch's runs at one segment position, or (1, L, m) when ``shared``
+    and every run plays the same array (a fixed design in a fixed order: :func:`_experiment`
+    builds its experiment once). The compiled passes read input column 0 for every run of a
+    one-column batch (the same numbers, so the same bits) and step no (B, L, m) copy, nor its
+    time-major forces (stop 53); the numpy path's regressors take the full stack."""
+    if shared and all(r is runs[0] for r in runs):
+        return runs[0][None]
+    return np.stack(runs)
 
 
 def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fused: bool = False) -> list[_Seg]:
@@ -130,7 +149,7 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fu
     theta = np.repeat(np.stack([prof.params(s) for s in sets]), b, axis=0)
     out = []
     for j in range(len(exps[0])):
-        inp = np.stack([e[j][0] for e in exps])
+        inp = _batch_inputs([e[j][0] for e in exps], fused)
         nu0 = np.stack([e[j][1] for e in exps])
         # the heading noise is read by the unfused path's regressors only; it is drawn all the same
         # before another experiment of the run, whose draws follow it
@@ -149,7 +168,7 @@ def _simulate_data(sh: MCShared, exps: list, gens: list[np.random.Generator], fu
                 batch=len(sets) * b,
                 positions="psi" in signals_read(sh.predictor),
             )  # the data's heading: integrated when the dynamics need it
-        y = res.nu[:b] + meas
+        y = np.add(meas, res.nu[:b], out=meas)  # nu + e, written over the noise (no third array)
         if fused:  # the pass builds the regressors from y
             out.append(_Seg(inp, nu0, None, None, None, y))
             continue

@@ -201,3 +201,22 @@ def test_noise_without_heading_or_wind_spread_gives_the_same_numbers_and_no_arra
         g.normal(0.0, 1.0, (2, n, 2))
         assert np.array_equal(part[2][j], g.normal(0.0, 1.0, (n + 1, 3)) * np.asarray(d.measurement_std))
     assert np.array_equal(part[1], np.broadcast_to([3.0, 0.0], (3, n, 2))) and not any(part[1].strides[:2])
+
+
+def test_a_fixed_designs_shared_inputs_give_the_digests_of_stacked_inputs(ship, reference, monkeypatch):
+    """The fused passes read a fixed design's inputs once for the batch ((1, N, m),
+    expdesign.mc_data._batch_inputs); a (B, N, m) stack of the same inputs gives the same digests."""
+    from expdesign import mc_data
+
+    seen = []
+
+    def stacked(runs, shared):
+        seen.append(shared and all(r is runs[0] for r in runs))
+        return np.stack(runs)
+
+    monkeypatch.setattr(mc_data, "_batch_inputs", stacked)
+    p, lib = ship
+    assert _digests(evaluate_designs(p, DESIGNS, primitives=lib, **KW)) == _digests(reference)
+    from primitives import jitloop
+
+    assert any(seen) == jitloop.AVAILABLE  # the fused pass (numba loaded) would have shared them; the numpy path never

@@ -209,3 +209,33 @@ def test_compiled_validation_gives_the_numpy_paths_rmse_and_divergence(monkeypat
         ref_rmse, ref_diverged = mc_validation.validate(case, theta)
         assert np.array_equal(diverged, ref_diverged) and np.array_equal(rmse, ref_rmse)
         assert diverged.tolist() == [False, not kept, True, True, True]
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "numpy"])
+def test_inputs_shared_by_every_run_give_the_stacked_inputs_bits(compiled):
+    """A fixed design gives every run the same inputs (expdesign.mc_data._batch_inputs: one
+    (1, N, m) array for the batch): the output-error fit on them is the fit on the (B, N, m) stack,
+    bit for bit, on the compiled path and on the numpy path (OEData.inputs_of broadcasts them)."""
+    p = load_profile("model-ship")
+    q = next(q for q in model_ship_thesis(p) if q.kind == "informative")
+    one = np.resize(q.inputs, (300, q.inputs.shape[1]))[None]
+    nu0 = np.tile(np.asarray(q.nu0, float), (5, 1))
+    y = simulate(p, one, nu0=nu0, disturbances=Disturbances(measurement_std=(0.02, 0.01, 0.005)), batch=5, seed=4).y
+    theta = p.params(p.simulation_set) * (1.0 + np.random.default_rng(2).normal(0.0, 0.05, (5, p.predictor.n_params)))
+    data = [es.OEData(one, nu0, y)], [es.OEData(np.repeat(one, 5, axis=0), nu0, y)]
+    assert data[0][0].inputs_of(np.array([3, 1])).shape == (2, 300, one.shape[2])
+    if not compiled:  # the numpy path: no compiled simulations or moments
+        fits = []
+        for d in data:
+            sims = es._Sims(p, p.predictor, d, compiled=False)
+            _, w, _, cur = es._start(sims, theta.copy(), 300)
+            idx = np.arange(5)
+            fits.append(sims.moments(cur, theta, idx, w))
+        for a, b in zip(*fits):
+            assert np.array_equal(a, b)
+        return
+    if not jitloop.AVAILABLE:
+        pytest.skip("numba not installed or SHIPTRIAL_KERNEL=numpy")
+    shared, stacked = (es.output_error(p, d, theta.copy(), max_iter=4) for d in data)
+    assert np.isfinite(shared.theta).all() and (shared.iterations > 0).all()
+    assert np.array_equal(shared.theta, stacked.theta) and np.array_equal(shared.cost, stacked.cost)
