@@ -29,7 +29,7 @@ import cli.app  # noqa: E402
 
 t_app = time.process_time()
 import cli.options  # noqa: E402,F401
-from identify.rollmass import api, estimate, oe_fit, output_error, sensitivity  # noqa: E402
+from identify.rollmass import api, estimate, oe_fit, output_error, roles, sensitivity  # noqa: E402
 
 t_mass = time.process_time()
 spent: dict[str, float] = {}
@@ -40,6 +40,7 @@ def main() -> None:
         (api, "estimate_from_files", "estimate_from_files (library)"),
         (api, "read_roll_csv", "  reading the three files"),
         (api, "check_recorded_signs", "  sign and scale checks"),
+        (roles, "roll_stiffness", "  role check's roll stiffness (its band-pass in)"),
         (estimate, "referenced_heel", "  heel reference"),
         (estimate, "fit_output_error", "  the oe fit"),
         (output_error._Problem, "residual", "    residuals"),
