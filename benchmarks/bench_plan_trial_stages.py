@@ -20,7 +20,9 @@ cli_default``) for its size.
 
 Printed: per process role, the CPU per stage, the least over the runs (the steadiest figure on a shared
 machine) and the median; then the whole command's CPU and wall (medians), with the load average.
-``--timeline``: the last run's stages per process in wall-clock order (first and last tick); ``--top N``: the N
+Then each run's critical path (:func:`handover`: when the parent's planning starts and sends the plan, when the drawer
+starts drawing it, when the figures and the command end). ``--timeline``: the last run's stages per process in
+wall-clock order (first and last tick); ``--top N``: the N
 Python functions with the most CPU (innermost frame, summed over processes); ``--json F``: every run's rows.
 """
 
@@ -45,6 +47,7 @@ INTERVAL_S = 0.005
 STAGES: tuple[tuple[str, str, str], ...] = (
     ("design: early design (drawer)", "cli/plan_cmd.py", "_first_design"),
     ("draw: design ratios", "expdesign/report.py", ""),
+    ("draw: design ratios", "maps/librarycache.py", "kept_ratios_png"),
     ("draw: PDF card", "maps/export/cardpdf.py", ""),
     ("draw: states PNG", "maps/export/plots.py", "plot_states"),
     ("draw: track PNG", "maps/export/plots.py", "plot_track"),
@@ -207,6 +210,46 @@ def run_once(root: Path, args: list[str], pycache: str) -> dict:
     return {"wall_s": wall, "cpu_s": ru.ru_utime + ru.ru_stime, "processes": rows}
 
 
+_SENT = "plan: export chart (route, sea room)"  # the parent's last stage before it hands the plan to the drawer
+
+
+def handover(run: dict) -> dict[str, float] | None:
+    """The critical path's points in one run (wall s since the command began): the parent's planning
+    starts (its first "plan: map" tick) and ends (its last export-chart tick: the plan is sent), the drawer
+    starts drawing the plan (its first "draw: plan.png" tick; a drawer still importing or drawing the design
+    ratios when the plan came starts late: ``late``), its figures end, the command ends. None for a run
+    without those stages (a plan read from the plan cache, ``--no-export``)."""
+    rows = {r["role"]: r for r in run["processes"]}
+    par, drw = rows.get("parent"), rows.get("drawer")
+    if par is None or drw is None or _SENT not in par["spans"] or "draw: plan.png" not in drw["spans"]:
+        return None
+    plan_start = par["spans"].get("plan: map", par["spans"][_SENT])[0]
+    sent, drawn_from = par["spans"][_SENT][1], drw["spans"]["draw: plan.png"][0]
+    return {
+        "plan_start": plan_start,
+        "sent": sent,
+        "drawer_starts": drawn_from,
+        "late": drawn_from - sent,
+        "drawer_ends": drw["end"],
+        "end": par["end"],
+    }
+
+
+def print_handover(runs: list[dict]) -> None:
+    """Each run's :func:`handover` points, one line a run."""
+    print("\ncritical path (wall s since the command began; late = drawer's first plan.png tick - plan sent):")
+    for i, run in enumerate(runs):
+        h = handover(run)
+        if h is None:
+            print(f"  run {i + 1}: no plan handed to a drawer")
+            continue
+        print(
+            f"  run {i + 1}: planning {h['plan_start']:.2f} .. {h['sent']:.2f}, drawer draws from {h['drawer_starts']:.2f} "
+            f"(late {h['late']:+.2f}), figures end {h['drawer_ends']:.2f}, command ends {h['end']:.2f}; "
+            f"wall {run['wall_s']:.2f}, CPU {run['cpu_s']:.2f}"
+        )
+
+
 def summarise(runs: list[dict], top: int, timeline: bool = False) -> None:
     """Print the CPU per process role and stage (least and median over the runs)."""
     by_role: dict[str, list[dict]] = {}
@@ -239,6 +282,7 @@ def summarise(runs: list[dict], top: int, timeline: bool = False) -> None:
         f"{statistics.median(whole):.3f} s median ({min(whole):.3f}-{max(whole):.3f}), wall {statistics.median(walls):.3f} s "
         f"median ({min(walls):.3f}-{max(walls):.3f})"
     )
+    print_handover(runs)
     if timeline:  # the last run's stages in wall-clock order, per process
         print("\ntimeline of the last run (wall s since the command began: first .. last tick, CPU):")
         for row in sorted(runs[-1]["processes"], key=lambda r: r["role"] != "parent"):

@@ -137,8 +137,8 @@ def register(app: typer.Typer) -> None:
             "--no-cache",
             help="plan afresh, neither reading nor writing the plan cache "
             "($SHIPTRIAL_CACHE_DIR, default ~/.cache/shiptrial/plans); the ship's lattice moves, its simulated library, its "
-            "first design (keyed by the design options) and the projected map kept there are still read and written, as "
-            "compiled code is (SHIPTRIAL_CACHE_DIR='' for no cache at all)",
+            "first design (keyed by the design options) with its ratios figure and the projected map kept there are still "
+            "read and written, as compiled code is (SHIPTRIAL_CACHE_DIR='' for no cache at all)",
         ),
         json_out: bool = typer.Option(False, "--json", help="print one JSON summary"),
         seed: int = typer.Option(0, "--seed", help="seed of the experiment design"),
@@ -382,7 +382,7 @@ def plan_and_write(
     early = None
     if hit is None and counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
         early = partial(_first_design, ship, **design)
-    ahead = _ratios_ahead if early is not None else None
+    ahead = partial(_ratios_ahead, ship) if early is not None else None
     drawer = None
     try:  # the drawer is ended in `finally` whatever is raised from here on (a Ctrl-C in begin() included)
         drawer = take_early()  # started with the command (plan-trial): the drawing modules imported already, or importing
@@ -475,9 +475,11 @@ def _first_design(ship: str, **design: Any) -> FirstDesign:
     return kept_first_design(load_profile(ship), **design)
 
 
-def _ratios_ahead(first: FirstDesign) -> dict[str, Any]:
+def _ratios_ahead(ship: str, first: FirstDesign) -> dict[str, Any]:
     """The design ratios figure of the early design, drawn in the drawer while this process plans
-    (used when the plan's design is that one: nothing was dropped for the map)."""
-    from expdesign.report import ratios_png
+    (used when the plan's design is that one: nothing was dropped for the map), or read from the move
+    cache where it was kept with that design (:func:`maps.librarycache.kept_ratios_png`)."""
+    from maps.librarycache import kept_ratios_png
+    from primitives.ship import load_profile
 
-    return {"ratios": (first.design.design, ratios_png(first.design.design))}
+    return {"ratios": (first.design.design, kept_ratios_png(load_profile(ship), first.design.design))}

@@ -181,3 +181,29 @@ def test_damaged_design_entry_is_designed_again(tmp_path, monkeypatch):
     entry.write_bytes(entry.read_bytes()[:100])
     again = librarycache.kept_first_design(profile, trial_length_s=1800.0)
     assert _bits(again, profile) == _bits(made, profile)
+
+
+def test_kept_ratios_png_is_the_figure_drawn(tmp_path, monkeypatch):
+    # plan-trial's drawer reads the kept design's ratios figure instead of drawing it on every run (stop 53): the
+    # same bytes as drawn afresh, never drawn again while the entry is there, and another design, a damaged
+    # entry or another matplotlib setting is drawn afresh
+    import matplotlib
+
+    import expdesign.report as report
+
+    profile = load_profile("full-scale")
+    design = first_design(profile, trial_length_s=1800.0).design.design
+    fresh = report.ratios_png(design)
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    assert librarycache.kept_ratios_png(profile, design) == fresh
+    (entry,) = tmp_path.glob("*.moves")
+    drawn = []
+    real = report.ratios_png
+    monkeypatch.setattr(report, "ratios_png", lambda d: drawn.append(d) or real(d))
+    assert librarycache.kept_ratios_png(profile, design) == fresh and drawn == []
+    other = replace(design, weights={k: (1.0 if i == 0 else 0.0) for i, k in enumerate(design.weights)})
+    assert librarycache.kept_ratios_png(profile, other) == real(other) != fresh and len(drawn) == 1
+    with matplotlib.rc_context({"font.size": 14}):  # a user's matplotlibrc: not served the kept bytes
+        assert librarycache.kept_ratios_png(profile, design) == real(design) != fresh and len(drawn) == 2
+    entry.write_bytes(entry.read_bytes()[:100])
+    assert librarycache.kept_ratios_png(profile, design) == fresh and len(drawn) == 3

@@ -218,8 +218,9 @@ def _doctored(d):
     return dataclasses.replace(d, weights={k: (1.0 if i == 0 else 0.0) for i, k in enumerate(d.weights)})
 
 
-def _wrong_ratios(first):
-    """A doctored figure drawn ahead (module level: the drawer started early receives it pickled)."""
+def _wrong_ratios(ship, first):
+    """A doctored figure drawn ahead (module level: the drawer started early receives it pickled, as
+    ``partial(_ratios_ahead, ship)``)."""
     from expdesign.report import ratios_png
 
     other = _doctored(first.design.design)
