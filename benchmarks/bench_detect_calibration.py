@@ -322,7 +322,7 @@ def main() -> None:
     ap.add_argument(
         "--own-misfit",
         default="stored",
-        help=f"the run's own misfit in stored screenings' records (screened before stop 49): {', '.join(OWN)}, bootL or bootpL (L s blocks; p: projected orthogonal to the signatures); stop 53: lowbL, scale, scaleb, scalei, mixW",
+        help=f"the run's own misfit in stored screenings' records (screened before stop 49): {', '.join(OWN)}, bootL or bootpL (L s blocks; p: projected orthogonal to the signatures); stop 53: lowbL, scale, scaleb, scalei, mixW, bootnL (bootpL less the records' own white noise)",
     )
     a = ap.parse_args()
     warnings.simplefilter("ignore", RuntimeWarning)

@@ -92,10 +92,11 @@ def main() -> None:
             f"{'':20s} resampled var / stored term var {np.median(res / term):.2f}; noise counted twice {np.median(noise / res):.3f}"
         )
         hu = " ".join(f"{s} {np.median(x):.2f}" for s, x in r["h_unchanged"].items())
-        pre, post = np.array(r["split"]).T
-        print(
-            f"{'':20s} unchanged runs: median h / stored h: {hu}; changed mid-record: resampled var / term before the change {np.median(pre):.2f}, after {np.median(post):.2f}"
-        )
+        split = "n/a (no changed run starts mid-record)"
+        if r["split"]:
+            pre, post = np.array(r["split"]).T
+            split = f"before the change {np.median(pre):.2f}, after {np.median(post):.2f}"
+        print(f"{'':20s} unchanged runs: median h / stored h: {hu}; changed mid-record: resampled var / term {split}")
 
 
 if __name__ == "__main__":

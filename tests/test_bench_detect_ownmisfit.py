@@ -17,6 +17,7 @@ from benchmarks.detect_ownmisfit import (
     change_removed,
     circular_blocks,
     own_misfit,
+    post_fit_residual,
     projected,
     robust_sigmas,
     signature_edge,
@@ -103,6 +104,14 @@ def test_the_projected_bootstrap_keeps_a_change_alarming(detect_screening, chang
     ratio = np.std(less.null_blocks - base) / np.std(own.null_blocks - base)
     # smaller (here zero: this run's residual is no more than the white noise its records carry), still alarming
     assert 0.0 <= ratio < 1.0 and redecide(less, prior).changed
+    # a run carrying misfit beyond that noise keeps exactly sqrt(1 - noise / its residual's variance) of the draws
+    extra = misfit_offsets(replace(prior, model_error=3 * prior.sigma_w), len(sc.eps), 1, np.random.default_rng(8))
+    worse = replace(sc, eps=sc.eps + extra[:, 0])
+    own, less = (with_own(worse, prior, s)[0] for s in ("bootp30", "bootn30"))
+    res = post_fit_residual(worse, prior, project=True)
+    keep = np.sqrt(1 - np.mean(np.var(base, axis=0)) / np.var(res))
+    assert 0.0 < keep < 1.0
+    np.testing.assert_allclose(less.null_blocks - base, keep * (own.null_blocks - base), rtol=1e-9, atol=1e-12)
 
 
 def test_the_band_split_sums_to_the_series_and_parts_at_the_edge():
