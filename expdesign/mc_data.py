@@ -75,7 +75,8 @@ def _experiment(
 
 @dataclass
 class _Seg:
-    """One segment position of a batch of runs: inputs (B, L, m), nu0 (B, 3), regressors and
+    """One segment position of a batch of runs: inputs (B, L, m), or (1, L, m) when every run plays
+    the same array (:func:`_batch_inputs`: read by run only through a broadcast), nu0 (B, 3), regressors and
     target from the noisy data (B, L, p) / (B, L, 3), instruments (B, L, p), measured velocities
     (B, L+1, 3). With the fused pass (:func:`_fused`) the pass builds phi, target and instruments
     itself: None here."""

@@ -220,3 +220,15 @@ def test_a_fixed_designs_shared_inputs_give_the_digests_of_stacked_inputs(ship, 
     from primitives import jitloop
 
     assert any(seen) == jitloop.AVAILABLE  # the fused pass (numba loaded) would have shared them; the numpy path never
+
+
+def test_batch_inputs_shares_one_array_only_when_every_run_plays_it():
+    """_batch_inputs: (1, L, m) of the very array when shared and every run plays it, else the
+    (B, L, m) stack (another array with equal numbers is not the same experiment array)."""
+    from expdesign.mc_data import _batch_inputs
+
+    a = np.arange(12.0).reshape(4, 3)
+    one = _batch_inputs([a, a, a], shared=True)
+    assert one.shape == (1, 4, 3) and np.shares_memory(one, a)
+    assert _batch_inputs([a, a, a], shared=False).shape == (3, 4, 3)
+    assert _batch_inputs([a, a.copy(), a], shared=True).shape == (3, 4, 3)
