@@ -108,20 +108,13 @@ def _prepare(ahead: Callable[[Any], dict[str, Any]] | None, result: object | Non
 
 
 def _same(a: object, b: object) -> bool:
-    """``a`` and ``b`` are of one type and each attribute pickles to the same bytes (the design
-    sent with the plan is the early one; the whole objects' pickles can differ in which strings
-    they share)."""
-
-    def dump(v: object) -> bytes:
-        return pickle.dumps(v, protocol=pickle.HIGHEST_PROTOCOL)
+    """``a`` and ``b`` are of one type and their fields pickle to the same bytes, field by field
+    (:func:`maps.plancache.fields_digest`: the design sent with the plan is the early one; the whole
+    objects' pickles can differ in which strings they share)."""
+    from maps.plancache import fields_digest
 
     try:
-        if type(a) is not type(b):
-            return False
-        if hasattr(a, "__dict__") and hasattr(b, "__dict__"):
-            va, vb = vars(a), vars(b)
-            return va.keys() == vb.keys() and all(dump(va[k]) == dump(vb[k]) for k in va)
-        return dump(a) == dump(b)
+        return type(a) is type(b) and fields_digest(a) == fields_digest(b)
     except Exception:  # noqa: BLE001 - not comparable: drawn again
         return False
 

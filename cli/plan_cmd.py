@@ -478,8 +478,10 @@ def _first_design(ship: str, **design: Any) -> FirstDesign:
 def _ratios_ahead(ship: str, first: FirstDesign) -> dict[str, Any]:
     """The design ratios figure of the early design, drawn in the drawer while this process plans
     (used when the plan's design is that one: nothing was dropped for the map), or read from the move
-    cache where it was kept with that design (:func:`maps.librarycache.kept_ratios_png`)."""
+    cache where it was kept with that design (:func:`maps.librarycache.kept_ratios_png`). The profile is the
+    one the design was made from, which its primitives hold (loaded again only for an empty library)."""
     from maps.librarycache import kept_ratios_png
     from primitives.ship import load_profile
 
-    return {"ratios": (first.design.design, kept_ratios_png(load_profile(ship), first.design.design))}
+    profile = first.library[0].profile if first.library else load_profile(ship)
+    return {"ratios": (first.design.design, kept_ratios_png(profile, first.design.design))}

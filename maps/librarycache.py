@@ -6,14 +6,15 @@ code and the machine, not on the map or the design options. The first design its
 (:func:`kept_first_design`): the other half is the design's solve, whose import of ``scipy.optimize``
 alone costs 0.5-0.7 s of CPU in a fresh process; it depends on the design options as well, which its
 key adds. So is its design ratios figure (:func:`kept_ratios_png`), which ``plan-trial``'s drawer drew again on
-every run while the parent planned (0.16-0.27 s of its CPU)."""
+every run while the parent planned (0.16-0.27 s of its CPU, least to median of one process's draws)."""
 
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Callable
 from typing import Any
 
-from maps import movecache
+from maps import movecache, plancache
 from maps.trialdesign import FirstDesign, first_design, ship_library
 from primitives.information import PrimitiveInfo, library_information
 from primitives.library import Primitive
@@ -35,6 +36,17 @@ def kept_library(profile: ShipProfile) -> tuple[list[Primitive], list[PrimitiveI
     return lib, infos
 
 
+def _kept(k: str | None, profile: ShipProfile, valid: Callable[[Any], bool], make: Callable[[], Any]) -> Any:
+    """The value kept under key ``k`` when there is one and it is ``valid``, else ``make()`` kept there (an
+    entry of another shape, a damaged one or one this code cannot read is no entry)."""
+    kept = movecache.load(k, profile)
+    if valid(kept):
+        return kept
+    value = make()
+    movecache.store(k, value, profile)
+    return value
+
+
 def kept_first_design(profile: ShipProfile, parameter_prior: Any = None, **options: Any) -> FirstDesign:
     """:func:`maps.trialdesign.first_design` of the ship's own library with the design ``options``
     (criterion, mean_subtraction, trial_length_s, seed: plain values) and ``parameter_prior`` (None, or a
@@ -51,38 +63,47 @@ def kept_first_design(profile: ShipProfile, parameter_prior: Any = None, **optio
     except Exception:  # noqa: BLE001 - a prior pickle cannot write is not keyed: designed every time
         return make()
     k = movecache.key(profile, "first-design", tuple(sorted(options.items())) + (("prior", prior),))
-    kept = movecache.load(k, profile)
-    if isinstance(kept, FirstDesign):
-        return kept
-    first = make()
-    movecache.store(k, first, profile)
-    return first
+    return _kept(k, profile, lambda v: isinstance(v, FirstDesign), make)
+
+
+# the settings of the backend, which cannot change the figure's bytes (:func:`primitives.io.figure_png`
+# renders through Agg whatever the backend) and change as a process chooses one: reading "backend" makes
+# matplotlib pick one (a GUI toolkit's with a display), and matplotlib.use sets "backend_fallback" off
+_NOT_DRAWING = frozenset({"backend", "backend_fallback", "interactive"})
+
+
+def _drawing_state() -> tuple[tuple[str, str], ...]:
+    """What else sets the PNG's bytes: the matplotlib version (its fonts ship with it), the FreeType it was
+    built with (the glyphs' pixels), Pillow's and Pillow's zlib's versions (the encoding) and the digest of
+    every matplotlib setting in force (a user's matplotlibrc) but :data:`_NOT_DRAWING`."""
+    import matplotlib
+    import PIL
+    from matplotlib import ft2font
+    from PIL import features
+
+    rc = matplotlib.rcParams
+    settings = repr([(name, rc[name]) for name in rc if name not in _NOT_DRAWING])  # iterating reads no value
+    return (
+        ("matplotlib", matplotlib.__version__),
+        ("freetype", ft2font.__freetype_version__),
+        ("pillow", PIL.__version__),
+        ("zlib", str(features.version_codec("zlib"))),
+        ("rc", hashlib.sha256(settings.encode()).hexdigest()),
+    )
 
 
 def kept_ratios_png(profile: ShipProfile, design: Any) -> bytes:
     """:func:`expdesign.report.ratios_png` of ``design`` (the kept first design's: the same figure every warm
     ``plan-trial``): read from the move cache when it holds it, else drawn and kept there. The key is
     :func:`maps.movecache.key`'s (the project's code, the numerical libraries, the machine, the profile) plus
-    the digest of the design's pickle and what else sets the PNG's bytes: the matplotlib version (its fonts
-    ship with it), Pillow's and zlib's (the encoding), and every matplotlib setting in force (a user's
-    matplotlibrc). A design that cannot be pickled is drawn every time."""
-    import zlib
-
-    import matplotlib
-    import PIL
-
+    the design's field-by-field digest (:func:`maps.plancache.fields_digest`: the same for a design made
+    afresh and one read back from the cache) and :func:`_drawing_state`. A design that cannot be pickled is
+    drawn every time."""
     from expdesign.report import ratios_png
 
     try:
-        content = hashlib.sha256(movecache.dumps(design, profile)).hexdigest()
+        content = plancache.fields_digest(design, lambda v: movecache.dumps(v, profile))
     except Exception:  # noqa: BLE001 - not keyed: drawn every time
         return ratios_png(design)
-    rc = hashlib.sha256(repr(sorted(matplotlib.rcParams.items())).encode()).hexdigest()
-    versions = (("matplotlib", matplotlib.__version__), ("pillow", PIL.__version__), ("zlib", zlib.ZLIB_RUNTIME_VERSION))
-    k = movecache.key(profile, "design-ratios-png", (("design", content), ("rc", rc), *versions))
-    kept = movecache.load(k, profile)
-    if isinstance(kept, bytes) and kept.startswith(b"\x89PNG\r\n\x1a\n"):
-        return kept
-    png = ratios_png(design)
-    movecache.store(k, png, profile)
-    return png
+    k = movecache.key(profile, "design-ratios-png", (("design", content), *_drawing_state()))
+    return _kept(k, profile, lambda v: isinstance(v, bytes) and v.startswith(b"\x89PNG\r\n\x1a\n"), lambda: ratios_png(design))

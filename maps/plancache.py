@@ -29,7 +29,8 @@ import hashlib
 import os
 import pickle
 import sys
-from dataclasses import fields
+from collections.abc import Callable
+from dataclasses import fields, is_dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -82,6 +83,23 @@ def plan_key(profile: Any, map_file: Path, **inputs: Any) -> str:
 def fields_of(obj: Any) -> list[tuple[str, Any]]:
     """A dataclass's fields by name (not what its cached properties hold: they depend on what ran before)."""
     return [(f.name, getattr(obj, f.name)) for f in fields(obj)]
+
+
+def _pickled(value: Any) -> bytes:
+    return pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def fields_digest(obj: Any, dump: Callable[[Any], bytes] = _pickled) -> str:
+    """SHA-256 of a dataclass's fields (:func:`fields_of`; any other object whole), each written by ``dump``
+    on its own and framed by its name and length. An object and its copy read back from a pickle give the
+    same digest, their whole pickles not always: pickle's memo writes a string shared by two fields once,
+    and a fresh object shares other strings than one read back. Raises what ``dump`` raises."""
+    h = hashlib.sha256()
+    parts = fields_of(obj) if is_dataclass(obj) and not isinstance(obj, type) else [("", obj)]
+    for name, value in parts:
+        data = dump(value)
+        h.update(name.encode() + b"\0" + len(data).to_bytes(8, "little") + data)
+    return h.hexdigest()
 
 
 def map_digest(map_file: Path) -> bytes:

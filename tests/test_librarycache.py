@@ -207,3 +207,94 @@ def test_kept_ratios_png_is_the_figure_drawn(tmp_path, monkeypatch):
         assert librarycache.kept_ratios_png(profile, design) == real(design) != fresh and len(drawn) == 2
     entry.write_bytes(entry.read_bytes()[:100])
     assert librarycache.kept_ratios_png(profile, design) == fresh and len(drawn) == 3
+
+
+def _spy_on_drawing(monkeypatch):
+    """The designs :func:`expdesign.report.ratios_png` draws from now on (kept_ratios_png imports it when called)."""
+    import expdesign.report as report
+
+    drawn = []
+    real = report.ratios_png
+    monkeypatch.setattr(report, "ratios_png", lambda d: drawn.append(d) or real(d))
+    return drawn
+
+
+def test_kept_ratios_png_of_a_design_read_back_is_the_kept_figure(tmp_path, monkeypatch):
+    # the first plan-trial makes the first design afresh and keeps its figure; the next reads the design back,
+    # whose whole pickle differs (strings shared otherwise): its figure must still be read, not drawn again
+    from maps import movecache
+
+    profile = load_profile("full-scale")
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    made = librarycache.kept_first_design(profile, trial_length_s=1800.0)
+    png = librarycache.kept_ratios_png(profile, made.design.design)
+    entries = set(tmp_path.glob("*.moves"))
+    back = librarycache.kept_first_design(profile, trial_length_s=1800.0)
+    assert back is not made and set(tmp_path.glob("*.moves")) == entries  # read back, nothing new kept
+    assert movecache.dumps(back.design.design, profile) != movecache.dumps(made.design.design, profile)
+    drawn = _spy_on_drawing(monkeypatch)
+    assert librarycache.kept_ratios_png(profile, back.design.design) == png and drawn == []
+    assert set(tmp_path.glob("*.moves")) == entries
+
+
+def test_no_cache_directory_draws_the_figure_and_keeps_nothing(tmp_path, monkeypatch):
+    import expdesign.report as report
+
+    profile = load_profile("full-scale")
+    design = first_design(profile, trial_length_s=1800.0).design.design
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", "")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))  # were the default used, it would show here
+    monkeypatch.chdir(tmp_path)
+    drawn = _spy_on_drawing(monkeypatch)
+    for n in (1, 2):
+        assert librarycache.kept_ratios_png(profile, design) == report.ratios_png(design) and len(drawn) == 2 * n
+    assert list(tmp_path.rglob("*")) == []
+
+
+def test_a_design_pickle_cannot_write_is_drawn_every_time(tmp_path, monkeypatch):
+    import expdesign.report as report
+
+    profile = load_profile("full-scale")
+    design = first_design(profile, trial_length_s=1800.0).design.design
+    odd = replace(design, certificate={**design.certificate, "note": lambda: None})  # a lambda: no pickle
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    drawn = _spy_on_drawing(monkeypatch)
+    for n in (1, 2):
+        assert librarycache.kept_ratios_png(profile, odd) == report.ratios_png(design) and len(drawn) == 2 * n
+    assert list(tmp_path.glob("*.moves")) == []
+
+
+_BEFORE_BACKEND = """
+import sys
+import expdesign.report as report
+from maps import librarycache
+from maps.trialdesign import first_design
+from primitives.ship import load_profile
+
+profile = load_profile("full-scale")
+design = first_design(profile, trial_length_s=1800.0).design.design
+assert "matplotlib.pyplot" not in sys.modules, "the backend was chosen before the test"
+png = librarycache.kept_ratios_png(profile, design)  # keyed before anything chose the backend
+gui = sorted(m for m in ("tkinter", "PyQt5", "PyQt6", "PySide2", "PySide6", "gi", "wx") if m in sys.modules)
+drawn = []
+real = report.ratios_png
+report.ratios_png = lambda d: drawn.append(d) or real(d)
+again = librarycache.kept_ratios_png(profile, design)  # the backend now Agg (drawing chose it)
+print(gui, len(drawn), again == png)
+"""
+
+
+def test_kept_ratios_png_keyed_before_the_backend_is_chosen(tmp_path):
+    # a fresh process that has not chosen matplotlib's backend: keying must not choose one (with a display it
+    # would import a GUI toolkit) nor key by it (the next call, after drawing chose Agg, would miss)
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
+    env |= {"SHIPTRIAL_CACHE_DIR": str(tmp_path), "DISPLAY": ":0", "PYTHONPATH": str(root)}
+    out = subprocess.run([sys.executable, "-c", _BEFORE_BACKEND], capture_output=True, text=True, cwd=root, env=env, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split("\n")[-2] == "[] 0 True"

@@ -8,7 +8,7 @@ import hashlib
 import json
 import os
 import shutil
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import pytest
@@ -452,3 +452,26 @@ def test_sea_maps_kept_within_their_byte_budget(tmp_path, monkeypatch):
     kept = {p.name for p in tmp_path.glob("*.map")}
     assert "big.map" in kept and f"m{plancache.KEEP + 7}.map" in kept and "m0.map" not in kept
     assert sum(p.stat().st_size for p in tmp_path.glob("*.map")) <= 25_000
+
+
+@dataclass
+class _Two:
+    a: dict
+    b: dict
+
+
+def test_fields_digest_is_the_same_for_an_object_read_back():
+    # a fresh object and its copy read back pickle to different bytes when the fresh one shares a string
+    # between fields; field by field they do not (the ratios figure's key and the drawer's check rely on it)
+    import pickle
+
+    from maps.plancache import fields_digest
+
+    name = "".join(["sur", "ge"])  # one string object in both fields of the fresh object
+    fresh = _Two({name: 1.0}, {name: 2.0})
+    back = pickle.loads(pickle.dumps(_Two({"surge": 1.0}, {"".join(["sur", "ge"]): 2.0})))
+    assert pickle.dumps(fresh) != pickle.dumps(back)
+    assert fields_digest(fresh) == fields_digest(back)
+    assert fields_digest(_Two({name: 1.0}, {name: 2.5})) != fields_digest(fresh)
+    assert fields_digest(_Two({name: 1.0}, {})) != fields_digest(_Two({}, {name: 1.0}))  # framed by field
+    assert fields_digest([1, 2]) == fields_digest([1, 2]) != fields_digest([2, 1])  # not a dataclass: whole
