@@ -22,15 +22,23 @@ a ``shiptrial detect`` on one recording, which needs a handful of its functions 
   low-pass, a 0.05 Hz 2nd-order Butterworth at 10 Hz; 1e-12 for the others). A design whose
   clustered poles the blocks cannot carry (a high order or a low cutoff: the companion form's A^L
   then rounds into growth; a 4th-order low-pass at 1 % of Nyquist was 3e-4 off, a 6th-order one
-  overflowed) is found once per design on a probe (:func:`_blockable`) and filtered by the same
-  blocks in its modal form (:mod:`primitives.iirmodal`: partial fractions, a diagonal state step;
-  stop 53) when that form is accurate on the probe (:func:`_modal`: against the loop in extended
-  precision, as close as scipy's double loop or within 1e-11 of the peak); else (repeated or very
-  clustered poles) sample by sample in scipy's order of operations: scipy's bits, slower (7.5 ms
-  against the modal form's 1.2 ms for a forward-backward pass of 3,286 samples of mass's 50 Hz
-  band-pass, ``benchmarks/bench_iir_forms.py``). A NaN or inf input makes its row NaN from the start
-  of its 64-sample block on (scipy's: from that sample on; the forward-backward filter is all NaN
-  either way), so such rows are filtered sample by sample: rows stay apart.
+  overflowed) is found once per design on a probe (:func:`_blockable`) and filtered sample by
+  sample in scipy's order of operations instead: scipy's bits, slower. A NaN or inf input makes
+  its row NaN from the start of its 64-sample block on (scipy's: from that sample on; the
+  forward-backward filter is all NaN either way): rows stay apart.
+- ``modal=True`` (:func:`lfilter`, :func:`filtfilt`; stop 53): opt-in, for a caller whose output only
+  feeds a check's verdict, never an estimate (``shiptrial mass``'s sign and role checks,
+  :mod:`identify.rollmass.signs`, :mod:`identify.rollmass.roles`). A design the companion blocks
+  cannot carry then goes through the same blocks in its modal form (:mod:`primitives.iirmodal`:
+  partial fractions, a diagonal state step) instead of sample by sample: not scipy's bits (on
+  x86-64 nearer the exact filter than scipy's loop on mass's 50 Hz band-passes; where longdouble is
+  double up to 10 times scipy's error: accuracy in :mod:`primitives.iirmodal`), 6 times faster (1.2 against 7.5 ms a forward-backward pass of 3,286
+  samples, ``benchmarks/bench_iir_forms.py``). A design with no modal form (repeated poles,
+  non-finite coefficients, :func:`primitives.iirmodal.modal_blocks`) or one whose modal form is
+  more than :data:`MODAL_TOLERANCE` of the peak off the loop on the probe (near-repeated poles;
+  a check in double precision: the same choice on every platform for mass's designs at 10-200 Hz)
+  stays on the loop. Without it (the default: ``detect``, ``yawid``,
+  :mod:`primitives.zerophase`, ``diagnose``, every other caller) the paths above, unchanged.
 - :func:`filtfilt`: forward-backward filtering with scipy's odd (default) or even padding of
   3 max(len(a), len(b)) samples and initial state ``zi x_0`` for each pass.
 """
@@ -214,31 +222,29 @@ def _blocks(b_bytes: bytes, a_bytes: bytes, length: int) -> tuple[np.ndarray, ..
             h[j + 1] = row @ B
         row = row @ A
         col = A @ col
-    toeplitz = np.zeros((length, length))
-    for j in range(length):
-        toeplitz[j:, j] = h[: length - j]
     power = np.linalg.matrix_power(A, length)
-    return tuple(np.ascontiguousarray(m) for m in (toeplitz, obs, ctrl, power))
+    return tuple(np.ascontiguousarray(m) for m in (iirmodal.lower_toeplitz(h), obs, ctrl, power))
 
 
-def _rows(b: np.ndarray, a: np.ndarray, x: np.ndarray, z0: np.ndarray | None) -> np.ndarray:
+def _rows(b: np.ndarray, a: np.ndarray, x: np.ndarray, z0: np.ndarray | None, modal: bool = False) -> np.ndarray:
     """The normalised filter along the last axis of ``x`` (m, n) from the states ``z0`` (m, order)
-    (zero when None)."""
+    (zero when None); ``modal``: :func:`lfilter`'s."""
     m, n = x.shape
     if len(a) == 1:
         return b[0] * x
     buf = np.zeros((m, -(-n // BLOCK) * BLOCK))
     buf[:, :n] = x
-    return _padded(b, a, buf, z0)[:, :n]
+    return _padded(b, a, buf, z0, modal)[:, :n]
 
 
-def _padded(b: np.ndarray, a: np.ndarray, buf: np.ndarray, z0: np.ndarray | None) -> np.ndarray:
-    """The filter over ``buf`` (m, a multiple of BLOCK: the signal, then zeros), whole blocks: the
-    companion form's (:func:`_blockable`), else the modal form's (:func:`_modal`), else sample by sample
-    (:func:`_stepwise`, scipy's bits); rows that hold a NaN or inf sample by sample too."""
+def _padded(b: np.ndarray, a: np.ndarray, buf: np.ndarray, z0: np.ndarray | None, modal: bool = False) -> np.ndarray:
+    """The filter over ``buf`` (m, a multiple of BLOCK: the signal, then zeros), whole blocks; sample
+    by sample (:func:`_stepwise`, scipy's bits) for a design the blocks cannot carry (:func:`_blockable`) and
+    for the rows that hold a NaN or inf. With ``modal`` (opt-in, module docstring) such a design goes
+    through the modal form's blocks when it has one (:func:`primitives.iirmodal.modal_blocks`)."""
     z = None if z0 is None else np.broadcast_to(z0, (buf.shape[0], len(a) - 1))
-    form = _form(b.tobytes(), a.tobytes())
-    if form == "stepwise":
+    products = _block_form(b.tobytes(), a.tobytes(), modal)
+    if products is None:
         return _stepwise_rows(b, a, buf, z)
     finite = np.isfinite(buf).all(axis=1)
     if not finite.all():
@@ -247,13 +253,22 @@ def _padded(b: np.ndarray, a: np.ndarray, buf: np.ndarray, z0: np.ndarray | None
         out = np.empty_like(buf)
         out[~finite] = _stepwise_rows(b, a, buf[~finite], None if z is None else z[~finite])
         if finite.any():
-            out[finite] = _padded(b, a, buf[finite], None if z is None else z[finite])
+            out[finite] = _padded(b, a, buf[finite], None if z is None else z[finite], modal)
         return out
     with _one_blas_thread():
-        if form == "modal":
-            return iirmodal.modal_products(buf, iirmodal.modal_blocks(b.tobytes(), a.tobytes(), BLOCK), z0)
-        toeplitz, obs, ctrl, power = _blocks(b.tobytes(), a.tobytes(), BLOCK)
-        return _block_products(buf, len(a) - 1, toeplitz, obs, ctrl, power, z0)
+        return products(buf, z0)
+
+
+def _block_form(b_bytes: bytes, a_bytes: bytes, modal: bool):
+    """The products :func:`_padded` filters whole blocks with (``f(buf, z0)``): the companion form's
+    when :func:`_blockable`, else with ``modal`` the modal form's when the design has one; None: sample
+    by sample."""
+    if _blockable(b_bytes, a_bytes):
+        toeplitz, obs, ctrl, power = _blocks(b_bytes, a_bytes, BLOCK)
+        order = len(obs[0])
+        return lambda buf, z0: _block_products(buf, order, toeplitz, obs, ctrl, power, z0)
+    blocks = _modal_blocks(b_bytes, a_bytes) if modal else None
+    return None if blocks is None else (lambda buf, z0: iirmodal.modal_products(buf, blocks, z0))
 
 
 def _stepwise_rows(b: np.ndarray, a: np.ndarray, buf: np.ndarray, z0: np.ndarray | None) -> np.ndarray:
@@ -285,6 +300,12 @@ def _stepwise(b: list[float], a: list[float], xs, z: list) -> list:
 #: 1 % of Nyquist: 3e-4; 6th order at 1 %: overflow) puts clustered poles into the companion form's
 #: A^L, whose rounding then grows from block to block
 BLOCKABLE_TOLERANCE = 1e-11
+#: the modal form's products must equal the sample-by-sample filter on the probe to this share of its peak
+#: (opt-in callers only, whose output feeds a check's verdict). Measured on the probe (x86-64's 80-bit
+#: longdouble / iirmodal's EXT patched to double): mass's 2nd-order 0.1-0.45 Hz band 3e-11 / 5e-10 at
+#: 50 Hz, 7e-9 / 5e-8 at 200 Hz; the 0.1-2.0 Hz band at 25-200 Hz under 8e-10 on both; a triple pole at
+#: 0.999 (split by numpy.roots) 4.3 / 3.8e3, poles 0.999, 0.9991, 0.9992 5e-5 / 2e-3: refused on both
+MODAL_TOLERANCE = 1e-7
 
 
 @lru_cache(maxsize=64)
@@ -292,50 +313,41 @@ def _blockable(b_bytes: bytes, a_bytes: bytes) -> bool:
     """Whether the block products of a normalised design are accurate: A^L's spectral radius below 1,
     and the blocks equal :func:`_stepwise` to :data:`BLOCKABLE_TOLERANCE` of the peak on a fixed
     random walk of 16 blocks from a random state (a few ms in Python floats, once per design)."""
-    b, a = np.frombuffer(b_bytes), np.frombuffer(a_bytes)
-    order = len(a) - 1
+    order = len(np.frombuffer(a_bytes)) - 1
     toeplitz, obs, ctrl, power = _blocks(b_bytes, a_bytes, BLOCK)
     if not np.all(np.isfinite(power)) or np.max(np.abs(np.linalg.eigvals(power))) >= 1.0:
         return False
-    rng = np.random.default_rng(0)
-    probe = rng.standard_normal(16 * BLOCK).cumsum()
-    z0 = rng.standard_normal(order)
-    want = np.array(_stepwise(b.tolist(), a.tolist(), probe.tolist(), z0.tolist()))
+    probe, z0, want = _probe(b_bytes, a_bytes)
     with _one_blas_thread():
         got = _block_products(probe[None, :], order, toeplitz, obs, ctrl, power, z0[None, :])[0]
     return bool(np.max(np.abs(got - want)) <= BLOCKABLE_TOLERANCE * np.max(np.abs(want)))
 
 
 @lru_cache(maxsize=64)
-def _form(b_bytes: bytes, a_bytes: bytes) -> str:
-    """How :func:`_padded` filters a normalised design: 'blocks' (the companion form's products,
-    :func:`_blockable`), 'modal' (:mod:`primitives.iirmodal`, :func:`_modal`) or 'stepwise'."""
-    if _blockable(b_bytes, a_bytes):
-        return "blocks"
-    return "modal" if _modal(b_bytes, a_bytes) else "stepwise"
-
-
-def _modal(b_bytes: bytes, a_bytes: bytes) -> bool:
-    """Whether the modal form's products are accurate for a design the companion blocks cannot carry:
-    on :func:`_blockable`'s probe, within :data:`BLOCKABLE_TOLERANCE` of the peak, or within the
-    sample-by-sample double loop's own error, of the same loop run in ``numpy.longdouble`` (extended
-    precision on x86-64; where longdouble is double, of scipy's loop itself). Once per design: the
-    extended loop takes about 10 ms of CPU for 1,024 samples of a 4th-order design."""
-    blocks = iirmodal.modal_blocks(b_bytes, a_bytes, BLOCK)
-    if blocks is None:
-        return False
+def _probe(b_bytes: bytes, a_bytes: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The block forms' probe of a normalised design: a fixed random walk of 16 blocks, a random start
+    state, and :func:`_stepwise`'s output from them (double precision, scipy's bits)."""
     b, a = np.frombuffer(b_bytes), np.frombuffer(a_bytes)
     rng = np.random.default_rng(0)
     probe = rng.standard_normal(16 * BLOCK).cumsum()
     z0 = rng.standard_normal(len(a) - 1)
-    ext = [np.longdouble(v) for v in b], [np.longdouble(v) for v in a]
-    exact = np.array(_stepwise(*ext, [np.longdouble(v) for v in probe], [np.longdouble(v) for v in z0]))
-    loop = np.array(_stepwise(b.tolist(), a.tolist(), probe.tolist(), z0.tolist()))
+    return probe, z0, np.array(_stepwise(b.tolist(), a.tolist(), probe.tolist(), z0.tolist()))
+
+
+@lru_cache(maxsize=64)
+def _modal_blocks(b_bytes: bytes, a_bytes: bytes) -> tuple[np.ndarray, ...] | None:
+    """:func:`primitives.iirmodal.modal_blocks` of a normalised design when its products are within
+    :data:`MODAL_TOLERANCE` of the peak of :func:`_stepwise` on :func:`_probe`, else None: a guard
+    against near-repeated poles (a triple pole at 0.999 that ``numpy.roots`` splits was 2.2 times
+    the peak off), in double precision only, so that the choice is the same on every platform for
+    the designs that take it."""
+    blocks = iirmodal.modal_blocks(b_bytes, a_bytes, BLOCK)
+    if blocks is None:
+        return None
+    probe, z0, want = _probe(b_bytes, a_bytes)
     with _one_blas_thread():
         got = iirmodal.modal_products(probe[None, :], blocks, z0[None, :])[0]
-    peak = float(np.max(np.abs(exact)))
-    allowed = max(BLOCKABLE_TOLERANCE * peak, float(np.max(np.abs(loop - exact))))
-    return bool(np.max(np.abs(got - exact)) <= allowed)
+    return blocks if np.max(np.abs(got - want)) <= MODAL_TOLERANCE * np.max(np.abs(want)) else None
 
 
 def _block_products(
@@ -364,9 +376,13 @@ def _block_products(
     return y.reshape(m, nb * BLOCK)
 
 
-def lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1, zi: np.ndarray | None = None) -> np.ndarray:
+def lfilter(
+    b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1, zi: np.ndarray | None = None, *, modal: bool = False
+) -> np.ndarray:
     """``scipy.signal.lfilter(b, a, x, axis, zi)``'s output (without the final state) to rounding
-    (module docstring); ``zi`` is (order,) or x's shape with ``axis`` of length order."""
+    (module docstring); ``zi`` is (order,) or x's shape with ``axis`` of length order. ``modal``: the
+    modal form instead of scipy's loop for designs the companion blocks cannot carry (opt-in, module
+    docstring: not scipy's bits there)."""
     _refuse_leading_zero(a)
     b, a = _normalized(b, a)
     x = np.asarray(x, dtype=np.float64)
@@ -378,13 +394,16 @@ def lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1, zi: np.
     if zi is not None and order:
         zi = np.asarray(zi, dtype=np.float64)
         z0 = zi if zi.ndim == 1 else np.moveaxis(zi, axis, -1).reshape(-1, order)
-    y = _rows(b, a, rows, z0).reshape(*lead, moved.shape[-1])
+    y = _rows(b, a, rows, z0, modal).reshape(*lead, moved.shape[-1])
     return np.moveaxis(y, -1, axis)
 
 
-def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1, padtype: str = "odd") -> np.ndarray:
+def filtfilt(
+    b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1, padtype: str = "odd", *, modal: bool = False
+) -> np.ndarray:
     """``scipy.signal.filtfilt(b, a, x, axis, padtype)`` (odd or even padding of 3 max(len(a), len(b))
-    samples, each pass from ``lfilter_zi x_0``) to rounding (module docstring)."""
+    samples, each pass from ``lfilter_zi x_0``) to rounding (module docstring); ``modal`` as
+    :func:`lfilter`'s."""
     if padtype not in ("odd", "even"):
         raise ValueError(f"filtfilt: padtype must be 'odd' or 'even', not {padtype!r}")
     x = np.asarray(x, dtype=np.float64)
@@ -407,8 +426,8 @@ def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, axis: int = -1, padtyp
     buf[:, :edge] = 2 * rows[:, :1] - left if odd else left
     buf[:, edge : edge + n] = rows
     buf[:, edge + n : total] = 2 * rows[:, -1:] - right if odd else right
-    y = _padded(b, a, buf, zi[None, :] * buf[:, :1])
+    y = _padded(b, a, buf, zi[None, :] * buf[:, :1], modal)
     back = np.zeros(buf.shape)  # the forward output reversed, for the backward pass
     back[:, :total] = y[:, total - 1 :: -1]
-    y = _padded(b, a, back, zi[None, :] * back[:, :1])
+    y = _padded(b, a, back, zi[None, :] * back[:, :1], modal)
     return np.moveaxis(y[:, total - 1 - edge : edge - 1 : -1].reshape(*lead, n), -1, axis)

@@ -1,7 +1,9 @@
 """An IIR filter's block products in its modal (parallel first-order) form, for the designs whose
 companion-form blocks round into growth (:func:`primitives.iir._blockable` false: clustered poles near
 z = 1, e.g. ``shiptrial mass``'s 2nd-order 0.1-0.45 Hz band-pass at 50 Hz), which
-:mod:`primitives.iir` otherwise filters sample by sample in Python (stop 53).
+:mod:`primitives.iir` otherwise filters sample by sample in Python. Opt-in: only callers that pass
+``modal=True`` to :func:`primitives.iir.filtfilt` / :func:`~primitives.iir.lfilter` (mass's sign and
+role checks, whose output feeds a verdict, never an estimate) reach it (stop 53).
 
 The normalised filter ``H(z) = B(z) / A(z)`` with distinct poles ``p_i`` is, by partial fractions
 (Oppenheim & Schafer, *Discrete-Time Signal Processing*, 3rd ed., 6.3.3, the parallel form),
@@ -17,10 +19,19 @@ transposed direct form II state ``z`` (scipy's ``zi``) has the zero-input respon
 ``M_z(p) = sum_k z_k p^(n-1-k)``: one matrix ``R`` maps ``zi`` (and ``N``'s coefficients) to the modes.
 
 The poles are ``numpy.roots`` polished by three Newton steps, and ``R``, the residues and the powers
-``p^j`` are formed in extended precision (``numpy.longdouble``: 80-bit on x86-64), then rounded once to
-complex128: in double precision alone the roots' and residues' errors put the output 1e-9 of its peak
-off (the 50 Hz band-pass), ten times the sample-by-sample loop's own error; so formed, the blocks are
-1e-13 off an extended-precision loop where scipy's double loop is 5e-11 off (tests/test_iir.py).
+``p^j`` are formed in :data:`EXT` (``numpy.longdouble``: 80-bit on x86-64), then rounded once to
+complex128. Accuracy, measured (``benchmarks/bench_iir_modal_accuracy.py``; tests/test_iirmodal.py
+pins it): the largest error from a state over a 3,000-sample random walk's output peak, against
+scipy's loop run in x86-64's longdouble:
+
+- x86-64: mass's 0.1-0.45 Hz band at 50 Hz 2.3e-13 (scipy's double loop 8.7e-11), its 0.1-2.0 Hz
+  band 9.1e-13 (scipy 3.9e-12); the 0.1-0.45 Hz band at 100 Hz 8.9e-12 (scipy 8.6e-10).
+- where ``numpy.longdouble`` is double (Windows, macOS arm64; measured with :data:`EXT`, :data:`CEXT`
+  patched to float64, complex128): 6.0e-10 (0.1-0.45 Hz at 50 Hz), 7.7e-12 (0.1-2.0 Hz at 50 Hz),
+  1.3e-9 (0.1-0.45 Hz at 100 Hz): up to 10 times scipy's error, still far below what the checks
+  judge (correlations against 0.4, ratios against 3): ``shiptrial mass`` prints byte-identical text
+  and ``--json`` either way on the example (docs/mass-accuracy.md, stop 53).
+  :func:`primitives.iir._modal_blocks` refuses a form more than 1e-7 off the loop on its probe.
 """
 
 from __future__ import annotations
@@ -29,12 +40,26 @@ from functools import lru_cache
 
 import numpy as np
 
+#: the extended precision the poles, residues and powers are formed in (module docstring); module
+#: constants so that tests can measure the form where ``numpy.longdouble`` is double
+EXT, CEXT = np.longdouble, np.clongdouble
+
+
+def lower_toeplitz(h: np.ndarray) -> np.ndarray:
+    """The (L, L) lower-triangular Toeplitz matrix of the impulse response ``h`` (L,): a block's forced
+    response is it times the block's inputs (both block forms, :func:`primitives.iir._blocks` too)."""
+    length = len(h)
+    toeplitz = np.zeros((length, length))
+    for j in range(length):
+        toeplitz[j:, j] = h[: length - j]
+    return toeplitz
+
 
 def _poles(a: np.ndarray) -> np.ndarray:
     """The roots of ``a`` (highest power first) in extended precision: ``numpy.roots`` (the companion
-    matrix's eigenvalues) then three Newton steps on ``a`` evaluated in ``longdouble``."""
-    p = np.roots(a).astype(np.clongdouble)
-    a_ext = a.astype(np.longdouble)
+    matrix's eigenvalues) then three Newton steps on ``a`` evaluated in :data:`EXT`."""
+    p = np.roots(a).astype(CEXT)
+    a_ext = a.astype(EXT)
     slope = np.polyder(a_ext)
     for _ in range(3):
         p = p - np.polyval(a_ext, p) / np.polyval(slope, p)
@@ -50,13 +75,18 @@ def modal_blocks(b_bytes: bytes, a_bytes: bytes, length: int) -> tuple[np.ndarra
     not inside the unit circle, or a matrix is not finite: no modal form (the caller filters stepwise)."""
     b, a = np.frombuffer(b_bytes), np.frombuffer(a_bytes)
     n = len(a) - 1
+    if n == 0 or not (np.isfinite(a).all() and np.isfinite(b).all()):
+        return None  # np.roots raises on NaN or inf; main's path then gives scipy's NaN output
     with np.errstate(all="ignore"):
-        p = _poles(a)
-        slope = np.polyval(np.polyder(a.astype(np.longdouble)), p)
+        try:
+            p = _poles(a)
+        except np.linalg.LinAlgError:  # the companion matrix's eigenvalues did not converge
+            return None
+        slope = np.polyval(np.polyder(a.astype(EXT)), p)
         if np.any(slope == 0) or not np.all(np.abs(p) < 1):
             return None
         R = p[:, None] ** np.arange(n - 1, -1, -1)[None, :] / slope[:, None]
-        r = R @ (b[1:] - a[1:] * b[0]).astype(np.longdouble)
+        r = R @ (b[1:] - a[1:] * b[0]).astype(EXT)
         powers = p[None, :] ** np.arange(length)[:, None]  # (L, n): p_i^j
         h = np.empty(length)
         h[0] = b[0]
@@ -65,10 +95,7 @@ def modal_blocks(b_bytes: bytes, a_bytes: bytes, length: int) -> tuple[np.ndarra
         out = tuple(np.ascontiguousarray(m, dtype=np.complex128) for m in (powers, ctrl, p**length, R))
     if not all(np.all(np.isfinite(m)) for m in (h, *out)):
         return None
-    toeplitz = np.zeros((length, length))
-    for j in range(length):
-        toeplitz[j:, j] = h[: length - j]
-    return (toeplitz, *out)
+    return (lower_toeplitz(h), *out)
 
 
 def modal_products(buf: np.ndarray, blocks: tuple[np.ndarray, ...], z0: np.ndarray | None) -> np.ndarray:

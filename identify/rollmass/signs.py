@@ -39,9 +39,12 @@ SHIP_SIGN = "ship sign: roll positive starboard down, yaw positive to starboard,
 
 
 def _band(x: np.ndarray, T: float, lo: float | None, hi: float) -> np.ndarray:
+    """``x`` band-passed (low-passed without ``lo``), zero phase, mean removed: for the checks' verdicts
+    only, so through the modal form where scipy's loop would run sample by sample (the 0.1-0.45 Hz band at
+    50 Hz: 6 times faster, nearer the exact filter; :mod:`primitives.iir`, stop 53)."""
     fs = 1 / T
     b, a = butter(2, [lo, hi] if lo else hi, btype="bandpass" if lo else "lowpass", fs=fs)
-    y = filtfilt(b, a, x - x.mean())
+    y = filtfilt(b, a, x - x.mean(), modal=True)
     return y - y.mean()
 
 
