@@ -11,11 +11,12 @@ every run while the parent planned (0.16-0.27 s of its CPU, least to median of o
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
+from expdesign.robust import DrawInformation
 from maps import movecache, plancache
-from maps.trialdesign import FirstDesign, first_design, ship_library
+from maps.trialdesign import FirstDesign, TrialDesign, first_design, ship_library
 from primitives.information import PrimitiveInfo, library_information
 from primitives.library import Primitive
 from primitives.ship import ShipProfile
@@ -36,14 +37,17 @@ def kept_library(profile: ShipProfile) -> tuple[list[Primitive], list[PrimitiveI
     return lib, infos
 
 
-def _kept(k: str | None, profile: ShipProfile, valid: Callable[[Any], bool], make: Callable[[], Any]) -> Any:
+def _kept(
+    k: str | None, profile: ShipProfile, valid: Callable[[Any], bool], make: Callable[[], Any], refs: Sequence[Any] = ()
+) -> Any:
     """The value kept under key ``k`` when there is one and it is ``valid``, else ``make()`` kept there (an
-    entry of another shape, a damaged one or one this code cannot read is no entry)."""
-    kept = movecache.load(k, profile)
+    entry of another shape, a damaged one or one this code cannot read is no entry; ``refs``: objects
+    written as references, :func:`maps.movecache.dumps`)."""
+    kept = movecache.load(k, profile, refs)
     if valid(kept):
         return kept
     value = make()
-    movecache.store(k, value, profile)
+    movecache.store(k, value, profile, refs)
     return value
 
 
@@ -53,7 +57,11 @@ def kept_first_design(profile: ShipProfile, parameter_prior: Any = None, **optio
     robust criterion's prior, keyed by the digest of its pickle): read from the move cache when it holds
     it (the key as :func:`kept_library`'s, the options and the prior added: the same bits), else made
     (from :func:`kept_library`) and kept there. A design that raises (a trial too short for any manoeuvre)
-    is never kept: the next command meets the same error."""
+    is never kept: the next command meets the same error.
+
+    The entry holds only what :func:`first_design` computes on top of the library (:func:`_design_part`):
+    the library and its information, kept under their own key, are written as references and the design
+    read is given :func:`kept_library`'s lists, as :func:`first_design` is."""
 
     def make() -> FirstDesign:
         return first_design(profile, parameter_prior=parameter_prior, **options)
@@ -63,7 +71,35 @@ def kept_first_design(profile: ShipProfile, parameter_prior: Any = None, **optio
     except Exception:  # noqa: BLE001 - a prior pickle cannot write is not keyed: designed every time
         return make()
     k = movecache.key(profile, "first-design", tuple(sorted(options.items())) + (("prior", prior),))
-    return _kept(k, profile, lambda v: isinstance(v, FirstDesign), make)
+    if k is None:  # no cache: first_design reads no library either
+        return make()
+    lib, infos = kept_library(profile)
+
+    def made() -> tuple:  # first_design's own path with the library read here (not computed twice)
+        return _design_part(first_design(profile, lib, infos=infos, parameter_prior=parameter_prior, **options))
+
+    part = _kept(k, profile, lambda v: _is_design_part(v, lib, infos), made, [*lib, *infos])
+    return FirstDesign(lib, infos, *part[1:])
+
+
+def _design_part(first: FirstDesign) -> tuple:
+    """What :func:`kept_first_design` keeps of ``first``: the library's names (which library its references
+    point into) and every field of :class:`FirstDesign` but the library and its information, in order."""
+    return (tuple(p.name for p in first.library), first.design, first.baseline, first.draws)
+
+
+def _is_design_part(kept: Any, lib: list[Primitive], infos: list[PrimitiveInfo]) -> bool:
+    """Whether ``kept`` is a :func:`_design_part` of a design made from ``lib`` and ``infos`` (an entry of
+    another shape, or one whose library had other primitives, is no entry)."""
+    return (
+        isinstance(kept, tuple)
+        and len(kept) == 4
+        and kept[0] == tuple(p.name for p in lib)
+        and len(infos) == len(lib)
+        and isinstance(kept[1], TrialDesign)
+        and isinstance(kept[2], float)
+        and (kept[3] is None or isinstance(kept[3], DrawInformation))
+    )
 
 
 # the settings of the backend, which cannot change the figure's bytes (:func:`primitives.io.figure_png`

@@ -17,7 +17,10 @@ the key inside the payload: a missing, truncated, unreadable or misnamed entry i
 writes them: it plans afresh (design, search, verification), and the moves read are the bits it would build.
 
 The moves' primitives hold the caller's profile: the profile is pickled by reference (a persistent
-id) and the loaded moves point at the profile object of the command that reads them.
+id) and the loaded moves point at the profile object of the command that reads them. A value may leave
+other objects out the same way (``refs``: the kept first design leaves out the library it was made
+from, kept under its own key, :mod:`maps.librarycache`): each is written as its place in ``refs`` and
+read back as the object at that place in the reader's ``refs``.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ import hashlib
 import io
 import pickle
 import platform
+from collections.abc import Sequence
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -38,35 +42,44 @@ PROFILE = "profile"  # the persistent id of the caller's profile inside an entry
 
 
 class _Pickler(pickle.Pickler):
-    def __init__(self, fh: io.BytesIO, profile: ShipProfile):
+    def __init__(self, fh: io.BytesIO, profile: ShipProfile, refs: Sequence[Any] = ()):
         super().__init__(fh, protocol=pickle.HIGHEST_PROTOCOL)
         self.profile = profile
+        # by identity, not equality: an equal copy elsewhere in the value is written out
+        self.places = {id(obj): i for i, obj in enumerate(refs)}
+        self.refs = refs  # alive while pickling: the ids stay theirs
 
-    def persistent_id(self, obj: Any) -> str | None:
-        return PROFILE if obj is self.profile else None
+    def persistent_id(self, obj: Any) -> str | int | None:
+        if obj is self.profile:
+            return PROFILE
+        return self.places.get(id(obj)) if self.places else None  # the moves: no refs, no look-up
 
 
 class _Unpickler(pickle.Unpickler):
-    def __init__(self, fh: io.BytesIO, profile: ShipProfile):
+    def __init__(self, fh: io.BytesIO, profile: ShipProfile, refs: Sequence[Any] = ()):
         super().__init__(fh)
-        self.profile = profile
+        self.profile, self.refs = profile, refs
 
-    def persistent_load(self, pid: Any) -> ShipProfile:
-        if pid != PROFILE:
-            raise pickle.UnpicklingError(f"unknown persistent id {pid!r}")
-        return self.profile
+    def persistent_load(self, pid: Any) -> Any:
+        if pid == PROFILE:
+            return self.profile
+        if type(pid) is int and 0 <= pid < len(self.refs):
+            return self.refs[pid]
+        raise pickle.UnpicklingError(f"unknown persistent id {pid!r}")
 
 
-def dumps(value: Any, profile: ShipProfile) -> bytes:
-    """``value`` pickled with ``profile`` (wherever it is referenced) left out as a reference."""
+def dumps(value: Any, profile: ShipProfile, refs: Sequence[Any] = ()) -> bytes:
+    """``value`` pickled with ``profile`` (wherever it is referenced) left out as a reference, and each
+    object of ``refs`` as its place there."""
     buf = io.BytesIO()
-    _Pickler(buf, profile).dump(value)
+    _Pickler(buf, profile, refs).dump(value)
     return buf.getvalue()
 
 
-def loads(data: bytes, profile: ShipProfile) -> Any:
-    """:func:`dumps`' value, its profile references pointing at ``profile``."""
-    return _Unpickler(io.BytesIO(data), profile).load()
+def loads(data: bytes, profile: ShipProfile, refs: Sequence[Any] = ()) -> Any:
+    """:func:`dumps`' value, its profile references pointing at ``profile`` and its others at the objects
+    at their places in ``refs`` (a place ``refs`` lacks: :class:`pickle.UnpicklingError`)."""
+    return _Unpickler(io.BytesIO(data), profile, refs).load()
 
 
 _PROFILE_DIGESTS: dict[int, tuple[ShipProfile, bytes]] = {}
@@ -109,8 +122,9 @@ def key(profile: ShipProfile, what: str, options: tuple, primitive: Any = None) 
     return h.hexdigest()
 
 
-def load(k: str | None, profile: ShipProfile) -> Any:
-    """The value stored under key ``k`` (None when there is none, it cannot be read or the cache is off)."""
+def load(k: str | None, profile: ShipProfile, refs: Sequence[Any] = ()) -> Any:
+    """The value stored under key ``k`` (None when there is none, it cannot be read or the cache is off;
+    ``refs``: as :func:`loads`')."""
     directory = plancache.default_dir()
     if k is None or directory is None:
         return None
@@ -120,18 +134,19 @@ def load(k: str | None, profile: ShipProfile) -> Any:
         return None
     data = entry[1]
     try:
-        return loads(data, profile)
+        return loads(data, profile, refs)
     except Exception:  # noqa: BLE001 - an entry this code cannot read is no entry: the moves are built
         return None
 
 
-def store(k: str | None, value: Any, profile: ShipProfile) -> None:
-    """Keep ``value`` under key ``k`` (skipped without a word when the cache is off or cannot be written)."""
+def store(k: str | None, value: Any, profile: ShipProfile, refs: Sequence[Any] = ()) -> None:
+    """Keep ``value`` under key ``k`` (skipped without a word when the cache is off or cannot be written;
+    ``refs``: as :func:`dumps`')."""
     directory = plancache.default_dir()
     if k is None or directory is None:
         return
     try:
-        data = dumps(value, profile)
+        data = dumps(value, profile, refs)
     except Exception:  # noqa: BLE001 - moves holding something pickle cannot write are simply not kept
         return
     plancache.store_blob(Path(directory), f"{k}.moves", (k, data))

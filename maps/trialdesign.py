@@ -361,9 +361,11 @@ def first_design(
     trial_length_s: float | None = None,
     seed: int = 0,
     parameter_prior: ParameterPrior | None = None,
+    infos: list[PrimitiveInfo] | None = None,
 ) -> FirstDesign:
     """Design ``library`` (default :func:`ship_library`) and round it to whole manoeuvres
-    (``parameter_prior``: the draws of a robust criterion)."""
+    (``parameter_prior``: the draws of a robust criterion; ``infos``: the informative primitives'
+    :func:`primitives.information.library_information`, computed already)."""
     criterion = canonical_criterion(criterion)
     if library is None:  # the ship's own library: kept between commands (maps.librarycache)
         from maps.librarycache import kept_library
@@ -371,7 +373,7 @@ def first_design(
         lib, infos = kept_library(profile)
     else:
         lib = [p for p in library if p.kind == "informative"]
-        infos = library_information(profile, lib)
+        infos = library_information(profile, lib) if infos is None else infos
     draws = (
         draw_information(profile, lib, parameter_prior, mean_subtraction, held_out=True)
         if criterion in ROBUST and parameter_prior

@@ -155,3 +155,17 @@ def test_unreadable_entry_is_built_again(profile, tmp_path, monkeypatch, damage)
     for a, b in zip(built, again):
         np.testing.assert_array_equal(a.prims[0].track, b.prims[0].track)
     assert movecache.load(entry.stem, profile) is not None  # written again
+
+
+def test_refs_are_written_as_their_places_and_read_as_the_readers_objects(profile):
+    # stop 53 (the kept design): a value leaves out objects kept elsewhere, by identity (an equal copy is written
+    # out), and a reader whose refs lack a place reads no value
+    a, b = np.arange(1000.0), np.arange(1000.0)
+    data = movecache.dumps({"a": a, "again": a, "copy": b, "profile": profile}, profile, [a])
+    assert len(data) < len(movecache.dumps({"a": a, "again": a, "copy": b, "profile": profile}, profile)) - 7000
+    mine = np.zeros(3)
+    read = movecache.loads(data, profile, [mine])
+    assert read["a"] is mine and read["again"] is mine and read["profile"] is profile
+    np.testing.assert_array_equal(read["copy"], b)
+    with pytest.raises(pickle.UnpicklingError):
+        movecache.loads(data, profile)
