@@ -94,6 +94,7 @@ def _is_design_part(kept: Any, lib: list[Primitive], infos: list[PrimitiveInfo])
     return (
         isinstance(kept, tuple)
         and len(kept) == 4
+        and isinstance(kept[0], tuple)  # (an array here would make == elementwise)
         and kept[0] == tuple(p.name for p in lib)
         and len(infos) == len(lib)
         and isinstance(kept[1], TrialDesign)

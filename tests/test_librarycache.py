@@ -9,6 +9,7 @@ from dataclasses import replace
 import numpy as np
 
 import maps.librarycache as librarycache
+from maps import movecache
 from maps.trialdesign import first_design
 from primitives.ship import load_profile
 
@@ -242,6 +243,21 @@ def test_kept_design_of_another_library_is_no_entry(tmp_path, monkeypatch):
         assert _digest(read, profile) == _digest(first_design(profile, short[0], trial_length_s=1800.0), profile)
         monkeypatch.undo()
         monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+
+
+def test_kept_design_entry_of_another_shape_is_no_entry(tmp_path, monkeypatch):
+    # an entry under the design's key that is not a design part (damaged, or another code's: an array for the
+    # names, a reordered library) is designed again, never read nor raised
+    profile = load_profile("model-ship")
+    monkeypatch.setenv("SHIPTRIAL_CACHE_DIR", str(tmp_path))
+    fresh = librarycache.kept_first_design(profile, trial_length_s=1800.0)
+    lib, infos = librarycache.kept_library(profile)
+    k = movecache.key(profile, "first-design", (("trial_length_s", 1800.0), ("prior", None)))
+    part = librarycache._design_part(fresh)
+    for odd in ((np.array([p.name for p in lib]), *part[1:]), (part[0][::-1], *part[1:])):
+        movecache.store(k, odd, profile, [*lib, *infos])
+        assert type(movecache.load(k, profile, [*lib, *infos])[0]) is type(odd[0])  # the design's own key
+        assert _digest(librarycache.kept_first_design(profile, trial_length_s=1800.0), profile) == _digest(fresh, profile)
 
 
 def test_kept_ratios_png_is_the_figure_drawn(tmp_path, monkeypatch):
