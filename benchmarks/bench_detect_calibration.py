@@ -21,9 +21,9 @@ and the structure in quadrature). If the null records describe the runs, z has m
 the runs of every prior; a prior's own parameter error is one fixed offset shared by all its runs
 (mean off 0, sd below 1 within the prior), while the bootstrap draws it afresh per record.
 
-    python benchmarks/bench_detect_calibration.py            # ships 100-107 (the four stored caches)
-    python benchmarks/bench_detect_calibration.py --cache /work/wt/detect-cache-48:ef8f31a30e7e:108:2   # a hold-out
-    python benchmarks/bench_detect_calibration.py --design 0.005 0.01 0.02   # every run re-decided at these rates
+    python benchmarks/bench_detect_calibration.py --cache DIR:KEY:FIRSTSHIP:NSHIPS [...]   # one per stored screening
+    python benchmarks/bench_detect_calibration.py --cache /work/wt/dcache-main:8667c7204102:102:2   # ships 102-103
+    python benchmarks/bench_detect_calibration.py --cache DIR:KEY:108:2 --design 0.005 0.01 0.02   # re-decided at these rates
     python benchmarks/bench_detect_calibration.py --cache DIR:KEY:102:2 --own-misfit robust   # stop 49: the run's own misfit
 """
 
@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import pickle
+import sys
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -48,13 +49,9 @@ from identify.detect.priorfit import structural_spread
 from identify.detect.verdict import Whitened, implausible_inertia, verdict
 from identify.detect.yawmodel import CANDIDATES, NOMINAL, block_mean, shift_moment
 
-#: the stored screenings of ships 100-107 (folder:key:first ship:ships), read only
-CACHES = (
-    "/work/wt/detect-cache-45:3690962303ba:100:2",
-    "/work/wt/detect-cache-46:06129d985011:102:2",
-    "/work/wt/detect-cache-47:a20739f06534:104:2",
-    "/work/wt/detect-cache-47b:ef8f31a30e7e:106:2",
-)
+#: how a stored screening is named on the command line (benchmarks/bench_detect_truth.py --cache's folder and key);
+#: no default: the stores of ships 100-107 the bench once read by default are gone (stop 53)
+CACHE_FORM = "DIR:KEY:FIRSTSHIP:NSHIPS"
 VARIANTS = ("nominal-mmg", "strong-roll", "pod-interaction", "steering-lag-acting", "coloured-noise")
 CUTS = (0.02, 0.05, 0.10, 0.25, 0.50)
 
@@ -308,9 +305,28 @@ def design_rows(
             print(row(f"{v[:9]}/{rate:g}", summarise(studies)), flush=True)
 
 
+def check_caches(specs: list[str] | None) -> None:
+    """Exit 2 with one line naming ``--cache`` and its form when no stored screening is given, or one is not
+    ``DIR:KEY:FIRSTSHIP:NSHIPS`` with an existing DIR (the bench reads nothing else)."""
+    example = "e.g. --cache /work/wt/dcache-main:8667c7204102:102:2 (a folder of benchmarks/bench_detect_truth.py --cache)"
+    if not specs:
+        _fail(f"--cache is required: give each stored screening as {CACHE_FORM}, {example}")
+    for spec in specs:
+        parts = spec.split(":")
+        if len(parts) != 4 or not (parts[2].isdigit() and parts[3].isdigit()):
+            _fail(f"--cache {spec!r}: write {CACHE_FORM} (folder, cache key, first ship, number of ships), {example}")
+        if not Path(parts[0]).is_dir():
+            _fail(f"--cache {spec!r}: no folder {parts[0]}; give an existing stored screening as {CACHE_FORM}")
+
+
+def _fail(msg: str) -> None:
+    print(f"error: {msg}", file=sys.stderr)
+    raise SystemExit(2)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cache", nargs="*", default=list(CACHES), help="folder:key:first ship:ships, one per stored cache")
+    ap.add_argument("--cache", nargs="*", help=f"{CACHE_FORM}, one per stored screening (required)")
     ap.add_argument("--variants", nargs="*", default=list(VARIANTS))
     ap.add_argument("--runs", type=int, default=10)
     ap.add_argument(
@@ -325,6 +341,7 @@ def main() -> None:
         help=f"the run's own misfit in stored screenings' records (screened before stop 49): {', '.join(OWN)}, bootL or bootpL (L s blocks; p: projected orthogonal to the signatures); stop 53: lowbL, scale, scaleb, scalei, mixW, bootnL (bootpL less the records' own white noise)",
     )
     a = ap.parse_args()
+    check_caches(a.cache)
     warnings.simplefilter("ignore", RuntimeWarning)
     if a.design:
         design_rows(a.cache, tuple(a.variants), a.design, a.runs, a.structure, a.own_misfit)

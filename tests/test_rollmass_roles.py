@@ -4,6 +4,7 @@ basin truth (tests/physics/basin_truth.py); the refusals come before the fit, so
 
 from __future__ import annotations
 
+import json
 import re
 from dataclasses import replace
 from pathlib import Path
@@ -13,7 +14,7 @@ import pytest
 
 from cli.app import _run
 from identify.rollmass import roles
-from identify.rollmass.api import check_ship, default_speed_warnings, order_warnings
+from identify.rollmass.api import check_ship, default_speed_warnings, order_check
 from identify.rollmass.model import Load, load_profile
 from identify.rollmass.recording import read_roll_csv, write_roll_csv
 from primitives.errors import UserError
@@ -64,7 +65,7 @@ def _checked(files: list[Path], cal: Load, role_headers: bool = False) -> list[s
     metas = [dict(m, role=role) if role_headers else m for (_, m), role in zip(read, ("nominal", "calibration", "loaded"))]
     prof = load_profile()
     prof = replace(prof, known=replace(prof.known, U=float(metas[0]["speed_m_s"])))
-    return order_warnings([r for r, _ in read], files, metas, prof, cal)
+    return order_check([r for r, _ in read], files, metas, prof, cal)[0]
 
 
 def test_the_right_order_passes_the_check(bare):
@@ -219,20 +220,45 @@ def test_a_yaw_rate_in_degrees_is_named_not_the_rudder(bare, capsys, tmp_path):
     assert "column 'r'" in msg and "rad/s" in msg and "column 'delta'" not in msg
 
 
-def test_slow_sampling_skips_the_check_without_a_traceback(tmp_path, capsys):
-    # stop 52's review, 1: the bundled example at T = 0.3 s (every 15th row) raised from the 0.1-2 Hz band-pass
+UNCHECKED = "the files' roles were not checked"
+
+
+def _slow_example(tmp_path: Path, role_headers: bool) -> list[Path]:
+    """The bundled example (`mass-sim --case case1 --seed 3`) at T = 0.3 s (every 15th row), with or without
+    its '# role:' header lines."""
     assert _run(["mass-sim", str(tmp_path / "sim"), "--case", "case1", "--seed", "3"]) == 0
     files = []
     for role in ("nominal", "calibration", "loaded"):
         lines = (tmp_path / "sim" / f"{role}.csv").read_text().splitlines()
         head = [("# sample_time: 0.3" if ln.startswith("# sample_time:") else ln) for ln in lines if ln.startswith("#")]
+        head = [ln for ln in head if role_headers or not ln.startswith("# role:")]
         body = [ln for ln in lines if not ln.startswith("#")]
         (tmp_path / f"{role}.csv").write_text("\n".join(head + body[:1] + body[1::15]) + "\n")
         files.append(tmp_path / f"{role}.csv")
+    return files
+
+
+def test_slow_sampling_skips_the_check_without_a_traceback(tmp_path, capsys):
+    # stop 52's review, 1: the bundled example at T = 0.3 s (every 15th row) raised from the 0.1-2 Hz band-pass
+    files = _slow_example(tmp_path, role_headers=True)
     rec, _ = read_roll_csv(files[0])
     assert rec.T == pytest.approx(0.3) and all(np.isnan(roles.roll_stiffness(rec)))
     assert _run(["mass", *map(str, files)]) == 0
-    assert "load z" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "load z" in out and UNCHECKED not in out  # all three role headers: the order is checked by them
+
+
+def test_slow_sampling_without_role_headers_is_noted_not_passed_silently(tmp_path, capsys):
+    # stop 53: headerless files the roll check cannot judge printed the answer without a word, as if checked
+    files = _slow_example(tmp_path, role_headers=False)
+    assert _run(["mass", *map(str, files)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    (note,) = [ln for ln in out if UNCHECKED in ln]
+    assert note.startswith("note: ") and not any(ln.startswith("warning: ") for ln in out)
+    assert "sampled every 0.3 s" in note and "'# role:' header" in note and "more than 4.44 Hz" in note
+    assert _run(["mass", *map(str, files), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert [n for n in got["notes"] if UNCHECKED in n] == [note.removeprefix("note: ")] and got["warnings"] == []
 
 
 def test_a_heavy_known_load_without_a_roll_mode_is_not_judged_and_refused_in_one_line(bare, capsys):
@@ -252,6 +278,38 @@ def test_only_a_change_of_the_opposite_sign_beyond_its_noise_is_refused():
     assert roles.role_verdict(wrong) == "refuse"
     assert roles.role_verdict(roles.RoleCheck((w, w, w), float("nan"))) is None
     assert roles.role_verdict(roles.RoleCheck((1.0, -1.0, 2.0), -0.2)) is None
+
+
+def _notes(files: list[Path], cal: Load, role_headers: bool = False, edit=None) -> list[str]:
+    """``order_check``'s notes for ``files``, each recording changed by ``edit`` first."""
+    read = [read_roll_csv(p) for p in files]
+    recs = [edit(r) if edit else r for r, _ in read]
+    metas = [dict(m, role=role) if role_headers else m for (_, m), role in zip(read, ("nominal", "calibration", "loaded"))]
+    return order_check(recs, files, metas, load_profile(), cal)[1]
+
+
+def test_a_judged_order_and_a_headed_one_get_no_note(bare):
+    assert _notes(bare, Load(0.2, -0.256)) == []
+    held = lambda r: replace(r, delta=np.full_like(r.delta, 0.1))  # noqa: E731
+    assert _notes(bare, Load(0.2, -0.256), role_headers=True, edit=held) == []
+
+
+@pytest.mark.parametrize(
+    ("edit", "cal", "said"),
+    [
+        (lambda r: replace(r, delta=np.full_like(r.delta, 0.1)), Load(0.2, -0.256), "the rudder does not move in"),
+        (
+            lambda r: replace(r, delta=r.delta[:150], p=r.p[:150], a_s=r.a_s[:150], r=r.r[:150], phi=None, u=None),
+            Load(0.2, -0.256),
+            "too short",
+        ),
+        (None, Load(0.05, -0.03), "less than the 5 % the check needs"),
+    ],
+    ids=["rudder", "short", "small-load"],
+)
+def test_an_order_the_roll_cannot_judge_without_role_headers_is_noted(bare, edit, cal, said):
+    (note,) = _notes(bare, cal, edit=edit)
+    assert note.startswith(UNCHECKED) and said in note and "give every file a '# role:' header line, or " in note
 
 
 def test_a_short_recording_or_a_constant_rudder_is_not_judged(bare):

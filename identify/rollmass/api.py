@@ -17,7 +17,7 @@ from identify.rollmass.model import Load, RollProfile, load_profile
 from identify.rollmass.output_error import start_values
 from identify.rollmass.recording import read_roll_csv
 from identify.rollmass.restoring import DEFAULT_HEEL_REFERENCE, HEEL_REFERENCES
-from identify.rollmass.roles import loaded_message, measure_roles, role_message, role_verdict
+from identify.rollmass.roles import loaded_message, measure_roles, role_message, role_verdict, unjudged_message
 from identify.rollmass.signs import (
     check_signs,
     expected_signs,
@@ -404,7 +404,9 @@ def estimate_from_files(
     notes += heel
     before = ship + default_speed_warnings(given, prof, profile is None, paths, metas)
     check_recorded_signs(recs, prof, given)
-    before += order_warnings(recs, paths, metas, prof, cal, z_f)
+    order, unchecked = order_check(recs, paths, metas, prof, cal, z_f)
+    before += order
+    notes += unchecked
     try:
         e = estimate(
             recs, prof.known, cal, method, with_ci=True, z_f=z_f, start=start_values(prof), heel_reference=heel_reference
@@ -423,30 +425,32 @@ def estimate_from_files(
     return e
 
 
-def order_warnings(
+def order_check(
     recs: list[RollRecording],
     paths: list[Path],
     metas: list[dict[str, str]],
     prof: RollProfile,
     cal: Load,
     z_f: float | None = None,
-) -> list[str]:
+) -> tuple[list[str], list[str]]:
     """Before the fit: do the runs' roll frequencies fit the roles their order gives them
-    (:mod:`identify.rollmass.roles`)? Raises UserError for files without '# role:' headers whose
-    nominal-to-calibration change has the opposite sign of the known load's, beyond its noise (given in the
-    wrong order they fit to a negative load, or for minutes to no answer: stop 52); returns a warning where the
-    change is otherwise far from the prediction (:func:`roles.role_verdict`; with all three headers confirming
-    the order it names the known load and the profile), or where the loaded run rolls clearly faster than the
-    nominal."""
+    (:mod:`identify.rollmass.roles`)? Returns ``(warnings, notes)``. Raises UserError for files without '# role:'
+    headers whose nominal-to-calibration change has the opposite sign of the known load's, beyond its noise (given
+    in the wrong order they fit to a negative load, or for minutes to no answer: stop 52); warns where the change is
+    otherwise far from the prediction (:func:`roles.role_verdict`; with all three headers confirming the order it
+    names the known load and the profile), or where the loaded run rolls clearly faster than the nominal. A note
+    says when files without all three headers could not be judged (:func:`roles.unjudged_message`, stop 53): the
+    answer stands, but its order was checked by nothing."""
     rc = measure_roles(recs, prof, cal, z_f)
     headed = all(m.get("role") for m in metas)
     msg = role_message(rc, paths, cal, headed)
     if msg and not headed and role_verdict(rc) == "refuse":
         raise UserError(msg)
     if msg:
-        return [msg]
+        return [msg], []
+    note = None if headed else unjudged_message(rc, recs, paths, cal)
     loaded = None if headed else loaded_message(rc, paths)
-    return [loaded] if loaded else []
+    return ([loaded] if loaded else []), ([note] if note else [])
 
 
 def default_speed_warnings(

@@ -40,6 +40,7 @@ NOISE_SIGMAS = 3.0
 OPPOSITE_SHARE = 0.5
 NYQUIST_SHARE = 0.9  # the band's upper edge must be below this share of the Nyquist frequency, else no check
 MIN_PREDICTED = 0.05  # |log w^2 change| the known load must cause to be judged (the measured change's sd: 0.01-0.03)
+GAPS = ("sampling", "short", "rudder")  # why a recording's w^2 is not measured, the one said first leading
 MIN_LOADED_RISE = 0.08  # log w^2 rise of the loaded run over the nominal that is judged (0.4 kg lowered it 0.44)
 
 
@@ -50,6 +51,8 @@ class RoleCheck:
     w2: tuple[float, float, float]  # [rad^2/s^2] of the three recordings, in the order given
     predicted: float  # log(w2_cal / w2_nom) the known load should cause (profile's oe model); nan: not judged
     se: tuple[float, float, float] = (0.0, 0.0, 0.0)  # standard errors of the three log w^2 (2SLS)
+    # why a recording's w^2 is nan (:func:`stiffness_gap`, else "rudder"): said to the user when not judged (stop 53)
+    gaps: tuple[str | None, str | None, str | None] = (None, None, None)
 
     @property
     def measured(self) -> float:
@@ -78,6 +81,31 @@ def _lag(x: np.ndarray, k: int) -> np.ndarray:
     return np.r_[np.zeros(k), x[: len(x) - k]]
 
 
+def _lags(T: float) -> list[int]:
+    return [int(round(lag / T)) for lag in INSTRUMENT_LAGS_S]
+
+
+def max_sample_time() -> float:
+    """The longest sample time [s] the role check judges: the roll band's upper edge below
+    :data:`NYQUIST_SHARE` of the Nyquist frequency (0.225 s)."""
+    return NYQUIST_SHARE * 0.5 / BAND_HZ[1]
+
+
+def min_samples(T: float) -> int:
+    """The fewest samples the role check judges at sample time ``T``: the largest instrument lag below half the
+    recording (:func:`roll_stiffness`)."""
+    return 2 * max(_lags(T)) + 2
+
+
+def stiffness_gap(rec: RollRecording) -> str | None:
+    """Why :func:`roll_stiffness` cannot measure ``rec`` before it filters: ``"sampling"`` (sampled at
+    :func:`max_sample_time` or slower: the band does not fit below the Nyquist frequency), ``"short"`` (fewer
+    than :func:`min_samples`); None when it can try."""
+    if BAND_HZ[1] >= NYQUIST_SHARE * 0.5 / rec.T:  # T >= max_sample_time(), as first written (same rounding)
+        return "sampling"
+    return "short" if rec.n < min_samples(rec.T) else None
+
+
 def roll_stiffness(rec: RollRecording) -> tuple[float, float]:
     """The roll mode's squared natural frequency ``w^2`` [rad^2/s^2] of one recording and the standard error
     of ``log w^2``: ``p' = -w^2 phi - 2 zeta w p + b_r r + b_delta delta`` in the roll band (``phi`` the
@@ -87,11 +115,11 @@ def roll_stiffness(rec: RollRecording) -> tuple[float, float]:
     truth's `combined` variant: a nominal run's ``w^2`` 14 % low). ``(nan, nan)`` when the band does not fit
     below the Nyquist frequency, the recording is too short for the lags, or the instruments are too few."""
     T, nan = rec.T, (float("nan"), float("nan"))
-    lags = [int(round(lag / T)) for lag in INSTRUMENT_LAGS_S]
+    if stiffness_gap(rec) is not None:
+        return nan  # slow sampling (T >= 0.225 s) or a short recording: no judgment (stop 52's review, 1 and 8)
+    lags = _lags(T)
     cut = int(EDGE_S / T)
     s = slice(cut, -cut) if rec.n > 4 * cut else slice(None)
-    if BAND_HZ[1] >= NYQUIST_SHARE * 0.5 / T or max(lags) >= rec.n // 2:
-        return nan  # slow sampling (T >= 0.225 s) or a short recording: no judgment (stop 52's review, 1 and 8)
     phi = np.cumsum(rec.p - rec.p.mean()) * T
     ba = butter(2, list(BAND_HZ), btype="bandpass", fs=1.0 / T)  # one design for the four signals
     f = {k: _band(x, ba) for k, x in (("phi", phi), ("p", rec.p), ("r", rec.r), ("delta", rec.delta))}
@@ -141,24 +169,98 @@ def predicted_change(prof: RollProfile, cal: Load, z_f: float | None = None) -> 
 
 
 def measure_roles(recs: list[RollRecording], prof: RollProfile, cal: Load, z_f: float | None = None) -> RoleCheck:
-    """The three recordings' ``w^2`` and the change the known load predicts."""
+    """The three recordings' ``w^2`` and the change the known load predicts, and why a ``w^2`` is nan: its
+    :func:`stiffness_gap`, else a constant rudder (:func:`roll_stiffness`'s only other nan)."""
     w2, se = zip(*(roll_stiffness(r) for r in recs))
-    return RoleCheck(tuple(w2), predicted_change(prof, cal, z_f), tuple(se))
+    gaps = tuple(stiffness_gap(r) or ("rudder" if np.isnan(w) else None) for r, w in zip(recs, w2))
+    return RoleCheck(tuple(w2), predicted_change(prof, cal, z_f), tuple(se), gaps)
 
 
 def role_verdict(rc: RoleCheck) -> str | None:
     """``"refuse"`` when the nominal-to-calibration change has the opposite sign of the predicted one, larger
     than :data:`NOISE_SIGMAS` standard errors and :data:`OPPOSITE_SHARE` of the prediction; ``"warn"`` when the
     ratio is otherwise outside :data:`WARN_RANGE`; None when it fits or cannot be judged (no ``w^2``, no
-    prediction, or a known load too small to change the roll)."""
-    if not np.all(np.isfinite(rc.w2)) or min(rc.w2) <= 0:
-        return None
-    if not np.isfinite(rc.predicted) or abs(rc.predicted) < MIN_PREDICTED:
+    prediction, or a known load too small to change the roll: :func:`unjudged`)."""
+    if unjudged(rc) is not None:
         return None
     m, se = rc.measured, rc.measured_se
     if m * rc.predicted < 0 and abs(m) > NOISE_SIGMAS * se and abs(m) > OPPOSITE_SHARE * abs(rc.predicted):
         return "refuse"
     return None if WARN_RANGE[0] <= rc.ratio <= WARN_RANGE[1] else "warn"
+
+
+def unjudged(rc: RoleCheck) -> tuple[str, tuple[int, ...]] | None:
+    """Why :func:`role_verdict` cannot judge ``rc`` and which recordings (0-2) that is about; None when it judges.
+    In this order: a ``w^2`` not measured (its :attr:`RoleCheck.gaps` entry, the first of :data:`GAPS` any
+    recording has), ``"no-roll"`` (a ``w^2`` not positive), ``"no-prediction"`` (the model has no roll mode,
+    :func:`predicted_change`), ``"small-load"`` (a predicted change under :data:`MIN_PREDICTED`)."""
+    missing = [(i, rc.gaps[i] or "rudder") for i, w in enumerate(rc.w2) if not np.isfinite(w)]
+    if missing:
+        code = next(g for g in GAPS if any(c == g for _, c in missing))
+        return code, tuple(i for i, c in missing if c == code)
+    if min(rc.w2) <= 0:
+        return "no-roll", tuple(i for i, w in enumerate(rc.w2) if w <= 0)
+    if not np.isfinite(rc.predicted):
+        return "no-prediction", ()
+    return ("small-load", ()) if abs(rc.predicted) < MIN_PREDICTED else None
+
+
+def unjudged_message(rc: RoleCheck, recs: list[RollRecording], paths: list[Path], cal: Load) -> str | None:
+    """A note for files whose order no ``# role:`` header confirms when the roll cannot judge it either
+    (:func:`unjudged`): the answer stands on the order given, and the user is told so, the reason and the fix
+    (stop 53: such files passed without a word, as if their order had been checked)."""
+    why = unjudged(rc)
+    if why is None:
+        return None
+    reason, fix = _unjudged_words(why[0], [recs[i] for i in why[1]], [paths[i].name for i in why[1]], rc, cal)
+    return (
+        f"the files' roles were not checked, because not every file has a '# role:' header and the roll cannot judge "
+        f"them: {reason}. The answer assumes the order NOMINAL CALIBRATION LOADED; give every file a '# role:' header "
+        f"line, or {fix}"
+    )
+
+
+def _unjudged_words(code: str, recs: list[RollRecording], names: list[str], rc: RoleCheck, cal: Load) -> tuple[str, str]:
+    """The reason and the fix of :func:`unjudged`'s ``code`` for the recordings ``recs`` (named ``names``)."""
+    files, be = ", ".join(names), "is" if len(names) == 1 else "are"
+    load = f"the known load {cal.m:g} kg at z {cal.zbar:+g} m"
+    if code == "sampling":
+        hz = 1.0 / max_sample_time()
+        return (
+            f"{files} {be} sampled every {recs[0].T:g} s ({1 / recs[0].T:.3g} Hz), too slowly for the roll band "
+            f"{BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz, which needs more than {hz:.3g} Hz",
+            f"record at more than {hz:.3g} Hz (a sample time under {max_sample_time():g} s)",
+        )
+    if code == "short":
+        rec = min(recs, key=lambda r: r.n)
+        need = min_samples(rec.T)
+        return (
+            f"{files} {be} too short for the instruments' rudder lags of up to {max(INSTRUMENT_LAGS_S):g} s: "
+            f"{rec.n} samples, where the check needs {need} ({need * rec.T:.3g} s)",
+            f"record every run for at least {need * rec.T:.3g} s",
+        )
+    if code == "rudder":
+        return (
+            f"the rudder does not move in the roll band {BAND_HZ[0]:g}-{BAND_HZ[1]:g} Hz in {files}, so its lags (the "
+            "instruments) cannot measure the roll's natural frequency",
+            "move the rudder in every run (a zig-zag)",
+        )
+    if code == "no-roll":
+        return (
+            f"{files} show{'s' if len(names) == 1 else ''} no roll mode in the roll band (the measured natural "
+            "frequency squared is not positive)",
+            "check the column p (roll rate, rad/s)",
+        )
+    if code == "no-prediction":
+        return (
+            f"the profile's model has no stable roll mode with {load} or without it, so it predicts no change",
+            "check the known load and the profile",
+        )
+    return (
+        f"{load} changes the roll's natural frequency squared by {100 * np.expm1(rc.predicted):+.1f} % in the profile's model, "
+        f"less than the {100 * np.expm1(MIN_PREDICTED):.0f} % the check needs",
+        "use a heavier known load, or one further above or below the roll centre",
+    )
 
 
 def role_message(rc: RoleCheck, paths: list[Path], cal: Load, headed: bool = False) -> str | None:
