@@ -30,7 +30,8 @@ POLES = [
 ]
 
 
-def _extended_loop(b: np.ndarray, a: np.ndarray, x: np.ndarray, zi: np.ndarray) -> np.ndarray:
+def extended_loop(b: np.ndarray, a: np.ndarray, x: np.ndarray, zi: np.ndarray) -> np.ndarray:
+    """scipy's transposed direct form II loop (:func:`iir._stepwise`) in numpy.longdouble (tests/test_iirmodal.py too)."""
     ext = [[np.longdouble(v) for v in c] for c in (b, a, x, zi)]
     return np.array(iir._stepwise(*ext), dtype=np.longdouble)
 
@@ -47,7 +48,7 @@ def _row(label: str, b: np.ndarray, a: np.ndarray, n: int) -> str:
     accepted = iir._modal_blocks(bb, ab) is not None
     x = np.random.default_rng(len(a)).standard_normal(n).cumsum()
     zi = iir.lfilter_zi(b, a) * x[0]
-    exact = _extended_loop(bn, an, x, zi)
+    exact = extended_loop(bn, an, x, zi)
     peak = float(np.max(np.abs(exact)))
     forced = iirmodal.modal_products(np.r_[x, np.zeros(-n % iir.BLOCK)][None, :], blocks, zi[None, :])[0, :n] if blocks else None
     mine = "-" if forced is None else f"{np.max(np.abs(forced - exact)) / peak:.1e}"

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import scipy.signal as ss
 
+from benchmarks.bench_iir_modal_accuracy import extended_loop
 from identify.rollmass import roles, signs
 from identify.rollmass.simulate import RollRecording
 from primitives import iir, iirmodal
@@ -32,19 +33,13 @@ def _design(design) -> tuple[np.ndarray, np.ndarray, bytes, bytes]:
     return b, a, bn.tobytes(), an.tobytes()
 
 
-def _extended_loop(b: np.ndarray, a: np.ndarray, x: np.ndarray, zi: np.ndarray) -> np.ndarray:
-    """scipy's transposed direct form II loop (:func:`iir._stepwise`) in numpy.longdouble."""
-    ext = [[np.longdouble(v) for v in c] for c in (b, a, x, zi)]
-    return np.array(iir._stepwise(*ext), dtype=np.longdouble)
-
-
 def _errors(design) -> tuple[float, float]:
     """(modal form, scipy's loop): largest error from a state over the output's peak, against the extended loop."""
     b, a, bb, ab = _design(design)
     assert not iir._blockable(bb, ab) and iir._modal_blocks(bb, ab) is not None, design
     x = np.random.default_rng(design[0]).standard_normal(3000).cumsum()
     zi = ss.lfilter_zi(b, a) * x[0]
-    exact = _extended_loop(*iir._normalized(b, a), x, zi)
+    exact = extended_loop(*iir._normalized(b, a), x, zi)
     peak = float(np.max(np.abs(exact)))
     mine = float(np.max(np.abs(iir.lfilter(b, a, x, zi=zi, modal=True) - exact))) / peak
     theirs = float(np.max(np.abs(ss.lfilter(b, a, x, zi=zi)[0] - exact))) / peak
