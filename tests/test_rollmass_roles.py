@@ -326,3 +326,34 @@ def test_the_prediction_uses_the_users_z_f():
     prof, cal = load_profile(), Load(0.2, -0.256)
     assert roles.predicted_change(prof, cal, prof.known.z_f_prior) == roles.predicted_change(prof, cal)
     assert roles.predicted_change(prof, cal, -0.015) > roles.predicted_change(prof, cal) + 0.05
+
+
+def test_no_roll_mode_and_no_prediction_are_not_judged_and_say_why(bare):
+    # stop 53 left these two codes of `unjudged` untested: a w^2 <= 0 (a p column that is not the roll rate)
+    # and a profile whose model has no roll mode with or without the load
+    w, cal = 12.0, Load(0.2, -0.256)
+    flat = roles.RoleCheck((w, -0.5, w), -0.07)
+    assert roles.unjudged(flat) == ("no-roll", (1,))
+    assert roles.role_verdict(flat) is None
+    recs = [read_roll_csv(p)[0] for p in bare]
+    note = roles.unjudged_message(flat, recs, bare, cal)
+    assert note.startswith(UNCHECKED) and f"{bare[1].name} shows no roll mode" in note and "check the column p" in note
+    lost = roles.RoleCheck((w, w, w), float("nan"))
+    assert roles.unjudged(lost) == ("no-prediction", ())
+    note = roles.unjudged_message(lost, recs, bare, cal)
+    assert "predicts no change" in note and "0.2 kg at z -0.256 m" in note and "check the known load and the profile" in note
+    # a measured gap is named before a w^2 <= 0 elsewhere (the documented order)
+    both = roles.RoleCheck((float("nan"), -0.5, w), -0.07, gaps=("short", None, None))
+    assert roles.unjudged(both) == ("short", (0,))
+
+
+def test_the_shortest_recording_the_check_judges(bare):
+    # the boundary of min_samples: one sample fewer is "short", exactly min_samples is measured
+    rec = read_roll_csv(bare[0])[0]
+    need = roles.min_samples(rec.T)
+    cut = lambda n: replace(rec, delta=rec.delta[:n], p=rec.p[:n], a_s=rec.a_s[:n], r=rec.r[:n], phi=None, u=None)  # noqa: E731
+    assert roles.stiffness_gap(cut(need - 1)) == "short" and all(np.isnan(roles.roll_stiffness(cut(need - 1))))
+    assert roles.stiffness_gap(cut(need)) is None
+    w2, se = roles.roll_stiffness(cut(need))
+    assert w2 > 0 and np.isfinite(se)  # 202 samples at 50 Hz (4 s): measured, no traceback from the lags
+    assert roles.stiffness_gap(replace(rec, T=roles.max_sample_time())) == "sampling"
