@@ -7,7 +7,7 @@ load on deck 0.256 m above the waterline is ``z = -0.256``; the keel is at ``z =
 from __future__ import annotations
 
 import re
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -369,7 +369,6 @@ def estimate_from_files(
     heel_reference: str = DEFAULT_HEEL_REFERENCE,
 ) -> MassEstimate:
     """Read three recordings and estimate the loaded run's mass change and the load's z with 95 % intervals.
-    ``heel_reference``: how ``oe`` references the roll angle (:func:`restoring.referenced_heel`).
 
     The headers' role, speed, IMU z and known load are checked against the file order, the
     profile and ``known_load`` (which may be omitted when the calibration file's header gives it).
@@ -381,6 +380,47 @@ def estimate_from_files(
     if heel_reference not in HEEL_REFERENCES:
         raise UserError(f"heel reference {heel_reference!r}: choose one of {', '.join(HEEL_REFERENCES)}")
     paths = [Path(p) for p in (nominal, calibration, loaded)]
+    got = _checked_inputs(paths, known_load, profile, z_f)
+    try:
+        e = estimate(
+            got.recs,
+            got.prof.known,
+            got.cal,
+            method,
+            with_ci=True,
+            z_f=z_f,
+            start=start_values(got.prof),
+            heel_reference=heel_reference,
+        )
+    except (
+        ValueError,
+        FloatingPointError,
+        np.linalg.LinAlgError,
+    ) as exc:  # a fit that cannot start or diverges is said, never printed
+        raise UserError(
+            f"the {method} estimate failed on these recordings ({str(exc).splitlines()[0]}); "
+            "check --z-f, --known-load and that the three runs come from one ship"
+        ) from None
+    e.notes = got.notes + [n for r in got.recs for n in r.notes]
+    e.warnings += usability_warnings(e, got.prof) + slowing_warning(got.recs, got.paths, method) + got.warnings
+    return e
+
+
+@dataclass
+class _Inputs:
+    """What :func:`estimate_from_files` fits, after every check of the files, headers and profile."""
+
+    paths: list[Path]
+    recs: list[RollRecording]  # each at its header's speed, its heel referenced
+    prof: RollProfile  # the headers' speed and IMU position in place of the profile's own
+    cal: Load  # the calibration run's known load
+    notes: list[str]
+    warnings: list[str]  # said before the fit's own warnings
+
+
+def _checked_inputs(paths: list[Path], known_load: str | Load | None, profile: str | Path | None, z_f: float | None) -> _Inputs:
+    """The three recordings read and checked (roles, ship, rate, load in the hull, signs, order) against their
+    headers, the profile and ``known_load``; a contradiction is a :class:`UserError` or a warning."""
     prof = load_profile(profile)
     given = prof  # before the headers' speed and IMU position replace its own
     read = [read_roll_csv(p) for p in paths]
@@ -402,27 +442,10 @@ def estimate_from_files(
     notes += speed_notes(recs, paths)
     recs, heel = heel_notes(recs, paths)
     notes += heel
-    before = ship + default_speed_warnings(given, prof, profile is None, paths, metas)
+    warnings = ship + default_speed_warnings(given, prof, profile is None, paths, metas)
     check_recorded_signs(recs, prof, given)
     order, unchecked = order_check(recs, paths, metas, prof, cal, z_f)
-    before += order
-    notes += unchecked
-    try:
-        e = estimate(
-            recs, prof.known, cal, method, with_ci=True, z_f=z_f, start=start_values(prof), heel_reference=heel_reference
-        )
-    except (
-        ValueError,
-        FloatingPointError,
-        np.linalg.LinAlgError,
-    ) as exc:  # a fit that cannot start or diverges is said, never printed
-        raise UserError(
-            f"the {method} estimate failed on these recordings ({str(exc).splitlines()[0]}); "
-            "check --z-f, --known-load and that the three runs come from one ship"
-        ) from None
-    e.notes = notes + [n for r in recs for n in r.notes]
-    e.warnings += usability_warnings(e, prof) + slowing_warning(recs, paths, method) + before
-    return e
+    return _Inputs(paths, recs, prof, cal, notes + unchecked, warnings + order)
 
 
 def order_check(
