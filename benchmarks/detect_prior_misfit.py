@@ -29,12 +29,14 @@ With ``--clean DIR`` every recording is also re-simulated by the truth without s
 regressor), and a second table splits the runs' residual into the sensors' noise (the run less the same
 run without noise), the share of it the prior's records read as noise, the prior's parameter offset the
 runs share (its parameters refitted on the noise-free nominal, applied to the noise-free run) and the best
-single candidate on the noise-free runs. Stop 54's output: ``benchmarks/detect_prior_misfit_s54.txt``;
+single candidate on the noise-free runs; a third gives yaw inertia's whole-record reading on the runs with and
+without noise (:func:`readings`). Stop 54's output: ``benchmarks/detect_prior_misfit_s54.txt``;
 the reading: docs/detect-accuracy.md, stop 54 (no term explains a material share; the in-band residual is
-81-91 % sensor noise, of which the prior's records carry 0-3 % as noise, and 6.5-9.8 % the prior's shared parameter offset).
+84-93 % sensor noise, of which the prior's records carry 0-3 % as noise, and 6.2-9.9 % the prior's shared parameter
+offset, which along yaw inertia is the whole of a prior's mean reading).
 
     PYTHONPATH=$PWD nice -n 10 python benchmarks/detect_prior_misfit.py \\
-        --cache /work/wt/dcache-main:8667c7204102:102:2 --cache /work/wt/dcache-main-108:8667c7204102:108:2 --runs 2 \\
+        --cache /work/wt/dcache-main:8667c7204102:102:2 --cache /work/wt/dcache-main-108:8667c7204102:108:2 --runs 5 \\
         --clean /tmp/s54/clean --save /tmp/s54/cols.pkl   # then: --load /tmp/s54/cols.pkl re-tabulates in seconds
 """
 
@@ -55,7 +57,16 @@ from identify.detect.checks import MOMENT
 from identify.detect.inputs import Deriver, signals
 from identify.detect.nullsim import null_records
 from identify.detect.priorfit import _jacobian
-from identify.detect.yawmodel import NOMINAL, YawPrior, block_mean, predict_with_signatures, shift_moment, simulate_r
+from identify.detect.yawmodel import (
+    CANDIDATES,
+    NOMINAL,
+    YawPrior,
+    block_mean,
+    predict_with_signatures,
+    shift_moment,
+    simulate_r,
+    whiten,
+)
 
 VARIANTS = ("nominal-mmg", "strong-roll", "pod-interaction", "steering-lag-acting", "coloured-noise")
 #: the truth family's recordings' fingerprint (tests/physics at the stored screenings' time)
@@ -124,6 +135,8 @@ class Columns:
     names: tuple[str, ...]
     noise: np.ndarray  # (nb, R)
     band: tuple[float, float]
+    S: np.ndarray | None = None  # (nb, 3) the change signatures (CANDIDATES)
+    ar: np.ndarray | None = None  # the prior's whitening filter
 
 
 def sensitivity_columns(
@@ -166,7 +179,32 @@ def recording_columns(prior: YawPrior, path: Path, noise_runs: int = 16, seed: i
     Sb = block_mean(S, prior.block)
     band = (signature_edge(Sb, 0.05), signature_edge(Sb, 0.95))
     bm = lambda a: block_mean(a, prior.block)  # noqa: E731
-    return Columns(bm(r - r_hat), bm(J), bm(G), tuple(names), bm(noise), band)
+    return Columns(bm(r - r_hat), bm(J), bm(G), tuple(names), bm(noise), band, Sb, prior.ar)
+
+
+def readings(c: Columns) -> np.ndarray:
+    """The whole-record GLR estimate of each candidate change (relative, CANDIDATES) on the recording: the
+    whitened residual's least-squares fit along each whitened signature, as the verdict estimates a change."""
+    ew, Sw = whiten(c.e, c.ar), whiten(c.S, c.ar)
+    return Sw.T @ ew / np.sum(Sw**2, axis=0)
+
+
+def reading_rows(noisy: list[tuple[Columns, list[Columns]]], clean: list[tuple[Columns, list[Columns]]]) -> dict:
+    """Yaw inertia's reading (% of I_r) on the unchanged runs with and without noise: the runs' mean and sd
+    without noise (what the prior's offset and structure make, shared), with noise (what detect reads), and the
+    sd within a prior's runs (pooled over the priors) with noise and of the noise's own part (noisy less noise-free)."""
+    k = CANDIDATES.index("yaw_inertia")
+    rn = np.array([[readings(c)[k] for c in runs] for _, runs in noisy])
+    rc = np.array([[readings(c)[k] for c in runs] for _, runs in clean])
+    return {
+        "clean_mean": 100 * rc.mean(),
+        "clean_abs": 100 * np.abs(rc.mean(axis=1)).mean(),
+        "noisy_mean": 100 * rn.mean(),
+        "noisy_sd": 100 * rn.std(),
+        "noise_sd": 100 * np.sqrt(np.mean(np.var(rn - rc, axis=1, ddof=1))),
+        "within_sd": 100 * np.sqrt(np.mean(np.var(rn, axis=1, ddof=1))),
+        "per_prior": [f"{100 * a:+.2f}/{100 * b:+.2f}" for a, b in zip(rc.mean(axis=1), rn.mean(axis=1))],
+    }
 
 
 def band_pass(x: np.ndarray, band: tuple[float, float]) -> np.ndarray:
@@ -380,6 +418,20 @@ def main() -> None:
                 f"| {v} | {'band' if band else 'all'} | {1e3 * d['sd']:.3f} / {1e3 * d['sd_clean']:.3f} | {100 * d['noise']:.0f} | "
                 f"{100 * d['noise_read']:.0f} | {100 * d['offset']:.1f} | {100 * d['refit']:.1f} | {100 * d['terms']:.1f} |"
             )
+    print()
+    print(
+        "| variant | yaw inertia read on the runs without noise: mean, mean |per prior| % | with noise: mean, sd % | "
+        "sd within a prior: with noise, its noise's own part % | per prior: without / with noise, mean % |"
+    )
+    print("|---|---|---|---|---|")
+    for v in [k for k in data if not k.endswith(" clean") and f"{k} clean" in data]:
+        if data[v][0][0].S is None:
+            continue
+        d = reading_rows(data[v], data[f"{v} clean"])
+        print(
+            f"| {v} | {d['clean_mean']:+.2f}, {d['clean_abs']:.2f} | {d['noisy_mean']:+.2f}, {d['noisy_sd']:.2f} | "
+            f"{d['within_sd']:.2f}, {d['noise_sd']:.2f} | {' '.join(d['per_prior'])} |"
+        )
 
 
 if __name__ == "__main__":
