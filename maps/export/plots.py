@@ -190,6 +190,36 @@ def fixed_margins(fig: Any, left: float, right: float, top: float, bottom: float
     fig.subplots_adjust(left=left / w, right=1.0 - right / w, top=1.0 - top / h, bottom=bottom / h, **kw)
 
 
+def pin_layout(fig: Any) -> None:
+    """Fix where matplotlib would put ``fig``'s axis labels without text and its axes' titles, once the layout is
+    final (the figure's size, margins and limits set), so that drawing it does not work them out again. Same pixels:
+
+    - an axis label without text (an inner panel's time axis, a map's axes) draws nothing, yet matplotlib places it
+      clear of the tick labels at every draw, a second pass over that axis's ticks (0.01 s of CPU an axis);
+    - an axes title stays at the top of the axes (y = 1, its pad above) unless ticks or an axis label sit on top or
+      the y axis shows an offset text (such as "1e6") that it would overlap; checking that at every draw lays out
+      every y tick label once more (0.02 s of CPU a map figure). When neither can happen (ticks and label at the
+      bottom, no offset text for the final ticks) the title is set at y = 1, which is where matplotlib leaves it.
+    """
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            if not axis.get_label_text():
+                x, y = axis.label.get_position()
+                axis.set_label_coords(x, y, transform=axis.label.get_transform())
+        if ax.get_title() and _title_stays(ax):
+            ax.set_title(ax.get_title(), fontsize=ax.title.get_fontsize(), y=1.0)
+
+
+def _title_stays(ax: Any) -> bool:
+    """Matplotlib's automatic title placement would leave ``ax``'s title at y = 1 (see :func:`pin_layout`)."""
+    if ax.xaxis.get_ticks_position() != "bottom" or ax.xaxis.get_label_position() != "bottom":
+        return False
+    ax.apply_aspect()  # the final box: the locator's tick count depends on it (done again, the same, at draw)
+    fmt = ax.yaxis.get_major_formatter()
+    fmt.set_locs(ax.yaxis.get_majorticklocs())
+    return not fmt.get_offset()
+
+
 def legend_width_in(fig: Any, legend: Any) -> float:
     """Width of ``legend`` in inches (its texts laid out, nothing else of the figure)."""
     return legend.get_window_extent(fig.canvas.get_renderer()).width / fig.dpi
@@ -210,6 +240,7 @@ def states_figure(plan: Plan) -> Any:
     if left > STATES_MARGINS_IN["left"]:  # wide tick labels (large values): the axes give way, nothing is cut
         fixed_margins(fig, **{**STATES_MARGINS_IN, "left": left}, hspace=STATES_HSPACE)
     draw_step_numbers(fig, fig.axes[0], plan)
+    pin_layout(fig)
     return fig
 
 
@@ -224,10 +255,12 @@ def track_figure(plan: Plan, sea_map: Any = None) -> Any:
     draw_map(ax, plan, sea_map, numbers=False)
     leg = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)  # outside: never hides the track
     ax.set_title(
-        f"{plan.ship} trial{' on ' + plan.map_name if plan.map_name else ''}: manoeuvres numbered in sailing order", fontsize=9
+        f"{plan.ship} trial{' on ' + plan.map_name if plan.map_name else ''}: manoeuvres numbered in sailing order",
+        fontsize=9,
     )
     _fit_to_map(fig, ax, leg)
     annotate_steps(ax, plan)  # in the final layout: the labels are placed in points on the page
+    pin_layout(fig)
     return fig
 
 
