@@ -162,7 +162,6 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
     both PNGs. ``prepared``: figures drawn ahead from the early result (``"ratios"``: the design
     and its ratios PNG), used when the job's design is that design."""
     from maps.export import _write, default_path
-    from maps.export._common import _thruster_labels
     from maps.export.card import write_card_pdf
     from maps.export.plots import PlanFigures, plot_states, plot_track
     from maps.output import plot_plan
@@ -185,10 +184,6 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
             ]
         )
 
-    if any(nm.startswith("alpha") for nm in plan.input_names):
-        # the azimuth thrusters' names both cards word their orders with (a profile load, 0.02-0.04 s CPU): read
-        # once here, before the fork, so the PDF child finds them in the cache the HTML card reads them from
-        _thruster_labels(plan)
     wait = beside([(html.with_suffix(".pdf"), "the PDF trial card", card_pdf)])
     try:
         jobs = [(tmp / "plan.png", "the plan picture", lambda: plot_plan(plan, sea, tmp / "plan.png"))]
