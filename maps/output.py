@@ -80,7 +80,7 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     import shapely
     from matplotlib.collections import PolyCollection
 
-    from maps.export.plots import fixed_margins, legend_width_in, pin_layout
+    from maps.export.plots import fixed_margins, legend_width_in
     from primitives.io import atomic_write_bytes, figure_png
 
     fig, ax = plt.subplots(figsize=(9, 8))
@@ -109,7 +109,6 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     leg = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)  # never over the track
     # fixed margins (inches) beside the legend's own width: tight_layout's pass over every tick label cost as much as the drawing
     fixed_margins(fig, left=0.95, right=legend_width_in(fig, leg) + 0.2, top=0.35, bottom=0.6)
-    pin_layout(fig)
     out = atomic_write_bytes(path, figure_png(fig, 110))
     plt.close(fig)
     return out

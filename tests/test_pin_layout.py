@@ -1,7 +1,7 @@
-"""maps.export.plots.pin_layout: the titles and empty axis labels it pins are where matplotlib's automatic
-placement puts them (the same pixels, drawn without that placement's second pass over the ticks), and a title
-that matplotlib would move (over a y-axis offset text) is left to matplotlib; maps.export.mapplot._draw_geom
-keeps the data limits add_patch gave."""
+"""maps.export.plots.pin_layout: the empty axis labels it pins are where matplotlib's automatic placement puts
+them (the same pixels, drawn without that placement's second pass over the ticks), it does pin them, titles are left
+to matplotlib, and the real track and states figures have the same pixels with and without it;
+maps.export.mapplot._draw_geom keeps the data limits add_patch gave."""
 
 from __future__ import annotations
 
@@ -12,8 +12,10 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+import pytest  # noqa: E402
 
-from maps.export.plots import _title_stays, pin_layout  # noqa: E402
+from maps.export import plots  # noqa: E402
+from maps.export.plots import pin_layout  # noqa: E402
 
 TITLE = "a title as wide as the axes ä°"  # wide: over the y axis's offset text, when there is one
 
@@ -42,29 +44,86 @@ def test_pinned_figure_has_the_same_pixels():
     for xlabel in ("", "time [min]"):
         for panels in (1, 2):  # 2: the top panel's time axis has no label (and no tick labels: shared)
             plain, pinned = _figure(1.0, xlabel=xlabel, panels=panels), _figure(1.0, xlabel=xlabel, panels=panels)
-            assert _title_stays(pinned.axes[0]) == (panels == 1)  # a shared axis's hidden labels: left to matplotlib
             pin_layout(pinned)
             assert np.array_equal(_rgba(plain), _rgba(pinned))
 
 
-def test_title_over_an_offset_text_is_left_to_matplotlib():
-    fig = _figure(1e-3, y_offset=1e7)  # ticks such as 10000000.0005: the y axis shows an offset text
-    assert not _title_stays(fig.axes[0])
-    auto, pinned = _figure(1e-3, y_offset=1e7), _figure(1e-3, y_offset=1e7)
+def _label_positions(fig) -> list[tuple[float, float]]:
+    return [p for ax in fig.axes for p in (ax.xaxis.label.get_position(), ax.yaxis.label.get_position())]
+
+
+def test_empty_labels_are_pinned_and_labels_with_text_are_not():
+    """The pin itself, by behaviour: drawing moves an automatically placed label below (or beside) its tick labels;
+    a pinned one stays where it was when pinned. Fails if pin_layout does nothing or pins a label with text."""
+    plain, pinned = _figure(1.0), _figure(1.0)  # x label empty, y label "y"
+    before = _label_positions(pinned)
     pin_layout(pinned)
-    assert np.array_equal(_rgba(auto), _rgba(pinned))
-    # what pinning it would have done: the title stays on the offset text, other pixels
-    forced = _figure(1e-3, y_offset=1e7)
-    forced.axes[0].set_title(TITLE, fontsize=9, y=1.0)
-    assert not np.array_equal(_rgba(_figure(1e-3, y_offset=1e7)), _rgba(forced))
-    plt.close(fig)
+    plain.canvas.draw()
+    pinned.canvas.draw()
+    after_plain, after_pinned = _label_positions(plain), _label_positions(pinned)
+    assert after_pinned[0] == before[0] != after_plain[0]  # the empty x label: pinned, not placed at the draw
+    assert after_pinned[1] == after_plain[1] != before[1]  # the y label has text: placed by matplotlib as before
+    # the ticks moved to the top after pinning: the plain label follows them, the pinned one stays
+    for fig in (plain, pinned):
+        fig.axes[0].xaxis.set_label_position("top")
+        fig.axes[0].xaxis.tick_top()
+        fig.canvas.draw()
+    assert _label_positions(pinned)[0] == before[0] != _label_positions(plain)[0]
+    plt.close(plain)
+    plt.close(pinned)
 
 
-def test_title_with_ticks_on_top_is_left_to_matplotlib():
-    fig = _figure(1.0)
-    fig.axes[0].xaxis.tick_top()
-    assert not _title_stays(fig.axes[0])
-    plt.close(fig)
+def _titled(kind: str):
+    fig = _figure(1e-3, y_offset=1e7) if kind == "offset" else _figure(1.0)
+    ax = fig.axes[0]
+    if kind == "bold":
+        ax.set_title(TITLE, fontsize=9, fontweight="bold")
+    elif kind == "pad0":
+        ax.set_title(TITLE, fontsize=14, pad=0)
+    elif kind == "pad12":
+        ax.set_title(TITLE, fontsize=9, pad=12)
+    elif kind == "twiny":
+        ax.twiny().plot([0, 1], [0, 1])
+    elif kind == "twinx-offset":
+        ax.twinx().plot([0, 1, 2], 1e7 + 1e-3 * np.array([0.3, 1.7, 0.9]))
+    elif kind == "ticks-top":
+        ax.xaxis.tick_top()
+    return fig
+
+
+@pytest.mark.parametrize("kind", ["offset", "bold", "pad0", "pad12", "twiny", "twinx-offset", "ticks-top"])
+def test_titles_are_left_to_matplotlib(kind):
+    """The cases stop 54's review found a title pin to move (663-2,755 pixels): pin_layout leaves titles alone."""
+    plain, pinned = _titled(kind), _titled(kind)
+    pin_layout(pinned)
+    assert np.array_equal(_rgba(plain), _rgba(pinned))
+
+
+@pytest.fixture(scope="module")
+def plan():
+    from maps.export._testing import synthetic_plan
+
+    return synthetic_plan("full-scale")
+
+
+@pytest.mark.parametrize("name", ["track", "states"])
+def test_real_figures_have_the_same_pixels_with_and_without_the_pin(plan, name, monkeypatch):
+    """The figures the exports draw (their PNG bytes at the exported dpi), built with pin_layout and with it
+    monkeypatched to nothing; at least one label of each is pinned (it stays put at the draw)."""
+    from primitives.io import figure_png
+
+    make = plots.track_figure if name == "track" else plots.states_figure
+    dpi = plots.TRACK_DPI if name == "track" else plots.STATES_DPI
+    pinned = make(plan)
+    png_pinned, pos_pinned = figure_png(pinned, dpi), _label_positions(pinned)
+    with monkeypatch.context() as m:
+        m.setattr(plots, "pin_layout", lambda fig: None)
+        plain = make(plan)
+    png_plain, pos_plain = figure_png(plain, dpi), _label_positions(plain)
+    plt.close(pinned)
+    plt.close(plain)
+    assert png_pinned == png_plain
+    assert pos_pinned != pos_plain  # the pin took effect: an empty label not moved by the draw
 
 
 def test_draw_geom_gives_add_patchs_data_limits():

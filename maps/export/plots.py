@@ -191,33 +191,20 @@ def fixed_margins(fig: Any, left: float, right: float, top: float, bottom: float
 
 
 def pin_layout(fig: Any) -> None:
-    """Fix where matplotlib would put ``fig``'s axis labels without text and its axes' titles, once the layout is
-    final (the figure's size, margins and limits set), so that drawing it does not work them out again. Same pixels:
+    """Fix where matplotlib would put ``fig``'s axis labels without text, once the layout is final (the figure's
+    size, margins, limits and ticks set), so that drawing it does not work them out again. Same pixels: an empty
+    label draws nothing, yet matplotlib places every axis label clear of its tick labels at each draw, a second
+    pass over that axis's ticks (0.01 s of CPU an axis).
 
-    - an axis label without text (an inner panel's time axis, a map's axes) draws nothing, yet matplotlib places it
-      clear of the tick labels at every draw, a second pass over that axis's ticks (0.01 s of CPU an axis);
-    - an axes title stays at the top of the axes (y = 1, its pad above) unless ticks or an axis label sit on top or
-      the y axis shows an offset text (such as "1e6") that it would overlap; checking that at every draw lays out
-      every y tick label once more (0.02 s of CPU a map figure). When neither can happen (ticks and label at the
-      bottom, no offset text for the final ticks) the title is set at y = 1, which is where matplotlib leaves it.
+    Precondition: nothing that changes the axis labels, limits or ticks may follow (a label given text after this
+    would be drawn where the empty one was pinned, not under the tick labels). Titles are left to matplotlib: a
+    pinned title loses its weight, pad and alignment and ignores twinned axes and offset texts (stop 54's review).
     """
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
             if not axis.get_label_text():
                 x, y = axis.label.get_position()
                 axis.set_label_coords(x, y, transform=axis.label.get_transform())
-        if ax.get_title() and _title_stays(ax):
-            ax.set_title(ax.get_title(), fontsize=ax.title.get_fontsize(), y=1.0)
-
-
-def _title_stays(ax: Any) -> bool:
-    """Matplotlib's automatic title placement would leave ``ax``'s title at y = 1 (see :func:`pin_layout`)."""
-    if ax.xaxis.get_ticks_position() != "bottom" or ax.xaxis.get_label_position() != "bottom":
-        return False
-    ax.apply_aspect()  # the final box: the locator's tick count depends on it (done again, the same, at draw)
-    fmt = ax.yaxis.get_major_formatter()
-    fmt.set_locs(ax.yaxis.get_majorticklocs())
-    return not fmt.get_offset()
 
 
 def legend_width_in(fig: Any, legend: Any) -> float:
