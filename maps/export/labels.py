@@ -13,6 +13,7 @@ same placement.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -68,10 +69,19 @@ def _thin(track: np.ndarray, step: float) -> np.ndarray:
     """The polyline with points closer than ``step`` to the last kept one dropped (ends kept)."""
     if len(track) < 3:
         return track
-    keep = [0]
+    # plain floats (a numpy call per point was most of this loop's CPU); math.hypot may differ from numpy's
+    # (libm's) in the last bit, so a distance within rounding of ``step`` is taken from numpy: the same points kept
+    xs, ys = track[:, 0].tolist(), track[:, 1].tolist()
+    keep, lx, ly = [0], xs[0], ys[0]
+    tol = 1e-9 * max(step, 1e-300)
     for k in range(1, len(track) - 1):
-        if np.hypot(*(track[k] - track[keep[-1]])) >= step:
+        dx, dy = xs[k] - lx, ys[k] - ly
+        d = math.hypot(dx, dy)
+        if abs(d - step) <= tol:
+            d = float(np.hypot(np.float64(dx), np.float64(dy)))
+        if d >= step:
             keep.append(k)
+            lx, ly = xs[k], ys[k]
     keep.append(len(track) - 1)
     return track[keep]
 
@@ -130,18 +140,50 @@ def place_labels(
         for k in range(1, 9):
             dist = 2.0 * r + 1.5 * k * r
             rings.append(np.column_stack([ax + dist * np.cos(_ANGLES), ay + dist * np.sin(_ANGLES)]))
-        cand = np.vstack(rings)
-        # room: how far each candidate circle is from the nearest thing it must not touch (of the track,
-        # only the segments that can be nearest to a candidate: the same minimum at a fraction of the work)
-        near = near_segments(np.array([ax, ay]), float(np.hypot(cand[:, 0] - ax, cand[:, 1] - ay).max()), a, b)
-        room = np.minimum(segment_distances(cand, a[near], b[near]), mark_room(cand, marks)) - r - gap
-        room = np.minimum(room, np.minimum.reduce([cand[:, 0] - x0, x1 - cand[:, 0], cand[:, 1] - y0, y1 - cand[:, 1]]) - r)
-        for lab in placed:
-            room = np.minimum(room, np.hypot(cand[:, 0] - lab.x, cand[:, 1] - lab.y) - r - lab.r - gap)
-        free = np.flatnonzero(room >= 0.0)
-        i = int(free[0]) if len(free) else int(np.argmax(room))
-        placed.append(Label(text, float(cand[i, 0]), float(cand[i, 1]), float(r), (float(ax), float(ay)), i != 0))
+        # ring by ring, the usual place first: the first free candidate in that order is the first of all of
+        # them (each candidate's room is its own minimum, the same number measured alone or with the others),
+        # and most labels take the usual place or a near ring: the outer rings are measured only when needed
+        rooms: list[np.ndarray] = []
+        pick = None
+        for ring in rings:
+            rooms.append(_room(ring, (ax, ay), r, a, b, marks, frame, placed, gap))
+            free = np.flatnonzero(rooms[-1] >= 0.0)
+            if len(free):
+                pick = (len(rooms) - 1, int(free[0]))
+                break
+        if pick is None:  # nowhere free: the least crowded place of all
+            k = int(np.argmax(np.concatenate(rooms)))
+            pick = (0, 0) if k == 0 else (1 + (k - 1) // len(_ANGLES), (k - 1) % len(_ANGLES))
+        (cx, cy), moved = rings[pick[0]][pick[1]], pick != (0, 0)
+        placed.append(Label(text, float(cx), float(cy), float(r), (float(ax), float(ay)), moved))
     return placed
+
+
+def _room(
+    cand: np.ndarray,
+    anchor: tuple[float, float],
+    r: float,
+    a: np.ndarray,
+    b: np.ndarray,
+    marks: list[Mark],
+    frame: tuple[float, float, float, float],
+    placed: list[Label],
+    gap: float,
+) -> np.ndarray:
+    """How far each candidate circle (centres ``cand``, radius ``r``, for the label at ``anchor``) is from the
+    nearest thing it must not touch: the track's segments a[i]-b[i] and ``marks`` (``gap`` points clear), the
+    frame and the labels already ``placed``; free where >= 0. Of the track, only the segments that can be nearest
+    to a candidate are measured (:func:`near_segments`: the same minimum at a fraction of the work)."""
+    ax, ay = anchor
+    x0, y0, x1, y1 = frame
+    near = near_segments(np.array([ax, ay]), float(np.hypot(cand[:, 0] - ax, cand[:, 1] - ay).max()), a, b)
+    room = np.minimum(segment_distances(cand, a[near], b[near]), mark_room(cand, marks)) - r - gap
+    room = np.minimum(room, np.minimum.reduce([cand[:, 0] - x0, x1 - cand[:, 0], cand[:, 1] - y0, y1 - cand[:, 1]]) - r)
+    if placed:  # all placed labels at once: per element the same sums as one by one, and a minimum is exact
+        px, py, pr = (np.array([getattr(lab, f) for lab in placed]) for f in ("x", "y", "r"))
+        clear = np.hypot(cand[:, 0, None] - px[None, :], cand[:, 1, None] - py[None, :]) - r - pr[None, :] - gap
+        room = np.minimum(room, clear.min(axis=1))
+    return room
 
 
 def leader(label: Label) -> np.ndarray:
