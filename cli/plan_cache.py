@@ -93,10 +93,41 @@ def keep_outputs(
     cache_dir: Path | None, plan_key: str | None, digest: str | None, start_utc: str, files: dict[str, Path], out: Path
 ) -> bool:
     """Keep the files just written into ``out`` (every one but the output directory's marker) for the next run
-    of the plan entry of ``digest`` under ``plan_key`` with the same start time (skipped when the figures'
+    of the plan entry of ``digest`` under ``plan_key`` with the same start time, and its figures
+    (:data:`FIGURES`) for a run of that entry at any start time (:func:`saved_figures`; skipped when the figures'
     configuration cannot be keyed); True when kept."""
-    from maps import plancache
     from primitives.io import OUTPUT_MARKER
+
+    written = [p for p in sorted(out.iterdir()) if p.name != OUTPUT_MARKER]
+    names = {name: Path(p).name for name, p in files.items()}
+    kept = _keep(cache_dir, plan_key, digest, start_utc, names, written)
+    figures = {name: rel for name, rel in names.items() if name in FIGURES}
+    if kept and figures:
+        _keep(cache_dir, plan_key, digest, _ANY_START, figures, [out / rel for rel in figures.values()])
+    return kept
+
+
+# the files no start time changes (plan.png, the design ratios, the track and states PNGs): kept for the plan entry
+# whatever the start time, so a run of a cached plan at another hour copies them instead of drawing them again
+FIGURES = ("plot", "design_ratios_png", "track_png", "states_png")
+_ANY_START = "any start time"  # in the figures' output key, where a start time's ISO string is otherwise
+
+
+def saved_figures(cache_dir: Path | None, plan_key: str | None, digest: str | None) -> dict[str, bytes] | None:
+    """The figures (:data:`FIGURES`, by file name) kept for the plan entry of ``digest`` under ``plan_key`` at any
+    start time; None when there are none."""
+    saved = saved_outputs(cache_dir, plan_key, digest, _ANY_START)
+    if saved is None or not set(saved["files"]) <= set(FIGURES):
+        return None
+    return saved["bytes"]
+
+
+def _keep(
+    cache_dir: Path | None, plan_key: str | None, digest: str | None, start_utc: str, names: dict[str, str], written: list[Path]
+) -> bool:
+    """Keep the files ``written`` (named by ``names``: output name -> file name) under the output key of the plan
+    entry and ``start_utc``; True when kept."""
+    from maps import plancache
 
     if cache_dir is None or plan_key is None or not digest:
         return False
@@ -105,8 +136,6 @@ def keep_outputs(
         key = plancache.outputs_key(plan_key, digest, start_utc)
         if key is None:
             return False
-        written = [p for p in sorted(out.iterdir()) if p.name != OUTPUT_MARKER]
-        names = {name: Path(p).name for name, p in files.items()}
         if all(p.is_file() and _plain(p.name) for p in written):  # flat, as every output set is today
             data = {p.name: p.read_bytes() for p in written}
             if set(names.values()) <= data.keys():
