@@ -392,7 +392,8 @@ class Drawer:
 
     def send(self, job: dict[str, Any]) -> None:
         """Draw ``job``: keys plan, sea (the SeaMap), chart, design (or None), t0 (start time),
-        dir (the output directory), png (optional: figures' bytes by file name, written as they are). Returns at once; the pipe is written by a thread while the
+        dir (the output directory), png (optional: figures' bytes by file name, written as they are).
+        Returns at once; the pipe is written by a thread while the
         caller goes on (the drawer may still be importing)."""
         if not self.pid:
             try:

@@ -356,7 +356,7 @@ def plan_and_write(
     imports the drawing modules and, on a cache miss, designs on the other core while this process
     reads the cache or plans; a NoFitError is the command's exit 1."""
     from cli.drawer import Drawer, take_early
-    from cli.plan_cache import keep_outputs, note_kept, restore_outputs, saved_figures, saved_outputs
+    from cli.plan_cache import keep_outputs, note_kept, restore_outputs, saved_sets
     from maps import plancache
     from maps.export._common import iso, resolve_start
     from maps.mapcache import load_map_kept
@@ -378,9 +378,8 @@ def plan_and_write(
         result, td, sea, chart, digest = (hit[k] for k in ("plan", "design", "sea", "chart", "digest"))
         t0 = resolve_start(result, start_time)
         if result.feasible and not no_export:  # the files this plan and start time gave, when kept: nothing to draw
-            saved = saved_outputs(cache_dir, key, digest, iso(t0))
-            if saved is None:  # another start time: the figures it drew are the same, only the schedule's files differ
-                figures = saved_figures(cache_dir, key, digest)
+            # another start time's run drew the same figures: only the schedule's files differ
+            saved, figures = saved_sets(cache_dir, key, digest, iso(t0))
     early = None
     if hit is None and counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
         early = partial(_first_design, ship, **design)

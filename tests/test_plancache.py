@@ -281,7 +281,8 @@ def _forbid_drawing(mp):
     import maps.export.plots
     import maps.output
 
-    for module, name in ((maps.export.plots, "plot_track"), (maps.export.plots, "plot_states"), (maps.output, "plot_plan")):
+    drawn = [(maps.export.plots, n) for n in ("plot_track", "plot_states", "track_figure", "states_figure")]
+    for module, name in [*drawn, (maps.output, "plot_plan")]:  # the figures (the HTML card's images too)
         _forbid(mp, module, name, f"{name} drew a figure the cache holds")
     _forbid(mp, cli.drawer, "_design_ratios", "the design ratios drawn although the cache holds them")
 
@@ -514,3 +515,36 @@ def test_fields_digest_is_the_same_for_an_object_read_back():
     assert fields_digest(_Two({name: 1.0}, {name: 2.5})) != fields_digest(fresh)
     assert fields_digest(_Two({name: 1.0}, {})) != fields_digest(_Two({}, {name: 1.0}))  # framed by field
     assert fields_digest([1, 2]) == fields_digest([1, 2]) != fields_digest([2, 1])  # not a dataclass: whole
+
+
+def test_the_drawer_writes_given_figures_and_draws_only_the_missing_ones(first, tmp_path, monkeypatch):
+    """A designed plan's figures given to the drawer (``job["png"]``): the design ratios are written, not drawn; an
+    entry without them (kept by an older run) draws them."""
+    import cli.drawer
+    import maps.export.plots
+    import maps.output
+    from maps.export import default_path
+
+    hit = next(plancache.load(first[0], p.stem) for p in first[0].glob("*.plan"))
+    plan, chart, sea = hit["plan"], hit["chart"], hit["sea"]
+    names = {n: first[2][n] for n in first[2] if n.endswith(".png")}
+    names["design-ratios.png"] = b"ratios"
+    drawn = []
+    monkeypatch.setattr(
+        cli.drawer,
+        "_design_ratios",
+        lambda design, out: drawn.append(design) or (out / "design-ratios.png").write_bytes(b"drawn"),
+    )
+    for module, name in [(maps.export.plots, n) for n in ("plot_track", "plot_states", "track_figure", "states_figure")] + [
+        (maps.output, "plot_plan")
+    ]:
+        _forbid(monkeypatch, module, name, f"{name} drew a figure given")
+    for given, expect in ((names, b"ratios"), ({k: v for k, v in names.items() if k != "design-ratios.png"}, b"drawn")):
+        out = tmp_path / f"out{len(given)}"
+        out.mkdir()
+        job = {"plan": plan, "sea": sea, "chart": chart, "design": "a design", "t0": START, "dir": out, "png": given}
+        cli.drawer.draw_here(job)
+        assert (out / "design-ratios.png").read_bytes() == expect
+        assert all((out / n).read_bytes() == b for n, b in given.items())
+        assert default_path(plan, "card", out).read_bytes() == first[2][default_path(plan, "card", out).name]
+    assert drawn == ["a design"]
