@@ -160,7 +160,8 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
     once: a forked child (:func:`beside`) writes the PDF trial card and the states PNG; this
     process writes plan.png, the design ratios and the track PNG, then the HTML trial card with
     both PNGs. ``prepared``: figures drawn ahead from the early result (``"ratios"``: the design
-    and its ratios PNG), used when the job's design is that design."""
+    and its ratios PNG), used when the job's design is that design. ``job["png"]`` (optional): PNG
+    bytes by file name (:func:`cli.plan_cache.saved_figures`), written instead of drawn."""
     from maps.export import _write, default_path
     from maps.export.card import write_card_pdf
     from maps.export.plots import PlanFigures, plot_states, plot_track
@@ -168,9 +169,13 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
     from primitives.io import atomic_write_bytes
 
     plan, sea, chart, design, t0, tmp = (job[k] for k in ("plan", "sea", "chart", "design", "t0", "dir"))
+    given = dict(job.get("png") or {})  # figures kept for this plan at another start time: written, not drawn
     html = default_path(plan, "card", tmp)
     stem = default_path(plan, "csv", tmp).with_suffix("")
     track, states = Path(f"{stem}-track.png"), Path(f"{stem}-states.png")
+
+    def drawn_or_given(path: Path, draw: Callable[[], object]) -> Callable[[], object]:
+        return (lambda: atomic_write_bytes(path, given[path.name])) if path.name in given else draw
 
     def card_pdf() -> None:  # the PDF draws its own map and states page: no figure shared with the PNGs
         run_jobs(
@@ -180,28 +185,25 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
                     "the PDF trial card",
                     lambda: write_card_pdf(plan, html.with_suffix(".pdf"), chart, t0),
                 ),
-                (states, "the states figure", lambda: plot_states(plan, states)),
+                (states, "the states figure", drawn_or_given(states, lambda: plot_states(plan, states))),
             ]
         )
 
     wait = beside([(html.with_suffix(".pdf"), "the PDF trial card", card_pdf)])
     try:
-        jobs = [(tmp / "plan.png", "the plan picture", lambda: plot_plan(plan, sea, tmp / "plan.png"))]
+        plot = tmp / "plan.png"
+        jobs = [(plot, "the plan picture", drawn_or_given(plot, lambda: plot_plan(plan, sea, plot)))]
         if design is not None:
+            ratios = tmp / "design-ratios.png"
             ahead = (prepared or {}).get("ratios")
             if ahead is not None and _same(ahead[0], design):  # drawn while the parent planned
-                jobs.append(
-                    (
-                        tmp / "design-ratios.png",
-                        "the design ratios figure",
-                        lambda: atomic_write_bytes(tmp / "design-ratios.png", ahead[1]),
-                    )
-                )
-            else:
-                jobs.append((tmp / "design-ratios.png", "the design ratios figure", lambda: _design_ratios(design, tmp)))
+                given.setdefault(ratios.name, ahead[1])
+            jobs.append((ratios, "the design ratios figure", drawn_or_given(ratios, lambda: _design_ratios(design, tmp))))
         run_jobs(jobs)
         with PlanFigures(plan, chart) as figs:  # the card's images are the PNG exports
-            run_jobs([(track, "the track figure", lambda: plot_track(plan, track, chart, figures=figs))])
+            if track.name in given:
+                figs.adopt_png("track", given[track.name])
+            run_jobs([(track, "the track figure", drawn_or_given(track, lambda: plot_track(plan, track, chart, figures=figs)))])
             wait()
             figs.adopt_png("states", states.read_bytes())
             run_jobs(
@@ -390,7 +392,8 @@ class Drawer:
 
     def send(self, job: dict[str, Any]) -> None:
         """Draw ``job``: keys plan, sea (the SeaMap), chart, design (or None), t0 (start time),
-        dir (the output directory). Returns at once; the pipe is written by a thread while the
+        dir (the output directory), png (optional: figures' bytes by file name, written as they are).
+        Returns at once; the pipe is written by a thread while the
         caller goes on (the drawer may still be importing)."""
         if not self.pid:
             try:

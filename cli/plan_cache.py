@@ -1,7 +1,8 @@
 """``shiptrial plan``'s use of the plan cache for its output files: a run whose plan was read from the
 cache (:mod:`maps.plancache`) and whose files were written before for the same start time copies
 those files' bytes instead of drawing and exporting again (the figures' drawer, the crew exports:
-about 2.6 s of a cached run's 3.2 s of CPU before). The files are functions of the cached plan, its start time, the
+about 2.6 s of a cached run's 3.2 s of CPU before); one at another start time copies the figures no start time
+changes (:data:`FIGURES`, kept per plan entry) and exports the rest. The files are functions of the cached plan, its start time, the
 code and the drawing libraries and configuration (:func:`maps.plancache.outputs_key`), so the copy
 is byte for byte what exporting would write."""
 
@@ -61,15 +62,17 @@ def note_kept(cache_dir: Path | None, kept: bool, default_start: datetime | None
         pass
 
 
-def saved_outputs(cache_dir: Path | None, plan_key: str | None, digest: str | None, start_utc: str) -> dict[str, Any] | None:
+def saved_outputs(
+    cache_dir: Path | None, plan_key: str | None, digest: str | None, start_utc: str, drawing: str | None = None
+) -> dict[str, Any] | None:
     """The output set kept for the plan entry of ``digest`` under ``plan_key`` starting at ``start_utc``; None when
-    there is none."""
+    there is none. ``drawing``: :func:`maps.plancache.drawing_version`, when known."""
     from maps import plancache
 
     if cache_dir is None or plan_key is None or not digest:
         return None
     try:
-        key = plancache.outputs_key(plan_key, digest, start_utc)
+        key = plancache.outputs_key(plan_key, digest, start_utc, drawing)
     except Exception:  # noqa: BLE001 - a cache that cannot be keyed is no cache: the files are drawn as without one
         return None
     saved = plancache.load_outputs(cache_dir, key) if key is not None else None
@@ -93,20 +96,71 @@ def keep_outputs(
     cache_dir: Path | None, plan_key: str | None, digest: str | None, start_utc: str, files: dict[str, Path], out: Path
 ) -> bool:
     """Keep the files just written into ``out`` (every one but the output directory's marker) for the next run
-    of the plan entry of ``digest`` under ``plan_key`` with the same start time (skipped when the figures'
+    of the plan entry of ``digest`` under ``plan_key`` with the same start time, and its figures
+    (:data:`FIGURES`) for a run of that entry at any start time (:func:`saved_figures`; skipped when the figures'
     configuration cannot be keyed); True when kept."""
-    from maps import plancache
+    from maps.plancache import drawing_version
     from primitives.io import OUTPUT_MARKER
 
     if cache_dir is None or plan_key is None or not digest:
         return False
+    try:  # keyed now: a first run's drawer has just built matplotlib's font list
+        drawing = drawing_version()
+    except Exception:  # noqa: BLE001 - never a failed run for a cache
+        return False
+    written = [p for p in sorted(out.iterdir()) if p.name != OUTPUT_MARKER]
+    names = {name: Path(p).name for name, p in files.items()}
+    kept = _keep(cache_dir, plan_key, digest, start_utc, drawing, names, written)
+    figures = {name: rel for name, rel in names.items() if name in FIGURES}
+    if kept and figures:
+        _keep(cache_dir, plan_key, digest, _ANY_START, drawing, figures, [out / rel for rel in figures.values()])
+    return kept
+
+
+# the files no start time changes (plan.png, the design ratios, the track and states PNGs): kept for the plan entry
+# whatever the start time, so a run of a cached plan at another hour copies them instead of drawing them again
+FIGURES = ("plot", "design_ratios_png", "track_png", "states_png")
+_ANY_START = "any start time"  # in the figures' output key, where a start time's ISO string is otherwise
+
+
+def saved_sets(
+    cache_dir: Path | None, plan_key: str | None, digest: str | None, start_utc: str
+) -> tuple[dict[str, Any] | None, dict[str, bytes] | None]:
+    """The output set kept for the plan entry of ``digest`` under ``plan_key`` at ``start_utc``
+    (:func:`saved_outputs`), and when there is none the figures (:data:`FIGURES`, bytes by file name) kept for
+    that entry at any start time; each None when there is none."""
+    from maps.plancache import drawing_version
+
+    if cache_dir is None or plan_key is None or not digest:
+        return None, None
+    try:
+        drawing = drawing_version()
+    except Exception:  # noqa: BLE001 - as saved_outputs: a cache that cannot be keyed is no cache
+        return None, None
+    if drawing is None:  # matplotlib's font list not built yet: nothing kept can be keyed
+        return None, None
+    saved = saved_outputs(cache_dir, plan_key, digest, start_utc, drawing)
+    if saved is not None:
+        return saved, None
+    figures = saved_outputs(cache_dir, plan_key, digest, _ANY_START, drawing)
+    if figures is None or not set(figures["files"]) <= set(FIGURES):
+        return None, None
+    return None, figures["bytes"]
+
+
+def _keep(
+    cache_dir: Path, plan_key: str, digest: str, start_utc: str, drawing: str | None, names: dict[str, str], written: list[Path]
+) -> bool:
+    """Keep the files ``written`` (named by ``names``: output name -> file name) under the output key of the plan
+    entry and ``start_utc`` (``drawing``: :func:`maps.plancache.drawing_version`); True when kept."""
+    from maps import plancache
+
+    if drawing is None:
+        return False
     try:  # a cache that cannot be keyed or read back is skipped: the run's own files are written all the same
-        # keyed now: a first run's drawer has just built matplotlib's font list
-        key = plancache.outputs_key(plan_key, digest, start_utc)
+        key = plancache.outputs_key(plan_key, digest, start_utc, drawing)
         if key is None:
             return False
-        written = [p for p in sorted(out.iterdir()) if p.name != OUTPUT_MARKER]
-        names = {name: Path(p).name for name, p in files.items()}
         if all(p.is_file() and _plain(p.name) for p in written):  # flat, as every output set is today
             data = {p.name: p.read_bytes() for p in written}
             if set(names.values()) <= data.keys():

@@ -356,7 +356,7 @@ def plan_and_write(
     imports the drawing modules and, on a cache miss, designs on the other core while this process
     reads the cache or plans; a NoFitError is the command's exit 1."""
     from cli.drawer import Drawer, take_early
-    from cli.plan_cache import keep_outputs, note_kept, restore_outputs, saved_outputs
+    from cli.plan_cache import keep_outputs, note_kept, restore_outputs, saved_sets
     from maps import plancache
     from maps.export._common import iso, resolve_start
     from maps.mapcache import load_map_kept
@@ -373,12 +373,13 @@ def plan_and_write(
     hit = plancache.load(cache_dir, key) if key is not None else None
     if hit is not None and not {"design", "sea", "chart"} <= hit.keys():  # not an entry this command wrote
         hit = None
-    saved = digest = t0 = None
+    saved = digest = t0 = figures = None
     if hit is not None:
         result, td, sea, chart, digest = (hit[k] for k in ("plan", "design", "sea", "chart", "digest"))
         t0 = resolve_start(result, start_time)
         if result.feasible and not no_export:  # the files this plan and start time gave, when kept: nothing to draw
-            saved = saved_outputs(cache_dir, key, digest, iso(t0))
+            # another start time's run drew the same figures: only the schedule's files differ
+            saved, figures = saved_sets(cache_dir, key, digest, iso(t0))
     early = None
     if hit is None and counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
         early = partial(_first_design, ship, **design)
@@ -410,7 +411,7 @@ def plan_and_write(
             if saved is not None:
                 files, kept = restore_outputs(saved, tmp), True
             else:
-                files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer, chart)
+                files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer, chart, figures)
                 kept = result.feasible and not no_export and keep_outputs(cache_dir, key, digest, start_utc, files, tmp)
         note_kept(cache_dir, kept, None if start_time else t0)
     except NoFitError as exc:

@@ -55,11 +55,14 @@ def write_outputs_all(
     quiet: bool,
     drawer: Drawer | None = None,
     chart: Any = None,
+    figures: dict[str, bytes] | None = None,
 ) -> dict[str, Path]:
     """Every output into the (temporary) directory ``tmp``. The figures (PDF and HTML trial card,
     their PNGs, the plan picture, the design ratios) are drawn by ``drawer`` (a
     :class:`cli.drawer.Drawer` started with the command) while this process writes the plan and
-    the text exports. ``chart``: :func:`export_chart` of the plan, when computed already."""
+    the text exports. ``chart``: :func:`export_chart` of the plan, when computed already. ``figures``: PNG
+    bytes by file name kept for this plan at another start time (:func:`cli.plan_cache.saved_figures`): written
+    instead of drawn."""
     from maps.export import _write, default_path
     from maps.output import write_outputs
 
@@ -80,7 +83,15 @@ def write_outputs_all(
 
         drawer = Drawer()
     drawer.send(
-        {"plan": result, "sea": sea, "chart": chart, "design": td.design if td is not None else None, "t0": t0, "dir": tmp}
+        {
+            "plan": result,
+            "sea": sea,
+            "chart": chart,
+            "design": td.design if td is not None else None,
+            "t0": t0,
+            "dir": tmp,
+            "png": figures,
+        }
     )  # pickled now: the figures are drawn with the chart given, not the one plan.json stores
     try:
         files = write_outputs(result, sea, tmp, plot=False, chart=chart)

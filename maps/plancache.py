@@ -18,9 +18,9 @@ files in the user's cache directory (:func:`default_dir`), read by the user's ow
 numba's and matplotlib's caches are.
 
 Beside the plans, the files a command wrote from a plan can be kept (:func:`outputs_key`,
-:func:`store_outputs`, :func:`load_outputs`: one entry per plan entry and start time, the same header,
-:data:`KEEP_OUTPUTS` kept), keyed on the plan's key, the plan entry's digest, the start time and
-:func:`drawing_version`.
+:func:`store_outputs`, :func:`load_outputs`: one entry per plan entry and start time, and one of the figures no
+start time changes per plan entry (:mod:`cli.plan_cache`), the same header, :data:`KEEP_OUTPUTS` kept in all),
+keyed on the plan's key, the plan entry's digest, the start time and :func:`drawing_version`.
 """
 
 from __future__ import annotations
@@ -109,7 +109,7 @@ def map_digest(map_file: Path) -> bytes:
 
 # the libraries the exports and figures are written with (drawing, fonts, PDF, images, XML)
 DRAWING = ("matplotlib", "fpdf2", "pillow", "fonttools", "contourpy", "kiwisolver", "pyparsing", "cycler", "lxml", "defusedxml")
-KEEP_OUTPUTS = 8  # output sets kept (about 2.8 MB each for the bundled example)
+KEEP_OUTPUTS = 8  # output sets kept, a plan's figures set among them (about 2.8 MB a set for the bundled example)
 # bytes of lattice move sets kept (maps.movecache: one per ship, options, kernel state and basic set or primitive,
 # 0.1-2 MB each: the default ship's plan writes 6, 1.1 MB; kvlcc2 on the open sea 5, 4.4 MB). A byte budget, not a
 # count: a ship that redesigns many times writes many entries, and their size grows with the ship and the resolution
@@ -190,13 +190,13 @@ def _font_files(fontlists: list[Path]) -> bytes:
     return "".join(out).encode()
 
 
-def outputs_key(plan_key: str, entry_digest: str, start_utc: str) -> str | None:
+def outputs_key(plan_key: str, entry_digest: str, start_utc: str, drawing: str | None = None) -> str | None:
     """The key of the files the command writes for the plan entry of digest ``entry_digest`` under ``plan_key``
     with the trial starting at ``start_utc`` (every export and figure: functions of that entry's plan, its start
     time, the code (in the plan's key) and :func:`drawing_version`; the entry's digest too, so that files are
     never served with a plan computed again, whose plan.json timings differ); None when the figures' fonts cannot
-    be keyed."""
-    drawing = drawing_version()
+    be keyed. ``drawing``: :func:`drawing_version` when the caller has it already (about 22 ms of CPU)."""
+    drawing = drawing or drawing_version()
     if drawing is None:
         return None
     return hashlib.sha256(f"outputs\0{plan_key}\0{entry_digest}\0{start_utc}\0{drawing}".encode()).hexdigest()

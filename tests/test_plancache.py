@@ -251,10 +251,21 @@ def _files(out):
     return {p.name: p.read_bytes() for p in out.iterdir()}
 
 
+def _start_sets(cache_dir):
+    """The output sets kept for one start time each (not the plans' figures kept for any start time)."""
+    from cli.plan_cache import FIGURES
+
+    return [p for p in cache_dir.glob("*.out") if not set(plancache.load_outputs(cache_dir, p.stem)["files"]) <= set(FIGURES)]
+
+
+def _figure_sets(cache_dir):
+    return sorted(set(cache_dir.glob("*.out")) - set(_start_sets(cache_dir)))
+
+
 def test_second_run_copies_the_kept_files_without_exporting(first, tmp_path, cache_dir, capsys, monkeypatch):
     import cli.plan_cmd
 
-    assert len(list(cache_dir.glob("*.out"))) == 1
+    assert len(_start_sets(cache_dir)) == 1 and len(_figure_sets(cache_dir)) == 1
 
     with monkeypatch.context() as mp:
         _forbid(mp, cli.plan_cmd, "write_outputs_all", "exported although the cache holds the files")
@@ -264,19 +275,48 @@ def test_second_run_copies_the_kept_files_without_exporting(first, tmp_path, cac
     assert sorted(Path(v).name for v in second["files"].values()) == sorted(k for k in again if not k.startswith("."))
 
 
-def test_other_start_time_exports_afresh_as_an_uncached_run(first, tmp_path, cache_dir, capsys):
+def _forbid_drawing(mp):
+    """Fail the command (its drawer's error) when any PNG figure is drawn rather than copied."""
+    import cli.drawer
+    import maps.export.plots
+    import maps.output
+
+    drawn = [(maps.export.plots, n) for n in ("plot_track", "plot_states", "track_figure", "states_figure")]
+    for module, name in [*drawn, (maps.output, "plot_plan")]:  # the figures (the HTML card's images too)
+        _forbid(mp, module, name, f"{name} drew a figure the cache holds")
+    _forbid(mp, cli.drawer, "_design_ratios", "the design ratios drawn although the cache holds them")
+
+
+def test_other_start_time_copies_the_figures_and_exports_the_rest_as_an_uncached_run(
+    first, tmp_path, cache_dir, capsys, monkeypatch
+):
     later = ("--start-time", "2026-06-01T09:00Z")
-    cached, _ = _plan_cli(tmp_path / "b", capsys, *later)
-    assert cached["from_cache"] is True and len(list(cache_dir.glob("*.out"))) == 2  # a second output set kept
+    with monkeypatch.context() as mp:
+        _forbid_drawing(mp)
+        cached, _ = _plan_cli(tmp_path / "b", capsys, *later)
+    assert cached["from_cache"] is True and len(_start_sets(cache_dir)) == 2  # a second output set kept
+    assert len(_figure_sets(cache_dir)) == 1  # the figures: one set for the plan whatever the start time
     _plan_cli(tmp_path / "c", capsys, *later, "--no-cache")
     b, c = _files(tmp_path / "b"), _files(tmp_path / "c")
     assert b.keys() == c.keys() and [k for k in b if b[k] != c[k]] == ["plan.json"]  # its timing fields only
     assert b["full-scale-trial.gpx"] != first[2]["full-scale-trial.gpx"]  # the schedule moved: not the first run's files
+    assert all(b[k] == first[2][k] for k in b if k.endswith(".png"))
+
+
+@pytest.mark.parametrize("damage", ["truncate", "flip", "unpicklable"])
+def test_damaged_figures_are_drawn_again(first, tmp_path, cache_dir, capsys, damage):
+    (entry,) = _figure_sets(cache_dir)
+    entry.write_bytes(_damaged(entry.read_bytes(), damage))
+    later = ("--start-time", "2026-06-01T09:00Z")
+    _plan_cli(tmp_path / "b", capsys, *later)
+    _plan_cli(tmp_path / "c", capsys, *later, "--no-cache")
+    b, c = _files(tmp_path / "b"), _files(tmp_path / "c")
+    assert [k for k in b if b[k] != c[k]] == ["plan.json"] and plancache.load_outputs(cache_dir, entry.stem) is not None
 
 
 @pytest.mark.parametrize("damage", ["truncate", "flip", "unpicklable"])
 def test_damaged_output_set_is_exported_again(first, tmp_path, cache_dir, capsys, damage):
-    (entry,) = cache_dir.glob("*.out")
+    (entry,) = _start_sets(cache_dir)
     entry.write_bytes(_damaged(entry.read_bytes(), damage))
     assert plancache.load_outputs(cache_dir, entry.stem) is None
     again, _ = _plan_cli(tmp_path / "b", capsys)
@@ -289,7 +329,7 @@ def test_files_are_not_served_with_a_plan_computed_again(tmp_path, cache_dir, ca
     (entry,) = cache_dir.glob("*.plan")
     entry.write_bytes(_damaged(entry.read_bytes(), "flip"))
     replanned, _ = _plan_cli(tmp_path / "b", capsys)
-    assert replanned["from_cache"] is False and len(list(cache_dir.glob("*.out"))) == 2
+    assert replanned["from_cache"] is False and len(_start_sets(cache_dir)) == 2 and len(_figure_sets(cache_dir)) == 2
     hit, _ = _plan_cli(tmp_path / "c", capsys)
     assert hit["from_cache"] is True and _files(tmp_path / "c") == _files(tmp_path / "b")
 
@@ -342,7 +382,7 @@ def test_command_whose_files_are_kept_forks_no_early_drawer(first, tmp_path, cac
     calls = _early_forks(monkeypatch)
     _plan_cli(tmp_path / "b", capsys)
     assert calls == [] and _files(tmp_path / "b") == first[2]
-    (kept,) = cache_dir.glob("*.out")
+    (kept,) = _start_sets(cache_dir)
     kept.unlink()  # the guess now wrong: the files are drawn all the same (the drawer started after parsing)
     _plan_cli(tmp_path / "c", capsys)
     assert calls == [] and _files(tmp_path / "c") == first[2]
@@ -475,3 +515,36 @@ def test_fields_digest_is_the_same_for_an_object_read_back():
     assert fields_digest(_Two({name: 1.0}, {name: 2.5})) != fields_digest(fresh)
     assert fields_digest(_Two({name: 1.0}, {})) != fields_digest(_Two({}, {name: 1.0}))  # framed by field
     assert fields_digest([1, 2]) == fields_digest([1, 2]) != fields_digest([2, 1])  # not a dataclass: whole
+
+
+def test_the_drawer_writes_given_figures_and_draws_only_the_missing_ones(first, tmp_path, monkeypatch):
+    """A designed plan's figures given to the drawer (``job["png"]``): the design ratios are written, not drawn; an
+    entry without them (kept by an older run) draws them."""
+    import cli.drawer
+    import maps.export.plots
+    import maps.output
+    from maps.export import default_path
+
+    hit = next(plancache.load(first[0], p.stem) for p in first[0].glob("*.plan"))
+    plan, chart, sea = hit["plan"], hit["chart"], hit["sea"]
+    names = {n: first[2][n] for n in first[2] if n.endswith(".png")}
+    names["design-ratios.png"] = b"ratios"
+    drawn = []
+    monkeypatch.setattr(
+        cli.drawer,
+        "_design_ratios",
+        lambda design, out: drawn.append(design) or (out / "design-ratios.png").write_bytes(b"drawn"),
+    )
+    for module, name in [(maps.export.plots, n) for n in ("plot_track", "plot_states", "track_figure", "states_figure")] + [
+        (maps.output, "plot_plan")
+    ]:
+        _forbid(monkeypatch, module, name, f"{name} drew a figure given")
+    for given, expect in ((names, b"ratios"), ({k: v for k, v in names.items() if k != "design-ratios.png"}, b"drawn")):
+        out = tmp_path / f"out{len(given)}"
+        out.mkdir()
+        job = {"plan": plan, "sea": sea, "chart": chart, "design": "a design", "t0": START, "dir": out, "png": given}
+        cli.drawer.draw_here(job)
+        assert (out / "design-ratios.png").read_bytes() == expect
+        assert all((out / n).read_bytes() == b for n, b in given.items())
+        assert default_path(plan, "card", out).read_bytes() == first[2][default_path(plan, "card", out).name]
+    assert drawn == ["a design"]
