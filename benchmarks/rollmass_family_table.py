@@ -7,7 +7,7 @@ error, the 95 % intervals' coverage with an exact (Clopper-Pearson) 95 % interva
 run-major, so every variant has about as many runs). ``--complete-runs`` keeps only the runs whose every
 (variant, case) fit is in the dump, so each variant and case counts the same runs. Nothing is fitted.
 The target (issue 25): median |mass error| < 5 %, median |z error| < 10 mm, the interval holding the truth in
->= 90 % of the runs, in every case of every variant; ``met`` reads the coverage as both intervals holding.
+>= 90 % of the runs, in every case of every variant; ``met`` reads the coverage as both intervals holding in >= 90 % of all runs, a failed fit a miss.
 """
 
 from __future__ import annotations
@@ -20,6 +20,9 @@ import numpy as np
 from scipy.stats import beta
 
 TARGET_M, TARGET_Z, TARGET_COV = 5.0, 10.0, 90.0
+# a fit over this CPU took oe_fit's forward-difference redo (a proxy: the dump does not say; stop 54 profiled
+# base run 1 case 1 of a 30-run family, 123 s: 95 % of it in that path's five capped LMs)
+SLOW_S = 30.0
 
 
 def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
@@ -67,9 +70,11 @@ def _line(label: str, case: str, c: dict, md: bool) -> str:
         f"{100 * c[k] / ng:.0f} ({clopper_pearson(c[k], ng)[0]:.0f}-{clopper_pearson(c[k], ng)[1]:.0f})"
         for k in ("k_m", "k_z", "k_b")
     ]
-    met = (
-        c["med_m"] < TARGET_M and c["med_z"] < TARGET_Z and c["k_b"] >= TARGET_COV / 100 * ng
-    )  # the stricter reading: both intervals hold
+    # of all runs, a failed fit counted as a miss (it gives the user no interval)
+    lo, hi = clopper_pearson(c["k_b"], c["n"])
+    cov.append(f"{100 * c['k_b'] / c['n']:.0f} ({lo:.0f}-{hi:.0f})")
+    # the stricter reading of the target: both intervals hold, in >= 90 % of all runs
+    met = c["med_m"] < TARGET_M and c["med_z"] < TARGET_Z and c["k_b"] >= TARGET_COV / 100 * c["n"]
     cells = [
         label,
         case,
@@ -85,7 +90,7 @@ def _line(label: str, case: str, c: dict, md: bool) -> str:
     ]
     if md:
         return "| " + " | ".join(cells) + " |"
-    return f"{cells[0]:10} {cells[1]:6} {cells[2]:>4} {cells[3]:>7} {cells[4]:>7} {cells[5]:>7}  {cells[6]:>12} {cells[7]:>12} {cells[8]:>12} {cells[9]:>4} {cells[10]:>4} {cells[11]:>6} {cells[12]:>4}"
+    return f"{cells[0]:10} {cells[1]:6} {cells[2]:>4} {cells[3]:>7} {cells[4]:>7} {cells[5]:>7}  {cells[6]:>12} {cells[7]:>12} {cells[8]:>12} {cells[9]:>12} {cells[10]:>4} {cells[11]:>4} {cells[12]:>6} {cells[13]:>4}"
 
 
 def main() -> None:
@@ -111,6 +116,7 @@ def main() -> None:
         "cov m % (95 % CI)",
         "cov z %",
         "cov both %",
+        "both of all %",
         "warn",
         "fail",
         "cpu s",
@@ -120,15 +126,20 @@ def main() -> None:
         print("| " + " | ".join(head) + " |\n|" + "---|" * len(head))
     else:
         print(
-            f"{head[0]:10} {head[1]:6} {head[2]:>4} {head[3]:>7} {head[4]:>7} {head[5]:>7}  {head[6]:>12} {head[7]:>12} {head[8]:>12} {head[9]:>4} {head[10]:>4} {head[11]:>6} {head[12]:>4}"
+            f"{head[0]:10} {head[1]:6} {head[2]:>4} {head[3]:>7} {head[4]:>7} {head[5]:>7}  {head[6]:>12} {head[7]:>12} {head[8]:>12} {head[9]:>12} {head[10]:>4} {head[11]:>4} {head[12]:>6} {head[13]:>4}"
         )
     for variant in variants + ["pooled"]:
-        for case in cases:
-            sel = [r for r in rows if (variant == "pooled" or r[0] == variant) and r[1] == case]
+        for case in cases + ["all"]:
+            sel = [r for r in rows if (variant == "pooled" or r[0] == variant) and case in ("all", r[1])]
             print(_line(variant, case, _cell(sel), a.markdown))
     fails = [r for r in rows if r[4] is None]
     for r in fails:
         print(f"failed: {r[0]} {r[1]} run {r[3]}: {r[5]}")
+    cpu = np.array([r[6] for r in rows])
+    print(
+        f"fits over {SLOW_S:.0f} s cpu (the forward-difference redo, oe_fit.fit_output_error): {int((cpu > SLOW_S).sum())} "
+        f"of {len(cpu)}, {cpu[cpu > SLOW_S].sum():.0f} of {cpu.sum():.0f} s cpu; median fit {np.median(cpu):.1f} s"
+    )
     slow = sorted(rows, key=lambda r: -r[6])[:5]
     print("slowest fits: " + "; ".join(f"{r[0]} {r[1]} run {r[3]} {r[6]:.0f} s" for r in slow))
 
