@@ -1,0 +1,51 @@
+"""benchmarks/rollmass_family_table.py (stop 54): the exact binomial interval on a coverage and the
+complete-runs filter of an interrupted family dump."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+import pytest
+from scipy.stats import binom
+
+from benchmarks import rollmass_family_table as ft
+
+
+def test_clopper_pearson_known_values():
+    # Clopper & Pearson's exact interval: 0 of 10 -> [0, 30.85 %] (1 - 0.025^(1/10)); 10 of 10 -> [69.15 %, 100 %]
+    lo, hi = ft.clopper_pearson(0, 10)
+    assert lo == 0.0 and hi == pytest.approx(100 * (1 - 0.025 ** (1 / 10)), rel=1e-9)
+    lo, hi = ft.clopper_pearson(10, 10)
+    assert lo == pytest.approx(100 * 0.025 ** (1 / 10), rel=1e-9) and hi == 100.0
+    # an interior count: the interval holds k / n and is the tail-probability inversion
+    lo, hi = ft.clopper_pearson(26, 30)
+    assert lo < 100 * 26 / 30 < hi
+    assert binom.sf(25, 30, lo / 100) == pytest.approx(0.025, rel=1e-6)
+    assert binom.cdf(26, 30, hi / 100) == pytest.approx(0.025, rel=1e-6)
+
+
+def _row(variant, case, run, err_m=1.0, hold=True, cpu=3.0):
+    return [variant, case, "oe", run, [err_m, 2.0, hold, hold, False], "", cpu, {}]
+
+
+def test_complete_runs_drop_a_partial_run():
+    rows = [_row(v, c, r) for r in range(3) for v in ("base", "waves") for c in ("case1", "case2")]
+    rows = rows[:-1]  # run 2 lost its last fit (an interrupted dump)
+    kept = ft._complete(rows)
+    assert sorted({r[3] for r in kept}) == [0, 1] and len(kept) == 8
+
+
+def test_cell_counts_and_failures(tmp_path, capsys):
+    rows = [_row("base", "case1", r, err_m=e, hold=h) for r, (e, h) in enumerate([(-2.0, True), (6.0, False), (4.0, True)])]
+    rows.append(["base", "case1", "oe", 3, None, "not converged", 120.0, {}])
+    c = ft._cell(rows)
+    assert c["n"] == 4 and c["fail"] == 1 and c["ng"] == 3 and c["k_b"] == 2
+    assert c["med_m"] == 4.0 and c["bias_m"] == 4.0 and c["cpu"] == pytest.approx(np.median([3.0, 3.0, 3.0, 120.0]))
+    dump = tmp_path / "d.jsonl"
+    dump.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    sys.argv = ["x", str(dump)]
+    ft.main()
+    out = capsys.readouterr().out
+    assert "failed: base case1 run 3: not converged" in out and "4 oe fits" in out
