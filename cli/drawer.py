@@ -161,7 +161,7 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
     process writes plan.png, the design ratios and the track PNG, then the HTML trial card with
     both PNGs. ``prepared``: figures drawn ahead from the early result (``"ratios"``: the design
     and its ratios PNG), used when the job's design is that design. ``job["png"]`` (optional): PNG
-    bytes by file name (:func:`cli.plan_cache.saved_figures`), written instead of drawn."""
+    bytes by file name (:func:`cli.plan_cache.saved_sets`), written instead of drawn."""
     from maps.export import _write, default_path
     from maps.export.card import write_card_pdf
     from maps.export.plots import PlanFigures, plot_states, plot_track

@@ -1,10 +1,10 @@
 """``shiptrial plan``'s use of the plan cache for its output files: a run whose plan was read from the
 cache (:mod:`maps.plancache`) and whose files were written before for the same start time copies
 those files' bytes instead of drawing and exporting again (the figures' drawer, the crew exports:
-about 2.6 s of a cached run's 3.2 s of CPU before); one at another start time copies the figures no start time
-changes (:data:`FIGURES`, kept per plan entry) and exports the rest. The files are functions of the cached plan, its start time, the
-code and the drawing libraries and configuration (:func:`maps.plancache.outputs_key`), so the copy
-is byte for byte what exporting would write."""
+about 2.6 s of a cached run's 3.2 s of CPU before); one at another start time copies the figures no start
+time changes (:data:`FIGURES`, kept per plan entry) and exports the rest. The files are functions of the cached
+plan, its start time, the code and the drawing libraries and configuration (:func:`maps.plancache.outputs_key`),
+so the copy is byte for byte what exporting would write."""
 
 from __future__ import annotations
 
@@ -97,7 +97,7 @@ def keep_outputs(
 ) -> bool:
     """Keep the files just written into ``out`` (every one but the output directory's marker) for the next run
     of the plan entry of ``digest`` under ``plan_key`` with the same start time, and its figures
-    (:data:`FIGURES`) for a run of that entry at any start time (:func:`saved_figures`; skipped when the figures'
+    (:data:`FIGURES`) for a run of that entry at any start time (:func:`saved_sets`; skipped when the figures'
     configuration cannot be keyed); True when kept."""
     from maps.plancache import drawing_version
     from primitives.io import OUTPUT_MARKER

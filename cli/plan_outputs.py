@@ -61,7 +61,7 @@ def write_outputs_all(
     their PNGs, the plan picture, the design ratios) are drawn by ``drawer`` (a
     :class:`cli.drawer.Drawer` started with the command) while this process writes the plan and
     the text exports. ``chart``: :func:`export_chart` of the plan, when computed already. ``figures``: PNG
-    bytes by file name kept for this plan at another start time (:func:`cli.plan_cache.saved_figures`): written
+    bytes by file name kept for this plan at another start time (:func:`cli.plan_cache.saved_sets`): written
     instead of drawn."""
     from maps.export import _write, default_path
     from maps.output import write_outputs
