@@ -67,6 +67,7 @@ from identify.detect.yawmodel import (
     simulate_r,
     whiten,
 )
+from primitives.iir import lfilter
 
 VARIANTS = ("nominal-mmg", "strong-roll", "pod-interaction", "steering-lag-acting", "coloured-noise")
 #: the truth family's recordings' fingerprint (tests/physics at the stored screenings' time)
@@ -80,12 +81,7 @@ def _d(x: np.ndarray, dt: float) -> np.ndarray:
 def _lag(x: np.ndarray, dt: float, tau: float) -> np.ndarray:
     """Causal first-order low-pass (time constant ``tau``) less the signal: what a lag adds."""
     a = np.exp(-dt / tau)
-    y = np.empty_like(x)
-    acc = x[0]
-    for k in range(len(x)):
-        acc = a * acc + (1 - a) * x[k]
-        y[k] = acc
-    return y - x
+    return lfilter([1.0 - a], [1.0, -a], x, zi=np.array([a * x[0]])) - x  # y[k] = a y[k-1] + (1-a) x[k], y[-1] = x[0]
 
 
 #: candidate moment terms g(w, dt) from the prior's filtered inputs ``w`` (u, v, v_dot, phi, p, tau_r as

@@ -402,7 +402,7 @@ def estimate_from_files(
             "check --z-f, --known-load and that the three runs come from one ship"
         ) from None
     e.notes = got.notes + [n for r in got.recs for n in r.notes]
-    e.warnings += usability_warnings(e, got.prof) + slowing_warning(got.recs, got.paths, method) + got.warnings
+    e.warnings += usability_warnings(e, got.prof) + slowing_warning(got.recs, paths, method) + got.warnings
     return e
 
 
@@ -410,7 +410,6 @@ def estimate_from_files(
 class _Inputs:
     """What :func:`estimate_from_files` fits, after every check of the files, headers and profile."""
 
-    paths: list[Path]
     recs: list[RollRecording]  # each at its header's speed, its heel referenced
     prof: RollProfile  # the headers' speed and IMU position in place of the profile's own
     cal: Load  # the calibration run's known load
@@ -445,7 +444,7 @@ def _checked_inputs(paths: list[Path], known_load: str | Load | None, profile: s
     warnings = ship + default_speed_warnings(given, prof, profile is None, paths, metas)
     check_recorded_signs(recs, prof, given)
     order, unchecked = order_check(recs, paths, metas, prof, cal, z_f)
-    return _Inputs(paths, recs, prof, cal, notes + unchecked, warnings + order)
+    return _Inputs(recs, prof, cal, notes + unchecked, warnings + order)
 
 
 def order_check(

@@ -133,7 +133,6 @@ def place_labels(
     a, b = np.vstack([pts[:-1], anchors]), np.vstack([pts[1:], anchors])
     if marks is None:
         marks = map_marks(frame, tuple(pts[-1])) if len(pts) else []
-    x0, y0, x1, y1 = frame
     placed: list[Label] = []
     for text, (ax, ay), r in zip(texts, anchors, radii):
         rings = [np.array([[ax + DEFAULT_OFFSET[0], ay + DEFAULT_OFFSET[1]]])]
@@ -143,19 +142,17 @@ def place_labels(
         # ring by ring, the usual place first: the first free candidate in that order is the first of all of
         # them (each candidate's room is its own minimum, the same number measured alone or with the others),
         # and most labels take the usual place or a near ring: the outer rings are measured only when needed
-        rooms: list[np.ndarray] = []
-        pick = None
+        rooms: list[np.ndarray] = []  # measured so far, in candidate order: index i is candidate i of all rings
         for ring in rings:
             rooms.append(_room(ring, (ax, ay), r, a, b, marks, frame, placed, gap))
             free = np.flatnonzero(rooms[-1] >= 0.0)
             if len(free):
-                pick = (len(rooms) - 1, int(free[0]))
+                i = sum(map(len, rooms[:-1])) + int(free[0])
                 break
-        if pick is None:  # nowhere free: the least crowded place of all
-            k = int(np.argmax(np.concatenate(rooms)))
-            pick = (0, 0) if k == 0 else (1 + (k - 1) // len(_ANGLES), (k - 1) % len(_ANGLES))
-        (cx, cy), moved = rings[pick[0]][pick[1]], pick != (0, 0)
-        placed.append(Label(text, float(cx), float(cy), float(r), (float(ax), float(ay)), moved))
+        else:  # nowhere free: the least crowded place of all
+            i = int(np.argmax(np.concatenate(rooms)))
+        cx, cy = np.vstack(rings)[i]
+        placed.append(Label(text, float(cx), float(cy), float(r), (float(ax), float(ay)), i != 0))
     return placed
 
 
