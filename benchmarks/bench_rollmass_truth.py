@@ -12,6 +12,11 @@ the paper's Table 3 (one real dataset per case).
     python benchmarks/bench_rollmass_truth.py --runs 100 --methods oe                # Done-when size (the default method)
     python benchmarks/bench_rollmass_truth.py --runs 8 --methods all                # every method
     python benchmarks/bench_rollmass_truth.py --runs 4 --no-u                       # logs without the speed u(t)
+    python benchmarks/bench_rollmass_truth.py --runs 100 --dump fam.jsonl --resume  # continue a stopped family
+    python benchmarks/bench_rollmass_truth.py --runs 30 --only base/1/case1          # one fit of the 30-run family
+
+Each dumped row's last element also holds the fit's path (``path``: exact or forward-difference redo, why, each
+LM call's evaluations; identify.rollmass.fit_path) and the family's settings (``family``), which ``--resume`` checks.
 """
 
 from __future__ import annotations
@@ -47,7 +52,7 @@ PAPER = {"case1": (0.1338, 3.1), "case2": (7.7532, 25.4), "case3": (16.631, 0.9)
 
 
 def _one(job: tuple) -> list[tuple]:
-    variant, run, case, recs, methods, with_u, heel_ref = job
+    variant, run, case, recs, methods, with_u, heel_ref, family = job
     m_true, z_true = bt.truth_load(case)
     out = []
     with tempfile.TemporaryDirectory() as d:
@@ -74,9 +79,11 @@ def _one(job: tuple) -> list[tuple]:
                 # X_v -1,070 to -29,000 and a mass-height correlation near 1)
                 fitted = {k: e.params[k] for k in ("kappa", "X_v", "K_ur", "Y_pdot") if k in e.params}
                 fitted["corr"] = e.corr
+                if e.fit_path is not None:
+                    fitted["path"] = e.fit_path.record()
             except UserError as exc:
                 row, why = None, str(exc)[:80]
-            out.append((variant, case, method, run, row, why, time.process_time() - c0, fitted))
+            out.append((variant, case, method, run, row, why, time.process_time() - c0, {**fitted, "family": family}))
     return out
 
 
@@ -96,6 +103,50 @@ def _summary(rows: list[tuple], label: str, case: str, method: str) -> str:
         f"{label:10} {case:6} {method:9} {n:5d} | {pm:7.2f} {pz:6.1f} | {med_m:7.2f} {med_z:7.1f} {bias_m:+7.2f} | "
         f"{cm:6.0f} {cz:6.0f} {cb:6.0f} | {nw:5d} {nf:5d}"
     )
+
+
+def _family(a: argparse.Namespace) -> dict[str, object]:
+    """The settings that decide a family's ships and recordings (its runs' seeds depend on ``--runs``)."""
+    return {"runs": a.runs, "seed": a.seed, "quiet": a.quiet, "with_u": not a.no_u, "heel_ref": a.heel_ref}
+
+
+def _done(dump: Path, family: dict[str, object]) -> tuple[list[tuple], set[tuple]]:
+    """The rows of an existing ``--dump`` to resume from and their (variant, case, method, run) keys; exits with a
+    one-line error when a row is of another family (other --runs, seed, ...) or the file is not a dump."""
+    rows = []
+    for i, line in enumerate(dump.read_text().splitlines() if dump.exists() else [], 1):
+        try:
+            r = tuple(json.loads(line))
+            theirs = r[7].get("family")
+        except (ValueError, IndexError, AttributeError):
+            sys.exit(f"{dump}: line {i} is not a bench row; fix: give --resume a --dump file this bench wrote")
+        if theirs != family:
+            sys.exit(f"{dump}: line {i} is of family {theirs}, not {family}; fix: resume with that row's settings")
+        rows.append(r)
+    return rows, {tuple(r[:4]) for r in rows}
+
+
+def _jobs(a: argparse.Namespace, variants: list[str], cases: list[str], methods: list[str], done: set) -> tuple[list, float]:
+    """The fits to make, run-major: (variant, run, case, recordings, methods not in ``done``, ...), and the
+    simulations' CPU. Every variant's whole family is simulated (its ships depend on ``--runs``), so a fit
+    selected by ``--only`` or left by ``--resume`` is the one a fresh run of the same ``--runs`` makes."""
+    only = {tuple(s.split("/")) for s in a.only.split(",")} if a.only else None
+    family, jobs, c_sim = _family(a), [], 0.0
+    for variant in variants:
+        c0 = time.process_time()
+        # a variant's seed does not depend on which others are run, so runs pair across invocations
+        seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant)
+        ship, data = bt.simulate_runs(variant, a.runs, seed, quiet=a.quiet)
+        c_sim += time.process_time() - c0
+        for run in range(a.runs):
+            for case in cases:
+                todo = [m for m in methods if (variant, case, m, run) not in done]
+                if todo and (only is None or (variant, str(run), case) in only):
+                    recs = bt.case_recordings(ship, data, case, run)
+                    jobs.append((variant, run, case, recs, todo, not a.no_u, a.heel_ref, family))
+    # run-major (a stable sort): an interrupted run (its --dump) has about as many runs of every variant
+    jobs.sort(key=lambda j: j[1])
+    return jobs, c_sim
 
 
 def main() -> None:
@@ -128,33 +179,31 @@ def main() -> None:
         "the fitted kappa, X_v, K_ur, Y_pdot and the mass-height correlation",
     )
     ap.add_argument("--from-dump", help="print the tables from a --dump file (also an interrupted run's) and fit nothing")
+    ap.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep the --dump's rows and fit only the missing ones (same --runs, seed and settings as the dump's)",
+    )
+    ap.add_argument("--only", help="comma-separated variant/run/case fits of the family to make, e.g. base/1/case1")
     a = ap.parse_args()
     variants, cases = a.variants.split(","), a.cases.split(",")
     methods = list(METHODS) if a.methods == "all" else a.methods.split(",")
     if not set(methods) <= set(METHODS) or not set(variants) <= set(bt.VARIANTS + ("base",)) or not set(cases) <= set(bt.CASES):
         ap.error("unknown method, variant or case")
+    if a.resume and not a.dump:
+        ap.error("--resume needs --dump")
     t0, c_sim = time.perf_counter(), 0.0
     rows = []
     if a.from_dump:  # a (possibly interrupted) run's rows, summarised
         rows = [tuple(r) for r in map(json.loads, Path(a.from_dump).read_text().splitlines())]
         variants = list(dict.fromkeys(r[0] for r in rows))
     else:
-        if a.dump:  # a dump holds one invocation's rows: appending to an old one would mix runs of two families
+        done: set = set()
+        if a.resume:  # the dump's rows are one family's (checked): keep them, fit the rest
+            rows, done = _done(Path(a.dump), _family(a))
+        elif a.dump:  # a dump holds one family's rows: appending to an old one would mix runs of two families
             Path(a.dump).write_text("")
-        jobs = []
-        for variant in variants:
-            c0 = time.process_time()
-            # a variant's seed does not depend on which others are run, so runs pair across invocations
-            seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant)
-            ship, data = bt.simulate_runs(variant, a.runs, seed, quiet=a.quiet)
-            c_sim += time.process_time() - c0
-            jobs += [
-                (variant, run, case, bt.case_recordings(ship, data, case, run), methods, not a.no_u, a.heel_ref)
-                for run in range(a.runs)
-                for case in cases
-            ]
-        # run-major (a stable sort): an interrupted run (its --dump) has about as many runs of every variant
-        jobs.sort(key=lambda j: j[1])
+        jobs, c_sim = _jobs(a, variants, cases, methods, done)
         with Pool(a.workers) as pool:
             for part in pool.imap(_one, jobs):
                 for r in part:

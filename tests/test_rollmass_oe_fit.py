@@ -3,6 +3,9 @@ the optimum said (never a silent "converged"), and the roll-centre prior's uncer
 
 from __future__ import annotations
 
+import tempfile
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.optimize import OptimizeResult
@@ -96,12 +99,19 @@ def test_lm_runs_on_the_exact_jacobian(monkeypatch):
     exact, fd = _spy(monkeypatch, "_lm_exact"), _spy(monkeypatch, "_lm")
     e = estimate(ds, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
     assert e.converged and len(exact) == 5 and not fd
+    # the path is recorded (stop 55): exact, each LM call's evaluations as scipy counted them, none at a cap
+    p = e.fit_path
+    assert p.path == "exact" and p.why == "" and p.redo is None
+    assert [n for n, _ in p.exact.lm] == exact and all(s > 0 for _, s in p.exact.lm)
+    # every residual counted: the LMs' (scipy's nfev) plus the Gauss-Newton finish's; a Jacobian per LM step at least
+    assert p.exact.residuals >= sum(exact) + 1 and p.exact.jacobians >= len(exact)
+    assert p.record()["exact"]["lm"] == [list(c) for c in p.exact.lm]
 
 
-def test_a_creeping_exact_lm_is_redone_on_forward_differences(case2, monkeypatch):
-    """An exact-Jacobian LM that reaches its evaluation cap (as it does along the nuisance ridge of
-    short low-noise data such as this) does not end the fit there: the whole fit is redone on forward
-    differences (here a stub that stays where it starts), and that path's answer is the one returned."""
+def test_an_exact_path_ending_unconverged_is_redone_on_forward_differences(case2, monkeypatch):
+    """Exact-Jacobian LMs at their evaluation cap (here 2: each one) go on from where they stopped (stop 55), and
+    the path ending not stationary (here: no finishing steps) is redone on forward differences (here a stub that
+    stays where it starts); that path's answer is the one returned."""
     monkeypatch.setattr(fit, "LM_NFEV_EXACT", 2)
     monkeypatch.setattr(fit, "FINISH_STEPS", 0)
     starts = []
@@ -115,6 +125,11 @@ def test_a_creeping_exact_lm_is_redone_on_forward_differences(case2, monkeypatch
     e = estimate(case2, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
     assert len(starts) == 5  # ship start, two joint starts, two reweighted fits
     assert (e.m, e.zbar_m) == (CAL.m, CAL.zbar)  # the stub's: where the joint fits start
+    # the path is recorded (stop 55): the redo and why; on the exact path all five LMs ran, each to its cap
+    p = e.fit_path
+    assert p.path == "redo" and p.why.startswith("not converged: ") and "not at a stationary point" in p.why
+    assert [s for _, s in p.exact.lm] == [0] * 5 and p.exact.residuals >= 10
+    assert len(p.redo.lm) == 5 and p.redo.residuals == 6  # the stub once a call, the finish once at its start
 
 
 def test_the_sandwich_carries_a_priors_uncertainty():
@@ -254,3 +269,27 @@ def test_the_same_convolution_is_scipys_fftconvolve():
         got = same_convolution(h, kernel)
         assert got.shape == want.shape
         assert np.max(np.abs(got - want)) <= 1e-13 * np.max(np.abs(want)), (n, lags)
+
+
+@pytest.mark.slow
+def test_a_capped_exact_lm_goes_on_to_the_redos_answer_at_a_fraction_of_its_evaluations():
+    """Stop 55: the basin truth family's base run 2 case 1 (``bench_rollmass_truth.py --runs 30``) was redone on
+    forward differences (27 s CPU at stop 54) because its exact joint start from the fitted ship reached
+    ``LM_NFEV_EXACT``. Going on from that LM's point, the exact path converges to the redo's load (+8.77 %, +19.8 mm
+    at stop 54) in 126 residual evaluations (measured; the redo's LMs ran to their cap of 200 each, 16 residuals
+    a forward-difference Jacobian besides)."""
+    from benchmarks import bench_rollmass_truth as bench  # noqa: F401  (one BLAS thread, as the bench)
+    from identify.rollmass.api import estimate_from_files
+    from tests.physics import basin_truth as bt
+
+    ship, data = bt.simulate_runs("base", 30, 2015 + 1000 * (bt.VARIANTS + ("base",)).index("base"))
+    m_true, z_true = bt.truth_load("case1")
+    with tempfile.TemporaryDirectory() as d:
+        paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv", True) for r in bt.case_recordings(ship, data, "case1", 2)]
+        e = estimate_from_files(*paths, method="oe")
+    p = e.fit_path
+    assert e.converged and p.path == "exact" and p.redo is None
+    assert (fit.LM_NFEV_EXACT, 0) in p.exact.lm  # the redo-prone case: an exact LM at its cap
+    assert p.exact.residuals < 200 and p.exact.jacobians < 150
+    assert 100 * (e.m / m_true - 1) == pytest.approx(8.77, abs=0.1)
+    assert 1000 * (e.zbar_m - z_true) == pytest.approx(19.8, abs=0.3)

@@ -32,6 +32,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.special import stdtrit  # scipy.optimize imports scipy.special already; scipy.stats would cost ~1 s
 
+from identify.rollmass.fit_path import FitPath
 from identify.rollmass.instruments import (
     N_LAGS,
     black_box_instruments,
@@ -85,6 +86,7 @@ class MassEstimate:
     notes: list[str] = field(default_factory=list)
     m_dof: float = float("inf")  # degrees of freedom of m_sd^2 (oe: sandwich.LoadMoments.dof); inf: a normal interval
     zbar_m_dof: float = float("inf")
+    fit_path: FitPath | None = None  # oe: the path its fit took (exact or forward-difference redo) and its evaluations
 
     def critical(self) -> tuple[float, float]:
         """The 95 % interval's critical values of ``m`` and ``zbar_m``: Student's ``t_{0.975, nu}`` with the
@@ -381,6 +383,7 @@ def _oe(
         converged=f.converged,
         free=tuple(f.values),
         rel_singular=f.rel_singular,
+        fit_path=f.path,
     )
     if not f.converged:
         est.warnings.append(f"oe: the fit did not converge ({f.message})")

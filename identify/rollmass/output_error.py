@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from identify.rollmass.fit_path import FitPath
 from identify.rollmass.model import Known, Load, RollProfile, load_restoring
 from identify.rollmass.restoring import gravity_excess, heel_gain, heel_signal
 from identify.rollmass.sandwich import central_jacobian
@@ -117,6 +118,7 @@ class OEFit:
     # Satterthwaite degrees of freedom of (m, zbar_m)'s variances (sandwich.LoadMoments.dof); inf: none computed (1.96)
     dof: np.ndarray = field(default_factory=lambda: np.full(2, np.inf))
     no_interval: str = ""  # why a converged fit has no interval (sandwich.UnresolvedLoad), else empty
+    path: FitPath | None = None  # the path the fit took and its evaluations (set by oe_fit.fit_output_error)
 
 
 def start_values(prof: RollProfile) -> dict[str, float]:

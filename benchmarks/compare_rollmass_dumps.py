@@ -1,0 +1,53 @@
+"""Pair the fits of two truth-bench dumps (benchmarks/bench_rollmass_truth.py --dump) of the same family, fit by fit
+(stop 55): CPU, mass % and z mm error, whether both intervals hold the truth, before and after, and the path the
+"after" fit took (identify.rollmass.fit_path, when its dump records it); a fit whose row is bit-identical says so.
+
+    python benchmarks/compare_rollmass_dumps.py benchmarks/rollmass_family_s54.jsonl benchmarks/rollmass_redo_s55.jsonl
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+
+def _load(path: str) -> dict[tuple, list]:
+    return {tuple(r[:4]): r for r in map(json.loads, Path(path).read_text().splitlines())}
+
+
+def _answer(r: list) -> str:
+    if r[4] is None:
+        return f"{'failed':>16} {'-':>4}"
+    m, z, hm, hz, _ = r[4]
+    return f"{m:+7.2f} {z:+7.1f} {'yes' if hm and hz else 'no':>4}"
+
+
+def _path(r: list) -> str:
+    p = r[7].get("path")
+    if p is None:
+        return "-"
+    calls = " ".join(f"{n}{'*' if s == 0 else ''}" for n, s in p["exact"]["lm"])
+    return f"{p['path']:5} exact LMs [{calls}] res {p['exact']['residuals']} jac {p['exact']['jacobians']}"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("before")
+    ap.add_argument("after")
+    a = ap.parse_args()
+    before, after = _load(a.before), _load(a.after)
+    print(f"{'fit':24} {'cpu s':>13} | {'before m% z mm both':>20} | {'after':>20} | path of the after fit (* = LM at its cap)")
+    tot = [0.0, 0.0]
+    for key, r in after.items():
+        b = before.get(key)
+        if b is None:
+            continue
+        tot[0], tot[1] = tot[0] + b[6], tot[1] + r[6]
+        same = " (row bit-identical)" if b[4] == r[4] else ""
+        print(f"{key[0]}/{key[3]}/{key[1]:15} {b[6]:6.1f} {r[6]:6.1f} | {_answer(b)} | {_answer(r)} | {_path(r)}{same}")
+    print(f"total of the paired fits: {tot[0]:.0f} s cpu before, {tot[1]:.0f} s after")
+
+
+if __name__ == "__main__":
+    main()

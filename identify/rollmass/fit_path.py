@@ -1,0 +1,66 @@
+"""Which path an output-error fit took and what it cost (stop 55): the exact-Jacobian path of
+:func:`identify.rollmass.oe_fit.fit_output_error`, or its forward-difference redo, with each path's
+Levenberg-Marquardt calls and residual / Jacobian evaluations counted, so a family's split between
+the two paths is exact rather than read off a CPU threshold."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+# the LM calls of one path in the order the fit makes them (oe_fit._best_start, then oe_fit._fit's reweighted fits)
+LM_STAGES = ("ship", "joint-start", "joint-fitted", "reweight-1", "reweight-2")
+
+
+@dataclass
+class PathTally:
+    """One path's cost: each LM call's (evaluations as scipy counts them, status; 0 = its evaluation cap), and
+    every residual and Jacobian evaluation of the path (forward-difference columns and the Gauss-Newton finish
+    included)."""
+
+    lm: list[tuple[int, int]] = field(default_factory=list)
+    residuals: int = 0
+    jacobians: int = 0
+
+    def stage(self, i: int) -> str:
+        """The name of the ``i``-th LM call (:data:`LM_STAGES`; more reweightings are numbered on)."""
+        return LM_STAGES[i] if i < len(LM_STAGES) else f"reweight-{i - 2}"
+
+
+@dataclass
+class FitPath:
+    """The path a fit took: ``"exact"`` or ``"redo"`` (forward differences), why the exact path was
+    left (``""`` when it was not), and both paths' tallies (``redo`` is None on the exact path)."""
+
+    path: str = "exact"
+    why: str = ""
+    exact: PathTally = field(default_factory=PathTally)
+    redo: PathTally | None = None
+
+    def record(self) -> dict[str, object]:
+        """A JSON-ready summary (the truth bench's dump)."""
+        out: dict[str, object] = {"path": self.path, "why": self.why}
+        for name, t in (("exact", self.exact), ("redo", self.redo)):
+            if t is not None:
+                out[name] = {"lm": [list(c) for c in t.lm], "residuals": t.residuals, "jacobians": t.jacobians}
+        return out
+
+
+class Counted:
+    """A problem (:class:`identify.rollmass.output_error._Problem`) whose residual and Jacobian
+    evaluations are added to a :class:`PathTally`; everything else is the problem's."""
+
+    def __init__(self, prob: object, tally: PathTally):
+        self._prob, self._tally = prob, tally
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self._prob, name)
+
+    def residual(self, x: np.ndarray) -> np.ndarray:
+        self._tally.residuals += 1
+        return self._prob.residual(x)
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        self._tally.jacobians += 1
+        return self._prob.jacobian(x)
