@@ -140,6 +140,10 @@ def main() -> None:
         f"fits over {SLOW_S:.0f} s cpu (the forward-difference redo, oe_fit.fit_output_error): {int((cpu > SLOW_S).sum())} "
         f"of {len(cpu)}, {cpu[cpu > SLOW_S].sum():.0f} of {cpu.sum():.0f} s cpu; median fit {np.median(cpu):.1f} s"
     )
+    paths = [r[7].get("path", {}).get("path") if isinstance(r[7], dict) else None for r in rows]
+    if all(paths):  # a dump since stop 55 records the path: the split is exact
+        redo = np.array([p == "redo" for p in paths])
+        print(f"fits that took the redo (recorded): {int(redo.sum())} of {len(cpu)}, {cpu[redo].sum():.0f} s cpu")
     slow = sorted(rows, key=lambda r: -r[6])[:5]
     print("slowest fits: " + "; ".join(f"{r[0]} {r[1]} run {r[3]} {r[6]:.0f} s" for r in slow))
 

@@ -233,8 +233,9 @@ def fit_output_error(
     records which path it took and each path's evaluations (:class:`fit_path.FitPath`). An exact LM at its
     cap :data:`LM_NFEV_EXACT` no longer abandons the path (stop 55): its point is the best start's candidate
     or the next stage's start, and the finish judges. On the basin truth family 24 of 105 fits had been
-    redone so, every one from a capped LM, at 27-167 s CPU; going on, they end at the redo's load (within
-    0.1 % and 0.2 mm) at 6-8 s (docs/mass-accuracy.md, stop 55). Why a redo at all: on short low-noise data
+    redone, every one from a capped LM (27-167 s CPU); going on, 17 of them end on the exact path at the
+    redo's load (within 0.2 % and 0.4 mm) at 4-10 s, and 7 end unconverged and are redone as before
+    (docs/mass-accuracy.md, stop 55). Why a redo at all: on short low-noise data
     (tests/test_rollmass.py's 0.3-length case 1) the cost is flat along a nuisance ridge (the sway row's
     coefficients and the roll row's sway couplings grow together: the first joint fit ends at X_v 1,020 on
     forward differences and at 40,000 on the exact Jacobian, truth 20, at the same cost), the
