@@ -280,7 +280,7 @@ def _fit(
     # nearly free scale without converging (stop 50); a run at constant speed keeps main's fit bit for bit
     followed = any(followed_speed(d) is not None for d in datasets)
     xv_prior = (start["X_v"], SWAY_MASS_PRIOR_SD) if followed and SWAY_MASS_PRIOR_SD > 0 else None
-    first = _best_start(datasets, kn, cal, z_f, z_f_sd, start, w, lm, xv_prior, tally)
+    first = _best_start(datasets, kn, cal, z_f, z_f_sd, start, w, lm, xv_prior, tally=tally)
     x = first.x
     r_bias: list[float | None] = [None] * len(datasets)
     sway: list[np.ndarray | None] = [None] * len(datasets)
