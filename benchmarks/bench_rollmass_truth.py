@@ -22,6 +22,7 @@ LM call's evaluations; identify.rollmass.fit_path) and the family's settings (``
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import sys
@@ -105,32 +106,98 @@ def _summary(rows: list[tuple], label: str, case: str, method: str) -> str:
     )
 
 
+def _code_hash() -> str:
+    """A sha1 of the estimator's and the bench's sources (identify/rollmass/*.py, the truth simulator, this file):
+    rows of two estimators must not be mixed in one family; a commit id would also refuse a resume across a docs commit."""
+    root = Path(__file__).resolve().parents[1]
+    files = sorted(root.glob("identify/rollmass/*.py")) + [root / "tests/physics/basin_truth.py", Path(__file__).resolve()]
+    h = hashlib.sha1()
+    for f in files:
+        h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes())
+    return h.hexdigest()[:12]
+
+
 def _family(a: argparse.Namespace) -> dict[str, object]:
-    """The settings that decide a family's ships and recordings (its runs' seeds depend on ``--runs``)."""
-    return {"runs": a.runs, "seed": a.seed, "quiet": a.quiet, "with_u": not a.no_u, "heel_ref": a.heel_ref}
+    """The settings that decide a family's ships and recordings (its runs' seeds depend on ``--runs``), and the
+    code that fitted them (:func:`_code_hash`)."""
+    return {"runs": a.runs, "seed": a.seed, "quiet": a.quiet, "with_u": not a.no_u, "heel_ref": a.heel_ref, "code": _code_hash()}
+
+
+def _misfit(i: int, theirs: object, family: dict[str, object]) -> str | None:
+    """Why line ``i``'s family ``theirs`` cannot be resumed as ``family`` (None: it can)."""
+    if theirs is None:
+        return f"line {i} was written before --resume existed (no family recorded); fix: start a new --dump"
+    if not isinstance(theirs, dict):
+        return f"line {i} is not a bench row; fix: start a new --dump"
+    if "code" not in theirs:
+        return f"line {i} records no code hash (written before the bench recorded one); fix: start a new --dump"
+    if theirs["code"] != family["code"]:
+        return f"line {i} was written by other code (hash {theirs['code']}, this code {family['code']}); fix: start a new --dump"
+    if theirs != family:
+        return f"line {i} is of family {theirs}, not {family}; fix: resume with that row's settings, or start a new --dump"
+    return None
 
 
 def _done(dump: Path, family: dict[str, object]) -> tuple[list[tuple], set[tuple]]:
-    """The rows of an existing ``--dump`` to resume from and their (variant, case, method, run) keys; exits with a
-    one-line error when a row is of another family (other --runs, seed, ...) or the file is not a dump."""
-    rows = []
-    for i, line in enumerate(dump.read_text().splitlines() if dump.exists() else [], 1):
+    """The rows of an existing ``--dump`` to resume from and their (variant, case, method, run) keys. A last line cut
+    by an interrupted write (no final newline) is dropped from the file with a note, so its fit is redone; otherwise
+    exits with a one-line error, the file untouched, when a row is of another family or code, a fit is there twice
+    (two processes resumed one dump) or the file is not a dump."""
+    text = dump.read_text() if dump.exists() else ""
+    lines, rows, seen = text.splitlines(), [], {}
+    for i, line in enumerate(lines, 1):
         try:
             r = tuple(json.loads(line))
             theirs = r[7].get("family")
-        except (ValueError, IndexError, AttributeError):
+        except (ValueError, TypeError, IndexError, AttributeError):
+            if i == len(lines) and not text.endswith("\n"):
+                _rewrite(dump, lines[:-1])
+                print(f"{dump}: line {i} truncated (interrupted write): dropped, its fit is redone", file=sys.stderr)
+                break
             sys.exit(f"{dump}: line {i} is not a bench row; fix: give --resume a --dump file this bench wrote")
-        if theirs != family:
-            sys.exit(f"{dump}: line {i} is of family {theirs}, not {family}; fix: resume with that row's settings")
+        why = _misfit(i, theirs, family)
+        if why is not None:
+            sys.exit(f"{dump}: {why}")
+        if tuple(r[:4]) in seen:
+            sys.exit(
+                f"{dump}: lines {seen[tuple(r[:4])]} and {i} hold the same fit {'/'.join(map(str, r[:4]))} (two processes "
+                "resumed this dump?); fix: delete one of the two lines, and resume a dump from one process at a time"
+            )
+        seen[tuple(r[:4])] = i
         rows.append(r)
-    return rows, {tuple(r[:4]) for r in rows}
+    return rows, set(seen)
 
 
-def _jobs(a: argparse.Namespace, variants: list[str], cases: list[str], methods: list[str], done: set) -> tuple[list, float]:
+def _rewrite(dump: Path, lines: list[str]) -> None:
+    """``dump`` holding ``lines`` only, replaced whole (never half-written)."""
+    tmp = dump.with_name(dump.name + ".tmp")
+    tmp.write_text("".join(f"{line}\n" for line in lines))
+    os.replace(tmp, dump)
+
+
+def _only(a: argparse.Namespace, variants: list[str], cases: list[str]) -> set[tuple] | None:
+    """The (variant, run, case) fits ``--only`` names (None: all); ValueError for a spec that names no fit of this
+    family (the caller's usage error, exit 2, before the dump is touched), so a typo never makes an empty run."""
+    if not a.only:
+        return None
+    out = set()
+    for s in a.only.split(","):
+        f = s.split("/")
+        if len(f) != 3 or f[0] not in variants or f[2] not in cases or not f[1].isdigit() or int(f[1]) >= a.runs:
+            raise ValueError(
+                f"--only {s}: no such fit of this family; fix: give variant/run/case with the variant in --variants, "
+                f"0 <= run < --runs ({a.runs}) and the case in --cases"
+            )
+        out.add((f[0], int(f[1]), f[2]))
+    return out
+
+
+def _jobs(
+    a: argparse.Namespace, variants: list[str], cases: list[str], methods: list[str], done: set, only: set | None
+) -> tuple[list, float]:
     """The fits to make, run-major: (variant, run, case, recordings, methods not in ``done``, ...), and the
     simulations' CPU. Every variant's whole family is simulated (its ships depend on ``--runs``), so a fit
     selected by ``--only`` or left by ``--resume`` is the one a fresh run of the same ``--runs`` makes."""
-    only = {tuple(s.split("/")) for s in a.only.split(",")} if a.only else None
     family, jobs, c_sim = _family(a), [], 0.0
     for variant in variants:
         c0 = time.process_time()
@@ -141,12 +208,36 @@ def _jobs(a: argparse.Namespace, variants: list[str], cases: list[str], methods:
         for run in range(a.runs):
             for case in cases:
                 todo = [m for m in methods if (variant, case, m, run) not in done]
-                if todo and (only is None or (variant, str(run), case) in only):
+                if todo and (only is None or (variant, run, case) in only):
                     recs = bt.case_recordings(ship, data, case, run)
                     jobs.append((variant, run, case, recs, todo, not a.no_u, a.heel_ref, family))
     # run-major (a stable sort): an interrupted run (its --dump) has about as many runs of every variant
     jobs.sort(key=lambda j: j[1])
     return jobs, c_sim
+
+
+def _rows(
+    a: argparse.Namespace, variants: list[str], cases: list[str], methods: list[str], only: set | None
+) -> tuple[list[tuple], list[str], float]:
+    """The rows to summarise (a ``--from-dump`` file's, or the fits made now, each appended to ``--dump`` as it
+    finishes), the variants they are of, and the simulations' CPU."""
+    if a.from_dump:  # a (possibly interrupted) run's rows, summarised
+        rows = [tuple(r) for r in map(json.loads, Path(a.from_dump).read_text().splitlines())]
+        return rows, list(dict.fromkeys(r[0] for r in rows)), 0.0
+    rows, done = [], set()
+    if a.resume:  # the dump's rows are one family's (checked): keep them, fit the rest
+        rows, done = _done(Path(a.dump), _family(a))
+    elif a.dump:  # a dump holds one family's rows: appending to an old one would mix runs of two families
+        Path(a.dump).write_text("")
+    jobs, c_sim = _jobs(a, variants, cases, methods, done, only)
+    with Pool(a.workers) as pool:
+        for part in pool.imap(_one, jobs):
+            for r in part:
+                rows.append(r)
+                if a.dump:
+                    with open(a.dump, "a") as fh:
+                        fh.write(json.dumps(r, default=bool) + "\n")
+    return rows, variants, c_sim
 
 
 def main() -> None:
@@ -175,14 +266,15 @@ def main() -> None:
     )
     ap.add_argument(
         "--dump",
-        help="write every fit's row to this file (JSON lines, emptied first) as it finishes; its last element holds "
+        help="write every fit's row to this file (JSON lines, emptied first unless --resume) as it finishes; its last element holds "
         "the fitted kappa, X_v, K_ur, Y_pdot and the mass-height correlation",
     )
     ap.add_argument("--from-dump", help="print the tables from a --dump file (also an interrupted run's) and fit nothing")
     ap.add_argument(
         "--resume",
         action="store_true",
-        help="keep the --dump's rows and fit only the missing ones (same --runs, seed and settings as the dump's)",
+        help="keep the --dump's rows and fit only the missing ones (same --runs, seed, settings and code as the "
+        "dump's); one process per dump at a time",
     )
     ap.add_argument("--only", help="comma-separated variant/run/case fits of the family to make, e.g. base/1/case1")
     a = ap.parse_args()
@@ -192,25 +284,12 @@ def main() -> None:
         ap.error("unknown method, variant or case")
     if a.resume and not a.dump:
         ap.error("--resume needs --dump")
-    t0, c_sim = time.perf_counter(), 0.0
-    rows = []
-    if a.from_dump:  # a (possibly interrupted) run's rows, summarised
-        rows = [tuple(r) for r in map(json.loads, Path(a.from_dump).read_text().splitlines())]
-        variants = list(dict.fromkeys(r[0] for r in rows))
-    else:
-        done: set = set()
-        if a.resume:  # the dump's rows are one family's (checked): keep them, fit the rest
-            rows, done = _done(Path(a.dump), _family(a))
-        elif a.dump:  # a dump holds one family's rows: appending to an old one would mix runs of two families
-            Path(a.dump).write_text("")
-        jobs, c_sim = _jobs(a, variants, cases, methods, done)
-        with Pool(a.workers) as pool:
-            for part in pool.imap(_one, jobs):
-                for r in part:
-                    rows.append(r)
-                    if a.dump:
-                        with open(a.dump, "a") as fh:
-                            fh.write(json.dumps(r, default=bool) + "\n")
+    try:
+        only = _only(a, variants, cases)
+    except ValueError as exc:  # one line (ap.error would print the usage too), exit 2 as a usage error, no dump touched
+        ap.exit(2, f"{ap.prog}: error: {exc}\n")
+    t0 = time.perf_counter()
+    rows, variants, c_sim = _rows(a, variants, cases, methods, only)
     c_fit = sum(r[6] for r in rows)
     fails = [f"{r[0]} {r[1]} {r[2]} run {r[3]}: {r[5]}" for r in rows if r[4] is None]
     print(

@@ -1,5 +1,6 @@
 """benchmarks/bench_rollmass_truth.py (stop 55): a family resumed from an interrupted --dump has the rows of an
-uninterrupted run, --only makes the fits of the same family, and a dump of another family is refused."""
+uninterrupted run, --only makes the fits of the same family, and a dump of another family or code, with a fit twice
+or a broken line is refused (a last line cut by an interrupted write is dropped and refit)."""
 
 from __future__ import annotations
 
@@ -23,9 +24,10 @@ def short(monkeypatch):
 
 
 def _bench(monkeypatch, capsys, *args: str) -> str:
+    """The bench's stderr (its notes)."""
     monkeypatch.setattr(sys, "argv", ["bench_rollmass_truth.py", *ARGS, *args])
     bench.main()
-    return capsys.readouterr().out
+    return capsys.readouterr().err
 
 
 def _rows(path) -> list[list]:
@@ -49,11 +51,49 @@ def test_a_resumed_family_has_the_uninterrupted_rows(short, monkeypatch, capsys,
     assert _rows(one) == _rows(whole)[2:]
 
 
-def test_a_dump_of_another_family_is_refused(short, monkeypatch, capsys, tmp_path):
+def test_a_dump_of_another_family_or_code_is_refused_and_left(short, monkeypatch, capsys, tmp_path):
     dump = tmp_path / "d.jsonl"
-    row = ["base", "case2", "ls", 0, None, "", 1.0, {"family": {"runs": 30}}]
-    dump.write_text(json.dumps(row) + "\n")
+    _bench(monkeypatch, capsys, "--dump", str(dump), "--only", "base/0/case2")  # a real dump: every key but one agrees
+    text = dump.read_text()
+    for other, says in (
+        (["--runs", "4"], "line 1 is of family"),
+        (["--quiet"], "line 1 is of family"),
+        (["--seed", "7"], "line 1 is of family"),
+    ):
+        with pytest.raises(SystemExit) as exc:
+            _bench(monkeypatch, capsys, "--dump", str(dump), "--resume", *other)
+        assert says in str(exc.value) and "fix:" in str(exc.value)
+        assert dump.read_text() == text  # not emptied, not appended to
+    monkeypatch.setattr(bench, "_code_hash", lambda: "0123456789ab")  # the estimator or the bench edited since
     with pytest.raises(SystemExit) as exc:
         _bench(monkeypatch, capsys, "--dump", str(dump), "--resume")
-    assert "line 1 is of family" in str(exc.value) and "fix:" in str(exc.value)
-    assert dump.read_text() == json.dumps(row) + "\n"  # not emptied
+    assert "written by other code" in str(exc.value) and "start a new --dump" in str(exc.value)
+    assert dump.read_text() == text
+
+
+def test_a_cut_last_line_is_refit_and_a_repeated_fit_refused(short, monkeypatch, capsys, tmp_path):
+    whole, dump = tmp_path / "whole.jsonl", tmp_path / "d.jsonl"
+    _bench(monkeypatch, capsys, "--dump", str(whole))
+    lines = whole.read_text().splitlines()
+    dump.write_text(lines[0] + "\n" + lines[1][:40])  # interrupted in the middle of writing its second row
+    assert "line 2 truncated (interrupted write): dropped" in _bench(monkeypatch, capsys, "--dump", str(dump), "--resume")
+    assert _rows(dump) == _rows(whole)
+    dump.write_text(lines[0] + "\n" + lines[1] + "\n" + lines[0] + "\n")  # two processes resumed it
+    with pytest.raises(SystemExit) as exc:
+        _bench(monkeypatch, capsys, "--dump", str(dump), "--resume")
+    assert "lines 1 and 3 hold the same fit base/case2/ls/0" in str(exc.value) and "fix:" in str(exc.value)
+    cut = lines[0] + "\n" + lines[1][:40] + "\n"  # a broken line that is not the last write's: refused, left
+    dump.write_text(cut)
+    with pytest.raises(SystemExit) as exc:
+        _bench(monkeypatch, capsys, "--dump", str(dump), "--resume")
+    assert "line 2 is not a bench row" in str(exc.value) and dump.read_text() == cut
+
+
+@pytest.mark.parametrize("spec", ["base/7/case2", "bas/1/case2", "base/1", "base/1/case1", "base/x/case2"])
+def test_an_only_that_names_no_fit_is_a_usage_error(monkeypatch, capsys, tmp_path, spec):
+    dump = tmp_path / "d.jsonl"
+    dump.write_text("kept\n")
+    with pytest.raises(SystemExit) as exc:
+        _bench(monkeypatch, capsys, "--dump", str(dump), "--only", f"base/0/case2,{spec}")
+    assert exc.value.code == 2 and f"--only {spec}: no such fit of this family" in capsys.readouterr().err
+    assert dump.read_text() == "kept\n"  # no dump written
