@@ -13,7 +13,19 @@ from pathlib import Path
 
 
 def _load(path: str) -> dict[tuple, list]:
-    return {tuple(r[:4]): r for r in map(json.loads, Path(path).read_text().splitlines())}
+    """The dump's rows by (variant, case, method, run); a fit there twice is refused (which copy to pair is unknown)."""
+    out: dict[tuple, list] = {}
+    for i, r in enumerate(map(json.loads, Path(path).read_text().splitlines()), 1):
+        if tuple(r[:4]) in out:
+            raise SystemExit(f"{path}: line {i} repeats the fit {'/'.join(map(str, r[:4]))}; fix: delete one of its lines")
+        out[tuple(r[:4])] = r
+    return out
+
+
+def _same(b: list, r: list) -> bool:
+    """Whether two rows hold the same fit: answer, warning text and fitted parameters (CPU, path and family aside)."""
+    extra = [{k: v for k, v in x[7].items() if k not in ("path", "family")} for x in (b, r)]
+    return b[4:6] == r[4:6] and extra[0] == extra[1]
 
 
 def _answer(r: list) -> str:
@@ -44,8 +56,9 @@ def main() -> None:
         if b is None:
             continue
         tot[0], tot[1] = tot[0] + b[6], tot[1] + r[6]
-        same = " (row bit-identical)" if b[4] == r[4] else ""
-        print(f"{key[0]}/{key[3]}/{key[1]:15} {b[6]:6.1f} {r[6]:6.1f} | {_answer(b)} | {_answer(r)} | {_path(r)}{same}")
+        same = " (row bit-identical)" if _same(b, r) else ""
+        fit = f"{key[0]}/{key[3]}/{key[1]}"
+        print(f"{fit:24} {b[6]:6.1f} {r[6]:6.1f} | {_answer(b)} | {_answer(r)} | {_path(r)}{same}")
     print(f"total of the paired fits: {tot[0]:.0f} s cpu before, {tot[1]:.0f} s after")
 
 

@@ -50,6 +50,9 @@ def _stopping_at_cap(lm: object, tally_of: dict) -> object:
         res = lm(prob, x0, tol)
         if res.status == 0:
             tally_of["capped"] = int(res.nfev)
+            # _tallied (which wraps this) would record the call after it returns: the capped call, the one the
+            # diagnosis is about, is appended here so that the printed LM calls end with it
+            tally_of["tally"].lm.append((int(res.nfev), 0))
             raise _Capped
         return res
 

@@ -132,6 +132,32 @@ def test_an_exact_path_ending_unconverged_is_redone_on_forward_differences(case2
     assert len(p.redo.lm) == 5 and p.redo.residuals == 6  # the stub once a call, the finish once at its start
 
 
+def test_a_capped_exact_lm_goes_on_to_a_converged_exact_fit(monkeypatch):
+    """Stop 55's rule, fast: on the bundled example (``mass-sim --case case1 --seed 3``) with the exact LM's cap at
+    12, the joint start from the fitted ship stops at the cap (measured calls [(6, 2), (7, 2), (11, 2), (12, 0),
+    (7, 2)]); its point goes on, the finish judges it stationary, and the fit ends on the exact path at the uncapped
+    fit's load (moved 6e-7 kg, 0.00006 SE). Main's rule (any capped exact LM abandons the path) fails this test."""
+    ds = simulate_case(PROF, "case1", Noise.from_profile(PROF), seed=3)
+    free = estimate(ds, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
+    monkeypatch.setattr(fit, "LM_NFEV_EXACT", 12)
+    e = estimate(ds, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
+    assert (12, 0) in e.fit_path.exact.lm  # an LM did stop at its cap
+    assert e.fit_path.path == "exact" and e.fit_path.redo is None and e.converged
+    assert abs(e.m - free.m) < 0.01 * e.m_sd and abs(e.zbar_m - free.zbar_m) < 0.01 * e.zbar_m_sd
+
+
+@pytest.mark.slow
+def test_without_the_covariance_a_capped_exact_lm_is_still_redone(monkeypatch):
+    """Without ``with_cov`` there is no finish to judge a capped LM's point stationary: main's rule holds there (any
+    exact LM at its cap sends the fit to the forward-difference redo; review of stop 55, finding 7). Same example and
+    cap as above; measured ~14 s CPU, the answer bit-identical to main's (m 0.18298299230882503 kg)."""
+    ds = simulate_case(PROF, "case1", Noise.from_profile(PROF), seed=3)
+    monkeypatch.setattr(fit, "LM_NFEV_EXACT", 12)
+    e = estimate(ds, PROF.known, CAL, "oe", with_ci=False, start=oe.start_values(PROF))
+    assert (12, 0) in e.fit_path.exact.lm and e.fit_path.path == "redo" and "with_cov off" in e.fit_path.why
+    assert e.converged and e.fit_path.redo is not None
+
+
 def test_the_sandwich_carries_a_priors_uncertainty():
     """Two parameters the data see only as their sum, the second with a prior of sd 1: the
     covariance of the second is the prior's (1), not the near-zero the data rows alone give."""

@@ -9,23 +9,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-# the LM calls of one path in the order the fit makes them (oe_fit._best_start, then oe_fit._fit's reweighted fits)
-LM_STAGES = ("ship", "joint-start", "joint-fitted", "reweight-1", "reweight-2")
-
 
 @dataclass
 class PathTally:
-    """One path's cost: each LM call's (evaluations as scipy counts them, status; 0 = its evaluation cap), and
+    """One path's cost: each LM call's (evaluations as scipy counts them, status; 0 = its evaluation cap, -1 = unknown: a result without one), and
     every residual and Jacobian evaluation of the path (forward-difference columns and the Gauss-Newton finish
     included)."""
 
     lm: list[tuple[int, int]] = field(default_factory=list)
     residuals: int = 0
     jacobians: int = 0
-
-    def stage(self, i: int) -> str:
-        """The name of the ``i``-th LM call (:data:`LM_STAGES`; more reweightings are numbered on)."""
-        return LM_STAGES[i] if i < len(LM_STAGES) else f"reweight-{i - 2}"
 
 
 @dataclass
