@@ -74,6 +74,7 @@ def _one(job: tuple) -> list[tuple]:
                 # X_v -1,070 to -29,000 and a mass-height correlation near 1)
                 fitted = {k: e.params[k] for k in ("kappa", "X_v", "K_ur", "Y_pdot") if k in e.params}
                 fitted["corr"] = e.corr
+                fitted["m_sd"], fitted["z_sd"] = e.m_sd, e.zbar_m_sd  # the reported sds (kg, m), for the stop-55 oracle
             except UserError as exc:
                 row, why = None, str(exc)[:80]
             out.append((variant, case, method, run, row, why, time.process_time() - c0, fitted))
