@@ -82,6 +82,7 @@ def _one(job: tuple) -> list[tuple]:
                 fitted["corr"] = e.corr
                 if e.fit_path is not None:
                     fitted["path"] = e.fit_path.record()
+                fitted["m_sd"], fitted["z_sd"] = e.m_sd, e.zbar_m_sd  # the reported sds (kg, m), for the stop-55 oracle
             except UserError as exc:
                 row, why = None, str(exc)[:80]
             out.append((variant, case, method, run, row, why, time.process_time() - c0, {**fitted, "family": family}))

@@ -288,12 +288,27 @@ def simulate(
     R = len(ship.U0)
     warm = int(5 * FS)
     n = n_out * DEC + warm + 40
-    m, zm = load
-    delta = _joystick(n, rng, R)
-    delta[:, :warm] *= np.linspace(0, 1, warm)
+    delta = rudder_input(rng, R, n, warm)
     tau = _jonswap(n, ship, rng) if "waves" in on else _narrowband(n, rng, R)
     if quiet:
         tau *= 0.0
+    states = integrate(ship, variant, load, delta, tau)
+    return _measure(ship, rng, delta, *states, warm, n_out, 0.0 if quiet else 1.0, seed)
+
+
+def rudder_input(rng: np.random.Generator, R: int, n: int, warm: int) -> np.ndarray:
+    """The true rudder angle (runs, n) at 100 Hz: the joystick, ramped in over the warm-up."""
+    delta = _joystick(n, rng, R)
+    delta[:, :warm] *= np.linspace(0, 1, warm)
+    return delta
+
+
+def rhs(ship: Ship, variant: str, load: tuple):
+    """The right-hand side f(x, delta, tau) of the rigid-body equations (Fossen 2011, eqs. 7.5-7.10
+    at the roll centre) with the load ``(m, z_m)`` aboard; ``m`` and ``z_m`` may be arrays over runs.
+    The state x is (v, p, r, phi, u) by runs."""
+    on = _effects(variant)
+    m, zm = load
     zbar_g = -(KG - DRAFT)
     z_g, z_m = zbar_g + ship.z_f, zm + ship.z_f
     mzg = M0 * z_g + m * z_m
@@ -323,6 +338,14 @@ def simulate(
         ud = (ship.Xu * (u - ship.U0) + (mt - 0.3 * ship.Yvd) * v * r + ship.Xdd * d * d) / m_u if speed_on else 0 * u
         return np.array([vd, pd, rd, p, ud])
 
+    return f
+
+
+def integrate(ship: Ship, variant: str, load: tuple, delta: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, ...]:
+    """RK4 at 100 Hz from rest (u = U0) of :func:`rhs` driven by ``delta`` (runs, n) and the
+    disturbance ``tau`` (runs, n, 3); returns v, p, r, phi, u and v', p', r', u' (runs, n)."""
+    f = rhs(ship, variant, load)
+    R, n = delta.shape
     x = np.zeros((5, R))
     x[4] = ship.U0
     X = np.empty((n, 5, R))
@@ -341,7 +364,7 @@ def simulate(
         x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     v, p, r, phi, u = (X[:, i, :].T for i in range(5))
     vd, pd, rd, _, ud = (XD[:, i, :].T for i in range(5))
-    return _measure(ship, rng, delta, v, p, r, phi, u, vd, pd, rd, ud, warm, n_out, 0.0 if quiet else 1.0, seed)
+    return v, p, r, phi, u, vd, pd, rd, ud
 
 
 # The AHRS's roll error (Xsens MTi-G data sheet: static roll accuracy 0.5 deg, dynamic 1 deg RMS):
