@@ -80,6 +80,10 @@ class YawPrior:
     #: time (s) the measured moment is advanced by against the measured yaw rate (:func:`shift_moment`): the
     #: sensors' different lags (load cell against gyro) fitted on the nominal run (:func:`identify.detect.api.fit_prior`)
     moment_shift_s: float = 0.0
+    #: time constant (s) of the first-order low-pass each signal's white noise ``noise`` passed through, read with it
+    #: (:func:`identify.detect.noiseread.lowpass_noise`); a signal not in it (every signal of a prior written before
+    #: stop 55) has white noise (:func:`identify.detect.priorfit.white_noise_sd`'s reading)
+    noise_tau: dict[str, float] = field(default_factory=dict)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -111,6 +115,7 @@ class YawPrior:
             "model_error": self.model_error,
             "structure": self.structure.tolist(),
             "moment_shift_s": self.moment_shift_s,
+            "noise_tau": self.noise_tau,
         }
 
     @classmethod
@@ -138,6 +143,7 @@ class YawPrior:
                 float(d.get("model_error", 0.0)),
                 np.asarray(d.get("structure", [0.0] * len(CANDIDATES)), float).reshape(len(CANDIDATES)),
                 float(d.get("moment_shift_s", 0.0)),
+                {str(k): float(v) for k, v in d.get("noise_tau", {}).items()},
             )
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             raise UserError(
@@ -150,6 +156,7 @@ class YawPrior:
             np.isfinite(p.ar).all(),
             np.isfinite(p.boot).all(),
             np.isfinite(list(p.noise.values())).all(),
+            all(np.isfinite(t) and t >= 0 for t in p.noise_tau.values()),
             p.model_error >= 0,
             np.isfinite(p.structure).all(),
             np.all(p.structure >= 0),
