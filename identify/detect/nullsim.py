@@ -44,7 +44,8 @@ def null_records(
     In each run the ship is the prior's model with one of its bootstrap parameter errors undone
     (``x - delta_b``: what the true ship may be, given the prior's estimate), driven by the
     smoothed measured inputs; its yaw rate and inputs are then measured with white noise at the
-    levels read from the nominal data (``prior.noise``), ``derive`` recomputes derived inputs as
+    levels read from the nominal data (``prior.noise``; through each sensor's first-order low-pass
+    where the prior read one, ``prior.noise_tau``: :func:`sensor_filtered`), ``derive`` recomputes derived inputs as
     for the recording, and the prior predicts r from them as it does on the recording. So noise
     on every input, its path through the yaw dynamics and the prior's parameter error are all in;
     the structure's own misfit is added as AR-coloured 1 s block offsets (``prior.model_error``);

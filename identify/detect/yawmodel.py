@@ -71,8 +71,8 @@ class YawPrior:
     prefilter_hz: float = 0.0  # zero-phase low-pass of the model inputs (0: as measured)
     boot: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # (B, P) bootstrap relative errors
     noise: dict[str, float] = field(default_factory=dict)  # white measurement noise sd per signal, read from the nominal data
-    #: innovation sd of the block-mean fit residual beyond what that white noise explains (misfit, and noise the
-    #: second difference misses: sensor-filtered or coloured); every record the prior simulates carries it
+    #: innovation sd of the block-mean fit residual beyond what that noise explains (misfit, and noise the reading
+    #: misses: sensor-filtered when read as white, or coloured); every record the prior simulates carries it
     model_error: float = 0.0
     #: apparent relative change along each candidate (CANDIDATES) that the structure's misfit makes on a
     #: manoeuvre the prior was not fitted on (split-half cross-validation beyond noise; :func:`identify.detect.priorfit.structural_spread`)
