@@ -100,7 +100,7 @@ def test_the_prior_reads_a_low_passed_gyro_s_noise_and_keeps_it(lowpassed):
     """With ``noise_model="lowpass"`` (an option; the default stays the white reading) the prior's yaw-rate
     noise is the gyro's white sd (within 25 %) behind its 0.3 s corner (within 30 %), not the 0.19 of it the
     second difference sees (main before stop 55); the file keeps the corners, a file without them (written
-    before) reads as white noise, and a negative corner is refused with the one-line message."""
+    before) reads as white noise, and a negative corner is refused with the one-line "refit it" message."""
     _, prior = lowpassed
     assert abs(prior.noise["r"] / TABLE_4_1["r"] - 1) < 0.25, prior.noise
     assert abs(prior.noise_tau["r"] / 0.3 - 1) < 0.30, prior.noise_tau
@@ -110,7 +110,7 @@ def test_the_prior_reads_a_low_passed_gyro_s_noise_and_keeps_it(lowpassed):
     del old["noise_tau"]
     assert YawPrior.from_dict(old).noise_tau == {}
     bad = prior.to_dict() | {"noise_tau": {"r": -1.0}}
-    with pytest.raises(UserError, match="detect-prior"):
+    with pytest.raises(UserError, match="non-finite or non-physical values"):
         YawPrior.from_dict(bad)
 
 
