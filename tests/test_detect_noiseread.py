@@ -129,3 +129,12 @@ def test_the_no_change_records_carry_the_low_passed_noise(lowpassed):
     a = math.exp(-DT / 0.3)
     share = math.sqrt((6 - 8 * a + 2 * a * a) * (1 - a) / (1 + a) / 6)
     assert abs(d2[1] / d2[0] / share - 1) < 0.15, (d2, share)
+
+
+def test_detect_prior_refuses_an_unknown_noise_model_before_reading_anything(tmp_path):
+    """``--noise-model`` is checked with the other options: one line naming it and the choices."""
+    from cli.options import validate_detect_prior_options
+
+    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass$"):
+        validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="pink")
+    validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="lowpass")
