@@ -56,7 +56,7 @@ def register(app: typer.Typer) -> None:
             "--noise-model",
             help="how each signal's measurement noise is read for the bootstrap refits and the no-change records: "
             "'lowpass' (white noise through a first-order sensor low-pass, corner and sd read from the recording) "
-            "or 'white' (white noise from the second difference); default: the library's (docs/detect-accuracy.md, stop 55)",
+            "or 'white' (white noise from the second difference); default: white (docs/detect-accuracy.md, stop 55)",
         ),
     ) -> None:
         """Fit the yaw-row prior (2.17)/(2.18) of "Estimating a ship's dynamics during operation" on a nominal recording, for `detect`."""
