@@ -51,6 +51,13 @@ def register(app: typer.Typer) -> None:
         ),
         n_rdot: float | None = typer.Option(None, "--n-rdot", help=N_RDOT_HELP),
         i_z: float | None = typer.Option(None, "--i-z", help=I_Z_HELP),
+        noise_model: str | None = typer.Option(
+            None,
+            "--noise-model",
+            help="how each signal's measurement noise is read for the bootstrap refits and the no-change records: "
+            "'lowpass' (white noise through a first-order sensor low-pass, corner and sd read from the recording) "
+            "or 'white' (white noise from the second difference); default: white (docs/detect-accuracy.md, stop 55)",
+        ),
     ) -> None:
         """Fit the yaw-row prior (2.17)/(2.18) of "Estimating a ship's dynamics during operation" on a nominal recording, for `detect`."""
         from cli.options import validate_detect_prior_options
@@ -59,10 +66,10 @@ def register(app: typer.Typer) -> None:
         from identify.detect.yawmodel import CANDIDATES
         from primitives.errors import UserError
 
-        validate_detect_prior_options(out=out, bootstrap=bootstrap, seed=seed, n_rdot=n_rdot, i_z=i_z)
+        validate_detect_prior_options(out=out, bootstrap=bootstrap, seed=seed, n_rdot=n_rdot, i_z=i_z, noise_model=noise_model)
         i_z, n_rdot = hull_inertia(profile, i_z, n_rdot)
         notes: list[str] = []
-        prior = fit_prior(nominal, model, bootstrap, seed, notes, roll_rate=roll_rate)
+        prior = fit_prior(nominal, model, bootstrap, seed, notes, roll_rate=roll_rate, noise_model=noise_model)
         for n in notes:
             typer.echo(f"note: {n}", err=True)
         odd = implausible_inertia(prior, i_z, n_rdot)

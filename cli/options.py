@@ -349,9 +349,14 @@ def validate_plan_options(
 
 
 def validate_detect_prior_options(
-    *, out: Path, bootstrap: int, seed: int, n_rdot: float | None = None, i_z: float | None = None
+    *, out: Path, bootstrap: int, seed: int, n_rdot: float | None = None, i_z: float | None = None, noise_model: str | None = None
 ) -> None:
     check_out_file(out, (".json",), "--out", "prior")  # also refuses a directory
+    if noise_model is not None:
+        from identify.detect.priorfit import NOISE_MODELS  # the library's list, read only when the option is given
+
+        if noise_model not in NOISE_MODELS:
+            raise UserError(f"--noise-model {noise_model!r}: choose one of {', '.join(NOISE_MODELS)}")
     if bootstrap != 0:  # 0: no bootstrap; one refit is no spread
         whole(bootstrap, "--bootstrap", 2, 256, "refits (or 0: no bootstrap)")
     whole(seed, "--seed", 0, 2**63 - 1)

@@ -19,7 +19,7 @@ from identify.detect.cusum import calibrate_dead_zone, first_alarms
 from identify.detect.glr import SignatureCusum, calibrate
 from identify.detect.inputs import SWAY_ACC, Deriver, signals
 from identify.detect.nullsim import null_records
-from identify.detect.priorfit import batch_fits, fit
+from identify.detect.priorfit import NOISE_MODELS, batch_fits, fit
 from identify.detect.rollband import roll_band
 from identify.detect.verdict import Detection, Screening, implausible_inertia, physical_change, verdict
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
@@ -113,6 +113,7 @@ def fit_prior(
     notes: list[str] | None = None,
     roll_rate: bool = True,
     moment_lag: bool = True,
+    noise_model: str | None = None,
 ) -> YawPrior:
     """Yaw prior (2.17)/(2.18) fitted on the longest gap-free piece of the nominal recording(s),
     its parameter error described by ``bootstrap`` parametric-bootstrap refits of the nominal
@@ -120,9 +121,12 @@ def fit_prior(
     model gets the roll-rate term ``N_p p`` (kind ``full-p``) when that recording has the roll
     rate ``p`` and ``roll_rate`` is on; the recordings tested with the prior then need ``p`` too.
     ``moment_lag``: with a measured moment, its advance against the yaw rate is fitted
-    (:func:`moment_shift`, said in ``notes``) and kept with the prior."""
+    (:func:`moment_shift`, said in ``notes``) and kept with the prior. ``noise_model``: how the signals'
+    noise is read (:func:`identify.detect.priorfit.read_noise`; None: its default)."""
     if kind not in ("full", "simplified"):
         raise UserError(f"--model {kind!r}: choose full (2.17) or simplified (2.18)")
+    if noise_model not in (None, *NOISE_MODELS):  # up front: not after loading and the whole fit
+        raise UserError(f"--noise-model {noise_model!r}: choose one of {', '.join(NOISE_MODELS)}")
     recs = load_runs(paths, kind, notes)
     rec = max(recs, key=lambda r: r.n_samples)
     if kind == "full" and roll_rate and "p" in rec.channels:
@@ -142,6 +146,7 @@ def fit_prior(
         seed=seed,
         derive=Deriver.of(rec, kind),
         scales=scales,
+        noise_model=noise_model,
     )
     prior.moment_shift_s = shift
     if shift and notes is not None:

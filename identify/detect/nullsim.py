@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from identify.detect import noisecache
+from identify.detect.noiseread import stationary_lowpass
 from identify.detect.yawmodel import NOMINAL, Derive, YawPrior, simulate_r
 from primitives import jitloop
 from primitives.iir import lfilter  # scipy.signal's, without its 2 s import
@@ -43,7 +44,8 @@ def null_records(
     In each run the ship is the prior's model with one of its bootstrap parameter errors undone
     (``x - delta_b``: what the true ship may be, given the prior's estimate), driven by the
     smoothed measured inputs; its yaw rate and inputs are then measured with white noise at the
-    levels read from the nominal data (``prior.noise``), ``derive`` recomputes derived inputs as
+    levels read from the nominal data (``prior.noise``; through each sensor's first-order low-pass
+    where the prior read one, ``prior.noise_tau``: :func:`sensor_filtered`), ``derive`` recomputes derived inputs as
     for the recording, and the prior predicts r from them as it does on the recording. So noise
     on every input, its path through the yaw dynamics and the prior's parameter error are all in;
     the structure's own misfit is added as AR-coloured 1 s block offsets (``prior.model_error``);
@@ -70,14 +72,16 @@ def null_records(
     r_true = r_true[:, np.arange(runs) % ships]
     blocks = n // prior.block if prior.model_error > 0 else 0
     sds = (prior.noise.get("r", 0.0), *(prior.noise.get(k, 0.0) for k in clean))
+    taus = noise_taus(prior, ("r", *clean))
     if derive is None or getattr(derive, "linear", False):
-        r_noise, innovations, noise = _linear_noise(prior, tuple(clean), n, runs, seed, blocks, sds, derive, draws)
+        r_noise, innovations, noise = _linear_noise(prior, tuple(clean), n, runs, seed, blocks, sds, derive, draws, taus)
         offsets = misfit_offsets(prior, n, runs, None, innovations)
         # before _measured: it may write the yaw rate's noise over r_noise
         inputs = _linear_inputs(prior, clean, r_true, noise, derive)
         return _measured(r_true, r_noise) - simulate_r(prior.kind, prior.values, inputs, prior.dt, r0=r0) + offsets
     z = normals(seed, runs, n, len(clean), blocks, draws, scale=sds)  # the noise itself: scaled once per job
     offsets = misfit_offsets(prior, n, runs, None, z[-1] if blocks else np.zeros((0, runs)))
+    z = sensor_filtered(z, taus, prior.dt)
     r_meas = _measured(r_true, z[0])
     noisy = {k: _measured(s[:, None], zk) for (k, s), zk in zip(clean.items(), z[1:])}
     return r_meas - prior.predict(derive(noisy, r_meas), r0=r0) + offsets
@@ -93,16 +97,19 @@ def _linear_noise(
     sds: tuple[float, ...],
     derive: Derive | None,
     draws: dict | None,
+    taus: tuple[float, ...] = (),
 ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
     """The recording-independent part of the linear path's no-change records: the yaw rate's noise
     (runs, n), the misfit's block innovations (``blocks``, runs; (0, runs) without) and the prior's
     inputs of the noise alone (n, runs) per input (:func:`_linear_inputs`), from the scaled draws of
-    :func:`normals`. They depend on the seed, ``runs``, the length ``n``, the noise levels ``sds``, the
+    :func:`normals`, each signal's through its sensor's low-pass ``taus`` (:func:`sensor_filtered`; none:
+    white). They depend on the seed, ``runs``, the length ``n``, the noise levels ``sds`` and low-passes, the
     prior's sample time and input filter, the derivation's form and which loop filters (compiled or numpy) only: kept in ``draws`` over a job
     and, inside ``shiptrial detect``, on disk over commands (:mod:`identify.detect.noisecache`, read
     back memory-mapped and read-only: the numbers drawing and filtering them again gives, to the bit)."""
     form = (names, prior.dt, prior.prefilter_hz, None if derive is None else derive.form)
-    full = (seed, runs, n, blocks, tuple(map(float, sds)), form)
+    lags = tuple(map(float, taus)) if any(taus) else ()  # white noise: main's key, main's entries
+    full = (seed, runs, n, blocks, tuple(map(float, sds)), form, *((lags,) if lags else ()))
     if draws is not None and draws.get("linear_key") == full:
         return draws["linear"]
     if draws is not None:
@@ -114,15 +121,15 @@ def _linear_noise(
     if hit is not None:
         r_noise, noise, innovations = hit
     else:
-        z = normals(seed, runs, n, len(names), blocks, draws, scale=sds)
+        z = sensor_filtered(normals(seed, runs, n, len(names), blocks, draws, scale=sds), taus, prior.dt)
         e = {k: zk.T for k, zk in zip(names, z[1:])}
         noise = prior.inputs(e if derive is None else derive(e, z[0].T))
         r_noise, innovations = z[0], z[-1] if blocks else np.zeros((0, runs))
         if name:
             noisecache.store(name, r_noise, noise, innovations)
     if draws is not None:
-        for a in noise.values():  # shared with the next recordings of this length
-            a.flags.writeable = False
+        for a in (r_noise, *noise.values()):  # shared with the next recordings of this length (the filtered yaw
+            a.flags.writeable = False  # rate's noise is a new array, not normals' read-only draw: _measured would write on it)
         draws.update(linear_key=full, linear=(r_noise, innovations, noise))
     return r_noise, innovations, noise
 
@@ -189,6 +196,20 @@ def normals(
             a.flags.writeable = False
         draws.update(key=key, normals=z)
     return z
+
+
+def noise_taus(prior: YawPrior, names: tuple[str, ...]) -> tuple[float, ...]:
+    """The low-pass time constants (s) of the signals ``names``' noise (``prior.noise_tau``; 0: white)."""
+    return tuple(float(prior.noise_tau.get(k, 0.0)) for k in names)
+
+
+def sensor_filtered(z: list[np.ndarray], taus: tuple[float, ...], dt: float) -> list[np.ndarray]:
+    """The scaled white draws of :func:`normals` (each (runs, n)) through their sensors' first-order
+    low-passes ``taus`` (one per draw, in order; :func:`identify.detect.noiseread.stationary_lowpass`,
+    stationary from the first sample): the noise a low-passing sensor records. A draw with no
+    time constant (or 0), and the block innovations after them, are returned as they are (the same
+    object: white noise, main's records to the bit)."""
+    return [stationary_lowpass(zk, taus[i], dt, axis=1) if i < len(taus) and taus[i] > 0 else zk for i, zk in enumerate(z)]
 
 
 def _measured(x: np.ndarray, noise: np.ndarray) -> np.ndarray:

@@ -17,15 +17,21 @@ shared kernel's ``naval-vessel`` profile (:func:`identify.yawid.model.true_param
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from identify.detect.noiseread import A_MAX
+from identify.detect.noiseread import robust_sigma as robust_sigma  # its home before stop 55: still importable here
 from identify.detect.vessel import base_profile
 from identify.yawid.estimate import prefilter, simulate_yaw
 from identify.yawid.model import FULL, FULL_P, MODELS, true_parameters
 from primitives.errors import UserError
+
+#: the prior file's format tags: /1 main's (white noise), /2 with the sensors' low-pass corners ``noise_tau`` (stop 55)
+PRIOR_FORMATS = ("shiptrial-yaw-prior/1", "shiptrial-yaw-prior/2")
 
 
 def prior_name(name: str) -> str:
@@ -71,8 +77,8 @@ class YawPrior:
     prefilter_hz: float = 0.0  # zero-phase low-pass of the model inputs (0: as measured)
     boot: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # (B, P) bootstrap relative errors
     noise: dict[str, float] = field(default_factory=dict)  # white measurement noise sd per signal, read from the nominal data
-    #: innovation sd of the block-mean fit residual beyond what that white noise explains (misfit, and noise the
-    #: second difference misses: sensor-filtered or coloured); every record the prior simulates carries it
+    #: innovation sd of the block-mean fit residual beyond what that noise explains (misfit, and noise the reading
+    #: misses: sensor-filtered when read as white, or coloured); every record the prior simulates carries it
     model_error: float = 0.0
     #: apparent relative change along each candidate (CANDIDATES) that the structure's misfit makes on a
     #: manoeuvre the prior was not fitted on (split-half cross-validation beyond noise; :func:`identify.detect.priorfit.structural_spread`)
@@ -80,6 +86,10 @@ class YawPrior:
     #: time (s) the measured moment is advanced by against the measured yaw rate (:func:`shift_moment`): the
     #: sensors' different lags (load cell against gyro) fitted on the nominal run (:func:`identify.detect.api.fit_prior`)
     moment_shift_s: float = 0.0
+    #: time constant (s) of the first-order low-pass each signal's white noise ``noise`` passed through, read with it
+    #: (:func:`identify.detect.noiseread.lowpass_noise`); a signal not in it (every signal of a prior written before
+    #: stop 55) has white noise (:func:`identify.detect.priorfit.white_noise_sd`'s reading)
+    noise_tau: dict[str, float] = field(default_factory=dict)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -95,7 +105,9 @@ class YawPrior:
 
     def to_dict(self) -> dict:
         return {
-            "format": "shiptrial-yaw-prior/1",
+            # /2 only with a sensor low-pass read (stop 55): there ``noise`` is the sd before the filter, which an
+            # older reader would draw as white noise; it refuses /2. A white prior stays /1, main's file to the byte
+            "format": PRIOR_FORMATS[1] if self.noise_tau else PRIOR_FORMATS[0],
             "kind": self.kind,
             "values": self.values,
             "sigma": self.sigma,
@@ -111,12 +123,13 @@ class YawPrior:
             "model_error": self.model_error,
             "structure": self.structure.tolist(),
             "moment_shift_s": self.moment_shift_s,
+            **({"noise_tau": self.noise_tau} if self.noise_tau else {}),
         }
 
     @classmethod
     def from_dict(cls, d: dict, where: str = "prior") -> YawPrior:
         try:
-            if d.get("format") != "shiptrial-yaw-prior/1":
+            if d.get("format") not in PRIOR_FORMATS:
                 raise KeyError("format")
             kind = d["kind"]
             names = PARAMS[kind]
@@ -138,6 +151,7 @@ class YawPrior:
                 float(d.get("model_error", 0.0)),
                 np.asarray(d.get("structure", [0.0] * len(CANDIDATES)), float).reshape(len(CANDIDATES)),
                 float(d.get("moment_shift_s", 0.0)),
+                {str(k): float(v) for k, v in d.get("noise_tau", {}).items()},
             )
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             raise UserError(
@@ -150,6 +164,8 @@ class YawPrior:
             np.isfinite(p.ar).all(),
             np.isfinite(p.boot).all(),
             np.isfinite(list(p.noise.values())).all(),
+            # a corner beyond what noiseread can read (a > A_MAX: about 10 s at 10 Hz) would filter the noise away
+            all(np.isfinite(t) and 0 <= t <= -p.dt / math.log(A_MAX) for t in p.noise_tau.values()),
             p.model_error >= 0,
             np.isfinite(p.structure).all(),
             np.all(p.structure >= 0),
@@ -254,11 +270,6 @@ def simulate_r(
     r0s = np.full(cols, float(r0)) if np.ndim(r0) == 0 else np.array(r0, dtype=float).reshape(cols)
     r_hat, _ = simulate_yaw(model, theta_b, w, r0s, dt, sensitivities=False)
     return np.ascontiguousarray(r_hat.T) if len(shape) == 2 else r_hat[0]
-
-
-def robust_sigma(e: np.ndarray) -> float:
-    """1.4826 median absolute deviation."""
-    return 1.4826 * float(np.median(np.abs(e - np.median(e))))
 
 
 def block_mean(x: np.ndarray, block: int) -> np.ndarray:

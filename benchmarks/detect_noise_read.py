@@ -1,0 +1,76 @@
+"""Stop 55: each recorded channel's noise as ``detect``'s prior reads it, against the podded truth's own
+sensor settings (tests/physics/podded_truth.py: Table 4.1 levels behind first-order low-passes).
+
+For every nominal recording in the given truth-bench caches (``bench_detect_truth.py --cache DIR``), the
+white-noise reading (:func:`identify.detect.priorfit.white_noise_sd`, main's) and the low-passed white
+noise reading (:func:`identify.detect.noiseread.lowpass_noise`: sd and time constant) of each channel,
+as ratios to the truth's sd and time constant; mean and range per variant. The truth's settings are
+read here only to be compared with; the readings see the recording alone.
+
+    PYTHONPATH=$PWD python benchmarks/detect_noise_read.py /work/wt/dcache-main /work/wt/dcache-main-108
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from identify.detect.noiseread import lowpass_noise
+from identify.detect.priorfit import white_noise_sd
+from tests.physics.podded_truth import TABLE_4_1, Ship
+
+CHANNELS = ("r", "u", "v", "v_dot", "phi", "p", "tau_n")
+TRUE_SD = TABLE_4_1 | {"p": 0.01}
+TRUE_TAU = dict(Ship().lp)
+
+
+def read_csv(path: Path) -> tuple[dict[str, np.ndarray], float]:
+    """The recording's channels and its sample time (the truth bench's CSV: a '# sample_time' line, a header)."""
+    first = path.open().readline()
+    dt = float(first.split(":")[1]) if first.startswith("#") else 0.1
+    a = np.genfromtxt(path, delimiter=",", names=True, skip_header=1 if first.startswith("#") else 0)
+    return {k: np.asarray(a[k], float) for k in a.dtype.names}, dt
+
+
+def readings(folders: list[Path]) -> dict[str, list[dict[str, tuple[float, float, float]]]]:
+    """Per variant, per nominal recording: channel -> (white sd / true, low-pass sd / true, low-pass tau / true)."""
+    out: dict[str, list] = {}
+    for folder in folders:
+        for p in sorted(folder.glob("*-nominal-*-0.csv")):
+            variant = re.match(r"(.+)-\d+-nominal-", p.name).group(1)
+            ch, dt = read_csv(p)
+            row = {}
+            for k in CHANNELS:
+                sd, tau = lowpass_noise(ch[k], dt)
+                row[k] = (white_noise_sd(ch[k]) / TRUE_SD[k], sd / TRUE_SD[k], tau / TRUE_TAU[k])
+            out.setdefault(variant, []).append(row)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("folders", nargs="+", type=Path)
+    a = ap.parse_args(argv)
+    missing = [str(f) for f in a.folders if not f.is_dir()]
+    if missing:
+        print(f"error: {', '.join(missing)}: no such folder; give bench_detect_truth.py --cache folders", file=sys.stderr)
+        return 2
+    res = readings(a.folders)
+    print(
+        "| variant (recordings) | channel | true sd | true tau s | white read / true sd | low-pass read / true sd | read tau / true tau |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for v, rows in res.items():
+        for k in CHANNELS:
+            w, s, t = (np.array([r[k][i] for r in rows]) for i in range(3))
+            cell = lambda x: f"{x.mean():.2f} ({x.min():.2f}-{x.max():.2f})"  # noqa: E731
+            print(f"| {v} ({len(rows)}) | {k} | {TRUE_SD[k]:g} | {TRUE_TAU[k]:g} | {cell(w)} | {cell(s)} | {cell(t)} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,208 @@
+"""The measurement noise read as white noise through a first-order low-pass (identify/detect/noiseread.py,
+stop 55): it recovers a known corner and sd on synthetic signals, reduces to the white reading without a
+filter, draws the noise again as recorded, and the prior keeps it (fit, file, no-change records)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from diagnose.recording import write_csv
+from identify.detect import nullsim, priorfit
+from identify.detect.api import fit_prior, simulated_recording
+from identify.detect.inputs import signals
+from identify.detect.noiseread import lowpass_noise, stationary_lowpass
+from identify.detect.priorfit import white_noise_sd
+from identify.detect.vessel import TABLE_4_1, Vessel
+from identify.detect.yawmodel import NOMINAL, YawPrior
+from primitives.errors import UserError
+
+DT = 0.1
+
+
+def _channel(sd: float, tau: float, seed: int, n: int = 5000) -> np.ndarray:
+    """A yaw-rate-like manoeuvre (0.02 and 0.01 rad/s at 60 and 17 s periods) plus white noise of ``sd``
+    through the first-order low-pass ``tau`` (0: none), as the podded truth's sensors record it."""
+    t = np.arange(n) * DT
+    x = 0.02 * np.sin(2 * np.pi * t / 60) + 0.01 * np.sin(2 * np.pi * t / 17)
+    w = sd * np.random.default_rng(seed).standard_normal(n)
+    if tau > 0:
+        a = math.exp(-DT / tau)
+        w = lfilter([1 - a], [1, -a], w)
+    return x + w
+
+
+@pytest.mark.parametrize("tau", [0.2, 0.3, 0.5])
+def test_a_known_corner_and_sd_are_recovered(tau):
+    """Over 8 records of 500 s: mean sd within 5 % and mean time constant within 10 % of the truth's, each
+    record's sd within 50 % (behind 0.5 s one record in 8 reads +45 %: the corner is 5 samples, and the
+    sd follows the corner's error as sqrt(tau)); the white-noise reading sees only a fraction of the same noise."""
+    reads = np.array([lowpass_noise(_channel(2.5e-3, tau, s), DT) for s in range(8)])
+    assert abs(reads[:, 0].mean() / 2.5e-3 - 1) < 0.05, reads
+    assert abs(reads[:, 1].mean() / tau - 1) < 0.10, reads
+    assert np.all(np.abs(reads[:, 0] / 2.5e-3 - 1) < 0.50), reads
+    assert white_noise_sd(_channel(2.5e-3, tau, 0)) < 0.35 * 2.5e-3
+
+
+def test_without_a_filter_it_is_the_white_reading():
+    """White noise: no corner (tau exactly 0: a corner of a few ms is snapped, noiseread.A_MIN and F_MIN) and
+    white_noise_sd's reading to the bit, within 3 % of the truth."""
+    for s in range(4):
+        x = _channel(2.5e-3, 0.0, s)
+        sd, tau = lowpass_noise(x, DT)
+        assert tau == 0.0 and sd == white_noise_sd(x) and abs(sd / 2.5e-3 - 1) < 0.03, (sd, tau)
+
+
+def test_records_it_cannot_fit_read_white():
+    """Too short, constant or non-finite: the white reading (a NaN stays NaN, and the prior refuses it), never
+    a silent zero noise."""
+    x = _channel(2.5e-3, 0.3, 0)
+    for bad in (x[:16], np.where(np.arange(len(x)) == 99, np.nan, x), np.full(100, 0.2)):
+        sd, tau = lowpass_noise(bad, DT)
+        assert tau == 0.0 and np.array_equal(sd, white_noise_sd(bad), equal_nan=True), (sd, tau)
+    assert lowpass_noise(x[:16], DT)[0] > 0 and np.isnan(lowpass_noise(x * np.nan, DT)[0])
+
+
+def test_stationary_lowpass_is_the_sensor_filter_started_in_its_steady_state():
+    """The recursion e_k = a e_(k-1) + (1 - a) w_k to rounding (scipy's lfilter from the first sample),
+    its first sample and its whole at the stationary sd sigma sqrt((1 - a) / (1 + a)); no filter, the draws."""
+    a = math.exp(-DT / 0.3)
+    w = np.random.default_rng(3).standard_normal((4000, 200))
+    e = stationary_lowpass(w, 0.3, DT, axis=0)
+    ref = lfilter([1 - a], [1, -a], w[1:], axis=0, zi=a * e[:1])[0]
+    assert np.abs(ref - e[1:]).max() < 1e-12
+    target = math.sqrt((1 - a) / (1 + a))
+    assert abs(e.std() / target - 1) < 0.02
+    # the first sample over 40000 columns: the sd's standard error is 0.35 %, so 2 % catches a start 4 % off
+    first = stationary_lowpass(np.random.default_rng(4).standard_normal((3, 40000)), 0.3, DT, axis=0)[0]
+    assert abs(first.std() / target - 1) < 0.02
+    assert stationary_lowpass(w, 0.0, DT) is w
+
+
+def test_the_bootstrap_s_noise_is_the_sensor_s():
+    """priorfit._noise (the bootstrap refits' and the structural spread's draws): behind a 0.3 s corner the
+    lag-1 autocorrelation is a = exp(-dt/tau) and the sd sigma sqrt((1 - a)/(1 + a)) (eq. N1); without a
+    corner, main's white draws sd * N(0, 1), the same bits from the same generator."""
+    prior = YawPrior("full", {}, 1.0, np.zeros((0, 0)), dt=DT, noise={"r": 2.0}, noise_tau={"r": 0.3})
+    e = priorfit._noise(prior, "r", np.random.default_rng(0), (64, 5000))
+    a = math.exp(-DT / 0.3)
+    rho = np.mean(e[:, 1:] * e[:, :-1]) / np.mean(e * e)
+    assert abs(rho - a) < 0.01 and abs(e.std() / (2.0 * math.sqrt((1 - a) / (1 + a))) - 1) < 0.01, (rho, e.std())
+    white = replace(prior, noise_tau={})
+    assert np.array_equal(
+        priorfit._noise(white, "r", np.random.default_rng(0), (4, 50)), 2.0 * np.random.default_rng(0).standard_normal((4, 50))
+    )
+
+
+def test_a_channel_whose_short_differences_keep_growing_reads_white():
+    """A channel whose differences grow with the step beyond any corner (a doubly integrated random
+    process with a little white noise: the ship's own motion, not noise, fills its high frequencies, as a
+    measured moment's steering transients do on the podded truth): the fit sits at A_MAX, and the reading
+    falls back to white_noise_sd's, never a corner of seconds."""
+    for s in range(3):
+        x = np.cumsum(np.cumsum(np.random.default_rng(s).standard_normal(5000)))
+        x = x + 0.1 * np.random.default_rng(s + 9).standard_normal(5000)
+        sd, tau = lowpass_noise(x, DT)
+        assert tau == 0.0 and sd == pytest.approx(white_noise_sd(x)), (sd, tau)
+
+
+@pytest.fixture(scope="module")
+def lowpassed(tmp_path_factory):
+    """A product recording (measured moment) whose gyro's Table 4.1 noise went through a 0.3 s sensor
+    low-pass (the noise alone: the same run without noise taken off, filtered, put back)."""
+    noisy = simulated_recording(Vessel(), 400, seed=21, measured_moment=True)
+    clean = simulated_recording(Vessel(), 400, seed=21, measured_moment=True, noise_scale=0.0)
+    a = math.exp(-DT / 0.3)
+    y = noisy.y.copy()
+    y[:, 2] = clean.y[:, 2] + lfilter([1 - a], [1, -a], noisy.y[:, 2] - clean.y[:, 2])
+    path = tmp_path_factory.mktemp("noiseread") / "nominal.csv"
+    write_csv(replace(noisy, y=y), path)
+    return path, fit_prior([path], "full", noise_model="lowpass")
+
+
+def test_the_prior_reads_a_low_passed_gyro_s_noise_and_keeps_it(lowpassed):
+    """With ``noise_model="lowpass"`` (an option; the default stays the white reading) the prior's yaw-rate
+    noise is the gyro's white sd (within 25 %) behind its 0.3 s corner (within 30 %), not the 0.19 of it the
+    second difference sees (main before stop 55); the file keeps the corners, a file without them (written
+    before) reads as white noise, and a negative corner is refused with the one-line "refit it" message."""
+    _, prior = lowpassed
+    assert abs(prior.noise["r"] / TABLE_4_1["r"] - 1) < 0.25, prior.noise
+    assert abs(prior.noise_tau["r"] / 0.3 - 1) < 0.30, prior.noise_tau
+    back = YawPrior.from_dict(prior.to_dict())
+    assert back.noise_tau == prior.noise_tau and back.noise == prior.noise
+    old = prior.to_dict()
+    del old["noise_tau"]
+    assert YawPrior.from_dict(old).noise_tau == {}
+    for tau in (-1.0, 1e9):  # negative, or beyond the corner noiseread can read (a > A_MAX)
+        with pytest.raises(UserError, match="non-finite or non-physical values"):
+            YawPrior.from_dict(prior.to_dict() | {"noise_tau": {"r": tau}})
+
+
+def test_the_file_is_tagged_by_its_noise_model(lowpassed):
+    """A white prior's file is main's (format /1, no noise_tau key: byte for byte the file main writes); a
+    low-pass one is /2, which main's reader refuses rather than draw its pre-filter sd as white noise."""
+    _, prior = lowpassed
+    white = replace(prior, noise_tau={}).to_dict()
+    assert white["format"] == "shiptrial-yaw-prior/1" and "noise_tau" not in white
+    assert prior.to_dict()["format"] == "shiptrial-yaw-prior/2" and prior.to_dict()["noise_tau"] == prior.noise_tau
+    assert YawPrior.from_dict(white).noise_tau == {}
+    with pytest.raises(UserError, match="not a yaw prior"):
+        YawPrior.from_dict(white | {"format": "shiptrial-yaw-prior/3"})
+
+
+def test_the_bootstrap_refits_see_the_sensor_s_noise(lowpassed):
+    """bootstrap_deviations: a white prior's noise gives the refits of no prior (each signal's white_noise_sd,
+    main's path) bit for bit; a corner on r changes them."""
+    path, prior = lowpassed
+    from identify.detect.api import load_runs
+
+    sig, r = signals(load_runs([path])[0], prior.kind)
+    x = np.array([prior.values[k] / NOMINAL[k] for k in prior.names])
+    white = replace(prior, noise={k: white_noise_sd(v) for k, v in (sig | {"r": r}).items()}, noise_tau={})
+    runs = [
+        priorfit.bootstrap_deviations(prior.kind, sig, r, DT, x, 4, 3, prior=p)
+        for p in (None, white, replace(white, noise_tau={"r": 0.3}))
+    ]
+    assert np.array_equal(runs[0], runs[1]) and not np.allclose(runs[1], runs[2]), runs
+
+
+@pytest.mark.parametrize("path_kind", ["linear", "nonlinear"])
+def test_the_no_change_records_carry_the_low_passed_noise(lowpassed, path_kind):
+    """The records' yaw-rate noise goes through the prior's corner, on the linear path (no ``derive``) and the
+    nonlinear one (a ``derive`` without ``linear``): their second difference (the noise's: the prediction is
+    smooth) is the filter's share of the white records' (0.19 behind 0.3 s at 10 Hz). One ``draws`` dict serves
+    both calls, white first: the kept noise's key holds the corners, so the low-pass call is not served white."""
+    path, prior = lowpassed
+    from identify.detect.api import load_runs
+
+    rec = load_runs([path])[0]
+    sig, r = signals(rec, prior.kind)
+    only_r = {"r": 0.3}
+    white = replace(prior, noise_tau={}, model_error=0.0)
+    lp = replace(prior, noise_tau=only_r, model_error=0.0)
+    derive = None if path_kind == "linear" else (lambda s, _r: s)
+    draws: dict = {}
+    d2 = [
+        np.median(np.abs(np.diff(nullsim.null_records(p, sig, 8, seed=2, derive=derive, r0=float(r[0]), draws=draws), 2, axis=0)))
+        for p in (white, lp)
+    ]
+    a = math.exp(-DT / 0.3)
+    share = math.sqrt((6 - 8 * a + 2 * a * a) * (1 - a) / (1 + a) / 6)
+    assert abs(d2[1] / d2[0] / share - 1) < 0.15, (d2, share)
+
+
+def test_detect_prior_refuses_an_unknown_noise_model_before_reading_anything(tmp_path):
+    """``--noise-model`` is checked with the other options: one line naming it and the choices; the API
+    refuses it too before loading anything (the file named does not exist)."""
+    from cli.options import validate_detect_prior_options
+
+    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass$"):
+        fit_prior([tmp_path / "missing.csv"], "full", noise_model="pink")
+
+    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass$"):
+        validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="pink")
+    validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="lowpass")
