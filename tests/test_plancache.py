@@ -303,6 +303,18 @@ def test_other_start_time_copies_the_figures_and_exports_the_rest_as_an_uncached
     assert all(b[k] == first[2][k] for k in b if k.endswith(".png"))
 
 
+def test_a_run_restoring_its_own_set_keeps_the_figures_young(first, tmp_path, cache_dir, capsys):
+    """A run that copies its own start time's whole set uses the plan's figures too: their entry is marked used
+    as the set's is, so that the next sets kept prune the set of an older plan before the figures an hour later needs."""
+    (figures,) = _figure_sets(cache_dir)
+    (own,) = _start_sets(cache_dir)
+    for entry in (figures, own):
+        os.utime(entry, ns=(10**9, 10**9))  # both long unused
+    again, _ = _plan_cli(tmp_path / "b", capsys)
+    assert again["from_cache"] is True and _files(tmp_path / "b") == first[2]
+    assert own.stat().st_mtime_ns > 10**9 and figures.stat().st_mtime_ns > 10**9
+
+
 @pytest.mark.parametrize("damage", ["truncate", "flip", "unpicklable"])
 def test_damaged_figures_are_drawn_again(first, tmp_path, cache_dir, capsys, damage):
     (entry,) = _figure_sets(cache_dir)
