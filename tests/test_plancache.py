@@ -560,3 +560,54 @@ def test_the_drawer_writes_given_figures_and_draws_only_the_missing_ones(first, 
         assert all((out / n).read_bytes() == b for n, b in given.items())
         assert default_path(plan, "card", out).read_bytes() == first[2][default_path(plan, "card", out).name]
     assert drawn == ["a design"]
+
+
+_CARDS_ONLY = """
+import pickle, sys
+import cli.drawer
+cli.drawer._warm_frozen(cli.drawer._CARD_MODULES)  # what a drawer begun with cards_only imports ahead
+cli.drawer.draw_here(pickle.load(open(sys.argv[1], "rb")))
+print("pyplot" if "matplotlib.pyplot" in sys.modules else "no pyplot")
+"""
+
+
+def test_a_drawer_given_every_png_writes_the_cards_without_pyplot(first, tmp_path):
+    """The PNGs kept for another start time given, the drawer writes the trial cards without importing pyplot (nor
+    the figures' modules): the same files as the run that drew them; one PNG missing from what is given (a figures
+    set kept by older code), it is drawn all the same, importing what it needs."""
+    import pickle
+    import subprocess
+    import sys
+
+    hit = next(plancache.load(first[0], p.stem) for p in first[0].glob("*.plan"))
+    pngs = {n: b for n, b in first[2].items() if n.endswith(".png")}
+    track = next(n for n in pngs if n.endswith("-track.png"))
+    for given, expect in ((pngs, "no pyplot"), ({n: b for n, b in pngs.items() if n != track}, "pyplot")):
+        out = tmp_path / f"out{len(given)}"
+        out.mkdir()
+        job = {"plan": hit["plan"], "sea": hit["sea"], "chart": hit["chart"], "design": None, "t0": START, "dir": out}
+        (tmp_path / "job.pkl").write_bytes(pickle.dumps(job | {"png": given}))
+        env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parent.parent))
+        run = subprocess.run([sys.executable, "-c", _CARDS_ONLY, str(tmp_path / "job.pkl")], env=env, capture_output=True)
+        assert run.returncode == 0, run.stderr.decode()[-2000:]
+        assert run.stdout.decode().split() == expect.split()
+        files = {p.name: p.read_bytes() for p in out.iterdir()}
+        assert files == {n: first[2][n] for n in files} and len(files) == len(pngs) + 2  # PNGs, HTML and PDF cards
+
+
+def test_begin_cards_only_reaches_the_deferred_drawer(monkeypatch):
+    """begin(cards_only=True) tells a drawer started before the options to import only the cards' modules."""
+    import cli.drawer
+    from cli.drawer import _CARD_MODULES, _DRAWING_MODULES, Drawer
+
+    seen = []
+    monkeypatch.setattr(cli.drawer, "_warm", lambda until=-1, modules=(): None)
+    monkeypatch.setattr(Drawer, "_serve", staticmethod(lambda job_r, *a, modules=(): seen.append(modules)))
+    for cards_only in (True, False):
+        d = Drawer.__new__(Drawer)
+        spec_r, d._spec = os.pipe()
+        early_r, early_w = os.pipe()
+        d.begin(None, None, cards_only=cards_only)
+        Drawer._serve_deferred(-1, spec_r, early_w)
+        os.close(early_r)
+    assert seen == [_CARD_MODULES, _DRAWING_MODULES]
