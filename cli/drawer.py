@@ -140,7 +140,9 @@ def _warm(until: int = -1, modules: Sequence[str] = _DRAWING_MODULES) -> None:
     for name in modules:
         if until >= 0 and select.select([until], [], [], 0)[0]:
             return
-        importlib.import_module(name)
+        module = importlib.import_module(name)
+        if name == "matplotlib.pyplot":  # its backend set up now, not at the first figure drawn (about 0.05 s)
+            module.switch_backend("Agg")  # what matplotlib.use("Agg") does once pyplot is imported
 
 
 def _warm_frozen(modules: Sequence[str] = _DRAWING_MODULES) -> None:
