@@ -320,7 +320,8 @@ def main() -> None:
     def argv() -> list[str]:
         if not ns.new_start:
             return args
-        # a minute of a day in 2030 from the clock: no two runs (nor two benchmarks a minute apart) share it
+        # a start minute from the clock (decisecond resolution, 2030-2049, period 11.6 days): two runs share it
+        # only if they start within 0.1 s of each other
         t = time.gmtime(1_900_000_000 + int(time.time() * 10) % 10_000_000 * 60)
         return [*args, "--start-time", time.strftime("%Y-%m-%dT%H:%MZ", t)]
 

@@ -140,9 +140,7 @@ def _warm(until: int = -1, modules: Sequence[str] = _DRAWING_MODULES) -> None:
     for name in modules:
         if until >= 0 and select.select([until], [], [], 0)[0]:
             return
-        module = importlib.import_module(name)
-        if name == "matplotlib.pyplot":  # its backend set up now, not at the first figure drawn (about 0.05 s)
-            module.switch_backend("Agg")  # what matplotlib.use("Agg") does once pyplot is imported
+        importlib.import_module(name)
 
 
 def _warm_frozen(modules: Sequence[str] = _DRAWING_MODULES) -> None:
@@ -168,23 +166,9 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
     from maps.export import _write, default_path
     from maps.export.card import write_card_pdf
     from maps.export.figures import PlanFigures
+    from maps.export.plots import plot_states, plot_track  # imported by the PDF card already; pyplot only when drawing
+    from maps.output import plot_plan
     from primitives.io import atomic_write_bytes
-
-    # the figures' modules (pyplot among them) imported by the figure drawn: none when every PNG is given
-    def plot_plan(*a: Any) -> object:
-        from maps.output import plot_plan
-
-        return plot_plan(*a)
-
-    def plot_states(*a: Any) -> object:
-        from maps.export.plots import plot_states
-
-        return plot_states(*a)
-
-    def plot_track(*a: Any, **kw: Any) -> object:
-        from maps.export.plots import plot_track
-
-        return plot_track(*a, **kw)
 
     plan, sea, chart, design, t0, tmp = (job[k] for k in ("plan", "sea", "chart", "design", "t0", "dir"))
     given = dict(job.get("png") or {})  # figures kept for this plan at another start time: written, not drawn
@@ -339,7 +323,7 @@ class Drawer:
         function and ``ahead`` (as the constructor's; pickled, so module-level functions and
         partials of them). Without a call it computes nothing early. ``cards_only``: the PNG figures
         will be given with the job (:func:`draw_here`), so only the trial cards' modules are imported
-        ahead (not pyplot's nor the figures': about 0.3 s of CPU); a figure drawn all the same imports its own."""
+        ahead (not pyplot nor the Agg backend: about 0.3 s of CPU); a figure drawn all the same imports its own."""
         fd, self._spec = self._spec, -1
         if fd < 0:
             return

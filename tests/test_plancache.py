@@ -566,8 +566,13 @@ _CARDS_ONLY = """
 import pickle, sys
 import cli.drawer
 cli.drawer._warm_frozen(cli.drawer._CARD_MODULES)  # what a drawer begun with cards_only imports ahead
+cli.drawer.CAN_FORK = False  # the PDF card and states PNG written here too (beside), where sys.modules is looked at
 cli.drawer.draw_here(pickle.load(open(sys.argv[1], "rb")))
-print("pyplot" if "matplotlib.pyplot" in sys.modules else "no pyplot")
+if "matplotlib.pyplot" in sys.modules:
+    import matplotlib
+    print("pyplot", matplotlib.get_backend().lower())
+else:
+    print("no pyplot")
 """
 
 
@@ -582,17 +587,36 @@ def test_a_drawer_given_every_png_writes_the_cards_without_pyplot(first, tmp_pat
     hit = next(plancache.load(first[0], p.stem) for p in first[0].glob("*.plan"))
     pngs = {n: b for n, b in first[2].items() if n.endswith(".png")}
     track = next(n for n in pngs if n.endswith("-track.png"))
-    for given, expect in ((pngs, "no pyplot"), ({n: b for n, b in pngs.items() if n != track}, "pyplot")):
+    for given, expect in ((pngs, "no pyplot"), ({n: b for n, b in pngs.items() if n != track}, "pyplot agg")):
         out = tmp_path / f"out{len(given)}"
         out.mkdir()
         job = {"plan": hit["plan"], "sea": hit["sea"], "chart": hit["chart"], "design": None, "t0": START, "dir": out}
         (tmp_path / "job.pkl").write_bytes(pickle.dumps(job | {"png": given}))
-        env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parent.parent))
+        # another backend asked for (a notebook's, a desktop's): the figure is drawn with Agg all the same
+        env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parent.parent), MPLBACKEND="svg")
         run = subprocess.run([sys.executable, "-c", _CARDS_ONLY, str(tmp_path / "job.pkl")], env=env, capture_output=True)
         assert run.returncode == 0, run.stderr.decode()[-2000:]
         assert run.stdout.decode().split() == expect.split()
         files = {p.name: p.read_bytes() for p in out.iterdir()}
         assert files == {n: first[2][n] for n in files} and len(files) == len(pngs) + 2  # PNGs, HTML and PDF cards
+
+
+def test_the_command_asks_for_the_cards_only_drawer_when_the_figures_are_kept(first, tmp_path, cache_dir, capsys, monkeypatch):
+    """The command begins its early drawer with cards_only=True when the plan's figures are kept (a cached plan at a
+    new start time: pyplot not imported, about 0.4 s of CPU), and with False on a cache miss (every figure drawn)."""
+    import cli.drawer
+
+    flags = []
+    real = cli.drawer.Drawer.begin
+    monkeypatch.setattr(
+        cli.drawer.Drawer, "begin", lambda self, *a, **kw: (flags.append(kw.get("cards_only")), real(self, *a, **kw))[1]
+    )
+    _plan_cli(tmp_path / "b", capsys, "--start-time", "2026-06-01T09:00Z")  # the figures kept: copied, cards drawn
+    assert flags == [True] and _files(tmp_path / "b")["plan.png"] == first[2]["plan.png"]
+    for entry in cache_dir.glob("*.plan"):
+        entry.unlink()  # a cache miss: planned and drawn again
+    _plan_cli(tmp_path / "c", capsys, "--start-time", "2026-06-01T10:00Z")
+    assert flags == [True, False]
 
 
 def test_begin_cards_only_reaches_the_deferred_drawer(monkeypatch):

@@ -1,7 +1,8 @@
 """The figures of one plan shared by its outputs (:class:`PlanFigures`), in a module of its own that imports no
 matplotlib: the trial cards (:mod:`maps.export.card`) hold one, and a run whose PNGs are all given (a cached plan at
 another start time, :func:`cli.drawer.draw_here`) writes its cards without importing pyplot and the Agg backend
-(about 0.3 s of CPU). The figures themselves are drawn by :mod:`maps.export.plots`, imported when one is drawn."""
+(about 0.3 s of CPU). The figures themselves are drawn by :mod:`maps.export.plots`, which the PDF card imports too;
+pyplot is imported only when a figure is drawn."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from maps.plan import Plan
 
 STATES_DPI = 110
 TRACK_DPI = 130
-_SAVE = {"states": (STATES_DPI, None), "track": (TRACK_DPI, None)}  # default dpi, bbox_inches (the track figure fits its map)
+_DPI = {"states": STATES_DPI, "track": TRACK_DPI}  # each figure's default dpi, saved at its own size (no bbox_inches)
 
 
 class PlanFigures:
@@ -39,24 +40,17 @@ class PlanFigures:
 
     def png(self, name: str, dpi: int | None = None) -> bytes:
         """The figure as PNG bytes, rendered once per dpi (the map cropped to what is drawn)."""
-        key = (name, dpi or _SAVE[name][0])
-        if key not in self._png:
-            if _SAVE[name][1] is None:  # the figure's own size: encoded by figure_png
-                from primitives.io import figure_png
+        key = (name, dpi or _DPI[name])
+        if key not in self._png:  # the figure's own size: encoded by figure_png
+            from primitives.io import figure_png
 
-                self._png[key] = figure_png(self.figure(name), key[1])
-            else:
-                import io
-
-                buf = io.BytesIO()
-                self.figure(name).savefig(buf, format="png", dpi=key[1], bbox_inches=_SAVE[name][1])
-                self._png[key] = buf.getvalue()
+            self._png[key] = figure_png(self.figure(name), key[1])
         return self._png[key]
 
     def adopt_png(self, name: str, data: bytes, dpi: int | None = None) -> None:
         """Use ``data`` as the PNG of figure ``name`` at ``dpi``: the bytes :meth:`png` gave for
         the same plan in another process (``shiptrial plan`` draws its figures in two)."""
-        self._png[(name, dpi or _SAVE[name][0])] = data
+        self._png[(name, dpi or _DPI[name])] = data
 
     def save(self, name: str, path: str | Path, dpi: int | None = None) -> Path:
         """Write the figure to ``path`` (PNG from the shared render, other formats by suffix)."""
@@ -64,7 +58,7 @@ class PlanFigures:
 
         if Path(path).suffix.lower() in ("", ".png"):
             return atomic_write_bytes(path, self.png(name, dpi))
-        return atomic_savefig(self.figure(name), path, dpi=dpi or _SAVE[name][0], bbox_inches=_SAVE[name][1])
+        return atomic_savefig(self.figure(name), path, dpi=dpi or _DPI[name], bbox_inches=None)
 
     def close(self) -> None:
         if self._figs:  # none drawn (every PNG adopted): matplotlib's pyplot is not needed, nor imported
