@@ -307,13 +307,28 @@ def main() -> None:
     ap.add_argument("--top", type=int, default=0)
     ap.add_argument("--timeline", action="store_true", help="print the last run's stages in wall-clock order")
     ap.add_argument("--json", type=Path, default=None, help="also write every run's rows here")
+    ap.add_argument(
+        "--new-start",
+        action="store_true",
+        help="each run at a start time no run of this benchmark used (--start-time from the clock): a cached plan "
+        "whose files for that start time are not kept, as the next hour's run of the default start time",
+    )
     ap.add_argument("args", nargs="*", default=None, help="plan-trial arguments after -- (default: --no-cache)")
     ns = ap.parse_args()
     args = ns.args or ["--no-cache"]
+
+    def argv() -> list[str]:
+        if not ns.new_start:
+            return args
+        # a start minute from the clock (decisecond resolution, 2030-2049, period 11.6 days): two runs share it
+        # only if they start within 0.1 s of each other
+        t = time.gmtime(1_900_000_000 + int(time.time() * 10) % 10_000_000 * 60)
+        return [*args, "--start-time", time.strftime("%Y-%m-%dT%H:%MZ", t)]
+
     with tempfile.TemporaryDirectory(prefix="bench-pts-pyc-") as pycache:
-        run_once(ns.root, args, pycache)  # untimed: bytecode, caches and page cache warm
+        run_once(ns.root, argv(), pycache)  # untimed: bytecode, caches and page cache warm
         load0 = os.getloadavg()[0]
-        runs = [run_once(ns.root, args, pycache) for _ in range(ns.repeat)]
+        runs = [run_once(ns.root, argv(), pycache) for _ in range(ns.repeat)]
     print(f"plan-trial --out TMP {' '.join(args)} in {ns.root}, {ns.repeat} runs, load {load0:.2f} -> {os.getloadavg()[0]:.2f}")
     summarise(runs, ns.top, ns.timeline)
     if ns.json is not None:

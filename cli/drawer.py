@@ -120,36 +120,37 @@ def _same(a: object, b: object) -> bool:
 
 
 # what drawing needs, the modules the writers import when first called included (fpdf, matplotlib's Agg
-# backend), in the order the deferred drawer imports them (:meth:`Drawer._serve_deferred`)
+# backend), in the order the deferred drawer imports them (:meth:`Drawer._serve_deferred`): the trial cards' first
+# (none imports pyplot: :mod:`maps.export.figures`), which are all a cached plan at another start time draws
+_CARD_MODULES = ("fpdf", "maps.export.cardpdf", "maps.export.card")
 _DRAWING_MODULES = (
+    *_CARD_MODULES,
     "matplotlib.backends.backend_agg",
-    "fpdf",
+    "matplotlib.pyplot",
     "expdesign.report",
-    "maps.export.card",
-    "maps.export.cardpdf",
     "maps.output",
 )
 
 
-def _warm(until: int = -1) -> None:
-    """Import what drawing needs (the child's work while the parent plans), one module after the other; with
+def _warm(until: int = -1, modules: Sequence[str] = _DRAWING_MODULES) -> None:
+    """Import ``modules`` (what drawing needs: the child's work while the parent plans), one after the other; with
     ``until`` (a pipe's read end), stop before the next module once that pipe is readable (written or closed)."""
     import importlib
 
-    for name in _DRAWING_MODULES:
+    for name in modules:
         if until >= 0 and select.select([until], [], [], 0)[0]:
             return
         importlib.import_module(name)
 
 
-def _warm_frozen() -> None:
+def _warm_frozen(modules: Sequence[str] = _DRAWING_MODULES) -> None:
     """:func:`_warm` in the drawer, then everything alive (the drawing modules: some 100k objects)
     out of the collector's sight: the full collections that importing and drawing trigger would
     walk them all (two a run, 0.09-0.11 s of CPU measured under load; the drawer ends with
     ``os._exit``, so nothing is ever given back)."""
     gc.disable()  # importing makes next to no garbage: no full collection half-way through the imports
     try:
-        _warm()
+        _warm(modules=modules)
     finally:
         gc.freeze()
         gc.enable()
@@ -164,7 +165,8 @@ def draw_here(job: dict[str, Any], prepared: dict[str, Any] | None = None) -> No
     bytes by file name (:func:`cli.plan_cache.saved_sets`), written instead of drawn."""
     from maps.export import _write, default_path
     from maps.export.card import write_card_pdf
-    from maps.export.plots import PlanFigures, plot_states, plot_track
+    from maps.export.figures import PlanFigures
+    from maps.export.plots import plot_states, plot_track  # imported by the PDF card already; pyplot only when drawing
     from maps.output import plot_plan
     from primitives.io import atomic_write_bytes
 
@@ -311,15 +313,22 @@ class Drawer:
             os.close(spec_r)
         self.pid, self._sender = pid, None
 
-    def begin(self, early: Callable[[], object] | None = None, ahead: Callable[[Any], dict[str, Any]] | None = None) -> None:
+    def begin(
+        self,
+        early: Callable[[], object] | None = None,
+        ahead: Callable[[Any], dict[str, Any]] | None = None,
+        cards_only: bool = False,
+    ) -> None:
         """Give a drawer started ``deferred`` (before the command knew its options) its ``early``
         function and ``ahead`` (as the constructor's; pickled, so module-level functions and
-        partials of them). Without a call it computes nothing early."""
+        partials of them). Without a call it computes nothing early. ``cards_only``: the PNG figures
+        will be given with the job (:func:`draw_here`), so only the trial cards' modules are imported
+        ahead (not pyplot nor the Agg backend: about 0.3 s of CPU); a figure drawn all the same imports its own."""
         fd, self._spec = self._spec, -1
         if fd < 0:
             return
-        spec = b""
-        for what in ((early, ahead), (early, None)) if early is not None else ():
+        spec = pickle.dumps((None, None, cards_only), protocol=pickle.HIGHEST_PROTOCOL)
+        for what in ((early, ahead, cards_only), (early, None, cards_only)) if early is not None else ():
             try:
                 spec = pickle.dumps(what, protocol=pickle.HIGHEST_PROTOCOL)
                 break
@@ -346,14 +355,15 @@ class Drawer:
         with os.fdopen(spec_r, "rb") as fh:
             spec = fh.read()
         try:
-            early, ahead = pickle.loads(spec) if spec else (None, None)
+            early, ahead, cards_only = pickle.loads(spec) if spec else (None, None, False)
         except Exception:  # noqa: BLE001 - not readable here: the parent designs itself
-            early, ahead = None, None
+            early, ahead, cards_only = None, None, False
+        modules = _CARD_MODULES if cards_only else _DRAWING_MODULES
         if early is None:
             os.close(early_w)  # early() reads nothing: the parent designs itself
-            Drawer._serve(job_r)
+            Drawer._serve(job_r, modules=modules)
         else:
-            Drawer._serve(job_r, early, early_w, ahead)
+            Drawer._serve(job_r, early, early_w, ahead, modules=modules)
 
     @staticmethod
     def _serve(
@@ -361,9 +371,10 @@ class Drawer:
         early: Callable[[], object] | None = None,
         early_w: int = -1,
         ahead: Callable[[Any], dict[str, Any]] | None = None,
+        modules: Sequence[str] = _DRAWING_MODULES,
     ) -> None:
         result = _compute_early(early, early_w) if early is not None else None
-        _warm_frozen()
+        _warm_frozen(modules)
         prepared = _prepare(ahead, result)  # while the parent still plans
         from maps.export.cardpdf import prepare_document
 

@@ -141,11 +141,26 @@ def saved_sets(
         return None, None
     saved = saved_outputs(cache_dir, plan_key, digest, start_utc, drawing)
     if saved is not None:
+        _touch_figures(cache_dir, plan_key, digest, drawing)
         return saved, None
     figures = saved_outputs(cache_dir, plan_key, digest, _ANY_START, drawing)
     if figures is None or not set(figures["files"]) <= set(FIGURES):
         return None, None
     return None, figures["bytes"]
+
+
+def _touch_figures(cache_dir: Path, plan_key: str, digest: str, drawing: str) -> None:
+    """Mark the plan entry's figures (:data:`FIGURES`, kept at any start time) recently used: a run that restores its own
+    start time's set reads them from that set, and without this the figures entry would age as if unused and be pruned
+    before the sets that a later hour's run would need it beside."""
+    from maps import plancache
+
+    try:
+        key = plancache.outputs_key(plan_key, digest, _ANY_START, drawing)
+    except Exception:  # noqa: BLE001 - as saved_outputs: a cache that cannot be keyed is no cache
+        return
+    if key is not None:
+        plancache.touch_outputs(cache_dir, key)
 
 
 def _keep(

@@ -390,8 +390,8 @@ def plan_and_write(
         if drawer is not None and (no_export or saved is not None):
             drawer.cancel()
             drawer = None
-        elif drawer is not None:
-            drawer.begin(early, ahead)
+        elif drawer is not None:  # the PNGs kept for another start time: the drawer writes the trial cards only
+            drawer.begin(early, ahead, cards_only=figures is not None)
         elif not no_export and saved is None:
             if hit is None:  # planned here: the drawer forked after the planner's imports shares them (start_early)
                 import maps.planner  # noqa: F401

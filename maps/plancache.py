@@ -212,6 +212,17 @@ def load_outputs(directory: Path | None, key: str) -> dict[str, Any] | None:
     return entry if ok else None
 
 
+def touch_outputs(directory: Path | None, key: str) -> None:
+    """Mark the output set under ``key`` recently used (pruned last, as reading it would), without reading it: a
+    run that restores its own start time's set uses the plan entry's figures too (they are in that set)."""
+    if directory is None:
+        return
+    try:
+        os.utime(Path(directory) / f"{key}.out")
+    except OSError:  # none kept (or the cache is read-only): nothing to keep longer
+        pass
+
+
 def store_outputs(directory: Path | None, key: str, files: dict[str, str], data: dict[str, bytes]) -> str | None:
     """Keep the output set ``files`` (name -> path relative to the output directory) with every file's ``data``
     under ``key``; skipped without a word as :func:`store` (None returned)."""

@@ -303,6 +303,18 @@ def test_other_start_time_copies_the_figures_and_exports_the_rest_as_an_uncached
     assert all(b[k] == first[2][k] for k in b if k.endswith(".png"))
 
 
+def test_a_run_restoring_its_own_set_keeps_the_figures_young(first, tmp_path, cache_dir, capsys):
+    """A run that copies its own start time's whole set uses the plan's figures too: their entry is marked used
+    as the set's is, so that the next sets kept prune the set of an older plan before the figures an hour later needs."""
+    (figures,) = _figure_sets(cache_dir)
+    (own,) = _start_sets(cache_dir)
+    for entry in (figures, own):
+        os.utime(entry, ns=(10**9, 10**9))  # both long unused
+    again, _ = _plan_cli(tmp_path / "b", capsys)
+    assert again["from_cache"] is True and _files(tmp_path / "b") == first[2]
+    assert own.stat().st_mtime_ns > 10**9 and figures.stat().st_mtime_ns > 10**9
+
+
 @pytest.mark.parametrize("damage", ["truncate", "flip", "unpicklable"])
 def test_damaged_figures_are_drawn_again(first, tmp_path, cache_dir, capsys, damage):
     (entry,) = _figure_sets(cache_dir)
@@ -548,3 +560,78 @@ def test_the_drawer_writes_given_figures_and_draws_only_the_missing_ones(first, 
         assert all((out / n).read_bytes() == b for n, b in given.items())
         assert default_path(plan, "card", out).read_bytes() == first[2][default_path(plan, "card", out).name]
     assert drawn == ["a design"]
+
+
+_CARDS_ONLY = """
+import pickle, sys
+import cli.drawer
+cli.drawer._warm_frozen(cli.drawer._CARD_MODULES)  # what a drawer begun with cards_only imports ahead
+cli.drawer.CAN_FORK = False  # the PDF card and states PNG written here too (beside), where sys.modules is looked at
+cli.drawer.draw_here(pickle.load(open(sys.argv[1], "rb")))
+if "matplotlib.pyplot" in sys.modules:
+    import matplotlib
+    print("pyplot", matplotlib.get_backend().lower())
+else:
+    print("no pyplot")
+"""
+
+
+def test_a_drawer_given_every_png_writes_the_cards_without_pyplot(first, tmp_path):
+    """The PNGs kept for another start time given, the drawer writes the trial cards without importing pyplot (nor
+    the figures' modules): the same files as the run that drew them; one PNG missing from what is given (a figures
+    set kept by older code), it is drawn all the same, importing what it needs."""
+    import pickle
+    import subprocess
+    import sys
+
+    hit = next(plancache.load(first[0], p.stem) for p in first[0].glob("*.plan"))
+    pngs = {n: b for n, b in first[2].items() if n.endswith(".png")}
+    track = next(n for n in pngs if n.endswith("-track.png"))
+    for given, expect in ((pngs, "no pyplot"), ({n: b for n, b in pngs.items() if n != track}, "pyplot agg")):
+        out = tmp_path / f"out{len(given)}"
+        out.mkdir()
+        job = {"plan": hit["plan"], "sea": hit["sea"], "chart": hit["chart"], "design": None, "t0": START, "dir": out}
+        (tmp_path / "job.pkl").write_bytes(pickle.dumps(job | {"png": given}))
+        # another backend asked for (a notebook's, a desktop's): the figure is drawn with Agg all the same
+        env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parent.parent), MPLBACKEND="svg")
+        run = subprocess.run([sys.executable, "-c", _CARDS_ONLY, str(tmp_path / "job.pkl")], env=env, capture_output=True)
+        assert run.returncode == 0, run.stderr.decode()[-2000:]
+        assert run.stdout.decode().split() == expect.split()
+        files = {p.name: p.read_bytes() for p in out.iterdir()}
+        assert files == {n: first[2][n] for n in files} and len(files) == len(pngs) + 2  # PNGs, HTML and PDF cards
+
+
+def test_the_command_asks_for_the_cards_only_drawer_when_the_figures_are_kept(first, tmp_path, cache_dir, capsys, monkeypatch):
+    """The command begins its early drawer with cards_only=True when the plan's figures are kept (a cached plan at a
+    new start time: pyplot not imported, about 0.4 s of CPU), and with False on a cache miss (every figure drawn)."""
+    import cli.drawer
+
+    flags = []
+    real = cli.drawer.Drawer.begin
+    monkeypatch.setattr(
+        cli.drawer.Drawer, "begin", lambda self, *a, **kw: (flags.append(kw.get("cards_only")), real(self, *a, **kw))[1]
+    )
+    _plan_cli(tmp_path / "b", capsys, "--start-time", "2026-06-01T09:00Z")  # the figures kept: copied, cards drawn
+    assert flags == [True] and _files(tmp_path / "b")["plan.png"] == first[2]["plan.png"]
+    for entry in cache_dir.glob("*.plan"):
+        entry.unlink()  # a cache miss: planned and drawn again
+    _plan_cli(tmp_path / "c", capsys, "--start-time", "2026-06-01T10:00Z")
+    assert flags == [True, False]
+
+
+def test_begin_cards_only_reaches_the_deferred_drawer(monkeypatch):
+    """begin(cards_only=True) tells a drawer started before the options to import only the cards' modules."""
+    import cli.drawer
+    from cli.drawer import _CARD_MODULES, _DRAWING_MODULES, Drawer
+
+    seen = []
+    monkeypatch.setattr(cli.drawer, "_warm", lambda until=-1, modules=(): None)
+    monkeypatch.setattr(Drawer, "_serve", staticmethod(lambda job_r, *a, modules=(): seen.append(modules)))
+    for cards_only in (True, False):
+        d = Drawer.__new__(Drawer)
+        spec_r, d._spec = os.pipe()
+        early_r, early_w = os.pipe()
+        d.begin(None, None, cards_only=cards_only)
+        Drawer._serve_deferred(-1, spec_r, early_w)
+        os.close(early_r)
+    assert seen == [_CARD_MODULES, _DRAWING_MODULES]

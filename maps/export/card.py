@@ -39,7 +39,7 @@ from maps.export._common import (
     waypoints,
 )
 from maps.export.chart import plan_chart
-from maps.export.plots import PlanFigures
+from maps.export.figures import PlanFigures
 from maps.export.route import build_route
 from maps.export.wording import bridge_orders, knots, manoeuvre_name, phase
 from maps.plan import Plan

@@ -20,7 +20,6 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from maps.export._common import M_PER_NM, ExportError, deg_min, step_slice  # noqa: E402
@@ -113,7 +112,7 @@ def primitive_colours(plan: Plan) -> dict[str, Any]:
     """A colour per step primitive: a distinct one per informative primitive (order of first
     appearance), green for run-ins, grey for transit."""
     inf = list(dict.fromkeys(st.primitive for st in plan.steps if st.segment == "informative"))
-    cmap = plt.get_cmap("tab10" if len(inf) <= 10 else "tab20")
+    cmap = matplotlib.colormaps["tab10" if len(inf) <= 10 else "tab20"]  # pyplot.get_cmap's, without pyplot
     out: dict[str, Any] = {n: cmap(i % cmap.N) for i, n in enumerate(inf)}
     for st in plan.steps:
         if st.primitive not in out:
@@ -352,6 +351,7 @@ def draw_map(
     (informative manoeuvres coloured by primitive, run-ins dashed green, transit grey), execute
     points (stars), numbered manoeuvre starts, start/end marks, a scale bar and a north arrow,
     on lon/lat axes. ``sea_map``: see the module docstring (default: the plan's own chart)."""
+    from matplotlib.ticker import MaxNLocator
     from shapely.geometry import box
 
     x0, y0, x1, y1, m_per_deg_lon, m_per_deg_lat = map_view(plan, pad_m)
@@ -372,7 +372,7 @@ def draw_map(
     ax.xaxis.set_major_formatter(_dm_formatter("E", "W", 3))
     ax.yaxis.set_major_formatter(_dm_formatter("N", "S", 2))
     ax.tick_params(labelsize=7)
-    ax.xaxis.set_major_locator(plt.MaxNLocator(4))
+    ax.xaxis.set_major_locator(MaxNLocator(4))
     ax.grid(color="white", lw=0.6, zorder=0)
     _scale_bar(ax, x0, y0, x1, y1, m_per_deg_lon)
     ax.annotate(

@@ -13,13 +13,12 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from maps.export._common import KN_PER_MPS, step_slice  # noqa: E402
+from maps.export.figures import STATES_DPI, TRACK_DPI, PlanFigures  # noqa: E402, F401 - PlanFigures' home before stop 55
 from maps.export.mapplot import annotate_steps, draw_map, lon_ticks, primitive_colours, step_colour  # noqa: E402
 from maps.plan import Plan  # noqa: E402
-from primitives.io import atomic_savefig, figure_png  # noqa: E402
 
 
 def state_series(plan: Plan) -> list[tuple[str, np.ndarray]]:
@@ -219,6 +218,8 @@ def states_figure(plan: Plan) -> Any:
     # made at the PNG's dpi: the layout's text measures (tick label widths, step numbers) are those of the
     # drawing, which then reuses them and their renderer (measured at 100 dpi, every text was laid out again
     # at 110: 0.79 -> 0.63 s CPU for the full-scale figure, the same pixels)
+    import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(n, 1, figsize=states_size_in(plan), sharex=True, dpi=STATES_DPI)
     draw_states(list(np.atleast_1d(axes)), plan)
     fig.suptitle(f"{plan.ship}: planned speed, heading and commanded inputs (manoeuvre numbers on top)", fontsize=9)
@@ -238,6 +239,8 @@ def track_figure(plan: Plan, sea_map: Any = None) -> Any:
     """The numbered track coloured by primitive on the map, legend outside, titled; the axes
     take the figure less fixed margins and the legend's width (the PNG is cropped to what is
     drawn)."""
+    import matplotlib.pyplot as plt
+
     fig, ax = plt.subplots(figsize=(9.5, 7.5))
     draw_map(ax, plan, sea_map, numbers=False)
     leg = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)  # outside: never hides the track
@@ -274,69 +277,6 @@ def _fit_to_map(fig: Any, ax: Any, legend: Any) -> None:
     fixed_margins(fig, right=right, left=left, top=m["top"], bottom=m["bottom"] + max(0.0, leg_h - ax_h))
     x0, x1 = ax.get_xlim()
     ax.xaxis.set_major_locator(FixedLocator(lon_ticks(x0, x1, 72.0 * ax_w)))  # labels that do not overlap
-
-
-STATES_DPI = 110
-TRACK_DPI = 130
-_SAVE = {"states": (STATES_DPI, None), "track": (TRACK_DPI, None)}  # default dpi, bbox_inches (the track figure fits its map)
-
-
-class PlanFigures:
-    """The figures of one plan, each drawn once and shared by the HTML trial card's images and
-    the PNG exports (the PDF card draws its own map and states page): drawing a figure with its
-    layout passes costs as much as saving it. ``close()`` when done (figures hold memory until closed)."""
-
-    def __init__(self, plan: Plan, sea_map: Any = None) -> None:
-        self.plan, self.sea_map = plan, sea_map
-        self._figs: dict[str, Any] = {}
-        self._png: dict[tuple[str, int], bytes] = {}
-
-    def figure(self, name: str) -> Any:
-        """'states' (:func:`states_figure`) or 'track' (:func:`track_figure`), built on first use."""
-        if name not in self._figs:
-            self._figs[name] = states_figure(self.plan) if name == "states" else track_figure(self.plan, self.sea_map)
-        return self._figs[name]
-
-    def owns(self, fig: Any) -> bool:
-        return any(fig is f for f in self._figs.values())
-
-    def png(self, name: str, dpi: int | None = None) -> bytes:
-        """The figure as PNG bytes, rendered once per dpi (the map cropped to what is drawn)."""
-        key = (name, dpi or _SAVE[name][0])
-        if key not in self._png:
-            if _SAVE[name][1] is None:  # the figure's own size: encoded by figure_png
-                self._png[key] = figure_png(self.figure(name), key[1])
-            else:
-                import io
-
-                buf = io.BytesIO()
-                self.figure(name).savefig(buf, format="png", dpi=key[1], bbox_inches=_SAVE[name][1])
-                self._png[key] = buf.getvalue()
-        return self._png[key]
-
-    def adopt_png(self, name: str, data: bytes, dpi: int | None = None) -> None:
-        """Use ``data`` as the PNG of figure ``name`` at ``dpi``: the bytes :meth:`png` gave for
-        the same plan in another process (``shiptrial plan`` draws its figures in two)."""
-        self._png[(name, dpi or _SAVE[name][0])] = data
-
-    def save(self, name: str, path: str | Path, dpi: int | None = None) -> Path:
-        """Write the figure to ``path`` (PNG from the shared render, other formats by suffix)."""
-        from primitives.io import atomic_write_bytes
-
-        if Path(path).suffix.lower() in ("", ".png"):
-            return atomic_write_bytes(path, self.png(name, dpi))
-        return atomic_savefig(self.figure(name), path, dpi=dpi or _SAVE[name][0], bbox_inches=_SAVE[name][1])
-
-    def close(self) -> None:
-        for f in self._figs.values():
-            plt.close(f)
-        self._figs.clear()
-
-    def __enter__(self) -> PlanFigures:
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
 
 
 def plot_states(plan: Plan, path: str | Path, dpi: int = STATES_DPI, figures: PlanFigures | None = None) -> Path:
