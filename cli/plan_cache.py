@@ -117,9 +117,10 @@ def keep_outputs(
     return kept
 
 
-# the files no start time changes (plan.png, the design ratios, the track and states PNGs): kept for the plan entry
-# whatever the start time, so a run of a cached plan at another hour copies them instead of drawing them again
-FIGURES = ("plot", "design_ratios_png", "track_png", "states_png")
+# the files no start time changes (plan.png, the design ratios, the track and states PNGs, the two GeoJSON files: none
+# is given the start time): kept for the plan entry whatever the start time, so a run of a cached plan at another hour
+# copies them instead of drawing or exporting them again
+FIGURES = ("plot", "design_ratios_png", "track_png", "states_png", "trajectory_geojson", "geojson")
 _ANY_START = "any start time"  # in the figures' output key, where a start time's ISO string is otherwise
 
 

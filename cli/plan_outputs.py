@@ -61,9 +61,9 @@ def write_outputs_all(
     their PNGs, the plan picture, the design ratios) are drawn by ``drawer`` (a
     :class:`cli.drawer.Drawer` started with the command) while this process writes the plan and
     the text exports. ``chart``: :func:`export_chart` of the plan, when computed already. ``figures``: PNG
-    bytes by file name kept for this plan at another start time (:func:`cli.plan_cache.saved_sets`): written
-    instead of drawn."""
-    from maps.export import _write, default_path
+    and GeoJSON bytes by file name kept for this plan at another start time (:func:`cli.plan_cache.saved_sets`):
+    written instead of drawn or exported (the PNGs by the drawer, the GeoJSON files here)."""
+    from maps.export import default_path
     from maps.output import write_outputs
 
     exports = result.feasible and not no_export
@@ -82,6 +82,8 @@ def write_outputs_all(
         from cli.drawer import Drawer
 
         drawer = Drawer()
+    png = dict(figures or {})
+    geo = {name: png.pop(name) for name in [n for n in png if n.endswith(".geojson")]}  # written here, not sent
     drawer.send(
         {
             "plan": result,
@@ -90,18 +92,13 @@ def write_outputs_all(
             "design": td.design if td is not None else None,
             "t0": t0,
             "dir": tmp,
-            "png": figures,
+            "png": png if figures is not None else None,
         }
     )  # pickled now: the figures are drawn with the chart given, not the one plan.json stores
     try:
-        files = write_outputs(result, sea, tmp, plot=False, chart=chart)
+        files = write_outputs(result, sea, tmp, plot=False, chart=chart, trajectory=geo.get("trajectory.geojson"))
         with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
-            crew = {
-                fmt: _write(
-                    result, fmt, default_path(result, fmt, tmp), sea_map=chart, start=t0, vessel=None, pdf=False, figures=None
-                )[0]
-                for fmt in ("geojson", "gpx", "rtz", "csv")
-            }
+            crew = {fmt: _crew_file(result, fmt, tmp, chart, t0, geo) for fmt in ("geojson", "gpx", "rtz", "csv")}
     except BaseException:
         drawer.wait(quiet=True)  # no child outlives the command; the first error is the one to report
         raise
@@ -121,3 +118,15 @@ def write_outputs_all(
         "track_png": Path(f"{stem}-track.png"),
         "states_png": Path(f"{stem}-states.png"),
     }
+
+
+def _crew_file(result: Plan, fmt: str, tmp: Path, chart: Any, t0: datetime, kept: dict[str, bytes]) -> Path:
+    """The crew export ``fmt`` of ``result`` written into ``tmp``: its bytes from ``kept`` (by file name) when
+    given, else exported."""
+    from maps.export import _write, default_path
+    from primitives.io import atomic_write_bytes
+
+    path = default_path(result, fmt, tmp)
+    if path.name in kept:
+        return atomic_write_bytes(path, kept[path.name])
+    return _write(result, fmt, path, sea_map=chart, start=t0, vessel=None, pdf=False, figures=None)[0]

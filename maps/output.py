@@ -114,7 +114,9 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
     return out
 
 
-def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = True, chart: Any = None) -> dict[str, Path]:
+def write_outputs(
+    plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = True, chart: Any = None, trajectory: bytes | None = None
+) -> dict[str, Path]:
     """plan.json, trajectory.geojson and (``plot``) plan.png (the track in its planning window,
     :func:`plot_plan`) in ``out_dir`` (atomic writes).
 
@@ -125,18 +127,23 @@ def write_outputs(plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = Tru
     primitive) or ``transit`` (RFC 7946, when there is a track); the crew's chart overlay with
     execute points, waypoints and corridors is ``<ship>-trial.geojson`` (maps.export).
     ``chart``: the chart of ``sea`` (:func:`maps.export.chart.plan_chart`) when the caller has
-    it already (it costs a second reading of the map file otherwise).
+    it already (it costs a second reading of the map file otherwise). ``trajectory``: trajectory.geojson's
+    bytes when known already (kept for this plan at another start time: the file has no start time in it),
+    written as they are.
     """
     from maps.export.chart import embed_chart
     from maps.export.geojson import write_geojson
-    from primitives.io import atomic_write_text
+    from primitives.io import atomic_write_bytes, atomic_write_text
 
     out = Path(out_dir)
     if len(plan.track) >= 2:
         embed_chart(plan, sea if chart is None else chart)
     files = {"plan_json": atomic_write_text(out / "plan.json", plan.to_json())}
     if len(plan.track) >= 2:  # a LineString needs two positions; a failed search has no track
-        files["trajectory_geojson"] = write_geojson(plan, out / "trajectory.geojson", overlay=False)
+        path = out / "trajectory.geojson"
+        files["trajectory_geojson"] = (
+            atomic_write_bytes(path, trajectory) if trajectory is not None else write_geojson(plan, path, overlay=False)
+        )
     if plot:
         files["plot"] = plot_plan(plan, sea, out / "plan.png")
     return files

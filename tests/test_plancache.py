@@ -303,6 +303,22 @@ def test_other_start_time_copies_the_figures_and_exports_the_rest_as_an_uncached
     assert all(b[k] == first[2][k] for k in b if k.endswith(".png"))
 
 
+def test_other_start_time_copies_both_geojson_files(first, tmp_path, cache_dir, capsys, monkeypatch):
+    """trajectory.geojson and the crew's GeoJSON carry no start time: kept with the figures, a run at another start
+    time copies them (no GeoJSON exported) and they are the bytes an uncached run at that time writes."""
+    import maps.export.geojson
+
+    later = ("--start-time", "2026-06-01T10:00Z")
+    with monkeypatch.context() as mp:
+        _forbid(mp, maps.export.geojson, "write_geojson", "a GeoJSON file exported although the cache holds it")
+        cached, _ = _plan_cli(tmp_path / "b", capsys, *later)
+    assert cached["from_cache"] is True
+    _plan_cli(tmp_path / "c", capsys, *later, "--no-cache")
+    b, c = _files(tmp_path / "b"), _files(tmp_path / "c")
+    geo = sorted(k for k in b if k.endswith(".geojson"))
+    assert geo == ["full-scale-trial.geojson", "trajectory.geojson"] and all(b[k] == c[k] == first[2][k] for k in geo)
+
+
 def test_a_run_restoring_its_own_set_keeps_the_figures_young(first, tmp_path, cache_dir, capsys):
     """A run that copies its own start time's whole set uses the plan's figures too: their entry is marked used
     as the set's is, so that the next sets kept prune the set of an older plan before the figures an hour later needs."""
