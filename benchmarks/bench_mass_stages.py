@@ -26,6 +26,7 @@ import typer  # noqa: E402,F401
 
 t_typer = time.process_time()
 import cli.app  # noqa: E402
+import cli.commands  # noqa: E402,F401  (the typer app and its command modules: cli.app itself defers them)
 
 t_app = time.process_time()
 import cli.options  # noqa: E402,F401

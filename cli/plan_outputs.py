@@ -82,8 +82,9 @@ def write_outputs_all(
         from cli.drawer import Drawer
 
         drawer = Drawer()
-    png = dict(figures or {})
-    geo = {name: png.pop(name) for name in [n for n in png if n.endswith(".geojson")]}  # written here, not sent
+    given = figures or {}
+    geo = {name: data for name, data in given.items() if name.endswith(".geojson")}  # written here, not sent
+    png = {name: data for name, data in given.items() if not name.endswith(".geojson")}
     drawer.send(
         {
             "plan": result,
@@ -96,7 +97,7 @@ def write_outputs_all(
         }
     )  # pickled now: the figures are drawn with the chart given, not the one plan.json stores
     try:
-        files = write_outputs(result, sea, tmp, plot=False, chart=chart, trajectory=geo.get("trajectory.geojson"))
+        files = write_outputs(result, sea, tmp, plot=False, chart=chart, trajectory_bytes=geo.get("trajectory.geojson"))
         with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
             crew = {fmt: _crew_file(result, fmt, tmp, chart, t0, geo) for fmt in ("geojson", "gpx", "rtz", "csv")}
     except BaseException:

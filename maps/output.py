@@ -115,7 +115,7 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
 
 
 def write_outputs(
-    plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = True, chart: Any = None, trajectory: bytes | None = None
+    plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = True, chart: Any = None, trajectory_bytes: bytes | None = None
 ) -> dict[str, Path]:
     """plan.json, trajectory.geojson and (``plot``) plan.png (the track in its planning window,
     :func:`plot_plan`) in ``out_dir`` (atomic writes).
@@ -127,7 +127,7 @@ def write_outputs(
     primitive) or ``transit`` (RFC 7946, when there is a track); the crew's chart overlay with
     execute points, waypoints and corridors is ``<ship>-trial.geojson`` (maps.export).
     ``chart``: the chart of ``sea`` (:func:`maps.export.chart.plan_chart`) when the caller has
-    it already (it costs a second reading of the map file otherwise). ``trajectory``: trajectory.geojson's
+    it already (it costs a second reading of the map file otherwise). ``trajectory_bytes``: trajectory.geojson's
     bytes when known already (kept for this plan at another start time: the file has no start time in it),
     written as they are.
     """
@@ -142,7 +142,9 @@ def write_outputs(
     if len(plan.track) >= 2:  # a LineString needs two positions; a failed search has no track
         path = out / "trajectory.geojson"
         files["trajectory_geojson"] = (
-            atomic_write_bytes(path, trajectory) if trajectory is not None else write_geojson(plan, path, overlay=False)
+            atomic_write_bytes(path, trajectory_bytes)
+            if trajectory_bytes is not None
+            else write_geojson(plan, path, overlay=False)
         )
     if plot:
         files["plot"] = plot_plan(plan, sea, out / "plan.png")
