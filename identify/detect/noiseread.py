@@ -31,6 +31,8 @@ import math
 
 import numpy as np
 
+from primitives.iir import lfilter  # scipy.signal's, without its import
+
 #: ``a`` beyond which the reading is not trusted (a corner 100 samples long: the short-step 4th differences
 #: then carry too little of the noise for the ship's own motion not to compete)
 A_MAX = 0.99
@@ -137,23 +139,7 @@ def stationary_lowpass(w: np.ndarray, tau: float, dt: float, axis: int = -1) -> 
         return w
     a = math.exp(-dt / tau)
     w = np.moveaxis(np.asarray(w, float), axis, -1)
-    out = np.empty_like(w)
-    out[..., 0] = math.sqrt((1 - a) / (1 + a)) * w[..., 0]
-    # the recursion e_k = a e_(k-1) + (1 - a) w_k, in closed form by blocks: cheap, and exact to rounding
-    _recurse(out, w, a)
-    return np.moveaxis(out, -1, axis)
-
-
-def _recurse(out: np.ndarray, w: np.ndarray, a: float, block: int = 64) -> None:
-    """``out[..., k] = a out[..., k-1] + (1 - a) w[..., k]`` for k >= 1 (``out[..., 0]`` given): within a
-    block of L samples ``e_(s+j) = a^(j+1) e_s + sum_(i<=j) a^(j-i) (1 - a) w_(s+1+i)``, a lower-triangular
-    matrix product per block (numpy, no sample loop)."""
-    n = out.shape[-1]
-    j = np.arange(block)
-    T = np.tril(a ** (j[:, None] - j[None, :]).clip(0)) * (1 - a)
-    p = a ** (j + 1)
-    s = 0
-    while s < n - 1:
-        m = min(block, n - 1 - s)
-        out[..., s + 1 : s + 1 + m] = out[..., s : s + 1] * p[:m] + w[..., s + 1 : s + 1 + m] @ T[:m, :m].T
-        s += m
+    first = math.sqrt((1 - a) / (1 + a)) * w[..., :1]
+    # the recursion e_k = a e_(k-1) + (1 - a) w_k after the first sample: a first-order filter started from it
+    rest = lfilter(np.array([1 - a]), np.array([1.0, -a]), w[..., 1:], axis=-1, zi=a * first)
+    return np.moveaxis(np.concatenate([first, rest], axis=-1), -1, axis)
