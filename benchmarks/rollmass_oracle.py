@@ -221,13 +221,10 @@ def _lm(lo: Loaded, runs: np.ndarray, theta: np.ndarray, weigh, iters: int) -> t
 
 
 def _hac(Jw: np.ndarray, ew: np.ndarray, lag: int) -> np.ndarray:
-    """Newey-West meat sum_l k(l) sum_t s_t s_{t+l}^T of the scores s_t = sum_c J_ct e_ct (2, n)."""
-    s = np.einsum("pcn,cn->pn", Jw, ew)
-    B = s @ s.T
-    for k in range(1, lag + 1):
-        G = s[:, k:] @ s[:, :-k].T
-        B += (1 - k / (lag + 1)) * (G + G.T)
-    return B
+    """Newey-West meat of the scores s_t = sum_c J_ct e_ct (2, n): :func:`identify.rollmass.sandwich.bartlett_meat`."""
+    from identify.rollmass.sandwich import bartlett_meat  # a generic HAC, not the estimator's model
+
+    return bartlett_meat(np.einsum("pcn,cn->pn", Jw, ew).T, lag)
 
 
 def _whittle(J: np.ndarray, e0: np.ndarray) -> np.ndarray:
