@@ -4,6 +4,7 @@ results however the tasks land on the workers."""
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import signal
@@ -264,3 +265,91 @@ def test_a_worker_reuses_the_heap_its_last_task_grew():
     assert all(ok for ok, _ in out.values())
     assert out[0][1] > 10_000  # 25,600 pages: the first task faults its working set in
     assert out[1][1] < 1000 and out[2][1] < 1000, out
+
+
+# -- the failure modes the stop-54 review found in a fork tree (SystemExit, a lost worker, Ctrl-C during the
+# forks): pinned on the parent-forks-all pool, so that any other way of starting the workers (a zygote, a tree)
+# is held to the same behaviour
+
+
+def _exit_on_zero(i: int) -> int:
+    if i == 0:
+        sys.exit(3)  # not an Exception: the worker's loop does not catch it, its process ends
+    time.sleep(0.2)
+    return i
+
+
+class _Hung(Exception):
+    pass
+
+
+@contextlib.contextmanager
+def _deadline(seconds: int):
+    """A map that hangs raises _Hung after ``seconds`` (its workers killed by the pool) instead of holding the suite."""
+
+    def hung(*_):
+        raise _Hung
+
+    old = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def test_a_task_that_raises_system_exit_loses_only_its_worker_and_the_map_ends():
+    t = time.perf_counter()
+    with _deadline(30):
+        out = _collect(_exit_on_zero, list(range(6)), 3)
+    assert out[0] == (False, "worker lost: exit code 3")
+    assert all(out[i] == (True, i) for i in range(1, 6))
+    assert time.perf_counter() - t < 20  # a fork tree hung here for ever (the forker joined its own workers)
+
+
+def _killed_on_one(i: int) -> int:
+    if i == 1:
+        os.kill(os.getpid(), signal.SIGKILL)  # as the OOM killer or `kill -9` would
+    time.sleep(0.2)
+    return os.getpid()
+
+
+def test_a_sigkilled_worker_costs_its_task_only_and_every_worker_is_reaped(monkeypatch):
+    pids = _forked_pids(monkeypatch)
+    t = time.perf_counter()
+    with _deadline(30):
+        out = _collect(_killed_on_one, list(range(8)), 3)
+    assert out[1] == (False, "worker lost: exit code -9")
+    assert all(out[i][0] and out[i][1] in pids for i in range(8) if i != 1)
+    assert time.perf_counter() - t < 20  # no 5 s freeze per lost worker beyond its own task
+    assert len(pids) == 3 and all(_gone(p) for p in pids)
+
+
+def test_ctrl_c_between_two_forks_leaves_no_worker_behind(monkeypatch):
+    """KeyboardInterrupt right after the second fork returned, before the parent recorded that worker (a
+    Ctrl-C lands at the next bytecode of the main thread): the map raises at once; the recorded worker is
+    terminated, the unrecorded one ends on its pipe's EOF once the parent's frame is gone."""
+    import gc
+
+    pids = _forked_pids(monkeypatch)
+    fork, calls = forkpool._fork, []
+
+    def interrupted(p):
+        fork(p)
+        calls.append(p)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(forkpool, "_fork", interrupted)
+    t = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt) as caught:
+        _collect(_pid_then_sleep, [1, 2, 3, 4], 4)
+    assert time.perf_counter() - t < forkpool.KILL_GRACE_S + 5
+    del caught  # the traceback holds the parent's end of the unrecorded worker's pipe
+    gc.collect()
+    deadline = time.perf_counter() + 10
+    while not all(_gone(p) for p in pids) and time.perf_counter() < deadline:
+        multiprocessing.active_children()  # reaps the exited
+        time.sleep(0.05)
+    assert len(pids) == 2 and all(_gone(p) for p in pids)
