@@ -103,21 +103,25 @@ def fork_map(
             held[conn] = None
 
     release_freed_memory()  # fewer pages to copy at each fork (primitives.heap)
+    forked: list = []  # the fork in flight until procs records it: a Ctrl-C can land between the two (_stop_forked)
     try:
         with forking or contextlib.nullcontext():
             for _ in range(min(workers, len(items))):
                 c = time.process_time()
                 mine, theirs = ctx.Pipe(duplex=True)
                 p = ctx.Process(target=_worker, args=(theirs, [*procs, mine], fn, items, shared))
+                forked[:] = [mine, theirs, p]
                 try:
                     _fork(p)
                 except OSError:  # no fork (out of memory, process limit): run on the workers already made
+                    forked.clear()
                     mine.close()
                     theirs.close()
                     if not procs:
                         raise
                     break
                 procs[mine] = p
+                forked.clear()
                 theirs.close()
                 times.forks.append(time.process_time() - c)
                 feed(mine)
@@ -126,8 +130,23 @@ def fork_map(
             on_result(i, False, "not run: every worker of the pool was lost")
         _stop(procs, held)
     except BaseException:
+        _stop_forked(forked, procs)
         _kill(procs)
         raise
+
+
+def _stop_forked(forked: list, procs: dict) -> None:
+    """The worker forked when the map was interrupted, before it was recorded: stopped with the others when its
+    process has started, and in any case its pipe closed at once, so that a worker whose pid was never known
+    ends on the EOF (it takes no task before one is sent) instead of living as long as the interrupted frame."""
+    if not forked:
+        return
+    mine, theirs, p = forked
+    theirs.close()
+    if p.pid is not None:
+        procs[mine] = p  # _kill terminates, reaps and closes it
+    else:
+        mine.close()
 
 
 _HELD = {signal.SIGTERM, signal.SIGINT}  # blocked in a new worker until it has its own handlers
