@@ -25,6 +25,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
+from multiprocessing.process import BaseProcess
 from typing import Any
 
 from primitives.heap import release_freed_memory
@@ -103,25 +104,25 @@ def fork_map(
             held[conn] = None
 
     release_freed_memory()  # fewer pages to copy at each fork (primitives.heap)
-    forked: list = []  # the fork in flight until procs records it: a Ctrl-C can land between the two (_stop_forked)
+    pending: tuple[Connection, Connection, BaseProcess] | None = None  # the fork in flight until procs records it
     try:
         with forking or contextlib.nullcontext():
             for _ in range(min(workers, len(items))):
                 c = time.process_time()
                 mine, theirs = ctx.Pipe(duplex=True)
                 p = ctx.Process(target=_worker, args=(theirs, [*procs, mine], fn, items, shared))
-                forked[:] = [mine, theirs, p]
+                pending = (mine, theirs, p)  # a Ctrl-C can land between the fork and its record (_stop_forked)
                 try:
                     _fork(p)
                 except OSError:  # no fork (out of memory, process limit): run on the workers already made
-                    forked.clear()
+                    pending = None
                     mine.close()
                     theirs.close()
                     if not procs:
                         raise
                     break
                 procs[mine] = p
-                forked.clear()
+                pending = None
                 theirs.close()
                 times.forks.append(time.process_time() - c)
                 feed(mine)
@@ -130,23 +131,25 @@ def fork_map(
             on_result(i, False, "not run: every worker of the pool was lost")
         _stop(procs, held)
     except BaseException:
-        _stop_forked(forked, procs)
-        _kill(procs)
+        try:  # a second Ctrl-C inside _stop_forked must not skip _kill (the workers ignore SIGINT)
+            _stop_forked(pending, procs)
+        finally:
+            _kill(procs)
         raise
 
 
-def _stop_forked(forked: list, procs: dict) -> None:
+def _stop_forked(pending: tuple[Connection, Connection, BaseProcess] | None, procs: dict[Connection, BaseProcess]) -> None:
     """The worker forked when the map was interrupted, before it was recorded: stopped with the others when its
     process has started, and in any case its pipe closed at once, so that a worker whose pid was never known
     ends on the EOF (it takes no task before one is sent) instead of living as long as the interrupted frame."""
-    if not forked:
+    if pending is None:
         return
-    mine, theirs, p = forked
-    theirs.close()
+    mine, theirs, p = pending
     if p.pid is not None:
-        procs[mine] = p  # _kill terminates, reaps and closes it
+        procs[mine] = p  # _kill terminates, reaps and closes it: recorded first, before anything can raise
     else:
-        mine.close()
+        mine.close()  # the worker's only peer: it reads EOF
+    theirs.close()
 
 
 _HELD = {signal.SIGTERM, signal.SIGINT}  # blocked in a new worker until it has its own handlers
