@@ -152,14 +152,22 @@ def counters(runs: int, reps: int) -> None:
     run_chunk(sh, "random", range(8))  # the compiled passes loaded before the forks, as warm_compiled does
     tasks = cut_tasks(list(sh.designs), runs, plan_tasks(runs, len(sh.designs), 2))  # one task list for every W
     rows: dict[int, list[dict]] = {1: [], 2: [], 4: []}
+    failed: dict[int, list[str]] = {w: [] for w in rows}  # a failed task is said, not averaged away
+
+    def keep(w: int, ok: bool, out) -> None:
+        (rows[w].append(out) if ok else failed[w].append(str(out)))
+
     for _ in range(reps):
         for w in rows:
-            fork_map(_counted, tasks, w, sh, lambda i, ok, out, w=w: rows[w].append(out if ok else {}))
+            fork_map(_counted, tasks, w, sh, lambda i, ok, out, w=w: keep(w, ok, out))
         print(f"  rep done, load {os.getloadavg()[0]:.1f}", flush=True)
+    for w, errs in failed.items():
+        if errs:
+            print(f"W={w}: {len(errs)} of {reps * len(tasks)} tasks FAILED, left out of its figures: {errs[0]}")
     for w, rs in rows.items():
         for d in sh.designs:
             for first in (True, False):
-                sel = [r for r in rs if r and r["design"] == d and r["first"] == first]
+                sel = [r for r in rs if r["design"] == d and r["first"] == first]
                 n = sum(r["n"] for r in sel)
                 if n:
                     per = {k: sum(r[k] for r in sel) / n for k in sel[0] if k.startswith("ru_")}
@@ -168,6 +176,28 @@ def counters(runs: int, reps: int) -> None:
                         f"{1e3 * per['ru_utime']:.3f} ms, system {1e3 * per['ru_stime']:.3f} ms, minor faults "
                         f"{per['ru_minflt']:5.2f}, context switches voluntary {per['ru_nvcsw']:.3f} involuntary {per['ru_nivcsw']:.3f}"
                     )
+
+
+TERM_KEYS = {"fixed": dict, "per_run": dict, "first": list, "fork": float, "child": float, "serial": float, "infl": float}
+
+
+def parse_terms(text: str) -> dict:
+    """The ``--terms`` JSON (module docstring), checked: ValueError naming the bad key and what it needs."""
+    try:
+        t = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"not JSON ({e.msg} at character {e.pos}); give the keys {', '.join(TERM_KEYS)}") from None
+    if not isinstance(t, dict):
+        raise ValueError(f"a JSON object with the keys {', '.join(TERM_KEYS)} is needed")
+    for key, kind in TERM_KEYS.items():
+        v = t.get(key)
+        if kind is float and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            raise ValueError(f"key {key!r} must be a number (seconds; infl a ratio), got {v!r}")
+        if kind is dict and not (isinstance(v, dict) and set(v) == {"optimized", "random"}):
+            raise ValueError(f"key {key!r} must map 'optimized' and 'random' to seconds, got {v!r}")
+        if kind is list and not (isinstance(v, list) and len(v) == 2):
+            raise ValueError(f"key {key!r} must be [extra at 125 runs, extra at 250 runs] in seconds, got {v!r}")
+    return t
 
 
 def which_term(t: dict, ratios: list[float] | None = None) -> None:
@@ -185,6 +215,7 @@ def which_term(t: dict, ratios: list[float] | None = None) -> None:
         infl: bool = True,
         first: float = 1.0,
         fixed: float = 1.0,
+        tpw: int | None = None,
     ) -> float:
         cost = TaskCost({d: v * fixed for d, v in t["fixed"].items()}, t["per_run"])
         extra = lambda n: float(np.interp(n, (125, 250), t["first"]))  # noqa: E731 - as first_extra_curve
@@ -192,10 +223,19 @@ def which_term(t: dict, ratios: list[float] | None = None) -> None:
         starts = [(k + 1) * t["fork"] * fork + t["child"] * child for k in range(16)]
         s = 0.0 if serial is None else t["serial"] + serial  # None: without the serial rest
         pr = predict(
-            cost, names, 2000, 16, s, first_extra=lambda n: extra(n) * first, inflation=t["infl"] if infl else 1.0, starts=starts
+            cost,
+            names,
+            2000,
+            16,
+            s,
+            tasks_per_worker=tpw,
+            first_extra=lambda n: extra(n) * first,
+            inflation=t["infl"] if infl else 1.0,
+            starts=starts,
         )
         return inline / pr["wall"] / 16
 
+    print(f"terms: {json.dumps(t, sort_keys=True)}")
     print(f"16 workers, all terms: {eff():.3f}")
     for name, kw in (
         ("the forks' delay", {"fork": 0.0}),
@@ -207,6 +247,7 @@ def which_term(t: dict, ratios: list[float] | None = None) -> None:
     ):
         print(f"  without {name:26s}: {eff(**kw):.3f}")
     print("  fork cost x0.5 / x0.25 / x0.1: " + " / ".join(f"{eff(fork=f):.3f}" for f in (0.5, 0.25, 0.1)))
+    print("  1 / 2 / 4 tasks per worker: " + " / ".join(f"{eff(tpw=k):.3f}" for k in (1, 2, 4)))
     if ratios:
         z, c, cs = ratios
         print(
@@ -222,8 +263,13 @@ def main() -> None:
     ap.add_argument("--terms", help="which term: a JSON of one --scaling run's terms (module docstring)")
     ap.add_argument("--fork-ratios", type=float, nargs=3, metavar=("ZYGOTE", "COLLAPSE", "COLLAPSE_CPU_S"))
     a = ap.parse_args()
+    if a.fork_ratios and not a.terms:
+        ap.error("--fork-ratios scales the terms of --terms JSON: give --terms too")
     if a.terms:
-        which_term(json.loads(a.terms), a.fork_ratios)
+        try:
+            which_term(parse_terms(a.terms), a.fork_ratios)
+        except ValueError as e:
+            ap.error(f"--terms: {e}")
         return
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
     if a.counters:
