@@ -23,8 +23,10 @@ def _load(path: str) -> dict[tuple, list]:
 
 
 def _same(b: list, r: list) -> bool:
-    """Whether two rows hold the same fit: answer, warning text and fitted parameters (CPU, path and family aside)."""
-    extra = [{k: v for k, v in x[7].items() if k not in ("path", "family")} for x in (b, r)]
+    """Whether two rows hold the same fit: answer, warning text and the fitted parameters both rows record (CPU, path
+    and family aside; a later bench records more, e.g. ``m_sd`` and ``z_sd`` since stop 55's oracle)."""
+    keys = (b[7].keys() & r[7].keys()) - {"path", "family"}
+    extra = [{k: x[7][k] for k in keys} for x in (b, r)]
     return b[4:6] == r[4:6] and extra[0] == extra[1]
 
 
@@ -39,8 +41,16 @@ def _path(r: list) -> str:
     p = r[7].get("path")
     if p is None:
         return "-"
-    calls = " ".join(f"{n}{'*' if s == 0 else ''}" for n, s in p["exact"]["lm"])
-    return f"{p['path']:5} exact LMs [{calls}] res {p['exact']['residuals']} jac {p['exact']['jacobians']}"
+    out = f"{p['path']:9} exact LMs [{_calls(p['exact'])}] res {p['exact']['residuals']} jac {p['exact']['jacobians']}"
+    c = p.get("continued")  # the exact path's continuation (stop 56), when it was tried
+    if c is not None:
+        out += f"; continued [{_calls(c)}] res {c['residuals']} jac {c['jacobians']}"
+    return out
+
+
+def _calls(tally: dict) -> str:
+    """A path's LM calls' evaluations, ``*`` marking a call at its cap."""
+    return " ".join(f"{n}{'*' if s == 0 else ''}" for n, s in tally["lm"])
 
 
 def main() -> None:

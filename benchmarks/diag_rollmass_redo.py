@@ -67,9 +67,9 @@ def _exact_only(captured: dict) -> None:
         if lm is oe_fit._lm:
             raise _NoRedo
         captured["tally"] = tally
-        fit = orig(*args, lm=lm, tally=tally)
-        captured["fit"] = fit
-        return fit
+        end = orig(*args, lm=lm, tally=tally)
+        captured["fit"] = end.fit  # the exact path's own end, before any continuation (stop 56)
+        return end
 
     oe_fit._fit = spy
 

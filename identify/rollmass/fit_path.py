@@ -23,18 +23,22 @@ class PathTally:
 
 @dataclass
 class FitPath:
-    """The path a fit took: ``"exact"`` or ``"redo"`` (forward differences), why the exact path was
-    left (``""`` when it was not), and both paths' tallies (``redo`` is None on the exact path)."""
+    """The path a fit took: ``"exact"``, ``"continued"`` (the exact path's end continued, stop 56) or ``"redo"``
+    (forward differences), why the exact path's end was not kept (``""`` when it was), and each path's tally
+    (``continued`` and ``redo`` are None when not taken)."""
 
     path: str = "exact"
     why: str = ""
     exact: PathTally = field(default_factory=PathTally)
     redo: PathTally | None = None
+    # the exact path's continuation from where it ended unconverged (stop 56; None when it was not tried). ``path`` is
+    # ``"continued"`` when the continuation converged, ``"redo"`` when it did not either
+    continued: PathTally | None = None
 
     def record(self) -> dict[str, object]:
         """A JSON-ready summary (the truth bench's dump)."""
         out: dict[str, object] = {"path": self.path, "why": self.why}
-        for name, t in (("exact", self.exact), ("redo", self.redo)):
+        for name, t in (("exact", self.exact), ("continued", self.continued), ("redo", self.redo)):
             if t is not None:
                 out[name] = {"lm": [list(c) for c in t.lm], "residuals": t.residuals, "jacobians": t.jacobians}
         return out
