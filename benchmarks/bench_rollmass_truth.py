@@ -15,7 +15,7 @@ the paper's Table 3 (one real dataset per case).
     python benchmarks/bench_rollmass_truth.py --runs 100 --dump fam.jsonl --resume  # continue a stopped family
     python benchmarks/bench_rollmass_truth.py --runs 30 --only base/1/case1          # one fit of the 30-run family
 
-Each dumped row's last element also holds the fit's path (``path``: exact or forward-difference redo, why, each
+Each dumped row's last element also holds the fit's path (``path``: exact, continued or forward-difference redo, why, each
 LM call's evaluations; identify.rollmass.fit_path) and the family's settings (``family``), which ``--resume`` checks.
 """
 
@@ -186,9 +186,17 @@ def _locked(dump: Path) -> int:
     except BlockingIOError:
         os.close(fd)
         sys.exit(
-            f"{dump}: another process is writing this dump (it holds its lock); fix: wait for it to end, or give another --dump"
+            f"{dump}: another process is writing this dump (a running process holds its lock: see `ps`); fix: wait for it to end, or give another --dump"
         )
     return fd
+
+
+def _unlocked(fd: int) -> None:
+    """A pool worker's start: close the locked dump's descriptor it inherited from the fork. A worker holding it holds
+    the lock (the same open file description), so an orphaned worker of a killed bench kept "kill it, resume at once"
+    refused until its fit ended (62 s measured, stop 56 review); the parent's own descriptor keeps its lock."""
+    if fd >= 0:
+        os.close(fd)
 
 
 def _done(dump: Path, family: dict[str, object], fd: int) -> tuple[list[tuple], set[tuple]]:
@@ -278,7 +286,7 @@ def _rows(
         elif a.dump:  # a dump holds one family's rows: appending to an old one would mix runs of two families
             os.ftruncate(fd, 0)
         jobs, c_sim = _jobs(a, variants, cases, methods, done, only)
-        with Pool(a.workers) as pool:
+        with Pool(a.workers, initializer=_unlocked, initargs=(fd,)) as pool:  # also a worker the pool replaces
             for part in pool.imap(_one, jobs):
                 for r in part:
                     rows.append(r)
