@@ -174,6 +174,30 @@ def test_an_exact_path_ending_unconverged_goes_on_from_where_it_stopped(monkeypa
     assert abs(e.m - free.m) < 0.2 * e.m_sd and abs(e.zbar_m - free.zbar_m) < 0.2 * e.zbar_m_sd
 
 
+def test_an_exact_end_the_finish_never_judged_is_redone_not_continued(case2, monkeypatch):
+    """Stop 56 review: the continuation is for an end the finish judged short of stationary (a finite decrement). An
+    exact path whose last LM failed (here a stub: not successful, not at its cap) is never finished, so it goes to the
+    forward-difference redo from both starts as before, not on from its point. The guard on a finite point alone fails."""
+    calls = []
+
+    def as_(name, ok):
+        def lm(prob, x0, tol):
+            calls.append(name)
+            f = prob.residual(x0)
+            status, msg = (2, "stub") if ok else (-1, "diverged stub")
+            return OptimizeResult(x=x0, fun=f, cost=0.5 * f @ f, jac=prob.jacobian(x0), success=ok, status=status, message=msg)
+
+        return lm
+
+    monkeypatch.setattr(fit, "_lm_exact", as_("exact", False))
+    monkeypatch.setattr(fit, "_lm_continue", as_("continue", True))
+    monkeypatch.setattr(fit, "_lm", as_("fd", True))
+    e = estimate(case2, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
+    p = e.fit_path
+    assert calls == ["exact"] * 5 + ["fd"] * 5 and p.continued is None
+    assert p.path == "redo" and p.why == "not converged: diverged stub"
+
+
 @pytest.mark.slow
 def test_without_the_covariance_a_capped_exact_lm_is_still_redone(monkeypatch):
     """Without ``with_cov`` there is no finish to judge a capped LM's point stationary: main's rule holds there (any

@@ -14,7 +14,12 @@ import numpy as np
 class PathTally:
     """One path's cost: each LM call's (evaluations as scipy counts them, status; 0 = its evaluation cap, -1 = unknown: a result without one), and
     every residual and Jacobian evaluation of the path (forward-difference columns and the Gauss-Newton finish
-    included)."""
+    included). The two counts differ in kind: ``lm`` holds MINPACK's ``nfev``, the residuals the problem's own
+    evaluations. scipy (1.17) returns its cached residual where MINPACK asks again at the point it has just evaluated,
+    so an LM's evaluations of the problem are its ``nfev`` less such repeats and ``residuals`` can fall short of the
+    LMs' ``nfev`` plus the finish's: on the basin truth's waves/6/case1 the continuation's LM has ``nfev`` 116, one at a
+    repeated point, so 115 reached the problem, and the finish's 1 makes 116 (stop 56 review, measured by wrapping
+    MINPACK's calls)."""
 
     lm: list[tuple[int, int]] = field(default_factory=list)
     residuals: int = 0
