@@ -1,6 +1,7 @@
 """Pair the fits of two truth-bench dumps (benchmarks/bench_rollmass_truth.py --dump) of the same family, fit by fit
 (stop 55): CPU, mass % and z mm error, whether both intervals hold the truth, before and after, and the path the
-"after" fit took (identify.rollmass.fit_path, when its dump records it); a fit whose row is bit-identical says so.
+"after" fit took (identify.rollmass.fit_path, when its dump records it); a fit whose row is bit-identical says so
+(or that its shared fields are, naming the fields only one row records).
 
     python benchmarks/compare_rollmass_dumps.py benchmarks/rollmass_family_s54.jsonl benchmarks/rollmass_redo_s55.jsonl
 """
@@ -22,10 +23,19 @@ def _load(path: str) -> dict[tuple, list]:
     return out
 
 
-def _same(b: list, r: list) -> bool:
-    """Whether two rows hold the same fit: answer, warning text and fitted parameters (CPU, path and family aside)."""
-    extra = [{k: v for k, v in x[7].items() if k not in ("path", "family")} for x in (b, r)]
-    return b[4:6] == r[4:6] and extra[0] == extra[1]
+def _same(b: list, r: list) -> str:
+    """How far two rows hold the same fit (answer, warning text and fitted parameters; CPU, path and family aside):
+    ``" (row bit-identical)"``; ``" (shared fields bit-identical; only after: m_sd, z_sd)"`` when the fields both record
+    agree but one row records a field the other does not (a difference, said: a later bench records more, e.g.
+    ``m_sd`` and ``z_sd`` since stop 55's oracle, and a row that drops a field is not the same row); else ``""``."""
+    skip = {"path", "family"}
+    kb, kr = b[7].keys() - skip, r[7].keys() - skip
+    if b[4:6] != r[4:6] or any(b[7][k] != r[7][k] for k in kb & kr):
+        return ""
+    if kb == kr:
+        return " (row bit-identical)"
+    one = [f"only {which}: {', '.join(sorted(k))}" for which, k in (("before", kb - kr), ("after", kr - kb)) if k]
+    return f" (shared fields bit-identical; {'; '.join(one)})"
 
 
 def _answer(r: list) -> str:
@@ -39,8 +49,16 @@ def _path(r: list) -> str:
     p = r[7].get("path")
     if p is None:
         return "-"
-    calls = " ".join(f"{n}{'*' if s == 0 else ''}" for n, s in p["exact"]["lm"])
-    return f"{p['path']:5} exact LMs [{calls}] res {p['exact']['residuals']} jac {p['exact']['jacobians']}"
+    out = f"{p['path']:9} exact LMs [{_calls(p['exact'])}] res {p['exact']['residuals']} jac {p['exact']['jacobians']}"
+    c = p.get("continued")  # the exact path's continuation (stop 56), when it was tried
+    if c is not None:
+        out += f"; continued [{_calls(c)}] res {c['residuals']} jac {c['jacobians']}"
+    return out
+
+
+def _calls(tally: dict) -> str:
+    """A path's LM calls' evaluations, ``*`` marking a call at its cap."""
+    return " ".join(f"{n}{'*' if s == 0 else ''}" for n, s in tally["lm"])
 
 
 def main() -> None:
@@ -56,9 +74,8 @@ def main() -> None:
         if b is None:
             continue
         tot[0], tot[1] = tot[0] + b[6], tot[1] + r[6]
-        same = " (row bit-identical)" if _same(b, r) else ""
         fit = f"{key[0]}/{key[3]}/{key[1]}"
-        print(f"{fit:24} {b[6]:6.1f} {r[6]:6.1f} | {_answer(b)} | {_answer(r)} | {_path(r)}{same}")
+        print(f"{fit:24} {b[6]:6.1f} {r[6]:6.1f} | {_answer(b)} | {_answer(r)} | {_path(r)}{_same(b, r)}")
     print(f"total of the paired fits: {tot[0]:.0f} s cpu before, {tot[1]:.0f} s after")
 
 

@@ -1,10 +1,11 @@
 """Why a truth-bench ``oe`` fit leaves the exact-Jacobian path for the forward-difference redo (stop 55).
 
 Re-runs fits of a :mod:`benchmarks.bench_rollmass_truth` family (same seeds and ships: give the family's
-``--runs``) on the exact path ALONE: the redo is not run (it is stopped at its first call), so a fit costs its exact
-path only. Per fit it prints whether the exact path was kept or would be redone, each LM call's (evaluations,
+``--runs``) on the exact path ALONE: neither the continuation of an unconverged exact end (stop 56) nor the redo is
+run (each is stopped at its first call), so a fit costs its exact path only. Per fit it prints whether the exact path
+was kept or would be continued (then redone if still unconverged) or redone at once, each LM call's (evaluations,
 status; 0 = at the cap ``oe_fit.LM_NFEV_EXACT``), the exact path's own answer when it has one (mass % and z mm error,
-converged, decrement) and, from the given dump, the answer the full fit reported. ``--cap`` overrides
+converged, decrement) and, from the given dump, the answer the full fit reported and the path it recorded. ``--cap`` overrides
 ``LM_NFEV_EXACT`` (a looser budget's experiment); ``--stop-at-cap`` is the fit before stop 55, whose exact path was
 abandoned at the first LM at its cap ("redo (capped)").
 
@@ -39,6 +40,14 @@ class _NoRedo(Exception):
     """Raised at the redo's first LM call: this diagnostic measures the exact path only."""
 
 
+class _NoContinuation(Exception):
+    """Raised where the exact path's unconverged end would be continued (stop 56): the exact path only, too."""
+
+
+def _no_continuation(*args: object) -> object:
+    raise _NoContinuation
+
+
 class _Capped(Exception):
     """An exact LM reached its cap under ``--stop-at-cap`` (the fit before stop 55 left the exact path there)."""
 
@@ -60,18 +69,19 @@ def _stopping_at_cap(lm: object, tally_of: dict) -> object:
 
 
 def _exact_only(captured: dict) -> None:
-    """Patch oe_fit so the exact path's fit is kept in ``captured`` and the redo stops at once."""
+    """Patch oe_fit so the exact path's fit is kept in ``captured`` and the continuation and the redo stop at once."""
     orig = oe_fit._fit
 
     def spy(*args: object, lm: object, tally: PathTally) -> object:
         if lm is oe_fit._lm:
             raise _NoRedo
         captured["tally"] = tally
-        fit = orig(*args, lm=lm, tally=tally)
-        captured["fit"] = fit
-        return fit
+        end = orig(*args, lm=lm, tally=tally)
+        captured["fit"] = end.fit  # the exact path's own end (the continuation, stop 56, is stopped below)
+        return end
 
     oe_fit._fit = spy
+    oe_fit._continued = _no_continuation
 
 
 def _select(rows: list, a: argparse.Namespace) -> list[tuple[str, int, str]]:
@@ -113,6 +123,8 @@ def main() -> None:
             try:
                 estimate_from_files(*paths, method="oe")
                 why = "exact path kept"
+            except _NoContinuation:
+                why = "continued (then redone if still unconverged)"
             except _NoRedo:
                 why = "redo"
             except _Capped:
@@ -125,6 +137,8 @@ def main() -> None:
             ans += "" if f.converged else f" ({f.message[-70:]})"
         old = by_key.get((variant, run, case))
         was = "failed" if old is None or old[4] is None else f"m {old[4][0]:+7.2f} % z {old[4][1]:+7.1f} mm"
+        if old is not None and len(old) > 7 and isinstance(old[7], dict) and "path" in old[7]:
+            was += f" path {old[7]['path']['path']}"  # the full fit's recorded path (stop 55 on)
         print(
             f"{variant}/{run}/{case}: {why}; exact LM calls {t.lm if t else '-'} res {t.residuals if t else '-'} "
             f"jac {t.jacobians if t else '-'}; exact {ans}; dump {was} "

@@ -142,8 +142,10 @@ def main() -> None:
     )
     paths = [r[7].get("path", {}).get("path") if isinstance(r[7], dict) else None for r in rows]
     if all(paths):  # a dump since stop 55 records the path: the split is exact
-        redo = np.array([p == "redo" for p in paths])
+        redo, cont = np.array([p == "redo" for p in paths]), np.array([p == "continued" for p in paths])
         print(f"fits that took the redo (recorded): {int(redo.sum())} of {len(cpu)}, {cpu[redo].sum():.0f} s cpu")
+        if cont.any():  # stop 56: the exact path's end continued to a stationary point, no redo
+            print(f"fits whose exact path was continued (recorded): {int(cont.sum())}, {cpu[cont].sum():.0f} s cpu")
     slow = sorted(rows, key=lambda r: -r[6])[:5]
     print("slowest fits: " + "; ".join(f"{r[0]} {r[1]} run {r[3]} {r[6]:.0f} s" for r in slow))
 

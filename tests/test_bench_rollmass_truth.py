@@ -1,11 +1,17 @@
 """benchmarks/bench_rollmass_truth.py (stop 55): a family resumed from an interrupted --dump has the rows of an
 uninterrupted run, --only makes the fits of the same family, and a dump of another family or code, with a fit twice
-or a broken line is refused (a last line cut by an interrupted write is dropped and refit)."""
+or a broken line is refused (a last line cut by an interrupted write is dropped and refit); stop 56: a dump another
+process holds is refused (and no pool worker holds it), and the code key covers the project modules the estimator
+imports."""
 
 from __future__ import annotations
 
+import fcntl
 import json
+import os
+import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -97,3 +103,60 @@ def test_an_only_that_names_no_fit_is_a_usage_error(monkeypatch, capsys, tmp_pat
         _bench(monkeypatch, capsys, "--dump", str(dump), "--only", f"base/0/case2,{spec}")
     assert exc.value.code == 2 and f"--only {spec}: no such fit of this family" in capsys.readouterr().err
     assert dump.read_text() == "kept\n"  # no dump written
+
+
+def test_a_dump_another_process_holds_is_refused_and_left(short, monkeypatch, capsys, tmp_path):
+    """Stop 56: the bench locks its --dump (fcntl.flock); a second writer, resuming or starting it, is refused in one
+    line and the file is left (a fresh run would otherwise empty the first one's rows)."""
+    dump = tmp_path / "d.jsonl"
+    _bench(monkeypatch, capsys, "--dump", str(dump), "--only", "base/0/case2")
+    text = dump.read_text()
+    with open(dump) as other:  # another process's lock: a second open file description, as another process has
+        fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        for args in (["--resume"], []):
+            with pytest.raises(SystemExit) as exc:
+                _bench(monkeypatch, capsys, "--dump", str(dump), *args)
+            assert "another process is writing this dump" in str(exc.value) and "fix:" in str(exc.value)
+            assert "\n" not in str(exc.value) and dump.read_text() == text
+    _bench(monkeypatch, capsys, "--dump", str(dump), "--resume", "--only", "base/1/case2")  # released: resumes
+    assert len(dump.read_text().splitlines()) == 2
+
+
+def _dump_not_open_here(job: tuple) -> list[tuple]:
+    """The bench's fit (``bench._one``), in a pool worker that has checked it holds no descriptor of the dump (an
+    inherited one would hold the parent's lock: a killed bench's orphaned worker kept it until its fit ended)."""
+    fds = Path("/proc/self/fd")
+    held = [fd.name for fd in fds.iterdir() if os.path.realpath(fd) == os.path.realpath(os.environ["BENCH_TEST_DUMP"])]
+    assert not held, f"worker {os.getpid()} holds the dump open (fd {held}), and with it the lock"
+    return _REAL_ONE(job)
+
+
+_REAL_ONE = bench._one
+
+
+@pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="needs /proc (Linux)")
+def test_no_pool_worker_holds_the_dump_or_its_lock(short, monkeypatch, capsys, tmp_path):
+    """Stop 56 review: the workers are forked after the dump is locked; each closes its inherited descriptor, so only
+    the bench's own process holds the lock (a killed bench's dump can be resumed at once) and rows are still written."""
+    dump = tmp_path / "d.jsonl"
+    monkeypatch.setenv("BENCH_TEST_DUMP", str(dump))
+    monkeypatch.setattr(bench, "_one", _dump_not_open_here)  # forked workers see the patched module
+    _bench(monkeypatch, capsys, "--dump", str(dump), "--only", "base/0/case2,base/1/case2", "--workers", "2")
+    assert len(dump.read_text().splitlines()) == 2
+    with open(dump) as mine:  # released with the bench's own descriptor: lockable at once
+        fcntl.flock(mine, fcntl.LOCK_EX | fcntl.LOCK_NB)
+
+
+def test_the_code_hash_covers_every_project_module_the_estimator_imports():
+    """Stop 56: :data:`bench.ESTIMATOR_IMPORTS` is the project's modules outside identify/rollmass/ that a fresh
+    interpreter loads with the estimator (identify.rollmass.api), so an edit to one of them refuses a resume."""
+    code = (
+        "import sys, identify.rollmass.api\n"
+        "print('\\n'.join(sorted(m.__file__ for n, m in sys.modules.items() if getattr(m, '__file__', None))))"
+    )
+    root = Path(bench.__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, check=True).stdout
+    files = {Path(f).resolve() for f in out.splitlines()}
+    mine = sorted(f.relative_to(root).as_posix() for f in files if f.is_relative_to(root))
+    outside = [f for f in mine if not f.startswith("identify/rollmass/")]
+    assert outside == sorted(bench.ESTIMATOR_IMPORTS)

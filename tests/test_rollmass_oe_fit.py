@@ -71,11 +71,14 @@ def test_a_fit_stopped_short_of_a_stationary_point_is_said(case2, monkeypatch):
 
     monkeypatch.setattr(fit, "_lm", stuck_as("fd"))
     monkeypatch.setattr(fit, "_lm_exact", stuck_as("exact"))
+    monkeypatch.setattr(fit, "_lm_continue", stuck_as("continue"))
     monkeypatch.setattr(fit, "FINISH_STEPS", 0)
     e = estimate(case2, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
     assert not e.converged
     assert any("not at a stationary point" in w for w in e.warnings)
-    assert calls == ["exact"] * 5 + ["fd"] * 5  # the whole fit on each path: ship start, two joint starts, two reweights
+    # the whole fit on each path: ship start, two joint starts, two reweights; between them (stop 56) the exact path's
+    # last stage continued once from where it stopped
+    assert calls == ["exact"] * 5 + ["continue"] + ["fd"] * 5
 
 
 def _spy(monkeypatch, name: str) -> list:
@@ -113,6 +116,7 @@ def test_an_exact_path_ending_unconverged_is_redone_on_forward_differences(case2
     the path ending not stationary (here: no finishing steps) is redone on forward differences (here a stub that
     stays where it starts); that path's answer is the one returned."""
     monkeypatch.setattr(fit, "LM_NFEV_EXACT", 2)
+    monkeypatch.setattr(fit, "LM_NFEV_CONTINUE", 2)  # the continuation (stop 56) stops short too
     monkeypatch.setattr(fit, "FINISH_STEPS", 0)
     starts = []
 
@@ -129,6 +133,7 @@ def test_an_exact_path_ending_unconverged_is_redone_on_forward_differences(case2
     p = e.fit_path
     assert p.path == "redo" and p.why.startswith("not converged: ") and "not at a stationary point" in p.why
     assert [s for _, s in p.exact.lm] == [0] * 5 and p.exact.residuals >= 10
+    assert p.continued.lm == [(2, 0)] and "continued, still not converged" in p.why
     assert len(p.redo.lm) == 5 and p.redo.residuals == 6  # the stub once a call, the finish once at its start
 
 
@@ -144,6 +149,53 @@ def test_a_capped_exact_lm_goes_on_to_a_converged_exact_fit(monkeypatch):
     assert (12, 0) in e.fit_path.exact.lm  # an LM did stop at its cap
     assert e.fit_path.path == "exact" and e.fit_path.redo is None and e.converged
     assert abs(e.m - free.m) < 0.01 * e.m_sd and abs(e.zbar_m - free.zbar_m) < 0.01 * e.zbar_m_sd
+
+
+def test_an_exact_path_ending_unconverged_goes_on_from_where_it_stopped(monkeypatch):
+    """Stop 56: where the exact path ends unconverged, its last stage goes on from where it stopped (one exact LM of
+    at most ``LM_NFEV_CONTINUE`` evaluations, then the finish) before any forward-difference redo. Bundled example
+    (``mass-sim --case case1 --seed 3``) with every exact LM capped at 2 evaluations and no finishing steps: the exact
+    path ends not stationary, the continuation converges (measured: 5 evaluations), no forward-difference LM runs.
+    Its load is 0.13 / 0.15 SE from the uncapped fit's: the same data, but the reweighting stages ran from capped LMs'
+    points, so the last stage's weights and whiteners (its cost) differ. Main (the redo at once) fails: its path is
+    ``"redo"``."""
+    ds = simulate_case(PROF, "case1", Noise.from_profile(PROF), seed=3)
+    free = estimate(ds, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
+    monkeypatch.setattr(fit, "LM_NFEV_EXACT", 2)
+    monkeypatch.setattr(fit, "FINISH_STEPS", 0)
+    fd = _spy(monkeypatch, "_lm")
+    e = estimate(ds, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
+    p = e.fit_path
+    assert p.path == "continued" and p.redo is None and not fd and e.converged
+    assert [s for _, s in p.exact.lm] == [0] * 5 and "not at a stationary point" in p.why
+    assert len(p.continued.lm) == 1 and p.continued.lm[0][1] > 0  # one LM, ended by its tolerance, not its cap
+    assert p.continued.residuals > p.continued.lm[0][0]  # its LM's evaluations and the finish's
+    assert p.record()["continued"]["lm"] == [list(p.continued.lm[0])]
+    assert abs(e.m - free.m) < 0.2 * e.m_sd and abs(e.zbar_m - free.zbar_m) < 0.2 * e.zbar_m_sd
+
+
+def test_an_exact_end_the_finish_never_judged_is_redone_not_continued(case2, monkeypatch):
+    """Stop 56 review: the continuation is for an end the finish judged short of stationary (a finite decrement). An
+    exact path whose last LM failed (here a stub: not successful, not at its cap) is never finished, so it goes to the
+    forward-difference redo from both starts as before, not on from its point. The guard on a finite point alone fails."""
+    calls = []
+
+    def as_(name, ok):
+        def lm(prob, x0, tol):
+            calls.append(name)
+            f = prob.residual(x0)
+            status, msg = (2, "stub") if ok else (-1, "diverged stub")
+            return OptimizeResult(x=x0, fun=f, cost=0.5 * f @ f, jac=prob.jacobian(x0), success=ok, status=status, message=msg)
+
+        return lm
+
+    monkeypatch.setattr(fit, "_lm_exact", as_("exact", False))
+    monkeypatch.setattr(fit, "_lm_continue", as_("continue", True))
+    monkeypatch.setattr(fit, "_lm", as_("fd", True))
+    e = estimate(case2, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
+    p = e.fit_path
+    assert calls == ["exact"] * 5 + ["fd"] * 5 and p.continued is None
+    assert p.path == "redo" and p.why == "not converged: diverged stub"
 
 
 @pytest.mark.slow

@@ -14,7 +14,12 @@ import numpy as np
 class PathTally:
     """One path's cost: each LM call's (evaluations as scipy counts them, status; 0 = its evaluation cap, -1 = unknown: a result without one), and
     every residual and Jacobian evaluation of the path (forward-difference columns and the Gauss-Newton finish
-    included)."""
+    included). The two counts differ in kind: ``lm`` holds MINPACK's ``nfev``, the residuals the problem's own
+    evaluations. scipy (1.17) returns its cached residual where MINPACK asks again at the point it has just evaluated,
+    so an LM's evaluations of the problem are its ``nfev`` less such repeats and ``residuals`` can fall short of the
+    LMs' ``nfev`` plus the finish's: on the basin truth's waves/6/case1 the continuation's LM has ``nfev`` 116, one at a
+    repeated point, so 115 reached the problem, and the finish's 1 makes 116 (stop 56 review, measured by wrapping
+    MINPACK's calls)."""
 
     lm: list[tuple[int, int]] = field(default_factory=list)
     residuals: int = 0
@@ -23,18 +28,22 @@ class PathTally:
 
 @dataclass
 class FitPath:
-    """The path a fit took: ``"exact"`` or ``"redo"`` (forward differences), why the exact path was
-    left (``""`` when it was not), and both paths' tallies (``redo`` is None on the exact path)."""
+    """The path a fit took: ``"exact"``, ``"continued"`` (the exact path's end continued, stop 56) or ``"redo"``
+    (forward differences), why the exact path's end was not kept (``""`` when it was), and each path's tally
+    (``continued`` and ``redo`` are None when not taken)."""
 
     path: str = "exact"
     why: str = ""
     exact: PathTally = field(default_factory=PathTally)
     redo: PathTally | None = None
+    # the exact path's continuation from where it ended unconverged (stop 56; None when it was not tried). ``path`` is
+    # ``"continued"`` when the continuation converged, ``"redo"`` when it did not either
+    continued: PathTally | None = None
 
     def record(self) -> dict[str, object]:
         """A JSON-ready summary (the truth bench's dump)."""
         out: dict[str, object] = {"path": self.path, "why": self.why}
-        for name, t in (("exact", self.exact), ("redo", self.redo)):
+        for name, t in (("exact", self.exact), ("continued", self.continued), ("redo", self.redo)):
             if t is not None:
                 out[name] = {"lm": [list(c) for c in t.lm], "residuals": t.residuals, "jacobians": t.jacobians}
         return out
