@@ -47,7 +47,13 @@ def _as_batch(data: YawData, names: tuple[str, ...]) -> dict[str, np.ndarray]:
 
 
 def simulate_yaw(
-    model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], r0: np.ndarray, ts: float, sensitivities: bool = True
+    model: YawModel,
+    theta: np.ndarray,
+    w: dict[str, np.ndarray],
+    r0: np.ndarray,
+    ts: float,
+    sensitivities: bool = True,
+    extra: dict[str, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Predicted yaw rate (B, N) of (2.17)/(2.18) and its sensitivities (B, N, p) to theta (B, p)
     (None with ``sensitivities=False``), from the measured inputs ``w`` (B, N) and ``r0`` (B,).
@@ -57,7 +63,10 @@ def simulate_yaw(
     sensitivities it needs memory of the order of the inputs only (a detector's 400 no-change
     records of a long recording); compiled when numba is there and the batch is large, else for
     float64 inputs numpy's loop without per-term calls (:mod:`identify.yawid.yawloop`: the compiled one this loop's
-    bits, the numpy one to rounding)."""
+    bits, the numpy one to rounding). ``extra`` (B, N) per signal is added to ``w``'s: by blocks inside numpy's
+    loop (:func:`identify.yawid.yawloop.simulate_numpy`), else before the simulation (the same bits either way)."""
+    if extra and (sensitivities or not yawloop.stepped(model, w) or yawloop.usable(model, w, *w["u"].shape)):
+        w, extra = {k: x + extra[k] if k in extra else x for k, x in w.items()}, None
     b, n = w["u"].shape
     p = len(model.params)
     col = {name: j for j, name in enumerate(model.params)}
@@ -69,7 +78,7 @@ def simulate_yaw(
         return yawloop.simulate(model, theta, col, w, r0, ts), None
     if not sensitivities and yawloop.stepped(model, w):  # to rounding, without per-term calls (yawloop), by blocks
         forcing = lambda part: _input_forcing(model, theta, part, col, time_major=False)  # noqa: E731
-        return yawloop.simulate_numpy(model, theta, col, forcing, w, r0, ts), None
+        return yawloop.simulate_numpy(model, theta, col, forcing, w, r0, ts, extra), None
     forcing = _input_forcing(model, theta, w, col, reg)
     r_hat = np.empty((b, n))
     sens = np.zeros((b, n, p)) if sensitivities else None

@@ -134,6 +134,7 @@ def simulate_numpy(
     w: dict[str, np.ndarray],
     r0: float | np.ndarray,
     ts: float,
+    extra: dict[str, np.ndarray] | None = None,
 ) -> np.ndarray:
     """:func:`simulate` in numpy: the explicit Euler step of (2.17)/(2.18) over the batch, one sample at a time,
     with the step's terms grouped by how they hold r (stop 51):
@@ -149,7 +150,9 @@ def simulate_numpy(
     (the Python call per operation, not the arithmetic, is the cost at 400 members). The generic loop's sum
     (:func:`identify.yawid.estimate.simulate_yaw`) in another order: equal to rounding, not to the bit
     (tests/test_yawloop.py: within 1e-13 of the yaw rate's scale on random inputs). Up to :data:`FLOATS` members
-    are stepped on Python floats (:func:`_one`), the same IEEE operations in the same order: this loop's bits."""
+    are stepped on Python floats (:func:`_one`), the same IEEE operations in the same order: this loop's bits.
+    ``extra`` (B or 1, N) per signal is added to ``w``'s a block of samples at a time: the same bits as adding it
+    first, without the whole (B, N) sums in memory (a detector's no-change records: 16 MB of fresh pages each)."""
     b, n = w["u"].shape
     theta = np.ascontiguousarray(theta, dtype=float)
     out = np.empty((n, b))
@@ -161,9 +164,10 @@ def simulate_numpy(
     step = n if b <= FLOATS else max(16, BLOCK // b)
     bufs = (np.empty(b), np.empty(b), np.empty(b))
     w = {k: x[:1] if x.shape[0] > 1 and x.strides[0] == 0 else x for k, x in w.items()}  # a broadcast row: one row
+    extra = {k: x[:1] if x.shape[0] > 1 and x.strides[0] == 0 else x for k, x in (extra or {}).items()}
     for k0 in range(0, n - 1, step):
         sl = slice(k0, min(k0 + step, n - 1))
-        part = {k: x[:, sl] for k, x in w.items()}
+        part = {k: x[:, sl] + extra[k][:, sl] if k in extra else x[:, sl] for k, x in w.items()}
         a, bk, c = _coefficients(model, theta, col, forcing(part), part, scale)
         if b <= FLOATS:
             for i in range(b):
