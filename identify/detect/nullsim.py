@@ -75,9 +75,9 @@ def null_records(
     taus = noise_taus(prior, ("r", *clean))
     if derive is None or getattr(derive, "linear", False):
         r_noise, innovations, noise = _linear_noise(prior, tuple(clean), n, runs, seed, blocks, sds, derive, draws, taus)
-        # before _measured: it may write the yaw rate's noise over r_noise
         signal = _linear_inputs(prior, clean, r_true, derive)
-        # the records' inputs are signal + noise, summed by blocks as the loop reads them (no 5 x 16 MB of sums)
+        # the records' inputs are signal + noise, summed by blocks as the loop reads them (no 5 x 16 MB of sums);
+        # before _measured: it may write the yaw rate's noise over r_noise
         r_hat = simulate_r(prior.kind, prior.values, signal, prior.dt, r0=r0, extra=noise)
         out = _measured(r_true, r_noise)
         out -= r_hat  # in place: the same bits as (measured - r_hat) + offsets, without the (n, runs) temporaries
@@ -253,8 +253,10 @@ def add_misfit(out: np.ndarray, prior: YawPrior, z: np.ndarray) -> np.ndarray:
     samples after the last whole block (as the offsets' zeros: ``-0.0 + 0.0`` is ``+0.0``)."""
     n, runs = out.shape
     nb = n // prior.block if prior.model_error > 0 else 0
-    if nb:  # splitting the time axis is a view whatever the layout (copy=False raises otherwise)
-        view = np.reshape(out.T[:, : nb * prior.block], (runs, nb, prior.block), copy=False)
+    if nb:  # splitting one axis is a view whatever the layout; checked: a copy would lose the sum silently
+        view = out.T[:, : nb * prior.block].reshape(runs, nb, prior.block)
+        if not np.shares_memory(view, out):
+            raise RuntimeError("add_misfit: the (runs, blocks, block) reshape copied the records")
         view += _misfit_blocks(prior, nb, runs, None, z).T[:, :, None]
     out[nb * prior.block :] += 0.0
     return out

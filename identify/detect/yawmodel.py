@@ -261,11 +261,13 @@ def simulate_r(
     th = _theta(kind, theta)
     model = YAW_MODELS[kind]
     names = tuple(map(prior_name, model.params))
-    unit = np.ndim(gain) == 0 and float(gain) == 1.0  # x * 1.0 is x: no (n, cols) product to make
-    if extra and not unit:  # the gain scales the sum: formed whole, as before
-        sig, extra = {k: s + extra[k] if k in extra else s for k, s in sig.items()}, None
-    extra = extra or {}
-    tau = sig["tau_r"] if unit else np.asarray(gain) * sig["tau_r"]
+    # only the signals the model reads: an extra entry for another must not change the shape (nor fail it)
+    extra = {k: x for k, x in (extra or {}).items() if k in (*model.signals, "tau_r")}
+    # x * 1.0 is x for float64 (no (n, cols) product to make); another dtype is made float64 by it, as before
+    unit = np.ndim(gain) == 0 and float(gain) == 1.0 and np.asarray(sig["tau_r"]).dtype == np.float64
+    tau = sig["tau_r"]
+    if not unit:  # the gain scales tau_r's sum: that one formed whole, as before; the others added in the loop
+        tau = np.asarray(gain) * ((tau + extra.pop("tau_r")) if "tau_r" in extra else tau)
     shapes = [np.shape(x) for x in (tau, *(sig[k] for k in model.signals), *extra.values())]
     shape = np.broadcast_shapes(*shapes, *(np.shape(th[k]) for k in names))
     cols = shape[1] if len(shape) == 2 else 1
@@ -277,8 +279,8 @@ def simulate_r(
     w = {k: batch(sig[k]) for k in model.signals} | {"tau_r": batch(tau)}
     theta_b = np.stack([np.broadcast_to(np.asarray(th[k], float), (cols,)) for k in names], axis=1)
     r0s = np.full(cols, float(r0)) if np.ndim(r0) == 0 else np.array(r0, dtype=float).reshape(cols)
-    added = {k: batch(x) for k, x in extra.items() if k in w}
-    r_hat, _ = simulate_yaw(model, theta_b, w, r0s, dt, sensitivities=False, extra=added)
+    more = {k: batch(x) for k, x in extra.items()}
+    r_hat, _ = simulate_yaw(model, theta_b, w, r0s, dt, sensitivities=False, extra=more)
     return np.ascontiguousarray(r_hat.T) if len(shape) == 2 else r_hat[0]
 
 

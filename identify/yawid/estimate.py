@@ -63,10 +63,13 @@ def simulate_yaw(
     sensitivities it needs memory of the order of the inputs only (a detector's 400 no-change
     records of a long recording); compiled when numba is there and the batch is large, else for
     float64 inputs numpy's loop without per-term calls (:mod:`identify.yawid.yawloop`: the compiled one this loop's
-    bits, the numpy one to rounding). ``extra`` (B, N) per signal is added to ``w``'s: by blocks inside numpy's
-    loop (:func:`identify.yawid.yawloop.simulate_numpy`), else before the simulation (the same bits either way)."""
-    if extra and (sensitivities or not yawloop.stepped(model, w) or yawloop.usable(model, w, *w["u"].shape)):
-        w, extra = {k: x + extra[k] if k in extra else x for k, x in w.items()}, None
+    bits, the numpy one to rounding). ``extra`` per signal, each of its ``w`` signal's (B, N) shape (broadcast views
+    are fine), is added to ``w``'s: by blocks inside numpy's loop (:func:`identify.yawid.yawloop.simulate_numpy`), else
+    before the simulation (:func:`identify.yawid.yawloop.added`; the same bits either way). The loop is chosen as for the
+    sums: ``w`` all float64 (so are the sums), else they are formed first and the loops' own dtype checks decide."""
+    doubles = all(np.asarray(x).dtype == np.float64 for x in w.values())
+    if extra and (sensitivities or not doubles or not yawloop.stepped(model, w) or yawloop.usable(model, w, *w["u"].shape)):
+        w, extra = yawloop.added(w, extra), None
     b, n = w["u"].shape
     p = len(model.params)
     col = {name: j for j, name in enumerate(model.params)}

@@ -126,6 +126,13 @@ def stepped(model: YawModel, w: dict[str, np.ndarray]) -> bool:
     return all(k in w and np.asarray(w[k]).dtype == np.float64 for k in read)
 
 
+def added(w: dict[str, np.ndarray], extra: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``w``'s signals with ``extra``'s added where it has one (``x + e`` elementwise, the records' inputs of
+    :func:`identify.detect.nullsim.null_records`): whole before a simulation, or a block of samples at a time
+    inside :func:`simulate_numpy`; IEEE addition per element, so the same bits either way."""
+    return {k: x + extra[k] if k in extra else x for k, x in w.items()}
+
+
 def simulate_numpy(
     model: YawModel,
     theta: np.ndarray,
@@ -167,7 +174,7 @@ def simulate_numpy(
     extra = {k: x[:1] if x.shape[0] > 1 and x.strides[0] == 0 else x for k, x in (extra or {}).items()}
     for k0 in range(0, n - 1, step):
         sl = slice(k0, min(k0 + step, n - 1))
-        part = {k: x[:, sl] + extra[k][:, sl] if k in extra else x[:, sl] for k, x in w.items()}
+        part = added({k: x[:, sl] for k, x in w.items()}, {k: e[:, sl] for k, e in extra.items()})
         a, bk, c = _coefficients(model, theta, col, forcing(part), part, scale)
         if b <= FLOATS:
             for i in range(b):
