@@ -45,9 +45,9 @@ def main() -> None:
         (batch, "detect", "detect (library, per recording)"),
         (api, "predict_with_signatures", "  recording's prediction and signatures"),
         (api, "null_records", "  no-change records"),
-        (nullsim, "simulate_r", "    their two yaw-row simulations"),
+        (nullsim, "simulate_r", "    their two yaw-row simulations (since stop 56: the noise's share added in the loop)"),
         (noisecache, "load", "    noise read from the cache"),
-        (nullsim, "_linear_inputs", "    their inputs (signal + noise)"),
+        (nullsim, "_linear_inputs", "    their inputs (since stop 56: the clean signals' share only)"),
         (api, "calibrate", "  LR-CUSUM calibration"),
         (api, "calibrate_dead_zone", "  dead-zone calibration"),
     ]

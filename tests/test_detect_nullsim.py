@@ -104,3 +104,75 @@ def test_a_job_keeps_the_filtered_noise_per_derivation(prior):
     ):
         for k in ("statistic", "dead_zone", "threshold"):
             assert np.array_equal(getattr(a, k), getattr(b, k), equal_nan=True), k
+
+
+@pytest.mark.parametrize("kernel", ["numpy", "default"])
+@pytest.mark.parametrize("cols", [3, 40])
+def test_signals_added_by_blocks_simulate_the_sums_to_the_bit(prior, cols, kernel, monkeypatch):
+    """``simulate_r(..., extra=e)`` (the no-change records' noise share added a block of samples at a time
+    inside numpy's loop, no (n, runs) sums held) is ``simulate_r`` on ``sig + e``, to the bit: on Python
+    floats (3 columns) and by array steps (40), the clean signals one broadcast column as in
+    ``null_records``; with an actuator gain other than 1 tau_r's sum is formed first and the other signals
+    still added in the loop (the same bits too). ``numpy``: the compiled loop switched off, so numpy's loop
+    must be the one that adds (checked through a spy: with numba loaded it would otherwise sum first);
+    ``default``: whichever loop this environment takes (with numba, the compiled one on the sums)."""
+    from identify.detect.yawmodel import simulate_r
+    from identify.yawid import yawloop
+    from primitives import jitloop
+
+    added = []
+    if kernel == "numpy":
+        monkeypatch.setattr(jitloop, "AVAILABLE", False)
+        real = yawloop.simulate_numpy
+
+        def spy(*args):
+            added.append(sorted(args[7] or {}))  # extra: the signals this call adds inside its loop
+            return real(*args)
+
+        monkeypatch.setattr(yawloop, "simulate_numpy", spy)
+    rec = simulated_recording(Vessel(), 300, seed=45, measured_moment=True)
+    sig, _ = signals(rec, prior.kind)
+    clean = prior.inputs({k: s[:, None] for k, s in sig.items()})
+    rng = np.random.default_rng(11)
+    noise = {k: 0.2 * np.std(s) * rng.standard_normal((len(s), cols)) for k, s in clean.items()}
+    whole = {k: clean[k] + noise[k] for k in clean}
+    for gain in (1.0, np.linspace(0.9, 1.1, cols)):
+        ref = simulate_r(prior.kind, prior.values, whole, prior.dt, gain=gain, r0=0.01)
+        got = simulate_r(prior.kind, prior.values, clean, prior.dt, gain=gain, r0=0.01, extra=noise)
+        np.testing.assert_array_equal(got, ref)
+    assert np.all(np.isfinite(ref)) and np.std(ref) > 0
+    if kernel == "numpy":  # ref, got; ref, got: the extra calls add every signal, then all but tau_r (the gain's)
+        rest = sorted(k for k in clean if k != "tau_r")
+        assert added == [[], sorted(clean), [], rest], added
+
+
+def test_a_unit_gain_makes_tau_r_float64_as_before(prior):
+    """A float32 (or integer) tau_r is made float64 by the gain even when it is 1 (``1.0 * tau_r``), so it runs
+    the same loop, to the bit, as the float64 signal: only a float64 tau_r skips the multiply. (Where numba is
+    installed a float32 tau_r kept as it is would run numpy's loop, the float64 one the compiled loop: not the same bits.)"""
+    from identify.detect.yawmodel import simulate_r
+
+    rec = simulated_recording(Vessel(), 300, seed=45, measured_moment=True)
+    sig, _ = signals(rec, prior.kind)
+    cols = prior.inputs({k: s[:, None] for k, s in sig.items()})
+    th = {k: v * np.linspace(0.98, 1.02, 40) for k, v in prior.values.items()}
+    low = cols | {"tau_r": cols["tau_r"].astype(np.float32)}
+    want = simulate_r(prior.kind, th, low | {"tau_r": low["tau_r"].astype(float)}, prior.dt, r0=0.01)
+    np.testing.assert_array_equal(simulate_r(prior.kind, th, low, prior.dt, r0=0.01), want)
+
+
+@pytest.mark.parametrize("order", ["C", "F"])
+def test_the_misfit_added_in_place_is_the_offsets_added(prior, order):
+    """``add_misfit`` (each block's offset written through a view of the records) is ``out +
+    misfit_offsets(...)`` to the bit, a partial last block and -0.0 samples included, in either layout;
+    and without a misfit (``model_error`` 0) the records plus the offsets' zeros."""
+    rng = np.random.default_rng(5)
+    n, runs = 7 * prior.block + 3, 6
+    z = rng.standard_normal((n // prior.block, runs))
+    x = np.asarray(rng.standard_normal((n, runs)), order=order)
+    x[-1, 0] = x[0, 1] = -0.0
+    for p in (replace(prior, model_error=0.003, ar=np.array([0.5, -0.2])), replace(prior, model_error=0.0)):
+        want = x + nullsim.misfit_offsets(p, n, runs, None, z)
+        got = nullsim.add_misfit(x.copy(order=order), p, z)
+        assert got.tobytes() == want.tobytes()
+        assert p.model_error == 0 or np.abs(got - x).max() > 1e-4  # the offsets are there

@@ -243,6 +243,7 @@ def simulate_r(
     dt: float,
     gain: float | np.ndarray = 1.0,
     r0: float | np.ndarray = 0.0,
+    extra: dict[str, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Yaw rate predicted by (2.17)/(2.18) from the measured signals ``sig``, from ``r0``.
 
@@ -253,12 +254,22 @@ def simulate_r(
 
     Signals are (n,) or (n, cols) (time on axis 0); parameter values (and the actuator ``gain``,
     which scales tau_r) scalars or (cols,): one simulated column per parameter set; ``r0`` a scalar or (cols,).
+    ``extra`` (signals of the same layout) is added to ``sig``'s as the simulation reads them, a block of
+    samples at a time (:func:`identify.yawid.estimate.simulate_yaw`): the signals ``sig + extra``, to the bit,
+    without their sums held whole (a no-change job's (n, runs) inputs, :func:`identify.detect.nullsim.null_records`).
     """
     th = _theta(kind, theta)
     model = YAW_MODELS[kind]
     names = tuple(map(prior_name, model.params))
-    tau = np.asarray(gain) * sig["tau_r"]
-    shape = np.broadcast_shapes(tau.shape, *(np.shape(sig[k]) for k in model.signals), *(np.shape(th[k]) for k in names))
+    # only the signals the model reads: an extra entry for another must not change the shape (nor fail it)
+    extra = {k: x for k, x in (extra or {}).items() if k in (*model.signals, "tau_r")}
+    # x * 1.0 is x for float64 (no (n, cols) product to make); another dtype is made float64 by it, as before
+    unit = np.ndim(gain) == 0 and float(gain) == 1.0 and np.asarray(sig["tau_r"]).dtype == np.float64
+    tau = sig["tau_r"]
+    if not unit:  # the gain scales tau_r's sum: that one formed whole, as before; the others added in the loop
+        tau = np.asarray(gain) * ((tau + extra.pop("tau_r")) if "tau_r" in extra else tau)
+    shapes = [np.shape(x) for x in (tau, *(sig[k] for k in model.signals), *extra.values())]
+    shape = np.broadcast_shapes(*shapes, *(np.shape(th[k]) for k in names))
     cols = shape[1] if len(shape) == 2 else 1
 
     def batch(a: np.ndarray) -> np.ndarray:  # (cols, n): yawid's batch-first layout
@@ -268,7 +279,8 @@ def simulate_r(
     w = {k: batch(sig[k]) for k in model.signals} | {"tau_r": batch(tau)}
     theta_b = np.stack([np.broadcast_to(np.asarray(th[k], float), (cols,)) for k in names], axis=1)
     r0s = np.full(cols, float(r0)) if np.ndim(r0) == 0 else np.array(r0, dtype=float).reshape(cols)
-    r_hat, _ = simulate_yaw(model, theta_b, w, r0s, dt, sensitivities=False)
+    more = {k: batch(x) for k, x in extra.items()}
+    r_hat, _ = simulate_yaw(model, theta_b, w, r0s, dt, sensitivities=False, extra=more)
     return np.ascontiguousarray(r_hat.T) if len(shape) == 2 else r_hat[0]
 
 

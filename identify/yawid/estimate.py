@@ -47,7 +47,13 @@ def _as_batch(data: YawData, names: tuple[str, ...]) -> dict[str, np.ndarray]:
 
 
 def simulate_yaw(
-    model: YawModel, theta: np.ndarray, w: dict[str, np.ndarray], r0: np.ndarray, ts: float, sensitivities: bool = True
+    model: YawModel,
+    theta: np.ndarray,
+    w: dict[str, np.ndarray],
+    r0: np.ndarray,
+    ts: float,
+    sensitivities: bool = True,
+    extra: dict[str, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Predicted yaw rate (B, N) of (2.17)/(2.18) and its sensitivities (B, N, p) to theta (B, p)
     (None with ``sensitivities=False``), from the measured inputs ``w`` (B, N) and ``r0`` (B,).
@@ -57,7 +63,13 @@ def simulate_yaw(
     sensitivities it needs memory of the order of the inputs only (a detector's 400 no-change
     records of a long recording); compiled when numba is there and the batch is large, else for
     float64 inputs numpy's loop without per-term calls (:mod:`identify.yawid.yawloop`: the compiled one this loop's
-    bits, the numpy one to rounding)."""
+    bits, the numpy one to rounding). ``extra`` per signal, each of its ``w`` signal's (B, N) shape (broadcast views
+    are fine), is added to ``w``'s: by blocks inside numpy's loop (:func:`identify.yawid.yawloop.simulate_numpy`), else
+    before the simulation (:func:`identify.yawid.yawloop.added`; the same bits either way). The loop is chosen as for the
+    sums: ``w`` all float64 (so are the sums), else they are formed first and the loops' own dtype checks decide."""
+    doubles = all(np.asarray(x).dtype == np.float64 for x in w.values())
+    if extra and (sensitivities or not doubles or not yawloop.stepped(model, w) or yawloop.usable(model, w, *w["u"].shape)):
+        w, extra = yawloop.added(w, extra), None
     b, n = w["u"].shape
     p = len(model.params)
     col = {name: j for j, name in enumerate(model.params)}
@@ -69,7 +81,7 @@ def simulate_yaw(
         return yawloop.simulate(model, theta, col, w, r0, ts), None
     if not sensitivities and yawloop.stepped(model, w):  # to rounding, without per-term calls (yawloop), by blocks
         forcing = lambda part: _input_forcing(model, theta, part, col, time_major=False)  # noqa: E731
-        return yawloop.simulate_numpy(model, theta, col, forcing, w, r0, ts), None
+        return yawloop.simulate_numpy(model, theta, col, forcing, w, r0, ts, extra), None
     forcing = _input_forcing(model, theta, w, col, reg)
     r_hat = np.empty((b, n))
     sens = np.zeros((b, n, p)) if sensitivities else None

@@ -126,6 +126,13 @@ def stepped(model: YawModel, w: dict[str, np.ndarray]) -> bool:
     return all(k in w and np.asarray(w[k]).dtype == np.float64 for k in read)
 
 
+def added(w: dict[str, np.ndarray], extra: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``w``'s signals with ``extra``'s added where it has one (``x + e`` elementwise, the records' inputs of
+    :func:`identify.detect.nullsim.null_records`): whole before a simulation, or a block of samples at a time
+    inside :func:`simulate_numpy`; IEEE addition per element, so the same bits either way."""
+    return {k: x + extra[k] if k in extra else x for k, x in w.items()}
+
+
 def simulate_numpy(
     model: YawModel,
     theta: np.ndarray,
@@ -134,6 +141,7 @@ def simulate_numpy(
     w: dict[str, np.ndarray],
     r0: float | np.ndarray,
     ts: float,
+    extra: dict[str, np.ndarray] | None = None,
 ) -> np.ndarray:
     """:func:`simulate` in numpy: the explicit Euler step of (2.17)/(2.18) over the batch, one sample at a time,
     with the step's terms grouped by how they hold r (stop 51):
@@ -149,7 +157,9 @@ def simulate_numpy(
     (the Python call per operation, not the arithmetic, is the cost at 400 members). The generic loop's sum
     (:func:`identify.yawid.estimate.simulate_yaw`) in another order: equal to rounding, not to the bit
     (tests/test_yawloop.py: within 1e-13 of the yaw rate's scale on random inputs). Up to :data:`FLOATS` members
-    are stepped on Python floats (:func:`_one`), the same IEEE operations in the same order: this loop's bits."""
+    are stepped on Python floats (:func:`_one`), the same IEEE operations in the same order: this loop's bits.
+    ``extra`` (B or 1, N) per signal is added to ``w``'s a block of samples at a time: the same bits as adding it
+    first, without the whole (B, N) sums in memory (a detector's no-change records: 16 MB of fresh pages each)."""
     b, n = w["u"].shape
     theta = np.ascontiguousarray(theta, dtype=float)
     out = np.empty((n, b))
@@ -161,9 +171,10 @@ def simulate_numpy(
     step = n if b <= FLOATS else max(16, BLOCK // b)
     bufs = (np.empty(b), np.empty(b), np.empty(b))
     w = {k: x[:1] if x.shape[0] > 1 and x.strides[0] == 0 else x for k, x in w.items()}  # a broadcast row: one row
+    extra = {k: x[:1] if x.shape[0] > 1 and x.strides[0] == 0 else x for k, x in (extra or {}).items()}
     for k0 in range(0, n - 1, step):
         sl = slice(k0, min(k0 + step, n - 1))
-        part = {k: x[:, sl] for k, x in w.items()}
+        part = added({k: x[:, sl] for k, x in w.items()}, {k: e[:, sl] for k, e in extra.items()})
         a, bk, c = _coefficients(model, theta, col, forcing(part), part, scale)
         if b <= FLOATS:
             for i in range(b):
