@@ -13,8 +13,10 @@ Terms: ``Yp Yphi Kv Np`` (sway_roll's couplings), ``Ypd`` (Y_pdot set equal to K
     PYTHONPATH=$PWD nice -n 10 python benchmarks/diag_rollmass_truth_terms.py --variant imu_mount --quiet --cases case2,case3 --dump D
     PYTHONPATH=$PWD nice -n 10 python benchmarks/diag_rollmass_truth_terms.py --variant sway_roll --zero Yp,Yphi,Kv,Np,Ypd --oracle --dump D
 
-Rows are the bench's (``--dump`` format of bench_rollmass_truth, its family field naming the zeroed terms), so
-``benchmarks/compare_rollmass_dumps.py`` pairs them with ``benchmarks/rollmass_family_s54.jsonl``.
+oe's rows are the bench's (``--dump`` format of bench_rollmass_truth, its family field naming the zeroed terms), so
+``benchmarks/compare_rollmass_dumps.py`` pairs them with ``benchmarks/rollmass_family_s54.jsonl``; the oracle's rows
+are rollmass_oracle's with ``/zero=TERMS`` appended to their variant (``rollmass_oracle.py --from-dump`` tells them
+from the unmodified variant's). ``--quiet`` and ``--cases`` are oe's only and refused with ``--oracle``.
 """
 
 from __future__ import annotations
@@ -23,7 +25,10 @@ import argparse
 import json
 import os
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from unittest import mock
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"  # one BLAS thread, as the bench
@@ -33,11 +38,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import bench_rollmass_truth as bench  # noqa: E402
 import numpy as np  # noqa: E402
+import rollmass_oracle  # noqa: E402
 
 from tests.physics import basin_truth as bt  # noqa: E402
 
 TERMS = ("Yp", "Yphi", "Kv", "Np", "Ypd", "x_imu", "eps0", "eps1", "eps2")
-FAMILY_RUNS, FAMILY_SEED = 30, 2015  # the stop-54 family's draw (bench_rollmass_truth --runs 30)
+# the stop-54 family's draw (bench_rollmass_truth --runs 30), as the oracle reads it: one source for both paths
+FAMILY_RUNS, FAMILY_SEED = rollmass_oracle.FAMILY_RUNS, rollmass_oracle.FAMILY_SEED
 
 
 def zeroed(ship: bt.Ship, terms: list[str]) -> bt.Ship:
@@ -52,38 +59,72 @@ def zeroed(ship: bt.Ship, terms: list[str]) -> bt.Ship:
     return ship
 
 
-def _oe(a: argparse.Namespace, terms: list[str], runs: range) -> None:
-    """The bench's oe fits of ``runs`` on the changed ships, each row appended to ``a.dump`` as it finishes."""
-    seed = FAMILY_SEED + 1000 * (bt.VARIANTS + ("base",)).index(a.variant)
-    ship = zeroed(bt.draw_ships(FAMILY_RUNS, a.variant, seed), terms)
-    data = {
-        name: bt.simulate(ship, a.variant, (m, zm), samples, seed * 7919 + 101 * i + 1, a.quiet)
-        for i, (name, (samples, m, zm)) in enumerate(bt.DATASETS.items())
-    }
+@contextmanager
+def zeroed_draws(terms: list[str]) -> Iterator[None]:
+    """Every ``basin_truth.draw_ships`` inside the block returns the draw with ``terms`` zeroed (restored after),
+    so the bench's and the oracle's own seeding (``simulate_runs``, ``loaded_recording``) is what pairs the runs."""
+    draw = bt.draw_ships
+    with mock.patch.object(bt, "draw_ships", lambda n, variant, seed: zeroed(draw(n, variant, seed), terms)):
+        yield
+
+
+def _oe(a: argparse.Namespace, terms: list[str], cases: list[str]) -> None:
+    """The bench's oe fits of runs 0..``a.last`` on the changed ships, each row appended to ``a.dump`` as it ends."""
+    seed = FAMILY_SEED + 1000 * (bt.VARIANTS + ("base",)).index(a.variant)  # bench_rollmass_truth._jobs' offset
+    with zeroed_draws(terms):
+        ship, data = bt.simulate_runs(a.variant, FAMILY_RUNS, seed, quiet=a.quiet)
     family = {"diag": "s56 truth terms", "zero": ",".join(terms), "quiet": a.quiet}
     heel = bench.rm_restoring.DEFAULT_HEEL_REFERENCE
-    with open(a.dump, "w") as fh:
-        for run in runs:
-            for case in a.cases.split(","):
-                recs = bt.case_recordings(ship, data, case, run)
-                for r in bench._one((a.variant, run, case, recs, ["oe"], True, heel, family)):
+    for run in range(a.last + 1):
+        for case in cases:
+            recs = bt.case_recordings(ship, data, case, run)
+            for r in bench._one((a.variant, run, case, recs, ["oe"], True, heel, family)):
+                with open(a.dump, "a") as fh:
                     fh.write(json.dumps(r, default=bool) + "\n")
-                    fh.flush()
-                    print(r[:7], flush=True)
+                print(r[:7], flush=True)
 
 
 def _oracle(a: argparse.Namespace, terms: list[str]) -> None:
-    """benchmarks/rollmass_oracle.py on the changed ships: its draw goes through :func:`zeroed`."""
-    import rollmass_oracle
+    """rollmass_oracle.run_variant on the changed ships; each row's variant names the zeroed terms."""
+    with zeroed_draws(terms):
+        rows = rollmass_oracle.run_variant(a.variant, a.last + 1, None)
+    with open(a.dump, "a") as fh:
+        for row in rows:
+            row["variant"] += "/zero=" + ",".join(terms)
+            fh.write(json.dumps(row) + "\n")
+    print(rollmass_oracle.table(rows, None))
 
-    draw = bt.draw_ships
-    Path(a.dump).write_text("")  # the oracle appends; a dump holds one diagnostic's rows
-    bt.draw_ships = lambda n, variant, seed: zeroed(draw(n, variant, seed), terms)
-    sys.argv = ["rollmass_oracle.py", "--variants", a.variant, "--runs", str(a.last + 1), "--dump", a.dump]
-    rollmass_oracle.main()
+
+def _bad(a: argparse.Namespace, ap: argparse.ArgumentParser, terms: list[str], cases: list[str]) -> str | None:
+    """The first bad option as ``OPTION VALUE: what; fix: how``, or None."""
+    unknown = [t for t in terms if t not in TERMS]
+    if unknown or len(set(terms)) < len(terms):
+        what = f"unknown {', '.join(unknown)}" if unknown else "a term twice"
+        return f"--zero {a.zero}: {what}; fix: distinct terms of {', '.join(TERMS)}"
+    for option, given in (("--quiet", a.quiet), ("--cases", a.cases != ap.get_default("cases"))):
+        if a.oracle and given:
+            return f"{option}: oe only; fix: drop it with --oracle (the oracle fits its own datasets, noisy)"
+    if not cases or [c for c in cases if c not in bt.CASES] or len(set(cases)) < len(cases):
+        return f"--cases {a.cases!r}: unknown, empty or repeated; fix: distinct cases of {', '.join(bt.CASES)}"
+    if not 0 <= a.last < FAMILY_RUNS:
+        return f"--last {a.last}: out of range; fix: 0 <= LAST <= {FAMILY_RUNS - 1}"
+    seed = FAMILY_SEED + 1000 * (bt.VARIANTS + ("base",)).index(a.variant)
+    same = [t for t in terms if _unchanged(bt.draw_ships(FAMILY_RUNS, a.variant, seed), t)]
+    if same:
+        return f"--zero {a.zero}: {', '.join(same)} already zero in {a.variant}; fix: drop them (the dump would name them)"
+    return None
+
+
+def _unchanged(ship: bt.Ship, term: str) -> bool:
+    """Whether zeroing ``term`` leaves ``ship`` (a fresh draw) as it is."""
+    before = {k: np.copy(v) for k, v in vars(ship).items()}
+    after = vars(zeroed(ship, [term]))
+    return all(np.array_equal(before[k], after[k]) for k in before)
 
 
 def main() -> None:
+    """Parse and check every option, open ``--dump`` (emptied), then fit oe or the oracle; a bad option or an
+    unwritable dump is one stderr line and exit 2, before any simulation."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--variant", required=True, choices=bt.VARIANTS + ("base",))
     ap.add_argument("--zero", default="", help=f"comma-separated terms to switch off: {', '.join(TERMS)}")
@@ -93,17 +134,18 @@ def main() -> None:
     ap.add_argument("--oracle", action="store_true", help="run the stop-55 oracle instead of oe")
     ap.add_argument("--dump", required=True, help="rows written here (emptied first)")
     a = ap.parse_args()
-    terms = [t for t in a.zero.split(",") if t]
-    bad = [t for t in terms if t not in TERMS] + [c for c in a.cases.split(",") if c not in bt.CASES]
-    if bad or not 0 <= a.last < FAMILY_RUNS:
-        ap.exit(
-            2,
-            f"{ap.prog}: error: --zero/--cases/--last: {bad or a.last} unknown; fix: terms of {TERMS}, cases of {tuple(bt.CASES)}, 0 <= last < 30\n",
-        )
+    terms, cases = [t for t in a.zero.split(",") if t], [c for c in a.cases.split(",") if c]
+    bad = _bad(a, ap, terms, cases)
+    if bad:
+        ap.exit(2, f"{ap.prog}: error: {bad}\n")
+    try:  # before the simulation: an unwritable dump must not cost the run
+        Path(a.dump).write_text("")
+    except OSError as e:
+        ap.exit(2, f"{ap.prog}: error: --dump {a.dump}: {e.strerror}; fix: give a writable file in an existing folder\n")
     if a.oracle:
         _oracle(a, terms)
     else:
-        _oe(a, terms, range(a.last + 1))
+        _oe(a, terms, cases)
 
 
 if __name__ == "__main__":
