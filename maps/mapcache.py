@@ -14,7 +14,9 @@ is loaded again, never an error; a map that cannot be loaded is never kept (the 
 its own words), nor one whose file changed between its key and its load. ``SHIPTRIAL_CACHE_DIR=""`` keeps no cache; ``plan-trial --no-cache`` still reads and
 writes it, as it does the moves: it plans afresh on the map the file gives, bit for bit. The export chart of the
 map (:func:`maps.export.chart.chart_of`: land and no-go areas in lon/lat, the file's depth areas) is kept in the
-same entry and read with it (:func:`kept_chart`).
+same entry and read with it (:func:`kept_chart`). What the planner makes from that map alone is kept beside it, as
+``*.map`` entries keyed by the map's key and their arguments (stop 56): the obstacles grown by the margin
+(:func:`kept_no_go`) and the collision grid's blocked cells (:func:`kept_grid`), 0.03-0.04 s of CPU each made, 2 ms read.
 """
 
 from __future__ import annotations
