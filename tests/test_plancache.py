@@ -651,3 +651,20 @@ def test_begin_cards_only_reaches_the_deferred_drawer(monkeypatch):
         Drawer._serve_deferred(-1, spec_r, early_w)
         os.close(early_r)
     assert seen == [_CARD_MODULES, _DRAWING_MODULES]
+
+
+def test_installed_version_is_importlib_metadata_version():
+    """The cache keys' library versions read from the Version header line are importlib.metadata's, for every
+    library keyed (installed or not), so that every key is the one the e-mail parser's version gave."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from maps.plancache import DRAWING, LIBRARIES, installed_version
+
+    for lib in (*LIBRARIES, *DRAWING, "pytest", "no-such-library-s56"):
+        try:
+            want = version(lib)
+        except PackageNotFoundError:
+            with pytest.raises(PackageNotFoundError):
+                installed_version(lib)
+            continue
+        assert installed_version(lib) == want, lib
