@@ -94,8 +94,8 @@ class CollisionGrid:
 
     def __init__(self, sea: SeaMap, window: Window, margin: float, sub: int, pad_m: float, blocked: np.ndarray | None = None):
         """``blocked``: the cells this constructor blocks for the same map and arguments, made before (read back from
-        :mod:`maps.mapcache`: the same array); not given, they are made from the map (0.05-0.08 s of CPU on the bundled
-        map)."""
+        :mod:`maps.mapcache`: the same array); not given, they are made from the map (the cost measured there, in
+        :mod:`maps.mapcache`'s docstring)."""
         self.window, self.sub = window, sub
         self.c = window.res / sub
         self.pad = int(np.ceil(pad_m / self.c)) + 2

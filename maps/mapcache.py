@@ -16,19 +16,25 @@ writes it, as it does the moves: it plans afresh on the map the file gives, bit 
 map (:func:`maps.export.chart.chart_of`: land and no-go areas in lon/lat, the file's depth areas) is kept in the
 same entry and read with it (:func:`kept_chart`). What the planner makes from that map alone is kept beside it, as
 ``*.map`` entries keyed by the map's key and their arguments (stop 56): the obstacles grown by the margin
-(:func:`kept_no_go`) and the collision grid's blocked cells (:func:`kept_grid`), 0.03-0.04 s of CPU each made, 2 ms read.
+(:func:`kept_no_go`) and the collision grid's blocked cells (:func:`kept_grid`). On the bundled map for the default
+ship (``derived_cost.py`` in ``/work/wt/reports/s56-nocache-files/``, least CPU of 7, load 4.4-5.3): made, 0.026-0.032 s
+for the no-go area at 20 m and 0.039-0.044 s for the grid; read back, about 2 ms each. Those are the figures
+:func:`kept_no_go`, :func:`kept_grid` and :class:`maps.collision.CollisionGrid` refer to.
 """
 
 from __future__ import annotations
 
 import hashlib
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from shapely.geometry.base import BaseGeometry
 
 from maps import plancache
 from maps.geo import SeaMap, load_map, map_source
+
+if TYPE_CHECKING:
+    from maps.collision import CollisionGrid, Window
 
 
 def key(path: str | Path | None, *, draught_m: float, ukc_m: float, repair: bool) -> str | None:
@@ -100,52 +106,62 @@ def kept_chart(sea: SeaMap) -> Any:
 # ---------------------------------------------------------------- what the planner makes from the map alone
 
 
-def _derived_key(sea: SeaMap, what: str, params: tuple) -> str | None:
-    """The key of ``what`` made from ``sea`` with ``params`` (plain values, by their repr): the map's own key (code,
-    machine, file, load options) and those; None when ``sea`` is not the map :func:`load_map_kept` last returned or
-    the cache is off."""
+def _derived_key(sea: SeaMap, what: str, params: tuple) -> tuple[Path, str] | None:
+    """The cache directory and the key of ``what`` made from ``sea`` with ``params`` (plain values, by their repr):
+    the map's own key (code, machine, file, load options) and those; None when ``sea`` is not the map
+    :func:`load_map_kept` last returned or the cache is off. The one directory serves the read and the store, so
+    the two cannot disagree."""
     kept = _CHARTS.get(id(sea))
-    if kept is None or kept[0] is not sea or plancache.default_dir() is None:
-        return None
-    return hashlib.sha256(f"{what}\0{kept[2]}\0{params!r}\0".encode()).hexdigest()
-
-
-def _read_derived(k: str | None) -> Any:
-    """The value kept under derived key ``k`` (None when there is none: missing, damaged or misnamed)."""
     directory = plancache.default_dir()
-    if k is None or directory is None:
+    if kept is None or kept[0] is not sea or directory is None:
         return None
-    entry = plancache.load_blob(Path(directory), f"{k}.map")
+    return Path(directory), hashlib.sha256(f"{what}\0{kept[2]}\0{params!r}\0".encode()).hexdigest()
+
+
+def _read_derived(where: tuple[Path, str] | None) -> Any:
+    """The value kept under ``where`` (directory, derived key); None when there is none: no key, or the entry
+    missing, damaged or misnamed."""
+    if where is None:
+        return None
+    directory, k = where
+    entry = plancache.load_blob(directory, f"{k}.map")
     return entry[1] if isinstance(entry, tuple) and len(entry) == 2 and entry[0] == k else None
+
+
+def _store_derived(where: tuple[Path, str] | None, value: Any) -> None:
+    """Keep ``value`` under ``where`` (directory, derived key), the key inside the entry; nothing when no key."""
+    if where is not None:
+        directory, k = where
+        plancache.store_blob(directory, f"{k}.map", (k, value))
 
 
 def kept_no_go(sea: SeaMap, margin: float) -> None:
     """Make ``sea.no_go(margin)`` ready, read from the cache when it was made before for this map (a buffer of the
-    whole coastline: 0.05 s of CPU on the bundled map, measured at stop 56; read back, 2 ms), else made and kept.
-    The geometry read back has the made one's coordinates (shapely pickles it as WKB), so every use is the same."""
-    if sea.has_no_go(margin):
+    whole coastline: see the module's figures), else made and kept. The geometry read back has the made one's
+    coordinates (shapely pickles it as WKB), so every use is the same. A margin of 0 or less keeps nothing: no_go
+    then buffers nothing, and without a trial area is the map's obstacles themselves, whose entry would be a second
+    copy of the whole obstacle set."""
+    if margin <= 0 or sea.has_no_go(margin):
         return
-    k = _derived_key(sea, "no_go", (float(margin),))
-    geom = _read_derived(k)
+    where = _derived_key(sea, "no_go", (float(margin),))
+    geom = _read_derived(where)
     if isinstance(geom, BaseGeometry):
         sea.adopt_no_go(margin, geom)
         return
-    geom = sea.no_go(margin)
-    if k is not None:
-        plancache.store_blob(Path(plancache.default_dir()), f"{k}.map", (k, geom))  # type: ignore[arg-type]
+    _store_derived(where, sea.no_go(margin))
 
 
-def kept_grid(sea: SeaMap, window: Any, margin: float, sub: int, pad_m: float) -> Any:
+def kept_grid(sea: SeaMap, window: Window, margin: float, sub: int, pad_m: float) -> CollisionGrid:
     """:class:`maps.collision.CollisionGrid` of these arguments, its blocked cells read from the cache when they were
-    made before for this map and arguments (0.08 s of CPU on the bundled map for the default ship, measured at stop
-    56), else made and kept (bit-packed: 34 kB for its 513 x 537 cells)."""
+    made before for this map and arguments (see the module's figures), else made and kept (bit-packed: 34 kB for
+    the default ship's 513 x 537 cells)."""
     import numpy as np
 
     from maps.collision import CollisionGrid
 
     w = (float(window.x0), float(window.y0), float(window.res), int(window.ni), int(window.nj))
-    k = _derived_key(sea, "grid", (w, float(margin), int(sub), float(pad_m)))
-    kept = _read_derived(k)
+    where = _derived_key(sea, "grid", (w, float(margin), int(sub), float(pad_m)))
+    kept = _read_derived(where)
     blocked = None
     if isinstance(kept, tuple) and len(kept) == 2 and isinstance(kept[1], bytes):
         shape = tuple(kept[0])
@@ -153,7 +169,6 @@ def kept_grid(sea: SeaMap, window: Any, margin: float, sub: int, pad_m: float) -
         if len(shape) == 2 and bits.size * 8 >= shape[0] * shape[1]:
             blocked = np.unpackbits(bits, count=shape[0] * shape[1]).astype(bool).reshape(shape)
     grid = CollisionGrid(sea, window, margin, sub, pad_m, blocked=blocked)
-    if blocked is None and k is not None:
-        packed = (grid.blocked.shape, np.packbits(grid.blocked).tobytes())
-        plancache.store_blob(Path(plancache.default_dir()), f"{k}.map", (k, packed))  # type: ignore[arg-type]
+    if blocked is None:
+        _store_derived(where, (grid.blocked.shape, np.packbits(grid.blocked).tobytes()))
     return grid
