@@ -300,3 +300,47 @@ def test_a_map_not_from_the_cache_keeps_nothing_derived(cache, map_file):
     )
     assert _fresh_no_go(sea, 20.0).wkb == sea.no_go(20.0).wkb
     assert not list(cache.glob("*.map"))
+
+
+def test_the_planner_uses_the_kept_no_go_area_and_grid(cache, monkeypatch):
+    """build_lattice (the planner's lattice: its endpoints and collision grid) on a map from load_map_kept leaves the
+    no-go area and the grid beside the map, and a second command's lattice reads them back: with the buffer and the
+    grid's construction made to fail it is the same lattice. Fails if maps.chain makes either itself again."""
+    import numpy as np
+
+    import maps.geo as geo
+    from maps.chain import PlanOptions, build_lattice
+    from maps.collision import CollisionGrid
+    from maps.motionset import resolve_primitives
+    from primitives.ship import load_profile
+
+    prof = load_profile("full-scale")
+    counts = {"steep_zigzag_surge": 1}
+    prims = resolve_primitives(prof, counts, None)
+    moves: dict = {}  # the moves built once for both lattices: only the map's steps are under test
+
+    def lattice():
+        geo._NO_GO.clear()  # as a new process
+        sea = mapcache.load_map_kept(None, draught_m=prof.draught_m)
+        return build_lattice(sea, prof, prims, counts, options=PlanOptions(), cache=moves)
+
+    made = lattice()
+    assert len(list(cache.glob("*.map"))) == 3  # the map, its no-go area at the margin and the grid
+
+    def refuse(*a, **k):
+        raise AssertionError("made again")
+
+    sea_type = type(made.sea.obstacles)
+    monkeypatch.setattr(sea_type, "buffer", refuse)  # no_go's buffer
+    monkeypatch.setattr(CollisionGrid, "_blocked", refuse)
+    again = lattice()
+    assert again.sea is not made.sea and len(list(cache.glob("*.map"))) == 3
+    assert np.array_equal(again.grid.blocked, made.grid.blocked) and np.array_equal(again.grid.first, made.grid.first)
+    assert (again.start_cell, again.goal_cell, again.window) == (made.start_cell, made.goal_cell, made.window)
+
+
+def test_a_zero_margin_keeps_no_second_copy_of_the_obstacles(cache, map_file):
+    """no_go(0) without a trial area is the map's obstacles themselves: nothing derived is kept for it."""
+    sea = mapcache.load_map_kept(map_file, draught_m=6.0)
+    assert _fresh_no_go(sea, 0.0).wkb == load_map(map_file, draught_m=6.0).no_go(0.0).wkb
+    assert len(list(cache.glob("*.map"))) == 1  # the map's own entry only
