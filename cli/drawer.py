@@ -15,7 +15,8 @@ command refused) is ended at once (SIGTERM, on which it unwinds: see :class:`Can
 ``plan-trial`` forks its drawer before it parses its options (:func:`start_early`, deferred: the
 drawing modules imported first, the early function given later by :meth:`Drawer.begin`), so that
 a run whose plan is read from the plan cache does not wait for those imports; so does ``--no-cache`` (stop 56: forked
-after the planner's imports, which the two then shared, it was still importing when the parent sent its plan).
+after the planner's imports, which the two then shared, it was still importing when the parent sent its plan;
+provisional until near-idle pairs decide it, see :func:`start_early`).
 
 On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`). The forked
 processes' plumbing (their guarded life, cancellation, reaping, errors named by file) is :mod:`cli.forkjobs`.
@@ -243,7 +244,12 @@ def start_early(args: Sequence[str] = ()) -> None:
     the drawer's CPU); with the map's no-go area and collision grid kept (:mod:`maps.mapcache`) the parent sent its plan
     before that drawer had imported the drawing modules (late by 0.26-0.60 s, median 0.56, in 5 stage benchmarks at
     load 6-8, against 0.10-0.18 s forked here; its CPU 0.06 s more, median). The drawer computes the early design,
-    which the parent asks for 0.13-0.21 s of CPU after the fork (stop 47's figures)."""
+    which the parent asks for 0.13-0.21 s of CPU after the fork (stop 47's figures).
+
+    Provisional: measured only at load 5-9, where the whole command's CPU and wall were not resolved against the
+    later fork; near-idle pairs decide it. ``args`` (the command line's words) is unused meanwhile and kept for
+    that: the later fork is the condition ``and "--no-cache" not in args`` on the line below."""
+    # provisional (stop 56): `and "--no-cache" not in args` here restores stop 55's later --no-cache fork
     if CAN_FORK and not _STARTED:
         # what both processes import in every such command (the plan's and the map's modules: shapely, pyproj),
         # imported once before the fork (about 0.09 s of CPU the drawer would repeat)
