@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from maps import astar, movecache
+from maps import astar, mapcache, movecache
 from maps.collision import CollisionGrid, Window, quarter_turns
 from maps.forked import map_halves
 from maps.geo import MapError, SeaMap, bundled_map_path
@@ -311,6 +311,7 @@ def _endpoints(
     hit = (cache or {}).get("endpoints")
     if hit is not None and hit[0] is sea and hit[1] == (start, goal, margin):
         return hit[2]
+    mapcache.kept_no_go(sea, margin)  # the obstacles grown by the margin: made from the map alone, kept beside it
     return (
         _endpoint(sea, start, sea.start, HELSINKI_START, "start", margin),
         _endpoint(sea, goal, sea.goal, HELSINKI_GOAL, "goal", margin),
@@ -360,9 +361,8 @@ def _collision_grid(sea: SeaMap, win: Window, moves: list[Move], profile: ShipPr
         (float(np.hypot(*shapely.get_coordinates(pr.footprint).T).max(initial=0.0)) for m in moves for pr in m.prims), default=0.0
     )
     snap = max(float(m.snap_m.max()) for m in moves)
-    return CollisionGrid(
-        sea, win, o.margin, o.sub, ext + o.margin + snap + win.res + 100.0 + o.clearance_lengths * profile.length_m
-    )
+    pad = ext + o.margin + snap + win.res + 100.0 + o.clearance_lengths * profile.length_m
+    return mapcache.kept_grid(sea, win, o.margin, o.sub, pad)  # made from the map alone: kept beside it
 
 
 def _informative(p: Primitive, res: float, K: int, split: bool, run_in: float, settle: str) -> tuple:

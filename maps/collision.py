@@ -92,7 +92,10 @@ def quarter_turns(rows: np.ndarray, k: int) -> np.ndarray:
 class CollisionGrid:
     """Blocked cells of the window (obstacles and everything outside the window), padded."""
 
-    def __init__(self, sea: SeaMap, window: Window, margin: float, sub: int, pad_m: float):
+    def __init__(self, sea: SeaMap, window: Window, margin: float, sub: int, pad_m: float, blocked: np.ndarray | None = None):
+        """``blocked``: the cells this constructor blocks for the same map and arguments, made before (read back from
+        :mod:`maps.mapcache`: the same array); not given, they are made from the map (the cost measured there, in
+        :mod:`maps.mapcache`'s docstring)."""
         self.window, self.sub = window, sub
         self.c = window.res / sub
         self.pad = int(np.ceil(pad_m / self.c)) + 2
@@ -100,6 +103,18 @@ class CollisionGrid:
         na = (window.ni - 1) * sub + 1 + 2 * p
         nb = (window.nj - 1) * sub + 1 + 2 * p
         self.origin = (window.x0 - p * c, window.y0 - p * c)
+        if blocked is None or blocked.shape != (na, nb) or blocked.dtype != bool:
+            blocked = self._blocked(sea, margin, na, nb)
+        self.blocked = blocked
+        # per cell: the column of the first blocked cell at or east of it in its row (nb if none), so
+        # that whether a row interval [b0, b1] touches a blocked cell is one look-up: first[b0] <= b1
+        cols = np.where(blocked, np.arange(nb, dtype=np.int32)[None, :], np.int32(nb))
+        self.first = np.ascontiguousarray(np.minimum.accumulate(cols[:, ::-1], axis=1)[:, ::-1])
+
+    def _blocked(self, sea: SeaMap, margin: float, na: int, nb: int) -> np.ndarray:
+        """(na, nb) bool: the cells an obstacle grown by ``margin`` and half a cell's diagonal covers, and those
+        reaching outside the window."""
+        c, window = self.c, self.window
         xs = self.origin[0] + np.arange(na) * c
         ys = self.origin[1] + np.arange(nb) * c
         hd = c * np.sqrt(0.5) + 1e-6 * c
@@ -115,11 +130,7 @@ class CollisionGrid:
             sel = ~outside
             xx, yy = np.meshgrid(xs, ys, indexing="ij")
             blocked[sel] = shapely.contains_xy(g, xx[sel], yy[sel])
-        self.blocked = blocked
-        # per cell: the column of the first blocked cell at or east of it in its row (nb if none), so
-        # that whether a row interval [b0, b1] touches a blocked cell is one look-up: first[b0] <= b1
-        cols = np.where(blocked, np.arange(nb, dtype=np.int32)[None, :], np.int32(nb))
-        self.first = np.ascontiguousarray(np.minimum.accumulate(cols[:, ::-1], axis=1)[:, ::-1])
+        return blocked
 
     def footprint_rows(self, footprint: BaseGeometry, psi: float, grow: float) -> np.ndarray:
         """Row intervals of cells a footprint (start-pose frame) touches when started at heading psi."""

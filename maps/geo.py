@@ -157,8 +157,7 @@ class SeaMap:
         """Obstacles buffered by ``margin``, plus everything outside the trial area. Made once per
         obstacles, trial area, extent and margin (:data:`_NO_GO`): a plan asks for it 7 times (the start and
         goal checks, the lattice, sizing, smoothing, verification), each a buffer or union of the whole map."""
-        key = (id(self.obstacles), id(self.trial_area), tuple(self.extent), float(margin))
-        kept = _NO_GO.get(key)
+        kept = _NO_GO.get(self._no_go_key(margin))
         if kept is not None and kept[0] is self.obstacles and kept[1] is self.trial_area:
             return kept[2]  # shapely geometries are immutable: the same object serves every caller
         geom = self.obstacles.buffer(margin) if margin > 0 else self.obstacles
@@ -166,10 +165,24 @@ class SeaMap:
             xmin, ymin, xmax, ymax = self.extent
             big = shapely.box(xmin - 1e5, ymin - 1e5, xmax + 1e5, ymax + 1e5)
             geom = shapely.union(geom, big.difference(self.trial_area))
+        self.adopt_no_go(margin, geom)
+        return geom
+
+    def _no_go_key(self, margin: float) -> tuple[int, int, tuple[float, ...], float]:
+        return (id(self.obstacles), id(self.trial_area), tuple(self.extent), float(margin))
+
+    def has_no_go(self, margin: float) -> bool:
+        """Whether :meth:`no_go` of ``margin`` is made already (kept in this process)."""
+        kept = _NO_GO.get(self._no_go_key(margin))
+        return kept is not None and kept[0] is self.obstacles and kept[1] is self.trial_area
+
+    def adopt_no_go(self, margin: float, geom: BaseGeometry) -> None:
+        """Take ``geom`` as :meth:`no_go` of ``margin``: the geometry that call made for this map in another
+        process (read back from :mod:`maps.mapcache`, the same coordinates)."""
         if len(_NO_GO) >= _NO_GO_KEPT:
             _NO_GO.clear()
-        _NO_GO[key] = (self.obstacles, self.trial_area, geom)  # the inputs held: their ids stay theirs while kept
-        return geom
+        # the inputs held: their ids stay theirs while kept
+        _NO_GO[self._no_go_key(margin)] = (self.obstacles, self.trial_area, geom)
 
     def clearance(self, geom: BaseGeometry) -> float:
         """Distance from ``geom`` to the nearest obstacle (0 when touching)."""

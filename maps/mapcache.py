@@ -14,17 +14,27 @@ is loaded again, never an error; a map that cannot be loaded is never kept (the 
 its own words), nor one whose file changed between its key and its load. ``SHIPTRIAL_CACHE_DIR=""`` keeps no cache; ``plan-trial --no-cache`` still reads and
 writes it, as it does the moves: it plans afresh on the map the file gives, bit for bit. The export chart of the
 map (:func:`maps.export.chart.chart_of`: land and no-go areas in lon/lat, the file's depth areas) is kept in the
-same entry and read with it (:func:`kept_chart`).
+same entry and read with it (:func:`kept_chart`). What the planner makes from that map alone is kept beside it, as
+``*.map`` entries keyed by the map's key and their arguments (stop 56): the obstacles grown by the margin
+(:func:`kept_no_go`) and the collision grid's blocked cells (:func:`kept_grid`). On the bundled map for the default
+ship (``derived_cost.py`` in ``/work/wt/reports/s56-nocache-files/``, least CPU of 7, load 4.4-5.3): made, 0.026-0.032 s
+for the no-go area at 20 m and 0.039-0.044 s for the grid; read back, about 2 ms each. Those are the figures
+:func:`kept_no_go`, :func:`kept_grid` and :class:`maps.collision.CollisionGrid` refer to.
 """
 
 from __future__ import annotations
 
 import hashlib
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+from shapely.geometry.base import BaseGeometry
 
 from maps import plancache
 from maps.geo import SeaMap, load_map, map_source
+
+if TYPE_CHECKING:
+    from maps.collision import CollisionGrid, Window
 
 
 def key(path: str | Path | None, *, draught_m: float, ukc_m: float, repair: bool) -> str | None:
@@ -53,7 +63,7 @@ def load_map_kept(path: str | Path | None = None, *, draught_m: float = 0.0, ukc
         entry = plancache.load_blob(Path(directory), f"{k}.map")
         # the key inside the entry: a file copied or renamed onto another key's name is no entry
         if isinstance(entry, tuple) and len(entry) == 3 and entry[0] == k and isinstance(entry[1], SeaMap):
-            return _keep_chart(entry[1], entry[2])
+            return _keep_chart(entry[1], entry[2], k)
     sea = load_map(path, draught_m=draught_m, ukc_m=ukc_m, repair=repair)
     # kept only when the file still holds the bytes keyed: one edited while it loaded would otherwise leave
     # the edited file's map under the earlier bytes' key, read for those bytes when the edit is undone
@@ -65,19 +75,20 @@ def load_map_kept(path: str | Path | None = None, *, draught_m: float = 0.0, ukc
         except Exception:  # noqa: BLE001 - the chart is the exports': their own call makes it, or says what fails
             chart = None
         plancache.store_blob(Path(directory), f"{k}.map", (k, sea, chart))
-        _keep_chart(sea, chart)
+        _keep_chart(sea, chart, k)
     return sea
 
 
-def _keep_chart(sea: SeaMap, chart: Any) -> SeaMap:
-    """Hold ``chart`` as the chart of ``sea``, the map :func:`load_map_kept` returns (one at a time)."""
+def _keep_chart(sea: SeaMap, chart: Any, k: str) -> SeaMap:
+    """Hold ``chart`` as the chart of ``sea``, the map :func:`load_map_kept` returns (one at a time), and its key."""
     _CHARTS.clear()
-    _CHARTS[id(sea)] = (sea, chart)
+    _CHARTS[id(sea)] = (sea, chart, k)
     return sea
 
 
-# the export chart of the map load_map_kept last returned (its id, the map held beside it and checked by identity)
-_CHARTS: dict[int, tuple[SeaMap, Any]] = {}
+# the export chart and the key of the map load_map_kept last returned (its id, the map held beside them and checked
+# by identity)
+_CHARTS: dict[int, tuple[SeaMap, Any, str]] = {}
 
 
 def kept_chart(sea: SeaMap) -> Any:
@@ -90,3 +101,74 @@ def kept_chart(sea: SeaMap) -> Any:
     if kept is not None and kept[0] is sea and kept[1] is not None:
         return kept[1]
     return chart_of(sea)
+
+
+# ---------------------------------------------------------------- what the planner makes from the map alone
+
+
+def _derived_key(sea: SeaMap, what: str, params: tuple) -> tuple[Path, str] | None:
+    """The cache directory and the key of ``what`` made from ``sea`` with ``params`` (plain values, by their repr):
+    the map's own key (code, machine, file, load options) and those; None when ``sea`` is not the map
+    :func:`load_map_kept` last returned or the cache is off. The one directory serves the read and the store, so
+    the two cannot disagree."""
+    kept = _CHARTS.get(id(sea))
+    directory = plancache.default_dir()
+    if kept is None or kept[0] is not sea or directory is None:
+        return None
+    return Path(directory), hashlib.sha256(f"{what}\0{kept[2]}\0{params!r}\0".encode()).hexdigest()
+
+
+def _read_derived(where: tuple[Path, str] | None) -> Any:
+    """The value kept under ``where`` (directory, derived key); None when there is none: no key, or the entry
+    missing, damaged or misnamed."""
+    if where is None:
+        return None
+    directory, k = where
+    entry = plancache.load_blob(directory, f"{k}.map")
+    return entry[1] if isinstance(entry, tuple) and len(entry) == 2 and entry[0] == k else None
+
+
+def _store_derived(where: tuple[Path, str] | None, value: Any) -> None:
+    """Keep ``value`` under ``where`` (directory, derived key), the key inside the entry; nothing when no key."""
+    if where is not None:
+        directory, k = where
+        plancache.store_blob(directory, f"{k}.map", (k, value))
+
+
+def kept_no_go(sea: SeaMap, margin: float) -> None:
+    """Make ``sea.no_go(margin)`` ready, read from the cache when it was made before for this map (a buffer of the
+    whole coastline: see the module's figures), else made and kept. The geometry read back has the made one's
+    coordinates (shapely pickles it as WKB), so every use is the same. A margin of 0 or less keeps nothing: no_go
+    then buffers nothing, and without a trial area is the map's obstacles themselves, whose entry would be a second
+    copy of the whole obstacle set."""
+    if margin <= 0 or sea.has_no_go(margin):
+        return
+    where = _derived_key(sea, "no_go", (float(margin),))
+    geom = _read_derived(where)
+    if isinstance(geom, BaseGeometry):
+        sea.adopt_no_go(margin, geom)
+        return
+    _store_derived(where, sea.no_go(margin))
+
+
+def kept_grid(sea: SeaMap, window: Window, margin: float, sub: int, pad_m: float) -> CollisionGrid:
+    """:class:`maps.collision.CollisionGrid` of these arguments, its blocked cells read from the cache when they were
+    made before for this map and arguments (see the module's figures), else made and kept (bit-packed: 34 kB for
+    the default ship's 513 x 537 cells)."""
+    import numpy as np
+
+    from maps.collision import CollisionGrid
+
+    w = (float(window.x0), float(window.y0), float(window.res), int(window.ni), int(window.nj))
+    where = _derived_key(sea, "grid", (w, float(margin), int(sub), float(pad_m)))
+    kept = _read_derived(where)
+    blocked = None
+    if isinstance(kept, tuple) and len(kept) == 2 and isinstance(kept[1], bytes):
+        shape = tuple(kept[0])
+        bits = np.frombuffer(kept[1], dtype=np.uint8)
+        if len(shape) == 2 and bits.size * 8 >= shape[0] * shape[1]:
+            blocked = np.unpackbits(bits, count=shape[0] * shape[1]).astype(bool).reshape(shape)
+    grid = CollisionGrid(sea, window, margin, sub, pad_m, blocked=blocked)
+    if blocked is None:
+        _store_derived(where, (grid.blocked.shape, np.packbits(grid.blocked).tobytes()))
+    return grid

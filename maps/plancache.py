@@ -120,15 +120,35 @@ MAPS_BYTES = 64 * 2**20
 
 
 def _versions(libraries: tuple[str, ...]) -> bytes:
-    from importlib.metadata import PackageNotFoundError, version
+    from importlib.metadata import PackageNotFoundError
 
     out = []
     for lib in libraries:
         try:
-            out.append(f"{lib}={version(lib)}\0")
+            out.append(f"{lib}={installed_version(lib)}\0")
         except PackageNotFoundError:
             out.append(f"{lib}=none\0")
     return "".join(out).encode()
+
+
+def installed_version(lib: str) -> str:
+    """``importlib.metadata.version(lib)``, read from the metadata's ``Version:`` header line rather than by
+    parsing the whole file as an e-mail message (numpy's and scipy's hold their README): the 8 numerical libraries'
+    0.0045-0.008 s of CPU against 0.012-0.017 s in a fresh process (stop 56, 3 each, load 5), the same string: the value as
+    the e-mail parser gives it (leading blanks dropped). A header folded over lines, or none found, is left to the
+    parser. PackageNotFoundError when ``lib`` is not installed."""
+    from importlib.metadata import distribution
+
+    dist = distribution(lib)
+    lines = (dist.read_text("METADATA") or dist.read_text("PKG-INFO") or dist.read_text("") or "").splitlines()
+    for i, line in enumerate(lines):
+        if not line.strip():  # the end of the headers
+            break
+        if line.startswith("Version:"):
+            if i + 1 < len(lines) and lines[i + 1][:1] in (" ", "\t"):  # folded: the parser joins it
+                break
+            return line[len("Version:") :].lstrip(" \t")
+    return dist.version
 
 
 def _matplotlib_dir(env: str, default: str) -> Path:

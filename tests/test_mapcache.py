@@ -191,3 +191,156 @@ def test_an_entry_of_the_code_before_is_loaded_again(cache):
     plancache.store_blob(directory, f"{k}.map", (k, load_map(path, draught_m=6.0)))
     sea = mapcache.load_map_kept(path, draught_m=6.0)
     assert len(plancache.load_blob(directory, f"{k}.map")) == 3 and mapcache.kept_chart(sea) is not None
+
+
+# ---------------------------------------------------------------- what the planner makes from the map alone (stop 56)
+
+
+def _grid_args(sea):
+    from maps.collision import Window
+
+    return Window(x0=-1500.0, y0=-1400.0, res=100.0, ni=30, nj=28), 20.0, 4, 600.0  # over the islands
+
+
+def _fresh_no_go(sea, margin):
+    import maps.geo as geo
+
+    geo._NO_GO.clear()  # as a new process: made or read again
+    mapcache.kept_no_go(sea, margin)
+    return sea.no_go(margin)
+
+
+def test_no_go_and_grid_read_back_are_the_ones_made(cache, map_file, monkeypatch):
+    import numpy as np
+
+    from maps.collision import CollisionGrid
+
+    sea = mapcache.load_map_kept(map_file, draught_m=6.0)
+    made = _fresh_no_go(sea, 20.0)
+    win, margin, sub, pad = _grid_args(sea)
+    grid = mapcache.kept_grid(sea, win, margin, sub, pad)
+    assert len(list(cache.glob("*.map"))) == 3  # the map, its no-go area at 20 m and the grid
+
+    def refuse(*a, **k):
+        raise AssertionError("made again")
+
+    monkeypatch.setattr(type(sea.obstacles), "buffer", refuse)  # no_go's buffer and the grid's
+    monkeypatch.setattr(CollisionGrid, "_blocked", refuse)
+    again = mapcache.load_map_kept(map_file, draught_m=6.0)  # a new command: another SeaMap object
+    assert _fresh_no_go(again, 20.0).wkb == made.wkb
+    kept = mapcache.kept_grid(again, win, margin, sub, pad)
+    assert np.array_equal(kept.blocked, grid.blocked) and np.array_equal(kept.first, grid.first)
+    assert kept.blocked.dtype == bool and kept.blocked.any() and not kept.blocked.all()
+
+
+def test_derived_entries_are_keyed_by_map_and_arguments(cache, map_file):
+    """Another margin, another window or another map file: made again, never an entry of other arguments."""
+    import numpy as np
+
+    from maps.collision import CollisionGrid
+
+    sea = mapcache.load_map_kept(map_file, draught_m=6.0)
+    win, margin, sub, pad = _grid_args(sea)
+    mapcache.kept_grid(sea, win, margin, sub, pad)
+    _fresh_no_go(sea, 20.0)
+    assert _fresh_no_go(sea, 35.0).wkb == load_map(map_file, draught_m=6.0).no_go(35.0).wkb  # not the 20 m entry
+    for args in ((win, 50.0, sub, pad), (win, margin, sub, 900.0)):
+        assert np.array_equal(mapcache.kept_grid(sea, *args).blocked, CollisionGrid(sea, *args).blocked)
+    doc = archipelago()
+    doc["features"] = doc["features"][:-1]  # the map edited: its key, and so every derived key, changes
+    map_file.write_text(json.dumps(doc))
+    edited = mapcache.load_map_kept(map_file, draught_m=6.0)
+    assert np.array_equal(
+        mapcache.kept_grid(edited, win, margin, sub, pad).blocked, CollisionGrid(edited, win, margin, sub, pad).blocked
+    )
+    import maps.geo as geo
+
+    geo._NO_GO.clear()
+    assert _fresh_no_go(edited, 20.0).wkb == edited.no_go(20.0).wkb
+    assert len(list(cache.glob("*.map"))) == 2 + 1 + 2 + 2 + 2  # 2 maps, 2 grids + 2 others, 2 + 2 no-go areas
+
+
+def test_missing_damaged_or_misnamed_derived_entry_is_made_again(cache, map_file):
+    import numpy as np
+
+    from maps.collision import CollisionGrid
+
+    sea = mapcache.load_map_kept(map_file, draught_m=6.0)
+    win, margin, sub, pad = _grid_args(sea)
+    truth = CollisionGrid(sea, win, margin, sub, pad).blocked
+    mapcache.kept_grid(sea, win, margin, sub, pad)
+    (grid_entry,) = set(cache.glob("*.map")) - {cache / f"{mapcache.key(map_file, draught_m=6.0, ukc_m=0.5, repair=True)}.map"}
+    grid_entry.write_bytes(grid_entry.read_bytes()[:-10])  # truncated
+    assert np.array_equal(mapcache.kept_grid(sea, win, margin, sub, pad).blocked, truth)
+    grid_entry.unlink()  # missing
+    assert np.array_equal(mapcache.kept_grid(sea, win, margin, sub, pad).blocked, truth)
+    from dataclasses import replace
+
+    moved = replace(win, x0=win.x0 + 700.0)  # another key's entry (the same shape) copied onto this key's name
+    other = mapcache.kept_grid(sea, moved, margin, sub, pad)
+    (other_entry,) = set(cache.glob("*.map")) - {
+        grid_entry,
+        cache / f"{mapcache.key(map_file, draught_m=6.0, ukc_m=0.5, repair=True)}.map",
+    }
+    other_entry.replace(grid_entry)
+    assert not np.array_equal(other.blocked, truth)
+    assert np.array_equal(mapcache.kept_grid(sea, win, margin, sub, pad).blocked, truth)
+
+
+def test_a_map_not_from_the_cache_keeps_nothing_derived(cache, map_file):
+    """A SeaMap the caller loaded itself (no key known): made as before, nothing written."""
+    import numpy as np
+
+    from maps.collision import CollisionGrid
+
+    sea = load_map(map_file, draught_m=6.0)
+    win, margin, sub, pad = _grid_args(sea)
+    assert np.array_equal(
+        mapcache.kept_grid(sea, win, margin, sub, pad).blocked, CollisionGrid(sea, win, margin, sub, pad).blocked
+    )
+    assert _fresh_no_go(sea, 20.0).wkb == sea.no_go(20.0).wkb
+    assert not list(cache.glob("*.map"))
+
+
+def test_the_planner_uses_the_kept_no_go_area_and_grid(cache, monkeypatch):
+    """build_lattice (the planner's lattice: its endpoints and collision grid) on a map from load_map_kept leaves the
+    no-go area and the grid beside the map, and a second command's lattice reads them back: with the buffer and the
+    grid's construction made to fail it is the same lattice. Fails if maps.chain makes either itself again."""
+    import numpy as np
+
+    import maps.geo as geo
+    from maps.chain import PlanOptions, build_lattice
+    from maps.collision import CollisionGrid
+    from maps.motionset import resolve_primitives
+    from primitives.ship import load_profile
+
+    prof = load_profile("full-scale")
+    counts = {"steep_zigzag_surge": 1}
+    prims = resolve_primitives(prof, counts, None)
+    moves: dict = {}  # the moves built once for both lattices: only the map's steps are under test
+
+    def lattice():
+        geo._NO_GO.clear()  # as a new process
+        sea = mapcache.load_map_kept(None, draught_m=prof.draught_m)
+        return build_lattice(sea, prof, prims, counts, options=PlanOptions(), cache=moves)
+
+    made = lattice()
+    assert len(list(cache.glob("*.map"))) == 3  # the map, its no-go area at the margin and the grid
+
+    def refuse(*a, **k):
+        raise AssertionError("made again")
+
+    sea_type = type(made.sea.obstacles)
+    monkeypatch.setattr(sea_type, "buffer", refuse)  # no_go's buffer
+    monkeypatch.setattr(CollisionGrid, "_blocked", refuse)
+    again = lattice()
+    assert again.sea is not made.sea and len(list(cache.glob("*.map"))) == 3
+    assert np.array_equal(again.grid.blocked, made.grid.blocked) and np.array_equal(again.grid.first, made.grid.first)
+    assert (again.start_cell, again.goal_cell, again.window) == (made.start_cell, made.goal_cell, made.window)
+
+
+def test_a_zero_margin_keeps_no_second_copy_of_the_obstacles(cache, map_file):
+    """no_go(0) without a trial area is the map's obstacles themselves: nothing derived is kept for it."""
+    sea = mapcache.load_map_kept(map_file, draught_m=6.0)
+    assert _fresh_no_go(sea, 0.0).wkb == load_map(map_file, draught_m=6.0).no_go(0.0).wkb
+    assert len(list(cache.glob("*.map"))) == 1  # the map's own entry only

@@ -651,3 +651,48 @@ def test_begin_cards_only_reaches_the_deferred_drawer(monkeypatch):
         Drawer._serve_deferred(-1, spec_r, early_w)
         os.close(early_r)
     assert seen == [_CARD_MODULES, _DRAWING_MODULES]
+
+
+def test_installed_version_is_importlib_metadata_version():
+    """The cache keys' library versions read from the Version header line are importlib.metadata's, for every
+    library keyed (installed or not), so that every key is the one the e-mail parser's version gave."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from maps.plancache import DRAWING, LIBRARIES, installed_version
+
+    for lib in (*LIBRARIES, *DRAWING, "pytest", "no-such-library-s56"):
+        try:
+            want = version(lib)
+        except PackageNotFoundError:
+            with pytest.raises(PackageNotFoundError):
+                installed_version(lib)
+            continue
+        assert installed_version(lib) == want, lib
+
+
+# hand-made installed packages (name, path under a site directory, metadata text): the layouts installed_version
+# reads itself or leaves to importlib.metadata's e-mail parser
+_LAYOUTS = [
+    ("novers", "novers-1.0.dist-info/METADATA", "Metadata-Version: 2.1\nName: novers\n\nVersion: 9.9 in body\n"),
+    ("lower", "lower-3.0.dist-info/METADATA", "Metadata-Version: 2.1\nName: lower\nversion: 3.0\n"),
+    ("trail", "trail-4.0.dist-info/METADATA", "Metadata-Version: 2.1\nName: trail\nVersion:   4.0  \n"),
+    ("folded", "folded-2.0.dist-info/METADATA", "Metadata-Version: 2.1\nName: folded\nVersion: 2.0\n  .post1\n"),
+    ("crlf", "crlf-5.0.dist-info/METADATA", "Metadata-Version: 2.1\r\nName: crlf\r\nVersion: 5.0\r\n\r\n"),
+    ("eggy", "eggy.egg-info/PKG-INFO", "Metadata-Version: 1.0\nName: eggy\nVersion: 0.7.1\n\nbody\n"),
+    ("eggf", "eggf-1.2-py3.11.egg-info", "Metadata-Version: 1.0\nName: eggf\nVersion: 1.2\n"),
+]
+
+
+@pytest.mark.parametrize("name, rel, text", _LAYOUTS, ids=[n for n, _, _ in _LAYOUTS])
+def test_installed_version_of_odd_metadata_is_importlib_metadata_version(tmp_path, monkeypatch, name, rel, text):
+    """A Version header only in the body (None), in lower case, with trailing blanks, folded over two lines, with
+    CRLF endings, an .egg-info directory and an .egg-info file: the version importlib.metadata gives, for each."""
+    from importlib.metadata import version
+
+    from maps.plancache import installed_version
+
+    path = tmp_path / rel
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(text.encode())  # bytes: the CRLF layout kept as written
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert installed_version(name) == version(name)
