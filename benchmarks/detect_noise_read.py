@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from identify.detect.noiseread import lowpass_noise
+from identify.detect.noisespec import spectral_noise
 from identify.detect.priorfit import white_noise_sd
 from tests.physics.podded_truth import TABLE_4_1, Ship
 
@@ -46,7 +47,14 @@ def readings(folders: list[Path]) -> dict[str, list[dict[str, tuple[float, float
             row = {}
             for k in CHANNELS:
                 sd, tau = lowpass_noise(ch[k], dt)
-                row[k] = (white_noise_sd(ch[k]) / TRUE_SD[k], sd / TRUE_SD[k], tau / TRUE_TAU[k])
+                ss, ts = spectral_noise(ch[k], dt)
+                row[k] = (
+                    white_noise_sd(ch[k]) / TRUE_SD[k],
+                    sd / TRUE_SD[k],
+                    tau / TRUE_TAU[k],
+                    ss / TRUE_SD[k],
+                    ts / TRUE_TAU[k],
+                )
             out.setdefault(variant, []).append(row)
     return out
 
@@ -62,13 +70,16 @@ def main(argv: list[str] | None = None) -> int:
     res = readings(a.folders)
     print(
         "| variant (recordings) | channel | true sd | true tau s | white read / true sd | low-pass read / true sd | read tau / true tau |"
+        " spectral read / true sd | spectral tau / true tau |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for v, rows in res.items():
         for k in CHANNELS:
-            w, s, t = (np.array([r[k][i] for r in rows]) for i in range(3))
+            w, s, t, ss, ts = (np.array([r[k][i] for r in rows]) for i in range(5))
             cell = lambda x: f"{x.mean():.2f} ({x.min():.2f}-{x.max():.2f})"  # noqa: E731
-            print(f"| {v} ({len(rows)}) | {k} | {TRUE_SD[k]:g} | {TRUE_TAU[k]:g} | {cell(w)} | {cell(s)} | {cell(t)} |")
+            print(
+                f"| {v} ({len(rows)}) | {k} | {TRUE_SD[k]:g} | {TRUE_TAU[k]:g} | {cell(w)} | {cell(s)} | {cell(t)} | {cell(ss)} | {cell(ts)} |"
+            )
     return 0
 
 

@@ -11,6 +11,7 @@ from dataclasses import replace
 import numpy as np
 
 from identify.detect.noiseread import lowpass_noise, stationary_lowpass, white_noise_sd
+from identify.detect.noisespec import spectral_noise
 from identify.detect.nullsim import misfit_offsets, null_records, smooth
 from identify.detect.yawmodel import (
     CANDIDATES,
@@ -240,20 +241,22 @@ def _covariance(
 #: false alarms fell 7 -> 0 % (20 % on strong-roll, 15 % on steering-lag-acting under white), but misses rose
 #: 44 -> 57 %. Kept white on misses (both pairs) and the over-read r and v_dot; white's 7 % false alarms on 108-109
 #: at a 2 % design are open (docs/detect-accuracy.md, stop 55)
-NOISE_MODEL = "white"
-NOISE_MODELS = ("white", "lowpass")
+NOISE_MODEL = "spectral"
+NOISE_MODELS = ("white", "lowpass", "spectral")
 
 
 def read_noise(sig: dict[str, np.ndarray], dt: float, model: str = NOISE_MODEL) -> tuple[dict[str, float], dict[str, float]]:
     """Each signal's measurement noise, read from the nominal data: the white noise's sd per signal and
     the time constant (s) of the sensor's first-order low-pass it passed through (``model`` "lowpass":
     :func:`identify.detect.noiseread.lowpass_noise`), or white noise only (``model`` "white":
-    :func:`white_noise_sd`, main's before stop 55, no time constants)."""
+    :func:`white_noise_sd`, main's before stop 55, no time constants); ``model`` "spectral" (stop 56): the same
+    noise model read from the spectrum above the ship's own motion (:func:`identify.detect.noisespec.spectral_noise`)."""
     if model == "white":
         return {k: white_noise_sd(v) for k, v in sig.items()}, {}
-    if model != "lowpass":
+    if model not in NOISE_MODELS:
         raise UserError(f"noise model {model!r}: choose one of {', '.join(NOISE_MODELS)}")
-    read = {k: lowpass_noise(v, dt) for k, v in sig.items()}
+    reader = spectral_noise if model == "spectral" else lowpass_noise
+    read = {k: reader(v, dt) for k, v in sig.items()}
     # only the corners read: a channel that fell back to white (tau 0) is kept as a white prior keeps it
     return {k: sd for k, (sd, _) in read.items()}, {k: tau for k, (_, tau) in read.items() if tau > 0}
 

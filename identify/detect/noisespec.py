@@ -1,0 +1,112 @@
+"""A recorded channel's measurement noise read from its spectrum above the ship's own motion (stop 56):
+still white noise of sd ``sigma`` behind a first-order low-pass of time constant ``tau`` (eq. N1 of
+:mod:`identify.detect.noiseread`), but fitted only on the frequencies the ship's motion leaves to the noise.
+
+Stop 55's fourth differences at steps of up to 10 samples see 0.2-0.5 Hz, where a ship's yaw acceleration and
+sway jerk are as large as the noise (on the podded truth their spectrum is 0.1-0.7 of the noise's at 0.5 Hz and
+6-26 times it at 0.2 Hz), so r and v_dot read 1.1-3 times too high. Here:
+
+- the channel's spectrum ``P(f)`` is Welch's average (eq. S1): Hann-windowed segments of :data:`NSEG` samples, half
+  overlapping, each with its own straight line taken out, ``P = 2 dt |FFT(w x)|^2 / sum w^2``;
+- the noise's spectrum is the discrete AR(1)'s (eq. S2): ``N(f) = 2 dt sigma^2 (1 - a)^2 / |1 - a e^(-i 2 pi f dt)|^2``,
+  ``a = exp(-dt / tau)``; its shape (flat below the corner, falling as f^-2 above it, flattening again towards
+  Nyquist as the discrete filter does) gives ``a``, its level ``sigma``;
+- the band is ``[f_lo, f_N)``: ``f_lo`` is the lowest of :data:`F_LADDER` whose fit leaves no excess at the band's
+  own low end (eq. S3: the mean log ratio ``P / N`` over the band's lowest octave within :data:`Z_MAX` standard errors
+  of zero, the errors from Welch's own scatter; the ship's motion, falling much faster than f^-2, shows first there);
+  it is read from the data, not set from the truth;
+- ``a`` is fitted in the logs (grid then golden section, as stop 55's), ``sigma^2`` as the mean ratio ``P / N_1``
+  (unbiased, where the mean of the logs is not); white noise (``a`` within the grid's first step of 0) and a corner at
+  the grid's end (nothing resolved) read as :func:`identify.detect.noiseread.white_noise_sd`, tau = 0, as stop 55's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from identify.detect.noiseread import A_MAX, A_MIN, white_noise_sd
+
+#: Welch segment (samples): 25.6 s at 10 Hz, a 0.04 Hz bin, 38 half-overlapping segments in a 500 s record
+NSEG = 256
+#: the band's low end as a fraction of Nyquist (0.25 Hz at 10 Hz): above a slow roll's peak (strong-roll's 0.1 Hz)
+#: and below the corners a ship's sensors have at 10 Hz (0.2-0.5 s: 0.3-0.8 Hz); the next rung if no corner is read
+F_LADDER = (0.05, 0.07)
+#: the ship's motion's fall-off exponents tried (eq. S3): its spectrum falls much faster than the noise's f^-2
+K_GRID = (4, 5, 6, 7, 8, 10, 12)
+
+
+def welch_psd(x: np.ndarray, dt: float, nseg: int = NSEG) -> tuple[np.ndarray, np.ndarray, int]:
+    """``(f, P, K)``: Welch's one-sided density (eq. S1) at ``f`` (0 < f < Nyquist) and the number K of segments
+    averaged (the density's relative scatter is about ``1 / sqrt(K)`` per bin, a little more for the overlap)."""
+    x = np.asarray(x, float)
+    nseg = min(nseg, len(x))
+    starts = np.arange(0, len(x) - nseg + 1, nseg // 2)
+    seg = np.stack([x[s : s + nseg] for s in starts])
+    t = np.arange(nseg) - (nseg - 1) / 2
+    # each segment's own straight line out: the ship's slow motion must not leak through the window's sidelobes
+    slope = seg @ t / (t @ t)
+    seg = seg - seg.mean(axis=1, keepdims=True) - slope[:, None] * t
+    w = np.hanning(nseg)
+    p = 2 * dt * np.mean(np.abs(np.fft.rfft(seg * w, axis=1)) ** 2, axis=0) / np.sum(w * w)
+    f = np.fft.rfftfreq(nseg, dt)
+    keep = (f > 0) & (f < 0.5 / dt)
+    return f[keep], p[keep], len(starts)
+
+
+def _shape(a: float, f: np.ndarray, dt: float) -> np.ndarray:
+    """Eq. S2 per unit ``sigma^2``: ``2 dt (1 - a)^2 / |1 - a e^(-i w)|^2``, ``w = 2 pi f dt``."""
+    return 2 * dt * (1 - a) ** 2 / (1 + a * a - 2 * a * np.cos(2 * np.pi * f * dt))
+
+
+def _solve(a: float, k: int, f: np.ndarray, p: np.ndarray, dt: float) -> tuple[float, np.ndarray]:
+    """Eq. S3's levels ``(sigma^2, c) >= 0`` at fixed ``a`` and ``k`` by least squares in the relative misfit, weighted
+    once by the data then once by the fit (a weight of the data alone biases the levels low), and the misfit."""
+    basis = np.stack([_shape(a, f, dt), (f / f[0]) ** -float(k)], axis=1)
+    w = 1 / p
+    for _ in range(2):
+        x = np.linalg.lstsq(basis * w[:, None], p * w, rcond=None)[0]
+        if x[1] < 0:  # no motion left in the band: the noise alone
+            x = np.array([np.sum(basis[:, 0] * p * w * w) / np.sum((basis[:, 0] * w) ** 2), 0.0])
+        model = basis @ x
+        if not np.all(model > 0):
+            return math.inf, x
+        w = 1 / model
+    return float(np.sum(((p - model) * w) ** 2)), x
+
+
+def fit_band(f: np.ndarray, p: np.ndarray, dt: float) -> tuple[float, float]:
+    """``(sigma^2, a)`` of eq. S3 fitted to the density ``p`` at ``f``: ``a`` on a grid of 100 in [0, A_MAX] for each
+    fall-off ``k`` of :data:`K_GRID`, then by golden section at the best ``k``."""
+    grid = np.linspace(0.0, A_MAX, 100)
+    res = np.array([[_solve(a, k, f, p, dt)[0] for a in grid] for k in K_GRID])
+    ik, ia = np.unravel_index(int(np.argmin(res)), res.shape)
+    k = K_GRID[ik]
+    lo, hi = grid[max(ia - 1, 0)], grid[min(ia + 1, len(grid) - 1)]
+    g = (math.sqrt(5) - 1) / 2
+    for _ in range(30):
+        c, d = hi - g * (hi - lo), lo + g * (hi - lo)
+        lo, hi = (lo, d) if _solve(c, k, f, p, dt)[0] < _solve(d, k, f, p, dt)[0] else (c, hi)
+    a = 0.5 * (lo + hi)
+    return float(_solve(a, k, f, p, dt)[1][0]), a
+
+
+def spectral_noise(x: np.ndarray, dt: float) -> tuple[float, float]:
+    """``(sigma, tau)``: the white noise's sd and its low-pass's time constant (s; 0: white), read from the
+    channel's spectrum above the ship's own motion (eq. S1-S3). The noise the channel carries has the sd
+    ``sigma sqrt((1 - a) / (1 + a))``."""
+    x = np.asarray(x, float)
+    if len(x) < 2 * NSEG or not np.all(np.isfinite(x)) or np.ptp(x) == 0:
+        # too short for a spectrum, non-finite or constant: the white reading (a NaN stays NaN)
+        return white_noise_sd(x), 0.0
+    f, p, _ = welch_psd(x, dt)
+    for r in F_LADDER:
+        band = f >= r * 0.5 / dt
+        s2, a = fit_band(f[band], p[band], dt)
+        if a < 0.999 * A_MAX:
+            break
+    if a >= 0.999 * A_MAX or a < A_MIN:
+        # no corner resolved (the ship's own motion fills the band) or white noise: main's white reading
+        return white_noise_sd(x), 0.0
+    return math.sqrt(s2), -dt / math.log(a)
