@@ -1,9 +1,11 @@
-"""Stop 55: each recorded channel's noise as ``detect``'s prior reads it, against the podded truth's own
+"""Stops 55-56: each recorded channel's noise as ``detect``'s prior reads it, against the podded truth's own
 sensor settings (tests/physics/podded_truth.py: Table 4.1 levels behind first-order low-passes).
 
 For every nominal recording in the given truth-bench caches (``bench_detect_truth.py --cache DIR``), the
 white-noise reading (:func:`identify.detect.priorfit.white_noise_sd`, main's) and the low-passed white
-noise reading (:func:`identify.detect.noiseread.lowpass_noise`: sd and time constant) of each channel,
+noise reading (:func:`identify.detect.noiseread.lowpass_noise`, stop 55: sd and time constant) and the same
+noise model read from the spectrum above the ship's motion (:func:`identify.detect.noisespec.spectral_noise`,
+stop 56) of each channel,
 as ratios to the truth's sd and time constant; mean and range per variant. The truth's settings are
 read here only to be compared with; the readings see the recording alone.
 

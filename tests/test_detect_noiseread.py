@@ -200,9 +200,10 @@ def test_detect_prior_refuses_an_unknown_noise_model_before_reading_anything(tmp
     refuses it too before loading anything (the file named does not exist)."""
     from cli.options import validate_detect_prior_options
 
-    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass$"):
+    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass, spectral$"):
         fit_prior([tmp_path / "missing.csv"], "full", noise_model="pink")
 
-    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass$"):
+    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass, spectral$"):
         validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="pink")
     validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="lowpass")
+    validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="spectral")
