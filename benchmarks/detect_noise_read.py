@@ -39,8 +39,9 @@ def read_csv(path: Path) -> tuple[dict[str, np.ndarray], float]:
     return {k: np.asarray(a[k], float) for k in a.dtype.names}, dt
 
 
-def readings(folders: list[Path]) -> dict[str, list[dict[str, tuple[float, float, float]]]]:
-    """Per variant, per nominal recording: channel -> (white sd / true, low-pass sd / true, low-pass tau / true)."""
+def readings(folders: list[Path]) -> dict[str, list[dict[str, tuple[float, float, float, float, float]]]]:
+    """Per variant, per nominal recording: channel -> (white sd / true, low-pass sd / true, low-pass tau / true,
+    spectral sd / true, spectral tau / true)."""
     out: dict[str, list] = {}
     for folder in folders:
         for p in sorted(folder.glob("*-nominal-*-0.csv")):

@@ -139,6 +139,7 @@ def test_the_spectral_prior_is_read_by_the_spectral_reader(gyro_lowpassed):
 
     prior = fit_prior([gyro_lowpassed], "full", noise_model="spectral", bootstrap=0)
     assert prior.to_dict()["format"] == "shiptrial-yaw-prior/2", prior.to_dict()["format"]
+    assert prior.to_dict()["noise_model"] == "spectral" and YawPrior.from_dict(prior.to_dict()).noise_model == "spectral"
     assert abs(prior.noise_tau["r"] / 0.3 - 1) < 0.30 and abs(prior.noise["r"] / TABLE_4_1["r"] - 1) < 0.25, prior
     sig, r = signals(load_runs([gyro_lowpassed])[0], prior.kind)
     for k, x in (sig | {"r": r}).items():
@@ -172,6 +173,7 @@ def test_the_file_is_tagged_by_its_noise_model(lowpassed):
     white = replace(prior, noise_tau={}).to_dict()
     assert white["format"] == "shiptrial-yaw-prior/1" and "noise_tau" not in white
     assert prior.to_dict()["format"] == "shiptrial-yaw-prior/2" and prior.to_dict()["noise_tau"] == prior.noise_tau
+    assert prior.to_dict()["noise_model"] == "lowpass" and "noise_model" not in white
     assert YawPrior.from_dict(white).noise_tau == {}
     with pytest.raises(UserError, match="not a yaw prior"):
         YawPrior.from_dict(white | {"format": "shiptrial-yaw-prior/3"})

@@ -49,8 +49,9 @@ def _noise(tau: float, seed: int, n: int = 5000, dt: float = DT) -> np.ndarray:
 @pytest.mark.parametrize("tau", [0.2, 0.3, 0.5])
 def test_a_known_corner_and_sd_are_recovered_under_a_manoeuvre(tau):
     """Over 8 records of 500 s with a 0.05 rad/s manoeuvre: mean sd within 10 % and mean corner within 15 % of the
-    truth's (measured: 0.95-0.98 and 0.94-0.98; the band's low end at 0.25 Hz sits below a 0.5 s corner's 0.32 Hz,
-    so that one reads lowest), each record's sd within 25 %."""
+    truth's (measured: sd 0.978 / 0.964 / 0.933 and corner 0.94-0.98 for tau 0.2 / 0.3 / 0.5 s; the band's low end
+    at 0.25 Hz sits below a 0.5 s corner's 0.32 Hz, so that one reads lowest), each record's sd within 25 % (at tau
+    0.5 s the records reach 0.79 and 1.21: 4 % from the bound, deterministic, but a change to the reader may trip it)."""
     reads = np.array([spectral_noise(_motion(s, 0.05) + _noise(tau, s), DT) for s in range(8)])
     assert abs(reads[:, 0].mean() / SD - 1) < 0.10, reads
     assert abs(reads[:, 1].mean() / tau - 1) < 0.15, reads

@@ -95,6 +95,7 @@ def fit(
         kind, values, robust_sigma(e), np.zeros((p, p)), ar, sigma_w, block, dt, source, prefilter_hz, np.zeros((0, p)), noise
     )
     prior.noise_tau = taus
+    prior.noise_model = (noise_model or NOISE_MODEL) if taus else ""  # which reader read the corners (the file says)
     prior.model_error = model_error(prior, raw, r0, derive, seed)
     if estimate and bootstrap > 0:
         # the refits see the nominal residual's whole level: white noise at the levels read, plus what
