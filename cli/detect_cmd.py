@@ -55,8 +55,10 @@ def register(app: typer.Typer) -> None:
             None,
             "--noise-model",
             help="how each signal's measurement noise is read for the bootstrap refits and the no-change records: "
-            "'lowpass' (white noise through a first-order sensor low-pass, corner and sd read from the recording) "
-            "or 'white' (white noise from the second difference); default: white (docs/detect-accuracy.md, stop 55)",
+            "'spectral' (white noise through a first-order sensor low-pass, corner and sd read from the recording's "
+            "spectrum above the ship's own motion), 'lowpass' (the same noise read from fourth differences, stop 55) "
+            "or 'white' (white noise from the second difference); channels derived rather than sensed (tau_r without a "
+            "tau_n column, v_dot without a v_dot column) always read white; default: white (docs/detect-accuracy.md, stop 56)",
         ),
     ) -> None:
         """Fit the yaw-row prior (2.17)/(2.18) of "Estimating a ship's dynamics during operation" on a nominal recording, for `detect`."""

@@ -111,7 +111,7 @@ def test_a_channel_whose_short_differences_keep_growing_reads_white():
 
 
 @pytest.fixture(scope="module")
-def lowpassed(tmp_path_factory):
+def gyro_lowpassed(tmp_path_factory):
     """A product recording (measured moment) whose gyro's Table 4.1 noise went through a 0.3 s sensor
     low-pass (the noise alone: the same run without noise taken off, filtered, put back)."""
     noisy = simulated_recording(Vessel(), 400, seed=21, measured_moment=True)
@@ -121,7 +121,31 @@ def lowpassed(tmp_path_factory):
     y[:, 2] = clean.y[:, 2] + lfilter([1 - a], [1, -a], noisy.y[:, 2] - clean.y[:, 2])
     path = tmp_path_factory.mktemp("noiseread") / "nominal.csv"
     write_csv(replace(noisy, y=y), path)
-    return path, fit_prior([path], "full", noise_model="lowpass")
+    return path
+
+
+@pytest.fixture(scope="module")
+def lowpassed(gyro_lowpassed):
+    """That recording's prior with ``noise_model="lowpass"``."""
+    return gyro_lowpassed, fit_prior([gyro_lowpassed], "full", noise_model="lowpass")
+
+
+def test_the_spectral_prior_is_read_by_the_spectral_reader(gyro_lowpassed):
+    """``fit_prior(..., noise_model="spectral")`` end to end (stop 56): the prior's noise is noisespec's reading of
+    each sensed channel, exactly (the file /2, r behind a corner within 30 % of the 0.3 s and an sd within 25 % of
+    Table 4.1's); stop 55's reader reads r otherwise here, so "spectral" sent to it fails this test."""
+    from identify.detect.api import load_runs
+    from identify.detect.noisespec import spectral_noise
+
+    prior = fit_prior([gyro_lowpassed], "full", noise_model="spectral", bootstrap=0)
+    assert prior.to_dict()["format"] == "shiptrial-yaw-prior/2", prior.to_dict()["format"]
+    assert prior.to_dict()["noise_model"] == "spectral" and YawPrior.from_dict(prior.to_dict()).noise_model == "spectral"
+    assert abs(prior.noise_tau["r"] / 0.3 - 1) < 0.30 and abs(prior.noise["r"] / TABLE_4_1["r"] - 1) < 0.25, prior
+    sig, r = signals(load_runs([gyro_lowpassed])[0], prior.kind)
+    for k, x in (sig | {"r": r}).items():
+        sd, tau = spectral_noise(x, DT)
+        assert prior.noise[k] == sd and prior.noise_tau.get(k, 0.0) == tau, (k, prior.noise, prior.noise_tau, sd, tau)
+    assert lowpass_noise(r, DT) != spectral_noise(r, DT)
 
 
 def test_the_prior_reads_a_low_passed_gyro_s_noise_and_keeps_it(lowpassed):
@@ -149,6 +173,7 @@ def test_the_file_is_tagged_by_its_noise_model(lowpassed):
     white = replace(prior, noise_tau={}).to_dict()
     assert white["format"] == "shiptrial-yaw-prior/1" and "noise_tau" not in white
     assert prior.to_dict()["format"] == "shiptrial-yaw-prior/2" and prior.to_dict()["noise_tau"] == prior.noise_tau
+    assert prior.to_dict()["noise_model"] == "lowpass" and "noise_model" not in white
     assert YawPrior.from_dict(white).noise_tau == {}
     with pytest.raises(UserError, match="not a yaw prior"):
         YawPrior.from_dict(white | {"format": "shiptrial-yaw-prior/3"})
@@ -200,9 +225,10 @@ def test_detect_prior_refuses_an_unknown_noise_model_before_reading_anything(tmp
     refuses it too before loading anything (the file named does not exist)."""
     from cli.options import validate_detect_prior_options
 
-    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass$"):
+    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass, spectral$"):
         fit_prior([tmp_path / "missing.csv"], "full", noise_model="pink")
 
-    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass$"):
+    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass, spectral$"):
         validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="pink")
     validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="lowpass")
+    validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="spectral")

@@ -86,6 +86,16 @@ class Deriver:
         return self.pods is None
 
     @property
+    def derived(self) -> frozenset[str]:
+        """The model inputs this derivation computes rather than reads from a sensor: tau_r from the pod inputs
+        (no ``tau_n`` column), v_dot from v (no ``v_dot`` column). Their noise is not a sensor's low-passed noise,
+        so a noise model of sensors (:func:`identify.detect.priorfit.read_noise`) reads them white."""
+        out = {"tau_r"} if self.pods is not None else set()
+        if "v_dot" in SIGNALS[self.kind] and not self.measured_vdot:
+            out.add("v_dot")
+        return frozenset(out)
+
+    @property
     def form(self) -> tuple:
         """What the derivation does with its signals, as a key: two derivations of one form give
         the same inputs from the same signals (recordings of one job share their no-change noise)."""

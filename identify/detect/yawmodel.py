@@ -90,6 +90,10 @@ class YawPrior:
     #: (:func:`identify.detect.noiseread.lowpass_noise`); a signal not in it (every signal of a prior written before
     #: stop 55) has white noise (:func:`identify.detect.priorfit.white_noise_sd`'s reading)
     noise_tau: dict[str, float] = field(default_factory=dict)
+    #: the reader that read ``noise_tau`` ("lowpass": stop 55, "spectral": stop 56; :data:`identify.detect.priorfit.
+    #: NOISE_MODELS`), written beside it in a /2 file so a user can tell the two apart; "" when not known (a file
+    #: written before the review of stop 56) or when no corner was read
+    noise_model: str = ""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -124,6 +128,7 @@ class YawPrior:
             "structure": self.structure.tolist(),
             "moment_shift_s": self.moment_shift_s,
             **({"noise_tau": self.noise_tau} if self.noise_tau else {}),
+            **({"noise_model": self.noise_model} if self.noise_tau and self.noise_model else {}),
         }
 
     @classmethod
@@ -152,6 +157,7 @@ class YawPrior:
                 np.asarray(d.get("structure", [0.0] * len(CANDIDATES)), float).reshape(len(CANDIDATES)),
                 float(d.get("moment_shift_s", 0.0)),
                 {str(k): float(v) for k, v in d.get("noise_tau", {}).items()},
+                str(d.get("noise_model", "")),
             )
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             raise UserError(
