@@ -14,9 +14,8 @@ command refused) is ended at once (SIGTERM, on which it unwinds: see :class:`Can
 
 ``plan-trial`` forks its drawer before it parses its options (:func:`start_early`, deferred: the
 drawing modules imported first, the early function given later by :meth:`Drawer.begin`), so that
-a run whose plan is read from the plan cache does not wait for those imports; so does ``--no-cache`` (stop 56: forked
-after the planner's imports, which the two then shared, it was still importing when the parent sent its plan;
-provisional until near-idle pairs decide it, see :func:`start_early`).
+a run whose plan is read from the plan cache does not wait for those imports. With ``--no-cache`` the plan is made
+for sure and the drawer is forked later, once the parent has imported the planner: the two share those imports.
 
 On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`). The forked
 processes' plumbing (their guarded life, cancellation, reaping, errors named by file) is :mod:`cli.forkjobs`.
@@ -239,18 +238,14 @@ def start_early(args: Sequence[str] = ()) -> None:
     The command takes it (:func:`take_early`) and gives it its early function (:meth:`Drawer.begin`);
     :func:`drop_early` ends one left untaken (the command refused, or writes no figures).
 
-    ``--no-cache`` too (stop 56): until then that command's drawer was forked later, once this process had imported
-    the planner, so that the two shared those imports (numpy, shapely, pyproj, the project's modules: about 0.3 s of
-    the drawer's CPU); with the map's no-go area and collision grid kept (:mod:`maps.mapcache`) the parent sent its plan
-    before that drawer had imported the drawing modules (late by 0.26-0.60 s, median 0.56, in 5 stage benchmarks at
-    load 6-8, against 0.10-0.18 s forked here; its CPU 0.06 s more, median). The drawer computes the early design,
-    which the parent asks for 0.13-0.21 s of CPU after the fork (stop 47's figures).
-
-    Provisional: measured only at load 5-9, where the whole command's CPU and wall were not resolved against the
-    later fork; near-idle pairs decide it. ``args`` (the command line's words) is unused meanwhile and kept for
-    that: the later fork is the condition ``and "--no-cache" not in args`` on the line below."""
-    # provisional (stop 56): `and "--no-cache" not in args` here restores stop 55's later --no-cache fork
-    if CAN_FORK and not _STARTED:
+    Not with ``--no-cache`` among ``args`` (the command line's words): that command plans here for sure, and its
+    drawer is forked later (:func:`cli.plan_cmd.plan_and_write`), once this process has imported the planner,
+    so that the two share those imports (numpy, shapely, pyproj, the project's modules: about 0.3 s of the
+    drawer's CPU) rather than each paying for them. Since the planner imports no scipy (stop 47), the drawer's early
+    design imports scipy.optimize itself (0.78-0.88 s of its CPU from the fork to the design, 0.44-0.50 s before,
+    load 11), and the parent asks for the design 0.13-0.21 s of CPU after the fork: on idle cores that is what the
+    parent waits for."""
+    if CAN_FORK and not _STARTED and "--no-cache" not in args:
         # what both processes import in every such command (the plan's and the map's modules: shapely, pyproj),
         # imported once before the fork (about 0.09 s of CPU the drawer would repeat)
         import maps.export._common  # noqa: F401
