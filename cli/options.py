@@ -353,10 +353,9 @@ def validate_detect_prior_options(
 ) -> None:
     check_out_file(out, (".json",), "--out", "prior")  # also refuses a directory
     if noise_model is not None:
-        from identify.detect.priorfit import NOISE_MODELS  # the library's list, read only when the option is given
+        from identify.detect.priorfit import check_noise_model  # the library's check, read only when the option is given
 
-        if noise_model not in NOISE_MODELS:
-            raise UserError(f"--noise-model {noise_model!r}: choose one of {', '.join(NOISE_MODELS)}")
+        check_noise_model(noise_model)
     if bootstrap != 0:  # 0: no bootstrap; one refit is no spread
         whole(bootstrap, "--bootstrap", 2, 256, "refits (or 0: no bootstrap)")
     whole(seed, "--seed", 0, 2**63 - 1)

@@ -17,7 +17,8 @@ map (:func:`maps.export.chart.chart_of`: land and no-go areas in lon/lat, the fi
 same entry and read with it (:func:`kept_chart`). What the planner makes from that map alone is kept beside it, as
 ``*.map`` entries keyed by the map's key and their arguments (stop 56): the obstacles grown by the margin
 (:func:`kept_no_go`) and the collision grid's blocked cells (:func:`kept_grid`). On the bundled map for the default
-ship (``derived_cost.py`` in ``/work/wt/reports/s56-nocache-files/``, least CPU of 7, load 4.4-5.3): made, 0.026-0.032 s
+ship (a scratch script outside the repository, least CPU of 7, load 4.4-5.3; docs/kernel-speed.md, stop 56): made,
+0.026-0.032 s
 for the no-go area at 20 m and 0.039-0.044 s for the grid; read back, about 2 ms each. Those are the figures
 :func:`kept_no_go`, :func:`kept_grid` and :class:`maps.collision.CollisionGrid` refer to.
 """

@@ -133,8 +133,9 @@ def _versions(libraries: tuple[str, ...]) -> bytes:
 
 def installed_version(lib: str) -> str:
     """``importlib.metadata.version(lib)``, read from the metadata's ``Version:`` header line rather than by
-    parsing the whole file as an e-mail message (numpy's and scipy's hold their README): the 8 numerical libraries'
-    0.0045-0.008 s of CPU against 0.012-0.017 s in a fresh process (stop 56, 3 each, load 5), the same string: the value as
+    parsing the whole file as an e-mail message (numpy's and scipy's hold their README): about 0.004 s of CPU against
+    0.010-0.012 s for the 8 numerical libraries in a fresh process (stop 56 review mend, 3 alternated runs, load 3.4;
+    docs/kernel-speed.md), the same string: the value as
     the e-mail parser gives it (leading blanks dropped). A header folded over lines, or none found, is left to the
     parser. PackageNotFoundError when ``lib`` is not installed."""
     from importlib.metadata import distribution

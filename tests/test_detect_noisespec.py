@@ -99,6 +99,16 @@ def test_records_it_cannot_fit_read_white():
         assert tau == 0.0 and np.array_equal(sd, white_noise_sd(bad), equal_nan=True), (sd, tau)
 
 
+@pytest.mark.parametrize("dt", [2.0, 4.0, 1.0])
+def test_slow_sampling_reads_white(dt):
+    """A sample time of 2 s or more leaves no bin above the band's 0.25 Hz (the fit failed with an IndexError on the
+    empty band, a traceback from detect-prior --noise-model spectral); at 1 s about 6 bins, too few to resolve a
+    corner (white noise read a 0.46 s corner at 1.24 of its sd): both read white, tau 0 and the white reading."""
+    x = np.random.default_rng(5).standard_normal(2000)
+    sd, tau = spectral_noise(x, dt)
+    assert tau == 0.0 and sd == white_noise_sd(x), (sd, tau)
+
+
 def test_welch_density_integrates_to_the_variance():
     """Eq. S1's scaling: white noise of sd 1 has the one-sided density 2 dt, within 3 % over the band (its
     mean over 1000 bins x 38 segments)."""

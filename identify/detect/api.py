@@ -19,7 +19,7 @@ from identify.detect.cusum import calibrate_dead_zone, first_alarms
 from identify.detect.glr import SignatureCusum, calibrate
 from identify.detect.inputs import SWAY_ACC, Deriver, signals
 from identify.detect.nullsim import null_records
-from identify.detect.priorfit import NOISE_MODELS, batch_fits, fit
+from identify.detect.priorfit import batch_fits, check_noise_model, fit
 from identify.detect.rollband import roll_band
 from identify.detect.verdict import Detection, Screening, implausible_inertia, physical_change, verdict
 from identify.detect.vessel import TABLE_4_1, Vessel, base_profile, harbour_inputs, measure, truth
@@ -125,8 +125,8 @@ def fit_prior(
     noise is read (:func:`identify.detect.priorfit.read_noise`; None: its default)."""
     if kind not in ("full", "simplified"):
         raise UserError(f"--model {kind!r}: choose full (2.17) or simplified (2.18)")
-    if noise_model not in (None, *NOISE_MODELS):  # up front: not after loading and the whole fit
-        raise UserError(f"--noise-model {noise_model!r}: choose one of {', '.join(NOISE_MODELS)}")
+    if noise_model is not None:  # up front: not after loading and the whole fit
+        check_noise_model(noise_model)
     recs = load_runs(paths, kind, notes)
     rec = max(recs, key=lambda r: r.n_samples)
     if kind == "full" and roll_rate and "p" in rec.channels:

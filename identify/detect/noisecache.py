@@ -3,7 +3,8 @@
 prior is tested on, read back by the next ``shiptrial detect`` instead of computed again.
 
 With the pod yaw moment measured (``Deriver.linear``) a no-change record's inputs are the prior's
-inputs of the clean signals plus those of the noise alone (:func:`identify.detect.nullsim._linear_inputs`);
+inputs of the clean signals plus those of the noise alone (:func:`identify.detect.nullsim.null_records`: the clean
+share from ``_linear_inputs``, the noise's added in the yaw loop, ``simulate_r(extra=)``);
 that noise's share, the yaw rate's noise and the misfit's block innovations depend on the seed, the
 number of records, the recording's length and the prior's noise levels, sample time and input filter
 only, not on the recording. Drawing and filtering them was 1.0 s of a 500 s recording's 1.8 s CPU in

@@ -134,7 +134,8 @@ def stationary_lowpass(w: np.ndarray, tau: float, dt: float, axis: int = -1) -> 
     started in its stationary state (eq. N1: the first sample scaled to the sd ``sigma sqrt((1 - a) /
     (1 + a))`` the filter settles at, as a sensor running long before the record starts), along
     ``axis``; ``w`` itself when ``tau`` is 0. Linear in ``w``, so the no-change records' split of
-    signal and noise (:func:`identify.detect.nullsim._linear_inputs`) still holds."""
+    signal and noise (:func:`identify.detect.nullsim.null_records`: the clean share from ``_linear_inputs``, the
+    noise's added in the yaw loop, ``simulate_r(extra=)``) still holds."""
     if tau <= 0:
         return w
     a = math.exp(-dt / tau)

@@ -23,7 +23,10 @@ sway jerk are as large as the noise (on the podded truth their spectrum is 0.07-
 Not handled: a channel held between samples (a 1 Hz sensor logged at 10 Hz) has a held noise's spectrum, not
 eq. S2's, and reads a corner of a few tenths of a second at several times its sd (stop 55's reader reads it 0;
 neither is right). The band and segment are set in Hz and seconds: tested at 10 Hz on the podded truth and at
-10 and 20 Hz on synthetic channels (tests/test_detect_noisespec.py).
+10, 20 and 50 Hz on synthetic channels (tests/test_detect_noisespec.py). At 1 Hz or slower the reading is white: a band
+with fewer than :data:`MIN_BINS` bins above 0.25 Hz resolves no corner (none at all at 2 s sampling). Between 1 and
+2 Hz the band is short and white noise can read a corner (one white record of 2000 samples: 0.34 s at 1.4 Hz, 0.19 s
+at 2 Hz; the stop 56 re-read mend).
 
 On the podded truth (docs/detect-accuracy.md, stop 56) it reads r at 0.93-0.99 and v_dot at 0.79-1.22 of their
 sd (means per variant over one recording on each of 4 ships; per record r 0.82-1.04), u, v, phi and p at 0.88-1.06.
@@ -45,6 +48,9 @@ SEG_S = 25.6
 F_LADDER = (0.25, 0.35)
 #: the ship's motion's fall-off exponents tried (eq. S3): its spectrum falls much faster than the noise's f^-2
 K_GRID = (4, 5, 6, 7, 8, 10, 12)
+#: fewest bins in the band for a fit: at 1 Hz sampling the band 0.25-0.5 Hz holds about 6 (white noise read a 0.46 s
+#: corner at 1.24 of its sd, the review of stop 56), at 2 s sampling none (the fit failed on an empty band)
+MIN_BINS = 8
 
 
 def segment(dt: float) -> int:
@@ -132,8 +138,11 @@ def spectral_noise(x: np.ndarray, dt: float) -> tuple[float, float]:
         # too short for a spectrum, non-finite or constant: the white reading (a NaN stays NaN)
         return white_noise_sd(x), 0.0
     f, p, _ = welch_psd(x, dt)
+    s2, a = 0.0, A_MAX
     for r in F_LADDER:
         band = f >= r
+        if np.count_nonzero(band) < MIN_BINS:  # too few bins above the motion (2 s sampling has none): white
+            break
         s2, a = fit_band(f[band], p[band], dt)
         if a < 0.999 * A_MAX:
             break

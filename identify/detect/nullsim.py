@@ -103,10 +103,10 @@ def _linear_noise(
     taus: tuple[float, ...] = (),
 ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
     """The recording-independent part of the linear path's no-change records: the yaw rate's noise
-    (runs, n), the misfit's block innovations (``blocks``, runs; (0, runs) without) and the prior's
-    inputs of the noise alone (n, runs) per input (:func:`_linear_inputs`), from the scaled draws of
-    :func:`normals`, each signal's through its sensor's low-pass ``taus`` (:func:`sensor_filtered`; none:
-    white). They depend on the seed, ``runs``, the length ``n``, the noise levels ``sds`` and low-passes, the
+    (runs, n), the misfit's block innovations (``blocks``, runs; (0, runs) without) and the noise alone's
+    share of the prior's inputs (n, runs) per input (added to :func:`_linear_inputs`' clean share inside the
+    simulation), from the scaled draws of :func:`normals`, each signal's through its sensor's low-pass ``taus``
+    (:func:`sensor_filtered`; none: white). They depend on the seed, ``runs``, the length ``n``, the noise levels ``sds`` and low-passes, the
     prior's sample time and input filter, the derivation's form and which loop filters (compiled or numpy) only: kept in ``draws`` over a job
     and, inside ``shiptrial detect``, on disk over commands (:mod:`identify.detect.noisecache`, read
     back memory-mapped and read-only: the numbers drawing and filtering them again gives, to the bit)."""

@@ -244,11 +244,18 @@ def _covariance(
 #: 44 -> 57 %. "spectral" (stop 56) reads r at 0.93-0.99 and v_dot at 0.79-1.22 (means per variant over one recording
 #: on each of 4 ships; per record r 0.82-1.04, and 0.95-1.09 on 8 more runs of ships 102-103; the ship's motion
 #: fitted beside the noise); re-screened as the default on 102-103 the levels moved towards calibrated (pooled KS p
-#: 8e-4 -> 0.015, the runs' misfit over their records' 0.99 as main's) but misses were 5 runs of 100 higher
-#: (34 -> 39 %; 7 of 100 on 108-109; 2 ships each, not significant) and detections came 26 s later. Kept white:
+#: 8e-4 -> 0.015, the runs' misfit over their records' 0.99 as main's) but misses were higher (34 -> 39 %, 5 of
+#: 100, not significant on 2 ships; 44 -> 51 %, 7 of 100, on 108-109) and detections came 26 s later. Kept white:
 #: neither reading calibrates without costing misses (docs/detect-accuracy.md, stops 55-56)
 NOISE_MODEL = "white"
 NOISE_MODELS = ("white", "lowpass", "spectral")
+
+
+def check_noise_model(name: str) -> None:
+    """Refuse a noise model not in :data:`NOISE_MODELS`: the one check and wording of the CLI's option, the API and
+    :func:`read_noise`."""
+    if name not in NOISE_MODELS:
+        raise UserError(f"--noise-model {name!r}: choose one of {', '.join(NOISE_MODELS)}")
 
 
 def read_noise(
@@ -264,8 +271,7 @@ def read_noise(
     11 times its white level under "spectral", and made a white recording's prior a format /2 one)."""
     if model == "white":
         return {k: white_noise_sd(v) for k, v in sig.items()}, {}
-    if model not in NOISE_MODELS:
-        raise UserError(f"noise model {model!r}: choose one of {', '.join(NOISE_MODELS)}")
+    check_noise_model(model)
     reader = spectral_noise if model == "spectral" else lowpass_noise
     read = {k: (white_noise_sd(v), 0.0) if k in derived else reader(v, dt) for k, v in sig.items()}
     # only the corners read: a channel that fell back to white (tau 0) is kept as a white prior keeps it

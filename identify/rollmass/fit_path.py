@@ -59,6 +59,10 @@ class Counted:
     def __getattr__(self, name: str) -> object:
         return getattr(self._prob, name)
 
+    def recounted(self, tally: PathTally) -> Counted:
+        """The same problem, its evaluations added to ``tally`` instead (the exact path's continuation)."""
+        return Counted(self._prob, tally)
+
     def residual(self, x: np.ndarray) -> np.ndarray:
         self._tally.residuals += 1
         return self._prob.residual(x)
