@@ -695,4 +695,13 @@ def test_installed_version_of_odd_metadata_is_importlib_metadata_version(tmp_pat
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_bytes(text.encode())  # bytes: the CRLF layout kept as written
     monkeypatch.syspath_prepend(str(tmp_path))
-    assert installed_version(name) == version(name)
+    try:
+        expected = version(name)
+    except KeyError:
+        # no Version header: once the importlib_metadata backport is imported anywhere in the process (another test,
+        # a plugin), its finder comes first on sys.meta_path and its distributions refuse the missing field where the
+        # standard library's give None; installed_version must do the same, not read the body's "Version:" line
+        with pytest.raises(KeyError):
+            installed_version(name)
+        return
+    assert installed_version(name) == expected
