@@ -147,8 +147,8 @@ def _stages() -> dict:
     from maps.export._common import iso, resolve_start
     from maps.export.card import write_card_pdf
     from maps.export.chart import embed_chart, plan_chart
+    from maps.export.figures import PlanFigures
     from maps.export.geojson import sea_room_lonlat, write_geojson
-    from maps.export.plots import PlanFigures
     from maps.export.route import build_route
     from maps.geo import load_map
     from maps.output import plot_plan

@@ -247,12 +247,18 @@ def _only(a: argparse.Namespace, variants: list[str], cases: list[str]) -> set[t
 
 
 def _jobs(
-    a: argparse.Namespace, variants: list[str], cases: list[str], methods: list[str], done: set, only: set | None
+    a: argparse.Namespace,
+    variants: list[str],
+    cases: list[str],
+    methods: list[str],
+    done: set,
+    only: set | None,
+    family: dict[str, object],
 ) -> tuple[list, float]:
     """The fits to make, run-major: (variant, run, case, recordings, methods not in ``done``, ...), and the
     simulations' CPU. Every variant's whole family is simulated (its ships depend on ``--runs``), so a fit
     selected by ``--only`` or left by ``--resume`` is the one a fresh run of the same ``--runs`` makes."""
-    family, jobs, c_sim = _family(a), [], 0.0
+    jobs, c_sim = [], 0.0
     for variant in variants:
         c0 = time.process_time()
         # a variant's seed does not depend on which others are run, so runs pair across invocations
@@ -280,12 +286,12 @@ def _rows(
         return rows, list(dict.fromkeys(r[0] for r in rows)), 0.0
     fd = _locked(Path(a.dump)) if a.dump else -1  # held while this process writes the dump (its rows appended below)
     try:
-        rows, done = [], set()
+        rows, done, family = [], set(), _family(a)  # the family key hashes the sources: once
         if a.resume:  # the dump's rows are one family's (checked): keep them, fit the rest
-            rows, done = _done(Path(a.dump), _family(a), fd)
+            rows, done = _done(Path(a.dump), family, fd)
         elif a.dump:  # a dump holds one family's rows: appending to an old one would mix runs of two families
             os.ftruncate(fd, 0)
-        jobs, c_sim = _jobs(a, variants, cases, methods, done, only)
+        jobs, c_sim = _jobs(a, variants, cases, methods, done, only, family)
         with Pool(a.workers, initializer=_unlocked, initargs=(fd,)) as pool:  # also a worker the pool replaces
             for part in pool.imap(_one, jobs):
                 for r in part:

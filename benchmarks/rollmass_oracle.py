@@ -120,7 +120,7 @@ def loaded_recording(
     samples, m, zm = bt.DATASETS[dataset]
     load = (m, zm) if load is None else load
     n_out = int(samples * length)
-    dseed = vseed * 7919 + 101 * i + 1
+    dseed = bt.dataset_seed(vseed, i)
     warm = int(5 * bt.FS)
     if parts == "all":
         data = bt.simulate(ship, variant, load, n_out, dseed, quiet)

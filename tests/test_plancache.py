@@ -656,18 +656,28 @@ def test_begin_cards_only_reaches_the_deferred_drawer(monkeypatch):
 def test_installed_version_is_importlib_metadata_version():
     """The cache keys' library versions read from the Version header line are importlib.metadata's, for every
     library keyed (installed or not), so that every key is the one the e-mail parser's version gave."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    from maps.plancache import DRAWING, LIBRARIES, installed_version
+    from maps.plancache import DRAWING, LIBRARIES
 
     for lib in (*LIBRARIES, *DRAWING, "pytest", "no-such-library-s56"):
-        try:
-            want = version(lib)
-        except PackageNotFoundError:
-            with pytest.raises(PackageNotFoundError):
-                installed_version(lib)
-            continue
-        assert installed_version(lib) == want, lib
+        _assert_as_importlib_metadata(lib)
+
+
+def _assert_as_importlib_metadata(lib: str) -> None:
+    """installed_version(lib) gives importlib.metadata's version, or raises as it does: PackageNotFoundError when
+    not installed; KeyError for metadata without a Version header once the importlib_metadata backport is imported
+    anywhere in the process (another test, a plugin: its finder then comes first on sys.meta_path, and its
+    distributions refuse the missing field where the standard library's give None), so never the body's line."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from maps.plancache import installed_version
+
+    try:
+        want = version(lib)
+    except (PackageNotFoundError, KeyError) as refused:
+        with pytest.raises(type(refused)):
+            installed_version(lib)
+        return
+    assert installed_version(lib) == want, lib
 
 
 # hand-made installed packages (name, path under a site directory, metadata text): the layouts installed_version
@@ -687,21 +697,8 @@ _LAYOUTS = [
 def test_installed_version_of_odd_metadata_is_importlib_metadata_version(tmp_path, monkeypatch, name, rel, text):
     """A Version header only in the body (None), in lower case, with trailing blanks, folded over two lines, with
     CRLF endings, an .egg-info directory and an .egg-info file: the version importlib.metadata gives, for each."""
-    from importlib.metadata import version
-
-    from maps.plancache import installed_version
-
     path = tmp_path / rel
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_bytes(text.encode())  # bytes: the CRLF layout kept as written
     monkeypatch.syspath_prepend(str(tmp_path))
-    try:
-        expected = version(name)
-    except KeyError:
-        # no Version header: once the importlib_metadata backport is imported anywhere in the process (another test,
-        # a plugin), its finder comes first on sys.meta_path and its distributions refuse the missing field where the
-        # standard library's give None; installed_version must do the same, not read the body's "Version:" line
-        with pytest.raises(KeyError):
-            installed_version(name)
-        return
-    assert installed_version(name) == expected
+    _assert_as_importlib_metadata(name)

@@ -90,12 +90,13 @@ def fit(
     sigma_w = robust_sigma(whiten(e_blocks, ar))
     values = {k: float(NOMINAL[k] * xi) for k, xi in zip(PARAMS[kind], x)}
     derived = getattr(derive, "derived", frozenset())  # a plain function as derive: nothing known to be derived
-    noise, taus = read_noise(raw | {"r": r_meas}, dt, noise_model or NOISE_MODEL, derived)
+    noise_model = noise_model or NOISE_MODEL
+    noise, taus = read_noise(raw | {"r": r_meas}, dt, noise_model, derived)
     prior = YawPrior(
         kind, values, robust_sigma(e), np.zeros((p, p)), ar, sigma_w, block, dt, source, prefilter_hz, np.zeros((0, p)), noise
     )
     prior.noise_tau = taus
-    prior.noise_model = (noise_model or NOISE_MODEL) if taus else ""  # which reader read the corners (the file says)
+    prior.noise_model = noise_model if taus else ""  # which reader read the corners (the file says)
     prior.model_error = model_error(prior, raw, r0, derive, seed)
     if estimate and bootstrap > 0:
         # the refits see the nominal residual's whole level: white noise at the levels read, plus what

@@ -47,7 +47,7 @@ def export_plan(
     chart stored in the plan). ``start``: UTC start of the trial for ETAs (default:
     ``plan.stats['start_utc']``, else the next full hour). ``vessel``: the ship's name on the
     route and card (default: ``plan.vessel_name``, else the profile's display name).
-    ``figures``: a :class:`maps.export.plots.PlanFigures` of the plan to share the card's
+    ``figures``: a :class:`maps.export.figures.PlanFigures` of the plan to share the card's
     figures with other exports (:func:`export_all` does). The card's files appear together or
     not at all (:func:`maps.export.staging.staged_outputs`).
     """
@@ -102,7 +102,7 @@ def export_all(
     """Every export of ``plan`` into ``out_dir``: keys geojson, gpx, rtz, csv, card (HTML),
     card_pdf (without ``pdf``: none), and with ``plots`` track_png (map) and states_png (speed,
     heading, inputs): the card's images are those PNGs, each figure drawn once (``figures``: a
-    :class:`maps.export.plots.PlanFigures` of the plan to draw them in, else a new one).
+    :class:`maps.export.figures.PlanFigures` of the plan to draw them in, else a new one).
 
     All or nothing: when a writer fails, none of the files is left in ``out_dir`` and files there
     of the same names are as they were (:func:`maps.export.staging.staged_outputs`). ``staged=False``:
@@ -110,7 +110,8 @@ def export_all(
     (``shiptrial plan``: :func:`primitives.io.atomic_output_dir`)."""
     from maps.export._common import check_plan, resolve_start
     from maps.export.chart import plan_chart
-    from maps.export.plots import PlanFigures, plot_states, plot_track
+    from maps.export.figures import PlanFigures
+    from maps.export.plots import plot_states, plot_track
     from maps.export.staging import staged_outputs
 
     check_plan(plan)

@@ -494,7 +494,7 @@ def write_card(
     figures: PlanFigures | None = None,
 ) -> list[Path]:
     """Write the HTML card to ``path`` (suffix .html) and, with ``pdf``, the PDF beside it
-    (``figures``: the plan's shared figures, see :class:`maps.export.plots.PlanFigures`)."""
+    (``figures``: the plan's shared figures, see :class:`maps.export.figures.PlanFigures`)."""
     path = Path(path)
     sea_map = plan_chart(plan, sea_map)  # read a map file once for the HTML, the PDF and the figures
     if path.suffix.lower() == ".pdf":  # the PDF draws its own map and states page

@@ -16,7 +16,7 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 
 from maps.export._common import KN_PER_MPS, step_slice  # noqa: E402
-from maps.export.figures import STATES_DPI, TRACK_DPI, PlanFigures  # noqa: E402, F401 - PlanFigures' home before stop 55
+from maps.export.figures import STATES_DPI, TRACK_DPI, PlanFigures  # noqa: E402
 from maps.export.mapplot import annotate_steps, draw_map, lon_ticks, primitive_colours, step_colour  # noqa: E402
 from maps.plan import Plan  # noqa: E402
 

@@ -473,8 +473,13 @@ def simulate_runs(
     ship = draw_ships(runs, variant, seed)
     data = {}
     for i, (name, (samples, m, zm)) in enumerate(DATASETS.items()):
-        data[name] = simulate(ship, variant, (m, zm), int(samples * length), seed * 7919 + 101 * i + 1, quiet)
+        data[name] = simulate(ship, variant, (m, zm), int(samples * length), dataset_seed(seed, i), quiet)
     return ship, data
+
+
+def dataset_seed(seed: int, i: int) -> int:
+    """The noise seed of the ``i``-th dataset (:data:`DATASETS` order) of a family drawn with ``seed``."""
+    return seed * 7919 + 101 * i + 1
 
 
 def case_recordings(ship: Ship, data: dict, case: str, run: int) -> list[Recording]:
