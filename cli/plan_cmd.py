@@ -395,6 +395,11 @@ def plan_and_write(
         elif not no_export and saved is None:
             if hit is None:  # planned here: the drawer forked after the planner's imports shares them (start_early)
                 import maps.planner  # noqa: F401
+
+                if plancache.default_dir() is not None:
+                    # hashed once, before the fork: the map's key here and the drawer's library and design keys both
+                    # need it (about 0.045 s of CPU each; with the plan cache on, the plan's key hashed it already)
+                    plancache.code_version()
             drawer = Drawer(early, ahead=ahead)
         if hit is None:
             sea = load_map_kept(map_path, draught_m=prof.draught_m)  # the projected map kept as the moves are

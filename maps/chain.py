@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -88,12 +89,49 @@ class Lattice:
         for m in self.moves:  # footprints first (cached on the primitives): the forked half would lose its copies
             for h in range(K):
                 m.prim(h).footprint  # noqa: B018
-        # every (move, heading class) on its own: half of them in a forked child (maps.forked), same results
-        q_n = K // 4
-        flat = map_halves(lambda mq: self._class_placements(*mq, extra), [(m, q) for m in self.moves for q in range(q_n)])
-        out = [[flat[mi * q_n + h % q_n][h // q_n] for h in range(K)] for mi in range(len(self.moves))]
+        shape = (len(self.moves), K, self.window.ni, self.window.nj)
+        # kept beside the map (maps.mapcache): they depend on the map, the grid and the moves' footprints only
+        out = mapcache.kept_placements(self.sea, self.placement_inputs(extra), shape, lambda: self._make_placements(extra))
         self._placements[extra] = out
         return out
+
+    def _make_placements(self, extra: float) -> list[list[tuple[np.ndarray, np.ndarray]]]:
+        """:meth:`placements` made: every (move, heading class) on its own, half of them in a forked child
+        (:mod:`maps.forked`), the same results."""
+        K = len(self.table)
+        q_n = K // 4
+        flat = map_halves(lambda mq: self._class_placements(*mq, extra), [(m, q) for m in self.moves for q in range(q_n)])
+        return [[flat[mi * q_n + h % q_n][h // q_n] for h in range(K)] for mi in range(len(self.moves))]
+
+    def placement_inputs(self, extra: float) -> str:
+        """SHA-256 of everything :meth:`placements` reads beyond the map's key (the code, the map file, the draught):
+        the collision grid (its window, cells and blocked cells), the margin, the soft clearance zone (the ship's
+        length) and its cost, ``extra``, the heading table, and per move its footprints (WKB), which heading uses
+        which primitive, its snapping errors and cell steps. Another ship, option or design gives other moves, so
+        another digest."""
+        o, g, w = self.options, self.grid, self.window
+        h = hashlib.sha256(
+            repr(
+                (
+                    (float(w.x0), float(w.y0), float(w.res), int(w.ni), int(w.nj)),
+                    (int(g.sub), int(g.pad), float(g.c), g.blocked.shape),
+                    (float(o.margin), float(o.clearance_lengths * self.profile.length_m), float(o.clearance_cost)),
+                    float(extra),
+                    len(self.moves),
+                )
+            ).encode()
+        )
+        h.update(np.packbits(g.blocked).tobytes())
+        h.update(np.ascontiguousarray(self.table, dtype=np.float64).tobytes())
+        for m in self.moves:
+            firsts = [next(i for i, p in enumerate(m.prims) if p is q) for q in m.prims]  # which headings share one
+            h.update(repr((len(m.prims), firsts)).encode())
+            h.update(np.ascontiguousarray(m.snap_m, dtype=np.float64).tobytes())
+            h.update(np.ascontiguousarray(m.dcell, dtype=np.int64).tobytes())
+            for p in m.prims:
+                wkb = shapely.to_wkb(p.footprint)
+                h.update(len(wkb).to_bytes(8, "little") + wkb)
+        return h.hexdigest()
 
     def _class_placements(self, m: Move, q: int, extra: float) -> list[tuple[np.ndarray, np.ndarray]]:
         """(collision-free, inside the soft clearance zone) per lattice point of move ``m`` at the

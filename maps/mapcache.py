@@ -26,6 +26,7 @@ for the no-go area at 20 m and 0.039-0.044 s for the grid; read back, about 2 ms
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -173,3 +174,25 @@ def kept_grid(sea: SeaMap, window: Window, margin: float, sub: int, pad_m: float
     if blocked is None:
         _store_derived(where, (grid.blocked.shape, np.packbits(grid.blocked).tobytes()))
     return grid
+
+
+def kept_placements(sea: SeaMap, inputs: str, shape: tuple[int, int, int, int], make: Callable[[], list]) -> list:
+    """The lattice moves' placements (:meth:`maps.chain.Lattice.placements`: per move and heading, the lattice points
+    where its footprint is collision-free and those inside the soft clearance zone), read from the cache when they
+    were made before for this map and ``inputs`` (the digest of everything else they are made from:
+    :meth:`maps.chain.Lattice.placement_inputs`), else made by ``make`` and kept, bit-packed. ``shape``: (moves,
+    headings, ni, nj); an entry of another shape is made again. Read back, the same boolean arrays."""
+    import numpy as np
+
+    where = _derived_key(sea, "placements", (inputs, tuple(int(n) for n in shape)))
+    kept = _read_derived(where)
+    size = int(np.prod(shape))
+    if isinstance(kept, bytes) and len(kept) * 8 >= 2 * size:
+        both = np.unpackbits(np.frombuffer(kept, dtype=np.uint8), count=2 * size).astype(bool).reshape((2, *shape))
+        return [[(both[0, mi, h], both[1, mi, h]) for h in range(shape[1])] for mi in range(shape[0])]
+    out = make()
+    if where is not None:
+        both = np.array([[[p[k] for p in per] for per in out] for k in range(2)], dtype=bool)
+        if both.shape == (2, *shape):  # made as described: kept
+            _store_derived(where, np.packbits(both).tobytes())
+    return out

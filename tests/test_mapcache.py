@@ -344,3 +344,109 @@ def test_a_zero_margin_keeps_no_second_copy_of_the_obstacles(cache, map_file):
     sea = mapcache.load_map_kept(map_file, draught_m=6.0)
     assert _fresh_no_go(sea, 0.0).wkb == load_map(map_file, draught_m=6.0).no_go(0.0).wkb
     assert len(list(cache.glob("*.map"))) == 1  # the map's own entry only
+
+
+def _placement_lattice(moves: dict, options=None, prof=None):
+    """build_lattice on the bundled map from load_map_kept, as a new process would (the moves shared between calls:
+    only the map's steps are under test)."""
+    import maps.geo as geo
+    from maps.chain import PlanOptions, build_lattice
+    from maps.motionset import resolve_primitives
+    from primitives.ship import load_profile
+
+    prof = prof or load_profile("full-scale")
+    counts = {"steep_zigzag_surge": 1}
+    geo._NO_GO.clear()
+    sea = mapcache.load_map_kept(None, draught_m=prof.draught_m)
+    return build_lattice(sea, prof, resolve_primitives(prof, counts, None), counts, options=options or PlanOptions(), cache=moves)
+
+
+def _refuse_placements(monkeypatch) -> None:
+    from maps.collision import CollisionGrid
+
+    def refuse(*a, **k):
+        raise AssertionError("placements made again")
+
+    monkeypatch.setattr(CollisionGrid, "valid_everywhere", refuse)
+    monkeypatch.setattr(CollisionGrid, "footprint_rows", refuse)
+
+
+def _same_placements(a, b) -> bool:
+    import numpy as np
+
+    return len(a) == len(b) and all(
+        len(pa) == len(pb) and all(np.array_equal(x[0], y[0]) and np.array_equal(x[1], y[1]) for x, y in zip(pa, pb))
+        for pa, pb in zip(a, b)
+    )
+
+
+def test_the_placements_are_kept_beside_the_map(cache, monkeypatch):
+    """The moves' placements made on a map from load_map_kept are kept beside it, and a second command's lattice
+    reads them back (the footprints' rasterising and the collision look-ups made to fail): the same arrays, so the
+    same A* problem. Fails if maps.chain makes them again."""
+    import numpy as np
+
+    moves: dict = {}
+    made = _placement_lattice(moves)
+    before = set(cache.glob("*.map"))
+    pm = made.placements()
+    assert len(set(cache.glob("*.map")) - before) == 1  # one entry: the placements
+    _refuse_placements(monkeypatch)
+    again = _placement_lattice(moves)
+    assert _same_placements(again.placements(), pm)
+    assert all(x[0].dtype == bool and x[1].dtype == bool for per in again.placements() for x in per)
+    assert np.array_equal(again.problem().succ.dst, made.problem().succ.dst)
+
+
+def test_stale_placements_are_not_read(cache, monkeypatch):
+    """Another code version (or library version: both are in plancache.code_version), another margin, another
+    clearance cost or another ship gives another key: the placements are made again, equal to a fresh lattice's."""
+    from maps import plancache
+    from maps.chain import PlanOptions
+    from maps.collision import CollisionGrid
+
+    moves: dict = {}
+    _placement_lattice(moves).placements()
+    calls = []
+    real = CollisionGrid.valid_everywhere
+
+    def counted(self, rows):
+        calls.append(1)
+        return real(self, rows)
+
+    monkeypatch.setattr(CollisionGrid, "valid_everywhere", counted)
+    for options in (PlanOptions(margin=25.0), PlanOptions(clearance_cost=PlanOptions().clearance_cost + 1.0)):
+        calls.clear()
+        _placement_lattice(moves, options).placements()
+        assert calls, options
+    calls.clear()
+    from dataclasses import replace
+
+    from primitives.ship import load_profile
+
+    wider = load_profile("full-scale")
+    _placement_lattice({}, prof=replace(wider, beam_m=wider.beam_m * 1.2)).placements()  # other footprints
+    assert calls
+    version = plancache.code_version()
+    monkeypatch.setattr(plancache, "code_version", lambda: version + "-other")
+    calls.clear()
+    lat = _placement_lattice(moves)
+    pm = lat.placements()
+    assert calls
+    monkeypatch.setattr(plancache, "code_version", lambda: version)
+    assert _same_placements(pm, _placement_lattice({}).placements())
+
+
+def test_a_damaged_placements_entry_is_made_again(cache, monkeypatch):
+    """A truncated or garbled placements entry is made again (no error): the same arrays as made."""
+    moves: dict = {}
+    lat = _placement_lattice(moves)
+    before = set(cache.glob("*.map"))
+    pm = lat.placements()
+    (entry,) = set(cache.glob("*.map")) - before
+    data = entry.read_bytes()
+    for damaged in (data[: len(data) // 2], data[:-40] + b"\0" * 40, b""):
+        entry.write_bytes(damaged)
+        assert _same_placements(_placement_lattice(moves).placements(), pm)
+    _refuse_placements(monkeypatch)  # made again and kept again: read back now
+    assert _same_placements(_placement_lattice(moves).placements(), pm)

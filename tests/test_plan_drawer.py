@@ -384,8 +384,11 @@ class Forked(Exception):
     pass
 
 
-class Spy:  # stands for the drawer: records what this process had imported when it would fork
+class Spy:  # stands for the drawer: records what this process had imported and hashed when it would fork
     def __init__(self, *args, **kwargs):
+        from maps import plancache
+
+        print("code version hashed:", plancache.code_version.cache_info().currsize)
         print(sorted(m for m in ("maps.planner", "scipy.sparse") if m in sys.modules))
         raise Forked
 
@@ -410,9 +413,11 @@ def test_drawer_of_a_plan_made_here_forks_after_the_planner_imports(tmp_path):
     from pathlib import Path
 
     root = Path(__file__).resolve().parent.parent
-    env = dict(os.environ, PYTHONPATH=str(root))
+    env = dict(os.environ, PYTHONPATH=str(root), SHIPTRIAL_CACHE_DIR=str(tmp_path / "cache"))  # the caches on
     out = subprocess.run(
         [sys.executable, "-c", _SPY, str(tmp_path / "out")], capture_output=True, text=True, cwd=root, env=env, timeout=120
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip().splitlines()[-1] == "['maps.planner']"
+    # the code's digest made before the fork, so the drawer's library and design keys do not hash it again
+    assert out.stdout.strip().splitlines()[-2] == "code version hashed: 1"
