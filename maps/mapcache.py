@@ -16,7 +16,10 @@ writes it, as it does the moves: it plans afresh on the map the file gives, bit 
 map (:func:`maps.export.chart.chart_of`: land and no-go areas in lon/lat, the file's depth areas) is kept in the
 same entry and read with it (:func:`kept_chart`). What the planner makes from that map alone is kept beside it, as
 ``*.map`` entries keyed by the map's key and their arguments (stop 56): the obstacles grown by the margin
-(:func:`kept_no_go`) and the collision grid's blocked cells (:func:`kept_grid`). On the bundled map for the default
+(:func:`kept_no_go`) and the collision grid's blocked cells (:func:`kept_grid`). Stop 57 added the lattice moves' placements on that grid
+(:func:`kept_placements`, keyed by the map's key and a digest of the grid, options and moves: 72 kB bit-packed for
+the default ship; `benchmarks/bench_placements_kept.py`: 0.16-0.18 s of this process's CPU made, the forked helper's
+half beside it, against 2-3 ms read back, load 16). On the bundled map for the default
 ship (a scratch script outside the repository, least CPU of 7, load 4.4-5.3; docs/kernel-speed.md, stop 56): made,
 0.026-0.032 s
 for the no-go area at 20 m and 0.039-0.044 s for the grid; read back, about 2 ms each. Those are the figures
