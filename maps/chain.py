@@ -91,17 +91,24 @@ class Lattice:
                 m.prim(h).footprint  # noqa: B018
         shape = (len(self.moves), K, self.window.ni, self.window.nj)
         # kept beside the map (maps.mapcache): they depend on the map, the grid and the moves' footprints only
-        out = mapcache.kept_placements(self.sea, self.placement_inputs(extra), shape, lambda: self._make_placements(extra))
+        out = mapcache.kept_placements(
+            self.sea, lambda: self.placement_inputs(extra), shape, lambda: self._make_placements(extra)
+        )
         self._placements[extra] = out
         return out
 
     def _make_placements(self, extra: float) -> list[list[tuple[np.ndarray, np.ndarray]]]:
         """:meth:`placements` made: every (move, heading class) on its own, half of them in a forked child
-        (:mod:`maps.forked`), the same results."""
+        (:mod:`maps.forked`), the same results; read-only, as when read back from the cache."""
         K = len(self.table)
         q_n = K // 4
         flat = map_halves(lambda mq: self._class_placements(*mq, extra), [(m, q) for m in self.moves for q in range(q_n)])
-        return [[flat[mi * q_n + h % q_n][h // q_n] for h in range(K)] for mi in range(len(self.moves))]
+        out = [[flat[mi * q_n + h % q_n][h // q_n] for h in range(K)] for mi in range(len(self.moves))]
+        for per in out:
+            for arrays in per:
+                for a in arrays:
+                    a.flags.writeable = False
+        return out
 
     def placement_inputs(self, extra: float) -> str:
         """SHA-256 of everything :meth:`placements` reads beyond the map's key (the code, the map file, the draught):

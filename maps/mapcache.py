@@ -179,19 +179,23 @@ def kept_grid(sea: SeaMap, window: Window, margin: float, sub: int, pad_m: float
     return grid
 
 
-def kept_placements(sea: SeaMap, inputs: str, shape: tuple[int, int, int, int], make: Callable[[], list]) -> list:
+def kept_placements(sea: SeaMap, inputs: Callable[[], str], shape: tuple[int, int, int, int], make: Callable[[], list]) -> list:
     """The lattice moves' placements (:meth:`maps.chain.Lattice.placements`: per move and heading, the lattice points
     where its footprint is collision-free and those inside the soft clearance zone), read from the cache when they
-    were made before for this map and ``inputs`` (the digest of everything else they are made from:
-    :meth:`maps.chain.Lattice.placement_inputs`), else made by ``make`` and kept, bit-packed. ``shape``: (moves,
-    headings, ni, nj); an entry of another shape is made again. Read back, the same boolean arrays."""
+    were made before for this map and ``inputs()`` (the digest of everything else they are made from:
+    :meth:`maps.chain.Lattice.placement_inputs`, called only when the entry could be kept), else made by ``make`` and kept, bit-packed. ``shape``: (moves,
+    headings, ni, nj); an entry of another shape or length is made again. Read back, the same boolean arrays, read-only
+    (as ``make`` must return them, so that both paths behave alike)."""
     import numpy as np
 
-    where = _derived_key(sea, "placements", (inputs, tuple(int(n) for n in shape)))
+    where = None
+    if _derived_key(sea, "placements", ()) is not None:  # the digest only when the entry can be kept
+        where = _derived_key(sea, "placements", (inputs(), tuple(int(n) for n in shape)))
     kept = _read_derived(where)
     size = int(np.prod(shape))
-    if isinstance(kept, bytes) and len(kept) * 8 >= 2 * size:
+    if isinstance(kept, bytes) and len(kept) == (2 * size + 7) // 8:
         both = np.unpackbits(np.frombuffer(kept, dtype=np.uint8), count=2 * size).astype(bool).reshape((2, *shape))
+        both.flags.writeable = False
         return [[(both[0, mi, h], both[1, mi, h]) for h in range(shape[1])] for mi in range(shape[0])]
     out = make()
     if where is not None:

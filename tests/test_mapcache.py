@@ -395,6 +395,8 @@ def test_the_placements_are_kept_beside_the_map(cache, monkeypatch):
     again = _placement_lattice(moves)
     assert _same_placements(again.placements(), pm)
     assert all(x[0].dtype == bool and x[1].dtype == bool for per in again.placements() for x in per)
+    for kept in (pm, again.placements()):  # read-only both when made and when read back
+        assert not any(a.flags.writeable for per in kept for x in per for a in x)
     assert np.array_equal(again.problem().succ.dst, made.problem().succ.dst)
 
 
@@ -435,6 +437,57 @@ def test_stale_placements_are_not_read(cache, monkeypatch):
     assert calls
     monkeypatch.setattr(plancache, "code_version", lambda: version)
     assert _same_placements(pm, _placement_lattice({}).placements())
+
+
+def test_the_placements_digest_changes_with_every_input(cache):
+    """Lattice.placement_inputs changes when any one input of the placements changes: extra, the window (shifted,
+    same ni x nj; another resolution), the grid's sub-cells and blocked cells, the margin, the soft zone
+    (clearance_lengths), its cost, the heading table, and a move's snapping errors, cell steps and footprints. Fails
+    if any of them is left out of the digest."""
+    import copy
+    from dataclasses import replace
+
+    import numpy as np
+    import shapely
+
+    lat = _placement_lattice({})
+    base = lat.placement_inputs(0.0)
+    assert lat.placement_inputs(0.0) == base
+    assert lat.placement_inputs(5.0) != base
+
+    def changed(**attrs) -> str:
+        other = copy.copy(lat)
+        for name, value in attrs.items():
+            setattr(other, name, value)
+        return other.placement_inputs(0.0)
+
+    w, g, o = lat.window, lat.grid, lat.options
+    grids = []
+    for name, value in (("sub", g.sub + 1), ("blocked", ~g.blocked)):
+        grids.append(copy.copy(g))
+        setattr(grids[-1], name, value)
+    moves = []
+    m = lat.moves[0]
+    for name, value in (("snap_m", np.asarray(m.snap_m) + 1.0), ("dcell", np.asarray(m.dcell) + 1)):
+        moves.append(copy.copy(m))
+        setattr(moves[-1], name, value)
+    variants = [
+        changed(window=replace(w, x0=w.x0 + w.res)),
+        changed(window=replace(w, res=w.res * 1.1)),
+        *(changed(grid=grid) for grid in grids),
+        changed(options=replace(o, margin=o.margin + 1.0)),
+        changed(options=replace(o, clearance_lengths=3.0)),
+        changed(options=replace(o, clearance_cost=o.clearance_cost + 1.0)),
+        changed(table=np.asarray(lat.table)[::-1].copy()),
+        *(changed(moves=[mv, *lat.moves[1:]]) for mv in moves),
+    ]
+    prim = copy.copy(m.prims[0])
+    object.__setattr__(prim, "footprint", shapely.buffer(m.prims[0].footprint, 1.0))
+    grown = copy.copy(m)
+    grown.prims = [prim if p is m.prims[0] else p for p in m.prims]
+    variants.append(changed(moves=[grown, *lat.moves[1:]]))
+    assert base not in variants
+    assert len(set(variants)) == len(variants)
 
 
 def test_a_damaged_placements_entry_is_made_again(cache, monkeypatch):
