@@ -49,6 +49,19 @@ FA, POWER = 0.03, 0.95
 D_NEEDED = float(norm.ppf(1 - FA) + norm.ppf(POWER))
 
 
+def cumulative_d2(delta: np.ndarray, sd: float, coloured: bool, dt: float) -> np.ndarray:
+    """``sum_{j <= k} (W delta[j] / sd_w)^2`` along axis 0: the squared Neyman-Pearson separation of a known
+    signal difference ``delta`` (n,) or (n, runs), taken before the sensor's low-pass (whitening an invertible
+    low-pass is undoing it), in the truth's noise of sd ``sd`` (``podded_truth.measure``): white, or on
+    coloured-noise AR(1) of 1.5 s, which ``W`` whitens (``delta[k] - a delta[k-1]``, innovation sd
+    ``sd sqrt(1 - a^2)``; Gaussian-optimal, the t(3) tails and the gyro's bias left out)."""
+    if coloured:
+        a = math.exp(-dt / 1.5)
+        delta = np.concatenate([delta[:1], delta[1:] - a * delta[:-1]])
+        sd = sd * math.sqrt(1 - a * a)
+    return np.cumsum((delta / sd) ** 2, axis=0)
+
+
 def bench_changed_runs(ship_seed: int, runs: int) -> tuple[list[int], list[float]]:
     """The changed runs' manoeuvre seeds and change times of ``bench_detect_truth.ship_study``."""
     rng = np.random.default_rng([ship_seed, 3])
@@ -82,14 +95,7 @@ def separation(
     change = np.r_[np.full(len(seeds), np.nan), np.asarray(change_at_s, float)]
     tr = simulate(ship, both_n, both_a, dt, change, lead_in_s=lead_in_s)
     runs = len(seeds)
-    a = math.exp(-dt / 1.5)
-    d2 = {}
-    for k, sd in NOISE.items():
-        delta = tr[k][:, runs:] - tr[k][:, :runs]  # (n, runs)
-        if ship.coloured:  # AR(1) noise of innovation sd sd*sqrt(1 - a^2): whiten it
-            delta = np.vstack([delta[:1], delta[1:] - a * delta[:-1]])
-            sd = sd * math.sqrt(1 - a * a)
-        d2[k] = np.cumsum((delta / sd) ** 2, axis=0).T
+    d2 = {k: cumulative_d2(tr[k][:, runs:] - tr[k][:, :runs], sd, ship.coloured, dt).T for k, sd in NOISE.items()}
     return np.sqrt(d2["r"]), np.sqrt(sum(d2.values())), np.arange(n) * dt, {k: np.sqrt(x[:, -1]) for k, x in d2.items()}
 
 
