@@ -28,6 +28,7 @@ and r at 1.07-1.44 and v_dot at 1.3-3.1 (means per variant over 4 ships; one rec
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -121,11 +122,18 @@ def _fit_a(log_s2: np.ndarray, steps: np.ndarray) -> float:
     around its best point (the misfit is smooth in ``a``)."""
     grid = np.linspace(0.0, A_MAX, 100)
     k = int(np.argmin([_misfit(a, log_s2, steps) for a in grid]))
-    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
+    return golden_refine(lambda a: _misfit(a, log_s2, steps), grid, k, 40)
+
+
+def golden_refine(fun: Callable[[float], float], grid: np.ndarray, i: int, iters: int) -> float:
+    """The minimum of the smooth ``fun`` between the neighbours of its best grid point ``grid[i]``: ``iters`` steps of
+    golden-section search (Kiefer 1953), the bracket's midpoint. The one search of both noise readers (eq. N3 here,
+    eq. S3 in :mod:`identify.detect.noisespec`)."""
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
     g = (math.sqrt(5) - 1) / 2
-    for _ in range(40):
+    for _ in range(iters):
         c, d = hi - g * (hi - lo), lo + g * (hi - lo)
-        lo, hi = (lo, d) if _misfit(c, log_s2, steps) < _misfit(d, log_s2, steps) else (c, hi)
+        lo, hi = (lo, d) if fun(c) < fun(d) else (c, hi)
     return 0.5 * (lo + hi)
 
 
