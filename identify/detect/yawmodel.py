@@ -32,6 +32,9 @@ from primitives.errors import UserError
 
 #: the prior file's format tags: /1 main's (white noise), /2 with the sensors' low-pass corners ``noise_tau`` (stop 55)
 PRIOR_FORMATS = ("shiptrial-yaw-prior/1", "shiptrial-yaw-prior/2")
+#: the noise readers a prior file's ``noise_model`` may name (:data:`identify.detect.priorfit.NOISE_MODELS`, and
+#: "lowpass": retired as an option at stop 57, its files still load with the noise levels they hold)
+NOISE_READERS = ("white", "lowpass", "spectral")
 
 
 def prior_name(name: str) -> str:
@@ -186,6 +189,11 @@ class YawPrior:
             raise UserError(
                 f"{where}: the prior holds non-finite or non-physical values (I_r, sigma and dt must be > 0, "
                 "prefilter_hz below Nyquist); refit it"
+            )
+        if p.noise_model not in ("", *NOISE_READERS):  # "": a file without the field (before stop 56), read as written
+            raise UserError(
+                f"{where}: field noise_model {p.noise_model!r} names no noise reader this version knows "
+                f"({', '.join(NOISE_READERS)}); refit it: shiptrial detect-prior NOMINAL.csv --out PRIOR.json --noise-model spectral"
             )
         return p
 
