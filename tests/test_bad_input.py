@@ -424,7 +424,12 @@ def _cases() -> list[tuple[str, list[str]]]:
     )
     add(["detect-prior", "{det_rec}"], "--out", ["{tmp}/p.txt", "{dir}", "/proc/p.json"])
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--model", ["fancy", ""])
-    add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--noise-model", ["pink", "", "LOWPASS", "Spectral"], named=True)
+    add(
+        ["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"],
+        "--noise-model",
+        ["pink", "", "LOWPASS", "Spectral", "lowpass"],
+        named=True,
+    )
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--bootstrap", ["-1", "1001", "1.5", "abc"], named=True)
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--seed", ["-1", "abc", "1.5"], named=True)
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--n-rdot", ["abc", "nan", "0", "28.7e6"], named=True)

@@ -35,10 +35,11 @@ sd (means per variant over one recording on each of 4 ships; per record r 0.82-1
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
-from identify.detect.noiseread import A_MAX, A_MIN, golden_refine, white_noise_sd
+from identify.detect.noiseread import A_MAX, A_MIN, white_noise_sd
 
 #: Welch segment (s): 256 samples at 10 Hz, a 0.04 Hz bin, 38 half-overlapping segments in a 500 s record
 SEG_S = 25.6
@@ -128,8 +129,19 @@ def fit_band(f: np.ndarray, p: np.ndarray, dt: float) -> tuple[float, float]:
     res = np.array([[_solve(a, m, f, p, dt)[0] for a in grid] for m in motions])
     ik, ia = np.unravel_index(int(np.argmin(res)), res.shape)
     m = motions[ik]
-    a = golden_refine(lambda a: _solve(a, m, f, p, dt)[0], grid, int(ia), 30)
+    a = _golden_refine(lambda a: _solve(a, m, f, p, dt)[0], grid, int(ia), 30)
     return float(_solve(a, m, f, p, dt)[1][0]), a
+
+
+def _golden_refine(fun: Callable[[float], float], grid: np.ndarray, i: int, iters: int) -> float:
+    """The minimum of the smooth ``fun`` between the neighbours of its best grid point ``grid[i]``: ``iters`` steps of
+    golden-section search (Kiefer 1953), the bracket's midpoint (stop 55's reader, retired at stop 57, shared it)."""
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
+    g = (math.sqrt(5) - 1) / 2
+    for _ in range(iters):
+        c, d = hi - g * (hi - lo), lo + g * (hi - lo)
+        lo, hi = (lo, d) if fun(c) < fun(d) else (c, hi)
+    return 0.5 * (lo + hi)
 
 
 def spectral_noise(x: np.ndarray, dt: float) -> tuple[float, float]:

@@ -90,8 +90,9 @@ class YawPrior:
     #: sensors' different lags (load cell against gyro) fitted on the nominal run (:func:`identify.detect.api.fit_prior`)
     moment_shift_s: float = 0.0
     #: time constant (s) of the first-order low-pass each signal's white noise ``noise`` passed through, read with it
-    #: (:func:`identify.detect.noiseread.lowpass_noise`); a signal not in it (every signal of a prior written before
-    #: stop 55) has white noise (:func:`identify.detect.priorfit.white_noise_sd`'s reading)
+    #: (:func:`identify.detect.noisespec.spectral_noise`; stop 55's retired lowpass reader in older files); a signal
+    #: not in it (every signal of a prior written before stop 55) has white noise (:func:`identify.detect.priorfit.
+    #: white_noise_sd`'s reading)
     noise_tau: dict[str, float] = field(default_factory=dict)
     #: the reader that read ``noise_tau`` ("lowpass": stop 55, "spectral": stop 56; :data:`identify.detect.priorfit.
     #: NOISE_MODELS`), written beside it in a /2 file so a user can tell the two apart; "" when not known (a file
