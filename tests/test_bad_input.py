@@ -186,7 +186,8 @@ def _detect_inputs(tmp: Path, f: dict) -> None:
     f["det_prior"] = save_prior(prior, tmp / "prior.json")
     f["det_prior_bad"] = tmp / "prior-bad.json"
     f["det_prior_bad"].write_text(json.dumps({"format": "shiptrial-yaw-prior/1", "kind": "full", "values": {}}))
-    # a noise reader this version does not know (a newer shiptrial's, or a hand edit): its noise levels cannot be drawn
+    # a noise reader this version does not know (a newer shiptrial's, or a hand edit) may mean another noise model
+    # under the same fields: refuse rather than draw it as a first-order low-pass
     pink = dataclasses.replace(prior, noise_tau={"r": 0.3}, noise_model="pink").to_dict()
     f["det_prior_pink"] = tmp / "prior-pink.json"
     f["det_prior_pink"].write_text(json.dumps(pink))

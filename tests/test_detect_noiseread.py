@@ -199,3 +199,22 @@ def test_a_prior_file_of_the_retired_lowpass_reader_still_loads(lowpassed, tmp_p
     path.write_text(json.dumps(prior.to_dict() | {"noise_model": "pink"}))
     with pytest.raises(UserError, match=r"lowpass.json: field noise_model 'pink' names no noise reader"):
         load_prior(path)
+
+
+def test_the_refusal_of_an_unknown_noise_reader_names_the_real_path_and_no_retired_fix(tmp_path):
+    """The one-line refusal gives the refit command with the prior's own path (not a placeholder) and offers only the
+    readers ``detect-prior`` still fits (white, spectral), saying that lowpass files still load."""
+    from identify.detect.api import load_prior
+    from identify.detect.yawmodel import PARAMS
+
+    names = PARAMS["full"]
+    prior = YawPrior("full", {k: NOMINAL[k] for k in names}, 0.0025, 1e-6 * np.eye(len(names)), np.zeros(2), 0.001, 10, 0.1)
+    path = tmp_path / "my-prior.json"
+    path.write_text(json.dumps(replace(prior, noise_tau={"r": 0.3}, noise_model="pink").to_dict()))
+    with pytest.raises(UserError) as e:
+        load_prior(path)
+    msg = str(e.value)
+    assert "\n" not in msg
+    assert msg.startswith(f"{path}: field noise_model 'pink' names no noise reader this version knows ")
+    assert "(white, spectral; lowpass files of stops 55-56 still load)" in msg
+    assert msg.endswith(f"refit it: shiptrial detect-prior NOMINAL.csv --out {path} --noise-model spectral")

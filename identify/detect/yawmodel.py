@@ -94,9 +94,9 @@ class YawPrior:
     #: not in it (every signal of a prior written before stop 55) has white noise (:func:`identify.detect.priorfit.
     #: white_noise_sd`'s reading)
     noise_tau: dict[str, float] = field(default_factory=dict)
-    #: the reader that read ``noise_tau`` ("lowpass": stop 55, "spectral": stop 56; :data:`identify.detect.priorfit.
-    #: NOISE_MODELS`), written beside it in a /2 file so a user can tell the two apart; "" when not known (a file
-    #: written before the review of stop 56) or when no corner was read
+    #: the reader that read ``noise_tau`` ("lowpass": stop 55, "spectral": stop 56; :data:`NOISE_READERS`), written
+    #: beside it in a /2 file so a user can tell the two apart; "" when not known (a file written before the review of
+    #: stop 56) or when no corner was read
     noise_model: str = ""
 
     @property
@@ -174,7 +174,7 @@ class YawPrior:
             np.isfinite(p.ar).all(),
             np.isfinite(p.boot).all(),
             np.isfinite(list(p.noise.values())).all(),
-            # a corner beyond what noiseread can read (a > A_MAX: about 10 s at 10 Hz) would filter the noise away
+            # a corner beyond noisespec's grid (a > A_MAX: about 10 s at 10 Hz) would filter the noise away
             all(np.isfinite(t) and 0 <= t <= -p.dt / math.log(A_MAX) for t in p.noise_tau.values()),
             p.model_error >= 0,
             np.isfinite(p.structure).all(),
@@ -194,7 +194,8 @@ class YawPrior:
         if p.noise_model not in ("", *NOISE_READERS):  # "": a file without the field (before stop 56), read as written
             raise UserError(
                 f"{where}: field noise_model {p.noise_model!r} names no noise reader this version knows "
-                f"({', '.join(NOISE_READERS)}); refit it: shiptrial detect-prior NOMINAL.csv --out PRIOR.json --noise-model spectral"
+                "(white, spectral; lowpass files of stops 55-56 still load); "
+                f"refit it: shiptrial detect-prior NOMINAL.csv --out {where} --noise-model spectral"
             )
         return p
 
