@@ -51,7 +51,7 @@ def main() -> None:
     kn: Known = load_profile().known
     print(f"{'variant':10} {'reference':9} | {'|mean| deg':>10} {'rms deg':>8} | {'mean(w) err / mean|w|':>22}")
     for variant in a.variants.split(","):
-        seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant)
+        seed = bt.variant_seed(a.seed, variant)
         ship, data = bt.simulate_runs(variant, a.runs, seed)
         true = _true_phi(variant, a.runs, seed)
         res = {h: [] for h in HEEL_REFERENCES}

@@ -347,7 +347,7 @@ def fit(a: argparse.Namespace) -> None:
     seen = _capture()
     sims = {}
     for variant in a.variants.split(","):
-        seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant)  # as bench_rollmass_truth.py
+        seed = bt.variant_seed(a.seed, variant)  # as bench_rollmass_truth.py
         sims[variant] = bt.simulate_runs(variant, a.runs, seed, quiet=a.quiet)
     for run in range(a.runs):  # run-major: an interrupted run has about as many runs of every variant
         for variant, (ship, data) in sims.items():
@@ -454,7 +454,7 @@ def repeat(a: argparse.Namespace) -> None:
     interval of one ship: its sandwich's error, not the spread of the family's biases."""
     if a.no_sensor_noise:
         _sensor_noise_off()
-    seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(a.variant)  # as bench_rollmass_truth.py
+    seed = bt.variant_seed(a.seed, a.variant)  # as bench_rollmass_truth.py
     m_true, z_true = bt.truth_load(a.case)
     seen = _capture()
     if a.store:

@@ -83,7 +83,7 @@ def main() -> None:
     cases = ("case1",) if a.cal_kg != 0.2 else tuple(bt.CASES)
     cal, rows, c0 = Load(a.cal_kg, -0.256), [], time.process_time()
     for variant in a.variants.split(","):
-        seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant)
+        seed = bt.variant_seed(a.seed, variant)
         _, data = bt.simulate_runs(variant, a.runs, seed)
         w2 = _stiffness(data, a.runs)
         speed = {n: data[n]["speed"] for n in bt.DATASETS}

@@ -262,7 +262,7 @@ def _jobs(
     for variant in variants:
         c0 = time.process_time()
         # a variant's seed does not depend on which others are run, so runs pair across invocations
-        seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant)
+        seed = bt.variant_seed(a.seed, variant)
         ship, data = bt.simulate_runs(variant, a.runs, seed, quiet=a.quiet)
         c_sim += time.process_time() - c0
         for run in range(a.runs):

@@ -30,7 +30,7 @@ def main() -> None:
     a = ap.parse_args()
     print(f"{'variant':10} | {'low/high sd ratio':>17} | {'low-passed sd %':>15} | followed")
     for variant in a.variants.split(","):
-        seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant)
+        seed = bt.variant_seed(a.seed, variant)
         ship, data = bt.simulate_runs(variant, a.runs, seed)
         ratio, slow, followed = [], [], 0
         with tempfile.TemporaryDirectory() as d:

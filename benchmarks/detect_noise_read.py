@@ -2,10 +2,10 @@
 sensor settings (tests/physics/podded_truth.py: Table 4.1 levels behind first-order low-passes).
 
 For every nominal recording in the given truth-bench caches (``bench_detect_truth.py --cache DIR``), the
-white-noise reading (:func:`identify.detect.priorfit.white_noise_sd`, main's) and the low-passed white
-noise reading (:func:`identify.detect.noiseread.lowpass_noise`, stop 55: sd and time constant) and the same
-noise model read from the spectrum above the ship's motion (:func:`identify.detect.noisespec.spectral_noise`,
-stop 56) of each channel,
+white-noise reading (:func:`identify.detect.priorfit.white_noise_sd`, main's) and the low-passed white noise
+read from the spectrum above the ship's motion (:func:`identify.detect.noisespec.spectral_noise`, stop 56: sd
+and time constant) of each channel (stop 55's fourth-difference reader's columns left with it at stop 57: its
+figures are in docs/detect-accuracy.md),
 as ratios to the truth's sd and time constant; mean and range per variant. The truth's settings are
 read here only to be compared with; the readings see the recording alone.
 
@@ -21,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-from identify.detect.noiseread import lowpass_noise
 from identify.detect.noisespec import spectral_noise
 from identify.detect.priorfit import white_noise_sd
 from tests.physics.podded_truth import TABLE_4_1, Ship
@@ -39,9 +38,8 @@ def read_csv(path: Path) -> tuple[dict[str, np.ndarray], float]:
     return {k: np.asarray(a[k], float) for k in a.dtype.names}, dt
 
 
-def readings(folders: list[Path]) -> dict[str, list[dict[str, tuple[float, float, float, float, float]]]]:
-    """Per variant, per nominal recording: channel -> (white sd / true, low-pass sd / true, low-pass tau / true,
-    spectral sd / true, spectral tau / true)."""
+def readings(folders: list[Path]) -> dict[str, list[dict[str, tuple[float, float, float]]]]:
+    """Per variant, per nominal recording: channel -> (white sd / true, spectral sd / true, spectral tau / true)."""
     out: dict[str, list] = {}
     for folder in folders:
         for p in sorted(folder.glob("*-nominal-*-0.csv")):
@@ -49,12 +47,9 @@ def readings(folders: list[Path]) -> dict[str, list[dict[str, tuple[float, float
             ch, dt = read_csv(p)
             row = {}
             for k in CHANNELS:
-                sd, tau = lowpass_noise(ch[k], dt)
                 ss, ts = spectral_noise(ch[k], dt)
                 row[k] = (
                     white_noise_sd(ch[k]) / TRUE_SD[k],
-                    sd / TRUE_SD[k],
-                    tau / TRUE_TAU[k],
                     ss / TRUE_SD[k],
                     ts / TRUE_TAU[k],
                 )
@@ -72,17 +67,15 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     res = readings(a.folders)
     print(
-        "| variant (recordings) | channel | true sd | true tau s | white read / true sd | low-pass read / true sd | read tau / true tau |"
-        " spectral read / true sd | spectral tau / true tau |"
+        "| variant (recordings) | channel | true sd | true tau s | white read / true sd | spectral read / true sd |"
+        " spectral tau / true tau |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|")
     for v, rows in res.items():
         for k in CHANNELS:
-            w, s, t, ss, ts = (np.array([r[k][i] for r in rows]) for i in range(5))
+            w, ss, ts = (np.array([r[k][i] for r in rows]) for i in range(3))
             cell = lambda x: f"{x.mean():.2f} ({x.min():.2f}-{x.max():.2f})"  # noqa: E731
-            print(
-                f"| {v} ({len(rows)}) | {k} | {TRUE_SD[k]:g} | {TRUE_TAU[k]:g} | {cell(w)} | {cell(s)} | {cell(t)} | {cell(ss)} | {cell(ts)} |"
-            )
+            print(f"| {v} ({len(rows)}) | {k} | {TRUE_SD[k]:g} | {TRUE_TAU[k]:g} | {cell(w)} | {cell(ss)} | {cell(ts)} |")
     return 0
 
 

@@ -25,7 +25,7 @@ from identify.rollmass.api import estimate_from_files  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
 
 V, RUN, CASE = "imu_mount", 1, "case2"
-SEED = 2015 + 1000 * (bt.VARIANTS + ("base",)).index(V)
+SEED = bt.variant_seed(2015, V)
 STORES = (("imu1c2b", 777), ("imu1c2_s778", 778), ("imu1c2_s779", 779))
 
 

@@ -112,7 +112,7 @@ def main() -> None:
         oe_fit._lm_exact = _stopping_at_cap(oe_fit._lm_exact, captured)
     for variant, run, case in _select(rows, a):
         if variant not in sims:
-            seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(variant)
+            seed = bt.variant_seed(a.seed, variant)
             sims[variant] = bt.simulate_runs(variant, a.runs, seed)
         ship, data = sims[variant]
         m_true, z_true = bt.truth_load(case)

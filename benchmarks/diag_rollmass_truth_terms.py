@@ -70,7 +70,7 @@ def zeroed_draws(terms: list[str]) -> Iterator[None]:
 
 def _oe(a: argparse.Namespace, terms: list[str], cases: list[str]) -> None:
     """The bench's oe fits of runs 0..``a.last`` on the changed ships, each row appended to ``a.dump`` as it ends."""
-    seed = FAMILY_SEED + 1000 * (bt.VARIANTS + ("base",)).index(a.variant)  # bench_rollmass_truth._jobs' offset
+    seed = bt.variant_seed(FAMILY_SEED, a.variant)  # bench_rollmass_truth._jobs' offset
     with zeroed_draws(terms):
         ship, data = bt.simulate_runs(a.variant, FAMILY_RUNS, seed, quiet=a.quiet)
     family = {"diag": "s56 truth terms", "zero": ",".join(terms), "quiet": a.quiet}
@@ -108,7 +108,7 @@ def _bad(a: argparse.Namespace, ap: argparse.ArgumentParser, terms: list[str], c
         return f"--cases {a.cases!r}: unknown, empty or repeated; fix: distinct cases of {', '.join(bt.CASES)}"
     if not 0 <= a.last < FAMILY_RUNS:
         return f"--last {a.last}: out of range; fix: 0 <= LAST <= {FAMILY_RUNS - 1}"
-    seed = FAMILY_SEED + 1000 * (bt.VARIANTS + ("base",)).index(a.variant)
+    seed = bt.variant_seed(FAMILY_SEED, a.variant)
     same = [t for t in terms if _unchanged(bt.draw_ships(FAMILY_RUNS, a.variant, seed), t)]
     if same:
         return f"--zero {a.zero}: {', '.join(same)} already zero in {a.variant}; fix: drop them (the dump would name them)"

@@ -63,7 +63,7 @@ def main() -> None:
     ap.add_argument("--top", type=int, default=0, help="also print the top N functions by own time")
     a = ap.parse_args()
     c0 = time.process_time()
-    seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(a.variant)
+    seed = bt.variant_seed(a.seed, a.variant)
     ship, data = bt.simulate_runs(a.variant, a.runs, seed)
     c_sim = time.process_time() - c0
     recs = bt.case_recordings(ship, data, a.case, a.run)

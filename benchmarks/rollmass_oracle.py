@@ -114,35 +114,20 @@ def loaded_recording(
     dataset's own seed) and the true rudder angle it was driven by. ``load`` overrides the dataset's load (for
     tests); ``parts``: "all" (the recording), "sea" (its disturbance without the sensor's noise) or "sensor"
     (its sensor noise without the disturbance), the same draws; ``slow``: see :func:`_center`."""
-    vseed = seed + 1000 * (bt.VARIANTS + ("base",)).index(variant)
+    vseed = bt.variant_seed(seed, variant)
     ship = bt.draw_ships(runs, variant, vseed)
     i = list(bt.DATASETS).index(dataset)
     samples, m, zm = bt.DATASETS[dataset]
     load = (m, zm) if load is None else load
     n_out = int(samples * length)
     dseed = bt.dataset_seed(vseed, i)
-    warm = int(5 * bt.FS)
-    if parts == "all":
-        data = bt.simulate(ship, variant, load, n_out, dseed, quiet)
-    else:
-        data = _part(ship, variant, load, n_out, dseed, warm, parts)
+    warm = bt.WARM
+    sea, sensor = (not quiet, not quiet) if parts == "all" else (parts == "sea", parts == "sensor")
+    data = bt.simulate_parts(ship, variant, load, n_out, dseed, sea=sea, sensor=sensor)
     # the same draws simulate made first: the rudder comes before the disturbance in its stream
     delta = bt.rudder_input(np.random.default_rng(dseed), runs, n_out * bt.DEC + warm + 40, warm)
     rec = np.stack([data[c] for c in CHANNELS], axis=1)
     return Loaded(ship, variant, delta, rec, warm, load, slow)
-
-
-def _part(ship: bt.Ship, variant: str, load: tuple, n_out: int, dseed: int, warm: int, parts: str) -> dict:
-    """basin_truth.simulate's steps with its random stream, keeping only the disturbance ("sea") or only the
-    sensor's noise, biases and AHRS error ("sensor")."""
-    rng = np.random.default_rng(dseed)
-    R, n = len(ship.U0), n_out * bt.DEC + warm + 40
-    delta = bt.rudder_input(rng, R, n, warm)
-    tau = bt._jonswap(n, ship, rng) if "waves" in bt._effects(variant) else bt._narrowband(n, rng, R)
-    if parts == "sensor":
-        tau = 0.0 * tau
-    states = bt.integrate(ship, variant, load, delta, tau)
-    return bt._measure(ship, rng, delta, *states, warm, n_out, 1.0 if parts == "sensor" else 0.0, dseed)
 
 
 def predict(lo: Loaded, runs: np.ndarray, loads: np.ndarray) -> np.ndarray:

@@ -90,7 +90,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=2015)
     ap.add_argument("--finish-steps", type=int, default=oe_fit.FINISH_STEPS, help="Gauss-Newton finishing steps")
     a = ap.parse_args()
-    seed = a.seed + 1000 * (bt.VARIANTS + ("base",)).index(a.variant)
+    seed = bt.variant_seed(a.seed, a.variant)
     ship, data = bt.simulate_runs(a.variant, a.run + 1, seed)
     oe_fit.FINISH_STEPS = a.finish_steps
     oe_fit._lm_exact, oe_fit._lm = _traced_lm(oe_fit._lm_exact, "exact"), _traced_lm(oe_fit._lm, "fwd-diff")

@@ -56,8 +56,7 @@ def register(app: typer.Typer) -> None:
             "--noise-model",
             help="how each signal's measurement noise is read for the bootstrap refits and the no-change records: "
             "'spectral' (white noise through a first-order sensor low-pass, corner and sd read from the recording's "
-            "spectrum above the ship's own motion), 'lowpass' (the same noise read from fourth differences, stop 55) "
-            "or 'white' (white noise from the second difference); channels derived rather than sensed (tau_r without a "
+            "spectrum above the ship's own motion) or 'white' (white noise from the second difference); channels derived rather than sensed (tau_r without a "
             "tau_n column, v_dot without a v_dot column) always read white; default: white (docs/detect-accuracy.md, stop 56)",
         ),
     ) -> None:

@@ -156,10 +156,9 @@ def _touch_figures(cache_dir: Path, plan_key: str, digest: str, drawing: str) ->
     before the sets that a later hour's run would need it beside."""
     from maps import plancache
 
-    try:
-        key = plancache.outputs_key(plan_key, digest, _ANY_START, drawing)
-    except Exception:  # noqa: BLE001 - as saved_outputs: a cache that cannot be keyed is no cache
-        return
+    # no try: with ``drawing`` known the key is a hash of strings, which cannot fail (saved_outputs's may be asked to
+    # find the drawing version itself); touch_outputs passes over a file it cannot touch
+    key = plancache.outputs_key(plan_key, digest, _ANY_START, drawing)
     if key is not None:
         plancache.touch_outputs(cache_dir, key)
 

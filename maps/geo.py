@@ -157,9 +157,9 @@ class SeaMap:
         """Obstacles buffered by ``margin``, plus everything outside the trial area. Made once per
         obstacles, trial area, extent and margin (:data:`_NO_GO`): a plan asks for it 7 times (the start and
         goal checks, the lattice, sizing, smoothing, verification), each a buffer or union of the whole map."""
-        kept = _NO_GO.get(self._no_go_key(margin))
-        if kept is not None and kept[0] is self.obstacles and kept[1] is self.trial_area:
-            return kept[2]  # shapely geometries are immutable: the same object serves every caller
+        kept = self._kept_no_go(margin)
+        if kept is not None:
+            return kept  # shapely geometries are immutable: the same object serves every caller
         geom = self.obstacles.buffer(margin) if margin > 0 else self.obstacles
         if self.trial_area is not None:
             xmin, ymin, xmax, ymax = self.extent
@@ -171,10 +171,15 @@ class SeaMap:
     def _no_go_key(self, margin: float) -> tuple[int, int, tuple[float, ...], float]:
         return (id(self.obstacles), id(self.trial_area), tuple(self.extent), float(margin))
 
+    def _kept_no_go(self, margin: float) -> BaseGeometry | None:
+        """:meth:`no_go` of ``margin`` as kept in this process for these very obstacles and trial area, else None (an id
+        of a freed geometry may be reused by another: the kept inputs must be this map's own)."""
+        kept = _NO_GO.get(self._no_go_key(margin))
+        return kept[2] if kept is not None and kept[0] is self.obstacles and kept[1] is self.trial_area else None
+
     def has_no_go(self, margin: float) -> bool:
         """Whether :meth:`no_go` of ``margin`` is made already (kept in this process)."""
-        kept = _NO_GO.get(self._no_go_key(margin))
-        return kept is not None and kept[0] is self.obstacles and kept[1] is self.trial_area
+        return self._kept_no_go(margin) is not None
 
     def adopt_no_go(self, margin: float, geom: BaseGeometry) -> None:
         """Take ``geom`` as :meth:`no_go` of ``margin``: the geometry that call made for this map in another

@@ -186,6 +186,11 @@ def _detect_inputs(tmp: Path, f: dict) -> None:
     f["det_prior"] = save_prior(prior, tmp / "prior.json")
     f["det_prior_bad"] = tmp / "prior-bad.json"
     f["det_prior_bad"].write_text(json.dumps({"format": "shiptrial-yaw-prior/1", "kind": "full", "values": {}}))
+    # a noise reader this version does not know (a newer shiptrial's, or a hand edit) may mean another noise model
+    # under the same fields: refuse rather than draw it as a first-order low-pass
+    pink = dataclasses.replace(prior, noise_tau={"r": 0.3}, noise_model="pink").to_dict()
+    f["det_prior_pink"] = tmp / "prior-pink.json"
+    f["det_prior_pink"].write_text(json.dumps(pink))
 
 
 def _cases() -> list[tuple[str, list[str]]]:
@@ -400,7 +405,11 @@ def _cases() -> list[tuple[str, list[str]]]:
     for rec in ["{missing}", "{dir}", "{latin1}", "{binary}", "{det_nopods}", "{det_nor}", "{plan}"]:
         cases.append((f"detect RECORDING {rec}", ["detect", rec, "--prior", "{det_prior}"]))
     cases.append(("detect RECORDINGS of different sample times", ["detect", "{det_rec}", "{det_dt2}", "--prior", "{det_prior}"]))
-    add(det, "--prior", ["{missing}", "{dir}", "{binary}", "{notjson}", "{det_prior_bad}", "{det_rec}", "{plan}"])
+    add(
+        det,
+        "--prior",
+        ["{missing}", "{dir}", "{binary}", "{notjson}", "{det_prior_bad}", "{det_prior_pink}", "{det_rec}", "{plan}"],
+    )
     add([*det, "--prior", "{det_prior}"], "--plot", ["{tmp}/x.txt", "/proc/x.png", "{dir}"])
     add([*det, "--prior", "{det_prior}"], "--false-alarm", [*FLOATS_BAD, "0", "0.9"], named=True)
     add([*det, "--prior", "{det_prior}"], "--min-change", [*FLOATS_BAD, "0", "5"], named=True)
@@ -416,7 +425,12 @@ def _cases() -> list[tuple[str, list[str]]]:
     )
     add(["detect-prior", "{det_rec}"], "--out", ["{tmp}/p.txt", "{dir}", "/proc/p.json"])
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--model", ["fancy", ""])
-    add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--noise-model", ["pink", "", "LOWPASS", "Spectral"], named=True)
+    add(
+        ["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"],
+        "--noise-model",
+        ["pink", "", "LOWPASS", "Spectral", "lowpass"],
+        named=True,
+    )
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--bootstrap", ["-1", "1001", "1.5", "abc"], named=True)
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--seed", ["-1", "abc", "1.5"], named=True)
     add(["detect-prior", "{det_rec}", "--out", "{tmp}/p.json"], "--n-rdot", ["abc", "nan", "0", "28.7e6"], named=True)

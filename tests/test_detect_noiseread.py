@@ -1,9 +1,10 @@
-"""The measurement noise read as white noise through a first-order low-pass (identify/detect/noiseread.py,
-stop 55): it recovers a known corner and sd on synthetic signals, reduces to the white reading without a
-filter, draws the noise again as recorded, and the prior keeps it (fit, file, no-change records)."""
+"""The measurement noise as white noise through a first-order low-pass (identify/detect/noiseread.py, stop 55;
+read by noisespec since stop 57 retired the fourth-difference reader): drawn again as recorded, and the prior
+keeps it (fit, file, no-change records); a prior file of the retired reader still loads."""
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 
@@ -15,56 +16,13 @@ from diagnose.recording import write_csv
 from identify.detect import nullsim, priorfit
 from identify.detect.api import fit_prior, simulated_recording
 from identify.detect.inputs import signals
-from identify.detect.noiseread import lowpass_noise, stationary_lowpass
+from identify.detect.noiseread import stationary_lowpass
 from identify.detect.priorfit import white_noise_sd
 from identify.detect.vessel import TABLE_4_1, Vessel
 from identify.detect.yawmodel import NOMINAL, YawPrior
 from primitives.errors import UserError
 
 DT = 0.1
-
-
-def _channel(sd: float, tau: float, seed: int, n: int = 5000) -> np.ndarray:
-    """A yaw-rate-like manoeuvre (0.02 and 0.01 rad/s at 60 and 17 s periods) plus white noise of ``sd``
-    through the first-order low-pass ``tau`` (0: none), as the podded truth's sensors record it."""
-    t = np.arange(n) * DT
-    x = 0.02 * np.sin(2 * np.pi * t / 60) + 0.01 * np.sin(2 * np.pi * t / 17)
-    w = sd * np.random.default_rng(seed).standard_normal(n)
-    if tau > 0:
-        a = math.exp(-DT / tau)
-        w = lfilter([1 - a], [1, -a], w)
-    return x + w
-
-
-@pytest.mark.parametrize("tau", [0.2, 0.3, 0.5])
-def test_a_known_corner_and_sd_are_recovered(tau):
-    """Over 8 records of 500 s: mean sd within 5 % and mean time constant within 10 % of the truth's, each
-    record's sd within 50 % (behind 0.5 s one record in 8 reads +45 %: the corner is 5 samples, and the
-    sd follows the corner's error as sqrt(tau)); the white-noise reading sees only a fraction of the same noise."""
-    reads = np.array([lowpass_noise(_channel(2.5e-3, tau, s), DT) for s in range(8)])
-    assert abs(reads[:, 0].mean() / 2.5e-3 - 1) < 0.05, reads
-    assert abs(reads[:, 1].mean() / tau - 1) < 0.10, reads
-    assert np.all(np.abs(reads[:, 0] / 2.5e-3 - 1) < 0.50), reads
-    assert white_noise_sd(_channel(2.5e-3, tau, 0)) < 0.35 * 2.5e-3
-
-
-def test_without_a_filter_it_is_the_white_reading():
-    """White noise: no corner (tau exactly 0: a corner of a few ms is snapped, noiseread.A_MIN and F_MIN) and
-    white_noise_sd's reading to the bit, within 3 % of the truth."""
-    for s in range(4):
-        x = _channel(2.5e-3, 0.0, s)
-        sd, tau = lowpass_noise(x, DT)
-        assert tau == 0.0 and sd == white_noise_sd(x) and abs(sd / 2.5e-3 - 1) < 0.03, (sd, tau)
-
-
-def test_records_it_cannot_fit_read_white():
-    """Too short, constant or non-finite: the white reading (a NaN stays NaN, and the prior refuses it), never
-    a silent zero noise."""
-    x = _channel(2.5e-3, 0.3, 0)
-    for bad in (x[:16], np.where(np.arange(len(x)) == 99, np.nan, x), np.full(100, 0.2)):
-        sd, tau = lowpass_noise(bad, DT)
-        assert tau == 0.0 and np.array_equal(sd, white_noise_sd(bad), equal_nan=True), (sd, tau)
-    assert lowpass_noise(x[:16], DT)[0] > 0 and np.isnan(lowpass_noise(x * np.nan, DT)[0])
 
 
 def test_stationary_lowpass_is_the_sensor_filter_started_in_its_steady_state():
@@ -98,18 +56,6 @@ def test_the_bootstrap_s_noise_is_the_sensor_s():
     )
 
 
-def test_a_channel_whose_short_differences_keep_growing_reads_white():
-    """A channel whose differences grow with the step beyond any corner (a doubly integrated random
-    process with a little white noise: the ship's own motion, not noise, fills its high frequencies, as a
-    measured moment's steering transients do on the podded truth): the fit sits at A_MAX, and the reading
-    falls back to white_noise_sd's, never a corner of seconds."""
-    for s in range(3):
-        x = np.cumsum(np.cumsum(np.random.default_rng(s).standard_normal(5000)))
-        x = x + 0.1 * np.random.default_rng(s + 9).standard_normal(5000)
-        sd, tau = lowpass_noise(x, DT)
-        assert tau == 0.0 and sd == pytest.approx(white_noise_sd(x)), (sd, tau)
-
-
 @pytest.fixture(scope="module")
 def gyro_lowpassed(tmp_path_factory):
     """A product recording (measured moment) whose gyro's Table 4.1 noise went through a 0.3 s sensor
@@ -126,8 +72,8 @@ def gyro_lowpassed(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def lowpassed(gyro_lowpassed):
-    """That recording's prior with ``noise_model="lowpass"``."""
-    return gyro_lowpassed, fit_prior([gyro_lowpassed], "full", noise_model="lowpass")
+    """That recording's prior with ``noise_model="spectral"``."""
+    return gyro_lowpassed, fit_prior([gyro_lowpassed], "full", noise_model="spectral")
 
 
 def test_the_spectral_prior_is_read_by_the_spectral_reader(gyro_lowpassed):
@@ -145,11 +91,10 @@ def test_the_spectral_prior_is_read_by_the_spectral_reader(gyro_lowpassed):
     for k, x in (sig | {"r": r}).items():
         sd, tau = spectral_noise(x, DT)
         assert prior.noise[k] == sd and prior.noise_tau.get(k, 0.0) == tau, (k, prior.noise, prior.noise_tau, sd, tau)
-    assert lowpass_noise(r, DT) != spectral_noise(r, DT)
 
 
 def test_the_prior_reads_a_low_passed_gyro_s_noise_and_keeps_it(lowpassed):
-    """With ``noise_model="lowpass"`` (an option; the default stays the white reading) the prior's yaw-rate
+    """With ``noise_model="spectral"`` (an option; the default stays the white reading) the prior's yaw-rate
     noise is the gyro's white sd (within 25 %) behind its 0.3 s corner (within 30 %), not the 0.19 of it the
     second difference sees (main before stop 55); the file keeps the corners, a file without them (written
     before) reads as white noise, and a negative corner is refused with the one-line "refit it" message."""
@@ -173,7 +118,7 @@ def test_the_file_is_tagged_by_its_noise_model(lowpassed):
     white = replace(prior, noise_tau={}).to_dict()
     assert white["format"] == "shiptrial-yaw-prior/1" and "noise_tau" not in white
     assert prior.to_dict()["format"] == "shiptrial-yaw-prior/2" and prior.to_dict()["noise_tau"] == prior.noise_tau
-    assert prior.to_dict()["noise_model"] == "lowpass" and "noise_model" not in white
+    assert prior.to_dict()["noise_model"] == "spectral" and "noise_model" not in white
     assert YawPrior.from_dict(white).noise_tau == {}
     with pytest.raises(UserError, match="not a yaw prior"):
         YawPrior.from_dict(white | {"format": "shiptrial-yaw-prior/3"})
@@ -222,13 +167,54 @@ def test_the_no_change_records_carry_the_low_passed_noise(lowpassed, path_kind):
 
 def test_detect_prior_refuses_an_unknown_noise_model_before_reading_anything(tmp_path):
     """``--noise-model`` is checked with the other options: one line naming it and the choices; the API
-    refuses it too before loading anything (the file named does not exist)."""
+    refuses it too before loading anything (the file named does not exist). "lowpass" (retired at stop 57) is
+    refused in one line that names the two left."""
     from cli.options import validate_detect_prior_options
 
-    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass, spectral$"):
+    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, spectral$"):
         fit_prior([tmp_path / "missing.csv"], "full", noise_model="pink")
 
-    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, lowpass, spectral$"):
+    with pytest.raises(UserError, match=r"^--noise-model 'pink': choose one of white, spectral$"):
         validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="pink")
-    validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="lowpass")
+    for call in (
+        lambda: fit_prior([tmp_path / "missing.csv"], "full", noise_model="lowpass"),
+        lambda: validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="lowpass"),
+    ):
+        with pytest.raises(UserError, match=r"^--noise-model 'lowpass': retired at stop 57 .*use spectral .* or white$"):
+            call()
     validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="spectral")
+
+
+def test_a_prior_file_of_the_retired_lowpass_reader_still_loads(lowpassed, tmp_path):
+    """A /2 prior written by stop 55-56's ``--noise-model lowpass`` keeps its noise levels and corners when read
+    (detect draws them as written), and tells its reader; a reader no version knows is refused in one line."""
+    from identify.detect.api import load_prior
+
+    _, prior = lowpassed
+    path = tmp_path / "lowpass.json"
+    path.write_text(json.dumps(prior.to_dict() | {"noise_model": "lowpass"}))
+    back = load_prior(path)
+    assert back.noise_model == "lowpass" and back.noise == prior.noise and back.noise_tau == prior.noise_tau
+    assert back.noise_tau, "the fixture's prior must hold a corner for this to test anything"
+    path.write_text(json.dumps(prior.to_dict() | {"noise_model": "pink"}))
+    with pytest.raises(UserError, match=r"lowpass.json: field noise_model 'pink' names no noise reader"):
+        load_prior(path)
+
+
+def test_the_refusal_of_an_unknown_noise_reader_names_the_real_path_and_no_retired_fix(tmp_path):
+    """The one-line refusal gives the refit command with the prior's own path (not a placeholder) and offers only the
+    readers ``detect-prior`` still fits (white, spectral), saying that lowpass files still load."""
+    from identify.detect.api import load_prior
+    from identify.detect.yawmodel import PARAMS
+
+    names = PARAMS["full"]
+    prior = YawPrior("full", {k: NOMINAL[k] for k in names}, 0.0025, 1e-6 * np.eye(len(names)), np.zeros(2), 0.001, 10, 0.1)
+    path = tmp_path / "my-prior.json"
+    path.write_text(json.dumps(replace(prior, noise_tau={"r": 0.3}, noise_model="pink").to_dict()))
+    with pytest.raises(UserError) as e:
+        load_prior(path)
+    msg = str(e.value)
+    assert "\n" not in msg
+    assert msg.startswith(f"{path}: field noise_model 'pink' names no noise reader this version knows ")
+    assert "(white, spectral; lowpass files of stops 55-56 still load)" in msg
+    assert msg.endswith(f"refit it: shiptrial detect-prior NOMINAL.csv --out {path} --noise-model spectral")

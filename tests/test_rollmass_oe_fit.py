@@ -321,7 +321,7 @@ def test_a_slowing_ship_whose_sway_row_walked_now_converges(tmp_path):
     from identify.rollmass.api import estimate_from_files
     from tests.physics import basin_truth as bt
 
-    ship, data = bt.simulate_runs("combined", 2, 2015 + 1000 * bt.VARIANTS.index("combined"))
+    ship, data = bt.simulate_runs("combined", 2, bt.variant_seed(2015, "combined"))
     paths = [bt.write_csv(r, tmp_path / f"{r.role}.csv") for r in bt.case_recordings(ship, data, "case1", 1)]
     e = estimate_from_files(*paths)
     assert e.converged, e.warnings
@@ -360,7 +360,7 @@ def test_a_capped_exact_lm_goes_on_to_the_redos_answer_at_a_fraction_of_its_eval
     from identify.rollmass.api import estimate_from_files
     from tests.physics import basin_truth as bt
 
-    ship, data = bt.simulate_runs("base", 30, 2015 + 1000 * (bt.VARIANTS + ("base",)).index("base"))
+    ship, data = bt.simulate_runs("base", 30, bt.variant_seed(2015, "base"))
     m_true, z_true = bt.truth_load("case1")
     with tempfile.TemporaryDirectory() as d:
         paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv", True) for r in bt.case_recordings(ship, data, "case1", 2)]

@@ -35,6 +35,7 @@ sd (means per variant over one recording on each of 4 ships; per record r 0.82-1
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -58,12 +59,13 @@ def segment(dt: float) -> int:
     return max(8, int(round(SEG_S / dt)))
 
 
-def welch_psd(x: np.ndarray, dt: float, nseg: int | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+def welch_psd(x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, int]:
     """``(f, P, K)``: Welch's one-sided density (eq. S1) at ``f`` (0 < f < Nyquist) and the number K of segments
-    averaged (the density's relative scatter is about ``1 / sqrt(K)`` per bin, a little more for the overlap);
-    segments of ``nseg`` samples (None: :func:`segment`'s)."""
+    averaged (the density's relative scatter is about ``1 / sqrt(K)`` per bin, a little more for the overlap), in
+    segments of :func:`segment`'s length. Not :func:`primitives.spectrum.welch` (scipy's defaults): that one has a
+    periodic window, takes out each segment's mean only and steps by ``N - N // 2``, each of which moves the fit."""
     x = np.asarray(x, float)
-    nseg = min(segment(dt) if nseg is None else nseg, len(x))
+    nseg = min(segment(dt), len(x))
     starts = np.arange(0, len(x) - nseg + 1, nseg // 2)
     seg = np.stack([x[s : s + nseg] for s in starts])
     t = np.arange(nseg) - (nseg - 1) / 2
@@ -98,10 +100,11 @@ def _nnls2(basis: np.ndarray, y: np.ndarray) -> np.ndarray:
     return best
 
 
-def _solve(a: float, k: int, f: np.ndarray, p: np.ndarray, dt: float) -> tuple[float, np.ndarray]:
-    """Eq. S3's levels ``(sigma^2, c) >= 0`` at fixed ``a`` and ``k`` by least squares in the relative misfit, weighted
-    once by the data then once by the fit (a weight of the data alone biases the levels low), and the misfit."""
-    basis = np.stack([_shape(a, f, dt), (f / f[0]) ** -float(k)], axis=1)
+def _solve(a: float, motion: np.ndarray, f: np.ndarray, p: np.ndarray, dt: float) -> tuple[float, np.ndarray]:
+    """Eq. S3's levels ``(sigma^2, c) >= 0`` at fixed ``a`` and the motion term's column ``motion`` (:func:`_motion`) by
+    least squares in the relative misfit, weighted once by the data then once by the fit (a weight of the data alone
+    biases the levels low), and the misfit."""
+    basis = np.stack([_shape(a, f, dt), motion], axis=1)
     w = 1 / p
     for _ in range(2):
         # both levels >= 0: a tone's band can be covered by the motion term with sigma^2 < 0 otherwise (review 1)
@@ -113,20 +116,32 @@ def _solve(a: float, k: int, f: np.ndarray, p: np.ndarray, dt: float) -> tuple[f
     return float(np.sum(((p - model) * w) ** 2)), x
 
 
+def _motion(f: np.ndarray, k: int) -> np.ndarray:
+    """Eq. S3's motion term per unit ``c``: ``(f / f_lo)^-k``; depends on ``k`` only, so built once per fit and ``k``."""
+    return (f / f[0]) ** -float(k)
+
+
 def fit_band(f: np.ndarray, p: np.ndarray, dt: float) -> tuple[float, float]:
     """``(sigma^2, a)`` of eq. S3 fitted to the density ``p`` at ``f``: ``a`` on a grid of 100 in [0, A_MAX] for each
     fall-off ``k`` of :data:`K_GRID`, then by golden section at the best ``k``."""
     grid = np.linspace(0.0, A_MAX, 100)
-    res = np.array([[_solve(a, k, f, p, dt)[0] for a in grid] for k in K_GRID])
+    motions = [_motion(f, k) for k in K_GRID]
+    res = np.array([[_solve(a, m, f, p, dt)[0] for a in grid] for m in motions])
     ik, ia = np.unravel_index(int(np.argmin(res)), res.shape)
-    k = K_GRID[ik]
-    lo, hi = grid[max(ia - 1, 0)], grid[min(ia + 1, len(grid) - 1)]
+    m = motions[ik]
+    a = _golden_refine(lambda a: _solve(a, m, f, p, dt)[0], grid, int(ia), 30)
+    return float(_solve(a, m, f, p, dt)[1][0]), a
+
+
+def _golden_refine(fun: Callable[[float], float], grid: np.ndarray, i: int, iters: int) -> float:
+    """The minimum of the smooth ``fun`` between the neighbours of its best grid point ``grid[i]``: ``iters`` steps of
+    golden-section search (Kiefer 1953), the bracket's midpoint (stop 55's reader, retired at stop 57, shared it)."""
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
     g = (math.sqrt(5) - 1) / 2
-    for _ in range(30):
+    for _ in range(iters):
         c, d = hi - g * (hi - lo), lo + g * (hi - lo)
-        lo, hi = (lo, d) if _solve(c, k, f, p, dt)[0] < _solve(d, k, f, p, dt)[0] else (c, hi)
-    a = 0.5 * (lo + hi)
-    return float(_solve(a, k, f, p, dt)[1][0]), a
+        lo, hi = (lo, d) if fun(c) < fun(d) else (c, hi)
+    return 0.5 * (lo + hi)
 
 
 def spectral_noise(x: np.ndarray, dt: float) -> tuple[float, float]:

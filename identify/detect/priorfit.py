@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from identify.detect.noiseread import lowpass_noise, stationary_lowpass, white_noise_sd
+from identify.detect.noiseread import stationary_lowpass, white_noise_sd
 from identify.detect.noisespec import spectral_noise
 from identify.detect.nullsim import misfit_offsets, null_records, smooth
 from identify.detect.yawmodel import (
@@ -248,13 +248,19 @@ def _covariance(
 #: 8e-4 -> 0.015, the runs' misfit over their records' 0.99 as main's) but misses were higher (34 -> 39 %, 5 of
 #: 100, not significant on 2 ships; 44 -> 51 %, 7 of 100, on 108-109) and detections came 26 s later. Kept white:
 #: neither reading calibrates without costing misses (docs/detect-accuracy.md, stops 55-56)
+#: "lowpass" was retired at stop 57 (the spectral reader reads every channel at least as well; its files still load)
 NOISE_MODEL = "white"
-NOISE_MODELS = ("white", "lowpass", "spectral")
+NOISE_MODELS = ("white", "spectral")
 
 
 def check_noise_model(name: str) -> None:
     """Refuse a noise model not in :data:`NOISE_MODELS`: the one check and wording of the CLI's option, the API and
     :func:`read_noise`."""
+    if name == "lowpass":
+        raise UserError(
+            "--noise-model 'lowpass': retired at stop 57 (it read the ship's yaw acceleration as noise); "
+            "use spectral (the same sensor low-pass read from the spectrum) or white"
+        )
     if name not in NOISE_MODELS:
         raise UserError(f"--noise-model {name!r}: choose one of {', '.join(NOISE_MODELS)}")
 
@@ -263,18 +269,16 @@ def read_noise(
     sig: dict[str, np.ndarray], dt: float, model: str = NOISE_MODEL, derived: frozenset[str] = frozenset()
 ) -> tuple[dict[str, float], dict[str, float]]:
     """Each signal's measurement noise, read from the nominal data: the white noise's sd per signal and
-    the time constant (s) of the sensor's first-order low-pass it passed through (``model`` "lowpass":
-    :func:`identify.detect.noiseread.lowpass_noise`), or white noise only (``model`` "white":
-    :func:`white_noise_sd`, main's before stop 55, no time constants); ``model`` "spectral" (stop 56): the same
-    noise model read from the spectrum above the ship's own motion (:func:`identify.detect.noisespec.spectral_noise`).
+    the time constant (s) of the sensor's first-order low-pass it passed through (``model`` "spectral", stop 56: read
+    from the spectrum above the ship's own motion, :func:`identify.detect.noisespec.spectral_noise`), or white noise
+    only (``model`` "white": :func:`white_noise_sd`, main's before stop 55, no time constants).
     The ``derived`` signals (computed, not sensed: :attr:`identify.detect.inputs.Deriver.derived`) read white under
     every model: a sensor's low-pass says nothing of them (a tau_r from the pod inputs read a 0.07 s corner at
     11 times its white level under "spectral", and made a white recording's prior a format /2 one)."""
     if model == "white":
         return {k: white_noise_sd(v) for k, v in sig.items()}, {}
     check_noise_model(model)
-    reader = spectral_noise if model == "spectral" else lowpass_noise
-    read = {k: (white_noise_sd(v), 0.0) if k in derived else reader(v, dt) for k, v in sig.items()}
+    read = {k: (white_noise_sd(v), 0.0) if k in derived else spectral_noise(v, dt) for k, v in sig.items()}
     # only the corners read: a channel that fell back to white (tau 0) is kept as a white prior keeps it
     return {k: sd for k, (sd, _) in read.items()}, {k: tau for k, (_, tau) in read.items() if tau > 0}
 

@@ -32,6 +32,9 @@ from primitives.errors import UserError
 
 #: the prior file's format tags: /1 main's (white noise), /2 with the sensors' low-pass corners ``noise_tau`` (stop 55)
 PRIOR_FORMATS = ("shiptrial-yaw-prior/1", "shiptrial-yaw-prior/2")
+#: the noise readers a prior file's ``noise_model`` may name (:data:`identify.detect.priorfit.NOISE_MODELS`, and
+#: "lowpass": retired as an option at stop 57, its files still load with the noise levels they hold)
+NOISE_READERS = ("white", "lowpass", "spectral")
 
 
 def prior_name(name: str) -> str:
@@ -87,12 +90,13 @@ class YawPrior:
     #: sensors' different lags (load cell against gyro) fitted on the nominal run (:func:`identify.detect.api.fit_prior`)
     moment_shift_s: float = 0.0
     #: time constant (s) of the first-order low-pass each signal's white noise ``noise`` passed through, read with it
-    #: (:func:`identify.detect.noiseread.lowpass_noise`); a signal not in it (every signal of a prior written before
-    #: stop 55) has white noise (:func:`identify.detect.priorfit.white_noise_sd`'s reading)
+    #: (:func:`identify.detect.noisespec.spectral_noise`; stop 55's retired lowpass reader in older files); a signal
+    #: not in it (every signal of a prior written before stop 55) has white noise (:func:`identify.detect.priorfit.
+    #: white_noise_sd`'s reading)
     noise_tau: dict[str, float] = field(default_factory=dict)
-    #: the reader that read ``noise_tau`` ("lowpass": stop 55, "spectral": stop 56; :data:`identify.detect.priorfit.
-    #: NOISE_MODELS`), written beside it in a /2 file so a user can tell the two apart; "" when not known (a file
-    #: written before the review of stop 56) or when no corner was read
+    #: the reader that read ``noise_tau`` ("lowpass": stop 55, "spectral": stop 56; :data:`NOISE_READERS`), written
+    #: beside it in a /2 file so a user can tell the two apart; "" when not known (a file written before the review of
+    #: stop 56) or when no corner was read
     noise_model: str = ""
 
     @property
@@ -170,7 +174,7 @@ class YawPrior:
             np.isfinite(p.ar).all(),
             np.isfinite(p.boot).all(),
             np.isfinite(list(p.noise.values())).all(),
-            # a corner beyond what noiseread can read (a > A_MAX: about 10 s at 10 Hz) would filter the noise away
+            # a corner beyond noisespec's grid (a > A_MAX: about 10 s at 10 Hz) would filter the noise away
             all(np.isfinite(t) and 0 <= t <= -p.dt / math.log(A_MAX) for t in p.noise_tau.values()),
             p.model_error >= 0,
             np.isfinite(p.structure).all(),
@@ -186,6 +190,12 @@ class YawPrior:
             raise UserError(
                 f"{where}: the prior holds non-finite or non-physical values (I_r, sigma and dt must be > 0, "
                 "prefilter_hz below Nyquist); refit it"
+            )
+        if p.noise_model not in ("", *NOISE_READERS):  # "": a file without the field (before stop 56), read as written
+            raise UserError(
+                f"{where}: field noise_model {p.noise_model!r} names no noise reader this version knows "
+                "(white, spectral; lowpass files of stops 55-56 still load); "
+                f"refit it: shiptrial detect-prior NOMINAL.csv --out {where} --noise-model spectral"
             )
         return p
 

@@ -142,13 +142,12 @@ def _best_start(
 
 @dataclass
 class _Ended:
-    """A path's end: the fit, its last stage's problem, the point the fit ended at and that stage's (weights,
-    whiteners); where the exact path ends unconverged, :func:`_continued` goes on from here."""
+    """A path's end: the fit (its ``noise``: the last stage's (weights, whiteners)), that stage's problem and the point
+    the fit ended at; where the exact path ends unconverged, :func:`_continued` goes on from here."""
 
     fit: OEFit
     prob: Counted
     x: np.ndarray
-    noise: tuple
 
 
 @dataclass
@@ -310,7 +309,7 @@ def _continued(end: _Ended, z_f: float, tally: PathTally) -> OEFit:
     prob = end.prob.recounted(tally)
     res = _tallied(_lm_continue, tally)(prob, end.x, 1e-10)
     sd = np.array([e.std(axis=0) for e in prob.errors(res.x)])
-    return _conclude(prob, res, sd, end.noise, True, z_f).fit
+    return _conclude(prob, res, sd, end.fit.noise, True, z_f).fit
 
 
 def _reweighted(
@@ -401,4 +400,4 @@ def _conclude(prob: Counted, res: OptimizeResult, sd: np.ndarray, noise: tuple, 
         dof=fin.dof,
         no_interval=fin.no_interval,
     )
-    return _Ended(fit, prob, x, noise)
+    return _Ended(fit, prob, x)

@@ -65,6 +65,7 @@ G = 9.81
 RHO = 1000.0
 FS = 100.0  # Hz, IMU sampling (section 5)
 DEC = 2  # to 50 Hz
+WARM = int(5 * FS)  # samples at FS of rudder ramped in before the record
 VARIANTS = ("sway_roll", "restoring", "imu_mount", "speed_loss", "waves", "combined")
 EFFECTS = ("sway_roll", "restoring", "imu_mount", "speed_loss", "waves")
 # Table 1 (known to the estimator): displacement, KG, draft, beam, radii of gyration.
@@ -283,17 +284,24 @@ def simulate(
     at 50 Hz: ``delta, p, a_s, r, phi``, the measured surge speed ``u`` (the recorder's signs: roll
     starboard down, yaw to starboard positive, a_s as (7)) and the mean surge speed ``speed``. ``quiet``: no IMU noise or
     bias (the filters stay), for comparing structures."""
-    on = _effects(variant)
+    return simulate_parts(ship, variant, load, n_out, seed, sea=not quiet, sensor=not quiet)
+
+
+def simulate_parts(
+    ship: Ship, variant: str, load: tuple[float, float], n_out: int, seed: int, sea: bool, sensor: bool
+) -> dict[str, np.ndarray]:
+    """:func:`simulate`'s dataset with the disturbance (``sea``: waves or the narrow-band moment) and the IMU's noise
+    and bias (``sensor``) each kept or left out, from the same random stream (every draw is made either way, so the
+    parts kept are those of the whole dataset: benchmarks/rollmass_oracle.py splits a recording's error with it)."""
     rng = np.random.default_rng(seed)
     R = len(ship.U0)
-    warm = int(5 * FS)
-    n = n_out * DEC + warm + 40
-    delta = rudder_input(rng, R, n, warm)
-    tau = _jonswap(n, ship, rng) if "waves" in on else _narrowband(n, rng, R)
-    if quiet:
+    n = n_out * DEC + WARM + 40
+    delta = rudder_input(rng, R, n, WARM)
+    tau = _jonswap(n, ship, rng) if "waves" in _effects(variant) else _narrowband(n, rng, R)
+    if not sea:
         tau *= 0.0
     states = integrate(ship, variant, load, delta, tau)
-    return _measure(ship, rng, delta, *states, warm, n_out, 0.0 if quiet else 1.0, seed)
+    return _measure(ship, rng, delta, *states, WARM, n_out, 1.0 if sensor else 0.0, seed)
 
 
 def rudder_input(rng: np.random.Generator, R: int, n: int, warm: int) -> np.ndarray:
@@ -475,6 +483,12 @@ def simulate_runs(
     for i, (name, (samples, m, zm)) in enumerate(DATASETS.items()):
         data[name] = simulate(ship, variant, (m, zm), int(samples * length), dataset_seed(seed, i), quiet)
     return ship, data
+
+
+def variant_seed(seed: int, variant: str) -> int:
+    """The seed a family's ``variant`` (one of :data:`VARIANTS` or "base") is drawn with from the family's ``seed``: each
+    variant its own ships and noise (bench_rollmass_truth's jobs and every bench and test that redraws its recordings)."""
+    return seed + 1000 * (VARIANTS + ("base",)).index(variant)
 
 
 def dataset_seed(seed: int, i: int) -> int:
