@@ -139,7 +139,8 @@ def _oracle(path: str) -> dict[tuple, tuple[float, float]]:
 
 def table(dumps: list[str], base: str, oracle: str | None = None) -> str:
     """Per split, variant and case: n, median |m| %, |z| mm, and the per-fit change of |m| and |z| against the
-    baseline's fit of the same variant, case and run (mean / median over the pairs both converged); with ``oracle``
+    baseline's fit of the same variant, case and run (mean / median over the pairs both converged, and how many
+    are lower), each case and the cases pooled ("pool"); with ``oracle``
     (rollmass_oracle's dump), its median |m| and |z| over the same runs."""
     ref = {tuple(r[:4]): r for r in _rows(base) if r[2] == "oe"}
     orc = _oracle(oracle) if oracle else {}
@@ -147,10 +148,9 @@ def table(dumps: list[str], base: str, oracle: str | None = None) -> str:
     for path in dumps:
         for r in _rows(path):
             split = r[7].get("family", {}).get("split", "?")
-            cells.setdefault((split, r[0], r[1]), []).append(r)
-    head = (
-        f"{'split':44s} {'variant':9s} {'case':5s}  n nc |   m%    zmm | base m%  zmm | dm mean  med | dz mean  med | orc m%  zmm"
-    )
+            for case in (r[1], "pool"):  # each case, and the variant's cases pooled
+                cells.setdefault((split, r[0], case), []).append(r)
+    head = f"{'split':44s} {'variant':9s} {'case':5s}  n nc |   m%    zmm | base m%  zmm | dm mean  med | dz mean  med | orc m%  zmm | lower"
     out = [head]
     for (split, variant, case), rows in sorted(cells.items()):
         ok = [e for e in map(_err, rows) if e]
@@ -158,7 +158,7 @@ def table(dumps: list[str], base: str, oracle: str | None = None) -> str:
         bsel = [b for _, b in pairs]
         dm = [e[0] - b[0] for e, b in pairs]
         dz = [e[1] - b[1] for e, b in pairs]
-        osel = [orc[variant, case, r[3]] for r in rows if (variant, case, r[3]) in orc]
+        osel = [orc[variant, r[1], r[3]] for r in rows if (variant, r[1], r[3]) in orc]
 
         def med(x: list, i: int | None = None) -> float:
             return float(np.median([v if i is None else v[i] for v in x])) if x else float("nan")
@@ -169,7 +169,7 @@ def table(dumps: list[str], base: str, oracle: str | None = None) -> str:
         out.append(
             f"{split:44s} {variant:9s} {case:5s} {len(rows):2d} {len(rows) - len(ok):2d} | {med(ok, 0):6.2f} "
             f"{med(ok, 1):6.1f} | {med(bsel, 0):6.2f} {med(bsel, 1):5.1f} | {mean(dm):+6.2f} {med(dm):+5.2f} "
-            f"| {mean(dz):+6.1f} {med(dz):+5.1f} | {med(osel, 0):6.2f} {med(osel, 1):4.1f}"
+            f"| {mean(dz):+6.1f} {med(dz):+5.1f} | {med(osel, 0):6.2f} {med(osel, 1):4.1f} | {sum(d < 0 for d in dm)}/{len(dm)}"
         )
     return "\n".join(out)
 
