@@ -17,7 +17,8 @@ rest of each recording the same draw:
     PYTHONPATH=$PWD nice -n 15 python benchmarks/diag_rollmass_oe_gap.py --variant base --true-rudder --dump D
     python benchmarks/diag_rollmass_oe_gap.py --table D1,D2 --base benchmarks/rollmass_family_s54.jsonl
 
-Rows are the bench's (``--dump`` format of bench_rollmass_truth, the family field naming the split). ``--table``
+Rows are the bench's (``--dump`` format of bench_rollmass_truth, the family field naming the split); a dump that
+already holds rows is refused unless ``--append`` (add to it) or ``--force`` (empty it) is given. ``--table``
 pairs each split's fits with the baseline dump's fits of the same variant, case and run: median |mass| % and |z| mm
 per case, and the per-fit change of |error| (mean and median) against the baseline.
 """
@@ -115,7 +116,7 @@ def fit(a: argparse.Namespace, parts: dict[str, str], cases: list[str]) -> None:
                 print(r[:7], flush=True)
 
 
-def _rows(path: str) -> list[list]:
+def _rows(path: str | Path) -> list:
     return [json.loads(line) for line in Path(path).read_text().splitlines() if line.strip()]
 
 
@@ -127,7 +128,7 @@ def _err(r: list) -> tuple[float, float] | None:
 def _oracle(path: str) -> dict[tuple, tuple[float, float]]:
     """|mass| % and |z| mm of the oracle's converged fits (rollmass_oracle's dump rows) by (variant, case, run): a
     case's loaded recording's fit (cases 2 and 3 share one); the last row of a fit wins (re-runs are appended)."""
-    by = {(o["variant"], o["dataset"], o["run"]): o for o in map(json.loads, Path(path).read_text().splitlines())}
+    by = {(o["variant"], o["dataset"], o["run"]): o for o in _rows(path)}
     return {
         (v, case, run): (abs(o["m_err_pct"]), abs(o["z_err_mm"]))
         for (v, dataset, run), o in by.items()
@@ -141,15 +142,24 @@ def table(dumps: list[str], base: str, oracle: str | None = None) -> str:
     """Per split, variant and case: n, median |m| %, |z| mm, and the per-fit change of |m| and |z| against the
     baseline's fit of the same variant, case and run (mean / median over the pairs both converged, and how many
     are lower), each case and the cases pooled ("pool"); with ``oracle``
-    (rollmass_oracle's dump), its median |m| and |z| over the same runs."""
+    (rollmass_oracle's dump), its median |m| and |z| over the same runs. A fit (split, variant, case, method, run)
+    given twice (the same split re-run, in one dump or two) counts once, the last row read; a warning on stderr."""
     ref = {tuple(r[:4]): r for r in _rows(base) if r[2] == "oe"}
     orc = _oracle(oracle) if oracle else {}
-    cells: dict[tuple, list] = {}
+    fits: dict[tuple, list] = {}
     for path in dumps:
         for r in _rows(path):
-            split = r[7].get("family", {}).get("split", "?")
-            for case in (r[1], "pool"):  # each case, and the variant's cases pooled
-                cells.setdefault((split, r[0], case), []).append(r)
+            fits[(r[7].get("family", {}).get("split", "?"), *r[:4])] = r
+    n_rows = sum(len(_rows(path)) for path in dumps)
+    if n_rows > len(fits):
+        print(
+            f"warning: {n_rows - len(fits)} repeated fit(s) in {','.join(map(str, dumps))}: the last row of each kept",
+            file=sys.stderr,
+        )
+    cells: dict[tuple, list] = {}
+    for (split, *_), r in fits.items():
+        for case in (r[1], "pool"):  # each case, and the variant's cases pooled
+            cells.setdefault((split, r[0], case), []).append(r)
     head = f"{'split':44s} {'variant':9s} {'case':5s}  n nc |   m%    zmm | base m%  zmm | dm mean  med | dz mean  med | orc m%  zmm | lower"
     out = [head]
     for (split, variant, case), rows in sorted(cells.items()):
@@ -189,9 +199,41 @@ def _bad(a: argparse.Namespace, cases: list[str]) -> str | None:
     return None
 
 
+def _open_dump(a: argparse.Namespace) -> str | None:
+    """Make ``--dump`` ready (emptied with ``--force``, kept with ``--append``; an existing non-empty dump without
+    either is refused: it may hold hours of fits); the error line, or None."""
+    p = Path(a.dump)
+    if not (a.append or a.force) and p.is_file() and p.stat().st_size > 0:
+        return f"--dump {a.dump}: exists and is not empty; fix: --append to add rows, --force to empty it, or another file"
+    try:  # before the simulation: an unwritable dump must not cost the run
+        with open(p, "a" if a.append else "w"):
+            pass
+    except OSError as e:
+        return f"--dump {a.dump}: {e.strerror}; fix: give a writable file in an existing folder"
+    return None
+
+
+def _print_table(ap: argparse.ArgumentParser, a: argparse.Namespace) -> None:
+    """``--table``, a missing or unreadable file one stderr line and exit 2; fit options given with it are named."""
+    ignored = [o for o, v in (("--variant", a.variant), ("--parts", a.parts), ("--true-rudder", a.true_rudder)) if v]
+    if ignored or a.dump:
+        print(f"{ap.prog}: note: {', '.join(ignored + ['--dump'] * bool(a.dump))} ignored with --table", file=sys.stderr)
+    try:
+        out = table(a.table.split(","), a.base, a.oracle)
+    except OSError as e:
+        ap.exit(2, f"{ap.prog}: error: --table: {e.filename}: {e.strerror}; fix: give existing dumps (--base, --oracle too)\n")
+    except (json.JSONDecodeError, IndexError, KeyError, TypeError, AttributeError) as e:
+        ap.exit(
+            2,
+            f"{ap.prog}: error: --table: a row not in the dump format ({type(e).__name__}: {e}); fix: give bench/oracle dumps\n",
+        )
+    print(out)
+
+
 def main() -> None:
-    """Parse and check every option, open ``--dump`` (emptied), then fit; or print ``--table``. A bad option or an
-    unwritable dump is one stderr line and exit 2, before any simulation."""
+    """Parse and check every option, open ``--dump`` (refused if it holds rows, unless ``--append`` or
+    ``--force``), then fit; or print ``--table``. A bad option, an unwritable or non-empty dump or a missing table
+    file is one stderr line and exit 2, before any simulation."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--variant", choices=bt.VARIANTS + ("base",))
     ap.add_argument("--parts", default="", help="ROLE=PART,...: the noise a role's recording keeps (default all)")
@@ -199,22 +241,25 @@ def main() -> None:
     ap.add_argument("--first", type=int, default=0, help="runs FIRST..LAST of the 30-run family")
     ap.add_argument("--last", type=int, default=6)
     ap.add_argument("--cases", default="case1,case2,case3")
-    ap.add_argument("--dump", help="rows written here (emptied first)")
+    ap.add_argument("--dump", help="rows written here (a non-empty file only with --append or --force)")
+    mode = ap.add_mutually_exclusive_group()
+    mode.add_argument("--append", action="store_true", help="add rows to an existing --dump")
+    mode.add_argument("--force", action="store_true", help="empty an existing --dump first")
     ap.add_argument("--table", help="comma-separated dumps to tabulate against --base (no fitting)")
-    ap.add_argument("--base", default="benchmarks/rollmass_family_s54.jsonl", help="the baseline dump for --table")
-    ap.add_argument("--oracle", default="benchmarks/rollmass_oracle_s55.jsonl", help="the oracle's dump for --table")
+    here = Path(__file__).resolve().parent
+    ap.add_argument("--base", default=str(here / "rollmass_family_s54.jsonl"), help="the baseline dump for --table")
+    ap.add_argument("--oracle", default=str(here / "rollmass_oracle_s55.jsonl"), help="the oracle's dump for --table")
     a = ap.parse_args()
     if a.table:
-        print(table(a.table.split(","), a.base, a.oracle))
+        _print_table(ap, a)
         return
     cases = [c for c in a.cases.split(",") if c]
     bad = _bad(a, cases)
     if bad:
         ap.exit(2, f"{ap.prog}: error: {bad}\n")
-    try:  # before the simulation: an unwritable dump must not cost the run
-        Path(a.dump).write_text("")
-    except OSError as e:
-        ap.exit(2, f"{ap.prog}: error: --dump {a.dump}: {e.strerror}; fix: give a writable file in an existing folder\n")
+    bad = _open_dump(a)
+    if bad:
+        ap.exit(2, f"{ap.prog}: error: {bad}\n")
     fit(a, parse_parts(a.parts), cases)
 
 
