@@ -48,8 +48,8 @@ PARTS = ("all", "quiet", "sea", "sensor")
 
 
 def variant_seed(variant: str, seed: int = rollmass_oracle.FAMILY_SEED) -> int:
-    """The variant's family seed (bench_rollmass_truth._jobs' offset)."""
-    return seed + 1000 * (bt.VARIANTS + ("base",)).index(variant)
+    """The variant's family seed (bench_rollmass_truth._jobs' offset, :func:`basin_truth.variant_seed`)."""
+    return bt.variant_seed(seed, variant)
 
 
 class Family:
