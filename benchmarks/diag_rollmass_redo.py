@@ -7,10 +7,13 @@ was kept or would be continued (then redone if still unconverged) or redone at o
 status; 0 = at the cap ``oe_fit.LM_NFEV_EXACT``), the exact path's own answer when it has one (mass % and z mm error,
 converged, decrement) and, from the given dump, the answer the full fit reported and the path it recorded. ``--cap`` overrides
 ``LM_NFEV_EXACT`` (a looser budget's experiment); ``--stop-at-cap`` is the fit before stop 55, whose exact path was
-abandoned at the first LM at its cap ("redo (capped)").
+abandoned at the first LM at its cap ("redo (capped)"). ``--valley`` (stop 57) prints, at an unconverged exact end,
+why it creeps (:func:`_valley`), and ``--profile`` the cost with the sway mass held (:func:`_profile`).
 
     PYTHONPATH=$PWD nice -n 10 python benchmarks/diag_rollmass_redo.py benchmarks/rollmass_family_s54.jsonl --runs 30 --slow 20
     PYTHONPATH=$PWD nice -n 10 python benchmarks/diag_rollmass_redo.py DUMP --runs 30 --slow 20 --stop-at-cap --cap 400
+    PYTHONPATH=$PWD nice -n 15 python benchmarks/diag_rollmass_redo.py benchmarks/rollmass_redo_s56.jsonl --runs 30 \
+        --only base/1/case1 --valley --profile 1
 """
 
 from __future__ import annotations
@@ -78,10 +81,76 @@ def _exact_only(captured: dict) -> None:
         captured["tally"] = tally
         end = orig(*args, lm=lm, tally=tally)
         captured["fit"] = end.fit  # the exact path's own end (the continuation, stop 56, is stopped below)
+        captured["end"] = end
         return end
 
     oe_fit._fit = spy
     oe_fit._continued = _no_continuation
+
+
+def _valley(end: oe_fit._Ended) -> str:
+    """Why an unconverged exact end creeps (stop 57): at the point the exact path ended (after the finish), the
+    column-scaled Jacobian's condition number and its two weakest right singular vectors (the parameters they move,
+    largest first), the Gauss-Newton step ``dx = -J^+ f`` split on those vectors, and the cost along ``x + t dx``
+    against the Gauss-Newton model's ``|f + t J dx|^2`` (is the valley flat, or curved so that the step is halved?)."""
+    prob, x = end.prob, end.x
+    f, J = prob.residual(x), prob.jacobian(x)
+    scale = np.sqrt(np.maximum(np.einsum("ij,ij->j", J, J), 1e-300))
+    u, sv, vt = np.linalg.svd(J / scale, full_matrices=False)
+    dx = -np.linalg.lstsq(J, f, rcond=None)[0]
+    ds = dx * scale  # the step in the scaled coordinates
+    out = [f"cond(J scaled) {sv[0] / sv[-1]:.3g} sv {' '.join(f'{s:.3g}' for s in sv[-3:])}"]
+    for k in (1, 2):
+        v = vt[-k]
+        top = np.argsort(-np.abs(v))[:4]
+        out.append(f"weak{k} " + " ".join(f"{prob.free[i]}{v[i]:+.2f}" for i in top) + f" step along it {v @ ds:+.3g}")
+    out.append(f"|step scaled| {np.linalg.norm(ds):.3g} load step {dx[-2]:+.3g} kg {1000 * dx[-1]:+.2f} mm")
+    c0 = f @ f
+    rows = []
+    for t in (0.125, 0.25, 0.5, 1.0, 2.0, 4.0):
+        fm = f + t * (J @ dx)
+        rows.append(f"t={t:g}: {prob.residual(x + t * dx) @ prob.residual(x + t * dx) - c0:+.4g} (GN {fm @ fm - c0:+.4g})")
+    out.append("cost change along the step " + "; ".join(rows))
+    return "\n    ".join(out)
+
+
+class _Fixed:
+    """``prob`` with one parameter held at ``value`` (its column dropped): a point of the cost's profile along it."""
+
+    def __init__(self, prob: object, i: int, value: float):
+        self.prob, self.i, self.value = prob, i, value
+
+    def full(self, y: np.ndarray) -> np.ndarray:
+        return np.insert(y, self.i, self.value)
+
+    def residual(self, y: np.ndarray) -> np.ndarray:
+        return self.prob.residual(self.full(y))
+
+    def jacobian(self, y: np.ndarray) -> np.ndarray:
+        return np.delete(self.prob.jacobian(self.full(y)), self.i, axis=1)
+
+
+def _profile(end: oe_fit._Ended, m_true: float, z_true: float, factors: tuple[float, ...]) -> str:
+    """The cost's profile along the sway mass (stop 57): ``M + X_v`` held at ``factors`` times the exact end's, every
+    other parameter refitted by the exact LM (cap 200) from the end's point; per factor the cost against the end's
+    (half the sum of squares, the LM's), the load, evaluations and status (0: the cap, so still creeping with the sway
+    mass held). Scaling the sway row's other coefficients with it (Y_v, Y_r, Y_delta, Y_pdot, K_v) was tried and is
+    not this: three times the end's sway mass so scaled is an unstable model on base/1/case1."""
+    prob, x = end.prob, end.x
+    i = prob.free.index("X_v")
+    M = prob.kn.M
+    c0 = float(prob.residual(x) @ prob.residual(x)) / 2
+    rows = []
+    for fac in factors:
+        xv = fac * (M + x[i]) - M
+        fixed = _Fixed(prob, i, xv)
+        res = oe_fit._lm_exact(fixed, np.delete(x, i), 1e-10, cap=200)
+        v = fixed.full(res.x)
+        rows.append(
+            f"M+X_v x{fac:g} ({xv:.4g}): cost {res.cost - c0:+.5g} m {100 * (v[-2] / m_true - 1):+.2f} % "
+            f"z {1000 * (v[-1] - z_true):+.1f} mm nfev {res.nfev} status {res.status}"
+        )
+    return "\n    ".join(rows)
 
 
 def _select(rows: list, a: argparse.Namespace) -> list[tuple[str, int, str]]:
@@ -101,6 +170,10 @@ def main() -> None:
     ap.add_argument("--only", help="comma-separated variant/run/case")
     ap.add_argument("--cap", type=int, default=oe_fit.LM_NFEV_EXACT, help="the exact LM's evaluation cap")
     ap.add_argument("--stop-at-cap", action="store_true", help="leave the exact path at an LM's cap (before stop 55)")
+    ap.add_argument("--valley", action="store_true", help="at an unconverged exact end, print why it creeps (stop 57)")
+    ap.add_argument(
+        "--profile", help="with --valley: comma-separated factors of the sway mass M + X_v to profile the cost at, e.g. 1,10,100"
+    )
     a = ap.parse_args()
     oe_fit.LM_NFEV_EXACT = a.cap
     rows = [json.loads(x) for x in Path(a.dump).read_text().splitlines()]
@@ -145,6 +218,11 @@ def main() -> None:
             f"({old[6] if old else float('nan'):.1f} s); exact path {cpu:.1f} s cpu, load {os.getloadavg()[0]:.1f}",
             flush=True,
         )
+        if a.valley and f is not None and not f.converged and "end" in captured:
+            print("    " + _valley(captured["end"]), flush=True)
+            if a.profile:
+                facs = tuple(float(q) for q in a.profile.split(","))
+                print("    " + _profile(captured["end"], m_true, z_true, facs), flush=True)
 
 
 if __name__ == "__main__":

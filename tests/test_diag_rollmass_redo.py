@@ -1,0 +1,53 @@
+"""benchmarks/diag_rollmass_redo.py's ``--valley`` analysis (stop 57): on a constructed flat valley it names the flat
+parameter as the weakest direction, the condition number is the valley's, and the cost along the Gauss-Newton step is
+the model's where the residual is linear; ``--profile``'s held parameter is held and its column dropped."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from benchmarks.diag_rollmass_redo import _Fixed, _valley
+
+FLAT = 1e-4  # the valley's flatness: the X_v column is the m column but for this
+
+
+class _Valley:
+    """A linear least-squares problem whose cost hardly changes along ``X_v - m`` (a long flat valley: their columns
+    differ by :data:`FLAT` in one row)."""
+
+    free = ("k", "X_v", "m", "zbar_m")
+    A = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, FLAT, 0.0, 0.0], [0.0, 1.0, 1.0, 0.3], [0.0, 0.2, 0.2, 1.0], [0.5, 0.0, 0.0, 0.1]])
+    b = np.array([1.0, 2e-4, 0.5, -0.4, 0.2])
+
+    def residual(self, x: np.ndarray) -> np.ndarray:
+        return self.A @ x - self.b
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        return self.A.copy()
+
+
+def test_the_valley_analysis_names_the_flat_direction_and_the_cost_along_the_step():
+    end = SimpleNamespace(prob=_Valley(), x=np.zeros(4))
+    out = _valley(end)
+    lines = out.split("\n")
+    cond = float(lines[0].split()[2])
+    assert 0.1 / FLAT < cond < 10 / FLAT  # the column-scaled J's condition is the valley's flatness
+    weak = [w[:3].rstrip("+-0123456789.") for w in lines[1].split()[1:3]]
+    assert sorted(weak) == ["X_v", "m"]  # the weakest direction is the valley's, X_v against m
+    # linear residual: the actual cost change at t = 1 is the Gauss-Newton model's, and the full step solves it
+    t1 = [p for p in lines[-1].split("; ") if p.startswith("t=1:")][0]
+    actual, model = float(t1.split()[1]), float(t1.split("GN ")[1].rstrip(")"))
+    assert np.isclose(actual, model, rtol=1e-3)  # printed to 4 figures
+    r_min = _Valley.A @ np.linalg.lstsq(_Valley.A, _Valley.b, rcond=None)[0] - _Valley.b
+    assert np.isclose(actual, r_min @ r_min - _Valley.b @ _Valley.b, rtol=1e-3)  # the step reaches the minimum
+
+
+def test_a_profile_point_holds_its_parameter_and_drops_its_column():
+    prob = _Valley()
+    fixed = _Fixed(prob, 1, 7.0)
+    y = np.array([0.1, 0.2, 0.3])
+    assert np.array_equal(fixed.full(y), [0.1, 7.0, 0.2, 0.3])
+    assert np.array_equal(fixed.residual(y), prob.residual(np.array([0.1, 7.0, 0.2, 0.3])))
+    assert np.array_equal(fixed.jacobian(y), np.delete(prob.A, 1, axis=1))
