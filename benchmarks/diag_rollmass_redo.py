@@ -8,7 +8,8 @@ status; 0 = at the cap ``oe_fit.LM_NFEV_EXACT``), the exact path's own answer wh
 converged, decrement) and, from the given dump, the answer the full fit reported and the path it recorded. ``--cap`` overrides
 ``LM_NFEV_EXACT`` (a looser budget's experiment); ``--stop-at-cap`` is the fit before stop 55, whose exact path was
 abandoned at the first LM at its cap ("redo (capped)"). ``--valley`` (stop 57) prints, at an unconverged exact end,
-why it creeps (:func:`_valley`), and ``--profile`` the cost with the sway mass held (:func:`_profile`).
+why it creeps (:func:`_valley`), and ``--profile`` the cost with the sway mass held (:func:`_profile`), ``--geodesic N`` the geodesic LM's continuation
+(:func:`geodesic_lm`).
 
     PYTHONPATH=$PWD nice -n 10 python benchmarks/diag_rollmass_redo.py benchmarks/rollmass_family_s54.jsonl --runs 30 --slow 20
     PYTHONPATH=$PWD nice -n 10 python benchmarks/diag_rollmass_redo.py DUMP --runs 30 --slow 20 --stop-at-cap --cap 400
@@ -32,6 +33,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
+from scipy.optimize import OptimizeResult  # noqa: E402
 
 from identify.rollmass import oe_fit  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
@@ -153,6 +155,65 @@ def _profile(end: oe_fit._Ended, m_true: float, z_true: float, factors: tuple[fl
     return "\n    ".join(rows)
 
 
+def geodesic_lm(prob: object, x: np.ndarray, iterations: int, alpha: float = 0.75, h: float = 0.1) -> tuple:
+    """Levenberg-Marquardt with geodesic acceleration (Transtrum & Sethna 2011, arXiv:1201.5885, eqs. 10-15; stop 57's
+    candidate for the curved valley): each step ``v = -(J^T J + lambda D)^-1 J^T f`` gets the second-order correction
+    ``a = -(J^T J + lambda D)^-1 J^T r_vv``, ``r_vv = (2/h) ((f(x + h v) - f) / h - J v)`` (one more residual), and
+    ``x + v + a/2`` is tried when ``|a| <= alpha |v|`` in the ``D`` metric (Marquardt's running diagonal of ``J^T J``);
+    lambda / 5 on an accepted step, x 3 otherwise. Returns ``x``, iterations, residuals and Jacobians evaluated."""
+    f = prob.residual(x)
+    cost = f @ f
+    J = prob.jacobian(x)
+    D = np.maximum((J * J).sum(0), 1e-300)
+    lam, nres, njac = 1e-3, 1, 1
+    it = 0
+    while it < iterations:
+        it += 1
+        A, g = J.T @ J, J.T @ f
+        D = np.maximum(D, (J * J).sum(0))
+        try:
+            v = -np.linalg.solve(A + lam * np.diag(D), g)
+            fh = prob.residual(x + h * v)
+            nres += 1
+            a = -np.linalg.solve(A + lam * np.diag(D), J.T @ ((2.0 / h) * ((fh - f) / h - J @ v)))
+        except np.linalg.LinAlgError:
+            lam *= 10
+            continue
+        if np.sqrt((a * D) @ a) > alpha * np.sqrt((v * D) @ v):
+            lam *= 3
+            continue
+        fn = prob.residual(x + v + 0.5 * a)
+        nres += 1
+        if fn @ fn < cost:
+            rel = (cost - fn @ fn) / cost
+            x, f, cost = x + v + 0.5 * a, fn, fn @ fn
+            J = prob.jacobian(x)
+            njac += 1
+            lam = max(lam / 5, 1e-12)
+            if rel < 1e-14:
+                break
+        else:
+            lam *= 3
+    return x, it, nres, njac
+
+
+def _geodesic_end(end: oe_fit._Ended, m_true: float, z_true: float, iterations: int) -> str:
+    """:func:`geodesic_lm` from the exact end on its last stage's problem (same weights and whiteners), then the fit's
+    finish (``oe_fit._conclude``): the load, its decrement, standard errors, evaluations and CPU."""
+    c0 = time.process_time()
+    x, it, nres, njac = geodesic_lm(end.prob, end.x, iterations)
+    f = end.prob.residual(x)
+    res = OptimizeResult(x=x, cost=f @ f / 2, success=True, status=2, message="geodesic LM", jac=end.prob.jacobian(x))
+    sd = np.array([e.std(axis=0) for e in end.prob.errors(x)])
+    fit = oe_fit._conclude(end.prob, res, sd, end.noise, True, end.fit.z_f).fit
+    se = np.sqrt(np.diag(fit.cov_load))
+    return (
+        f"geodesic LM {it} it ({nres} res, {njac} jac): conv {fit.converged} dec {fit.decrement:.3g} "
+        f"m {100 * (fit.m / m_true - 1):+.3f} % z {1000 * (fit.zbar_m - z_true):+.2f} mm (SE {se[0]:.4g} kg, "
+        f"{1000 * se[1]:.3g} mm) X_v {fit.values['X_v']:.4g}, {time.process_time() - c0:.1f} s cpu"
+    )
+
+
 def _select(rows: list, a: argparse.Namespace) -> list[tuple[str, int, str]]:
     if a.only:
         return [(v, int(r), c) for v, r, c in (s.split("/") for s in a.only.split(","))]
@@ -171,6 +232,9 @@ def main() -> None:
     ap.add_argument("--cap", type=int, default=oe_fit.LM_NFEV_EXACT, help="the exact LM's evaluation cap")
     ap.add_argument("--stop-at-cap", action="store_true", help="leave the exact path at an LM's cap (before stop 55)")
     ap.add_argument("--valley", action="store_true", help="at an unconverged exact end, print why it creeps (stop 57)")
+    ap.add_argument(
+        "--geodesic", type=int, help="with --valley: run the geodesic LM this many iterations from the exact end (stop 57)"
+    )
     ap.add_argument(
         "--profile", help="with --valley: comma-separated factors of the sway mass M + X_v to profile the cost at, e.g. 1,10,100"
     )
@@ -223,6 +287,8 @@ def main() -> None:
             if a.profile:
                 facs = tuple(float(q) for q in a.profile.split(","))
                 print("    " + _profile(captured["end"], m_true, z_true, facs), flush=True)
+            if a.geodesic:
+                print("    " + _geodesic_end(captured["end"], m_true, z_true, a.geodesic), flush=True)
 
 
 if __name__ == "__main__":

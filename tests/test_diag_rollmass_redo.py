@@ -8,7 +8,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from benchmarks.diag_rollmass_redo import _Fixed, _valley
+from benchmarks.diag_rollmass_redo import _Fixed, _valley, geodesic_lm
 
 FLAT = 1e-4  # the valley's flatness: the X_v column is the m column but for this
 
@@ -51,3 +51,21 @@ def test_a_profile_point_holds_its_parameter_and_drops_its_column():
     assert np.array_equal(fixed.full(y), [0.1, 7.0, 0.2, 0.3])
     assert np.array_equal(fixed.residual(y), prob.residual(np.array([0.1, 7.0, 0.2, 0.3])))
     assert np.array_equal(fixed.jacobian(y), np.delete(prob.A, 1, axis=1))
+
+
+class _Banana:
+    """Rosenbrock's curved valley as residuals ``(10 (y - x^2), 1 - x)``: minimum 0 at (1, 1)."""
+
+    free = ("x", "y")
+
+    def residual(self, p: np.ndarray) -> np.ndarray:
+        return np.array([10.0 * (p[1] - p[0] ** 2), 1.0 - p[0]])
+
+    def jacobian(self, p: np.ndarray) -> np.ndarray:
+        return np.array([[-20.0 * p[0], 10.0], [-1.0, 0.0]])
+
+
+def test_the_geodesic_lm_follows_a_curved_valley_to_its_minimum():
+    x, it, nres, njac = geodesic_lm(_Banana(), np.array([-1.2, 1.0]), 200)
+    assert np.allclose(x, [1.0, 1.0], atol=1e-6)
+    assert nres >= njac and it <= 200
