@@ -25,6 +25,7 @@ import os
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -38,6 +39,7 @@ from scipy.optimize import OptimizeResult  # noqa: E402
 from identify.rollmass import oe_fit  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
 from identify.rollmass.fit_path import PathTally  # noqa: E402
+from identify.rollmass.sandwich import load_basis, load_decrement  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
 
 
@@ -101,7 +103,7 @@ def _valley(end: oe_fit._Ended) -> str:
     u, sv, vt = np.linalg.svd(J / scale, full_matrices=False)
     dx = -np.linalg.lstsq(J, f, rcond=None)[0]
     ds = dx * scale  # the step in the scaled coordinates
-    out = [f"cond(J scaled) {sv[0] / sv[-1]:.3g} sv {' '.join(f'{s:.3g}' for s in sv[-3:])}"]
+    out = [f"cond(J scaled) {sv[0] / sv[-1]:.3g} sv {' '.join(f'{s:.3g}' for s in sv[-3:])} X_v {x[prob.free.index('X_v')]:.4g}"]
     for k in (1, 2):
         v = vt[-k]
         top = np.argsort(-np.abs(v))[:4]
@@ -111,7 +113,8 @@ def _valley(end: oe_fit._Ended) -> str:
     rows = []
     for t in (0.125, 0.25, 0.5, 1.0, 2.0, 4.0):
         fm = f + t * (J @ dx)
-        rows.append(f"t={t:g}: {prob.residual(x + t * dx) @ prob.residual(x + t * dx) - c0:+.4g} (GN {fm @ fm - c0:+.4g})")
+        ft = prob.residual(x + t * dx)
+        rows.append(f"t={t:g}: {ft @ ft - c0:+.4g} (GN {fm @ fm - c0:+.4g})")
     out.append("cost change along the step " + "; ".join(rows))
     return "\n    ".join(out)
 
@@ -155,63 +158,117 @@ def _profile(end: oe_fit._Ended, m_true: float, z_true: float, factors: tuple[fl
     return "\n    ".join(rows)
 
 
-def geodesic_lm(prob: object, x: np.ndarray, iterations: int, alpha: float = 0.75, h: float = 0.1) -> tuple:
-    """Levenberg-Marquardt with geodesic acceleration (Transtrum & Sethna 2011, arXiv:1201.5885, eqs. 10-15; stop 57's
-    candidate for the curved valley): each step ``v = -(J^T J + lambda D)^-1 J^T f`` gets the second-order correction
-    ``a = -(J^T J + lambda D)^-1 J^T r_vv``, ``r_vv = (2/h) ((f(x + h v) - f) / h - J v)`` (one more residual), and
-    ``x + v + a/2`` is tried when ``|a| <= alpha |v|`` in the ``D`` metric (Marquardt's running diagonal of ``J^T J``);
-    lambda / 5 on an accepted step, x 3 otherwise. Returns ``x``, iterations, residuals and Jacobians evaluated."""
+def _acceleration(
+    prob: object, x: np.ndarray, f: np.ndarray, J: np.ndarray, v: np.ndarray, lam: float, D: np.ndarray, h: float
+) -> np.ndarray:
+    """The geodesic acceleration of step ``v``: ``a = -(J^T J + lambda D)^-1 J^T r_vv`` with the directional second
+    derivative ``r_vv = (2/h) ((f(x + h v) - f) / h - J v)`` by one more residual (exact for a quadratic residual)."""
+    fh = prob.residual(x + h * v)
+    return -np.linalg.solve(J.T @ J + lam * np.diag(D), J.T @ ((2.0 / h) * ((fh - f) / h - J @ v)))
+
+
+def geodesic_lm(
+    prob: object,
+    x: np.ndarray,
+    iterations: int,
+    alpha: float = 0.75,
+    h: float = 0.1,
+    xtol: float = 1e-10,
+    lam_max: float = 1e16,
+    stationary: Callable[[np.ndarray, np.ndarray, np.ndarray], bool] | None = None,
+    every: int = 5,
+) -> tuple:
+    """Levenberg-Marquardt with geodesic acceleration (Transtrum & Sethna 2012, "Improvements to the
+    Levenberg-Marquardt algorithm for nonlinear least-squares minimization", arXiv:1201.5885, the section on geodesic
+    acceleration; stop 57's candidate for the curved valley): each step ``v = -(J^T J + lambda D)^-1 J^T f`` gets the
+    second-order correction ``a`` (:func:`_acceleration`, one more residual), and ``x + v + a/2`` is tried when
+    ``|a| <= alpha |v|`` in the ``D`` metric (Marquardt's running diagonal of ``J^T J``); lambda / 5 on an accepted
+    step, x 3 otherwise. Stops converged when an accepted step is small (``|v + a/2|_D <= xtol (|x|_D + xtol)``) or
+    its relative cost fall is below 1e-14, or when lambda passes ``lam_max`` (no step of any length lowers the cost:
+    a minimum), or when ``stationary(x, f, J)`` holds, checked every ``every`` accepted steps (the fit's own rule,
+    the load's decrement, in :func:`_geodesic_end`: along this valley the sway scale walks on while the load has
+    stopped); else at ``iterations``. Returns ``x``, iterations, residuals and Jacobians evaluated, and the status
+    ``"converged (step)"``, ``"converged (cost)"``, ``"converged (lambda)"``, ``"converged (load)"`` or ``"at cap"``."""
     f = prob.residual(x)
     cost = f @ f
     J = prob.jacobian(x)
     D = np.maximum((J * J).sum(0), 1e-300)
-    lam, nres, njac = 1e-3, 1, 1
-    it = 0
+    lam, nres, njac, accepted = 1e-3, 1, 1, 0
+    it, status = 0, "at cap"
     while it < iterations:
+        if lam > lam_max:
+            status = "converged (lambda)"
+            break
         it += 1
-        A, g = J.T @ J, J.T @ f
         D = np.maximum(D, (J * J).sum(0))
         try:
-            v = -np.linalg.solve(A + lam * np.diag(D), g)
-            fh = prob.residual(x + h * v)
+            v = -np.linalg.solve(J.T @ J + lam * np.diag(D), J.T @ f)
             nres += 1
-            a = -np.linalg.solve(A + lam * np.diag(D), J.T @ ((2.0 / h) * ((fh - f) / h - J @ v)))
+            a = _acceleration(prob, x, f, J, v, lam, D, h)
         except np.linalg.LinAlgError:
             lam *= 10
             continue
         if np.sqrt((a * D) @ a) > alpha * np.sqrt((v * D) @ v):
             lam *= 3
             continue
-        fn = prob.residual(x + v + 0.5 * a)
+        step = v + 0.5 * a
+        fn = prob.residual(x + step)
         nres += 1
         if fn @ fn < cost:
             rel = (cost - fn @ fn) / cost
-            x, f, cost = x + v + 0.5 * a, fn, fn @ fn
+            x, f, cost = x + step, fn, fn @ fn
             J = prob.jacobian(x)
             njac += 1
             lam = max(lam / 5, 1e-12)
+            if np.sqrt((step * D) @ step) <= xtol * (np.sqrt((x * D) @ x) + xtol):
+                status = "converged (step)"
+                break
             if rel < 1e-14:
+                status = "converged (cost)"
+                break
+            accepted += 1
+            if stationary is not None and accepted % every == 0 and stationary(x, f, J):
+                status = "converged (load)"
                 break
         else:
             lam *= 3
-    return x, it, nres, njac
+    return x, it, nres, njac, status
 
 
 def _geodesic_end(end: oe_fit._Ended, m_true: float, z_true: float, iterations: int) -> str:
     """:func:`geodesic_lm` from the exact end on its last stage's problem (same weights and whiteners), then the fit's
-    finish (``oe_fit._conclude``): the load, its decrement, standard errors, evaluations and CPU."""
+    finish (``oe_fit._conclude``). The geodesic LM stops once the load's decrement (the finish's stationarity rule,
+    checked every 5 accepted steps) is below ``STATIONARY``. Prints its status (converged or at its cap), the load, its decrement,
+    standard errors, evaluations and CPU."""
     c0 = time.process_time()
-    x, it, nres, njac = geodesic_lm(end.prob, end.x, iterations)
+    lengths = [d.n for d in end.prob.datasets]
+    lags = max(1, round(oe_fit.SANDWICH_LAG_S / end.prob.datasets[0].T))
+
+    def stationary(x: np.ndarray, f: np.ndarray, J: np.ndarray) -> bool:
+        return bool(load_decrement(load_basis(J), f, lengths, lags) < oe_fit.STATIONARY)
+
+    x, it, nres, njac, status = geodesic_lm(end.prob, end.x, iterations, stationary=stationary)
     f = end.prob.residual(x)
     res = OptimizeResult(x=x, cost=f @ f / 2, success=True, status=2, message="geodesic LM", jac=end.prob.jacobian(x))
     sd = np.array([e.std(axis=0) for e in end.prob.errors(x)])
     fit = oe_fit._conclude(end.prob, res, sd, end.noise, True, end.fit.z_f).fit
     se = np.sqrt(np.diag(fit.cov_load))
     return (
-        f"geodesic LM {it} it ({nres} res, {njac} jac): conv {fit.converged} dec {fit.decrement:.3g} "
+        f"geodesic LM {it} it {status} ({nres} res, {njac} jac): fit conv {fit.converged} dec {fit.decrement:.3g} "
         f"m {100 * (fit.m / m_true - 1):+.3f} % z {1000 * (fit.zbar_m - z_true):+.2f} mm (SE {se[0]:.4g} kg, "
         f"{1000 * se[1]:.3g} mm) X_v {fit.values['X_v']:.4g}, {time.process_time() - c0:.1f} s cpu"
     )
+
+
+def _factors(text: str) -> tuple[float, ...]:
+    """``--profile``'s factors, checked at parse time (before the exact path's ~13 s)."""
+    try:
+        facs = tuple(float(q) for q in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not comma-separated numbers: {text!r}") from None
+    if not facs or any(not np.isfinite(q) or q <= 0 for q in facs):
+        raise argparse.ArgumentTypeError(f"factors must be positive numbers: {text!r}")
+    return facs
 
 
 def _select(rows: list, a: argparse.Namespace) -> list[tuple[str, int, str]]:
@@ -236,9 +293,15 @@ def main() -> None:
         "--geodesic", type=int, help="with --valley: run the geodesic LM this many iterations from the exact end (stop 57)"
     )
     ap.add_argument(
-        "--profile", help="with --valley: comma-separated factors of the sway mass M + X_v to profile the cost at, e.g. 1,10,100"
+        "--profile",
+        type=_factors,
+        help="with --valley: comma-separated factors of the sway mass M + X_v to profile the cost at, e.g. 1,10,100",
     )
     a = ap.parse_args()
+    if (a.geodesic or a.profile) and not a.valley:
+        ap.error("--geodesic and --profile need --valley")
+    if a.geodesic is not None and a.geodesic < 1:
+        ap.error("--geodesic: give a number of iterations >= 1")
     oe_fit.LM_NFEV_EXACT = a.cap
     rows = [json.loads(x) for x in Path(a.dump).read_text().splitlines()]
     by_key = {(r[0], r[3], r[1]): r for r in rows}
@@ -285,10 +348,11 @@ def main() -> None:
         if a.valley and f is not None and not f.converged and "end" in captured:
             print("    " + _valley(captured["end"]), flush=True)
             if a.profile:
-                facs = tuple(float(q) for q in a.profile.split(","))
-                print("    " + _profile(captured["end"], m_true, z_true, facs), flush=True)
+                print("    " + _profile(captured["end"], m_true, z_true, a.profile), flush=True)
             if a.geodesic:
                 print("    " + _geodesic_end(captured["end"], m_true, z_true, a.geodesic), flush=True)
+        elif a.valley:
+            print(f"    exact path {'failed' if f is None else 'converged'}: no valley", flush=True)
 
 
 if __name__ == "__main__":
