@@ -7,10 +7,14 @@ was kept or would be continued (then redone if still unconverged) or redone at o
 status; 0 = at the cap ``oe_fit.LM_NFEV_EXACT``), the exact path's own answer when it has one (mass % and z mm error,
 converged, decrement) and, from the given dump, the answer the full fit reported and the path it recorded. ``--cap`` overrides
 ``LM_NFEV_EXACT`` (a looser budget's experiment); ``--stop-at-cap`` is the fit before stop 55, whose exact path was
-abandoned at the first LM at its cap ("redo (capped)").
+abandoned at the first LM at its cap ("redo (capped)"). ``--valley`` (stop 57) prints, at an unconverged exact end,
+why it creeps (:func:`_valley`), and ``--profile`` the cost with the sway mass held (:func:`_profile`), ``--geodesic N`` the geodesic LM's continuation
+(:func:`geodesic_lm`).
 
     PYTHONPATH=$PWD nice -n 10 python benchmarks/diag_rollmass_redo.py benchmarks/rollmass_family_s54.jsonl --runs 30 --slow 20
     PYTHONPATH=$PWD nice -n 10 python benchmarks/diag_rollmass_redo.py DUMP --runs 30 --slow 20 --stop-at-cap --cap 400
+    PYTHONPATH=$PWD nice -n 15 python benchmarks/diag_rollmass_redo.py benchmarks/rollmass_redo_s56.jsonl --runs 30 \
+        --only base/1/case1 --valley --profile 1
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ import os
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -29,10 +34,12 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
+from scipy.optimize import OptimizeResult  # noqa: E402
 
 from identify.rollmass import oe_fit  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
 from identify.rollmass.fit_path import PathTally  # noqa: E402
+from identify.rollmass.sandwich import load_basis, load_decrement  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
 
 
@@ -78,10 +85,190 @@ def _exact_only(captured: dict) -> None:
         captured["tally"] = tally
         end = orig(*args, lm=lm, tally=tally)
         captured["fit"] = end.fit  # the exact path's own end (the continuation, stop 56, is stopped below)
+        captured["end"] = end
         return end
 
     oe_fit._fit = spy
     oe_fit._continued = _no_continuation
+
+
+def _valley(end: oe_fit._Ended) -> str:
+    """Why an unconverged exact end creeps (stop 57): at the point the exact path ended (after the finish), the
+    column-scaled Jacobian's condition number and its two weakest right singular vectors (the parameters they move,
+    largest first), the Gauss-Newton step ``dx = -J^+ f`` split on those vectors, and the cost along ``x + t dx``
+    against the Gauss-Newton model's ``|f + t J dx|^2`` (is the valley flat, or curved so that the step is halved?)."""
+    prob, x = end.prob, end.x
+    f, J = prob.residual(x), prob.jacobian(x)
+    scale = np.sqrt(np.maximum(np.einsum("ij,ij->j", J, J), 1e-300))
+    u, sv, vt = np.linalg.svd(J / scale, full_matrices=False)
+    dx = -np.linalg.lstsq(J, f, rcond=None)[0]
+    ds = dx * scale  # the step in the scaled coordinates
+    out = [f"cond(J scaled) {sv[0] / sv[-1]:.3g} sv {' '.join(f'{s:.3g}' for s in sv[-3:])} X_v {x[prob.free.index('X_v')]:.4g}"]
+    for k in (1, 2):
+        v = vt[-k]
+        top = np.argsort(-np.abs(v))[:4]
+        out.append(f"weak{k} " + " ".join(f"{prob.free[i]}{v[i]:+.2f}" for i in top) + f" step along it {v @ ds:+.3g}")
+    out.append(f"|step scaled| {np.linalg.norm(ds):.3g} load step {dx[-2]:+.3g} kg {1000 * dx[-1]:+.2f} mm")
+    c0 = f @ f
+    rows = []
+    for t in (0.125, 0.25, 0.5, 1.0, 2.0, 4.0):
+        fm = f + t * (J @ dx)
+        ft = prob.residual(x + t * dx)
+        rows.append(f"t={t:g}: {ft @ ft - c0:+.4g} (GN {fm @ fm - c0:+.4g})")
+    out.append("cost change along the step " + "; ".join(rows))
+    return "\n    ".join(out)
+
+
+class _Fixed:
+    """``prob`` with one parameter held at ``value`` (its column dropped): a point of the cost's profile along it."""
+
+    def __init__(self, prob: object, i: int, value: float):
+        self.prob, self.i, self.value = prob, i, value
+
+    def full(self, y: np.ndarray) -> np.ndarray:
+        return np.insert(y, self.i, self.value)
+
+    def residual(self, y: np.ndarray) -> np.ndarray:
+        return self.prob.residual(self.full(y))
+
+    def jacobian(self, y: np.ndarray) -> np.ndarray:
+        return np.delete(self.prob.jacobian(self.full(y)), self.i, axis=1)
+
+
+def _profile(end: oe_fit._Ended, m_true: float, z_true: float, factors: tuple[float, ...]) -> str:
+    """The cost's profile along the sway mass (stop 57): ``M + X_v`` held at ``factors`` times the exact end's, every
+    other parameter refitted by the exact LM (cap 200) from the end's point; per factor the cost against the end's
+    (half the sum of squares, the LM's), the load, evaluations and status (0: the cap, so still creeping with the sway
+    mass held). Scaling the sway row's other coefficients with it (Y_v, Y_r, Y_delta, Y_pdot, K_v) was tried and is
+    not this: three times the end's sway mass so scaled is an unstable model on base/1/case1."""
+    prob, x = end.prob, end.x
+    i = prob.free.index("X_v")
+    M = prob.kn.M
+    c0 = float(prob.residual(x) @ prob.residual(x)) / 2
+    rows = []
+    for fac in factors:
+        xv = fac * (M + x[i]) - M
+        fixed = _Fixed(prob, i, xv)
+        res = oe_fit._lm_exact(fixed, np.delete(x, i), 1e-10, cap=200)
+        v = fixed.full(res.x)
+        rows.append(
+            f"M+X_v x{fac:g} ({xv:.4g}): cost {res.cost - c0:+.5g} m {100 * (v[-2] / m_true - 1):+.2f} % "
+            f"z {1000 * (v[-1] - z_true):+.1f} mm nfev {res.nfev} status {res.status}"
+        )
+    return "\n    ".join(rows)
+
+
+def _acceleration(
+    prob: object, x: np.ndarray, f: np.ndarray, J: np.ndarray, v: np.ndarray, lam: float, D: np.ndarray, h: float
+) -> np.ndarray:
+    """The geodesic acceleration of step ``v``: ``a = -(J^T J + lambda D)^-1 J^T r_vv`` with the directional second
+    derivative ``r_vv = (2/h) ((f(x + h v) - f) / h - J v)`` by one more residual (exact for a quadratic residual)."""
+    fh = prob.residual(x + h * v)
+    return -np.linalg.solve(J.T @ J + lam * np.diag(D), J.T @ ((2.0 / h) * ((fh - f) / h - J @ v)))
+
+
+def geodesic_lm(
+    prob: object,
+    x: np.ndarray,
+    iterations: int,
+    alpha: float = 0.75,
+    h: float = 0.1,
+    xtol: float = 1e-10,
+    lam_max: float = 1e16,
+    stationary: Callable[[np.ndarray, np.ndarray, np.ndarray], bool] | None = None,
+    every: int = 5,
+) -> tuple:
+    """Levenberg-Marquardt with geodesic acceleration (Transtrum & Sethna 2012, "Improvements to the
+    Levenberg-Marquardt algorithm for nonlinear least-squares minimization", arXiv:1201.5885, the section on geodesic
+    acceleration; stop 57's candidate for the curved valley): each step ``v = -(J^T J + lambda D)^-1 J^T f`` gets the
+    second-order correction ``a`` (:func:`_acceleration`, one more residual), and ``x + v + a/2`` is tried when
+    ``|a| <= alpha |v|`` in the ``D`` metric (Marquardt's running diagonal of ``J^T J``); lambda / 5 on an accepted
+    step, x 3 otherwise. Stops converged when an accepted step is small (``|v + a/2|_D <= xtol (|x|_D + xtol)``) or
+    its relative cost fall is below 1e-14, or when lambda passes ``lam_max`` (no step of any length lowers the cost:
+    a minimum), or when ``stationary(x, f, J)`` holds, checked every ``every`` accepted steps (the fit's own rule,
+    the load's decrement, in :func:`_geodesic_end`: along this valley the sway scale walks on while the load has
+    stopped); else at ``iterations``. Returns ``x``, iterations, residuals and Jacobians evaluated, and the status
+    ``"converged (step)"``, ``"converged (cost)"``, ``"converged (lambda)"``, ``"converged (load)"`` or ``"at cap"``."""
+    f = prob.residual(x)
+    cost = f @ f
+    J = prob.jacobian(x)
+    D = np.maximum((J * J).sum(0), 1e-300)
+    lam, nres, njac, accepted = 1e-3, 1, 1, 0
+    it, status = 0, "at cap"
+    while it < iterations:
+        if lam > lam_max:
+            status = "converged (lambda)"
+            break
+        it += 1
+        D = np.maximum(D, (J * J).sum(0))
+        try:
+            v = -np.linalg.solve(J.T @ J + lam * np.diag(D), J.T @ f)
+            nres += 1
+            a = _acceleration(prob, x, f, J, v, lam, D, h)
+        except np.linalg.LinAlgError:
+            lam *= 10
+            continue
+        if np.sqrt((a * D) @ a) > alpha * np.sqrt((v * D) @ v):
+            lam *= 3
+            continue
+        step = v + 0.5 * a
+        fn = prob.residual(x + step)
+        nres += 1
+        if fn @ fn < cost:
+            rel = (cost - fn @ fn) / cost
+            x, f, cost = x + step, fn, fn @ fn
+            J = prob.jacobian(x)
+            njac += 1
+            lam = max(lam / 5, 1e-12)
+            if np.sqrt((step * D) @ step) <= xtol * (np.sqrt((x * D) @ x) + xtol):
+                status = "converged (step)"
+                break
+            if rel < 1e-14:
+                status = "converged (cost)"
+                break
+            accepted += 1
+            if stationary is not None and accepted % every == 0 and stationary(x, f, J):
+                status = "converged (load)"
+                break
+        else:
+            lam *= 3
+    return x, it, nres, njac, status
+
+
+def _geodesic_end(end: oe_fit._Ended, m_true: float, z_true: float, iterations: int) -> str:
+    """:func:`geodesic_lm` from the exact end on its last stage's problem (same weights and whiteners), then the fit's
+    finish (``oe_fit._conclude``). The geodesic LM stops once the load's decrement (the finish's stationarity rule,
+    checked every 5 accepted steps) is below ``STATIONARY``. Prints its status (converged or at its cap), the load, its decrement,
+    standard errors, evaluations and CPU."""
+    c0 = time.process_time()
+    lengths = [d.n for d in end.prob.datasets]
+    lags = max(1, round(oe_fit.SANDWICH_LAG_S / end.prob.datasets[0].T))
+
+    def stationary(x: np.ndarray, f: np.ndarray, J: np.ndarray) -> bool:
+        return bool(load_decrement(load_basis(J), f, lengths, lags) < oe_fit.STATIONARY)
+
+    x, it, nres, njac, status = geodesic_lm(end.prob, end.x, iterations, stationary=stationary)
+    f = end.prob.residual(x)
+    res = OptimizeResult(x=x, cost=f @ f / 2, success=True, status=2, message="geodesic LM", jac=end.prob.jacobian(x))
+    sd = np.array([e.std(axis=0) for e in end.prob.errors(x)])
+    fit = oe_fit._conclude(end.prob, res, sd, end.noise, True, end.fit.z_f).fit
+    se = np.sqrt(np.diag(fit.cov_load))
+    return (
+        f"geodesic LM {it} it {status} ({nres} res, {njac} jac): fit conv {fit.converged} dec {fit.decrement:.3g} "
+        f"m {100 * (fit.m / m_true - 1):+.3f} % z {1000 * (fit.zbar_m - z_true):+.2f} mm (SE {se[0]:.4g} kg, "
+        f"{1000 * se[1]:.3g} mm) X_v {fit.values['X_v']:.4g}, {time.process_time() - c0:.1f} s cpu"
+    )
+
+
+def _factors(text: str) -> tuple[float, ...]:
+    """``--profile``'s factors, checked at parse time (before the exact path's ~13 s)."""
+    try:
+        facs = tuple(float(q) for q in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not comma-separated numbers: {text!r}") from None
+    if not facs or any(not np.isfinite(q) or q <= 0 for q in facs):
+        raise argparse.ArgumentTypeError(f"factors must be positive numbers: {text!r}")
+    return facs
 
 
 def _select(rows: list, a: argparse.Namespace) -> list[tuple[str, int, str]]:
@@ -101,7 +288,20 @@ def main() -> None:
     ap.add_argument("--only", help="comma-separated variant/run/case")
     ap.add_argument("--cap", type=int, default=oe_fit.LM_NFEV_EXACT, help="the exact LM's evaluation cap")
     ap.add_argument("--stop-at-cap", action="store_true", help="leave the exact path at an LM's cap (before stop 55)")
+    ap.add_argument("--valley", action="store_true", help="at an unconverged exact end, print why it creeps (stop 57)")
+    ap.add_argument(
+        "--geodesic", type=int, help="with --valley: run the geodesic LM this many iterations from the exact end (stop 57)"
+    )
+    ap.add_argument(
+        "--profile",
+        type=_factors,
+        help="with --valley: comma-separated factors of the sway mass M + X_v to profile the cost at, e.g. 1,10,100",
+    )
     a = ap.parse_args()
+    if (a.geodesic or a.profile) and not a.valley:
+        ap.error("--geodesic and --profile need --valley")
+    if a.geodesic is not None and a.geodesic < 1:
+        ap.error("--geodesic: give a number of iterations >= 1")
     oe_fit.LM_NFEV_EXACT = a.cap
     rows = [json.loads(x) for x in Path(a.dump).read_text().splitlines()]
     by_key = {(r[0], r[3], r[1]): r for r in rows}
@@ -145,6 +345,14 @@ def main() -> None:
             f"({old[6] if old else float('nan'):.1f} s); exact path {cpu:.1f} s cpu, load {os.getloadavg()[0]:.1f}",
             flush=True,
         )
+        if a.valley and f is not None and not f.converged and "end" in captured:
+            print("    " + _valley(captured["end"]), flush=True)
+            if a.profile:
+                print("    " + _profile(captured["end"], m_true, z_true, a.profile), flush=True)
+            if a.geodesic:
+                print("    " + _geodesic_end(captured["end"], m_true, z_true, a.geodesic), flush=True)
+        elif a.valley:
+            print(f"    exact path {'failed' if f is None else 'converged'}: no valley", flush=True)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,104 @@
+"""benchmarks/diag_rollmass_redo.py's ``--valley`` analysis (stop 57): on a constructed flat valley, one of whose
+columns is scaled by 1e3, it names the flat parameter as the weakest direction of the column-scaled Jacobian, the
+condition number is the valley's, and the cost along the Gauss-Newton step is the model's where the residual is linear;
+``--profile``'s held parameter is held and its column dropped, and its factors are of ``M + X_v``; the geodesic LM's
+acceleration is the analytic one on Rosenbrock's quadratic residual, and it reaches Rosenbrock's minimum in few
+Jacobians and says it converged."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from benchmarks.diag_rollmass_redo import _acceleration, _Fixed, _profile, _valley, geodesic_lm
+
+FLAT = 1e-4  # the valley's flatness: the X_v column is the m column but for this
+
+
+class _Valley:
+    """A linear least-squares problem whose cost hardly changes along ``X_v - m`` (a long flat valley: their columns
+    differ by :data:`FLAT` in one row)."""
+
+    free = ("k", "X_v", "m", "zbar_m")
+    A = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, FLAT, 0.0, 0.0], [0.0, 1.0, 1.0, 0.3], [0.0, 0.2, 0.2, 1.0], [0.5, 0.0, 0.0, 0.1]])
+    A[:, 0] *= 1e3  # one badly scaled column: without the column scaling the condition would be about 1e3 / FLAT
+    b = np.array([1.0, 2e-4, 0.5, -0.4, 0.2])
+
+    def residual(self, x: np.ndarray) -> np.ndarray:
+        return self.A @ x - self.b
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        return self.A.copy()
+
+
+def test_the_valley_is_judged_on_the_column_scaled_jacobian():
+    s = np.linalg.svd(_Valley.A, compute_uv=False)
+    assert s[0] / s[-1] > 100 / FLAT  # the unscaled J's condition is far from the valley's: the test below needs the scaling
+
+
+def test_the_valley_analysis_names_the_flat_direction_and_the_cost_along_the_step():
+    end = SimpleNamespace(prob=_Valley(), x=np.zeros(4))
+    out = _valley(end)
+    lines = out.split("\n")
+    cond = float(lines[0].split()[2])
+    assert 0.1 / FLAT < cond < 10 / FLAT  # the column-scaled J's condition is the valley's flatness
+    weak = [w[:3].rstrip("+-0123456789.") for w in lines[1].split()[1:3]]
+    assert sorted(weak) == ["X_v", "m"]  # the weakest direction is the valley's, X_v against m
+    # linear residual: the actual cost change at t = 1 is the Gauss-Newton model's, and the full step solves it
+    t1 = [p for p in lines[-1].split("; ") if p.startswith("t=1:")][0]
+    actual, model = float(t1.split()[1]), float(t1.split("GN ")[1].rstrip(")"))
+    assert np.isclose(actual, model, rtol=1e-3)  # printed to 4 figures
+    r_min = _Valley.A @ np.linalg.lstsq(_Valley.A, _Valley.b, rcond=None)[0] - _Valley.b
+    assert np.isclose(actual, r_min @ r_min - _Valley.b @ _Valley.b, rtol=1e-3)  # the step reaches the minimum
+
+
+def test_a_profile_point_holds_its_parameter_and_drops_its_column():
+    prob = _Valley()
+    fixed = _Fixed(prob, 1, 7.0)
+    y = np.array([0.1, 0.2, 0.3])
+    assert np.array_equal(fixed.full(y), [0.1, 7.0, 0.2, 0.3])
+    assert np.array_equal(fixed.residual(y), prob.residual(np.array([0.1, 7.0, 0.2, 0.3])))
+    assert np.array_equal(fixed.jacobian(y), np.delete(prob.A, 1, axis=1))
+
+
+class _Banana:
+    """Rosenbrock's curved valley as residuals ``(10 (y - x^2), 1 - x)``: minimum 0 at (1, 1)."""
+
+    free = ("x", "y")
+
+    def residual(self, p: np.ndarray) -> np.ndarray:
+        return np.array([10.0 * (p[1] - p[0] ** 2), 1.0 - p[0]])
+
+    def jacobian(self, p: np.ndarray) -> np.ndarray:
+        return np.array([[-20.0 * p[0], 10.0], [-1.0, 0.0]])
+
+
+def test_the_geodesic_acceleration_is_the_analytic_one_on_a_quadratic_residual():
+    prob, x, v, lam, h = _Banana(), np.array([-1.2, 1.0]), np.array([0.3, -0.2]), 0.7, 0.1
+    f, J = prob.residual(x), prob.jacobian(x)
+    D = (J * J).sum(0)
+    r_vv = np.array([-20.0 * v[0] ** 2, 0.0])  # Rosenbrock's residuals' second derivative along v
+    a = _acceleration(prob, x, f, J, v, lam, D, h)
+    assert np.allclose(a, -np.linalg.solve(J.T @ J + lam * np.diag(D), J.T @ r_vv), rtol=1e-9, atol=1e-12)
+
+
+def test_the_geodesic_lm_follows_a_curved_valley_to_its_minimum_and_stops_there():
+    x, it, nres, njac, status = geodesic_lm(_Banana(), np.array([-1.2, 1.0]), 200)
+    assert np.allclose(x, [1.0, 1.0], atol=1e-6)
+    assert njac <= 10  # a dropped, flipped or mis-scaled acceleration needs 14-60 Jacobians
+    assert status.startswith("converged") and it < 50 and nres <= 2 * it + 1  # a stopping rule, not the cap
+    _, it, _, _, status = geodesic_lm(_Banana(), np.array([-1.2, 1.0]), 3)
+    assert (it, status) == (3, "at cap")
+    _, _, _, njac, status = geodesic_lm(_Banana(), np.array([-1.2, 1.0]), 200, stationary=lambda x, f, J: True, every=2)
+    assert (njac, status) == (3, "converged (load)")  # the caller's rule (the load's decrement), after 2 accepted steps
+
+
+def test_a_profile_holds_the_sway_mass_at_factors_of_the_ends():
+    class Held(_Valley):
+        kn = SimpleNamespace(M=3.0)
+
+    prob, x = Held(), np.array([0.1, 2.0, 0.3, 0.4])  # M + X_v = 5
+    out = _profile(SimpleNamespace(prob=prob, x=x), 1.0, 0.0, (1.0, 2.0))
+    lines = [q.strip() for q in out.split("\n")]
+    assert lines[0].startswith("M+X_v x1 (2)") and lines[1].startswith("M+X_v x2 (7)")  # X_v = fac (M + X_v) - M
