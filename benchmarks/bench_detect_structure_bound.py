@@ -56,7 +56,15 @@ import numpy as np
 from scipy.stats import norm
 
 from benchmarks.bench_detect_oracle import FA, cumulative_d2
-from benchmarks.bench_detect_truth import HULL, _fingerprint, change_times, screening_key, variant_recordings, variant_ship
+from benchmarks.bench_detect_truth import (
+    ALL_VARIANTS,
+    HULL,
+    _fingerprint,
+    change_times,
+    screening_key,
+    variant_recordings,
+    variant_ship,
+)
 from identify.detect.api import load_runs, moment_shift
 from identify.detect.inputs import signals
 from identify.detect.rollband import decision_whiten
@@ -212,6 +220,11 @@ def main() -> None:
     ap.add_argument("--variants", nargs="*", default=["nominal-mmg", "pod-interaction"])
     ap.add_argument("--cache", type=Path, required=True, help="bench_detect_truth.py's --cache folder (screened)")
     a = ap.parse_args()
+    bad = [v for v in a.variants if v not in ALL_VARIANTS]
+    if bad or not a.variants:
+        ap.error(f"--variants {' '.join(bad) or '(none)'}: give one or more of {', '.join(ALL_VARIANTS)}")
+    if a.ships < 1 or a.runs < 1:
+        ap.error(f"--ships {a.ships} --runs {a.runs}: give at least 1 ship and 1 run (the screened cache's --runs)")
     check_cache(a.variants, a.first_ship, a.ships, a.runs, a.cache)
     print(f"power % at {100 * FA:.0f} % false alarms, change time known; +10 % I_z; z_0.97 = {Z_FA:.2f}")
     print(

@@ -35,6 +35,8 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
+    if args.repeat < 1:
+        ap.error(f"--repeat {args.repeat}: give at least 1 timed repeat")
     from maps import mapcache, plancache
     from maps.trialdesign import design_counts
     from primitives.ship import load_profile

@@ -8,8 +8,8 @@ rest of each recording the same draw:
 
 - ``--parts ROLE=PART,...``: the recording of that role (nominal, calibration, loaded) simulated with only some of
   its noise: ``quiet`` (no sea disturbance, no sensor noise: basin_truth.simulate's ``quiet``), ``sea`` (the
-  disturbance, no sensor noise, biases or AHRS error) or ``sensor`` (those, no disturbance): rollmass_oracle's
-  ``_part``, the same random streams; a role not named keeps its recording (``all``).
+  disturbance, no sensor noise, biases or AHRS error) or ``sensor`` (those, no disturbance):
+  basin_truth.simulate_parts, the same random streams; a role not named keeps its recording (``all``).
 - ``--true-rudder``: every recording's rudder column replaced by the true rudder angle through the same FIR and
   decimation (the quiet simulation's column: no encoder offset or quantisation), the other columns as recorded.
 
@@ -47,16 +47,11 @@ ROLES = ("nominal", "calibration", "loaded")
 PARTS = ("all", "quiet", "sea", "sensor")
 
 
-def variant_seed(variant: str, seed: int = rollmass_oracle.FAMILY_SEED) -> int:
-    """The variant's family seed (bench_rollmass_truth._jobs' offset, :func:`basin_truth.variant_seed`)."""
-    return bt.variant_seed(seed, variant)
-
-
 class Family:
     """The variant's family of runs, each dataset simulated on demand with the noise a part keeps (cached)."""
 
     def __init__(self, variant: str, runs: int = rollmass_oracle.FAMILY_RUNS, seed: int | None = None) -> None:
-        self.variant, self.seed = variant, variant_seed(variant) if seed is None else seed
+        self.variant, self.seed = variant, bt.variant_seed(rollmass_oracle.FAMILY_SEED, variant) if seed is None else seed
         self.ship = bt.draw_ships(runs, variant, self.seed)
         self._data: dict[tuple[str, str], dict] = {}
 
@@ -66,10 +61,8 @@ class Family:
             i = list(bt.DATASETS).index(dataset)
             samples, m, zm = bt.DATASETS[dataset]
             dseed = bt.dataset_seed(self.seed, i)
-            if part in ("all", "quiet"):
-                d = bt.simulate(self.ship, self.variant, (m, zm), samples, dseed, part == "quiet")
-            else:
-                d = rollmass_oracle._part(self.ship, self.variant, (m, zm), samples, dseed, int(5 * bt.FS), part)
+            sea, sensor = part in ("all", "sea"), part in ("all", "sensor")
+            d = bt.simulate_parts(self.ship, self.variant, (m, zm), samples, dseed, sea=sea, sensor=sensor)
             self._data[dataset, part] = d
         return self._data[dataset, part]
 

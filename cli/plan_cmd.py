@@ -398,7 +398,8 @@ def plan_and_write(
 
                 if plancache.default_dir() is not None:
                     # hashed once, before the fork: the map's key here and the drawer's library and design keys both
-                    # need it (about 0.045 s of CPU each; with the plan cache on, the plan's key hashed it already)
+                    # need it (0.045-0.066 s of CPU each, docs/kernel-speed.md Stop 57; with the plan cache on, the
+                    # plan's key hashed it already)
                     plancache.code_version()
             drawer = Drawer(early, ahead=ahead)
         if hit is None:

@@ -20,7 +20,7 @@ from benchmarks import diag_rollmass_oe_gap as gap
 from tests.physics import basin_truth as bt
 
 SCRIPT = Path(gap.__file__).resolve()
-RUNS, SEED = 2, gap.variant_seed("sway_roll")
+RUNS, SEED = 2, bt.variant_seed(gap.rollmass_oracle.FAMILY_SEED, "sway_roll")
 
 
 @pytest.fixture(scope="module")

@@ -42,7 +42,7 @@ def test_oracle_removes_channel_offsets():
 
 def test_parts_add_up_to_the_recording():
     """--parts splits the recording with the same draws: sea + sensor - the noise-free truth = the recording
-    (guards _part against basin_truth.simulate's step order changing)."""
+    (guards basin_truth.simulate_parts against simulate's step order changing)."""
     kw = dict(runs=2, length=0.1)
     rec = ro.loaded_recording("base", "0.200kg-3", **kw)
     sea = ro.loaded_recording("base", "0.200kg-3", parts="sea", **kw).rec
