@@ -14,13 +14,17 @@ local pools of each ``--workers`` count (and a Dask scheduler if given, and loca
 each ``--dask-local`` count: :mod:`benchmarks.scaling_dask`, modelled apart): median wall time, the
 SHA-256 digests of all per-run results (must equal inline's), tasks per worker, runs/s, speed-up
 against inline and parallel efficiency (speed-up / workers). Target: >= 1.8x on 2 workers.
+Each count also on a warm pool (``warm xW``, :class:`expdesign.warmpool.WarmPool` as ``shiptrial design
+--monte-carlo`` starts it: forked and warmed before the clock starts; its CPU the parent's plus the
+workers' during the Monte Carlo, read from /proc).
 The wall-clock speed-up needs an otherwise idle machine (the load average is printed); the CPU
 seconds of this process and its reaped workers give the load-independent bound
 workers x CPU(inline) / CPU(pool), which shows the pool's own overhead, and the CPU per run and its
 ratio to inline's per worker count (CPU the workers waste shows there).
 
 Then the model that reads off larger machines (goal: 70 % efficiency on 16 cores):
-:mod:`benchmarks.scaling_model` (task cost, pool overhead, first-task extra, CPU inflation, makespan).
+:mod:`benchmarks.scaling_model` (task cost, pool overhead, first-task extra, CPU inflation, makespan), with
+the warm pool's prediction beside the fresh pool's (:mod:`benchmarks.scaling_warm`).
 
 ``--profile-task``: a task of 1 and of 63 runs per design: CPU, and how much of it is the
 simulation kernel's time loops (how many, and their CPU).

@@ -15,6 +15,8 @@
   of the inline tasks; speed-up = inline / wall(W), efficiency = speed-up / W, also without s(W).
 - CPU inflation per worker count: the measured CPU over the model's CPU, relative to inline's, applied
   to the workers' tasks (a worker count not measured takes the largest measured one's figure).
+- a warm pool (:mod:`benchmarks.scaling_warm`): the same tasks, the workers forked and warmed before
+  the Monte Carlo, so no fork and no join on its path; predicted with its own start terms and first-task extra.
 The model is checked against the measured engines: its CPU (tasks + prepare + pool) beside the
 measured CPU for any worker count (local x3 and x4 on a 2-core machine check the fixed-cost term),
 its wall beside the measured wall where the machine has the cores. It leaves out what a 16-core

@@ -43,9 +43,10 @@ def _warm(sh: MCShared) -> Callable[[], None]:
     return lambda: warm_worker(sh)  # as a command's pool (expdesign.mc_parallel.start_warm_pool)
 
 
-def warm_pool_overhead(sh: MCShared, w: int, repeat: int = 5) -> dict[str, float]:
-    """Medians of ``repeat`` warm pools of ``w`` workers, each started, warmed as a command's pool (the
-    compiled passes, the heap grown) and then given one no-op map of ``w`` tasks: seconds of ``send`` and ``child`` (module
+def warm_pool_overhead(sh: MCShared, w: int, repeat: int = 3) -> dict[str, float]:
+    """Medians of ``repeat`` pools of ``w`` workers, each started, ready (without the Monte Carlo's
+    warm-up, which does not change these terms and is measured by :func:`warm_first_extra_curve`)
+    and then given one no-op map of ``w`` tasks: seconds of ``send`` and ``child`` (module
     docstring), the map's ``wall``, and off the map's path ``fork`` (the parent's CPU per fork),
     ``warm`` (a worker's CPU to ready) and ``close`` (the parent's wall to stop and join them)."""
     from expdesign.warmpool import WarmPool
@@ -53,7 +54,7 @@ def warm_pool_overhead(sh: MCShared, w: int, repeat: int = 5) -> dict[str, float
     runs = []
     for _ in range(repeat):
         c = time.process_time()
-        pool = WarmPool(w, _warm(sh))
+        pool = WarmPool(w)
         fork = (time.process_time() - c) / w
         pool.wait_ready()
         pids = [p.pid for p in pool.procs.values()]
@@ -89,17 +90,19 @@ def warm_first_extra_curve(sh: MCShared, sizes: tuple[int, ...] = EXTRA_SIZES, r
     from expdesign.parallel import LocalEngine
     from expdesign.warmpool import WarmPool
 
-    extra = []
+    extra, warm = [], []
     for n in sizes:
         got = []
         for _ in range(repeat):
             with WarmPool(2, _warm(sh)) as pool:
                 pool.wait_ready()
+                warm.append(procs_cpu_s(q.pid for q in pool.procs.values()) / 2)
                 got += first_extras(LocalEngine(pool=pool), sh, n, 2)
         extra.append(max(0.0, statistics.median(got)))
     print(
         "a warm worker's first task (passes loaded, heap grown) over its second: "
         + ", ".join(f"{1e3 * e:.0f} ms at {n} runs" for n, e in zip(sizes, extra))
+        + f"; the warm-up (off the path) {statistics.median(warm):.2f} s CPU a worker"
     )
     return lambda n: float(np.interp(n, sizes, extra))
 
@@ -113,6 +116,6 @@ def print_warm_terms(pools: dict[int, dict[str, float]]) -> None:
         + "; the last worker starts its first task "
         + ", ".join(f"{w}: {1e3 * warm_starts(v, w)[-1]:.0f} ms" for w, v in pools.items())
         + " after the map does; off the path (earlier, while the command does other work): the parent's CPU per fork, "
-        "a worker's warm-up CPU, the close's wall: "
+        "a worker's CPU to ready (without the warm-up), the close's wall: "
         + ", ".join(f"{w}: {1e3 * v['fork']:.1f} ms, {v['warm']:.2f} s, {1e3 * v['close']:.0f} ms" for w, v in pools.items())
     )
