@@ -208,12 +208,24 @@ def _library_step(profile: ShipProfile, psi_switch: float | None) -> tuple[list[
     return lib, THESIS_SHARES if profile.library == "thesis-model-ship" else None
 
 
+# Fewest cores on which `design --monte-carlo` starts its pool before the design: the workers' warm-ups
+# (each 0.4-0.5 s CPU, the compiled passes loaded again where forked workers inherit them) must find idle
+# cores. On 2 cores they compete with the design: `design --monte-carlo 200 --seed 1`, 5 pairs alternated
+# with the fresh pool at load 11-13, 1.3 s more CPU (median 11.36 against 10.02 s) and more wall in 5 of 5
+# (docs/kernel-speed.md, Stop 57); 4 or more cores were not available to measure.
+WARM_POOL_MIN_CORES = 4
+
+
 def _pool_step(profile: ShipProfile, lib: list[Primitive], scheduler: str | None, protocol: dict, stack: contextlib.ExitStack):
     """The Monte Carlo's local workers started now, warming up while the design is optimised
-    (:func:`expdesign.mc_parallel.start_warm_pool`; None for another engine or one core), closed
-    with ``stack``."""
+    (:func:`expdesign.mc_parallel.start_warm_pool`; None for another engine or fewer than
+    WARM_POOL_MIN_CORES cores), closed with ``stack``."""
+    import os
+
     from expdesign.mc_parallel import start_warm_pool
 
+    if (os.cpu_count() or 1) < WARM_POOL_MIN_CORES:
+        return None
     pool = start_warm_pool(profile, lib, scheduler, **protocol)
     return stack.enter_context(pool) if pool is not None else None
 

@@ -234,9 +234,15 @@ def test_design_with_monte_carlo_starts_its_pool_before_the_design_and_matches_i
     monkeypatch.setattr(WarmPool, "__init__", init)
     monkeypatch.setattr(WarmPool, "map", map_)
     monkeypatch.setattr(api, "run_design", design)
-    monkeypatch.setattr(os, "cpu_count", lambda: 2)  # two workers whatever the machine
+    monkeypatch.setattr(os, "cpu_count", lambda: 4)  # the fewest cores the command starts it on (four workers)
     with _deadline(300):
         assert _run([*args, "--scheduler", "local"]) == 0
     local = json.loads(capsys.readouterr().out)["monte_carlo"]
     assert events[:3] == ["pool started", "design", "pool map"]
     assert {k: v["digest"] for k, v in local.items()} == {k: v["digest"] for k, v in inline.items()}
+    events.clear()
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)  # where the warm-ups would compete with the design: no pool
+    assert _run([*args, "--scheduler", "local"]) == 0
+    fresh = json.loads(capsys.readouterr().out)["monte_carlo"]
+    assert events == ["design"]  # the fresh pool's path
+    assert {k: v["digest"] for k, v in fresh.items()} == {k: v["digest"] for k, v in inline.items()}
