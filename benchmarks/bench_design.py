@@ -14,8 +14,8 @@ local pools of each ``--workers`` count (and a Dask scheduler if given, and loca
 each ``--dask-local`` count: :mod:`benchmarks.scaling_dask`, modelled apart): median wall time, the
 SHA-256 digests of all per-run results (must equal inline's), tasks per worker, runs/s, speed-up
 against inline and parallel efficiency (speed-up / workers). Target: >= 1.8x on 2 workers.
-Each count also on a warm pool (``warm xW``, :class:`expdesign.warmpool.WarmPool` as ``shiptrial design
---monte-carlo`` starts it: forked and warmed before the clock starts; its CPU the parent's plus the
+Each count also on a warm pool (``warm xW``, :class:`expdesign.warmpool.WarmPool` from
+:func:`expdesign.mc_parallel.start_warm_pool`, which no command uses: forked and warmed before the clock starts; its CPU the parent's plus the
 workers' during the Monte Carlo, read from /proc).
 The wall-clock speed-up needs an otherwise idle machine (the load average is printed); the CPU
 seconds of this process and its reaped workers give the load-independent bound

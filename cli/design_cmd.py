@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import contextlib
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import typer
 
@@ -136,28 +135,26 @@ def register(app: typer.Typer) -> None:
         prior_truths = 20 if prior_truths is None else prior_truths
         whole(prior_truths, "--prior-truths", 1, 10_000, "truths", DesignError)
         prior = make_prior(profile, prior_spread, prior_file, prior_draws, seed) if criterion in ROBUST else None
-        lib, thesis = _library_step(profile, psi_switch)
-        protocol = {
-            "n_samples": mc_samples,
-            "mean_subtraction": mean_subtraction,
-            "protocol": mc_protocol,
-            "order": mc_order,
-            "settle": mc_settle,
-            "min_block": mc_min_block,
-            "estimator": mc_estimator,
-        }
-        from expdesign.parallel import LocalEngine
-
-        with contextlib.ExitStack() as stack:
-            pool = _pool_step(profile, lib, scheduler, protocol, stack) if monte_carlo else None
-            d = _design_step(
-                profile, lib, thesis, criterion, mean_subtraction, trial_length, seed, min_frac, max_frac, noisy_moments, prior
+        lib, thesis, d = _design_step(
+            profile, criterion, mean_subtraction, trial_length, seed, psi_switch, min_frac, max_frac, noisy_moments, prior
+        )
+        ev = None
+        if monte_carlo:
+            ev = _monte_carlo_step(
+                profile,
+                lib,
+                d,
+                monte_carlo,
+                seed,
+                scheduler,
+                mc_samples,
+                mean_subtraction,
+                mc_protocol,
+                mc_order,
+                mc_settle,
+                mc_min_block,
+                mc_estimator,
             )
-            ev = None
-            if monte_carlo:
-                engine = LocalEngine(pool=pool) if pool is not None else scheduler
-                ev = _monte_carlo_step(profile, lib, d, monte_carlo, seed, engine, protocol)
-        if ev is not None:
             if not ev.complete and not (keep_partial and ev.results):
                 _fail(
                     ev,
@@ -198,54 +195,25 @@ def register(app: typer.Typer) -> None:
         _print_step(profile.name, d, doc, ev, paths, json_out)
 
 
-def _library_step(profile: ShipProfile, psi_switch: float | None) -> tuple[list[Primitive], dict[str, float] | None]:
-    """The ship's design library and the thesis's shares (model ship)."""
-    from expdesign.api import default_library
-    from expdesign.sensitivity import THESIS_SHARES
-
-    profile.require_planar("shiptrial design")
-    lib = default_library(profile, psi_switch)
-    return lib, THESIS_SHARES if profile.library == "thesis-model-ship" else None
-
-
-# Fewest cores on which `design --monte-carlo` starts its pool before the design: the workers' warm-ups
-# (each 0.4-0.5 s CPU, the compiled passes loaded again where forked workers inherit them) must find idle
-# cores. On 2 cores they compete with the design: `design --monte-carlo 200 --seed 1`, 5 pairs alternated
-# with the fresh pool at load 11-13, 1.3 s more CPU (median 11.36 against 10.02 s) and more wall in 5 of 5
-# (docs/kernel-speed.md, Stop 57); 4 or more cores were not available to measure.
-WARM_POOL_MIN_CORES = 4
-
-
-def _pool_step(profile: ShipProfile, lib: list[Primitive], scheduler: str | None, protocol: dict, stack: contextlib.ExitStack):
-    """The Monte Carlo's local workers started now, warming up while the design is optimised
-    (:func:`expdesign.mc_parallel.start_warm_pool`; None for another engine or fewer than
-    WARM_POOL_MIN_CORES cores), closed with ``stack``."""
-    import os
-
-    from expdesign.mc_parallel import start_warm_pool
-
-    if (os.cpu_count() or 1) < WARM_POOL_MIN_CORES:
-        return None
-    pool = start_warm_pool(profile, lib, scheduler, **protocol)
-    return stack.enter_context(pool) if pool is not None else None
-
-
 def _design_step(
     profile: ShipProfile,
-    lib: list[Primitive],
-    thesis: dict[str, float] | None,
     criterion: str,
     mean_subtraction: str,
     trial_length: float | None,
     seed: int,
+    psi_switch: float | None,
     min_frac: float | None,
     max_frac: float | None,
     noisy_moments: int,
     prior: ParameterPrior | None,
-) -> Design:
-    """The design on ``lib``."""
-    from expdesign.api import run_design
+) -> tuple[list[Primitive], dict[str, float] | None, Design]:
+    """The ship's design library, the thesis's shares (model ship) and the design."""
+    from expdesign.api import default_library, run_design
+    from expdesign.sensitivity import THESIS_SHARES
 
+    profile.require_planar("shiptrial design")
+    lib = default_library(profile, psi_switch)
+    thesis = THESIS_SHARES if profile.library == "thesis-model-ship" else None
     d = run_design(
         profile,
         lib,
@@ -259,7 +227,7 @@ def _design_step(
         references={"thesis": thesis} if thesis else None,
         parameter_prior=prior,
     )
-    return d
+    return lib, thesis, d
 
 
 def _prior_mc_step(
@@ -310,8 +278,14 @@ def _monte_carlo_step(
     d: Design,
     runs: int,
     seed: int,
-    scheduler: Any,
-    protocol: dict,
+    scheduler: str | None,
+    samples: int,
+    mean_subtraction: str,
+    protocol: str,
+    order: str,
+    settle: int,
+    min_block: int,
+    estimator: str,
 ) -> MCEvaluation:
     """The Monte Carlo of the optimized design against the random and uniform ones (and the
     thesis's shares for the model ship), with its speed line printed."""
@@ -329,7 +303,13 @@ def _monte_carlo_step(
         seed=seed,
         scheduler=scheduler,
         primitives=lib,
-        **protocol,
+        n_samples=samples,
+        mean_subtraction=mean_subtraction,
+        protocol=protocol,
+        order=order,
+        settle=settle,
+        min_block=min_block,
+        estimator=estimator,
     )
     _echo_speed(ev)
     return ev

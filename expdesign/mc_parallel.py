@@ -94,26 +94,31 @@ def start_warm_pool(
     **protocol: Any,
 ) -> Any:
     """A :class:`expdesign.warmpool.WarmPool` for a Monte Carlo to come on the local engine, started
-    now (a command that knows it will run one: before its design is optimised), each worker warmed
-    by :func:`warm_worker` on the random design of ``primitives`` with the Monte Carlo's
-    ``protocol``; None where the local engine would not fork several workers (another engine, one
-    core, no fork). Pass it to :class:`expdesign.parallel.LocalEngine` and close it."""
+    now, each worker warmed by :func:`warm_worker` on the random design of ``primitives`` with the
+    Monte Carlo's ``protocol``; None where the local engine would not fork several workers (another
+    engine, one usable core, no fork). ``workers`` defaults to the cores this process may run on
+    (:func:`os.sched_getaffinity` where there is one: a container's CPU mask, not the host's count).
+    The compiled passes are loaded here, in the parent, before the fork
+    (:func:`expdesign.montecarlo.warm_compiled`): the workers inherit the machine code instead of
+    each compiling it at once from a cold numba cache (about 15 s of CPU a process).
+    Pass it to :class:`expdesign.parallel.LocalEngine` and close it. No command uses it: the
+    bench's ``warm xW`` rows do (``shiptrial design --monte-carlo`` measured slower with it on 2
+    cores, docs/kernel-speed.md, Stop 57)."""
     import multiprocessing
     import os
 
     from expdesign.parallel import ENV_SCHEDULER
     from expdesign.warmpool import WarmPool
+    from primitives.threads import _cpus
 
     if (scheduler or os.environ.get(ENV_SCHEDULER) or "local") != "local":
         return None
-    n = workers or os.cpu_count() or 1
+    n = workers or _cpus()
     if n <= 1 or multiprocessing.get_start_method() != "fork":
         return None
-
-    def warm() -> None:
-        warm_worker(prepare(profile, {"random": "random"}, MCConfig(runs=MAX_CHUNK, **protocol), primitives))
-
-    return WarmPool(n, warm)
+    sh = prepare(profile, {"random": "random"}, MCConfig(runs=MAX_CHUNK, **protocol), primitives)
+    warm_compiled(sh)  # in the parent, before the fork: the workers inherit the compiled passes
+    return WarmPool(n, lambda: warm_worker(sh))
 
 
 def warm_worker(sh: MCShared) -> None:

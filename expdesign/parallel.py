@@ -318,7 +318,10 @@ class LocalEngine(Engine):
         unit: str,
     ) -> MapResult:
         """:meth:`expdesign.warmpool.WarmPool.map` on the pool given: no fork here, so the progress bar
-        starts at once."""
+        starts at once. Any error raised during the map (a Ctrl-C, but also a bug in the progress
+        bar or in gathering a result) kills every worker and closes the pool, as a fresh pool's map
+        does; only a KeyboardInterrupt becomes a partial result (marked interrupted), any other
+        error propagates. A task's own error is only that task's."""
         bars = [_Progress(weights or [1] * len(items), desc, progress, unit)]
         return _run_map(lambda on: self.pool.map(fn, items, shared, on), len(items), bars)
 

@@ -3,8 +3,8 @@ workers' forks and their warm-up leave the critical path of the map that needs t
 
 :func:`expdesign.forkpool.fork_map` forks its workers when the map starts, from the parent as it is
 then (the benchmark's parent: 6.5 ms CPU a fork, the last of 16 workers starting ~0.15-0.3 s after
-the map; Stop 56, docs/kernel-speed.md). A :class:`WarmPool` forks them when a command knows it will
-need them (``shiptrial design --monte-carlo``: before the design is optimised), and each worker runs
+the map; Stop 56, docs/kernel-speed.md). A :class:`WarmPool` forks them when the caller knows it
+will need them (e.g. before other work that precedes the map), and each worker runs
 ``warm`` (loading the compiled passes) while the parent goes on; the map then only ships its
 function, items and shared inputs: pickled once in the parent, the same bytes written to each
 worker, which unpickles them in parallel with the others. Results are those of a fresh pool: a
@@ -15,12 +15,20 @@ that raises is its own error; a worker that dies loses only the task it held, re
 code, and leaves the pool; a Ctrl-C in the parent during a map stops every worker at once and
 propagates (the pool is then closed). A pool never used ends on :meth:`WarmPool.close`, on the
 parent's exit (each worker reads EOF on its pipe) or on the garbage collector's finaliser.
+:meth:`WarmPool.close` waits at most ``timeout`` seconds for the workers to finish their warm-up
+and exit, then kills the rest. A failed warm-up is not silent: each distinct error is issued once as
+a :class:`WarmUpFailed` warning when the worker reports it, and :meth:`WarmPool.warm_up_errors` lists them.
+
+No command uses this pool: ``shiptrial design --monte-carlo`` was measured slower with it on 2 cores
+(docs/kernel-speed.md, Stop 57). ``benchmarks/bench_design.py --scaling`` measures it (``warm xW``).
 """
 
 from __future__ import annotations
 
 import multiprocessing
 import signal
+import time
+import warnings
 import weakref
 from collections.abc import Callable, Sequence
 from multiprocessing.connection import Connection, wait
@@ -31,6 +39,12 @@ from expdesign.forkpool import _HELD, _fork, _kill
 from primitives.heap import release_freed_memory
 
 READY = "ready"  # a worker's first message: its warm-up is done (with the error text if it failed)
+CLOSE_TIMEOUT_S = 10.0  # close(): seconds the workers get to finish their warm-up and exit before they are killed
+
+
+class WarmUpFailed(RuntimeWarning):
+    """A worker's warm-up raised: its tasks still run (they load what they need), at the cost the
+    warm-up was to save. Issued once for each distinct error text."""
 
 
 def _worker(conn: Connection, others: list[Connection], warm: Callable[[], None] | None) -> None:
@@ -85,6 +99,7 @@ class WarmPool:
         ctx = multiprocessing.get_context("fork")
         self.procs: dict[Connection, multiprocessing.process.BaseProcess] = {}
         self.ready: dict[Connection, str | None] = {}  # a worker's warm-up error (None: fine), once it said
+        self._warned: set[str] = set()  # warm-up errors already issued as WarmUpFailed
         from expdesign.parallel import _one_thread_while_forking
 
         release_freed_memory()
@@ -136,7 +151,17 @@ class WarmPool:
             self._lose(conn)
             return
         assert tag == READY
+        self._note_ready(conn, err)
+
+    def _note_ready(self, conn: Connection, err: str | None) -> None:
         self.ready[conn] = err
+        if err is not None and err not in self._warned:
+            self._warned.add(err)
+            warnings.warn(f"warm pool: a worker's warm-up failed: {err}", WarmUpFailed, stacklevel=3)
+
+    def warm_up_errors(self) -> list[str]:
+        """The distinct warm-up errors reported so far (by any worker, lost or not), in order."""
+        return sorted(self._warned)
 
     def _lose(self, conn: Connection) -> int | None:
         p = self.procs.pop(conn)
@@ -192,7 +217,7 @@ class WarmPool:
         except Exception as e:  # noqa: BLE001 - a result read whole that does not unpickle here
             msg = (held[conn], False, f"result not received: {type(e).__name__}: {e}")
         if msg[0] == READY:
-            self.ready[conn] = msg[1]
+            self._note_ready(conn, msg[1])
             return nxt
         on_result(*msg)
         held[conn] = None
@@ -204,9 +229,11 @@ class WarmPool:
                 pass
         return nxt
 
-    def close(self, now: bool = False) -> None:
-        """Stop the workers: each is told to exit after its warm-up and joined (``now``: SIGTERM,
-        then SIGKILL after a grace, as :func:`expdesign.forkpool._kill`)."""
+    def close(self, now: bool = False, timeout: float = CLOSE_TIMEOUT_S) -> None:
+        """Stop the workers: each is told to exit after its warm-up and joined, for at most
+        ``timeout`` seconds in all; a worker still alive then (a warm-up stuck or slow, e.g. on a
+        cold cache) is killed (SIGTERM, then SIGKILL after a grace, as
+        :func:`expdesign.forkpool._kill`). ``now``: kill them all at once."""
         if now:
             _kill(self.procs)
         else:
@@ -215,9 +242,12 @@ class WarmPool:
                     conn.send(None)
                 except OSError:
                     pass
-                conn.close()
+            end = time.monotonic() + max(0.0, timeout)
             for p in self.procs.values():
-                p.join()
+                p.join(max(0.0, end - time.monotonic()))
+            _kill({c: p for c, p in self.procs.items() if p.exitcode is None})
+            for conn in self.procs:
+                conn.close()
         self.procs.clear()
         self._finalizer.detach()
 

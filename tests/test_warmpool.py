@@ -1,6 +1,7 @@
 """The warm pool (expdesign/warmpool.py): started before its work, reused by later maps, with the fork
 pool's behaviour on failures (tests/test_forkpool.py): the same results as a fresh pool, a pool never
-used ends cleanly, a worker dying is reported and never hangs the map, Ctrl-C stops every worker."""
+used ends cleanly (and close() kills a stuck warm-up after its time limit), a worker dying is reported
+and never hangs the map, Ctrl-C stops every worker, a failed warm-up is warned about."""
 
 from __future__ import annotations
 
@@ -201,48 +202,40 @@ def _fail_warm() -> None:
 
 
 def test_a_failed_warm_up_is_said_and_the_tasks_still_run():
+    from expdesign.warmpool import WarmUpFailed
+
     with _deadline(30), WarmPool(2, warm=_fail_warm) as pool:
-        assert set(pool.wait_ready().values()) == {"ValueError: no cache"}
+        with pytest.warns(WarmUpFailed, match="no cache") as said:
+            assert set(pool.wait_ready().values()) == {"ValueError: no cache"}
+        assert len(said) == 1  # once for the distinct error, not once per worker
+        assert pool.warm_up_errors() == ["ValueError: no cache"]
         assert _map(pool, _slow, [1, 2, 3]) == {0: (True, 1), 1: (True, 2), 2: (True, 3)}
 
 
-def test_design_with_monte_carlo_starts_its_pool_before_the_design_and_matches_inline(monkeypatch, capsys):
-    import json
+def test_close_kills_workers_still_warming_up_after_its_time_limit():
+    pool = WarmPool(2, warm=lambda: time.sleep(60))  # a warm-up stuck (or a cold cache's compile)
+    procs = list(pool.procs.values())
+    t0 = time.monotonic()
+    with _deadline(30):
+        pool.close(timeout=0.5)
+    assert time.monotonic() - t0 < 10
+    assert all(p.exitcode == -signal.SIGTERM for p in procs) and pool.size == 0
 
-    import expdesign.api as api
-    from cli.app import _run
-    from expdesign.warmpool import WarmPool
 
-    args = ["design", "--monte-carlo", "6", "--mc-samples", "400", "--seed", "1", "--json"]
-    assert _run([*args, "--scheduler", "inline"]) == 0
-    inline = json.loads(capsys.readouterr().out)["monte_carlo"]
+def test_start_warm_pool_loads_the_compiled_passes_in_the_parent_before_forking_on_the_usable_cores(monkeypatch):
+    import expdesign.mc_parallel as mcp
+    import expdesign.warmpool as wp
+
     events = []
-    real_init, real_map, real_design = WarmPool.__init__, WarmPool.map, api.run_design
+    monkeypatch.setattr(mcp, "prepare", lambda *a, **k: "sh")
+    monkeypatch.setattr(mcp, "warm_compiled", lambda sh: events.append(("parent warm_compiled", os.getpid())))
 
-    def init(self, workers, warm=None):
-        events.append("pool started")
-        real_init(self, workers, warm)
+    class Pool:
+        def __init__(self, workers, warm):
+            events.append(("fork", workers))
 
-    def design(*a, **k):
-        events.append("design")
-        return real_design(*a, **k)
-
-    def map_(self, *a, **k):
-        events.append("pool map")
-        return real_map(self, *a, **k)
-
-    monkeypatch.setattr(WarmPool, "__init__", init)
-    monkeypatch.setattr(WarmPool, "map", map_)
-    monkeypatch.setattr(api, "run_design", design)
-    monkeypatch.setattr(os, "cpu_count", lambda: 4)  # the fewest cores the command starts it on (four workers)
-    with _deadline(300):
-        assert _run([*args, "--scheduler", "local"]) == 0
-    local = json.loads(capsys.readouterr().out)["monte_carlo"]
-    assert events[:3] == ["pool started", "design", "pool map"]
-    assert {k: v["digest"] for k, v in local.items()} == {k: v["digest"] for k, v in inline.items()}
-    events.clear()
-    monkeypatch.setattr(os, "cpu_count", lambda: 2)  # where the warm-ups would compete with the design: no pool
-    assert _run([*args, "--scheduler", "local"]) == 0
-    fresh = json.loads(capsys.readouterr().out)["monte_carlo"]
-    assert events == ["design"]  # the fresh pool's path
-    assert {k: v["digest"] for k, v in fresh.items()} == {k: v["digest"] for k, v in inline.items()}
+    monkeypatch.setattr(wp, "WarmPool", Pool)
+    monkeypatch.setattr(os, "cpu_count", lambda: 64)  # the host's count, in a container limited to 3 CPUs
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1, 2}, raising=False)
+    assert isinstance(mcp.start_warm_pool(None, [], "local"), Pool)
+    assert events == [("parent warm_compiled", os.getpid()), ("fork", 3)]
