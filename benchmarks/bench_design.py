@@ -14,13 +14,17 @@ local pools of each ``--workers`` count (and a Dask scheduler if given, and loca
 each ``--dask-local`` count: :mod:`benchmarks.scaling_dask`, modelled apart): median wall time, the
 SHA-256 digests of all per-run results (must equal inline's), tasks per worker, runs/s, speed-up
 against inline and parallel efficiency (speed-up / workers). Target: >= 1.8x on 2 workers.
+Each count also on a warm pool (``warm xW``, :class:`expdesign.warmpool.WarmPool` from
+:func:`expdesign.mc_parallel.start_warm_pool`, which no command uses: forked and warmed before the clock starts; its CPU the parent's plus the
+workers' during the Monte Carlo, read from /proc).
 The wall-clock speed-up needs an otherwise idle machine (the load average is printed); the CPU
 seconds of this process and its reaped workers give the load-independent bound
 workers x CPU(inline) / CPU(pool), which shows the pool's own overhead, and the CPU per run and its
 ratio to inline's per worker count (CPU the workers waste shows there).
 
 Then the model that reads off larger machines (goal: 70 % efficiency on 16 cores):
-:mod:`benchmarks.scaling_model` (task cost, pool overhead, first-task extra, CPU inflation, makespan).
+:mod:`benchmarks.scaling_model` (task cost, pool overhead, first-task extra, CPU inflation, makespan), with
+the warm pool's prediction beside the fresh pool's (:mod:`benchmarks.scaling_warm`).
 
 ``--profile-task``: a task of 1 and of 63 runs per design: CPU, and how much of it is the
 simulation kernel's time loops (how many, and their CPU).
@@ -90,14 +94,19 @@ def scaling(
         f"Monte Carlo scaling: {runs} runs x {len(designs)} designs, median of {repeat}; "
         f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs"
     )
+    engines += [(f"warm x{w}", w) for w in workers]
     for label, make in engines:
         times, cpus = [], []
         for _ in range(repeat):
-            c0 = cpu_s()
-            with make() as eng:
-                ev = evaluate_designs_parallel(p, designs, runs=runs, seed=0, scheduler=eng, primitives=lib, progress=False)
+            if isinstance(make, int):  # a warm pool, started and warmed before the clock
+                ev, cpu = _warm_run(p, designs, runs, lib, make)
+            else:
+                c0 = cpu_s()
+                with make() as eng:
+                    ev = evaluate_designs_parallel(p, designs, runs=runs, seed=0, scheduler=eng, primitives=lib, progress=False)
+                cpu = cpu_s() - c0
             times.append(ev.elapsed_s)
-            cpus.append(cpu_s() - c0)
+            cpus.append(cpu)
         med, cpu = statistics.median(times), statistics.median(cpus)
         base_cpu = base_cpu or cpu
         dig = {k: r.digest() for k, r in ev.results.items()}
@@ -130,6 +139,24 @@ def scaling(
                 "this process, its scheduler and the workers",
             )
     return rows
+
+
+def _warm_run(p, designs: dict, runs: int, lib: list, w: int) -> tuple:
+    """The Monte Carlo on a warm pool of ``w`` workers (:func:`expdesign.mc_parallel.start_warm_pool`,
+    waited for until every worker is warm): the evaluation and the CPU seconds of this process and
+    the workers during it."""
+    from benchmarks.scaling_warm import procs_cpu_s
+    from expdesign.mc_parallel import evaluate_designs_parallel, start_warm_pool
+    from expdesign.parallel import LocalEngine
+
+    with start_warm_pool(p, lib, "local", w) as pool:
+        pool.wait_ready()
+        pids = [q.pid for q in pool.procs.values()]
+        c0, k0 = cpu_s(), procs_cpu_s(pids)
+        ev = evaluate_designs_parallel(
+            p, designs, runs=runs, seed=0, scheduler=LocalEngine(pool=pool), primitives=lib, progress=False
+        )
+        return ev, cpu_s() - c0 + procs_cpu_s(pids) - k0
 
 
 def _result_lines(

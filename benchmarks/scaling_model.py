@@ -15,6 +15,8 @@
   of the inline tasks; speed-up = inline / wall(W), efficiency = speed-up / W, also without s(W).
 - CPU inflation per worker count: the measured CPU over the model's CPU, relative to inline's, applied
   to the workers' tasks (a worker count not measured takes the largest measured one's figure).
+- a warm pool (:mod:`benchmarks.scaling_warm`): the same tasks, the workers forked and warmed before
+  the Monte Carlo, so no fork and no join on its path; predicted with its own start terms and first-task extra.
 The model is checked against the measured engines: its CPU (tasks + prepare + pool) beside the
 measured CPU for any worker count (local x3 and x4 on a 2-core machine check the fixed-cost term),
 its wall beside the measured wall where the machine has the cores. It leaves out what a 16-core
@@ -278,7 +280,9 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
         + " after the pool does"
     )
     modelled = {}
-    for row in (r for r in measured if not r["label"].startswith("dask")):  # CPU on any machine, wall up to the core count
+    for row in (
+        r for r in measured if r["label"] == "inline" or r["label"].startswith("local")
+    ):  # CPU any machine, wall <= cores
         fresh = row["slots"] > 1  # the pools' workers are new processes, the inline runs reuse this warm one
         pr = predict(
             cost,
@@ -298,6 +302,7 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
         )
     infl = _inflation(modelled)
     _predicted(cost, names, runs, serial, f"{runs} runs x {len(names)} designs", first, infl, starts=starts)
+    _warm_model(sh, cost, names, runs, counts, first, infl)
     dask_rows = [r for r in measured if r["label"].startswith("dask x")]
     if dask_rows:
         _dask_model(cost, names, runs, sh, prep, dask_rows, modelled.get(1, 1.0), first, infl)
@@ -313,6 +318,35 @@ def task_cost(runs: int, workers: list[int], measured: list[dict]) -> None:
         first,
         infl,
         starts=starts,
+    )
+
+
+def _warm_model(
+    sh: MCShared,
+    cost: TaskCost,
+    names: list[str],
+    runs: int,
+    counts: list[int],
+    first: Callable[[int], float],
+    infl: Callable[[int], float],
+) -> None:
+    """The same prediction for a warm pool (:mod:`benchmarks.scaling_warm`): no fork and no join on
+    the Monte Carlo's path, each worker's start its share of the map's sending plus its unpickling,
+    its first task's extra as measured on warm workers; the local pool's CPU inflation."""
+    from benchmarks.scaling_warm import print_warm_terms, warm_first_extra_curve, warm_pool_overhead, warm_starts
+
+    pools = {w: warm_pool_overhead(sh, w) for w in counts if w > 1}
+    print_warm_terms(pools)
+    _predicted(
+        cost,
+        names,
+        runs,
+        {1: 0.0} | dict.fromkeys(pools, 0.0),
+        f"warm pool (started before the Monte Carlo), {runs} runs x {len(names)} designs",
+        first,
+        infl,
+        starts={w: warm_starts(v, w) for w, v in pools.items()},
+        worker_first=warm_first_extra_curve(sh),
     )
 
 

@@ -86,6 +86,53 @@ def cut_tasks(designs: Sequence[str], runs: int, n: int) -> list[tuple[str, int,
     return [(d, i * runs // n, (i + 1) * runs // n) for d in designs for i in range(n)]
 
 
+def start_warm_pool(
+    profile: ShipProfile,
+    primitives: list[Primitive],
+    scheduler: Any = None,
+    workers: int | None = None,
+    **protocol: Any,
+) -> Any:
+    """A :class:`expdesign.warmpool.WarmPool` for a Monte Carlo to come on the local engine, started
+    now, each worker warmed by :func:`warm_worker` on the random design of ``primitives`` with the
+    Monte Carlo's ``protocol``; None where the local engine would not fork several workers (another
+    engine, one usable core, no fork). ``workers`` defaults to the cores this process may run on
+    (:func:`os.sched_getaffinity` where there is one: a container's CPU mask, not the host's count).
+    The compiled passes are loaded here, in the parent, before the fork
+    (:func:`expdesign.montecarlo.warm_compiled`): the workers inherit the machine code instead of
+    each compiling it at once from a cold numba cache (about 15 s of CPU a process).
+    Pass it to :class:`expdesign.parallel.LocalEngine` and close it. No command uses it: the
+    bench's ``warm xW`` rows do (``shiptrial design --monte-carlo`` measured slower with it on 2
+    cores, docs/kernel-speed.md, Stop 57)."""
+    import multiprocessing
+    import os
+
+    from expdesign.parallel import ENV_SCHEDULER
+    from expdesign.warmpool import WarmPool
+    from primitives.threads import _cpus
+
+    if (scheduler or os.environ.get(ENV_SCHEDULER) or "local") != "local":
+        return None
+    n = workers or _cpus()
+    if n <= 1 or multiprocessing.get_start_method() != "fork":
+        return None
+    sh = prepare(profile, {"random": "random"}, MCConfig(runs=MAX_CHUNK, **protocol), primitives)
+    warm_compiled(sh)  # in the parent, before the fork: the workers inherit the compiled passes
+    return WarmPool(n, lambda: warm_worker(sh))
+
+
+def warm_worker(sh: MCShared) -> None:
+    """A warm pool's worker made ready for the Monte Carlo's tasks before they come: the compiled
+    passes loaded (:func:`expdesign.montecarlo.warm_compiled`) and the heap grown to the largest
+    task's working set (:func:`expdesign.dask_preload.grow_heap`, as a preloaded Dask worker), so
+    that its first task costs what a later one does (a fresh worker's first task: 33-75 ms more,
+    Stop 56). ``sh`` must hold a design named "random"."""
+    from expdesign.dask_preload import grow_heap
+
+    warm_compiled(sh)
+    grow_heap(sh)
+
+
 def evaluate_designs_parallel(
     profile: ShipProfile,
     designs: Mapping[str, Any],
@@ -114,8 +161,8 @@ def evaluate_designs_parallel(
     try:
         workers, threads = engine.capacity()
         tasks = cut_tasks(sh.designs, runs, plan_tasks(runs, len(sh.designs), workers * threads, tasks_per_worker, chunk_runs))
-        if isinstance(engine, LocalEngine) and min(workers, len(tasks)) > 1:
-            warm_compiled(sh)  # once here, not once per worker
+        if isinstance(engine, LocalEngine) and engine.pool is None and min(workers, len(tasks)) > 1:
+            warm_compiled(sh)  # once here, not once per worker (a warm pool's workers warmed themselves)
         res = engine.map(
             _task, tasks, desc="Monte Carlo", progress=progress, shared=sh, weights=[b - a for _, a, b in tasks], unit="runs"
         )

@@ -223,12 +223,13 @@ class LocalEngine(Engine):
 
     name = "local"
 
-    def __init__(self, workers: int | None = None):
-        self.workers = workers or os.cpu_count() or 1
+    def __init__(self, workers: int | None = None, pool: Any = None):
+        self.pool = pool  # an expdesign.warmpool.WarmPool started earlier: its workers run the maps
+        self.workers = pool.size if pool is not None else workers or os.cpu_count() or 1
         self.times = None  # the last forked map's expdesign.forkpool.PoolTimes (benchmarks/scaling_model.py)
 
     def capacity(self) -> tuple[int, int]:
-        return self.workers, 1
+        return (self.pool.size if self.pool is not None else self.workers), 1
 
     def map(
         self,
@@ -240,6 +241,8 @@ class LocalEngine(Engine):
         weights: Sequence[float] | None = None,
         unit: str = "tasks",
     ) -> MapResult:
+        if self.pool is not None and self.pool.size > 0 and len(items) > 1:
+            return self._warm_map(fn, items, desc, progress, shared, weights, unit)
         if self.workers <= 1 or len(items) <= 1:
             return super().map(fn, items, desc, progress, shared, weights, unit)
         ctx = multiprocessing.get_context()
@@ -291,7 +294,6 @@ class LocalEngine(Engine):
         hang at its first write to stderr) starts after the last fork."""
         from expdesign.forkpool import PoolTimes, fork_map
 
-        res, done, errors = [None] * len(items), [False] * len(items), {}
         bars: list[_Progress] = []
 
         @contextlib.contextmanager
@@ -302,22 +304,48 @@ class LocalEngine(Engine):
             bars.append(_Progress(weights or [1] * len(items), desc, progress, unit))
             bars[0].t0 = t0
 
-        def on_result(i: int, ok: bool, out: Any) -> None:  # called only once every worker is forked
-            if ok:
-                res[i], done[i] = out, True
-                bars[0].advance(i)
-            else:
-                errors[i] = out
-
         self.times = PoolTimes()
-        try:
-            fork_map(fn, items, self.workers, shared, on_result, self.times, forking())
-        except KeyboardInterrupt:
-            return MapResult(res, done, interrupted=True, errors=errors)
-        finally:
-            for bar in bars:
-                bar.close()
-        return MapResult(res, done, errors=errors)
+        return _run_map(lambda on: fork_map(fn, items, self.workers, shared, on, self.times, forking()), len(items), bars)
+
+    def _warm_map(
+        self,
+        fn: Callable[..., Any],
+        items: Sequence[Any],
+        desc: str,
+        progress: bool,
+        shared: Any,
+        weights: Sequence[float] | None,
+        unit: str,
+    ) -> MapResult:
+        """:meth:`expdesign.warmpool.WarmPool.map` on the pool given: no fork here, so the progress bar
+        starts at once. Any error raised during the map (a Ctrl-C, but also a bug in the progress
+        bar or in gathering a result) kills every worker and closes the pool, as a fresh pool's map
+        does; only a KeyboardInterrupt becomes a partial result (marked interrupted), any other
+        error propagates. A task's own error is only that task's."""
+        bars = [_Progress(weights or [1] * len(items), desc, progress, unit)]
+        return _run_map(lambda on: self.pool.map(fn, items, shared, on), len(items), bars)
+
+
+def _run_map(run: Callable[[Callable[[int, bool, Any], None]], None], n: int, bars: list[_Progress]) -> MapResult:
+    """``run(on_result)`` (a pool's map) gathered into a MapResult, its progress in ``bars[0]`` (made
+    by the time the first result comes); a Ctrl-C gives the partial result, marked interrupted."""
+    res, done, errors = [None] * n, [False] * n, {}
+
+    def on_result(i: int, ok: bool, out: Any) -> None:
+        if ok:
+            res[i], done[i] = out, True
+            bars[0].advance(i)
+        else:
+            errors[i] = out
+
+    try:
+        run(on_result)
+    except KeyboardInterrupt:
+        return MapResult(res, done, interrupted=True, errors=errors)
+    finally:
+        for bar in bars:
+            bar.close()
+    return MapResult(res, done, errors=errors)
 
 
 def _terminate(pool: ProcessPoolExecutor) -> None:
