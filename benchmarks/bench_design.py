@@ -94,7 +94,7 @@ def scaling(
         f"Monte Carlo scaling: {runs} runs x {len(designs)} designs, median of {repeat}; "
         f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs"
     )
-    engines += [(f"warm x{w}", w) for w in workers]
+    engines += [(f"warm x{w}", w) for w in workers if w > 1]  # one worker: no pool (start_warm_pool gives None)
     for label, make in engines:
         times, cpus = [], []
         for _ in range(repeat):

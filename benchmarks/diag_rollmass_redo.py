@@ -251,7 +251,7 @@ def _geodesic_end(end: oe_fit._Ended, m_true: float, z_true: float, iterations: 
     f = end.prob.residual(x)
     res = OptimizeResult(x=x, cost=f @ f / 2, success=True, status=2, message="geodesic LM", jac=end.prob.jacobian(x))
     sd = np.array([e.std(axis=0) for e in end.prob.errors(x)])
-    fit = oe_fit._conclude(end.prob, res, sd, end.noise, True, end.fit.z_f).fit
+    fit = oe_fit._conclude(end.prob, res, sd, end.fit.noise, True, end.fit.z_f).fit
     se = np.sqrt(np.diag(fit.cov_load))
     return (
         f"geodesic LM {it} it {status} ({nres} res, {njac} jac): fit conv {fit.converged} dec {fit.decrement:.3g} "

@@ -160,7 +160,7 @@ class WarmPool:
             warnings.warn(f"warm pool: a worker's warm-up failed: {err}", WarmUpFailed, stacklevel=3)
 
     def warm_up_errors(self) -> list[str]:
-        """The distinct warm-up errors reported so far (by any worker, lost or not), in order."""
+        """The distinct warm-up errors reported so far (by any worker, lost or not), sorted."""
         return sorted(self._warned)
 
     def _lose(self, conn: Connection) -> int | None:
