@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import subprocess
 import sys
 
@@ -44,3 +46,24 @@ def killable_writer(
     stdin closes ("running", after printing "ready"). ``text`` is the Python expression written."""
     script = _KILLED.format(module=module, context=context, file_name=file_name, swap_mode=swap_mode, text=text)
     return subprocess.Popen([sys.executable, "-c", script, str(out), mode], text=True, **kw)
+
+
+class Hung(Exception):
+    """Raised by :func:`deadline` when its time is up."""
+
+
+@contextlib.contextmanager
+def deadline(seconds: int):
+    """A pool map that hangs raises :class:`Hung` after ``seconds`` (its workers killed by the pool) instead of holding
+    the suite (SIGALRM: the main thread only)."""
+
+    def hung(*_):
+        raise Hung
+
+    old = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)

@@ -4,7 +4,6 @@ results however the tasks land on the workers."""
 
 from __future__ import annotations
 
-import contextlib
 import multiprocessing
 import os
 import signal
@@ -18,6 +17,7 @@ import pytest
 from expdesign import forkpool
 from expdesign.forkpool import PoolTimes, fork_map
 from expdesign.parallel import LocalEngine
+from tests.procs import deadline
 
 pytestmark = pytest.mark.skipif(
     multiprocessing.get_start_method() != "fork" or not os.path.isdir("/proc/self/fd"), reason="the fork pool, Linux"
@@ -279,29 +279,9 @@ def _exit_on_zero(i: int) -> int:
     return i
 
 
-class _Hung(Exception):
-    pass
-
-
-@contextlib.contextmanager
-def _deadline(seconds: int):
-    """A map that hangs raises _Hung after ``seconds`` (its workers killed by the pool) instead of holding the suite."""
-
-    def hung(*_):
-        raise _Hung
-
-    old = signal.signal(signal.SIGALRM, hung)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
-
-
 def test_a_task_that_raises_system_exit_loses_only_its_worker_and_the_map_ends():
     t = time.perf_counter()
-    with _deadline(30):
+    with deadline(30):
         out = _collect(_exit_on_zero, list(range(6)), 3)
     assert out[0] == (False, "worker lost: exit code 3")
     assert all(out[i] == (True, i) for i in range(1, 6))
@@ -318,7 +298,7 @@ def _killed_on_one(i: int) -> int:
 def test_a_sigkilled_worker_costs_its_task_only_and_every_worker_is_reaped(monkeypatch):
     pids = _forked_pids(monkeypatch)
     t = time.perf_counter()
-    with _deadline(30):
+    with deadline(30):
         out = _collect(_killed_on_one, list(range(8)), 3)
     assert out[1] == (False, "worker lost: exit code -9")
     assert all(out[i][0] and out[i][1] in pids for i in range(8) if i != 1)
@@ -373,7 +353,7 @@ def test_ctrl_c_inside_a_fork_lets_the_worker_whose_pid_was_never_known_end(monk
             raise KeyboardInterrupt
 
     monkeypatch.setattr(popen_fork.Popen, "_launch", interrupted)
-    with _deadline(30), pytest.raises(KeyboardInterrupt) as caught:
+    with deadline(30), pytest.raises(KeyboardInterrupt) as caught:
         _collect(_pid_then_sleep, [1, 2, 3], 3)
     assert caught.traceback and len(pids) == 2
     t = time.perf_counter()

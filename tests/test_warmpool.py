@@ -5,7 +5,6 @@ and never hangs the map, Ctrl-C stops every worker, a failed warm-up is warned a
 
 from __future__ import annotations
 
-import contextlib
 import multiprocessing
 import os
 import signal
@@ -18,30 +17,11 @@ import pytest
 from expdesign.forkpool import fork_map
 from expdesign.parallel import LocalEngine
 from expdesign.warmpool import WarmPool
+from tests.procs import deadline
 
 pytestmark = pytest.mark.skipif(
     multiprocessing.get_start_method() != "fork" or not os.path.isdir("/proc/self/fd"), reason="the fork pool, Linux"
 )
-
-
-class _Hung(Exception):
-    pass
-
-
-@contextlib.contextmanager
-def _deadline(seconds: int):
-    """A map that hangs raises _Hung after ``seconds`` instead of holding the suite."""
-
-    def hung(*_):
-        raise _Hung
-
-    old = signal.signal(signal.SIGALRM, hung)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
 
 
 def _gone(pid: int, within: float = 5.0) -> bool:
@@ -71,7 +51,7 @@ def _map(pool: WarmPool, fn, items, shared=None) -> dict:
 def test_reuse_gives_the_results_of_a_fresh_pool_and_runs_on_the_same_workers():
     fresh = {}
     fork_map(_scaled, list(range(9)), 3, {"k": 7}, lambda i, ok, r: fresh.__setitem__(i, (ok, r[:2])))
-    with _deadline(30), WarmPool(3) as pool:
+    with deadline(30), WarmPool(3) as pool:
         pids = {p.pid for p in pool.procs.values()}
         first = _map(pool, _scaled, list(range(9)), {"k": 7})
         second = _map(pool, _scaled, list(range(9)), {"k": 7})
@@ -95,7 +75,7 @@ def test_the_monte_carlo_on_a_warm_pool_gives_the_digests_of_inline():
 
     inline = digests("inline")
     pool = start_warm_pool(p, lib, workers=2)
-    with _deadline(300), pool:
+    with deadline(300), pool:
         assert digests(LocalEngine(pool=pool)) == inline
         assert digests(LocalEngine(pool=pool)) == inline  # reused
 
@@ -104,7 +84,7 @@ def test_a_pool_started_early_and_never_used_exits_cleanly():
     pool = WarmPool(3, warm=lambda: time.sleep(0.3))
     pids = [p.pid for p in pool.procs.values()]
     procs = list(pool.procs.values())
-    with _deadline(20):
+    with deadline(20):
         pool.close()  # during the warm-up: each worker finishes it, reads the stop and exits
     assert [p.exitcode for p in procs] == [0, 0, 0]
     assert all(_gone(pid, 0.1) for pid in pids)
@@ -132,7 +112,7 @@ def _slow(i: int) -> int:
 
 
 def test_a_worker_dying_mid_task_is_reported_and_the_map_ends():
-    with _deadline(30), WarmPool(2) as pool:
+    with deadline(30), WarmPool(2) as pool:
         pool.wait_ready()
         victim = next(iter(pool.procs.values()))  # the first worker gets task 0, the slow one
         out = {}
@@ -150,7 +130,7 @@ def test_a_worker_dying_mid_task_is_reported_and_the_map_ends():
 
 
 def test_a_worker_dead_between_maps_loses_no_task():
-    with _deadline(30), WarmPool(3) as pool:
+    with deadline(30), WarmPool(3) as pool:
         pool.wait_ready()
         victim = next(iter(pool.procs.values()))
         os.kill(victim.pid, signal.SIGKILL)
@@ -160,7 +140,7 @@ def test_a_worker_dead_between_maps_loses_no_task():
 
 
 def test_every_worker_lost_is_reported_not_hung():
-    with _deadline(30), WarmPool(2) as pool:
+    with deadline(30), WarmPool(2) as pool:
         out = _map(pool, os._exit, [5, 6, 7, 8])
     assert sorted(r for ok, r in out.values() if r.startswith("worker lost")) == [
         "worker lost: exit code 5",
@@ -176,13 +156,13 @@ def test_ctrl_c_during_a_map_stops_every_worker_and_closes_the_pool():
     def interrupt(i, ok, r):
         raise KeyboardInterrupt
 
-    with _deadline(30), pytest.raises(KeyboardInterrupt):
+    with deadline(30), pytest.raises(KeyboardInterrupt):
         pool.map(_slow, list(range(1, 10)), None, interrupt)
     assert pool.size == 0 and all(_gone(pid, 0.1) for pid in pids)
 
 
 def test_the_engine_reports_ctrl_c_as_an_interrupted_partial_result(monkeypatch):
-    with _deadline(30), WarmPool(2) as pool:
+    with deadline(30), WarmPool(2) as pool:
         eng = LocalEngine(pool=pool)
         assert eng.capacity() == (2, 1)
         calls = []
@@ -204,7 +184,7 @@ def _fail_warm() -> None:
 def test_a_failed_warm_up_is_said_and_the_tasks_still_run():
     from expdesign.warmpool import WarmUpFailed
 
-    with _deadline(30), WarmPool(2, warm=_fail_warm) as pool:
+    with deadline(30), WarmPool(2, warm=_fail_warm) as pool:
         with pytest.warns(WarmUpFailed, match="no cache") as said:
             assert set(pool.wait_ready().values()) == {"ValueError: no cache"}
         assert len(said) == 1  # once for the distinct error, not once per worker
@@ -216,7 +196,7 @@ def test_close_kills_workers_still_warming_up_after_its_time_limit():
     pool = WarmPool(2, warm=lambda: time.sleep(60))  # a warm-up stuck (or a cold cache's compile)
     procs = list(pool.procs.values())
     t0 = time.monotonic()
-    with _deadline(30):
+    with deadline(30):
         pool.close(timeout=0.5)
     assert time.monotonic() - t0 < 10
     assert all(p.exitcode == -signal.SIGTERM for p in procs) and pool.size == 0
