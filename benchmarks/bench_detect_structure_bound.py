@@ -126,11 +126,12 @@ def run_terms(
     c = 0 if change_s is None else int(round(change_s / dt))
     r0 = float(np.mean(r[:5]))
     out = {"change_s": change_s}
+    w_truth = model_inputs(shift_moment(sig, truth[1], dt), dt, PREFILTER_HZ)  # the bound's and estT's inputs
     for name, (values, shift) in (("bound", truth), ("prior", (prior.values, prior.moment_shift_s))):
         if change_s is None:  # nothing to separate on an unchanged run: its terms are the prior's offset
             out[f"d_{name}"] = math.nan
             continue
-        w = model_inputs(shift_moment(sig, shift, dt), dt, PREFILTER_HZ)
+        w = w_truth if name == "bound" else model_inputs(shift_moment(sig, shift, dt), dt, PREFILTER_HZ)
         d = yaw_row_separation(KIND, values, w, dt, c, rel, TABLE_4_1["r"], coloured, r0)
         out[f"d_{name}"] = float(d[-1])
     band = getattr(screening, "roll_band", None)  # as verdict() reads it: None on screenings without one
@@ -150,8 +151,7 @@ def run_terms(
     out["structure"] = float(prior.structure[0])
     # the same known-time estimate on the residual of the noise-free fit's yaw row (the bound's parameters):
     # what the yaw row's misfit to the truth reads as inertia, without the prior's parameter error
-    w = model_inputs(shift_moment(sig, truth[1], dt), dt, PREFILTER_HZ)
-    ew = decision_whiten(block_mean(r - simulate_r(KIND, truth[0], w, dt, r0=r0), prior.block), prior, band)
+    ew = decision_whiten(block_mean(r - simulate_r(KIND, truth[0], w_truth, dt, r0=r0), prior.block), prior, band)
     out["est_truth_fit"] = float(Sw @ ew[c // prior.block :] / np.sum(Sw**2))
     out["cusum_over_h"] = float(screening.st[:, 0].max() / screening.h[0])
     out["any_over_h"] = float((screening.st / screening.h).max())

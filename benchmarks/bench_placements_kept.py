@@ -12,6 +12,7 @@ digest of its inputs included. Prints this process's CPU seconds (least and medi
 from __future__ import annotations
 
 import argparse
+import functools
 import statistics
 import subprocess
 import sys
@@ -50,7 +51,7 @@ def main() -> None:
     for _ in range(args.repeat):
         lat = _lattice(prof, td.support(), td.counts, moves)
         shape = (len(lat.moves), len(lat.table), lat.window.ni, lat.window.nj)
-        where = mapcache._derived_key(lat.sea, "placements", (lat.placement_inputs(0.0), shape))
+        where = mapcache._placements_key(lat.sea, functools.partial(lat.placement_inputs, 0.0), shape)
         (where[0] / f"{where[1]}.map").unlink(missing_ok=True)  # made, then
         t = time.process_time()
         lat.placements()

@@ -140,10 +140,12 @@ def table(dumps: list[str], base: str, oracle: str | None = None) -> str:
     ref = {tuple(r[:4]): r for r in _rows(base) if r[2] == "oe"}
     orc = _oracle(oracle) if oracle else {}
     fits: dict[tuple, list] = {}
+    n_rows = 0
     for path in dumps:
-        for r in _rows(path):
+        rows = _rows(path)
+        n_rows += len(rows)
+        for r in rows:
             fits[(r[7].get("family", {}).get("split", "?"), *r[:4])] = r
-    n_rows = sum(len(_rows(path)) for path in dumps)
     if n_rows > len(fits):
         print(
             f"warning: {n_rows - len(fits)} repeated fit(s) in {','.join(map(str, dumps))}: the last row of each kept",

@@ -144,7 +144,8 @@ def _profile(end: oe_fit._Ended, m_true: float, z_true: float, factors: tuple[fl
     prob, x = end.prob, end.x
     i = prob.free.index("X_v")
     M = prob.kn.M
-    c0 = float(prob.residual(x) @ prob.residual(x)) / 2
+    f = prob.residual(x)
+    c0 = float(f @ f) / 2
     rows = []
     for fac in factors:
         xv = fac * (M + x[i]) - M

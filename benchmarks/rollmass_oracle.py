@@ -121,13 +121,12 @@ def loaded_recording(
     load = (m, zm) if load is None else load
     n_out = int(samples * length)
     dseed = bt.dataset_seed(vseed, i)
-    warm = bt.WARM
     sea, sensor = (not quiet, not quiet) if parts == "all" else (parts == "sea", parts == "sensor")
     data = bt.simulate_parts(ship, variant, load, n_out, dseed, sea=sea, sensor=sensor)
     # the same draws simulate made first: the rudder comes before the disturbance in its stream
-    delta = bt.rudder_input(np.random.default_rng(dseed), runs, n_out * bt.DEC + warm + 40, warm)
+    delta = bt.rudder_input(np.random.default_rng(dseed), runs, n_out * bt.DEC + bt.WARM + 40, bt.WARM)
     rec = np.stack([data[c] for c in CHANNELS], axis=1)
-    return Loaded(ship, variant, delta, rec, warm, load, slow)
+    return Loaded(ship, variant, delta, rec, bt.WARM, load, slow)
 
 
 def predict(lo: Loaded, runs: np.ndarray, loads: np.ndarray) -> np.ndarray:

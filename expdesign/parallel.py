@@ -242,7 +242,13 @@ class LocalEngine(Engine):
         unit: str = "tasks",
     ) -> MapResult:
         if self.pool is not None and self.pool.size > 0 and len(items) > 1:
-            return self._warm_map(fn, items, desc, progress, shared, weights, unit)
+            # expdesign.warmpool.WarmPool.map on the pool given: no fork here, so the progress bar
+            # starts at once. Any error raised during the map (a Ctrl-C, but also a bug in the progress
+            # bar or in gathering a result) kills every worker and closes the pool, as a fresh pool's
+            # map does; only a KeyboardInterrupt becomes a partial result (marked interrupted), any
+            # other error propagates. A task's own error is only that task's.
+            bars = [_Progress(weights or [1] * len(items), desc, progress, unit)]
+            return _run_map(lambda on: self.pool.map(fn, items, shared, on), len(items), bars)
         if self.workers <= 1 or len(items) <= 1:
             return super().map(fn, items, desc, progress, shared, weights, unit)
         ctx = multiprocessing.get_context()
@@ -306,24 +312,6 @@ class LocalEngine(Engine):
 
         self.times = PoolTimes()
         return _run_map(lambda on: fork_map(fn, items, self.workers, shared, on, self.times, forking()), len(items), bars)
-
-    def _warm_map(
-        self,
-        fn: Callable[..., Any],
-        items: Sequence[Any],
-        desc: str,
-        progress: bool,
-        shared: Any,
-        weights: Sequence[float] | None,
-        unit: str,
-    ) -> MapResult:
-        """:meth:`expdesign.warmpool.WarmPool.map` on the pool given: no fork here, so the progress bar
-        starts at once. Any error raised during the map (a Ctrl-C, but also a bug in the progress
-        bar or in gathering a result) kills every worker and closes the pool, as a fresh pool's map
-        does; only a KeyboardInterrupt becomes a partial result (marked interrupted), any other
-        error propagates. A task's own error is only that task's."""
-        bars = [_Progress(weights or [1] * len(items), desc, progress, unit)]
-        return _run_map(lambda on: self.pool.map(fn, items, shared, on), len(items), bars)
 
 
 def _run_map(run: Callable[[Callable[[int, bool, Any], None]], None], n: int, bars: list[_Progress]) -> MapResult:

@@ -188,9 +188,7 @@ def kept_placements(sea: SeaMap, inputs: Callable[[], str], shape: tuple[int, in
     (as ``make`` must return them, so that both paths behave alike)."""
     import numpy as np
 
-    where = None
-    if _derived_key(sea, "placements", ()) is not None:  # the digest only when the entry can be kept
-        where = _derived_key(sea, "placements", (inputs(), tuple(int(n) for n in shape)))
+    where = _placements_key(sea, inputs, shape)
     kept = _read_derived(where)
     size = int(np.prod(shape))
     if isinstance(kept, bytes) and len(kept) == (2 * size + 7) // 8:
@@ -203,3 +201,11 @@ def kept_placements(sea: SeaMap, inputs: Callable[[], str], shape: tuple[int, in
         if both.shape == (2, *shape):  # made as described: kept
             _store_derived(where, np.packbits(both).tobytes())
     return out
+
+
+def _placements_key(sea: SeaMap, inputs: Callable[[], str], shape: tuple[int, int, int, int]) -> tuple[Path, str] | None:
+    """:func:`kept_placements`' entry (directory, derived key), None when it cannot be kept; ``inputs()`` (the digest)
+    called only when it can. The one key of the read, the store and ``benchmarks/bench_placements_kept.py``."""
+    if _derived_key(sea, "placements", ()) is None:
+        return None
+    return _derived_key(sea, "placements", (inputs(), tuple(int(n) for n in shape)))
