@@ -41,35 +41,48 @@ class PoolTimes:
 
 def _worker(conn: Connection, others: list[Connection], fn: Callable, items: Sequence[Any], shared: Any) -> None:
     """A forked worker: run the task whose index the parent sends, send back (index, ok, result or
-    error text), until the parent sends None or goes away. Ctrl-C is the parent's to handle; SIGTERM
-    (the parent's :meth:`terminate`) kills, whatever handler the parent had installed."""
-    from expdesign.parallel import _call, one_thread_per_worker
+    error text), until the parent sends None or goes away (:func:`serve`)."""
+    start_worker(others)
+    serve(conn, fn, items, shared)
+
+
+def start_worker(others: list[Connection]) -> None:
+    """A forked worker's first steps (this pool's and :mod:`expdesign.warmpool`'s). Ctrl-C is the
+    parent's to handle; SIGTERM (the parent's :meth:`terminate`) kills, whatever handler the parent
+    had installed. ``others``: the parent's ends of this worker's pipe and of earlier workers'."""
+    from expdesign.parallel import one_thread_per_worker
     from primitives.heap import keep_freed_memory
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C pending since the fork is discarded here
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)  # blocked from the fork (_fork): a SIGTERM sent since kills now
-    for c in others:  # the parent's ends of its pipe and of earlier workers': EOFs must not wait for this process
+    for c in others:  # EOFs must not wait for this process
         c.close()
     one_thread_per_worker(inherited=True)
     keep_freed_memory(always=True)  # each task reuses the heap the last one grew (primitives.heap)
-    while True:
-        try:
-            i = conn.recv()
-        except (EOFError, OSError):
-            return
-        if i is None:
-            return
-        try:
-            out = (i, True, _call(fn, items[i], shared))
-        except Exception as e:  # noqa: BLE001 - recorded per task, the worker takes the next
-            out = (i, False, f"{type(e).__name__}: {e}")
-        try:
-            conn.send(out)
-        except (EOFError, OSError):  # the parent is gone
-            return
-        except Exception as e:  # noqa: BLE001 - a result that cannot be pickled
-            conn.send((i, False, f"result not sent: {type(e).__name__}: {e}"))
+
+
+def serve(conn: Connection, fn: Callable | None = None, items: Sequence[Any] = (), shared: Any = None) -> None:
+    """Answer the parent until it sends None or goes away (then return quietly: no traceback from an
+    orphan): a task index runs ``fn(items[index][, shared])`` and sends back (index, ok, result or
+    error text); a tuple (fn, items, shared) is a new map's (:class:`expdesign.warmpool.WarmPool`)."""
+    from expdesign.parallel import _call
+
+    with contextlib.suppress(EOFError, OSError):
+        while (msg := conn.recv()) is not None:
+            if isinstance(msg, tuple):
+                fn, items, shared = msg
+                continue
+            try:
+                out = (msg, True, _call(fn, items[msg], shared))
+            except Exception as e:  # noqa: BLE001 - recorded per task, the worker takes the next
+                out = (msg, False, f"{type(e).__name__}: {e}")
+            try:
+                conn.send(out)
+            except (EOFError, OSError):  # the parent is gone: the suppress above ends the worker
+                raise
+            except Exception as e:  # noqa: BLE001 - a result that cannot be pickled
+                conn.send((msg, False, f"result not sent: {type(e).__name__}: {e}"))
 
 
 def fork_map(
@@ -157,7 +170,7 @@ _HELD = {signal.SIGTERM, signal.SIGINT}  # blocked in a new worker until it has 
 
 def _fork(p: multiprocessing.process.BaseProcess) -> None:
     """Start worker ``p`` with SIGTERM and SIGINT blocked from the fork until the worker has put in
-    its own actions (:func:`_worker`; the mask is inherited by the fork, and only this thread's is
+    its own actions (:func:`start_worker`; the mask is inherited by the fork, and only this thread's is
     changed). A SIGTERM that came before would otherwise run the handler the parent had installed
     (as the map drawer's child has), and the worker would live on, orphaned, computing: seen under
     load (30 on 2 cores), the pool's terminate reached a worker just forked, which then held the

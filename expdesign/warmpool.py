@@ -10,7 +10,7 @@ function, items and shared inputs: pickled once in the parent, the same bytes wr
 worker, which unpickles them in parallel with the others. Results are those of a fresh pool: a
 task's result depends only on its item and the shared inputs, never on the process that ran it.
 
-Behaviour kept from :mod:`expdesign.forkpool` (whose fork, kill and signal helpers it uses): a task
+Behaviour kept from :mod:`expdesign.forkpool` (whose fork, kill, worker start-up and task loop it uses): a task
 that raises is its own error; a worker that dies loses only the task it held, reported with its exit
 code, and leaves the pool; a Ctrl-C in the parent during a map stops every worker at once and
 propagates (the pool is then closed). A pool never used ends on :meth:`WarmPool.close`, on the
@@ -26,7 +26,6 @@ No command uses this pool: ``shiptrial design --monte-carlo`` was measured slowe
 from __future__ import annotations
 
 import multiprocessing
-import signal
 import time
 import warnings
 import weakref
@@ -35,7 +34,7 @@ from multiprocessing.connection import Connection, wait
 from multiprocessing.reduction import ForkingPickler
 from typing import Any
 
-from expdesign.forkpool import _HELD, _fork, _kill
+from expdesign.forkpool import _fork, _kill, serve, start_worker
 from primitives.heap import release_freed_memory
 
 READY = "ready"  # a worker's first message: its warm-up is done (with the error text if it failed)
@@ -50,45 +49,19 @@ class WarmUpFailed(RuntimeWarning):
 def _worker(conn: Connection, others: list[Connection], warm: Callable[[], None] | None) -> None:
     """A pool worker: warm up, say so, then for each map take (function, items, shared) and run
     the task indices the parent sends, answering (index, ok, result or error text), until the
-    parent sends None or goes away. Signals as :func:`expdesign.forkpool._worker`."""
-    from expdesign.parallel import _call, one_thread_per_worker
-    from primitives.heap import keep_freed_memory
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)
-    for c in others:  # the parent's end and earlier workers': EOFs must not wait for this process
-        c.close()
-    one_thread_per_worker(inherited=True)
-    keep_freed_memory(always=True)
+    parent sends None or goes away (:func:`expdesign.forkpool.serve`)."""
+    start_worker(others)
     err = None
     if warm is not None:
         try:
             warm()
         except Exception as e:  # noqa: BLE001 - a failed warm-up is said; the tasks load what they need
             err = f"{type(e).__name__}: {e}"
-    fn, items, shared = None, (), None
     try:
         conn.send((READY, err))
-        while True:
-            msg = conn.recv()
-            if msg is None:
-                return
-            if isinstance(msg, tuple):  # a new map
-                fn, items, shared = msg
-                continue
-            try:
-                out = (msg, True, _call(fn, items[msg], shared))
-            except Exception as e:  # noqa: BLE001 - recorded per task, the worker takes the next
-                out = (msg, False, f"{type(e).__name__}: {e}")
-            try:
-                conn.send(out)
-            except (EOFError, OSError):
-                raise
-            except Exception as e:  # noqa: BLE001 - a result that cannot be pickled
-                conn.send((msg, False, f"result not sent: {type(e).__name__}: {e}"))
-    except (EOFError, OSError):  # the parent is gone
-        return
+    except OSError:  # the parent is gone: serve reads its EOF and returns
+        pass
+    serve(conn)
 
 
 class WarmPool:

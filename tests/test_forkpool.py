@@ -7,6 +7,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
+import subprocess
 import sys
 import threading
 import time
@@ -365,3 +366,42 @@ def test_ctrl_c_inside_a_fork_lets_the_worker_whose_pid_was_never_known_end(monk
     os.waitpid(pids[1], 0)  # no Process knows this child: reaped here, so the suite leaves no zombie
     assert ended, "the worker whose pid was never known is still running"
     assert _gone(pids[0])
+
+
+_ORPHAN = """
+import multiprocessing, os, sys, time
+from expdesign import forkpool, warmpool
+
+class Unpicklable:
+    def __reduce__(self):
+        raise TypeError("cannot pickle this")
+
+def task(i):
+    time.sleep(0.5)  # the parent exits meanwhile
+    return Unpicklable()  # the worker then sends its "result not sent" error to a closed pipe
+
+ctx = multiprocessing.get_context("fork")
+mine, theirs = ctx.Pipe(duplex=True)
+if sys.argv[1] == "fork":
+    p = ctx.Process(target=forkpool._worker, args=(theirs, [mine], task, [0], None))
+else:
+    p = ctx.Process(target=warmpool._worker, args=(theirs, [mine], None))
+forkpool._fork(p)
+theirs.close()
+if sys.argv[1] == "warm":
+    mine.recv()  # its warm-up note
+    mine.send((task, [0], None))
+mine.send(0)
+print(p.pid, flush=True)
+os._exit(0)
+"""
+
+
+@pytest.mark.parametrize("pool", ["fork", "warm"])
+def test_a_worker_whose_parent_has_gone_exits_quietly(pool):
+    """Its stderr (the parent's, inherited) stays empty: no traceback from the send that finds the pipe closed."""
+    env = os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)}
+    out = subprocess.run([sys.executable, "-c", _ORPHAN, pool], capture_output=True, text=True, timeout=60, env=env)
+    # capture_output reads until the worker, holding the pipes too, has exited
+    assert out.returncode == 0 and out.stdout.strip().isdigit()
+    assert out.stderr == ""
