@@ -225,11 +225,11 @@ class LocalEngine(Engine):
 
     def __init__(self, workers: int | None = None, pool: Any = None):
         self.pool = pool  # an expdesign.warmpool.WarmPool started earlier: its workers run the maps
-        self.workers = pool.size if pool is not None else workers or os.cpu_count() or 1
+        self.workers = pool.workers_left() if pool is not None else workers or os.cpu_count() or 1
         self.times = None  # the last forked map's expdesign.forkpool.PoolTimes (benchmarks/scaling_model.py)
 
     def capacity(self) -> tuple[int, int]:
-        return (self.pool.size if self.pool is not None else self.workers), 1
+        return (self.pool.workers_left() if self.pool is not None else self.workers), 1
 
     def map(
         self,
@@ -241,7 +241,7 @@ class LocalEngine(Engine):
         weights: Sequence[float] | None = None,
         unit: str = "tasks",
     ) -> MapResult:
-        if self.pool is not None and self.pool.size > 0 and len(items) > 1:
+        if self.pool is not None and self.pool.workers_left() > 0 and len(items) > 1:  # a closed pool raises
             # expdesign.warmpool.WarmPool.map on the pool given: no fork here, so the progress bar
             # starts at once. Any error raised during the map (a Ctrl-C, but also a bug in the progress
             # bar or in gathering a result) kills every worker and closes the pool, as a fresh pool's

@@ -38,6 +38,7 @@ from expdesign.forkpool import _fork, _kill, serve, start_worker
 from primitives.heap import release_freed_memory
 
 READY = "ready"  # a worker's first message: its warm-up is done (with the error text if it failed)
+NO_WORKER = "the warm pool has no worker left (closed, or every worker was lost): start a new WarmPool"
 CLOSE_TIMEOUT_S = 10.0  # close(): seconds the workers get to finish their warm-up and exit before they are killed
 
 
@@ -104,6 +105,13 @@ class WarmPool:
         """Workers alive (a lost worker leaves the pool)."""
         return len(self.procs)
 
+    def workers_left(self) -> int:
+        """:attr:`size`, for a caller about to use the pool: a pool with none (closed, or every
+        worker lost) raises RuntimeError instead of letting the caller run its work elsewhere."""
+        if not self.procs:
+            raise RuntimeError(NO_WORKER)
+        return len(self.procs)
+
     def wait_ready(self, timeout: float | None = None) -> dict[Connection, str | None]:
         """Block until every worker has finished its warm-up (or ``timeout`` seconds); returns the
         warm-up errors by worker."""
@@ -148,15 +156,12 @@ class WarmPool:
         result or error text)`` as each task finishes, tasks handed out in order, one at a time per
         worker; (``fn``, ``items``, ``shared``) pickled once and sent to each worker before its first
         task. A KeyboardInterrupt (or any error here) stops every worker and closes the pool."""
-        if not self.procs:
-            raise RuntimeError("the warm pool has no worker left (closed, or every worker was lost)")
+        for conn in [c for c, p in self.procs.items() if not p.is_alive()]:  # died while idle: no task lost
+            self._lose(conn)
+        self.workers_left()
         payload = bytes(ForkingPickler.dumps((fn, items, shared)))
         held: dict[Connection, int | None] = {}
         nxt = 0
-        for conn in [c for c, p in self.procs.items() if not p.is_alive()]:  # died while idle: no task lost
-            self._lose(conn)
-        if not self.procs:
-            raise RuntimeError("the warm pool has no worker left (every worker was lost)")
         try:
             for conn in list(self.procs):
                 if nxt >= len(items):

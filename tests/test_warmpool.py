@@ -16,7 +16,7 @@ import pytest
 
 from expdesign.forkpool import fork_map
 from expdesign.parallel import LocalEngine
-from expdesign.warmpool import WarmPool
+from expdesign.warmpool import NO_WORKER, WarmPool
 from tests.procs import deadline
 
 pytestmark = pytest.mark.skipif(
@@ -219,3 +219,20 @@ def test_start_warm_pool_loads_the_compiled_passes_in_the_parent_before_forking_
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1, 2}, raising=False)
     assert isinstance(mcp.start_warm_pool(None, [], "local"), Pool)
     assert events == [("parent warm_compiled", os.getpid()), ("fork", 3)]
+
+
+def test_a_closed_or_emptied_pool_is_refused_with_one_message_not_replaced_by_a_fresh_one():
+    """A LocalEngine on a closed pool once forked a fresh pool without a word; every use now raises."""
+    pool = WarmPool(2)
+    eng = LocalEngine(pool=pool)
+    pool.close()
+    uses = [lambda: eng.map(_scaled, [1, 2, 3], progress=False, shared={"k": 1}), eng.capacity, lambda: LocalEngine(pool=pool)]
+    with deadline(30), WarmPool(2) as emptied:  # every worker lost while idle: the map's own check
+        for p in emptied.procs.values():
+            os.kill(p.pid, signal.SIGKILL)
+            p.join(5)
+        uses.append(lambda: _map(emptied, _scaled, [1, 2], {"k": 1}))
+        for use in uses:
+            with pytest.raises(RuntimeError) as caught:
+                use()
+            assert str(caught.value) == NO_WORKER
