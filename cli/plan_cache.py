@@ -4,16 +4,23 @@ those files' bytes instead of drawing and exporting again (the figures' drawer, 
 about 2.6 s of a cached run's 3.2 s of CPU before); one at another start time copies the figures no start
 time changes (:data:`FIGURES`, kept per plan entry) and exports the rest. The files are functions of the cached
 plan, its start time, the code and the drawing libraries and configuration (:func:`maps.plancache.outputs_key`),
-so the copy is byte for byte what exporting would write."""
+so the copy is byte for byte what exporting would write. Also the plan's own entry: its key
+(:func:`cache_slot`) and its reading (:func:`read_cached`)."""
 
 from __future__ import annotations
 
 import hashlib
 import os
 import time
+from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path, PurePosixPath
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # annotations only
+    from maps.geo import SeaMap
+    from maps.plan import Plan
+    from maps.trialdesign import TrialDesign
 
 _HINT: list[Path] = []  # this command line's hint file (expect_kept_files), until note_kept updates it
 
@@ -188,3 +195,80 @@ def _keep(
 def _plain(rel: object) -> bool:
     """A file name directly in the output directory (no directory part, nothing hidden)."""
     return isinstance(rel, str) and PurePosixPath(rel).name == rel and rel not in ("", ".", "..") and not rel.startswith(".")
+
+
+@dataclass
+class Planned:
+    """A plan and what its outputs are written from, read from the plan cache or made here: ``digest``,
+    its cache entry's (None when not stored); ``t0``, the trial's start; ``saved`` and ``figures``, the
+    output files kept in the cache for this plan and start time, or for another start time (the figures)."""
+
+    result: Plan
+    design: TrialDesign | None
+    sea: SeaMap
+    chart: Any
+    digest: str | None
+    t0: datetime
+    saved: Any = None
+    figures: Any = None
+
+
+@dataclass
+class CacheSlot:
+    """Where this run's plan goes in the plan cache: ``dir`` None with the cache off, ``key`` None as
+    well when the map file cannot be read; ``map_digest``, the map file's digest read before the key."""
+
+    dir: Path | None = None
+    key: str | None = None
+    map_digest: bytes | None = None
+
+
+def cache_slot(prof: Any, map_path: Path | None, inputs: dict[str, Any], cache: bool) -> CacheSlot:
+    """This run's place in the plan cache (none with ``cache`` False or no cache directory)."""
+    from maps import plancache
+
+    cache_dir = plancache.default_dir() if cache else None
+    if cache_dir is None:
+        return CacheSlot()
+    keyed_digest = map_digest(map_path)
+    return CacheSlot(cache_dir, cache_key(prof, map_path, inputs), keyed_digest)
+
+
+def read_cached(slot: CacheSlot, start_time: str | None, no_export: bool) -> Planned | None:
+    """The plan the cache holds for this run (None on a miss, or for an entry this command did not
+    write), with the output files kept for it (:func:`saved_sets`)."""
+    from maps import plancache
+    from maps.export._common import iso, resolve_start
+
+    hit = plancache.load(slot.dir, slot.key) if slot.key is not None else None
+    if hit is None or not {"design", "sea", "chart"} <= hit.keys():  # not an entry this command wrote
+        return None
+    result = hit["plan"]
+    planned = Planned(result, hit["design"], hit["sea"], hit["chart"], hit["digest"], resolve_start(result, start_time))
+    if result.feasible and not no_export:  # the files this plan and start time gave, when kept: nothing to draw
+        # another start time's run drew the same figures: only the schedule's files differ
+        planned.saved, planned.figures = saved_sets(slot.dir, slot.key, planned.digest, iso(planned.t0))
+    return planned
+
+
+def cache_key(prof: Any, map_path: Path | None, inputs: dict[str, Any]) -> str | None:
+    """The plan cache's key of these inputs; None when the map file cannot be read (load_map then
+    reports it in its own words)."""
+    from maps import plancache
+    from maps.geo import map_source
+
+    try:
+        return plancache.plan_key(prof, map_source(map_path), **inputs)
+    except OSError:
+        return None
+
+
+def map_digest(map_path: Path | None) -> bytes | None:
+    """The SHA-256 of the map file the plan cache keys (None when it cannot be read)."""
+    from maps import plancache
+    from maps.geo import map_source
+
+    try:
+        return plancache.map_digest(map_source(map_path))
+    except OSError:
+        return None

@@ -17,6 +17,7 @@ from primitives.errors import UserError
 
 if TYPE_CHECKING:  # annotations only: the command imports the library when it runs
     from cli.drawer import Drawer
+    from cli.plan_cache import CacheSlot, Planned
     from expdesign.prior import ParameterPrior
     from maps.chain import LatLonHdg
     from maps.geo import SeaMap
@@ -355,101 +356,118 @@ def plan_and_write(
     forked before parsing its options (:func:`cli.drawer.start_early`) or one started here: it
     imports the drawing modules and, on a cache miss, designs on the other core while this process
     reads the cache or plans; a NoFitError is the command's exit 1."""
-    from cli.drawer import Drawer, take_early
-    from cli.plan_cache import keep_outputs, note_kept, restore_outputs, saved_sets
-    from maps import plancache
-    from maps.export._common import iso, resolve_start
-    from maps.mapcache import load_map_kept
+    from cli.drawer import take_early
+    from cli.plan_cache import cache_slot, read_cached
     from maps.trialdesign import NoFitError
-    from primitives.io import atomic_output_dir
     from primitives.ship import load_profile
 
     prof = load_profile(ship)
     prof.require_planar("shiptrial plan")
     inputs = dict(counts=counts, start=start, goal=goal, scenario=scenario, **design, vessel_name=vessel_name or "", options=opts)
-    cache_dir = plancache.default_dir() if cache else None
-    keyed_digest = _map_digest(map_path) if cache_dir is not None else None
-    key = _cache_key(prof, map_path, inputs) if cache_dir is not None else None
-    hit = plancache.load(cache_dir, key) if key is not None else None
-    if hit is not None and not {"design", "sea", "chart"} <= hit.keys():  # not an entry this command wrote
-        hit = None
-    saved = digest = t0 = figures = None
-    if hit is not None:
-        result, td, sea, chart, digest = (hit[k] for k in ("plan", "design", "sea", "chart", "digest"))
-        t0 = resolve_start(result, start_time)
-        if result.feasible and not no_export:  # the files this plan and start time gave, when kept: nothing to draw
-            # another start time's run drew the same figures: only the schedule's files differ
-            saved, figures = saved_sets(cache_dir, key, digest, iso(t0))
+    slot = cache_slot(prof, map_path, inputs, cache)
+    planned = read_cached(slot, start_time, no_export)
     early = None
-    if hit is None and counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
+    if planned is None and counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
         early = partial(_first_design, ship, **design)
     ahead = partial(_ratios_ahead, ship) if early is not None else None
-    drawer = None
+    cached, drawer = planned is not None, None
     try:  # the drawer is ended in `finally` whatever is raised from here on (a Ctrl-C in begin() included)
         drawer = take_early()  # started with the command (plan-trial): the drawing modules imported already, or importing
-        if drawer is not None and (no_export or saved is not None):
-            drawer.cancel()
-            drawer = None
-        elif drawer is not None:  # the PNGs kept for another start time: the drawer writes the trial cards only
-            drawer.begin(early, ahead, cards_only=figures is not None)
-        elif not no_export and saved is None:
-            if hit is None:  # planned here: the drawer forked after the planner's imports shares them (start_early)
-                import maps.planner  # noqa: F401
-
-                if plancache.default_dir() is not None:
-                    # hashed once, before the fork: the map's key here and the drawer's library and design keys both
-                    # need it (0.045-0.066 s of CPU each, docs/kernel-speed.md Stop 57; with the plan cache on, the
-                    # plan's key hashed it already)
-                    plancache.code_version()
-            drawer = Drawer(early, ahead=ahead)
-        if hit is None:
-            sea = load_map_kept(map_path, draught_m=prof.draught_m)  # the projected map kept as the moves are
-            result, td = _plan(sea, prof, inputs, drawer, json_out)
-            # the export chart, route and sea room now, before the start time is set: kept with the plan in the cache
-            chart = export_chart(result, sea) if result.feasible and not no_export else None
-            # kept only when the map file still holds the bytes keyed (read again: about 1 ms): one saved while this
-            # run loaded it would leave the saved file's plan under the earlier bytes' key (as maps.mapcache does)
-            if key is not None and _map_digest(map_path) == keyed_digest:
-                digest = plancache.store(cache_dir, key, {"plan": result, "design": td, "sea": sea, "chart": chart})
-            t0 = resolve_start(result, start_time)
-        start_utc = result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
-        with atomic_output_dir(out) as tmp:
-            if saved is not None:
-                files, kept = restore_outputs(saved, tmp), True
-            else:
-                files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer, chart, figures)
-                kept = result.feasible and not no_export and keep_outputs(cache_dir, key, digest, start_utc, files, tmp)
-        note_kept(cache_dir, kept, None if start_time else t0)
+        drawer = _drawer(drawer, early, ahead, planned, no_export)
+        if planned is None:
+            planned = _plan_here(map_path, prof, inputs, drawer, slot, start_time, no_export, json_out)
+        files = _write_outputs(planned, out, slot, drawer, start_time, no_export, json_out)
     except NoFitError as exc:
         print(f"error: {str(exc).splitlines()[0]}", file=sys.stderr)
         raise typer.Exit(1) from None
     finally:
         if drawer is not None:
             drawer.cancel()  # a no-op once it has drawn; ends it at once when the command failed before
-    return {k: out / Path(v).relative_to(tmp) for k, v in files.items()}, result, hit is not None
+    return files, planned.result, cached
 
 
-def _cache_key(prof: Any, map_path: Path | None, inputs: dict[str, Any]) -> str | None:
-    """The plan cache's key of these inputs; None when the map file cannot be read (load_map then
-    reports it in its own words)."""
+def _drawer(
+    early_drawer: Drawer | None, early: Callable | None, ahead: Callable | None, planned: Planned | None, no_export: bool
+) -> Drawer | None:
+    """The drawer of this run: the one forked with the command (``early_drawer``, cancelled when
+    there is nothing to draw), else one started here; None when nothing is drawn."""
+    from cli.drawer import Drawer
     from maps import plancache
-    from maps.geo import map_source
 
-    try:
-        return plancache.plan_key(prof, map_source(map_path), **inputs)
-    except OSError:
+    saved = planned.saved if planned is not None else None
+    if early_drawer is not None and (no_export or saved is not None):
+        early_drawer.cancel()
         return None
+    if early_drawer is not None:  # the PNGs kept for another start time: the drawer writes the trial cards only
+        early_drawer.begin(early, ahead, cards_only=planned is not None and planned.figures is not None)
+        return early_drawer
+    if no_export or saved is not None:
+        return None
+    if planned is None:  # planned here: the drawer forked after the planner's imports shares them (start_early)
+        import maps.planner  # noqa: F401
+
+        if plancache.default_dir() is not None:
+            # hashed once, before the fork: the map's key here and the drawer's library and design keys both
+            # need it (0.045-0.066 s of CPU each, docs/kernel-speed.md Stop 57; with the plan cache on, the
+            # plan's key hashed it already)
+            plancache.code_version()
+    return Drawer(early, ahead=ahead)
 
 
-def _map_digest(map_path: Path | None) -> bytes | None:
-    """The SHA-256 of the map file the plan cache keys (None when it cannot be read)."""
+def _plan_here(
+    map_path: Path | None,
+    prof: Any,
+    inputs: dict[str, Any],
+    drawer: Drawer | None,
+    slot: CacheSlot,
+    start_time: str | None,
+    no_export: bool,
+    quiet: bool,
+) -> Planned:
+    """Design and plan on the map (a cache miss), kept in the plan cache when ``slot`` has a key."""
+    from cli.plan_cache import Planned, map_digest
     from maps import plancache
-    from maps.geo import map_source
+    from maps.export._common import resolve_start
+    from maps.mapcache import load_map_kept
 
-    try:
-        return plancache.map_digest(map_source(map_path))
-    except OSError:
-        return None
+    sea = load_map_kept(map_path, draught_m=prof.draught_m)  # the projected map kept as the moves are
+    result, td = _plan(sea, prof, inputs, drawer, quiet)
+    # the export chart, route and sea room now, before the start time is set: kept with the plan in the cache
+    chart = export_chart(result, sea) if result.feasible and not no_export else None
+    digest = None
+    # kept only when the map file still holds the bytes keyed (read again: about 1 ms): one saved while this
+    # run loaded it would leave the saved file's plan under the earlier bytes' key (as maps.mapcache does)
+    if slot.key is not None and map_digest(map_path) == slot.map_digest:
+        digest = plancache.store(slot.dir, slot.key, {"plan": result, "design": td, "sea": sea, "chart": chart})
+    return Planned(result, td, sea, chart, digest, resolve_start(result, start_time))
+
+
+def _write_outputs(
+    planned: Planned,
+    out: Path,
+    slot: CacheSlot,
+    drawer: Drawer | None,
+    start_time: str | None,
+    no_export: bool,
+    json_out: bool,
+) -> dict[str, Path]:
+    """Every output into ``out`` at once (:func:`primitives.io.atomic_output_dir`): restored from the
+    cache when kept for this plan and start time, else written (and kept); returns the files' paths."""
+    from cli.plan_cache import keep_outputs, note_kept, restore_outputs
+    from maps.export._common import iso
+    from primitives.io import atomic_output_dir
+
+    result, t0 = planned.result, planned.t0
+    start_utc = result.stats["start_utc"] = iso(t0)  # saved in plan.json: re-exports give the same schedule
+    with atomic_output_dir(out) as tmp:
+        if planned.saved is not None:
+            files, kept = restore_outputs(planned.saved, tmp), True
+        else:
+            td, sea, chart = planned.design, planned.sea, planned.chart
+            files = write_outputs_all(result, sea, tmp, td, t0, no_export, json_out, drawer, chart, planned.figures)
+            kept = result.feasible and not no_export and keep_outputs(slot.dir, slot.key, planned.digest, start_utc, files, tmp)
+    note_kept(slot.dir, kept, None if start_time else t0)
+    return {k: out / Path(v).relative_to(tmp) for k, v in files.items()}
 
 
 def _plan(sea: SeaMap, prof: Any, inputs: dict[str, Any], drawer: Drawer | None, quiet: bool) -> tuple[Plan, TrialDesign | None]:
