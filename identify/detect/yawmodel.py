@@ -137,67 +137,77 @@ class YawPrior:
 
     @classmethod
     def from_dict(cls, d: dict, where: str = "prior") -> YawPrior:
+        """The prior :meth:`to_dict` wrote (file ``where``), refused in one line (UserError) when a field is
+        missing or malformed (:meth:`_read`) or holds a value no fit gives (:meth:`_check`)."""
         try:
-            if d.get("format") not in PRIOR_FORMATS:
-                raise KeyError("format")
-            kind = d["kind"]
-            names = PARAMS[kind]
-            values = {k: float(d["values"][k]) for k in names}
-            cov = np.asarray(d["cov"], float).reshape(len(names), len(names))
-            p = cls(
-                kind,
-                values,
-                float(d["sigma"]),
-                cov,
-                np.asarray(d["ar"], float).ravel(),
-                float(d["sigma_w"]),
-                int(d["block"]),
-                float(d["dt"]),
-                str(d.get("source", "")),
-                float(d.get("prefilter_hz", 0.0)),
-                np.asarray(d.get("boot", []), float).reshape(-1, len(names)),
-                {str(k): float(v) for k, v in d.get("noise", {}).items()},
-                float(d.get("model_error", 0.0)),
-                np.asarray(d.get("structure", [0.0] * len(CANDIDATES)), float).reshape(len(CANDIDATES)),
-                float(d.get("moment_shift_s", 0.0)),
-                {str(k): float(v) for k, v in d.get("noise_tau", {}).items()},
-                str(d.get("noise_model", "")),
-            )
+            p = cls._read(d)
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             raise UserError(
                 f"{where}: not a yaw prior written by 'shiptrial detect-prior' (field {e}); "
                 "make one with: shiptrial detect-prior NOMINAL.csv --out PRIOR.json"
             ) from None
+        p._check(where)
+        return p
+
+    @classmethod
+    def _read(cls, d: dict) -> YawPrior:
+        """The fields of ``d``, typed and shaped (the optional ones, absent from older files, at their defaults)."""
+        if d.get("format") not in PRIOR_FORMATS:
+            raise KeyError("format")
+        kind = d["kind"]
+        names = PARAMS[kind]
+        return cls(
+            kind,
+            {k: float(d["values"][k]) for k in names},
+            float(d["sigma"]),
+            np.asarray(d["cov"], float).reshape(len(names), len(names)),
+            np.asarray(d["ar"], float).ravel(),
+            float(d["sigma_w"]),
+            int(d["block"]),
+            float(d["dt"]),
+            str(d.get("source", "")),
+            float(d.get("prefilter_hz", 0.0)),
+            np.asarray(d.get("boot", []), float).reshape(-1, len(names)),
+            {str(k): float(v) for k, v in d.get("noise", {}).items()},
+            float(d.get("model_error", 0.0)),
+            np.asarray(d.get("structure", [0.0] * len(CANDIDATES)), float).reshape(len(CANDIDATES)),
+            float(d.get("moment_shift_s", 0.0)),
+            {str(k): float(v) for k, v in d.get("noise_tau", {}).items()},
+            str(d.get("noise_model", "")),
+        )
+
+    def _check(self, where: str) -> None:
+        """Refuse (UserError naming ``where``) a prior holding non-finite or non-physical values, or read by a
+        noise reader this version does not know."""
         ok = [
-            np.isfinite(list(values.values())).all(),
-            np.isfinite(cov).all(),
-            np.isfinite(p.ar).all(),
-            np.isfinite(p.boot).all(),
-            np.isfinite(list(p.noise.values())).all(),
+            np.isfinite(list(self.values.values())).all(),
+            np.isfinite(self.cov).all(),
+            np.isfinite(self.ar).all(),
+            np.isfinite(self.boot).all(),
+            np.isfinite(list(self.noise.values())).all(),
             # a corner beyond noisespec's grid (a > A_MAX: about 10 s at 10 Hz) would filter the noise away
-            all(np.isfinite(t) and 0 <= t <= -p.dt / math.log(A_MAX) for t in p.noise_tau.values()),
-            p.model_error >= 0,
-            np.isfinite(p.structure).all(),
-            np.all(p.structure >= 0),
-            p.sigma > 0,
-            p.sigma_w > 0,
-            p.block >= 1,
-            p.dt > 0,
-            values["I_r"] > 0,
-            0 <= p.prefilter_hz < 0.5 / p.dt,
+            all(np.isfinite(t) and 0 <= t <= -self.dt / math.log(A_MAX) for t in self.noise_tau.values()),
+            self.model_error >= 0,
+            np.isfinite(self.structure).all(),
+            np.all(self.structure >= 0),
+            self.sigma > 0,
+            self.sigma_w > 0,
+            self.block >= 1,
+            self.dt > 0,
+            self.values["I_r"] > 0,
+            0 <= self.prefilter_hz < 0.5 / self.dt,
         ]
         if not all(ok):
             raise UserError(
                 f"{where}: the prior holds non-finite or non-physical values (I_r, sigma and dt must be > 0, "
                 "prefilter_hz below Nyquist); refit it"
             )
-        if p.noise_model not in ("", *NOISE_READERS):  # "": a file without the field (before stop 56), read as written
+        if self.noise_model not in ("", *NOISE_READERS):  # "": a file without the field (before stop 56), read as written
             raise UserError(
-                f"{where}: field noise_model {p.noise_model!r} names no noise reader this version knows "
+                f"{where}: field noise_model {self.noise_model!r} names no noise reader this version knows "
                 "(white, spectral; lowpass files of stops 55-56 still load); "
                 f"refit it: shiptrial detect-prior NOMINAL.csv --out {where} --noise-model spectral"
             )
-        return p
 
 
 def shift_moment(sig: dict[str, np.ndarray], shift_s: float, dt: float) -> dict[str, np.ndarray]:
