@@ -279,6 +279,26 @@ def _select(rows: list, a: argparse.Namespace) -> list[tuple[str, int, str]]:
 
 
 def main() -> None:
+    a = _args()
+    oe_fit.LM_NFEV_EXACT = a.cap
+    rows = [json.loads(x) for x in Path(a.dump).read_text().splitlines()]
+    by_key = {(r[0], r[3], r[1]): r for r in rows}
+    sims: dict[str, tuple] = {}
+    captured: dict = {}
+    _exact_only(captured)
+    if a.stop_at_cap:
+        oe_fit._lm_exact = _stopping_at_cap(oe_fit._lm_exact, captured)
+    for variant, run, case in _select(rows, a):
+        if variant not in sims:
+            seed = bt.variant_seed(a.seed, variant)
+            sims[variant] = bt.simulate_runs(variant, a.runs, seed)
+        ship, data = sims[variant]
+        captured.clear()
+        why, cpu = _redo(ship, data, case, run, captured)
+        _print_fit(a, (variant, run, case), why, cpu, captured, by_key.get((variant, run, case)))
+
+
+def _args() -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dump", help="the family's bench dump (its answers are printed beside)")
     ap.add_argument("--runs", type=int, required=True, help="the family's --runs (its ships depend on it)")
@@ -303,57 +323,53 @@ def main() -> None:
         ap.error("--geodesic and --profile need --valley")
     if a.geodesic is not None and a.geodesic < 1:
         ap.error("--geodesic: give a number of iterations >= 1")
-    oe_fit.LM_NFEV_EXACT = a.cap
-    rows = [json.loads(x) for x in Path(a.dump).read_text().splitlines()]
-    by_key = {(r[0], r[3], r[1]): r for r in rows}
-    sims: dict[str, tuple] = {}
-    captured: dict = {}
-    _exact_only(captured)
-    if a.stop_at_cap:
-        oe_fit._lm_exact = _stopping_at_cap(oe_fit._lm_exact, captured)
-    for variant, run, case in _select(rows, a):
-        if variant not in sims:
-            seed = bt.variant_seed(a.seed, variant)
-            sims[variant] = bt.simulate_runs(variant, a.runs, seed)
-        ship, data = sims[variant]
-        m_true, z_true = bt.truth_load(case)
-        captured.clear()
-        with tempfile.TemporaryDirectory() as d:
-            paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv", True) for r in bt.case_recordings(ship, data, case, run)]
-            c0 = time.process_time()
-            try:
-                estimate_from_files(*paths, method="oe")
-                why = "exact path kept"
-            except _NoContinuation:
-                why = "continued (then redone if still unconverged)"
-            except _NoRedo:
-                why = "redo"
-            except _Capped:
-                why = f"redo (capped at {captured['capped']})"
-            cpu = time.process_time() - c0
-        t, f = captured.get("tally"), captured.get("fit")
-        ans = "-"
-        if f is not None:
-            ans = f"m {100 * (f.m / m_true - 1):+7.2f} % z {1000 * (f.zbar_m - z_true):+7.1f} mm conv {f.converged} dec {f.decrement:.3g}"
-            ans += "" if f.converged else f" ({f.message[-70:]})"
-        old = by_key.get((variant, run, case))
-        was = "failed" if old is None or old[4] is None else f"m {old[4][0]:+7.2f} % z {old[4][1]:+7.1f} mm"
-        if old is not None and len(old) > 7 and isinstance(old[7], dict) and "path" in old[7]:
-            was += f" path {old[7]['path']['path']}"  # the full fit's recorded path (stop 55 on)
-        print(
-            f"{variant}/{run}/{case}: {why}; exact LM calls {t.lm if t else '-'} res {t.residuals if t else '-'} "
-            f"jac {t.jacobians if t else '-'}; exact {ans}; dump {was} "
-            f"({old[6] if old else float('nan'):.1f} s); exact path {cpu:.1f} s cpu, load {os.getloadavg()[0]:.1f}",
-            flush=True,
-        )
-        if a.valley and f is not None and not f.converged and "end" in captured:
-            print("    " + _valley(captured["end"]), flush=True)
-            if a.profile:
-                print("    " + _profile(captured["end"], m_true, z_true, a.profile), flush=True)
-            if a.geodesic:
-                print("    " + _geodesic_end(captured["end"], m_true, z_true, a.geodesic), flush=True)
-        elif a.valley:
-            print(f"    exact path {'failed' if f is None else 'converged'}: no valley", flush=True)
+    return a
+
+
+def _redo(ship: bt.Ship, data: dict, case: str, run: int, captured: dict) -> tuple[str, float]:
+    """Fit one case's recordings (written to a temporary directory) on the exact path; why it ended there and
+    its CPU seconds (what the fit did is in ``captured``)."""
+    with tempfile.TemporaryDirectory() as d:
+        paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv", True) for r in bt.case_recordings(ship, data, case, run)]
+        c0 = time.process_time()
+        try:
+            estimate_from_files(*paths, method="oe")
+            why = "exact path kept"
+        except _NoContinuation:
+            why = "continued (then redone if still unconverged)"
+        except _NoRedo:
+            why = "redo"
+        except _Capped:
+            why = f"redo (capped at {captured['capped']})"
+        return why, time.process_time() - c0
+
+
+def _print_fit(a: argparse.Namespace, key: tuple, why: str, cpu: float, captured: dict, old: list | None) -> None:
+    """One fit's line beside the dump's answer ``old``, and with --valley why an unconverged exact end creeps."""
+    variant, run, case = key
+    m_true, z_true = bt.truth_load(case)
+    t, f = captured.get("tally"), captured.get("fit")
+    ans = "-"
+    if f is not None:
+        ans = f"m {100 * (f.m / m_true - 1):+7.2f} % z {1000 * (f.zbar_m - z_true):+7.1f} mm conv {f.converged} dec {f.decrement:.3g}"
+        ans += "" if f.converged else f" ({f.message[-70:]})"
+    was = "failed" if old is None or old[4] is None else f"m {old[4][0]:+7.2f} % z {old[4][1]:+7.1f} mm"
+    if old is not None and len(old) > 7 and isinstance(old[7], dict) and "path" in old[7]:
+        was += f" path {old[7]['path']['path']}"  # the full fit's recorded path (stop 55 on)
+    print(
+        f"{variant}/{run}/{case}: {why}; exact LM calls {t.lm if t else '-'} res {t.residuals if t else '-'} "
+        f"jac {t.jacobians if t else '-'}; exact {ans}; dump {was} "
+        f"({old[6] if old else float('nan'):.1f} s); exact path {cpu:.1f} s cpu, load {os.getloadavg()[0]:.1f}",
+        flush=True,
+    )
+    if a.valley and f is not None and not f.converged and "end" in captured:
+        print("    " + _valley(captured["end"]), flush=True)
+        if a.profile:
+            print("    " + _profile(captured["end"], m_true, z_true, a.profile), flush=True)
+        if a.geodesic:
+            print("    " + _geodesic_end(captured["end"], m_true, z_true, a.geodesic), flush=True)
+    elif a.valley:
+        print(f"    exact path {'failed' if f is None else 'converged'}: no valley", flush=True)
 
 
 if __name__ == "__main__":
