@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.bench_detect_structure import _one, redecide, theta1, with_structure
-from benchmarks.bench_detect_truth import BATCH, HULL, change_times, row, summarise
+from benchmarks.bench_detect_truth import HULL, change_times, prior_name, row, screen_name, stored_recording, summarise
 from benchmarks.detect_ownmisfit import OWN, levels, with_own
 from identify.detect.api import load_runs
 from identify.detect.checks import MOMENT
@@ -63,12 +63,12 @@ def load_prior(folder: Path, key: str, variant: str, ship: int, setting: str = "
     """The stored prior of a ship, its structure as ``setting`` says: bench_detect_structure's settings, or
     ``gate=G``: recomputed from the cached nominal recording by ``priorfit.structural_spread(gate=G)``
     (the prior's fit, bootstrap and everything else as stored; about 6 s CPU a prior)."""
-    prior = pickle.loads(_one(folder, f"{variant}-{ship}-nominal-*-0-prior-{key}.pkl").read_bytes())
+    prior = pickle.loads(_one(folder, prior_name(stored_recording(variant, ship, "*"), key)).read_bytes())
     if not setting.startswith("gate="):
         return with_structure(prior, setting)
     k = (str(folder), key, variant, ship, setting)
     if k not in _PRIORS:
-        rec = load_runs([_one(folder, f"{variant}-{ship}-nominal-*-0.csv")])[0]
+        rec = load_runs([_one(folder, stored_recording(variant, ship, "*"))])[0]
         sig, r = signals(rec, prior.kind)  # as fit_prior hands them to priorfit.fit: the moment shifted
         sig = shift_moment(sig, prior.moment_shift_s, prior.dt) if MOMENT in rec.channels else sig
         x = np.array([prior.values[n] / NOMINAL[n] for n in prior.names])
@@ -145,8 +145,7 @@ def collect(
                 for i, ch in enumerate(change_times(ship, runs)):
                     if ch is not None:
                         continue
-                    b, j = BATCH * (i // BATCH), i % BATCH  # the truth bench's batches
-                    sc = pickle.loads(_one(Path(folder), f"{v}-{ship}-{runs}-{b}-*-{j}-screen-{key}.pkl").read_bytes())
+                    sc = pickle.loads(_one(Path(folder), screen_name(stored_recording(v, ship, "*", runs, i), key)).read_bytes())
                     sc, extra = with_own(sc, prior, own)
                     rec = run_record(sc, prior)
 
@@ -295,8 +294,9 @@ def design_rows(
                         studies.append(out | {"refused": f"ship {ship}"})
                         continue
                     for i, ch in enumerate(change_times(ship, runs)):
-                        b, j = BATCH * (i // BATCH), i % BATCH
-                        sc = pickle.loads(_one(Path(folder), f"{v}-{ship}-{runs}-{b}-*-{j}-screen-{key}.pkl").read_bytes())
+                        sc = pickle.loads(
+                            _one(Path(folder), screen_name(stored_recording(v, ship, "*", runs, i), key)).read_bytes()
+                        )
                         d = redecide(with_own(sc, prior, own)[0], prior, false_alarm=rate)
                         res = {"alarm_s": d.alarm_s, "property": d.property, "change_s": ch, "h": float(d.threshold[0])}
                         res |= {"roll_max": float("nan"), "failed": False, "evidence": d.evidence}

@@ -40,7 +40,7 @@ import math
 import numpy as np
 from scipy.stats import norm
 
-from benchmarks.bench_detect_truth import ALL_VARIANTS, variant_ship
+from benchmarks.bench_detect_truth import ALL_VARIANTS, run_seeds, variant_ship
 from tests.physics.podded_truth import TABLE_4_1, harbour_commands, simulate
 
 #: per-sample noise sd of each channel the oracle reads (podded_truth.measure's levels)
@@ -65,7 +65,7 @@ def cumulative_d2(delta: np.ndarray, sd: float, coloured: bool, dt: float) -> np
 def bench_changed_runs(ship_seed: int, runs: int) -> tuple[list[int], list[float]]:
     """The changed runs' manoeuvre seeds and change times of ``bench_detect_truth.ship_study``."""
     rng = np.random.default_rng([ship_seed, 3])
-    seeds = [1000 * ship_seed + 1 + i for i in range(2 * runs)]
+    seeds = run_seeds(ship_seed, 2 * runs)
     changes = [0.0 if i % 2 == 0 else float(rng.uniform(100, 300)) for i in range(runs)]
     return seeds[runs:], changes
 

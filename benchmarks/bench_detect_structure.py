@@ -27,7 +27,16 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.bench_detect_truth import BATCH, HULL, change_times, row, screening_key, summarise
+from benchmarks.bench_detect_truth import (
+    HULL,
+    change_times,
+    prior_name,
+    row,
+    screen_name,
+    screening_key,
+    stored_recording,
+    summarise,
+)
 from identify.detect.glr import calibrate
 from identify.detect.verdict import implausible_inertia, physical_change, verdict
 
@@ -64,7 +73,7 @@ def redecide(sc, prior, min_change: float = 0.05, false_alarm: float = 0.02):
 
 def ship_study(folder: Path, variant: str, ship: int, runs: int, key: str, setting: str) -> dict:
     """bench_detect_truth.ship_study's result for one ship, from its stored prior and screenings."""
-    prior = pickle.loads(_one(folder, f"{variant}-{ship}-nominal-*-0-prior-{key}.pkl").read_bytes())
+    prior = pickle.loads(_one(folder, prior_name(stored_recording(variant, ship, "*"), key)).read_bytes())
     prior = with_structure(prior, setting)
     changes = change_times(ship, runs)
     out = {"unchanged": [], "changed": [], "errors": [], "structure": prior.structure.tolist()}
@@ -72,8 +81,7 @@ def ship_study(folder: Path, variant: str, ship: int, runs: int, key: str, setti
         out["refused"] = f"ship {ship}"
         return out
     for i, ch in enumerate(changes):
-        b, j = BATCH * (i // BATCH), i % BATCH  # the truth bench's batches
-        sc = pickle.loads(_one(folder, f"{variant}-{ship}-{runs}-{b}-*-{j}-screen-{key}.pkl").read_bytes())
+        sc = pickle.loads(_one(folder, screen_name(stored_recording(variant, ship, "*", runs, i), key)).read_bytes())
         d = redecide(sc, prior)
         res = {"alarm_s": d.alarm_s, "property": d.property, "change_s": ch, "h": float(d.threshold[0])}
         res |= {"roll_max": float("nan"), "failed": False, "evidence": d.evidence}

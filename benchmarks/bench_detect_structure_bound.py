@@ -61,7 +61,11 @@ from benchmarks.bench_detect_truth import (
     HULL,
     _fingerprint,
     change_times,
+    nominal_seed,
+    prior_name,
+    screen_name,
     screening_key,
+    stored_recording,
     variant_recordings,
     variant_ship,
 )
@@ -106,7 +110,7 @@ def noise_free_fit(variant: str, ship_seed: int, folder: Path) -> tuple[dict[str
     """The yaw row (``KIND``) fitted on the ship's nominal manoeuvre recorded without noise (the sensors'
     low-pass kept), its moment advance chosen as ``detect-prior`` does (:func:`moment_shift`): the best
     parameters ``detect``'s structure has for this ship. Returns (values, moment shift s)."""
-    cols = variant_recordings(variant, ship_seed, [1000 * ship_seed], noise_scale=0.0)[0]
+    cols = variant_recordings(variant, ship_seed, [nominal_seed(ship_seed)], noise_scale=0.0)[0]
     rec = load_runs([write_csv(cols, folder / f"{variant}-{ship_seed}-noisefree.csv")])[0]
     sig, r = signals(rec, KIND)
     shift, x = moment_shift(KIND, sig, r, rec.sample_time)
@@ -164,12 +168,11 @@ def stored_files(variant: str, ship_seed: int, runs: int, cache: Path) -> list[t
     """The (recording, screening) files of one ship's runs in ``cache`` (``bench_detect_truth.ship_study``'s
     names), the nominal recording and its prior first."""
     fp, key = _fingerprint(("tests/physics",)), screening_key()
-    nominal = cache / f"{variant}-{ship_seed}-nominal-{fp}-0.csv"
-    files = [(nominal, cache / f"{nominal.stem}-prior-{key}.pkl")]
+    nominal = stored_recording(variant, ship_seed, fp)
+    files = [(cache / nominal, cache / prior_name(nominal, key))]
     for i in range(2 * runs):
-        b = (i // 10) * 10
-        path = cache / f"{variant}-{ship_seed}-{runs}-{b}-{fp}-{i - b}.csv"
-        files.append((path, cache / f"{path.stem}-screen-{key}.pkl"))
+        path = stored_recording(variant, ship_seed, fp, runs, i)
+        files.append((cache / path, cache / screen_name(path, key)))
     return files
 
 

@@ -78,6 +78,41 @@ def variant_recordings(variant: str, ship_seed: int, run_seeds: list[int], **kw)
     return recordings(base, ship_seed, run_seeds, ship=variant_ship(variant, ship_seed), **kw)
 
 
+def nominal_seed(ship_seed: int) -> int:
+    """The manoeuvre seed of a ship's nominal run (the recording its prior is fitted on)."""
+    return 1000 * ship_seed
+
+
+def run_seeds(ship_seed: int, n: int) -> list[int]:
+    """The manoeuvre seeds of a ship's first ``n`` screened runs (:func:`ship_study`: ``runs`` unchanged, then
+    ``runs`` changed, n = 2 runs)."""
+    return [nominal_seed(ship_seed) + 1 + i for i in range(n)]
+
+
+def batch_name(variant: str, ship_seed: int, runs: int | None = None, b: int = 0) -> str:
+    """The name :func:`_cached` stores a ship's recordings under (before the truth code's fingerprint): its
+    nominal run (``runs`` None), or the batch from run ``b`` of a study with ``runs`` unchanged and changed."""
+    return f"{variant}-{ship_seed}-nominal" if runs is None else f"{variant}-{ship_seed}-{runs}-{b}"
+
+
+def stored_recording(variant: str, ship_seed: int, fp: str, runs: int | None = None, i: int = 0) -> str:
+    """The file name of a ship's stored recording in a ``--cache`` folder: its nominal run's (``runs`` None), or
+    run ``i``'s of a study with ``runs`` (in its batch of :data:`BATCH`); ``fp``, the truth code's fingerprint
+    (``_fingerprint(("tests/physics",))``), or "*" in a glob."""
+    b = 0 if runs is None else BATCH * (i // BATCH)
+    return f"{batch_name(variant, ship_seed, runs, b)}-{fp}-{i - b}.csv"
+
+
+def prior_name(recording: str, key: str) -> str:
+    """The file name of the prior fitted on the stored ``recording`` (a file name) with screening key ``key``."""
+    return f"{Path(recording).stem}-prior-{key}.pkl"
+
+
+def screen_name(recording: str, key: str, roll_band: bool = False) -> str:
+    """The file name of the stored ``recording``'s screening (``roll_band``: with the roll band left out)."""
+    return f"{Path(recording).stem}-screen{'-rb' if roll_band else ''}-{key}.pkl"
+
+
 def _cached(folder: Path, name: str, make) -> list[Path]:
     """The recordings ``make()`` returns, written as CSVs ``name-<i>.csv`` in ``folder``; reused when
     an earlier call wrote them all there with the same truth code (``--cache``: the truth family does
@@ -143,14 +178,14 @@ def change_times(ship_seed: int, runs: int) -> list[float | None]:
 
 def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str, roll_band: bool = False) -> dict:
     """One ship: its prior, then ``runs`` unchanged and ``runs`` changed recordings."""
-    seeds = [1000 * ship_seed + 1 + i for i in range(2 * runs)]
+    seeds = run_seeds(ship_seed, 2 * runs)
     changes = change_times(ship_seed, runs)
     out = {"unchanged": [], "changed": [], "errors": []}
     try:
         (p,) = _cached(
-            folder, f"{variant}-{ship_seed}-nominal", lambda: variant_recordings(variant, ship_seed, [1000 * ship_seed])
+            folder, batch_name(variant, ship_seed), lambda: variant_recordings(variant, ship_seed, [nominal_seed(ship_seed)])
         )
-        prior = _stored(folder / f"{p.stem}-prior-{key}.pkl", lambda: fit_prior([p], "full", 64, 0))
+        prior = _stored(folder / prior_name(p.name, key), lambda: fit_prior([p], "full", 64, 0))
     except (FloatingPointError, UserError) as e:
         out["errors"].append(f"ship {ship_seed} prior: {e}")
         return out
@@ -165,7 +200,7 @@ def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str, 
         try:
             paths = _cached(
                 folder,
-                f"{variant}-{ship_seed}-{runs}-{b}",
+                batch_name(variant, ship_seed, runs, b),
                 lambda sl=sl: variant_recordings(variant, ship_seed, seeds[sl], change_at_s=changes[sl]),
             )
         except FloatingPointError as e:
@@ -178,7 +213,7 @@ def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str, 
                 rec = load_runs([path])[0]
                 d = verdict(
                     _stored(
-                        folder / f"{path.stem}-screen{'-rb' if roll_band else ''}-{key}.pkl",
+                        folder / screen_name(path.name, key, roll_band),
                         lambda rec=rec: screen(rec, prior, **HULL, leave_out_roll_band=roll_band),
                     ),
                     prior,

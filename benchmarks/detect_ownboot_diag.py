@@ -21,7 +21,7 @@ import numpy as np
 
 from benchmarks.bench_detect_calibration import VARIANTS
 from benchmarks.bench_detect_structure import _one, redecide
-from benchmarks.bench_detect_truth import BATCH, HULL, change_times
+from benchmarks.bench_detect_truth import HULL, change_times, prior_name, screen_name, stored_recording
 from benchmarks.detect_ownmisfit import post_fit_residual, stored_offsets, with_own
 from identify.detect.verdict import Screening, implausible_inertia
 from identify.detect.yawmodel import YawPrior
@@ -52,12 +52,11 @@ def variant_rows(spec: str, variant: str, settings: tuple[str, ...]) -> dict:
     out: dict = {"detected": {s: [] for s in ("stored", *settings)}, "h": {s: [] for s in settings}, "var": []}
     out |= {"h_unchanged": {s: [] for s in settings}, "split": []}
     for ship in range(int(first), int(first) + int(ships)):
-        prior = pickle.loads(_one(Path(folder), f"{variant}-{ship}-nominal-*-0-prior-{key}.pkl").read_bytes())
+        prior = pickle.loads(_one(Path(folder), prior_name(stored_recording(variant, ship, "*"), key)).read_bytes())
         if implausible_inertia(prior, **HULL):
             continue
         for i, ch in enumerate(change_times(ship, 10)):
-            b, j = BATCH * (i // BATCH), i % BATCH  # the truth bench's batches
-            sc = pickle.loads(_one(Path(folder), f"{variant}-{ship}-10-{b}-*-{j}-screen-{key}.pkl").read_bytes())
+            sc = pickle.loads(_one(Path(folder), screen_name(stored_recording(variant, ship, "*", 10, i), key)).read_bytes())
             d0 = redecide(sc, prior)
             if ch is None:
                 for s in settings:

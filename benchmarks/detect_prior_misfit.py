@@ -72,6 +72,7 @@ from primitives.iir import lfilter
 VARIANTS = ("nominal-mmg", "strong-roll", "pod-interaction", "steering-lag-acting", "coloured-noise")
 #: the truth family's recordings' fingerprint (tests/physics at the stored screenings' time)
 TRUTH_FP = "0b77fdf7a61a"
+STORED_RUNS = 10  # the stored studies' --runs: 10 unchanged runs, then 10 changed (bench_detect_truth.ship_study)
 
 
 def _d(x: np.ndarray, dt: float) -> np.ndarray:
@@ -304,7 +305,9 @@ def greedy(pairs: list[tuple[Columns, list[Columns]]], size: int, band: bool) ->
 
 
 def load_prior(folder: Path, variant: str, ship: int, key: str) -> YawPrior:
-    return pickle.loads((folder / f"{variant}-{ship}-nominal-{TRUTH_FP}-0-prior-{key}.pkl").read_bytes())
+    from benchmarks.bench_detect_truth import prior_name, stored_recording
+
+    return pickle.loads((folder / prior_name(stored_recording(variant, ship, TRUTH_FP), key)).read_bytes())
 
 
 def clean_recording(variant: str, ship: int, seed: int, folder: Path) -> Path:
@@ -325,6 +328,8 @@ def study(
 ) -> dict[str, list[tuple[Columns, list[Columns]]]]:
     """Per variant: (nominal, [unchanged runs]) Columns of every ship of every cache spec DIR:KEY:FIRST:N;
     with ``clean`` (a folder), those of the same recordings without sensor noise (key ``variant + " clean"``)."""
+    from benchmarks.bench_detect_truth import nominal_seed, run_seeds, stored_recording
+
     out: dict[str, list] = {}
     for spec in specs:
         d, key, first, n = spec.split(":")
@@ -332,12 +337,12 @@ def study(
         for v in variants:
             for ship in range(int(first), int(first) + int(n)):
                 prior = load_prior(folder, v, ship, key)
-                paths = [folder / f"{v}-{ship}-nominal-{TRUTH_FP}-0.csv"]
-                paths += [folder / f"{v}-{ship}-10-0-{TRUTH_FP}-{i}.csv" for i in range(runs)]
+                paths = [folder / stored_recording(v, ship, TRUTH_FP)]
+                paths += [folder / stored_recording(v, ship, TRUTH_FP, STORED_RUNS, i) for i in range(runs)]
                 cols = [recording_columns(prior, p) for p in paths]
                 out.setdefault(v, []).append((cols[0], cols[1:]))
                 if clean is not None:
-                    seeds = [1000 * ship] + [1000 * ship + 1 + i for i in range(runs)]
+                    seeds = [nominal_seed(ship), *run_seeds(ship, runs)]
                     cc = [recording_columns(prior, clean_recording(v, ship, s, clean)) for s in seeds]
                     out.setdefault(f"{v} clean", []).append((cc[0], cc[1:]))
     return out
@@ -386,6 +391,8 @@ def main() -> None:
     ap.add_argument("--save", type=Path, help="pickle the columns here (a later --load re-tabulates without simulating)")
     ap.add_argument("--load", type=Path, help="tabulate the columns a --save wrote")
     a = ap.parse_args()
+    if not 1 <= a.runs <= STORED_RUNS:  # run i >= 10 of the stored studies is a changed one
+        ap.error(f"--runs {a.runs}: give 1 to {STORED_RUNS} (the stored studies' unchanged runs per ship)")
     warnings.simplefilter("ignore", RuntimeWarning)
     if a.load:
         data = pickle.loads(a.load.read_bytes())

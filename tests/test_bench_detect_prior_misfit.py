@@ -103,3 +103,24 @@ def test_readings_are_the_change_along_each_signature():
         noise[k] = 0.5 * noise[k - 1] + w[k]
     c = Columns(0.02 * S[:, 0] + noise, np.zeros((nb, 1)), np.zeros((nb, 1)), ("x",), np.zeros((nb, 1)), (0.0, 0.5), S, ar)
     assert abs(readings(c)[0] - 0.02) < 1e-3
+
+
+def test_more_runs_than_the_stored_studies_unchanged_ones_are_refused_in_one_line():
+    """Run 10 on of a stored study is a changed run: ``--runs 11`` would read it as an unchanged one (0e42d15 asked for
+    a file that does not exist and ended in a traceback)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    for runs in ("11", "0"):
+        cmd = [sys.executable, "benchmarks/detect_prior_misfit.py", "--cache", "/nonexistent:K:1:1", "--runs", runs]
+        out = subprocess.run(cmd, cwd=root, capture_output=True, text=True, timeout=120, env=env)
+        assert out.returncode == 2 and "Traceback" not in out.stderr
+        assert (
+            out.stderr.strip()
+            .splitlines()[-1]
+            .endswith(f"--runs {runs}: give 1 to 10 (the stored studies' unchanged runs per ship)")
+        )
