@@ -71,8 +71,8 @@ def gyro_lowpassed(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def lowpassed(gyro_lowpassed):
-    """That recording's prior with ``noise_model="spectral"``."""
+def spectral_prior(gyro_lowpassed):
+    """(that recording, its prior fitted with ``noise_model="spectral"``)."""
     return gyro_lowpassed, fit_prior([gyro_lowpassed], "full", noise_model="spectral")
 
 
@@ -93,12 +93,12 @@ def test_the_spectral_prior_is_read_by_the_spectral_reader(gyro_lowpassed):
         assert prior.noise[k] == sd and prior.noise_tau.get(k, 0.0) == tau, (k, prior.noise, prior.noise_tau, sd, tau)
 
 
-def test_the_prior_reads_a_low_passed_gyro_s_noise_and_keeps_it(lowpassed):
+def test_the_prior_reads_a_low_passed_gyro_s_noise_and_keeps_it(spectral_prior):
     """With ``noise_model="spectral"`` (an option; the default stays the white reading) the prior's yaw-rate
     noise is the gyro's white sd (within 25 %) behind its 0.3 s corner (within 30 %), not the 0.19 of it the
     second difference sees (main before stop 55); the file keeps the corners, a file without them (written
     before) reads as white noise, and a negative corner is refused with the one-line "refit it" message."""
-    _, prior = lowpassed
+    _, prior = spectral_prior
     assert abs(prior.noise["r"] / TABLE_4_1["r"] - 1) < 0.25, prior.noise
     assert abs(prior.noise_tau["r"] / 0.3 - 1) < 0.30, prior.noise_tau
     back = YawPrior.from_dict(prior.to_dict())
@@ -111,10 +111,10 @@ def test_the_prior_reads_a_low_passed_gyro_s_noise_and_keeps_it(lowpassed):
             YawPrior.from_dict(prior.to_dict() | {"noise_tau": {"r": tau}})
 
 
-def test_the_file_is_tagged_by_its_noise_model(lowpassed):
+def test_the_file_is_tagged_by_its_noise_model(spectral_prior):
     """A white prior's file is main's (format /1, no noise_tau key: byte for byte the file main writes); a
     low-pass one is /2, which main's reader refuses rather than draw its pre-filter sd as white noise."""
-    _, prior = lowpassed
+    _, prior = spectral_prior
     white = replace(prior, noise_tau={}).to_dict()
     assert white["format"] == "shiptrial-yaw-prior/1" and "noise_tau" not in white
     assert prior.to_dict()["format"] == "shiptrial-yaw-prior/2" and prior.to_dict()["noise_tau"] == prior.noise_tau
@@ -124,10 +124,10 @@ def test_the_file_is_tagged_by_its_noise_model(lowpassed):
         YawPrior.from_dict(white | {"format": "shiptrial-yaw-prior/3"})
 
 
-def test_the_bootstrap_refits_see_the_sensor_s_noise(lowpassed):
+def test_the_bootstrap_refits_see_the_sensor_s_noise(spectral_prior):
     """bootstrap_deviations: a white prior's noise gives the refits of no prior (each signal's white_noise_sd,
     main's path) bit for bit; a corner on r changes them."""
-    path, prior = lowpassed
+    path, prior = spectral_prior
     from identify.detect.api import load_runs
 
     sig, r = signals(load_runs([path])[0], prior.kind)
@@ -141,12 +141,12 @@ def test_the_bootstrap_refits_see_the_sensor_s_noise(lowpassed):
 
 
 @pytest.mark.parametrize("path_kind", ["linear", "nonlinear"])
-def test_the_no_change_records_carry_the_low_passed_noise(lowpassed, path_kind):
+def test_the_no_change_records_carry_the_low_passed_noise(spectral_prior, path_kind):
     """The records' yaw-rate noise goes through the prior's corner, on the linear path (no ``derive``) and the
     nonlinear one (a ``derive`` without ``linear``): their second difference (the noise's: the prediction is
     smooth) is the filter's share of the white records' (0.19 behind 0.3 s at 10 Hz). One ``draws`` dict serves
     both calls, white first: the kept noise's key holds the corners, so the low-pass call is not served white."""
-    path, prior = lowpassed
+    path, prior = spectral_prior
     from identify.detect.api import load_runs
 
     rec = load_runs([path])[0]
@@ -185,12 +185,12 @@ def test_detect_prior_refuses_an_unknown_noise_model_before_reading_anything(tmp
     validate_detect_prior_options(out=tmp_path / "p.json", bootstrap=64, seed=0, noise_model="spectral")
 
 
-def test_a_prior_file_of_the_retired_lowpass_reader_still_loads(lowpassed, tmp_path):
+def test_a_prior_file_of_the_retired_lowpass_reader_still_loads(spectral_prior, tmp_path):
     """A /2 prior written by stop 55-56's ``--noise-model lowpass`` keeps its noise levels and corners when read
     (detect draws them as written), and tells its reader; a reader no version knows is refused in one line."""
     from identify.detect.api import load_prior
 
-    _, prior = lowpassed
+    _, prior = spectral_prior
     path = tmp_path / "lowpass.json"
     path.write_text(json.dumps(prior.to_dict() | {"noise_model": "lowpass"}))
     back = load_prior(path)
