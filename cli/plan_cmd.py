@@ -159,10 +159,7 @@ def register(app: typer.Typer) -> None:
         ),
     ) -> None:
         """Plan a trial: design -> whole manoeuvres -> A* planning -> continuous verification -> exports for the crew."""
-        from cli.options import duration_s, validate_plan_options
-        from cli.resume_cmd import resume_conflict, run_resume
-        from expdesign.dopt import canonical_criterion
-        from maps.planoptions import PlanOptions
+        from cli.resume_cmd import resume_conflict
 
         resume_conflict(
             resume,
@@ -180,100 +177,16 @@ def register(app: typer.Typer) -> None:
             start=start,
             goal=goal,
         )
+        lattice = {"resolution": resolution, "headings": headings, "heuristic": heuristic, "margin": margin}
+        lattice |= {"split": split, "size": size, "run_in": run_in, "max_memory": max_memory}
+        outputs = {"out": out, "seed": seed, "vessel_name": vessel_name, "start_time": start_time, "no_export": no_export}
         if resume is not None:
-            validate_plan_options(
-                resolution=resolution,
-                margin=margin,
-                headings=headings,
-                start=None,
-                goal=None,
-                counts=None,
-                size=size,
-                out=out,
-                seed=seed,
-                run_in=run_in,
-                max_memory=max_memory,
-                vessel_name=vessel_name,
-                start_time=start_time,
-                no_export=no_export,
-            )
-            # the lattice options given override the plan's; those left at their defaults keep the plan's
-            # (by name: typer's vendored click has its own ParameterSource)
-            given = {k for k in ctx.params if getattr(ctx.get_parameter_source(k), "name", "DEFAULT") != "DEFAULT"}
-            size_t = tuple(int(v) for v in size.lower().split("x"))  # checked by validate_plan_options
-            lattice = {"resolution": resolution, "headings": headings, "heuristic": heuristic, "margin": margin}
-            lattice |= {"split": split, "size": size_t, "run_in_s": run_in, "max_memory_gib": max_memory}
-            names = {"run_in_s": "run_in", "max_memory_gib": "max_memory"}  # PlanOptions field -> parameter
-            run_resume(
-                resume,
-                recordings or [],
-                start_from or "",
-                time_left or "",
-                map_path=map_path,
-                ship=ship if "ship" in given else None,
-                out=out,
-                start_time=start_time,
-                no_export=no_export,
-                json_out=json_out,
-                seed=seed,
-                overrides={k: v for k, v in lattice.items() if names.get(k, k) in given},
-                vessel_name=vessel_name,
-            )
+            resumed = (resume, recordings or [], start_from or "", time_left or "")
+            _resume(ctx, resumed, map_path, ship, lattice, outputs, json_out)
             return
-        trial_length = duration_s(trial_length_text, "--trial-length")
-        design_conflict(
-            counts,
-            scenario,
-            criterion=criterion,
-            mean_subtraction=mean_subtraction,
-            trial_length=trial_length,
-            prior_spread=prior_spread,
-            prior_file=prior_file,
-        )
-        criterion = "D" if criterion is None else criterion
-        mean_subtraction = "complete" if mean_subtraction is None else mean_subtraction
-        validate_plan_options(
-            resolution=resolution,
-            margin=margin,
-            headings=headings,
-            start=start,
-            goal=goal,
-            counts=counts,
-            size=size,
-            out=out,
-            seed=seed,
-            scenario=scenario,
-            criterion=criterion,
-            mean_subtraction=mean_subtraction,
-            trial_length=trial_length,
-            run_in=run_in,
-            max_memory=max_memory,
-            vessel_name=vessel_name,
-            start_time=start_time,
-            no_export=no_export,
-        )
-        criterion = canonical_criterion(criterion)  # checked by validate_plan_options: "local-D" is "D"
-        ni, nj = (int(v) for v in size.lower().split("x"))  # checked by validate_plan_options
-        if counts is not None and scenario is not None:
-            raise UserError("--counts and --scenario both choose the manoeuvres: give one of them")
-        opts = PlanOptions(
-            resolution=resolution,
-            headings=headings,
-            heuristic=heuristic,
-            margin=margin,
-            split=split,
-            size=(ni, nj),
-            run_in_s=run_in,
-            max_memory_gib=max_memory,
-        )
-        opts.check()
-        design = {
-            "criterion": criterion,
-            "mean_subtraction": mean_subtraction,
-            "trial_length_s": trial_length,
-            "seed": seed,
-            "parameter_prior": _prior(ship, criterion, prior_spread, prior_file, prior_draws, seed),
-        }
+        design_opts = {"criterion": criterion, "mean_subtraction": mean_subtraction, "trial_length": trial_length_text}
+        design_opts |= {"prior_spread": prior_spread, "prior_file": prior_file, "prior_draws": prior_draws}
+        opts, design = _plan_inputs(ship, start, goal, counts, scenario, design_opts, lattice, outputs)
         files, result, cached = plan_and_write(
             ship,
             map_path,
@@ -292,6 +205,107 @@ def register(app: typer.Typer) -> None:
         )
         _skip_final_collection()
         report(result, files, heuristic, json_out, cached=cached)
+
+
+def _resume(
+    ctx: typer.Context,
+    resumed: tuple[Path, list[Path], str, str],
+    map_path: Path | None,
+    ship: str,
+    lattice: dict[str, Any],
+    outputs: dict[str, Any],
+    json_out: bool,
+) -> None:
+    """``plan --resume`` (:func:`cli.resume_cmd.run_resume`; ``resumed``: the plan file, the recordings, --from,
+    --time-left): the lattice options given override the plan's; those left at their defaults keep the plan's."""
+    from cli.options import validate_plan_options
+    from cli.resume_cmd import run_resume
+
+    checked = {k: v for k, v in lattice.items() if k not in ("heuristic", "split")}
+    validate_plan_options(**checked, start=None, goal=None, counts=None, **outputs)
+    # by name: typer's vendored click has its own ParameterSource
+    given = {k for k in ctx.params if getattr(ctx.get_parameter_source(k), "name", "DEFAULT") != "DEFAULT"}
+    size_t = tuple(int(v) for v in lattice["size"].lower().split("x"))  # checked by validate_plan_options
+    fields = {"resolution", "headings", "heuristic", "margin", "split"}
+    overrides = {k: v for k, v in lattice.items() if k in fields} | {"size": size_t}
+    overrides |= {"run_in_s": lattice["run_in"], "max_memory_gib": lattice["max_memory"]}
+    names = {"run_in_s": "run_in", "max_memory_gib": "max_memory"}  # PlanOptions field -> parameter
+    run_resume(
+        *resumed,
+        map_path=map_path,
+        ship=ship if "ship" in given else None,
+        json_out=json_out,
+        overrides={k: v for k, v in overrides.items() if names.get(k, k) in given},
+        **outputs,
+    )
+
+
+def _plan_inputs(
+    ship: str,
+    start: str | None,
+    goal: str | None,
+    counts: str | None,
+    scenario: str | None,
+    design_opts: dict[str, Any],
+    lattice: dict[str, Any],
+    outputs: dict[str, Any],
+) -> tuple[PlanOptions, dict[str, Any]]:
+    """The planner's options and the design's (criterion, mean subtraction, trial length, seed, parameter prior) of
+    ``plan`` without --resume, every option refused in one line first."""
+    from cli.options import duration_s, validate_plan_options
+    from expdesign.dopt import canonical_criterion
+    from maps.planoptions import PlanOptions
+
+    trial_length = duration_s(design_opts["trial_length"], "--trial-length")
+    criterion, mean_subtraction = design_opts["criterion"], design_opts["mean_subtraction"]
+    prior_spread, prior_file = design_opts["prior_spread"], design_opts["prior_file"]
+    design_conflict(
+        counts,
+        scenario,
+        criterion=criterion,
+        mean_subtraction=mean_subtraction,
+        trial_length=trial_length,
+        prior_spread=prior_spread,
+        prior_file=prior_file,
+    )
+    criterion = "D" if criterion is None else criterion
+    mean_subtraction = "complete" if mean_subtraction is None else mean_subtraction
+    checked = {k: v for k, v in lattice.items() if k not in ("heuristic", "split")}
+    validate_plan_options(
+        **checked,
+        start=start,
+        goal=goal,
+        counts=counts,
+        scenario=scenario,
+        criterion=criterion,
+        mean_subtraction=mean_subtraction,
+        trial_length=trial_length,
+        **outputs,
+    )
+    criterion = canonical_criterion(criterion)  # checked by validate_plan_options: "local-D" is "D"
+    ni, nj = (int(v) for v in lattice["size"].lower().split("x"))  # checked by validate_plan_options
+    if counts is not None and scenario is not None:
+        raise UserError("--counts and --scenario both choose the manoeuvres: give one of them")
+    opts = PlanOptions(
+        resolution=lattice["resolution"],
+        headings=lattice["headings"],
+        heuristic=lattice["heuristic"],
+        margin=lattice["margin"],
+        split=lattice["split"],
+        size=(ni, nj),
+        run_in_s=lattice["run_in"],
+        max_memory_gib=lattice["max_memory"],
+    )
+    opts.check()
+    seed = outputs["seed"]
+    design = {
+        "criterion": criterion,
+        "mean_subtraction": mean_subtraction,
+        "trial_length_s": trial_length,
+        "seed": seed,
+        "parameter_prior": _prior(ship, criterion, prior_spread, prior_file, design_opts["prior_draws"], seed),
+    }
+    return opts, design
 
 
 def _prior(
