@@ -376,8 +376,14 @@ class Unpicklable:
     def __reduce__(self):
         raise TypeError("cannot pickle this")
 
+PARENT = os.getpid()
+
 def task(i):
-    time.sleep(0.5)  # the parent exits meanwhile
+    end = time.monotonic() + 30
+    while os.getppid() == PARENT:  # until the parent has exited (a fixed sleep passed unseen when it was slow)
+        if time.monotonic() > end:
+            sys.exit("the parent never exited")  # said on stderr: the test fails rather than pass unseen
+        time.sleep(0.01)
     return Unpicklable()  # the worker then sends its "result not sent" error to a closed pipe
 
 ctx = multiprocessing.get_context("fork")
