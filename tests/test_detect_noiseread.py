@@ -218,3 +218,14 @@ def test_the_refusal_of_an_unknown_noise_reader_names_the_real_path_and_no_retir
     assert msg.startswith(f"{path}: field noise_model 'pink' names no noise reader this version knows ")
     assert "(white, spectral; lowpass files of stops 55-56 still load)" in msg
     assert msg.endswith(f"refit it: shiptrial detect-prior NOMINAL.csv --out {path} --noise-model spectral")
+
+
+def test_a_file_with_several_bad_fields_is_refused_naming_the_same_field_as_before():
+    """YawPrior.from_dict reads values and cov before the other fields (as before stop 59 split it into _read and
+    _check), so the refusal of a file without sigma and with no or a broken cov names the cov, not sigma."""
+    d = {"format": "shiptrial-yaw-prior/1", "kind": "full", "values": dict.fromkeys(NOMINAL, 1.0), "ar": [0.5]}
+    d |= {"sigma_w": 1.0, "block": 1, "dt": 0.1}
+    with pytest.raises(UserError, match=r"\(field 'cov'\)"):
+        YawPrior.from_dict(d)
+    with pytest.raises(UserError, match=r"\(field cannot reshape array of size 2"):
+        YawPrior.from_dict(d | {"cov": [1.0, 2.0]})

@@ -156,11 +156,14 @@ class YawPrior:
             raise KeyError("format")
         kind = d["kind"]
         names = PARAMS[kind]
+        # values and cov read before the rest, as before the split: a file with several bad fields names the same one
+        values = {k: float(d["values"][k]) for k in names}
+        cov = np.asarray(d["cov"], float).reshape(len(names), len(names))
         return cls(
             kind,
-            {k: float(d["values"][k]) for k in names},
+            values,
             float(d["sigma"]),
-            np.asarray(d["cov"], float).reshape(len(names), len(names)),
+            cov,
             np.asarray(d["ar"], float).ravel(),
             float(d["sigma_w"]),
             int(d["block"]),
