@@ -241,7 +241,9 @@ class LocalEngine(Engine):
         weights: Sequence[float] | None = None,
         unit: str = "tasks",
     ) -> MapResult:
-        if self.pool is not None and self.pool.workers_left() > 0 and len(items) > 1:  # a closed pool raises
+        if self.pool is not None:
+            self.pool.workers_left()  # a closed or emptied pool raises, whatever the items: never replaced by a fresh one
+        if self.pool is not None and len(items) > 1:
             # expdesign.warmpool.WarmPool.map on the pool given: no fork here, so the progress bar
             # starts at once. Any error raised during the map (a Ctrl-C, but also a bug in the progress
             # bar or in gathering a result) kills every worker and closes the pool, as a fresh pool's
