@@ -21,6 +21,10 @@ POWER = 0.9
 LARGEST = 1.0
 #: smallest relative change searched (0.1 %)
 SMALLEST = 1e-3
+#: the search's steps from its first guess until the change is bracketed: small, as each step evaluates only
+#: the records whose alarm changes within it (README's example: 2.5 evaluations of all records per candidate
+#: with factors of 2, 2.0 with 1.25)
+STEP = 1.25
 #: the bisection stops when its bracket is this ratio wide (3 %)
 RESOLUTION = 1.03
 #: the figure's name per candidate, in the text report and the JSON
@@ -98,7 +102,7 @@ def _alarmed(ca: np.ndarray, cb: np.ndarray, theta: float, h: np.ndarray) -> np.
 
 def _smallest(ca: np.ndarray, cb: np.ndarray, h: np.ndarray, power: float, guess: float) -> float:
     """Smallest theta in [SMALLEST, LARGEST] at which at least ``power`` of the records alarm, to a ratio of
-    RESOLUTION: bracketed from ``guess`` by factors of 2, then bisected on log(theta); NaN when LARGEST is not
+    RESOLUTION: bracketed from ``guess`` by factors of STEP, then bisected on log(theta); NaN when LARGEST is not
     enough, SMALLEST when that is. A record that alarmed at a theta at or below the one tried, or stayed quiet
     at one at or above it, is not evaluated again (near the end, a few records are)."""
     runs = ca.shape[2]
@@ -117,10 +121,10 @@ def _smallest(ca: np.ndarray, cb: np.ndarray, h: np.ndarray, power: float, guess
     while not enough(hi):
         if hi >= LARGEST:
             return float("nan")
-        hi = min(2 * hi, LARGEST)
-    lo = hi / 2
+        hi = min(STEP * hi, LARGEST)
+    lo = hi / STEP
     while lo >= SMALLEST and enough(lo):
-        hi, lo = lo, lo / 2
+        hi, lo = lo, lo / STEP
     if lo < SMALLEST:
         return SMALLEST
     while hi / lo > RESOLUTION:
