@@ -84,3 +84,25 @@ def test_the_report_warns_by_name_when_min_change_is_below_what_the_recording_ca
     assert "cannot show a change" in below["warning"]["message"] and "longer" in below["warning"]["message"]
     assert above["warning"] is None and above["blind_to_min_change"] == []
     json.dumps(below, allow_nan=False)  # the JSON field: plain numbers, never NaN
+
+
+def test_the_inertia_figure_is_of_i_z_on_the_hulls_basis(structured):
+    """A change theta of I_r is theta (I_z - N_rdot) / I_z of I_z (verdict.physical_change): the hull's values
+    convert the figure; the other candidates' are as searched."""
+    prior, sc, det = structured
+    sc = replace(sc, h=det.h)
+    i_z, n_rdot = 3.37e7, -2.87e7
+    of_ir = detectable(sc, prior, THETA1, 0.02, 0.05)
+    of_iz = detectable(sc, prior, THETA1, 0.02, 0.05, i_z=i_z, n_rdot=n_rdot)
+    assert of_ir["yaw_inertia"]["of"] == "I_r" and of_iz["yaw_inertia"]["of"] == "I_z"
+    ratio = of_iz["yaw_inertia"]["relative_change"] / of_ir["yaw_inertia"]["relative_change"]
+    assert ratio == pytest.approx((i_z - n_rdot) / i_z, rel=1e-9)
+    assert of_iz["pod_gain"] == of_ir["pod_gain"]
+
+
+def test_a_recording_that_cannot_alarm_even_at_the_largest_change_is_blind_to_any(structured):
+    prior, sc, det = structured
+    can = detectable(replace(sc, h=1e6 * det.h), prior, THETA1, 0.02, 0.05)
+    assert all(can[c]["relative_change"] is None for c in ("yaw_inertia", "yaw_damping", "pod_gain"))
+    assert len(can["blind_to_min_change"]) == 3 and "over 100 %" in can["warning"]["message"]
+    json.dumps(can, allow_nan=False)
