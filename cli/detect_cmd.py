@@ -200,8 +200,9 @@ def detectable_lines(can: dict | None) -> list[str]:
     from identify.detect.power import sizes_text
 
     out = [
-        f"  detectable: {sizes_text(can)} ({100 * can['power']:.0f} % power at --false-alarm {can['false_alarm']:g}, "
-        "for a change from the recording's start)"
+        f"  detectable: {sizes_text(can)} ({100 * can['power']:.0f} % power at --false-alarm {can['false_alarm']:g} "
+        f"and --min-change {100 * can['min_change']:g} %, for a change from the recording's start: a later change "
+        "needs more)"
     ]
     if can["warning"]:
         out.append(f"  warning [{can['warning']['name']}]: {can['warning']['message']}")

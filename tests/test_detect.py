@@ -938,6 +938,9 @@ def test_cli_detect_says_what_the_recording_could_detect_and_warns_by_name_when_
     assert _run([*base, "--min-change", "0.01"]) in (0, None)
     text = capsys.readouterr().out
     assert f"detectable: yaw inertia >= {100 * x:.1f} % of I_z" in text
+    # the line says what the figure assumes: the CUSUM's --min-change and a change from the start
+    assert "--min-change 1 %, for a change from the recording's start: a later change needs more)" in text
+    assert can["min_change"] == 0.01 and can["change_from"] == "start"
     assert "warning [blind-to-min-change]: this recording cannot show a change of --min-change 1 %" in text
     assert _run([*base, "--min-change", "0.9"]) in (0, None)
     text = capsys.readouterr().out

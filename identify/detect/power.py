@@ -146,10 +146,12 @@ def detectable(
     """The report of :func:`detectable_changes` on a screened recording: per candidate the relative change
     (of I_z for yaw inertia when the hull's ``i_z`` and ``n_rdot`` are known, else of I_r; None: over
     LARGEST), what it is of, and whether ``min_change`` is below it (the recording cannot show a change of
-    that size; ``blind_to_min_change`` lists those candidates)."""
+    that size; ``blind_to_min_change`` lists those candidates). The figure is of the LR-CUSUM tuned to
+    ``theta1`` (from ``min_change``): the same recording's figure is larger at a larger ``min_change``."""
     rel = detectable_changes(prior, sc.S, sc.null_blocks, sc.h, theta1, seed, sc.roll_band)
     known = i_z is not None and n_rdot is not None
-    out: dict = {"power": POWER, "false_alarm": false_alarm, "change_from": "start", "largest_searched": LARGEST}
+    out: dict = {"power": POWER, "false_alarm": false_alarm, "min_change": min_change, "change_from": "start"}
+    out["largest_searched"] = LARGEST
     for c, x in zip(CANDIDATES, rel):
         size = None if not np.isfinite(x) else float(x)
         of = OF[c]
@@ -184,7 +186,7 @@ def blind_message(d: dict, min_change: float) -> str:
         f"this recording cannot show a change of --min-change {100 * min_change:g} % in "
         f"{' or '.join(c.replace('_', ' ') for c in d['blind_to_min_change'])} (it needs "
         f"{sizes_text(d, d['blind_to_min_change'])} to alarm in {100 * d['power']:.0f} % of cases): "
-        "no alarm here is no evidence that no such change happened; a longer or more strongly manoeuvring "
-        "recording (more turns, larger rudder or pod angles), or a prior fitted on a longer nominal run, "
-        "shows smaller changes"
+        "a verdict of no change here is no evidence that no such change happened; to show smaller changes, "
+        "record longer or manoeuvre more strongly (more turns, larger rudder or pod angles), or fit the prior "
+        "on a longer nominal run"
     )
