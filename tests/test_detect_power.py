@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from identify.detect.glr import SignatureCusum, calibrate, structural_draws
-from identify.detect.power import BLIND, POWER, RESOLUTION, detectable, detectable_changes
+from identify.detect.power import BLIND, POWER, RESOLUTION, SMALLEST, _smallest, detectable, detectable_changes
 from identify.detect.yawmodel import block_mean
 
 THETA1 = np.array([0.09, 0.05, 0.05])
@@ -108,3 +108,14 @@ def test_a_recording_that_cannot_alarm_even_at_the_largest_change_is_blind_to_an
     assert all(can[c]["relative_change"] is None for c in ("yaw_inertia", "yaw_damping", "pod_gain"))
     assert len(can["blind_to_min_change"]) == 3 and "over 100 %" in can["warning"]["message"]
     json.dumps(can, allow_nan=False)
+
+
+def test_a_first_guess_that_is_not_a_number_still_finds_the_change():
+    """The search from a NaN guess (a non-finite record or signature) ends, at the same change as from SMALLEST: 10
+    like records whose upward CUSUM climbs 5 theta (running sums 0..5 theta) alarm over h = 1 from theta 0.2."""
+    cb = np.zeros((6, 2, 1, 1), np.float32)
+    cb[:, 0, 0, 0], cb[:, 1, 0, 0] = np.arange(6), -np.arange(6)
+    ca, h = np.zeros((6, 2, 10, 1), np.float32), np.ones(1, np.float32)
+    got = _smallest(ca, cb, h, POWER, float("nan"))
+    assert got == _smallest(ca, cb, h, POWER, SMALLEST)
+    assert 0.2 < got <= 0.2 * RESOLUTION

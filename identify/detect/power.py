@@ -117,9 +117,11 @@ def _smallest(ca: np.ndarray, cb: np.ndarray, h: np.ndarray, power: float, guess
             quiet_at[todo[~hit]] = theta
         return bool(np.mean(alarm_at <= theta) >= power)
 
-    hi = min(max(guess, SMALLEST), LARGEST)
+    # a non-finite guess (from a non-finite record or signature) starts from SMALLEST: min/max pass a NaN on,
+    # and the bracket below never reached LARGEST
+    hi = min(max(guess, SMALLEST), LARGEST) if np.isfinite(guess) else SMALLEST
     while not enough(hi):
-        if hi >= LARGEST:
+        if not hi < LARGEST:
             return float("nan")
         hi = min(STEP * hi, LARGEST)
     lo = hi / STEP
