@@ -24,6 +24,7 @@ simulation or a failed fit is counted and printed, never dropped silently; a shi
     nice -n 10 python benchmarks/bench_detect_truth.py --ships 10 --runs 10   # 100 + 100 runs per variant
     nice -n 10 python benchmarks/bench_detect_truth.py --first-ship 102 --ships 2 --runs 10  # ships no setting was chosen on
     nice -n 10 python benchmarks/bench_detect_truth.py --ships 2 --runs 5 --roll-band  # the roll band left out
+    nice -n 10 python benchmarks/bench_detect_truth.py --first-ship 102 --ships 1 --runs 5 --per-run  # + detectable per run
     python benchmarks/bench_detect_truth.py --timing 5 --variants strong-roll  # CPU s of detect per recording
 
 What any detector could reach on the same runs (the truth's own model known): bench_detect_oracle.py.
@@ -45,13 +46,16 @@ from pathlib import Path
 
 import numpy as np
 
-from identify.detect.api import detect, fit_prior, load_runs, screen
+from identify.detect.api import change_sizes, detect, fit_prior, load_runs, screen
+from identify.detect.power import detectable
 from identify.detect.verdict import implausible_inertia, verdict
 from primitives.errors import UserError
 from tests.physics.podded_truth import VARIANTS, Ship, draw_ship, recordings, write_csv
 
 THESIS = (1.7, 3.5, 219)  # Table 5.2, full model, models 1-10 pooled: FA %, miss %, mean time s
 BATCH = 10
+#: the decision stage's modules (identify/detect): they read stored screenings, so a screening's key leaves them out
+DECISION = ("verdict.py", "power.py")
 #: the truth ship's nominal hull (I_z, N_rdot), given to detect as a user gives their ship's
 HULL = {"i_z": Ship().I_z, "n_rdot": Ship().N_rd}
 #: logging variants of the truth family's ships: (the variant whose ships they are, what the logger
@@ -129,12 +133,12 @@ def _cached(folder: Path, name: str, make) -> list[Path]:
 
 def _fingerprint(dirs: tuple[str, ...], skip_decision: bool = False) -> str:
     """Fingerprint of the Python code under ``dirs`` (repository-relative) as parsed code (comments and
-    layout ignored); ``skip_decision`` leaves out the decision stage (``identify/detect/verdict.py``,
-    its import and ``api.detect``, the wrapper that calls it)."""
+    layout ignored); ``skip_decision`` leaves out the decision stage (``identify/detect/verdict.py`` and
+    ``power.py``, their imports and ``api.detect``, the wrapper that calls them)."""
     root = Path(__file__).resolve().parents[1]
     h = hashlib.sha1()
     for f in sorted(p for d in dirs for p in (root / d).rglob("*.py")):
-        if skip_decision and f.name == "verdict.py":
+        if skip_decision and f.name in DECISION:
             continue
         tree = ast.parse(f.read_text())
         if skip_decision and f.relative_to(root).as_posix() == "identify/detect/api.py":
@@ -142,7 +146,7 @@ def _fingerprint(dirs: tuple[str, ...], skip_decision: bool = False) -> str:
                 n
                 for n in tree.body
                 if not (isinstance(n, ast.FunctionDef) and n.name == "detect")
-                and not (isinstance(n, ast.ImportFrom) and n.module == "identify.detect.verdict")
+                and not (isinstance(n, ast.ImportFrom) and n.module in ("identify.detect.verdict", "identify.detect.power"))
             ]
         h.update(f.relative_to(root).as_posix().encode() + ast.dump(tree).encode())
     return h.hexdigest()[:12]
@@ -211,14 +215,13 @@ def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str, 
         for j, (path, ch) in enumerate(zip(paths, changes[sl])):
             try:
                 rec = load_runs([path])[0]
-                d = verdict(
-                    _stored(
-                        folder / screen_name(path.name, key, roll_band),
-                        lambda rec=rec: screen(rec, prior, **HULL, leave_out_roll_band=roll_band),
-                    ),
-                    prior,
-                    **HULL,
+                sc = _stored(
+                    folder / screen_name(path.name, key, roll_band),
+                    lambda rec=rec: screen(rec, prior, **HULL, leave_out_roll_band=roll_band),
                 )
+                d = verdict(sc, prior, **HULL)
+                # what detect prints as the recording's detectable change (defaults: 2 %, --min-change 0.05, seed 0)
+                can = detectable(sc, prior, change_sizes(0.05, **HULL), 0.02, 0.05, **HULL)
                 res = {
                     "alarm_s": d.alarm_s,
                     "property": d.property,
@@ -228,6 +231,9 @@ def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str, 
                     "failed": False,
                     "evidence": d.evidence,
                     "thresholds": d.threshold.tolist(),
+                    "detectable": can,
+                    "ship": ship_seed,
+                    "run": b + j,
                 }
             except (UserError, FloatingPointError) as e:
                 out["errors"].append(f"ship {ship_seed} run {b + j}: {e}")
@@ -271,6 +277,26 @@ def summarise(studies: list[dict]) -> dict:
         "errors": [e for s in studies for e in s["errors"]],
         "refused": [s["refused"] for s in studies if "refused" in s],
     }
+
+
+def per_run(studies: list[dict]) -> list[str]:
+    """One line per run tested: ship, run, change time, alarm, and the detectable change detect prints (of
+    I_z, yaw inertia at 90 % power from the start; '>100' when over the search), with 'miss' on a changed
+    run without an alarm at or after its change and 'FA' on an unchanged run that alarmed."""
+    out = []
+    for s in studies:
+        for r in s["unchanged"] + s["changed"]:
+            if r["failed"]:
+                continue
+            x = r["detectable"]["yaw_inertia"]["relative_change"]
+            ch, al = r["change_s"], r["alarm_s"]
+            hit = al is not None and ch is not None and al >= ch
+            mark = ("FA" if al is not None else "") if ch is None else ("hit" if hit else "miss")
+            out.append(
+                f"    {s['variant']:16s} ship {r['ship']} run {r['run']:2d} change {'-' if ch is None else f'{ch:.0f} s':>6s} "
+                f"alarm {'-' if al is None else f'{al:.0f} s':>6s} {mark:4s} detectable I_z {'>100' if x is None else f'{100 * x:.1f}'} %"
+            )
+    return out
 
 
 def row(label: str, s: dict) -> str:
@@ -327,6 +353,11 @@ def main() -> None:
         action="store_true",
         help="screen and decide outside each recording's roll band (screen(leave_out_roll_band=True), off in detect)",
     )
+    ap.add_argument(
+        "--per-run",
+        action="store_true",
+        help="also print each run's alarm and the detectable yaw-inertia change detect prints for it (90 %% power)",
+    )
     ap.add_argument("--timing", type=int, default=0, metavar="N", help="only time detect on N recordings of one ship")
     a = ap.parse_args()
     warnings.simplefilter("ignore", RuntimeWarning)
@@ -359,6 +390,8 @@ def main() -> None:
             everything += studies
             s = summarise(studies)
             print(row(v, s), flush=True)
+            if a.per_run:
+                print("\n".join(per_run(studies)))
             for e in s["errors"][:5]:
                 print(f"    failure: {e}")
             for r in s["refused"]:

@@ -193,6 +193,22 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"wrote {w}")
 
 
+def detectable_lines(can: dict | None) -> list[str]:
+    """The smallest change the recording could show (identify.detect.power.detectable), and its warning."""
+    if can is None:
+        return []
+    from identify.detect.power import sizes_text
+
+    out = [
+        f"  detectable: {sizes_text(can)} ({100 * can['power']:.0f} % power at --false-alarm {can['false_alarm']:g} "
+        f"and --min-change {100 * can['min_change']:g} %, for a change from the recording's start: a later change "
+        "needs more)"
+    ]
+    if can["warning"]:
+        out.append(f"  warning [{can['warning']['name']}]: {can['warning']['message']}")
+    return out
+
+
 def verdict_lines(d, min_change: float) -> list[str]:
     """The text report of one recording: verdict, change point, estimates (I_z beside I_r), dead-zone CUSUM."""
     ev = d.evidence
@@ -250,6 +266,7 @@ def verdict_lines(d, min_change: float) -> list[str]:
         out.append(line)
     dz = f"{d.dead_zone_alarm_s:.0f} s" if d.dead_zone_alarm_s is not None else "none"
     out.append(f"  dead-zone CUSUM (5.1) alarm: {dz}")
+    out += detectable_lines(d.detectable)
     div = ev.get("null_diverged", {"left_out": 0, "of": 0})
     if div["left_out"]:
         out.append(

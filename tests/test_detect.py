@@ -918,3 +918,30 @@ def test_the_no_change_noise_is_drawn_once_per_job_and_gives_each_recordings_own
         for k in ("statistic", "dead_zone", "threshold"):
             assert np.array_equal(getattr(a, k), getattr(b, k), equal_nan=True), k
         assert (a.changed, a.alarm_s, a.property, a.dead_zone_h) == (b.changed, b.alarm_s, b.property, b.dead_zone_h)
+
+
+def test_cli_detect_says_what_the_recording_could_detect_and_warns_by_name_when_min_change_is_below(prior, tmp_path, capsys):
+    """Text and JSON carry the detectable change (of I_z with the hull); --min-change below it gets the named
+    warning, above it none; the same seed gives the same numbers."""
+    from cli.app import _run
+
+    save_prior(prior, tmp_path / "prior.json")
+    write_csv(simulated_recording(Vessel(), 200, seed=53, measured_moment=True), tmp_path / "r.csv")
+    base = ["detect", str(tmp_path / "r.csv"), "--prior", str(tmp_path / "prior.json"), "--profile", "naval-vessel"]
+    assert _run([*base, "--json", "--min-change", "0.01"]) in (0, None)
+    can = json.loads(capsys.readouterr().out)["recordings"][0]["detectable"]
+    x = can["yaw_inertia"]["relative_change"]
+    assert can["yaw_inertia"]["of"] == "I_z" and 0.01 < x < 1 and can["power"] == 0.9
+    assert can["warning"]["name"] == "blind-to-min-change" and "yaw_inertia" in can["blind_to_min_change"]
+    assert _run([*base, "--json", "--min-change", "0.01"]) in (0, None)
+    assert json.loads(capsys.readouterr().out)["recordings"][0]["detectable"] == can
+    assert _run([*base, "--min-change", "0.01"]) in (0, None)
+    text = capsys.readouterr().out
+    assert f"detectable: yaw inertia >= {100 * x:.1f} % of I_z" in text
+    # the line says what the figure assumes: the CUSUM's --min-change and a change from the start
+    assert "--min-change 1 %, for a change from the recording's start: a later change needs more)" in text
+    assert can["min_change"] == 0.01 and can["change_from"] == "start"
+    assert "warning [blind-to-min-change]: this recording cannot show a change of --min-change 1 %" in text
+    assert _run([*base, "--min-change", "0.9"]) in (0, None)
+    text = capsys.readouterr().out
+    assert "detectable:" in text and "blind-to-min-change" not in text

@@ -19,6 +19,7 @@ from identify.detect.cusum import calibrate_dead_zone, first_alarms
 from identify.detect.glr import SignatureCusum, calibrate
 from identify.detect.inputs import SWAY_ACC, Deriver, signals
 from identify.detect.nullsim import null_records
+from identify.detect.power import detectable
 from identify.detect.priorfit import batch_fits, check_noise_model, fit
 from identify.detect.rollband import roll_band
 from identify.detect.verdict import Detection, Screening, implausible_inertia, physical_change, verdict
@@ -243,12 +244,24 @@ def detect(
     interval and, for yaw inertia, the change of the rigid body's ``i_z`` beside that of the lumped
     I_r = I_z - ``n_rdot`` (the hull's values, :func:`hull_inertia`; None: not known, the change
     is of I_r and ``min_change`` applies to it). A prior whose I_r is far off the hull's is refused
-    (:func:`identify.detect.verdict.implausible_inertia`): a UserError, before any screening."""
+    (:func:`identify.detect.verdict.implausible_inertia`): a UserError, before any screening. ``detectable``
+    says how large a change from the start this recording's alarms would catch in 90 % of cases
+    (:func:`identify.detect.power.detectable`, from the same no-change records and thresholds)."""
     odd = implausible_inertia(prior, i_z, n_rdot)
     if odd:
         raise UserError(f"prior fitted on {prior.source or 'its nominal recording'}: {odd}")
     sc = screen(rec, prior, false_alarm, min_change, seed, null_runs, n_rdot, i_z, draws=draws)
-    return verdict(sc, prior, min_change, n_rdot, i_z)
+    d = verdict(sc, prior, min_change, n_rdot, i_z)
+    d.detectable = detectable(sc, prior, change_sizes(min_change, i_z, n_rdot), false_alarm, min_change, seed, i_z, n_rdot)
+    return d
+
+
+def change_sizes(min_change: float, i_z: float | None = None, n_rdot: float | None = None) -> np.ndarray:
+    """The LR-CUSUM's change worth an alarm per candidate signature (its ``theta1``): ``min_change`` of I_z
+    is less of the lumped I_r, on the hull's basis as the verdict's (the prior's fitted I_r is in the
+    recorded moment's units); of I_r when the hull is not known."""
+    iz_per_ir = physical_change("yaw_inertia", 1.0, i_z - n_rdot, n_rdot) if i_z is not None and n_rdot is not None else 1.0
+    return np.array([min_change / iz_per_ir, min_change, min_change])
 
 
 def screen(
@@ -308,10 +321,7 @@ def screen(
         )
     null_raw = null_raw[:, kept]
     null_blocks = block_mean(null_raw, prior.block)
-    # the change worth an alarm, per candidate signature: min_change of I_z is less of the lumped I_r, on
-    # the hull's basis as the verdict's (the prior's fitted I_r is in the recorded moment's units)
-    iz_per_ir = physical_change("yaw_inertia", 1.0, i_z - n_rdot, n_rdot) if i_z is not None and n_rdot is not None else 1.0
-    theta1 = np.array([min_change / iz_per_ir, min_change, min_change])
+    theta1 = change_sizes(min_change, i_z, n_rdot)
     # the roll band's yaw residual follows how much the recording rolls against the nominal run, not the ship
     band = roll_band(rec.channels["phi"], rec.sample_time, prior.block) if leave_out_roll_band and "phi" in rec.channels else None
     sc: SignatureCusum = calibrate(prior, S, null_blocks, theta1=theta1, false_alarm=false_alarm, seed=seed, band=band)

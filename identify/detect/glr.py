@@ -108,12 +108,18 @@ def null_peaks(det: SignatureCusum, S: np.ndarray, null: np.ndarray, seed: int =
         # the structure's misfit on a new manoeuvre: an apparent change of sd structure_k along S_k,
         # drawn independently per candidate (one draw shared by all made their alarms coincide, so
         # "any candidate" alarmed on fewer records and the thresholds came out too low)
-        xi = np.random.default_rng(seed).standard_normal((len(prior.structure), null.shape[1]))
+        xi = structural_draws(prior, null.shape[1], seed)
         Sb = block_mean(S, prior.block)[: len(null)]
         for k, sd in enumerate(prior.structure):
             if sd > 0:
                 peaks[:, k] = det.statistics(null + sd * xi[k][None, :] * Sb[:, k : k + 1], S, only=k)[..., 0].max(axis=0)
     return peaks
+
+
+def structural_draws(prior: YawPrior, runs: int, seed: int = 0) -> np.ndarray:
+    """(k, runs) standard normal draws of the structural apparent change per candidate and no-change record
+    (:func:`null_peaks`; :func:`identify.detect.power.detectable_changes` reads the same), seeded ``seed``."""
+    return np.random.default_rng(seed).standard_normal((len(prior.structure), runs))
 
 
 def exceedance_level(peaks: np.ndarray, stat: np.ndarray) -> np.ndarray:

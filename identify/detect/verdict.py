@@ -70,6 +70,8 @@ class Detection:
     dead_zone: np.ndarray = field(repr=False)
     dead_zone_h: float = 0.0
     t: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    #: the smallest change this recording could show (:func:`identify.detect.power.detectable`); None: not computed
+    detectable: dict | None = None
 
     def summary(self) -> dict:
         return {
@@ -82,6 +84,7 @@ class Detection:
             "threshold": dict(zip(CANDIDATES, map(float, self.threshold))),
             "evidence": self.evidence,
             "dead_zone_cusum_alarm_s": self.dead_zone_alarm_s,
+            "detectable": self.detectable,
         }
 
 
