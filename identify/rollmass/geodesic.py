@@ -4,7 +4,7 @@ its exact-Jacobian path ends unconverged (stop 59; stop 57 wrote it as a diagnos
 Why: such ends creep along a curved valley (the sway row's scale M + X_v with Y_v, Y_r coupled to K_vdot, stop 57):
 a plain LM step along the valley's tangent leaves the curved floor, the cost rises and lambda grows, so each accepted
 step is short. The geodesic correction bends the step along the valley. Pure numpy over any problem with
-``residual(x)`` and ``jacobian(x)``; :func:`identify.rollmass.oe_fit._continued` supplies the fit's own stationarity
+``residual(x)`` and ``jacobian(x)``; :func:`identify.rollmass.oe_fit._lm_geodesic` supplies the fit's own stationarity
 rule (the load's decrement) as ``stationary``.
 """
 

@@ -41,7 +41,8 @@ LM_NFEV = 200
 # example it needed 4-26 evaluations a call; reaching the cap means it is creeping along a nuisance ridge. A capped
 # call's point goes on as the next stage's start (stop 55; until then the cap abandoned the path for the redo)
 LM_NFEV_EXACT = 60
-# evaluation cap of the continuation (:func:`_continued`, stop 56): where the exact path ends unconverged, one more
+# evaluation cap of stop 56's exact continuation (:func:`_continued` with CONTINUATION "exact"; the default is stop 59's
+# geodesic LM, below): where the exact path ends unconverged, one more
 # exact LM on its last stage from where it stopped, then the finish again. On the 7 basin-truth fits (of 105) whose exact
 # path ended unconverged at stop 55, 2 then converged in 46 and 116 evaluations (14.5 and 21.1 s a fit, against 116 and
 # 89 s redone: single runs at different loads, the later one's ordinary fits 1.15 times slower, far less than this gap) and 5 crept to this cap too and are redone (docs/mass-accuracy.md, stop 56)
