@@ -43,7 +43,7 @@ def test_it_follows_a_curved_valley_where_plain_lm_with_the_same_budget_creeps()
     prob = _Banana(100.0)
     g = geodesic_lm(prob, START, 60)
     assert g.converged and g.status == "converged (step)" and np.allclose(g.x, [1.0, 1.0], atol=1e-6)
-    assert g.jacobians <= 20 and g.residuals <= 2 * g.iterations + 1
+    assert g.jacobians <= 20 and g.residuals <= 2 * g.steps + 1
     assert np.array_equal(g.f, prob.residual(g.x)) and np.array_equal(g.J, prob.jacobian(g.x))  # the end's own
     lm = least_squares(prob.residual, START, jac=prob.jacobian, method="lm", x_scale="jac", max_nfev=g.residuals)
     assert lm.status == 0 and np.linalg.norm(lm.x - 1.0) > 0.1  # plain LM, the same budget: at its cap, creeping
@@ -54,7 +54,7 @@ def test_it_respects_its_cap_and_says_it_did_not_converge():
     evaluation bound, and reports "at cap", not converged. A loop that ignores the cap fails."""
     prob = _Banana(100.0)
     g = geodesic_lm(prob, START, 5)
-    assert (g.iterations, g.status, g.converged) == (5, "at cap", False)
+    assert (g.steps, g.status, g.converged) == (5, "at cap", False)
     assert g.residuals <= 2 * 5 + 1 and g.jacobians <= 5 + 1
     assert np.linalg.norm(g.x - 1.0) > 0.1  # honestly not there
 

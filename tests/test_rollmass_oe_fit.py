@@ -116,7 +116,7 @@ def test_an_exact_path_ending_unconverged_is_redone_on_forward_differences(case2
     the path ending not stationary (here: no finishing steps) is redone on forward differences (here a stub that
     stays where it starts); that path's answer is the one returned."""
     monkeypatch.setattr(fit, "LM_NFEV_EXACT", 2)
-    monkeypatch.setattr(fit, "GEODESIC_ITERATIONS", 2)  # the continuation (stop 56; geodesic, stop 59) stops short too
+    monkeypatch.setattr(fit, "GEODESIC_STEPS", 2)  # the continuation (stop 56; geodesic, stop 59) stops short too
     monkeypatch.setattr(fit, "FINISH_STEPS", 0)
     starts = []
 

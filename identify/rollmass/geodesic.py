@@ -38,7 +38,7 @@ class Problem(Protocol):
 
 @dataclass
 class GeodesicResult:
-    """Where :func:`geodesic_lm` stopped: the point, its residual and Jacobian, the iterations (proposed steps), the
+    """Where :func:`geodesic_lm` stopped: the point, its residual and Jacobian, the proposed steps, the
     residual and Jacobian evaluations, the steps the acceleration's ratio rule rejected, and the status
     (``"converged (step)"``, ``"converged (cost)"``, ``"converged (lambda)"``, ``"converged (stationary)"`` or
     ``"at cap"``)."""
@@ -46,7 +46,7 @@ class GeodesicResult:
     x: np.ndarray
     f: np.ndarray
     J: np.ndarray
-    iterations: int
+    steps: int
     residuals: int
     jacobians: int
     rejected_by_ratio: int
@@ -75,7 +75,7 @@ def _norm(u: np.ndarray, D: np.ndarray) -> float:
 def geodesic_lm(
     prob: Problem,
     x: np.ndarray,
-    max_iterations: int,
+    max_steps: int,
     xtol: float = 1e-10,
     stationary: Callable[[np.ndarray, np.ndarray, np.ndarray], bool] | None = None,
     every: int = 5,
@@ -92,14 +92,15 @@ def geodesic_lm(
     Converged when an accepted step is small (``|v + a/2|_D <= xtol (|x|_D + xtol)``), its relative cost fall is below
     :data:`COST_RTOL`, lambda passes :data:`LAMBDA_MAX` (no step of any length lowers the cost), or ``stationary(x, r,
     J)`` holds, checked every ``every`` accepted steps (the caller's own rule); else it stops ``"at cap"`` after
-    ``max_iterations`` proposed steps (at most ``2 max_iterations + 1`` residuals and ``max_iterations + 1`` Jacobians)."""
+    ``max_steps`` proposed steps, accepted or not. A step costs up to two residuals (the acceleration's and the tried
+    point's) and, accepted, one Jacobian: at most ``2 max_steps + 1`` residuals and ``max_steps + 1`` Jacobians."""
     f = prob.residual(x)
     cost = f @ f
     J = prob.jacobian(x)
     D = np.maximum((J * J).sum(0), 1e-300)
     lam, nres, njac, accepted, rejected, it = LAMBDA0, 1, 1, 0, 0, 0
     status = "at cap"
-    while it < max_iterations:
+    while it < max_steps:
         if lam > LAMBDA_MAX:
             status = "converged (lambda)"
             break

@@ -48,10 +48,12 @@ LM_NFEV_EXACT = 60
 # 89 s redone: single runs at different loads, the later one's ordinary fits 1.15 times slower, far less than this gap) and 5 crept to this cap too and are redone (docs/mass-accuracy.md, stop 56)
 LM_NFEV_CONTINUE = 200
 # the continuation's walk (stop 59): "geodesic", the geodesic-acceleration LM (identify.rollmass.geodesic) capped at
-# GEODESIC_ITERATIONS proposed steps, or "exact", stop 56's exact LM above (kept for the benches' comparison). Why: those
-# ends creep along a curved valley (stop 57), where a plain LM's accepted steps stay short
+# GEODESIC_STEPS proposed steps (a step costs up to 2 residuals and, accepted, 1 Jacobian: at most 1,201 residuals and
+# 601 Jacobians; the diagnostic's --geodesic N and stop 57's figures count steps too), or "exact", stop 56's exact LM
+# above (kept for the benches' comparison). Why: those ends creep along a curved valley (stop 57), where a plain LM's
+# accepted steps stay short
 CONTINUATION = "geodesic"
-GEODESIC_ITERATIONS = 600
+GEODESIC_STEPS = 600
 # estimate each recording's yaw-rate gyro bias for the turn input (identify.rollmass.gyro_bias) from the
 # second stage on, rather than take the recording's mean yaw rate (the first stage's)
 GYRO_BIAS = True
@@ -309,7 +311,7 @@ def _lm_continue(prob: _Problem, x0: np.ndarray, tol: float) -> OptimizeResult:
 
 def _lm_geodesic(prob: _Problem, x0: np.ndarray, tol: float, cap: int | None = None) -> OptimizeResult:
     """:func:`geodesic.geodesic_lm` as the continuation's LM (stop 59), capped at ``cap`` proposed steps (None:
-    :data:`GEODESIC_ITERATIONS`, read at the call) and stopped early by the finish's own rule (the load's decrement below
+    :data:`GEODESIC_STEPS`, read at the call) and stopped early by the finish's own rule (the load's decrement below
     :data:`STATIONARY`, checked every 5 accepted steps: along this valley the sway scale walks on while the load has
     stopped); status 0 at its cap, 2 otherwise, ``nfev`` / ``njev`` its residual / Jacobian evaluations."""
     lengths = [d.n for d in prob.datasets]
@@ -318,8 +320,8 @@ def _lm_geodesic(prob: _Problem, x0: np.ndarray, tol: float, cap: int | None = N
     def stationary(x: np.ndarray, f: np.ndarray, J: np.ndarray) -> bool:
         return bool(load_decrement(load_basis(J), f, lengths, lags) < STATIONARY)
 
-    g = geodesic_lm(prob, x0, GEODESIC_ITERATIONS if cap is None else cap, xtol=tol, stationary=stationary)
-    msg = f"geodesic LM {g.status} after {g.iterations} steps"
+    g = geodesic_lm(prob, x0, GEODESIC_STEPS if cap is None else cap, xtol=tol, stationary=stationary)
+    msg = f"geodesic LM {g.status} after {g.steps} steps"
     return OptimizeResult(
         x=g.x,
         cost=g.f @ g.f / 2,
@@ -329,7 +331,7 @@ def _lm_geodesic(prob: _Problem, x0: np.ndarray, tol: float, cap: int | None = N
         status=2 if g.converged else 0,
         success=g.converged,
         message=msg,
-        nit=g.iterations,
+        nit=g.steps,
     )
 
 
