@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from identify.rollmass.geodesic import acceleration, geodesic_lm
+from identify.rollmass.geodesic import ALPHA, LAMBDA0, H, acceleration, geodesic_lm
 
 
 class _Banana:
@@ -68,6 +68,23 @@ def test_the_ratio_rule_rejects_steps_whose_acceleration_is_too_large():
     assert g.rejected_by_ratio == 8 and g.residuals == 1 + 8 and g.jacobians == 1
     assert np.array_equal(g.x, START) and g.status == "at cap"
     assert geodesic_lm(prob, START, 8).rejected_by_ratio < 8  # the default alpha lets steps through
+
+
+def test_the_ratio_rule_is_the_papers_two_a_over_v_at_most_alpha():
+    """Transtrum & Sethna 2012's rule: the step is tried when ``2 |a| / |v| <= alpha`` (here in the ``D`` metric), and
+    the default :data:`ALPHA` 1.5 is stop 57's ``|a| <= 0.75 |v|``. The first step from the start, its ratio computed by
+    hand: an alpha just above twice it lets the step through, just below rejects it. A rule without the factor 2 (stop
+    57's form with the paper's alpha, mutant tried) lets both through."""
+    prob = _Banana(100.0)
+    f, J = prob.residual(START), prob.jacobian(START)
+    D = (J * J).sum(0)
+    A = J.T @ J + LAMBDA0 * np.diag(D)
+    v = -np.linalg.solve(A, J.T @ f)
+    a = acceleration(prob, START, f, J, v, A, H)
+    ratio = np.sqrt((a * D) @ a) / np.sqrt((v * D) @ v)
+    assert 0.01 < 2 * ratio < ALPHA  # the default takes this step
+    assert geodesic_lm(prob, START, 1, alpha=2 * ratio * (1 + 1e-9)).rejected_by_ratio == 0
+    assert geodesic_lm(prob, START, 1, alpha=2 * ratio * (1 - 1e-9)).rejected_by_ratio == 1
 
 
 def test_the_callers_stationarity_rule_stops_it_after_every_nth_accepted_step():
