@@ -61,6 +61,20 @@ def _calls(tally: dict) -> str:
     return " ".join(f"{n}{'*' if s == 0 else ''}" for n, s in tally["lm"])
 
 
+def _paths(before: dict, after: dict) -> str:
+    """The paired fits per recorded path (exact, continued, geodesic, redo; ``-``: a row without one), before ->
+    after, with their CPU, e.g. ``redo 5 (550 s) -> 0; geodesic 0 -> 5 (120 s)``."""
+    keys = [k for k in after if k in before]
+    out = []
+    for name in ("exact", "continued", "geodesic", "redo", "-"):
+        sides = [
+            [r for r in (rows[k] for k in keys) if (r[7].get("path") or {}).get("path", "-") == name] for rows in (before, after)
+        ]
+        if any(sides):
+            out.append(f"{name} " + " -> ".join(f"{len(s)}" + (f" ({sum(r[6] for r in s):.0f} s)" if s else "") for s in sides))
+    return "; ".join(out)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("before")
@@ -77,6 +91,7 @@ def main() -> None:
         fit = f"{key[0]}/{key[3]}/{key[1]}"
         print(f"{fit:24} {b[6]:6.1f} {r[6]:6.1f} | {_answer(b)} | {_answer(r)} | {_path(r)}{_same(b, r)}")
     print(f"total of the paired fits: {tot[0]:.0f} s cpu before, {tot[1]:.0f} s after")
+    print(f"paths, before -> after: {_paths(before, after)}")
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ converged, decrement) and, from the given dump, the answer the full fit reported
 ``LM_NFEV_EXACT`` (a looser budget's experiment); ``--stop-at-cap`` is the fit before stop 55, whose exact path was
 abandoned at the first LM at its cap ("redo (capped)"). ``--valley`` (stop 57) prints, at an unconverged exact end,
 why it creeps (:func:`_valley`), and ``--profile`` the cost with the sway mass held (:func:`_profile`), ``--geodesic N`` the geodesic LM's continuation
-(:func:`geodesic_lm`).
+capped at N steps (:func:`identify.rollmass.geodesic.geodesic_lm`, the fit's own continuation since stop 59).
 
     PYTHONPATH=$PWD nice -n 10 python benchmarks/diag_rollmass_redo.py benchmarks/rollmass_family_s54.jsonl --runs 30 --slow 20
     PYTHONPATH=$PWD nice -n 10 python benchmarks/diag_rollmass_redo.py DUMP --runs 30 --slow 20 --stop-at-cap --cap 400
@@ -25,7 +25,6 @@ import os
 import sys
 import tempfile
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -34,12 +33,10 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
-from scipy.optimize import OptimizeResult  # noqa: E402
 
 from identify.rollmass import oe_fit  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
 from identify.rollmass.fit_path import PathTally  # noqa: E402
-from identify.rollmass.sandwich import load_basis, load_decrement  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
 
 
@@ -159,103 +156,18 @@ def _profile(end: oe_fit._Ended, m_true: float, z_true: float, factors: tuple[fl
     return "\n    ".join(rows)
 
 
-def _acceleration(
-    prob: object, x: np.ndarray, f: np.ndarray, J: np.ndarray, v: np.ndarray, lam: float, D: np.ndarray, h: float
-) -> np.ndarray:
-    """The geodesic acceleration of step ``v``: ``a = -(J^T J + lambda D)^-1 J^T r_vv`` with the directional second
-    derivative ``r_vv = (2/h) ((f(x + h v) - f) / h - J v)`` by one more residual (exact for a quadratic residual)."""
-    fh = prob.residual(x + h * v)
-    return -np.linalg.solve(J.T @ J + lam * np.diag(D), J.T @ ((2.0 / h) * ((fh - f) / h - J @ v)))
-
-
-def geodesic_lm(
-    prob: object,
-    x: np.ndarray,
-    iterations: int,
-    alpha: float = 0.75,
-    h: float = 0.1,
-    xtol: float = 1e-10,
-    lam_max: float = 1e16,
-    stationary: Callable[[np.ndarray, np.ndarray, np.ndarray], bool] | None = None,
-    every: int = 5,
-) -> tuple:
-    """Levenberg-Marquardt with geodesic acceleration (Transtrum & Sethna 2012, "Improvements to the
-    Levenberg-Marquardt algorithm for nonlinear least-squares minimization", arXiv:1201.5885, the section on geodesic
-    acceleration; stop 57's candidate for the curved valley): each step ``v = -(J^T J + lambda D)^-1 J^T f`` gets the
-    second-order correction ``a`` (:func:`_acceleration`, one more residual), and ``x + v + a/2`` is tried when
-    ``|a| <= alpha |v|`` in the ``D`` metric (Marquardt's running diagonal of ``J^T J``); lambda / 5 on an accepted
-    step, x 3 otherwise. Stops converged when an accepted step is small (``|v + a/2|_D <= xtol (|x|_D + xtol)``) or
-    its relative cost fall is below 1e-14, or when lambda passes ``lam_max`` (no step of any length lowers the cost:
-    a minimum), or when ``stationary(x, f, J)`` holds, checked every ``every`` accepted steps (the fit's own rule,
-    the load's decrement, in :func:`_geodesic_end`: along this valley the sway scale walks on while the load has
-    stopped); else at ``iterations``. Returns ``x``, iterations, residuals and Jacobians evaluated, and the status
-    ``"converged (step)"``, ``"converged (cost)"``, ``"converged (lambda)"``, ``"converged (load)"`` or ``"at cap"``."""
-    f = prob.residual(x)
-    cost = f @ f
-    J = prob.jacobian(x)
-    D = np.maximum((J * J).sum(0), 1e-300)
-    lam, nres, njac, accepted = 1e-3, 1, 1, 0
-    it, status = 0, "at cap"
-    while it < iterations:
-        if lam > lam_max:
-            status = "converged (lambda)"
-            break
-        it += 1
-        D = np.maximum(D, (J * J).sum(0))
-        try:
-            v = -np.linalg.solve(J.T @ J + lam * np.diag(D), J.T @ f)
-            nres += 1
-            a = _acceleration(prob, x, f, J, v, lam, D, h)
-        except np.linalg.LinAlgError:
-            lam *= 10
-            continue
-        if np.sqrt((a * D) @ a) > alpha * np.sqrt((v * D) @ v):
-            lam *= 3
-            continue
-        step = v + 0.5 * a
-        fn = prob.residual(x + step)
-        nres += 1
-        if fn @ fn < cost:
-            rel = (cost - fn @ fn) / cost
-            x, f, cost = x + step, fn, fn @ fn
-            J = prob.jacobian(x)
-            njac += 1
-            lam = max(lam / 5, 1e-12)
-            if np.sqrt((step * D) @ step) <= xtol * (np.sqrt((x * D) @ x) + xtol):
-                status = "converged (step)"
-                break
-            if rel < 1e-14:
-                status = "converged (cost)"
-                break
-            accepted += 1
-            if stationary is not None and accepted % every == 0 and stationary(x, f, J):
-                status = "converged (load)"
-                break
-        else:
-            lam *= 3
-    return x, it, nres, njac, status
-
-
 def _geodesic_end(end: oe_fit._Ended, m_true: float, z_true: float, iterations: int) -> str:
-    """:func:`geodesic_lm` from the exact end on its last stage's problem (same weights and whiteners), then the fit's
-    finish (``oe_fit._conclude``). The geodesic LM stops once the load's decrement (the finish's stationarity rule,
-    checked every 5 accepted steps) is below ``STATIONARY``. Prints its status (converged or at its cap), the load, its decrement,
-    standard errors, evaluations and CPU."""
+    """The fit's geodesic continuation (``oe_fit._lm_geodesic``, :func:`identify.rollmass.geodesic.geodesic_lm`, stop 59)
+    from the exact end on its last stage's problem (same weights and whiteners) capped at ``iterations``, then the fit's
+    finish (``oe_fit._conclude``). Prints its status (converged or at its cap), the load, its decrement, standard
+    errors, evaluations and CPU."""
     c0 = time.process_time()
-    lengths = [d.n for d in end.prob.datasets]
-    lags = max(1, round(oe_fit.SANDWICH_LAG_S / end.prob.datasets[0].T))
-
-    def stationary(x: np.ndarray, f: np.ndarray, J: np.ndarray) -> bool:
-        return bool(load_decrement(load_basis(J), f, lengths, lags) < oe_fit.STATIONARY)
-
-    x, it, nres, njac, status = geodesic_lm(end.prob, end.x, iterations, stationary=stationary)
-    f = end.prob.residual(x)
-    res = OptimizeResult(x=x, cost=f @ f / 2, success=True, status=2, message="geodesic LM", jac=end.prob.jacobian(x))
-    sd = np.array([e.std(axis=0) for e in end.prob.errors(x)])
+    res = oe_fit._lm_geodesic(end.prob, end.x, 1e-10, cap=iterations)
+    sd = np.array([e.std(axis=0) for e in end.prob.errors(res.x)])
     fit = oe_fit._conclude(end.prob, res, sd, end.fit.noise, True, end.fit.z_f).fit
     se = np.sqrt(np.diag(fit.cov_load))
     return (
-        f"geodesic LM {it} it {status} ({nres} res, {njac} jac): fit conv {fit.converged} dec {fit.decrement:.3g} "
+        f"{res.message} ({res.nfev} res, {res.njev} jac): fit conv {fit.converged} dec {fit.decrement:.3g} "
         f"m {100 * (fit.m / m_true - 1):+.3f} % z {1000 * (fit.zbar_m - z_true):+.2f} mm (SE {se[0]:.4g} kg, "
         f"{1000 * se[1]:.3g} mm) X_v {fit.values['X_v']:.4g}, {time.process_time() - c0:.1f} s cpu"
     )

@@ -93,6 +93,26 @@ def _line(label: str, case: str, c: dict, md: bool) -> str:
     return f"{cells[0]:10} {cells[1]:6} {cells[2]:>4} {cells[3]:>7} {cells[4]:>7} {cells[5]:>7}  {cells[6]:>12} {cells[7]:>12} {cells[8]:>12} {cells[9]:>12} {cells[10]:>4} {cells[11]:>4} {cells[12]:>6} {cells[13]:>4}"
 
 
+# the recorded continuations of an unconverged exact end (identify.rollmass.fit_path): stop 56's exact LM, stop 59's
+# geodesic LM (the default since)
+CONTINUED = {"continued": "continued (exact LM)", "geodesic": "continued by the geodesic LM"}
+
+
+def _path_split(rows: list, cpu: np.ndarray) -> list[str]:
+    """The fits per recorded path and their CPU (a dump since stop 55 records it: the split is exact, not the
+    :data:`SLOW_S` proxy's); none for an older dump. The redo is always said, each continuation when taken."""
+    paths = [r[7].get("path", {}).get("path") if isinstance(r[7], dict) else None for r in rows]
+    if not all(paths):
+        return []
+    redo = np.array([p == "redo" for p in paths])
+    out = [f"fits that took the redo (recorded): {int(redo.sum())} of {len(cpu)}, {cpu[redo].sum():.0f} s cpu"]
+    for name, what in CONTINUED.items():
+        sel = np.array([p == name for p in paths])
+        if sel.any():
+            out.append(f"fits whose exact path was {what} (recorded): {int(sel.sum())}, {cpu[sel].sum():.0f} s cpu")
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dump")
@@ -140,12 +160,8 @@ def main() -> None:
         f"fits over {SLOW_S:.0f} s cpu (the forward-difference redo, oe_fit.fit_output_error): {int((cpu > SLOW_S).sum())} "
         f"of {len(cpu)}, {cpu[cpu > SLOW_S].sum():.0f} of {cpu.sum():.0f} s cpu; median fit {np.median(cpu):.1f} s"
     )
-    paths = [r[7].get("path", {}).get("path") if isinstance(r[7], dict) else None for r in rows]
-    if all(paths):  # a dump since stop 55 records the path: the split is exact
-        redo, cont = np.array([p == "redo" for p in paths]), np.array([p == "continued" for p in paths])
-        print(f"fits that took the redo (recorded): {int(redo.sum())} of {len(cpu)}, {cpu[redo].sum():.0f} s cpu")
-        if cont.any():  # stop 56: the exact path's end continued to a stationary point, no redo
-            print(f"fits whose exact path was continued (recorded): {int(cont.sum())}, {cpu[cont].sum():.0f} s cpu")
+    for line in _path_split(rows, cpu):
+        print(line)
     slow = sorted(rows, key=lambda r: -r[6])[:5]
     print("slowest fits: " + "; ".join(f"{r[0]} {r[1]} run {r[3]} {r[6]:.0f} s" for r in slow))
 

@@ -49,3 +49,19 @@ def test_cell_counts_and_failures(tmp_path, capsys):
     ft.main()
     out = capsys.readouterr().out
     assert "failed: base case1 run 3: not converged" in out and "4 oe fits" in out
+
+
+def test_the_recorded_paths_are_split_the_geodesic_continuation_included():
+    """Stop 59: the fits whose exact end the geodesic LM continued are counted with their CPU beside the redo's and
+    stop 56's exact continuation's; a split that knows only the old paths drops them (mutant tried); an older dump
+    without paths gives no split."""
+    rows = [_row("base", "case1", r, cpu=c) for r, c in enumerate([3.0, 20.0, 25.0, 100.0, 12.0])]
+    for r, p in zip(rows, ["exact", "geodesic", "geodesic", "redo", "continued"]):
+        r[7] = {"path": {"path": p}}
+    cpu = np.array([r[6] for r in rows])
+    assert ft._path_split(rows, cpu) == [
+        "fits that took the redo (recorded): 1 of 5, 100 s cpu",
+        "fits whose exact path was continued (exact LM) (recorded): 1, 12 s cpu",
+        "fits whose exact path was continued by the geodesic LM (recorded): 2, 45 s cpu",
+    ]
+    assert ft._path_split([_row("base", "case1", 0)], np.array([3.0])) == []

@@ -31,3 +31,21 @@ def test_a_field_one_row_records_and_the_other_not_is_a_difference_said():
     moved = copy.deepcopy(ROW)
     moved[4][0] = 1.6
     assert _same(ROW, moved) == ""
+
+
+def test_the_paths_are_counted_before_and_after_the_geodesic_continuation_included():
+    """Stop 59: a fit the redo took before and the geodesic continuation after is counted as such, with its CPU; a
+    counter that knows only stop 56's paths (exact, continued, redo) drops the geodesic fits (mutant tried)."""
+    from benchmarks.compare_rollmass_dumps import _paths
+
+    def row(run: int, path: str, cpu: float) -> list:
+        r = copy.deepcopy(ROW)
+        r[3], r[6], r[7]["path"] = run, cpu, {"path": path}
+        return r
+
+    before = {
+        ("base", "case1", "oe", i): row(i, p, c) for i, (p, c) in enumerate([("exact", 4.0), ("redo", 110.0), ("redo", 90.0)])
+    }
+    after = {k: row(k[3], p, c) for k, (p, c) in zip(before, [("exact", 4.0), ("geodesic", 20.0), ("redo", 95.0)])}
+    after[("base", "case1", "oe", 9)] = row(9, "exact", 3.0)  # unpaired: not counted
+    assert _paths(before, after) == "exact 1 (4 s) -> 1 (4 s); geodesic 0 -> 1 (20 s); redo 2 (200 s) -> 1 (95 s)"

@@ -1,9 +1,8 @@
 """benchmarks/diag_rollmass_redo.py's ``--valley`` analysis (stop 57): on a constructed flat valley, one of whose
 columns is scaled by 1e3, it names the flat parameter as the weakest direction of the column-scaled Jacobian, the
 condition number is the valley's, and the cost along the Gauss-Newton step is the model's where the residual is linear;
-``--profile``'s held parameter is held and its column dropped, and its factors are of ``M + X_v``; the geodesic LM's
-acceleration is the analytic one on Rosenbrock's quadratic residual, and it reaches Rosenbrock's minimum in few
-Jacobians and says it converged."""
+``--profile``'s held parameter is held and its column dropped, and its factors are of ``M + X_v``; the documented
+``--geodesic`` command runs (the geodesic LM's own tests: tests/test_rollmass_geodesic.py, stop 59)."""
 
 from __future__ import annotations
 
@@ -16,7 +15,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from benchmarks.diag_rollmass_redo import _acceleration, _Fixed, _profile, _valley, geodesic_lm
+from benchmarks.diag_rollmass_redo import _Fixed, _profile, _valley
 
 FLAT = 1e-4  # the valley's flatness: the X_v column is the m column but for this
 
@@ -60,38 +59,6 @@ def test_a_profile_point_holds_its_parameter_and_drops_its_column():
     assert np.array_equal(fixed.full(y), [0.1, 7.0, 0.2, 0.3])
     assert np.array_equal(fixed.residual(y), prob.residual(np.array([0.1, 7.0, 0.2, 0.3])))
     assert np.array_equal(fixed.jacobian(y), np.delete(prob.A, 1, axis=1))
-
-
-class _Banana:
-    """Rosenbrock's curved valley as residuals ``(10 (y - x^2), 1 - x)``: minimum 0 at (1, 1)."""
-
-    free = ("x", "y")
-
-    def residual(self, p: np.ndarray) -> np.ndarray:
-        return np.array([10.0 * (p[1] - p[0] ** 2), 1.0 - p[0]])
-
-    def jacobian(self, p: np.ndarray) -> np.ndarray:
-        return np.array([[-20.0 * p[0], 10.0], [-1.0, 0.0]])
-
-
-def test_the_geodesic_acceleration_is_the_analytic_one_on_a_quadratic_residual():
-    prob, x, v, lam, h = _Banana(), np.array([-1.2, 1.0]), np.array([0.3, -0.2]), 0.7, 0.1
-    f, J = prob.residual(x), prob.jacobian(x)
-    D = (J * J).sum(0)
-    r_vv = np.array([-20.0 * v[0] ** 2, 0.0])  # Rosenbrock's residuals' second derivative along v
-    a = _acceleration(prob, x, f, J, v, lam, D, h)
-    assert np.allclose(a, -np.linalg.solve(J.T @ J + lam * np.diag(D), J.T @ r_vv), rtol=1e-9, atol=1e-12)
-
-
-def test_the_geodesic_lm_follows_a_curved_valley_to_its_minimum_and_stops_there():
-    x, it, nres, njac, status = geodesic_lm(_Banana(), np.array([-1.2, 1.0]), 200)
-    assert np.allclose(x, [1.0, 1.0], atol=1e-6)
-    assert njac <= 10  # a dropped, flipped or mis-scaled acceleration needs 14-60 Jacobians
-    assert status.startswith("converged") and it < 50 and nres <= 2 * it + 1  # a stopping rule, not the cap
-    _, it, _, _, status = geodesic_lm(_Banana(), np.array([-1.2, 1.0]), 3)
-    assert (it, status) == (3, "at cap")
-    _, _, _, njac, status = geodesic_lm(_Banana(), np.array([-1.2, 1.0]), 200, stationary=lambda x, f, J: True, every=2)
-    assert (njac, status) == (3, "converged (load)")  # the caller's rule (the load's decrement), after 2 accepted steps
 
 
 def test_a_profile_holds_the_sway_mass_at_factors_of_the_ends():

@@ -71,7 +71,7 @@ def test_a_fit_stopped_short_of_a_stationary_point_is_said(case2, monkeypatch):
 
     monkeypatch.setattr(fit, "_lm", stuck_as("fd"))
     monkeypatch.setattr(fit, "_lm_exact", stuck_as("exact"))
-    monkeypatch.setattr(fit, "_lm_continue", stuck_as("continue"))
+    monkeypatch.setattr(fit, "_lm_geodesic", stuck_as("continue"))  # the continuation's LM since stop 59
     monkeypatch.setattr(fit, "FINISH_STEPS", 0)
     e = estimate(case2, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
     assert not e.converged
@@ -116,7 +116,7 @@ def test_an_exact_path_ending_unconverged_is_redone_on_forward_differences(case2
     the path ending not stationary (here: no finishing steps) is redone on forward differences (here a stub that
     stays where it starts); that path's answer is the one returned."""
     monkeypatch.setattr(fit, "LM_NFEV_EXACT", 2)
-    monkeypatch.setattr(fit, "LM_NFEV_CONTINUE", 2)  # the continuation (stop 56) stops short too
+    monkeypatch.setattr(fit, "GEODESIC_STEPS", 2)  # the continuation (stop 56; geodesic, stop 59) stops short too
     monkeypatch.setattr(fit, "FINISH_STEPS", 0)
     starts = []
 
@@ -133,7 +133,8 @@ def test_an_exact_path_ending_unconverged_is_redone_on_forward_differences(case2
     p = e.fit_path
     assert p.path == "redo" and p.why.startswith("not converged: ") and "not at a stationary point" in p.why
     assert [s for _, s in p.exact.lm] == [0] * 5 and p.exact.residuals >= 10
-    assert p.continued.lm == [(2, 0)] and "continued, still not converged" in p.why
+    assert len(p.continued.lm) == 1 and p.continued.lm[0][1] == 0 and "continued (geodesic), still not converged" in p.why
+    assert p.continued.lm[0][0] <= 2 * 2 + 1  # at most two residuals a geodesic step and the start's
     assert len(p.redo.lm) == 5 and p.redo.residuals == 6  # the stub once a call, the finish once at its start
 
 
@@ -151,9 +152,11 @@ def test_a_capped_exact_lm_goes_on_to_a_converged_exact_fit(monkeypatch):
     assert abs(e.m - free.m) < 0.01 * e.m_sd and abs(e.zbar_m - free.zbar_m) < 0.01 * e.zbar_m_sd
 
 
-def test_an_exact_path_ending_unconverged_goes_on_from_where_it_stopped(monkeypatch):
+@pytest.mark.parametrize("continuation", ["exact", "geodesic"])
+def test_an_exact_path_ending_unconverged_goes_on_from_where_it_stopped(monkeypatch, continuation):
     """Stop 56: where the exact path ends unconverged, its last stage goes on from where it stopped (one exact LM of
-    at most ``LM_NFEV_CONTINUE`` evaluations, then the finish) before any forward-difference redo. Bundled example
+    at most ``LM_NFEV_CONTINUE`` evaluations, or since stop 59 the geodesic LM, then the finish) before any
+    forward-difference redo; the path is named by the continuation (``"continued"`` / ``"geodesic"``). Bundled example
     (``mass-sim --case case1 --seed 3``) with every exact LM capped at 2 evaluations and no finishing steps: the exact
     path ends not stationary, the continuation converges (measured: 5 evaluations), no forward-difference LM runs.
     Its load is 0.13 / 0.15 SE from the uncapped fit's: the same data, but the reweighting stages ran from capped LMs'
@@ -163,10 +166,12 @@ def test_an_exact_path_ending_unconverged_goes_on_from_where_it_stopped(monkeypa
     free = estimate(ds, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
     monkeypatch.setattr(fit, "LM_NFEV_EXACT", 2)
     monkeypatch.setattr(fit, "FINISH_STEPS", 0)
+    monkeypatch.setattr(fit, "CONTINUATION", continuation)
     fd = _spy(monkeypatch, "_lm")
     e = estimate(ds, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
     p = e.fit_path
-    assert p.path == "continued" and p.redo is None and not fd and e.converged
+    assert p.path == {"exact": "continued", "geodesic": "geodesic"}[continuation]
+    assert p.redo is None and not fd and e.converged
     assert [s for _, s in p.exact.lm] == [0] * 5 and "not at a stationary point" in p.why
     assert len(p.continued.lm) == 1 and p.continued.lm[0][1] > 0  # one LM, ended by its tolerance, not its cap
     assert p.continued.residuals > p.continued.lm[0][0]  # its LM's evaluations and the finish's
@@ -191,6 +196,7 @@ def test_an_exact_end_the_finish_never_judged_is_redone_not_continued(case2, mon
 
     monkeypatch.setattr(fit, "_lm_exact", as_("exact", False))
     monkeypatch.setattr(fit, "_lm_continue", as_("continue", True))
+    monkeypatch.setattr(fit, "_lm_geodesic", as_("continue", True))
     monkeypatch.setattr(fit, "_lm", as_("fd", True))
     e = estimate(case2, PROF.known, CAL, "oe", with_ci=True, start=oe.start_values(PROF))
     p = e.fit_path

@@ -86,7 +86,7 @@ class MassEstimate:
     notes: list[str] = field(default_factory=list)
     m_dof: float = float("inf")  # degrees of freedom of m_sd^2 (oe: sandwich.LoadMoments.dof); inf: a normal interval
     zbar_m_dof: float = float("inf")
-    fit_path: FitPath | None = None  # oe: its fit's path (exact, continued or forward-difference redo), evaluations
+    fit_path: FitPath | None = None  # oe: its fit's path (exact, geodesic, continued or forward-difference redo), evaluations
 
     def critical(self) -> tuple[float, float]:
         """The 95 % interval's critical values of ``m`` and ``zbar_m``: Student's ``t_{0.975, nu}`` with the

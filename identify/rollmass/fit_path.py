@@ -1,5 +1,5 @@
 """Which path an output-error fit took and what it cost (stop 55): the exact-Jacobian path of
-:func:`identify.rollmass.oe_fit.fit_output_error`, or its forward-difference redo, with each path's
+:func:`identify.rollmass.oe_fit.fit_output_error`, its continuation (stops 56, 59), or its forward-difference redo, with each path's
 Levenberg-Marquardt calls and residual / Jacobian evaluations counted, so a family's split between
 the two paths is exact rather than read off a CPU threshold."""
 
@@ -28,15 +28,17 @@ class PathTally:
 
 @dataclass
 class FitPath:
-    """The path a fit took: ``"exact"``, ``"continued"`` (the exact path's end continued, stop 56) or ``"redo"``
-    (forward differences), why the exact path's end was not kept (``""`` when it was), and each path's tally
-    (``continued`` and ``redo`` are None when not taken)."""
+    """The path a fit took: ``"exact"``, ``"geodesic"`` (the exact path's end continued by the geodesic LM, stop 59),
+    ``"continued"`` (continued by an exact LM, stop 56; ``oe_fit.CONTINUATION = "exact"``) or ``"redo"`` (forward
+    differences), why the exact path's end was not kept (``""`` when it was), and each path's tally (``continued`` and
+    ``redo`` are None when not taken)."""
 
     path: str = "exact"
     why: str = ""
     exact: PathTally = field(default_factory=PathTally)
     redo: PathTally | None = None
-    # the exact path's continuation from where it ended unconverged (stop 56; None when it was not tried). ``path`` is
+    # the exact path's continuation from where it ended unconverged (stop 56; None when it was not tried), either LM's
+    # (its one call: scipy's nfev, or the geodesic LM's residuals, status 0 at its cap). ``path`` is ``"geodesic"`` or
     # ``"continued"`` when the continuation converged, ``"redo"`` when it did not either
     continued: PathTally | None = None
 

@@ -12,6 +12,7 @@ from scipy.optimize import OptimizeResult, least_squares
 from threadpoolctl import threadpool_limits
 
 from identify.rollmass.fit_path import Counted, FitPath, PathTally
+from identify.rollmass.geodesic import geodesic_lm
 from identify.rollmass.gyro_bias import speed_terms
 from identify.rollmass.model import Known, Load
 from identify.rollmass.output_error import (
@@ -40,11 +41,19 @@ LM_NFEV = 200
 # example it needed 4-26 evaluations a call; reaching the cap means it is creeping along a nuisance ridge. A capped
 # call's point goes on as the next stage's start (stop 55; until then the cap abandoned the path for the redo)
 LM_NFEV_EXACT = 60
-# evaluation cap of the continuation (:func:`_continued`, stop 56): where the exact path ends unconverged, one more
+# evaluation cap of stop 56's exact continuation (:func:`_continued` with CONTINUATION "exact"; the default is stop 59's
+# geodesic LM, below): where the exact path ends unconverged, one more
 # exact LM on its last stage from where it stopped, then the finish again. On the 7 basin-truth fits (of 105) whose exact
 # path ended unconverged at stop 55, 2 then converged in 46 and 116 evaluations (14.5 and 21.1 s a fit, against 116 and
 # 89 s redone: single runs at different loads, the later one's ordinary fits 1.15 times slower, far less than this gap) and 5 crept to this cap too and are redone (docs/mass-accuracy.md, stop 56)
 LM_NFEV_CONTINUE = 200
+# the continuation's walk (stop 59): "geodesic", the geodesic-acceleration LM (identify.rollmass.geodesic) capped at
+# GEODESIC_STEPS proposed steps (a step costs up to 2 residuals and, accepted, 1 Jacobian: at most 1,201 residuals and
+# 601 Jacobians; the diagnostic's --geodesic N and stop 57's figures count steps too), or "exact", stop 56's exact LM
+# above (kept for the benches' comparison). Why: those ends creep along a curved valley (stop 57), where a plain LM's
+# accepted steps stay short
+CONTINUATION = "geodesic"
+GEODESIC_STEPS = 600
 # estimate each recording's yaw-rate gyro bias for the turn input (identify.rollmass.gyro_bias) from the
 # second stage on, rather than take the recording's mean yaw rate (the first stage's)
 GYRO_BIAS = True
@@ -246,8 +255,8 @@ def fit_output_error(
 
     LM runs on the sensitivity Jacobian (:func:`_lm_exact`). Where that path ends unconverged (not
     stationary after the finish), its last stage is first continued from where it stopped (:func:`_continued`,
-    stop 56: 2 of the 7 basin-truth fits that were still redone at stop 55 then converge, at 15-21 s CPU against
-    89-116 s); where that is not stationary either, the whole fit is redone on forward differences (:func:`_lm`), the path
+    stop 56; since stop 59 by the geodesic-acceleration LM, :mod:`identify.rollmass.geodesic`, which follows the
+    curved valley those ends creep along, docs/mass-accuracy.md "Stop 59"); where that is not stationary either, the whole fit is redone on forward differences (:func:`_lm`), the path
     the fit took before the exact Jacobian, so the answer there is that path's; ``path`` of the result
     records which path it took and each path's evaluations (:class:`fit_path.FitPath`). An exact LM at its
     cap :data:`LM_NFEV_EXACT` no longer abandons the path (stop 55): its point is the best start's candidate
@@ -279,7 +288,7 @@ def fit_output_error(
         path.continued = PathTally()
         fit = _continued(end, z_f, path.continued)
         if fit.converged:
-            path.path = "continued"
+            path.path = "geodesic" if CONTINUATION == "geodesic" else "continued"
     if fit.converged and not capped:
         fit.path = path
         return fit
@@ -288,7 +297,7 @@ def fit_output_error(
     elif path.continued is None:
         path.why = f"not converged: {fit.message}"
     else:
-        path.why += f"; continued, still not converged: {fit.message}"
+        path.why += f"; continued ({CONTINUATION}), still not converged: {fit.message}"
     path.path, path.redo = "redo", PathTally()
     fit = _fit(*args, lm=_lm, tally=path.redo).fit
     fit.path = path
@@ -300,14 +309,41 @@ def _lm_continue(prob: _Problem, x0: np.ndarray, tol: float) -> OptimizeResult:
     return _lm_exact(prob, x0, tol, cap=LM_NFEV_CONTINUE)
 
 
+def _lm_geodesic(prob: _Problem, x0: np.ndarray, tol: float, cap: int | None = None) -> OptimizeResult:
+    """:func:`geodesic.geodesic_lm` as the continuation's LM (stop 59), capped at ``cap`` proposed steps (None:
+    :data:`GEODESIC_STEPS`, read at the call) and stopped early by the finish's own rule (the load's decrement below
+    :data:`STATIONARY`, checked every 5 accepted steps: along this valley the sway scale walks on while the load has
+    stopped); status 0 at its cap, 2 otherwise, ``nfev`` / ``njev`` its residual / Jacobian evaluations."""
+    lengths = [d.n for d in prob.datasets]
+    lags = max(1, round(SANDWICH_LAG_S / prob.datasets[0].T))
+
+    def stationary(x: np.ndarray, f: np.ndarray, J: np.ndarray) -> bool:
+        return bool(load_decrement(load_basis(J), f, lengths, lags) < STATIONARY)
+
+    g = geodesic_lm(prob, x0, GEODESIC_STEPS if cap is None else cap, xtol=tol, stationary=stationary)
+    msg = f"geodesic LM {g.status} after {g.steps} steps"
+    return OptimizeResult(
+        x=g.x,
+        cost=g.f @ g.f / 2,
+        jac=g.J,
+        nfev=g.residuals,
+        njev=g.jacobians,
+        status=2 if g.converged else 0,
+        success=g.converged,
+        message=msg,
+        nit=g.steps,
+    )
+
+
 def _continued(end: _Ended, z_f: float, tally: PathTally) -> OEFit:
-    """The exact path's last stage continued from where it ended unconverged (stop 56): one exact LM of at most
-    :data:`LM_NFEV_CONTINUE` evaluations on that stage's problem (same weights and whiteners, so the same cost), counted
-    in ``tally``, then the finish (:func:`_finish`) judges again. Why not the redo at once: on the basin truth its five
-    forward-difference LMs ran to their caps (61-141 s CPU a fit); on waves/6/case1 the redo reached the point this walk
-    reaches (+23.88 against +23.84 % mass), and on imu_mount/6/case3 it did not converge where this walk does."""
+    """The exact path's last stage continued from where it ended unconverged (stop 56): on that stage's problem (same
+    weights and whiteners, so the same cost), counted in ``tally``, the geodesic LM (:func:`_lm_geodesic`, stop 59) or,
+    with :data:`CONTINUATION` ``"exact"``, one exact LM of at most :data:`LM_NFEV_CONTINUE` evaluations; then the
+    finish (:func:`_finish`) judges again. Why not the redo at once: on the basin truth its five forward-difference
+    LMs ran to their caps (61-141 s CPU a fit); on waves/6/case1 the redo reached the point the exact walk reaches
+    (+23.88 against +23.84 % mass), and on imu_mount/6/case3 it did not converge where that walk does."""
     prob = end.prob.recounted(tally)
-    res = _tallied(_lm_continue, tally)(prob, end.x, 1e-10)
+    res = _tallied(_lm_geodesic if CONTINUATION == "geodesic" else _lm_continue, tally)(prob, end.x, 1e-10)
     sd = np.array([e.std(axis=0) for e in prob.errors(res.x)])
     return _conclude(prob, res, sd, end.fit.noise, True, z_f).fit
 
