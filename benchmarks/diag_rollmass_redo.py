@@ -156,13 +156,13 @@ def _profile(end: oe_fit._Ended, m_true: float, z_true: float, factors: tuple[fl
     return "\n    ".join(rows)
 
 
-def _geodesic_end(end: oe_fit._Ended, m_true: float, z_true: float, iterations: int) -> str:
+def _geodesic_end(end: oe_fit._Ended, m_true: float, z_true: float, steps: int) -> str:
     """The fit's geodesic continuation (``oe_fit._lm_geodesic``, :func:`identify.rollmass.geodesic.geodesic_lm`, stop 59)
-    from the exact end on its last stage's problem (same weights and whiteners) capped at ``iterations``, then the fit's
+    from the exact end on its last stage's problem (same weights and whiteners) capped at ``steps`` steps, then the fit's
     finish (``oe_fit._conclude``). Prints its status (converged or at its cap), the load, its decrement, standard
     errors, evaluations and CPU."""
     c0 = time.process_time()
-    res = oe_fit._lm_geodesic(end.prob, end.x, 1e-10, cap=iterations)
+    res = oe_fit._lm_geodesic(end.prob, end.x, 1e-10, cap=steps)
     sd = np.array([e.std(axis=0) for e in end.prob.errors(res.x)])
     fit = oe_fit._conclude(end.prob, res, sd, end.fit.noise, True, end.fit.z_f).fit
     se = np.sqrt(np.diag(fit.cov_load))
@@ -223,7 +223,7 @@ def _args() -> argparse.Namespace:
     ap.add_argument("--stop-at-cap", action="store_true", help="leave the exact path at an LM's cap (before stop 55)")
     ap.add_argument("--valley", action="store_true", help="at an unconverged exact end, print why it creeps (stop 57)")
     ap.add_argument(
-        "--geodesic", type=int, help="with --valley: run the geodesic LM this many iterations from the exact end (stop 57)"
+        "--geodesic", type=int, help="with --valley: run the geodesic LM this many steps from the exact end (stop 57)"
     )
     ap.add_argument(
         "--profile",
@@ -234,7 +234,7 @@ def _args() -> argparse.Namespace:
     if (a.geodesic or a.profile) and not a.valley:
         ap.error("--geodesic and --profile need --valley")
     if a.geodesic is not None and a.geodesic < 1:
-        ap.error("--geodesic: give a number of iterations >= 1")
+        ap.error("--geodesic: give a number of steps >= 1")
     return a
 
 
