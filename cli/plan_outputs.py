@@ -64,6 +64,7 @@ def write_outputs_all(
     and GeoJSON bytes by file name kept for this plan at another start time (:func:`cli.plan_cache.saved_sets`):
     written instead of drawn or exported (the PNGs by the drawer, the GeoJSON files here)."""
     from maps.export import default_path
+    from maps.export.geojson import segment_features
     from maps.output import write_outputs
 
     exports = result.feasible and not no_export
@@ -97,9 +98,13 @@ def write_outputs_all(
         }
     )  # pickled now: the figures are drawn with the chart given, not the one plan.json stores
     try:
-        files = write_outputs(result, sea, tmp, plot=False, chart=chart, trajectory_bytes=geo.get("trajectory.geojson"))
+        # the track's features, the start of both GeoJSON files: built once, passed to both (not kept on the plan)
+        segments = None if "trajectory.geojson" in geo else segment_features(result)
+        files = write_outputs(
+            result, sea, tmp, plot=False, chart=chart, trajectory_bytes=geo.get("trajectory.geojson"), segments=segments
+        )
         with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
-            crew = {fmt: _crew_file(result, fmt, tmp, chart, t0, geo) for fmt in ("geojson", "gpx", "rtz", "csv")}
+            crew = {fmt: _crew_file(result, fmt, tmp, chart, t0, geo, segments) for fmt in ("geojson", "gpx", "rtz", "csv")}
     except BaseException:
         drawer.wait(quiet=True)  # no child outlives the command; the first error is the one to report
         raise
@@ -121,13 +126,15 @@ def write_outputs_all(
     }
 
 
-def _crew_file(result: Plan, fmt: str, tmp: Path, chart: Any, t0: datetime, kept: dict[str, bytes]) -> Path:
+def _crew_file(
+    result: Plan, fmt: str, tmp: Path, chart: Any, t0: datetime, kept: dict[str, bytes], segments: list[dict[str, Any]] | None
+) -> Path:
     """The crew export ``fmt`` of ``result`` written into ``tmp``: its bytes from ``kept`` (by file name) when
-    given, else exported."""
+    given, else exported (``segments``: the GeoJSON's track features, when built already)."""
     from maps.export import _write, default_path
     from primitives.io import atomic_write_bytes
 
     path = default_path(result, fmt, tmp)
     if path.name in kept:
         return atomic_write_bytes(path, kept[path.name])
-    return _write(result, fmt, path, sea_map=chart, start=t0, vessel=None, pdf=False, figures=None)[0]
+    return _write(result, fmt, path, sea_map=chart, start=t0, vessel=None, pdf=False, figures=None, segments=segments)[0]
