@@ -242,7 +242,7 @@ def start_early() -> None:
     With ``--no-cache`` too: until stop 59 that command's drawer was forked
     once this process had imported the planner (:func:`cli.plan_cmd.plan_and_write`, still the order for a caller
     that started no drawer), so that the two shared those imports; but its drawing modules were then still importing
-    when the plan was ready (plan.png began 0.5-0.8 s after the plan was sent), while forked here they import beside
+    when the plan was ready (plan.png began 0.54-1.11 s after the plan was sent, 2 runs), while forked here they import beside
     this process's typer, pydantic and planner imports (docs/kernel-speed.md, Stop 59)."""
     if CAN_FORK and not _STARTED:
         # what both processes import in every such command (the plan's and the map's modules: shapely, pyproj),
