@@ -74,7 +74,7 @@ def _run(argv: list[str] | None = None) -> int:
         from cli.plan_cache import expect_kept_files
 
         if not expect_kept_files(args):  # unless the last such run's files are kept: nothing to draw then
-            start_early()
+            start_early(args)
     try:
         with _pure_json_stdout(args):
             return _run_app(argv)

@@ -14,9 +14,8 @@ command refused) is ended at once (SIGTERM, on which it unwinds: see :class:`Can
 
 ``plan-trial`` forks its drawer before it parses its options (:func:`start_early`, deferred: the
 drawing modules imported first, the early function given later by :meth:`Drawer.begin`), so that
-a run whose plan is read from the plan cache does not wait for those imports; with ``--no-cache`` too (stop 59: forked
-once the parent had imported the planner, to share those imports, its matplotlib and fpdf imports ended after the plan
-was ready; forked first, they overlap the parent's typer, pydantic and planner imports).
+a run whose plan is read from the plan cache does not wait for those imports. With ``--no-cache`` the plan is made
+for sure and the drawer is forked later, once the parent has imported the planner: the two share those imports.
 
 On platforms without ``fork`` the figures are drawn in the calling process (:func:`draw_here`). The forked
 processes' plumbing (their guarded life, cancellation, reaping, errors named by file) is :mod:`cli.forkjobs`.
@@ -233,18 +232,20 @@ def _design_ratios(design: Any, out: Path) -> Path:
 _STARTED: list[Drawer] = []  # the drawer started with the command (start_early), until taken
 
 
-def start_early() -> None:
+def start_early(args: Sequence[str] = ()) -> None:
     """Fork a drawer now, before the command's options are parsed (``plan-trial``): it imports the
     drawing modules (0.6-0.9 s of CPU, measured under load) while this process parses, reads the plan cache or plans.
     The command takes it (:func:`take_early`) and gives it its early function (:meth:`Drawer.begin`);
     :func:`drop_early` ends one left untaken (the command refused, or writes no figures).
 
-    With ``--no-cache`` too: until stop 59 that command's drawer was forked
-    once this process had imported the planner (:func:`cli.plan_cmd.plan_and_write`, still the order for a caller
-    that started no drawer), so that the two shared those imports; but its drawing modules were then still importing
-    when the plan was ready (plan.png began 0.54-1.11 s after the plan was sent, 2 runs), while forked here they import beside
-    this process's typer, pydantic and planner imports (docs/kernel-speed.md, Stop 59)."""
-    if CAN_FORK and not _STARTED:
+    Not with ``--no-cache`` among ``args`` (the command line's words): that command plans here for sure, and its
+    drawer is forked later (:func:`cli.plan_cmd.plan_and_write`), once this process has imported the planner,
+    so that the two share those imports (numpy, shapely, pyproj, the project's modules: about 0.3 s of the
+    drawer's CPU) rather than each paying for them. Since the planner imports no scipy (stop 47), the drawer's early
+    design imports scipy.optimize itself (0.78-0.88 s of its CPU from the fork to the design, 0.44-0.50 s before,
+    load 11), and the parent asks for the design 0.13-0.21 s of CPU after the fork: on idle cores that is what the
+    parent waits for."""
+    if CAN_FORK and not _STARTED and "--no-cache" not in args:
         # what both processes import in every such command (the plan's and the map's modules: shapely, pyproj),
         # imported once before the fork (about 0.09 s of CPU the drawer would repeat)
         import maps.export._common  # noqa: F401

@@ -324,16 +324,16 @@ seen = []
 real = cli.drawer.start_early
 
 
-def spy():
+def spy(args=()):
     seen.append([m for m in ("typer", "click", "cli.commands", "cli.plan_cmd") if m in sys.modules])
-    real()
+    real(args)
     seen.append(len(cli.drawer._STARTED))
 
 
 cli.drawer.start_early = spy
 from cli.app import _run
 
-rc = _run(["plan", "--headings", "5", "--out", sys.argv[1], "--start-time", "2026-06-01T08:00Z", *sys.argv[2:]])
+rc = _run(["plan", "--headings", "5", "--out", sys.argv[1], "--start-time", "2026-06-01T08:00Z"])
 try:
     os.waitpid(-1, os.WNOHANG)
     left = True
@@ -343,18 +343,16 @@ print(rc, seen, left, cli.drawer._STARTED)
 """
 
 
-@pytest.mark.parametrize("more", [[], ["--no-cache"]])
-def test_plan_trial_forks_its_drawer_before_the_typer_app_is_imported(tmp_path, more):
+def test_plan_trial_forks_its_drawer_before_the_typer_app_is_imported(tmp_path):
     """The drawer is forked before typer and the command modules are imported (cli.commands, after the fork), so
-    its imports overlap theirs, with --no-cache too (until stop 59 forked after the planner's imports); a refused
-    option then still gives its one-line error, writes nothing and leaves no process (the drawer ended and
-    reaped)."""
+    its imports overlap theirs; a refused option then still gives its one-line error, writes nothing and leaves
+    no process (the drawer ended and reaped)."""
     import subprocess
     import sys
 
     out = tmp_path / "bad"
     env = {**os.environ, "SHIPTRIAL_CACHE_DIR": str(tmp_path / "cache")}
-    run = subprocess.run([sys.executable, "-c", _FORK_FIRST, str(out), *more], capture_output=True, text=True, env=env)
+    run = subprocess.run([sys.executable, "-c", _FORK_FIRST, str(out)], capture_output=True, text=True, env=env)
     assert run.stdout.strip() == "2 [[], 1] False []", run.stdout + run.stderr
     assert run.stderr.startswith("error: --headings") and len(run.stderr.strip().splitlines()) == 1
     assert not out.exists()
@@ -379,7 +377,7 @@ def begin(self, early=None, ahead=None, cards_only=False):  # what the drawer wo
 
 cli.drawer.Drawer.begin = begin
 try:
-    _run(["plan", "--no-cache", "--out", sys.argv[1], "--start-time", "2026-06-01T08:00Z"])
+    _run(["plan", "--out", sys.argv[1], "--start-time", "2026-06-01T08:00Z"])  # a plan-cache miss: early work sent
 except Begun:
     pass
 """
@@ -388,7 +386,7 @@ except Begun:
 def test_drawer_unpickles_its_early_work_without_typer(tmp_path):
     """The early design and the ratios drawn ahead reach the drawer pickled, by module and name: read in a fresh
     interpreter they import neither typer nor the command modules (the drawer, forked before the parent imports
-    them, would import them itself: 0.02-0.03 s of its CPU, measured)."""
+    them on a plan-cache miss, would import them itself: 0.02-0.03 s of its CPU, measured)."""
     import subprocess
     import sys
     from pathlib import Path
@@ -403,6 +401,19 @@ def test_drawer_unpickles_its_early_work_without_typer(tmp_path):
     read = "import pickle, sys; e, a = pickle.load(open(sys.argv[1], 'rb')); print(e is not None and a is not None, sorted(m for m in ('typer', 'click', 'pydantic', 'cli.commands', 'cli.plan_cmd') if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", read, str(spec)], capture_output=True, text=True, cwd=root, env=env)
     assert out.stdout.strip() == "True []", out.stdout + out.stderr
+
+
+def test_no_cache_forks_no_drawer_before_parsing():
+    """plan-trial --no-cache plans for sure: its drawer is forked later, once the planner is imported (the two
+    processes then share those imports); any other plan-trial forks it before parsing."""
+    before = children()
+    drawer.start_early(["plan", "--no-cache", "--out", "x"])
+    assert drawer.take_early() is None
+    drawer.start_early(["plan", "--out", "x"])
+    early = drawer.take_early()
+    assert early is not None and early.pid
+    early.cancel()
+    assert children() <= before
 
 
 _SPY = """
