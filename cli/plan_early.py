@@ -4,7 +4,7 @@ of the ship's library and its design ratios figure.
 A module of its own, importing neither typer nor the command modules: the drawer receives these functions pickled,
 by module and name, and unpickling one of :mod:`cli.plan_cmd` made it import typer, pydantic and the command's
 modules (0.021-0.032 s of its CPU once the drawing modules are in, which share most of typer's imports; wasted
-once the drawer is forked before the parent imports them: stop 59).
+when the drawer was forked before the parent imports them, as on a plan-cache miss without ``--no-cache``: stop 59).
 """
 
 from __future__ import annotations
