@@ -115,13 +115,7 @@ def plot_plan(plan: Plan, sea: SeaMap, path: str | Path) -> Path:
 
 
 def write_outputs(
-    plan: Plan,
-    sea: SeaMap,
-    out_dir: str | Path,
-    plot: bool = True,
-    chart: Any = None,
-    trajectory_bytes: bytes | None = None,
-    segments: list[dict[str, Any]] | None = None,
+    plan: Plan, sea: SeaMap, out_dir: str | Path, plot: bool = True, chart: Any = None, trajectory_bytes: bytes | None = None
 ) -> dict[str, Path]:
     """plan.json, trajectory.geojson and (``plot``) plan.png (the track in its planning window,
     :func:`plot_plan`) in ``out_dir`` (atomic writes).
@@ -135,8 +129,7 @@ def write_outputs(
     ``chart``: the chart of ``sea`` (:func:`maps.export.chart.plan_chart`) when the caller has
     it already (it costs a second reading of the map file otherwise). ``trajectory_bytes``: trajectory.geojson's
     bytes when known already (kept for this plan at another start time: the file has no start time in it),
-    written as they are. ``segments``: the track's GeoJSON features (:func:`maps.export.geojson.segment_features`)
-    when built already for the crew's overlay too.
+    written as they are.
     """
     from maps.export.chart import embed_chart
     from maps.export.geojson import write_geojson
@@ -151,7 +144,7 @@ def write_outputs(
         files["trajectory_geojson"] = (
             atomic_write_bytes(path, trajectory_bytes)
             if trajectory_bytes is not None
-            else write_geojson(plan, path, overlay=False, segments=segments)
+            else write_geojson(plan, path, overlay=False)
         )
     if plot:
         files["plot"] = plot_plan(plan, sea, out / "plan.png")

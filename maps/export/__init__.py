@@ -63,23 +63,13 @@ def export_plan(
 
 
 def _write(
-    plan: Plan,
-    fmt: str,
-    path: Path,
-    *,
-    sea_map: Any,
-    start: datetime | str | None,
-    pdf: bool,
-    vessel: str | None,
-    figures: Any,
-    segments: list[dict[str, Any]] | None = None,
+    plan: Plan, fmt: str, path: Path, *, sea_map: Any, start: datetime | str | None, pdf: bool, vessel: str | None, figures: Any
 ) -> list[Path]:
-    """:func:`export_plan` of a known format, written straight to ``path`` (and beside it). ``segments``: the
-    GeoJSON's track features when built already (:func:`maps.export.geojson.segment_features`)."""
+    """:func:`export_plan` of a known format, written straight to ``path`` (and beside it)."""
     if fmt == "geojson":
         from maps.export.geojson import write_geojson
 
-        return [write_geojson(plan, path, sea_map=sea_map, segments=segments)]
+        return [write_geojson(plan, path, sea_map=sea_map)]
     if fmt == "gpx":
         from maps.export.gpx import write_gpx
 

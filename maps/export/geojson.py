@@ -22,7 +22,7 @@ import numpy as np
 from maps.export._common import KN_PER_MPS, check_plan, step_abort, step_slice, vessel_name
 from maps.export.wording import step_orders
 from maps.plan import Plan
-from primitives.io import atomic_write_text
+from primitives.io import atomic_write_bytes
 
 DECIMALS = 7
 
@@ -263,9 +263,14 @@ def plan_geojson(
     return {"type": "FeatureCollection", "properties": summary, "features": feats}
 
 
+def geojson_bytes(collection: dict[str, Any]) -> bytes:
+    """A :func:`plan_geojson` collection as the bytes :func:`write_geojson` writes (compact UTF-8 JSON)."""
+    return json.dumps(collection, ensure_ascii=False, separators=(",", ":")).encode("utf-8")
+
+
 def write_geojson(plan: Plan, path: str | Path, **kw: Any) -> Path:
     """Write :func:`plan_geojson` to ``path`` atomically."""
-    return atomic_write_text(path, json.dumps(plan_geojson(plan, **kw), ensure_ascii=False, separators=(",", ":")))
+    return atomic_write_bytes(path, geojson_bytes(plan_geojson(plan, **kw)))
 
 
 # -- RFC 7946 check --------------------------------------------------------------------------
