@@ -45,7 +45,7 @@ INTERVAL_S = 0.005
 # stack's stage is the first rule that matches any of its frames (an import in progress is "import: PACKAGE",
 # PACKAGE the outermost module being imported, whatever imports it).
 STAGES: tuple[tuple[str, str, str], ...] = (
-    ("design: early design (drawer)", "cli/plan_cmd.py", "_first_design"),
+    ("design: early design (drawer)", "cli/plan_early.py", "early_design"),
     ("draw: design ratios", "expdesign/report.py", ""),
     ("draw: design ratios", "maps/librarycache.py", "kept_ratios_png"),
     ("draw: PDF card", "maps/export/cardpdf.py", ""),

@@ -23,7 +23,7 @@ if TYPE_CHECKING:  # annotations only: the command imports the library when it r
     from maps.geo import SeaMap
     from maps.plan import Plan
     from maps.planoptions import PlanOptions
-    from maps.trialdesign import FirstDesign, TrialDesign
+    from maps.trialdesign import TrialDesign
 
 
 def parse_point(text: str | None, what: str) -> tuple[float, float, float | None] | None:
@@ -370,6 +370,7 @@ def plan_and_write(
     forked before parsing its options (:func:`cli.drawer.start_early`) or one started here: it
     imports the drawing modules and, on a cache miss, designs on the other core while this process
     reads the cache or plans; a NoFitError is the command's exit 1."""
+    from cli import plan_early
     from cli.drawer import take_early
     from cli.plan_cache import cache_slot, read_cached
     from maps.trialdesign import NoFitError
@@ -382,8 +383,8 @@ def plan_and_write(
     planned = read_cached(slot, start_time, no_export)
     early = None
     if planned is None and counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
-        early = partial(_first_design, ship, **design)
-    ahead = partial(_ratios_ahead, ship) if early is not None else None
+        early = partial(plan_early.early_design, ship, **design)
+    ahead = partial(plan_early.ratios_ahead, ship) if early is not None else None
     cached, drawer = planned is not None, None
     try:  # the drawer is ended in `finally` whatever is raised from here on (a Ctrl-C in begin() included)
         drawer = take_early()  # started with the command (plan-trial): the drawing modules imported already, or importing
@@ -503,24 +504,3 @@ def _skip_final_collection() -> None:
 
     atexit.unregister(gc.freeze)
     atexit.register(gc.freeze)
-
-
-def _first_design(ship: str, **design: Any) -> FirstDesign:
-    """The design of ``ship``'s library before the map is consulted (run in the drawer process), read from
-    the move cache when it was made before (:func:`maps.librarycache.kept_first_design`)."""
-    from maps.librarycache import kept_first_design
-    from primitives.ship import load_profile
-
-    return kept_first_design(load_profile(ship), **design)
-
-
-def _ratios_ahead(ship: str, first: FirstDesign) -> dict[str, Any]:
-    """The design ratios figure of the early design, drawn in the drawer while this process plans
-    (used when the plan's design is that one: nothing was dropped for the map), or read from the move
-    cache where it was kept with that design (:func:`maps.librarycache.kept_ratios_png`). The profile is the
-    one the design was made from, which its primitives hold (loaded again only for an empty library)."""
-    from maps.librarycache import kept_ratios_png
-    from primitives.ship import load_profile
-
-    profile = first.library[0].profile if first.library else load_profile(ship)
-    return {"ratios": (first.design.design, kept_ratios_png(profile, first.design.design))}

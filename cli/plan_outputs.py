@@ -97,9 +97,7 @@ def write_outputs_all(
         }
     )  # pickled now: the figures are drawn with the chart given, not the one plan.json stores
     try:
-        files = write_outputs(result, sea, tmp, plot=False, chart=chart, trajectory_bytes=geo.get("trajectory.geojson"))
-        with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
-            crew = {fmt: _crew_file(result, fmt, tmp, chart, t0, geo) for fmt in ("geojson", "gpx", "rtz", "csv")}
+        files, crew = _text_exports(result, sea, tmp, chart, t0, geo, quiet)
     except BaseException:
         drawer.wait(quiet=True)  # no child outlives the command; the first error is the one to report
         raise
@@ -121,13 +119,39 @@ def write_outputs_all(
     }
 
 
-def _crew_file(result: Plan, fmt: str, tmp: Path, chart: Any, t0: datetime, kept: dict[str, bytes]) -> Path:
+def _text_exports(
+    result: Plan, sea: SeaMap, tmp: Path, chart: Any, t0: datetime, geo: dict[str, bytes], quiet: bool
+) -> tuple[dict[str, Path], dict[str, Path]]:
+    """plan.json and trajectory.geojson (:func:`maps.output.write_outputs`), then the crew exports, into ``tmp``;
+    ``geo``: GeoJSON bytes kept by file name. The track's features, the start of both GeoJSON files, are built once
+    (not kept on the plan): trajectory.geojson's bytes are made here (the file reads no chart) and written as kept
+    ones are, and the crew's overlay is given the features."""
+    from maps.export.geojson import geojson_bytes, plan_geojson, segment_features
+    from maps.output import write_outputs
+
+    segments, traj = None, geo.get("trajectory.geojson")
+    if traj is None:
+        segments = segment_features(result)
+        traj = geojson_bytes(plan_geojson(result, overlay=False, segments=segments))
+    files = write_outputs(result, sea, tmp, plot=False, chart=chart, trajectory_bytes=traj)
+    with stage("writing the crew exports (GeoJSON, GPX, RTZ, CSV, trial card) ...", quiet):
+        crew = {fmt: _crew_file(result, fmt, tmp, chart, t0, geo, segments) for fmt in ("geojson", "gpx", "rtz", "csv")}
+    return files, crew
+
+
+def _crew_file(
+    result: Plan, fmt: str, tmp: Path, chart: Any, t0: datetime, kept: dict[str, bytes], segments: list[dict[str, Any]] | None
+) -> Path:
     """The crew export ``fmt`` of ``result`` written into ``tmp``: its bytes from ``kept`` (by file name) when
-    given, else exported."""
+    given, else exported (``segments``: the GeoJSON's track features, when built already)."""
     from maps.export import _write, default_path
     from primitives.io import atomic_write_bytes
 
     path = default_path(result, fmt, tmp)
     if path.name in kept:
         return atomic_write_bytes(path, kept[path.name])
+    if fmt == "geojson" and segments is not None:  # as _write exports it, with the track's features built already
+        from maps.export.geojson import write_geojson
+
+        return write_geojson(result, path, sea_map=chart, segments=segments)
     return _write(result, fmt, path, sea_map=chart, start=t0, vessel=None, pdf=False, figures=None)[0]

@@ -227,6 +227,56 @@ def test_csv_schedule_rows_columns_and_units(azi_plan, tmp_path):
     assert rows[-1]["utc"] == "2026-06-01T08:13:10Z"
 
 
+def test_sample_times_follow_a_plan_changed_in_place(azi_plan):
+    """The CSV's and GPX's sample times, formatted once for both (``sample_times_iso``), are each sample's own
+    after the plan's times are changed in place (the same plan and array objects): a memo keyed on the object
+    would hand back the times before the change."""
+    from datetime import UTC, datetime, timedelta
+
+    from maps.export._common import iso, sample_times_iso
+    from maps.export.csv import plan_csv
+
+    plan = copy.deepcopy(azi_plan)
+    t0 = datetime(2026, 6, 1, 8, tzinfo=UTC)
+
+    def each(p: Plan) -> list[str]:
+        return [iso(t0 + timedelta(seconds=float(p.t[k] - p.t[0]))) for k in range(len(p.t))]
+
+    assert list(sample_times_iso(plan, t0)) == each(plan)
+    plan.t[1:] += 0.25  # in place: 0.25 s later from the second sample on
+    later = sample_times_iso(plan, t0)
+    assert list(later) == each(plan) and later[1].endswith(".250Z")
+    assert [r["utc"] for r in csv.DictReader(io.StringIO(plan_csv(plan, start=t0)))] == list(later)
+    gpx = plan_gpx(plan, start=t0).decode()
+    assert re.findall(r"<trkpt[^>]*>\s*<time>([^<]+)</time>", gpx) == list(later)
+
+
+def test_text_exports_build_the_track_features_once(azi_plan, tmp_path, monkeypatch):
+    """plan-trial's text exports build the GeoJSON track features once for trajectory.geojson and the crew's
+    overlay (passed to both, not kept on the plan), and each file is what its export writes alone."""
+    from datetime import UTC, datetime
+
+    import maps.export.geojson as gj
+    from cli.plan_outputs import write_outputs_all
+
+    class Beside:  # the drawer's place: takes the job and draws nothing (the figures are not under test)
+        def send(self, job):
+            pass
+
+        def wait(self, quiet=False):
+            pass
+
+        def cancel(self):
+            pass
+
+    plan, calls, real = copy.deepcopy(azi_plan), [], gj.segment_features
+    monkeypatch.setattr(gj, "segment_features", lambda p: calls.append(1) or real(p))
+    files = write_outputs_all(plan, None, tmp_path, None, datetime(2026, 6, 1, 8, tzinfo=UTC), False, True, drawer=Beside())
+    assert len(calls) == 1
+    assert json.loads(files["trajectory_geojson"].read_text()) == plan_geojson(plan, overlay=False)
+    assert json.loads(files["geojson"].read_text()) == plan_geojson(plan)
+
+
 # -- shared pieces and errors ----------------------------------------------------------------
 
 

@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import csv
 import io
-from datetime import datetime, timedelta
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from maps.export._common import KN_PER_MPS, check_plan, clock, iso, resolve_start
+from maps.export._common import KN_PER_MPS, check_plan, clock, resolve_start, sample_times_iso
 from maps.export.wording import step_orders
 from maps.plan import Plan
 from primitives.io import atomic_write_text
@@ -69,6 +69,7 @@ def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1)
     hdg = (np.degrees(plan.track[:, 2]) % 360.0).tolist()
     spd, kn = plan.speed.tolist(), (plan.speed * KN_PER_MPS).tolist()
     inputs = plan.inputs.tolist() if n_in else []
+    utc = sample_times_iso(plan, t0)  # the GPX track's times too: formatted once
     for k in range(k_total):
         if k % max(every, 1) and k not in starts and k != k_total - 1:
             continue
@@ -79,7 +80,7 @@ def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1)
         row: list[Any] = [
             f"{ts:.3f}",
             clock(ts),
-            iso(t0 + timedelta(seconds=ts)),
+            utc[k],
             f"{lat[k]:.7f}",
             f"{lon[k]:.7f}",
             f"{x[k]:.2f}",

@@ -22,7 +22,7 @@ import numpy as np
 from maps.export._common import KN_PER_MPS, check_plan, step_abort, step_slice, vessel_name
 from maps.export.wording import step_orders
 from maps.plan import Plan
-from primitives.io import atomic_write_text
+from primitives.io import atomic_write_bytes
 
 DECIMALS = 7
 
@@ -112,7 +112,9 @@ def _to_lonlat(tr: Any, geom: Any) -> Any:
     return orient(ll, sign=1.0) if ll.geom_type == "Polygon" else ll
 
 
-def _segment_features(plan: Plan) -> list[dict[str, Any]]:
+def segment_features(plan: Plan) -> list[dict[str, Any]]:
+    """The track's LineString features, one per segment (run-in, informative, transit): the start of both the
+    trajectory and the crew's overlay (:func:`plan_geojson`'s ``segments``: built once for the two files)."""
     feats = []
     for seg in track_segments(plan):
         a, b = seg["a"], seg["b"]
@@ -211,7 +213,14 @@ def _corridor_features(plan: Plan, sea_map: Any) -> list[dict[str, Any]]:
     return feats
 
 
-def plan_geojson(plan: Plan, *, sea_room: bool = True, overlay: bool = True, sea_map: Any = None) -> dict[str, Any]:
+def plan_geojson(
+    plan: Plan,
+    *,
+    sea_room: bool = True,
+    overlay: bool = True,
+    sea_map: Any = None,
+    segments: list[dict[str, Any]] | None = None,
+) -> dict[str, Any]:
     """The plan as an RFC 7946 FeatureCollection (a dict ready for ``json.dumps``).
 
     Always: the track as one LineString per segment (``properties.kind = "track"``,
@@ -219,7 +228,8 @@ def plan_geojson(plan: Plan, *, sea_room: bool = True, overlay: bool = True, sea
     With ``overlay`` (the crew's chart overlay): one Point per manoeuvre start (``kind``
     ``execute_point`` where an informative manoeuvre is executed, else ``manoeuvre_start``) with
     its orders and abort criteria, the route's cross-track corridors (``kind = "corridor"``, cut
-    to land-free water with ``sea_map`` or the plan's chart) and the swept sea room.
+    to land-free water with ``sea_map`` or the plan's chart) and the swept sea room. ``segments``:
+    :func:`segment_features` of this plan when built already (read, not changed).
     """
     check_plan(plan)
     summary = {
@@ -235,7 +245,7 @@ def plan_geojson(plan: Plan, *, sea_room: bool = True, overlay: bool = True, sea
         "margin_m": plan.margin_m,
         "max_wind_mps": plan.max_wind_mps,
     }
-    feats = _segment_features(plan) + _sailed_features(plan)
+    feats = [*(segment_features(plan) if segments is None else segments), *_sailed_features(plan)]
     if not overlay:
         return {"type": "FeatureCollection", "properties": summary, "features": feats}
     feats += _start_features(plan)
@@ -253,9 +263,14 @@ def plan_geojson(plan: Plan, *, sea_room: bool = True, overlay: bool = True, sea
     return {"type": "FeatureCollection", "properties": summary, "features": feats}
 
 
+def geojson_bytes(collection: dict[str, Any]) -> bytes:
+    """A :func:`plan_geojson` collection as the bytes :func:`write_geojson` writes (compact UTF-8 JSON)."""
+    return json.dumps(collection, ensure_ascii=False, separators=(",", ":")).encode("utf-8")
+
+
 def write_geojson(plan: Plan, path: str | Path, **kw: Any) -> Path:
     """Write :func:`plan_geojson` to ``path`` atomically."""
-    return atomic_write_text(path, json.dumps(plan_geojson(plan, **kw), ensure_ascii=False, separators=(",", ":")))
+    return atomic_write_bytes(path, geojson_bytes(plan_geojson(plan, **kw)))
 
 
 # -- RFC 7946 check --------------------------------------------------------------------------

@@ -23,6 +23,7 @@ from maps.export._common import (
     clock,
     iso,
     resolve_start,
+    sample_times_iso,
     vessel_name,
     xml_document,
 )
@@ -130,9 +131,9 @@ def plan_gpx(
         trk = _sub(root, "trk")
         _sub(trk, "name", f"{title} (planned track)")
         seg = _sub(trk, "trkseg")
-        for k in range(len(plan.t)):
+        for k, when in enumerate(sample_times_iso(plan, t0)):  # the CSV schedule's times: formatted once
             p = _sub(seg, "trkpt", lat=f"{lat[k]:.7f}", lon=f"{lon[k]:.7f}")
-            _sub(p, "time", iso(t0 + timedelta(seconds=float(plan.t[k] - plan.t[0]))))
+            _sub(p, "time", when)
     ET.indent(root, space=" ")
     return xml_document(root)
 
