@@ -210,7 +210,8 @@ def detectable_lines(can: dict | None) -> list[str]:
 
 
 def verdict_lines(d, min_change: float) -> list[str]:
-    """The text report of one recording: verdict, change point, estimates (I_z beside I_r), dead-zone CUSUM."""
+    """The text report of one recording: verdict, change point, estimates (I_z beside I_r), dead-zone CUSUM, the
+    smallest change it could show (:func:`detectable_lines`)."""
     ev = d.evidence
     lo, hi = ev["onset_interval_s"]
     if d.changed:

@@ -226,16 +226,13 @@ def _resume(
     # by name: typer's vendored click has its own ParameterSource
     given = {k for k in ctx.params if getattr(ctx.get_parameter_source(k), "name", "DEFAULT") != "DEFAULT"}
     size_t = tuple(int(v) for v in lattice["size"].lower().split("x"))  # checked by validate_plan_options
-    fields = {"resolution", "headings", "heuristic", "margin", "split"}
-    overrides = {k: v for k, v in lattice.items() if k in fields} | {"size": size_t}
-    overrides |= {"run_in_s": lattice["run_in"], "max_memory_gib": lattice["max_memory"]}
-    names = {"run_in_s": "run_in", "max_memory_gib": "max_memory"}  # PlanOptions field -> parameter
+    fields = {"run_in": "run_in_s", "max_memory": "max_memory_gib"}  # parameter -> PlanOptions field
     run_resume(
         *resumed,
         map_path=map_path,
         ship=ship if "ship" in given else None,
         json_out=json_out,
-        overrides={k: v for k, v in overrides.items() if names.get(k, k) in given},
+        overrides={fields.get(k, k): v for k, v in (lattice | {"size": size_t}).items() if k in given},
         **outputs,
     )
 
