@@ -15,7 +15,7 @@ the paper's Table 3 (one real dataset per case).
     python benchmarks/bench_rollmass_truth.py --runs 100 --dump fam.jsonl --resume  # continue a stopped family
     python benchmarks/bench_rollmass_truth.py --runs 30 --only base/1/case1          # one fit of the 30-run family
 
-Each dumped row's last element also holds the fit's path (``path``: exact, continued or forward-difference redo, why, each
+Each dumped row's last element also holds the fit's path (``path``: exact, geodesic, continued or forward-difference redo, why, each
 LM call's evaluations; identify.rollmass.fit_path) and the family's settings (``family``), which ``--resume`` checks.
 """
 

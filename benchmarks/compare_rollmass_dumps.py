@@ -50,7 +50,7 @@ def _path(r: list) -> str:
     if p is None:
         return "-"
     out = f"{p['path']:9} exact LMs [{_calls(p['exact'])}] res {p['exact']['residuals']} jac {p['exact']['jacobians']}"
-    c = p.get("continued")  # the exact path's continuation (stop 56), when it was tried
+    c = p.get("continued")  # the exact path's continuation (stop 56's exact LM, stop 59's geodesic LM), when it was tried
     if c is not None:
         out += f"; continued [{_calls(c)}] res {c['residuals']} jac {c['jacobians']}"
     return out

@@ -155,12 +155,10 @@ def detectable(
     out: dict = {"power": POWER, "false_alarm": false_alarm, "min_change": min_change, "change_from": "start"}
     out["largest_searched"] = LARGEST
     for c, x in zip(CANDIDATES, rel):
-        size = None if not np.isfinite(x) else float(x)
-        of = OF[c]
-        if c == "yaw_inertia" and known and size is not None:
-            size, of = physical_change(c, size, i_z - n_rdot, n_rdot), "I_z"
-        elif c == "yaw_inertia" and known:
+        size, of = (float(x) if np.isfinite(x) else None), OF[c]
+        if c == "yaw_inertia" and known:
             of = "I_z"
+            size = None if size is None else physical_change(c, size, i_z - n_rdot, n_rdot)
         out[c] = {"relative_change": size, "of": of}
     blind = [c for c in CANDIDATES if out[c]["relative_change"] is None or out[c]["relative_change"] > min_change]
     out["blind_to_min_change"] = blind
