@@ -76,7 +76,11 @@ def test_an_ill_conditioned_jacobian_gives_the_loads_true_variance():
     np.testing.assert_allclose(sw.sandwich_cov(J, f, [N], LAGS)[-2:, -2:], plain, rtol=1e-6)
     np.testing.assert_allclose(basis.var, var, rtol=1e-6)
     assert sw.load_decrement(basis, f, [N], LAGS) == pytest.approx(dec, rel=1e-6)
-    assert np.all(np.linalg.eigvalsh(interval.cov) > 0)
+    # positive semi-definite to rounding: the two load columns are nearly collinear, so the smaller eigenvalue is
+    # about eps times the larger and its sign is rounding (-0.023 against 2.0e14 on an Intel Xeon VM, positive on an
+    # AMD EPYC one); main's (J^T J)^-1 gave variances of the wrong sign, which the diagonal check catches
+    eig = np.linalg.eigvalsh(interval.cov)
+    assert np.all(np.diag(interval.cov) > 0) and eig.min() > -1e-12 * eig.max(), eig
     assert np.all((interval.rho > 0) & (interval.rho <= 1)) and np.all(interval.dof >= 1), (interval.rho, interval.dof)
 
 
@@ -163,6 +167,9 @@ def test_the_bundled_example_prints_mains_interval(tmp_path, capsys):
     assert capsys.readouterr().out.splitlines()[-2:] == MAIN_LINES
     assert _run(["mass", *files, "--known-load", "0.2@-0.256", "--json"]) == 0
     got = json.loads(capsys.readouterr().out)
-    assert got["warnings"] == [] and (got["m"], got["z_m"]) == (MAIN_JSON["m"], MAIN_JSON["z_m"])
-    for key in ("m_ci95", "z_m_ci95", "m_dof", "z_m_dof", "corr"):
-        np.testing.assert_allclose(got[key], MAIN_JSON[key], rtol=1e-10, err_msg=key)
+    assert got["warnings"] == []
+    # MAIN_JSON was written on an AMD EPYC VM; another CPU's BLAS kernels move the fit's converged iterate by about
+    # 7e-8 relative (an Intel Xeon VM: m 0.182968554 against 0.182968541), so the figures are compared to 1e-6, far
+    # below what a changed interval (the leverage factor, the degrees of freedom: 1e-3 and more) moves them by
+    for key in ("m", "z_m", "m_ci95", "z_m_ci95", "m_dof", "z_m_dof", "corr"):
+        np.testing.assert_allclose(got[key], MAIN_JSON[key], rtol=1e-6, err_msg=key)
