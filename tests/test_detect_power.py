@@ -16,6 +16,7 @@ from identify.detect.power import (
     POWER,
     RESOLUTION,
     SMALLEST,
+    _from_block,
     _smallest,
     change_figure,
     detectable,
@@ -198,3 +199,20 @@ def _sensitivity_from(prior, rec, i0):
     cols, gain = _signature_columns(prior, 0.05)
     out = simulate_r(prior.kind, cols, {k: x[i0:, None] for k, x in w.items()}, prior.dt, gain=gain, r0=r_hat[i0])
     return (out[:, 1:] - out[:, :1]) / 0.05
+
+
+def test_a_later_change_starts_from_the_cusum_at_its_onset_and_an_earlier_alarm_is_a_miss():
+    """Two records, one candidate, h = 1, a change from row 2 adding theta per row (running sums 0, 0, 0, 1, 2):
+    the first's CUSUM stands at 0.9 there (sums 0, 0.5, 0.9, 0.9, 0.9), so it alarms from theta 0.05, not from
+    0.5 as a CUSUM restarted at the onset would; the second alarmed at row 1 (sums 0, 1.5, 0, 0, 0), before the
+    change, and never counts, though its sums after the onset alarm from theta 0.5."""
+    ca = np.zeros((5, 2, 2, 1), np.float32)
+    ca[:, 0, 0, 0] = [0, 0.5, 0.9, 0.9, 0.9]
+    ca[:, 0, 1, 0] = [0, 1.5, 0, 0, 0]
+    cb = np.zeros((5, 2, 1, 1), np.float32)
+    cb[:, 0, 0, 0] = [0, 0, 0, 1, 2]
+    h = np.ones(1, np.float32)
+    d, c, early = _from_block(ca, cb, 2, h)
+    assert early.tolist() == [False, True]
+    assert _smallest(d, c, h, 0.5, 0.01, early) == pytest.approx(0.05, rel=RESOLUTION - 1)
+    assert np.isnan(_smallest(d, c, h, 1.0, 0.01, early))
