@@ -45,8 +45,9 @@ class NullSums:
     """The no-change records' running sums that every candidate's and onset's search shares
     (:func:`null_sums`): ``ca`` (nb + 1, 2, runs, k) of candidate ``k``'s up and down increments from a leading
     0, in single precision; ``e`` (nb, runs, k) candidate ``k``'s whitened records; ``m`` (nb, k) the
-    LR-CUSUM's tuned signatures ``theta1_k S_k`` whitened, ``sw`` the signatures whitened; ``sb`` the signatures' block means before
-    whitening (a later change's signature is masked there, as the record it is added to)."""
+    LR-CUSUM's tuned signatures ``theta1_k S_k`` whitened, ``sw`` the signatures whitened; ``sb`` the
+    signatures' block means before whitening (a later change's signature is masked there, as the record it is
+    added to)."""
 
     ca: np.ndarray
     e: np.ndarray
@@ -263,7 +264,8 @@ def detectable(
         later_s = [f * sums.blocks * block_s for f in LATER]
     out["later"] = []
     for t in later_s:
-        i = min(max(int(round(t / block_s)), 0), sums.blocks - 1)  # the first block the change is in whole
+        # the block nearest t: a change inside one is taken from its start
+        i = min(max(int(round(t / block_s)), 0), sums.blocks - 1)
         one = {"onset_s": i * block_s}
         for c in LATER_OF:
             one[c] = _figure(c, change_figure(sums, CANDIDATES.index(c), i, sc.h), known, i_z, n_rdot)
@@ -287,9 +289,7 @@ def later_text(d: dict) -> str:
     for c in LATER_OF:
         sizes = []
         for one in d.get("later", []):
-            x = one[c]["relative_change"]
-            size = f"over {100 * d['largest_searched']:.0f} %" if x is None else f">= {100 * x:.1f} %"
-            sizes.append(f"{one['onset_s']:.0f} s {size}")
+            sizes.append(f"{one['onset_s']:.0f} s {_size_text(d, one[c]['relative_change'])}")
         if sizes:
             parts.append(f"{c.replace('_', ' ')} from " + ", ".join(sizes))
     return "; ".join(parts)
@@ -303,10 +303,14 @@ def sizes_text(d: dict, only: list[str] | None = None) -> str:
     """``yaw inertia >= 8.0 % of I_z, ...`` for the candidates ``only`` (default all) of :func:`detectable`."""
     parts = []
     for c in only or CANDIDATES:
-        x, of = d[c]["relative_change"], d[c]["of"]
-        size = f"over {100 * d['largest_searched']:.0f} %" if x is None else f">= {100 * x:.1f} %"
+        size, of = _size_text(d, d[c]["relative_change"]), d[c]["of"]
         parts.append(f"{c.replace('_', ' ')} {size}" + (f" of {of}" if c == "yaw_inertia" else ""))
     return ", ".join(parts)
+
+
+def _size_text(d: dict, x: float | None) -> str:
+    """``>= 8.1 %``, or ``over 100 %`` for a figure over the search (None)."""
+    return f"over {100 * d['largest_searched']:.0f} %" if x is None else f">= {100 * x:.1f} %"
 
 
 def blind_message(d: dict, min_change: float) -> str:
