@@ -197,12 +197,13 @@ def detectable_lines(can: dict | None) -> list[str]:
     """The smallest change the recording could show (identify.detect.power.detectable), and its warning."""
     if can is None:
         return []
-    from identify.detect.power import sizes_text
+    from identify.detect.power import later_text, sizes_text
 
+    later = later_text(can)
     out = [
         f"  detectable: {sizes_text(can)} ({100 * can['power']:.0f} % power at --false-alarm {can['false_alarm']:g} "
-        f"and --min-change {100 * can['min_change']:g} %, for a change from the recording's start: a later change "
-        "needs more)"
+        f"and --min-change {100 * can['min_change']:g} %, for a change from the recording's start"
+        + (f"; a later change: {later})" if later else ")")
     ]
     if can["warning"]:
         out.append(f"  warning [{can['warning']['name']}]: {can['warning']['message']}")

@@ -938,9 +938,16 @@ def test_cli_detect_says_what_the_recording_could_detect_and_warns_by_name_when_
     assert _run([*base, "--min-change", "0.01"]) in (0, None)
     text = capsys.readouterr().out
     assert f"detectable: yaw inertia >= {100 * x:.1f} % of I_z" in text
+    x_start = x
     # the line says what the figure assumes: the CUSUM's --min-change and a change from the start
-    assert "--min-change 1 %, for a change from the recording's start: a later change needs more)" in text
+    assert "--min-change 1 %, for a change from the recording's start; a later change: yaw inertia from " in text
     assert can["min_change"] == 0.01 and can["change_from"] == "start"
+    # the later onsets (a quarter, half, three quarters of the 200 s), yaw inertia's figure at each, in the line too
+    assert [x["onset_s"] for x in can["later"]] == [50.0, 100.0, 150.0]
+    for x in can["later"]:
+        y = x["yaw_inertia"]["relative_change"]
+        assert x["yaw_inertia"]["of"] == "I_z" and (y is None or y > x_start)
+        assert (f"{x['onset_s']:.0f} s over 100 %" if y is None else f"{x['onset_s']:.0f} s >= {100 * y:.1f} %") in text
     assert "warning [blind-to-min-change]: this recording cannot show a change of --min-change 1 %" in text
     assert _run([*base, "--min-change", "0.9"]) in (0, None)
     text = capsys.readouterr().out

@@ -10,8 +10,20 @@ import numpy as np
 import pytest
 
 from identify.detect.glr import SignatureCusum, calibrate, structural_draws
-from identify.detect.power import BLIND, POWER, RESOLUTION, SMALLEST, _smallest, detectable, detectable_changes
-from identify.detect.yawmodel import block_mean
+from identify.detect.power import (
+    BLIND,
+    LATER,
+    POWER,
+    RESOLUTION,
+    SMALLEST,
+    _from_block,
+    _smallest,
+    change_figure,
+    detectable,
+    detectable_changes,
+    null_sums,
+)
+from identify.detect.yawmodel import CANDIDATES, block_mean
 
 THETA1 = np.array([0.09, 0.05, 0.05])
 
@@ -26,20 +38,22 @@ def structured(detect_screening):
     return prior, sc, det
 
 
-def _share(prior, S, null, h, j, theta, seed=0):
+def _share(prior, S, null, h, j, theta, seed=0, onset=0):
     """Share of the no-change records on which the detector's own statistics (SignatureCusum, candidate k with
-    null_peaks' structural draw along S_k) alarm once ``theta * S_j`` is added: the brute-force reference."""
+    null_peaks' structural draw along S_k) alarm once ``theta * S_j`` is added from block ``onset`` on (zero
+    before), at or after that block and not before it: the brute-force reference."""
     det = SignatureCusum(prior, THETA1, h)
     Sb = block_mean(S, prior.block)[: len(null)]
     xi = structural_draws(prior, null.shape[1], seed)
-    changed = null + theta * Sb[:, j : j + 1]
-    peaks = np.column_stack(
-        [
-            det.statistics(changed + prior.structure[k] * xi[k][None, :] * Sb[:, k : k + 1], S, only=k)[..., 0].max(axis=0)
-            for k in range(3)
-        ]
-    )
-    return np.mean((peaks > h).any(axis=1))
+    step = Sb[:, j : j + 1].copy()
+    step[:onset] = 0.0
+    changed = null + theta * step
+    stats = [
+        det.statistics(changed + prior.structure[k] * xi[k][None, :] * Sb[:, k : k + 1], S, only=k)[..., 0] for k in range(3)
+    ]
+    before = np.column_stack([g[:onset].max(axis=0, initial=0.0) for g in stats]) > h
+    after = np.column_stack([g[onset:].max(axis=0) for g in stats]) > h
+    return np.mean(after.any(axis=1) & ~before.any(axis=1))
 
 
 def test_the_detectable_change_is_the_smallest_the_detectors_own_statistics_alarm_on_in_90_percent(structured):
@@ -119,3 +133,86 @@ def test_a_first_guess_that_is_not_a_number_still_finds_the_change():
     got = _smallest(ca, cb, h, POWER, float("nan"))
     assert got == _smallest(ca, cb, h, POWER, SMALLEST)
     assert 0.2 < got <= 0.2 * RESOLUTION
+
+
+def test_a_later_change_is_the_smallest_the_detectors_own_statistics_alarm_on_after_it(structured):
+    """At a third of the record, the figure is where the detector's own statistics on the records with the
+    masked signature added, alarming after the onset and not before, reach 90 %."""
+    prior, sc, det = structured
+    sums = null_sums(prior, sc.S, sc.null_blocks, THETA1, seed=0)
+    onset = sums.blocks // 3
+    for j in range(3):
+        theta = change_figure(sums, j, onset, det.h)
+        assert np.isfinite(theta)
+        assert _share(prior, sc.S, sc.null_blocks, det.h, j, theta, onset=onset) >= POWER
+        assert _share(prior, sc.S, sc.null_blocks, det.h, j, theta / RESOLUTION**1.01, onset=onset) < POWER
+
+
+def test_the_figure_grows_as_the_change_starts_later_and_the_start_figure_is_as_before(structured):
+    """The report's later onsets (LATER of the 300 s record) need more than the start and more the later they are;
+    the start's figures are those of the search before later onsets were reported (the same bits, computed at
+    b280863), whatever later onsets are asked for."""
+    prior, sc, det = structured
+    sc = replace(sc, h=det.h)
+    can = detectable(sc, prior, THETA1, 0.02, 0.05)
+    block_s = prior.block * prior.dt
+    assert [x["onset_s"] for x in can["later"]] == [round(f * len(sc.null_blocks)) * block_s for f in LATER]
+    sizes = [can["yaw_inertia"]["relative_change"]] + [x["yaw_inertia"]["relative_change"] for x in can["later"]]
+    assert all(b > a * RESOLUTION for a, b in zip(sizes, sizes[1:]))
+    assert [can[c]["relative_change"] for c in CANDIDATES] == [0.10355082180862064, 0.04164487980982664, 0.03144387703935598]
+    other = detectable(sc, prior, THETA1, 0.02, 0.05, later_s=[10.0, 250.0])
+    assert all(other[c] == can[c] for c in CANDIDATES)
+    assert [x["onset_s"] for x in other["later"]] == [10.0, 250.0]
+    json.dumps(can, allow_nan=False)
+
+
+def test_the_masked_signature_is_close_to_the_true_sensitivity_of_a_step_at_mid_record(detect_screening, structured):
+    """The approximation change_figure documents: the figure with the true sensitivity of a step at half
+    the record (the prior's simulation from its own state there, parameters up by 5 %) within 3 % of the one
+    with the from-start signature masked before it, each candidate; both from the start's search (zero before the
+    onset)."""
+    prior, rec, sc = detect_screening
+    _, _, det = structured
+    prior = replace(prior, structure=np.array([0.02, 0.01, 0.01]))
+    i0 = (len(sc.S) // prior.block // 2) * prior.block
+    masked = sc.S.copy()
+    masked[:i0] = 0.0
+    true = np.zeros_like(sc.S)
+    true[i0:] = _sensitivity_from(prior, rec, i0)
+    a = detectable_changes(prior, masked, sc.null_blocks, det.h, THETA1)
+    b = detectable_changes(prior, true, sc.null_blocks, det.h, THETA1)
+    assert b == pytest.approx(a, rel=RESOLUTION - 1)
+    assert np.max(np.abs(true[i0:] - masked[i0:])[:, 0]) > 0.02 * np.max(np.abs(masked[:, 0]))  # not the same
+
+
+def _sensitivity_from(prior, rec, i0):
+    """(n - i0, 3) the prediction's change per relative change of each candidate from sample ``i0`` on, each
+    simulated from the prior's state at ``i0`` (as screen predicts the recording)."""
+    from identify.detect.checks import MOMENT
+    from identify.detect.inputs import signals
+    from identify.detect.yawmodel import _signature_columns, predict_with_signatures, shift_moment, simulate_r
+
+    sig, r = signals(rec, prior.kind)
+    sig = shift_moment(sig, prior.moment_shift_s, prior.dt) if MOMENT in rec.channels else sig
+    w = prior.inputs(sig)
+    r_hat, _ = predict_with_signatures(prior, w, float(np.mean(r[:5])))
+    cols, gain = _signature_columns(prior, 0.05)
+    out = simulate_r(prior.kind, cols, {k: x[i0:, None] for k, x in w.items()}, prior.dt, gain=gain, r0=r_hat[i0])
+    return (out[:, 1:] - out[:, :1]) / 0.05
+
+
+def test_a_later_change_starts_from_the_cusum_at_its_onset_and_an_earlier_alarm_is_a_miss():
+    """Two records, one candidate, h = 1, a change from row 2 adding theta per row (running sums 0, 0, 0, 1, 2):
+    the first's CUSUM stands at 0.9 there (sums 0, 0.5, 0.9, 0.9, 0.9), so it alarms from theta 0.05, not from
+    0.5 as a CUSUM restarted at the onset would; the second alarmed at row 1 (sums 0, 1.5, 0, 0, 0), before the
+    change, and never counts, though its sums after the onset alarm from theta 0.5."""
+    ca = np.zeros((5, 2, 2, 1), np.float32)
+    ca[:, 0, 0, 0] = [0, 0.5, 0.9, 0.9, 0.9]
+    ca[:, 0, 1, 0] = [0, 1.5, 0, 0, 0]
+    cb = np.zeros((5, 2, 1, 1), np.float32)
+    cb[:, 0, 0, 0] = [0, 0, 0, 1, 2]
+    h = np.ones(1, np.float32)
+    d, c, early = _from_block(ca, cb, 2, h)
+    assert early.tolist() == [False, True]
+    assert _smallest(d, c, h, 0.5, 0.01, early) == pytest.approx(0.05, rel=RESOLUTION - 1)
+    assert np.isnan(_smallest(d, c, h, 1.0, 0.01, early))

@@ -8,6 +8,9 @@ Kept apart from the screening, as the verdict is (:mod:`identify.detect.verdict`
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
+
 import numpy as np
 
 from identify.detect.glr import structural_draws
@@ -27,8 +30,63 @@ SMALLEST = 1e-3
 STEP = 1.25
 #: the bisection stops when its bracket is this ratio wide (3 %)
 RESOLUTION = 1.03
+#: the later onsets whose figure is also reported, as fractions of the recording's length (the start's is the
+#: candidates' own): a change in the second half leaves the CUSUM half the blocks or fewer
+LATER = (0.25, 0.5, 0.75)
+#: the candidates reported at the later onsets: yaw inertia, the truth family's change (each further candidate
+#: costs one search per onset)
+LATER_OF = ("yaw_inertia",)
 #: the figure's name per candidate, in the text report and the JSON
 OF = {"yaw_inertia": "I_r", "yaw_damping": "damping", "pod_gain": "gain"}
+
+
+@dataclass(frozen=True)
+class NullSums:
+    """The no-change records' running sums that every candidate's and onset's search shares
+    (:func:`null_sums`): ``ca`` (nb + 1, 2, runs, k) of candidate ``k``'s up and down increments from a leading
+    0, in single precision; ``e`` (nb, runs, k) candidate ``k``'s whitened records; ``m`` (nb, k) the
+    LR-CUSUM's tuned signatures ``theta1_k S_k`` whitened, ``sw`` the signatures whitened; ``sb`` the
+    signatures' block means before whitening (a later change's signature is masked there, as the record it is
+    added to)."""
+
+    ca: np.ndarray
+    e: np.ndarray
+    m: np.ndarray
+    sw: np.ndarray
+    sb: np.ndarray
+    s2: float
+    prior: YawPrior
+    band: RollBand | None
+
+    @property
+    def blocks(self) -> int:
+        """The records' length in blocks."""
+        return self.e.shape[0]
+
+
+def null_sums(
+    prior: YawPrior,
+    S: np.ndarray,
+    null_blocks: np.ndarray,
+    theta1: np.ndarray,
+    seed: int = 0,
+    band: RollBand | None = None,
+) -> NullSums:
+    """The running sums of :class:`NullSums` for the signatures ``S`` (n, k) and no-change records
+    ``null_blocks`` (nb, runs) (the assumptions are :func:`detectable_changes`')."""
+    ew = decision_whiten(np.asarray(null_blocks, float), prior, band)
+    nb, runs = ew.shape
+    sb = block_mean(S, prior.block)
+    sw = decision_whiten(sb, prior, band)[:nb]  # (nb, k)
+    xi = structural_draws(prior, runs, seed)  # (k, runs)
+    e = ew[:, :, None] + (prior.structure[:, None] * xi).T[None] * sw[:, None, :]  # (nb, runs, k): k's records
+    m = np.asarray(theta1, float) * sw
+    s2 = prior.sigma_w**2
+    half = (0.5 * m * m)[:, None, :]
+    a = np.stack([m[:, None, :] * e - half, -m[:, None, :] * e - half], axis=1) / s2  # (nb, 2, runs, k)
+    # running sums from a leading 0 (the CUSUM's start), in single precision: the sums reach ~1e3 against
+    # thresholds ~10, a rounding of 1e-4 at most, and half the memory each step reads
+    return NullSums(_running_sum(a).astype(np.float32), e, m, sw, sb, s2, prior, band)
 
 
 def detectable_changes(
@@ -46,8 +104,8 @@ def detectable_changes(
     ``h``, :meth:`SignatureCusum.alarms`) on at least ``power`` of the no-change records ``null_blocks`` (nb,
     runs) with ``theta_j * S_j`` added; NaN where even LARGEST does not.
 
-    Assumes: the change is a step at the recording's start (a later change leaves fewer blocks: a larger
-    change is needed); an increase (the two-sided CUSUM treats a decrease alike, to the null's asymmetry);
+    Assumes: the change is a step at the recording's start (a later change: :func:`change_figure`); an
+    increase (the two-sided CUSUM treats a decrease alike, to the null's asymmetry);
     the no-change records are the null, i.e. the prior's own bootstrap error, the nominal noise and the
     structural apparent change (candidate ``k``'s records carry ``prior.structure[k] * xi_k * S_k``, the
     very draws :func:`identify.detect.glr.null_peaks` calibrated ``h`` on, seed ``seed``); the LR-CUSUM
@@ -58,28 +116,62 @@ def detectable_changes(
     The statistic is linear in the record before the CUSUM (the whitening is a linear filter), so candidate
     ``k``'s increment on the changed record is ``A_k + theta_j B_jk`` (Basseville and Nikiforov 1993, 2.2:
     ``(+-m_k e - m_k^2 / 2) / sigma_w^2``, ``m_k = theta1_k S_k`` whitened), and its running sum is
-    ``cumsum A_k + theta_j cumsum B_jk``: the records' sums are made once, each bisection step is a running
-    minimum over the records it evaluates."""
-    ew = decision_whiten(np.asarray(null_blocks, float), prior, band)
-    nb, runs = ew.shape
-    sw = decision_whiten(block_mean(S, prior.block), prior, band)[:nb]  # (nb, k)
-    xi = structural_draws(prior, runs, seed)  # (k, runs)
-    e = ew[:, :, None] + (prior.structure[:, None] * xi).T[None] * sw[:, None, :]  # (nb, runs, k): k's records
-    m = np.asarray(theta1, float) * sw
-    s2 = prior.sigma_w**2
-    half = (0.5 * m * m)[:, None, :]
-    a = np.stack([m[:, None, :] * e - half, -m[:, None, :] * e - half], axis=1) / s2  # (nb, 2, runs, k)
-    # running sums from a leading 0 (the CUSUM's start), in single precision: the sums reach ~1e3 against
-    # thresholds ~10, a rounding of 1e-4 at most, and half the memory each step reads
-    ca = _running_sum(a).astype(np.float32)
-    out = np.full(sw.shape[1], np.nan)
-    for j in range(sw.shape[1]):
-        cb = _running_sum(np.stack([m * sw[:, j : j + 1], -m * sw[:, j : j + 1]], axis=1)[:, :, None, :] / s2)
-        # the search starts at 4 sd of the no-change records' GLR estimate from the start (a z of about 2.6 for the
-        # alarm and 1.3 for the power): bracketing from there takes one or two steps, not ten from 0.1-100 %
-        sd = np.std(sw[:, j] @ e[:, :, j]) / max(float(sw[:, j] @ sw[:, j]), 1e-300)
-        out[j] = _smallest(ca, cb.astype(np.float32), np.asarray(h, np.float32), power, 4 * sd)
-    return out
+    ``cumsum A_k + theta_j cumsum B_jk``: the records' sums are made once (:func:`null_sums`), each bisection
+    step is a running minimum over the records it evaluates."""
+    sums = null_sums(prior, S, null_blocks, theta1, seed, band)
+    return np.array([change_figure(sums, j, 0, h, power) for j in range(sums.m.shape[1])])
+
+
+def change_figure(sums: NullSums, j: int, onset: int, h: np.ndarray, power: float = POWER) -> float:
+    """:func:`detectable_changes`' figure of candidate ``j`` for a step change at block ``onset`` (0: the
+    recording's start), alarmed at or after it: a record whose CUSUM alarmed before (a false alarm, the
+    detector's first alarm) counts as missed, as the truth bench counts it; the alarm comes before the
+    recording ends, as the records end there.
+
+    The change's signature is ``S_j`` with its blocks before ``onset`` zeroed, then whitened (the masked
+    signature). A step of the parameter at ``t_k`` moves the prediction by the sensitivity of a simulation
+    started from the prior's state at ``t_k``: zero there, reaching ``S_j(t)`` after the yaw motion's own time
+    constant, while the masked one carries the state's deviation ``S_j(t_k)`` of a change since the start. The
+    masked one is used as it is the change the LR-CUSUM itself tests for (its template ``theta1 S_k`` summed from
+    any start) and needs no simulation; it overstates the first seconds after ``t_k`` only: on the tests' 300 s
+    recording with a step at 150 s the true sensitivity's figures are 0.1, -0.02 and 0.2 % off the masked one's,
+    within the search's 3 % (tests/test_detect_power.py). Before ``onset`` the records'
+    sums are the null's: each record's CUSUM is carried to ``onset`` once, and the search evaluates the blocks
+    from there (Lindley's form from ``g_onset``, :func:`_from_block`)."""
+    sw = sums.sw[:, j] if onset == 0 else _masked(sums, onset)[:, j]
+    m = sums.m
+    cb = _running_sum(np.stack([m * sw[:, None], -m * sw[:, None]], axis=1)[:, :, None, :] / sums.s2)
+    ca, cb, early = _from_block(sums.ca, cb.astype(np.float32), onset, np.asarray(h, np.float32))
+    # the search starts at 4 sd of the no-change records' GLR estimate from the onset (a z of about 2.6 for the
+    # alarm and 1.3 for the power): bracketing from there takes one or two steps, not ten from 0.1-100 %
+    sd = np.std(sw @ sums.e[:, :, j]) / max(float(sw @ sw), 1e-300)
+    return _smallest(ca, cb, np.asarray(h, np.float32), power, 4 * sd, early)
+
+
+def _masked(sums: NullSums, onset: int) -> np.ndarray:
+    """(nb, k) the signatures with their blocks before ``onset`` zeroed, then whitened."""
+    sb = sums.sb.copy()
+    sb[:onset] = 0.0
+    return decision_whiten(sb, sums.prior, sums.band)[: sums.blocks]
+
+
+def _from_block(ca: np.ndarray, cb: np.ndarray, i: int, h: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The running sums ``ca``, ``cb`` (nb + 1, 2, runs, k) of a CUSUM whose ``cb`` is 0 to row ``i``, from row
+    ``i`` on: ``D = ca[i:] - ca[i] + g_i`` after a leading 0 (``g_i = ca[i] - min ca[:i + 1]``, the CUSUM at
+    ``i``) gives ``D_t - min_s D_s = g_t`` there, so the search reads ``nb + 1 - i`` rows; and (runs,) whether a
+    record alarmed at or before ``i``. Row 0 (the start) returns the sums as they are."""
+    runs = ca.shape[2]
+    if i == 0:
+        return ca, cb, np.zeros(runs, bool)
+    head = ca[: i + 1]
+    g = head - np.minimum.accumulate(head, axis=0)
+    early = (g.max(axis=0) > h).any(axis=(0, 2))
+    d = np.empty((len(ca) - i + 1, *ca.shape[1:]), np.float32)
+    d[0] = 0.0
+    np.subtract(ca[i:], ca[i] - g[-1], out=d[1:])
+    c = np.zeros_like(d[:, :, :1])
+    np.subtract(cb[i:], cb[i], out=c[1:])
+    return d, c, early
 
 
 def _running_sum(x: np.ndarray) -> np.ndarray:
@@ -100,14 +192,19 @@ def _alarmed(ca: np.ndarray, cb: np.ndarray, theta: float, h: np.ndarray) -> np.
     return (c.max(axis=0) > h).any(axis=(0, 2))
 
 
-def _smallest(ca: np.ndarray, cb: np.ndarray, h: np.ndarray, power: float, guess: float) -> float:
+def _smallest(
+    ca: np.ndarray, cb: np.ndarray, h: np.ndarray, power: float, guess: float, never: np.ndarray | None = None
+) -> float:
     """Smallest theta in [SMALLEST, LARGEST] at which at least ``power`` of the records alarm, to a ratio of
     RESOLUTION: bracketed from ``guess`` by factors of STEP, then bisected on log(theta); NaN when LARGEST is not
     enough, SMALLEST when that is. A record that alarmed at a theta at or below the one tried, or stayed quiet
-    at one at or above it, is not evaluated again (near the end, a few records are)."""
+    at one at or above it, is not evaluated again (near the end, a few records are). The records ``never``
+    (runs,) count as quiet at every theta (alarmed before the change)."""
     runs = ca.shape[2]
     alarm_at = np.full(runs, np.inf)  # smallest theta tried at which the record alarmed
     quiet_at = np.zeros(runs)  # largest theta tried at which it did not
+    if never is not None:
+        quiet_at[never] = np.inf
 
     def enough(theta: float) -> bool:
         todo = np.flatnonzero((alarm_at > theta) & (quiet_at < theta))
@@ -144,26 +241,58 @@ def detectable(
     seed: int = 0,
     i_z: float | None = None,
     n_rdot: float | None = None,
+    later_s: Sequence[float] | None = None,
 ) -> dict:
     """The report of :func:`detectable_changes` on a screened recording: per candidate the relative change
     (of I_z for yaw inertia when the hull's ``i_z`` and ``n_rdot`` are known, else of I_r; None: over
     LARGEST), what it is of, and whether ``min_change`` is below it (the recording cannot show a change of
     that size; ``blind_to_min_change`` lists those candidates). The figure is of the LR-CUSUM tuned to
-    ``theta1`` (from ``min_change``): the same recording's figure is larger at a larger ``min_change``."""
-    rel = detectable_changes(prior, sc.S, sc.null_blocks, sc.h, theta1, seed, sc.roll_band)
+    ``theta1`` (from ``min_change``): the same recording's figure is larger at a larger ``min_change``.
+    ``later``: the figures of the candidates LATER_OF for a change at ``later_s`` seconds after the
+    recording's start (None: at the fractions LATER of its length; :func:`change_figure`), from the same sums."""
+    sums = null_sums(prior, sc.S, sc.null_blocks, theta1, seed, sc.roll_band)
     known = i_z is not None and n_rdot is not None
     out: dict = {"power": POWER, "false_alarm": false_alarm, "min_change": min_change, "change_from": "start"}
     out["largest_searched"] = LARGEST
-    for c, x in zip(CANDIDATES, rel):
-        size, of = (float(x) if np.isfinite(x) else None), OF[c]
-        if c == "yaw_inertia" and known:
-            of = "I_z"
-            size = None if size is None else physical_change(c, size, i_z - n_rdot, n_rdot)
-        out[c] = {"relative_change": size, "of": of}
+    for j, c in enumerate(CANDIDATES):
+        out[c] = _figure(c, change_figure(sums, j, 0, sc.h), known, i_z, n_rdot)
     blind = [c for c in CANDIDATES if out[c]["relative_change"] is None or out[c]["relative_change"] > min_change]
     out["blind_to_min_change"] = blind
     out["warning"] = {"name": BLIND, "message": blind_message(out, min_change)} if blind else None
+    block_s = prior.block * prior.dt
+    if later_s is None:
+        later_s = [f * sums.blocks * block_s for f in LATER]
+    out["later"] = []
+    for t in later_s:
+        # the block nearest t: a change inside one is taken from its start
+        i = min(max(int(round(t / block_s)), 0), sums.blocks - 1)
+        one = {"onset_s": i * block_s}
+        for c in LATER_OF:
+            one[c] = _figure(c, change_figure(sums, CANDIDATES.index(c), i, sc.h), known, i_z, n_rdot)
+        out["later"].append(one)
     return out
+
+
+def _figure(c: str, x: float, known: bool, i_z: float | None, n_rdot: float | None) -> dict:
+    """Candidate ``c``'s report of a relative change ``x`` (NaN: over LARGEST, None): of I_z for yaw inertia
+    when the hull is ``known``, else of its own property (OF)."""
+    size, of = (float(x) if np.isfinite(x) else None), OF[c]
+    if c == "yaw_inertia" and known:
+        of = "I_z"
+        size = None if size is None else physical_change(c, size, i_z - n_rdot, n_rdot)
+    return {"relative_change": size, "of": of}
+
+
+def later_text(d: dict) -> str:
+    """``yaw inertia from 125 s >= 9.0 %, 250 s >= 11.2 %, 375 s over 100 %`` (:func:`detectable`'s ``later``)."""
+    parts = []
+    for c in LATER_OF:
+        sizes = []
+        for one in d.get("later", []):
+            sizes.append(f"{one['onset_s']:.0f} s {_size_text(d, one[c]['relative_change'])}")
+        if sizes:
+            parts.append(f"{c.replace('_', ' ')} from " + ", ".join(sizes))
+    return "; ".join(parts)
 
 
 #: the warning's name (text report and JSON) when --min-change is below what the recording can show
@@ -174,10 +303,14 @@ def sizes_text(d: dict, only: list[str] | None = None) -> str:
     """``yaw inertia >= 8.0 % of I_z, ...`` for the candidates ``only`` (default all) of :func:`detectable`."""
     parts = []
     for c in only or CANDIDATES:
-        x, of = d[c]["relative_change"], d[c]["of"]
-        size = f"over {100 * d['largest_searched']:.0f} %" if x is None else f">= {100 * x:.1f} %"
+        size, of = _size_text(d, d[c]["relative_change"]), d[c]["of"]
         parts.append(f"{c.replace('_', ' ')} {size}" + (f" of {of}" if c == "yaw_inertia" else ""))
     return ", ".join(parts)
+
+
+def _size_text(d: dict, x: float | None) -> str:
+    """``>= 8.1 %``, or ``over 100 %`` for a figure over the search (None)."""
+    return f"over {100 * d['largest_searched']:.0f} %" if x is None else f">= {100 * x:.1f} %"
 
 
 def blind_message(d: dict, min_change: float) -> str:
