@@ -9,6 +9,9 @@ process runs one task per core and starts no threads of its own.
 No thread outlives the call that started it (:func:`map_in_threads`): a process with other
 threads running does not fork (:func:`maps.forked.map_halves`), so a pool kept alive would cost
 every later forked computation of the process its child.
+
+And the other way round: BLAS held at one thread while inside :func:`one_blas_thread` (narrow products, and
+work whose bits must not depend on the thread count: the design's SLSQP).
 """
 
 from __future__ import annotations
