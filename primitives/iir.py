@@ -58,7 +58,8 @@ from primitives.threads import one_blas_thread
 BLOCK = 64
 # the block products run on one BLAS thread (:func:`primitives.threads.one_blas_thread`): they are narrow (at
 # most 64 + 4 columns), and a second OpenBLAS thread spent more CPU than it saved (400 rows x 5,090 samples,
-# 4th order: 0.08 s CPU a pass with two threads, 0.03 s with one; scipy's loop 0.016 s); a process's other BLAS calls meanwhile run on one thread too
+# 4th order: 0.08 s CPU a pass with two threads, 0.03 s with one; scipy's loop 0.016 s); the process's other
+# BLAS calls meanwhile run on one thread too
 
 
 def _poly(roots: np.ndarray) -> np.ndarray:
