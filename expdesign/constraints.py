@@ -165,8 +165,8 @@ def minimize_slsqp(fun: Callable[..., Any], x0: np.ndarray, **options: Any) -> A
     """``scipy.optimize.minimize(fun, x0, method="SLSQP", **options)`` on one BLAS thread: every design's
     SLSQP (local, robust, :meth:`Constraints.project`'s). SLSQP's own products run on scipy's OpenBLAS and
     round differently with its thread count, which the environment (``OMP_NUM_THREADS``,
-    ``OPENBLAS_NUM_THREADS``) and the machine's cores set: the default ship's first design had weights
-    1e-13 apart on one and on two threads (stop 59), so a design kept in the move cache by a run on one
+    ``OPENBLAS_NUM_THREADS``) and the machine's cores set: the first design's weights were 1e-13 apart on one
+    and on two threads for the default ship, 1.2e-7 for kvlcc2 (stop 59), so a design kept in the move cache by a run on one
     thread was not the one a run on two made. On one thread the same inputs give the same bits in every
     process and on every machine of a kind (:func:`maps.movecache.machine`). The problems are a few dozen
     weights: one thread is no slower (the default ship's first design, 5 alternated pairs in one process at
