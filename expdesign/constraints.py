@@ -1,14 +1,18 @@
 """Linear resource constraints on a design's time fractions (Ljungberg 2022, ch. 7): bounds per
 primitive and cost budgets, with their feasibility check, the support function used by the
-convex certificate and the projection onto the feasible set. Used by :mod:`expdesign.dopt`."""
+convex certificate and the projection onto the feasible set. Used by :mod:`expdesign.dopt`. Every design's
+SLSQP runs through :func:`minimize_slsqp` (one BLAS thread: the same bits whatever the thread count)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from expdesign.errors import DesignError
+from primitives.threads import one_blas_thread
 
 
 @dataclass
@@ -143,18 +147,31 @@ class Constraints:
         w = w / w.sum() if w.sum() > 0 else np.full(len(w), 1.0 / len(w))
         if self.feasible(w):
             return w
-        from scipy.optimize import minimize
-
         cons = [{"type": "eq", "fun": lambda x: x.sum() - 1.0, "jac": lambda x: np.ones_like(x)}]
         if self.A.size:
             cons.append({"type": "ineq", "fun": lambda x: self.b - self.A @ x, "jac": lambda x: -self.A})
-        r = minimize(
+        r = minimize_slsqp(
             lambda x: 0.5 * np.sum((x - w0) ** 2),
             w,
             jac=lambda x: x - w0,
             bounds=list(zip(self.lo, self.hi)),
             constraints=cons,
-            method="SLSQP",
             options={"maxiter": 200, "ftol": 1e-12},
         )
         return np.clip(r.x, self.lo, self.hi)
+
+
+def minimize_slsqp(fun: Callable[..., Any], x0: np.ndarray, **options: Any) -> Any:
+    """``scipy.optimize.minimize(fun, x0, method="SLSQP", **options)`` on one BLAS thread: every design's
+    SLSQP (local, robust, :meth:`Constraints.project`'s). SLSQP's own products run on scipy's OpenBLAS and
+    round differently with its thread count, which the environment (``OMP_NUM_THREADS``,
+    ``OPENBLAS_NUM_THREADS``) and the machine's cores set: the first design's weights were 1e-13 apart on one
+    and on two threads for the default ship, 1.2e-7 for kvlcc2 (stop 59), so a design kept in the move cache by a run on one
+    thread was not the one a run on two made. On one thread the same inputs give the same bits in every
+    process and on every machine of a kind (:func:`maps.movecache.machine`). The problems are a few dozen
+    weights: one thread is no slower (the default ship's first design, 5 alternated pairs in one process at
+    load 5: 0.037-0.062 s of CPU on one thread, 0.043-0.068 s on two)."""
+    from scipy.optimize import minimize  # before the limit: it loads scipy's BLAS, which the limit must find
+
+    with one_blas_thread():
+        return minimize(fun, x0, method="SLSQP", **options)

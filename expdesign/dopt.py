@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from expdesign.constraints import Constraints
+from expdesign.constraints import Constraints, minimize_slsqp
 from expdesign.errors import DesignError
 from expdesign.simplexsolver import SUPPORTED, solve_simplex
 from primitives.information import MEAN_SUBTRACTION, PrimitiveInfo
@@ -267,8 +267,6 @@ def _cvx_problem(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: s
 
 def _scipy_sym(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str) -> np.ndarray:
     """Last-resort solver of the symmetric relaxation: SLSQP from equal shares."""
-    from scipy.optimize import minimize
-
     q = mq.shape[0]
 
     def f(w):
@@ -278,12 +276,11 @@ def _scipy_sym(mq: np.ndarray, m0: np.ndarray, cons: Constraints, criterion: str
     cons_l = [{"type": "eq", "fun": lambda x: x.sum() - 1.0}]
     if cons.A.size:
         cons_l.append({"type": "ineq", "fun": lambda x: cons.b - cons.A @ x})
-    r = minimize(
+    r = minimize_slsqp(
         f,
         cons.project(np.full(q, 1.0 / q)),
         bounds=list(zip(cons.lo, cons.hi)),
         constraints=cons_l,
-        method="SLSQP",
         options={"maxiter": 500, "ftol": 1e-12},
     )
     return np.clip(r.x, cons.lo, cons.hi)

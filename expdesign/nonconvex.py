@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from expdesign.constraints import minimize_slsqp
 from expdesign.dopt import Constraints, InfoSet, SolveResult
 
 _BAD = 1e6
@@ -67,8 +68,6 @@ def solve_nonconvex(
     maxiter: int = 300,
 ) -> SolveResult:
     """(7.57) by multi-start SLSQP; ``starts`` lists each start's objective before and after."""
-    from scipy.optimize import minimize  # imported when used: plans with --counts or a scenario never need it
-
     q = len(info.names)
     cons = constraints or Constraints.simplex(q)
     fg = _objective(info, criterion, mean_subtraction)
@@ -86,9 +85,7 @@ def solve_nonconvex(
     for name, w0 in starts:
         w0 = cons.project(w0)
         f0 = fg(w0)[0]
-        r = minimize(
-            fg, w0, jac=True, bounds=bounds, constraints=c_list, method="SLSQP", options={"maxiter": maxiter, "ftol": 1e-10}
-        )
+        r = minimize_slsqp(fg, w0, jac=True, bounds=bounds, constraints=c_list, options={"maxiter": maxiter, "ftol": 1e-10})
         w1 = cons.project(np.clip(r.x, cons.lo, cons.hi))
         f1 = fg(w1)[0]
         for cand, fc, tag in ((w0, f0, name), (w1, f1, name)):

@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from expdesign.constraints import minimize_slsqp
 from expdesign.dopt import ROBUST, Constraints
 from expdesign.errors import DesignError
 from expdesign.prior import ParameterPrior
@@ -383,20 +384,18 @@ def _slsqp_constraints(cons: Constraints, n_extra: int = 0) -> list[dict]:
 
 def _solve_bayes(m: np.ndarray, cons: Constraints, w0: np.ndarray, label: str) -> RobustSolution:
     """max mean_k log det M(w; theta_k) by SLSQP, with the concavity certificate."""
-    from scipy.optimize import minimize
 
     def f(w: np.ndarray) -> tuple[float, np.ndarray]:
         ld, g = _gradients(m, np.clip(w, 0.0, None))
         ld = np.where(np.isfinite(ld), ld, _FLOOR)
         return -float(ld.mean()), -g.mean(axis=0)
 
-    r = minimize(
+    r = minimize_slsqp(
         f,
         w0,
         jac=True,
         bounds=list(zip(cons.lo, cons.hi)),
         constraints=_slsqp_constraints(cons),
-        method="SLSQP",
         options={"maxiter": 500, "ftol": 1e-12},
     )
     w = cons.project(np.clip(r.x, cons.lo, cons.hi))
@@ -415,8 +414,6 @@ def _solve_bayes(m: np.ndarray, cons: Constraints, w0: np.ndarray, label: str) -
 def _solve_maximin(info: DrawInformation, cons: Constraints, starts: list[np.ndarray]) -> RobustSolution:
     """max t s.t. (log det M(w; theta_k) - optimum_k) / p >= t (epigraph form) by SLSQP from the
     best of ``starts``; the best point seen is returned (the worst efficiency never falls)."""
-    from scipy.optimize import minimize
-
     p, q = info.n_params, len(info.names)
 
     def worst(w: np.ndarray) -> float:
@@ -432,13 +429,12 @@ def _solve_maximin(info: DrawInformation, cons: Constraints, starts: list[np.nda
         _, g = _gradients(info.M, np.clip(x[:q], 0.0, None))
         return np.hstack([g / p, -np.ones((info.n_draws, 1))])
 
-    r = minimize(
+    r = minimize_slsqp(
         lambda x: (-x[q], np.r_[np.zeros(q), -1.0]),
         np.r_[w0, worst(w0)],
         jac=True,
         bounds=list(zip(cons.lo, cons.hi)) + [(None, None)],
         constraints=[{"type": "ineq", "fun": margins, "jac": margins_jac}, *_slsqp_constraints(cons, 1)],
-        method="SLSQP",
         options={"maxiter": 500, "ftol": 1e-12},
     )
     w = cons.project(np.clip(r.x[:q], cons.lo, cons.hi))

@@ -45,58 +45,21 @@ a ``shiptrial detect`` on one recording, which needs a handful of its functions 
 
 from __future__ import annotations
 
-import contextlib
-import threading
-from collections.abc import Iterator
 from functools import lru_cache
 
 import numpy as np
 
 from primitives import iirmodal
+from primitives.threads import one_blas_thread
 
 #: samples per block of :func:`lfilter`: the Toeplitz product costs L multiply-adds a sample, the
 #: loop over blocks n / L steps of a few small products; 64 rather than 32 (about as fast): fewer
 #: block-to-block steps, 30 times less rounding on a 4th-order 0.5 Hz low-pass at 10 Hz
 BLOCK = 64
-_BLAS: list = []  # the process's threadpoolctl controller, made on first use
-#: callers inside :func:`_one_blas_thread` and the limiter that restores BLAS's own thread count when
-#: the last leaves: the limit is process-wide, so threads filtering at once share one limiter (each
-#: its own would record another's limit of 1 as the original and leave BLAS at one thread for good)
-_HELD: list = [0, None]
-_HELD_LOCK = threading.Lock()
-
-
-@contextlib.contextmanager
-def _one_blas_thread() -> Iterator[None]:
-    """BLAS limited to one thread: the block products are narrow (at most 64 + 4 columns), and a
-    second OpenBLAS thread spent more CPU than it saved (400 rows x 5,090 samples, 4th order: 0.08 s
-    CPU a pass with two threads, 0.03 s with one; scipy's loop 0.016 s). The count is restored when
-    the last caller leaves; meanwhile the process's other BLAS calls run on one thread too."""
-    with _HELD_LOCK:
-        if _HELD[0] == 0:
-            _HELD[1] = _limit_blas()
-        _HELD[0] += 1
-    try:
-        yield
-    finally:
-        with _HELD_LOCK:
-            _HELD[0] -= 1
-            if _HELD[0] == 0 and _HELD[1] is not None:
-                _HELD[1].restore_original_limits()
-                _HELD[1] = None
-
-
-def _limit_blas():
-    """threadpoolctl's limiter of BLAS to one thread (it restores the count it found), None when
-    threadpoolctl cannot read this BLAS: the products then run as they are."""
-    try:
-        if not _BLAS:
-            from threadpoolctl import ThreadpoolController
-
-            _BLAS.append(ThreadpoolController())
-        return _BLAS[0].limit(limits=1, user_api="blas")
-    except Exception:  # noqa: BLE001 - any failure to read or set the BLAS only costs speed
-        return None
+# the block products run on one BLAS thread (:func:`primitives.threads.one_blas_thread`): they are narrow (at
+# most 64 + 4 columns), and a second OpenBLAS thread spent more CPU than it saved (400 rows x 5,090 samples,
+# 4th order: 0.08 s CPU a pass with two threads, 0.03 s with one; scipy's loop 0.016 s); the process's other
+# BLAS calls meanwhile run on one thread too
 
 
 def _poly(roots: np.ndarray) -> np.ndarray:
@@ -255,7 +218,7 @@ def _padded(b: np.ndarray, a: np.ndarray, buf: np.ndarray, z0: np.ndarray | None
         if finite.any():
             out[finite] = _padded(b, a, buf[finite], None if z is None else z[finite], modal)
         return out
-    with _one_blas_thread():
+    with one_blas_thread():
         return products(buf, z0)
 
 
@@ -318,7 +281,7 @@ def _blockable(b_bytes: bytes, a_bytes: bytes) -> bool:
     if not np.all(np.isfinite(power)) or np.max(np.abs(np.linalg.eigvals(power))) >= 1.0:
         return False
     probe, z0, want = _probe(b_bytes, a_bytes)
-    with _one_blas_thread():
+    with one_blas_thread():
         got = _block_products(probe[None, :], order, toeplitz, obs, ctrl, power, z0[None, :])[0]
     return bool(np.max(np.abs(got - want)) <= BLOCKABLE_TOLERANCE * np.max(np.abs(want)))
 
@@ -345,7 +308,7 @@ def _modal_blocks(b_bytes: bytes, a_bytes: bytes) -> tuple[np.ndarray, ...] | No
     if blocks is None:
         return None
     probe, z0, want = _probe(b_bytes, a_bytes)
-    with _one_blas_thread():
+    with one_blas_thread():
         got = iirmodal.modal_products(probe[None, :], blocks, z0[None, :])[0]
     return blocks if np.max(np.abs(got - want)) <= MODAL_TOLERANCE * np.max(np.abs(want)) else None
 

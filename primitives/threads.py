@@ -9,14 +9,19 @@ process runs one task per core and starts no threads of its own.
 No thread outlives the call that started it (:func:`map_in_threads`): a process with other
 threads running does not fork (:func:`maps.forked.map_halves`), so a pool kept alive would cost
 every later forked computation of the process its child.
+
+And the other way round: BLAS held at one thread while inside :func:`one_blas_thread` (narrow products, and
+work whose bits must not depend on the thread count: the design's SLSQP).
 """
 
 from __future__ import annotations
 
+import contextlib
 import contextvars
 import os
+import sys
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
 T = TypeVar("T")
@@ -106,3 +111,48 @@ def _join(threads: list[threading.Thread], errors: dict[int, BaseException]) -> 
                 t.join()
             except KeyboardInterrupt as e:
                 errors[-1] = e
+
+
+_BLAS: list = []  # [modules loaded when made, threadpoolctl controller]: made again once modules were imported since
+#: callers inside :func:`one_blas_thread` and the limiter that restores BLAS's own thread count when the last
+#: leaves: the limit is process-wide, so threads inside at once share one limiter (each its own would record
+#: another's limit of 1 as the original and leave BLAS at one thread for good)
+_HELD: list = [0, None]
+_HELD_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """Every BLAS library loaded (numpy's, and scipy's own OpenBLAS once scipy.linalg or scipy.optimize is
+    imported) limited to one thread while inside; their counts restored when the last caller leaves. Callers:
+    work whose products are too narrow to gain from a second thread (:mod:`primitives.iir`), and work whose
+    bits must not depend on the thread count (scipy's SLSQP rounds differently on one and two OpenBLAS threads:
+    :func:`expdesign.dopt.minimize_slsqp`). A library loaded while a caller is inside is not limited: import
+    what the work calls before entering."""
+    with _HELD_LOCK:
+        if _HELD[0] == 0:
+            _HELD[1] = _limit_blas()
+        _HELD[0] += 1
+    try:
+        yield
+    finally:
+        with _HELD_LOCK:
+            _HELD[0] -= 1
+            if _HELD[0] == 0 and _HELD[1] is not None:
+                _HELD[1].restore_original_limits()
+                _HELD[1] = None
+
+
+def _limit_blas() -> Any:
+    """threadpoolctl's limiter of BLAS to one thread (it restores the counts it found), None when
+    threadpoolctl cannot read this BLAS: the products then run as they are. The controller (its scan
+    of the loaded libraries: 5-15 ms) is kept, and made again when modules were imported since, which
+    may have loaded another BLAS (scipy's)."""
+    try:
+        if not _BLAS or _BLAS[0] != len(sys.modules):
+            from threadpoolctl import ThreadpoolController
+
+            _BLAS[:] = [len(sys.modules), ThreadpoolController()]
+        return _BLAS[1].limit(limits=1, user_api="blas")
+    except Exception:  # noqa: BLE001 - any failure to read or set the BLAS leaves the products as they are
+        return None
