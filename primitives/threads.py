@@ -127,7 +127,7 @@ def one_blas_thread() -> Iterator[None]:
     imported) limited to one thread while inside; their counts restored when the last caller leaves. Callers:
     work whose products are too narrow to gain from a second thread (:mod:`primitives.iir`), and work whose
     bits must not depend on the thread count (scipy's SLSQP rounds differently on one and two OpenBLAS threads:
-    :func:`expdesign.dopt.minimize_slsqp`). A library loaded while a caller is inside is not limited: import
+    :func:`expdesign.constraints.minimize_slsqp`). A library loaded while a caller is inside is not limited: import
     what the work calls before entering."""
     with _HELD_LOCK:
         if _HELD[0] == 0:
