@@ -133,6 +133,7 @@ ESTIMATOR_IMPORTS = (
     "primitives/rigidbody.py",
     "primitives/ship.py",
     "primitives/terms.py",
+    "primitives/threads.py",
     "primitives/unit_ranges.py",
     "primitives/validate.py",
     "primitives/zerophase.py",
