@@ -221,9 +221,8 @@ def ship_study(variant: str, ship_seed: int, runs: int, folder: Path, key: str, 
                 )
                 d = verdict(sc, prior, **HULL)
                 # what detect prints as the recording's detectable change (defaults: 2 %, --min-change 0.05, seed 0);
-                # a mid-run change's figure also at its own change time (detect's own later onsets otherwise)
-                later = [ch] if ch else None
-                can = detectable(sc, prior, change_sizes(0.05, **HULL), 0.02, 0.05, **HULL, later_s=later)
+                # a mid-run change's figure also at its own change time (no later onset for the other runs: not printed)
+                can = detectable(sc, prior, change_sizes(0.05, **HULL), 0.02, 0.05, **HULL, later_s=[ch] if ch else [])
                 res = {
                     "alarm_s": d.alarm_s,
                     "property": d.property,
@@ -281,6 +280,11 @@ def summarise(studies: list[dict]) -> dict:
     }
 
 
+def _percent(x: float | None) -> str:
+    """A detectable change in per cent, '>100' when over the search (None)."""
+    return ">100" if x is None else f"{100 * x:.1f}"
+
+
 def per_run(studies: list[dict]) -> list[str]:
     """One line per run tested: ship, run, change time, alarm, and the detectable change detect prints (of
     I_z, yaw inertia at 90 % power from the start, and for a mid-run change at its own change time as well;
@@ -298,12 +302,10 @@ def per_run(studies: list[dict]) -> list[str]:
             at = ""
             if ch:  # the figure for a change at the run's own change time (its block's start)
                 later = r["detectable"]["later"][0]
-                y = later["yaw_inertia"]["relative_change"]
-                at = f", at {later['onset_s']:.0f} s {'>100' if y is None else f'{100 * y:.1f}'} %"
+                at = f", at {later['onset_s']:.0f} s {_percent(later['yaw_inertia']['relative_change'])} %"
             out.append(
                 f"    {s['variant']:16s} ship {r['ship']} run {r['run']:2d} change {'-' if ch is None else f'{ch:.0f} s':>6s} "
-                f"alarm {'-' if al is None else f'{al:.0f} s':>6s} {mark:4s} detectable I_z {'>100' if x is None else f'{100 * x:.1f}'} %"
-                + at
+                f"alarm {'-' if al is None else f'{al:.0f} s':>6s} {mark:4s} detectable I_z {_percent(x)} %" + at
             )
     return out
 

@@ -24,7 +24,6 @@ import contextlib
 import multiprocessing
 import os
 import signal
-import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -36,6 +35,7 @@ import numpy as np
 
 from primitives.errors import UserError
 from primitives.heap import keep_freed_memory
+from primitives.threads import thread_controller
 
 ENV_SCHEDULER = "SHIPTRIAL_SCHEDULER"
 
@@ -181,24 +181,18 @@ def one_thread_per_worker(inherited: bool = False) -> None:
     _ONE_THREAD = True
 
 
-_CONTROLLER: tuple[int, Any] | None = None  # (modules loaded when made, threadpoolctl controller)
-
-
 def _one_thread_while_forking() -> contextlib.AbstractContextManager:
     """The parent's BLAS / OpenMP libraries held at one thread while it forks the pool's workers,
     then restored: each worker inherits the limit instead of finding and limiting the libraries
     itself. Measured with 16 workers forked from the benchmark's parent (2 loaded cores, no-op
     tasks, median of 5): a worker's CPU before its first task 25-27 -> 3 ms, the parent's +4-8 ms
     (limit and restore), once per command +10 ms (finding the libraries: the controller is kept,
-    and made again when modules were imported since, which may have loaded another library)."""
-    global _CONTROLLER
+    :func:`primitives.threads.thread_controller`)."""
     try:
-        from threadpoolctl import ThreadpoolController
+        controller = thread_controller()
     except ImportError:  # pragma: no cover - a dependency; the workers then limit what they can
         return contextlib.nullcontext()
-    if _CONTROLLER is None or _CONTROLLER[0] != len(sys.modules):
-        _CONTROLLER = (len(sys.modules), ThreadpoolController())
-    return _CONTROLLER[1].limit(limits=1)
+    return controller.limit(limits=1)
 
 
 def _init_worker(shared: Any) -> None:

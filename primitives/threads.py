@@ -113,7 +113,7 @@ def _join(threads: list[threading.Thread], errors: dict[int, BaseException]) -> 
                 errors[-1] = e
 
 
-_BLAS: list = []  # [modules loaded when made, threadpoolctl controller]: made again once modules were imported since
+_CONTROLLER: list = []  # [modules loaded when made, threadpoolctl controller] (:func:`thread_controller`)
 #: callers inside :func:`one_blas_thread` and the limiter that restores BLAS's own thread count when the last
 #: leaves: the limit is process-wide, so threads inside at once share one limiter (each its own would record
 #: another's limit of 1 as the original and leave BLAS at one thread for good)
@@ -143,16 +143,21 @@ def one_blas_thread() -> Iterator[None]:
                 _HELD[1] = None
 
 
+def thread_controller() -> Any:
+    """threadpoolctl's controller of the process's BLAS / OpenMP libraries. Its scan of the loaded libraries
+    (5-15 ms) is kept, and made again when modules were imported since, which may have loaded another
+    library (scipy's own OpenBLAS). Raises ImportError without threadpoolctl."""
+    from threadpoolctl import ThreadpoolController
+
+    if not _CONTROLLER or _CONTROLLER[0] != len(sys.modules):
+        _CONTROLLER[:] = [len(sys.modules), ThreadpoolController()]
+    return _CONTROLLER[1]
+
+
 def _limit_blas() -> Any:
     """threadpoolctl's limiter of BLAS to one thread (it restores the counts it found), None when
-    threadpoolctl cannot read this BLAS: the products then run as they are. The controller (its scan
-    of the loaded libraries: 5-15 ms) is kept, and made again when modules were imported since, which
-    may have loaded another BLAS (scipy's)."""
+    threadpoolctl cannot read this BLAS: the products then run as they are."""
     try:
-        if not _BLAS or _BLAS[0] != len(sys.modules):
-            from threadpoolctl import ThreadpoolController
-
-            _BLAS[:] = [len(sys.modules), ThreadpoolController()]
-        return _BLAS[1].limit(limits=1, user_api="blas")
+        return thread_controller().limit(limits=1, user_api="blas")
     except Exception:  # noqa: BLE001 - any failure to read or set the BLAS leaves the products as they are
         return None
