@@ -62,16 +62,28 @@ def start_worker(others: list[Connection]) -> None:
     keep_freed_memory(always=True)  # each task reuses the heap the last one grew (primitives.heap)
 
 
+NOT_LOADED = "not loaded"  # a worker's answer to a task of a map whose payload it could not unpickle
+PAYLOAD_PARTS = ("function", "items", "shared inputs")  # a warm pool map's payload (expdesign.warmpool._payload)
+
+
 def serve(conn: Connection, fn: Callable | None = None, items: Sequence[Any] = (), shared: Any = None) -> None:
     """Answer the parent until it sends None or goes away (then return quietly: no traceback from an
     orphan): a task index runs ``fn(items[index][, shared])`` and sends back (index, ok, result or
-    error text); a tuple (fn, items, shared) is a new map's (:class:`expdesign.warmpool.WarmPool`)."""
+    error text); a tuple of the pickled (fn, items, shared) is a new map's
+    (:class:`expdesign.warmpool.WarmPool`). A map whose payload does not unpickle here (a function
+    the parent defined after the fork, a class whose rebuild raises) leaves the worker serving: each
+    of its tasks is answered (:data:`NOT_LOADED`, index, the part and the error) and the next map's
+    payload replaces it."""
     from expdesign.parallel import _call
 
+    not_loaded = None
     with contextlib.suppress(EOFError, OSError):
         while (msg := conn.recv()) is not None:
             if isinstance(msg, tuple):
-                fn, items, shared = msg
+                (fn, items, shared), not_loaded = _load(msg)
+                continue
+            if not_loaded is not None:
+                conn.send((NOT_LOADED, msg, not_loaded))
                 continue
             try:
                 out = (msg, True, _call(fn, items[msg], shared))
@@ -83,6 +95,20 @@ def serve(conn: Connection, fn: Callable | None = None, items: Sequence[Any] = (
                 raise
             except Exception as e:  # noqa: BLE001 - a result that cannot be pickled
                 conn.send((msg, False, f"result not sent: {type(e).__name__}: {e}"))
+
+
+def _load(parts: tuple[bytes, ...]) -> tuple[tuple[Any, Any, Any], str | None]:
+    """A warm pool map's (fn, items, shared) unpickled part by part, and the first part that failed with
+    its error (None when all loaded)."""
+    from multiprocessing.reduction import ForkingPickler
+
+    out = []
+    for name, b in zip(PAYLOAD_PARTS, parts):
+        try:
+            out.append(ForkingPickler.loads(b))
+        except Exception as e:  # noqa: BLE001 - said to the parent, which raises it once for the map
+            return (None, (), None), f"{name} ({type(e).__name__}: {e})"
+    return (out[0], out[1], out[2]), None
 
 
 def fork_map(

@@ -18,6 +18,8 @@ parent's exit (each worker reads EOF on its pipe) or on the garbage collector's 
 :meth:`WarmPool.close` waits at most ``timeout`` seconds for the workers to finish their warm-up
 and exit, then kills the rest. A failed warm-up is not silent: each distinct error is issued once as
 a :class:`WarmUpFailed` warning when the worker reports it, and :meth:`WarmPool.warm_up_errors` lists them.
+A map's function, items or shared inputs that cannot be pickled (in the parent) or unpickled (in a worker:
+a function defined after the fork) raise one RuntimeError naming the part; the workers stay in the pool.
 
 No command uses this pool: ``shiptrial design --monte-carlo`` was measured slower with it on 2 cores
 (docs/kernel-speed.md, Stop 57). ``benchmarks/bench_design.py --scaling`` measures it (``warm xW``).
@@ -34,7 +36,7 @@ from multiprocessing.connection import Connection, wait
 from multiprocessing.reduction import ForkingPickler
 from typing import Any
 
-from expdesign.forkpool import _fork, _kill, serve, start_worker
+from expdesign.forkpool import NOT_LOADED, PAYLOAD_PARTS, _fork, _kill, serve, start_worker
 from primitives.heap import release_freed_memory
 
 READY = "ready"  # a worker's first message: its warm-up is done (with the error text if it failed)
@@ -65,6 +67,22 @@ def _worker(conn: Connection, others: list[Connection], warm: Callable[[], None]
     serve(conn)
 
 
+def _payload(fn: Callable, items: Sequence[Any], shared: Any) -> bytes:
+    """A map's (function, items, shared inputs), each pickled on its own (a worker then names the part it
+    cannot unpickle) and the three sent as one message. A part that cannot be pickled raises RuntimeError
+    naming it, before anything is sent: the workers are untouched and the pool stays usable."""
+    parts = []
+    for name, part in zip(PAYLOAD_PARTS, (fn, items, shared)):
+        try:
+            parts.append(bytes(ForkingPickler.dumps(part)))
+        except Exception as e:  # noqa: BLE001 - PicklingError, TypeError, AttributeError (a local object)...
+            raise RuntimeError(
+                f"warm pool: the map's {name} cannot be pickled ({type(e).__name__}: {e}); "
+                "pass a module-level function and picklable data"
+            ) from e
+    return bytes(ForkingPickler.dumps(tuple(parts)))
+
+
 class WarmPool:
     """``workers`` processes forked now, each running ``warm()`` (inherited through the fork, never
     pickled) and then waiting for maps (:meth:`map`). Use as a context manager or call :meth:`close`."""
@@ -74,6 +92,7 @@ class WarmPool:
         self.procs: dict[Connection, multiprocessing.process.BaseProcess] = {}
         self.ready: dict[Connection, str | None] = {}  # a worker's warm-up error (None: fine), once it said
         self._warned: set[str] = set()  # warm-up errors already issued as WarmUpFailed
+        self._not_loaded: str | None = None  # the current map's payload part a worker could not unpickle, and why
         from expdesign.parallel import _one_thread_while_forking
 
         release_freed_memory()
@@ -159,9 +178,10 @@ class WarmPool:
         for conn in [c for c, p in self.procs.items() if not p.is_alive()]:  # died while idle: no task lost
             self._lose(conn)
         self.workers_left()
-        payload = bytes(ForkingPickler.dumps((fn, items, shared)))
+        payload = _payload(fn, items, shared)
         held: dict[Connection, int | None] = {}
         nxt = 0
+        self._not_loaded = None
         try:
             for conn in list(self.procs):
                 if nxt >= len(items):
@@ -180,6 +200,8 @@ class WarmPool:
         except BaseException:
             self.close(now=True)
             raise
+        if self._not_loaded is not None:  # every worker is idle again, in step with the parent: the pool stays usable
+            raise RuntimeError(f"warm pool: a worker could not unpickle the map's {self._not_loaded}")
 
     def _answer(
         self, conn: Connection, held: dict[Connection, int | None], nxt: int, items: Sequence[Any], on_result: Callable
@@ -197,8 +219,11 @@ class WarmPool:
         if msg[0] == READY:
             self._note_ready(conn, msg[1])
             return nxt
-        on_result(*msg)
         held[conn] = None
+        if msg[0] == NOT_LOADED:  # no task of this map can run: none handed out from now on (map raises once all are back)
+            self._not_loaded = self._not_loaded or msg[2]
+            return len(items)
+        on_result(*msg)
         if nxt < len(items):
             held[conn], nxt = nxt, nxt + 1
             try:

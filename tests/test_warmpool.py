@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -236,3 +237,39 @@ def test_a_closed_or_emptied_pool_is_refused_with_one_message_not_replaced_by_a_
             with pytest.raises(RuntimeError) as caught:
                 use()
             assert str(caught.value) == NO_WORKER
+
+
+class _RebuildFails:
+    """Pickles in the parent, raises when a worker rebuilds it (as a function the parent defined after the fork)."""
+
+    def __reduce__(self):
+        return (_refuse, ())
+
+
+def _refuse():
+    raise ValueError("no such object in the worker")
+
+
+def test_a_payload_that_does_not_pickle_or_unpickle_raises_one_error_naming_it_and_the_pool_goes_on(capfd):
+    """Stop 59: shared inputs that pickled in the parent but not in the workers killed every worker, each
+    printing a traceback, and the map reported its tasks as 'worker lost'. Now the map raises one RuntimeError
+    naming the part (parent or worker side), no worker dies or prints, and the next map runs on the same workers."""
+    import threading
+
+    cases = [
+        (lambda i: i, [1, 2], None, "the map's function cannot be pickled"),
+        (_scaled, [1, 2], threading.Lock(), "the map's shared inputs cannot be pickled (TypeError"),
+        (_scaled, [1, 2, 3, 4, 5], _RebuildFails(), "a worker could not unpickle the map's shared inputs (ValueError: no such"),
+        (_scaled, [_RebuildFails()], {"k": 1}, "a worker could not unpickle the map's items (ValueError"),
+    ]
+    reported: list = []
+    with deadline(60), WarmPool(2) as pool:
+        pids = {p.pid for p in pool.procs.values()}
+        for fn, items, shared, said in cases:
+            with pytest.raises(RuntimeError, match=re.escape(said)):
+                pool.map(fn, items, shared, lambda *answer: reported.append(answer))
+            assert reported == []  # no task ran, none was reported lost
+            assert {p.pid for p in pool.procs.values()} == pids and all(p.is_alive() for p in pool.procs.values())
+        after = _map(pool, _scaled, list(range(6)), {"k": 3})
+    assert {i: (ok, r[:2]) for i, (ok, r) in after.items()} == {i: (True, (i, 3 * i)) for i in range(6)}
+    assert "Traceback" not in capfd.readouterr().err
