@@ -99,6 +99,9 @@ class _Rudder:
         R = np.array([[1.0 / 2.0**2]])
         from scipy.linalg import solve_discrete_are  # rudder ships only: the others never import scipy.linalg here
 
+        # not under primitives.threads.one_blas_thread, unlike the design's SLSQP: 3 states (a 6x6 pencil) for
+        # every ship, too small for OpenBLAS to split; the gain measured bit-identical on 1, 2 and 4 threads
+        # (stop 60, tests/test_design_threads.py), and a plan's files with it (plan-trial --ship kvlcc2 --map open-sea)
         P = solve_discrete_are(A, B, Q, R)
         self.K = np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A)[0]  # rudder deg = -K x (LQR autopilot)
         full = np.tile([float(profile.helm.delta_rad(self.max_deg)), self.n_c], (int(900 / self.ts), 1))

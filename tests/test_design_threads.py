@@ -58,6 +58,23 @@ def test_first_design_has_the_same_bits_on_one_and_two_blas_threads():
     assert len(one) > 3 and one == two  # the criterion value and every weight
 
 
+# a rudder ship's LQR autopilot (maps.autopilot._Rudder: scipy.linalg.solve_discrete_are, not under one_blas_thread)
+_AUTOPILOT_GAIN = """
+from maps.autopilot import _Rudder
+from primitives.ship import load_profile
+rudder = _Rudder(load_profile("kvlcc2"))
+print(*(float(k).hex() for k in rudder.K))
+"""
+
+
+def test_rudder_autopilot_gain_has_the_same_bits_on_one_and_two_blas_threads():
+    """The autopilot's Riccati solution is left on the thread count it finds (3 states: too small for OpenBLAS to
+    split): its gain, which every rudder ship's moves are simulated with, must still not depend on it. Fails if
+    the autopilot's problem grows into sizes OpenBLAS threads; then put it under ``one_blas_thread``."""
+    one, two = (_python(_AUTOPILOT_GAIN, n).split() for n in (1, 2))
+    assert len(one) == 3 and one == two
+
+
 def test_one_blas_thread_limits_a_blas_loaded_after_its_first_use():
     """Fails when the limiter keeps the controller it made first (mutant: no ``len(sys.modules)`` check): scipy's
     OpenBLAS, loaded after, then runs on its two threads."""
