@@ -304,3 +304,25 @@ def test_plan_without_steps_or_with_ragged_samples_is_a_user_error(azi_plan, tmp
     with pytest.raises(ExportError, match="format"):
         export_plan(azi_plan, "kml", tmp_path / "x.kml")
     assert not list(tmp_path.iterdir())
+
+
+def test_csv_every_n_formats_only_the_times_it_writes(azi_plan, monkeypatch):
+    """``plan_csv(every=N)`` writes each kept row as the full schedule writes it (every manoeuvre's first sample
+    and the last kept), and formats the UTC time of those rows only: it formatted every sample's before stop 60."""
+    from datetime import UTC, datetime
+
+    import maps.export._common as common
+    from maps.export.csv import plan_csv
+
+    t0 = datetime(2026, 6, 1, 8, tzinfo=UTC)
+    full = plan_csv(azi_plan, start=t0).splitlines()
+    formatted = []
+    real_iso = common.iso
+    monkeypatch.setattr(common, "iso", lambda t: formatted.append(t) or real_iso(t))
+    common._sample_times_iso.cache_clear()  # a kept full list would hide the formatting
+    lines = plan_csv(azi_plan, start=t0, every=7).splitlines()
+    step = azi_plan.step_of_sample.tolist()
+    n = len(step)
+    kept = [k for k in range(n) if k % 7 == 0 or k == n - 1 or (k and step[k] != step[k - 1])]
+    assert 3 < len(kept) < n / 3 and lines == [full[0]] + [full[1 + k] for k in kept]
+    assert len(formatted) == len(kept)

@@ -9,6 +9,7 @@ end of the track. The leg *into* waypoint i is the part of the track sailed duri
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 from functools import lru_cache
@@ -199,6 +200,13 @@ def sample_times_iso(plan: Plan, t0: datetime) -> tuple[str, ...]:
 def _sample_times_iso(t_bytes: bytes, t0: datetime) -> tuple[str, ...]:
     t = np.frombuffer(t_bytes, dtype=np.float64)
     return tuple(iso(t0 + timedelta(seconds=ts)) for ts in (t - t[0]).tolist()) if len(t) else ()
+
+
+def sample_times_iso_at(plan: Plan, t0: datetime, ks: Sequence[int]) -> list[str]:
+    """:func:`sample_times_iso` of the samples ``ks`` only (the CSV schedule with ``every`` > 1): the same
+    strings, from the same arithmetic, without formatting the samples left out."""
+    t = np.asarray(plan.t, dtype=np.float64)
+    return [iso(t0 + timedelta(seconds=ts)) for ts in (t - t[0])[np.asarray(ks, dtype=np.intp)].tolist()] if len(t) else []
 
 
 def clock(t_s: float) -> str:

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from maps.export._common import KN_PER_MPS, check_plan, clock, resolve_start, sample_times_iso
+from maps.export._common import KN_PER_MPS, check_plan, clock, resolve_start, sample_times_iso, sample_times_iso_at
 from maps.export.wording import step_orders
 from maps.plan import Plan
 from primitives.io import atomic_write_text
@@ -69,10 +69,13 @@ def plan_csv(plan: Plan, *, start: datetime | str | None = None, every: int = 1)
     hdg = (np.degrees(plan.track[:, 2]) % 360.0).tolist()
     spd, kn = plan.speed.tolist(), (plan.speed * KN_PER_MPS).tolist()
     inputs = plan.inputs.tolist() if n_in else []
-    utc = sample_times_iso(plan, t0)  # the GPX track's times too: formatted once
-    for k in range(k_total):
-        if k % max(every, 1) and k not in starts and k != k_total - 1:
-            continue
+    step = max(every, 1)
+    kept = [k for k in range(k_total) if not k % step or k in starts or k == k_total - 1]
+    if step == 1:
+        utc = sample_times_iso(plan, t0)  # the GPX track's times too: formatted once
+    else:  # only the samples written: 1 in ``every`` of the times the GPX track formats for itself
+        utc = dict(zip(kept, sample_times_iso_at(plan, t0, kept)))
+    for k in kept:
         ts = t_rel[k]
         si = int(step_of[k])
         st = by_index.get(si)
