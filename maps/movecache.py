@@ -114,6 +114,11 @@ def key(profile: ShipProfile, what: str, options: tuple, primitive: Any = None) 
     if plancache.default_dir() is None:
         return None
     kernel = "compiled" if jitloop.loaded() else "numpy-until-loaded"
+    # No BLAS thread count in the key: an entry's bits do not depend on it. The first design's SLSQP runs on one
+    # BLAS thread (primitives.threads.one_blas_thread), the library's information moments are np.einsum without
+    # optimize (numpy's own loops, no BLAS), the rudder autopilot's Riccati solve has 3 states (too small for
+    # OpenBLAS to split); every .moves entry of plan-trial (default ship; --ship kvlcc2 --map open-sea) was
+    # byte-identical built under OPENBLAS_NUM_THREADS=1 and 2 (stop 60); tests/test_design_threads.py guards it.
     h = hashlib.sha256(f"moves\0{plancache.code_version()}\0{machine()}\0{kernel}\0{what}\0{options!r}\0".encode())
     h.update(_profile_digest(profile))
     if primitive is not None:  # the profile is in the key already
