@@ -11,64 +11,27 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
+from cli.plan_inputs import (
+    DesignArgs,
+    DesignChoice,
+    LatticeArgs,
+    OutputArgs,
+    check_lattice_and_outputs,
+    parse_counts,
+    parse_point,
+    plan_inputs,
+)
 from cli.plan_outputs import export_chart, stage, write_outputs_all
 from cli.plan_summary import report
-from primitives.errors import UserError
 
 if TYPE_CHECKING:  # annotations only: the command imports the library when it runs
     from cli.drawer import Drawer
     from cli.plan_cache import CacheSlot, Planned
-    from expdesign.prior import ParameterPrior
     from maps.chain import LatLonHdg
     from maps.geo import SeaMap
     from maps.plan import Plan
     from maps.planoptions import PlanOptions
     from maps.trialdesign import TrialDesign
-
-
-def parse_point(text: str | None, what: str) -> tuple[float, float, float | None] | None:
-    """``LAT,LON[,HEADING_DEG]`` -> (lat, lon, heading or None)."""
-    if text is None:
-        return None
-    try:
-        vals = [float(v) for v in text.replace(" ", "").split(",")]
-    except ValueError:
-        vals = []
-    if len(vals) not in (2, 3):
-        raise UserError(f"--{what}: expected LAT,LON[,HEADING_DEG] in degrees (e.g. 60.16,24.96,180), got {text!r}")
-    return vals[0], vals[1], (vals[2] if len(vals) == 3 else None)
-
-
-def parse_counts(text: str | None) -> dict[str, int] | None:
-    """``NAME=N,NAME=N`` -> dict."""
-    if text is None:
-        return None
-    out: dict[str, int] = {}
-    for part in filter(None, (p.strip() for p in text.split(","))):
-        name, sep, val = part.partition("=")
-        try:
-            n = int(val)
-        except ValueError:
-            n = -1
-        if not sep or not name or n < 0:
-            raise UserError(f"--counts: expected NAME=N with N a whole number >= 0, got {part!r}")
-        out[name.strip()] = n
-    if not out:
-        raise UserError("--counts: give at least one NAME=N")
-    return out
-
-
-def design_conflict(counts: str | None, scenario: str | None, **design: object) -> None:
-    """Refuse design options (``--criterion``, ``--mean-subtraction``, ``--trial-length``) beside
-    ``--counts`` or ``--scenario``: those choose the manoeuvres without a design, so the options
-    would be ignored without a word."""
-    given = [f"--{k.replace('_', '-')}" for k, v in design.items() if v is not None]
-    chooser = "--counts" if counts is not None else "--scenario" if scenario is not None else None
-    if given and chooser:
-        raise UserError(
-            f"{given[0]}: sets the experiment design, but {chooser} chooses the manoeuvres without one: "
-            f"drop {' and '.join(given)} or {chooser}"
-        )
 
 
 def register(app: typer.Typer) -> None:
@@ -177,16 +140,14 @@ def register(app: typer.Typer) -> None:
             start=start,
             goal=goal,
         )
-        lattice = {"resolution": resolution, "headings": headings, "heuristic": heuristic, "margin": margin}
-        lattice |= {"split": split, "size": size, "run_in": run_in, "max_memory": max_memory}
-        outputs = {"out": out, "seed": seed, "vessel_name": vessel_name, "start_time": start_time, "no_export": no_export}
+        lattice = LatticeArgs(resolution, headings, heuristic, margin, split, size, run_in, max_memory)
+        outputs = OutputArgs(out, seed, vessel_name, start_time, no_export)
         if resume is not None:
             resumed = (resume, recordings or [], start_from or "", time_left or "")
             _resume(ctx, resumed, map_path, ship, lattice, outputs, json_out)
             return
-        design_opts = {"criterion": criterion, "mean_subtraction": mean_subtraction, "trial_length": trial_length_text}
-        design_opts |= {"prior_spread": prior_spread, "prior_file": prior_file, "prior_draws": prior_draws}
-        opts, design = _plan_inputs(ship, start, goal, counts, scenario, design_opts, lattice, outputs)
+        given = DesignArgs(criterion, mean_subtraction, trial_length_text, prior_spread, prior_file, prior_draws)
+        opts, design = plan_inputs(ship, start, goal, counts, scenario, given, lattice, outputs)
         files, result, cached = plan_and_write(
             ship,
             map_path,
@@ -212,113 +173,31 @@ def _resume(
     resumed: tuple[Path, list[Path], str, str],
     map_path: Path | None,
     ship: str,
-    lattice: dict[str, Any],
-    outputs: dict[str, Any],
+    lattice: LatticeArgs,
+    outputs: OutputArgs,
     json_out: bool,
 ) -> None:
     """``plan --resume`` (:func:`cli.resume_cmd.run_resume`; ``resumed``: the plan file, the recordings, --from,
     --time-left): the lattice options given override the plan's; those left at their defaults keep the plan's."""
-    from cli.options import validate_plan_options
     from cli.resume_cmd import run_resume
 
-    checked = {k: v for k, v in lattice.items() if k not in ("heuristic", "split")}
-    validate_plan_options(**checked, start=None, goal=None, counts=None, **outputs)
+    check_lattice_and_outputs(lattice, outputs, start=None, goal=None, counts=None)
     # by name: typer's vendored click has its own ParameterSource
     given = {k for k in ctx.params if getattr(ctx.get_parameter_source(k), "name", "DEFAULT") != "DEFAULT"}
-    size_t = tuple(int(v) for v in lattice["size"].lower().split("x"))  # checked by validate_plan_options
+    values = dict(lattice.items(), size=lattice.size_points())  # size checked by validate_plan_options
     fields = {"run_in": "run_in_s", "max_memory": "max_memory_gib"}  # parameter -> PlanOptions field
     run_resume(
         *resumed,
         map_path=map_path,
         ship=ship if "ship" in given else None,
         json_out=json_out,
-        overrides={fields.get(k, k): v for k, v in (lattice | {"size": size_t}).items() if k in given},
-        **outputs,
+        overrides={fields.get(k, k): v for k, v in values.items() if k in given},
+        out=outputs.out,
+        seed=outputs.seed,
+        vessel_name=outputs.vessel_name,
+        start_time=outputs.start_time,
+        no_export=outputs.no_export,
     )
-
-
-def _plan_inputs(
-    ship: str,
-    start: str | None,
-    goal: str | None,
-    counts: str | None,
-    scenario: str | None,
-    design_opts: dict[str, Any],
-    lattice: dict[str, Any],
-    outputs: dict[str, Any],
-) -> tuple[PlanOptions, dict[str, Any]]:
-    """The planner's options and the design's (criterion, mean subtraction, trial length, seed, parameter prior) of
-    ``plan`` without --resume, every option refused in one line first."""
-    from cli.options import duration_s, validate_plan_options
-    from expdesign.dopt import canonical_criterion
-    from maps.planoptions import PlanOptions
-
-    trial_length = duration_s(design_opts["trial_length"], "--trial-length")
-    criterion, mean_subtraction = design_opts["criterion"], design_opts["mean_subtraction"]
-    prior_spread, prior_file = design_opts["prior_spread"], design_opts["prior_file"]
-    design_conflict(
-        counts,
-        scenario,
-        criterion=criterion,
-        mean_subtraction=mean_subtraction,
-        trial_length=trial_length,
-        prior_spread=prior_spread,
-        prior_file=prior_file,
-    )
-    criterion = "D" if criterion is None else criterion
-    mean_subtraction = "complete" if mean_subtraction is None else mean_subtraction
-    checked = {k: v for k, v in lattice.items() if k not in ("heuristic", "split")}
-    validate_plan_options(
-        **checked,
-        start=start,
-        goal=goal,
-        counts=counts,
-        scenario=scenario,
-        criterion=criterion,
-        mean_subtraction=mean_subtraction,
-        trial_length=trial_length,
-        **outputs,
-    )
-    criterion = canonical_criterion(criterion)  # checked by validate_plan_options: "local-D" is "D"
-    ni, nj = (int(v) for v in lattice["size"].lower().split("x"))  # checked by validate_plan_options
-    if counts is not None and scenario is not None:
-        raise UserError("--counts and --scenario both choose the manoeuvres: give one of them")
-    opts = PlanOptions(
-        resolution=lattice["resolution"],
-        headings=lattice["headings"],
-        heuristic=lattice["heuristic"],
-        margin=lattice["margin"],
-        split=lattice["split"],
-        size=(ni, nj),
-        run_in_s=lattice["run_in"],
-        max_memory_gib=lattice["max_memory"],
-    )
-    opts.check()
-    seed = outputs["seed"]
-    design = {
-        "criterion": criterion,
-        "mean_subtraction": mean_subtraction,
-        "trial_length_s": trial_length,
-        "seed": seed,
-        "parameter_prior": _prior(ship, criterion, prior_spread, prior_file, design_opts["prior_draws"], seed),
-    }
-    return opts, design
-
-
-def _prior(
-    ship: str, criterion: str, spread: float | None, path: Path | None, draws: int | None, seed: int
-) -> ParameterPrior | None:
-    """The parameter prior of a robust criterion (None for a local one), refused in one line when bad."""
-    from cli.options import check_prior_options
-    from expdesign.dopt import ROBUST
-    from expdesign.prior import make_prior
-    from primitives.ship import load_profile
-
-    profile = load_profile(ship)
-    check_prior_options(criterion, spread, path, draws, profile_prior=profile.prior_std is not None)
-    if criterion not in ROBUST:
-        return None
-    return make_prior(profile, spread, path, draws, seed)
 
 
 def _heap_frozen(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -347,7 +226,7 @@ def plan_and_write(
     ship: str,
     map_path: Path | None,
     opts: PlanOptions,
-    design: dict[str, Any],
+    design: DesignChoice,
     *,
     counts: dict[str, int] | None,
     scenario: str | None,
@@ -360,7 +239,7 @@ def plan_and_write(
     json_out: bool,
     cache: bool = True,
 ) -> tuple[dict[str, Path], Plan, bool]:
-    """Plan (``design``: criterion, mean_subtraction, trial_length_s, seed) and write every
+    """Plan (``design``: :class:`cli.plan_inputs.DesignChoice`) and write every
     output into ``out``; returns the files (paths in ``out``), the plan and whether the design
     and plan were read from the plan cache (:mod:`maps.plancache`; ``cache=False``: neither read
     nor written). The figures are drawn by a :class:`cli.drawer.Drawer`, the one ``plan-trial``
@@ -375,12 +254,14 @@ def plan_and_write(
 
     prof = load_profile(ship)
     prof.require_planar("shiptrial plan")
-    inputs = dict(counts=counts, start=start, goal=goal, scenario=scenario, **design, vessel_name=vessel_name or "", options=opts)
+    inputs = dict(
+        counts=counts, start=start, goal=goal, scenario=scenario, **design.kwargs(), vessel_name=vessel_name or "", options=opts
+    )
     slot = cache_slot(prof, map_path, inputs, cache)
     planned = read_cached(slot, start_time, no_export)
     early = None
     if planned is None and counts is None and scenario is None:  # the drawer designs while this process builds the basic moves
-        early = partial(plan_early.early_design, ship, **design)
+        early = partial(plan_early.early_design, ship, **design.kwargs())
     ahead = partial(plan_early.ratios_ahead, ship) if early is not None else None
     cached, drawer = planned is not None, None
     try:  # the drawer is ended in `finally` whatever is raised from here on (a Ctrl-C in begin() included)

@@ -54,7 +54,7 @@ def _recording_files(paths: list[Path]) -> list[Path]:
 
 
 def _position(text: str) -> Position:
-    from cli.plan_cmd import parse_point
+    from cli.plan_inputs import parse_point
     from maps.resume import Position
 
     pt = parse_point(text, "from")

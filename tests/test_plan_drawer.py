@@ -422,6 +422,7 @@ from pathlib import Path
 
 import cli.drawer
 from cli.plan_cmd import plan_and_write
+from cli.plan_inputs import DesignChoice
 from maps.planoptions import PlanOptions
 
 
@@ -439,7 +440,7 @@ class Spy:  # stands for the drawer: records what this process had imported and 
 
 
 cli.drawer.Drawer = Spy
-design = dict(criterion="D", mean_subtraction="complete", trial_length_s=None, seed=0, parameter_prior=None)
+design = DesignChoice(criterion="D", mean_subtraction="complete", trial_length_s=None, seed=0, parameter_prior=None)
 try:
     plan_and_write("full-scale", None, PlanOptions(), design, counts=None, scenario=None, start=None, goal=None,
                    vessel_name=None, out=Path(sys.argv[1]), start_time=None, no_export=False, json_out=True, cache=False)
