@@ -323,6 +323,44 @@ def clean_recording(variant: str, ship: int, seed: int, folder: Path) -> Path:
     return write_csv(variant_recordings(variant, ship, [seed], noise_scale=0.0)[0], path)
 
 
+def cache_spec(spec: str) -> tuple[Path, str, int, int] | None:
+    """``DIR:KEY:FIRSTSHIP:NSHIPS`` as (folder, screening key, first ship, ships); None when it is not one."""
+    parts = spec.rsplit(":", 3)
+    if len(parts) != 4 or not parts[0] or not parts[1] or not parts[2].isdigit() or not parts[3].isdigit():
+        return None
+    return Path(parts[0]), parts[1], int(parts[2]), int(parts[3])
+
+
+def cache_problem(specs: list[str], variants: tuple[str, ...], runs: int) -> str | None:
+    """What a ``--cache`` spec lacks for :func:`study` (the folder, or the first stored prior or recording it
+    would read, named with :mod:`benchmarks.bench_detect_truth`'s file names), as one line; None when all is there."""
+    from benchmarks.bench_detect_truth import prior_name, stored_recording
+
+    if not specs:
+        return "--cache: give at least one DIR:KEY:FIRSTSHIP:NSHIPS (or --load a --save'd file)"
+    for spec in specs:
+        parsed = cache_spec(spec)
+        if parsed is None or parsed[3] < 1:
+            return (
+                f"--cache {spec}: expected DIR:KEY:FIRSTSHIP:NSHIPS, NSHIPS >= 1 (e.g. /work/wt/dcache-main:8667c7204102:102:2)"
+            )
+        folder, key, first, n = parsed
+        if not folder.is_dir():
+            return f"--cache {spec}: {folder}: no such folder; give a folder benchmarks/bench_detect_truth.py --cache filled"
+        for v in variants:
+            for ship in range(first, first + n):
+                nominal = stored_recording(v, ship, TRUTH_FP)
+                names = [prior_name(nominal, key), nominal]
+                names += [stored_recording(v, ship, TRUTH_FP, STORED_RUNS, i) for i in range(runs)]
+                missing = next((folder / f for f in names if not (folder / f).is_file()), None)
+                if missing is not None:
+                    return (
+                        f"--cache {spec}: {missing} is missing (screening key {key}, truth fingerprint {TRUTH_FP}); "
+                        f"give the key and ships bench_detect_truth.py --cache {folder} stored"
+                    )
+    return None
+
+
 def study(
     specs: list[str], variants: tuple[str, ...], runs: int, clean: Path | None = None
 ) -> dict[str, list[tuple[Columns, list[Columns]]]]:
@@ -332,10 +370,9 @@ def study(
 
     out: dict[str, list] = {}
     for spec in specs:
-        d, key, first, n = spec.split(":")
-        folder = Path(d)
+        folder, key, first, n = cache_spec(spec) or (Path(spec), "", 0, 0)  # checked first: cache_problem
         for v in variants:
-            for ship in range(int(first), int(first) + int(n)):
+            for ship in range(first, first + n):
                 prior = load_prior(folder, v, ship, key)
                 paths = [folder / stored_recording(v, ship, TRUTH_FP)]
                 paths += [folder / stored_recording(v, ship, TRUTH_FP, STORED_RUNS, i) for i in range(runs)]
@@ -381,7 +418,7 @@ def table(data: dict[str, list[tuple[Columns, list[Columns]]]], size: int = 3) -
     return lines
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cache", action="append", default=[], help="DIR:KEY:FIRSTSHIP:NSHIPS of a stored screening (read only)")
     ap.add_argument("--variants", nargs="*", default=list(VARIANTS), choices=VARIANTS)
@@ -390,9 +427,13 @@ def main() -> None:
     ap.add_argument("--clean", type=Path, help="folder for the recordings re-simulated without sensor noise (diagnosis)")
     ap.add_argument("--save", type=Path, help="pickle the columns here (a later --load re-tabulates without simulating)")
     ap.add_argument("--load", type=Path, help="tabulate the columns a --save wrote")
-    a = ap.parse_args()
+    a = ap.parse_args(argv)
     if not 1 <= a.runs <= STORED_RUNS:  # run i >= 10 of the stored studies is a changed one
         ap.error(f"--runs {a.runs}: give 1 to {STORED_RUNS} (the stored studies' unchanged runs per ship)")
+    if a.load is not None and not a.load.is_file():
+        ap.error(f"--load {a.load}: no such file; give a file --save wrote")
+    if a.load is None and (problem := cache_problem(a.cache, tuple(a.variants), a.runs)) is not None:
+        ap.error(problem)  # before any simulation: a missing folder or file was a traceback after minutes
     warnings.simplefilter("ignore", RuntimeWarning)
     if a.load:
         data = pickle.loads(a.load.read_bytes())

@@ -124,3 +124,26 @@ def test_more_runs_than_the_stored_studies_unchanged_ones_are_refused_in_one_lin
             .splitlines()[-1]
             .endswith(f"--runs {runs}: give 1 to 10 (the stored studies' unchanged runs per ship)")
         )
+
+
+def test_a_cache_folder_spec_or_file_missing_is_refused_in_one_line_before_any_simulation(tmp_path, capsys):
+    """``--cache`` on a missing folder (or a malformed spec, or a folder without the stored prior) ended in a
+    traceback (FileNotFoundError, ValueError) at stop 59; each is now one line naming the spec and the file
+    (bench_detect_truth's own names), exit 2."""
+    import pytest
+
+    from benchmarks.bench_detect_truth import prior_name, stored_recording
+    from benchmarks.detect_prior_misfit import TRUTH_FP, main
+
+    prior = tmp_path / prior_name(stored_recording("strong-roll", 7, TRUTH_FP), "K")
+    cases = [
+        (["--cache", f"{tmp_path}/none:K:1:1"], f"{tmp_path}/none: no such folder"),
+        (["--cache", f"{tmp_path}:K"], "expected DIR:KEY:FIRSTSHIP:NSHIPS"),
+        (["--cache", f"{tmp_path}:K:7:1", "--variants", "strong-roll"], f"{prior} is missing"),
+        ([], "--cache: give at least one"),
+    ]
+    for argv, said in cases:
+        with pytest.raises(SystemExit) as stop:
+            main(argv)
+        err = capsys.readouterr().err
+        assert stop.value.code == 2 and said in err.strip().splitlines()[-1] and "Traceback" not in err
