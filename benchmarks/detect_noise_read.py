@@ -15,7 +15,6 @@ read here only to be compared with; the readings see the recording alone.
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 from pathlib import Path
 
@@ -38,12 +37,31 @@ def read_csv(path: Path) -> tuple[dict[str, np.ndarray], float]:
     return {k: np.asarray(a[k], float) for k in a.dtype.names}, dt
 
 
+def nominal_recordings(folder: Path) -> list[tuple[str, Path]]:
+    """(variant, path) of every ship's stored nominal recording in a ``bench_detect_truth.py --cache`` folder, in
+    file-name order: the files whose names :func:`benchmarks.bench_detect_truth.stored_recording` gives for a
+    variant of the truth family, a ship and a truth-code fingerprint (any: a folder filled by earlier truth code is
+    read too, as the readings compare with the settings of the truth code here)."""
+    from benchmarks.bench_detect_truth import ALL_VARIANTS, batch_name, stored_recording
+
+    found = []
+    for p in folder.glob("*.csv"):
+        for v in ALL_VARIANTS:
+            ship = p.name.removeprefix(f"{v}-").split("-", 1)[0]
+            if not p.name.startswith(f"{v}-") or not ship.isdigit():
+                continue
+            # the fingerprint is what lies between the batch's name and the run's number: the name given back whole
+            fp = p.name[len(batch_name(v, int(ship))) + 1 :].rsplit("-", 1)[0]
+            if p.name == stored_recording(v, int(ship), fp):
+                found.append((p.name, v, p))
+    return [(v, p) for _, v, p in sorted(found)]
+
+
 def readings(folders: list[Path]) -> dict[str, list[dict[str, tuple[float, float, float]]]]:
     """Per variant, per nominal recording: channel -> (white sd / true, spectral sd / true, spectral tau / true)."""
     out: dict[str, list] = {}
     for folder in folders:
-        for p in sorted(folder.glob("*-nominal-*-0.csv")):
-            variant = re.match(r"(.+)-\d+-nominal-", p.name).group(1)
+        for variant, p in nominal_recordings(folder):
             ch, dt = read_csv(p)
             row = {}
             for k in CHANNELS:

@@ -40,3 +40,25 @@ def test_file_names_are_those_the_stored_studies_hold():
     glob = screen_name(stored_recording("strong-roll", 7, "*", 10, 14), "K1")
     assert glob == "strong-roll-7-10-10-*-4-screen-K1.pkl"
     assert prior_name(stored_recording("strong-roll", 7, "*"), "K1") == "strong-roll-7-nominal-*-0-prior-K1.pkl"
+
+
+def test_noise_read_finds_the_nominal_recordings_by_these_names(tmp_path):
+    """benchmarks/detect_noise_read.py reads each ship's nominal recording of a --cache folder, found by
+    ``stored_recording``'s names (any truth fingerprint), not the runs, priors, screenings or other files beside
+    it; the variant is the truth family's (``steering-lag-acting`` is not ``steering-lag``'s ship 'acting')."""
+    from benchmarks.detect_noise_read import nominal_recordings
+
+    nominal = [("steering-lag", 7, FP), ("steering-lag-acting", 7, FP), ("nominal-mmg", 102, "abc123def456")]
+    names = [stored_recording(v, s, fp) for v, s, fp in nominal]
+    beside = [
+        stored_recording("nominal-mmg", 102, FP, 10, 3),  # a run of a study
+        prior_name(names[0], "K1"),
+        screen_name(names[1], "K1"),
+        "not-a-variant-7-nominal-" + FP + "-0.csv",
+        "nominal-mmg-x-nominal-" + FP + "-0.csv",
+        f"nominal-mmg-102-nominal-{FP}-1.csv",  # a nominal batch's second recording: none is stored
+    ]
+    for n in names + beside:
+        (tmp_path / n).write_text("")
+    found = nominal_recordings(tmp_path)
+    assert found == sorted(((v, tmp_path / n) for (v, _, _), n in zip(nominal, names)), key=lambda vp: vp[1].name)
