@@ -140,13 +140,29 @@ def register(app: typer.Typer) -> None:
             start=start,
             goal=goal,
         )
-        lattice = LatticeArgs(resolution, headings, heuristic, margin, split, size, run_in, max_memory)
-        outputs = OutputArgs(out, seed, vessel_name, start_time, no_export)
+        lattice = LatticeArgs(
+            resolution=resolution,
+            headings=headings,
+            heuristic=heuristic,
+            margin=margin,
+            split=split,
+            size=size,
+            run_in=run_in,
+            max_memory=max_memory,
+        )
+        outputs = OutputArgs(out=out, seed=seed, vessel_name=vessel_name, start_time=start_time, no_export=no_export)
         if resume is not None:
             resumed = (resume, recordings or [], start_from or "", time_left or "")
             _resume(ctx, resumed, map_path, ship, lattice, outputs, json_out)
             return
-        given = DesignArgs(criterion, mean_subtraction, trial_length_text, prior_spread, prior_file, prior_draws)
+        given = DesignArgs(
+            criterion=criterion,
+            mean_subtraction=mean_subtraction,
+            trial_length=trial_length_text,
+            prior_spread=prior_spread,
+            prior_file=prior_file,
+            prior_draws=prior_draws,
+        )
         opts, design = plan_inputs(ship, start, goal, counts, scenario, given, lattice, outputs)
         files, result, cached = plan_and_write(
             ship,

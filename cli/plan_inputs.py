@@ -197,7 +197,10 @@ def plan_inputs(
     opts.check()
     seed = outputs.seed
     prior = _prior(ship, criterion, given.prior_spread, given.prior_file, given.prior_draws, seed)
-    return opts, DesignChoice(criterion, mean_subtraction, trial_length, seed, prior)
+    design = DesignChoice(
+        criterion=criterion, mean_subtraction=mean_subtraction, trial_length_s=trial_length, seed=seed, parameter_prior=prior
+    )
+    return opts, design
 
 
 def _prior(
