@@ -370,7 +370,10 @@ def study(
 
     out: dict[str, list] = {}
     for spec in specs:
-        folder, key, first, n = cache_spec(spec) or (Path(spec), "", 0, 0)  # checked first: cache_problem
+        parsed = cache_spec(spec)
+        if parsed is None:  # main() refuses it in one line first (cache_problem); another caller gets no empty table
+            raise ValueError(f"--cache {spec}: expected DIR:KEY:FIRSTSHIP:NSHIPS")
+        folder, key, first, n = parsed
         for v in variants:
             for ship in range(first, first + n):
                 prior = load_prior(folder, v, ship, key)

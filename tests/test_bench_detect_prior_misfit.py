@@ -147,3 +147,14 @@ def test_a_cache_folder_spec_or_file_missing_is_refused_in_one_line_before_any_s
             main(argv)
         err = capsys.readouterr().err
         assert stop.value.code == 2 and said in err.strip().splitlines()[-1] and "Traceback" not in err
+
+
+def test_study_refuses_a_malformed_cache_spec_rather_than_reading_no_ship(tmp_path):
+    """study() called without main's checks: a spec that is not DIR:KEY:FIRSTSHIP:NSHIPS raises, naming it, rather
+    than giving an empty table (review of stop 60: it was read as zero ships)."""
+    import pytest
+
+    from benchmarks.detect_prior_misfit import study
+
+    with pytest.raises(ValueError, match=f"--cache {tmp_path}:K: expected DIR:KEY:FIRSTSHIP:NSHIPS"):
+        study([f"{tmp_path}:K"], ("strong-roll",), 1)
