@@ -199,14 +199,20 @@ def sample_times_iso(plan: Plan, t0: datetime) -> tuple[str, ...]:
 @lru_cache(maxsize=1)
 def _sample_times_iso(t_bytes: bytes, t0: datetime) -> tuple[str, ...]:
     t = np.frombuffer(t_bytes, dtype=np.float64)
-    return tuple(iso(t0 + timedelta(seconds=ts)) for ts in (t - t[0]).tolist()) if len(t) else ()
+    return tuple(_iso_after(t0, t - t[0])) if len(t) else ()
 
 
 def sample_times_iso_at(plan: Plan, t0: datetime, ks: Sequence[int]) -> list[str]:
     """:func:`sample_times_iso` of the samples ``ks`` only (the CSV schedule with ``every`` > 1): the same
     strings, from the same arithmetic, without formatting the samples left out."""
     t = np.asarray(plan.t, dtype=np.float64)
-    return [iso(t0 + timedelta(seconds=ts)) for ts in (t - t[0])[np.asarray(ks, dtype=np.intp)].tolist()] if len(t) else []
+    return _iso_after(t0, (t - t[0])[np.asarray(ks, dtype=np.intp)]) if len(t) else []
+
+
+def _iso_after(t0: datetime, seconds: np.ndarray) -> list[str]:
+    """:func:`iso` of ``t0`` plus each of ``seconds``: the one formatting of both sample-time lists, so that the
+    thinned CSV's times stay the strings of the full list's."""
+    return [iso(t0 + timedelta(seconds=ts)) for ts in seconds.tolist()]
 
 
 def clock(t_s: float) -> str:
