@@ -70,7 +70,8 @@ def _worker(conn: Connection, others: list[Connection], warm: Callable[[], None]
 def _payload(fn: Callable, items: Sequence[Any], shared: Any) -> bytes:
     """A map's (function, items, shared inputs), each pickled on its own (a worker then names the part it
     cannot unpickle) and the three sent as one message. A part that cannot be pickled raises RuntimeError
-    naming it, before anything is sent: the workers are untouched and the pool stays usable."""
+    naming it, before anything is sent: the workers are untouched and the pool stays usable. An object held by two
+    parts (an item and the shared inputs) is sent twice and is two objects in a worker."""
     parts = []
     for name, part in zip(PAYLOAD_PARTS, (fn, items, shared)):
         try:

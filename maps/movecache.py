@@ -118,7 +118,8 @@ def key(profile: ShipProfile, what: str, options: tuple, primitive: Any = None) 
     # BLAS thread (primitives.threads.one_blas_thread), the library's information moments are np.einsum without
     # optimize (numpy's own loops, no BLAS), the rudder autopilot's Riccati solve has 3 states (too small for
     # OpenBLAS to split); every .moves entry of plan-trial (default ship; --ship kvlcc2 --map open-sea) was
-    # byte-identical built under OPENBLAS_NUM_THREADS=1 and 2 (stop 60); tests/test_design_threads.py guards it.
+    # byte-identical built under OPENBLAS_NUM_THREADS=1 and 2 (stop 60); tests/test_design_threads.py guards the
+    # design and the autopilot gain (not the moments, nor a whole entry).
     h = hashlib.sha256(f"moves\0{plancache.code_version()}\0{machine()}\0{kernel}\0{what}\0{options!r}\0".encode())
     h.update(_profile_digest(profile))
     if primitive is not None:  # the profile is in the key already
