@@ -141,6 +141,7 @@ def test_a_cache_folder_spec_or_file_missing_is_refused_in_one_line_before_any_s
         (["--cache", f"{tmp_path}:K"], "expected DIR:KEY:FIRSTSHIP:NSHIPS"),
         (["--cache", f"{tmp_path}:K:7:1", "--variants", "strong-roll"], f"{prior} is missing"),
         ([], "--cache: give at least one"),
+        (["--load", f"{tmp_path}/none.pkl"], f"--load {tmp_path}/none.pkl: no such file"),
     ]
     for argv, said in cases:
         with pytest.raises(SystemExit) as stop:

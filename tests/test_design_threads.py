@@ -63,7 +63,7 @@ _AUTOPILOT_GAIN = """
 from maps.autopilot import _Rudder
 from primitives.ship import load_profile
 rudder = _Rudder(load_profile("kvlcc2"))
-print(*(float(k).hex() for k in rudder.K))
+print(*(float(k).hex() for k in rudder.K), float(rudder.r_lim).hex())  # the gain and the yaw-rate limit it steers to
 """
 
 
@@ -72,7 +72,7 @@ def test_rudder_autopilot_gain_has_the_same_bits_on_one_and_two_blas_threads():
     split): its gain, which every rudder ship's moves are simulated with, must still not depend on it. Fails if
     the autopilot's problem grows into sizes OpenBLAS threads; then put it under ``one_blas_thread``."""
     one, two = (_python(_AUTOPILOT_GAIN, n).split() for n in (1, 2))
-    assert len(one) == 3 and one == two
+    assert len(one) == 4 and one == two
 
 
 def test_one_blas_thread_limits_a_blas_loaded_after_its_first_use():
