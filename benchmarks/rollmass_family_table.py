@@ -1,10 +1,11 @@
 """The issue-25 table of a truth-family dump (stop 54): per variant and case, the oe fits' median mass and height
 error, the 95 % intervals' coverage with an exact (Clopper-Pearson) 95 % interval on it, and the failures named.
 
-    python benchmarks/rollmass_family_table.py DUMP [--complete-runs] [--markdown]
+    python benchmarks/rollmass_family_table.py DUMP [DUMP ...] [--complete-runs] [--markdown]
 
 ``DUMP``: a ``--dump`` file of :mod:`benchmarks.bench_rollmass_truth` (also an interrupted run's: its jobs run
-run-major, so every variant has about as many runs). ``--complete-runs`` keeps only the runs whose every
+run-major, so every variant has about as many runs); several dumps of one family's disjoint runs are pooled (stop 60:
+runs 0-6 and 7-13, fitted apart), a fit in two of them refused. ``--complete-runs`` keeps only the runs whose every
 (variant, case) fit is in the dump, so each variant and case counts the same runs. Nothing is fitted.
 The target (issue 25): median |mass error| < 5 %, median |z error| < 10 mm, the interval holding the truth in
 >= 90 % of the runs, in every case of every variant; ``met`` reads the coverage as both intervals holding in >= 90 % of all runs, a failed fit a miss.
@@ -113,14 +114,32 @@ def _path_split(rows: list, cpu: np.ndarray) -> list[str]:
     return out
 
 
+def load(paths: list[str]) -> list[list]:
+    """The rows of the dumps, one list; a fit (variant, case, method, run) in two of them is refused in one line
+    (two fits of one ship would be counted twice)."""
+    rows, seen = [], {}
+    for p in paths:
+        for i, line in enumerate(Path(p).read_text().splitlines(), 1):
+            if not line.strip():
+                continue
+            r = json.loads(line)
+            key = tuple(r[:4])
+            if key in seen:
+                raise SystemExit(
+                    f"{p}: line {i} repeats the fit {'/'.join(map(str, key))} of {seen[key]}; fix: give each fit's dump once"
+                )
+            seen[key] = f"{p} line {i}"
+            rows.append(r)
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("dump")
+    ap.add_argument("dump", nargs="+")
     ap.add_argument("--complete-runs", action="store_true", help="only the runs whose every (variant, case) fit is in the dump")
     ap.add_argument("--markdown", action="store_true")
     a = ap.parse_args()
-    rows = [json.loads(line) for line in Path(a.dump).read_text().splitlines() if line.strip()]
-    rows = [r for r in rows if r[2] == "oe"]
+    rows = [r for r in load(a.dump) if r[2] == "oe"]
     if a.complete_runs:
         rows = _complete(rows)
     variants, cases = list(dict.fromkeys(r[0] for r in rows)), sorted({r[1] for r in rows})

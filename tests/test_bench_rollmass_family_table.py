@@ -65,3 +65,17 @@ def test_the_recorded_paths_are_split_the_geodesic_continuation_included():
         "fits whose exact path was continued by the geodesic LM (recorded): 2, 45 s cpu",
     ]
     assert ft._path_split([_row("base", "case1", 0)], np.array([3.0])) == []
+
+
+def test_dumps_of_disjoint_runs_are_pooled_and_a_fit_in_two_refused(tmp_path, capsys):
+    """Stop 60: runs 0-6 and 7-13 of one family fitted into two dumps make one table; a fit in both is refused (it
+    would count one ship twice)."""
+    a, b = tmp_path / "a.jsonl", tmp_path / "b.jsonl"
+    a.write_text("".join(json.dumps(_row("base", "case1", r)) + "\n" for r in range(2)))
+    b.write_text("".join(json.dumps(_row("base", "case1", r)) + "\n" for r in range(2, 5)))
+    sys.argv = ["x", str(a), str(b)]
+    ft.main()
+    assert "5 oe fits, runs 0-4 (5 runs)" in capsys.readouterr().out
+    b.write_text(json.dumps(_row("base", "case1", 1)) + "\n")
+    with pytest.raises(SystemExit, match=r"b.jsonl: line 1 repeats the fit base/case1/oe/1 of .*a.jsonl line 2"):
+        ft.load([str(a), str(b)])
