@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy.special import stdtrit
-from scipy.stats import norm
+from scipy.stats import kurtosis, norm, shapiro
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -115,6 +115,46 @@ def rms_factor(rows: list[list]) -> tuple[float, float]:
     return float(np.sqrt(np.mean(a[:, 0] ** 2))), float(np.sqrt(np.mean(a[:, 1] ** 2)))
 
 
+def checks(rows: list[list]) -> dict[str, float] | None:
+    """The pooled checks the stop-60 reading rests on, over the rows with sds (None if none): ``corr`` of the mass and
+    height ``s`` (the two intervals miss together), both intervals holding as read with ``t`` (``hold_t``) and with the
+    normal 1.96 (``hold_196``: the critical value's share of the misses), the mass ``s``'s excess ``kurtosis`` (its
+    standard error about sqrt(24 / n): a t on few degrees of freedom shows in it) and Shapiro-Wilk ``shapiro_p``, and
+    the (variant, run) pairs with a miss in some case (``runs_missed``) and in every case given (``runs_all_missed``)
+    of ``runs`` pairs."""
+    got = [(r, g) for r, g in zip(rows, map(standardised, rows)) if g is not None]
+    if len(got) < 3:
+        return None
+    a = np.array([g for _, g in got], dtype=float)
+    hold = (np.abs(a[:, 0]) <= a[:, 2]) & (np.abs(a[:, 1]) <= a[:, 3])
+    by_run: dict[tuple, list[bool]] = {}
+    for (r, _), h in zip(got, hold):
+        by_run.setdefault((r[0], r[3]), []).append(bool(h))
+    return {
+        "n": len(a),
+        "corr": float(np.corrcoef(a[:, 0], a[:, 1])[0, 1]),
+        "hold_t": int(hold.sum()),
+        "hold_196": int(((np.abs(a[:, 0]) <= 1.96) & (np.abs(a[:, 1]) <= 1.96)).sum()),
+        "kurtosis": float(kurtosis(a[:, 0])),
+        "kurtosis_se": math.sqrt(24 / len(a)),
+        "shapiro_p": float(shapiro(a[:, 0]).pvalue),
+        "runs": len(by_run),
+        "runs_missed": sum(not all(v) for v in by_run.values()),
+        "runs_all_missed": sum(not any(v) for v in by_run.values()),
+    }
+
+
+def _positive(text: str) -> float:
+    """``--inflate``'s K: a finite number above 0 (0 would read no interval, a negative one none either)."""
+    try:
+        k = float(text)
+    except ValueError:
+        k = float("nan")
+    if not (math.isfinite(k) and k > 0):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a factor above 0; fix: give e.g. --inflate 1.45")
+    return k
+
+
 def _line(label: str, g: dict) -> str:
     if "ng" not in g:
         return f"{label:18} {g['n']:4d} fits, none with sds ({g['fail']} failed)"
@@ -135,10 +175,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dump", nargs="+")
     how = ap.add_mutually_exclusive_group()
-    how.add_argument("--inflate", type=float, help="read every interval K times as wide (both quantities)")
+    how.add_argument("--inflate", type=_positive, help="read every interval K times as wide (both quantities)")
     how.add_argument("--inflate-from", nargs="+", help="K per quantity: sqrt(mean(s^2)) over these dumps' fits")
     a = ap.parse_args()
     rows = load(a.dump)
+    if not rows:
+        raise SystemExit(f"{', '.join(a.dump)}: no oe fit; fix: give a dump of bench_rollmass_truth --methods oe")
     k = (a.inflate, a.inflate) if a.inflate else rms_factor(load(a.inflate_from)) if a.inflate_from else (1.0, 1.0)
     runs = sorted({r[3] for r in rows})
     print(f"{len(rows)} oe fits, runs {runs[0]}-{runs[-1]}; inflation K mass {k[0]:.3f}, height {k[1]:.3f}")
@@ -152,6 +194,14 @@ def main() -> None:
     g = group(rows, k)
     if "ng" in g:
         print(f"critical values t: mass {g['t_m'][0]:.2f}-{g['t_m'][1]:.2f}, height {g['t_z'][0]:.2f}-{g['t_z'][1]:.2f}")
+    c = checks(rows)
+    if c is not None:
+        print(
+            f"pooled checks: corr(mass s, height s) {c['corr']:.3f}; both holding {c['hold_t']} of {c['n']} with t, "
+            f"{c['hold_196']} with 1.96; mass s excess kurtosis {c['kurtosis']:+.2f} (se ~{c['kurtosis_se']:.2f}), "
+            f"Shapiro-Wilk p {c['shapiro_p']:.2f}; variant-runs with a miss {c['runs_missed']} of {c['runs']}, "
+            f"in every case {c['runs_all_missed']}"
+        )
     print(
         "s: error / reported sd; rsd: 1.4826 x its median absolute deviation; miss%: |s| > t counted; bias% / sprd% / b+s%: the misses of N(median, 1), N(0, sd^2),"
         "\nN(median, sd^2) at the group's median t (1.96-2.2: 5-3 % if the sds were right); +/-: misses above / below;"

@@ -80,3 +80,26 @@ def test_the_bench_records_the_critical_values_its_intervals_used(monkeypatch, c
     s_m, s_z, t_m, t_z = got
     assert 1.96 < t_m < 13 and 1.96 < t_z < 13  # oe's intervals take Student's t on a finite nu
     assert row[4][2] == (abs(s_m) <= t_m) and row[4][3] == (abs(s_z) <= t_z)
+
+
+def test_the_pooled_checks_of_the_reading_are_computed_by_the_script():
+    """Review of stop 60: the figures the docs' reading rests on (the two intervals missing together, 1.96 in place of
+    t, the tails, the runs with a miss) come from the script, not a scratch call."""
+    s = {(0, "case1"): 2.1, (0, "case2"): 0.5, (1, "case1"): 3.0, (1, "case2"): -3.0, (2, "case1"): 0.0, (2, "case2"): 2.5}
+    rows = [_row(v, v, case=c, dof=10.0, run=r) for (r, c), v in s.items()]  # t_{0.975, 10} = 2.23
+    c = zs.checks(rows)
+    assert c["corr"] == pytest.approx(1.0) and c["n"] == 6
+    assert c["hold_t"] == 3 and c["hold_196"] == 2  # 2.1 holds with t, not with 1.96
+    assert c["runs"] == 3 and c["runs_missed"] == 2 and c["runs_all_missed"] == 1
+    assert c["kurtosis_se"] == pytest.approx(2.0) and 0 < c["shapiro_p"] <= 1
+    assert zs.checks(rows[:2]) is None
+
+
+@pytest.mark.parametrize("bad", ["0", "-1.4", "nan", "x"])
+def test_an_inflation_factor_must_be_above_zero(bad, monkeypatch, tmp_path, capsys):
+    dump = tmp_path / "d.jsonl"
+    dump.write_text(json.dumps(_row(1.0, 1.0)) + "\n")
+    monkeypatch.setattr(sys, "argv", ["x", str(dump), "--inflate", bad])
+    with pytest.raises(SystemExit) as exc:
+        zs.main()
+    assert exc.value.code == 2 and "is not a factor above 0" in capsys.readouterr().err
