@@ -84,6 +84,9 @@ def _one(job: tuple) -> list[tuple]:
                 if e.fit_path is not None:
                     fitted["path"] = e.fit_path.record()
                 fitted["m_sd"], fitted["z_sd"] = e.m_sd, e.zbar_m_sd  # the reported sds (kg, m), for the stop-55 oracle
+                # the intervals' Satterthwaite degrees of freedom (MassEstimate.critical's t): a miss's z-score is read
+                # against its own critical value (stop 60), which the sd alone does not give
+                fitted["m_dof"], fitted["z_dof"] = e.m_dof, e.zbar_m_dof
             except UserError as exc:
                 row, why = None, str(exc)[:80]
             out.append((variant, case, method, run, row, why, time.process_time() - c0, {**fitted, "family": family}))

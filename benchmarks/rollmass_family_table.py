@@ -1,10 +1,11 @@
 """The issue-25 table of a truth-family dump (stop 54): per variant and case, the oe fits' median mass and height
 error, the 95 % intervals' coverage with an exact (Clopper-Pearson) 95 % interval on it, and the failures named.
 
-    python benchmarks/rollmass_family_table.py DUMP [--complete-runs] [--markdown]
+    python benchmarks/rollmass_family_table.py DUMP [DUMP ...] [--complete-runs] [--markdown]
 
 ``DUMP``: a ``--dump`` file of :mod:`benchmarks.bench_rollmass_truth` (also an interrupted run's: its jobs run
-run-major, so every variant has about as many runs). ``--complete-runs`` keeps only the runs whose every
+run-major, so every variant has about as many runs); several dumps of one family's disjoint runs are pooled (stop 60:
+runs 0-6 and 7-13, fitted apart), a fit in two of them or rows of two family settings refused. ``--complete-runs`` keeps only the runs whose every
 (variant, case) fit is in the dump, so each variant and case counts the same runs. Nothing is fitted.
 The target (issue 25): median |mass error| < 5 %, median |z error| < 10 mm, the interval holding the truth in
 >= 90 % of the runs, in every case of every variant; ``met`` reads the coverage as both intervals holding in >= 90 % of all runs, a failed fit a miss.
@@ -113,16 +114,64 @@ def _path_split(rows: list, cpu: np.ndarray) -> list[str]:
     return out
 
 
+def _settings(row: list) -> tuple | None:
+    """The family settings a row records (``bench_rollmass_truth._family`` without the code hash: the ships and
+    recordings depend on them, not on the code), None for a row without the record (stop 54's dump)."""
+    fam = row[7].get("family") if len(row) > 7 and isinstance(row[7], dict) else None
+    return tuple(sorted((k, v) for k, v in fam.items() if k != "code")) if isinstance(fam, dict) else None
+
+
+def load(paths: list[str]) -> list[list]:
+    """The rows of the dumps, one list. Refused in one line: a missing file or a line that is not a dump row, a fit
+    (variant, case, method, run) in two of them (two fits of one ship would be counted twice), and rows of two
+    family settings (run k is another ship at another ``--runs`` or ``--seed``; a row without the record passes)."""
+    rows, seen, fams = [], {}, {}
+    for p in paths:
+        try:
+            text = Path(p).read_text()
+        except OSError as exc:
+            raise SystemExit(
+                f"{p}: cannot read the dump ({exc.strerror}); fix: give a --dump file of bench_rollmass_truth"
+            ) from None
+        for i, line in enumerate(text.splitlines(), 1):
+            if not line.strip():
+                continue
+            try:
+                r = json.loads(line)
+                key = (r[0], r[1], r[2], r[3])
+                hash(key)
+            except (ValueError, TypeError, IndexError, KeyError):
+                raise SystemExit(f"{p}: line {i} is not a dump row; fix: give a --dump file of bench_rollmass_truth") from None
+            if key in seen:
+                raise SystemExit(
+                    f"{p}: line {i} repeats the fit {'/'.join(map(str, key))} of {seen[key]}; fix: give each fit's dump once"
+                )
+            fam = _settings(r)
+            if fam is not None:
+                fams.setdefault(fam, f"{p} line {i}")
+                if len(fams) > 1:
+                    raise SystemExit(
+                        f"{p}: line {i}'s family settings {dict(fam)} differ from {next(iter(fams.values()))}'s; "
+                        "fix: pool only dumps of one family (same --runs, --seed and settings)"
+                    )
+            seen[key] = f"{p} line {i}"
+            rows.append(r)
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("dump")
+    ap.add_argument("dump", nargs="+")
     ap.add_argument("--complete-runs", action="store_true", help="only the runs whose every (variant, case) fit is in the dump")
     ap.add_argument("--markdown", action="store_true")
     a = ap.parse_args()
-    rows = [json.loads(line) for line in Path(a.dump).read_text().splitlines() if line.strip()]
-    rows = [r for r in rows if r[2] == "oe"]
+    rows = [r for r in load(a.dump) if r[2] == "oe"]
     if a.complete_runs:
         rows = _complete(rows)
+    if not rows:
+        raise SystemExit(
+            f"{', '.join(a.dump)}: no oe fit{' of a complete run' if a.complete_runs else ''}; fix: give a dump of --methods oe"
+        )
     variants, cases = list(dict.fromkeys(r[0] for r in rows)), sorted({r[1] for r in rows})
     runs = sorted({r[3] for r in rows})
     print(f"{len(rows)} oe fits, runs {runs[0]}-{runs[-1]} ({len(runs)} runs), {sum(r[6] for r in rows):.0f} s cpu in the fits")

@@ -65,3 +65,42 @@ def test_the_recorded_paths_are_split_the_geodesic_continuation_included():
         "fits whose exact path was continued by the geodesic LM (recorded): 2, 45 s cpu",
     ]
     assert ft._path_split([_row("base", "case1", 0)], np.array([3.0])) == []
+
+
+def test_dumps_of_disjoint_runs_are_pooled_and_a_fit_in_two_refused(tmp_path, capsys, monkeypatch):
+    """Stop 60: runs 0-6 and 7-13 of one family fitted into two dumps make one table; a fit in both is refused (it
+    would count one ship twice)."""
+    a, b = tmp_path / "a.jsonl", tmp_path / "b.jsonl"
+    a.write_text("".join(json.dumps(_row("base", "case1", r)) + "\n" for r in range(2)))
+    b.write_text("".join(json.dumps(_row("base", "case1", r)) + "\n" for r in range(2, 5)))
+    monkeypatch.setattr(sys, "argv", ["x", str(a), str(b)])
+    ft.main()
+    assert "5 oe fits, runs 0-4 (5 runs)" in capsys.readouterr().out
+    b.write_text(json.dumps(_row("base", "case1", 1)) + "\n")
+    with pytest.raises(SystemExit, match=r"b.jsonl: line 1 repeats the fit base/case1/oe/1 of .*a.jsonl line 2"):
+        ft.load([str(a), str(b)])
+
+
+def _fam_row(run: int, runs: int, code: str = "abc") -> list:
+    r = _row("base", "case1", run)
+    r[7] = {"family": {"runs": runs, "seed": 2015, "quiet": False, "with_u": True, "heel_ref": "acc-lp", "code": code}}
+    return r
+
+
+def test_dumps_of_two_families_or_bad_files_are_refused_in_one_line(tmp_path):
+    """Review of stop 60: run k is another ship at another ``--runs``, so dumps of two family settings are not pooled
+    (another code is: stop 54's runs beside a re-fit is a comparison the docs make); a dump without the record (stop
+    54's) pools with any; a missing file or a line that is not a row is named, not a traceback."""
+    a, b, old = tmp_path / "a.jsonl", tmp_path / "b.jsonl", tmp_path / "old.jsonl"
+    a.write_text(json.dumps(_fam_row(0, 30)) + "\n")
+    b.write_text(json.dumps(_fam_row(1, 30, code="def")) + "\n")
+    old.write_text(json.dumps(_row("base", "case1", 2)) + "\n")
+    assert [r[3] for r in ft.load([str(a), str(b), str(old)])] == [0, 1, 2]
+    b.write_text(json.dumps(_fam_row(1, 7)) + "\n")
+    with pytest.raises(SystemExit, match=r"b.jsonl: line 1's family settings .*'runs': 7.* differ from .*a.jsonl line 1's"):
+        ft.load([str(a), str(b)])
+    with pytest.raises(SystemExit, match=r"nope.jsonl: cannot read the dump"):
+        ft.load([str(tmp_path / "nope.jsonl")])
+    b.write_text(json.dumps(_fam_row(1, 30)) + "\n{not json\n")
+    with pytest.raises(SystemExit, match=r"b.jsonl: line 2 is not a dump row"):
+        ft.load([str(a), str(b)])
