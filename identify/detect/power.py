@@ -207,18 +207,18 @@ def _alarmed(ca: np.ndarray, cb: np.ndarray, theta: float, h: np.ndarray) -> np.
     return (_peak(ca, cb, np.float32(theta))[0] > h).any(axis=(0, 2))
 
 
+#: records from which :func:`_peak` forms the CUSUM a block row at a time: numpy's running minimum along the
+#: records' time axis (``np.minimum.accumulate``, axis 0) runs element by element, 5.1 ms for the README
+#: example's (501, 2, 400, 3) sums against 1.0 ms in 500 row steps of three array calls (stop 60); below it the
+#: row steps' fixed cost (about 2.6 us a row) is more than the accumulate's
+ROWS_FROM = 96
+
+
 def _records(ca: np.ndarray, todo: np.ndarray) -> np.ndarray:
     """The running sums of the records ``todo`` (axis 2): in C order from :data:`ROWS_FROM` records on (for
     :func:`_peak`'s rows), else as numpy's indexing lays them out (a record's sums together: its running minimum's
     fastest order)."""
     return np.take(ca, todo, axis=2) if len(todo) >= ROWS_FROM else ca[:, :, todo]
-
-
-#: records from which :func:`_peak` forms the CUSUM a block row at a time: numpy's running minimum along the
-#: records' time axis (``np.minimum.accumulate``, axis 0) runs element by element, 5.1 ms for the README
-#: example's (501, 2, 400, 3) sums against 1.0 ms in 500 row steps of three array calls (stop 60); below it the
-#: row steps' fixed cost (about 2 us each) is more than the accumulate's
-ROWS_FROM = 96
 
 
 def _peak(ca: np.ndarray, cb: np.ndarray | None = None, theta: np.float32 = np.float32(0)) -> tuple[np.ndarray, np.ndarray]:
