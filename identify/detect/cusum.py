@@ -26,8 +26,12 @@ class DeadZoneCusum:
 
     def statistic(self, eps: np.ndarray) -> np.ndarray:
         """``g(t)`` of (5.1a) over the residual ``eps`` (time on axis 0; extra axes are runs)."""
+        return cusum_path(self._increments(eps))
+
+    def _increments(self, eps: np.ndarray) -> np.ndarray:
+        """(5.1)'s ``s(t)``: ``|eps| - d`` at or above the dead zone, ``-l`` below it (a NaN residual: below)."""
         a = np.abs(np.asarray(eps, float))
-        return cusum_path(np.where(a >= self.d, a - self.d, -self.l))
+        return np.where(a >= self.d, a - self.d, -self.l)
 
     def peaks(self, eps: np.ndarray) -> np.ndarray:
         """The largest ``g(t)`` per run: ``statistic(eps).max(axis=0)``, the same numbers. For many runs in numpy
@@ -40,8 +44,7 @@ class DeadZoneCusum:
         acc, s = np.zeros(eps.shape[1]), np.empty(eps.shape[1])
         peak = np.full(eps.shape[1], -np.inf)
         for i in range(0, len(eps), BLOCK):
-            a = np.abs(eps[i : i + BLOCK])
-            for row in np.where(a >= self.d, a - self.d, -self.l):  # (5.1)'s increment, as statistic's
+            for row in self._increments(eps[i : i + BLOCK]):
                 np.maximum(0.0, np.add(acc, row, out=s), out=acc)  # as _stepped: max(0, g + s)
                 np.maximum(peak, acc, out=peak)
         return peak
