@@ -64,3 +64,30 @@ def test_a_minus_infinite_increment_resets_the_statistic_as_the_recursion_does(m
     got, ref = cusum.cusum_path(inc), _plain(inc)
     assert not np.isnan(got).any() and got[10, 0] == 0.0
     assert np.abs(got - ref).max() <= 1e-12 * np.abs(ref).max()
+
+
+def test_the_dead_zone_peaks_of_many_records_are_the_statistics_largest_values(monkeypatch) -> None:
+    """DeadZoneCusum.peaks (the no-change records' calibration: stepped, only the peak kept; stop 60) equals
+    statistic().max(axis=0) to the bit on 100 records of a length that is no multiple of the block, in either
+    memory order, with a NaN, an infinite and an all-zero record, and calibrate_dead_zone sets the threshold from
+    those peaks."""
+    from identify.detect.cusum import BLOCK, CLOSED_MAX, DeadZoneCusum, calibrate_dead_zone
+    from primitives.orderstats import quantile
+
+    monkeypatch.setattr(jitloop, "AVAILABLE", False)  # the numpy form whatever is installed
+    spy = []
+    monkeypatch.setattr(DeadZoneCusum, "statistic", lambda self, e, f=DeadZoneCusum.statistic: spy.append(1) or f(self, e))
+    rng = np.random.default_rng(3)
+    eps = 0.01 * rng.standard_normal((3 * BLOCK + 17, CLOSED_MAX + 36))
+    eps[40, 2], eps[41, 3], eps[:, 4] = np.nan, np.inf, 0.0
+    det = DeadZoneCusum(0.015, 0.002, np.inf)
+    for x in (eps, np.asfortranarray(eps)):
+        got = det.peaks(x)
+        assert not spy  # stepped here, not through the whole statistic
+        ref = det.statistic(x).max(axis=0)
+        spy.clear()
+        assert np.isinf(got[3]) and got[4] == 0.0  # (a NaN residual is below the dead zone for (5.1)'s where)
+        assert got.tobytes() == ref.tobytes()
+    finite = eps[:, 5:]
+    dz = calibrate_dead_zone(0.0075, finite)
+    assert dz.h == float(quantile(DeadZoneCusum(dz.d, dz.l, np.inf).statistic(finite).max(axis=0), 0.98))

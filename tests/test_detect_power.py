@@ -9,6 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from identify.detect import power
 from identify.detect.glr import SignatureCusum, calibrate, structural_draws
 from identify.detect.power import (
     BLIND,
@@ -17,6 +18,9 @@ from identify.detect.power import (
     RESOLUTION,
     SMALLEST,
     _from_block,
+    _increment_sums,
+    _peak,
+    _records,
     _smallest,
     change_figure,
     detectable,
@@ -160,6 +164,12 @@ def test_the_figure_grows_as_the_change_starts_later_and_the_start_figure_is_as_
     sizes = [can["yaw_inertia"]["relative_change"]] + [x["yaw_inertia"]["relative_change"] for x in can["later"]]
     assert all(b > a * RESOLUTION for a, b in zip(sizes, sizes[1:]))
     assert [can[c]["relative_change"] for c in CANDIDATES] == [0.10355082180862064, 0.04164487980982664, 0.03144387703935598]
+    # and the later onsets' figures are df5deae's (before stop 60's row-wise CUSUM peaks and running sums)
+    assert [x["yaw_inertia"]["relative_change"] for x in can["later"]] == [
+        0.1390486859903234,
+        0.17094134438193923,
+        0.4252468761500347,
+    ]
     other = detectable(sc, prior, THETA1, 0.02, 0.05, later_s=[10.0, 250.0])
     assert all(other[c] == can[c] for c in CANDIDATES)
     assert [x["onset_s"] for x in other["later"]] == [10.0, 250.0]
@@ -216,3 +226,66 @@ def test_a_later_change_starts_from_the_cusum_at_its_onset_and_an_earlier_alarm_
     assert early.tolist() == [False, True]
     assert _smallest(d, c, h, 0.5, 0.01, early) == pytest.approx(0.05, rel=RESOLUTION - 1)
     assert np.isnan(_smallest(d, c, h, 1.0, 0.01, early))
+
+
+def _sums(rows=60, runs=130, k=3, seed=1):
+    """Running sums like the search's (float32, a leading 0 row), with a NaN record, a -inf and a +inf entry."""
+    rng = np.random.default_rng(seed)
+    ca = np.zeros((rows, 2, runs, k), np.float32)
+    ca[1:] = np.cumsum(rng.standard_normal((rows - 1, 2, runs, k)), axis=0)
+    ca[5:, 0, 3, 1] = np.nan
+    ca[7, 1, 4, 2] = -np.inf
+    ca[9, 0, 5, 0] = np.inf
+    cb = np.zeros((rows, 2, 1, k), np.float32)
+    cb[1:] = np.cumsum(rng.standard_normal((rows - 1, 2, 1, k)), axis=0)
+    return ca, cb
+
+
+def _whole(ca, cb=None, theta=np.float32(0)):
+    """The search's CUSUM peak and last term as numpy forms them on whole arrays (before stop 60)."""
+    c = ca + theta * cb if cb is not None else ca.copy()
+    g = c - np.minimum.accumulate(c, axis=0)
+    return g.max(axis=0), g[-1]
+
+
+@pytest.mark.parametrize("runs", [130, 20])
+def test_the_cusum_peak_by_block_rows_is_the_whole_array_forms(runs):
+    """_peak by rows (from ROWS_FROM records) and by numpy's running minimum give the same numbers, with and
+    without the change's sums, NaN and infinities carried alike; a subset of records in either layout too."""
+    ca, cb = _sums(runs=runs)
+    theta = np.float32(0.37)
+    for args in ((ca, cb, theta), (ca,)):
+        peak, last = _peak(*args)
+        ref_peak, ref_last = _whole(*args)
+        np.testing.assert_array_equal(peak, ref_peak)
+        np.testing.assert_array_equal(last, ref_last)
+    todo = np.arange(0, runs, 3)
+    sub = _records(ca, todo)
+    np.testing.assert_array_equal(sub, ca[:, :, todo])
+    np.testing.assert_array_equal(_peak(sub, cb, theta)[0], _whole(ca[:, :, todo], cb, theta)[0])
+
+
+def test_a_search_by_block_rows_finds_the_change_the_whole_array_search_finds(structured, monkeypatch):
+    """The README-sized search takes the rows (200 records here); forced onto numpy's whole-array running minimum
+    for every record count it gives the same figures to the bit, at the start and at a later onset."""
+    prior, sc, det = structured
+    sums = null_sums(prior, sc.S, sc.null_blocks, THETA1, seed=0)
+    rows = [change_figure(sums, j, onset, det.h) for j in range(3) for onset in (0, sums.blocks // 2)]
+    monkeypatch.setattr(power, "ROWS_FROM", 10**9)
+    assert [change_figure(sums, j, onset, det.h) for j in range(3) for onset in (0, sums.blocks // 2)] == rows
+
+
+def test_the_increments_running_sums_by_block_rows_are_the_whole_arrays(structured):
+    """null_sums' float32 running sums equal forming the (nb, 2, runs, k) increments whole, summing along axis 0
+    and rounding (the form before stop 60), to the bit."""
+    prior, sc, _ = structured
+    sums = null_sums(prior, sc.S, sc.null_blocks, THETA1, seed=0)
+    m, e, s2 = sums.m, sums.e, sums.s2
+    half = (0.5 * m * m)[:, None, :]
+    a = np.stack([m[:, None, :] * e - half, -m[:, None, :] * e - half], axis=1) / s2
+    ref = np.zeros((len(a) + 1, *a.shape[1:]))
+    np.cumsum(a, axis=0, out=ref[1:])
+    got = _increment_sums(m, e, s2)
+    assert got.dtype == np.float32 and got.shape == ref.shape
+    assert got.tobytes() == ref.astype(np.float32).tobytes()
+    assert sums.ca.tobytes() == got.tobytes()

@@ -82,11 +82,30 @@ def null_sums(
     e = ew[:, :, None] + (prior.structure[:, None] * xi).T[None] * sw[:, None, :]  # (nb, runs, k): k's records
     m = np.asarray(theta1, float) * sw
     s2 = prior.sigma_w**2
-    half = (0.5 * m * m)[:, None, :]
-    a = np.stack([m[:, None, :] * e - half, -m[:, None, :] * e - half], axis=1) / s2  # (nb, 2, runs, k)
     # running sums from a leading 0 (the CUSUM's start), in single precision: the sums reach ~1e3 against
     # thresholds ~10, a rounding of 1e-4 at most, and half the memory each step reads
-    return NullSums(_running_sum(a).astype(np.float32), e, m, sw, sb, s2, prior, band)
+    return NullSums(_increment_sums(m, e, s2), e, m, sw, sb, s2, prior, band)
+
+
+def _increment_sums(m: np.ndarray, e: np.ndarray, s2: float) -> np.ndarray:
+    """(nb + 1, 2, runs, k) float32 running sums, from a leading 0, of the up and down LR-CUSUM increments
+    ``(+-m_k e - m_k^2 / 2) / s2`` of the records ``e`` (nb, runs, k) (Basseville and Nikiforov 1993, 2.2), made
+    a block row at a time: the same float64 operations per element as forming the (nb, 2, runs, k) increments
+    whole, summing them along axis 0 and rounding to float32, without those float64 arrays' fresh pages (stop 60)."""
+    nb, runs, k = e.shape
+    out = np.zeros((nb + 1, 2, runs, k), np.float32)
+    half = 0.5 * m * m
+    acc, inc = np.empty((2, runs, k)), np.empty((2, runs, k))
+    for t in range(nb):
+        np.subtract(np.multiply(m[t], e[t], out=inc[0]), half[t], out=inc[0])
+        np.subtract(np.multiply(-m[t], e[t], out=inc[1]), half[t], out=inc[1])
+        np.divide(inc, s2, out=inc)
+        if t == 0:
+            acc[...] = inc  # a running sum's first term is the increment itself
+        else:
+            np.add(acc, inc, out=acc)
+        out[t + 1] = acc
+    return out
 
 
 def detectable_changes(
@@ -163,12 +182,11 @@ def _from_block(ca: np.ndarray, cb: np.ndarray, i: int, h: np.ndarray) -> tuple[
     runs = ca.shape[2]
     if i == 0:
         return ca, cb, np.zeros(runs, bool)
-    head = ca[: i + 1]
-    g = head - np.minimum.accumulate(head, axis=0)
-    early = (g.max(axis=0) > h).any(axis=(0, 2))
+    peak, g_i = _peak(ca[: i + 1])
+    early = (peak > h).any(axis=(0, 2))
     d = np.empty((len(ca) - i + 1, *ca.shape[1:]), np.float32)
     d[0] = 0.0
-    np.subtract(ca[i:], ca[i] - g[-1], out=d[1:])
+    np.subtract(ca[i:], ca[i] - g_i, out=d[1:])
     c = np.zeros_like(d[:, :, :1])
     np.subtract(cb[i:], cb[i], out=c[1:])
     return d, c, early
@@ -186,10 +204,46 @@ def _alarmed(ca: np.ndarray, cb: np.ndarray, theta: float, h: np.ndarray) -> np.
     (k,), from the running sums ``ca + theta cb`` of its increments ((nb + 1, 2, runs, k), from a leading 0).
     The peak of ``g_t = max(0, g_{t-1} + inc_t)`` is ``max_t (C_t - min_{s<=t} C_s)`` (Lindley's form, as
     :func:`identify.detect.cusum.cusum_path`'s closed form; the leading 0 is the ``min(0, ...)``)."""
-    c = ca + np.float32(theta) * cb
-    low = np.minimum.accumulate(c, axis=0)
-    np.subtract(c, low, out=c)
-    return (c.max(axis=0) > h).any(axis=(0, 2))
+    return (_peak(ca, cb, np.float32(theta))[0] > h).any(axis=(0, 2))
+
+
+#: records from which :func:`_peak` forms the CUSUM a block row at a time: numpy's running minimum along the
+#: records' time axis (``np.minimum.accumulate``, axis 0) runs element by element, 5.1 ms for the README
+#: example's (501, 2, 400, 3) sums against 1.0 ms in 500 row steps of three array calls (stop 60); below it the
+#: row steps' fixed cost (about 2.6 us a row) is more than the accumulate's
+ROWS_FROM = 96
+
+
+def _records(ca: np.ndarray, todo: np.ndarray) -> np.ndarray:
+    """The running sums of the records ``todo`` (axis 2): in C order from :data:`ROWS_FROM` records on (for
+    :func:`_peak`'s rows), else as numpy's indexing lays them out (a record's sums together: its running minimum's
+    fastest order)."""
+    return np.take(ca, todo, axis=2) if len(todo) >= ROWS_FROM else ca[:, :, todo]
+
+
+def _peak(ca: np.ndarray, cb: np.ndarray | None = None, theta: np.float32 = np.float32(0)) -> tuple[np.ndarray, np.ndarray]:
+    """The CUSUM's peak ``max_t (C_t - min_{s<=t} C_s)`` over axis 0 of the running sums ``C = ca + theta cb``
+    (``cb`` broadcast along the records; None: ``C = ca``), and its last term ``C_T - min_s C_s`` (the CUSUM at
+    the last row): Lindley's form as :func:`_alarmed` reads it. The same float32 operations on every element in
+    either order of evaluation (``theta cb`` then the sum, a running minimum, the difference, the largest), so
+    the same numbers by rows as by numpy's whole-array running minimum (tests/test_detect_power.py); a NaN is
+    carried to the peak either way (numpy's minimum and maximum pass it on)."""
+    if ca.shape[2] < ROWS_FROM:
+        c = ca + theta * cb if cb is not None else ca.copy()
+        low = np.minimum.accumulate(c, axis=0)
+        np.subtract(c, low, out=c)
+        return c.max(axis=0), c[-1]
+    row = np.empty(ca.shape[1:], np.float32)
+    step = theta * cb if cb is not None else None  # (nb + 1, 2, 1, k): the records share it
+    low = (ca[0] + step[0]) if cb is not None else ca[0].copy()
+    peak = low - low  # row 0's term, 0 (a NaN stays one), as the accumulate's
+    last = peak
+    for t in range(1, len(ca)):
+        x = ca[t] if cb is None else np.add(ca[t], step[t], out=row)
+        np.minimum(low, x, out=low)
+        last = np.subtract(x, low, out=row)
+        np.maximum(peak, last, out=peak)
+    return peak, last
 
 
 def _smallest(
@@ -209,7 +263,7 @@ def _smallest(
     def enough(theta: float) -> bool:
         todo = np.flatnonzero((alarm_at > theta) & (quiet_at < theta))
         if len(todo):
-            hit = _alarmed(ca if len(todo) == runs else ca[:, :, todo], cb, theta, h)  # no copy of all
+            hit = _alarmed(ca if len(todo) == runs else _records(ca, todo), cb, theta, h)  # no copy of all
             alarm_at[todo[hit]] = theta
             quiet_at[todo[~hit]] = theta
         return bool(np.mean(alarm_at <= theta) >= power)
