@@ -34,6 +34,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from cli.drawer_imports import leave_out_unused
 from cli.forkjobs import Failed, end_child, on_sigterm, reap_child, run_child, run_jobs
 
 CAN_FORK = sys.platform.startswith("linux")
@@ -346,7 +347,9 @@ class Drawer:
         :meth:`begin` gives the early function, which is then computed at once (the parent waits for it
         after loading its map and basic moves; imported first, the design waited for all of them, 1.1 s of
         CPU measured at load 8), then the rest of the modules, then the plan drawn. No full collection while importing (as
-        :func:`_warm_frozen`)."""
+        :func:`_warm_frozen`); the drawing libraries' optional dependencies that it never uses are not imported
+        (:func:`cli.drawer_imports.leave_out_unused`)."""
+        leave_out_unused()
         gc.disable()
         try:
             _warm(until=spec_r)
@@ -373,6 +376,7 @@ class Drawer:
         ahead: Callable[[Any], dict[str, Any]] | None = None,
         modules: Sequence[str] = _DRAWING_MODULES,
     ) -> None:
+        leave_out_unused()  # in the drawer only (a process that draws and ends): the same files, less import CPU
         result = _compute_early(early, early_w) if early is not None else None
         _warm_frozen(modules)
         prepared = _prepare(ahead, result)  # while the parent still plans
