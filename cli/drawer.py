@@ -294,6 +294,7 @@ class Drawer:
             try:  # the child never returns into the caller's code, whatever is raised before run_child's own guard
                 signal.signal(signal.SIGTERM, on_sigterm)  # before it starts anything: cancel() unwinds it
                 gc.freeze()  # the parent's objects out of the collector's sight: collections would copy the shared heap
+                leave_out_unused()  # here, in the forked drawer only: _serve* run in the calling process too (tests)
                 os.close(self._job_w)
                 os.close(self._report)
                 if deferred:
@@ -347,9 +348,7 @@ class Drawer:
         :meth:`begin` gives the early function, which is then computed at once (the parent waits for it
         after loading its map and basic moves; imported first, the design waited for all of them, 1.1 s of
         CPU measured at load 8), then the rest of the modules, then the plan drawn. No full collection while importing (as
-        :func:`_warm_frozen`); the drawing libraries' optional dependencies that it never uses are not imported
-        (:func:`cli.drawer_imports.leave_out_unused`)."""
-        leave_out_unused()
+        :func:`_warm_frozen`)."""
         gc.disable()
         try:
             _warm(until=spec_r)
@@ -376,7 +375,6 @@ class Drawer:
         ahead: Callable[[Any], dict[str, Any]] | None = None,
         modules: Sequence[str] = _DRAWING_MODULES,
     ) -> None:
-        leave_out_unused()  # in the drawer only (a process that draws and ends): the same files, less import CPU
         result = _compute_early(early, early_w) if early is not None else None
         _warm_frozen(modules)
         prepared = _prepare(ahead, result)  # while the parent still plans

@@ -51,8 +51,7 @@ def _draw(out: Path, mode: str) -> tuple[dict, str]:
 
 def test_cards_and_figures_are_the_same_bytes_without_the_unused_imports(tmp_path):
     """With the guard (as in the drawer) the PDF card, the HTML card and both PNGs are byte for byte those drawn
-    with every optional package importable; the guarded modules were never imported, and no warning was printed
-    (matplotlib warns when it cannot import its 3D toolkit: silenced for that case only)."""
+    with every optional package importable; the guarded modules were never imported, and no warning was printed."""
     guarded, err = _draw(tmp_path / "guard", "guard")
     plain, _ = _draw(tmp_path / "plain", "plain")
     names = [n for n, _ in UNUSED]
@@ -76,6 +75,28 @@ print(json.dumps({"drawer": seen, "here": {n: sys.modules.get(n, 0) is None for 
 """
 
 
+# _serve run in this process, as tests do (tests/test_plancache.py): sent nothing, so it imports and returns
+_SERVE_HERE = """
+import json, os, sys
+from cli.drawer import Drawer
+from cli.drawer_imports import UNUSED
+
+job_r, job_w = os.pipe()
+os.close(job_w)
+Drawer._serve(job_r)
+print(json.dumps({n: sys.modules.get(n, 0) is None for n, _ in UNUSED}))
+"""
+
+
+def test_serving_in_the_calling_process_leaves_nothing_out():
+    """Drawer._serve called in a process (not forked) leaves its imports as they are: the guard is set in the fork
+    only, so a test session that calls it can still import lxml (the export tests do) afterwards."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
+    run = subprocess.run([sys.executable, "-c", _SERVE_HERE], capture_output=True, text=True, cwd=ROOT, env=env, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert json.loads(run.stdout.strip().splitlines()[-1]) == {n: False for n, _ in UNUSED}
+
+
 def test_the_drawer_leaves_them_out_and_the_calling_process_does_not():
     """The guard runs in the drawer process (before its early work and its imports), never in the process that
     started it: a notebook or command that draws itself imports the libraries as they are."""
@@ -93,8 +114,7 @@ def test_a_module_imported_already_is_left_as_it_is(monkeypatch):
     import cli.drawer_imports as di
 
     sentinel = object()
+    for name, _ in di.UNUSED:  # every one imported (a stand-in where it is not): nothing marked in this process
+        monkeypatch.setitem(sys.modules, name, sys.modules.get(name) or sentinel)  # restored after the test
     monkeypatch.setitem(sys.modules, "lxml", sentinel)
-    for name in ("cryptography", "mpl_toolkits.mplot3d"):
-        monkeypatch.setitem(sys.modules, name, sys.modules.get(name, sentinel))  # restored after the test
-    monkeypatch.setattr(di.warnings, "filterwarnings", lambda *a, **k: None)
     assert di.leave_out_unused() == [] and sys.modules["lxml"] is sentinel
