@@ -34,6 +34,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from cli.drawer_imports import leave_out_unused
 from cli.forkjobs import Failed, end_child, on_sigterm, reap_child, run_child, run_jobs
 
 CAN_FORK = sys.platform.startswith("linux")
@@ -293,6 +294,7 @@ class Drawer:
             try:  # the child never returns into the caller's code, whatever is raised before run_child's own guard
                 signal.signal(signal.SIGTERM, on_sigterm)  # before it starts anything: cancel() unwinds it
                 gc.freeze()  # the parent's objects out of the collector's sight: collections would copy the shared heap
+                leave_out_unused()  # here, in the forked drawer only: _serve* run in the calling process too (tests)
                 os.close(self._job_w)
                 os.close(self._report)
                 if deferred:

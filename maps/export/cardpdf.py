@@ -73,6 +73,8 @@ class _Card:
     def __init__(self) -> None:
         from fpdf import FPDF
 
+        # plan-trial's drawer imports fpdf without cryptography (cli/drawer_imports.py): a card signed or
+        # AES-encrypted would need it taken off that list
         self.pdf = pdf = FPDF(unit="pt", format=(W, H))
         pdf.set_auto_page_break(False)
         pdf.set_margins(0, 0, 0)
