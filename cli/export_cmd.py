@@ -37,12 +37,30 @@ def resolve_sea_map(path: Path | None, map_name: str, plan=None):
     except ImportError:
         return str(path) if path else None
     if path is not None:
-        return load_map(path, draught_m=_draught(plan))
+        sea = load_map(path, draught_m=_draught(plan))
+        _check_track_on_map(plan, sea, path)
+        return sea
     if plan is not None and isinstance(plan.stats, dict) and plan.stats.get("chart"):
         return None  # the exporters use the chart saved with the plan
     if map_name and bundled_map_path(map_name).is_file():
         return load_map(bundled_map_path(map_name))
     return None
+
+
+def _check_track_on_map(plan, sea, path: Path) -> None:
+    """The plan's track lies on the ``--map`` given: a plan made on another map would be drawn on a chart of
+    another sea (the card's track off the chart, the route's corridors on the wrong water)."""
+    if plan is None or len(plan.lonlat) == 0:
+        return
+    lo0, la0, lo1, la1 = sea.lonlat_extent
+    lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
+    if lon.min() >= lo0 and lon.max() <= lo1 and lat.min() >= la0 and lat.max() <= la1:
+        return
+    raise UserError(
+        f"--map {path}: the plan's track (lat {lat.min():.4f}..{lat.max():.4f}, lon {lon.min():.4f}..{lon.max():.4f}) "
+        f"is not on this map (lat {la0:.4f}..{la1:.4f}, lon {lo0:.4f}..{lo1:.4f}); give the map the plan was made on "
+        f"({plan.map_name or 'its --map'}) or leave --map out"
+    )
 
 
 def _draught(plan) -> float:
