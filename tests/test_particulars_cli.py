@@ -119,6 +119,10 @@ def _with(**changes: str) -> list[str]:
         ({"name": "two\nlines"}, ["--name 'two\\nlines'", "letters, digits"]),
         ({"name": "my ship"}, ["--name 'my ship'", "letters, digits"]),
         ({"seed": "-1"}, ["--seed -1", ">= 0"]),
+        # stop 60's sweep: written with exit 0 before (an engine in W for kW; a bundled ship's name)
+        ({"mcr_kw": "3000000"}, ["--mcr-kw 3,000,000", "times the about", "in W?"]),
+        ({"name": "kvlcc2"}, ["--name 'kvlcc2'", "a bundled profile's name"]),
+        ({"name": "Model-Ship"}, ["--name 'Model-Ship'", "a bundled profile's name"]),
     ],
 )
 def test_bad_particulars_are_refused_in_one_line_and_nothing_is_written(tmp_path, capsys, changes, says):

@@ -131,6 +131,9 @@ def _pitch_for_rpm(p: Particulars) -> float:
     return 0.5 * (lo + hi)
 
 
+MCR_OVER_NEED = 100.0
+
+
 def _check_power(p: Particulars, pitch: float) -> float:
     """Brake power [kW] at the approach; refuse a speed the given MCR cannot make."""
 
@@ -148,6 +151,14 @@ def _check_power(p: Particulars, pitch: float) -> float:
         raise ParticularsError(
             f"--speed {p.speed_kn:g} kn: needs about {need:,.0f} kW with these particulars (ITTC-57 friction, B-series screw), "
             f"over --mcr-kw {p.mcr_kw:,.0f}; this hull makes at most {lo:.1f} kn with it"
+        )
+    if p.mcr_kw is not None and p.mcr_kw > MCR_OVER_NEED * need:
+        # a rating a thousand times the power the service speed needs is a unit slip (W for kW): the full-power
+        # manoeuvres (acceleration) would be drawn from it. Built ships install 1.1-3.5 x (the README's coaster:
+        # 3000 kW for 904 kW), escort tugs up to about 20 x; 100 x leaves them all.
+        raise ParticularsError(
+            f"--mcr-kw {p.mcr_kw:,.0f}: {p.mcr_kw / need:,.0f} times the about {need:,.0f} kW this hull needs at "
+            f"{p.speed_kn:g} kn (at most {MCR_OVER_NEED:g} x in built ships): in W? give the engine's rating in kW"
         )
     return need
 
