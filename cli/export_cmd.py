@@ -48,18 +48,20 @@ def resolve_sea_map(path: Path | None, map_name: str, plan=None):
 
 
 def _check_track_on_map(plan, sea, path: Path) -> None:
-    """The plan's track lies on the ``--map`` given: a plan made on another map would be drawn on a chart of
-    another sea (the card's track off the chart, the route's corridors on the wrong water)."""
+    """The plan's track reaches the ``--map`` given: a plan made on another sea would be drawn on its chart (the
+    card's track off the chart, the route's corridors on the wrong water). Only a track wholly off the map's extent
+    is refused: the extent is the box of the map's features, and on a map without a trial area the plan's own
+    track leaves it (a small island's map: the lattice window is wider than the island)."""
     if plan is None or len(plan.lonlat) == 0:
         return
     lo0, la0, lo1, la1 = sea.lonlat_extent
     lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
-    if lon.min() >= lo0 and lon.max() <= lo1 and lat.min() >= la0 and lat.max() <= la1:
+    if ((lon >= lo0) & (lon <= lo1) & (lat >= la0) & (lat <= la1)).any():
         return
     raise UserError(
         f"--map {path}: the plan's track (lat {lat.min():.4f}..{lat.max():.4f}, lon {lon.min():.4f}..{lon.max():.4f}) "
-        f"is not on this map (lat {la0:.4f}..{la1:.4f}, lon {lo0:.4f}..{lo1:.4f}); give the map the plan was made on "
-        f"({plan.map_name or 'its --map'}) or leave --map out"
+        f"is nowhere on this map (lat {la0:.4f}..{la1:.4f}, lon {lo0:.4f}..{lo1:.4f}); give the map the plan was made "
+        f"on ({plan.map_name or 'its --map'}) or leave --map out"
     )
 
 

@@ -604,5 +604,37 @@ def test_export_map_by_bundled_name_and_only_the_plans_own(tmp_path, monkeypatch
     for other in ("open-sea", str(bundled_map_path("open-sea"))):
         assert _run(["export", "plan.json", "--format", "gpx", "--out", "b.gpx", "--map", other]) == 2
         err = capsys.readouterr().err.strip().splitlines()
-        assert len(err) == 1 and "the plan's track" in err[0] and "is not on this map" in err[0], err
+        assert len(err) == 1 and "the plan's track" in err[0] and "is nowhere on this map" in err[0], err
         assert not (tmp_path / "b.gpx").exists()
+
+
+def test_export_map_whose_features_cover_part_of_the_track_is_the_plans_own(tmp_path, monkeypatch, capsys):
+    """A map without a trial area: its extent is the box of its features, and the plan made on it leaves that box
+    (review of stop 60: a plan made on a one-island map was refused with that very map, 'not on this map'). A
+    track that reaches the map is exported on it."""
+    from maps.export._testing import synthetic_plan
+
+    monkeypatch.chdir(tmp_path)
+    plan = synthetic_plan("model-ship")
+    (tmp_path / "plan.json").write_text(plan.to_json())
+    lon0, lat0 = (float(x) for x in plan.lonlat[0])
+    ring = [
+        [lon0 - 0.002, lat0 - 0.001],
+        [lon0 + 0.0001, lat0 - 0.001],
+        [lon0 + 0.0001, lat0 - 0.0005],
+        [lon0 - 0.002, lat0 - 0.001],
+    ]
+    start = [lon0, lat0]  # the features' box reaches the track's first point only
+    island = {
+        "type": "FeatureCollection",
+        "features": [
+            {"type": "Feature", "properties": {"kind": "land"}, "geometry": {"type": "Polygon", "coordinates": [ring]}},
+            {"type": "Feature", "properties": {"kind": "start"}, "geometry": {"type": "Point", "coordinates": start}},
+        ],
+    }
+    (tmp_path / "island.geojson").write_text(json.dumps(island))
+    assert not (plan.lonlat[:, 0].max() <= lon0 + 0.0001 and plan.lonlat[:, 1].max() <= lat0)  # the track leaves the box
+    assert _run(["export", "plan.json", "--format", "gpx", "--out", "a.gpx", "--map", "island.geojson"]) == 0, (
+        capsys.readouterr().err
+    )
+    assert (tmp_path / "a.gpx").is_file()
