@@ -37,12 +37,32 @@ def resolve_sea_map(path: Path | None, map_name: str, plan=None):
     except ImportError:
         return str(path) if path else None
     if path is not None:
-        return load_map(path, draught_m=_draught(plan))
+        sea = load_map(path, draught_m=_draught(plan))
+        _check_track_on_map(plan, sea, path)
+        return sea
     if plan is not None and isinstance(plan.stats, dict) and plan.stats.get("chart"):
         return None  # the exporters use the chart saved with the plan
     if map_name and bundled_map_path(map_name).is_file():
         return load_map(bundled_map_path(map_name))
     return None
+
+
+def _check_track_on_map(plan, sea, path: Path) -> None:
+    """The plan's track reaches the ``--map`` given: a plan made on another sea would be drawn on its chart (the
+    card's track off the chart, the route's corridors on the wrong water). Only a track wholly off the map's extent
+    is refused: the extent is the box of the map's features, and on a map without a trial area the plan's own
+    track leaves it (a small island's map: the lattice window is wider than the island)."""
+    if plan is None or len(plan.lonlat) == 0:
+        return
+    lo0, la0, lo1, la1 = sea.lonlat_extent
+    lon, lat = plan.lonlat[:, 0], plan.lonlat[:, 1]
+    if ((lon >= lo0) & (lon <= lo1) & (lat >= la0) & (lat <= la1)).any():
+        return
+    raise UserError(
+        f"--map {path}: the plan's track (lat {lat.min():.4f}..{lat.max():.4f}, lon {lon.min():.4f}..{lon.max():.4f}) "
+        f"is nowhere on this map (lat {la0:.4f}..{la1:.4f}, lon {lo0:.4f}..{lo1:.4f}); give the map the plan was made "
+        f"on ({plan.map_name or 'its --map'}) or leave --map out"
+    )
 
 
 def _draught(plan) -> float:

@@ -192,7 +192,11 @@ def validate_export_options(
     check_vessel_name(vessel_name, fmt_l in ("rtz", "all"), ExportError)
     check_start_time(start, "--start")
     check_input_file(plan_file, "PLAN", "the plan.json written by plan-trial --out DIR", "plan")
-    check_input_file(sea_map, "--map", "a GeoJSON sea map", "map")
+    if sea_map is not None:  # a bundled map's name (open-sea) is a map, as --help and plan's --map say
+        from maps.geo import map_source
+
+        sea_map = map_source(sea_map)
+    check_input_file(sea_map, "--map", "a GeoJSON sea map or a bundled map's name (helsinki, open-sea)", "map")
     if out is None:
         return
     if fmt_l == "all" or out.is_dir():

@@ -92,11 +92,14 @@ def register(app: typer.Typer) -> None:
             atomic_write_text(save_profile, saved.text)
             print(f"wrote {save_profile}: {saved.source_line}", file=sys.stderr)
         if not res.main.ok:
-            if save_profile is not None:
-                print(
-                    f"error: --save-profile {save_profile}: the {res.model} {res.estimator} fit failed; nothing written",
-                    file=sys.stderr,
-                )
+            # one line on stderr, as every refusal: the report above (stdout) has the table of every model's result
+            why = res.main.failure or "no fit"
+            lost = f"--save-profile {save_profile}: nothing written; " if save_profile is not None else ""
+            print(
+                f"error: {lost}the {res.model} {res.estimator} fit failed: {why}; check the records' columns and signs "
+                "(t, delta, psi, r), or try another --model/--estimator (the AIC table above)",
+                file=sys.stderr,
+            )
             raise typer.Exit(1)
 
 

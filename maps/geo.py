@@ -219,11 +219,15 @@ class SeaMap:
         p = Point(x, y)
         if shapely.intersects(self.land, p):
             raise MapError(f"{self.source}: {what} lat {lat:g}, lon {lon:g} is on land: choose a point in open water")
-        if shapely.intersects(self.no_go(margin), p):
-            d = float(shapely.distance(self.obstacles, p))
+        if self.trial_area is not None and not shapely.intersects(self.trial_area, p):
             raise MapError(
-                f"{self.source}: {what} lat {lat:g}, lon {lon:g} is not navigable (shallow, restricted, outside the trial "
-                f"area or {d:.0f} m from an obstacle, margin {margin:g} m): choose a point in open water"
+                f"{self.source}: {what} lat {lat:g}, lon {lon:g} is outside the map's trial_area: choose a point inside it"
+            )
+        if shapely.intersects(self.no_go(margin), p):
+            d = float(shapely.distance(self.obstacles, p))  # inside the trial area: the obstacles' margin is what holds
+            raise MapError(
+                f"{self.source}: {what} lat {lat:g}, lon {lon:g} is not navigable ({d:.0f} m from a shallow, restricted or "
+                f"obstacle area, within the margin of {margin:g} m): choose a point in open water"
             )
         return x, y
 
@@ -358,12 +362,20 @@ def _feature(src: str, i: int, f: object, repair: bool, warnings: list[str]) -> 
         raise _fail(src, i, f"kind 'obstacle' must be a Point (with radius_m) or a Polygon, got {gt}")
     if kind in ("start", "goal") and gt != "Point":
         raise _fail(src, i, f"kind {kind!r} must be a Point, got {gt}")
+    corners = len(shapely.get_coordinates(geom))
     if gt in POLYGONAL and not geom.is_valid:
         reason = shapely.is_valid_reason(geom)
         if not repair:
             raise _fail(src, i, f"invalid polygon ({reason})")
         geom = _polygonal(shapely.make_valid(geom))
         warnings.append(f"feature {i} ({kind}): invalid polygon ({reason}) repaired with make_valid")
+    if gt in POLYGONAL and not geom.area > 0:  # a ring on a line, or of fewer than three distinct corners
+        raise _fail(
+            src,
+            i,
+            f"the {kind} polygon encloses no area (its {corners} ring points lie "
+            "on one line or repeat); give its corners, the first repeated last",
+        )
     if kind == "depth_area" and not _finite_number(props.get("min_depth_m")):
         raise _fail(src, i, "depth_area needs a numeric properties.min_depth_m (S-57 DRVAL1, metres)")
     if kind == "obstacle" and gt == "Point":

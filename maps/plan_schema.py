@@ -268,6 +268,9 @@ def check_plan_document(d: Any, src: str, err: type[UserError]) -> None:
     e = best_match(_validator().iter_errors(d))
     if e is not None:
         raise err(f"{src}: {_say(e)}; re-create the plan with plan-trial (or correct that field)")
+    from primitives.profile_document import check_file_stem
+
+    check_file_stem(d["ship"], f"{src}: field 'ship'", err)  # export names its files after it: never a path
     _check_samples(d["samples"], len(d["input_names"]), len(d["steps"]), src, err)
     _check_projection(d["projection"]["proj4"], src, err)
     chart = (d.get("stats") or {}).get("chart")

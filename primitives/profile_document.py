@@ -134,6 +134,7 @@ def profile_from_dict(d: dict[str, Any], src: str = "<profile>") -> ShipProfile:
     first bad field is the one reported."""
     _check_keys(d, src)
     name = _need(d, "name", src, str, "the profile name, e.g. 'my-ship'")
+    check_file_stem(name, f"{src}: field 'name'", ProfileError)
     sizes = _check_sizes(d, src)
     actuator, inputs = _actuator_inputs(d, src)
     _check_actuator_tables(d, src, actuator)
@@ -316,6 +317,16 @@ def _prior(d: dict, src: str, model: TermSet, dofs: tuple[str, ...]) -> np.ndarr
     if not np.all(np.isfinite(arr)) or np.any(arr < 0):
         raise ProfileError(f"{src}: field 'prior.std' must hold finite numbers >= 0 (a 1-sigma spread per coefficient)")
     return arr
+
+
+def check_file_stem(name: str, what: str, err: type[Exception]) -> None:
+    """A ship's name names the files written for it (``<name>-trial.gpx``, the plan cache's entries): text that
+    stays one file name in the output directory, never a path out of it."""
+    if not name.strip() or name.strip(".") == "" or any(c in name for c in "/\\") or any(ord(c) < 32 for c in name):
+        raise err(
+            f"{what} {name!r} names the files written for the ship: give a plain name (no '/', '\\', control "
+            "characters; not empty, '.' or '..'), e.g. 'my-ship'"
+        )
 
 
 def _need(d: dict, key: str, src: str, kind: type | tuple[type, ...], hint: str) -> Any:

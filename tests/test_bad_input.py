@@ -550,3 +550,91 @@ def test_plan_trial_is_the_plan_command(monkeypatch, capsys, tmp_path):
     err = capsys.readouterr().err
     assert exc.value.code == 2 and err.startswith("error: --run-in") and len(err.strip().splitlines()) == 1, err
     assert not list(tmp_path.iterdir())
+
+
+# Stop 60's sweep (docs/bad-input-sweep.md): inputs the option-by-option cases above did not reach
+
+
+def test_export_never_writes_outside_out_whatever_the_plans_ship_name(tmp_path, monkeypatch, capsys):
+    """A plan's ``ship`` names the exported files (``<ship>-trial.gpx``): a plan.json whose ship is a path (a hand
+    edit, or a plan of a profile named so) wrote every file beside that path, outside --out (stop 60: exit 0, the
+    eight files next to the profile). Refused in one line; nothing written anywhere."""
+    from maps.export._testing import synthetic_plan
+
+    monkeypatch.chdir(tmp_path)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    doc = json.loads(synthetic_plan("model-ship").to_json())
+    for ship in (str(elsewhere / "ship.toml"), "../up", "..", "a\\b"):
+        doc["ship"] = ship
+        (tmp_path / "plan.json").write_text(json.dumps(doc))
+        before = _snapshot(tmp_path)
+        assert _run(["export", "plan.json", "--format", "all", "--out", "exp"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("error: plan.json: field 'ship'"), err
+        assert _snapshot(tmp_path) == before
+
+
+def test_a_profile_named_as_a_path_is_refused(tmp_path):
+    """The profile's name names the plan's files: refused on loading, as profile new refuses it."""
+    import tomllib
+
+    from primitives.ship import PROFILE_DIR, ProfileError, load_profile
+
+    doc = tomllib.loads((PROFILE_DIR / "model-ship.toml").read_text())
+    for name in ("../evil", "a/b", " ", "."):
+        doc["name"] = name
+        path = tmp_path / "ship.json"
+        path.write_text(json.dumps(doc))
+        with pytest.raises(ProfileError, match="field 'name'.*plain name"):
+            load_profile(path)
+
+
+def test_export_map_by_bundled_name_and_only_the_plans_own(tmp_path, monkeypatch, capsys):
+    """``export --map`` takes a bundled map's name as --help says (stop 60: 'no such map file' for helsinki), and
+    refuses a map the plan's track is not on (a Helsinki plan was drawn on the open-sea chart, exit 0)."""
+    from maps.export._testing import synthetic_plan
+    from maps.geo import bundled_map_path
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "plan.json").write_text(synthetic_plan("model-ship").to_json())
+    assert _run(["export", "plan.json", "--format", "gpx", "--out", "a.gpx", "--map", "helsinki"]) == 0
+    assert (tmp_path / "a.gpx").is_file()
+    capsys.readouterr()
+    for other in ("open-sea", str(bundled_map_path("open-sea"))):
+        assert _run(["export", "plan.json", "--format", "gpx", "--out", "b.gpx", "--map", other]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "the plan's track" in err[0] and "is nowhere on this map" in err[0], err
+        assert not (tmp_path / "b.gpx").exists()
+
+
+def test_export_map_whose_features_cover_part_of_the_track_is_the_plans_own(tmp_path, monkeypatch, capsys):
+    """A map without a trial area: its extent is the box of its features, and the plan made on it leaves that box
+    (review of stop 60: a plan made on a one-island map was refused with that very map, 'not on this map'). A
+    track that reaches the map is exported on it."""
+    from maps.export._testing import synthetic_plan
+
+    monkeypatch.chdir(tmp_path)
+    plan = synthetic_plan("model-ship")
+    (tmp_path / "plan.json").write_text(plan.to_json())
+    lon0, lat0 = (float(x) for x in plan.lonlat[0])
+    ring = [
+        [lon0 - 0.002, lat0 - 0.001],
+        [lon0 + 0.0001, lat0 - 0.001],
+        [lon0 + 0.0001, lat0 - 0.0005],
+        [lon0 - 0.002, lat0 - 0.001],
+    ]
+    start = [lon0, lat0]  # the features' box reaches the track's first point only
+    island = {
+        "type": "FeatureCollection",
+        "features": [
+            {"type": "Feature", "properties": {"kind": "land"}, "geometry": {"type": "Polygon", "coordinates": [ring]}},
+            {"type": "Feature", "properties": {"kind": "start"}, "geometry": {"type": "Point", "coordinates": start}},
+        ],
+    }
+    (tmp_path / "island.geojson").write_text(json.dumps(island))
+    assert not (plan.lonlat[:, 0].max() <= lon0 + 0.0001 and plan.lonlat[:, 1].max() <= lat0)  # the track leaves the box
+    assert _run(["export", "plan.json", "--format", "gpx", "--out", "a.gpx", "--map", "island.geojson"]) == 0, (
+        capsys.readouterr().err
+    )
+    assert (tmp_path / "a.gpx").is_file()

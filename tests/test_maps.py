@@ -98,6 +98,13 @@ def test_obstacle_point_radius_and_start_goal(tmp_path):
         (fc(feat(square(25, 60, 0.1, 0.1), kind="depth_area")), "min_depth_m"),
         (fc(feat({"type": "Polygon", "coordinates": [[[60, 125], [60.1, 125], [60.1, 125.1], [60, 125]]]})), "swapped"),
         ({"type": "Feature"}, "FeatureCollection"),
+        # a ring of three points (two distinct corners) and one on a line: no water at all, stop 60's sweep had the
+        # plan refuse the start "nan m from an obstacle"
+        (fc(feat({"type": "Polygon", "coordinates": [[[25, 60], [25.1, 60], [25, 60]]]}, kind="trial_area")), "encloses no area"),
+        (
+            fc(feat({"type": "Polygon", "coordinates": [[[25, 60], [25.1, 60], [25.2, 60], [25, 60]]]}, kind="land")),
+            "feature 0: the land polygon encloses no area",
+        ),
         # a JSON integer beyond int64 (found by the fuzz test) and a heading of turns, not degrees
         (
             fc(
@@ -195,3 +202,22 @@ def test_no_go_is_made_once_and_is_what_it_was(tmp_path):
     open_water = replace(sea, trial_area=None)
     assert open_water.no_go(0.0) is sea.obstacles  # nothing outside a trial area added
     assert shapely.to_wkb(sea.no_go(0.0)) != shapely.to_wkb(open_water.no_go(0.0))
+
+
+def test_a_point_outside_the_trial_area_is_named_so(tmp_path):
+    """Stop 60: a start outside the trial area (of a bow-tie trial area repaired by make_valid, or a typo) was
+    "not navigable (shallow, restricted, outside the trial area or nan m from an obstacle, ...)"."""
+    sea = load_map(
+        write(
+            tmp_path,
+            fc(
+                feat(square(25, 60, 0.1, 0.1), kind="trial_area"),
+                feat(square(25.15, 60.0, 0.05, 0.05), kind="land"),
+                feat({"type": "Point", "coordinates": [25.05, 60.05]}, kind="obstacle", radius_m=100),
+            ),
+        )
+    )
+    with pytest.raises(MapError, match=r"start lat 60.02, lon 25.12 is outside the map's trial_area: choose a point inside"):
+        sea.locate(60.02, 25.12, "start")
+    with pytest.raises(MapError, match=r"goal lat 60.05, lon 25.0525 is not navigable \(\d+ m from a shallow, restricted or "):
+        sea.locate(60.05, 25.0525, "goal", margin=200.0)

@@ -119,6 +119,10 @@ def _with(**changes: str) -> list[str]:
         ({"name": "two\nlines"}, ["--name 'two\\nlines'", "letters, digits"]),
         ({"name": "my ship"}, ["--name 'my ship'", "letters, digits"]),
         ({"seed": "-1"}, ["--seed -1", ">= 0"]),
+        # stop 60's sweep: written with exit 0 before (an engine in W for kW; a bundled ship's name)
+        ({"mcr_kw": "3000000"}, ["--mcr-kw 3,000,000", "times the about", "in W?"]),
+        ({"name": "kvlcc2"}, ["--name 'kvlcc2'", "a bundled profile's name"]),
+        ({"name": "Model-Ship"}, ["--name 'Model-Ship'", "a bundled profile's name"]),
     ],
 )
 def test_bad_particulars_are_refused_in_one_line_and_nothing_is_written(tmp_path, capsys, changes, says):
@@ -139,3 +143,25 @@ def test_a_missing_particular_is_named(tmp_path, capsys):
     assert _run(["profile", "new", *args, "--out", str(tmp_path / "s.toml")]) == 2
     assert "--draught" in capsys.readouterr().err
     assert not (tmp_path / "s.toml").exists()
+
+
+@pytest.mark.parametrize(
+    "name,particulars,mcr_kw",
+    [
+        ("coaster at Froude 0.05", (100, 16, 6, 0.7, 3.05, "rudder_propeller"), 3000),
+        ("tug at 4 kn", (33, 11, 5, 0.5, 4.2, "azimuth"), 5000),
+        ("icebreaker at 5 kn", (110, 24, 8, 0.7, 5.1, "twin_screw"), 20000),
+    ],
+)
+def test_an_engine_much_larger_than_a_slow_approach_needs_is_not_taken_for_watts(name, particulars, mcr_kw):
+    """A slow approach (Froude 0.05 is allowed) needs a thousandth of a real rating: the first W-for-kW bound (100 x
+    the approach's power) refused these (207 x, 239 x, 151 x); set against the power at Froude 0.2 they pass, and
+    their ratings in W are still refused."""
+    from primitives.particulars.build import _check_power
+    from primitives.particulars.inputs import Particulars, ParticularsError
+
+    L, B, T, cb, kn, actuator = particulars
+    p = Particulars(name.split()[0], L, B, T, cb, kn, mcr_kw=mcr_kw, actuator=actuator)
+    assert _check_power(p, 0.75) < mcr_kw / 100
+    with pytest.raises(ParticularsError, match="in W"):
+        _check_power(Particulars(p.name, L, B, T, cb, kn, mcr_kw=1000 * mcr_kw, actuator=actuator), 0.75)

@@ -69,3 +69,21 @@ def test_rudder_sign_on_a_ship_without_delta_is_said_not_used(zz):
     got = apply_rudder_sign(apply_rudder_sign(rec, pods), pods)
     assert [n for n in got.notes if "rudder_sign starboard-positive not used" in n] != []
     assert len(got.notes) == len(rec.notes) + 1  # said once, however often applied
+
+
+@pytest.mark.parametrize("effects", [(), ("actuator_delay",), ("current",)], ids=["control", "delay", "current"])
+def test_a_negated_yaw_moment_of_a_generalized_ship_is_refused(effects, tmp_path):
+    """Stop 60's sweep: the model ship's run with tau_n negated was diagnosed with exit 0 as a nonlinear yaw damping
+    r|r| (yaw fit -130 % -> -50 %). The run as recorded passes (also with an actuator delay, the battery's weakest
+    t, +15); negated, it is refused naming the column, by the library call as by the CLI."""
+    from diagnose.battery import scenario
+    from diagnose.recording_checks import conform
+
+    model_ship = load_profile("model-ship")
+    rec = scenario(effects, 3).diagnose[0]
+    conform([rec], model_ship)
+    flipped = dataclasses.replace(rec, channels={**rec.channels, "tau_n": -rec.channels["tau_n"]})
+    with pytest.raises(RecordingError, match="column 'tau_n' turns the ship the other way.*flip the sign of tau_n"):
+        conform([flipped], model_ship)
+    with pytest.raises(RecordingError, match="column 'tau_n' turns the ship the other way"):
+        run([flipped], model_ship, max_rounds=1)

@@ -176,3 +176,50 @@ def test_wind_option_adds_phi_3_to_the_second_order_fits(record, capsys):
     for m in ("nomoto1", "nomoto2"):
         without = len(free_names(Structure(m, ss.L, ss.V, ("r", "psi")), 1, "ml")) + 1  # + the likelihood's scale
         assert nu[(m, "ml")] == without + (m == "nomoto2"), m
+
+
+def _scaled(record, tmp_path, column, k):
+    lines = record.read_text().splitlines()
+    head = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    j = lines[head].split(",").index(column)
+    rows = [line.split(",") for line in lines[head + 1 :]]
+    for row in rows:
+        row[j] = repr(float(row[j]) * k)
+    path = tmp_path / f"{column}-x{k:g}.csv"
+    path.write_text("\n".join(lines[: head + 1] + [",".join(row) for row in rows]) + "\n")
+    return path
+
+
+@pytest.mark.parametrize(
+    "column,k,says",
+    [("r", -1.0, "column 'r' turns against the heading"), ("t", 1000.0, "t in milliseconds")],
+    ids=["r-negated", "t-ms"],
+)
+def test_a_negated_rate_or_time_in_ms_is_refused(record, tmp_path, capsys, column, k, says):
+    """Stop 60's sweep: r negated (against d psi/dt) ended in 'FAILED' on stdout and exit 1 with nothing on stderr;
+    t in ms fitted with exit 0 (time constants 1000 times too long)."""
+    out = tmp_path / "report"
+    rc = _run(["steering", str(_scaled(record, tmp_path, column, k)), "--ship", "kvlcc2", "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and err[0].startswith("error:") and says in err[0], err
+    assert not out.exists()
+
+
+def test_a_failed_fit_says_so_on_stderr_in_one_line(tmp_path, capsys):
+    """A fit that fails (here Nomoto's second order by ML on a square-wave rudder of one record: its rudder offset
+    is not determined) exits 1 with one 'error:' line naming the failure, the report on stdout."""
+    import numpy as np
+
+    t = np.arange(0.0, 600.0, 2.0)
+    delta = np.radians(10.0) * np.sign(np.sin(2 * np.pi * t / 200.0) + 1e-9)
+    r = np.zeros_like(t)
+    for i in range(1, len(t)):
+        r[i] = r[i - 1] + 2.0 * (-0.05 * delta[i - 1] - r[i - 1]) / 60.0
+    psi = np.concatenate([[0.0], np.cumsum(2.0 * r[:-1])])
+    path = tmp_path / "square.csv"
+    path.write_text("t,delta,r,psi\n" + "\n".join(f"{a:.9g},{b:.9g},{c:.9g},{d:.9g}" for a, b, c, d in zip(t, delta, r, psi)))
+    rc = _run(["steering", str(path), "--ship", "kvlcc2", "--model", "nomoto2", "--estimator", "ml"])
+    cap = capsys.readouterr()
+    err = cap.err.strip().splitlines()
+    assert rc == 1 and "FAILED" in cap.out
+    assert len(err) == 1 and err[0].startswith("error: the nomoto2 ml fit failed: parameters not determined"), err

@@ -124,6 +124,45 @@ def test_recording_roundtrip_and_missing_signals(tmp_path, nv, capsys):
         assert len(err) == 1 and err[0].startswith("error: "), err
 
 
+@pytest.mark.parametrize(
+    "change,match",
+    [
+        ({"r": 180 / np.pi}, "column 'r' reaches .* in degrees"),
+        ({"phi": 180 / np.pi}, "column 'phi' reaches .* in degrees"),
+        ({"r": -1.0}, "turns against column 'tau_r'.*looks negated"),
+        ({"tau_r": -1.0}, "turns against column 'tau_r'.*looks negated"),
+        ({"t": 1000.0}, "t in milliseconds"),
+        ({"r": 0.0}, "column 'r' is constant"),
+        ({"sample_time": "0.2"}, "'# sample_time:' says 0.2 s"),
+    ],
+    ids=["r-deg", "phi-deg", "r-negated", "tau_r-negated", "t-ms", "no-turn", "header-step"],
+)
+def test_a_mistaken_recording_is_refused_not_fitted(tmp_path, change, match, capsys):
+    """Stop 60's sweep: each of these was fitted with exit 0 (a negated r gave N_phi|uv| = 1.2e15, phi in degrees
+    -4323 against -2.48e5) or failed with a numpy warning (t in ms). Now one line, exit 2, before any fit."""
+    from identify.yawid.recording import read_yaw_csv
+
+    path = simulate_file(tmp_path / "run.csv", seed=1, noise_scale=0.5)
+    lines = path.read_text().splitlines()
+    head = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    cols = lines[head].split(",")
+    step = change.get("sample_time")
+    meta = [f"# sample_time: {step}" if step and ln.startswith("# sample_time") else ln for ln in lines[:head]]
+    rows = np.array([[float(x) for x in ln.split(",")] for ln in lines[head + 1 :]])
+    for name, k in change.items():
+        if name in cols:
+            rows[:, cols.index(name)] *= k
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(meta + [lines[head]] + [",".join(f"{x:.9g}" for x in r) for r in rows]) + "\n")
+    with pytest.raises(RecordingError, match=match):
+        read_yaw_csv(bad, FULL, load_profile("naval-vessel"))
+    assert _run(["yawid", str(bad)]) == 2
+    out = capsys.readouterr()
+    assert out.out == "" and len(out.err.strip().splitlines()) == 1 and out.err.startswith("error: "), out
+    if change == {"phi": 180 / np.pi}:  # the simplified model (2.18) does not read phi: not refused for it
+        assert read_yaw_csv(bad, SIMPLIFIED, load_profile("naval-vessel")).t.size == rows.shape[0]
+
+
 def test_pod_inputs_stand_in_for_a_measured_moment(tmp_path, nv):
     """Without tau_r, the pod model of the ship profile computes it from n1, delta1, n2, delta2 (and p)."""
     from identify.yawid.recording import read_yaw_csv

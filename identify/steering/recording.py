@@ -27,6 +27,7 @@ MAX_RUDDER_RAD = 0.7  # 40 deg: no rudder goes further; larger values are degree
 MIN_READINGS = 20
 MAX_HEADING_RAD = 2 * np.pi + 0.5  # a gyro reads within [0, 2 pi) or [-pi, pi); beyond (with margin): degrees
 MAX_RATE_RAD_S = 0.2  # 11.5 deg/s: beyond any ship's yaw rate (a tanker turns at under 1 deg/s); larger: deg/s
+MAX_STEP_S = 100.0  # a steering record samples a turn of tens of seconds (L/V is 40 s for KVLCC2): longer steps are ms
 
 
 def read_records(path: str | Path) -> tuple[list[SteeringData], float | None, list[str]]:
@@ -90,6 +91,12 @@ def _checked(p: Path, cols: dict[str, np.ndarray], notes: list[str]) -> Steering
         raise RecordingError(
             f"{p}: column 't' does not increase at row {i + 3} ({t[i]:g} -> {t[i + 1]:g} s); sort the rows, drop repeats"
         )
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    if step > MAX_STEP_S:
+        raise RecordingError(
+            f"{p}: column 't' steps {step:g} (median): t in milliseconds? give t in seconds (a steering record is "
+            f"sampled well under {MAX_STEP_S:g} s apart)"
+        )
     d = cols["delta"]
     big = np.nanmax(np.abs(d)) if np.isfinite(d).any() else 0.0
     if big > MAX_RUDDER_RAD:
@@ -146,3 +153,10 @@ def _check_angle_units(p: Path, cols: dict[str, np.ndarray]) -> None:
         raise RecordingError(f"{p}: column 'r' is about 57 times the rate of 'psi': r in deg/s? give rad/s")
     if k > 0 and abs(np.log(k * np.pi / 180)) < 0.35:
         raise RecordingError(f"{p}: column 'psi' changes about 57 times faster than 'r': psi in degrees? give radians")
+    if k < 0 and abs(np.log(-k)) < 0.35:  # d psi/dt = -r: one of the two in the other sign convention
+        raise RecordingError(
+            f"{p}: column 'r' turns against the heading (d psi/dt = {k:.2f} r): r looks negated; give r and psi "
+            "clockwise (to starboard) positive"
+        )
+    if k > 0 and abs(np.log(k * 1000)) < 0.35:
+        raise RecordingError(f"{p}: column 'psi' changes about 1000 times slower than 'r': t in milliseconds? give seconds")

@@ -23,6 +23,13 @@ from primitives.ship import ShipProfile
 
 COLUMNS = ("t", "r", "v_dot", "u", "v", "phi", "tau_r")
 POD_COLUMNS = ("n1", "delta1", "n2", "delta2")
+MAX_RATE_RAD_S = 0.2  # 11.5 deg/s: beyond any ship's yaw rate (the naval vessel's turns reach 0.06); larger: deg/s
+MAX_ROLL_RAD = 0.7  # 40 deg: no trial rolls further (the naval vessel's reach 0.23); larger: degrees
+MAX_STEP_S = 10.0  # a yaw fit needs the response within a turn (tens of seconds): steps this long are milliseconds
+# the sign check's z bound: the regression of dr/dt on tau_r measured z = +54..+56 on six yawid-sim runs, +16.7 (turn
+# pulse) and +10.8..+56.5 (identification runs, Table 4.1 noise x1 and x5); a negated r or tau_r gives the same with
+# the sign flipped. -3 refuses a clear flip and leaves a weak one (the turn pulse at 5 x noise: +3.5) to the fit.
+SIGN_Z = -3.0
 
 
 def write_yaw_csv(data: YawData, path: str | Path, meta: dict[str, str] | None = None, run: int = 0) -> Path:
@@ -77,9 +84,77 @@ def read_yaw_csv(path: str | Path, model: YawModel, profile: ShipProfile | None 
     dt = np.diff(t)
     if not np.all(dt > 0) or np.ptp(dt) > 1e-6 * max(1.0, dt.mean()) + 1e-9:
         raise RecordingError(f"{path}: column 't' must be uniformly sampled and increasing (resample the recording)")
+    _check_step(path, dt, meta)
+    _check_units(path, {k: cols[k] for k in need})  # a column the model does not read is not judged
     sig = {k: cols[k] for k in need[1:]}
     sig["tau_r"] = _pod_moment(path, cols, profile)
+    _check_response(path, t, sig["r"], sig["tau_r"], "tau_r" in cols)
     return YawData(t, sig, source=str(path))
+
+
+def _check_step(path: Path, dt: np.ndarray, meta: dict[str, str]) -> None:
+    """The time step in seconds, and the header's ``# sample_time:`` agreeing with it (within 1 %)."""
+    step = float(np.median(dt))
+    if step > MAX_STEP_S:
+        raise RecordingError(
+            f"{path}: column 't' steps {step:g} (median): t in milliseconds? give t in seconds (the yaw fit needs "
+            f"samples well under {MAX_STEP_S:g} s apart)"
+        )
+    declared = meta.get("sample_time")
+    if declared is None:
+        return
+    try:
+        ts = float(declared)
+    except ValueError:
+        raise RecordingError(f"{path}: '# sample_time: {declared}' is not a number of seconds; correct the header") from None
+    if not abs(step - ts) <= 0.01 * step:
+        raise RecordingError(
+            f"{path}: column 't' steps {step:g} s but '# sample_time:' says {declared} s; correct the header or the times"
+        )
+
+
+def _check_units(path: Path, cols: dict[str, np.ndarray]) -> None:
+    """r in rad/s and phi in rad: beyond any ship's yaw rate or roll, they are degrees."""
+    for name, limit, unit in (("r", MAX_RATE_RAD_S, "rad/s"), ("phi", MAX_ROLL_RAD, "rad")):
+        if name not in cols:
+            continue
+        big = float(np.max(np.abs(cols[name])))
+        if big > limit:
+            raise RecordingError(
+                f"{path}: column '{name}' reaches {big:.3g}, more than {limit:g} {unit}: in degrees? give {unit} "
+                f"({big:.3g} deg = {np.radians(big):.3g} rad)"
+            )
+
+
+def _check_response(path: Path, t: np.ndarray, r: np.ndarray, tau_r: np.ndarray, measured: bool) -> None:
+    """The ship turns with its pods' moment: (I_z - N_rdot) dr/dt = tau_r + hull moments (2.17), so dr/dt regressed
+    on tau_r (and r, a constant; both over 1 s moving means) has a positive slope. A recording without any change of
+    r or tau_r has nothing to fit; a slope negative beyond SIGN_Z standard errors is a sign error of r or tau_r."""
+    source = "column 'tau_r'" if measured else "the pod yaw moment computed from n1, delta1, n2, delta2"
+    for name, x in (("r", r), (source, tau_r)):
+        if np.ptp(x) == 0:
+            label = f"column '{name}'" if name == "r" else source
+            raise RecordingError(f"{path}: {label} is constant: the recording has no turn to fit; give a manoeuvring run")
+    dt = float(np.median(np.diff(t)))
+    n = max(1, int(round(1.0 / dt)))
+    if len(t) <= 2 * n + 3:
+        return
+    box = np.ones(n) / n
+    rs, ts = np.convolve(r, box, mode="same"), np.convolve(tau_r, box, mode="same")
+    cut = slice(n, -n)
+    # columns scaled to unit spread: tau_r in N m and r in rad/s differ by 1e8 (z does not depend on the scale)
+    x = np.column_stack([ts[cut] / np.std(ts[cut]), rs[cut] / np.std(rs[cut]), np.ones(len(rs[cut]))])
+    y = np.gradient(rs, dt)[cut] / np.std(rs[cut])
+    coef, *_ = np.linalg.lstsq(x, y, rcond=None)
+    e = y - x @ coef
+    var = float(e @ e) / max(1, len(e) - 3) * np.linalg.pinv(x.T @ x)[0, 0]
+    z = float(coef[0] / np.sqrt(var)) if var > 0 else 0.0
+    if z < SIGN_Z:
+        which = "'r' or 'tau_r'" if measured else "'r' or a pod input's sign (delta1, delta2)"
+        raise RecordingError(
+            f"{path}: the yaw rate turns against {source} (slope of dr/dt on it {z:+.1f} standard errors): "
+            f"{which} looks negated; give r and the moment clockwise (to starboard) positive"
+        )
 
 
 def _pod_moment(path: Path, cols: dict[str, np.ndarray], profile: ShipProfile | None) -> np.ndarray:

@@ -18,7 +18,7 @@ import numpy as np
 from primitives.particulars import regressions as rg
 from primitives.particulars.document import header, profile_document, split, toml_text
 from primitives.particulars.fit import balance_thrust, excitation_runs, fit_profile, one_step_ls
-from primitives.particulars.inputs import Particulars, ParticularsError, check_particulars
+from primitives.particulars.inputs import KNOT, Particulars, ParticularsError, check_particulars
 from primitives.particulars.mmg import MMGShip
 from primitives.particulars.propeller import BSeries
 from primitives.particulars.units import HOUSING_AREA_D2, UNIT_OFFSET_B
@@ -131,6 +131,15 @@ def _pitch_for_rpm(p: Particulars) -> float:
     return 0.5 * (lo + hi)
 
 
+# An --mcr-kw in W for kW is 1000 x a rating that makes the speed (a smaller one is refused above). The power it is
+# set against is the hull's need at Froude 0.2 or the approach speed, the higher: a slow approach (Froude 0.05 is
+# allowed) needs a thousandth of the rating, so a ratio to it would refuse real ships. Measured (build._check_power,
+# P/D 0.75): a 33 m tug of 5 MW 54 x its 92 kW at Froude 0.2, a 45 m escort tug of 9 MW 41 x, a 110 m icebreaker of
+# 20 MW 11 x, the README's coaster 3.3 x; in W: KVLCC2 (25 MW) 543 x, a 180 m bulker of 7 MW 1092 x.
+MCR_OVER_NEED = 300.0
+MCR_FROUDE = 0.2
+
+
 def _check_power(p: Particulars, pitch: float) -> float:
     """Brake power [kW] at the approach; refuse a speed the given MCR cannot make."""
 
@@ -148,6 +157,14 @@ def _check_power(p: Particulars, pitch: float) -> float:
         raise ParticularsError(
             f"--speed {p.speed_kn:g} kn: needs about {need:,.0f} kW with these particulars (ITTC-57 friction, B-series screw), "
             f"over --mcr-kw {p.mcr_kw:,.0f}; this hull makes at most {lo:.1f} kn with it"
+        )
+    ref_kn = max(p.speed_kn, MCR_FROUDE * math.sqrt(9.81 * p.length) / KNOT)
+    scale = need if ref_kn == p.speed_kn else brake(ref_kn)
+    if p.mcr_kw is not None and p.mcr_kw > MCR_OVER_NEED * scale:
+        # a unit slip (W for kW): the full-power manoeuvres (acceleration) would be drawn from it
+        raise ParticularsError(
+            f"--mcr-kw {p.mcr_kw:,.0f}: {p.mcr_kw / scale:,.0f} times the about {scale:,.0f} kW this hull needs at "
+            f"{ref_kn:.3g} kn (built ships: under {MCR_OVER_NEED:g} x): in W? give the engine's rating in kW"
         )
     return need
 

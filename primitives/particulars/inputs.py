@@ -56,6 +56,10 @@ def check_particulars(p: Particulars) -> None:
     """Refuse particulars no ship has, one line naming the value and the plausible range."""
     if not NAME.fullmatch(p.name):
         raise ParticularsError(f"--name {p.name!r}: use letters, digits, '_' and '-' only (e.g. my-coaster)")
+    from primitives.ship import builtin_profiles
+
+    if p.name.lower() in builtin_profiles():  # plans, exports and reports would name a bundled ship for this one
+        raise ParticularsError(f"--name {p.name!r}: a bundled profile's name ({', '.join(builtin_profiles())}); choose another")
     if p.actuator not in ACTUATORS:
         raise ParticularsError(
             f"--actuator {p.actuator!r}: must be rudder_propeller (single screw, one rudder), twin_screw (two screws,"
