@@ -18,7 +18,7 @@ import numpy as np
 from diagnose.recording import RecordingError, split_metadata
 from identify.yawid.experiment import YawData, pod_yaw_moment
 from identify.yawid.model import YawModel
-from primitives.io import atomic_write_text, read_input_text
+from primitives.io import atomic_write_text, read_record_lines
 from primitives.ship import ShipProfile
 
 COLUMNS = ("t", "r", "v_dot", "u", "v", "phi", "tau_r")
@@ -41,10 +41,9 @@ def write_yaw_csv(data: YawData, path: str | Path, meta: dict[str, str] | None =
     return atomic_write_text(path, "\n".join(lines) + "\n")
 
 
-def _columns(path: Path) -> tuple[dict[str, str], dict[str, np.ndarray]]:
-    meta, body = split_metadata(
-        read_input_text(path, RecordingError, "a yaw recording CSV (t, r, u, v, ...)", "utf-8-sig").splitlines()
-    )
+def _columns(path: Path) -> tuple[dict[str, str], dict[str, np.ndarray], str | None]:
+    lines, cut = read_record_lines(path, RecordingError, "a yaw recording CSV (t, r, u, v, ...)", "utf-8-sig")
+    meta, body = split_metadata(lines)
     if len(body) < 2:
         raise RecordingError(f"{path}: needs a header row (t,r,u,v,...) and data rows")
     reader = csv.reader(body)
@@ -63,13 +62,13 @@ def _columns(path: Path) -> tuple[dict[str, str], dict[str, np.ndarray]]:
         if not np.all(np.isfinite(vals)):
             raise RecordingError(f"{path}: column '{name}' holds NaN or inf; the yaw fit needs gap-free signals")
         cols[name] = vals
-    return meta, cols
+    return meta, cols, cut
 
 
 def read_yaw_csv(path: str | Path, model: YawModel, profile: ShipProfile | None = None) -> YawData:
     """A recording with every signal ``model`` needs, or a one-line RecordingError saying which is missing."""
     path = Path(path)
-    meta, cols = _columns(path)
+    meta, cols, cut = _columns(path)
     need = ("t", "r") + model.signals
     for name in need:
         if name not in cols:
@@ -89,7 +88,7 @@ def read_yaw_csv(path: str | Path, model: YawModel, profile: ShipProfile | None 
     sig = {k: cols[k] for k in need[1:]}
     sig["tau_r"] = _pod_moment(path, cols, profile)
     _check_response(path, t, sig["r"], sig["tau_r"], "tau_r" in cols)
-    return YawData(t, sig, source=str(path))
+    return YawData(t, sig, source=str(path), notes=(cut,) if cut else ())
 
 
 def _check_step(path: Path, dt: np.ndarray, meta: dict[str, str]) -> None:
