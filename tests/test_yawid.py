@@ -215,3 +215,20 @@ def test_the_sign_check_refuses_only_clear_evidence_of_a_negated_r(tmp_path, nv,
     data = read_yaw_csv(path, SIMPLIFIED, nv)  # simplified (2.18): at 20 x noise phi reaches 1.9 "rad"
     notes = [n for n in data.notes if "standard errors" in n]
     assert notes == [] if says is None else (len(notes) == 1 and says in notes[0]), data.notes
+
+
+@pytest.mark.parametrize("manoeuvre,scale,refused", [("ident", 3600 / 1852, True), ("pulse", 1.0, False)])
+def test_u_in_knots_is_refused_and_the_fastest_run_is_not(tmp_path, nv, manoeuvre, scale, refused):
+    """Stop 60's sweep: u in knots was fitted (N_phi|uv| -1.27e5 against -2.48e5). Refused against the profile's cruise
+    speed (median u over 1.2 x 9.7 m/s); the fastest run there is (the turn pulse at full revs, median 9.58 m/s) is not."""
+    from identify.yawid.recording import read_yaw_csv, write_yaw_csv
+
+    inputs = identification_run(nv.sample_time, 5) if manoeuvre == "ident" else turn_pulse(nv.sample_time)
+    m = measure(true_signals(nv, inputs), Noise(), 1, 3)
+    m.signals["u"] = scale * m.signals["u"]
+    path = write_yaw_csv(m, tmp_path / "run.csv")
+    if refused:
+        with pytest.raises(RecordingError, match=r"column 'u' runs at 1[0-9.]+ \(median\).*in knots\? give m/s"):
+            read_yaw_csv(path, FULL, nv)
+    else:
+        assert read_yaw_csv(path, FULL, nv).t.size == m.t.size

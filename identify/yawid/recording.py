@@ -25,6 +25,11 @@ COLUMNS = ("t", "r", "v_dot", "u", "v", "phi", "tau_r")
 POD_COLUMNS = ("n1", "delta1", "n2", "delta2")
 MAX_RATE_RAD_S = 0.2  # 11.5 deg/s: beyond any ship's yaw rate (the naval vessel's turns reach 0.06); larger: deg/s
 MAX_ROLL_RAD = 0.7  # 40 deg: no trial rolls further (the naval vessel's reach 0.23); larger: degrees
+# u: the naval vessel's top speed (n = 80 rev/s, its input limit) is 9.79 m/s, its cruise speed 9.7; the fastest run
+# (the turn pulse at full revs) has a median u of 9.58 m/s, 0.82 x this bound. In knots the identification runs'
+# medians are 13.4..16.5, 1.15..1.42 x the bound; a run slower than 6.0 m/s (median) in knots is not caught.
+MAX_SPEED_X = 1.2
+KNOT_MPS = 1852 / 3600
 MAX_STEP_S = 10.0  # a yaw fit needs the response within a turn (tens of seconds): steps this long are milliseconds
 # the sign check's bounds on z (response_z, Newey-West standard error; yaw_sign_hac.py in the stop 60 leftovers):
 # z = +16.7..+16.9 on six yawid-sim runs, >= +14.6 on 40 identification runs at Table 4.1's noise, >= +7.9 at 5 x,
@@ -89,6 +94,7 @@ def read_yaw_csv(path: str | Path, model: YawModel, profile: ShipProfile | None 
         raise RecordingError(f"{path}: column 't' must be uniformly sampled and increasing (resample the recording)")
     _check_step(path, dt, meta)
     _check_units(path, {k: cols[k] for k in need})  # a column the model does not read is not judged
+    _check_speed(path, cols["u"], profile)
     sig = {k: cols[k] for k in need[1:]}
     sig["tau_r"] = _pod_moment(path, cols, profile)
     weak = _check_response(path, t, sig["r"], sig["tau_r"], "tau_r" in cols)
@@ -127,6 +133,19 @@ def _check_units(path: Path, cols: dict[str, np.ndarray]) -> None:
                 f"{path}: column '{name}' reaches {big:.3g}, more than {limit:g} {unit}: in degrees? give {unit} "
                 f"({big:.3g} deg = {np.radians(big):.3g} rad)"
             )
+
+
+def _check_speed(path: Path, u: np.ndarray, profile: ShipProfile | None) -> None:
+    """u in m/s: a run whose median speed is beyond MAX_SPEED_X the profile's cruise speed is in knots (or km/h)."""
+    if profile is None or not profile.cruise_speed_mps > 0:
+        return
+    median, limit = float(np.median(u)), MAX_SPEED_X * profile.cruise_speed_mps
+    if median > limit:
+        raise RecordingError(
+            f"{path}: column 'u' runs at {median:.3g} (median), over {MAX_SPEED_X:g} x the cruise speed of "
+            f"{profile.name} ({profile.cruise_speed_mps:g} m/s): in knots? give m/s ({median:.3g} kn = "
+            f"{median * KNOT_MPS:.3g} m/s)"
+        )
 
 
 def _check_response(path: Path, t: np.ndarray, r: np.ndarray, tau_r: np.ndarray, measured: bool) -> str | None:
