@@ -16,7 +16,7 @@ import pytest
 from cli.app import _run
 from diagnose.recording import write_csv
 from expdesign import adaptive as ad
-from maps.plan import Plan
+from maps.plan import Plan, content_digest
 from maps.resume import simulated_recordings
 from maps.resume_example import example_recordings
 from maps.trialdesign import first_design, ship_library
@@ -110,7 +110,9 @@ def test_resume_of_a_plan_for_a_ship_it_cannot_load_or_plan(sailed, tmp_path, ca
     is asked for its profile file."""
     doc = json.loads((sailed["dir"] / "plan" / "plan.json").read_text())
     (tmp_path / "p").mkdir()
-    (tmp_path / "p" / "plan.json").write_text(json.dumps({**doc, "ship": ship}))
+    other = {**doc, "ship": ship}
+    other["digest"] = content_digest(other)  # as plan-trial would write it for that ship (an edit by hand is refused)
+    (tmp_path / "p" / "plan.json").write_text(json.dumps(other))
     args = ["plan", "--resume", str(tmp_path / "p" / "plan.json"), "--from", sailed["from"], "--time-left", "10min"]
     capsys.readouterr()
     assert _run([*args, "--recordings", str(sailed["dir"] / "rec"), "--out", str(tmp_path / "o")]) == 2
@@ -204,6 +206,7 @@ def test_plan_options_given_with_resume_override_the_plans_others_are_restored(s
     assert (o.heuristic, o.run_in_s, o.split, o.size, o.settle) == ("thesis", 120.0, True, (40, 50), "ship")
     doc = json.loads((sailed["dir"] / "plan" / "plan.json").read_text())
     doc["stats"]["heuristic"], doc["margin_m"] = "thesis", 25.0  # as if planned with --heuristic thesis --margin 25
+    doc["digest"] = content_digest(doc)  # as plan-trial writes it (an edit by hand is refused)
     (tmp_path / "p").mkdir()
     (tmp_path / "p" / "plan.json").write_text(json.dumps(doc))
     out = tmp_path / "rest"
