@@ -66,7 +66,7 @@ def check_digest(d: dict[str, Any], src: str) -> str | None:
         raise PlanError(
             f"{src}: field(s) {', '.join(map(repr, edited))} changed after plan-trial wrote the plan (its digest "
             f"differs); re-create the plan with plan-trial (export --vessel-name, --start and --map change the exports "
-            f"without editing the plan), or delete the field {DIGEST_KEY!r} to export it as edited"
+            f"without editing the plan), or delete the field {DIGEST_KEY!r} to use it as edited (unchecked)"
         )
     return None
 

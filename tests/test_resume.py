@@ -121,6 +121,27 @@ def test_resume_of_a_plan_for_a_ship_it_cannot_load_or_plan(sailed, tmp_path, ca
     assert not (tmp_path / "o").exists()
 
 
+def test_resume_refuses_a_plan_edited_by_hand_and_notes_one_without_a_digest(sailed, tmp_path, capsys):
+    """plan-trial --resume reads the plan as export does: a field edited after plan-trial wrote it is refused in one
+    line naming it, nothing written; a plan without a digest (written before stop 60) is read with a note on stderr
+    (here its ship is then refused, so the check stays cheap)."""
+    doc = json.loads((sailed["dir"] / "plan" / "plan.json").read_text())
+    (tmp_path / "p").mkdir()
+    args = ["plan", "--resume", str(tmp_path / "p" / "plan.json"), "--from", sailed["from"], "--time-left", "10min"]
+    args += ["--recordings", str(sailed["dir"] / "rec"), "--out", str(tmp_path / "o")]
+    (tmp_path / "p" / "plan.json").write_text(json.dumps({**doc, "margin_m": doc["margin_m"] + 5}))
+    capsys.readouterr()
+    assert _run(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "field(s) 'margin_m' changed after plan-trial" in err[0], err
+    old = {k: v for k, v in doc.items() if k != "digest"} | {"ship": "coaster"}
+    (tmp_path / "p" / "plan.json").write_text(json.dumps(old))
+    assert _run(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0].startswith("note: ") and "carries no digest" in err[0] and "give its profile file" in err[-1], err
+    assert not (tmp_path / "o").exists()
+
+
 @pytest.mark.parametrize(
     "case, match",
     [
