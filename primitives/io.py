@@ -230,10 +230,11 @@ def read_record_lines(path: str | Path, error: type, what: str, encoding: str = 
     file written without a final line break (``"\\n".join(rows)``) loses one sample, not the run."""
     text = read_input_text(path, error, what, encoding)
     lines = text.splitlines()
-    if len(lines) < 2 or text.endswith(("\n", "\r")) or not lines[-1].strip():
+    last = lines[-1].strip() if lines else ""
+    if len(lines) < 2 or text.endswith(("\n", "\r")) or not last or last.startswith("#"):  # a comment holds no sample
         return lines, None
     return lines[:-1], (
-        f"the last line ({len(lines)}: {lines[-1].strip()[:40]!r}) has no line break at its end: read as cut short (a "
+        f"the last line ({len(lines)}: {last[:40]!r}) has no line break at its end: read as cut short (a "
         "truncated download or a logger stopped mid-write) and left out; if the file is complete, end it with a line break"
     )
 

@@ -97,3 +97,16 @@ def test_yawid_says_the_row_it_left_out(tmp_path, capsys):
     assert _run(["yawid", str(path), "--model", "simplified"]) == 0
     out = capsys.readouterr().out
     assert f"note: {path}: the last line" in out and "cut short" in out
+
+
+@pytest.mark.parametrize("kind", ["diagnose csv", "yawid csv"])
+def test_a_last_comment_without_a_line_break_is_no_cut_row(tmp_path, kind):
+    """A comment line ends some loggers' files (``# end of run``); without a line break it holds no sample: the rows
+    are all read and no "cut short" note is given."""
+    make, name, read = READERS[kind]
+    whole = make(tmp_path / name)
+    full, _ = read(whole)
+    whole.write_text(whole.read_text() + "# end of run")
+    got, notes = read(whole)
+    np.testing.assert_array_equal(got, full)
+    assert not any("cut short" in n for n in notes), notes
