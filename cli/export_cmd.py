@@ -103,6 +103,8 @@ def register(app: typer.Typer) -> None:
         validate_export_options(plan_file=plan_file, fmt=fmt, out=out, sea_map=sea_map, vessel_name=vessel, start=start)
         fmt_l = fmt.lower()
         plan = load_plan(plan_file)
+        for note in plan.read_notes:
+            typer.echo(f"note: {note}")
         sea = resolve_sea_map(sea_map, plan.map_name, plan)
         if fmt_l == "all":
             out_dir = out or plan_file.parent  # an --out that is a file: refused by validate_export_options

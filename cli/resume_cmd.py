@@ -4,6 +4,7 @@ re-design and re-plan the rest of a trial from the recordings sailed so far (:mo
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import replace
 from datetime import timedelta
 from pathlib import Path
@@ -114,6 +115,8 @@ def run_resume(
         raise UserError(f"--time-left {time_left_text!r}: no time left for a manoeuvre; give the seconds left (> 0)")
     pos = _position(start_from)
     plan = Plan.load(resume)
+    for note in plan.read_notes:  # on stderr: --json's stdout stays one document
+        print(f"note: {note}", file=sys.stderr)
     try:
         prof = load_profile(ship or plan.ship)
     except UserError as exc:

@@ -46,6 +46,7 @@ def register(app: typer.Typer) -> None:
                         "converged": bool(fit.ok[0]),
                         "fit_percent": float(fit.fit_percent[0]),
                         "residual_rms": float(fit.rms[0]),
+                        "notes": list(fit.notes),
                     }
                 )
             )
@@ -56,6 +57,8 @@ def register(app: typer.Typer) -> None:
             )
             for k, v in est.items():
                 typer.echo(f"  {LABELS[k]:10s} {v:12.4g}   (start {start[k]:.4g})")
+            for note in fit.notes:
+                typer.echo(f"note: {recording}: {note}")
         if not fit.ok[0]:
             raise typer.Exit(1)
 

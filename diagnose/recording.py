@@ -33,7 +33,7 @@ from diagnose.recording_meta import (  # noqa: F401  (the header values re-expor
 )
 from diagnose.recording_table import INPUTS, MAX_BRIDGE_S  # noqa: F401  (re-exported)
 from primitives.errors import UserError
-from primitives.io import read_input_text
+from primitives.io import read_record_lines
 
 MIN_SAMPLES = 50
 NUMERIC = (
@@ -247,7 +247,8 @@ def read_csv(
     """A recording CSV in the README's recording format (one or more gap-free pieces; ``inputs``: see
     :func:`build_recording`; ``yaw_rate_sign``: stands for the header line ``# yaw_rate_sign:``)."""
     path = Path(path)
-    meta, body = split_metadata(_read_text(path, "utf-8-sig").splitlines())
+    lines, cut = _read_lines(path, "utf-8-sig")
+    meta, body = split_metadata(lines)
     if not body:
         raise RecordingError(f"{path}: no header row; the first non-comment line must name the columns (t,x,y,psi,...)")
     reader = csv.reader(body)
@@ -255,7 +256,7 @@ def read_csv(
     _check_header(path, header, body[0], inputs or ())
     cols = _plain_numbers(header, body)
     if cols is not None:  # every cell a plain number: read at once (checks and errors below are for the rest)
-        return _built(path, meta, cols, None, sample_time, inputs, yaw_rate_sign)
+        return _built(path, meta, cols, None, sample_time, inputs, yaw_rate_sign, cut)
     rows = list(reader)
     if not rows:
         raise RecordingError(f"{path}: header but no data rows; give the recording with its samples, one row each")
@@ -293,7 +294,7 @@ def read_csv(
                         f"{path}: row {i + 2}, column '{name}': {s!r} is not a number; correct the cell or cut the row (an empty cell is a gap)"
                     ) from None
         cols[name] = vals
-    return _built(path, meta, cols, segments, sample_time, inputs, yaw_rate_sign)
+    return _built(path, meta, cols, segments, sample_time, inputs, yaw_rate_sign, cut)
 
 
 def _plain_numbers(header: list[str], body: list[str]) -> dict[str, np.ndarray] | None:
@@ -322,13 +323,14 @@ def _built(
     sample_time: float | None,
     inputs: tuple[str, ...] | list[str] | None,
     yaw_rate_sign: str | None,
+    cut: str | None = None,
 ) -> list[Recording]:
-    """:func:`read_csv`'s recordings from the columns read."""
+    """:func:`read_csv`'s recordings from the columns read (``cut``: the note of a last row left out)."""
     check_meta(path, meta)
     ts = sample_time or (float(meta["sample_time"]) if "sample_time" in meta else None)
-    yaw_note = yaw_rate_as_said(cols, meta, yaw_rate_sign)
+    added = [n for n in (cut, yaw_rate_as_said(cols, meta, yaw_rate_sign)) if n]
     recs = build_recording(str(path), cols, meta=meta, segments=segments, sample_time=ts, inputs=inputs)
-    return [true_wind(path, replace(r, notes=[*r.notes, yaw_note]) if yaw_note else r) for r in recs]
+    return [true_wind(path, replace(r, notes=[*r.notes, *added]) if added else r) for r in recs]
 
 
 def _check_header(path: Path, header: list[str], line: str, inputs: tuple[str, ...] | list[str] = ()) -> None:
@@ -366,8 +368,9 @@ def _check_header(path: Path, header: list[str], line: str, inputs: tuple[str, .
         raise RecordingError(f"{path}: missing required column(s) {', '.join(missing)}{ship}; the header read is {shown!r}")
 
 
-def _read_text(path: Path, encoding: str) -> str:
-    return read_input_text(path, RecordingError, "a recording file (.csv saved as UTF-8, or MARIN .dat)", encoding)
+def _read_lines(path: Path, encoding: str) -> tuple[list[str], str | None]:
+    """The file's lines and the note of a last row cut short (left out: :func:`primitives.io.read_record_lines`)."""
+    return read_record_lines(path, RecordingError, "a recording file (.csv saved as UTF-8, or MARIN .dat)", encoding)
 
 
 KVLCC2_COLUMNS = ("t", "x", "y", "phi", "psi", "u", "v", "p", "r", "delta", "n")
@@ -384,7 +387,8 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
     """
     path = Path(path)
     rows = []
-    for line in _read_text(path, "latin-1").splitlines()[2:]:
+    lines, cut = _read_lines(path, "latin-1")
+    for line in lines[2:]:
         parts = [p for p in line.replace(",", " ").split() if p]
         if len(parts) < len(KVLCC2_COLUMNS):
             continue
@@ -431,7 +435,7 @@ def read_marin_dat(path: str | Path, *, sample_time: float = 1.0) -> Recording:
             "(CSV recordings must give body-frame u, v)"
         )
     rec = build_recording(str(path), cols, meta=meta, sample_time=sample_time)[0]
-    rec.notes.insert(0, note)
+    rec.notes[:0] = [note, cut] if cut else [note]
     return rec
 
 

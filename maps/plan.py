@@ -9,6 +9,7 @@ need nothing else (no map, no profile file).
 
 from __future__ import annotations
 
+import hashlib
 import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -24,6 +25,50 @@ SEGMENTS = ("run-in", "informative", "transit")
 
 class PlanError(UserError):
     """A saved plan that cannot be read; the message names the file and the field."""
+
+
+DIGEST_KEY = "digest"  # {field: the first 16 hex digits of the SHA-256 of its canonical JSON}, written by to_json
+
+
+# the planner's timings (in stats): not the plan's content, and different on every run of the same plan
+TIMINGS = frozenset({"plan_time_s", "expansions_per_s", "setup_time_s", "design_time_s", "total_time_s", "search_s"})
+
+
+def _untimed(v: Any) -> Any:
+    if isinstance(v, dict):
+        return {k: _untimed(x) for k, x in v.items() if k not in TIMINGS}
+    return [_untimed(x) for x in v] if isinstance(v, list) else v
+
+
+def content_digest(d: dict[str, Any]) -> dict[str, str]:
+    """Each field of a plan document (but the digest) as the first 16 hex digits of the SHA-256 of its canonical JSON
+    (sorted keys, no spaces; the timings left out, so that plans equal but for them have equal digests): a field
+    edited by hand after plan-trial wrote the plan no longer matches its own."""
+    return {
+        k: hashlib.sha256(json.dumps(_untimed(v), sort_keys=True, separators=(",", ":")).encode()).hexdigest()[:16]
+        for k, v in d.items()
+        if k != DIGEST_KEY
+    }
+
+
+def check_digest(d: dict[str, Any], src: str) -> str | None:
+    """Refuse a plan whose fields differ from its digest (labels edited by hand: a 'feasible' false made true puts
+    an infeasible plan on the crew's card as feasible; another 'ship' gives export another ship's draught). A plan
+    written before plans carried a digest (stop 60) is read, and the note returned says its content is unchecked."""
+    stored = d.get(DIGEST_KEY)
+    if stored is None:
+        return f"{src}: the plan carries no digest (written before stop 60, or deleted): its fields are not checked against edits"
+    if not isinstance(stored, dict) or not all(isinstance(v, str) for v in stored.values()):
+        raise PlanError(f"{src}: field {DIGEST_KEY!r} is malformed; re-create the plan with plan-trial")
+    now = content_digest(d)
+    edited = sorted(k for k in set(now) | set(stored) if now.get(k) != stored.get(k))
+    if edited:
+        raise PlanError(
+            f"{src}: field(s) {', '.join(map(repr, edited))} changed after plan-trial wrote the plan (its digest "
+            f"differs); re-create the plan with plan-trial (export --vessel-name, --start and --map change the exports "
+            f"without editing the plan), or delete the field {DIGEST_KEY!r} to use it as edited (unchecked)"
+        )
+    return None
 
 
 @dataclass
@@ -96,6 +141,7 @@ class Plan:
     # "efficiency_loss"}]}; {} when the counts were given by hand
     design: dict[str, Any] = field(default_factory=dict)
     vessel_name: str = ""
+    read_notes: list[str] = field(default_factory=list)  # said when read back (not saved): an unchecked content
 
     @property
     def duration_s(self) -> float:
@@ -147,9 +193,13 @@ class Plan:
         return d
 
     def to_json(self) -> str:
+        """The plan document with its ``digest`` (:func:`content_digest`): export and resume refuse a plan whose
+        fields were edited after plan-trial wrote it."""
         from primitives.io import to_jsonable
 
-        return json.dumps(to_jsonable(self.to_dict()))
+        d = to_jsonable(self.to_dict())
+        d[DIGEST_KEY] = content_digest(d)
+        return json.dumps(d)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], src: str = "<plan>") -> Plan:
@@ -162,6 +212,7 @@ class Plan:
         if d.get("format") != PLAN_FORMAT:
             raise PlanError(f"{src}: field 'format' must be {PLAN_FORMAT!r}: not a plan written by shiptrial")
         check_plan_document(d, src, PlanError)
+        unchecked = check_digest(d, src)
         try:
             plan = cls._from_dict(d)
         except KeyError as exc:
@@ -176,6 +227,7 @@ class Plan:
                 raise PlanError(
                     f"{src}: samples '{name}' hold values that are not finite numbers; re-create the plan with plan-trial"
                 )
+        plan.read_notes = [unchecked] if unchecked else []
         return plan
 
     @classmethod

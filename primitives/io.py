@@ -220,6 +220,25 @@ def read_input_text(path: str | Path, error: type, what: str, encoding: str = "u
         raise error(f"{path}: cannot be read ({exc.strerror}); give {what}") from None
 
 
+def read_record_lines(path: str | Path, error: type, what: str, encoding: str = "utf-8") -> tuple[list[str], str | None]:
+    """The lines of a recording file (:func:`read_input_text`'s refusals), and a note when its last row was left out.
+
+    A file cut short (a truncated download, a logger stopped mid-write) ends inside its last row, and a number
+    cut short in that row reads as another number ("0.0123" -> "0.01"). Loggers, csv modules and spreadsheets end
+    every row with a line break, so a last line without one is read as cut short and left out, with the note saying so. Left out rather
+    than refused: the rows before the cut are whole (for a stopped logger, all the data there is), and a complete
+    file written without a final line break (``"\\n".join(rows)``) loses one sample, not the run."""
+    text = read_input_text(path, error, what, encoding)
+    lines = text.splitlines()
+    last = lines[-1].strip() if lines else ""
+    if len(lines) < 2 or text.endswith(("\n", "\r")) or not last or last.startswith("#"):  # a comment holds no sample
+        return lines, None
+    return lines[:-1], (
+        f"the last line ({len(lines)}: {last[:40]!r}) has no line break at its end: read as cut short (a "
+        "truncated download or a logger stopped mid-write) and left out; if the file is complete, end it with a line break"
+    )
+
+
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 

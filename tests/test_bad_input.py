@@ -638,3 +638,38 @@ def test_export_map_whose_features_cover_part_of_the_track_is_the_plans_own(tmp_
         capsys.readouterr().err
     )
     assert (tmp_path / "a.gpx").is_file()
+
+
+@pytest.mark.parametrize(
+    "edit,field",
+    [
+        ({"feasible": False}, "'feasible'"),  # the synthetic plan is feasible: its card would say NOT FEASIBLE
+        ({"ship": "kvlcc2"}, "'ship'"),
+        ({"map_name": "open-sea"}, "'map_name'"),
+        ({"extra": 1}, "'extra'"),
+    ],
+    ids=["feasible", "ship", "map_name", "unknown-key"],
+)
+def test_export_refuses_a_plan_edited_after_planning_and_reads_an_old_one_with_a_note(tmp_path, monkeypatch, capsys, edit, field):
+    """Stop 60's sweep exported plans whose labels were edited by hand (a 'feasible' flipped puts an infeasible plan
+    on the crew's card as feasible; another 'ship' gives export another ship's draught). plan.json now carries a
+    digest of each field: such an edit is refused in one line naming the field, nothing written. A plan without the
+    digest (written before stop 60) is exported with a note."""
+    from maps.export._testing import synthetic_plan
+
+    monkeypatch.chdir(tmp_path)
+    doc = json.loads(synthetic_plan("model-ship").to_json())
+    (tmp_path / "plan.json").write_text(json.dumps(doc))
+    assert _run(["export", "plan.json", "--format", "gpx", "--out", "a.gpx"]) == 0
+    assert "note:" not in capsys.readouterr().out
+    (tmp_path / "plan.json").write_text(json.dumps(doc | edit))
+    before = _snapshot(tmp_path)
+    assert _run(["export", "plan.json", "--format", "gpx", "--out", "b.gpx"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"error: plan.json: field(s) {field} changed after plan-trial"), err
+    assert _snapshot(tmp_path) == before
+    old = {k: v for k, v in doc.items() if k != "digest"} | edit
+    (tmp_path / "plan.json").write_text(json.dumps(old))
+    assert _run(["export", "plan.json", "--format", "gpx", "--out", "c.gpx"]) == 0
+    assert "note: plan.json: the plan carries no digest" in capsys.readouterr().out
+    assert (tmp_path / "c.gpx").is_file()

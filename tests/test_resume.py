@@ -16,7 +16,7 @@ import pytest
 from cli.app import _run
 from diagnose.recording import write_csv
 from expdesign import adaptive as ad
-from maps.plan import Plan
+from maps.plan import Plan, content_digest
 from maps.resume import simulated_recordings
 from maps.resume_example import example_recordings
 from maps.trialdesign import first_design, ship_library
@@ -110,12 +110,35 @@ def test_resume_of_a_plan_for_a_ship_it_cannot_load_or_plan(sailed, tmp_path, ca
     is asked for its profile file."""
     doc = json.loads((sailed["dir"] / "plan" / "plan.json").read_text())
     (tmp_path / "p").mkdir()
-    (tmp_path / "p" / "plan.json").write_text(json.dumps({**doc, "ship": ship}))
+    other = {**doc, "ship": ship}
+    other["digest"] = content_digest(other)  # as plan-trial would write it for that ship (an edit by hand is refused)
+    (tmp_path / "p" / "plan.json").write_text(json.dumps(other))
     args = ["plan", "--resume", str(tmp_path / "p" / "plan.json"), "--from", sailed["from"], "--time-left", "10min"]
     capsys.readouterr()
     assert _run([*args, "--recordings", str(sailed["dir"] / "rec"), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and match in err[0], err
+    assert not (tmp_path / "o").exists()
+
+
+def test_resume_refuses_a_plan_edited_by_hand_and_notes_one_without_a_digest(sailed, tmp_path, capsys):
+    """plan-trial --resume reads the plan as export does: a field edited after plan-trial wrote it is refused in one
+    line naming it, nothing written; a plan without a digest (written before stop 60) is read with a note on stderr
+    (here its ship is then refused, so the check stays cheap)."""
+    doc = json.loads((sailed["dir"] / "plan" / "plan.json").read_text())
+    (tmp_path / "p").mkdir()
+    args = ["plan", "--resume", str(tmp_path / "p" / "plan.json"), "--from", sailed["from"], "--time-left", "10min"]
+    args += ["--recordings", str(sailed["dir"] / "rec"), "--out", str(tmp_path / "o")]
+    (tmp_path / "p" / "plan.json").write_text(json.dumps({**doc, "margin_m": doc["margin_m"] + 5}))
+    capsys.readouterr()
+    assert _run(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "field(s) 'margin_m' changed after plan-trial" in err[0], err
+    old = {k: v for k, v in doc.items() if k != "digest"} | {"ship": "coaster"}
+    (tmp_path / "p" / "plan.json").write_text(json.dumps(old))
+    assert _run(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0].startswith("note: ") and "carries no digest" in err[0] and "give its profile file" in err[-1], err
     assert not (tmp_path / "o").exists()
 
 
@@ -204,6 +227,7 @@ def test_plan_options_given_with_resume_override_the_plans_others_are_restored(s
     assert (o.heuristic, o.run_in_s, o.split, o.size, o.settle) == ("thesis", 120.0, True, (40, 50), "ship")
     doc = json.loads((sailed["dir"] / "plan" / "plan.json").read_text())
     doc["stats"]["heuristic"], doc["margin_m"] = "thesis", 25.0  # as if planned with --heuristic thesis --margin 25
+    doc["digest"] = content_digest(doc)  # as plan-trial writes it (an edit by hand is refused)
     (tmp_path / "p").mkdir()
     (tmp_path / "p" / "plan.json").write_text(json.dumps(doc))
     out = tmp_path / "rest"

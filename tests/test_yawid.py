@@ -187,3 +187,48 @@ def test_pod_inputs_stand_in_for_a_measured_moment(tmp_path, nv):
     data = read_yaw_csv(path, FULL, nv)
     np.testing.assert_allclose(data.signals["tau_r"], clean.signals["tau_r"], rtol=1e-6, atol=1.0)
     assert np.abs(clean.signals["tau_r"]).max() > 1e5
+
+
+@pytest.mark.parametrize(
+    "noise,draw,sign,says",
+    [
+        (20.0, 53, 1.0, "weakly or against it (slope of dr/dt on it -2.4"),  # s60-badinput's z: -3.19, refused
+        (1.0, 0, 1.0, None),
+        (1.0, 0, -1.0, "looks negated"),  # z -7.7: clear against the run's own noise
+    ],
+    ids=["noisy-20x-noted", "clean-1x", "negated-1x-refused"],
+)
+def test_the_sign_check_refuses_only_clear_evidence_of_a_negated_r(tmp_path, nv, noise, draw, sign, says):
+    """The sign check's standard error is Newey-West's (the moving means correlate the residuals): a turn pulse at
+    20 x Table 4.1's noise with its signs right (draw 53 of 500, seed 11) was refused as "looks negated" by the
+    ordinary standard error (z -3.19, review of s60-badinput); now a note. The same pulse at 1 x noise with r
+    negated is still refused."""
+    from identify.yawid.recording import read_yaw_csv, write_yaw_csv
+
+    m = measure(true_signals(nv, turn_pulse(nv.sample_time)), Noise().scaled(noise), 500, 11)
+    m.signals["r"] = sign * m.signals["r"]
+    path = write_yaw_csv(m, tmp_path / "pulse.csv", run=draw)
+    if says == "looks negated":
+        with pytest.raises(RecordingError, match=says):
+            read_yaw_csv(path, SIMPLIFIED, nv)
+        return
+    data = read_yaw_csv(path, SIMPLIFIED, nv)  # simplified (2.18): at 20 x noise phi reaches 1.9 "rad"
+    notes = [n for n in data.notes if "standard errors" in n]
+    assert notes == [] if says is None else (len(notes) == 1 and says in notes[0]), data.notes
+
+
+@pytest.mark.parametrize("manoeuvre,scale,refused", [("ident", 3600 / 1852, True), ("pulse", 1.0, False)])
+def test_u_in_knots_is_refused_and_the_fastest_run_is_not(tmp_path, nv, manoeuvre, scale, refused):
+    """Stop 60's sweep: u in knots was fitted (N_phi|uv| -1.27e5 against -2.48e5). Refused against the profile's cruise
+    speed (median u over 1.2 x 9.7 m/s); the fastest run there is (the turn pulse at full revs, median 9.58 m/s) is not."""
+    from identify.yawid.recording import read_yaw_csv, write_yaw_csv
+
+    inputs = identification_run(nv.sample_time, 5) if manoeuvre == "ident" else turn_pulse(nv.sample_time)
+    m = measure(true_signals(nv, inputs), Noise(), 1, 3)
+    m.signals["u"] = scale * m.signals["u"]
+    path = write_yaw_csv(m, tmp_path / "run.csv")
+    if refused:
+        with pytest.raises(RecordingError, match=r"column 'u' runs at 1[0-9.]+ \(median\).*in knots\? give m/s"):
+            read_yaw_csv(path, FULL, nv)
+    else:
+        assert read_yaw_csv(path, FULL, nv).t.size == m.t.size

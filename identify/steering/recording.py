@@ -20,7 +20,7 @@ import numpy as np
 
 from diagnose.recording import RecordingError, load_recording, split_metadata
 from identify.steering.estimate import SteeringData
-from primitives.io import read_input_text
+from primitives.io import read_record_lines
 
 COLUMNS = ("t", "delta", "psi", "r", "v", "u")
 MAX_RUDDER_RAD = 0.7  # 40 deg: no rudder goes further; larger values are degrees
@@ -52,8 +52,8 @@ def read_records(path: str | Path) -> tuple[list[SteeringData], float | None, li
 
 
 def _read_csv(p: Path) -> tuple[dict[str, np.ndarray], list[str]]:
-    text = read_input_text(p, RecordingError, "a steering recording (.csv saved as UTF-8, or MARIN .dat)", "utf-8-sig")
-    _, body = split_metadata(text.splitlines())
+    lines, cut = read_record_lines(p, RecordingError, "a steering recording (.csv saved as UTF-8, or MARIN .dat)", "utf-8-sig")
+    _, body = split_metadata(lines)
     if not body:
         raise RecordingError(f"{p}: no header row; the first non-comment line must name the columns (t,delta,psi,r,...)")
     rows = list(csv.reader(body))
@@ -77,7 +77,7 @@ def _read_csv(p: Path) -> tuple[dict[str, np.ndarray], list[str]]:
                 except ValueError:
                     raise RecordingError(f"{p}: row {i + 2}, column '{name}': {s!r} is not a number") from None
         cols[name] = vals
-    return cols, []
+    return cols, [cut] if cut else []
 
 
 def _checked(p: Path, cols: dict[str, np.ndarray], notes: list[str]) -> SteeringData:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from identify.yawid.estimate import YawFit, fit_yaw
@@ -34,7 +35,7 @@ def identify_file(
         raise UserError(
             f"--prefilter {prefilter_hz:g}: must be between 0 and the Nyquist frequency {0.5 / data.sample_time:g} Hz"
         )
-    return fit_yaw(data, m, start, prefilter_hz=prefilter_hz), start
+    return replace(fit_yaw(data, m, start, prefilter_hz=prefilter_hz), notes=data.notes), start
 
 
 def simulate_file(

@@ -33,6 +33,7 @@ class YawFit:
     iterations: int
     rms: np.ndarray  # (B,) residual RMS, rad/s
     fit_percent: np.ndarray  # (B,) 100 (1 - |r - r_hat| / |r - mean r|)
+    notes: tuple[str, ...] = ()  # the recording reader's (a last row cut short and left out)
 
     @property
     def ok(self) -> np.ndarray:

@@ -100,6 +100,7 @@ class YawData:
     t: np.ndarray
     signals: dict[str, np.ndarray]
     source: str = "simulation"
+    notes: tuple[str, ...] = ()  # the recording reader's (a last row cut short and left out)
 
     @property
     def sample_time(self) -> float:

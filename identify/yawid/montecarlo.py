@@ -104,6 +104,6 @@ def _concat(parts: list[YawFit]) -> YawFit:
     per_run = {
         f.name: np.concatenate([getattr(p, f.name) for p in parts])
         for f in fields(YawFit)
-        if f.name not in ("model", "iterations")
+        if f.name not in ("model", "iterations", "notes")
     }
     return replace(parts[0], iterations=max(p.iterations for p in parts), **per_run)
