@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import inspect
 import os
 import sys
 import tempfile
@@ -454,6 +455,8 @@ def _store_sea(out: Path, seen: dict, quiet: dict, fields: dict[str, float]) -> 
 
 
 ROLES = ("nominal", "calibration", "loaded")
+# a fit's _reweighted calls per LM path: fit_output_error's n_reweight default (read, so it cannot go stale)
+FROZEN_STAGES = inspect.signature(oe_fit.fit_output_error).parameters["n_reweight"].default
 
 
 def _held_sea(a: argparse.Namespace) -> tuple[list[int], set[int]] | None:
@@ -484,9 +487,6 @@ def _frozen_noise() -> list:
 
     oe_fit._reweighted = frozen
     return kept
-
-
-FROZEN_STAGES = 2  # oe_fit.fit_output_error's n_reweight: a fit's _reweighted calls, per LM path
 
 
 def repeat(a: argparse.Namespace) -> None:

@@ -22,7 +22,13 @@ def _leveraged(z: dict, C: np.ndarray) -> np.ndarray:
 def _sea_fits(dirs: str) -> list[dict]:
     """The fits ``repeat --store`` kept (one ``.npz`` per converged sea) in the comma-separated ``dirs`` (the same
     ship on several ``--sea-seed``)."""
-    return [dict(np.load(p)) for d in dirs.split(",") for p in sorted(Path(d).glob("sea*.npz"))]
+    fits = []
+    for d in dirs.split(","):
+        found = sorted(Path(d).glob("sea*.npz"))
+        if not found:
+            raise SystemExit(f"{d}: no sea*.npz (not a `repeat --store` directory); give the directory `repeat --store` wrote")
+        fits += [dict(np.load(p)) for p in found]
+    return fits
 
 
 def _meat_of(J: np.ndarray, f: np.ndarray, lengths, lags: int) -> np.ndarray:

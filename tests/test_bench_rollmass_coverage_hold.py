@@ -35,3 +35,21 @@ def test_held_sea_is_the_all_draw_of_that_realization(monkeypatch):
         assert np.array_equal(held[name]["p"], every[name]["p"]), name
     other = _datasets(monkeypatch, "all", 1)
     assert not np.array_equal(every[bt.CASES["case2"][0]]["p"], other[bt.CASES["case2"][0]]["p"])
+
+
+def test_freeze_noise_replays_the_first_fits_whiteners(monkeypatch):
+    """``--freeze-noise``: the first fit's ``FROZEN_STAGES`` noise models are estimated, every later stage gets the
+    same stage's model back (not one estimated from its own residuals), the stages in order over fits and LM paths."""
+    made = []
+
+    def estimate(errs, ar, ar_order):  # stands in for oe_fit._reweighted: one new noise model per call
+        made.append((errs, ar, ar_order))
+        return [[np.array([float(len(made))])]], np.ones((1, 3)), np.ones((1, 3))
+
+    monkeypatch.setattr(bc.oe_fit, "_reweighted", estimate)  # restored after the test, with _frozen_noise's wrapper
+    kept = bc._frozen_noise()
+    n = bc.FROZEN_STAGES
+    first = [bc.oe_fit._reweighted([np.full((4, 3), k)], None, 2) for k in range(n)]
+    later = [bc.oe_fit._reweighted([np.full((4, 3), 100 + k)], None, 2) for k in range(3 * n)]
+    assert len(made) == n and kept == first  # only the first fit's stages were estimated
+    assert all(later[k] is first[k % n] for k in range(3 * n))
