@@ -13,6 +13,7 @@ spread, and the 95 % coverage, for each estimator (:mod:`identify.rollmass.sandw
     python benchmarks/bench_rollmass_coverage.py analyse /tmp/cov --quiet-dir /tmp/quiet
     python benchmarks/bench_rollmass_coverage.py repeat --variant imu_mount --run 1 --case case2 --no-sensor-noise  # stop 50
     python benchmarks/bench_rollmass_coverage.py repeat --variant imu_mount --run 1 --case case2 --no-sensor-noise --store /tmp/s51/imu
+    python benchmarks/bench_rollmass_coverage.py repeat --variant imu_mount --run 1 --case case2 --no-sensor-noise --store /tmp/s60c/cal --vary calibration  # stop 60: one dataset's sea
     python benchmarks/bench_rollmass_coverage.py sea_analyse /tmp/s51/imu   # stop 51: the spread against the meats
 
 ``repeat --store`` keeps each converged sea's Jacobian, residual and final point and the sea's own response in the
@@ -28,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import inspect
 import os
 import sys
 import tempfile
@@ -43,10 +45,11 @@ from scipy.special import stdtrit  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks.rollmass_sea_analysis import _leveraged, sea_analyse  # noqa: E402
+from benchmarks.rollmass_sea_analysis import _leveraged, sea_analyse, vary_analyse  # noqa: E402
 from identify.rollmass import oe_fit  # noqa: E402
 from identify.rollmass import sandwich as sw  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
+from identify.rollmass.fit_path import Counted  # noqa: E402
 from primitives.errors import UserError  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
 
@@ -69,7 +72,8 @@ def _capture() -> dict:
 
     def finished(prob, x, steps, lags):
         out = finish(prob, x, steps, lags)
-        seen.update(x=out[0], free=prob.free, prob=prob)  # the final point (the last _fit's, as the covariance's)
+        bare = prob._prob if isinstance(prob, Counted) else prob  # a Counted wrapper (stop 56) does not copy
+        seen.update(x=out[0], free=prob.free, prob=bare)  # the final point (the last _fit's, as the covariance's)
         return out
 
     oe_fit._gauss_newton = finished
@@ -390,15 +394,19 @@ def fit(a: argparse.Namespace) -> None:
                 )
 
 
-def _fresh_sea(scale: float, key: list[int]) -> None:
+def _fresh_sea(scale: float, key: list[int], hold: tuple[list[int], set[int]] | None = None) -> None:
     """The truth's sea (JONSWAP or base disturbance) drawn from a stream of its own, ``key`` + a call
     counter, times ``scale``; the truth's own draw is made and dropped, so the run's stream goes on as
-    before (the ship, the steering and the sensor noise stay the draws of the truth's seed)."""
+    before (the ship, the steering and the sensor noise stay the draws of the truth's seed). The sea is
+    drawn once per dataset, in :data:`basin_truth.DATASETS` order, so the call counter is the dataset's index;
+    ``hold = (fixed_key, varied)``: only the datasets whose index is in ``varied`` take ``key``'s sea, the others
+    ``fixed_key``'s (one sea held for them over the realizations)."""
     calls = [0]
 
     def fresh(draw, *args):
         draw(*args)  # consumes the run's stream
-        own = np.random.default_rng([*key, calls[0]])
+        k = key if hold is None or calls[0] in hold[1] else hold[0]
+        own = np.random.default_rng([*k, calls[0]])
         calls[0] += 1
         return scale * draw(*[own if isinstance(x, np.random.Generator) else x for x in args])
 
@@ -446,6 +454,41 @@ def _store_sea(out: Path, seen: dict, quiet: dict, fields: dict[str, float]) -> 
     np.savez_compressed(out, **keep, free=np.array(seen["free"]), **fields, **_disturbance(seen["prob"], quiet))
 
 
+ROLES = ("nominal", "calibration", "loaded")
+# a fit's _reweighted calls per LM path: fit_output_error's n_reweight default (read, so it cannot go stale)
+FROZEN_STAGES = inspect.signature(oe_fit.fit_output_error).parameters["n_reweight"].default
+
+
+def _held_sea(a: argparse.Namespace) -> tuple[list[int], set[int]] | None:
+    """``--vary ROLE``: the fresh sea for that role's dataset only, the case's other datasets on one held sea
+    (``--held-sea K``: realization K's of ``--sea-seed``), for :func:`_fresh_sea`; ``None`` for ``--vary all``."""
+    if not 0 <= a.held_sea < a.realizations:
+        raise SystemExit(f"--held-sea {a.held_sea}: must be one of the {a.realizations} realizations (it is fitted first)")
+    if a.vary == "all":
+        return None
+    name = bt.CASES[a.case][ROLES.index(a.vary)]
+    return [a.sea_seed, a.held_sea], {list(bt.DATASETS).index(name)}
+
+
+def _frozen_noise() -> list:
+    """``--freeze-noise``: the first fit after this call records its stages' whiteners and weights
+    (``oe_fit._reweighted``'s returns), every later fit replays them in the same order instead of estimating its own
+    from its residuals (the noise model held, as the sandwich takes it: given, not estimated from the same data)."""
+    kept: list = []
+    calls = [0]
+    orig = oe_fit._reweighted
+
+    def frozen(errs, ar, ar_order):
+        if len(kept) < FROZEN_STAGES:
+            kept.append(orig(errs, ar, ar_order))
+            return kept[-1]
+        calls[0] += 1
+        return kept[(calls[0] - 1) % FROZEN_STAGES]
+
+    oe_fit._reweighted = frozen
+    return kept
+
+
 def repeat(a: argparse.Namespace) -> None:
     """One ship, case and steering of the family (``--variant``, ``--run``, ``--case``: the truth bench's
     draws), fitted on ``--realizations`` fresh seas (:func:`_fresh_sea`): the load's spread over the seas
@@ -461,9 +504,13 @@ def repeat(a: argparse.Namespace) -> None:
         Path(a.store).mkdir(parents=True, exist_ok=True)
     quiet = _quiet_reference(a, seed, seen) if a.store else None
     rows = []
-    for k in range(a.realizations):
+    hold = _held_sea(a)
+    if a.freeze_noise:  # recorded on the held sea's fit (realization --held-sea is fitted first)
+        _frozen_noise()
+    order = sorted(range(a.realizations), key=lambda k: k != a.held_sea)
+    for k in order:
         seen.clear()
-        _fresh_sea(a.sea_scale, [a.sea_seed, k])
+        _fresh_sea(a.sea_scale, [a.sea_seed, k], hold)
         ship, data = bt.simulate_runs(a.variant, a.runs, seed)
         with tempfile.TemporaryDirectory() as d:
             recs = bt.case_recordings(ship, data, a.case, a.run)
@@ -490,7 +537,7 @@ def repeat(a: argparse.Namespace) -> None:
     zs = np.column_stack([(x[:, 0] - m_true) / x[:, 1], (x[:, 2] - z_true) / x[:, 3]])
     inside = int(np.all(np.abs(zs) <= 1.96, axis=1).sum())
     print(
-        f"{a.variant} run {a.run} {a.case}, sea x{a.sea_scale:g}, {len(x)} of {a.realizations} seas converged: spread / mean reported sd "
+        f"{a.variant} run {a.run} {a.case}, sea x{a.sea_scale:g}, vary {a.vary}, {len(x)} of {a.realizations} seas converged: spread / mean reported sd "
         f"{x[:, 0].std(ddof=1) / x[:, 1].mean():.2f} (mass) {x[:, 2].std(ddof=1) / x[:, 3].mean():.2f} (height); "
         f"z sd {zs[:, 0].std(ddof=1):.2f} / {zs[:, 1].std(ddof=1):.2f}, mean {zs[:, 0].mean():+.2f} / {zs[:, 1].mean():+.2f}; "
         f"both inside {inside} of {len(x)}"
@@ -525,14 +572,19 @@ def main() -> None:
     r.add_argument("--sea-scale", type=float, default=1.0)
     r.add_argument("--no-sensor-noise", action="store_true", help="the sea alone")
     r.add_argument("--store", help="keep each converged fit's Jacobian, residual and final point in this directory")
+    r.add_argument("--vary", choices=("all",) + ROLES, default="all", help="a fresh sea for this role's dataset only")
+    r.add_argument("--held-sea", type=int, default=0, help="with --vary ROLE: the other datasets' sea (this realization's)")
+    r.add_argument("--freeze-noise", action="store_true", help="every fit on the held sea's fit's whiteners and weights")
     g = sub.add_parser("analyse", help="z-scores and coverage of covariance estimators on stored fits")
     g.add_argument("dir")
     g.add_argument("--quiet-dir", help="a `fit --quiet` of the same runs: split each error into bias and noise")
     g.add_argument("--part", action="append", help="NAME=DIR: fits with one noise source, against --quiet-dir")
     s = sub.add_parser("sea_analyse", help="a `repeat --store` directory: the spread against the sandwich's meats")
     s.add_argument("dir", help="a `repeat --store` directory, or several (comma-separated) of the same ship")
+    v = sub.add_parser("vary_analyse", help="`repeat --vary` of each role and all: is the error a sum of the datasets' parts?")
+    v.add_argument("prefix", help="the stores are PREFIX_nominal, PREFIX_calibration, PREFIX_loaded and PREFIX_all")
     a = ap.parse_args()
-    {"fit": fit, "repeat": repeat, "analyse": analyse, "sea_analyse": sea_analyse}[a.cmd](a)
+    {"fit": fit, "repeat": repeat, "analyse": analyse, "sea_analyse": sea_analyse, "vary_analyse": vary_analyse}[a.cmd](a)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,13 @@ def _leveraged(z: dict, C: np.ndarray) -> np.ndarray:
 def _sea_fits(dirs: str) -> list[dict]:
     """The fits ``repeat --store`` kept (one ``.npz`` per converged sea) in the comma-separated ``dirs`` (the same
     ship on several ``--sea-seed``)."""
-    return [dict(np.load(p)) for d in dirs.split(",") for p in sorted(Path(d).glob("sea*.npz"))]
+    fits = []
+    for d in dirs.split(","):
+        found = sorted(Path(d).glob("sea*.npz"))
+        if not found:
+            raise SystemExit(f"{d}: no sea*.npz (not a `repeat --store` directory); give the directory `repeat --store` wrote")
+        fits += [dict(np.load(p)) for p in found]
+    return fits
 
 
 def _meat_of(J: np.ndarray, f: np.ndarray, lengths, lags: int) -> np.ndarray:
@@ -103,6 +109,59 @@ def _dataset_sums(fits: list[dict]) -> None:
     )
 
 
+def _influence(J: np.ndarray, r: np.ndarray, lengths, a: np.ndarray) -> list[np.ndarray]:
+    """Each dataset's per-sample influence ``g_t = sum_channels (J_t a)_c r_tc`` of a residual ``r`` on one load
+    parameter (``a`` its column of ``(J^T J)^-1``): ``g.sum()`` is :func:`score_sums`'s share."""
+    out, i = [], 0
+    for n in lengths:
+        out.append((J[i : i + 3 * n] @ a * r[i : i + 3 * n]).reshape(n, 3).sum(axis=1))
+        i += 3 * n
+    return out
+
+
+def dataset_split(fits: list[dict]) -> dict[str, np.ndarray]:
+    """Stop 60's per-dataset split of the mass over one ``repeat --store`` configuration (``--vary``): each dataset's
+    share of the linear map from the sea's own response ``e_q`` to the mass, ``s_d = a^T J_d^T e_d``, through each
+    sea's own map (``J`` and ``a`` at its fit's end, its whitener and weights in ``e_q``: ``own``) and through one
+    fixed map (the first sea's ``J`` and ``a``; only the whitener and weights in ``e_q`` still the sea's: ``fixed``),
+    and each dataset's Newey-West meat of the mass (the fit's window, no leverage factor) from the fitted residual
+    (``meat_f``, the reported sandwich's share) and from ``e_q`` (``meat_e``; at 4 times the window ``meat_e4``, over the whole record at weight 1 ``meat_e_all``): arrays (seas, datasets)."""
+    J0 = fits[0]["J"]
+    a0 = np.linalg.inv(J0.T @ J0)[:, -2]
+    out: dict[str, list] = {"own": [], "fixed": [], "meat_f": [], "meat_e": [], "meat_e4": [], "meat_e_all": []}
+    for z in fits:
+        J, lengths, lags = z["J"], z["lengths"], int(z["lags"])
+        a = np.linalg.inv(J.T @ J)[:, -2]
+        ge, gf = _influence(J, z["e_q"], lengths, a), _influence(J, z["f"], lengths, a)
+        out["own"].append([g.sum() for g in ge])
+        out["fixed"].append(score_sums(J0, z["e_q"], lengths, a0))
+        out["meat_e"].append([sw.bartlett_meat(g[:, None], lags)[0, 0] for g in ge])
+        out["meat_f"].append([sw.bartlett_meat(g[:, None], lags)[0, 0] for g in gf])
+        out["meat_e4"].append([sw.bartlett_meat(g[:, None], 4 * lags)[0, 0] for g in ge])
+        out["meat_e_all"].append([g.sum() ** 2 for g in ge])  # the whole record at weight 1: s_d^2
+    return {k: np.array(v) for k, v in out.items()}
+
+
+def _print_split(fits: list[dict]) -> None:
+    """:func:`dataset_split` in g: per dataset the sd over the seas of ``s_d`` (own and fixed map) against the root
+    mean meats, the datasets' correlations over the seas, and the sd of the sum against independent datasets'."""
+    d = dataset_split(fits)
+    for name in ("own", "fixed"):
+        X = d[name]
+        c = np.corrcoef(X.T)[np.triu_indices(X.shape[1], 1)]
+        print(
+            f"  split ({name} map): sd of s_d over the seas {np.round(X.std(axis=0, ddof=1) * 1e3, 2)} g, mean "
+            f"{np.round(X.mean(axis=0) * 1e3, 2)} g; corr (0-1, 0-2, 1-2) {c.round(2)}; sd of the sum "
+            f"{X.sum(axis=1).std(ddof=1) * 1e3:.2f} g, of independent ones {np.sqrt(X.var(axis=0, ddof=1).sum()) * 1e3:.2f} g"
+        )
+    print(
+        f"  split meats (NW, the fit's window): fitted residual {np.round(np.sqrt(d['meat_f'].mean(axis=0)) * 1e3, 2)} g "
+        f"(sum {np.sqrt(d['meat_f'].sum(axis=1).mean()) * 1e3:.2f}), true response e {np.round(np.sqrt(d['meat_e'].mean(axis=0)) * 1e3, 2)} g "
+        f"(sum {np.sqrt(d['meat_e'].sum(axis=1).mean()) * 1e3:.2f}), e at 4x the window {np.round(np.sqrt(d['meat_e4'].mean(axis=0)) * 1e3, 2)} g, "
+        f"e over the whole record {np.round(np.sqrt(d['meat_e_all'].mean(axis=0)) * 1e3, 2)} g"
+    )
+
+
 def _true_disturbance(fits: list[dict], emp: np.ndarray) -> None:
     """With the quiet reference (``repeat --store``): (iii) the sandwich whose meat is the sea's own response in the
     residual at the quiet point, ``e = f(x_q; sea) - f(x_q; quiet)``; the linear map of that response to the load,
@@ -122,6 +181,7 @@ def _true_disturbance(fits: list[dict], emp: np.ndarray) -> None:
         f"spread / sd {np.sqrt(emp[0, 0] / c[0, 0]):.2f} / {np.sqrt(emp[1, 1] / c[1, 1]):.2f}"
     )
     _dataset_sums(fits)
+    _print_split(fits)
     lin, pred, err = np.array(lin), np.array(pred), np.array(err)
     sd_lin = lin.std(axis=0, ddof=1)
     print(
@@ -133,3 +193,41 @@ def _true_disturbance(fits: list[dict], emp: np.ndarray) -> None:
         f"height {np.sqrt(((pred - err)[:, 1] ** 2).mean()) * 1000:.2f} mm; quiet point {fits[0]['x_q'][-2]:.4f} kg {fits[0]['x_q'][-1]:.4f} m, "
         f"mean estimate {err[:, 0].mean():.4f} kg {err[:, 1].mean():.4f} m"
     )
+
+
+def vary_analyse(a: argparse.Namespace) -> None:
+    """Stop 60: ``repeat --store PREFIX_ROLE --vary ROLE`` for the three roles and ``--vary all`` (one ship, one sea
+    seed, the held sea realization 0's). Realization ``k`` of ``--vary all`` draws each dataset's sea as realization
+    ``k`` of its one-role configuration does, so if the estimate's error were a sum of each dataset's part, the all-sea
+    estimate would be ``sum_roles x_role,k - 2 x_0`` (``x_0`` the held sea's fit, the same in all four). Prints the
+    one-role spreads and their root sum of squares against the all-sea spread, the all-sea estimates against that
+    additive prediction, and per role its share ``s_d`` (:func:`dataset_split`, own map) in the all-sea fits against the
+    one-role fits (the same sea of that dataset: what the other datasets' seas do to its map)."""
+    roles = ("nominal", "calibration", "loaded")
+    fits = {v: _sea_fits(f"{a.prefix}_{v}") for v in roles + ("all",)}
+    x = {v: np.array([[float(z["m"]), float(z["z"])] for z in fs]) for v, fs in fits.items()}
+    if len({len(v) for v in x.values()}) != 1 or any(not np.array_equal(x[v][0], x["all"][0]) for v in roles):
+        raise SystemExit(f"{a.prefix}_*: the four configurations must hold the same seas with realization 0 held in each")
+    single = np.array([x[v].std(axis=0, ddof=1) for v in roles])
+    pred = sum(x[v] for v in roles) - 2 * x["all"][0]
+    d = x["all"] - pred
+    print(
+        f"{a.prefix}: {len(d)} seas; spread (mass g, height mm) one role's sea "
+        + ", ".join(f"{v} {np.round(s * 1e3, 2)}" for v, s in zip(roles, single))
+    )
+    print(
+        f"  all seas {np.round(x['all'].std(axis=0, ddof=1) * 1e3, 2)}, root sum of the one-role variances "
+        f"{np.round(np.sqrt((single**2).sum(axis=0)) * 1e3, 2)}, of the additive prediction {np.round(pred.std(axis=0, ddof=1) * 1e3, 2)}"
+    )
+    slope = [np.polyfit(pred[:, j], x["all"][:, j], 1)[0] for j in range(2)]
+    print(
+        f"  all seas minus the additive prediction: mean {np.round(d[1:].mean(axis=0) * 1e3, 2)}, rms {np.round(np.sqrt((d[1:] ** 2).mean(axis=0)) * 1e3, 2)} "
+        f"(the {len(d) - 1} fresh seas); corr with the prediction {np.round([np.corrcoef(pred[:, j], x['all'][:, j])[0, 1] for j in range(2)], 3)}, slope {np.round(slope, 2)}"
+    )
+    s_all = dataset_split(fits["all"])["own"]
+    for i, v in enumerate(roles):
+        s_one = dataset_split(fits[v])["own"][:, i]
+        print(
+            f"  {v}'s s_d (mass): sd {s_all[:, i].std(ddof=1) * 1e3:.2f} g with every sea fresh, {s_one.std(ddof=1) * 1e3:.2f} g with its own alone; "
+            f"corr {np.corrcoef(s_all[:, i], s_one)[0, 1]:+.3f}, rms difference {np.sqrt(((s_all[:, i] - s_one) ** 2).mean()) * 1e3:.2f} g"
+        )
