@@ -18,12 +18,14 @@ import numpy as np
 from diagnose.recording import RecordingError, split_metadata
 from identify.yawid.experiment import YawData, pod_yaw_moment
 from identify.yawid.model import YawModel
+from primitives.goodness import coefficient_t
 from primitives.io import atomic_write_text, read_input_text
 from primitives.ship import ShipProfile
+from primitives.unit_ranges import YAW_RATE_MAX_RAD_S
 
 COLUMNS = ("t", "r", "v_dot", "u", "v", "phi", "tau_r")
 POD_COLUMNS = ("n1", "delta1", "n2", "delta2")
-MAX_RATE_RAD_S = 0.2  # 11.5 deg/s: beyond any ship's yaw rate (the naval vessel's turns reach 0.06); larger: deg/s
+MAX_RATE_RAD_S = YAW_RATE_MAX_RAD_S  # beyond any ship's yaw rate: deg/s (primitives.unit_ranges)
 MAX_ROLL_RAD = 0.7  # 40 deg: no trial rolls further (the naval vessel's reach 0.23); larger: degrees
 MAX_STEP_S = 10.0  # a yaw fit needs the response within a turn (tens of seconds): steps this long are milliseconds
 # the sign check's z bound: the regression of dr/dt on tau_r measured z = +54..+56 on six yawid-sim runs, +16.7 (turn
@@ -131,9 +133,8 @@ def _check_response(path: Path, t: np.ndarray, r: np.ndarray, tau_r: np.ndarray,
     on tau_r (and r, a constant; both over 1 s moving means) has a positive slope. A recording without any change of
     r or tau_r has nothing to fit; a slope negative beyond SIGN_Z standard errors is a sign error of r or tau_r."""
     source = "column 'tau_r'" if measured else "the pod yaw moment computed from n1, delta1, n2, delta2"
-    for name, x in (("r", r), (source, tau_r)):
+    for label, x in (("column 'r'", r), (source, tau_r)):
         if np.ptp(x) == 0:
-            label = f"column '{name}'" if name == "r" else source
             raise RecordingError(f"{path}: {label} is constant: the recording has no turn to fit; give a manoeuvring run")
     dt = float(np.median(np.diff(t)))
     n = max(1, int(round(1.0 / dt)))
@@ -142,13 +143,16 @@ def _check_response(path: Path, t: np.ndarray, r: np.ndarray, tau_r: np.ndarray,
     box = np.ones(n) / n
     rs, ts = np.convolve(r, box, mode="same"), np.convolve(tau_r, box, mode="same")
     cut = slice(n, -n)
+    for label, x in (("column 'r'", rs[cut]), (source, ts[cut])):
+        if not np.std(x) > 0:  # its only change within the first or last second: no turn (and no scale below)
+            raise RecordingError(
+                f"{path}: {label} changes only in the first or last second: the recording has no turn to fit; "
+                "give a manoeuvring run"
+            )
     # columns scaled to unit spread: tau_r in N m and r in rad/s differ by 1e8 (z does not depend on the scale)
     x = np.column_stack([ts[cut] / np.std(ts[cut]), rs[cut] / np.std(rs[cut]), np.ones(len(rs[cut]))])
     y = np.gradient(rs, dt)[cut] / np.std(rs[cut])
-    coef, *_ = np.linalg.lstsq(x, y, rcond=None)
-    e = y - x @ coef
-    var = float(e @ e) / max(1, len(e) - 3) * np.linalg.pinv(x.T @ x)[0, 0]
-    z = float(coef[0] / np.sqrt(var)) if var > 0 else 0.0
+    z = coefficient_t(x, y, 0)
     if z < SIGN_Z:
         which = "'r' or 'tau_r'" if measured else "'r' or a pod input's sign (delta1, delta2)"
         raise RecordingError(
