@@ -3,10 +3,15 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
 from primitives.errors import UserError
+
+if TYPE_CHECKING:  # annotations only
+    from maps.geo import SeaMap
+    from maps.plan import Plan
 
 
 def load_plan(path: Path):
@@ -27,7 +32,7 @@ def load_plan(path: Path):
         raise UserError(f"{path}: malformed plan ({type(exc).__name__}: {exc}); re-create it with plan-trial") from None
 
 
-def resolve_sea_map(path: Path | None, map_name: str, plan=None):
+def resolve_sea_map(path: Path | None, map_name: str, plan: Plan | None = None) -> SeaMap | str | None:
     """The chart for the card and the route's corridors: ``--map`` (a sea map read by
     ``maps.geo.load_map``, shallow for the ship's draught when the plan's ship is a bundled
     profile), else None when the plan carries its own chart (``plan.stats['chart']``), else the
@@ -47,7 +52,7 @@ def resolve_sea_map(path: Path | None, map_name: str, plan=None):
     return None
 
 
-def _check_track_on_map(plan, sea, path: Path) -> None:
+def _check_track_on_map(plan: Plan | None, sea: SeaMap, path: Path) -> None:
     """The plan's track reaches the ``--map`` given: a plan made on another sea would be drawn on its chart (the
     card's track off the chart, the route's corridors on the wrong water). Only a track wholly off the map's extent
     is refused: the extent is the box of the map's features, and on a map without a trial area the plan's own

@@ -110,9 +110,9 @@ def parse_counts(text: str | None) -> dict[str, int] | None:
 
 
 def design_conflict(counts: str | None, scenario: str | None, **design: object) -> None:
-    """Refuse design options (``--criterion``, ``--mean-subtraction``, ``--trial-length``) beside
-    ``--counts`` or ``--scenario``: those choose the manoeuvres without a design, so the options
-    would be ignored without a word."""
+    """Refuse design options (``--criterion``, ``--mean-subtraction``, ``--trial-length``, ``--prior-spread``,
+    ``--prior-file``) beside ``--counts`` or ``--scenario``: those choose the manoeuvres without a design, so the
+    options would be ignored without a word."""
     given = [f"--{k.replace('_', '-')}" for k, v in design.items() if v is not None]
     chooser = "--counts" if counts is not None else "--scenario" if scenario is not None else None
     if given and chooser:

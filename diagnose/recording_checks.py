@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from primitives.errors import UserError
+from primitives.goodness import coefficient_t
 
 if TYPE_CHECKING:
     from diagnose.recording import Recording
@@ -237,11 +238,7 @@ def rudder_response_t(rec) -> float:
     own = X[:, 2] - others @ np.linalg.lstsq(others, X[:, 2], rcond=None)[0]
     if not np.linalg.norm(own) > 1e-6 * np.linalg.norm(X[:, 2]):
         return 0.0  # delta U^2 is a combination of the other columns (a constant rudder): no information
-    with np.errstate(all="ignore"):
-        coef = np.linalg.lstsq(X, dr, rcond=None)[0]
-        e = dr - X @ coef
-        var = float(e @ e) / max(len(dr) - X.shape[1], 1) * np.linalg.pinv(X.T @ X)[2, 2]
-    return float(coef[2] / math.sqrt(var)) if var > 0 and math.isfinite(var) else 0.0
+    return coefficient_t(X, dr, 2)
 
 
 def _profile_rudder_sign(profile, rec) -> float:
@@ -328,11 +325,7 @@ def check_yaw_moment_sign(rec, profile) -> None:
     y = rec.y
     dr = np.diff(y[:, 2])[ahead]
     X = np.column_stack([y[:-1, 2][ahead], y[:-1, 1][ahead], n, np.ones(len(dr))])
-    with np.errstate(all="ignore"):
-        coef = np.linalg.lstsq(X, dr, rcond=None)[0]
-        e = dr - X @ coef
-        var = float(e @ e) / max(len(dr) - X.shape[1], 1) * np.linalg.pinv(X.T @ X)[2, 2]
-    tval = float(coef[2] / math.sqrt(var)) if var > 0 and math.isfinite(var) else 0.0
+    tval = coefficient_t(X, dr, 2)
     sign = _profile_input_sign(profile, rec, "tau_n", 0.01 * float(np.max(np.abs(n))))
     if sign != 0 and tval * sign < -RUDDER_T:
         raise _error()(

@@ -362,7 +362,7 @@ def _feature(src: str, i: int, f: object, repair: bool, warnings: list[str]) -> 
         raise _fail(src, i, f"kind 'obstacle' must be a Point (with radius_m) or a Polygon, got {gt}")
     if kind in ("start", "goal") and gt != "Point":
         raise _fail(src, i, f"kind {kind!r} must be a Point, got {gt}")
-    corners = len(shapely.get_coordinates(geom))
+    corners = len(shapely.get_coordinates(geom))  # as given: the message below names them, not the repair's
     if gt in POLYGONAL and not geom.is_valid:
         reason = shapely.is_valid_reason(geom)
         if not repair:

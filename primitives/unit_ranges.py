@@ -18,6 +18,9 @@ AZIMUTH_MAX_RAD = 2 * math.pi  # alpha1, alpha2: an azimuth thruster turns a ful
 MIN_MAX_RUDDER_DEG = 5.0  # below this, [helm] max_rudder_deg is a radian value (35 deg = 0.611 rad)
 MIN_RUDDER_RATE_DEG_S = 0.5  # below this, [helm] rudder_rate_deg_s is a rad/s value (2.32 deg/s = 0.0405 rad/s)
 MIN_RPM_SHARE = 0.05  # an rpm below 5 % of the engine's top rev/s x 60 is a rev/s value
+# a recorded yaw rate r beyond this is deg/s (11.5 deg/s: a tanker turns at under 1 deg/s, the podded naval vessel
+# at 0.06 rad/s): the one bound of the steering and yawid readers
+YAW_RATE_MAX_RAD_S = 0.2
 
 
 def _angle_bound(input_name: str) -> float | None:

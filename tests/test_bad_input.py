@@ -123,18 +123,13 @@ def _steering_files(tmp: Path) -> dict[str, Path]:
     """A good steering record (first-order Nomoto response to a square-wave rudder, 2 s sampling) and the
     same with each defect the command refuses: a missing column, time not increasing, a rudder in degrees,
     a yaw rate in deg/s, a yaw rate without heading, a lone heading in degrees."""
-    t = np.arange(0.0, 600.0, 2.0)
-    delta = np.radians(10.0) * np.sign(np.sin(2 * np.pi * t / 200.0) + 1e-9)
-    r = np.zeros_like(t)
-    for k in range(1, len(t)):
-        r[k] = r[k - 1] + 2.0 * (-0.05 * delta[k - 1] - r[k - 1]) / 60.0
-    psi = np.concatenate([[0.0], np.cumsum(2.0 * r[:-1])])
-    cols = {"t": t, "delta": delta, "r": r, "psi": psi}
+    from tests.physics.nomoto_square import square_wave_record, write_record
+
+    cols = square_wave_record()
+    t, delta, r, psi = cols["t"], cols["delta"], cols["r"], cols["psi"]
 
     def write(name, c):
-        path = tmp / f"{name}.csv"
-        path.write_text(",".join(c) + "\n" + "\n".join(",".join(f"{c[k][i]:.9g}" for k in c) for i in range(len(t))) + "\n")
-        return path
+        return write_record(tmp / f"{name}.csv", c)
 
     t_back = t.copy()
     t_back[100] = t_back[99]

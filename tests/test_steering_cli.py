@@ -208,16 +208,9 @@ def test_a_negated_rate_or_time_in_ms_is_refused(record, tmp_path, capsys, colum
 def test_a_failed_fit_says_so_on_stderr_in_one_line(tmp_path, capsys):
     """A fit that fails (here Nomoto's second order by ML on a square-wave rudder of one record: its rudder offset
     is not determined) exits 1 with one 'error:' line naming the failure, the report on stdout."""
-    import numpy as np
+    from tests.physics.nomoto_square import square_wave_record, write_record
 
-    t = np.arange(0.0, 600.0, 2.0)
-    delta = np.radians(10.0) * np.sign(np.sin(2 * np.pi * t / 200.0) + 1e-9)
-    r = np.zeros_like(t)
-    for i in range(1, len(t)):
-        r[i] = r[i - 1] + 2.0 * (-0.05 * delta[i - 1] - r[i - 1]) / 60.0
-    psi = np.concatenate([[0.0], np.cumsum(2.0 * r[:-1])])
-    path = tmp_path / "square.csv"
-    path.write_text("t,delta,r,psi\n" + "\n".join(f"{a:.9g},{b:.9g},{c:.9g},{d:.9g}" for a, b, c, d in zip(t, delta, r, psi)))
+    path = write_record(tmp_path / "square.csv", square_wave_record())
     rc = _run(["steering", str(path), "--ship", "kvlcc2", "--model", "nomoto2", "--estimator", "ml"])
     cap = capsys.readouterr()
     err = cap.err.strip().splitlines()

@@ -232,3 +232,15 @@ def test_u_in_knots_is_refused_and_the_fastest_run_is_not(tmp_path, nv, manoeuvr
             read_yaw_csv(path, FULL, nv)
     else:
         assert read_yaw_csv(path, FULL, nv).t.size == m.t.size
+
+
+def test_a_rate_that_changes_only_in_its_first_second_is_no_turn(tmp_path):
+    """The sign check's window leaves out the first and last second (its 1 s moving means): an r that changes only
+    there is refused as no turn in one line (the final re-read of stop 60: a LinAlgError, 'SVD did not converge')."""
+    from identify.yawid.recording import _check_response
+
+    t = np.arange(0.0, 100.0, 0.1)
+    r = np.zeros_like(t)
+    r[:5] = 0.01
+    with pytest.raises(RecordingError, match="column 'r' or column 'tau_r' changes only in the first or last second"):
+        _check_response(tmp_path / "run.csv", t, r, np.sin(t), True)

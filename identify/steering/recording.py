@@ -21,12 +21,13 @@ import numpy as np
 from diagnose.recording import RecordingError, load_recording, split_metadata
 from identify.steering.estimate import SteeringData
 from primitives.io import read_record_lines
+from primitives.unit_ranges import YAW_RATE_MAX_RAD_S
 
 COLUMNS = ("t", "delta", "psi", "r", "v", "u")
 MAX_RUDDER_RAD = 0.7  # 40 deg: no rudder goes further; larger values are degrees
 MIN_READINGS = 20
 MAX_HEADING_RAD = 2 * np.pi + 0.5  # a gyro reads within [0, 2 pi) or [-pi, pi); beyond (with margin): degrees
-MAX_RATE_RAD_S = 0.2  # 11.5 deg/s: beyond any ship's yaw rate (a tanker turns at under 1 deg/s); larger: deg/s
+MAX_RATE_RAD_S = YAW_RATE_MAX_RAD_S  # beyond any ship's yaw rate: deg/s (primitives.unit_ranges)
 MAX_STEP_S = 100.0  # a steering record samples a turn of tens of seconds (L/V is 40 s for KVLCC2): longer steps are ms
 
 

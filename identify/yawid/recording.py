@@ -20,10 +20,11 @@ from identify.yawid.experiment import YawData, pod_yaw_moment
 from identify.yawid.model import YawModel
 from primitives.io import atomic_write_text, read_record_lines
 from primitives.ship import ShipProfile
+from primitives.unit_ranges import YAW_RATE_MAX_RAD_S
 
 COLUMNS = ("t", "r", "v_dot", "u", "v", "phi", "tau_r")
 POD_COLUMNS = ("n1", "delta1", "n2", "delta2")
-MAX_RATE_RAD_S = 0.2  # 11.5 deg/s: beyond any ship's yaw rate (the naval vessel's turns reach 0.06); larger: deg/s
+MAX_RATE_RAD_S = YAW_RATE_MAX_RAD_S  # beyond any ship's yaw rate: deg/s (primitives.unit_ranges)
 MAX_ROLL_RAD = 0.7  # 40 deg: no trial rolls further (the naval vessel's reach 0.23); larger: degrees
 # u: the naval vessel's top speed (n = 80 rev/s, its input limit) is 9.79 m/s, its cruise speed 9.7; the fastest run
 # (the turn pulse at full revs) has a median u of 9.58 m/s, 0.82 x this bound. In knots the identification runs'
@@ -154,11 +155,15 @@ def _check_response(path: Path, t: np.ndarray, r: np.ndarray, tau_r: np.ndarray,
     fit; a slope below SIGN_Z of its standard errors is a sign error of r or tau_r, refused; one between SIGN_Z and
     SIGN_NOTE_Z is the note returned (a very noisy run can land there with the signs right)."""
     source = "column 'tau_r'" if measured else "the pod yaw moment computed from n1, delta1, n2, delta2"
-    for name, x in (("r", r), (source, tau_r)):
+    for label, x in (("column 'r'", r), (source, tau_r)):
         if np.ptp(x) == 0:
-            label = f"column '{name}'" if name == "r" else source
             raise RecordingError(f"{path}: {label} is constant: the recording has no turn to fit; give a manoeuvring run")
     z = response_z(t, r, tau_r)
+    if np.isnan(z):  # r or tau_r changes only within the first or last second, outside the window of its means
+        raise RecordingError(
+            f"{path}: column 'r' or {source} changes only in the first or last second: the recording has no turn "
+            "to fit; give a manoeuvring run"
+        )
     which = "'r' or 'tau_r'" if measured else "'r' or a pod input's sign (delta1, delta2)"
     if z < SIGN_Z:
         raise RecordingError(
@@ -175,7 +180,8 @@ def _check_response(path: Path, t: np.ndarray, r: np.ndarray, tau_r: np.ndarray,
 
 def response_z(t: np.ndarray, r: np.ndarray, tau_r: np.ndarray) -> float:
     """The slope of dr/dt on tau_r in standard errors (the yaw row of (2.17): (I_z - N_rdot) dr/dt = tau_r + hull
-    moments; regressors tau_r, r and a constant, r and tau_r over 1 s moving means; 0 for a run under 2 s).
+    moments; regressors tau_r, r and a constant, r and tau_r over 1 s moving means; 0 for a run under 2 s, NaN when
+    either changes only within its first or last second).
 
     The standard error is Newey and West's (1987) heteroskedasticity and autocorrelation consistent one (Bartlett
     weights, lags up to 3 s): the moving means and the differentiation correlate the residuals over n + 1 samples,
@@ -188,6 +194,8 @@ def response_z(t: np.ndarray, r: np.ndarray, tau_r: np.ndarray) -> float:
     box = np.ones(n) / n
     rs, ts = np.convolve(r, box, mode="same"), np.convolve(tau_r, box, mode="same")
     cut = slice(n, -n)
+    if not (np.std(rs[cut]) > 0 and np.std(ts[cut]) > 0):  # a change only in the first or last second: no scale
+        return float("nan")
     # columns scaled to unit spread: tau_r in N m and r in rad/s differ by 1e8 (z does not depend on the scale)
     x = np.column_stack([ts[cut] / np.std(ts[cut]), rs[cut] / np.std(rs[cut]), np.ones(len(rs[cut]))])
     y = np.gradient(rs, dt)[cut] / np.std(rs[cut])

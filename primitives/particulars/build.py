@@ -158,9 +158,11 @@ def _check_power(p: Particulars, pitch: float) -> float:
             f"--speed {p.speed_kn:g} kn: needs about {need:,.0f} kW with these particulars (ITTC-57 friction, B-series screw), "
             f"over --mcr-kw {p.mcr_kw:,.0f}; this hull makes at most {lo:.1f} kn with it"
         )
+    if p.mcr_kw is None:
+        return need
     ref_kn = max(p.speed_kn, MCR_FROUDE * math.sqrt(9.81 * p.length) / KNOT)
-    scale = need if ref_kn == p.speed_kn else brake(ref_kn)
-    if p.mcr_kw is not None and p.mcr_kw > MCR_OVER_NEED * scale:
+    scale = need if ref_kn == p.speed_kn else brake(ref_kn)  # only with an --mcr-kw to judge: a hull's power is not free
+    if p.mcr_kw > MCR_OVER_NEED * scale:
         # a unit slip (W for kW): the full-power manoeuvres (acceleration) would be drawn from it
         raise ParticularsError(
             f"--mcr-kw {p.mcr_kw:,.0f}: {p.mcr_kw / scale:,.0f} times the about {scale:,.0f} kW this hull needs at "

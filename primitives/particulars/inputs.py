@@ -52,14 +52,20 @@ def _positive(name: str, value: float | None, unit: str) -> None:
 NAME = re.compile(r"[A-Za-z0-9_-]+")  # the profile's name: a file stem and a one-line TOML comment
 
 
-def check_particulars(p: Particulars) -> None:
-    """Refuse particulars no ship has, one line naming the value and the plausible range."""
-    if not NAME.fullmatch(p.name):
-        raise ParticularsError(f"--name {p.name!r}: use letters, digits, '_' and '-' only (e.g. my-coaster)")
+def _check_name(name: str) -> None:
+    """The profile's name: a file stem, and not a bundled profile's (plans, exports and reports would name a bundled
+    ship for this one; export looks the draught up by it)."""
+    if not NAME.fullmatch(name):
+        raise ParticularsError(f"--name {name!r}: use letters, digits, '_' and '-' only (e.g. my-coaster)")
     from primitives.ship import builtin_profiles
 
-    if p.name.lower() in builtin_profiles():  # plans, exports and reports would name a bundled ship for this one
-        raise ParticularsError(f"--name {p.name!r}: a bundled profile's name ({', '.join(builtin_profiles())}); choose another")
+    if name.lower() in builtin_profiles():
+        raise ParticularsError(f"--name {name!r}: a bundled profile's name ({', '.join(builtin_profiles())}); choose another")
+
+
+def check_particulars(p: Particulars) -> None:
+    """Refuse particulars no ship has, one line naming the value and the plausible range."""
+    _check_name(p.name)
     if p.actuator not in ACTUATORS:
         raise ParticularsError(
             f"--actuator {p.actuator!r}: must be rudder_propeller (single screw, one rudder), twin_screw (two screws,"
