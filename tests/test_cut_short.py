@@ -1,6 +1,6 @@
 """A recording cut short inside its last row (a truncated download, a logger stopped mid-write) is read
-without that row and says so, in every recording reader of diagnose, steering and yawid (stop 60's leftover:
-before, a number cut short in the last cell was read as another number, "0.0123" as "0.01")."""
+without that row and says so, in every recording reader of diagnose, steering, yawid, mass and detect (stop 60's
+leftover: before, a number cut short in the last cell was read as another number, "0.0123" as "0.01")."""
 
 from __future__ import annotations
 
@@ -11,11 +11,15 @@ import pytest
 
 from cli.app import _run
 from diagnose.recording import load_recording, read_marin_dat, write_csv
+from identify.detect.api import load_runs, simulated_recording
+from identify.detect.vessel import Vessel
+from identify.rollmass.recording import read_roll_csv
 from identify.steering.recording import read_records
 from identify.yawid.api import simulate_file
 from identify.yawid.model import MODELS
 from identify.yawid.recording import read_yaw_csv
 from primitives.ship import load_profile
+from tests.physics import basin_truth as bt
 from tests.physics import sea_splendour as ss
 
 DATA = Path(__file__).resolve().parents[1] / "diagnose" / "data"
@@ -39,6 +43,26 @@ def _yaw_csv(path: Path) -> Path:
     return simulate_file(path, seed=1, noise_scale=0.5)
 
 
+def _mass_csv(path: Path) -> Path:
+    ship, data = bt.simulate_runs("base", 1, 4, length=0.1, quiet=True)
+    return bt.write_csv(bt.case_recordings(ship, data, "case1", 0)[0], path)
+
+
+def _detect_csv(path: Path) -> Path:
+    return write_csv(simulated_recording(Vessel(), 60, seed=3, measured_moment=True), path)
+
+
+def _mass_read(path):
+    rec, _ = read_roll_csv(path)
+    return np.column_stack([rec.delta, rec.p, rec.a_s, rec.r, rec.phi, rec.u]), rec.notes
+
+
+def _detect_read(path):
+    notes: list[str] = []
+    (rec,) = load_runs([path], "full", notes)
+    return np.column_stack([rec.t, rec.y]), notes
+
+
 def _diagnose_read(path):
     rec = load_recording(path)[0]
     return np.column_stack([rec.t, rec.y]), rec.notes
@@ -59,6 +83,8 @@ READERS = {
     "MARIN dat": (_marin_dat, "run.dat", _diagnose_read),
     "steering csv": (_steering_csv, "run.csv", _steering_read),
     "yawid csv": (_yaw_csv, "run.csv", _yaw_read),
+    "mass csv": (_mass_csv, "run.csv", _mass_read),
+    "detect csv": (_detect_csv, "run.csv", _detect_read),
 }
 
 
@@ -110,3 +136,27 @@ def test_a_last_comment_without_a_line_break_is_no_cut_row(tmp_path, kind):
     got, notes = read(whole)
     np.testing.assert_array_equal(got, full)
     assert not any("cut short" in n for n in notes), notes
+
+
+def test_mass_says_the_row_it_left_out(tmp_path, capsys, monkeypatch):
+    """`mass` reads its three runs through the shared edge and prints the note (the fit replaced by a fixed
+    estimate: the reading and the notes are what is tested; before, the cut nominal run was refused over its 'u')."""
+    from identify.rollmass import api
+    from identify.rollmass.estimate import MassEstimate
+
+    ship, data = bt.simulate_runs("base", 1, 4, length=0.35, quiet=True)
+    paths = [bt.write_csv(r, tmp_path / f"{r.role}.csv") for r in bt.case_recordings(ship, data, "case1", 0)]
+    paths[0].write_text(_cut(paths[0].read_text()))
+    monkeypatch.setattr(api, "estimate", lambda *a, **k: MassEstimate("oe", {}, 0.2, -0.2, m_sd=0.01, zbar_m_sd=0.004, corr=0.9))
+    assert _run(["mass", *map(str, paths)]) == 0
+    out = capsys.readouterr().out
+    assert f"note: {paths[0]}: the last line" in out and "cut short" in out, out
+
+
+def test_detect_prior_says_the_row_it_left_out(tmp_path, capsys):
+    """`detect-prior` (and `detect`, through the same :func:`identify.detect.api.load_runs`) prints the note."""
+    path = _detect_csv(tmp_path / "run.csv")
+    path.write_text(_cut(path.read_text()))
+    assert _run(["detect-prior", str(path), "--out", str(tmp_path / "p.json"), "--bootstrap", "0"]) == 0
+    err = capsys.readouterr().err
+    assert f"note: {path}: the last line" in err and "cut short" in err, err

@@ -163,6 +163,25 @@ def test_a_mistaken_recording_is_refused_not_fitted(tmp_path, change, match, cap
         assert read_yaw_csv(bad, SIMPLIFIED, load_profile("naval-vessel")).t.size == rows.shape[0]
 
 
+@pytest.mark.parametrize("noise,model,name", [(50.0, SIMPLIFIED, "r"), (10.0, FULL, "phi")], ids=["r-50x", "phi-10x"])
+def test_a_noisy_run_is_not_said_to_be_in_degrees(tmp_path, noise, model, name, capsys):
+    """Stop 60's review: at 50 x Table 4.1's noise the gyro's single samples reach 0.5 rad/s (phi's 1 rad at 10 x)
+    and the units check said "in degrees?" of a run in rad/s. Its 1 s means stay under the bound: the refusal now
+    names the noise (still exit 2, one line); the same run in degrees is still said to be in degrees."""
+    from identify.yawid.recording import read_yaw_csv
+
+    path = simulate_file(tmp_path / "run.csv", seed=0, noise_scale=noise)
+    with pytest.raises(RecordingError) as e:
+        read_yaw_csv(path, model, load_profile("naval-vessel"))
+    said = str(e.value)
+    assert f"column '{name}' reaches" in said and "in single samples only" in said and "noise" in said, said
+    assert "degrees" not in said, said
+    argv = ["yawid", str(path)] + (["--model", "simplified"] if model is SIMPLIFIED else [])
+    assert _run(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "in single samples only" in err[0], err
+
+
 def test_pod_inputs_stand_in_for_a_measured_moment(tmp_path, nv):
     """Without tau_r, the pod model of the ship profile computes it from n1, delta1, n2, delta2 (and p)."""
     from identify.yawid.recording import read_yaw_csv

@@ -23,7 +23,7 @@ import numpy as np
 
 from diagnose.recording import RecordingError, split_metadata
 from identify.rollmass.simulate import RollRecording
-from primitives.io import atomic_write_text, read_input_text
+from primitives.io import atomic_write_text, read_record_lines
 
 REQUIRED = ("t", "delta", "p", "a_s", "r")
 OPTIONAL = ("u", "phi")
@@ -111,7 +111,8 @@ def write_roll_csv(rec: RollRecording, path: str | Path, meta: dict[str, str] | 
 def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
     """Read and check one dataset; any problem is a one-line :class:`RecordingError`."""
     path = Path(path)
-    lines = read_input_text(path, RecordingError, "a roll recording CSV (t, delta, p, a_s, r)").splitlines()
+    # a last row with no line break is cut short (a number cut in it reads as another): left out, with a note
+    lines, cut = read_record_lines(path, RecordingError, "a roll recording CSV (t, delta, p, a_s, r)")
     meta, body = split_metadata(lines)
     header_notes = _header_keys(path, meta)
     if not body:
@@ -129,7 +130,7 @@ def read_roll_csv(path: str | Path) -> tuple[RollRecording, dict[str, str]]:
     if missing:
         raise RecordingError(_missing_message(path, header, missing))
     _refuse_renamed_optional(path, header)
-    notes = header_notes
+    notes = header_notes + ([f"{path}: {cut}"] if cut else [])
     for h in header:
         if h not in REQUIRED + OPTIONAL:
             near = _closest(h)

@@ -94,7 +94,7 @@ def read_yaw_csv(path: str | Path, model: YawModel, profile: ShipProfile | None 
     if not np.all(dt > 0) or np.ptp(dt) > 1e-6 * max(1.0, dt.mean()) + 1e-9:
         raise RecordingError(f"{path}: column 't' must be uniformly sampled and increasing (resample the recording)")
     _check_step(path, dt, meta)
-    _check_units(path, {k: cols[k] for k in need})  # a column the model does not read is not judged
+    _check_units(path, t, {k: cols[k] for k in need})  # a column the model does not read is not judged
     _check_speed(path, cols["u"], profile)
     sig = {k: cols[k] for k in need[1:]}
     sig["tau_r"] = _pod_moment(path, cols, profile)
@@ -123,17 +123,41 @@ def _check_step(path: Path, dt: np.ndarray, meta: dict[str, str]) -> None:
         )
 
 
-def _check_units(path: Path, cols: dict[str, np.ndarray]) -> None:
-    """r in rad/s and phi in rad: beyond any ship's yaw rate or roll, they are degrees."""
+def _check_units(path: Path, t: np.ndarray, cols: dict[str, np.ndarray]) -> None:
+    """r in rad/s and phi in rad: beyond any ship's yaw rate or roll, they are degrees, or, when only the noise
+    takes single samples there (:func:`unit_slip`), a sensor far noisier than a ship's; refused either way."""
     for name, limit, unit in (("r", MAX_RATE_RAD_S, "rad/s"), ("phi", MAX_ROLL_RAD, "rad")):
         if name not in cols:
             continue
         big = float(np.max(np.abs(cols[name])))
-        if big > limit:
+        if big <= limit:
+            continue
+        slip, mean, sd = unit_slip(t, cols[name], limit)
+        if slip:
             raise RecordingError(
                 f"{path}: column '{name}' reaches {big:.3g}, more than {limit:g} {unit}: in degrees? give {unit} "
                 f"({big:.3g} deg = {np.radians(big):.3g} rad)"
             )
+        raise RecordingError(
+            f"{path}: column '{name}' reaches {big:.3g}, more than {limit:g} {unit}, in single samples only: its 1 s "
+            f"means stay within {mean:.3g}, and its noise (std {sd:.3g} {unit} from successive samples) takes it there; "
+            "the yaw fit needs a quieter sensor (check it and its filter)"
+        )
+
+
+def unit_slip(t: np.ndarray, x: np.ndarray, limit: float) -> tuple[bool, float, float]:
+    """Whether a column over ``limit`` is so because of its unit, not its noise: its 1 s moving means (the signal)
+    exceed ``limit`` by more than 5 of their noise's standard deviations. Returns (slip, the means' largest
+    magnitude, the noise's std sigma). sigma is read from successive samples (median |x[k+1] - x[k]| /
+    (0.6745 sqrt 2), white noise), the means' noise is sigma / sqrt(n). Degrees scale signal and noise alike, so a
+    run in degrees stays far over (r: 1 s means 3.1 deg/s for a bound of 0.43); noise alone does not (r at 50 x
+    Table 4.1's noise: samples to 0.54 rad/s, 1 s means to 0.19, bound 0.40)."""
+    dt = float(np.median(np.diff(t)))
+    n = max(1, int(round(1.0 / dt)))
+    means = np.convolve(x, np.ones(n) / n, mode="valid") if len(x) >= n else np.asarray(x, float)
+    sd = float(np.median(np.abs(np.diff(x)))) / (0.6745 * np.sqrt(2.0)) if len(x) > 1 else 0.0
+    mean = float(np.max(np.abs(means)))
+    return mean > limit + 5.0 * sd / np.sqrt(n), mean, sd
 
 
 def _check_speed(path: Path, u: np.ndarray, profile: ShipProfile | None) -> None:
