@@ -280,7 +280,8 @@ def load_map(path: str | Path | None = None, *, draught_m: float = 0.0, ukc_m: f
     groups: dict[str, list[tuple[int, BaseGeometry, dict]]] = {k: [] for k in KINDS}
     for i, f in enumerate(doc["features"]):
         kind, geom, props = _feature(src, i, f, repair, warnings)
-        groups[kind].append((i, geom, props))
+        if geom is not None:
+            groups[kind].append((i, geom, props))
     _check_groups(src, groups)
     lo0, la0, lo1, la1 = _lonlat_extent(src, groups)
     lon0, lat0 = 0.5 * (lo0 + lo1), 0.5 * (la0 + la1)
@@ -339,9 +340,10 @@ def _read_collection(path: Path, src: str) -> dict:
     return doc
 
 
-def _feature(src: str, i: int, f: object, repair: bool, warnings: list[str]) -> tuple[str, BaseGeometry, dict]:
+def _feature(src: str, i: int, f: object, repair: bool, warnings: list[str]) -> tuple[str, BaseGeometry | None, dict]:
     """Feature ``i``'s kind, geometry (in degrees; an invalid polygon repaired and said in
-    ``warnings`` when ``repair``) and properties, checked for what its kind needs."""
+    ``warnings`` when ``repair``) and properties, checked for what its kind needs; the geometry is None for a
+    polygon other than the trial area that encloses no area (left out, said in ``warnings``)."""
     if not isinstance(f, dict) or f.get("type") != "Feature" or not isinstance(f.get("geometry"), dict):
         raise _fail(src, i, "not a GeoJSON Feature with a geometry")
     props = f.get("properties") or {}
@@ -370,12 +372,16 @@ def _feature(src: str, i: int, f: object, repair: bool, warnings: list[str]) -> 
         geom = _polygonal(shapely.make_valid(geom))
         warnings.append(f"feature {i} ({kind}): invalid polygon ({reason}) repaired with make_valid")
     if gt in POLYGONAL and not geom.area > 0:  # a ring on a line, or of fewer than three distinct corners
-        raise _fail(
-            src,
-            i,
-            f"the {kind} polygon encloses no area (its {corners} ring points lie "
-            "on one line or repeat); give its corners, the first repeated last",
-        )
+        if kind == "trial_area":  # it would allow no water at all
+            raise _fail(
+                src,
+                i,
+                f"the {kind} polygon encloses no area (its {corners} ring points lie "
+                "on one line or repeat); give its corners, the first repeated last",
+            )
+        # land, depth, restricted or obstacle: a sliver (e.g. from a converted chart) blocks no water: left out
+        warnings.append(f"feature {i} ({kind}): the polygon encloses no area ({corners} ring points on a line): left out")
+        return kind, None, props
     if kind == "depth_area" and not _finite_number(props.get("min_depth_m")):
         raise _fail(src, i, "depth_area needs a numeric properties.min_depth_m (S-57 DRVAL1, metres)")
     if kind == "obstacle" and gt == "Point":

@@ -101,10 +101,6 @@ def test_obstacle_point_radius_and_start_goal(tmp_path):
         # a ring of three points (two distinct corners) and one on a line: no water at all, stop 60's sweep had the
         # plan refuse the start "nan m from an obstacle"
         (fc(feat({"type": "Polygon", "coordinates": [[[25, 60], [25.1, 60], [25, 60]]]}, kind="trial_area")), "encloses no area"),
-        (
-            fc(feat({"type": "Polygon", "coordinates": [[[25, 60], [25.1, 60], [25.2, 60], [25, 60]]]}, kind="land")),
-            "feature 0: the land polygon encloses no area",
-        ),
         # a JSON integer beyond int64 (found by the fuzz test) and a heading of turns, not degrees
         (
             fc(
@@ -124,6 +120,18 @@ def test_obstacle_point_radius_and_start_goal(tmp_path):
 def test_bad_maps_rejected_with_reason(tmp_path, doc, words):
     with pytest.raises(MapError, match=words):
         load_map(write(tmp_path, doc))
+
+
+def test_a_land_sliver_without_area_is_left_out_with_a_warning(tmp_path):
+    """A land, depth or restricted polygon on a line (a sliver from a converted chart) blocks no water: the map loads
+    without it and says so; only a trial area without area is refused (above), since it would allow no water."""
+    sliver = {"type": "Polygon", "coordinates": [[[25, 60], [25.1, 60], [25.2, 60], [25, 60]]]}
+    sea = load_map(write(tmp_path, fc(feat(square(25, 60.2, 0.1, 0.1)), feat(sliver, kind="land"))))
+    alone = load_map(write(tmp_path, fc(feat(square(25, 60.2, 0.1, 0.1))), name="alone.geojson"))
+    assert [w for w in sea.warnings if "encloses no area" in w] == [
+        "feature 1 (land): the polygon encloses no area (4 ring points on a line): left out"
+    ]
+    assert sea.land.equals(alone.land)
 
 
 def test_missing_and_malformed_files(tmp_path):
