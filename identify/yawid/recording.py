@@ -18,6 +18,7 @@ import numpy as np
 from diagnose.recording import RecordingError, split_metadata
 from identify.yawid.experiment import YawData, pod_yaw_moment
 from identify.yawid.model import YawModel
+from primitives.goodness import coefficient_t
 from primitives.io import atomic_write_text, read_record_lines
 from primitives.ship import ShipProfile
 from primitives.unit_ranges import YAW_RATE_MAX_RAD_S
@@ -207,8 +208,8 @@ def response_z(t: np.ndarray, r: np.ndarray, tau_r: np.ndarray) -> float:
     moments; regressors tau_r, r and a constant, r and tau_r over 1 s moving means; 0 for a run under 2 s, NaN when
     either changes only within its first or last second).
 
-    The standard error is Newey and West's (1987) heteroskedasticity and autocorrelation consistent one (Bartlett
-    weights, lags up to 3 s): the moving means and the differentiation correlate the residuals over n + 1 samples,
+    The standard error is Newey and West's (1987) heteroskedasticity and autocorrelation consistent one
+    (:func:`primitives.goodness.coefficient_t` with Bartlett weights, lags up to 3 s): the moving means and the differentiation correlate the residuals over n + 1 samples,
     and the ordinary least-squares error, which ignores that, made the statistic's spread on a noise-only run grow
     with the noise (1.07 at 20 x Table 4.1's noise, 1.32 at 50 x: a 3-sigma refusal then fired on 6 of 500)."""
     dt = float(np.median(np.diff(t)))
@@ -223,16 +224,7 @@ def response_z(t: np.ndarray, r: np.ndarray, tau_r: np.ndarray) -> float:
     # columns scaled to unit spread: tau_r in N m and r in rad/s differ by 1e8 (z does not depend on the scale)
     x = np.column_stack([ts[cut] / np.std(ts[cut]), rs[cut] / np.std(rs[cut]), np.ones(len(rs[cut]))])
     y = np.gradient(rs, dt)[cut] / np.std(rs[cut])
-    coef, *_ = np.linalg.lstsq(x, y, rcond=None)
-    xe = x * (y - x @ coef)[:, None]
-    s = xe.T @ xe
-    lags = min(HAC_LAG_S * n, len(xe) - 1)
-    for lag in range(1, lags + 1):
-        g = xe[lag:].T @ xe[:-lag]
-        s += (1.0 - lag / (lags + 1)) * (g + g.T)
-    b = np.linalg.pinv(x.T @ x)
-    var = float((b @ s @ b)[0, 0])
-    return float(coef[0] / np.sqrt(var)) if var > 0 else 0.0
+    return coefficient_t(x, y, 0, lags=HAC_LAG_S * n)
 
 
 def _pod_moment(path: Path, cols: dict[str, np.ndarray], profile: ShipProfile | None) -> np.ndarray:
