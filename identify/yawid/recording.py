@@ -209,8 +209,8 @@ def response_z(t: np.ndarray, r: np.ndarray, tau_r: np.ndarray) -> float:
     either changes only within its first or last second).
 
     The standard error is Newey and West's (1987) heteroskedasticity and autocorrelation consistent one
-    (:func:`primitives.goodness.coefficient_t` with Bartlett weights, lags up to 3 s): the moving means and the differentiation correlate the residuals over n + 1 samples,
-    and the ordinary least-squares error, which ignores that, made the statistic's spread on a noise-only run grow
+    (:func:`primitives.goodness.coefficient_t` with Bartlett weights, lags up to 3 s): the moving means and the
+    differentiation correlate the residuals over n + 1 samples, and the ordinary least-squares error, which ignores that, made the statistic's spread on a noise-only run grow
     with the noise (1.07 at 20 x Table 4.1's noise, 1.32 at 50 x: a 3-sigma refusal then fired on 6 of 500)."""
     dt = float(np.median(np.diff(t)))
     n = max(1, int(round(1.0 / dt)))
