@@ -418,6 +418,22 @@ def _fresh_sea(scale: float, key: list[int], hold: tuple[list[int], set[int]] | 
 _TRUTH_SEA: dict = {}
 
 
+def _fresh_sensor(key: list[int]) -> None:
+    """The IMU's noise and bias (:func:`basin_truth._measure`'s draws, and its AHRS roll error's seed) drawn from a
+    stream of its own, ``key`` + a call counter (the dataset's index, as in :func:`_fresh_sea`), instead of the run's
+    stream: each realization then has its own sensor noise, where plain ``repeat`` keeps the family's draw on every
+    sea. ``_measure`` is the run stream's last consumer, so the ship, the steering and the sea are unchanged."""
+    calls = [0]
+    measure = _TRUTH_SEA.setdefault("_measure", bt._measure)  # the truth's own, not an earlier call's wrapper
+
+    def fresh(*args):
+        own = np.random.default_rng([*key, 0x5E45, calls[0]])
+        calls[0] += 1
+        return measure(args[0], own, *args[2:15], int(own.integers(2**31)))  # args[15]: the AHRS error's seed
+
+    bt._measure = fresh
+
+
 def _quiet_reference(a: argparse.Namespace, seed: int, seen: dict) -> dict:
     """The same ship, case and steering without the sea (and, with ``--no-sensor-noise``, without the sensor's noise):
     its fit's final point ``x_q`` (the ship's pseudo-true parameters in the oe model) and its datasets as the
@@ -489,12 +505,19 @@ def _frozen_noise() -> list:
     return kept
 
 
+def _sensor_label(a: argparse.Namespace) -> str:
+    """Which sensor noise the realizations had, for the summary line."""
+    return "off" if a.no_sensor_noise else "fresh" if a.fresh_sensor else "the run's"
+
+
 def repeat(a: argparse.Namespace) -> None:
     """One ship, case and steering of the family (``--variant``, ``--run``, ``--case``: the truth bench's
     draws), fitted on ``--realizations`` fresh seas (:func:`_fresh_sea`): the load's spread over the seas
     against the mean sd the fits report, and the z-scores ``(estimate - truth) / reported sd``. Unlike the
     pooled fits of ``fit`` (ships and cases differ, and a run's cases share datasets) this measures the
     interval of one ship: its sandwich's error, not the spread of the family's biases."""
+    if a.fresh_sensor and a.no_sensor_noise:
+        raise SystemExit("--fresh-sensor with --no-sensor-noise: there is no sensor noise to draw afresh; fix: drop one")
     if a.no_sensor_noise:
         _sensor_noise_off()
     seed = bt.variant_seed(a.seed, a.variant)  # as bench_rollmass_truth.py
@@ -511,6 +534,8 @@ def repeat(a: argparse.Namespace) -> None:
     for k in order:
         seen.clear()
         _fresh_sea(a.sea_scale, [a.sea_seed, k], hold)
+        if a.fresh_sensor:
+            _fresh_sensor([a.sea_seed, k])
         ship, data = bt.simulate_runs(a.variant, a.runs, seed)
         with tempfile.TemporaryDirectory() as d:
             recs = bt.case_recordings(ship, data, a.case, a.run)
@@ -537,7 +562,7 @@ def repeat(a: argparse.Namespace) -> None:
     zs = np.column_stack([(x[:, 0] - m_true) / x[:, 1], (x[:, 2] - z_true) / x[:, 3]])
     inside = int(np.all(np.abs(zs) <= 1.96, axis=1).sum())
     print(
-        f"{a.variant} run {a.run} {a.case}, sea x{a.sea_scale:g}, vary {a.vary}, {len(x)} of {a.realizations} seas converged: spread / mean reported sd "
+        f"{a.variant} run {a.run} {a.case}, sea x{a.sea_scale:g}, vary {a.vary}, sensor {_sensor_label(a)}, {len(x)} of {a.realizations} seas converged: spread / mean reported sd "
         f"{x[:, 0].std(ddof=1) / x[:, 1].mean():.2f} (mass) {x[:, 2].std(ddof=1) / x[:, 3].mean():.2f} (height); "
         f"z sd {zs[:, 0].std(ddof=1):.2f} / {zs[:, 1].std(ddof=1):.2f}, mean {zs[:, 0].mean():+.2f} / {zs[:, 1].mean():+.2f}; "
         f"both inside {inside} of {len(x)}"
@@ -571,6 +596,7 @@ def main() -> None:
     r.add_argument("--sea-seed", type=int, default=777)
     r.add_argument("--sea-scale", type=float, default=1.0)
     r.add_argument("--no-sensor-noise", action="store_true", help="the sea alone")
+    r.add_argument("--fresh-sensor", action="store_true", help="the IMU noise and bias drawn afresh on every sea too")
     r.add_argument("--store", help="keep each converged fit's Jacobian, residual and final point in this directory")
     r.add_argument("--vary", choices=("all",) + ROLES, default="all", help="a fresh sea for this role's dataset only")
     r.add_argument("--held-sea", type=int, default=0, help="with --vary ROLE: the other datasets' sea (this realization's)")

@@ -53,3 +53,30 @@ def test_freeze_noise_replays_the_first_fits_whiteners(monkeypatch):
     later = [bc.oe_fit._reweighted([np.full((4, 3), 100 + k)], None, 2) for k in range(3 * n)]
     assert len(made) == n and kept == first  # only the first fit's stages were estimated
     assert all(later[k] is first[k % n] for k in range(3 * n))
+
+
+def _sensor_datasets(monkeypatch, k: int | None) -> dict[str, dict[str, np.ndarray]]:
+    """One short ``base`` run without its sea; ``k``: realization ``k``'s fresh sensor noise (``repeat
+    --fresh-sensor``), ``None``: the run's own draw (plain ``repeat``)."""
+    for name in ("_narrowband", "_jonswap", "_measure"):  # the wrappers installed below are undone after the test
+        monkeypatch.setattr(bt, name, getattr(bt, name))
+    bc._fresh_sea(0.0, [5, 0])
+    if k is not None:
+        bc._fresh_sensor([5, k])
+    return bt.simulate_runs("base", 1, bt.variant_seed(2015, "base"), length=0.05)[1]
+
+
+def test_fresh_sensor_draws_each_realizations_own_noise(monkeypatch):
+    """Without the sea the recordings differ only by the sensor's noise: the run's own draw is the same on every
+    realization, so only ``--fresh-sensor`` makes two realizations differ (gyro, accelerometer and AHRS roll angle),
+    and one realization's draw is reproducible."""
+    own, own_again = _sensor_datasets(monkeypatch, None), _sensor_datasets(monkeypatch, None)
+    first, second, first_again = (_sensor_datasets(monkeypatch, k) for k in (0, 1, 0))
+    for name in bt.DATASETS:
+        for c in ("p", "a_s", "r", "phi"):
+            assert np.array_equal(own[name][c], own_again[name][c]), (name, c)
+            assert np.array_equal(first[name][c], first_again[name][c]), (name, c)
+            assert not np.array_equal(first[name][c], second[name][c]), (name, c)
+            assert not np.array_equal(first[name][c], own[name][c]), (name, c)
+        # the sensor's noise only: the commanded rudder of the run is untouched
+        assert np.allclose(first[name]["delta"], own[name]["delta"], atol=np.deg2rad(0.3)), name
