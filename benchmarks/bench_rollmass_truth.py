@@ -124,6 +124,7 @@ ESTIMATOR_IMPORTS = (
     "identify/__init__.py",
     "primitives/__init__.py",
     "primitives/errors.py",
+    "primitives/goodness.py",
     "primitives/iir.py",
     "primitives/iirmodal.py",
     "primitives/io.py",
