@@ -369,7 +369,7 @@ def _motion_set(
     """(moves, counter names, targets, notes): the informative moves of ``prims`` (one counter
     each, or one per piece with ``split``) and the basic moves, built into ``cache`` or taken from it."""
     K = o.headings
-    _basic_moves(profile, res, o, cache)
+    _basic_footprints(profile, res, o, cache)  # read by _collision_grid: kept with the moves, not formed every plan
     run_in = run_in_seconds(profile, o.run_in_s)
     # each primitive's moves on their own: kept on disk between commands (maps.movecache), else built,
     # some of them in a forked child (maps.forked), same moves
@@ -442,6 +442,17 @@ def _basic_moves(profile: ShipProfile, res: float, o: PlanOptions, cache: dict[s
     return cache["basic"]
 
 
+def _basic_footprints(profile: ShipProfile, res: float, o: PlanOptions, cache: dict[str, Any]) -> None:
+    """The basic moves (:func:`_basic_moves`) with their swept footprints, read by :func:`build_lattice`: half of
+    them formed in a forked child (maps.forked), the same polygons, and the moves kept again with them, so that a
+    later plan reads them (whichever path, plan-trial's early step or the planner, built the moves first)."""
+    todo = [pr for m in _basic_moves(profile, res, o, cache) for pr in m.prims if "footprint" not in pr.__dict__]
+    for pr, fp in zip(todo, map_halves(_footprint, todo)):
+        pr.__dict__["footprint"] = fp  # the cached property's value
+    if todo:
+        movecache.store(cache["basic_key"], cache["basic"], profile)
+
+
 def prepare_basic_moves(
     sea: SeaMap,
     profile: ShipProfile,
@@ -455,12 +466,7 @@ def prepare_basic_moves(
     ``cache`` for :func:`build_lattice`: work that needs no design, done while a design is
     computed elsewhere."""
     res = float(options.resolution) if options.resolution else default_resolution(profile, sea)
-    todo = [pr for m in _basic_moves(profile, res, options, cache) for pr in m.prims if "footprint" not in pr.__dict__]
-    # the swept footprints, read by build_lattice: half of them formed in a forked child (maps.forked), the same polygons
-    for pr, fp in zip(todo, map_halves(_footprint, todo)):
-        pr.__dict__["footprint"] = fp  # the cached property's value
-    if todo:  # kept again with their footprints
-        movecache.store(cache["basic_key"], cache["basic"], profile)
+    _basic_footprints(profile, res, options, cache)
     try:
         cache["endpoints"] = (sea, (start, goal, options.margin), _endpoints(sea, start, goal, options.margin))
     except MapError:  # said by build_lattice, where it would be said without this step (after the design)
