@@ -205,7 +205,7 @@ def check_speed(rec, profile) -> None:
 # t value has the profile's sign and |t| >= 4.2; flipped, the opposite sign with |t| >= 4.2.
 # The ordinary least-squares t (coefficient_t, lags=0) is right here, unlike yawid's smoothed dr/dt: the one-step
 # fit holds r(k) as a regressor, which takes the correlation the differencing puts in the residuals. Measured (stop
-# 60, /work/wt/reports/hac-files/sign_t.py, 500 draws, white and AR(1) noise at 1-50 x): with r pure noise the t's
+# 60, docs/bad-input-sweep.md "Stop 60", 500 draws, white and AR(1) noise at 1-50 x): with r pure noise the t's
 # spread stays 0.97-1.15, not growing with the noise, and a 3-sigma refusal fires on 0-4 of 500 (Newey-West lags
 # 1-5: the same).
 RUDDER_T = 3.0

@@ -153,12 +153,16 @@ def unit_slip(t: np.ndarray, x: np.ndarray, limit: float) -> tuple[bool, float, 
     (0.6745 sqrt 2), white noise), the means' noise is sigma / sqrt(n). Degrees scale signal and noise alike, so a
     run in degrees stays far over (r: 1 s means 3.1 deg/s for a bound of 0.43); noise alone does not (r at 50 x
     Table 4.1's noise: samples to 0.54 rad/s, 1 s means to 0.19, bound 0.40)."""
-    dt = float(np.median(np.diff(t)))
-    n = max(1, int(round(1.0 / dt)))
+    n = _per_second(t)
     means = np.convolve(x, np.ones(n) / n, mode="valid") if len(x) >= n else np.asarray(x, float)
     sd = float(np.median(np.abs(np.diff(x)))) / (0.6745 * np.sqrt(2.0)) if len(x) > 1 else 0.0
     mean = float(np.max(np.abs(means)))
     return mean > limit + 5.0 * sd / np.sqrt(n), mean, sd
+
+
+def _per_second(t: np.ndarray) -> int:
+    """Samples in one second (at least 1): the window of the checks' 1 s moving means."""
+    return max(1, int(round(1.0 / float(np.median(np.diff(t))))))
 
 
 def _check_speed(path: Path, u: np.ndarray, profile: ShipProfile | None) -> None:
@@ -210,10 +214,11 @@ def response_z(t: np.ndarray, r: np.ndarray, tau_r: np.ndarray) -> float:
 
     The standard error is Newey and West's (1987) heteroskedasticity and autocorrelation consistent one
     (:func:`primitives.goodness.coefficient_t` with Bartlett weights, lags up to 3 s): the moving means and the
-    differentiation correlate the residuals over n + 1 samples, and the ordinary least-squares error, which ignores that, made the statistic's spread on a noise-only run grow
-    with the noise (1.07 at 20 x Table 4.1's noise, 1.32 at 50 x: a 3-sigma refusal then fired on 6 of 500)."""
+    differentiation correlate the residuals over n + 1 samples, and the ordinary least-squares error, which ignores
+    that, made the statistic's spread on a noise-only run grow with the noise (1.07 at 20 x Table 4.1's noise, 1.32
+    at 50 x: a 3-sigma refusal then fired on 6 of 500)."""
     dt = float(np.median(np.diff(t)))
-    n = max(1, int(round(1.0 / dt)))
+    n = _per_second(t)
     if len(t) <= 2 * n + 3:
         return 0.0
     box = np.ones(n) / n
