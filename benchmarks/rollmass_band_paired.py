@@ -1,11 +1,12 @@
 """Two truth-family dumps of the same fits paired run by run (stop 61: oe's band-limited objective against the full
 band): per variant and case, the median |mass error| and |height error| before and after, in how many runs |error|
 fell, the share of runs whose two intervals hold the truth, and the sd of the standardised errors (error / reported
-sd; about 1 if the intervals are honest, benchmarks/rollmass_family_zscores.py).
+sd; about 1 if the intervals are honest, benchmarks/rollmass_family_zscores.py), failures and the median CPU a fit.
 
     python benchmarks/rollmass_band_paired.py BEFORE AFTER [--markdown]
 
-Only fits in both dumps are paired; a failed fit (no row figures) is counted in ``fail`` and left out of the rest.
+Only fits in both dumps are paired, and only runs whose every (variant, case) fit the AFTER dump holds (an
+interrupted dump's last run is left out, as ``rollmass_family_table.py --complete-runs`` does); a failed fit (no row figures) is counted in ``fail`` and left out of the rest.
 Nothing is fitted.
 """
 
@@ -37,7 +38,7 @@ def _cell(pairs: list[tuple[list, list]]) -> list[str]:
     good = [(b, a) for b, a in pairs if b[4] is not None and a[4] is not None]
     fail = (sum(b[4] is None for b, _ in pairs), sum(a[4] is None for _, a in pairs))
     if not good:
-        return [str(len(pairs))] + ["-"] * 7 + [f"{fail[0]}/{fail[1]}"]
+        return [str(len(pairs))] + ["-"] * 7 + [f"{fail[0]}/{fail[1]}", "-"]
     B, A = (np.array([r[4][:4] for r in side], dtype=float) for side in zip(*good))
     out = [str(len(good))]
     for k, fmt in ((0, "{:.2f}"), (1, "{:.1f}")):
@@ -52,6 +53,7 @@ def _cell(pairs: list[tuple[list, list]]) -> list[str]:
     for k in (0, 1):
         out.append(f"{np.nanstd(zb[:, k], ddof=1):.2f} -> {np.nanstd(za[:, k], ddof=1):.2f}")
     out.append(f"{fail[0]}/{fail[1]}")
+    out.append(f"{np.median([b[6] for b, _ in pairs]):.1f} -> {np.median([a[6] for _, a in pairs]):.1f}")
     return out
 
 
@@ -62,10 +64,26 @@ def main() -> None:
     ap.add_argument("--markdown", action="store_true")
     a = ap.parse_args()
     before, after = _load(a.before), _load(a.after)
-    keys = sorted(set(before) & set(after))
+    cells = {(k[0], k[1]) for k in after}
+    runs = {k[3] for k in after if all((v, c, k[2], k[3]) in after for v, c in cells)}
+    keys = sorted(k for k in set(before) & set(after) if k[3] in runs)
+    print(f"runs paired: {sorted(runs)}")
     variants = list(dict.fromkeys(k[0] for k in keys))
     cases = sorted({k[1] for k in keys})
-    head = ["variant", "case", "n", "m med %", "z med mm", "m better", "z better", "cov both %", "z-sd m", "z-sd z", "fail"]
+    head = [
+        "variant",
+        "case",
+        "n",
+        "m med %",
+        "z med mm",
+        "m better",
+        "z better",
+        "cov both %",
+        "z-sd m",
+        "z-sd z",
+        "fail",
+        "cpu s",
+    ]
     print(("| " + " | ".join(head) + " |\n|" + "---|" * len(head)) if a.markdown else "  ".join(head))
     for v in variants + ["pooled"]:
         for c in cases + ["all"]:
