@@ -14,7 +14,6 @@ the paper's Table 3 (one real dataset per case).
     python benchmarks/bench_rollmass_truth.py --runs 4 --no-u                       # logs without the speed u(t)
     python benchmarks/bench_rollmass_truth.py --runs 100 --dump fam.jsonl --resume  # continue a stopped family
     python benchmarks/bench_rollmass_truth.py --runs 30 --only base/1/case1          # one fit of the 30-run family
-    python benchmarks/bench_rollmass_truth.py --runs 30 --band lowpass:0.7           # oe's band-limited objective (stop 61)
 
 Each dumped row's last element also holds the fit's path (``path``: exact, geodesic, continued or forward-difference redo, why, each
 LM call's evaluations; identify.rollmass.fit_path) and the family's settings (``family``), which ``--resume`` checks.
@@ -46,7 +45,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from identify.rollmass import restoring as rm_restoring  # noqa: E402
 from identify.rollmass.api import estimate_from_files  # noqa: E402
-from identify.rollmass.band import parse_band  # noqa: E402
 from identify.rollmass.estimate import METHODS  # noqa: E402
 from primitives.errors import UserError  # noqa: E402
 from tests.physics import basin_truth as bt  # noqa: E402
@@ -58,14 +56,13 @@ PAPER = {"case1": (0.1338, 3.1), "case2": (7.7532, 25.4), "case3": (16.631, 0.9)
 def _one(job: tuple) -> list[tuple]:
     variant, run, case, recs, methods, with_u, heel_ref, family = job
     m_true, z_true = bt.truth_load(case)
-    band = parse_band(family["band"]) if "band" in family else None  # oe's band-limited objective (stop 61)
     out = []
     with tempfile.TemporaryDirectory() as d:
         paths = [bt.write_csv(r, Path(d) / f"{r.role}.csv", with_u) for r in recs]
         for method in methods:
             c0, fitted = time.process_time(), {}
             try:
-                e = estimate_from_files(*paths, method=method, heel_reference=heel_ref, band=band)
+                e = estimate_from_files(*paths, method=method, heel_reference=heel_ref)
                 (mlo, mhi), (zlo, zhi) = e.ci()
                 ok = e.converged and np.all(np.isfinite([e.m, e.zbar_m, mlo, mhi, zlo, zhi]))
                 row = (
@@ -162,10 +159,8 @@ def _code_hash() -> str:
 
 def _family(a: argparse.Namespace) -> dict[str, object]:
     """The settings that decide a family's ships and recordings (its runs' seeds depend on ``--runs``), and the
-    code that fitted them (:func:`_code_hash`); ``band`` only where one is given (stop 61), so a full-band dump's
-    settings stay those of the dumps before it, and a band's rows are never pooled or resumed with them."""
-    fam = {"runs": a.runs, "seed": a.seed, "quiet": a.quiet, "with_u": not a.no_u, "heel_ref": a.heel_ref, "code": _code_hash()}
-    return {**fam, "band": a.band} if a.band else fam
+    code that fitted them (:func:`_code_hash`)."""
+    return {"runs": a.runs, "seed": a.seed, "quiet": a.quiet, "with_u": not a.no_u, "heel_ref": a.heel_ref, "code": _code_hash()}
 
 
 def _misfit(i: int, theirs: object, family: dict[str, object]) -> str | None:
@@ -352,11 +347,6 @@ def main() -> None:
         "dump's); one process per dump at a time (a dump another process holds is refused)",
     )
     ap.add_argument("--only", help="comma-separated variant/run/case fits of the family to make, e.g. base/1/case1")
-    ap.add_argument(
-        "--band",
-        help="oe's band-limited objective (identify.rollmass.band, stop 61; not the default): lowpass:F, bandpass:LO-HI "
-        "or bandstop:LO-HI in Hz; recorded in the dump's settings",
-    )
     a = ap.parse_args()
     variants, cases = a.variants.split(","), a.cases.split(",")
     methods = list(METHODS) if a.methods == "all" else a.methods.split(",")
@@ -364,11 +354,6 @@ def main() -> None:
         ap.error("unknown method, variant or case")
     if a.resume and not a.dump:
         ap.error("--resume needs --dump")
-    if a.band:
-        try:
-            a.band = parse_band(a.band).label()  # the canonical form, so two spellings of one band pool
-        except ValueError as exc:
-            ap.exit(2, f"{ap.prog}: error: --{exc}\n")
     try:
         only = _only(a, variants, cases)
     except ValueError as exc:  # one line (ap.error would print the usage too), exit 2 as a usage error, no dump touched

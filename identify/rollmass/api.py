@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 
-from identify.rollmass.band import Band
 from identify.rollmass.estimate import DEFAULT_METHOD, METHODS, MassEstimate, estimate
 from identify.rollmass.model import Load, RollProfile, load_profile
 from identify.rollmass.output_error import start_values
@@ -368,14 +367,12 @@ def estimate_from_files(
     method: str | None = None,
     z_f: float | None = None,
     heel_reference: str = DEFAULT_HEEL_REFERENCE,
-    band: Band | None = None,
 ) -> MassEstimate:
     """Read three recordings and estimate the loaded run's mass change and the load's z with 95 % intervals.
 
     The headers' role, speed, IMU z and known load are checked against the file order, the
     profile and ``known_load`` (which may be omitted when the calibration file's header gives it).
-    ``heel_reference`` (oe): how the roll angle is referenced, :func:`restoring.referenced_heel`. ``band`` (oe;
-    stop 61, an experiment with no CLI option): the band-limited objective of :mod:`identify.rollmass.band`.
+    ``heel_reference`` (oe): how the roll angle is referenced, :func:`restoring.referenced_heel`.
     """
     method = DEFAULT_METHOD if method is None else method
     if method not in METHODS:
@@ -394,7 +391,6 @@ def estimate_from_files(
             z_f=z_f,
             start=start_values(got.prof),
             heel_reference=heel_reference,
-            band=band,
         )
     except (
         ValueError,

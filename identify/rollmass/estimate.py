@@ -32,7 +32,6 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.special import stdtrit  # scipy.optimize imports scipy.special already; scipy.stats would cost ~1 s
 
-from identify.rollmass.band import Band
 from identify.rollmass.fit_path import FitPath
 from identify.rollmass.instruments import (
     N_LAGS,
@@ -201,7 +200,6 @@ def estimate(
     fix: dict[str, float] | None = None,
     start: dict[str, float] | None = None,
     heel_reference: str = DEFAULT_HEEL_REFERENCE,
-    band: Band | None = None,
 ) -> MassEstimate:
     """Estimate the loaded dataset's ``m``, ``zbar_m`` from ``[nominal, calibration, loaded]``.
 
@@ -209,8 +207,7 @@ def estimate(
     ``start`` (oe only, required) holds start values of the ship parameters, e.g.
     :func:`identify.rollmass.output_error.start_values` of the profile. ``heel_reference`` (oe only):
     how the roll angle is referenced, one of :data:`restoring.HEEL_REFERENCES`
-    (:func:`restoring.referenced_heel`). ``band`` (oe only; stop 61, an experiment, not the default): the
-    band-limited objective (:mod:`identify.rollmass.band`, :func:`oe_fit.fit_output_error`).
+    (:func:`restoring.referenced_heel`).
     """
     _check(datasets)
     if method not in METHODS:
@@ -218,7 +215,7 @@ def estimate(
     if method == "oe":
         if start is None:
             raise ValueError("the oe method needs start values (output_error.start_values(profile))")
-        return _oe(datasets, kn, cal, with_ci, kn.z_f_prior if z_f is None else z_f, start, heel_reference, band)
+        return _oe(datasets, kn, cal, with_ci, kn.z_f_prior if z_f is None else z_f, start, heel_reference)
     if method == "improved":
         fixed = {"z_f": kn.z_f_prior if z_f is None else z_f}
         if fix is not None:
@@ -364,7 +361,6 @@ def _oe(
     z_f: float,
     start: dict[str, float],
     heel_reference: str = DEFAULT_HEEL_REFERENCE,
-    band: Band | None = None,
 ) -> MassEstimate:
     """Output-error fit with ``z_f`` under its prior ``N(z_f, z_f_prior_sd^2)``; with ``with_ci`` the
     sandwich covariance of every free parameter, ``z_f`` included (:func:`oe_fit.fit_output_error`).
@@ -375,7 +371,7 @@ def _oe(
     the column's error would otherwise reach the fit through the roll angle."""
     datasets = [d if d.u is None or followed_speed(d) is not None else replace(d, u=None) for d in datasets]
     datasets = [replace(d, phi=referenced_heel(d, kn.g, kn.U if d.U is None else d.U, heel_reference)) for d in datasets]
-    f = fit_output_error(datasets, kn, cal, z_f, start, with_cov=with_ci, band=band)
+    f = fit_output_error(datasets, kn, cal, z_f, start, with_cov=with_ci)
     # K_r of (11) from the fitted K_ur, so the shared parameters read as in the paper's Table 3
     K_r = (f.values["K_ur"] - f.values["K_vdot"]) * kn.U
     params = {**f.values, "K_r": K_r, "z_f": f.z_f}

@@ -11,7 +11,6 @@ import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
 from threadpoolctl import threadpool_limits
 
-from identify.rollmass.band import Band
 from identify.rollmass.fit_path import Counted, FitPath, PathTally
 from identify.rollmass.geodesic import geodesic_lm
 from identify.rollmass.gyro_bias import speed_terms
@@ -121,13 +120,12 @@ def _best_start(
     lm: _LM,
     xv_prior: tuple[float, float] | None = None,
     tally: PathTally | None = None,
-    band: Band | None = None,
 ) -> OptimizeResult:
     """Two starts for the joint fit, the one with the lower unweighted cost kept: ``start`` itself,
     and the ship parameters fitted to the two runs whose loads are known (nominal, calibration).
     From a poor start the joint fit can otherwise settle in a local minimum (a wrong sway row with
     a negative or huge load), as a few per cent of the fits from start values 20 % off did.
-    Returns the kept joint fit (unwhitened, on the weights ``w``, band-limited by ``band``); ``tally`` counts its evaluations."""
+    Returns the kept joint fit (unwhitened, on the weights ``w``); ``tally`` counts its evaluations."""
     tally = PathTally() if tally is None else tally
     try:
         for load, rec in zip((Load(0.0, 0.0), cal), datasets):
@@ -140,11 +138,9 @@ def _best_start(
     shared = shared_parameters(datasets, kn)
     ship = shared + (("z_f",) if z_f_sd > 0 else ())
     x_ship = np.array([start[k] if k != "kappa" else start.get(k, heel_gain(kn)) for k in shared] + ([z_f] if z_f_sd > 0 else []))
-    pair = _Problem(datasets[:2], kn, cal, z_f, ship, w[:2], z_f_sd=z_f_sd, xv_prior=xv_prior, band=band)
+    pair = _Problem(datasets[:2], kn, cal, z_f, ship, w[:2], z_f_sd=z_f_sd, xv_prior=xv_prior)
     fitted = lm(Counted(pair, tally), x_ship, 1e-8).x
-    prob = Counted(
-        _Problem(datasets, kn, cal, z_f, ship + ("m", "zbar_m"), w, z_f_sd=z_f_sd, xv_prior=xv_prior, band=band), tally
-    )
+    prob = Counted(_Problem(datasets, kn, cal, z_f, ship + ("m", "zbar_m"), w, z_f_sd=z_f_sd, xv_prior=xv_prior), tally)
     best = None
     for x in (x_ship, fitted):
         res = lm(prob, np.r_[x, cal.m, cal.zbar], 1e-8)
@@ -245,7 +241,6 @@ def fit_output_error(
     ar_order: int = NOISE_AR,
     with_cov: bool = True,
     z_f_sd: float | None = None,
-    band: Band | None = None,
 ) -> OEFit:
     """Fit :data:`SHARED`, ``z_f`` and the loaded ``m, zbar_m`` by output error on ``p, a_s, r`` of all datasets.
 
@@ -277,16 +272,8 @@ def fit_output_error(
     stationary), while the forward-difference path stops near the start and comes back (0.167 kg,
     stationary). On the bundled example's three cases the exact path gives the same optimum (load within
     3e-5 kg and 3e-5 m) at a third of the cpu.
-
-    ``band`` (stop 61, an experiment, not the default): the band-limited objective of :mod:`identify.rollmass.band`.
-    Each stage's AR whiteners are still fitted to the full-band residual (an AR fitted to a band-limited one would
-    model the stop band's near-zero power and amplify there without bound) and the band then cuts the whitened
-    residual, its nuisance basis and the Jacobian: whiten first, band-limit after, i.e. the whitened residual's
-    (Whittle-type) cost over the band only. The weights are 1 / sd of each channel's whitened, band-limited residual,
-    and the sandwich takes the same filtered residual and Jacobian, so the interval is this objective's. None: main's
-    fit, bit for bit.
     """
-    args = (datasets, kn, cal, z_f, start, n_reweight, ar_order, with_cov, z_f_sd, band)
+    args = (datasets, kn, cal, z_f, start, n_reweight, ar_order, with_cov, z_f_sd)
     path = FitPath()
     end = _fit(*args, lm=_lm_exact, tally=path.exact)
     fit = end.fit
@@ -357,32 +344,22 @@ def _continued(end: _Ended, z_f: float, tally: PathTally) -> OEFit:
     (+23.88 against +23.84 % mass), and on imu_mount/6/case3 it did not converge where that walk does."""
     prob = end.prob.recounted(tally)
     res = _tallied(_lm_geodesic if CONTINUATION == "geodesic" else _lm_continue, tally)(prob, end.x, 1e-10)
-    sd = np.array([e.std(axis=0) for e in prob.errors(res.x, banded=False)])  # as _fit's
+    sd = np.array([e.std(axis=0) for e in prob.errors(res.x)])
     return _conclude(prob, res, sd, end.fit.noise, True, z_f).fit
 
 
 def _reweighted(
-    errs: list[np.ndarray],
-    ar: list[list[np.ndarray]] | None,
-    ar_order: int,
-    band: Band | None = None,
-    Ts: list[float] | None = None,
+    errs: list[np.ndarray], ar: list[list[np.ndarray]] | None, ar_order: int
 ) -> tuple[list[list[np.ndarray]], np.ndarray, np.ndarray]:
     """Iterated ML's next weights: each channel's output error whitened (waves are narrow-band process noise that
     reaches the outputs coloured; the new whitener is convolved with the last stage's ``ar``), then weighted by its
-    innovation sd. Returns the whiteners, the innovation sds and the weights. With a ``band`` (``errs`` then the
-    full band's, whitened by the last stage's ``ar``; ``Ts`` the datasets' sample times) the weights are 1 / sd of
-    each new whitened residual band-limited, the objective's own scale (:func:`fit_output_error`)."""
-    fresh = [[_whitener(e[:, j], ar_order) for j in range(3)] for e in errs]
-    ar = [[fresh[i][j] if ar is None else np.convolve(fresh[i][j], ar[i][j]) for j in range(3)] for i in range(len(errs))]
+    innovation sd. Returns the whiteners, the innovation sds and the weights."""
+    ar = [
+        [_whitener(e[:, j], ar_order) if ar is None else np.convolve(_whitener(e[:, j], ar_order), ar[i][j]) for j in range(3)]
+        for i, e in enumerate(errs)
+    ]
     sd = np.array([[fir(ar[i][j], e[:, j]).std() for j in range(3)] for i, e in enumerate(errs)])
-    if band is None:
-        return ar, sd, 1.0 / np.maximum(sd, 1e-12)
-    # ``errs`` are whitened by the last stage's whiteners already, so the next stage's whitened residual is ``errs``
-    # through the new factor alone (main's sd above applies the last stage's twice: on the full band a scale, but
-    # band-limited it put the weights 10-1000x off, the cost over the fit's 1e5 sanity bound on a noise-free case)
-    sd_band = np.array([[band.apply(fir(fresh[i][j], e[:, j]), Ts[i]).std() for j in range(3)] for i, e in enumerate(errs)])
-    return ar, sd, 1.0 / np.maximum(sd_band, 1e-12)
+    return ar, sd, 1.0 / np.maximum(sd, 1e-12)
 
 
 def _fit(
@@ -395,7 +372,6 @@ def _fit(
     ar_order: int,
     with_cov: bool,
     z_f_sd: float | None,
-    band: Band | None,
     lm: _LM,
     tally: PathTally,
 ) -> _Ended:
@@ -409,12 +385,12 @@ def _fit(
     # nearly free scale without converging (stop 50); a run at constant speed keeps main's fit bit for bit
     followed = any(followed_speed(d) is not None for d in datasets)
     xv_prior = (start["X_v"], SWAY_MASS_PRIOR_SD) if followed and SWAY_MASS_PRIOR_SD > 0 else None
-    first = _best_start(datasets, kn, cal, z_f, z_f_sd, start, w, lm, xv_prior, tally=tally, band=band)
+    first = _best_start(datasets, kn, cal, z_f, z_f_sd, start, w, lm, xv_prior, tally=tally)
     x = first.x
     r_bias: list[float | None] = [None] * len(datasets)
     sway: list[np.ndarray | None] = [None] * len(datasets)
     for it in range(n_reweight + 1):
-        prob = Counted(_Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd, r_bias, sway, xv_prior, band), tally)
+        prob = Counted(_Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd, r_bias, sway, xv_prior), tally)
         # _best_start has just solved the first problem (same weights, no whitening); its optimum only
         # seeds the reweighted fits, which run to the tight tolerance below
         res = first if it == 0 and n_reweight > 0 else lm(prob, x, 1e-10)
@@ -424,11 +400,11 @@ def _fit(
             # are fitted, so that they are fitted to the residual without the mean turning's structure
             v = prob.values(x)
             r_bias, sway = speed_terms(v, kn, v.get("z_f", z_f), prob.loads(v), datasets, r_bias, sway, SWAY_TERM)
-            prob = Counted(_Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd, r_bias, sway, xv_prior, band), tally)
-        errs = prob.errors(x, banded=False)  # the whiteners' fit sees the full band (fit_output_error's ``band``)
+            prob = Counted(_Problem(datasets, kn, cal, z_f, free, w, ar, z_f_sd, r_bias, sway, xv_prior), tally)
+        errs = prob.errors(x)
         sd = np.array([e.std(axis=0) for e in errs])
         if it < n_reweight:
-            ar, sd, w = _reweighted(errs, ar, ar_order, band, [d.T for d in datasets])
+            ar, sd, w = _reweighted(errs, ar, ar_order)
     return _conclude(prob, res, sd, (w, ar), with_cov, z_f)
 
 

@@ -39,11 +39,9 @@ holds the model and its residual.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import partial
 
 import numpy as np
 
-from identify.rollmass.band import Band
 from identify.rollmass.fit_path import FitPath
 from identify.rollmass.model import Known, Load, RollProfile, load_restoring
 from identify.rollmass.restoring import gravity_excess, heel_gain, heel_signal
@@ -341,12 +339,8 @@ class _Problem:
         r_bias: list[float | None] | None = None,
         sway: list[np.ndarray | None] | None = None,
         xv_prior: tuple[float, float] | None = None,
-        band: Band | None = None,
     ):
         self.datasets, self.kn, self.cal, self.z_f, self.free, self.w = datasets, kn, cal, z_f, free, weights
-        # the band-limited objective (:mod:`identify.rollmass.band`, stop 61): each whitened channel, its nuisance
-        # basis and (:meth:`jacobian`) its Jacobian columns filtered by one zero-phase filter; None: the full band
-        self.band = band
         # each dataset's yaw-rate gyro bias in the turn input (:func:`speed_inputs`; None: the recording's mean r)
         self.r_bias = list(r_bias) if r_bias is not None else [None] * len(datasets)
         self.sway = list(sway) if sway is not None else [None] * len(datasets)
@@ -364,10 +358,8 @@ class _Problem:
         """Nominal, calibration and (when ``datasets`` holds it) the loaded run's load."""
         return [Load(0.0, 0.0), self.cal, Load(v["m"], v["zbar_m"]) if "m" in v else None][: len(self.datasets)]
 
-    def errors(self, x: np.ndarray, banded: bool = True) -> list[np.ndarray]:
-        """Per dataset (n, 3) output errors, each channel whitened by its AR filter, band-limited (with a ``band``,
-        unless ``banded`` is false: the AR whiteners are fitted to the full band, :func:`oe_fit._reweighted`), nuisance
-        projected out."""
+    def errors(self, x: np.ndarray) -> list[np.ndarray]:
+        """Per dataset (n, 3) output errors, each channel whitened by its AR filter, nuisance projected out."""
         v = self.values(x)
         z_f = v.get("z_f", self.z_f)
         out = []
@@ -378,8 +370,6 @@ class _Problem:
             for j in range(3):
                 a = self.ar[i][j]
                 ej, Bj = fir(a, e[:, j]), fir(a, basis)
-                if banded and self.band is not None:
-                    ej, Bj = self.band.apply(ej, rec.T), self.band.apply(Bj, rec.T)
                 Q, _ = np.linalg.qr(Bj)
                 cols.append(ej - Q @ (Q.T @ ej))
             out.append(np.column_stack(cols))
@@ -446,8 +436,7 @@ class _Problem:
                 dmats = [tuple((a[1 + j] - a[1 + P + j]) / (2 * h) for a in stacked) for j, h in enumerate(steps)]
                 du = lag_derivative(speed_inputs(rec)[0], lag, rec.T) if lag_col >= 0 else None
                 inputs = model_inputs(v, self.kn, rec, self.r_bias[i], self.sway[i])
-                post = None if self.band is None else partial(self.band.apply, T=rec.T)
-                blocks.append(dataset_jacobian(mats, dmats, inputs, du, lag_col, Y, self.ar[i], self.w[i], post))
+                blocks.append(dataset_jacobian(mats, dmats, inputs, du, lag_col, Y, self.ar[i], self.w[i]))
         except (FloatingPointError, np.linalg.LinAlgError):
             return central_jacobian(self.residual, x)
         return np.vstack(blocks + [self.prior_jacobian(x)])

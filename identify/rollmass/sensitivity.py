@@ -38,7 +38,6 @@ side only fails there.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from functools import lru_cache
 
 import numpy as np
@@ -279,15 +278,12 @@ def dataset_jacobian(
     Y: np.ndarray,
     ar: list[np.ndarray],
     w: np.ndarray,
-    post: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> np.ndarray:
     """One dataset's rows of the fit's Jacobian, (3 n, P) in the residual's order (sample-major,
     channels ``p, a_s, r``): the whitened (``ar``), weighted (``w``) output error with its free
     response and bias projected out per channel, differentiated by every parameter whose discrete
     matrices move by ``dmats`` (and the lag parameter ``lag_col`` by ``du``, the first input's derivative);
-    ``inputs`` as ``output_error.model_inputs`` gives them. ``post``: a linear filter along time applied after each
-    whitener (the band-limited objective, :mod:`identify.rollmass.band`), the same on the residual, the basis and
-    every column, so the rows stay the exact Jacobian of the filtered residual; None: none (main's arithmetic)."""
+    ``inputs`` as ``output_error.model_inputs`` gives them."""
     lam, V = modal(mats[0])
     y, dy, E = _output_sensitivities(lam, V, mats, dmats, inputs, du, lag_col)
     n, P = len(Y), len(dmats)
@@ -303,15 +299,11 @@ def dataset_jacobian(
     J = np.empty((n, 3, P))
     for ch in range(3):
         a = ar[ch]
-
-        def W(X: np.ndarray, a: np.ndarray = a) -> np.ndarray:
-            return fir(a, X) if post is None else post(fir(a, X))
-
-        Q, R = np.linalg.qr(W(basis))
-        We = W(e[:, ch])
+        Q, R = np.linalg.qr(fir(a, basis))
+        We = fir(a, e[:, ch])
         beta = solve_triangular(R, Q.T @ We)
         r = We - Q @ (Q.T @ We)
-        Wk = W(kpow)
+        Wk = fir(a, kpow)
         # beta's weights of each basis mode's power: a real mode's column, or a pair's (re, im) as re - i im
         gamma, j = [], 0
         for is_real in real:
@@ -326,6 +318,6 @@ def dataset_jacobian(
             if not is_real:
                 dBt_r[j + 1] = s[m].imag
             j += 1 if is_real else 2
-        X = W(dy[ch]) + dB_beta
+        X = fir(a, dy[ch]) + dB_beta
         J[:, ch, :] = -w[ch] * (X - Q @ (Q.T @ X) + Q @ solve_triangular(R, dBt_r, trans="T"))
     return J.reshape(3 * n, P)
