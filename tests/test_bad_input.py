@@ -82,6 +82,7 @@ def files(tmp_path_factory):
         "cfg_slow": '[sweep]\nlibrary = "standard"\nspeeds = [0.001]\n',
         "cfg_nan": '[sweep]\nlibrary = "standard"\nspeeds = [nan]\n',
         "cfg_neg": '[sweep]\nlibrary = "standard"\nspeeds = [-1.0]\n',
+        "cfg_strspeed": '[sweep]\nlibrary = "standard"\nspeeds = ["0_6"]\n',  # stop 61: read as 6 m/s
         "cfg_badtoml": "[sweep\nships = 1\n",
         "cfg_seed": "[sweep]\nseed = -3\n",
         "cfg_podded": '[sweep]\nships = ["naval-vessel"]\n',
@@ -362,6 +363,7 @@ def _cases() -> list[tuple[str, list[str]]]:
         "{cfg_slow}",
         "{cfg_nan}",
         "{cfg_neg}",
+        "{cfg_strspeed}",
         "{cfg_seed}",
         "{cfg_huge}",
         "{plan}",
@@ -492,6 +494,18 @@ def test_bad_input_is_one_line_nonzero_and_writes_nothing(case, argv, files, tmp
             f"{case}: the message does not name {NAMED[case]}: {err!r}"
         )
     assert _snapshot(files["tmp"], tmp_path) == before, f"{case}: wrote files on invalid input"
+
+
+@pytest.mark.parametrize("speed", ['"0_6"', '"1.0"', '"1e1"'])
+def test_a_sweep_speed_given_as_a_string_is_refused(tmp_path, speed):
+    """Stop 61: float() read the string "0_6" as 6 m/s (a design at ten times the speed meant); every string is
+    refused in one line, as the profile loader refuses a string length."""
+    from expdesign.sweep import SweepError, load_sweep
+
+    cfg = tmp_path / "s.toml"
+    cfg.write_text(f'[sweep]\nships = ["model-ship"]\nlibrary = "standard"\nspeeds = [0.6, {speed}]\n')
+    with pytest.raises(SweepError, match=r"s.toml: field 'sweep.speeds' holds the string .*: write each speed as a TOML number"):
+        load_sweep(cfg)
 
 
 def test_the_suite_covers_every_option_of_every_command():
