@@ -15,6 +15,7 @@ import maps.export.staging as staging
 from cli.app import _run
 from maps.export import export_plan
 from maps.export._testing import synthetic_plan
+from maps.export.ownership import MANIFEST, record_written
 from maps.export.staging import staged_outputs
 from primitives.errors import UserError
 from primitives.io import OUTPUT_MARKER
@@ -50,6 +51,7 @@ def out(tmp_path):
     d = tmp_path / "out"
     d.mkdir()
     (d / "model-ship-trial.gpx").write_bytes(OLD_GPX)  # a file of the same name as an export
+    record_written(d, ["model-ship-trial.gpx"])  # last week's export wrote it (a user's own file is refused: test_bad_input)
     (d / "notes.txt").write_text("crew notes")
     return d
 
@@ -73,12 +75,12 @@ def test_cli_export_all_failing_late_writes_nothing(plan_file, out, module, writ
 def test_cli_export_all_replaces_files_and_leaves_no_temporary(plan_file, out, capsys):
     assert _run(["export", str(plan_file), "--format", "all", "--out", str(out), "--start", START]) == 0
     names = {p.name for p in out.iterdir()}
-    assert names == {"notes.txt"} | {
+    assert names == {"notes.txt", MANIFEST} | {
         f"model-ship-trial{s}" for s in (".geojson", ".gpx", ".rtz", ".csv", ".html", ".pdf", "-track.png", "-states.png")
     }
     assert (out / "model-ship-trial.gpx").read_bytes() != OLD_GPX and (out / "notes.txt").read_text() == "crew notes"
     wrote = [line.split(" ", 1)[1] for line in capsys.readouterr().out.splitlines()]
-    assert sorted(wrote) == sorted(str(out / n) for n in names - {"notes.txt"})
+    assert sorted(wrote) == sorted(str(out / n) for n in names - {"notes.txt", MANIFEST})
 
 
 def test_card_html_not_left_when_its_pdf_fails(plan, tmp_path, monkeypatch):
