@@ -6,9 +6,11 @@ be replaced without being asked, as :func:`primitives.io.check_replaceable_dir` 
 a directory holding files shiptrial did not write. Each export records the files it published,
 with their SHA-256, in :data:`MANIFEST` in the destination; an existing file may be replaced when
 the manifest lists it with its present digest (written by an export, unchanged since), or when the
-destination is a plan-trial output directory of a version before the manifest (its marker file,
-no manifest). Anything else is refused, naming the file, unless the caller passes ``replace``
-(``--force``). Files of other names are never touched.
+destination is a plan-trial output directory not yet exported into (its marker file, no manifest:
+plan-trial writes its exports itself and replaces that directory whole, so its files count as
+shiptrial's, as :func:`primitives.io.check_replaceable_dir` counts them). Anything else is refused,
+naming the file, unless the caller passes ``replace`` (``--force``). Files of other names are never
+touched.
 """
 
 from __future__ import annotations
@@ -50,7 +52,7 @@ def check_replaceable(out_dir: str | Path, names: Iterable[str], replace: bool =
         if not path.is_file():
             continue  # absent (written new) or a directory (refused by the publishing, naming it)
         if recorded is None and (out_dir / OUTPUT_MARKER).is_file():
-            continue  # a plan-trial directory written before the manifest: its exports are shiptrial's
+            continue  # a plan-trial directory not yet exported into: its exports are plan-trial's own
         known = (recorded or {}).get(name)
         if known == _digest(path):
             continue
