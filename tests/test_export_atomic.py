@@ -247,3 +247,25 @@ def test_staging_killed_before_its_owner_file_had_its_text_goes_once_stale(tmp_p
     other = _old_version_dir(out, ".shiptrial-export.n0t3xt02", {"new/thesis.tex": "mine", staging.OWNER: ""})
     assert staging.remove_stale(out) == [stale]
     assert recent.is_dir() and other.is_dir() and not stale.exists()
+
+
+def test_a_plan_trial_directory_takes_one_format_s_export_after_another(plan, tmp_path):
+    """Review of stop 61: in plan-trial's output directory (its marker) a re-export of one format recorded only
+    that file, and the next format's re-export then refused plan-trial's own file as 'not written by an export'.
+    A file the manifest does not list is plan-trial's there; one an export wrote and the user edited since is not."""
+    from maps.export import default_path
+    from maps.export._common import ExportError
+
+    d = tmp_path / "plan-out"
+    d.mkdir()
+    (d / OUTPUT_MARKER).write_text("written by shiptrial")
+    gpx, csv = (d / default_path(plan, fmt).name for fmt in ("gpx", "csv"))
+    gpx.write_text("plan-trial's gpx")
+    csv.write_text("plan-trial's csv")
+    export_plan(plan, "gpx", gpx)
+    export_plan(plan, "csv", csv)
+    assert csv.read_text() != "plan-trial's csv" and gpx.read_text() != "plan-trial's gpx"
+    gpx.write_text("edited by hand")
+    with pytest.raises(ExportError, match="was changed after an export wrote it"):
+        export_plan(plan, "gpx", gpx)
+    assert gpx.read_text() == "edited by hand"

@@ -6,9 +6,10 @@ be replaced without being asked, as :func:`primitives.io.check_replaceable_dir` 
 a directory holding files shiptrial did not write. Each export records the files it published,
 with their SHA-256, in :data:`MANIFEST` in the destination; an existing file may be replaced when
 the manifest lists it with its present digest (written by an export, unchanged since), or when the
-destination is a plan-trial output directory not yet exported into (its marker file, no manifest:
+destination is a plan-trial output directory (its marker file) and the manifest does not list it:
 plan-trial writes its exports itself and replaces that directory whole, so its files count as
-shiptrial's, as :func:`primitives.io.check_replaceable_dir` counts them). Anything else is refused,
+shiptrial's, as :func:`primitives.io.check_replaceable_dir` counts them, also after an export of
+another format into that directory. Anything else is refused,
 naming the file, unless the caller passes ``replace`` (``--force``). Files of other names are never
 touched.
 """
@@ -46,14 +47,15 @@ def check_replaceable(out_dir: str | Path, names: Iterable[str], replace: bool =
     out_dir = Path(out_dir)
     if replace or not out_dir.is_dir():
         return
-    recorded = _recorded(out_dir)
+    recorded = _recorded(out_dir) or {}
+    plan_trial = (out_dir / OUTPUT_MARKER).is_file()
     for name in names:
         path = out_dir / name
         if not path.is_file():
             continue  # absent (written new) or a directory (refused by the publishing, naming it)
-        if recorded is None and (out_dir / OUTPUT_MARKER).is_file():
-            continue  # a plan-trial directory not yet exported into: its exports are plan-trial's own
-        known = (recorded or {}).get(name)
+        known = recorded.get(name)
+        if known is None and plan_trial:
+            continue  # a plan-trial directory's file no export replaced yet: plan-trial wrote it
         if known == _digest(path):
             continue
         why = "was changed after an export wrote it" if known else "was not written by an export"
