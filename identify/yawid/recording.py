@@ -33,8 +33,9 @@ MAX_ROLL_RAD = 0.7  # 40 deg: no trial rolls further (the naval vessel's reach 0
 MAX_SPEED_X = 1.2
 KNOT_MPS = 1852 / 3600
 VDOT_WINDOW_S = 5  # vdot_slope's moving means: sway turns over tens of seconds, noise averages out
-# measured (yaw_vdot.py): the slope is 0.985..1.010 in m/s and 1.915..1.963 in knots at Table 4.1's noise, 0.865..1.011
-# and 1.681..1.964 at 5 x; noise in v_dot only lowers it (0.12..0.71 at 20 x in m/s): refused above 1.4 with t > 4
+# measured (yaw_vdot.py, 40 identification runs; docs/bad-input-sweep.md, Stop 61): the slope is 0.980..1.017 in m/s
+# and 1.905..1.977 in knots at Table 4.1's noise, 0.802..1.011 and 1.559..1.964 (t >= 4.6) at 5 x; noise in v_dot only
+# lowers it (0.04..0.77 at 20 x in m/s): refused above 1.4 with a t of (slope - 1) over 3
 VDOT_KNOTS_SLOPE, VDOT_KNOTS_T = 1.4, 3.0
 MAX_STEP_S = 10.0  # a yaw fit needs the response within a turn (tens of seconds): steps this long are milliseconds
 # the sign check's bounds on z (response_z, Newey-West standard error; yaw_sign_hac.py in the stop 60 leftovers):
