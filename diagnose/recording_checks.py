@@ -180,9 +180,6 @@ def _profile_speeds(rec, profile) -> tuple[float | None, float, str]:
     return expect, top, what
 
 
-SHIP_HEADER = "'# ship:"  # the notes of :func:`ship_header_note` say this (the CLI prints them as warnings)
-
-
 def _ship_words(name: str) -> list[str]:
     """A ship name's words without case and separators: 'KVLCC2 Linear' is ['kvlcc2', 'linear']."""
     return [w for w in re.split(r"[^0-9a-z]+", name.strip().lower()) if w]
@@ -204,7 +201,7 @@ def ship_header_note(rec, profile) -> str | None:
     if n and head[:n] == prof[:n]:
         return None
     return (
-        f"{rec.source}: header {SHIP_HEADER} {said}' but --ship is {profile.name!r}: diagnosed against "
+        f"{rec.source}: header '# ship: {said}' but --ship is {profile.name!r}: diagnosed against "
         f"{profile.name}'s model; if the run is of {said}, give its profile with --ship, else correct the header"
     )
 
