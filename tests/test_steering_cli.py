@@ -221,7 +221,7 @@ def test_a_failed_fit_says_so_on_stderr_in_one_line(tmp_path, capsys):
 def test_swapped_delta_and_r_are_named_and_noisy_correct_records_pass(record, tmp_path, capsys):
     """Stop 61: a record with its delta and r columns swapped failed its fit ("parameters not determined", exit 1)
     without naming the swap. The heading's rate tells them apart: r follows it, a rudder angle does not (misfits
-    0.005-9.6 against at least 1.68e3 over 529 correct records, docs/bad-input-sweep.md). Refused in one line; the
+    0.001-9.6 against at least 1.68e3 over 529 correct records, docs/bad-input-sweep.md). Refused in one line; the
     same experiment at 3 x the sea and 10 x the gyro noise, 10 seeds, passes."""
     from dataclasses import replace
 

@@ -129,7 +129,7 @@ def _checked(p: Path, cols: dict[str, np.ndarray], notes: list[str]) -> Steering
 
 # delta's unit-gain misfit to d psi/dt below SWAP_FIT and below SWAP_RATIO x r's: the two columns are swapped. Measured
 # (docs/bad-input-sweep.md, Stop 61): 529 correct records give delta's misfit >= 1.68e3 (a rudder angle is no rate) and
-# r's 0.005-9.6; a rudder held at 0 gives exactly 1, so the bound 0.8 never calls a record without rudder swapped
+# r's 0.001-9.6 (steer_swap.log); a rudder held at 0 gives exactly 1, so the bound 0.8 never calls a record without rudder swapped
 SWAP_FIT, SWAP_RATIO = 0.8, 0.01
 
 
