@@ -95,6 +95,9 @@ def register(app: typer.Typer) -> None:
         ),
         start: str | None = typer.Option(None, "--start", help="UTC start of the trial, ISO 8601 (e.g. 2026-06-01T08:00Z)"),
         no_pdf: bool = typer.Option(False, "--no-pdf", help="card: write the HTML only"),
+        force: bool = typer.Option(
+            False, "--force", help="replace files of the export's names that no export wrote (default: refuse, naming the file)"
+        ),
         vessel: str | None = typer.Option(
             None,
             "--vessel-name",
@@ -113,11 +116,11 @@ def register(app: typer.Typer) -> None:
         sea = resolve_sea_map(sea_map, plan.map_name, plan)
         if fmt_l == "all":
             out_dir = out or plan_file.parent  # an --out that is a file: refused by validate_export_options
-            written = list(export_all(plan, out_dir, sea, start=start, vessel=vessel).values())
+            written = list(export_all(plan, out_dir, sea, start=start, vessel=vessel, replace=force).values())
         else:
             path = out or default_path(plan, fmt_l, plan_file.parent)
             if path.is_dir():
                 path = default_path(plan, fmt_l, path)
-            written = export_plan(plan, fmt_l, path, sea_map=sea, start=start, pdf=not no_pdf, vessel=vessel)
+            written = export_plan(plan, fmt_l, path, sea_map=sea, start=start, pdf=not no_pdf, vessel=vessel, replace=force)
         for p in written:
             typer.echo(f"wrote {p}")

@@ -42,7 +42,8 @@ def register(app: typer.Typer) -> None:
             "--actuator",
             help="rudder_propeller (single screw, one rudder), twin_screw (two screws, two rudders) or azimuth (two steerable pods)",
         ),
-        out: Path = typer.Option(..., "--out", help="profile TOML to write"),
+        out: Path = typer.Option(..., "--out", help="profile TOML to write (an existing file only with --force)"),
+        force: bool = typer.Option(False, "--force", help="replace an existing --out file (default: refuse)"),
         seed: int = typer.Option(0, "--seed", help="seed of the draws that set the prior spread"),
         prior_draws: int = typer.Option(
             12, "--prior-draws", help="MMG models drawn from the regressions' scatter for the prior spread (>= 2)"
@@ -54,7 +55,7 @@ def register(app: typer.Typer) -> None:
         from primitives.particulars.build import Particulars, build_profile
         from primitives.particulars.trials import describe, imo_warnings, standard_trials
 
-        check_out_file(out, (".toml",), "--out", "profile")
+        check_out_file(out, (".toml",), "--out", "profile", replace=force)  # before the build's seconds of work
         if prior_draws < 2:
             raise UserError(f"--prior-draws {prior_draws}: give 2 or more (a spread needs two draws; 12 by default)")
         p = Particulars(

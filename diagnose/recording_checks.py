@@ -20,6 +20,7 @@ All are pure functions on :class:`diagnose.recording.Recording` (no I/O) and rai
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -177,6 +178,37 @@ def _profile_speeds(rec, profile) -> tuple[float | None, float, str]:
     except (ValueError, FloatingPointError, ArithmeticError):  # a profile whose surge balance has no root
         pass
     return expect, top, what
+
+
+def _ship_words(name: str) -> list[str]:
+    """A ship name's words without case and separators: 'KVLCC2 Linear' is ['kvlcc2', 'linear']."""
+    return [w for w in re.split(r"[^0-9a-z]+", name.strip().lower()) if w]
+
+
+def ship_header_note(rec, profile) -> str | None:
+    """A note when the recording's ``# ship:`` header names another ship than the profile diagnosed against.
+
+    Not a refusal, as ``shiptrial mass`` warns (``identify.rollmass.api.check_ship``) when a profile the user chose
+    meets another header: ``--ship`` is always the user's choice here, and a recording of a truly different ship is
+    refused by its content first (its input columns, speed range, Froude scale or sample time: a KVLCC2 run against
+    the model ship lacks tau_x); what passes is most likely a header written with a wrong or stale name. A profile
+    that is one of the header ship's models (header 'kvlcc2', profile 'kvlcc2-linear') is that ship."""
+    said = str(rec.meta.get("ship", "")).strip()
+    if not said:
+        return None
+    head, prof = _ship_words(said), _ship_words(profile.name)
+    n = min(len(head), len(prof))
+    if n and head[:n] == prof[:n]:
+        return None
+    return (
+        f"{rec.source}: header '# ship: {said}' but --ship is {profile.name!r}: diagnosed against "
+        f"{profile.name}'s model; if the run is of {said}, give its profile with --ship, else correct the header"
+    )
+
+
+def _with_ship_note(rec, profile):
+    note = ship_header_note(rec, profile)
+    return replace(rec, notes=[*rec.notes, note]) if note and note not in rec.notes else rec
 
 
 def check_speed(rec, profile) -> None:
@@ -376,7 +408,7 @@ def rudder_in_profile_sign(recs: list, profile) -> list:
         rec = apply_rudder_sign(rec, profile)
         check_rudder_sign(rec, profile)
         check_yaw_moment_sign(rec, profile)
-        out.append(rec)
+        out.append(_with_ship_note(rec, profile))  # api.run's own call: a notebook's diagnosis says it too
     return out
 
 
@@ -451,7 +483,8 @@ def conform(recs: list, profile, *, resample: bool = False, full_scale: bool = T
     """Every recording checked and brought to the profile: Froude-scaled to full scale when its
     header says ``# scale: model`` (a header giving a scale factor means the profile is the
     full-scale ship; pass ``full_scale=False`` to keep model scale), on the profile's sample time,
-    inputs in range. The notes on each recording say what was done (the report prints them)."""
+    inputs in range. The notes on each recording say what was done (the report prints them), and a ``# ship:``
+    header naming another ship (:func:`ship_header_note`)."""
     out = []
     for rec in recs:
         rec.inputs_for(profile.inputs)  # a missing input column says the --ship is wrong: say that first
@@ -463,5 +496,5 @@ def conform(recs: list, profile, *, resample: bool = False, full_scale: bool = T
         check_inputs(rec, profile)
         check_rudder_sign(rec, profile)  # a header naming the wrong convention is still caught here
         check_yaw_moment_sign(rec, profile)
-        out.append(rec)
+        out.append(_with_ship_note(rec, profile))
     return out

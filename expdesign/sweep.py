@@ -100,6 +100,11 @@ def _check_speeds(speeds: list, profiles: dict[str, Any], path: Path) -> None:
     for s in speeds:
         if s is None:
             continue
+        if isinstance(s, str):  # float() reads "0_6" as 6 and "1e1" as 10: a string is refused, as the profile loader does
+            raise SweepError(
+                f"{path}: field 'sweep.speeds' holds the string {s!r}: write each speed as a TOML number in m/s, "
+                "without quotes (speeds = [0.6, 1.0])"
+            )
         v = positive(s, f"{path}: field 'sweep.speeds'", "m/s", SweepError)
         for sh, prof in profiles.items():
             n = manoeuvre_samples(20 * prof.length_m, v, prof.sample_time)

@@ -3,7 +3,7 @@
 Format (the README's map format): a GeoJSON FeatureCollection in WGS-84 lon/lat (RFC 7946) whose
 ``properties.kind`` says what a feature is: ``land`` (Polygon/MultiPolygon, the default when
 ``kind`` is missing), ``depth_area`` (Polygon with ``min_depth_m``; shallower than draught +
-under-keel clearance is an obstacle), ``obstacle`` (Point with ``radius_m`` or Polygon),
+under-keel clearance is an obstacle), ``obstacle`` (Point with ``radius_m``, required, or Polygon),
 ``restricted`` (no-go polygon), ``trial_area`` (where trials are allowed), ``start``/``goal``
 (Point with optional ``heading_deg``).
 
@@ -385,7 +385,14 @@ def _feature(src: str, i: int, f: object, repair: bool, warnings: list[str]) -> 
     if kind == "depth_area" and not _finite_number(props.get("min_depth_m")):
         raise _fail(src, i, "depth_area needs a numeric properties.min_depth_m (S-57 DRVAL1, metres)")
     if kind == "obstacle" and gt == "Point":
-        r = props.get("radius_m", 0.0)
+        if "radius_m" not in props:  # read as radius 0 before: a wreck or shoal of hundreds of metres planned as a point
+            raise _fail(
+                src,
+                i,
+                "obstacle point has no properties.radius_m: give the radius that keeps the ship clear in metres "
+                "(0..100000; 0 for a mark of no extent, the --margin still applies)",
+            )
+        r = props["radius_m"]
         if not _finite_number(r) or not 0 <= r <= 1e5:
             raise _fail(src, i, "obstacle point needs properties.radius_m, 0..100000 metres")
     return kind, geom, props
@@ -445,7 +452,8 @@ def _combine(
         ]
         obst = []
         for (_, _, pr), g in zip(groups["obstacle"], proj_geoms("obstacle")):
-            obst.append(g.buffer(float(pr.get("radius_m", 0.0)) or 1.0) if g.geom_type == "Point" else g)
+            # radius 0 (given: a mark of no extent) is a 1 m disc: a point buffered by 0 is empty and blocks nothing
+            obst.append(g.buffer(float(pr["radius_m"]) or 1.0) if g.geom_type == "Point" else g)
         restricted = proj_geoms("restricted")
         obstacles = shapely.union_all([land, *shallow, *obst, *restricted])
         trial = shapely.union_all(proj_geoms("trial_area")) if groups["trial_area"] else None

@@ -242,8 +242,11 @@ def read_record_lines(path: str | Path, error: type, what: str, encoding: str = 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 
-def check_out_file(path: str | Path, suffixes: tuple[str, ...], option: str, what: str) -> Path:
-    """An output file whose extension names its format (``what``: "table", "figure") and that can be written."""
+def check_out_file(path: str | Path, suffixes: tuple[str, ...], option: str, what: str, *, replace: bool = True) -> Path:
+    """An output file whose extension names its format (``what``: "table", "figure") and that can be written.
+
+    ``replace=False``: an existing file is refused, naming ``--force`` (a file the user may have edited by hand,
+    such as a profile TOML, is not replaced unasked); by default the command replaces its output file."""
     from primitives.errors import UserError
 
     path = Path(path)
@@ -251,6 +254,8 @@ def check_out_file(path: str | Path, suffixes: tuple[str, ...], option: str, wha
         raise UserError(f"{option} {path}: is a directory; give a file path ending {' or '.join(suffixes)}")
     if path.suffix.lower() not in suffixes:
         raise UserError(f"{option} {path}: the extension must name the {what} format: {' or '.join(suffixes)}")
+    if not replace and os.path.lexists(path):
+        raise UserError(f"{option} {path}: the file exists; pass --force to replace it, or choose another {option}")
     return check_out_path(path, kind="file", option=option)
 
 

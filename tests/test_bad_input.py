@@ -82,6 +82,7 @@ def files(tmp_path_factory):
         "cfg_slow": '[sweep]\nlibrary = "standard"\nspeeds = [0.001]\n',
         "cfg_nan": '[sweep]\nlibrary = "standard"\nspeeds = [nan]\n',
         "cfg_neg": '[sweep]\nlibrary = "standard"\nspeeds = [-1.0]\n',
+        "cfg_strspeed": '[sweep]\nlibrary = "standard"\nspeeds = ["0_6"]\n',  # stop 61: read as 6 m/s
         "cfg_badtoml": "[sweep\nships = 1\n",
         "cfg_seed": "[sweep]\nseed = -3\n",
         "cfg_podded": '[sweep]\nships = ["naval-vessel"]\n',
@@ -362,6 +363,7 @@ def _cases() -> list[tuple[str, list[str]]]:
         "{cfg_slow}",
         "{cfg_nan}",
         "{cfg_neg}",
+        "{cfg_strspeed}",
         "{cfg_seed}",
         "{cfg_huge}",
         "{plan}",
@@ -492,6 +494,18 @@ def test_bad_input_is_one_line_nonzero_and_writes_nothing(case, argv, files, tmp
             f"{case}: the message does not name {NAMED[case]}: {err!r}"
         )
     assert _snapshot(files["tmp"], tmp_path) == before, f"{case}: wrote files on invalid input"
+
+
+@pytest.mark.parametrize("speed", ['"0_6"', '"1.0"', '"1e1"'])
+def test_a_sweep_speed_given_as_a_string_is_refused(tmp_path, speed):
+    """Stop 61: float() read the string "0_6" as 6 m/s (a design at ten times the speed meant); every string is
+    refused in one line, as the profile loader refuses a string length."""
+    from expdesign.sweep import SweepError, load_sweep
+
+    cfg = tmp_path / "s.toml"
+    cfg.write_text(f'[sweep]\nships = ["model-ship"]\nlibrary = "standard"\nspeeds = [0.6, {speed}]\n')
+    with pytest.raises(SweepError, match=r"s.toml: field 'sweep.speeds' holds the string .*: write each speed as a TOML number"):
+        load_sweep(cfg)
 
 
 def test_the_suite_covers_every_option_of_every_command():
@@ -668,3 +682,39 @@ def test_export_refuses_a_plan_edited_after_planning_and_reads_an_old_one_with_a
     assert _run(["export", "plan.json", "--format", "gpx", "--out", "c.gpx"]) == 0
     assert "note: plan.json: the plan carries no digest" in capsys.readouterr().out
     assert (tmp_path / "c.gpx").is_file()
+
+
+# Stop 61's sweep (docs/bad-input-sweep.md, "Stop 61")
+
+
+def test_export_never_replaces_a_file_it_did_not_write_without_force(tmp_path, monkeypatch, capsys):
+    """``export --format all --out DIR`` replaced a hand-written ``<ship>-trial.gpx`` in DIR without a word (stop 61,
+    exit 0). Now refused in one line naming the file and --force, nothing touched; with --force replaced, and the
+    user's other files (notes.txt) never touched either way; a re-export replaces its own files, but not one
+    changed since; a single format's --out FILE obeys the same rule."""
+    from maps.export._testing import synthetic_plan
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "plan.json").write_text(synthetic_plan("model-ship").to_json())
+    exp = tmp_path / "exp"
+    exp.mkdir()
+    (exp / "notes.txt").write_text("my notes")
+    (exp / "model-ship-trial.gpx").write_text("<gpx>my own route</gpx>")
+    before = _snapshot(tmp_path)
+    assert _run(["export", "plan.json", "--format", "all", "--out", "exp"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: exp/model-ship-trial.gpx: exists and was not written by an export"), err
+    assert "--force" in err[0] and _snapshot(tmp_path) == before
+    assert (exp / "model-ship-trial.gpx").read_text() == "<gpx>my own route</gpx>"
+
+    assert _run(["export", "plan.json", "--format", "all", "--out", "exp", "--force"]) == 0
+    assert (exp / "notes.txt").read_text() == "my notes" and "topografix" in (exp / "model-ship-trial.gpx").read_text()
+    assert _run(["export", "plan.json", "--format", "all", "--out", "exp"]) == 0  # its own files: replaced
+    capsys.readouterr()
+    (exp / "model-ship-trial.csv").write_text("edited by hand")
+    assert _run(["export", "plan.json", "--format", "csv", "--out", "exp"]) == 2
+    assert "was changed after an export wrote it" in capsys.readouterr().err
+    assert (exp / "model-ship-trial.csv").read_text() == "edited by hand" and (exp / "notes.txt").read_text() == "my notes"
+    (tmp_path / "mine.gpx").write_text("<gpx>mine</gpx>")
+    assert _run(["export", "plan.json", "--format", "gpx", "--out", "mine.gpx"]) == 2
+    assert (tmp_path / "mine.gpx").read_text() == "<gpx>mine</gpx>"

@@ -15,6 +15,7 @@ import maps.export.staging as staging
 from cli.app import _run
 from maps.export import export_plan
 from maps.export._testing import synthetic_plan
+from maps.export.ownership import MANIFEST, record_written
 from maps.export.staging import staged_outputs
 from primitives.errors import UserError
 from primitives.io import OUTPUT_MARKER
@@ -50,6 +51,7 @@ def out(tmp_path):
     d = tmp_path / "out"
     d.mkdir()
     (d / "model-ship-trial.gpx").write_bytes(OLD_GPX)  # a file of the same name as an export
+    record_written(d, ["model-ship-trial.gpx"])  # last week's export wrote it (a user's own file is refused: test_bad_input)
     (d / "notes.txt").write_text("crew notes")
     return d
 
@@ -73,12 +75,12 @@ def test_cli_export_all_failing_late_writes_nothing(plan_file, out, module, writ
 def test_cli_export_all_replaces_files_and_leaves_no_temporary(plan_file, out, capsys):
     assert _run(["export", str(plan_file), "--format", "all", "--out", str(out), "--start", START]) == 0
     names = {p.name for p in out.iterdir()}
-    assert names == {"notes.txt"} | {
+    assert names == {"notes.txt", MANIFEST} | {
         f"model-ship-trial{s}" for s in (".geojson", ".gpx", ".rtz", ".csv", ".html", ".pdf", "-track.png", "-states.png")
     }
     assert (out / "model-ship-trial.gpx").read_bytes() != OLD_GPX and (out / "notes.txt").read_text() == "crew notes"
     wrote = [line.split(" ", 1)[1] for line in capsys.readouterr().out.splitlines()]
-    assert sorted(wrote) == sorted(str(out / n) for n in names - {"notes.txt"})
+    assert sorted(wrote) == sorted(str(out / n) for n in names - {"notes.txt", MANIFEST})
 
 
 def test_card_html_not_left_when_its_pdf_fails(plan, tmp_path, monkeypatch):
@@ -245,3 +247,25 @@ def test_staging_killed_before_its_owner_file_had_its_text_goes_once_stale(tmp_p
     other = _old_version_dir(out, ".shiptrial-export.n0t3xt02", {"new/thesis.tex": "mine", staging.OWNER: ""})
     assert staging.remove_stale(out) == [stale]
     assert recent.is_dir() and other.is_dir() and not stale.exists()
+
+
+def test_a_plan_trial_directory_takes_one_format_s_export_after_another(plan, tmp_path):
+    """Review of stop 61: in plan-trial's output directory (its marker) a re-export of one format recorded only
+    that file, and the next format's re-export then refused plan-trial's own file as 'not written by an export'.
+    A file the manifest does not list is plan-trial's there; one an export wrote and the user edited since is not."""
+    from maps.export import default_path
+    from maps.export._common import ExportError
+
+    d = tmp_path / "plan-out"
+    d.mkdir()
+    (d / OUTPUT_MARKER).write_text("written by shiptrial")
+    gpx, csv = (d / default_path(plan, fmt).name for fmt in ("gpx", "csv"))
+    gpx.write_text("plan-trial's gpx")
+    csv.write_text("plan-trial's csv")
+    export_plan(plan, "gpx", gpx)
+    export_plan(plan, "csv", csv)
+    assert csv.read_text() != "plan-trial's csv" and gpx.read_text() != "plan-trial's gpx"
+    gpx.write_text("edited by hand")
+    with pytest.raises(ExportError, match="was changed after an export wrote it"):
+        export_plan(plan, "gpx", gpx)
+    assert gpx.read_text() == "edited by hand"

@@ -122,6 +122,21 @@ def test_bad_maps_rejected_with_reason(tmp_path, doc, words):
         load_map(write(tmp_path, doc))
 
 
+def test_an_obstacle_point_without_radius_is_refused_and_radius_0_is_a_mark(tmp_path):
+    """Stop 61: an obstacle point without properties.radius_m was read as radius 0 (a 1 m disc), so a wreck whose
+    radius the user forgot was planned past within the margin. Refused naming the feature and the field; a radius of
+    0 given explicitly is a mark of no extent (a pile, a buoy): kept, as a 1 m disc the margin keeps the ship off."""
+    start, goal = (
+        feat({"type": "Point", "coordinates": c}, kind=k) for c, k in (([25.0, 60.0], "start"), ([25.03, 60.01], "goal"))
+    )
+    area = feat(square(24.98, 59.99, 0.07, 0.03), kind="trial_area")
+    point = {"type": "Point", "coordinates": [25.01, 60.005]}
+    with pytest.raises(MapError, match=r"m.geojson: feature 3: obstacle point has no properties.radius_m: give"):
+        load_map(write(tmp_path, fc(start, goal, area, feat(point, kind="obstacle"))))
+    sea = load_map(write(tmp_path, fc(start, goal, area, feat(point, kind="obstacle", radius_m=0))))
+    assert abs(sea.obstacles.area - np.pi) < 0.05 * np.pi
+
+
 def test_a_land_sliver_without_area_is_left_out_with_a_warning(tmp_path):
     """A land, depth or restricted polygon on a line (a sliver from a converted chart) blocks no water: the map loads
     without it and says so; only a trial area without area is refused (above), since it would allow no water."""

@@ -42,6 +42,19 @@ def test_profile_new_writes_a_profile_and_prints_its_standard_manoeuvres(tmp_pat
     assert _run(["primitives", "--ship", str(out)]) == 0
 
 
+def test_profile_new_replaces_an_existing_file_only_with_force(tmp_path, capsys):
+    """Stop 61: ``profile new --out FILE`` replaced a hand-edited FILE without a word. Refused in one line before any
+    work, the file as it was; with --force replaced whole (written to a temporary and renamed)."""
+    out = tmp_path / "coaster.toml"
+    out.write_text("name = 'coaster'  # edited by hand\n")
+    assert _run(["profile", "new", *COASTER, "--prior-draws", "2", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"error: --out {out}: the file exists; pass --force to replace it, or choose another --out"]
+    assert out.read_text() == "name = 'coaster'  # edited by hand\n" and sorted(tmp_path.iterdir()) == [out]
+    assert _run(["profile", "new", *COASTER, "--prior-draws", "2", "--out", str(out), "--force"]) == 0
+    assert "[prior.std]" in out.read_text() and sorted(tmp_path.iterdir()) == [out]
+
+
 def test_profile_new_warns_of_the_imo_criteria_a_ship_misses_and_still_writes_it(tmp_path, capsys):
     """A full coaster (Cb 0.8, Cb B/L 0.144: Kijima's eps) with a 6 m^2 rudder (1 % of L T) misses
     IMO MSC.137(76)'s advance (4.78 L > 4.5 L), initial turning (2.96 L > 2.5 L) and overshoots."""

@@ -87,3 +87,24 @@ def test_a_negated_yaw_moment_of_a_generalized_ship_is_refused(effects, tmp_path
         conform([flipped], model_ship)
     with pytest.raises(RecordingError, match="column 'tau_n' turns the ship the other way"):
         run([flipped], model_ship, max_rounds=1)
+
+
+def test_a_ship_header_naming_another_ship_is_a_named_warning(zz):
+    """Stop 61: diagnose read '# ship: kvlcc2' over a run diagnosed with --ship model-ship without a word. As
+    `mass` does with a profile the user chose (identify.rollmass.api.check_ship), a note naming both, in the
+    recording's notes (report, diagnosis.json) and on stderr; a profile that is a model of the header's ship
+    (kvlcc2-linear for 'kvlcc2') and a header differing only in case and separators are the same ship. A real
+    KVLCC2 run against the model ship is refused by its content (no tau_x column) before any note."""
+    from diagnose.battery import scenario
+    from diagnose.recording_checks import conform
+
+    model_ship = load_profile("model-ship")
+    rec = scenario((), 3).diagnose[0]
+    said = lambda name, prof: conform([dataclasses.replace(rec, meta={**rec.meta, "ship": name})], prof)[0].notes  # noqa: E731
+    (note,) = said("kvlcc2", model_ship)
+    assert "header '# ship: kvlcc2' but --ship is 'model-ship'" in note and "give its profile with --ship" in note
+    assert said("Model Ship", model_ship) == said("model-ship", model_ship) == []
+    kv = dataclasses.replace(zz, meta={**zz.meta, "ship": "kvlcc2"})
+    assert not [n for n in conform([kv], load_profile("kvlcc2-linear"))[0].notes if "# ship:" in n]
+    with pytest.raises(RecordingError, match="tau_x"):
+        conform([kv], model_ship)

@@ -263,3 +263,23 @@ def test_a_rate_that_changes_only_in_its_first_second_is_no_turn(tmp_path):
     r[:5] = 0.01
     with pytest.raises(RecordingError, match="column 'r' or column 'tau_r' changes only in the first or last second"):
         _check_response(tmp_path / "run.csv", t, r, np.sin(t), True)
+
+
+@pytest.mark.parametrize("knots", [False, True])
+def test_a_slow_run_with_its_speed_log_in_knots_is_refused_by_v_dot(tmp_path, nv, knots):
+    """Stop 61: u in knots was caught only above 6 m/s (its median against 1.2 x the cruise speed). A slower run (the
+    turn pulse at 50 rev/s, median u 5.85 m/s: 11.4 in knots, under the bound 11.64) with its speed log in knots (u
+    and v) is refused by the sway: d v/dt against the measured v_dot reads 1.94 (in m/s: 1; 20 of 20 noise draws
+    caught, yaw_vdot_pulse.py). In m/s the run passes."""
+    from identify.yawid.recording import KNOT_MPS, read_yaw_csv, write_yaw_csv
+
+    m = measure(true_signals(nv, turn_pulse(nv.sample_time, n=50.0)), Noise(), 1, 3)
+    assert 5.0 < float(np.median(m.signals["u"])) < 11.64 * KNOT_MPS
+    if knots:
+        m.signals["u"], m.signals["v"] = m.signals["u"] / KNOT_MPS, m.signals["v"] / KNOT_MPS
+    path = write_yaw_csv(m, tmp_path / "run.csv")
+    if knots:
+        with pytest.raises(RecordingError, match=r"column 'v' changes 1\.[6-9]\d x as fast as the measured 'v_dot'.*knots"):
+            read_yaw_csv(path, FULL, nv)
+    else:
+        assert read_yaw_csv(path, FULL, nv).t.size == m.t.size

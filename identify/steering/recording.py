@@ -98,6 +98,7 @@ def _checked(p: Path, cols: dict[str, np.ndarray], notes: list[str]) -> Steering
             f"{p}: column 't' steps {step:g} (median): t in milliseconds? give t in seconds (a steering record is "
             f"sampled well under {MAX_STEP_S:g} s apart)"
         )
+    _check_swap(p, cols)
     d = cols["delta"]
     big = np.nanmax(np.abs(d)) if np.isfinite(d).any() else 0.0
     if big > MAX_RUDDER_RAD:
@@ -124,6 +125,51 @@ def _checked(p: Path, cols: dict[str, np.ndarray], notes: list[str]) -> Steering
             f"{p}: only {int(keep.sum())} rows with a rudder reading; a steering fit needs at least {MIN_READINGS}"
         )
     return SteeringData(t[keep], d[keep], y, channels, str(p))
+
+
+# delta's unit-gain misfit to d psi/dt below SWAP_FIT and below SWAP_RATIO x r's: the two columns are swapped. Measured
+# (docs/bad-input-sweep.md, Stop 61): 529 correct records give delta's misfit >= 1.68e3 (a rudder angle is no rate) and
+# r's 0.001-9.6 (steer_swap.log); a rudder held at 0 gives exactly 1, so the bound 0.8 never calls a record without rudder swapped
+SWAP_FIT, SWAP_RATIO = 0.8, 0.01
+
+
+def _swap_misfits(t: np.ndarray, delta: np.ndarray, psi: np.ndarray, r: np.ndarray) -> tuple[float, float]:
+    """The unit-gain misfits of the columns ``delta`` and ``r`` to the heading's rate: |d psi/dt - x|^2 / |d psi/dt|^2
+    over the intervals with both ends read (x at the interval's midpoint). ``r`` = d psi/dt fits (0 but for noise
+    and sampling); a rudder angle in rad as a rate in rad/s does not (it leads the rate by the ship's time
+    constants and differs from it in size by K' U/L): swapped columns fit the other way round."""
+    ok = np.isfinite(t) & np.isfinite(delta) & np.isfinite(psi) & np.isfinite(r)
+    if ok.sum() < 10:
+        return np.inf, np.inf
+    tt, pp = t[ok], np.unwrap(psi[ok])
+    rate = np.diff(pp) / np.diff(tt)
+    den = float(rate @ rate)
+    if not den > 0:
+        return np.inf, np.inf
+
+    def misfit(x: np.ndarray) -> float:
+        e = rate - 0.5 * (x[ok][1:] + x[ok][:-1])
+        return float(e @ e) / den
+
+    return misfit(delta), misfit(r)
+
+
+def _looks_swapped(a: float, b: float) -> bool:
+    """Whether the misfits ``a`` (column delta) and ``b`` (column r) of :func:`_swap_misfits` say swapped columns."""
+    return a < SWAP_FIT and a < SWAP_RATIO * b
+
+
+def _check_swap(p: Path, cols: dict[str, np.ndarray]) -> None:
+    """Refuse a record whose ``delta`` column is the heading's rate and ``r`` is not: the columns are swapped (before
+    the unit checks, which would call the rudder in ``r`` a rate in deg/s)."""
+    if "r" not in cols:
+        return
+    a, b = _swap_misfits(cols["t"], cols["delta"], cols["psi"], cols["r"])
+    if _looks_swapped(a, b):
+        raise RecordingError(
+            f"{p}: columns delta and r look swapped: 'delta' follows the heading's rate (misfit {a:.2f}) and 'r' does not "
+            f"({b:.2g}); swap the two column names in the header row (delta is the rudder angle [rad], r the yaw rate [rad/s])"
+        )
 
 
 def _check_angle_units(p: Path, cols: dict[str, np.ndarray]) -> None:

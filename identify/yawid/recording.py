@@ -32,6 +32,11 @@ MAX_ROLL_RAD = 0.7  # 40 deg: no trial rolls further (the naval vessel's reach 0
 # medians are 13.4..16.5, 1.15..1.42 x the bound; a run slower than 6.0 m/s (median) in knots is not caught.
 MAX_SPEED_X = 1.2
 KNOT_MPS = 1852 / 3600
+VDOT_WINDOW_S = 5  # vdot_slope's moving means: sway turns over tens of seconds, noise averages out
+# measured (yaw_vdot.py, 40 identification runs; docs/bad-input-sweep.md, Stop 61): the slope is 0.980..1.017 in m/s
+# and 1.905..1.977 in knots at Table 4.1's noise, 0.802..1.011 and 1.559..1.964 (t >= 4.6) at 5 x; noise in v_dot only
+# lowers it (0.04..0.77 at 20 x in m/s): refused above 1.4 with a t of (slope - 1) over 3
+VDOT_KNOTS_SLOPE, VDOT_KNOTS_T = 1.4, 3.0
 MAX_STEP_S = 10.0  # a yaw fit needs the response within a turn (tens of seconds): steps this long are milliseconds
 # the sign check's bounds on z (response_z, Newey-West standard error; yaw_sign_hac.py in the stop 60 leftovers):
 # z = +16.7..+16.9 on six yawid-sim runs, >= +14.6 on 40 identification runs at Table 4.1's noise, >= +7.9 at 5 x,
@@ -97,6 +102,8 @@ def read_yaw_csv(path: str | Path, model: YawModel, profile: ShipProfile | None 
     _check_step(path, dt, meta)
     _check_units(path, t, {k: cols[k] for k in need})  # a column the model does not read is not judged
     _check_speed(path, cols["u"], profile)
+    if "v_dot" in need:  # the full model's measured sway acceleration: the speed log's unit
+        _check_sway_units(path, t, cols["v"], cols["v_dot"])
     sig = {k: cols[k] for k in need[1:]}
     sig["tau_r"] = _pod_moment(path, cols, profile)
     weak = _check_response(path, t, sig["r"], sig["tau_r"], "tau_r" in cols)
@@ -158,6 +165,35 @@ def unit_slip(t: np.ndarray, x: np.ndarray, limit: float) -> tuple[bool, float, 
     sd = float(np.median(np.abs(np.diff(x)))) / (0.6745 * np.sqrt(2.0)) if len(x) > 1 else 0.0
     mean = float(np.max(np.abs(means)))
     return mean > limit + 5.0 * sd / np.sqrt(n), mean, sd
+
+
+def vdot_slope(t: np.ndarray, v: np.ndarray, v_dot: np.ndarray) -> tuple[float, float]:
+    """The slope of d v/dt on the measured sway acceleration ``v_dot`` (both as VDOT_WINDOW_S moving means, least
+    squares through 0), and the t of (slope - 1) with Newey and West's error (the moving means correlate the
+    residuals): the slope is 1 when v is in m/s, 1/0.5144 = 1.944 when the speed log gives v in knots (v_dot, an
+    accelerometer's, stays in m/s^2). (nan, 0) on a run shorter than three windows or without sway acceleration."""
+    n = VDOT_WINDOW_S * _per_second(t)
+    if len(t) < 3 * n:
+        return float("nan"), 0.0
+    w = np.ones(n) / n
+    vm, am = np.convolve(v, w, mode="valid"), np.convolve(v_dot, w, mode="valid")
+    g = np.gradient(vm, float(np.median(np.diff(t))))
+    den = float(am @ am)
+    if not den > 0:
+        return float("nan"), 0.0
+    return float(g @ am) / den, coefficient_t(am[:, None], g - am, 0, lags=2 * n)
+
+
+def _check_sway_units(path: Path, t: np.ndarray, v: np.ndarray, v_dot: np.ndarray) -> None:
+    """v in m/s: d v/dt against the measured v_dot (:func:`vdot_slope`) says knots at any speed, where u's bound
+    against the cruise speed (:func:`_check_speed`) catches only runs above 6 m/s. A speed log in knots gives u and v
+    in knots; u alone in knots (v in m/s) leaves no trace in a yaw recording (docs/bad-input-sweep.md, Stop 61)."""
+    k, tk = vdot_slope(t, v, v_dot)
+    if k > VDOT_KNOTS_SLOPE and tk > VDOT_KNOTS_T:
+        raise RecordingError(
+            f"{path}: column 'v' changes {k:.2f} x as fast as the measured 'v_dot' says (in m/s: 1; in knots: 1.94): "
+            "the speed log in knots? give u and v in m/s (knots x 0.5144)"
+        )
 
 
 def _per_second(t: np.ndarray) -> int:

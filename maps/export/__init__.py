@@ -38,6 +38,7 @@ def export_plan(
     pdf: bool = True,
     vessel: str | None = None,
     figures: Any = None,
+    replace: bool = False,
 ) -> list[Path]:
     """Write ``plan`` in format ``fmt`` to ``path``; returns the files written (the card writes
     an HTML file and, with ``pdf``, a PDF beside it; a ``.pdf`` path writes the PDF only).
@@ -49,16 +50,23 @@ def export_plan(
     route and card (default: ``plan.vessel_name``, else the profile's display name).
     ``figures``: a :class:`maps.export.figures.PlanFigures` of the plan to share the card's
     figures with other exports (:func:`export_all` does). The card's files appear together or
-    not at all (:func:`maps.export.staging.staged_outputs`).
+    not at all (:func:`maps.export.staging.staged_outputs`). A file of the same name that no export
+    wrote is refused unless ``replace`` (:func:`maps.export.ownership.check_replaceable`).
     """
+    from maps.export.ownership import check_replaceable, record_written
     from maps.export.staging import staged_outputs
 
     fmt = fmt.lower()
     if fmt not in FORMATS:
         raise ExportError(f"unknown export format {fmt!r}: choose one of {', '.join(FORMATS)}")
     path = Path(path)
+    names = [path.name]
+    if fmt == "card" and pdf and path.suffix.lower() != ".pdf":
+        names.append(path.with_suffix(".pdf").name)  # write_card's PDF beside the HTML
+    check_replaceable(path.parent, names, replace)
     with staged_outputs(path.parent) as tmp:
         written = _write(plan, fmt, tmp / path.name, sea_map=sea_map, start=start, pdf=pdf, vessel=vessel, figures=figures)
+    record_written(path.parent, written)
     return [path.parent / p.name for p in written]
 
 
@@ -98,6 +106,7 @@ def export_all(
     pdf: bool = True,
     figures: Any = None,
     staged: bool = True,
+    replace: bool = False,
 ) -> dict[str, Path]:
     """Every export of ``plan`` into ``out_dir``: keys geojson, gpx, rtz, csv, card (HTML),
     card_pdf (without ``pdf``: none), and with ``plots`` track_png (map) and states_png (speed,
@@ -107,14 +116,19 @@ def export_all(
     All or nothing: when a writer fails, none of the files is left in ``out_dir`` and files there
     of the same names are as they were (:func:`maps.export.staging.staged_outputs`). ``staged=False``:
     write straight into ``out_dir``, for a caller that already builds ``out_dir`` all-or-nothing
-    (``shiptrial plan``: :func:`primitives.io.atomic_output_dir`)."""
+    (``shiptrial plan``: :func:`primitives.io.atomic_output_dir`). A file of one of the export's names
+    that no export wrote is refused unless ``replace`` (:mod:`maps.export.ownership`); files of other
+    names are never touched."""
     from maps.export._common import check_plan, resolve_start
     from maps.export.chart import plan_chart
     from maps.export.figures import PlanFigures
+    from maps.export.ownership import check_replaceable, record_written
     from maps.export.plots import plot_states, plot_track
     from maps.export.staging import staged_outputs
 
     check_plan(plan)
+    if staged:  # unstaged, the caller builds out_dir whole: nothing of the user's is in it
+        check_replaceable(out_dir, export_names(plan, plots=plots, pdf=pdf), replace)
     t0 = resolve_start(plan, start)  # one start time for every file
     sea_map = plan_chart(plan, sea_map)  # one chart for every file (projecting the map was done once per export)
     out: dict[str, Path] = {}
@@ -131,4 +145,12 @@ def export_all(
             stem = default_path(plan, "csv", tmp).with_suffix("")
             out["track_png"] = plot_track(plan, f"{stem}-track.png", sea_map, figures=figs)
             out["states_png"] = plot_states(plan, f"{stem}-states.png", figures=figs)
+    record_written(out_dir, out.values())
     return {k: Path(out_dir) / p.name for k, p in out.items()}
+
+
+def export_names(plan: Plan, *, plots: bool = True, pdf: bool = True) -> list[str]:
+    """The names of the files :func:`export_all` writes (checked before any work)."""
+    names = [default_path(plan, fmt).name for fmt in FORMATS]
+    stem = default_path(plan, "csv").stem
+    return names + ([f"{stem}.pdf"] if pdf else []) + ([f"{stem}-track.png", f"{stem}-states.png"] if plots else [])
