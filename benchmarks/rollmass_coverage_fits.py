@@ -11,7 +11,6 @@ import numpy as np
 from scipy.signal import lfilter
 
 from identify.rollmass import oe_fit
-from identify.rollmass.fit_path import Counted
 from tests.physics import basin_truth as bt
 
 
@@ -31,8 +30,7 @@ def _capture() -> dict:
 
     def finished(prob, x, steps, lags):
         out = finish(prob, x, steps, lags)
-        bare = prob._prob if isinstance(prob, Counted) else prob  # a Counted wrapper (stop 56) does not copy
-        seen.update(x=out[0], free=prob.free, prob=bare)  # the final point (the last _fit's, as the covariance's)
+        seen.update(x=out[0], free=prob.free, prob=prob)  # the final point (the last _fit's, as the covariance's)
         return out
 
     oe_fit._gauss_newton = finished
