@@ -25,11 +25,7 @@ def diagnosed_current(d: dict) -> bool:
 # read from such a file reads neither, but refuses a malformed one; diagnose.model_file.load_model
 # checks the rest of what it reads (the baseline profile, the candidates and their values).
 AUGMENTATION_KEYS = ("effect", "dof", "parameters")
-
-
 DIAGNOSED_MODEL_KEYS = ("format", "note", "baseline_profile", "half_sample_s", "candidates")
-
-
 MODEL_JSON_FIX = "write the model.json again with `shiptrial diagnose --out DIR`, or remove the field"
 
 

@@ -88,8 +88,6 @@ PROFILE_KEYS = frozenset(
 
 # Physical sizes a profile must give, all finite and > 0 (unit in the message).
 MAX_LENGTHS_PER_SAMPLE = 2.0
-
-
 POSITIVE_FIELDS = (("sample_time", "s"), ("length_m", "m"), ("beam_m", "m"), ("draught_m", "m"), ("cruise_speed_mps", "m/s"))
 
 
