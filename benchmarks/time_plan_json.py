@@ -1,6 +1,8 @@
 """The time of ``Plan.to_json`` on a saved plan (stop 61): the median of 20 calls in one process, wall and CPU.
 
 python benchmarks/time_plan_json.py DIR/plan.json
+cp benchmarks/time_plan_json.py /tmp/ && PYTHONPATH=REF python /tmp/time_plan_json.py DIR/plan.json   # another
+    checkout REF (main): the script puts its own tree first on sys.path, so run a copy from outside any tree
 """
 
 from __future__ import annotations
