@@ -22,7 +22,7 @@ the runs of every prior; a prior's own parameter error is one fixed offset share
 (mean off 0, sd below 1 within the prior), while the bootstrap draws it afresh per record.
 
     python benchmarks/bench_detect_calibration.py --cache DIR:KEY:FIRSTSHIP:NSHIPS [...]   # one per stored screening
-    python benchmarks/bench_detect_calibration.py --cache /work/wt/dcache-main:8667c7204102:102:2   # ships 102-103
+    python benchmarks/bench_detect_calibration.py --cache /tmp/dcache:8667c7204102:102:2   # ships 102-103
     python benchmarks/bench_detect_calibration.py --cache DIR:KEY:108:2 --design 0.005 0.01 0.02   # re-decided at these rates
     python benchmarks/bench_detect_calibration.py --cache DIR:KEY:102:2 --own-misfit robust   # stop 49: the run's own misfit
 """
@@ -308,7 +308,7 @@ def design_rows(
 def check_caches(specs: list[str] | None) -> None:
     """Exit 2 with one line naming ``--cache`` and its form when no stored screening is given, or one is not
     ``DIR:KEY:FIRSTSHIP:NSHIPS`` with an existing DIR (the bench reads nothing else)."""
-    example = "e.g. --cache /work/wt/dcache-main:8667c7204102:102:2 (a folder of benchmarks/bench_detect_truth.py --cache)"
+    example = "e.g. --cache /tmp/dcache:8667c7204102:102:2 (a folder of benchmarks/bench_detect_truth.py --cache)"
     if not specs:
         _fail(f"--cache is required: give each stored screening as {CACHE_FORM}, {example}")
     for spec in specs:

@@ -1,6 +1,6 @@
 """Benchmarks of the sea maps and the planning chain (issues 4 and 12).
 
-    python benchmarks/bench_plan.py [--repeat 3] [--cases cli_default,default,kvlcc2_fjord,...] [--against /work/main]
+    python benchmarks/bench_plan.py [--repeat 3] [--cases cli_default,default,kvlcc2_fjord,...] [--against REF]
         [--cold | --no-cache | --new-start] [--bytecode]
 
 ``cli_default`` times the command a user runs, ``plan-trial --out DIR`` for the default ship on
@@ -349,7 +349,7 @@ def main() -> None:
     ap.add_argument(
         "--against",
         type=Path,
-        help="cli_default only: also time this other checkout's plan-trial (e.g. /work/main), alternating runs",
+        help="cli_default only: also time this other checkout's plan-trial (e.g. a checkout of main), alternating runs",
     )
     mode = ap.add_mutually_exclusive_group()  # one kind of run a call: the printed label names one
     mode.add_argument(

@@ -9,7 +9,7 @@ figures are in docs/detect-accuracy.md),
 as ratios to the truth's sd and time constant; mean and range per variant. The truth's settings are
 read here only to be compared with; the readings see the recording alone.
 
-    PYTHONPATH=$PWD python benchmarks/detect_noise_read.py /work/wt/dcache-main /work/wt/dcache-main-108
+    PYTHONPATH=$PWD python benchmarks/detect_noise_read.py DIR [DIR ...]   # folders of benchmarks/bench_detect_truth.py --cache
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ the resampled residual's variance before and after the true change time (over th
 change's own signal raised its thresholds, the changed runs' ratio would exceed the unchanged runs' and
 the part after the change would carry more than the part before.
 
-    python benchmarks/detect_ownboot_diag.py --cache /work/wt/dcache-main-108:8667c7204102:108:2
+    python benchmarks/detect_ownboot_diag.py --cache DIR:KEY:108:2   # a stored screening of benchmarks/bench_detect_truth.py --cache DIR
 """
 
 from __future__ import annotations

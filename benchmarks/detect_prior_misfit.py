@@ -36,7 +36,7 @@ the reading: docs/detect-accuracy.md, stop 54 (no term explains a material share
 offset, which along yaw inertia is the whole of a prior's mean reading).
 
     PYTHONPATH=$PWD nice -n 10 python benchmarks/detect_prior_misfit.py \\
-        --cache /work/wt/dcache-main:8667c7204102:102:2 --cache /work/wt/dcache-main-108:8667c7204102:108:2 --runs 5 \\
+        --cache /tmp/dcache:8667c7204102:102:2 --cache /tmp/dcache-108:8667c7204102:108:2 --runs 5 \\
         --clean /tmp/s54/clean --save /tmp/s54/cols.pkl   # then: --load /tmp/s54/cols.pkl re-tabulates in seconds
 """
 
@@ -341,9 +341,7 @@ def cache_problem(specs: list[str], variants: tuple[str, ...], runs: int) -> str
     for spec in specs:
         parsed = cache_spec(spec)
         if parsed is None or parsed[3] < 1:
-            return (
-                f"--cache {spec}: expected DIR:KEY:FIRSTSHIP:NSHIPS, NSHIPS >= 1 (e.g. /work/wt/dcache-main:8667c7204102:102:2)"
-            )
+            return f"--cache {spec}: expected DIR:KEY:FIRSTSHIP:NSHIPS, NSHIPS >= 1 (e.g. /tmp/dcache:8667c7204102:102:2)"
         folder, key, first, n = parsed
         if not folder.is_dir():
             return f"--cache {spec}: {folder}: no such folder; give a folder benchmarks/bench_detect_truth.py --cache filled"

@@ -10,7 +10,7 @@ every number within ``--rtol`` (relative, with ``--atol`` for numbers near zero;
 line of the printed report (``shiptrial diagnose``'s text) equal as a string.
 Prints the largest difference per case and exits 1 when any case differs beyond the tolerance.
 
-    PYTHONPATH=/work/wt/main-ref python -m benchmarks.diagnose_same --data DIR --out main.json
+    PYTHONPATH=REF python -m benchmarks.diagnose_same --data DIR --out main.json   # REF: a checkout of main
     PYTHONPATH=$PWD python -m benchmarks.diagnose_same --data DIR --out new.json --against main.json
 """
 

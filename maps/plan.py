@@ -34,21 +34,41 @@ DIGEST_KEY = "digest"  # {field: the first 16 hex digits of the SHA-256 of its c
 TIMINGS = frozenset({"plan_time_s", "expansions_per_s", "setup_time_s", "design_time_s", "total_time_s", "search_s"})
 
 
-def _untimed(v: Any) -> Any:
+_NO_TEXT = frozenset({int, float, bool, type(None)})  # JSON values whose text holds no ", " nor ": "
+
+
+def _no_text(v: list) -> bool:
+    """Whether ``v`` holds only numbers, booleans, nulls and lists of them (a plan's samples): its JSON text then has
+    no string or object that a separator could stand in, only the lists' ", " between items."""
+    kinds = set(map(type, v))
+    return kinds <= _NO_TEXT or (kinds <= _NO_TEXT | {list} and all(_no_text(x) for x in v if type(x) is list))
+
+
+def _pieces(v: Any) -> tuple[str, str]:
+    """A JSON value's text twice from one serialisation of each part: as ``json.dumps(v)`` writes it (the document)
+    and canonical, as ``json.dumps(v, sort_keys=True, separators=(",", ":"))`` with the timings' keys left out at every
+    depth (the digest's). A list of plain numbers (the bulk of a plan) is serialised once and its ", " made ","."""
     if isinstance(v, dict):
-        return {k: _untimed(x) for k, x in v.items() if k not in TIMINGS}
-    return [_untimed(x) for x in v] if isinstance(v, list) else v
+        parts = {k: (json.dumps(k), *_pieces(x)) for k, x in v.items()}
+        doc = ", ".join(f"{key}: {text}" for key, text, _ in parts.values())
+        canon = ",".join(f"{parts[k][0]}:{parts[k][2]}" for k in sorted(parts) if k not in TIMINGS)
+        return "{" + doc + "}", "{" + canon + "}"
+    if isinstance(v, list) and not _no_text(v):
+        items = [_pieces(x) for x in v]
+        return "[" + ", ".join(t for t, _ in items) + "]", "[" + ",".join(c for _, c in items) + "]"
+    text = json.dumps(v)
+    return text, text.replace(", ", ",") if isinstance(v, list) else text
+
+
+def _digest(canonical: str) -> str:
+    return hashlib.sha256(canonical.encode()).hexdigest()[:16]
 
 
 def content_digest(d: dict[str, Any]) -> dict[str, str]:
     """Each field of a plan document (but the digest) as the first 16 hex digits of the SHA-256 of its canonical JSON
     (sorted keys, no spaces; the timings left out, so that plans equal but for them have equal digests): a field
     edited by hand after plan-trial wrote the plan no longer matches its own."""
-    return {
-        k: hashlib.sha256(json.dumps(_untimed(v), sort_keys=True, separators=(",", ":")).encode()).hexdigest()[:16]
-        for k, v in d.items()
-        if k != DIGEST_KEY
-    }
+    return {k: _digest(_pieces(v)[1]) for k, v in d.items() if k != DIGEST_KEY}
 
 
 def check_digest(d: dict[str, Any], src: str) -> str | None:
@@ -197,9 +217,10 @@ class Plan:
         fields were edited after plan-trial wrote it."""
         from primitives.io import to_jsonable
 
-        d = to_jsonable(self.to_dict())
-        d[DIGEST_KEY] = content_digest(d)
-        return json.dumps(d)
+        fields = {k: (json.dumps(k), *_pieces(v)) for k, v in to_jsonable(self.to_dict()).items()}
+        digest = {k: _digest(canon) for k, (_, _, canon) in fields.items()}
+        doc = [f"{key}: {text}" for key, text, _ in fields.values()] + [f"{json.dumps(DIGEST_KEY)}: {json.dumps(digest)}"]
+        return "{" + ", ".join(doc) + "}"  # json.dumps of the document with its digest last, byte for byte
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], src: str = "<plan>") -> Plan:

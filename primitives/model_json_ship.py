@@ -13,7 +13,7 @@ the ship they plan with is not the whole diagnosed model.
 Warned, not refused: the profile part is the baseline refitted together with those effects, the
 closest model the profile format can run; refusing would leave the user no way to plan with the
 diagnosis at all. A current the profile part has lost, which the format can hold, is refused
-(:func:`primitives.profile_document.check_model_json_as_ship`).
+(:func:`primitives.diagnosed_sections.check_model_json_as_ship`).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ MEASUREMENT_KINDS = ("bias",)  # an error of the recorded signals, not of the sh
 def left_out(d: dict[str, Any], model_terms: tuple[tuple[str, ...], ...]) -> list[str]:
     """Each candidate of ``d``'s ``diagnosed_model.candidates`` that the profile part (its terms
     ``model_terms`` per DOF) does not hold, as "key (slot value, ...)"; [] for a plain profile.
-    Run after :func:`primitives.profile_document.check_model_json_as_ship` (the list is a list of
+    Run after :func:`primitives.diagnosed_sections.check_model_json_as_ship` (the list is a list of
     tables); a candidate too malformed to read is left to ``diagnose.model_file.load_model``."""
     dm = d.get("diagnosed_model")
     if not isinstance(dm, dict):

@@ -1,8 +1,8 @@
 """Parsers of the physical tables of a profile: [rigid_body], [[pods]] and [pod_model] of a 4-DOF
 profile, [helm] and [engine] of a rudder/propeller ship (with their dataclasses).
 
-Called by :mod:`primitives.profile_document` (with its ProfileError) beside the planar tables'
-steps; every message names the file, the field and what to give.
+Called by :mod:`primitives.profile_document` and :mod:`primitives.profile_tables` (with their ProfileError)
+beside the planar tables' steps; every message names the file, the field and what to give.
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
-"""``bench_rollmass_coverage.py repeat --vary ROLE`` (stop 60): a fresh sea for one role's dataset only, the case's
-other datasets on the held sea. The experiment's reading rests on it: a dataset held must be bit-identical over the
-realizations, the varied one must change, and the held sea must be the one ``--vary all`` draws for that realization."""
+"""``bench_rollmass_coverage.py repeat --vary ROLE`` (stop 60; :mod:`benchmarks.rollmass_coverage_repeat`): a fresh
+sea for one role's dataset only, the case's other datasets on the held sea. The experiment's reading rests on it: a
+dataset held must be bit-identical over the realizations, the varied one must change, and the held sea must be the one
+``--vary all`` draws for that realization."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import argparse
 
 import numpy as np
 
-from benchmarks import bench_rollmass_coverage as bc
+from benchmarks import rollmass_coverage_repeat as bc
 from tests.physics import basin_truth as bt
 
 

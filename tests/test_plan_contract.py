@@ -116,3 +116,42 @@ def test_held_parameters_round_trip_and_a_malformed_row_is_refused_in_one_line()
     with pytest.raises(PlanError, match=r"design.held_parameters\[0\].identified_by") as exc:
         Plan.from_dict(d, "p.json")
     assert len(str(exc.value).splitlines()) == 1
+
+
+def _json_dumps_document(p: Plan) -> str:
+    """The plan document as stop 60 wrote it: the whole document through json.dumps once more after each field's
+    canonical JSON (sorted keys, no spaces, the timings left out at every depth) was hashed for the digest."""
+    import hashlib
+
+    from maps.plan import TIMINGS
+    from primitives.io import to_jsonable
+
+    def untimed(v):
+        if isinstance(v, dict):
+            return {k: untimed(x) for k, x in v.items() if k not in TIMINGS}
+        return [untimed(x) for x in v] if isinstance(v, list) else v
+
+    d = to_jsonable(p.to_dict())
+    canon = {k: json.dumps(untimed(v), sort_keys=True, separators=(",", ":")) for k, v in d.items()}
+    d["digest"] = {k: hashlib.sha256(c.encode()).hexdigest()[:16] for k, c in canon.items()}
+    return json.dumps(d)
+
+
+def test_to_json_is_json_dumps_of_the_document_byte_for_byte():
+    """Stop 61: to_json serialises each field once for both the document and its digest; the text must stay what
+    json.dumps wrote, digest included, on what a separator or key order could change: strings holding ", " and ": ",
+    nested tables in unsorted order, timings at two depths, non-ASCII text, lists of lists, nulls, empty lists."""
+    orders = [{"t_s": 0.0, "text": "hard a-port, then: midships", "z": [1, [2.5, None]]}]
+    steps = [_step(0, "basic", orders=orders, abort=["clearance, below: 50 m", "wind"])]
+    p = _plan(
+        steps,
+        stats={"search_s": 0.5, "zeta": {"plan_time_s": 1.0, "b": "x, y: z"}, "alpha": [], "mid": [[1.0, 2.0], [3.0]]},
+        design={"weights": {"z": 1.0, "a": 2.0}, "dropped": [{"primitive": "q", "needs_m": [900.0, 400.0]}]},
+        vessel_name='Å/S Tëst, "quoted": yes',
+    )
+    assert p.to_json() == _json_dumps_document(p)
+    timed = _plan(
+        steps, stats={"search_s": 9.0, "zeta": {"plan_time_s": 7.0, "b": "x, y: z"}, "alpha": [], "mid": [[1.0, 2.0], [3.0]]}
+    )
+    untimed = _plan(steps, stats={"zeta": {"b": "x, y: z"}, "alpha": [], "mid": [[1.0, 2.0], [3.0]]})
+    assert json.loads(timed.to_json())["digest"] == json.loads(untimed.to_json())["digest"]

@@ -5,6 +5,7 @@ the two paths is exact rather than read off a CPU threshold."""
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,13 +54,36 @@ class FitPath:
 
 class Counted:
     """A problem (:class:`identify.rollmass.output_error._Problem`) whose residual and Jacobian
-    evaluations are added to a :class:`PathTally`; everything else is the problem's."""
+    evaluations are added to a :class:`PathTally`; every other attribute, read or written, is the problem's.
+
+    Copies behave as the problem's (stop 61): ``copy.copy`` gives the problem's shallow copy, counted in the same
+    tally (an attribute set on the copy does not reach the original; its evaluations are the path's cost as the
+    original's are); ``copy.deepcopy`` and pickling copy the problem and the tally (an independent problem whose own
+    tally starts from the counts so far). The wrapper's own attributes are slots, and ``__getattr__`` answers a dunder
+    or a slot not yet set with AttributeError, so a copy or an unpickling under way never recurses through ``_prob``."""
+
+    __slots__ = ("_prob", "_tally")
 
     def __init__(self, prob: object, tally: PathTally):
-        self._prob, self._tally = prob, tally
+        object.__setattr__(self, "_prob", prob)
+        object.__setattr__(self, "_tally", tally)
 
     def __getattr__(self, name: str) -> object:
+        if name in Counted.__slots__ or (name.startswith("__") and name.endswith("__")):
+            raise AttributeError(name)
         return getattr(self._prob, name)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        if name in Counted.__slots__:  # unpickling sets the slots
+            object.__setattr__(self, name, value)
+        else:
+            setattr(self._prob, name, value)
+
+    def __copy__(self) -> Counted:
+        return Counted(copy.copy(self._prob), self._tally)
+
+    def __deepcopy__(self, memo: dict) -> Counted:
+        return Counted(copy.deepcopy(self._prob, memo), copy.deepcopy(self._tally, memo))
 
     def recounted(self, tally: PathTally) -> Counted:
         """The same problem, its evaluations added to ``tally`` instead (the exact path's continuation)."""
