@@ -107,8 +107,8 @@ def register(app: typer.Typer) -> None:
             0.02,
             "--false-alarm",
             help="design false-alarm probability per recording (on ships the prior's "
-            "model describes; measured higher on ships unlike it: README 'Change detection "
-            "on the truth family')",
+            "model describes; measured higher on ships unlike it: README 'How good are the "
+            "answers', Detect)",
         ),
         min_change: float = typer.Option(
             0.05, "--min-change", help="smallest relative change worth an alarm (0.05 = 5 %; of I_z for yaw inertia)"
